@@ -1,0 +1,326 @@
+"""Derivation: the element's kernels as SymPy expressions (stage 2 of the pipeline).
+
+From :mod:`codegen.formulation` (definitions) to :class:`codegen.ir.KernelSpec`
+(expressions per output), by differentiation only:
+
+* B-matrices (Eqs. 33, 39, 42) are first derivatives of Ψ under a virtual
+  change δq^e = [δd1, δπ1, δθ1, δd2, δπ2, δθ2] applied as
+  T_e ← exp(skew δπ) exp(δθ skew h) T_e, x ← x + δd.
+* The tangent ∂F_i/∂q is the mixed derivative of U(Ψ) under a Newton
+  increment Δq applied *before* the virtual change (the configuration update
+  is T ← exp(skew Δπ) T): exact, and not symmetric away from equilibrium.
+* Velocities and the quadratic-velocity terms come from the motion
+  x(t) = x + t v, T_j(t) = exp(t skew ω) T_j, θ(t) = θ + t θ̇ (constant
+  spatial velocities: q̈ = 0), differentiated twice in t at t = 0.
+
+All geometry is differentiated in SymEngine; results cross to SymPy once.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import symengine as se
+import sympy as sp
+
+from . import conventions as cv
+from . import formulation as fm
+from .ir import Argument, KernelSpec, Output
+
+VARIANTS: dict[str, str] = {name: f.description for name, f in fm.FORMULATIONS.items()}
+
+N = cv.N_ELEMENT_COORDINATES
+
+
+def _end_coordinates(symbols):
+    """Split 14 symbols into per-end (Δd, Δπ, Δθ)."""
+    return (
+        (fm.vector(symbols[0:3]), fm.vector(symbols[3:6]), symbols[6]),
+        (fm.vector(symbols[7:10]), fm.vector(symbols[10:13]), symbols[13]),
+    )
+
+
+@dataclass
+class Kinematics:
+    """Everything the kernels need about the element's motion, in SymPy."""
+
+    psi: list  # Ψ, Eq. 46
+    frame: list  # T_c row-major, Eqs. 18–21
+    grid1: list  # x_g1
+    B: list  # ∂Ψ/∂q^e, 6×14 (Eqs. 33, 39, 42)
+    H: list  # ∂²Ψ_k/∂(virtual)∂(increment), 6×14×14
+    omega_map: list  # C: ω_c = C q̇, 3×14 (spatial angular velocity of S_c)
+    psi_ddot: list  # Ψ̈ at q̈ = 0 (6), quadratic in q̇
+    omega_dot: list  # ω̇_c at q̈ = 0 (3), spatial
+    frame_dot: list  # Ṫ_c row-major (9), linear in q̇
+    grid1_dot: list  # ẋ_g1 (3)
+    grid1_ddot: list  # ẍ_g1 at q̈ = 0 (3): the χ^e term of Eq. 61
+    velocity: list  # the q̇ symbols (SymPy)
+    convective: list  # J̇q̇ at q̈ = 0 (12): d/dt of [v̂, ω̂, Ψ̇]
+    convective_D_qdot: list  # ∂(J̇q̇)/∂q̇, 12×14
+
+
+def derive_kinematics() -> Kinematics:
+    end1, end2 = fm.geometry_inputs()
+    section = fm.section_inputs()
+    L0 = section["L0"]
+
+    # ---- first and mixed second derivatives of Ψ (B and H) ----
+    virtual = [se.Symbol(f"delta_{k}") for k in range(N)]
+    increment = [se.Symbol(f"Delta_{k}") for k in range(N)]
+    v1, v2 = _end_coordinates(virtual)
+    i1, i2 = _end_coordinates(increment)
+    g1, F1 = fm.moved_end(end1, [("increment", *i1, 1), ("virtual", *v1, 1)])
+    g2, F2 = fm.moved_end(end2, [("increment", *i2, 1), ("virtual", *v2, 1)])
+    cor = fm.corotational(g1, F1, g2, F2, L0)
+    at_rest = {s: 0 for s in virtual + increment}
+    first = [[se.diff(p, d) for d in virtual] for p in cor.psi]
+    B = [[b.subs(at_rest) for b in row] for row in first]
+    H = [[[se.diff(b, D).subs(at_rest) for D in increment] for b in row] for row in first]
+    psi = [p.subs(at_rest) for p in cor.psi]
+    frame = [cor.frame[i, j].subs(at_rest) for i in range(3) for j in range(3)]
+    grid1 = [g1[k].subs(at_rest) for k in range(3)]
+
+    # ---- motion at constant spatial velocities (q̈ = 0) ----
+    t = se.Symbol("time")
+    qdot = fm.velocity_inputs()
+    m1, m2 = _end_coordinates([t * q for q in qdot])
+    g1t, F1t = fm.moved_end(end1, [("time", *m1, 2)])
+    g2t, F2t = fm.moved_end(end2, [("time", *m2, 2)])
+    cor_t = fm.corotational(g1t, F1t, g2t, F2t, L0)
+    now = {t: 0}
+
+    def rate(expr, order):
+        for _ in range(order):
+            expr = se.diff(expr, t)
+        return expr.subs(now)
+
+    psi_ddot = [rate(p, 2) for p in cor_t.psi]
+    Tc = cor_t.frame.subs(now)
+    Tc_dot = cor_t.frame.diff(t).subs(now)
+    Tc_ddot = cor_t.frame.diff(t).diff(t).subs(now)
+    omega_c = fm.vee(Tc_dot * Tc.T)
+    omega_dot = fm.vee(Tc_ddot * Tc.T + Tc_dot * Tc_dot.T)
+    omega_map = [[se.diff(omega_c[k], q) for q in qdot] for k in range(3)]
+    grid1_dot = [rate(g1t[k], 1) for k in range(3)]
+    grid1_ddot = [rate(g1t[k], 2) for k in range(3)]
+
+    # J̇q̇ at q̈ = 0 (Eqs. 52–53, 61):
+    #   d v̂/dt = Ṫ_cᵀ ẋ_g1 + T_cᵀ ẍ_g1 (ẍ_g1 = ω1×(ω1×o1): the χ^e term),
+    #   d ω̂/dt = T_cᵀ ω̇_c (Ṫ_cᵀω_c = 0),   Ψ̈.
+    convective = []
+    for i in range(3):
+        convective.append(sum((Tc_dot[k, i] * grid1_dot[k] + Tc[k, i] * grid1_ddot[k] for k in range(3)), se.Integer(0)))
+    for i in range(3):
+        convective.append(sum((Tc[k, i] * omega_dot[k] for k in range(3)), se.Integer(0)))
+    convective += psi_ddot
+    convective_D_qdot = [[se.diff(c, q) for q in qdot] for c in convective]
+
+    S = fm.to_sympy
+    return Kinematics(
+        convective=[S(c) for c in convective],
+        convective_D_qdot=[[S(c) for c in row] for row in convective_D_qdot],
+        psi=[S(p) for p in psi],
+        frame=[S(x) for x in frame],
+        grid1=[S(x) for x in grid1],
+        B=[[S(b) for b in row] for row in B],
+        H=[[[S(h) for h in r] for r in block] for block in H],
+        omega_map=[[S(c) for c in row] for row in omega_map],
+        psi_ddot=[S(p) for p in psi_ddot],
+        omega_dot=[S(w) for w in omega_dot],
+        frame_dot=[S(Tc_dot[i, j]) for i in range(3) for j in range(3)],
+        grid1_dot=[S(x) for x in grid1_dot],
+        grid1_ddot=[S(x) for x in grid1_ddot],
+        velocity=[S(q) for q in qdot],
+    )
+
+
+@dataclass
+class Builder:
+    """Collects named intermediates so kernels stay structured (and CSE small)."""
+
+    intermediates: list = field(default_factory=list)
+
+    def define(self, name: str, expr) -> sp.Expr:
+        expr = sp.sympify(expr)
+        if expr.is_number or expr.is_Symbol:
+            return expr
+        symbol = sp.Symbol(name, real=True)
+        self.intermediates.append((symbol, expr))
+        return symbol
+
+    def matrix(self, name: str, rows: list[list]) -> list[list]:
+        return [[self.define(f"{name}_{i}_{j}", e) for j, e in enumerate(row)] for i, row in enumerate(rows)]
+
+    def vector(self, name: str, items: list) -> list:
+        return [self.define(f"{name}_{i}", e) for i, e in enumerate(items)]
+
+
+def _section_sympy() -> dict[str, sp.Symbol]:
+    return dict(zip(cv.SECTION_NAMES, cv.SECTION.symbols()))
+
+
+def _matmul(A, B):
+    return [[sp.Add(*[A[i][k] * B[k][j] for k in range(len(B))]) for j in range(len(B[0]))] for i in range(len(A))]
+
+
+def _transpose(A):
+    return [list(r) for r in zip(*A)]
+
+
+def _flat(A):
+    return [e for row in A for e in row]
+
+
+def build_kernels(variant: str = "default") -> list[KernelSpec]:
+    """All kernels of one variant (see :data:`VARIANTS`)."""
+    if variant not in fm.FORMULATIONS:
+        raise ValueError(f"unknown variant {variant!r} (known: {', '.join(fm.FORMULATIONS)})")
+    formulation = fm.FORMULATIONS[variant]
+    kin = derive_kinematics()
+    section = _section_sympy()
+    gravity = cv.GRAVITY.symbols()
+    psi_symbols = fm.PSI
+    U = fm.strain_energy(psi_symbols, section, formulation)
+    dU = [sp.diff(U, p) for p in psi_symbols]
+    ddU = [[sp.diff(d, p) for p in psi_symbols] for d in dU]
+
+    def elastic(b: Builder, with_tangent: bool):
+        psi = b.vector("psi", kin.psi)
+        rename = dict(zip(psi_symbols, psi))
+        Bm = b.matrix("B", kin.B)
+        force_psi = b.vector("dU_dpsi", [d.xreplace(rename) for d in dU])
+        # Eq. 43: F_i = Bᵀ ∂U/∂Ψ (Eqs. 32, 37, 41 summed)
+        force = [sp.Add(*[Bm[k][a] * force_psi[k] for k in range(6)]) for a in range(N)]
+        if not with_tangent:
+            return psi, force, None
+        stiff_psi = b.matrix("d2U_dpsi2", [[e.xreplace(rename) for e in row] for row in ddU])
+        KB = b.matrix("KB", _matmul(stiff_psi, Bm))
+        material = _matmul(_transpose(Bm), KB)
+        tangent = [
+            [material[a][c] + sp.Add(*[force_psi[k] * kin.H[k][a][c] for k in range(6)]) for c in range(N)]
+            for a in range(N)
+        ]
+        return psi, force, tangent
+
+    def inertia(b: Builder, with_velocity: bool):
+        """J, M̂(Ψ) and friends; see formulation.local_inertia."""
+        psi = b.vector("psi", kin.psi)
+        Tc = b.vector("Tc", kin.frame)
+        TcT = [[Tc[3 * j + i] for j in range(3)] for i in range(3)]  # T_cᵀ
+        offset1 = cv.GEOMETRY.symbols()[cv.OFFSET1]
+        # ẋ_g1 = v1 + ω1 × o1 = [I, −skew(o1)] (v1, ω1): Eqs. 2, 59
+        o = offset1
+        grid_map = [
+            [1, 0, 0, 0, o[2], -o[1]] + [0] * 8,
+            [0, 1, 0, -o[2], 0, o[0]] + [0] * 8,
+            [0, 0, 1, o[1], -o[0], 0] + [0] * 8,
+        ]
+        Bm = b.matrix("B", kin.B)
+        C = b.matrix("C", kin.omega_map)
+        J = b.matrix("J", _matmul(TcT, grid_map) + _matmul(TcT, C) + Bm)  # u = J q̇, 12×14
+        u_symbols = fm.QUASI_VELOCITY
+        mass_local, gyro_local, gyro_local_D_u, first_moment, position_moment = fm.local_inertia(formulation)
+        rename = dict(zip(psi_symbols, psi))
+        Mhat = b.matrix("Mhat", [[mass_local[i, j].xreplace(rename) for j in range(12)] for i in range(12)])
+        parts = dict(psi=psi, Tc=Tc, TcT=TcT, J=J, Mhat=Mhat, first_moment=first_moment,
+                     position_moment=position_moment, rename=rename)
+        if not with_velocity:
+            return parts
+        qdot = kin.velocity
+        u = b.vector("u", [sp.Add(*[J[i][a] * qdot[a] for a in range(N)]) for i in range(12)])
+        Jdq = b.vector("Jdq", kin.convective)
+        urename = dict(zip(u_symbols, u))
+        ghat = b.vector("ghat", [gyro_local[i].xreplace({**rename, **urename}) for i in range(12)])
+        parts.update(u=u, Jdq=Jdq, ghat=ghat, gyro_local_D_u=gyro_local_D_u,
+                     urename=urename)
+        return parts
+
+    geometry_section = [cv.GEOMETRY, cv.SECTION]
+    with_velocity = [cv.GEOMETRY, cv.VELOCITY, cv.SECTION]
+    with_gravity = [cv.GEOMETRY, cv.SECTION, cv.GRAVITY]
+    kernels: list[KernelSpec] = []
+
+    def add(name, doc, equations, inputs, outputs, builder):
+        kernels.append(
+            KernelSpec(name=name, doc=doc, inputs=list(inputs), outputs=outputs, variant=variant,
+                       equations=equations, intermediates=builder.intermediates)
+        )
+
+    # --- deformation ---
+    b = Builder()
+    add("beam_deformation", "Deformation vector Ψ = [φy1, φz1, φy2, φz2, φx2, αx2] and corotational frame T_c",
+        "Eqs. 12-21, 46", geometry_section,
+        [Output("psi", (6,), list(kin.psi)), Output("corotational_frame", (3, 3), list(kin.frame))], b)
+
+    # --- strain energy and section forces ---
+    b = Builder()
+    psi = b.vector("psi", kin.psi)
+    rename = dict(zip(psi_symbols, psi))
+    add("beam_strain_energy", "Strain energy U and mid-element section forces [N, T, M_y, M_z]",
+        "Eqs. 22-41", geometry_section,
+        [Output("strain_energy", (), [U.xreplace(rename)]),
+         Output("section_forces", (4,), [f.xreplace(rename) for f in fm.section_forces(psi_symbols, section, formulation)])], b)
+
+    # --- internal force ---
+    b = Builder()
+    _, force, _ = elastic(b, with_tangent=False)
+    add("beam_internal_force", "Generalized internal force F_i^e = Bᵀ ∂U/∂Ψ", "Eqs. 29-43",
+        geometry_section, [Output("internal_force", (N,), force)], b)
+
+    b = Builder()
+    _, force, tangent = elastic(b, with_tangent=True)
+    add("beam_internal_force_D_q", "Internal force and its exact tangent ∂F_i/∂q (material + geometric)",
+        "Eqs. 29-43", geometry_section,
+        [Output("internal_force", (N,), force), Output("internal_force_D_q", (N, N), _flat(tangent))], b)
+
+    # --- inertia ---
+    b = Builder()
+    p = inertia(b, with_velocity=False)
+    MJ = b.matrix("MJ", _matmul(p["Mhat"], p["J"]))
+    mass = _matmul(_transpose(p["J"]), MJ)  # Eq. 56: M = ρ∫BᵀB = Jᵀ M̂ J
+    add("beam_mass_matrix", "Element mass matrix M^e", "Eqs. 44-56, 62", geometry_section,
+        [Output("mass_matrix", (N, N), _flat(mass))], b)
+
+    b = Builder()
+    p = inertia(b, with_velocity=True)
+    local = [sp.Add(*[p["Mhat"][i][j] * p["Jdq"][j] for j in range(12)]) + p["ghat"][i] for i in range(12)]
+    local = b.vector("glocal", local)
+    qvel = [sp.Add(*[p["J"][i][a] * local[i] for i in range(12)]) for a in range(N)]  # Eq. 57 (+ Mχ, Eq. 62)
+    add("beam_quadratic_velocity", "Quadratic-velocity vector g^e (centrifugal, Coriolis, offset χ^e)",
+        "Eqs. 50-57, 61-62", with_velocity, [Output("quadratic_velocity", (N,), qvel)], b)
+
+    b = Builder()
+    p = inertia(b, with_velocity=True)
+    # ∂g/∂q̇ = Jᵀ (M̂ ∂(J̇q̇)/∂q̇ + ∂ĝ/∂u J)
+    dJdq = b.matrix("dJdq", kin.convective_D_qdot)
+    both = {**p["rename"], **p["urename"]}
+    dghat = b.matrix("dghat", [[p["gyro_local_D_u"][i, j].xreplace(both) for j in range(12)] for i in range(12)])
+    inner = b.matrix("dglocal", [[a + c for a, c in zip(r1, r2)]
+                                 for r1, r2 in zip(_matmul(p["Mhat"], dJdq), _matmul(dghat, p["J"]))])
+    qvel_D = _matmul(_transpose(p["J"]), inner)
+    add("beam_quadratic_velocity_D_qdot", "∂g^e/∂q̇ (exact)", "Eqs. 50-57", with_velocity,
+        [Output("quadratic_velocity_D_qdot", (N, N), _flat(qvel_D))], b)
+
+    b = Builder()
+    p = inertia(b, with_velocity=True)
+    kinetic = sp.Add(*[p["u"][i] * p["Mhat"][i][j] * p["u"][j] for i in range(12) for j in range(12)]) / 2
+    add("beam_kinetic_energy", "Kinetic energy ½ q̇ᵀ M q̇", "Eqs. 54-56", with_velocity,
+        [Output("kinetic_energy", (), [kinetic])], b)
+
+    # --- gravity ---
+    b = Builder()
+    p = inertia(b, with_velocity=False)
+    TcT = p["TcT"]
+    g_local = b.vector("gc", [sp.Add(*[TcT[i][k] * gravity[k] for k in range(3)]) for i in range(3)])
+    S = p["first_moment"]
+    Q_local = b.vector("Qc", [sp.Add(*[S[k, i].xreplace(p["rename"]) * g_local[k] for k in range(3)]) for i in range(12)])
+    Q = [sp.Add(*[p["J"][i][a] * Q_local[i] for i in range(12)]) for a in range(N)]
+    mass_total = section["rhoA"] * section["L0"]
+    P = [p["position_moment"][k].xreplace(p["rename"]) for k in range(3)]
+    centre = [mass_total * kin.grid1[k] + sp.Add(*[p["Tc"][3 * k + j] * P[j] for j in range(3)]) for k in range(3)]
+    potential = -sp.Add(*[gravity[k] * centre[k] for k in range(3)])
+    add("beam_gravity", "Generalized load of uniform gravity, its potential, and ρ∫x dV (mass × centre)",
+        "Eqs. 47, 50, 58", with_gravity,
+        [Output("gravity_force", (N,), Q), Output("gravity_potential", (), [potential]),
+         Output("first_moment", (3,), centre)], b)
+    return kernels

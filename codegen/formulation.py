@@ -1,0 +1,382 @@
+"""The CR-4402 beam element, written from the paper's definitions.
+
+Everything here is *formulation*: which quantities the paper defines and how
+they depend on each other.  Differentiation and packaging into kernels live in
+:mod:`codegen.derivation`.  Equation numbers refer to NASA CR-4402 (Chang & Wu
+1991); where the printed equation disagrees with its own definitions, the
+corrected form is used and the deviation is proved in ``docs/derivation.md``
+(``latdyn-codegen --report``).
+
+Conventions
+-----------
+* Element coordinates q^e = [d1, π1, θ1, d2, π2, θ2] (Eq. 59): translation of
+  the joint-body reference point, *spatial* virtual rotation of the joint body
+  (δT = skew(δπ) T), hinge angle; 14 in all.  The grid point sits at the offset
+  ``o = T_j r_g`` from the reference point (Eq. 2), so offset compensation
+  (Eqs. 59–62) is part of the kinematics and its χ^e term (Eq. 61) appears in
+  the quadratic-velocity vector without further work.  With ``o = 0`` the
+  coordinates are the paper's p^e (Eq. 33).
+* The nodal frame is T_e = T_j Γ_gh T_h(θ) Γ_eh^T (Eq. 17), i.e. a rotation
+  of the hinge angle about the spatial hinge axis h = T_j Γ_gh e_z; the kernels
+  take T_e and h as inputs, so a change of θ acts as exp(δθ skew(h)) on T_e.
+* Symbolic geometry is built in SymEngine (fast differentiation); the section
+  integrals of the inertia are done in SymPy.  The single crossing point is
+  :func:`to_sympy`.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+
+import symengine as se
+import sympy as sp
+
+from . import conventions as cv
+
+
+@dataclass(frozen=True)
+class Formulation:
+    """Switches that select a variant of the element from the same source."""
+
+    name: str
+    geometric_stiffening: bool = True  # the ½(v'² + w'²) term of Eq. 35
+    rotary_inertia: bool = True  # cross-section terms y_c, z_c of Eq. 45 (ρI_y, ρI_z)
+    description: str = ""
+
+
+FORMULATIONS: dict[str, Formulation] = {
+    "default": Formulation(
+        "default",
+        description="CR-4402 element with geometric stiffening and cross-section rotary inertia",
+    ),
+    "no_stiffening": Formulation(
+        "no_stiffening",
+        geometric_stiffening=False,
+        description="as default, without the ½(v'²+w'²) stretching term (Eq. 35): no geometric stiffening",
+    ),
+}
+
+
+# --------------------------------------------------------------------------
+# Small vector helpers on SymEngine matrices
+# --------------------------------------------------------------------------
+def vector(symbols) -> se.DenseMatrix:
+    return se.DenseMatrix(3, 1, list(symbols))
+
+
+def skew(w) -> se.DenseMatrix:
+    """The cross-product matrix, skew(w) v = w × v."""
+    return se.DenseMatrix([[0, -w[2], w[1]], [w[2], 0, -w[0]], [-w[1], w[0], 0]])
+
+
+def dot(a, b):
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def cross(a, b) -> se.DenseMatrix:
+    return vector([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+
+
+def column(T, k) -> se.DenseMatrix:
+    return vector([T[0, k], T[1, k], T[2, k]])
+
+
+def vee(S):
+    """The axial vector of a skew-symmetric matrix."""
+    return vector([S[2, 1], S[0, 2], S[1, 0]])
+
+
+def to_sympy(expr) -> sp.Expr:
+    """The one boundary between SymEngine (geometry) and SymPy (IR, integrals)."""
+    return sp.sympify(expr)
+
+
+# --------------------------------------------------------------------------
+# Inputs
+# --------------------------------------------------------------------------
+@dataclass
+class EndInputs:
+    """Current state of one element end, as symbols of the geometry block."""
+
+    x: se.DenseMatrix  # reference point of the joint body
+    offset: se.DenseMatrix  # o = T_j r_g, Eq. 2
+    frame: se.DenseMatrix  # T_e, Eq. 17
+    axis: se.DenseMatrix  # h, spatial hinge axis
+
+
+def geometry_inputs() -> tuple[EndInputs, EndInputs]:
+    g = [se.Symbol(str(s)) for s in cv.GEOMETRY.symbols()]
+
+    def block(sl):
+        return g[sl]
+
+    ends = []
+    for xs, os_, fs, hs in ((cv.X1, cv.OFFSET1, cv.FRAME1, cv.AXIS1), (cv.X2, cv.OFFSET2, cv.FRAME2, cv.AXIS2)):
+        ends.append(
+            EndInputs(
+                x=vector(block(xs)),
+                offset=vector(block(os_)),
+                frame=se.DenseMatrix(3, 3, block(fs)),
+                axis=vector(block(hs)),
+            )
+        )
+    return ends[0], ends[1]
+
+
+def section_inputs() -> dict[str, se.Symbol]:
+    return {name: se.Symbol(str(s)) for name, s in zip(cv.SECTION_NAMES, cv.SECTION.symbols())}
+
+
+def velocity_inputs() -> list[se.Symbol]:
+    return [se.Symbol(str(s)) for s in cv.VELOCITY.symbols()]
+
+
+def gravity_inputs() -> se.DenseMatrix:
+    return vector([se.Symbol(str(s)) for s in cv.GRAVITY.symbols()])
+
+
+# --------------------------------------------------------------------------
+# Moving the inputs: virtual variations, Newton increments, time
+# --------------------------------------------------------------------------
+@dataclass
+class EndMotion:
+    """A change of one end's coordinates (d, π, θ), as a sequence of factors.
+
+    ``rotations`` are (vector, order) pairs applied left to right:
+    T_e ← exp(skew(w_1)) … exp(skew(w_k)) T_e, each exponential truncated at
+    ``order``.  Offsets follow the joint-body factors only; the hinge factors
+    rotate the nodal frame alone.
+    """
+
+    translation: se.DenseMatrix
+    body_rotations: list
+    hinge_rotations: list
+
+
+def exp_truncated(w, order: int) -> se.DenseMatrix:
+    """exp(skew(w)) to the given order in w (order 1: I + W; order 2: + W²/2)."""
+    W = skew(w)
+    E = se.eye(3) + W
+    if order >= 2:
+        E = E + W * W / 2
+    return E
+
+
+def moved_end(end: EndInputs, steps: list[tuple[str, se.DenseMatrix, se.DenseMatrix, object, int]]):
+    """Grid point and nodal frame after a sequence of coordinate changes.
+
+    Each step is (label, Δd, Δπ, Δθ, order).  Applying the steps in order
+    k = 1…m to the current state gives, with the spatial hinge axis h rotating
+    with the body (Eq. 9):
+
+        T_e = E(Δπ_m)…E(Δπ_1) · E(Δθ_1 h)…E(Δθ_m h) · T_e⁰
+        o   = E(Δπ_m)…E(Δπ_1) · o⁰,      x = x⁰ + ΣΔd
+
+    (a later body rotation conjugates every earlier hinge rotation, which is
+    what moves all hinge factors to the right of all body factors).
+    """
+    body = se.eye(3)
+    hinge = se.eye(3)
+    x = end.x
+    for _, d, pi, theta, order in steps:
+        body = exp_truncated(pi, order) * body
+        hinge = hinge * exp_truncated(end.axis * theta, order)
+        x = x + d
+    frame = body * hinge * end.frame
+    grid = x + body * end.offset
+    return grid, frame
+
+
+# --------------------------------------------------------------------------
+# Deformation measures and corotational frame, Eqs. 12–21 and 46
+# --------------------------------------------------------------------------
+@dataclass
+class Corotational:
+    chord: se.DenseMatrix  # x_g2 − x_g1
+    length: object  # ℓ, Eq. 12
+    frame: se.DenseMatrix  # T_c = [t_c1 t_c2 t_c3], Eqs. 18–21 (exact orthonormal form)
+    psi: list  # Ψ = [φy1, φz1, φy2, φz2, φx2, αx2], Eq. 46
+
+
+def corotational(grid1, frame1, grid2, frame2, L0) -> Corotational:
+    """Ψ and T_c from the two grid points and nodal frames.
+
+    * α_x² = ‖x_g2 − x_g1‖ − L_e (Eqs. 12–13).
+    * t_c1 is the unit chord (the x axis "passes through the two end nodes").
+    * φ_y^i = t_c1·t_e^i(3), φ_z^i = −t_c1·t_e^i(2) (Eqs. 14–15).
+    * t_c2, t_c3 follow the first node's cross-section (Eqs. 20–21).  The paper
+      prints their first-order forms; we use the exact orthonormal frame
+      t_c2 = (t_e1(2) − (t_c1·t_e1(2)) t_c1)/‖·‖, t_c3 = t_c1 × t_c2, which agrees
+      to first order in φ and keeps T_c a rotation (needed for exact rigid-body
+      invariance).
+    * φ_x² = t_c3·t_e²(2) (Eq. 16).
+    """
+    chord = grid2 - grid1
+    length = se.sqrt(dot(chord, chord))
+    e = chord / length
+    a2, a3 = column(frame1, 1), column(frame1, 2)
+    b2, b3 = column(frame2, 1), column(frame2, 2)
+    s = dot(e, a2)  # = −φ_z¹
+    n = se.sqrt(1 - s * s)  # ‖t_e1(2) − s t_c1‖ on SO(3)
+    t2 = (a2 - e * s) / n
+    t3 = cross(e, a2) / n
+    frame = se.DenseMatrix(3, 3, [e[0], t2[0], t3[0], e[1], t2[1], t3[1], e[2], t2[2], t3[2]])
+    psi = [
+        dot(e, a3),  # φ_y¹, Eq. 14
+        -s,  # φ_z¹, Eq. 15
+        dot(e, b3),  # φ_y², Eq. 14
+        -dot(e, b2),  # φ_z², Eq. 15
+        dot(t3, b2),  # φ_x², Eq. 16
+        length - L0,  # α_x², Eq. 13
+    ]
+    return Corotational(chord, length, frame, psi)
+
+
+# --------------------------------------------------------------------------
+# Shape functions and the displacement field, Eqs. 22–26, 44–45
+# --------------------------------------------------------------------------
+xi, ys, zs = sp.symbols("xi y z", real=True)  # ξ = x_c ∈ [0, 1]; y, z physical section coordinates
+
+
+def hermite():
+    """a_1, a_2 of Eqs. 25–26, dimensionless (the printed L_e factor is a typo, see report)."""
+    a1 = xi - 2 * xi**2 + xi**3
+    a2 = -(xi**2) + xi**3
+    return a1, a2
+
+
+def displacement_field(psi, L, rotary_inertia: bool):
+    """u_c = N Ψ (Eqs. 44–45, corrected), components along the corotational axes.
+
+    Euler–Bernoulli kinematics with v, w the Hermite cubics of Eqs. 23–24, a
+    linear twist (Eq. 40's assumption, φ_x¹ = 0 by Eq. 11) and a linear stretch:
+
+        u = ξ α − y v_x + z(−w_x),  v = L(a1 φz1 + a2 φz2) − z ξ φx2,
+        w = −L(a1 φy1 + a2 φy2) + y ξ φx2
+    """
+    phi_y1, phi_z1, phi_y2, phi_z2, phi_x2, alpha = psi
+    a1, a2 = hermite()
+    v = L * (a1 * phi_z1 + a2 * phi_z2)
+    w = -L * (a1 * phi_y1 + a2 * phi_y2)
+    v_x = sp.diff(v, xi) / L
+    w_x = sp.diff(w, xi) / L
+    if rotary_inertia:
+        u = xi * alpha - ys * v_x - zs * w_x
+        v = v - zs * xi * phi_x2
+        w = w + ys * xi * phi_x2
+    else:
+        u = xi * alpha
+    return sp.Matrix([u, v, w])
+
+
+# --------------------------------------------------------------------------
+# Strain energy, Eqs. 22–43
+# --------------------------------------------------------------------------
+def strain_energy(psi, section, formulation: Formulation) -> sp.Expr:
+    """U(Ψ) whose gradient gives F_i^e (Eq. 43) through the B-matrices.
+
+    * Bending (Eqs. 28–31): U_b = (EI_z/2L)[4φz1² + 4φz1φz2 + 4φz2²] + (EI_y/2L)[same in φy].
+    * Stretching (Eqs. 34–38): ε^s = α/L + ½(v_x² + w_x²); we use its element
+      mean ε̄ = ∫₀¹ ε^s dξ and U_s = ½ EA L ε̄².  Its gradient is Eq. 37 with
+      ε_m → ε̄ (same to first order) and is conservative, which Eq. 37's
+      mixed use of ε_m and ε^s is not.  Without geometric stiffening ε̄ = α/L.
+    * Twist (Eqs. 40–41): U_t = (GJ/2L) φx2².
+    """
+    phi_y1, phi_z1, phi_y2, phi_z2, phi_x2, alpha = psi
+    L, EA, EIy, EIz, GJ = (section[k] for k in ("L0", "EA", "EIy", "EIz", "GJ"))
+    a1, a2 = hermite()
+    d2 = lambda f: sp.diff(f, xi, 2)  # noqa: E731
+    curvature_z = (d2(a1) * phi_z1 + d2(a2) * phi_z2) / L  # v_xx, Eq. 28
+    curvature_y = (d2(a1) * phi_y1 + d2(a2) * phi_y2) / L  # −w_xx
+    U_bending = sp.integrate(EIz * curvature_z**2 + EIy * curvature_y**2, (xi, 0, 1)) * L / 2
+    strain = alpha / L
+    if formulation.geometric_stiffening:
+        slope_v = sp.diff(a1, xi) * phi_z1 + sp.diff(a2, xi) * phi_z2  # v_x
+        slope_w = sp.diff(a1, xi) * phi_y1 + sp.diff(a2, xi) * phi_y2  # −w_x
+        strain = strain + sp.integrate((slope_v**2 + slope_w**2) / 2, (xi, 0, 1))  # Eq. 35, averaged
+    U_stretch = EA * L * strain**2 / 2
+    U_twist = GJ * phi_x2**2 / (2 * L)
+    return sp.expand(U_bending) + U_stretch + U_twist
+
+
+def section_forces(psi, section, formulation: Formulation):
+    """Axial force, torque, bending moments about local y and z at mid-element."""
+    phi_y1, phi_z1, phi_y2, phi_z2, phi_x2, alpha = psi
+    L, EA, EIy, EIz, GJ = (section[k] for k in ("L0", "EA", "EIy", "EIz", "GJ"))
+    strain = alpha / L
+    if formulation.geometric_stiffening:
+        strain = strain + (4 * (phi_z1**2 + phi_y1**2) - 2 * (phi_z1 * phi_z2 + phi_y1 * phi_y2)
+                           + 4 * (phi_z2**2 + phi_y2**2)) / 60
+    return [EA * strain, GJ * phi_x2 / L, EIy * (phi_y2 - phi_y1) / L, EIz * (phi_z2 - phi_z1) / L]
+
+
+# --------------------------------------------------------------------------
+# Inertia in the corotational frame, Eqs. 44–57
+# --------------------------------------------------------------------------
+def integrate_over_element(expr, section, L):
+    """ρ∫_V expr dV for a polynomial in ξ, y, z: L∫₀¹dξ, and the section moments
+    ∫ρ dA = ρA, ∫ρ y dA = ∫ρ z dA = ∫ρ yz dA = 0 (centroidal principal axes),
+    ∫ρ y² dA = ρI_z, ∫ρ z² dA = ρI_y."""
+    poly = sp.Poly(sp.expand(expr), xi, ys, zs)
+    moments = {(0, 0): section["rhoA"], (2, 0): section["rhoIz"], (0, 2): section["rhoIy"]}
+    total = sp.Integer(0)
+    for (p, qy, qz), coeff in poly.terms():
+        moment = moments.get((qy, qz))
+        if moment is None:  # odd or mixed section moments vanish; none above second order occur
+            continue
+        total += coeff * moment * L / (p + 1)
+    return sp.expand(total)
+
+
+PSI = sp.symbols("psi_0:6", real=True)  # Ψ as plain symbols for the local (frame-free) expressions
+QUASI_VELOCITY = sp.symbols("u_0:12", real=True)
+
+
+@lru_cache(maxsize=None)
+def local_inertia(formulation: Formulation):
+    """Mass matrix M̂(Ψ) and gyroscopic vector ĝ(Ψ, u) in the corotational frame.
+
+    Quasi-velocities u = [v̂, ω̂, Ψ̇] (12): velocity of grid point 1 and angular
+    velocity of S_c in corotational components, and deformation rates.  A
+    material point sits at r* = L r_c + N Ψ (Eq. 47), so
+
+        V̂ = Γ u,   Γ = [I, −skew(r*), N]                     (Eqs. 50–51)
+        Â = Γ u̇ + Γ̇ u + ω̂ × Γ u,   Γ̇ = [0, −skew(NΨ̇), 0]        (Eqs. 52–53)
+        M̂ = ρ∫ Γᵀ Γ dV,   ĝ = ρ∫ Γᵀ (Γ̇ u + ω̂ × Γ u) dV            (Eqs. 56–57)
+
+    Expressions in :data:`PSI`, :data:`QUASI_VELOCITY` and the section symbols.
+    Returns (M̂, ĝ, ∂ĝ/∂u, S, P) with S = ρ∫Γ dV (3×12, used by gravity) and
+    P = ρ∫r* dV (mass × centroid offset in S_c).
+    """
+    from .conventions import SECTION, SECTION_NAMES
+
+    section = dict(zip(SECTION_NAMES, SECTION.symbols()))
+    psi, quasi_velocity = PSI, QUASI_VELOCITY
+    L = section["L0"]
+    N_psi = displacement_field(psi, L, formulation.rotary_inertia)
+    if formulation.rotary_inertia:
+        r_c = sp.Matrix([L * xi, ys, zs])
+    else:
+        r_c = sp.Matrix([L * xi, 0, 0])
+    r_star = r_c + N_psi
+    N = N_psi.jacobian(sp.Matrix(psi))
+    def skew_sp(w):
+        return sp.Matrix([[0, -w[2], w[1]], [w[2], 0, -w[0]], [-w[1], w[0], 0]])
+    Gamma = sp.Matrix.hstack(sp.eye(3), -skew_sp(r_star), N)
+    u = sp.Matrix(quasi_velocity)
+    omega = u[3:6, 0]
+    psi_dot = u[6:12, 0]
+    Gamma_dot = sp.Matrix.hstack(sp.zeros(3, 3), -skew_sp(N * psi_dot), sp.zeros(3, 6))
+    V = Gamma * u
+    convective = Gamma_dot * u + omega.cross(V)
+    mass = sp.zeros(12, 12)
+    for i in range(12):
+        for j in range(i, 12):
+            mass[i, j] = mass[j, i] = integrate_over_element(Gamma[:, i].dot(Gamma[:, j]), section, L)
+    gyroscopic = sp.Matrix([integrate_over_element(Gamma[:, i].dot(convective), section, L) for i in range(12)])
+    first_moment = sp.Matrix(
+        [[integrate_over_element(Gamma[k, i], section, L) for i in range(12)] for k in range(3)]
+    )
+    position_moment = sp.Matrix([integrate_over_element(r_star[k], section, L) for k in range(3)])
+    gyroscopic_D_u = gyroscopic.jacobian(u)
+    return mass, gyroscopic, gyroscopic_D_u, first_moment, position_moment

@@ -1,0 +1,23 @@
+"""latdyn: transient dynamics of joint-dominated flexible structures (NASA CR-4402)."""
+from __future__ import annotations
+
+__version__ = "0.1.0"
+
+from .errors import SceneError, SolverError  # noqa: E402
+
+
+def load_scene(source):
+    """Read and validate a scene (a path to YAML/JSON, or a dict); see SCENE.md."""
+    from .scene import load_scene as _load
+
+    return _load(source)
+
+
+def run(scene, out_dir=None, backend="auto", progress=False):
+    """Solve a scene (a Scene, a dict or a path); returns a :class:`latdyn.results.Result`."""
+    from .solve import run as _run
+
+    return _run(scene, out_dir=out_dir, backend=backend, progress=progress)
+
+
+__all__ = ["load_scene", "run", "SceneError", "SolverError", "__version__"]

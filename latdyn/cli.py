@@ -1,0 +1,200 @@
+"""The ``latdyn`` command (also ``python -m latdyn``): ``run``, ``check``, ``plot``.
+
+Exit statuses (SCENE.md):
+
+=====  ===============================================================================
+0      solved (``run``), valid (``check``), plotted (``plot``)
+1      the solver failed (what was recorded is left complete), or an internal error
+2      invalid scene, missing scene file, bad arguments, missing/invalid results folder
+130    interrupted (Ctrl-C); what was recorded is left complete
+=====  ===============================================================================
+
+Every message goes to stderr as ``latdyn: error: <message>``; no traceback unless
+``--debug`` is given, which re-raises unexpected exceptions.
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import shutil
+import sys
+import traceback
+from pathlib import Path
+
+from . import __version__
+from .errors import SceneError, SolverError
+
+__all__ = ["main", "build_parser", "default_out_dir"]
+
+PROG = "latdyn"
+
+
+def _error(message: str) -> None:
+    print(f"{PROG}: error: {message}", file=sys.stderr)
+
+
+def default_out_dir(scene_path) -> Path:
+    """``<scene stem>_results`` in the current directory (SCENE.md)."""
+    return Path.cwd() / f"{Path(scene_path).stem}_results"
+
+
+def _module(name: str):
+    # imported on use (and looked up in sys.modules) so that `latdyn plot` needs no
+    # solver and the tests can substitute modules
+    return importlib.import_module(name)
+
+
+class _UsageError(Exception):
+    """A bad command-line argument found after parsing (a missing file): exit 2."""
+
+
+def _load_scene(path: str):
+    scene_path = Path(path)
+    if not scene_path.exists():
+        raise _UsageError(f"{scene_path}: no such scene file")
+    if not scene_path.is_file():
+        raise _UsageError(f"{scene_path}: not a scene file (a YAML or JSON file is expected)")
+    return _module("latdyn.scene").load_scene(str(scene_path))
+
+
+# ----------------------------------------------------------------------------- commands
+def _command_run(args) -> int:
+    scene = _load_scene(args.scene)  # SceneError -> 2 before anything is written
+    out_dir = Path(args.out) if args.out else default_out_dir(args.scene)
+    existed = out_dir.exists()
+    solve = _module("latdyn.solve")
+    try:
+        result = solve.run(scene, out_dir=str(out_dir), backend=args.backend, progress=not args.quiet)
+    except SceneError:
+        # a check that needs the model (e.g. a coordinate nothing holds): still an
+        # invalid scene, and nothing may be left behind
+        if not existed and out_dir.is_dir():
+            shutil.rmtree(out_dir, ignore_errors=True)
+        raise
+    except SolverError as exc:
+        if getattr(args, "debug", False):
+            traceback.print_exc()
+        _error(f"the solver failed: {exc}")
+        if out_dir.is_dir():
+            print(f"{PROG}: what was recorded up to the failure is in {out_dir}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        where = f"; what was recorded so far is in {out_dir}" if out_dir.is_dir() else ""
+        print(f"\n{PROG}: interrupted{where}", file=sys.stderr)
+        return 130
+    summary = getattr(result, "summary", {}) or {}
+    steps = summary.get("steps")
+    wall = summary.get("wall_time_s")
+    parts = [f"{PROG}: solved -> {out_dir}"]
+    if steps is not None:
+        parts.append(f"{steps} steps")
+    if wall is not None:
+        parts.append(f"{wall:.2f} s wall time")
+    print(", ".join(parts))
+    return 0
+
+
+def _command_check(args) -> int:
+    scene = _load_scene(args.scene)
+    describe = getattr(_module("latdyn.scene"), "describe", None)
+    print(describe(scene) if describe is not None else repr(scene))
+    try:
+        model_module = _module("latdyn.model")
+    except ImportError:  # the model is not there yet: the description alone
+        return 0
+    model = model_module.Model.from_scene(scene)  # SceneError -> 2
+    print(model.size_report())
+    return 0
+
+
+def _command_plot(args) -> int:
+    from .plot import plot_results
+    from .results import ResultsError
+
+    try:
+        written = plot_results(args.results, plot_dir=args.out)
+    except ResultsError as exc:
+        _error(str(exc))
+        return 2
+    if not written:
+        print(f"{PROG}: {args.results}: nothing to plot (no rows and no modes)")
+        return 0
+    print(f"{PROG}: wrote {len(written)} plots to {written[0].parent}")
+    return 0
+
+
+# ----------------------------------------------------------------------------- parser
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog=PROG,
+        description="Transient dynamics of joint-dominated flexible structures (NASA CR-4402).",
+        epilog="Exit status: 0 ok, 1 solver failure or internal error, 2 invalid scene or "
+        "arguments, 130 interrupted.",
+    )
+    parser.add_argument("--version", action="version", version=f"{PROG} {__version__}")
+    parser.add_argument("--debug", action="store_true", help="show tracebacks of unexpected errors")
+    # the same flag after the sub-command; SUPPRESS keeps it from overriding the one before
+    common = argparse.ArgumentParser(add_help=False)
+    common.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
+                        help="show tracebacks of unexpected errors")
+    commands = parser.add_subparsers(dest="command", metavar="COMMAND")
+    commands.required = True
+
+    run = commands.add_parser("run", parents=[common], help="solve a scene and write its results",
+                              description="Solve SCENE and write probes.csv, the state history, "
+                              "summary.json (and modes.csv, ParaView frames) into OUT.")
+    run.add_argument("scene", metavar="SCENE", help="scene file (YAML or JSON)")
+    run.add_argument("-o", "--out", metavar="OUT", help="results folder (default: ./<SCENE stem>_results)")
+    run.add_argument("--backend", choices=("auto", "c", "numpy"), default="auto",
+                     help="element kernels: compiled C, NumPy, or auto (C when a compiler works)")
+    run.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    run.set_defaults(handler=_command_run)
+
+    check = commands.add_parser("check", parents=[common], help="validate a scene and print the model size",
+                                description="Validate SCENE, describe it and print the model's size; "
+                                "nothing is solved or written.")
+    check.add_argument("scene", metavar="SCENE", help="scene file (YAML or JSON)")
+    check.set_defaults(handler=_command_check)
+
+    plot = commands.add_parser("plot", parents=[common], help="plot the probes of a results folder",
+                               description="Write one PNG per probe, overview.png (and modes.png) "
+                               "into OUT/plots or DIR.")
+    plot.add_argument("results", metavar="OUT", help="results folder written by `latdyn run`")
+    plot.add_argument("--out", metavar="DIR", help="where to write the PNGs (default: OUT/plots)")
+    plot.set_defaults(handler=_command_plot)
+    return parser
+
+
+def main(argv=None) -> int:
+    """Run the command line; returns the exit status."""
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # argparse: 2 on bad arguments, 0 for --help/--version
+        return int(exc.code or 0)
+    debug = getattr(args, "debug", False)
+    try:
+        return args.handler(args)
+    except (SceneError, _UsageError) as exc:
+        _error(str(exc))
+        return 2
+    except SolverError as exc:
+        if debug:
+            traceback.print_exc()
+        _error(f"the solver failed: {exc}")
+        return 1
+    except KeyboardInterrupt:
+        print(f"\n{PROG}: interrupted", file=sys.stderr)
+        return 130
+    except BrokenPipeError:  # e.g. `latdyn check x | head`
+        return 1
+    except Exception as exc:  # noqa: BLE001 - the last line of defence
+        if debug:
+            raise
+        print(f"{PROG}: internal error: {type(exc).__name__}: {exc}", file=sys.stderr)
+        print(f"{PROG}: rerun with --debug to see the traceback, and please report it", file=sys.stderr)
+        return 1
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,435 @@
+"""Scalar functions of time read from scene files (SCENE.md, "Expressions").
+
+A scene scalar that may vary in time (a force component, a hinge torque, a
+prescribed angle or translation) is one of
+
+- a number: ``3.5``;
+- a string in ``t``: ``"Piecewise((0.4*t, t < 15), (6, True))"``;
+- a table: ``{table: [[t0, v0], [t1, v1], ...]}``, linear in t between the
+  points and constant beyond the ends (``numpy.interp``).
+
+:class:`TimeFunction` evaluates the value and its first and second time
+derivatives, vectorised over NumPy arrays of times.
+
+Strings are *parsed, never evaluated as Python*:
+
+1. the text is split into Python tokens (``tokenize``) and every token is
+   checked: numbers (decimal, no underscores, not imaginary), the operators
+   ``+ - * / ** ( ) , < > <= >= == !=`` and the names in :data:`ALLOWED_NAMES`.
+   Anything else (attribute access, brackets, strings, ``lambda``, ``__import__``,
+   an unknown name, ...) is refused with a :class:`~latdyn.errors.SceneError`;
+2. the checked text is read into a Python AST (``ast.parse``, no evaluation);
+   comparisons are rewritten into SymPy relationals (``a == b`` -> ``Eq(a, b)``,
+   ``0 < t < 1`` -> ``And(Lt(0, t), Lt(t, 1))``), and powers of constants are
+   bounded so that a scene cannot ask SymPy for ``9**9**9``;
+3. SymPy's ``parse_expr`` builds the expression with an explicit ``local_dict``
+   (the whitelisted names mapped to SymPy objects) and a ``global_dict`` that
+   holds only the four classes its token transformations emit and an empty
+   ``__builtins__``.
+
+Derivatives are symbolic (``sympy.diff``); Dirac deltas that come from
+differentiating ``Heaviside``/``sign``/``abs`` are dropped (their value is zero
+away from the jump). ``Heaviside(0) = 1/2`` (SymPy's convention; a second
+argument ``Heaviside(x, h0)`` picks another value). The functions are compiled
+with ``sympy.lambdify(..., "numpy")``.
+
+A :class:`TimeFunction` pickles by its source text; the compiled functions are
+rebuilt lazily after unpickling.
+"""
+from __future__ import annotations
+
+import ast
+import io
+import math
+import re
+import tokenize
+from typing import Any, Callable
+
+import numpy as np
+
+from .errors import SceneError
+
+__all__ = ["TimeFunction", "parse_time_function", "ALLOWED_NAMES", "ALLOWED_OPERATORS"]
+
+#: Names a scene expression may use (SCENE.md), then the documented extension.
+ALLOWED_NAMES = (
+    "t", "pi", "e",
+    "sin", "cos", "tan", "exp", "log", "sqrt", "abs", "sign",
+    "Min", "Max", "Piecewise", "Heaviside", "True", "False",
+    # extension
+    "asin", "acos", "atan", "atan2", "sinh", "cosh", "tanh",
+)
+#: Operators and punctuation a scene expression may use.
+ALLOWED_OPERATORS = ("+", "-", "*", "/", "**", "(", ")", ",", "<", ">", "<=", ">=", "==", "!=")
+
+_NUMBER = re.compile(r"^(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?$")
+_MAX_EXPONENT = 1.0e4
+_ALLOWED_TEXT = (
+    "a number, a table {table: [[t0, v0], ...]} or an expression in t using numbers, "
+    "the operators " + " ".join(ALLOWED_OPERATORS) + " and the names " + " ".join(ALLOWED_NAMES)
+)
+_ALLOWED_SHORT = "a real scalar expression in t"
+
+
+def _sympy_namespace():
+    """The ``local_dict`` and ``global_dict`` handed to ``parse_expr``."""
+    import sympy as sp
+
+    t = sp.Symbol("t", real=True)
+    local = {
+        "t": t, "pi": sp.pi, "e": sp.E,
+        "sin": sp.sin, "cos": sp.cos, "tan": sp.tan, "exp": sp.exp, "log": sp.log,
+        "sqrt": sp.sqrt, "abs": sp.Abs, "sign": sp.sign, "Min": sp.Min, "Max": sp.Max,
+        "Piecewise": sp.Piecewise, "Heaviside": sp.Heaviside, "True": True, "False": False,
+        "asin": sp.asin, "acos": sp.acos, "atan": sp.atan, "atan2": sp.atan2,
+        "sinh": sp.sinh, "cosh": sp.cosh, "tanh": sp.tanh,
+        # emitted by the comparison rewrite below, never accepted from user text
+        "Lt": sp.Lt, "Le": sp.Le, "Gt": sp.Gt, "Ge": sp.Ge, "Eq": sp.Eq, "Ne": sp.Ne, "And": sp.And,
+    }
+    # parse_expr's standard transformations emit Integer(..), Float(..),
+    # Rational(..) and Symbol(..); nothing else is reachable.
+    glob = {"__builtins__": {}, "Integer": sp.Integer, "Float": sp.Float,
+            "Rational": sp.Rational, "Symbol": sp.Symbol}
+    return t, local, glob
+
+
+# --------------------------------------------------------------------------- text checks
+def _refuse(file, key, what, expected=_ALLOWED_TEXT):
+    raise SceneError(file, key, f"{what}; expected {expected}")
+
+
+def _check_tokens(text: str, file, key) -> None:
+    """Refuse every token that is not a plain number, an allowed operator or name."""
+    try:
+        tokens = list(tokenize.generate_tokens(io.StringIO(text).readline))
+    except (tokenize.TokenError, IndentationError, SyntaxError) as exc:
+        _refuse(file, key, f"cannot read expression {text!r} ({exc.args[0] if exc.args else exc})")
+    for tok in tokens:
+        kind, s = tok.type, tok.string
+        if kind in (tokenize.NEWLINE, tokenize.NL, tokenize.ENDMARKER):
+            continue
+        if kind == tokenize.NUMBER:
+            if not _NUMBER.match(s):
+                _refuse(file, key, f"number {s!r} in {text!r} is not a plain decimal number")
+        elif kind == tokenize.NAME:
+            if s not in ALLOWED_NAMES:
+                _refuse(file, key, f"name {s!r} in {text!r} is not allowed")
+        elif kind == tokenize.OP:
+            if s not in ALLOWED_OPERATORS:
+                _refuse(file, key, f"{s!r} in {text!r} is not allowed")
+        else:
+            _refuse(file, key, f"{s!r} in {text!r} is not allowed")
+
+
+_COMPARE = {ast.Lt: "Lt", ast.LtE: "Le", ast.Gt: "Gt", ast.GtE: "Ge", ast.Eq: "Eq", ast.NotEq: "Ne"}
+_FOLD_FUNCS: dict[str, Callable[..., float]] = {
+    "sin": math.sin, "cos": math.cos, "tan": math.tan, "exp": math.exp, "log": math.log,
+    "sqrt": math.sqrt, "abs": abs, "asin": math.asin, "acos": math.acos, "atan": math.atan,
+    "atan2": math.atan2, "sinh": math.sinh, "cosh": math.cosh, "tanh": math.tanh,
+    "Min": min, "Max": max,
+}
+
+
+class _NotFoldable(Exception):
+    pass
+
+
+def _fold(node: ast.AST) -> float:
+    """Float value of a subtree made of numbers, pi, e, arithmetic and plain functions."""
+    if isinstance(node, ast.Constant) and type(node.value) in (int, float):
+        return float(node.value)
+    if isinstance(node, ast.Name) and node.id in ("pi", "e"):
+        return math.pi if node.id == "pi" else math.e
+    if isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.USub, ast.UAdd)):
+        v = _fold(node.operand)
+        return -v if isinstance(node.op, ast.USub) else v
+    if isinstance(node, ast.BinOp):
+        a, b = _fold(node.left), _fold(node.right)
+        try:
+            if isinstance(node.op, ast.Add):
+                return a + b
+            if isinstance(node.op, ast.Sub):
+                return a - b
+            if isinstance(node.op, ast.Mult):
+                return a * b
+            if isinstance(node.op, ast.Div):
+                return a / b
+            if isinstance(node.op, ast.Pow):
+                return math.pow(abs(a), b)
+        except (ZeroDivisionError, ValueError) as exc:
+            raise _NotFoldable from exc
+    if (isinstance(node, ast.Call) and isinstance(node.func, ast.Name)
+            and node.func.id in _FOLD_FUNCS and not node.keywords):
+        args = [_fold(a) for a in node.args]
+        try:
+            return float(_FOLD_FUNCS[node.func.id](*args))
+        except (ValueError, TypeError, ZeroDivisionError) as exc:
+            raise _NotFoldable from exc
+    raise _NotFoldable
+
+
+def _uses_t(node: ast.AST) -> bool:
+    return any(isinstance(n, ast.Name) and n.id == "t" for n in ast.walk(node))
+
+
+class _Rewrite(ast.NodeTransformer):
+    """Comparisons -> SymPy relationals; bound powers of constants."""
+
+    def __init__(self, text, file, key):
+        self.text, self.file, self.key = text, file, key
+
+    def visit_Compare(self, node):
+        self.generic_visit(node)
+        terms, left = [], node.left
+        for op, right in zip(node.ops, node.comparators):
+            fn = _COMPARE[type(op)]
+            terms.append(ast.Call(ast.Name(fn, ast.Load()), [left, right], []))
+            left = right
+        if len(terms) == 1:
+            return terms[0]
+        return ast.Call(ast.Name("And", ast.Load()), terms, [])
+
+    def visit_BinOp(self, node):
+        self.generic_visit(node)
+        if isinstance(node.op, ast.Pow):
+            self._check_power(node)
+        return node
+
+    def _check_power(self, node):
+        exponent_t, base_t = _uses_t(node.right), _uses_t(node.left)
+        too_big = (f"the power {ast.unparse(node)!r} in {self.text!r} is too large or not a plain number; "
+                   "expected powers of constants within the floating-point range and exponents up to 1e4")
+        try:
+            exponent = None if exponent_t else _fold(node.right)
+            if exponent is not None and abs(exponent) > _MAX_EXPONENT:
+                raise SceneError(self.file, self.key, too_big)
+            if not base_t and exponent is not None:
+                value = math.pow(abs(_fold(node.left)), exponent)
+                if not math.isfinite(value):
+                    raise SceneError(self.file, self.key, too_big)
+        except OverflowError:
+            raise SceneError(self.file, self.key, too_big) from None
+        except _NotFoldable:
+            if not (exponent_t or base_t):
+                raise SceneError(self.file, self.key, too_big) from None
+            if not exponent_t:  # exponent is a constant we cannot bound
+                raise SceneError(self.file, self.key, too_big) from None
+
+
+def _parse_text(text: str, file, key):
+    """Checked text -> SymPy expression in ``t`` (real)."""
+    import sympy as sp
+    from sympy.parsing.sympy_parser import parse_expr, standard_transformations
+
+    clean = " ".join(text.split())
+    if not clean:
+        _refuse(file, key, "empty expression")
+    _check_tokens(clean, file, key)
+    try:
+        tree = ast.parse(clean, mode="eval")
+    except SyntaxError as exc:
+        _refuse(file, key, f"{text!r} is not a valid expression ({exc.msg})")
+    tree = ast.fix_missing_locations(_Rewrite(text, file, key).visit(tree))
+    symbol, local, glob = _sympy_namespace()
+    try:
+        expr = parse_expr(ast.unparse(tree), local_dict=local, global_dict=glob,
+                          transformations=standard_transformations, evaluate=True)
+    except SceneError:
+        raise
+    except Exception as exc:  # SymPy's own complaints (wrong arguments, ...)
+        _refuse(file, key, f"{text!r} is not a valid expression ({type(exc).__name__}: {exc})", _ALLOWED_SHORT)
+    if isinstance(expr, (bool, int, float)):
+        expr = sp.sympify(expr)
+    if not isinstance(expr, sp.Expr):
+        _refuse(file, key, f"{text!r} is a condition, not a number", _ALLOWED_SHORT)
+    if expr.has(sp.I):
+        _refuse(file, key, f"{text!r} is not real", _ALLOWED_SHORT)
+    if expr.has(sp.zoo, sp.nan, sp.oo, -sp.oo):
+        _refuse(file, key, f"{text!r} is infinite or undefined somewhere", "a finite expression in t")
+    return symbol, expr
+
+
+def _drop_deltas(expr):
+    import sympy as sp
+
+    return expr.replace(lambda e: isinstance(e, sp.DiracDelta), lambda e: sp.S.Zero)
+
+
+# --------------------------------------------------------------------------- TimeFunction
+class TimeFunction:
+    """A scalar function of time: a constant, an expression in ``t`` or a table.
+
+    ``value(t)``, ``rate(t)`` and ``accel(t)`` give f, df/dt and d²f/dt²; each takes
+    a float (returns a float) or an array of times (returns a float64 array of the
+    same shape).
+    """
+
+    def __init__(self, source: Any, file: str | None = None, key: str = "expression"):
+        self._file, self._key = file, key
+        self._source = self._normalise(source, file, key)
+        self._compiled = None
+        self._compile()
+        try:
+            value0 = self.value(0.0)
+        except (ArithmeticError, TypeError, ValueError) as exc:
+            raise SceneError(file, key, f"expected a function finite at t = 0, got {source!r} "
+                                        f"({type(exc).__name__}: {exc})") from None
+        if not math.isfinite(value0):
+            raise SceneError(file, key, f"expected a function finite at t = 0, got {source!r} "
+                                        f"which is {value0} there")
+
+    # -- construction
+    @staticmethod
+    def _normalise(source, file, key):
+        if isinstance(source, TimeFunction):
+            return source._source
+        if isinstance(source, bool) or source is None:
+            raise SceneError(file, key, f"expected {_ALLOWED_TEXT}, got {source!r}")
+        if isinstance(source, (int, float, np.integer, np.floating)):
+            value = float(source)
+            if not math.isfinite(value):
+                raise SceneError(file, key, f"expected a finite number, got {source!r}")
+            return value
+        if isinstance(source, str):
+            return source
+        if isinstance(source, dict):
+            if set(source) != {"table"}:
+                raise SceneError(file, key, "expected a table as {table: [[t0, v0], [t1, v1], ...]}, "
+                                            f"got keys {', '.join(map(str, source))}")
+            rows = source["table"]
+            bad = f"expected {{table: [[t0, v0], [t1, v1], ...]}} with at least one pair of numbers, got {rows!r}"
+            if not isinstance(rows, (list, tuple)) or not rows:
+                raise SceneError(file, f"{key}.table", bad)
+            table = []
+            for i, row in enumerate(rows):
+                if (not isinstance(row, (list, tuple)) or len(row) != 2
+                        or any(isinstance(x, bool) or not isinstance(x, (int, float)) for x in row)):
+                    raise SceneError(file, f"{key}.table[{i}]", f"expected a pair of numbers [t, value], got {row!r}")
+                if not all(math.isfinite(float(x)) for x in row):
+                    raise SceneError(file, f"{key}.table[{i}]", f"expected finite numbers, got {row!r}")
+                if table and not float(row[0]) > table[-1][0]:
+                    raise SceneError(file, f"{key}.table[{i}]",
+                                     f"expected times strictly increasing, got t = {row[0]!r} after {table[-1][0]!r}")
+                table.append([float(row[0]), float(row[1])])
+            return {"table": table}
+        raise SceneError(file, key, f"expected {_ALLOWED_TEXT}, got {source!r}")
+
+    def _compile(self):
+        src = self._source
+        if isinstance(src, float):
+            c = src
+            self._kind = "constant"
+            self._expr_cache = None
+            self._fns = (lambda t: c, lambda t: 0.0, lambda t: 0.0)
+        elif isinstance(src, dict):
+            self._kind = "table"
+            self._expr_cache = None
+            ts = np.array([r[0] for r in src["table"]])
+            vs = np.array([r[1] for r in src["table"]])
+            slopes = np.diff(vs) / np.diff(ts) if len(ts) > 1 else np.zeros(0)
+
+            def rate(t, ts=ts, slopes=slopes):
+                i = np.searchsorted(ts, t, side="right") - 1  # segment on the right of t
+                inside = (i >= 0) & (i < len(slopes))
+                return np.where(inside, slopes[np.clip(i, 0, max(len(slopes) - 1, 0))]
+                                if len(slopes) else 0.0, 0.0)
+
+            self._fns = (lambda t: np.interp(t, ts, vs), rate, lambda t: 0.0)
+        else:
+            import sympy as sp
+
+            symbol, expr = _parse_text(src, self._file, self._key)
+            d1 = _drop_deltas(sp.diff(expr, symbol))
+            d2 = _drop_deltas(sp.diff(d1, symbol))
+            self._kind = "constant" if not expr.free_symbols else "expression"
+            self._expr_cache = expr
+            try:
+                self._fns = tuple(sp.lambdify(symbol, e, modules="numpy") for e in (expr, d1, d2))
+            except Exception as exc:  # a construct the NumPy printer cannot write
+                raise SceneError(self._file, self._key, f"{src!r} cannot be evaluated numerically "
+                                                        f"({type(exc).__name__}: {exc}); expected {_ALLOWED_SHORT}")
+        self._compiled = True
+
+    # -- evaluation
+    def _eval(self, which: int, t):
+        if self._compiled is None:
+            self._compile()
+        tt = np.asarray(t, dtype=float)
+        with np.errstate(all="ignore"):
+            out = self._fns[which](tt)
+        out = np.broadcast_to(np.asarray(out, dtype=float), tt.shape)
+        if tt.ndim == 0:
+            return float(out)
+        return np.array(out, dtype=float)
+
+    def value(self, t):
+        """f(t) for a float (-> float) or an array (-> array of the same shape)."""
+        return self._eval(0, t)
+
+    def rate(self, t):
+        """df/dt; for a table the slope of the segment that starts at or before t (0 beyond the ends)."""
+        return self._eval(1, t)
+
+    def accel(self, t):
+        """d²f/dt²; zero for a table."""
+        return self._eval(2, t)
+
+    __call__ = value
+
+    # -- description
+    @property
+    def source(self):
+        """What the scene gave: the string, the number (float) or ``{"table": [[t, v], ...]}``."""
+        return self._source
+
+    @property
+    def kind(self) -> str:
+        """``"constant"``, ``"expression"`` or ``"table"``."""
+        if self._compiled is None:
+            self._compile()
+        return self._kind
+
+    @property
+    def is_constant(self) -> bool:
+        """True when the function does not change with time."""
+        if self.kind == "table":
+            return len({r[1] for r in self._source["table"]}) == 1
+        return self.kind == "constant"
+
+    @property
+    def expr(self):
+        """The SymPy expression in ``t`` (None for numbers and tables)."""
+        if self._compiled is None:
+            self._compile()
+        return self._expr_cache
+
+    @classmethod
+    def constant(cls, value: float) -> "TimeFunction":
+        return cls(float(value))
+
+    # -- pickling: by source, compiled lazily
+    def __getstate__(self):
+        return {"source": self._source, "file": self._file, "key": self._key}
+
+    def __setstate__(self, state):
+        self._source, self._file, self._key = state["source"], state["file"], state["key"]
+        self._compiled = None
+
+    def __eq__(self, other):
+        return isinstance(other, TimeFunction) and self._source == other._source
+
+    def __hash__(self):
+        return hash(repr(self._source))
+
+    def __repr__(self):
+        return f"TimeFunction({self._source!r})"
+
+    def __str__(self):
+        return str(self._source)
+
+
+def parse_time_function(value: Any, file: str | None, key: str) -> TimeFunction:
+    """A scene value -> :class:`TimeFunction`; :class:`SceneError` naming ``file`` and ``key`` if invalid."""
+    if isinstance(value, TimeFunction):
+        return value
+    return TimeFunction(value, file=file, key=key)

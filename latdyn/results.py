@@ -1,0 +1,776 @@
+"""Result files of a run (SCENE.md, "Commands and results") and the in-memory result.
+
+One :class:`ResultWriter` per run writes, into ``out_dir``:
+
+``probes.csv``
+    Header ``t,<probe names in file order>`` (``load_factor,...`` for static runs),
+    one row per :meth:`ResultWriter.record`. Each row is formatted completely in
+    memory and handed to the kernel with a single ``os.write`` on an ``O_APPEND``
+    descriptor (no user-space buffer), so a crash, a Ctrl-C or a SIGKILL leaves only
+    complete rows; :meth:`Result.load` also skips a malformed trailing line should a
+    full disk ever cut one short. Values are written with ``repr(float)``, which
+    round-trips float64 exactly.
+
+``state.h5`` (or ``state.npz`` when h5py is missing)
+    The full state history: dataset ``t`` ``(n_rows,)`` and one dataset per state key
+    ``(n_rows, width)``, with attributes ``first_column`` and ``meta`` (JSON).
+    *Crash safety, the choice made:* the file on disk is always a complete, closed
+    HDF5 file. New rows are held in memory and appended at a checkpoint by copying
+    the current file to ``state.h5.tmp``, appending to the copy (datasets are
+    resizable and chunked), closing it, fsync-ing it and ``os.replace``-ing it over
+    ``state.h5``. A SIGKILL therefore loses at most the rows since the last
+    checkpoint and never leaves a half-written file (an HDF5 file kept open and
+    flushed can be left unreadable by a kill during a metadata update). Checkpoints
+    happen every ``checkpoint_rows`` rows or ``checkpoint_seconds`` seconds,
+    whichever comes first, but never more often than keeps checkpoint time below
+    about 10 % of the run's wall time, and at :meth:`close`. The NPZ fallback keeps
+    the whole history in memory and rewrites ``state.npz`` the same way (temp +
+    ``os.replace``).
+
+``paraview/frame_NNNNN.vtu`` and ``paraview/beams.pvd``
+    One VTU file (meshio, line cells = beam elements) per recorded frame and a PVD
+    collection listing them with their times, rewritten atomically after each frame;
+    open ``beams.pvd`` in ParaView. *Frame limit:* at most ``max_frames`` (default
+    2000) frames are kept. If ``expected_frames`` is given the writer keeps every
+    k-th candidate frame from the start, k = ceil(expected_frames / max_frames);
+    whenever the kept frames would still exceed ``max_frames`` the stride is doubled
+    and every other kept frame is deleted, so the frames on disk stay evenly spaced.
+    ``NNNNN`` is the index of the candidate frame (the count of ``record`` calls
+    that carried ``node_positions``), so subsampled runs have gaps in the numbering.
+
+``modes.csv``
+    ``mode,frequency_hz``, modes numbered from 1 (:meth:`ResultWriter.write_modes`).
+
+``summary.json``
+    Written atomically at the start with ``"status": "running"`` (so a killed run is
+    recognisable) and again by :meth:`ResultWriter.close` with the final status
+    ``solved``, ``failed`` or ``interrupted``. Keys always present: ``latdyn_version``,
+    ``scene_hash``, ``wall_time_s``, ``steps``, ``newton_iterations``,
+    ``rejected_steps``, ``energy_balance_error`` (``null`` when the caller did not
+    give one), ``status``, ``rows``, ``first_column``, ``probes``, plus the writer's
+    ``meta`` and whatever the caller passes. Non-finite floats are written as ``null``
+    (strict JSON).
+
+Files of an earlier run with these names are removed when a writer starts, so the
+folder never mixes two runs. With ``out_dir=None`` nothing is written; the writer
+only keeps the probe rows for :meth:`ResultWriter.result`.
+"""
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+import os
+import shutil
+import sys
+import time
+import xml.sax.saxutils
+from pathlib import Path
+
+import numpy as np
+
+try:  # optional: the NPZ fallback is used without it
+    import h5py
+except ImportError:  # pragma: no cover - exercised by monkeypatching in the tests
+    h5py = None
+
+__all__ = [
+    "Result",
+    "ResultWriter",
+    "ResultsError",
+    "load_state_history",
+    "progress_bar",
+    "PROBES_FILE",
+    "MODES_FILE",
+    "SUMMARY_FILE",
+    "STATE_H5_FILE",
+    "STATE_NPZ_FILE",
+    "PARAVIEW_DIR",
+    "PVD_FILE",
+]
+
+PROBES_FILE = "probes.csv"
+MODES_FILE = "modes.csv"
+SUMMARY_FILE = "summary.json"
+STATE_H5_FILE = "state.h5"
+STATE_NPZ_FILE = "state.npz"
+PARAVIEW_DIR = "paraview"
+PVD_FILE = "beams.pvd"
+
+#: keys that summary.json always has (SCENE.md); the caller fills the values
+SUMMARY_KEYS = (
+    "latdyn_version",
+    "scene_hash",
+    "wall_time_s",
+    "steps",
+    "newton_iterations",
+    "rejected_steps",
+    "energy_balance_error",
+)
+STATUSES = ("running", "solved", "failed", "interrupted")
+
+
+class ResultsError(ValueError):
+    """A results folder that is missing or cannot be read (the CLI exits 2)."""
+
+
+# ----------------------------------------------------------------------------- helpers
+def _atomic_write_bytes(path: Path, data: bytes, fsync: bool = True) -> None:
+    """Write ``data`` to ``path`` so that the file is either the old or the new one."""
+    tmp = path.with_name(path.name + ".tmp")
+    with open(tmp, "wb") as f:
+        f.write(data)
+        f.flush()
+        if fsync:
+            os.fsync(f.fileno())
+    os.replace(tmp, path)
+
+
+def _fsync_path(path: Path) -> None:
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def _json_safe(value):
+    """Plain JSON types; numpy scalars/arrays converted, non-finite floats -> None."""
+    if isinstance(value, dict):
+        return {str(k): _json_safe(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_json_safe(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return _json_safe(value.tolist())
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    if isinstance(value, (int, np.integer)):
+        return int(value)
+    if isinstance(value, (float, np.floating)):
+        value = float(value)
+        return value if math.isfinite(value) else None
+    if value is None or isinstance(value, str):
+        return value
+    if isinstance(value, Path):
+        return str(value)
+    return str(value)
+
+
+def _csv_line(fields) -> str:
+    buffer = io.StringIO()
+    csv.writer(buffer, lineterminator="\n").writerow(fields)
+    return buffer.getvalue()
+
+
+def _format_float(value) -> str:
+    return repr(float(value))
+
+
+# ----------------------------------------------------------------------------- Result
+class Result:
+    """What a run recorded: plain attributes, picklable.
+
+    Attributes
+    ----------
+    t : np.ndarray, shape (n_rows,)
+        Recorded times; for static runs the load factors (``first_column`` says which).
+    probes : dict[str, np.ndarray]
+        Probe name -> values, shape (n_rows,), in file order.
+    summary : dict
+        Contents of ``summary.json`` (``{"status": "running"}`` before the writer closed).
+    out_dir : str or None
+        The results folder, None for a run that wrote no files.
+    modes : np.ndarray or None
+        Natural frequencies in Hz for modal runs.
+    first_column : str
+        ``"t"`` or ``"load_factor"``.
+    """
+
+    def __init__(self, t, probes, summary=None, out_dir=None, modes=None, first_column="t"):
+        self.t = np.asarray(t, dtype=float)
+        self.probes = {str(k): np.asarray(v, dtype=float) for k, v in probes.items()}
+        self.summary = dict(summary or {})
+        self.out_dir = None if out_dir is None else str(out_dir)
+        self.modes = None if modes is None else np.asarray(modes, dtype=float)
+        self.first_column = first_column
+
+    @property
+    def load_factor(self) -> np.ndarray:
+        """Alias of :attr:`t`, the natural name for static runs."""
+        return self.t
+
+    @property
+    def status(self):
+        return self.summary.get("status")
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        return self.probes[name]
+
+    def __repr__(self) -> str:
+        return (
+            f"Result({self.first_column}: {len(self.t)} rows, probes={list(self.probes)}, "
+            f"status={self.status!r}, out_dir={self.out_dir!r})"
+        )
+
+    def state_history(self) -> dict:
+        """The state history from ``out_dir`` (see :func:`load_state_history`)."""
+        if self.out_dir is None:
+            raise ResultsError("this result was not written to a folder; it has no state history")
+        return load_state_history(self.out_dir)
+
+    @classmethod
+    def load(cls, out_dir) -> "Result":
+        """Read ``probes.csv`` and, where present, ``summary.json`` and ``modes.csv``.
+
+        A folder with only ``modes.csv`` (a modal run without probes) is accepted.
+        Raises :class:`ResultsError` naming the path when the folder or its files are
+        missing or malformed.
+        """
+        folder = Path(out_dir)
+        if not folder.is_dir():
+            raise ResultsError(f"{folder}: no such results folder")
+        probes_path = folder / PROBES_FILE
+        modes_path = folder / MODES_FILE
+        summary_path = folder / SUMMARY_FILE
+        if not probes_path.is_file() and not modes_path.is_file():
+            raise ResultsError(f"{folder}: not a latdyn results folder (no {PROBES_FILE} or {MODES_FILE})")
+
+        first_column, t, probes = "t", np.zeros(0), {}
+        if probes_path.is_file():
+            first_column, t, probes = _read_probes(probes_path)
+
+        modes = None
+        if modes_path.is_file():
+            modes = _read_modes(modes_path)
+
+        summary = {}
+        if summary_path.is_file():
+            try:
+                summary = json.loads(summary_path.read_text(encoding="utf-8"))
+            except (OSError, ValueError) as exc:
+                raise ResultsError(f"{summary_path}: unreadable summary ({exc})") from exc
+        return cls(t, probes, summary=summary, out_dir=str(folder), modes=modes, first_column=first_column)
+
+
+def _read_probes(path: Path):
+    try:
+        with open(path, newline="", encoding="utf-8") as f:
+            rows = list(csv.reader(f))
+    except OSError as exc:
+        raise ResultsError(f"{path}: cannot read ({exc})") from exc
+    if not rows or not rows[0]:
+        raise ResultsError(f"{path}: empty file, expected a header 't,<probe names>'")
+    header = rows[0]
+    first_column = header[0]
+    if first_column not in ("t", "load_factor"):
+        raise ResultsError(f"{path}: first column is {first_column!r}, expected 't' or 'load_factor'")
+    data = []
+    for number, row in enumerate(rows[1:], start=2):
+        if len(row) != len(header):
+            if number == len(rows):  # a cut-off last line: ignore it
+                continue
+            raise ResultsError(f"{path}: line {number} has {len(row)} fields, expected {len(header)}")
+        try:
+            data.append([float(x) for x in row])
+        except ValueError as exc:
+            if number == len(rows):
+                continue
+            raise ResultsError(f"{path}: line {number}: {exc}") from exc
+    table = np.array(data, dtype=float).reshape(len(data), len(header))
+    probes = {name: table[:, j + 1].copy() for j, name in enumerate(header[1:])}
+    return first_column, table[:, 0].copy(), probes
+
+
+def _read_modes(path: Path) -> np.ndarray:
+    try:
+        with open(path, newline="", encoding="utf-8") as f:
+            rows = list(csv.reader(f))
+        if not rows or rows[0][:2] != ["mode", "frequency_hz"]:
+            raise ResultsError(f"{path}: expected a header 'mode,frequency_hz'")
+        return np.array([float(r[1]) for r in rows[1:] if len(r) == 2], dtype=float)
+    except (OSError, ValueError, IndexError) as exc:
+        if isinstance(exc, ResultsError):
+            raise
+        raise ResultsError(f"{path}: cannot read ({exc})") from exc
+
+
+def load_state_history(out_dir) -> dict:
+    """Read the state history of a results folder.
+
+    Returns ``{"t": (n_rows,), key: (n_rows, width), ...}`` from ``state.h5`` or,
+    failing that, ``state.npz``. Raises :class:`ResultsError` when neither exists.
+    """
+    folder = Path(out_dir)
+    h5_path, npz_path = folder / STATE_H5_FILE, folder / STATE_NPZ_FILE
+    if h5_path.is_file():
+        if h5py is None:
+            raise ResultsError(f"{h5_path}: h5py is needed to read this file")
+        with h5py.File(h5_path, "r") as f:
+            return {name: f[name][()] for name in f.keys()}
+    if npz_path.is_file():
+        with np.load(npz_path) as f:
+            return {name: f[name] for name in f.files}
+    raise ResultsError(f"{folder}: no state history ({STATE_H5_FILE} or {STATE_NPZ_FILE})")
+
+
+# ----------------------------------------------------------------------------- writer
+class ResultWriter:
+    """Writes the result files of one run; see the module docstring for the formats.
+
+    Parameters
+    ----------
+    out_dir : str, Path or None
+        Results folder (created, with parents). None: write nothing, keep probe rows.
+    columns : sequence of str
+        Probe names in file order.
+    first_column : "t" or "load_factor"
+    mesh : dict, optional
+        ``{"lines": int array (n_cells, 2) of node indices, "n_nodes": int}``: the beam
+        elements as line cells for the ParaView frames.
+    meta : dict, optional
+        JSON-able run description (title, analysis, ...): merged into summary.json and
+        stored as the ``meta`` attribute of the state history.
+    max_frames : int
+        Most ParaView frames kept (evenly subsampled beyond that).
+    expected_frames : int, optional
+        How many ``record`` calls will carry node positions, if known; sets the
+        subsampling stride from the start.
+    checkpoint_rows, checkpoint_seconds :
+        When the state history is rewritten on disk (whichever comes first).
+    """
+
+    def __init__(
+        self,
+        out_dir,
+        columns,
+        first_column: str = "t",
+        mesh: dict | None = None,
+        meta: dict | None = None,
+        *,
+        max_frames: int = 2000,
+        expected_frames: int | None = None,
+        checkpoint_rows: int = 500,
+        checkpoint_seconds: float = 10.0,
+    ):
+        if first_column not in ("t", "load_factor"):
+            raise ValueError(f"first_column must be 't' or 'load_factor', not {first_column!r}")
+        self.columns = [str(c) for c in columns]
+        if len(set(self.columns)) != len(self.columns):
+            raise ValueError(f"duplicate probe names in {self.columns}")
+        if first_column in self.columns:
+            raise ValueError(f"a probe may not be named {first_column!r}")
+        if max_frames < 1:
+            raise ValueError("max_frames must be at least 1")
+        self.first_column = first_column
+        self.meta = dict(meta or {})
+        self.out_dir = None if out_dir is None else Path(out_dir)
+        self.max_frames = int(max_frames)
+        self.checkpoint_rows = max(1, int(checkpoint_rows))
+        self.checkpoint_seconds = float(checkpoint_seconds)
+        #: the caller may fill this during the run; merged into summary.json at close
+        self.summary: dict = {}
+        self.closed = False
+        self._start = time.perf_counter()
+
+        self._mesh = None
+        if mesh is not None:
+            lines = np.asarray(mesh["lines"], dtype=np.int64).reshape(-1, 2)
+            n_nodes = int(mesh["n_nodes"])
+            if lines.size and (lines.min() < 0 or lines.max() >= n_nodes):
+                raise ValueError("mesh lines refer to nodes outside 0 .. n_nodes-1")
+            self._mesh = {"lines": lines, "n_nodes": n_nodes}
+
+        # probe rows in memory (for result())
+        self._t: list[float] = []
+        self._rows: list[list[float]] = []
+        self._modes: np.ndarray | None = None
+        self._final_summary: dict | None = None
+
+        # state history
+        self._state_keys: list[str] | None = None
+        self._state_widths: dict[str, int] = {}
+        self._pending_t: list[float] = []
+        self._pending: dict[str, list[np.ndarray]] = {}
+        self._use_h5 = h5py is not None
+        self._state_rows_on_disk = 0
+        self._last_checkpoint = time.perf_counter()
+        self._last_checkpoint_cost = 0.0
+
+        # ParaView frames
+        stride = 1
+        if expected_frames is not None and expected_frames > self.max_frames:
+            stride = math.ceil(expected_frames / self.max_frames)
+        self._frame_stride = stride
+        self._frame_candidates = 0
+        self._frames: list[tuple[int, float, str]] = []  # (candidate index, t, file name)
+
+        self._fd = None
+        if self.out_dir is not None:
+            self._start_files()
+
+    # -- setup
+    def _start_files(self) -> None:
+        folder = self.out_dir
+        folder.mkdir(parents=True, exist_ok=True)
+        for name in (SUMMARY_FILE, MODES_FILE, STATE_H5_FILE, STATE_NPZ_FILE,
+                     STATE_H5_FILE + ".tmp", STATE_NPZ_FILE + ".tmp", SUMMARY_FILE + ".tmp"):
+            try:
+                (folder / name).unlink()
+            except FileNotFoundError:
+                pass
+        paraview = folder / PARAVIEW_DIR
+        if paraview.is_dir():
+            for stale in list(paraview.glob("frame_*.vtu")) + list(paraview.glob("*.tmp")) + [paraview / PVD_FILE]:
+                try:
+                    stale.unlink()
+                except FileNotFoundError:
+                    pass
+        self._fd = os.open(folder / PROBES_FILE, os.O_WRONLY | os.O_CREAT | os.O_TRUNC | os.O_APPEND, 0o644)
+        self._write_line(_csv_line([self.first_column, *self.columns]))
+        self._write_summary({"status": "running"})
+
+    def _write_line(self, line: str) -> None:
+        data = line.encode("utf-8")
+        written = os.write(self._fd, data)
+        while written < len(data):  # short writes are rare on regular files
+            written += os.write(self._fd, data[written:])
+
+    # -- recording
+    def record(self, t, values, state: dict | None = None, node_positions=None, node_data: dict | None = None) -> None:
+        """Append one row.
+
+        t : float — time (or load factor).
+        values : sequence in ``columns`` order, or dict name -> value.
+        state : dict name -> 1-D float array, same keys and widths every call.
+        node_positions : (n_nodes, 3) current node positions: one ParaView frame.
+        node_data : dict name -> (n_nodes,) or (n_nodes, 3), point data of that frame.
+        """
+        if self.closed:
+            raise RuntimeError("ResultWriter.record() after close()")
+        if isinstance(values, dict):
+            missing = [c for c in self.columns if c not in values]
+            if missing:
+                raise ValueError(f"values lack probes {missing}")
+            row = [float(values[c]) for c in self.columns]
+        else:
+            row = [float(v) for v in np.ravel(np.asarray(values, dtype=float))]
+            if len(row) != len(self.columns):
+                raise ValueError(f"record() got {len(row)} values for {len(self.columns)} probes")
+        t = float(t)
+        if self._fd is not None:
+            self._write_line(_csv_line([_format_float(t), *map(_format_float, row)]))
+        self._t.append(t)
+        self._rows.append(row)
+
+        if state is not None:
+            self._add_state(t, state)
+        if node_positions is not None and self.out_dir is not None:
+            self._add_frame(t, node_positions, node_data or {})
+
+    def _add_state(self, t: float, state: dict) -> None:
+        arrays = {str(k): np.array(v, dtype=float).ravel() for k, v in state.items()}
+        if self._state_keys is None:
+            if "t" in arrays:
+                raise ValueError("a state key may not be named 't'")
+            self._state_keys = list(arrays)
+            self._state_widths = {k: a.size for k, a in arrays.items()}
+            self._pending = {k: [] for k in self._state_keys}
+        elif set(arrays) != set(self._state_keys):
+            raise ValueError(f"state keys changed: {sorted(arrays)} vs {sorted(self._state_keys)}")
+        for k in self._state_keys:
+            if arrays[k].size != self._state_widths[k]:
+                raise ValueError(f"state {k!r} has {arrays[k].size} entries, expected {self._state_widths[k]}")
+            self._pending[k].append(arrays[k])
+        self._pending_t.append(t)
+        if self.out_dir is None:
+            self._pending_t.clear()
+            for k in self._state_keys:
+                self._pending[k].clear()
+            return
+        now = time.perf_counter()
+        new_rows = len(self._pending_t) - (0 if self._use_h5 else self._state_rows_on_disk)
+        due = new_rows >= self.checkpoint_rows or now - self._last_checkpoint >= self.checkpoint_seconds
+        # keep checkpoints below ~10 % of the wall time
+        if due and now - self._last_checkpoint >= 9.0 * self._last_checkpoint_cost:
+            self.checkpoint()
+
+    def checkpoint(self) -> None:
+        """Rewrite the state history on disk now (atomically), with every row so far."""
+        if self.out_dir is None or self._state_keys is None:
+            return
+        if self._use_h5 and not self._pending_t:
+            return
+        if not self._use_h5 and self._state_rows_on_disk == len(self._pending_t):
+            return
+        began = time.perf_counter()
+        if self._use_h5:
+            self._checkpoint_h5()
+        else:
+            self._checkpoint_npz()
+        end = time.perf_counter()
+        self._last_checkpoint = end
+        self._last_checkpoint_cost = end - began
+
+    def _checkpoint_h5(self) -> None:
+        path = self.out_dir / STATE_H5_FILE
+        tmp = path.with_name(path.name + ".tmp")
+        n_new = len(self._pending_t)
+        if path.is_file():
+            shutil.copyfile(path, tmp)
+            mode = "a"
+        else:
+            mode = "w"
+        with h5py.File(tmp, mode) as f:
+            if mode == "w":
+                f.attrs["first_column"] = self.first_column
+                f.attrs["meta"] = json.dumps(_json_safe(self.meta))
+                f.create_dataset("t", shape=(0,), maxshape=(None,), dtype="f8", chunks=(1024,))
+                for k in self._state_keys:
+                    width = self._state_widths[k]
+                    rows_per_chunk = max(1, min(1024, (1 << 18) // max(1, width)))
+                    f.create_dataset(k, shape=(0, width), maxshape=(None, width), dtype="f8",
+                                     chunks=(rows_per_chunk, max(1, width)))
+            n_old = f["t"].shape[0]
+            f["t"].resize((n_old + n_new,))
+            f["t"][n_old:] = np.asarray(self._pending_t)
+            for k in self._state_keys:
+                f[k].resize((n_old + n_new, self._state_widths[k]))
+                f[k][n_old:] = np.stack(self._pending[k]).reshape(n_new, self._state_widths[k])
+        _fsync_path(tmp)
+        os.replace(tmp, path)
+        self._state_rows_on_disk += n_new
+        self._pending_t.clear()
+        for k in self._state_keys:
+            self._pending[k].clear()
+
+    def _checkpoint_npz(self) -> None:
+        # no appending to an NPZ: the whole history stays in memory and is rewritten
+        arrays = {"t": np.asarray(self._pending_t, dtype=float)}
+        for k in self._state_keys:
+            width = self._state_widths[k]
+            arrays[k] = np.stack(self._pending[k]).reshape(-1, width) if self._pending[k] else np.zeros((0, width))
+        buffer = io.BytesIO()
+        np.savez(buffer, **arrays)
+        _atomic_write_bytes(self.out_dir / STATE_NPZ_FILE, buffer.getvalue())
+        self._state_rows_on_disk = len(self._pending_t)
+
+    def _add_frame(self, t: float, node_positions, node_data: dict) -> None:
+        import meshio
+
+        index = self._frame_candidates
+        self._frame_candidates += 1
+        if index % self._frame_stride:
+            return
+        points = np.asarray(node_positions, dtype=float).reshape(-1, 3)
+        if self._mesh is not None:
+            if points.shape[0] != self._mesh["n_nodes"]:
+                raise ValueError(f"node_positions has {points.shape[0]} rows, mesh has {self._mesh['n_nodes']} nodes")
+            cells = [("line", self._mesh["lines"])]
+        else:
+            cells = [("vertex", np.arange(points.shape[0], dtype=np.int64).reshape(-1, 1))]
+        point_data = {}
+        for name, value in node_data.items():
+            array = np.asarray(value, dtype=float)
+            if array.shape[0] != points.shape[0] or array.ndim not in (1, 2):
+                raise ValueError(f"node_data {name!r} has shape {array.shape}, expected ({points.shape[0]},) or ({points.shape[0]}, k)")
+            point_data[str(name)] = array
+        folder = self.out_dir / PARAVIEW_DIR
+        folder.mkdir(exist_ok=True)
+        name = f"frame_{index:05d}.vtu"
+        tmp = folder / (name + ".tmp")
+        meshio.write(tmp, meshio.Mesh(points, cells, point_data=point_data), file_format="vtu")
+        os.replace(tmp, folder / name)
+        self._frames.append((index, t, name))
+        if len(self._frames) > self.max_frames:
+            self._frame_stride *= 2
+            kept = []
+            for frame in self._frames:
+                if frame[0] % self._frame_stride == 0:
+                    kept.append(frame)
+                else:
+                    try:
+                        (folder / frame[2]).unlink()
+                    except FileNotFoundError:
+                        pass
+            self._frames = kept
+        self._write_pvd()
+
+    def _write_pvd(self) -> None:
+        lines = [
+            '<?xml version="1.0"?>',
+            '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">',
+            "  <Collection>",
+        ]
+        for _, t, name in self._frames:
+            lines.append(
+                f'    <DataSet timestep="{t!r}" group="" part="0" file={xml.sax.saxutils.quoteattr(name)}/>'
+            )
+        lines += ["  </Collection>", "</VTKFile>", ""]
+        _atomic_write_bytes(self.out_dir / PARAVIEW_DIR / PVD_FILE, "\n".join(lines).encode(), fsync=False)
+
+    # -- modes and summary
+    def write_modes(self, frequencies_hz) -> None:
+        """Write ``modes.csv`` (``mode,frequency_hz``, modes numbered from 1)."""
+        freqs = np.asarray(frequencies_hz, dtype=float).ravel()
+        self._modes = freqs
+        if self.out_dir is None:
+            return
+        text = "mode,frequency_hz\n" + "".join(f"{i},{_format_float(f)}\n" for i, f in enumerate(freqs, start=1))
+        _atomic_write_bytes(self.out_dir / MODES_FILE, text.encode())
+
+    def _compose_summary(self, summary: dict | None, status: str | None) -> dict:
+        merged = dict(self.meta)
+        merged.update(self.summary)
+        merged.update(summary or {})
+        if status is None:
+            status = merged.get("status") or "solved"
+        if status not in STATUSES:
+            raise ValueError(f"status must be one of {STATUSES}, not {status!r}")
+        from . import __version__
+
+        merged.setdefault("latdyn_version", __version__)
+        if merged.get("wall_time_s") is None:
+            merged["wall_time_s"] = time.perf_counter() - self._start
+        for key in SUMMARY_KEYS:
+            merged.setdefault(key, None)
+        merged["status"] = status
+        merged["rows"] = len(self._t)
+        merged["first_column"] = self.first_column
+        merged["probes"] = list(self.columns)
+        if self._state_keys is not None and self.out_dir is not None:
+            merged["state_file"] = STATE_H5_FILE if self._use_h5 else STATE_NPZ_FILE
+            merged["state_rows"] = self._state_rows_on_disk
+        if self._frames:
+            merged["paraview"] = f"{PARAVIEW_DIR}/{PVD_FILE}"
+            merged["paraview_frames"] = len(self._frames)
+        if self._modes is not None:
+            merged["modes"] = int(self._modes.size)
+        return _json_safe(merged)
+
+    def _write_summary(self, summary: dict) -> None:
+        if self.out_dir is None:
+            return
+        text = json.dumps(_json_safe(summary), indent=2, sort_keys=False, allow_nan=False) + "\n"
+        _atomic_write_bytes(self.out_dir / SUMMARY_FILE, text.encode())
+
+    def close(self, summary: dict | None = None, status: str | None = None) -> dict:
+        """Finish every file and write ``summary.json``; returns the summary written.
+
+        ``status`` (or ``summary["status"]``) is ``solved`` (default), ``failed`` or
+        ``interrupted``. A second call does nothing and returns the same summary.
+        """
+        if self.closed:
+            return self._final_summary
+        try:
+            self.checkpoint()
+        finally:
+            final = self._compose_summary(summary, status)
+            if self._fd is not None:
+                os.close(self._fd)
+                self._fd = None
+            self._write_summary(final)
+            self._final_summary = final
+            self.closed = True
+        return final
+
+    def __enter__(self) -> "ResultWriter":
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> bool:
+        if self.closed:
+            return False
+        if exc_type is None:
+            self.close()
+        elif issubclass(exc_type, KeyboardInterrupt):
+            self.close({"error": "interrupted"}, status="interrupted")
+        else:
+            self.close({"error": f"{exc_type.__name__}: {exc}"}, status="failed")
+        return False  # re-raise
+
+    def __del__(self):  # a writer dropped without close(): at least release the descriptor
+        fd = getattr(self, "_fd", None)
+        if fd is not None:
+            try:
+                os.close(fd)
+            except OSError:
+                pass
+
+    def result(self) -> Result:
+        """The :class:`Result` of what was recorded so far."""
+        table = np.array(self._rows, dtype=float).reshape(len(self._rows), len(self.columns))
+        probes = {name: table[:, j].copy() for j, name in enumerate(self.columns)}
+        summary = self._final_summary if self._final_summary is not None else {"status": "running"}
+        return Result(
+            np.array(self._t, dtype=float), probes, summary=summary,
+            out_dir=None if self.out_dir is None else str(self.out_dir),
+            modes=self._modes, first_column=self.first_column,
+        )
+
+
+# ----------------------------------------------------------------------------- progress
+class _NoProgress:
+    def update(self, t, **postfix) -> None:
+        pass
+
+    def close(self) -> None:
+        pass
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+        return False
+
+
+class _Progress(_NoProgress):
+    """A tqdm bar over simulated time (or load factor); ``update`` takes the absolute value."""
+
+    def __init__(self, total_time: float, unit: str, interactive: bool):
+        from tqdm import tqdm
+
+        self._total = float(total_time)
+        self._bar = tqdm(
+            total=self._total,
+            unit=unit,
+            file=sys.stderr,
+            leave=True,
+            dynamic_ncols=True,
+            # on a terminal: after half a second; in a log: only runs longer than 5 s,
+            # and seldom, so a log is not flooded with carriage returns
+            delay=0.5 if interactive else 5.0,
+            mininterval=0.2 if interactive else 30.0,
+            bar_format="{l_bar}{bar}| {n:.4g}/{total:.4g} {unit} [{elapsed}<{remaining}{postfix}]",
+        )
+
+    def update(self, t, **postfix) -> None:
+        value = min(max(float(t), 0.0), self._total)
+        if postfix:
+            self._bar.set_postfix(postfix, refresh=False)
+        self._bar.update(value - self._bar.n)
+
+    def close(self) -> None:
+        self._bar.close()
+
+
+def progress_bar(total_time: float, enabled: bool = True, unit: str = "s"):
+    """A progress bar over ``[0, total_time]``: an object with ``.update(t, **postfix)``
+    (``t`` absolute; ``postfix`` e.g. ``dt=1e-3, newton=3``) and ``.close()``; also a
+    context manager.
+
+    Disabled (a no-op object) when ``enabled`` is false or tqdm is missing. When
+    enabled it appears after 0.5 s on a terminal, and in a non-terminal stderr (a log)
+    only for runs that last more than 5 s, refreshed at most every 30 s. Use
+    ``unit="load"`` and ``total_time=1`` for static runs.
+    """
+    if not enabled or not total_time or total_time <= 0:
+        return _NoProgress()
+    try:
+        interactive = sys.stderr.isatty()
+    except (AttributeError, ValueError):
+        interactive = False
+    try:
+        return _Progress(total_time, unit, interactive)
+    except ImportError:
+        return _NoProgress()
