@@ -184,10 +184,13 @@ def build_kernels(variant: str = "default") -> list[KernelSpec]:
     dU = [sp.diff(U, p) for p in psi_symbols]
     ddU = [[sp.diff(d, p) for p in psi_symbols] for d in dU]
 
-    def elastic(b: Builder, with_tangent: bool):
-        psi = b.vector("psi", kin.psi)
+    def elastic(b: Builder, with_tangent: bool, shared=None):
+        if shared is None:
+            psi = b.vector("psi", kin.psi)
+            Bm = b.matrix("B", kin.B)
+        else:
+            psi, Bm = shared["psi"], shared["B"]
         rename = dict(zip(psi_symbols, psi))
-        Bm = b.matrix("B", kin.B)
         force_psi = b.vector("dU_dpsi", [d.xreplace(rename) for d in dU])
         # Eq. 43: F_i = Bᵀ ∂U/∂Ψ (Eqs. 32, 37, 41 summed)
         force = [sp.Add(*[Bm[k][a] * force_psi[k] for k in range(6)]) for a in range(N)]
@@ -222,7 +225,7 @@ def build_kernels(variant: str = "default") -> list[KernelSpec]:
         mass_local, gyro_local, gyro_local_D_u, first_moment, position_moment = fm.local_inertia(formulation)
         rename = dict(zip(psi_symbols, psi))
         Mhat = b.matrix("Mhat", [[mass_local[i, j].xreplace(rename) for j in range(12)] for i in range(12)])
-        parts = dict(psi=psi, Tc=Tc, TcT=TcT, J=J, Mhat=Mhat, first_moment=first_moment,
+        parts = dict(psi=psi, B=Bm, Tc=Tc, TcT=TcT, J=J, Mhat=Mhat, first_moment=first_moment,
                      position_moment=position_moment, rename=rename)
         if not with_velocity:
             return parts
@@ -306,6 +309,27 @@ def build_kernels(variant: str = "default") -> list[KernelSpec]:
     kinetic = sp.Add(*[p["u"][i] * p["Mhat"][i][j] * p["u"][j] for i in range(12) for j in range(12)]) / 2
     add("beam_kinetic_energy", "Kinetic energy ½ q̇ᵀ M q̇", "Eqs. 54-56", with_velocity,
         [Output("kinetic_energy", (), [kinetic])], b)
+
+    # --- everything a Newton iteration needs, sharing one CSE ---
+    b = Builder()
+    p = inertia(b, with_velocity=True)
+    _, force, tangent = elastic(b, with_tangent=True, shared=p)
+    MJ = b.matrix("MJ", _matmul(p["Mhat"], p["J"]))
+    mass = _matmul(_transpose(p["J"]), MJ)
+    local = b.vector("glocal", [sp.Add(*[p["Mhat"][i][j] * p["Jdq"][j] for j in range(12)]) + p["ghat"][i]
+                                for i in range(12)])
+    qvel = [sp.Add(*[p["J"][i][a] * local[i] for i in range(12)]) for a in range(N)]
+    dJdq = b.matrix("dJdq", kin.convective_D_qdot)
+    both = {**p["rename"], **p["urename"]}
+    dghat = b.matrix("dghat", [[p["gyro_local_D_u"][i, j].xreplace(both) for j in range(12)] for i in range(12)])
+    inner = b.matrix("dglocal", [[a + c for a, c in zip(r1, r2)]
+                                 for r1, r2 in zip(_matmul(p["Mhat"], dJdq), _matmul(dghat, p["J"]))])
+    qvel_D = _matmul(_transpose(p["J"]), inner)
+    add("beam_dynamics", "One Newton iteration's element terms: F_i, ∂F_i/∂q, M, g, ∂g/∂q̇",
+        "Eqs. 29-57, 61-62", with_velocity,
+        [Output("internal_force", (N,), force), Output("internal_force_D_q", (N, N), _flat(tangent)),
+         Output("mass_matrix", (N, N), _flat(mass)), Output("quadratic_velocity", (N,), qvel),
+         Output("quadratic_velocity_D_qdot", (N, N), _flat(qvel_D))], b)
 
     # --- gravity ---
     b = Builder()

@@ -108,15 +108,22 @@ def check_spec(spec: KernelSpec, free_symbols: bool = True) -> None:
         _check_free_symbols(spec)
 
 
-def _check_free_symbols(spec: KernelSpec, converted: list | None = None) -> None:
+def _check_free_symbols(
+    spec: KernelSpec, converted: list | None = None, intermediates: list | None = None
+) -> None:
     """``spec.check_free_symbols()``, run only when a fast SymEngine scan finds a stray symbol.
 
     SymPy's ``free_symbols`` walks a shared DAG as a tree (seconds on a large Hessian);
     SymEngine's does not.  The message always comes from the spec's own check.
     """
     if converted is None:
-        converted = to_symengine(expr for out in spec.outputs for expr in out.expressions)
+        intermediates = list(getattr(spec, "intermediates", None) or [])
+        converted = to_symengine(
+            [value for _, value in intermediates]
+            + [expr for out in spec.outputs for expr in out.expressions]
+        )
     allowed = {f"{a.name}_{k}" for a in spec.inputs for k in range(a.width)}
+    allowed |= {str(symbol) for symbol, _ in intermediates or []}
     found: set[str] = set()
     for expr in converted:
         found |= {str(symbol) for symbol in expr.free_symbols}
@@ -128,15 +135,16 @@ def _check_free_symbols(spec: KernelSpec, converted: list | None = None) -> None
         raise EmitError(f"kernel {spec.name!r}: symbols {sorted(found - allowed)} are not inputs")
 
 
-def to_symengine(expressions: Iterable[sp.Expr]) -> list:
+def to_symengine(expressions: Iterable[sp.Expr], cache: dict | None = None) -> list:
     """Convert SymPy expressions to SymEngine, visiting each shared subexpression once.
 
     ``symengine.sympify`` walks a SymPy DAG as a tree, which for derivative-heavy
-    expressions is exponential (minutes); this walk is linear in the DAG size.
+    expressions is exponential (minutes); this walk is linear in the DAG size.  ``cache``
+    (SymPy → SymEngine) may be pre-seeded: a symbol mapped to an expression is inlined.
     """
     import symengine as se
 
-    cache: dict = {}
+    cache = {} if cache is None else cache
     converted = []
     for root in expressions:
         root = sp.sympify(root)
@@ -178,26 +186,89 @@ def to_symengine(expressions: Iterable[sp.Expr]) -> list:
 
 
 def lower(spec: KernelSpec) -> LoweredKernel:
-    """CSE one kernel (SymEngine), temporaries renamed ``t0, t1, …`` in evaluation order."""
+    """CSE one kernel (SymEngine) into an ordered list of temporaries and the outputs.
+
+    The spec's named intermediates (``KernelSpec.intermediates``) keep their names and
+    are CSE'd together with the outputs; SymEngine's new temporaries are named ``t0, t1,
+    …`` in evaluation order.  Statements are ordered by a depth-first walk from the
+    outputs, so unused intermediates are dropped and the order is deterministic.
+    """
     import symengine as se
 
     check_spec(spec, free_symbols=False)
+    intermediates = list(getattr(spec, "intermediates", None) or [])
+    _check_intermediate_names(spec, intermediates)
     flat = [expr for out in spec.outputs for expr in out.expressions]
-    converted = to_symengine(flat)
-    _check_free_symbols(spec, converted)
+    cache: dict = {}
+    converted = to_symengine([value for _, value in intermediates] + flat, cache)
+    _check_free_symbols(spec, converted, intermediates)
     replacements, reduced = se.cse(converted)
-    cache: dict = {
-        old: sp.Symbol(f"t{k}", real=True) for k, (old, _) in enumerate(replacements)
-    }
-    temporaries = [(cache[old], to_sympy(value, cache)) for old, value in replacements]
-    reduced = [to_sympy(expr, cache) for expr in reduced]
+    named = [(se.Symbol(str(symbol)), value) for (symbol, _), value in zip(intermediates, reduced)]
+    reduced_outputs = reduced[len(intermediates):]
+    ordered = _evaluation_order(list(replacements) + named, reduced_outputs)
+    generated = {symbol for symbol, _ in replacements}
+    back: dict = {}
+    count = 0
+    for symbol, _ in ordered:
+        if symbol in generated:
+            back[symbol] = sp.Symbol(f"t{count}", real=True)
+            count += 1
+    temporaries = [(to_sympy(symbol, back), to_sympy(value, back)) for symbol, value in ordered]
+    outputs_sympy = [to_sympy(expr, back) for expr in reduced_outputs]
     outputs, start = [], 0
     for out in spec.outputs:
-        outputs.append(reduced[start:start + out.size])
+        outputs.append(outputs_sympy[start:start + out.size])
         start += out.size
     op_count = sum(sp.count_ops(value) for _, value in temporaries)
-    op_count += sum(sp.count_ops(expr) for expr in reduced)
+    op_count += sum(sp.count_ops(expr) for expr in outputs_sympy)
     return LoweredKernel(spec, temporaries, outputs, int(op_count))
+
+
+_RESERVED = frozenset(
+    "n i np rows start auto break case char const continue default do double else enum extern "
+    "float for goto if inline int long register restrict return short signed sizeof static "
+    "struct switch typedef union unsigned void volatile while".split()
+)
+
+
+def _check_intermediate_names(spec: KernelSpec, intermediates: list) -> None:
+    import keyword
+    import re
+
+    taken = {a.name for a in spec.inputs} | {o.name for o in spec.outputs}
+    seen: set[str] = set()
+    for symbol, _ in intermediates:
+        name = getattr(symbol, "name", str(symbol))
+        if (not name.isidentifier() or keyword.iskeyword(name) or name in _RESERVED
+                or re.fullmatch(r"t\d+", name) or name in taken or name in seen
+                or any(name.startswith(f"{a}_") and name[len(a) + 1:].isdigit() for a in taken)):
+            raise EmitError(f"kernel {spec.name!r}: intermediate name {name!r} is not usable")
+        seen.add(name)
+
+
+def _evaluation_order(statements: list, roots: list) -> list:
+    """The statements (symbol, value) that ``roots`` need, each after what it uses."""
+    definition = {symbol: value for symbol, value in statements}
+    index = {symbol: k for k, (symbol, _) in enumerate(statements)}
+    ordered, done = [], set()
+
+    def needs(expr):
+        return sorted((s for s in expr.free_symbols if s in definition), key=index.__getitem__)
+
+    for root in roots:
+        stack = [(None, iter(needs(root)))]
+        while stack:
+            symbol, pending = stack[-1]
+            for dependency in pending:
+                if dependency not in done:
+                    done.add(dependency)
+                    stack.append((dependency, iter(needs(definition[dependency]))))
+                    break
+            else:
+                stack.pop()
+                if symbol is not None:
+                    ordered.append((symbol, definition[symbol]))
+    return ordered
 
 
 def to_sympy(expr, cache: dict):
@@ -321,7 +392,8 @@ def _last_uses(kernel: LoweredKernel) -> dict[int, list[str]]:
     released: dict[int, list[str]] = {}
     for name, index in last.items():
         released.setdefault(index, []).append(name)
-    return {index: sorted(names, key=lambda s: int(s[1:])) for index, names in released.items()}
+    order = {symbol.name: k for k, (symbol, _) in enumerate(kernel.temporaries)}
+    return {index: sorted(names, key=order.__getitem__) for index, names in released.items()}
 
 
 def _used_inputs(kernel: LoweredKernel) -> dict[str, list[int]]:

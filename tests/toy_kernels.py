@@ -154,3 +154,21 @@ def big_kernels(variant: str = "default") -> list[KernelSpec]:
             equations="toy",
         )
     ]
+
+
+def medium_kernel() -> KernelSpec:
+    """A rotation-heavy kernel small enough for quick tests: gradient of a toy energy."""
+    g, s, _ = _symbols()
+    phi = sp.Matrix(g[3:6])
+    rotation = _rotation(phi)
+    chord = sp.Matrix(g[0:3]) + rotation * sp.Matrix(g[6:9])
+    length = sp.sqrt(chord.dot(chord))
+    energy = s[1] / 2 * (length - s[0]) ** 2 / s[0] + s[2] * (rotation[2, 1] - rotation[1, 2]) ** 2
+    gradient = [sp.diff(energy, x) for x in g[0:9]]
+    return KernelSpec(
+        name="beam_medium_gradient",
+        doc="Gradient of a toy energy with a rotation vector.",
+        inputs=[GEOMETRY, SECTION],
+        outputs=[Output("energy", (1,), [energy]), Output("gradient", (9,), gradient)],
+        equations="toy",
+    )

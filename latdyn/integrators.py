@@ -1,0 +1,250 @@
+"""Time integration on the Lie group (R³ × SO(3))ⁿ × Rᵐ.
+
+Default: Lie-group generalized-α (Arnold & Brüls 2007; Brüls, Cardona & Arnold
+2012).  With v the velocities (spatial angular velocities for rotations), v̇
+their derivatives and a the algorithmic acceleration:
+
+    q_{n+1}   = q_n ∘ exp(h Δq_n),  Δq_n = v_n + h(½ − β) a_n + hβ a_{n+1}
+    v_{n+1}   = v_n + h(1 − γ) a_n + hγ a_{n+1}
+    (1 − α_m) a_{n+1} + α_m a_n = (1 − α_f) v̇_{n+1} + α_f v̇_n
+    r(q_{n+1}, v_{n+1}, v̇_{n+1}, t_{n+1}) = 0      (equilibrium at t_{n+1})
+
+Newton on v̇_{n+1} with the iteration matrix S = β′M + γ′C + K, β′ = (1 − α_m)/(h²β(1 − α_f)),
+γ′ = γ/(hβ); the correction Δx updates Δq += Δx/h, v += γ′Δx, v̇ += β′Δx.
+K omits ∂(Mv̇ + g)/∂q and the tangent operator of exp (T(hΔq) ≈ I): both are
+O(h) against β′M, cost a few Newton iterations at large steps, and leave the
+converged solution exact (see benchmarks/newton_tangent.py).
+
+The same scheme gives, by its parameters:
+  ``generalized-alpha``: α_m = (2ρ∞ − 1)/(ρ∞ + 1), α_f = ρ∞/(ρ∞ + 1)
+  ``hht-alpha``:         α_m = 0, α_f = (1 − ρ∞)/(1 + ρ∞) ∈ [0, ⅓] (HHT parameters, ρ∞ ≥ ½)
+  ``newmark``:           α_m = α_f = 0, γ = ½, β = ¼ (trapezoidal rule)
+with γ = ½ + α_f − α_m and β = ¼(γ + ½)².
+
+``explicit``: a Lie-group Störmer–Verlet (central difference) step on the
+coordinates with inertia; coordinates without inertia are condensed by a
+Newton solve of their static equations at every step.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sps
+import scipy.sparse.linalg as spla
+
+from .assembly import Assembler, State, advance, apply_prescribed, free_acceleration, free_velocity, unpack_free
+from .errors import SolverError
+
+
+@dataclass(frozen=True)
+class AlphaParameters:
+    alpha_m: float
+    alpha_f: float
+    gamma: float
+    beta: float
+
+    @classmethod
+    def for_method(cls, method: str, rho_inf: float) -> "AlphaParameters":
+        if method == "generalized-alpha":
+            am = (2 * rho_inf - 1) / (rho_inf + 1)
+            af = rho_inf / (rho_inf + 1)
+        elif method == "hht-alpha":
+            am = 0.0
+            af = min((1 - rho_inf) / (1 + rho_inf), 1 / 3)
+        elif method == "newmark":
+            return cls(0.0, 0.0, 0.5, 0.25)
+        else:
+            raise ValueError(f"unknown implicit method {method!r}")
+        gamma = 0.5 + af - am
+        return cls(am, af, gamma, 0.25 * (gamma + 0.5) ** 2)
+
+
+def solve_linear(matrix: sps.csr_matrix, rhs: np.ndarray) -> np.ndarray:
+    """Dense LU for small systems, sparse LU beyond."""
+    n = matrix.shape[0]
+    if n <= 600:
+        return np.linalg.solve(matrix.toarray(), rhs)
+    return spla.splu(matrix.tocsc()).solve(rhs)
+
+
+@dataclass
+class StepStats:
+    iterations: int = 0
+    converged: bool = False
+    residual: np.ndarray | None = None
+
+
+class GeneralizedAlpha:
+    """One step of the Lie-group generalized-α family; state kept explicit."""
+
+    def __init__(self, assembler: Assembler, params: AlphaParameters, tol: float, max_iterations: int,
+                 length_scale: float):
+        self.assembler = assembler
+        self.p = params
+        self.tol = tol
+        self.max_iterations = max_iterations
+        self.length_scale = length_scale
+        self.a = None  # algorithmic acceleration (free coordinates)
+
+    def start(self, state: State) -> None:
+        """Consistent initial accelerations where the mass matrix allows (massless coordinates: 0)."""
+        model = self.assembler.model
+        if model.n_dofs == 0:
+            self.a = np.zeros(0)
+            return
+        ev = self.assembler.evaluate(state, matrices=True)
+        M = ev.mass.toarray() if model.n_dofs <= 600 else ev.mass
+        vdot0 = free_acceleration(model, state)
+        diag = np.abs(ev.mass.diagonal())
+        massive = diag > 1e-12 * max(diag.max(), 1e-300)
+        if np.any(massive):
+            # Newton-consistent: solve M_mm Δv̇ = −r_m with massless coordinates held
+            Mmm = ev.mass[massive][:, massive]
+            try:
+                delta = solve_linear(Mmm.tocsr(), -ev.residual[massive])
+                vdot0[massive] += delta
+            except Exception:  # singular mass block: start at rest
+                pass
+        unpack_free(model, vdot0, state.a, state.alpha, state.theta_ddot)
+        self.a = vdot0.copy()
+
+    def step(self, state: State, h: float) -> tuple[State, StepStats]:
+        model = self.assembler.model
+        p = self.p
+        n = model.n_dofs
+        t_new = state.t + h
+        v_n = free_velocity(model, state)
+        vdot_n = free_acceleration(model, state)
+        a_n = self.a
+        # predictor: v̇_{n+1} = v̇_n
+        vdot = vdot_n.copy()
+        a_new = (p.alpha_f * vdot_n + (1 - p.alpha_f) * vdot - p.alpha_m * a_n) / (1 - p.alpha_m)
+        v = v_n + h * (1 - p.gamma) * a_n + h * p.gamma * a_new
+        dq = v_n + h * (0.5 - p.beta) * a_n + h * p.beta * a_new
+        beta_p = (1 - p.alpha_m) / (h * h * p.beta * (1 - p.alpha_f))
+        gamma_p = p.gamma / (h * p.beta)
+        stats = StepStats()
+        trial = state
+        for iteration in range(1, self.max_iterations + 1):
+            trial = advance(model, state, h * dq)
+            apply_prescribed(model, trial, t_new)
+            unpack_free(model, v, trial.v, trial.w, trial.theta_dot)
+            unpack_free(model, vdot, trial.a, trial.alpha, trial.theta_ddot)
+            ev = self.assembler.evaluate(trial, matrices=True)
+            if n == 0:
+                stats.converged = True
+                break
+            S = beta_p * ev.mass + gamma_p * ev.damping + ev.stiffness
+            try:
+                dx = solve_linear(S, -ev.residual)
+            except (np.linalg.LinAlgError, RuntimeError):
+                stats.residual = ev.residual
+                break
+            if not np.all(np.isfinite(dx)):
+                stats.residual = ev.residual
+                break
+            dq += dx / h
+            v += gamma_p * dx
+            vdot += beta_p * dx
+            stats.iterations = iteration
+            if np.max(np.abs(dx)) <= self.tol * self.length_scale:
+                stats.converged = True
+                trial = advance(model, state, h * dq)
+                apply_prescribed(model, trial, t_new)
+                unpack_free(model, v, trial.v, trial.w, trial.theta_dot)
+                unpack_free(model, vdot, trial.a, trial.alpha, trial.theta_ddot)
+                break
+            stats.residual = ev.residual
+        if stats.converged:
+            self.a_candidate = (p.alpha_f * vdot_n + (1 - p.alpha_f) * vdot - p.alpha_m * a_n) / (1 - p.alpha_m)
+        return trial, stats
+
+    def accept(self) -> None:
+        self.a = self.a_candidate
+
+    def error_estimate(self, h: float) -> float:
+        """Local error of the position update, h²|β − 1/6|‖a_{n+1} − a_n‖∞ (Géradin & Cardona)."""
+        return h * h * abs(self.p.beta - 1 / 6) * float(np.max(np.abs(self.a_candidate - self.a), initial=0.0))
+
+
+class CentralDifference:
+    """Explicit Lie-group Störmer–Verlet; massless coordinates condensed statically each step."""
+
+    def __init__(self, assembler: Assembler, tol: float, max_iterations: int, length_scale: float):
+        self.assembler = assembler
+        self.tol = tol
+        self.max_iterations = max_iterations
+        self.length_scale = length_scale
+
+    def start(self, state: State) -> None:
+        model = self.assembler.model
+        ev = self.assembler.evaluate(state, matrices=True)
+        diag = np.abs(ev.mass.diagonal())
+        self.massive = diag > 1e-12 * max(diag.max(initial=0.0), 1e-300)
+        self.massless = ~self.massive
+        self.a = None
+        self._accelerate(state, ev)
+
+    def _accelerate(self, state: State, ev) -> None:
+        model = self.assembler.model
+        vdot = free_acceleration(model, state)
+        m = self.massive
+        if np.any(m):
+            Mmm = ev.mass[m][:, m].tocsr()
+            vdot[m] += solve_linear(Mmm, -ev.residual[m])
+        unpack_free(model, vdot, state.a, state.alpha, state.theta_ddot)
+
+    def step(self, state: State, h: float) -> tuple[State, StepStats]:
+        model = self.assembler.model
+        stats = StepStats(converged=True)
+        v = free_velocity(model, state)
+        vdot = free_acceleration(model, state)
+        v_half = v + 0.5 * h * vdot
+        increment = h * v_half
+        increment[self.massless] = 0.0
+        trial = advance(model, state, increment)
+        apply_prescribed(model, trial, state.t + h)
+        unpack_free(model, v_half, trial.v, trial.w, trial.theta_dot)
+        # condense massless coordinates: Newton on their static equations
+        if np.any(self.massless):
+            c = self.massless
+            for iteration in range(self.max_iterations):
+                ev = self.assembler.evaluate(trial, matrices=True)
+                Kcc = ev.stiffness[c][:, c].tocsr()
+                dx = np.zeros(model.n_dofs)
+                dx[c] = solve_linear(Kcc, -ev.residual[c])
+                trial = advance(model, trial, dx)
+                stats.iterations += 1
+                if np.max(np.abs(dx)) <= self.tol * self.length_scale:
+                    break
+            else:
+                stats.converged = False
+        ev = self.assembler.evaluate(trial, matrices=True)
+        self._accelerate(trial, ev)
+        vdot_new = free_acceleration(model, trial)
+        v_new = v_half + 0.5 * h * vdot_new
+        v_new[self.massless] = 0.0  # rates of massless coordinates are not tracked by the explicit step
+        unpack_free(model, v_new, trial.v, trial.w, trial.theta_dot)
+        stats.residual = ev.residual
+        return trial, stats
+
+    def accept(self) -> None:
+        pass
+
+    def error_estimate(self, h: float) -> float:
+        return 0.0
+
+
+def newton_diagnosis(model, residual: np.ndarray | None, t: float, h: float) -> str:
+    """Name the coordinates, bodies and beams with the largest residual (cf. Exudyn's SolverErrorMessage)."""
+    if residual is None or len(residual) == 0:
+        return f"at t = {t:.6g} with step {h:.3g}: the linear system could not be solved"
+    names = model.dof_names()
+    worst = np.argsort(-np.abs(residual))[:5]
+    lines = [f"Newton did not converge at t = {t:.6g} with step {h:.3g}; largest residual entries:"]
+    for i in worst:
+        lines.append(f"  {names[i]}: {residual[i]:.3e}")
+    lines.append("Usual causes: a step too large for the fastest mode, a coordinate held only by a tiny "
+                 "stiffness, a load or prescribed motion that jumps, or a structure that buckles.")
+    return "\n".join(lines)

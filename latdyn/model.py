@@ -1,0 +1,258 @@
+"""Scene → model: nodes, minimum coordinates and element connectivity.
+
+The paper's generalized coordinates (Sec. 6) are the translations and
+rotations of the joint bodies plus the hinge angles.  Here every *node* is a
+rigid frame (x, T): a joint body of the scene, an interior node of a beam, or
+a free beam end.  A node has 6 coordinates [d, π] (π a spatial rotation,
+T ← exp(skew Δπ) T) when it moves freely, none when it is fixed or its
+motion is prescribed; a hinge has one coordinate (its angle) when free, none
+when its angle is prescribed or it has latched.
+
+Element end i refers to a node, the grid-point offset r_g in node axes
+(Eq. 2), the hinge (if any) with its axis a in node axes (Γ_gh e_z, Eq. 4), and
+the nodal frame at θ = 0 in node axes E0 (Γ_gh Γ_ehᵀ, Eq. 17), so that
+T_e = T R(a, θ) E0.  Offset compensation (Eqs. 59–62) then is exact chain rule
+inside the generated kernels, which take x, T r_g, T_e and T a.
+
+Index arrays (``element_dofs`` of shape (n_elem, 14) etc.) are built once; the
+time-step path scatters with them and never loops over elements in Python.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .errors import SceneError
+from .scene import Scene
+
+FREE, PRESCRIBED, FIXED = 0, 1, 2
+
+
+@dataclass
+class Node:
+    name: str  # "hub", "arm.node[3]"
+    position: np.ndarray  # reference point at t = 0
+    kind: int  # FREE | PRESCRIBED | FIXED
+    body: str | None = None  # scene body name
+    beam: str | None = None  # for beam nodes
+
+
+@dataclass
+class HingeCoordinate:
+    beam: str
+    end: str  # "start" | "end"
+    node: int
+    axis: np.ndarray  # in node axes (= global at t = 0)
+    stiffness: float
+    damping: float
+    torque: object  # TimeFunction | None
+    angle: object  # TimeFunction | None (prescribed)
+    lock_at: float | None
+
+
+@dataclass
+class Model:
+    """Everything the solvers need, as arrays."""
+
+    scene: Scene
+    nodes: list[Node]
+    hinges: list[HingeCoordinate]
+    # elements
+    element_nodes: np.ndarray  # (n_elem, 2) node index of each end
+    element_offsets: np.ndarray  # (n_elem, 2, 3) r_g in node axes
+    element_axes: np.ndarray  # (n_elem, 2, 3) hinge axis in node axes (0 if clamped)
+    element_frames0: np.ndarray  # (n_elem, 2, 3, 3) E0 in node axes
+    element_hinges: np.ndarray  # (n_elem, 2) hinge index or -1
+    element_sections: np.ndarray  # (n_elem, 8) L0 EA EIy EIz GJ rhoA rhoIy rhoIz
+    element_beam: list[str]  # beam name of each element
+    beam_elements: dict[str, np.ndarray]  # beam -> element indices in order
+    beam_nodes: dict[str, np.ndarray]  # beam -> node indices (elements + 1)
+    beam_grid_offsets: dict[str, tuple[np.ndarray, np.ndarray]]  # offsets of the end grid points
+    # rigid bodies (only those with inertia)
+    body_nodes: np.ndarray  # (n_b,) node index
+    body_mass: np.ndarray  # (n_b,)
+    body_com: np.ndarray  # (n_b, 3) in node axes
+    body_inertia: np.ndarray  # (n_b, 3, 3) about the COM, node axes
+    body_node: dict[str, int]  # scene body name -> node index
+    locked: np.ndarray = field(default=None)  # (n_hinge,) bool
+    # coordinate numbering (rebuilt when a hinge latches)
+    node_dofs: np.ndarray = field(default=None)  # (n_nodes, 6) index or -1
+    hinge_dofs: np.ndarray = field(default=None)  # (n_hinge,) index or -1
+    element_dofs: np.ndarray = field(default=None)  # (n_elem, 14)
+    n_dofs: int = 0  # free coordinates
+    n_total: int = 0  # all coordinates (free first); index n_total is a dummy for clamped ends
+    free_nodes: np.ndarray = field(default=None)
+    free_hinges: np.ndarray = field(default=None)
+
+    # ------------------------------------------------------------------ building
+    @classmethod
+    def from_scene(cls, scene: Scene) -> "Model":
+        nodes: list[Node] = []
+        body_node: dict[str, int] = {}
+        for body in scene.bodies.values():
+            kind = FIXED if body.fixed else (PRESCRIBED if body.prescribed else FREE)
+            body_node[body.name] = len(nodes)
+            nodes.append(Node(body.name, np.array(body.at, float), kind, body=body.name))
+
+        hinges: list[HingeCoordinate] = []
+        element_nodes, offsets, axes, frames0, elem_hinges, sections, elem_beam = [], [], [], [], [], [], []
+        beam_elements, beam_nodes, beam_grid_offsets = {}, {}, {}
+        for beam in scene.beams.values():
+            start, end = beam.start.point, beam.end.point
+            length = float(np.linalg.norm(end - start))
+            x_axis = (end - start) / length
+            y_axis = np.array(beam.y_axis, float)
+            frame = np.column_stack([x_axis, y_axis, np.cross(x_axis, y_axis)])
+            n = beam.elements
+            ends = []
+            for which, spec in (("start", beam.start), ("end", beam.end)):
+                if spec.body is not None:
+                    node = body_node[spec.body]
+                    offset = np.array(spec.offset, float)
+                else:
+                    node = len(nodes)
+                    nodes.append(Node(f"{beam.name}.{which}", np.array(spec.point, float), FREE, beam=beam.name))
+                    offset = np.zeros(3)
+                hinge_index = -1
+                if spec.hinge is not None:
+                    h = spec.hinge
+                    hinge_index = len(hinges)
+                    hinges.append(HingeCoordinate(beam.name, which, node, np.array(h.axis, float),
+                                                  float(h.stiffness), float(h.damping), h.torque, h.angle,
+                                                  None if h.lock_at is None else float(h.lock_at)))
+                ends.append((node, offset, hinge_index))
+            node_list = [ends[0][0]]
+            for k in range(1, n):
+                node_list.append(len(nodes))
+                nodes.append(Node(f"{beam.name}.node[{k}]", start + (end - start) * k / n, FREE, beam=beam.name))
+            node_list.append(ends[1][0])
+            first = len(element_nodes)
+            section = beam.section
+            row = [length / n, section.EA, section.EIy, section.EIz, section.GJ, section.rhoA,
+                   section.rhoIy, section.rhoIz]
+            for k in range(n):
+                element_nodes.append((node_list[k], node_list[k + 1]))
+                o1 = ends[0][1] if k == 0 else np.zeros(3)
+                o2 = ends[1][1] if k == n - 1 else np.zeros(3)
+                offsets.append((o1, o2))
+                h1 = ends[0][2] if k == 0 else -1
+                h2 = ends[1][2] if k == n - 1 else -1
+                elem_hinges.append((h1, h2))
+                axes.append(tuple(hinges[h].axis if h >= 0 else np.zeros(3) for h in (h1, h2)))
+                frames0.append((frame, frame))
+                sections.append(row)
+                elem_beam.append(beam.name)
+            beam_elements[beam.name] = np.arange(first, first + n)
+            beam_nodes[beam.name] = np.array(node_list)
+            beam_grid_offsets[beam.name] = (ends[0][1], ends[1][1])
+
+        massive = [b for b in scene.bodies.values() if b.mass > 0 or np.any(b.inertia != 0)]
+        model = cls(
+            scene=scene, nodes=nodes, hinges=hinges,
+            element_nodes=np.array(element_nodes, dtype=np.int64).reshape(-1, 2),
+            element_offsets=np.array(offsets, float).reshape(-1, 2, 3),
+            element_axes=np.array(axes, float).reshape(-1, 2, 3),
+            element_frames0=np.array(frames0, float).reshape(-1, 2, 3, 3),
+            element_hinges=np.array(elem_hinges, dtype=np.int64).reshape(-1, 2),
+            element_sections=np.array(sections, float).reshape(-1, 8),
+            element_beam=elem_beam, beam_elements=beam_elements, beam_nodes=beam_nodes,
+            beam_grid_offsets=beam_grid_offsets,
+            body_nodes=np.array([body_node[b.name] for b in massive], dtype=np.int64),
+            body_mass=np.array([b.mass for b in massive], float),
+            body_com=np.array([b.com for b in massive], float).reshape(-1, 3),
+            body_inertia=np.array([b.inertia for b in massive], float).reshape(-1, 3, 3),
+            body_node=body_node,
+        )
+        model.locked = np.zeros(len(hinges), dtype=bool)
+        model.number_coordinates()
+        return model
+
+    def number_coordinates(self) -> None:
+        """Number the coordinates: free ones first (6 per free node, 1 per free,
+        unlatched hinge), then the rest (fixed, prescribed, latched), so that
+        reactions of prescribed motion can be scattered like any force."""
+        n_nodes, n_hinges = len(self.nodes), len(self.hinges)
+        free_node = np.array([n.kind == FREE for n in self.nodes], dtype=bool)
+        free_hinge = np.array([h.angle is None for h in self.hinges], dtype=bool) & ~self.locked
+        order_nodes = np.concatenate([np.flatnonzero(free_node), np.flatnonzero(~free_node)]).astype(np.int64)
+        order_hinges = np.concatenate([np.flatnonzero(free_hinge), np.flatnonzero(~free_hinge)]).astype(np.int64)
+        self.node_dofs = np.zeros((n_nodes, 6), dtype=np.int64)
+        self.hinge_dofs = np.zeros(n_hinges, dtype=np.int64)
+        n_free_nodes, n_free_hinges = int(free_node.sum()), int(free_hinge.sum())
+        self.n_dofs = 6 * n_free_nodes + n_free_hinges
+        # free node coordinates, free hinges, then the constrained ones
+        self.node_dofs[order_nodes[:n_free_nodes]] = np.arange(6 * n_free_nodes).reshape(-1, 6)
+        self.hinge_dofs[order_hinges[:n_free_hinges]] = 6 * n_free_nodes + np.arange(n_free_hinges)
+        base = self.n_dofs
+        rest_nodes = order_nodes[n_free_nodes:]
+        self.node_dofs[rest_nodes] = base + np.arange(6 * len(rest_nodes)).reshape(-1, 6)
+        base += 6 * len(rest_nodes)
+        rest_hinges = order_hinges[n_free_hinges:]
+        self.hinge_dofs[rest_hinges] = base + np.arange(len(rest_hinges))
+        self.n_total = base + len(rest_hinges)
+        self.free_nodes = np.flatnonzero(free_node)
+        self.free_hinges = np.flatnonzero(free_hinge)
+        n_elem = len(self.element_nodes)
+        dofs = np.zeros((n_elem, 14), dtype=np.int64)
+        for end, base_col in ((0, 0), (1, 7)):
+            dofs[:, base_col:base_col + 6] = self.node_dofs[self.element_nodes[:, end]]
+            h = self.element_hinges[:, end]
+            # a clamped end has no hinge: its θ slot points at a dummy coordinate past the end
+            padded = np.append(self.hinge_dofs, self.n_total)
+            dofs[:, base_col + 6] = padded[np.where(h >= 0, h, len(self.hinge_dofs))]
+        self.element_dofs = dofs
+
+    # ------------------------------------------------------------------ naming
+    def dof_names(self) -> list[str]:
+        """A readable name for every coordinate, for diagnostics."""
+        names = [""] * (self.n_total + 1)
+        labels = ["dx", "dy", "dz", "rx", "ry", "rz"]
+        for i, node in enumerate(self.nodes):
+            for k in range(6):
+                names[self.node_dofs[i, k]] = f"{node.name}:{labels[k]}"
+        for k, hinge in enumerate(self.hinges):
+            names[self.hinge_dofs[k]] = f"hinge {hinge.beam}.{hinge.end}"
+        return names[: self.n_dofs]
+
+    def size_report(self) -> str:
+        free_nodes = sum(1 for n in self.nodes if n.kind == FREE)
+        free_hinges = len(self.free_hinges)
+        return (
+            f"model: {len(self.nodes)} nodes ({free_nodes} free), {len(self.element_nodes)} elements, "
+            f"{len(self.hinges)} hinges ({free_hinges} with a coordinate), {self.n_dofs} coordinates"
+        )
+
+    def hinge_index(self, beam: str, end: str) -> int:
+        for k, hinge in enumerate(self.hinges):
+            if hinge.beam == beam and hinge.end == end:
+                return k
+        raise KeyError(f"{beam}.{end}")
+
+    def point(self, ref) -> tuple[int, np.ndarray]:
+        """A scene point → (node, offset in node axes)."""
+        if ref.body is not None and ref.beam is None:
+            return self.body_node[ref.body], np.zeros(3)
+        nodes = self.beam_nodes[ref.beam]
+        offsets = self.beam_grid_offsets[ref.beam]
+        if ref.node == 0:
+            return int(nodes[0]), offsets[0]
+        if ref.node == len(nodes) - 1:
+            return int(nodes[-1]), offsets[1]
+        return int(nodes[ref.node]), np.zeros(3)
+
+    def check_held(self, mass: np.ndarray, stiffness: np.ndarray, file: str) -> None:
+        """Refuse a coordinate that neither inertia nor stiffness holds (SCENE.md)."""
+        if self.n_dofs == 0:
+            return
+        A = mass + stiffness
+        scale = np.maximum(np.abs(np.diag(A)).max(), 1e-300)
+        w, V = np.linalg.eigh((A + A.T) / 2)
+        weak = np.abs(w) <= 1e-10 * scale
+        if np.any(weak):
+            mode = V[:, np.argmax(weak)]
+            names = self.dof_names()
+            worst = [names[i] for i in np.argsort(-np.abs(mode))[:3] if abs(mode[i]) > 0.1]
+            raise SceneError(file, "bodies" if any(":" in w for w in worst) else "beams",
+                             "a coordinate that nothing holds (neither inertia nor stiffness): "
+                             + ", ".join(worst))

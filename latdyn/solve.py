@@ -1,0 +1,221 @@
+"""``run(scene)``: model → analysis → result files (SCENE.md, "Commands and results")."""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import __version__
+from .analysis import modal_analysis, static_analysis
+from .assembly import Assembler, State, initial_state, pack
+from .errors import SceneError, SolverError
+from .integrators import AlphaParameters, CentralDifference, GeneralizedAlpha, newton_diagnosis, solve_linear
+from .kernels import load_kernels
+from .model import Model
+from .probes import ProbeSet
+from .results import ResultWriter, progress_bar
+from .scene import Scene, load_scene
+
+
+@dataclass
+class Prepared:
+    scene: Scene
+    model: Model
+    assembler: Assembler
+    state: State
+
+
+def prepare(scene, backend: str = "auto") -> Prepared:
+    """Validate, build the model and refuse coordinates that nothing holds."""
+    scene = load_scene(scene)
+    model = Model.from_scene(scene)
+    kernels = load_kernels(backend=backend, variant=scene.solve.formulation)
+    assembler = Assembler(model, kernels, scene.gravity)
+    state = initial_state(model)
+    if 0 < model.n_dofs <= 3000:
+        at_rest = state.copy()
+        at_rest.v[:] = at_rest.w[:] = 0.0
+        at_rest.theta_dot[:] = 0.0
+        ev = assembler.evaluate(at_rest, matrices=True)
+        model.check_held(ev.mass.toarray(), ev.stiffness.toarray(), scene.file)
+    return Prepared(scene, model, assembler, state)
+
+
+def _length_scale(model: Model) -> float:
+    points = np.array([n.position for n in model.nodes])
+    span = float(np.ptp(points, axis=0).max()) if len(points) else 1.0
+    return max(span, 1e-3)
+
+
+def _mesh(model: Model) -> dict:
+    n = len(model.element_nodes)
+    return {"lines": np.arange(2 * n).reshape(n, 2), "n_nodes": 2 * n}
+
+
+def _grid_points(assembler: Assembler, state: State) -> np.ndarray:
+    g = assembler.element_geometry(state)
+    return np.stack([g[:, 0:3] + g[:, 6:9], g[:, 3:6] + g[:, 9:12]], axis=1).reshape(-1, 3)
+
+
+def run(scene, out_dir=None, backend: str = "auto", progress: bool = False):
+    """Solve a scene and write its results; returns a :class:`latdyn.results.Result`."""
+    wall0 = time.perf_counter()
+    prepared = prepare(scene, backend)
+    scene, model = prepared.scene, prepared.model
+    analysis = scene.solve.analysis
+    probes = ProbeSet(prepared.assembler, prepared.state)
+    first = "load_factor" if analysis == "static" else "t"
+    meta = {"analysis": analysis, "title": scene.title, "coordinates": model.n_dofs,
+            "elements": len(model.element_nodes), "backend": prepared.assembler.kernels.backend,
+            "formulation": scene.solve.formulation}
+    writer = ResultWriter(out_dir, probes.names, first_column=first, mesh=_mesh(model), meta=meta)
+    summary = {"latdyn_version": __version__, "scene_hash": scene.source_hash, "steps": 0,
+               "newton_iterations": 0, "rejected_steps": 0, "energy_balance_error": None}
+    writer.summary.update(summary)
+    with writer:
+        if analysis == "modes":
+            frequencies = modal_analysis(prepared, scene.solve.count)
+            writer.write_modes(frequencies)
+            writer.summary["modes_hz"] = [float(f) for f in frequencies]
+        elif analysis == "static":
+            static_analysis(prepared, probes, writer, _length_scale(model))
+        else:
+            transient(prepared, probes, writer, progress)
+        writer.summary["wall_time_s"] = time.perf_counter() - wall0
+        writer.close(dict(writer.summary), status="solved")
+    result = writer.result()
+    if analysis == "modes":
+        result.modes = np.asarray(writer.summary.get("modes_hz", []))
+    return result
+
+
+def _drive_power(model: Model, state: State, reaction: np.ndarray) -> float:
+    """Power of the constraint forces that impose prescribed motion."""
+    velocities = pack(model, state.v, state.w, state.theta_dot)[model.n_dofs:model.n_total]
+    return float(reaction @ velocities)
+
+
+def _latch_hinges(prepared: Prepared, integrator, old: State, new: State, h: float) -> bool:
+    """Latch every free hinge whose angle crossed its lock_at during the step.
+
+    The latch is a perfectly plastic impulsive constraint θ̇ = 0: the free
+    velocities jump by the projection that conserves momentum,
+    v⁺ = v⁻ − A⁻¹n (nᵀA⁻¹n)⁻¹ nᵀv⁻, with A = M + h²K (M alone may be singular).
+    """
+    model, assembler = prepared.model, prepared.assembler
+    latched = []
+    for k in model.free_hinges:
+        lock = model.hinges[k].lock_at
+        if lock is None:
+            continue
+        before, after = old.theta[k] - lock, new.theta[k] - lock
+        if before == 0.0 or before * after <= 0.0:
+            latched.append(k)
+    if not latched:
+        return False
+    from .assembly import free_velocity, unpack_free
+
+    ev = assembler.evaluate(new, matrices=True)
+    A = (ev.mass + h * h * ev.stiffness).toarray()
+    v = free_velocity(model, new)
+    Nmat = np.zeros((model.n_dofs, len(latched)))
+    for j, k in enumerate(latched):
+        Nmat[model.hinge_dofs[k], j] = 1.0
+    AiN = np.linalg.solve(A, Nmat)
+    lam = np.linalg.solve(Nmat.T @ AiN, Nmat.T @ v)
+    v = v - AiN @ lam
+    unpack_free(model, v, new.v, new.w, new.theta_dot)
+    # carry the algorithmic acceleration across the renumbering
+    a_lin, a_ang, a_h = np.zeros_like(new.v), np.zeros_like(new.w), np.zeros_like(new.theta)
+    unpack_free(model, integrator.a, a_lin, a_ang, a_h)
+    for k in latched:
+        model.locked[k] = True
+        new.theta_dot[k] = new.theta_ddot[k] = 0.0
+        a_h[k] = 0.0
+    model.number_coordinates()
+    assembler.reindex()
+    integrator.a = pack(model, a_lin, a_ang, a_h)[: model.n_dofs]
+    return True
+
+
+def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progress: bool) -> None:
+    scene, model, assembler = prepared.scene, prepared.model, prepared.assembler
+    solve = scene.solve
+    length = _length_scale(model)
+    tol = solve.tol if solve.tol is not None else 1e-9
+    if solve.method == "explicit":
+        integrator = CentralDifference(assembler, tol, solve.max_iterations, length)
+    else:
+        integrator = GeneralizedAlpha(assembler, AlphaParameters.for_method(solve.method, solve.rho_inf), tol,
+                                      solve.max_iterations, length)
+    state = prepared.state
+    integrator.start(state)
+    t_end, dt = float(solve.t_end), float(solve.dt)
+    dt_min = solve.dt_min if solve.dt_min is not None else dt * 1e-6
+    every = scene.output.every
+    ev0 = assembler.evaluate(state, matrices=False)
+    power = ev0.external_power + _drive_power(model, state, ev0.reaction)
+    energy0 = assembler.energies(state)
+    total0 = sum(energy0.values())
+    balance_error, energy_scale = 0.0, max(abs(total0), 1e-300)
+
+    def record(s: State) -> None:
+        writer.record(s.t, probes.values(s), state=s.as_dict(), node_positions=_grid_points(assembler, s))
+
+    record(state)
+    next_output = (every if every else 0.0)
+    h = dt
+    steps = iterations = rejected = 0
+    bar = progress_bar(t_end, enabled=progress)
+    try:
+        while state.t < t_end - 1e-12 * t_end:
+            h = min(h, t_end - state.t)
+            new, stats = integrator.step(state, h)
+            accept = stats.converged
+            if accept and solve.adaptive:
+                error = integrator.error_estimate(h) / (solve.error_tol * length)
+                if error > 1.0:
+                    accept = False
+                    iterations += stats.iterations
+                    rejected += 1
+                    h = max(h * max(0.2, 0.9 * error ** (-1 / 3)), dt_min)
+                    continue
+            iterations += stats.iterations
+            if not accept:
+                rejected += 1
+                if h / 2 < dt_min:
+                    raise SolverError("Newton failed below the minimum step",
+                                      newton_diagnosis(model, stats.residual, state.t + h, h))
+                h /= 2
+                continue
+            integrator.accept()
+            _latch_hinges(prepared, integrator, state, new, h)
+            ev = assembler.evaluate(new, matrices=False)
+            new_power = ev.external_power + _drive_power(model, new, ev.reaction)
+            probes.external_work += 0.5 * h * (power + new_power)
+            power = new_power
+            state = new
+            steps += 1
+            writer.summary.update(steps=steps, newton_iterations=iterations, rejected_steps=rejected)
+            if every is None or state.t >= next_output - 1e-9 * dt:
+                energies = assembler.energies(state)
+                drift = abs(sum(energies.values()) - total0 - probes.external_work)
+                energy_scale = max(energy_scale, abs(sum(energies.values())), abs(probes.external_work))
+                balance_error = max(balance_error, drift)
+                record(state)
+                if every:
+                    while next_output <= state.t + 1e-9 * dt:
+                        next_output += every
+            bar.update(state.t)
+            if solve.adaptive:
+                error = integrator.error_estimate(h) / (solve.error_tol * length)
+                h = min(dt, h * min(2.0, 0.9 * max(error, 1e-10) ** (-1 / 3)))
+            elif stats.iterations and h < dt:
+                h = min(dt, 2 * h)  # recover the nominal step after a cut
+    finally:
+        bar.close()
+        writer.summary.update(steps=steps, newton_iterations=iterations, rejected_steps=rejected,
+                              energy_balance_error=balance_error / energy_scale,
+                              newton_iterations_per_step=iterations / max(steps, 1),
+                              method=solve.method)
