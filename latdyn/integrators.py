@@ -132,6 +132,7 @@ class GeneralizedAlpha:
             unpack_free(model, v, trial.v, trial.w, trial.theta_dot)
             unpack_free(model, vdot, trial.a, trial.alpha, trial.theta_ddot)
             ev = self.assembler.evaluate(trial, matrices=True)
+            self.last_evaluation = ev
             if n == 0:
                 stats.converged = True
                 break

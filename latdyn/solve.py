@@ -69,7 +69,12 @@ def run(scene, out_dir=None, backend: str = "auto", progress: bool = False):
     meta = {"analysis": analysis, "title": scene.title, "coordinates": model.n_dofs,
             "elements": len(model.element_nodes), "backend": prepared.assembler.kernels.backend,
             "formulation": scene.solve.formulation}
-    writer = ResultWriter(out_dir, probes.names, first_column=first, mesh=_mesh(model), meta=meta)
+    frames = None
+    if analysis == "transient":
+        every = scene.output.every or scene.solve.dt
+        frames = int(np.ceil(scene.solve.t_end / every)) + 1
+    writer = ResultWriter(out_dir, probes.names, first_column=first, mesh=_mesh(model), meta=meta,
+                          max_frames=200, expected_frames=frames)
     summary = {"latdyn_version": __version__, "scene_hash": scene.source_hash, "steps": 0,
                "newton_iterations": 0, "rejected_steps": 0, "energy_balance_error": None}
     writer.summary.update(summary)
@@ -191,7 +196,11 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
                 continue
             integrator.accept()
             _latch_hinges(prepared, integrator, state, new, h)
-            ev = assembler.evaluate(new, matrices=False)
+            # power of loads and prescribed motion: from the last Newton evaluation
+            # (within the Newton tolerance of the converged state) when there is one
+            ev = getattr(integrator, "last_evaluation", None)
+            if ev is None or len(ev.reaction) != model.n_total - model.n_dofs:
+                ev = assembler.evaluate(new, matrices=False)
             new_power = ev.external_power + _drive_power(model, new, ev.reaction)
             probes.external_work += 0.5 * h * (power + new_power)
             power = new_power
