@@ -222,6 +222,11 @@ class CentralDifference:
             else:
                 stats.converged = False
         ev = self.assembler.evaluate(trial, matrices=True)
+        if not np.all(np.isfinite(ev.residual)):
+            raise SolverError(
+                f"explicit integration became unstable at t = {state.t + h:.6g}",
+                f"the step {h:.3g} exceeds the stability limit 2/ω_max of the stiffest mode with inertia; "
+                "reduce solve.dt or use an implicit method")
         self._accelerate(trial, ev)
         vdot_new = free_acceleration(model, trial)
         v_new = v_half + 0.5 * h * vdot_new
