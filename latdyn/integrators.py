@@ -242,7 +242,8 @@ class CentralDifference:
         return 0.0
 
 
-def newton_diagnosis(model, residual: np.ndarray | None, t: float, h: float) -> str:
+def newton_diagnosis(model, residual: np.ndarray | None, t: float, h: float, assembler=None,
+                     state=None) -> str:
     """Name the coordinates, bodies and beams with the largest residual (cf. Exudyn's SolverErrorMessage)."""
     if residual is None or len(residual) == 0:
         return f"at t = {t:.6g} with step {h:.3g}: the linear system could not be solved"
@@ -251,6 +252,17 @@ def newton_diagnosis(model, residual: np.ndarray | None, t: float, h: float) -> 
     lines = [f"Newton did not converge at t = {t:.6g} with step {h:.3g}; largest residual entries:"]
     for i in worst:
         lines.append(f"  {names[i]}: {residual[i]:.3e}")
+    if assembler is not None and state is not None and len(model.element_nodes):
+        psi, _ = assembler.kernels.beam_deformation(assembler.element_geometry(state), model.element_sections)
+        rotation = np.max(np.abs(psi[:, :5]), axis=1)  # φ = sines of the element's end rotations (Eqs. 14-16)
+        e = int(np.argmax(rotation))
+        beam = model.element_beam[e]
+        index = e - int(model.beam_elements[beam][0])
+        lines.append(f"  largest element rotation relative to its chord: beam {beam!r}, element {index}: "
+                     f"sin φ = {rotation[e]:.3f}")
+        if rotation[e] > 0.5:
+            lines.append("  CR-4402 assumes small rotations within an element (Eq. 6): refine the mesh of "
+                         f"beam {beam!r}.")
     lines.append("Usual causes: a step too large for the fastest mode, a coordinate held only by a tiny "
                  "stiffness, a load or prescribed motion that jumps, or a structure that buckles.")
     return "\n".join(lines)

@@ -191,7 +191,7 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
                 rejected += 1
                 if h / 2 < dt_min:
                     raise SolverError("Newton failed below the minimum step",
-                                      newton_diagnosis(model, stats.residual, state.t + h, h))
+                                      newton_diagnosis(model, stats.residual, state.t + h, h, assembler, state))
                 h /= 2
                 continue
             integrator.accept()
