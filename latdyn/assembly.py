@@ -18,6 +18,9 @@ import scipy.sparse as sps
 
 from .model import FIXED, PRESCRIBED, Model
 
+#: Models with at most this many free coordinates use dense matrices and LU.
+DENSE_LIMIT = 600
+
 # ----------------------------------------------------------------------------- rotations
 
 
@@ -169,14 +172,47 @@ def advance(model: Model, state: State, increment: np.ndarray) -> State:
 
 @dataclass
 class Evaluation:
-    """Residual pieces and matrices on the free coordinates (matrices None unless asked)."""
+    """Residual, reactions, and (on request) the blocks of M, C = ∂r/∂v and K = ∂r/∂q.
+
+    K omits the derivative of the inertia forces with respect to q (see
+    integrators.py).  Matrices on the free coordinates are assembled on demand:
+    ``mass``, ``damping``, ``stiffness``, or ``combined(cm, cc, ck)`` = cm M + cc C + ck K
+    in one scatter (the Newton iteration matrix).
+    """
 
     residual: np.ndarray  # (n_dofs,)
     reaction: np.ndarray  # (n_total - n_dofs,) generalized force needed on constrained coordinates
-    mass: sps.csr_matrix | None = None
-    damping: sps.csr_matrix | None = None  # ∂r/∂v
-    stiffness: sps.csr_matrix | None = None  # ∂r/∂q (inertia-force derivative omitted, see docs)
     external_power: float = 0.0  # loads and hinge torques on the current velocities
+    blocks: dict | None = None  # kind -> [element (e,14,14), body (b,6,6), hinge diag, load blocks]
+    assembler: "Assembler | None" = None
+
+    def combined(self, cm: float, cc: float, ck: float, dense: bool | None = None):
+        parts = None
+        for coefficient, kind in ((cm, "mass"), (cc, "damping"), (ck, "stiffness")):
+            if coefficient == 0.0:
+                continue
+            scaled = [coefficient * np.asarray(b) for b in self._flat(kind)]
+            parts = scaled if parts is None else [a + b for a, b in zip(parts, scaled)]
+        if parts is None:
+            parts = [0.0 * np.asarray(b) for b in self._flat("stiffness")]
+        return self.assembler.assemble(parts, dense)
+
+    def _flat(self, kind):
+        element, body, hinge, loads = self.blocks[kind]
+        a = self.assembler
+        return [element[a._elem_mask], body[a._body_mask], hinge] + list(loads)
+
+    @property
+    def mass(self):
+        return self.combined(1.0, 0.0, 0.0, dense=False)
+
+    @property
+    def damping(self):
+        return self.combined(0.0, 1.0, 0.0, dense=False)
+
+    @property
+    def stiffness(self):
+        return self.combined(0.0, 0.0, 1.0, dense=False)
 
 
 class Assembler:
@@ -265,11 +301,18 @@ class Assembler:
         total += extra
         return total
 
-    def _csr(self, element_mats, body_mats, hinge_diag, load_blocks) -> sps.csr_matrix:
-        parts = [element_mats[self._elem_mask], body_mats[self._body_mask], hinge_diag] + load_blocks
+    def assemble(self, parts: list, dense: bool | None = None):
+        """Scatter masked block data (in the order of :meth:`reindex`) into a matrix on
+        the free coordinates: a dense array for small models, CSR otherwise."""
+        n = self.model.n_dofs
         data = np.concatenate([np.ravel(p) for p in parts]) if parts else np.zeros(0)
         values = np.bincount(self._position, weights=data, minlength=self._nnz)
-        n = self.model.n_dofs
+        if dense is None:
+            dense = n <= DENSE_LIMIT
+        if dense:
+            out = np.zeros((n, n))
+            out[self._csr_rows, self._csr_cols] = values
+            return out
         return sps.csr_matrix((values, self._indices, self._indptr), shape=(n, n))
 
     def rigid_bodies(self, state: State):
@@ -385,16 +428,20 @@ class Assembler:
                 load_blocks.append(-(skew(f) @ skew(rg)).ravel())
 
         total = self._scatter_vector(elem_vec, body_vec, extra)
-        result = Evaluation(residual=total[:n], reaction=total[n:m.n_total], external_power=power)
+        result = Evaluation(residual=total[:n], reaction=total[n:m.n_total], external_power=power,
+                            assembler=self)
         if matrices:
             hinge_k = np.array([m.hinges[k].stiffness for k in m.free_hinges])
             hinge_c = np.array([m.hinges[k].damping for k in m.free_hinges])
-            zeros_e = np.zeros((n_elem, 14, 14))
-            result.stiffness = self._csr(elem_stiff, body_stiff, hinge_k, load_blocks)
-            nl = [np.zeros_like(b) for b in load_blocks]
-            result.mass = self._csr(elem_mass if elem_mass is not None else zeros_e, body_mass,
-                                    np.zeros(len(hinge_k)), nl)
-            result.damping = self._csr(elem_damp if elem_damp is not None else zeros_e, body_damp, hinge_c, nl)
+            zero_elements = np.zeros((n_elem, 14, 14))
+            zero_loads = [np.zeros_like(b) for b in load_blocks]
+            result.blocks = {
+                "stiffness": (elem_stiff, body_stiff, hinge_k, load_blocks),
+                "mass": (elem_mass if elem_mass is not None else zero_elements, body_mass,
+                         np.zeros(len(hinge_k)), zero_loads),
+                "damping": (elem_damp if elem_damp is not None else zero_elements, body_damp, hinge_c,
+                            zero_loads),
+            }
         return result
 
     def energies(self, state: State) -> dict[str, float]:

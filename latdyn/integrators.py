@@ -60,10 +60,11 @@ class AlphaParameters:
         return cls(am, af, gamma, 0.25 * (gamma + 0.5) ** 2)
 
 
-def solve_linear(matrix: sps.csr_matrix, rhs: np.ndarray) -> np.ndarray:
-    """Dense LU for small systems, sparse LU beyond."""
-    n = matrix.shape[0]
-    if n <= 600:
+def solve_linear(matrix, rhs: np.ndarray) -> np.ndarray:
+    """Dense LU for dense or small systems, sparse LU beyond."""
+    if isinstance(matrix, np.ndarray):
+        return np.linalg.solve(matrix, rhs)
+    if matrix.shape[0] <= 600:
         return np.linalg.solve(matrix.toarray(), rhs)
     return spla.splu(matrix.tocsc()).solve(rhs)
 
@@ -136,7 +137,7 @@ class GeneralizedAlpha:
             if n == 0:
                 stats.converged = True
                 break
-            S = beta_p * ev.mass + gamma_p * ev.damping + ev.stiffness
+            S = ev.combined(beta_p, gamma_p, 1.0)
             try:
                 dx = solve_linear(S, -ev.residual)
             except (np.linalg.LinAlgError, RuntimeError):
