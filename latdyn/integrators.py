@@ -95,7 +95,6 @@ class GeneralizedAlpha:
             self.a = np.zeros(0)
             return
         ev = self.assembler.evaluate(state, matrices=True)
-        M = ev.mass.toarray() if model.n_dofs <= 600 else ev.mass
         vdot0 = free_acceleration(model, state)
         diag = np.abs(ev.mass.diagonal())
         massive = diag > 1e-12 * max(diag.max(), 1e-300)

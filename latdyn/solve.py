@@ -8,7 +8,7 @@ import numpy as np
 
 from . import __version__
 from .analysis import modal_analysis, static_analysis
-from .assembly import Assembler, State, initial_state, pack
+from .assembly import Assembler, State, initial_state, orthonormalize, pack
 from .errors import SceneError, SolverError
 from .integrators import AlphaParameters, CentralDifference, GeneralizedAlpha, newton_diagnosis, solve_linear
 from .kernels import load_kernels
@@ -38,7 +38,8 @@ def prepare(scene, backend: str = "auto") -> Prepared:
         at_rest.v[:] = at_rest.w[:] = 0.0
         at_rest.theta_dot[:] = 0.0
         ev = assembler.evaluate(at_rest, matrices=True)
-        model.check_held(ev.mass.toarray(), ev.stiffness.toarray(), scene.file)
+        model.check_held(ev.combined(1.0, 0.0, 0.0, dense=True), ev.combined(0.0, 0.0, 1.0, dense=True),
+                         scene.file)
     return Prepared(scene, model, assembler, state)
 
 
@@ -122,7 +123,7 @@ def _latch_hinges(prepared: Prepared, integrator, old: State, new: State, h: flo
     from .assembly import free_velocity, unpack_free
 
     ev = assembler.evaluate(new, matrices=True)
-    A = (ev.mass + h * h * ev.stiffness).toarray()
+    A = ev.combined(1.0, 0.0, h * h, dense=True)
     v = free_velocity(model, new)
     Nmat = np.zeros((model.n_dofs, len(latched)))
     for j, k in enumerate(latched):
@@ -206,6 +207,8 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
             power = new_power
             state = new
             steps += 1
+            if steps % 256 == 0:  # exp updates keep T on SO(3) to round-off; remove the drift of long runs
+                state.T[model.free_nodes] = orthonormalize(state.T[model.free_nodes])
             writer.summary.update(steps=steps, newton_iterations=iterations, rejected_steps=rejected)
             if every is None or state.t >= next_output - 1e-9 * dt:
                 energies = assembler.energies(state)
