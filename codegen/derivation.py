@@ -277,32 +277,38 @@ def build_kernels(variant: str = "default") -> list[KernelSpec]:
         [Output("internal_force", (N,), force), Output("internal_force_D_q", (N, N), _flat(tangent))], b)
 
     # --- inertia ---
+    def mass_matrix(b, p):
+        MJ = b.matrix("MJ", _matmul(p["Mhat"], p["J"]))
+        return _matmul(_transpose(p["J"]), MJ)  # Eq. 56: M = ρ∫BᵀB = Jᵀ M̂ J
+
+    def quadratic_velocity(b, p):
+        local = b.vector("glocal", [sp.Add(*[p["Mhat"][i][j] * p["Jdq"][j] for j in range(12)]) + p["ghat"][i]
+                                    for i in range(12)])
+        return [sp.Add(*[p["J"][i][a] * local[i] for i in range(12)]) for a in range(N)]  # Eq. 57 (+ Mχ, Eq. 62)
+
+    def quadratic_velocity_D_qdot(b, p):
+        # ∂g/∂q̇ = Jᵀ (M̂ ∂(J̇q̇)/∂q̇ + ∂ĝ/∂u J)
+        dJdq = b.matrix("dJdq", kin.convective_D_qdot)
+        both = {**p["rename"], **p["urename"]}
+        dghat = b.matrix("dghat", [[p["gyro_local_D_u"][i, j].xreplace(both) for j in range(12)] for i in range(12)])
+        inner = b.matrix("dglocal", [[a + c for a, c in zip(r1, r2)]
+                                     for r1, r2 in zip(_matmul(p["Mhat"], dJdq), _matmul(dghat, p["J"]))])
+        return _matmul(_transpose(p["J"]), inner)
+
     b = Builder()
     p = inertia(b, with_velocity=False)
-    MJ = b.matrix("MJ", _matmul(p["Mhat"], p["J"]))
-    mass = _matmul(_transpose(p["J"]), MJ)  # Eq. 56: M = ρ∫BᵀB = Jᵀ M̂ J
     add("beam_mass_matrix", "Element mass matrix M^e", "Eqs. 44-56, 62", geometry_section,
-        [Output("mass_matrix", (N, N), _flat(mass))], b)
+        [Output("mass_matrix", (N, N), _flat(mass_matrix(b, p)))], b)
 
     b = Builder()
     p = inertia(b, with_velocity=True)
-    local = [sp.Add(*[p["Mhat"][i][j] * p["Jdq"][j] for j in range(12)]) + p["ghat"][i] for i in range(12)]
-    local = b.vector("glocal", local)
-    qvel = [sp.Add(*[p["J"][i][a] * local[i] for i in range(12)]) for a in range(N)]  # Eq. 57 (+ Mχ, Eq. 62)
     add("beam_quadratic_velocity", "Quadratic-velocity vector g^e (centrifugal, Coriolis, offset χ^e)",
-        "Eqs. 50-57, 61-62", with_velocity, [Output("quadratic_velocity", (N,), qvel)], b)
+        "Eqs. 50-57, 61-62", with_velocity, [Output("quadratic_velocity", (N,), quadratic_velocity(b, p))], b)
 
     b = Builder()
     p = inertia(b, with_velocity=True)
-    # ∂g/∂q̇ = Jᵀ (M̂ ∂(J̇q̇)/∂q̇ + ∂ĝ/∂u J)
-    dJdq = b.matrix("dJdq", kin.convective_D_qdot)
-    both = {**p["rename"], **p["urename"]}
-    dghat = b.matrix("dghat", [[p["gyro_local_D_u"][i, j].xreplace(both) for j in range(12)] for i in range(12)])
-    inner = b.matrix("dglocal", [[a + c for a, c in zip(r1, r2)]
-                                 for r1, r2 in zip(_matmul(p["Mhat"], dJdq), _matmul(dghat, p["J"]))])
-    qvel_D = _matmul(_transpose(p["J"]), inner)
     add("beam_quadratic_velocity_D_qdot", "∂g^e/∂q̇ (exact)", "Eqs. 50-57", with_velocity,
-        [Output("quadratic_velocity_D_qdot", (N, N), _flat(qvel_D))], b)
+        [Output("quadratic_velocity_D_qdot", (N, N), _flat(quadratic_velocity_D_qdot(b, p)))], b)
 
     b = Builder()
     p = inertia(b, with_velocity=True)
@@ -314,22 +320,12 @@ def build_kernels(variant: str = "default") -> list[KernelSpec]:
     b = Builder()
     p = inertia(b, with_velocity=True)
     _, force, tangent = elastic(b, with_tangent=True, shared=p)
-    MJ = b.matrix("MJ", _matmul(p["Mhat"], p["J"]))
-    mass = _matmul(_transpose(p["J"]), MJ)
-    local = b.vector("glocal", [sp.Add(*[p["Mhat"][i][j] * p["Jdq"][j] for j in range(12)]) + p["ghat"][i]
-                                for i in range(12)])
-    qvel = [sp.Add(*[p["J"][i][a] * local[i] for i in range(12)]) for a in range(N)]
-    dJdq = b.matrix("dJdq", kin.convective_D_qdot)
-    both = {**p["rename"], **p["urename"]}
-    dghat = b.matrix("dghat", [[p["gyro_local_D_u"][i, j].xreplace(both) for j in range(12)] for i in range(12)])
-    inner = b.matrix("dglocal", [[a + c for a, c in zip(r1, r2)]
-                                 for r1, r2 in zip(_matmul(p["Mhat"], dJdq), _matmul(dghat, p["J"]))])
-    qvel_D = _matmul(_transpose(p["J"]), inner)
     add("beam_dynamics", "One Newton iteration's element terms: F_i, ∂F_i/∂q, M, g, ∂g/∂q̇",
         "Eqs. 29-57, 61-62", with_velocity,
         [Output("internal_force", (N,), force), Output("internal_force_D_q", (N, N), _flat(tangent)),
-         Output("mass_matrix", (N, N), _flat(mass)), Output("quadratic_velocity", (N,), qvel),
-         Output("quadratic_velocity_D_qdot", (N, N), _flat(qvel_D))], b)
+         Output("mass_matrix", (N, N), _flat(mass_matrix(b, p))),
+         Output("quadratic_velocity", (N,), quadratic_velocity(b, p)),
+         Output("quadratic_velocity_D_qdot", (N, N), _flat(quadratic_velocity_D_qdot(b, p)))], b)
 
     # --- gravity ---
     b = Builder()
