@@ -28,7 +28,6 @@ def scene(method, t_end=20.0, dt=0.005):
 
 def main():
     latdyn.run(scene("generalized-alpha", t_end=0.05))  # compile/load the kernels once
-    reference = None
     print(f"{'method':20s} {'t_end':>6s} {'dt':>8s} {'wall s':>8s} {'steps':>6s} {'iter/step':>9s} {'tip_v(end)':>11s}")
     for method, t_end, dt in [("generalized-alpha", 20.0, 0.005), ("hht-alpha", 20.0, 0.005),
                               ("newmark", 20.0, 0.005), ("explicit", 2.0, 1e-4),

@@ -24,7 +24,7 @@ import sympy as sp
 
 from . import conventions as cv
 from . import formulation as fm
-from .ir import Argument, KernelSpec, Output
+from .ir import KernelSpec, Output
 
 VARIANTS: dict[str, str] = {name: f.description for name, f in fm.FORMULATIONS.items()}
 

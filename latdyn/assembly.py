@@ -16,7 +16,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import scipy.sparse as sps
 
-from .model import FIXED, PRESCRIBED, Model
+from .model import PRESCRIBED, Model
 
 #: Models with at most this many free coordinates use dense matrices and LU.
 DENSE_LIMIT = 600
@@ -323,7 +323,7 @@ class Assembler:
         rc = np.einsum("bij,bj->bi", T, m.body_com)  # COM offset, global
         J = T @ m.body_inertia @ np.transpose(T, (0, 2, 1))
         mass = m.body_mass[:, None]
-        w, v = state.w[i], state.v[i]
+        w = state.w[i]
         S = skew(rc)
         M = np.zeros((len(i), 6, 6))
         M[:, :3, :3] = mass[:, :, None] * np.eye(3)

@@ -30,7 +30,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.sparse as sps
 import scipy.sparse.linalg as spla
 
 from .assembly import Assembler, State, advance, apply_prescribed, free_acceleration, free_velocity, unpack_free
@@ -179,7 +178,6 @@ class CentralDifference:
         self.length_scale = length_scale
 
     def start(self, state: State) -> None:
-        model = self.assembler.model
         ev = self.assembler.evaluate(state, matrices=True)
         diag = np.abs(ev.mass.diagonal())
         self.massive = diag > 1e-12 * max(diag.max(initial=0.0), 1e-300)

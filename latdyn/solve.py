@@ -9,8 +9,8 @@ import numpy as np
 from . import __version__
 from .analysis import modal_analysis, static_analysis
 from .assembly import Assembler, State, initial_state, orthonormalize, pack
-from .errors import SceneError, SolverError
-from .integrators import AlphaParameters, CentralDifference, GeneralizedAlpha, newton_diagnosis, solve_linear
+from .errors import SolverError
+from .integrators import AlphaParameters, CentralDifference, GeneralizedAlpha, newton_diagnosis
 from .kernels import load_kernels
 from .model import Model
 from .probes import ProbeSet

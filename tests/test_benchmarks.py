@@ -7,9 +7,7 @@ printed (pytest -s) and never asserted.
 """
 from __future__ import annotations
 
-import math
 import sys
-import time
 import warnings
 from pathlib import Path
 
@@ -78,7 +76,6 @@ def test_D1_spinup_full_with_stiffening():
 def _spinup_one_element(formulation: str, t_end: float = 12.0):
     import yaml
 
-    import latdyn
 
     raw = yaml.safe_load((ROOT / "examples" / "spinup.yaml").read_text())
     raw["sections"]["arm"] = {k: float(v) for k, v in raw["sections"]["arm"].items()}

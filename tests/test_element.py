@@ -130,7 +130,6 @@ def test_rigid_motion_is_strain_free(kernels):
 
 
 def test_rigid_virtual_motion_does_no_internal_work(kernels):
-    rng = np.random.default_rng(8)
     for s in states(8):
         (force,) = kernels.beam_internal_force(s.geometry(), s.section[None])
         g = s.geometry()[0]
@@ -201,7 +200,6 @@ def test_rigid_spin_about_node_one(kernels):
 
 
 def test_gravity_load_and_potential(kernels):
-    rng = np.random.default_rng(9)
     gravity = np.array([[0.3, -9.81, 1.2]])
     for s in states(9):
         force, potential, centre = kernels.beam_gravity(s.geometry(), s.section[None], gravity)
