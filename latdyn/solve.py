@@ -8,7 +8,7 @@ import numpy as np
 
 from . import __version__
 from .analysis import modal_analysis, static_analysis
-from .assembly import Assembler, State, initial_state, orthonormalize, pack
+from .assembly import Assembler, State, free_velocity, initial_state, orthonormalize, pack, unpack_free
 from .errors import SolverError
 from .integrators import AlphaParameters, CentralDifference, GeneralizedAlpha, newton_diagnosis
 from .kernels import load_kernels
@@ -102,6 +102,26 @@ def _drive_power(model: Model, state: State, reaction: np.ndarray) -> float:
     return float(reaction @ velocities)
 
 
+def _lock_tolerance(lock: float) -> float:
+    return 1e-7 * max(1.0, abs(lock))
+
+
+def _crossing_fraction(model: Model, old: State, new: State) -> float | None:
+    """The fraction of the step at which the first free hinge reaches its lock_at
+    (linear interpolation of its angle), or None when none crosses."""
+    fractions = []
+    for k in model.free_hinges:
+        lock = model.hinges[k].lock_at
+        if lock is None:
+            continue
+        before, after = old.theta[k] - lock, new.theta[k] - lock
+        if abs(after) <= _lock_tolerance(lock) or before == 0.0:
+            continue
+        if before * after < 0.0:
+            fractions.append(before / (before - after))
+    return min(fractions) if fractions else None
+
+
 def _latch_hinges(prepared: Prepared, integrator, old: State, new: State, h: float) -> bool:
     """Latch every free hinge whose angle crossed its lock_at during the step.
 
@@ -116,11 +136,10 @@ def _latch_hinges(prepared: Prepared, integrator, old: State, new: State, h: flo
         if lock is None:
             continue
         before, after = old.theta[k] - lock, new.theta[k] - lock
-        if before == 0.0 or before * after <= 0.0:
+        if before == 0.0 or before * after <= 0.0 or abs(after) <= _lock_tolerance(lock):
             latched.append(k)
     if not latched:
         return False
-    from .assembly import free_velocity, unpack_free
 
     ev = assembler.evaluate(new, matrices=True)
     A = ev.combined(1.0, 0.0, h * h, dense=True)
@@ -195,6 +214,16 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
                                       newton_diagnosis(model, stats.residual, state.t + h, h, assembler, state))
                 h /= 2
                 continue
+            # a hinge reaching lock_at inside the step: shorten the step to land on it (secant, ≤ 4 passes)
+            for _ in range(4):
+                fraction = _crossing_fraction(model, state, new)
+                if fraction is None:
+                    break
+                retry, retry_stats = integrator.step(state, h * max(fraction, 1e-6))
+                if not retry_stats.converged:
+                    break
+                iterations += retry_stats.iterations
+                new, stats, h = retry, retry_stats, h * max(fraction, 1e-6)
             integrator.accept()
             _latch_hinges(prepared, integrator, state, new, h)
             # power of loads and prescribed motion: from the last Newton evaluation

@@ -144,10 +144,10 @@ def hinged_flap(lock_at=0.6):
 def test_hinge_latches_at_lock_angle_and_stays_locked():
     result = latdyn.run(hinged_flap())
     angle, rate = result.probes["angle"], result.probes["rate"]
-    reached = np.flatnonzero(angle >= 0.6 - 1e-9)
+    reached = np.flatnonzero(angle >= 0.6 - 1e-6)
     assert len(reached), "the hinge never reached its lock angle"
     first = reached[0]
-    assert angle[first] == pytest.approx(0.6, abs=0.02)
+    assert angle[first] == pytest.approx(0.6, abs=1e-6)  # the step was shortened to land on it
     after = slice(first + 1, None)
     np.testing.assert_allclose(angle[after], angle[first], atol=1e-12)
     np.testing.assert_allclose(rate[after], 0.0, atol=1e-12)
