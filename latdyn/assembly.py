@@ -231,20 +231,18 @@ class Assembler:
         m = self.model
         n = m.n_dofs
         rows, cols = [], []
-        ed = m.element_dofs
-        self._elem_rows = np.broadcast_to(ed[:, :, None], ed.shape + (14,))
-        self._elem_cols = np.broadcast_to(ed[:, None, :], ed.shape + (14,))
-        emask = (self._elem_rows < n) & (self._elem_cols < n)
-        self._elem_mask = emask
-        rows.append(self._elem_rows[emask])
-        cols.append(self._elem_cols[emask])
-        bd = m.node_dofs[m.body_nodes]  # (n_b, 6)
-        self._body_rows = np.broadcast_to(bd[:, :, None], bd.shape + (6,))
-        self._body_cols = np.broadcast_to(bd[:, None, :], bd.shape + (6,))
-        bmask = (self._body_rows < n) & (self._body_cols < n)
-        self._body_mask = bmask
-        rows.append(self._body_rows[bmask])
-        cols.append(self._body_cols[bmask])
+
+        def block_pattern(dofs):
+            """Mask and (row, col) of the free×free entries of square blocks over ``dofs`` (b, k)."""
+            r = np.broadcast_to(dofs[:, :, None], dofs.shape + (dofs.shape[1],))
+            c = np.broadcast_to(dofs[:, None, :], dofs.shape + (dofs.shape[1],))
+            mask = (r < n) & (c < n)
+            rows.append(r[mask])
+            cols.append(c[mask])
+            return mask
+
+        self._elem_mask = block_pattern(m.element_dofs)
+        self._body_mask = block_pattern(m.node_dofs[m.body_nodes].reshape(-1, 6))
         hd = m.hinge_dofs[m.free_hinges]
         rows.append(hd)
         cols.append(hd)
@@ -266,7 +264,6 @@ class Assembler:
         counts = np.bincount(self._csr_rows, minlength=n)
         self._indptr = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
         self._indices = self._csr_cols.astype(np.int64)
-        self._sizes = [int(emask.sum()), int(bmask.sum()), len(hd)] + [len(r) for r in load_rows]
 
     # -- pieces ----------------------------------------------------------------
     def element_geometry(self, state: State) -> np.ndarray:

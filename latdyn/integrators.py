@@ -124,12 +124,18 @@ class GeneralizedAlpha:
         beta_p = (1 - p.alpha_m) / (h * h * p.beta * (1 - p.alpha_f))
         gamma_p = p.gamma / (h * p.beta)
         stats = StepStats()
+
+        def configured() -> State:
+            """q_n ∘ exp(hΔq) at t_{n+1}, with the current v and v̇."""
+            s = advance(model, state, h * dq)
+            apply_prescribed(model, s, t_new)
+            unpack_free(model, v, s.v, s.w, s.theta_dot)
+            unpack_free(model, vdot, s.a, s.alpha, s.theta_ddot)
+            return s
+
         trial = state
         for iteration in range(1, self.max_iterations + 1):
-            trial = advance(model, state, h * dq)
-            apply_prescribed(model, trial, t_new)
-            unpack_free(model, v, trial.v, trial.w, trial.theta_dot)
-            unpack_free(model, vdot, trial.a, trial.alpha, trial.theta_ddot)
+            trial = configured()
             ev = self.assembler.evaluate(trial, matrices=True)
             self.last_evaluation = ev
             if n == 0:
@@ -150,10 +156,7 @@ class GeneralizedAlpha:
             stats.iterations = iteration
             if np.max(np.abs(dx)) <= self.tol * self.length_scale:
                 stats.converged = True
-                trial = advance(model, state, h * dq)
-                apply_prescribed(model, trial, t_new)
-                unpack_free(model, v, trial.v, trial.w, trial.theta_dot)
-                unpack_free(model, vdot, trial.a, trial.alpha, trial.theta_ddot)
+                trial = configured()
                 break
             stats.residual = ev.residual
         if stats.converged:

@@ -48,9 +48,11 @@ class ProbeSet:
             return float(np.linalg.norm(value))
         return float(value[_COMPONENT[probe.component]])
 
-    def values(self, state: State) -> list[float]:
+    def values(self, state: State, energies: dict | None = None) -> list[float]:
+        """Probe values in file order; ``energies`` may be passed when already computed."""
         m = self.model
-        energies = self.assembler.energies(state) if self._need_energy else None
+        if energies is None and self._need_energy:
+            energies = self.assembler.energies(state)
         momentum = self.assembler.momentum(state) if self._need_momentum else None
         sections = None
         if self._need_sections:

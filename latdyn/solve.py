@@ -106,20 +106,27 @@ def _lock_tolerance(lock: float) -> float:
     return 1e-7 * max(1.0, abs(lock))
 
 
-def _crossing_fraction(model: Model, old: State, new: State) -> float | None:
-    """The fraction of the step at which the first free hinge reaches its lock_at
-    (linear interpolation of its angle), or None when none crosses."""
-    fractions = []
+def _lock_events(model: Model, old: State, new: State) -> tuple[list[int], list[tuple[int, float]]]:
+    """Free hinges with a lock_at, over the step old → new: those that reach it (started on
+    it, or ended within tolerance), and those that cross it with the fraction of the step
+    at the crossing (linear interpolation of the angle)."""
+    reached, crossing = [], []
     for k in model.free_hinges:
         lock = model.hinges[k].lock_at
         if lock is None:
             continue
         before, after = old.theta[k] - lock, new.theta[k] - lock
-        if abs(after) <= _lock_tolerance(lock) or before == 0.0:
-            continue
-        if before * after < 0.0:
-            fractions.append(before / (before - after))
-    return min(fractions) if fractions else None
+        if before == 0.0 or abs(after) <= _lock_tolerance(lock):
+            reached.append(k)
+        elif before * after < 0.0:
+            crossing.append((k, before / (before - after)))
+    return reached, crossing
+
+
+def _crossing_fraction(model: Model, old: State, new: State) -> float | None:
+    """The fraction of the step at which the first hinge crosses its lock_at, or None."""
+    _, crossing = _lock_events(model, old, new)
+    return min(f for _, f in crossing) if crossing else None
 
 
 def _latch_hinges(prepared: Prepared, integrator, old: State, new: State, h: float) -> bool:
@@ -130,14 +137,8 @@ def _latch_hinges(prepared: Prepared, integrator, old: State, new: State, h: flo
     v⁺ = v⁻ − A⁻¹n (nᵀA⁻¹n)⁻¹ nᵀv⁻, with A = M + h²K (M alone may be singular).
     """
     model, assembler = prepared.model, prepared.assembler
-    latched = []
-    for k in model.free_hinges:
-        lock = model.hinges[k].lock_at
-        if lock is None:
-            continue
-        before, after = old.theta[k] - lock, new.theta[k] - lock
-        if before == 0.0 or before * after <= 0.0 or abs(after) <= _lock_tolerance(lock):
-            latched.append(k)
+    reached, crossing = _lock_events(model, old, new)
+    latched = reached + [k for k, _ in crossing]
     if not latched:
         return False
 
@@ -185,8 +186,9 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
     total0 = sum(energy0.values())
     balance_error, energy_scale = 0.0, max(abs(total0), 1e-300)
 
-    def record(s: State) -> None:
-        writer.record(s.t, probes.values(s), state=s.as_dict(), node_positions=_grid_points(assembler, s))
+    def record(s: State, energies: dict | None = None) -> None:
+        writer.record(s.t, probes.values(s, energies), state=s.as_dict(),
+                      node_positions=_grid_points(assembler, s))
 
     record(state)
     next_output = (every if every else 0.0)
@@ -244,7 +246,7 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
                 drift = abs(sum(energies.values()) - total0 - probes.external_work)
                 energy_scale = max(energy_scale, abs(sum(energies.values())), abs(probes.external_work))
                 balance_error = max(balance_error, drift)
-                record(state)
+                record(state, energies)
                 if every:
                     while next_output <= state.t + 1e-9 * dt:
                         next_output += every
