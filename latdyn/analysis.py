@@ -6,7 +6,8 @@ import scipy.linalg as sla
 
 from .assembly import advance, apply_prescribed
 from .errors import SolverError
-from .integrators import newton_diagnosis, solve_linear
+from .integrators import newton_diagnosis
+from .linalg import solve_linear
 
 
 def static_analysis(prepared, probes, writer, length_scale: float) -> None:

@@ -16,10 +16,9 @@ from dataclasses import dataclass, replace
 import numpy as np
 import scipy.sparse as sps
 
+from .linalg import DENSE_LIMIT
 from .model import PRESCRIBED, Model
 
-#: Models with at most this many free coordinates use dense matrices and LU.
-DENSE_LIMIT = 600
 
 # ----------------------------------------------------------------------------- rotations
 

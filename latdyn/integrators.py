@@ -30,10 +30,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.sparse.linalg as spla
 
 from .assembly import Assembler, State, advance, apply_prescribed, free_acceleration, free_velocity, unpack_free
 from .errors import SolverError
+from .linalg import solve_linear
 
 
 @dataclass(frozen=True)
@@ -57,15 +57,6 @@ class AlphaParameters:
             raise ValueError(f"unknown implicit method {method!r}")
         gamma = 0.5 + af - am
         return cls(am, af, gamma, 0.25 * (gamma + 0.5) ** 2)
-
-
-def solve_linear(matrix, rhs: np.ndarray) -> np.ndarray:
-    """Dense LU for dense or small systems, sparse LU beyond."""
-    if isinstance(matrix, np.ndarray):
-        return np.linalg.solve(matrix, rhs)
-    if matrix.shape[0] <= 600:
-        return np.linalg.solve(matrix.toarray(), rhs)
-    return spla.splu(matrix.tocsc()).solve(rhs)
 
 
 @dataclass
