@@ -7,6 +7,18 @@ from .assembly import Assembler, State
 
 _COMPONENT = {"x": 0, "y": 1, "z": 2}
 
+#: the columns of :func:`section_forces`, as spelled by ``{element: ..., quantity: ...}`` probes
+SECTION_QUANTITIES = ("axial_force", "torque", "moment_y", "moment_z")
+
+
+def section_forces(assembler: Assembler, state: State, geometry: np.ndarray | None = None) -> np.ndarray:
+    """Mid-element section forces of every element, shape (n_elem, 4), columns
+    :data:`SECTION_QUANTITIES`; ``geometry`` may be passed when already computed."""
+    if geometry is None:
+        geometry = assembler.element_geometry(state)
+    _, sections = assembler.kernels.beam_strain_energy(geometry, assembler.model.element_sections)
+    return sections
+
 
 class ProbeSet:
     """Evaluates the scene's probes; expensive groups (energies, momentum) once per call."""
@@ -56,8 +68,7 @@ class ProbeSet:
         momentum = self.assembler.momentum(state) if self._need_momentum else None
         sections = None
         if self._need_sections:
-            geometry = self.assembler.element_geometry(state)
-            _, sections = self.assembler.kernels.beam_strain_energy(geometry, m.element_sections)
+            sections = section_forces(self.assembler, state)
         out = []
         for p in self.probes:
             if p.kind == "point":
@@ -78,7 +89,7 @@ class ProbeSet:
                 out.append(float(vec[_COMPONENT[p.component]]))
             elif p.kind == "element":
                 e = int(m.beam_elements[p.beam][p.element])
-                column = ["axial_force", "torque", "moment_y", "moment_z"].index(p.quantity)
+                column = SECTION_QUANTITIES.index(p.quantity)
                 out.append(float(sections[e, column]))
             else:  # pragma: no cover - the scene validator refuses other kinds
                 raise ValueError(p.kind)

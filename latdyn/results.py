@@ -14,6 +14,18 @@ One :class:`ResultWriter` per run writes, into ``out_dir``:
 ``state.h5`` (or ``state.npz`` when h5py is missing)
     The full state history: dataset ``t`` ``(n_rows,)`` and one dataset per state key
     ``(n_rows, width)``, with attributes ``first_column`` and ``meta`` (JSON).
+    *Labels:* the writer's ``attributes`` become file attributes (a run stores
+    ``nodes``, the model node names such as ``"hub"``, ``"arm.node[3]"``, ``"arm.end"``;
+    ``hinges``, ``"BEAM.start"``/``"BEAM.end"``; ``coordinates``, the free coordinates at
+    t = 0 in solver order, ``"arm.node[3]:dx"`` …), and each dataset with ``labels``
+    has an attribute ``columns`` naming every column and a ``description``. For a run
+    (see :func:`state_labels`) the layout is node-major: node ``i`` (``nodes[i]``) owns
+    columns ``3i … 3i+2`` of ``x`` (reference point, global), ``v`` (its velocity) and
+    ``w`` (spatial angular velocity), labelled ``"arm.node[3]:x"`` … ``":z"``, and
+    columns ``9i … 9i+8`` of ``T`` (rotation node axes → global, row-major,
+    ``":T[0,0]"`` … ``":T[2,2]"``); hinge ``k`` (``hinges[k]``) owns column ``k`` of
+    ``theta`` and ``theta_dot`` (labelled ``"arm.start"``). Datasets of empty arrays
+    (no hinges) are absent. :func:`load_state_labels` reads the labels back.
     *Crash safety, the choice made:* the file on disk is always a complete, closed
     HDF5 file. New rows are held in memory and appended at a checkpoint by copying
     the current file to ``state.h5.tmp``, appending to the copy (datasets are
@@ -25,18 +37,40 @@ One :class:`ResultWriter` per run writes, into ``out_dir``:
     whichever comes first, but never more often than keeps checkpoint time below
     about 10 % of the run's wall time, and at :meth:`close`. The NPZ fallback keeps
     the whole history in memory and rewrites ``state.npz`` the same way (temp +
-    ``os.replace``).
+    ``os.replace``); its labels are one JSON string under the key ``_labels``.
 
-``paraview/frame_NNNNN.vtu`` and ``paraview/beams.pvd``
-    One VTU file (meshio, line cells = beam elements) per recorded frame and a PVD
-    collection listing them with their times, rewritten atomically after each frame;
-    open ``beams.pvd`` in ParaView. *Frame limit:* at most ``max_frames`` (default
-    2000) frames are kept. If ``expected_frames`` is given the writer keeps every
-    k-th candidate frame from the start, k = ceil(expected_frames / max_frames);
-    whenever the kept frames would still exceed ``max_frames`` the stride is doubled
-    and every other kept frame is deleted, so the frames on disk stay evenly spaced.
-    ``NNNNN`` is the index of the candidate frame (the count of ``record`` calls
-    that carried ``node_positions``), so subsampled runs have gaps in the numbering.
+``paraview/beams.pvd`` + ``paraview/frame_NNNNN.vtu``, ``paraview/bodies.pvd`` + ``paraview/bodies_NNNNN.vtu``
+    One series per part of ``mesh`` (``beams``, and ``bodies`` for a run with joint
+    bodies): one VTU file (meshio) per recorded frame and a PVD collection listing
+    them with their exact recorded times (``repr(float)``, as in ``probes.csv``),
+    rewritten atomically after each frame; open the ``.pvd`` files in ParaView. For a
+    run (built by ``latdyn.solve``):
+
+    - ``beams``: the points are the beam grid points, shared by consecutive elements
+      (one point per model node and grid offset, so a beam of n elements is a
+      polyline of n + 1 points; an end at an offset from its joint body is its own
+      point); line cells = elements. Point data ``displacement`` (from t = 0) and
+      ``velocity`` (v + ω × T r_g), both (n_points, 3); cell data ``axial_force``,
+      ``torque``, ``moment_y``, ``moment_z`` (mid-element section forces, the values
+      of the ``{element: ...}`` probes) and ``beam`` (index in scene order).
+    - ``bodies``: every joint body (fixed, prescribed, free; with or without mass) as
+      a vertex cell at its reference point, and a line cell from the body's reference
+      point to each beam grid point at an offset from it (the joint's lever arm).
+      Point data ``displacement``, ``velocity``, ``angular_velocity`` (of the body)
+      and ``axis_x``, ``axis_y``, ``axis_z`` (the body axes, for glyphs); cell data
+      ``body`` (index in scene order, also on its connector lines), ``mass`` (0 on
+      connector lines) and ``kind`` (0 free, 1 prescribed, 2 fixed).
+
+    *Frame limit:* at most ``max_frames`` (default 2000) frames are kept, plus the
+    frame of the last recorded row, which is always written (at :meth:`close`, for
+    a failed run too) when subsampling skipped it. If ``expected_frames`` is given the
+    writer keeps every k-th candidate frame from the start, k = ceil(expected_frames
+    / max_frames); whenever the kept frames would still exceed ``max_frames`` the
+    stride is doubled and every other kept frame is deleted, so the frames on disk
+    stay evenly spaced (but for the last one). ``NNNNN`` is the index of the
+    candidate frame (the count of ``record`` calls that carried a frame), so
+    subsampled runs have gaps in the numbering. A frame may be passed as a callable
+    that is called only for frames that are written, which keeps recording cheap.
 
 ``modes.csv``
     ``mode,frequency_hz``, modes numbered from 1 (:meth:`ResultWriter.write_modes`).
@@ -80,6 +114,8 @@ __all__ = [
     "ResultWriter",
     "ResultsError",
     "load_state_history",
+    "load_state_labels",
+    "state_labels",
     "progress_bar",
     "PROBES_FILE",
     "MODES_FILE",
@@ -97,6 +133,17 @@ STATE_H5_FILE = "state.h5"
 STATE_NPZ_FILE = "state.npz"
 PARAVIEW_DIR = "paraview"
 PVD_FILE = "beams.pvd"
+LABELS_KEY = "_labels"  # NPZ only: the labels as one JSON string
+
+#: ``description`` attributes of the state datasets a run writes (see :func:`state_labels`)
+STATE_DESCRIPTIONS = {
+    "x": "node reference points, global; 3 columns per node (x, y, z), node order = attribute nodes",
+    "T": "node rotations (node axes -> global), row-major; 9 columns per node, node order = attribute nodes",
+    "v": "node reference-point velocities, global; 3 columns per node",
+    "w": "node spatial angular velocities, global; 3 columns per node",
+    "theta": "hinge angles; one column per hinge, order = attribute hinges",
+    "theta_dot": "hinge rates; one column per hinge, order = attribute hinges",
+}
 
 #: keys that summary.json always has (SCENE.md); the caller fills the values
 SUMMARY_KEYS = (
@@ -219,6 +266,12 @@ class Result:
             raise ResultsError("this result was not written to a folder; it has no state history")
         return load_state_history(self.out_dir)
 
+    def state_labels(self) -> dict:
+        """The labels of the state history (see :func:`load_state_labels`)."""
+        if self.out_dir is None:
+            raise ResultsError("this result was not written to a folder; it has no state history")
+        return load_state_labels(self.out_dir)
+
     @classmethod
     def load(cls, out_dir) -> "Result":
         """Read ``probes.csv`` and, where present, ``summary.json`` and ``modes.csv``.
@@ -310,8 +363,79 @@ def load_state_history(out_dir) -> dict:
             return {name: f[name][()] for name in f.keys()}
     if npz_path.is_file():
         with np.load(npz_path) as f:
-            return {name: f[name] for name in f.files}
+            return {name: f[name] for name in f.files if name != LABELS_KEY}
     raise ResultsError(f"{folder}: no state history ({STATE_H5_FILE} or {STATE_NPZ_FILE})")
+
+
+def state_labels(nodes, hinges) -> dict:
+    """Column labels of the state history of a run, for ``ResultWriter(labels=...)``.
+
+    ``nodes``: node names in model order; ``hinges``: hinge names (``"BEAM.start"``).
+    Returns ``{"x": ["NODE:x", "NODE:y", "NODE:z", ...], "v": ..., "w": ...,
+    "T": ["NODE:T[0,0]", ..., "NODE:T[2,2]", ...], "theta": hinges, "theta_dot": hinges}``
+    (the layout of ``State.as_dict``: node-major, T row-major).
+    """
+    nodes, hinges = [str(n) for n in nodes], [str(h) for h in hinges]
+    vector = [f"{n}:{c}" for n in nodes for c in "xyz"]
+    matrix = [f"{n}:T[{i},{j}]" for n in nodes for i in range(3) for j in range(3)]
+    return {"x": vector, "T": matrix, "v": list(vector), "w": list(vector),
+            "theta": hinges, "theta_dot": list(hinges)}
+
+
+def load_state_labels(out_dir) -> dict:
+    """The labels of a state history: ``{"columns": {key: [label per column]}, name:
+    [...] for each file attribute given as ``attributes`` (``nodes``, ``hinges``,
+    ``coordinates`` for a run)}``; ``{"columns": {}}`` for a file without labels."""
+    folder = Path(out_dir)
+    h5_path, npz_path = folder / STATE_H5_FILE, folder / STATE_NPZ_FILE
+    if h5_path.is_file():
+        if h5py is None:
+            raise ResultsError(f"{h5_path}: h5py is needed to read this file")
+        with h5py.File(h5_path, "r") as f:
+            out = {str(k): [str(x) for x in np.atleast_1d(v)] for k, v in f.attrs.items()
+                   if k not in ("first_column", "meta")}
+            out["columns"] = {name: [str(x) for x in f[name].attrs["columns"]]
+                              for name in f.keys() if "columns" in f[name].attrs}
+            return out
+    if npz_path.is_file():
+        with np.load(npz_path) as f:
+            if LABELS_KEY in f.files:
+                return json.loads(str(f[LABELS_KEY]))
+            return {"columns": {}}
+    raise ResultsError(f"{folder}: no state history ({STATE_H5_FILE} or {STATE_NPZ_FILE})")
+
+
+def _normalise_mesh(mesh: dict) -> dict:
+    """``{part: {"n_points": int, "cells": [(cell type, int array (n, k)), ...]}}``; the
+    legacy form ``{"lines": (n, 2), "n_nodes": int}`` is the part ``beams``. Other keys
+    of a part are ignored (the caller may keep its own data there)."""
+    if "lines" in mesh and "n_nodes" in mesh:
+        mesh = {"beams": {"n_points": mesh["n_nodes"], "cells": [("line", mesh["lines"])]}}
+    parts = {}
+    for name, part in mesh.items():
+        name = str(name)
+        if not name.replace("_", "").isalnum():
+            raise ValueError(f"mesh part name {name!r}: letters, digits and '_' only")
+        n_points = int(part["n_points"])
+        cells = []
+        for cell_type, connectivity in part["cells"]:
+            array = np.asarray(connectivity, dtype=np.int64)
+            if array.ndim == 1:
+                array = array.reshape(-1, 1)
+            if array.ndim != 2:
+                raise ValueError(f"mesh part {name!r}: {cell_type} cells must be an (n, k) array")
+            if not len(array):
+                continue  # an empty block (no connector lines, say): VTU gets none
+            if array.min() < 0 or array.max() >= n_points:
+                raise ValueError(f"mesh part {name!r}: cells refer to points outside 0 .. {n_points - 1}")
+            cells.append((str(cell_type), array))
+        parts[name] = {"n_points": n_points, "cells": cells,
+                       "n_cells": sum(len(c) for _, c in cells)}
+    return parts
+
+
+def _series_file(part: str, index: int) -> str:
+    return f"frame_{index:05d}.vtu" if part == "beams" else f"{part}_{index:05d}.vtu"
 
 
 # ----------------------------------------------------------------------------- writer
@@ -326,11 +450,19 @@ class ResultWriter:
         Probe names in file order.
     first_column : "t" or "load_factor"
     mesh : dict, optional
-        ``{"lines": int array (n_cells, 2) of node indices, "n_nodes": int}``: the beam
-        elements as line cells for the ParaView frames.
+        The ParaView parts: ``{part: {"n_points": int, "cells": [(type, int array
+        (n, k)), ...]}}``, one series per part (``beams`` → ``beams.pvd``); or the
+        legacy ``{"lines": int array (n_cells, 2), "n_nodes": int}`` (the part
+        ``beams``). Kept as :attr:`mesh` (the caller's dict, extra keys included).
     meta : dict, optional
         JSON-able run description (title, analysis, ...): merged into summary.json and
         stored as the ``meta`` attribute of the state history.
+    labels : dict, optional
+        State key → one label per column (e.g. :func:`state_labels`); stored as the
+        ``columns`` attribute of that dataset. Checked against the widths.
+    attributes : dict, optional
+        Name → list of strings, stored as file attributes of ``state.h5`` (``nodes``,
+        ``hinges``, ``coordinates`` for a run).
     max_frames : int
         Most ParaView frames kept (evenly subsampled beyond that).
     expected_frames : int, optional
@@ -348,6 +480,8 @@ class ResultWriter:
         mesh: dict | None = None,
         meta: dict | None = None,
         *,
+        labels: dict | None = None,
+        attributes: dict | None = None,
         max_frames: int = 2000,
         expected_frames: int | None = None,
         checkpoint_rows: int = 500,
@@ -373,13 +507,14 @@ class ResultWriter:
         self.closed = False
         self._start = time.perf_counter()
 
-        self._mesh = None
-        if mesh is not None:
-            lines = np.asarray(mesh["lines"], dtype=np.int64).reshape(-1, 2)
-            n_nodes = int(mesh["n_nodes"])
-            if lines.size and (lines.min() < 0 or lines.max() >= n_nodes):
-                raise ValueError("mesh lines refer to nodes outside 0 .. n_nodes-1")
-            self._mesh = {"lines": lines, "n_nodes": n_nodes}
+        #: the ``mesh`` given by the caller (None without one)
+        self.mesh = mesh
+        self._parts = None if mesh is None else _normalise_mesh(mesh)
+        self._labels = {str(k): [str(x) for x in v] for k, v in (labels or {}).items()}
+        self._attributes = {str(k): [str(x) for x in v] for k, v in (attributes or {}).items()}
+        for name in self._attributes:
+            if name in ("first_column", "meta"):
+                raise ValueError(f"attribute name {name!r} is reserved")
 
         # probe rows in memory (for result())
         self._t: list[float] = []
@@ -403,7 +538,8 @@ class ResultWriter:
             stride = math.ceil(expected_frames / self.max_frames)
         self._frame_stride = stride
         self._frame_candidates = 0
-        self._frames: list[tuple[int, float, str]] = []  # (candidate index, t, file name)
+        self._frames: list[tuple[int, float, dict]] = []  # (candidate index, t, {part: file name})
+        self._unwritten_frame = None  # (index, t, frame) of the last candidate when it is not on disk
 
         self._fd = None
         if self.out_dir is not None:
@@ -420,8 +556,8 @@ class ResultWriter:
             except FileNotFoundError:
                 pass
         paraview = folder / PARAVIEW_DIR
-        if paraview.is_dir():
-            for stale in list(paraview.glob("frame_*.vtu")) + list(paraview.glob("*.tmp")) + [paraview / PVD_FILE]:
+        if paraview.is_dir():  # the folder is ours: every series of an earlier run goes
+            for stale in [p for pattern in ("*.vtu", "*.pvd", "*.tmp") for p in paraview.glob(pattern)]:
                 try:
                     stale.unlink()
                 except FileNotFoundError:
@@ -437,14 +573,21 @@ class ResultWriter:
             written += os.write(self._fd, data[written:])
 
     # -- recording
-    def record(self, t, values, state: dict | None = None, node_positions=None, node_data: dict | None = None) -> None:
+    def record(self, t, values, state: dict | None = None, node_positions=None, node_data: dict | None = None,
+               frame=None) -> None:
         """Append one row.
 
         t : float — time (or load factor).
         values : sequence in ``columns`` order, or dict name -> value.
         state : dict name -> 1-D float array, same keys and widths every call.
-        node_positions : (n_nodes, 3) current node positions: one ParaView frame.
-        node_data : dict name -> (n_nodes,) or (n_nodes, 3), point data of that frame.
+        frame : one ParaView frame, ``{part: {"points": (n_points, 3), "point_data":
+            {name: (n_points,) or (n_points, k)}, "cell_data": {name: (n_cells,) or
+            (n_cells, k)}}}`` (cells counted over the part's cell blocks in order), or a
+            callable returning that, called only if the frame is written; it must not
+            depend on objects the caller changes later (the last frame is written at
+            :meth:`close`).
+        node_positions, node_data : the legacy form of ``frame``, for the part ``beams``:
+            ``(n_points, 3)`` positions and its point data.
         """
         if self.closed:
             raise RuntimeError("ResultWriter.record() after close()")
@@ -465,14 +608,19 @@ class ResultWriter:
 
         if state is not None:
             self._add_state(t, state)
-        if node_positions is not None and self.out_dir is not None:
-            self._add_frame(t, node_positions, node_data or {})
+        if frame is None and node_positions is not None:
+            frame = {"beams": {"points": node_positions, "point_data": node_data or {}}}
+        if frame is not None and self.out_dir is not None:
+            self._add_frame(t, frame)
 
     def _add_state(self, t: float, state: dict) -> None:
         arrays = {str(k): np.array(v, dtype=float).ravel() for k, v in state.items()}
         if self._state_keys is None:
             if "t" in arrays:
                 raise ValueError("a state key may not be named 't'")
+            for k, a in arrays.items():
+                if k in self._labels and len(self._labels[k]) != a.size:
+                    raise ValueError(f"state {k!r} has {a.size} entries but {len(self._labels[k])} labels")
             self._state_keys = list(arrays)
             self._state_widths = {k: a.size for k, a in arrays.items()}
             self._pending = {k: [] for k in self._state_keys}
@@ -521,16 +669,23 @@ class ResultWriter:
             mode = "a"
         else:
             mode = "w"
-        with h5py.File(tmp, mode) as f:
+        # HDF5 1.8 object format: attributes (the labels) may exceed 64 KiB
+        with h5py.File(tmp, mode, libver=("v108", "latest")) as f:
             if mode == "w":
                 f.attrs["first_column"] = self.first_column
                 f.attrs["meta"] = json.dumps(_json_safe(self.meta))
+                for name, strings in self._attributes.items():
+                    f.attrs[name] = strings
                 f.create_dataset("t", shape=(0,), maxshape=(None,), dtype="f8", chunks=(1024,))
                 for k in self._state_keys:
                     width = self._state_widths[k]
                     rows_per_chunk = max(1, min(1024, (1 << 18) // max(1, width)))
-                    f.create_dataset(k, shape=(0, width), maxshape=(None, width), dtype="f8",
-                                     chunks=(rows_per_chunk, max(1, width)))
+                    dataset = f.create_dataset(k, shape=(0, width), maxshape=(None, width), dtype="f8",
+                                               chunks=(rows_per_chunk, max(1, width)))
+                    if k in self._labels:
+                        dataset.attrs["columns"] = self._labels[k]
+                        if k in STATE_DESCRIPTIONS:
+                            dataset.attrs["description"] = STATE_DESCRIPTIONS[k]
             n_old = f["t"].shape[0]
             f["t"].resize((n_old + n_new,))
             f["t"][n_old:] = np.asarray(self._pending_t)
@@ -550,64 +705,113 @@ class ResultWriter:
         for k in self._state_keys:
             width = self._state_widths[k]
             arrays[k] = np.stack(self._pending[k]).reshape(-1, width) if self._pending[k] else np.zeros((0, width))
+        if self._labels or self._attributes:
+            labels = dict(self._attributes)
+            labels["columns"] = {k: v for k, v in self._labels.items() if k in self._state_widths}
+            arrays[LABELS_KEY] = np.array(json.dumps(labels))
         buffer = io.BytesIO()
         np.savez(buffer, **arrays)
         _atomic_write_bytes(self.out_dir / STATE_NPZ_FILE, buffer.getvalue())
         self._state_rows_on_disk = len(self._pending_t)
 
-    def _add_frame(self, t: float, node_positions, node_data: dict) -> None:
-        import meshio
-
+    def _add_frame(self, t: float, frame) -> None:
         index = self._frame_candidates
         self._frame_candidates += 1
         if index % self._frame_stride:
+            # not kept now; written at close() should it stay the last one
+            self._unwritten_frame = (index, t, frame)
             return
-        points = np.asarray(node_positions, dtype=float).reshape(-1, 3)
-        if self._mesh is not None:
-            if points.shape[0] != self._mesh["n_nodes"]:
-                raise ValueError(f"node_positions has {points.shape[0]} rows, mesh has {self._mesh['n_nodes']} nodes")
-            cells = [("line", self._mesh["lines"])]
-        else:
-            cells = [("vertex", np.arange(points.shape[0], dtype=np.int64).reshape(-1, 1))]
-        point_data = {}
-        for name, value in node_data.items():
-            array = np.asarray(value, dtype=float)
-            if array.shape[0] != points.shape[0] or array.ndim not in (1, 2):
-                raise ValueError(f"node_data {name!r} has shape {array.shape}, expected ({points.shape[0]},) or ({points.shape[0]}, k)")
-            point_data[str(name)] = array
-        folder = self.out_dir / PARAVIEW_DIR
-        folder.mkdir(exist_ok=True)
-        name = f"frame_{index:05d}.vtu"
-        tmp = folder / (name + ".tmp")
-        meshio.write(tmp, meshio.Mesh(points, cells, point_data=point_data), file_format="vtu")
-        os.replace(tmp, folder / name)
-        self._frames.append((index, t, name))
+        self._unwritten_frame = None
+        frame = frame() if callable(frame) else frame
+        self._write_frame(index, t, frame)
         if len(self._frames) > self.max_frames:
             self._frame_stride *= 2
             kept = []
-            for frame in self._frames:
-                if frame[0] % self._frame_stride == 0:
-                    kept.append(frame)
+            for entry in self._frames:
+                if entry[0] % self._frame_stride == 0:
+                    kept.append(entry)
                 else:
-                    try:
-                        (folder / frame[2]).unlink()
-                    except FileNotFoundError:
-                        pass
+                    self._delete_frame(entry)
+            if kept[-1][0] != index:  # the newest frame went: keep its data for close()
+                self._unwritten_frame = (index, t, frame)
             self._frames = kept
         self._write_pvd()
 
+    def _write_last_frame(self) -> None:
+        """Write the frame of the last ``record`` call when subsampling skipped it."""
+        if self._unwritten_frame is None or self.out_dir is None:
+            return
+        index, t, frame = self._unwritten_frame
+        self._unwritten_frame = None
+        self._write_frame(index, t, frame() if callable(frame) else frame)
+        self._write_pvd()
+
+    def _write_frame(self, index: int, t: float, frame: dict) -> None:
+        import meshio
+
+        parts = self._parts
+        if parts is None:  # no mesh: the points of each part as vertices
+            parts = {str(name): {"n_points": len(np.asarray(data["points"]).reshape(-1, 3)),
+                                 "cells": [("vertex", np.arange(len(np.asarray(data["points"]).reshape(-1, 3)),
+                                                                dtype=np.int64).reshape(-1, 1))]}
+                     for name, data in frame.items()}
+            for part in parts.values():
+                part["n_cells"] = part["n_points"]
+        if set(frame) != set(parts):
+            raise ValueError(f"frame has parts {sorted(frame)}, the mesh has {sorted(parts)}")
+        folder = self.out_dir / PARAVIEW_DIR
+        folder.mkdir(exist_ok=True)
+        names = {}
+        for part_name, part in parts.items():
+            data = frame[part_name]
+            points = np.asarray(data["points"], dtype=float).reshape(-1, 3)
+            if points.shape[0] != part["n_points"]:
+                raise ValueError(f"frame part {part_name!r} has {points.shape[0]} points, "
+                                 f"the mesh has {part['n_points']}")
+            point_data = {}
+            for name, value in (data.get("point_data") or {}).items():
+                array = np.asarray(value)
+                if array.ndim not in (1, 2) or array.shape[0] != points.shape[0]:
+                    raise ValueError(f"point data {name!r} of {part_name!r} has shape {array.shape}, "
+                                     f"expected ({points.shape[0]},) or ({points.shape[0]}, k)")
+                point_data[str(name)] = array
+            cell_data = {}
+            counts = np.cumsum([len(c) for _, c in part["cells"]])[:-1]
+            for name, value in (data.get("cell_data") or {}).items():
+                array = np.asarray(value)
+                if array.ndim not in (1, 2) or array.shape[0] != part["n_cells"]:
+                    raise ValueError(f"cell data {name!r} of {part_name!r} has shape {array.shape}, "
+                                     f"expected ({part['n_cells']},) or ({part['n_cells']}, k)")
+                cell_data[str(name)] = np.split(array, counts)
+            file_name = _series_file(part_name, index)
+            tmp = folder / (file_name + ".tmp")
+            meshio.write(tmp, meshio.Mesh(points, part["cells"], point_data=point_data, cell_data=cell_data),
+                         file_format="vtu")
+            os.replace(tmp, folder / file_name)
+            names[part_name] = file_name
+        self._frames.append((index, t, names))
+
+    def _delete_frame(self, entry) -> None:
+        for file_name in entry[2].values():
+            try:
+                (self.out_dir / PARAVIEW_DIR / file_name).unlink()
+            except FileNotFoundError:
+                pass
+
     def _write_pvd(self) -> None:
-        lines = [
-            '<?xml version="1.0"?>',
-            '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">',
-            "  <Collection>",
-        ]
-        for _, t, name in self._frames:
-            lines.append(
-                f'    <DataSet timestep="{t!r}" group="" part="0" file={xml.sax.saxutils.quoteattr(name)}/>'
-            )
-        lines += ["  </Collection>", "</VTKFile>", ""]
-        _atomic_write_bytes(self.out_dir / PARAVIEW_DIR / PVD_FILE, "\n".join(lines).encode(), fsync=False)
+        parts = sorted({part for _, _, names in self._frames for part in names})
+        for part in parts:
+            lines = [
+                '<?xml version="1.0"?>',
+                '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">',
+                "  <Collection>",
+            ]
+            for _, t, names in self._frames:
+                if part in names:
+                    lines.append(f'    <DataSet timestep="{t!r}" group="" part="0" '
+                                 f'file={xml.sax.saxutils.quoteattr(names[part])}/>')
+            lines += ["  </Collection>", "</VTKFile>", ""]
+            _atomic_write_bytes(self.out_dir / PARAVIEW_DIR / f"{part}.pvd", "\n".join(lines).encode(), fsync=False)
 
     # -- modes and summary
     def write_modes(self, frequencies_hz) -> None:
@@ -642,7 +846,10 @@ class ResultWriter:
             merged["state_file"] = STATE_H5_FILE if self._use_h5 else STATE_NPZ_FILE
             merged["state_rows"] = self._state_rows_on_disk
         if self._frames:
-            merged["paraview"] = f"{PARAVIEW_DIR}/{PVD_FILE}"
+            series = sorted({part for _, _, names in self._frames for part in names},
+                            key=lambda part: (part != "beams", part))
+            merged["paraview"] = f"{PARAVIEW_DIR}/{series[0]}.pvd"
+            merged["paraview_series"] = [f"{PARAVIEW_DIR}/{part}.pvd" for part in series]
             merged["paraview_frames"] = len(self._frames)
         if self._modes is not None:
             merged["modes"] = int(self._modes.size)
@@ -662,9 +869,15 @@ class ResultWriter:
         """
         if self.closed:
             return self._final_summary
+        frame_error = None
         try:
             self.checkpoint()
         finally:
+            try:
+                self._write_last_frame()
+            except Exception as exc:  # the other files are still finished; see below
+                frame_error = exc
+                summary = dict(summary or {}, paraview_error=f"{type(exc).__name__}: {exc}")
             final = self._compose_summary(summary, status)
             if self._fd is not None:
                 os.close(self._fd)
@@ -672,6 +885,8 @@ class ResultWriter:
             self._write_summary(final)
             self._final_summary = final
             self.closed = True
+        if frame_error is not None and final["status"] == "solved":
+            raise frame_error
         return final
 
     def __enter__(self) -> "ResultWriter":

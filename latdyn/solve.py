@@ -13,8 +13,8 @@ from .errors import SolverError
 from .integrators import AlphaParameters, CentralDifference, GeneralizedAlpha, newton_diagnosis
 from .kernels import load_kernels
 from .model import Model
-from .probes import ProbeSet
-from .results import ResultWriter, progress_bar
+from .probes import SECTION_QUANTITIES, ProbeSet, section_forces
+from .results import ResultWriter, progress_bar, state_labels
 from .scene import Scene, load_scene
 
 
@@ -49,14 +49,67 @@ def _length_scale(model: Model) -> float:
     return max(span, 1e-3)
 
 
-def _mesh(model: Model) -> dict:
-    n = len(model.element_nodes)
-    return {"lines": np.arange(2 * n).reshape(n, 2), "n_nodes": 2 * n}
+def _mesh(model: Model, state: State) -> dict:
+    """The ParaView parts (see latdyn.results): ``beams``, the grid points (one per model
+    node and grid offset, shared by the elements that meet there) with the elements as
+    lines; ``bodies``, every joint body as a vertex and a line from it to each grid point
+    at an offset from it. Besides what the writer reads, each part keeps ``node`` and
+    ``offset`` (r_g in node axes) of its points, their positions ``p0`` in ``state`` (t = 0)
+    and its constant cell data."""
+    ends = model.element_nodes.reshape(-1)
+    offsets = model.element_offsets.reshape(-1, 3)
+    _, first, inverse = np.unique(np.column_stack([ends, offsets]), axis=0, return_index=True,
+                                  return_inverse=True)
+    order = np.argsort(first)  # points in order of first use: a beam's points run start → end
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    node, offset = ends[first[order]], offsets[first[order]]
+    beam_index = {name: i for i, name in enumerate(model.beam_elements)}
+
+    def positions(nodes, r):
+        return state.x[nodes] + np.einsum("nij,nj->ni", state.T[nodes], r)
+
+    mesh = {"beams": {"n_points": len(node), "cells": [("line", rank[inverse.reshape(-1)].reshape(-1, 2))],
+                      "node": node, "offset": offset, "p0": positions(node, offset),
+                      "cell_data": {"beam": np.array([beam_index[b] for b in model.element_beam], dtype=np.int64)}}}
+    names = list(model.body_node)
+    if names:
+        body_nodes = np.array([model.body_node[b] for b in names], dtype=np.int64)
+        body_of_node = np.full(len(model.nodes), -1, dtype=np.int64)
+        body_of_node[body_nodes] = np.arange(len(names))
+        arm = (body_of_node[node] >= 0) & np.any(offset != 0.0, axis=1)
+        n_b, n_c = len(names), int(arm.sum())
+        points_node = np.concatenate([body_nodes, node[arm]])
+        points_offset = np.concatenate([np.zeros((n_b, 3)), offset[arm]])
+        cell_body = np.concatenate([np.arange(n_b), body_of_node[node[arm]]])
+        mass = np.array([model.scene.bodies[b].mass for b in names], float)
+        mesh["bodies"] = {
+            "n_points": n_b + n_c,
+            "cells": [("vertex", np.arange(n_b).reshape(-1, 1)),
+                      ("line", np.column_stack([body_of_node[node[arm]], n_b + np.arange(n_c)]))],
+            "node": points_node, "offset": points_offset, "p0": positions(points_node, points_offset),
+            "cell_data": {"body": cell_body, "mass": np.concatenate([mass, np.zeros(n_c)]),
+                          "kind": np.array([model.nodes[i].kind for i in body_nodes[cell_body]], dtype=np.int64)},
+        }
+    return mesh
 
 
-def _grid_points(assembler: Assembler, state: State) -> np.ndarray:
-    g = assembler.element_geometry(state)
-    return np.stack([g[:, 0:3] + g[:, 6:9], g[:, 3:6] + g[:, 9:12]], axis=1).reshape(-1, 3)
+def _grid_points(assembler: Assembler, mesh: dict, state: State) -> dict:
+    """One ParaView frame of ``state`` for the parts of :func:`_mesh` (vectorized)."""
+    frame = {}
+    for name, part in mesh.items():
+        nodes = part["node"]
+        R = state.T[nodes]
+        r = np.einsum("nij,nj->ni", R, part["offset"])  # T r_g
+        points = state.x[nodes] + r
+        point_data = {"displacement": points - part["p0"], "velocity": state.v[nodes] + np.cross(state.w[nodes], r)}
+        cell_data = dict(part["cell_data"])
+        if name == "beams":
+            cell_data.update(zip(SECTION_QUANTITIES, section_forces(assembler, state).T))
+        else:
+            point_data.update(angular_velocity=state.w[nodes], axis_x=R[:, :, 0], axis_y=R[:, :, 1], axis_z=R[:, :, 2])
+        frame[name] = {"points": points, "point_data": point_data, "cell_data": cell_data}
+    return frame
 
 
 def run(scene, out_dir=None, backend: str = "auto", progress: bool = False):
@@ -74,7 +127,11 @@ def run(scene, out_dir=None, backend: str = "auto", progress: bool = False):
     if analysis == "transient":
         every = scene.output.every or scene.solve.dt
         frames = int(np.ceil(scene.solve.t_end / every)) + 1
-    writer = ResultWriter(out_dir, probes.names, first_column=first, mesh=_mesh(model), meta=meta,
+    writer = ResultWriter(out_dir, probes.names, first_column=first, mesh=_mesh(model, prepared.state), meta=meta,
+                          labels=state_labels([n.name for n in model.nodes], [f"{h.beam}.{h.end}" for h in model.hinges]),
+                          attributes={"nodes": [n.name for n in model.nodes],
+                                      "hinges": [f"{h.beam}.{h.end}" for h in model.hinges],
+                                      "coordinates": model.dof_names()},
                           max_frames=200, expected_frames=frames)
     summary = {"latdyn_version": __version__, "scene_hash": scene.source_hash, "steps": 0,
                "newton_iterations": 0, "rejected_steps": 0, "energy_balance_error": None}
@@ -188,7 +245,7 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
 
     def record(s: State, energies: dict | None = None) -> None:
         writer.record(s.t, probes.values(s, energies), state=s.as_dict(),
-                      node_positions=_grid_points(assembler, s))
+                      frame=lambda snapshot=s.copy(): _grid_points(assembler, writer.mesh, snapshot))
 
     record(state)
     next_output = (every if every else 0.0)
