@@ -6,7 +6,8 @@ import scipy.linalg as sla
 
 from .assembly import advance, apply_prescribed
 from .errors import SolverError
-from .integrators import newton_diagnosis
+from .inertia import split_inertia
+from .integrators import increment_size, newton_diagnosis
 from .linalg import solve_linear
 
 
@@ -48,7 +49,7 @@ def static_analysis(prepared, probes, writer, length_scale: float) -> None:
             trial = advance(model, trial, dx)
             apply_prescribed(model, trial, 0.0)
             iterations += 1
-            if np.max(np.abs(dx)) <= tol * length_scale:
+            if increment_size(model, dx, length_scale) <= tol:
                 converged = True
                 break
         if not converged:
@@ -69,8 +70,10 @@ def static_analysis(prepared, probes, writer, length_scale: float) -> None:
 def modal_analysis(prepared, count: int) -> np.ndarray:
     """Lowest ``count`` natural frequencies (Hz) about the initial configuration.
 
-    Coordinates without inertia are condensed statically (Guyan, exact for
-    them); rigid-body modes come out near zero.
+    Directions without inertia (found joint by joint, :mod:`latdyn.inertia`) are
+    condensed statically, which is exact for them (Guyan):  in the basis
+    Q = [Q_m, Q_c] with M Q_c = 0,  K_red = K_mm − K_mc K_cc⁻¹ K_cm  and
+    M_red = Q_mᵀ M Q_m, positive definite.  Rigid-body modes come out near zero.
     """
     model, assembler = prepared.model, prepared.assembler
     state = prepared.state.copy()
@@ -80,16 +83,15 @@ def modal_analysis(prepared, count: int) -> np.ndarray:
         return np.zeros(0)
     ev = assembler.evaluate(state, matrices=True)
     M, K = ev.combined(1.0, 0.0, 0.0, dense=True), ev.combined(0.0, 0.0, 1.0, dense=True)
-    K = 0.5 * (K + K.T)
-    M = 0.5 * (M + M.T)
-    diag = np.abs(np.diag(M))
-    massive = diag > 1e-12 * diag.max()
-    m, c = massive, ~massive
-    if np.any(c):
-        Kcc = K[np.ix_(c, c)]
-        Kcm = K[np.ix_(c, m)]
-        K = K[np.ix_(m, m)] - Kcm.T @ np.linalg.solve(Kcc, Kcm)
-        M = M[np.ix_(m, m)]
-    eigenvalues = sla.eigh(K, M, eigvals_only=True)
+    split = split_inertia(model, M)
+    Q = split.basis
+    M = Q.T @ (0.5 * (M + M.T)) @ Q
+    K = Q.T @ (0.5 * (K + K.T)) @ Q
+    m = slice(0, split.n_massive)
+    c = slice(split.n_massive, model.n_dofs)
+    if split.n_massless:
+        K = K[m, m] - K[m, c] @ np.linalg.solve(K[c, c], K[c, m])
+    M = M[m, m]
+    eigenvalues = sla.eigh(0.5 * (K + K.T), 0.5 * (M + M.T), eigvals_only=True)
     omega = np.sqrt(np.clip(eigenvalues, 0.0, None))
     return (omega / (2 * np.pi))[:count]

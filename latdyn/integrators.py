@@ -22,8 +22,18 @@ The same scheme gives, by its parameters:
 with γ = ½ + α_f − α_m and β = ¼(γ + ½)².
 
 ``explicit``: a Lie-group Störmer–Verlet (central difference) step on the
-coordinates with inertia; coordinates without inertia are condensed by a
-Newton solve of their static equations at every step.
+directions with inertia; directions without inertia are condensed by a Newton
+solve of their static equations at every step.
+
+Directions without inertia (the twist of an Euler–Bernoulli beam without
+rotary inertia, the spin of a massless joint about a hinge axis …) are found
+joint by joint by :mod:`latdyn.inertia`, invariant under rigid motions; the
+iteration matrix S stays regular on them through K, and only the start (and
+the explicit step) needs the split.
+
+Newton stops when the increment is small in :func:`increment_size`: per node
+|Δd|/ℓ and |Δπ| in radians, per hinge |Δθ| — dimensionless, and invariant
+under rigid motions of the scene (norms of 3-vectors, ℓ the scene's size).
 """
 from __future__ import annotations
 
@@ -33,6 +43,7 @@ import numpy as np
 
 from .assembly import Assembler, State, advance, apply_prescribed, free_acceleration, free_velocity, unpack_free
 from .errors import SolverError
+from .inertia import joint_blocks, joint_groups, joint_norms, split_inertia
 from .linalg import solve_linear
 
 
@@ -66,6 +77,49 @@ class StepStats:
     residual: np.ndarray | None = None
 
 
+def increment_size(model, dx: np.ndarray, length: float) -> float:
+    """The size of a Newton increment, dimensionless and invariant under rigid motions.
+
+    Per free node, |Δd| / ℓ (ℓ the size of the scene) and |Δπ| (radians, the norm
+    of the spatial rotation increment), per free hinge |Δθ|; the largest of them.
+    Norms of 3-vectors do not depend on the frame, component maxima would.
+    """
+    nodes = model.node_dofs[model.free_nodes]
+    translation = np.linalg.norm(dx[nodes[:, 0:3]], axis=1) / length
+    rotation = np.linalg.norm(dx[nodes[:, 3:6]], axis=1)
+    hinge = np.abs(dx[model.hinge_dofs[model.free_hinges]])
+    return float(max(np.max(translation, initial=0.0), np.max(rotation, initial=0.0),
+                     np.max(hinge, initial=0.0)))
+
+
+def consistent_acceleration(model, ev) -> np.ndarray:
+    """The correction Δv̇ that makes the accelerations consistent with the equations of motion.
+
+    With Q = [Q_m, Q_c] from :func:`latdyn.inertia.split_inertia` (M Q_c = 0) and
+    Δv̇ = Q_m y_m + Q_c y_c:  Q_mᵀ M Q_m y_m = −Q_mᵀ r  (the residual is affine in
+    v̇ with slope M), and the directions without inertia follow the massive ones as
+    the time derivative of their static equilibrium prescribes to first order,
+    Q_cᵀ K Q_c y_c = −Q_cᵀ K Q_m y_m.  No artificial inertia is added anywhere.
+    """
+    M = ev.mass
+    split = split_inertia(model, M)
+    Qm, Qc = split.massive, split.massless
+    delta = np.zeros(model.n_dofs)
+    if split.n_massive:
+        y_m = solve_linear((Qm.T @ M @ Qm).tocsr(), -(Qm.T @ ev.residual))
+        delta += Qm @ y_m
+    if split.n_massless:
+        K = ev.stiffness
+        Kcc = (Qc.T @ K @ Qc).tocsr()
+        try:
+            delta += Qc @ solve_linear(Kcc, -(Qc.T @ (K @ delta)))
+        except (np.linalg.LinAlgError, RuntimeError) as exc:
+            raise SolverError("a coordinate without inertia is held by no stiffness",
+                              "directions of the model carry neither inertia nor stiffness; "
+                              "`latdyn check` names the coordinate") from exc
+    return delta
+
+
 class GeneralizedAlpha:
     """One step of the Lie-group generalized-α family; state kept explicit."""
 
@@ -79,31 +133,20 @@ class GeneralizedAlpha:
         self.a = None  # algorithmic acceleration (free coordinates)
 
     def start(self, state: State) -> None:
-        """Consistent initial accelerations where the mass matrix allows (massless coordinates: 0)."""
+        """Consistent initial accelerations (see :func:`consistent_acceleration`)."""
         model = self.assembler.model
-        if model.n_dofs == 0:
-            self.a = np.zeros(0)
-            return
-        ev = self.assembler.evaluate(state, matrices=True)
-        vdot0 = free_acceleration(model, state)
-        diag = np.abs(ev.mass.diagonal())
-        massive = diag > 1e-12 * max(diag.max(), 1e-300)
-        if np.any(massive):
-            # Newton-consistent: solve M_mm Δv̇ = −r_m with massless coordinates held
-            Mmm = ev.mass[massive][:, massive]
-            try:
-                delta = solve_linear(Mmm.tocsr(), -ev.residual[massive])
-                vdot0[massive] += delta
-            except Exception:  # singular mass block: start at rest
-                pass
-        unpack_free(model, vdot0, state.a, state.alpha, state.theta_ddot)
-        self.a = vdot0.copy()
+        if model.n_dofs:
+            ev = self.assembler.evaluate(state, matrices=True)
+            vdot0 = free_acceleration(model, state) + consistent_acceleration(model, ev)
+            unpack_free(model, vdot0, state.a, state.alpha, state.theta_ddot)
+        self.a = free_acceleration(model, state)
 
-    def step(self, state: State, h: float) -> tuple[State, StepStats]:
+    def step(self, state: State, h: float, t_new: float | None = None) -> tuple[State, StepStats]:
+        """One step of size h from ``state``; ``t_new`` (default t + h) is the exact landing time."""
         model = self.assembler.model
         p = self.p
         n = model.n_dofs
-        t_new = state.t + h
+        t_new = state.t + h if t_new is None else t_new
         v_n = free_velocity(model, state)
         vdot_n = free_acceleration(model, state)
         a_n = self.a
@@ -145,7 +188,7 @@ class GeneralizedAlpha:
             v += gamma_p * dx
             vdot += beta_p * dx
             stats.iterations = iteration
-            if np.max(np.abs(dx)) <= self.tol * self.length_scale:
+            if increment_size(model, dx, self.length_scale) <= self.tol:
                 stats.converged = True
                 trial = configured()
                 break
@@ -158,71 +201,86 @@ class GeneralizedAlpha:
         self.a = self.a_candidate
 
     def error_estimate(self, h: float) -> float:
-        """Local error of the position update, h²|β − 1/6|‖a_{n+1} − a_n‖∞ (Géradin & Cardona)."""
-        return h * h * abs(self.p.beta - 1 / 6) * float(np.max(np.abs(self.a_candidate - self.a), initial=0.0))
+        """Local error of the position update, h²|β − 1/6| ‖a_{n+1} − a_n‖ (Géradin & Cardona).
+
+        The norm is the largest mass-weighted joint norm (:func:`latdyn.inertia.joint_norms`):
+        a length, blind to directions without inertia (whose algorithmic accelerations
+        carry no dynamics) and invariant under rigid motions of the scene.
+        """
+        ev = getattr(self, "last_evaluation", None)
+        if ev is None or self.assembler.model.n_dofs == 0:
+            return 0.0
+        blocks = joint_blocks(self.assembler.model, ev.mass, self.groups())
+        size = joint_norms(blocks, self.a_candidate - self.a)
+        return h * h * abs(self.p.beta - 1 / 6) * float(np.max(size, initial=0.0))
+
+    def groups(self) -> np.ndarray:
+        """Joint groups of the current numbering (rebuilt after a latch)."""
+        model = self.assembler.model
+        key = (model.n_dofs, tuple(model.free_hinges))
+        if getattr(self, "_groups_key", None) != key:
+            self._groups, self._groups_key = joint_groups(model), key
+        return self._groups
 
 
 class CentralDifference:
-    """Explicit Lie-group Störmer–Verlet; massless coordinates condensed statically each step."""
+    """Explicit Lie-group Störmer–Verlet; directions without inertia condensed statically each step.
+
+    The directions without inertia (:mod:`latdyn.inertia`) have no dynamics to
+    integrate: after the explicit update of the configuration they are put back
+    in static equilibrium by Newton on Q_cᵀ r = 0 (their inertia force vanishes,
+    Q_cᵀ M = 0), and their rates are the displacement that took over the step.
+    """
 
     def __init__(self, assembler: Assembler, tol: float, max_iterations: int, length_scale: float):
         self.assembler = assembler
         self.tol = tol
         self.max_iterations = max_iterations
         self.length_scale = length_scale
+        self.a = None
 
     def start(self, state: State) -> None:
         ev = self.assembler.evaluate(state, matrices=True)
-        diag = np.abs(ev.mass.diagonal())
-        self.massive = diag > 1e-12 * max(diag.max(initial=0.0), 1e-300)
-        self.massless = ~self.massive
-        self.a = None
         self._accelerate(state, ev)
 
     def _accelerate(self, state: State, ev) -> None:
         model = self.assembler.model
-        vdot = free_acceleration(model, state)
-        m = self.massive
-        if np.any(m):
-            Mmm = ev.mass[m][:, m].tocsr()
-            vdot[m] += solve_linear(Mmm, -ev.residual[m])
+        vdot = free_acceleration(model, state) + consistent_acceleration(model, ev)
         unpack_free(model, vdot, state.a, state.alpha, state.theta_ddot)
 
-    def step(self, state: State, h: float) -> tuple[State, StepStats]:
+    def step(self, state: State, h: float, t_new: float | None = None) -> tuple[State, StepStats]:
         model = self.assembler.model
+        t_new = state.t + h if t_new is None else t_new
         stats = StepStats(converged=True)
         v = free_velocity(model, state)
         vdot = free_acceleration(model, state)
         v_half = v + 0.5 * h * vdot
-        increment = h * v_half
-        increment[self.massless] = 0.0
-        trial = advance(model, state, increment)
-        apply_prescribed(model, trial, state.t + h)
+        trial = advance(model, state, h * v_half)
+        apply_prescribed(model, trial, t_new)
         unpack_free(model, v_half, trial.v, trial.w, trial.theta_dot)
-        # condense massless coordinates: Newton on their static equations
-        if np.any(self.massless):
-            c = self.massless
-            for iteration in range(self.max_iterations):
-                ev = self.assembler.evaluate(trial, matrices=True)
-                Kcc = ev.stiffness[c][:, c].tocsr()
-                dx = np.zeros(model.n_dofs)
-                dx[c] = solve_linear(Kcc, -ev.residual[c])
+        ev = self.assembler.evaluate(trial, matrices=True)
+        split = split_inertia(model, ev.mass)
+        correction = np.zeros(model.n_dofs)
+        if split.n_massless:
+            Qc = split.massless
+            for _ in range(self.max_iterations):
+                Kcc = (Qc.T @ ev.stiffness @ Qc).tocsr()
+                dx = Qc @ solve_linear(Kcc, -(Qc.T @ ev.residual))
                 trial = advance(model, trial, dx)
+                correction += dx
                 stats.iterations += 1
-                if np.max(np.abs(dx)) <= self.tol * self.length_scale:
+                ev = self.assembler.evaluate(trial, matrices=True)
+                if increment_size(model, dx, self.length_scale) <= self.tol:
                     break
             else:
                 stats.converged = False
-        ev = self.assembler.evaluate(trial, matrices=True)
         if not np.all(np.isfinite(ev.residual)):
             raise SolverError(
-                f"explicit integration became unstable at t = {state.t + h:.6g}",
+                f"explicit integration became unstable at t = {t_new:.6g}",
                 f"the step {h:.3g} exceeds the stability limit 2/ω_max of the stiffest mode with inertia; "
                 "reduce solve.dt or use an implicit method")
         self._accelerate(trial, ev)
-        vdot_new = free_acceleration(model, trial)
-        v_new = v_half + 0.5 * h * vdot_new
-        v_new[self.massless] = 0.0  # rates of massless coordinates are not tracked by the explicit step
+        v_new = v_half + 0.5 * h * free_acceleration(model, trial) + correction / h
         unpack_free(model, v_new, trial.v, trial.w, trial.theta_dot)
         stats.residual = ev.residual
         return trial, stats

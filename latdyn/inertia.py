@@ -1,0 +1,198 @@
+"""Coordinates without inertia: the null space of the mass matrix, joint by joint.
+
+An Euler–Bernoulli beam without rotary inertia (``rhoIy = rhoIz = 0``) stores
+kinetic energy only in the motion of its centreline, so the spin of each nodal
+frame about the beam's tangent carries none; a massless joint body that one
+hinged beam carries has no inertia about the hinge axis, and so on.  These
+directions are rarely coordinate axes: in a scene rotated as a whole they are
+mixtures of r_x, r_y, r_z (and hinge angles), so a test on the diagonal of M
+is frame-dependent and wrong.
+
+The null space is nonetheless *local*.  M is a sum of positive semi-definite
+element and body blocks, so Mz = 0 exactly when every element and body sees no
+kinetic energy from z.  An element's velocity field vanishes only when the
+velocity of each end's grid point and the bending rate of each end frame
+vanish (its Hermite shape functions are independent), and each of these
+conditions involves one node and at most one hinge.  Hence, with a *joint
+group* = a free node's 6 coordinates and the free hinges that sit on it (or a
+lone free hinge on a fixed or prescribed body),
+
+    null(M) = ⊕_groups null(M_gg),
+
+and a batched eigen-decomposition of the small diagonal blocks M_gg finds it
+exactly, at any model size, invariant under rigid motions of the scene.
+
+To compare kilograms with kilogram-square-metres, each block is scaled by the
+mean diagonal of its translational part, of its rotational part and of each
+hinge (traces are invariant under rotation); the eigenvalues of the scaled
+block are then O(1), and a direction whose eigenvalue falls below
+``MASSLESS_TOL`` is a direction without inertia.
+
+The basis ``Q = [Q_m, Q_c]`` (columns D^{-1/2}u of the scaled eigenvectors) is
+block-diagonal and nonsingular, M Q_c = 0, and Q_mᵀ M Q_m is positive definite
+wherever the massive directions have inertia: transient starts, explicit
+steps and modal analysis condense the Q_c directions statically (exact for
+them: they carry no inertia force).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sps
+
+#: Relative eigenvalue of a scaled joint block below which a direction has no inertia.
+MASSLESS_TOL = 1e-9
+
+
+def joint_groups(model) -> np.ndarray:
+    """Free coordinates grouped by joint: (n_groups, width) indices, padded with -1.
+
+    A free node's six coordinates come first, then the free hinges on that node;
+    a free hinge on a fixed or prescribed node forms a group of its own.
+    """
+    n = model.n_dofs
+    groups: list[list[int]] = []
+    group_of_node: dict[int, int] = {}
+    for node in model.free_nodes:
+        group_of_node[int(node)] = len(groups)
+        groups.append([int(d) for d in model.node_dofs[node]])
+    for k in model.free_hinges:
+        dof = int(model.hinge_dofs[k])
+        if dof >= n:
+            continue
+        node = model.hinges[k].node
+        if node in group_of_node:
+            groups[group_of_node[node]].append(dof)
+        else:
+            groups.append([dof])
+    width = max((len(g) for g in groups), default=1)
+    out = np.full((len(groups), width), -1, dtype=np.int64)
+    for i, g in enumerate(groups):
+        out[i, :len(g)] = g
+    return out
+
+
+def _block_kind(model, groups: np.ndarray) -> np.ndarray:
+    """Unit of each slot: 0 translation, 1 rotation, 2 + slot for a hinge, -1 padding."""
+    kind = np.full(groups.shape, -1, dtype=np.int64)
+    n_node_dofs = 6 * len(model.free_nodes)
+    node_slot = (groups >= 0) & (groups < n_node_dofs)
+    # free node coordinates are numbered node by node: [dx dy dz rx ry rz]
+    kind[node_slot] = (groups[node_slot] % 6) // 3
+    hinge_slot = groups >= n_node_dofs
+    kind[hinge_slot] = 2 + np.nonzero(hinge_slot)[1]
+    return kind
+
+
+def diagonal_blocks(matrix, groups: np.ndarray) -> np.ndarray:
+    """The dense diagonal blocks matrix[g, g] of every group (padding rows/cols zero)."""
+    valid = groups >= 0
+    safe = np.where(valid, groups, 0)
+    rows = np.broadcast_to(safe[:, :, None], safe.shape + safe.shape[1:])
+    cols = np.broadcast_to(safe[:, None, :], safe.shape + safe.shape[1:])
+    if sps.issparse(matrix):
+        values = np.asarray(matrix.tocsr()[rows.ravel(), cols.ravel()]).reshape(rows.shape)
+    else:
+        values = np.asarray(matrix)[rows, cols]
+    mask = valid[:, :, None] & valid[:, None, :]
+    return np.where(mask, values, 0.0)
+
+
+@dataclass
+class JointBlocks:
+    """The diagonal blocks M_gg of the mass matrix, joint by joint, with their unit scales."""
+
+    groups: np.ndarray  # (n_groups, width) coordinate indices, -1 = padding
+    blocks: np.ndarray  # (n_groups, width, width) M_gg, symmetric, zero on padding
+    scale: np.ndarray  # (n_groups, width) mean diagonal of the slot's unit in its group (1 where 0)
+    translation_mass: np.ndarray  # (n_groups,) mean translational diagonal (0 for a lone hinge)
+
+
+def joint_blocks(model, mass, groups: np.ndarray | None = None) -> JointBlocks:
+    """Extract M_gg for every joint group and the per-unit scales of the module docstring."""
+    if groups is None:
+        groups = joint_groups(model)
+    blocks = diagonal_blocks(mass, groups)
+    blocks = 0.5 * (blocks + np.swapaxes(blocks, 1, 2))
+    kind = _block_kind(model, groups)
+    diag = np.diagonal(blocks, axis1=1, axis2=2)
+    scale = np.ones(groups.shape)
+    translation_mass = np.zeros(len(groups))
+    for unit in np.unique(kind[kind >= 0]):
+        in_unit = kind == unit
+        count = in_unit.sum(axis=1)
+        mean = (diag * in_unit).sum(axis=1) / np.maximum(count, 1)
+        if unit == 0:
+            translation_mass = mean
+        scale = np.where(in_unit, mean[:, None], scale)
+    return JointBlocks(groups, blocks, np.where(scale > 0, scale, 1.0), translation_mass)
+
+
+@dataclass
+class InertiaSplit:
+    """The free coordinates split into directions with and without inertia.
+
+    ``basis`` is Q (n × n, block-diagonal by joint), its columns ordered
+    massive first; the first ``n_massive`` carry inertia, M Q_c = 0.
+    """
+
+    basis: object  # dense ndarray or CSR, (n, n)
+    n_massive: int
+
+    @property
+    def n_massless(self) -> int:
+        return self.basis.shape[1] - self.n_massive
+
+    @property
+    def massive(self):
+        return self.basis[:, :self.n_massive]
+
+    @property
+    def massless(self):
+        return self.basis[:, self.n_massive:]
+
+
+def split_inertia(model, mass, groups: np.ndarray | None = None) -> InertiaSplit:
+    """Find null(M) joint by joint (module docstring) and return the basis [Q_m, Q_c].
+
+    Q is dense when ``mass`` is, CSR otherwise.
+    """
+    joint = joint_blocks(model, mass, groups)
+    groups = joint.groups
+    valid = groups >= 0
+    root = 1.0 / np.sqrt(joint.scale)
+    scaled = joint.blocks * root[:, :, None] * root[:, None, :]
+    # padding slots get eigenvalue −1, so their eigenvectors are unit vectors on the padding
+    # and never mix with a degenerate null space of the real block
+    scaled = scaled - np.eye(groups.shape[1]) * (~valid)[:, None, :]
+    eigenvalues, vectors = np.linalg.eigh(scaled)
+    on_padding = eigenvalues < -0.5
+    top = np.max(eigenvalues, axis=1, initial=0.0)
+    massless = (eigenvalues <= MASSLESS_TOL * np.maximum(top, 1e-300)[:, None]) & ~on_padding
+    massive = ~on_padding & ~massless
+    n_massive = int(massive.sum())
+    column = np.full(eigenvalues.shape, -1, dtype=np.int64)
+    column[massive] = np.arange(n_massive)
+    column[massless] = n_massive + np.arange(int(massless.sum()))
+    g, i, j = np.nonzero(valid[:, :, None] & (column[:, None, :] >= 0))
+    values = (vectors * root[:, :, None])[g, i, j]  # columns D^{-1/2} u
+    n = model.n_dofs
+    Q = sps.csr_matrix((values, (groups[g, i], column[g, j])), shape=(n, n))
+    return InertiaSplit(Q if sps.issparse(mass) else Q.toarray(), n_massive)
+
+
+def joint_norms(joint: JointBlocks, vector: np.ndarray) -> np.ndarray:
+    """Per joint, the mass-weighted size of a coordinate vector in length units.
+
+    sqrt(x_gᵀ M_gg x_g / m_g), m_g the translational mass of the joint: a
+    translation counts as itself, a rotation by the lever arm of the inertia
+    it moves; directions without inertia count for nothing.  Invariant under
+    rigid motions of the scene.  Joints without translational mass give 0.
+    """
+    groups = joint.groups
+    padded = np.append(vector, 0.0)
+    x = padded[np.where(groups >= 0, groups, len(vector))]
+    energy = np.einsum("gi,gij,gj->g", x, joint.blocks, x)
+    mass = joint.translation_mass
+    return np.where(mass > 0, np.sqrt(np.clip(energy, 0.0, None) / np.where(mass > 0, mass, 1.0)), 0.0)
