@@ -1,8 +1,9 @@
 """``run(scene)``: model → analysis → result files (SCENE.md, "Commands and results")."""
 from __future__ import annotations
 
+import sys
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -16,6 +17,10 @@ from .model import Model
 from .probes import SECTION_QUANTITIES, ProbeSet, section_forces
 from .results import ResultWriter, progress_bar, state_labels
 from .scene import Scene, load_scene
+
+
+#: Default Newton tolerance on :func:`latdyn.integrators.increment_size` (see docs/verification.md).
+DEFAULT_TOL = 1e-9
 
 
 @dataclass
@@ -44,8 +49,12 @@ def prepare(scene, backend: str = "auto") -> Prepared:
 
 
 def _length_scale(model: Model) -> float:
-    points = np.array([n.position for n in model.nodes])
-    span = float(np.ptp(points, axis=0).max()) if len(points) else 1.0
+    """The size ℓ of the scene: twice the largest distance of a node from the centroid
+    (invariant under rigid motions, unlike extents along the global axes)."""
+    points = np.array([n.position for n in model.nodes]).reshape(-1, 3)
+    if len(points) == 0:
+        return 1.0
+    span = 2.0 * float(np.max(np.linalg.norm(points - points.mean(axis=0), axis=1)))
     return max(span, 1e-3)
 
 
@@ -222,56 +231,121 @@ def _latch_hinges(prepared: Prepared, integrator, old: State, new: State, h: flo
     return True
 
 
-def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progress: bool) -> None:
+@dataclass
+class TransientProgress:
+    """Everything the time loop carries from one step to the next, besides the model.
+
+    Explicit and picklable, so that a run can be checkpointed and resumed: the
+    state of the nodes and hinges, the integrator's algorithmic acceleration, the
+    step size, the latched hinges, the work and energy bookkeeping, and counters.
+    Times are computed from the grid index, never accumulated: the nominal step
+    k lands exactly on t_k = k·dt (the last one on t_end).
+    """
+
+    state: State
+    algorithmic_acceleration: np.ndarray | None
+    locked: np.ndarray  # latched hinges
+    h: float  # step size to try next
+    grid_index: int = 0  # nominal steps completed
+    output_index: int = 1  # next recorded time is output_index · every
+    external_work: float = 0.0
+    power: float = 0.0  # power of loads and prescribed motion at state.t
+    total0: float = 0.0  # kinetic + strain + potential at t = 0
+    potential0: float = 0.0
+    balance_error: float = 0.0  # max |Δ(total − external_work)|
+    energy_scale: float = 0.0  # max of kinetic, strain, |potential change|, |external work|
+    steps: int = 0
+    newton_iterations: int = 0
+    rejected_steps: int = 0  # all rejected attempts: Newton failures and error-control rejections
+    newton_cuts: int = 0  # steps halved because Newton did not converge
+    cut_times: list = field(default_factory=list)  # the first times at which a step was cut
+
+
+#: Cut steps reported on stderr one by one up to this many, then only counted.
+CUTS_REPORTED = 10
+
+
+def _report_cut(progress: TransientProgress, t: float, h: float, iterations: int) -> None:
+    progress.newton_cuts += 1
+    if len(progress.cut_times) < 100:
+        progress.cut_times.append(float(t))
+    if progress.newton_cuts <= CUTS_REPORTED:
+        tail = "" if progress.newton_cuts < CUTS_REPORTED else " (further cuts are only counted in summary.json)"
+        print(f"latdyn: Newton did not converge in {iterations} iterations at t = {t:.9g} with step {h:.3g}; "
+              f"step cut to {h / 2:.3g}{tail}", file=sys.stderr)
+
+
+def _grid_time(k: int, dt: float, t_end: float, n_grid: int) -> float:
+    """t_k = k·dt, computed (the last grid point is t_end exactly)."""
+    return t_end if k >= n_grid else k * dt
+
+
+def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progress: bool) -> TransientProgress:
     scene, model, assembler = prepared.scene, prepared.model, prepared.assembler
     solve = scene.solve
     length = _length_scale(model)
-    tol = solve.tol if solve.tol is not None else 1e-9
+    tol = solve.tol if solve.tol is not None else DEFAULT_TOL
     if solve.method == "explicit":
         integrator = CentralDifference(assembler, tol, solve.max_iterations, length)
     else:
         integrator = GeneralizedAlpha(assembler, AlphaParameters.for_method(solve.method, solve.rho_inf), tol,
                                       solve.max_iterations, length)
-    state = prepared.state
-    integrator.start(state)
     t_end, dt = float(solve.t_end), float(solve.dt)
+    n_grid = max(1, int(np.ceil(t_end / dt - 1e-9)))
     dt_min = solve.dt_min if solve.dt_min is not None else dt * 1e-6
     every = scene.output.every
-    ev0 = assembler.evaluate(state, matrices=False)
-    power = ev0.external_power + _drive_power(model, state, ev0.reaction)
-    energy0 = assembler.energies(state)
-    total0 = sum(energy0.values())
-    balance_error, energy_scale = 0.0, max(abs(total0), 1e-300)
 
-    def record(s: State, energies: dict | None = None) -> None:
+    state = prepared.state
+    integrator.start(state)
+    ev0 = assembler.evaluate(state, matrices=False)
+    energy0 = assembler.energies(state)
+    run = TransientProgress(state=state, algorithmic_acceleration=integrator.a, locked=model.locked.copy(), h=dt,
+                            power=ev0.external_power + _drive_power(model, state, ev0.reaction),
+                            total0=sum(energy0.values()), potential0=energy0["potential"])
+
+    def record(s: State, energies: dict) -> None:
+        # SCENE.md: max |Δ(total − external_work)| over the largest of kinetic, strain,
+        # |potential change| and |external work| seen
+        run.balance_error = max(run.balance_error,
+                                abs(sum(energies.values()) - run.total0 - probes.external_work))
+        run.energy_scale = max(run.energy_scale, energies["kinetic"], energies["strain"],
+                               abs(energies["potential"] - run.potential0), abs(probes.external_work))
         writer.record(s.t, probes.values(s, energies), state=s.as_dict(),
                       frame=lambda snapshot=s.copy(): _grid_points(assembler, writer.mesh, snapshot))
 
-    record(state)
-    next_output = (every if every else 0.0)
-    h = dt
-    steps = iterations = rejected = 0
+    def summarize() -> None:
+        writer.summary.update(
+            steps=run.steps, newton_iterations=run.newton_iterations, rejected_steps=run.rejected_steps,
+            newton_cuts=run.newton_cuts, cut_times=run.cut_times,
+            energy_balance_error=run.balance_error / run.energy_scale if run.energy_scale > 0 else 0.0,
+            newton_iterations_per_step=run.newton_iterations / max(run.steps, 1),
+            newton_tolerance=tol, method=solve.method)
+
+    record(state, energy0)
     bar = progress_bar(t_end, enabled=progress)
     try:
-        while state.t < t_end - 1e-12 * t_end:
-            h = min(h, t_end - state.t)
-            new, stats = integrator.step(state, h)
-            accept = stats.converged
-            if accept and solve.adaptive:
+        while run.grid_index < n_grid:
+            state = run.state
+            target = _grid_time(run.grid_index + 1, dt, t_end, n_grid)
+            h = run.h
+            lands = h >= (target - state.t) * (1 - 1e-9)
+            if lands:
+                h = target - state.t
+            new, stats = integrator.step(state, h, t_new=target if lands else None)
+            run.newton_iterations += stats.iterations
+            if stats.converged and solve.adaptive:
                 error = integrator.error_estimate(h) / (solve.error_tol * length)
                 if error > 1.0:
-                    accept = False
-                    iterations += stats.iterations
-                    rejected += 1
-                    h = max(h * max(0.2, 0.9 * error ** (-1 / 3)), dt_min)
+                    run.rejected_steps += 1
+                    run.h = max(h * max(0.2, 0.9 * error ** (-1 / 3)), dt_min)
                     continue
-            iterations += stats.iterations
-            if not accept:
-                rejected += 1
+            if not stats.converged:
+                run.rejected_steps += 1
                 if h / 2 < dt_min:
                     raise SolverError("Newton failed below the minimum step",
                                       newton_diagnosis(model, stats.residual, state.t + h, h, assembler, state))
-                h /= 2
+                _report_cut(run, state.t + h, h, stats.iterations)
+                run.h = h / 2
                 continue
             # a hinge reaching lock_at inside the step: shorten the step to land on it (secant, ≤ 4 passes)
             for _ in range(4):
@@ -281,8 +355,8 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
                 retry, retry_stats = integrator.step(state, h * max(fraction, 1e-6))
                 if not retry_stats.converged:
                     break
-                iterations += retry_stats.iterations
-                new, stats, h = retry, retry_stats, h * max(fraction, 1e-6)
+                run.newton_iterations += retry_stats.iterations
+                new, stats, h, lands = retry, retry_stats, h * max(fraction, 1e-6), False
             integrator.accept()
             _latch_hinges(prepared, integrator, state, new, h)
             # power of loads and prescribed motion: from the last Newton evaluation
@@ -291,31 +365,32 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
             if ev is None or len(ev.reaction) != model.n_total - model.n_dofs:
                 ev = assembler.evaluate(new, matrices=False)
             new_power = ev.external_power + _drive_power(model, new, ev.reaction)
-            probes.external_work += 0.5 * h * (power + new_power)
-            power = new_power
-            state = new
-            steps += 1
-            if steps % 256 == 0:  # exp updates keep T on SO(3) to round-off; remove the drift of long runs
+            probes.external_work += 0.5 * h * (run.power + new_power)
+            run.power = new_power
+            run.external_work = probes.external_work
+            run.state = state = new
+            run.algorithmic_acceleration = integrator.a
+            run.locked = model.locked.copy()
+            run.steps += 1
+            if lands:
+                run.grid_index += 1
+            if run.steps % 256 == 0:  # exp updates keep T on SO(3) to round-off; remove the drift of long runs
                 state.T[model.free_nodes] = orthonormalize(state.T[model.free_nodes])
-            writer.summary.update(steps=steps, newton_iterations=iterations, rejected_steps=rejected)
-            if every is None or state.t >= next_output - 1e-9 * dt:
-                energies = assembler.energies(state)
-                drift = abs(sum(energies.values()) - total0 - probes.external_work)
-                energy_scale = max(energy_scale, abs(sum(energies.values())), abs(probes.external_work))
-                balance_error = max(balance_error, drift)
-                record(state, energies)
+            finished = run.grid_index >= n_grid
+            due = every is None or state.t >= run.output_index * every - 1e-9 * dt
+            if due or finished:  # every output time, and t_end always
+                record(state, assembler.energies(state))
                 if every:
-                    while next_output <= state.t + 1e-9 * dt:
-                        next_output += every
+                    run.output_index = int(np.floor(state.t / every + 1e-9 * dt / every)) + 1
+            summarize()
             bar.update(state.t)
             if solve.adaptive:
                 error = integrator.error_estimate(h) / (solve.error_tol * length)
-                h = min(dt, h * min(2.0, 0.9 * max(error, 1e-10) ** (-1 / 3)))
-            elif stats.iterations and h < dt:
-                h = min(dt, 2 * h)  # recover the nominal step after a cut
+                run.h = min(dt, h * min(2.0, 0.9 * max(error, 1e-10) ** (-1 / 3)))
+            elif h < dt:
+                run.h = min(dt, 2 * h)  # recover the nominal step after a cut or a shortened step
     finally:
         bar.close()
-        writer.summary.update(steps=steps, newton_iterations=iterations, rejected_steps=rejected,
-                              energy_balance_error=balance_error / energy_scale,
-                              newton_iterations_per_step=iterations / max(steps, 1),
-                              method=solve.method)
+        summarize()
+    prepared.state = run.state
+    return run
