@@ -13,11 +13,17 @@ def load_scene(source):
     return _load(source)
 
 
-def run(scene, out_dir=None, backend="auto", progress=False):
-    """Solve a scene (a Scene, a dict or a path); returns a :class:`latdyn.results.Result`."""
+def run(scene, out_dir=None, backend="auto", progress=False, *, resume=False, checkpoint_every=None):
+    """Solve a scene (a Scene, a dict or a path); returns a :class:`latdyn.results.Result`.
+
+    Transient runs into ``out_dir`` write a checkpoint every ``checkpoint_every``
+    seconds (default 60), on Ctrl-C/SIGTERM and on failure; ``resume=True`` continues
+    from it (see :mod:`latdyn.checkpoint`).
+    """
     from .solve import run as _run
 
-    return _run(scene, out_dir=out_dir, backend=backend, progress=progress)
+    return _run(scene, out_dir=out_dir, backend=backend, progress=progress, resume=resume,
+                checkpoint_every=checkpoint_every)
 
 
 __all__ = ["load_scene", "run", "SceneError", "SolverError", "__version__"]

@@ -5,8 +5,10 @@ Exit statuses (SCENE.md):
 =====  ===============================================================================
 0      solved (``run``), valid (``check``), plotted (``plot``)
 1      the solver failed (what was recorded is left complete), or an internal error
-2      invalid scene, missing scene file, bad arguments, missing/invalid results folder
-130    interrupted (Ctrl-C); what was recorded is left complete
+2      invalid scene, missing scene file, bad arguments, missing/invalid results folder,
+       ``run --resume`` without a checkpoint of this scene and version
+130    interrupted (Ctrl-C, SIGTERM); what was recorded is left complete, with a
+       checkpoint for ``run --resume``
 =====  ===============================================================================
 
 Every message goes to stderr as ``latdyn: error: <message>``; no traceback unless
@@ -22,6 +24,7 @@ import traceback
 from pathlib import Path
 
 from . import __version__
+from .checkpoint import CheckpointError
 from .errors import SceneError, SolverError
 
 __all__ = ["main", "build_parser", "default_out_dir"]
@@ -63,8 +66,13 @@ def _command_run(args) -> int:
     out_dir = Path(args.out) if args.out else default_out_dir(args.scene)
     existed = out_dir.exists()
     solve = _module("latdyn.solve")
+    options = {}  # passed only when given: stand-ins of latdyn.solve need not know them
+    if args.resume:
+        options["resume"] = True
+    if args.checkpoint_every is not None:
+        options["checkpoint_every"] = args.checkpoint_every
     try:
-        result = solve.run(scene, out_dir=str(out_dir), backend=args.backend, progress=not args.quiet)
+        result = solve.run(scene, out_dir=str(out_dir), backend=args.backend, progress=not args.quiet, **options)
     except SceneError:
         # a check that needs the model (e.g. a coordinate nothing holds): still an
         # invalid scene, and nothing may be left behind
@@ -77,11 +85,16 @@ def _command_run(args) -> int:
         _error(f"the solver failed: {exc}")
         if out_dir.is_dir():
             print(f"{PROG}: what was recorded up to the failure is in {out_dir}", file=sys.stderr)
+        _resume_hint(args, out_dir)
         return 1
     except KeyboardInterrupt:
         where = f"; what was recorded so far is in {out_dir}" if out_dir.is_dir() else ""
         print(f"\n{PROG}: interrupted{where}", file=sys.stderr)
+        _resume_hint(args, out_dir)
         return 130
+    except CheckpointError as exc:  # --resume refused: nothing was changed in OUT
+        _error(str(exc))
+        return 2
     summary = getattr(result, "summary", {}) or {}
     steps = summary.get("steps")
     wall = summary.get("wall_time_s")
@@ -92,6 +105,12 @@ def _command_run(args) -> int:
         parts.append(f"{wall:.2f} s wall time")
     print(", ".join(parts))
     return 0
+
+
+def _resume_hint(args, out_dir: Path) -> None:
+    if (out_dir / "checkpoint.npz").is_file():
+        print(f"{PROG}: a checkpoint of the last accepted step is in {out_dir}; continue with "
+              f"`{PROG} run {args.scene} -o {out_dir} --resume`", file=sys.stderr)
 
 
 def _command_check(args) -> int:
@@ -124,6 +143,16 @@ def _command_plot(args) -> int:
 
 
 # ----------------------------------------------------------------------------- parser
+def _seconds(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not value >= 0.0 or value == float("inf"):
+        raise argparse.ArgumentTypeError(f"expected a number of seconds >= 0, not {text!r}")
+    return value
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog=PROG,
@@ -148,6 +177,12 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--backend", choices=("auto", "c", "numpy"), default="auto",
                      help="element kernels: compiled C, NumPy, or auto (C when a compiler works)")
     run.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    run.add_argument("--resume", action="store_true",
+                     help="continue an interrupted or failed transient run from the checkpoint in OUT "
+                     "(exit 2 when there is none, or it is of another scene or latdyn version)")
+    run.add_argument("--checkpoint-every", metavar="SECONDS", type=_seconds, default=None,
+                     help="wall-clock seconds between checkpoints of a transient run (default 60; "
+                     "0: every step); a checkpoint is also written on Ctrl-C, SIGTERM and failure")
     run.set_defaults(handler=_command_run)
 
     check = commands.add_parser("check", parents=[common], help="validate a scene and print the model size",

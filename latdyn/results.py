@@ -470,6 +470,10 @@ class ResultWriter:
         subsampling stride from the start.
     checkpoint_rows, checkpoint_seconds :
         When the state history is rewritten on disk (whichever comes first).
+    resume : dict, optional
+        A :meth:`bookmark` of an earlier writer of this folder: the files are kept,
+        cut back to what the bookmark says was recorded, and appended to (see
+        :meth:`bookmark`).
     """
 
     def __init__(
@@ -486,6 +490,7 @@ class ResultWriter:
         expected_frames: int | None = None,
         checkpoint_rows: int = 500,
         checkpoint_seconds: float = 10.0,
+        resume: dict | None = None,
     ):
         if first_column not in ("t", "load_factor"):
             raise ValueError(f"first_column must be 't' or 'load_factor', not {first_column!r}")
@@ -540,10 +545,14 @@ class ResultWriter:
         self._frame_candidates = 0
         self._frames: list[tuple[int, float, dict]] = []  # (candidate index, t, {part: file name})
         self._unwritten_frame = None  # (index, t, frame) of the last candidate when it is not on disk
+        self._missing_frames: set[int] = set()  # resumed: listed frames whose files a later run deleted
 
         self._fd = None
         if self.out_dir is not None:
-            self._start_files()
+            if resume is not None:
+                self._reopen_files(resume)
+            else:
+                self._start_files()
 
     # -- setup
     def _start_files(self) -> None:
@@ -565,6 +574,121 @@ class ResultWriter:
         self._fd = os.open(folder / PROBES_FILE, os.O_WRONLY | os.O_CREAT | os.O_TRUNC | os.O_APPEND, 0o644)
         self._write_line(_csv_line([self.first_column, *self.columns]))
         self._write_summary({"status": "running"})
+
+    def bookmark(self) -> dict:
+        """What was recorded so far, for resuming into the same folder (``resume=``).
+
+        ``rows`` (probe rows), ``state_rows`` (state history rows), and the ParaView
+        bookkeeping: ``frame_candidates`` (``record`` calls with a frame so far),
+        ``frame_stride``, ``frames`` (``[candidate index, t, {part: file}]`` of the
+        frames on disk) and ``unwritten`` (``[index, t]`` of the last candidate when
+        subsampling left it off disk, else None). Everything the writer decides from
+        here on depends only on these counts, so a resumed writer continues exactly
+        as this one would have.
+        """
+        state_rows = len(self._pending_t) + (self._state_rows_on_disk if self._use_h5 else 0)
+        unwritten = None if self._unwritten_frame is None else list(self._unwritten_frame[:2])
+        return {"rows": len(self._t), "state_rows": state_rows if self._state_keys is not None else 0,
+                "frame_candidates": self._frame_candidates, "frame_stride": self._frame_stride,
+                "frames": [[index, t, dict(names)] for index, t, names in self._frames], "unwritten": unwritten}
+
+    def reattach_last_frame(self, frame) -> None:
+        """Resumed: the frame (or a callable giving it) of the bookmark's ``unwritten``
+        candidate, written at :meth:`close` should it stay the last one."""
+        if self._unwritten_frame is not None:
+            index, t, _ = self._unwritten_frame
+            self._unwritten_frame = (index, t, frame)
+
+    def _reopen_files(self, mark: dict) -> None:
+        """Resume into ``out_dir``: keep the first ``mark["rows"]`` rows of every file,
+        drop what an interrupted run wrote after the bookmark, append from there."""
+        folder = self.out_dir
+        rows, state_rows = int(mark["rows"]), int(mark["state_rows"])
+        # probes.csv: header and the first `rows` rows; a later or cut-off row goes
+        path = folder / PROBES_FILE
+        try:
+            data = path.read_bytes()
+        except OSError as exc:
+            raise ResultsError(f"{path}: cannot resume ({exc})") from exc
+        lines = data.split(b"\n")
+        header = _csv_line([self.first_column, *self.columns]).encode("utf-8")
+        if not data.startswith(header):
+            raise ResultsError(f"{path}: cannot resume: its header is not {header.decode().strip()!r}")
+        if len(lines) - 2 < rows:  # complete rows: the last piece is empty or a cut-off row
+            raise ResultsError(f"{path}: cannot resume: it has fewer than the {rows} rows the checkpoint recorded")
+        keep = sum(len(line) + 1 for line in lines[: rows + 1])
+        for line in lines[1: rows + 1]:
+            values = [float(x) for x in line.decode("utf-8").split(",")]
+            self._t.append(values[0])
+            self._rows.append(values[1:])
+        os.truncate(path, keep)
+        for name in (STATE_H5_FILE + ".tmp", STATE_NPZ_FILE + ".tmp", SUMMARY_FILE + ".tmp"):
+            try:
+                (folder / name).unlink()
+            except FileNotFoundError:
+                pass
+        if state_rows:
+            self._reopen_state(state_rows)
+        # ParaView: the bookmark's frames; files of later frames go
+        self._frame_candidates = int(mark["frame_candidates"])
+        self._frame_stride = int(mark["frame_stride"])
+        self._frames = [(int(index), float(t), {str(k): str(v) for k, v in names.items()})
+                        for index, t, names in mark["frames"]]
+        if mark.get("unwritten") is not None:
+            index, t = mark["unwritten"]
+            self._unwritten_frame = (int(index), float(t), None)
+        paraview = folder / PARAVIEW_DIR
+        listed = {name for _, _, names in self._frames for name in names.values()}
+        if paraview.is_dir():
+            for stale in [p for pattern in ("*.vtu", "*.tmp") for p in paraview.glob(pattern)]:
+                if stale.name not in listed:
+                    stale.unlink(missing_ok=True)
+        self._missing_frames = {index for index, _, names in self._frames
+                                if not all((paraview / name).is_file() for name in names.values())}
+        if self._frames:
+            self._write_pvd()
+        self._fd = os.open(path, os.O_WRONLY | os.O_APPEND)
+        self._write_summary({"status": "running"})
+
+    def _reopen_state(self, rows: int) -> None:
+        """Resume the state history: its first ``rows`` rows (a later one goes, atomically)."""
+        path = self.out_dir / (STATE_H5_FILE if self._use_h5 else STATE_NPZ_FILE)
+        if not path.is_file():
+            raise ResultsError(f"{path}: cannot resume: the state history is missing")
+        if self._use_h5:
+            with h5py.File(path, "r") as f:
+                keys = [k for k in f.keys() if k != "t"]
+                widths = {k: int(f[k].shape[1]) for k in keys}
+                on_disk = int(f["t"].shape[0])
+        else:
+            with np.load(path) as f:
+                keys = [k for k in f.files if k not in ("t", LABELS_KEY)]
+                history = {k: f[k] for k in ["t", *keys]}
+            widths = {k: int(history[k].shape[1]) for k in keys}
+            on_disk = len(history["t"])
+        if on_disk < rows:
+            raise ResultsError(f"{path}: cannot resume: it has {on_disk} rows, the checkpoint recorded {rows}")
+        order = [k for k in ("x", "T", "v", "w", "theta", "theta_dot") if k in keys]  # State.as_dict order
+        self._state_keys = order + [k for k in keys if k not in order]
+        self._state_widths = widths
+        if self._use_h5:
+            self._pending = {k: [] for k in self._state_keys}
+            if on_disk > rows:
+                tmp = path.with_name(path.name + ".tmp")
+                shutil.copyfile(path, tmp)
+                with h5py.File(tmp, "a") as f:
+                    f["t"].resize((rows,))
+                    for k in keys:
+                        f[k].resize((rows, widths[k]))
+                _fsync_path(tmp)
+                os.replace(tmp, path)
+            self._state_rows_on_disk = rows
+        else:  # the whole history in memory, as the writer keeps it
+            self._pending_t = [float(x) for x in history["t"][:rows]]
+            self._pending = {k: [row.copy() for row in history[k][:rows]] for k in self._state_keys}
+            self._state_rows_on_disk = on_disk
+            if on_disk > rows:
+                self._checkpoint_npz()
 
     def _write_line(self, line: str) -> None:
         data = line.encode("utf-8")
@@ -732,6 +856,7 @@ class ResultWriter:
                     kept.append(entry)
                 else:
                     self._delete_frame(entry)
+                    self._missing_frames.discard(entry[0])
             if kept[-1][0] != index:  # the newest frame went: keep its data for close()
                 self._unwritten_frame = (index, t, frame)
             self._frames = kept
@@ -743,6 +868,8 @@ class ResultWriter:
             return
         index, t, frame = self._unwritten_frame
         self._unwritten_frame = None
+        if frame is None:  # resumed without the frame's data (reattach_last_frame was not called)
+            return
         self._write_frame(index, t, frame() if callable(frame) else frame)
         self._write_pvd()
 
@@ -806,8 +933,8 @@ class ResultWriter:
                 '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">',
                 "  <Collection>",
             ]
-            for _, t, names in self._frames:
-                if part in names:
+            for index, t, names in self._frames:
+                if part in names and index not in self._missing_frames:
                     lines.append(f'    <DataSet timestep="{t!r}" group="" part="0" '
                                  f'file={xml.sax.saxutils.quoteattr(names[part])}/>')
             lines += ["  </Collection>", "</VTKFile>", ""]
@@ -850,7 +977,7 @@ class ResultWriter:
                             key=lambda part: (part != "beams", part))
             merged["paraview"] = f"{PARAVIEW_DIR}/{series[0]}.pvd"
             merged["paraview_series"] = [f"{PARAVIEW_DIR}/{part}.pvd" for part in series]
-            merged["paraview_frames"] = len(self._frames)
+            merged["paraview_frames"] = len(self._frames) - len(self._missing_frames)
         if self._modes is not None:
             merged["modes"] = int(self._modes.size)
         return _json_safe(merged)

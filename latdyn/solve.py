@@ -1,13 +1,16 @@
 """``run(scene)``: model → analysis → result files (SCENE.md, "Commands and results")."""
 from __future__ import annotations
 
+import signal
 import sys
+import threading
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from . import __version__
+from . import checkpoint as checkpoints
 from .analysis import modal_analysis, static_analysis
 from .assembly import Assembler, State, free_velocity, initial_state, orthonormalize, pack, unpack_free
 from .errors import SolverError
@@ -15,7 +18,7 @@ from .integrators import AlphaParameters, CentralDifference, GeneralizedAlpha, n
 from .kernels import load_kernels
 from .model import Model
 from .probes import SECTION_QUANTITIES, ProbeSet, section_forces
-from .results import ResultWriter, progress_bar, state_labels
+from .results import ResultsError, ResultWriter, progress_bar, state_labels
 from .scene import Scene, load_scene
 
 
@@ -121,31 +124,65 @@ def _grid_points(assembler: Assembler, mesh: dict, state: State) -> dict:
     return frame
 
 
-def run(scene, out_dir=None, backend: str = "auto", progress: bool = False):
-    """Solve a scene and write its results; returns a :class:`latdyn.results.Result`."""
+def run(scene, out_dir=None, backend: str = "auto", progress: bool = False, *, resume: bool = False,
+        checkpoint_every: float | None = None):
+    """Solve a scene and write its results; returns a :class:`latdyn.results.Result`.
+
+    A transient run with an ``out_dir`` writes a checkpoint there (:mod:`latdyn.checkpoint`)
+    every ``checkpoint_every`` seconds of wall time (default 60; 0: every step), on
+    Ctrl-C or SIGTERM and when the solver fails; ``resume=True`` continues from it
+    (:class:`latdyn.checkpoint.CheckpointError` when there is none or it belongs to
+    another scene or package version).
+    """
     wall0 = time.perf_counter()
+    scene = load_scene(scene)
+    analysis = scene.solve.analysis
+    resume_from = None
+    if resume:
+        if out_dir is None:
+            raise checkpoints.CheckpointError("resuming needs the results folder of the run (out_dir)")
+        if analysis != "transient":
+            raise checkpoints.CheckpointError(f"{out_dir}: a {analysis} analysis is not checkpointed; "
+                                              "there is nothing to resume")
+        resume_from = checkpoints.load(out_dir, checkpoints.identity(scene))
     prepared = prepare(scene, backend)
     scene, model = prepared.scene, prepared.model
-    analysis = scene.solve.analysis
+    kernel_backend = prepared.assembler.kernels.backend
+    if resume_from is not None:
+        checkpoints.check(resume_from, out_dir, {"backend": kernel_backend})
+    elif out_dir is not None:
+        checkpoints.discard(out_dir)  # a fresh run: a checkpoint of an earlier one is stale
     probes = ProbeSet(prepared.assembler, prepared.state)
     first = "load_factor" if analysis == "static" else "t"
     meta = {"analysis": analysis, "title": scene.title, "coordinates": model.n_dofs,
-            "elements": len(model.element_nodes), "backend": prepared.assembler.kernels.backend,
+            "elements": len(model.element_nodes), "backend": kernel_backend,
             "formulation": scene.solve.formulation}
     frames = None
     if analysis == "transient":
         every = scene.output.every or scene.solve.dt
         frames = int(np.ceil(scene.solve.t_end / every)) + 1
-    writer = ResultWriter(out_dir, probes.names, first_column=first, mesh=_mesh(model, prepared.state), meta=meta,
-                          labels=state_labels([n.name for n in model.nodes], [f"{h.beam}.{h.end}" for h in model.hinges]),
-                          attributes={"nodes": [n.name for n in model.nodes],
-                                      "hinges": [f"{h.beam}.{h.end}" for h in model.hinges],
-                                      "coordinates": model.dof_names()},
-                          max_frames=200, expected_frames=frames)
+    try:
+        writer = ResultWriter(out_dir, probes.names, first_column=first, mesh=_mesh(model, prepared.state), meta=meta,
+                              labels=state_labels([n.name for n in model.nodes],
+                                                  [f"{h.beam}.{h.end}" for h in model.hinges]),
+                              attributes={"nodes": [n.name for n in model.nodes],
+                                          "hinges": [f"{h.beam}.{h.end}" for h in model.hinges],
+                                          "coordinates": model.dof_names()},
+                              max_frames=200, expected_frames=frames,
+                              resume=None if resume_from is None else resume_from.writer)
+    except ResultsError as exc:  # resuming: files that do not hold what the checkpoint recorded
+        raise checkpoints.CheckpointError(f"{exc}") from exc
     summary = {"latdyn_version": __version__, "scene_hash": scene.source_hash, "steps": 0,
                "newton_iterations": 0, "rejected_steps": 0, "energy_balance_error": None}
     writer.summary.update(summary)
-    with writer:
+    checkpointer = None
+    if analysis == "transient" and out_dir is not None:
+        checkpointer = checkpoints.Checkpointer(
+            out_dir, checkpoints.DEFAULT_INTERVAL if checkpoint_every is None else checkpoint_every,
+            checkpoints.identity(scene, kernel_backend), resumes=0 if resume_from is None else resume_from.resumes + 1)
+    if resume_from is not None:
+        writer.summary.update(resumed_from_t=resume_from.t, resumes=resume_from.resumes + 1)
+    with writer, _sigterm_interrupts(enabled=checkpointer is not None):
         if analysis == "modes":
             frequencies = modal_analysis(prepared, scene.solve.count)
             writer.write_modes(frequencies)
@@ -153,13 +190,38 @@ def run(scene, out_dir=None, backend: str = "auto", progress: bool = False):
         elif analysis == "static":
             static_analysis(prepared, probes, writer, _length_scale(model))
         else:
-            transient(prepared, probes, writer, progress)
+            transient(prepared, probes, writer, progress, checkpointer, resume_from)
         writer.summary["wall_time_s"] = time.perf_counter() - wall0
         writer.close(dict(writer.summary), status="solved")
+    if checkpointer is not None:
+        checkpointer.discard()  # finished: nothing to resume
     result = writer.result()
     if analysis == "modes":
         result.modes = np.asarray(writer.summary.get("modes_hz", []))
     return result
+
+
+class _sigterm_interrupts:
+    """SIGTERM raises KeyboardInterrupt inside the block (main thread only), so that a
+    terminated run checkpoints and ends as interrupted, like Ctrl-C."""
+
+    def __init__(self, enabled: bool):
+        self.enabled = enabled and threading.current_thread() is threading.main_thread()
+        self.previous = None
+
+    @staticmethod
+    def _handler(signum, frame):
+        raise KeyboardInterrupt(f"signal {signum}")
+
+    def __enter__(self):
+        if self.enabled:
+            self.previous = signal.signal(signal.SIGTERM, self._handler)
+        return self
+
+    def __exit__(self, *exc):
+        if self.enabled:
+            signal.signal(signal.SIGTERM, self.previous)
+        return False
 
 
 def _drive_power(model: Model, state: State, reaction: np.ndarray) -> float:
@@ -280,7 +342,12 @@ def _grid_time(k: int, dt: float, t_end: float, n_grid: int) -> float:
     return t_end if k >= n_grid else k * dt
 
 
-def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progress: bool) -> TransientProgress:
+def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progress: bool,
+              checkpointer: checkpoints.Checkpointer | None = None,
+              resume_from: checkpoints.Checkpoint | None = None) -> TransientProgress:
+    """The time loop. With a ``checkpointer``, a checkpoint of the last accepted step is
+    written at its interval, on an interrupt and on a failure; ``resume_from`` (a loaded
+    checkpoint) continues from one, the writer having been reopened at its bookmark."""
     scene, model, assembler = prepared.scene, prepared.model, prepared.assembler
     solve = scene.solve
     length = _length_scale(model)
@@ -295,23 +362,46 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
     dt_min = solve.dt_min if solve.dt_min is not None else dt * 1e-6
     every = scene.output.every
 
-    state = prepared.state
-    integrator.start(state)
-    ev0 = assembler.evaluate(state, matrices=False)
-    energy0 = assembler.energies(state)
-    run = TransientProgress(state=state, algorithmic_acceleration=integrator.a, locked=model.locked.copy(), h=dt,
-                            power=ev0.external_power + _drive_power(model, state, ev0.reaction),
-                            total0=sum(energy0.values()), potential0=energy0["potential"])
+    if resume_from is None:
+        state = prepared.state
+        integrator.start(state)
+        ev0 = assembler.evaluate(state, matrices=False)
+        energy0 = assembler.energies(state)
+        run = TransientProgress(state=state, algorithmic_acceleration=integrator.a, locked=model.locked.copy(),
+                                h=dt, power=ev0.external_power + _drive_power(model, state, ev0.reaction),
+                                total0=sum(energy0.values()), potential0=energy0["potential"])
+    else:  # resumed: the latched hinges renumber the coordinates, then the loop goes on as it was
+        run = resume_from.progress
+        model.locked[:] = run.locked
+        model.number_coordinates()
+        assembler.reindex()
+        integrator.a = run.algorithmic_acceleration
+        probes.external_work = resume_from.external_work
+
+    # the last accepted step, as a checkpoint keeps it: a shallow copy of `run` (the loop
+    # replaces states and arrays, never changes them in place, once a step is accepted),
+    # the writer's bookmark and, while its ParaView frame is not on disk, the last recorded state
+    bookmark = writer.bookmark()
+    last_recorded = None if resume_from is None else resume_from.last_recorded
+    if last_recorded is not None:
+        writer.reattach_last_frame(lambda snapshot=last_recorded: _grid_points(assembler, writer.mesh, snapshot))
+
+    def accepted() -> tuple:
+        return (replace(run, cut_times=list(run.cut_times)), run.external_work, bookmark,
+                last_recorded if bookmark["unwritten"] is not None else None)
 
     def record(s: State, energies: dict) -> None:
+        nonlocal bookmark, last_recorded
         # SCENE.md: max |Δ(total − external_work)| over the largest of kinetic, strain,
         # |potential change| and |external work| seen
         run.balance_error = max(run.balance_error,
                                 abs(sum(energies.values()) - run.total0 - probes.external_work))
         run.energy_scale = max(run.energy_scale, energies["kinetic"], energies["strain"],
                                abs(energies["potential"] - run.potential0), abs(probes.external_work))
+        snapshot = s.copy()
         writer.record(s.t, probes.values(s, energies), state=s.as_dict(),
-                      frame=lambda snapshot=s.copy(): _grid_points(assembler, writer.mesh, snapshot))
+                      frame=lambda: _grid_points(assembler, writer.mesh, snapshot))
+        bookmark, last_recorded = writer.bookmark(), snapshot
 
     def summarize() -> None:
         writer.summary.update(
@@ -321,7 +411,9 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
             newton_iterations_per_step=run.newton_iterations / max(run.steps, 1),
             newton_tolerance=tol, method=solve.method)
 
-    record(state, energy0)
+    if resume_from is None:
+        record(state, energy0)
+    last = accepted()
     bar = progress_bar(t_end, enabled=progress)
     try:
         while run.grid_index < n_grid:
@@ -389,6 +481,18 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
                 run.h = min(dt, h * min(2.0, 0.9 * max(error, 1e-10) ** (-1 / 3)))
             elif h < dt:
                 run.h = min(dt, 2 * h)  # recover the nominal step after a cut or a shortened step
+            last = accepted()
+            if checkpointer is not None and checkpointer.due():
+                checkpointer.save(*last, writer)
+    except (KeyboardInterrupt, Exception):
+        # interrupted or failed: a checkpoint of the last accepted step, to resume from
+        if checkpointer is not None and not writer.closed:
+            try:
+                checkpointer.save(*last, writer)
+                writer.summary["checkpoint_t"] = last[0].state.t
+            except Exception as exc:  # noqa: BLE001 - the original error matters more
+                print(f"latdyn: could not write a checkpoint: {type(exc).__name__}: {exc}", file=sys.stderr)
+        raise
     finally:
         bar.close()
         summarize()
