@@ -15,6 +15,7 @@ from benchmarks import convergence, d1_full  # noqa: E402
 from benchmarks import problems as P  # noqa: E402
 
 DOC = P.ROOT / "docs" / "verification.md"
+KEPT = "<!-- investigations below are written by hand and kept by benchmarks/verification_report.py -->"
 FIG = P.ROOT / "docs" / "verification"
 
 
@@ -91,6 +92,9 @@ def main():
     notes = (P.ROOT / "benchmarks" / "README.md")
     if notes.exists():
         md += ["## Findings", "", notes.read_text().split("## Findings", 1)[-1].strip(), ""]
+    # hand-written investigations after the marker are kept as they are
+    if DOC.exists() and KEPT in DOC.read_text():
+        md += [KEPT + DOC.read_text().split(KEPT, 1)[1].rstrip("\n"), ""]
     DOC.write_text("\n".join(md))
     print(f"wrote {DOC}")
 

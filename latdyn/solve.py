@@ -23,7 +23,7 @@ from .scene import Scene, load_scene
 
 
 #: Default Newton tolerance on :func:`latdyn.integrators.increment_size` (see docs/verification.md).
-DEFAULT_TOL = 1e-9
+DEFAULT_TOL = 1e-8
 
 
 @dataclass
