@@ -450,7 +450,7 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
                 run.newton_iterations += retry_stats.iterations
                 new, stats, h, lands = retry, retry_stats, h * max(fraction, 1e-6), False
             integrator.accept()
-            _latch_hinges(prepared, integrator, state, new, h)
+            latched = _latch_hinges(prepared, integrator, state, new, h)
             # power of loads and prescribed motion: from the last Newton evaluation
             # (within the Newton tolerance of the converged state) when there is one
             ev = getattr(integrator, "last_evaluation", None)
@@ -477,7 +477,9 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
             summarize()
             bar.update(state.t)
             if solve.adaptive:
-                error = integrator.error_estimate(h) / (solve.error_tol * length)
+                # after a latch the last Newton evaluation has the old numbering (estimate taken as 0,
+                # which is what error_estimate gives after accept() for a step without a latch)
+                error = 0.0 if latched else integrator.error_estimate(h) / (solve.error_tol * length)
                 run.h = min(dt, h * min(2.0, 0.9 * max(error, 1e-10) ** (-1 / 3)))
             elif h < dt:
                 run.h = min(dt, 2 * h)  # recover the nominal step after a cut or a shortened step

@@ -1,0 +1,356 @@
+"""Checkpoint and resume (SCENE.md, `latdyn run --resume`): a resumed run's files equal an
+uninterrupted run's; failures leave a checkpoint; foreign or missing checkpoints exit 2."""
+from __future__ import annotations
+
+import json
+import signal
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+import latdyn
+from latdyn import checkpoint, cli, solve
+from latdyn.results import Result, ResultWriter, load_state_history
+
+#: resumed and uninterrupted files agree to this (measured: bit for bit, 0.0)
+EXACT = 1e-12
+
+
+def arm3d(lock_b=-0.9, every=0.01, **solve_options):
+    """A 3D two-link arm under skew gravity: the base hinge (about z) latches at t ≈ 0.16,
+    the elbow hinge (about a skew axis) at t ≈ 0.33."""
+    return {
+        "gravity": [0.0, -2.0, -9.81],
+        "sections": {"s": {"EA": 1e6, "EIy": 300.0, "EIz": 500.0, "GJ": 400.0, "rhoA": 1.0,
+                           "rhoIy": 1e-3, "rhoIz": 1e-3}},
+        "bodies": {"base": {"at": [0, 0, 0], "fixed": True},
+                   "elbow": {"at": [1, 0, 0], "mass": 0.5, "inertia": [1e-3, 2e-3, 3e-3]}},
+        "beams": {
+            "a": {"from": "base", "to": "elbow", "section": "s", "elements": 2,
+                  "start": {"hinge": {"axis": [0, 0, 1], "torque": "3.0", "lock_at": -0.03}}},
+            "b": {"from": "elbow", "to": [1.0, 0.8, 0.6], "section": "s", "elements": 2,
+                  "start": {"hinge": {"axis": [1, 0.2, 0], "torque": "-1.5", "damping": 0.01,
+                                      "lock_at": lock_b}}},
+        },
+        "solve": {"analysis": "transient", "t_end": 0.5, "dt": 0.005, **solve_options},
+        "output": {**({"every": every} if every else {}), "probes": {
+            "qa": {"hinge": "a.start", "quantity": "angle"},
+            "qb": {"hinge": "b.start", "quantity": "angle"},
+            "rb": {"hinge": "b.start", "quantity": "rate"},
+            "tip_z": {"point": "b.end", "quantity": "position", "component": "z"},
+            "tip_v": {"point": "b.end", "quantity": "velocity", "frame": "elbow", "component": "norm"},
+            "E": {"energy": "total"}, "W": {"energy": "external_work"},
+            "M": {"element": "b.element[0]", "quantity": "moment_y"},
+            "Hx": {"momentum": "angular", "component": "x"}}},
+    }
+
+
+SCENES = {
+    # generalized-α; interrupted between the two latches
+    "generalized-alpha": (arm3d(), 0.25),
+    # every step recorded: 302 rows, ParaView stride 2, the frames of the checkpoint (row 151)
+    # and of the last row unwritten by the stride
+    "explicit": (arm3d(method="explicit", dt=1e-4, t_end=0.0301, every=None), 0.0151),
+    # step-size control with rejected steps, across the first latch
+    "adaptive": (arm3d(adaptive=True, error_tol=1e-4, t_end=0.3), 0.2),
+}
+
+
+def interrupt_at(monkeypatch, t_stop: float, how="keyboard"):
+    """Ctrl-C (or SIGTERM) when the first step from t >= t_stop begins."""
+    for cls in (solve.GeneralizedAlpha, solve.CentralDifference):
+        original = cls.step
+
+        def step(self, state, *args, _original=original, **kwargs):
+            if state.t >= t_stop:
+                if how == "sigterm":
+                    signal.raise_signal(signal.SIGTERM)
+                raise KeyboardInterrupt
+            return _original(self, state, *args, **kwargs)
+
+        monkeypatch.setattr(cls, "step", step)
+
+
+def relative_difference(a: Path, b: Path) -> float:
+    """Largest difference of probes.csv and state history of two folders, relative to each
+    column's (dataset's) largest magnitude; the shapes must agree."""
+    A, B = Result.load(a), Result.load(b)
+    assert A.t.shape == B.t.shape and list(A.probes) == list(B.probes)
+    worst = 0.0
+    pairs = [(A.t, B.t)] + [(A.probes[k], B.probes[k]) for k in A.probes]
+    HA, HB = load_state_history(a), load_state_history(b)
+    assert sorted(HA) == sorted(HB)
+    for k in HA:
+        assert HA[k].shape == HB[k].shape, k
+        pairs += [(HA[k], HB[k])]
+    for x, y in pairs:
+        scale = np.max(np.abs(x), initial=0.0)
+        if scale > 0:
+            worst = max(worst, float(np.max(np.abs(x - y))) / scale)
+    return worst
+
+
+def assert_same_files(uninterrupted: Path, resumed: Path) -> float:
+    worst = relative_difference(uninterrupted, resumed)
+    assert worst <= EXACT
+    files = lambda p: sorted(f.name for f in (p / "paraview").iterdir())  # noqa: E731
+    assert files(resumed) == files(uninterrupted)
+    for pvd in (uninterrupted / "paraview").glob("*.pvd"):
+        assert (resumed / "paraview" / pvd.name).read_text() == pvd.read_text()
+    # the last frame's data too
+    last = ET.parse(uninterrupted / "paraview" / "beams.pvd").getroot().findall("./Collection/DataSet")[-1]
+    name = last.get("file")
+    assert (resumed / "paraview" / name).read_bytes() == (uninterrupted / "paraview" / name).read_bytes()
+    a = json.loads((uninterrupted / "summary.json").read_text())
+    b = json.loads((resumed / "summary.json").read_text())
+    extra = {"wall_time_s", "resumed_from_t", "resumes"}
+    assert {k: v for k, v in b.items() if k not in extra} == {k: v for k, v in a.items() if k not in extra}
+    assert not (resumed / checkpoint.CHECKPOINT_FILE).exists()  # finished: nothing to resume
+    return worst
+
+
+@pytest.fixture(scope="module")
+def uninterrupted(tmp_path_factory):
+    """The reference runs, computed once."""
+    done = {}
+
+    def get(name):
+        if name not in done:
+            out = tmp_path_factory.mktemp(f"full-{name}")
+            latdyn.run(SCENES[name][0], out)
+            done[name] = out
+        return done[name]
+
+    return get
+
+
+@pytest.mark.parametrize("name", sorted(SCENES))
+def test_interrupted_and_resumed_run_equals_the_uninterrupted_one(name, tmp_path, monkeypatch, uninterrupted):
+    scene, t_stop = SCENES[name]
+    out = tmp_path / "out"
+    with monkeypatch.context() as m:
+        interrupt_at(m, t_stop)
+        with pytest.raises(KeyboardInterrupt):
+            latdyn.run(scene, out)
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "interrupted"
+    saved = checkpoint.load(out, checkpoint.identity(latdyn.load_scene(scene)))
+    assert saved.t == pytest.approx(t_stop, abs=1e-9) and saved.t == summary["checkpoint_t"]
+    if name == "generalized-alpha":  # one hinge latched before the checkpoint, the other after it
+        assert saved.progress.locked.tolist() == [True, False]
+    if name == "explicit":
+        assert saved.writer["unwritten"] is not None and saved.last_recorded is not None
+    if name == "adaptive":
+        assert saved.progress.rejected_steps > 0
+
+    result = latdyn.run(scene, out, resume=True)
+    reference = uninterrupted(name)
+    assert_same_files(reference, out)
+    assert result.summary["resumed_from_t"] == saved.t and result.summary["resumes"] == 1
+    if name == "generalized-alpha":
+        qb = Result.load(out).probes["qb"]
+        assert qb[-1] == pytest.approx(-0.9, abs=1e-6)  # the elbow latched after the resume
+    np.testing.assert_array_equal(result.t, Result.load(reference).t)
+
+
+def test_crash_after_a_periodic_checkpoint_is_cut_back_and_resumed(tmp_path, monkeypatch, uninterrupted):
+    """A run killed well after its last checkpoint (here: checkpoints stop being written
+    after the 40th step): rows, state rows and frames written since are dropped on resume."""
+    scene, _ = SCENES["generalized-alpha"]
+    out = tmp_path / "out"
+    save = checkpoint.Checkpointer.save
+
+    def save_until(self, progress, *args):
+        if progress.steps <= 40:
+            save(self, progress, *args)
+
+    with monkeypatch.context() as m:
+        m.setattr(checkpoint.Checkpointer, "save", save_until)
+        interrupt_at(m, 0.4)
+        with pytest.raises(KeyboardInterrupt):
+            latdyn.run(scene, out, checkpoint_every=0)
+    saved = checkpoint.load(out, checkpoint.identity(latdyn.load_scene(scene)))
+    assert saved.progress.steps == 40
+    assert len(Result.load(out).t) > saved.writer["rows"] + 10  # the files went on past the checkpoint
+    assert len(load_state_history(out)["t"]) > saved.writer["rows"] + 10
+    latdyn.run(scene, out, resume=True)
+    assert_same_files(uninterrupted("generalized-alpha"), out)
+
+
+def test_interrupt_after_the_last_step_resumes_to_the_same_files(tmp_path, monkeypatch, uninterrupted):
+    """Ctrl-C while the finished run closes its files: the checkpoint of the last step is
+    resumed without a step, and the last row's frame (skipped by the stride) is still written."""
+    scene, _ = SCENES["explicit"]
+    out = tmp_path / "out"
+    close = ResultWriter.close
+
+    def interrupted_close(self, summary=None, status=None):
+        if status == "solved":
+            raise KeyboardInterrupt
+        return close(self, summary, status)
+
+    calls = []
+    with monkeypatch.context() as m:
+        m.setattr(ResultWriter, "close", interrupted_close)
+        # a periodic checkpoint due at the last of the 301 steps only (the loop asks once a step)
+        m.setattr(checkpoint.Checkpointer, "due", lambda self: calls.append(1) or len(calls) >= 301)
+        with pytest.raises(KeyboardInterrupt):
+            latdyn.run(scene, out)
+    saved = checkpoint.load(out, checkpoint.identity(latdyn.load_scene(scene)))
+    assert saved.t == 0.0301 and saved.writer["unwritten"] == [301, 0.0301]
+    (out / "paraview" / "frame_00301.vtu").unlink()  # as if killed before close() wrote it
+    latdyn.run(scene, out, resume=True)
+    assert_same_files(uninterrupted("explicit"), out)
+
+
+def test_a_resumed_writer_continues_through_frame_subsampling(tmp_path):
+    """Bookmark, go on (the stride doubles and deletes listed frames), crash, reopen at the
+    bookmark and record again: the files equal those of one uninterrupted writer."""
+    pytest.importorskip("meshio")
+    mesh = {"lines": np.array([[0, 1]]), "n_nodes": 2}
+
+    def rows(writer, indices):
+        for i in indices:
+            writer.record(0.1 * i, [i, -i], state={"x": np.array([i, 2.0 * i])},
+                          node_positions=np.array([[0.0, 0, 0], [1.0, i, 0]]))
+
+    with ResultWriter(tmp_path / "a", ["p", "q"], mesh=mesh, max_frames=4) as writer:
+        rows(writer, range(20))
+    with pytest.raises(KeyboardInterrupt), ResultWriter(tmp_path / "b", ["p", "q"], mesh=mesh, max_frames=4) as w:
+        rows(w, range(6))
+        mark = w.bookmark()
+        w.checkpoint()
+        rows(w, range(6, 15))  # the stride doubles from 2 to 4: frame 2, listed in the bookmark, goes
+        raise KeyboardInterrupt
+    assert mark["unwritten"] == [5, 0.5] and [f[0] for f in mark["frames"]] == [0, 2, 4]
+    with ResultWriter(tmp_path / "b", ["p", "q"], mesh=mesh, max_frames=4, resume=mark) as writer:
+        # reopened: the series lists only frames on disk (frame 2 is gone), none after the bookmark
+        listed = [d.get("file") for d in
+                  ET.parse(tmp_path / "b" / "paraview" / "beams.pvd").getroot().findall("./Collection/DataSet")]
+        assert listed == ["frame_00000.vtu", "frame_00004.vtu"]
+        assert sorted(p.name for p in (tmp_path / "b" / "paraview").glob("*.vtu")) == listed
+        assert len(Result.load(tmp_path / "b").t) == 6
+        writer.reattach_last_frame({"beams": {"points": np.array([[0.0, 0, 0], [1.0, 5, 0]])}})
+        rows(writer, range(6, 20))
+    a, b = tmp_path / "a", tmp_path / "b"
+    assert (b / "probes.csv").read_bytes() == (a / "probes.csv").read_bytes()
+    assert relative_difference(a, b) == 0.0
+    assert sorted(p.name for p in (b / "paraview").iterdir()) == sorted(p.name for p in (a / "paraview").iterdir())
+    assert (b / "paraview" / "beams.pvd").read_text() == (a / "paraview" / "beams.pvd").read_text()
+    sa, sb = (json.loads((p / "summary.json").read_text()) for p in (a, b))
+    assert {k: v for k, v in sa.items() if k != "wall_time_s"} == {k: v for k, v in sb.items() if k != "wall_time_s"}
+
+
+def failing_scene():
+    """The elbow torque jumps at t = 0.1 beyond what Newton can follow in 4 iterations."""
+    scene = arm3d(t_end=0.3, max_iterations=4, dt_min=0.004)
+    scene["beams"]["b"]["start"]["hinge"]["torque"] = "Piecewise((-1.5, t < 0.1), (-2000, True))"
+    return scene
+
+
+def write_scene(path: Path, scene: dict) -> Path:
+    path.write_text(yaml.safe_dump(scene))
+    return path
+
+
+def test_a_failed_run_leaves_a_checkpoint_of_its_last_accepted_step(tmp_path, capsys):
+    scene_file = write_scene(tmp_path / "fails.yaml", failing_scene())
+    out = tmp_path / "out"
+    assert cli.main(["run", str(scene_file), "-o", str(out), "-q"]) == 1
+    err = capsys.readouterr().err
+    assert "the solver failed" in err and "--resume" in err
+    saved = checkpoint.load(out, checkpoint.identity(latdyn.load_scene(str(scene_file))))
+    assert saved.t == pytest.approx(0.095)  # the last accepted step before t = 0.1
+    assert saved.writer["rows"] == len(Result.load(out).t) == 10
+    assert json.loads((out / "summary.json").read_text())["status"] == "failed"
+    # resumed unchanged, it fails at the same place, leaving the same files
+    before = (out / "probes.csv").read_bytes()
+    assert cli.main(["run", str(scene_file), "-o", str(out), "-q", "--resume"]) == 1
+    assert (out / "probes.csv").read_bytes() == before
+    assert checkpoint.load(out, checkpoint.identity(latdyn.load_scene(str(scene_file)))).t == saved.t
+
+
+@pytest.fixture
+def sigterm_run(tmp_path, monkeypatch, capsys):
+    """A run of arm3d stopped by SIGTERM at t = 0.1 through the command line (exit 130)."""
+    scene_file = write_scene(tmp_path / "arm.yaml", arm3d(t_end=0.2))
+    out = tmp_path / "out"
+    handler = signal.getsignal(signal.SIGTERM)
+    with monkeypatch.context() as m:
+        interrupt_at(m, 0.1, how="sigterm")
+        assert cli.main(["run", str(scene_file), "-o", str(out), "-q"]) == 130
+    assert signal.getsignal(signal.SIGTERM) is handler  # restored
+    err = capsys.readouterr().err
+    assert "interrupted" in err and "--resume" in err
+    assert (out / checkpoint.CHECKPOINT_FILE).is_file()
+    return scene_file, out
+
+
+def _refused(argv, capsys) -> str:
+    assert cli.main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("latdyn: error: ") and "Traceback" not in err
+    return err
+
+
+def test_checkpoint_of_another_scene_is_refused(sigterm_run, tmp_path, capsys):
+    scene_file, out = sigterm_run
+    other = write_scene(tmp_path / "other.yaml", arm3d(lock_b=-0.8, t_end=0.2))
+    before = {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()}
+    err = _refused(["run", str(other), "-o", str(out), "-q", "--resume"], capsys)
+    assert str(out / checkpoint.CHECKPOINT_FILE) in err and "scene hash" in err
+    assert {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()} == before  # nothing touched
+    # the right scene resumes, finishes and removes the checkpoint
+    assert cli.main(["run", str(scene_file), "-o", str(out), "-q", "--resume"]) == 0
+    assert not (out / checkpoint.CHECKPOINT_FILE).exists()
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "solved" and summary["resumes"] == 1
+    # a finished run has nothing to resume
+    err = _refused(["run", str(scene_file), "-o", str(out), "-q", "--resume"], capsys)
+    assert "finished" in err
+
+
+def test_checkpoint_of_another_version_is_refused(sigterm_run, monkeypatch, capsys):
+    scene_file, out = sigterm_run
+    monkeypatch.setattr(latdyn, "__version__", "99.0")
+    err = _refused(["run", str(scene_file), "-o", str(out), "-q", "--resume"], capsys)
+    assert str(out / checkpoint.CHECKPOINT_FILE) in err and "package version" in err and "99.0" in err
+    monkeypatch.undo()
+    # a checkpoint of a future format too
+    path = out / checkpoint.CHECKPOINT_FILE
+    with np.load(path) as f:
+        arrays = {k: f[k] for k in f.files}
+    meta = json.loads(str(arrays["__meta__"]))
+    meta["identity"]["format"] = checkpoint.FORMAT_VERSION + 1
+    arrays["__meta__"] = np.array(json.dumps(meta))
+    np.savez(path, **arrays)
+    err = _refused(["run", str(scene_file), "-o", str(out), "-q", "--resume"], capsys)
+    assert str(path) in err and "checkpoint format" in err
+
+
+def test_resume_without_a_checkpoint_exits_2(tmp_path, capsys):
+    scene_file = write_scene(tmp_path / "arm.yaml", arm3d(t_end=0.02))
+    err = _refused(["run", str(scene_file), "-o", str(tmp_path / "none"), "-q", "--resume"], capsys)
+    assert f"no checkpoint in {tmp_path / 'none'}" in err
+    assert not (tmp_path / "none").exists()
+    with pytest.raises(checkpoint.CheckpointError, match="no checkpoint in"):
+        latdyn.run(arm3d(t_end=0.02), tmp_path / "none", resume=True)
+
+
+def test_checkpoints_follow_the_interval(tmp_path, monkeypatch):
+    """checkpoint_every=0: one per accepted step; the default (60 s): none in a short run;
+    a fresh run into the folder discards an old checkpoint."""
+    saves = []
+    save = checkpoint.Checkpointer.save
+    monkeypatch.setattr(checkpoint.Checkpointer, "save",
+                        lambda self, progress, *a: (saves.append(progress.steps), save(self, progress, *a)))
+    result = latdyn.run(arm3d(t_end=0.05), tmp_path, checkpoint_every=0)
+    assert saves == list(range(1, result.summary["steps"] + 1))
+    saves.clear()
+    (tmp_path / checkpoint.CHECKPOINT_FILE).write_bytes(b"stale")
+    latdyn.run(arm3d(t_end=0.05), tmp_path)
+    assert saves == [] and not (tmp_path / checkpoint.CHECKPOINT_FILE).exists()
+    assert cli.main(["run", "x.yaml", "--checkpoint-every", "-1"]) == 2  # argparse refuses it
