@@ -86,7 +86,14 @@ One :class:`ResultWriter` per run writes, into ``out_dir``:
     (strict JSON).
 
 Files of an earlier run with these names are removed when a writer starts, so the
-folder never mixes two runs. With ``out_dir=None`` nothing is written; the writer
+folder never mixes two runs, unless it *resumes* (``resume=`` a
+:meth:`ResultWriter.bookmark` of the earlier writer, kept in a run's checkpoint, see
+:mod:`latdyn.checkpoint`): then the files are cut back to the bookmark (``probes.csv`` to
+its rows, the state history to its rows, atomically; ParaView frames it does not list are
+deleted and the ``.pvd`` files rewritten) and appended to. Every later decision of the
+writer (stride, frame numbers, deletions) depends only on the counts in the bookmark, so
+the finished files equal those of one uninterrupted writer. (The state-history
+"checkpoints" above are the writer's own flushes, unrelated to a run's checkpoint file.) With ``out_dir=None`` nothing is written; the writer
 only keeps the probe rows for :meth:`ResultWriter.result`.
 """
 from __future__ import annotations

@@ -135,6 +135,8 @@ def run(scene, out_dir=None, backend: str = "auto", progress: bool = False, *, r
     another scene or package version).
     """
     wall0 = time.perf_counter()
+    if checkpoint_every is not None and not checkpoint_every >= 0:
+        raise ValueError(f"checkpoint_every must be a number of seconds >= 0, not {checkpoint_every!r}")
     scene = load_scene(scene)
     analysis = scene.solve.analysis
     resume_from = None

@@ -12,7 +12,7 @@ import pytest
 import yaml
 
 import latdyn
-from latdyn import checkpoint, cli, solve
+from latdyn import checkpoint, cli, results, solve
 from latdyn.results import Result, ResultWriter, load_state_history
 
 #: resumed and uninterrupted files agree to this (measured: bit for bit, 0.0)
@@ -93,7 +93,7 @@ def relative_difference(a: Path, b: Path) -> float:
     return worst
 
 
-def assert_same_files(uninterrupted: Path, resumed: Path) -> float:
+def assert_same_files(uninterrupted: Path, resumed: Path, ignore=()) -> float:
     worst = relative_difference(uninterrupted, resumed)
     assert worst <= EXACT
     files = lambda p: sorted(f.name for f in (p / "paraview").iterdir())  # noqa: E731
@@ -106,7 +106,7 @@ def assert_same_files(uninterrupted: Path, resumed: Path) -> float:
     assert (resumed / "paraview" / name).read_bytes() == (uninterrupted / "paraview" / name).read_bytes()
     a = json.loads((uninterrupted / "summary.json").read_text())
     b = json.loads((resumed / "summary.json").read_text())
-    extra = {"wall_time_s", "resumed_from_t", "resumes"}
+    extra = {"wall_time_s", "resumed_from_t", "resumes", *ignore}
     assert {k: v for k, v in b.items() if k not in extra} == {k: v for k, v in a.items() if k not in extra}
     assert not (resumed / checkpoint.CHECKPOINT_FILE).exists()  # finished: nothing to resume
     return worst
@@ -156,11 +156,16 @@ def test_interrupted_and_resumed_run_equals_the_uninterrupted_one(name, tmp_path
     np.testing.assert_array_equal(result.t, Result.load(reference).t)
 
 
-def test_crash_after_a_periodic_checkpoint_is_cut_back_and_resumed(tmp_path, monkeypatch, uninterrupted):
+@pytest.mark.parametrize("state_file", ["state.h5", "state.npz"])
+def test_crash_after_a_periodic_checkpoint_is_cut_back_and_resumed(state_file, tmp_path, monkeypatch, uninterrupted):
     """A run killed well after its last checkpoint (here: checkpoints stop being written
-    after the 40th step): rows, state rows and frames written since are dropped on resume."""
+    after the 40th step): rows, state rows and frames written since are dropped on resume
+    (state.npz: the writer's fallback without h5py)."""
     scene, _ = SCENES["generalized-alpha"]
     out = tmp_path / "out"
+    reference = uninterrupted("generalized-alpha")
+    if state_file == "state.npz":
+        monkeypatch.setattr(results, "h5py", None)
     save = checkpoint.Checkpointer.save
 
     def save_until(self, progress, *args):
@@ -176,8 +181,11 @@ def test_crash_after_a_periodic_checkpoint_is_cut_back_and_resumed(tmp_path, mon
     assert saved.progress.steps == 40
     assert len(Result.load(out).t) > saved.writer["rows"] + 10  # the files went on past the checkpoint
     assert len(load_state_history(out)["t"]) > saved.writer["rows"] + 10
+    assert (out / state_file).is_file()
     latdyn.run(scene, out, resume=True)
-    assert_same_files(uninterrupted("generalized-alpha"), out)
+    assert json.loads((out / "summary.json").read_text())["state_file"] == state_file
+    monkeypatch.undo()  # h5py back, to read the reference
+    assert_same_files(reference, out, ignore={"state_file"})
 
 
 def test_interrupt_after_the_last_step_resumes_to_the_same_files(tmp_path, monkeypatch, uninterrupted):
