@@ -24,7 +24,7 @@ import traceback
 from pathlib import Path
 
 from . import __version__
-from .checkpoint import CheckpointError
+from .checkpoint import CHECKPOINT_FILE, CheckpointError
 from .errors import SceneError, SolverError
 
 __all__ = ["main", "build_parser", "default_out_dir"]
@@ -108,7 +108,7 @@ def _command_run(args) -> int:
 
 
 def _resume_hint(args, out_dir: Path) -> None:
-    if (out_dir / "checkpoint.npz").is_file():
+    if (out_dir / CHECKPOINT_FILE).is_file():
         print(f"{PROG}: a checkpoint of the last accepted step is in {out_dir}; continue with "
               f"`{PROG} run {args.scene} -o {out_dir} --resume`", file=sys.stderr)
 
