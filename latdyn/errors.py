@@ -1,5 +1,36 @@
-"""Exceptions that the command line turns into exit statuses (SCENE.md)."""
+"""Exceptions that the command line turns into exit statuses (SCENE.md), and how a bad value is shown."""
 from __future__ import annotations
+
+import math
+import reprlib
+
+
+class _ShortRepr(reprlib.Repr):
+    """``repr`` cut to a readable length, safe for any value a scene file can hold.
+
+    Nested and shared containers (YAML aliases can make a few lines of a file
+    expand to 10⁹ items) are shown to a few levels and items, and integers too
+    long for ``repr`` (Python refuses more than 4300 digits) by their size.
+    """
+
+    def __init__(self):
+        super().__init__()
+        self.maxlevel, self.maxlist, self.maxtuple, self.maxdict = 3, 6, 6, 6
+        self.maxset = self.maxfrozenset = 6
+        self.maxstring = self.maxlong = self.maxother = 80
+
+    def repr_int(self, x, level):
+        if x.bit_length() > 256:
+            return f"<an integer of about {math.floor(x.bit_length() * math.log10(2)) + 1} digits>"
+        return super().repr_int(x, level)
+
+
+_SHORT_REPR = _ShortRepr()
+
+
+def show_value(value) -> str:
+    """A bounded description of a (possibly bad) value for an error message."""
+    return "nothing" if value is None else _SHORT_REPR.repr(value)
 
 
 class SceneError(ValueError):

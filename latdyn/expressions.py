@@ -27,6 +27,13 @@ Strings are *parsed, never evaluated as Python*:
    holds only the four classes its token transformations emit and an empty
    ``__builtins__``.
 
+Expressions are bounded so that reading a scene never hangs: at most
+:data:`MAX_TEXT` characters, :data:`MAX_DEPTH` levels of nesting (a sum of
+*n* terms nests *n* deep), and :data:`MAX_NODES` nodes in the expression, its
+first and its second time derivative: derivatives of ``t**t**t**...``, of nested
+functions or of a product of many factors grow fast, and SymPy's time grows with
+them. A longer function of time is a table.
+
 Derivatives are symbolic (``sympy.diff``); Dirac deltas that come from
 differentiating ``Heaviside``/``sign``/``abs`` are dropped (their value is zero
 away from the jump). ``Heaviside(0) = 1/2`` (SymPy's convention; a second
@@ -47,9 +54,10 @@ from typing import Any, Callable
 
 import numpy as np
 
-from .errors import SceneError
+from .errors import SceneError, show_value
 
-__all__ = ["TimeFunction", "parse_time_function", "ALLOWED_NAMES", "ALLOWED_OPERATORS"]
+__all__ = ["TimeFunction", "parse_time_function", "ALLOWED_NAMES", "ALLOWED_OPERATORS",
+           "MAX_TEXT", "MAX_DEPTH", "MAX_NODES"]
 
 #: Names a scene expression may use (SCENE.md), then the documented extension.
 ALLOWED_NAMES = (
@@ -64,6 +72,13 @@ ALLOWED_OPERATORS = ("+", "-", "*", "/", "**", "(", ")", ",", "<", ">", "<=", ">
 
 _NUMBER = re.compile(r"^(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?$")
 _MAX_EXPONENT = 1.0e4
+#: Longest expression text, in characters.
+MAX_TEXT = 2000
+#: Deepest nesting of an expression (operators, calls, arguments).
+MAX_DEPTH = 100
+#: Most nodes in the expression tree, in its first and in its second time derivative
+#: (the first bounds the time SymPy takes for the second).
+MAX_NODES = (200, 1_000, 10_000)
 _ALLOWED_TEXT = (
     "a number, a table {table: [[t0, v0], ...]} or an expression in t using numbers, "
     "the operators " + " ".join(ALLOWED_OPERATORS) + " and the names " + " ".join(ALLOWED_NAMES)
@@ -209,6 +224,9 @@ class _Rewrite(ast.NodeTransformer):
                     raise SceneError(self.file, self.key, too_big)
         except OverflowError:
             raise SceneError(self.file, self.key, too_big) from None
+        except ValueError:  # math.pow(0, negative)
+            raise SceneError(self.file, self.key, f"the power {ast.unparse(node)!r} in {self.text!r} divides by "
+                                                  "zero; expected a finite expression in t") from None
         except _NotFoldable:
             if not (exponent_t or base_t):
                 raise SceneError(self.file, self.key, too_big) from None
@@ -216,19 +234,49 @@ class _Rewrite(ast.NodeTransformer):
                 raise SceneError(self.file, self.key, too_big) from None
 
 
+def _depth(tree: ast.AST) -> int:
+    """Nesting depth of an AST, counted without recursion."""
+    deepest, stack = 0, [(tree, 1)]
+    while stack:
+        node, depth = stack.pop()
+        deepest = max(deepest, depth)
+        stack.extend((child, depth + 1) for child in ast.iter_child_nodes(node))
+    return deepest
+
+
+def _check_size(expr, order: int, text, file, key) -> None:
+    """Refuse an expression (order 0) or its derivative (1, 2) with more nodes than :data:`MAX_NODES` allows."""
+    import sympy as sp
+
+    limit = MAX_NODES[order]
+    for count, _ in enumerate(sp.preorder_traversal(expr), start=1):
+        if count > limit:
+            what = ("the expression", "its time derivative", "its second time derivative")[order]
+            _refuse(file, key, f"{text!r} is too complex: {what} has more than {limit} terms",
+                    "a simpler expression in t, or a table {table: [[t0, v0], ...]}")
+
+
 def _parse_text(text: str, file, key):
     """Checked text -> SymPy expression in ``t`` (real)."""
     import sympy as sp
     from sympy.parsing.sympy_parser import parse_expr, standard_transformations
 
+    if len(text) > MAX_TEXT:
+        _refuse(file, key, f"expression of {len(text)} characters {show_value(text)}",
+                f"at most {MAX_TEXT} characters (a longer function of time is a table)")
     clean = " ".join(text.split())
     if not clean:
         _refuse(file, key, "empty expression")
     _check_tokens(clean, file, key)
+    too_deep = f"at most {MAX_DEPTH} levels of nesting (a longer function of time is a table)"
     try:
         tree = ast.parse(clean, mode="eval")
     except SyntaxError as exc:
         _refuse(file, key, f"{text!r} is not a valid expression ({exc.msg})")
+    except (RecursionError, MemoryError):
+        _refuse(file, key, f"{text!r} is nested too deeply", too_deep)
+    if _depth(tree) > MAX_DEPTH:
+        _refuse(file, key, f"{text!r} is nested too deeply", too_deep)
     tree = ast.fix_missing_locations(_Rewrite(text, file, key).visit(tree))
     symbol, local, glob = _sympy_namespace()
     try:
@@ -256,6 +304,15 @@ def _drop_deltas(expr):
 
 
 # --------------------------------------------------------------------------- TimeFunction
+def _finite_float(number) -> float | None:
+    """``float(number)``, or None when it is not finite (an integer too large for a float included)."""
+    try:
+        value = float(number)
+    except OverflowError:
+        return None
+    return value if math.isfinite(value) else None
+
+
 class TimeFunction:
     """A scalar function of time: a constant, an expression in ``t`` or a table.
 
@@ -284,35 +341,37 @@ class TimeFunction:
         if isinstance(source, TimeFunction):
             return source._source
         if isinstance(source, bool) or source is None:
-            raise SceneError(file, key, f"expected {_ALLOWED_TEXT}, got {source!r}")
+            raise SceneError(file, key, f"expected {_ALLOWED_TEXT}, got {show_value(source)}")
         if isinstance(source, (int, float, np.integer, np.floating)):
-            value = float(source)
-            if not math.isfinite(value):
-                raise SceneError(file, key, f"expected a finite number, got {source!r}")
+            value = _finite_float(source)
+            if value is None:
+                raise SceneError(file, key, f"expected a finite number, got {show_value(source)}")
             return value
         if isinstance(source, str):
             return source
         if isinstance(source, dict):
             if set(source) != {"table"}:
                 raise SceneError(file, key, "expected a table as {table: [[t0, v0], [t1, v1], ...]}, "
-                                            f"got keys {', '.join(map(str, source))}")
+                                            f"got keys {show_value(list(source))}")
             rows = source["table"]
-            bad = f"expected {{table: [[t0, v0], [t1, v1], ...]}} with at least one pair of numbers, got {rows!r}"
             if not isinstance(rows, (list, tuple)) or not rows:
-                raise SceneError(file, f"{key}.table", bad)
+                raise SceneError(file, f"{key}.table", "expected {table: [[t0, v0], [t1, v1], ...]} with at least "
+                                                       f"one pair of numbers, got {show_value(rows)}")
             table = []
             for i, row in enumerate(rows):
                 if (not isinstance(row, (list, tuple)) or len(row) != 2
                         or any(isinstance(x, bool) or not isinstance(x, (int, float)) for x in row)):
-                    raise SceneError(file, f"{key}.table[{i}]", f"expected a pair of numbers [t, value], got {row!r}")
-                if not all(math.isfinite(float(x)) for x in row):
-                    raise SceneError(file, f"{key}.table[{i}]", f"expected finite numbers, got {row!r}")
-                if table and not float(row[0]) > table[-1][0]:
+                    raise SceneError(file, f"{key}.table[{i}]",
+                                     f"expected a pair of numbers [t, value], got {show_value(row)}")
+                pair = [_finite_float(x) for x in row]
+                if None in pair:
+                    raise SceneError(file, f"{key}.table[{i}]", f"expected finite numbers, got {show_value(row)}")
+                if table and not pair[0] > table[-1][0]:
                     raise SceneError(file, f"{key}.table[{i}]",
                                      f"expected times strictly increasing, got t = {row[0]!r} after {table[-1][0]!r}")
-                table.append([float(row[0]), float(row[1])])
+                table.append(pair)
             return {"table": table}
-        raise SceneError(file, key, f"expected {_ALLOWED_TEXT}, got {source!r}")
+        raise SceneError(file, key, f"expected {_ALLOWED_TEXT}, got {show_value(source)}")
 
     def _compile(self):
         src = self._source
@@ -339,8 +398,11 @@ class TimeFunction:
             import sympy as sp
 
             symbol, expr = _parse_text(src, self._file, self._key)
+            _check_size(expr, 0, src, self._file, self._key)
             d1 = _drop_deltas(sp.diff(expr, symbol))
+            _check_size(d1, 1, src, self._file, self._key)
             d2 = _drop_deltas(sp.diff(d1, symbol))
+            _check_size(d2, 2, src, self._file, self._key)
             self._kind = "constant" if not expr.free_symbols else "expression"
             self._expr_cache = expr
             try:

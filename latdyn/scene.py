@@ -24,6 +24,15 @@ Extensions to SCENE.md (keys may be added, never renamed):
 - ``solve``: ``adaptive``, ``error_tol``, ``dt_min``, ``max_iterations``,
   ``formulation`` (code-generation variant, one of :data:`FORMULATIONS`);
 - expression names ``asin acos atan atan2 sinh cosh tanh``.
+
+Limits, so that a scene is refused rather than hang or exhaust memory:
+
+- at most :data:`MAX_ELEMENTS` beam elements in the whole scene;
+- whole numbers (``steps``, ``count``, ``max_iterations``) at most :data:`MAX_COUNT`;
+- expressions as bounded in :mod:`latdyn.expressions` (length, nesting, size of
+  the derivatives);
+- geometry whose lengths and directions are finite in float64;
+- names of printable characters, and text that is valid Unicode.
 """
 from __future__ import annotations
 
@@ -40,19 +49,23 @@ from typing import Any
 
 import numpy as np
 
-from .errors import SceneError
+from .errors import SceneError, show_value
 from .expressions import TimeFunction, parse_time_function
 
 __all__ = [
     "Section", "Hinge", "BeamEnd", "Beam", "Body", "PointRef", "Load", "Probe", "Solve",
     "Output", "InitialVelocity", "Scene", "load_scene", "describe",
-    "ANALYSES", "METHODS", "FORMULATIONS",
+    "ANALYSES", "METHODS", "FORMULATIONS", "MAX_ELEMENTS", "MAX_COUNT",
 ]
 
 ANALYSES = ("transient", "static", "modes")
 METHODS = ("generalized-alpha", "hht-alpha", "newmark", "explicit")
 #: Code-generation variants of the beam element a scene may ask for (``solve.formulation``).
 FORMULATIONS = ("default", "no_stiffening")
+#: Most beam elements in a scene (the sum over its beams).
+MAX_ELEMENTS = 10_000
+#: Largest whole number a scene may give (load steps, modes, iterations).
+MAX_COUNT = 10**9
 
 POINT_QUANTITIES = ("position", "displacement", "velocity")
 POINT_COMPONENTS = ("x", "y", "z", "norm")
@@ -278,16 +291,29 @@ def _index_suffix(scanner, length: int) -> int:
 def _yaml_loader():
     """SafeLoader for scenes.
 
-    Two differences from ``yaml.SafeLoader``: ``2.8e7`` is a float (YAML 1.2; YAML
-    1.1 wants ``2.8e+7``), and a point such as ``arm.node[3]`` or
+    Three differences from ``yaml.SafeLoader``: ``2.8e7`` is a float (YAML 1.2; YAML
+    1.1 wants ``2.8e+7``), a value its tag cannot read is a YAML error with its
+    line, and a point such as ``arm.node[3]`` or
     ``arm.element[0]`` stays one plain scalar inside flow mappings
     (``{element: arm.element[0], quantity: torque}``), where YAML would
     otherwise read ``[`` as the start of a sequence.
     """
     import yaml
+    from yaml.constructor import ConstructorError
     from yaml.tokens import ScalarToken
 
     class Loader(yaml.SafeLoader):
+        def construct_object(self, node, deep=False):
+            # A value its tag cannot read (``!!int abc``, ``!!bool maybe``, an integer of more
+            # than 4300 digits) raises a plain ValueError, KeyError, ... with no position:
+            # make it a YAML error that names the line.
+            try:
+                return super().construct_object(node, deep)
+            except (ValueError, TypeError, KeyError, AttributeError, OverflowError):
+                what = show_value(node.value) if isinstance(node, yaml.ScalarNode) else "a value"
+                tag = node.tag.replace("tag:yaml.org,2002:", "!!")
+                raise ConstructorError(None, None, f"cannot read {what} as {tag}", node.start_mark) from None
+
         def scan_plain(self):
             # yaml.scanner.Scanner.scan_plain, with "NAME[123]" kept whole in flow context
             chunks = []
@@ -343,7 +369,7 @@ def _check_duplicate_keys(node, path: str, file: str, seen_nodes: set) -> None:
         names: dict[str, int] = {}
         for key_node, value_node in node.value:
             name = key_node.value if isinstance(key_node, yaml.ScalarNode) else None
-            sub = _join(path, str(name))
+            sub = _join(path, name)
             if name is not None:
                 if name in names:
                     raise SceneError(file, sub, f"duplicated key (first on line {names[name] + 1}, "
@@ -395,11 +421,14 @@ def _read_json(text: str, file: str) -> Any:
         data = json.loads(text, object_pairs_hook=_json_pairs)
     except json.JSONDecodeError as exc:
         raise SceneError(file, f"line {exc.lineno}, column {exc.colno}", f"invalid JSON: {exc.msg}") from None
+    except ValueError:  # an integer of more than 4300 digits
+        raise SceneError(file, "<file>", "invalid JSON: an integer too long to read; expected numbers "
+                                         "of a sensible size") from None
     _find_json_duplicate(data, "", file)
     return _plain(data)
 
 
-def _read_file(path: Path, file: str) -> Any:
+def _read_text(path: Path, file: str) -> Any:
     import yaml
 
     try:
@@ -432,19 +461,37 @@ def _read_file(path: Path, file: str) -> Any:
         loader.dispose()
 
 
+def _too_deep(file: str) -> SceneError:
+    return SceneError(file, "(top level)", "nested too deeply; expected a scene of mappings and lists "
+                                           "a few levels deep")
+
+
+def _read_file(path: Path, file: str) -> Any:
+    """The data of a YAML or JSON scene file (deep nesting refused)."""
+    try:
+        return _read_text(path, file)
+    except RecursionError:
+        raise _too_deep(file) from None
+
+
 # =========================================================================== helpers
 _MISSING = object()
 
 
-def _join(path: str, key: str) -> str:
-    return f"{path}.{key}" if path else key
+_NAME_FORBIDDEN = re.compile(r"[.\[\],\"']")
 
 
-def _show(value: Any) -> str:
-    if value is None:
-        return "nothing"
-    text = repr(value)
-    return text if len(text) <= 80 else text[:77] + "..."
+def _valid_name(name) -> bool:
+    """A name of a part or probe: printable text without . [ ] , quotes or surrounding spaces."""
+    return (isinstance(name, str) and bool(name.strip()) and name == name.strip() and name.isprintable()
+            and not _NAME_FORBIDDEN.search(name))
+
+
+def _join(path: str, key) -> str:
+    """``path.key``; a key that would not show in the path is quoted (``bodies.''``, ``bodies.' hub'``)."""
+    plain = isinstance(key, str) and key and key == key.strip() and key.isprintable()
+    text = key if plain else "null" if key is None else show_value(key)
+    return f"{path}.{text}" if path else text
 
 
 def _listing(names) -> str:
@@ -456,7 +503,10 @@ def _is_number(value) -> bool:
     return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
 
 
-_NAME_FORBIDDEN = re.compile(r"[.\[\],\"'\n\r]")
+def _direction(v: np.ndarray) -> np.ndarray:
+    """``v / |v|`` for a non-zero finite vector, without overflow or underflow in ``|v|``."""
+    v = v / np.abs(v).max()
+    return v / np.linalg.norm(v)
 
 
 class _Reader:
@@ -470,7 +520,7 @@ class _Reader:
 
     # -- primitive checks -------------------------------------------------------
     def fail(self, key: str, expected: str, got: Any = _MISSING):
-        raise SceneError(self.file, key, expected if got is _MISSING else f"{expected}, got {_show(got)}")
+        raise SceneError(self.file, key, expected if got is _MISSING else f"{expected}, got {show_value(got)}")
 
     def mapping(self, value, key, allowed, required=(), what="a mapping") -> dict:
         label = key or "(top level)"
@@ -501,9 +551,9 @@ class _Reader:
     def check_name(self, name, key, what):
         if not isinstance(name, str) or not name.strip():
             self.fail(key, f"expected {what} names as text", name)
-        if _NAME_FORBIDDEN.search(name) or name != name.strip():
-            self.fail(_join(key, name), f"expected a {what} name without . [ ] , quotes, line breaks "
-                                        "or surrounding spaces", name)
+        if not _valid_name(name):
+            self.fail(_join(key, name), f"expected a {what} name of printable characters without . [ ] , "
+                                        "quotes, line breaks or surrounding spaces", name)
 
     def number(self, value, key, *, positive=False, nonnegative=False, lo=None, hi=None) -> float:
         if isinstance(value, str):
@@ -512,7 +562,10 @@ class _Reader:
                 self.fail(key, "expected a constant (a number or an expression without t)", value)
             x = tf.value(0.0)
         elif _is_number(value):
-            x = float(value)
+            try:
+                x = float(value)
+            except OverflowError:  # an integer beyond the float range
+                self.fail(key, "expected a finite number", value)
         else:
             self.fail(key, "expected a number", value)
         if not math.isfinite(x):
@@ -525,14 +578,18 @@ class _Reader:
             self.fail(key, f"expected a number in [{lo:g}, {hi:g}]", value)
         return x
 
-    def integer(self, value, key, *, minimum=1) -> int:
-        if isinstance(value, float) and math.isfinite(value) and value.is_integer():
-            value = int(value)
-        if not isinstance(value, (int, np.integer)) or isinstance(value, (bool, np.bool_)):
+    def integer(self, value, key, *, minimum=1, maximum=MAX_COUNT, why="") -> int:
+        """A whole number in [minimum, maximum]; ``why`` explains the maximum in the message."""
+        number = value
+        if isinstance(number, float) and math.isfinite(number) and number.is_integer():
+            number = int(number)
+        if not isinstance(number, (int, np.integer)) or isinstance(number, (bool, np.bool_)):
             self.fail(key, f"expected a whole number >= {minimum}", value)
-        if value < minimum:
+        if number < minimum:
             self.fail(key, f"expected a whole number >= {minimum}", value)
-        return int(value)
+        if number > maximum:
+            self.fail(key, f"expected a whole number <= {maximum}{why}", value)
+        return int(number)
 
     def boolean(self, value, key) -> bool:
         if not isinstance(value, bool):
@@ -548,13 +605,12 @@ class _Reader:
         if not isinstance(value, (list, tuple)) or len(value) != 3:
             self.fail(key, f"expected a vector {what} of 3 numbers", value)
         v = np.array([self.number(x, f"{key}[{i}]") for i, x in enumerate(value)], dtype=np.float64)
-        if nonzero and not np.linalg.norm(v) > 0:
+        if nonzero and not np.any(v):
             self.fail(key, f"expected a non-zero vector {what}", value)
         return v
 
     def unit(self, value, key) -> np.ndarray:
-        v = self.vector(value, key, nonzero=True, what="[ax, ay, az]")
-        return v / np.linalg.norm(v)
+        return _direction(self.vector(value, key, nonzero=True, what="[ax, ay, az]"))
 
     def time_functions(self, value, key) -> list[TimeFunction]:
         if not isinstance(value, (list, tuple)) or len(value) != 3:
@@ -588,13 +644,12 @@ class _Reader:
                 self.fail(key, "expected [Ixx, Iyy, Izz] or a 3x3 list", value)
             inertia = np.array([[self.number(x, f"{key}[{i}][{j}]") for j, x in enumerate(row)]
                                 for i, row in enumerate(value)], dtype=np.float64)
-            scale = max(np.abs(inertia).max(), 1e-300)
-            if np.abs(inertia - inertia.T).max() > 1e-9 * scale:
+            scaled = inertia / max(np.abs(inertia).max(), 1e-300)   # entries up to 1: no overflow below
+            if np.abs(scaled - scaled.T).max() > 1e-9:
                 self.fail(key, "expected a symmetric inertia matrix", value)
-            inertia = 0.5 * (inertia + inertia.T)
-            if np.linalg.eigvalsh(inertia).min() < -1e-12 * scale:
+            if np.linalg.eigvalsh(0.5 * (scaled + scaled.T)).min() < -1e-12:
                 self.fail(key, "expected a positive semi-definite inertia matrix", value)
-            return inertia
+            return 0.5 * inertia + 0.5 * inertia.T
         if isinstance(value, (list, tuple)) and len(value) == 3:
             diag = [self.number(x, f"{key}[{i}]", nonnegative=True) for i, x in enumerate(value)]
             return np.diag(np.array(diag, dtype=np.float64))
@@ -673,21 +728,26 @@ class _Reader:
     def beam(self, name, spec, key) -> Beam:
         self.mapping(spec, key, _BEAM_KEYS, required=("from", "to", "section"))
         section = self.sections[self.ref(spec["section"], _join(key, "section"), self.sections, "section")]
-        elements = self.integer(spec.get("elements", 1), _join(key, "elements"))
-        start = self.beam_end(spec["from"], _join(key, "from"), spec.get("start"), _join(key, "start"),
-                              "start" in spec)
-        end = self.beam_end(spec["to"], _join(key, "to"), spec.get("end"), _join(key, "end"), "end" in spec)
-        d = end.point - start.point
-        length = float(np.linalg.norm(d))
-        scale = max(np.linalg.norm(start.point), np.linalg.norm(end.point))
+        before = sum(beam.elements for beam in self.beams.values())
+        elements = self.integer(spec.get("elements", 1), _join(key, "elements"), maximum=MAX_ELEMENTS - before,
+                                why=f" (at most {MAX_ELEMENTS} elements in a scene, {before} in the beams before)")
+        with np.errstate(over="ignore", invalid="ignore"):  # coordinates beyond float64: refused below
+            start = self.beam_end(spec["from"], _join(key, "from"), spec.get("start"), _join(key, "start"),
+                                  "start" in spec)
+            end = self.beam_end(spec["to"], _join(key, "to"), spec.get("end"), _join(key, "end"), "end" in spec)
+            d = end.point - start.point
+            length = float(np.linalg.norm(d))
+        if not math.isfinite(length):
+            self.fail(key, f"beam from {start.point.tolist()} to {end.point.tolist()} is too long to compute "
+                           "in float64; expected coordinates below about 1e150")
+        scale = max(np.abs(start.point).max(), np.abs(end.point).max())
         if length == 0.0 or length <= 1e-12 * scale:
             self.fail(key, f"zero-length beam: from and to are both at {start.point.tolist()}; "
                            "expected two distinct points")
         x = d / length
         if "y_axis" in spec:
             y_key = _join(key, "y_axis")
-            y = self.vector(spec["y_axis"], y_key, nonzero=True)
-            y = y / np.linalg.norm(y)
+            y = _direction(self.vector(spec["y_axis"], y_key, nonzero=True))
             y = y - np.dot(y, x) * x                       # Gram-Schmidt
             if np.linalg.norm(y) < 1e-8:
                 self.fail(y_key, f"expected a direction not parallel to the beam (x = {x.round(12).tolist()})",
@@ -700,8 +760,9 @@ class _Reader:
         return Beam(name=name, start=start, end=end, section=section, elements=elements,
                     y_axis=y / np.linalg.norm(y))
 
-    _POINT = re.compile(r"^(?P<name>[^.\[\]]+)\.(?:(?P<end>start|end)|node\[(?P<node>[+-]?\d+)\])$")
-    _ELEMENT = re.compile(r"^(?P<name>[^.\[\]]+)\.element\[(?P<index>[+-]?\d+)\]$")
+    # indices of up to 18 digits: int() refuses more than 4300, and any index that long is out of range
+    _POINT = re.compile(r"^(?P<name>[^.\[\]]+)\.(?:(?P<end>start|end)|node\[(?P<node>[+-]?\d{1,18})\])$")
+    _ELEMENT = re.compile(r"^(?P<name>[^.\[\]]+)\.element\[(?P<index>[+-]?\d{1,18})\]$")
     _HINGE_REF = re.compile(r"^(?P<name>[^.\[\]]+)\.(?P<end>start|end)$")
 
     def point(self, value, key) -> PointRef:
@@ -785,7 +846,7 @@ class _Reader:
             return []
         items: list[tuple[Any, Any, str]] = []
         if isinstance(value, dict):
-            items = [(name, spec, _join(key, str(name))) for name, spec in value.items()]
+            items = [(name, spec, _join(key, name)) for name, spec in value.items()]
         elif isinstance(value, list):
             for i, spec in enumerate(value):
                 ikey = f"{key}[{i}]"
@@ -797,10 +858,9 @@ class _Reader:
             self.fail(key, "expected a mapping of probe names to probes", value)
         out, seen = [], set()
         for name, spec, pkey in items:
-            if not isinstance(name, str) or not name.strip() or _NAME_FORBIDDEN.search(name) \
-                    or name != name.strip():
-                self.fail(pkey, "expected a probe name as text without . [ ] , quotes, line breaks "
-                                "or surrounding spaces", name)
+            if not _valid_name(name):
+                self.fail(pkey, "expected a probe name of printable characters without . [ ] , quotes, "
+                                "line breaks or surrounding spaces", name)
             if name in _RESERVED_COLUMNS:
                 self.fail(pkey, f"expected a probe name other than {_listing(_RESERVED_COLUMNS)} "
                                 "(first column of probes.csv)", name)
@@ -827,6 +887,8 @@ class _Reader:
             s.t_end = self.number(spec["t_end"], k("t_end"), positive=True)
         if "dt" in spec:
             s.dt = self.number(spec["dt"], k("dt"), positive=True)
+            if s.t_end is not None and s.dt > s.t_end:
+                self.fail(k("dt"), f"expected dt <= t_end = {s.t_end:g}", spec["dt"])
         if "rho_inf" in spec:
             s.rho_inf = self.number(spec["rho_inf"], k("rho_inf"), lo=0.0, hi=1.0)
         if "tol" in spec:
@@ -856,14 +918,27 @@ def _canonical_hash(raw: Any) -> str:
     return hashlib.sha256(text.encode("utf-8")).hexdigest()
 
 
-def _plain_data(value: Any) -> Any:
-    """A deep copy of a mapping given in Python, NumPy arrays and scalars made plain lists and numbers."""
+def _plain_data(value: Any, memo: dict | None = None) -> Any:
+    """A deep copy of a mapping given in Python, NumPy arrays and scalars made plain lists and numbers.
+
+    Like :func:`copy.deepcopy`, a container met twice is copied once (``memo``: id -> (original,
+    copy)), so shared parts stay shared and cycles stay cycles instead of recursing forever.
+    """
+    memo = {} if memo is None else memo
+    if id(value) in memo:
+        return memo[id(value)][1]
     if isinstance(value, dict):
-        return {k: _plain_data(v) for k, v in value.items()}
+        out: Any = {}
+        memo[id(value)] = (value, out)       # the original is kept alive so that its id stays unique
+        out.update((k, _plain_data(v, memo)) for k, v in value.items())
+        return out
     if isinstance(value, (list, tuple)):
-        return [_plain_data(v) for v in value]
+        out = []
+        memo[id(value)] = (value, out)
+        out.extend(_plain_data(v, memo) for v in value)
+        return out
     if isinstance(value, np.ndarray):
-        return _plain_data(value.tolist())
+        return _plain_data(value.tolist(), memo)
     if isinstance(value, np.generic):
         return value.item()
     return copy.deepcopy(value)
@@ -879,12 +954,16 @@ def load_scene(source: "str | os.PathLike | dict | Scene") -> Scene:
         return source
     if isinstance(source, dict):
         file = "<dict>"
-        raw = _plain_data(source)
+        try:
+            raw = _plain_data(source)
+        except RecursionError:
+            raise _too_deep(file) from None
     elif isinstance(source, (str, os.PathLike)):
         file = os.fspath(source)
         raw = _read_file(Path(file), file)
     else:
-        raise SceneError("<scene>", "<source>", f"expected a path to a scene file or a mapping, got {_show(source)}")
+        raise SceneError("<scene>", "<source>",
+                         f"expected a path to a scene file or a mapping, got {show_value(source)}")
     return _build(raw, file)
 
 
@@ -898,7 +977,11 @@ def _build(raw: Any, file: str) -> Scene:
         title = ""
     if isinstance(title, (dict, list, tuple)):
         r.fail("title", "expected free text", title)
-    title = str(title)
+    try:
+        title = str(title)
+        title.encode("utf-8")
+    except ValueError:  # an integer of more than 4300 digits, a lone surrogate
+        r.fail("title", "expected free text (valid Unicode)", title)
 
     gravity = r.vector(raw["gravity"], "gravity", what="[gx, gy, gz]") if raw.get("gravity") is not None \
         else np.zeros(3)
