@@ -78,12 +78,14 @@ def check_loads_or_refuses(source, file: str):
 
 # =========================================================================== mutations of plain data
 ODD_NAMES = ["", " ", " hub", "arm ", ".", "a.b", "arm.end", "x[0]", "[", "]", ",", "'", '"', "a\nb", "\t",
-             "\x00", "\u200b", "ü", "Ω", "名前", "🙂", "global", "t", "load_factor", "start", "null", "~", "-", "1"]
+             "\x00", "\u200b", "ü", "Ω", "名前", "🙂", "global", "t", "load_factor", "start", "null", "~", "-",
+             "1"]
 EXPRESSIONS = ["__import__('os')", "t**t**t**999", "9**9**9", "t.real", "lambda: 1", "[1]", "'a'", "1_000", "1j",
-               "0x10", "sqrt(-1)", "1/0", "0**-1", "log(0)", "sin(", ")", "t <", "t < 1", "True", "Piecewise((1, t < 0))",
-               "exp(exp(exp(exp(10))))", "1e999", "1e-999", "Min()", "atan2(t)", "open('x')", "os.system('ls')",
-               "t; t", "t\nt", "(" * 300 + "t" + ")" * 300, "1+" * 1500 + "1", "-" * 3000 + "t", "t" * (MAX_TEXT + 1),
-               "*".join(f"(t+{i})" for i in range(100)), "e**e**e**e**e", "0.0**0", "sin(t)", "6*t", "pi/2", "-t"]
+               "0x10", "sqrt(-1)", "1/0", "0**-1", "log(0)", "sin(", ")", "t <", "t < 1", "True",
+               "Piecewise((1, t < 0))", "exp(exp(exp(exp(10))))", "1e999", "1e-999", "Min()", "atan2(t)", "open('x')",
+               "os.system('ls')", "t; t", "t\nt", "(" * 300 + "t" + ")" * 300, "1+" * 999 + "1", "-" * 1500 + "t",
+               "t" * (MAX_TEXT + 1), "*".join(f"(t+{i})" for i in range(100)), "e**e**e**e**e", "0.0**0", "sin(t)",
+               "6*t", "pi/2", "-t"]
 KEYWORDS = ["clamped", "hinge", "transient", "static", "modes", "newmark", "explicit", "default", "no_stiffening",
             "global", "total", "kinetic", "position", "velocity", "angle", "rate", "axial_force", "linear", "x",
             "norm", "auto", "off"]
@@ -108,6 +110,7 @@ def key_paths(tree, prefix=()):
 
 
 def at_path(tree, path):
+    """The value at ``path`` (keys and indices) inside ``tree``."""
     for key in path:
         tree = tree[key]
     return tree
@@ -201,7 +204,7 @@ def mutated_scenes(draw, *, for_files: bool = False):
 
 
 # =========================================================================== properties
-@fuzz_settings(max_examples=400)
+@fuzz_settings(max_examples=600)
 @given(mutated_scenes())
 def test_mutated_scene_dicts_load_or_raise_scene_error(case):
     _, tree = case
@@ -214,7 +217,8 @@ def test_mutated_scene_files_and_latdyn_check(tmp_path_factory, case, as_json):
     """Through a YAML or JSON file: the loader names the file, ``latdyn check`` exits 0 or 2."""
     name, tree = case
     path = tmp_path_factory.mktemp("fuzz") / (Path(name).stem + (".json" if as_json else ".yaml"))
-    path.write_text(json.dumps(tree) if as_json else yaml.safe_dump(tree, allow_unicode=True, sort_keys=False), encoding="utf-8")
+    text = json.dumps(tree) if as_json else yaml.safe_dump(tree, allow_unicode=True, sort_keys=False)
+    path.write_text(text, encoding="utf-8")
     scene = check_loads_or_refuses(str(path), str(path))
     status, out, err = run_check(path)
     assert status == (0 if scene is not None else 2), err
@@ -265,7 +269,7 @@ def mutated_yaml_texts(draw):
     return "\n".join(lines) + "\n"
 
 
-@fuzz_settings(max_examples=200)
+@fuzz_settings(max_examples=250)
 @given(text=mutated_yaml_texts())
 def test_mutated_yaml_text_loads_or_raises_scene_error(tmp_path_factory, text):
     path = tmp_path_factory.mktemp("fuzz") / "scene.yaml"
@@ -390,7 +394,7 @@ def test_expressions_too_complex_to_differentiate_are_refused_quickly(text):
     started = time.perf_counter()
     with pytest.raises(SceneError, match="too complex|nested too deeply"):
         parse_time_function(text, "f.yaml", "loads[0].force[1]")
-    assert time.perf_counter() - started < 10.0
+    assert time.perf_counter() - started < 15.0
 
 
 @pytest.mark.parametrize("value, where", [
@@ -405,7 +409,7 @@ def test_yaml_values_that_crashed_the_reader(tmp_path, value, where):
     started = time.perf_counter()
     with pytest.raises(SceneError) as err:
         load_scene(path)
-    assert time.perf_counter() - started < 5.0
+    assert time.perf_counter() - started < 15.0
     assert err.value.file == str(path) and err.value.key == where and len(str(err.value)) < 2000
 
 
