@@ -1,54 +1,64 @@
 """Linear solves of the Newton iteration matrix, and the null direction of a PSD pencil.
 
-Policy, chosen by measurement (``python benchmarks/linear_solvers.py``, table in
-benchmarks/results/linear_solvers.json; AMD EPYC, 2 cores of a KVM guest shared
-with other jobs, medians in ms of one Newton solve *including* the assembly of
-S = β′M + γ′C + K, BLAS threads 1 / 2):
+Policy, chosen by measurement: ``python benchmarks/linear_solvers.py``, full
+table in benchmarks/results/linear_solvers.json.  AMD EPYC, 2 cores of a KVM
+guest shared with other jobs (load average 1.6–3 during the run), OpenBLAS
+0.3.30/0.3.31; median ms of one Newton solve *including* the assembly of
+S = β′M + γ′C + K (Newmark, h = 0.01); "1/2" = BLAS limited to 1 / 2 threads:
 
-    model         n      dense LU       SuperLU (MMD AᵀA+A,   band LU after
-                                        symmetric mode)       RCM (bandwidth)
-    beam 10 el    66     0.066 / 0.066  0.31                  0.20   (11)
-    beam 20 el    126    0.33 / 0.34    0.47                  0.33   (11)
-    beam 32 el    198    0.76 / 254     0.43                  0.25   (11)
-    beam 64 el    390    12 / 44        0.70                  0.46   (11)
-    beam 400 el   2406   691 / 1070     8.2                   2.2    (11)
-    beam 5000 el  30006  —              97                    70     (11)
-    lattice 32 el 148    0.35 / 0.34    0.29                  0.32   (53)
-    lattice 63 el 180    0.52 / 0.51    0.64                  0.71   (65) / 147 at 2 threads
-    lattice 120   324    2.3 / 317      1.6                   1.6    (80)
-    lattice 260   680    74 / 758       13 (7.1 reused order) 13     (141)
-    lattice 480   1230   142 / 653      22                    48     (190) / 1780 at 2 threads
-    lattice 931   2352   656 / 1140     106                   247    (434)
+    model          n      RCM bw  dense LU      SuperLU   SuperLU   SuperLU     band LU     latdyn
+                                  (gesv) 1/2    COLAMD    MMD sym   scaled,     (gbsv) 1/2  policy
+                                                (default)           reused
+    beam 10 el     66     11      0.061/0.061   0.16      0.16      0.19        0.10        0.074 dense
+    beam 20 el     126    11      0.19/0.20     0.20      0.21      0.23        0.125       0.117 dense
+    beam 24 el     150    11      0.27/0.26     0.22      0.22      0.24        0.137       0.128 band
+    beam 64 el     390    11      2.4/9.7       0.43      0.40      0.45        0.25        0.25  band
+    beam 400 el    2406   11      665/493       6.8       6.1       2.5         1.3         1.6   band
+    beam 5000 el   30006  11      —             41        41        43          22          19    band
+    lattice 32 el  148    53      0.30/0.31     0.43      0.37      0.32        0.27        0.26  band
+    lattice 63 el  180    65      0.50/0.51     0.73      0.57      0.53        0.63/0.85   0.55  band
+    lattice 120    324    80      1.7/9.3       1.9       1.1       0.85        0.90/8.8    0.69  band
+    lattice 260    680    141     24/81         6.8       3.6       2.1         3.1/321     2.1   SuperLU
+    lattice 931    2352   434     456/464       47        43        13          —           14    SuperLU
+    lattice 4896   11952  975     —             1660      3170      345         —           346   SuperLU
 
-(the rows are from the run recorded in the json; that run shared the machine
-with several other jobs, so single entries are noisy by ×2, but every ordering
-below held in every run.)
+(single entries are noisy by up to ×2 on this shared machine — an earlier,
+busier run had dense LU at n = 198 take 0.76 ms on one thread and 254 ms on
+two — but the choices below hold in each of the three full runs.)
 
 * **Dense only for small systems.** Dense LU costs ⅔n³ and a zero-filled n×n
-  array; sparse solves carry a fixed ~0.15–0.3 ms of Python and SuperLU set-up.
-  They cross between n ≈ 130 (a beam: 17 nonzeros a row) and n ≈ 200 (a 3D
-  lattice: 30 a row) → ``DENSE_LIMIT = 150``.  The former limit, 600, made the
-  64-element flying spaghetti (390 coordinates) a dense model: 2–12 ms a solve
-  on one thread against 0.5 ms sparse.
-* **BLAS pinned to one thread around LAPACK calls** (dense ``gesv`` and banded
-  ``gbsv``): with two threads on a machine where another job holds a core,
-  OpenBLAS waits on its second thread: n = 198 dense 0.76 → 254 ms, the
-  lattice band solve 48 → 1780 ms.  Even unloaded, these sizes are too small
-  for a second thread to pay.  SuperLU does not use threaded BLAS here (1 and 2
-  threads time alike).  The pin is taken and released around each call through
-  threadpoolctl when it is installed (≈1 µs), so the caller's own BLAS setting
-  is untouched; without threadpoolctl nothing is pinned.
+  array, a sparse solve a fixed ~0.1 ms of set-up: they cross at n ≈ 120 for a
+  beam (17 nonzeros a row) and n ≈ 150–180 for a 3D lattice (20–30 a row) →
+  ``DENSE_LIMIT = 120``, on n alone: a nonzero-dependent limit would gain at
+  most ~0.05 ms a solve for lattices of 120–180 coordinates.  The former limit,
+  600, made the 64-element flying spaghetti (390 coordinates) dense: 2.4 ms a
+  solve on one thread, 10–300 ms on two, against 0.25 ms now (1 s of its
+  D3 run: 6–15 s before, 1.4–2 s now).
+* **BLAS pinned to one thread around LAPACK calls** (dense ``gesv`` and band
+  ``gbsv``): on a machine where another job holds a core, OpenBLAS's second
+  thread costs far more than it gains (n = 390 dense 2.4 → 9.7 ms, n = 102 in
+  a busier run 0.29 → 216 ms; the band solve of lattice 260: 3.1 → 321 ms).
+  Unloaded, these sizes are still too small for two threads to pay.  SuperLU
+  does not use threaded BLAS here (1 and 2 threads time alike).  The pin is
+  taken and released around each call through threadpoolctl when it is
+  installed (≈1 µs), so the caller's BLAS setting is untouched; without
+  threadpoolctl nothing is pinned.
 * **Sparse: band LU when the reverse Cuthill–McKee bandwidth is small, else
-  SuperLU with a reused ordering.**  A chain of beams has bandwidth 11 after
-  RCM whatever its length, and LAPACK's band LU (partial pivoting) beats
-  SuperLU 1.5–4×.  A 3D lattice's bandwidth grows like n^⅔ and the band solve
-  falls behind from bandwidth ≈ 150 (lattice 1230: 48 vs 22 ms) →
-  ``BAND_LIMIT = 64``.  Otherwise SuperLU, ordered by minimum degree on AᵀA + A
-  in symmetric mode with threshold pivoting 0.1 (S is structurally symmetric
-  and nearly so in value): COLAMD, SuperLU's default, fills 1.6× more and is
-  2–5× slower on lattices.  Both analyses are done once per sparsity pattern
-  (RCM order and the band scatter map; the SuperLU column order) and reused
-  while the pattern stays the same (it changes only when a hinge latches).
+  SuperLU.**  A chain of beams has bandwidth 11 after RCM whatever its length,
+  and LAPACK's band LU (partial pivoting) beats every SuperLU variant 1.5–2×.
+  A 3D lattice's bandwidth grows like n^⅔; band LU ties with SuperLU at
+  bandwidth 53–80 and loses from 141 on (×1.5 there, ×5 at 190) →
+  ``BAND_LIMIT = 100``.  Beyond, SuperLU on the
+  Jacobi-scaled matrix D S D (D = |diag S|^(-1/2)), minimum-degree ordering of
+  AᵀA + A in symmetric mode with threshold pivoting 0.1: with a unit diagonal
+  the pivots stay on the diagonal and keep the ordering's fill (lattice 6210:
+  2.1 M nonzeros in L + U against 4.9 M unscaled and 5.5 M with COLAMD,
+  SuperLU's default, which is 3–5× slower).  Both analyses are made once per
+  sparsity pattern and reused while it lasts (it changes only when a hinge
+  latches): the RCM order and the band scatter map; SuperLU's column order
+  from the first factorization, after which the values are scattered straight
+  into the permuted CSC matrix and factorized in that order (SuperLU has no
+  separate symbolic step; skipping its ordering saves 1.2–3×).
 
 ``solve_linear(matrix, rhs)`` dispatches on the matrix: a NumPy array is
 solved densely; a SciPy sparse matrix densely when n ≤ DENSE_LIMIT, else as
@@ -58,7 +68,8 @@ n ≤ DENSE_LIMIT, so the iteration matrix is assembled in the form it is solved
 ``psd_null_direction(A)`` finds a direction x with xᵀAx ≈ 0 for a sparse
 symmetric positive semi-definite A with unit diagonal (the held-coordinate
 check of the scene, see :meth:`latdyn.model.Model.check_held`), by inverse
-iteration with a sparse LU of A + δI: at any size, without a dense eigen-solve.
+iteration with one sparse LU of A + δI: at any size, without a dense
+eigen-solve (10⁴ coordinates: 13 ms for a beam, 51 ms for a 3D lattice).
 """
 from __future__ import annotations
 
