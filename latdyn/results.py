@@ -355,6 +355,14 @@ def _read_modes(path: Path) -> np.ndarray:
         raise ResultsError(f"{path}: cannot read ({exc})") from exc
 
 
+def _state_paths(folder: Path) -> tuple[Path, Path]:
+    """The HDF5 and NPZ state-history paths of a results folder; refuses an HDF5 file without h5py."""
+    h5_path, npz_path = folder / STATE_H5_FILE, folder / STATE_NPZ_FILE
+    if h5_path.is_file() and h5py is None:
+        raise ResultsError(f"{h5_path}: h5py is needed to read this file")
+    return h5_path, npz_path
+
+
 def load_state_history(out_dir) -> dict:
     """Read the state history of a results folder.
 
@@ -362,10 +370,8 @@ def load_state_history(out_dir) -> dict:
     failing that, ``state.npz``. Raises :class:`ResultsError` when neither exists.
     """
     folder = Path(out_dir)
-    h5_path, npz_path = folder / STATE_H5_FILE, folder / STATE_NPZ_FILE
+    h5_path, npz_path = _state_paths(folder)
     if h5_path.is_file():
-        if h5py is None:
-            raise ResultsError(f"{h5_path}: h5py is needed to read this file")
         with h5py.File(h5_path, "r") as f:
             return {name: f[name][()] for name in f.keys()}
     if npz_path.is_file():
@@ -394,10 +400,8 @@ def load_state_labels(out_dir) -> dict:
     [...] for each file attribute given as ``attributes`` (``nodes``, ``hinges``,
     ``coordinates`` for a run)}``; ``{"columns": {}}`` for a file without labels."""
     folder = Path(out_dir)
-    h5_path, npz_path = folder / STATE_H5_FILE, folder / STATE_NPZ_FILE
+    h5_path, npz_path = _state_paths(folder)
     if h5_path.is_file():
-        if h5py is None:
-            raise ResultsError(f"{h5_path}: h5py is needed to read this file")
         with h5py.File(h5_path, "r") as f:
             out = {str(k): [str(x) for x in np.atleast_1d(v)] for k, v in f.attrs.items()
                    if k not in ("first_column", "meta")}
