@@ -26,4 +26,16 @@ def run(scene, out_dir=None, backend="auto", progress=False, *, resume=False, ch
                 checkpoint_every=checkpoint_every)
 
 
-__all__ = ["load_scene", "run", "SceneError", "SolverError", "__version__"]
+def study(source, scheduler="serial", out=None, **options):
+    """Run a study (a path to a study YAML, or a mapping); returns a :class:`latdyn.study.StudyTable`.
+
+    ``scheduler``: ``"serial"``, ``"local[:N]"`` (Dask LocalCluster) or a Dask scheduler's
+    address; ``out`` the results folder (default ``<study stem>_study``). See STUDY.md and
+    :mod:`latdyn.study`.
+    """
+    from .study import study as _study
+
+    return _study(source, scheduler=scheduler, out=out, **options)
+
+
+__all__ = ["load_scene", "run", "study", "SceneError", "SolverError", "__version__"]

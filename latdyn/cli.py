@@ -1,12 +1,12 @@
-"""The ``latdyn`` command (also ``python -m latdyn``): ``run``, ``check``, ``plot``.
+"""The ``latdyn`` command (also ``python -m latdyn``): ``run``, ``check``, ``plot``, ``study``.
 
 Exit statuses (SCENE.md):
 
 =====  ===============================================================================
-0      solved (``run``), valid (``check``), plotted (``plot``)
+0      solved (``run``), valid (``check``), plotted (``plot``), study finished (failed cases are rows)
 1      the solver failed (what was recorded is left complete), or an internal error
 2      invalid scene, missing scene file, bad arguments, missing/invalid results folder,
-       ``run --resume`` without a checkpoint of this scene and version
+       ``run --resume`` without a checkpoint of this scene and version, invalid study or --scheduler
 130    interrupted (Ctrl-C, SIGTERM); what was recorded is left complete, with a
        checkpoint for ``run --resume``
 =====  ===============================================================================
@@ -142,6 +142,21 @@ def _command_plot(args) -> int:
     return 0
 
 
+def _command_study(args) -> int:
+    if not Path(args.study).is_file():
+        raise _UsageError(f"{args.study}: no such study file")
+    try:
+        table = _module("latdyn.study").study(args.study, scheduler=args.scheduler, out=args.out,
+                                              progress=not args.quiet)
+    except ValueError as exc:  # a malformed --scheduler, an unreachable scheduler (SceneError is caught in main)
+        if isinstance(exc, SceneError):
+            raise
+        _error(str(exc))
+        return 2
+    print(f"{PROG}: study of {len(table)} cases -> {table.out_dir}")
+    return 0
+
+
 # ----------------------------------------------------------------------------- parser
 def _seconds(text: str) -> float:
     try:
@@ -197,6 +212,15 @@ def build_parser() -> argparse.ArgumentParser:
     plot.add_argument("results", metavar="OUT", help="results folder written by `latdyn run`")
     plot.add_argument("--out", metavar="DIR", help="where to write the PNGs (default: OUT/plots)")
     plot.set_defaults(handler=_command_plot)
+    study = commands.add_parser("study", parents=[common], help="run a study: work-precision, stability map, sweep",
+                                description="Run the cases of STUDY (shared/STUDY.md) and write study.csv, "
+                                "work_precision.png, stability.png, cases/ and summary.json into OUT.")
+    study.add_argument("study", metavar="STUDY", help="study file (YAML)")
+    study.add_argument("-o", "--out", metavar="OUT", help="study folder (default: ./<STUDY stem>_study)")
+    study.add_argument("--scheduler", default="serial", metavar="serial|local[:N]|ADDRESS",
+                       help="serial (default), a local Dask cluster of N processes, or a Dask scheduler address")
+    study.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
+    study.set_defaults(handler=_command_study)
     return parser
 
 

@@ -1,0 +1,334 @@
+"""The pictures of a study (STUDY.md): ``work_precision.png`` and ``stability.png``.
+
+**Work-precision** — error against ``wall_s``, log–log. One curve per combination of the
+non-numeric ``vary`` keys (the method, the formulation) and of all numeric keys but one,
+the *free* key along the curve: ``solve.dt`` when it varies, else the first numeric key.
+Each point is labelled with its free-key value; beside each curve is its observed order,
+the least-squares slope of log error against log dt (against log of the free key; for a
+key named ``elements`` the order is minus the slope, error ~ N^-p). Where a key named
+``...elements`` varies as well, the order in the mesh is fitted across meshes at each
+curve group's smallest solved dt and shown in a box. Failed and unbounded cases have no
+error: they are marked along the bottom edge at their solver time (to the failure).
+Other codes' points (``peers:`` in the study) come from ``benchmarks/peers.py`` when that
+module exists: ``benchmarks.peers.work_precision_points(peer, study)`` returning rows
+``{"label", "wall_s", "error"}``; without it the picture says so in its corner.
+
+**Stability** — the status of every case on a grid of two ``vary`` keys (``stability:``
+in the study, or ``solve.dt`` across and the first other key up), one panel per
+combination of the other keys; failed and unbounded cells carry the time they reached.
+
+Matplotlib with the Agg backend (no display needed).
+"""
+from __future__ import annotations
+
+import itertools
+import math
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["draw", "work_precision", "stability_map", "observed_orders", "axis_label"]
+
+STATUS_STYLE = {
+    "solved": {"marker": "o", "color": "#2ca02c", "label": "solved"},
+    "failed": {"marker": "X", "color": "#d62728", "label": "failed (Newton / error)"},
+    "unbounded": {"marker": "^", "color": "#ff7f0e", "label": "unbounded (energy / non-finite)"},
+}
+#: Units of scene keys, by the last part of the path (SI, as in every shipped scene).
+UNITS = {"dt": "s", "t_end": "s", "rho_inf": "–", "tol": "–", "EA": "N", "EIy": "N m²", "EIz": "N m²",
+         "GJ": "N m²", "rhoA": "kg/m", "rhoIy": "kg m", "rhoIz": "kg m", "mass": "kg", "elements": "count",
+         "stiffness": "N m/rad", "damping": "N m s/rad", "angle": "rad", "every": "s"}
+PROBE_UNITS = {"position": "m", "displacement": "m", "velocity": "m/s", "angle": "rad", "rate": "rad/s",
+               "axial_force": "N", "torque": "N m", "moment_y": "N m", "moment_z": "N m"}
+
+
+def _pyplot():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def axis_label(key: str) -> str:
+    """``solve.dt`` -> ``solve.dt [s]``."""
+    unit = UNITS.get(key.rsplit(".", 1)[-1])
+    return f"{key} [{unit}]" if unit else key
+
+
+def _probe_unit(spec) -> str:
+    from .scene import load_scene
+
+    scene = load_scene(spec.base)
+    for probe in scene.output.probes:
+        if probe.name == spec.probe:
+            if probe.kind == "energy":
+                return "J"
+            if probe.kind == "momentum":
+                return "kg m/s" if probe.quantity == "linear" else "kg m²/s"
+            return PROBE_UNITS.get(probe.quantity, "")
+    return ""
+
+
+def _free_key(spec) -> str | None:
+    numeric = spec.numeric_keys
+    if not numeric:
+        return None
+    return "solve.dt" if "solve.dt" in numeric else numeric[0]
+
+
+def _short(key: str, value) -> str:
+    name = key.rsplit(".", 1)[-1]
+    if name == "elements":
+        return f"{value} el."
+    if name in ("method", "formulation"):
+        return str(value)
+    return f"{name}={value}"
+
+
+def _fit_order(x, y, key: str) -> float | None:
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    ok = (x > 0) & (y > 0) & np.isfinite(y)
+    if ok.sum() < 2 or len(np.unique(x[ok])) < 2:
+        return None
+    slope = np.polyfit(np.log(x[ok]), np.log(y[ok]), 1)[0]
+    return float(-slope if key.endswith("elements") else slope)
+
+
+def _curves(table, spec):
+    """{curve key (tuple of (key, value)): [rows along the free key, sorted]}."""
+    free = _free_key(spec)
+    others = [k for k in spec.vary if k != free]
+    curves: dict = {}
+    for row in table.rows:
+        ident = tuple((k, row[k]) for k in others)
+        curves.setdefault(ident, []).append(row)
+    if free is not None:
+        for rows in curves.values():
+            rows.sort(key=lambda r: r[free])
+    return free, curves
+
+
+def observed_orders(table, spec) -> list[dict]:
+    """The observed orders: along each curve (in the free key) and, where a key named
+    ``elements`` varies too, across meshes at the smallest solved dt."""
+    free, curves = _curves(table, spec)
+    orders = []
+    if free is None:
+        return orders
+    for ident, rows in curves.items():
+        solved = [r for r in rows if r["status"] == "solved" and r["error"] is not None]
+        p = _fit_order([r[free] for r in solved], [r["error"] for r in solved], free)
+        orders.append({"curve": ", ".join(_short(k, v) for k, v in ident) or "all", "in": free, "order": p,
+                       "points": len(solved)})
+    mesh = [k for k in spec.numeric_keys if k.endswith("elements") and k != free]
+    if mesh and free == "solve.dt":
+        m = mesh[0]
+        rest = [k for k in spec.vary if k not in (free, m)]
+        groups: dict = {}
+        for row in table.rows:
+            groups.setdefault(tuple((k, row[k]) for k in rest), []).append(row)
+        for ident, rows in groups.items():
+            solved = [r for r in rows if r["status"] == "solved" and r["error"] is not None]
+            for dt in sorted({r[free] for r in solved}):
+                at = [r for r in solved if r[free] == dt]
+                if len({r[m] for r in at}) >= 2:
+                    p = _fit_order([r[m] for r in at], [r["error"] for r in at], m)
+                    orders.append({"curve": ", ".join(_short(k, v) for k, v in ident) or "all", "in": m,
+                                   "order": p, "at": {free: dt}, "points": len(at)})
+                    break
+    return orders
+
+
+def _peer_points(spec) -> tuple[list, str | None]:
+    """Points of other codes for the work-precision axes, and a note when there are none."""
+    if not spec.peers:
+        return [], None
+    try:
+        from benchmarks import peers  # noqa: WPS433 - optional, the project's benchmarks package
+    except ImportError:
+        return [], "peers " + ", ".join(spec.peers) + ": benchmarks/peers.py not found (hook: no points)"
+    getter = getattr(peers, "work_precision_points", None)
+    if getter is None:
+        return [], "peers: benchmarks/peers.py has no work_precision_points(peer, study) (hook: no points)"
+    points, missing = [], []
+    for peer in spec.peers:
+        try:
+            rows = list(getter(peer, spec) or [])
+        except Exception as exc:  # noqa: BLE001 - a peer's data must not break the study's picture
+            missing.append(f"{peer} ({type(exc).__name__})")
+            continue
+        if not rows:
+            missing.append(peer)
+        points.extend(dict(r, peer=peer) for r in rows)
+    return points, ("no data for " + ", ".join(missing)) if missing else None
+
+
+def work_precision(table, spec, path) -> list[dict]:
+    """Draw ``path`` (see the module docstring); returns the observed orders."""
+    plt = _pyplot()
+    free, curves = _curves(table, spec)
+    orders = observed_orders(table, spec)
+    along = {o["curve"]: o for o in orders if o["in"] == free}
+    fig, ax = plt.subplots(figsize=(9, 6.2))
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    linestyles = ["-", "--", ":", "-."]
+    numeric_others = [k for k in spec.numeric_keys if k != free]
+    # colour by the non-numeric keys, line style by the numeric ones
+    categorical = [k for k in spec.vary if k not in spec.numeric_keys]
+    colour_of, style_of = {}, {}
+    failures = []
+    solved_errors = [r["error"] for r in table.rows if r["status"] == "solved" and r["error"]]
+    for ident, rows in curves.items():
+        cat = tuple(v for k, v in ident if k in categorical)
+        num = tuple(v for k, v in ident if k in numeric_others)
+        colour = colour_of.setdefault(cat, colours[len(colour_of) % len(colours)])
+        style = style_of.setdefault(num, linestyles[len(style_of) % len(linestyles)])
+        name = ", ".join(_short(k, v) for k, v in ident) or "all"
+        solved = [r for r in rows if r["status"] == "solved" and r["error"] and r["error"] > 0 and r["wall_s"]]
+        order = along.get(name, {}).get("order")
+        label = name + (f"  (order {order:.2f} in {free.rsplit('.', 1)[-1]})" if order is not None else "")
+        if solved:
+            x = [r["wall_s"] for r in solved]
+            y = [r["error"] for r in solved]
+            ax.plot(x, y, linestyle=style, marker="o", color=colour, label=label, markersize=5)
+            if free is not None:
+                for r in solved:
+                    ax.annotate(f"{r[free]:g}", (r["wall_s"], r["error"]), textcoords="offset points",
+                                xytext=(4, 3), fontsize=6.5, color=colour, alpha=0.8)
+            if order is not None:
+                ax.annotate(f"p={order:.2f}", (x[-1], y[-1]), textcoords="offset points", xytext=(-8, -13),
+                            fontsize=8.5, color=colour, fontweight="bold", ha="right")
+        else:
+            ax.plot([], [], linestyle=style, marker="o", color=colour, label=name + "  (nothing solved)")
+        for r in rows:
+            if r["status"] != "solved" and r["wall_s"]:
+                failures.append((r, colour))
+    for peer in _peer_points(spec)[0]:
+        ax.plot(peer["wall_s"], peer["error"], marker="D", color="k", linestyle="none")
+        ax.annotate(peer.get("label", peer["peer"]), (peer["wall_s"], peer["error"]), textcoords="offset points",
+                    xytext=(4, -9), fontsize=7)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    if solved_errors:
+        low = min(solved_errors)
+        ax.set_ylim(bottom=low / 10)
+    if failures:
+        bottom = ax.get_ylim()[0]
+        for status in ("failed", "unbounded"):
+            pts = [(r, c) for r, c in failures if r["status"] == status]
+            if not pts:
+                continue
+            st = STATUS_STYLE[status]
+            ax.scatter([r["wall_s"] for r, _ in pts], [bottom * 1.6] * len(pts), marker=st["marker"], s=60,
+                       c=[c for _, c in pts], edgecolors="k", linewidths=0.6, zorder=5,
+                       label=f"{status} (at its time to failure; no error)")
+            for r, c in pts:
+                txt = f"{r[free]:g}" if free is not None else ""
+                if r.get("t_reached") is not None:
+                    txt += f"\nt={r['t_reached']:.3g}"
+                ax.annotate(txt, (r["wall_s"], bottom * 1.6), textcoords="offset points", xytext=(5, 4),
+                            fontsize=6.5, color=c)
+    unit = _probe_unit(spec)
+    ax.set_xlabel("solver wall time per run, wall_s [s] (median of repeats, compile excluded)")
+    ax.set_ylabel(f"{spec.norm} error of {spec.probe}" + (f" [{unit}]" if unit else "") + " vs reference")
+    ax.set_title(spec.title, fontsize=11)
+    ax.grid(True, which="both", alpha=0.25)
+    notes = []
+    if free is not None:
+        notes.append(f"point labels: {axis_label(free)}; p: observed order in {free.rsplit('.', 1)[-1]}")
+    for o in orders:
+        if o["in"] != free and o["order"] is not None:
+            at = ", ".join(f"{k.rsplit('.', 1)[-1]}={v:g}" for k, v in o.get("at", {}).items())
+            notes.append(f"order in {o['in'].rsplit('.', 1)[-1]} ({o['curve'] or 'all'}, {at}): {o['order']:.2f}")
+    note = _peer_points(spec)[1]
+    if note:
+        notes.append(note)
+    ax.legend(fontsize=7.5, loc="upper right", framealpha=0.9)
+    bottom = 0.0
+    if notes:  # beneath the axes, where no curve or failure marker can be hidden by it
+        fig.text(0.01, 0.005, "\n".join(notes), va="bottom", fontsize=7.5)
+        bottom = min(0.3, 0.027 * len(notes) + 0.01)
+    fig.tight_layout(rect=(0, bottom, 1, 1))
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
+    return orders
+
+
+def _stability_keys(spec) -> tuple[str, str]:
+    if spec.stability:
+        return spec.stability
+    keys = list(spec.vary)
+    x = "solve.dt" if "solve.dt" in keys else keys[0]
+    y = next(k for k in keys if k != x)
+    return x, y
+
+
+def _ordered(values):
+    values = list(dict.fromkeys(values))
+    try:
+        return sorted(values)
+    except TypeError:
+        return values
+
+
+def stability_map(table, spec, path) -> None:
+    """Draw ``path``: status on a grid of two vary keys, a panel per combination of the others."""
+    plt = _pyplot()
+    kx, ky = _stability_keys(spec)
+    rest = [k for k in spec.vary if k not in (kx, ky)]
+    panels = list(itertools.product(*(spec.vary[k] for k in rest))) if rest else [()]
+    n = len(panels)
+    cols = min(n, 3)
+    nrows = math.ceil(n / cols)
+    xs, ys = _ordered(spec.vary[kx]), _ordered(spec.vary[ky])
+    fig, axes = plt.subplots(nrows, cols, figsize=(1.2 + 3.2 * cols + 0.35 * len(xs), 1.2 + 2.9 * nrows),
+                             squeeze=False)
+    seen = set()
+    for index, combo in enumerate(panels):
+        ax = axes[index // cols][index % cols]
+        for row in table.rows:
+            if any(row[k] != v for k, v in zip(rest, combo)):
+                continue
+            i, j = xs.index(row[kx]), ys.index(row[ky])
+            st = STATUS_STYLE[row["status"]]
+            ax.scatter([i], [j], marker=st["marker"], c=st["color"], s=170, edgecolors="k", linewidths=0.6,
+                       label=st["label"] if row["status"] not in seen else None, zorder=3)
+            seen.add(row["status"])
+            if row["status"] != "solved" and row.get("t_reached") is not None:
+                ax.annotate(f"t={row['t_reached']:.3g}", (i, j), textcoords="offset points", xytext=(0, -16),
+                            ha="center", fontsize=6.5)
+        ax.set_xticks(range(len(xs)))
+        ax.set_xticklabels([f"{v:g}" if isinstance(v, float) else str(v) for v in xs], rotation=30, fontsize=8)
+        ax.set_yticks(range(len(ys)))
+        ax.set_yticklabels([f"{v:g}" if isinstance(v, float) else str(v) for v in ys], fontsize=8)
+        ax.set_xlim(-0.6, len(xs) - 0.4)
+        ax.set_ylim(-0.7, len(ys) - 0.4)
+        ax.grid(True, alpha=0.25)
+        ax.set_xlabel(axis_label(kx))
+        ax.set_ylabel(axis_label(ky))
+        if rest:
+            ax.set_title(", ".join(_short(k, v) for k, v in zip(rest, combo)), fontsize=9.5)
+    for index in range(n, nrows * cols):
+        axes[index // cols][index % cols].axis("off")
+    handles = [plt.Line2D([], [], linestyle="none", marker=STATUS_STYLE[s]["marker"], color=STATUS_STYLE[s]["color"],
+                          markeredgecolor="k", markersize=10, label=STATUS_STYLE[s]["label"]) for s in STATUS_STYLE]
+    fig.legend(handles=handles, loc="lower center", ncol=3, fontsize=8.5, bbox_to_anchor=(0.5, 0.0))
+    fig.suptitle(spec.title + "\n(t = time reached by a failed or unbounded run)", fontsize=10.5)
+    fig.tight_layout(rect=(0, 0.07, 1, 1))
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
+
+
+def draw(table, spec, out) -> tuple[list[Path], list[dict]]:
+    """The pictures the study asks for (``plots``) that apply; returns (paths, observed orders)."""
+    out = Path(out)
+    written, orders = [], observed_orders(table, spec)
+    if "work-precision" in spec.plots:
+        orders = work_precision(table, spec, out / "work_precision.png")
+        written.append(out / "work_precision.png")
+    if "stability" in spec.plots and len(spec.vary) >= 2:
+        stability_map(table, spec, out / "stability.png")
+        written.append(out / "stability.png")
+    return written, orders
