@@ -33,6 +33,23 @@ block-diagonal and nonsingular, M Q_c = 0, and Q_mᵀ M Q_m is positive definite
 wherever the massive directions have inertia: transient starts, explicit
 steps and modal analysis condense the Q_c directions statically (exact for
 them: they carry no inertia force).
+
+*Light* directions, for the explicit step.  The twist of a beam node is
+without inertia only while the beam is straight: CR-4402 interpolates the
+lateral deflections with φ_y = t_c1·t_e(3), φ_z = −t_c1·t_e(2) (Eqs. 14–15),
+components of the chord in the *nodal* frame, which turn with the twist of the
+node, so once an element bends by φ its centreline moves when the node twists,
+at a speed ~ L φ θ̇_x.  The twist then carries a kinetic energy ~ ρA L³ φ² θ̇_x²:
+a scaled eigenvalue λ ~ φ², from round-off at rest to 1e-9 … 1e-5 in the
+tumbling L-frame and the hinged chain of tests/test_inertia.py, with
+Rayleigh frequencies ω = (uᵀK̃u / λ)^½ of 1e5 … 1e7 rad/s.  Implicit methods
+carry that inertia as it is; an explicit step cannot (its stability limit is
+2/ω).  :func:`split_inertia` with ``stiffness`` and ``step`` therefore also
+counts as without inertia every direction whose λ is below ``LIGHT_TOL`` and
+whose joint Rayleigh frequency reaches ``LIGHT_OMEGA_H / step``: the explicit
+step condenses it statically, dropping an inertia force of relative size λ.
+(The Rayleigh quotient of a joint direction is a lower bound of ω_max, so a
+direction it flags could not be integrated explicitly at that step anyway.)
 """
 from __future__ import annotations
 
@@ -43,6 +60,13 @@ import scipy.sparse as sps
 
 #: Relative eigenvalue of a scaled joint block below which a direction has no inertia.
 MASSLESS_TOL = 1e-9
+#: Relative eigenvalue below which a direction counts as *light* (module docstring): the
+#: explicit step may condense it, dropping an inertia force of at most this relative size.
+LIGHT_TOL = 1e-3
+#: A light direction whose joint Rayleigh frequency ω satisfies ω h ≥ LIGHT_OMEGA_H is condensed
+#: by the explicit step (half the central-difference limit ω h = 2: the joint quotient is a lower
+#: bound of the direction's frequency in the assembled model).
+LIGHT_OMEGA_H = 1.0
 
 
 def joint_groups(model) -> np.ndarray:
@@ -134,11 +158,13 @@ class InertiaSplit:
     """The free coordinates split into directions with and without inertia.
 
     ``basis`` is Q (n × n, block-diagonal by joint), its columns ordered
-    massive first; the first ``n_massive`` carry inertia, M Q_c = 0.
+    massive first; the first ``n_massive`` carry inertia, M Q_c = 0 (up to the
+    light directions, ``n_light`` of the Q_c columns, when a step was given).
     """
 
     basis: object  # dense ndarray or CSR, (n, n)
     n_massive: int
+    n_light: int = 0
 
     @property
     def n_massless(self) -> int:
@@ -153,10 +179,15 @@ class InertiaSplit:
         return self.basis[:, self.n_massive:]
 
 
-def split_inertia(model, mass, groups: np.ndarray | None = None) -> InertiaSplit:
+def split_inertia(model, mass, groups: np.ndarray | None = None, stiffness=None,
+                  step: float | None = None) -> InertiaSplit:
     """Find null(M) joint by joint (module docstring) and return the basis [Q_m, Q_c].
 
-    Q is dense when ``mass`` is, CSR otherwise.
+    With ``stiffness`` (K on the free coordinates) and ``step`` h, Q_c also holds the
+    light directions that an explicit step of size h cannot integrate (module
+    docstring: λ ≤ ``LIGHT_TOL``·λ_top and ω h ≥ ``LIGHT_OMEGA_H``).  Without them the
+    split is the exact null space and does not depend on K.  Q is dense when
+    ``mass`` is, CSR otherwise.
     """
     joint = joint_blocks(model, mass, groups)
     groups = joint.groups
@@ -168,8 +199,17 @@ def split_inertia(model, mass, groups: np.ndarray | None = None) -> InertiaSplit
     scaled = scaled - np.eye(groups.shape[1]) * (~valid)[:, None, :]
     eigenvalues, vectors = np.linalg.eigh(scaled)
     on_padding = eigenvalues < -0.5
-    top = np.max(eigenvalues, axis=1, initial=0.0)
-    massless = (eigenvalues <= MASSLESS_TOL * np.maximum(top, 1e-300)[:, None]) & ~on_padding
+    top = np.maximum(np.max(eigenvalues, axis=1, initial=0.0), 1e-300)[:, None]
+    massless = (eigenvalues <= MASSLESS_TOL * top) & ~on_padding
+    light = np.zeros_like(massless)
+    if stiffness is not None and step is not None:
+        # joint Rayleigh quotient of each eigenvector u of the scaled block: ω² = |uᵀ K̃ u| / λ,
+        # K̃ = D^{-1/2} K_gg D^{-1/2} (only the symmetric part of K enters a quadratic form)
+        K = diagonal_blocks(stiffness, groups) * root[:, :, None] * root[:, None, :]
+        k_u = np.abs(np.einsum("gik,gij,gjk->gk", vectors, K, vectors))
+        fast = k_u * step * step >= LIGHT_OMEGA_H ** 2 * np.maximum(eigenvalues, 0.0)
+        light = (eigenvalues <= LIGHT_TOL * top) & fast & ~massless & ~on_padding
+        massless = massless | light
     massive = ~on_padding & ~massless
     n_massive = int(massive.sum())
     column = np.full(eigenvalues.shape, -1, dtype=np.int64)
@@ -179,7 +219,7 @@ def split_inertia(model, mass, groups: np.ndarray | None = None) -> InertiaSplit
     values = (vectors * root[:, :, None])[g, i, j]  # columns D^{-1/2} u
     n = model.n_dofs
     Q = sps.csr_matrix((values, (groups[g, i], column[g, j])), shape=(n, n))
-    return InertiaSplit(Q if sps.issparse(mass) else Q.toarray(), n_massive)
+    return InertiaSplit(Q if sps.issparse(mass) else Q.toarray(), n_massive, int(light.sum()))
 
 
 def joint_norms(joint: JointBlocks, vector: np.ndarray) -> np.ndarray:

@@ -40,6 +40,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.sparse as sps
 
 from .assembly import Assembler, State, advance, apply_prescribed, free_acceleration, free_velocity, unpack_free
 from .errors import SolverError
@@ -223,13 +224,65 @@ class GeneralizedAlpha:
         return self._groups
 
 
+def explicit_acceleration(model, ev, split, vdot: np.ndarray) -> np.ndarray:
+    """The accelerations of an explicit step at a configuration whose directions Q_c are condensed.
+
+    ``vdot`` holds the accelerations the residual of ``ev`` was evaluated with.  The
+    residual is affine in v̇ with slope M (Eq. 58), so r₀ = r − M v̇ is the residual
+    at zero free acceleration, and the new accelerations v̇ = Q_m y_m + Q_c y_c are
+    computed afresh from it, never as an increment of the last step's: the split
+    turns with the configuration, and an increment would carry the previous
+    step's Q_c component into the next step's Q_m (and back) without end.
+
+        Q_mᵀ M (Q_m y_m + Q_c y_c) = −Q_mᵀ r₀     (motion of the directions with inertia)
+        Q_cᵀ K (Q_m y_m + Q_c y_c) = 0           (Q_c follows its statics, linearised)
+
+    For exactly massless Q_c, Q_mᵀ M Q_c = 0 and this is :func:`consistent_acceleration`;
+    for light Q_c (:func:`latdyn.inertia.split_inertia` with a step) the coupling term
+    keeps the inertia that the massive directions feel from the condensed motion,
+    and only Q_c's own inertia force, Q_cᵀ M v̇ (relative size ≤ λ), is dropped.
+    """
+    M, K = ev.mass, ev.stiffness
+    r0 = ev.residual - M @ vdot
+    Qm, Qc = split.massive, split.massless
+    if split.n_massless == 0:
+        return Qm @ solve_linear(Qm.T @ M @ Qm, -(Qm.T @ r0))
+    blocks = [[Qm.T @ M @ Qm, Qm.T @ M @ Qc], [Qc.T @ K @ Qm, Qc.T @ K @ Qc]]
+    if sps.issparse(M):
+        A = sps.bmat(blocks, format="csr")
+    else:
+        A = np.block(blocks)
+    rhs = np.concatenate([-(Qm.T @ r0), np.zeros(split.n_massless)])
+    try:
+        y = solve_linear(A, rhs)
+    except (np.linalg.LinAlgError, RuntimeError) as exc:
+        raise SolverError("a coordinate without inertia is held by no stiffness",
+                          "directions of the model carry neither inertia nor stiffness; "
+                          "`latdyn check` names the coordinate") from exc
+    return split.basis @ y
+
+
 class CentralDifference:
     """Explicit Lie-group Störmer–Verlet; directions without inertia condensed statically each step.
 
-    The directions without inertia (:mod:`latdyn.inertia`) have no dynamics to
-    integrate: after the explicit update of the configuration they are put back
-    in static equilibrium by Newton on Q_cᵀ r = 0 (their inertia force vanishes,
-    Q_cᵀ M = 0), and their rates are the displacement that took over the step.
+    Per step (v the velocities, spatial angular velocities for rotations, v̇ their rates):
+
+        v_{n+½} = v_n + ½h v̇_n,   q_{n+1} = q_n ∘ exp(h v_{n+½})            (drift)
+        Q_cᵀ r(q_{n+1}, ṽ_{n+1}) = 0  by Newton along Q_c                    (statics)
+        v̇_{n+1} from :func:`explicit_acceleration`,  v_{n+1} = v_{n+½} + ½h v̇_{n+1} + c/h
+
+    with c the Newton correction of the configuration along Q_c (their rates are
+    the displacement that took over the step).  The residual at t_{n+1} is
+    evaluated with the second-order velocity predictor ṽ_{n+1} = v_{n+½} + ½h v̇_n + c/h,
+    so velocity-dependent forces (gyroscopic, hinge dampers) keep the scheme of
+    order two.
+
+    Q_c holds the directions without inertia *and* the light directions that the
+    step cannot integrate (:mod:`latdyn.inertia`: the twist of a bent
+    Euler–Bernoulli element has an inertia ~ φ² that no explicit step resolves;
+    counting it as massive made every run blow up as soon as the bending lifted
+    its eigenvalue over ``MASSLESS_TOL``, at the same physical time whatever h).
+    ``max_light`` records the most light directions condensed in one step.
     """
 
     def __init__(self, assembler: Assembler, tol: float, max_iterations: int, length_scale: float):
@@ -238,51 +291,78 @@ class CentralDifference:
         self.max_iterations = max_iterations
         self.length_scale = length_scale
         self.a = None
+        self.max_light = 0
 
     def start(self, state: State) -> None:
-        ev = self.assembler.evaluate(state, matrices=True)
-        self._accelerate(state, ev)
-
-    def _accelerate(self, state: State, ev) -> None:
+        """Accelerations consistent with the equations of motion (exact null space: no step yet)."""
         model = self.assembler.model
-        vdot = free_acceleration(model, state) + consistent_acceleration(model, ev)
-        unpack_free(model, vdot, state.a, state.alpha, state.theta_ddot)
+        if model.n_dofs:
+            ev = self.assembler.evaluate(state, matrices=True)
+            vdot = free_acceleration(model, state)
+            unpack_free(model, vdot + consistent_acceleration(model, ev), state.a, state.alpha, state.theta_ddot)
 
-    def step(self, state: State, h: float, t_new: float | None = None) -> tuple[State, StepStats]:
-        model = self.assembler.model
-        t_new = state.t + h if t_new is None else t_new
-        stats = StepStats(converged=True)
-        v = free_velocity(model, state)
-        vdot = free_acceleration(model, state)
-        v_half = v + 0.5 * h * vdot
-        trial = advance(model, state, h * v_half)
-        apply_prescribed(model, trial, t_new)
-        unpack_free(model, v_half, trial.v, trial.w, trial.theta_dot)
-        ev = self.assembler.evaluate(trial, matrices=True)
-        split = split_inertia(model, ev.mass)
-        correction = np.zeros(model.n_dofs)
-        if split.n_massless:
-            Qc = split.massless
-            for _ in range(self.max_iterations):
-                Kcc = (Qc.T @ ev.stiffness @ Qc).tocsr()
-                dx = Qc @ solve_linear(Kcc, -(Qc.T @ ev.residual))
-                trial = advance(model, trial, dx)
-                correction += dx
-                stats.iterations += 1
-                ev = self.assembler.evaluate(trial, matrices=True)
-                if increment_size(model, dx, self.length_scale) <= self.tol:
-                    break
-            else:
-                stats.converged = False
+    @staticmethod
+    def _check_finite(ev, h: float, t_new: float) -> None:
         if not np.all(np.isfinite(ev.residual)):
             raise SolverError(
                 f"explicit integration became unstable at t = {t_new:.6g}",
                 f"the step {h:.3g} exceeds the stability limit 2/ω_max of the stiffest mode with inertia; "
                 "reduce solve.dt or use an implicit method")
-        self._accelerate(trial, ev)
-        v_new = v_half + 0.5 * h * free_acceleration(model, trial) + correction / h
-        unpack_free(model, v_new, trial.v, trial.w, trial.theta_dot)
+
+    def _split(self, ev, h: float):
+        split = split_inertia(self.assembler.model, ev.mass, stiffness=ev.stiffness, step=h)
+        self.max_light = max(self.max_light, split.n_light)
+        return split
+
+    def step(self, state: State, h: float, t_new: float | None = None) -> tuple[State, StepStats]:
+        model = self.assembler.model
+        t_new = state.t + h if t_new is None else t_new
+        stats = StepStats(converged=True)
+        if model.n_dofs == 0:
+            trial = state.copy()
+            apply_prescribed(model, trial, t_new)
+            return trial, stats
+        v = free_velocity(model, state)
+        vdot = free_acceleration(model, state)
+        v_half = v + 0.5 * h * vdot
+        trial = advance(model, state, h * v_half)
+        apply_prescribed(model, trial, t_new)
+        correction = np.zeros(model.n_dofs)
+
+        def predicted() -> np.ndarray:
+            return v_half + 0.5 * h * vdot + correction / h
+
+        unpack_free(model, predicted(), trial.v, trial.w, trial.theta_dot)
+        ev = self.assembler.evaluate(trial, matrices=True)
+        self._check_finite(ev, h, t_new)
+        split = self._split(ev, h)
+        if split.n_massless:
+            Qc = split.massless
+            for _ in range(self.max_iterations):
+                Kcc = Qc.T @ ev.stiffness @ Qc
+                try:
+                    dx = Qc @ solve_linear(Kcc, -(Qc.T @ ev.residual))
+                except (np.linalg.LinAlgError, RuntimeError):
+                    stats.converged = False
+                    break
+                trial = advance(model, trial, dx)
+                correction += dx
+                unpack_free(model, predicted(), trial.v, trial.w, trial.theta_dot)
+                stats.iterations += 1
+                ev = self.assembler.evaluate(trial, matrices=True)
+                if increment_size(model, dx, self.length_scale) <= self.tol or not np.all(np.isfinite(dx)):
+                    break
+            else:
+                stats.converged = False
+            self._check_finite(ev, h, t_new)
+            split = self._split(ev, h)  # the split of the configuration the accelerations belong to
         stats.residual = ev.residual
+        if not stats.converged:
+            return trial, stats
+        vdot_new = explicit_acceleration(model, ev, split, vdot)
+        unpack_free(model, vdot_new, trial.a, trial.alpha, trial.theta_ddot)
+        v_new = v_half + 0.5 * h * vdot_new + correction / h
+        unpack_free(model, v_new, trial.v, trial.w, trial.theta_dot)
         return trial, stats
 
     def accept(self) -> None:
