@@ -27,13 +27,13 @@ def run(scene, out_dir=None, backend="auto", progress=False, *, resume=False, ch
 
 
 def study(source, scheduler="serial", out=None, **options):
-    """Run a study (a path to a study YAML, or a mapping); returns a :class:`latdyn.study.StudyTable`.
+    """Run a study (a path to a study YAML, or a mapping); returns a :class:`latdyn.study_runner.StudyTable`.
 
     ``scheduler``: ``"serial"``, ``"local[:N]"`` (Dask LocalCluster) or a Dask scheduler's
     address; ``out`` the results folder (default ``<study stem>_study``). See STUDY.md and
-    :mod:`latdyn.study`.
+    :mod:`latdyn.study_runner`.
     """
-    from .study import study as _study
+    from .study_runner import study as _study
 
     return _study(source, scheduler=scheduler, out=out, **options)
 

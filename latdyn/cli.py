@@ -146,7 +146,7 @@ def _command_study(args) -> int:
     if not Path(args.study).is_file():
         raise _UsageError(f"{args.study}: no such study file")
     try:
-        table = _module("latdyn.study").study(args.study, scheduler=args.scheduler, out=args.out,
+        table = _module("latdyn.study_runner").study(args.study, scheduler=args.scheduler, out=args.out,
                                               progress=not args.quiet)
     except ValueError as exc:  # a malformed --scheduler, an unreachable scheduler (SceneError is caught in main)
         if isinstance(exc, SceneError):

@@ -216,14 +216,33 @@ def _read_yaml(path: Path, file: str):
         _fail(file, "(file)", f"expected a YAML mapping of study keys; the YAML does not parse ({exc})")
 
 
-def _check_scene(raw: dict, file: str, key: str, what: str):
-    """Validate a case's scene: a SceneError names the study key and then the scene's own complaint."""
+def _check_scene(raw: dict, file: str, key: str, what: str, path: str | None = None, path_key: str | None = None):
+    """Validate a case's scene: a SceneError names the study key and then the scene's own complaint
+    (``path_key`` instead of ``key`` when the scene refuses ``path`` itself as an unknown key)."""
     from .scene import load_scene
 
     try:
         return load_scene(raw)
     except SceneError as exc:
+        if path is not None and exc.key == path and "unknown key" in exc.expected:
+            raise SceneError(file, path_key, f"not a key of the scene: {exc.expected}") from None
         raise SceneError(file, key, f"{what} gives an invalid scene: {exc.key}: {exc.expected}") from None
+
+
+def _apply_all(raw: dict, overrides: dict, file: str, block: str):
+    """Apply a block of overrides (``set``, ``reference.overrides``) to ``raw`` in place and
+    validate the result once; an error names the override the scene complains about."""
+    from .scene import load_scene
+
+    for path, value in overrides.items():
+        apply_override(raw, path, value, file, f"{block}.{path}")
+    try:
+        return load_scene(raw)
+    except SceneError as exc:
+        key = f"{block}.{exc.key}" if exc.key in overrides else block
+        if exc.key in overrides and "unknown key" in exc.expected:
+            raise SceneError(file, key, f"not a key of the scene: {exc.expected}") from None
+        raise SceneError(file, key, f"the scene with these overrides is invalid: {exc.key}: {exc.expected}") from None
 
 
 def load_study(source, base_dir=None) -> StudySpec:
@@ -271,10 +290,7 @@ def load_study(source, base_dir=None) -> StudySpec:
     overrides_set = raw.get("set") or {}
     if not isinstance(overrides_set, dict):
         _fail(file, "set", "expected a mapping of scene paths to values", overrides_set)
-    for path, value in overrides_set.items():
-        apply_override(base_raw, path, value, file, f"set.{path}")
-        _check_scene(base_raw, file, f"set.{path}", f"value {show_value(value)}")
-    scene = _check_scene(base_raw, file, "set", "the scene with these overrides")
+    scene = _apply_all(base_raw, overrides_set, file, "set")
 
     vary = raw["vary"]
     if not isinstance(vary, dict) or not vary:
@@ -288,7 +304,7 @@ def load_study(source, base_dir=None) -> StudySpec:
                 _fail(file, f"{key}[{i}]", "expected a number, a string, a boolean, a list or a mapping", value)
             trial = copy.deepcopy(base_raw)
             apply_override(trial, path, value, file, key)
-            _check_scene(trial, file, f"{key}[{i}]", f"value {show_value(value)}")
+            _check_scene(trial, file, f"{key}[{i}]", f"value {show_value(value)}", path, key)
         seen = [json.dumps(v, sort_keys=True, default=str) for v in values]
         if len(set(seen)) != len(seen):
             _fail(file, key, "expected each value once", values)
@@ -320,10 +336,7 @@ def load_study(source, base_dir=None) -> StudySpec:
         ref_overrides = reference["overrides"] or {}
         if not isinstance(ref_overrides, dict):
             _fail(file, "reference.overrides", "expected a mapping of scene paths to values", ref_overrides)
-        trial = copy.deepcopy(base_raw)
-        for path, value in ref_overrides.items():
-            apply_override(trial, path, value, file, f"reference.overrides.{path}")
-            _check_scene(trial, file, f"reference.overrides.{path}", f"value {show_value(value)}")
+        _apply_all(copy.deepcopy(base_raw), ref_overrides, file, "reference.overrides")
     else:
         ref_rel = reference["file"]
         if not isinstance(ref_rel, str):
