@@ -224,6 +224,15 @@ class GeneralizedAlpha:
         return self._groups
 
 
+def _mass_and_stiffness(ev):
+    """M and K of an evaluation, assembled once (dense for small models, see latdyn.linalg)."""
+    cached = getattr(ev, "_explicit_matrices", None)
+    if cached is None:
+        cached = ev.combined(1.0, 0.0, 0.0), ev.combined(0.0, 0.0, 1.0)
+        ev._explicit_matrices = cached
+    return cached
+
+
 def explicit_acceleration(model, ev, split, vdot: np.ndarray) -> np.ndarray:
     """The accelerations of an explicit step at a configuration whose directions Q_c are condensed.
 
@@ -242,7 +251,7 @@ def explicit_acceleration(model, ev, split, vdot: np.ndarray) -> np.ndarray:
     keeps the inertia that the massive directions feel from the condensed motion,
     and only Q_c's own inertia force, Q_cᵀ M v̇ (relative size ≤ λ), is dropped.
     """
-    M, K = ev.mass, ev.stiffness
+    M, K = _mass_and_stiffness(ev)
     r0 = ev.residual - M @ vdot
     Qm, Qc = split.massive, split.massless
     if split.n_massless == 0:
@@ -310,7 +319,8 @@ class CentralDifference:
                 "reduce solve.dt or use an implicit method")
 
     def _split(self, ev, h: float):
-        split = split_inertia(self.assembler.model, ev.mass, stiffness=ev.stiffness, step=h)
+        M, K = _mass_and_stiffness(ev)
+        split = split_inertia(self.assembler.model, M, stiffness=K, step=h)
         self.max_light = max(self.max_light, split.n_light)
         return split
 
@@ -339,7 +349,7 @@ class CentralDifference:
         if split.n_massless:
             Qc = split.massless
             for _ in range(self.max_iterations):
-                Kcc = Qc.T @ ev.stiffness @ Qc
+                Kcc = Qc.T @ _mass_and_stiffness(ev)[1] @ Qc
                 try:
                     dx = Qc @ solve_linear(Kcc, -(Qc.T @ ev.residual))
                 except (np.linalg.LinAlgError, RuntimeError):
