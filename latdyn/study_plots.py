@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -141,13 +142,39 @@ def observed_orders(table, spec) -> list[dict]:
     return orders
 
 
+def _peers_module():
+    """``benchmarks/peers.py`` of this source tree (beside the ``latdyn`` package), or None."""
+    import importlib.util
+    import sys
+
+    path = Path(__file__).resolve().parents[1] / "benchmarks" / "peers.py"
+    if not path.is_file():
+        return None
+    if "benchmarks.peers" in sys.modules:
+        return sys.modules["benchmarks.peers"]
+    root = str(path.parents[1])
+    if root not in sys.path:  # peers.py may import its neighbours as benchmarks.*
+        sys.path.append(root)
+    try:
+        import importlib
+
+        return importlib.import_module("benchmarks.peers")
+    except Exception:  # noqa: BLE001 - a broken optional module must not break the picture
+        spec = importlib.util.spec_from_file_location("latdyn_peers", path)
+        module = importlib.util.module_from_spec(spec)
+        try:
+            spec.loader.exec_module(module)
+        except Exception:  # noqa: BLE001
+            return None
+        return module
+
+
 def _peer_points(spec) -> tuple[list, str | None]:
     """Points of other codes for the work-precision axes, and a note when there are none."""
     if not spec.peers:
         return [], None
-    try:
-        from benchmarks import peers  # noqa: WPS433 - optional, the project's benchmarks package
-    except ImportError:
+    peers = _peers_module()
+    if peers is None:
         return [], "peers " + ", ".join(spec.peers) + ": benchmarks/peers.py not found (hook: no points)"
     getter = getattr(peers, "work_precision_points", None)
     if getter is None:
@@ -165,92 +192,111 @@ def _peer_points(spec) -> tuple[list, str | None]:
     return points, ("no data for " + ", ".join(missing)) if missing else None
 
 
+def _spread(values, gap):
+    """Positions as close to ``values`` as possible, at least ``gap`` apart (same order)."""
+    order = np.argsort(values)
+    out = np.asarray(values, float).copy()
+    for a, b in zip(order[:-1], order[1:]):
+        out[b] = max(out[b], out[a] + gap)
+    return out
+
+
 def work_precision(table, spec, path) -> list[dict]:
     """Draw ``path`` (see the module docstring); returns the observed orders."""
     plt = _pyplot()
     free, curves = _curves(table, spec)
     orders = observed_orders(table, spec)
     along = {o["curve"]: o for o in orders if o["in"] == free}
-    fig, ax = plt.subplots(figsize=(9, 6.2))
+    fig, ax = plt.subplots(figsize=(12, 6.4))
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     linestyles = ["-", "--", ":", "-."]
+    markers = ["o", "s", "v", "P"]
     numeric_others = [k for k in spec.numeric_keys if k != free]
-    # colour by the non-numeric keys, line style by the numeric ones
+    # colour by the non-numeric keys (method, formulation), line style by the numeric ones (mesh)
     categorical = [k for k in spec.vary if k not in spec.numeric_keys]
     colour_of, style_of = {}, {}
-    failures = []
-    solved_errors = [r["error"] for r in table.rows if r["status"] == "solved" and r["error"]]
+    failures, ends = [], []
+    solved_rows = [r for r in table.rows if r["status"] == "solved" and r["error"] and r["wall_s"]]
+    peers, peer_note = _peer_points(spec)
     for ident, rows in curves.items():
         cat = tuple(v for k, v in ident if k in categorical)
         num = tuple(v for k, v in ident if k in numeric_others)
         colour = colour_of.setdefault(cat, colours[len(colour_of) % len(colours)])
-        style = style_of.setdefault(num, linestyles[len(style_of) % len(linestyles)])
+        style = style_of.setdefault(num, len(style_of))
         name = ", ".join(_short(k, v) for k, v in ident) or "all"
         solved = [r for r in rows if r["status"] == "solved" and r["error"] and r["error"] > 0 and r["wall_s"]]
         order = along.get(name, {}).get("order")
-        label = name + (f"  (order {order:.2f} in {free.rsplit('.', 1)[-1]})" if order is not None else "")
+        label = name + (f"  (p = {order:.2f} in {free.rsplit('.', 1)[-1]})" if order is not None else "")
+        line_style = linestyles[style % len(linestyles)]
+        marker = markers[style % len(markers)]
         if solved:
             x = [r["wall_s"] for r in solved]
             y = [r["error"] for r in solved]
-            ax.plot(x, y, linestyle=style, marker="o", color=colour, label=label, markersize=5)
+            ax.plot(x, y, linestyle=line_style, marker=marker, color=colour, label=label, markersize=5)
             if free is not None:
                 for r in solved:
                     ax.annotate(f"{r[free]:g}", (r["wall_s"], r["error"]), textcoords="offset points",
-                                xytext=(4, 3), fontsize=6.5, color=colour, alpha=0.8)
+                                xytext=(-3, 4), fontsize=6.5, color=colour, alpha=0.85, ha="right")
             if order is not None:
-                ax.annotate(f"p={order:.2f}", (x[-1], y[-1]), textcoords="offset points", xytext=(-8, -13),
-                            fontsize=8.5, color=colour, fontweight="bold", ha="right")
+                last = max(solved, key=lambda r: r["wall_s"])
+                ends.append((last["wall_s"], last["error"], f"p={order:.2f}", colour))
         else:
-            ax.plot([], [], linestyle=style, marker="o", color=colour, label=name + "  (nothing solved)")
+            lost = sum(r["status"] != "solved" for r in rows)
+            ax.plot([], [], linestyle=line_style, marker=marker, color=colour,
+                    label=f"{name}  (nothing solved: {lost} failed/unbounded)")
         for r in rows:
             if r["status"] != "solved" and r["wall_s"]:
                 failures.append((r, colour))
-    for peer in _peer_points(spec)[0]:
+    for peer in peers:
         ax.plot(peer["wall_s"], peer["error"], marker="D", color="k", linestyle="none")
         ax.annotate(peer.get("label", peer["peer"]), (peer["wall_s"], peer["error"]), textcoords="offset points",
                     xytext=(4, -9), fontsize=7)
     ax.set_xscale("log")
     ax.set_yscale("log")
-    if solved_errors:
-        low = min(solved_errors)
-        ax.set_ylim(bottom=low / 10)
-    if failures:
-        bottom = ax.get_ylim()[0]
+    xs = [r["wall_s"] for r in table.rows if r["wall_s"]] + [p["wall_s"] for p in peers]
+    ys = [r["error"] for r in solved_rows] + [p["error"] for p in peers]
+    if xs:
+        ax.set_xlim(min(xs) / 1.5, max(xs) * 2.2)
+    if ys:
+        ax.set_ylim(min(ys) / (6.0 if failures else 2.0), max(ys) * 2.0)
+    if failures:  # no error to plot: along the bottom edge, at their time to failure
+        strip = ax.get_ylim()[0] * 1.8
         for status in ("failed", "unbounded"):
             pts = [(r, c) for r, c in failures if r["status"] == status]
             if not pts:
                 continue
-            st = STATUS_STYLE[status]
-            ax.scatter([r["wall_s"] for r, _ in pts], [bottom * 1.6] * len(pts), marker=st["marker"], s=60,
-                       c=[c for _, c in pts], edgecolors="k", linewidths=0.6, zorder=5,
-                       label=f"{status} (at its time to failure; no error)")
-            for r, c in pts:
-                txt = f"{r[free]:g}" if free is not None else ""
-                if r.get("t_reached") is not None:
-                    txt += f"\nt={r['t_reached']:.3g}"
-                ax.annotate(txt, (r["wall_s"], bottom * 1.6), textcoords="offset points", xytext=(5, 4),
-                            fontsize=6.5, color=c)
+            ax.scatter([r["wall_s"] for r, _ in pts], [strip] * len(pts), marker=STATUS_STYLE[status]["marker"],
+                       s=60, c=[c for _, c in pts], edgecolors="k", linewidths=0.6, zorder=5,
+                       label=f"{status}: {len(pts)} case(s), at their time to failure (no error)")
+        ax.axhline(strip * 1.9, color="0.6", linewidth=0.6, linestyle=":")
+    if ends:  # the observed orders beside the expensive end of each curve, pushed apart to stay legible
+        to_display = ax.transData.transform
+        points = to_display([(x, y) for x, y, _, _ in ends])
+        spread = _spread(points[:, 1], 11.0)
+        for (x, y, text, colour), (px, _), py in zip(ends, points, spread):
+            xd, yd = ax.transData.inverted().transform((px + 10, py))
+            ax.annotate(text, (x, y), xytext=(xd, yd), textcoords="data", fontsize=8, color=colour,
+                        fontweight="bold", va="center",
+                        arrowprops={"arrowstyle": "-", "color": colour, "linewidth": 0.5, "alpha": 0.6})
     unit = _probe_unit(spec)
     ax.set_xlabel("solver wall time per run, wall_s [s] (median of repeats, compile excluded)")
-    ax.set_ylabel(f"{spec.norm} error of {spec.probe}" + (f" [{unit}]" if unit else "") + " vs reference")
-    ax.set_title(spec.title, fontsize=11)
+    ax.set_ylabel(f"{spec.norm} error of {spec.probe}" + (f" [{unit}]" if unit else "") + " against the reference")
+    ax.set_title(textwrap.fill(spec.title, 100), fontsize=10.5)
     ax.grid(True, which="both", alpha=0.25)
     notes = []
     if free is not None:
-        notes.append(f"point labels: {axis_label(free)}; p: observed order in {free.rsplit('.', 1)[-1]}")
+        notes.append(f"point labels: {axis_label(free)}\np: observed order in {free.rsplit('.', 1)[-1]} "
+                     "(slope of log error vs log " + free.rsplit('.', 1)[-1] + ")")
     for o in orders:
         if o["in"] != free and o["order"] is not None:
             at = ", ".join(f"{k.rsplit('.', 1)[-1]}={v:g}" for k, v in o.get("at", {}).items())
-            notes.append(f"order in {o['in'].rsplit('.', 1)[-1]} ({o['curve'] or 'all'}, {at}): {o['order']:.2f}")
-    note = _peer_points(spec)[1]
-    if note:
-        notes.append(note)
-    ax.legend(fontsize=7.5, loc="upper right", framealpha=0.9)
-    bottom = 0.0
-    if notes:  # beneath the axes, where no curve or failure marker can be hidden by it
-        fig.text(0.01, 0.005, "\n".join(notes), va="bottom", fontsize=7.5)
-        bottom = min(0.3, 0.027 * len(notes) + 0.01)
-    fig.tight_layout(rect=(0, bottom, 1, 1))
+            notes.append(f"order in {o['in'].rsplit('.', 1)[-1]}, {o['curve'] or 'all'} ({at}): {o['order']:.2f}")
+    if peer_note:
+        notes.append(peer_note)
+    ax.legend(fontsize=7.5, loc="upper left", bbox_to_anchor=(1.01, 1.0), framealpha=0.9)
+    fig.subplots_adjust(left=0.08, right=0.64, bottom=0.1, top=0.93)
+    if notes:
+        fig.text(0.655, 0.1, "\n".join(notes), va="bottom", ha="left", fontsize=7.5, wrap=True)
     fig.savefig(path, dpi=130)
     plt.close(fig)
     return orders
@@ -283,7 +329,7 @@ def stability_map(table, spec, path) -> None:
     cols = min(n, 3)
     nrows = math.ceil(n / cols)
     xs, ys = _ordered(spec.vary[kx]), _ordered(spec.vary[ky])
-    fig, axes = plt.subplots(nrows, cols, figsize=(1.2 + 3.2 * cols + 0.35 * len(xs), 1.2 + 2.9 * nrows),
+    fig, axes = plt.subplots(nrows, cols, figsize=(max(7.5, 1.2 + 3.2 * cols + 0.35 * len(xs)), 1.6 + 2.9 * nrows),
                              squeeze=False)
     seen = set()
     for index, combo in enumerate(panels):
@@ -299,6 +345,9 @@ def stability_map(table, spec, path) -> None:
             if row["status"] != "solved" and row.get("t_reached") is not None:
                 ax.annotate(f"t={row['t_reached']:.3g}", (i, j), textcoords="offset points", xytext=(0, -16),
                             ha="center", fontsize=6.5)
+            elif row["status"] == "solved" and row.get("error") is not None and np.isfinite(row["error"]):
+                ax.annotate(f"{row['error']:.1e}", (i, j), textcoords="offset points", xytext=(0, -16),
+                            ha="center", fontsize=6, color="0.35")
         ax.set_xticks(range(len(xs)))
         ax.set_xticklabels([f"{v:g}" if isinstance(v, float) else str(v) for v in xs], rotation=30, fontsize=8)
         ax.set_yticks(range(len(ys)))
@@ -315,7 +364,8 @@ def stability_map(table, spec, path) -> None:
     handles = [plt.Line2D([], [], linestyle="none", marker=STATUS_STYLE[s]["marker"], color=STATUS_STYLE[s]["color"],
                           markeredgecolor="k", markersize=10, label=STATUS_STYLE[s]["label"]) for s in STATUS_STYLE]
     fig.legend(handles=handles, loc="lower center", ncol=3, fontsize=8.5, bbox_to_anchor=(0.5, 0.0))
-    fig.suptitle(spec.title + "\n(t = time reached by a failed or unbounded run)", fontsize=10.5)
+    title = textwrap.fill(spec.title, int(fig.get_figwidth() * 12))
+    fig.suptitle(f"{title}\n(under each case: its error if solved, else t = the time its run reached)", fontsize=10)
     fig.tight_layout(rect=(0, 0.07, 1, 1))
     fig.savefig(path, dpi=130)
     plt.close(fig)

@@ -467,6 +467,15 @@ def _energy_status(t, probes: dict) -> str | None:
     return "unbounded" if np.any(created > received) else None
 
 
+def _energy_onset(t, probes: dict) -> float | None:
+    """The first recorded time at which the energy rule holds (see :func:`_energy_status`)."""
+    K, S, P, W = (np.asarray(probes[name], float) for name in ENERGY_PROBES)
+    created = (K + S + P) - (K[0] + S[0] + P[0]) - W
+    received = K[0] + S[0] + np.maximum.accumulate(np.abs(W)) + np.maximum.accumulate(np.abs(P - P[0]))
+    hit = np.flatnonzero(~np.isfinite(created) | (created > received))
+    return float(t[hit[0]]) if len(hit) else None
+
+
 def _clear(folder: Path) -> None:
     if folder.exists():
         shutil.rmtree(folder)
@@ -524,8 +533,10 @@ def run_case(task: dict) -> dict:
     energy = _energy_status(t, probes)
     if not values_finite or energy:
         record["status"] = "unbounded"
+        onset = _energy_onset(t, probes) if energy else None
         record["message"] = ("a recorded value is not finite" if not values_finite else
-                             "the integrator created more energy than the structure received")
+                             "the integrator created more energy than the structure received"
+                             + (f" (from t = {onset:.6g})" if onset is not None else ""))
         if error is not None:
             record["message"] += f"; then {type(error).__name__}: {_first_line(error)}"
     elif error is not None:
@@ -678,7 +689,8 @@ def _parse_cell(text: str):
 
 # =========================================================================== the study
 class _Progress:
-    """``study: 3/12 cases (2 cached), 14 s elapsed, about 40 s left`` on stderr."""
+    """``study: 3/13 runs (2 reused), 14 s elapsed, about 40 s left`` on stderr (the runs are
+    the cases and the reference)."""
 
     def __init__(self, total: int, cached: int, enabled: bool):
         self.total, self.cached, self.done, self.enabled = total, cached, cached, enabled
@@ -696,8 +708,8 @@ class _Progress:
         ran = self.done - self.cached
         left = self.total - self.done
         estimate = f", about {_seconds(elapsed / ran * left)} left" if ran and left else ""
-        cached = f" ({self.cached} cached)" if self.cached else ""
-        line = f"study: {self.done}/{self.total} cases{cached}, {_seconds(elapsed)} elapsed{estimate}"
+        cached = f" ({self.cached} reused)" if self.cached else ""
+        line = f"study: {self.done}/{self.total} runs{cached}, {_seconds(elapsed)} elapsed{estimate}"
         if label:
             line += f"  [{label}]"
         end = "\r" if self.tty and left else "\n"
@@ -779,7 +791,7 @@ def study(source, scheduler: str = "serial", out=None, *, progress: bool = True,
                          "label": "reference" if case is ref else _label(case.overrides)})
     bar = _Progress(len(unique), len(records), progress)
     if progress and records:
-        print(f"study: {len(records)} of {len(unique)} cases reused from {out / 'cases'}", file=sys.stderr)
+        print(f"study: {len(records)} of {len(unique)} runs reused from {out / 'cases'}", file=sys.stderr)
     with study_dask.open_scheduler(kind) as runner:
         for task, record in runner.run(run_case, todo):
             records[task["hash"]] = record

@@ -18,7 +18,7 @@ import yaml
 import latdyn
 from latdyn import cli
 from latdyn.errors import SceneError
-from latdyn.study_runner import _energy_status, case_error, load_study
+from latdyn.study_runner import StudyTable, _energy_status, case_error, load_study
 from latdyn.study_dask import parse_scheduler
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -185,6 +185,9 @@ def test_rerun_reuses_the_cache_and_runs_only_what_is_missing(serial_study, tmp_
     before = _rows(out / "study.csv", drop=())
     table = latdyn.study(str(path), out=str(out), progress=False)
     assert table.summary["ran"] == 0 and table.summary["reused"] == 7
+    again = StudyTable.read_csv(out / "study.csv")
+    assert again.columns == table.columns and again["solve.dt"] == [0.04] * 3 + [0.02] * 3
+    assert again["status"] == table["status"] and again["steps"] == table["steps"]
     assert [dict(r, wall_s=None) for r in _rows(out / "study.csv", drop=())] == [dict(r, wall_s=None) for r in before]
     assert [r["wall_s"] for r in _rows(out / "study.csv", drop=())] == [r["wall_s"] for r in before]
     # a case deleted: only it runs again
