@@ -9,9 +9,9 @@ key named ``elements`` the order is minus the slope, error ~ N^-p). Where a key 
 ``...elements`` varies as well, the order in the mesh is fitted across meshes at each
 curve group's smallest solved dt and shown in a box. Failed and unbounded cases have no
 error: they are marked along the bottom edge at their solver time (to the failure).
-Other codes' points (``peers:`` in the study) come from ``benchmarks/peers.py`` when that
-module exists: ``benchmarks.peers.work_precision_points(peer, study)`` returning rows
-``{"label", "wall_s", "error"}``; without it the picture says so in its corner.
+Other codes' points (``peers: [exudyn]`` in the study) come from
+``benchmarks/results/peers.json``, which ``benchmarks/peers.py`` writes (see
+:func:`_peer_points`); without that file the picture says so beneath its legend.
 
 **Stability** — the status of every case on a grid of two ``vary`` keys (``stability:``
 in the study, or ``solve.dt`` across and the first other key up), one panel per
@@ -22,6 +22,7 @@ Matplotlib with the Agg backend (no display needed).
 from __future__ import annotations
 
 import itertools
+import json
 import math
 import textwrap
 from pathlib import Path
@@ -142,54 +143,55 @@ def observed_orders(table, spec) -> list[dict]:
     return orders
 
 
-def _peers_module():
-    """``benchmarks/peers.py`` of this source tree (beside the ``latdyn`` package), or None."""
-    import importlib.util
-    import sys
-
-    path = Path(__file__).resolve().parents[1] / "benchmarks" / "peers.py"
-    if not path.is_file():
-        return None
-    if "benchmarks.peers" in sys.modules:
-        return sys.modules["benchmarks.peers"]
-    root = str(path.parents[1])
-    if root not in sys.path:  # peers.py may import its neighbours as benchmarks.*
-        sys.path.append(root)
-    try:
-        import importlib
-
-        return importlib.import_module("benchmarks.peers")
-    except Exception:  # noqa: BLE001 - a broken optional module must not break the picture
-        spec = importlib.util.spec_from_file_location("latdyn_peers", path)
-        module = importlib.util.module_from_spec(spec)
-        try:
-            spec.loader.exec_module(module)
-        except Exception:  # noqa: BLE001
-            return None
-        return module
+#: Where ``benchmarks/peers.py`` writes its measurements (schema ``latdyn-peers/1``).
+PEERS_JSON = Path(__file__).resolve().parents[1] / "benchmarks" / "results" / "peers.json"
+#: The peers.json problem of a scene file.
+PEER_PROBLEMS = {"spinup.yaml": "spinup", "D1_spinup.yaml": "spinup",
+                 "D2_right_angle_cantilever.yaml": "cantilever"}
 
 
-def _peer_points(spec) -> tuple[list, str | None]:
-    """Points of other codes for the work-precision axes, and a note when there are none."""
+def _peer_points(spec, path=None) -> tuple[list, str | None]:
+    """Other codes' points for the work-precision axes, and a note saying what they are.
+
+    The hook: ``benchmarks/results/peers.json``, written by ``benchmarks/peers.py`` (Exudyn
+    and latdyn on the same machine, same problem). For each name in the study's ``peers``,
+    its ``ok`` rows of the problem of the study's scene give (``solver_s``, ``error``);
+    latdyn's rows of the same file come with them, hollow, so that the two codes are
+    compared under one error definition (peers.json's, stated in the note: not the study's
+    norm). Without the file, no points and a note saying how to make it.
+    """
     if not spec.peers:
         return [], None
-    peers = _peers_module()
-    if peers is None:
-        return [], "peers " + ", ".join(spec.peers) + ": benchmarks/peers.py not found (hook: no points)"
-    getter = getattr(peers, "work_precision_points", None)
-    if getter is None:
-        return [], "peers: benchmarks/peers.py has no work_precision_points(peer, study) (hook: no points)"
-    points, missing = [], []
-    for peer in spec.peers:
-        try:
-            rows = list(getter(peer, spec) or [])
-        except Exception as exc:  # noqa: BLE001 - a peer's data must not break the study's picture
-            missing.append(f"{peer} ({type(exc).__name__})")
+    path = Path(path) if path is not None else PEERS_JSON
+    problem = PEER_PROBLEMS.get(Path(spec.scene_file).name)
+    if problem is None:
+        return [], f"peers: no peers.json problem for {Path(spec.scene_file).name}"
+    if not path.is_file():
+        return [], ("peers " + ", ".join(spec.peers) + f": {path.name} not found — run "
+                    "`python benchmarks/peers.py` to put their points here")
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+        rows = data["rows"]
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        return [], f"peers: {path.name} unreadable ({type(exc).__name__})"
+    points = []
+    for row in rows:
+        if row.get("problem") != problem or row.get("status") != "ok":
             continue
-        if not rows:
-            missing.append(peer)
-        points.extend(dict(r, peer=peer) for r in rows)
-    return points, ("no data for " + ", ".join(missing)) if missing else None
+        if row.get("code") not in set(spec.peers) | {"latdyn"}:
+            continue
+        if not row.get("error") or not row.get("solver_s"):
+            continue
+        points.append({"peer": row["code"], "label": f"{row['code']} {row.get('setting', '')}".strip(),
+                       "wall_s": float(row["solver_s"]), "error": float(row["error"])})
+    found = {p["peer"] for p in points}
+    definition = (data.get("problems", {}).get(problem, {}) or {}).get("error", "its own error")
+    note = (f"◆ {', '.join(spec.peers)}, ◇ latdyn: benchmarks/results/{path.name} "
+            f"({data.get('created', '?')}; solver_s, error = {definition}) — not the study's norm")
+    missing = [p for p in spec.peers if p not in found]
+    if missing:
+        note += f"; no ok rows of {', '.join(missing)}"
+    return points, textwrap.fill(note, 70)
 
 
 def _spread(values, gap):
@@ -248,9 +250,11 @@ def work_precision(table, spec, path) -> list[dict]:
             if r["status"] != "solved" and r["wall_s"]:
                 failures.append((r, colour))
     for peer in peers:
-        ax.plot(peer["wall_s"], peer["error"], marker="D", color="k", linestyle="none")
+        hollow = peer["peer"] == "latdyn"
+        ax.plot(peer["wall_s"], peer["error"], marker="D", linestyle="none", markersize=6,
+                color="0.35" if hollow else "k", markerfacecolor="none" if hollow else "k")
         ax.annotate(peer.get("label", peer["peer"]), (peer["wall_s"], peer["error"]), textcoords="offset points",
-                    xytext=(4, -9), fontsize=7)
+                    xytext=(4, -9), fontsize=6.5, color="0.35" if hollow else "k")
     ax.set_xscale("log")
     ax.set_yscale("log")
     xs = [r["wall_s"] for r in table.rows if r["wall_s"]] + [p["wall_s"] for p in peers]

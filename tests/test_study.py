@@ -225,3 +225,25 @@ def test_local_cluster_gives_the_same_rows_as_serial(serial_study, tmp_path):
     # the cases ran in two worker processes, not in this one
     pids = {json.loads((out / "cases" / r["case"] / "case.json").read_text())["pid"] for r in table.rows}
     assert os.getpid() not in pids and len(pids) == 2
+
+
+def test_peer_points_from_peers_json(tmp_path):
+    from latdyn.study_plots import _peer_points
+
+    spec = load_study(dict(SMALL, peers=["exudyn"]))
+    points, note = _peer_points(spec, tmp_path / "peers.json")
+    assert points == [] and "peers.json not found" in note
+    rows = [{"problem": "spinup", "code": "exudyn", "setting": "n=8 dt=0.01", "status": "ok", "error": 2e-4,
+             "solver_s": 0.5},
+            {"problem": "spinup", "code": "exudyn", "setting": "n=8 dt=0.04", "status": "failed", "error": None,
+             "solver_s": None},
+            {"problem": "spinup", "code": "latdyn", "setting": "n=8 dt=0.01", "status": "ok", "error": 1e-4,
+             "solver_s": 1.5},
+            {"problem": "cantilever", "code": "exudyn", "setting": "x", "status": "ok", "error": 1e-3,
+             "solver_s": 0.1}]
+    (tmp_path / "peers.json").write_text(json.dumps({
+        "schema": "latdyn-peers/1", "created": "2026-11-23", "rows": rows,
+        "problems": {"spinup": {"error": "max of |v(5)-v5_ref| ..."}}}))
+    points, note = _peer_points(spec, tmp_path / "peers.json")
+    assert [(p["peer"], p["wall_s"], p["error"]) for p in points] == [("exudyn", 0.5, 2e-4), ("latdyn", 1.5, 1e-4)]
+    assert "not the study's norm" in note.replace("\n", " ")
