@@ -1,0 +1,668 @@
+"""latdyn against Exudyn on the same machine, in one run: error and solver time per setting.
+
+Run from the repository root::
+
+    pip install -e ".[peers]"          # Exudyn is an optional extra, never a requirement
+    python benchmarks/peers.py          # full sweep (several minutes on 2 cores)
+    python benchmarks/peers.py --quick  # one or two settings per code, one repeat
+
+Without Exudyn the script still runs and writes the latdyn rows, with a note saying how
+to install it.  Results: ``benchmarks/results/peers.json`` and ``peers.csv`` (``--out``
+changes the stem); ``docs/performance.md`` reads them.
+
+Problems
+--------
+``spinup``      Kane, Ryan & Banerjee (1987) spin-up beam, ``examples/spinup.yaml`` (10 m,
+                EA 2.8e7, EI 1.4e4, rhoA 1.2, prescribed hub angle), t_end = 10 s.  Error:
+                max of |v(5) - v5_ref|, |v(10) - v10_ref|, |min v - vmin_ref| in metres, v the
+                tip deflection in the hub frame (y), against the converged solution of issue 8
+                (v(5 s) = -0.46843, v(10 s) = -0.36280, min -0.57379 m at 6.762 s).  Matched
+                accuracy: error <= 1e-3 m.
+``cantilever``  Simo & Vu-Quoc right-angle cantilever,
+                ``examples/benchmarks/D2_right_angle_cantilever.yaml`` (two legs of 10, EA 1e6,
+                EI = GJ = 1e3, rhoA 1, rotary inertia [20, 10, 10], out-of-plane triangular
+                pulse at the elbow), t_end = 10 s (the sweep; the tip peak is at 7.4 s).
+                Error: max of the relative errors of the tip's peak out-of-plane displacement
+                (t <= 10 s) and of the elbow's first peak (t <= 6 s), each peak located by a
+                parabola through the three recorded samples around the largest, against the
+                converged values ``CANTILEVER_REF`` (see there).  Matched accuracy: <= 0.3 %.
+                The published curves (digitized, 8.29 at 7.67 s for the tip) are reported
+                beside, not used for the error: a digitized figure does not resolve 0.3 %.
+
+Timing
+------
+Every setting is run ``repeats`` times (once when its first run takes more than
+``LONG_RUN_S``) after one untimed warm-up run of each code and problem (C kernels compiled
+and cached, imports done): ``solver_s`` is the median.
+latdyn: ``summary.json`` ``wall_time_s`` (scene preparation + time loop + probe
+recording; ``compile_s`` subtracted when the runtime reports it), from ``latdyn.run`` with
+no results folder.  Exudyn: ``MainSolverImplicitSecondOrder.SolveSystem`` (solver
+initialisation + time loop + sensors), the model built and assembled before.  ``run_s`` is
+the median of the whole call in Python for both (latdyn.run; Exudyn build + Assemble +
+solve).  ``process_s`` (full mode, headline settings): one fresh ``python`` process that
+imports the code, builds and solves one setting, timed from outside.  The 1-minute load
+average is recorded with every row: the machine is shared, read the times with it.
+
+JSON schema (``peers.json``)
+----------------------------
+::
+
+    {
+      "schema": "latdyn-peers/1",
+      "created": "2026-11-23T01:40:00+00:00",          # UTC
+      "mode": "full" | "quick",
+      "repeats": int,                                    # timed runs per setting (median)
+      "machine": {"cpu": str, "cores": int, "platform": str, "python": str,
+                  "numpy": str, "latdyn": str, "exudyn": str | null,
+                  "git": {"head": str, "runtime_dirty": bool},  # latdyn/ generated/ codegen/ edited
+                  "warm_up_s": {"problem/code": s},
+                  "load_average_start": [1, 5, 15 min], "load_average_end": [...]},
+      "notes": [str, ...],                               # e.g. Exudyn missing, engines seen
+      "problems": {NAME: {"scene": path, "t_end": s, "reference": {...},
+                          "error": str (definition), "error_unit": "m" | "relative",
+                          "tolerance": float}},
+      "rows": [{
+          "problem": "spinup" | "cantilever",
+          "code": "latdyn" | "exudyn",
+          "engine": str,          # latdyn: kernel backend (+ "/engine=X" when solve.engine
+                                  # exists); exudyn: element type
+          "setting": str,         # label, unique per problem and code
+          "elements": int,        # total beam elements
+          "dt": float, "t_end": float,
+          "method": str,          # integrator and its parameter, e.g. "generalized-alpha rho=0.8"
+          "newton": str,          # "full" | "modified" (+ tolerance)
+          "status": "ok" | "failed" | "error",
+          "error": float | null,  # definition and unit in problems[NAME]
+          "error_parts": {name: float},
+          "values": {name: float},                # the measured quantities
+          "steps": int | null,                    # accepted steps
+          "newton_iterations": int | null,
+          "jacobian_updates": int | null,         # Exudyn: Jacobian computations (modified Newton)
+          "solver_s": float | null,               # median over repeats
+          "solver_s_all": [float, ...],
+          "run_s": float | null,                  # median, whole call in Python
+          "compile_s": float | null,              # latdyn: when summary.json reports it
+          "process_s": float | null,              # one fresh process, when measured
+          "load_average": float,                  # 1-min, right after the row
+          "note": str}],
+      "matched": [{"problem", "tolerance", "latdyn_setting", "latdyn_error", "latdyn_s",
+                   "exudyn_setting", "exudyn_error", "exudyn_s",
+                   "ratio": latdyn_s / exudyn_s}]    # fastest ok row of each code within tolerance
+    }
+
+``peers.csv`` holds the rows, one line each, with the scalar columns above.
+"""
+from __future__ import annotations
+
+import argparse
+import copy
+import csv
+import datetime
+import importlib.util
+import json
+import math
+import os
+import platform
+import statistics
+import subprocess
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+ROOT = Path(__file__).resolve().parents[1]
+RESULTS = ROOT / "benchmarks" / "results"
+
+
+def _import_latdyn():
+    """latdyn from this checkout (also when the editable install points elsewhere)."""
+    try:
+        import latdyn  # noqa: F401
+        import latdyn_generated  # noqa: F401
+    except ModuleNotFoundError:
+        sys.path.insert(0, str(ROOT))
+        if importlib.util.find_spec("latdyn_generated") is None:
+            spec = importlib.util.spec_from_file_location(
+                "latdyn_generated", ROOT / "generated" / "__init__.py",
+                submodule_search_locations=[str(ROOT / "generated")])
+            mod = importlib.util.module_from_spec(spec)
+            sys.modules["latdyn_generated"] = mod
+            spec.loader.exec_module(mod)
+    import latdyn
+    return latdyn
+
+
+latdyn = _import_latdyn()
+
+try:
+    import exudyn as exu
+    from exudyn import itemInterface as eii
+    EXUDYN_VERSION = exu.__version__
+except ImportError:  # optional
+    exu = eii = None
+    EXUDYN_VERSION = None
+
+EXUDYN_MISSING = ("Exudyn is not installed: latdyn rows only.  Install the optional extra with "
+                  "`pip install -e \".[peers]\"` (or `pip install exudyn`) and rerun.")
+
+# ----------------------------------------------------------------------------- references
+SPINUP_REF = {"v5": -0.46843, "v10": -0.36280, "vmin": -0.57379, "t_vmin": 6.762,
+              "source": "issue 8: converged solution"}
+SPINUP_TOL = 1e-3  # m
+# Converged peaks of the right-angle cantilever, t_end 10 s.  Computed by
+# `python benchmarks/peers.py --reference` (the finest settings of both codes; see
+# docs/performance.md for the convergence table).
+CANTILEVER_REF = {"tip_max": None, "elbow_max": None,
+                  "source": "set below from the --reference run"}
+CANTILEVER_PUBLISHED = {"tip_max": 8.29, "t_tip_max": 7.67, "elbow_max": 5.5, "t_elbow_max": 3.05,
+                        "source": "Simo & Vu-Quoc (1988), digitized (benchmarks.json D2)"}
+CANTILEVER_TOL = 3e-3  # relative
+LONG_RUN_S = 20.0  # a setting whose first timed run takes longer is not repeated
+
+
+def _hub_angle(t):
+    if t < 15:
+        return 6 / 15 * (t ** 2 / 2 + (15 / (2 * math.pi)) ** 2 * (math.cos(2 * math.pi * t / 15) - 1))
+    return 6 * (t - 7.5)
+
+
+def _elbow_force(t):
+    if t <= 1:
+        return 50 * t
+    if t <= 2:
+        return 50 * (2 - t)
+    return 0.0
+
+
+def peak(t, y, window):
+    """Largest value of y for t in window, refined by a parabola through three samples."""
+    t, y = np.asarray(t, float), np.asarray(y, float)
+    m = (t >= window[0] - 1e-12) & (t <= window[1] + 1e-12)
+    idx = np.flatnonzero(m)
+    i = idx[int(np.argmax(y[idx]))]
+    if 0 < i < len(t) - 1:
+        t0, t1, t2 = t[i - 1:i + 2]
+        y0, y1, y2 = y[i - 1:i + 2]
+        a = np.polyfit([t0 - t1, 0.0, t2 - t1], [y0, y1, y2], 2)
+        if a[0] < 0:
+            tp = -a[1] / (2 * a[0])
+            if t0 - t1 <= tp <= t2 - t1:
+                return float(np.polyval(a, tp)), float(t1 + tp)
+    return float(y[i]), float(t[i])
+
+
+def spinup_error(t, v):
+    t, v = np.asarray(t), np.asarray(v)
+    v5 = float(np.interp(5.0, t, v))
+    v10 = float(np.interp(10.0, t, v))
+    vmin, tmin = peak(t, -v, (0.0, 10.0))
+    vmin = -vmin
+    parts = {"v5": abs(v5 - SPINUP_REF["v5"]), "v10": abs(v10 - SPINUP_REF["v10"]),
+             "vmin": abs(vmin - SPINUP_REF["vmin"])}
+    return max(parts.values()), parts, {"v5": v5, "v10": v10, "vmin": vmin, "t_vmin": tmin}
+
+
+def cantilever_values(t, tip, elbow):
+    tip_max, t_tip = peak(t, tip, (0.0, 10.0))
+    elbow_max, t_elbow = peak(t, elbow, (0.0, 6.0))
+    return {"tip_max": tip_max, "t_tip_max": t_tip, "elbow_max": elbow_max, "t_elbow_max": t_elbow}
+
+
+def cantilever_error(values):
+    if CANTILEVER_REF["tip_max"] is None:
+        return None, {}
+    parts = {k: abs(values[k] - CANTILEVER_REF[k]) / abs(CANTILEVER_REF[k]) for k in ("tip_max", "elbow_max")}
+    parts["tip_max_vs_published"] = abs(values["tip_max"] - CANTILEVER_PUBLISHED["tip_max"]) / CANTILEVER_PUBLISHED["tip_max"]
+    return max(parts["tip_max"], parts["elbow_max"]), parts
+
+
+# ----------------------------------------------------------------------------- latdyn
+def latdyn_engines():
+    """Values of ``solve.engine`` the scene loader accepts ([None] while it has none)."""
+    found = [None]
+    base = yaml.safe_load((ROOT / "examples" / "spinup.yaml").read_text())
+    for name in ("compiled", "python", "numpy", "c", "native"):
+        s = copy.deepcopy(base)
+        s["solve"]["engine"] = name
+        try:
+            latdyn.load_scene(s)
+        except Exception:  # SceneError: unknown key or value
+            continue
+        found.append(name)
+    return found
+
+
+def latdyn_scene(problem, elements, dt, t_end, method=None, rho_inf=None, engine=None):
+    if problem == "spinup":
+        s = yaml.safe_load((ROOT / "examples" / "spinup.yaml").read_text())
+        s["beams"]["arm"]["elements"] = elements
+        s["output"] = {"every": 0.01 if dt <= 0.01 else dt,
+                       "probes": {"tip_v": {"point": "arm.end", "quantity": "position", "frame": "hub",
+                                            "component": "y"}}}
+    else:
+        s = yaml.safe_load((ROOT / "examples" / "benchmarks" / "D2_right_angle_cantilever.yaml").read_text())
+        s["beams"]["leg1"]["elements"] = s["beams"]["leg2"]["elements"] = elements // 2
+        s["output"] = {"every": dt, "probes": {
+            "tip": {"point": "leg2.end", "quantity": "displacement", "frame": "global", "component": "z"},
+            "elbow": {"point": "elbow", "quantity": "displacement", "frame": "global", "component": "z"}}}
+    s["solve"].update(t_end=t_end, dt=dt)
+    if method:
+        s["solve"]["method"] = method
+    if rho_inf is not None:
+        s["solve"]["rho_inf"] = rho_inf
+    if engine:
+        s["solve"]["engine"] = engine
+    return s
+
+
+def latdyn_once(problem, cfg):
+    s = latdyn_scene(problem, cfg["elements"], cfg["dt"], cfg["t_end"], cfg.get("method"), cfg.get("rho_inf"),
+                     cfg.get("engine"))
+    t0 = time.perf_counter()
+    try:
+        r = latdyn.run(s)
+    except latdyn.SolverError as exc:
+        return {"status": "failed", "note": str(exc).splitlines()[0][:200], "run_s": time.perf_counter() - t0}
+    run_s = time.perf_counter() - t0
+    sm = r.summary
+    compile_s = sm.get("compile_s")
+    solver_s = sm.get("solver_s", sm.get("solve_s"))
+    if solver_s is None:
+        solver_s = sm["wall_time_s"] - (compile_s or 0.0)
+    out = {"status": "ok", "run_s": run_s, "solver_s": solver_s, "compile_s": compile_s,
+           "steps": sm.get("steps"), "newton_iterations": sm.get("newton_iterations"),
+           "jacobian_updates": sm.get("jacobian_updates"), "backend": sm.get("backend"),
+           "method": sm.get("method"), "tol": sm.get("newton_tolerance")}
+    t = np.asarray(r.t)
+    if problem == "spinup":
+        out["error"], out["error_parts"], out["values"] = spinup_error(t, r.probes["tip_v"])
+    else:
+        out["values"] = cantilever_values(t, r.probes["tip"], r.probes["elbow"])
+        out["error"], out["error_parts"] = cantilever_error(out["values"])
+    return out
+
+
+# ----------------------------------------------------------------------------- Exudyn
+def _settings(cfg, write_period):
+    ss = exu.SimulationSettings()
+    ti = ss.timeIntegration
+    ti.numberOfSteps = int(round(cfg["t_end"] / cfg["dt"]))
+    ti.endTime = cfg["t_end"]
+    ti.verboseMode = 0
+    ti.generalizedAlpha.spectralRadius = cfg.get("rho_inf", 0.8)
+    ti.newton.useModifiedNewton = cfg.get("modified", True)
+    if cfg.get("atol") is not None:  # None: Exudyn's default (1e-10)
+        ti.newton.absoluteTolerance = cfg["atol"]
+    ss.solution.file.write = False
+    ss.solution.sensors.writePeriod = write_period
+    ss.linearSolver.solverType = exu.LinearSolverType.EigenSparse
+    return ss
+
+
+def exudyn_spinup_model(n):
+    """16-element-style planar model: NodeRigidBody2D + ObjectBeamGeometricallyExact2D.
+
+    The root node is held by three CoordinateConstraints to ground; the one on its
+    rotation coordinate has offsetUserFunction = the hub angle law (a Python callback).
+    Shear stiffness GA = 1e7 (benchmarks.json D1), cross-section inertia 0 as in the
+    latdyn scene (no rotary inertia).
+    """
+    SC = exu.SystemContainer()
+    mbs = SC.AddSystem()
+    h = 10.0 / n
+    nodes = [mbs.AddNode(eii.NodeRigidBody2D(referenceCoordinates=[h * i, 0, 0])) for i in range(n + 1)]
+    for i in range(n):
+        mbs.AddObject(eii.ObjectBeamGeometricallyExact2D(
+            nodeNumbers=[nodes[i], nodes[i + 1]], length=h, massPerLength=1.2, crossSectionInertia=0.0,
+            bendingStiffness=1.4e4, axialStiffness=2.8e7, shearStiffness=1.0e7))
+    ground = mbs.AddNode(eii.NodePointGround())
+    mg = mbs.AddMarker(eii.MarkerNodeCoordinate(nodeNumber=ground, coordinate=0))
+    for c in range(3):
+        m = mbs.AddMarker(eii.MarkerNodeCoordinate(nodeNumber=nodes[0], coordinate=c))
+        kw = {"offsetUserFunction": lambda mbs, t, item, offset: _hub_angle(t)} if c == 2 else {}
+        mbs.AddObject(eii.CoordinateConstraint(markerNumbers=[mg, m], **kw))
+    sensor = mbs.AddSensor(eii.SensorNode(nodeNumber=nodes[-1], outputVariableType=exu.OutputVariableType.Position,
+                                          storeInternal=True, writeToFile=False))
+    mbs.Assemble()
+    return SC, mbs, {"tip": sensor}
+
+
+def exudyn_cantilever_model(n):
+    """3D model: NodeRigidBodyRotVecLG + ObjectBeamGeometricallyExact (n elements in all).
+
+    Each leg has its own nodes with the reference rotation of its local axes (leg 1 along
+    y: rotation vector [0, 0, pi/2]; leg 2 along -x: [0, 0, pi]); the two elbow nodes are
+    welded by a GenericJoint with all six axes constrained, the root node to ground the
+    same way.  Section: stiffness diag(EA, GA, GA, GJ, EI, EI) = (1e6, 1e6, 1e6, 1e3,
+    1e3, 1e3) (GA from Simo & Vu-Quoc; latdyn's scene is shear-rigid), inertia
+    diag(20, 10, 10), rhoA = 1.  The elbow force is a Force load with a Python
+    loadVectorUserFunction.
+    """
+    from exudyn.rigidBodyUtilities import RotationVector2RotationMatrix
+    SC = exu.SystemContainer()
+    mbs = SC.AddSystem()
+    sec = exu.BeamSection()
+    sec.stiffnessMatrix = np.diag([1e6, 1e6, 1e6, 1e3, 1e3, 1e3])
+    sec.inertia = np.diag([20.0, 10.0, 10.0])
+    sec.massPerLength = 1.0
+    per_leg = n // 2
+    h = 10.0 / per_leg
+
+    def leg(p0, d, rv):
+        nodes = [mbs.AddNode(eii.NodeRigidBodyRotVecLG(
+            referenceCoordinates=list(np.asarray(p0, float) + i * h * np.asarray(d, float)) + rv))
+            for i in range(per_leg + 1)]
+        for i in range(per_leg):
+            mbs.AddObject(eii.ObjectBeamGeometricallyExact(nodeNumbers=[nodes[i], nodes[i + 1]], length=h,
+                                                           sectionData=sec))
+        return nodes
+
+    rv1, rv2 = [0, 0, math.pi / 2], [0, 0, math.pi]
+    leg1 = leg([0, 0, 0], [0, 1, 0], rv1)
+    leg2 = leg([0, 10, 0], [-1, 0, 0], rv2)
+    R1, R2 = RotationVector2RotationMatrix(rv1), RotationVector2RotationMatrix(rv2)
+    ground = mbs.AddObject(eii.ObjectGround())
+    mg = mbs.AddMarker(eii.MarkerBodyRigid(bodyNumber=ground, localPosition=[0, 0, 0]))
+    m0 = mbs.AddMarker(eii.MarkerNodeRigid(nodeNumber=leg1[0]))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)
+        mbs.AddObject(eii.GenericJoint(markerNumbers=[mg, m0], constrainedAxes=[1] * 6,
+                                       rotationMarker0=np.eye(3), rotationMarker1=R1.T))
+        ma = mbs.AddMarker(eii.MarkerNodeRigid(nodeNumber=leg1[-1]))
+        mb = mbs.AddMarker(eii.MarkerNodeRigid(nodeNumber=leg2[0]))
+        mbs.AddObject(eii.GenericJoint(markerNumbers=[ma, mb], constrainedAxes=[1] * 6,
+                                       rotationMarker0=R1.T, rotationMarker1=R2.T))
+    mbs.AddLoad(eii.Force(markerNumber=ma, loadVector=[0, 0, 0],
+                          loadVectorUserFunction=lambda mbs, t, load: [0, 0, _elbow_force(t)]))
+    disp = exu.OutputVariableType.Displacement
+    sensors = {"tip": mbs.AddSensor(eii.SensorNode(nodeNumber=leg2[-1], outputVariableType=disp,
+                                                   storeInternal=True, writeToFile=False)),
+               "elbow": mbs.AddSensor(eii.SensorNode(nodeNumber=leg1[-1], outputVariableType=disp,
+                                                     storeInternal=True, writeToFile=False))}
+    mbs.Assemble()
+    return SC, mbs, sensors
+
+
+def exudyn_once(problem, cfg):
+    t0 = time.perf_counter()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)
+        if problem == "spinup":
+            SC, mbs, sensors = exudyn_spinup_model(cfg["elements"])
+            ss = _settings(cfg, 0.01 if cfg["dt"] <= 0.01 else cfg["dt"])
+        else:
+            SC, mbs, sensors = exudyn_cantilever_model(cfg["elements"])
+            ss = _settings(cfg, cfg["dt"])
+    solver = exu.MainSolverImplicitSecondOrder()
+    t1 = time.perf_counter()
+    try:
+        ok = solver.SolveSystem(mbs, ss)
+    except Exception as exc:  # Exudyn raises on some failures
+        ok, msg = False, str(exc)[:200]
+    else:
+        msg = ""
+    t2 = time.perf_counter()
+    it = solver.it
+    out = {"solver_s": t2 - t1, "run_s": t2 - t0, "compile_s": None, "steps": int(it.currentStepIndex),
+           "newton_iterations": int(it.newtonStepsCount), "jacobian_updates": int(it.newtonJacobiCount)}
+    if not ok:
+        d = mbs.GetSensorStoredData(sensors["tip"])
+        out.update(status="failed", note=(msg or f"SolveSystem returned False at t = {d[-1, 0]:.3f} s "
+                                          f"(Newton did not converge)"))
+        return out
+    out["status"] = "ok"
+    d = mbs.GetSensorStoredData(sensors["tip"])
+    t = d[:, 0]
+    if problem == "spinup":
+        th = np.array([_hub_angle(x) for x in t])
+        v = -np.sin(th) * d[:, 1] + np.cos(th) * d[:, 2]  # tip y in the hub frame
+        out["error"], out["error_parts"], out["values"] = spinup_error(t, v)
+    else:
+        e = mbs.GetSensorStoredData(sensors["elbow"])
+        out["values"] = cantilever_values(t, d[:, 3], e[:, 3])
+        out["error"], out["error_parts"] = cantilever_error(out["values"])
+    return out
+
+
+# ----------------------------------------------------------------------------- sweep
+def sweep(quick, engines):
+    """(problem, code, cfg) in run order; cfg holds the setting, 'label', 'repeats', flags."""
+    rows = []
+    for eng in engines:
+        sfx = "" if eng is None else f" engine={eng}"
+        sp = [(4, 0.01)] if quick else [(2, 0.01), (4, 0.02), (4, 0.01), (8, 0.01), (8, 0.005)]
+        for n, dt in sp:
+            rows.append(("spinup", "latdyn", dict(elements=n, dt=dt, t_end=10.0, engine=eng,
+                                                  label=f"{n} el, dt {dt}{sfx}", headline=(n, dt) == (4, 0.01))))
+        ca = [(10, 0.05)] if quick else [(10, 0.1), (10, 0.05), (20, 0.05), (20, 0.025)]
+        for n, dt in ca:
+            rows.append(("cantilever", "latdyn", dict(elements=n, dt=dt, t_end=10.0, engine=eng,
+                                                      label=f"{n} el, dt {dt}{sfx}", headline=(n, dt) == (20, 0.05))))
+    if exu is not None:
+        sp = [(16, 0.01, {})] if quick else [(8, 0.01, {}), (16, 0.02, {}), (16, 0.01, {}), (32, 0.005, {}),
+                                             (16, 0.01, {"modified": False}),
+                                             (16, 0.01, {"atol": None, "repeats": 1})]
+        for n, dt, extra in sp:
+            cfg = dict(elements=n, dt=dt, t_end=10.0, rho_inf=0.8, modified=True, atol=1e-6)
+            cfg.update(extra)
+            tag = ("" if cfg["modified"] else ", full Newton") + (", default tol" if cfg["atol"] is None else "")
+            cfg.update(label=f"{n} el, dt {dt}{tag}", headline=(n, dt) == (16, 0.01) and not tag)
+            rows.append(("spinup", "exudyn", cfg))
+        ca = [(10, 0.05, {})] if quick else [(10, 0.1, {}), (10, 0.05, {}), (20, 0.05, {}), (20, 0.025, {}),
+                                             (20, 0.01, {}),
+                                             (20, 0.01, {"rho_inf": 1.0, "repeats": 1}),
+                                             (20, 0.01, {"t_end": 30.0, "repeats": 1})]
+        for n, dt, extra in ca:
+            cfg = dict(elements=n, dt=dt, t_end=10.0, rho_inf=0.8, modified=True, atol=1e-6)
+            cfg.update(extra)
+            tag = (f", rho_inf {cfg['rho_inf']:g}" if cfg["rho_inf"] != 0.8 else "") + \
+                  (f", t_end {cfg['t_end']:g}" if cfg["t_end"] != 10.0 else "")
+            cfg.update(label=f"{n} el, dt {dt}{tag}", headline=(n, dt) == (20, 0.05) and not tag)
+            rows.append(("cantilever", "exudyn", cfg))
+    return rows
+
+
+def _quiet_exudyn():
+    if hasattr(exu, "config") and hasattr(exu.config, "printToConsole"):
+        exu.config.printToConsole = False
+    else:  # older Exudyn
+        exu.SetWriteToConsole(False)
+
+
+def load1():
+    try:
+        return os.getloadavg()[0]
+    except OSError:  # pragma: no cover
+        return float("nan")
+
+
+def machine():
+    cpu = platform.processor() or ""
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    return {"cpu": cpu, "cores": os.cpu_count(), "platform": platform.platform(),
+            "python": platform.python_version(), "numpy": np.__version__,
+            "latdyn": latdyn.__version__, "exudyn": EXUDYN_VERSION,
+            "git": _git(), "load_average_start": list(os.getloadavg())}
+
+
+def _git():
+    try:
+        head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True,
+                              text=True).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--", "latdyn", "generated", "codegen"], cwd=ROOT,
+                               capture_output=True, text=True).stdout.strip()
+        return {"head": head, "runtime_dirty": bool(dirty)}
+    except OSError:
+        return None
+
+
+def describe(code, cfg, res):
+    if code == "latdyn":
+        engine = (res.get("backend") or "?") + (f"/engine={cfg['engine']}" if cfg.get("engine") else "")
+        method = res.get("method") or cfg.get("method") or "default"
+        newton = f"full (tol {res.get('tol')})" if res.get("tol") else "full"
+    else:
+        engine = "ObjectBeamGeometricallyExact2D" if cfg.get("problem") == "spinup" else "ObjectBeamGeometricallyExact"
+        method = f"generalized-alpha rho={cfg.get('rho_inf', 0.8):g}"
+        atol = cfg.get("atol")
+        newton = ("modified" if cfg.get("modified", True) else "full") + \
+                 (f" (abs tol {atol:g})" if atol is not None else " (default tol)")
+    return engine, method, newton
+
+
+def process_time(problem, code, cfg):
+    """One fresh interpreter: import, build, solve once; wall time from outside."""
+    arg = json.dumps({"problem": problem, "code": code, "cfg": {k: v for k, v in cfg.items() if k != "headline"}})
+    t0 = time.perf_counter()
+    p = subprocess.run([sys.executable, str(Path(__file__).resolve()), "--one", arg], cwd=ROOT,
+                       capture_output=True, text=True)
+    dt = time.perf_counter() - t0
+    return dt if p.returncode == 0 else None
+
+
+def run_one(problem, code, cfg):
+    cfg = dict(cfg, problem=problem)
+    return latdyn_once(problem, cfg) if code == "latdyn" else exudyn_once(problem, cfg)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--quick", action="store_true", help="one or two settings per code, one repeat")
+    ap.add_argument("--repeats", type=int, default=None, help="timed runs per setting (default 3; quick 1)")
+    ap.add_argument("--out", default=str(RESULTS / "peers"), help="output stem (.json and .csv are added)")
+    ap.add_argument("--no-process", action="store_true", help="skip the fresh-process timings")
+    ap.add_argument("--reference", action="store_true", help="converge the cantilever peaks with both codes")
+    ap.add_argument("--one", help=argparse.SUPPRESS)
+    args = ap.parse_args(argv)
+    if args.one:
+        job = json.loads(args.one)
+        res = run_one(job["problem"], job["code"], job["cfg"])
+        print(json.dumps({k: res.get(k) for k in ("status", "error", "solver_s")}))
+        return 0 if res.get("status") == "ok" else 1
+    if args.reference:
+        return reference_run()
+    repeats = args.repeats or (1 if args.quick else 3)
+    notes = []
+    if exu is None:
+        notes.append(EXUDYN_MISSING)
+        print("NOTE: " + EXUDYN_MISSING, file=sys.stderr)
+    else:
+        _quiet_exudyn()  # Exudyn's own warnings (e.g. singular initial Jacobian)
+    engines = latdyn_engines()
+    notes.append("latdyn solve.engine values accepted: " + (", ".join(e for e in engines if e) or "none (one engine)"))
+    info = machine()
+    plan = sweep(args.quick, engines)
+    # warm-up: compile/cache kernels, first imports; not timed
+    warm = {}
+    for problem, code, cfg in plan:
+        key = (problem, code, cfg.get("engine"))
+        if key not in warm:
+            w = dict(cfg, t_end=0.5, elements=min(cfg["elements"], 4 if problem == "spinup" else 4))
+            t0 = time.perf_counter()
+            run_one(problem, code, w)
+            warm[key] = time.perf_counter() - t0
+    rows = []
+    for problem, code, cfg in plan:
+        reps = cfg.get("repeats", repeats)
+        results = [run_one(problem, code, cfg)]
+        while len(results) < reps and (results[0].get("solver_s") or 0) < LONG_RUN_S:
+            results.append(run_one(problem, code, cfg))
+        last = results[-1]
+        ok = [r for r in results if r.get("status") == "ok"]
+        solver_all = [r["solver_s"] for r in results if r.get("solver_s") is not None]
+        run_all = [r["run_s"] for r in results if r.get("run_s") is not None]
+        engine, method, newton = describe(code, dict(cfg, problem=problem), last)
+        row = {"problem": problem, "code": code, "engine": engine, "setting": cfg["label"],
+               "elements": cfg["elements"], "dt": cfg["dt"], "t_end": cfg["t_end"], "method": method,
+               "newton": newton, "status": "ok" if len(ok) == len(results) else last.get("status", "error"),
+               "error": last.get("error"), "error_parts": last.get("error_parts", {}),
+               "values": last.get("values", {}), "steps": last.get("steps"),
+               "newton_iterations": last.get("newton_iterations"),
+               "jacobian_updates": last.get("jacobian_updates"),
+               "solver_s": statistics.median(solver_all) if solver_all else None, "solver_s_all": solver_all,
+               "run_s": statistics.median(run_all) if run_all else None,
+               "compile_s": last.get("compile_s"), "process_s": None,
+               "load_average": load1(), "note": last.get("note", "")}
+        if cfg.get("headline") and not args.quick and not args.no_process and row["status"] == "ok":
+            row["process_s"] = process_time(problem, code, cfg)
+        rows.append(row)
+        err = "-" if row["error"] is None else f"{row['error']:.3g}"
+        st = "-" if row["solver_s"] is None else f"{row['solver_s']:.3f}"
+        print(f"{problem:10s} {code:6s} {cfg['label']:32s} {row['status']:6s} error {err:>9s}  solver {st:>8s} s  "
+              f"steps {row['steps']}  newton {row['newton_iterations']}  jac {row['jacobian_updates']}  "
+              f"load {row['load_average']:.2f}", flush=True)
+    info["load_average_end"] = list(os.getloadavg())
+    info["warm_up_s"] = {f"{p}/{c}" + (f"/{e}" if e else ""): round(v, 3) for (p, c, e), v in warm.items()}
+    matched = []
+    for problem, tol in (("spinup", SPINUP_TOL), ("cantilever", CANTILEVER_TOL)):
+        best = {}
+        for code in ("latdyn", "exudyn"):
+            cand = [r for r in rows if r["problem"] == problem and r["code"] == code and r["status"] == "ok"
+                    and r["error"] is not None and r["error"] <= tol and r["t_end"] == 10.0
+                    and "engine=" not in r["engine"] or False]
+            cand = [r for r in cand if r["problem"] == problem and r["code"] == code]
+            if cand:
+                best[code] = min(cand, key=lambda r: r["solver_s"])
+        if len(best) == 2:
+            L, E = best["latdyn"], best["exudyn"]
+            matched.append({"problem": problem, "tolerance": tol, "latdyn_setting": L["setting"],
+                            "latdyn_error": L["error"], "latdyn_s": L["solver_s"],
+                            "exudyn_setting": E["setting"], "exudyn_error": E["error"], "exudyn_s": E["solver_s"],
+                            "ratio": L["solver_s"] / E["solver_s"]})
+            print(f"matched {problem}: latdyn {L['setting']} {L['solver_s']:.3f} s vs Exudyn {E['setting']} "
+                  f"{E['solver_s']:.3f} s: ratio {L['solver_s'] / E['solver_s']:.2f}")
+    doc = {"schema": "latdyn-peers/1",
+           "created": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+           "mode": "quick" if args.quick else "full", "repeats": repeats, "machine": info, "notes": notes,
+           "problems": {
+               "spinup": {"scene": "examples/spinup.yaml", "t_end": 10.0, "reference": SPINUP_REF,
+                          "error": "max(|v(5)-v5_ref|, |v(10)-v10_ref|, |min v - vmin_ref|), tip y in the hub frame",
+                          "error_unit": "m", "tolerance": SPINUP_TOL},
+               "cantilever": {"scene": "examples/benchmarks/D2_right_angle_cantilever.yaml", "t_end": 10.0,
+                              "reference": CANTILEVER_REF, "published": CANTILEVER_PUBLISHED,
+                              "error": "max of relative errors of the tip peak u3 (t<=10) and the elbow first "
+                                       "peak u3 (t<=6), parabola-refined",
+                              "error_unit": "relative", "tolerance": CANTILEVER_TOL}},
+           "rows": rows, "matched": matched}
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.with_suffix(".json").write_text(json.dumps(doc, indent=1, default=float) + "\n")
+    cols = ["problem", "code", "engine", "setting", "elements", "dt", "t_end", "method", "newton", "status",
+            "error", "steps", "newton_iterations", "jacobian_updates", "solver_s", "run_s", "compile_s",
+            "process_s", "load_average", "note"]
+    with open(out.with_suffix(".csv"), "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=cols, extrasaction="ignore")
+        w.writeheader()
+        w.writerows(rows)
+    print(f"wrote {out.with_suffix('.json')} and .csv")
+    return 0
+
+
+def reference_run():
+    """Convergence of the cantilever peaks (t_end 10 s) with both codes; prints a table."""
+    if exu is not None:
+        _quiet_exudyn()
+    plan = [("latdyn", dict(elements=n, dt=dt, t_end=10.0)) for n, dt in ((40, 0.0125), (80, 0.00625), (160, 0.00625))]
+    if exu is not None:
+        plan += [("exudyn", dict(elements=n, dt=dt, t_end=10.0, rho_inf=0.8, modified=True, atol=1e-6))
+                 for n, dt in ((40, 0.005), (80, 0.0025), (160, 0.0025))]
+    for code, cfg in plan:
+        res = run_one("cantilever", code, cfg)
+        v = res.get("values", {})
+        print(f"{code:6s} {cfg['elements']:3d} el dt {cfg['dt']:<8g} {res['status']}  tip_max {v.get('tip_max'):.6f} "
+              f"at {v.get('t_tip_max'):.4f}  elbow_max {v.get('elbow_max'):.6f} at {v.get('t_elbow_max'):.4f}  "
+              f"{res.get('solver_s', 0):.1f} s", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
