@@ -83,7 +83,10 @@ _BEAM_KEYS = ("from", "to", "section", "elements", "y_axis", "start", "end")
 _HINGE_KEYS = ("axis", "stiffness", "damping", "torque", "angle", "lock_at")
 _LOAD_KEYS = ("at", "force", "moment", "frame")
 _SOLVE_KEYS = ("analysis", "t_end", "dt", "method", "rho_inf", "tol", "steps", "count",
-               "adaptive", "error_tol", "dt_min", "max_iterations", "formulation")
+               "adaptive", "error_tol", "dt_min", "max_iterations", "formulation", "engine", "newton")
+#: ``solve.engine``: where the implicit step runs (latdyn/engine.py); ``solve.newton``: full or modified Newton.
+ENGINES = ("auto", "compiled", "python")
+NEWTON = ("modified", "full")
 _PROBE_KEYS = {
     "point": ("point", "quantity", "frame", "component"),
     "hinge": ("hinge", "quantity"),
@@ -224,6 +227,8 @@ class Solve:
     dt_min: float | None = None
     max_iterations: int = 25
     formulation: str = "default"
+    engine: str = "auto"
+    newton: str = "modified"
 
 
 @dataclass
@@ -909,6 +914,10 @@ class _Reader:
             s.max_iterations = self.integer(spec["max_iterations"], k("max_iterations"))
         if "formulation" in spec:
             s.formulation = self.choice(spec["formulation"], k("formulation"), FORMULATIONS)
+        if "engine" in spec:
+            s.engine = self.choice(spec["engine"], k("engine"), ENGINES)
+        if "newton" in spec:
+            s.newton = self.choice(spec["newton"], k("newton"), NEWTON)
         return s
 
 

@@ -13,7 +13,7 @@ from . import __version__
 from . import checkpoint as checkpoints
 from .analysis import modal_analysis, static_analysis
 from .assembly import Assembler, State, free_velocity, initial_state, orthonormalize, pack, unpack_free
-from .errors import SolverError
+from .errors import SceneError, SolverError
 from .integrators import AlphaParameters, CentralDifference, GeneralizedAlpha, newton_diagnosis
 from .kernels import load_kernels
 from .model import Model
@@ -344,6 +344,29 @@ def _grid_time(k: int, dt: float, t_end: float, n_grid: int) -> float:
     return t_end if k >= n_grid else k * dt
 
 
+def _implicit_integrator(prepared: Prepared, params: AlphaParameters, tol: float, length: float,
+                         summary: dict) -> GeneralizedAlpha:
+    """The generalized-α step in C (latdyn/engine.py) where it covers the model, else in Python.
+
+    ``solve.engine``: ``auto`` (C when it can), ``compiled`` (C, or exit 2 saying why not),
+    ``python`` (the reference step, full Newton). ``solve.newton`` (C only): ``modified``
+    keeps the factorized matrix while Newton contracts, ``full`` rebuilds it every iteration."""
+    from . import engine
+
+    solve, assembler = prepared.scene.solve, prepared.assembler
+    reason = "solve.engine is python" if solve.engine == "python" else engine.unsupported(assembler)
+    if reason is not None and solve.engine == "compiled":
+        raise SceneError(prepared.scene.file, "solve.engine", f"the compiled step cannot run this scene: {reason}")
+    if reason is None:
+        integrator = engine.CompiledGeneralizedAlpha(assembler, params, tol, solve.max_iterations, length,
+                                                     newton=solve.newton)
+        summary.update(engine="compiled", newton=solve.newton)
+    else:
+        integrator = GeneralizedAlpha(assembler, params, tol, solve.max_iterations, length)
+        summary.update(engine="python", newton="full", engine_reason=reason)
+    return integrator
+
+
 def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progress: bool,
               checkpointer: checkpoints.Checkpointer | None = None,
               resume_from: checkpoints.Checkpoint | None = None) -> TransientProgress:
@@ -357,8 +380,8 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
     if solve.method == "explicit":
         integrator = CentralDifference(assembler, tol, solve.max_iterations, length)
     else:
-        integrator = GeneralizedAlpha(assembler, AlphaParameters.for_method(solve.method, solve.rho_inf), tol,
-                                      solve.max_iterations, length)
+        integrator = _implicit_integrator(prepared, AlphaParameters.for_method(solve.method, solve.rho_inf), tol,
+                                          length, writer.summary)
     t_end, dt = float(solve.t_end), float(solve.dt)
     n_grid = max(1, int(np.ceil(t_end / dt - 1e-9)))
     dt_min = solve.dt_min if solve.dt_min is not None else dt * 1e-6

@@ -1,0 +1,571 @@
+/*
+ * One Lie-group generalized-α time step, Newton iteration included, in C.
+ *
+ * This is runtime code, written by hand: it holds no element physics.  The element terms
+ * come from the generated kernels (generated/beam_<variant>.c), called through function
+ * pointers; everything between them -- the configuration update on SO(3), prescribed
+ * motion, element geometry (Eq. 17), rigid joint bodies, hinge springs, point loads,
+ * scatter into a preallocated matrix, LAPACK's LU (dense or banded, through SciPy's
+ * function pointers), the convergence test -- is here, so that no Python runs inside a
+ * step.  It mirrors latdyn/integrators.py (GeneralizedAlpha.step) and latdyn/assembly.py
+ * (Assembler.evaluate) line by line; tests/test_engine.py holds the two to 1e-10.
+ *
+ * Storage: node arrays row-major (x: n_nodes×3, T: n_nodes×3×3), coordinate vectors of
+ * length n_total + 1 (index n_total is the dummy of clamped ends), matrices column-major
+ * for LAPACK.  Matrix positions of the block entries are precomputed by the caller
+ * (latdyn/engine.py), for the dense or the band storage alike; -1 marks an entry on a
+ * constrained coordinate.
+ */
+#include <math.h>
+#include <stdint.h>
+#include <string.h>
+
+typedef void (*kernel_2_1)(int64_t, const double *, const double *, double *);
+typedef void (*kernel_2_2)(int64_t, const double *, const double *, double *, double *);
+typedef void (*kernel_3_1)(int64_t, const double *, const double *, const double *, double *);
+typedef void (*kernel_gravity)(int64_t, const double *, const double *, const double *, double *, double *,
+                               double *);
+typedef void (*lapack_getrf)(int *, int *, double *, int *, int *, int *);
+typedef void (*lapack_getrs)(char *, int *, int *, double *, int *, int *, double *, int *, int *);
+typedef void (*lapack_gbtrf)(int *, int *, int *, int *, double *, int *, int *, int *);
+typedef void (*lapack_gbtrs)(char *, int *, int *, int *, int *, double *, int *, int *, double *, int *, int *);
+
+/* The model, as arrays (latdyn.model.Model and the Assembler's scatter maps). */
+typedef struct {
+    int64_t n_nodes, n_hinges, n_elements, n_bodies, n_loads, n_dofs, n_total;
+    const int64_t *node_dofs;   /* (n_nodes, 6) */
+    const int64_t *hinge_dofs;  /* (n_hinges) */
+    int64_t n_free_nodes, n_free_hinges;
+    const int64_t *free_nodes, *free_hinges;
+    /* prescribed bodies: law indices of the translation (n_prescribed, 3; -1: none) and angle (-1: none) */
+    int64_t n_prescribed;
+    const int64_t *prescribed_nodes, *translation_law, *angle_law;
+    const double *rotation_axis; /* (n_prescribed, 3) */
+    const double *node_x0;       /* (n_nodes, 3) */
+    const int64_t *hinge_angle_law; /* (n_hinges) -1: none */
+    const int64_t *hinge_locked;    /* (n_hinges) */
+    /* elements */
+    const int64_t *element_nodes, *element_hinges, *element_dofs;
+    const double *element_axes, *element_frames0, *element_offsets, *element_sections;
+    /* joint bodies with inertia */
+    const int64_t *body_nodes;
+    const double *body_mass, *body_com, *body_inertia;
+    /* hinges: f = k (θ − θ_r) + c θ̇ − τ(t) */
+    const double *hinge_stiffness, *hinge_damping, *hinge_rest_angle;
+    const int64_t *hinge_torque_law;
+    /* point loads */
+    const int64_t *load_node, *load_force_law, *load_moment_law, *load_frame_node;
+    const double *load_r;
+    double gravity[3];
+    int64_t has_gravity;
+    /* matrix positions of the block entries (dense or band storage), -1: constrained */
+    const int64_t *element_position; /* (n_elements, 14, 14) */
+    const int64_t *body_position;    /* (n_bodies, 6, 6) */
+    const int64_t *hinge_position;   /* (n_hinges) diagonal entry */
+    const int64_t *load_position;    /* (n_loads, 3, 3) */
+    /* linear algebra: band storage when kl > 0 ... or kl == ku == -1 for dense */
+    int64_t band, kl, ku, ldab, matrix_size;
+    const int64_t *permutation; /* new index of each free coordinate */
+    /* kernels */
+    kernel_2_1 internal_force;
+    kernel_2_2 internal_force_D_q;
+    kernel_2_1 mass_matrix;
+    kernel_3_1 quadratic_velocity;
+    kernel_3_1 quadratic_velocity_D_qdot;
+    kernel_gravity gravity_load;
+    lapack_getrf getrf;
+    lapack_getrs getrs;
+    lapack_gbtrf gbtrf;
+    lapack_gbtrs gbtrs;
+} Model;
+
+/* Scratch buffers, allocated once by the caller. */
+typedef struct {
+    double *geometry, *rates, *accelerations, *gravity_rows; /* (e,36) (e,14) (e,14) (e,3) */
+    double *force, *tangent, *mass, *quadratic, *quadratic_D; /* (e,14) (e,14,14) (e,14,14) (e,14) (e,14,14) */
+    double *gravity_force, *gravity_potential, *first_moment;  /* (e,14) (e) (e,3) */
+    double *body_vector, *body_mass, *body_damping, *body_stiffness; /* (b,6) (b,6,6)×3 */
+    double *hinge_force, *hinge_k, *hinge_c;                   /* (h) */
+    double *load_blocks;                                       /* (l,9) */
+    double *total;                                             /* n_total + 1 */
+    double *matrix;                                            /* matrix_size */
+    int *pivots;                                               /* n_dofs */
+    double *rhs;                                               /* n_dofs */
+} Work;
+
+/* A configuration: all nodes and hinges. */
+typedef struct {
+    double *x, *T, *v, *w, *a, *alpha, *theta, *theta_dot, *theta_ddot;
+} Configuration;
+
+/* ------------------------------------------------------------------------- small algebra */
+
+static void skew(const double *w, double *S)
+{
+    S[0] = 0.0;   S[1] = -w[2]; S[2] = w[1];
+    S[3] = w[2];  S[4] = 0.0;   S[5] = -w[0];
+    S[6] = -w[1]; S[7] = w[0];  S[8] = 0.0;
+}
+
+static void matmul3(const double *A, const double *B, double *C)
+{
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j)
+            C[3 * i + j] = A[3 * i] * B[j] + A[3 * i + 1] * B[3 + j] + A[3 * i + 2] * B[6 + j];
+}
+
+static void matvec3(const double *A, const double *x, double *y)
+{
+    for (int i = 0; i < 3; ++i) y[i] = A[3 * i] * x[0] + A[3 * i + 1] * x[1] + A[3 * i + 2] * x[2];
+}
+
+static void cross(const double *a, const double *b, double *c)
+{
+    c[0] = a[1] * b[2] - a[2] * b[1];
+    c[1] = a[2] * b[0] - a[0] * b[2];
+    c[2] = a[0] * b[1] - a[1] * b[0];
+}
+
+/* Exponential map of so(3) (Rodrigues), as latdyn.assembly.expm_so3. */
+static void expm_so3(const double *w, double *R)
+{
+    double angle = sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
+    double a, b, W[9], WW[9];
+    if (angle < 1e-8) {
+        a = 1.0 - angle * angle / 6.0;
+        b = 0.5 - angle * angle / 24.0;
+    } else {
+        a = sin(angle) / angle;
+        b = (1.0 - cos(angle)) / (angle * angle);
+    }
+    skew(w, W);
+    matmul3(W, W, WW);
+    for (int i = 0; i < 9; ++i) R[i] = a * W[i] + b * WW[i];
+    R[0] += 1.0; R[4] += 1.0; R[8] += 1.0;
+}
+
+/* ------------------------------------------------------------------------- configuration */
+
+/* The trial configuration q_n ∘ exp(increment) at time t with velocities v and accelerations
+ * v̇ on the free coordinates (integrators.GeneralizedAlpha.step.configured: advance, then
+ * apply_prescribed, then unpack_free). laws: (value, rate, acceleration) of every law at t. */
+static void configure(const Model *m, const Configuration *base, Configuration *c, const double *increment,
+                      const double *velocity, const double *acceleration, const double *laws)
+{
+    const int64_t N = m->n_nodes, H = m->n_hinges;
+    memcpy(c->x, base->x, sizeof(double) * 3 * N);
+    memcpy(c->T, base->T, sizeof(double) * 9 * N);
+    memcpy(c->v, base->v, sizeof(double) * 3 * N);
+    memcpy(c->w, base->w, sizeof(double) * 3 * N);
+    memcpy(c->a, base->a, sizeof(double) * 3 * N);
+    memcpy(c->alpha, base->alpha, sizeof(double) * 3 * N);
+    memcpy(c->theta, base->theta, sizeof(double) * H);
+    memcpy(c->theta_dot, base->theta_dot, sizeof(double) * H);
+    memcpy(c->theta_ddot, base->theta_ddot, sizeof(double) * H);
+    for (int64_t k = 0; k < m->n_free_nodes; ++k) {
+        int64_t i = m->free_nodes[k];
+        const int64_t *d = m->node_dofs + 6 * i;
+        double R[9];
+        for (int j = 0; j < 3; ++j) c->x[3 * i + j] = base->x[3 * i + j] + increment[d[j]];
+        expm_so3((double[3]){increment[d[3]], increment[d[4]], increment[d[5]]}, R);
+        matmul3(R, base->T + 9 * i, c->T + 9 * i);
+    }
+    for (int64_t k = 0; k < m->n_free_hinges; ++k) {
+        int64_t j = m->free_hinges[k];
+        c->theta[j] = base->theta[j] + increment[m->hinge_dofs[j]];
+    }
+    /* apply_prescribed */
+    for (int64_t k = 0; k < m->n_prescribed; ++k) {
+        int64_t i = m->prescribed_nodes[k];
+        const int64_t *law = m->translation_law + 3 * k;
+        for (int j = 0; j < 3; ++j) {
+            if (law[0] >= 0) {
+                c->x[3 * i + j] = m->node_x0[3 * i + j] + laws[3 * law[j]];
+                c->v[3 * i + j] = laws[3 * law[j] + 1];
+                c->a[3 * i + j] = laws[3 * law[j] + 2];
+            } else {
+                c->x[3 * i + j] = m->node_x0[3 * i + j];
+                c->v[3 * i + j] = c->a[3 * i + j] = 0.0;
+            }
+        }
+        const double *axis = m->rotation_axis + 3 * k;
+        if (m->angle_law[k] >= 0) {
+            const double *g = laws + 3 * m->angle_law[k];
+            expm_so3((double[3]){axis[0] * g[0], axis[1] * g[0], axis[2] * g[0]}, c->T + 9 * i);
+            for (int j = 0; j < 3; ++j) {
+                c->w[3 * i + j] = axis[j] * g[1];
+                c->alpha[3 * i + j] = axis[j] * g[2];
+            }
+        } else {
+            double *T = c->T + 9 * i;
+            for (int j = 0; j < 9; ++j) T[j] = (j % 4 == 0) ? 1.0 : 0.0;
+            for (int j = 0; j < 3; ++j) c->w[3 * i + j] = c->alpha[3 * i + j] = 0.0;
+        }
+    }
+    for (int64_t j = 0; j < H; ++j) {
+        if (m->hinge_angle_law[j] >= 0) {
+            const double *g = laws + 3 * m->hinge_angle_law[j];
+            c->theta[j] = g[0];
+            c->theta_dot[j] = g[1];
+            c->theta_ddot[j] = g[2];
+        } else if (m->hinge_locked[j]) {
+            c->theta_dot[j] = c->theta_ddot[j] = 0.0;
+        }
+    }
+    /* unpack_free */
+    for (int64_t k = 0; k < m->n_free_nodes; ++k) {
+        int64_t i = m->free_nodes[k];
+        const int64_t *d = m->node_dofs + 6 * i;
+        for (int j = 0; j < 3; ++j) {
+            c->v[3 * i + j] = velocity[d[j]];
+            c->w[3 * i + j] = velocity[d[3 + j]];
+            c->a[3 * i + j] = acceleration[d[j]];
+            c->alpha[3 * i + j] = acceleration[d[3 + j]];
+        }
+    }
+    for (int64_t k = 0; k < m->n_free_hinges; ++k) {
+        int64_t j = m->free_hinges[k];
+        c->theta_dot[j] = velocity[m->hinge_dofs[j]];
+        c->theta_ddot[j] = acceleration[m->hinge_dofs[j]];
+    }
+}
+
+/* ------------------------------------------------------------------------- evaluation */
+
+/* Element inputs (Assembler.element_geometry, element_rates): x1, x2, offsets T r_g (Eq. 2),
+ * nodal frames T_j exp(θ h) E0 (Eq. 17), hinge axes T_j h (Eq. 9); rates and accelerations. */
+static void element_inputs(const Model *m, const Configuration *c, Work *w)
+{
+    for (int64_t e = 0; e < m->n_elements; ++e) {
+        double *g = w->geometry + 36 * e;
+        double *r = w->rates + 14 * e, *acc = w->accelerations + 14 * e;
+        for (int end = 0; end < 2; ++end) {
+            int64_t i = m->element_nodes[2 * e + end], hinge = m->element_hinges[2 * e + end];
+            const double *T = c->T + 9 * i;
+            const double *axis = m->element_axes + 6 * e + 3 * end;
+            double theta = hinge >= 0 ? c->theta[hinge] : 0.0;
+            double H[9], TH[9];
+            expm_so3((double[3]){axis[0] * theta, axis[1] * theta, axis[2] * theta}, H);
+            matmul3(T, H, TH);
+            matmul3(TH, m->element_frames0 + 18 * e + 9 * end, g + 12 + 9 * end);
+            matvec3(T, m->element_offsets + 6 * e + 3 * end, g + 6 + 3 * end);
+            matvec3(T, axis, g + 30 + 3 * end);
+            for (int j = 0; j < 3; ++j) {
+                g[3 * end + j] = c->x[3 * i + j];
+                r[7 * end + j] = c->v[3 * i + j];
+                r[7 * end + 3 + j] = c->w[3 * i + j];
+                acc[7 * end + j] = c->a[3 * i + j];
+                acc[7 * end + 3 + j] = c->alpha[3 * i + j];
+            }
+            r[7 * end + 6] = hinge >= 0 ? c->theta_dot[hinge] : 0.0;
+            acc[7 * end + 6] = hinge >= 0 ? c->theta_ddot[hinge] : 0.0;
+        }
+    }
+}
+
+/* Joint bodies (Assembler.rigid_bodies): M_b [a; α] + g_b − weight, and the blocks M_b, ∂g_b/∂ω,
+ * and the load stiffness −skew(W) skew(r_c) of the weight's moment. */
+static void joint_bodies(const Model *m, const Configuration *c, Work *w)
+{
+    for (int64_t b = 0; b < m->n_bodies; ++b) {
+        int64_t i = m->body_nodes[b];
+        const double *T = c->T + 9 * i, *om = c->w + 3 * i;
+        double mass = m->body_mass[b];
+        double rc[3], S[9], J[9], TI[9], Tt[9], SS[9];
+        matvec3(T, m->body_com + 3 * b, rc);
+        for (int p = 0; p < 3; ++p)
+            for (int q = 0; q < 3; ++q) Tt[3 * p + q] = T[3 * q + p];
+        matmul3(T, m->body_inertia + 9 * b, TI);
+        matmul3(TI, Tt, J);
+        skew(rc, S);
+        matmul3(S, S, SS);
+        double *M = w->body_mass + 36 * b, *G = w->body_damping + 36 * b, *K = w->body_stiffness + 36 * b;
+        double *vec = w->body_vector + 6 * b;
+        memset(M, 0, sizeof(double) * 36);
+        memset(G, 0, sizeof(double) * 36);
+        memset(K, 0, sizeof(double) * 36);
+        for (int p = 0; p < 3; ++p) {
+            M[6 * p + p] = mass;
+            for (int q = 0; q < 3; ++q) {
+                M[6 * p + 3 + q] = -mass * S[3 * p + q];
+                M[6 * (3 + p) + q] = mass * S[3 * p + q];
+                M[6 * (3 + p) + 3 + q] = J[3 * p + q] - mass * SS[3 * p + q];
+            }
+        }
+        double wxr[3], centripetal[3], Jw[3], t1[3], t2[3];
+        cross(om, rc, wxr);
+        cross(om, wxr, centripetal);
+        for (int p = 0; p < 3; ++p) centripetal[p] *= mass;
+        matvec3(J, om, Jw);
+        cross(rc, centripetal, t1);
+        cross(om, Jw, t2);
+        double acc[6] = {c->a[3 * i], c->a[3 * i + 1], c->a[3 * i + 2],
+                         c->alpha[3 * i], c->alpha[3 * i + 1], c->alpha[3 * i + 2]};
+        for (int p = 0; p < 6; ++p) {
+            double s = 0.0;
+            for (int q = 0; q < 6; ++q) s += M[6 * p + q] * acc[q];
+            vec[p] = s + (p < 3 ? centripetal[p] : t1[p - 3] + t2[p - 3]);
+        }
+        /* ∂g/∂ω */
+        double wr = om[0] * rc[0] + om[1] * rc[1] + om[2] * rc[2];
+        double dcent[9], Sd[9], Wm[9], WJ[9], SJw[9];
+        for (int p = 0; p < 3; ++p)
+            for (int q = 0; q < 3; ++q)
+                dcent[3 * p + q] = mass * (om[p] * rc[q] + (p == q ? wr : 0.0) - 2.0 * rc[p] * om[q]);
+        matmul3(S, dcent, Sd);
+        skew(om, Wm);
+        matmul3(Wm, J, WJ);
+        skew(Jw, SJw);
+        for (int p = 0; p < 3; ++p)
+            for (int q = 0; q < 3; ++q) {
+                G[6 * p + 3 + q] = dcent[3 * p + q];
+                G[6 * (3 + p) + 3 + q] = Sd[3 * p + q] + WJ[3 * p + q] - SJw[3 * p + q];
+            }
+        if (m->has_gravity) {
+            double W[3] = {mass * m->gravity[0], mass * m->gravity[1], mass * m->gravity[2]}, rW[3];
+            double SW[9], SWS[9];
+            cross(rc, W, rW);
+            for (int p = 0; p < 3; ++p) {
+                vec[p] -= W[p];
+                vec[3 + p] -= rW[p];
+            }
+            skew(W, SW);
+            matmul3(SW, S, SWS);
+            for (int p = 0; p < 3; ++p)
+                for (int q = 0; q < 3; ++q) K[6 * (3 + p) + 3 + q] -= SWS[3 * p + q];
+        }
+    }
+}
+
+/* The equations of motion at c (Assembler.evaluate): the vector of all coordinates into
+ * w->total (residual = total[:n], reaction = total[n:n_total]); with matrices, the blocks.
+ * Returns the power of loads and hinge torques. */
+static double evaluate(const Model *m, const Configuration *c, Work *w, const double *laws, int matrices)
+{
+    const int64_t E = m->n_elements;
+    double power = 0.0;
+    element_inputs(m, c, w);
+    if (matrices) {
+        m->internal_force_D_q(E, w->geometry, m->element_sections, w->force, w->tangent);
+        m->quadratic_velocity_D_qdot(E, w->geometry, w->rates, m->element_sections, w->quadratic_D);
+    } else {
+        m->internal_force(E, w->geometry, m->element_sections, w->force);
+    }
+    m->mass_matrix(E, w->geometry, m->element_sections, w->mass);
+    m->quadratic_velocity(E, w->geometry, w->rates, m->element_sections, w->quadratic);
+    if (m->has_gravity)
+        m->gravity_load(E, w->geometry, m->element_sections, w->gravity_rows, w->gravity_force,
+                        w->gravity_potential, w->first_moment);
+    memset(w->total, 0, sizeof(double) * (m->n_total + 1));
+    /* elements: F + M a + g − gravity (Eqs. 55, 58) */
+    for (int64_t e = 0; e < E; ++e) {
+        const double *M = w->mass + 196 * e, *acc = w->accelerations + 14 * e;
+        const int64_t *dofs = m->element_dofs + 14 * e;
+        for (int p = 0; p < 14; ++p) {
+            double s = w->force[14 * e + p] + w->quadratic[14 * e + p];
+            for (int q = 0; q < 14; ++q) s += M[14 * p + q] * acc[q];
+            if (m->has_gravity) s -= w->gravity_force[14 * e + p];
+            w->total[dofs[p]] += s;
+        }
+    }
+    joint_bodies(m, c, w);
+    for (int64_t b = 0; b < m->n_bodies; ++b) {
+        const int64_t *d = m->node_dofs + 6 * m->body_nodes[b];
+        for (int p = 0; p < 6; ++p) w->total[d[p]] += w->body_vector[6 * b + p];
+    }
+    /* hinges: f = k (θ − θ_r) + c θ̇ − τ(t) */
+    for (int64_t j = 0; j < m->n_hinges; ++j) {
+        double f = m->hinge_stiffness[j] * (c->theta[j] - m->hinge_rest_angle[j])
+                 + m->hinge_damping[j] * c->theta_dot[j];
+        if (m->hinge_torque_law[j] >= 0) {
+            double tau = laws[3 * m->hinge_torque_law[j]];
+            f -= tau;
+            power += tau * c->theta_dot[j];
+        }
+        w->total[m->hinge_dofs[j]] += f;
+    }
+    /* point loads */
+    for (int64_t l = 0; l < m->n_loads; ++l) {
+        int64_t i = m->load_node[l];
+        const int64_t *d = m->node_dofs + 6 * i;
+        double rg[3], f[3] = {0, 0, 0}, mo[3] = {0, 0, 0}, rf[3], vel[3], wr[3];
+        matvec3(c->T + 9 * i, m->load_r + 3 * l, rg);
+        for (int p = 0; p < 3; ++p) {
+            int64_t fl = m->load_force_law[3 * l + p], ml = m->load_moment_law[3 * l + p];
+            if (fl >= 0) f[p] = laws[3 * fl];
+            if (ml >= 0) mo[p] = laws[3 * ml];
+        }
+        if (m->load_frame_node[l] >= 0) {
+            const double *R = c->T + 9 * m->load_frame_node[l];
+            double Rf[3], Rm[3];
+            matvec3(R, f, Rf);
+            matvec3(R, mo, Rm);
+            memcpy(f, Rf, sizeof f);
+            memcpy(mo, Rm, sizeof mo);
+        }
+        cross(rg, f, rf);
+        for (int p = 0; p < 3; ++p) {
+            w->total[d[p]] -= f[p];
+            w->total[d[3 + p]] -= rf[p] + mo[p];
+        }
+        cross(c->w + 3 * i, rg, wr);
+        for (int p = 0; p < 3; ++p) vel[p] = c->v[3 * i + p] + wr[p];
+        power += f[0] * vel[0] + f[1] * vel[1] + f[2] * vel[2]
+               + mo[0] * c->w[3 * i] + mo[1] * c->w[3 * i + 1] + mo[2] * c->w[3 * i + 2];
+        if (matrices) {
+            double Sf[9], Sr[9], B[9];
+            skew(f, Sf);
+            skew(rg, Sr);
+            matmul3(Sf, Sr, B);
+            for (int p = 0; p < 9; ++p) w->load_blocks[9 * l + p] = -B[p];
+        }
+    }
+    return power;
+}
+
+/* S = β′M + γ′C + K scattered into the matrix storage (Evaluation.combined). */
+static void assemble(const Model *m, Work *w, double beta_p, double gamma_p)
+{
+    memset(w->matrix, 0, sizeof(double) * m->matrix_size);
+    for (int64_t e = 0; e < m->n_elements; ++e) {
+        const int64_t *pos = m->element_position + 196 * e;
+        const double *K = w->tangent + 196 * e, *M = w->mass + 196 * e, *C = w->quadratic_D + 196 * e;
+        for (int p = 0; p < 196; ++p)
+            if (pos[p] >= 0) w->matrix[pos[p]] += beta_p * M[p] + gamma_p * C[p] + K[p];
+    }
+    for (int64_t b = 0; b < m->n_bodies; ++b) {
+        const int64_t *pos = m->body_position + 36 * b;
+        const double *M = w->body_mass + 36 * b, *C = w->body_damping + 36 * b, *K = w->body_stiffness + 36 * b;
+        for (int p = 0; p < 36; ++p)
+            if (pos[p] >= 0) w->matrix[pos[p]] += beta_p * M[p] + gamma_p * C[p] + K[p];
+    }
+    for (int64_t j = 0; j < m->n_hinges; ++j)
+        if (m->hinge_position[j] >= 0)
+            w->matrix[m->hinge_position[j]] += gamma_p * m->hinge_damping[j] + m->hinge_stiffness[j];
+    for (int64_t l = 0; l < m->n_loads; ++l) {
+        const int64_t *pos = m->load_position + 9 * l;
+        for (int p = 0; p < 9; ++p)
+            if (pos[p] >= 0) w->matrix[pos[p]] += w->load_blocks[9 * l + p];
+    }
+}
+
+static int factor(const Model *m, Work *w)
+{
+    int n = (int)m->n_dofs, info = 0;
+    if (m->band) {
+        int kl = (int)m->kl, ku = (int)m->ku, ldab = (int)m->ldab;
+        m->gbtrf(&n, &n, &kl, &ku, w->matrix, &ldab, w->pivots, &info);
+    } else {
+        m->getrf(&n, &n, w->matrix, &n, w->pivots, &info);
+    }
+    return info;
+}
+
+/* dx = −S⁻¹ r in the permuted numbering of the factorization. */
+static int solve(const Model *m, Work *w, const double *residual, double *dx)
+{
+    int n = (int)m->n_dofs, one = 1, info = 0;
+    char trans = 'N';
+    for (int64_t i = 0; i < m->n_dofs; ++i) w->rhs[m->permutation[i]] = -residual[i];
+    if (m->band) {
+        int kl = (int)m->kl, ku = (int)m->ku, ldab = (int)m->ldab;
+        m->gbtrs(&trans, &n, &kl, &ku, &one, w->matrix, &ldab, w->pivots, w->rhs, &n, &info);
+    } else {
+        m->getrs(&trans, &n, &one, w->matrix, &n, w->pivots, w->rhs, &n, &info);
+    }
+    for (int64_t i = 0; i < m->n_dofs; ++i) dx[i] = w->rhs[m->permutation[i]];
+    return info;
+}
+
+/* integrators.increment_size: per free node |Δd|/ℓ and |Δπ|, per free hinge |Δθ|; the largest. */
+static double increment_size(const Model *m, const double *dx, double length)
+{
+    double size = 0.0;
+    for (int64_t k = 0; k < m->n_free_nodes; ++k) {
+        const int64_t *d = m->node_dofs + 6 * m->free_nodes[k];
+        double t = sqrt(dx[d[0]] * dx[d[0]] + dx[d[1]] * dx[d[1]] + dx[d[2]] * dx[d[2]]) / length;
+        double r = sqrt(dx[d[3]] * dx[d[3]] + dx[d[4]] * dx[d[4]] + dx[d[5]] * dx[d[5]]);
+        if (t > size) size = t;
+        if (r > size) size = r;
+    }
+    for (int64_t k = 0; k < m->n_free_hinges; ++k) {
+        double h = fabs(dx[m->hinge_dofs[m->free_hinges[k]]]);
+        if (h > size) size = h;
+    }
+    return size;
+}
+
+/* Settings and results of one step. */
+typedef struct {
+    /* in */
+    double h, alpha_m, alpha_f, gamma, beta, tol, length;
+    int64_t max_iterations;
+    int64_t modified;          /* keep the factorization while Newton contracts */
+    double contraction;        /* rebuild when |Δx_k| > contraction |Δx_{k−1}| */
+    /* in/out: the factorization held in Work belongs to this step size (0: none) */
+    double factored_h;
+    /* out */
+    int64_t iterations, converged, factorizations;
+    double power;
+} StepControl;
+
+/* One step from `base` (velocities v_n, accelerations v̇_n, algorithmic acceleration a_n on the
+ * free coordinates) to `trial`; on return v and vdot hold the new velocities and accelerations,
+ * w->total the last evaluation (residual and reaction). Mirrors GeneralizedAlpha.step. */
+int64_t latdyn_newton_step(const Model *m, Work *w, StepControl *s, const Configuration *base,
+                           Configuration *trial, const double *v_n, const double *vdot_n, const double *a_n,
+                           double *v, double *vdot, double *dq, double *dx, const double *laws)
+{
+    const int64_t n = m->n_dofs;
+    const double h = s->h, am = s->alpha_m, af = s->alpha_f, ga = s->gamma, be = s->beta;
+    const double beta_p = (1 - am) / (h * h * be * (1 - af)), gamma_p = ga / (h * be);
+    double previous = INFINITY;
+    int rebuild = s->factored_h != h; /* modified Newton: the held factorization is stale */
+    s->iterations = 0;
+    s->converged = 0;
+    s->factorizations = 0;
+    for (int64_t i = 0; i < n; ++i) {
+        double a_new = (af * vdot_n[i] + (1 - af) * vdot_n[i] - am * a_n[i]) / (1 - am);
+        vdot[i] = vdot_n[i];
+        v[i] = v_n[i] + h * (1 - ga) * a_n[i] + h * ga * a_new;
+        dq[i] = v_n[i] + h * (0.5 - be) * a_n[i] + h * be * a_new;
+    }
+    for (int64_t iteration = 1; iteration <= s->max_iterations; ++iteration) {
+        for (int64_t i = 0; i < n; ++i) dx[i] = h * dq[i];
+        configure(m, base, trial, dx, v, vdot, laws);
+        int matrices = !s->modified || rebuild;
+        s->power = evaluate(m, trial, w, laws, matrices);
+        if (n == 0) {
+            s->converged = 1;
+            return 0;
+        }
+        if (matrices) {
+            assemble(m, w, beta_p, gamma_p);
+            s->factorizations += 1;
+            s->factored_h = 0.0;
+            if (factor(m, w) != 0) return 1;
+            s->factored_h = h;
+            rebuild = 0;
+        }
+        if (solve(m, w, w->total, dx) != 0) return 1;
+        for (int64_t i = 0; i < n; ++i)
+            if (!isfinite(dx[i])) return 1;
+        for (int64_t i = 0; i < n; ++i) {
+            dq[i] += dx[i] / h;
+            v[i] += gamma_p * dx[i];
+            vdot[i] += beta_p * dx[i];
+        }
+        s->iterations = iteration;
+        double size = increment_size(m, dx, s->length);
+        if (size <= s->tol) {
+            s->converged = 1;
+            for (int64_t i = 0; i < n; ++i) dx[i] = h * dq[i];
+            configure(m, base, trial, dx, v, vdot, laws);
+            return 0;
+        }
+        /* modified Newton: a new matrix when the old one stops contracting */
+        if (s->modified && size > s->contraction * previous) rebuild = 1;
+        previous = size;
+    }
+    return 0;
+}
