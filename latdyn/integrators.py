@@ -22,8 +22,10 @@ The same scheme gives, by its parameters:
 with γ = ½ + α_f − α_m and β = ¼(γ + ½)².
 
 ``explicit``: a Lie-group Störmer–Verlet (central difference) step on the
-directions with inertia; directions without inertia are condensed by a Newton
-solve of their static equations at every step.
+directions with inertia; directions without inertia, and the light ones the
+step cannot integrate (the twist of a bent Euler–Bernoulli element, inertia
+~ φ², see :mod:`latdyn.inertia`), are condensed by a Newton solve of their
+static equations at every step.
 
 Directions without inertia (the twist of an Euler–Bernoulli beam without
 rotary inertia, the spin of a massless joint about a hinge axis …) are found
