@@ -51,6 +51,9 @@ def orthonormalize(T: np.ndarray) -> np.ndarray:
     return U @ Vt
 
 
+#: 16-point Gauss–Legendre nodes and weights on [−1, 1] (hinge spring potentials).
+_GAUSS_16 = np.polynomial.legendre.leggauss(16)
+
 # ----------------------------------------------------------------------------- state
 
 
@@ -391,17 +394,9 @@ class Assembler:
                 # ∂/∂π of −(r_c × W): −skew(W) skew(r_c)
                 body_stiff[:, 3:, 3:] -= load_factor * skew(weight) @ skew(rc)
 
-        # hinges: springs, dampers, applied torques
+        # hinges: springs, dampers, applied torques (hinge_forces)
         extra = np.zeros(m.n_total + 1)
-        power = 0.0
-        hinge_force = np.zeros(len(m.hinges))
-        for k, hinge in enumerate(m.hinges):
-            f = hinge.stiffness * state.theta[k] + hinge.damping * state.theta_dot[k]
-            if hinge.torque is not None:
-                tau = load_factor * float(hinge.torque.value(state.t))
-                f -= tau
-                power += tau * state.theta_dot[k]
-            hinge_force[k] = f
+        hinge_force, hinge_k, hinge_c, power = self.hinge_forces(state, load_factor)
         extra[m.hinge_dofs] += hinge_force
 
         # loads at points
@@ -427,8 +422,7 @@ class Assembler:
         result = Evaluation(residual=total[:n], reaction=total[n:m.n_total], external_power=power,
                             assembler=self)
         if matrices:
-            hinge_k = np.array([m.hinges[k].stiffness for k in m.free_hinges])
-            hinge_c = np.array([m.hinges[k].damping for k in m.free_hinges])
+            hinge_k, hinge_c = hinge_k[m.free_hinges], hinge_c[m.free_hinges]
             zero_elements = np.zeros((n_elem, 14, 14))
             zero_loads = [np.zeros_like(b) for b in load_blocks]
             result.blocks = {
@@ -439,6 +433,62 @@ class Assembler:
                             zero_loads),
             }
         return result
+
+    def hinge_forces(self, state: State, load_factor: float = 1.0):
+        """Generalized hinge forces f = k(θ − θ_r) + c θ̇ − λτ (k, c, τ laws in θ, θ̇, t), their
+        derivatives ∂f/∂θ and ∂f/∂θ̇ (diagonal entries of K and C), and the power of the hinges
+        counted as external work: applied torques, and springs that are not conservative
+        (a stiffness law in θ̇ or t; see :attr:`latdyn.model.HingeCoordinate.conservative_spring`).
+
+        With s = θ − θ_r:  ∂f/∂θ = k + s ∂k/∂θ + θ̇ ∂c/∂θ − λ ∂τ/∂θ,
+                           ∂f/∂θ̇ = s ∂k/∂θ̇ + c + θ̇ ∂c/∂θ̇ − λ ∂τ/∂θ̇.
+        """
+        hinges = self.model.hinges
+        n = len(hinges)
+        force, d_theta, d_rate = np.zeros(n), np.zeros(n), np.zeros(n)
+        power = 0.0
+        t = state.t
+        for k, hinge in enumerate(hinges):
+            theta, rate = float(state.theta[k]), float(state.theta_dot[k])
+            s = theta - hinge.rest_angle
+            stiffness, damping = hinge.stiffness, hinge.damping
+            ks, cs = stiffness.value(theta, rate, t), damping.value(theta, rate, t)
+            spring = ks * s
+            f = spring + cs * rate
+            df_dtheta = ks + s * stiffness.d_theta(theta, rate, t) + rate * damping.d_theta(theta, rate, t)
+            df_drate = s * stiffness.d_rate(theta, rate, t) + cs + rate * damping.d_rate(theta, rate, t)
+            if not hinge.conservative_spring:
+                power -= spring * rate
+            if hinge.torque is not None:
+                tau = load_factor * hinge.torque.value(theta, rate, t)
+                f -= tau
+                df_dtheta -= load_factor * hinge.torque.d_theta(theta, rate, t)
+                df_drate -= load_factor * hinge.torque.d_rate(theta, rate, t)
+                power += tau * rate
+            force[k], d_theta[k], d_rate[k] = f, df_dtheta, df_drate
+        return force, d_theta, d_rate, power
+
+    def hinge_potential(self, state: State) -> float:
+        """Potential of the conservative hinge springs, Σ ∫_{θ_r}^{θ} k(s)(s − θ_r) ds.
+
+        Constant k: ½k(θ − θ_r)². A law k(θ): Gauss–Legendre quadrature, 16 points on each
+        piece of at most 0.25 rad (exact for polynomials of degree 31 on a piece)."""
+        total = 0.0
+        for k, hinge in enumerate(self.model.hinges):
+            if not hinge.conservative_spring:
+                continue
+            s = float(state.theta[k]) - hinge.rest_angle
+            if hinge.stiffness.is_constant:
+                total += 0.5 * hinge.stiffness.constant * s * s
+                continue
+            pieces = max(1, int(np.ceil(abs(s) / 0.25)))
+            nodes, weights = _GAUSS_16
+            edges = hinge.rest_angle + s * np.arange(pieces + 1) / pieces
+            for a, b in zip(edges[:-1], edges[1:]):
+                points = 0.5 * (a + b) + 0.5 * (b - a) * nodes
+                values = [hinge.stiffness.value(p, 0.0, 0.0) * (p - hinge.rest_angle) for p in points]
+                total += 0.5 * (b - a) * float(np.dot(weights, values))
+        return total
 
     def energies(self, state: State) -> dict[str, float]:
         """Kinetic, strain and gravity potential energy of the whole model."""
@@ -452,7 +502,7 @@ class Assembler:
         grav = np.broadcast_to(self.gravity, (len(geometry), 3))
         _, potential, _ = ks.beam_gravity(geometry, section, grav)
         K, U, V = float(kinetic.sum()), float(strain.sum()), float(potential.sum())
-        U += sum(0.5 * h.stiffness * state.theta[k] ** 2 for k, h in enumerate(m.hinges))
+        U += self.hinge_potential(state)
         if len(m.body_nodes):
             _, _, _, rc, J = self.rigid_bodies(state)
             i = m.body_nodes

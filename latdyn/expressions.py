@@ -42,6 +42,14 @@ with ``sympy.lambdify(..., "numpy")``.
 
 A :class:`TimeFunction` pickles by its source text; the compiled functions are
 rebuilt lazily after unpickling.
+
+Hinge laws (SCENE.md "Hinge additions"): a hinge's ``stiffness``, ``damping`` and
+``torque`` may also depend on the hinge angle ``theta`` and its rate ``theta_dot``.
+:class:`HingeLaw` reads them through the same checks (the two names are added to the
+whitelist for these keys only) and differentiates symbolically: f, ∂f/∂θ and ∂f/∂θ̇,
+so that the hinge force feeds exact entries into the Newton matrix
+(:meth:`latdyn.assembly.Assembler.evaluate`). A number or a table stays a
+:class:`TimeFunction` inside it.
 """
 from __future__ import annotations
 
@@ -56,7 +64,7 @@ import numpy as np
 
 from .errors import SceneError, show_value
 
-__all__ = ["TimeFunction", "parse_time_function", "ALLOWED_NAMES", "ALLOWED_OPERATORS",
+__all__ = ["TimeFunction", "parse_time_function", "HingeLaw", "parse_hinge_law", "HINGE_VARIABLES", "ALLOWED_NAMES", "ALLOWED_OPERATORS",
            "MAX_TEXT", "MAX_DEPTH", "MAX_NODES"]
 
 #: Names a scene expression may use (SCENE.md), then the documented extension.
@@ -86,12 +94,14 @@ _ALLOWED_TEXT = (
 _ALLOWED_SHORT = "a real scalar expression in t"
 
 
-def _sympy_namespace():
-    """The ``local_dict`` and ``global_dict`` handed to ``parse_expr``."""
+def _sympy_namespace(extra: tuple[str, ...] = ()):
+    """The ``local_dict`` and ``global_dict`` handed to ``parse_expr``; ``extra`` names
+    further real symbols (``theta``, ``theta_dot`` of a hinge law)."""
     import sympy as sp
 
     t = sp.Symbol("t", real=True)
     local = {
+        **{name: sp.Symbol(name, real=True) for name in extra},
         "t": t, "pi": sp.pi, "e": sp.E,
         "sin": sp.sin, "cos": sp.cos, "tan": sp.tan, "exp": sp.exp, "log": sp.log,
         "sqrt": sp.sqrt, "abs": sp.Abs, "sign": sp.sign, "Min": sp.Min, "Max": sp.Max,
@@ -113,8 +123,8 @@ def _refuse(file, key, what, expected=_ALLOWED_TEXT):
     raise SceneError(file, key, f"{what}; expected {expected}")
 
 
-def _check_tokens(text: str, file, key) -> None:
-    """Refuse every token that is not a plain number, an allowed operator or name."""
+def _check_tokens(text: str, file, key, extra: tuple[str, ...] = (), allowed_text: str = _ALLOWED_TEXT) -> None:
+    """Refuse every token that is not a plain number, an allowed operator or name (or one of ``extra``)."""
     try:
         tokens = list(tokenize.generate_tokens(io.StringIO(text).readline))
     except (tokenize.TokenError, IndentationError, SyntaxError) as exc:
@@ -125,15 +135,15 @@ def _check_tokens(text: str, file, key) -> None:
             continue
         if kind == tokenize.NUMBER:
             if not _NUMBER.match(s):
-                _refuse(file, key, f"number {s!r} in {text!r} is not a plain decimal number")
+                _refuse(file, key, f"number {s!r} in {text!r} is not a plain decimal number", allowed_text)
         elif kind == tokenize.NAME:
-            if s not in ALLOWED_NAMES:
-                _refuse(file, key, f"name {s!r} in {text!r} is not allowed")
+            if s not in ALLOWED_NAMES and s not in extra:
+                _refuse(file, key, f"name {s!r} in {text!r} is not allowed", allowed_text)
         elif kind == tokenize.OP:
             if s not in ALLOWED_OPERATORS:
-                _refuse(file, key, f"{s!r} in {text!r} is not allowed")
+                _refuse(file, key, f"{s!r} in {text!r} is not allowed", allowed_text)
         else:
-            _refuse(file, key, f"{s!r} in {text!r} is not allowed")
+            _refuse(file, key, f"{s!r} in {text!r} is not allowed", allowed_text)
 
 
 _COMPARE = {ast.Lt: "Lt", ast.LtE: "Le", ast.Gt: "Gt", ast.GtE: "Ge", ast.Eq: "Eq", ast.NotEq: "Ne"}
@@ -183,8 +193,13 @@ def _fold(node: ast.AST) -> float:
     raise _NotFoldable
 
 
+#: The variables an expression may depend on: time, and for hinge laws the hinge angle and rate.
+_VARIABLES = ("t", "theta", "theta_dot")
+
+
 def _uses_t(node: ast.AST) -> bool:
-    return any(isinstance(n, ast.Name) and n.id == "t" for n in ast.walk(node))
+    """True when the subtree depends on a variable (t, or theta/theta_dot in a hinge law)."""
+    return any(isinstance(n, ast.Name) and n.id in _VARIABLES for n in ast.walk(node))
 
 
 class _Rewrite(ast.NodeTransformer):
@@ -256,8 +271,8 @@ def _check_size(expr, order: int, text, file, key) -> None:
                     "a simpler expression in t, or a table {table: [[t0, v0], ...]}")
 
 
-def _parse_text(text: str, file, key):
-    """Checked text -> SymPy expression in ``t`` (real)."""
+def _parse_text(text: str, file, key, extra: tuple[str, ...] = (), allowed_text: str = _ALLOWED_TEXT):
+    """Checked text -> (symbol t, SymPy expression in ``t`` and the ``extra`` symbols, all real)."""
     import sympy as sp
     from sympy.parsing.sympy_parser import parse_expr, standard_transformations
 
@@ -267,7 +282,7 @@ def _parse_text(text: str, file, key):
     clean = " ".join(text.split())
     if not clean:
         _refuse(file, key, "empty expression")
-    _check_tokens(clean, file, key)
+    _check_tokens(clean, file, key, extra, allowed_text)
     too_deep = f"at most {MAX_DEPTH} levels of nesting (a longer function of time is a table)"
     try:
         tree = ast.parse(clean, mode="eval")
@@ -278,7 +293,7 @@ def _parse_text(text: str, file, key):
     if _depth(tree) > MAX_DEPTH:
         _refuse(file, key, f"{text!r} is nested too deeply", too_deep)
     tree = ast.fix_missing_locations(_Rewrite(text, file, key).visit(tree))
-    symbol, local, glob = _sympy_namespace()
+    symbol, local, glob = _sympy_namespace(extra)
     try:
         expr = parse_expr(ast.unparse(tree), local_dict=local, global_dict=glob,
                           transformations=standard_transformations, evaluate=True)
@@ -495,3 +510,135 @@ def parse_time_function(value: Any, file: str | None, key: str) -> TimeFunction:
     if isinstance(value, TimeFunction):
         return value
     return TimeFunction(value, file=file, key=key)
+
+
+# --------------------------------------------------------------------------- HingeLaw
+#: The variables of a hinge law, in the order :class:`HingeLaw` takes them.
+HINGE_VARIABLES = ("theta", "theta_dot", "t")
+_HINGE_TEXT = (
+    "a number, a table {table: [[t0, v0], ...]} or an expression in theta (hinge angle), theta_dot "
+    "(its rate) and t using numbers, the operators " + " ".join(ALLOWED_OPERATORS)
+    + " and the names " + " ".join(ALLOWED_NAMES)
+)
+
+
+class HingeLaw:
+    """A hinge coefficient f(θ, θ̇, t): a number, a table in t, or an expression in
+    ``theta``, ``theta_dot`` and ``t`` (parsed, never evaluated as Python).
+
+    ``value``, ``d_theta`` (∂f/∂θ) and ``d_rate`` (∂f/∂θ̇) take floats and return floats;
+    the derivatives are symbolic (Dirac deltas of ``sign``/``abs``/``Heaviside`` dropped,
+    as for time functions). ``depends_on`` tells which of the variables appear.
+    """
+
+    def __init__(self, source: Any, file: str | None = None, key: str = "expression"):
+        self._file, self._key = file, key
+        self._source = source._source if isinstance(source, (HingeLaw, TimeFunction)) else source
+        self._compiled = None
+        self._compile()
+        try:
+            value0 = self.value(0.0, 0.0, 0.0)
+        except (ArithmeticError, TypeError, ValueError) as exc:
+            raise SceneError(file, key, f"expected a law finite at theta = theta_dot = t = 0, got {source!r} "
+                                        f"({type(exc).__name__}: {exc})") from None
+        if not math.isfinite(value0):
+            raise SceneError(file, key, f"expected a law finite at theta = theta_dot = t = 0, got {source!r} "
+                                        f"which is {value0} there")
+
+    def _compile(self):
+        src = self._source
+        if not isinstance(src, str):  # a number or a table: a function of time
+            self._time = TimeFunction(src, self._file, self._key)
+            self._source = self._time.source
+            self._depends = ("t",) if not self._time.is_constant else ()
+            self._constant = self._time.value(0.0) if self._time.is_constant else None
+            self._fns = None
+        else:
+            import sympy as sp
+
+            _, expr = _parse_text(src, self._file, self._key, extra=("theta", "theta_dot"),
+                                  allowed_text=_HINGE_TEXT)
+            _check_size(expr, 0, src, self._file, self._key)
+            names = {s.name: s for s in expr.free_symbols}
+            symbols = [names.get(n, sp.Symbol(n, real=True)) for n in HINGE_VARIABLES]
+            derivatives = []
+            for variable in symbols[:2]:
+                d = _drop_deltas(sp.diff(expr, variable))
+                _check_size(d, 1, src, self._file, self._key)
+                derivatives.append(d)
+            self._time = None
+            self._depends = tuple(n for n in HINGE_VARIABLES if n in names)
+            self._constant = float(expr) if not self._depends else None
+            try:
+                self._fns = tuple(sp.lambdify(symbols, e, modules="numpy") for e in (expr, *derivatives))
+            except Exception as exc:  # a construct the NumPy printer cannot write
+                raise SceneError(self._file, self._key, f"{src!r} cannot be evaluated numerically "
+                                                        f"({type(exc).__name__}: {exc}); expected {_HINGE_TEXT}")
+        self._compiled = True
+
+    def _eval(self, which: int, theta: float, rate: float, t: float) -> float:
+        if self._compiled is None:
+            self._compile()
+        if self._constant is not None:
+            return self._constant if which == 0 else 0.0
+        if self._fns is None:  # a table in t
+            return float(self._time.value(t)) if which == 0 else 0.0
+        with np.errstate(all="ignore"):
+            return float(self._fns[which](float(theta), float(rate), float(t)))
+
+    def value(self, theta: float, rate: float, t: float) -> float:
+        """f(θ, θ̇, t)."""
+        return self._eval(0, theta, rate, t)
+
+    def d_theta(self, theta: float, rate: float, t: float) -> float:
+        """∂f/∂θ at (θ, θ̇, t)."""
+        return self._eval(1, theta, rate, t)
+
+    def d_rate(self, theta: float, rate: float, t: float) -> float:
+        """∂f/∂θ̇ at (θ, θ̇, t)."""
+        return self._eval(2, theta, rate, t)
+
+    @property
+    def depends_on(self) -> tuple[str, ...]:
+        """The variables among ``theta``, ``theta_dot``, ``t`` the law uses."""
+        if self._compiled is None:
+            self._compile()
+        return self._depends
+
+    @property
+    def is_constant(self) -> bool:
+        return not self.depends_on
+
+    @property
+    def constant(self) -> float | None:
+        """The value of a constant law, else None."""
+        if self._compiled is None:
+            self._compile()
+        return self._constant
+
+    @property
+    def source(self):
+        return self._source
+
+    def __getstate__(self):
+        return {"source": self._source, "file": self._file, "key": self._key}
+
+    def __setstate__(self, state):
+        self._source, self._file, self._key = state["source"], state["file"], state["key"]
+        self._compiled = None
+
+    def __eq__(self, other):
+        return isinstance(other, HingeLaw) and self._source == other._source
+
+    def __hash__(self):
+        return hash(repr(self._source))
+
+    def __repr__(self):
+        return f"HingeLaw({self._source!r})"
+
+
+def parse_hinge_law(value: Any, file: str | None, key: str) -> HingeLaw:
+    """A scene value -> :class:`HingeLaw`; :class:`SceneError` naming ``file`` and ``key`` if invalid."""
+    if isinstance(value, HingeLaw):
+        return value
+    return HingeLaw(value, file=file, key=key)

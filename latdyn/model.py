@@ -25,6 +25,7 @@ import numpy as np
 import scipy.sparse as sps
 
 from .errors import SceneError
+from .expressions import HingeLaw, TimeFunction
 from .linalg import psd_null_direction
 from .scene import Scene
 
@@ -42,15 +43,32 @@ class Node:
 
 @dataclass
 class HingeCoordinate:
+    """A hinge of the model. Its generalized force on the angle coordinate is
+    f = k(θ, θ̇, t)(θ − θ_r) + c(θ, θ̇, t) θ̇ − τ(θ, θ̇, t) (laws: :class:`~latdyn.expressions.HingeLaw`)."""
     beam: str
     end: str  # "start" | "end"
     node: int
     axis: np.ndarray  # in node axes (= global at t = 0)
-    stiffness: float
-    damping: float
-    torque: object  # TimeFunction | None
+    stiffness: HingeLaw
+    damping: HingeLaw
+    torque: HingeLaw | None
     angle: object  # TimeFunction | None (prescribed)
     lock_at: float | None
+    rest_angle: float = 0.0
+    limits: tuple[float, float] | None = None
+    restitution: float = 0.0
+
+    @property
+    def conservative_spring(self) -> bool:
+        """True when the spring moment depends on θ alone: its potential is
+        ∫_{θ_r}^{θ} k(s)(s − θ_r) ds (:meth:`latdyn.assembly.Assembler.energies`); otherwise its
+        work is counted as external work."""
+        return set(self.stiffness.depends_on) <= {"theta"}
+
+    @property
+    def has_law(self) -> bool:
+        """True when any coefficient is not a constant (the hinge force is then evaluated from laws)."""
+        return not (self.stiffness.is_constant and self.damping.is_constant)
 
 
 @dataclass
@@ -121,8 +139,10 @@ class Model:
                     h = spec.hinge
                     hinge_index = len(hinges)
                     hinges.append(HingeCoordinate(beam.name, which, node, np.array(h.axis, float),
-                                                  float(h.stiffness), float(h.damping), h.torque, h.angle,
-                                                  None if h.lock_at is None else float(h.lock_at)))
+                                                  _law(h.stiffness), _law(h.damping),
+                                                  None if h.torque is None else _law(h.torque), h.angle,
+                                                  None if h.lock_at is None else float(h.lock_at),
+                                                  float(h.rest_angle), h.limits, float(h.restitution)))
                 ends.append((node, offset, hinge_index))
             node_list = [ends[0][0]]
             for k in range(1, n):
@@ -291,6 +311,15 @@ class Model:
             if nd.name == node:
                 return f"bodies.{nd.body}" if nd.body else f"beams.{nd.beam}"
         return "bodies"
+
+
+def _law(value) -> HingeLaw:
+    """A hinge coefficient of the scene (number, TimeFunction or HingeLaw) as a HingeLaw."""
+    if isinstance(value, HingeLaw):
+        return value
+    if isinstance(value, TimeFunction):
+        return HingeLaw(value.source)
+    return HingeLaw(float(value))
 
 
 #: Largest Rayleigh quotient of the Jacobi-scaled M/‖M‖ + K/‖K‖ taken as a null

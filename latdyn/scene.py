@@ -50,7 +50,7 @@ from typing import Any
 import numpy as np
 
 from .errors import SceneError, show_value
-from .expressions import TimeFunction, parse_time_function
+from .expressions import HingeLaw, TimeFunction, parse_hinge_law, parse_time_function
 
 __all__ = [
     "Section", "Hinge", "BeamEnd", "Beam", "Body", "PointRef", "Load", "Probe", "Solve",
@@ -80,7 +80,7 @@ _TOP_KEYS = ("title", "gravity", "initial_velocity", "sections", "bodies", "beam
 _SECTION_KEYS = ("EA", "EIy", "EIz", "GJ", "rhoA", "rhoIy", "rhoIz")
 _BODY_KEYS = ("at", "mass", "com", "inertia", "fixed", "motion")
 _BEAM_KEYS = ("from", "to", "section", "elements", "y_axis", "start", "end")
-_HINGE_KEYS = ("axis", "stiffness", "damping", "torque", "angle", "lock_at")
+_HINGE_KEYS = ("axis", "stiffness", "damping", "torque", "angle", "lock_at", "rest_angle", "limits", "restitution")
 _LOAD_KEYS = ("at", "force", "moment", "frame")
 _SOLVE_KEYS = ("analysis", "t_end", "dt", "method", "rho_inf", "tol", "steps", "count",
                "adaptive", "error_tol", "dt_min", "max_iterations", "formulation", "engine", "newton")
@@ -113,13 +113,23 @@ class Section:
 
 @dataclass
 class Hinge:
-    """A revolute joint between a beam end and its body (SCENE.md HINGE)."""
+    """A revolute joint between a beam end and its body (SCENE.md HINGE, "Hinge additions").
+
+    ``stiffness`` and ``damping`` are numbers, or :class:`~latdyn.expressions.HingeLaw` when
+    they vary (with ``theta``, ``theta_dot`` or ``t``); ``torque`` is a
+    :class:`~latdyn.expressions.TimeFunction` unless it depends on ``theta``/``theta_dot``
+    (then a HingeLaw). The generalized hinge force is, with θ_r = ``rest_angle``,
+    f = k(θ, θ̇, t)(θ − θ_r) + c(θ, θ̇, t) θ̇ − τ(θ, θ̇, t).
+    """
     axis: np.ndarray                        # (3,) unit, global at t = 0
-    stiffness: float = 0.0
-    damping: float = 0.0
-    torque: TimeFunction | None = None      # applied about the axis
+    stiffness: float | HingeLaw = 0.0
+    damping: float | HingeLaw = 0.0
+    torque: TimeFunction | HingeLaw | None = None   # applied about the axis
     angle: TimeFunction | None = None       # prescribed hinge angle (no coordinate)
     lock_at: float | None = None            # latches when the angle reaches this value
+    rest_angle: float = 0.0                 # neutral angle of the spring
+    limits: tuple[float, float] | None = None   # hard stops [lo, hi] on the angle
+    restitution: float = 0.0                # of an impact on a stop, in [0, 1]
 
 
 @dataclass
@@ -690,17 +700,50 @@ class _Reader:
     def hinge(self, spec, key) -> Hinge:
         self.mapping(spec, key, _HINGE_KEYS, required=("axis",))
         h = Hinge(axis=self.unit(spec["axis"], _join(key, "axis")))
-        if "stiffness" in spec:
-            h.stiffness = self.number(spec["stiffness"], _join(key, "stiffness"), nonnegative=True)
-        if "damping" in spec:
-            h.damping = self.number(spec["damping"], _join(key, "damping"), nonnegative=True)
+        for name in ("stiffness", "damping"):
+            if name in spec:
+                setattr(h, name, self.hinge_coefficient(spec[name], _join(key, name)))
         if "torque" in spec:
-            h.torque = parse_time_function(spec["torque"], self.file, _join(key, "torque"))
+            law = parse_hinge_law(spec["torque"], self.file, _join(key, "torque"))
+            h.torque = law if {"theta", "theta_dot"} & set(law.depends_on) else \
+                parse_time_function(spec["torque"], self.file, _join(key, "torque"))
         if "angle" in spec:
             h.angle = parse_time_function(spec["angle"], self.file, _join(key, "angle"))
         if "lock_at" in spec:
             h.lock_at = self.number(spec["lock_at"], _join(key, "lock_at"))
+        if "rest_angle" in spec:
+            h.rest_angle = self.number(spec["rest_angle"], _join(key, "rest_angle"))
+        if "limits" in spec:
+            lkey = _join(key, "limits")
+            value = spec["limits"]
+            if not isinstance(value, (list, tuple)) or len(value) != 2:
+                self.fail(lkey, "expected hard stops [lo, hi] on the hinge angle", value)
+            lo, hi = (self.number(x, f"{lkey}[{i}]") for i, x in enumerate(value))
+            if not lo <= 0.0 <= hi or not lo < hi:
+                self.fail(lkey, "expected lo <= 0 <= hi and lo < hi (the hinge angle is 0 at t = 0)", value)
+            if h.angle is not None:
+                self.fail(lkey, "a prescribed hinge (angle) has no free angle to stop; expected no limits "
+                                "with angle", value)
+            if h.lock_at is not None and not lo <= h.lock_at <= hi:
+                self.fail(_join(key, "lock_at"), f"expected lock_at within the limits [{lo:g}, {hi:g}] "
+                                                 "(it could never be reached)", spec["lock_at"])
+            h.limits = (lo, hi)
+        if "restitution" in spec:
+            rkey = _join(key, "restitution")
+            if h.limits is None:
+                self.fail(rkey, "restitution applies to impacts on hard stops; expected limits: [lo, hi] "
+                                "with it")
+            h.restitution = self.number(spec["restitution"], rkey, lo=0.0, hi=1.0)
         return h
+
+    def hinge_coefficient(self, value, key) -> float | HingeLaw:
+        """A hinge stiffness or damping: a number >= 0, or a law in theta, theta_dot and t."""
+        if _is_number(value):
+            return self.number(value, key, nonnegative=True)
+        law = parse_hinge_law(value, self.file, key)
+        if law.is_constant:
+            return self.number(law.constant, key, nonnegative=True)
+        return law
 
     def beam_end(self, spec, key, joint_spec, joint_key, joint_given) -> BeamEnd:
         forms = "a body name, {body: NAME, offset: [dx, dy, dz]} or a point [x, y, z]"

@@ -12,7 +12,7 @@ import numpy as np
 from . import __version__
 from . import checkpoint as checkpoints
 from .analysis import modal_analysis, static_analysis
-from .assembly import Assembler, State, free_velocity, initial_state, orthonormalize, pack, unpack_free
+from .assembly import Assembler, State, advance, free_velocity, initial_state, orthonormalize, pack, unpack_free
 from .errors import SceneError, SolverError
 from .integrators import AlphaParameters, CentralDifference, GeneralizedAlpha, newton_diagnosis
 from .kernels import load_kernels
@@ -49,6 +49,13 @@ def prepare(scene, backend: str = "auto") -> Prepared:
         ev = assembler.evaluate(at_rest, matrices=True, load_factor=0.0)
         model.check_held(ev.mass, ev.stiffness, scene.file)
     return Prepared(scene, model, assembler, state)
+
+
+def _compile_seconds() -> float:
+    """Seconds this process has spent compiling C kernels and the step library (summary ``compile_s``)."""
+    from .kernels import COMPILE_SECONDS
+
+    return COMPILE_SECONDS["total"]
 
 
 def _length_scale(model: Model) -> float:
@@ -135,6 +142,7 @@ def run(scene, out_dir=None, backend: str = "auto", progress: bool = False, *, r
     another scene or package version).
     """
     wall0 = time.perf_counter()
+    compiled0 = _compile_seconds()
     if checkpoint_every is not None and not checkpoint_every >= 0:
         raise ValueError(f"checkpoint_every must be a number of seconds >= 0, not {checkpoint_every!r}")
     scene = load_scene(scene)
@@ -194,6 +202,7 @@ def run(scene, out_dir=None, backend: str = "auto", progress: bool = False, *, r
         else:
             transient(prepared, probes, writer, progress, checkpointer, resume_from)
         writer.summary["wall_time_s"] = time.perf_counter() - wall0
+        writer.summary["compile_s"] = _compile_seconds() - compiled0
         writer.close(dict(writer.summary), status="solved")
     if checkpointer is not None:
         checkpointer.discard()  # finished: nothing to resume
@@ -254,9 +263,76 @@ def _lock_events(model: Model, old: State, new: State) -> tuple[list[int], list[
 
 
 def _crossing_fraction(model: Model, old: State, new: State) -> float | None:
-    """The fraction of the step at which the first hinge crosses its lock_at, or None."""
+    """The fraction of the step at which the first hinge crosses its lock_at or a stop, or None."""
     _, crossing = _lock_events(model, old, new)
-    return min(f for _, f in crossing) if crossing else None
+    fractions = [f for _, f in crossing] + [f for _, _, f in _stop_crossings(model, old, new)]
+    return min(fractions) if fractions else None
+
+
+# ----------------------------------------------------------------------------- hard stops
+# Hinge ``limits: [lo, hi]`` with ``restitution`` e are events, like lock_at: a step in which
+# a hinge crosses a stop from inside is shortened to land on it (secant on the angle, as for
+# latches); then, for every free hinge on or beyond a stop and moving into it, the
+# configuration is projected onto the stop, Δq = −A⁻¹N μ with Nᵀ(q + Δq) = stop, and the
+# velocities jump so that the hinge rate reverses, θ̇⁺ = −e θ̇⁻ (Newton's impact law), by the
+# impulsive projection that conserves momentum, v⁺ = v⁻ − A⁻¹N λ, Nᵀv⁺ = −e Nᵀv⁻, A = M + dt²K (M alone may be singular; directions
+# without inertia and modes faster than the nominal step dt take the impact quasi-statically,
+# as in the integrator's own iteration matrix); the hinge's acceleration is set to zero. A hinge pushed against its stop (e = 0, or a load that holds it there) ends
+# each step slightly beyond it and is put back with θ̇ = 0: a unilateral constraint enforced
+# by projection at the end of every step, released by itself as soon as the load pulls away.
+# Events rather than a penalty: exact landing on the stop and no contact stiffness that the
+# step would have to resolve; rather than a complementarity solve inside Newton: the time
+# step (shared with the compiled step of solve.py) stays as it is.
+def _stop_crossings(model: Model, old: State, new: State) -> list[tuple[int, int, float]]:
+    """(hinge, side, fraction of the step) for free hinges that crossed a stop from inside during the
+    step (side −1 lower, +1 upper), the angle interpolated linearly."""
+    out = []
+    for k in model.free_hinges:
+        limits = model.hinges[k].limits
+        if limits is None:
+            continue
+        for side, stop in ((-1, limits[0]), (1, limits[1])):
+            before, after = side * (old.theta[k] - stop), side * (new.theta[k] - stop)  # > 0: beyond
+            if before < -_lock_tolerance(stop) and after > _lock_tolerance(stop):
+                out.append((int(k), side, before / (before - after)))
+    return out
+
+
+def _hinge_stops(prepared: Prepared, integrator, new: State) -> bool:
+    """Impacts on hinge stops at the end of an accepted step (see above); True when any."""
+    import scipy.sparse as sps
+    from scipy.sparse.linalg import splu
+
+    model, assembler = prepared.model, prepared.assembler
+    hits, stops = [], []
+    for k in model.free_hinges:
+        limits = model.hinges[k].limits
+        if limits is None:
+            continue
+        for side, stop in ((-1, limits[0]), (1, limits[1])):
+            if side * (new.theta[k] - stop) >= -_lock_tolerance(stop) and side * new.theta_dot[k] >= 0.0:
+                hits.append(int(k))
+                stops.append(stop)
+    if not hits:
+        return False
+    dt = prepared.scene.solve.dt
+    target = -np.array([model.hinges[k].restitution for k in hits]) * new.theta_dot[hits]
+    A = assembler.evaluate(new, matrices=True).combined(1.0, 0.0, dt * dt)
+    N = np.zeros((model.n_dofs, len(hits)))
+    N[model.hinge_dofs[hits], np.arange(len(hits))] = 1.0
+    AiN = np.linalg.solve(A, N) if isinstance(A, np.ndarray) else splu(sps.csc_matrix(A)).solve(N)
+    NtAiN = N.T @ AiN
+    # the same projection onto the stops for the configuration: what is rigid at the scale of
+    # the step moves with the hinge, so that no strain is made
+    moved = advance(model, new, -AiN @ np.linalg.solve(NtAiN, new.theta[hits] - np.array(stops)))
+    new.x, new.T, new.theta = moved.x, moved.T, moved.theta
+    new.theta[hits] = stops
+    v = free_velocity(model, new)
+    unpack_free(model, v - AiN @ np.linalg.solve(NtAiN, N.T @ v - target), new.v, new.w, new.theta_dot)
+    # the hinge's acceleration into the stop ends with the impact
+    integrator.a[model.hinge_dofs[hits]] = 0.0
+    new.theta_ddot[hits] = 0.0
+    return True
 
 
 def _latch_hinges(prepared: Prepared, integrator, old: State, new: State, h: float) -> bool:
@@ -434,8 +510,10 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
             newton_cuts=run.newton_cuts, cut_times=run.cut_times,
             energy_balance_error=run.balance_error / run.energy_scale if run.energy_scale > 0 else 0.0,
             newton_iterations_per_step=run.newton_iterations / max(run.steps, 1),
-            newton_tolerance=tol, method=solve.method)
+            newton_tolerance=tol, method=solve.method, solver_s=solver_seconds,
+            factorizations=getattr(integrator, "factorizations", run.newton_iterations))
 
+    solver_seconds = 0.0  # wall time inside the integrator's steps (summary ``solver_s``)
     if resume_from is None:
         record(state, energy0)
     last = accepted()
@@ -448,7 +526,9 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
             lands = h >= (target - state.t) * (1 - 1e-9)
             if lands:
                 h = target - state.t
+            started = time.perf_counter()
             new, stats = integrator.step(state, h, t_new=target if lands else None)
+            solver_seconds += time.perf_counter() - started
             run.newton_iterations += stats.iterations
             if stats.converged and solve.adaptive:
                 error = integrator.error_estimate(h) / (solve.error_tol * length)
@@ -469,13 +549,17 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
                 fraction = _crossing_fraction(model, state, new)
                 if fraction is None:
                     break
+                started = time.perf_counter()
                 retry, retry_stats = integrator.step(state, h * max(fraction, 1e-6))
+                solver_seconds += time.perf_counter() - started
                 if not retry_stats.converged:
                     break
                 run.newton_iterations += retry_stats.iterations
                 new, stats, h, lands = retry, retry_stats, h * max(fraction, 1e-6), False
             integrator.accept()
             latched = _latch_hinges(prepared, integrator, state, new, h)
+            stopped = _hinge_stops(prepared, integrator, new)
+            latched = stopped or latched
             # power of loads and prescribed motion: from the last Newton evaluation
             # (within the Newton tolerance of the converged state) when there is one
             ev = getattr(integrator, "last_evaluation", None)
@@ -506,6 +590,8 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
                 # which is what error_estimate gives after accept() for a step without a latch)
                 error = 0.0 if latched else integrator.error_estimate(h) / (solve.error_tol * length)
                 run.h = min(dt, h * min(2.0, 0.9 * max(error, 1e-10) ** (-1 / 3)))
+            elif stopped:
+                run.h = dt  # after an impact on a stop the integrator restarted: the nominal step
             elif h < dt:
                 run.h = min(dt, 2 * h)  # recover the nominal step after a cut or a shortened step
             last = accepted()
