@@ -532,6 +532,7 @@ class _Reader:
         self.sections: dict[str, Section] = {}
         self.bodies: dict[str, Body] = {}
         self.beams: dict[str, Beam] = {}
+        self.n_elements = 0  # elements of the beams read so far
 
     # -- primitive checks -------------------------------------------------------
     def fail(self, key: str, expected: str, got: Any = _MISSING):
@@ -776,7 +777,7 @@ class _Reader:
     def beam(self, name, spec, key) -> Beam:
         self.mapping(spec, key, _BEAM_KEYS, required=("from", "to", "section"))
         section = self.sections[self.ref(spec["section"], _join(key, "section"), self.sections, "section")]
-        before = sum(beam.elements for beam in self.beams.values())
+        before = self.n_elements  # a running total: summing over the beams read would be O(n²)
         elements = self.integer(spec.get("elements", 1), _join(key, "elements"), maximum=MAX_ELEMENTS - before,
                                 why=f" (at most {MAX_ELEMENTS} elements in a scene, {before} in the beams before)")
         with np.errstate(over="ignore", invalid="ignore"):  # coordinates beyond float64: refused below
@@ -784,7 +785,7 @@ class _Reader:
                                   "start" in spec)
             end = self.beam_end(spec["to"], _join(key, "to"), spec.get("end"), _join(key, "end"), "end" in spec)
             d = end.point - start.point
-            length = float(np.linalg.norm(d))
+            length = math.sqrt(float(np.dot(d, d)))
         if not math.isfinite(length):
             self.fail(key, f"beam from {start.point.tolist()} to {end.point.tolist()} is too long to compute "
                            "in float64; expected coordinates below about 1e150")
@@ -801,12 +802,13 @@ class _Reader:
                 self.fail(y_key, f"expected a direction not parallel to the beam (x = {x.round(12).tolist()})",
                           spec["y_axis"])
         else:
-            y = np.cross([0.0, 0.0, 1.0], x)
-            if np.linalg.norm(y) < 1e-9:
+            y = np.array([-x[1], x[0], 0.0])               # global Z × x, written out (np.cross is slow)
+            if math.hypot(x[0], x[1]) < 1e-9:
                 y = np.array([0.0, 1.0, 0.0])
                 y = y - np.dot(y, x) * x
+        self.n_elements += elements
         return Beam(name=name, start=start, end=end, section=section, elements=elements,
-                    y_axis=y / np.linalg.norm(y))
+                    y_axis=y / math.sqrt(float(np.dot(y, y))))
 
     # indices of up to 18 digits: int() refuses more than 4300, and any index that long is out of range
     _POINT = re.compile(r"^(?P<name>[^.\[\]]+)\.(?:(?P<end>start|end)|node\[(?P<node>[+-]?\d{1,18})\])$")
