@@ -32,8 +32,9 @@ Problems
 Timing
 ------
 Every setting is run ``repeats`` times (once when its first run takes more than
-``LONG_RUN_S``) after one untimed warm-up run of each code and problem (C kernels compiled
-and cached, imports done): ``solver_s`` is the median.
+``LONG_RUN_S`` or fails) after one untimed warm-up run of each code and problem (C kernels
+compiled and cached, imports done); the repeats are interleaved (pass 1 runs every
+setting, then pass 2, ...), and ``solver_s`` is the median.
 latdyn: ``summary.json`` ``wall_time_s`` (scene preparation + time loop + probe
 recording; ``compile_s`` subtracted when the runtime reports it), from ``latdyn.run`` with
 no results folder.  Exudyn: ``MainSolverImplicitSecondOrder.SolveSystem`` (solver
@@ -75,7 +76,9 @@ JSON schema (``peers.json``)
           "error": float | null,  # definition and unit in problems[NAME]
           "error_parts": {name: float},
           "values": {name: float},                # the measured quantities
-          "steps": int | null,                    # accepted steps
+          "steps": int | null,                    # steps taken (Exudyn: its step index at the end,
+                                                  # nominal steps + 1 when no step was reduced)
+          "step_cuts": int | null,                # latdyn: Newton failures that cut the step
           "newton_iterations": int | null,
           "jacobian_updates": int | null,         # Exudyn: Jacobian computations (modified Newton)
           "solver_s": float | null,               # median over repeats
@@ -83,7 +86,7 @@ JSON schema (``peers.json``)
           "run_s": float | null,                  # median, whole call in Python
           "compile_s": float | null,              # latdyn: when summary.json reports it
           "process_s": float | null,              # one fresh process, when measured
-          "load_average": float,                  # 1-min, right after the row
+          "load_average": float,                  # 1-min, mean over the row's timed runs
           "note": str}],
       "matched": [{"problem", "tolerance", "latdyn_setting", "latdyn_error", "latdyn_s",
                    "exudyn_setting", "exudyn_error", "exudyn_s",
@@ -283,6 +286,7 @@ def latdyn_once(problem, cfg):
     out = {"status": "ok", "run_s": run_s, "solver_s": solver_s, "compile_s": compile_s,
            "steps": sm.get("steps"), "newton_iterations": sm.get("newton_iterations"),
            "jacobian_updates": sm.get("jacobian_updates", sm.get("factorizations")),
+           "step_cuts": sm.get("newton_cuts"),
            "backend": sm.get("backend"), "engine": sm.get("engine"), "newton_mode": sm.get("newton"),
            "method": sm.get("method"), "tol": sm.get("newton_tolerance")}
     t = np.asarray(r.t)
@@ -542,12 +546,19 @@ def describe(code, cfg, res):
 
 
 def process_time(problem, code, cfg):
-    """One fresh interpreter: import, build, solve once; wall time from outside."""
+    """One fresh interpreter: import, build, solve once; wall time from outside.
+
+    When latdyn says on stderr that it compiled kernels (the cache was stale: someone changed
+    the kernels meanwhile), the process is run again and that second time is returned.
+    """
     arg = json.dumps({"problem": problem, "code": code, "cfg": {k: v for k, v in cfg.items() if k != "headline"}})
-    t0 = time.perf_counter()
-    p = subprocess.run([sys.executable, str(Path(__file__).resolve()), "--one", arg], cwd=ROOT,
-                       capture_output=True, text=True)
-    dt = time.perf_counter() - t0
+    for _ in range(2):
+        t0 = time.perf_counter()
+        p = subprocess.run([sys.executable, str(Path(__file__).resolve()), "--one", arg], cwd=ROOT,
+                           capture_output=True, text=True)
+        dt = time.perf_counter() - t0
+        if "compiling" not in p.stderr:
+            break
     return dt if p.returncode == 0 else None
 
 
@@ -596,12 +607,23 @@ def main(argv=None):
             t0 = time.perf_counter()
             run_one(problem, code, w)
             warm[key] = time.perf_counter() - t0
+    # repeats interleaved: pass r runs every setting once, so that a change of load on the
+    # shared machine falls on every code and setting alike
+    runs = [[] for _ in plan]
+    for rep in range(repeats):
+        for k, (problem, code, cfg) in enumerate(plan):
+            if rep >= cfg.get("repeats", repeats):
+                continue
+            if rep > 0 and (runs[k][0].get("status") != "ok" or (runs[k][0].get("solver_s") or 0) >= LONG_RUN_S):
+                continue
+            res = run_one(problem, code, cfg)
+            res["load"] = load1()
+            runs[k].append(res)
+            if rep == 0:
+                print(f"  pass 1: {problem} {code} {cfg['label']}: {res.get('status')} "
+                      f"{res.get('solver_s') or 0:.3f} s", file=sys.stderr, flush=True)
     rows = []
-    for problem, code, cfg in plan:
-        reps = cfg.get("repeats", repeats)
-        results = [run_one(problem, code, cfg)]
-        while len(results) < reps and (results[0].get("solver_s") or 0) < LONG_RUN_S:
-            results.append(run_one(problem, code, cfg))
+    for (problem, code, cfg), results in zip(plan, runs):
         last = results[-1]
         ok = [r for r in results if r.get("status") == "ok"]
         solver_all = [r["solver_s"] for r in results if r.get("solver_s") is not None]
@@ -611,13 +633,13 @@ def main(argv=None):
                "elements": cfg["elements"], "dt": cfg["dt"], "t_end": cfg["t_end"], "method": method,
                "newton": newton, "status": "ok" if len(ok) == len(results) else last.get("status", "error"),
                "error": last.get("error"), "error_parts": last.get("error_parts", {}),
-               "values": last.get("values", {}), "steps": last.get("steps"),
+               "values": last.get("values", {}), "steps": last.get("steps"), "step_cuts": last.get("step_cuts"),
                "newton_iterations": last.get("newton_iterations"),
                "jacobian_updates": last.get("jacobian_updates"),
                "solver_s": statistics.median(solver_all) if solver_all else None, "solver_s_all": solver_all,
                "run_s": statistics.median(run_all) if run_all else None,
                "compile_s": last.get("compile_s"), "process_s": None,
-               "load_average": load1(), "note": last.get("note", "")}
+               "load_average": float(np.mean([r["load"] for r in results])), "note": last.get("note", "")}
         if cfg.get("headline") and not args.quick and not args.no_process and row["status"] == "ok":
             row["process_s"] = process_time(problem, code, cfg)
         rows.append(row)
