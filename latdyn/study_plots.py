@@ -287,6 +287,7 @@ def work_precision(table, spec, path) -> list[dict]:
     ax.set_ylabel(f"{spec.norm} error of {spec.probe}" + (f" [{unit}]" if unit else "") + " against the reference")
     ax.set_title(textwrap.fill(spec.title, 100), fontsize=10.5)
     ax.grid(True, which="both", alpha=0.25)
+    ax.tick_params(axis="both", which="minor", labelsize=6.5)
     notes = []
     if free is not None:
         notes.append(f"point labels: {axis_label(free)}\np: observed order in {free.rsplit('.', 1)[-1]} "
