@@ -100,7 +100,8 @@ def load_kernels(backend: str = "auto", variant: str = "default") -> KernelSet:
             }
         else:
             direct = [name for name in module.KERNELS if name not in COMPOSED]
-            libraries = _compile(variant, direct)
+            libraries = _compile(variant, direct,
+                                 {name: int(module.KERNELS[name].get("op_count", 0)) for name in direct})
             functions = {name: _checked(name, module.KERNELS[name],
                                         _c_function(libraries[name], name, module.KERNELS[name]))
                          for name in direct}
@@ -192,6 +193,23 @@ def _composed(name: str, parts, kernels: dict, functions: dict) -> Callable:
 # rebuilt rarely, see latdyn/engine.py). The combined kernel stays in generated/ and in the
 # NumPy backend.
 
+#: The optimisation level of each unit, by its operation count after CSE. A straight-line
+#: kernel of thousands of operations runs about as fast unoptimised (its temporaries live
+#: in the L1 cache either way) and compiles 20-30× faster: internal_force_D_q of cr4402
+#: (16 000 ops) takes 0.4 s at -O0 against 8.6 s at -O1 and 12.6 s at -O2, for 6.2 against
+#: 5.8 and 6.8 µs an element; the mass matrix (7 300 ops) 3.3 µs at -O0 against 1.9 at -O1
+#: for 0.16 against 1.7 s of compiling (benchmarks/compile_levels.py,
+#: results/compile_levels_cr4402.json). The log-map variant's kernels are 2-4× larger and
+#: GCC's -O1 needs minutes and gigabytes on some of them, so -O1 only pays for the small
+#: units; the first run's compile stays within seconds.
+OPT_LIMIT_OPS = 2_000
+
+
+def optimisation(ops: int) -> str:
+    """The -O level of a kernel unit of ``ops`` operations (see OPT_LIMIT_OPS)."""
+    return "-O1" if ops <= OPT_LIMIT_OPS else "-O0"
+
+
 #: Kernels composed from their parts in the C backend (see above), name -> parts.
 COMPOSED = {
     "beam_dynamics": ("beam_internal_force_D_q", "beam_mass_matrix", "beam_quadratic_velocity",
@@ -232,7 +250,7 @@ def _kernel_sources(variant: str, names) -> dict[str, bytes]:
     return units
 
 
-def _compile(variant: str, names) -> dict[str, ctypes.CDLL]:
+def _compile(variant: str, names, ops: dict[str, int] | None = None) -> dict[str, ctypes.CDLL]:
     """Compile each kernel of ``names`` into the cache (once per source, flags and
     compiler), in parallel, and load them; name -> library."""
     units = _kernel_sources(variant, names)
@@ -245,10 +263,11 @@ def _compile(variant: str, names) -> dict[str, ctypes.CDLL]:
         raise RuntimeError(f"no C compiler {' '.join(compiler)!r}: {error}") from None
     suffix = ".dll" if sys.platform == "win32" else ".so"
     folder = cache_dir()
-    targets = {}
+    targets, flags = {}, {}
     for name, source in units.items():
+        flags[name] = (optimisation((ops or {}).get(name, 0)), *C_FLAGS[1:])
         digest = hashlib.sha256()
-        for part in (source, " ".join(C_FLAGS).encode(), " ".join(compiler).encode(), version):
+        for part in (source, " ".join(flags[name]).encode(), " ".join(compiler).encode(), version):
             digest.update(part + b"\0")
         targets[name] = folder / f"{name}-{variant}-{digest.hexdigest()[:20]}{suffix}"
     todo = [name for name, target in targets.items() if not target.exists()]
@@ -263,12 +282,12 @@ def _compile(variant: str, names) -> dict[str, ctypes.CDLL]:
 
         started = time.perf_counter()
         print(f"latdyn: compiling {len(todo)} C kernels of variant {variant!r} into {folder} "
-              f"(first use only; ~20 s on 2 cores)", file=sys.stderr, flush=True)
+              f"(first use only; seconds)", file=sys.stderr, flush=True)
 
         def build(name):
             with FileLock(str(targets[name]) + ".lock", timeout=900):
                 if not targets[name].exists():
-                    _build(compiler, units[name], targets[name], name)
+                    _build(compiler, units[name], targets[name], name, flags[name])
 
         # the longest units first, so that the last one to finish started early
         order = sorted(todo, key=lambda name: -len(units[name]))
@@ -286,13 +305,13 @@ def _compile(variant: str, names) -> dict[str, ctypes.CDLL]:
     return libraries
 
 
-def _build(compiler: list[str], source: bytes, target: Path, name: str) -> None:
+def _build(compiler: list[str], source: bytes, target: Path, name: str, flags=C_FLAGS) -> None:
     folder = target.parent
     with tempfile.TemporaryDirectory(dir=folder, prefix=".build-") as scratch:
         c_file = Path(scratch) / f"{name}.c"
         c_file.write_bytes(source)
         partial = Path(scratch) / target.name
-        command = [*compiler, *C_FLAGS, str(c_file), "-o", str(partial), "-lm"]
+        command = [*compiler, *flags, str(c_file), "-o", str(partial), "-lm"]
         try:
             result = subprocess.run(command, capture_output=True, text=True, timeout=900)
         except (OSError, subprocess.SubprocessError) as error:

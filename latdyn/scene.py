@@ -86,7 +86,7 @@ _SOLVE_KEYS = ("analysis", "t_end", "dt", "method", "rho_inf", "tol", "steps", "
                "adaptive", "error_tol", "dt_min", "max_iterations", "formulation", "engine", "newton")
 #: ``solve.engine``: where the implicit step runs (latdyn/engine.py); ``solve.newton``: full or modified Newton.
 ENGINES = ("auto", "compiled", "python")
-NEWTON = ("modified", "full")
+NEWTON = ("full", "modified")
 _PROBE_KEYS = {
     "point": ("point", "quantity", "frame", "component"),
     "hinge": ("hinge", "quantity"),
@@ -238,7 +238,7 @@ class Solve:
     max_iterations: int = 25
     formulation: str = "default"
     engine: str = "auto"
-    newton: str = "modified"
+    newton: str = "full"
 
 
 @dataclass
