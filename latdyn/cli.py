@@ -121,8 +121,14 @@ def _command_check(args) -> int:
         model_module = _module("latdyn.model")
     except ImportError:  # the model is not there yet: the description alone
         return 0
-    model = model_module.Model.from_scene(scene)  # SceneError -> 2
-    print(model.size_report())
+    if not hasattr(model_module.Model, "dynamics_report"):  # a model without the dynamics checks
+        model = model_module.Model.from_scene(scene)  # SceneError -> 2
+        print(model.size_report())
+        return 0
+    # the model, its held check (SceneError -> 2) and the initial state; NumPy kernels, so that
+    # checking never waits for a C compiler
+    prepared = _module("latdyn.solve").prepare(scene, backend="numpy")
+    print(prepared.model.size_report(prepared.assembler, prepared.state))
     return 0
 
 
