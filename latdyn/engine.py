@@ -76,6 +76,14 @@ class _Configuration(ctypes.Structure):
     _fields_ = [(name, P) for name in ("x", "T", "v", "w", "a", "alpha", "theta", "theta_dot", "theta_ddot")]
 
 
+class _Vectors(ctypes.Structure):
+    _fields_ = [(name, P) for name in ("v_n", "vdot_n", "a_n", "v", "vdot", "dq", "dx", "a_new")]
+
+    @classmethod
+    def _fields_and_names(cls):
+        return [name for name, _ in cls._fields_]
+
+
 class _Control(ctypes.Structure):
     _fields_ = [(name, ctypes.c_double) for name in ("h", "alpha_m", "alpha_f", "gamma", "beta", "tol",
                                                       "length")] + [
@@ -110,7 +118,7 @@ def _library() -> ctypes.CDLL:
         library.latdyn_newton_step.restype = I64
         library.latdyn_newton_step.argtypes = [ctypes.POINTER(_Model), ctypes.POINTER(_Work),
                                                ctypes.POINTER(_Control), ctypes.POINTER(_Configuration),
-                                               ctypes.POINTER(_Configuration)] + [P] * 8
+                                               ctypes.POINTER(_Configuration), ctypes.POINTER(_Vectors), P]
         _LIBRARY = library
     return _LIBRARY
 
@@ -255,6 +263,8 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         self._key = None
         self._library = _library()
         self._last_trial = self._mass_for = None
+        self._empty = np.zeros(1)
+        self._made = None  # (the last state made, its C view, the C view of its base)
 
     # -- the model as arrays, rebuilt when the numbering changes (a latch) --------------------
     def _setup(self) -> None:
@@ -389,50 +399,79 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
                                  length=self.length_scale)
         for name in ("alpha_m", "alpha_f", "gamma", "beta"):
             setattr(self._control, name, getattr(self.p, name))
+        size = max(n, 1)
+        self._step_vectors = {name: np.zeros(size) for name in _Vectors._fields_and_names()}
+        self._a_n, self._a_new = self._step_vectors["a_n"], self._step_vectors["a_new"]
+        self._vectors = _Vectors(**{name: b.ctypes.data for name, b in self._step_vectors.items()})
+        self._model_ref, self._work_ref = ctypes.byref(self._model), ctypes.byref(self._work)
+        self._control_ref, self._vectors_ref = ctypes.byref(self._control), ctypes.byref(self._vectors)
+        self._step = self._library.latdyn_newton_step
+        self._layout()
 
-    @staticmethod
-    def _configuration(state: State) -> tuple[_Configuration, list]:
-        arrays = [np.ascontiguousarray(getattr(state, name), dtype=np.float64) for name in
-                  ("x", "T", "v", "w", "a", "alpha", "theta", "theta_dot", "theta_ddot")]
-        pointers = [array.ctypes.data if array.size else np.zeros(1).ctypes.data for array in arrays]
-        return _Configuration(*pointers), arrays
+    _FIELDS = ("x", "T", "v", "w", "a", "alpha", "theta", "theta_dot", "theta_ddot")
+
+    def _layout(self) -> None:
+        """Offsets of a state's arrays in one flat buffer (a new state per step: the loop
+        keeps the old one for its events and checkpoints)."""
+        model = self.assembler.model
+        N, H = len(model.nodes), len(model.hinges)
+        shapes = {"x": (N, 3), "T": (N, 3, 3), "v": (N, 3), "w": (N, 3), "a": (N, 3), "alpha": (N, 3),
+                  "theta": (H,), "theta_dot": (H,), "theta_ddot": (H,)}
+        self._shapes, self._offsets, offset = shapes, {}, 0
+        for name in self._FIELDS:
+            self._offsets[name] = offset
+            offset += max(int(np.prod(shapes[name])), 1)
+        self._state_size = offset
+
+    def _new_state(self, t: float) -> tuple[State, _Configuration]:
+        buffer = np.empty(self._state_size)
+        base, views = buffer.ctypes.data, {}
+        for name in self._FIELDS:
+            size = int(np.prod(self._shapes[name]))
+            start = self._offsets[name]
+            views[name] = buffer[start:start + size].reshape(self._shapes[name])
+        state = State(t, **views)
+        return state, _Configuration(*(base + 8 * self._offsets[name] for name in self._FIELDS))
+
+    def _configuration_of(self, state: State) -> _Configuration:
+        """The C view of a state: the last state this step made is viewed in place; any other
+        (the start, a state after an event) through contiguous float64 copies of its arrays,
+        kept alive until the next call. Nothing is attached to the state (it is pickled into
+        checkpoints)."""
+        if self._made is not None and self._made[0] is state:
+            return self._made[1]
+        arrays = [np.ascontiguousarray(getattr(state, name), dtype=np.float64) for name in self._FIELDS]
+        pointers = [array.ctypes.data if array.size else self._empty.ctypes.data for array in arrays]
+        self._copies = arrays
+        return _Configuration(*pointers)
 
     def step(self, state: State, h: float, t_new: float | None = None) -> tuple[State, StepStats]:
         self._setup()
         model = self.assembler.model
         n = model.n_dofs
         t_new = state.t + h if t_new is None else t_new
-        p = self.p
-        v_n = np.ascontiguousarray(free_velocity(model, state))
-        vdot_n = np.ascontiguousarray(free_acceleration(model, state))
-        a_n = np.ascontiguousarray(self.a, dtype=np.float64)
-        v, vdot, dq, dx = (np.zeros(max(n, 1)) for _ in range(4))
-        base, base_arrays = self._configuration(state)
-        trial_state = state.copy()
-        trial_state.t = t_new
-        trial, trial_arrays = self._configuration(trial_state)
-        laws = np.ascontiguousarray(self._laws.at(t_new))
+        base = self._configuration_of(state)
+        trial_state, trial = self._new_state(t_new)
+        vectors = self._vectors
+        self._a_n[:n] = self.a
+        laws = self._laws.at(t_new)
         control = self._control
         control.h = h
-        failed = self._library.latdyn_newton_step(
-            ctypes.byref(self._model), ctypes.byref(self._work), ctypes.byref(control), ctypes.byref(base),
-            ctypes.byref(trial), v_n.ctypes.data, vdot_n.ctypes.data, a_n.ctypes.data, v.ctypes.data,
-            vdot.ctypes.data, dq.ctypes.data, dx.ctypes.data, laws.ctypes.data)
-        del base_arrays
-        for name, array in zip(("x", "T", "v", "w", "a", "alpha", "theta", "theta_dot", "theta_ddot"),
-                               trial_arrays):
-            setattr(trial_state, name, array)
+        failed = self._step(self._model_ref, self._work_ref, self._control_ref, ctypes.byref(base),
+                            ctypes.byref(trial), self._vectors_ref, laws.ctypes.data)
+        del vectors
         self.factorizations += control.factorizations
         self._last_trial = trial_state
+        self._made = (trial_state, trial, base)
         total = self._buffers["total"]
-        stats = StepStats(iterations=int(control.iterations), converged=bool(control.converged) and not failed)
-        self.last_evaluation = _LastEvaluation(total[:n].copy(), total[n:model.n_total].copy(), control.power)
+        stats = StepStats(iterations=control.iterations, converged=bool(control.converged) and not failed,
+                          factorizations=control.factorizations)
+        self.last_evaluation = _LastEvaluation(total, n, model.n_total, control.power)
         if not stats.converged:
             stats.residual = total[:n].copy()
             control.factored_h = 0.0  # a failed step may leave a partial factorization
         else:
-            vdot = vdot[:n]
-            self.a_candidate = (p.alpha_f * vdot_n + (1 - p.alpha_f) * vdot - p.alpha_m * a_n) / (1 - p.alpha_m)
+            self.a_candidate = self._a_new[:n].copy()
         return trial_state, stats
 
     def error_estimate(self, h: float) -> float:
@@ -451,9 +490,9 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
 
 
 class _LastEvaluation:
-    """What the time loop reads of the last Newton evaluation: reaction and external power."""
+    """What the time loop reads of the last Newton evaluation: the reaction on the
+    constrained coordinates and the external power (the residual only on failure)."""
 
-    def __init__(self, residual, reaction, external_power):
-        self.residual = residual
-        self.reaction = reaction
+    def __init__(self, total, n, n_total, external_power):
+        self.reaction = total[n:n_total].copy()
         self.external_power = external_power

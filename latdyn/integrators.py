@@ -78,6 +78,7 @@ class StepStats:
     iterations: int = 0
     converged: bool = False
     residual: np.ndarray | None = None
+    factorizations: int | None = None  # iteration matrices factorized (None: one per iteration)
 
 
 def increment_size(model, dx: np.ndarray, length: float) -> float:

@@ -165,6 +165,9 @@ SUMMARY_KEYS = (
 STATUSES = ("running", "solved", "failed", "interrupted")
 
 
+#: Seconds of wall time between rewrites of the ParaView collections while recording.
+PVD_INTERVAL = 1.0
+
 class ResultsError(ValueError):
     """A results folder that is missing or cannot be read (the CLI exits 2)."""
 
@@ -779,7 +782,10 @@ class ResultWriter:
             self.checkpoint()
 
     def checkpoint(self) -> None:
-        """Rewrite the state history on disk now (atomically), with every row so far."""
+        """Rewrite the state history on disk now (atomically), with every row so far, and the
+        ParaView collections when frames were added since they were last written."""
+        if self.out_dir is not None and getattr(self, "_pvd_stale", False):
+            self._write_pvd()
         if self.out_dir is None or self._state_keys is None:
             return
         if self._use_h5 and not self._pending_t:
@@ -871,7 +877,9 @@ class ResultWriter:
             if kept[-1][0] != index:  # the newest frame went: keep its data for close()
                 self._unwritten_frame = (index, t, frame)
             self._frames = kept
-        self._write_pvd()
+        self._pvd_stale = True
+        if time.monotonic() - getattr(self, "_pvd_written_at", -math.inf) >= PVD_INTERVAL:
+            self._write_pvd()
 
     def _write_last_frame(self) -> None:
         """Write the frame of the last ``record`` call when subsampling skipped it."""
@@ -937,6 +945,14 @@ class ResultWriter:
                 pass
 
     def _write_pvd(self) -> None:
+        """Write the ParaView collections (``<part>.pvd``) of the frames on disk.
+
+        While recording, at most every PVD_INTERVAL seconds of wall time (each write is an
+        atomic replace, ~1 ms on some file systems: per frame it cost more than the solver),
+        and always on checkpoint() and close(), so that a finished, failed or interrupted
+        run lists every frame."""
+        self._pvd_stale = False
+        self._pvd_written_at = time.monotonic()
         parts = sorted({part for _, _, names in self._frames for part in names})
         for part in parts:
             lines = [

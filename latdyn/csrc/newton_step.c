@@ -512,14 +512,41 @@ typedef struct {
 /* One step from `base` (velocities v_n, accelerations v̇_n, algorithmic acceleration a_n on the
  * free coordinates) to `trial`; on return v and vdot hold the new velocities and accelerations,
  * w->total the last evaluation (residual and reaction). Mirrors GeneralizedAlpha.step. */
+/* v_n and v̇_n of the free coordinates from a configuration (assembly.free_velocity, free_acceleration). */
+static void free_rates(const Model *m, const Configuration *c, double *velocity, double *acceleration)
+{
+    for (int64_t k = 0; k < m->n_free_nodes; ++k) {
+        int64_t i = m->free_nodes[k];
+        const int64_t *d = m->node_dofs + 6 * i;
+        for (int j = 0; j < 3; ++j) {
+            velocity[d[j]] = c->v[3 * i + j];
+            velocity[d[3 + j]] = c->w[3 * i + j];
+            acceleration[d[j]] = c->a[3 * i + j];
+            acceleration[d[3 + j]] = c->alpha[3 * i + j];
+        }
+    }
+    for (int64_t k = 0; k < m->n_free_hinges; ++k) {
+        int64_t j = m->free_hinges[k];
+        velocity[m->hinge_dofs[j]] = c->theta_dot[j];
+        acceleration[m->hinge_dofs[j]] = c->theta_ddot[j];
+    }
+}
+
+/* Buffers of one step, each of n_dofs entries. */
+typedef struct {
+    double *v_n, *vdot_n, *a_n, *v, *vdot, *dq, *dx, *a_new;
+} StepVectors;
+
 int64_t latdyn_newton_step(const Model *m, Work *w, StepControl *s, const Configuration *base,
-                           Configuration *trial, const double *v_n, const double *vdot_n, const double *a_n,
-                           double *v, double *vdot, double *dq, double *dx, const double *laws)
+                           Configuration *trial, StepVectors *x, const double *laws)
 {
     const int64_t n = m->n_dofs;
     const double h = s->h, am = s->alpha_m, af = s->alpha_f, ga = s->gamma, be = s->beta;
     const double beta_p = (1 - am) / (h * h * be * (1 - af)), gamma_p = ga / (h * be);
+    const double *v_n = x->v_n, *vdot_n = x->vdot_n, *a_n = x->a_n;
+    double *v = x->v, *vdot = x->vdot, *dq = x->dq, *dx = x->dx;
     double previous = INFINITY;
+    free_rates(m, base, x->v_n, x->vdot_n);
     int rebuild = s->factored_h != h; /* modified Newton: the held factorization is stale */
     s->iterations = 0;
     s->converged = 0;
@@ -559,7 +586,11 @@ int64_t latdyn_newton_step(const Model *m, Work *w, StepControl *s, const Config
         double size = increment_size(m, dx, s->length);
         if (size <= s->tol) {
             s->converged = 1;
-            for (int64_t i = 0; i < n; ++i) dx[i] = h * dq[i];
+            for (int64_t i = 0; i < n; ++i) {
+                dx[i] = h * dq[i];
+                /* the algorithmic acceleration of the new step (GeneralizedAlpha.a_candidate) */
+                x->a_new[i] = (af * vdot_n[i] + (1 - af) * vdot[i] - am * a_n[i]) / (1 - am);
+            }
             configure(m, base, trial, dx, v, vdot, laws);
             return 0;
         }
