@@ -399,6 +399,62 @@ def exudyn_cantilever_model(n):
     return SC, mbs, sensors
 
 
+def exudyn_cantilever_rbs_model(n):
+    """Rigid-body-spring model of the cantilever: n rigid segments (n/2 per leg).
+
+    Each segment of length h is a rigid body (Lie-group rotation-vector node) with mass
+    rhoA*h and inertia diag(20 h, 10 h + h^3/12, 10 h + h^3/12) in its axes, placed at its
+    middle; neighbours are joined at their common end by an ObjectConnectorRigidBodySpringDamper
+    of stiffness diag(EA, GA, GA, GJ, EI, EI)/h (all three translational and all three
+    rotational entries are equal in this problem, so the frame of the spring does not matter;
+    at the elbow the marker rotations align the two legs' frames), the root segment to
+    ground by twice that (half a segment).  Same load, sensors at the segment ends.
+    """
+    from exudyn.rigidBodyUtilities import RotationVector2RotationMatrix
+    from exudyn.utilities import RigidBodyInertia
+    SC = exu.SystemContainer()
+    mbs = SC.AddSystem()
+    per_leg = n // 2
+    h = 10.0 / per_leg
+    K = np.diag([1e6, 1e6, 1e6, 1e3, 1e3, 1e3]) / h
+    J = np.diag([20 * h, 10 * h + h ** 3 / 12, 10 * h + h ** 3 / 12])
+    R1 = RotationVector2RotationMatrix([0, 0, math.pi / 2])
+    R2 = RotationVector2RotationMatrix([0, 0, math.pi])
+
+    def leg(p0, d, R):
+        p0, d = np.asarray(p0, float), np.asarray(d, float)
+        return [mbs.CreateRigidBody(referencePosition=list(p0 + (i + 0.5) * h * d), referenceRotationMatrix=R,
+                                    inertia=RigidBodyInertia(mass=h, inertiaTensor=J),
+                                    nodeType=exu.NodeType.RotationRotationVector)
+                for i in range(per_leg)]
+
+    def end(body, x):
+        return mbs.AddMarker(eii.MarkerBodyRigid(bodyNumber=body, localPosition=[x, 0, 0]))
+
+    leg1 = leg([0, 0, 0], [0, 1, 0], R1)
+    leg2 = leg([0, 10, 0], [-1, 0, 0], R2)
+    ground = mbs.AddObject(eii.ObjectGround())
+    mg = mbs.AddMarker(eii.MarkerBodyRigid(bodyNumber=ground, localPosition=[0, 0, 0]))
+    spring = eii.RigidBodySpringDamper
+    mbs.AddObject(spring(markerNumbers=[mg, end(leg1[0], -h / 2)], stiffness=2 * K, rotationMarker0=R1,
+                         rotationMarker1=np.eye(3)))
+    for bodies in (leg1, leg2):
+        for a, b in zip(bodies[:-1], bodies[1:]):
+            mbs.AddObject(spring(markerNumbers=[end(a, h / 2), end(b, -h / 2)], stiffness=K))
+    elbow = end(leg1[-1], h / 2)
+    mbs.AddObject(spring(markerNumbers=[elbow, end(leg2[0], -h / 2)], stiffness=K, rotationMarker0=np.eye(3),
+                         rotationMarker1=R2.T @ R1))
+    mbs.AddLoad(eii.Force(markerNumber=elbow, loadVector=[0, 0, 0],
+                          loadVectorUserFunction=lambda mbs, t, load: [0, 0, _elbow_force(t)]))
+    pos = exu.OutputVariableType.Position
+    sensors = {"tip": mbs.AddSensor(eii.SensorBody(bodyNumber=leg2[-1], localPosition=[h / 2, 0, 0],
+                                                   outputVariableType=pos, storeInternal=True, writeToFile=False)),
+               "elbow": mbs.AddSensor(eii.SensorBody(bodyNumber=leg1[-1], localPosition=[h / 2, 0, 0],
+                                                     outputVariableType=pos, storeInternal=True, writeToFile=False))}
+    mbs.Assemble()
+    return SC, mbs, sensors
+
+
 def exudyn_once(problem, cfg):
     t0 = time.perf_counter()
     with warnings.catch_warnings():
@@ -406,6 +462,9 @@ def exudyn_once(problem, cfg):
         if problem == "spinup":
             SC, mbs, sensors = exudyn_spinup_model(cfg["elements"])
             ss = _settings(cfg, 0.01 if cfg["dt"] <= 0.01 else cfg["dt"])
+        elif cfg.get("model") == "rbs":
+            SC, mbs, sensors = exudyn_cantilever_rbs_model(cfg["elements"])
+            ss = _settings(cfg, cfg["dt"])
         else:
             SC, mbs, sensors = exudyn_cantilever_model(cfg["elements"])
             ss = _settings(cfg, cfg["dt"])
@@ -435,7 +494,7 @@ def exudyn_once(problem, cfg):
         out["error"], out["error_parts"], out["values"] = spinup_error(t, v)
     else:
         e = mbs.GetSensorStoredData(sensors["elbow"])
-        out["values"] = cantilever_values(t, d[:, 3], e[:, 3])
+        out["values"] = cantilever_values(t, d[:, 3], e[:, 3])  # z: reference z is 0 (position = displacement)
         out["error"], out["error_parts"] = cantilever_error(out["values"])
     return out
 
@@ -479,12 +538,15 @@ def sweep(quick, engines):
         ca = [(20, 0.05, {})] if quick else [(10, 0.1, {}), (10, 0.05, {}), (20, 0.1, {}), (20, 0.05, {}),
                                              (20, 0.025, {}), (20, 0.01, {}), (40, 0.025, {}),
                                              (20, 0.01, {"rho_inf": 1.0, "t_end": 30.0, "repeats": 1}),
-                                             (20, 0.01, {"t_end": 30.0, "repeats": 1})]
+                                             (20, 0.01, {"t_end": 30.0, "repeats": 1}),
+                                             (20, 0.05, {"model": "rbs"}), (40, 0.1, {"model": "rbs"}),
+                                             (40, 0.05, {"model": "rbs"}), (80, 0.05, {"model": "rbs"})]
         for n, dt, extra in ca:
             cfg = dict(elements=n, dt=dt, t_end=10.0, rho_inf=0.8, modified=True, atol=1e-6)
             cfg.update(extra)
             tag = (f", rho_inf {cfg['rho_inf']:g}" if cfg["rho_inf"] != 0.8 else "") + \
-                  (f", t_end {cfg['t_end']:g}" if cfg["t_end"] != 10.0 else "")
+                  (f", t_end {cfg['t_end']:g}" if cfg["t_end"] != 10.0 else "") + \
+                  (", rigid-body-spring" if cfg.get("model") == "rbs" else "")
             cfg.update(label=f"{n} el, dt {dt}{tag}", headline=(n, dt) == (20, 0.05) and not tag)
             rows.append(("cantilever", "exudyn", cfg))
     return rows
@@ -537,7 +599,8 @@ def describe(code, cfg, res):
         newton = (res.get("newton_mode") or cfg.get("newton") or "full") + \
             (f" (tol {res.get('tol'):g})" if res.get("tol") else "")
     else:
-        engine = "ObjectBeamGeometricallyExact2D" if cfg.get("problem") == "spinup" else "ObjectBeamGeometricallyExact"
+        engine = ("ObjectBeamGeometricallyExact2D" if cfg.get("problem") == "spinup" else
+                  "RigidBody+RigidBodySpringDamper" if cfg.get("model") == "rbs" else "ObjectBeamGeometricallyExact")
         method = f"generalized-alpha rho={cfg.get('rho_inf', 0.8):g}"
         atol = cfg.get("atol")
         newton = ("modified" if cfg.get("modified", True) else "full") + \
