@@ -51,6 +51,23 @@ def orthonormalize(T: np.ndarray) -> np.ndarray:
     return U @ Vt
 
 
+def _plain_hinges(hinges):
+    """(k, c, θ_r) of every hinge as arrays (0 where a law gives them), the hinges whose force
+    needs their laws (a stiffness or damping that varies, a torque in θ or θ̇), and the other
+    hinges with a torque (of t alone)."""
+    def plain(h):
+        torque_of_t = h.torque is None or set(h.torque.depends_on) <= {"t"}
+        return h.stiffness.is_constant and h.damping.is_constant and torque_of_t
+
+    flags = [plain(h) for h in hinges]
+    k0 = np.array([h.stiffness.constant if f else 0.0 for h, f in zip(hinges, flags)], float)
+    c0 = np.array([h.damping.constant if f else 0.0 for h, f in zip(hinges, flags)], float)
+    rest = np.array([h.rest_angle for h in hinges], float)
+    with_law = [k for k, f in enumerate(flags) if not f]
+    with_torque = [k for k, (h, f) in enumerate(zip(hinges, flags)) if f and h.torque is not None]
+    return k0, c0, rest, with_law, with_torque
+
+
 #: 16-point Gauss–Legendre nodes and weights on [−1, 1] (hinge spring potentials).
 _GAUSS_16 = np.polynomial.legendre.leggauss(16)
 
@@ -226,6 +243,7 @@ class Assembler:
         self.gravity = np.asarray(gravity, float)
         self.has_gravity = bool(np.any(self.gravity != 0))
         self.loads = model.scene.loads
+        self._hinge_plain = None  # constant hinge coefficients as arrays (_plain_hinges), on first use
         self.reindex()
 
     def reindex(self) -> None:
@@ -444,11 +462,20 @@ class Assembler:
                            ∂f/∂θ̇ = s ∂k/∂θ̇ + c + θ̇ ∂c/∂θ̇ − λ ∂τ/∂θ̇.
         """
         hinges = self.model.hinges
-        n = len(hinges)
-        force, d_theta, d_rate = np.zeros(n), np.zeros(n), np.zeros(n)
+        if self._hinge_plain is None:
+            self._hinge_plain = _plain_hinges(hinges)
+        k0, c0, rest, with_law, with_torque = self._hinge_plain
+        # constant springs and dampers, all hinges at once; the laws below replace their entries
+        force = k0 * (state.theta - rest) + c0 * state.theta_dot
+        d_theta, d_rate = k0.copy(), c0.copy()
         power = 0.0
         t = state.t
-        for k, hinge in enumerate(hinges):
+        for k in with_torque:  # torques of t alone on hinges with constant springs
+            tau = load_factor * hinges[k].torque.value(0.0, 0.0, t)
+            force[k] -= tau
+            power += tau * state.theta_dot[k]
+        for k in with_law:
+            hinge = hinges[k]
             theta, rate = float(state.theta[k]), float(state.theta_dot[k])
             s = theta - hinge.rest_angle
             stiffness, damping = hinge.stiffness, hinge.damping
