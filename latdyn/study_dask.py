@@ -13,6 +13,10 @@ On Dask:
   ``OPENBLAS_NUM_THREADS``, ``MKL_NUM_THREADS`` … = 1 so that N workers use N cores;
   every task also holds BLAS to one thread with threadpoolctl (which works on a
   remote cluster too, whose environment is not ours to set);
+- each case runs in a child process of its worker (``run_case_in_subprocess``): a
+  worker runs tasks in threads, and a run may need a main thread (the compiled step
+  library segfaulted in a thread at commit 9a0de9d); a case that crashes is then a
+  ``failed`` row, not a lost worker;
 - retries happen only when a worker is lost: the case function never raises for what
   a run does (a diverged or failed case is a returned row), so the only failures left are
   a worker process that dies (a crash, memory), which the Dask scheduler reschedules
@@ -84,12 +88,16 @@ class DaskRunner:
     def run(self, function, tasks):
         from distributed import as_completed
 
+        from .study_runner import run_case, run_case_in_subprocess
+
         if not tasks:
             return
+        # each case in its own child process of the worker (see run_case_in_subprocess)
+        isolated = run_case_in_subprocess if function is run_case else function
         futures = {}
         # longest first is unknown; the order of the study (the reference first) is kept
         for task in tasks:
-            future = self.client.submit(function, task, key=f"latdyn-case-{task['hash']}", pure=False, retries=0)
+            future = self.client.submit(isolated, task, key=f"latdyn-case-{task['hash']}", pure=False, retries=0)
             futures[future.key] = (future, task)
         for future in as_completed([f for f, _ in futures.values()]):
             task = futures[future.key][1]
@@ -122,7 +130,7 @@ def open_scheduler(kind: tuple):
         with dask.config.set({"distributed.scheduler.allowed-failures": ALLOWED_FAILURES,
                               "distributed.worker.daemon": False}):
             cluster = LocalCluster(n_workers=kind[1], threads_per_worker=1, processes=True,
-                                   dashboard_address=None, silence_logs=logging.ERROR, env=dict(BLAS_ENV))
+                                   dashboard_address=":0", silence_logs=logging.ERROR, env=dict(BLAS_ENV))
             try:
                 with Client(cluster) as client:
                     yield DaskRunner(client, "local", kind[1], cluster.scheduler_address, cluster)

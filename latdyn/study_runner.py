@@ -92,7 +92,7 @@ import numpy as np
 
 from .errors import SceneError, SolverError, show_value
 
-__all__ = ["StudySpec", "Case", "StudyTable", "load_study", "expand", "study", "run_case",
+__all__ = ["StudySpec", "Case", "StudyTable", "load_study", "expand", "study", "run_case", "run_case_in_subprocess",
            "case_error", "COLUMNS", "STATUSES", "NORMS", "PLOTS", "CASE_FILE"]
 
 STATUSES = ("solved", "failed", "unbounded")
@@ -487,7 +487,8 @@ def run_case(task: dict) -> dict:
     return its record, which is also written to ``dir/case.json``.
 
     Never raises for what a run does: a failure is a status. This is the function the
-    schedulers send to their workers; BLAS is held to one thread while it runs.
+    serial scheduler calls (Dask workers call :func:`run_case_in_subprocess`); BLAS is held
+    to one thread while it runs.
     """
     from threadpoolctl import threadpool_limits
 
@@ -549,6 +550,43 @@ def run_case(task: dict) -> dict:
     record["wall_s"] = statistics.median(record["wall_times"])
     _write_json(folder / CASE_FILE, record)
     return record
+
+
+def run_case_in_subprocess(task: dict) -> dict:
+    """:func:`run_case` in a child Python process (its main thread), for Dask workers.
+
+    A worker runs its tasks in threads, and a run must be free to use what only a main
+    thread may (signal handlers; the compiled step library of ``latdyn/engine.py``
+    crashed the process when called from a thread at commit 9a0de9d). In a child, a crash
+    of the run costs one ``failed`` row ("the case's process died"), not the worker; such a
+    row is not cached, so a rerun tries the case again. The child inherits this process's
+    ``sys.path`` and environment.
+    """
+    import subprocess
+
+    folder = Path(task["dir"])
+    folder.mkdir(parents=True, exist_ok=True)
+    task_file = folder.parent / f"{task['hash']}.task.json"
+    task_file.write_text(json.dumps(task, default=_json_default), encoding="utf-8")
+    env = dict(os.environ)
+    paths = [p for p in sys.path if p and os.path.isdir(p)]
+    env["PYTHONPATH"] = os.pathsep.join(dict.fromkeys(paths + env.get("PYTHONPATH", "").split(os.pathsep)))
+    code = ("import json, sys; from latdyn.study_runner import run_case; "
+            "run_case(json.load(open(sys.argv[1], encoding='utf-8')))")
+    try:
+        done = subprocess.run([sys.executable, "-c", code, str(task_file)], env=env, capture_output=True, text=True)
+    finally:
+        task_file.unlink(missing_ok=True)
+    record = cached_record(folder, task["hash"], 1) if done.returncode == 0 else None
+    if record is not None:
+        return record
+    (folder / CASE_FILE).unlink(missing_ok=True)
+    why = f"signal {-done.returncode}" if done.returncode < 0 else f"exit status {done.returncode}"
+    tail = (done.stderr or "").strip().splitlines()[-1:] or [""]
+    return {"hash": task["hash"], "overrides": task.get("overrides", {}), "status": "failed",
+            "message": f"the case's process died ({why}) {tail[0]}".strip(), "wall_times": [], "wall_s": None,
+            "steps": None, "newton_iterations": None, "rejected_steps": None, "coordinates": None,
+            "t_reached": None}
 
 
 def _first_line(error: BaseException) -> str:

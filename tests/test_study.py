@@ -222,9 +222,9 @@ def test_local_cluster_gives_the_same_rows_as_serial(serial_study, tmp_path):
     assert table.summary["scheduler"]["kind"] == "local" and table.summary["scheduler"]["workers"] == 2
     assert table.summary["ran"] == 7
     assert _rows(out / "study.csv") == _rows(serial_out / "study.csv")
-    # the cases ran in two worker processes, not in this one
+    # each case ran in its own child process of a worker, not in this one
     pids = {json.loads((out / "cases" / r["case"] / "case.json").read_text())["pid"] for r in table.rows}
-    assert os.getpid() not in pids and len(pids) == 2
+    assert os.getpid() not in pids and len(pids) == len(table.rows)
 
 
 def test_peer_points_from_peers_json(tmp_path):
