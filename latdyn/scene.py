@@ -23,7 +23,15 @@ Extensions to SCENE.md (keys may be added, never renamed):
 - a point probe's ``component`` defaults to ``norm``;
 - ``solve``: ``adaptive``, ``error_tol``, ``dt_min``, ``max_iterations``,
   ``formulation`` (code-generation variant, one of :data:`FORMULATIONS`);
-- expression names ``asin acos atan atan2 sinh cosh tanh``.
+- expression names ``asin acos atan atan2 sinh cosh tanh``;
+- hinge ``stiffness``/``damping``/``torque`` also as a table in t; ``rigid: true`` is refused
+  (rigid links are not implemented: SceneError naming ``beams.NAME.rigid``).
+
+Hinge additions (SCENE.md): ``rest_angle``, ``limits: [lo, hi]`` (lo <= 0 <= hi, the angle being
+0 at t = 0; not with a prescribed ``angle``; a ``lock_at`` must lie within them),
+``restitution`` (only with limits), and laws in ``theta``, ``theta_dot``, ``t``
+(:class:`~latdyn.expressions.HingeLaw`); a constant law is kept as a number, a torque of t
+alone as a :class:`~latdyn.expressions.TimeFunction`.
 
 Limits, so that a scene is refused rather than hang or exhaust memory:
 
@@ -79,7 +87,7 @@ PROBE_KINDS = ("point", "hinge", "energy", "momentum", "element")
 _TOP_KEYS = ("title", "gravity", "initial_velocity", "sections", "bodies", "beams", "loads", "solve", "output")
 _SECTION_KEYS = ("EA", "EIy", "EIz", "GJ", "rhoA", "rhoIy", "rhoIz")
 _BODY_KEYS = ("at", "mass", "com", "inertia", "fixed", "motion")
-_BEAM_KEYS = ("from", "to", "section", "elements", "y_axis", "start", "end")
+_BEAM_KEYS = ("from", "to", "section", "elements", "y_axis", "start", "end", "rigid")
 _HINGE_KEYS = ("axis", "stiffness", "damping", "torque", "angle", "lock_at", "rest_angle", "limits", "restitution")
 _LOAD_KEYS = ("at", "force", "moment", "frame")
 _SOLVE_KEYS = ("analysis", "t_end", "dt", "method", "rho_inf", "tol", "steps", "count",
@@ -776,6 +784,10 @@ class _Reader:
 
     def beam(self, name, spec, key) -> Beam:
         self.mapping(spec, key, _BEAM_KEYS, required=("from", "to", "section"))
+        if "rigid" in spec and self.boolean(spec["rigid"], _join(key, "rigid")):
+            # SCENE.md lists the key; this version has no dependent (rigid-link) coordinates yet
+            self.fail(_join(key, "rigid"), "rigid links are not supported by this version of latdyn; expected "
+                                           "rigid: false (model the link as a stiff beam)", spec["rigid"])
         section = self.sections[self.ref(spec["section"], _join(key, "section"), self.sections, "section")]
         before = self.n_elements  # a running total: summing over the beams read would be O(n²)
         elements = self.integer(spec.get("elements", 1), _join(key, "elements"), maximum=MAX_ELEMENTS - before,

@@ -65,3 +65,13 @@ def test_bays_repeat_a_bay_and_the_truss_example_builds_ten_thousand_elements_in
         best = min(best, time.perf_counter() - t0)
     assert scene.n_elements == 10_000
     assert best < 2.0  # 0.9 s measured on a loaded 2-core machine; the limit leaves room for slower CI
+
+
+def test_rigid_links_are_refused_with_the_key_path():
+    b = boom()
+    b.data["beams"]["p1"]["rigid"] = True
+    with pytest.raises(SceneError) as info:
+        b.build()
+    assert "beams.p1.rigid" in str(info.value) and "not supported" in str(info.value)
+    b.data["beams"]["p1"]["rigid"] = False
+    assert b.build().n_elements == 4
