@@ -18,6 +18,7 @@ All geometry is differentiated in SymEngine; results cross to SymPy once.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import lru_cache
 
 import symengine as se
 import sympy as sp
@@ -57,12 +58,50 @@ class Kinematics:
     velocity: list  # the q̇ symbols (SymPy)
     convective: list  # J̇q̇ at q̈ = 0 (12): d/dt of [v̂, ω̂, Ψ̇]
     convective_D_qdot: list  # ∂(J̇q̇)/∂q̇, 12×14
+    #: named scalars the expressions above use, defined first in every kernel:
+    #: for the "log" measure x_i = 1 − cos θ_i and f, f′, f″ of θ/sin θ at x_i (LOG_JET)
+    auxiliary: list = field(default_factory=list)
 
 
-def derive_kinematics() -> Kinematics:
+#: f⁽ᵏ⁾(x_i), k = 0, 1, 2, of f = θ/sin θ at end i: symbols of the log-map jet
+LOG_JET = [[se.Symbol(f"logmap_f{k}_{i}") for k in range(3)] for i in (1, 2)]
+LOG_ARGUMENT = [se.Symbol(f"logmap_x_{i}") for i in (1, 2)]
+
+
+def _log_jets(rest: dict):
+    """Scales for :func:`formulation.log_rotation`: f(x) as its second-order jet about x̄ = x|rest.
+
+    f(x) = f(x̄) + f′(x̄)(x − x̄) + ½f″(x̄)(x − x̄)² has the exact first and second
+    derivatives of f(x) at rest, which is all the kinematics differentiate
+    (B, H, Ψ̈); f(x̄), f′(x̄), f″(x̄) stay symbols (:data:`LOG_JET`) and are defined once
+    per kernel by the branch-free :func:`formulation.log_scale`.
+    """
+    def make(jet):
+        def scale(x):
+            d = x - x.subs(rest)
+            return jet[0] + jet[1] * d + jet[2] * d * d / 2
+        return scale
+    return make(LOG_JET[0]), make(LOG_JET[1])
+
+
+def _log_auxiliary(arguments: tuple) -> list:
+    """The named definitions x_i = (3 − tr R_i)/2 and f⁽ᵏ⁾(x_i), in SymPy."""
+    S = fm.to_sympy
+    out = []
+    for i, x in enumerate(arguments):
+        symbol = S(LOG_ARGUMENT[i])
+        out.append((symbol, S(x)))
+        for k in range(3):
+            out.append((S(LOG_JET[i][k]), fm.log_scale(symbol, k)))
+    return out
+
+
+@lru_cache(maxsize=None)
+def derive_kinematics(measure: str = "sine") -> Kinematics:
     end1, end2 = fm.geometry_inputs()
     section = fm.section_inputs()
     L0 = section["L0"]
+    log = measure == "log"
 
     # ---- first and mixed second derivatives of Ψ (B and H) ----
     virtual = [se.Symbol(f"delta_{k}") for k in range(N)]
@@ -71,8 +110,8 @@ def derive_kinematics() -> Kinematics:
     i1, i2 = _end_coordinates(increment)
     g1, F1 = fm.moved_end(end1, [("increment", *i1, 1), ("virtual", *v1, 1)])
     g2, F2 = fm.moved_end(end2, [("increment", *i2, 1), ("virtual", *v2, 1)])
-    cor = fm.corotational(g1, F1, g2, F2, L0)
     at_rest = {s: 0 for s in virtual + increment}
+    cor = fm.corotational(g1, F1, g2, F2, L0, measure, _log_jets(at_rest) if log else None)
     first = [[se.diff(p, d) for d in virtual] for p in cor.psi]
     B = [[b.subs(at_rest) for b in row] for row in first]
     H = [[[se.diff(b, D).subs(at_rest) for D in increment] for b in row] for row in first]
@@ -86,8 +125,8 @@ def derive_kinematics() -> Kinematics:
     m1, m2 = _end_coordinates([t * q for q in qdot])
     g1t, F1t = fm.moved_end(end1, [("time", *m1, 2)])
     g2t, F2t = fm.moved_end(end2, [("time", *m2, 2)])
-    cor_t = fm.corotational(g1t, F1t, g2t, F2t, L0)
     now = {t: 0}
+    cor_t = fm.corotational(g1t, F1t, g2t, F2t, L0, measure, _log_jets(now) if log else None)
 
     def rate(expr, order):
         for _ in range(order):
@@ -116,7 +155,17 @@ def derive_kinematics() -> Kinematics:
     convective_D_qdot = [[se.diff(c, q) for q in qdot] for c in convective]
 
     S = fm.to_sympy
+    auxiliary = []
+    if log:
+        arguments = [x.subs(at_rest) for x in cor.log_arguments]
+        # the jets' (x − x̄) must vanish identically at rest: B has no f″, Ψ no f′
+        for i in range(2):
+            assert all(LOG_JET[i][2] not in b.free_symbols for row in B for b in row), "log jet left (x − x̄) in B"
+            assert all(LOG_JET[i][1] not in p.free_symbols for p in psi), "log jet left (x − x̄) in Ψ"
+            assert (cor_t.log_arguments[i].subs(now) - arguments[i]) == 0, "time and virtual motions disagree on x̄"
+        auxiliary = _log_auxiliary(tuple(arguments))
     return Kinematics(
+        auxiliary=auxiliary,
         convective=[S(c) for c in convective],
         convective_D_qdot=[[S(c) for c in row] for row in convective_D_qdot],
         psi=[S(p) for p in psi],
@@ -176,7 +225,7 @@ def build_kernels(variant: str = "default") -> list[KernelSpec]:
     if variant not in fm.FORMULATIONS:
         raise ValueError(f"unknown variant {variant!r} (known: {', '.join(fm.FORMULATIONS)})")
     formulation = fm.FORMULATIONS[variant]
-    kin = derive_kinematics()
+    kin = derive_kinematics(formulation.rotation_measure)
     section = _section_sympy()
     gravity = cv.GRAVITY.symbols()
     psi_symbols = fm.PSI
@@ -250,13 +299,13 @@ def build_kernels(variant: str = "default") -> list[KernelSpec]:
         )
 
     # --- deformation ---
-    b = Builder()
+    b = Builder(list(kin.auxiliary))
     add("beam_deformation", "Deformation vector Ψ = [φy1, φz1, φy2, φz2, φx2, αx2] and corotational frame T_c",
         "Eqs. 12-21, 46", geometry_section,
         [Output("psi", (6,), list(kin.psi)), Output("corotational_frame", (3, 3), list(kin.frame))], b)
 
     # --- strain energy and section forces ---
-    b = Builder()
+    b = Builder(list(kin.auxiliary))
     psi = b.vector("psi", kin.psi)
     rename = dict(zip(psi_symbols, psi))
     add("beam_strain_energy", "Strain energy U and mid-element section forces [N, T, M_y, M_z]",
@@ -265,12 +314,12 @@ def build_kernels(variant: str = "default") -> list[KernelSpec]:
          Output("section_forces", (4,), [f.xreplace(rename) for f in fm.section_forces(psi_symbols, section, formulation)])], b)
 
     # --- internal force ---
-    b = Builder()
+    b = Builder(list(kin.auxiliary))
     _, force, _ = elastic(b, with_tangent=False)
     add("beam_internal_force", "Generalized internal force F_i^e = Bᵀ ∂U/∂Ψ", "Eqs. 29-43",
         geometry_section, [Output("internal_force", (N,), force)], b)
 
-    b = Builder()
+    b = Builder(list(kin.auxiliary))
     _, force, tangent = elastic(b, with_tangent=True)
     add("beam_internal_force_D_q", "Internal force and its exact tangent ∂F_i/∂q (material + geometric)",
         "Eqs. 29-43", geometry_section,
@@ -295,29 +344,29 @@ def build_kernels(variant: str = "default") -> list[KernelSpec]:
                                      for r1, r2 in zip(_matmul(p["Mhat"], dJdq), _matmul(dghat, p["J"]))])
         return _matmul(_transpose(p["J"]), inner)
 
-    b = Builder()
+    b = Builder(list(kin.auxiliary))
     p = inertia(b, with_velocity=False)
     add("beam_mass_matrix", "Element mass matrix M^e", "Eqs. 44-56, 62", geometry_section,
         [Output("mass_matrix", (N, N), _flat(mass_matrix(b, p)))], b)
 
-    b = Builder()
+    b = Builder(list(kin.auxiliary))
     p = inertia(b, with_velocity=True)
     add("beam_quadratic_velocity", "Quadratic-velocity vector g^e (centrifugal, Coriolis, offset χ^e)",
         "Eqs. 50-57, 61-62", with_velocity, [Output("quadratic_velocity", (N,), quadratic_velocity(b, p))], b)
 
-    b = Builder()
+    b = Builder(list(kin.auxiliary))
     p = inertia(b, with_velocity=True)
     add("beam_quadratic_velocity_D_qdot", "∂g^e/∂q̇ (exact)", "Eqs. 50-57", with_velocity,
         [Output("quadratic_velocity_D_qdot", (N, N), _flat(quadratic_velocity_D_qdot(b, p)))], b)
 
-    b = Builder()
+    b = Builder(list(kin.auxiliary))
     p = inertia(b, with_velocity=True)
     kinetic = sp.Add(*[p["u"][i] * p["Mhat"][i][j] * p["u"][j] for i in range(12) for j in range(12)]) / 2
     add("beam_kinetic_energy", "Kinetic energy ½ q̇ᵀ M q̇", "Eqs. 54-56", with_velocity,
         [Output("kinetic_energy", (), [kinetic])], b)
 
     # --- everything a Newton iteration needs, sharing one CSE ---
-    b = Builder()
+    b = Builder(list(kin.auxiliary))
     p = inertia(b, with_velocity=True)
     _, force, tangent = elastic(b, with_tangent=True, shared=p)
     add("beam_dynamics", "One Newton iteration's element terms: F_i, ∂F_i/∂q, M, g, ∂g/∂q̇",
@@ -328,7 +377,7 @@ def build_kernels(variant: str = "default") -> list[KernelSpec]:
          Output("quadratic_velocity_D_qdot", (N, N), _flat(quadratic_velocity_D_qdot(b, p)))], b)
 
     # --- gravity ---
-    b = Builder()
+    b = Builder(list(kin.auxiliary))
     p = inertia(b, with_velocity=False)
     TcT = p["TcT"]
     g_local = b.vector("gc", [sp.Add(*[TcT[i][k] * gravity[k] for k in range(3)]) for i in range(3)])

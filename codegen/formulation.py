@@ -41,18 +41,35 @@ class Formulation:
     name: str
     geometric_stiffening: bool = True  # the ½(v'² + w'²) term of Eq. 35
     rotary_inertia: bool = True  # cross-section terms y_c, z_c of Eq. 45 (ρI_y, ρI_z)
+    #: how the local nodal rotations Ψ are read from R_i = T_cᵀ T_e^i:
+    #: "sine"  Eqs. 14–16 literally (entries of R_i: sines, first order in the rotation),
+    #: "log"   the rotation vector log(R_i) (exact; Battini & Pacoste 2002), see :func:`log_rotation`.
+    rotation_measure: str = "log"
     description: str = ""
 
+    def __post_init__(self):
+        if self.rotation_measure not in ROTATION_MEASURES:
+            raise ValueError(f"rotation_measure {self.rotation_measure!r} not in {ROTATION_MEASURES}")
+
+
+ROTATION_MEASURES = ("log", "sine")
 
 FORMULATIONS: dict[str, Formulation] = {
     "default": Formulation(
         "default",
-        description="CR-4402 element with geometric stiffening and cross-section rotary inertia",
+        rotation_measure="log",
+        description="exact local rotations (log map of T_cᵀT_e), geometric stiffening, cross-section rotary inertia",
+    ),
+    "cr4402": Formulation(
+        "cr4402",
+        rotation_measure="sine",
+        description="CR-4402 element: small-rotation measures of Eqs. 14–16, geometric stiffening, rotary inertia",
     ),
     "no_stiffening": Formulation(
         "no_stiffening",
         geometric_stiffening=False,
-        description="as default, without the ½(v'²+w'²) stretching term (Eq. 35): no geometric stiffening",
+        rotation_measure="sine",
+        description="cr4402 (Eqs. 14–16 measures) without the ½(v'²+w'²) stretching term (Eq. 35): no geometric stiffening",
     ),
 }
 
@@ -196,20 +213,31 @@ class Corotational:
     length: object  # ℓ, Eq. 12
     frame: se.DenseMatrix  # T_c = [t_c1 t_c2 t_c3], Eqs. 18–21 (exact orthonormal form)
     psi: list  # Ψ = [φy1, φz1, φy2, φz2, φx2, αx2], Eq. 46
+    log_arguments: tuple = ()  # (x_1, x_2), x_i = 1 − cos|θ_i| = (3 − tr R_i)/2, for the "log" measure
 
 
-def corotational(grid1, frame1, grid2, frame2, L0) -> Corotational:
+def corotational(grid1, frame1, grid2, frame2, L0, measure: str = "sine", scales=None) -> Corotational:
     """Ψ and T_c from the two grid points and nodal frames.
 
     * α_x² = ‖x_g2 − x_g1‖ − L_e (Eqs. 12–13).
     * t_c1 is the unit chord (the x axis "passes through the two end nodes").
-    * φ_y^i = t_c1·t_e^i(3), φ_z^i = −t_c1·t_e^i(2) (Eqs. 14–15).
     * t_c2, t_c3 follow the first node's cross-section (Eqs. 20–21).  The paper
       prints their first-order forms; we use the exact orthonormal frame
       t_c2 = (t_e1(2) − (t_c1·t_e1(2)) t_c1)/‖·‖, t_c3 = t_c1 × t_c2, which agrees
       to first order in φ and keeps T_c a rotation (needed for exact rigid-body
       invariance).
-    * φ_x² = t_c3·t_e²(2) (Eq. 16).
+
+    The local rotations are read from R_i = T_cᵀ T_e^i (Eq. 6: T_e = T_c R):
+
+    * ``measure="sine"`` (the paper): φ_y^i = t_c1·t_e^i(3), φ_z^i = −t_c1·t_e^i(2)
+      (Eqs. 14–15), φ_x² = t_c3·t_e²(2) (Eq. 16); φ_x¹ = 0 by the choice of t_c2.
+      These are sines: first order in the rotation (report, item 7, 14–16).
+    * ``measure="log"``: θ_i = log(R_i) (:func:`log_rotation`), the exact rotation
+      vector, and Ψ = [θ_y¹, θ_z¹, θ_y², θ_z², θ_x² − θ_x¹, α].  With this T_c,
+      θ_x¹ = −½θ_y¹θ_z¹ + O(θ³) is not zero, so the twist is the relative one.
+      ``scales`` = (f_1, f_2): callables giving θ/sin θ as a function of
+      x = 1 − cos θ at each end (default: :func:`log_scale_closed`, exact but not
+      safe at R = I; the kernels use :func:`log_scale` through a jet).
     """
     chord = grid2 - grid1
     length = se.sqrt(dot(chord, chord))
@@ -221,15 +249,101 @@ def corotational(grid1, frame1, grid2, frame2, L0) -> Corotational:
     t2 = (a2 - e * s) / n
     t3 = cross(e, a2) / n
     frame = se.DenseMatrix(3, 3, [e[0], t2[0], t3[0], e[1], t2[1], t3[1], e[2], t2[2], t3[2]])
-    psi = [
-        dot(e, a3),  # φ_y¹, Eq. 14
-        -s,  # φ_z¹, Eq. 15
-        dot(e, b3),  # φ_y², Eq. 14
-        -dot(e, b2),  # φ_z², Eq. 15
-        dot(t3, b2),  # φ_x², Eq. 16
-        length - L0,  # α_x², Eq. 13
-    ]
-    return Corotational(chord, length, frame, psi)
+    if measure == "sine":
+        psi = [
+            dot(e, a3),  # φ_y¹, Eq. 14
+            -s,  # φ_z¹, Eq. 15
+            dot(e, b3),  # φ_y², Eq. 14
+            -dot(e, b2),  # φ_z², Eq. 15
+            dot(t3, b2),  # φ_x², Eq. 16
+            length - L0,  # α_x², Eq. 13
+        ]
+        return Corotational(chord, length, frame, psi)
+    if measure != "log":
+        raise ValueError(f"unknown rotation measure {measure!r}")
+    if scales is None:
+        scales = (log_scale_closed_se, log_scale_closed_se)
+    axes = (e, t2, t3)
+    thetas, arguments = [], []
+    for nodal, scale in ((frame1, scales[0]), (frame2, scales[1])):
+        columns = [column(nodal, k) for k in range(3)]
+        R = se.DenseMatrix(3, 3, [dot(axes[i], columns[j]) for i in range(3) for j in range(3)])  # T_cᵀT_e, Eq. 6
+        x, v = log_arguments(R)
+        thetas.append(log_rotation(R, scale))
+        arguments.append(x)
+    (tx1, ty1, tz1), (tx2, ty2, tz2) = thetas
+    psi = [ty1, tz1, ty2, tz2, tx2 - tx1, length - L0]
+    return Corotational(chord, length, frame, psi, tuple(arguments))
+
+
+# --------------------------------------------------------------------------
+# The log map, θ = log(R), in a form that is finite and smooth at R = I
+# --------------------------------------------------------------------------
+#: below x_s = 1 − cos θ_s (θ_s ≈ 26°) θ/sin θ is its Taylor polynomial, above the closed form
+LOG_SWITCH = sp.Rational(1, 10)
+#: degree of that polynomial: truncation error (x_s/2)^17 ≈ 1e-22 in f, ≈ 1e-17 in f″ at x_s
+LOG_SERIES_DEGREE = 16
+
+
+def log_arguments(R):
+    """x = 1 − cos θ = (3 − tr R)/2 and v = vee(R − Rᵀ)/2 = sin θ n, for R = exp(θ skew n)."""
+    x = (3 - (R[0, 0] + R[1, 1] + R[2, 2])) / 2
+    v = vee(R - R.T) / 2
+    return x, v
+
+
+def log_rotation(R, scale):
+    """The rotation vector θ n = log(R) = f(x) v with f = θ/sin θ a function of x (Rodrigues).
+
+    ``scale(x)`` returns f (or, in the derivation, a jet of f about the current x).
+    Exact for 0 ≤ θ < π; at θ = π, v = 0 and the measure is undefined (a local
+    rotation of 180° between an element end and its chord).
+    """
+    x, v = log_arguments(R)
+    f = scale(x)
+    return [f * v[0], f * v[1], f * v[2]]
+
+
+def log_scale_closed(x):
+    """θ/sin θ in x = 1 − cos θ: atan2(sin θ, cos θ)/sin θ with sin θ = √(x(2 − x)) (SymPy; 0/0 at x = 0)."""
+    sine = sp.sqrt(x * (2 - x))
+    return sp.atan2(sine, 1 - x) / sine
+
+
+def log_scale_closed_se(x):
+    """:func:`log_scale_closed` in SymEngine (for symbolic checks away from R = I)."""
+    sine = se.sqrt(x * (2 - x))
+    return se.atan2(sine, 1 - x) / sine
+
+
+def log_scale_series(x, degree: int = LOG_SERIES_DEGREE):
+    """Σ_{k≤degree} 2^k (k!)²/(2k+1)! x^k in Horner form: the Taylor series of θ/sin θ in x.
+
+    With u = sin(θ/2) = √(x/2): θ/sin θ = asin(u)/(u√(1 − u²)), and
+    asin(u)/√(1 − u²) = Σ 4^k (k!)²/(2k+1)! u^{2k+1}; converges for x < 2 (θ < π).
+    """
+    coefficients = [sp.Integer(2) ** k * sp.factorial(k) ** 2 / sp.factorial(2 * k + 1) for k in range(degree + 1)]
+    poly = coefficients[-1]
+    for c in reversed(coefficients[:-1]):
+        poly = c + x * poly
+    return poly
+
+
+def log_scale(x, order: int = 0):
+    """dᵏf/dxᵏ (k = ``order`` ≤ 2) of f(x) = θ/sin θ, branch-free and finite for 0 ≤ x < 2.
+
+    With x̂ = max(x, x_s) = (x + x_s + |x − x_s|)/2 and P the Taylor polynomial
+    (:func:`log_scale_series`):  f⁽ᵏ⁾ ≈ F⁽ᵏ⁾(x̂) + P⁽ᵏ⁾(x) − P⁽ᵏ⁾(x̂), F the closed
+    form.  For x ≥ x_s this is F⁽ᵏ⁾(x); below, P⁽ᵏ⁾(x) plus the constant
+    F⁽ᵏ⁾(x_s) − P⁽ᵏ⁾(x_s) (the truncation error at x_s).  The closed form is only
+    ever evaluated at x̂ ≥ x_s, so there is no 0/0 and no cancellation near R = I.
+    """
+    t = sp.Dummy("t")
+    closed = sp.diff(log_scale_closed(t), t, order)
+    poly = sp.diff(sp.expand(log_scale_series(t)), t, order)
+    clamped = (x + LOG_SWITCH + sp.Abs(x - LOG_SWITCH)) / 2
+    horner = sp.horner(poly, wrt=t) if order else log_scale_series(t)
+    return closed.subs(t, clamped) + horner.subs(t, x) - horner.subs(t, clamped)
 
 
 # --------------------------------------------------------------------------

@@ -68,8 +68,12 @@ __all__ = [
 
 ANALYSES = ("transient", "static", "modes")
 METHODS = ("generalized-alpha", "hht-alpha", "newmark", "explicit")
-#: Code-generation variants of the beam element a scene may ask for (``solve.formulation``).
-FORMULATIONS = ("default", "no_stiffening")
+#: Beam-element variants a scene may ask for (``solve.formulation``); each names the generated
+#: kernel variant ``generated/beam_<name>`` (codegen/formulation.py FORMULATIONS):
+#: ``default`` exact local rotations (log map of T_cᵀT_e) with geometric stiffening;
+#: ``cr4402`` the paper's small-rotation measures (sines, Eqs. 14–16) with stiffening;
+#: ``no_stiffening`` the cr4402 measures without the ½(v′²+w′²) term of Eq. 35.
+FORMULATIONS = ("default", "cr4402", "no_stiffening")
 #: Most beam elements in a scene (the sum over its beams).
 MAX_ELEMENTS = 10_000
 #: Largest whole number a scene may give (load steps, modes, iterations).

@@ -80,8 +80,15 @@ def undeformed(rng, length=1.7, offsets=True, hinges=True, section=None):
     )
 
 
+#: Families of random states for the derivative checks: ``deformation`` scales the end
+#: rotations (≈ 1.6·deformation rad) and displacements against the element's rigid motion.
+#: "near_identity" puts the log map's argument x = 1 − cos θ at ≈ 1e-14 (its series branch),
+#: "moderate" at ≈ 1e-2 (series), "large" at ≈ 0.3 (closed form, local rotations up to ≈ 70°).
+REGIMES = {"near_identity": 1e-7, "moderate": 0.05, "large": 0.4}
+
+
 def random_state(rng, deformation=0.05, **kw):
-    """Large rigid rotation (> 90°), non-zero hinge angles, small elastic deformation."""
+    """Large rigid rotation (> 90°), non-zero hinge angles, elastic deformation of size ``deformation``."""
     state = undeformed(rng, **kw)
     rigid = Rotation.from_rotvec(rng.normal(size=3) * 0.5 + np.array([2.0, 0.0, 0.0])).as_matrix()
     shift = rng.normal(size=3)
@@ -98,3 +105,24 @@ def random_state(rng, deformation=0.05, **kw):
     e2 = move(state.end2, t2)
     e2 = replace(e2, body=e2.body @ expm_so3(-state.end2.axis * t2))
     return replace(state, end1=e1, end2=e2)
+
+
+def bent_state(rng, angle, in_plane=False, length=1.7, section=None):
+    """Ends turned by ``angle`` (rad) against the chord, under a random rigid motion; no offsets or hinges.
+
+    ``in_plane``: end 1 stays on the chord and end 2 turns about the element's z axis,
+    so T_cᵀT_e is I at end 1 and exactly the rotation ``angle`` about z at end 2.
+    Otherwise both ends turn by ``angle`` about random axes.
+    """
+    state = undeformed(rng, length=length, offsets=False, hinges=False, section=section)
+    rigid = expm_so3(rng.normal(size=3) * 1.5)
+    z = state.end1.frame0[:, 2]
+    ends = []
+    for k, end in enumerate((state.end1, state.end2)):
+        if in_plane:
+            turn = expm_so3(angle * z) if k == 1 else np.eye(3)
+        else:
+            axis = rng.normal(size=3)
+            turn = expm_so3(angle * axis / np.linalg.norm(axis))
+        ends.append(replace(end, x=rigid @ end.x, body=rigid @ turn))
+    return replace(state, end1=ends[0], end2=ends[1])

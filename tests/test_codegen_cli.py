@@ -34,7 +34,7 @@ def test_committed_tree_is_current():
 def test_unknown_variant_exits_2():
     result = _run("--variant", "nope")
     assert result.returncode == 2
-    assert "latdyn-codegen: unknown variant 'nope' (known: default, no_stiffening)" in result.stderr
+    assert "latdyn-codegen: unknown variant 'nope' (known: default, cr4402, no_stiffening)" in result.stderr
 
 
 def test_unknown_variant_toy():

@@ -100,8 +100,19 @@ def test_inertia_and_offsets(checks):
     assert outcome(checks, "62", "eq62")
 
 
-def test_generated_kernels_numerically():
-    res = report.numerical_evidence()
+def test_log_measure(checks):
+    """The default variant's exact local rotations (the deviation from Eqs. 14–16): Rodrigues, the series
+    and branch-free scale, the sines' second-order error, the twist at node 1, pure bending exact."""
+    c = checks["14–16 (log)"]
+    assert c.verdict == report.CHOICE, (c.verdict, c.evidence)
+    for name in ("rodrigues", "series", "branch_free_accuracy", "sines_differ_second_order", "twist_node1",
+                 "pure_bending_exact", "pure_bending_sine_error"):
+        assert c.outcomes[name], (name, c.evidence)
+
+
+@pytest.mark.parametrize("variant", report.NUMERIC_VARIANTS)
+def test_generated_kernels_numerically(variant):
+    res = report.numerical_evidence(variant=variant)
     if not res["available"]:
         pytest.skip(res["why"])
     rows = {name: ok for name, _, _, ok, _ in res["rows"]}
@@ -115,5 +126,7 @@ def test_write_report(tmp_path):
     text = path.read_text(encoding="utf-8")
     assert "## Conventions" in text and "## Numerical evidence" in text
     assert report.FAILED not in text.split("## Numerical evidence")[0]
-    for eq in ("Eq. 37–38", "Eq. 49", "Eq. 59–61", "Eq. 62"):
+    for eq in ("Eq. 14–16 (log)", "Eq. 37–38", "Eq. 49", "Eq. 59–61", "Eq. 62"):
         assert eq in text
+    for variant in report.NUMERIC_VARIANTS:
+        assert f"### Variant `{variant}`" in text

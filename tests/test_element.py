@@ -1,24 +1,48 @@
-"""The generated CR-4402 element against finite differences, invariances and patch values.
+"""The generated CR-4402 element variants against finite differences, invariances and patch values.
 
-Every derivative kernel is checked by central differences, with rotations
-perturbed through the exponential map (T ← exp(skew h e_k) T), at random
-configurations with large rotations (> 90°), non-zero hinge angles and offsets.
+Every derivative kernel of every generated variant (``default``: log-map local
+rotations; ``cr4402``, ``no_stiffening``: the paper's sines, Eqs. 14–16) is checked
+by central differences, with rotations perturbed through the exponential map
+(T ← exp(skew h e_k) T), at random configurations with large rigid rotations
+(> 90°), non-zero hinge angles and offsets, in three regimes of elastic rotation
+(``element_states.REGIMES``: near the identity, where the log map runs on its
+series, moderate, and large, where it runs on the closed form).
 """
 from __future__ import annotations
 
+import math
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
 import element_states as es
-from latdyn.kernels import load_kernels
+from latdyn.kernels import known_variants, load_kernels
 
 H = 1e-6
 RELATIVE = 1e-6  # error allowed, relative to the norm of the checked Jacobian
+VARIANTS = list(known_variants())
+#: local rotation measure of each variant (codegen/formulation.py FORMULATIONS)
+MEASURE = {"default": "log", "cr4402": "sine", "no_stiffening": "sine"}
+#: θ where the log map switches from its series to its closed form: x = 1 − cos θ = 1/10
+#: (codegen/formulation.py LOG_SWITCH)
+LOG_SWITCH_ANGLE = math.acos(0.9)
 
 
-@pytest.fixture(scope="module", params=["default", "no_stiffening"])
+def test_every_variant_has_a_measure():
+    assert set(VARIANTS) == set(MEASURE)
+
+
+@pytest.fixture(scope="module", params=VARIANTS)
 def kernels(request):
     return load_kernels(backend="auto", variant=request.param)
+
+
+@pytest.fixture(params=list(es.REGIMES))
+def regime(request):
+    return es.REGIMES[request.param]
 
 
 def states(seed, count=3, **kw):
@@ -42,25 +66,25 @@ def assert_close(actual, expected, what):
     assert error <= RELATIVE, f"{what}: relative error {error:.2e}"
 
 
-def test_internal_force_is_gradient_of_strain_energy(kernels):
-    for s in states(1):
+def test_internal_force_is_gradient_of_strain_energy(kernels, regime):
+    for s in states(1, deformation=regime):
         energy = lambda st: kernels.beam_strain_energy(st.geometry(), st.section[None])[0][0]  # noqa: E731
         (force,) = kernels.beam_internal_force(s.geometry(), s.section[None])
         numeric = np.array([central(energy, s, k) for k in range(14)])
         assert_close(force[0], numeric, "F_i vs ∂U/∂q")
 
 
-def test_tangent_is_derivative_of_internal_force(kernels):
-    for s in states(2):
+def test_tangent_is_derivative_of_internal_force(kernels, regime):
+    for s in states(2, deformation=regime):
         force = lambda st: kernels.beam_internal_force(st.geometry(), st.section[None])[0][0]  # noqa: E731
         _, tangent = kernels.beam_internal_force_D_q(s.geometry(), s.section[None])
         numeric = np.column_stack([central(force, s, k) for k in range(14)])
         assert_close(tangent[0], numeric, "∂F_i/∂q")
 
 
-def test_quadratic_velocity_derivative(kernels):
+def test_quadratic_velocity_derivative(kernels, regime):
     rng = np.random.default_rng(3)
-    for s in states(3):
+    for s in states(3, deformation=regime):
         qdot = rng.normal(size=14)
         g = lambda v: kernels.beam_quadratic_velocity(s.geometry(), v[None], s.section[None])[0][0]  # noqa: E731
         (exact,) = kernels.beam_quadratic_velocity_D_qdot(s.geometry(), qdot[None], s.section[None])
@@ -83,10 +107,10 @@ def test_dynamics_kernel_matches_separate_kernels(kernels):
         np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-12 * np.abs(b).max())
 
 
-def test_kinetic_energy_and_power_identity(kernels):
+def test_kinetic_energy_and_power_identity(kernels, regime):
     """½q̇ᵀMq̇ equals the kinetic-energy kernel, and dT/dt = q̇·g along q̈ = 0."""
     rng = np.random.default_rng(5)
-    for s in states(5):
+    for s in states(5, deformation=regime):
         qdot = rng.normal(size=14)
         (M,) = kernels.beam_mass_matrix(s.geometry(), s.section[None])
         T = lambda st: kernels.beam_kinetic_energy(st.geometry(), qdot[None], st.section[None])[0][0]  # noqa: E731
@@ -97,11 +121,11 @@ def test_kinetic_energy_and_power_identity(kernels):
         assert rate == pytest.approx(qdot @ g[0], rel=1e-6, abs=1e-9 * abs(T(s)))
 
 
-def test_quadratic_velocity_is_lagrangian_for_true_coordinates(kernels):
+def test_quadratic_velocity_is_lagrangian_for_true_coordinates(kernels, regime):
     """With only translations and hinge angles moving, g = Ṁq̇ − ½∂(q̇ᵀMq̇)/∂q on those coordinates."""
     rng = np.random.default_rng(6)
     true = [0, 1, 2, 6, 7, 8, 9, 13]
-    for s in states(6):
+    for s in states(6, deformation=regime):
         qdot = np.zeros(14)
         qdot[true] = rng.normal(size=len(true))
         M = lambda st: kernels.beam_mass_matrix(st.geometry(), st.section[None])[0][0]  # noqa: E731
@@ -199,10 +223,93 @@ def test_rigid_spin_about_node_one(kernels):
     assert T[0] == pytest.approx(0.5 * rhoA * L**3 / 3 * omega**2, rel=1e-12)
 
 
-def test_gravity_load_and_potential(kernels):
+def test_gravity_load_and_potential(kernels, regime):
     gravity = np.array([[0.3, -9.81, 1.2]])
-    for s in states(9):
+    for s in states(9, deformation=regime):
         force, potential, centre = kernels.beam_gravity(s.geometry(), s.section[None], gravity)
         V = lambda st: kernels.beam_gravity(st.geometry(), st.section[None], gravity)[1][0]  # noqa: E731
         numeric = np.array([central(V, s, k) for k in range(14)])
         assert_close(-force[0], numeric, "gravity load vs −∂V/∂q")
+
+
+# ----------------------------------------------------------------- the local rotation measures
+def _local_rotations(kernels, s):
+    """R_i = T_cᵀT_e^i from the kernel's own T_c, and its Ψ."""
+    psi, Tc = kernels.beam_deformation(s.geometry(), s.section[None])
+    return psi[0], [Tc[0].T @ end.nodal_frame() for end in (s.end1, s.end2)]
+
+
+@pytest.mark.parametrize("angle", [0.0, 1e-9, 1e-4, 0.2, LOG_SWITCH_ANGLE, 0.8, 1.6, 2.6])
+def test_local_rotations_are_the_variants_measure(kernels, angle):
+    """log: Ψ = [θ_y¹, θ_z¹, θ_y², θ_z², θ_x² − θ_x¹, α] with θ_i = log(R_i) (SciPy's rotation vector);
+    sine: Ψ = [R¹₀₂, −R¹₀₁, R²₀₂, −R²₀₁, R²₂₁, α] (Eqs. 14–16)."""
+    rng = np.random.default_rng(11)
+    for s in (es.bent_state(rng, angle), es.bent_state(rng, angle, in_plane=True)):
+        psi, (R1, R2) = _local_rotations(kernels, s)
+        if MEASURE[kernels.variant] == "log":
+            t1, t2 = (Rotation.from_matrix(R).as_rotvec() for R in (R1, R2))
+            expected = [t1[1], t1[2], t2[1], t2[2], t2[0] - t1[0]]
+        else:
+            expected = [R1[0, 2], -R1[0, 1], R2[0, 2], -R2[0, 1], R2[2, 1]]
+        np.testing.assert_allclose(psi[:5], expected, rtol=0, atol=1e-13 * max(angle, 1e-3))
+        assert abs(psi[5]) < 1e-13  # turning the ends does not stretch the chord
+    # in plane, end 2 turned by `angle` about z: θ_z² is the angle itself, φ_z² its sine
+    psi, _ = _local_rotations(kernels, es.bent_state(rng, angle, in_plane=True))
+    exact = angle if MEASURE[kernels.variant] == "log" else math.sin(angle)
+    assert psi[3] == pytest.approx(exact, rel=1e-14, abs=1e-15)
+
+
+@pytest.mark.parametrize("angle", [LOG_SWITCH_ANGLE * (1 - 1e-7), LOG_SWITCH_ANGLE * (1 + 1e-7), 1e-8, 0.0])
+def test_tangent_across_the_log_switch_and_at_identity(kernels, angle):
+    """F_i = ∂U/∂q and ∂F_i/∂q by central differences on both sides of the log map's series/closed-form
+    switch, just off the identity and at R = I exactly (bending in plane, then about random axes)."""
+    rng = np.random.default_rng(12)
+    for s in (es.bent_state(rng, angle, in_plane=True), es.bent_state(rng, angle)):
+        energy = lambda st: kernels.beam_strain_energy(st.geometry(), st.section[None])[0][0]  # noqa: E731
+        force = lambda st: kernels.beam_internal_force(st.geometry(), st.section[None])[0][0]  # noqa: E731
+        F, K = kernels.beam_internal_force_D_q(s.geometry(), s.section[None])
+        assert np.all(np.isfinite(F)) and np.all(np.isfinite(K))
+        if angle > 1e-3:  # nearer the identity F_i ~ angle while the O(h²) error of the difference ~ EA h²
+            assert_close(F[0], np.array([central(energy, s, k) for k in range(14)]), "F_i vs ∂U/∂q")
+        assert_close(K[0], np.column_stack([central(force, s, k) for k in range(14)]), "∂F_i/∂q")
+
+
+def test_log_map_switch_is_continuous(kernels):
+    """Internal force and tangent just below and just above the switch agree to rounding (no jump)."""
+    below, above = (es.bent_state(np.random.default_rng(13), LOG_SWITCH_ANGLE * (1 + sign * 1e-12), in_plane=True)
+                    for sign in (-1, 1))
+    (Fb, Kb), (Fa, Ka) = (kernels.beam_internal_force_D_q(s.geometry(), s.section[None]) for s in (below, above))
+    np.testing.assert_allclose(Fa, Fb, rtol=0, atol=1e-9 * np.abs(Fb).max())
+    np.testing.assert_allclose(Ka, Kb, rtol=0, atol=1e-9 * np.abs(Kb).max())
+
+
+# ----------------------------------------------------------------- an exact result: pure bending
+def _end_moment_circle(elements, formulation):
+    """S1 (examples/benchmarks): a cantilever of L = EI = 1 under M = λ·2πEI/L, λ = 0 … 1 in 20 load steps,
+    rolls up into a closed circle.  Returns the largest |tip − exact tip| / L over λ = 1/4, 1/2, 3/4, 1, the
+    exact tip being (sin θ/θ, (1 − cos θ)/θ) L with θ = ML/EI (elastica of constant curvature)."""
+    import latdyn  # noqa: PLC0415
+    import yaml  # noqa: PLC0415
+
+    path = Path(__file__).resolve().parents[1] / "examples" / "benchmarks" / "S1_end_moment_circle.yaml"
+    raw = yaml.safe_load(path.read_text())
+    raw["beams"]["beam"]["elements"] = elements
+    raw["solve"]["formulation"] = formulation
+    result = latdyn.run(raw, out_dir=None)
+    factors = np.asarray(result.t)
+    worst = 0.0
+    for factor in (0.25, 0.5, 0.75, 1.0):
+        i = int(np.argmin(abs(factors - factor)))
+        assert abs(factors[i] - factor) < 1e-12
+        theta = 2 * math.pi * factor
+        exact = (math.sin(theta) / theta, (1 - math.cos(theta)) / theta)
+        worst = max(worst, math.hypot(result.probes["tip_x"][i] - exact[0], result.probes["tip_y"][i] - exact[1]))
+    return worst
+
+
+def test_end_moment_circle_with_eight_elements():
+    """The log-map measures put the tip on the exact circle within 1e-3 L with 8 elements (target of
+    issue 10; measured 1.9e-5, O(h⁴), benchmarks/rotation_measures.py); the paper's sines, whose end moment
+    EI·2 sin(κh/2)/h falls short of EIκ, miss by more than 1e-2 L (measured 0.126, O(h²))."""
+    assert _end_moment_circle(8, "default") < 1e-3
+    assert _end_moment_circle(8, "cr4402") > 1e-2
