@@ -59,7 +59,7 @@ class _Model(ctypes.Structure):
         ("element_position", P), ("body_position", P), ("hinge_position", P), ("load_position", P),
         ("band", I64), ("kl", I64), ("ku", I64), ("ldab", I64), ("matrix_size", I64), ("permutation", P),
         ("internal_force", P), ("internal_force_D_q", P), ("mass_matrix", P), ("quadratic_velocity", P),
-        ("quadratic_velocity_D_qdot", P), ("gravity_load", P),
+        ("quadratic_velocity_D_qdot", P), ("gravity_load", P), ("strain_energy", P), ("kinetic_energy", P),
         ("getrf", P), ("getrs", P), ("gbtrf", P), ("gbtrs", P),
     ]
 
@@ -68,7 +68,8 @@ class _Work(ctypes.Structure):
     _fields_ = [(name, P) for name in (
         "geometry", "rates", "accelerations", "gravity_rows", "force", "tangent", "mass", "quadratic",
         "quadratic_D", "gravity_force", "gravity_potential", "first_moment", "body_vector", "body_mass",
-        "body_damping", "body_stiffness", "hinge_force", "hinge_k", "hinge_c", "load_blocks", "total",
+        "body_damping", "body_stiffness", "hinge_force", "hinge_k", "hinge_c", "load_blocks", "strain",
+        "section_forces", "kinetic", "total",
         "matrix", "pivots", "rhs")]
 
 
@@ -115,6 +116,9 @@ def _library() -> ctypes.CDLL:
                     _build(compiler, source, target, "newton_step")
                     COMPILE_SECONDS["total"] += time.perf_counter() - started
         library = ctypes.CDLL(str(target))
+        library.latdyn_energies.restype = None
+        library.latdyn_energies.argtypes = [ctypes.POINTER(_Model), ctypes.POINTER(_Work),
+                                            ctypes.POINTER(_Configuration), P]
         library.latdyn_newton_step.restype = I64
         library.latdyn_newton_step.argtypes = [ctypes.POINTER(_Model), ctypes.POINTER(_Work),
                                                ctypes.POINTER(_Control), ctypes.POINTER(_Configuration),
@@ -264,6 +268,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         self._library = _library()
         self._last_trial = self._mass_for = None
         self._empty = np.zeros(1)
+        self._energy_out = np.zeros(3)
         self._made = None  # (the last state made, its C view, the C view of its base)
 
     # -- the model as arrays, rebuilt when the numbering changes (a latch) --------------------
@@ -380,6 +385,8 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
             quadratic_velocity=_kernel_address(kernels, "beam_quadratic_velocity"),
             quadratic_velocity_D_qdot=_kernel_address(kernels, "beam_quadratic_velocity_D_qdot"),
             gravity_load=_kernel_address(kernels, "beam_gravity"),
+            strain_energy=_kernel_address(kernels, "beam_strain_energy"),
+            kinetic_energy=_kernel_address(kernels, "beam_kinetic_energy"),
             getrf=_lapack("dgetrf"), getrs=_lapack("dgetrs"), gbtrf=_lapack("dgbtrf"), gbtrs=_lapack("dgbtrs"),
         )
         work = {
@@ -388,7 +395,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
             "quadratic_D": (E, 14, 14), "gravity_force": (E, 14), "gravity_potential": (E,),
             "first_moment": (E, 3), "body_vector": (B, 6), "body_mass": (B, 6, 6), "body_damping": (B, 6, 6),
             "body_stiffness": (B, 6, 6), "hinge_force": (H,), "hinge_k": (H,), "hinge_c": (H,),
-            "load_blocks": (L, 9), "total": (m.n_total + 1,), "matrix": (size,), "rhs": (n,)}
+            "load_blocks": (L, 9), "strain": (E,), "section_forces": (E, 4), "kinetic": (E,), "total": (m.n_total + 1,), "matrix": (size,), "rhs": (n,)}
         self._buffers = {name: np.zeros(shape) for name, shape in work.items()}
         self._buffers["gravity_rows"][:] = a.gravity
         self._buffers["pivots"] = np.zeros(max(n, 1), np.int32)
@@ -473,6 +480,14 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         else:
             self.a_candidate = self._a_new[:n].copy()
         return trial_state, stats
+
+    def energies(self, state: State) -> dict[str, float]:
+        """:meth:`latdyn.assembly.Assembler.energies` in C (the time loop asks at every recorded row)."""
+        self._setup()
+        out = self._energy_out
+        self._library.latdyn_energies(self._model_ref, self._work_ref, ctypes.byref(self._configuration_of(state)),
+                                      out.ctypes.data)
+        return {"kinetic": float(out[0]), "strain": float(out[1]), "potential": float(out[2])}
 
     def error_estimate(self, h: float) -> float:
         """As :meth:`GeneralizedAlpha.error_estimate`, with the mass matrix of the step's end

@@ -399,6 +399,8 @@ class TransientProgress:
     newton_iterations: int = 0
     rejected_steps: int = 0  # all rejected attempts: Newton failures and error-control rejections
     newton_cuts: int = 0  # steps halved because Newton did not converge
+    factorizations: int = 0  # iteration matrices factorized (modified Newton keeps one over steps)
+    solver_s: float = 0.0  # wall time inside the integrator's steps
     cut_times: list = field(default_factory=list)  # the first times at which a step was cut
 
 
@@ -459,6 +461,7 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
     else:
         integrator = _implicit_integrator(prepared, AlphaParameters.for_method(solve.method, solve.rho_inf), tol,
                                           length, writer.summary)
+    energies_of = getattr(integrator, "energies", assembler.energies)  # the compiled step has its own
     t_end, dt = float(solve.t_end), float(solve.dt)
     n_grid = max(1, int(np.ceil(t_end / dt - 1e-9)))
     dt_min = solve.dt_min if solve.dt_min is not None else dt * 1e-6
@@ -468,7 +471,7 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
         state = prepared.state
         integrator.start(state)
         ev0 = assembler.evaluate(state, matrices=False)
-        energy0 = assembler.energies(state)
+        energy0 = energies_of(state)
         run = TransientProgress(state=state, algorithmic_acceleration=integrator.a, locked=model.locked.copy(),
                                 h=dt, power=ev0.external_power + _drive_power(model, state, ev0.reaction),
                                 total0=sum(energy0.values()), potential0=energy0["potential"])
@@ -511,10 +514,8 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
             newton_cuts=run.newton_cuts, cut_times=run.cut_times,
             energy_balance_error=run.balance_error / run.energy_scale if run.energy_scale > 0 else 0.0,
             newton_iterations_per_step=run.newton_iterations / max(run.steps, 1),
-            newton_tolerance=tol, method=solve.method, solver_s=solver_seconds,
-            factorizations=getattr(integrator, "factorizations", run.newton_iterations))
+            newton_tolerance=tol, method=solve.method, solver_s=run.solver_s, factorizations=run.factorizations)
 
-    solver_seconds = 0.0  # wall time inside the integrator's steps (summary ``solver_s``)
     if resume_from is None:
         record(state, energy0)
     last = accepted()
@@ -529,8 +530,9 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
                 h = target - state.t
             started = time.perf_counter()
             new, stats = integrator.step(state, h, t_new=target if lands else None)
-            solver_seconds += time.perf_counter() - started
+            run.solver_s += time.perf_counter() - started
             run.newton_iterations += stats.iterations
+            run.factorizations += stats.iterations if stats.factorizations is None else stats.factorizations
             if stats.converged and solve.adaptive:
                 error = integrator.error_estimate(h) / (solve.error_tol * length)
                 if error > 1.0:
@@ -552,7 +554,9 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
                     break
                 started = time.perf_counter()
                 retry, retry_stats = integrator.step(state, h * max(fraction, 1e-6))
-                solver_seconds += time.perf_counter() - started
+                run.solver_s += time.perf_counter() - started
+                run.factorizations += (retry_stats.iterations if retry_stats.factorizations is None
+                                       else retry_stats.factorizations)
                 if not retry_stats.converged:
                     break
                 run.newton_iterations += retry_stats.iterations
@@ -581,7 +585,7 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
             finished = run.grid_index >= n_grid
             due = every is None or state.t >= run.output_index * every - 1e-9 * dt
             if due or finished:  # every output time, and t_end always
-                record(state, assembler.energies(state))
+                record(state, energies_of(state))
                 if every:
                     run.output_index = int(np.floor(state.t / every + 1e-9 * dt / every)) + 1
             summarize()

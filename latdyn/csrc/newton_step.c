@@ -73,6 +73,8 @@ typedef struct {
     kernel_3_1 quadratic_velocity;
     kernel_3_1 quadratic_velocity_D_qdot;
     kernel_gravity gravity_load;
+    kernel_2_2 strain_energy;
+    kernel_3_1 kinetic_energy;
     lapack_getrf getrf;
     lapack_getrs getrs;
     lapack_gbtrf gbtrf;
@@ -87,6 +89,7 @@ typedef struct {
     double *body_vector, *body_mass, *body_damping, *body_stiffness; /* (b,6) (b,6,6)×3 */
     double *hinge_force, *hinge_k, *hinge_c;                   /* (h) */
     double *load_blocks;                                       /* (l,9) */
+    double *strain, *section_forces, *kinetic;                 /* (e) (e,4) (e) */
     double *total;                                             /* n_total + 1 */
     double *matrix;                                            /* matrix_size */
     int *pivots;                                               /* n_dofs */
@@ -599,4 +602,46 @@ int64_t latdyn_newton_step(const Model *m, Work *w, StepControl *s, const Config
         previous = size;
     }
     return 0;
+}
+
+/* Kinetic, strain and gravity potential energy of the whole model at c (Assembler.energies):
+ * out = [kinetic, strain, potential]. Hinge springs are constant here (engine.unsupported). */
+void latdyn_energies(const Model *m, Work *w, const Configuration *c, double *out)
+{
+    const int64_t E = m->n_elements;
+    double kinetic = 0.0, strain = 0.0, potential = 0.0;
+    element_inputs(m, c, w);
+    m->strain_energy(E, w->geometry, m->element_sections, w->strain, w->section_forces);
+    m->kinetic_energy(E, w->geometry, w->rates, m->element_sections, w->kinetic);
+    if (m->has_gravity)
+        m->gravity_load(E, w->geometry, m->element_sections, w->gravity_rows, w->gravity_force,
+                        w->gravity_potential, w->first_moment);
+    for (int64_t e = 0; e < E; ++e) {
+        kinetic += w->kinetic[e];
+        strain += w->strain[e];
+        if (m->has_gravity) potential += w->gravity_potential[e];
+    }
+    for (int64_t j = 0; j < m->n_hinges; ++j) {
+        double s = c->theta[j] - m->hinge_rest_angle[j];
+        strain += 0.5 * m->hinge_stiffness[j] * s * s;
+    }
+    for (int64_t b = 0; b < m->n_bodies; ++b) {
+        int64_t i = m->body_nodes[b];
+        const double *T = c->T + 9 * i, *om = c->w + 3 * i;
+        double mass = m->body_mass[b], rc[3], wr[3], vc[3], TI[9], Tt[9], J[9], Jw[3];
+        matvec3(T, m->body_com + 3 * b, rc);
+        cross(om, rc, wr);
+        for (int p = 0; p < 3; ++p) vc[p] = c->v[3 * i + p] + wr[p];
+        for (int p = 0; p < 3; ++p)
+            for (int q = 0; q < 3; ++q) Tt[3 * p + q] = T[3 * q + p];
+        matmul3(T, m->body_inertia + 9 * b, TI);
+        matmul3(TI, Tt, J);
+        matvec3(J, om, Jw);
+        kinetic += 0.5 * mass * (vc[0] * vc[0] + vc[1] * vc[1] + vc[2] * vc[2])
+                 + 0.5 * (om[0] * Jw[0] + om[1] * Jw[1] + om[2] * Jw[2]);
+        for (int p = 0; p < 3; ++p) potential -= mass * (c->x[3 * i + p] + rc[p]) * m->gravity[p];
+    }
+    out[0] = kinetic;
+    out[1] = strain;
+    out[2] = potential;
 }
