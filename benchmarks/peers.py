@@ -89,8 +89,9 @@ JSON schema (``peers.json``)
           "load_average": float,                  # 1-min, mean over the row's timed runs
           "note": str}],
       "matched": [{"problem", "tolerance", "latdyn_setting", "latdyn_error", "latdyn_s",
-                   "exudyn_setting", "exudyn_error", "exudyn_s",
+                   "exudyn_engine", "exudyn_setting", "exudyn_error", "exudyn_s",
                    "ratio": latdyn_s / exudyn_s}]    # fastest ok row of each code within tolerance
+                                                     # (t_end 10 s), one entry per Exudyn element
     }
 
 ``peers.csv`` holds the rows, one line each, with the scalar columns above.
@@ -608,6 +609,26 @@ def describe(code, cfg, res):
     return engine, method, newton
 
 
+def matched_pairs(rows):
+    """Per problem and Exudyn element: the fastest ok row of each code within the tolerance
+    (t_end 10 s rows) and the ratio of their solver times."""
+    matched = []
+    for problem, tol in (("spinup", SPINUP_TOL), ("cantilever", CANTILEVER_TOL)):
+        ok = [r for r in rows if r["problem"] == problem and r["status"] == "ok" and r["error"] is not None
+              and r["error"] <= tol and r["t_end"] == 10.0 and r["solver_s"]]
+        lat = [r for r in ok if r["code"] == "latdyn"]
+        if not lat:
+            continue
+        L = min(lat, key=lambda r: r["solver_s"])
+        for engine in dict.fromkeys(r["engine"] for r in ok if r["code"] == "exudyn"):
+            E = min((r for r in ok if r["code"] == "exudyn" and r["engine"] == engine), key=lambda r: r["solver_s"])
+            matched.append({"problem": problem, "tolerance": tol, "latdyn_setting": L["setting"],
+                            "latdyn_error": L["error"], "latdyn_s": L["solver_s"], "exudyn_engine": engine,
+                            "exudyn_setting": E["setting"], "exudyn_error": E["error"], "exudyn_s": E["solver_s"],
+                            "ratio": L["solver_s"] / E["solver_s"]})
+    return matched
+
+
 def process_time(problem, code, cfg):
     """One fresh interpreter: import, build, solve once; wall time from outside.
 
@@ -713,22 +734,10 @@ def main(argv=None):
               f"load {row['load_average']:.2f}", flush=True)
     info["load_average_end"] = list(os.getloadavg())
     info["warm_up_s"] = {f"{p}/{c}" + (f"/{e}" if e else ""): round(v, 3) for (p, c, e), v in warm.items()}
-    matched = []
-    for problem, tol in (("spinup", SPINUP_TOL), ("cantilever", CANTILEVER_TOL)):
-        best = {}
-        for code in ("latdyn", "exudyn"):
-            cand = [r for r in rows if r["problem"] == problem and r["code"] == code and r["status"] == "ok"
-                    and r["error"] is not None and r["error"] <= tol and r["t_end"] == 10.0]
-            if cand:
-                best[code] = min(cand, key=lambda r: r["solver_s"])
-        if len(best) == 2:
-            L, E = best["latdyn"], best["exudyn"]
-            matched.append({"problem": problem, "tolerance": tol, "latdyn_setting": L["setting"],
-                            "latdyn_error": L["error"], "latdyn_s": L["solver_s"],
-                            "exudyn_setting": E["setting"], "exudyn_error": E["error"], "exudyn_s": E["solver_s"],
-                            "ratio": L["solver_s"] / E["solver_s"]})
-            print(f"matched {problem}: latdyn {L['setting']} {L['solver_s']:.3f} s vs Exudyn {E['setting']} "
-                  f"{E['solver_s']:.3f} s: ratio {L['solver_s'] / E['solver_s']:.2f}")
+    matched = matched_pairs(rows)
+    for x in matched:
+        print(f"matched {x['problem']}: latdyn {x['latdyn_setting']} {x['latdyn_s']:.3f} s vs Exudyn "
+              f"{x['exudyn_setting']} {x['exudyn_s']:.3f} s: ratio {x['ratio']:.2f}")
     doc = {"schema": "latdyn-peers/1",
            "created": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
            "mode": "quick" if args.quick else "full", "repeats": repeats, "machine": info, "notes": notes,
@@ -789,13 +798,13 @@ def markdown(doc):
                        f"{_fmt(r['steps'], 'd')} | {_fmt(r['newton_iterations'], 'd')} | "
                        f"{_fmt(r['jacobian_updates'], 'd')} | {r['load_average']:.2f} |")
     out.append("")
-    out.append("| problem | tolerance | latdyn setting | error | solver s | Exudyn setting | error | solver s "
-               "| latdyn / Exudyn |")
-    out.append("|---|---|---|---|---|---|---|---|---|")
+    out.append("| problem | tolerance | latdyn setting | error | solver s | Exudyn element | setting | error "
+               "| solver s | latdyn / Exudyn |")
+    out.append("|---|---|---|---|---|---|---|---|---|---|")
     for x in doc["matched"]:
         out.append(f"| {x['problem']} | {x['tolerance']:g} | {x['latdyn_setting']} | {x['latdyn_error']:.2e} | "
-                   f"{x['latdyn_s']:.3f} | {x['exudyn_setting']} | {x['exudyn_error']:.2e} | {x['exudyn_s']:.3f} | "
-                   f"**{x['ratio']:.2f}** |")
+                   f"{x['latdyn_s']:.3f} | {x.get('exudyn_engine', '')} | {x['exudyn_setting']} | "
+                   f"{x['exudyn_error']:.2e} | {x['exudyn_s']:.3f} | **{x['ratio']:.2f}** |")
     return "\n".join(out)
 
 
