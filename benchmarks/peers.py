@@ -35,13 +35,15 @@ Every setting is run ``repeats`` times (once when its first run takes more than
 ``LONG_RUN_S`` or fails) after one untimed warm-up run of each code and problem (C kernels
 compiled and cached, imports done); the repeats are interleaved (pass 1 runs every
 setting, then pass 2, ...), and ``solver_s`` is the median.
-latdyn: ``summary.json`` ``wall_time_s`` (scene preparation + time loop + probe
-recording; ``compile_s`` subtracted when the runtime reports it), from ``latdyn.run`` with
-no results folder.  Exudyn: ``MainSolverImplicitSecondOrder.SolveSystem`` (solver
-initialisation + time loop + sensors), the model built and assembled before.  ``run_s`` is
-the median of the whole call in Python for both (latdyn.run; Exudyn build + Assemble +
-solve).  ``process_s`` (full mode, headline settings): one fresh ``python`` process that
-imports the code, builds and solves one setting, timed from outside.  The 1-minute load
+latdyn: ``summary.json`` ``solver_s`` of ``latdyn.run`` with no results folder (the wall
+time inside the integrator's steps: no scene preparation, no probe recording), or, from a
+runtime that does not report it, ``wall_time_s`` less ``compile_s``.  Exudyn:
+``MainSolverImplicitSecondOrder.SolveSystem`` (solver initialisation + time loop + sensors),
+the model built and assembled before.  ``run_s`` is the median of the whole call in Python
+for both (``latdyn.run``: scene loading and preparation, steps, probes; Exudyn: building,
+Assemble, solve) — the like-for-like "scene to results in memory" time.  ``process_s``
+(full mode, headline settings): one fresh ``python`` process that imports the code, builds
+and solves one setting, timed from outside.  The 1-minute load
 average is recorded with every row: the machine is shared, read the times with it.
 
 JSON schema (``peers.json``)
@@ -90,8 +92,9 @@ JSON schema (``peers.json``)
           "note": str}],
       "matched": [{"problem", "tolerance", "latdyn_setting", "latdyn_error", "latdyn_s",
                    "exudyn_engine", "exudyn_setting", "exudyn_error", "exudyn_s",
-                   "ratio": latdyn_s / exudyn_s}]    # fastest ok row of each code within tolerance
-                                                     # (t_end 10 s), one entry per Exudyn element
+                   "ratio": latdyn_s / exudyn_s,     # fastest ok row (by solver_s) of each code within
+                   "latdyn_run_s", "exudyn_run_s",   # tolerance (t_end 10 s), one entry per Exudyn
+                   "ratio_run": latdyn_run_s / exudyn_run_s}]   # element; ratio_run: same rows, run_s
     }
 
 ``peers.csv`` holds the rows, one line each, with the scalar columns above.
@@ -625,7 +628,9 @@ def matched_pairs(rows):
             matched.append({"problem": problem, "tolerance": tol, "latdyn_setting": L["setting"],
                             "latdyn_error": L["error"], "latdyn_s": L["solver_s"], "exudyn_engine": engine,
                             "exudyn_setting": E["setting"], "exudyn_error": E["error"], "exudyn_s": E["solver_s"],
-                            "ratio": L["solver_s"] / E["solver_s"]})
+                            "ratio": L["solver_s"] / E["solver_s"],
+                            "latdyn_run_s": L["run_s"], "exudyn_run_s": E["run_s"],
+                            "ratio_run": L["run_s"] / E["run_s"] if L["run_s"] and E["run_s"] else None})
     return matched
 
 
@@ -798,13 +803,15 @@ def markdown(doc):
                        f"{_fmt(r['steps'], 'd')} | {_fmt(r['newton_iterations'], 'd')} | "
                        f"{_fmt(r['jacobian_updates'], 'd')} | {r['load_average']:.2f} |")
     out.append("")
-    out.append("| problem | tolerance | latdyn setting | error | solver s | Exudyn element | setting | error "
-               "| solver s | latdyn / Exudyn |")
-    out.append("|---|---|---|---|---|---|---|---|---|---|")
+    out.append("| problem | tolerance | latdyn setting | error | solver s | run s | Exudyn element | setting "
+               "| error | solver s | run s | latdyn / Exudyn, solver | latdyn / Exudyn, run |")
+    out.append("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for x in doc["matched"]:
         out.append(f"| {x['problem']} | {x['tolerance']:g} | {x['latdyn_setting']} | {x['latdyn_error']:.2e} | "
-                   f"{x['latdyn_s']:.3f} | {x.get('exudyn_engine', '')} | {x['exudyn_setting']} | "
-                   f"{x['exudyn_error']:.2e} | {x['exudyn_s']:.3f} | **{x['ratio']:.2f}** |")
+                   f"{x['latdyn_s']:.3f} | {_fmt(x.get('latdyn_run_s'), '.3f')} | {x.get('exudyn_engine', '')} | "
+                   f"{x['exudyn_setting']} | {x['exudyn_error']:.2e} | {x['exudyn_s']:.3f} | "
+                   f"{_fmt(x.get('exudyn_run_s'), '.3f')} | **{x['ratio']:.2f}** | "
+                   f"**{_fmt(x.get('ratio_run'), '.2f')}** |")
     return "\n".join(out)
 
 
