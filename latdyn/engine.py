@@ -274,7 +274,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
     # -- the model as arrays, rebuilt when the numbering changes (a latch) --------------------
     def _setup(self) -> None:
         model = self.assembler.model
-        key = (model.n_dofs, tuple(np.flatnonzero(model.locked)))
+        key = (model.n_dofs, model.locked.tobytes())
         if key == self._key:
             return
         self._key = key
@@ -429,16 +429,14 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
             self._offsets[name] = offset
             offset += max(int(np.prod(shapes[name])), 1)
         self._state_size = offset
+        self._slices = [(self._offsets[name], self._offsets[name] + int(np.prod(shapes[name])), shapes[name])
+                        for name in self._FIELDS]
 
     def _new_state(self, t: float) -> tuple[State, _Configuration]:
         buffer = np.empty(self._state_size)
-        base, views = buffer.ctypes.data, {}
-        for name in self._FIELDS:
-            size = int(np.prod(self._shapes[name]))
-            start = self._offsets[name]
-            views[name] = buffer[start:start + size].reshape(self._shapes[name])
-        state = State(t, **views)
-        return state, _Configuration(*(base + 8 * self._offsets[name] for name in self._FIELDS))
+        base = buffer.ctypes.data
+        state = State(t, *(buffer[start:stop].reshape(shape) for start, stop, shape in self._slices))
+        return state, _Configuration(*(base + 8 * start for start, _, _ in self._slices))
 
     def _configuration_of(self, state: State) -> _Configuration:
         """The C view of a state: the last state this step made is viewed in place; any other
