@@ -191,7 +191,7 @@ def _peer_points(spec, path=None) -> tuple[list, str | None]:
     missing = [p for p in spec.peers if p not in found]
     if missing:
         note += f"; no ok rows of {', '.join(missing)}"
-    return points, textwrap.fill(note, 70)
+    return points, note
 
 
 def _spread(values, gap):
@@ -301,7 +301,8 @@ def work_precision(table, spec, path) -> list[dict]:
     ax.legend(fontsize=7.5, loc="upper left", bbox_to_anchor=(1.01, 1.0), framealpha=0.9)
     fig.subplots_adjust(left=0.08, right=0.64, bottom=0.1, top=0.93)
     if notes:
-        fig.text(0.655, 0.1, "\n".join(notes), va="bottom", ha="left", fontsize=7.5, wrap=True)
+        notes = [textwrap.fill(n, 64, subsequent_indent="  ") if "\n" not in n else n for n in notes]
+        fig.text(0.655, 0.1, "\n".join(notes), va="bottom", ha="left", fontsize=7.5)
     fig.savefig(path, dpi=130)
     plt.close(fig)
     return orders
