@@ -67,6 +67,8 @@ run of the same case cut to two steps. A case that fails is run once.
 whole scene after the overrides (so a changed scene file never reuses stale cases); its
 ``case.json``, written last and atomically, makes it finished. A rerun of the study
 reuses every finished case with at least ``repeats`` timings and runs only the rest.
+The key is the scene, not the code: after changing latdyn itself, study into a new
+folder (or delete ``cases/``) to rerun everything.
 """
 from __future__ import annotations
 
