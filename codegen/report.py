@@ -244,8 +244,17 @@ def check_log_measure() -> Check:
              "with the sines, (φ_z² − φ_z¹)/(2a) − 1 = sin a/a − 1 = "
              + ", ".join(f"{e[2]:.2e}" for e in errs)
              + " ≈ −a²/6 = −κ²h²/24: the moment falls short by O(h²), the element's O(h²) error in pure bending")
+    # (g) the range of T_c (Eqs. 20–21, exact form): ‖t_e¹(2) − (t_c1·t_e¹(2)) t_c1‖ for node 1 turned by b about z
+    b = sp.Symbol("b", real=True)
+    a2 = sp.Matrix([-sp.sin(b), sp.cos(b), 0])  # t_e¹(2) of Rz(b), chord along x
+    e1 = sp.Matrix([1, 0, 0])
+    norm2 = sp.simplify((a2 - e1 * e1.dot(a2)).dot(a2 - e1 * e1.dot(a2)))
+    c.record("frame_range", _is_zero(norm2 - sp.cos(b) ** 2),
+             f"‖t_e¹(2) − (t_c1·t_e¹(2)) t_c1‖² = {_fmt(norm2)} for node 1 turned by b about t_c3: T_c (and so Ψ in "
+             "either measure) is singular at b = ±90°; the log map itself is exact up to 180° (f = θ/sin θ)")
     _verdict(c, {"rodrigues": True, "series": True, "branch_free_accuracy": True, "sines_differ_second_order": True,
-                 "twist_node1": True, "pure_bending_exact": True, "pure_bending_sine_error": True}, CHOICE)
+                 "twist_node1": True, "pure_bending_exact": True, "pure_bending_sine_error": True,
+                 "frame_range": True}, CHOICE)
     c.corrected = ("variant `default`: θ_i = log(R_i), R_i = T_cᵀT_e^i (Eq. 6), computed as f(x) vee(R_i − R_iᵀ)/2 with "
                    "x = (3 − tr R_i)/2 and f = θ/sin θ evaluated branch-free (formulation.log_scale); "
                    "Ψ = [θ_y¹, θ_z¹, θ_y², θ_z², θ_x² − θ_x¹, α_x²]; energy, inertia and every kernel from the same "
@@ -1147,7 +1156,8 @@ CONVENTIONS = """\
   `no_stiffening`: Ψ is *defined* by Eqs. 13–16 (dot products of frame columns, i.e. sines), which are exact
   functions of the configuration. Variant `default`: the local rotations are the rotation vectors
   θ_i = log(T_cᵀT_e^i) (item 14–16 (log)), so a rotation of the element end against its chord is measured
-  exactly at any size below 180°. In both, the first-order forms (Eq. 7, Eqs. 19–21) are replaced by an exactly
+  exactly at any size below 180°, within the range of T_c itself: t_c2 follows node 1's t_e(2), so T_c is
+  singular when node 1 has turned by 90° about t_c3 (item 14–16 (log), frame range). In both, the first-order forms (Eq. 7, Eqs. 19–21) are replaced by an exactly
   orthonormal T_c that agrees to first order (Eqs. 19–21 item) so that rigid-body motions leave Ψ and F_i exactly
   invariant. Where this report checks the paper's Eqs. 14–16 and their consequences, it is about `cr4402`.
 * **Shape functions** are dimensionless (a₁ = ξ − 2ξ² + ξ³, a₂ = −ξ² + ξ³), y, z physical, ξ = x_c ∈ [0, 1].
