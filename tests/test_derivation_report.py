@@ -106,7 +106,8 @@ def test_log_measure(checks):
     c = checks["14–16 (log)"]
     assert c.verdict == report.CHOICE, (c.verdict, c.evidence)
     for name in ("rodrigues", "series", "branch_free_accuracy", "sines_differ_second_order", "twist_node1",
-                 "pure_bending_exact", "pure_bending_sine_error", "frame_range"):
+                 "pure_bending_exact", "pure_bending_sine_error", "frame_range",
+                 "node1_closed_form"):
         assert c.outcomes[name], (name, c.evidence)
 
 
