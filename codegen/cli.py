@@ -7,8 +7,8 @@
     latdyn-codegen --out DIR            write to (or, with --check, compare with) DIR
 
 Exit status: 0 done / current, 1 stale (``--check``), 2 bad usage or a kernel that
-cannot be emitted.  Each run prints the time of every stage (see codegen/emit.py) and
-the op count of every kernel.
+cannot be emitted.  Variants are generated in parallel processes (one per core).  Each
+run prints the time of every stage (see codegen/emit.py) and the op count of every kernel.
 """
 from __future__ import annotations
 
@@ -16,6 +16,7 @@ import argparse
 import importlib
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 from . import emit
@@ -70,6 +71,7 @@ def main(argv: list[str] | None = None) -> int:
     log = (lambda message: None) if args.quiet else print
 
     timer = emit.StageTimer()
+    started = time.perf_counter()
     try:
         files, results = emit.generate(derivation.build_kernels, variants, selected, timer, log)
     except emit.EmitError as error:
@@ -86,7 +88,7 @@ def main(argv: list[str] | None = None) -> int:
             written = emit.write_files(files, out_dir, remove_stale=complete)
         status = 0
         print(f"{PROG}: {len(files)} files in {_shown(out_dir)}, {len(written)} changed")
-    _print_times(timer, results)
+    _print_times(timer, results, time.perf_counter() - started)
     return status
 
 
@@ -97,10 +99,12 @@ def _shown(path: Path) -> str:
         return str(path)
 
 
-def _print_times(timer: emit.StageTimer, results: list[emit.VariantResult]) -> None:
+def _print_times(timer: emit.StageTimer, results: list[emit.VariantResult], wall: float) -> None:
+    """Stage times summed over the variants (generated in parallel processes), and the wall time."""
     total_ops = sum(k.op_count for result in results for k in result.kernels)
     stages = "  ".join(f"{stage} {timer.seconds[stage]:.2f} s" for stage in emit.STAGES)
-    print(f"{PROG}: {stages}  (total {sum(timer.seconds.values()):.2f} s, {total_ops} ops)")
+    print(f"{PROG}: {stages}  (total {sum(timer.seconds.values()):.2f} s over the variants, "
+          f"wall {wall:.2f} s, {total_ops} ops)")
 
 
 def _compare(fresh: Path, committed: Path, names: list[str], complete: bool) -> int:

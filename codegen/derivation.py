@@ -365,17 +365,6 @@ def build_kernels(variant: str = "default") -> list[KernelSpec]:
     add("beam_kinetic_energy", "Kinetic energy ½ q̇ᵀ M q̇", "Eqs. 54-56", with_velocity,
         [Output("kinetic_energy", (), [kinetic])], b)
 
-    # --- everything a Newton iteration needs, sharing one CSE ---
-    b = Builder(list(kin.auxiliary))
-    p = inertia(b, with_velocity=True)
-    _, force, tangent = elastic(b, with_tangent=True, shared=p)
-    add("beam_dynamics", "One Newton iteration's element terms: F_i, ∂F_i/∂q, M, g, ∂g/∂q̇",
-        "Eqs. 29-57, 61-62", with_velocity,
-        [Output("internal_force", (N,), force), Output("internal_force_D_q", (N, N), _flat(tangent)),
-         Output("mass_matrix", (N, N), _flat(mass_matrix(b, p))),
-         Output("quadratic_velocity", (N,), quadratic_velocity(b, p)),
-         Output("quadratic_velocity_D_qdot", (N, N), _flat(quadratic_velocity_D_qdot(b, p)))], b)
-
     # --- gravity ---
     b = Builder(list(kin.auxiliary))
     p = inertia(b, with_velocity=False)

@@ -92,25 +92,19 @@ def load_kernels(backend: str = "auto", variant: str = "default") -> KernelSet:
     key = (backend, variant)
     if key not in _LOADED:
         module = importlib.import_module(f"{PACKAGE}.beam_{variant}")
+        info = module.KERNELS  # the generated kernels
         libraries = None
         if backend == "numpy":
-            functions = {
-                name: _checked(name, meta, getattr(module, name))
-                for name, meta in module.KERNELS.items()
-            }
+            functions = {name: _checked(name, meta, getattr(module, name)) for name, meta in info.items()}
         else:
-            direct = [name for name in module.KERNELS if name not in COMPOSED]
-            libraries = _compile(variant, direct,
-                                 {name: int(module.KERNELS[name].get("op_count", 0)) for name in direct})
-            functions = {name: _checked(name, module.KERNELS[name],
-                                        _c_function(libraries[name], name, module.KERNELS[name]))
-                         for name in direct}
-            for name, parts in COMPOSED.items():
-                if name in module.KERNELS:
-                    functions[name] = _checked(name, module.KERNELS[name],
-                                               _composed(name, parts, module.KERNELS, functions))
-        _LOADED[key] = KernelSet(backend, variant, module.KERNELS, functions,
-                                 libraries if backend == "c" else None)
+            libraries = _compile(variant, list(info), {name: int(meta.get("op_count", 0))
+                                                       for name, meta in info.items()})
+            functions = {name: _checked(name, meta, _c_function(libraries[name], name, meta))
+                         for name, meta in info.items()}
+        for name, parts in COMPOSED.items():  # not generated: no entry in ``info``
+            meta = _composed_meta(name, parts, info)
+            functions[name] = _checked(name, meta, _composed(meta, parts, info, functions))
+        _LOADED[key] = KernelSet(backend, variant, info, functions, libraries)
     return _LOADED[key]
 
 
@@ -163,14 +157,28 @@ def _c_function(library: ctypes.CDLL, name: str, meta: dict) -> Callable:
     return call
 
 
-def _composed(name: str, parts, kernels: dict, functions: dict) -> Callable:
-    """A kernel whose outputs are those of ``parts`` (by output name), called in turn."""
-    inputs = [arg for arg, _ in kernels[name]["inputs"]]
+def _composed_meta(name: str, parts, kernels: dict) -> dict:
+    """Metadata of a composed kernel: the inputs of its widest part (then any other part's),
+    and the parts' outputs in turn."""
+    widest = max(parts, key=lambda part: len(kernels[part]["inputs"]))  # its argument order
+    inputs, outputs = list(kernels[widest]["inputs"]), []
+    for part in parts:
+        inputs += [arg for arg in kernels[part]["inputs"] if arg not in inputs]
+        outputs += list(kernels[part]["outputs"])
+    return {"inputs": inputs, "outputs": outputs,
+            "doc": "One Newton iteration's element terms: " + ", ".join(out for out, _ in outputs),
+            "equations": ", ".join(kernels[part]["equations"] for part in parts),
+            "op_count": sum(int(kernels[part].get("op_count", 0)) for part in parts)}
+
+
+def _composed(meta: dict, parts, kernels: dict, functions: dict) -> Callable:
+    """A kernel (metadata ``meta``) whose outputs are those of ``parts`` (by output name), called in turn."""
+    inputs = [arg for arg, _ in meta["inputs"]]
     plan = []
     for part in parts:
         args = [inputs.index(arg) for arg, _ in kernels[part]["inputs"]]
         plan.append((functions[part], args, [out for out, _ in kernels[part]["outputs"]]))
-    order = [out for out, _ in kernels[name]["outputs"]]
+    order = [out for out, _ in meta["outputs"]]
 
     def call(*arrays):
         outputs = {}
@@ -183,15 +191,14 @@ def _composed(name: str, parts, kernels: dict, functions: dict) -> Callable:
 
 # --------------------------------------------------------------------------- compilation
 #
-# GCC's register allocator is superlinear in the size of one function: the combined
-# kernel beam_dynamics (40 000 operations, 5 800 temporaries after CSE) takes 64 s at -O2
-# and as long at -O1 (LRA hard-register assignment is 60 % of it), while its four parts
-# together take 30 s and the longest of them 15 s. So every kernel is its own translation
-# unit and shared object, compiled in parallel on first use, and the C backend's
-# beam_dynamics is the composition of its parts (14 µs per element against 11 µs for the
-# combined function, measured on the 2-core development machine; the Newton matrix is
-# rebuilt rarely, see latdyn/engine.py). The combined kernel stays in generated/ and in the
-# NumPy backend.
+# GCC's register allocator is superlinear in the size of one function: a combined kernel
+# of everything a Newton iteration needs (40 000 operations, 5 800 temporaries after CSE)
+# took 64 s at -O2 and as long at -O1 (LRA hard-register assignment is 60 % of it), while
+# its four parts together take 30 s and the longest of them 15 s. So every kernel is its
+# own translation unit and shared object, compiled in parallel on first use, and
+# ``beam_dynamics`` is the composition of its parts (COMPOSED), on both backends: the code
+# generator no longer emits it (14 µs per element against 11 µs for the combined function
+# in C, measured on the 2-core development machine).
 
 #: The optimisation level of each unit, by its operation count after CSE. A straight-line
 #: kernel of thousands of operations runs about as fast unoptimised (its temporaries live
