@@ -35,7 +35,7 @@ import numpy as np
 
 from .assembly import State, free_acceleration, free_velocity
 from .integrators import GeneralizedAlpha, StepStats
-from .linalg import BAND_LIMIT, DENSE_LIMIT
+from .linalg import BAND_LIMIT, DENSE_LIMIT, rcm_band
 from .model import PRESCRIBED
 
 I64 = ctypes.c_int64
@@ -68,7 +68,7 @@ class _Work(ctypes.Structure):
     _fields_ = [(name, P) for name in (
         "geometry", "rates", "accelerations", "gravity_rows", "force", "tangent", "mass", "quadratic",
         "quadratic_D", "gravity_force", "gravity_potential", "first_moment", "body_vector", "body_mass",
-        "body_damping", "body_stiffness", "hinge_force", "hinge_k", "hinge_c", "load_blocks", "strain",
+        "body_damping", "body_stiffness", "load_blocks", "strain",
         "section_forces", "kinetic", "total",
         "matrix", "pivots", "rhs")]
 
@@ -181,78 +181,36 @@ def unsupported(assembler) -> str | None:
 
 
 def _band_plan(assembler):
-    """RCM order of the iteration matrix's pattern: (bandwidth, new index, lower, upper)."""
-    from scipy.sparse import csgraph, csr_matrix
-
-    n = assembler.model.n_dofs
-    rows, cols = assembler._csr_rows, assembler._csr_cols
-    pattern = csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n))
-    perm = csgraph.reverse_cuthill_mckee(pattern, symmetric_mode=False)
-    new = np.empty_like(perm)
-    new[perm] = np.arange(n)
-    i, j = new[rows], new[cols]
-    lower, upper = int(np.max(i - j, initial=0)), int(np.max(j - i, initial=0))
-    return max(lower, upper), new.astype(np.int64), lower, upper
+    """RCM order of the iteration matrix's pattern (:func:`latdyn.linalg.rcm_band`):
+    (bandwidth, new index of each coordinate, lower, upper)."""
+    _, new, lower, upper = rcm_band(assembler._csr_rows, assembler._csr_cols, assembler.model.n_dofs)
+    return max(lower, upper), new, lower, upper
 
 
 # ----------------------------------------------------------------------------- the step
 
 
 class _Laws:
-    """The scene's functions of time, numbered; ``at(t)`` gives their (value, rate, acceleration).
-
-    Expressions are evaluated through scalar ``math`` lambdas of the expression and its two
-    derivatives (a Piecewise law through ``numpy.select`` costs ~80 µs a step, this ~3 µs);
-    tables, constants and anything the ``math`` printer cannot write use the law's own
-    (NumPy) evaluation."""
+    """The scene's functions of time, numbered; ``at(t)`` gives their (value, rate, acceleration)
+    (:class:`~latdyn.expressions.TimeFunction` evaluates one float time through ``math`` lambdas)."""
 
     def __init__(self):
         self.functions = []
-        self.scalar = []
 
     def add(self, function) -> int:
         if function is None:
             return -1
         self.functions.append(function)
-        self.scalar.append(_scalar_law(function))
         return len(self.functions) - 1
 
     def at(self, t: float) -> np.ndarray:
         out = np.zeros((max(len(self.functions), 1), 3))
-        for k, (f, fast) in enumerate(zip(self.functions, self.scalar)):
-            if fast is not None:
-                out[k] = fast[0](t), fast[1](t), fast[2](t)
-            elif hasattr(f, "rate"):  # a TimeFunction
+        for k, f in enumerate(self.functions):
+            if hasattr(f, "rate"):  # a TimeFunction
                 out[k] = f.value(t), f.rate(t), f.accel(t)
             else:  # a hinge torque law of t alone
                 out[k, 0] = f.value(0.0, 0.0, t)
         return out
-
-
-def _scalar_law(function):
-    """(value, rate, acceleration) as ``math`` lambdas of t for an expression law, else None."""
-    if not hasattr(function, "rate") or getattr(function, "kind", None) != "expression":
-        return None
-    import sympy as sp
-
-    from .expressions import _drop_deltas
-
-    expr = function.expr
-    symbols = list(expr.free_symbols)
-    if len(symbols) != 1:
-        return None
-    t = symbols[0]
-    d1 = _drop_deltas(sp.diff(expr, t))
-    d2 = _drop_deltas(sp.diff(d1, t))
-    try:
-        fast = tuple(sp.lambdify(t, e, modules="math") for e in (expr, d1, d2))
-        for probe in (0.0, 0.37, 1.9):  # the same numbers as the law's own evaluation, or not used
-            reference = (function.value(probe), function.rate(probe), function.accel(probe))
-            if not all(np.isclose(float(g(probe)), r, rtol=1e-13, atol=1e-300) for g, r in zip(fast, reference)):
-                return None
-    except Exception:  # noqa: BLE001 - a construct the math printer cannot write: the law's own evaluation
-        return None
-    return fast
 
 
 class CompiledGeneralizedAlpha(GeneralizedAlpha):
@@ -394,7 +352,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
             "force": (E, 14), "tangent": (E, 14, 14), "mass": (E, 14, 14), "quadratic": (E, 14),
             "quadratic_D": (E, 14, 14), "gravity_force": (E, 14), "gravity_potential": (E,),
             "first_moment": (E, 3), "body_vector": (B, 6), "body_mass": (B, 6, 6), "body_damping": (B, 6, 6),
-            "body_stiffness": (B, 6, 6), "hinge_force": (H,), "hinge_k": (H,), "hinge_c": (H,),
+            "body_stiffness": (B, 6, 6),
             "load_blocks": (L, 9), "strain": (E,), "section_forces": (E, 4), "kinetic": (E,), "total": (m.n_total + 1,), "matrix": (size,), "rhs": (n,)}
         self._buffers = {name: np.zeros(shape) for name, shape in work.items()}
         self._buffers["gravity_rows"][:] = a.gravity
@@ -457,14 +415,12 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         t_new = state.t + h if t_new is None else t_new
         base = self._configuration_of(state)
         trial_state, trial = self._new_state(t_new)
-        vectors = self._vectors
         self._a_n[:n] = self.a
         laws = self._laws.at(t_new)
         control = self._control
         control.h = h
         failed = self._step(self._model_ref, self._work_ref, self._control_ref, ctypes.byref(base),
                             ctypes.byref(trial), self._vectors_ref, laws.ctypes.data)
-        del vectors
         self.factorizations += control.factorizations
         self._last_trial = trial_state
         self._made = (trial_state, trial, base)

@@ -167,13 +167,8 @@ class _Plan:
         on_diagonal = np.flatnonzero(self.rows == self.indices)
         self.diagonal = np.full(n, -1, dtype=np.int64)  # position of (i, i) in the values, or −1
         self.diagonal[self.rows[on_diagonal]] = on_diagonal
-        pattern = sps.csr_matrix((np.ones(A.nnz), A.indices, A.indptr), shape=A.shape)
-        perm = csgraph.reverse_cuthill_mckee(pattern, symmetric_mode=False)
-        new = np.empty_like(perm)
-        new[perm] = np.arange(n)  # old index -> place in RCM order
+        perm, new, lower, upper = rcm_band(self.rows, A.indices, n)
         i, j = new[self.rows], new[A.indices]
-        lower = int(np.max(i - j, initial=0))
-        upper = int(np.max(j - i, initial=0))
         self.bandwidth = max(lower, upper)
         if self.bandwidth <= BAND_LIMIT:
             self.kind = "band"
@@ -241,6 +236,18 @@ class _Plan:
 _gbsv = lapack.get_lapack_funcs("gbsv", (np.zeros(1),))
 _plans: "OrderedDict[tuple, list[_Plan]]" = OrderedDict()
 _MAX_PLANS = 4  # the iteration matrix, the mass and massless blocks, one spare
+
+
+def rcm_band(rows: np.ndarray, cols: np.ndarray, n: int):
+    """Reverse Cuthill–McKee order of the pattern (rows, cols) of an n × n matrix:
+    (perm, new, lower, upper) with ``perm`` the old index at each new place, ``new`` its
+    inverse, and the lower and upper bandwidths in the new order."""
+    pattern = sps.csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n))
+    perm = csgraph.reverse_cuthill_mckee(pattern, symmetric_mode=False)
+    new = np.empty_like(perm)
+    new[perm] = np.arange(n)
+    i, j = new[rows], new[cols]
+    return perm, new.astype(np.int64), int(np.max(i - j, initial=0)), int(np.max(j - i, initial=0))
 
 
 def _plan_for(A) -> _Plan:

@@ -556,6 +556,8 @@ class ResultWriter:
         if expected_frames is not None and expected_frames > self.max_frames:
             stride = math.ceil(expected_frames / self.max_frames)
         self._frame_stride = stride
+        self._pvd_stale = False  # frames added since the collections were last written
+        self._pvd_written_at = -math.inf
         self._frame_candidates = 0
         self._frames: list[tuple[int, float, dict]] = []  # (candidate index, t, {part: file name})
         self._unwritten_frame = None  # (index, t, frame) of the last candidate when it is not on disk
@@ -784,7 +786,7 @@ class ResultWriter:
     def checkpoint(self) -> None:
         """Rewrite the state history on disk now (atomically), with every row so far, and the
         ParaView collections when frames were added since they were last written."""
-        if self.out_dir is not None and getattr(self, "_pvd_stale", False):
+        if self.out_dir is not None and self._pvd_stale:
             self._write_pvd()
         if self.out_dir is None or self._state_keys is None:
             return
@@ -878,7 +880,7 @@ class ResultWriter:
                 self._unwritten_frame = (index, t, frame)
             self._frames = kept
         self._pvd_stale = True
-        if time.monotonic() - getattr(self, "_pvd_written_at", -math.inf) >= PVD_INTERVAL:
+        if time.monotonic() - self._pvd_written_at >= PVD_INTERVAL:
             self._write_pvd()
 
     def _write_last_frame(self) -> None:

@@ -87,7 +87,6 @@ typedef struct {
     double *force, *tangent, *mass, *quadratic, *quadratic_D; /* (e,14) (e,14,14) (e,14,14) (e,14) (e,14,14) */
     double *gravity_force, *gravity_potential, *first_moment;  /* (e,14) (e) (e,3) */
     double *body_vector, *body_mass, *body_damping, *body_stiffness; /* (b,6) (b,6,6)×3 */
-    double *hinge_force, *hinge_k, *hinge_c;                   /* (h) */
     double *load_blocks;                                       /* (l,9) */
     double *strain, *section_forces, *kinetic;                 /* (e) (e,4) (e) */
     double *total;                                             /* n_total + 1 */
