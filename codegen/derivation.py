@@ -96,25 +96,48 @@ def _log_auxiliary(arguments: tuple) -> list:
     return out
 
 
+def _diff(expr, symbol):
+    """∂expr/∂symbol, zero for a coordinate the variant does not have (symbol 0)."""
+    return se.Integer(0) if symbol == 0 else se.diff(expr, symbol)
+
+
+def _planar_ends(end1, end2, plane: fm.Plane | None):
+    """The ends' inputs in a configuration of ``plane`` (unchanged for the 3D element)."""
+    if plane is None:
+        return end1, end2
+    values = plane.geometry_values([se.Symbol(str(s)) for s in cv.GEOMETRY.symbols()])
+    values = {key: se.sympify(value) for key, value in values.items()}
+    return tuple(fm.EndInputs(x=end.x.subs(values), offset=end.offset.subs(values),
+                              frame=end.frame.subs(values), axis=end.axis.subs(values)) for end in (end1, end2))
+
+
+def _coordinates(name: str, plane: fm.Plane | None) -> list:
+    """The 14 symbols of a change of q^e, with 0 where the variant has no coordinate."""
+    out = set(plane.out_of_plane_coordinates()) if plane is not None else set()
+    return [se.Integer(0) if k in out else se.Symbol(f"{name}_{k}") for k in range(N)]
+
+
 @lru_cache(maxsize=None)
-def derive_kinematics(measure: str = "sine") -> Kinematics:
-    end1, end2 = fm.geometry_inputs()
+def derive_kinematics(measure: str = "sine", plane: str | None = None) -> Kinematics:
+    restriction = fm.PLANES[plane] if plane is not None else None
+    end1, end2 = _planar_ends(*fm.geometry_inputs(), restriction)
     section = fm.section_inputs()
     L0 = section["L0"]
-    log = measure == "log"
+    planar = restriction is not None
+    log = measure == "log" and not planar  # the planar log measure is closed-form (formulation.corotational)
 
     # ---- first and mixed second derivatives of Ψ (B and H) ----
-    virtual = [se.Symbol(f"delta_{k}") for k in range(N)]
-    increment = [se.Symbol(f"Delta_{k}") for k in range(N)]
+    virtual = _coordinates("delta", restriction)
+    increment = _coordinates("Delta", restriction)
     v1, v2 = _end_coordinates(virtual)
     i1, i2 = _end_coordinates(increment)
     g1, F1 = fm.moved_end(end1, [("increment", *i1, 1), ("virtual", *v1, 1)])
     g2, F2 = fm.moved_end(end2, [("increment", *i2, 1), ("virtual", *v2, 1)])
-    at_rest = {s: 0 for s in virtual + increment}
-    cor = fm.corotational(g1, F1, g2, F2, L0, measure, _log_jets(at_rest) if log else None)
-    first = [[se.diff(p, d) for d in virtual] for p in cor.psi]
+    at_rest = {s: 0 for s in virtual + increment if s != 0}
+    cor = fm.corotational(g1, F1, g2, F2, L0, measure, _log_jets(at_rest) if log else None, planar)
+    first = [[_diff(p, d) for d in virtual] for p in cor.psi]
     B = [[b.subs(at_rest) for b in row] for row in first]
-    H = [[[se.diff(b, D).subs(at_rest) for D in increment] for b in row] for row in first]
+    H = [[[_diff(b, D).subs(at_rest) for D in increment] for b in row] for row in first]
     psi = [p.subs(at_rest) for p in cor.psi]
     frame = [cor.frame[i, j].subs(at_rest) for i in range(3) for j in range(3)]
     grid1 = [g1[k].subs(at_rest) for k in range(3)]
@@ -122,11 +145,13 @@ def derive_kinematics(measure: str = "sine") -> Kinematics:
     # ---- motion at constant spatial velocities (q̈ = 0) ----
     t = se.Symbol("time")
     qdot = fm.velocity_inputs()
+    if restriction is not None:
+        qdot = [se.Integer(0) if k in restriction.out_of_plane_coordinates() else q for k, q in enumerate(qdot)]
     m1, m2 = _end_coordinates([t * q for q in qdot])
     g1t, F1t = fm.moved_end(end1, [("time", *m1, 2)])
     g2t, F2t = fm.moved_end(end2, [("time", *m2, 2)])
     now = {t: 0}
-    cor_t = fm.corotational(g1t, F1t, g2t, F2t, L0, measure, _log_jets(now) if log else None)
+    cor_t = fm.corotational(g1t, F1t, g2t, F2t, L0, measure, _log_jets(now) if log else None, planar)
 
     def rate(expr, order):
         for _ in range(order):
@@ -139,7 +164,7 @@ def derive_kinematics(measure: str = "sine") -> Kinematics:
     Tc_ddot = cor_t.frame.diff(t).diff(t).subs(now)
     omega_c = fm.vee(Tc_dot * Tc.T)
     omega_dot = fm.vee(Tc_ddot * Tc.T + Tc_dot * Tc_dot.T)
-    omega_map = [[se.diff(omega_c[k], q) for q in qdot] for k in range(3)]
+    omega_map = [[_diff(omega_c[k], q) for q in qdot] for k in range(3)]
     grid1_dot = [rate(g1t[k], 1) for k in range(3)]
     grid1_ddot = [rate(g1t[k], 2) for k in range(3)]
 
@@ -152,7 +177,7 @@ def derive_kinematics(measure: str = "sine") -> Kinematics:
     for i in range(3):
         convective.append(sum((Tc[k, i] * omega_dot[k] for k in range(3)), se.Integer(0)))
     convective += psi_ddot
-    convective_D_qdot = [[se.diff(c, q) for q in qdot] for c in convective]
+    convective_D_qdot = [[_diff(c, q) for q in qdot] for c in convective]
 
     S = fm.to_sympy
     auxiliary = []
@@ -225,9 +250,17 @@ def build_kernels(variant: str = "default") -> list[KernelSpec]:
     if variant not in fm.FORMULATIONS:
         raise ValueError(f"unknown variant {variant!r} (known: {', '.join(fm.FORMULATIONS)})")
     formulation = fm.FORMULATIONS[variant]
-    kin = derive_kinematics(formulation.rotation_measure)
+    kin = derive_kinematics(formulation.rotation_measure, formulation.plane)
+    plane = fm.PLANES[formulation.plane] if formulation.plane is not None else None
     section = _section_sympy()
     gravity = cv.GRAVITY.symbols()
+    # a planar variant: inputs of a planar configuration (geometry, gravity), no out-of-plane coordinates
+    planar_values = {}
+    out_of_plane = set()
+    if plane is not None:
+        planar_values = {**plane.geometry_values(cv.GEOMETRY.symbols()), **plane.gravity_values(gravity)}
+        out_of_plane = set(plane.out_of_plane_coordinates())
+        gravity = [sp.sympify(g).xreplace(planar_values) for g in gravity]
     psi_symbols = fm.PSI
     U = fm.strain_energy(psi_symbols, section, formulation)
     dU = [sp.diff(U, p) for p in psi_symbols]
@@ -259,7 +292,7 @@ def build_kernels(variant: str = "default") -> list[KernelSpec]:
         psi = b.vector("psi", kin.psi)
         Tc = b.vector("Tc", kin.frame)
         TcT = [[Tc[3 * j + i] for j in range(3)] for i in range(3)]  # T_cᵀ
-        offset1 = cv.GEOMETRY.symbols()[cv.OFFSET1]
+        offset1 = [sp.sympify(o).xreplace(planar_values) for o in cv.GEOMETRY.symbols()[cv.OFFSET1]]
         # ẋ_g1 = v1 + ω1 × o1 = [I, −skew(o1)] (v1, ω1): Eqs. 2, 59
         o = offset1
         grid_map = [
@@ -267,6 +300,7 @@ def build_kernels(variant: str = "default") -> list[KernelSpec]:
             [0, 1, 0, -o[2], 0, o[0]] + [0] * 8,
             [0, 0, 1, o[1], -o[0], 0] + [0] * 8,
         ]
+        grid_map = [[0 if a in out_of_plane else entry for a, entry in enumerate(row)] for row in grid_map]
         Bm = b.matrix("B", kin.B)
         C = b.matrix("C", kin.omega_map)
         J = b.matrix("J", _matmul(TcT, grid_map) + _matmul(TcT, C) + Bm)  # u = J q̇, 12×14
@@ -293,6 +327,10 @@ def build_kernels(variant: str = "default") -> list[KernelSpec]:
     kernels: list[KernelSpec] = []
 
     def add(name, doc, equations, inputs, outputs, builder):
+        if planar_values:  # inputs used directly (not through the kinematics) take their planar values too
+            builder.intermediates = [(s, e.xreplace(planar_values)) for s, e in builder.intermediates]
+            outputs = [Output(o.name, o.shape, [sp.sympify(e).xreplace(planar_values) for e in o.expressions], o.doc)
+                       for o in outputs]
         kernels.append(
             KernelSpec(name=name, doc=doc, inputs=list(inputs), outputs=outputs, variant=variant,
                        equations=equations, intermediates=builder.intermediates)

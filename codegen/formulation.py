@@ -45,11 +45,16 @@ class Formulation:
     #: "sine"  Eqs. 14–16 literally (entries of R_i: sines, first order in the rotation),
     #: "log"   the rotation vector log(R_i) (exact; Battini & Pacoste 2002), see :func:`log_rotation`.
     rotation_measure: str = "log"
+    #: None: the 3D element. "xy", "yz", "zx": the same element restricted to motion in that
+    #: coordinate plane (:class:`Plane`), for scenes that stay in it (``solve.planar``).
+    plane: str | None = None
     description: str = ""
 
     def __post_init__(self):
         if self.rotation_measure not in ROTATION_MEASURES:
             raise ValueError(f"rotation_measure {self.rotation_measure!r} not in {ROTATION_MEASURES}")
+        if self.plane is not None and self.plane not in PLANES:
+            raise ValueError(f"plane {self.plane!r} not in {tuple(PLANES)}")
 
 
 ROTATION_MEASURES = ("log", "sine")
@@ -72,6 +77,89 @@ FORMULATIONS: dict[str, Formulation] = {
         description="cr4402 (Eqs. 14–16 measures) without the ½(v'²+w'²) stretching term (Eq. 35): no geometric stiffening",
     ),
 }
+
+
+# --------------------------------------------------------------------------
+# Planar variants: the same element, restricted to one coordinate plane
+# --------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Plane:
+    """Motion in the coordinate plane normal to global axis ``normal`` (0, 1, 2 = x, y, z).
+
+    A planar configuration is one where every grid point lies in a plane x_n = const, every
+    nodal frame T_e turns about n only and has its third axis along +n (local z = +n; the
+    model turns a section whose y or −z is normal into this form, ``latdyn.model``), every
+    hinge axis is ±n, and velocities and gravity keep the motion in the plane.  The element
+    is then the 3D element with these values put in *before* differentiation, and its
+    variations restricted to the in-plane coordinates (d_i, d_j, π_n, θ per end, with
+    (i, j, n) cyclic): the kernels keep the 3D argument blocks and the 14-wide outputs, with
+    rows and columns of out-of-plane coordinates identically zero.  By the reflection
+    symmetry about the plane, the in-plane rows and columns equal those of the 3D kernels
+    at a planar configuration, which the tests check.
+    """
+
+    normal: int
+
+    @property
+    def in_plane(self) -> tuple[int, int]:
+        """The two in-plane global axes (i, j), with (i, j, normal) cyclic."""
+        return (self.normal + 1) % 3, (self.normal + 2) % 3
+
+    def out_of_plane_coordinates(self) -> list[int]:
+        """Indices into q^e (and the velocity block) that leave the plane: d_n, π_i, π_j per end."""
+        i, j = self.in_plane
+        out = []
+        for base in (0, 7):
+            out += [base + self.normal, base + 3 + i, base + 3 + j]
+        return out
+
+    def geometry_values(self, symbols) -> dict:
+        """Values of the geometry block's ``symbols`` (any symbol type) in a planar configuration.
+
+        x2_n = x1_n (the plane), o_n = 0; the nodal frame's local axes (columns) are
+        x = c e_i + s e_j, y = n × x = −s e_i + c e_j, z = e_n (c = T_e[i, 0] and s = T_e[j, 0]
+        stay symbols); h_i = h_j = 0 (h_n stays: ±1, or 0 for a clamped end).
+        """
+        g = symbols
+        i, j = self.in_plane
+        n = self.normal
+        values = {g[cv.X2.start + n]: g[cv.X1.start + n]}
+        for offset in (cv.OFFSET1, cv.OFFSET2):
+            values[g[offset.start + n]] = 0
+        for frame in (cv.FRAME1, cv.FRAME2):
+            F = lambda row, col: g[frame.start + 3 * row + col]  # noqa: E731  (row: global axis, col: local)
+            cosine, sine = F(i, 0), F(j, 0)
+            values.update({F(n, 0): 0, F(i, 1): -sine, F(j, 1): cosine, F(n, 1): 0,
+                           F(i, 2): 0, F(j, 2): 0, F(n, 2): 1})
+        for axis in (cv.AXIS1, cv.AXIS2):
+            values[g[axis.start + i]] = 0
+            values[g[axis.start + j]] = 0
+        return values
+
+    def velocity_values(self, symbols) -> dict:
+        """Out-of-plane velocity components (v_n, ω_i, ω_j per end) are zero."""
+        return {symbols[k]: 0 for k in self.out_of_plane_coordinates()}
+
+    def gravity_values(self, symbols) -> dict:
+        return {symbols[self.normal]: 0}
+
+
+#: Coordinate planes of the planar variants, by the index of their normal.
+PLANES = {"yz": Plane(0), "zx": Plane(1), "xy": Plane(2)}
+
+
+def _planar_variants(base: Formulation) -> dict[str, Formulation]:
+    from dataclasses import replace
+
+    return {
+        f"{base.name}_{plane}": replace(base, name=f"{base.name}_{plane}", plane=plane,
+                                        description=f"{base.description}; planar: motion in the {plane} plane only")
+        for plane in PLANES
+    }
+
+
+for _base in list(FORMULATIONS.values()):
+    FORMULATIONS.update(_planar_variants(_base))
 
 
 # --------------------------------------------------------------------------
@@ -216,7 +304,8 @@ class Corotational:
     log_arguments: tuple = ()  # (x_1, x_2), x_i = 1 − cos|θ_i| = (3 − tr R_i)/2, for the "log" measure
 
 
-def corotational(grid1, frame1, grid2, frame2, L0, measure: str = "sine", scales=None) -> Corotational:
+def corotational(grid1, frame1, grid2, frame2, L0, measure: str = "sine", scales=None,
+                 planar: bool = False) -> Corotational:
     """Ψ and T_c from the two grid points and nodal frames.
 
     * α_x² = ‖x_g2 − x_g1‖ − L_e (Eqs. 12–13).
@@ -238,6 +327,9 @@ def corotational(grid1, frame1, grid2, frame2, L0, measure: str = "sine", scales
       ``scales`` = (f_1, f_2): callables giving θ/sin θ as a function of
       x = 1 − cos θ at each end (default: :func:`log_scale_closed`, exact but not
       safe at R = I; the kernels use :func:`log_scale` through a jet).
+    * ``planar`` (a configuration of a :class:`Plane`, local z = n): R_i turns about local z
+      only, so log(R_i) = (0, 0, atan2(R_i[1, 0], R_i[0, 0])) exactly (|θ| < π): the same
+      measure in closed form, without the series of θ/sin θ.  The sines are unchanged.
     """
     chord = grid2 - grid1
     length = se.sqrt(dot(chord, chord))
@@ -272,6 +364,15 @@ def corotational(grid1, frame1, grid2, frame2, L0, measure: str = "sine", scales
     axes = (e, t2, t3)
     columns = [column(frame2, k) for k in range(3)]
     R2 = se.DenseMatrix(3, 3, [dot(axes[i], columns[j]) for i in range(3) for j in range(3)])
+    if planar:
+        # R_i[1,0] = t_c2·t_e^i(1) = n·(t_c1 × t_e^i(1)) and R_i[0,0] = t_c1·t_e^i(1), with t_c2 = n × t_c1
+        # (the exact frame above for |θ_z¹| < 90°) and n = t_e^i(3); atan2 is blind to the positive
+        # factor ℓ, so the unnormalised chord serves (fewer operations in the derivatives).
+        zero = se.Integer(0)
+        theta_z = [se.atan2(dot(column(F, 2), cross(chord, column(F, 0))), dot(chord, column(F, 0)))
+                   for F in (frame1, frame2)]
+        psi = [zero, theta_z[0], zero, theta_z[1], zero, length - L0]
+        return Corotational(chord, length, frame, psi)
     thetas, arguments = [], []
     for R, scale in ((R1, scales[0]), (R2, scales[1])):
         x, _ = log_arguments(R)

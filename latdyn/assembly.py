@@ -157,10 +157,21 @@ def pack(model: Model, node_lin: np.ndarray, node_ang: np.ndarray, hinge: np.nda
     return out
 
 
+def padded(model: Model, vector: np.ndarray) -> np.ndarray:
+    """A free-coordinate vector extended by zeros to all coordinates (n_total + 1), so that
+    node slots that are not coordinates (out of plane, :meth:`Model.node_slots`) read 0."""
+    if len(vector) == model.n_total + 1:
+        return vector
+    out = np.zeros(model.n_total + 1)
+    out[:model.n_dofs] = vector[:model.n_dofs]
+    return out
+
+
 def unpack_free(model: Model, vector: np.ndarray, node_lin: np.ndarray, node_ang: np.ndarray,
                 hinge: np.ndarray) -> None:
     """Write a free-coordinate vector into node/hinge arrays (in place)."""
     free = model.free_nodes
+    vector = padded(model, vector)
     node_lin[free] = vector[model.node_dofs[free, 0:3]]
     node_ang[free] = vector[model.node_dofs[free, 3:6]]
     fh = model.free_hinges
@@ -179,6 +190,7 @@ def advance(model: Model, state: State, increment: np.ndarray) -> State:
     """q ∘ exp(Δ) on the free coordinates: x += Δd, T ← exp(skew Δπ) T, θ += Δθ."""
     new = state.copy()
     free = model.free_nodes
+    increment = padded(model, increment)
     new.x[free] = state.x[free] + increment[model.node_dofs[free, 0:3]]
     new.T[free] = expm_so3(increment[model.node_dofs[free, 3:6]]) @ state.T[free]
     fh = model.free_hinges
@@ -266,15 +278,8 @@ class Assembler:
         hd = m.hinge_dofs[m.free_hinges]
         rows.append(hd)
         cols.append(hd)
-        load_rows, load_cols = [], []
-        for load in self.loads:
-            node, _ = m.point(load.at)
-            d = m.node_dofs[node, 3:6]
-            if d[0] < n:
-                load_rows.append(np.repeat(d, 3))
-                load_cols.append(np.tile(d, 3))
-        rows += load_rows
-        cols += load_cols
+        self._load_masks = [block_pattern(m.node_dofs[m.point(load.at)[0], 3:6][None, :])[0]
+                            for load in self.loads]
         rows = np.concatenate(rows) if rows else np.zeros(0, np.int64)
         cols = np.concatenate(cols) if cols else np.zeros(0, np.int64)
         key = rows * max(n, 1) + cols
@@ -433,16 +438,16 @@ class Assembler:
             extra[d[3:]] -= np.cross(rg, f) + mo
             vel = state.v[node] + np.cross(state.w[node], rg)
             power += f @ vel + mo @ state.w[node]
-            if d[3] < n:
-                load_blocks.append(-(skew(f) @ skew(rg)).ravel())
+            load_blocks.append(-(skew(f) @ skew(rg))[self._load_masks[len(load_blocks)]])
 
+        load_blocks = np.concatenate(load_blocks) if load_blocks else np.zeros(0)
         total = self._scatter_vector(elem_vec, body_vec, extra)
         result = Evaluation(residual=total[:n], reaction=total[n:m.n_total], external_power=power,
                             assembler=self)
         if matrices:
             hinge_k, hinge_c = hinge_k[m.free_hinges], hinge_c[m.free_hinges]
             zero_elements = np.zeros((n_elem, 14, 14))
-            zero_loads = [np.zeros_like(b) for b in load_blocks]
+            zero_loads = np.zeros_like(load_blocks)
             result.blocks = {
                 "stiffness": (elem_stiff, body_stiff, hinge_k, load_blocks),
                 "mass": (elem_mass if elem_mass is not None else zero_elements, body_mass,

@@ -81,7 +81,7 @@ def joint_groups(model) -> np.ndarray:
     group_of_node: dict[int, int] = {}
     for node in model.free_nodes:
         group_of_node[int(node)] = len(groups)
-        groups.append([int(d) for d in model.node_dofs[node]])
+        groups.append([int(d) for d in model.node_dofs[node] if d < n])  # a planar node has 3
     for k in model.free_hinges:
         dof = int(model.hinge_dofs[k])
         if dof >= n:
@@ -101,11 +101,13 @@ def joint_groups(model) -> np.ndarray:
 def _block_kind(model, groups: np.ndarray) -> np.ndarray:
     """Unit of each slot: 0 translation, 1 rotation, 2 + slot for a hinge, -1 padding."""
     kind = np.full(groups.shape, -1, dtype=np.int64)
-    n_node_dofs = 6 * len(model.free_nodes)
-    node_slot = (groups >= 0) & (groups < n_node_dofs)
-    # free node coordinates are numbered node by node: [dx dy dz rx ry rz]
-    kind[node_slot] = (groups[node_slot] % 6) // 3
-    hinge_slot = groups >= n_node_dofs
+    # unit of every free coordinate: node translations 0, node rotations 1, hinges 2
+    unit = np.full(model.n_total + 1, 2, dtype=np.int64)
+    unit[model.node_dofs[:, 0:3]] = 0
+    unit[model.node_dofs[:, 3:6]] = 1
+    valid = groups >= 0
+    kind[valid] = unit[groups[valid]]
+    hinge_slot = valid & (kind == 2)
     kind[hinge_slot] = 2 + np.nonzero(hinge_slot)[1]
     return kind
 

@@ -44,7 +44,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sps
 
-from .assembly import Assembler, State, advance, apply_prescribed, free_acceleration, free_velocity, unpack_free
+from .assembly import (Assembler, State, advance, apply_prescribed, free_acceleration, free_velocity, padded,
+                       unpack_free)
 from .errors import SolverError
 from .inertia import joint_blocks, joint_groups, joint_norms, split_inertia
 from .linalg import solve_linear
@@ -89,6 +90,7 @@ def increment_size(model, dx: np.ndarray, length: float) -> float:
     Norms of 3-vectors do not depend on the frame, component maxima would.
     """
     nodes = model.node_dofs[model.free_nodes]
+    dx = padded(model, dx)  # node slots that are not coordinates (planar models) read 0
     translation = np.linalg.norm(dx[nodes[:, 0:3]], axis=1) / length
     rotation = np.linalg.norm(dx[nodes[:, 3:6]], axis=1)
     hinge = np.abs(dx[model.hinge_dofs[model.free_hinges]])

@@ -65,6 +65,24 @@ def known_variants() -> dict[str, str]:
     return dict(importlib.import_module(PACKAGE).VARIANTS)
 
 
+#: Suffix of the planar variants (codegen/formulation.py PLANES) by the index of the plane's normal.
+PLANE_SUFFIXES = {0: "yz", 1: "zx", 2: "xy"}
+
+
+def planar_variant(formulation: str, normal: int) -> str:
+    """The kernels of ``formulation`` restricted to the coordinate plane normal to axis ``normal``."""
+    return f"{formulation}_{PLANE_SUFFIXES[normal]}"
+
+
+def plane_of(variant: str) -> int | None:
+    """The normal axis of a planar variant, None for a 3D one."""
+    base, _, suffix = variant.rpartition("_")
+    for normal, name in PLANE_SUFFIXES.items():
+        if base and suffix == name:
+            return normal
+    return None
+
+
 def load_kernels(backend: str = "auto", variant: str = "default") -> KernelSet:
     """Load (once per process) the kernels of ``variant`` on ``backend`` ("auto", "c", "numpy").
 

@@ -104,6 +104,13 @@ class Model:
     n_total: int = 0  # all coordinates (free first); index n_total is a dummy for clamped ends
     free_nodes: np.ndarray = field(default=None)
     free_hinges: np.ndarray = field(default=None)
+    #: planar model (``solve.planar``): the index of the plane's normal axis; its nodes carry
+    #: d_i, d_j, π_n only (:mod:`latdyn.planar`). None: the 3D model.
+    plane: int | None = None
+    #: (n_elem,) angle β (rad) by which each element's section axes were turned about its x axis
+    #: so that local z is the plane's normal (:func:`latdyn.planar.restrict_to_plane`); zeros in 3D
+    section_turns: np.ndarray = field(default=None)
+    plane_reason: str = ""  # why the model is (not) planar, for ``latdyn check``
 
     # ------------------------------------------------------------------ building
     @classmethod
@@ -187,29 +194,52 @@ class Model:
             body_node=body_node,
         )
         model.locked = np.zeros(len(hinges), dtype=bool)
+        model.section_turns = np.zeros(len(model.element_nodes))
+        from .planar import find_plane, restrict_to_plane
+
+        normal, model.plane_reason = find_plane(scene)
+        if normal is not None:
+            restrict_to_plane(model, normal)
         model.number_coordinates()
         return model
 
+    @property
+    def kernel_variant(self) -> str:
+        """The generated kernels this model uses: the scene's formulation, planar or 3D."""
+        from .kernels import planar_variant
+
+        formulation = self.scene.solve.formulation
+        return formulation if self.plane is None else planar_variant(formulation, self.plane)
+
+    def node_slots(self) -> np.ndarray:
+        """(6,) bool: which of a free node's [dx dy dz rx ry rz] are coordinates (all in 3D;
+        d_i, d_j, r_n in a planar model)."""
+        slots = np.ones(6, dtype=bool)
+        if self.plane is not None:
+            n = self.plane
+            slots[[n, 3 + (n + 1) % 3, 3 + (n + 2) % 3]] = False
+        return slots
+
     def number_coordinates(self) -> None:
-        """Number the coordinates: free ones first (6 per free node, 1 per free,
-        unlatched hinge), then the rest (fixed, prescribed, latched), so that
-        reactions of prescribed motion can be scattered like any force."""
+        """Number the coordinates: free ones first (the :meth:`node_slots` of each free node, node
+        by node, then 1 per free, unlatched hinge), then the rest (fixed, prescribed, latched,
+        out of plane), so that reactions of prescribed motion can be scattered like any force."""
         n_nodes, n_hinges = len(self.nodes), len(self.hinges)
         free_node = np.array([n.kind == FREE for n in self.nodes], dtype=bool)
         free_hinge = np.array([h.angle is None for h in self.hinges], dtype=bool) & ~self.locked
-        order_nodes = np.concatenate([np.flatnonzero(free_node), np.flatnonzero(~free_node)]).astype(np.int64)
         order_hinges = np.concatenate([np.flatnonzero(free_hinge), np.flatnonzero(~free_hinge)]).astype(np.int64)
+        free_slot = free_node[:, None] & self.node_slots()[None, :]  # (n_nodes, 6)
         self.node_dofs = np.zeros((n_nodes, 6), dtype=np.int64)
         self.hinge_dofs = np.zeros(n_hinges, dtype=np.int64)
-        n_free_nodes, n_free_hinges = int(free_node.sum()), int(free_hinge.sum())
-        self.n_dofs = 6 * n_free_nodes + n_free_hinges
-        # free node coordinates, free hinges, then the constrained ones
-        self.node_dofs[order_nodes[:n_free_nodes]] = np.arange(6 * n_free_nodes).reshape(-1, 6)
-        self.hinge_dofs[order_hinges[:n_free_hinges]] = 6 * n_free_nodes + np.arange(n_free_hinges)
+        n_free_slots, n_free_hinges = int(free_slot.sum()), int(free_hinge.sum())
+        self.n_dofs = n_free_slots + n_free_hinges
+        # free node coordinates (row-major: node by node), free hinges, then the constrained ones
+        self.node_dofs[free_slot] = np.arange(n_free_slots)
+        self.hinge_dofs[order_hinges[:n_free_hinges]] = n_free_slots + np.arange(n_free_hinges)
         base = self.n_dofs
-        rest_nodes = order_nodes[n_free_nodes:]
-        self.node_dofs[rest_nodes] = base + np.arange(6 * len(rest_nodes)).reshape(-1, 6)
-        base += 6 * len(rest_nodes)
+        n_rest = free_slot.size - n_free_slots
+        self.node_dofs[~free_slot] = base + np.arange(n_rest)
+        base += n_rest
         rest_hinges = order_hinges[n_free_hinges:]
         self.hinge_dofs[rest_hinges] = base + np.arange(len(rest_hinges))
         self.n_total = base + len(rest_hinges)
@@ -248,23 +278,28 @@ class Model:
         """
         n_free = len(self.free_nodes)
         free_hinges = len(self.free_hinges)
+        slots = self.node_slots()
+        translations, rotations = int(slots[:3].sum()), int(slots[3:].sum())
         lines = [
             f"model: {len(self.nodes)} nodes ({n_free} free), {len(self.element_nodes)} elements, "
             f"{len(self.hinges)} hinges ({free_hinges} with a coordinate), {self.n_dofs} coordinates",
-            f"  coordinates: {3 * n_free} node translations + {3 * n_free} node rotations "
+            f"  coordinates: {translations * n_free} node translations + {rotations * n_free} node rotations "
             f"+ {free_hinges} hinge angles = {self.n_dofs}",
+            f"  planar: {self.plane_reason}",
         ]
         bodies = [n for n in self.nodes if n.body is not None]
         interior = sum(1 for n in self.nodes if n.body is None and ".node[" in n.name)
         free_ends = sum(1 for n in self.nodes if n.body is None and ".node[" not in n.name)
         lines.append(f"  nodes: {len(bodies)} joint bodies, {interior} interior beam nodes, "
-                     f"{free_ends} free beam ends; 6 coordinates per free node")
+                     f"{free_ends} free beam ends; {int(slots.sum())} coordinates per free node")
         fixed = [n.name for n in self.nodes if n.kind == FIXED]
         prescribed = [n.name for n in self.nodes if n.kind == PRESCRIBED]
         prescribed_angles = [f"{h.beam}.{h.end}" for h in self.hinges if h.angle is not None]
         latched = [f"{h.beam}.{h.end}" for k, h in enumerate(self.hinges) if self.locked[k]]
+        out_of_plane = [self.nodes[i].name for i in self.free_nodes] if self.plane is not None else []
         removed = [(6, "fixed bodies", fixed), (6, "prescribed bodies", prescribed),
-                   (1, "prescribed hinge angles", prescribed_angles), (1, "latched hinges", latched)]
+                   (1, "prescribed hinge angles", prescribed_angles), (1, "latched hinges", latched),
+                   (3, "free nodes out of plane", out_of_plane)]
         parts = [f"{per * len(names)} for {len(names)} {what} ({_short(names)})"
                  for per, what, names in removed if names]
         lines.append("  removed: " + ("; ".join(parts) if parts else "none"))

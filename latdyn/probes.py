@@ -4,6 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from .assembly import Assembler, State
+from .planar import section_moments_back
 
 _COMPONENT = {"x": 0, "y": 1, "z": 2}
 
@@ -17,7 +18,7 @@ def section_forces(assembler: Assembler, state: State, geometry: np.ndarray | No
     if geometry is None:
         geometry = assembler.element_geometry(state)
     _, sections = assembler.kernels.beam_strain_energy(geometry, assembler.model.element_sections)
-    return sections
+    return section_moments_back(assembler.model, sections)  # a planar model turned some sections
 
 
 class ProbeSet:

@@ -95,9 +95,12 @@ _BEAM_KEYS = ("from", "to", "section", "elements", "y_axis", "start", "end", "ri
 _HINGE_KEYS = ("axis", "stiffness", "damping", "torque", "angle", "lock_at", "rest_angle", "limits", "restitution")
 _LOAD_KEYS = ("at", "force", "moment", "frame")
 _SOLVE_KEYS = ("analysis", "t_end", "dt", "method", "rho_inf", "tol", "steps", "count",
-               "adaptive", "error_tol", "dt_min", "max_iterations", "formulation", "engine", "newton")
+               "adaptive", "error_tol", "dt_min", "max_iterations", "formulation", "engine", "newton", "planar")
 #: ``solve.engine``: where the implicit step runs (latdyn/engine.py); ``solve.newton``: full or modified Newton.
 ENGINES = ("auto", "compiled", "python")
+#: ``solve.planar``: ``auto`` solves a scene that stays in a coordinate plane with in-plane
+#: coordinates only (latdyn/planar.py), ``off`` always in 3D.
+PLANAR = ("auto", "off")
 NEWTON = ("full", "modified")
 _PROBE_KEYS = {
     "point": ("point", "quantity", "frame", "component"),
@@ -251,6 +254,7 @@ class Solve:
     formulation: str = "default"
     engine: str = "auto"
     newton: str = "full"
+    planar: str = "auto"
 
 
 @dataclass
@@ -979,6 +983,8 @@ class _Reader:
             s.engine = self.choice(spec["engine"], k("engine"), ENGINES)
         if "newton" in spec:
             s.newton = self.choice(spec["newton"], k("newton"), NEWTON)
+        if "planar" in spec:
+            s.planar = self.choice(spec["planar"], k("planar"), PLANAR)
         return s
 
 

@@ -38,7 +38,7 @@ def prepare(scene, backend: str = "auto") -> Prepared:
     """Validate, build the model and refuse coordinates that nothing holds."""
     scene = load_scene(scene)
     model = Model.from_scene(scene)
-    kernels = load_kernels(backend=backend, variant=scene.solve.formulation)
+    kernels = load_kernels(backend=backend, variant=model.kernel_variant)
     assembler = Assembler(model, kernels, scene.gravity)
     state = initial_state(model)
     if model.n_dofs > 0:  # any size: a sparse LU and a few inverse iterations (Model.check_held)

@@ -129,6 +129,13 @@ static void cross(const double *a, const double *b, double *c)
 }
 
 /* Exponential map of so(3) (Rodrigues), as latdyn.assembly.expm_so3. */
+/* Entry d of a free-coordinate vector of length n; 0 for a node slot that is not a coordinate
+ * (d >= n: the out-of-plane slots of a planar model, Model.node_slots). */
+static inline double free_entry(const double *vector, int64_t d, int64_t n)
+{
+    return d < n ? vector[d] : 0.0;
+}
+
 static void expm_so3(const double *w, double *R)
 {
     double angle = sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
@@ -168,8 +175,10 @@ static void configure(const Model *m, const Configuration *base, Configuration *
         int64_t i = m->free_nodes[k];
         const int64_t *d = m->node_dofs + 6 * i;
         double R[9];
-        for (int j = 0; j < 3; ++j) c->x[3 * i + j] = base->x[3 * i + j] + increment[d[j]];
-        expm_so3((double[3]){increment[d[3]], increment[d[4]], increment[d[5]]}, R);
+        const int64_t n = m->n_dofs;
+        for (int j = 0; j < 3; ++j) c->x[3 * i + j] = base->x[3 * i + j] + free_entry(increment, d[j], n);
+        expm_so3((double[3]){free_entry(increment, d[3], n), free_entry(increment, d[4], n),
+                             free_entry(increment, d[5], n)}, R);
         matmul3(R, base->T + 9 * i, c->T + 9 * i);
     }
     for (int64_t k = 0; k < m->n_free_hinges; ++k) {
@@ -218,11 +227,12 @@ static void configure(const Model *m, const Configuration *base, Configuration *
     for (int64_t k = 0; k < m->n_free_nodes; ++k) {
         int64_t i = m->free_nodes[k];
         const int64_t *d = m->node_dofs + 6 * i;
+        const int64_t n = m->n_dofs;
         for (int j = 0; j < 3; ++j) {
-            c->v[3 * i + j] = velocity[d[j]];
-            c->w[3 * i + j] = velocity[d[3 + j]];
-            c->a[3 * i + j] = acceleration[d[j]];
-            c->alpha[3 * i + j] = acceleration[d[3 + j]];
+            c->v[3 * i + j] = free_entry(velocity, d[j], n);
+            c->w[3 * i + j] = free_entry(velocity, d[3 + j], n);
+            c->a[3 * i + j] = free_entry(acceleration, d[j], n);
+            c->alpha[3 * i + j] = free_entry(acceleration, d[3 + j], n);
         }
     }
     for (int64_t k = 0; k < m->n_free_hinges; ++k) {
@@ -485,8 +495,10 @@ static double increment_size(const Model *m, const double *dx, double length)
     double size = 0.0;
     for (int64_t k = 0; k < m->n_free_nodes; ++k) {
         const int64_t *d = m->node_dofs + 6 * m->free_nodes[k];
-        double t = sqrt(dx[d[0]] * dx[d[0]] + dx[d[1]] * dx[d[1]] + dx[d[2]] * dx[d[2]]) / length;
-        double r = sqrt(dx[d[3]] * dx[d[3]] + dx[d[4]] * dx[d[4]] + dx[d[5]] * dx[d[5]]);
+        double u[6];
+        for (int j = 0; j < 6; ++j) u[j] = free_entry(dx, d[j], m->n_dofs);
+        double t = sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]) / length;
+        double r = sqrt(u[3] * u[3] + u[4] * u[4] + u[5] * u[5]);
         if (t > size) size = t;
         if (r > size) size = r;
     }
@@ -520,11 +532,10 @@ static void free_rates(const Model *m, const Configuration *c, double *velocity,
     for (int64_t k = 0; k < m->n_free_nodes; ++k) {
         int64_t i = m->free_nodes[k];
         const int64_t *d = m->node_dofs + 6 * i;
-        for (int j = 0; j < 3; ++j) {
-            velocity[d[j]] = c->v[3 * i + j];
-            velocity[d[3 + j]] = c->w[3 * i + j];
-            acceleration[d[j]] = c->a[3 * i + j];
-            acceleration[d[3 + j]] = c->alpha[3 * i + j];
+        for (int j = 0; j < 6; ++j) {
+            if (d[j] >= m->n_dofs) continue;  /* not a coordinate (planar model) */
+            velocity[d[j]] = j < 3 ? c->v[3 * i + j] : c->w[3 * i + j - 3];
+            acceleration[d[j]] = j < 3 ? c->a[3 * i + j] : c->alpha[3 * i + j - 3];
         }
     }
     for (int64_t k = 0; k < m->n_free_hinges; ++k) {
