@@ -153,3 +153,163 @@ def test_planar_derivatives_against_finite_differences(pair):
         unit = np.eye(14)
         numeric = np.column_stack([(g(qdot + H * unit[k]) - g(qdot - H * unit[k])) / (2 * H) for k in keep])
         np.testing.assert_allclose(exact[0][:, keep], numeric, rtol=0, atol=1e-6 * np.abs(exact).max())
+
+
+# ----------------------------------------------------------------------------- runtime
+import copy  # noqa: E402
+
+import latdyn  # noqa: E402
+from latdyn.model import Model  # noqa: E402
+from latdyn.scene import load_scene  # noqa: E402
+
+#: permutation taking the xy-plane scene below into the plane normal to axis n (a proper rotation)
+PERMUTATIONS = {2: (0, 1, 2), 0: (1, 2, 0), 1: (2, 0, 1)}
+
+
+def chain_scene(t_end=0.25, **solve):
+    """A planar scene with everything that could leave the plane kept in it: a prescribed rotating
+    base, hinges with spring (rest angle), damper and torque law, a joint body with mass, a centre
+    of mass off its reference point and a product of inertia in the plane, gravity, a follower load
+    with a moment, an initial velocity, and a beam whose section y axis is the plane's normal
+    (turned a quarter in the planar model), with unequal section values."""
+    return {
+        "title": "planar chain",
+        "gravity": [0.5, -9.81, 0],
+        "initial_velocity": {"linear": [0.1, -0.05, 0], "angular": [0, 0, 0.3]},
+        "sections": {"a": {"EA": 2e4, "EIy": 40.0, "EIz": 25.0, "GJ": 10.0, "rhoA": 0.6,
+                           "rhoIy": 2e-3, "rhoIz": 1e-3},
+                     "b": {"EA": 1e4, "EIy": 6.0, "EIz": 9.0, "GJ": 4.0, "rhoA": 0.4}},
+        "bodies": {
+            "base": {"at": [0, 0, 0], "motion": {"rotation": {"axis": [0, 0, 1], "angle": "0.4*sin(3*t)"}}},
+            "joint": {"at": [1.2, 0.3, 0], "mass": 0.3, "com": [0.05, -0.02, 0],
+                      "inertia": [[0.01, 0.002, 0], [0.002, 0.02, 0], [0, 0, 0.03]]},
+        },
+        "beams": {
+            "arm": {"from": {"body": "base", "offset": [0.1, 0.05, 0]}, "to": "joint", "section": "a",
+                    "elements": 3, "y_axis": [-0.25, 1.1, 0],
+                    "start": {"hinge": {"axis": [0, 0, 1], "stiffness": 30.0, "damping": 0.2, "rest_angle": 0.2}}},
+            "tip": {"from": "joint", "to": [2.0, -0.4, 0], "section": "b", "elements": 2, "y_axis": [0, 0, 1],
+                    "start": {"hinge": {"axis": [0, 0, -1], "stiffness": 5.0, "torque": "0.3*sin(5*t)"}}},
+        },
+        "loads": [{"at": "tip.end", "force": [0.2, "0.5*t", 0], "moment": [0, 0, 0.05], "frame": "joint"}],
+        "solve": {"t_end": t_end, "dt": 0.005, **solve},
+        "output": {"probes": [
+            {"name": "tip", "point": "tip.end", "quantity": "position", "component": "norm"},
+            {"name": "tip_speed", "point": "tip.end", "quantity": "velocity", "component": "norm"},
+            {"name": "joint_rel", "point": "joint", "quantity": "position", "frame": "base", "component": "norm"},
+            {"name": "hinge", "hinge": "tip.start", "quantity": "angle"},
+            {"name": "hinge_rate", "hinge": "arm.start", "quantity": "rate"},
+            {"name": "energy", "energy": "total"},
+            {"name": "work", "energy": "external_work"},
+            {"name": "axial", "element": "tip.element[0]", "quantity": "axial_force"},
+            {"name": "bending", "element": "tip.element[1]", "quantity": "moment_y"},
+            {"name": "bending_arm", "element": "arm.element[2]", "quantity": "moment_z"},
+        ]},
+    }
+
+
+def rotated(raw, normal):
+    """The scene with every vector taken by the cyclic permutation that maps e_z to e_normal."""
+    perm = PERMUTATIONS[normal]
+
+    def vec(v):
+        out = [0] * 3
+        for k in range(3):
+            out[perm[k]] = v[k]
+        return out
+
+    raw = copy.deepcopy(raw)
+    raw["gravity"] = vec(raw["gravity"])
+    raw["initial_velocity"] = {k: vec(v) for k, v in raw["initial_velocity"].items()}
+    for body in raw["bodies"].values():
+        body["at"] = vec(body["at"])
+        if "com" in body:
+            body["com"] = vec(body["com"])
+        if "inertia" in body:
+            I = np.array(body["inertia"], float)
+            Q = np.eye(3)[:, list(perm)]
+            body["inertia"] = (Q @ I @ Q.T).tolist()
+        if "motion" in body:
+            body["motion"]["rotation"]["axis"] = vec(body["motion"]["rotation"]["axis"])
+    for beam in raw["beams"].values():
+        for key in ("from", "to"):
+            if isinstance(beam[key], list):
+                beam[key] = vec(beam[key])
+            elif isinstance(beam[key], dict):
+                beam[key]["offset"] = vec(beam[key]["offset"])
+        if "y_axis" in beam:
+            beam["y_axis"] = vec(beam["y_axis"])
+        for key in ("start", "end"):
+            if isinstance(beam.get(key), dict):
+                beam[key]["hinge"]["axis"] = vec(beam[key]["hinge"]["axis"])
+    for load in raw["loads"]:
+        for key in ("force", "moment"):
+            load[key] = vec(load[key])
+    return raw
+
+
+def _relative(a, b):
+    """max |a − b| over max |b|, the latter at least 1e-6 (probes of this scene are O(0.01 … 10);
+    a probe that is zero by symmetry compares round-off with round-off)."""
+    return float(np.max(np.abs(a - b)) / max(np.max(np.abs(b)), 1e-6))
+
+
+@pytest.mark.parametrize("normal", [2, 0, 1], ids=["xy", "yz", "zx"])
+def test_planar_model_equals_3d_model(normal):
+    raw = rotated(chain_scene(), normal)
+    planar_scene = load_scene(raw)
+    model = Model.from_scene(planar_scene)
+    assert model.plane == normal
+    n_free = len(model.free_nodes)
+    assert model.n_dofs == 3 * n_free + len(model.free_hinges)
+    assert np.any(np.abs(np.abs(model.section_turns) - np.pi / 2) < 1e-12)  # the tip's section turned
+    off = copy.deepcopy(raw)
+    off["solve"]["planar"] = "off"
+    assert Model.from_scene(load_scene(off)).plane is None
+    planar, full = latdyn.run(raw), latdyn.run(off)
+    assert len(planar.t) == len(full.t)
+    for name in full.probes:
+        assert _relative(planar.probes[name], full.probes[name]) <= 1e-8, name
+    assert planar.summary["coordinates"] < full.summary["coordinates"]
+
+
+def test_same_answer_in_every_plane_and_both_engines():
+    results = {normal: latdyn.run(rotated(chain_scene(t_end=0.15), normal)) for normal in (2, 0, 1)}
+    python = latdyn.run(rotated(chain_scene(t_end=0.15, engine="python"), 0))
+    for name in results[2].probes:
+        for normal in (0, 1):
+            assert _relative(results[normal].probes[name], results[2].probes[name]) <= 1e-10, name
+        assert _relative(python.probes[name], results[0].probes[name]) <= 1e-10, name
+
+
+def test_scenes_that_leave_the_plane_stay_3d():
+    raw = chain_scene()
+    cases = {
+        "gravity": lambda r: r.__setitem__("gravity", [0, -9.81, 0.1]),
+        "hinge.axis": lambda r: r["beams"]["arm"]["start"]["hinge"].__setitem__("axis", [0, 0.1, 1]),
+        "moment": lambda r: r["loads"][0].__setitem__("moment", [0.01, 0, 0.05]),
+        "inertia": lambda r: r["bodies"]["joint"].__setitem__("inertia", [[0.01, 0, 0.001], [0, 0.02, 0],
+                                                                          [0.001, 0, 0.03]]),
+        "initial_velocity": lambda r: r["initial_velocity"].__setitem__("angular", [0.1, 0, 0.3]),
+        "y_axis": lambda r: r["beams"]["tip"].__setitem__("y_axis", [0, 1, 1]),
+        "to": lambda r: r["beams"]["tip"].__setitem__("to", [2.0, -0.4, 0.01]),
+    }
+    for what, change in cases.items():
+        r = copy.deepcopy(raw)
+        change(r)
+        model = Model.from_scene(load_scene(r))
+        assert model.plane is None, what
+        assert model.n_dofs == 6 * len(model.free_nodes) + len(model.free_hinges)
+        assert what.split(".")[-1] in model.plane_reason, (what, model.plane_reason)
+    modes = copy.deepcopy(raw)
+    modes["solve"] = {"analysis": "modes"}
+    assert Model.from_scene(load_scene(modes)).plane is None
+
+
+def test_planar_key_is_validated(tmp_path):
+    from latdyn.errors import SceneError
+
+    raw = chain_scene()
+    raw["solve"]["planar"] = "yes"
+    with pytest.raises(SceneError, match="solve.planar"):
+        load_scene(raw)
