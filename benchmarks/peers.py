@@ -246,7 +246,7 @@ def latdyn_engines():
     return found
 
 
-def latdyn_scene(problem, elements, dt, t_end, method=None, rho_inf=None, engine=None, newton=None):
+def latdyn_scene(problem, elements, dt, t_end, method=None, rho_inf=None, engine=None, newton=None, planar=None):
     if problem == "spinup":
         s = yaml.safe_load((ROOT / "examples" / "spinup.yaml").read_text())
         s["beams"]["arm"]["elements"] = elements
@@ -268,12 +268,14 @@ def latdyn_scene(problem, elements, dt, t_end, method=None, rho_inf=None, engine
         s["solve"]["engine"] = engine
     if newton:
         s["solve"]["newton"] = newton
+    if planar:
+        s["solve"]["planar"] = planar
     return s
 
 
 def latdyn_once(problem, cfg):
     s = latdyn_scene(problem, cfg["elements"], cfg["dt"], cfg["t_end"], cfg.get("method"), cfg.get("rho_inf"),
-                     cfg.get("engine"), cfg.get("newton"))
+                     cfg.get("engine"), cfg.get("newton"), cfg.get("planar"))
     t0 = time.perf_counter()
     try:
         r = latdyn.run(s)
@@ -516,17 +518,22 @@ def sweep(quick, engines):
     sp_all = [(4, 0.01)] if quick else [(2, 0.01), (2, 0.005), (4, 0.02), (4, 0.01), (8, 0.01), (8, 0.005)]
     ca_all = [(20, 0.05)] if quick else [(6, 0.1), (10, 0.2), (10, 0.1), (10, 0.05), (20, 0.05), (20, 0.025)]
     head = {"spinup": (4, 0.01), "cantilever": (20, 0.05)}
-    variants = [(main_engine, None, None)]
+    variants = [(main_engine, None, None, None)]
     if main_engine and not quick:
-        variants += [(main_engine, "full", "headline"), ("python", None, "headline")]
-    for eng, newton, only in variants:
-        sfx = ("" if eng is None else f", {eng}") + ("" if newton is None else f", {newton} Newton")
+        # the spin-up is planar: solve.planar: off gives the 3D model of the same scene
+        variants += [(main_engine, "full", "headline", None), ("python", None, "headline", None),
+                     (main_engine, None, "headline", "off")]
+    for eng, newton, only, planar in variants:
+        sfx = ("" if eng is None else f", {eng}") + ("" if newton is None else f", {newton} Newton") + \
+              ("" if planar is None else f", planar {planar}")
         for problem, settings in (("spinup", sp_all), ("cantilever", ca_all)):
+            if planar == "off" and problem != "spinup":
+                continue
             for n, dt in settings:
                 if only == "headline" and (n, dt) != head[problem]:
                     continue
                 rows.append((problem, "latdyn", dict(elements=n, dt=dt, t_end=10.0, engine=eng, newton=newton,
-                                                     label=f"{n} el, dt {dt}{sfx}",
+                                                     planar=planar, label=f"{n} el, dt {dt}{sfx}",
                                                      headline=(n, dt) == head[problem] and only is None)))
     if exu is not None:
         sp = [(16, 0.01, {})] if quick else [(8, 0.01, {}), (8, 0.005, {}), (16, 0.02, {}), (16, 0.01, {}),

@@ -62,6 +62,7 @@ def main():
         ("D3 flying spaghetti", P.check_D3(t_end=10.0)),
         ("D4 rigid limit", P.check_D4_rigid()),
         ("D4 flexible pendulum energy (0.4 s)", P.check_D4_energy()),
+        ("D4 as published, planar, 8 el (1 s)", P.check_D4_published()),
         ("D5 four-bar (2 s)", P.check_D5()),
         ("D5 four-bar (12 s)", P.check_D5(t_end=12.0)),
     ]

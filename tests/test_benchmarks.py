@@ -123,6 +123,10 @@ def test_D4_flexible_pendulum_energy():
     _assert_rows(problems.check_D4_energy())
 
 
+def test_D4_as_published_through_one_second():
+    _assert_rows(problems.check_D4_published())
+
+
 def test_D5_fourbar_closed_loop():
     """No published numbers: the run completes and the loop closes (parallelogram kinematics)."""
     _assert_rows(problems.check_D5())
