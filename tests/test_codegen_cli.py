@@ -34,7 +34,8 @@ def test_committed_tree_is_current():
 def test_unknown_variant_exits_2():
     result = _run("--variant", "nope")
     assert result.returncode == 2
-    assert "latdyn-codegen: unknown variant 'nope' (known: default, cr4402, no_stiffening)" in result.stderr
+    assert "latdyn-codegen: unknown variant 'nope' (known: default, cr4402, no_stiffening, default_yz," in result.stderr
+    assert "no_stiffening_xy)" in result.stderr  # the planar variants of each formulation follow
 
 
 def test_unknown_variant_toy():
