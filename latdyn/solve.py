@@ -115,6 +115,8 @@ def _mesh(model: Model, state: State) -> dict:
 
 def _grid_points(assembler: Assembler, mesh: dict, state: State) -> dict:
     """One ParaView frame of ``state`` for the parts of :func:`_mesh` (vectorized)."""
+    if assembler.model.links is not None:
+        assembler.model.links.complete(state)
     frame = {}
     for name, part in mesh.items():
         nodes = part["node"]
