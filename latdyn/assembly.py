@@ -110,6 +110,8 @@ def initial_state(model: Model) -> State:
     state.w[free] = iv.angular
     state.v[free] = iv.linear + np.cross(iv.angular, state.x[free] - iv.about)
     apply_prescribed(model, state, 0.0)
+    if model.links is not None:
+        model.links.complete(state)
     return state
 
 
@@ -143,6 +145,8 @@ def apply_prescribed(model: Model, state: State, t: float) -> None:
             state.theta_ddot[k] = hinge.angle.accel(t)
         elif model.locked[k]:
             state.theta_dot[k] = state.theta_ddot[k] = 0.0
+    if model.links is not None:
+        model.links.place(state)
 
 
 # ----------------------------------------------------------------------------- coordinates ↔ state
@@ -195,6 +199,8 @@ def advance(model: Model, state: State, increment: np.ndarray) -> State:
     new.T[free] = expm_so3(increment[model.node_dofs[free, 3:6]]) @ state.T[free]
     fh = model.free_hinges
     new.theta[fh] = state.theta[fh] + increment[model.hinge_dofs[fh]]
+    if model.links is not None:  # dependent nodes: forward kinematics, never integrated
+        model.links.place(new)
     return new
 
 
@@ -261,7 +267,7 @@ class Assembler:
     def reindex(self) -> None:
         """Scatter maps for the current coordinate numbering (rebuilt when a hinge latches)."""
         m = self.model
-        n = m.n_dofs
+        n = m.n_assembled  # = n_dofs, plus the dependent nodes' coordinates with rigid links
         rows, cols = [], []
 
         def block_pattern(dofs):
@@ -326,7 +332,7 @@ class Assembler:
     def assemble(self, parts: list, dense: bool | None = None):
         """Scatter masked block data (in the order of :meth:`reindex`) into a matrix on
         the free coordinates: a dense array for small models, CSR otherwise."""
-        n = self.model.n_dofs
+        n = self.model.n_assembled
         data = np.concatenate([np.ravel(p) for p in parts]) if parts else np.zeros(0)
         values = np.bincount(self._position, weights=data, minlength=self._nnz)
         if dense is None:
@@ -367,9 +373,19 @@ class Assembler:
     # -- the equations of motion ------------------------------------------------
     def evaluate(self, state: State, matrices: bool = True, load_factor: float = 1.0,
                  inertia: bool = True) -> Evaluation:
+        """Residual r(q, v, v̇, t) on the free coordinates (and, with ``matrices``, the blocks of M, C, K);
+        ``inertia=False``: the static residual; ``load_factor`` scales loads, gravity and hinge torques.
+        With rigid links the dependent nodes are completed first and the result is reduced to the
+        minimum coordinates (:meth:`latdyn.links.RigidLinks.evaluate`)."""
+        if self.model.links is not None:
+            return self.model.links.evaluate(self, state, matrices, load_factor, inertia)
+        return self._evaluate_assembled(state, matrices, load_factor, inertia)
+
+    def _evaluate_assembled(self, state: State, matrices: bool, load_factor: float, inertia: bool) -> Evaluation:
+        """The equations of motion on the first ``n_assembled`` coordinates (free, then dependent)."""
         m = self.model
         ks = self.kernels
-        n = m.n_dofs
+        n = m.n_assembled
         geometry = self.element_geometry(state)
         section = m.element_sections
         n_elem = len(geometry)
@@ -526,6 +542,8 @@ class Assembler:
         """Kinetic, strain and gravity potential energy of the whole model."""
         m = self.model
         ks = self.kernels
+        if m.links is not None:
+            m.links.complete(state)
         geometry = self.element_geometry(state)
         section = m.element_sections
         qdot = self.element_rates(state, state.v, state.w, state.theta_dot)
@@ -552,6 +570,8 @@ class Assembler:
         (B q̇_c = c × X), so the mass-matrix kernel gives both exactly.
         """
         m = self.model
+        if m.links is not None:
+            m.links.complete(state)
         geometry = self.element_geometry(state)
         (mass,) = self.kernels.beam_mass_matrix(geometry, m.element_sections)
         qdot = self.element_rates(state, state.v, state.w, state.theta_dot)

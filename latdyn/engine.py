@@ -21,7 +21,7 @@ tangents, measured by ``benchmarks/compile_levels.py``). It converges to the sam
 tolerance on the same invariant increment.
 
 Scenes the C step does not cover run the Python step (``engine_reason`` says why): the
-NumPy kernel backend (no compiler), hinge laws that depend on θ or θ̇, and iteration
+NumPy kernel backend (no compiler), rigid links, hinge laws that depend on θ or θ̇, and iteration
 matrices too wide for a band LU (large 3D lattices, which SuperLU solves in Python).
 """
 from __future__ import annotations
@@ -163,6 +163,8 @@ def _torque_of_time(law) -> bool:
 def unsupported(assembler) -> str | None:
     """Why the compiled step cannot run this model, or None when it can."""
     model = assembler.model
+    if getattr(model, "links", None) is not None:
+        return "rigid links (dependent nodes, latdyn/links.py) run in the Python step"
     if getattr(assembler.kernels, "backend", "numpy") != "c" or not hasattr(assembler.kernels, "libraries"):
         return "the element kernels are not compiled (NumPy backend)"
     for k, hinge in enumerate(model.hinges):

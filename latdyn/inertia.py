@@ -82,11 +82,18 @@ def joint_groups(model) -> np.ndarray:
     for node in model.free_nodes:
         group_of_node[int(node)] = len(groups)
         groups.append([int(d) for d in model.node_dofs[node] if d < n])  # a planar node has 3
+    links = getattr(model, "links", None)
     for k in model.free_hinges:
         dof = int(model.hinge_dofs[k])
         if dof >= n:
             continue
         node = model.hinges[k].node
+        if links is not None:
+            # a hinge on a rigid-link tree moves its dependent nodes: one group with the tree's root
+            node = links.root.get(node, node)
+            if node not in group_of_node and node in links.root.values():
+                group_of_node[node] = len(groups)
+                groups.append([])
         if node in group_of_node:
             groups[group_of_node[node]].append(dof)
         else:

@@ -29,14 +29,14 @@ from .expressions import HingeLaw, TimeFunction
 from .linalg import psd_null_direction
 from .scene import Scene
 
-FREE, PRESCRIBED, FIXED = 0, 1, 2
+FREE, PRESCRIBED, FIXED, DEPENDENT = 0, 1, 2, 3
 
 
 @dataclass
 class Node:
     name: str  # "hub", "arm.node[3]"
     position: np.ndarray  # reference point at t = 0
-    kind: int  # FREE | PRESCRIBED | FIXED
+    kind: int  # FREE | PRESCRIBED | FIXED | DEPENDENT (follows a rigid link, latdyn.links)
     body: str | None = None  # scene body name
     beam: str | None = None  # for beam nodes
 
@@ -111,6 +111,10 @@ class Model:
     #: so that local z is the plane's normal (:func:`latdyn.planar.restrict_to_plane`); zeros in 3D
     section_turns: np.ndarray = field(default=None)
     plane_reason: str = ""  # why the model is (not) planar, for ``latdyn check``
+    # rigid links (latdyn.links): None without; the dependent nodes' coordinates are numbered
+    # after the free ones, and the assembly works on the first n_assembled coordinates
+    links: object = None
+    n_assembled: int = 0
 
     # ------------------------------------------------------------------ building
     @classmethod
@@ -125,7 +129,13 @@ class Model:
         hinges: list[HingeCoordinate] = []
         element_nodes, offsets, axes, frames0, elem_hinges, sections, elem_beam = [], [], [], [], [], [], []
         beam_elements, beam_nodes, beam_grid_offsets = {}, {}, {}
+        link_bodies = []  # (node, mass, com, inertia) of the rigid links
+        edges = []
         for beam in scene.beams.values():
+            if beam.rigid:
+                _rigid_link(scene, beam, nodes, body_node, hinges, edges, link_bodies,
+                            beam_elements, beam_nodes, beam_grid_offsets)
+                continue
             start, end = beam.start.point, beam.end.point
             length = float(np.linalg.norm(end - start))
             x_axis = (end - start) / length
@@ -141,15 +151,7 @@ class Model:
                     node = len(nodes)
                     nodes.append(Node(f"{beam.name}.{which}", np.array(spec.point, float), FREE, beam=beam.name))
                     offset = np.zeros(3)
-                hinge_index = -1
-                if spec.hinge is not None:
-                    h = spec.hinge
-                    hinge_index = len(hinges)
-                    hinges.append(HingeCoordinate(beam.name, which, node, np.array(h.axis, float),
-                                                  _law(h.stiffness), _law(h.damping),
-                                                  None if h.torque is None else _law(h.torque), h.angle,
-                                                  None if h.lock_at is None else float(h.lock_at),
-                                                  float(h.rest_angle), h.limits, float(h.restitution)))
+                hinge_index = _add_hinge(hinges, beam.name, which, node, spec.hinge)
                 ends.append((node, offset, hinge_index))
             node_list = [ends[0][0]]
             for k in range(1, n):
@@ -177,6 +179,12 @@ class Model:
             beam_grid_offsets[beam.name] = (ends[0][1], ends[1][1])
 
         massive = [b for b in scene.bodies.values() if b.mass > 0 or np.any(b.inertia != 0)]
+        links = None
+        if edges:
+            from .links import RigidLinks
+
+            links = _tree_order(scene, edges, nodes)
+            links = RigidLinks(links, [b.name for b in scene.beams.values() if b.rigid])
         model = cls(
             scene=scene, nodes=nodes, hinges=hinges,
             element_nodes=np.array(element_nodes, dtype=np.int64).reshape(-1, 2),
@@ -187,11 +195,13 @@ class Model:
             element_sections=np.array(sections, float).reshape(-1, 8),
             element_beam=elem_beam, beam_elements=beam_elements, beam_nodes=beam_nodes,
             beam_grid_offsets=beam_grid_offsets,
-            body_nodes=np.array([body_node[b.name] for b in massive], dtype=np.int64),
-            body_mass=np.array([b.mass for b in massive], float),
-            body_com=np.array([b.com for b in massive], float).reshape(-1, 3),
-            body_inertia=np.array([b.inertia for b in massive], float).reshape(-1, 3, 3),
-            body_node=body_node,
+            body_nodes=np.array([body_node[b.name] for b in massive] + [lb[0] for lb in link_bodies],
+                                dtype=np.int64),
+            body_mass=np.array([b.mass for b in massive] + [lb[1] for lb in link_bodies], float),
+            body_com=np.array([b.com for b in massive] + [lb[2] for lb in link_bodies], float).reshape(-1, 3),
+            body_inertia=np.array([b.inertia for b in massive] + [lb[3] for lb in link_bodies],
+                                  float).reshape(-1, 3, 3),
+            body_node=body_node, links=links,
         )
         model.locked = np.zeros(len(hinges), dtype=bool)
         model.section_turns = np.zeros(len(model.element_nodes))
@@ -227,6 +237,7 @@ class Model:
         n_nodes, n_hinges = len(self.nodes), len(self.hinges)
         free_node = np.array([n.kind == FREE for n in self.nodes], dtype=bool)
         free_hinge = np.array([h.angle is None for h in self.hinges], dtype=bool) & ~self.locked
+        dependent = np.array([n.kind == DEPENDENT for n in self.nodes], dtype=bool)
         order_hinges = np.concatenate([np.flatnonzero(free_hinge), np.flatnonzero(~free_hinge)]).astype(np.int64)
         free_slot = free_node[:, None] & self.node_slots()[None, :]  # (n_nodes, 6)
         self.node_dofs = np.zeros((n_nodes, 6), dtype=np.int64)
@@ -237,12 +248,19 @@ class Model:
         self.node_dofs[free_slot] = np.arange(n_free_slots)
         self.hinge_dofs[order_hinges[:n_free_hinges]] = n_free_slots + np.arange(n_free_hinges)
         base = self.n_dofs
-        n_rest = free_slot.size - n_free_slots
-        self.node_dofs[~free_slot] = base + np.arange(n_rest)
+        # the dependent nodes of rigid links (assembled, then mapped by latdyn.links), then the constrained
+        dependent_slot = np.repeat(dependent[:, None], 6, axis=1)
+        n_dependent = int(dependent_slot.sum())
+        self.node_dofs[dependent_slot] = base + np.arange(n_dependent)
+        base += n_dependent
+        rest_slot = ~free_slot & ~dependent_slot
+        n_rest = int(rest_slot.sum())
+        self.node_dofs[rest_slot] = base + np.arange(n_rest)
         base += n_rest
         rest_hinges = order_hinges[n_free_hinges:]
         self.hinge_dofs[rest_hinges] = base + np.arange(len(rest_hinges))
         self.n_total = base + len(rest_hinges)
+        self.n_assembled = self.n_dofs + n_dependent
         self.free_nodes = np.flatnonzero(free_node)
         self.free_hinges = np.flatnonzero(free_hinge)
         n_elem = len(self.element_nodes)
@@ -288,10 +306,12 @@ class Model:
             f"  planar: {self.plane_reason}",
         ]
         bodies = [n for n in self.nodes if n.body is not None]
+        link_nodes = [n for n in self.nodes if n.body is None and n.beam in _rigid_names(self.scene)]
         interior = sum(1 for n in self.nodes if n.body is None and ".node[" in n.name)
-        free_ends = sum(1 for n in self.nodes if n.body is None and ".node[" not in n.name)
+        free_ends = sum(1 for n in self.nodes if n.body is None and ".node[" not in n.name) - len(link_nodes)
         lines.append(f"  nodes: {len(bodies)} joint bodies, {interior} interior beam nodes, "
-                     f"{free_ends} free beam ends; {int(slots.sum())} coordinates per free node")
+                     f"{free_ends} free beam ends" + (f", {len(link_nodes)} rigid-link nodes" if link_nodes else "")
+                     + f"; {int(slots.sum())} coordinates per free node")
         fixed = [n.name for n in self.nodes if n.kind == FIXED]
         prescribed = [n.name for n in self.nodes if n.kind == PRESCRIBED]
         prescribed_angles = [f"{h.beam}.{h.end}" for h in self.hinges if h.angle is not None]
@@ -303,6 +323,8 @@ class Model:
         parts = [f"{per * len(names)} for {len(names)} {what} ({_short(names)})"
                  for per, what, names in removed if names]
         lines.append("  removed: " + ("; ".join(parts) if parts else "none"))
+        if self.links is not None:
+            lines.append(self.links.report(self))
         events = [f"{h.beam}.{h.end}" for h in self.hinges if h.lock_at is not None and h.angle is None]
         stops = [f"{h.beam}.{h.end}" for h in self.hinges if h.limits is not None and h.angle is None]
         if events or stops:
@@ -527,6 +549,101 @@ def _static_estimate(model, assembler, state):
     if not np.all(np.isfinite(u)) or np.abs(u).max() > 1e6 * max(1.0, float(np.abs(state.x).max())):
         return None
     return advance(model, state, u)
+
+
+def _add_hinge(hinges: list, beam: str, which: str, node: int, hinge) -> int:
+    """Append the model hinge of a scene hinge (None: a clamped end) and return its index (-1 if none)."""
+    if hinge is None:
+        return -1
+    h = hinge
+    hinges.append(HingeCoordinate(beam, which, node, np.array(h.axis, float), _law(h.stiffness), _law(h.damping),
+                                  None if h.torque is None else _law(h.torque), h.angle,
+                                  None if h.lock_at is None else float(h.lock_at),
+                                  float(h.rest_angle), h.limits, float(h.restitution)))
+    return len(hinges) - 1
+
+
+def _rigid_names(scene) -> set:
+    return {b.name for b in scene.beams.values() if b.rigid}
+
+
+def _rigid_link(scene, beam, nodes, body_node, hinges, edges, link_bodies, beam_elements, beam_nodes,
+                beam_grid_offsets) -> None:
+    """Add a rigid link (:mod:`latdyn.links`): its link node L at the start grid point (dependent on
+    the start body through the start hinge, or free when the start is a free point), its inertia
+    on L, and the dependency of a body at its ``to`` end on L through the end hinge.
+
+    Inertia of the slender rod about its centre, in the link's axes (x along it, y, z of the
+    section): [(ρI_y + ρI_z) L, ρA L³/12 + ρI_y L, ρA L³/12 + ρI_z L], mass ρA L at mid-length."""
+    from .links import Edge
+
+    key = f"beams.{beam.name}.rigid"
+    start, end = beam.start, beam.end
+    vector = end.point - start.point
+    length = float(np.linalg.norm(vector))
+    x_axis = vector / length
+    frame = np.column_stack([x_axis, beam.y_axis, np.cross(x_axis, beam.y_axis)])
+    s = beam.section
+    rod = s.rhoA * length ** 3 / 12.0
+    inertia = frame @ np.diag([(s.rhoIy + s.rhoIz) * length, rod + s.rhoIy * length,
+                               rod + s.rhoIz * length]) @ frame.T
+    link = len(nodes)
+    if start.body is not None:
+        parent = body_node[start.body]
+        nodes.append(Node(f"{beam.name}.link", np.array(start.point, float), DEPENDENT, beam=beam.name))
+        h = _add_hinge(hinges, beam.name, "start", parent, start.hinge)
+        edges.append(Edge(parent, link, h, hinges[h].axis.copy() if h >= 0 else np.zeros(3), 1.0,
+                          np.array(start.offset, float), np.zeros(3), beam.name))
+    else:
+        nodes.append(Node(f"{beam.name}.link", np.array(start.point, float), FREE, beam=beam.name))
+    link_bodies.append((link, s.rhoA * length, 0.5 * vector, inertia))
+    if end.body is not None:
+        child = body_node[end.body]
+        node = nodes[child]
+        if node.kind in (FIXED, PRESCRIBED):
+            what = "fixed" if node.kind == FIXED else "prescribed"
+            raise SceneError(scene.file, key, f"rigid link {beam.name!r} ends at body {end.body!r}, which is {what}: "
+                                              "a rigid link positions the body at its `to` end, and this one is "
+                                              f"positioned already; expected the {what} body as the link's `from` "
+                                              "(or rigid: false)")
+        if node.kind == DEPENDENT:
+            other = next(e.link for e in edges if e.child == child)
+            raise SceneError(scene.file, key, f"body {end.body!r} is reached by two rigid links ({other!r} and "
+                                              f"{beam.name!r}): a closed loop that minimum coordinates cannot "
+                                              "express; make one beam of the loop flexible (rigid: false), or start "
+                                              "one of the links at the body")
+        node.kind = DEPENDENT
+        h = _add_hinge(hinges, beam.name, "end", child, end.hinge)
+        edges.append(Edge(link, child, h, hinges[h].axis.copy() if h >= 0 else np.zeros(3), -1.0,
+                          vector.copy(), -np.array(end.offset, float), beam.name))
+        # a loop: walking up from the link node reaches the body it positions
+        parent_of = {e.child: e for e in edges}
+        walk, loop = link, [beam.name]
+        while walk in parent_of:
+            e = parent_of[walk]
+            walk = e.parent
+            if e.link != loop[-1]:
+                loop.append(e.link)
+            if walk == child:
+                raise SceneError(scene.file, key, "the rigid links " + ", ".join(repr(n) for n in loop[::-1])
+                                 + " close a loop: a closed loop made only of rigid links cannot be expressed in "
+                                 "minimum coordinates; make one beam of the loop flexible (rigid: false)")
+    beam_elements[beam.name] = np.zeros(0, dtype=np.int64)
+    beam_nodes[beam.name] = np.array([link, link])
+    beam_grid_offsets[beam.name] = (np.zeros(3), vector.copy())
+
+
+def _tree_order(scene, edges, nodes) -> list:
+    """The edges of the rigid links with parents before children (by depth in the tree)."""
+    parent_of = {e.child: e.parent for e in edges}
+
+    def depth(node):
+        d = 0
+        while node in parent_of:
+            node, d = parent_of[node], d + 1
+        return d
+
+    return sorted(edges, key=lambda e: depth(e.child))
 
 
 def _law(value) -> HingeLaw:

@@ -60,6 +60,8 @@ def _blocker(scene, normal: int) -> str | None:
         if body.translation is not None and not _zero(body.translation[normal]):
             return f"bodies.{body.name}.motion.translation leaves the plane"
     for beam in scene.beams.values():
+        if beam.rigid:  # rigid links map dependent nodes with all 6 coordinates (latdyn/links.py)
+            return f"beams.{beam.name}.rigid: scenes with rigid links run in 3D"
         for which in ("start", "end"):
             end = getattr(beam, which)
             if abs(end.point[normal] - level) > PLANE_TOLERANCE * size:

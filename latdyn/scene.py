@@ -24,8 +24,15 @@ Extensions to SCENE.md (keys may be added, never renamed):
 - ``solve``: ``adaptive``, ``error_tol``, ``dt_min``, ``max_iterations``,
   ``formulation`` (code-generation variant, one of :data:`FORMULATIONS`);
 - expression names ``asin acos atan atan2 sinh cosh tanh``;
-- hinge ``stiffness``/``damping``/``torque`` also as a table in t; ``rigid: true`` is refused
-  (rigid links are not implemented: SceneError naming ``beams.NAME.rigid``).
+- hinge ``stiffness``/``damping``/``torque`` also as a table in t.
+
+Rigid links (``rigid: true``, SCENE.md): the beam is one rigid body (mass ρA·L at mid-length, the
+slender rod's inertia), hinged or clamped at its ends like any beam; ``elements`` is ignored (the
+link counts as one element for point names: ``LINK.node[0]`` = start, ``LINK.node[1]`` = end) and
+it has no element probes. A body at its ``to`` end becomes a *dependent node* (its configuration
+follows from the link's; :mod:`latdyn.links`). What minimum coordinates cannot express is refused
+by :meth:`latdyn.model.Model.from_scene` with a SceneError naming ``beams.NAME.rigid``: a closed
+loop of rigid links, a ``to`` body that is fixed or prescribed, or one reached by two links.
 
 Hinge additions (SCENE.md): ``rest_angle``, ``limits: [lo, hi]`` (lo <= 0 <= hi, the angle being
 0 at t = 0; not with a prescribed ``angle``; a ``lock_at`` must lie within them),
@@ -166,6 +173,7 @@ class Beam:
     section: Section
     elements: int
     y_axis: np.ndarray      # (3,) unit, normal to x = start -> end
+    rigid: bool = False     # one rigid link (elements is then 1 and no elements are meshed)
 
     @property
     def length(self) -> float:
@@ -292,7 +300,7 @@ class Scene:
 
     @property
     def n_elements(self) -> int:
-        return sum(b.elements for b in self.beams.values())
+        return sum(b.elements for b in self.beams.values() if not b.rigid)
 
     @property
     def hinges(self) -> list[tuple[str, str, Hinge]]:
@@ -792,14 +800,15 @@ class _Reader:
 
     def beam(self, name, spec, key) -> Beam:
         self.mapping(spec, key, _BEAM_KEYS, required=("from", "to", "section"))
-        if "rigid" in spec and self.boolean(spec["rigid"], _join(key, "rigid")):
-            # SCENE.md lists the key; this version has no dependent (rigid-link) coordinates yet
-            self.fail(_join(key, "rigid"), "rigid links are not supported by this version of latdyn; expected "
-                                           "rigid: false (model the link as a stiff beam)", spec["rigid"])
+        rigid = "rigid" in spec and self.boolean(spec["rigid"], _join(key, "rigid"))
         section = self.sections[self.ref(spec["section"], _join(key, "section"), self.sections, "section")]
         before = self.n_elements  # a running total: summing over the beams read would be O(n²)
-        elements = self.integer(spec.get("elements", 1), _join(key, "elements"), maximum=MAX_ELEMENTS - before,
-                                why=f" (at most {MAX_ELEMENTS} elements in a scene, {before} in the beams before)")
+        if rigid:  # SCENE.md: elements is ignored; the link is one segment from start to end
+            elements = 1
+        else:
+            elements = self.integer(spec.get("elements", 1), _join(key, "elements"),
+                                    maximum=MAX_ELEMENTS - before,
+                                    why=f" (at most {MAX_ELEMENTS} elements in a scene, {before} in the beams before)")
         with np.errstate(over="ignore", invalid="ignore"):  # coordinates beyond float64: refused below
             start = self.beam_end(spec["from"], _join(key, "from"), spec.get("start"), _join(key, "start"),
                                   "start" in spec)
@@ -826,9 +835,10 @@ class _Reader:
             if math.hypot(x[0], x[1]) < 1e-9:
                 y = np.array([0.0, 1.0, 0.0])
                 y = y - np.dot(y, x) * x
-        self.n_elements += elements
+        if not rigid:
+            self.n_elements += elements
         return Beam(name=name, start=start, end=end, section=section, elements=elements,
-                    y_axis=y / math.sqrt(float(np.dot(y, y))))
+                    y_axis=y / math.sqrt(float(np.dot(y, y))), rigid=rigid)
 
     # indices of up to 18 digits: int() refuses more than 4300, and any index that long is out of range
     _POINT = re.compile(r"^(?P<name>[^.\[\]]+)\.(?:(?P<end>start|end)|node\[(?P<node>[+-]?\d{1,18})\])$")
@@ -904,6 +914,9 @@ class _Reader:
         if not m or m["name"] not in self.beams:
             self.fail(k("element"), f"expected BEAM.element[i] (beams: {_listing(self.beams)})", ref)
         beam = self.beams[m["name"]]
+        if beam.rigid:
+            self.fail(k("element"), f"beam {beam.name!r} is a rigid link (rigid: true) and has no elements or "
+                                    "section forces; expected an element of a flexible beam", ref)
         index = int(m["index"])
         if not 0 <= index < beam.elements:
             self.fail(k("element"), f"element index out of range: expected 0 ... {beam.elements - 1} "
@@ -1120,8 +1133,8 @@ def describe(scene: Scene) -> str:
         state = "fixed" if b.fixed else "prescribed" if b.prescribed else "free"
         kinds.append(f"{b.name} ({state}{f', mass {b.mass:g}' if b.mass else ''})")
     lines.append(f"  bodies:   {len(scene.bodies)}" + (f": {', '.join(kinds)}" if kinds else ""))
-    beams = [f"{b.name} ({b.elements} el, L = {b.length:g}, {b.start.joint}-{b.end.joint})"
-             for b in scene.beams.values()]
+    beams = [f"{b.name} ({'rigid link' if b.rigid else f'{b.elements} el'}, L = {b.length:g}, "
+             f"{b.start.joint}-{b.end.joint})" for b in scene.beams.values()]
     lines.append(f"  beams:    {len(scene.beams)}" + (f": {', '.join(beams)}" if beams else ""))
     lines.append(f"  elements: {scene.n_elements}")
     hinges = [f"{beam}.{which}" + (" (prescribed)" if h.angle is not None else "")

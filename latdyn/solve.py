@@ -45,6 +45,10 @@ def prepare(scene, backend: str = "auto") -> Prepared:
         at_rest = state.copy()
         at_rest.v[:] = at_rest.w[:] = 0.0
         at_rest.theta_dot[:] = 0.0
+        # at rest without acceleration (K does not depend on it, but with rigid links the geometric
+        # term ∂Jᵀ/∂q · r would carry the inertia forces of prescribed accelerations)
+        at_rest.a[:] = at_rest.alpha[:] = 0.0
+        at_rest.theta_ddot[:] = 0.0
         # material stiffness only: load terms (gravity, follower moments) hold nothing
         ev = assembler.evaluate(at_rest, matrices=True, load_factor=0.0)
         model.check_held(ev.mass, ev.stiffness, scene.file)
@@ -115,6 +119,8 @@ def _mesh(model: Model, state: State) -> dict:
 
 def _grid_points(assembler: Assembler, mesh: dict, state: State) -> dict:
     """One ParaView frame of ``state`` for the parts of :func:`_mesh` (vectorized)."""
+    if assembler.model.links is not None:
+        assembler.model.links.complete(state)
     frame = {}
     for name, part in mesh.items():
         nodes = part["node"]

@@ -67,11 +67,19 @@ def test_bays_repeat_a_bay_and_the_truss_example_builds_ten_thousand_elements_in
     assert best < 2.0  # 0.9 s measured on a loaded 2-core machine; the limit leaves room for slower CI
 
 
-def test_rigid_links_are_refused_with_the_key_path():
+def test_rigid_link_built_and_run():
+    """p1 as a rigid link (tests/test_rigid.py has the physics): the knee follows it, p2's hinge
+    with its law, stops and latch sits on a dependent node."""
+    from latdyn.model import DEPENDENT, Model
+
     b = boom()
     b.data["beams"]["p1"]["rigid"] = True
-    with pytest.raises(SceneError) as info:
-        b.build()
-    assert "beams.p1.rigid" in str(info.value) and "not supported" in str(info.value)
+    scene = b.build()
+    assert scene.n_elements == 2
+    model = Model.from_scene(scene)
+    assert model.nodes[model.body_node["knee"]].kind == DEPENDENT
+    assert model.n_dofs == 6 * 2 + 1  # p2's two nodes and its hinge
+    result = latdyn.run(scene)
+    assert np.all(np.isfinite(result.probes["angle"]))
     b.data["beams"]["p1"]["rigid"] = False
     assert b.build().n_elements == 4
