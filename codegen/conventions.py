@@ -20,7 +20,13 @@ VELOCITY = Argument(
     "[v1[3] w1[3] thetadot1 v2[3] w2[3] thetadot2]: reference-point velocities, spatial angular "
     "velocities of the joint bodies, hinge rates (order of q^e, Eq. 59)",
 )
-SECTION = Argument("section", 8, "L0 EA EIy EIz GJ rhoA rhoIy rhoIz")
+SECTION = Argument(
+    "section",
+    10,
+    "L0 EA EIy EIz GJ rhoA rhoIy rhoIz cGAy cGAz: undeformed length, stiffnesses, inertia per length, and "
+    "shear compliances cGAy = 1/GAy (deflection along local y, paired with EIz) and cGAz = 1/GAz "
+    "(along local z, paired with EIy); 0 = shear-rigid (Euler-Bernoulli)",
+)
 GRAVITY = Argument("gravity", 3, "uniform gravity acceleration, global")
 
 # Slices into the geometry block.
@@ -34,4 +40,4 @@ D1, PI1, THETA1 = slice(0, 3), slice(3, 6), 6
 D2, PI2, THETA2 = slice(7, 10), slice(10, 13), 13
 N_ELEMENT_COORDINATES = 14
 
-SECTION_NAMES = ("L0", "EA", "EIy", "EIz", "GJ", "rhoA", "rhoIy", "rhoIz")
+SECTION_NAMES = ("L0", "EA", "EIy", "EIz", "GJ", "rhoA", "rhoIy", "rhoIz", "cGAy", "cGAz")

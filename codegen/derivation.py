@@ -262,7 +262,10 @@ def build_kernels(variant: str = "default") -> list[KernelSpec]:
         out_of_plane = set(plane.out_of_plane_coordinates())
         gravity = [sp.sympify(g).xreplace(planar_values) for g in gravity]
     psi_symbols = fm.PSI
-    U = fm.strain_energy(psi_symbols, section, formulation)
+    # μ_z, μ_y = 1/(1 + Φ) of the two bending planes: named once per kernel, unused ones are dropped
+    shear = fm.SHEAR_FACTORS
+    shear_definitions = list(zip(shear, fm.shear_factor_definitions(section)))
+    U = fm.strain_energy(psi_symbols, section, formulation, shear)
     dU = [sp.diff(U, p) for p in psi_symbols]
     ddU = [[sp.diff(d, p) for p in psi_symbols] for d in dU]
 
@@ -337,27 +340,27 @@ def build_kernels(variant: str = "default") -> list[KernelSpec]:
         )
 
     # --- deformation ---
-    b = Builder(list(kin.auxiliary))
+    b = Builder(kin.auxiliary + shear_definitions)
     add("beam_deformation", "Deformation vector Ψ = [φy1, φz1, φy2, φz2, φx2, αx2] and corotational frame T_c",
         "Eqs. 12-21, 46", geometry_section,
         [Output("psi", (6,), list(kin.psi)), Output("corotational_frame", (3, 3), list(kin.frame))], b)
 
     # --- strain energy and section forces ---
-    b = Builder(list(kin.auxiliary))
+    b = Builder(kin.auxiliary + shear_definitions)
     psi = b.vector("psi", kin.psi)
     rename = dict(zip(psi_symbols, psi))
     add("beam_strain_energy", "Strain energy U and mid-element section forces [N, T, M_y, M_z]",
         "Eqs. 22-41", geometry_section,
         [Output("strain_energy", (), [U.xreplace(rename)]),
-         Output("section_forces", (4,), [f.xreplace(rename) for f in fm.section_forces(psi_symbols, section, formulation)])], b)
+         Output("section_forces", (4,), [f.xreplace(rename) for f in fm.section_forces(psi_symbols, section, formulation, shear)])], b)
 
     # --- internal force ---
-    b = Builder(list(kin.auxiliary))
+    b = Builder(kin.auxiliary + shear_definitions)
     _, force, _ = elastic(b, with_tangent=False)
     add("beam_internal_force", "Generalized internal force F_i^e = Bᵀ ∂U/∂Ψ", "Eqs. 29-43",
         geometry_section, [Output("internal_force", (N,), force)], b)
 
-    b = Builder(list(kin.auxiliary))
+    b = Builder(kin.auxiliary + shear_definitions)
     _, force, tangent = elastic(b, with_tangent=True)
     add("beam_internal_force_D_q", "Internal force and its exact tangent ∂F_i/∂q (material + geometric)",
         "Eqs. 29-43", geometry_section,
@@ -382,29 +385,29 @@ def build_kernels(variant: str = "default") -> list[KernelSpec]:
                                      for r1, r2 in zip(_matmul(p["Mhat"], dJdq), _matmul(dghat, p["J"]))])
         return _matmul(_transpose(p["J"]), inner)
 
-    b = Builder(list(kin.auxiliary))
+    b = Builder(kin.auxiliary + shear_definitions)
     p = inertia(b, with_velocity=False)
     add("beam_mass_matrix", "Element mass matrix M^e", "Eqs. 44-56, 62", geometry_section,
         [Output("mass_matrix", (N, N), _flat(mass_matrix(b, p)))], b)
 
-    b = Builder(list(kin.auxiliary))
+    b = Builder(kin.auxiliary + shear_definitions)
     p = inertia(b, with_velocity=True)
     add("beam_quadratic_velocity", "Quadratic-velocity vector g^e (centrifugal, Coriolis, offset χ^e)",
         "Eqs. 50-57, 61-62", with_velocity, [Output("quadratic_velocity", (N,), quadratic_velocity(b, p))], b)
 
-    b = Builder(list(kin.auxiliary))
+    b = Builder(kin.auxiliary + shear_definitions)
     p = inertia(b, with_velocity=True)
     add("beam_quadratic_velocity_D_qdot", "∂g^e/∂q̇ (exact)", "Eqs. 50-57", with_velocity,
         [Output("quadratic_velocity_D_qdot", (N, N), _flat(quadratic_velocity_D_qdot(b, p)))], b)
 
-    b = Builder(list(kin.auxiliary))
+    b = Builder(kin.auxiliary + shear_definitions)
     p = inertia(b, with_velocity=True)
     kinetic = sp.Add(*[p["u"][i] * p["Mhat"][i][j] * p["u"][j] for i in range(12) for j in range(12)]) / 2
     add("beam_kinetic_energy", "Kinetic energy ½ q̇ᵀ M q̇", "Eqs. 54-56", with_velocity,
         [Output("kinetic_energy", (), [kinetic])], b)
 
     # --- gravity ---
-    b = Builder(list(kin.auxiliary))
+    b = Builder(kin.auxiliary + shear_definitions)
     p = inertia(b, with_velocity=False)
     TcT = p["TcT"]
     g_local = b.vector("gc", [sp.Add(*[TcT[i][k] * gravity[k] for k in range(3)]) for i in range(3)])

@@ -19,6 +19,14 @@ Conventions
 * The nodal frame is T_e = T_j Γ_gh T_h(θ) Γ_eh^T (Eq. 17), i.e. a rotation
   of the hinge angle about the spatial hinge axis h = T_j Γ_gh e_z; the kernels
   take T_e and h as inputs, so a change of θ acts as exp(δθ skew(h)) on T_e.
+* Shear (not in CR-4402): the section block carries the compliances 1/GA_y,
+  1/GA_z (0 = shear-rigid).  Bending + shear energy, the ½(v'² + w'²) stretching
+  term and the inertia all use the interdependent interpolation element
+  (:func:`interdependent_shapes`), polynomial in μ = 1/(1 + Φ); μ = 1 is the
+  Euler–Bernoulli element exactly.  IIE rather than Hermite shapes in the
+  stretching term and the inertia: with Hermite ones the buckling load and the
+  frequencies converge to wrong limits (docs/verification.md, "Shear-deformable
+  sections"), for +0–17 % operations in the kernels.
 * Symbolic geometry is built in SymEngine (fast differentiation); the section
   integrals of the inertia are done in SymPy.  The single crossing point is
   :func:`to_sympy`.
@@ -48,6 +56,15 @@ class Formulation:
     #: None: the 3D element. "xy", "yz", "zx": the same element restricted to motion in that
     #: coordinate plane (:class:`Plane`), for scenes that stay in it (``solve.planar``).
     plane: str | None = None
+    #: transverse shapes of the ½(v'² + w'²) stretching term and of the inertia when the section is
+    #: shear-deformable (compliance 1/GA > 0); bending + shear energy always uses the interdependent
+    #: interpolation (:func:`interdependent_shapes`).  "interdependent": the IIE deflection and section
+    #: rotation; "hermite": the Euler–Bernoulli cubics of Eqs. 23–26 whatever the shear.  Both are the
+    #: same when 1/GA = 0.  Every variant uses "interdependent": with "hermite" the frequencies of a
+    #: Timoshenko beam converge to a limit 2.8 % off (mode 4) and the buckling load misses Engesser's;
+    #: measurements and operation counts: docs/verification.md, "Shear-deformable sections".
+    stiffening_shapes: str = "interdependent"
+    inertia_shapes: str = "interdependent"
     description: str = ""
 
     def __post_init__(self):
@@ -55,9 +72,13 @@ class Formulation:
             raise ValueError(f"rotation_measure {self.rotation_measure!r} not in {ROTATION_MEASURES}")
         if self.plane is not None and self.plane not in PLANES:
             raise ValueError(f"plane {self.plane!r} not in {tuple(PLANES)}")
+        for shapes in (self.stiffening_shapes, self.inertia_shapes):
+            if shapes not in TRANSVERSE_SHAPES:
+                raise ValueError(f"transverse shapes {shapes!r} not in {TRANSVERSE_SHAPES}")
 
 
 ROTATION_MEASURES = ("log", "sine")
+TRANSVERSE_SHAPES = ("interdependent", "hermite")
 
 FORMULATIONS: dict[str, Formulation] = {
     "default": Formulation(
@@ -466,23 +487,110 @@ def hermite():
     return a1, a2
 
 
-def displacement_field(psi, L, rotary_inertia: bool):
+#: Φ = 12 EI/(GA L²) = 12 EI·(1/GA)/L², the shear parameter of one bending plane (Reddy 1997, Eq. 20)
+SHEAR_PARAMETER = sp.Symbol("Phi", nonnegative=True)
+#: μ = 1/(1 + Φ) ∈ (0, 1], the shear factor in which every IIE quantity is a polynomial (μ = 1: shear-rigid)
+SHEAR_FACTOR = sp.Symbol("mu", positive=True)
+#: μ_z (bending about z, deflection v along y: EI_z, 1/GA_y) and μ_y (about y, w along z: EI_y, 1/GA_z)
+#: as symbols: the kernels define them once (:func:`shear_factor_definitions`) and the inertia
+#: integrals keep them symbolic
+SHEAR_FACTORS = sp.symbols("shear_factor_z shear_factor_y", real=True)
+
+
+def _integrate_unit(expr):
+    """∫₀¹ expr dξ for a polynomial in ξ (term by term: fast for symbolic coefficients)."""
+    poly = sp.Poly(sp.expand(expr), xi)
+    return sp.expand(sum(c / (k + 1) for (k,), c in poly.terms()))
+
+
+@lru_cache(maxsize=None)
+def interdependent_shapes():
+    """Deflection and section-rotation shapes of the interdependent interpolation element (IIE).
+
+    Returns ((n_1, n_2), (r_1, r_2)), polynomials in ξ and μ = 1/(1 + Φ) (:data:`SHEAR_FACTOR`),
+    such that for end rotations φ_1, φ_2 of the section relative to the chord (and no end
+    deflection, which the chord absorbs)
+
+        v/L = n_1 φ_1 + n_2 φ_2   (deflection, cubic),   ψ = r_1 φ_1 + r_2 φ_2   (section rotation, quadratic).
+
+    Derived, not copied: they are the exact solution of the static, unloaded linear
+    Timoshenko beam (Friedman & Kosmatka 1993; Reddy 1997, Eqs. 15–21):
+
+        M = EI ψ_x,   EI ψ_xx + GA γ = 0,   γ = v_x − ψ,   (GA γ)_x = 0,
+
+    i.e. γ = −(Φ/12) ψ_ξξ in ξ = x/L, with v(0) = v(1) = 0, ψ(0) = φ_1, ψ(1) = φ_2.
+    In Φ the coefficients carry 1/(1 + Φ); in μ they are linear, e.g.
+    n_1 = μξ³ − (1 + 3μ)ξ²/2 + (1 + μ)ξ/2.  At μ = 1 (Φ = 0), γ = 0, n_k are the Hermite
+    cubics a_k of Eqs. 25–26 and r_k = a_k′.
+    """
+    Phi, mu = SHEAR_PARAMETER, SHEAR_FACTOR
+    a = sp.symbols("a_0:4")
+    b = sp.symbols("b_0:3")
+    phi1, phi2 = sp.symbols("phi_1 phi_2")
+    deflection = sum(a[k] * xi**k for k in range(4))  # v/L
+    rotation = sum(b[k] * xi**k for k in range(3))  # ψ
+    shear_strain = sp.diff(deflection, xi) - rotation  # γ = v_x − ψ
+    equilibrium = sp.Poly(shear_strain + Phi / 12 * sp.diff(rotation, xi, 2), xi).all_coeffs()
+    conditions = equilibrium + [deflection.subs(xi, 0), deflection.subs(xi, 1),
+                                rotation.subs(xi, 0) - phi1, rotation.subs(xi, 1) - phi2]
+    solution = sp.solve(conditions, a + b, dict=True)[0]
+    deflection, rotation = deflection.subs(solution), rotation.subs(solution)
+
+    def shape(field, phi):
+        coefficients = sp.Poly(sp.expand(sp.diff(field, phi)), xi).terms()
+        in_mu = [(k, sp.cancel(c.subs(Phi, 1 / mu - 1))) for (k,), c in coefficients]
+        assert all(c.is_polynomial(mu) for _, c in in_mu), "IIE shape not polynomial in μ"
+        return sum(sp.expand(c) * xi**k for k, c in in_mu)
+
+    n = (shape(deflection, phi1), shape(deflection, phi2))
+    r = (shape(rotation, phi1), shape(rotation, phi2))
+    assert all(sp.expand(nk.subs(mu, 1) - ak) == 0 for nk, ak in zip(n, hermite())), "IIE at Φ = 0 is not Hermite"
+    return n, r
+
+
+def shear_factor_definitions(section):
+    """μ_z = 1/(1 + Φ_z) = L²/(L² + 12 EI_z/GA_y), μ_y = L²/(L² + 12 EI_y/GA_z), from the section block.
+
+    ``section`` maps names of :data:`conventions.SECTION_NAMES` to symbols or numbers; a missing
+    compliance (cGAy, cGAz) is 0, i.e. μ = 1.
+    """
+    L = section["L0"]
+    cy, cz = section.get("cGAy", 0), section.get("cGAz", 0)
+    return L**2 / (L**2 + 12 * section["EIz"] * cy), L**2 / (L**2 + 12 * section["EIy"] * cz)
+
+
+def transverse_fields(psi, shear=(1, 1)):
+    """v/L, w/L and the section rotations θ_z, θ_y along the element, as polynomials in ξ.
+
+    ``shear`` = (μ_z, μ_y) (:func:`shear_factor_definitions`; 1 gives the Hermite cubics,
+    Eqs. 23–24).  θ_z = v_x and θ_y = −w_x when μ = 1 (Euler–Bernoulli).
+    """
+    phi_y1, phi_z1, phi_y2, phi_z2, _, _ = psi
+    (n1, n2), (r1, r2) = interdependent_shapes()
+    fields = []
+    for mu, phi1, phi2, sign in ((shear[0], phi_z1, phi_z2, 1), (shear[1], phi_y1, phi_y2, -1)):
+        at = {SHEAR_FACTOR: mu}
+        fields.append((sign * (n1.subs(at) * phi1 + n2.subs(at) * phi2), r1.subs(at) * phi1 + r2.subs(at) * phi2))
+    (v, theta_z), (w, theta_y) = fields
+    return v, w, theta_z, theta_y
+
+
+def displacement_field(psi, L, rotary_inertia: bool, shear=(1, 1)):
     """u_c = N Ψ (Eqs. 44–45, corrected), components along the corotational axes.
 
-    Euler–Bernoulli kinematics with v, w the Hermite cubics of Eqs. 23–24, a
-    linear twist (Eq. 40's assumption, φ_x¹ = 0 by Eq. 11) and a linear stretch:
+    v, w the Hermite cubics of Eqs. 23–24 (Euler–Bernoulli, ``shear`` = (1, 1)) or the
+    IIE shapes (:func:`interdependent_shapes`, ``shear`` = (μ_z, μ_y)), a linear twist
+    (Eq. 40's assumption, φ_x¹ = 0 by Eq. 11) and a linear stretch; a plane section
+    turns by its own rotations θ_z, θ_y (= v_x, −w_x without shear):
 
-        u = ξ α − y v_x + z(−w_x),  v = L(a1 φz1 + a2 φz2) − z ξ φx2,
-        w = −L(a1 φy1 + a2 φy2) + y ξ φx2
+        u = ξ α − y θ_z + z θ_y,  v = L(n1 φz1 + n2 φz2) − z ξ φx2,
+        w = −L(n1 φy1 + n2 φy2) + y ξ φx2
     """
-    phi_y1, phi_z1, phi_y2, phi_z2, phi_x2, alpha = psi
-    a1, a2 = hermite()
-    v = L * (a1 * phi_z1 + a2 * phi_z2)
-    w = -L * (a1 * phi_y1 + a2 * phi_y2)
-    v_x = sp.diff(v, xi) / L
-    w_x = sp.diff(w, xi) / L
+    phi_x2, alpha = psi[4], psi[5]
+    v, w, theta_z, theta_y = transverse_fields(psi, shear)
+    v, w = L * v, L * w
     if rotary_inertia:
-        u = xi * alpha - ys * v_x - zs * w_x
+        u = xi * alpha - ys * theta_z + zs * theta_y
         v = v - zs * xi * phi_x2
         w = w + ys * xi * phi_x2
     else:
@@ -493,41 +601,78 @@ def displacement_field(psi, L, rotary_inertia: bool):
 # --------------------------------------------------------------------------
 # Strain energy, Eqs. 22–43
 # --------------------------------------------------------------------------
-def strain_energy(psi, section, formulation: Formulation) -> sp.Expr:
+def bending_shear_energy(EI, mu, L, phi1, phi2):
+    """Bending plus shear energy of one plane, (EI/2L)∫₀¹[ψ_ξ² + (Φ/12) ψ_ξξ²] dξ, with the IIE ψ.
+
+    With GA γ = −EI ψ_xx (:func:`interdependent_shapes`), ½∫GAγ² dx = (EI Φ/24L)∫ψ_ξξ² dξ, so
+    U = EI/(2L(1+Φ)) [(4+Φ)(φ_1² + φ_2²) + 2(2−Φ) φ_1 φ_2]   (Reddy 1997, Eq. 22; asserted here)
+      = (EI/2L) [(1 + 3μ)(φ_1² + φ_2²) + 2(3μ − 1) φ_1 φ_2],   μ = 1/(1 + Φ).
+    At μ = 1 this is the Euler–Bernoulli energy of Eqs. 28–31, (EI/2L)[4φ_1² + 4φ_1φ_2 + 4φ_2²].
+    """
+    Phi_, mu_ = SHEAR_PARAMETER, SHEAR_FACTOR
+    _, (r1, r2) = interdependent_shapes()
+    rotation = r1 * phi1 + r2 * phi2
+    density = sp.diff(rotation, xi) ** 2 + (1 / mu_ - 1) / 12 * sp.diff(rotation, xi, 2) ** 2
+    U = _integrate_unit(density) * EI / (2 * L)
+    reddy = EI / (2 * L * (1 + Phi_)) * ((4 + Phi_) * (phi1**2 + phi2**2) + 2 * (2 - Phi_) * phi1 * phi2)
+    assert sp.cancel(U - reddy.subs(Phi_, 1 / mu_ - 1)) == 0, "IIE energy differs from Reddy's closed form"
+    U = EI / (2 * L) * ((1 + 3 * mu_) * (phi1**2 + phi2**2) + 2 * (3 * mu_ - 1) * phi1 * phi2)
+    assert sp.cancel(U - reddy.subs(Phi_, 1 / mu_ - 1)) == 0
+    return U.subs(mu_, mu)
+
+
+def mean_axial_strain(psi, section, formulation: Formulation, shear=None):
+    """ε̄ = ∫₀¹ ε^s dξ, ε^s = α/L + ½(v_x² + w_x²) (Eq. 35; without geometric stiffening α/L).
+
+    The slopes v_x, w_x are those of the deflection (not the section rotation), from the
+    shapes ``formulation.stiffening_shapes``: Hermite (Eqs. 23–26) or IIE with ``shear`` =
+    (μ_z, μ_y) (default: :func:`shear_factor_definitions` of ``section``).  For Hermite slopes
+    the mean is α/L + [4(φz1² + φy1²) − 2(φz1φz2 + φy1φy2) + 4(φz2² + φy2²)]/60.
+    """
+    alpha, L = psi[5], section["L0"]
+    strain = alpha / L
+    if not formulation.geometric_stiffening:
+        return strain
+    if formulation.stiffening_shapes == "hermite":
+        shear = (1, 1)
+    elif shear is None:
+        shear = shear_factor_definitions(section)
+    v, w, _, _ = transverse_fields(psi, shear)  # v/L, w/L: d/dξ gives v_x, w_x
+    return strain + _integrate_unit((sp.diff(v, xi) ** 2 + sp.diff(w, xi) ** 2) / 2)
+
+
+def strain_energy(psi, section, formulation: Formulation, shear=None) -> sp.Expr:
     """U(Ψ) whose gradient gives F_i^e (Eq. 43) through the B-matrices.
 
-    * Bending (Eqs. 28–31): U_b = (EI_z/2L)[4φz1² + 4φz1φz2 + 4φz2²] + (EI_y/2L)[same in φy].
+    * Bending and shear (Eqs. 28–31 generalised): per plane U = EI/(2L(1+Φ))[(4+Φ)(φ1² + φ2²)
+      + 2(2−Φ)φ1φ2] (:func:`bending_shear_energy`), Φ_z = 12 EI_z/(GA_y L²) for φ_z (deflection
+      along y), Φ_y = 12 EI_y/(GA_z L²) for φ_y; shear-rigid (1/GA = 0): Φ = 0, Euler–Bernoulli,
+      U_b = (EI_z/2L)[4φz1² + 4φz1φz2 + 4φz2²] + (EI_y/2L)[same in φy].  ``shear`` = (μ_z, μ_y),
+      μ = 1/(1 + Φ), as expressions or symbols (default: :func:`shear_factor_definitions`).
     * Stretching (Eqs. 34–38): ε^s = α/L + ½(v_x² + w_x²); we use its element
-      mean ε̄ = ∫₀¹ ε^s dξ and U_s = ½ EA L ε̄².  Its gradient is Eq. 37 with
-      ε_m → ε̄ (same to first order) and is conservative, which Eq. 37's
+      mean ε̄ = ∫₀¹ ε^s dξ (:func:`mean_axial_strain`) and U_s = ½ EA L ε̄².  Its gradient is
+      Eq. 37 with ε_m → ε̄ (same to first order) and is conservative, which Eq. 37's
       mixed use of ε_m and ε^s is not.  Without geometric stiffening ε̄ = α/L.
     * Twist (Eqs. 40–41): U_t = (GJ/2L) φx2².
     """
     phi_y1, phi_z1, phi_y2, phi_z2, phi_x2, alpha = psi
     L, EA, EIy, EIz, GJ = (section[k] for k in ("L0", "EA", "EIy", "EIz", "GJ"))
-    a1, a2 = hermite()
-    d2 = lambda f: sp.diff(f, xi, 2)  # noqa: E731
-    curvature_z = (d2(a1) * phi_z1 + d2(a2) * phi_z2) / L  # v_xx, Eq. 28
-    curvature_y = (d2(a1) * phi_y1 + d2(a2) * phi_y2) / L  # −w_xx
-    U_bending = sp.integrate(EIz * curvature_z**2 + EIy * curvature_y**2, (xi, 0, 1)) * L / 2
-    strain = alpha / L
-    if formulation.geometric_stiffening:
-        slope_v = sp.diff(a1, xi) * phi_z1 + sp.diff(a2, xi) * phi_z2  # v_x
-        slope_w = sp.diff(a1, xi) * phi_y1 + sp.diff(a2, xi) * phi_y2  # −w_x
-        strain = strain + sp.integrate((slope_v**2 + slope_w**2) / 2, (xi, 0, 1))  # Eq. 35, averaged
-    U_stretch = EA * L * strain**2 / 2
+    mu_z, mu_y = shear_factor_definitions(section) if shear is None else shear
+    U_bending = bending_shear_energy(EIz, mu_z, L, phi_z1, phi_z2) + bending_shear_energy(EIy, mu_y, L, phi_y1, phi_y2)
+    U_stretch = EA * L * mean_axial_strain(psi, section, formulation, (mu_z, mu_y)) ** 2 / 2
     U_twist = GJ * phi_x2**2 / (2 * L)
-    return sp.expand(U_bending) + U_stretch + U_twist
+    return U_bending + U_stretch + U_twist
 
 
-def section_forces(psi, section, formulation: Formulation):
-    """Axial force, torque, bending moments about local y and z at mid-element."""
+def section_forces(psi, section, formulation: Formulation, shear=None):
+    """Axial force EA ε̄, torque, bending moments about local y and z at mid-element.
+
+    The moment EI ψ_x at ξ = ½ is EI(φ2 − φ1)/L for the Hermite and the IIE rotation alike
+    (ψ is at most quadratic, and a quadratic's slope at mid-interval is its mean slope).
+    """
     phi_y1, phi_z1, phi_y2, phi_z2, phi_x2, alpha = psi
     L, EA, EIy, EIz, GJ = (section[k] for k in ("L0", "EA", "EIy", "EIz", "GJ"))
-    strain = alpha / L
-    if formulation.geometric_stiffening:
-        strain = strain + (4 * (phi_z1**2 + phi_y1**2) - 2 * (phi_z1 * phi_z2 + phi_y1 * phi_y2)
-                           + 4 * (phi_z2**2 + phi_y2**2)) / 60
+    strain = mean_axial_strain(psi, section, formulation, shear)
     return [EA * strain, GJ * phi_x2 / L, EIy * (phi_y2 - phi_y1) / L, EIz * (phi_z2 - phi_z1) / L]
 
 
@@ -565,7 +710,9 @@ def local_inertia(formulation: Formulation):
         Â = Γ u̇ + Γ̇ u + ω̂ × Γ u,   Γ̇ = [0, −skew(NΨ̇), 0]        (Eqs. 52–53)
         M̂ = ρ∫ Γᵀ Γ dV,   ĝ = ρ∫ Γᵀ (Γ̇ u + ω̂ × Γ u) dV            (Eqs. 56–57)
 
-    Expressions in :data:`PSI`, :data:`QUASI_VELOCITY` and the section symbols.
+    Expressions in :data:`PSI`, :data:`QUASI_VELOCITY`, the section symbols and, with
+    ``inertia_shapes="interdependent"``, the shear factors :data:`SHEAR_FACTORS` (the IIE
+    shapes of :func:`displacement_field`; μ = 1 gives the Hermite mass exactly).
     Returns (M̂, ĝ, ∂ĝ/∂u, S, P) with S = ρ∫Γ dV (3×12, used by gravity) and
     P = ρ∫r* dV (mass × centroid offset in S_c).
     """
@@ -574,7 +721,9 @@ def local_inertia(formulation: Formulation):
     section = dict(zip(SECTION_NAMES, SECTION.symbols()))
     psi, quasi_velocity = PSI, QUASI_VELOCITY
     L = section["L0"]
-    N_psi = displacement_field(psi, L, formulation.rotary_inertia)
+    # IIE shapes are polynomials in the shear factors μ_z, μ_y, which stay symbols (SHEAR_FACTORS)
+    shear = SHEAR_FACTORS if formulation.inertia_shapes == "interdependent" else (1, 1)
+    N_psi = displacement_field(psi, L, formulation.rotary_inertia, shear)
     if formulation.rotary_inertia:
         r_c = sp.Matrix([L * xi, ys, zs])
     else:

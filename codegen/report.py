@@ -442,6 +442,65 @@ def check_eq28_32() -> Check:
     return c
 
 
+
+def check_shear_iie() -> Check:
+    """Not in CR-4402: the shear-deformable extension (SCENE.md GAy, GAz), checked like the paper's items."""
+    c = Check("28–32 (shear)", "Shear-deformable sections: interdependent interpolation (extension)",
+              "not in CR-4402 (Euler–Bernoulli only). latdyn: per plane U = EI/(2L(1+Φ))[(4+Φ)(φ₁² + φ₂²) + "
+              "2(2−Φ)φ₁φ₂], Φ = 12EI/(GA L²) (Reddy 1997; Friedman & Kosmatka 1993)")
+    Phi = fm.SHEAR_PARAMETER
+    mu = fm.SHEAR_FACTOR
+    (n1, n2), (r1, r2) = fm.interdependent_shapes()
+    p1, p2 = sp.symbols("varphi_1 varphi_2", real=True)
+    deflection = (n1 * p1 + n2 * p2).subs(mu, 1 / (1 + Phi))  # v/L
+    rotation = (r1 * p1 + r2 * p2).subs(mu, 1 / (1 + Phi))  # ψ
+    gamma = sp.diff(deflection, xi) - rotation
+    c.record("iie_equilibrium", _is_zero(gamma + Phi / 12 * sp.diff(rotation, xi, 2))
+             and _is_zero(sp.diff(rotation, xi, 3)),
+             "formulation.interdependent_shapes solve EIψ_xx + GAγ = 0, (GAγ)_x = 0 (γ = v_x − ψ = −(Φ/12)ψ_ξξ, "
+             "constant shear force)")
+    c.record("iie_ends", all(_is_zero(e) for e in (deflection.subs(xi, 0), deflection.subs(xi, 1),
+                                                   rotation.subs(xi, 0) - p1, rotation.subs(xi, 1) - p2)),
+             "v(0) = v(L) = 0, ψ(0) = φ₁, ψ(L) = φ₂")
+    a1, a2 = fm.hermite()
+    c.record("iie_hermite_limit", _is_zero(n1.subs(mu, 1) - a1) and _is_zero(n2.subs(mu, 1) - a2)
+             and _is_zero(r1.subs(mu, 1) - sp.diff(a1, xi)),
+             "at Φ = 0 (μ = 1/(1+Φ) = 1) the shapes are the Hermite a₁, a₂ of Eqs. 25–26 and ψ = v_x")
+    U = sp.integrate(sp.expand(sp.diff(rotation, xi) ** 2 + Phi / 12 * sp.diff(rotation, xi, 2) ** 2), (xi, 0, 1)) * EIz / (2 * L)
+    reddy = EIz / (2 * L * (1 + Phi)) * ((4 + Phi) * (p1**2 + p2**2) + 2 * (2 - Phi) * p1 * p2)
+    c.record("iie_energy", _is_zero(sp.together(U - reddy)),
+             "(EI/2L)∫₀¹[ψ_ξ² + (Φ/12)ψ_ξξ²]dξ (bending + ½∫GAγ²dx) = Reddy's closed form")
+    cGA = sp.Symbol("c_GA", nonnegative=True)  # 1/GA
+    sec = {"L0": L, "EA": 0, "EIy": EIy, "EIz": EIz, "GJ": 0, "cGAy": cGA, "cGAz": 0}
+    Ul = fm.strain_energy(PSI, sec, fm.FORMULATIONS["default"])
+    eb = fm.strain_energy(PSI, {**sec, "cGAy": 0}, fm.FORMULATIONS["default"])
+    c.record("latdyn_energy", _is_zero(sp.together(Ul - reddy.subs({Phi: 12 * EIz * cGA / L**2, p1: phz1, p2: phz2})
+                                                   - eb.subs({phz1: 0, phz2: 0}))),
+             "formulation.strain_energy (EA = GJ = 0, 1/GA_y = c) = Reddy's U in φ_z with Φ_z = 12EI_z c/L² "
+             "+ the Euler–Bernoulli U in φ_y (1/GA_z = 0)")
+    # a cantilever of one element, tip force P: v₁ = θ₁ = 0, the chord turns by v₂/L, so φ₁ = −v₂/L, φ₂ = θ₂ − v₂/L
+    v2, t2, P = sp.symbols("v_2 theta_2 P", real=True)
+    Ucant = reddy.subs({p1: -v2 / L, p2: t2 - v2 / L})
+    tip = sp.solve([sp.diff(Ucant, v2) - P, sp.diff(Ucant, t2)], [v2, t2], dict=True)[0][v2]
+    exact = P * L**3 / (3 * EIz) + P * L * Phi * L**2 / (12 * EIz)  # PL³/3EI + PL/GA with 1/GA = ΦL²/(12EI)
+    c.record("one_element_cantilever", _is_zero(sp.together(tip - exact)),
+             f"one element, clamped at node 1, tip force P: v₂ = {_fmt(sp.factor(tip))} = PL³/(3EI) + PL/GA (exact Timoshenko)")
+    slope = sp.Poly(sp.integrate(sp.expand(sp.diff(deflection, xi) ** 2) / 2, (xi, 0, 1)), p1, p2)
+    coeffs = [sp.factor(slope.coeff_monomial(m)) for m in (p1**2, p1 * p2, p2**2)]
+    slope = slope.as_expr()
+    c.record("iie_stretching", _is_zero(slope.subs(Phi, 0) - (4 * p1**2 - 2 * p1 * p2 + 4 * p2**2) / 60),
+             f"½∫₀¹v_x²dξ with the IIE deflection: {_fmt(coeffs[0])} φ₁², {_fmt(coeffs[1])} φ₁φ₂, {_fmt(coeffs[2])} φ₂² "
+             "(Φ = 0: (4φ₁² − 2φ₁φ₂ + 4φ₂²)/60 of Eq. 35)")
+    _verdict(c, {"iie_equilibrium": True, "iie_ends": True, "iie_hermite_limit": True, "iie_energy": True,
+                 "latdyn_energy": True, "one_element_cantilever": True, "iie_stretching": True},
+             f"{CHOICE}: an extension of the paper's Euler–Bernoulli element; shear enters as compliances 1/GA "
+             "(0 = the paper's element exactly)")
+    c.corrected = ("bending + shear: the IIE energy above; the ½(v_x² + w_x²) stretching term (Eq. 35) and the "
+                   "inertia (Eqs. 44–45: v, w and the section rotations θ_z, θ_y) use the IIE deflection and rotation "
+                   "too (Formulation.stiffening_shapes, inertia_shapes), all polynomials in μ = 1/(1+Φ) = "
+                   "L²/(L² + 12EI/GA); operation counts in docs/verification.md")
+    return c
+
 def _stretch_parts():
     a1, a2 = fm.hermite()
     sv = sp.diff(a1, xi) * phz1 + sp.diff(a2, xi) * phz2  # v_x (dimensionless)
@@ -660,7 +719,7 @@ class NEnd:
 class NState:
     e1: NEnd
     e2: NEnd
-    section: np.ndarray  # L0 EA EIy EIz GJ rhoA rhoIy rhoIz
+    section: np.ndarray  # L0 EA EIy EIz GJ rhoA rhoIy rhoIz 1/GAy 1/GAz
 
     def moved(self, dq):
         dq = np.asarray(dq, dtype=float)
@@ -694,7 +753,7 @@ def random_nstate(seed=0, deformation=1e-2, L0=1.7):
         h = rng.normal(size=3)
         o = rng.normal(size=3) * 0.3
         ends.append(NEnd(g - o, o, T, h / np.linalg.norm(h)))
-    section = np.array([L0, 3.0e3, 20.0, 30.0, 15.0, 1.3, 0.02, 0.03])
+    section = np.array([L0, 3.0e3, 20.0, 30.0, 15.0, 1.3, 0.02, 0.03, 0.0, 0.0])  # shear-rigid: Hermite fields
     return NState(ends[0], ends[1], section)
 
 
@@ -1024,7 +1083,7 @@ def check_eq62() -> Check:
 
 
 CHECKS = [check_eq13, check_eq7_14_16, check_log_measure, check_eq17, check_eq18_48, check_eq19_21, check_eq22_26, check_eq27,
-          check_eq28_32, check_eq34_36, check_eq37_38, check_eq39_42, check_eq43, check_eq44_46, check_eq47,
+          check_eq28_32, check_shear_iie, check_eq34_36, check_eq37_38, check_eq39_42, check_eq43, check_eq44_46, check_eq47,
           check_eq49, check_eq50_51, check_eq52_53, check_eq54_57, check_eq58, check_eq59_61, check_eq62]
 
 
@@ -1179,6 +1238,9 @@ CONVENTIONS = """\
 * **Energy.** latdyn's internal force is the gradient of one strain energy U(Ψ) (bending Eqs. 29–31, twist Eq. 40,
   stretching ½EA L_e ε̄² instead of the non-conservative Eq. 37), F_i = [B]ᵀ∂U/∂Ψ (Eq. 43), and the tangent is
   its exact derivative.
+* **Shear** (an extension, not in the paper): sections may carry GA_y, GA_z; the kernels take the compliances
+  1/GA (0 = shear-rigid, the paper's element exactly) and use the interdependent interpolation element (item
+  28–32 (shear)) for bending + shear energy, the stretching term and the inertia.
 * **Inertia** is ρ∫_V over the volume with X = x_g¹ + T_c(L_e r_c + NΨ) (Eq. 47), [B_c] and b_c by exact
   differentiation (Eqs. 50–57 corrected).
 """

@@ -5,7 +5,7 @@ kernels of ``generated/beam_<variant>.py`` (package ``latdyn_generated``), all w
 call convention (docs/architecture.md, "Kernel argument convention")::
 
     ks = load_kernels()                       # C if a compiler works, else NumPy
-    force, = ks.beam_internal_force(geometry, section)   # (n, 36), (n, 8) -> ((n, 14),)
+    force, = ks.beam_internal_force(geometry, section)   # (n, 36), (n, 10) -> ((n, 14),)
 
 Inputs are float arrays of shape ``(n, width)``; outputs a tuple of float64 arrays of
 shape ``(n, *shape)``.  The C backend compiles ``beam_<variant>.c`` once per source,

@@ -29,6 +29,10 @@ from .expressions import HingeLaw, TimeFunction
 from .linalg import psd_null_direction
 from .scene import Scene
 
+#: columns of the kernels' section block (codegen/conventions.py SECTION):
+#: L0 EA EIy EIz GJ rhoA rhoIy rhoIz 1/GAy 1/GAz
+SECTION_WIDTH = 10
+
 FREE, PRESCRIBED, FIXED, DEPENDENT = 0, 1, 2, 3
 
 
@@ -84,7 +88,7 @@ class Model:
     element_axes: np.ndarray  # (n_elem, 2, 3) hinge axis in node axes (0 if clamped)
     element_frames0: np.ndarray  # (n_elem, 2, 3, 3) E0 in node axes
     element_hinges: np.ndarray  # (n_elem, 2) hinge index or -1
-    element_sections: np.ndarray  # (n_elem, 8) L0 EA EIy EIz GJ rhoA rhoIy rhoIz
+    element_sections: np.ndarray  # (n_elem, 10) L0 EA EIy EIz GJ rhoA rhoIy rhoIz 1/GAy 1/GAz (0: shear-rigid)
     element_beam: list[str]  # beam name of each element
     beam_elements: dict[str, np.ndarray]  # beam -> element indices in order
     beam_nodes: dict[str, np.ndarray]  # beam -> node indices (elements + 1)
@@ -161,7 +165,7 @@ class Model:
             first = len(element_nodes)
             section = beam.section
             row = [length / n, section.EA, section.EIy, section.EIz, section.GJ, section.rhoA,
-                   section.rhoIy, section.rhoIz]
+                   section.rhoIy, section.rhoIz, *section.shear_compliances]
             for k in range(n):
                 element_nodes.append((node_list[k], node_list[k + 1]))
                 o1 = ends[0][1] if k == 0 else np.zeros(3)
@@ -192,7 +196,7 @@ class Model:
             element_axes=np.array(axes, float).reshape(-1, 2, 3),
             element_frames0=np.array(frames0, float).reshape(-1, 2, 3, 3),
             element_hinges=np.array(elem_hinges, dtype=np.int64).reshape(-1, 2),
-            element_sections=np.array(sections, float).reshape(-1, 8),
+            element_sections=np.array(sections, float).reshape(-1, SECTION_WIDTH),
             element_beam=elem_beam, beam_elements=beam_elements, beam_nodes=beam_nodes,
             beam_grid_offsets=beam_grid_offsets,
             body_nodes=np.array([body_node[b.name] for b in massive] + [lb[0] for lb in link_bodies],

@@ -71,7 +71,8 @@ def _blocker(scene, normal: int) -> str | None:
         y = beam.y_axis
         s = beam.section
         along = abs(y[normal])
-        if PLANE_TOLERANCE < along < 1.0 - PLANE_TOLERANCE and not (s.EIy == s.EIz and s.rhoIy == s.rhoIz):
+        if PLANE_TOLERANCE < along < 1.0 - PLANE_TOLERANCE and not (
+                s.EIy == s.EIz and s.rhoIy == s.rhoIz and s.GAy == s.GAz):
             return f"beams.{beam.name}.y_axis: the section's principal axes are oblique to the plane"
     for k, load in enumerate(scene.loads):
         if load.force is not None and not _zero(load.force[normal]):
@@ -132,6 +133,7 @@ def restrict_to_plane(model, normal: int) -> None:
             section = model.element_sections[e]
             section[[2, 3]] = section[[3, 2]]  # EIy, EIz
             section[[6, 7]] = section[[7, 6]]  # ρIy, ρIz
+            section[[8, 9]] = section[[9, 8]]  # 1/GAy, 1/GAz (model.SECTION_WIDTH)
         model.section_turns[e] = beta
     model.plane = normal
 

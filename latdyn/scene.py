@@ -96,7 +96,7 @@ ELEMENT_QUANTITIES = ("axial_force", "torque", "moment_y", "moment_z")
 PROBE_KINDS = ("point", "hinge", "energy", "momentum", "element")
 
 _TOP_KEYS = ("title", "gravity", "initial_velocity", "sections", "bodies", "beams", "loads", "solve", "output")
-_SECTION_KEYS = ("EA", "EIy", "EIz", "GJ", "rhoA", "rhoIy", "rhoIz")
+_SECTION_KEYS = ("EA", "EIy", "EIz", "GJ", "rhoA", "rhoIy", "rhoIz", "GAy", "GAz")
 _BODY_KEYS = ("at", "mass", "com", "inertia", "fixed", "motion")
 _BEAM_KEYS = ("from", "to", "section", "elements", "y_axis", "start", "end", "rigid")
 _HINGE_KEYS = ("axis", "stiffness", "damping", "torque", "angle", "lock_at", "rest_angle", "limits", "restitution")
@@ -122,7 +122,12 @@ _RESERVED_COLUMNS = ("t", "load_factor")
 # =========================================================================== dataclasses
 @dataclass
 class Section:
-    """Beam cross-section: stiffnesses (EA, EIy, EIz, GJ) and inertia per length."""
+    """Beam cross-section: stiffnesses (EA, EIy, EIz, GJ), inertia per length, shear stiffnesses.
+
+    ``GAy``, ``GAz``: shear stiffness along local y (paired with EIz) and z (with EIy); ``None``
+    (absent) is shear-rigid, Euler–Bernoulli.  The kernels take their compliances
+    (:attr:`shear_compliances`).
+    """
     name: str
     EA: float
     EIy: float
@@ -131,6 +136,13 @@ class Section:
     rhoA: float
     rhoIy: float = 0.0
     rhoIz: float = 0.0
+    GAy: float | None = None
+    GAz: float | None = None
+
+    @property
+    def shear_compliances(self) -> tuple[float, float]:
+        """(1/GAy, 1/GAz), 0 where shear-rigid: the last two columns of the kernels' section block."""
+        return tuple(0.0 if ga is None else 1.0 / ga for ga in (self.GAy, self.GAz))
 
 
 @dataclass
@@ -676,7 +688,8 @@ class _Reader:
         stiff = {k: self.number(spec[k], _join(key, k), positive=True) for k in ("EA", "EIy", "EIz", "GJ")}
         inert = {k: self.number(spec[k], _join(key, k), nonnegative=True)
                  for k in ("rhoA", "rhoIy", "rhoIz") if k in spec}
-        return Section(name=name, **stiff, **inert)
+        shear = {k: self.number(spec[k], _join(key, k), positive=True) for k in ("GAy", "GAz") if k in spec}
+        return Section(name=name, **stiff, **inert, **shear)
 
     def inertia(self, value, key) -> np.ndarray:
         if isinstance(value, (list, tuple)) and len(value) == 3 and all(isinstance(r, (list, tuple)) for r in value):

@@ -38,7 +38,8 @@ STATUS_STYLE = {
 }
 #: Units of scene keys, by the last part of the path (SI, as in every shipped scene).
 UNITS = {"dt": "s", "t_end": "s", "rho_inf": "–", "tol": "–", "EA": "N", "EIy": "N m²", "EIz": "N m²",
-         "GJ": "N m²", "rhoA": "kg/m", "rhoIy": "kg m", "rhoIz": "kg m", "mass": "kg", "elements": "count",
+         "GJ": "N m²", "GAy": "N", "GAz": "N", "rhoA": "kg/m", "rhoIy": "kg m", "rhoIz": "kg m", "mass": "kg",
+         "elements": "count",
          "stiffness": "N m/rad", "damping": "N m s/rad", "angle": "rad", "every": "s"}
 PROBE_UNITS = {"position": "m", "displacement": "m", "velocity": "m/s", "angle": "rad", "rate": "rad/s",
                "axial_force": "N", "torque": "N m", "moment_y": "N m", "moment_z": "N m"}

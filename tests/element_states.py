@@ -42,7 +42,7 @@ class End:
 class ElementState:
     end1: End
     end2: End
-    section: np.ndarray  # (8,)
+    section: np.ndarray  # (10,) L0 EA EIy EIz GJ rhoA rhoIy rhoIz 1/GAy 1/GAz
 
     def geometry(self):
         e1, e2 = self.end1, self.end2
@@ -55,6 +55,11 @@ class ElementState:
     def moved(self, dq):
         dq = np.asarray(dq, dtype=float)
         return replace(self, end1=self.end1.moved(dq[0:7]), end2=self.end2.moved(dq[7:14]))
+
+
+#: 1/GAy, 1/GAz of the random states: shear parameters Φ = 12 EI/(GA L²) ≈ 0.3 for L = 1.7 (EIz = 30,
+#: EIy = 20), so every derivative check runs with shear-deformable (IIE) sections
+SHEAR_COMPLIANCES = (1 / 400.0, 1 / 300.0)
 
 
 def undeformed(rng, length=1.7, offsets=True, hinges=True, section=None):
@@ -74,7 +79,7 @@ def undeformed(rng, length=1.7, offsets=True, hinges=True, section=None):
         a1 /= np.linalg.norm(a1)
         a2 /= np.linalg.norm(a2)
     if section is None:
-        section = np.array([length, 3.0e3, 20.0, 30.0, 15.0, 1.3, 0.02, 0.03])
+        section = np.array([length, 3.0e3, 20.0, 30.0, 15.0, 1.3, 0.02, 0.03, *SHEAR_COMPLIANCES])
     return ElementState(
         End(g1 - r1, np.eye(3), r1, a1, frame0), End(g2 - r2, np.eye(3), r2, a2, frame0), section
     )

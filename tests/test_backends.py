@@ -48,6 +48,8 @@ def realistic_inputs(n: int, seed: int = 0) -> dict[str, np.ndarray]:
         rng.uniform(0.5, 2.0, n),              # rhoA
         rng.uniform(0.01, 0.1, n),             # rhoIy
         rng.uniform(0.01, 0.1, n),             # rhoIz
+        rng.uniform(0.0, 1e-2, n),             # 1/GAy (Φ up to ≈ 1)
+        rng.uniform(0.0, 1e-2, n),             # 1/GAz
     ])
     velocity = rng.normal(size=(n, 14))
     gravity = np.tile([0.0, 0.0, -9.81], (n, 1)) + 0.1 * rng.normal(size=(n, 3))

@@ -131,3 +131,10 @@ def test_write_report(tmp_path):
         assert eq in text
     for variant in report.NUMERIC_VARIANTS:
         assert f"### Variant `{variant}`" in text
+
+
+def test_shear_extension(checks):
+    """The interdependent interpolation element (SCENE.md GAy, GAz): derived shapes, energy, one-element cantilever."""
+    for name in ("iie_equilibrium", "iie_ends", "iie_hermite_limit", "iie_energy", "latdyn_energy",
+                 "one_element_cantilever", "iie_stretching"):
+        assert outcome(checks, "28–32 (shear)", name), name

@@ -179,7 +179,7 @@ def _straight_x(length, section):
 
 def test_patch_stiffness_values(kernels):
     L, EA, EIy, EIz, GJ = 2.0, 7.0e3, 11.0, 13.0, 5.0
-    s = _straight_x(L, [L, EA, EIy, EIz, GJ, 1.0, 0.0, 0.0])
+    s = _straight_x(L, [L, EA, EIy, EIz, GJ, 1.0, 0.0, 0.0, 0.0, 0.0])
     _, K = kernels.beam_internal_force_D_q(s.geometry(), s.section[None])
     K = K[0]
     rz1, rz2, ry1, ry2, rx1, rx2, ux1, ux2 = 5, 12, 4, 11, 3, 10, 0, 7  # columns of q^e (Eq. 59)
@@ -199,7 +199,7 @@ def test_patch_stiffness_values(kernels):
 
 def test_mass_at_rest_is_consistent_hermite_mass(kernels):
     L, rhoA = 2.0, 3.0
-    s = _straight_x(L, [L, 1.0, 1.0, 1.0, 1.0, rhoA, 0.0, 0.0])
+    s = _straight_x(L, [L, 1.0, 1.0, 1.0, 1.0, rhoA, 0.0, 0.0, 0.0, 0.0])
     (M,) = kernels.beam_mass_matrix(s.geometry(), s.section[None])
     M = M[0]
     c = rhoA * L / 420
@@ -215,7 +215,7 @@ def test_mass_at_rest_is_consistent_hermite_mass(kernels):
 def test_rigid_spin_about_node_one(kernels):
     """½ṗᵀMṗ of a rigid spin about node 1 equals ½(ρA L³/3)ω²."""
     L, rhoA, omega = 1.5, 2.0, 0.7
-    s = _straight_x(L, [L, 1.0, 1.0, 1.0, 1.0, rhoA, 0.0, 0.0])
+    s = _straight_x(L, [L, 1.0, 1.0, 1.0, 1.0, rhoA, 0.0, 0.0, 0.0, 0.0])
     qdot = np.zeros(14)
     qdot[5] = qdot[12] = omega  # ω about z at both nodes
     qdot[8] = omega * L  # v2 = ω × (L, 0, 0)

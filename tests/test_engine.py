@@ -32,13 +32,15 @@ pytestmark = pytest.mark.skipif(not HAVE_C, reason="no C compiler: the compiled 
 def loaded_arm(t_end=0.3, dt=0.005, lock_at=None, **solve):
     """A hinged arm on a free, heavy joint body: spring with a rest angle, damper, torque law,
     a prescribed hinge, gravity, a global load and a follower load in a body frame; with
-    ``lock_at``, hinge c latches on the way (it reaches −0.12 at t ≈ 0.146 s)."""
+    ``lock_at``, hinge c latches on the way (it reaches −0.12 at t ≈ 0.146 s).  Shear-deformable
+    sections (GAy, GAz: Φ ≈ 0.2 per element), so the compliances pass through both steps."""
     R, shift = rigid_motion(11)
     P = lambda p: (R @ np.asarray(p, float) + shift).tolist()  # noqa: E731
     V = lambda v: (R @ np.asarray(v, float)).tolist()  # noqa: E731
     return {
         "gravity": V([0, -9.81, -2.0]),
-        "sections": {"s": {"EA": 5e5, "EIy": 80.0, "EIz": 120.0, "GJ": 60.0, "rhoA": 0.8, "rhoIy": 1e-3}},
+        "sections": {"s": {"EA": 5e5, "EIy": 80.0, "EIz": 120.0, "GJ": 60.0, "rhoA": 0.8, "rhoIy": 1e-3,
+                           "GAy": 3.0e4, "GAz": 2.0e4}},
         "bodies": {"base": {"at": P([0, 0, 0]), "fixed": True},
                    "hub": {"at": P([1, 0, 0]), "mass": 1.5, "com": V([0.05, 0.02, 0]),
                            "inertia": (R @ np.diag([0.02, 0.03, 0.04]) @ R.T).tolist()},

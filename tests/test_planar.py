@@ -56,7 +56,7 @@ def planar_state(rng, normal: int, deformation: float = 0.3, hinges=(True, True)
         local = rng.normal() * deformation
         E0 = es.expm_so3(-axis * theta) @ body.T @ es.expm_so3(local * n) @ frame0
         ends.append(es.End(g - body @ offset, body, offset, axis, E0, theta))
-    section = np.array([length, 3.0e3, 20.0, 30.0, 15.0, 1.3, 0.02, 0.03])
+    section = np.array([length, 3.0e3, 20.0, 30.0, 15.0, 1.3, 0.02, 0.03, *es.SHEAR_COMPLIANCES])
     return es.ElementState(ends[0], ends[1], section)
 
 
@@ -171,14 +171,14 @@ def chain_scene(t_end=0.25, **solve):
     base, hinges with spring (rest angle), damper and torque law, a joint body with mass, a centre
     of mass off its reference point and a product of inertia in the plane, gravity, a follower load
     with a moment, an initial velocity, and a beam whose section y axis is the plane's normal
-    (turned a quarter in the planar model), with unequal section values."""
+    (turned a quarter in the planar model), with unequal section values and shear stiffnesses."""
     return {
         "title": "planar chain",
         "gravity": [0.5, -9.81, 0],
         "initial_velocity": {"linear": [0.1, -0.05, 0], "angular": [0, 0, 0.3]},
         "sections": {"a": {"EA": 2e4, "EIy": 40.0, "EIz": 25.0, "GJ": 10.0, "rhoA": 0.6,
                            "rhoIy": 2e-3, "rhoIz": 1e-3},
-                     "b": {"EA": 1e4, "EIy": 6.0, "EIz": 9.0, "GJ": 4.0, "rhoA": 0.4}},
+                     "b": {"EA": 1e4, "EIy": 6.0, "EIz": 9.0, "GJ": 4.0, "rhoA": 0.4, "GAy": 300.0, "GAz": 500.0}},
         "bodies": {
             "base": {"at": [0, 0, 0], "motion": {"rotation": {"axis": [0, 0, 1], "angle": "0.4*sin(3*t)"}}},
             "joint": {"at": [1.2, 0.3, 0], "mass": 0.3, "com": [0.05, -0.02, 0],
