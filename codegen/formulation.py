@@ -84,12 +84,14 @@ FORMULATIONS: dict[str, Formulation] = {
     "default": Formulation(
         "default",
         rotation_measure="log",
-        description="exact local rotations (log map of T_cᵀT_e), geometric stiffening, cross-section rotary inertia",
+        description="exact local rotations (log map of T_cᵀT_e), geometric stiffening, cross-section rotary inertia, "
+                    "IIE shear where 1/GA > 0",
     ),
     "cr4402": Formulation(
         "cr4402",
         rotation_measure="sine",
-        description="CR-4402 element: small-rotation measures of Eqs. 14–16, geometric stiffening, rotary inertia",
+        description="CR-4402 element: small-rotation measures of Eqs. 14–16, geometric stiffening, rotary inertia; "
+                    "IIE shear where 1/GA > 0",
     ),
     "no_stiffening": Formulation(
         "no_stiffening",

@@ -24,14 +24,16 @@ EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "benchmarks"
 
 
 # ----------------------------------------------------------------- scene keys
-def _cantilever(section: dict, elements=1, force=1e-6, length=1.0, formulation="default") -> dict:
+def _cantilever(section: dict, elements=1, force=1e-6, length=1.0, formulation="default", along="y") -> dict:
+    """A cantilever along global x (local y = global y, local z = global z), tip force along ``along``."""
+    component = {"y": [0, force, 0], "z": [0, 0, force]}[along]
     return {
         "sections": {"s": section},
         "bodies": {"wall": {"at": [0, 0, 0], "fixed": True}},
         "beams": {"beam": {"from": "wall", "to": [length, 0, 0], "section": "s", "elements": elements}},
-        "loads": [{"at": "beam.end", "force": [0, force, 0]}],
+        "loads": [{"at": "beam.end", "force": component}],
         "solve": {"analysis": "static", "steps": 1, "formulation": formulation},
-        "output": {"probes": {"tip": {"point": "beam.end", "quantity": "displacement", "component": "y"}}},
+        "output": {"probes": {"tip": {"point": "beam.end", "quantity": "displacement", "component": along}}},
     }
 
 
@@ -59,6 +61,28 @@ def test_bad_shear_stiffness_is_refused_naming_the_key(key, value, expected):
     assert f"sections.s.{key}" in str(error.value) and expected in str(error.value)
 
 
+# ----------------------------------------------------------------- formulation: the shape switches
+def test_stretching_shapes_agree_without_shear():
+    """Formulation.stiffening_shapes: IIE slopes at μ = 1 are the Hermite ones, (4φ1² − 2φ1φ2 + 4φ2²)/60 (Eq. 35)."""
+    import dataclasses  # noqa: PLC0415
+
+    import sympy as sp  # noqa: PLC0415
+
+    from codegen import formulation as fm  # noqa: PLC0415
+
+    section = {"L0": sp.Symbol("L", positive=True)}
+    iie = fm.FORMULATIONS["default"]
+    hermite = dataclasses.replace(iie, stiffening_shapes="hermite")
+    phi_y1, phi_z1, phi_y2, phi_z2, _, alpha = fm.PSI
+    expected = alpha / section["L0"] + (4 * (phi_z1**2 + phi_y1**2) - 2 * (phi_z1 * phi_z2 + phi_y1 * phi_y2)
+                                        + 4 * (phi_z2**2 + phi_y2**2)) / 60
+    for strain in (fm.mean_axial_strain(fm.PSI, section, hermite, fm.SHEAR_FACTORS),
+                   fm.mean_axial_strain(fm.PSI, section, iie, (1, 1))):
+        assert sp.expand(strain - expected) == 0
+    sheared = fm.mean_axial_strain(fm.PSI, section, iie, fm.SHEAR_FACTORS)
+    assert sp.expand(sheared - expected) != 0
+
+
 # ----------------------------------------------------------------- kernels: patch values
 @pytest.mark.parametrize("variant", [v for v in known_variants() if plane_of(v) is None])  # planar: test_planar
 def test_stiffness_at_rest_is_the_timoshenko_element(variant):
@@ -82,16 +106,21 @@ def test_stiffness_at_rest_is_the_timoshenko_element(variant):
 
 # ----------------------------------------------------------------- static: cantilever tip
 @pytest.mark.parametrize("formulation", ["default", "cr4402"])
-def test_cantilever_tip_deflection_is_exact_with_one_element(formulation):
+@pytest.mark.parametrize("along, bending, shear", [("y", "EIz", "GAy"), ("z", "EIy", "GAz")])
+def test_cantilever_tip_deflection_is_exact_with_one_element(formulation, along, bending, shear):
     """δ = PL³/(3EI) + PL/GA (Timoshenko, exact for the linear beam): the IIE gives it with one element.
-    P is small (δ/L ≈ 1e-6), so the corotational nonlinearity is O(1e-12) relative."""
+    Deflection along local y takes EIz and GAy, along z EIy and GAz (SCENE.md).  The other GA is set
+    much smaller, so a crossed pairing would show.  P is small (δ/L ≈ 1e-6): the corotational
+    nonlinearity is O(1e-12) relative."""
     EI, GA, L, P = 1.0, 25.0, 1.0, 1e-6
-    result = latdyn.run(_cantilever({**SECTION, "EIz": EI, "GAy": GA}, force=P, length=L,
-                                    formulation=formulation), out_dir=None)
+    other = {"GAy": "GAz", "GAz": "GAy"}[shear]
+    section = {**SECTION, "EIy": 3.0, "EIz": 3.0, bending: EI, shear: GA, other: 0.5}
+    result = latdyn.run(_cantilever(section, force=P, length=L, formulation=formulation, along=along), out_dir=None)
     exact = P * L**3 / (3 * EI) + P * L / GA
     assert result.probes["tip"][-1] == pytest.approx(exact, rel=1e-8)
     # without shear, the Euler–Bernoulli value, also exact with one element
-    rigid = latdyn.run(_cantilever({**SECTION, "EIz": EI}, force=P, length=L, formulation=formulation), out_dir=None)
+    rigid = {k: v for k, v in section.items() if k not in ("GAy", "GAz")}
+    rigid = latdyn.run(_cantilever(rigid, force=P, length=L, formulation=formulation, along=along), out_dir=None)
     assert rigid.probes["tip"][-1] == pytest.approx(P * L**3 / (3 * EI), rel=1e-8)
 
 
