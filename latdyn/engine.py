@@ -29,6 +29,7 @@ from __future__ import annotations
 import ctypes
 import hashlib
 import importlib.resources
+import os
 import time
 
 import numpy as np
@@ -61,6 +62,7 @@ class _Model(ctypes.Structure):
         ("internal_force", P), ("internal_force_D_q", P), ("mass_matrix", P), ("quadratic_velocity", P),
         ("quadratic_velocity_D_qdot", P), ("gravity_load", P), ("strain_energy", P), ("kinetic_energy", P),
         ("getrf", P), ("getrs", P), ("gbtrf", P), ("gbtrs", P),
+        ("parallel_elements", I64), ("threads", I64),
     ]
 
 
@@ -96,26 +98,59 @@ class _Control(ctypes.Structure):
 # ----------------------------------------------------------------------------- the library
 
 
+#: Element count from which the element part of an evaluation (geometry and kernels) runs on
+#: OpenMP threads (csrc/newton_step.c): measured with benchmarks/step_scaling.py --threads on
+#: the 2-core machine (docs/performance.md, "Threads"). ``LATDYN_PARALLEL_ELEMENTS`` overrides
+#: it (0: never); ``OMP_NUM_THREADS`` sets the number of threads.
+PARALLEL_ELEMENTS = 200
+#: OpenMP flag tried first; a compiler without it builds the serial library (the same results).
+OPENMP_FLAGS = ("-fopenmp",)
+
+
+def parallel_threshold() -> int:
+    """The threshold in force: ``LATDYN_PARALLEL_ELEMENTS`` or :data:`PARALLEL_ELEMENTS`."""
+    value = os.environ.get("LATDYN_PARALLEL_ELEMENTS", "").strip()
+    try:
+        return max(0, int(value)) if value else PARALLEL_ELEMENTS
+    except ValueError:
+        return PARALLEL_ELEMENTS
+
+
 def _library() -> ctypes.CDLL:
-    """Compile (once, into the kernel cache) and load csrc/newton_step.c."""
+    """Compile (once, into the kernel cache) and load csrc/newton_step.c, with OpenMP where the
+    compiler has it (a failed -fopenmp build is remembered in the cache by an empty marker file)."""
     global _LIBRARY
     if _LIBRARY is None:
         from .kernels import C_FLAGS, COMPILE_SECONDS, _build, _compiler, cache_dir
 
         source = (importlib.resources.files("latdyn") / "csrc" / "newton_step.c").read_bytes()
         compiler = _compiler()
-        digest = hashlib.sha256(source + b"\0" + " ".join([*compiler, *C_FLAGS]).encode()).hexdigest()[:20]
-        target = cache_dir() / f"newton_step-{digest}.so"
-        if not target.exists():
-            from filelock import FileLock
+        for flags in ((*C_FLAGS, *OPENMP_FLAGS), C_FLAGS):
+            digest = hashlib.sha256(source + b"\0" + " ".join([*compiler, *flags]).encode()).hexdigest()[:20]
+            target = cache_dir() / f"newton_step-{digest}.so"
+            failed = target.with_suffix(".failed")
+            if flags != C_FLAGS and failed.exists():
+                continue
+            if not target.exists():
+                from filelock import FileLock
 
-            target.parent.mkdir(parents=True, exist_ok=True)
-            with FileLock(str(target) + ".lock", timeout=600):
-                if not target.exists():
-                    started = time.perf_counter()
-                    _build(compiler, source, target, "newton_step")
-                    COMPILE_SECONDS["total"] += time.perf_counter() - started
+                target.parent.mkdir(parents=True, exist_ok=True)
+                with FileLock(str(target) + ".lock", timeout=600):
+                    if not target.exists():
+                        started = time.perf_counter()
+                        try:
+                            _build(compiler, source, target, "newton_step", flags)
+                        except RuntimeError:
+                            if flags == C_FLAGS:
+                                raise
+                            failed.touch()
+                            continue
+                        finally:
+                            COMPILE_SECONDS["total"] += time.perf_counter() - started
+            break
         library = ctypes.CDLL(str(target))
+        library.latdyn_threads.restype = I64
+        library.latdyn_threads.argtypes = []
         library.latdyn_energies.restype = None
         library.latdyn_energies.argtypes = [ctypes.POINTER(_Model), ctypes.POINTER(_Work),
                                             ctypes.POINTER(_Configuration), P]
@@ -125,6 +160,11 @@ def _library() -> ctypes.CDLL:
                                                ctypes.POINTER(_Configuration), ctypes.POINTER(_Vectors), P]
         _LIBRARY = library
     return _LIBRARY
+
+
+def openmp_threads() -> int:
+    """Threads the compiled step uses above the threshold: 0 when it was built without OpenMP."""
+    return int(_library().latdyn_threads())
 
 
 def _lapack(name: str) -> int:
@@ -217,8 +257,12 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
     """:class:`GeneralizedAlpha` whose step runs in C (see the module docstring)."""
 
     def __init__(self, assembler, params, tol, max_iterations, length_scale, newton: str = "full",
-                 contraction: float = 0.5):
+                 contraction: float = 0.5, parallel_elements: int | None = None, threads: int = 0):
         super().__init__(assembler, params, tol, max_iterations, length_scale)
+        #: element count from which the element kernels run on threads (0: never), and how
+        #: many threads (0: OMP_NUM_THREADS or the cores); the results do not depend on either
+        self.parallel_elements = parallel_threshold() if parallel_elements is None else parallel_elements
+        self.threads = threads
         self.modified = newton == "modified"
         self.contraction = contraction
         self.factorizations = 0
@@ -346,6 +390,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
             strain_energy=_kernel_address(kernels, "beam_strain_energy"),
             kinetic_energy=_kernel_address(kernels, "beam_kinetic_energy"),
             getrf=_lapack("dgetrf"), getrs=_lapack("dgetrs"), gbtrf=_lapack("dgbtrf"), gbtrs=_lapack("dgbtrs"),
+            parallel_elements=self.parallel_elements, threads=self.threads,
         )
         work = {
             "geometry": (E, 36), "rates": (E, 14), "accelerations": (E, 14), "gravity_rows": (E, 3),

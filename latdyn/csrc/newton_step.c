@@ -15,10 +15,22 @@
  * for LAPACK.  Matrix positions of the block entries are precomputed by the caller
  * (latdyn/engine.py), for the dense or the band storage alike; -1 marks an entry on a
  * constrained coordinate.
+ *
+ * Threads: the element part of an evaluation (geometry, Eq. 17, and the generated kernels)
+ * is split into contiguous ranges of elements, one per OpenMP thread, when the model has at
+ * least `parallel_elements` elements (0: never) and the library was compiled with -fopenmp
+ * (latdyn/engine.py tries it and falls back to a serial build).  Every element writes only
+ * its own rows of the Work buffers, and the scatter into the residual and the matrix stays
+ * one serial loop in element order, so the result is bit-identical to the serial step for
+ * any number of threads.  `threads` (0: OpenMP's default, i.e. OMP_NUM_THREADS or the
+ * number of cores) sets how many.
  */
 #include <math.h>
 #include <stdint.h>
 #include <string.h>
+#ifdef _OPENMP
+#include <omp.h>
+#endif
 
 typedef void (*kernel_2_1)(int64_t, const double *, const double *, double *);
 typedef void (*kernel_2_2)(int64_t, const double *, const double *, double *, double *);
@@ -79,6 +91,9 @@ typedef struct {
     lapack_getrs getrs;
     lapack_gbtrf gbtrf;
     lapack_gbtrs gbtrs;
+    /* threads (see the header): element count from which the element part runs in parallel
+     * (0: never), and the number of threads (0: OpenMP's default) */
+    int64_t parallel_elements, threads;
 } Model;
 
 /* Scratch buffers, allocated once by the caller. */
@@ -236,9 +251,9 @@ static void configure(const Model *m, const Configuration *base, Configuration *
 
 /* Element inputs (Assembler.element_geometry, element_rates): x1, x2, offsets T r_g (Eq. 2),
  * nodal frames T_j exp(θ h) E0 (Eq. 17), hinge axes T_j h (Eq. 9); rates and accelerations. */
-static void element_inputs(const Model *m, const Configuration *c, Work *w)
+static void element_inputs(const Model *m, const Configuration *c, Work *w, int64_t begin, int64_t end_element)
 {
-    for (int64_t e = 0; e < m->n_elements; ++e) {
+    for (int64_t e = begin; e < end_element; ++e) {
         double *g = w->geometry + 36 * e;
         double *r = w->rates + 14 * e, *acc = w->accelerations + 14 * e;
         for (int end = 0; end < 2; ++end) {
@@ -342,22 +357,59 @@ static void joint_bodies(const Model *m, const Configuration *c, Work *w)
 /* The equations of motion at c (Assembler.evaluate): the vector of all coordinates into
  * w->total (residual = total[:n], reaction = total[n:n_total]); with matrices, the blocks.
  * Returns the power of loads and hinge torques. */
+/* The number of element ranges (= threads) of an evaluation: 1 below the threshold or without OpenMP. */
+static int element_ranges(const Model *m)
+{
+#ifdef _OPENMP
+    if (m->parallel_elements > 0 && m->n_elements >= m->parallel_elements) {
+        int threads = m->threads > 0 ? (int)m->threads : omp_get_max_threads();
+        if (threads > m->n_elements) threads = (int)m->n_elements;
+        return threads > 1 ? threads : 1;
+    }
+#else
+    (void)m;
+#endif
+    return 1;
+}
+
+/* Geometry and the generated kernels of elements [begin, end): each element reads and writes
+ * only its own rows of the Work buffers (kernel arguments offset to the range). */
+static void element_range(const Model *m, const Configuration *c, Work *w, int64_t begin, int64_t end,
+                          int matrices)
+{
+    const int64_t n = end - begin;
+    if (n <= 0) return;
+    element_inputs(m, c, w, begin, end);
+    const double *geometry = w->geometry + 36 * begin, *rates = w->rates + 14 * begin;
+    const double *section = m->element_sections + 8 * begin;
+    double *force = w->force + 14 * begin, *tangent = w->tangent + 196 * begin;
+    if (matrices) {
+        m->internal_force_D_q(n, geometry, section, force, tangent);
+        m->quadratic_velocity_D_qdot(n, geometry, rates, section, w->quadratic_D + 196 * begin);
+    } else {
+        m->internal_force(n, geometry, section, force);
+    }
+    m->mass_matrix(n, geometry, section, w->mass + 196 * begin);
+    m->quadratic_velocity(n, geometry, rates, section, w->quadratic + 14 * begin);
+    if (m->has_gravity)
+        m->gravity_load(n, geometry, section, w->gravity_rows + 3 * begin, w->gravity_force + 14 * begin,
+                        w->gravity_potential + begin, w->first_moment + 3 * begin);
+}
+
 static double evaluate(const Model *m, const Configuration *c, Work *w, const double *laws, int matrices)
 {
     const int64_t E = m->n_elements;
     double power = 0.0;
-    element_inputs(m, c, w);
-    if (matrices) {
-        m->internal_force_D_q(E, w->geometry, m->element_sections, w->force, w->tangent);
-        m->quadratic_velocity_D_qdot(E, w->geometry, w->rates, m->element_sections, w->quadratic_D);
+    const int ranges = element_ranges(m);
+    if (ranges > 1) {
+#ifdef _OPENMP
+#pragma omp parallel for schedule(static) num_threads(ranges)
+#endif
+        for (int k = 0; k < ranges; ++k)
+            element_range(m, c, w, E * k / ranges, E * (k + 1) / ranges, matrices);
     } else {
-        m->internal_force(E, w->geometry, m->element_sections, w->force);
+        element_range(m, c, w, 0, E, matrices);
     }
-    m->mass_matrix(E, w->geometry, m->element_sections, w->mass);
-    m->quadratic_velocity(E, w->geometry, w->rates, m->element_sections, w->quadratic);
-    if (m->has_gravity)
-        m->gravity_load(E, w->geometry, m->element_sections, w->gravity_rows, w->gravity_force,
-                        w->gravity_potential, w->first_moment);
     memset(w->total, 0, sizeof(double) * (m->n_total + 1));
     /* elements: F + M a + g − gravity (Eqs. 55, 58) */
     for (int64_t e = 0; e < E; ++e) {
@@ -609,7 +661,7 @@ void latdyn_energies(const Model *m, Work *w, const Configuration *c, double *ou
 {
     const int64_t E = m->n_elements;
     double kinetic = 0.0, strain = 0.0, potential = 0.0;
-    element_inputs(m, c, w);
+    element_inputs(m, c, w, 0, E);
     m->strain_energy(E, w->geometry, m->element_sections, w->strain, w->section_forces);
     m->kinetic_energy(E, w->geometry, w->rates, m->element_sections, w->kinetic);
     if (m->has_gravity)
@@ -643,4 +695,14 @@ void latdyn_energies(const Model *m, Work *w, const Configuration *c, double *ou
     out[0] = kinetic;
     out[1] = strain;
     out[2] = potential;
+}
+
+/* Threads an evaluation above the threshold would use: 0 when compiled without OpenMP. */
+int64_t latdyn_threads(void)
+{
+#ifdef _OPENMP
+    return omp_get_max_threads();
+#else
+    return 0;
+#endif
 }
