@@ -35,7 +35,7 @@ import time
 import numpy as np
 
 from .assembly import State, free_acceleration, free_velocity
-from .integrators import GeneralizedAlpha, StepStats
+from .integrators import INERTIA_TANGENT_STEP, GeneralizedAlpha, StepStats, node_colouring
 from .linalg import BAND_LIMIT, DENSE_LIMIT, rcm_band
 from .model import PRESCRIBED
 
@@ -63,6 +63,7 @@ class _Model(ctypes.Structure):
         ("quadratic_velocity_D_qdot", P), ("gravity_load", P), ("strain_energy", P), ("kinetic_energy", P),
         ("getrf", P), ("getrs", P), ("gbtrf", P), ("gbtrs", P),
         ("parallel_elements", I64), ("threads", I64),
+        ("node_colour", P), ("hinge_node", P), ("n_colours", I64),
     ]
 
 
@@ -72,7 +73,10 @@ class _Work(ctypes.Structure):
         "quadratic_D", "gravity_force", "gravity_potential", "first_moment", "body_vector", "body_mass",
         "body_damping", "body_stiffness", "load_blocks", "strain",
         "section_forces", "kinetic", "total",
-        "matrix", "pivots", "rhs")]
+        "matrix", "pivots", "rhs",
+        "inertia_tangent", "forces_plus", "forces_minus", "perturbed_x", "perturbed_T", "perturbed_theta",
+        "p_geometry", "p_rates", "p_accelerations", "p_mass", "p_quadratic", "p_gravity_force",
+        "p_gravity_potential", "p_first_moment")]
 
 
 class _Configuration(ctypes.Structure):
@@ -90,9 +94,10 @@ class _Vectors(ctypes.Structure):
 class _Control(ctypes.Structure):
     _fields_ = [(name, ctypes.c_double) for name in ("h", "alpha_m", "alpha_f", "gamma", "beta", "tol",
                                                       "length")] + [
-        ("max_iterations", I64), ("modified", I64), ("contraction", ctypes.c_double),
+        ("max_iterations", I64), ("modified", I64), ("inertia_tangent", I64), ("tangent_step", ctypes.c_double),
+        ("contraction", ctypes.c_double),
         ("factored_h", ctypes.c_double), ("iterations", I64), ("converged", I64), ("factorizations", I64),
-        ("power", ctypes.c_double)]
+        ("power", ctypes.c_double), ("contraction_seen", ctypes.c_double)]
 
 
 # ----------------------------------------------------------------------------- the library
@@ -276,11 +281,12 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
     # -- the model as arrays, rebuilt when the numbering changes (a latch) --------------------
     def _setup(self) -> None:
         model = self.assembler.model
-        key = (model.n_dofs, model.locked.tobytes())
+        key = (model.n_dofs, model.locked.tobytes(), self.inertia_tangent)
         if key == self._key:
             return
         self._key = key
         a, m = self.assembler, model
+        colour = node_colouring(m)
         keep = []  # arrays the C structures point into
 
         def arr(values, dtype=np.float64):
@@ -391,6 +397,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
             kinetic_energy=_kernel_address(kernels, "beam_kinetic_energy"),
             getrf=_lapack("dgetrf"), getrs=_lapack("dgetrs"), gbtrf=_lapack("dgbtrf"), gbtrs=_lapack("dgbtrs"),
             parallel_elements=self.parallel_elements, threads=self.threads,
+            node_colour=ints(colour), hinge_node=ints([h.node for h in m.hinges]), n_colours=int(colour.max(initial=-1)) + 1,
         )
         work = {
             "geometry": (E, 36), "rates": (E, 14), "accelerations": (E, 14), "gravity_rows": (E, 3),
@@ -399,12 +406,21 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
             "first_moment": (E, 3), "body_vector": (B, 6), "body_mass": (B, 6, 6), "body_damping": (B, 6, 6),
             "body_stiffness": (B, 6, 6),
             "load_blocks": (L, 9), "strain": (E,), "section_forces": (E, 4), "kinetic": (E,), "total": (m.n_total + 1,), "matrix": (size,), "rhs": (n,)}
+        # the inertia tangent's buffers (integrators.inertia_tangent), only once the run needs them
+        N, H = len(m.nodes), len(m.hinges)
+        tangent = {"inertia_tangent": (E, 14, 14), "forces_plus": (E, 14), "forces_minus": (E, 14),
+                   "perturbed_x": (N, 3), "perturbed_T": (N, 3, 3), "perturbed_theta": (H,),
+                   "p_geometry": (E, 36), "p_rates": (E, 14), "p_accelerations": (E, 14), "p_mass": (E, 14, 14),
+                   "p_quadratic": (E, 14), "p_gravity_force": (E, 14), "p_gravity_potential": (E,),
+                   "p_first_moment": (E, 3)}
+        work.update({name: shape if self.inertia_tangent else (0,) for name, shape in tangent.items()})
         self._buffers = {name: np.zeros(shape) for name, shape in work.items()}
         self._buffers["gravity_rows"][:] = a.gravity
         self._buffers["pivots"] = np.zeros(max(n, 1), np.int32)
         self._work = _Work(**{name: b.ctypes.data if b.size else arr(np.zeros(1)) for name, b in self._buffers.items()})
         self._keep = keep
         self._control = _Control(max_iterations=self.max_iterations, modified=int(self.modified),
+                                 inertia_tangent=int(self.inertia_tangent), tangent_step=INERTIA_TANGENT_STEP,
                                  contraction=self.contraction, factored_h=0.0, tol=self.tol,
                                  length=self.length_scale)
         for name in ("alpha_m", "alpha_f", "gamma", "beta"):
@@ -471,7 +487,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         self._made = (trial_state, trial, base)
         total = self._buffers["total"]
         stats = StepStats(iterations=control.iterations, converged=bool(control.converged) and not failed,
-                          factorizations=control.factorizations)
+                          factorizations=control.factorizations, contraction=control.contraction_seen)
         self.last_evaluation = _LastEvaluation(total, n, model.n_total, control.power)
         if not stats.converged:
             stats.residual = total[:n].copy()
