@@ -20,6 +20,13 @@ force, mass and quadratic-velocity kernels: ~4 µs an element against ~14 µs wi
 tangents, measured by ``benchmarks/compile_levels.py``). It converges to the same
 tolerance on the same invariant increment.
 
+Threads: the element part of each evaluation (geometry and generated kernels) runs on OpenMP
+threads, one contiguous range of elements each, from :data:`PARALLEL_ELEMENTS` elements on
+(``LATDYN_PARALLEL_ELEMENTS`` overrides it, 0 turns it off); ``OMP_NUM_THREADS`` sets the number
+of threads (default: the cores). The scatter stays serial in element order, so the results are
+bit-identical whatever the threads. The library is built with ``-fopenmp`` where the compiler
+accepts it, else serially (:func:`openmp_threads` says 0).
+
 Scenes the C step does not cover run the Python step (``engine_reason`` says why): the
 NumPy kernel backend (no compiler), hinge laws that depend on θ or θ̇, and iteration
 matrices too wide for a band LU (large 3D lattices, which SuperLU solves in Python).
@@ -105,9 +112,10 @@ class _Control(ctypes.Structure):
 
 #: Element count from which the element part of an evaluation (geometry and kernels) runs on
 #: OpenMP threads (csrc/newton_step.c): measured with benchmarks/step_scaling.py --threads on
-#: the 2-core machine (docs/performance.md, "Threads"). ``LATDYN_PARALLEL_ELEMENTS`` overrides
-#: it (0: never); ``OMP_NUM_THREADS`` sets the number of threads.
-PARALLEL_ELEMENTS = 200
+#: the shared 2-core machine (docs/performance.md, "Threads": 2 threads lost up to 3000
+#: elements and gained from 10⁴ on, when the machine let them). ``LATDYN_PARALLEL_ELEMENTS``
+#: overrides it (0: never); ``OMP_NUM_THREADS`` sets the number of threads.
+PARALLEL_ELEMENTS = 10_000
 #: OpenMP flag tried first; a compiler without it builds the serial library (the same results).
 OPENMP_FLAGS = ("-fopenmp",)
 
