@@ -1,6 +1,8 @@
 """Cost of one Newton iteration of the compiled step against model size, 10 to 10⁵ elements.
 
     python benchmarks/step_scaling.py [--max 100000] [--formulation cr4402]
+    python benchmarks/step_scaling.py --sizes 30,100,300,1000,10000,100000 --threads 1,2 --repeats 3
+
 
 A free–free beam (3D, both section stiffnesses and a twist, no rotary inertia) in a slow
 tumble, meshed into 10, 10², 10³, 10⁴, 10⁵ elements; a few generalized-α steps of the
@@ -11,6 +13,14 @@ and the table says how many steps converged). Small models use the dense LU,
 the larger ones the band LU after reverse Cuthill–McKee (bandwidth stays ~11 for a beam).
 The scene loader's element limit (latdyn.scene.MAX_ELEMENTS) is raised for the run.
 The table and the machine go to benchmarks/results/step_scaling.json.
+
+``--threads 1,2``: each size is timed with the element part of the step (geometry and
+kernels, csrc/newton_step.c) on 1 thread (serial, threshold 0) and on each thread count
+given (threshold 1, i.e. forced on), ``--repeats`` rounds with the thread counts
+interleaved so that a change of load falls on all alike; the speed-up is the median wall
+time per iteration on 1 thread over that on n, and the 1-minute load average is recorded
+with every row (on a shared machine it is the first thing to read). Results go to
+benchmarks/results/step_scaling_threads.json.
 """
 from __future__ import annotations
 
@@ -48,11 +58,16 @@ def beam(elements: int, formulation: str) -> dict:
     }
 
 
-def measure(elements: int, formulation: str, steps: int) -> dict:
-    prepared = prepare(latdyn.load_scene(beam(elements, formulation)))
+def measure(elements: int, formulation: str, steps: int, threads: int | None = None, prepared=None) -> dict:
+    """Time ``steps`` steps (after one untimed); ``threads``: None = the runtime's default
+    threshold, 1 = serial, n > 1 = the element part forced onto n threads."""
+    if prepared is None:
+        prepared = prepare(latdyn.load_scene(beam(elements, formulation)))
     model = prepared.model
+    parallel = {} if threads is None else {"parallel_elements": 0 if threads == 1 else 1,
+                                           "threads": 0 if threads == 1 else threads}
     step = CompiledGeneralizedAlpha(prepared.assembler, AlphaParameters.for_method("generalized-alpha", 0.8),
-                                    1e-8, ITERATIONS, 10.0)
+                                    1e-8, ITERATIONS, 10.0, **parallel)
     step.start(prepared.state)
     state = previous = prepared.state
     samples, cpu_samples, iterations, converged = [], [], [], []
@@ -78,7 +93,34 @@ def measure(elements: int, formulation: str, steps: int) -> dict:
             "iterations_per_step": float(np.mean(iterations)), "steps_converged": int(sum(converged[1:])),
             "steps": len(converged) - 1, "s_per_iteration": per_iteration,
             "us_per_element_iteration": 1e6 * per_iteration / elements,
-            "cpu_s_per_iteration": float(np.median(cpu_samples))}
+            "cpu_s_per_iteration": float(np.median(cpu_samples)), "threads": threads,
+            "load_average": os.getloadavg()[0]}
+
+
+def thread_table(sizes: list[int], counts: list[int], formulation: str, steps: int, repeats: int) -> list[dict]:
+    """Per size: wall and CPU per iteration on each thread count, rounds interleaved."""
+    rows = []
+    print(f"{'elements':>9s} {'threads':>7s} {'wall ms/it':>11s} {'CPU ms/it':>10s} {'speed-up':>9s} {'load':>6s}"
+          f"  (median of {repeats} rounds of {steps} steps)")
+    for size in sizes:
+        prepared = prepare(latdyn.load_scene(beam(size, formulation)))
+        samples = {n: [] for n in counts}
+        for _ in range(repeats):
+            for n in counts:
+                samples[n].append(measure(size, formulation, steps, threads=n, prepared=prepared))
+        serial = float(np.median([r["s_per_iteration"] for r in samples[1]])) if 1 in samples else None
+        for n in counts:
+            wall = float(np.median([r["s_per_iteration"] for r in samples[n]]))
+            cpu = float(np.median([r["cpu_s_per_iteration"] for r in samples[n]]))
+            load = [r["load_average"] for r in samples[n]]
+            row = {"elements": size, "threads": n, "s_per_iteration": wall, "cpu_s_per_iteration": cpu,
+                   "s_per_iteration_all": [r["s_per_iteration"] for r in samples[n]],
+                   "speed_up": serial / wall if serial else None,
+                   "load_average": [min(load), max(load)]}
+            rows.append(row)
+            print(f"{size:9d} {n:7d} {1e3 * wall:11.3f} {1e3 * cpu:10.3f} "
+                  f"{row['speed_up'] if row['speed_up'] else float('nan'):9.2f} {max(load):6.2f}", flush=True)
+    return rows
 
 
 def main() -> None:
@@ -86,8 +128,28 @@ def main() -> None:
     parser.add_argument("--max", type=int, default=100_000)
     parser.add_argument("--formulation", default="cr4402")
     parser.add_argument("--steps", type=int, default=5)
+    parser.add_argument("--threads", help="thread counts to compare, e.g. 1,2 (adds the threads table)")
+    parser.add_argument("--sizes", help="element counts for the threads table, e.g. 100,1000,10000")
+    parser.add_argument("--repeats", type=int, default=3)
     args = parser.parse_args()
     latdyn.scene.MAX_ELEMENTS = max(latdyn.scene.MAX_ELEMENTS, args.max)
+    if args.threads:
+        from latdyn.engine import openmp_threads, parallel_threshold
+
+        counts = [int(n) for n in args.threads.split(",")]
+        sizes = [int(n) for n in args.sizes.split(",")] if args.sizes else [10, 100, 1000, 10_000, 100_000]
+        latdyn.scene.MAX_ELEMENTS = max(latdyn.scene.MAX_ELEMENTS, max(sizes))
+        machine = {"cores": os.cpu_count(), "python": platform.python_version(),
+                   "openmp_threads": openmp_threads(), "threshold": parallel_threshold(),
+                   "OMP_NUM_THREADS": os.environ.get("OMP_NUM_THREADS"),
+                   "load_average_before": os.getloadavg()}
+        print(f"{os.cpu_count()} cores, OpenMP threads {machine['openmp_threads']}, load {machine['load_average_before']}")
+        rows = thread_table(sizes, counts, args.formulation, args.steps, args.repeats)
+        machine["load_average_after"] = os.getloadavg()
+        out = Path(__file__).resolve().parent / "results" / "step_scaling_threads.json"
+        out.write_text(json.dumps({"machine": machine, "formulation": args.formulation, "rows": rows}, indent=1))
+        print(f"wrote {out}")
+        return
     cpu = next((line.split(":", 1)[1].strip() for line in open("/proc/cpuinfo") if "model name" in line), "?")
     machine = {"cpu": cpu, "cores": os.cpu_count(), "python": platform.python_version(),
                "load_average_before": os.getloadavg()}

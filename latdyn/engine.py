@@ -20,6 +20,13 @@ force, mass and quadratic-velocity kernels: ~4 µs an element against ~14 µs wi
 tangents, measured by ``benchmarks/compile_levels.py``). It converges to the same
 tolerance on the same invariant increment.
 
+Threads: the element part of each evaluation (geometry and generated kernels) runs on OpenMP
+threads, one contiguous range of elements each, from :data:`PARALLEL_ELEMENTS` elements on
+(``LATDYN_PARALLEL_ELEMENTS`` overrides it, 0 turns it off); ``OMP_NUM_THREADS`` sets the number
+of threads (default: the cores). The scatter stays serial in element order, so the results are
+bit-identical whatever the threads. The library is built with ``-fopenmp`` where the compiler
+accepts it, else serially (:func:`openmp_threads` says 0).
+
 Scenes the C step does not cover run the Python step (``engine_reason`` says why): the
 NumPy kernel backend (no compiler), rigid links, hinge laws that depend on θ or θ̇, and iteration
 matrices too wide for a band LU (large 3D lattices, which SuperLU solves in Python).
@@ -29,12 +36,13 @@ from __future__ import annotations
 import ctypes
 import hashlib
 import importlib.resources
+import os
 import time
 
 import numpy as np
 
 from .assembly import State, free_acceleration, free_velocity
-from .integrators import GeneralizedAlpha, StepStats
+from .integrators import INERTIA_TANGENT_STEP, GeneralizedAlpha, StepStats, node_colouring
 from .linalg import BAND_LIMIT, DENSE_LIMIT, rcm_band
 from .model import PRESCRIBED
 
@@ -61,6 +69,8 @@ class _Model(ctypes.Structure):
         ("internal_force", P), ("internal_force_D_q", P), ("mass_matrix", P), ("quadratic_velocity", P),
         ("quadratic_velocity_D_qdot", P), ("gravity_load", P), ("strain_energy", P), ("kinetic_energy", P),
         ("getrf", P), ("getrs", P), ("gbtrf", P), ("gbtrs", P),
+        ("parallel_elements", I64), ("threads", I64),
+        ("node_colour", P), ("hinge_node", P), ("n_colours", I64),
     ]
 
 
@@ -70,7 +80,10 @@ class _Work(ctypes.Structure):
         "quadratic_D", "gravity_force", "gravity_potential", "first_moment", "body_vector", "body_mass",
         "body_damping", "body_stiffness", "load_blocks", "strain",
         "section_forces", "kinetic", "total",
-        "matrix", "pivots", "rhs")]
+        "matrix", "pivots", "rhs",
+        "inertia_tangent", "forces_plus", "forces_minus", "perturbed_x", "perturbed_T", "perturbed_theta",
+        "p_geometry", "p_rates", "p_accelerations", "p_mass", "p_quadratic", "p_gravity_force",
+        "p_gravity_potential", "p_first_moment")]
 
 
 class _Configuration(ctypes.Structure):
@@ -88,34 +101,69 @@ class _Vectors(ctypes.Structure):
 class _Control(ctypes.Structure):
     _fields_ = [(name, ctypes.c_double) for name in ("h", "alpha_m", "alpha_f", "gamma", "beta", "tol",
                                                       "length")] + [
-        ("max_iterations", I64), ("modified", I64), ("contraction", ctypes.c_double),
+        ("max_iterations", I64), ("modified", I64), ("inertia_tangent", I64), ("tangent_step", ctypes.c_double),
+        ("contraction", ctypes.c_double),
         ("factored_h", ctypes.c_double), ("iterations", I64), ("converged", I64), ("factorizations", I64),
-        ("power", ctypes.c_double)]
+        ("power", ctypes.c_double), ("contraction_seen", ctypes.c_double)]
 
 
 # ----------------------------------------------------------------------------- the library
 
 
+#: Element count from which the element part of an evaluation (geometry and kernels) runs on
+#: OpenMP threads (csrc/newton_step.c): measured with benchmarks/step_scaling.py --threads on
+#: the shared 2-core machine (docs/performance.md, "Threads": 2 threads lost up to 3000
+#: elements and gained from 10⁴ on, when the machine let them). ``LATDYN_PARALLEL_ELEMENTS``
+#: overrides it (0: never); ``OMP_NUM_THREADS`` sets the number of threads.
+PARALLEL_ELEMENTS = 10_000
+#: OpenMP flag tried first; a compiler without it builds the serial library (the same results).
+OPENMP_FLAGS = ("-fopenmp",)
+
+
+def parallel_threshold() -> int:
+    """The threshold in force: ``LATDYN_PARALLEL_ELEMENTS`` or :data:`PARALLEL_ELEMENTS`."""
+    value = os.environ.get("LATDYN_PARALLEL_ELEMENTS", "").strip()
+    try:
+        return max(0, int(value)) if value else PARALLEL_ELEMENTS
+    except ValueError:
+        return PARALLEL_ELEMENTS
+
+
 def _library() -> ctypes.CDLL:
-    """Compile (once, into the kernel cache) and load csrc/newton_step.c."""
+    """Compile (once, into the kernel cache) and load csrc/newton_step.c, with OpenMP where the
+    compiler has it (a failed -fopenmp build is remembered in the cache by an empty marker file)."""
     global _LIBRARY
     if _LIBRARY is None:
         from .kernels import C_FLAGS, COMPILE_SECONDS, _build, _compiler, cache_dir
 
         source = (importlib.resources.files("latdyn") / "csrc" / "newton_step.c").read_bytes()
         compiler = _compiler()
-        digest = hashlib.sha256(source + b"\0" + " ".join([*compiler, *C_FLAGS]).encode()).hexdigest()[:20]
-        target = cache_dir() / f"newton_step-{digest}.so"
-        if not target.exists():
-            from filelock import FileLock
+        for flags in ((*C_FLAGS, *OPENMP_FLAGS), C_FLAGS):
+            digest = hashlib.sha256(source + b"\0" + " ".join([*compiler, *flags]).encode()).hexdigest()[:20]
+            target = cache_dir() / f"newton_step-{digest}.so"
+            failed = target.with_suffix(".failed")
+            if flags != C_FLAGS and failed.exists():
+                continue
+            if not target.exists():
+                from filelock import FileLock
 
-            target.parent.mkdir(parents=True, exist_ok=True)
-            with FileLock(str(target) + ".lock", timeout=600):
-                if not target.exists():
-                    started = time.perf_counter()
-                    _build(compiler, source, target, "newton_step")
-                    COMPILE_SECONDS["total"] += time.perf_counter() - started
+                target.parent.mkdir(parents=True, exist_ok=True)
+                with FileLock(str(target) + ".lock", timeout=600):
+                    if not target.exists():
+                        started = time.perf_counter()
+                        try:
+                            _build(compiler, source, target, "newton_step", flags)
+                        except RuntimeError:
+                            if flags == C_FLAGS:
+                                raise
+                            failed.touch()
+                            continue
+                        finally:
+                            COMPILE_SECONDS["total"] += time.perf_counter() - started
+            break
         library = ctypes.CDLL(str(target))
+        library.latdyn_threads.restype = I64
+        library.latdyn_threads.argtypes = []
         library.latdyn_energies.restype = None
         library.latdyn_energies.argtypes = [ctypes.POINTER(_Model), ctypes.POINTER(_Work),
                                             ctypes.POINTER(_Configuration), P]
@@ -125,6 +173,11 @@ def _library() -> ctypes.CDLL:
                                                ctypes.POINTER(_Configuration), ctypes.POINTER(_Vectors), P]
         _LIBRARY = library
     return _LIBRARY
+
+
+def openmp_threads() -> int:
+    """Threads the compiled step uses above the threshold: 0 when it was built without OpenMP."""
+    return int(_library().latdyn_threads())
 
 
 def _lapack(name: str) -> int:
@@ -219,8 +272,12 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
     """:class:`GeneralizedAlpha` whose step runs in C (see the module docstring)."""
 
     def __init__(self, assembler, params, tol, max_iterations, length_scale, newton: str = "full",
-                 contraction: float = 0.5):
+                 contraction: float = 0.5, parallel_elements: int | None = None, threads: int = 0):
         super().__init__(assembler, params, tol, max_iterations, length_scale)
+        #: element count from which the element kernels run on threads (0: never), and how
+        #: many threads (0: OMP_NUM_THREADS or the cores); the results do not depend on either
+        self.parallel_elements = parallel_threshold() if parallel_elements is None else parallel_elements
+        self.threads = threads
         self.modified = newton == "modified"
         self.contraction = contraction
         self.factorizations = 0
@@ -234,11 +291,12 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
     # -- the model as arrays, rebuilt when the numbering changes (a latch) --------------------
     def _setup(self) -> None:
         model = self.assembler.model
-        key = (model.n_dofs, model.locked.tobytes())
+        key = (model.n_dofs, model.locked.tobytes(), self.inertia_tangent)
         if key == self._key:
             return
         self._key = key
         a, m = self.assembler, model
+        colour = node_colouring(m)
         keep = []  # arrays the C structures point into
 
         def arr(values, dtype=np.float64):
@@ -348,6 +406,8 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
             strain_energy=_kernel_address(kernels, "beam_strain_energy"),
             kinetic_energy=_kernel_address(kernels, "beam_kinetic_energy"),
             getrf=_lapack("dgetrf"), getrs=_lapack("dgetrs"), gbtrf=_lapack("dgbtrf"), gbtrs=_lapack("dgbtrs"),
+            parallel_elements=self.parallel_elements, threads=self.threads,
+            node_colour=ints(colour), hinge_node=ints([h.node for h in m.hinges]), n_colours=int(colour.max(initial=-1)) + 1,
         )
         work = {
             "geometry": (E, 36), "rates": (E, 14), "accelerations": (E, 14), "gravity_rows": (E, 3),
@@ -356,12 +416,21 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
             "first_moment": (E, 3), "body_vector": (B, 6), "body_mass": (B, 6, 6), "body_damping": (B, 6, 6),
             "body_stiffness": (B, 6, 6),
             "load_blocks": (L, 9), "strain": (E,), "section_forces": (E, 4), "kinetic": (E,), "total": (m.n_total + 1,), "matrix": (size,), "rhs": (n,)}
+        # the inertia tangent's buffers (integrators.inertia_tangent), only once the run needs them
+        N, H = len(m.nodes), len(m.hinges)
+        tangent = {"inertia_tangent": (E, 14, 14), "forces_plus": (E, 14), "forces_minus": (E, 14),
+                   "perturbed_x": (N, 3), "perturbed_T": (N, 3, 3), "perturbed_theta": (H,),
+                   "p_geometry": (E, 36), "p_rates": (E, 14), "p_accelerations": (E, 14), "p_mass": (E, 14, 14),
+                   "p_quadratic": (E, 14), "p_gravity_force": (E, 14), "p_gravity_potential": (E,),
+                   "p_first_moment": (E, 3)}
+        work.update({name: shape if self.inertia_tangent else (0,) for name, shape in tangent.items()})
         self._buffers = {name: np.zeros(shape) for name, shape in work.items()}
         self._buffers["gravity_rows"][:] = a.gravity
         self._buffers["pivots"] = np.zeros(max(n, 1), np.int32)
         self._work = _Work(**{name: b.ctypes.data if b.size else arr(np.zeros(1)) for name, b in self._buffers.items()})
         self._keep = keep
         self._control = _Control(max_iterations=self.max_iterations, modified=int(self.modified),
+                                 inertia_tangent=int(self.inertia_tangent), tangent_step=INERTIA_TANGENT_STEP,
                                  contraction=self.contraction, factored_h=0.0, tol=self.tol,
                                  length=self.length_scale)
         for name in ("alpha_m", "alpha_f", "gamma", "beta"):
@@ -428,7 +497,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         self._made = (trial_state, trial, base)
         total = self._buffers["total"]
         stats = StepStats(iterations=control.iterations, converged=bool(control.converged) and not failed,
-                          factorizations=control.factorizations)
+                          factorizations=control.factorizations, contraction=control.contraction_seen)
         self.last_evaluation = _LastEvaluation(total, n, model.n_total, control.power)
         if not stats.converged:
             stats.residual = total[:n].copy()

@@ -103,12 +103,14 @@ _HINGE_KEYS = ("axis", "stiffness", "damping", "torque", "angle", "lock_at", "re
 _LOAD_KEYS = ("at", "force", "moment", "frame")
 _SOLVE_KEYS = ("analysis", "t_end", "dt", "method", "rho_inf", "tol", "steps", "count",
                "adaptive", "error_tol", "dt_min", "max_iterations", "formulation", "engine", "newton", "planar")
-#: ``solve.engine``: where the implicit step runs (latdyn/engine.py); ``solve.newton``: full or modified Newton.
+#: ``solve.engine``: where the implicit step runs (latdyn/engine.py); ``solve.newton``: full or modified
+#: Newton, or ``exact``: full Newton whose matrix holds the elements' inertia tangent from the start
+#: (latdyn.integrators.inertia_tangent; otherwise taken from the first Newton failure on).
 ENGINES = ("auto", "compiled", "python")
 #: ``solve.planar``: ``auto`` solves a scene that stays in a coordinate plane with in-plane
 #: coordinates only (latdyn/planar.py), ``off`` always in 3D.
 PLANAR = ("auto", "off")
-NEWTON = ("full", "modified")
+NEWTON = ("full", "modified", "exact")
 _PROBE_KEYS = {
     "point": ("point", "quantity", "frame", "component"),
     "hinge": ("hinge", "quantity"),

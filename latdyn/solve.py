@@ -408,6 +408,7 @@ class TransientProgress:
     factorizations: int = 0  # iteration matrices factorized (modified Newton keeps one over steps)
     solver_s: float = 0.0  # wall time inside the integrator's steps
     cut_times: list = field(default_factory=list)  # the first times at which a step was cut
+    inertia_tangent_from: float | None = None  # t from which Newton's matrix holds the inertia tangent
 
 
 #: Cut steps reported on stderr one by one up to this many, then only counted.
@@ -448,7 +449,8 @@ def _implicit_integrator(prepared: Prepared, params: AlphaParameters, tol: float
         summary.update(engine="compiled", newton=solve.newton)
     else:
         integrator = GeneralizedAlpha(assembler, params, tol, solve.max_iterations, length)
-        summary.update(engine="python", newton="full", engine_reason=reason)
+        summary.update(engine="python", newton="exact" if solve.newton == "exact" else "full", engine_reason=reason)
+    integrator.inertia_tangent = solve.newton == "exact"
     return integrator
 
 
@@ -480,13 +482,15 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
         energy0 = energies_of(state)
         run = TransientProgress(state=state, algorithmic_acceleration=integrator.a, locked=model.locked.copy(),
                                 h=dt, power=ev0.external_power + _drive_power(model, state, ev0.reaction),
-                                total0=sum(energy0.values()), potential0=energy0["potential"])
+                                total0=sum(energy0.values()), potential0=energy0["potential"],
+                                inertia_tangent_from=0.0 if getattr(integrator, "inertia_tangent", False) else None)
     else:  # resumed: the latched hinges renumber the coordinates, then the loop goes on as it was
         run = resume_from.progress
         model.locked[:] = run.locked
         model.number_coordinates()
         assembler.reindex()
         integrator.a = run.algorithmic_acceleration
+        integrator.inertia_tangent = run.inertia_tangent_from is not None
         probes.external_work = resume_from.external_work
 
     # the last accepted step, as a checkpoint keeps it: a shallow copy of `run` (the loop
@@ -520,7 +524,8 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
             newton_cuts=run.newton_cuts, cut_times=run.cut_times,
             energy_balance_error=run.balance_error / run.energy_scale if run.energy_scale > 0 else 0.0,
             newton_iterations_per_step=run.newton_iterations / max(run.steps, 1),
-            newton_tolerance=tol, method=solve.method, solver_s=run.solver_s, factorizations=run.factorizations)
+            newton_tolerance=tol, method=solve.method, solver_s=run.solver_s, factorizations=run.factorizations,
+            inertia_tangent_from=run.inertia_tangent_from)
 
     if resume_from is None:
         record(state, energy0)
@@ -547,6 +552,15 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
                     continue
             if not stats.converged:
                 run.rejected_steps += 1
+                if not getattr(integrator, "inertia_tangent", True):
+                    # the iteration matrix leaves out the inertia tangent, which is exact only where
+                    # β′M dominates it (latdyn.integrators); take it from here on, same step
+                    integrator.inertia_tangent = True
+                    run.inertia_tangent_from = float(state.t)
+                    print(f"latdyn: Newton did not converge in {stats.iterations} iterations at t = {state.t + h:.9g}; "
+                          "its matrix now includes the inertia tangent (directions with little inertia)",
+                          file=sys.stderr)
+                    continue
                 if h / 2 < dt_min:
                     raise SolverError("Newton failed below the minimum step",
                                       newton_diagnosis(model, stats.residual, state.t + h, h, assembler, state))

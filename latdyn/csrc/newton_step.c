@@ -15,10 +15,22 @@
  * for LAPACK.  Matrix positions of the block entries are precomputed by the caller
  * (latdyn/engine.py), for the dense or the band storage alike; -1 marks an entry on a
  * constrained coordinate.
+ *
+ * Threads: the element part of an evaluation (geometry, Eq. 17, and the generated kernels)
+ * is split into contiguous ranges of elements, one per OpenMP thread, when the model has at
+ * least `parallel_elements` elements (0: never) and the library was compiled with -fopenmp
+ * (latdyn/engine.py tries it and falls back to a serial build).  Every element writes only
+ * its own rows of the Work buffers, and the scatter into the residual and the matrix stays
+ * one serial loop in element order, so the result is bit-identical to the serial step for
+ * any number of threads.  `threads` (0: OpenMP's default, i.e. OMP_NUM_THREADS or the
+ * number of cores) sets how many.
  */
 #include <math.h>
 #include <stdint.h>
 #include <string.h>
+#ifdef _OPENMP
+#include <omp.h>
+#endif
 
 typedef void (*kernel_2_1)(int64_t, const double *, const double *, double *);
 typedef void (*kernel_2_2)(int64_t, const double *, const double *, double *, double *);
@@ -79,6 +91,13 @@ typedef struct {
     lapack_getrs getrs;
     lapack_gbtrf gbtrf;
     lapack_gbtrs gbtrs;
+    /* threads (see the header): element count from which the element part runs in parallel
+     * (0: never), and the number of threads (0: OpenMP's default) */
+    int64_t parallel_elements, threads;
+    /* the inertia tangent (integrators.inertia_tangent): node colours (the ends of an element
+     * differ), the node of each hinge, the number of colours */
+    const int64_t *node_colour, *hinge_node;
+    int64_t n_colours;
 } Model;
 
 /* Scratch buffers, allocated once by the caller. */
@@ -93,6 +112,12 @@ typedef struct {
     double *matrix;                                            /* matrix_size */
     int *pivots;                                               /* n_dofs */
     double *rhs;                                               /* n_dofs */
+    /* the inertia tangent: its blocks (e,14,14), the element forces at ± a perturbation (e,14)
+     * ×2, the perturbed nodes and hinges (n,3) (n,9) (h), and the element buffers of an
+     * evaluation there (geometry, rates, accelerations, mass, quadratic, gravity) */
+    double *inertia_tangent, *forces_plus, *forces_minus, *perturbed_x, *perturbed_T, *perturbed_theta;
+    double *p_geometry, *p_rates, *p_accelerations, *p_mass, *p_quadratic, *p_gravity_force,
+           *p_gravity_potential, *p_first_moment;
 } Work;
 
 /* A configuration: all nodes and hinges. */
@@ -246,11 +271,12 @@ static void configure(const Model *m, const Configuration *base, Configuration *
 
 /* Element inputs (Assembler.element_geometry, element_rates): x1, x2, offsets T r_g (Eq. 2),
  * nodal frames T_j exp(θ h) E0 (Eq. 17), hinge axes T_j h (Eq. 9); rates and accelerations. */
-static void element_inputs(const Model *m, const Configuration *c, Work *w)
+static void element_inputs_to(const Model *m, const Configuration *c, double *geometry, double *rates,
+                              double *accelerations, int64_t begin, int64_t end_element)
 {
-    for (int64_t e = 0; e < m->n_elements; ++e) {
-        double *g = w->geometry + 36 * e;
-        double *r = w->rates + 14 * e, *acc = w->accelerations + 14 * e;
+    for (int64_t e = begin; e < end_element; ++e) {
+        double *g = geometry + 36 * e;
+        double *r = rates + 14 * e, *acc = accelerations + 14 * e;
         for (int end = 0; end < 2; ++end) {
             int64_t i = m->element_nodes[2 * e + end], hinge = m->element_hinges[2 * e + end];
             const double *T = c->T + 9 * i;
@@ -273,6 +299,11 @@ static void element_inputs(const Model *m, const Configuration *c, Work *w)
             acc[7 * end + 6] = hinge >= 0 ? c->theta_ddot[hinge] : 0.0;
         }
     }
+}
+
+static void element_inputs(const Model *m, const Configuration *c, Work *w, int64_t begin, int64_t end_element)
+{
+    element_inputs_to(m, c, w->geometry, w->rates, w->accelerations, begin, end_element);
 }
 
 /* Joint bodies (Assembler.rigid_bodies): M_b [a; α] + g_b − weight, and the blocks M_b, ∂g_b/∂ω,
@@ -352,22 +383,59 @@ static void joint_bodies(const Model *m, const Configuration *c, Work *w)
 /* The equations of motion at c (Assembler.evaluate): the vector of all coordinates into
  * w->total (residual = total[:n], reaction = total[n:n_total]); with matrices, the blocks.
  * Returns the power of loads and hinge torques. */
+/* The number of element ranges (= threads) of an evaluation: 1 below the threshold or without OpenMP. */
+static int element_ranges(const Model *m)
+{
+#ifdef _OPENMP
+    if (m->parallel_elements > 0 && m->n_elements >= m->parallel_elements) {
+        int threads = m->threads > 0 ? (int)m->threads : omp_get_max_threads();
+        if (threads > m->n_elements) threads = (int)m->n_elements;
+        return threads > 1 ? threads : 1;
+    }
+#else
+    (void)m;
+#endif
+    return 1;
+}
+
+/* Geometry and the generated kernels of elements [begin, end): each element reads and writes
+ * only its own rows of the Work buffers (kernel arguments offset to the range). */
+static void element_range(const Model *m, const Configuration *c, Work *w, int64_t begin, int64_t end,
+                          int matrices)
+{
+    const int64_t n = end - begin;
+    if (n <= 0) return;
+    element_inputs(m, c, w, begin, end);
+    const double *geometry = w->geometry + 36 * begin, *rates = w->rates + 14 * begin;
+    const double *section = m->element_sections + 8 * begin;
+    double *force = w->force + 14 * begin, *tangent = w->tangent + 196 * begin;
+    if (matrices) {
+        m->internal_force_D_q(n, geometry, section, force, tangent);
+        m->quadratic_velocity_D_qdot(n, geometry, rates, section, w->quadratic_D + 196 * begin);
+    } else {
+        m->internal_force(n, geometry, section, force);
+    }
+    m->mass_matrix(n, geometry, section, w->mass + 196 * begin);
+    m->quadratic_velocity(n, geometry, rates, section, w->quadratic + 14 * begin);
+    if (m->has_gravity)
+        m->gravity_load(n, geometry, section, w->gravity_rows + 3 * begin, w->gravity_force + 14 * begin,
+                        w->gravity_potential + begin, w->first_moment + 3 * begin);
+}
+
 static double evaluate(const Model *m, const Configuration *c, Work *w, const double *laws, int matrices)
 {
     const int64_t E = m->n_elements;
     double power = 0.0;
-    element_inputs(m, c, w);
-    if (matrices) {
-        m->internal_force_D_q(E, w->geometry, m->element_sections, w->force, w->tangent);
-        m->quadratic_velocity_D_qdot(E, w->geometry, w->rates, m->element_sections, w->quadratic_D);
+    const int ranges = element_ranges(m);
+    if (ranges > 1) {
+#ifdef _OPENMP
+#pragma omp parallel for schedule(static) num_threads(ranges)
+#endif
+        for (int k = 0; k < ranges; ++k)
+            element_range(m, c, w, E * k / ranges, E * (k + 1) / ranges, matrices);
     } else {
-        m->internal_force(E, w->geometry, m->element_sections, w->force);
+        element_range(m, c, w, 0, E, matrices);
     }
-    m->mass_matrix(E, w->geometry, m->element_sections, w->mass);
-    m->quadratic_velocity(E, w->geometry, w->rates, m->element_sections, w->quadratic);
-    if (m->has_gravity)
-        m->gravity_load(E, w->geometry, m->element_sections, w->gravity_rows, w->gravity_force,
-                        w->gravity_potential, w->first_moment);
     memset(w->total, 0, sizeof(double) * (m->n_total + 1));
     /* elements: F + M a + g − gravity (Eqs. 55, 58) */
     for (int64_t e = 0; e < E; ++e) {
@@ -435,15 +503,135 @@ static double evaluate(const Model *m, const Configuration *c, Work *w, const do
     return power;
 }
 
+/* M a + g − gravity of elements [begin, end) at the perturbed configuration c, into `out` (e,14). */
+static void perturbed_range(const Model *m, const Configuration *c, Work *w, double *out, int64_t begin,
+                            int64_t end)
+{
+    const int64_t n = end - begin;
+    if (n <= 0) return;
+    element_inputs_to(m, c, w->p_geometry, w->p_rates, w->p_accelerations, begin, end);
+    const double *geometry = w->p_geometry + 36 * begin, *rates = w->p_rates + 14 * begin;
+    const double *section = m->element_sections + 8 * begin;
+    m->mass_matrix(n, geometry, section, w->p_mass + 196 * begin);
+    m->quadratic_velocity(n, geometry, rates, section, w->p_quadratic + 14 * begin);
+    if (m->has_gravity)
+        m->gravity_load(n, geometry, section, w->gravity_rows + 3 * begin, w->p_gravity_force + 14 * begin,
+                        w->p_gravity_potential + begin, w->p_first_moment + 3 * begin);
+    for (int64_t e = begin; e < end; ++e) {
+        const double *M = w->p_mass + 196 * e, *acc = w->p_accelerations + 14 * e;
+        for (int p = 0; p < 14; ++p) {
+            double f = 0.0;
+            for (int q = 0; q < 14; ++q) f += M[14 * p + q] * acc[q];
+            f += w->p_quadratic[14 * e + p];
+            if (m->has_gravity) f -= w->p_gravity_force[14 * e + p];
+            out[14 * e + p] = f;
+        }
+    }
+}
+
+/* Whether coordinate k (0-5 of the node, 6 the hinge) of element end (e, end) is perturbed in the
+ * round of `colour`, and its step (integrators.inertia_rounds). */
+static double column_step(const Model *m, int64_t e, int end, int k, int64_t colour, double eps, double length)
+{
+    int64_t i = m->element_nodes[2 * e + end];
+    if (k < 6) {
+        if (m->node_dofs[6 * i + k] >= m->n_dofs || m->node_colour[i] != colour) return 0.0;
+        return k < 3 ? eps * length : eps;
+    }
+    int64_t j = m->element_hinges[2 * e + end];
+    if (j < 0 || m->hinge_dofs[j] >= m->n_dofs || m->node_colour[m->hinge_node[j]] != colour) return 0.0;
+    return eps;
+}
+
+/* The perturbed configuration of one round: c with coordinate k of every free node (hinge) of
+ * `colour` moved by `sign` × its step (left update, as assembly.advance). Returns how many moved. */
+static int64_t perturb(const Model *m, const Configuration *c, Work *w, Configuration *p, int64_t colour, int k,
+                       double sign, double eps, double length)
+{
+    int64_t moved = 0;
+    *p = *c;
+    p->x = w->perturbed_x;
+    p->T = w->perturbed_T;
+    p->theta = w->perturbed_theta;
+    memcpy(p->x, c->x, sizeof(double) * 3 * m->n_nodes);
+    memcpy(p->T, c->T, sizeof(double) * 9 * m->n_nodes);
+    memcpy(p->theta, c->theta, sizeof(double) * m->n_hinges);
+    if (k < 6) {
+        for (int64_t a = 0; a < m->n_free_nodes; ++a) {
+            int64_t i = m->free_nodes[a];
+            if (m->node_colour[i] != colour || m->node_dofs[6 * i + k] >= m->n_dofs) continue;
+            moved += 1;
+            if (k < 3) {
+                p->x[3 * i + k] = c->x[3 * i + k] + sign * eps * length;
+            } else {
+                double rotation[3] = {0.0, 0.0, 0.0}, R[9];
+                rotation[k - 3] = sign * eps;
+                expm_so3(rotation, R);
+                matmul3(R, c->T + 9 * i, p->T + 9 * i);
+            }
+        }
+    } else {
+        for (int64_t a = 0; a < m->n_free_hinges; ++a) {
+            int64_t j = m->free_hinges[a];
+            if (m->node_colour[m->hinge_node[j]] != colour || m->hinge_dofs[j] >= m->n_dofs) continue;
+            moved += 1;
+            p->theta[j] = c->theta[j] + sign * eps;
+        }
+    }
+    return moved;
+}
+
+static int element_ranges(const Model *m);
+
+/* ∂(M v̇ + g − f_gravity)/∂q of every element at c, by central differences, colour by colour and
+ * coordinate by coordinate (integrators.inertia_tangent), into w->inertia_tangent. */
+static void inertia_tangent(const Model *m, const Configuration *c, Work *w, double eps, double length)
+{
+    const int64_t E = m->n_elements;
+    const int ranges = element_ranges(m);
+    memset(w->inertia_tangent, 0, sizeof(double) * 196 * E);
+    for (int64_t colour = 0; colour < m->n_colours; ++colour) {
+        for (int k = 0; k < 7; ++k) {
+            Configuration p;
+            for (int side = 0; side < 2; ++side) {
+                double *out = side == 0 ? w->forces_plus : w->forces_minus;
+                if (perturb(m, c, w, &p, colour, k, side == 0 ? 1.0 : -1.0, eps, length) == 0) break;
+#ifdef _OPENMP
+#pragma omp parallel for schedule(static) num_threads(ranges) if (ranges > 1)
+#endif
+                for (int r = 0; r < ranges; ++r)
+                    perturbed_range(m, &p, w, out, E * r / ranges, E * (r + 1) / ranges);
+                if (side == 0) continue;
+                for (int64_t e = 0; e < E; ++e) {
+                    for (int end = 0; end < 2; ++end) {
+                        double step = column_step(m, e, end, k, colour, eps, length);
+                        if (step == 0.0) continue;
+                        int column = 7 * end + k;
+                        for (int q = 0; q < 14; ++q)
+                            w->inertia_tangent[196 * e + 14 * q + column] =
+                                (w->forces_plus[14 * e + q] - w->forces_minus[14 * e + q]) / (2.0 * step);
+                    }
+                }
+            }
+        }
+    }
+}
+
 /* S = β′M + γ′C + K scattered into the matrix storage (Evaluation.combined). */
-static void assemble(const Model *m, Work *w, double beta_p, double gamma_p)
+static void assemble(const Model *m, Work *w, double beta_p, double gamma_p, int with_inertia_tangent)
 {
     memset(w->matrix, 0, sizeof(double) * m->matrix_size);
     for (int64_t e = 0; e < m->n_elements; ++e) {
         const int64_t *pos = m->element_position + 196 * e;
         const double *K = w->tangent + 196 * e, *M = w->mass + 196 * e, *C = w->quadratic_D + 196 * e;
-        for (int p = 0; p < 196; ++p)
-            if (pos[p] >= 0) w->matrix[pos[p]] += beta_p * M[p] + gamma_p * C[p] + K[p];
+        const double *D = w->inertia_tangent + 196 * e;
+        if (with_inertia_tangent) {
+            for (int p = 0; p < 196; ++p)
+                if (pos[p] >= 0) w->matrix[pos[p]] += beta_p * M[p] + gamma_p * C[p] + (K[p] + D[p]);
+        } else {
+            for (int p = 0; p < 196; ++p)
+                if (pos[p] >= 0) w->matrix[pos[p]] += beta_p * M[p] + gamma_p * C[p] + K[p];
+        }
     }
     for (int64_t b = 0; b < m->n_bodies; ++b) {
         const int64_t *pos = m->body_position + 36 * b;
@@ -515,12 +703,15 @@ typedef struct {
     double h, alpha_m, alpha_f, gamma, beta, tol, length;
     int64_t max_iterations;
     int64_t modified;          /* keep the factorization while Newton contracts */
+    int64_t inertia_tangent;   /* add the elements' inertia tangent to the matrix (integrators.py) */
+    double tangent_step;       /* its central-difference step (INERTIA_TANGENT_STEP) */
     double contraction;        /* rebuild when |Δx_k| > contraction |Δx_{k−1}| */
     /* in/out: the factorization held in Work belongs to this step size (0: none) */
     double factored_h;
     /* out */
     int64_t iterations, converged, factorizations;
     double power;
+    double contraction_seen;   /* largest |Δx_k| / |Δx_{k−1}| of the step (StepStats.contraction) */
 } StepControl;
 
 /* One step from `base` (velocities v_n, accelerations v̇_n, algorithmic acceleration a_n on the
@@ -564,6 +755,7 @@ int64_t latdyn_newton_step(const Model *m, Work *w, StepControl *s, const Config
     s->iterations = 0;
     s->converged = 0;
     s->factorizations = 0;
+    s->contraction_seen = 0.0;
     for (int64_t i = 0; i < n; ++i) {
         double a_new = (af * vdot_n[i] + (1 - af) * vdot_n[i] - am * a_n[i]) / (1 - am);
         vdot[i] = vdot_n[i];
@@ -580,7 +772,8 @@ int64_t latdyn_newton_step(const Model *m, Work *w, StepControl *s, const Config
             return 0;
         }
         if (matrices) {
-            assemble(m, w, beta_p, gamma_p);
+            if (s->inertia_tangent) inertia_tangent(m, trial, w, s->tangent_step, s->length);
+            assemble(m, w, beta_p, gamma_p, (int)s->inertia_tangent);
             s->factorizations += 1;
             s->factored_h = 0.0;
             if (factor(m, w) != 0) return 1;
@@ -597,6 +790,7 @@ int64_t latdyn_newton_step(const Model *m, Work *w, StepControl *s, const Config
         }
         s->iterations = iteration;
         double size = increment_size(m, dx, s->length);
+        if (iteration > 1 && size / previous > s->contraction_seen) s->contraction_seen = size / previous;
         if (size <= s->tol) {
             s->converged = 1;
             for (int64_t i = 0; i < n; ++i) {
@@ -620,7 +814,7 @@ void latdyn_energies(const Model *m, Work *w, const Configuration *c, double *ou
 {
     const int64_t E = m->n_elements;
     double kinetic = 0.0, strain = 0.0, potential = 0.0;
-    element_inputs(m, c, w);
+    element_inputs(m, c, w, 0, E);
     m->strain_energy(E, w->geometry, m->element_sections, w->strain, w->section_forces);
     m->kinetic_energy(E, w->geometry, w->rates, m->element_sections, w->kinetic);
     if (m->has_gravity)
@@ -654,4 +848,14 @@ void latdyn_energies(const Model *m, Work *w, const Configuration *c, double *ou
     out[0] = kinetic;
     out[1] = strain;
     out[2] = potential;
+}
+
+/* Threads an evaluation above the threshold would use: 0 when compiled without OpenMP. */
+int64_t latdyn_threads(void)
+{
+#ifdef _OPENMP
+    return omp_get_max_threads();
+#else
+    return 0;
+#endif
 }
