@@ -112,10 +112,11 @@ class _Control(ctypes.Structure):
 
 #: Element count from which the element part of an evaluation (geometry and kernels) runs on
 #: OpenMP threads (csrc/newton_step.c): measured with benchmarks/step_scaling.py --threads on
-#: the shared 2-core machine (docs/performance.md, "Threads": 2 threads lost up to 3000
-#: elements and gained from 10⁴ on, when the machine let them). ``LATDYN_PARALLEL_ELEMENTS``
-#: overrides it (0: never); ``OMP_NUM_THREADS`` sets the number of threads.
-PARALLEL_ELEMENTS = 10_000
+#: the 2-core machine (docs/performance.md, "Threads": quiet, 2 threads gained 1.18× at 100
+#: elements, 1.31× at 10³, 1.72× at 10⁴; with both cores busy with other work they lost up
+#: to 3000 elements). ``LATDYN_PARALLEL_ELEMENTS`` overrides it (0: never); ``OMP_NUM_THREADS``
+#: sets the number of threads.
+PARALLEL_ELEMENTS = 1_000
 #: OpenMP flag tried first; a compiler without it builds the serial library (the same results).
 OPENMP_FLAGS = ("-fopenmp",)
 
