@@ -26,7 +26,9 @@ import scipy.sparse as sps
 
 from .errors import SceneError
 from .expressions import HingeLaw, TimeFunction
+from .kernels import planar_variant
 from .linalg import psd_null_direction
+from .planar import find_plane, restrict_to_plane
 from .scene import Scene
 
 #: columns of the kernels' section block (codegen/conventions.py SECTION):
@@ -209,8 +211,6 @@ class Model:
         )
         model.locked = np.zeros(len(hinges), dtype=bool)
         model.section_turns = np.zeros(len(model.element_nodes))
-        from .planar import find_plane, restrict_to_plane
-
         normal, model.plane_reason = find_plane(scene)
         if normal is not None:
             restrict_to_plane(model, normal)
@@ -220,8 +220,6 @@ class Model:
     @property
     def kernel_variant(self) -> str:
         """The generated kernels this model uses: the scene's formulation, planar or 3D."""
-        from .kernels import planar_variant
-
         formulation = self.scene.solve.formulation
         return formulation if self.plane is None else planar_variant(formulation, self.plane)
 
