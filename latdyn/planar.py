@@ -12,6 +12,12 @@ them (:meth:`latdyn.model.Model.number_coordinates`) and uses the planar kernels
 from the same element with the planar values put in before differentiation
 (codegen/formulation.py ``Plane``).
 
+Adaptive runs (``solve.adaptive``) of the two models take different steps: the controller's
+error norm (:func:`latdyn.inertia.joint_norms`) scales a node's translations by the mean of
+its translational mass entries, over 3 coordinates in 3D and 2 in the plane, which differ
+where the consistent mass is anisotropic (axial against transverse). Both runs keep their
+local error within ``error_tol``; fixed-step runs agree to round-off.
+
 Only coordinate planes are detected (a scene in an oblique plane runs in 3D). Under
 ``planar: auto`` modal analysis stays 3D: the out-of-plane modes of a planar structure are
 modes too. Whether the planar motion is *stable* against out-of-plane disturbances (lateral
