@@ -174,7 +174,8 @@ def inertia_rounds(model, colour: np.ndarray, length: float) -> list[np.ndarray]
         for k in range(7):
             delta = np.zeros(n + 1)
             if k < 6:
-                delta[model.node_dofs[nodes, k]] = eps * (length if k < 3 else 1.0)
+                dofs = model.node_dofs[nodes, k]
+                delta[dofs[dofs < n]] = eps * (length if k < 3 else 1.0)  # a planar node lacks 3 slots
             else:
                 hinges = model.free_hinges[colour[hinge_node[model.free_hinges]] == c]
                 delta[model.hinge_dofs[hinges]] = eps
