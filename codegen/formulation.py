@@ -700,8 +700,14 @@ PSI = sp.symbols("psi_0:6", real=True)  # Ψ as plain symbols for the local (fra
 QUASI_VELOCITY = sp.symbols("u_0:12", real=True)
 
 
-@lru_cache(maxsize=None)
 def local_inertia(formulation: Formulation):
+    """:func:`section_inertia` of the switches of ``formulation`` it depends on: variants that
+    differ elsewhere (rotation measure, stiffening, plane) share one derivation per process."""
+    return section_inertia(formulation.rotary_inertia, formulation.inertia_shapes)
+
+
+@lru_cache(maxsize=None)
+def section_inertia(rotary_inertia: bool, inertia_shapes: str):
     """Mass matrix M̂(Ψ) and gyroscopic vector ĝ(Ψ, u) in the corotational frame.
 
     Quasi-velocities u = [v̂, ω̂, Ψ̇] (12): velocity of grid point 1 and angular
@@ -724,9 +730,9 @@ def local_inertia(formulation: Formulation):
     psi, quasi_velocity = PSI, QUASI_VELOCITY
     L = section["L0"]
     # IIE shapes are polynomials in the shear factors μ_z, μ_y, which stay symbols (SHEAR_FACTORS)
-    shear = SHEAR_FACTORS if formulation.inertia_shapes == "interdependent" else (1, 1)
-    N_psi = displacement_field(psi, L, formulation.rotary_inertia, shear)
-    if formulation.rotary_inertia:
+    shear = SHEAR_FACTORS if inertia_shapes == "interdependent" else (1, 1)
+    N_psi = displacement_field(psi, L, rotary_inertia, shear)
+    if rotary_inertia:
         r_c = sp.Matrix([L * xi, ys, zs])
     else:
         r_c = sp.Matrix([L * xi, 0, 0])
