@@ -45,6 +45,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sps
 
+from .assembly import expm_so3, skew
 from .linalg import DENSE_LIMIT
 
 
@@ -53,16 +54,6 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     a, b = np.asarray(a), np.asarray(b)
     return np.stack([a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1], a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2],
                      a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]], axis=-1)
-
-
-def _skew(w: np.ndarray) -> np.ndarray:
-    return np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
-
-
-def _rotation(axis: np.ndarray, angle: float) -> np.ndarray:
-    """R(a, θ) by Rodrigues (a unit)."""
-    A = _skew(axis)
-    return np.eye(3) + np.sin(angle) * A + (1.0 - np.cos(angle)) * (A @ A)
 
 
 @dataclass
@@ -106,7 +97,7 @@ class RigidLinks:
         """Forward kinematics on SO(3), in tree order: x and T of every dependent node (in place)."""
         for e in self.edges:
             theta = state.theta[e.hinge] if e.hinge >= 0 else 0.0
-            R = _rotation(e.axis, e.sign * theta) if e.hinge >= 0 else np.eye(3)
+            R = expm_so3(e.axis * (e.sign * theta)) if e.hinge >= 0 else np.eye(3)
             Tp = state.T[e.parent]
             state.T[e.child] = Tp @ R
             state.x[e.child] = state.x[e.parent] + Tp @ (e.point + R @ e.arm)
@@ -174,7 +165,7 @@ class RigidLinks:
             X = np.zeros((6, len(columns)))
             d = [where[int(i)] for i in model.node_dofs[r]]
             X[:3, d[:3]] = np.eye(3)
-            X[:3, d[3:]] = _skew(state.x[r])  # δv_O = δd + x × δπ
+            X[:3, d[3:]] = skew(state.x[r])  # δv_O = δd + x × δπ
             X[3:, d[3:]] = np.eye(3)
             twist[r] = X
         for e in self.edges:
@@ -188,7 +179,7 @@ class RigidLinks:
     @staticmethod
     def point_jacobian(twist: np.ndarray, y: np.ndarray) -> np.ndarray:
         """δy of a point y of a body from its twist Jacobian: δv_O + δω × y, (3, n_columns)."""
-        return twist[:3] - _skew(y) @ twist[3:]
+        return twist[:3] - skew(y) @ twist[3:]
 
     def evaluate(self, assembler, state, matrices: bool, load_factor: float, inertia: bool):
         """The equations of motion on the minimum coordinates (module docstring)."""
@@ -262,7 +253,7 @@ class RigidLinks:
             rd = model.node_dofs[r]
             if rd[3] < n:
                 dx_r = self.point_jacobian(twist[r], state.x[r])
-                add(rd[3:], (-_skew(f) @ (dx_c - dx_r))[:, free])
+                add(rd[3:], (-skew(f) @ (dx_c - dx_r))[:, free])
             for k in self.path(c):
                 e = self.edges[k]
                 if e.hinge < 0 or model.hinge_dofs[e.hinge] >= n:

@@ -47,9 +47,7 @@ def _zero(value) -> bool:
 def _blocker(scene, normal: int) -> str | None:
     """The first input that takes the scene out of the plane normal to ``normal``, or None."""
     i, j = (normal + 1) % 3, (normal + 2) % 3
-    points = [body.at for body in scene.bodies.values()]
-    points += [end.point for beam in scene.beams.values() for end in (beam.start, beam.end)]
-    points = np.array(points, float).reshape(-1, 3)
+    points = _points(scene)
     size = max(1.0, float(np.ptp(points, axis=0).max(initial=0.0)))
     level = points[0, normal] if len(points) else 0.0
     for body in scene.bodies.values():
@@ -104,19 +102,19 @@ def find_plane(scene) -> tuple[int | None, str]:
     for normal in (2, 1, 0):
         blocker = _blocker(scene, normal)
         if blocker is None:
-            level = _level(scene, normal)
+            points = _points(scene)
+            level = float(points[0, normal]) if len(points) else 0.0
             return normal, (f"{PLANE_NAMES[normal]} plane ({AXIS_NAMES[normal]} = {level:g}): "
                             f"in-plane coordinates only")
         reasons.append(f"{PLANE_NAMES[normal]}: {blocker}")
     return None, "no, 3D model (" + "; ".join(reasons) + ")"
 
 
-def _level(scene, normal: int) -> float:
-    for body in scene.bodies.values():
-        return float(body.at[normal])
-    for beam in scene.beams.values():
-        return float(beam.start.point[normal])
-    return 0.0
+def _points(scene) -> np.ndarray:
+    """(n, 3) the bodies' reference points and the beams' end points at t = 0."""
+    points = [body.at for body in scene.bodies.values()]
+    points += [end.point for beam in scene.beams.values() for end in (beam.start, beam.end)]
+    return np.array(points, float).reshape(-1, 3)
 
 
 def section_turn(frame: np.ndarray, normal: int) -> float:
