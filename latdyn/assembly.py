@@ -516,13 +516,16 @@ class Assembler:
             force[k], d_theta[k], d_rate[k] = f, df_dtheta, df_drate
         return force, d_theta, d_rate, power
 
-    def hinge_potential(self, state: State) -> float:
-        """Potential of the conservative hinge springs, Σ ∫_{θ_r}^{θ} k(s)(s − θ_r) ds.
+    def hinge_potential(self, state: State, hinges=None) -> float:
+        """Potential of the conservative hinge springs, Σ ∫_{θ_r}^{θ} k(s)(s − θ_r) ds, over all
+        hinges or the indices ``hinges``.
 
         Constant k: ½k(θ − θ_r)². A law k(θ): Gauss–Legendre quadrature, 16 points on each
         piece of at most 0.25 rad (exact for polynomials of degree 31 on a piece)."""
         total = 0.0
-        for k, hinge in enumerate(self.model.hinges):
+        every = self.model.hinges
+        for k in range(len(every)) if hinges is None else hinges:
+            hinge = every[k]
             if not hinge.conservative_spring:
                 continue
             s = float(state.theta[k]) - hinge.rest_angle

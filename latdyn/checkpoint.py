@@ -243,6 +243,10 @@ class Checkpointer:
     def due(self) -> bool:
         return time.perf_counter() - self._last >= self.interval
 
+    def remaining(self) -> float:
+        """Seconds until the next checkpoint is due (0 when it is)."""
+        return max(0.0, self.interval - (time.perf_counter() - self._last))
+
     def save(self, progress, external_work: float, bookmark: dict, last_recorded, writer) -> None:
         """Write a checkpoint of ``progress`` (a TransientProgress at an accepted step) with the
         probes' ``external_work``, the writer's ``bookmark`` and ``last_recorded`` (see

@@ -1,18 +1,31 @@
-"""The compiled time step: generalized-α with its Newton iteration in C (``csrc/newton_step.c``).
+"""The compiled time step: generalized-α with its Newton iteration in C (``csrc/newton_step.c``),
+and the loop of steps between rows in C too.
 
 :class:`CompiledGeneralizedAlpha` is :class:`latdyn.integrators.GeneralizedAlpha` with
-``step`` done by one call into C: configuration update on SO(3), prescribed motion,
-element geometry (Eq. 17), the generated element kernels (called through function
+``step`` done by one call into C: the scene's laws at the step's end time (prescribed
+motion, torques, loads, and hinge laws in θ, θ̇ and t, compiled by the code generator:
+:mod:`codegen.laws`, :mod:`latdyn.compiled_laws`), configuration update on SO(3), prescribed
+motion, element geometry (Eq. 17), the generated element kernels (called through function
 pointers from the per-kernel libraries of :mod:`latdyn.kernels`), joint bodies, hinges,
 point loads, scatter into a preallocated matrix, LAPACK's LU (dense ``getrf``, or banded
 ``gbtrf`` after a reverse Cuthill–McKee ordering, as :mod:`latdyn.linalg` chooses; the
-function pointers are SciPy's ``cython_lapack``), and the convergence test. Python runs
-once per step, around the call: it evaluates the scene's laws of time (prescribed motion,
-torques, loads; compiled with ``sympy.lambdify``) at the step's end time, and keeps the
-bookkeeping of the time loop (events, energies, output).
+function pointers are SciPy's ``cython_lapack``), and the convergence test.
+
+:meth:`CompiledGeneralizedAlpha.advance` takes the steps from one recorded row to the next in
+one call (``latdyn_advance``): each step on the time grid as ``step`` takes it, accepted as
+the time loop of :mod:`latdyn.solve` accepts it (algorithmic acceleration carried over,
+external work by the trapezoidal rule, power of loads and prescribed motion). A step it
+cannot accept as it comes (Newton fails; a hinge reaches lock_at or a stop) is handed back
+to the time loop, which handles it as before (cuts, the inertia tangent, latches, impacts)
+and calls the loop again once it is back on the grid at the nominal step. Python runs once
+per row: events, energies, probes, output, checkpoints (``solve.LOOP_BUDGET_S`` bounds a
+call, so that interrupts and the progress bar are seen). Rows every step, adaptive steps,
+or laws that could not be compiled take the steps from Python, one call each.
 
 The Python step stays the reference: with ``newton: full`` the compiled step takes the
-same iterations and equals it to round-off (``tests/test_engine.py``: 1e-10 relative).
+same iterations and equals it to round-off (``tests/test_engine.py``: 1e-10 relative), and the
+loop equals the steps taken one by one from Python (``tests/test_compiled_loop.py``; measured:
+bit for bit on the shipped examples).
 ``newton: modified`` keeps the factorized iteration matrix from step to step while Newton
 contracts (|Δx_k| ≤ ``contraction`` · |Δx_{k−1}|) and rebuilds it when it stops doing so
 or the step size changes; only the residual is evaluated between rebuilds (the internal
@@ -28,8 +41,8 @@ bit-identical whatever the threads. The library is built with ``-fopenmp`` where
 accepts it, else serially (:func:`openmp_threads` says 0).
 
 Scenes the C step does not cover run the Python step (``engine_reason`` says why): the
-NumPy kernel backend (no compiler), rigid links, hinge laws that depend on θ or θ̇, and iteration
-matrices too wide for a band LU (large 3D lattices, which SuperLU solves in Python).
+NumPy kernel backend (no compiler), rigid links, and iteration matrices too wide for a band
+LU (large 3D lattices, which SuperLU solves in Python).
 """
 from __future__ import annotations
 
@@ -38,10 +51,12 @@ import hashlib
 import importlib.resources
 import os
 import time
+from dataclasses import dataclass
 
 import numpy as np
 
-from .assembly import State, free_acceleration, free_velocity
+from .assembly import State, _plain_hinges
+from .compiled_laws import LawsUnavailable, compile_laws, hinge_law
 from .integrators import INERTIA_TANGENT_STEP, GeneralizedAlpha, StepStats, node_colouring
 from .linalg import BAND_LIMIT, DENSE_LIMIT, rcm_band
 from .model import PRESCRIBED
@@ -71,6 +86,9 @@ class _Model(ctypes.Structure):
         ("getrf", P), ("getrs", P), ("gbtrf", P), ("gbtrs", P),
         ("parallel_elements", I64), ("threads", I64),
         ("node_colour", P), ("hinge_node", P), ("n_colours", I64),
+        ("time_laws", P), ("hinge_laws", P),
+        ("hinge_stiffness_law", P), ("hinge_damping_law", P), ("hinge_torque_hinge_law", P), ("hinge_conservative", P),
+        ("hinge_lock_at", P), ("hinge_lower_stop", P), ("hinge_upper_stop", P), ("has_events", I64),
     ]
 
 
@@ -83,7 +101,7 @@ class _Work(ctypes.Structure):
         "matrix", "pivots", "rhs",
         "inertia_tangent", "forces_plus", "forces_minus", "perturbed_x", "perturbed_T", "perturbed_theta",
         "p_geometry", "p_rates", "p_accelerations", "p_mass", "p_quadratic", "p_gravity_force",
-        "p_gravity_potential", "p_first_moment")]
+        "p_gravity_potential", "p_first_moment", "laws", "hinge_d_theta", "hinge_d_rate")]
 
 
 class _Configuration(ctypes.Structure):
@@ -104,7 +122,15 @@ class _Control(ctypes.Structure):
         ("max_iterations", I64), ("modified", I64), ("inertia_tangent", I64), ("tangent_step", ctypes.c_double),
         ("contraction", ctypes.c_double),
         ("factored_h", ctypes.c_double), ("iterations", I64), ("converged", I64), ("factorizations", I64),
-        ("power", ctypes.c_double), ("contraction_seen", ctypes.c_double)]
+        ("power", ctypes.c_double), ("contraction_seen", ctypes.c_double), ("t_new", ctypes.c_double)]
+
+
+class _Advance(ctypes.Structure):
+    _fields_ = [("dt", ctypes.c_double), ("t_end", ctypes.c_double), ("n_grid", I64), ("grid_index", I64),
+                ("stop_index", I64), ("t", ctypes.c_double), ("budget_s", ctypes.c_double),
+                ("power", ctypes.c_double), ("external_work", ctypes.c_double),
+                ("steps", I64), ("iterations", I64), ("factorizations", I64), ("status", I64), ("last", I64),
+                ("pending", I64), ("t_last", ctypes.c_double), ("h_pending", ctypes.c_double)]
 
 
 # ----------------------------------------------------------------------------- the library
@@ -172,6 +198,10 @@ def _library() -> ctypes.CDLL:
         library.latdyn_newton_step.argtypes = [ctypes.POINTER(_Model), ctypes.POINTER(_Work),
                                                ctypes.POINTER(_Control), ctypes.POINTER(_Configuration),
                                                ctypes.POINTER(_Configuration), ctypes.POINTER(_Vectors), P]
+        library.latdyn_advance.restype = I64
+        library.latdyn_advance.argtypes = [ctypes.POINTER(_Model), ctypes.POINTER(_Work), ctypes.POINTER(_Control),
+                                           ctypes.POINTER(_Configuration), ctypes.POINTER(_Configuration),
+                                           ctypes.POINTER(_Vectors), ctypes.POINTER(_Advance)]
         _LIBRARY = library
     return _LIBRARY
 
@@ -201,19 +231,6 @@ def _kernel_address(kernels, name: str) -> int:
 # ----------------------------------------------------------------------------- availability
 
 
-def _constant(law) -> float | None:
-    """A hinge coefficient as a number, or None when it is a law of θ, θ̇ or t."""
-    if law is None:
-        return 0.0
-    if isinstance(law, (int, float)):
-        return float(law)
-    return float(law.constant) if getattr(law, "is_constant", False) else None
-
-
-def _torque_of_time(law) -> bool:
-    return law is None or not hasattr(law, "depends_on") or set(law.depends_on) <= {"t"}
-
-
 def unsupported(assembler) -> str | None:
     """Why the compiled step cannot run this model, or None when it can."""
     model = assembler.model
@@ -221,11 +238,15 @@ def unsupported(assembler) -> str | None:
         return "rigid links (dependent nodes, latdyn/links.py) run in the Python step"
     if getattr(assembler.kernels, "backend", "numpy") != "c" or not hasattr(assembler.kernels, "libraries"):
         return "the element kernels are not compiled (NumPy backend)"
-    for k, hinge in enumerate(model.hinges):
-        if _constant(hinge.stiffness) is None or _constant(hinge.damping) is None:
-            return f"hinge {model.hinges[k].beam}.{model.hinges[k].end} has a stiffness or damping law"
-        if not _torque_of_time(hinge.torque):
-            return f"hinge {model.hinges[k].beam}.{model.hinges[k].end} has a torque law in θ or θ̇"
+    _, _, _, with_law, _ = _plain_hinges(model.hinges)
+    for k in with_law:  # laws in θ, θ̇ or t: compiled (codegen/laws.py), so they must print in C
+        hinge = model.hinges[k]
+        try:
+            from codegen.laws import laws_source
+
+            laws_source([], [hinge_law(law) for law in (hinge.stiffness, hinge.damping, hinge.torque) if law is not None])
+        except Exception as error:  # noqa: BLE001 - EmitError, or a SymPy printer's complaint
+            return f"hinge {hinge.beam}.{hinge.end} has a law the C printer cannot write ({error})"
     n = model.n_dofs
     if n > DENSE_LIMIT and _band_plan(assembler)[0] > BAND_LIMIT:
         return "the iteration matrix is too wide for a band LU (SuperLU in Python)"
@@ -247,8 +268,11 @@ def _band_plan(assembler):
 
 
 class _Laws:
-    """The scene's functions of time, numbered; ``at(t)`` gives their (value, rate, acceleration)
-    (:class:`~latdyn.expressions.TimeFunction` evaluates one float time through ``math`` lambdas)."""
+    """The scene's functions of time, numbered. They are compiled with the hinge laws
+    (:mod:`latdyn.compiled_laws`) and evaluated in C at each step's end time; where that
+    cannot be done, ``at(t)`` gives their (value, rate, acceleration) in Python for the step
+    to take (:class:`~latdyn.expressions.TimeFunction` evaluates one float time through
+    ``math`` lambdas)."""
 
     def __init__(self):
         self.functions = []
@@ -326,7 +350,19 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
                 angle.append(-1)
                 axis.append(np.zeros(3))
         hinge_angle = [laws.add(h.angle) for h in m.hinges]
-        torque = [laws.add(h.torque) for h in m.hinges]
+        # hinge forces (Assembler.hinge_forces): constant springs and dampers, with a torque of t
+        # among the laws of time; the other hinges' stiffness, damping and torque as hinge laws
+        stiffness, damping, _, with_law, _ = _plain_hinges(m.hinges)
+        hinge_laws, H = [], len(m.hinges)
+        stiffness_law, damping_law, torque_hinge_law = [-1] * H, [-1] * H, [-1] * H
+        for j in with_law:
+            h = m.hinges[j]
+            stiffness_law[j], damping_law[j] = len(hinge_laws), len(hinge_laws) + 1
+            hinge_laws += [h.stiffness, h.damping]
+            if h.torque is not None:
+                torque_hinge_law[j] = len(hinge_laws)
+                hinge_laws.append(h.torque)
+        torque = [-1 if j in with_law else laws.add(h.torque) for j, h in enumerate(m.hinges)]
         load_node, load_r, force_law, moment_law, frame_node = [], [], [], [], []
         for load in a.loads:
             node, r = m.point(load.at)
@@ -336,6 +372,24 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
             moment_law.append([laws.add(g) for g in load.moment] if load.moment else [-1, -1, -1])
             frame_node.append(-1 if load.frame == "global" else m.body_node[load.frame])
         self._laws = laws
+        self._law_hinges = list(with_law)
+        try:
+            compiled = compile_laws(laws.functions, hinge_laws)
+            self._loop_reason = None
+        except LawsUnavailable as error:
+            if hinge_laws:  # unsupported() has checked that they print; a build failure then
+                raise RuntimeError(f"the hinge laws could not be compiled: {error}") from None
+            compiled, self._loop_reason = None, f"the laws of time are evaluated in Python ({error})"
+        self._compiled_laws = compiled
+
+        def stop(k, side):
+            limits = m.hinges[k].limits
+            return np.nan if limits is None else float(limits[side])
+
+        lock_at = [np.nan if h.lock_at is None else float(h.lock_at) for h in m.hinges]
+        lower, upper = [stop(k, 0) for k in range(H)], [stop(k, 1) for k in range(H)]
+        has_events = bool(np.isfinite(np.r_[lock_at, lower, upper][np.r_[m.free_hinges, H + m.free_hinges,
+                                                                          2 * H + m.free_hinges]]).any())
 
         n = m.n_dofs
         dense = n <= DENSE_LIMIT
@@ -387,8 +441,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
             element_sections=arr(m.element_sections),
             body_nodes=ints(m.body_nodes), body_mass=arr(m.body_mass), body_com=arr(m.body_com),
             body_inertia=arr(m.body_inertia),
-            hinge_stiffness=arr([_constant(h.stiffness) for h in m.hinges]),
-            hinge_damping=arr([_constant(h.damping) for h in m.hinges]),
+            hinge_stiffness=arr(stiffness), hinge_damping=arr(damping),
             hinge_rest_angle=arr([float(getattr(h, "rest_angle", 0.0)) for h in m.hinges]),
             hinge_torque_law=ints(torque),
             load_node=ints(load_node), load_force_law=ints(np.array(force_law, np.int64).reshape(-1, 3)),
@@ -409,6 +462,13 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
             getrf=_lapack("dgetrf"), getrs=_lapack("dgetrs"), gbtrf=_lapack("dgbtrf"), gbtrs=_lapack("dgbtrs"),
             parallel_elements=self.parallel_elements, threads=self.threads,
             node_colour=ints(colour), hinge_node=ints([h.node for h in m.hinges]), n_colours=int(colour.max(initial=-1)) + 1,
+            time_laws=None if compiled is None else compiled.time_laws,
+            hinge_laws=None if compiled is None else compiled.hinge_laws,
+            hinge_stiffness_law=ints(stiffness_law), hinge_damping_law=ints(damping_law),
+            hinge_torque_hinge_law=ints(torque_hinge_law),
+            hinge_conservative=ints([int(h.conservative_spring) for h in m.hinges]),
+            hinge_lock_at=arr(lock_at), hinge_lower_stop=arr(lower), hinge_upper_stop=arr(upper),
+            has_events=int(has_events),
         )
         work = {
             "geometry": (E, 36), "rates": (E, 14), "accelerations": (E, 14), "gravity_rows": (E, 3),
@@ -416,7 +476,9 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
             "quadratic_D": (E, 14, 14), "gravity_force": (E, 14), "gravity_potential": (E,),
             "first_moment": (E, 3), "body_vector": (B, 6), "body_mass": (B, 6, 6), "body_damping": (B, 6, 6),
             "body_stiffness": (B, 6, 6),
-            "load_blocks": (L, 9), "strain": (E,), "section_forces": (E, 4), "kinetic": (E,), "total": (m.n_total + 1,), "matrix": (size,), "rhs": (n,)}
+            "load_blocks": (L, 9), "strain": (E,), "section_forces": (E, 4), "kinetic": (E,), "total": (m.n_total + 1,),
+            "matrix": (size,), "rhs": (n,), "laws": (max(len(laws.functions), 1), 3), "hinge_d_theta": (H,),
+            "hinge_d_rate": (H,)}
         # the inertia tangent's buffers (integrators.inertia_tangent), only once the run needs them
         N, H = len(m.nodes), len(m.hinges)
         tangent = {"inertia_tangent": (E, 14, 14), "forces_plus": (E, 14), "forces_minus": (E, 14),
@@ -488,11 +550,12 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         base = self._configuration_of(state)
         trial_state, trial = self._new_state(t_new)
         self._a_n[:n] = self.a
-        laws = self._laws.at(t_new)
+        laws = None if self._compiled_laws is not None else self._laws.at(t_new)  # else in C, at t_new
         control = self._control
         control.h = h
+        control.t_new = t_new
         failed = self._step(self._model_ref, self._work_ref, self._control_ref, ctypes.byref(base),
-                            ctypes.byref(trial), self._vectors_ref, laws.ctypes.data)
+                            ctypes.byref(trial), self._vectors_ref, None if laws is None else laws.ctypes.data)
         self.factorizations += control.factorizations
         self._last_trial = trial_state
         self._made = (trial_state, trial, base)
@@ -507,13 +570,72 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
             self.a_candidate = self._a_new[:n].copy()
         return trial_state, stats
 
+    @property
+    def loop_reason(self) -> str | None:
+        """Why :meth:`advance` cannot run (the laws could not be compiled), or None."""
+        self._setup()
+        return self._loop_reason
+
+    def advance(self, state: State, *, grid_index: int, stop_index: int, dt: float, t_end: float, n_grid: int,
+                power: float, external_work: float, budget_s: float = 0.25) -> "Advanced":
+        """Steps on the time grid in one call into C (``latdyn_advance``), from ``state`` on grid
+        point ``grid_index`` through ``stop_index``, each as :meth:`step` takes it with
+        h = t_{k+1} − t_k and accepted as the time loop accepts it (algorithmic acceleration
+        carried, external work by the trapezoidal rule from ``power``). The call returns at
+        ``stop_index``, after ``budget_s`` of wall time, or at the first step that does not
+        converge or holds a hinge event (lock_at, a stop): that step is given back, not
+        accepted, for the time loop to handle as it handles any step (:attr:`Advanced.pending`).
+        Needs the laws compiled (:attr:`loop_reason` is None)."""
+        if self.loop_reason is not None:
+            raise RuntimeError(f"the loop of steps needs compiled laws: {self.loop_reason}")
+        model = self.assembler.model
+        n = model.n_dofs
+        base = self._configuration_of(state)
+        made = [self._new_state(state.t) for _ in range(2)]
+        scratch = (_Configuration * 2)(made[0][1], made[1][1])
+        self._a_n[:n] = self.a
+        run = _Advance(dt=dt, t_end=t_end, n_grid=n_grid, grid_index=grid_index, stop_index=stop_index, t=state.t,
+                       budget_s=budget_s, power=power, external_work=external_work)
+        self._library.latdyn_advance(self._model_ref, self._work_ref, self._control_ref, ctypes.byref(base),
+                                     scratch, self._vectors_ref, ctypes.byref(run))
+        control = self._control
+        self.factorizations += run.factorizations
+        last = state
+        if run.steps:
+            last = made[run.last][0]
+            last.t = run.t_last
+            self.a = self._a_n[:n].copy()
+            self._made = (last, scratch[run.last], None)
+        pending = None
+        if run.status in (1, 2):
+            k = grid_index + run.steps
+            trial = made[run.pending][0]
+            trial.t = t_end if k + 1 >= n_grid else (k + 1) * dt
+            stats = StepStats(iterations=control.iterations, converged=run.status == 2,
+                              factorizations=control.factorizations, contraction=control.contraction_seen)
+            self.factorizations += control.factorizations
+            if stats.converged:
+                self.a_candidate = self._a_new[:n].copy()
+            else:
+                stats.residual = self._buffers["total"][:n].copy()
+                control.factored_h = 0.0  # a failed step may leave a partial factorization
+            self._last_trial = trial
+            self._made = (trial, scratch[run.pending], base)
+            pending = (trial, stats, run.h_pending)
+        self.last_evaluation = _LastEvaluation(self._buffers["total"], n, model.n_total, control.power)
+        return Advanced(state=last, steps=run.steps, iterations=run.iterations, factorizations=run.factorizations,
+                        power=run.power, external_work=run.external_work, status=run.status, pending=pending)
+
     def energies(self, state: State) -> dict[str, float]:
         """:meth:`latdyn.assembly.Assembler.energies` in C (the time loop asks at every recorded row)."""
         self._setup()
         out = self._energy_out
         self._library.latdyn_energies(self._model_ref, self._work_ref, ctypes.byref(self._configuration_of(state)),
                                       out.ctypes.data)
-        return {"kinetic": float(out[0]), "strain": float(out[1]), "potential": float(out[2])}
+        strain = float(out[1])
+        if self._law_hinges:  # springs with a law: their potential integrates the law (Assembler.hinge_potential)
+            strain += self.assembler.hinge_potential(state, self._law_hinges)
+        return {"kinetic": float(out[0]), "strain": strain, "potential": float(out[2])}
 
     def error_estimate(self, h: float) -> float:
         """As :meth:`GeneralizedAlpha.error_estimate`, with the mass matrix of the step's end
@@ -528,6 +650,24 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
             return super().error_estimate(h)
         finally:
             self.last_evaluation = saved
+
+
+@dataclass
+class Advanced:
+    """What :meth:`CompiledGeneralizedAlpha.advance` did: the last accepted state, the steps
+    accepted with their Newton iterations and factorizations, the power at that state and the
+    external work since the start of the run, why it returned (0 at the stop, 1 a step did not
+    converge, 2 a step holds a hinge event, 3 the wall-time budget) and, for 1 and 2, the step
+    not accepted as ``(state, StepStats, h)``."""
+
+    state: State
+    steps: int
+    iterations: int
+    factorizations: int
+    power: float
+    external_work: float
+    status: int
+    pending: tuple | None = None
 
 
 class _LastEvaluation:

@@ -465,6 +465,7 @@ class TimeFunction(_BySource):
             _check_size(d2, 2, src, self._file, self._key)
             self._kind = "constant" if not expr.free_symbols else "expression"
             self._expr_cache = expr
+            self._derivative_cache = (symbol, (expr, d1, d2))
             try:
                 self._fns = tuple(sp.lambdify(symbol, e, modules="numpy") for e in (expr, d1, d2))
             except Exception as exc:  # a construct the NumPy printer cannot write
@@ -531,6 +532,22 @@ class TimeFunction(_BySource):
         if self._compiled is None:
             self._compile()
         return self._expr_cache
+
+    @property
+    def expressions(self):
+        """``(t, (f, df/dt, d²f/dt²))`` as SymPy (deltas dropped) for an expression, else None:
+        what :mod:`codegen.laws` compiles."""
+        if self._compiled is None:
+            self._compile()
+        return self._derivative_cache if self._kind == "expression" else None
+
+    @property
+    def table(self) -> tuple[list[float], list[float]] | None:
+        """``(times, values)`` of a table, else None."""
+        if not isinstance(self._source, dict):
+            return None
+        rows = self._source["table"]
+        return [r[0] for r in rows], [r[1] for r in rows]
 
     @classmethod
     def constant(cls, value: float) -> "TimeFunction":
@@ -602,6 +619,7 @@ class HingeLaw(_BySource):
                 _check_size(d, 1, src, self._file, self._key)
                 derivatives.append(d)
             self._time = None
+            self._law_cache = (tuple(symbols), (expr, *derivatives))
             self._depends = tuple(n for n in HINGE_VARIABLES if n in names)
             self._constant = float(expr) if not self._depends else None
             try:
@@ -654,6 +672,21 @@ class HingeLaw(_BySource):
     @property
     def source(self):
         return self._source
+
+    @property
+    def expressions(self):
+        """``((θ, θ̇, t), (f, ∂f/∂θ, ∂f/∂θ̇))`` as SymPy for an expression, else None (a number or
+        a table in t: :attr:`time_function`); what :mod:`codegen.laws` compiles."""
+        if self._compiled is None:
+            self._compile()
+        return self._law_cache if self._fns is not None else None
+
+    @property
+    def time_function(self):
+        """The :class:`TimeFunction` of a number or a table, else None."""
+        if self._compiled is None:
+            self._compile()
+        return self._time
 
 
 

@@ -454,6 +454,14 @@ def _implicit_integrator(prepared: Prepared, params: AlphaParameters, tol: float
     return integrator
 
 
+#: Whether the compiled step runs its loop of steps in C between rows (engine.advance); False
+#: takes every step from Python, one call into C each (the reference the loop must equal:
+#: tests/test_time_loop.py).
+COMPILED_LOOP = True
+#: Wall time after which the loop of steps in C returns to Python even before the next row.
+LOOP_BUDGET_S = 0.25
+
+
 def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progress: bool,
               checkpointer: checkpoints.Checkpointer | None = None,
               resume_from: checkpoints.Checkpoint | None = None) -> TransientProgress:
@@ -527,6 +535,40 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
             newton_tolerance=tol, method=solve.method, solver_s=run.solver_s, factorizations=run.factorizations,
             inertia_tangent_from=run.inertia_tangent_from)
 
+    def after_accepted(state: State) -> None:
+        """After the accepted step(s) that ended at ``state``: rotations back on SO(3) every 256
+        steps, the row if one is due, the summary and the progress bar."""
+        if run.steps % 256 == 0:  # exp updates keep T on SO(3) to round-off; remove the drift of long runs
+            state.T[model.free_nodes] = orthonormalize(state.T[model.free_nodes])
+        finished = run.grid_index >= n_grid
+        due = every is None or state.t >= run.output_index * every - 1e-9 * dt
+        if due or finished:  # every output time, and t_end always
+            record(state, energies_of(state))
+            if every:
+                run.output_index = int(np.floor(state.t / every + 1e-9 * dt / every)) + 1
+        summarize()
+        bar.update(state.t)
+
+    def next_row() -> int:
+        """The grid point of the next recorded row (solve.output.every; every step without), and
+        at most the step that ends on a multiple of 256 steps (see after_accepted)."""
+        k = run.grid_index + 1
+        if every is not None:
+            due_at = run.output_index * every - 1e-9 * dt
+            k = max(k, min(n_grid, int(np.floor(due_at / dt))))
+            while k > run.grid_index + 1 and _grid_time(k - 1, dt, t_end, n_grid) >= due_at:
+                k -= 1
+            while k < n_grid and _grid_time(k, dt, t_end, n_grid) < due_at:
+                k += 1
+        return min(k, n_grid, run.grid_index + 256 - run.steps % 256)
+
+    # the loop of steps in C (engine.CompiledGeneralizedAlpha.advance): from a grid point at the
+    # nominal step, the steps up to the next row are taken and accepted in one call; a step it
+    # cannot accept as it comes (Newton fails, a hinge event) comes back to the loop below
+    loop = (COMPILED_LOOP and hasattr(integrator, "advance") and not solve.adaptive
+            and integrator.loop_reason is None)
+    writer.summary["time_loop"] = "compiled" if loop else "python"
+
     if resume_from is None:
         record(state, energy0)
     last = accepted()
@@ -534,14 +576,42 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
     try:
         while run.grid_index < n_grid:
             state = run.state
-            target = _grid_time(run.grid_index + 1, dt, t_end, n_grid)
-            h = run.h
-            lands = h >= (target - state.t) * (1 - 1e-9)
-            if lands:
-                h = target - state.t
-            started = time.perf_counter()
-            new, stats = integrator.step(state, h, t_new=target if lands else None)
-            run.solver_s += time.perf_counter() - started
+            pending = None
+            if loop and run.h == dt and state.t == _grid_time(run.grid_index, dt, t_end, n_grid):
+                # back in Python at least every LOOP_BUDGET_S (interrupts, progress) and when a checkpoint is due
+                budget = LOOP_BUDGET_S if checkpointer is None else min(LOOP_BUDGET_S, checkpointer.remaining())
+                started = time.perf_counter()
+                done = integrator.advance(state, grid_index=run.grid_index,
+                                          stop_index=next_row() if budget > 0 else run.grid_index + 1, dt=dt,
+                                          t_end=t_end, n_grid=n_grid, power=run.power,
+                                          external_work=run.external_work, budget_s=budget)
+                run.solver_s += time.perf_counter() - started
+                if done.steps:
+                    run.steps += done.steps
+                    run.grid_index += done.steps
+                    run.newton_iterations += done.iterations
+                    run.factorizations += done.factorizations
+                    run.power = done.power
+                    run.external_work = probes.external_work = done.external_work
+                    run.state = state = done.state
+                    run.algorithmic_acceleration = integrator.a
+                    after_accepted(state)
+                    last = accepted()
+                    if checkpointer is not None and checkpointer.due():
+                        checkpointer.save(*last, writer)
+                if done.pending is None:
+                    continue
+                new, stats, h = done.pending
+                lands = True
+            else:
+                target = _grid_time(run.grid_index + 1, dt, t_end, n_grid)
+                h = run.h
+                lands = h >= (target - state.t) * (1 - 1e-9)
+                if lands:
+                    h = target - state.t
+                started = time.perf_counter()
+                new, stats = integrator.step(state, h, t_new=target if lands else None)
+                run.solver_s += time.perf_counter() - started
             run.newton_iterations += stats.iterations
             run.factorizations += stats.iterations if stats.factorizations is None else stats.factorizations
             if stats.converged and solve.adaptive:
@@ -600,16 +670,7 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
             run.steps += 1
             if lands:
                 run.grid_index += 1
-            if run.steps % 256 == 0:  # exp updates keep T on SO(3) to round-off; remove the drift of long runs
-                state.T[model.free_nodes] = orthonormalize(state.T[model.free_nodes])
-            finished = run.grid_index >= n_grid
-            due = every is None or state.t >= run.output_index * every - 1e-9 * dt
-            if due or finished:  # every output time, and t_end always
-                record(state, energies_of(state))
-                if every:
-                    run.output_index = int(np.floor(state.t / every + 1e-9 * dt / every)) + 1
-            summarize()
-            bar.update(state.t)
+            after_accepted(state)
             if solve.adaptive:
                 # after a latch the last Newton evaluation has the old numbering (estimate taken as 0,
                 # which is what error_estimate gives after accept() for a step without a latch)

@@ -60,11 +60,13 @@ SCENES = {
 
 
 def interrupt_at(monkeypatch, t_stop: float, how="keyboard"):
-    """Ctrl-C (or SIGTERM) when the first step from t >= t_stop begins."""
+    """Ctrl-C (or SIGTERM) when the first step from t >= t_stop begins (a step from Python, or
+    the compiled loop of steps between rows)."""
     from latdyn.engine import CompiledGeneralizedAlpha
 
-    for cls in (solve.GeneralizedAlpha, CompiledGeneralizedAlpha, solve.CentralDifference):
-        original = cls.step
+    for cls, name in ((solve.GeneralizedAlpha, "step"), (CompiledGeneralizedAlpha, "step"),
+                      (CompiledGeneralizedAlpha, "advance"), (solve.CentralDifference, "step")):
+        original = getattr(cls, name)
 
         def step(self, state, *args, _original=original, **kwargs):
             if state.t >= t_stop:
@@ -73,7 +75,7 @@ def interrupt_at(monkeypatch, t_stop: float, how="keyboard"):
                 raise KeyboardInterrupt
             return _original(self, state, *args, **kwargs)
 
-        monkeypatch.setattr(cls, "step", step)
+        monkeypatch.setattr(cls, name, step)
 
 
 def relative_difference(a: Path, b: Path) -> float:

@@ -157,10 +157,11 @@ def test_modified_newton_reaches_the_newton_tolerance_with_fewer_matrices(tmp_pa
 
 
 def test_scenes_the_compiled_step_does_not_cover_run_in_python(tmp_path):
+    """Rigid links run in the Python step (engine_reason says so); engine: compiled is refused."""
     raw = hinged_chain(t_end=0.02)
-    raw["beams"]["l1"]["start"]["hinge"]["stiffness"] = "10 + 5*theta**2"
+    raw["beams"]["l2"]["rigid"] = True
     _, summary = _run(raw, tmp_path, "auto")
-    assert summary["engine"] == "python" and "stiffness" in summary["engine_reason"]
+    assert summary["engine"] == "python" and "rigid links" in summary["engine_reason"]
     raw["solve"]["engine"] = "compiled"
     with pytest.raises(SceneError, match="solve.engine"):
         latdyn.run(latdyn.load_scene(raw), tmp_path / "refused")

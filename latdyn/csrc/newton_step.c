@@ -9,6 +9,10 @@
  * function pointers), the convergence test -- is here, so that no Python runs inside a
  * step.  It mirrors latdyn/integrators.py (GeneralizedAlpha.step) and latdyn/assembly.py
  * (Assembler.evaluate) line by line; tests/test_engine.py holds the two to 1e-10.
+ * latdyn_advance runs the time loop's steps between two recorded rows (solve.transient),
+ * with the scene's laws compiled by the code generator (codegen/laws.py), and hands back the
+ * first step that the Python loop must handle (a Newton failure, a hinge event);
+ * tests/test_compiled_loop.py holds it to the steps taken one by one from Python.
  *
  * Storage: node arrays row-major (x: n_nodes×3, T: n_nodes×3×3), coordinate vectors of
  * length n_total + 1 (index n_total is the dummy of clamped ends), matrices column-major
@@ -25,9 +29,11 @@
  * any number of threads.  `threads` (0: OpenMP's default, i.e. OMP_NUM_THREADS or the
  * number of cores) sets how many.
  */
+#define _POSIX_C_SOURCE 199309L /* clock_gettime: the wall-time budget of latdyn_advance */
 #include <math.h>
 #include <stdint.h>
 #include <string.h>
+#include <time.h>
 #ifdef _OPENMP
 #include <omp.h>
 #endif
@@ -98,6 +104,19 @@ typedef struct {
      * differ), the node of each hinge, the number of colours */
     const int64_t *node_colour, *hinge_node;
     int64_t n_colours;
+    /* the scene's laws, compiled by the code generator (codegen/laws.py, latdyn/compiled_laws.py):
+     * every function of time at t (3 values each: f, f', f''), and hinge law k at (θ, θ̇, t)
+     * (f, ∂f/∂θ, ∂f/∂θ̇). time_laws NULL: the caller passes the law values (latdyn_newton_step). */
+    void (*time_laws)(double, double *);
+    void (*hinge_laws)(int64_t, double, double, double, double *);
+    /* hinges with laws in θ, θ̇ or t (Assembler.hinge_forces): the hinge law of the stiffness,
+     * the damping and the torque (-1: the constant of hinge_stiffness/hinge_damping, no torque
+     * law in θ or θ̇), and whether the spring is conservative (else its power is external work) */
+    const int64_t *hinge_stiffness_law, *hinge_damping_law, *hinge_torque_hinge_law, *hinge_conservative;
+    /* events that end a loop of steps (latdyn_advance; solve.py handles them): lock_at and the
+     * lower and upper stop of each hinge (NAN: none) */
+    const double *hinge_lock_at, *hinge_lower_stop, *hinge_upper_stop;
+    int64_t has_events;
 } Model;
 
 /* Scratch buffers, allocated once by the caller. */
@@ -118,6 +137,9 @@ typedef struct {
     double *inertia_tangent, *forces_plus, *forces_minus, *perturbed_x, *perturbed_T, *perturbed_theta;
     double *p_geometry, *p_rates, *p_accelerations, *p_mass, *p_quadratic, *p_gravity_force,
            *p_gravity_potential, *p_first_moment;
+    /* the law values at the step's time (n_laws, 3), and the hinge forces' derivatives ∂f/∂θ
+     * and ∂f/∂θ̇ of the last evaluation (n_hinges each: diagonal entries of K and C) */
+    double *laws, *hinge_d_theta, *hinge_d_rate;
 } Work;
 
 /* A configuration: all nodes and hinges. */
@@ -422,7 +444,7 @@ static void element_range(const Model *m, const Configuration *c, Work *w, int64
                         w->gravity_potential + begin, w->first_moment + 3 * begin);
 }
 
-static double evaluate(const Model *m, const Configuration *c, Work *w, const double *laws, int matrices)
+static double evaluate(const Model *m, const Configuration *c, Work *w, const double *laws, double t, int matrices)
 {
     const int64_t E = m->n_elements;
     double power = 0.0;
@@ -453,15 +475,40 @@ static double evaluate(const Model *m, const Configuration *c, Work *w, const do
         const int64_t *d = m->node_dofs + 6 * m->body_nodes[b];
         for (int p = 0; p < 6; ++p) w->total[d[p]] += w->body_vector[6 * b + p];
     }
-    /* hinges: f = k (θ − θ_r) + c θ̇ − τ(t) */
+    /* hinges (Assembler.hinge_forces): f = k (θ − θ_r) + c θ̇ − τ, with s = θ − θ_r
+     *   ∂f/∂θ = k + s ∂k/∂θ + θ̇ ∂c/∂θ − ∂τ/∂θ,   ∂f/∂θ̇ = s ∂k/∂θ̇ + c + θ̇ ∂c/∂θ̇ − ∂τ/∂θ̇ */
     for (int64_t j = 0; j < m->n_hinges; ++j) {
-        double f = m->hinge_stiffness[j] * (c->theta[j] - m->hinge_rest_angle[j])
-                 + m->hinge_damping[j] * c->theta_dot[j];
-        if (m->hinge_torque_law[j] >= 0) {
-            double tau = laws[3 * m->hinge_torque_law[j]];
-            f -= tau;
-            power += tau * c->theta_dot[j];
+        const double theta = c->theta[j], rate = c->theta_dot[j], s = theta - m->hinge_rest_angle[j];
+        double f, d_theta, d_rate;
+        if (m->hinge_stiffness_law[j] < 0) {  /* constant spring and damper */
+            f = m->hinge_stiffness[j] * s + m->hinge_damping[j] * rate;
+            d_theta = m->hinge_stiffness[j];
+            d_rate = m->hinge_damping[j];
+            if (m->hinge_torque_law[j] >= 0) {
+                double tau = laws[3 * m->hinge_torque_law[j]];
+                f -= tau;
+                power += tau * rate;
+            }
+        } else {
+            double k[3], damping[3];
+            m->hinge_laws(m->hinge_stiffness_law[j], theta, rate, t, k);
+            m->hinge_laws(m->hinge_damping_law[j], theta, rate, t, damping);
+            double spring = k[0] * s;
+            f = spring + damping[0] * rate;
+            d_theta = k[0] + s * k[1] + rate * damping[1];
+            d_rate = s * k[2] + damping[0] + rate * damping[2];
+            if (!m->hinge_conservative[j]) power -= spring * rate;
+            if (m->hinge_torque_hinge_law[j] >= 0) {
+                double tau[3];
+                m->hinge_laws(m->hinge_torque_hinge_law[j], theta, rate, t, tau);
+                f -= tau[0];
+                d_theta -= tau[1];
+                d_rate -= tau[2];
+                power += tau[0] * rate;
+            }
         }
+        w->hinge_d_theta[j] = d_theta;
+        w->hinge_d_rate[j] = d_rate;
         w->total[m->hinge_dofs[j]] += f;
     }
     /* point loads */
@@ -641,7 +688,7 @@ static void assemble(const Model *m, Work *w, double beta_p, double gamma_p, int
     }
     for (int64_t j = 0; j < m->n_hinges; ++j)
         if (m->hinge_position[j] >= 0)
-            w->matrix[m->hinge_position[j]] += gamma_p * m->hinge_damping[j] + m->hinge_stiffness[j];
+            w->matrix[m->hinge_position[j]] += gamma_p * w->hinge_d_rate[j] + w->hinge_d_theta[j];
     for (int64_t l = 0; l < m->n_loads; ++l) {
         const int64_t *pos = m->load_position + 9 * l;
         for (int p = 0; p < 9; ++p)
@@ -712,6 +759,8 @@ typedef struct {
     int64_t iterations, converged, factorizations;
     double power;
     double contraction_seen;   /* largest |Δx_k| / |Δx_{k−1}| of the step (StepStats.contraction) */
+    /* in: the step's end time (the laws' time when the model has them compiled) */
+    double t_new;
 } StepControl;
 
 /* One step from `base` (velocities v_n, accelerations v̇_n, algorithmic acceleration a_n on the
@@ -750,6 +799,10 @@ int64_t latdyn_newton_step(const Model *m, Work *w, StepControl *s, const Config
     const double *v_n = x->v_n, *vdot_n = x->vdot_n, *a_n = x->a_n;
     double *v = x->v, *vdot = x->vdot, *dq = x->dq, *dx = x->dx;
     double previous = INFINITY;
+    if (m->time_laws != NULL) {  /* the laws at the step's end time, compiled */
+        m->time_laws(s->t_new, w->laws);
+        laws = w->laws;
+    }
     free_rates(m, base, x->v_n, x->vdot_n);
     int rebuild = s->factored_h != h; /* modified Newton: the held factorization is stale */
     s->iterations = 0;
@@ -766,7 +819,7 @@ int64_t latdyn_newton_step(const Model *m, Work *w, StepControl *s, const Config
         for (int64_t i = 0; i < n; ++i) dx[i] = h * dq[i];
         configure(m, base, trial, dx, v, vdot, laws);
         int matrices = !s->modified || rebuild;
-        s->power = evaluate(m, trial, w, laws, matrices);
+        s->power = evaluate(m, trial, w, laws, s->t_new, matrices);
         if (n == 0) {
             s->converged = 1;
             return 0;
@@ -808,8 +861,140 @@ int64_t latdyn_newton_step(const Model *m, Work *w, StepControl *s, const Config
     return 0;
 }
 
+/* ------------------------------------------------------------------------- the loop of steps */
+
+/* solve._lock_tolerance */
+static double lock_tolerance(double at) { return 1e-7 * fmax(1.0, fabs(at)); }
+
+/* Whether the step old → new holds an event that solve.py handles (and the loop must not
+ * accept by itself): a free hinge that reaches or crosses its lock_at (solve._lock_events),
+ * crosses a stop from inside (solve._stop_crossings), or ends on or beyond a stop moving into
+ * it (solve._hinge_stops). */
+static int hinge_event(const Model *m, const Configuration *old, const Configuration *new_)
+{
+    for (int64_t k = 0; k < m->n_free_hinges; ++k) {
+        int64_t j = m->free_hinges[k];
+        double lock = m->hinge_lock_at[j];
+        if (!isnan(lock)) {
+            double before = old->theta[j] - lock, after = new_->theta[j] - lock;
+            if (before == 0.0 || fabs(after) <= lock_tolerance(lock) || before * after < 0.0) return 1;
+        }
+        for (int side = -1; side <= 1; side += 2) {
+            double stop = side < 0 ? m->hinge_lower_stop[j] : m->hinge_upper_stop[j];
+            if (isnan(stop)) continue;
+            double before = side * (old->theta[j] - stop), after = side * (new_->theta[j] - stop);
+            if (before < -lock_tolerance(stop) && after > lock_tolerance(stop)) return 1;
+            if (after >= -lock_tolerance(stop) && side * new_->theta_dot[j] >= 0.0) return 1;
+        }
+    }
+    return 0;
+}
+
+/* Power of the constraint forces that impose prescribed motion (solve._drive_power): the
+ * reaction of the last evaluation (w->total on the constrained coordinates n_dofs … n_total−1)
+ * times the velocities of those coordinates. */
+static double drive_power(const Model *m, const Configuration *c, const double *total)
+{
+    const int64_t n = m->n_dofs, n_total = m->n_total;
+    double power = 0.0;
+    for (int64_t i = 0; i < m->n_nodes; ++i) {
+        const int64_t *d = m->node_dofs + 6 * i;
+        for (int j = 0; j < 6; ++j)
+            if (d[j] >= n && d[j] < n_total)
+                power += total[d[j]] * (j < 3 ? c->v[3 * i + j] : c->w[3 * i + j - 3]);
+    }
+    for (int64_t j = 0; j < m->n_hinges; ++j) {
+        int64_t d = m->hinge_dofs[j];
+        if (d >= n && d < n_total) power += total[d] * c->theta_dot[j];
+    }
+    return power;
+}
+
+/* A loop of steps on the time grid (solve.transient's loop, for the steps it would accept as
+ * they come). */
+typedef struct {
+    /* in: the grid t_k = k dt (t_{n_grid} = t_end), the steps to take (grid_index → stop_index),
+     * the start time, and the wall time after which the loop returns (≤ 0: none) */
+    double dt, t_end;
+    int64_t n_grid, grid_index, stop_index;
+    double t, budget_s;
+    /* in/out: the power of loads and prescribed motion at the last accepted state, and the work
+     * done since the start of the run (trapezoidal rule, as solve.transient) */
+    double power, external_work;
+    /* out: steps accepted, their Newton iterations and factorizations; why the loop returned
+     * (0 at stop_index, 1 a step did not converge, 2 a step holds an event, 3 the budget);
+     * where the last accepted state is (-1 the start, 0 or 1 the scratch configurations) and
+     * its time; with status 1 or 2, the scratch configuration that holds the step not accepted
+     * (its counters stay in the StepControl) and that step's size */
+    int64_t steps, iterations, factorizations, status, last, pending;
+    double t_last, h_pending;
+} Advance;
+
+static double seconds_now(void)
+{
+    struct timespec now;
+    clock_gettime(CLOCK_MONOTONIC, &now);
+    return (double)now.tv_sec + 1e-9 * (double)now.tv_nsec;
+}
+
+/* Steps from `start` (at adv->t, on grid point grid_index) through grid point stop_index,
+ * each landing on the grid (h = t_{k+1} − t_k) as solve.transient takes them at the nominal
+ * step: latdyn_newton_step with the compiled laws, then acceptance (the algorithmic
+ * acceleration carried, the external work by the trapezoidal rule). It returns at the first
+ * step that does not converge or that holds a hinge event, without accepting it, so that the
+ * caller's loop handles that step as it always has; it never fails by itself. States alternate
+ * between the two scratch configurations; `start` is read only. */
+int64_t latdyn_advance(const Model *m, Work *w, StepControl *s, const Configuration *start,
+                       Configuration *scratch, StepVectors *x, Advance *adv)
+{
+    const int64_t n = m->n_dofs;
+    const double started = adv->budget_s > 0.0 ? seconds_now() : 0.0;
+    const Configuration *base = start;
+    double t = adv->t;
+    adv->steps = adv->iterations = adv->factorizations = 0;
+    adv->last = -1;
+    adv->pending = -1;
+    adv->status = 0;
+    for (int64_t k = adv->grid_index; k < adv->stop_index; ++k) {
+        const double target = k + 1 >= adv->n_grid ? adv->t_end : (double)(k + 1) * adv->dt;
+        const int next = adv->last == 0 ? 1 : 0;
+        Configuration *trial = scratch + next;
+        s->h = target - t;
+        s->t_new = target;
+        int64_t failed = latdyn_newton_step(m, w, s, base, trial, x, NULL);
+        if (failed || !s->converged) {
+            adv->status = 1;
+        } else if (m->has_events && hinge_event(m, base, trial)) {
+            adv->status = 2;
+        }
+        if (adv->status) {
+            adv->pending = next;
+            adv->h_pending = s->h;
+            break;
+        }
+        /* accepted: GeneralizedAlpha.accept, and the work of loads and prescribed motion */
+        memcpy(x->a_n, x->a_new, sizeof(double) * (size_t)n);
+        double power = s->power + drive_power(m, trial, w->total);
+        adv->external_work += 0.5 * s->h * (adv->power + power);
+        adv->power = power;
+        adv->steps += 1;
+        adv->iterations += s->iterations;
+        adv->factorizations += s->factorizations;
+        adv->last = next;
+        base = trial;
+        t = target;
+        if (adv->budget_s > 0.0 && seconds_now() - started > adv->budget_s && k + 1 < adv->stop_index) {
+            adv->status = 3;
+            break;
+        }
+    }
+    adv->t_last = t;
+    return adv->status;
+}
+
 /* Kinetic, strain and gravity potential energy of the whole model at c (Assembler.energies):
- * out = [kinetic, strain, potential]. Hinge springs are constant here (engine.unsupported). */
+ * out = [kinetic, strain, potential]. Springs with a law have hinge_stiffness 0 here: the caller
+ * adds their potential (Assembler.hinge_potential integrates the law). */
 void latdyn_energies(const Model *m, Work *w, const Configuration *c, double *out)
 {
     const int64_t E = m->n_elements;

@@ -1,0 +1,137 @@
+"""A scene's laws in C: its functions of time and its hinge laws, for the compiled time step.
+
+The element kernels are derived once and committed (``generated/``); the laws of a scene
+(prescribed motion, loads, hinge torques, springs and dampers; SCENE.md "Expressions") are
+known only when the scene is read. They go through the same pipeline on a smaller scale:
+the SymPy expressions that :mod:`latdyn.expressions` parsed and differentiated, CSE
+(``sympy.cse``, one block per law: its value shares subexpressions with its derivatives),
+the C99 printer of :mod:`codegen.emit` (no ``pow()`` for small integer and half-integer
+powers), and the template ``templates/laws.c.j2`` with the file stamp. :mod:`latdyn.engine`
+compiles the unit once per distinct source into the kernel cache and calls it from C, so
+that no law is evaluated in Python inside the time loop.
+
+The unit's two functions (the ABI :mod:`latdyn.engine` and ``latdyn/csrc/newton_step.c`` use):
+
+``void latdyn_time_laws(double t, double *out)``
+    every function of time at ``t``: ``out[3k], out[3k+1], out[3k+2]`` = f_k, df_k/dt, d²f_k/dt².
+``void latdyn_hinge_laws(int64_t k, double theta, double theta_dot, double t, double *out)``
+    hinge law k at (θ, θ̇, t): ``out[0..2]`` = f, ∂f/∂θ, ∂f/∂θ̇.
+
+Laws are plain data here (:class:`TimeLaw`, :class:`HingeLawC`), so that this module does
+not import the runtime. A table in t is linear between its points and constant beyond them,
+evaluated as ``numpy.interp`` does; its rate is the slope of the segment that starts at or
+before t (0 beyond the ends), its acceleration 0 (:class:`latdyn.expressions.TimeFunction`).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import sympy as sp
+
+from .emit import COMMAND, MARKER, CPrinter, EmitError, _comment_text, _environment, formulation_hash, tool_versions
+
+#: The C names of the law variables (latdyn.expressions: ``t``; hinge laws ``theta``, ``theta_dot``, ``t``).
+VARIABLES = ("t", "theta", "theta_dot")
+
+
+@dataclass(frozen=True)
+class TimeLaw:
+    """A scalar function of time: ``kind`` is ``"constant"`` (``value``), ``"table"``
+    (``times``, ``values``) or ``"expression"`` (``variable`` and ``expressions`` = f, f′, f″)."""
+
+    kind: str
+    text: str
+    value: float = 0.0
+    times: tuple = ()
+    values: tuple = ()
+    variable: sp.Symbol | None = None
+    expressions: tuple = ()
+
+
+@dataclass(frozen=True)
+class HingeLawC:
+    """A hinge law: a function of time (``time``; its θ and θ̇ derivatives are 0) or an
+    expression (``variables`` = (θ, θ̇, t), ``expressions`` = f, ∂f/∂θ, ∂f/∂θ̇)."""
+
+    text: str
+    time: TimeLaw | None = None
+    variables: tuple = ()
+    expressions: tuple = ()
+
+
+class _LawPrinter(CPrinter):
+    """The element printer, with ``Heaviside(x, h0)`` as a call of the unit's own helper."""
+
+    def _print_Heaviside(self, expr):
+        at_zero = expr.args[1] if len(expr.args) > 1 else sp.S.Half
+        return f"latdyn_heaviside({self._print(expr.args[0])}, {self._print(sp.Float(at_zero, 17))})"
+
+
+def _block(variables: dict, expressions, out: str, first: int) -> list[str]:
+    """C statements of one law: CSE temporaries, then ``out[first + i] = ...``."""
+    printer = _LawPrinter()
+    renamed = [sp.sympify(e).xreplace(variables) for e in expressions]
+    for e in renamed:
+        strangers = e.free_symbols - set(variables.values())
+        if strangers:
+            raise EmitError(f"a law uses {', '.join(sorted(map(str, strangers)))}, not one of {', '.join(VARIABLES)}")
+    temporaries, reduced = sp.cse(renamed, symbols=sp.numbered_symbols("w"), optimizations="basic")
+    lines = []
+    try:
+        for symbol, value in temporaries:
+            lines.append(f"const double {symbol} = {_one_line(printer.doprint(value))};")
+        for i, e in enumerate(reduced):
+            text = repr(float(e)) if not e.free_symbols else _one_line(printer.doprint(e))
+            lines.append(f"{out}[{first + i}] = {text};")
+    except (TypeError, ValueError) as error:  # a construct the C printer does not know
+        raise EmitError(f"a law cannot be printed in C: {error}") from None
+    return lines
+
+
+def _one_line(text: str) -> str:
+    return " ".join(text.split())
+
+
+def _c_names(symbols) -> dict:
+    """The law's SymPy symbols mapped to plain symbols with the C names (assumptions dropped)."""
+    return {s: sp.Symbol(s.name) for s in symbols}
+
+
+def _time_block(law: TimeLaw, out: str, first: int) -> dict:
+    if law.kind == "constant":
+        lines = [f"{out}[{first}] = {float(law.value)!r};", f"{out}[{first + 1}] = 0.0;", f"{out}[{first + 2}] = 0.0;"]
+    elif law.kind == "table":
+        n = len(law.times)
+        times = ", ".join(repr(float(x)) for x in law.times)
+        values = ", ".join(repr(float(x)) for x in law.values)
+        lines = [f"static const double times[{n}] = {{{times}}};",
+                 f"static const double values[{n}] = {{{values}}};",
+                 f"latdyn_table(t, {n}, times, values, {out} + {first});",
+                 f"{out}[{first + 2}] = 0.0;"]
+    elif law.kind == "expression":
+        lines = _block(_c_names([law.variable]), law.expressions, out, first)
+    else:
+        raise EmitError(f"unknown kind of law {law.kind!r}")
+    return {"text": _comment_text(law.text), "lines": lines}
+
+
+def _hinge_block(law: HingeLawC) -> dict:
+    if law.time is not None:
+        block = _time_block(law.time, "out", 0)
+        # f(t) only: its θ and θ̇ derivatives are zero (out[1] held df/dt: overwritten)
+        block["lines"] = [line for line in block["lines"] if not line.startswith(("out[1]", "out[2]"))]
+        block["lines"] += ["out[1] = 0.0;", "out[2] = 0.0;"]
+        block["text"] = _comment_text(law.text)
+        return block
+    return {"text": _comment_text(law.text), "lines": _block(_c_names(law.variables), law.expressions, "out", 0)}
+
+
+def laws_source(time_laws: list[TimeLaw], hinge_laws: list[HingeLawC]) -> str:
+    """The C unit of a scene's laws (see the module docstring). :class:`EmitError` when a
+    law cannot be printed in C (the caller then evaluates the laws in Python)."""
+    template = _environment().get_template("laws.c.j2")
+    return template.render(
+        marker=MARKER, command=COMMAND, versions=tool_versions(), hash=formulation_hash(), variant=None,
+        time_laws=[_time_block(law, "out", 3 * k) for k, law in enumerate(time_laws)],
+        hinge_laws=[_hinge_block(law) for law in hinge_laws],
+    )

@@ -1,0 +1,211 @@
+"""The loop of steps in C (engine.CompiledGeneralizedAlpha.advance, csrc/newton_step.c
+latdyn_advance) and the scene's laws compiled by the code generator (codegen/laws.py).
+
+References: the same run with every step taken from Python (``solve.COMPILED_LOOP = False``,
+one call into C per step, the laws evaluated by ``latdyn.expressions``), which the loop must
+equal to round-off with the same steps, iterations, factorizations and rejected steps, through
+rows that span several steps, Newton failures and cuts, latches and hinge stops; and the
+Python step itself (engine: python) for hinge laws in θ, θ̇ and t, which now run compiled.
+The compiled laws equal :class:`~latdyn.expressions.TimeFunction` and
+:class:`~latdyn.expressions.HingeLaw` at random arguments.
+"""
+from __future__ import annotations
+
+import copy
+import ctypes
+
+import numpy as np
+import pytest
+
+import latdyn
+import latdyn.solve as solve_module
+from latdyn.expressions import HingeLaw, TimeFunction
+from latdyn.kernels import load_kernels
+
+from test_engine import _relative_difference, _run, loaded_arm
+from test_hinges import stop_scene
+from test_inertia import hinged_chain
+
+try:
+    load_kernels("c", "default")
+    HAVE_C = True
+except RuntimeError:
+    HAVE_C = False
+
+pytestmark = pytest.mark.skipif(not HAVE_C, reason="no C compiler: the compiled step needs one")
+
+COUNTERS = ("steps", "newton_iterations", "rejected_steps", "newton_cuts", "factorizations")
+
+
+def _both(raw, tmp_path, monkeypatch, **solve):
+    """The run with the loop in C and the run stepped from Python, with their summaries."""
+    runs = {}
+    for loop in (True, False):
+        monkeypatch.setattr(solve_module, "COMPILED_LOOP", loop)
+        runs[loop] = _run(raw, tmp_path, f"loop_{loop}", **solve)
+    return runs[True], runs[False]
+
+
+def _assert_same_run(looped, stepped, tolerance=1e-12):
+    (a, a_summary), (b, b_summary) = looped, stepped
+    assert a_summary["time_loop"] == "compiled" and b_summary["time_loop"] == "python"
+    for key in COUNTERS:
+        assert a_summary[key] == b_summary[key], key
+    assert np.array_equal(np.asarray(a.t), np.asarray(b.t))
+    assert _relative_difference(a, b) <= tolerance
+    assert a_summary["energy_balance_error"] == pytest.approx(b_summary["energy_balance_error"], rel=1e-9, abs=1e-14)
+
+
+@pytest.mark.parametrize("every", [None, 0.02])
+def test_loop_equals_stepping_from_python(every, tmp_path, monkeypatch):
+    """A 3D arm with every kind of law (prescribed hinge angle, torque, global and follower
+    loads of t), free bodies, gravity; rows every step and every 4 steps."""
+    raw = loaded_arm(t_end=0.3)
+    if every is not None:
+        raw["output"]["every"] = every
+    looped, stepped = _both(raw, tmp_path, monkeypatch, engine="compiled", newton="full")
+    _assert_same_run(looped, stepped)
+    assert len(looped[0].t) == (61 if every is None else 16)
+
+
+def test_loop_hands_a_latch_back_to_the_time_loop(tmp_path, monkeypatch):
+    """Hinge c latches at t ≈ 0.146 s: the loop returns the step that reaches lock_at, the time
+    loop shortens it onto the event and latches; then the loop goes on with the new numbering."""
+    raw = loaded_arm(t_end=0.3, lock_at=-0.12)
+    raw["output"]["every"] = 0.05
+    looped, stepped = _both(raw, tmp_path, monkeypatch, engine="compiled")
+    _assert_same_run(looped, stepped)
+    rate = np.asarray(looped[0].probes["c_hinge"])
+    assert np.any(rate != 0.0) and rate[-1] == 0.0  # moved, then latched
+
+
+def test_loop_hands_impacts_on_a_stop_back(tmp_path, monkeypatch):
+    raw = stop_scene(0.5)
+    looped, stepped = _both(raw, tmp_path, monkeypatch)
+    _assert_same_run(looped, stepped)
+    assert np.min(looped[0].probes["rate"]) < 0 < np.max(looped[0].probes["rate"])  # bounced
+
+
+def test_loop_hands_newton_failures_back(tmp_path, monkeypatch):
+    """Three Newton iterations are not enough for this chain's large steps: steps are cut and
+    regrown, in the Python loop, between runs of the C loop."""
+    raw = hinged_chain(t_end=0.4, dt=0.02, max_iterations=3)
+    raw["output"]["every"] = 0.04
+    looped, stepped = _both(raw, tmp_path, monkeypatch, engine="compiled", newton="full")
+    assert looped[1]["newton_cuts"] > 0
+    _assert_same_run(looped, stepped)
+
+
+def test_loop_reaches_modified_newton_results(tmp_path, monkeypatch):
+    raw = hinged_chain(t_end=0.3)
+    raw["output"]["every"] = 0.05
+    looped, stepped = _both(raw, tmp_path, monkeypatch, engine="compiled", newton="modified")
+    _assert_same_run(looped, stepped)
+
+
+def law_chain(t_end=0.3):
+    """The 3D chain with hinge laws in θ, θ̇ and t: a stiffening spring, a rate-dependent
+    damper, a torque in θ and t, a table stiffness in t, a spring law in θ̇ (not conservative)."""
+    raw = hinged_chain(t_end=t_end)
+    hinges = [raw["beams"][name]["start"]["hinge"] for name in ("l1", "l2", "l3")]
+    hinges[0].update(stiffness="40*(1 + 2*theta**2)", damping="0.5 + 0.2*theta_dot**2",
+                     torque="3*sin(5*t)*cos(theta)", rest_angle=0.1)
+    hinges[1].update(stiffness={"table": [[0.0, 20.0], [0.1, 35.0], [0.2, 30.0]]}, damping=0.3,
+                     torque="Piecewise((2*t, t < 0.15), (0.3, True))")
+    hinges[2].update(stiffness="15 + 4*abs(theta_dot)", damping="0.1*(1 + Heaviside(theta))")
+    raw["output"]["probes"]["strain"] = {"energy": "strain"}
+    raw["output"]["probes"]["work"] = {"energy": "external_work"}
+    return raw
+
+
+def test_hinge_laws_in_theta_run_compiled_and_equal_the_python_step(tmp_path):
+    raw = law_chain()
+    python, python_summary = _run(raw, tmp_path, "python", engine="python")
+    compiled, compiled_summary = _run(raw, tmp_path, "compiled", engine="compiled", newton="full")
+    assert python_summary["engine"] == "python" and compiled_summary["engine"] == "compiled"
+    assert compiled_summary["time_loop"] == "compiled"
+    for key in ("steps", "newton_iterations", "rejected_steps"):
+        assert compiled_summary[key] == python_summary[key], key
+    assert _relative_difference(python, compiled) <= 1e-10
+    assert max(np.abs(python.probes["h1"])) > 0.05  # the laws were exercised away from zero
+
+
+def test_laws_that_cannot_be_compiled_are_evaluated_in_python(tmp_path, monkeypatch):
+    """Without the laws' library the compiled step takes the law values from Python and the
+    time loop steps from Python: the same run."""
+    from latdyn import compiled_laws, engine
+
+    raw = loaded_arm(t_end=0.1)
+    reference, _ = _run(raw, tmp_path, "compiled_laws", engine="compiled")
+
+    def unavailable(*args, **kwargs):
+        raise compiled_laws.LawsUnavailable("no compiler for the laws (test)")
+
+    monkeypatch.setattr(engine, "compile_laws", unavailable)
+    result, summary = _run(raw, tmp_path, "python_laws", engine="compiled")
+    assert summary["engine"] == "compiled" and summary["time_loop"] == "python"
+    assert _relative_difference(reference, result) <= 1e-12
+
+
+# ----------------------------------------------------------------------------- the laws alone
+
+TIME_LAWS = [
+    "Piecewise((0.4*t, t < 15), (6, True))",
+    "0.5*(1 - cos(pi*t/3))*Heaviside(3 - t) + Heaviside(t - 3)",
+    "Min(2*t, 1) + Max(sin(3*t), 0.2) - abs(t - 1.5)*sign(t - 2)",
+    "exp(-t)*sqrt(1 + t**2) + atan2(t, 2) + t**(3/2) + tanh(t - 1)",
+    "Piecewise((t**3, 1 < t < 2), (0, True))",
+    "7.25",
+    {"table": [[0.0, 0.0], [0.5, 2.0], [1.5, -1.0], [4.0, 3.0]]},
+    {"table": [[1.0, 4.0]]},
+]
+
+
+def _compiled(time_functions, hinge_laws=()):
+    from latdyn.compiled_laws import compile_laws
+
+    compiled = compile_laws(list(time_functions), list(hinge_laws))
+    time_laws = ctypes.CFUNCTYPE(None, ctypes.c_double, ctypes.c_void_p)(compiled.time_laws)
+    hinge = ctypes.CFUNCTYPE(None, ctypes.c_int64, ctypes.c_double, ctypes.c_double, ctypes.c_double,
+                             ctypes.c_void_p)(compiled.hinge_laws)
+    return time_laws, hinge
+
+
+def test_compiled_time_laws_equal_the_expressions():
+    functions = [TimeFunction(source) for source in TIME_LAWS]
+    time_laws, _ = _compiled(functions)
+    rng = np.random.default_rng(4)
+    times = np.r_[rng.uniform(-1.0, 5.0, 200), 0.0, 0.5, 1.0, 1.5, 2.0, 3.0, 4.0, 15.0, 16.0]
+    out = np.zeros(3 * len(functions))
+    for t in times:
+        time_laws(float(t), out.ctypes.data)
+        for k, f in enumerate(functions):
+            expected = np.array([f.value(float(t)), f.rate(float(t)), f.accel(float(t))])
+            assert out[3 * k: 3 * k + 3] == pytest.approx(expected, rel=1e-13, abs=1e-13, nan_ok=True), (TIME_LAWS[k], t)
+
+
+def test_compiled_hinge_laws_equal_the_expressions():
+    sources = ["40*(1 + 2*theta**2)", "0.5 + 0.2*theta_dot**2 + t*theta", "3*sin(5*t)*cos(theta) - theta_dot**3",
+               "15 + 4*abs(theta_dot)*Heaviside(theta - 0.1)", 2.5, {"table": [[0.0, 1.0], [1.0, 3.0]]}]
+    laws = [HingeLaw(source) for source in sources]
+    _, hinge = _compiled([], laws)
+    rng = np.random.default_rng(5)
+    out = np.zeros(3)
+    for theta, rate, t in rng.uniform(-2.0, 2.0, (100, 3)):
+        for k, law in enumerate(laws):
+            hinge(k, theta, rate, t, out.ctypes.data)
+            expected = [law.value(theta, rate, t), law.d_theta(theta, rate, t), law.d_rate(theta, rate, t)]
+            assert out == pytest.approx(expected, rel=1e-13, abs=1e-13, nan_ok=True), (sources[k], theta, rate, t)
+
+
+def test_the_laws_unit_is_stamped_and_reproducible():
+    from codegen.emit import MARKER
+    from latdyn.compiled_laws import hinge_law, time_law
+    from codegen.laws import laws_source
+
+    functions = [TimeFunction(source) for source in TIME_LAWS]
+    laws = [HingeLaw("40*(1 + 2*theta**2)")]
+    first = laws_source([time_law(f) for f in functions], [hinge_law(h) for h in laws])
+    again = laws_source([time_law(copy.deepcopy(f)) for f in functions], [hinge_law(h) for h in laws])
+    assert first == again and MARKER in first.splitlines()[1]
+    assert "Piecewise((0.4*t, t < 15), (6, True))" in first  # each law's source as its comment
