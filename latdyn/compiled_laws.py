@@ -62,7 +62,8 @@ class CompiledLaws:
         self.hinge_laws = ctypes.cast(library.latdyn_hinge_laws, ctypes.c_void_p).value
 
 
-_LOADED: dict[str, CompiledLaws] = {}
+_LOADED: dict[str, CompiledLaws] = {}  # by the digest of the C source
+_BY_LAWS: dict[str, CompiledLaws] = {}  # by the laws' own sources
 
 
 def compile_laws(time_functions: list, hinge_laws: list[HingeLaw]) -> CompiledLaws:
@@ -73,6 +74,11 @@ def compile_laws(time_functions: list, hinge_laws: list[HingeLaw]) -> CompiledLa
 
     from .kernels import C_FLAGS, COMPILE_SECONDS, _build, _compiler, cache_dir
 
+    # the same laws again (a study's runs, a renumbering after a latch): no printing, no lookup
+    key = repr([(type(f).__name__, f.source) for f in time_functions]
+               + [(type(h).__name__, h.source) for h in hinge_laws])
+    if key in _BY_LAWS:
+        return _BY_LAWS[key]
     try:
         source = laws_source([time_law(f) for f in time_functions], [hinge_law(h) for h in hinge_laws]).encode()
     except EmitError as error:
@@ -80,6 +86,7 @@ def compile_laws(time_functions: list, hinge_laws: list[HingeLaw]) -> CompiledLa
     compiler = _compiler()
     digest = hashlib.sha256(source + b"\0" + " ".join([*compiler, *C_FLAGS]).encode()).hexdigest()[:20]
     if digest in _LOADED:
+        _BY_LAWS[key] = _LOADED[digest]
         return _LOADED[digest]
     target = cache_dir() / f"laws-{digest}.so"
     if not target.exists():
@@ -102,5 +109,5 @@ def compile_laws(time_functions: list, hinge_laws: list[HingeLaw]) -> CompiledLa
         loaded = CompiledLaws(ctypes.CDLL(str(target)), target)
     except OSError as error:
         raise LawsUnavailable(f"cannot load {target.name}: {error}") from None
-    _LOADED[digest] = loaded
+    _LOADED[digest] = _BY_LAWS[key] = loaded
     return loaded

@@ -201,7 +201,8 @@ def _library() -> ctypes.CDLL:
         library.latdyn_advance.restype = I64
         library.latdyn_advance.argtypes = [ctypes.POINTER(_Model), ctypes.POINTER(_Work), ctypes.POINTER(_Control),
                                            ctypes.POINTER(_Configuration), ctypes.POINTER(_Configuration),
-                                           ctypes.POINTER(_Vectors), ctypes.POINTER(_Advance)]
+                                           ctypes.POINTER(_Configuration), ctypes.POINTER(_Vectors),
+                                           ctypes.POINTER(_Advance)]
         _LIBRARY = library
     return _LIBRARY
 
@@ -506,6 +507,11 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         self._control_ref, self._vectors_ref = ctypes.byref(self._control), ctypes.byref(self._vectors)
         self._step = self._library.latdyn_newton_step
         self._layout()
+        # the loop of steps (advance): its two scratch configurations and its counters
+        self._scratch = [self._new_state(0.0) for _ in range(2)]
+        self._scratch_c = (_Configuration * 2)(self._scratch[0][1], self._scratch[1][1])
+        self._run = _Advance()
+        self._run_ref = ctypes.byref(self._run)
 
     _FIELDS = ("x", "T", "v", "w", "a", "alpha", "theta", "theta_dot", "theta_ddot")
 
@@ -529,6 +535,12 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         base = buffer.ctypes.data
         state = State(t, *(buffer[start:stop].reshape(shape) for start, stop, shape in self._slices))
         return state, _Configuration(*(base + 8 * start for start, _, _ in self._slices))
+
+    def _copy_into(self, source: State, state: State, configuration: _Configuration) -> _Configuration:
+        """``state`` (made by :meth:`_new_state`) ← ``source``'s arrays; its C view."""
+        for name in self._FIELDS:
+            np.copyto(getattr(state, name), getattr(source, name))
+        return configuration
 
     def _configuration_of(self, state: State) -> _Configuration:
         """The C view of a state: the last state this step made is viewed in place; any other
@@ -591,26 +603,26 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         model = self.assembler.model
         n = model.n_dofs
         base = self._configuration_of(state)
-        made = [self._new_state(state.t) for _ in range(2)]
-        scratch = (_Configuration * 2)(made[0][1], made[1][1])
+        out, out_c = self._new_state(state.t)
         self._a_n[:n] = self.a
-        run = _Advance(dt=dt, t_end=t_end, n_grid=n_grid, grid_index=grid_index, stop_index=stop_index, t=state.t,
-                       budget_s=budget_s, power=power, external_work=external_work)
+        run = self._run
+        run.dt, run.t_end, run.n_grid, run.grid_index, run.stop_index = dt, t_end, n_grid, grid_index, stop_index
+        run.t, run.budget_s, run.power, run.external_work = state.t, budget_s, power, external_work
         self._library.latdyn_advance(self._model_ref, self._work_ref, self._control_ref, ctypes.byref(base),
-                                     scratch, self._vectors_ref, ctypes.byref(run))
+                                     self._scratch_c, ctypes.byref(out_c), self._vectors_ref, self._run_ref)
         control = self._control
         self.factorizations += run.factorizations
         last = state
         if run.steps:
-            last = made[run.last][0]
+            last = out
             last.t = run.t_last
             self.a = self._a_n[:n].copy()
-            self._made = (last, scratch[run.last], None)
+            self._made = (last, out_c, None)
         pending = None
         if run.status in (1, 2):
             k = grid_index + run.steps
-            trial = made[run.pending][0]
-            trial.t = t_end if k + 1 >= n_grid else (k + 1) * dt
+            trial, trial_c = self._new_state(t_end if k + 1 >= n_grid else (k + 1) * dt)
+            trial_c = self._copy_into(self._scratch[run.pending][0], trial, trial_c)
             stats = StepStats(iterations=control.iterations, converged=run.status == 2,
                               factorizations=control.factorizations, contraction=control.contraction_seen)
             self.factorizations += control.factorizations
@@ -620,7 +632,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
                 stats.residual = self._buffers["total"][:n].copy()
                 control.factored_h = 0.0  # a failed step may leave a partial factorization
             self._last_trial = trial
-            self._made = (trial, scratch[run.pending], base)
+            self._made = (trial, trial_c, ctypes.byref(out_c if run.steps else base))
             pending = (trial, stats, run.h_pending)
         self.last_evaluation = _LastEvaluation(self._buffers["total"], n, model.n_total, control.power)
         return Advanced(state=last, steps=run.steps, iterations=run.iterations, factorizations=run.factorizations,

@@ -1,6 +1,7 @@
 """``run(scene)``: model → analysis → result files (SCENE.md, "Commands and results")."""
 from __future__ import annotations
 
+import copy
 import signal
 import sys
 import threading
@@ -510,7 +511,9 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
         writer.reattach_last_frame(lambda snapshot=last_recorded: _grid_points(assembler, writer.mesh, snapshot))
 
     def accepted() -> tuple:
-        return (replace(run, cut_times=list(run.cut_times)), run.external_work, bookmark,
+        kept = copy.copy(run)  # dataclasses.replace without its per-field checks (once a row)
+        kept.cut_times = list(run.cut_times)
+        return (kept, run.external_work, bookmark,
                 last_recorded if bookmark["unwritten"] is not None else None)
 
     def record(s: State, energies: dict) -> None:

@@ -923,12 +923,27 @@ typedef struct {
     double power, external_work;
     /* out: steps accepted, their Newton iterations and factorizations; why the loop returned
      * (0 at stop_index, 1 a step did not converge, 2 a step holds an event, 3 the budget);
-     * where the last accepted state is (-1 the start, 0 or 1 the scratch configurations) and
-     * its time; with status 1 or 2, the scratch configuration that holds the step not accepted
-     * (its counters stay in the StepControl) and that step's size */
+     * the last accepted state's time (the state itself is copied to `last`); with status 1 or
+     * 2, the scratch configuration that holds the step not accepted (its counters stay in the
+     * StepControl) and that step's size */
     int64_t steps, iterations, factorizations, status, last, pending;
     double t_last, h_pending;
 } Advance;
+
+/* dst ← src, every node and hinge. */
+static void copy_configuration(const Model *m, const Configuration *src, Configuration *dst)
+{
+    const size_t N = (size_t)m->n_nodes, H = (size_t)m->n_hinges;
+    memcpy(dst->x, src->x, sizeof(double) * 3 * N);
+    memcpy(dst->T, src->T, sizeof(double) * 9 * N);
+    memcpy(dst->v, src->v, sizeof(double) * 3 * N);
+    memcpy(dst->w, src->w, sizeof(double) * 3 * N);
+    memcpy(dst->a, src->a, sizeof(double) * 3 * N);
+    memcpy(dst->alpha, src->alpha, sizeof(double) * 3 * N);
+    memcpy(dst->theta, src->theta, sizeof(double) * H);
+    memcpy(dst->theta_dot, src->theta_dot, sizeof(double) * H);
+    memcpy(dst->theta_ddot, src->theta_ddot, sizeof(double) * H);
+}
 
 static double seconds_now(void)
 {
@@ -943,9 +958,10 @@ static double seconds_now(void)
  * acceleration carried, the external work by the trapezoidal rule). It returns at the first
  * step that does not converge or that holds a hinge event, without accepting it, so that the
  * caller's loop handles that step as it always has; it never fails by itself. States alternate
- * between the two scratch configurations; `start` is read only. */
+ * between the two scratch configurations; `start` is read only; the last accepted state is
+ * copied to `last` (when a step was accepted). */
 int64_t latdyn_advance(const Model *m, Work *w, StepControl *s, const Configuration *start,
-                       Configuration *scratch, StepVectors *x, Advance *adv)
+                       Configuration *scratch, Configuration *last, StepVectors *x, Advance *adv)
 {
     const int64_t n = m->n_dofs;
     const double started = adv->budget_s > 0.0 ? seconds_now() : 0.0;
@@ -989,6 +1005,7 @@ int64_t latdyn_advance(const Model *m, Work *w, StepControl *s, const Configurat
         }
     }
     adv->t_last = t;
+    if (adv->steps) copy_configuration(m, base, last);
     return adv->status;
 }
 
