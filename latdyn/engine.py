@@ -44,6 +44,7 @@ import numpy as np
 from .assembly import State, free_acceleration, free_velocity
 from .integrators import INERTIA_TANGENT_STEP, GeneralizedAlpha, StepStats, node_colouring
 from .linalg import BAND_LIMIT, DENSE_LIMIT, rcm_band
+from .sparse_lu import SparseLUStructure, SupernodalAnalysis, blas_kernels
 from .model import PRESCRIBED
 
 I64 = ctypes.c_int64
@@ -71,6 +72,7 @@ class _Model(ctypes.Structure):
         ("getrf", P), ("getrs", P), ("gbtrf", P), ("gbtrs", P),
         ("parallel_elements", I64), ("threads", I64),
         ("node_colour", P), ("hinge_node", P), ("n_colours", I64),
+        ("sparse_lu", ctypes.POINTER(SparseLUStructure)),
     ]
 
 
@@ -137,7 +139,7 @@ def _library() -> ctypes.CDLL:
     if _LIBRARY is None:
         from .kernels import C_FLAGS, COMPILE_SECONDS, _build, _compiler, cache_dir
 
-        source = (importlib.resources.files("latdyn") / "csrc" / "newton_step.c").read_bytes()
+        source = _source("newton_step.c")
         compiler = _compiler()
         for flags in ((*C_FLAGS, *OPENMP_FLAGS), C_FLAGS):
             digest = hashlib.sha256(source + b"\0" + " ".join([*compiler, *flags]).encode()).hexdigest()[:20]
@@ -174,6 +176,21 @@ def _library() -> ctypes.CDLL:
                                                ctypes.POINTER(_Configuration), ctypes.POINTER(_Vectors), P]
         _LIBRARY = library
     return _LIBRARY
+
+
+def _source(name: str) -> bytes:
+    """csrc/<name> with its local ``#include "x.c"`` lines replaced by those files (one source
+    file to compile, and the cache digest covers all of it)."""
+    folder = importlib.resources.files("latdyn") / "csrc"
+    lines = []
+    for line in (folder / name).read_bytes().splitlines(keepends=True):
+        words = line.split()
+        if len(words) >= 2 and words[0] == b"#include" and words[1].startswith(b'"'):
+            included = words[1].strip(b'"').decode()
+            lines += [b'#line 1 "%s"\n' % included.encode(), (folder / included).read_bytes(), b"\n"]
+        else:
+            lines.append(line)
+    return b"".join(lines)
 
 
 def openmp_threads() -> int:
@@ -226,9 +243,6 @@ def unsupported(assembler) -> str | None:
             return f"hinge {model.hinges[k].beam}.{model.hinges[k].end} has a stiffness or damping law"
         if not _torque_of_time(hinge.torque):
             return f"hinge {model.hinges[k].beam}.{model.hinges[k].end} has a torque law in θ or θ̇"
-    n = model.n_dofs
-    if n > DENSE_LIMIT and _band_plan(assembler)[0] > BAND_LIMIT:
-        return "the iteration matrix is too wide for a band LU (SuperLU in Python)"
     try:
         _library()
     except RuntimeError as error:
@@ -348,7 +362,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
             def position(rows, cols):
                 return np.where((rows < n) & (cols < n), rows + cols * n, -1)
         else:
-            _, new, kl, ku = _band_plan(a)
+            bandwidth, new, kl, ku = _band_plan(a)
             ldab = 2 * kl + ku + 1
             size = ldab * n
 
@@ -357,6 +371,12 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
                 i = new[np.where(ok, rows, 0)]
                 j = new[np.where(ok, cols, 0)]
                 return np.where(ok, (kl + ku + i - j) + j * ldab, -1)
+        sparse_lu = None
+        if not dense and bandwidth > BAND_LIMIT:  # the supernodal LU of csrc/sparse_lu.c (linalg.py)
+            analysis = SupernodalAnalysis(a._csr_rows, a._csr_cols, n)
+            sparse_lu = analysis.structure(*blas_kernels())
+            keep.append(analysis)
+            new, kl, ku, ldab, size, position = analysis.new, 0, 0, 0, max(analysis.size, 1), analysis.position
 
         def block_positions(dofs):
             rows = np.broadcast_to(dofs[:, :, None], dofs.shape + (dofs.shape[1],))
@@ -397,7 +417,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
             gravity=(ctypes.c_double * 3)(*a.gravity), has_gravity=int(a.has_gravity),
             element_position=ints(block_positions(m.element_dofs)), body_position=ints(block_positions(body_dofs)),
             hinge_position=ints(hinge_position), load_position=ints(block_positions(load_dofs)),
-            band=int(not dense), kl=kl, ku=ku, ldab=ldab, matrix_size=size, permutation=ints(new),
+            band=int(not dense and sparse_lu is None), kl=kl, ku=ku, ldab=ldab, matrix_size=size, permutation=ints(new),
             internal_force=_kernel_address(kernels, "beam_internal_force"),
             internal_force_D_q=_kernel_address(kernels, "beam_internal_force_D_q"),
             mass_matrix=_kernel_address(kernels, "beam_mass_matrix"),
@@ -409,6 +429,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
             getrf=_lapack("dgetrf"), getrs=_lapack("dgetrs"), gbtrf=_lapack("dgbtrf"), gbtrs=_lapack("dgbtrs"),
             parallel_elements=self.parallel_elements, threads=self.threads,
             node_colour=ints(colour), hinge_node=ints([h.node for h in m.hinges]), n_colours=int(colour.max(initial=-1)) + 1,
+            sparse_lu=ctypes.pointer(sparse_lu) if sparse_lu is not None else None,
         )
         work = {
             "geometry": (E, 36), "rates": (E, 14), "accelerations": (E, 14), "gravity_rows": (E, 3),

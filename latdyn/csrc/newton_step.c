@@ -32,6 +32,8 @@
 #include <omp.h>
 #endif
 
+#include "sparse_lu.c" /* the sparse LU (inlined into this source by latdyn/engine.py's build) */
+
 typedef void (*kernel_2_1)(int64_t, const double *, const double *, double *);
 typedef void (*kernel_2_2)(int64_t, const double *, const double *, double *, double *);
 typedef void (*kernel_3_1)(int64_t, const double *, const double *, const double *, double *);
@@ -98,6 +100,9 @@ typedef struct {
      * differ), the node of each hinge, the number of colours */
     const int64_t *node_colour, *hinge_node;
     int64_t n_colours;
+    /* the sparse LU (csrc/sparse_lu.c) when the matrix is too wide for a band LU, else NULL:
+     * the matrix storage is then its factor storage */
+    SparseLU *sparse_lu;
 } Model;
 
 /* Scratch buffers, allocated once by the caller. */
@@ -652,6 +657,7 @@ static void assemble(const Model *m, Work *w, double beta_p, double gamma_p, int
 static int factor(const Model *m, Work *w)
 {
     int n = (int)m->n_dofs, info = 0;
+    if (m->sparse_lu) return (int)latdyn_sparse_lu_factor(m->sparse_lu, w->matrix);
     if (m->band) {
         int kl = (int)m->kl, ku = (int)m->ku, ldab = (int)m->ldab;
         m->gbtrf(&n, &n, &kl, &ku, w->matrix, &ldab, w->pivots, &info);
@@ -667,7 +673,9 @@ static int solve(const Model *m, Work *w, const double *residual, double *dx)
     int n = (int)m->n_dofs, one = 1, info = 0;
     char trans = 'N';
     for (int64_t i = 0; i < m->n_dofs; ++i) w->rhs[m->permutation[i]] = -residual[i];
-    if (m->band) {
+    if (m->sparse_lu) {
+        latdyn_sparse_lu_solve(m->sparse_lu, w->matrix, w->rhs);
+    } else if (m->band) {
         int kl = (int)m->kl, ku = (int)m->ku, ldab = (int)m->ldab;
         m->gbtrs(&trans, &n, &kl, &ku, &one, w->matrix, &ldab, w->pivots, w->rhs, &n, &info);
     } else {
