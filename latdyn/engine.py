@@ -43,7 +43,7 @@ import numpy as np
 
 from .assembly import State, free_acceleration, free_velocity
 from .integrators import INERTIA_TANGENT_STEP, GeneralizedAlpha, StepStats, node_colouring
-from .linalg import BAND_LIMIT, DENSE_LIMIT, rcm_band
+from .linalg import BAND_LIMIT, DENSE_LIMIT, openblas_thread_functions, rcm_band
 from .sparse_lu import SparseLUStructure, SupernodalAnalysis, blas_kernels
 from .model import PRESCRIBED
 
@@ -72,7 +72,7 @@ class _Model(ctypes.Structure):
         ("getrf", P), ("getrs", P), ("gbtrf", P), ("gbtrs", P),
         ("parallel_elements", I64), ("threads", I64),
         ("node_colour", P), ("hinge_node", P), ("n_colours", I64),
-        ("sparse_lu", ctypes.POINTER(SparseLUStructure)),
+        ("sparse_lu", ctypes.POINTER(SparseLUStructure)), ("get_blas_threads", P), ("set_blas_threads", P),
     ]
 
 
@@ -388,6 +388,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         hd = m.hinge_dofs
         hinge_position = np.where(hd < n, position(hd, hd), -1)
 
+        blas_threads = openblas_thread_functions()
         kernels = a.kernels
         E, B, L = len(m.element_nodes), len(m.body_nodes), len(a.loads)
         H = len(m.hinges)
@@ -430,6 +431,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
             parallel_elements=self.parallel_elements, threads=self.threads,
             node_colour=ints(colour), hinge_node=ints([h.node for h in m.hinges]), n_colours=int(colour.max(initial=-1)) + 1,
             sparse_lu=ctypes.pointer(sparse_lu) if sparse_lu is not None else None,
+            get_blas_threads=blas_threads[0] if blas_threads[1] else None, set_blas_threads=blas_threads[1],
         )
         work = {
             "geometry": (E, 36), "rates": (E, 14), "accelerations": (E, 14), "gravity_rows": (E, 3),

@@ -129,6 +129,29 @@ def single_thread_blas():
             lib.set_num_threads(k)
 
 
+def openblas_thread_functions() -> tuple[int | None, int | None]:
+    """Addresses of ``openblas_get_num_threads`` and ``openblas_set_num_threads`` of the OpenBLAS
+    behind SciPy's cython_blas / cython_lapack (the library under SciPy's folder, or the only
+    OpenBLAS loaded), for the compiled step to pin its LAPACK and BLAS calls to one thread as
+    :func:`single_thread_blas` does; (None, None) when there is no such library or no
+    threadpoolctl (then nothing is pinned)."""
+    import ctypes
+
+    candidates = [lib for lib in _blas_controllers() if getattr(lib, "internal_api", "") == "openblas"]
+    scipy_own = [lib for lib in candidates if "scipy" in str(getattr(lib, "filepath", ""))]
+    chosen = scipy_own or (candidates if len(candidates) == 1 else [])
+    if not chosen:
+        return None, None
+    lib = chosen[0]
+    try:
+        prefix, suffix = lib._find_affixes()
+        get = getattr(lib.dynlib, f"{prefix}openblas_get_num_threads{suffix}")
+        put = getattr(lib.dynlib, f"{prefix}openblas_set_num_threads{suffix}")
+    except Exception:  # noqa: BLE001 - another threadpoolctl or OpenBLAS: leave BLAS alone
+        return None, None
+    return ctypes.cast(get, ctypes.c_void_p).value, ctypes.cast(put, ctypes.c_void_p).value
+
+
 # ----------------------------------------------------------------------------- solves
 
 

@@ -103,6 +103,9 @@ typedef struct {
     /* the sparse LU (csrc/sparse_lu.c) when the matrix is too wide for a band LU, else NULL:
      * the matrix storage is then its factor storage */
     SparseLU *sparse_lu;
+    /* OpenBLAS's thread count of the library behind getrf/gbtrf/gemm/trsm (NULL: not pinned) */
+    int (*get_blas_threads)(void);
+    void (*set_blas_threads)(int);
 } Model;
 
 /* Scratch buffers, allocated once by the caller. */
@@ -654,16 +657,22 @@ static void assemble(const Model *m, Work *w, double beta_p, double gamma_p, int
     }
 }
 
+/* The LU of the assembled matrix, with BLAS on one thread (latdyn/linalg.py: on a shared machine
+ * a second OpenBLAS thread costs far more than it gains; the caller's setting is restored). */
 static int factor(const Model *m, Work *w)
 {
     int n = (int)m->n_dofs, info = 0;
-    if (m->sparse_lu) return (int)latdyn_sparse_lu_factor(m->sparse_lu, w->matrix);
-    if (m->band) {
+    int threads = m->get_blas_threads ? m->get_blas_threads() : 1;
+    if (threads != 1) m->set_blas_threads(1);
+    if (m->sparse_lu) {
+        info = (int)latdyn_sparse_lu_factor(m->sparse_lu, w->matrix);
+    } else if (m->band) {
         int kl = (int)m->kl, ku = (int)m->ku, ldab = (int)m->ldab;
         m->gbtrf(&n, &n, &kl, &ku, w->matrix, &ldab, w->pivots, &info);
     } else {
         m->getrf(&n, &n, w->matrix, &n, w->pivots, &info);
     }
+    if (threads != 1) m->set_blas_threads(threads);
     return info;
 }
 
