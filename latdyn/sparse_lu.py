@@ -16,7 +16,8 @@ in NumPy, and reused until the pattern changes (a hinge latches):
    L: the ordering yields the symbolic factorization as it goes.
 3. *Supernodes.*  Consecutive nodes k, k + 1 share one supernode when k + 1 is k's parent in
    the elimination tree and column k's structure is k + 1's plus k + 1 itself (fundamental
-   supernodes, Liu, Ng & Peyton 1993); the columns of a supernode are dense blocks.
+   supernodes, Liu, Ng & Peyton 1993), or when the zeros that merging stores are few
+   (relaxed amalgamation, :data:`RELAX`); the columns of a supernode are dense blocks.
 4. *Positions.*  The offset in the factor storage (``csrc/sparse_lu.c`` describes it) of every
    entry (row, col) of S, so that the matrix is assembled straight into the factor.
 
@@ -99,6 +100,39 @@ def minimum_degree(adjacency: list[set], weight: np.ndarray) -> tuple[list[int],
     return order, structure
 
 
+# ----------------------------------------------------------------------------- supernodes
+
+#: Relaxed amalgamation (CHOLMOD's rule, Chen et al. 2008, §4.1; Ashcraft & Grimes 1989): a node
+#: joins the supernode of its child k − 1 when the merged supernode has at most `columns`
+#: columns and at most `fraction` of its stored L + U entries are zeros; fundamental
+#: supernodes (no zeros) always merge.  (columns, fraction) pairs, tried in order.
+RELAX = ((16, 0.8), (48, 0.1), (1 << 62, 0.05))
+
+
+def supernode_starts(parent: list[int], weight: list[int], below: list[int],
+                     relax=RELAX) -> list[int]:
+    """Supernode partition of nodes 0 … N − 1 in elimination order: the first node of each
+    supernode, and N.  ``weight[k]``: coordinates of node k, ``below[k]``: coordinates in its
+    column's structure (the nodes of L's column k below the diagonal)."""
+    count = len(parent)
+    starts = [0]
+    columns = weight[0] if count else 0
+    zeros = 0  # stored zeros of L + U in the current supernode
+    for k in range(1, count):
+        if parent[k - 1] == k:
+            # the current supernode's columns take k's column structure: {k} ∪ struct(k)
+            extra = 2 * columns * (weight[k] + below[k] - below[k - 1])
+            merged_columns = columns + weight[k]
+            entries = merged_columns * merged_columns + 2 * merged_columns * below[k]
+            if extra == 0 or any(merged_columns <= c and zeros + extra <= f * entries for c, f in relax):
+                columns, zeros = merged_columns, zeros + extra
+                continue
+        starts.append(k)
+        columns, zeros = weight[k], 0
+    starts.append(count)
+    return starts
+
+
 # ----------------------------------------------------------------------------- the analysis
 
 
@@ -109,8 +143,8 @@ class SupernodalAnalysis:
     ``new[i]``: the place of coordinate i in the factor's order, ``perm`` its inverse;
     ``first``: the first column of each supernode (and n); ``rows_start``/``rows``: each
     supernode's row structure below its diagonal block; ``lower``/``upper``: the offsets of its
-    panels in the factor storage of ``size`` doubles; ``nonzeros``: the entries of L + U
-    (diagonal once), all of them stored."""
+    panels in the factor storage of ``size`` doubles (the zeros of relaxed supernodes
+    included); ``nonzeros``: the structural nonzeros of L + U (the diagonal once)."""
 
     def __init__(self, rows: np.ndarray, cols: np.ndarray, n: int):
         rows, cols = np.asarray(rows, np.int64), np.asarray(cols, np.int64)
@@ -144,13 +178,9 @@ class SupernodalAnalysis:
         places = [np.sort(rank[structure[v]]) if structure[v] else np.zeros(0, np.int64) for v in order]
         parent = [int(s[0]) if len(s) else -1 for s in places]
 
-        # fundamental supernodes on the nodes: k joins k − 1's when k is its parent and
-        # struct(k − 1) = {k} ∪ struct(k)
-        starts = [0]
-        for k in range(1, count):
-            if not (parent[k - 1] == k and len(places[k - 1]) == len(places[k]) + 1):
-                starts.append(k)
-        starts.append(count)
+        node_weight = weight[order]
+        node_below = np.array([int(np.sum(node_weight[p])) for p in places], np.int64)
+        starts = supernode_starts(parent, node_weight.tolist(), node_below.tolist(), RELAX)
         first, rows_start, row_lists = [], [0], []
         for s, e in zip(starts[:-1], starts[1:]):
             first.append(node_first[s])
@@ -172,7 +202,7 @@ class SupernodalAnalysis:
         self.lower = np.concatenate([[0], np.cumsum(panel + below * columns)[:-1]]).astype(np.int64)
         self.upper = self.lower + panel
         self.size = int(np.sum(panel + below * columns))
-        self.nonzeros = int(np.sum(columns * columns + 2 * below * columns))
+        self.nonzeros = int(np.sum(node_weight * node_weight + 2 * node_weight * node_below))
         self.update_size = int(max(below.max(initial=0), 1) * max(columns.max(initial=0), 1))
         # the key of every row-structure entry, for rank lookups: supernode · n + row
         self._keys = np.repeat(np.arange(self.n_supernodes), below) * n + self.rows
