@@ -73,6 +73,7 @@ class _Model(ctypes.Structure):
         ("parallel_elements", I64), ("threads", I64),
         ("node_colour", P), ("hinge_node", P), ("n_colours", I64),
         ("sparse_lu", ctypes.POINTER(SparseLUStructure)), ("get_blas_threads", P), ("set_blas_threads", P),
+        ("section_width", I64),
     ]
 
 
@@ -432,6 +433,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
             node_colour=ints(colour), hinge_node=ints([h.node for h in m.hinges]), n_colours=int(colour.max(initial=-1)) + 1,
             sparse_lu=ctypes.pointer(sparse_lu) if sparse_lu is not None else None,
             get_blas_threads=blas_threads[0] if blas_threads[1] else None, set_blas_threads=blas_threads[1],
+            section_width=m.element_sections.shape[1],
         )
         work = {
             "geometry": (E, 36), "rates": (E, 14), "accelerations": (E, 14), "gravity_rows": (E, 3),

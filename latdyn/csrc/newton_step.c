@@ -106,6 +106,7 @@ typedef struct {
     /* OpenBLAS's thread count of the library behind getrf/gbtrf/gemm/trsm (NULL: not pinned) */
     int (*get_blas_threads)(void);
     void (*set_blas_threads)(int);
+    int64_t section_width; /* columns of element_sections (latdyn.model.SECTION_WIDTH) */
 } Model;
 
 /* Scratch buffers, allocated once by the caller. */
@@ -415,7 +416,7 @@ static void element_range(const Model *m, const Configuration *c, Work *w, int64
     if (n <= 0) return;
     element_inputs(m, c, w, begin, end);
     const double *geometry = w->geometry + 36 * begin, *rates = w->rates + 14 * begin;
-    const double *section = m->element_sections + 8 * begin;
+    const double *section = m->element_sections + m->section_width * begin;
     double *force = w->force + 14 * begin, *tangent = w->tangent + 196 * begin;
     if (matrices) {
         m->internal_force_D_q(n, geometry, section, force, tangent);
@@ -519,7 +520,7 @@ static void perturbed_range(const Model *m, const Configuration *c, Work *w, dou
     if (n <= 0) return;
     element_inputs_to(m, c, w->p_geometry, w->p_rates, w->p_accelerations, begin, end);
     const double *geometry = w->p_geometry + 36 * begin, *rates = w->p_rates + 14 * begin;
-    const double *section = m->element_sections + 8 * begin;
+    const double *section = m->element_sections + m->section_width * begin;
     m->mass_matrix(n, geometry, section, w->p_mass + 196 * begin);
     m->quadratic_velocity(n, geometry, rates, section, w->p_quadratic + 14 * begin);
     if (m->has_gravity)
