@@ -316,14 +316,23 @@ class SparseLU:
         self.values = np.zeros(max(self.analysis.size, 1))
         self.refactor(A)
 
-    def refactor(self, matrix) -> "SparseLU":
+    def refactor(self, matrix, single_thread: bool = True) -> "SparseLU":
+        """Factorize a matrix of the analysed pattern, BLAS on one thread unless told otherwise
+        (:func:`latdyn.linalg.single_thread_blas`, as the compiled step does)."""
+        from .linalg import single_thread_blas
+
         A = sps.csr_matrix(matrix)
         A.sum_duplicates()
         if not (np.array_equal(A.indptr, self._indptr) and np.array_equal(A.indices, self._indices)):
             raise ValueError("refactor: the matrix has another pattern than the analysed one")
         self.values[:] = 0.0
         self.values[self._positions] = A.data
-        if self._factor(ctypes.byref(self._structure), self.values.ctypes.data) != 0:
+        if single_thread:
+            with single_thread_blas():
+                failed = self._factor(ctypes.byref(self._structure), self.values.ctypes.data)
+        else:
+            failed = self._factor(ctypes.byref(self._structure), self.values.ctypes.data)
+        if failed:
             raise PivotError(self.analysis.pivot_failure())
         return self
 

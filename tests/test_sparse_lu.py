@@ -229,3 +229,57 @@ def test_threaded_elements_of_a_lattice_equal_the_serial_step(threads):
     for name in ("x", "T", "v", "w", "theta"):
         a, b = getattr(serial, name), getattr(threaded, name)
         assert np.max(np.abs(a - b)) <= 1e-11 * max(np.max(np.abs(a)), 1.0), name
+
+
+def planar_grid(n: int = 18, per_beam: int = 2) -> dict:
+    """An n × n frame in the xy-plane (joint bodies, the row y = 0 fixed, beams on the edges, a
+    sprung hinge about z at the end of every beam along x), loaded and spun in its plane: the
+    planar model (3 coordinates a node), too wide for the band LU."""
+    section = dict(SECTION_PLANAR)
+    bodies, beams = {}, {}
+    for i in range(n):
+        for j in range(n):
+            bodies[f"j{i}_{j}"] = {"at": [float(i), float(j), 0.0], "mass": 0.5, "inertia": [0.01, 0.01, 0.02],
+                                   "fixed": j == 0}
+    for i in range(n):
+        for j in range(n):
+            for d, (di, dj) in enumerate(((1, 0), (0, 1))):
+                a, b = i + di, j + dj
+                if a >= n or b >= n or (j == 0 and dj == 0):
+                    continue
+                beam = {"from": f"j{i}_{j}", "to": f"j{a}_{b}", "section": "s", "elements": per_beam}
+                if d == 0:
+                    beam["end"] = {"hinge": {"axis": [0, 0, 1], "stiffness": 20.0, "damping": 0.1}}
+                beams[f"b{i}_{j}_{d}"] = beam
+    top = f"j{n - 1}_{n - 1}"
+    return {"sections": {"s": section}, "bodies": bodies, "beams": beams,
+            "initial_velocity": {"angular": [0.0, 0.0, 0.3]},
+            "loads": [{"at": top, "force": ["40*t", -3.0, 0.0]}],
+            "solve": {"analysis": "transient", "t_end": 0.02, "dt": 0.005, "method": "generalized-alpha"},
+            "output": {"probes": {"top_x": {"point": top, "quantity": "position", "component": "x"},
+                                  "top_vy": {"point": top, "quantity": "velocity", "component": "y"},
+                                  "hinge": {"hinge": f"b0_{n - 1}_0.end", "quantity": "rate"}}}}
+
+
+SECTION_PLANAR = {"EA": 1.0e5, "EIy": 60.0, "EIz": 60.0, "GJ": 40.0, "rhoA": 1.0, "rhoIy": 1e-3, "rhoIz": 1e-3}
+
+
+@needs_c
+def test_a_wide_planar_model_runs_compiled_and_equals_the_python_step(tmp_path):
+    from latdyn.engine import CompiledGeneralizedAlpha, _band_plan
+    from latdyn.integrators import AlphaParameters
+    from latdyn.solve import prepare
+
+    raw = planar_grid()
+    prepared = prepare(latdyn.load_scene(raw))
+    model = prepared.model
+    assert model.n_dofs < 3 * len(model.nodes) + len(model.hinges)  # the planar model
+    step = CompiledGeneralizedAlpha(prepared.assembler, AlphaParameters.for_method("generalized-alpha", 0.8),
+                                    1e-8, 25, 1.0)
+    step._setup()
+    assert _band_plan(prepared.assembler)[0] > BAND_LIMIT and step._model.sparse_lu
+    python, python_summary = _run(raw, tmp_path, "python", engine="python")
+    compiled, compiled_summary = _run(raw, tmp_path, "compiled", engine="compiled", newton="full")
+    assert compiled_summary["engine"] == "compiled"
+    assert compiled_summary["newton_iterations"] == python_summary["newton_iterations"]
+    assert _relative_difference(python, compiled) <= 1e-10
