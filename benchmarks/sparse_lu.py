@@ -195,6 +195,8 @@ def main(argv=None):
             cases += [("lattice", elements, "compiled", 0), ("lattice", elements, "compiled", 10 ** 9)]
     if args.compare_band:  # chains, RCM bandwidth 11: the band LU's home ground
         cases += [("beam", e, "compiled", limit) for e in BEAMS for limit in (None, 0)]
+    for kind in ("compiled", "python"):  # warm-up: the first timings of a process run slow
+        step_timing(lattices[0], kind, 2)
     seen = {}
     for model, elements, kind, limit in cases:
         raw = beam_scene(elements) if model == "beam" else None

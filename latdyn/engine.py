@@ -6,7 +6,9 @@ element geometry (Eq. 17), the generated element kernels (called through functio
 pointers from the per-kernel libraries of :mod:`latdyn.kernels`), joint bodies, hinges,
 point loads, scatter into a preallocated matrix, LAPACK's LU (dense ``getrf``, or banded
 ``gbtrf`` after a reverse Cuthill–McKee ordering, as :mod:`latdyn.linalg` chooses; the
-function pointers are SciPy's ``cython_lapack``), and the convergence test. Python runs
+function pointers are SciPy's ``cython_lapack``) or, for matrices too wide for a band, the
+supernodal sparse LU of ``csrc/sparse_lu.c`` (analysis once per pattern in
+:mod:`latdyn.sparse_lu`), and the convergence test. Python runs
 once per step, around the call: it evaluates the scene's laws of time (prescribed motion,
 torques, loads; compiled with ``sympy.lambdify``) at the step's end time, and keeps the
 bookkeeping of the time loop (events, energies, output).
@@ -28,8 +30,7 @@ bit-identical whatever the threads. The library is built with ``-fopenmp`` where
 accepts it, else serially (:func:`openmp_threads` says 0).
 
 Scenes the C step does not cover run the Python step (``engine_reason`` says why): the
-NumPy kernel backend (no compiler), rigid links, hinge laws that depend on θ or θ̇, and iteration
-matrices too wide for a band LU (large 3D lattices, which SuperLU solves in Python).
+NumPy kernel backend (no compiler), rigid links, and hinge laws that depend on θ or θ̇.
 """
 from __future__ import annotations
 
