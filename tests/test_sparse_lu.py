@@ -283,3 +283,26 @@ def test_a_wide_planar_model_runs_compiled_and_equals_the_python_step(tmp_path):
     assert compiled_summary["engine"] == "compiled"
     assert compiled_summary["newton_iterations"] == python_summary["newton_iterations"]
     assert _relative_difference(python, compiled) <= 1e-10
+
+
+@needs_c
+def test_a_failed_pivot_fails_the_compiled_step_and_says_where():
+    """The compiled step's factor() returns the sparse LU's failure: the step is reported not
+    converged (the time loop then cuts it, as for a singular band LU), never solved with a
+    bad factor. Forced here by a pivot tolerance no pivot can pass."""
+    from latdyn.engine import CompiledGeneralizedAlpha
+    from latdyn.integrators import AlphaParameters
+    from latdyn.solve import prepare
+
+    prepared = prepare(latdyn.load_scene(oriented_lattice(6)))
+    step = CompiledGeneralizedAlpha(prepared.assembler, AlphaParameters.for_method("generalized-alpha", 0.8),
+                                    1e-8, 25, 1.0)
+    step.start(prepared.state)
+    _, stats = step.step(prepared.state, 0.005)
+    assert stats.converged
+    analysis = next(kept for kept in step._keep if isinstance(kept, SupernodalAnalysis))
+    assert analysis.pivot_failure() is None
+    step._model.sparse_lu.contents.pivot_tolerance = 1e300
+    _, stats = step.step(prepared.state, 0.005)
+    assert not stats.converged and stats.factorizations == 1
+    assert "singular or needs pivoting" in analysis.pivot_failure()
