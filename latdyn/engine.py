@@ -185,11 +185,12 @@ def _source(name: str) -> bytes:
     file to compile, and the cache digest covers all of it)."""
     folder = importlib.resources.files("latdyn") / "csrc"
     lines = []
-    for line in (folder / name).read_bytes().splitlines(keepends=True):
+    for number, line in enumerate((folder / name).read_bytes().splitlines(keepends=True), start=1):
         words = line.split()
         if len(words) >= 2 and words[0] == b"#include" and words[1].startswith(b'"'):
-            included = words[1].strip(b'"').decode()
-            lines += [b'#line 1 "%s"\n' % included.encode(), (folder / included).read_bytes(), b"\n"]
+            included = words[1].strip(b'"')
+            lines += [b'#line 1 "%s"\n' % included, (folder / included.decode()).read_bytes(),
+                      b'\n#line %d "%s"\n' % (number + 1, name.encode())]  # compiler messages keep their files
         else:
             lines.append(line)
     return b"".join(lines)
