@@ -102,10 +102,13 @@ def minimum_degree(adjacency: list[set], weight: np.ndarray) -> tuple[list[int],
 
 # ----------------------------------------------------------------------------- supernodes
 
-#: Relaxed amalgamation (CHOLMOD's rule, Chen et al. 2008, §4.1; Ashcraft & Grimes 1989): a node
-#: joins the supernode of its child k − 1 when the merged supernode has at most `columns`
-#: columns and at most `fraction` of its stored L + U entries are zeros; fundamental
-#: supernodes (no zeros) always merge.  (columns, fraction) pairs, tried in order.
+#: Relaxed amalgamation (CHOLMOD's rule, Chen et al. 2008, §4.1; Ashcraft & Grimes 1989): node k
+#: joins the supernode of node k − 1, whose parent it is, when the merged supernode has at most
+#: `columns` columns and at most `fraction` of its stored L + U entries are zeros; merges that
+#: store no zeros (fundamental supernodes) are always made.  (columns, fraction) pairs, any of
+#: which admits the merge.  Measured on the lattices of benchmarks/sparse_lu.py: few merges
+#: beyond the fundamental ones (931 elements: 539 → 532 supernodes, 0.5 % zeros), no change in
+#: the factorization time beyond the noise; nodes of 6 coordinates make wide supernodes already.
 RELAX = ((16, 0.8), (48, 0.1), (1 << 62, 0.05))
 
 
