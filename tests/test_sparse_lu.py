@@ -306,3 +306,32 @@ def test_a_failed_pivot_fails_the_compiled_step_and_says_where():
     _, stats = step.step(prepared.state, 0.005)
     assert not stats.converged and stats.factorizations == 1
     assert "singular or needs pivoting" in analysis.pivot_failure()
+
+
+@needs_c
+def test_a_latch_in_a_wide_lattice_reanalyses_the_pattern(tmp_path, monkeypatch):
+    """A hinge that latches removes its coordinate: the compiled step re-runs its set-up and the
+    sparse LU's analysis for the new pattern. The latch is located by secant passes to 1e-7 rad,
+    so the engines agree to that (as tests/test_engine.py's latch), not to 1e-10."""
+    raw = oriented_lattice(3, t_end=0.1)
+    raw["beams"]["b0_1_1_0"]["end"]["hinge"]["lock_at"] = 0.1  # reached at t ≈ 0.07
+    raw["output"]["probes"]["latched"] = {"hinge": "b0_1_1_0.end", "quantity": "rate"}
+    import latdyn.engine
+
+    analysed = []
+
+    class Counted(SupernodalAnalysis):
+        def __init__(self, rows, cols, n):
+            analysed.append(n)
+            super().__init__(rows, cols, n)
+
+    monkeypatch.setattr(latdyn.engine, "SupernodalAnalysis", Counted)
+    python, python_summary = _run(raw, tmp_path, "python", engine="python")
+    compiled, compiled_summary = _run(raw, tmp_path, "compiled", engine="compiled", newton="full")
+    assert compiled_summary["engine"] == "compiled"
+    assert len(analysed) >= 2 and analysed[-1] == analysed[0] - 1  # one coordinate fewer after the latch
+    rate = np.asarray(compiled.probes["latched"])
+    assert np.any(rate != 0.0) and rate[-1] == 0.0  # moved, then latched
+    assert compiled_summary["steps"] == python_summary["steps"]
+    assert np.max(np.abs(np.asarray(python.t) - np.asarray(compiled.t))) < 1e-7
+    assert _relative_difference(python, compiled) < 1e-5
