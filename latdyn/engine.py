@@ -9,7 +9,9 @@ motion, element geometry (Eq. 17), the generated element kernels (called through
 pointers from the per-kernel libraries of :mod:`latdyn.kernels`), joint bodies, hinges,
 point loads, scatter into a preallocated matrix, LAPACK's LU (dense ``getrf``, or banded
 ``gbtrf`` after a reverse Cuthill–McKee ordering, as :mod:`latdyn.linalg` chooses; the
-function pointers are SciPy's ``cython_lapack``), and the convergence test.
+function pointers are SciPy's ``cython_lapack``) or, for matrices too wide for a band, the
+supernodal sparse LU of ``csrc/sparse_lu.c`` (analysis once per pattern in
+:mod:`latdyn.sparse_lu`), and the convergence test.
 
 :meth:`CompiledGeneralizedAlpha.advance` takes the steps from one recorded row to the next in
 one call (``latdyn_advance``): each step on the time grid as ``step`` takes it, accepted as
@@ -37,12 +39,11 @@ Threads: the element part of each evaluation (geometry and generated kernels) ru
 threads, one contiguous range of elements each, from :data:`PARALLEL_ELEMENTS` elements on
 (``LATDYN_PARALLEL_ELEMENTS`` overrides it, 0 turns it off); ``OMP_NUM_THREADS`` sets the number
 of threads (default: the cores). The scatter stays serial in element order, so the results are
-bit-identical whatever the threads. The library is built with ``-fopenmp`` where the compiler
+equal whatever the threads (bit for bit on the tested beam, to ~1e-14 on a lattice). The library is built with ``-fopenmp`` where the compiler
 accepts it, else serially (:func:`openmp_threads` says 0).
 
 Scenes the C step does not cover run the Python step (``engine_reason`` says why): the
-NumPy kernel backend (no compiler), rigid links, and iteration matrices too wide for a band
-LU (large 3D lattices, which SuperLU solves in Python).
+NumPy kernel backend (no compiler) and rigid links.
 """
 from __future__ import annotations
 
@@ -58,7 +59,8 @@ import numpy as np
 from .assembly import State, _plain_hinges
 from .compiled_laws import LawsUnavailable, compile_laws, hinge_law
 from .integrators import INERTIA_TANGENT_STEP, GeneralizedAlpha, StepStats, node_colouring
-from .linalg import BAND_LIMIT, DENSE_LIMIT, rcm_band
+from .linalg import BAND_LIMIT, DENSE_LIMIT, openblas_thread_functions, rcm_band
+from .sparse_lu import SparseLUStructure, SupernodalAnalysis, blas_kernels
 from .model import PRESCRIBED
 
 I64 = ctypes.c_int64
@@ -89,6 +91,8 @@ class _Model(ctypes.Structure):
         ("time_laws", P), ("hinge_laws", P),
         ("hinge_stiffness_law", P), ("hinge_damping_law", P), ("hinge_torque_hinge_law", P), ("hinge_conservative", P),
         ("hinge_lock_at", P), ("hinge_lower_stop", P), ("hinge_upper_stop", P), ("has_events", I64),
+        ("sparse_lu", ctypes.POINTER(SparseLUStructure)), ("get_blas_threads", P), ("set_blas_threads", P),
+        ("section_width", I64),
     ]
 
 
@@ -163,7 +167,7 @@ def _library() -> ctypes.CDLL:
     if _LIBRARY is None:
         from .kernels import C_FLAGS, COMPILE_SECONDS, _build, _compiler, cache_dir
 
-        source = (importlib.resources.files("latdyn") / "csrc" / "newton_step.c").read_bytes()
+        source = _source("newton_step.c")
         compiler = _compiler()
         for flags in ((*C_FLAGS, *OPENMP_FLAGS), C_FLAGS):
             digest = hashlib.sha256(source + b"\0" + " ".join([*compiler, *flags]).encode()).hexdigest()[:20]
@@ -207,6 +211,22 @@ def _library() -> ctypes.CDLL:
     return _LIBRARY
 
 
+def _source(name: str) -> bytes:
+    """csrc/<name> with its local ``#include "x.c"`` lines replaced by those files (one source
+    file to compile, and the cache digest covers all of it)."""
+    folder = importlib.resources.files("latdyn") / "csrc"
+    lines = []
+    for number, line in enumerate((folder / name).read_bytes().splitlines(keepends=True), start=1):
+        words = line.split()
+        if len(words) >= 2 and words[0] == b"#include" and words[1].startswith(b'"'):
+            included = words[1].strip(b'"')
+            lines += [b'#line 1 "%s"\n' % included, (folder / included.decode()).read_bytes(),
+                      b'\n#line %d "%s"\n' % (number + 1, name.encode())]  # compiler messages keep their files
+        else:
+            lines.append(line)
+    return b"".join(lines)
+
+
 def openmp_threads() -> int:
     """Threads the compiled step uses above the threshold: 0 when it was built without OpenMP."""
     return int(_library().latdyn_threads())
@@ -248,9 +268,6 @@ def unsupported(assembler) -> str | None:
             laws_source([], [hinge_law(law) for law in (hinge.stiffness, hinge.damping, hinge.torque) if law is not None])
         except Exception as error:  # noqa: BLE001 - EmitError, or a SymPy printer's complaint
             return f"hinge {hinge.beam}.{hinge.end} has a law the C printer cannot write ({error})"
-    n = model.n_dofs
-    if n > DENSE_LIMIT and _band_plan(assembler)[0] > BAND_LIMIT:
-        return "the iteration matrix is too wide for a band LU (SuperLU in Python)"
     try:
         _library()
     except RuntimeError as error:
@@ -403,7 +420,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
             def position(rows, cols):
                 return np.where((rows < n) & (cols < n), rows + cols * n, -1)
         else:
-            _, new, kl, ku = _band_plan(a)
+            bandwidth, new, kl, ku = _band_plan(a)
             ldab = 2 * kl + ku + 1
             size = ldab * n
 
@@ -412,6 +429,12 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
                 i = new[np.where(ok, rows, 0)]
                 j = new[np.where(ok, cols, 0)]
                 return np.where(ok, (kl + ku + i - j) + j * ldab, -1)
+        sparse_lu = None
+        if not dense and bandwidth > BAND_LIMIT:  # the supernodal LU of csrc/sparse_lu.c (linalg.py)
+            analysis = SupernodalAnalysis(a._csr_rows, a._csr_cols, n)
+            sparse_lu = analysis.structure(*blas_kernels())
+            keep.append(analysis)
+            new, kl, ku, ldab, size, position = analysis.new, 0, 0, 0, max(analysis.size, 1), analysis.position
 
         def block_positions(dofs):
             rows = np.broadcast_to(dofs[:, :, None], dofs.shape + (dofs.shape[1],))
@@ -423,6 +446,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         hd = m.hinge_dofs
         hinge_position = np.where(hd < n, position(hd, hd), -1)
 
+        blas_threads = openblas_thread_functions()
         kernels = a.kernels
         E, B, L = len(m.element_nodes), len(m.body_nodes), len(a.loads)
         H = len(m.hinges)
@@ -451,7 +475,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
             gravity=(ctypes.c_double * 3)(*a.gravity), has_gravity=int(a.has_gravity),
             element_position=ints(block_positions(m.element_dofs)), body_position=ints(block_positions(body_dofs)),
             hinge_position=ints(hinge_position), load_position=ints(block_positions(load_dofs)),
-            band=int(not dense), kl=kl, ku=ku, ldab=ldab, matrix_size=size, permutation=ints(new),
+            band=int(not dense and sparse_lu is None), kl=kl, ku=ku, ldab=ldab, matrix_size=size, permutation=ints(new),
             internal_force=_kernel_address(kernels, "beam_internal_force"),
             internal_force_D_q=_kernel_address(kernels, "beam_internal_force_D_q"),
             mass_matrix=_kernel_address(kernels, "beam_mass_matrix"),
@@ -470,6 +494,9 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
             hinge_conservative=ints([int(h.conservative_spring) for h in m.hinges]),
             hinge_lock_at=arr(lock_at), hinge_lower_stop=arr(lower), hinge_upper_stop=arr(upper),
             has_events=int(has_events),
+            sparse_lu=ctypes.pointer(sparse_lu) if sparse_lu is not None else None,
+            get_blas_threads=blas_threads[0] if blas_threads[1] else None, set_blas_threads=blas_threads[1],
+            section_width=m.element_sections.shape[1],
         )
         work = {
             "geometry": (E, 36), "rates": (E, 14), "accelerations": (E, 14), "gravity_rows": (E, 3),

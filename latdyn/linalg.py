@@ -60,6 +60,56 @@ two — but the choices below hold in each of the three full runs.)
   into the permuted CSC matrix and factorized in that order (SuperLU has no
   separate symbolic step; skipping its ordering saves 1.2–3×).
 
+**The compiled step beyond the band: a supernodal sparse LU in C.**  The Python step keeps
+SuperLU (above: the reference); the compiled step (latdyn/engine.py) factorizes a matrix whose
+RCM bandwidth exceeds BAND_LIMIT with ``csrc/sparse_lu.c``: minimum degree on the node graph
+and a supernodal symbolic analysis once per pattern (:mod:`latdyn.sparse_lu`), the matrix
+assembled straight into the factor storage, a left-looking supernodal LU without pivoting
+(BLAS dgemm/dtrsm blocks, every pivot checked against its row's and column's scale) and the
+substitutions in C.  ``python benchmarks/sparse_lu.py --compare-band``, results in
+benchmarks/results/sparse_lu.json: same 2-core AMD EPYC, load average 0.7 → 2.9 during the
+run (another job took one core), OpenBLAS pinned to one thread; 3D lattices as above.  Fill:
+nonzeros of L + U (the diagonal once); analysis: once per pattern; LU: one factorization and
+solve of S alone (C sparse LU: scatter + factor + solve; SuperLU: ``solve_linear``, scaled,
+order reused); Newton iteration: one iteration of a generalized-α step, everything included,
+the element part serial in both steps (wall ms, fastest of 3 rounds of 4 steps):
+
+    model          n      RCM   fill L+U (10³)   analysis  LU, ms              Newton iteration, ms
+                          bw    ours   SuperLU   ms        C sparse  SuperLU   compiled  compiled  Python
+                                       MMD                                     sparse    band      SuperLU
+    lattice 120    324    80    24.2   24.2      2         0.25      0.71      3.5       3.7       7.3
+    lattice 260    680    141   74.1   72.9      6         0.84      2.1       7.5       12.5      11.1
+    lattice 480    1230   190   177    174       17        2.5       7.9       17.6      28.6      27.1
+    lattice 931    2352   434   441    434       46        8.2       18.1      30.9      79.0      40.6
+    lattice 2520   6210   814   2027   2085      239       49        115       109       —         221
+    lattice 4896   11952  975   5703   5694      975       169       440       336       —         658
+    beam 64 el     390    11                                                   2.0       1.8
+    beam 400 el    2406   11                                                   11.4      14.0
+    beam 5000 el   30006  11                                                   163       174
+
+* **Fill and speed.**  Minimum degree on the node graph (6 coordinates a node) gives SuperLU's
+  MMD fill to within −3 … +2 %, and the static order keeps it; the LU is 2.2–3.2× faster than
+  SuperLU (4896 elements: 3.9 GFlop in 166 ms, 24 GFlop/s on one core, dgemm's rate) and equals
+  it to 2e-14.  The compiled step's Newton iteration is 1.3–2.1× faster than the Python step's
+  on the lattices, where the element kernels share the time; a quieter run (load 1.1–1.2) gave
+  the same ratios (e.g. 4896 elements: 283 against 536 ms).  The analysis (NumPy and Python
+  sets) costs about three compiled iterations at 12 000 coordinates (1 s), once per pattern
+  (a latch re-runs it).
+* **Band LU kept up to BAND_LIMIT = 100.**  Band and sparse LU tie at RCM bandwidth 80 (3.5
+  against 3.7 ms, 3.4 / 3.7 on a rerun) and on chains (bandwidth 11: within ±20 %, either way by
+  size), and the sparse LU wins from 141 on (×1.7 there, ×2.6 at 434); the band LU pivots
+  (partial pivoting: no pivot can fail), so it keeps the range where it ties.  Without
+  pivoting the sparse LU relies on the β′M-dominated diagonal; a pivot smaller than 1e-10 of
+  its row's and column's largest entry (:data:`latdyn.sparse_lu.PIVOT_TOLERANCE`) fails the
+  factorization, and the step is reported not converged, like a singular band LU.
+* **OpenBLAS on one thread in the compiled step too** (``openblas_thread_functions``: the
+  compiled factorization sets and restores SciPy's OpenBLAS thread count around dense, band and
+  sparse LU alike).  Left on two threads with the other core busy, the sparse LU's dgemm calls
+  took 16 ms instead of 0.25 at n = 324 and 1.2 s instead of 49 ms at 6210; on a quieter
+  machine two threads gained at most 1.3× (12 000 coordinates: 127 against 163 ms).  Before
+  this, the compiled band LU ran unpinned too: lattice of 120 elements 30–120 ms an iteration
+  against 4.6 ms pinned, under load.
+
 ``solve_linear(matrix, rhs)`` dispatches on the matrix: a NumPy array is
 solved densely; a SciPy sparse matrix densely when n ≤ DENSE_LIMIT, else as
 above.  ``Assembler.assemble`` returns a dense array exactly when
@@ -86,7 +136,8 @@ from scipy.linalg import lapack
 DENSE_LIMIT = 120
 
 #: Sparse systems whose half-bandwidth after reverse Cuthill–McKee is at most
-#: this use LAPACK band LU; wider ones SuperLU.
+#: this use LAPACK band LU; wider ones SuperLU in the Python step and the supernodal
+#: sparse LU of csrc/sparse_lu.c in the compiled step.
 BAND_LIMIT = 100
 
 #: SuperLU options: minimum degree on AᵀA + A, diagonal pivots preferred.
@@ -127,6 +178,29 @@ def single_thread_blas():
     finally:
         for lib, k in saved:
             lib.set_num_threads(k)
+
+
+def openblas_thread_functions() -> tuple[int | None, int | None]:
+    """Addresses of ``openblas_get_num_threads`` and ``openblas_set_num_threads`` of the OpenBLAS
+    behind SciPy's cython_blas / cython_lapack (the library under SciPy's folder, or the only
+    OpenBLAS loaded), for the compiled step to pin its LAPACK and BLAS calls to one thread as
+    :func:`single_thread_blas` does; (None, None) when there is no such library or no
+    threadpoolctl (then nothing is pinned)."""
+    import ctypes
+
+    candidates = [lib for lib in _blas_controllers() if getattr(lib, "internal_api", "") == "openblas"]
+    scipy_own = [lib for lib in candidates if "scipy" in str(getattr(lib, "filepath", ""))]
+    chosen = scipy_own or (candidates if len(candidates) == 1 else [])
+    if not chosen:
+        return None, None
+    lib = chosen[0]
+    try:
+        prefix, suffix = lib._find_affixes()
+        get = getattr(lib.dynlib, f"{prefix}openblas_get_num_threads{suffix}")
+        put = getattr(lib.dynlib, f"{prefix}openblas_set_num_threads{suffix}")
+    except Exception:  # noqa: BLE001 - another threadpoolctl or OpenBLAS: leave BLAS alone
+        return None, None
+    return ctypes.cast(get, ctypes.c_void_p).value, ctypes.cast(put, ctypes.c_void_p).value
 
 
 # ----------------------------------------------------------------------------- solves
@@ -308,4 +382,5 @@ def psd_null_direction(A, tol: float = 1e-10, shift: float = 1e-9, iterations: i
     return rho, x / np.max(np.abs(x))
 
 
-__all__ = ["DENSE_LIMIT", "BAND_LIMIT", "use_dense", "solve_linear", "single_thread_blas", "psd_null_direction"]
+__all__ = ["DENSE_LIMIT", "BAND_LIMIT", "use_dense", "solve_linear", "single_thread_blas", "openblas_thread_functions",
+           "psd_null_direction"]

@@ -25,8 +25,8 @@
  * least `parallel_elements` elements (0: never) and the library was compiled with -fopenmp
  * (latdyn/engine.py tries it and falls back to a serial build).  Every element writes only
  * its own rows of the Work buffers, and the scatter into the residual and the matrix stays
- * one serial loop in element order, so the result is bit-identical to the serial step for
- * any number of threads.  `threads` (0: OpenMP's default, i.e. OMP_NUM_THREADS or the
+ * one serial loop in element order, so the result equals the serial step's for any number
+ * of threads (bit for bit on the tested beam, ~1e-14 on a lattice: tests/test_sparse_lu.py).  `threads` (0: OpenMP's default, i.e. OMP_NUM_THREADS or the
  * number of cores) sets how many.
  */
 #define _POSIX_C_SOURCE 199309L /* clock_gettime: the wall-time budget of latdyn_advance */
@@ -37,6 +37,8 @@
 #ifdef _OPENMP
 #include <omp.h>
 #endif
+
+#include "sparse_lu.c" /* the sparse LU (inlined into this source by latdyn/engine.py's build) */
 
 typedef void (*kernel_2_1)(int64_t, const double *, const double *, double *);
 typedef void (*kernel_2_2)(int64_t, const double *, const double *, double *, double *);
@@ -117,6 +119,13 @@ typedef struct {
      * lower and upper stop of each hinge (NAN: none) */
     const double *hinge_lock_at, *hinge_lower_stop, *hinge_upper_stop;
     int64_t has_events;
+    /* the sparse LU (csrc/sparse_lu.c) when the matrix is too wide for a band LU, else NULL:
+     * the matrix storage is then its factor storage */
+    SparseLU *sparse_lu;
+    /* OpenBLAS's thread count of the library behind getrf/gbtrf/gemm/trsm (NULL: not pinned) */
+    int (*get_blas_threads)(void);
+    void (*set_blas_threads)(int);
+    int64_t section_width; /* columns of element_sections (latdyn.model.SECTION_WIDTH) */
 } Model;
 
 /* Scratch buffers, allocated once by the caller. */
@@ -429,7 +438,7 @@ static void element_range(const Model *m, const Configuration *c, Work *w, int64
     if (n <= 0) return;
     element_inputs(m, c, w, begin, end);
     const double *geometry = w->geometry + 36 * begin, *rates = w->rates + 14 * begin;
-    const double *section = m->element_sections + 8 * begin;
+    const double *section = m->element_sections + m->section_width * begin;
     double *force = w->force + 14 * begin, *tangent = w->tangent + 196 * begin;
     if (matrices) {
         m->internal_force_D_q(n, geometry, section, force, tangent);
@@ -558,7 +567,7 @@ static void perturbed_range(const Model *m, const Configuration *c, Work *w, dou
     if (n <= 0) return;
     element_inputs_to(m, c, w->p_geometry, w->p_rates, w->p_accelerations, begin, end);
     const double *geometry = w->p_geometry + 36 * begin, *rates = w->p_rates + 14 * begin;
-    const double *section = m->element_sections + 8 * begin;
+    const double *section = m->element_sections + m->section_width * begin;
     m->mass_matrix(n, geometry, section, w->p_mass + 196 * begin);
     m->quadratic_velocity(n, geometry, rates, section, w->p_quadratic + 14 * begin);
     if (m->has_gravity)
@@ -696,15 +705,22 @@ static void assemble(const Model *m, Work *w, double beta_p, double gamma_p, int
     }
 }
 
+/* The LU of the assembled matrix, with BLAS on one thread (latdyn/linalg.py: on a shared machine
+ * a second OpenBLAS thread costs far more than it gains; the caller's setting is restored). */
 static int factor(const Model *m, Work *w)
 {
     int n = (int)m->n_dofs, info = 0;
-    if (m->band) {
+    int threads = m->get_blas_threads ? m->get_blas_threads() : 1;
+    if (threads != 1) m->set_blas_threads(1);
+    if (m->sparse_lu) {
+        info = (int)latdyn_sparse_lu_factor(m->sparse_lu, w->matrix);
+    } else if (m->band) {
         int kl = (int)m->kl, ku = (int)m->ku, ldab = (int)m->ldab;
         m->gbtrf(&n, &n, &kl, &ku, w->matrix, &ldab, w->pivots, &info);
     } else {
         m->getrf(&n, &n, w->matrix, &n, w->pivots, &info);
     }
+    if (threads != 1) m->set_blas_threads(threads);
     return info;
 }
 
@@ -714,7 +730,9 @@ static int solve(const Model *m, Work *w, const double *residual, double *dx)
     int n = (int)m->n_dofs, one = 1, info = 0;
     char trans = 'N';
     for (int64_t i = 0; i < m->n_dofs; ++i) w->rhs[m->permutation[i]] = -residual[i];
-    if (m->band) {
+    if (m->sparse_lu) {
+        latdyn_sparse_lu_solve(m->sparse_lu, w->matrix, w->rhs);
+    } else if (m->band) {
         int kl = (int)m->kl, ku = (int)m->ku, ldab = (int)m->ldab;
         m->gbtrs(&trans, &n, &kl, &ku, &one, w->matrix, &ldab, w->pivots, w->rhs, &n, &info);
     } else {
