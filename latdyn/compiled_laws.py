@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import ctypes
 import hashlib
+import sys
 import time
 
 from .expressions import HingeLaw, TimeFunction
@@ -99,6 +100,8 @@ def compile_laws(time_functions: list, hinge_laws: list[HingeLaw]) -> CompiledLa
         with FileLock(str(target) + ".lock", timeout=600):
             if not target.exists():
                 started = time.perf_counter()
+                print(f"latdyn: compiling the scene's laws ({len(time_functions)} of time, {len(hinge_laws)} hinge "
+                      f"laws) into {target.parent}", file=sys.stderr, flush=True)
                 try:
                     _build(compiler, source, target, "laws", C_FLAGS)
                 except RuntimeError as error:
