@@ -63,8 +63,8 @@ class CompiledLaws:
         self.hinge_laws = ctypes.cast(library.latdyn_hinge_laws, ctypes.c_void_p).value
 
 
-_LOADED: dict[str, CompiledLaws] = {}  # by the digest of the C source
-_BY_LAWS: dict[str, CompiledLaws] = {}  # by the laws' own sources
+#: loaded libraries by the laws' own sources (the C source is a function of them in a process)
+_LOADED: dict[str, CompiledLaws] = {}
 
 
 def compile_laws(time_functions: list, hinge_laws: list[HingeLaw]) -> CompiledLaws:
@@ -78,17 +78,14 @@ def compile_laws(time_functions: list, hinge_laws: list[HingeLaw]) -> CompiledLa
     # the same laws again (a study's runs, a renumbering after a latch): no printing, no lookup
     key = repr([(type(f).__name__, f.source) for f in time_functions]
                + [(type(h).__name__, h.source) for h in hinge_laws])
-    if key in _BY_LAWS:
-        return _BY_LAWS[key]
+    if key in _LOADED:
+        return _LOADED[key]
     try:
         source = laws_source([time_law(f) for f in time_functions], [hinge_law(h) for h in hinge_laws]).encode()
     except EmitError as error:
         raise LawsUnavailable(str(error)) from None
     compiler = _compiler()
     digest = hashlib.sha256(source + b"\0" + " ".join([*compiler, *C_FLAGS]).encode()).hexdigest()[:20]
-    if digest in _LOADED:
-        _BY_LAWS[key] = _LOADED[digest]
-        return _LOADED[digest]
     target = cache_dir() / f"laws-{digest}.so"
     if not target.exists():
         from filelock import FileLock
@@ -112,5 +109,5 @@ def compile_laws(time_functions: list, hinge_laws: list[HingeLaw]) -> CompiledLa
         loaded = CompiledLaws(ctypes.CDLL(str(target)), target)
     except OSError as error:
         raise LawsUnavailable(f"cannot load {target.name}: {error}") from None
-    _LOADED[digest] = _BY_LAWS[key] = loaded
+    _LOADED[key] = loaded
     return loaded

@@ -21,8 +21,8 @@ cannot accept as it comes (Newton fails; a hinge reaches lock_at or a stop) is h
 to the time loop, which handles it as before (cuts, the inertia tangent, latches, impacts)
 and calls the loop again once it is back on the grid at the nominal step. Python runs once
 per row: events, energies, probes, output, checkpoints (``solve.LOOP_BUDGET_S`` bounds a
-call, so that interrupts and the progress bar are seen). Rows every step, adaptive steps,
-or laws that could not be compiled take the steps from Python, one call each.
+call, so that interrupts and the progress bar are seen). Adaptive steps, or laws that could
+not be compiled, take the steps from Python, one call each.
 
 The Python step stays the reference: with ``newton: full`` the compiled step takes the
 same iterations and equals it to round-off (``tests/test_engine.py``: 1e-10 relative), and the
@@ -55,6 +55,9 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
+
+from codegen.emit import EmitError
+from codegen.laws import laws_source
 
 from .assembly import State, _plain_hinges
 from .compiled_laws import LawsUnavailable, compile_laws, hinge_law
@@ -263,10 +266,8 @@ def unsupported(assembler) -> str | None:
     for k in with_law:  # laws in θ, θ̇ or t: compiled (codegen/laws.py), so they must print in C
         hinge = model.hinges[k]
         try:
-            from codegen.laws import laws_source
-
             laws_source([], [hinge_law(law) for law in (hinge.stiffness, hinge.damping, hinge.torque) if law is not None])
-        except Exception as error:  # noqa: BLE001 - EmitError, or a SymPy printer's complaint
+        except EmitError as error:  # codegen.laws turns the printer's complaints into EmitError
             return f"hinge {hinge.beam}.{hinge.end} has a law the C printer cannot write ({error})"
     try:
         _library()
@@ -400,14 +401,10 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
             compiled, self._loop_reason = None, f"the laws of time are evaluated in Python ({error})"
         self._compiled_laws = compiled
 
-        def stop(k, side):
-            limits = m.hinges[k].limits
-            return np.nan if limits is None else float(limits[side])
-
         lock_at = [np.nan if h.lock_at is None else float(h.lock_at) for h in m.hinges]
-        lower, upper = [stop(k, 0) for k in range(H)], [stop(k, 1) for k in range(H)]
-        has_events = bool(np.isfinite(np.r_[lock_at, lower, upper][np.r_[m.free_hinges, H + m.free_hinges,
-                                                                          2 * H + m.free_hinges]]).any())
+        lower = [np.nan if h.limits is None else float(h.limits[0]) for h in m.hinges]
+        upper = [np.nan if h.limits is None else float(h.limits[1]) for h in m.hinges]
+        has_events = any(m.hinges[k].lock_at is not None or m.hinges[k].limits is not None for k in m.free_hinges)
 
         n = m.n_dofs
         dense = n <= DENSE_LIMIT
@@ -563,11 +560,10 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         state = State(t, *(buffer[start:stop].reshape(shape) for start, stop, shape in self._slices))
         return state, _Configuration(*(base + 8 * start for start, _, _ in self._slices))
 
-    def _copy_into(self, source: State, state: State, configuration: _Configuration) -> _Configuration:
-        """``state`` (made by :meth:`_new_state`) ← ``source``'s arrays; its C view."""
+    def _copy_into(self, source: State, state: State) -> None:
+        """``state`` ← ``source``'s arrays, in place."""
         for name in self._FIELDS:
             np.copyto(getattr(state, name), getattr(source, name))
-        return configuration
 
     def _configuration_of(self, state: State) -> _Configuration:
         """The C view of a state: the last state this step made is viewed in place; any other
@@ -649,7 +645,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         if run.status in (1, 2):
             k = grid_index + run.steps
             trial, trial_c = self._new_state(t_end if k + 1 >= n_grid else (k + 1) * dt)
-            trial_c = self._copy_into(self._scratch[run.pending][0], trial, trial_c)
+            self._copy_into(self._scratch[run.pending][0], trial)
             stats = StepStats(iterations=control.iterations, converged=run.status == 2,
                               factorizations=control.factorizations, contraction=control.contraction_seen)
             self.factorizations += control.factorizations

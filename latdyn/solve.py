@@ -457,7 +457,7 @@ def _implicit_integrator(prepared: Prepared, params: AlphaParameters, tol: float
 
 #: Whether the compiled step runs its loop of steps in C between rows (engine.advance); False
 #: takes every step from Python, one call into C each (the reference the loop must equal:
-#: tests/test_time_loop.py).
+#: tests/test_compiled_loop.py).
 COMPILED_LOOP = True
 #: Wall time after which the loop of steps in C returns to Python even before the next row.
 LOOP_BUDGET_S = 0.25
@@ -552,6 +552,13 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
         summarize()
         bar.update(state.t)
 
+    def keep_accepted() -> tuple:
+        """The last accepted step as a checkpoint keeps it, written when one is due."""
+        kept = accepted()
+        if checkpointer is not None and checkpointer.due():
+            checkpointer.save(*kept, writer)
+        return kept
+
     def next_row() -> int:
         """The grid point of the next recorded row (solve.output.every; every step without), and
         at most the step that ends on a multiple of 256 steps (see after_accepted)."""
@@ -599,9 +606,7 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
                     run.state = state = done.state
                     run.algorithmic_acceleration = integrator.a
                     after_accepted(state)
-                    last = accepted()
-                    if checkpointer is not None and checkpointer.due():
-                        checkpointer.save(*last, writer)
+                    last = keep_accepted()
                 if done.pending is None:
                     continue
                 new, stats, h = done.pending
@@ -683,9 +688,7 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
                 run.h = dt  # after an impact on a stop the integrator restarted: the nominal step
             elif h < dt:
                 run.h = min(dt, 2 * h)  # recover the nominal step after a cut or a shortened step
-            last = accepted()
-            if checkpointer is not None and checkpointer.due():
-                checkpointer.save(*last, writer)
+            last = keep_accepted()
     except (KeyboardInterrupt, Exception):
         # interrupted or failed: a checkpoint of the last accepted step, to resume from
         if checkpointer is not None and not writer.closed:
