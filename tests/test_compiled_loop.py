@@ -24,7 +24,7 @@ from latdyn.kernels import load_kernels
 
 from test_engine import _relative_difference, _run, loaded_arm
 from test_hinges import stop_scene
-from test_inertia import hinged_chain
+from test_inertia import _compare, hinged_chain, rigid_motion
 
 try:
     load_kernels("c", "default")
@@ -103,10 +103,10 @@ def test_loop_reaches_modified_newton_results(tmp_path, monkeypatch):
     _assert_same_run(looped, stepped)
 
 
-def law_chain(t_end=0.3):
+def law_chain(t_end=0.3, R=np.eye(3), shift=np.zeros(3), rotary=0.0):
     """The 3D chain with hinge laws in θ, θ̇ and t: a stiffening spring, a rate-dependent
     damper, a torque in θ and t, a table stiffness in t, a spring law in θ̇ (not conservative)."""
-    raw = hinged_chain(t_end=t_end)
+    raw = hinged_chain(R, shift, t_end=t_end, rotary=rotary)
     hinges = [raw["beams"][name]["start"]["hinge"] for name in ("l1", "l2", "l3")]
     hinges[0].update(stiffness="40*(1 + 2*theta**2)", damping="0.5 + 0.2*theta_dot**2",
                      torque="3*sin(5*t)*cos(theta)", rest_angle=0.1)
@@ -128,6 +128,21 @@ def test_hinge_laws_in_theta_run_compiled_and_equal_the_python_step(tmp_path):
         assert compiled_summary[key] == python_summary[key], key
     assert _relative_difference(python, compiled) <= 1e-10
     assert max(np.abs(python.probes["h1"])) > 0.05  # the laws were exercised away from zero
+
+
+@pytest.mark.parametrize("rotary", [0.0, 2e-3])
+@pytest.mark.parametrize("seed", [3, 17])
+def test_loop_with_hinge_laws_is_invariant_under_rigid_motions(seed, rotary, tmp_path):
+    """The law chain moved by a random rigid motion (hinge axes, gravity, points with it), with
+    and without rotary inertia, in the compiled loop: the same hinge angles, and the tip moved
+    with the scene (as tests/test_inertia.py holds the Python step)."""
+    R, shift = rigid_motion(seed)
+    plain, plain_summary = _run(law_chain(rotary=rotary), tmp_path, "plain", engine="compiled")
+    moved, moved_summary = _run(law_chain(R=R, shift=shift, rotary=rotary), tmp_path, "moved", engine="compiled")
+    assert plain_summary["time_loop"] == moved_summary["time_loop"] == "compiled"
+    for key in ("steps", "newton_iterations", "rejected_steps"):
+        assert moved_summary[key] == plain_summary[key], key
+    assert _compare(plain, moved, R, shift, points_global=("tip",), scalars=("h1", "h2", "h3", "kinetic", "strain")) < 1e-8
 
 
 def test_laws_that_cannot_be_compiled_are_evaluated_in_python(tmp_path, monkeypatch):
