@@ -341,11 +341,17 @@ def _index_suffix(scanner, length: int) -> int:
     return k + 1 - length if digits and scanner.peek(k) == "]" else 0
 
 
+#: The words YAML 1.1 reads as booleans. Scenes are read with YAML 1.2's booleans (true,
+#: false), so these arrive as the words written; keys that take a boolean accept them.
+YAML_WORDS = {"yes": True, "on": True, "true": True, "no": False, "off": False, "false": False}
+
+
 def _yaml_loader():
     """SafeLoader for scenes.
 
-    Three differences from ``yaml.SafeLoader``: ``2.8e7`` is a float (YAML 1.2; YAML
-    1.1 wants ``2.8e+7``), a value its tag cannot read is a YAML error with its
+    Four differences from ``yaml.SafeLoader``: ``2.8e7`` is a float (YAML 1.2; YAML
+    1.1 wants ``2.8e+7``), only true and false are booleans (YAML 1.2; ``off``, ``no``
+    stay words), a value its tag cannot read is a YAML error with its
     line, and a point such as ``arm.node[3]`` or
     ``arm.element[0]`` stays one plain scalar inside flow mappings
     (``{element: arm.element[0], quantity: torque}``), where YAML would
@@ -403,7 +409,15 @@ def _yaml_loader():
                     break
             return ScalarToken("".join(chunks), True, start_mark, end_mark)
 
-    Loader.yaml_implicit_resolvers = {k: list(v) for k, v in yaml.SafeLoader.yaml_implicit_resolvers.items()}
+    # YAML 1.2 booleans: only true/false. YAML 1.1 (PyYAML's default) also reads the words
+    # yes/no/on/off as booleans, so that ``planar: off`` or a body named ``no`` would arrive
+    # as False; here they stay the words the user wrote (SCENE.md, "YAML words"), and the
+    # keys that take a boolean accept them (_Validator.boolean).
+    Loader.yaml_implicit_resolvers = {
+        first: [(tag, regexp) for tag, regexp in resolvers if tag != "tag:yaml.org,2002:bool"]
+        for first, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()}
+    Loader.add_implicit_resolver("tag:yaml.org,2002:bool", re.compile(r"^(?:true|True|TRUE|false|False|FALSE)$"),
+                                 list("tTfF"))
     Loader.add_implicit_resolver(
         "tag:yaml.org,2002:float",
         re.compile(r"^[-+]?(?:[0-9][0-9_]*)(?:\.[0-9_]*)?[eE][-+]?[0-9]+$"),
@@ -646,11 +660,24 @@ class _Reader:
         return int(number)
 
     def boolean(self, value, key) -> bool:
+        if isinstance(value, str) and value.lower() in YAML_WORDS:  # fixed: yes (YAML 1.1 spelling)
+            return YAML_WORDS[value.lower()]
         if not isinstance(value, bool):
             self.fail(key, "expected true or false", value)
         return value
 
     def choice(self, value, key, options, what="one of") -> str:
+        if isinstance(value, bool):
+            # a word that a YAML 1.1 reader (a study's overrides, a scene built in Python from
+            # yaml.safe_load) turned into a boolean: the one option it can have been, if any
+            words = [o for o in options if YAML_WORDS.get(str(o).lower()) is value]
+            if len(words) == 1:
+                return words[0]
+            self.fail(key, f"expected {what} {_listing(options)} (a word that YAML reads as a boolean, "
+                           "such as off or yes, must be quoted: \"off\")", value)
+        if isinstance(value, str) and value not in options and value.lower() in YAML_WORDS \
+                and value.lower() in options:
+            return value.lower()  # planar: Off
         if not isinstance(value, str) or value not in options:
             self.fail(key, f"expected {what} {_listing(options)}", value)
         return value

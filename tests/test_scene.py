@@ -175,7 +175,7 @@ MALFORMED = [
     ("nan number", put("bodies.tip.mass", NAN), "bodies.tip.mass", "finite"),
     ("vector of wrong length", put("gravity", [0, -9.81]), "gravity", "3 numbers"),
     ("vector with nan", put("bodies.tip.at", [2, 0, NAN]), "bodies.tip.at[2]", "finite"),
-    ("fixed is not bool", put("bodies.ground.fixed", "yes"), "bodies.ground.fixed", "true or false"),
+    ("fixed is not bool", put("bodies.ground.fixed", "maybe"), "bodies.ground.fixed", "true or false"),
     ("elements not whole", put("beams.a.elements", 2.5), "beams.a.elements", "whole number"),
     ("elements bool", put("beams.a.elements", True), "beams.a.elements", "whole number"),
     ("sections not a mapping", put("sections", ["s"]), "sections", "mapping"),
