@@ -22,20 +22,19 @@ import latdyn
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENES = ROOT / "examples" / "benchmarks"
-_JSON_CANDIDATES = [ROOT.parent / "shared" / "benchmarks" / "benchmarks.json",
-                    Path("/work/shared/benchmarks/benchmarks.json")]
+#: the published reference numbers, kept in the repository (benchmarks/references/README.md
+#: says where each comes from); LATDYN_BENCHMARKS_JSON points elsewhere
+REFERENCES = ROOT / "benchmarks" / "references" / "benchmarks.json"
 
 
 def reference(problem_id: str) -> dict:
     """The problem of benchmarks.json whose id starts with ``problem_id``."""
     env = os.environ.get("LATDYN_BENCHMARKS_JSON")
-    paths = [Path(env)] if env else _JSON_CANDIDATES
-    for path in paths:
-        if path.exists():
-            for p in json.loads(path.read_text())["problems"]:
-                if p["id"].startswith(problem_id):
-                    return p
-    raise FileNotFoundError("benchmarks.json not found (set LATDYN_BENCHMARKS_JSON)")
+    path = Path(env) if env else REFERENCES
+    for p in json.loads(path.read_text())["problems"]:
+        if p["id"].startswith(problem_id):
+            return p
+    raise KeyError(f"{path}: no problem whose id starts with {problem_id!r}")
 
 
 def scene(name: str) -> dict:
