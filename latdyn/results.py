@@ -167,6 +167,11 @@ STATUSES = ("running", "solved", "failed", "interrupted")
 
 #: Seconds of wall time between rewrites of the ParaView collections while recording.
 PVD_INTERVAL = 1.0
+#: probes.csv is written in blocks: the rows recorded since the last write go to the file when
+#: this many have gathered, when CSV_BLOCK_SECONDS have passed, and at every checkpoint and at
+#: close (an interrupt, a failure: the file is complete up to the last recorded row)
+CSV_BLOCK_ROWS = 512
+CSV_BLOCK_SECONDS = 1.0
 
 class ResultsError(ValueError):
     """A results folder that is missing or cannot be read (the CLI exits 2)."""
@@ -535,6 +540,9 @@ class ResultWriter:
             if name in ("first_column", "meta"):
                 raise ValueError(f"attribute name {name!r} is reserved")
 
+        # probe rows not yet in probes.csv (see CSV_BLOCK_ROWS)
+        self._csv_pending: list[str] = []
+        self._csv_written_at = time.perf_counter()
         # probe rows in memory (for result())
         self._t: list[float] = []
         self._rows: list[list[float]] = []
@@ -706,6 +714,13 @@ class ResultWriter:
             if on_disk > rows:
                 self._checkpoint_npz()
 
+    def _flush_rows(self) -> None:
+        """The probe rows recorded since the last write, to probes.csv in one write."""
+        if self._csv_pending and self._fd is not None:
+            self._write_line("".join(self._csv_pending))
+        self._csv_pending.clear()
+        self._csv_written_at = time.perf_counter()
+
     def _write_line(self, line: str) -> None:
         data = line.encode("utf-8")
         written = os.write(self._fd, data)
@@ -741,8 +756,11 @@ class ResultWriter:
             if len(row) != len(self.columns):
                 raise ValueError(f"record() got {len(row)} values for {len(self.columns)} probes")
         t = float(t)
-        if self._fd is not None:
-            self._write_line(_csv_line([_format_float(t), *map(_format_float, row)]))
+        if self._fd is not None:  # floats need no CSV quoting: repr, comma-separated
+            self._csv_pending.append(",".join(map(repr, [t, *row])) + "\n")
+            if len(self._csv_pending) >= CSV_BLOCK_ROWS \
+                    or time.perf_counter() - self._csv_written_at >= CSV_BLOCK_SECONDS:
+                self._flush_rows()
         self._t.append(t)
         self._rows.append(row)
 
@@ -785,7 +803,9 @@ class ResultWriter:
 
     def checkpoint(self) -> None:
         """Rewrite the state history on disk now (atomically), with every row so far, and the
-        ParaView collections when frames were added since they were last written."""
+        ParaView collections when frames were added since they were last written; the probe
+        rows not yet in probes.csv go there first."""
+        self._flush_rows()
         if self.out_dir is not None and self._pvd_stale:
             self._write_pvd()
         if self.out_dir is None or self._state_keys is None:
