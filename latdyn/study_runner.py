@@ -10,8 +10,9 @@ through :func:`latdyn.run`, and writes ``study.csv``, the pictures
 Stages: load and validate the study (:func:`load_study`: every key, every override
 applied and the resulting scene checked by :func:`latdyn.load_scene` *before* anything
 runs; a problem is a :class:`~latdyn.errors.SceneError` naming the study file and key,
-exit 2) → expand into cases (:func:`expand`) → run what is not cached, on a scheduler
-(:mod:`latdyn.study_dask`) → measure each case's error against the reference → table,
+exit 2) → expand into cases (:func:`expand`) → run what is not cached, each case by
+:func:`latdyn.study_case.run_case` where a scheduler puts it (:mod:`latdyn.study_dask`:
+this process, or inside a Dask worker) → measure each case's error against the reference → table,
 pictures, summary.
 
 Keys added to STUDY.md (keys may be added, none renamed):
