@@ -26,16 +26,18 @@ def run(scene, out_dir=None, backend="auto", progress=False, *, resume=False, ch
                 checkpoint_every=checkpoint_every)
 
 
-def study(source, scheduler="serial", out=None, **options):
+def study(source, scheduler=None, out=None, *, client=None, **options):
     """Run a study (a path to a study YAML, or a mapping); returns a :class:`latdyn.study_runner.StudyTable`.
 
-    ``scheduler``: ``"serial"``, ``"local[:N]"`` (Dask LocalCluster) or a Dask scheduler's
-    address; ``out`` the results folder (default ``<study stem>_study``). See STUDY.md and
+    ``scheduler``: ``"serial"`` (default), ``"local[:N]"`` (Dask LocalCluster) or a Dask
+    scheduler's address; or ``client``: a ``dask.distributed.Client`` of your own cluster
+    (``LocalCluster``, ``dask_jobqueue.SLURMCluster`` …), left open. ``out`` the results
+    folder (default ``<study stem>_study``). See STUDY.md, docs/studies.md and
     :mod:`latdyn.study_runner`.
     """
     from .study_runner import study as _study
 
-    return _study(source, scheduler=scheduler, out=out, **options)
+    return _study(source, scheduler=scheduler, out=out, client=client, **options)
 
 
 __all__ = ["load_scene", "run", "study", "SceneError", "SolverError", "__version__"]

@@ -17,7 +17,8 @@ Other codes' points (``peers: [exudyn]`` in the study) come from
 in the study, or ``solve.dt`` across and the first other key up), one panel per
 combination of the other keys; failed and unbounded cells carry the time they reached.
 
-Matplotlib with the Agg backend (no display needed).
+Matplotlib's object-oriented API on an Agg canvas (``Figure`` + ``FigureCanvasAgg``), never
+pyplot: no display needed, and the caller's backend and open figures are left as they were.
 """
 from __future__ import annotations
 
@@ -45,13 +46,14 @@ PROBE_UNITS = {"position": "m", "displacement": "m", "velocity": "m/s", "angle":
                "axial_force": "N", "torque": "N m", "moment_y": "N m", "moment_z": "N m"}
 
 
-def _pyplot():
-    import matplotlib
+def _figure(figsize):
+    """A figure on its own Agg canvas: no pyplot, so the caller's backend and figures are untouched."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
+    figure = Figure(figsize=figsize)
+    FigureCanvasAgg(figure)
+    return figure
 
 
 def axis_label(key: str) -> str:
@@ -206,12 +208,14 @@ def _spread(values, gap):
 
 def work_precision(table, spec, path) -> list[dict]:
     """Draw ``path`` (see the module docstring); returns the observed orders."""
-    plt = _pyplot()
+    import matplotlib
+
     free, curves = _curves(table, spec)
     orders = observed_orders(table, spec)
     along = {o["curve"]: o for o in orders if o["in"] == free}
-    fig, ax = plt.subplots(figsize=(12, 6.4))
-    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    fig = _figure((12, 6.4))
+    ax = fig.subplots()
+    colours = matplotlib.rcParams["axes.prop_cycle"].by_key()["color"]
     linestyles = ["-", "--", ":", "-."]
     markers = ["o", "s", "v", "P"]
     numeric_others = [k for k in spec.numeric_keys if k != free]
@@ -305,7 +309,6 @@ def work_precision(table, spec, path) -> list[dict]:
         notes = [textwrap.fill(n, 64, subsequent_indent="  ") if "\n" not in n else n for n in notes]
         fig.text(0.655, 0.1, "\n".join(notes), va="bottom", ha="left", fontsize=7.5)
     fig.savefig(path, dpi=130)
-    plt.close(fig)
     return orders
 
 
@@ -328,7 +331,8 @@ def _ordered(values):
 
 def stability_map(table, spec, path) -> None:
     """Draw ``path``: status on a grid of two vary keys, a panel per combination of the others."""
-    plt = _pyplot()
+    from matplotlib.lines import Line2D
+
     kx, ky = _stability_keys(spec)
     rest = [k for k in spec.vary if k not in (kx, ky)]
     panels = list(itertools.product(*(spec.vary[k] for k in rest))) if rest else [()]
@@ -336,8 +340,8 @@ def stability_map(table, spec, path) -> None:
     cols = min(n, 3)
     nrows = math.ceil(n / cols)
     xs, ys = _ordered(spec.vary[kx]), _ordered(spec.vary[ky])
-    fig, axes = plt.subplots(nrows, cols, figsize=(max(7.5, 1.2 + 3.2 * cols + 0.35 * len(xs)), 1.6 + 2.9 * nrows),
-                             squeeze=False)
+    fig = _figure((max(7.5, 1.2 + 3.2 * cols + 0.35 * len(xs)), 1.6 + 2.9 * nrows))
+    axes = fig.subplots(nrows, cols, squeeze=False)
     seen = set()
     for index, combo in enumerate(panels):
         ax = axes[index // cols][index % cols]
@@ -368,14 +372,13 @@ def stability_map(table, spec, path) -> None:
             ax.set_title(", ".join(_short(k, v) for k, v in zip(rest, combo)), fontsize=9.5)
     for index in range(n, nrows * cols):
         axes[index // cols][index % cols].axis("off")
-    handles = [plt.Line2D([], [], linestyle="none", marker=STATUS_STYLE[s]["marker"], color=STATUS_STYLE[s]["color"],
+    handles = [Line2D([], [], linestyle="none", marker=STATUS_STYLE[s]["marker"], color=STATUS_STYLE[s]["color"],
                           markeredgecolor="k", markersize=10, label=STATUS_STYLE[s]["label"]) for s in STATUS_STYLE]
     fig.legend(handles=handles, loc="lower center", ncol=3, fontsize=8.5, bbox_to_anchor=(0.5, 0.0))
     title = textwrap.fill(spec.title, int(fig.get_figwidth() * 12))
     fig.suptitle(f"{title}\n(under each case: its error if solved, else t = the time its run reached)", fontsize=10)
     fig.tight_layout(rect=(0, 0.07, 1, 1))
     fig.savefig(path, dpi=130)
-    plt.close(fig)
 
 
 def draw(table, spec, out) -> tuple[list[Path], list[dict]]:

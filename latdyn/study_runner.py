@@ -10,8 +10,9 @@ through :func:`latdyn.run`, and writes ``study.csv``, the pictures
 Stages: load and validate the study (:func:`load_study`: every key, every override
 applied and the resulting scene checked by :func:`latdyn.load_scene` *before* anything
 runs; a problem is a :class:`~latdyn.errors.SceneError` naming the study file and key,
-exit 2) → expand into cases (:func:`expand`) → run what is not cached, on a scheduler
-(:mod:`latdyn.study_dask`) → measure each case's error against the reference → table,
+exit 2) → expand into cases (:func:`expand`) → run what is not cached, each case by
+:func:`latdyn.study_case.run_case` where a scheduler puts it (:mod:`latdyn.study_dask`:
+this process, or inside a Dask worker) → measure each case's error against the reference → table,
 pictures, summary.
 
 Keys added to STUDY.md (keys may be added, none renamed):
@@ -75,15 +76,12 @@ from __future__ import annotations
 import contextlib
 import copy
 import csv
-import io
 import itertools
 import json
 import math
 import os
 import platform
 import re
-import shutil
-import statistics
 import sys
 import time
 from dataclasses import dataclass, field
@@ -92,22 +90,19 @@ from typing import Any
 
 import numpy as np
 
-from .errors import SceneError, SolverError, show_value
+from .errors import SceneError, show_value
+from .study_case import CASE_FILE, ENERGY_PROBES, STATUSES, _write_json, cached_record, run_case
 
-__all__ = ["StudySpec", "Case", "StudyTable", "load_study", "expand", "study", "run_case", "run_case_in_subprocess",
-           "case_error", "COLUMNS", "STATUSES", "NORMS", "PLOTS", "CASE_FILE"]
+__all__ = ["StudySpec", "Case", "StudyTable", "load_study", "expand", "study", "run_case", "case_error",
+           "COLUMNS", "STATUSES", "NORMS", "PLOTS", "CASE_FILE"]
 
-STATUSES = ("solved", "failed", "unbounded")
 NORMS = ("max", "rms", "final")
 PLOTS = ("work-precision", "stability")
 #: The columns of study.csv after the ``vary`` keys (STUDY.md), then the added ones.
 COLUMNS = ("status", "error", "wall_s", "steps", "newton_iterations", "rejected_steps", "coordinates")
 EXTRA_COLUMNS = ("t_reached", "case", "message")
 TIMING_COLUMNS = ("wall_s",)
-CASE_FILE = "case.json"
 _TOP_KEYS = ("title", "scene", "vary", "reference", "error", "repeats", "plots", "set", "stability", "peers")
-#: Energy probes added to every transient case (names a scene may not take: refused by load_study).
-ENERGY_PROBES = {"_study_K": "kinetic", "_study_S": "strain", "_study_P": "potential", "_study_W": "external_work"}
 _INDEX = re.compile(r"^(?P<name>[^\[\]]+)(?P<index>(\[\d+\])*)$")
 
 
@@ -429,203 +424,6 @@ def reference_case(spec: StudySpec) -> Case | None:
     return Case(-1, dict(spec.reference_overrides), raw, digest)
 
 
-# =========================================================================== running one case
-_WARMED: set = set()
-
-
-def _warm_up(raw: dict, backend: str) -> None:
-    """Load (compile) the kernels and every first-use path once per process: the case cut
-    to two steps, run without files. Its failure does not matter here."""
-    from . import run
-    from .kernels import load_kernels
-
-    solve = raw.get("solve") or {}
-    key = (solve.get("formulation", "default"), backend, solve.get("method", "generalized-alpha"))
-    if key in _WARMED:
-        return
-    _WARMED.add(key)
-    with contextlib.suppress(Exception):
-        load_kernels(backend=backend, variant=key[0])
-    short = copy.deepcopy(raw)
-    if solve.get("analysis", "transient") == "transient":
-        short["solve"]["t_end"] = 2 * float(short["solve"]["dt"])
-        short.setdefault("output", {})["every"] = None
-    with contextlib.redirect_stderr(io.StringIO()), contextlib.suppress(Exception):
-        run(short, out_dir=None, backend=backend)
-
-
-def _energy_status(t, probes: dict) -> str | None:
-    """``unbounded`` by the energy rule of the module docstring, else None."""
-    if not all(name in probes for name in ENERGY_PROBES) or len(t) == 0:
-        return None
-    K, S, P, W = (np.asarray(probes[name], float) for name in ENERGY_PROBES)
-    created = (K + S + P) - (K[0] + S[0] + P[0]) - W
-    received = K[0] + S[0] + np.maximum.accumulate(np.abs(W)) + np.maximum.accumulate(np.abs(P - P[0]))
-    finite = np.isfinite(created) & np.isfinite(received)
-    if not np.all(finite):
-        return "unbounded"
-    if np.max(received) <= 0.0:
-        return None
-    return "unbounded" if np.any(created > received) else None
-
-
-def _energy_onset(t, probes: dict) -> float | None:
-    """The first recorded time at which the energy rule holds (see :func:`_energy_status`)."""
-    K, S, P, W = (np.asarray(probes[name], float) for name in ENERGY_PROBES)
-    created = (K + S + P) - (K[0] + S[0] + P[0]) - W
-    received = K[0] + S[0] + np.maximum.accumulate(np.abs(W)) + np.maximum.accumulate(np.abs(P - P[0]))
-    hit = np.flatnonzero(~np.isfinite(created) | (created > received))
-    return float(t[hit[0]]) if len(hit) else None
-
-
-def _clear(folder: Path) -> None:
-    if folder.exists():
-        shutil.rmtree(folder)
-    folder.mkdir(parents=True)
-
-
-def run_case(task: dict) -> dict:
-    """Run one case (``task``: ``raw`` scene mapping, ``dir``, ``repeats``, ``backend``) and
-    return its record, which is also written to ``dir/case.json``.
-
-    Never raises for what a run does: a failure is a status. This is the function the
-    serial scheduler calls (Dask workers call :func:`run_case_in_subprocess`); BLAS is held
-    to one thread while it runs.
-    """
-    from threadpoolctl import threadpool_limits
-
-    from . import __version__, run
-    from .results import Result, ResultsError
-
-    folder = Path(task["dir"])
-    raw, repeats, backend = task["raw"], int(task.get("repeats", 1)), task.get("backend", "auto")
-    record = {"hash": task["hash"], "overrides": task.get("overrides", {}), "latdyn_version": __version__,
-              "status": None, "message": "", "wall_times": [], "steps": None, "newton_iterations": None,
-              "rejected_steps": None, "coordinates": None, "t_reached": None, "host": platform.node(),
-              "pid": os.getpid()}
-    with threadpool_limits(limits=1):
-        _warm_up(raw, backend)
-        for attempt in range(repeats):
-            _clear(folder)
-            log = io.StringIO()
-            error = None
-            t0 = time.perf_counter()
-            try:
-                with contextlib.redirect_stderr(log):
-                    run(copy.deepcopy(raw), out_dir=str(folder), backend=backend, progress=False,
-                        checkpoint_every=1e9)
-            except SolverError as exc:
-                error = exc
-            except Exception as exc:  # noqa: BLE001 - any failure of a case is a row, never a crash
-                error = exc
-            wall = time.perf_counter() - t0
-            (folder / "stderr.txt").write_text(log.getvalue(), encoding="utf-8")
-            try:
-                result = Result.load(folder)
-                summary, t, probes = result.summary, result.t, result.probes
-            except ResultsError:
-                summary, t, probes = {}, np.zeros(0), {}
-            compile_s = summary.get("compile_s") or 0.0
-            record["wall_times"].append(max(wall - float(compile_s), 0.0))
-            if error is not None:
-                break
-    for key in ("steps", "newton_iterations", "rejected_steps", "coordinates"):
-        record[key] = summary.get(key)
-    record["t_reached"] = float(t[-1]) if len(t) else None
-    values_finite = all(np.all(np.isfinite(v)) for v in probes.values()) if probes else True
-    energy = _energy_status(t, probes)
-    if not values_finite or energy:
-        record["status"] = "unbounded"
-        onset = _energy_onset(t, probes) if energy else None
-        record["message"] = ("a recorded value is not finite" if not values_finite else
-                             "the integrator created more energy than the structure received"
-                             + (f" (from t = {onset:.6g})" if onset is not None else ""))
-        if error is not None:
-            record["message"] += f"; then {type(error).__name__}: {_first_line(error)}"
-    elif error is not None:
-        unstable = isinstance(error, SolverError) and "became unstable" in str(error)
-        record["status"] = "unbounded" if unstable else "failed"
-        prefix = "" if isinstance(error, SolverError) else "internal error: "
-        record["message"] = f"{prefix}{type(error).__name__}: {_first_line(error)}"
-    else:
-        record["status"] = "solved"
-    record["wall_s"] = statistics.median(record["wall_times"])
-    _write_json(folder / CASE_FILE, record)
-    return record
-
-
-def run_case_in_subprocess(task: dict) -> dict:
-    """:func:`run_case` in a child Python process (its main thread), for Dask workers.
-
-    A worker runs its tasks in threads, and a run must be free to use what only a main
-    thread may (signal handlers; the compiled step library of ``latdyn/engine.py``
-    crashed the process when called from a thread at commit 9a0de9d). In a child, a crash
-    of the run costs one ``failed`` row ("the case's process died"), not the worker; such a
-    row is not cached, so a rerun tries the case again. The child inherits this process's
-    ``sys.path`` and environment.
-    """
-    import subprocess
-
-    folder = Path(task["dir"])
-    folder.mkdir(parents=True, exist_ok=True)
-    task_file = folder.parent / f"{task['hash']}.task.json"
-    task_file.write_text(json.dumps(task, default=_json_default), encoding="utf-8")
-    env = dict(os.environ)
-    paths = [p for p in sys.path if p and os.path.isdir(p)]
-    env["PYTHONPATH"] = os.pathsep.join(dict.fromkeys(paths + env.get("PYTHONPATH", "").split(os.pathsep)))
-    code = ("import json, sys; from latdyn.study_runner import run_case; "
-            "run_case(json.load(open(sys.argv[1], encoding='utf-8')))")
-    try:
-        done = subprocess.run([sys.executable, "-c", code, str(task_file)], env=env, capture_output=True, text=True)
-    finally:
-        task_file.unlink(missing_ok=True)
-    record = cached_record(folder, task["hash"], 1) if done.returncode == 0 else None
-    if record is not None:
-        return record
-    (folder / CASE_FILE).unlink(missing_ok=True)
-    why = f"signal {-done.returncode}" if done.returncode < 0 else f"exit status {done.returncode}"
-    tail = (done.stderr or "").strip().splitlines()[-1:] or [""]
-    return {"hash": task["hash"], "overrides": task.get("overrides", {}), "status": "failed",
-            "message": f"the case's process died ({why}) {tail[0]}".strip(), "wall_times": [], "wall_s": None,
-            "steps": None, "newton_iterations": None, "rejected_steps": None, "coordinates": None,
-            "t_reached": None}
-
-
-def _first_line(error: BaseException) -> str:
-    text = str(error).strip()
-    return text.splitlines()[0] if text else ""
-
-
-def _write_json(path: Path, data: dict) -> None:
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(json.dumps(data, indent=2, default=_json_default) + "\n", encoding="utf-8")
-    os.replace(tmp, path)
-
-
-def _json_default(value):
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    return str(value)
-
-
-def cached_record(folder: Path, digest: str, repeats: int) -> dict | None:
-    """The finished record in ``folder`` when it is of this case and has enough timings."""
-    path = folder / CASE_FILE
-    if not path.is_file():
-        return None
-    try:
-        record = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return None
-    if record.get("hash") != digest or record.get("status") not in STATUSES:
-        return None
-    if record["status"] == "solved" and len(record.get("wall_times", [])) < repeats:
-        return None
-    return record
-
-
 # =========================================================================== errors
 def _load_table(path) -> tuple[np.ndarray, dict]:
     from .results import Result
@@ -791,21 +589,30 @@ def default_out_dir(study_path) -> Path:
     return Path.cwd() / f"{Path(study_path).stem}_study"
 
 
-def study(source, scheduler: str = "serial", out=None, *, progress: bool = True, backend: str = "auto",
-          plots: bool = True) -> StudyTable:
+def study(source, scheduler: str | None = None, out=None, *, client=None, progress: bool = True,
+          backend: str = "auto", plots: bool = True) -> StudyTable:
     """Run a study (a path to its YAML file or a mapping); returns the :class:`StudyTable`.
 
-    ``scheduler``: ``"serial"`` (this process), ``"local"``/``"local:N"`` (a Dask
-    LocalCluster of N worker processes, default the cores) or the address of a running
-    Dask scheduler. ``out``: the folder (default ``<study stem>_study``; required for a
-    mapping). Raises SceneError before anything runs when the study is invalid, and
-    ValueError for a malformed ``scheduler``.
+    ``scheduler``: ``"serial"`` (this process, the default), ``"local"``/``"local:N"`` (a
+    Dask LocalCluster of N worker processes, default the cores) or the address of a
+    running Dask scheduler. ``client``: instead, a ``dask.distributed.Client`` the caller
+    made (on a ``LocalCluster``, a ``dask_jobqueue.SLURMCluster`` …); it is used and left
+    open. Dask workers must see ``out`` at the same path (a shared file system). ``out``:
+    the folder (default ``<study stem>_study``; required for a mapping). Raises SceneError
+    before anything runs when the study is invalid, and ValueError for a malformed
+    ``scheduler``, a ``client`` that is not one, or both given.
     """
     from . import study_dask
 
     wall0 = time.perf_counter()
     spec = load_study(source)
-    kind = study_dask.parse_scheduler(scheduler)  # ValueError before anything runs
+    if client is not None:  # ValueError before anything runs
+        if scheduler is not None:
+            raise ValueError("give either scheduler= or client=, not both")
+        study_dask.open_client(client)
+        kind = ("client", client)
+    else:
+        kind = study_dask.parse_scheduler("serial" if scheduler is None else scheduler)
     if out is None:
         if isinstance(source, dict):
             raise ValueError("a study given as a mapping needs an output folder (out=...)")
@@ -826,7 +633,7 @@ def study(source, scheduler: str = "serial", out=None, *, progress: bool = True,
         if record is not None:
             records[digest] = record
         else:
-            todo.append({"raw": case.raw, "dir": str(out / "cases" / digest), "repeats": repeats,
+            todo.append({"raw": case.raw, "dir": os.path.abspath(out / "cases" / digest), "repeats": repeats,
                          "hash": digest, "overrides": case.overrides, "backend": backend,
                          "label": "reference" if case is ref else _label(case.overrides)})
     bar = _Progress(len(unique), len(records), progress)

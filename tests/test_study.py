@@ -18,7 +18,8 @@ import yaml
 import latdyn
 from latdyn import cli
 from latdyn.errors import SceneError
-from latdyn.study_runner import StudyTable, _energy_status, case_error, load_study
+from latdyn.study_case import _energy_status
+from latdyn.study_runner import StudyTable, case_error, load_study
 from latdyn.study_dask import parse_scheduler
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -222,9 +223,84 @@ def test_local_cluster_gives_the_same_rows_as_serial(serial_study, tmp_path):
     assert table.summary["scheduler"]["kind"] == "local" and table.summary["scheduler"]["workers"] == 2
     assert table.summary["ran"] == 7
     assert _rows(out / "study.csv") == _rows(serial_out / "study.csv")
-    # each case ran in its own child process of a worker, not in this one
+    # the cases ran in the two worker processes themselves (no process of their own)
     pids = {json.loads((out / "cases" / r["case"] / "case.json").read_text())["pid"] for r in table.rows}
-    assert os.getpid() not in pids and len(pids) == len(table.rows)
+    assert os.getpid() not in pids and 1 <= len(pids) <= 2
+
+
+def test_a_client_of_ones_own_cluster_gives_the_same_rows_and_stays_open(serial_study, tmp_path):
+    distributed = pytest.importorskip("distributed")
+    path, serial_out = serial_study
+    out = tmp_path / "client"
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None) as cluster, \
+            distributed.Client(cluster) as client:
+        table = latdyn.study(str(path), client=client, out=str(out), progress=False)
+        assert client.status == "running"  # the caller's client is not closed
+        assert client.submit(sum, [1, 2]).result() == 3
+    assert table.summary["scheduler"]["kind"] == "client" and table.summary["scheduler"]["workers"] == 2
+    assert table.summary["ran"] == 7
+    assert _rows(out / "study.csv") == _rows(serial_out / "study.csv")
+
+
+def test_client_argument_is_checked_before_anything_runs(tmp_path):
+    with pytest.raises(ValueError, match="dask.distributed.Client"):
+        latdyn.study(SMALL, client=object(), out=tmp_path / "out", progress=False)
+    with pytest.raises(ValueError, match="not both"):
+        latdyn.study(SMALL, scheduler="local:2", client=object(), out=tmp_path / "out", progress=False)
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_case_that_kills_its_worker_is_a_failed_row_after_the_retries(tmp_path):
+    """The worker dies under the case every time: the nanny restarts it, the scheduler
+    reschedules the case (allowed-failures), then gives up; the row says so and the other
+    case still comes back."""
+    distributed = pytest.importorskip("distributed")
+    import dask
+
+    from latdyn.study_dask import open_scheduler
+
+    def case(task):  # pickled by value (a local function); runs in the worker process
+        if task["hash"] == "crash":
+            os._exit(3)
+        return {"hash": task["hash"], "status": "solved", "pid": os.getpid()}
+
+    # one task at a time on a worker (as on local:N), so that only the crashing case is blamed
+    with dask.config.set({"distributed.scheduler.allowed-failures": 1, "distributed.scheduler.worker-saturation": 1.0}):
+        with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None,
+                                      silence_logs=50) as cluster, distributed.Client(cluster) as client:
+            with open_scheduler(("client", client)) as runner:
+                done = {task["hash"]: record for task, record in
+                        runner.run(case, [{"hash": "crash", "overrides": {"solve.dt": 1.0}}, {"hash": "fine"}])}
+    assert done["fine"]["status"] == "solved" and done["fine"]["pid"] != os.getpid()
+    lost = done["crash"]
+    assert lost["status"] == "failed" and lost["message"].startswith("worker lost: KilledWorker"), lost
+    assert lost["overrides"] == {"solve.dt": 1.0} and lost["wall_s"] is None
+
+
+def test_study_keeps_the_callers_matplotlib_backend(serial_study):
+    """A study that draws its pictures leaves matplotlib's backend as the caller set it."""
+    import matplotlib
+
+    path, out = serial_study
+    before = matplotlib.get_backend()
+    try:
+        matplotlib.use("svg")  # not Agg, which is what a global switch would leave
+        (out / "stability.png").unlink()
+        latdyn.study(str(path), out=str(out), progress=False)  # every case reused, pictures redrawn
+        assert matplotlib.get_backend() == "svg"
+        assert (out / "stability.png").stat().st_size > 10_000
+    finally:
+        matplotlib.use(before)
+
+
+def test_the_dask_side_does_not_import_the_runner():
+    import subprocess
+    import sys
+
+    code = ("import sys, latdyn.study_dask, latdyn.study_case; "
+            "assert 'latdyn.study_runner' not in sys.modules, sorted(m for m in sys.modules if 'latdyn' in m)")
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]))
+    subprocess.run([sys.executable, "-c", code], check=True, env=env)
 
 
 def test_peer_points_from_peers_json(tmp_path):
