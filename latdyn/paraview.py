@@ -266,26 +266,30 @@ class _PartFile:
 
     def _cut(self, keep: int) -> None:
         """Keep the first ``keep`` frames."""
-        steps = self._steps
         self.steps = keep
         self._resize(keep)
-        steps.attrs["NSteps"] = keep
+        self._n_steps.write(np.array(keep, dtype=np.int64))
         self.file.flush()
 
     def _datasets(self, root) -> None:
-        """The datasets that grow with the frames: (dataset, rows per frame)."""
-        growing = [(root["Points"], self.n_points)]
-        growing += [(d, self.n_points) for d in root["PointData"].values()]
-        growing += [(d, self.n_cells) for name, d in root["CellData"].items() if name not in self.static]
+        """What grows with the frames: ``(dataset id, rows per frame, value of a frame or None)``,
+        None for the offsets that are their fill value (0, or 1 parts) at every step. Appending
+        goes through h5py's low-level interface (a few µs a dataset instead of ~100 µs)."""
+        import h5py
+
         steps = root["Steps"]
         self._point_data = list(root["PointData"])
         self._cell_data = [name for name in root["CellData"] if name not in self.static]
-        growing += [(steps[name], 1) for name in ("Values", "PartOffsets", "NumberOfParts", "PointOffsets",
-                                                  "CellOffsets")]
+        p, c = self.n_points, self.n_cells
+        growing = [(root["Points"], p, lambda d, t, k: d["points"])]
+        growing += [(root["PointData"][n], p, lambda d, t, k, n=n: d["point_data"][n]) for n in self._point_data]
+        growing += [(root["CellData"][n], c, lambda d, t, k, n=n: d["cell_data"][n]) for n in self._cell_data]
+        growing += [(steps["Values"], 1, lambda d, t, k: [t]), (steps["PointOffsets"], 1, lambda d, t, k: [k * p])]
         if self._cell_data:  # the offsets of every changing cell array (hard links to one dataset)
-            growing.append((steps["CellDataOffsets"][self._cell_data[0]], 1))
-        self._growing = growing
-        self._root, self._steps = root, steps
+            growing.append((steps["CellDataOffsets"][self._cell_data[0]], 1, lambda d, t, k: [k * c]))
+        growing += [(steps[name], 1, None) for name in ("PartOffsets", "NumberOfParts", "CellOffsets")]
+        self._growing = [(d.id, rows, d.shape[1:], d.dtype, value) for d, rows, value in growing]
+        self._n_steps = h5py.h5a.open(steps.id, b"NSteps")
 
     def _create(self, first: dict) -> None:
         import h5py
@@ -330,8 +334,8 @@ class _PartFile:
         steps = root.create_group("Steps")
         steps.attrs["NSteps"] = np.int64(0)
         steps.create_dataset("Values", shape=(0,), maxshape=(None,), dtype="f8", chunks=(1024,))
-        for name in ("PartOffsets", "NumberOfParts", "PointOffsets"):
-            steps.create_dataset(name, shape=(0,), maxshape=(None,), dtype="i8", chunks=(1024,))
+        for name, fill in (("PartOffsets", 0), ("NumberOfParts", 1), ("PointOffsets", 0)):
+            steps.create_dataset(name, shape=(0,), maxshape=(None,), dtype="i8", chunks=(1024,), fillvalue=fill)
         steps.create_dataset("CellOffsets", shape=(0, 1), maxshape=(None, 1), dtype="i8", chunks=(1024, 1))
         steps["ConnectivityIdOffsets"] = steps["CellOffsets"]  # both 0: hard links to one dataset
         offsets = steps.create_group("PointDataOffsets")
@@ -353,33 +357,28 @@ class _PartFile:
         del self._part
 
     def _resize(self, steps: int) -> None:
-        for dataset, rows in self._growing:
-            dataset.resize(steps * rows, axis=0)
+        for dataset, rows, width, _, _ in self._growing:
+            dataset.set_extent((steps * rows, *width))
 
     def append(self, t: float, data: dict) -> None:
         """Append one frame (``{"points", "point_data", "cell_data"}``, checked by the caller) and flush."""
+        import h5py
+
         if self.file is None:
             self._create(data)
         elif set(data["point_data"]) != set(self._point_data) or set(data["cell_data"]) != set(self._cell_data):
             raise ValueError(f"{self.path.name}: a frame with arrays {sorted(data['point_data'])} + "
                              f"{sorted(data['cell_data'])}, the file has {self._point_data} + {self._cell_data}")
         k = self.steps
-        self._resize(k + 1)
-        p, c = self.n_points, self.n_cells
-        root, steps = self._root, self._steps
-        root["Points"][k * p:(k + 1) * p] = data["points"]
-        for name in self._point_data:
-            root["PointData"][name][k * p:(k + 1) * p] = data["point_data"][name]
-        for name in self._cell_data:
-            root["CellData"][name][k * c:(k + 1) * c] = data["cell_data"][name]
-        steps["Values"][k] = t
-        steps["PartOffsets"][k] = 0
-        steps["NumberOfParts"][k] = 1
-        steps["PointOffsets"][k] = k * p
-        steps["CellOffsets"][k] = 0
-        if self._cell_data:
-            steps["CellDataOffsets"][self._cell_data[0]][k] = k * c
-        steps.attrs["NSteps"] = k + 1
+        for dataset, rows, width, dtype, value in self._growing:
+            dataset.set_extent(((k + 1) * rows, *width))
+            if value is None:  # the fill value
+                continue
+            array = np.ascontiguousarray(value(data, t, k), dtype=dtype).reshape(rows, *width)
+            space = dataset.get_space()
+            space.select_hyperslab((k * rows, *(0 for _ in width)), array.shape)
+            dataset.write(h5py.h5s.create_simple(array.shape), space, array)
+        self._n_steps.write(np.array(k + 1, dtype=np.int64))  # last: a step is complete when counted
         self.steps = k + 1
         self.file.flush()
 
