@@ -43,7 +43,8 @@ read natively by ParaView >= 5.12 and VTK's ``vtkHDFReader``), written with h5py
 Frames are written as they are recorded: appended and flushed (``h5py.File.flush``), so a
 Ctrl-C or a solver failure (which close the file) and even a kill between two frames leave
 a complete, readable file; a kill during a flush may not (HDF5 rewrites its metadata in
-place; the state history, copied and replaced atomically, is the safe record).
+place; the state history, copied and replaced atomically, is the safe record). The files are
+opened without HDF5's file lock, so ParaView can open them while a run goes on.
 
 *Which frames:* with ``every`` (seconds; ``output.paraview_every``) a record carries a frame
 when its time reaches the next multiple of ``every`` (the first row at or after k · every);
@@ -252,7 +253,7 @@ class _PartFile:
             self._part = part
         else:  # resuming: the first `keep` frames stay
             try:
-                self.file = h5py.File(path, "r+")
+                self.file = h5py.File(path, "r+", locking=False)
                 root = self.file["VTKHDF"]
                 on_disk = int(root["Steps"].attrs["NSteps"])
                 self._datasets(root)
@@ -352,7 +353,7 @@ class _PartFile:
                 offsets[name] = changing
         f.close()
         tmp.replace(self.path)
-        self.file = h5py.File(self.path, "r+")
+        self.file = h5py.File(self.path, "r+", locking=False)  # no lock: readable while the run goes on
         self._datasets(self.file["VTKHDF"])
         del self._part
 
