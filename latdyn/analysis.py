@@ -24,7 +24,7 @@ def static_analysis(prepared, probes, writer, length_scale: float) -> None:
     state.theta_dot[:] = 0.0
     tol = scene.solve.tol if scene.solve.tol is not None else 1e-10
     max_iter = max(scene.solve.max_iterations, 30)
-    writer.record(0.0, probes.values(state), state=state.as_dict())
+    writer.record(0.0, probes.values(state), state=state.as_dict(), frame=_frame(assembler, writer, state))
     steps = scene.solve.steps
     lam, dlam = 0.0, 1.0 / steps
     iterations = 0
@@ -61,10 +61,18 @@ def static_analysis(prepared, probes, writer, length_scale: float) -> None:
         state, lam = trial, target
         done += 1
         if abs(lam * steps - round(lam * steps)) < 1e-9:
-            writer.record(lam, probes.values(state), state=state.as_dict())
+            writer.record(lam, probes.values(state), state=state.as_dict(), frame=_frame(assembler, writer, state))
         dlam = min(dlam * 2, 1.0 / steps)
         writer.summary.update(steps=done, newton_iterations=iterations)
     prepared.state = state
+
+
+def _frame(assembler, writer, state):
+    """The ParaView frame of a load step, computed only if the writer writes it."""
+    from .paraview import frame
+
+    snapshot = state.copy()
+    return lambda: frame(assembler, writer.mesh, snapshot)
 
 
 def modal_analysis(prepared, count: int) -> np.ndarray:

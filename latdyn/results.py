@@ -39,38 +39,11 @@ One :class:`ResultWriter` per run writes, into ``out_dir``:
     the whole history in memory and rewrites ``state.npz`` the same way (temp +
     ``os.replace``); its labels are one JSON string under the key ``_labels``.
 
-``paraview/beams.pvd`` + ``paraview/frame_NNNNN.vtu``, ``paraview/bodies.pvd`` + ``paraview/bodies_NNNNN.vtu``
-    One series per part of ``mesh`` (``beams``, and ``bodies`` for a run with joint
-    bodies): one VTU file (meshio) per recorded frame and a PVD collection listing
-    them with their exact recorded times (``repr(float)``, as in ``probes.csv``),
-    rewritten atomically after each frame; open the ``.pvd`` files in ParaView. For a
-    run (built by ``latdyn.solve``):
-
-    - ``beams``: the points are the beam grid points, shared by consecutive elements
-      (one point per model node and grid offset, so a beam of n elements is a
-      polyline of n + 1 points; an end at an offset from its joint body is its own
-      point); line cells = elements. Point data ``displacement`` (from t = 0) and
-      ``velocity`` (v + ω × T r_g), both (n_points, 3); cell data ``axial_force``,
-      ``torque``, ``moment_y``, ``moment_z`` (mid-element section forces, the values
-      of the ``{element: ...}`` probes) and ``beam`` (index in scene order).
-    - ``bodies``: every joint body (fixed, prescribed, free; with or without mass) as
-      a vertex cell at its reference point, and a line cell from the body's reference
-      point to each beam grid point at an offset from it (the joint's lever arm).
-      Point data ``displacement``, ``velocity``, ``angular_velocity`` (of the body)
-      and ``axis_x``, ``axis_y``, ``axis_z`` (the body axes, for glyphs); cell data
-      ``body`` (index in scene order, also on its connector lines), ``mass`` (0 on
-      connector lines) and ``kind`` (0 free, 1 prescribed, 2 fixed).
-
-    *Frame limit:* at most ``max_frames`` (default 2000) frames are kept, plus the
-    frame of the last recorded row, which is always written (at :meth:`close`, for
-    a failed run too) when subsampling skipped it. If ``expected_frames`` is given the
-    writer keeps every k-th candidate frame from the start, k = ceil(expected_frames
-    / max_frames); whenever the kept frames would still exceed ``max_frames`` the
-    stride is doubled and every other kept frame is deleted, so the frames on disk
-    stay evenly spaced (but for the last one). ``NNNNN`` is the index of the
-    candidate frame (the count of ``record`` calls that carried a frame), so
-    subsampled runs have gaps in the numbering. A frame may be passed as a callable
-    that is called only for frames that are written, which keeps recording cheap.
+``paraview/beams.vtkhdf``, ``paraview/bodies.vtkhdf``
+    One transient VTKHDF file per part of ``mesh`` (``beams``, and ``bodies`` for a run with
+    joint bodies), frames appended and flushed as they are recorded, at ``paraview_every``;
+    what the parts hold and the file layout: :mod:`latdyn.paraview`. Open them in ParaView
+    (>= 5.12) or read them with VTK's ``vtkHDFReader``.
 
 ``modes.csv``
     ``mode,frequency_hz``, modes numbered from 1 (:meth:`ResultWriter.write_modes`).
@@ -90,8 +63,8 @@ folder never mixes two runs, unless it *resumes* (``resume=`` a
 :meth:`ResultWriter.bookmark` of the earlier writer, kept in a run's checkpoint, see
 :mod:`latdyn.checkpoint`): then the files are cut back to the bookmark (``probes.csv`` to
 its rows, the state history to its rows, atomically; ParaView frames it does not list are
-deleted and the ``.pvd`` files rewritten) and appended to. Every later decision of the
-writer (stride, frame numbers, deletions) depends only on the counts in the bookmark, so
+cut back to its frames) and appended to. Every later decision of the writer (which frames)
+depends only on the counts in the bookmark, so
 the finished files equal those of one uninterrupted writer. (The state-history
 "checkpoints" above are the writer's own flushes, unrelated to a run's checkpoint file.) With ``out_dir=None`` nothing is written; the writer
 only keeps the probe rows for :meth:`ResultWriter.result`.
@@ -106,7 +79,6 @@ import os
 import shutil
 import sys
 import time
-import xml.sax.saxutils
 from pathlib import Path
 
 import numpy as np
@@ -130,7 +102,6 @@ __all__ = [
     "STATE_H5_FILE",
     "STATE_NPZ_FILE",
     "PARAVIEW_DIR",
-    "PVD_FILE",
 ]
 
 PROBES_FILE = "probes.csv"
@@ -138,8 +109,7 @@ MODES_FILE = "modes.csv"
 SUMMARY_FILE = "summary.json"
 STATE_H5_FILE = "state.h5"
 STATE_NPZ_FILE = "state.npz"
-PARAVIEW_DIR = "paraview"
-PVD_FILE = "beams.pvd"
+PARAVIEW_DIR = "paraview"  # latdyn.paraview.PARAVIEW_DIR
 LABELS_KEY = "_labels"  # NPZ only: the labels as one JSON string
 
 #: ``description`` attributes of the state datasets a run writes (see :func:`state_labels`)
@@ -164,14 +134,12 @@ SUMMARY_KEYS = (
 )
 STATUSES = ("running", "solved", "failed", "interrupted")
 
-
-#: Seconds of wall time between rewrites of the ParaView collections while recording.
-PVD_INTERVAL = 1.0
 #: probes.csv is written in blocks: the rows recorded since the last write go to the file when
 #: this many have gathered, when CSV_BLOCK_SECONDS have passed, and at every checkpoint and at
 #: close (an interrupt, a failure: the file is complete up to the last recorded row)
 CSV_BLOCK_ROWS = 512
 CSV_BLOCK_SECONDS = 1.0
+
 
 class ResultsError(ValueError):
     """A results folder that is missing or cannot be read (the CLI exits 2)."""
@@ -424,39 +392,6 @@ def load_state_labels(out_dir) -> dict:
     raise ResultsError(f"{folder}: no state history ({STATE_H5_FILE} or {STATE_NPZ_FILE})")
 
 
-def _normalise_mesh(mesh: dict) -> dict:
-    """``{part: {"n_points": int, "cells": [(cell type, int array (n, k)), ...]}}``; the
-    legacy form ``{"lines": (n, 2), "n_nodes": int}`` is the part ``beams``. Other keys
-    of a part are ignored (the caller may keep its own data there)."""
-    if "lines" in mesh and "n_nodes" in mesh:
-        mesh = {"beams": {"n_points": mesh["n_nodes"], "cells": [("line", mesh["lines"])]}}
-    parts = {}
-    for name, part in mesh.items():
-        name = str(name)
-        if not name.replace("_", "").isalnum():
-            raise ValueError(f"mesh part name {name!r}: letters, digits and '_' only")
-        n_points = int(part["n_points"])
-        cells = []
-        for cell_type, connectivity in part["cells"]:
-            array = np.asarray(connectivity, dtype=np.int64)
-            if array.ndim == 1:
-                array = array.reshape(-1, 1)
-            if array.ndim != 2:
-                raise ValueError(f"mesh part {name!r}: {cell_type} cells must be an (n, k) array")
-            if not len(array):
-                continue  # an empty block (no connector lines, say): VTU gets none
-            if array.min() < 0 or array.max() >= n_points:
-                raise ValueError(f"mesh part {name!r}: cells refer to points outside 0 .. {n_points - 1}")
-            cells.append((str(cell_type), array))
-        parts[name] = {"n_points": n_points, "cells": cells,
-                       "n_cells": sum(len(c) for _, c in cells)}
-    return parts
-
-
-def _series_file(part: str, index: int) -> str:
-    return f"frame_{index:05d}.vtu" if part == "beams" else f"{part}_{index:05d}.vtu"
-
-
 # ----------------------------------------------------------------------------- writer
 class ResultWriter:
     """Writes the result files of one run; see the module docstring for the formats.
@@ -470,9 +405,10 @@ class ResultWriter:
     first_column : "t" or "load_factor"
     mesh : dict, optional
         The ParaView parts: ``{part: {"n_points": int, "cells": [(type, int array
-        (n, k)), ...]}}``, one series per part (``beams`` → ``beams.pvd``); or the
-        legacy ``{"lines": int array (n_cells, 2), "n_nodes": int}`` (the part
-        ``beams``). Kept as :attr:`mesh` (the caller's dict, extra keys included).
+        (n, k)), ...], "cell_data": {name: constant array}}}``, one file per part
+        (``beams`` → ``paraview/beams.vtkhdf``, :mod:`latdyn.paraview`); or the legacy
+        ``{"lines": int array (n_cells, 2), "n_nodes": int}`` (the part ``beams``).
+        Kept as :attr:`mesh` (the caller's dict, extra keys included).
     meta : dict, optional
         JSON-able run description (title, analysis, ...): merged into summary.json and
         stored as the ``meta`` attribute of the state history.
@@ -482,11 +418,10 @@ class ResultWriter:
     attributes : dict, optional
         Name → list of strings, stored as file attributes of ``state.h5`` (``nodes``,
         ``hinges``, ``coordinates`` for a run).
-    max_frames : int
-        Most ParaView frames kept (evenly subsampled beyond that).
-    expected_frames : int, optional
-        How many ``record`` calls will carry node positions, if known; sets the
-        subsampling stride from the start.
+    paraview_every : float or None
+        Time between ParaView frames (:class:`latdyn.paraview.ParaviewWriter`): None, a
+        frame for every ``record`` that carries one; 0, none. The last record's frame is
+        always written.
     checkpoint_rows, checkpoint_seconds :
         When the state history is rewritten on disk (whichever comes first).
     resume : dict, optional
@@ -505,8 +440,7 @@ class ResultWriter:
         *,
         labels: dict | None = None,
         attributes: dict | None = None,
-        max_frames: int = 2000,
-        expected_frames: int | None = None,
+        paraview_every: float | None = None,
         checkpoint_rows: int = 500,
         checkpoint_seconds: float = 10.0,
         resume: dict | None = None,
@@ -518,12 +452,9 @@ class ResultWriter:
             raise ValueError(f"duplicate probe names in {self.columns}")
         if first_column in self.columns:
             raise ValueError(f"a probe may not be named {first_column!r}")
-        if max_frames < 1:
-            raise ValueError("max_frames must be at least 1")
         self.first_column = first_column
         self.meta = dict(meta or {})
         self.out_dir = None if out_dir is None else Path(out_dir)
-        self.max_frames = int(max_frames)
         self.checkpoint_rows = max(1, int(checkpoint_rows))
         self.checkpoint_seconds = float(checkpoint_seconds)
         #: the caller may fill this during the run; merged into summary.json at close
@@ -533,7 +464,6 @@ class ResultWriter:
 
         #: the ``mesh`` given by the caller (None without one)
         self.mesh = mesh
-        self._parts = None if mesh is None else _normalise_mesh(mesh)
         self._labels = {str(k): [str(x) for x in v] for k, v in (labels or {}).items()}
         self._attributes = {str(k): [str(x) for x in v] for k, v in (attributes or {}).items()}
         for name in self._attributes:
@@ -559,17 +489,9 @@ class ResultWriter:
         self._last_checkpoint = time.perf_counter()
         self._last_checkpoint_cost = 0.0
 
-        # ParaView frames
-        stride = 1
-        if expected_frames is not None and expected_frames > self.max_frames:
-            stride = math.ceil(expected_frames / self.max_frames)
-        self._frame_stride = stride
-        self._pvd_stale = False  # frames added since the collections were last written
-        self._pvd_written_at = -math.inf
-        self._frame_candidates = 0
-        self._frames: list[tuple[int, float, dict]] = []  # (candidate index, t, {part: file name})
-        self._unwritten_frame = None  # (index, t, frame) of the last candidate when it is not on disk
-        self._missing_frames: set[int] = set()  # resumed: listed frames whose files a later run deleted
+        # ParaView frames (latdyn.paraview), opened with the other files
+        self._paraview = None
+        self._paraview_every = paraview_every
 
         self._fd = None
         if self.out_dir is not None:
@@ -589,12 +511,13 @@ class ResultWriter:
             except FileNotFoundError:
                 pass
         paraview = folder / PARAVIEW_DIR
-        if paraview.is_dir():  # the folder is ours: every series of an earlier run goes
-            for stale in [p for pattern in ("*.vtu", "*.pvd", "*.tmp") for p in paraview.glob(pattern)]:
+        if paraview.is_dir():  # the folder is ours: the frames of an earlier run go (and older series)
+            for stale in [p for pattern in ("*.vtkhdf", "*.vtu", "*.pvd", "*.tmp") for p in paraview.glob(pattern)]:
                 try:
                     stale.unlink()
                 except FileNotFoundError:
                     pass
+        self._open_paraview()
         self._fd = os.open(folder / PROBES_FILE, os.O_WRONLY | os.O_CREAT | os.O_TRUNC | os.O_APPEND, 0o644)
         self._write_line(_csv_line([self.first_column, *self.columns]))
         self._write_summary({"status": "running"})
@@ -602,26 +525,28 @@ class ResultWriter:
     def bookmark(self) -> dict:
         """What was recorded so far, for resuming into the same folder (``resume=``).
 
-        ``rows`` (probe rows), ``state_rows`` (state history rows), and the ParaView
-        bookkeeping: ``frame_candidates`` (``record`` calls with a frame so far),
-        ``frame_stride``, ``frames`` (``[candidate index, t, {part: file}]`` of the
-        frames on disk) and ``unwritten`` (``[index, t]`` of the last candidate when
-        subsampling left it off disk, else None). Everything the writer decides from
-        here on depends only on these counts, so a resumed writer continues exactly
-        as this one would have.
+        ``rows`` (probe rows), ``state_rows`` (state history rows), and ``paraview``, the
+        ParaView bookkeeping (:meth:`latdyn.paraview.ParaviewWriter.bookmark`: frames
+        written, the schedule's index, ``unwritten``, the time of the last record when its
+        frame is not written, else None). Everything the writer decides from here on
+        depends only on these counts, so a resumed writer continues exactly as this one
+        would have.
         """
         state_rows = len(self._pending_t) + (self._state_rows_on_disk if self._use_h5 else 0)
-        unwritten = None if self._unwritten_frame is None else list(self._unwritten_frame[:2])
         return {"rows": len(self._t), "state_rows": state_rows if self._state_keys is not None else 0,
-                "frame_candidates": self._frame_candidates, "frame_stride": self._frame_stride,
-                "frames": [[index, t, dict(names)] for index, t, names in self._frames], "unwritten": unwritten}
+                "paraview": None if self._paraview is None else self._paraview.bookmark()}
 
     def reattach_last_frame(self, frame) -> None:
         """Resumed: the frame (or a callable giving it) of the bookmark's ``unwritten``
-        candidate, written at :meth:`close` should it stay the last one."""
-        if self._unwritten_frame is not None:
-            index, t, _ = self._unwritten_frame
-            self._unwritten_frame = (index, t, frame)
+        record, written at :meth:`close` should it stay the last one."""
+        if self._paraview is not None:
+            self._paraview.reattach_last_frame(frame)
+
+    def _open_paraview(self, mark: dict | None = None) -> None:
+        """The ParaView frames' writer (:mod:`latdyn.paraview`); ``mark``: its bookmark, to resume."""
+        from .paraview import ParaviewWriter
+
+        self._paraview = ParaviewWriter(self.out_dir / PARAVIEW_DIR, self.mesh, self._paraview_every, resume=mark)
 
     def _reopen_files(self, mark: dict) -> None:
         """Resume into ``out_dir``: keep the first ``mark["rows"]`` rows of every file,
@@ -653,24 +578,8 @@ class ResultWriter:
                 pass
         if state_rows:
             self._reopen_state(state_rows)
-        # ParaView: the bookmark's frames; files of later frames go
-        self._frame_candidates = int(mark["frame_candidates"])
-        self._frame_stride = int(mark["frame_stride"])
-        self._frames = [(int(index), float(t), {str(k): str(v) for k, v in names.items()})
-                        for index, t, names in mark["frames"]]
-        if mark.get("unwritten") is not None:
-            index, t = mark["unwritten"]
-            self._unwritten_frame = (int(index), float(t), None)
-        paraview = folder / PARAVIEW_DIR
-        listed = {name for _, _, names in self._frames for name in names.values()}
-        if paraview.is_dir():
-            for stale in [p for pattern in ("*.vtu", "*.tmp") for p in paraview.glob(pattern)]:
-                if stale.name not in listed:
-                    stale.unlink(missing_ok=True)
-        self._missing_frames = {index for index, _, names in self._frames
-                                if not all((paraview / name).is_file() for name in names.values())}
-        if self._frames:
-            self._write_pvd()
+        # ParaView: the bookmark's frames; later ones go
+        self._open_paraview(mark.get("paraview"))
         self._fd = os.open(path, os.O_WRONLY | os.O_APPEND)
         self._write_summary({"status": "running"})
 
@@ -802,12 +711,10 @@ class ResultWriter:
             self.checkpoint()
 
     def checkpoint(self) -> None:
-        """Rewrite the state history on disk now (atomically), with every row so far, and the
-        ParaView collections when frames were added since they were last written; the probe
-        rows not yet in probes.csv go there first."""
+        """Rewrite the state history on disk now (atomically), with every row so far (ParaView
+        frames are on disk as soon as they are recorded); the probe rows not yet in probes.csv
+        go there first."""
         self._flush_rows()
-        if self.out_dir is not None and self._pvd_stale:
-            self._write_pvd()
         if self.out_dir is None or self._state_keys is None:
             return
         if self._use_h5 and not self._pending_t:
@@ -878,116 +785,7 @@ class ResultWriter:
         self._state_rows_on_disk = len(self._pending_t)
 
     def _add_frame(self, t: float, frame) -> None:
-        index = self._frame_candidates
-        self._frame_candidates += 1
-        if index % self._frame_stride:
-            # not kept now; written at close() should it stay the last one
-            self._unwritten_frame = (index, t, frame)
-            return
-        self._unwritten_frame = None
-        frame = frame() if callable(frame) else frame
-        self._write_frame(index, t, frame)
-        if len(self._frames) > self.max_frames:
-            self._frame_stride *= 2
-            kept = []
-            for entry in self._frames:
-                if entry[0] % self._frame_stride == 0:
-                    kept.append(entry)
-                else:
-                    self._delete_frame(entry)
-                    self._missing_frames.discard(entry[0])
-            if kept[-1][0] != index:  # the newest frame went: keep its data for close()
-                self._unwritten_frame = (index, t, frame)
-            self._frames = kept
-        self._pvd_stale = True
-        if time.monotonic() - self._pvd_written_at >= PVD_INTERVAL:
-            self._write_pvd()
-
-    def _write_last_frame(self) -> None:
-        """Write the frame of the last ``record`` call when subsampling skipped it."""
-        if self._unwritten_frame is None or self.out_dir is None:
-            return
-        index, t, frame = self._unwritten_frame
-        self._unwritten_frame = None
-        if frame is None:  # resumed without the frame's data (reattach_last_frame was not called)
-            return
-        self._write_frame(index, t, frame() if callable(frame) else frame)
-        self._write_pvd()
-
-    def _write_frame(self, index: int, t: float, frame: dict) -> None:
-        import meshio
-
-        parts = self._parts
-        if parts is None:  # no mesh: the points of each part as vertices
-            parts = {str(name): {"n_points": len(np.asarray(data["points"]).reshape(-1, 3)),
-                                 "cells": [("vertex", np.arange(len(np.asarray(data["points"]).reshape(-1, 3)),
-                                                                dtype=np.int64).reshape(-1, 1))]}
-                     for name, data in frame.items()}
-            for part in parts.values():
-                part["n_cells"] = part["n_points"]
-        if set(frame) != set(parts):
-            raise ValueError(f"frame has parts {sorted(frame)}, the mesh has {sorted(parts)}")
-        folder = self.out_dir / PARAVIEW_DIR
-        folder.mkdir(exist_ok=True)
-        names = {}
-        for part_name, part in parts.items():
-            data = frame[part_name]
-            points = np.asarray(data["points"], dtype=float).reshape(-1, 3)
-            if points.shape[0] != part["n_points"]:
-                raise ValueError(f"frame part {part_name!r} has {points.shape[0]} points, "
-                                 f"the mesh has {part['n_points']}")
-            point_data = {}
-            for name, value in (data.get("point_data") or {}).items():
-                array = np.asarray(value)
-                if array.ndim not in (1, 2) or array.shape[0] != points.shape[0]:
-                    raise ValueError(f"point data {name!r} of {part_name!r} has shape {array.shape}, "
-                                     f"expected ({points.shape[0]},) or ({points.shape[0]}, k)")
-                point_data[str(name)] = array
-            cell_data = {}
-            counts = np.cumsum([len(c) for _, c in part["cells"]])[:-1]
-            for name, value in (data.get("cell_data") or {}).items():
-                array = np.asarray(value)
-                if array.ndim not in (1, 2) or array.shape[0] != part["n_cells"]:
-                    raise ValueError(f"cell data {name!r} of {part_name!r} has shape {array.shape}, "
-                                     f"expected ({part['n_cells']},) or ({part['n_cells']}, k)")
-                cell_data[str(name)] = np.split(array, counts)
-            file_name = _series_file(part_name, index)
-            tmp = folder / (file_name + ".tmp")
-            meshio.write(tmp, meshio.Mesh(points, part["cells"], point_data=point_data, cell_data=cell_data),
-                         file_format="vtu")
-            os.replace(tmp, folder / file_name)
-            names[part_name] = file_name
-        self._frames.append((index, t, names))
-
-    def _delete_frame(self, entry) -> None:
-        for file_name in entry[2].values():
-            try:
-                (self.out_dir / PARAVIEW_DIR / file_name).unlink()
-            except FileNotFoundError:
-                pass
-
-    def _write_pvd(self) -> None:
-        """Write the ParaView collections (``<part>.pvd``) of the frames on disk.
-
-        While recording, at most every PVD_INTERVAL seconds of wall time (each write is an
-        atomic replace, ~1 ms on some file systems: per frame it cost more than the solver),
-        and always on checkpoint() and close(), so that a finished, failed or interrupted
-        run lists every frame."""
-        self._pvd_stale = False
-        self._pvd_written_at = time.monotonic()
-        parts = sorted({part for _, _, names in self._frames for part in names})
-        for part in parts:
-            lines = [
-                '<?xml version="1.0"?>',
-                '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">',
-                "  <Collection>",
-            ]
-            for index, t, names in self._frames:
-                if part in names and index not in self._missing_frames:
-                    lines.append(f'    <DataSet timestep="{t!r}" group="" part="0" '
-                                 f'file={xml.sax.saxutils.quoteattr(names[part])}/>')
-            lines += ["  </Collection>", "</VTKFile>", ""]
-            _atomic_write_bytes(self.out_dir / PARAVIEW_DIR / f"{part}.pvd", "\n".join(lines).encode(), fsync=False)
+        self._paraview.record(t, frame)
 
     # -- modes and summary
     def write_modes(self, frequencies_hz) -> None:
@@ -1021,12 +819,9 @@ class ResultWriter:
         if self._state_keys is not None and self.out_dir is not None:
             merged["state_file"] = STATE_H5_FILE if self._use_h5 else STATE_NPZ_FILE
             merged["state_rows"] = self._state_rows_on_disk
-        if self._frames:
-            series = sorted({part for _, _, names in self._frames for part in names},
-                            key=lambda part: (part != "beams", part))
-            merged["paraview"] = f"{PARAVIEW_DIR}/{series[0]}.pvd"
-            merged["paraview_series"] = [f"{PARAVIEW_DIR}/{part}.pvd" for part in series]
-            merged["paraview_frames"] = len(self._frames) - len(self._missing_frames)
+        if self._paraview is not None and self._paraview.files:
+            merged["paraview_files"] = self._paraview.files
+            merged["paraview_frames"] = self._paraview.frames
         if self._modes is not None:
             merged["modes"] = int(self._modes.size)
         return _json_safe(merged)
@@ -1050,7 +845,8 @@ class ResultWriter:
             self.checkpoint()
         finally:
             try:
-                self._write_last_frame()
+                if self._paraview is not None:
+                    self._paraview.close()  # the last record's frame when the schedule skipped it
             except Exception as exc:  # the other files are still finished; see below
                 frame_error = exc
                 summary = dict(summary or {}, paraview_error=f"{type(exc).__name__}: {exc}")

@@ -282,6 +282,8 @@ class Solve:
 @dataclass
 class Output:
     every: float | None = None
+    #: time between ParaView frames; None: the package's choice (latdyn.paraview.default_every); 0: none
+    paraview_every: float | None = None
     probes: list[Probe] = field(default_factory=list)
 
 
@@ -1155,15 +1157,18 @@ def _build(raw: Any, file: str) -> Scene:
     out_spec = raw.get("output")
     if out_spec is None:
         out_spec = {}
-    r.mapping(out_spec, "output", ("every", "probes"))
+    r.mapping(out_spec, "output", ("every", "paraview_every", "probes"))
     every = r.number(out_spec["every"], "output.every", positive=True) if out_spec.get("every") is not None \
         else None
+    paraview_every = None
+    if out_spec.get("paraview_every") is not None:
+        paraview_every = r.number(out_spec["paraview_every"], "output.paraview_every", nonnegative=True)
     probes = r.probes(out_spec.get("probes"), "output.probes")
 
     return Scene(
         title=title, file=file, source_hash=_canonical_hash(raw), gravity=gravity,
         initial_velocity=initial_velocity, sections=r.sections, bodies=r.bodies, beams=r.beams,
-        loads=loads, solve=solve, output=Output(every=every, probes=probes), raw=raw,
+        loads=loads, solve=solve, output=Output(every=every, paraview_every=paraview_every, probes=probes), raw=raw,
     )
 
 

@@ -12,13 +12,14 @@ import numpy as np
 
 from . import __version__
 from . import checkpoint as checkpoints
+from . import paraview
 from .analysis import modal_analysis, static_analysis
 from .assembly import Assembler, State, advance, free_velocity, initial_state, orthonormalize, pack, unpack_free
 from .errors import SceneError, SolverError
 from .integrators import AlphaParameters, CentralDifference, GeneralizedAlpha, newton_diagnosis
 from .kernels import load_kernels
 from .model import Model
-from .probes import SECTION_QUANTITIES, ProbeSet, section_forces
+from .probes import ProbeSet
 from .results import ResultsError, ResultWriter, progress_bar, state_labels
 from .scene import Scene, load_scene
 
@@ -73,69 +74,18 @@ def _length_scale(model: Model) -> float:
     return max(span, 1e-3)
 
 
-def _mesh(model: Model, state: State) -> dict:
-    """The ParaView parts (see latdyn.results): ``beams``, the grid points (one per model
-    node and grid offset, shared by the elements that meet there) with the elements as
-    lines; ``bodies``, every joint body as a vertex and a line from it to each grid point
-    at an offset from it. Besides what the writer reads, each part keeps ``node`` and
-    ``offset`` (r_g in node axes) of its points, their positions ``p0`` in ``state`` (t = 0)
-    and its constant cell data."""
-    ends = model.element_nodes.reshape(-1)
-    offsets = model.element_offsets.reshape(-1, 3)
-    _, first, inverse = np.unique(np.column_stack([ends, offsets]), axis=0, return_index=True,
-                                  return_inverse=True)
-    order = np.argsort(first)  # points in order of first use: a beam's points run start → end
-    rank = np.empty_like(order)
-    rank[order] = np.arange(len(order))
-    node, offset = ends[first[order]], offsets[first[order]]
-    beam_index = {name: i for i, name in enumerate(model.beam_elements)}
-
-    def positions(nodes, r):
-        return state.x[nodes] + np.einsum("nij,nj->ni", state.T[nodes], r)
-
-    mesh = {"beams": {"n_points": len(node), "cells": [("line", rank[inverse.reshape(-1)].reshape(-1, 2))],
-                      "node": node, "offset": offset, "p0": positions(node, offset),
-                      "cell_data": {"beam": np.array([beam_index[b] for b in model.element_beam], dtype=np.int64)}}}
-    names = list(model.body_node)
-    if names:
-        body_nodes = np.array([model.body_node[b] for b in names], dtype=np.int64)
-        body_of_node = np.full(len(model.nodes), -1, dtype=np.int64)
-        body_of_node[body_nodes] = np.arange(len(names))
-        arm = (body_of_node[node] >= 0) & np.any(offset != 0.0, axis=1)
-        n_b, n_c = len(names), int(arm.sum())
-        points_node = np.concatenate([body_nodes, node[arm]])
-        points_offset = np.concatenate([np.zeros((n_b, 3)), offset[arm]])
-        cell_body = np.concatenate([np.arange(n_b), body_of_node[node[arm]]])
-        mass = np.array([model.scene.bodies[b].mass for b in names], float)
-        mesh["bodies"] = {
-            "n_points": n_b + n_c,
-            "cells": [("vertex", np.arange(n_b).reshape(-1, 1)),
-                      ("line", np.column_stack([body_of_node[node[arm]], n_b + np.arange(n_c)]))],
-            "node": points_node, "offset": points_offset, "p0": positions(points_node, points_offset),
-            "cell_data": {"body": cell_body, "mass": np.concatenate([mass, np.zeros(n_c)]),
-                          "kind": np.array([model.nodes[i].kind for i in body_nodes[cell_body]], dtype=np.int64)},
-        }
-    return mesh
-
-
-def _grid_points(assembler: Assembler, mesh: dict, state: State) -> dict:
-    """One ParaView frame of ``state`` for the parts of :func:`_mesh` (vectorized)."""
-    if assembler.model.links is not None:
-        assembler.model.links.complete(state)
-    frame = {}
-    for name, part in mesh.items():
-        nodes = part["node"]
-        R = state.T[nodes]
-        r = np.einsum("nij,nj->ni", R, part["offset"])  # T r_g
-        points = state.x[nodes] + r
-        point_data = {"displacement": points - part["p0"], "velocity": state.v[nodes] + np.cross(state.w[nodes], r)}
-        cell_data = dict(part["cell_data"])
-        if name == "beams":
-            cell_data.update(zip(SECTION_QUANTITIES, section_forces(assembler, state).T))
-        else:
-            point_data.update(angular_velocity=state.w[nodes], axis_x=R[:, :, 0], axis_y=R[:, :, 1], axis_z=R[:, :, 2])
-        frame[name] = {"points": points, "point_data": point_data, "cell_data": cell_data}
-    return frame
+def _paraview_every(scene: Scene) -> float | None:
+    """The time between ParaView frames (``output.paraview_every``; by default
+    :func:`latdyn.paraview.default_every`); for static runs in load factor, a frame per load
+    step thinned the same way; None for modal runs (no frames)."""
+    solve, output = scene.solve, scene.output
+    if solve.analysis == "modes":
+        return None
+    if solve.analysis == "static":
+        return 0.0 if output.paraview_every == 0 else paraview.default_every(1.0, 1.0 / solve.steps)
+    if output.paraview_every is not None:
+        return output.paraview_every
+    return paraview.default_every(solve.t_end, output.every or solve.dt)
 
 
 def run(scene, out_dir=None, backend: str = "auto", progress: bool = False, *, resume: bool = False,
@@ -174,18 +124,15 @@ def run(scene, out_dir=None, backend: str = "auto", progress: bool = False, *, r
     meta = {"analysis": analysis, "title": scene.title, "coordinates": model.n_dofs,
             "elements": len(model.element_nodes), "backend": kernel_backend,
             "formulation": scene.solve.formulation}
-    frames = None
-    if analysis == "transient":
-        every = scene.output.every or scene.solve.dt
-        frames = int(np.ceil(scene.solve.t_end / every)) + 1
     try:
-        writer = ResultWriter(out_dir, probes.names, first_column=first, mesh=_mesh(model, prepared.state), meta=meta,
+        writer = ResultWriter(out_dir, probes.names, first_column=first, mesh=paraview.parts(model, prepared.state),
+                              meta=meta,
                               labels=state_labels([n.name for n in model.nodes],
                                                   [f"{h.beam}.{h.end}" for h in model.hinges]),
                               attributes={"nodes": [n.name for n in model.nodes],
                                           "hinges": [f"{h.beam}.{h.end}" for h in model.hinges],
                                           "coordinates": model.dof_names()},
-                              max_frames=200, expected_frames=frames,
+                              paraview_every=_paraview_every(scene),
                               resume=None if resume_from is None else resume_from.writer)
     except ResultsError as exc:  # resuming: files that do not hold what the checkpoint recorded
         raise checkpoints.CheckpointError(f"{exc}") from exc
@@ -508,13 +455,13 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
     bookmark = writer.bookmark()
     last_recorded = None if resume_from is None else resume_from.last_recorded
     if last_recorded is not None:
-        writer.reattach_last_frame(lambda snapshot=last_recorded: _grid_points(assembler, writer.mesh, snapshot))
+        writer.reattach_last_frame(lambda snapshot=last_recorded: paraview.frame(assembler, writer.mesh, snapshot))
 
     def accepted() -> tuple:
         kept = copy.copy(run)  # dataclasses.replace without its per-field checks (once a row)
         kept.cut_times = list(run.cut_times)
         return (kept, run.external_work, bookmark,
-                last_recorded if bookmark["unwritten"] is not None else None)
+                last_recorded if (bookmark["paraview"] or {}).get("unwritten") is not None else None)
 
     def record(s: State, energies: dict) -> None:
         nonlocal bookmark, last_recorded
@@ -526,7 +473,7 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
                                abs(energies["potential"] - run.potential0), abs(probes.external_work))
         snapshot = s.copy()
         writer.record(s.t, probes.values(s, energies), state=s.as_dict(),
-                      frame=lambda: _grid_points(assembler, writer.mesh, snapshot))
+                      frame=lambda: paraview.frame(assembler, writer.mesh, snapshot))
         bookmark, last_recorded = writer.bookmark(), snapshot
 
     def summarize() -> None:

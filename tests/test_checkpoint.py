@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import json
 import signal
-import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
@@ -14,6 +13,7 @@ import yaml
 import latdyn
 from latdyn import checkpoint, cli, results, solve
 from latdyn.results import Result, ResultWriter, load_state_history
+from vtkhdf_frames import assert_same_frames, read_frames
 
 #: resumed and uninterrupted files agree to this (measured: bit for bit, 0.0)
 EXACT = 1e-12
@@ -51,8 +51,8 @@ def arm3d(lock_b=-0.9, every=0.01, **solve_options):
 SCENES = {
     # generalized-α; interrupted between the two latches
     "generalized-alpha": (arm3d(), 0.25),
-    # every step recorded: 302 rows, ParaView stride 2, the frames of the checkpoint (row 151)
-    # and of the last row unwritten by the stride
+    # every step recorded: 302 rows, a ParaView frame every 2 (paraview.default_every), the frames
+    # of the checkpoint (row 151) and of the last row not due
     "explicit": (arm3d(method="explicit", dt=1e-4, t_end=0.0301, every=None), 0.0151),
     # step-size control with rejected steps, across the first latch
     "adaptive": (arm3d(adaptive=True, error_tol=1e-4, t_end=0.3), 0.2),
@@ -101,13 +101,9 @@ def assert_same_files(uninterrupted: Path, resumed: Path, ignore=()) -> float:
     worst = relative_difference(uninterrupted, resumed)
     assert worst <= EXACT
     files = lambda p: sorted(f.name for f in (p / "paraview").iterdir())  # noqa: E731
-    assert files(resumed) == files(uninterrupted)
-    for pvd in (uninterrupted / "paraview").glob("*.pvd"):
-        assert (resumed / "paraview" / pvd.name).read_text() == pvd.read_text()
-    # the last frame's data too
-    last = ET.parse(uninterrupted / "paraview" / "beams.pvd").getroot().findall("./Collection/DataSet")[-1]
-    name = last.get("file")
-    assert (resumed / "paraview" / name).read_bytes() == (uninterrupted / "paraview" / name).read_bytes()
+    assert files(resumed) == files(uninterrupted) == ["beams.vtkhdf", "bodies.vtkhdf"]
+    for name in files(uninterrupted):  # every frame, read by VTK: bit for bit
+        assert_same_frames(uninterrupted / "paraview" / name, resumed / "paraview" / name)
     a = json.loads((uninterrupted / "summary.json").read_text())
     b = json.loads((resumed / "summary.json").read_text())
     extra = {"wall_time_s", "solver_s", "compile_s", "resumed_from_t", "resumes", *ignore}
@@ -146,7 +142,7 @@ def test_interrupted_and_resumed_run_equals_the_uninterrupted_one(name, tmp_path
     if name == "generalized-alpha":  # one hinge latched before the checkpoint, the other after it
         assert saved.progress.locked.tolist() == [True, False]
     if name == "explicit":
-        assert saved.writer["unwritten"] is not None and saved.last_recorded is not None
+        assert saved.writer["paraview"]["unwritten"] is not None and saved.last_recorded is not None
     if name == "adaptive":
         assert saved.progress.rejected_steps > 0
 
@@ -194,7 +190,7 @@ def test_crash_after_a_periodic_checkpoint_is_cut_back_and_resumed(state_file, t
 
 def test_interrupt_after_the_last_step_resumes_to_the_same_files(tmp_path, monkeypatch, uninterrupted):
     """Ctrl-C while the finished run closes its files: the checkpoint of the last step is
-    resumed without a step, and the last row's frame (skipped by the stride) is still written."""
+    resumed without a step, and the last row's frame (not due) is still written."""
     scene, _ = SCENES["explicit"]
     out = tmp_path / "out"
     close = ResultWriter.close
@@ -212,16 +208,16 @@ def test_interrupt_after_the_last_step_resumes_to_the_same_files(tmp_path, monke
         with pytest.raises(KeyboardInterrupt):
             latdyn.run(scene, out)
     saved = checkpoint.load(out, checkpoint.identity(latdyn.load_scene(scene)))
-    assert saved.t == 0.0301 and saved.writer["unwritten"] == [301, 0.0301]
-    (out / "paraview" / "frame_00301.vtu").unlink()  # as if killed before close() wrote it
+    assert saved.t == 0.0301 and saved.writer["paraview"]["unwritten"] == 0.0301
+    # the interrupted close() wrote the last frame; resuming cuts it off and writes it again
+    assert saved.writer["paraview"]["frames"] == 151
     latdyn.run(scene, out, resume=True)
     assert_same_files(uninterrupted("explicit"), out)
 
 
-def test_a_resumed_writer_continues_through_frame_subsampling(tmp_path):
-    """Bookmark, go on (the stride doubles and deletes listed frames), crash, reopen at the
-    bookmark and record again: the files equal those of one uninterrupted writer."""
-    pytest.importorskip("meshio")
+def test_a_resumed_writer_continues_the_frame_schedule(tmp_path):
+    """Bookmark, go on, crash, reopen at the bookmark and record again: the files equal those of
+    one uninterrupted writer (frames every 0.3 s of rows every 0.1 s, the last one at close)."""
     mesh = {"lines": np.array([[0, 1]]), "n_nodes": 2}
 
     def rows(writer, indices):
@@ -229,29 +225,27 @@ def test_a_resumed_writer_continues_through_frame_subsampling(tmp_path):
             writer.record(0.1 * i, [i, -i], state={"x": np.array([i, 2.0 * i])},
                           node_positions=np.array([[0.0, 0, 0], [1.0, i, 0]]))
 
-    with ResultWriter(tmp_path / "a", ["p", "q"], mesh=mesh, max_frames=4) as writer:
+    with ResultWriter(tmp_path / "a", ["p", "q"], mesh=mesh, paraview_every=0.3) as writer:
         rows(writer, range(20))
-    with pytest.raises(KeyboardInterrupt), ResultWriter(tmp_path / "b", ["p", "q"], mesh=mesh, max_frames=4) as w:
+    with pytest.raises(KeyboardInterrupt), ResultWriter(tmp_path / "b", ["p", "q"], mesh=mesh, paraview_every=0.3) as w:
         rows(w, range(6))
         mark = w.bookmark()
         w.checkpoint()
-        rows(w, range(6, 15))  # the stride doubles from 2 to 4: frame 2, listed in the bookmark, goes
+        rows(w, range(6, 15))
         raise KeyboardInterrupt
-    assert mark["unwritten"] == [5, 0.5] and [f[0] for f in mark["frames"]] == [0, 2, 4]
-    with ResultWriter(tmp_path / "b", ["p", "q"], mesh=mesh, max_frames=4, resume=mark) as writer:
-        # reopened: the series lists only frames on disk (frame 2 is gone), none after the bookmark
-        listed = [d.get("file") for d in
-                  ET.parse(tmp_path / "b" / "paraview" / "beams.pvd").getroot().findall("./Collection/DataSet")]
-        assert listed == ["frame_00000.vtu", "frame_00004.vtu"]
-        assert sorted(p.name for p in (tmp_path / "b" / "paraview").glob("*.vtu")) == listed
+    assert mark["paraview"]["unwritten"] == 0.5 and mark["paraview"]["frames"] == 2
+    with ResultWriter(tmp_path / "b", ["p", "q"], mesh=mesh, paraview_every=0.3, resume=mark) as writer:
+        # reopened: the file holds the bookmark's frames (0, 0.3), none after it
+        assert [f.t for f in read_frames(tmp_path / "b" / "paraview" / "beams.vtkhdf")] == [0.0, 0.1 * 3]
         assert len(Result.load(tmp_path / "b").t) == 6
         writer.reattach_last_frame({"beams": {"points": np.array([[0.0, 0, 0], [1.0, 5, 0]])}})
         rows(writer, range(6, 20))
     a, b = tmp_path / "a", tmp_path / "b"
     assert (b / "probes.csv").read_bytes() == (a / "probes.csv").read_bytes()
     assert relative_difference(a, b) == 0.0
-    assert sorted(p.name for p in (b / "paraview").iterdir()) == sorted(p.name for p in (a / "paraview").iterdir())
-    assert (b / "paraview" / "beams.pvd").read_text() == (a / "paraview" / "beams.pvd").read_text()
+    assert sorted(p.name for p in (b / "paraview").iterdir()) == ["beams.vtkhdf"]
+    assert_same_frames(a / "paraview" / "beams.vtkhdf", b / "paraview" / "beams.vtkhdf")
+    assert len(read_frames(a / "paraview" / "beams.vtkhdf")) == 8  # 0, 0.3, …, 1.8 and 1.9
     sa, sb = (json.loads((p / "summary.json").read_text()) for p in (a, b))
     assert {k: v for k, v in sa.items() if k != "wall_time_s"} == {k: v for k, v in sb.items() if k != "wall_time_s"}
 

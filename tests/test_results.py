@@ -1,4 +1,4 @@
-"""Result files: round trip, crash safety (exception, SIGKILL), ParaView frames, pickling."""
+"""Result files: round trip, crash safety (exception, SIGKILL), pickling (ParaView frames: test_paraview.py)."""
 from __future__ import annotations
 
 import json
@@ -8,7 +8,6 @@ import signal
 import subprocess
 import sys
 import textwrap
-import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
@@ -165,40 +164,6 @@ def test_sigkill_after_checkpoint_leaves_readable_files(tmp_path):
     assert not list(out.glob("*.tmp"))
 
 
-def test_paraview_frames_are_readable(tmp_path):
-    meshio = pytest.importorskip("meshio")
-    lines = np.array([[0, 1], [1, 2], [2, 3]])
-    x0 = np.column_stack([np.arange(4.0), np.zeros(4), np.zeros(4)])
-    with ResultWriter(tmp_path, ["x"], mesh={"lines": lines, "n_nodes": 4}) as writer:
-        for i in range(3):
-            u = np.zeros((4, 3))
-            u[:, 1] = 0.1 * i * np.arange(4.0)
-            writer.record(0.5 * i, [i], node_positions=x0 + u,
-                          node_data={"displacement": u, "axial_force": np.full(4, float(i))})
-    pvd = ET.parse(tmp_path / "paraview" / "beams.pvd").getroot()
-    datasets = pvd.findall("./Collection/DataSet")
-    assert [float(d.get("timestep")) for d in datasets] == [0.0, 0.5, 1.0]
-    last = meshio.read(tmp_path / "paraview" / datasets[-1].get("file"))
-    np.testing.assert_allclose(last.points[:, 1], 0.2 * np.arange(4.0))
-    np.testing.assert_array_equal(last.cells_dict["line"], lines)
-    np.testing.assert_allclose(last.point_data["axial_force"], 2.0)
-    assert last.point_data["displacement"].shape == (4, 3)
-
-
-def test_paraview_frames_are_subsampled_evenly(tmp_path):
-    pytest.importorskip("meshio")
-    mesh = {"lines": np.array([[0, 1]]), "n_nodes": 2}
-    with ResultWriter(tmp_path, ["x"], mesh=mesh, max_frames=4) as writer:
-        for i in range(11):
-            writer.record(float(i), [i], node_positions=np.array([[0.0, 0, 0], [1.0, i, 0]]))
-    files = sorted(p.name for p in (tmp_path / "paraview").glob("*.vtu"))
-    # evenly spaced, and the last recorded row (candidate 10, skipped by the stride) too
-    assert files == ["frame_00000.vtu", "frame_00004.vtu", "frame_00008.vtu", "frame_00010.vtu"]
-    datasets = ET.parse(tmp_path / "paraview" / "beams.pvd").getroot().findall("./Collection/DataSet")
-    assert [d.get("file") for d in datasets] == files
-    assert [float(d.get("timestep")) for d in datasets] == [0.0, 4.0, 8.0, 10.0]
-
-
 def test_modes_csv(tmp_path):
     with ResultWriter(tmp_path, []) as writer:
         writer.write_modes([0.0, 1.5, 3.25])
@@ -263,77 +228,6 @@ def test_progress_bar_disabled_and_enabled(capsys):
     assert capsys.readouterr().out == ""
 
 
-# ----------------------------------------------------------------------------- frames: the writer
-def _pvd(path: Path) -> list[tuple[float, str]]:
-    datasets = ET.parse(path).getroot().findall("./Collection/DataSet")
-    return [(float(d.get("timestep")), d.get("file")) for d in datasets]
-
-
-def test_last_frame_survives_the_stride_doubling(tmp_path):
-    pytest.importorskip("meshio")
-    mesh = {"lines": np.array([[0, 1]]), "n_nodes": 2}
-    with ResultWriter(tmp_path, ["x"], mesh=mesh, max_frames=3) as writer:
-        for i in range(4):  # the 4th frame doubles the stride and is itself thinned out
-            writer.record(0.25 * i, [i], node_positions=np.array([[0.0, 0, 0], [1.0, i, 0]]))
-    assert _pvd(tmp_path / "paraview" / "beams.pvd") == [
-        (0.0, "frame_00000.vtu"), (0.5, "frame_00002.vtu"), (0.75, "frame_00003.vtu")]
-    assert sorted(p.name for p in (tmp_path / "paraview").iterdir()) == [
-        "beams.pvd", "frame_00000.vtu", "frame_00002.vtu", "frame_00003.vtu"]
-
-
-def test_frame_callables_are_called_only_for_written_frames_and_the_last_one_on_failure(tmp_path):
-    meshio = pytest.importorskip("meshio")
-    mesh = {"beams": {"n_points": 2, "cells": [("line", [[0, 1]])]}}
-    calls = []
-
-    def frame(i):
-        def build():
-            calls.append(i)
-            return {"beams": {"points": [[0.0, 0, 0], [1.0, float(i), 0]], "point_data": {},
-                              "cell_data": {"axial_force": [float(i)]}}}
-        return build
-
-    with pytest.raises(RuntimeError):
-        with ResultWriter(tmp_path, ["x"], mesh=mesh, expected_frames=10, max_frames=5) as writer:
-            for i in range(8):
-                writer.record(0.1 * i, [i], frame=frame(i))
-            raise RuntimeError("solver failed")
-    assert calls == [0, 2, 4, 6, 7]  # stride 2; the last row's frame at close
-    frames = _pvd(tmp_path / "paraview" / "beams.pvd")
-    assert [f for _, f in frames][-1] == "frame_00007.vtu"
-    assert frames[-1][0] == 0.1 * 7  # the exact recorded time
-    last = meshio.read(tmp_path / "paraview" / "frame_00007.vtu")
-    np.testing.assert_array_equal(last.cell_data["axial_force"][0], [7.0])
-    assert json.loads((tmp_path / "summary.json").read_text())["status"] == "failed"
-
-
-def test_frames_with_several_parts_and_cell_data(tmp_path):
-    meshio = pytest.importorskip("meshio")
-    mesh = {"beams": {"n_points": 3, "cells": [("line", [[0, 1], [1, 2]])]},
-            "bodies": {"n_points": 3, "cells": [("vertex", [[0], [1]]), ("line", [[0, 2]]), ("line", np.zeros((0, 2)))]}}
-    frame = {"beams": {"points": np.eye(3), "point_data": {"velocity": np.ones((3, 3))},
-                       "cell_data": {"torque": [1.0, 2.0]}},
-             "bodies": {"points": np.zeros((3, 3)), "point_data": {"angular_velocity": np.zeros((3, 3))},
-                        "cell_data": {"mass": [3.0, 4.0, 0.0], "body": np.array([0, 1, 0])}}}
-    with ResultWriter(tmp_path, [], mesh=mesh) as writer:
-        writer.record(0.0, [], frame=frame)
-        with pytest.raises(ValueError, match="cell data 'torque'"):
-            writer.record(1.0, [], frame=dict(frame, beams=dict(frame["beams"], cell_data={"torque": [1.0]})))
-        with pytest.raises(ValueError, match="parts"):
-            writer.record(2.0, [], frame={"beams": frame["beams"]})
-    summary = json.loads((tmp_path / "summary.json").read_text())
-    assert summary["paraview"] == "paraview/beams.pvd"
-    assert summary["paraview_series"] == ["paraview/beams.pvd", "paraview/bodies.pvd"]
-    assert [f for _, f in _pvd(tmp_path / "paraview" / "bodies.pvd")] == ["bodies_00000.vtu"]
-    bodies = meshio.read(tmp_path / "paraview" / "bodies_00000.vtu")
-    assert [c.type for c in bodies.cells] == ["vertex", "line"]  # the empty block is left out
-    np.testing.assert_array_equal(bodies.cell_data["mass"][0], [3.0, 4.0])
-    np.testing.assert_array_equal(bodies.cell_data["mass"][1], [0.0])
-    beams = meshio.read(tmp_path / "paraview" / "frame_00000.vtu")
-    np.testing.assert_array_equal(beams.cell_data["torque"][0], [1.0, 2.0])
-    np.testing.assert_array_equal(beams.points, np.eye(3))
-
-
 @pytest.mark.parametrize("backend", ["h5", "npz"])
 def test_state_labels_are_stored(tmp_path, monkeypatch, backend):
     if backend == "npz":
@@ -383,65 +277,12 @@ RUN_SCENE = {
 
 @pytest.fixture(scope="module")
 def run_out(tmp_path_factory):
-    pytest.importorskip("meshio")
     pytest.importorskip("h5py")
     import latdyn
 
     out = tmp_path_factory.mktemp("run") / "out"
     result = latdyn.run(RUN_SCENE, out_dir=out)
     return out, Result.load(out), result
-
-
-def test_run_beam_frames_share_points_and_carry_the_probe_values(run_out):
-    import meshio
-
-    out, loaded, _ = run_out
-    frames = _pvd(out / "paraview" / "beams.pvd")
-    rows = loaded.t.size
-    assert rows == 202 and 100 < len(frames) <= 201
-    assert frames[-1] == (RUN_SCENE["solve"]["t_end"], f"frame_{rows - 1:05d}.vtu")  # the last row, exactly t_end
-    assert set(t for t, _ in frames) <= set(loaded.t.tolist())  # exact recorded times
-    mesh = meshio.read(out / "paraview" / frames[-1][1])
-    n_elements = RUN_SCENE["beams"]["arm"]["elements"]
-    assert mesh.points.shape == (n_elements + 1, 3)  # shared: one polyline
-    np.testing.assert_array_equal(mesh.cells_dict["line"], [[0, 1], [1, 2], [2, 3], [3, 4]])
-    assert set(mesh.point_data) == {"displacement", "velocity"}
-    assert all(a.shape == (n_elements + 1, 3) for a in mesh.point_data.values())
-    assert set(mesh.cell_data) == {"axial_force", "torque", "moment_y", "moment_z", "beam"}
-    assert all(len(a) == 1 and a[0].shape == (n_elements,) for a in mesh.cell_data.values())
-    axial = mesh.cell_data["axial_force"][0]
-    np.testing.assert_allclose(axial[[0, 3]], [loaded.probes["n0"][-1], loaded.probes["n3"][-1]], rtol=1e-12)
-    np.testing.assert_allclose(mesh.cell_data["moment_z"][0][3], loaded.probes["m3"][-1], rtol=1e-12)
-    assert abs(axial[0]) > 1.0  # the spin loads the arm: a real comparison
-    # grid points: the start at its offset from the hub, the end at the tip body
-    np.testing.assert_allclose(mesh.point_data["displacement"][0, 0], loaded.probes["start_dx"][-1], rtol=1e-12)
-    np.testing.assert_allclose(mesh.point_data["velocity"][0, 0], loaded.probes["start_vx"][-1], rtol=1e-12)
-    np.testing.assert_allclose(mesh.point_data["velocity"][-1, 1], loaded.probes["tip_vy"][-1], rtol=1e-12)
-    assert abs(loaded.probes["start_vx"][-1]) > 1e-3  # ω × T r_g of the offset: not zero
-    first = meshio.read(out / "paraview" / frames[0][1])
-    np.testing.assert_allclose(first.points[:, 0], [0.1, 0.35, 0.6, 0.85, 1.1], atol=1e-15)
-    np.testing.assert_array_equal(first.point_data["displacement"], 0.0)
-
-
-def test_run_bodies_series_shows_the_joints(run_out):
-    import meshio
-
-    out, loaded, _ = run_out
-    frames = _pvd(out / "paraview" / "bodies.pvd")
-    assert [t for t, _ in frames] == [t for t, _ in _pvd(out / "paraview" / "beams.pvd")]
-    bodies = meshio.read(out / "paraview" / frames[-1][1])
-    beams = meshio.read(out / "paraview" / _pvd(out / "paraview" / "beams.pvd")[-1][1])
-    np.testing.assert_array_equal(bodies.cells_dict["vertex"], [[0], [1]])  # hub, tip
-    np.testing.assert_array_equal(bodies.cells_dict["line"], [[0, 2]])  # hub → the offset grid point
-    np.testing.assert_allclose(bodies.points[0], 0.0, atol=1e-15)  # the hub does not move
-    np.testing.assert_allclose(bodies.points[2], beams.points[0], rtol=1e-14)
-    np.testing.assert_allclose(bodies.points[1], beams.points[-1], rtol=1e-14)
-    np.testing.assert_allclose(np.linalg.norm(bodies.points[2] - bodies.points[0]), 0.1, rtol=1e-12)
-    assert set(bodies.point_data) == {"displacement", "velocity", "angular_velocity", "axis_x", "axis_y", "axis_z"}
-    np.testing.assert_allclose(bodies.point_data["angular_velocity"][0], [0, 0, 40 * loaded.t[-1]], rtol=1e-12)
-    np.testing.assert_array_equal(np.concatenate(bodies.cell_data["mass"]), [0.0, 0.5, 0.0])
-    np.testing.assert_array_equal(np.concatenate(bodies.cell_data["body"]), [0, 1, 0])
-    np.testing.assert_array_equal(np.concatenate(bodies.cell_data["kind"]), [1, 0, 1])  # prescribed, free
 
 
 def test_run_state_history_is_labelled(run_out):

@@ -29,7 +29,7 @@ def test_shipped_example_runs_through_the_command_line(tmp_path):
     summary = json.loads((out / "summary.json").read_text())
     assert summary["status"] == "solved" and summary["steps"] == 100
     assert (out / "state.h5").exists() or (out / "state.npz").exists()
-    assert (out / "paraview" / "beams.pvd").exists()
+    assert (out / "paraview" / "beams.vtkhdf").exists()
     check = subprocess.run([sys.executable, "-m", "latdyn", "check", str(scene)], capture_output=True, text=True)
     assert check.returncode == 0 and "coordinates" in check.stdout
 
