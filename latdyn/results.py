@@ -41,7 +41,7 @@ One :class:`ResultWriter` per run writes, into ``out_dir``:
 
 ``paraview/beams.vtkhdf``, ``paraview/bodies.vtkhdf``
     One transient VTKHDF file per part of ``mesh`` (``beams``, and ``bodies`` for a run with
-    joint bodies), frames appended and flushed as they are recorded, at ``paraview_every``;
+    joint bodies), frames appended in blocks (and at checkpoints and close), at ``paraview_every``;
     what the parts hold and the file layout: :mod:`latdyn.paraview`. Open them in ParaView
     (>= 5.12) or read them with VTK's ``vtkHDFReader``.
 
@@ -711,10 +711,11 @@ class ResultWriter:
             self.checkpoint()
 
     def checkpoint(self) -> None:
-        """Rewrite the state history on disk now (atomically), with every row so far (ParaView
-        frames are on disk as soon as they are recorded); the probe rows not yet in probes.csv
-        go there first."""
+        """Rewrite the state history on disk now (atomically), with every row so far; the probe
+        rows not yet in probes.csv and the ParaView frames not yet in their files go there first."""
         self._flush_rows()
+        if self._paraview is not None:
+            self._paraview.write_pending()
         if self.out_dir is None or self._state_keys is None:
             return
         if self._use_h5 and not self._pending_t:
