@@ -11,6 +11,13 @@ stopped:
   try next, grid and output indices, latched hinges, work and energy bookkeeping,
   counters, cut times),
 * the probes' ``external_work``,
+* modified Newton's held factorization (compiled step, ``solve.newton: modified``):
+  the step size it belongs to and the factorized iteration matrix with its pivots
+  (:meth:`latdyn.engine.CompiledGeneralizedAlpha.factorization_state`), so that the
+  resumed run reuses the matrix where the uninterrupted one does; none with full
+  Newton, the Python step or the explicit method, and none where the next step
+  rebuilds it anyway (no factorization held, a latch just renumbered the
+  coordinates, the inertia tangent was just switched on),
 * the result writer's bookmark (:meth:`latdyn.results.ResultWriter.bookmark`:
   rows, state rows and ParaView frames recorded), and the state of the last
   recorded row when its ParaView frame is not on disk yet (written at the end),
@@ -20,6 +27,17 @@ stopped:
 The file is an NPZ of plain arrays plus one JSON document (no pickle: loading a
 checkpoint runs no code). Floats go through JSON as ``repr``, which round-trips
 float64 exactly, so a resumed run continues bit for bit.
+
+One case is not bit for bit: the factorization is taken from the engine when the
+checkpoint is written, and only while the engine still holds the last accepted
+step's. A checkpoint written after the engine moved on carries none, and the
+resumed run factorizes at its first step where the uninterrupted one reused the
+held matrix (its results then differ within the Newton tolerance). That happens
+when an interrupt or a failure arrives after a step began (the steps it took since
+the last accepted one are not in the checkpoint anyway), or when a periodic
+checkpoint falls on a row where the compiled loop of steps gave back a step that
+factorized or failed (a hinge event, a Newton failure). An interrupt between steps
+(Ctrl-C or SIGTERM delivered in Python), and periodic checkpoints otherwise, are exact.
 
 A checkpoint of another format, package version, scene, formulation, method or
 backend is refused with :class:`CheckpointError` (exit status 2), naming the file
@@ -41,7 +59,8 @@ __all__ = ["CHECKPOINT_FILE", "FORMAT_VERSION", "DEFAULT_INTERVAL", "Checkpoint"
            "Checkpointer", "check", "discard", "identity", "load"]
 
 CHECKPOINT_FILE = "checkpoint.npz"
-FORMAT_VERSION = 1
+#: 2: the held factorization of modified Newton (``factorization``); 1: before it (refused)
+FORMAT_VERSION = 2
 #: default wall-clock seconds between two checkpoints
 DEFAULT_INTERVAL = 60.0
 _META_KEY = "__meta__"
@@ -61,6 +80,8 @@ class Checkpoint:
     last_recorded: object | None  # State of the last recorded row when its ParaView frame is unwritten
     identity: dict  # format, latdyn_version, scene_hash, formulation, method, backend
     resumes: int = 0  # how many times the run had been resumed when this was written
+    #: modified Newton's held factorization (engine.CompiledGeneralizedAlpha.factorization_state), or None
+    factorization: dict | None = None
 
     @property
     def t(self) -> float:
@@ -132,7 +153,8 @@ def _write(path: Path, checkpoint: Checkpoint) -> int:
                 "external_work": float(checkpoint.external_work),
                 "progress": _encode(checkpoint.progress, arrays, "progress"),
                 "writer": _encode(checkpoint.writer, arrays, "writer"),
-                "last_recorded": _encode(checkpoint.last_recorded, arrays, "last_recorded")}
+                "last_recorded": _encode(checkpoint.last_recorded, arrays, "last_recorded"),
+                "factorization": _encode(checkpoint.factorization, arrays, "factorization")}
     arrays[_META_KEY] = np.array(json.dumps(document))
     buffer = io.BytesIO()
     np.savez(buffer, **arrays)
@@ -186,7 +208,8 @@ def load(out_dir, expected: dict) -> Checkpoint:
                           external_work=float(document["external_work"]),
                           writer=_decode(document["writer"], arrays),
                           last_recorded=_decode(document["last_recorded"], arrays),
-                          identity=found, resumes=int(document.get("resumes", 0)))
+                          identity=found, resumes=int(document.get("resumes", 0)),
+                          factorization=_decode(document["factorization"], arrays))
     except (KeyError, TypeError, ValueError) as exc:
         raise CheckpointError(f"{path}: not a readable latdyn checkpoint ({type(exc).__name__}: {exc})") from exc
 
@@ -247,14 +270,15 @@ class Checkpointer:
         """Seconds until the next checkpoint is due (0 when it is)."""
         return max(0.0, self.interval - (time.perf_counter() - self._last))
 
-    def save(self, progress, external_work: float, bookmark: dict, last_recorded, writer) -> None:
+    def save(self, progress, external_work: float, bookmark: dict, last_recorded, writer,
+             factorization: dict | None = None) -> None:
         """Write a checkpoint of ``progress`` (a TransientProgress at an accepted step) with the
-        probes' ``external_work``, the writer's ``bookmark`` and ``last_recorded`` (see
-        :class:`Checkpoint`); ``writer`` is the run's ResultWriter."""
+        probes' ``external_work``, the writer's ``bookmark``, ``last_recorded`` and the held
+        ``factorization`` of that step (see :class:`Checkpoint`); ``writer`` is the run's ResultWriter."""
         began = time.perf_counter()
         writer.checkpoint()  # state rows on disk ≥ rows in the bookmark
         self.bytes = _write(self.path, Checkpoint(progress, external_work, bookmark, last_recorded,
-                                                  self.identity, self.resumes))
+                                                  self.identity, self.resumes, factorization))
         end = time.perf_counter()
         self.saves += 1
         self.seconds += end - began

@@ -325,6 +325,9 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         self.modified = newton == "modified"
         self.contraction = contraction
         self.factorizations = 0
+        #: bumped whenever the held factorization (Work matrix and pivots, factored_h) may change:
+        #: before each call into C that steps, on a rebuild of the buffers, on a restore
+        self._factor_version = 0
         self._key = None
         self._library = _library()
         self._last_trial = self._mass_for = None
@@ -333,12 +336,17 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         self._made = None  # (the last state made, its C view, the C view of its base)
 
     # -- the model as arrays, rebuilt when the numbering changes (a latch) --------------------
+    def _current_key(self) -> tuple:
+        model = self.assembler.model
+        return (model.n_dofs, model.locked.tobytes(), self.inertia_tangent)
+
     def _setup(self) -> None:
         model = self.assembler.model
-        key = (model.n_dofs, model.locked.tobytes(), self.inertia_tangent)
+        key = self._current_key()
         if key == self._key:
             return
         self._key = key
+        self._factor_version += 1
         a, m = self.assembler, model
         colour = node_colouring(m)
         keep = []  # arrays the C structures point into
@@ -589,6 +597,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         control = self._control
         control.h = h
         control.t_new = t_new
+        self._factor_version += 1
         failed = self._step(self._model_ref, self._work_ref, self._control_ref, ctypes.byref(base),
                             ctypes.byref(trial), self._vectors_ref, None if laws is None else laws.ctypes.data)
         self.factorizations += control.factorizations
@@ -631,6 +640,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         run = self._run
         run.dt, run.t_end, run.n_grid, run.grid_index, run.stop_index = dt, t_end, n_grid, grid_index, stop_index
         run.t, run.budget_s, run.power, run.external_work = state.t, budget_s, power, external_work
+        self._factor_version += 1
         self._library.latdyn_advance(self._model_ref, self._work_ref, self._control_ref, ctypes.byref(base),
                                      self._scratch_c, ctypes.byref(out_c), self._vectors_ref, self._run_ref)
         control = self._control
@@ -642,6 +652,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
             self.a = self._a_n[:n].copy()
             self._made = (last, out_c, None)
         pending = None
+        kept = True  # the held factorization is that of the last accepted step (or of `state`)
         if run.status in (1, 2):
             k = grid_index + run.steps
             trial, trial_c = self._new_state(t_end if k + 1 >= n_grid else (k + 1) * dt)
@@ -649,6 +660,9 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
             stats = StepStats(iterations=control.iterations, converged=run.status == 2,
                               factorizations=control.factorizations, contraction=control.contraction_seen)
             self.factorizations += control.factorizations
+            # the step given back ran on the held factorization: it is still the accepted step's
+            # unless that step factorized (or failed, which drops the factorization)
+            kept = stats.converged and control.factorizations == 0
             if stats.converged:
                 self.a_candidate = self._a_new[:n].copy()
             else:
@@ -659,7 +673,53 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
             pending = (trial, stats, run.h_pending)
         self.last_evaluation = _LastEvaluation(self._buffers["total"], n, model.n_total, control.power)
         return Advanced(state=last, steps=run.steps, iterations=run.iterations, factorizations=run.factorizations,
-                        power=run.power, external_work=run.external_work, status=run.status, pending=pending)
+                        power=run.power, external_work=run.external_work, status=run.status, pending=pending,
+                        factorization_kept=kept)
+
+    # -- the held factorization of modified Newton, for checkpoints (latdyn.checkpoint) -------
+    def factorization_mark(self) -> int:
+        """A token that changes whenever the held factorization may have changed (a step or a
+        loop of steps began, the buffers were rebuilt, a factorization was restored): equal
+        tokens mean the same held factorization."""
+        return self._factor_version
+
+    def factorization_state(self) -> dict | None:
+        """What modified Newton carries from one step to the next besides the state: the step
+        size the held factorization belongs to (``factored_h``) and copies of the factorized
+        matrix (dense LU, band LU or the sparse LU's numeric factor: all three factorize in
+        place in Work's ``matrix``) and of the pivots (dense and band LU). None when there is
+        nothing to carry: full Newton, no factorization held, or one of a numbering (a latch)
+        or an iteration matrix (the inertia tangent) that the next step will rebuild anyway."""
+        if not self.modified or self._key is None or self._key != self._current_key():
+            return None
+        h = float(self._control.factored_h)
+        if h == 0.0:
+            return None
+        return {"factored_h": h, "n_dofs": int(self.assembler.model.n_dofs),
+                "matrix": self._buffers["matrix"].copy(), "pivots": self._buffers["pivots"].copy()}
+
+    def restore_factorization(self, saved: dict | None) -> None:
+        """Hold ``saved`` (:meth:`factorization_state`) as the factorization of the next step,
+        after the buffers are set up for the model's current numbering (resume: latched hinges
+        and the inertia tangent set first). None: nothing held, the next step factorizes.
+        Raises ValueError when ``saved`` does not fit this model's matrix."""
+        self._setup()
+        self._factor_version += 1
+        self._control.factored_h = 0.0
+        if saved is None or not self.modified:
+            return
+        matrix, pivots = self._buffers["matrix"], self._buffers["pivots"]
+        got_matrix = np.asarray(saved["matrix"])
+        got_pivots = np.asarray(saved["pivots"])
+        if (int(saved["n_dofs"]) != self.assembler.model.n_dofs or got_matrix.shape != matrix.shape
+                or got_pivots.shape != pivots.shape):
+            raise ValueError(f"the saved factorization ({saved['n_dofs']} coordinates, matrix of "
+                             f"{got_matrix.size} entries, {got_pivots.size} pivots) does not fit this model "
+                             f"({self.assembler.model.n_dofs} coordinates, {matrix.size} entries, "
+                             f"{pivots.size} pivots)")
+        matrix[:] = got_matrix
+        pivots[:] = got_pivots
+        self._control.factored_h = float(saved["factored_h"])
 
     def energies(self, state: State) -> dict[str, float]:
         """:meth:`latdyn.assembly.Assembler.energies` in C (the time loop asks at every recorded row)."""
@@ -703,6 +763,9 @@ class Advanced:
     external_work: float
     status: int
     pending: tuple | None = None
+    #: whether the held factorization is still that of the last accepted step (False when the
+    #: step given back factorized or failed): a checkpoint of that step can carry it
+    factorization_kept: bool = True
 
 
 class _LastEvaluation:

@@ -448,6 +448,11 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
         integrator.a = run.algorithmic_acceleration
         integrator.inertia_tangent = run.inertia_tangent_from is not None
         probes.external_work = resume_from.external_work
+        if hasattr(integrator, "restore_factorization"):  # modified Newton's held matrix, as it was
+            try:
+                integrator.restore_factorization(resume_from.factorization)
+            except ValueError as exc:
+                raise checkpoints.CheckpointError(f"{exc}; the checkpoint does not belong to this model") from exc
 
     # the last accepted step, as a checkpoint keeps it: a shallow copy of `run` (the loop
     # replaces states and arrays, never changes them in place, once a step is accepted),
@@ -457,11 +462,27 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
     if last_recorded is not None:
         writer.reattach_last_frame(lambda snapshot=last_recorded: paraview.frame(assembler, writer.mesh, snapshot))
 
-    def accepted() -> tuple:
+    # modified Newton's held factorization (engine.CompiledGeneralizedAlpha): a checkpoint of the
+    # last accepted step carries it when the engine still holds that step's (its mark unchanged)
+    factorization_mark = getattr(integrator, "factorization_mark", None)
+
+    def accepted(kept_factorization: bool = True) -> tuple:
+        """The last accepted step as a checkpoint keeps it, and the mark of the factorization the
+        engine holds for it (None: not that step's, a checkpoint then carries none)."""
         kept = copy.copy(run)  # dataclasses.replace without its per-field checks (once a row)
         kept.cut_times = list(run.cut_times)
+        mark = factorization_mark() if factorization_mark is not None and kept_factorization else None
         return (kept, run.external_work, bookmark,
-                last_recorded if (bookmark["paraview"] or {}).get("unwritten") is not None else None)
+                last_recorded if (bookmark["paraview"] or {}).get("unwritten") is not None else None, mark)
+
+    def save_checkpoint(kept: tuple) -> None:
+        """Write the checkpoint of ``kept`` (accepted()), with the held factorization while the
+        engine has not moved on from that step (else without: the resumed run rebuilds it)."""
+        *fields, mark = kept
+        factorization = None
+        if mark is not None and mark == factorization_mark():
+            factorization = integrator.factorization_state()
+        checkpointer.save(*fields, writer, factorization)
 
     def record(s: State, energies: dict) -> None:
         nonlocal bookmark, last_recorded
@@ -499,11 +520,11 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
         summarize()
         bar.update(state.t)
 
-    def keep_accepted() -> tuple:
+    def keep_accepted(kept_factorization: bool = True) -> tuple:
         """The last accepted step as a checkpoint keeps it, written when one is due."""
-        kept = accepted()
+        kept = accepted(kept_factorization)
         if checkpointer is not None and checkpointer.due():
-            checkpointer.save(*kept, writer)
+            save_checkpoint(kept)
         return kept
 
     def next_row() -> int:
@@ -553,7 +574,7 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
                     run.state = state = done.state
                     run.algorithmic_acceleration = integrator.a
                     after_accepted(state)
-                    last = keep_accepted()
+                    last = keep_accepted(done.factorization_kept)
                 if done.pending is None:
                     continue
                 new, stats, h = done.pending
@@ -640,7 +661,7 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
         # interrupted or failed: a checkpoint of the last accepted step, to resume from
         if checkpointer is not None and not writer.closed:
             try:
-                checkpointer.save(*last, writer)
+                save_checkpoint(last)
                 writer.summary["checkpoint_t"] = last[0].state.t
             except Exception as exc:  # noqa: BLE001 - the original error matters more
                 print(f"latdyn: could not write a checkpoint: {type(exc).__name__}: {exc}", file=sys.stderr)

@@ -142,6 +142,10 @@ def test_interrupted_and_resumed_run_equals_the_uninterrupted_one(name, tmp_path
     if name == "generalized-alpha":  # one hinge latched before the checkpoint, the other after it
         assert saved.progress.locked.tolist() == [True, False]
     if name == "explicit":
+        assert saved.factorization is None  # no Newton
+    else:  # modified Newton (the default) holds a factorization over steps: the checkpoint carries it
+        assert saved.factorization is not None and saved.factorization["factored_h"] > 0
+    if name == "explicit":
         assert saved.writer["paraview"]["unwritten"] is not None and saved.last_recorded is not None
     if name == "adaptive":
         assert saved.progress.rejected_steps > 0
@@ -251,8 +255,10 @@ def test_a_resumed_writer_continues_the_frame_schedule(tmp_path):
 
 
 def failing_scene():
-    """The elbow torque jumps at t = 0.1 beyond what Newton can follow in 4 iterations."""
-    scene = arm3d(t_end=0.3, max_iterations=4, dt_min=0.004)
+    """The elbow torque jumps at t = 0.1 beyond what Newton can follow in 4 iterations (full
+    Newton: it converges in 4 before the jump; modified Newton, converging linearly, needs more
+    from the first step)."""
+    scene = arm3d(t_end=0.3, max_iterations=4, dt_min=0.004, newton="full")
     scene["beams"]["b"]["start"]["hinge"]["torque"] = "Piecewise((-1.5, t < 0.1), (-2000, True))"
     return scene
 
@@ -335,6 +341,33 @@ def test_checkpoint_of_another_version_is_refused(sigterm_run, monkeypatch, caps
     np.savez(path, **arrays)
     err = _refused(["run", str(scene_file), "-o", str(out), "-q", "--resume"], capsys)
     assert str(path) in err and "checkpoint format" in err
+
+
+def _rewrite(path: Path, change) -> None:
+    """Rewrite the checkpoint at ``path`` with ``change(meta, arrays)`` applied."""
+    with np.load(path) as f:
+        arrays = {k: f[k] for k in f.files}
+    meta = json.loads(str(arrays["__meta__"]))
+    change(meta, arrays)
+    arrays["__meta__"] = np.array(json.dumps(meta))
+    np.savez(path, **arrays)
+
+
+def test_checkpoint_of_format_1_or_with_a_factorization_that_does_not_fit_is_refused(sigterm_run, capsys):
+    """Format 1 (before modified Newton's factorization was carried) is refused; so is a held
+    factorization whose matrix does not fit the model's."""
+    scene_file, out = sigterm_run
+    path = out / checkpoint.CHECKPOINT_FILE
+    saved = checkpoint.load(out, checkpoint.identity(latdyn.load_scene(str(scene_file))))
+    assert saved.factorization is not None
+    key = json.loads(str(np.load(path)["__meta__"]))["factorization"]["__dict__"]["matrix"]["__array__"]
+    _rewrite(path, lambda meta, arrays: arrays.__setitem__(key, arrays[key][:-1]))
+    with pytest.raises(checkpoint.CheckpointError, match="does not fit this model"):
+        latdyn.run(str(scene_file), out, resume=True)
+    assert path.is_file()  # kept
+    _rewrite(path, lambda meta, arrays: meta["identity"].__setitem__("format", 1))
+    err = _refused(["run", str(scene_file), "-o", str(out), "-q", "--resume"], capsys)
+    assert str(path) in err and "checkpoint format 1 differs" in err
 
 
 def test_resume_without_a_checkpoint_exits_2(tmp_path, capsys):
