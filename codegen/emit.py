@@ -575,8 +575,15 @@ def print_kernel(kernel: LoweredKernel) -> PrintedKernel:
 
 
 def tool_versions() -> dict[str, str]:
-    """Versions of the tools whose output ends up in the generated files."""
-    return {name: metadata.version(name) for name in ("sympy", "symengine", "jinja2")}
+    """Versions of the tools whose output ends up in the generated files ("not installed" for
+    SymEngine where only a run's laws are printed: an install without ``latdyn[codegen]``)."""
+    versions = {}
+    for name in ("sympy", "symengine", "jinja2"):
+        try:
+            versions[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            versions[name] = "not installed"
+    return versions
 
 
 def formulation_hash(codegen_dir: Path = CODEGEN_DIR, templates_dir: Path = TEMPLATES_DIR) -> str:

@@ -411,11 +411,14 @@ def _namespace_entry(name: str, value):
     return None
 
 
-def _code_names(code) -> set[str]:
-    names = set(code.co_names)
+def _global_names(code) -> set[str]:
+    """The global names a code object (and those nested in it) loads; attributes are not names."""
+    import dis
+
+    names = {i.argval for i in dis.get_instructions(code) if i.opname in ("LOAD_GLOBAL", "LOAD_NAME")}
     for constant in code.co_consts:
-        if hasattr(constant, "co_names"):
-            names |= _code_names(constant)
+        if hasattr(constant, "co_code"):
+            names |= _global_names(constant)
     return names
 
 
@@ -429,7 +432,7 @@ def _serialise(function) -> dict | None:
     except (OSError, TypeError):
         return None
     names = {}
-    for name in _code_names(function.__code__):
+    for name in _global_names(function.__code__):
         if name in function.__globals__:
             entry = _namespace_entry(name, function.__globals__[name])
             if entry is None:
