@@ -49,6 +49,10 @@ def _fail(message: str, status: int = 2) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
+    try:
+        import symengine  # noqa: F401  the generator's derivation and CSE; a run does not need it
+    except ImportError:
+        return _fail('the code generator needs symengine, which is not installed: pip install "latdyn[codegen]"')
     if args.report is not None:
         from . import report
 

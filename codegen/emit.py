@@ -6,7 +6,7 @@ The code generator is one pipeline; each stage is timed by ``latdyn-codegen``::
     derivation   codegen/derivation.py    build_kernels(variant) -> [KernelSpec]   (codegen/ir.py)
     CSE          lower()                  SymPy -> SymEngine -> cse -> SymPy, temporaries t0, t1, …
     print        numpy_function(), c_function()   one function per kernel and backend
-    render       render_variant()         Jinja2 templates (templates/*.j2) with the file stamp
+    render       render_variant()         Jinja2 templates (codegen/templates/*.j2, package data) with the file stamp
     write        write_files()            generated/beam_<variant>.{py,c,h}, generated/__init__.py
 
 CSE crosses into SymEngine at one explicit boundary (:func:`to_symengine`, a memoised
@@ -41,7 +41,9 @@ from .ir import KernelSpec
 
 CODEGEN_DIR = Path(__file__).resolve().parent
 SOURCE_ROOT = CODEGEN_DIR.parent
-TEMPLATES_DIR = SOURCE_ROOT / "templates"
+#: The Jinja2 templates: package data of ``codegen`` (pyproject.toml), so that an installed
+#: wheel renders a scene's laws as a checkout does.
+TEMPLATES_DIR = CODEGEN_DIR / "templates"
 DEFAULT_OUT_DIR = SOURCE_ROOT / "generated"
 
 STAGES = ("derivation", "cse", "print", "render", "write")
@@ -573,12 +575,20 @@ def print_kernel(kernel: LoweredKernel) -> PrintedKernel:
 
 
 def tool_versions() -> dict[str, str]:
-    """Versions of the tools whose output ends up in the generated files."""
-    return {name: metadata.version(name) for name in ("sympy", "symengine", "jinja2")}
+    """Versions of the tools whose output ends up in the generated files ("not installed" for
+    SymEngine where only a run's laws are printed: an install without ``latdyn[codegen]``)."""
+    versions = {}
+    for name in ("sympy", "symengine", "jinja2"):
+        try:
+            versions[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            versions[name] = "not installed"
+    return versions
 
 
 def formulation_hash(codegen_dir: Path = CODEGEN_DIR, templates_dir: Path = TEMPLATES_DIR) -> str:
-    """sha256 (first 16 hex) of ``codegen/*.py`` and ``templates/*.j2``, sorted, LF-normalised."""
+    """sha256 (first 16 hex) of ``codegen/*.py`` and ``codegen/templates/*.j2``, sorted, LF-normalised
+    (each file named by its folder and name, so ``templates/laws.c.j2``)."""
     digest = hashlib.sha256()
     files = sorted(codegen_dir.glob("*.py")) + sorted(templates_dir.glob("*.j2"))
     for path in files:
@@ -589,10 +599,10 @@ def formulation_hash(codegen_dir: Path = CODEGEN_DIR, templates_dir: Path = TEMP
 
 
 def _environment():
-    from jinja2 import Environment, FileSystemLoader, StrictUndefined
+    from jinja2 import Environment, PackageLoader, StrictUndefined
 
     env = Environment(
-        loader=FileSystemLoader(str(TEMPLATES_DIR)),
+        loader=PackageLoader("codegen", "templates"),  # codegen/templates/, installed or not
         undefined=StrictUndefined,
         keep_trailing_newline=True,
         trim_blocks=True,

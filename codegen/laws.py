@@ -6,7 +6,7 @@ known only when the scene is read. They go through the same pipeline on a smalle
 the SymPy expressions that :mod:`latdyn.expressions` parsed and differentiated, CSE
 (``sympy.cse``, one block per law: its value shares subexpressions with its derivatives),
 the C99 printer of :mod:`codegen.emit` (no ``pow()`` for small integer and half-integer
-powers), and the template ``templates/laws.c.j2`` with the file stamp. :mod:`latdyn.engine`
+powers), and the template ``codegen/templates/laws.c.j2`` with the file stamp. :mod:`latdyn.engine`
 compiles the unit once per distinct source into the kernel cache and calls it from C, so
 that no law is evaluated in Python inside the time loop.
 

@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import numpy as np
-import scipy.linalg as sla
 
 from .assembly import advance, apply_prescribed
 from .errors import SolverError
@@ -100,6 +99,8 @@ def modal_analysis(prepared, count: int) -> np.ndarray:
     if split.n_massless:
         K = K[m, m] - K[m, c] @ np.linalg.solve(K[c, c], K[c, m])
     M = M[m, m]
+    import scipy.linalg as sla
+
     eigenvalues = sla.eigh(0.5 * (K + K.T), 0.5 * (M + M.T), eigvals_only=True)
     omega = np.sqrt(np.clip(eigenvalues, 0.0, None))
     return (omega / (2 * np.pi))[:count]

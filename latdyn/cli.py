@@ -21,11 +21,12 @@ import importlib
 import shutil
 import sys
 import traceback
+import warnings
 from pathlib import Path
 
 from . import __version__
 from .checkpoint import CHECKPOINT_FILE, CheckpointError
-from .errors import SceneError, SolverError
+from .errors import MissingExtra, SceneError, SolverError
 
 __all__ = ["main", "build_parser", "default_out_dir"]
 
@@ -230,6 +231,17 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """latdyn's own warnings (``latdyn: ...``, e.g. no C compiler) as one line on stderr;
+    others as Python shows them."""
+    text = str(message)
+    if text.startswith(f"{PROG}:"):
+        print(text, file=sys.stderr if file is None else file, flush=True)
+    else:
+        print(warnings.formatwarning(message, category, filename, lineno, line), end="",
+              file=sys.stderr if file is None else file)
+
+
 def main(argv=None) -> int:
     """Run the command line; returns the exit status."""
     parser = build_parser()
@@ -239,7 +251,12 @@ def main(argv=None) -> int:
         return int(exc.code or 0)
     debug = getattr(args, "debug", False)
     try:
-        return args.handler(args)
+        with warnings.catch_warnings():
+            warnings.showwarning = _one_line_warning
+            return args.handler(args)
+    except MissingExtra as exc:  # a feature of an extra that is not installed: the message names it
+        _error(str(exc))
+        return 1
     except (SceneError, _UsageError) as exc:
         _error(str(exc))
         return 2

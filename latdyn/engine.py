@@ -56,11 +56,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from codegen.emit import EmitError
-from codegen.laws import laws_source
-
 from .assembly import State, _plain_hinges
-from .compiled_laws import LawsUnavailable, compile_laws, hinge_law
+from .compiled_laws import LawsUnavailable, compile_laws, unprintable
 from .integrators import INERTIA_TANGENT_STEP, GeneralizedAlpha, StepStats, node_colouring
 from .linalg import BAND_LIMIT, DENSE_LIMIT, openblas_thread_functions, rcm_band
 from .sparse_lu import SparseLUStructure, SupernodalAnalysis, blas_kernels
@@ -168,34 +165,24 @@ def _library() -> ctypes.CDLL:
     compiler has it (a failed -fopenmp build is remembered in the cache by an empty marker file)."""
     global _LIBRARY
     if _LIBRARY is None:
-        from .kernels import C_FLAGS, COMPILE_SECONDS, _build, _compiler, cache_dir
+        from . import native
 
         source = _source("newton_step.c")
-        compiler = _compiler()
-        for flags in ((*C_FLAGS, *OPENMP_FLAGS), C_FLAGS):
-            digest = hashlib.sha256(source + b"\0" + " ".join([*compiler, *flags]).encode()).hexdigest()[:20]
-            target = cache_dir() / f"newton_step-{digest}.so"
-            failed = target.with_suffix(".failed")
-            if flags != C_FLAGS and failed.exists():
+        using = native.compiler()
+        path = None
+        for flags in ((*native.C_FLAGS, *OPENMP_FLAGS), native.C_FLAGS):
+            failed = native.target("newton_step", source, flags, using).with_suffix(".failed")
+            if flags != native.C_FLAGS and failed.exists():
                 continue
-            if not target.exists():
-                from filelock import FileLock
-
-                target.parent.mkdir(parents=True, exist_ok=True)
-                with FileLock(str(target) + ".lock", timeout=600):
-                    if not target.exists():
-                        started = time.perf_counter()
-                        try:
-                            _build(compiler, source, target, "newton_step", flags)
-                        except RuntimeError:
-                            if flags == C_FLAGS:
-                                raise
-                            failed.touch()
-                            continue
-                        finally:
-                            COMPILE_SECONDS["total"] += time.perf_counter() - started
+            try:
+                path = native.build("newton_step", source, flags, using=using)
+            except RuntimeError:
+                if flags == native.C_FLAGS:
+                    raise
+                failed.touch()  # this compiler has no OpenMP: remembered in the cache
+                continue
             break
-        library = ctypes.CDLL(str(target))
+        library = native.load(path)
         library.latdyn_threads.restype = I64
         library.latdyn_threads.argtypes = []
         library.latdyn_energies.restype = None
@@ -265,10 +252,9 @@ def unsupported(assembler) -> str | None:
     _, _, _, with_law, _ = _plain_hinges(model.hinges)
     for k in with_law:  # laws in θ, θ̇ or t: compiled (codegen/laws.py), so they must print in C
         hinge = model.hinges[k]
-        try:
-            laws_source([], [hinge_law(law) for law in (hinge.stiffness, hinge.damping, hinge.torque) if law is not None])
-        except EmitError as error:  # codegen.laws turns the printer's complaints into EmitError
-            return f"hinge {hinge.beam}.{hinge.end} has a law the C printer cannot write ({error})"
+        why = unprintable([law for law in (hinge.stiffness, hinge.damping, hinge.torque) if law is not None])
+        if why is not None:
+            return f"hinge {hinge.beam}.{hinge.end} has a law the C printer cannot write ({why})"
     try:
         _library()
     except RuntimeError as error:

@@ -53,3 +53,23 @@ class SolverError(RuntimeError):
     def __init__(self, message: str, diagnosis: str = ""):
         self.diagnosis = diagnosis
         super().__init__(message if not diagnosis else f"{message}\n{diagnosis}")
+
+
+class MissingExtra(ImportError):
+    """A feature needs a package of an optional extra that is not installed; the message
+    names the ``pip install`` that brings it (exit status 1 on the command line)."""
+
+
+def require(extra: str, purpose: str, *modules: str):
+    """Import ``modules`` (the packages of ``latdyn[extra]``) for ``purpose``, or raise
+    :class:`MissingExtra` naming the extra; returns the modules."""
+    import importlib
+
+    loaded = []
+    for name in modules:
+        try:
+            loaded.append(importlib.import_module(name))
+        except ImportError as error:
+            raise MissingExtra(f"{purpose} needs {name}, which is not installed: "
+                               f"pip install \"latdyn[{extra}]\" ({error})") from None
+    return loaded[0] if len(loaded) == 1 else tuple(loaded)

@@ -43,6 +43,15 @@ with ``sympy.lambdify(..., "numpy")``.
 A :class:`TimeFunction` pickles by its source text; the compiled functions are
 rebuilt lazily after unpickling.
 
+SymPy runs once per expression text, not once per process: what a scene needs at run time
+(the kind, the lambdified NumPy and ``math`` functions' Python source and the NumPy/``math``
+names they use) is kept in the cache (``$LATDYN_CACHE_DIR/expressions/<key>.json``, the key a
+hash of the text, of this module's source and of the SymPy version). A later process reads
+it back with neither SymPy nor the checks, which the same text passed before; the SymPy
+expressions (:attr:`TimeFunction.expressions`, what :mod:`codegen.laws` prints) are derived
+again only when asked for. A function is cached only when its source rebuilt from the cache
+gives its numbers at a few points.
+
 Hinge laws (SCENE.md "Hinge additions"): a hinge's ``stiffness``, ``damping`` and
 ``torque`` may also depend on the hinge angle ``theta`` and its rate ``theta_dot``.
 :class:`HingeLaw` reads them through the same checks (the two names are added to the
@@ -340,6 +349,166 @@ def _drop_deltas(expr):
     return expr.replace(lambda e: isinstance(e, sp.DiracDelta), lambda e: sp.S.Zero)
 
 
+# --------------------------------------------------------------------------- cache of parsed expressions
+#: Bumped when what the cache holds changes meaning.
+_CACHE_FORMAT = 1
+_GENERATOR: list[str] = []  # this module's source hash and the SymPy version, once per process
+#: Probe points (t; and θ, θ̇, t of a hinge law) at which functions rebuilt from the cache
+#: must give the numbers of the functions they were made from.
+_PROBES = (0.0, 0.37, 1.9, 23.0)
+_HINGE_PROBES = ((0.0, 0.0, 0.0), (0.3, -1.2, 0.7), (-2.1, 0.4, 9.5))
+
+
+def sympy_version() -> str:
+    """SymPy's version, read from ``sympy/release.py`` without importing SymPy ("none" without it)."""
+    import importlib.util
+    from pathlib import Path
+
+    spec = importlib.util.find_spec("sympy")
+    if spec is None or not spec.submodule_search_locations:
+        return "none"
+    try:
+        text = (Path(next(iter(spec.submodule_search_locations))) / "release.py").read_text()
+    except OSError:
+        return "unknown"
+    found = re.search(r"__version__\s*=\s*['\"]([^'\"]+)", text)
+    return found.group(1) if found else "unknown"
+
+
+def _generator() -> str:
+    if not _GENERATOR:
+        from pathlib import Path
+
+        _GENERATOR.append(_digest(Path(__file__).read_bytes(), sympy_version(), _CACHE_FORMAT))
+    return _GENERATOR[0]
+
+
+def _digest(*parts) -> str:
+    import hashlib
+
+    digest = hashlib.sha256()
+    for part in parts:
+        digest.update((part if isinstance(part, bytes) else repr(part).encode()) + b"\0")
+    return digest.hexdigest()[:24]
+
+
+def _cache_path(kind: str, source: str):
+    from .native import cache_dir
+
+    return cache_dir() / "expressions" / f"{kind}-{_digest(kind, source, _generator())}.json"
+
+
+def _namespace_entry(name: str, value):
+    """How to find ``value`` (bound to ``name`` in a lambdified function's globals) again:
+    ``[module, attribute]`` of numpy, math or functools, ``["float", repr]``; None if not found."""
+    import functools
+
+    if isinstance(value, float):
+        return ["float", repr(value)]
+    for module in (np, math, functools):
+        if getattr(module, name, None) is value:
+            return [module.__name__, name]
+    return None
+
+
+def _global_names(code) -> set[str]:
+    """The global names a code object (and those nested in it) loads; attributes are not names."""
+    import dis
+
+    names = {i.argval for i in dis.get_instructions(code) if i.opname in ("LOAD_GLOBAL", "LOAD_NAME")}
+    for constant in code.co_consts:
+        if hasattr(constant, "co_code"):
+            names |= _global_names(constant)
+    return names
+
+
+def _serialise(function) -> dict | None:
+    """A lambdified function as its Python source and the names it uses; None if one is unknown."""
+    import builtins
+    import inspect
+
+    try:
+        text = inspect.getsource(function)
+    except (OSError, TypeError):
+        return None
+    names = {}
+    for name in _global_names(function.__code__):
+        if name in function.__globals__:
+            entry = _namespace_entry(name, function.__globals__[name])
+            if entry is None:
+                return None
+            names[name] = entry
+        elif not hasattr(builtins, name):
+            return None
+    return {"text": text, "function": function.__name__, "names": names}
+
+
+def _rebuild(saved: dict):
+    """The function :func:`_serialise` described."""
+    import functools
+
+    modules = {"numpy": np, "math": math, "functools": functools}
+    namespace = {}
+    for name, (where, what) in saved["names"].items():
+        namespace[name] = float(what) if where == "float" else getattr(modules[where], what)
+    exec(compile(saved["text"], f"<latdyn cached expression {saved['function']}>", "exec"), namespace)  # noqa: S102
+    return namespace[saved["function"]]
+
+
+def _same_numbers(a, b, points) -> bool:
+    for point in points:
+        with np.errstate(all="ignore"):
+            try:
+                x, y = float(np.asarray(a(*point), dtype=float)), float(np.asarray(b(*point), dtype=float))
+            except (ArithmeticError, ValueError, TypeError):
+                return False
+        if not (x == y or (math.isnan(x) and math.isnan(y))):
+            return False
+    return True
+
+
+def _store(kind: str, source: str, entry: dict, functions: dict, points) -> None:
+    """Keep ``entry`` (plain data) and ``functions`` (name -> tuple of lambdified functions or
+    None) for ``source``: only if every function rebuilds to the same numbers at ``points``."""
+    import json
+    import os
+    import tempfile
+
+    for name, group in functions.items():
+        if group is None:
+            entry[name] = None
+            continue
+        saved = [_serialise(f) for f in group]
+        if any(s is None for s in saved) or not all(
+                _same_numbers(f, _rebuild(s), points) for f, s in zip(group, saved)):
+            return
+        entry[name] = saved
+    path = _cache_path(kind, source)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile("w", dir=path.parent, suffix=".tmp", delete=False) as file:
+            json.dump({"source": source, **entry}, file)
+        os.replace(file.name, path)
+    except OSError:  # a read-only cache: SymPy again next time
+        pass
+
+
+def _load(kind: str, source: str) -> dict | None:
+    """The cached entry of ``source`` with its functions rebuilt, or None."""
+    import json
+
+    try:
+        entry = json.loads(_cache_path(kind, source).read_text())
+        if entry.get("source") != source:
+            return None
+        for name, value in entry.items():
+            if isinstance(value, list) and value and isinstance(value[0], dict):
+                entry[name] = tuple(_rebuild(saved) for saved in value)
+        return entry
+    except (OSError, ValueError, KeyError, TypeError, AttributeError, SyntaxError):
+        return None
+
+
 # --------------------------------------------------------------------------- TimeFunction
 def _finite_float(number) -> float | None:
     """``float(number)``, or None when it is not finite (an integer too large for a float included)."""
@@ -455,25 +624,36 @@ class TimeFunction(_BySource):
 
             self._fns = (lambda t: np.interp(t, ts, vs), rate, lambda t: 0.0)
         else:
-            import sympy as sp
-
-            symbol, expr = _parse_text(src, self._file, self._key)
-            _check_size(expr, 0, src, self._file, self._key)
-            d1 = _drop_deltas(sp.diff(expr, symbol))
-            _check_size(d1, 1, src, self._file, self._key)
-            d2 = _drop_deltas(sp.diff(d1, symbol))
-            _check_size(d2, 2, src, self._file, self._key)
-            self._kind = "constant" if not expr.free_symbols else "expression"
-            self._expr_cache = expr
-            self._derivative_cache = (symbol, (expr, d1, d2))
-            try:
-                self._fns = tuple(sp.lambdify(symbol, e, modules="numpy") for e in (expr, d1, d2))
-            except Exception as exc:  # a construct the NumPy printer cannot write
-                raise SceneError(self._file, self._key, f"{src!r} cannot be evaluated numerically "
-                                                        f"({type(exc).__name__}: {exc}); expected {_ALLOWED_SHORT}")
-            if self._kind == "expression":
-                self._scalar = _scalar_functions(symbol, (expr, d1, d2), self._fns)
+            cached = _load("time", src)
+            if cached is not None:  # parsed, checked and lambdified by an earlier process
+                self._kind, self._fns, self._scalar = cached["kind"], cached["numpy"], cached["scalar"]
+                self._expr_cache = self._derivative_cache = None  # SymPy again on demand (_symbolic)
+            else:
+                self._symbolic()
+                _store("time", src, {"kind": self._kind}, {"numpy": self._fns, "scalar": self._scalar},
+                       [(t,) for t in _PROBES])
         self._compiled = True
+
+    def _symbolic(self):
+        """Parse, check, differentiate and lambdify the expression text (SymPy)."""
+        import sympy as sp
+
+        src = self._source
+        symbol, expr = _parse_text(src, self._file, self._key)
+        _check_size(expr, 0, src, self._file, self._key)
+        d1 = _drop_deltas(sp.diff(expr, symbol))
+        _check_size(d1, 1, src, self._file, self._key)
+        d2 = _drop_deltas(sp.diff(d1, symbol))
+        _check_size(d2, 2, src, self._file, self._key)
+        self._kind = "constant" if not expr.free_symbols else "expression"
+        self._expr_cache = expr
+        self._derivative_cache = (symbol, (expr, d1, d2))
+        try:
+            self._fns = tuple(sp.lambdify(symbol, e, modules="numpy") for e in (expr, d1, d2))
+        except Exception as exc:  # a construct the NumPy printer cannot write
+            raise SceneError(self._file, self._key, f"{src!r} cannot be evaluated numerically "
+                                                    f"({type(exc).__name__}: {exc}); expected {_ALLOWED_SHORT}")
+        self._scalar = _scalar_functions(symbol, (expr, d1, d2), self._fns) if self._kind == "expression" else None
 
     # -- evaluation
     def _eval(self, which: int, t):
@@ -526,19 +706,25 @@ class TimeFunction(_BySource):
             return len({r[1] for r in self._source["table"]}) == 1
         return self.kind == "constant"
 
+    def _sympy_on_demand(self):
+        if self._compiled is None:
+            self._compile()
+        if isinstance(self._source, str) and self._expr_cache is None:  # read from the cache
+            fns, scalar = self._fns, self._scalar
+            self._symbolic()
+            self._fns, self._scalar = fns, scalar
+
     @property
     def expr(self):
         """The SymPy expression in ``t`` (None for numbers and tables)."""
-        if self._compiled is None:
-            self._compile()
+        self._sympy_on_demand()
         return self._expr_cache
 
     @property
     def expressions(self):
         """``(t, (f, df/dt, d²f/dt²))`` as SymPy (deltas dropped) for an expression, else None:
         what :mod:`codegen.laws` compiles."""
-        if self._compiled is None:
-            self._compile()
+        self._sympy_on_demand()
         return self._derivative_cache if self._kind == "expression" else None
 
     @property
@@ -606,28 +792,40 @@ class HingeLaw(_BySource):
             self._constant = self._time.value(0.0) if self._time.is_constant else None
             self._fns = None
         else:
-            import sympy as sp
-
-            _, expr = _parse_text(src, self._file, self._key, extra=("theta", "theta_dot"),
-                                  allowed_text=_HINGE_TEXT)
-            _check_size(expr, 0, src, self._file, self._key)
-            names = {s.name: s for s in expr.free_symbols}
-            symbols = [names.get(n, sp.Symbol(n, real=True)) for n in HINGE_VARIABLES]
-            derivatives = []
-            for variable in symbols[:2]:
-                d = _drop_deltas(sp.diff(expr, variable))
-                _check_size(d, 1, src, self._file, self._key)
-                derivatives.append(d)
             self._time = None
-            self._law_cache = (tuple(symbols), (expr, *derivatives))
-            self._depends = tuple(n for n in HINGE_VARIABLES if n in names)
-            self._constant = float(expr) if not self._depends else None
-            try:
-                self._fns = tuple(sp.lambdify(symbols, e, modules="numpy") for e in (expr, *derivatives))
-            except Exception as exc:  # a construct the NumPy printer cannot write
-                raise SceneError(self._file, self._key, f"{src!r} cannot be evaluated numerically "
-                                                        f"({type(exc).__name__}: {exc}); expected {_HINGE_TEXT}")
+            cached = _load("hinge", src)
+            if cached is not None:  # parsed, checked and lambdified by an earlier process
+                self._depends, self._constant = tuple(cached["depends"]), cached["constant"]
+                self._fns, self._law_cache = cached["numpy"], None  # SymPy again on demand
+            else:
+                self._symbolic()
+                _store("hinge", src, {"depends": list(self._depends), "constant": self._constant},
+                       {"numpy": self._fns}, _HINGE_PROBES)
         self._compiled = True
+
+    def _symbolic(self):
+        """Parse, check, differentiate and lambdify the law's text (SymPy)."""
+        import sympy as sp
+
+        src = self._source
+        _, expr = _parse_text(src, self._file, self._key, extra=("theta", "theta_dot"),
+                              allowed_text=_HINGE_TEXT)
+        _check_size(expr, 0, src, self._file, self._key)
+        names = {s.name: s for s in expr.free_symbols}
+        symbols = [names.get(n, sp.Symbol(n, real=True)) for n in HINGE_VARIABLES]
+        derivatives = []
+        for variable in symbols[:2]:
+            d = _drop_deltas(sp.diff(expr, variable))
+            _check_size(d, 1, src, self._file, self._key)
+            derivatives.append(d)
+        self._law_cache = (tuple(symbols), (expr, *derivatives))
+        self._depends = tuple(n for n in HINGE_VARIABLES if n in names)
+        self._constant = float(expr) if not self._depends else None
+        try:
+            self._fns = tuple(sp.lambdify(symbols, e, modules="numpy") for e in (expr, *derivatives))
+        except Exception as exc:  # a construct the NumPy printer cannot write
+            raise SceneError(self._file, self._key, f"{src!r} cannot be evaluated numerically "
+                                                    f"({type(exc).__name__}: {exc}); expected {_HINGE_TEXT}")
 
     def _eval(self, which: int, theta: float, rate: float, t: float) -> float:
         if self._compiled is None:
@@ -679,6 +877,10 @@ class HingeLaw(_BySource):
         a table in t: :attr:`time_function`); what :mod:`codegen.laws` compiles."""
         if self._compiled is None:
             self._compile()
+        if self._fns is not None and self._law_cache is None:  # read from the cache
+            fns = self._fns
+            self._symbolic()
+            self._fns = fns
         return self._law_cache if self._fns is not None else None
 
     @property

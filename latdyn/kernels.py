@@ -9,22 +9,18 @@ call convention (docs/architecture.md, "Kernel argument convention")::
 
 Inputs are float arrays of shape ``(n, width)``; outputs a tuple of float64 arrays of
 shape ``(n, *shape)``.  The C backend compiles ``beam_<variant>.c`` once per source,
-flags and compiler into ``$LATDYN_CACHE_DIR`` (default ``~/.cache/latdyn/kernels``) and
-calls it through ctypes; nothing loops over elements in Python.
+flags and compiler into ``$LATDYN_CACHE_DIR`` (default ``~/.cache/latdyn/kernels``) through
+:mod:`latdyn.native` and calls it through ctypes; nothing loops over elements in Python.
 
 This module is runtime code: it imports neither SymPy nor the code generator.
 """
 from __future__ import annotations
 
 import ctypes
-import hashlib
 import importlib
 import importlib.resources
 import os
-import shlex
-import subprocess
 import sys
-import tempfile
 import time
 import warnings
 from pathlib import Path
@@ -32,8 +28,9 @@ from typing import Callable
 
 import numpy as np
 
+from .native import C_FLAGS, COMPILE_SECONDS, NO_COMPILER_ADVICE  # the one compile-and-cache path
+
 BACKENDS = ("auto", "c", "numpy")
-C_FLAGS = ("-O2", "-std=c99", "-fPIC", "-shared")
 PACKAGE = "latdyn_generated"
 
 _LOADED: dict[tuple[str, str], "KernelSet"] = {}
@@ -102,8 +99,7 @@ def load_kernels(backend: str = "auto", variant: str = "default") -> KernelSet:
         try:
             return load_kernels("c", variant)
         except RuntimeError as error:
-            warnings.warn(f"latdyn: C kernels unavailable ({error}); using NumPy kernels",
-                          RuntimeWarning, stacklevel=2)
+            _no_compiler(error)
             kernels = load_kernels("numpy", variant)
             _LOADED[("auto-numpy", variant)] = kernels
             return kernels
@@ -124,6 +120,13 @@ def load_kernels(backend: str = "auto", variant: str = "default") -> KernelSet:
             functions[name] = _checked(name, meta, _composed(meta, parts, info, functions))
         _LOADED[key] = KernelSet(backend, variant, info, functions, libraries)
     return _LOADED[key]
+
+
+def _no_compiler(error) -> None:
+    """Say (once per variant and process: ``_LOADED`` keeps the fallback) that the run uses
+    the NumPy kernels, why, how much slower that is and how to fix it: a RuntimeWarning, which
+    the command line prints as one line."""
+    warnings.warn(f"latdyn: C kernels unavailable ({error}); {NO_COMPILER_ADVICE}", RuntimeWarning, stacklevel=3)
 
 
 def _checked(name: str, meta: dict, function: Callable) -> Callable:
@@ -241,22 +244,26 @@ COMPOSED = {
                       "beam_quadratic_velocity_D_qdot"),
 }
 
-#: Seconds spent compiling kernels in this process (reported apart from solver time).
-COMPILE_SECONDS = {"total": 0.0}
-
-
-def cache_dir() -> Path:
-    return Path(os.environ.get("LATDYN_CACHE_DIR") or Path.home() / ".cache" / "latdyn" / "kernels")
 
 
 def _compiler() -> list[str]:
-    return shlex.split(os.environ.get("CC") or "cc")
+    """The command of the C compiler in use (:func:`latdyn.native.compiler`)."""
+    from .native import compiler
+
+    return list(compiler().command)
+
+
+def cache_dir() -> Path:
+    """The kernel cache (:func:`latdyn.native.cache_dir`)."""
+    from .native import cache_dir as folder
+
+    return folder()
 
 
 def _kernel_sources(variant: str, names) -> dict[str, bytes]:
     """The C source of each kernel as a translation unit of its own.
 
-    ``templates/c_source.c.j2`` writes the includes, then every kernel after a comment
+    ``codegen/templates/c_source.c.j2`` writes the includes, then every kernel after a comment
     line ``/* NAME: ...``; the unit is the includes plus that kernel."""
     try:
         source = (importlib.resources.files(PACKAGE) / f"beam_{variant}.c").read_text()
@@ -276,73 +283,32 @@ def _kernel_sources(variant: str, names) -> dict[str, bytes]:
 
 
 def _compile(variant: str, names, ops: dict[str, int] | None = None) -> dict[str, ctypes.CDLL]:
-    """Compile each kernel of ``names`` into the cache (once per source, flags and
-    compiler), in parallel, and load them; name -> library."""
+    """Compile each kernel of ``names`` into the cache (:mod:`latdyn.native`: once per source,
+    flags and compiler), in parallel, and load them; name -> library."""
+    from . import native
+
     units = _kernel_sources(variant, names)
-    compiler = _compiler()
-    try:
-        version = subprocess.run(
-            [*compiler, "--version"], capture_output=True, timeout=60, check=False
-        ).stdout
-    except (OSError, subprocess.SubprocessError) as error:
-        raise RuntimeError(f"no C compiler {' '.join(compiler)!r}: {error}") from None
-    suffix = ".dll" if sys.platform == "win32" else ".so"
-    folder = cache_dir()
-    targets, flags = {}, {}
-    for name, source in units.items():
-        flags[name] = (optimisation((ops or {}).get(name, 0)), *C_FLAGS[1:])
-        digest = hashlib.sha256()
-        for part in (source, " ".join(flags[name]).encode(), " ".join(compiler).encode(), version):
-            digest.update(part + b"\0")
-        targets[name] = folder / f"{name}-{variant}-{digest.hexdigest()[:20]}{suffix}"
+    using = native.compiler()  # NoCompiler (a RuntimeError) says why not
+    flags = {name: (optimisation((ops or {}).get(name, 0)), *C_FLAGS[1:]) for name in units}
+    targets = {name: native.target(f"{name}-{variant}", units[name], flags[name], using) for name in units}
     todo = [name for name, target in targets.items() if not target.exists()]
     if todo:
-        try:
-            folder.mkdir(parents=True, exist_ok=True)
-        except OSError as error:
-            raise RuntimeError(f"cannot create the kernel cache {folder}: {error}") from None
         from concurrent.futures import ThreadPoolExecutor
 
-        from filelock import FileLock
-
         started = time.perf_counter()
-        print(f"latdyn: compiling {len(todo)} C kernels of variant {variant!r} into {folder} "
-              f"(first use only; seconds)", file=sys.stderr, flush=True)
+        print(f"latdyn: compiling {len(todo)} C kernels of variant {variant!r} with {using.name} into "
+              f"{native.cache_dir()} (first use only; seconds)", file=sys.stderr, flush=True)
+        before = native.COMPILE_SECONDS["total"]
 
         def build(name):
-            with FileLock(str(targets[name]) + ".lock", timeout=900):
-                if not targets[name].exists():
-                    _build(compiler, units[name], targets[name], name, flags[name])
+            native.build(f"{name}-{variant}", units[name], flags[name], using=using)
 
         # the longest units first, so that the last one to finish started early
         order = sorted(todo, key=lambda name: -len(units[name]))
         with ThreadPoolExecutor(max_workers=max(1, os.cpu_count() or 1)) as pool:
             list(pool.map(build, order))
         elapsed = time.perf_counter() - started
-        COMPILE_SECONDS["total"] += elapsed
+        # the units' own seconds overlap (parallel builds): the wall time counts once
+        native.COMPILE_SECONDS["total"] = before + elapsed
         print(f"latdyn: compiled in {elapsed:.1f} s", file=sys.stderr, flush=True)
-    libraries = {}
-    for name, target in targets.items():
-        try:
-            libraries[name] = ctypes.CDLL(str(target))
-        except OSError as error:
-            raise RuntimeError(f"cannot load {target.name}: {error}") from None
-    return libraries
-
-
-def _build(compiler: list[str], source: bytes, target: Path, name: str, flags=C_FLAGS) -> None:
-    folder = target.parent
-    with tempfile.TemporaryDirectory(dir=folder, prefix=".build-") as scratch:
-        c_file = Path(scratch) / f"{name}.c"
-        c_file.write_bytes(source)
-        partial = Path(scratch) / target.name
-        command = [*compiler, *flags, str(c_file), "-o", str(partial), "-lm"]
-        try:
-            result = subprocess.run(command, capture_output=True, text=True, timeout=900)
-        except (OSError, subprocess.SubprocessError) as error:
-            raise RuntimeError(f"{' '.join(compiler)} failed to run: {error}") from None
-        if result.returncode != 0:
-            lines = (result.stderr or result.stdout).strip().splitlines()
-            first = lines[0] if lines else f"exit status {result.returncode}"
-            raise RuntimeError(f"{' '.join(compiler)} failed: {first}")
-        os.replace(partial, target)
+    return {name: native.load(target) for name, target in targets.items()}

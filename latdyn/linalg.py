@@ -128,9 +128,9 @@ from contextlib import contextmanager
 
 import numpy as np
 import scipy.sparse as sps
-import scipy.sparse.csgraph as csgraph
-import scipy.sparse.linalg as spla
-from scipy.linalg import lapack
+
+# scipy.sparse.linalg (SuperLU), scipy.sparse.csgraph (RCM) and scipy.linalg.lapack (band LU)
+# are imported where they are used: the compiled step of a small model needs none of them.
 
 #: Models with at most this many free coordinates use dense matrices and LU.
 DENSE_LIMIT = 120
@@ -283,10 +283,14 @@ class _Plan:
         data = A.data * s[self.rows] * s[self.indices]
         b = s * rhs
         if self.order is None:
+            import scipy.sparse.linalg as spla
+
             C = sps.csr_matrix((data, self.indices, self.indptr), shape=A.shape).tocsc()
             lu = spla.splu(C, permc_spec="MMD_AT_PLUS_A", **SUPERLU_OPTIONS)
             self._remember_order(A.shape, lu.perm_c)
             return s * lu.solve(b)
+        import scipy.sparse.linalg as spla
+
         B = sps.csc_matrix((data[self.order], self.B_indices, self.B_indptr), shape=A.shape)
         lu = spla.splu(B, permc_spec="NATURAL", **SUPERLU_OPTIONS)
         out = np.empty(self.n)
@@ -307,7 +311,18 @@ class _Plan:
         self.inverse = inverse
 
 
-_gbsv = lapack.get_lapack_funcs("gbsv", (np.zeros(1),))
+def _gbsv(*args, **options):
+    """LAPACK's band LU solve (``scipy.linalg.lapack`` ``dgbsv``, looked up on first use)."""
+    if not _GBSV:
+        from scipy.linalg import lapack
+
+        _GBSV.append(lapack.get_lapack_funcs("gbsv", (np.zeros(1),)))
+    return _GBSV[0](*args, **options)
+
+
+_GBSV: list = []
+
+
 _plans: "OrderedDict[tuple, list[_Plan]]" = OrderedDict()
 _MAX_PLANS = 4  # the iteration matrix, the mass and massless blocks, one spare
 
@@ -316,6 +331,8 @@ def rcm_band(rows: np.ndarray, cols: np.ndarray, n: int):
     """Reverse Cuthill–McKee order of the pattern (rows, cols) of an n × n matrix:
     (perm, new, lower, upper) with ``perm`` the old index at each new place, ``new`` its
     inverse, and the lower and upper bandwidths in the new order."""
+    import scipy.sparse.csgraph as csgraph
+
     pattern = sps.csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n))
     perm = csgraph.reverse_cuthill_mckee(pattern, symmetric_mode=False)
     new = np.empty_like(perm)
@@ -360,6 +377,8 @@ def psd_null_direction(A, tol: float = 1e-10, shift: float = 1e-9, iterations: i
     n = A.shape[0]
     if n == 0:
         return np.inf, np.zeros(0)
+    import scipy.sparse.linalg as spla
+
     shifted = (A + shift * sps.identity(n, format="csc")).tocsc()
     lu = spla.splu(shifted, permc_spec="MMD_AT_PLUS_A", **SUPERLU_OPTIONS)
     rng = np.random.default_rng(seed)

@@ -148,8 +148,10 @@ def open_scheduler(kind: tuple):
     if kind[0] == "client":
         yield open_client(kind[1])
         return
-    import dask
-    from distributed import Client, LocalCluster
+    from .errors import require
+
+    dask, distributed = require("dask", f"a study on a Dask scheduler ({kind[0]})", "dask", "distributed")
+    Client, LocalCluster = distributed.Client, distributed.LocalCluster
 
     if kind[0] == "local":
         with dask.config.set({"distributed.scheduler.allowed-failures": ALLOWED_FAILURES,
