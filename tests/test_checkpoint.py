@@ -49,13 +49,14 @@ def arm3d(lock_b=-0.9, every=0.01, **solve_options):
 
 
 SCENES = {
-    # generalized-α; interrupted between the two latches
-    "generalized-alpha": (arm3d(), 0.25),
+    # generalized-α with modified Newton (its held factorization is checkpointed); interrupted
+    # between the two latches
+    "generalized-alpha": (arm3d(newton="modified"), 0.25),
     # every step recorded: 302 rows, a ParaView frame every 2 (paraview.default_every), the frames
     # of the checkpoint (row 151) and of the last row not due
     "explicit": (arm3d(method="explicit", dt=1e-4, t_end=0.0301, every=None), 0.0151),
     # step-size control with rejected steps, across the first latch
-    "adaptive": (arm3d(adaptive=True, error_tol=1e-4, t_end=0.3), 0.2),
+    "adaptive": (arm3d(adaptive=True, error_tol=1e-4, t_end=0.3, newton="modified"), 0.2),
 }
 
 
@@ -287,8 +288,8 @@ def test_a_failed_run_leaves_a_checkpoint_of_its_last_accepted_step(tmp_path, ca
 
 @pytest.fixture
 def sigterm_run(tmp_path, monkeypatch, capsys):
-    """A run of arm3d stopped by SIGTERM at t = 0.1 through the command line (exit 130)."""
-    scene_file = write_scene(tmp_path / "arm.yaml", arm3d(t_end=0.2))
+    """A run of arm3d stopped by SIGTERM at t = 0.1 through the command line (exit 130), with modified Newton (its factorization is checkpointed)."""
+    scene_file = write_scene(tmp_path / "arm.yaml", arm3d(t_end=0.2, newton="modified"))
     out = tmp_path / "out"
     handler = signal.getsignal(signal.SIGTERM)
     with monkeypatch.context() as m:
