@@ -27,7 +27,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from test_backends import realistic_inputs  # noqa: E402
 
-from latdyn.kernels import PACKAGE, _c_function, _compiler, _kernel_sources  # noqa: E402
+from latdyn.kernels import PACKAGE, _c_function, _kernel_sources  # noqa: E402
+from latdyn.native import compiler  # noqa: E402
 
 LEVELS = ("-O0", "-O1", "-O2")
 
@@ -38,7 +39,7 @@ def compile_unit(source: bytes, level: str, folder: Path, name: str) -> tuple[Pa
     target = folder / f"{name}{level}.so"
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
-    subprocess.run([*_compiler(), level, "-std=c99", "-fPIC", "-shared", str(c_file), "-o", str(target), "-lm"],
+    subprocess.run([*compiler().command, level, "-std=c99", "-fPIC", "-shared", str(c_file), "-o", str(target), "-lm"],
                    check=True)
     wall = time.perf_counter() - start
     after = resource.getrusage(resource.RUSAGE_CHILDREN)

@@ -22,7 +22,6 @@ import argparse
 import copy
 import json
 import os
-import platform
 import statistics
 import sys
 import time
@@ -36,6 +35,9 @@ import latdyn.solve
 from latdyn.scene import _yaml_loader
 
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+from benchmarks import peers  # noqa: E402  (machine(): the description every benchmark records)
+
 OUT = ROOT / "benchmarks" / "results" / "newton_default.json"
 MODES = ("full", "modified")
 
@@ -124,8 +126,7 @@ def main(argv=None) -> int:
 
     doc = {"schema": "latdyn-newton-default/1", "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
            "repeats": args.repeats, "t_end_cap": args.t_end_cap,
-           "machine": {"platform": platform.platform(), "cores": os.cpu_count(), "python": platform.python_version(),
-                       "load_average_1min": load},
+           "machine": dict(peers.machine(), load_average_1min=load),
            "rows": rows}
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(doc, indent=1) + "\n")

@@ -30,7 +30,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import platform
 import statistics
 import subprocess
 import sys
@@ -154,13 +153,13 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     if args.exudyn_one:
         return exudyn_one(*args.exudyn_one)
+    from benchmarks import peers
     try:
         import exudyn  # noqa: F401
         codes = ("latdyn", "exudyn")
-        exudyn_version = exudyn.__version__
     except ImportError:
         print("NOTE: Exudyn is not installed (pip install exudyn): latdyn rows only", file=sys.stderr)
-        codes, exudyn_version = ("latdyn",), None
+        codes = ("latdyn",)
     runs = {(p, c): [] for p in SETTINGS for c in codes}
     load = [os.getloadavg()[0]]
     with tempfile.TemporaryDirectory() as tmp:
@@ -192,8 +191,7 @@ def main(argv=None) -> int:
         rows.append(row)
     doc = {"schema": "latdyn-peers-as-user/1", "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
            "repeats": args.repeats,
-           "machine": {"platform": platform.platform(), "cores": os.cpu_count(), "python": platform.python_version(),
-                       "exudyn": exudyn_version, "load_average_1min": load},
+           "machine": dict(peers.machine(), load_average_1min=load),
            "rows": rows}
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(doc, indent=1, default=float) + "\n")

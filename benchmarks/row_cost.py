@@ -23,7 +23,6 @@ import argparse
 import copy
 import json
 import os
-import platform
 import statistics
 import sys
 import tempfile
@@ -36,6 +35,9 @@ import latdyn
 from latdyn.scene import _yaml_loader
 
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+from benchmarks import peers  # noqa: E402  (machine(): the description every benchmark records)
+
 OUT = ROOT / "benchmarks" / "results" / "row_cost.json"
 ELEMENTS = (2, 8, 32, 128)
 WAYS = ("end", "rows", "rows+paraview")
@@ -95,8 +97,7 @@ def main(argv=None) -> int:
                      "wall_s": {way: med[way]["wall_s"] for way in WAYS},
                      "wall_over_solver": med["rows+paraview"]["wall_s"] / med["rows+paraview"]["solver_s"]})
     doc = {"schema": "latdyn-row-cost/1", "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "repeats": args.repeats,
-           "machine": {"platform": platform.platform(), "cores": os.cpu_count(), "python": platform.python_version(),
-                       "load_average_1min": load},
+           "machine": dict(peers.machine(), load_average_1min=load),
            "rows": rows}
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(doc, indent=1) + "\n")

@@ -48,10 +48,8 @@ NumPy kernel backend (no compiler) and rigid links.
 from __future__ import annotations
 
 import ctypes
-import hashlib
 import importlib.resources
 import os
-import time
 from dataclasses import dataclass
 
 import numpy as np

@@ -23,12 +23,11 @@ import os
 import sys
 import time
 import warnings
-from pathlib import Path
 from typing import Callable
 
 import numpy as np
 
-from .native import C_FLAGS, COMPILE_SECONDS, NO_COMPILER_ADVICE  # the one compile-and-cache path
+from .native import C_FLAGS, NO_COMPILER_ADVICE  # the one compile-and-cache path
 
 BACKENDS = ("auto", "c", "numpy")
 PACKAGE = "latdyn_generated"
@@ -244,20 +243,6 @@ COMPOSED = {
                       "beam_quadratic_velocity_D_qdot"),
 }
 
-
-
-def _compiler() -> list[str]:
-    """The command of the C compiler in use (:func:`latdyn.native.compiler`)."""
-    from .native import compiler
-
-    return list(compiler().command)
-
-
-def cache_dir() -> Path:
-    """The kernel cache (:func:`latdyn.native.cache_dir`)."""
-    from .native import cache_dir as folder
-
-    return folder()
 
 
 def _kernel_sources(variant: str, names) -> dict[str, bytes]:

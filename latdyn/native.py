@@ -126,10 +126,7 @@ def target(name: str, source: bytes, flags=C_FLAGS, using: Compiler | None = Non
     """The cache path of ``source`` built with ``flags`` by ``using`` (default :func:`compiler`).
     ``source`` may stand for the source: anything that determines it (see ``key`` of :func:`build`)."""
     using = using or compiler()
-    digest = hashlib.sha256()
-    for part in (source, " ".join(flags).encode(), using.identity()):
-        digest.update(part + b"\0")
-    return cache_dir() / f"{name}-{digest.hexdigest()[:20]}{SUFFIX}"
+    return cache_dir() / f"{name}-{source_digest(source, ' '.join(flags), using.identity())}{SUFFIX}"
 
 
 def build(name: str, source: bytes, flags=C_FLAGS, *, using: Compiler | None = None,

@@ -519,7 +519,7 @@ class ResultWriter:
                     pass
         self._open_paraview()
         self._fd = os.open(folder / PROBES_FILE, os.O_WRONLY | os.O_CREAT | os.O_TRUNC | os.O_APPEND, 0o644)
-        self._write_line(_csv_line([self.first_column, *self.columns]))
+        self._write_text(_csv_line([self.first_column, *self.columns]))
         self._write_summary({"status": "running"})
 
     def bookmark(self) -> dict:
@@ -626,12 +626,12 @@ class ResultWriter:
     def _flush_rows(self) -> None:
         """The probe rows recorded since the last write, to probes.csv in one write."""
         if self._csv_pending and self._fd is not None:
-            self._write_line("".join(self._csv_pending))
+            self._write_text("".join(self._csv_pending))
         self._csv_pending.clear()
         self._csv_written_at = time.perf_counter()
 
-    def _write_line(self, line: str) -> None:
-        data = line.encode("utf-8")
+    def _write_text(self, text: str) -> None:
+        data = text.encode("utf-8")
         written = os.write(self._fd, data)
         while written < len(data):  # short writes are rare on regular files
             written += os.write(self._fd, data[written:])
@@ -665,8 +665,8 @@ class ResultWriter:
             if len(row) != len(self.columns):
                 raise ValueError(f"record() got {len(row)} values for {len(self.columns)} probes")
         t = float(t)
-        if self._fd is not None:  # floats need no CSV quoting: repr, comma-separated
-            self._csv_pending.append(",".join(map(repr, [t, *row])) + "\n")
+        if self._fd is not None:  # floats need no CSV quoting
+            self._csv_pending.append(",".join(map(_format_float, (t, *row))) + "\n")
             if len(self._csv_pending) >= CSV_BLOCK_ROWS \
                     or time.perf_counter() - self._csv_written_at >= CSV_BLOCK_SECONDS:
                 self._flush_rows()

@@ -59,7 +59,7 @@ def prepare(scene, backend: str = "auto") -> Prepared:
 
 def _compile_seconds() -> float:
     """Seconds this process has spent compiling C kernels and the step library (summary ``compile_s``)."""
-    from .kernels import COMPILE_SECONDS
+    from .native import COMPILE_SECONDS
 
     return COMPILE_SECONDS["total"]
 
