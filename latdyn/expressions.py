@@ -379,23 +379,16 @@ def _generator() -> str:
     if not _GENERATOR:
         from pathlib import Path
 
-        _GENERATOR.append(_digest(Path(__file__).read_bytes(), sympy_version(), _CACHE_FORMAT))
+        from .native import source_digest
+
+        _GENERATOR.append(source_digest(Path(__file__).read_bytes(), sympy_version(), _CACHE_FORMAT))
     return _GENERATOR[0]
 
 
-def _digest(*parts) -> str:
-    import hashlib
-
-    digest = hashlib.sha256()
-    for part in parts:
-        digest.update((part if isinstance(part, bytes) else repr(part).encode()) + b"\0")
-    return digest.hexdigest()[:24]
-
-
 def _cache_path(kind: str, source: str):
-    from .native import cache_dir
+    from .native import cache_dir, source_digest
 
-    return cache_dir() / "expressions" / f"{kind}-{_digest(kind, source, _generator())}.json"
+    return cache_dir() / "expressions" / f"{kind}-{source_digest(kind, source, _generator())}.json"
 
 
 def _namespace_entry(name: str, value):
