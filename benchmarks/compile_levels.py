@@ -2,7 +2,7 @@
 
     python benchmarks/compile_levels.py [variant] [n_elements]
 
-Each kernel is compiled as its own translation unit (as latdyn.kernels does) at each
+Each kernel is compiled as its own translation unit (as latdyn.model.kernels does) at each
 level, one compile at a time (wall and CPU time of the compiler), then timed on
 ``n_elements`` realistic elements (median of 7 calls, µs per element). The table says
 which level pays: a level pays when the run time it saves over a run outweighs the extra
@@ -27,7 +27,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from test_backends import realistic_inputs  # noqa: E402
 
-from latdyn.kernels import PACKAGE, _c_function, _kernel_sources  # noqa: E402
+from latdyn.model.kernels import PACKAGE, _c_function, _kernel_sources  # noqa: E402
 from latdyn.native import compiler  # noqa: E402
 
 LEVELS = ("-O0", "-O1", "-O2")

@@ -16,7 +16,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from test_backends import realistic_inputs  # noqa: E402
 
-from latdyn.kernels import load_kernels  # noqa: E402
+from latdyn.model.kernels import load_kernels  # noqa: E402
 
 
 def median_time(function, arrays, repeats=7):

@@ -26,7 +26,7 @@ and writes medians to ``benchmarks/results/linear_solvers.json``:
   rcm_banded       reverse Cuthill–McKee once, a precomputed map from CSR values to LAPACK
                    band storage, then gbsv (scipy.linalg.solve_banded): a reused
                    symbolic analysis in the strict sense (skipped when the RCM bandwidth > 300)
-  latdyn           latdyn.linalg.solve_linear on the matrix the Assembler makes: the policy chosen
+  latdyn           latdyn.numerics.linalg.solve_linear on the matrix the Assembler makes: the policy chosen
                    from these numbers (dense LU up to DENSE_LIMIT, else band LU or reused SuperLU)
 
 It also times the unheld-coordinate check (``Model.check_held``) at ~10⁴ coordinates.
@@ -58,11 +58,11 @@ import scipy.sparse.linalg as spla
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from latdyn.assembly import Assembler, advance, initial_state, unpack_free  # noqa: E402
-from latdyn.kernels import load_kernels  # noqa: E402
-from latdyn.linalg import solve_linear  # noqa: E402
-from latdyn.model import Model  # noqa: E402
-from latdyn.scene import load_scene  # noqa: E402
+from latdyn.assembly.assembler import Assembler, advance, initial_state, unpack_free  # noqa: E402
+from latdyn.model.kernels import load_kernels  # noqa: E402
+from latdyn.numerics.linalg import solve_linear  # noqa: E402
+from latdyn.model.model import Model  # noqa: E402
+from latdyn.scene.loader import load_scene  # noqa: E402
 
 try:  # normally installed alongside scipy
     from threadpoolctl import ThreadpoolController
@@ -238,7 +238,7 @@ def methods(ev, n, nnz, dense_max):
     out["splu_reuse"] = (_reuse_setup, lambda b, s: _reuse_solve(ev, b, s))
     if rcm_bandwidth(ev) <= 300:  # n b² work: hopeless beyond
         out["rcm_banded"] = (_banded_setup, lambda b, s: _banded_solve(ev, b, s))
-    # the policy of latdyn/linalg.py, as the integrators call it (assembly form chosen by the Assembler)
+    # the policy of latdyn/numerics/linalg.py, as the integrators call it (assembly form chosen by the Assembler)
     out["latdyn"] = (None, lambda b, s: solve_linear(ev.combined(BETA_P, GAMMA_P, 1.0), b))
     return out
 

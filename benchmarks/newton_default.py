@@ -32,7 +32,7 @@ import yaml
 
 import latdyn
 import latdyn.solve
-from latdyn.scene import _yaml_loader
+from latdyn.scene.loader import _yaml_loader
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -53,7 +53,7 @@ def scenes(t_end_cap: float):
             continue
         solve["t_end"] = min(float(solve["t_end"]), t_end_cap)
         name = str(path.relative_to(ROOT / "examples"))
-        planar = latdyn.solve.prepare(latdyn.load_scene(copy.deepcopy(raw))).model.plane is not None
+        planar = latdyn.assembly.prepare.prepare(latdyn.load_scene(copy.deepcopy(raw))).model.plane is not None
         yield name, raw, "planar" if planar else "3D"
         if planar and solve.get("planar", "auto") == "auto":
             off = copy.deepcopy(raw)

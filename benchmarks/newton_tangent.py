@@ -16,8 +16,9 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+import latdyn.assembly.prepare as prepare_module
 import latdyn.solve as solve_module
-from latdyn.assembly import Assembler, advance
+from latdyn.assembly.assembler import Assembler, advance
 from latdyn.errors import SolverError
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "spinup.yaml"
@@ -64,12 +65,12 @@ def main():
         for dt in (0.005, 0.02, 0.05):
             rows = []
             for assembler in (Assembler, FiniteDifferenceTangent):
-                solve_module.Assembler = assembler
+                prepare_module.Assembler = assembler
                 try:
                     rows.append(solve_module.run(spinup(fast, dt, 1.0)))
                 except SolverError as error:
                     rows.append(str(error).splitlines()[1].strip())
-            solve_module.Assembler = Assembler
+            prepare_module.Assembler = Assembler
             name = "spin-up from rest" if not fast else "spinning at 6 rad/s from t = 0"
             cells = [f"{r.summary['newton_iterations'] / r.summary['steps']:.2f}" if not isinstance(r, str)
                      else "failed" for r in rows]

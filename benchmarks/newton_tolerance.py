@@ -2,7 +2,7 @@
 
     python benchmarks/newton_tolerance.py [--t-end-spinup 10] [--t-end-cantilever 10]
 
-Newton stops when the increment is small in ``latdyn.integrators.increment_size``
+Newton stops when the increment is small in ``latdyn.step.integrators.increment_size``
 (per node |Δd|/ℓ and |Δπ| in radians, per hinge |Δθ|).  For each tolerance the
 spin-up (4 elements, dt 0.01, EA/EI = 2e3), a stiff spin-up (EA/EI = 2e5, so axial
 round-off is amplified a hundredfold in bending) and the right-angle cantilever

@@ -32,7 +32,7 @@ from pathlib import Path
 import yaml
 
 import latdyn
-from latdyn.scene import _yaml_loader
+from latdyn.scene.loader import _yaml_loader
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))

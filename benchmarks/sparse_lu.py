@@ -8,10 +8,10 @@ written to benchmarks/results/sparse_lu.json with the machine and its load avera
 
 1. *The linear solve alone*, on the iteration matrix S = β′M + γ′C + K of a perturbed moving
    state (Newmark, h = 0.01): the fill (nonzeros of L + U, the diagonal once) of the node-graph
-   minimum degree (latdyn/sparse_lu.py) against SuperLU's MMD on AᵀA + A of the Jacobi-scaled
-   matrix (latdyn.linalg's setting; COLAMD for reference), the analysis time (once per
+   minimum degree (latdyn/step/sparse_lu.py) against SuperLU's MMD on AᵀA + A of the Jacobi-scaled
+   matrix (latdyn.numerics.linalg's setting; COLAMD for reference), the analysis time (once per
    pattern), and the median time of one factorization + solve: the C sparse LU (values
-   scattered into the factor storage, factorized, solved) against latdyn.linalg.solve_linear
+   scattered into the factor storage, factorized, solved) against latdyn.numerics.linalg.solve_linear
    (SuperLU with the order reused, what the Python step does).  "1/2": BLAS (dgemm, dtrsm)
    pinned to one thread around the factorization, as the compiled step does, / left on
    OpenBLAS's two threads; two rounds, interleaved, the better median of each kept.
@@ -44,11 +44,11 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
 import latdyn  # noqa: E402
-import latdyn.engine as engine  # noqa: E402
-from latdyn.integrators import AlphaParameters, GeneralizedAlpha  # noqa: E402
-from latdyn.linalg import SUPERLU_OPTIONS, rcm_band, solve_linear  # noqa: E402
-from latdyn.solve import prepare  # noqa: E402
-from latdyn.sparse_lu import SparseLU, SupernodalAnalysis  # noqa: E402
+import latdyn.step.compiled as engine  # noqa: E402
+from latdyn.step.integrators import AlphaParameters, GeneralizedAlpha  # noqa: E402
+from latdyn.numerics.linalg import SUPERLU_OPTIONS, rcm_band, solve_linear  # noqa: E402
+from latdyn.assembly.prepare import prepare  # noqa: E402
+from latdyn.step.sparse_lu import SparseLU, SupernodalAnalysis  # noqa: E402
 from linear_solvers import _scaled, beam_scene, build, combined, lattice_for, machine  # noqa: E402
 
 try:
@@ -165,7 +165,7 @@ def main(argv=None):
     parser.add_argument("--rounds", type=int, default=2, help="timings of each case; the fastest is kept")
     parser.add_argument("--out", type=Path, default=RESULTS)
     args = parser.parse_args(argv)
-    latdyn.scene.MAX_ELEMENTS = max(latdyn.scene.MAX_ELEMENTS, 10_000)
+    latdyn.scene.loader.MAX_ELEMENTS = max(latdyn.scene.loader.MAX_ELEMENTS, 10_000)
     lattices = tuple(e for e in LATTICES if not args.quick or e <= 1000)
     controller = ThreadpoolController() if ThreadpoolController is not None else None
     report = {"machine": machine(), "cores": os.cpu_count(), "load_average_before": os.getloadavg(),

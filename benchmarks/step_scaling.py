@@ -6,12 +6,12 @@
 
 A free–free beam (3D, both section stiffnesses and a twist, no rotary inertia) in a slow
 tumble, meshed into 10, 10², 10³, 10⁴, 10⁵ elements; a few generalized-α steps of the
-compiled step (latdyn/engine.py) after a warm-up, full Newton; the time of each step
+compiled step (latdyn/step/compiled.py) after a warm-up, full Newton; the time of each step
 divided by its Newton iterations (wall and CPU time of the process), median over the steps (a step that does not converge
 within ITERATIONS is timed all the same: the cost of an iteration is what is measured,
 and the table says how many steps converged). Small models use the dense LU,
 the larger ones the band LU after reverse Cuthill–McKee (bandwidth stays ~11 for a beam).
-The scene loader's element limit (latdyn.scene.MAX_ELEMENTS) is raised for the run.
+The scene loader's element limit (latdyn.scene.loader.MAX_ELEMENTS) is raised for the run.
 The table and the machine go to benchmarks/results/step_scaling.json.
 
 ``--threads 1,2``: each size is timed with the element part of the step (geometry and
@@ -34,10 +34,10 @@ from pathlib import Path
 import numpy as np
 
 import latdyn
-import latdyn.scene
-from latdyn.engine import CompiledGeneralizedAlpha
-from latdyn.integrators import AlphaParameters
-from latdyn.solve import prepare
+import latdyn.scene.loader
+from latdyn.step.compiled import CompiledGeneralizedAlpha
+from latdyn.step.integrators import AlphaParameters
+from latdyn.assembly.prepare import prepare
 
 
 #: Newton iterations a step may take here (a step that does not converge in them is timed
@@ -132,13 +132,13 @@ def main() -> None:
     parser.add_argument("--sizes", help="element counts for the threads table, e.g. 100,1000,10000")
     parser.add_argument("--repeats", type=int, default=3)
     args = parser.parse_args()
-    latdyn.scene.MAX_ELEMENTS = max(latdyn.scene.MAX_ELEMENTS, args.max)
+    latdyn.scene.loader.MAX_ELEMENTS = max(latdyn.scene.loader.MAX_ELEMENTS, args.max)
     if args.threads:
-        from latdyn.engine import openmp_threads, parallel_threshold
+        from latdyn.step.library import openmp_threads, parallel_threshold
 
         counts = [int(n) for n in args.threads.split(",")]
         sizes = [int(n) for n in args.sizes.split(",")] if args.sizes else [10, 100, 1000, 10_000, 100_000]
-        latdyn.scene.MAX_ELEMENTS = max(latdyn.scene.MAX_ELEMENTS, max(sizes))
+        latdyn.scene.loader.MAX_ELEMENTS = max(latdyn.scene.loader.MAX_ELEMENTS, max(sizes))
         machine = {"cores": os.cpu_count(), "python": platform.python_version(),
                    "openmp_threads": openmp_threads(), "threshold": parallel_threshold(),
                    "OMP_NUM_THREADS": os.environ.get("OMP_NUM_THREADS"),

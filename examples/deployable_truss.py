@@ -1,4 +1,4 @@
-"""A deployable square truss of 1000 bays and 10⁴ beam elements, built in code (latdyn.builder).
+"""A deployable square truss of 1000 bays and 10⁴ beam elements, built in code (latdyn.scene.builder).
 
 Each bay adds four corner joints (massless bodies) at x = (i + 1)·a and ten members of one
 element each: four longerons from the previous corners, four battens around the new square
@@ -16,7 +16,7 @@ from __future__ import annotations
 import argparse
 import time
 
-from latdyn.builder import SceneBuilder, hinge
+from latdyn.scene.builder import SceneBuilder, hinge
 
 BAYS = 1000
 PITCH = 0.5   # bay length a

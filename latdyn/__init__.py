@@ -1,41 +1,41 @@
 """latdyn: transient dynamics of joint-dominated flexible structures (NASA CR-4402)."""
 from __future__ import annotations
 
-__version__ = "0.1.0"
+from latdyn.errors import SceneError, SolverError
 
-from .errors import SceneError, SolverError  # noqa: E402
+from .version import __version__
 
 
 def load_scene(source):
     """Read and validate a scene (a path to YAML/JSON, or a dict); see SCENE.md."""
-    from .scene import load_scene as _load
+    from latdyn.scene.loader import load_scene as _load
 
     return _load(source)
 
 
 def run(scene, out_dir=None, backend="auto", progress=False, *, resume=False, checkpoint_every=None):
-    """Solve a scene (a Scene, a dict or a path); returns a :class:`latdyn.results.Result`.
+    """Solve a scene (a Scene, a dict or a path); returns a :class:`latdyn.results.writer.Result`.
 
     Transient runs into ``out_dir`` write a checkpoint every ``checkpoint_every``
     seconds (default 60), on Ctrl-C/SIGTERM and on failure; ``resume=True`` continues
-    from it (see :mod:`latdyn.checkpoint`).
+    from it (see :mod:`latdyn.timeloop.checkpoint`).
     """
-    from .solve import run as _run
+    from latdyn.solve import run as _run
 
     return _run(scene, out_dir=out_dir, backend=backend, progress=progress, resume=resume,
                 checkpoint_every=checkpoint_every)
 
 
 def study(source, scheduler=None, out=None, *, client=None, **options):
-    """Run a study (a path to a study YAML, or a mapping); returns a :class:`latdyn.study_runner.StudyTable`.
+    """Run a study (a path to a study YAML, or a mapping); returns a :class:`latdyn.studies.runner.StudyTable`.
 
     ``scheduler``: ``"serial"`` (default), ``"local[:N]"`` (Dask LocalCluster) or a Dask
     scheduler's address; or ``client``: a ``dask.distributed.Client`` of your own cluster
     (``LocalCluster``, ``dask_jobqueue.SLURMCluster`` …), left open. ``out`` the results
     folder (default ``<study stem>_study``). See STUDY.md, docs/studies.md and
-    :mod:`latdyn.study_runner`.
+    :mod:`latdyn.studies.runner`.
     """
-    from .study_runner import study as _study
+    from latdyn.studies.runner import study as _study
 
     return _study(source, scheduler=scheduler, out=out, client=client, **options)
 

@@ -1,6 +1,6 @@
 """``python -m latdyn``: the same as the ``latdyn`` command."""
 import sys
 
-from .cli import main
+from latdyn.cli import main
 
 sys.exit(main())

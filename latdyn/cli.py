@@ -24,9 +24,9 @@ import traceback
 import warnings
 from pathlib import Path
 
-from . import __version__
-from .checkpoint import CHECKPOINT_FILE, CheckpointError
-from .errors import MissingExtra, SceneError, SolverError
+from latdyn.errors import MissingExtra, SceneError, SolverError
+from latdyn.timeloop.checkpoint import CHECKPOINT_FILE, CheckpointError
+from latdyn.version import __version__
 
 __all__ = ["main", "build_parser", "default_out_dir"]
 
@@ -58,7 +58,7 @@ def _load_scene(path: str):
         raise _UsageError(f"{scene_path}: no such scene file")
     if not scene_path.is_file():
         raise _UsageError(f"{scene_path}: not a scene file (a YAML or JSON file is expected)")
-    return _module("latdyn.scene").load_scene(str(scene_path))
+    return _module("latdyn.scene.loader").load_scene(str(scene_path))
 
 
 # ----------------------------------------------------------------------------- commands
@@ -115,27 +115,21 @@ def _resume_hint(args, out_dir: Path) -> None:
 
 
 def _command_check(args) -> int:
+    from .analyses.check import check_report
+    from .assembly.prepare import prepare
+    from .scene.loader import describe
+
     scene = _load_scene(args.scene)
-    describe = getattr(_module("latdyn.scene"), "describe", None)
-    print(describe(scene) if describe is not None else repr(scene))
-    try:
-        model_module = _module("latdyn.model")
-    except ImportError:  # the model is not there yet: the description alone
-        return 0
-    if not hasattr(model_module.Model, "dynamics_report"):  # a model without the dynamics checks
-        model = model_module.Model.from_scene(scene)  # SceneError -> 2
-        print(model.size_report())
-        return 0
+    print(describe(scene))
     # the model, its held check (SceneError -> 2) and the initial state; NumPy kernels, so that
     # checking never waits for a C compiler
-    prepared = _module("latdyn.solve").prepare(scene, backend="numpy")
-    print(prepared.model.size_report(prepared.assembler, prepared.state))
+    print(check_report(prepare(scene, backend="numpy")))
     return 0
 
 
 def _command_plot(args) -> int:
-    from .plot import plot_results
-    from .results import ResultsError
+    from latdyn.errors import ResultsError
+    from latdyn.results.plot import plot_results
 
     try:
         written = plot_results(args.results, plot_dir=args.out)
@@ -153,7 +147,7 @@ def _command_study(args) -> int:
     if not Path(args.study).is_file():
         raise _UsageError(f"{args.study}: no such study file")
     try:
-        table = _module("latdyn.study_runner").study(args.study, scheduler=args.scheduler, out=args.out,
+        table = _module("latdyn.studies.runner").study(args.study, scheduler=args.scheduler, out=args.out,
                                               progress=not args.quiet)
     except ValueError as exc:  # a malformed --scheduler, an unreachable scheduler (SceneError is caught in main)
         if isinstance(exc, SceneError):

@@ -73,3 +73,7 @@ def require(extra: str, purpose: str, *modules: str):
             raise MissingExtra(f"{purpose} needs {name}, which is not installed: "
                                f"pip install \"latdyn[{extra}]\" ({error})") from None
     return loaded[0] if len(loaded) == 1 else tuple(loaded)
+
+
+class ResultsError(ValueError):
+    """A results folder that is missing or cannot be read (the CLI exits 2)."""

@@ -2,10 +2,10 @@
 
 Three kinds of C unit are built at run time, all through :func:`build`:
 
-- the generated element kernels, one unit per kernel (:mod:`latdyn.kernels`);
-- the compiled time step, ``csrc/newton_step.c`` (:mod:`latdyn.engine`), with ``-fopenmp``
+- the generated element kernels, one unit per kernel (:mod:`latdyn.model.kernels`);
+- the compiled time step, ``csrc/newton_step.c`` (:mod:`latdyn.step.compiled`), with ``-fopenmp``
   where the compiler takes it;
-- a scene's laws, printed by :mod:`codegen.laws` (:mod:`latdyn.compiled_laws`).
+- a scene's laws, printed by :mod:`codegen.laws` (:mod:`latdyn.step.compiled_laws`).
 
 A unit is compiled once per source, flags and compiler into the kernel cache
 (``$LATDYN_CACHE_DIR``, default ``~/.cache/latdyn/kernels``) as

@@ -58,7 +58,7 @@ def realistic_inputs(n: int, seed: int = 0) -> dict[str, np.ndarray]:
 
 def _variants():
     try:
-        from latdyn.kernels import known_variants
+        from latdyn.model.kernels import known_variants
 
         return list(known_variants())
     except Exception:  # noqa: BLE001 - collected before the skip applies
@@ -67,7 +67,7 @@ def _variants():
 
 @pytest.fixture(scope="module", params=_variants())
 def backends(request):
-    from latdyn.kernels import load_kernels
+    from latdyn.model.kernels import load_kernels
 
     variant = request.param
     numpy_set = load_kernels("numpy", variant)
@@ -180,7 +180,7 @@ def test_call_convention(backends):
 
 
 def test_unknown_backend_and_variant():
-    from latdyn.kernels import load_kernels
+    from latdyn.model.kernels import load_kernels
 
     with pytest.raises(ValueError, match="numpy"):
         load_kernels("fortran")
@@ -189,7 +189,7 @@ def test_unknown_backend_and_variant():
 
 
 def test_auto_falls_back_to_numpy(monkeypatch, tmp_path):
-    import latdyn.kernels as kernels
+    import latdyn.model.kernels as kernels
 
     monkeypatch.setattr(kernels, "_LOADED", {})
     monkeypatch.setenv("CC", str(tmp_path / "no-such-compiler"))

@@ -1,4 +1,4 @@
-"""latdyn.builder: scenes in code are the same validated scenes as YAML files."""
+"""latdyn.scene.builder: scenes in code are the same validated scenes as YAML files."""
 from __future__ import annotations
 
 import importlib.util
@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import latdyn
-from latdyn.builder import SceneBuilder, hinge
+from latdyn.scene.builder import SceneBuilder, hinge
 from latdyn.errors import SceneError
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
@@ -70,7 +70,7 @@ def test_bays_repeat_a_bay_and_the_truss_example_builds_ten_thousand_elements_in
 def test_rigid_link_built_and_run():
     """p1 as a rigid link (tests/test_rigid.py has the physics): the knee follows it, p2's hinge
     with its law, stops and latch sits on a dependent node."""
-    from latdyn.model import DEPENDENT, Model
+    from latdyn.model.model import DEPENDENT, Model
 
     b = boom()
     b.data["beams"]["p1"]["rigid"] = True

@@ -11,8 +11,10 @@ import pytest
 import yaml
 
 import latdyn
-from latdyn import checkpoint, cli, results, solve
-from latdyn.results import Result, ResultWriter, load_state_history
+from latdyn import cli, solve
+from latdyn.timeloop import checkpoint as checkpoint
+from latdyn.results import writer as results
+from latdyn.results.writer import Result, ResultWriter, load_state_history
 from vtkhdf_frames import assert_same_frames, read_frames
 
 #: resumed and uninterrupted files agree to this (measured: bit for bit, 0.0)
@@ -63,10 +65,11 @@ SCENES = {
 def interrupt_at(monkeypatch, t_stop: float, how="keyboard"):
     """Ctrl-C (or SIGTERM) when the first step from t >= t_stop begins (a step from Python, or
     the compiled loop of steps between rows)."""
-    from latdyn.engine import CompiledGeneralizedAlpha
+    from latdyn.step.compiled import CompiledGeneralizedAlpha
+    from latdyn.step.integrators import CentralDifference, GeneralizedAlpha
 
-    for cls, name in ((solve.GeneralizedAlpha, "step"), (CompiledGeneralizedAlpha, "step"),
-                      (CompiledGeneralizedAlpha, "advance"), (solve.CentralDifference, "step")):
+    for cls, name in ((GeneralizedAlpha, "step"), (CompiledGeneralizedAlpha, "step"),
+                      (CompiledGeneralizedAlpha, "advance"), (CentralDifference, "step")):
         original = getattr(cls, name)
 
         def step(self, state, *args, _original=original, **kwargs):
@@ -328,7 +331,7 @@ def test_checkpoint_of_another_scene_is_refused(sigterm_run, tmp_path, capsys):
 
 def test_checkpoint_of_another_version_is_refused(sigterm_run, monkeypatch, capsys):
     scene_file, out = sigterm_run
-    monkeypatch.setattr(latdyn, "__version__", "99.0")
+    monkeypatch.setattr(latdyn.version, "__version__", "99.0")
     err = _refused(["run", str(scene_file), "-o", str(out), "-q", "--resume"], capsys)
     assert str(out / checkpoint.CHECKPOINT_FILE) in err and "package version" in err and "99.0" in err
     monkeypatch.undo()

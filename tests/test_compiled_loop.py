@@ -1,13 +1,13 @@
 """The loop of steps in C (engine.CompiledGeneralizedAlpha.advance, csrc/newton_step.c
 latdyn_advance) and the scene's laws compiled by the code generator (codegen/laws.py).
 
-References: the same run with every step taken from Python (``solve.COMPILED_LOOP = False``,
-one call into C per step, the laws evaluated by ``latdyn.expressions``), which the loop must
+References: the same run with every step taken from Python (``latdyn.timeloop.transient.COMPILED_LOOP = False``,
+one call into C per step, the laws evaluated by ``latdyn.scene.expressions``), which the loop must
 equal to round-off with the same steps, iterations, factorizations and rejected steps, through
 rows that span several steps, Newton failures and cuts, latches and hinge stops; and the
 Python step itself (engine: python) for hinge laws in θ, θ̇ and t, which now run compiled.
-The compiled laws equal :class:`~latdyn.expressions.TimeFunction` and
-:class:`~latdyn.expressions.HingeLaw` at random arguments.
+The compiled laws equal :class:`~latdyn.scene.expressions.TimeFunction` and
+:class:`~latdyn.scene.expressions.HingeLaw` at random arguments.
 """
 from __future__ import annotations
 
@@ -18,9 +18,9 @@ import numpy as np
 import pytest
 
 import latdyn
-import latdyn.solve as solve_module
-from latdyn.expressions import HingeLaw, TimeFunction
-from latdyn.kernels import load_kernels
+import latdyn.timeloop.transient as transient_module
+from latdyn.scene.expressions import HingeLaw, TimeFunction
+from latdyn.model.kernels import load_kernels
 
 from test_engine import _relative_difference, _run, loaded_arm
 from test_hinges import stop_scene
@@ -41,7 +41,7 @@ def _both(raw, tmp_path, monkeypatch, **solve):
     """The run with the loop in C and the run stepped from Python, with their summaries."""
     runs = {}
     for loop in (True, False):
-        monkeypatch.setattr(solve_module, "COMPILED_LOOP", loop)
+        monkeypatch.setattr(transient_module, "COMPILED_LOOP", loop)
         runs[loop] = _run(raw, tmp_path, f"loop_{loop}", **solve)
     return runs[True], runs[False]
 
@@ -148,7 +148,8 @@ def test_loop_with_hinge_laws_is_invariant_under_rigid_motions(seed, rotary, tmp
 def test_laws_that_cannot_be_compiled_are_evaluated_in_python(tmp_path, monkeypatch):
     """Without the laws' library the compiled step takes the law values from Python and the
     time loop steps from Python: the same run."""
-    from latdyn import compiled_laws, engine
+    from latdyn.step import compiled_laws as compiled_laws
+    from latdyn.step import compiled as engine
 
     raw = loaded_arm(t_end=0.1)
     reference, _ = _run(raw, tmp_path, "compiled_laws", engine="compiled")
@@ -177,7 +178,7 @@ TIME_LAWS = [
 
 
 def _compiled(time_functions, hinge_laws=()):
-    from latdyn.compiled_laws import compile_laws
+    from latdyn.step.compiled_laws import compile_laws
 
     compiled = compile_laws(list(time_functions), list(hinge_laws))
     time_laws = ctypes.CFUNCTYPE(None, ctypes.c_double, ctypes.c_void_p)(compiled.time_laws)
@@ -215,7 +216,7 @@ def test_compiled_hinge_laws_equal_the_expressions():
 
 def test_the_laws_unit_is_stamped_and_reproducible():
     from codegen.emit import MARKER
-    from latdyn.compiled_laws import hinge_law, time_law
+    from latdyn.step.compiled_laws import hinge_law, time_law
     from codegen.laws import laws_source
 
     functions = [TimeFunction(source) for source in TIME_LAWS]

@@ -19,7 +19,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import element_states as es
-from latdyn.kernels import known_variants, load_kernels, plane_of
+from latdyn.model.kernels import known_variants, load_kernels, plane_of
 
 H = 1e-6
 RELATIVE = 1e-6  # error allowed, relative to the norm of the checked Jacobian

@@ -1,4 +1,4 @@
-"""The compiled step (latdyn/engine.py, csrc/newton_step.c) against the Python step.
+"""The compiled step (latdyn/step/compiled.py, csrc/newton_step.c) against the Python step.
 
 The Python generalized-α step is the reference: with full Newton the compiled step takes
 the same steps and iterations and equals it to 1e-10 relative, on genuinely 3D scenes
@@ -16,7 +16,7 @@ import pytest
 
 import latdyn
 from latdyn.errors import SceneError
-from latdyn.kernels import load_kernels
+from latdyn.model.kernels import load_kernels
 
 from test_inertia import free_l_frame, hinged_chain, rigid_motion, tilted_spin
 
@@ -117,9 +117,9 @@ def test_compiled_step_equals_the_python_step(scene, method, tmp_path):
 
 
 def test_the_band_solver_is_exercised():
-    from latdyn.engine import CompiledGeneralizedAlpha
-    from latdyn.integrators import AlphaParameters
-    from latdyn.solve import prepare
+    from latdyn.step.compiled import CompiledGeneralizedAlpha
+    from latdyn.step.integrators import AlphaParameters
+    from latdyn.assembly.prepare import prepare
 
     prepared = prepare(latdyn.load_scene(long_beam()))
     step = CompiledGeneralizedAlpha(prepared.assembler, AlphaParameters.for_method("generalized-alpha", 0.8),
@@ -184,9 +184,10 @@ def test_threaded_element_kernels_are_bit_identical(threads):
     arithmetic: each element's kernels write its own rows, the scatter stays serial in element
     order. Forced on for 30 elements (threshold 1) with 2 and 3 threads (uneven ranges), the
     states, accelerations and iteration counts equal the serial step's bit for bit."""
-    from latdyn.engine import CompiledGeneralizedAlpha, openmp_threads
-    from latdyn.integrators import AlphaParameters
-    from latdyn.solve import prepare
+    from latdyn.step.compiled import CompiledGeneralizedAlpha
+    from latdyn.step.library import openmp_threads
+    from latdyn.step.integrators import AlphaParameters
+    from latdyn.assembly.prepare import prepare
 
     if openmp_threads() == 0:
         pytest.skip("the compiled step was built without OpenMP (the compiler has no -fopenmp)")

@@ -1,4 +1,4 @@
-"""Time functions of scene files: values, derivatives, tables, safety (latdyn.expressions)."""
+"""Time functions of scene files: values, derivatives, tables, safety (latdyn.scene.expressions)."""
 from __future__ import annotations
 
 import math
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from latdyn.errors import SceneError
-from latdyn.expressions import ALLOWED_NAMES, TimeFunction, parse_time_function
+from latdyn.scene.expressions import ALLOWED_NAMES, TimeFunction, parse_time_function
 
 SPINUP = "Piecewise((6/15*(t**2/2 + (15/(2*pi))**2*(cos(2*pi*t/15) - 1)), t < 15), (6*(t - 7.5), True))"
 

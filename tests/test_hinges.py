@@ -14,10 +14,11 @@ import pytest
 from scipy.optimize import brentq
 
 import latdyn
-from latdyn.assembly import Assembler, advance, expm_so3, initial_state
+from latdyn.assembly.assembler import Assembler, advance, initial_state
+from latdyn.numerics.so3 import expm_so3
 from latdyn.errors import SceneError
-from latdyn.kernels import load_kernels
-from latdyn.model import Model
+from latdyn.model.kernels import load_kernels
+from latdyn.model.model import Model
 
 M_BOB, L, RHO_A, G = 1.0, 1.0, 0.01, 9.81
 INERTIA = M_BOB * L**2 + RHO_A * L**3 / 3

@@ -14,9 +14,9 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import latdyn
-from latdyn.assembly import expm_so3
-from latdyn.inertia import MASSLESS_TOL, joint_blocks, joint_groups, split_inertia
-from latdyn.solve import prepare
+from latdyn.numerics.so3 import expm_so3
+from latdyn.numerics.inertia import MASSLESS_TOL, joint_blocks, joint_groups, split_inertia
+from latdyn.assembly.prepare import prepare
 
 SPIN_UP = "Piecewise((6/15*(t**2/2 + (15/(2*pi))**2*(cos(2*pi*t/15) - 1)), t < 15), (6*(t - 7.5), True))"
 
@@ -177,7 +177,7 @@ def test_rigidly_moved_scene_with_rotary_inertia_gives_the_same_answer(case, met
 
 # The explicit step on the same scenes.  Steps below the stability limits 2/ω_max of the condensed
 # models at t = 0 (8.7e-4 s for the L-frame, 2.6e-4 s for the chain); before the light directions
-# were condensed (latdyn.inertia), the L-frame blew up at t ≈ 0.0126 s whatever the step.
+# were condensed (latdyn.numerics.inertia), the L-frame blew up at t ≈ 0.0126 s whatever the step.
 EXPLICIT = {"free_l_frame": dict(dt=2e-4, t_end=0.05), "hinged_chain": dict(dt=1e-4, t_end=0.05)}
 # Largest tip difference, explicit against Newmark at the same step (both second order).  Against
 # Newmark at 1e-5 s over 0.1 s, the tip errors explicit / Newmark were 8.7e-7 / 1.9e-6 m at h = 4e-4 s,

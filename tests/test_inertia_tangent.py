@@ -1,4 +1,4 @@
-"""The inertia tangent in Newton's matrix (latdyn.integrators.inertia_tangent): the very flexible
+"""The inertia tangent in Newton's matrix (latdyn.step.integrators.inertia_tangent): the very flexible
 pendulum D4 as published (ρI = 0) and the compiled step against the Python one with it.
 
 Without the inertia tangent, Newton diverges on the twist of the bent elements of D4 at
@@ -15,7 +15,7 @@ import pytest
 import yaml
 
 import latdyn
-from latdyn.kernels import load_kernels
+from latdyn.model.kernels import load_kernels
 
 from test_engine import _relative_difference, _run, loaded_arm
 
@@ -78,9 +78,9 @@ def test_compiled_step_equals_the_python_step_with_the_inertia_tangent(method, t
 def test_the_inertia_tangent_is_the_derivative_of_the_inertia_and_gravity_forces():
     """Against central differences of the whole residual at a random large-rotation state with
     random velocities and accelerations: K + inertia tangent is the residual's tangent."""
-    from latdyn.assembly import advance, unpack_free
-    from latdyn.integrators import inertia_rounds, inertia_tangent, node_colouring
-    from latdyn.solve import prepare
+    from latdyn.assembly.assembler import advance, unpack_free
+    from latdyn.step.integrators import inertia_rounds, inertia_tangent, node_colouring
+    from latdyn.assembly.prepare import prepare
 
     prepared = prepare(latdyn.load_scene(copy.deepcopy(loaded_arm())))
     model, assembler = prepared.model, prepared.assembler

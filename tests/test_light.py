@@ -108,7 +108,7 @@ def test_scene_with_expressions_uses_the_caches_in_a_later_process(tmp_path):
 
 
 def _fresh(monkeypatch, tmp_path):
-    import latdyn.expressions as expressions
+    import latdyn.scene.expressions as expressions
 
     monkeypatch.setenv("LATDYN_CACHE_DIR", str(tmp_path / "cache"))
     return expressions

@@ -8,13 +8,13 @@ import pytest
 import scipy.sparse as sps
 
 import latdyn
-from latdyn import linalg
-from latdyn.assembly import Assembler, advance, initial_state, unpack_free
-from latdyn.kernels import load_kernels
-from latdyn.linalg import DENSE_LIMIT, psd_null_direction, single_thread_blas, solve_linear
-from latdyn.model import Model
-from latdyn.scene import load_scene
-from latdyn.solve import prepare
+from latdyn.numerics import linalg as linalg
+from latdyn.assembly.assembler import Assembler, advance, initial_state, unpack_free
+from latdyn.model.kernels import load_kernels
+from latdyn.numerics.linalg import DENSE_LIMIT, psd_null_direction, single_thread_blas, solve_linear
+from latdyn.model.model import Model
+from latdyn.scene.loader import load_scene
+from latdyn.assembly.prepare import prepare
 
 SECTION = {"EA": 1.0e5, "EIy": 50.0, "EIz": 80.0, "GJ": 40.0, "rhoA": 1.0}
 SOLVE = {"analysis": "transient", "t_end": 0.01, "dt": 0.01}

@@ -24,7 +24,7 @@ import numpy as np
 import pytest
 
 import latdyn
-from latdyn.results import Result
+from latdyn.results.writer import Result
 from test_checkpoint import assert_same_files, interrupt_at
 from vtkhdf_frames import read_frames, times
 

@@ -1,4 +1,4 @@
-"""ParaView output (SCENE.md ``output.paraview_every``; latdyn/paraview.py): one transient VTKHDF
+"""ParaView output (SCENE.md ``output.paraview_every``; latdyn/results/paraview.py): one transient VTKHDF
 file per part, read back with VTK's own reader (tests/vtkhdf_frames.py)."""
 from __future__ import annotations
 
@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 import latdyn
-from latdyn.paraview import default_every
-from latdyn.results import Result, ResultWriter
+from latdyn.results.paraview import default_every
+from latdyn.results.writer import Result, ResultWriter
 from vtkhdf_frames import read_frames, times
 
 pytest.importorskip("vtk")

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 import element_states as es
-from latdyn.kernels import PLANE_SUFFIXES, known_variants, load_kernels, planar_variant
+from latdyn.model.kernels import PLANE_SUFFIXES, known_variants, load_kernels, planar_variant
 
 FORMULATIONS = ("default", "cr4402", "no_stiffening")
 H = 1e-6
@@ -159,8 +159,8 @@ def test_planar_derivatives_against_finite_differences(pair):
 import copy  # noqa: E402
 
 import latdyn  # noqa: E402
-from latdyn.model import Model  # noqa: E402
-from latdyn.scene import load_scene  # noqa: E402
+from latdyn.model.model import Model  # noqa: E402
+from latdyn.scene.loader import load_scene  # noqa: E402
 
 #: permutation taking the xy-plane scene below into the plane normal to axis n (a proper rotation)
 PERMUTATIONS = {2: (0, 1, 2), 0: (1, 2, 0), 1: (2, 0, 1)}
@@ -322,7 +322,7 @@ def test_planar_key_is_validated(tmp_path):
 def test_planar_model_equals_3d_model_in_other_analyses(solve):
     """Static load stepping and the explicit method (with its split of directions without inertia)
     give the planar model's answer equal to the 3D model's. (Adaptive runs do not: the step
-    controller's norm differs between the models, latdyn/planar.py.)"""
+    controller's norm differs between the models, latdyn/model/planar.py.)"""
     raw = chain_scene()
     raw["solve"] = {k: v for k, v in raw["solve"].items() if k not in ("t_end", "dt")}
     raw["solve"].update({"t_end": 0.05, "dt": 0.005, **solve})
@@ -359,7 +359,7 @@ def test_check_says_whether_the_scene_is_planar(tmp_path):
 
 
 def test_planar_model_with_the_inertia_tangent():
-    """solve.newton: exact (the inertia tangent from the start, latdyn.integrators.inertia_rounds)
+    """solve.newton: exact (the inertia tangent from the start, latdyn.step.integrators.inertia_rounds)
     perturbs only the coordinates a planar node has; Python and compiled steps agree, and the
     planar model equals the 3D one."""
     results = {}

@@ -13,8 +13,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from latdyn import results
-from latdyn.results import Result, ResultWriter, ResultsError, load_state_history
+from latdyn.results import writer as results
+from latdyn.results.writer import Result, ResultWriter, load_state_history
+from latdyn.errors import ResultsError
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -139,7 +140,7 @@ def test_sigkill_after_checkpoint_leaves_readable_files(tmp_path):
     script = textwrap.dedent(f"""
         import os, signal
         import numpy as np
-        from latdyn.results import ResultWriter
+        from latdyn.results.writer import ResultWriter
         writer = ResultWriter({str(out)!r}, ["x", "y"], checkpoint_rows=10**9, checkpoint_seconds=1e9)
         for i in range(50):
             writer.record(0.01 * i, [i, -i], state={{"q": np.full(4, float(i))}})
@@ -286,7 +287,7 @@ def run_out(tmp_path_factory):
 
 
 def test_run_state_history_is_labelled(run_out):
-    from latdyn.solve import prepare
+    from latdyn.assembly.prepare import prepare
 
     out, loaded, _ = run_out
     model = prepare(RUN_SCENE).model

@@ -1,4 +1,4 @@
-"""Rigid links (``rigid: true``) in minimum coordinates: latdyn/links.py.
+"""Rigid links (``rigid: true``) in minimum coordinates: latdyn/model/links.py.
 
 Exact references: the compound pendulum's period (complete elliptic integral), a direct
 Lagrangian ODE of the double compound pendulum (scipy, 1e-11), static equilibria and small-
@@ -16,11 +16,11 @@ from scipy.optimize import brentq
 from scipy.special import ellipk
 
 import latdyn
-from latdyn.assembly import advance, free_acceleration, free_velocity, unpack_free
+from latdyn.assembly.assembler import advance, free_acceleration, free_velocity, unpack_free
 from latdyn.errors import SceneError
-from latdyn.model import Model
-from latdyn.scene import load_scene
-from latdyn.solve import prepare
+from latdyn.model.model import Model
+from latdyn.scene.loader import load_scene
+from latdyn.assembly.prepare import prepare
 
 G = 9.81
 #: the plane of the pendulums: normal n (tilted against gravity), gravity along −z

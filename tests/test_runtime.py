@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import latdyn
-from latdyn.assembly import expm_so3
+from latdyn.numerics.so3 import expm_so3
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "spinup.yaml"
 

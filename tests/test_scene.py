@@ -1,4 +1,4 @@
-"""Scene reading and validation (latdyn.scene, SCENE.md)."""
+"""Scene reading and validation (latdyn.scene.loader, SCENE.md)."""
 from __future__ import annotations
 
 import copy
@@ -14,8 +14,8 @@ import yaml
 
 import latdyn
 from latdyn.errors import SceneError
-from latdyn.expressions import TimeFunction
-from latdyn.scene import Scene, describe, load_scene
+from latdyn.scene.expressions import TimeFunction
+from latdyn.scene.loader import Scene, describe, load_scene
 
 REPO = Path(__file__).resolve().parents[1]
 

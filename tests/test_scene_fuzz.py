@@ -6,7 +6,7 @@ numbers, odd names, dangling references, bad expressions and tables, lists
 where mappings are expected, deep nesting), a key deleted, inserted or renamed,
 a line of the file replaced by odd YAML. Whatever comes out, the loader must
 
-- return a :class:`~latdyn.scene.Scene` whose model builds, or
+- return a :class:`~latdyn.scene.loader.Scene` whose model builds, or
 - raise :class:`~latdyn.errors.SceneError` naming the file and a key path,
 
 and ``latdyn check`` must exit 0 or 2 (2 with the file named on stderr) — never
@@ -36,9 +36,9 @@ from hypothesis import strategies as st
 
 from latdyn import cli
 from latdyn.errors import SceneError
-from latdyn.expressions import MAX_TEXT, parse_time_function
-from latdyn.model import Model
-from latdyn.scene import MAX_COUNT, MAX_ELEMENTS, describe, load_scene
+from latdyn.scene.expressions import MAX_TEXT, parse_time_function
+from latdyn.model.model import Model
+from latdyn.scene.loader import MAX_COUNT, MAX_ELEMENTS, describe, load_scene
 
 REPO = Path(__file__).resolve().parents[1]
 SCENE_FILES = [REPO / "examples" / "spinup.yaml", *sorted((REPO / "examples" / "benchmarks").glob("*.yaml"))]

@@ -18,7 +18,7 @@ import yaml
 
 import latdyn
 from latdyn.errors import SceneError
-from latdyn.kernels import known_variants, load_kernels, plane_of
+from latdyn.model.kernels import known_variants, load_kernels, plane_of
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "benchmarks"
 
@@ -44,7 +44,7 @@ def test_scene_accepts_shear_stiffness_and_model_packs_compliances():
     scene = latdyn.load_scene(_cantilever({**SECTION, "GAy": 50.0, "GAz": 80.0}))
     section = scene.sections["s"]
     assert (section.GAy, section.GAz) == (50.0, 80.0)
-    from latdyn.model import Model  # noqa: PLC0415
+    from latdyn.model.model import Model  # noqa: PLC0415
 
     model = Model.from_scene(scene)
     np.testing.assert_array_equal(model.element_sections[:, 8:], [[1 / 50.0, 1 / 80.0]])

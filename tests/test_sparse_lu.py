@@ -1,4 +1,4 @@
-"""The compiled sparse LU (csrc/sparse_lu.c, latdyn/sparse_lu.py) and the wide models it brings
+"""The compiled sparse LU (csrc/sparse_lu.c, latdyn/step/sparse_lu.py) and the wide models it brings
 into the compiled step.
 
 The C factorization equals ``numpy.linalg.solve`` on random structurally symmetric, diagonally
@@ -18,9 +18,9 @@ import scipy.sparse as sps
 import scipy.sparse.linalg as spla
 
 import latdyn
-from latdyn.kernels import load_kernels
-from latdyn.linalg import BAND_LIMIT, SUPERLU_OPTIONS
-from latdyn.sparse_lu import PIVOT_TOLERANCE, PivotError, SparseLU, SupernodalAnalysis, minimum_degree
+from latdyn.model.kernels import load_kernels
+from latdyn.numerics.linalg import BAND_LIMIT, SUPERLU_OPTIONS
+from latdyn.step.sparse_lu import PIVOT_TOLERANCE, PivotError, SparseLU, SupernodalAnalysis, minimum_degree
 
 from test_inertia import rigid_motion
 from test_linalg import evaluation, lattice
@@ -162,9 +162,9 @@ def _relative_difference(a, b):
 @needs_c
 @pytest.mark.parametrize("seed", [3, 8])
 def test_wide_lattice_runs_compiled_and_equals_the_python_step(seed, tmp_path):
-    from latdyn.engine import CompiledGeneralizedAlpha, unsupported
-    from latdyn.integrators import AlphaParameters
-    from latdyn.solve import prepare
+    from latdyn.step.compiled import CompiledGeneralizedAlpha, unsupported
+    from latdyn.step.integrators import AlphaParameters
+    from latdyn.assembly.prepare import prepare
 
     raw = oriented_lattice(seed)
     prepared = prepare(latdyn.load_scene(raw))
@@ -172,7 +172,7 @@ def test_wide_lattice_runs_compiled_and_equals_the_python_step(seed, tmp_path):
     step = CompiledGeneralizedAlpha(prepared.assembler, AlphaParameters.for_method("generalized-alpha", 0.8),
                                     1e-8, 25, 1.0)
     step._setup()
-    from latdyn.engine import _band_plan
+    from latdyn.step.compiled import _band_plan
 
     assert _band_plan(prepared.assembler)[0] > BAND_LIMIT and step._model.sparse_lu  # the sparse LU is used
 
@@ -199,13 +199,14 @@ def test_modified_newton_keeps_the_sparse_factor_and_reaches_the_tolerance(tmp_p
 @pytest.mark.parametrize("threads", [2, 3])
 def test_threaded_elements_of_a_lattice_equal_the_serial_step(threads):
     """Element ranges that start at any element read their own section rows (the sections have
-    latdyn.model.SECTION_WIDTH columns: a stride of 8 read misaligned sections from the second
+    latdyn.model.model.SECTION_WIDTH columns: a stride of 8 read misaligned sections from the second
     range on whenever 8 × its first element was not a multiple of 10, as here with 195 elements:
     errors of 1e-3).  The states agree to round-off, not bit for bit: measured 6e-14 in v after
     three steps (the kernels' arithmetic depends on where a range starts)."""
-    from latdyn.engine import CompiledGeneralizedAlpha, openmp_threads
-    from latdyn.integrators import AlphaParameters
-    from latdyn.solve import prepare
+    from latdyn.step.compiled import CompiledGeneralizedAlpha
+    from latdyn.step.library import openmp_threads
+    from latdyn.step.integrators import AlphaParameters
+    from latdyn.assembly.prepare import prepare
 
     if openmp_threads() == 0:
         pytest.skip("the compiled step was built without OpenMP")
@@ -266,9 +267,9 @@ SECTION_PLANAR = {"EA": 1.0e5, "EIy": 60.0, "EIz": 60.0, "GJ": 40.0, "rhoA": 1.0
 
 @needs_c
 def test_a_wide_planar_model_runs_compiled_and_equals_the_python_step(tmp_path):
-    from latdyn.engine import CompiledGeneralizedAlpha, _band_plan
-    from latdyn.integrators import AlphaParameters
-    from latdyn.solve import prepare
+    from latdyn.step.compiled import CompiledGeneralizedAlpha, _band_plan
+    from latdyn.step.integrators import AlphaParameters
+    from latdyn.assembly.prepare import prepare
 
     raw = planar_grid()
     prepared = prepare(latdyn.load_scene(raw))
@@ -290,9 +291,9 @@ def test_a_failed_pivot_fails_the_compiled_step_and_says_where():
     """The compiled step's factor() returns the sparse LU's failure: the step is reported not
     converged (the time loop then cuts it, as for a singular band LU), never solved with a
     bad factor. Forced here by a pivot tolerance no pivot can pass."""
-    from latdyn.engine import CompiledGeneralizedAlpha
-    from latdyn.integrators import AlphaParameters
-    from latdyn.solve import prepare
+    from latdyn.step.compiled import CompiledGeneralizedAlpha
+    from latdyn.step.integrators import AlphaParameters
+    from latdyn.assembly.prepare import prepare
 
     prepared = prepare(latdyn.load_scene(oriented_lattice(6)))
     step = CompiledGeneralizedAlpha(prepared.assembler, AlphaParameters.for_method("generalized-alpha", 0.8),
@@ -316,7 +317,7 @@ def test_a_latch_in_a_wide_lattice_reanalyses_the_pattern(tmp_path, monkeypatch)
     raw = oriented_lattice(3, t_end=0.1)
     raw["beams"]["b0_1_1_0"]["end"]["hinge"]["lock_at"] = 0.1  # reached at t ≈ 0.07
     raw["output"]["probes"]["latched"] = {"hinge": "b0_1_1_0.end", "quantity": "rate"}
-    import latdyn.engine
+    import latdyn.step.compiled
 
     analysed = []
 
@@ -325,7 +326,7 @@ def test_a_latch_in_a_wide_lattice_reanalyses_the_pattern(tmp_path, monkeypatch)
             analysed.append(n)
             super().__init__(rows, cols, n)
 
-    monkeypatch.setattr(latdyn.engine, "SupernodalAnalysis", Counted)
+    monkeypatch.setattr(latdyn.step.compiled, "SupernodalAnalysis", Counted)
     python, python_summary = _run(raw, tmp_path, "python", engine="python")
     compiled, compiled_summary = _run(raw, tmp_path, "compiled", engine="compiled", newton="full")
     assert compiled_summary["engine"] == "compiled"

@@ -18,9 +18,9 @@ import yaml
 import latdyn
 from latdyn import cli
 from latdyn.errors import SceneError
-from latdyn.study_case import _energy_status
-from latdyn.study_runner import StudyTable, case_error, load_study
-from latdyn.study_dask import parse_scheduler
+from latdyn.studies.case import _energy_status
+from latdyn.studies.runner import StudyTable, case_error, load_study
+from latdyn.studies.cluster import parse_scheduler
 
 ROOT = Path(__file__).resolve().parents[1]
 SPINUP = ROOT / "examples" / "spinup.yaml"
@@ -257,7 +257,7 @@ def test_a_case_that_kills_its_worker_is_a_failed_row_after_the_retries(tmp_path
     distributed = pytest.importorskip("distributed")
     import dask
 
-    from latdyn.study_dask import open_scheduler
+    from latdyn.studies.cluster import open_scheduler
 
     def case(task):  # pickled by value (a local function); runs in the worker process
         if task["hash"] == "crash":
@@ -297,14 +297,14 @@ def test_the_dask_side_does_not_import_the_runner():
     import subprocess
     import sys
 
-    code = ("import sys, latdyn.study_dask, latdyn.study_case; "
-            "assert 'latdyn.study_runner' not in sys.modules, sorted(m for m in sys.modules if 'latdyn' in m)")
+    code = ("import sys, latdyn.studies.cluster, latdyn.studies.case; "
+            "assert 'latdyn.studies.runner' not in sys.modules, sorted(m for m in sys.modules if 'latdyn' in m)")
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]))
     subprocess.run([sys.executable, "-c", code], check=True, env=env)
 
 
 def test_peer_points_from_peers_json(tmp_path):
-    from latdyn.study_plots import _peer_points
+    from latdyn.studies.plots import _peer_points
 
     spec = load_study(dict(SMALL, peers=["exudyn"]))
     points, note = _peer_points(spec, tmp_path / "peers.json")

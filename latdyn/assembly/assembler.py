@@ -1,0 +1,532 @@
+"""State, element evaluation and sparse assembly (Eqs. 58 and 62, summed over elements).
+
+The equations of motion on the free coordinates are
+
+    r(q, v, v̇, t) = Σ_e L_eᵀ [M_e a_e + g_e + F_e − Q_e^grav] + rigid bodies + hinges − loads = 0
+
+with a_e the element accelerations: free entries from v̇, prescribed ones from
+their laws, so prescribed motion drives the inertia forces (it is known
+kinematics, not a penalty).  Scatter indices are computed once; element
+kernels are called once per evaluation for the whole batch.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+import scipy.sparse as sps
+
+from latdyn.assembly.evaluation import Evaluation
+from latdyn.assembly.linked import evaluate_linked
+from latdyn.model.model import PRESCRIBED, Model
+from latdyn.numerics.linalg import DENSE_LIMIT
+from latdyn.numerics.so3 import expm_so3, skew
+
+# ----------------------------------------------------------------------------- rotations
+
+
+def _plain_hinges(hinges):
+    """(k, c, θ_r) of every hinge as arrays (0 where a law gives them), the hinges whose force
+    needs their laws (a stiffness or damping that varies, a torque in θ or θ̇), and the other
+    hinges with a torque (of t alone)."""
+    def plain(h):
+        torque_of_t = h.torque is None or set(h.torque.depends_on) <= {"t"}
+        return h.stiffness.is_constant and h.damping.is_constant and torque_of_t
+
+    flags = [plain(h) for h in hinges]
+    k0 = np.array([h.stiffness.constant if f else 0.0 for h, f in zip(hinges, flags)], float)
+    c0 = np.array([h.damping.constant if f else 0.0 for h, f in zip(hinges, flags)], float)
+    rest = np.array([h.rest_angle for h in hinges], float)
+    with_law = [k for k, f in enumerate(flags) if not f]
+    with_torque = [k for k, (h, f) in enumerate(zip(hinges, flags)) if f and h.torque is not None]
+    return k0, c0, rest, with_law, with_torque
+
+
+#: 16-point Gauss–Legendre nodes and weights on [−1, 1] (hinge spring potentials).
+_GAUSS_16 = np.polynomial.legendre.leggauss(16)
+
+# ----------------------------------------------------------------------------- state
+
+
+@dataclass
+class State:
+    """Explicit, picklable state of every node and hinge (free and constrained)."""
+
+    t: float
+    x: np.ndarray  # (n_nodes, 3) reference points
+    T: np.ndarray  # (n_nodes, 3, 3) rotations
+    v: np.ndarray  # (n_nodes, 3)
+    w: np.ndarray  # (n_nodes, 3) spatial angular velocities
+    a: np.ndarray  # (n_nodes, 3) accelerations
+    alpha: np.ndarray  # (n_nodes, 3) spatial angular accelerations
+    theta: np.ndarray  # (n_hinges,)
+    theta_dot: np.ndarray
+    theta_ddot: np.ndarray
+
+    def copy(self) -> "State":
+        return replace(self, **{k: np.array(getattr(self, k)) for k in
+                                ("x", "T", "v", "w", "a", "alpha", "theta", "theta_dot", "theta_ddot")})
+
+    def as_dict(self) -> dict[str, np.ndarray]:
+        """Flat arrays for the state history file."""
+        out = {"x": self.x.ravel(), "T": self.T.ravel(), "v": self.v.ravel(), "w": self.w.ravel(),
+               "theta": self.theta.copy(), "theta_dot": self.theta_dot.copy()}
+        return {k: v for k, v in out.items() if v.size}
+
+
+def initial_state(model: Model) -> State:
+    n, h = len(model.nodes), len(model.hinges)
+    state = State(0.0, np.array([nd.position for nd in model.nodes], float).reshape(n, 3),
+                  np.tile(np.eye(3), (n, 1, 1)), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)),
+                  np.zeros((n, 3)), np.zeros(h), np.zeros(h), np.zeros(h))
+    iv = model.scene.initial_velocity
+    free = model.free_nodes
+    state.w[free] = iv.angular
+    state.v[free] = iv.linear + np.cross(iv.angular, state.x[free] - iv.about)
+    apply_prescribed(model, state, 0.0)
+    if model.links is not None:
+        model.links.complete(state)
+    return state
+
+
+def apply_prescribed(model: Model, state: State, t: float) -> None:
+    """Set prescribed bodies and hinge angles to their laws at time t (in place)."""
+    state.t = t
+    for i, node in enumerate(model.nodes):
+        if node.kind != PRESCRIBED:
+            continue
+        body = model.scene.bodies[node.body]
+        x0 = node.position
+        if body.translation is not None:
+            f = body.translation
+            state.x[i] = x0 + [g.value(t) for g in f]
+            state.v[i] = [g.rate(t) for g in f]
+            state.a[i] = [g.accel(t) for g in f]
+        else:
+            state.x[i], state.v[i], state.a[i] = x0, 0.0, 0.0
+        if body.rotation_angle is not None:
+            axis = body.rotation_axis
+            angle = body.rotation_angle
+            state.T[i] = expm_so3(axis * angle.value(t))
+            state.w[i] = axis * angle.rate(t)
+            state.alpha[i] = axis * angle.accel(t)
+        else:
+            state.T[i], state.w[i], state.alpha[i] = np.eye(3), 0.0, 0.0
+    for k, hinge in enumerate(model.hinges):
+        if hinge.angle is not None:
+            state.theta[k] = hinge.angle.value(t)
+            state.theta_dot[k] = hinge.angle.rate(t)
+            state.theta_ddot[k] = hinge.angle.accel(t)
+        elif model.locked[k]:
+            state.theta_dot[k] = state.theta_ddot[k] = 0.0
+    if model.links is not None:
+        model.links.place(state)
+
+
+# ----------------------------------------------------------------------------- coordinates ↔ state
+
+
+def pack(model: Model, node_lin: np.ndarray, node_ang: np.ndarray, hinge: np.ndarray) -> np.ndarray:
+    """Node/hinge arrays -> the vector of all coordinates (free first), length n_total + 1."""
+    out = np.zeros(model.n_total + 1)
+    out[model.node_dofs[:, 0:3]] = node_lin
+    out[model.node_dofs[:, 3:6]] = node_ang
+    out[model.hinge_dofs] = hinge
+    return out
+
+
+def padded(model: Model, vector: np.ndarray) -> np.ndarray:
+    """A free-coordinate vector extended by zeros to all coordinates (n_total + 1), so that
+    node slots that are not coordinates (out of plane, :meth:`Model.node_slots`) read 0."""
+    if len(vector) == model.n_total + 1:
+        return vector
+    out = np.zeros(model.n_total + 1)
+    out[:model.n_dofs] = vector[:model.n_dofs]
+    return out
+
+
+def unpack_free(model: Model, vector: np.ndarray, node_lin: np.ndarray, node_ang: np.ndarray,
+                hinge: np.ndarray) -> None:
+    """Write a free-coordinate vector into node/hinge arrays (in place)."""
+    free = model.free_nodes
+    vector = padded(model, vector)
+    node_lin[free] = vector[model.node_dofs[free, 0:3]]
+    node_ang[free] = vector[model.node_dofs[free, 3:6]]
+    fh = model.free_hinges
+    hinge[fh] = vector[model.hinge_dofs[fh]]
+
+
+def free_velocity(model: Model, state: State) -> np.ndarray:
+    return pack(model, state.v, state.w, state.theta_dot)[: model.n_dofs]
+
+
+def free_acceleration(model: Model, state: State) -> np.ndarray:
+    return pack(model, state.a, state.alpha, state.theta_ddot)[: model.n_dofs]
+
+
+def advance(model: Model, state: State, increment: np.ndarray) -> State:
+    """q ∘ exp(Δ) on the free coordinates: x += Δd, T ← exp(skew Δπ) T, θ += Δθ."""
+    new = state.copy()
+    free = model.free_nodes
+    increment = padded(model, increment)
+    new.x[free] = state.x[free] + increment[model.node_dofs[free, 0:3]]
+    new.T[free] = expm_so3(increment[model.node_dofs[free, 3:6]]) @ state.T[free]
+    fh = model.free_hinges
+    new.theta[fh] = state.theta[fh] + increment[model.hinge_dofs[fh]]
+    if model.links is not None:  # dependent nodes: forward kinematics, never integrated
+        model.links.place(new)
+    return new
+
+
+# ----------------------------------------------------------------------------- evaluation
+
+
+class Assembler:
+    """Evaluates the equations of motion of a model with batched kernels."""
+
+    def __init__(self, model: Model, kernels, gravity: np.ndarray):
+        self.model = model
+        self.kernels = kernels
+        self.gravity = np.asarray(gravity, float)
+        self.has_gravity = bool(np.any(self.gravity != 0))
+        self.loads = model.scene.loads
+        self._hinge_plain = None  # constant hinge coefficients as arrays (_plain_hinges), on first use
+        self.reindex()
+
+    def reindex(self) -> None:
+        """Scatter maps for the current coordinate numbering (rebuilt when a hinge latches)."""
+        m = self.model
+        n = m.n_assembled  # = n_dofs, plus the dependent nodes' coordinates with rigid links
+        rows, cols = [], []
+
+        def block_pattern(dofs):
+            """Mask and (row, col) of the free×free entries of square blocks over ``dofs`` (b, k)."""
+            r = np.broadcast_to(dofs[:, :, None], dofs.shape + (dofs.shape[1],))
+            c = np.broadcast_to(dofs[:, None, :], dofs.shape + (dofs.shape[1],))
+            mask = (r < n) & (c < n)
+            rows.append(r[mask])
+            cols.append(c[mask])
+            return mask
+
+        self._elem_mask = block_pattern(m.element_dofs)
+        self._body_mask = block_pattern(m.node_dofs[m.body_nodes].reshape(-1, 6))
+        hd = m.hinge_dofs[m.free_hinges]
+        rows.append(hd)
+        cols.append(hd)
+        self._load_masks = [block_pattern(m.node_dofs[m.point(load.at)[0], 3:6][None, :])[0]
+                            for load in self.loads]
+        rows = np.concatenate(rows) if rows else np.zeros(0, np.int64)
+        cols = np.concatenate(cols) if cols else np.zeros(0, np.int64)
+        key = rows * max(n, 1) + cols
+        unique, self._position = np.unique(key, return_inverse=True)
+        self._csr_rows, self._csr_cols = unique // max(n, 1), unique % max(n, 1)
+        self._nnz = len(unique)
+        counts = np.bincount(self._csr_rows, minlength=n)
+        self._indptr = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+        self._indices = self._csr_cols.astype(np.int64)
+
+    # -- pieces ----------------------------------------------------------------
+    def element_geometry(self, state: State) -> np.ndarray:
+        m = self.model
+        nodes = m.element_nodes
+        T = state.T[nodes]  # (e, 2, 3, 3)
+        theta = np.append(state.theta, 0.0)[np.where(m.element_hinges >= 0, m.element_hinges, len(state.theta))]
+        hinge_rotation = expm_so3(m.element_axes * theta[..., None])
+        frames = T @ hinge_rotation @ m.element_frames0  # Eq. 17
+        offsets = np.einsum("eaij,eaj->eai", T, m.element_offsets)  # Eq. 2
+        axes = np.einsum("eaij,eaj->eai", T, m.element_axes)  # Eq. 9
+        x = state.x[nodes]
+        return np.concatenate([x[:, 0], x[:, 1], offsets[:, 0], offsets[:, 1],
+                               frames[:, 0].reshape(-1, 9), frames[:, 1].reshape(-1, 9),
+                               axes[:, 0], axes[:, 1]], axis=1)
+
+    def element_rates(self, state: State, lin, ang, hinge) -> np.ndarray:
+        m = self.model
+        nodes = m.element_nodes
+        h = m.element_hinges
+        th = np.append(hinge, 0.0)[np.where(h >= 0, h, len(hinge))]
+        return np.concatenate([lin[nodes[:, 0]], ang[nodes[:, 0]], th[:, :1],
+                               lin[nodes[:, 1]], ang[nodes[:, 1]], th[:, 1:]], axis=1)
+
+    def _scatter_vector(self, element_vectors, body_vectors, extra) -> np.ndarray:
+        m = self.model
+        total = np.zeros(m.n_total + 1)
+        total += np.bincount(m.element_dofs.ravel(), weights=element_vectors.ravel(), minlength=m.n_total + 1)
+        if len(m.body_nodes):
+            bd = m.node_dofs[m.body_nodes]
+            total += np.bincount(bd.ravel(), weights=body_vectors.ravel(), minlength=m.n_total + 1)
+        total += extra
+        return total
+
+    def assemble(self, parts: list, dense: bool | None = None):
+        """Scatter masked block data (in the order of :meth:`reindex`) into a matrix on
+        the free coordinates: a dense array for small models, CSR otherwise."""
+        n = self.model.n_assembled
+        data = np.concatenate([np.ravel(p) for p in parts]) if parts else np.zeros(0)
+        values = np.bincount(self._position, weights=data, minlength=self._nnz)
+        if dense is None:
+            dense = n <= DENSE_LIMIT
+        if dense:
+            out = np.zeros((n, n))
+            out[self._csr_rows, self._csr_cols] = values
+            return out
+        return sps.csr_matrix((values, self._indices, self._indptr), shape=(n, n))
+
+    def rigid_bodies(self, state: State):
+        """Inertia of the joint bodies: M_b [a; α] + g_b, spatial rotations about the reference point."""
+        m = self.model
+        i = m.body_nodes
+        T = state.T[i]
+        rc = np.einsum("bij,bj->bi", T, m.body_com)  # COM offset, global
+        J = T @ m.body_inertia @ np.transpose(T, (0, 2, 1))
+        mass = m.body_mass[:, None]
+        w = state.w[i]
+        S = skew(rc)
+        M = np.zeros((len(i), 6, 6))
+        M[:, :3, :3] = mass[:, :, None] * np.eye(3)
+        M[:, :3, 3:] = -mass[:, :, None] * S
+        M[:, 3:, :3] = mass[:, :, None] * S
+        M[:, 3:, 3:] = J - mass[:, :, None] * S @ S
+        wxr = np.cross(w, rc)
+        centripetal = mass * np.cross(w, wxr)
+        Jw = np.einsum("bij,bj->bi", J, w)
+        g = np.concatenate([centripetal, np.cross(rc, centripetal) + np.cross(w, Jw)], axis=1)
+        # ∂g/∂ω
+        wr = np.einsum("bi,bi->b", w, rc)[:, None, None]
+        dcent = mass[:, :, None] * (np.einsum("bi,bj->bij", w, rc) + wr * np.eye(3) - 2 * np.einsum("bi,bj->bij", rc, w))
+        G = np.zeros((len(i), 6, 6))
+        G[:, :3, 3:] = dcent
+        G[:, 3:, 3:] = S @ dcent + skew(w) @ J - skew(Jw)
+        return M, g, G, rc, J
+
+    # -- the equations of motion ------------------------------------------------
+    def evaluate(self, state: State, matrices: bool = True, load_factor: float = 1.0,
+                 inertia: bool = True) -> Evaluation:
+        """Residual r(q, v, v̇, t) on the free coordinates (and, with ``matrices``, the blocks of M, C, K);
+        ``inertia=False``: the static residual; ``load_factor`` scales loads, gravity and hinge torques.
+        With rigid links the dependent nodes are completed first and the result is reduced to the
+        minimum coordinates (:func:`latdyn.assembly.linked.evaluate_linked`)."""
+        if self.model.links is not None:
+            return evaluate_linked(self.model.links, self, state, matrices, load_factor, inertia)
+        return self._evaluate_assembled(state, matrices, load_factor, inertia)
+
+    def _evaluate_assembled(self, state: State, matrices: bool, load_factor: float, inertia: bool) -> Evaluation:
+        """The equations of motion on the first ``n_assembled`` coordinates (free, then dependent)."""
+        m = self.model
+        ks = self.kernels
+        n = m.n_assembled
+        geometry = self.element_geometry(state)
+        section = m.element_sections
+        n_elem = len(geometry)
+        elem_mass = elem_damp = None
+        if inertia:
+            qdot = self.element_rates(state, state.v, state.w, state.theta_dot)
+            qddot = self.element_rates(state, state.a, state.alpha, state.theta_ddot)
+            if matrices:
+                force, tangent, mass, quad, elem_damp = ks.beam_dynamics(geometry, qdot, section)
+                elem_mass = mass
+            else:
+                (force,) = ks.beam_internal_force(geometry, section)
+                (mass,) = ks.beam_mass_matrix(geometry, section)
+                (quad,) = ks.beam_quadratic_velocity(geometry, qdot, section)
+                tangent = None
+            elem_vec = force + np.einsum("eij,ej->ei", mass, qddot) + quad  # Eqs. 55, 58
+        else:
+            if matrices:
+                force, tangent = ks.beam_internal_force_D_q(geometry, section)
+            else:
+                (force,) = ks.beam_internal_force(geometry, section)
+                tangent = None
+            elem_vec = force.copy()
+        elem_stiff = tangent
+        if self.has_gravity:
+            grav = np.broadcast_to(self.gravity, (n_elem, 3))
+            gforce, _, _ = ks.beam_gravity(geometry, section, grav)
+            elem_vec -= load_factor * gforce
+
+        # rigid bodies
+        nb = len(m.body_nodes)
+        body_vec = np.zeros((nb, 6))
+        body_mass = body_damp = np.zeros((nb, 6, 6))
+        body_stiff = np.zeros((nb, 6, 6))
+        if nb:
+            Mb, gb, Gb, rc, _ = self.rigid_bodies(state)
+            if inertia:
+                acc = np.concatenate([state.a[m.body_nodes], state.alpha[m.body_nodes]], axis=1)
+                body_vec += np.einsum("bij,bj->bi", Mb, acc) + gb
+                body_mass, body_damp = Mb, Gb
+            if self.has_gravity:
+                weight = m.body_mass[:, None] * self.gravity
+                body_vec[:, :3] -= load_factor * weight
+                body_vec[:, 3:] -= load_factor * np.cross(rc, weight)
+                # ∂/∂π of −(r_c × W): −skew(W) skew(r_c)
+                body_stiff[:, 3:, 3:] -= load_factor * skew(weight) @ skew(rc)
+
+        # hinges: springs, dampers, applied torques (hinge_forces)
+        extra = np.zeros(m.n_total + 1)
+        hinge_force, hinge_k, hinge_c, power = self.hinge_forces(state, load_factor)
+        extra[m.hinge_dofs] += hinge_force
+
+        # loads at points
+        load_blocks = []
+        for load in self.loads:
+            node, r = m.point(load.at)
+            rg = state.T[node] @ r
+            f = np.array([g.value(state.t) for g in load.force]) if load.force else np.zeros(3)
+            mo = np.array([g.value(state.t) for g in load.moment]) if load.moment else np.zeros(3)
+            if load.frame != "global":
+                R = state.T[m.body_node[load.frame]]
+                f, mo = R @ f, R @ mo
+            f, mo = load_factor * f, load_factor * mo
+            d = m.node_dofs[node]
+            extra[d[:3]] -= f
+            extra[d[3:]] -= np.cross(rg, f) + mo
+            vel = state.v[node] + np.cross(state.w[node], rg)
+            power += f @ vel + mo @ state.w[node]
+            load_blocks.append(-(skew(f) @ skew(rg))[self._load_masks[len(load_blocks)]])
+
+        load_blocks = np.concatenate(load_blocks) if load_blocks else np.zeros(0)
+        total = self._scatter_vector(elem_vec, body_vec, extra)
+        result = Evaluation(residual=total[:n], reaction=total[n:m.n_total], external_power=power,
+                            assembler=self)
+        if matrices:
+            hinge_k, hinge_c = hinge_k[m.free_hinges], hinge_c[m.free_hinges]
+            zero_elements = np.zeros((n_elem, 14, 14))
+            zero_loads = np.zeros_like(load_blocks)
+            result.blocks = {
+                "stiffness": (elem_stiff, body_stiff, hinge_k, load_blocks),
+                "mass": (elem_mass if elem_mass is not None else zero_elements, body_mass,
+                         np.zeros(len(hinge_k)), zero_loads),
+                "damping": (elem_damp if elem_damp is not None else zero_elements, body_damp, hinge_c,
+                            zero_loads),
+            }
+        return result
+
+    def hinge_forces(self, state: State, load_factor: float = 1.0):
+        """Generalized hinge forces f = k(θ − θ_r) + c θ̇ − λτ (k, c, τ laws in θ, θ̇, t), their
+        derivatives ∂f/∂θ and ∂f/∂θ̇ (diagonal entries of K and C), and the power of the hinges
+        counted as external work: applied torques, and springs that are not conservative
+        (a stiffness law in θ̇ or t; see :attr:`latdyn.model.model.HingeCoordinate.conservative_spring`).
+
+        With s = θ − θ_r:  ∂f/∂θ = k + s ∂k/∂θ + θ̇ ∂c/∂θ − λ ∂τ/∂θ,
+                           ∂f/∂θ̇ = s ∂k/∂θ̇ + c + θ̇ ∂c/∂θ̇ − λ ∂τ/∂θ̇.
+        """
+        hinges = self.model.hinges
+        if self._hinge_plain is None:
+            self._hinge_plain = _plain_hinges(hinges)
+        k0, c0, rest, with_law, with_torque = self._hinge_plain
+        # constant springs and dampers, all hinges at once; the laws below replace their entries
+        force = k0 * (state.theta - rest) + c0 * state.theta_dot
+        d_theta, d_rate = k0.copy(), c0.copy()
+        power = 0.0
+        t = state.t
+        for k in with_torque:  # torques of t alone on hinges with constant springs
+            tau = load_factor * hinges[k].torque.value(0.0, 0.0, t)
+            force[k] -= tau
+            power += tau * state.theta_dot[k]
+        for k in with_law:
+            hinge = hinges[k]
+            theta, rate = float(state.theta[k]), float(state.theta_dot[k])
+            s = theta - hinge.rest_angle
+            stiffness, damping = hinge.stiffness, hinge.damping
+            ks, cs = stiffness.value(theta, rate, t), damping.value(theta, rate, t)
+            spring = ks * s
+            f = spring + cs * rate
+            df_dtheta = ks + s * stiffness.d_theta(theta, rate, t) + rate * damping.d_theta(theta, rate, t)
+            df_drate = s * stiffness.d_rate(theta, rate, t) + cs + rate * damping.d_rate(theta, rate, t)
+            if not hinge.conservative_spring:
+                power -= spring * rate
+            if hinge.torque is not None:
+                tau = load_factor * hinge.torque.value(theta, rate, t)
+                f -= tau
+                df_dtheta -= load_factor * hinge.torque.d_theta(theta, rate, t)
+                df_drate -= load_factor * hinge.torque.d_rate(theta, rate, t)
+                power += tau * rate
+            force[k], d_theta[k], d_rate[k] = f, df_dtheta, df_drate
+        return force, d_theta, d_rate, power
+
+    def hinge_potential(self, state: State, hinges=None) -> float:
+        """Potential of the conservative hinge springs, Σ ∫_{θ_r}^{θ} k(s)(s − θ_r) ds, over all
+        hinges or the indices ``hinges``.
+
+        Constant k: ½k(θ − θ_r)². A law k(θ): Gauss–Legendre quadrature, 16 points on each
+        piece of at most 0.25 rad (exact for polynomials of degree 31 on a piece)."""
+        total = 0.0
+        every = self.model.hinges
+        for k in range(len(every)) if hinges is None else hinges:
+            hinge = every[k]
+            if not hinge.conservative_spring:
+                continue
+            s = float(state.theta[k]) - hinge.rest_angle
+            if hinge.stiffness.is_constant:
+                total += 0.5 * hinge.stiffness.constant * s * s
+                continue
+            pieces = max(1, int(np.ceil(abs(s) / 0.25)))
+            nodes, weights = _GAUSS_16
+            edges = hinge.rest_angle + s * np.arange(pieces + 1) / pieces
+            for a, b in zip(edges[:-1], edges[1:]):
+                points = 0.5 * (a + b) + 0.5 * (b - a) * nodes
+                values = [hinge.stiffness.value(p, 0.0, 0.0) * (p - hinge.rest_angle) for p in points]
+                total += 0.5 * (b - a) * float(np.dot(weights, values))
+        return total
+
+    def energies(self, state: State) -> dict[str, float]:
+        """Kinetic, strain and gravity potential energy of the whole model."""
+        m = self.model
+        ks = self.kernels
+        if m.links is not None:
+            m.links.complete(state)
+        geometry = self.element_geometry(state)
+        section = m.element_sections
+        qdot = self.element_rates(state, state.v, state.w, state.theta_dot)
+        strain, _ = ks.beam_strain_energy(geometry, section)
+        (kinetic,) = ks.beam_kinetic_energy(geometry, qdot, section)
+        grav = np.broadcast_to(self.gravity, (len(geometry), 3))
+        _, potential, _ = ks.beam_gravity(geometry, section, grav)
+        K, U, V = float(kinetic.sum()), float(strain.sum()), float(potential.sum())
+        U += self.hinge_potential(state)
+        if len(m.body_nodes):
+            _, _, _, rc, J = self.rigid_bodies(state)
+            i = m.body_nodes
+            vc = state.v[i] + np.cross(state.w[i], rc)
+            K += float(0.5 * np.sum(m.body_mass * np.einsum("bi,bi->b", vc, vc))
+                       + 0.5 * np.einsum("bi,bij,bj->", state.w[i], J, state.w[i]))
+            V -= float(np.sum(m.body_mass * ((state.x[i] + rc) @ self.gravity)))
+        return {"kinetic": K, "strain": U, "potential": V}
+
+    def momentum(self, state: State) -> tuple[np.ndarray, np.ndarray]:
+        """Linear momentum and angular momentum about the global origin.
+
+        For an element, P·c = q̇ᵀ M q̇_c with q̇_c the rigid translation c, and
+        H·c = q̇ᵀ M q̇_c with q̇_c the rigid rotation c about the origin
+        (B q̇_c = c × X), so the mass-matrix kernel gives both exactly.
+        """
+        m = self.model
+        if m.links is not None:
+            m.links.complete(state)
+        geometry = self.element_geometry(state)
+        (mass,) = self.kernels.beam_mass_matrix(geometry, m.element_sections)
+        qdot = self.element_rates(state, state.v, state.w, state.theta_dot)
+        Mq = np.einsum("eij,ej->ei", mass, qdot)
+        P, H = np.zeros(3), np.zeros(3)
+        x1, x2 = geometry[:, 0:3], geometry[:, 3:6]
+        for k in range(3):
+            c = np.eye(3)[k]
+            trans = np.zeros_like(qdot)
+            trans[:, 0:3] = c
+            trans[:, 7:10] = c
+            rot = np.zeros_like(qdot)
+            rot[:, 0:3] = np.cross(c, x1)
+            rot[:, 3:6] = c
+            rot[:, 7:10] = np.cross(c, x2)
+            rot[:, 10:13] = c
+            P[k] = np.sum(Mq * trans)
+            H[k] = np.sum(Mq * rot)
+        if len(m.body_nodes):
+            _, _, _, rc, J = self.rigid_bodies(state)
+            i = m.body_nodes
+            vc = state.v[i] + np.cross(state.w[i], rc)
+            p = m.body_mass[:, None] * vc
+            P += p.sum(axis=0)
+            H += np.sum(np.cross(state.x[i] + rc, p) + np.einsum("bij,bj->bi", J, state.w[i]), axis=0)
+        return P, H

@@ -1,0 +1,58 @@
+"""One evaluation of the equations of motion: the residual on the free coordinates, the reactions
+on the constrained ones, the power of the loads, and the element, body, hinge and load blocks
+of the mass, damping and stiffness matrices, assembled on demand, separately or combined
+(``combined(cm, cc, ck)`` = cm·M + cc·C + ck·K)."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+class SeparateMatrices:
+    """M, C and K one by one (sparse), from an evaluation's ``combined(cm, cc, ck)``."""
+
+    @property
+    def mass(self):
+        return self.combined(1.0, 0.0, 0.0, dense=False)
+
+    @property
+    def damping(self):
+        return self.combined(0.0, 1.0, 0.0, dense=False)
+
+    @property
+    def stiffness(self):
+        return self.combined(0.0, 0.0, 1.0, dense=False)
+
+
+@dataclass
+class Evaluation(SeparateMatrices):
+    """Residual, reactions, and (on request) the blocks of M, C = ∂r/∂v and K = ∂r/∂q.
+
+    K omits the derivative of the inertia forces with respect to q (see
+    integrators.py).  Matrices on the free coordinates are assembled on demand:
+    ``mass``, ``damping``, ``stiffness``, or ``combined(cm, cc, ck)`` = cm M + cc C + ck K
+    in one scatter (the Newton iteration matrix).
+    """
+
+    residual: np.ndarray  # (n_dofs,)
+    reaction: np.ndarray  # (n_total - n_dofs,) generalized force needed on constrained coordinates
+    external_power: float = 0.0  # loads and hinge torques on the current velocities
+    blocks: dict | None = None  # kind -> [element (e,14,14), body (b,6,6), hinge diag, load blocks]
+    assembler: object = None  # the Assembler that made it: its scatter maps assemble the blocks
+
+    def combined(self, cm: float, cc: float, ck: float, dense: bool | None = None):
+        parts = None
+        for coefficient, kind in ((cm, "mass"), (cc, "damping"), (ck, "stiffness")):
+            if coefficient == 0.0:
+                continue
+            scaled = [coefficient * np.asarray(b) for b in self._flat(kind)]
+            parts = scaled if parts is None else [a + b for a, b in zip(parts, scaled)]
+        if parts is None:
+            parts = [0.0 * np.asarray(b) for b in self._flat("stiffness")]
+        return self.assembler.assemble(parts, dense)
+
+    def _flat(self, kind):
+        element, body, hinge, loads = self.blocks[kind]
+        a = self.assembler
+        return [element[a._elem_mask], body[a._body_mask], hinge] + list(loads)

@@ -1,0 +1,299 @@
+"""Backend loader for the generated beam kernels: NumPy module or JIT-compiled C99.
+
+``load_kernels(backend, variant)`` returns a :class:`KernelSet` whose attributes are the
+kernels of ``generated/beam_<variant>.py`` (package ``latdyn_generated``), all with one
+call convention (docs/architecture.md, "Kernel argument convention")::
+
+    ks = load_kernels()                       # C if a compiler works, else NumPy
+    force, = ks.beam_internal_force(geometry, section)   # (n, 36), (n, 10) -> ((n, 14),)
+
+Inputs are float arrays of shape ``(n, width)``; outputs a tuple of float64 arrays of
+shape ``(n, *shape)``.  The C backend compiles ``beam_<variant>.c`` once per source,
+flags and compiler into ``$LATDYN_CACHE_DIR`` (default ``~/.cache/latdyn/kernels``) through
+:mod:`latdyn.native` and calls it through ctypes; nothing loops over elements in Python.
+
+This module is runtime code: it imports neither SymPy nor the code generator.
+"""
+from __future__ import annotations
+
+import ctypes
+import importlib
+import importlib.resources
+import os
+import sys
+import time
+import warnings
+from typing import Callable
+
+import numpy as np
+
+from latdyn.native import C_FLAGS, NO_COMPILER_ADVICE  # the one compile-and-cache path
+
+BACKENDS = ("auto", "c", "numpy")
+PACKAGE = "latdyn_generated"
+
+_LOADED: dict[tuple[str, str], "KernelSet"] = {}
+
+
+class KernelSet:
+    """The kernels of one variant on one backend, as attributes; ``info`` is their metadata."""
+
+    def __init__(self, backend: str, variant: str, info: dict, functions: dict[str, Callable],
+                 libraries: dict[str, ctypes.CDLL] | None = None):
+        self.backend = backend
+        self.libraries = libraries or {}  # C backend: kernel name -> its shared library
+        self.variant = variant
+        self.info = info
+        self._functions = functions
+        for name, function in functions.items():
+            setattr(self, name, function)
+
+    @property
+    def names(self) -> list[str]:
+        return list(self._functions)
+
+    def __repr__(self) -> str:
+        return f"KernelSet(backend={self.backend!r}, variant={self.variant!r}, kernels={len(self._functions)})"
+
+
+def known_variants() -> dict[str, str]:
+    """Variant name → description, from the generated package."""
+    return dict(importlib.import_module(PACKAGE).VARIANTS)
+
+
+#: Suffix of the planar variants (codegen/formulation.py PLANES) by the index of the plane's normal.
+PLANE_SUFFIXES = {0: "yz", 1: "zx", 2: "xy"}
+
+
+def planar_variant(formulation: str, normal: int) -> str:
+    """The kernels of ``formulation`` restricted to the coordinate plane normal to axis ``normal``."""
+    return f"{formulation}_{PLANE_SUFFIXES[normal]}"
+
+
+def plane_of(variant: str) -> int | None:
+    """The normal axis of a planar variant, None for a 3D one."""
+    base, _, suffix = variant.rpartition("_")
+    for normal, name in PLANE_SUFFIXES.items():
+        if base and suffix == name:
+            return normal
+    return None
+
+
+def load_kernels(backend: str = "auto", variant: str = "default") -> KernelSet:
+    """Load (once per process) the kernels of ``variant`` on ``backend`` ("auto", "c", "numpy").
+
+    "auto" uses C when a compiler works and falls back to NumPy with one warning;
+    "c" raises RuntimeError when the C kernels cannot be built.
+    """
+    if backend not in BACKENDS:
+        raise ValueError(f"unknown kernel backend {backend!r} (known: {', '.join(BACKENDS)})")
+    variants = known_variants()
+    if variant not in variants:
+        raise ValueError(f"unknown kernel variant {variant!r} (known: {', '.join(variants)})")
+    if backend == "auto":
+        if ("c", variant) in _LOADED:
+            return _LOADED[("c", variant)]
+        if ("auto-numpy", variant) in _LOADED:
+            return _LOADED[("auto-numpy", variant)]
+        try:
+            return load_kernels("c", variant)
+        except RuntimeError as error:
+            _no_compiler(error)
+            kernels = load_kernels("numpy", variant)
+            _LOADED[("auto-numpy", variant)] = kernels
+            return kernels
+    key = (backend, variant)
+    if key not in _LOADED:
+        module = importlib.import_module(f"{PACKAGE}.beam_{variant}")
+        info = module.KERNELS  # the generated kernels
+        libraries = None
+        if backend == "numpy":
+            functions = {name: _checked(name, meta, getattr(module, name)) for name, meta in info.items()}
+        else:
+            libraries = _compile(variant, list(info), {name: int(meta.get("op_count", 0))
+                                                       for name, meta in info.items()})
+            functions = {name: _checked(name, meta, _c_function(libraries[name], name, meta))
+                         for name, meta in info.items()}
+        for name, parts in COMPOSED.items():  # not generated: no entry in ``info``
+            meta = _composed_meta(name, parts, info)
+            functions[name] = _checked(name, meta, _composed(meta, parts, info, functions))
+        _LOADED[key] = KernelSet(backend, variant, info, functions, libraries)
+    return _LOADED[key]
+
+
+def _no_compiler(error) -> None:
+    """Say (once per variant and process: ``_LOADED`` keeps the fallback) that the run uses
+    the NumPy kernels, why, how much slower that is and how to fix it: a RuntimeWarning, which
+    the command line prints as one line."""
+    warnings.warn(f"latdyn: C kernels unavailable ({error}); {NO_COMPILER_ADVICE}", RuntimeWarning, stacklevel=3)
+
+
+def _checked(name: str, meta: dict, function: Callable) -> Callable:
+    """Wrap a backend function: inputs to C-contiguous float64 (n, width), shapes checked."""
+    inputs = [(arg, int(width)) for arg, width in meta["inputs"]]
+
+    def kernel(*arrays):
+        if len(arrays) != len(inputs):
+            raise TypeError(
+                f"{name}() takes {len(inputs)} arrays ({', '.join(a for a, _ in inputs)}), "
+                f"got {len(arrays)}"
+            )
+        converted = []
+        for (arg, width), array in zip(inputs, arrays):
+            array = np.ascontiguousarray(array, dtype=np.float64)
+            if array.ndim != 2 or array.shape[1] != width:
+                raise ValueError(
+                    f"{name}: argument {arg!r} must have shape (n, {width}), got {array.shape}"
+                )
+            converted.append(array)
+        n = converted[0].shape[0]
+        for (arg, _), array in zip(inputs, converted):
+            if array.shape[0] != n:
+                raise ValueError(
+                    f"{name}: argument {arg!r} has {array.shape[0]} rows, "
+                    f"{inputs[0][0]!r} has {n}"
+                )
+        return function(*converted)
+
+    kernel.__name__ = kernel.__qualname__ = name
+    kernel.__doc__ = meta.get("doc", "")
+    return kernel
+
+
+def _c_function(library: ctypes.CDLL, name: str, meta: dict) -> Callable:
+    function = getattr(library, name)
+    pointer = np.ctypeslib.ndpointer(dtype=np.float64, flags="C_CONTIGUOUS")
+    function.argtypes = [ctypes.c_int64] + [pointer] * (len(meta["inputs"]) + len(meta["outputs"]))
+    function.restype = None
+    shapes = [tuple(shape) for _, shape in meta["outputs"]]
+
+    def call(*arrays):
+        n = arrays[0].shape[0]
+        outputs = tuple(np.empty((n, *shape)) for shape in shapes)
+        if n:
+            function(n, *arrays, *outputs)
+        return outputs
+
+    return call
+
+
+def _composed_meta(name: str, parts, kernels: dict) -> dict:
+    """Metadata of a composed kernel: the inputs of its widest part (then any other part's),
+    and the parts' outputs in turn."""
+    widest = max(parts, key=lambda part: len(kernels[part]["inputs"]))  # its argument order
+    inputs, outputs = list(kernels[widest]["inputs"]), []
+    for part in parts:
+        inputs += [arg for arg in kernels[part]["inputs"] if arg not in inputs]
+        outputs += list(kernels[part]["outputs"])
+    return {"inputs": inputs, "outputs": outputs,
+            "doc": "One Newton iteration's element terms: " + ", ".join(out for out, _ in outputs),
+            "equations": ", ".join(kernels[part]["equations"] for part in parts),
+            "op_count": sum(int(kernels[part].get("op_count", 0)) for part in parts)}
+
+
+def _composed(meta: dict, parts, kernels: dict, functions: dict) -> Callable:
+    """A kernel (metadata ``meta``) whose outputs are those of ``parts`` (by output name), called in turn."""
+    inputs = [arg for arg, _ in meta["inputs"]]
+    plan = []
+    for part in parts:
+        args = [inputs.index(arg) for arg, _ in kernels[part]["inputs"]]
+        plan.append((functions[part], args, [out for out, _ in kernels[part]["outputs"]]))
+    order = [out for out, _ in meta["outputs"]]
+
+    def call(*arrays):
+        outputs = {}
+        for function, args, names in plan:
+            outputs.update(zip(names, function(*(arrays[i] for i in args))))
+        return tuple(outputs[out] for out in order)
+
+    return call
+
+
+# --------------------------------------------------------------------------- compilation
+#
+# GCC's register allocator is superlinear in the size of one function: a combined kernel
+# of everything a Newton iteration needs (40 000 operations, 5 800 temporaries after CSE)
+# took 64 s at -O2 and as long at -O1 (LRA hard-register assignment is 60 % of it), while
+# its four parts together take 30 s and the longest of them 15 s. So every kernel is its
+# own translation unit and shared object, compiled in parallel on first use, and
+# ``beam_dynamics`` is the composition of its parts (COMPOSED), on both backends: the code
+# generator no longer emits it (14 µs per element against 11 µs for the combined function
+# in C, measured on the 2-core development machine).
+
+#: The optimisation level of each unit, by its operation count after CSE. A straight-line
+#: kernel of thousands of operations runs about as fast unoptimised (its temporaries live
+#: in the L1 cache either way) and compiles 20-30× faster: internal_force_D_q of cr4402
+#: (16 000 ops) takes 0.4 s at -O0 against 8.6 s at -O1 and 12.6 s at -O2, for 6.2 against
+#: 5.8 and 6.8 µs an element; the mass matrix (7 300 ops) 3.3 µs at -O0 against 1.9 at -O1
+#: for 0.16 against 1.7 s of compiling (benchmarks/compile_levels.py,
+#: results/compile_levels_cr4402.json). The log-map variant's kernels are 2-4× larger and
+#: GCC's -O1 needs minutes and gigabytes on some of them, so -O1 only pays for the small
+#: units; the first run's compile stays within seconds.
+OPT_LIMIT_OPS = 2_000
+
+
+def optimisation(ops: int) -> str:
+    """The -O level of a kernel unit of ``ops`` operations (see OPT_LIMIT_OPS)."""
+    return "-O1" if ops <= OPT_LIMIT_OPS else "-O0"
+
+
+#: Kernels composed from their parts in the C backend (see above), name -> parts.
+COMPOSED = {
+    "beam_dynamics": ("beam_internal_force_D_q", "beam_mass_matrix", "beam_quadratic_velocity",
+                      "beam_quadratic_velocity_D_qdot"),
+}
+
+
+
+def _kernel_sources(variant: str, names) -> dict[str, bytes]:
+    """The C source of each kernel as a translation unit of its own.
+
+    ``codegen/templates/c_source.c.j2`` writes the includes, then every kernel after a comment
+    line ``/* NAME: ...``; the unit is the includes plus that kernel."""
+    try:
+        source = (importlib.resources.files(PACKAGE) / f"beam_{variant}.c").read_text()
+    except (FileNotFoundError, OSError) as error:
+        raise RuntimeError(f"no C source for variant {variant!r}: {error}") from None
+    marks = {name: source.find(f"\n/* {name}: ") for name in names}
+    missing = [name for name, at in marks.items() if at < 0]
+    if missing:
+        raise RuntimeError(f"beam_{variant}.c has no kernel {', '.join(missing)}")
+    starts = sorted(marks.values())
+    includes = source[: starts[0]].split("*/", 1)[-1]  # after the stamp comment
+    units = {}
+    for name, at in marks.items():
+        later = [s for s in starts if s > at]
+        units[name] = (includes + source[at: later[0] if later else len(source)]).encode()
+    return units
+
+
+def _compile(variant: str, names, ops: dict[str, int] | None = None) -> dict[str, ctypes.CDLL]:
+    """Compile each kernel of ``names`` into the cache (:mod:`latdyn.native`: once per source,
+    flags and compiler), in parallel, and load them; name -> library."""
+    from latdyn import native
+
+    units = _kernel_sources(variant, names)
+    using = native.compiler()  # NoCompiler (a RuntimeError) says why not
+    flags = {name: (optimisation((ops or {}).get(name, 0)), *C_FLAGS[1:]) for name in units}
+    targets = {name: native.target(f"{name}-{variant}", units[name], flags[name], using) for name in units}
+    todo = [name for name, target in targets.items() if not target.exists()]
+    if todo:
+        from concurrent.futures import ThreadPoolExecutor
+
+        started = time.perf_counter()
+        print(f"latdyn: compiling {len(todo)} C kernels of variant {variant!r} with {using.name} into "
+              f"{native.cache_dir()} (first use only; seconds)", file=sys.stderr, flush=True)
+        before = native.COMPILE_SECONDS["total"]
+
+        def build(name):
+            native.build(f"{name}-{variant}", units[name], flags[name], using=using)
+
+        # the longest units first, so that the last one to finish started early
+        order = sorted(todo, key=lambda name: -len(units[name]))
+        with ThreadPoolExecutor(max_workers=max(1, os.cpu_count() or 1)) as pool:
+            list(pool.map(build, order))
+        elapsed = time.perf_counter() - started
+        # the units' own seconds overlap (parallel builds): the wall time counts once
+        native.COMPILE_SECONDS["total"] = before + elapsed
+        print(f"latdyn: compiled in {elapsed:.1f} s", file=sys.stderr, flush=True)
+    return {name: native.load(target) for name, target in targets.items()}

@@ -1,0 +1,529 @@
+"""Scene → model: nodes, minimum coordinates and element connectivity.
+
+The paper's generalized coordinates (Sec. 6) are the translations and
+rotations of the joint bodies plus the hinge angles.  Here every *node* is a
+rigid frame (x, T): a joint body of the scene, an interior node of a beam, or
+a free beam end.  A node has 6 coordinates [d, π] (π a spatial rotation,
+T ← exp(skew Δπ) T) when it moves freely, none when it is fixed or its
+motion is prescribed; a hinge has one coordinate (its angle) when free, none
+when its angle is prescribed or it has latched.
+
+Element end i refers to a node, the grid-point offset r_g in node axes
+(Eq. 2), the hinge (if any) with its axis a in node axes (Γ_gh e_z, Eq. 4), and
+the nodal frame at θ = 0 in node axes E0 (Γ_gh Γ_ehᵀ, Eq. 17), so that
+T_e = T R(a, θ) E0.  Offset compensation (Eqs. 59–62) then is exact chain rule
+inside the generated kernels, which take x, T r_g, T_e and T a.
+
+Index arrays (``element_dofs`` of shape (n_elem, 14) etc.) are built once; the
+time-step path scatters with them and never loops over elements in Python.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sps
+
+from latdyn.errors import SceneError
+from latdyn.model.kernels import planar_variant
+from latdyn.model.planar import find_plane, restrict_to_plane
+from latdyn.numerics.linalg import psd_null_direction
+from latdyn.scene.expressions import HingeLaw, TimeFunction
+from latdyn.scene.loader import Scene
+
+#: columns of the kernels' section block (codegen/conventions.py SECTION):
+#: L0 EA EIy EIz GJ rhoA rhoIy rhoIz 1/GAy 1/GAz
+SECTION_WIDTH = 10
+
+FREE, PRESCRIBED, FIXED, DEPENDENT = 0, 1, 2, 3
+
+
+@dataclass
+class Node:
+    name: str  # "hub", "arm.node[3]"
+    position: np.ndarray  # reference point at t = 0
+    kind: int  # FREE | PRESCRIBED | FIXED | DEPENDENT (follows a rigid link, latdyn.model.links)
+    body: str | None = None  # scene body name
+    beam: str | None = None  # for beam nodes
+
+
+@dataclass
+class HingeCoordinate:
+    """A hinge of the model. Its generalized force on the angle coordinate is
+    f = k(θ, θ̇, t)(θ − θ_r) + c(θ, θ̇, t) θ̇ − τ(θ, θ̇, t) (laws: :class:`~latdyn.scene.expressions.HingeLaw`)."""
+    beam: str
+    end: str  # "start" | "end"
+    node: int
+    axis: np.ndarray  # in node axes (= global at t = 0)
+    stiffness: HingeLaw
+    damping: HingeLaw
+    torque: HingeLaw | None
+    angle: object  # TimeFunction | None (prescribed)
+    lock_at: float | None
+    rest_angle: float = 0.0
+    limits: tuple[float, float] | None = None
+    restitution: float = 0.0
+
+    @property
+    def conservative_spring(self) -> bool:
+        """True when the spring moment depends on θ alone: its potential is
+        ∫_{θ_r}^{θ} k(s)(s − θ_r) ds (:meth:`latdyn.assembly.assembler.Assembler.energies`); otherwise its
+        work is counted as external work."""
+        return set(self.stiffness.depends_on) <= {"theta"}
+
+    @property
+    def has_law(self) -> bool:
+        """True when any coefficient is not a constant (the hinge force is then evaluated from laws)."""
+        return not (self.stiffness.is_constant and self.damping.is_constant)
+
+
+@dataclass
+class Model:
+    """Everything the solvers need, as arrays."""
+
+    scene: Scene
+    nodes: list[Node]
+    hinges: list[HingeCoordinate]
+    # elements
+    element_nodes: np.ndarray  # (n_elem, 2) node index of each end
+    element_offsets: np.ndarray  # (n_elem, 2, 3) r_g in node axes
+    element_axes: np.ndarray  # (n_elem, 2, 3) hinge axis in node axes (0 if clamped)
+    element_frames0: np.ndarray  # (n_elem, 2, 3, 3) E0 in node axes
+    element_hinges: np.ndarray  # (n_elem, 2) hinge index or -1
+    element_sections: np.ndarray  # (n_elem, 10) L0 EA EIy EIz GJ rhoA rhoIy rhoIz 1/GAy 1/GAz (0: shear-rigid)
+    element_beam: list[str]  # beam name of each element
+    beam_elements: dict[str, np.ndarray]  # beam -> element indices in order
+    beam_nodes: dict[str, np.ndarray]  # beam -> node indices (elements + 1)
+    beam_grid_offsets: dict[str, tuple[np.ndarray, np.ndarray]]  # offsets of the end grid points
+    # rigid bodies (only those with inertia)
+    body_nodes: np.ndarray  # (n_b,) node index
+    body_mass: np.ndarray  # (n_b,)
+    body_com: np.ndarray  # (n_b, 3) in node axes
+    body_inertia: np.ndarray  # (n_b, 3, 3) about the COM, node axes
+    body_node: dict[str, int]  # scene body name -> node index
+    locked: np.ndarray = field(default=None)  # (n_hinge,) bool
+    # coordinate numbering (rebuilt when a hinge latches)
+    node_dofs: np.ndarray = field(default=None)  # (n_nodes, 6) index or -1
+    hinge_dofs: np.ndarray = field(default=None)  # (n_hinge,) index or -1
+    element_dofs: np.ndarray = field(default=None)  # (n_elem, 14)
+    n_dofs: int = 0  # free coordinates
+    n_total: int = 0  # all coordinates (free first); index n_total is a dummy for clamped ends
+    free_nodes: np.ndarray = field(default=None)
+    free_hinges: np.ndarray = field(default=None)
+    #: planar model (``solve.planar``): the index of the plane's normal axis; its nodes carry
+    #: d_i, d_j, π_n only (:mod:`latdyn.model.planar`). None: the 3D model.
+    plane: int | None = None
+    #: (n_elem,) angle β (rad) by which each element's section axes were turned about its x axis
+    #: so that local z is the plane's normal (:func:`latdyn.model.planar.restrict_to_plane`); zeros in 3D
+    section_turns: np.ndarray = field(default=None)
+    plane_reason: str = ""  # why the model is (not) planar, for ``latdyn check``
+    # rigid links (latdyn.model.links): None without; the dependent nodes' coordinates are numbered
+    # after the free ones, and the assembly works on the first n_assembled coordinates
+    links: object = None
+    n_assembled: int = 0
+
+    # ------------------------------------------------------------------ building
+    @classmethod
+    def from_scene(cls, scene: Scene) -> "Model":
+        nodes: list[Node] = []
+        body_node: dict[str, int] = {}
+        for body in scene.bodies.values():
+            kind = FIXED if body.fixed else (PRESCRIBED if body.prescribed else FREE)
+            body_node[body.name] = len(nodes)
+            nodes.append(Node(body.name, np.array(body.at, float), kind, body=body.name))
+
+        hinges: list[HingeCoordinate] = []
+        element_nodes, offsets, axes, frames0, elem_hinges, sections, elem_beam = [], [], [], [], [], [], []
+        beam_elements, beam_nodes, beam_grid_offsets = {}, {}, {}
+        link_bodies = []  # (node, mass, com, inertia) of the rigid links
+        edges = []
+        for beam in scene.beams.values():
+            if beam.rigid:
+                _rigid_link(scene, beam, nodes, body_node, hinges, edges, link_bodies,
+                            beam_elements, beam_nodes, beam_grid_offsets)
+                continue
+            start, end = beam.start.point, beam.end.point
+            length = float(np.linalg.norm(end - start))
+            x_axis = (end - start) / length
+            y_axis = np.array(beam.y_axis, float)
+            frame = np.column_stack([x_axis, y_axis, np.cross(x_axis, y_axis)])
+            n = beam.elements
+            ends = []
+            for which, spec in (("start", beam.start), ("end", beam.end)):
+                if spec.body is not None:
+                    node = body_node[spec.body]
+                    offset = np.array(spec.offset, float)
+                else:
+                    node = len(nodes)
+                    nodes.append(Node(f"{beam.name}.{which}", np.array(spec.point, float), FREE, beam=beam.name))
+                    offset = np.zeros(3)
+                hinge_index = _add_hinge(hinges, beam.name, which, node, spec.hinge)
+                ends.append((node, offset, hinge_index))
+            node_list = [ends[0][0]]
+            for k in range(1, n):
+                node_list.append(len(nodes))
+                nodes.append(Node(f"{beam.name}.node[{k}]", start + (end - start) * k / n, FREE, beam=beam.name))
+            node_list.append(ends[1][0])
+            first = len(element_nodes)
+            section = beam.section
+            row = [length / n, section.EA, section.EIy, section.EIz, section.GJ, section.rhoA,
+                   section.rhoIy, section.rhoIz, *section.shear_compliances]
+            for k in range(n):
+                element_nodes.append((node_list[k], node_list[k + 1]))
+                o1 = ends[0][1] if k == 0 else np.zeros(3)
+                o2 = ends[1][1] if k == n - 1 else np.zeros(3)
+                offsets.append((o1, o2))
+                h1 = ends[0][2] if k == 0 else -1
+                h2 = ends[1][2] if k == n - 1 else -1
+                elem_hinges.append((h1, h2))
+                axes.append(tuple(hinges[h].axis if h >= 0 else np.zeros(3) for h in (h1, h2)))
+                frames0.append((frame, frame))
+                sections.append(row)
+                elem_beam.append(beam.name)
+            beam_elements[beam.name] = np.arange(first, first + n)
+            beam_nodes[beam.name] = np.array(node_list)
+            beam_grid_offsets[beam.name] = (ends[0][1], ends[1][1])
+
+        massive = [b for b in scene.bodies.values() if b.mass > 0 or np.any(b.inertia != 0)]
+        links = None
+        if edges:
+            from latdyn.model.links import RigidLinks
+
+            links = _tree_order(scene, edges, nodes)
+            links = RigidLinks(links, [b.name for b in scene.beams.values() if b.rigid])
+        model = cls(
+            scene=scene, nodes=nodes, hinges=hinges,
+            element_nodes=np.array(element_nodes, dtype=np.int64).reshape(-1, 2),
+            element_offsets=np.array(offsets, float).reshape(-1, 2, 3),
+            element_axes=np.array(axes, float).reshape(-1, 2, 3),
+            element_frames0=np.array(frames0, float).reshape(-1, 2, 3, 3),
+            element_hinges=np.array(elem_hinges, dtype=np.int64).reshape(-1, 2),
+            element_sections=np.array(sections, float).reshape(-1, SECTION_WIDTH),
+            element_beam=elem_beam, beam_elements=beam_elements, beam_nodes=beam_nodes,
+            beam_grid_offsets=beam_grid_offsets,
+            body_nodes=np.array([body_node[b.name] for b in massive] + [lb[0] for lb in link_bodies],
+                                dtype=np.int64),
+            body_mass=np.array([b.mass for b in massive] + [lb[1] for lb in link_bodies], float),
+            body_com=np.array([b.com for b in massive] + [lb[2] for lb in link_bodies], float).reshape(-1, 3),
+            body_inertia=np.array([b.inertia for b in massive] + [lb[3] for lb in link_bodies],
+                                  float).reshape(-1, 3, 3),
+            body_node=body_node, links=links,
+        )
+        model.locked = np.zeros(len(hinges), dtype=bool)
+        model.section_turns = np.zeros(len(model.element_nodes))
+        normal, model.plane_reason = find_plane(scene)
+        if normal is not None:
+            restrict_to_plane(model, normal)
+        model.number_coordinates()
+        return model
+
+    @property
+    def kernel_variant(self) -> str:
+        """The generated kernels this model uses: the scene's formulation, planar or 3D."""
+        formulation = self.scene.solve.formulation
+        return formulation if self.plane is None else planar_variant(formulation, self.plane)
+
+    def node_slots(self) -> np.ndarray:
+        """(6,) bool: which of a free node's [dx dy dz rx ry rz] are coordinates (all in 3D;
+        d_i, d_j, r_n in a planar model)."""
+        slots = np.ones(6, dtype=bool)
+        if self.plane is not None:
+            n = self.plane
+            slots[[n, 3 + (n + 1) % 3, 3 + (n + 2) % 3]] = False
+        return slots
+
+    def number_coordinates(self) -> None:
+        """Number the coordinates: free ones first (the :meth:`node_slots` of each free node, node
+        by node, then 1 per free, unlatched hinge), then the rest (fixed, prescribed, latched,
+        out of plane), so that reactions of prescribed motion can be scattered like any force."""
+        n_nodes, n_hinges = len(self.nodes), len(self.hinges)
+        free_node = np.array([n.kind == FREE for n in self.nodes], dtype=bool)
+        free_hinge = np.array([h.angle is None for h in self.hinges], dtype=bool) & ~self.locked
+        dependent = np.array([n.kind == DEPENDENT for n in self.nodes], dtype=bool)
+        order_hinges = np.concatenate([np.flatnonzero(free_hinge), np.flatnonzero(~free_hinge)]).astype(np.int64)
+        free_slot = free_node[:, None] & self.node_slots()[None, :]  # (n_nodes, 6)
+        self.node_dofs = np.zeros((n_nodes, 6), dtype=np.int64)
+        self.hinge_dofs = np.zeros(n_hinges, dtype=np.int64)
+        n_free_slots, n_free_hinges = int(free_slot.sum()), int(free_hinge.sum())
+        self.n_dofs = n_free_slots + n_free_hinges
+        # free node coordinates (row-major: node by node), free hinges, then the constrained ones
+        self.node_dofs[free_slot] = np.arange(n_free_slots)
+        self.hinge_dofs[order_hinges[:n_free_hinges]] = n_free_slots + np.arange(n_free_hinges)
+        base = self.n_dofs
+        # the dependent nodes of rigid links (assembled, then mapped by latdyn.model.links), then the constrained
+        dependent_slot = np.repeat(dependent[:, None], 6, axis=1)
+        n_dependent = int(dependent_slot.sum())
+        self.node_dofs[dependent_slot] = base + np.arange(n_dependent)
+        base += n_dependent
+        rest_slot = ~free_slot & ~dependent_slot
+        n_rest = int(rest_slot.sum())
+        self.node_dofs[rest_slot] = base + np.arange(n_rest)
+        base += n_rest
+        rest_hinges = order_hinges[n_free_hinges:]
+        self.hinge_dofs[rest_hinges] = base + np.arange(len(rest_hinges))
+        self.n_total = base + len(rest_hinges)
+        self.n_assembled = self.n_dofs + n_dependent
+        self.free_nodes = np.flatnonzero(free_node)
+        self.free_hinges = np.flatnonzero(free_hinge)
+        n_elem = len(self.element_nodes)
+        dofs = np.zeros((n_elem, 14), dtype=np.int64)
+        for end, base_col in ((0, 0), (1, 7)):
+            dofs[:, base_col:base_col + 6] = self.node_dofs[self.element_nodes[:, end]]
+            h = self.element_hinges[:, end]
+            # a clamped end has no hinge: its θ slot points at a dummy coordinate past the end
+            padded = np.append(self.hinge_dofs, self.n_total)
+            dofs[:, base_col + 6] = padded[np.where(h >= 0, h, len(self.hinge_dofs))]
+        self.element_dofs = dofs
+
+    # ------------------------------------------------------------------ naming
+    def dof_names(self) -> list[str]:
+        """A readable name for every coordinate, for diagnostics."""
+        names = [""] * (self.n_total + 1)
+        labels = ["dx", "dy", "dz", "rx", "ry", "rz"]
+        for i, node in enumerate(self.nodes):
+            for k in range(6):
+                names[self.node_dofs[i, k]] = f"{node.name}:{labels[k]}"
+        for k, hinge in enumerate(self.hinges):
+            names[self.hinge_dofs[k]] = f"hinge {hinge.beam}.{hinge.end}"
+        return names[: self.n_dofs]
+
+    def size_report(self) -> str:
+        """What the model carries and why (``latdyn check``).
+
+        Coordinates per kind (node translations, node rotations, hinge angles), the nodes they
+        belong to, and what was removed: 6 per fixed or prescribed body, 1 per prescribed hinge
+        angle or latched hinge. ``latdyn check`` adds :func:`latdyn.analyses.check.dynamics_report`.
+        """
+        n_free = len(self.free_nodes)
+        free_hinges = len(self.free_hinges)
+        slots = self.node_slots()
+        translations, rotations = int(slots[:3].sum()), int(slots[3:].sum())
+        lines = [
+            f"model: {len(self.nodes)} nodes ({n_free} free), {len(self.element_nodes)} elements, "
+            f"{len(self.hinges)} hinges ({free_hinges} with a coordinate), {self.n_dofs} coordinates",
+            f"  coordinates: {translations * n_free} node translations + {rotations * n_free} node rotations "
+            f"+ {free_hinges} hinge angles = {self.n_dofs}",
+            f"  planar: {self.plane_reason}",
+        ]
+        bodies = [n for n in self.nodes if n.body is not None]
+        link_nodes = [n for n in self.nodes if n.body is None and n.beam in _rigid_names(self.scene)]
+        interior = sum(1 for n in self.nodes if n.body is None and ".node[" in n.name)
+        free_ends = sum(1 for n in self.nodes if n.body is None and ".node[" not in n.name) - len(link_nodes)
+        lines.append(f"  nodes: {len(bodies)} joint bodies, {interior} interior beam nodes, "
+                     f"{free_ends} free beam ends" + (f", {len(link_nodes)} rigid-link nodes" if link_nodes else "")
+                     + f"; {int(slots.sum())} coordinates per free node")
+        fixed = [n.name for n in self.nodes if n.kind == FIXED]
+        prescribed = [n.name for n in self.nodes if n.kind == PRESCRIBED]
+        prescribed_angles = [f"{h.beam}.{h.end}" for h in self.hinges if h.angle is not None]
+        latched = [f"{h.beam}.{h.end}" for k, h in enumerate(self.hinges) if self.locked[k]]
+        out_of_plane = [self.nodes[i].name for i in self.free_nodes] if self.plane is not None else []
+        removed = [(6, "fixed bodies", fixed), (6, "prescribed bodies", prescribed),
+                   (1, "prescribed hinge angles", prescribed_angles), (1, "latched hinges", latched),
+                   (3, "free nodes out of plane", out_of_plane)]
+        parts = [f"{per * len(names)} for {len(names)} {what} ({_short(names)})"
+                 for per, what, names in removed if names]
+        lines.append("  removed: " + ("; ".join(parts) if parts else "none"))
+        if self.links is not None:
+            lines.append(self.links.report(self))
+        events = [f"{h.beam}.{h.end}" for h in self.hinges if h.lock_at is not None and h.angle is None]
+        stops = [f"{h.beam}.{h.end}" for h in self.hinges if h.limits is not None and h.angle is None]
+        if events or stops:
+            lines.append(f"  events: {len(events)} hinges with lock_at ({_short(events) or '-'}), each removing its "
+                         f"coordinate when it latches; {len(stops)} hinges with stops ({_short(stops) or '-'})")
+        return "\n".join(lines)
+
+
+    def hinge_index(self, beam: str, end: str) -> int:
+        for k, hinge in enumerate(self.hinges):
+            if hinge.beam == beam and hinge.end == end:
+                return k
+        raise KeyError(f"{beam}.{end}")
+
+    def point(self, ref) -> tuple[int, np.ndarray]:
+        """A scene point → (node, offset in node axes)."""
+        if ref.body is not None and ref.beam is None:
+            return self.body_node[ref.body], np.zeros(3)
+        nodes = self.beam_nodes[ref.beam]
+        offsets = self.beam_grid_offsets[ref.beam]
+        if ref.node == 0:
+            return int(nodes[0]), offsets[0]
+        if ref.node == len(nodes) - 1:
+            return int(nodes[-1]), offsets[1]
+        return int(nodes[ref.node]), np.zeros(3)
+
+    def check_held(self, mass, stiffness, file: str) -> None:
+        """Refuse a coordinate that neither inertia nor stiffness holds (SCENE.md).
+
+        A direction x of the free coordinates is unheld when it lies in both null
+        spaces, M x = 0 and K x = 0 at rest; M and K (material stiffness, no load
+        terms) are positive semi-definite there, so that is xᵀ(M + K)x = 0.  Each
+        matrix is normalised by its largest diagonal entry and the sum A
+        Jacobi-scaled (unit diagonal), which makes the test blind to units and to
+        the n⁴ spread of bending stiffness in fine meshes.  A coordinate with a
+        zero diagonal is unheld at once; otherwise :func:`latdyn.numerics.linalg.psd_null_direction`
+        (inverse iteration on one sparse LU, any size) returns the smallest
+        Rayleigh quotient it reaches: round-off (~1e-16) for an unheld direction,
+        never below λ_min(A) for a held model, where the weakest held direction
+        of a fine mesh still has λ ≳ 1/N² (N elements in a chain).  The
+        direction need not be a coordinate axis (a massless body spinning about
+        the axis of a hinge that carries its only beam): the coordinates with the
+        largest components are named.  ``mass`` and ``stiffness`` may be dense or
+        sparse.
+        """
+        n = self.n_dofs
+        if n == 0:
+            return
+        names = self.dof_names()
+        A = _normalised(mass) + _normalised(stiffness)
+        d = A.diagonal()
+        empty = np.flatnonzero(d <= 1e-14)
+        if len(empty):
+            raise SceneError(file, self._key_of(names[empty[0]]),
+                             "a coordinate that nothing holds (neither inertia nor stiffness): "
+                             + ", ".join(names[i] for i in empty[:3]))
+        scale = sps.diags(1.0 / np.sqrt(d))
+        rho, mode = psd_null_direction((scale @ A @ scale).tocsc(), tol=HELD_TOLERANCE)
+        if rho <= HELD_TOLERANCE:
+            worst = [names[i] for i in np.argsort(-np.abs(mode))[:3] if abs(mode[i]) > 0.1]
+            raise SceneError(file, self._key_of(worst[0]),
+                             "a coordinate that nothing holds (neither inertia nor stiffness): "
+                             + ", ".join(worst))
+
+    def _key_of(self, dof_name: str) -> str:
+        """The scene key a coordinate belongs to, for error messages."""
+        if dof_name.startswith("hinge "):
+            beam, end = dof_name[len("hinge "):].rsplit(".", 1)
+            return f"beams.{beam}.{end}.hinge"
+        node = dof_name.split(":")[0]
+        for nd in self.nodes:
+            if nd.name == node:
+                return f"bodies.{nd.body}" if nd.body else f"beams.{nd.beam}"
+        return "bodies"
+
+
+def _short(names, count: int = 4) -> str:
+    """The first few names, then how many more."""
+    names = list(names)
+    text = ", ".join(names[:count])
+    return text + (f", … {len(names) - count} more" if len(names) > count else "")
+
+
+def _add_hinge(hinges: list, beam: str, which: str, node: int, hinge) -> int:
+    """Append the model hinge of a scene hinge (None: a clamped end) and return its index (-1 if none)."""
+    if hinge is None:
+        return -1
+    h = hinge
+    hinges.append(HingeCoordinate(beam, which, node, np.array(h.axis, float), _law(h.stiffness), _law(h.damping),
+                                  None if h.torque is None else _law(h.torque), h.angle,
+                                  None if h.lock_at is None else float(h.lock_at),
+                                  float(h.rest_angle), h.limits, float(h.restitution)))
+    return len(hinges) - 1
+
+
+def _rigid_names(scene) -> set:
+    return {b.name for b in scene.beams.values() if b.rigid}
+
+
+def _rigid_link(scene, beam, nodes, body_node, hinges, edges, link_bodies, beam_elements, beam_nodes,
+                beam_grid_offsets) -> None:
+    """Add a rigid link (:mod:`latdyn.model.links`): its link node L at the start grid point (dependent on
+    the start body through the start hinge, or free when the start is a free point), its inertia
+    on L, and the dependency of a body at its ``to`` end on L through the end hinge.
+
+    Inertia of the slender rod about its centre, in the link's axes (x along it, y, z of the
+    section): [(ρI_y + ρI_z) L, ρA L³/12 + ρI_y L, ρA L³/12 + ρI_z L], mass ρA L at mid-length."""
+    from latdyn.model.links import Edge
+
+    key = f"beams.{beam.name}.rigid"
+    start, end = beam.start, beam.end
+    vector = end.point - start.point
+    length = float(np.linalg.norm(vector))
+    x_axis = vector / length
+    frame = np.column_stack([x_axis, beam.y_axis, np.cross(x_axis, beam.y_axis)])
+    s = beam.section
+    rod = s.rhoA * length ** 3 / 12.0
+    inertia = frame @ np.diag([(s.rhoIy + s.rhoIz) * length, rod + s.rhoIy * length,
+                               rod + s.rhoIz * length]) @ frame.T
+    link = len(nodes)
+    if start.body is not None:
+        parent = body_node[start.body]
+        nodes.append(Node(f"{beam.name}.link", np.array(start.point, float), DEPENDENT, beam=beam.name))
+        h = _add_hinge(hinges, beam.name, "start", parent, start.hinge)
+        edges.append(Edge(parent, link, h, hinges[h].axis.copy() if h >= 0 else np.zeros(3), 1.0,
+                          np.array(start.offset, float), np.zeros(3), beam.name))
+    else:
+        nodes.append(Node(f"{beam.name}.link", np.array(start.point, float), FREE, beam=beam.name))
+    link_bodies.append((link, s.rhoA * length, 0.5 * vector, inertia))
+    if end.body is not None:
+        child = body_node[end.body]
+        node = nodes[child]
+        if node.kind in (FIXED, PRESCRIBED):
+            what = "fixed" if node.kind == FIXED else "prescribed"
+            raise SceneError(scene.file, key, f"rigid link {beam.name!r} ends at body {end.body!r}, which is {what}: "
+                                              "a rigid link positions the body at its `to` end, and this one is "
+                                              f"positioned already; expected the {what} body as the link's `from` "
+                                              "(or rigid: false)")
+        if node.kind == DEPENDENT:
+            other = next(e.link for e in edges if e.child == child)
+            raise SceneError(scene.file, key, f"body {end.body!r} is reached by two rigid links ({other!r} and "
+                                              f"{beam.name!r}): a closed loop that minimum coordinates cannot "
+                                              "express; make one beam of the loop flexible (rigid: false), or start "
+                                              "one of the links at the body")
+        node.kind = DEPENDENT
+        h = _add_hinge(hinges, beam.name, "end", child, end.hinge)
+        edges.append(Edge(link, child, h, hinges[h].axis.copy() if h >= 0 else np.zeros(3), -1.0,
+                          vector.copy(), -np.array(end.offset, float), beam.name))
+        # a loop: walking up from the link node reaches the body it positions
+        parent_of = {e.child: e for e in edges}
+        walk, loop = link, [beam.name]
+        while walk in parent_of:
+            e = parent_of[walk]
+            walk = e.parent
+            if e.link != loop[-1]:
+                loop.append(e.link)
+            if walk == child:
+                raise SceneError(scene.file, key, "the rigid links " + ", ".join(repr(n) for n in loop[::-1])
+                                 + " close a loop: a closed loop made only of rigid links cannot be expressed in "
+                                 "minimum coordinates; make one beam of the loop flexible (rigid: false)")
+    beam_elements[beam.name] = np.zeros(0, dtype=np.int64)
+    beam_nodes[beam.name] = np.array([link, link])
+    beam_grid_offsets[beam.name] = (np.zeros(3), vector.copy())
+
+
+def _tree_order(scene, edges, nodes) -> list:
+    """The edges of the rigid links with parents before children (by depth in the tree)."""
+    parent_of = {e.child: e.parent for e in edges}
+
+    def depth(node):
+        d = 0
+        while node in parent_of:
+            node, d = parent_of[node], d + 1
+        return d
+
+    return sorted(edges, key=lambda e: depth(e.child))
+
+
+def _law(value) -> HingeLaw:
+    """A hinge coefficient of the scene (number, TimeFunction or HingeLaw) as a HingeLaw."""
+    if isinstance(value, HingeLaw):
+        return value
+    if isinstance(value, TimeFunction):
+        return HingeLaw(value.source)
+    return HingeLaw(float(value))
+
+
+#: Largest Rayleigh quotient of the Jacobi-scaled M/‖M‖ + K/‖K‖ taken as a null
+#: direction (see :meth:`Model.check_held`).  Measured: an unheld direction gives
+#: 5e-17 (free beam without rotary inertia spinning about its oblique axis, 10⁴
+#: coordinates); the weakest held ones are chains of massless twist held by GJ,
+#: λ_min = 1.1e-7 with 1666 elements, 1.2e-8 with 5000 (∝ 1/N², so 1e-10 only
+#: past ~50 000 elements in one chain); the example scenes have λ_min ≥ 5e-4.
+HELD_TOLERANCE = 1e-10
+
+
+def _normalised(matrix):
+    """Symmetric part of a dense or sparse matrix as CSR, divided by its largest |diagonal|."""
+    A = sps.csr_matrix(matrix)
+    A = (0.5 * (A + A.T)).tocsr()
+    top = float(np.abs(A.diagonal()).max(initial=0.0))
+    return A / top if top > 0 else A

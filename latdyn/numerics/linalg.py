@@ -1,0 +1,405 @@
+"""Linear solves of the Newton iteration matrix, and the null direction of a PSD pencil.
+
+Policy, chosen by measurement: ``python benchmarks/linear_solvers.py``, full
+table in benchmarks/results/linear_solvers.json.  AMD EPYC, 2 cores of a KVM
+guest shared with other jobs (load average 1.6–3 during the run), OpenBLAS
+0.3.30/0.3.31; median ms of one Newton solve *including* the assembly of
+S = β′M + γ′C + K (Newmark, h = 0.01); "1/2" = BLAS limited to 1 / 2 threads:
+
+    model          n      RCM bw  dense LU      SuperLU   SuperLU   SuperLU     band LU     latdyn
+                                  (gesv) 1/2    COLAMD    MMD sym   scaled,     (gbsv) 1/2  policy
+                                                (default)           reused
+    beam 10 el     66     11      0.061/0.061   0.16      0.16      0.19        0.10        0.074 dense
+    beam 20 el     126    11      0.19/0.20     0.20      0.21      0.23        0.125       0.117 dense
+    beam 24 el     150    11      0.27/0.26     0.22      0.22      0.24        0.137       0.128 band
+    beam 64 el     390    11      2.4/9.7       0.43      0.40      0.45        0.25        0.25  band
+    beam 400 el    2406   11      665/493       6.8       6.1       2.5         1.3         1.6   band
+    beam 5000 el   30006  11      —             41        41        43          22          19    band
+    lattice 32 el  148    53      0.30/0.31     0.43      0.37      0.32        0.27        0.26  band
+    lattice 63 el  180    65      0.50/0.51     0.73      0.57      0.53        0.63/0.85   0.55  band
+    lattice 120    324    80      1.7/9.3       1.9       1.1       0.85        0.90/8.8    0.69  band
+    lattice 260    680    141     24/81         6.8       3.6       2.1         3.1/321     2.1   SuperLU
+    lattice 931    2352   434     456/464       47        43        13          —           14    SuperLU
+    lattice 4896   11952  975     —             1660      3170      345         —           346   SuperLU
+
+(single entries are noisy by up to ×2 on this shared machine — an earlier,
+busier run had dense LU at n = 198 take 0.76 ms on one thread and 254 ms on
+two — but the choices below hold in each of the three full runs.)
+
+* **Dense only for small systems.** Dense LU costs ⅔n³ and a zero-filled n×n
+  array, a sparse solve a fixed ~0.1 ms of set-up: they cross at n ≈ 120 for a
+  beam (17 nonzeros a row) and n ≈ 150–180 for a 3D lattice (20–30 a row) →
+  ``DENSE_LIMIT = 120``, on n alone: a nonzero-dependent limit would gain at
+  most ~0.05 ms a solve for lattices of 120–180 coordinates.  The former limit,
+  600, made the 64-element flying spaghetti (390 coordinates) dense: 2.4 ms a
+  solve on one thread, 10–300 ms on two, against 0.25 ms now (1 s of its
+  D3 run: 6–15 s before, 1.4–2 s now).
+* **BLAS pinned to one thread around LAPACK calls** (dense ``gesv`` and band
+  ``gbsv``): on a machine where another job holds a core, OpenBLAS's second
+  thread costs far more than it gains (n = 390 dense 2.4 → 9.7 ms, n = 102 in
+  a busier run 0.29 → 216 ms; the band solve of lattice 260: 3.1 → 321 ms).
+  Unloaded, these sizes are still too small for two threads to pay.  SuperLU
+  does not use threaded BLAS here (1 and 2 threads time alike).  The pin is
+  taken and released around each call through threadpoolctl when it is
+  installed (≈1 µs), so the caller's BLAS setting is untouched; without
+  threadpoolctl nothing is pinned.
+* **Sparse: band LU when the reverse Cuthill–McKee bandwidth is small, else
+  SuperLU.**  A chain of beams has bandwidth 11 after RCM whatever its length,
+  and LAPACK's band LU (partial pivoting) beats every SuperLU variant 1.5–2×.
+  A 3D lattice's bandwidth grows like n^⅔; band LU ties with SuperLU at
+  bandwidth 53–80 and loses from 141 on (×1.5 there, ×5 at 190) →
+  ``BAND_LIMIT = 100``.  Beyond, SuperLU on the
+  Jacobi-scaled matrix D S D (D = |diag S|^(-1/2)), minimum-degree ordering of
+  AᵀA + A in symmetric mode with threshold pivoting 0.1: with a unit diagonal
+  the pivots stay on the diagonal and keep the ordering's fill (lattice 6210:
+  2.1 M nonzeros in L + U against 4.9 M unscaled and 5.5 M with COLAMD,
+  SuperLU's default, which is 3–5× slower).  Both analyses are made once per
+  sparsity pattern and reused while it lasts (it changes only when a hinge
+  latches): the RCM order and the band scatter map; SuperLU's column order
+  from the first factorization, after which the values are scattered straight
+  into the permuted CSC matrix and factorized in that order (SuperLU has no
+  separate symbolic step; skipping its ordering saves 1.2–3×).
+
+**The compiled step beyond the band: a supernodal sparse LU in C.**  The Python step keeps
+SuperLU (above: the reference); the compiled step (latdyn/step/compiled.py) factorizes a matrix whose
+RCM bandwidth exceeds BAND_LIMIT with ``csrc/sparse_lu.c``: minimum degree on the node graph
+and a supernodal symbolic analysis once per pattern (:mod:`latdyn.step.sparse_lu`), the matrix
+assembled straight into the factor storage, a left-looking supernodal LU without pivoting
+(BLAS dgemm/dtrsm blocks, every pivot checked against its row's and column's scale) and the
+substitutions in C.  ``python benchmarks/sparse_lu.py --compare-band``, results in
+benchmarks/results/sparse_lu.json: same 2-core AMD EPYC, load average 0.7 → 2.9 during the
+run (another job took one core), OpenBLAS pinned to one thread; 3D lattices as above.  Fill:
+nonzeros of L + U (the diagonal once); analysis: once per pattern; LU: one factorization and
+solve of S alone (C sparse LU: scatter + factor + solve; SuperLU: ``solve_linear``, scaled,
+order reused); Newton iteration: one iteration of a generalized-α step, everything included,
+the element part serial in both steps (wall ms, fastest of 3 rounds of 4 steps):
+
+    model          n      RCM   fill L+U (10³)   analysis  LU, ms              Newton iteration, ms
+                          bw    ours   SuperLU   ms        C sparse  SuperLU   compiled  compiled  Python
+                                       MMD                                     sparse    band      SuperLU
+    lattice 120    324    80    24.2   24.2      2         0.25      0.71      3.5       3.7       7.3
+    lattice 260    680    141   74.1   72.9      6         0.84      2.1       7.5       12.5      11.1
+    lattice 480    1230   190   177    174       17        2.5       7.9       17.6      28.6      27.1
+    lattice 931    2352   434   441    434       46        8.2       18.1      30.9      79.0      40.6
+    lattice 2520   6210   814   2027   2085      239       49        115       109       —         221
+    lattice 4896   11952  975   5703   5694      975       169       440       336       —         658
+    beam 64 el     390    11                                                   2.0       1.8
+    beam 400 el    2406   11                                                   11.4      14.0
+    beam 5000 el   30006  11                                                   163       174
+
+* **Fill and speed.**  Minimum degree on the node graph (6 coordinates a node) gives SuperLU's
+  MMD fill to within −3 … +2 %, and the static order keeps it; the LU is 2.2–3.2× faster than
+  SuperLU (4896 elements: 3.9 GFlop in 166 ms, 24 GFlop/s on one core, dgemm's rate) and equals
+  it to 2e-14.  The compiled step's Newton iteration is 1.3–2.1× faster than the Python step's
+  on the lattices, where the element kernels share the time; a quieter run (load 1.1–1.2) gave
+  the same ratios (e.g. 4896 elements: 283 against 536 ms).  The analysis (NumPy and Python
+  sets) costs about three compiled iterations at 12 000 coordinates (1 s), once per pattern
+  (a latch re-runs it).
+* **Band LU kept up to BAND_LIMIT = 100.**  Band and sparse LU tie at RCM bandwidth 80 (3.5
+  against 3.7 ms, 3.4 / 3.7 on a rerun) and on chains (bandwidth 11: within ±20 %, either way by
+  size), and the sparse LU wins from 141 on (×1.7 there, ×2.6 at 434); the band LU pivots
+  (partial pivoting: no pivot can fail), so it keeps the range where it ties.  Without
+  pivoting the sparse LU relies on the β′M-dominated diagonal; a pivot smaller than 1e-10 of
+  its row's and column's largest entry (:data:`latdyn.step.sparse_lu.PIVOT_TOLERANCE`) fails the
+  factorization, and the step is reported not converged, like a singular band LU.
+* **OpenBLAS on one thread in the compiled step too** (``openblas_thread_functions``: the
+  compiled factorization sets and restores SciPy's OpenBLAS thread count around dense, band and
+  sparse LU alike).  Left on two threads with the other core busy, the sparse LU's dgemm calls
+  took 16 ms instead of 0.25 at n = 324 and 1.2 s instead of 49 ms at 6210; on a quieter
+  machine two threads gained at most 1.3× (12 000 coordinates: 127 against 163 ms).  Before
+  this, the compiled band LU ran unpinned too: lattice of 120 elements 30–120 ms an iteration
+  against 4.6 ms pinned, under load.
+
+``solve_linear(matrix, rhs)`` dispatches on the matrix: a NumPy array is
+solved densely; a SciPy sparse matrix densely when n ≤ DENSE_LIMIT, else as
+above.  ``Assembler.assemble`` returns a dense array exactly when
+n ≤ DENSE_LIMIT, so the iteration matrix is assembled in the form it is solved in.
+
+``psd_null_direction(A)`` finds a direction x with xᵀAx ≈ 0 for a sparse
+symmetric positive semi-definite A with unit diagonal (the held-coordinate
+check of the scene, see :meth:`latdyn.model.model.Model.check_held`), by inverse
+iteration with one sparse LU of A + δI: at any size, without a dense
+eigen-solve (10⁴ coordinates: 13 ms for a beam, 51 ms for a 3D lattice).
+"""
+from __future__ import annotations
+
+from collections import OrderedDict
+from contextlib import contextmanager
+
+import numpy as np
+import scipy.sparse as sps
+
+# scipy.sparse.linalg (SuperLU), scipy.sparse.csgraph (RCM) and scipy.linalg.lapack (band LU)
+# are imported where they are used: the compiled step of a small model needs none of them.
+
+#: Models with at most this many free coordinates use dense matrices and LU.
+DENSE_LIMIT = 120
+
+#: Sparse systems whose half-bandwidth after reverse Cuthill–McKee is at most
+#: this use LAPACK band LU; wider ones SuperLU in the Python step and the supernodal
+#: sparse LU of csrc/sparse_lu.c in the compiled step.
+BAND_LIMIT = 100
+
+#: SuperLU options: minimum degree on AᵀA + A, diagonal pivots preferred.
+SUPERLU_OPTIONS = {"diag_pivot_thresh": 0.1, "options": {"SymmetricMode": True}}
+
+
+# ----------------------------------------------------------------------------- BLAS threads
+
+_blas = None  # list of threadpoolctl library controllers, [] when unavailable
+
+
+def _blas_controllers() -> list:
+    global _blas
+    if _blas is None:
+        try:
+            from threadpoolctl import ThreadpoolController
+
+            _blas = list(ThreadpoolController().select(user_api="blas").lib_controllers)
+        except Exception:  # noqa: BLE001 - threadpoolctl missing or unable to inspect: leave BLAS alone
+            _blas = []
+    return _blas
+
+
+@contextmanager
+def single_thread_blas():
+    """Limit the BLAS libraries (NumPy's and SciPy's) to one thread inside the block."""
+    saved = []
+    for lib in _blas_controllers():
+        try:
+            k = lib.get_num_threads()
+            if k is not None and k != 1:
+                lib.set_num_threads(1)
+                saved.append((lib, k))
+        except Exception:  # noqa: BLE001
+            pass
+    try:
+        yield
+    finally:
+        for lib, k in saved:
+            lib.set_num_threads(k)
+
+
+def openblas_thread_functions() -> tuple[int | None, int | None]:
+    """Addresses of ``openblas_get_num_threads`` and ``openblas_set_num_threads`` of the OpenBLAS
+    behind SciPy's cython_blas / cython_lapack (the library under SciPy's folder, or the only
+    OpenBLAS loaded), for the compiled step to pin its LAPACK and BLAS calls to one thread as
+    :func:`single_thread_blas` does; (None, None) when there is no such library or no
+    threadpoolctl (then nothing is pinned)."""
+    import ctypes
+
+    candidates = [lib for lib in _blas_controllers() if getattr(lib, "internal_api", "") == "openblas"]
+    scipy_own = [lib for lib in candidates if "scipy" in str(getattr(lib, "filepath", ""))]
+    chosen = scipy_own or (candidates if len(candidates) == 1 else [])
+    if not chosen:
+        return None, None
+    lib = chosen[0]
+    try:
+        prefix, suffix = lib._find_affixes()
+        get = getattr(lib.dynlib, f"{prefix}openblas_get_num_threads{suffix}")
+        put = getattr(lib.dynlib, f"{prefix}openblas_set_num_threads{suffix}")
+    except Exception:  # noqa: BLE001 - another threadpoolctl or OpenBLAS: leave BLAS alone
+        return None, None
+    return ctypes.cast(get, ctypes.c_void_p).value, ctypes.cast(put, ctypes.c_void_p).value
+
+
+# ----------------------------------------------------------------------------- solves
+
+
+def use_dense(n: int) -> bool:
+    """Whether a system of n coordinates is assembled and solved densely."""
+    return n <= DENSE_LIMIT
+
+
+def solve_linear(matrix, rhs: np.ndarray) -> np.ndarray:
+    """Solve ``matrix @ x = rhs``: dense LU for arrays and small systems, band LU or
+    SuperLU beyond (see the module docstring).  Raises ``np.linalg.LinAlgError``
+    or ``RuntimeError`` for a singular matrix."""
+    rhs = np.asarray(rhs, float)
+    if isinstance(matrix, np.ndarray):
+        with single_thread_blas():
+            return np.linalg.solve(matrix, rhs)
+    if use_dense(matrix.shape[0]):
+        with single_thread_blas():
+            return np.linalg.solve(matrix.toarray(), rhs)
+    A = matrix if matrix.format == "csr" else matrix.tocsr()
+    if not A.has_canonical_format:
+        A = A.copy()
+        A.sum_duplicates()
+    return _plan_for(A).solve(A, rhs)
+
+
+class _Plan:
+    """The symbolic analysis of one sparsity pattern (CSR indptr/indices), reused."""
+
+    def __init__(self, A):
+        n = A.shape[0]
+        self.n = n
+        self.indptr = A.indptr.copy()
+        self.indices = A.indices.copy()
+        self.rows = np.repeat(np.arange(n), np.diff(A.indptr))
+        on_diagonal = np.flatnonzero(self.rows == self.indices)
+        self.diagonal = np.full(n, -1, dtype=np.int64)  # position of (i, i) in the values, or −1
+        self.diagonal[self.rows[on_diagonal]] = on_diagonal
+        perm, new, lower, upper = rcm_band(self.rows, A.indices, n)
+        i, j = new[self.rows], new[A.indices]
+        self.bandwidth = max(lower, upper)
+        if self.bandwidth <= BAND_LIMIT:
+            self.kind = "band"
+            self.perm, self.lower, self.upper = perm, lower, upper
+            # LAPACK gbsv storage: row kl + ku + i − j of a (2kl + ku + 1) × n array
+            self.band_rows = lower + upper + i - j
+            self.band_cols = j
+        else:
+            self.kind = "superlu"
+            self.order = None  # set by the first factorization
+
+    def solve(self, A, rhs):
+        if self.kind == "band":
+            return self._band(A, rhs)
+        return self._superlu(A, rhs)
+
+    def _band(self, A, rhs):
+        ab = np.zeros((2 * self.lower + self.upper + 1, self.n))
+        ab[self.band_rows, self.band_cols] = A.data
+        b = rhs[self.perm]
+        with single_thread_blas():
+            _, _, x, info = _gbsv(self.lower, self.upper, ab, b, overwrite_ab=1, overwrite_b=1)
+        if info != 0:
+            raise np.linalg.LinAlgError(f"band LU: singular matrix (gbsv info {info})")
+        out = np.empty_like(x)
+        out[self.perm] = x
+        return out
+
+    def _superlu(self, A, rhs):
+        """SuperLU on D A D, D = |diag A|^(-1/2): unit diagonal, so that threshold pivoting
+        keeps to the diagonal and the symmetric ordering's fill (lattice of 6210
+        coordinates: 2.1 M nonzeros in L + U against 4.9 M unscaled, 5× faster)."""
+        d = np.ones(self.n)
+        has = self.diagonal >= 0
+        d[has] = np.abs(A.data[self.diagonal[has]])
+        d[~(d > 0) | ~np.isfinite(d)] = 1.0
+        s = 1.0 / np.sqrt(d)
+        data = A.data * s[self.rows] * s[self.indices]
+        b = s * rhs
+        if self.order is None:
+            import scipy.sparse.linalg as spla
+
+            C = sps.csr_matrix((data, self.indices, self.indptr), shape=A.shape).tocsc()
+            lu = spla.splu(C, permc_spec="MMD_AT_PLUS_A", **SUPERLU_OPTIONS)
+            self._remember_order(A.shape, lu.perm_c)
+            return s * lu.solve(b)
+        import scipy.sparse.linalg as spla
+
+        B = sps.csc_matrix((data[self.order], self.B_indices, self.B_indptr), shape=A.shape)
+        lu = spla.splu(B, permc_spec="NATURAL", **SUPERLU_OPTIONS)
+        out = np.empty(self.n)
+        out[self.inverse] = lu.solve(b[self.inverse])
+        return s * out
+
+    def _remember_order(self, shape, perm_c):
+        """B = P A Pᵀ in CSC with the first factorization's column order (old column c
+        goes to place perm_c[c]), and the map from A's CSR values to B's CSC values."""
+        inverse = np.empty_like(perm_c)
+        inverse[perm_c] = np.arange(len(perm_c))  # place -> old index
+        nnz = len(self.indices)
+        tag = sps.csr_matrix((np.arange(1, nnz + 1, dtype=float), self.indices, self.indptr), shape=shape)
+        B = tag[inverse][:, inverse].tocsc()
+        B.sort_indices()
+        self.order = B.data.astype(np.int64) - 1
+        self.B_indices, self.B_indptr = B.indices.copy(), B.indptr.copy()
+        self.inverse = inverse
+
+
+def _gbsv(*args, **options):
+    """LAPACK's band LU solve (``scipy.linalg.lapack`` ``dgbsv``, looked up on first use)."""
+    if not _GBSV:
+        from scipy.linalg import lapack
+
+        _GBSV.append(lapack.get_lapack_funcs("gbsv", (np.zeros(1),)))
+    return _GBSV[0](*args, **options)
+
+
+_GBSV: list = []
+
+
+_plans: "OrderedDict[tuple, list[_Plan]]" = OrderedDict()
+_MAX_PLANS = 4  # the iteration matrix, the mass and massless blocks, one spare
+
+
+def rcm_band(rows: np.ndarray, cols: np.ndarray, n: int):
+    """Reverse Cuthill–McKee order of the pattern (rows, cols) of an n × n matrix:
+    (perm, new, lower, upper) with ``perm`` the old index at each new place, ``new`` its
+    inverse, and the lower and upper bandwidths in the new order."""
+    import scipy.sparse.csgraph as csgraph
+
+    pattern = sps.csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n))
+    perm = csgraph.reverse_cuthill_mckee(pattern, symmetric_mode=False)
+    new = np.empty_like(perm)
+    new[perm] = np.arange(n)
+    i, j = new[rows], new[cols]
+    return perm, new.astype(np.int64), int(np.max(i - j, initial=0)), int(np.max(j - i, initial=0))
+
+
+def _plan_for(A) -> _Plan:
+    """The cached plan of A's pattern (compared exactly), made on first sight."""
+    key = (A.shape[0], A.nnz)
+    for plan in _plans.get(key, ()):
+        if np.array_equal(plan.indptr, A.indptr) and np.array_equal(plan.indices, A.indices):
+            _plans.move_to_end(key)
+            return plan
+    plan = _Plan(A)
+    _plans.setdefault(key, []).append(plan)
+    _plans.move_to_end(key)
+    while sum(len(v) for v in _plans.values()) > _MAX_PLANS:
+        _plans.popitem(last=False)
+    return plan
+
+
+# ----------------------------------------------------------------------------- null directions
+
+
+def psd_null_direction(A, tol: float = 1e-10, shift: float = 1e-9, iterations: int = 12,
+                       seed: int = 0) -> tuple[float, np.ndarray]:
+    """The smallest Rayleigh quotient found for a sparse symmetric PSD matrix with
+    unit diagonal, and its vector (max-norm 1).
+
+    Inverse iteration with one sparse LU of A + δI (δ = ``shift``; positive
+    definite, so the factorization exists however singular A is): each step
+    multiplies a null component by 1/δ and a held one, of eigenvalue λ, by
+    1/(λ + δ).  The Rayleigh quotient xᵀAx/xᵀx is never below λ_min(A), so a
+    result ≤ ``tol`` proves a near-null direction, and a held matrix (λ_min > tol)
+    can never be reported unheld; with a null space the quotient falls to
+    round-off (~1e-16) within two or three steps.  Iteration stops when the
+    quotient is ≤ tol·1e-3 or no longer falls.
+    """
+    A = sps.csc_matrix(A)
+    n = A.shape[0]
+    if n == 0:
+        return np.inf, np.zeros(0)
+    import scipy.sparse.linalg as spla
+
+    shifted = (A + shift * sps.identity(n, format="csc")).tocsc()
+    lu = spla.splu(shifted, permc_spec="MMD_AT_PLUS_A", **SUPERLU_OPTIONS)
+    rng = np.random.default_rng(seed)
+    x = rng.standard_normal(n)
+    x /= np.linalg.norm(x)
+    best = (np.inf, x)
+    for _ in range(iterations):
+        y = lu.solve(x)
+        norm = np.linalg.norm(y)
+        if not np.isfinite(norm) or norm == 0.0:
+            break
+        x = y / norm
+        rho = float(x @ (A @ x))
+        previous = best[0]
+        if rho < previous:
+            best = (rho, x)
+        if rho <= 1e-3 * tol or rho > 0.99 * previous:
+            break
+    rho, x = best
+    return rho, x / np.max(np.abs(x))
+
+
+__all__ = ["DENSE_LIMIT", "BAND_LIMIT", "use_dense", "solve_linear", "single_thread_blas", "openblas_thread_functions",
+           "psd_null_direction"]

@@ -1,0 +1,553 @@
+"""The ParaView output of a run: one transient VTKHDF file per part (SCENE.md, ``output.paraview_every``).
+
+What is drawn (:func:`parts`, :func:`frame`, for a run built by :mod:`latdyn.solve`):
+
+- ``beams``: the beam grid points, shared by consecutive elements (one point per model node
+  and grid offset, so a beam of n elements is a polyline of n + 1 points; an end at an offset
+  from its joint body is its own point), line cells = the elements, then one line per rigid
+  link (``rigid: true``) from its start grid point to its end grid point. Point data
+  ``displacement`` (from t = 0) and ``velocity`` (v + ω × T r_g), both (n_points, 3); cell
+  data ``axial_force``, ``torque``, ``moment_y``, ``moment_z`` (mid-element section forces,
+  the values of the ``{element: ...}`` probes; NaN on rigid links, which have none),
+  ``beam`` (index in scene order) and ``rigid`` (1 on rigid links, else 0).
+- ``bodies``: every joint body (fixed, prescribed, free, or placed by a rigid link; with or
+  without mass) as a vertex cell at its reference point, and a line cell from the body's
+  reference point to each beam or rigid-link grid point at an offset from it (the joint's
+  lever arm). Point data ``displacement``, ``velocity``, ``angular_velocity`` (of the body)
+  and ``axis_x``, ``axis_y``, ``axis_z`` (the body axes, for glyphs); cell data ``body``
+  (index in scene order, also on its connector lines), ``mass`` (0 on connector lines) and
+  ``kind`` (0 free, 1 prescribed, 2 fixed, 3 placed by a rigid link).
+
+A part without cells (a scene without beams has no ``beams``) is skipped: it has no file.
+
+How it is written (:class:`ParaviewWriter`): ``OUT/paraview/<part>.vtkhdf``, one HDF5 file
+per part in VTK's VTKHDF format (``Version`` [2, 0], ``Type`` ``UnstructuredGrid``, transient;
+read natively by ParaView >= 5.12 and VTK's ``vtkHDFReader``), written with h5py:
+
+``/VTKHDF`` (attributes ``Version``, ``Type``)
+    ``NumberOfPoints``, ``NumberOfCells``, ``NumberOfConnectivityIds`` (1,): the one piece,
+    stored once; ``Types`` (n_cells,) uint8 (1 vertex, 3 line), ``Connectivity``,
+    ``Offsets`` (n_cells + 1,): the cells, stored once (the mesh does not change).
+    ``Points`` (n_frames · n_points, 3): frame after frame. ``PointData/<name>``
+    (n_frames · n_points[, k]) likewise; ``CellData/<name>`` (n_frames · n_cells[, k]) for
+    what changes (section forces), (n_cells,) stored once for what does not (``beam``,
+    ``rigid``, ``body``, ``mass``, ``kind``).
+``/VTKHDF/Steps`` (attribute ``NSteps``)
+    ``Values`` (n_frames,) the recorded times (exact float64, as in ``probes.csv``);
+    ``PartOffsets`` 0 and ``NumberOfParts`` 1 (every step reads the one piece);
+    ``PointOffsets`` k · n_points; ``CellOffsets``, ``ConnectivityIdOffsets`` (n_frames, 1) 0
+    (the stored cells); ``PointDataOffsets/<name>`` k · n_points; ``CellDataOffsets/<name>``
+    k · n_cells, or 0 for the arrays stored once. Offset datasets with equal contents are one
+    dataset under several names (HDF5 hard links), so a frame resizes few datasets.
+
+Frames are written in blocks: the first creates the file, later ones gather in memory and
+are appended and flushed (``h5py.File.flush``) every :data:`FRAME_BLOCK` frames or
+:data:`FRAME_BLOCK_SECONDS`, at every checkpoint and at close (one write a dataset per block:
+~0.2 ms a frame less than one at a time), so a Ctrl-C or a solver failure (which close the
+file) leave every recorded frame, and a kill between two blocks a complete, readable file of
+the frames up to the last block; a kill during a flush may not (HDF5 rewrites its metadata in
+place; the state history, copied and replaced atomically, is the safe record). The files are
+opened without HDF5's file lock, so ParaView can open them while a run goes on.
+
+*Which frames:* with ``every`` (seconds; ``output.paraview_every``) a record carries a frame
+when its time reaches the next multiple of ``every`` (the first row at or after k · every);
+``every=None`` writes every record's frame, ``every=0`` none. The frame of the last record is
+always written, at :meth:`ParaviewWriter.close` if the schedule skipped it (so the frame at
+``t_end`` is in the files, and the last recorded one of a failed run). :func:`default_every`
+is the package's choice: about :data:`DEFAULT_FRAMES` frames per run, snapped to the rows.
+
+*Resuming* (:meth:`ParaviewWriter.bookmark`, ``resume=``): the files are cut back to the
+frames of the bookmark and appended to, and the schedule continues from the bookmark's
+counts, so the finished files hold what an uninterrupted run's hold.
+"""
+from __future__ import annotations
+
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["ParaviewWriter", "normalise_mesh", "parts", "frame", "default_every", "part_file",
+           "PARAVIEW_DIR", "VTKHDF_VERSION", "DEFAULT_FRAMES"]
+
+PARAVIEW_DIR = "paraview"
+#: The VTKHDF version written: 2.0 holds transient unstructured grids (VTK >= 9.3, ParaView >= 5.12).
+VTKHDF_VERSION = (2, 0)
+#: About this many frames per run by default (:func:`default_every`).
+DEFAULT_FRAMES = 200
+#: frames gathered before they are appended to the files in one write (module docstring)
+FRAME_BLOCK = 32
+FRAME_BLOCK_SECONDS = 1.0
+#: VTK cell type numbers (vtkCellType.h) of the cell blocks a mesh may name.
+CELL_TYPES = {"vertex": 1, "line": 3, "triangle": 5, "quad": 9, "tetra": 10, "hexahedron": 12}
+
+
+def part_file(part: str) -> str:
+    """The file name of a part: ``beams`` → ``beams.vtkhdf``."""
+    return f"{part}.vtkhdf"
+
+
+def default_every(t_end: float, row_every: float, frames: int = DEFAULT_FRAMES) -> float:
+    """The package's time between frames: ``t_end / frames`` rounded up to a whole number of
+    row intervals ``row_every`` (at least one), so a run has at most ``frames`` + 1 frames
+    and each lands on a row."""
+    if not t_end > 0 or not row_every > 0:
+        return row_every
+    rows = max(1, math.ceil(t_end / frames / row_every - 1e-9))
+    return rows * row_every
+
+
+# ----------------------------------------------------------------------------- the parts of a run
+def parts(model, state) -> dict:
+    """The ParaView parts of a model (module docstring) at ``state`` (t = 0).
+
+    Returns ``{part: {"n_points", "cells": [(type, (n, k) int array)], "cell_data": {name:
+    (n_cells,)} (constant), "node": (n_points,), "offset": (n_points, 3) r_g in node axes,
+    "p0": (n_points, 3) positions in ``state``}}``; ``beams`` also has ``"elements"``, the
+    number of its cells that are beam elements (the rest are rigid links)."""
+    scene = model.scene
+    ends = [model.element_nodes.reshape(-1)]
+    offsets = [model.element_offsets.reshape(-1, 3)]
+    cell_beam = [model.element_beam]
+    for name, beam in scene.beams.items():  # rigid links: a line from start to end grid point
+        if not beam.rigid:
+            continue
+        link = int(model.beam_nodes[name][0])
+        start_offset, end_offset = model.beam_grid_offsets[name]
+        start = ((model.body_node[beam.start.body], beam.start.offset) if beam.start.body is not None
+                 else (link, start_offset))
+        end = ((model.body_node[beam.end.body], beam.end.offset) if beam.end.body is not None
+               else (link, end_offset))  # the same point as the link's end (latdyn.model.links, edge)
+        ends.append(np.array([start[0], end[0]], dtype=np.int64))
+        offsets.append(np.array([start[1], end[1]], dtype=float).reshape(2, 3))
+        cell_beam.append([name])
+    ends, offsets = np.concatenate(ends).astype(np.int64), np.concatenate(offsets)
+    cell_beam = [b for block in cell_beam for b in block]
+    n_elements = len(model.element_nodes)
+
+    def positions(nodes, r):
+        return state.x[nodes] + np.einsum("nij,nj->ni", state.T[nodes], r)
+
+    mesh = {}
+    if len(ends):
+        _, first, inverse = np.unique(np.column_stack([ends, offsets]), axis=0, return_index=True,
+                                      return_inverse=True)
+        order = np.argsort(first)  # points in order of first use: a beam's points run start → end
+        rank = np.empty_like(order)
+        rank[order] = np.arange(len(order))
+        node, offset = ends[first[order]], offsets[first[order]]
+        beam_index = {name: i for i, name in enumerate(scene.beams)}
+        lines = rank[inverse.reshape(-1)].reshape(-1, 2)
+        mesh["beams"] = {
+            "n_points": len(node), "cells": [("line", lines)], "elements": n_elements,
+            "node": node, "offset": offset, "p0": positions(node, offset),
+            "cell_data": {"beam": np.array([beam_index[b] for b in cell_beam], dtype=np.int64),
+                          "rigid": (np.arange(len(lines)) >= n_elements).astype(np.int64)},
+        }
+    else:
+        node, offset = np.zeros(0, dtype=np.int64), np.zeros((0, 3))
+    names = list(model.body_node)
+    if names:
+        body_nodes = np.array([model.body_node[b] for b in names], dtype=np.int64)
+        body_of_node = np.full(len(model.nodes), -1, dtype=np.int64)
+        body_of_node[body_nodes] = np.arange(len(names))
+        arm = (body_of_node[node] >= 0) & np.any(offset != 0.0, axis=1)
+        n_b, n_c = len(names), int(arm.sum())
+        points_node = np.concatenate([body_nodes, node[arm]])
+        points_offset = np.concatenate([np.zeros((n_b, 3)), offset[arm]])
+        cell_body = np.concatenate([np.arange(n_b), body_of_node[node[arm]]])
+        mass = np.array([scene.bodies[b].mass for b in names], float)
+        mesh["bodies"] = {
+            "n_points": n_b + n_c,
+            "cells": [("vertex", np.arange(n_b).reshape(-1, 1)),
+                      ("line", np.column_stack([body_of_node[node[arm]], n_b + np.arange(n_c)]))],
+            "node": points_node, "offset": points_offset, "p0": positions(points_node, points_offset),
+            "cell_data": {"body": cell_body, "mass": np.concatenate([mass, np.zeros(n_c)]),
+                          "kind": np.array([model.nodes[i].kind for i in body_nodes[cell_body]], dtype=np.int64)},
+        }
+    return mesh
+
+
+def frame(assembler, mesh: dict, state) -> dict:
+    """One ParaView frame of ``state`` for the parts of :func:`parts` (vectorized): ``{part:
+    {"points", "point_data", "cell_data"}}`` with the cell data that changes (section forces)."""
+    from latdyn.results.probes import SECTION_QUANTITIES, section_forces
+
+    if assembler.model.links is not None:
+        assembler.model.links.complete(state)
+    out = {}
+    for name, part in mesh.items():
+        nodes = part["node"]
+        R = state.T[nodes]
+        r = np.einsum("nij,nj->ni", R, part["offset"])  # T r_g
+        points = state.x[nodes] + r
+        point_data = {"displacement": points - part["p0"], "velocity": state.v[nodes] + np.cross(state.w[nodes], r)}
+        cell_data = {}
+        if name == "beams":
+            n_cells = len(part["cells"][0][1])
+            forces = np.full((n_cells, len(SECTION_QUANTITIES)), np.nan)
+            if part["elements"]:
+                forces[: part["elements"]] = section_forces(assembler, state)
+            cell_data.update(zip(SECTION_QUANTITIES, forces.T))
+        else:
+            point_data.update(angular_velocity=state.w[nodes], axis_x=R[:, :, 0], axis_y=R[:, :, 1], axis_z=R[:, :, 2])
+        out[name] = {"points": points, "point_data": point_data, "cell_data": cell_data}
+    return out
+
+
+def normalise_mesh(mesh: dict) -> dict:
+    """``{part: {"n_points": int, "cells": [(cell type, int array (n, k)), ...], "n_cells": int,
+    "cell_data": {name: (n_cells,) or (n_cells, k)}}}`` (the constant cell data, stored once);
+    the legacy form ``{"lines": (n, 2), "n_nodes": int}`` is the part ``beams``. Other keys of a
+    part are ignored (the caller may keep its own data there)."""
+    if "lines" in mesh and "n_nodes" in mesh:
+        mesh = {"beams": {"n_points": mesh["n_nodes"], "cells": [("line", mesh["lines"])]}}
+    out = {}
+    for name, part in mesh.items():
+        name = str(name)
+        if not name.replace("_", "").isalnum():
+            raise ValueError(f"mesh part name {name!r}: letters, digits and '_' only")
+        n_points = int(part["n_points"])
+        cells = []
+        for cell_type, connectivity in part["cells"]:
+            if cell_type not in CELL_TYPES:
+                raise ValueError(f"mesh part {name!r}: cell type {cell_type!r}, expected one of {sorted(CELL_TYPES)}")
+            array = np.asarray(connectivity, dtype=np.int64)
+            if array.ndim == 1:
+                array = array.reshape(-1, 1)
+            if array.ndim != 2:
+                raise ValueError(f"mesh part {name!r}: {cell_type} cells must be an (n, k) array")
+            if not len(array):
+                continue  # an empty block (no connector lines, say)
+            if array.min() < 0 or array.max() >= n_points:
+                raise ValueError(f"mesh part {name!r}: cells refer to points outside 0 .. {n_points - 1}")
+            cells.append((str(cell_type), array))
+        n_cells = sum(len(c) for _, c in cells)
+        cell_data = {}
+        for key, value in (part.get("cell_data") or {}).items():
+            array = np.asarray(value)
+            if array.ndim not in (1, 2) or array.shape[0] != n_cells:
+                raise ValueError(f"cell data {key!r} of {name!r} has shape {array.shape}, "
+                                 f"expected ({n_cells},) or ({n_cells}, k)")
+            cell_data[str(key)] = array
+        out[name] = {"n_points": n_points, "cells": cells, "n_cells": n_cells, "cell_data": cell_data}
+    return out
+
+
+def _vertices(frame_: dict) -> dict:
+    """Parts of a frame given without a mesh: the points of each part as vertices."""
+    out = {}
+    for name, data in frame_.items():
+        n = len(np.asarray(data["points"]).reshape(-1, 3))
+        out[str(name)] = {"n_points": n, "cells": [("vertex", np.arange(n).reshape(-1, 1))]}
+    return normalise_mesh(out)
+
+
+# ----------------------------------------------------------------------------- one file
+class _PartFile:
+    """The transient VTKHDF file of one part, open for appending (module docstring)."""
+
+    def __init__(self, path: Path, part: dict, keep: int | None = None):
+        import h5py
+
+        self.path = path
+        self.n_points, self.n_cells = part["n_points"], part["n_cells"]
+        self.static = dict(part["cell_data"])
+        self._pending: list = []  # frames appended, not yet in the file (append)
+        self._written_at = time.perf_counter()
+        if keep is None:
+            self.file = None  # created at the first frame, when the arrays' names and shapes are known
+            self.steps = 0
+            self._part = part
+        else:  # resuming: the first `keep` frames stay
+            try:
+                self.file = h5py.File(path, "r+", locking=False)
+                root = self.file["VTKHDF"]
+                on_disk = int(root["Steps"].attrs["NSteps"])
+                self._datasets(root)
+            except (OSError, KeyError, ValueError) as exc:
+                self.close()
+                raise _resume_error(path, f"unreadable ({exc})") from exc
+            if on_disk < keep:
+                self.close()
+                raise _resume_error(path, f"it has {on_disk} frames, the checkpoint recorded {keep}")
+            self._cut(keep)
+
+    def _cut(self, keep: int) -> None:
+        """Keep the first ``keep`` frames."""
+        self.steps = keep
+        self._resize(keep)
+        self._n_steps.write(np.array(keep, dtype=np.int64))
+        self.file.flush()
+
+    def _datasets(self, root) -> None:
+        """What grows with the frames: ``(dataset id, rows per frame, value of a frame or None)``,
+        None for the offsets that are their fill value (0, or 1 parts) at every step. Appending
+        goes through h5py's low-level interface (a few µs a dataset instead of ~100 µs)."""
+        import h5py
+
+        steps = root["Steps"]
+        self._point_data = list(root["PointData"])
+        self._cell_data = [name for name in root["CellData"] if name not in self.static]
+        p, c = self.n_points, self.n_cells
+        growing = [(root["Points"], p, lambda d, t, k: d["points"])]
+        growing += [(root["PointData"][n], p, lambda d, t, k, n=n: d["point_data"][n]) for n in self._point_data]
+        growing += [(root["CellData"][n], c, lambda d, t, k, n=n: d["cell_data"][n]) for n in self._cell_data]
+        growing += [(steps["Values"], 1, lambda d, t, k: [t]), (steps["PointOffsets"], 1, lambda d, t, k: [k * p])]
+        if self._cell_data:  # the offsets of every changing cell array (hard links to one dataset)
+            growing.append((steps["CellDataOffsets"][self._cell_data[0]], 1, lambda d, t, k: [k * c]))
+        growing += [(steps[name], 1, None) for name in ("PartOffsets", "NumberOfParts", "CellOffsets")]
+        self._growing = [(d.id, rows, d.shape[1:], d.dtype, value) for d, rows, value in growing]
+        self._n_steps = h5py.h5a.open(steps.id, b"NSteps")
+
+    def _create(self, first: dict) -> None:
+        import h5py
+
+        part = self._part
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = self.path.with_name(self.path.name + ".tmp")
+        # the default (earliest) file format: a file left open by a killed process stays readable
+        f = h5py.File(tmp, "w")
+        root = f.create_group("VTKHDF")
+        root.attrs["Version"] = np.array(VTKHDF_VERSION, dtype=np.int64)
+        root.attrs.create("Type", np.bytes_("UnstructuredGrid"))  # fixed-length ASCII, as VTK writes it
+        connectivity = np.concatenate([c.reshape(-1) for _, c in part["cells"]]) if part["cells"] \
+            else np.zeros(0, np.int64)
+        sizes = np.concatenate([np.full(len(c), c.shape[1]) for _, c in part["cells"]]) if part["cells"] \
+            else np.zeros(0, np.int64)
+        types = np.concatenate([np.full(len(c), CELL_TYPES[t]) for t, c in part["cells"]]) if part["cells"] \
+            else np.zeros(0)
+        root["NumberOfPoints"] = np.array([self.n_points], np.int64)
+        root["NumberOfCells"] = np.array([self.n_cells], np.int64)
+        root["NumberOfConnectivityIds"] = np.array([len(connectivity)], np.int64)
+        root["Types"] = types.astype(np.uint8)
+        root["Connectivity"] = connectivity.astype(np.int64)
+        root["Offsets"] = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
+        frames_per_chunk = max(1, 4096 // max(1, self.n_points))
+
+        def growing(group, name, rows, sample):
+            sample = np.asarray(sample, dtype=float)
+            width = sample.shape[1:]
+            return group.create_dataset(name, shape=(0, *width), maxshape=(None, *width), dtype="f8",
+                                        chunks=(max(1, rows) * frames_per_chunk, *width))
+
+        growing(root, "Points", self.n_points, np.zeros((1, 3)))
+        point_data = root.create_group("PointData")
+        for name, value in first["point_data"].items():
+            growing(point_data, name, self.n_points, value)
+        cell_data = root.create_group("CellData")
+        for name, value in self.static.items():
+            cell_data[name] = value
+        for name, value in first["cell_data"].items():
+            growing(cell_data, name, self.n_cells, value)
+        steps = root.create_group("Steps")
+        steps.attrs["NSteps"] = np.int64(0)
+        steps.create_dataset("Values", shape=(0,), maxshape=(None,), dtype="f8", chunks=(1024,))
+        for name, fill in (("PartOffsets", 0), ("NumberOfParts", 1), ("PointOffsets", 0)):
+            steps.create_dataset(name, shape=(0,), maxshape=(None,), dtype="i8", chunks=(1024,), fillvalue=fill)
+        steps.create_dataset("CellOffsets", shape=(0, 1), maxshape=(None, 1), dtype="i8", chunks=(1024, 1))
+        steps["ConnectivityIdOffsets"] = steps["CellOffsets"]  # both 0: hard links to one dataset
+        offsets = steps.create_group("PointDataOffsets")
+        for name in point_data:
+            offsets[name] = steps["PointOffsets"]
+        offsets = steps.create_group("CellDataOffsets")
+        changing = None
+        for name in cell_data:
+            if name in self.static:
+                offsets[name] = steps["PartOffsets"]  # stored once: offset 0 at every step
+            elif changing is None:
+                changing = offsets.create_dataset(name, shape=(0,), maxshape=(None,), dtype="i8", chunks=(1024,))
+            else:
+                offsets[name] = changing
+        f.close()
+        tmp.replace(self.path)
+        self.file = h5py.File(self.path, "r+", locking=False)  # no lock: readable while the run goes on
+        self._datasets(self.file["VTKHDF"])
+        del self._part
+
+    def _resize(self, steps: int) -> None:
+        for dataset, rows, width, _, _ in self._growing:
+            dataset.set_extent((steps * rows, *width))
+
+    def append(self, t: float, data: dict) -> None:
+        """Append one frame (``{"points", "point_data", "cell_data"}``, checked by the caller): the
+        first creates the file; later ones gather and go to the file in blocks (:data:`FRAME_BLOCK`
+        frames or :data:`FRAME_BLOCK_SECONDS`; :meth:`write_pending` at checkpoints and close)."""
+        if self.file is None:
+            self._create(data)
+            self._pending, self._written_at = [], time.perf_counter()
+        elif set(data["point_data"]) != set(self._point_data) or set(data["cell_data"]) != set(self._cell_data):
+            raise ValueError(f"{self.path.name}: a frame with arrays {sorted(data['point_data'])} + "
+                             f"{sorted(data['cell_data'])}, the file has {self._point_data} + {self._cell_data}")
+        self._pending.append((t, data))
+        if len(self._pending) >= FRAME_BLOCK or time.perf_counter() - self._written_at >= FRAME_BLOCK_SECONDS:
+            self.write_pending()
+
+    def write_pending(self) -> None:
+        """The frames gathered since the last write, appended in one write a dataset, then flushed."""
+        import h5py
+
+        self._written_at = time.perf_counter()
+        if self.file is None or not self._pending:
+            return
+        k, m = self.steps, len(self._pending)
+        for dataset, rows, width, dtype, value in self._growing:
+            dataset.set_extent(((k + m) * rows, *width))
+            if value is None:  # the fill value
+                continue
+            array = np.concatenate([np.ascontiguousarray(value(data, t, k + j), dtype=dtype).reshape(rows, *width)
+                                    for j, (t, data) in enumerate(self._pending)])
+            space = dataset.get_space()
+            space.select_hyperslab((k * rows, *(0 for _ in width)), array.shape)
+            dataset.write(h5py.h5s.create_simple(array.shape), space, array)
+        self._n_steps.write(np.array(k + m, dtype=np.int64))  # last: a step is complete when counted
+        self.steps = k + m
+        self._pending.clear()
+        self.file.flush()
+
+    @property
+    def frames(self) -> int:
+        """Frames appended: on disk and gathered."""
+        return self.steps + len(self._pending)
+
+    def close(self) -> None:
+        if self.file is not None:
+            try:
+                self.write_pending()
+            finally:
+                self.file.close()
+                self.file = None
+
+
+def _resume_error(path: Path, why: str):
+    from latdyn.errors import ResultsError
+
+    return ResultsError(f"{path}: cannot resume: {why}")
+
+
+# ----------------------------------------------------------------------------- the writer
+class ParaviewWriter:
+    """Writes the frames of a run into ``folder`` (``OUT/paraview``), one file per part.
+
+    ``mesh``: the parts (:func:`parts`, or ``{part: {"n_points", "cells", "cell_data"}}``, or
+    the legacy ``{"lines", "n_nodes"}``); None: each frame's points as vertices. ``every``:
+    the time between frames (module docstring; None every record, 0 none). ``resume``: a
+    :meth:`bookmark` of an earlier writer of this folder."""
+
+    def __init__(self, folder, mesh: dict | None = None, every: float | None = None, resume: dict | None = None):
+        if every is not None and not every >= 0:
+            raise ValueError(f"every must be None or a time >= 0, not {every!r}")
+        self.folder = Path(folder)
+        self.every = None if every is None else float(every)
+        self._parts = None if mesh is None else normalise_mesh(mesh)
+        self._files: dict[str, _PartFile] = {}
+        self._next = 0  # index k of the next multiple k · every that a record's frame must reach
+        self._unwritten = None  # (t, frame or callable or None) of the last record when not written
+        self.frames = 0  # frames written
+        if resume is not None:
+            self._reopen(resume)
+
+    # -- files
+    def _part_files(self, data: dict) -> dict:
+        if self._parts is None:
+            self._parts = _vertices(data)
+        if set(data) != set(self._parts):
+            raise ValueError(f"frame has parts {sorted(data)}, the mesh has {sorted(self._parts)}")
+        for name, part in self._parts.items():
+            if name not in self._files and part["n_cells"] and part["n_points"]:  # an empty part has no file
+                self._files[name] = _PartFile(self.folder / part_file(name), part)
+        return self._files
+
+    def _write(self, t: float, data) -> None:
+        data = data() if callable(data) else data
+        checked = {}
+        for name, part_file_ in self._part_files(data).items():
+            checked[name] = _checked(name, data[name], self._parts[name])
+        for name, file in self._files.items():
+            file.append(t, checked[name])
+        self.frames += 1
+
+    # -- recording
+    def record(self, t: float, data) -> None:
+        """A recorded row's frame (or a callable giving it, called only if written)."""
+        if self.every == 0:
+            return
+        due = self.every is None or t >= self._next * self.every - 1e-9 * self.every
+        if not due:
+            self._unwritten = (t, data)
+            return
+        self._unwritten = None
+        self._write(t, data)
+        if self.every:
+            self._next = math.floor(t / self.every + 1e-9) + 1
+
+    def reattach_last_frame(self, data) -> None:
+        """Resumed: the frame (or a callable) of the bookmark's ``unwritten`` record."""
+        if self._unwritten is not None:
+            self._unwritten = (self._unwritten[0], data)
+
+    def close(self) -> None:
+        """Write the last record's frame when the schedule skipped it; close the files."""
+        try:
+            if self._unwritten is not None and self._unwritten[1] is not None:
+                t, data = self._unwritten
+                self._unwritten = None
+                self._write(t, data)
+        finally:
+            for file in self._files.values():
+                file.close()
+
+    def write_pending(self) -> None:
+        """Every frame recorded so far into its file (at a checkpoint: the bookmark's frames on disk)."""
+        for file in self._files.values():
+            file.write_pending()
+
+    @property
+    def files(self) -> list[str]:
+        """The files written, relative to the results folder (``paraview/beams.vtkhdf`` first)."""
+        names = sorted((n for n, f in self._files.items() if f.frames), key=lambda n: (n != "beams", n))
+        return [f"{PARAVIEW_DIR}/{part_file(n)}" for n in names]
+
+    # -- resuming
+    def bookmark(self) -> dict:
+        """``frames`` (written so far, in every file), ``next`` (the schedule's index) and
+        ``unwritten`` (the time of the last record when its frame is not written, else None)."""
+        return {"frames": self.frames, "next": self._next,
+                "unwritten": None if self._unwritten is None else self._unwritten[0],
+                "files": sorted(name for name, f in self._files.items() if f.frames)}
+
+    def _reopen(self, mark: dict) -> None:
+        self.frames, self._next = int(mark["frames"]), int(mark["next"])
+        if mark.get("unwritten") is not None:
+            self._unwritten = (float(mark["unwritten"]), None)
+        listed = set(mark.get("files", ()))
+        if self.folder.is_dir():  # files of parts the bookmark does not list are an interrupted run's
+            for stale in self.folder.glob("*.vtkhdf*"):
+                if stale.name.removesuffix(".vtkhdf") not in listed:
+                    stale.unlink(missing_ok=True)
+        if listed and self._parts is None:
+            raise ValueError("resuming ParaView frames needs the mesh")
+        for name in sorted(listed):
+            path = self.folder / part_file(name)
+            if not path.is_file():
+                raise _resume_error(path, "the file is missing")
+            self._files[name] = _PartFile(path, self._parts[name], keep=self.frames)
+
+
+def _checked(name: str, data: dict, part: dict) -> dict:
+    """A frame's part as float arrays of the part's sizes."""
+    points = np.asarray(data["points"], dtype=float).reshape(-1, 3)
+    if points.shape[0] != part["n_points"]:
+        raise ValueError(f"frame part {name!r} has {points.shape[0]} points, the mesh has {part['n_points']}")
+    out = {"points": points, "point_data": {}, "cell_data": {}}
+    for kind, count in (("point_data", part["n_points"]), ("cell_data", part["n_cells"])):
+        for key, value in (data.get(kind) or {}).items():
+            array = np.asarray(value, dtype=float)
+            if array.ndim not in (1, 2) or array.shape[0] != count:
+                raise ValueError(f"{kind.replace('_', ' ')} {key!r} of {name!r} has shape {array.shape}, "
+                                 f"expected ({count},) or ({count}, k)")
+            if kind == "cell_data" and key in part["cell_data"]:
+                raise ValueError(f"cell data {key!r} of {name!r} is constant (the mesh's); a frame may not repeat it")
+            out[kind][str(key)] = array
+    return out

@@ -1,0 +1,612 @@
+"""The compiled time step: generalized-α with its Newton iteration in C (``csrc/newton_step.c``),
+and the loop of steps between rows in C too.
+
+:class:`CompiledGeneralizedAlpha` is :class:`latdyn.step.integrators.GeneralizedAlpha` with
+``step`` done by one call into C: the scene's laws at the step's end time (prescribed
+motion, torques, loads, and hinge laws in θ, θ̇ and t, compiled by the code generator:
+:mod:`codegen.laws`, :mod:`latdyn.step.compiled_laws`), configuration update on SO(3), prescribed
+motion, element geometry (Eq. 17), the generated element kernels (called through function
+pointers from the per-kernel libraries of :mod:`latdyn.model.kernels`), joint bodies, hinges,
+point loads, scatter into a preallocated matrix, LAPACK's LU (dense ``getrf``, or banded
+``gbtrf`` after a reverse Cuthill–McKee ordering, as :mod:`latdyn.numerics.linalg` chooses; the
+function pointers are SciPy's ``cython_lapack``) or, for matrices too wide for a band, the
+supernodal sparse LU of ``csrc/sparse_lu.c`` (analysis once per pattern in
+:mod:`latdyn.step.sparse_lu`), and the convergence test.
+
+:meth:`CompiledGeneralizedAlpha.advance` takes the steps from one recorded row to the next in
+one call (``latdyn_advance``): each step on the time grid as ``step`` takes it, accepted as
+the time loop of :mod:`latdyn.solve` accepts it (algorithmic acceleration carried over,
+external work by the trapezoidal rule, power of loads and prescribed motion). A step it
+cannot accept as it comes (Newton fails; a hinge reaches lock_at or a stop) is handed back
+to the time loop, which handles it as before (cuts, the inertia tangent, latches, impacts)
+and calls the loop again once it is back on the grid at the nominal step. Python runs once
+per row: events, energies, probes, output, checkpoints (``solve.LOOP_BUDGET_S`` bounds a
+call, so that interrupts and the progress bar are seen). Adaptive steps, or laws that could
+not be compiled, take the steps from Python, one call each.
+
+The Python step stays the reference: with ``newton: full`` the compiled step takes the
+same iterations and equals it to round-off (``tests/test_engine.py``: 1e-10 relative), and the
+loop equals the steps taken one by one from Python (``tests/test_compiled_loop.py``; measured:
+bit for bit on the shipped examples).
+``newton: modified`` keeps the factorized iteration matrix from step to step while Newton
+contracts (|Δx_k| ≤ ``contraction`` · |Δx_{k−1}|) and rebuilds it when it stops doing so
+or the step size changes; only the residual is evaluated between rebuilds (the internal
+force, mass and quadratic-velocity kernels: ~4 µs an element against ~14 µs with the
+tangents, measured by ``benchmarks/compile_levels.py``). It converges to the same
+tolerance on the same invariant increment.
+
+Threads: the element part of each evaluation (geometry and generated kernels) runs on OpenMP
+threads, one contiguous range of elements each, from :data:`PARALLEL_ELEMENTS` elements on
+(``LATDYN_PARALLEL_ELEMENTS`` overrides it, 0 turns it off); ``OMP_NUM_THREADS`` sets the number
+of threads (default: the cores). The scatter stays serial in element order, so the results are
+equal whatever the threads (bit for bit on the tested beam, to ~1e-14 on a lattice). The library is built with ``-fopenmp`` where the compiler
+accepts it, else serially (:func:`openmp_threads` says 0).
+
+Scenes the C step does not cover run the Python step (``engine_reason`` says why): the
+NumPy kernel backend (no compiler) and rigid links.
+"""
+from __future__ import annotations
+
+import ctypes
+from dataclasses import dataclass
+
+import numpy as np
+
+from latdyn.assembly.assembler import State, _plain_hinges
+from latdyn.model.model import PRESCRIBED
+from latdyn.numerics.linalg import (
+    BAND_LIMIT,
+    DENSE_LIMIT,
+    openblas_thread_functions,
+    rcm_band,
+)
+from latdyn.step.compiled_laws import LawsUnavailable, compile_laws, unprintable
+from latdyn.step.integrators import (
+    INERTIA_TANGENT_STEP,
+    GeneralizedAlpha,
+    StepStats,
+    node_colouring,
+)
+from latdyn.step.library import (
+    AdvanceData,
+    ConfigurationData,
+    ControlData,
+    ModelData,
+    VectorsData,
+    WorkData,
+    lapack_address,
+    parallel_threshold,
+    step_library,
+)
+from latdyn.step.sparse_lu import SupernodalAnalysis, blas_kernels
+
+# ----------------------------------------------------------------------------- the library
+
+
+def _kernel_address(kernels, name: str) -> int:
+    library = kernels.libraries[name]
+    return ctypes.cast(getattr(library, name), ctypes.c_void_p).value
+
+
+# ----------------------------------------------------------------------------- availability
+
+
+def unsupported(assembler) -> str | None:
+    """Why the compiled step cannot run this model, or None when it can."""
+    model = assembler.model
+    if getattr(model, "links", None) is not None:
+        return "rigid links (dependent nodes, latdyn/model/links.py) run in the Python step"
+    if getattr(assembler.kernels, "backend", "numpy") != "c" or not hasattr(assembler.kernels, "libraries"):
+        return "the element kernels are not compiled (NumPy backend)"
+    _, _, _, with_law, _ = _plain_hinges(model.hinges)
+    for k in with_law:  # laws in θ, θ̇ or t: compiled (codegen/laws.py), so they must print in C
+        hinge = model.hinges[k]
+        why = unprintable([law for law in (hinge.stiffness, hinge.damping, hinge.torque) if law is not None])
+        if why is not None:
+            return f"hinge {hinge.beam}.{hinge.end} has a law the C printer cannot write ({why})"
+    try:
+        step_library()
+    except RuntimeError as error:
+        return f"the step library could not be built ({error})"
+    return None
+
+
+def _band_plan(assembler):
+    """RCM order of the iteration matrix's pattern (:func:`latdyn.numerics.linalg.rcm_band`):
+    (bandwidth, new index of each coordinate, lower, upper)."""
+    _, new, lower, upper = rcm_band(assembler._csr_rows, assembler._csr_cols, assembler.model.n_dofs)
+    return max(lower, upper), new, lower, upper
+
+
+# ----------------------------------------------------------------------------- the step
+
+
+class _Laws:
+    """The scene's functions of time, numbered. They are compiled with the hinge laws
+    (:mod:`latdyn.step.compiled_laws`) and evaluated in C at each step's end time; where that
+    cannot be done, ``at(t)`` gives their (value, rate, acceleration) in Python for the step
+    to take (:class:`~latdyn.scene.expressions.TimeFunction` evaluates one float time through
+    ``math`` lambdas)."""
+
+    def __init__(self):
+        self.functions = []
+
+    def add(self, function) -> int:
+        if function is None:
+            return -1
+        self.functions.append(function)
+        return len(self.functions) - 1
+
+    def at(self, t: float) -> np.ndarray:
+        out = np.zeros((max(len(self.functions), 1), 3))
+        for k, f in enumerate(self.functions):
+            if hasattr(f, "rate"):  # a TimeFunction
+                out[k] = f.value(t), f.rate(t), f.accel(t)
+            else:  # a hinge torque law of t alone
+                out[k, 0] = f.value(0.0, 0.0, t)
+        return out
+
+
+class CompiledGeneralizedAlpha(GeneralizedAlpha):
+    """:class:`GeneralizedAlpha` whose step runs in C (see the module docstring)."""
+
+    def __init__(self, assembler, params, tol, max_iterations, length_scale, newton: str = "full",
+                 contraction: float = 0.5, parallel_elements: int | None = None, threads: int = 0):
+        super().__init__(assembler, params, tol, max_iterations, length_scale)
+        #: element count from which the element kernels run on threads (0: never), and how
+        #: many threads (0: OMP_NUM_THREADS or the cores); the results do not depend on either
+        self.parallel_elements = parallel_threshold() if parallel_elements is None else parallel_elements
+        self.threads = threads
+        self.modified = newton == "modified"
+        self.contraction = contraction
+        self.factorizations = 0
+        #: bumped whenever the held factorization (Work matrix and pivots, factored_h) may change:
+        #: before each call into C that steps, on a rebuild of the buffers, on a restore
+        self._factor_version = 0
+        self._key = None
+        self._library = step_library()
+        self._last_trial = self._mass_for = None
+        self._empty = np.zeros(1)
+        self._energy_out = np.zeros(3)
+        self._made = None  # (the last state made, its C view, the C view of its base)
+
+    # -- the model as arrays, rebuilt when the numbering changes (a latch) --------------------
+    def _current_key(self) -> tuple:
+        model = self.assembler.model
+        return (model.n_dofs, model.locked.tobytes(), self.inertia_tangent)
+
+    def _setup(self) -> None:
+        model = self.assembler.model
+        key = self._current_key()
+        if key == self._key:
+            return
+        self._key = key
+        self._factor_version += 1
+        a, m = self.assembler, model
+        colour = node_colouring(m)
+        keep = []  # arrays the C structures point into
+
+        def arr(values, dtype=np.float64):
+            array = np.ascontiguousarray(values, dtype=dtype)
+            if array.size == 0:
+                array = np.zeros(1, dtype)
+            keep.append(array)
+            return array.ctypes.data
+
+        def ints(values):
+            return arr(values, np.int64)
+
+        laws = _Laws()
+        prescribed = [i for i, node in enumerate(m.nodes) if node.kind == PRESCRIBED]
+        translation, angle, axis = [], [], []
+        for i in prescribed:
+            body = m.scene.bodies[m.nodes[i].body]
+            if body.translation is not None:
+                translation.append([laws.add(g) for g in body.translation])
+            else:
+                translation.append([-1, -1, -1])
+            if body.rotation_angle is not None:
+                angle.append(laws.add(body.rotation_angle))
+                axis.append(np.asarray(body.rotation_axis, float))
+            else:
+                angle.append(-1)
+                axis.append(np.zeros(3))
+        hinge_angle = [laws.add(h.angle) for h in m.hinges]
+        # hinge forces (Assembler.hinge_forces): constant springs and dampers, with a torque of t
+        # among the laws of time; the other hinges' stiffness, damping and torque as hinge laws
+        stiffness, damping, _, with_law, _ = _plain_hinges(m.hinges)
+        hinge_laws, H = [], len(m.hinges)
+        stiffness_law, damping_law, torque_hinge_law = [-1] * H, [-1] * H, [-1] * H
+        for j in with_law:
+            h = m.hinges[j]
+            stiffness_law[j], damping_law[j] = len(hinge_laws), len(hinge_laws) + 1
+            hinge_laws += [h.stiffness, h.damping]
+            if h.torque is not None:
+                torque_hinge_law[j] = len(hinge_laws)
+                hinge_laws.append(h.torque)
+        torque = [-1 if j in with_law else laws.add(h.torque) for j, h in enumerate(m.hinges)]
+        load_node, load_r, force_law, moment_law, frame_node = [], [], [], [], []
+        for load in a.loads:
+            node, r = m.point(load.at)
+            load_node.append(node)
+            load_r.append(r)
+            force_law.append([laws.add(g) for g in load.force] if load.force else [-1, -1, -1])
+            moment_law.append([laws.add(g) for g in load.moment] if load.moment else [-1, -1, -1])
+            frame_node.append(-1 if load.frame == "global" else m.body_node[load.frame])
+        self._laws = laws
+        self._law_hinges = list(with_law)
+        try:
+            compiled = compile_laws(laws.functions, hinge_laws)
+            self._loop_reason = None
+        except LawsUnavailable as error:
+            if hinge_laws:  # unsupported() has checked that they print; a build failure then
+                raise RuntimeError(f"the hinge laws could not be compiled: {error}") from None
+            compiled, self._loop_reason = None, f"the laws of time are evaluated in Python ({error})"
+        self._compiled_laws = compiled
+
+        lock_at = [np.nan if h.lock_at is None else float(h.lock_at) for h in m.hinges]
+        lower = [np.nan if h.limits is None else float(h.limits[0]) for h in m.hinges]
+        upper = [np.nan if h.limits is None else float(h.limits[1]) for h in m.hinges]
+        has_events = any(m.hinges[k].lock_at is not None or m.hinges[k].limits is not None for k in m.free_hinges)
+
+        n = m.n_dofs
+        dense = n <= DENSE_LIMIT
+        if dense:
+            new = np.arange(n, dtype=np.int64)
+            kl = ku = 0
+            ldab = n
+            size = n * n
+
+            def position(rows, cols):
+                return np.where((rows < n) & (cols < n), rows + cols * n, -1)
+        else:
+            bandwidth, new, kl, ku = _band_plan(a)
+            ldab = 2 * kl + ku + 1
+            size = ldab * n
+
+            def position(rows, cols):
+                ok = (rows < n) & (cols < n)
+                i = new[np.where(ok, rows, 0)]
+                j = new[np.where(ok, cols, 0)]
+                return np.where(ok, (kl + ku + i - j) + j * ldab, -1)
+        sparse_lu = None
+        if not dense and bandwidth > BAND_LIMIT:  # the supernodal LU of csrc/sparse_lu.c (linalg.py)
+            analysis = SupernodalAnalysis(a._csr_rows, a._csr_cols, n)
+            sparse_lu = analysis.structure(*blas_kernels())
+            keep.append(analysis)
+            new, kl, ku, ldab, size, position = analysis.new, 0, 0, 0, max(analysis.size, 1), analysis.position
+
+        def block_positions(dofs):
+            rows = np.broadcast_to(dofs[:, :, None], dofs.shape + (dofs.shape[1],))
+            cols = np.broadcast_to(dofs[:, None, :], dofs.shape + (dofs.shape[1],))
+            return position(rows, cols)
+
+        body_dofs = m.node_dofs[m.body_nodes].reshape(-1, 6)
+        load_dofs = np.array([m.node_dofs[node, 3:6] for node in load_node], np.int64).reshape(-1, 3)
+        hd = m.hinge_dofs
+        hinge_position = np.where(hd < n, position(hd, hd), -1)
+
+        blas_threads = openblas_thread_functions()
+        kernels = a.kernels
+        E, B, L = len(m.element_nodes), len(m.body_nodes), len(a.loads)
+        H = len(m.hinges)
+        self._model = ModelData(
+            n_nodes=len(m.nodes), n_hinges=H, n_elements=E, n_bodies=B, n_loads=L, n_dofs=n, n_total=m.n_total,
+            node_dofs=ints(m.node_dofs), hinge_dofs=ints(m.hinge_dofs),
+            n_free_nodes=len(m.free_nodes), n_free_hinges=len(m.free_hinges),
+            free_nodes=ints(m.free_nodes), free_hinges=ints(m.free_hinges),
+            n_prescribed=len(prescribed), prescribed_nodes=ints(prescribed),
+            translation_law=ints(np.array(translation, np.int64).reshape(-1, 3)), angle_law=ints(angle),
+            rotation_axis=arr(np.array(axis).reshape(-1, 3)),
+            node_x0=arr(np.array([nd.position for nd in m.nodes], float).reshape(-1, 3)),
+            hinge_angle_law=ints(hinge_angle), hinge_locked=ints(np.asarray(m.locked, np.int64)),
+            element_nodes=ints(m.element_nodes), element_hinges=ints(m.element_hinges),
+            element_dofs=ints(m.element_dofs), element_axes=arr(m.element_axes),
+            element_frames0=arr(m.element_frames0), element_offsets=arr(m.element_offsets),
+            element_sections=arr(m.element_sections),
+            body_nodes=ints(m.body_nodes), body_mass=arr(m.body_mass), body_com=arr(m.body_com),
+            body_inertia=arr(m.body_inertia),
+            hinge_stiffness=arr(stiffness), hinge_damping=arr(damping),
+            hinge_rest_angle=arr([float(getattr(h, "rest_angle", 0.0)) for h in m.hinges]),
+            hinge_torque_law=ints(torque),
+            load_node=ints(load_node), load_force_law=ints(np.array(force_law, np.int64).reshape(-1, 3)),
+            load_moment_law=ints(np.array(moment_law, np.int64).reshape(-1, 3)), load_frame_node=ints(frame_node),
+            load_r=arr(np.array(load_r, float).reshape(-1, 3)),
+            gravity=(ctypes.c_double * 3)(*a.gravity), has_gravity=int(a.has_gravity),
+            element_position=ints(block_positions(m.element_dofs)), body_position=ints(block_positions(body_dofs)),
+            hinge_position=ints(hinge_position), load_position=ints(block_positions(load_dofs)),
+            band=int(not dense and sparse_lu is None), kl=kl, ku=ku, ldab=ldab, matrix_size=size, permutation=ints(new),
+            internal_force=_kernel_address(kernels, "beam_internal_force"),
+            internal_force_D_q=_kernel_address(kernels, "beam_internal_force_D_q"),
+            mass_matrix=_kernel_address(kernels, "beam_mass_matrix"),
+            quadratic_velocity=_kernel_address(kernels, "beam_quadratic_velocity"),
+            quadratic_velocity_D_qdot=_kernel_address(kernels, "beam_quadratic_velocity_D_qdot"),
+            gravity_load=_kernel_address(kernels, "beam_gravity"),
+            strain_energy=_kernel_address(kernels, "beam_strain_energy"),
+            kinetic_energy=_kernel_address(kernels, "beam_kinetic_energy"),
+            getrf=lapack_address("dgetrf"), getrs=lapack_address("dgetrs"), gbtrf=lapack_address("dgbtrf"), gbtrs=lapack_address("dgbtrs"),
+            parallel_elements=self.parallel_elements, threads=self.threads,
+            node_colour=ints(colour), hinge_node=ints([h.node for h in m.hinges]), n_colours=int(colour.max(initial=-1)) + 1,
+            time_laws=None if compiled is None else compiled.time_laws,
+            hinge_laws=None if compiled is None else compiled.hinge_laws,
+            hinge_stiffness_law=ints(stiffness_law), hinge_damping_law=ints(damping_law),
+            hinge_torque_hinge_law=ints(torque_hinge_law),
+            hinge_conservative=ints([int(h.conservative_spring) for h in m.hinges]),
+            hinge_lock_at=arr(lock_at), hinge_lower_stop=arr(lower), hinge_upper_stop=arr(upper),
+            has_events=int(has_events),
+            sparse_lu=ctypes.pointer(sparse_lu) if sparse_lu is not None else None,
+            get_blas_threads=blas_threads[0] if blas_threads[1] else None, set_blas_threads=blas_threads[1],
+            section_width=m.element_sections.shape[1],
+        )
+        work = {
+            "geometry": (E, 36), "rates": (E, 14), "accelerations": (E, 14), "gravity_rows": (E, 3),
+            "force": (E, 14), "tangent": (E, 14, 14), "mass": (E, 14, 14), "quadratic": (E, 14),
+            "quadratic_D": (E, 14, 14), "gravity_force": (E, 14), "gravity_potential": (E,),
+            "first_moment": (E, 3), "body_vector": (B, 6), "body_mass": (B, 6, 6), "body_damping": (B, 6, 6),
+            "body_stiffness": (B, 6, 6),
+            "load_blocks": (L, 9), "strain": (E,), "section_forces": (E, 4), "kinetic": (E,), "total": (m.n_total + 1,),
+            "matrix": (size,), "rhs": (n,), "laws": (max(len(laws.functions), 1), 3), "hinge_d_theta": (H,),
+            "hinge_d_rate": (H,)}
+        # the inertia tangent's buffers (integrators.inertia_tangent), only once the run needs them
+        N, H = len(m.nodes), len(m.hinges)
+        tangent = {"inertia_tangent": (E, 14, 14), "forces_plus": (E, 14), "forces_minus": (E, 14),
+                   "perturbed_x": (N, 3), "perturbed_T": (N, 3, 3), "perturbed_theta": (H,),
+                   "p_geometry": (E, 36), "p_rates": (E, 14), "p_accelerations": (E, 14), "p_mass": (E, 14, 14),
+                   "p_quadratic": (E, 14), "p_gravity_force": (E, 14), "p_gravity_potential": (E,),
+                   "p_first_moment": (E, 3)}
+        work.update({name: shape if self.inertia_tangent else (0,) for name, shape in tangent.items()})
+        self._buffers = {name: np.zeros(shape) for name, shape in work.items()}
+        self._buffers["gravity_rows"][:] = a.gravity
+        self._buffers["pivots"] = np.zeros(max(n, 1), np.int32)
+        self._work = WorkData(**{name: b.ctypes.data if b.size else arr(np.zeros(1)) for name, b in self._buffers.items()})
+        self._keep = keep
+        self._control = ControlData(max_iterations=self.max_iterations, modified=int(self.modified),
+                                 inertia_tangent=int(self.inertia_tangent), tangent_step=INERTIA_TANGENT_STEP,
+                                 contraction=self.contraction, factored_h=0.0, tol=self.tol,
+                                 length=self.length_scale)
+        for name in ("alpha_m", "alpha_f", "gamma", "beta"):
+            setattr(self._control, name, getattr(self.p, name))
+        size = max(n, 1)
+        self._step_vectors = {name: np.zeros(size) for name in VectorsData._fields_and_names()}
+        self._a_n, self._a_new = self._step_vectors["a_n"], self._step_vectors["a_new"]
+        self._vectors = VectorsData(**{name: b.ctypes.data for name, b in self._step_vectors.items()})
+        self._model_ref, self._work_ref = ctypes.byref(self._model), ctypes.byref(self._work)
+        self._control_ref, self._vectors_ref = ctypes.byref(self._control), ctypes.byref(self._vectors)
+        self._step = self._library.latdyn_newton_step
+        self._layout()
+        # the loop of steps (advance): its two scratch configurations and its counters
+        self._scratch = [self._new_state(0.0) for _ in range(2)]
+        self._scratch_c = (ConfigurationData * 2)(self._scratch[0][1], self._scratch[1][1])
+        self._run = AdvanceData()
+        self._run_ref = ctypes.byref(self._run)
+
+    _FIELDS = ("x", "T", "v", "w", "a", "alpha", "theta", "theta_dot", "theta_ddot")
+
+    def _layout(self) -> None:
+        """Offsets of a state's arrays in one flat buffer (a new state per step: the loop
+        keeps the old one for its events and checkpoints)."""
+        model = self.assembler.model
+        N, H = len(model.nodes), len(model.hinges)
+        shapes = {"x": (N, 3), "T": (N, 3, 3), "v": (N, 3), "w": (N, 3), "a": (N, 3), "alpha": (N, 3),
+                  "theta": (H,), "theta_dot": (H,), "theta_ddot": (H,)}
+        self._shapes, self._offsets, offset = shapes, {}, 0
+        for name in self._FIELDS:
+            self._offsets[name] = offset
+            offset += max(int(np.prod(shapes[name])), 1)
+        self._state_size = offset
+        self._slices = [(self._offsets[name], self._offsets[name] + int(np.prod(shapes[name])), shapes[name])
+                        for name in self._FIELDS]
+
+    def _new_state(self, t: float) -> tuple[State, ConfigurationData]:
+        buffer = np.empty(self._state_size)
+        base = buffer.ctypes.data
+        state = State(t, *(buffer[start:stop].reshape(shape) for start, stop, shape in self._slices))
+        return state, ConfigurationData(*(base + 8 * start for start, _, _ in self._slices))
+
+    def _copy_into(self, source: State, state: State) -> None:
+        """``state`` ← ``source``'s arrays, in place."""
+        for name in self._FIELDS:
+            np.copyto(getattr(state, name), getattr(source, name))
+
+    def _configuration_of(self, state: State) -> ConfigurationData:
+        """The C view of a state: the last state this step made is viewed in place; any other
+        (the start, a state after an event) through contiguous float64 copies of its arrays,
+        kept alive until the next call. Nothing is attached to the state (it is pickled into
+        checkpoints)."""
+        if self._made is not None and self._made[0] is state:
+            return self._made[1]
+        arrays = [np.ascontiguousarray(getattr(state, name), dtype=np.float64) for name in self._FIELDS]
+        pointers = [array.ctypes.data if array.size else self._empty.ctypes.data for array in arrays]
+        self._copies = arrays
+        return ConfigurationData(*pointers)
+
+    def step(self, state: State, h: float, t_new: float | None = None) -> tuple[State, StepStats]:
+        self._setup()
+        model = self.assembler.model
+        n = model.n_dofs
+        t_new = state.t + h if t_new is None else t_new
+        base = self._configuration_of(state)
+        trial_state, trial = self._new_state(t_new)
+        self._a_n[:n] = self.a
+        laws = None if self._compiled_laws is not None else self._laws.at(t_new)  # else in C, at t_new
+        control = self._control
+        control.h = h
+        control.t_new = t_new
+        self._factor_version += 1
+        failed = self._step(self._model_ref, self._work_ref, self._control_ref, ctypes.byref(base),
+                            ctypes.byref(trial), self._vectors_ref, None if laws is None else laws.ctypes.data)
+        self.factorizations += control.factorizations
+        self._last_trial = trial_state
+        self._made = (trial_state, trial, base)
+        total = self._buffers["total"]
+        stats = StepStats(iterations=control.iterations, converged=bool(control.converged) and not failed,
+                          factorizations=control.factorizations, contraction=control.contraction_seen)
+        self.last_evaluation = _LastEvaluation(total, n, model.n_total, control.power)
+        if not stats.converged:
+            stats.residual = total[:n].copy()
+            control.factored_h = 0.0  # a failed step may leave a partial factorization
+        else:
+            self.a_candidate = self._a_new[:n].copy()
+        return trial_state, stats
+
+    @property
+    def loop_reason(self) -> str | None:
+        """Why :meth:`advance` cannot run (the laws could not be compiled), or None."""
+        self._setup()
+        return self._loop_reason
+
+    def advance(self, state: State, *, grid_index: int, stop_index: int, dt: float, t_end: float, n_grid: int,
+                power: float, external_work: float, budget_s: float = 0.25) -> "Advanced":
+        """Steps on the time grid in one call into C (``latdyn_advance``), from ``state`` on grid
+        point ``grid_index`` through ``stop_index``, each as :meth:`step` takes it with
+        h = t_{k+1} − t_k and accepted as the time loop accepts it (algorithmic acceleration
+        carried, external work by the trapezoidal rule from ``power``). The call returns at
+        ``stop_index``, after ``budget_s`` of wall time, or at the first step that does not
+        converge or holds a hinge event (lock_at, a stop): that step is given back, not
+        accepted, for the time loop to handle as it handles any step (:attr:`Advanced.pending`).
+        Needs the laws compiled (:attr:`loop_reason` is None)."""
+        if self.loop_reason is not None:
+            raise RuntimeError(f"the loop of steps needs compiled laws: {self.loop_reason}")
+        model = self.assembler.model
+        n = model.n_dofs
+        base = self._configuration_of(state)
+        out, out_c = self._new_state(state.t)
+        self._a_n[:n] = self.a
+        run = self._run
+        run.dt, run.t_end, run.n_grid, run.grid_index, run.stop_index = dt, t_end, n_grid, grid_index, stop_index
+        run.t, run.budget_s, run.power, run.external_work = state.t, budget_s, power, external_work
+        self._factor_version += 1
+        self._library.latdyn_advance(self._model_ref, self._work_ref, self._control_ref, ctypes.byref(base),
+                                     self._scratch_c, ctypes.byref(out_c), self._vectors_ref, self._run_ref)
+        control = self._control
+        self.factorizations += run.factorizations
+        last = state
+        if run.steps:
+            last = out
+            last.t = run.t_last
+            self.a = self._a_n[:n].copy()
+            self._made = (last, out_c, None)
+        pending = None
+        kept = True  # the held factorization is that of the last accepted step (or of `state`)
+        if run.status in (1, 2):
+            k = grid_index + run.steps
+            trial, trial_c = self._new_state(t_end if k + 1 >= n_grid else (k + 1) * dt)
+            self._copy_into(self._scratch[run.pending][0], trial)
+            stats = StepStats(iterations=control.iterations, converged=run.status == 2,
+                              factorizations=control.factorizations, contraction=control.contraction_seen)
+            self.factorizations += control.factorizations
+            # the step given back ran on the held factorization: it is still the accepted step's
+            # unless that step factorized (or failed, which drops the factorization)
+            kept = stats.converged and control.factorizations == 0
+            if stats.converged:
+                self.a_candidate = self._a_new[:n].copy()
+            else:
+                stats.residual = self._buffers["total"][:n].copy()
+                control.factored_h = 0.0  # a failed step may leave a partial factorization
+            self._last_trial = trial
+            self._made = (trial, trial_c, ctypes.byref(out_c if run.steps else base))
+            pending = (trial, stats, run.h_pending)
+        self.last_evaluation = _LastEvaluation(self._buffers["total"], n, model.n_total, control.power)
+        return Advanced(state=last, steps=run.steps, iterations=run.iterations, factorizations=run.factorizations,
+                        power=run.power, external_work=run.external_work, status=run.status, pending=pending,
+                        factorization_kept=kept)
+
+    # -- the held factorization of modified Newton, for checkpoints (latdyn.timeloop.checkpoint) -------
+    def factorization_mark(self) -> int:
+        """A token that changes whenever the held factorization may have changed (a step or a
+        loop of steps began, the buffers were rebuilt, a factorization was restored): equal
+        tokens mean the same held factorization."""
+        return self._factor_version
+
+    def factorization_state(self) -> dict | None:
+        """What modified Newton carries from one step to the next besides the state: the step
+        size the held factorization belongs to (``factored_h``) and copies of the factorized
+        matrix (dense LU, band LU or the sparse LU's numeric factor: all three factorize in
+        place in Work's ``matrix``) and of the pivots (dense and band LU). None when there is
+        nothing to carry: full Newton, no factorization held, or one of a numbering (a latch)
+        or an iteration matrix (the inertia tangent) that the next step will rebuild anyway."""
+        if not self.modified or self._key is None or self._key != self._current_key():
+            return None
+        h = float(self._control.factored_h)
+        if h == 0.0:
+            return None
+        return {"factored_h": h, "n_dofs": int(self.assembler.model.n_dofs),
+                "matrix": self._buffers["matrix"].copy(), "pivots": self._buffers["pivots"].copy()}
+
+    def restore_factorization(self, saved: dict | None) -> None:
+        """Hold ``saved`` (:meth:`factorization_state`) as the factorization of the next step,
+        after the buffers are set up for the model's current numbering (resume: latched hinges
+        and the inertia tangent set first). None: nothing held, the next step factorizes.
+        Raises ValueError when ``saved`` does not fit this model's matrix."""
+        self._setup()
+        self._factor_version += 1
+        self._control.factored_h = 0.0
+        if saved is None or not self.modified:
+            return
+        matrix, pivots = self._buffers["matrix"], self._buffers["pivots"]
+        got_matrix = np.asarray(saved["matrix"])
+        got_pivots = np.asarray(saved["pivots"])
+        if (int(saved["n_dofs"]) != self.assembler.model.n_dofs or got_matrix.shape != matrix.shape
+                or got_pivots.shape != pivots.shape):
+            raise ValueError(f"the saved factorization ({saved['n_dofs']} coordinates, matrix of "
+                             f"{got_matrix.size} entries, {got_pivots.size} pivots) does not fit this model "
+                             f"({self.assembler.model.n_dofs} coordinates, {matrix.size} entries, "
+                             f"{pivots.size} pivots)")
+        matrix[:] = got_matrix
+        pivots[:] = got_pivots
+        self._control.factored_h = float(saved["factored_h"])
+
+    def energies(self, state: State) -> dict[str, float]:
+        """:meth:`latdyn.assembly.assembler.Assembler.energies` in C (the time loop asks at every recorded row)."""
+        self._setup()
+        out = self._energy_out
+        self._library.latdyn_energies(self._model_ref, self._work_ref, ctypes.byref(self._configuration_of(state)),
+                                      out.ctypes.data)
+        strain = float(out[1])
+        if self._law_hinges:  # springs with a law: their potential integrates the law (Assembler.hinge_potential)
+            strain += self.assembler.hinge_potential(state, self._law_hinges)
+        return {"kinetic": float(out[0]), "strain": strain, "potential": float(out[2])}
+
+    def error_estimate(self, h: float) -> float:
+        """As :meth:`GeneralizedAlpha.error_estimate`, with the mass matrix of the step's end
+        state evaluated in Python (adaptive runs: once per step, outside the Newton iteration)."""
+        if self.assembler.model.n_dofs == 0 or getattr(self, "_last_trial", None) is None:
+            return 0.0
+        if self._mass_for is not self._last_trial:
+            self._mass_ev = self.assembler.evaluate(self._last_trial, matrices=True)
+            self._mass_for = self._last_trial
+        saved, self.last_evaluation = self.last_evaluation, self._mass_ev
+        try:
+            return super().error_estimate(h)
+        finally:
+            self.last_evaluation = saved
+
+
+@dataclass
+class Advanced:
+    """What :meth:`CompiledGeneralizedAlpha.advance` did: the last accepted state, the steps
+    accepted with their Newton iterations and factorizations, the power at that state and the
+    external work since the start of the run, why it returned (0 at the stop, 1 a step did not
+    converge, 2 a step holds a hinge event, 3 the wall-time budget) and, for 1 and 2, the step
+    not accepted as ``(state, StepStats, h)``."""
+
+    state: State
+    steps: int
+    iterations: int
+    factorizations: int
+    power: float
+    external_work: float
+    status: int
+    pending: tuple | None = None
+    #: whether the held factorization is still that of the last accepted step (False when the
+    #: step given back factorized or failed): a checkpoint of that step can carry it
+    factorization_kept: bool = True
+
+
+class _LastEvaluation:
+    """What the time loop reads of the last Newton evaluation: the reaction on the
+    constrained coordinates and the external power (the residual only on failure)."""
+
+    def __init__(self, total, n, n_total, external_power):
+        self.reaction = total[n:n_total].copy()
+        self.external_power = external_power

@@ -1,0 +1,150 @@
+"""A scene's laws, compiled: the C unit of :mod:`codegen.laws` built into the kernel cache.
+
+The compiled time step (:mod:`latdyn.step.compiled`) numbers the scene's functions of time
+(prescribed translations and angles, load components, hinge torques of t) and its hinge laws
+in θ, θ̇ and t; :func:`compile_laws` emits their C unit, compiles it once (``-O2``, a few
+tenths of a second on first use, reported as compile time; :mod:`latdyn.native`) and returns
+the addresses of ``latdyn_time_laws`` and ``latdyn_hinge_laws`` for the step to call.
+
+The library is found in the cache by the laws' own text (kind and source of each law, in the
+step's numbering), the generator's version (:func:`generator_version`: the code generator's
+and the expression reader's sources, the SymPy version) and the compiler: a run whose laws
+were compiled before neither imports SymPy nor runs the C printer.
+:class:`LawsUnavailable` says why not (a construct the C printer cannot write, no compiler):
+the step then takes the law values from Python, as :class:`latdyn.step.compiled._Laws` computes them.
+"""
+from __future__ import annotations
+
+import ctypes
+
+from latdyn.native import source_digest
+from latdyn.scene.expressions import HingeLaw, TimeFunction
+
+
+class LawsUnavailable(Exception):
+    """The laws cannot be compiled; the message says why."""
+
+
+def time_law(function: TimeFunction | HingeLaw):
+    """The plain description of a function of time that :mod:`codegen.laws` prints (a
+    :class:`HingeLaw` of t alone is a hinge torque: only its value is read)."""
+    from codegen.laws import TimeLaw
+
+    text = str(function.source)
+    if isinstance(function, HingeLaw):
+        if function.time_function is not None:
+            return time_law(function.time_function)
+        variables, (value, _, _) = function.expressions
+        return TimeLaw("expression", text, variable=variables[2], expressions=(value, 0, 0))
+    if function.kind == "table":
+        times, values = function.table
+        return TimeLaw("table", text, times=tuple(times), values=tuple(values))
+    found = function.expressions
+    if found is None:  # a number, or an expression without t
+        return TimeLaw("constant", text, value=float(function.value(0.0)))
+    variable, expressions = found
+    return TimeLaw("expression", text, variable=variable, expressions=tuple(expressions))
+
+
+def hinge_law(law: HingeLaw):
+    """The plain description of a hinge law that :mod:`codegen.laws` prints."""
+    from codegen.laws import HingeLawC
+
+    found = law.expressions
+    if found is None:
+        return HingeLawC(str(law.source), time=time_law(law.time_function))
+    variables, expressions = found
+    return HingeLawC(str(law.source), variables=tuple(variables), expressions=tuple(expressions))
+
+
+class CompiledLaws:
+    """The loaded library of one scene's laws and its two functions' addresses."""
+
+    def __init__(self, library: ctypes.CDLL, path):
+        self.library, self.path = library, path
+        self.time_laws = ctypes.cast(library.latdyn_time_laws, ctypes.c_void_p).value
+        self.hinge_laws = ctypes.cast(library.latdyn_hinge_laws, ctypes.c_void_p).value
+
+
+#: loaded libraries by the laws' own sources (the C source is a function of them in a process)
+_LOADED: dict[str, CompiledLaws] = {}
+_VERSION: list[str] = []
+
+
+def generator_version() -> str:
+    """A hash of what turns a law's text into C: ``codegen/*.py``, ``codegen/templates/*.j2``,
+    ``latdyn/scene/expressions.py`` and the SymPy version (read without importing codegen or SymPy)."""
+    if not _VERSION:
+        import importlib.util
+        from pathlib import Path
+
+        from latdyn.scene.expressions import sympy_version
+
+        spec = importlib.util.find_spec("codegen")
+        folder = Path(next(iter(spec.submodule_search_locations))) if spec else None
+        files = sorted(folder.glob("*.py")) + sorted((folder / "templates").glob("*.j2")) if folder else []
+        parts = [path.read_bytes() for path in files] + [(Path(__file__).parents[1] / "scene" / "expressions.py").read_bytes()]
+        parts.append(sympy_version())
+        _VERSION.append(source_digest(*parts))
+    return _VERSION[0]
+
+
+def _text_key(time_functions, hinge_laws) -> str:
+    return repr([(type(f).__name__, f.source) for f in time_functions]
+                + [(type(h).__name__, h.source) for h in hinge_laws])
+
+
+def _print(time_functions, hinge_laws) -> bytes:
+    """The C unit of the laws (SymPy and the C printer); LawsUnavailable when a law does not print."""
+    from codegen.emit import EmitError
+    from codegen.laws import laws_source
+
+    try:
+        return laws_source([time_law(f) for f in time_functions], [hinge_law(h) for h in hinge_laws]).encode()
+    except EmitError as error:
+        raise LawsUnavailable(str(error)) from None
+
+
+def compile_laws(time_functions: list, hinge_laws: list[HingeLaw]) -> CompiledLaws:
+    """The compiled laws (``time_functions``: :class:`TimeFunction` in the step's numbering;
+    ``hinge_laws``: :class:`HingeLaw`), from the cache when these laws were built before."""
+    from latdyn import native
+
+    # the same laws again (a study's runs, a renumbering after a latch): no lookup
+    key = _text_key(time_functions, hinge_laws)
+    if key in _LOADED:
+        return _LOADED[key]
+    try:
+        using = native.compiler()
+        text = source_digest(key, generator_version()).encode()
+        target = native.target("laws", text, native.C_FLAGS, using)
+        if not target.exists():  # print the unit only now
+            announce = (f"latdyn: compiling the scene's laws ({len(time_functions)} of time, {len(hinge_laws)} "
+                        f"hinge laws) with {using.name} into {target.parent}")
+            target = native.build("laws", _print(time_functions, hinge_laws), native.C_FLAGS, using=using,
+                                  key=text, announce=announce)
+        loaded = CompiledLaws(native.load(target), target)
+    except RuntimeError as error:  # no compiler, a failed build, a library that does not load
+        raise LawsUnavailable(str(error)) from None
+    _LOADED[key] = loaded
+    return loaded
+
+
+def unprintable(hinge_laws: list[HingeLaw]) -> str | None:
+    """Why these hinge laws cannot be printed in C, or None. A success is remembered in the
+    cache by the laws' text (an empty marker file), so that a later run does not print them."""
+    from latdyn import native
+
+    marker = native.cache_dir() / f"laws-printable-{source_digest(_text_key([], hinge_laws), generator_version())}"
+    if marker.exists():
+        return None
+    try:
+        _print([], hinge_laws)
+    except LawsUnavailable as error:
+        return str(error)
+    try:
+        marker.parent.mkdir(parents=True, exist_ok=True)
+        marker.touch()
+    except OSError:
+        pass
+    return None

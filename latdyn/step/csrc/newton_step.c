@@ -1,0 +1,1081 @@
+/*
+ * One Lie-group generalized-α time step, Newton iteration included, in C.
+ *
+ * This is runtime code, written by hand: it holds no element physics.  The element terms
+ * come from the generated kernels (generated/beam_<variant>.c), called through function
+ * pointers; everything between them -- the configuration update on SO(3), prescribed
+ * motion, element geometry (Eq. 17), rigid joint bodies, hinge springs, point loads,
+ * scatter into a preallocated matrix, LAPACK's LU (dense or banded, through SciPy's
+ * function pointers), the convergence test -- is here, so that no Python runs inside a
+ * step.  It mirrors latdyn/step/integrators.py (GeneralizedAlpha.step) and latdyn/assembly/assembler.py
+ * (Assembler.evaluate) line by line; tests/test_engine.py holds the two to 1e-10.
+ * latdyn_advance runs the time loop's steps between two recorded rows (solve.transient),
+ * with the scene's laws compiled by the code generator (codegen/laws.py), and hands back the
+ * first step that the Python loop must handle (a Newton failure, a hinge event);
+ * tests/test_compiled_loop.py holds it to the steps taken one by one from Python.
+ *
+ * Storage: node arrays row-major (x: n_nodes×3, T: n_nodes×3×3), coordinate vectors of
+ * length n_total + 1 (index n_total is the dummy of clamped ends), matrices column-major
+ * for LAPACK.  Matrix positions of the block entries are precomputed by the caller
+ * (latdyn/step/compiled.py), for the dense or the band storage alike; -1 marks an entry on a
+ * constrained coordinate.
+ *
+ * Threads: the element part of an evaluation (geometry, Eq. 17, and the generated kernels)
+ * is split into contiguous ranges of elements, one per OpenMP thread, when the model has at
+ * least `parallel_elements` elements (0: never) and the library was compiled with -fopenmp
+ * (latdyn/step/compiled.py tries it and falls back to a serial build).  Every element writes only
+ * its own rows of the Work buffers, and the scatter into the residual and the matrix stays
+ * one serial loop in element order, so the result equals the serial step's for any number
+ * of threads (bit for bit on the tested beam, ~1e-14 on a lattice: tests/test_sparse_lu.py).  `threads` (0: OpenMP's default, i.e. OMP_NUM_THREADS or the
+ * number of cores) sets how many.
+ */
+#define _POSIX_C_SOURCE 199309L /* clock_gettime: the wall-time budget of latdyn_advance */
+#include <math.h>
+#include <stdint.h>
+#include <string.h>
+#include <time.h>
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
+#include "sparse_lu.c" /* the sparse LU (inlined into this source by latdyn/step/compiled.py's build) */
+
+typedef void (*kernel_2_1)(int64_t, const double *, const double *, double *);
+typedef void (*kernel_2_2)(int64_t, const double *, const double *, double *, double *);
+typedef void (*kernel_3_1)(int64_t, const double *, const double *, const double *, double *);
+typedef void (*kernel_gravity)(int64_t, const double *, const double *, const double *, double *, double *,
+                               double *);
+typedef void (*lapack_getrf)(int *, int *, double *, int *, int *, int *);
+typedef void (*lapack_getrs)(char *, int *, int *, double *, int *, int *, double *, int *, int *);
+typedef void (*lapack_gbtrf)(int *, int *, int *, int *, double *, int *, int *, int *);
+typedef void (*lapack_gbtrs)(char *, int *, int *, int *, int *, double *, int *, int *, double *, int *, int *);
+
+/* The model, as arrays (latdyn.model.Model and the Assembler's scatter maps). */
+typedef struct {
+    int64_t n_nodes, n_hinges, n_elements, n_bodies, n_loads, n_dofs, n_total;
+    const int64_t *node_dofs;   /* (n_nodes, 6) */
+    const int64_t *hinge_dofs;  /* (n_hinges) */
+    int64_t n_free_nodes, n_free_hinges;
+    const int64_t *free_nodes, *free_hinges;
+    /* prescribed bodies: law indices of the translation (n_prescribed, 3; -1: none) and angle (-1: none) */
+    int64_t n_prescribed;
+    const int64_t *prescribed_nodes, *translation_law, *angle_law;
+    const double *rotation_axis; /* (n_prescribed, 3) */
+    const double *node_x0;       /* (n_nodes, 3) */
+    const int64_t *hinge_angle_law; /* (n_hinges) -1: none */
+    const int64_t *hinge_locked;    /* (n_hinges) */
+    /* elements */
+    const int64_t *element_nodes, *element_hinges, *element_dofs;
+    const double *element_axes, *element_frames0, *element_offsets, *element_sections;
+    /* joint bodies with inertia */
+    const int64_t *body_nodes;
+    const double *body_mass, *body_com, *body_inertia;
+    /* hinges: f = k (θ − θ_r) + c θ̇ − τ(t) */
+    const double *hinge_stiffness, *hinge_damping, *hinge_rest_angle;
+    const int64_t *hinge_torque_law;
+    /* point loads */
+    const int64_t *load_node, *load_force_law, *load_moment_law, *load_frame_node;
+    const double *load_r;
+    double gravity[3];
+    int64_t has_gravity;
+    /* matrix positions of the block entries (dense or band storage), -1: constrained */
+    const int64_t *element_position; /* (n_elements, 14, 14) */
+    const int64_t *body_position;    /* (n_bodies, 6, 6) */
+    const int64_t *hinge_position;   /* (n_hinges) diagonal entry */
+    const int64_t *load_position;    /* (n_loads, 3, 3) */
+    /* linear algebra: band storage when kl > 0 ... or kl == ku == -1 for dense */
+    int64_t band, kl, ku, ldab, matrix_size;
+    const int64_t *permutation; /* new index of each free coordinate */
+    /* kernels */
+    kernel_2_1 internal_force;
+    kernel_2_2 internal_force_D_q;
+    kernel_2_1 mass_matrix;
+    kernel_3_1 quadratic_velocity;
+    kernel_3_1 quadratic_velocity_D_qdot;
+    kernel_gravity gravity_load;
+    kernel_2_2 strain_energy;
+    kernel_3_1 kinetic_energy;
+    lapack_getrf getrf;
+    lapack_getrs getrs;
+    lapack_gbtrf gbtrf;
+    lapack_gbtrs gbtrs;
+    /* threads (see the header): element count from which the element part runs in parallel
+     * (0: never), and the number of threads (0: OpenMP's default) */
+    int64_t parallel_elements, threads;
+    /* the inertia tangent (integrators.inertia_tangent): node colours (the ends of an element
+     * differ), the node of each hinge, the number of colours */
+    const int64_t *node_colour, *hinge_node;
+    int64_t n_colours;
+    /* the scene's laws, compiled by the code generator (codegen/laws.py, latdyn/step/compiled_laws.py):
+     * every function of time at t (3 values each: f, f', f''), and hinge law k at (θ, θ̇, t)
+     * (f, ∂f/∂θ, ∂f/∂θ̇). time_laws NULL: the caller passes the law values (latdyn_newton_step). */
+    void (*time_laws)(double, double *);
+    void (*hinge_laws)(int64_t, double, double, double, double *);
+    /* hinges with laws in θ, θ̇ or t (Assembler.hinge_forces): the hinge law of the stiffness,
+     * the damping and the torque (-1: the constant of hinge_stiffness/hinge_damping, no torque
+     * law in θ or θ̇), and whether the spring is conservative (else its power is external work) */
+    const int64_t *hinge_stiffness_law, *hinge_damping_law, *hinge_torque_hinge_law, *hinge_conservative;
+    /* events that end a loop of steps (latdyn_advance; solve.py handles them): lock_at and the
+     * lower and upper stop of each hinge (NAN: none) */
+    const double *hinge_lock_at, *hinge_lower_stop, *hinge_upper_stop;
+    int64_t has_events;
+    /* the sparse LU (csrc/sparse_lu.c) when the matrix is too wide for a band LU, else NULL:
+     * the matrix storage is then its factor storage */
+    SparseLU *sparse_lu;
+    /* OpenBLAS's thread count of the library behind getrf/gbtrf/gemm/trsm (NULL: not pinned) */
+    int (*get_blas_threads)(void);
+    void (*set_blas_threads)(int);
+    int64_t section_width; /* columns of element_sections (latdyn.model.SECTION_WIDTH) */
+} Model;
+
+/* Scratch buffers, allocated once by the caller. */
+typedef struct {
+    double *geometry, *rates, *accelerations, *gravity_rows; /* (e,36) (e,14) (e,14) (e,3) */
+    double *force, *tangent, *mass, *quadratic, *quadratic_D; /* (e,14) (e,14,14) (e,14,14) (e,14) (e,14,14) */
+    double *gravity_force, *gravity_potential, *first_moment;  /* (e,14) (e) (e,3) */
+    double *body_vector, *body_mass, *body_damping, *body_stiffness; /* (b,6) (b,6,6)×3 */
+    double *load_blocks;                                       /* (l,9) */
+    double *strain, *section_forces, *kinetic;                 /* (e) (e,4) (e) */
+    double *total;                                             /* n_total + 1 */
+    double *matrix;                                            /* matrix_size */
+    int *pivots;                                               /* n_dofs */
+    double *rhs;                                               /* n_dofs */
+    /* the inertia tangent: its blocks (e,14,14), the element forces at ± a perturbation (e,14)
+     * ×2, the perturbed nodes and hinges (n,3) (n,9) (h), and the element buffers of an
+     * evaluation there (geometry, rates, accelerations, mass, quadratic, gravity) */
+    double *inertia_tangent, *forces_plus, *forces_minus, *perturbed_x, *perturbed_T, *perturbed_theta;
+    double *p_geometry, *p_rates, *p_accelerations, *p_mass, *p_quadratic, *p_gravity_force,
+           *p_gravity_potential, *p_first_moment;
+    /* the law values at the step's time (n_laws, 3), and the hinge forces' derivatives ∂f/∂θ
+     * and ∂f/∂θ̇ of the last evaluation (n_hinges each: diagonal entries of K and C) */
+    double *laws, *hinge_d_theta, *hinge_d_rate;
+} Work;
+
+/* A configuration: all nodes and hinges. */
+typedef struct {
+    double *x, *T, *v, *w, *a, *alpha, *theta, *theta_dot, *theta_ddot;
+} Configuration;
+
+/* ------------------------------------------------------------------------- small algebra */
+
+static void skew(const double *w, double *S)
+{
+    S[0] = 0.0;   S[1] = -w[2]; S[2] = w[1];
+    S[3] = w[2];  S[4] = 0.0;   S[5] = -w[0];
+    S[6] = -w[1]; S[7] = w[0];  S[8] = 0.0;
+}
+
+static void matmul3(const double *A, const double *B, double *C)
+{
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j)
+            C[3 * i + j] = A[3 * i] * B[j] + A[3 * i + 1] * B[3 + j] + A[3 * i + 2] * B[6 + j];
+}
+
+static void matvec3(const double *A, const double *x, double *y)
+{
+    for (int i = 0; i < 3; ++i) y[i] = A[3 * i] * x[0] + A[3 * i + 1] * x[1] + A[3 * i + 2] * x[2];
+}
+
+static void cross(const double *a, const double *b, double *c)
+{
+    c[0] = a[1] * b[2] - a[2] * b[1];
+    c[1] = a[2] * b[0] - a[0] * b[2];
+    c[2] = a[0] * b[1] - a[1] * b[0];
+}
+
+/* Exponential map of so(3) (Rodrigues), as latdyn.assembly.expm_so3. */
+/* Entry d of a free-coordinate vector of length n; 0 for a node slot that is not a coordinate
+ * (d >= n: the out-of-plane slots of a planar model, Model.node_slots). */
+static inline double free_entry(const double *vector, int64_t d, int64_t n)
+{
+    return d < n ? vector[d] : 0.0;
+}
+
+static void expm_so3(const double *w, double *R)
+{
+    double angle = sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
+    double a, b, W[9], WW[9];
+    if (angle < 1e-8) {
+        a = 1.0 - angle * angle / 6.0;
+        b = 0.5 - angle * angle / 24.0;
+    } else {
+        a = sin(angle) / angle;
+        b = (1.0 - cos(angle)) / (angle * angle);
+    }
+    skew(w, W);
+    matmul3(W, W, WW);
+    for (int i = 0; i < 9; ++i) R[i] = a * W[i] + b * WW[i];
+    R[0] += 1.0; R[4] += 1.0; R[8] += 1.0;
+}
+
+/* ------------------------------------------------------------------------- configuration */
+
+/* The trial configuration q_n ∘ exp(increment) at time t with velocities v and accelerations
+ * v̇ on the free coordinates (integrators.GeneralizedAlpha.step.configured: advance, then
+ * apply_prescribed, then unpack_free). laws: (value, rate, acceleration) of every law at t. */
+static void configure(const Model *m, const Configuration *base, Configuration *c, const double *increment,
+                      const double *velocity, const double *acceleration, const double *laws)
+{
+    const int64_t N = m->n_nodes, H = m->n_hinges;
+    memcpy(c->x, base->x, sizeof(double) * 3 * N);
+    memcpy(c->T, base->T, sizeof(double) * 9 * N);
+    memcpy(c->v, base->v, sizeof(double) * 3 * N);
+    memcpy(c->w, base->w, sizeof(double) * 3 * N);
+    memcpy(c->a, base->a, sizeof(double) * 3 * N);
+    memcpy(c->alpha, base->alpha, sizeof(double) * 3 * N);
+    memcpy(c->theta, base->theta, sizeof(double) * H);
+    memcpy(c->theta_dot, base->theta_dot, sizeof(double) * H);
+    memcpy(c->theta_ddot, base->theta_ddot, sizeof(double) * H);
+    for (int64_t k = 0; k < m->n_free_nodes; ++k) {
+        int64_t i = m->free_nodes[k];
+        const int64_t *d = m->node_dofs + 6 * i;
+        double R[9];
+        const int64_t n = m->n_dofs;
+        for (int j = 0; j < 3; ++j) c->x[3 * i + j] = base->x[3 * i + j] + free_entry(increment, d[j], n);
+        expm_so3((double[3]){free_entry(increment, d[3], n), free_entry(increment, d[4], n),
+                             free_entry(increment, d[5], n)}, R);
+        matmul3(R, base->T + 9 * i, c->T + 9 * i);
+    }
+    for (int64_t k = 0; k < m->n_free_hinges; ++k) {
+        int64_t j = m->free_hinges[k];
+        c->theta[j] = base->theta[j] + increment[m->hinge_dofs[j]];
+    }
+    /* apply_prescribed */
+    for (int64_t k = 0; k < m->n_prescribed; ++k) {
+        int64_t i = m->prescribed_nodes[k];
+        const int64_t *law = m->translation_law + 3 * k;
+        for (int j = 0; j < 3; ++j) {
+            if (law[0] >= 0) {
+                c->x[3 * i + j] = m->node_x0[3 * i + j] + laws[3 * law[j]];
+                c->v[3 * i + j] = laws[3 * law[j] + 1];
+                c->a[3 * i + j] = laws[3 * law[j] + 2];
+            } else {
+                c->x[3 * i + j] = m->node_x0[3 * i + j];
+                c->v[3 * i + j] = c->a[3 * i + j] = 0.0;
+            }
+        }
+        const double *axis = m->rotation_axis + 3 * k;
+        if (m->angle_law[k] >= 0) {
+            const double *g = laws + 3 * m->angle_law[k];
+            expm_so3((double[3]){axis[0] * g[0], axis[1] * g[0], axis[2] * g[0]}, c->T + 9 * i);
+            for (int j = 0; j < 3; ++j) {
+                c->w[3 * i + j] = axis[j] * g[1];
+                c->alpha[3 * i + j] = axis[j] * g[2];
+            }
+        } else {
+            double *T = c->T + 9 * i;
+            for (int j = 0; j < 9; ++j) T[j] = (j % 4 == 0) ? 1.0 : 0.0;
+            for (int j = 0; j < 3; ++j) c->w[3 * i + j] = c->alpha[3 * i + j] = 0.0;
+        }
+    }
+    for (int64_t j = 0; j < H; ++j) {
+        if (m->hinge_angle_law[j] >= 0) {
+            const double *g = laws + 3 * m->hinge_angle_law[j];
+            c->theta[j] = g[0];
+            c->theta_dot[j] = g[1];
+            c->theta_ddot[j] = g[2];
+        } else if (m->hinge_locked[j]) {
+            c->theta_dot[j] = c->theta_ddot[j] = 0.0;
+        }
+    }
+    /* unpack_free */
+    for (int64_t k = 0; k < m->n_free_nodes; ++k) {
+        int64_t i = m->free_nodes[k];
+        const int64_t *d = m->node_dofs + 6 * i;
+        const int64_t n = m->n_dofs;
+        for (int j = 0; j < 3; ++j) {
+            c->v[3 * i + j] = free_entry(velocity, d[j], n);
+            c->w[3 * i + j] = free_entry(velocity, d[3 + j], n);
+            c->a[3 * i + j] = free_entry(acceleration, d[j], n);
+            c->alpha[3 * i + j] = free_entry(acceleration, d[3 + j], n);
+        }
+    }
+    for (int64_t k = 0; k < m->n_free_hinges; ++k) {
+        int64_t j = m->free_hinges[k];
+        c->theta_dot[j] = velocity[m->hinge_dofs[j]];
+        c->theta_ddot[j] = acceleration[m->hinge_dofs[j]];
+    }
+}
+
+/* ------------------------------------------------------------------------- evaluation */
+
+/* Element inputs (Assembler.element_geometry, element_rates): x1, x2, offsets T r_g (Eq. 2),
+ * nodal frames T_j exp(θ h) E0 (Eq. 17), hinge axes T_j h (Eq. 9); rates and accelerations. */
+static void element_inputs_to(const Model *m, const Configuration *c, double *geometry, double *rates,
+                              double *accelerations, int64_t begin, int64_t end_element)
+{
+    for (int64_t e = begin; e < end_element; ++e) {
+        double *g = geometry + 36 * e;
+        double *r = rates + 14 * e, *acc = accelerations + 14 * e;
+        for (int end = 0; end < 2; ++end) {
+            int64_t i = m->element_nodes[2 * e + end], hinge = m->element_hinges[2 * e + end];
+            const double *T = c->T + 9 * i;
+            const double *axis = m->element_axes + 6 * e + 3 * end;
+            double theta = hinge >= 0 ? c->theta[hinge] : 0.0;
+            double H[9], TH[9];
+            expm_so3((double[3]){axis[0] * theta, axis[1] * theta, axis[2] * theta}, H);
+            matmul3(T, H, TH);
+            matmul3(TH, m->element_frames0 + 18 * e + 9 * end, g + 12 + 9 * end);
+            matvec3(T, m->element_offsets + 6 * e + 3 * end, g + 6 + 3 * end);
+            matvec3(T, axis, g + 30 + 3 * end);
+            for (int j = 0; j < 3; ++j) {
+                g[3 * end + j] = c->x[3 * i + j];
+                r[7 * end + j] = c->v[3 * i + j];
+                r[7 * end + 3 + j] = c->w[3 * i + j];
+                acc[7 * end + j] = c->a[3 * i + j];
+                acc[7 * end + 3 + j] = c->alpha[3 * i + j];
+            }
+            r[7 * end + 6] = hinge >= 0 ? c->theta_dot[hinge] : 0.0;
+            acc[7 * end + 6] = hinge >= 0 ? c->theta_ddot[hinge] : 0.0;
+        }
+    }
+}
+
+static void element_inputs(const Model *m, const Configuration *c, Work *w, int64_t begin, int64_t end_element)
+{
+    element_inputs_to(m, c, w->geometry, w->rates, w->accelerations, begin, end_element);
+}
+
+/* Joint bodies (Assembler.rigid_bodies): M_b [a; α] + g_b − weight, and the blocks M_b, ∂g_b/∂ω,
+ * and the load stiffness −skew(W) skew(r_c) of the weight's moment. */
+static void joint_bodies(const Model *m, const Configuration *c, Work *w)
+{
+    for (int64_t b = 0; b < m->n_bodies; ++b) {
+        int64_t i = m->body_nodes[b];
+        const double *T = c->T + 9 * i, *om = c->w + 3 * i;
+        double mass = m->body_mass[b];
+        double rc[3], S[9], J[9], TI[9], Tt[9], SS[9];
+        matvec3(T, m->body_com + 3 * b, rc);
+        for (int p = 0; p < 3; ++p)
+            for (int q = 0; q < 3; ++q) Tt[3 * p + q] = T[3 * q + p];
+        matmul3(T, m->body_inertia + 9 * b, TI);
+        matmul3(TI, Tt, J);
+        skew(rc, S);
+        matmul3(S, S, SS);
+        double *M = w->body_mass + 36 * b, *G = w->body_damping + 36 * b, *K = w->body_stiffness + 36 * b;
+        double *vec = w->body_vector + 6 * b;
+        memset(M, 0, sizeof(double) * 36);
+        memset(G, 0, sizeof(double) * 36);
+        memset(K, 0, sizeof(double) * 36);
+        for (int p = 0; p < 3; ++p) {
+            M[6 * p + p] = mass;
+            for (int q = 0; q < 3; ++q) {
+                M[6 * p + 3 + q] = -mass * S[3 * p + q];
+                M[6 * (3 + p) + q] = mass * S[3 * p + q];
+                M[6 * (3 + p) + 3 + q] = J[3 * p + q] - mass * SS[3 * p + q];
+            }
+        }
+        double wxr[3], centripetal[3], Jw[3], t1[3], t2[3];
+        cross(om, rc, wxr);
+        cross(om, wxr, centripetal);
+        for (int p = 0; p < 3; ++p) centripetal[p] *= mass;
+        matvec3(J, om, Jw);
+        cross(rc, centripetal, t1);
+        cross(om, Jw, t2);
+        double acc[6] = {c->a[3 * i], c->a[3 * i + 1], c->a[3 * i + 2],
+                         c->alpha[3 * i], c->alpha[3 * i + 1], c->alpha[3 * i + 2]};
+        for (int p = 0; p < 6; ++p) {
+            double s = 0.0;
+            for (int q = 0; q < 6; ++q) s += M[6 * p + q] * acc[q];
+            vec[p] = s + (p < 3 ? centripetal[p] : t1[p - 3] + t2[p - 3]);
+        }
+        /* ∂g/∂ω */
+        double wr = om[0] * rc[0] + om[1] * rc[1] + om[2] * rc[2];
+        double dcent[9], Sd[9], Wm[9], WJ[9], SJw[9];
+        for (int p = 0; p < 3; ++p)
+            for (int q = 0; q < 3; ++q)
+                dcent[3 * p + q] = mass * (om[p] * rc[q] + (p == q ? wr : 0.0) - 2.0 * rc[p] * om[q]);
+        matmul3(S, dcent, Sd);
+        skew(om, Wm);
+        matmul3(Wm, J, WJ);
+        skew(Jw, SJw);
+        for (int p = 0; p < 3; ++p)
+            for (int q = 0; q < 3; ++q) {
+                G[6 * p + 3 + q] = dcent[3 * p + q];
+                G[6 * (3 + p) + 3 + q] = Sd[3 * p + q] + WJ[3 * p + q] - SJw[3 * p + q];
+            }
+        if (m->has_gravity) {
+            double W[3] = {mass * m->gravity[0], mass * m->gravity[1], mass * m->gravity[2]}, rW[3];
+            double SW[9], SWS[9];
+            cross(rc, W, rW);
+            for (int p = 0; p < 3; ++p) {
+                vec[p] -= W[p];
+                vec[3 + p] -= rW[p];
+            }
+            skew(W, SW);
+            matmul3(SW, S, SWS);
+            for (int p = 0; p < 3; ++p)
+                for (int q = 0; q < 3; ++q) K[6 * (3 + p) + 3 + q] -= SWS[3 * p + q];
+        }
+    }
+}
+
+/* The equations of motion at c (Assembler.evaluate): the vector of all coordinates into
+ * w->total (residual = total[:n], reaction = total[n:n_total]); with matrices, the blocks.
+ * Returns the power of loads and hinge torques. */
+/* The number of element ranges (= threads) of an evaluation: 1 below the threshold or without OpenMP. */
+static int element_ranges(const Model *m)
+{
+#ifdef _OPENMP
+    if (m->parallel_elements > 0 && m->n_elements >= m->parallel_elements) {
+        int threads = m->threads > 0 ? (int)m->threads : omp_get_max_threads();
+        if (threads > m->n_elements) threads = (int)m->n_elements;
+        return threads > 1 ? threads : 1;
+    }
+#else
+    (void)m;
+#endif
+    return 1;
+}
+
+/* Geometry and the generated kernels of elements [begin, end): each element reads and writes
+ * only its own rows of the Work buffers (kernel arguments offset to the range). */
+static void element_range(const Model *m, const Configuration *c, Work *w, int64_t begin, int64_t end,
+                          int matrices)
+{
+    const int64_t n = end - begin;
+    if (n <= 0) return;
+    element_inputs(m, c, w, begin, end);
+    const double *geometry = w->geometry + 36 * begin, *rates = w->rates + 14 * begin;
+    const double *section = m->element_sections + m->section_width * begin;
+    double *force = w->force + 14 * begin, *tangent = w->tangent + 196 * begin;
+    if (matrices) {
+        m->internal_force_D_q(n, geometry, section, force, tangent);
+        m->quadratic_velocity_D_qdot(n, geometry, rates, section, w->quadratic_D + 196 * begin);
+    } else {
+        m->internal_force(n, geometry, section, force);
+    }
+    m->mass_matrix(n, geometry, section, w->mass + 196 * begin);
+    m->quadratic_velocity(n, geometry, rates, section, w->quadratic + 14 * begin);
+    if (m->has_gravity)
+        m->gravity_load(n, geometry, section, w->gravity_rows + 3 * begin, w->gravity_force + 14 * begin,
+                        w->gravity_potential + begin, w->first_moment + 3 * begin);
+}
+
+static double evaluate(const Model *m, const Configuration *c, Work *w, const double *laws, double t, int matrices)
+{
+    const int64_t E = m->n_elements;
+    double power = 0.0;
+    const int ranges = element_ranges(m);
+    if (ranges > 1) {
+#ifdef _OPENMP
+#pragma omp parallel for schedule(static) num_threads(ranges)
+#endif
+        for (int k = 0; k < ranges; ++k)
+            element_range(m, c, w, E * k / ranges, E * (k + 1) / ranges, matrices);
+    } else {
+        element_range(m, c, w, 0, E, matrices);
+    }
+    memset(w->total, 0, sizeof(double) * (m->n_total + 1));
+    /* elements: F + M a + g − gravity (Eqs. 55, 58) */
+    for (int64_t e = 0; e < E; ++e) {
+        const double *M = w->mass + 196 * e, *acc = w->accelerations + 14 * e;
+        const int64_t *dofs = m->element_dofs + 14 * e;
+        for (int p = 0; p < 14; ++p) {
+            double s = w->force[14 * e + p] + w->quadratic[14 * e + p];
+            for (int q = 0; q < 14; ++q) s += M[14 * p + q] * acc[q];
+            if (m->has_gravity) s -= w->gravity_force[14 * e + p];
+            w->total[dofs[p]] += s;
+        }
+    }
+    joint_bodies(m, c, w);
+    for (int64_t b = 0; b < m->n_bodies; ++b) {
+        const int64_t *d = m->node_dofs + 6 * m->body_nodes[b];
+        for (int p = 0; p < 6; ++p) w->total[d[p]] += w->body_vector[6 * b + p];
+    }
+    /* hinges (Assembler.hinge_forces): f = k (θ − θ_r) + c θ̇ − τ, with s = θ − θ_r
+     *   ∂f/∂θ = k + s ∂k/∂θ + θ̇ ∂c/∂θ − ∂τ/∂θ,   ∂f/∂θ̇ = s ∂k/∂θ̇ + c + θ̇ ∂c/∂θ̇ − ∂τ/∂θ̇ */
+    for (int64_t j = 0; j < m->n_hinges; ++j) {
+        const double theta = c->theta[j], rate = c->theta_dot[j], s = theta - m->hinge_rest_angle[j];
+        double f, d_theta, d_rate;
+        if (m->hinge_stiffness_law[j] < 0) {  /* constant spring and damper */
+            f = m->hinge_stiffness[j] * s + m->hinge_damping[j] * rate;
+            d_theta = m->hinge_stiffness[j];
+            d_rate = m->hinge_damping[j];
+            if (m->hinge_torque_law[j] >= 0) {
+                double tau = laws[3 * m->hinge_torque_law[j]];
+                f -= tau;
+                power += tau * rate;
+            }
+        } else {
+            double k[3], damping[3];
+            m->hinge_laws(m->hinge_stiffness_law[j], theta, rate, t, k);
+            m->hinge_laws(m->hinge_damping_law[j], theta, rate, t, damping);
+            double spring = k[0] * s;
+            f = spring + damping[0] * rate;
+            d_theta = k[0] + s * k[1] + rate * damping[1];
+            d_rate = s * k[2] + damping[0] + rate * damping[2];
+            if (!m->hinge_conservative[j]) power -= spring * rate;
+            if (m->hinge_torque_hinge_law[j] >= 0) {
+                double tau[3];
+                m->hinge_laws(m->hinge_torque_hinge_law[j], theta, rate, t, tau);
+                f -= tau[0];
+                d_theta -= tau[1];
+                d_rate -= tau[2];
+                power += tau[0] * rate;
+            }
+        }
+        w->hinge_d_theta[j] = d_theta;
+        w->hinge_d_rate[j] = d_rate;
+        w->total[m->hinge_dofs[j]] += f;
+    }
+    /* point loads */
+    for (int64_t l = 0; l < m->n_loads; ++l) {
+        int64_t i = m->load_node[l];
+        const int64_t *d = m->node_dofs + 6 * i;
+        double rg[3], f[3] = {0, 0, 0}, mo[3] = {0, 0, 0}, rf[3], vel[3], wr[3];
+        matvec3(c->T + 9 * i, m->load_r + 3 * l, rg);
+        for (int p = 0; p < 3; ++p) {
+            int64_t fl = m->load_force_law[3 * l + p], ml = m->load_moment_law[3 * l + p];
+            if (fl >= 0) f[p] = laws[3 * fl];
+            if (ml >= 0) mo[p] = laws[3 * ml];
+        }
+        if (m->load_frame_node[l] >= 0) {
+            const double *R = c->T + 9 * m->load_frame_node[l];
+            double Rf[3], Rm[3];
+            matvec3(R, f, Rf);
+            matvec3(R, mo, Rm);
+            memcpy(f, Rf, sizeof f);
+            memcpy(mo, Rm, sizeof mo);
+        }
+        cross(rg, f, rf);
+        for (int p = 0; p < 3; ++p) {
+            w->total[d[p]] -= f[p];
+            w->total[d[3 + p]] -= rf[p] + mo[p];
+        }
+        cross(c->w + 3 * i, rg, wr);
+        for (int p = 0; p < 3; ++p) vel[p] = c->v[3 * i + p] + wr[p];
+        power += f[0] * vel[0] + f[1] * vel[1] + f[2] * vel[2]
+               + mo[0] * c->w[3 * i] + mo[1] * c->w[3 * i + 1] + mo[2] * c->w[3 * i + 2];
+        if (matrices) {
+            double Sf[9], Sr[9], B[9];
+            skew(f, Sf);
+            skew(rg, Sr);
+            matmul3(Sf, Sr, B);
+            for (int p = 0; p < 9; ++p) w->load_blocks[9 * l + p] = -B[p];
+        }
+    }
+    return power;
+}
+
+/* M a + g − gravity of elements [begin, end) at the perturbed configuration c, into `out` (e,14). */
+static void perturbed_range(const Model *m, const Configuration *c, Work *w, double *out, int64_t begin,
+                            int64_t end)
+{
+    const int64_t n = end - begin;
+    if (n <= 0) return;
+    element_inputs_to(m, c, w->p_geometry, w->p_rates, w->p_accelerations, begin, end);
+    const double *geometry = w->p_geometry + 36 * begin, *rates = w->p_rates + 14 * begin;
+    const double *section = m->element_sections + m->section_width * begin;
+    m->mass_matrix(n, geometry, section, w->p_mass + 196 * begin);
+    m->quadratic_velocity(n, geometry, rates, section, w->p_quadratic + 14 * begin);
+    if (m->has_gravity)
+        m->gravity_load(n, geometry, section, w->gravity_rows + 3 * begin, w->p_gravity_force + 14 * begin,
+                        w->p_gravity_potential + begin, w->p_first_moment + 3 * begin);
+    for (int64_t e = begin; e < end; ++e) {
+        const double *M = w->p_mass + 196 * e, *acc = w->p_accelerations + 14 * e;
+        for (int p = 0; p < 14; ++p) {
+            double f = 0.0;
+            for (int q = 0; q < 14; ++q) f += M[14 * p + q] * acc[q];
+            f += w->p_quadratic[14 * e + p];
+            if (m->has_gravity) f -= w->p_gravity_force[14 * e + p];
+            out[14 * e + p] = f;
+        }
+    }
+}
+
+/* Whether coordinate k (0-5 of the node, 6 the hinge) of element end (e, end) is perturbed in the
+ * round of `colour`, and its step (integrators.inertia_rounds). */
+static double column_step(const Model *m, int64_t e, int end, int k, int64_t colour, double eps, double length)
+{
+    int64_t i = m->element_nodes[2 * e + end];
+    if (k < 6) {
+        if (m->node_dofs[6 * i + k] >= m->n_dofs || m->node_colour[i] != colour) return 0.0;
+        return k < 3 ? eps * length : eps;
+    }
+    int64_t j = m->element_hinges[2 * e + end];
+    if (j < 0 || m->hinge_dofs[j] >= m->n_dofs || m->node_colour[m->hinge_node[j]] != colour) return 0.0;
+    return eps;
+}
+
+/* The perturbed configuration of one round: c with coordinate k of every free node (hinge) of
+ * `colour` moved by `sign` × its step (left update, as assembly.advance). Returns how many moved. */
+static int64_t perturb(const Model *m, const Configuration *c, Work *w, Configuration *p, int64_t colour, int k,
+                       double sign, double eps, double length)
+{
+    int64_t moved = 0;
+    *p = *c;
+    p->x = w->perturbed_x;
+    p->T = w->perturbed_T;
+    p->theta = w->perturbed_theta;
+    memcpy(p->x, c->x, sizeof(double) * 3 * m->n_nodes);
+    memcpy(p->T, c->T, sizeof(double) * 9 * m->n_nodes);
+    memcpy(p->theta, c->theta, sizeof(double) * m->n_hinges);
+    if (k < 6) {
+        for (int64_t a = 0; a < m->n_free_nodes; ++a) {
+            int64_t i = m->free_nodes[a];
+            if (m->node_colour[i] != colour || m->node_dofs[6 * i + k] >= m->n_dofs) continue;
+            moved += 1;
+            if (k < 3) {
+                p->x[3 * i + k] = c->x[3 * i + k] + sign * eps * length;
+            } else {
+                double rotation[3] = {0.0, 0.0, 0.0}, R[9];
+                rotation[k - 3] = sign * eps;
+                expm_so3(rotation, R);
+                matmul3(R, c->T + 9 * i, p->T + 9 * i);
+            }
+        }
+    } else {
+        for (int64_t a = 0; a < m->n_free_hinges; ++a) {
+            int64_t j = m->free_hinges[a];
+            if (m->node_colour[m->hinge_node[j]] != colour || m->hinge_dofs[j] >= m->n_dofs) continue;
+            moved += 1;
+            p->theta[j] = c->theta[j] + sign * eps;
+        }
+    }
+    return moved;
+}
+
+static int element_ranges(const Model *m);
+
+/* ∂(M v̇ + g − f_gravity)/∂q of every element at c, by central differences, colour by colour and
+ * coordinate by coordinate (integrators.inertia_tangent), into w->inertia_tangent. */
+static void inertia_tangent(const Model *m, const Configuration *c, Work *w, double eps, double length)
+{
+    const int64_t E = m->n_elements;
+    const int ranges = element_ranges(m);
+    memset(w->inertia_tangent, 0, sizeof(double) * 196 * E);
+    for (int64_t colour = 0; colour < m->n_colours; ++colour) {
+        for (int k = 0; k < 7; ++k) {
+            Configuration p;
+            for (int side = 0; side < 2; ++side) {
+                double *out = side == 0 ? w->forces_plus : w->forces_minus;
+                if (perturb(m, c, w, &p, colour, k, side == 0 ? 1.0 : -1.0, eps, length) == 0) break;
+#ifdef _OPENMP
+#pragma omp parallel for schedule(static) num_threads(ranges) if (ranges > 1)
+#endif
+                for (int r = 0; r < ranges; ++r)
+                    perturbed_range(m, &p, w, out, E * r / ranges, E * (r + 1) / ranges);
+                if (side == 0) continue;
+                for (int64_t e = 0; e < E; ++e) {
+                    for (int end = 0; end < 2; ++end) {
+                        double step = column_step(m, e, end, k, colour, eps, length);
+                        if (step == 0.0) continue;
+                        int column = 7 * end + k;
+                        for (int q = 0; q < 14; ++q)
+                            w->inertia_tangent[196 * e + 14 * q + column] =
+                                (w->forces_plus[14 * e + q] - w->forces_minus[14 * e + q]) / (2.0 * step);
+                    }
+                }
+            }
+        }
+    }
+}
+
+/* S = β′M + γ′C + K scattered into the matrix storage (Evaluation.combined). */
+static void assemble(const Model *m, Work *w, double beta_p, double gamma_p, int with_inertia_tangent)
+{
+    memset(w->matrix, 0, sizeof(double) * m->matrix_size);
+    for (int64_t e = 0; e < m->n_elements; ++e) {
+        const int64_t *pos = m->element_position + 196 * e;
+        const double *K = w->tangent + 196 * e, *M = w->mass + 196 * e, *C = w->quadratic_D + 196 * e;
+        const double *D = w->inertia_tangent + 196 * e;
+        if (with_inertia_tangent) {
+            for (int p = 0; p < 196; ++p)
+                if (pos[p] >= 0) w->matrix[pos[p]] += beta_p * M[p] + gamma_p * C[p] + (K[p] + D[p]);
+        } else {
+            for (int p = 0; p < 196; ++p)
+                if (pos[p] >= 0) w->matrix[pos[p]] += beta_p * M[p] + gamma_p * C[p] + K[p];
+        }
+    }
+    for (int64_t b = 0; b < m->n_bodies; ++b) {
+        const int64_t *pos = m->body_position + 36 * b;
+        const double *M = w->body_mass + 36 * b, *C = w->body_damping + 36 * b, *K = w->body_stiffness + 36 * b;
+        for (int p = 0; p < 36; ++p)
+            if (pos[p] >= 0) w->matrix[pos[p]] += beta_p * M[p] + gamma_p * C[p] + K[p];
+    }
+    for (int64_t j = 0; j < m->n_hinges; ++j)
+        if (m->hinge_position[j] >= 0)
+            w->matrix[m->hinge_position[j]] += gamma_p * w->hinge_d_rate[j] + w->hinge_d_theta[j];
+    for (int64_t l = 0; l < m->n_loads; ++l) {
+        const int64_t *pos = m->load_position + 9 * l;
+        for (int p = 0; p < 9; ++p)
+            if (pos[p] >= 0) w->matrix[pos[p]] += w->load_blocks[9 * l + p];
+    }
+}
+
+/* The LU of the assembled matrix, with BLAS on one thread (latdyn/numerics/linalg.py: on a shared machine
+ * a second OpenBLAS thread costs far more than it gains; the caller's setting is restored). */
+static int factor(const Model *m, Work *w)
+{
+    int n = (int)m->n_dofs, info = 0;
+    int threads = m->get_blas_threads ? m->get_blas_threads() : 1;
+    if (threads != 1) m->set_blas_threads(1);
+    if (m->sparse_lu) {
+        info = (int)latdyn_sparse_lu_factor(m->sparse_lu, w->matrix);
+    } else if (m->band) {
+        int kl = (int)m->kl, ku = (int)m->ku, ldab = (int)m->ldab;
+        m->gbtrf(&n, &n, &kl, &ku, w->matrix, &ldab, w->pivots, &info);
+    } else {
+        m->getrf(&n, &n, w->matrix, &n, w->pivots, &info);
+    }
+    if (threads != 1) m->set_blas_threads(threads);
+    return info;
+}
+
+/* dx = −S⁻¹ r in the permuted numbering of the factorization. */
+static int solve(const Model *m, Work *w, const double *residual, double *dx)
+{
+    int n = (int)m->n_dofs, one = 1, info = 0;
+    char trans = 'N';
+    for (int64_t i = 0; i < m->n_dofs; ++i) w->rhs[m->permutation[i]] = -residual[i];
+    if (m->sparse_lu) {
+        latdyn_sparse_lu_solve(m->sparse_lu, w->matrix, w->rhs);
+    } else if (m->band) {
+        int kl = (int)m->kl, ku = (int)m->ku, ldab = (int)m->ldab;
+        m->gbtrs(&trans, &n, &kl, &ku, &one, w->matrix, &ldab, w->pivots, w->rhs, &n, &info);
+    } else {
+        m->getrs(&trans, &n, &one, w->matrix, &n, w->pivots, w->rhs, &n, &info);
+    }
+    for (int64_t i = 0; i < m->n_dofs; ++i) dx[i] = w->rhs[m->permutation[i]];
+    return info;
+}
+
+/* integrators.increment_size: per free node |Δd|/ℓ and |Δπ|, per free hinge |Δθ|; the largest. */
+static double increment_size(const Model *m, const double *dx, double length)
+{
+    double size = 0.0;
+    for (int64_t k = 0; k < m->n_free_nodes; ++k) {
+        const int64_t *d = m->node_dofs + 6 * m->free_nodes[k];
+        double u[6];
+        for (int j = 0; j < 6; ++j) u[j] = free_entry(dx, d[j], m->n_dofs);
+        double t = sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]) / length;
+        double r = sqrt(u[3] * u[3] + u[4] * u[4] + u[5] * u[5]);
+        if (t > size) size = t;
+        if (r > size) size = r;
+    }
+    for (int64_t k = 0; k < m->n_free_hinges; ++k) {
+        double h = fabs(dx[m->hinge_dofs[m->free_hinges[k]]]);
+        if (h > size) size = h;
+    }
+    return size;
+}
+
+/* Settings and results of one step. */
+typedef struct {
+    /* in */
+    double h, alpha_m, alpha_f, gamma, beta, tol, length;
+    int64_t max_iterations;
+    int64_t modified;          /* keep the factorization while Newton contracts */
+    int64_t inertia_tangent;   /* add the elements' inertia tangent to the matrix (integrators.py) */
+    double tangent_step;       /* its central-difference step (INERTIA_TANGENT_STEP) */
+    double contraction;        /* rebuild when |Δx_k| > contraction |Δx_{k−1}| */
+    /* in/out: the factorization held in Work belongs to this step size (0: none) */
+    double factored_h;
+    /* out */
+    int64_t iterations, converged, factorizations;
+    double power;
+    double contraction_seen;   /* largest |Δx_k| / |Δx_{k−1}| of the step (StepStats.contraction) */
+    /* in: the step's end time (the laws' time when the model has them compiled) */
+    double t_new;
+} StepControl;
+
+/* One step from `base` (velocities v_n, accelerations v̇_n, algorithmic acceleration a_n on the
+ * free coordinates) to `trial`; on return v and vdot hold the new velocities and accelerations,
+ * w->total the last evaluation (residual and reaction). Mirrors GeneralizedAlpha.step. */
+/* v_n and v̇_n of the free coordinates from a configuration (assembly.free_velocity, free_acceleration). */
+static void free_rates(const Model *m, const Configuration *c, double *velocity, double *acceleration)
+{
+    for (int64_t k = 0; k < m->n_free_nodes; ++k) {
+        int64_t i = m->free_nodes[k];
+        const int64_t *d = m->node_dofs + 6 * i;
+        for (int j = 0; j < 6; ++j) {
+            if (d[j] >= m->n_dofs) continue;  /* not a coordinate (planar model) */
+            velocity[d[j]] = j < 3 ? c->v[3 * i + j] : c->w[3 * i + j - 3];
+            acceleration[d[j]] = j < 3 ? c->a[3 * i + j] : c->alpha[3 * i + j - 3];
+        }
+    }
+    for (int64_t k = 0; k < m->n_free_hinges; ++k) {
+        int64_t j = m->free_hinges[k];
+        velocity[m->hinge_dofs[j]] = c->theta_dot[j];
+        acceleration[m->hinge_dofs[j]] = c->theta_ddot[j];
+    }
+}
+
+/* Buffers of one step, each of n_dofs entries. */
+typedef struct {
+    double *v_n, *vdot_n, *a_n, *v, *vdot, *dq, *dx, *a_new;
+} StepVectors;
+
+int64_t latdyn_newton_step(const Model *m, Work *w, StepControl *s, const Configuration *base,
+                           Configuration *trial, StepVectors *x, const double *laws)
+{
+    const int64_t n = m->n_dofs;
+    const double h = s->h, am = s->alpha_m, af = s->alpha_f, ga = s->gamma, be = s->beta;
+    const double beta_p = (1 - am) / (h * h * be * (1 - af)), gamma_p = ga / (h * be);
+    const double *v_n = x->v_n, *vdot_n = x->vdot_n, *a_n = x->a_n;
+    double *v = x->v, *vdot = x->vdot, *dq = x->dq, *dx = x->dx;
+    double previous = INFINITY;
+    if (m->time_laws != NULL) {  /* the laws at the step's end time, compiled */
+        m->time_laws(s->t_new, w->laws);
+        laws = w->laws;
+    }
+    free_rates(m, base, x->v_n, x->vdot_n);
+    int rebuild = s->factored_h != h; /* modified Newton: the held factorization is stale */
+    s->iterations = 0;
+    s->converged = 0;
+    s->factorizations = 0;
+    s->contraction_seen = 0.0;
+    for (int64_t i = 0; i < n; ++i) {
+        double a_new = (af * vdot_n[i] + (1 - af) * vdot_n[i] - am * a_n[i]) / (1 - am);
+        vdot[i] = vdot_n[i];
+        v[i] = v_n[i] + h * (1 - ga) * a_n[i] + h * ga * a_new;
+        dq[i] = v_n[i] + h * (0.5 - be) * a_n[i] + h * be * a_new;
+    }
+    for (int64_t iteration = 1; iteration <= s->max_iterations; ++iteration) {
+        for (int64_t i = 0; i < n; ++i) dx[i] = h * dq[i];
+        configure(m, base, trial, dx, v, vdot, laws);
+        int matrices = !s->modified || rebuild;
+        s->power = evaluate(m, trial, w, laws, s->t_new, matrices);
+        if (n == 0) {
+            s->converged = 1;
+            return 0;
+        }
+        if (matrices) {
+            if (s->inertia_tangent) inertia_tangent(m, trial, w, s->tangent_step, s->length);
+            assemble(m, w, beta_p, gamma_p, (int)s->inertia_tangent);
+            s->factorizations += 1;
+            s->factored_h = 0.0;
+            if (factor(m, w) != 0) return 1;
+            s->factored_h = h;
+            rebuild = 0;
+        }
+        if (solve(m, w, w->total, dx) != 0) return 1;
+        for (int64_t i = 0; i < n; ++i)
+            if (!isfinite(dx[i])) return 1;
+        for (int64_t i = 0; i < n; ++i) {
+            dq[i] += dx[i] / h;
+            v[i] += gamma_p * dx[i];
+            vdot[i] += beta_p * dx[i];
+        }
+        s->iterations = iteration;
+        double size = increment_size(m, dx, s->length);
+        if (iteration > 1 && size / previous > s->contraction_seen) s->contraction_seen = size / previous;
+        if (size <= s->tol) {
+            s->converged = 1;
+            for (int64_t i = 0; i < n; ++i) {
+                dx[i] = h * dq[i];
+                /* the algorithmic acceleration of the new step (GeneralizedAlpha.a_candidate) */
+                x->a_new[i] = (af * vdot_n[i] + (1 - af) * vdot[i] - am * a_n[i]) / (1 - am);
+            }
+            configure(m, base, trial, dx, v, vdot, laws);
+            return 0;
+        }
+        /* modified Newton: a new matrix when the old one stops contracting */
+        if (s->modified && size > s->contraction * previous) rebuild = 1;
+        previous = size;
+    }
+    return 0;
+}
+
+/* ------------------------------------------------------------------------- the loop of steps */
+
+/* solve._lock_tolerance */
+static double lock_tolerance(double at) { return 1e-7 * fmax(1.0, fabs(at)); }
+
+/* Whether the step old → new holds an event that solve.py handles (and the loop must not
+ * accept by itself): a free hinge that reaches or crosses its lock_at (solve._lock_events),
+ * crosses a stop from inside (solve._stop_crossings), or ends on or beyond a stop moving into
+ * it (solve._hinge_stops). */
+static int hinge_event(const Model *m, const Configuration *old, const Configuration *new_)
+{
+    for (int64_t k = 0; k < m->n_free_hinges; ++k) {
+        int64_t j = m->free_hinges[k];
+        double lock = m->hinge_lock_at[j];
+        if (!isnan(lock)) {
+            double before = old->theta[j] - lock, after = new_->theta[j] - lock;
+            if (before == 0.0 || fabs(after) <= lock_tolerance(lock) || before * after < 0.0) return 1;
+        }
+        for (int side = -1; side <= 1; side += 2) {
+            double stop = side < 0 ? m->hinge_lower_stop[j] : m->hinge_upper_stop[j];
+            if (isnan(stop)) continue;
+            double before = side * (old->theta[j] - stop), after = side * (new_->theta[j] - stop);
+            if (before < -lock_tolerance(stop) && after > lock_tolerance(stop)) return 1;
+            if (after >= -lock_tolerance(stop) && side * new_->theta_dot[j] >= 0.0) return 1;
+        }
+    }
+    return 0;
+}
+
+/* Power of the constraint forces that impose prescribed motion (solve._drive_power): the
+ * reaction of the last evaluation (w->total on the constrained coordinates n_dofs … n_total−1)
+ * times the velocities of those coordinates. */
+static double drive_power(const Model *m, const Configuration *c, const double *total)
+{
+    const int64_t n = m->n_dofs, n_total = m->n_total;
+    double power = 0.0;
+    for (int64_t i = 0; i < m->n_nodes; ++i) {
+        const int64_t *d = m->node_dofs + 6 * i;
+        for (int j = 0; j < 6; ++j)
+            if (d[j] >= n && d[j] < n_total)
+                power += total[d[j]] * (j < 3 ? c->v[3 * i + j] : c->w[3 * i + j - 3]);
+    }
+    for (int64_t j = 0; j < m->n_hinges; ++j) {
+        int64_t d = m->hinge_dofs[j];
+        if (d >= n && d < n_total) power += total[d] * c->theta_dot[j];
+    }
+    return power;
+}
+
+/* A loop of steps on the time grid (solve.transient's loop, for the steps it would accept as
+ * they come). */
+typedef struct {
+    /* in: the grid t_k = k dt (t_{n_grid} = t_end), the steps to take (grid_index → stop_index),
+     * the start time, and the wall time after which the loop returns (≤ 0: none) */
+    double dt, t_end;
+    int64_t n_grid, grid_index, stop_index;
+    double t, budget_s;
+    /* in/out: the power of loads and prescribed motion at the last accepted state, and the work
+     * done since the start of the run (trapezoidal rule, as solve.transient) */
+    double power, external_work;
+    /* out: steps accepted, their Newton iterations and factorizations; why the loop returned
+     * (0 at stop_index, 1 a step did not converge, 2 a step holds an event, 3 the budget);
+     * the last accepted state's time (the state itself is copied to `last`); with status 1 or
+     * 2, the scratch configuration that holds the step not accepted (its counters stay in the
+     * StepControl) and that step's size */
+    int64_t steps, iterations, factorizations, status, last, pending;
+    double t_last, h_pending;
+} Advance;
+
+/* dst ← src, every node and hinge. */
+static void copy_configuration(const Model *m, const Configuration *src, Configuration *dst)
+{
+    const size_t N = (size_t)m->n_nodes, H = (size_t)m->n_hinges;
+    memcpy(dst->x, src->x, sizeof(double) * 3 * N);
+    memcpy(dst->T, src->T, sizeof(double) * 9 * N);
+    memcpy(dst->v, src->v, sizeof(double) * 3 * N);
+    memcpy(dst->w, src->w, sizeof(double) * 3 * N);
+    memcpy(dst->a, src->a, sizeof(double) * 3 * N);
+    memcpy(dst->alpha, src->alpha, sizeof(double) * 3 * N);
+    memcpy(dst->theta, src->theta, sizeof(double) * H);
+    memcpy(dst->theta_dot, src->theta_dot, sizeof(double) * H);
+    memcpy(dst->theta_ddot, src->theta_ddot, sizeof(double) * H);
+}
+
+static double seconds_now(void)
+{
+    struct timespec now;
+    clock_gettime(CLOCK_MONOTONIC, &now);
+    return (double)now.tv_sec + 1e-9 * (double)now.tv_nsec;
+}
+
+/* Steps from `start` (at adv->t, on grid point grid_index) through grid point stop_index,
+ * each landing on the grid (h = t_{k+1} − t_k) as solve.transient takes them at the nominal
+ * step: latdyn_newton_step with the compiled laws, then acceptance (the algorithmic
+ * acceleration carried, the external work by the trapezoidal rule). It returns at the first
+ * step that does not converge or that holds a hinge event, without accepting it, so that the
+ * caller's loop handles that step as it always has; it never fails by itself. States alternate
+ * between the two scratch configurations; `start` is read only; the last accepted state is
+ * copied to `last` (when a step was accepted). */
+int64_t latdyn_advance(const Model *m, Work *w, StepControl *s, const Configuration *start,
+                       Configuration *scratch, Configuration *last, StepVectors *x, Advance *adv)
+{
+    const int64_t n = m->n_dofs;
+    const double started = adv->budget_s > 0.0 ? seconds_now() : 0.0;
+    const Configuration *base = start;
+    double t = adv->t;
+    adv->steps = adv->iterations = adv->factorizations = 0;
+    adv->last = -1;
+    adv->pending = -1;
+    adv->status = 0;
+    for (int64_t k = adv->grid_index; k < adv->stop_index; ++k) {
+        const double target = k + 1 >= adv->n_grid ? adv->t_end : (double)(k + 1) * adv->dt;
+        const int next = adv->last == 0 ? 1 : 0;
+        Configuration *trial = scratch + next;
+        s->h = target - t;
+        s->t_new = target;
+        int64_t failed = latdyn_newton_step(m, w, s, base, trial, x, NULL);
+        if (failed || !s->converged) {
+            adv->status = 1;
+        } else if (m->has_events && hinge_event(m, base, trial)) {
+            adv->status = 2;
+        }
+        if (adv->status) {
+            adv->pending = next;
+            adv->h_pending = s->h;
+            break;
+        }
+        /* accepted: GeneralizedAlpha.accept, and the work of loads and prescribed motion */
+        memcpy(x->a_n, x->a_new, sizeof(double) * (size_t)n);
+        double power = s->power + drive_power(m, trial, w->total);
+        adv->external_work += 0.5 * s->h * (adv->power + power);
+        adv->power = power;
+        adv->steps += 1;
+        adv->iterations += s->iterations;
+        adv->factorizations += s->factorizations;
+        adv->last = next;
+        base = trial;
+        t = target;
+        if (adv->budget_s > 0.0 && seconds_now() - started > adv->budget_s && k + 1 < adv->stop_index) {
+            adv->status = 3;
+            break;
+        }
+    }
+    adv->t_last = t;
+    if (adv->steps) copy_configuration(m, base, last);
+    return adv->status;
+}
+
+/* Kinetic, strain and gravity potential energy of the whole model at c (Assembler.energies):
+ * out = [kinetic, strain, potential]. Springs with a law have hinge_stiffness 0 here: the caller
+ * adds their potential (Assembler.hinge_potential integrates the law). */
+void latdyn_energies(const Model *m, Work *w, const Configuration *c, double *out)
+{
+    const int64_t E = m->n_elements;
+    double kinetic = 0.0, strain = 0.0, potential = 0.0;
+    element_inputs(m, c, w, 0, E);
+    m->strain_energy(E, w->geometry, m->element_sections, w->strain, w->section_forces);
+    m->kinetic_energy(E, w->geometry, w->rates, m->element_sections, w->kinetic);
+    if (m->has_gravity)
+        m->gravity_load(E, w->geometry, m->element_sections, w->gravity_rows, w->gravity_force,
+                        w->gravity_potential, w->first_moment);
+    for (int64_t e = 0; e < E; ++e) {
+        kinetic += w->kinetic[e];
+        strain += w->strain[e];
+        if (m->has_gravity) potential += w->gravity_potential[e];
+    }
+    for (int64_t j = 0; j < m->n_hinges; ++j) {
+        double s = c->theta[j] - m->hinge_rest_angle[j];
+        strain += 0.5 * m->hinge_stiffness[j] * s * s;
+    }
+    for (int64_t b = 0; b < m->n_bodies; ++b) {
+        int64_t i = m->body_nodes[b];
+        const double *T = c->T + 9 * i, *om = c->w + 3 * i;
+        double mass = m->body_mass[b], rc[3], wr[3], vc[3], TI[9], Tt[9], J[9], Jw[3];
+        matvec3(T, m->body_com + 3 * b, rc);
+        cross(om, rc, wr);
+        for (int p = 0; p < 3; ++p) vc[p] = c->v[3 * i + p] + wr[p];
+        for (int p = 0; p < 3; ++p)
+            for (int q = 0; q < 3; ++q) Tt[3 * p + q] = T[3 * q + p];
+        matmul3(T, m->body_inertia + 9 * b, TI);
+        matmul3(TI, Tt, J);
+        matvec3(J, om, Jw);
+        kinetic += 0.5 * mass * (vc[0] * vc[0] + vc[1] * vc[1] + vc[2] * vc[2])
+                 + 0.5 * (om[0] * Jw[0] + om[1] * Jw[1] + om[2] * Jw[2]);
+        for (int p = 0; p < 3; ++p) potential -= mass * (c->x[3 * i + p] + rc[p]) * m->gravity[p];
+    }
+    out[0] = kinetic;
+    out[1] = strain;
+    out[2] = potential;
+}
+
+/* Threads an evaluation above the threshold would use: 0 when compiled without OpenMP. */
+int64_t latdyn_threads(void)
+{
+#ifdef _OPENMP
+    return omp_get_max_threads();
+#else
+    return 0;
+#endif
+}

@@ -1,0 +1,545 @@
+"""Time integration on the Lie group (R³ × SO(3))ⁿ × Rᵐ.
+
+Default: Lie-group generalized-α (Arnold & Brüls 2007; Brüls, Cardona & Arnold
+2012).  With v the velocities (spatial angular velocities for rotations), v̇
+their derivatives and a the algorithmic acceleration:
+
+    q_{n+1}   = q_n ∘ exp(h Δq_n),  Δq_n = v_n + h(½ − β) a_n + hβ a_{n+1}
+    v_{n+1}   = v_n + h(1 − γ) a_n + hγ a_{n+1}
+    (1 − α_m) a_{n+1} + α_m a_n = (1 − α_f) v̇_{n+1} + α_f v̇_n
+    r(q_{n+1}, v_{n+1}, v̇_{n+1}, t_{n+1}) = 0      (equilibrium at t_{n+1})
+
+Newton on v̇_{n+1} with the iteration matrix S = β′M + γ′C + K, β′ = (1 − α_m)/(h²β(1 − α_f)),
+γ′ = γ/(hβ); the correction Δx updates Δq += Δx/h, v += γ′Δx, v̇ += β′Δx.
+K omits the tangent operator of exp (T(hΔq) ≈ I) and, by default, the inertia
+tangent ∂(Mv̇ + g − f_gravity)/∂q of the elements: on directions with inertia both
+are O(h²) against β′M, cost a few Newton iterations at large steps, and leave the
+converged solution exact (see benchmarks/newton_tangent.py).  On a direction with
+no or little inertia nothing stands in for the inertia tangent: in a bent
+Euler–Bernoulli element without rotary inertia the interpolated centreline turns
+with the nodal twist (a twist inertia ~ φ², :mod:`latdyn.numerics.inertia`), so the inertia
+and gravity forces change with the twist as much as the internal force does, in
+opposite sense, and K alone makes Newton diverge on the twist at any step size
+(D4, docs/verification.md).  When Newton fails, the time loop switches the run to
+``inertia_tangent`` (:func:`inertia_tangent`: the omitted term by central
+differences, element by element) before it cuts the step.
+
+The same scheme gives, by its parameters:
+  ``generalized-alpha``: α_m = (2ρ∞ − 1)/(ρ∞ + 1), α_f = ρ∞/(ρ∞ + 1)
+  ``hht-alpha``:         α_m = 0, α_f = (1 − ρ∞)/(1 + ρ∞) ∈ [0, ⅓] (HHT parameters, ρ∞ ≥ ½)
+  ``newmark``:           α_m = α_f = 0, γ = ½, β = ¼ (trapezoidal rule)
+with γ = ½ + α_f − α_m and β = ¼(γ + ½)².
+
+``explicit``: a Lie-group Störmer–Verlet (central difference) step on the
+directions with inertia; directions without inertia, and the light ones the
+step cannot integrate (the twist of a bent Euler–Bernoulli element, inertia
+~ φ², see :mod:`latdyn.numerics.inertia`), are condensed by a Newton solve of their
+static equations at every step.
+
+Directions without inertia (the twist of an Euler–Bernoulli beam without
+rotary inertia, the spin of a massless joint about a hinge axis …) are found
+joint by joint by :mod:`latdyn.numerics.inertia`, invariant under rigid motions; the
+iteration matrix S stays regular on them through K, and only the start (and
+the explicit step) needs the split.
+
+Newton stops when the increment is small in :func:`increment_size`: per node
+|Δd|/ℓ and |Δπ| in radians, per hinge |Δθ| — dimensionless, and invariant
+under rigid motions of the scene (norms of 3-vectors, ℓ the scene's size).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sps
+
+from latdyn.assembly.assembler import (
+    Assembler,
+    State,
+    advance,
+    apply_prescribed,
+    free_acceleration,
+    free_velocity,
+    padded,
+    unpack_free,
+)
+from latdyn.errors import SolverError
+from latdyn.numerics.inertia import (
+    joint_blocks,
+    joint_groups,
+    joint_norms,
+    split_inertia,
+)
+from latdyn.numerics.linalg import solve_linear
+
+
+@dataclass(frozen=True)
+class AlphaParameters:
+    alpha_m: float
+    alpha_f: float
+    gamma: float
+    beta: float
+
+    @classmethod
+    def for_method(cls, method: str, rho_inf: float) -> "AlphaParameters":
+        if method == "generalized-alpha":
+            am = (2 * rho_inf - 1) / (rho_inf + 1)
+            af = rho_inf / (rho_inf + 1)
+        elif method == "hht-alpha":
+            am = 0.0
+            af = min((1 - rho_inf) / (1 + rho_inf), 1 / 3)
+        elif method == "newmark":
+            return cls(0.0, 0.0, 0.5, 0.25)
+        else:
+            raise ValueError(f"unknown implicit method {method!r}")
+        gamma = 0.5 + af - am
+        return cls(am, af, gamma, 0.25 * (gamma + 0.5) ** 2)
+
+
+@dataclass
+class StepStats:
+    iterations: int = 0
+    converged: bool = False
+    residual: np.ndarray | None = None
+    factorizations: int | None = None  # iteration matrices factorized (None: one per iteration)
+    contraction: float = 0.0  # largest |Δx_k| / |Δx_{k−1}| of the step's Newton increments
+
+
+def increment_size(model, dx: np.ndarray, length: float) -> float:
+    """The size of a Newton increment, dimensionless and invariant under rigid motions.
+
+    Per free node, |Δd| / ℓ (ℓ the size of the scene) and |Δπ| (radians, the norm
+    of the spatial rotation increment), per free hinge |Δθ|; the largest of them.
+    Norms of 3-vectors do not depend on the frame, component maxima would.
+    """
+    nodes = model.node_dofs[model.free_nodes]
+    dx = padded(model, dx)  # node slots that are not coordinates (planar models) read 0
+    translation = np.linalg.norm(dx[nodes[:, 0:3]], axis=1) / length
+    rotation = np.linalg.norm(dx[nodes[:, 3:6]], axis=1)
+    hinge = np.abs(dx[model.hinge_dofs[model.free_hinges]])
+    return float(max(np.max(translation, initial=0.0), np.max(rotation, initial=0.0),
+                     np.max(hinge, initial=0.0)))
+
+
+def consistent_acceleration(model, ev) -> np.ndarray:
+    """The correction Δv̇ that makes the accelerations consistent with the equations of motion.
+
+    With Q = [Q_m, Q_c] from :func:`latdyn.numerics.inertia.split_inertia` (M Q_c = 0) and
+    Δv̇ = Q_m y_m + Q_c y_c:  Q_mᵀ M Q_m y_m = −Q_mᵀ r  (the residual is affine in
+    v̇ with slope M), and the directions without inertia follow the massive ones as
+    the time derivative of their static equilibrium prescribes to first order,
+    Q_cᵀ K Q_c y_c = −Q_cᵀ K Q_m y_m.  No artificial inertia is added anywhere.
+    """
+    M = ev.mass
+    split = split_inertia(model, M)
+    Qm, Qc = split.massive, split.massless
+    delta = np.zeros(model.n_dofs)
+    if split.n_massive:
+        y_m = solve_linear((Qm.T @ M @ Qm).tocsr(), -(Qm.T @ ev.residual))
+        delta += Qm @ y_m
+    if split.n_massless:
+        K = ev.stiffness
+        Kcc = (Qc.T @ K @ Qc).tocsr()
+        try:
+            delta += Qc @ solve_linear(Kcc, -(Qc.T @ (K @ delta)))
+        except (np.linalg.LinAlgError, RuntimeError) as exc:
+            raise SolverError("a coordinate without inertia is held by no stiffness",
+                              "directions of the model carry neither inertia nor stiffness; "
+                              "`latdyn check` names the coordinate") from exc
+    return delta
+
+
+#: Central-difference step of :func:`inertia_tangent` (radians for rotations and hinges,
+#: metres · ``length`` for translations).
+INERTIA_TANGENT_STEP = 1e-6
+
+
+def node_colouring(model) -> np.ndarray:
+    """A colour per node such that the two ends of every element differ (greedy, in node
+    order: a beam's chain of nodes gets two colours). Nodes of one colour can be perturbed
+    together: each element then sees the perturbation of one end only."""
+    n_nodes = len(model.nodes)
+    neighbours: list[set] = [set() for _ in range(n_nodes)]
+    for a, b in np.asarray(model.element_nodes).reshape(-1, 2):
+        if a != b:
+            neighbours[int(a)].add(int(b))
+            neighbours[int(b)].add(int(a))
+    colour = np.zeros(n_nodes, dtype=np.int64)
+    for i in range(n_nodes):
+        used = {int(colour[k]) for k in neighbours[i] if k < i}
+        c = 0
+        while c in used:
+            c += 1
+        colour[i] = c
+    return colour
+
+
+def inertia_rounds(model, colour: np.ndarray, length: float) -> list[np.ndarray]:
+    """The perturbation vectors of :func:`inertia_tangent`: for each colour and each of the
+    seven coordinates of an element end (d, π, θ), that coordinate of every free node (or
+    hinge) of that colour, scaled by the step (``length`` · step for translations)."""
+    n = model.n_dofs
+    eps = INERTIA_TANGENT_STEP
+    rounds = []
+    hinge_node = np.array([h.node for h in model.hinges], dtype=np.int64)
+    for c in range(int(colour.max(initial=-1)) + 1):
+        nodes = model.free_nodes[colour[model.free_nodes] == c]
+        for k in range(7):
+            delta = np.zeros(n + 1)
+            if k < 6:
+                dofs = model.node_dofs[nodes, k]
+                delta[dofs[dofs < n]] = eps * (length if k < 3 else 1.0)  # a planar node lacks 3 slots
+            else:
+                hinges = model.free_hinges[colour[hinge_node[model.free_hinges]] == c]
+                delta[model.hinge_dofs[hinges]] = eps
+            delta = delta[:n]
+            if np.any(delta):
+                rounds.append(delta)
+    return rounds
+
+
+def inertia_tangent(assembler, state, rounds: list[np.ndarray]) -> np.ndarray:
+    """∂(M v̇ + g − f_gravity)/∂q of every element at ``state``, (E, 14, 14), by central differences.
+
+    The term the iteration matrix leaves out (module docstring), at fixed velocities and
+    accelerations, for the same update T ← exp(skew Δπ) T, x ← x + Δd, θ ← θ + Δθ as the
+    internal-force tangent. Column j of an element is found from one perturbation of all
+    nodes of one colour in one coordinate (``rounds``, :func:`inertia_rounds`): no element
+    has both ends of one colour, so each element's change comes from one column; 7 × colours
+    perturbations in all (14 for a chain), whatever the model's size. Joint bodies are left
+    out: they carry their own inertia.
+    """
+    model = assembler.model
+    ks = assembler.kernels
+    n = model.n_dofs
+    section = model.element_sections
+    dofs = model.element_dofs
+
+    def forces(s) -> np.ndarray:
+        geometry = assembler.element_geometry(s)
+        qdot = assembler.element_rates(s, s.v, s.w, s.theta_dot)
+        qddot = assembler.element_rates(s, s.a, s.alpha, s.theta_ddot)
+        (m_e,) = ks.beam_mass_matrix(geometry, section)
+        (g_e,) = ks.beam_quadratic_velocity(geometry, qdot, section)
+        f = np.einsum("eij,ej->ei", m_e, qddot) + g_e
+        if assembler.has_gravity:
+            f -= ks.beam_gravity(geometry, section, np.broadcast_to(assembler.gravity, (len(geometry), 3)))[0]
+        return f
+
+    tangent = np.zeros((len(dofs), 14, 14))
+    for delta in rounds:
+        difference = forces(advance(model, state, delta)) - forces(advance(model, state, -delta))
+        step = np.append(delta, 0.0)[np.where(dofs < n, dofs, n)]  # (E, 14): the perturbed column of each element
+        for j in range(14):
+            hit = step[:, j] != 0.0
+            tangent[hit, :, j] = difference[hit] / (2.0 * step[hit, j][:, None])
+    return tangent
+
+
+class GeneralizedAlpha:
+    """One step of the Lie-group generalized-α family; state kept explicit."""
+
+    def __init__(self, assembler: Assembler, params: AlphaParameters, tol: float, max_iterations: int,
+                 length_scale: float):
+        self.assembler = assembler
+        self.p = params
+        self.tol = tol
+        self.max_iterations = max_iterations
+        self.length_scale = length_scale
+        self.a = None  # algorithmic acceleration (free coordinates)
+        #: add the elements' inertia tangent to the iteration matrix (:func:`inertia_tangent`);
+        #: switched on by the time loop when Newton fails without it
+        self.inertia_tangent = False
+
+    def start(self, state: State) -> None:
+        """Consistent initial accelerations (see :func:`consistent_acceleration`)."""
+        model = self.assembler.model
+        if model.n_dofs:
+            ev = self.assembler.evaluate(state, matrices=True)
+            vdot0 = free_acceleration(model, state) + consistent_acceleration(model, ev)
+            unpack_free(model, vdot0, state.a, state.alpha, state.theta_ddot)
+        self.a = free_acceleration(model, state)
+
+    def step(self, state: State, h: float, t_new: float | None = None) -> tuple[State, StepStats]:
+        """One step of size h from ``state``; ``t_new`` (default t + h) is the exact landing time."""
+        model = self.assembler.model
+        p = self.p
+        n = model.n_dofs
+        t_new = state.t + h if t_new is None else t_new
+        v_n = free_velocity(model, state)
+        vdot_n = free_acceleration(model, state)
+        a_n = self.a
+        # predictor: v̇_{n+1} = v̇_n
+        vdot = vdot_n.copy()
+        a_new = (p.alpha_f * vdot_n + (1 - p.alpha_f) * vdot - p.alpha_m * a_n) / (1 - p.alpha_m)
+        v = v_n + h * (1 - p.gamma) * a_n + h * p.gamma * a_new
+        dq = v_n + h * (0.5 - p.beta) * a_n + h * p.beta * a_new
+        beta_p = (1 - p.alpha_m) / (h * h * p.beta * (1 - p.alpha_f))
+        gamma_p = p.gamma / (h * p.beta)
+        stats = StepStats()
+
+        def configured() -> State:
+            """q_n ∘ exp(hΔq) at t_{n+1}, with the current v and v̇."""
+            s = advance(model, state, h * dq)
+            apply_prescribed(model, s, t_new)
+            unpack_free(model, v, s.v, s.w, s.theta_dot)
+            unpack_free(model, vdot, s.a, s.alpha, s.theta_ddot)
+            return s
+
+        trial = state
+        previous = np.inf
+        for iteration in range(1, self.max_iterations + 1):
+            trial = configured()
+            ev = self.assembler.evaluate(trial, matrices=True)
+            if self.inertia_tangent and n:
+                element, *rest = ev.blocks["stiffness"]
+                ev.blocks["stiffness"] = (element + inertia_tangent(self.assembler, trial, self.rounds()), *rest)
+            self.last_evaluation = ev
+            if n == 0:
+                stats.converged = True
+                break
+            S = ev.combined(beta_p, gamma_p, 1.0)
+            try:
+                dx = solve_linear(S, -ev.residual)
+            except (np.linalg.LinAlgError, RuntimeError):
+                stats.residual = ev.residual
+                break
+            if not np.all(np.isfinite(dx)):
+                stats.residual = ev.residual
+                break
+            dq += dx / h
+            v += gamma_p * dx
+            vdot += beta_p * dx
+            stats.iterations = iteration
+            size = increment_size(model, dx, self.length_scale)
+            if iteration > 1:
+                stats.contraction = max(stats.contraction, size / previous)
+            previous = size
+            if size <= self.tol:
+                stats.converged = True
+                trial = configured()
+                break
+            stats.residual = ev.residual
+        if stats.converged:
+            self.a_candidate = (p.alpha_f * vdot_n + (1 - p.alpha_f) * vdot - p.alpha_m * a_n) / (1 - p.alpha_m)
+        return trial, stats
+
+    def accept(self) -> None:
+        self.a = self.a_candidate
+
+    def rounds(self) -> list[np.ndarray]:
+        """Perturbations of :func:`inertia_tangent` for the current numbering (rebuilt after a latch)."""
+        model = self.assembler.model
+        key = (model.n_dofs, tuple(model.free_hinges))
+        if getattr(self, "_rounds_key", None) != key:
+            colour = node_colouring(model)
+            self._rounds, self._rounds_key = inertia_rounds(model, colour, self.length_scale), key
+        return self._rounds
+
+    def error_estimate(self, h: float) -> float:
+        """Local error of the position update, h²|β − 1/6| ‖a_{n+1} − a_n‖ (Géradin & Cardona).
+
+        The norm is the largest mass-weighted joint norm (:func:`latdyn.numerics.inertia.joint_norms`):
+        a length, blind to directions without inertia (whose algorithmic accelerations
+        carry no dynamics) and invariant under rigid motions of the scene.
+        """
+        ev = getattr(self, "last_evaluation", None)
+        if ev is None or self.assembler.model.n_dofs == 0:
+            return 0.0
+        blocks = joint_blocks(self.assembler.model, ev.mass, self.groups())
+        size = joint_norms(blocks, self.a_candidate - self.a)
+        return h * h * abs(self.p.beta - 1 / 6) * float(np.max(size, initial=0.0))
+
+    def groups(self) -> np.ndarray:
+        """Joint groups of the current numbering (rebuilt after a latch)."""
+        model = self.assembler.model
+        key = (model.n_dofs, tuple(model.free_hinges))
+        if getattr(self, "_groups_key", None) != key:
+            self._groups, self._groups_key = joint_groups(model), key
+        return self._groups
+
+
+def _mass_and_stiffness(ev):
+    """M and K of an evaluation, assembled once (dense for small models, see latdyn.numerics.linalg)."""
+    cached = getattr(ev, "_explicit_matrices", None)
+    if cached is None:
+        cached = ev.combined(1.0, 0.0, 0.0), ev.combined(0.0, 0.0, 1.0)
+        ev._explicit_matrices = cached
+    return cached
+
+
+def explicit_acceleration(model, ev, split, vdot: np.ndarray) -> np.ndarray:
+    """The accelerations of an explicit step at a configuration whose directions Q_c are condensed.
+
+    ``vdot`` holds the accelerations the residual of ``ev`` was evaluated with.  The
+    residual is affine in v̇ with slope M (Eq. 58), so r₀ = r − M v̇ is the residual
+    at zero free acceleration, and the new accelerations v̇ = Q_m y_m + Q_c y_c are
+    computed afresh from it, not as an increment of the last step's: the split
+    turns with the configuration, and an increment carries the previous step's
+    Q_c component into the next step's split (1.8e-10 m on the L-frame's tip over
+    0.1 s: not the cause of the former blow-up, but no part of the method either).
+
+        Q_mᵀ M (Q_m y_m + Q_c y_c) = −Q_mᵀ r₀     (motion of the directions with inertia)
+        Q_cᵀ K (Q_m y_m + Q_c y_c) = 0           (Q_c follows its statics, linearised)
+
+    For exactly massless Q_c, Q_mᵀ M Q_c = 0 and this is :func:`consistent_acceleration`
+    applied from v̇ = 0;
+    for light Q_c (:func:`latdyn.numerics.inertia.split_inertia` with a step) the coupling term
+    keeps the inertia that the massive directions feel from the condensed motion,
+    and only Q_c's own inertia force, Q_cᵀ M v̇ (relative size ≤ λ), is dropped.
+    """
+    M, K = _mass_and_stiffness(ev)
+    r0 = ev.residual - M @ vdot
+    Qm, Qc = split.massive, split.massless
+    if split.n_massless == 0:
+        return Qm @ solve_linear(Qm.T @ M @ Qm, -(Qm.T @ r0))
+    blocks = [[Qm.T @ M @ Qm, Qm.T @ M @ Qc], [Qc.T @ K @ Qm, Qc.T @ K @ Qc]]
+    if sps.issparse(M):
+        A = sps.bmat(blocks, format="csr")
+    else:
+        A = np.block(blocks)
+    rhs = np.concatenate([-(Qm.T @ r0), np.zeros(split.n_massless)])
+    try:
+        y = solve_linear(A, rhs)
+    except (np.linalg.LinAlgError, RuntimeError) as exc:
+        raise SolverError("a coordinate without inertia is held by no stiffness",
+                          "directions of the model carry neither inertia nor stiffness; "
+                          "`latdyn check` names the coordinate") from exc
+    return split.basis @ y
+
+
+class CentralDifference:
+    """Explicit Lie-group Störmer–Verlet; directions without inertia condensed statically each step.
+
+    Per step (v the velocities, spatial angular velocities for rotations, v̇ their rates):
+
+        v_{n+½} = v_n + ½h v̇_n,   q_{n+1} = q_n ∘ exp(h v_{n+½})            (drift)
+        Q_cᵀ r(q_{n+1}, ṽ_{n+1}) = 0  by Newton along Q_c                    (statics)
+        v̇_{n+1} from :func:`explicit_acceleration`,  v_{n+1} = v_{n+½} + ½h v̇_{n+1} + c/h
+
+    with c the Newton correction of the configuration along Q_c (their rates are
+    the displacement that took over the step).  The residual at t_{n+1} is
+    evaluated with the second-order velocity predictor ṽ_{n+1} = v_{n+½} + ½h v̇_n + c/h,
+    so velocity-dependent forces (gyroscopic, hinge dampers) keep the scheme of
+    order two.
+
+    Q_c holds the directions without inertia *and* the light directions that the
+    step cannot integrate (:mod:`latdyn.numerics.inertia`: the twist of a bent
+    Euler–Bernoulli element has an inertia ~ φ² that no explicit step resolves;
+    counting it as massive made every run blow up as soon as the bending lifted
+    its eigenvalue over ``MASSLESS_TOL``, at the same physical time whatever h).
+    ``max_light`` records the most light directions condensed in one step.
+    """
+
+    def __init__(self, assembler: Assembler, tol: float, max_iterations: int, length_scale: float):
+        self.assembler = assembler
+        self.tol = tol
+        self.max_iterations = max_iterations
+        self.length_scale = length_scale
+        self.a = None
+        self.max_light = 0
+
+    def start(self, state: State) -> None:
+        """Accelerations consistent with the equations of motion (exact null space: no step yet)."""
+        model = self.assembler.model
+        if model.n_dofs:
+            ev = self.assembler.evaluate(state, matrices=True)
+            vdot = free_acceleration(model, state)
+            unpack_free(model, vdot + consistent_acceleration(model, ev), state.a, state.alpha, state.theta_ddot)
+
+    @staticmethod
+    def _check_finite(ev, h: float, t_new: float) -> None:
+        if not np.all(np.isfinite(ev.residual)):
+            raise SolverError(
+                f"explicit integration became unstable at t = {t_new:.6g}",
+                f"the step {h:.3g} exceeds the stability limit 2/ω_max of the stiffest mode with inertia; "
+                "reduce solve.dt or use an implicit method")
+
+    def _split(self, ev, h: float):
+        M, K = _mass_and_stiffness(ev)
+        split = split_inertia(self.assembler.model, M, stiffness=K, step=h)
+        self.max_light = max(self.max_light, split.n_light)
+        return split
+
+    def step(self, state: State, h: float, t_new: float | None = None) -> tuple[State, StepStats]:
+        model = self.assembler.model
+        t_new = state.t + h if t_new is None else t_new
+        stats = StepStats(converged=True)
+        if model.n_dofs == 0:
+            trial = state.copy()
+            apply_prescribed(model, trial, t_new)
+            return trial, stats
+        v = free_velocity(model, state)
+        vdot = free_acceleration(model, state)
+        v_half = v + 0.5 * h * vdot
+        trial = advance(model, state, h * v_half)
+        apply_prescribed(model, trial, t_new)
+        correction = np.zeros(model.n_dofs)
+
+        def predicted() -> np.ndarray:
+            return v_half + 0.5 * h * vdot + correction / h
+
+        unpack_free(model, predicted(), trial.v, trial.w, trial.theta_dot)
+        ev = self.assembler.evaluate(trial, matrices=True)
+        self._check_finite(ev, h, t_new)
+        split = self._split(ev, h)
+        if split.n_massless:
+            Qc = split.massless
+            for _ in range(self.max_iterations):
+                Kcc = Qc.T @ _mass_and_stiffness(ev)[1] @ Qc
+                try:
+                    dx = Qc @ solve_linear(Kcc, -(Qc.T @ ev.residual))
+                except (np.linalg.LinAlgError, RuntimeError):
+                    stats.converged = False
+                    break
+                trial = advance(model, trial, dx)
+                correction += dx
+                unpack_free(model, predicted(), trial.v, trial.w, trial.theta_dot)
+                stats.iterations += 1
+                ev = self.assembler.evaluate(trial, matrices=True)
+                if increment_size(model, dx, self.length_scale) <= self.tol or not np.all(np.isfinite(dx)):
+                    break
+            else:
+                stats.converged = False
+            self._check_finite(ev, h, t_new)
+            split = self._split(ev, h)  # the split of the configuration the accelerations belong to
+        stats.residual = ev.residual
+        if not stats.converged:
+            return trial, stats
+        vdot_new = explicit_acceleration(model, ev, split, vdot)
+        unpack_free(model, vdot_new, trial.a, trial.alpha, trial.theta_ddot)
+        v_new = v_half + 0.5 * h * vdot_new + correction / h
+        unpack_free(model, v_new, trial.v, trial.w, trial.theta_dot)
+        return trial, stats
+
+    def accept(self) -> None:
+        pass
+
+    def error_estimate(self, h: float) -> float:
+        return 0.0
+
+
+def newton_diagnosis(model, residual: np.ndarray | None, t: float, h: float, assembler=None,
+                     state=None) -> str:
+    """Name the coordinates, bodies and beams with the largest residual (cf. Exudyn's SolverErrorMessage)."""
+    if residual is None or len(residual) == 0:
+        return f"at t = {t:.6g} with step {h:.3g}: the linear system could not be solved"
+    names = model.dof_names()
+    worst = np.argsort(-np.abs(residual))[:5]
+    lines = [f"Newton did not converge at t = {t:.6g} with step {h:.3g}; largest residual entries:"]
+    for i in worst:
+        lines.append(f"  {names[i]}: {residual[i]:.3e}")
+    if assembler is not None and state is not None and len(model.element_nodes):
+        psi, _ = assembler.kernels.beam_deformation(assembler.element_geometry(state), model.element_sections)
+        rotation = np.max(np.abs(psi[:, :5]), axis=1)  # φ = sines of the element's end rotations (Eqs. 14-16)
+        e = int(np.argmax(rotation))
+        beam = model.element_beam[e]
+        index = e - int(model.beam_elements[beam][0])
+        lines.append(f"  largest element rotation relative to its chord: beam {beam!r}, element {index}: "
+                     f"sin φ = {rotation[e]:.3f}")
+        if rotation[e] > 0.5:
+            lines.append("  CR-4402 assumes small rotations within an element (Eq. 6): refine the mesh of "
+                         f"beam {beam!r}.")
+    lines.append("Usual causes: a step too large for the fastest mode, a coordinate held only by a tiny "
+                 "stiffness, a load or prescribed motion that jumps, or a structure that buckles.")
+    return "\n".join(lines)

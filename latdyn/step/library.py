@@ -1,0 +1,202 @@
+"""The native boundary: the compiled step library (``csrc/newton_step.c`` with the sparse LU of
+``csrc/sparse_lu.c`` inlined), built once into the kernel cache by :mod:`latdyn.native`, and the
+ctypes mirrors of its C structs (``Model``, ``Work``, ``Configuration``, ``Vectors``,
+``StepControl``, ``Advance``, ``SparseLUStructure``).
+
+Every struct the C side reads is declared here and nowhere else on the Python side;
+``tests/test_engine.py`` checks their sizes and offsets against the compiler's.
+"""
+from __future__ import annotations
+
+import ctypes
+import importlib.resources
+import os
+
+I64 = ctypes.c_int64
+
+
+P = ctypes.c_void_p
+
+
+_LIBRARY = None
+
+
+class SparseLUStructure(ctypes.Structure):
+    """``SparseLU`` of csrc/sparse_lu.c."""
+
+    _fields_ = [("n", I64), ("n_supernodes", I64), ("first", P), ("rows_start", P), ("rows", P), ("lower", P),
+                ("upper", P), ("supernode", P), ("pivot_tolerance", ctypes.c_double), ("gemm", P), ("trsm", P),
+                ("map", P), ("head", P), ("next", P), ("cursor", P), ("update", P), ("scale", P),
+                ("failed_column", I64), ("failed_ratio", ctypes.c_double)]
+
+
+class ModelData(ctypes.Structure):
+    _fields_ = [(name, I64) for name in ("n_nodes", "n_hinges", "n_elements", "n_bodies", "n_loads", "n_dofs",
+                                          "n_total")] + [
+        ("node_dofs", P), ("hinge_dofs", P), ("n_free_nodes", I64), ("n_free_hinges", I64),
+        ("free_nodes", P), ("free_hinges", P),
+        ("n_prescribed", I64), ("prescribed_nodes", P), ("translation_law", P), ("angle_law", P),
+        ("rotation_axis", P), ("node_x0", P), ("hinge_angle_law", P), ("hinge_locked", P),
+        ("element_nodes", P), ("element_hinges", P), ("element_dofs", P),
+        ("element_axes", P), ("element_frames0", P), ("element_offsets", P), ("element_sections", P),
+        ("body_nodes", P), ("body_mass", P), ("body_com", P), ("body_inertia", P),
+        ("hinge_stiffness", P), ("hinge_damping", P), ("hinge_rest_angle", P), ("hinge_torque_law", P),
+        ("load_node", P), ("load_force_law", P), ("load_moment_law", P), ("load_frame_node", P), ("load_r", P),
+        ("gravity", ctypes.c_double * 3), ("has_gravity", I64),
+        ("element_position", P), ("body_position", P), ("hinge_position", P), ("load_position", P),
+        ("band", I64), ("kl", I64), ("ku", I64), ("ldab", I64), ("matrix_size", I64), ("permutation", P),
+        ("internal_force", P), ("internal_force_D_q", P), ("mass_matrix", P), ("quadratic_velocity", P),
+        ("quadratic_velocity_D_qdot", P), ("gravity_load", P), ("strain_energy", P), ("kinetic_energy", P),
+        ("getrf", P), ("getrs", P), ("gbtrf", P), ("gbtrs", P),
+        ("parallel_elements", I64), ("threads", I64),
+        ("node_colour", P), ("hinge_node", P), ("n_colours", I64),
+        ("time_laws", P), ("hinge_laws", P),
+        ("hinge_stiffness_law", P), ("hinge_damping_law", P), ("hinge_torque_hinge_law", P), ("hinge_conservative", P),
+        ("hinge_lock_at", P), ("hinge_lower_stop", P), ("hinge_upper_stop", P), ("has_events", I64),
+        ("sparse_lu", ctypes.POINTER(SparseLUStructure)), ("get_blas_threads", P), ("set_blas_threads", P),
+        ("section_width", I64),
+    ]
+
+
+class WorkData(ctypes.Structure):
+    _fields_ = [(name, P) for name in (
+        "geometry", "rates", "accelerations", "gravity_rows", "force", "tangent", "mass", "quadratic",
+        "quadratic_D", "gravity_force", "gravity_potential", "first_moment", "body_vector", "body_mass",
+        "body_damping", "body_stiffness", "load_blocks", "strain",
+        "section_forces", "kinetic", "total",
+        "matrix", "pivots", "rhs",
+        "inertia_tangent", "forces_plus", "forces_minus", "perturbed_x", "perturbed_T", "perturbed_theta",
+        "p_geometry", "p_rates", "p_accelerations", "p_mass", "p_quadratic", "p_gravity_force",
+        "p_gravity_potential", "p_first_moment", "laws", "hinge_d_theta", "hinge_d_rate")]
+
+
+class ConfigurationData(ctypes.Structure):
+    _fields_ = [(name, P) for name in ("x", "T", "v", "w", "a", "alpha", "theta", "theta_dot", "theta_ddot")]
+
+
+class VectorsData(ctypes.Structure):
+    _fields_ = [(name, P) for name in ("v_n", "vdot_n", "a_n", "v", "vdot", "dq", "dx", "a_new")]
+
+    @classmethod
+    def _fields_and_names(cls):
+        return [name for name, _ in cls._fields_]
+
+
+class ControlData(ctypes.Structure):
+    _fields_ = [(name, ctypes.c_double) for name in ("h", "alpha_m", "alpha_f", "gamma", "beta", "tol",
+                                                      "length")] + [
+        ("max_iterations", I64), ("modified", I64), ("inertia_tangent", I64), ("tangent_step", ctypes.c_double),
+        ("contraction", ctypes.c_double),
+        ("factored_h", ctypes.c_double), ("iterations", I64), ("converged", I64), ("factorizations", I64),
+        ("power", ctypes.c_double), ("contraction_seen", ctypes.c_double), ("t_new", ctypes.c_double)]
+
+
+class AdvanceData(ctypes.Structure):
+    _fields_ = [("dt", ctypes.c_double), ("t_end", ctypes.c_double), ("n_grid", I64), ("grid_index", I64),
+                ("stop_index", I64), ("t", ctypes.c_double), ("budget_s", ctypes.c_double),
+                ("power", ctypes.c_double), ("external_work", ctypes.c_double),
+                ("steps", I64), ("iterations", I64), ("factorizations", I64), ("status", I64), ("last", I64),
+                ("pending", I64), ("t_last", ctypes.c_double), ("h_pending", ctypes.c_double)]
+
+
+#: Element count from which the element part of an evaluation (geometry and kernels) runs on
+#: OpenMP threads (csrc/newton_step.c): measured with benchmarks/step_scaling.py --threads on
+#: the 2-core machine (docs/performance.md, "Threads": quiet, 2 threads gained 1.18× at 100
+#: elements, 1.31× at 10³, 1.72× at 10⁴; with both cores busy with other work they lost up
+#: to 3000 elements). ``LATDYN_PARALLEL_ELEMENTS`` overrides it (0: never); ``OMP_NUM_THREADS``
+#: sets the number of threads.
+PARALLEL_ELEMENTS = 1_000
+
+
+#: OpenMP flag tried first; a compiler without it builds the serial library (the same results).
+OPENMP_FLAGS = ("-fopenmp",)
+
+
+def parallel_threshold() -> int:
+    """The threshold in force: ``LATDYN_PARALLEL_ELEMENTS`` or :data:`PARALLEL_ELEMENTS`."""
+    value = os.environ.get("LATDYN_PARALLEL_ELEMENTS", "").strip()
+    try:
+        return max(0, int(value)) if value else PARALLEL_ELEMENTS
+    except ValueError:
+        return PARALLEL_ELEMENTS
+
+
+def step_library() -> ctypes.CDLL:
+    """Compile (once, into the kernel cache) and load csrc/newton_step.c, with OpenMP where the
+    compiler has it (a failed -fopenmp build is remembered in the cache by an empty marker file)."""
+    global _LIBRARY
+    if _LIBRARY is None:
+        from latdyn import native
+
+        source = library_source("newton_step.c")
+        using = native.compiler()
+        path = None
+        for flags in ((*native.C_FLAGS, *OPENMP_FLAGS), native.C_FLAGS):
+            failed = native.target("newton_step", source, flags, using).with_suffix(".failed")
+            if flags != native.C_FLAGS and failed.exists():
+                continue
+            try:
+                path = native.build("newton_step", source, flags, using=using)
+            except RuntimeError:
+                if flags == native.C_FLAGS:
+                    raise
+                failed.touch()  # this compiler has no OpenMP: remembered in the cache
+                continue
+            break
+        library = native.load(path)
+        library.latdyn_threads.restype = I64
+        library.latdyn_threads.argtypes = []
+        library.latdyn_energies.restype = None
+        library.latdyn_energies.argtypes = [ctypes.POINTER(ModelData), ctypes.POINTER(WorkData),
+                                            ctypes.POINTER(ConfigurationData), P]
+        library.latdyn_newton_step.restype = I64
+        library.latdyn_newton_step.argtypes = [ctypes.POINTER(ModelData), ctypes.POINTER(WorkData),
+                                               ctypes.POINTER(ControlData), ctypes.POINTER(ConfigurationData),
+                                               ctypes.POINTER(ConfigurationData), ctypes.POINTER(VectorsData), P]
+        library.latdyn_advance.restype = I64
+        library.latdyn_advance.argtypes = [ctypes.POINTER(ModelData), ctypes.POINTER(WorkData), ctypes.POINTER(ControlData),
+                                           ctypes.POINTER(ConfigurationData), ctypes.POINTER(ConfigurationData),
+                                           ctypes.POINTER(ConfigurationData), ctypes.POINTER(VectorsData),
+                                           ctypes.POINTER(AdvanceData)]
+        _LIBRARY = library
+    return _LIBRARY
+
+
+def library_source(name: str) -> bytes:
+    """csrc/<name> with its local ``#include "x.c"`` lines replaced by those files (one source
+    file to compile, and the cache digest covers all of it)."""
+    folder = importlib.resources.files("latdyn.step") / "csrc"
+    lines = []
+    for number, line in enumerate((folder / name).read_bytes().splitlines(keepends=True), start=1):
+        words = line.split()
+        if len(words) >= 2 and words[0] == b"#include" and words[1].startswith(b'"'):
+            included = words[1].strip(b'"')
+            lines += [b'#line 1 "%s"\n' % included, (folder / included.decode()).read_bytes(),
+                      b'\n#line %d "%s"\n' % (number + 1, name.encode())]  # compiler messages keep their files
+        else:
+            lines.append(line)
+    return b"".join(lines)
+
+
+def openmp_threads() -> int:
+    """Threads the compiled step uses above the threshold: 0 when it was built without OpenMP."""
+    return int(step_library().latdyn_threads())
+
+
+def cython_address(module, name: str) -> int:
+    """The address of a routine from one of SciPy's cython_blas / cython_lapack capsules."""
+    capsule = module.__pyx_capi__[name]
+    get_name = ctypes.pythonapi.PyCapsule_GetName
+    get_name.restype, get_name.argtypes = ctypes.c_char_p, [ctypes.py_object]
+    get_pointer = ctypes.pythonapi.PyCapsule_GetPointer
+    get_pointer.restype, get_pointer.argtypes = ctypes.c_void_p, [ctypes.py_object, ctypes.c_char_p]
+    return get_pointer(capsule, get_name(capsule))
+
+
+def lapack_address(name: str) -> int:
+    """The address of a LAPACK routine from SciPy's cython_lapack capsules."""
+    import scipy.linalg.cython_lapack as lapack
+
+    return cython_address(lapack, name)
+
+
