@@ -49,7 +49,7 @@ def compile_unit(source: bytes, level: str, folder: Path, name: str) -> tuple[Pa
 def main(variant: str = "default", n: int = 2000) -> None:
     module = importlib.import_module(f"{PACKAGE}.beam_{variant}")
     names = list(module.KERNELS)
-    units = _kernel_sources(variant, names)
+    units = _kernel_sources(f"beam_{variant}", names)
     inputs = realistic_inputs(n, seed=1)
     cpu = next((line.split(":", 1)[1].strip() for line in open("/proc/cpuinfo") if "model name" in line), "?")
     machine = {"cpu": cpu, "cores": os.cpu_count(), "python": platform.python_version(),

@@ -633,12 +633,13 @@ def _stamp(variant: str | None, description: str, kernels: list[PrintedKernel], 
 
 
 def render_variant(
-    variant: str, description: str, kernels: list[PrintedKernel], digest: str
+    variant: str, description: str, kernels: list[PrintedKernel], digest: str, stem: str | None = None
 ) -> dict[str, str]:
-    """File name → text of ``beam_<variant>.py``, ``.c`` and ``.h``."""
+    """File name → text of ``beam_<variant>.py``, ``.c`` and ``.h`` (``<stem>.*`` when given: the
+    ``joints`` unit)."""
     env = _environment()
     context = _stamp(variant, description, kernels, digest)
-    stem = f"beam_{variant}"
+    stem = stem or f"beam_{variant}"
     context["header_name"] = f"{stem}.h"
     context["guard"] = f"LATDYN_{stem.upper()}_H"
     return {
@@ -693,6 +694,10 @@ def is_generated(path: Path) -> bool:
 # --------------------------------------------------------------------------- pipeline
 
 
+#: The unit of joint bodies and point loads (codegen/joints.py): ``generated/joints.{py,c,h}``, one for all variants.
+JOINTS = "joints"
+
+
 @dataclass
 class VariantResult:
     variant: str
@@ -700,7 +705,8 @@ class VariantResult:
 
 
 def _generate_variant(build_kernels: Callable[[str], list[KernelSpec]], variant: str, description: str,
-                      digest: str) -> tuple[dict[str, str], VariantResult, dict[str, float], list[str]]:
+                      digest: str, stem: str | None = None
+                      ) -> tuple[dict[str, str], VariantResult, dict[str, float], list[str]]:
     """Derivation → CSE → print → render of one variant: (files, result, stage seconds, log lines).
 
     A function of its arguments alone, so that variants can be generated in parallel processes
@@ -721,8 +727,15 @@ def _generate_variant(build_kernels: Callable[[str], list[KernelSpec]], variant:
         lines.append(f"  {variant:>14}  {spec.name:<40} {lowered.op_count:>8} ops "
                      f"{len(lowered.temporaries):>6} temporaries")
     with timer.stage("render"):
-        files = render_variant(variant, description, printed, digest)
+        files = render_variant(variant, description, printed, digest, stem)
     return files, VariantResult(variant, printed), timer.seconds, lines
+
+
+def _joint_kernels(unit: str) -> list[KernelSpec]:
+    """The kernels of the ``joints`` unit (:mod:`codegen.joints`), for every variant alike."""
+    from . import joints
+
+    return joints.build_kernels()
 
 
 def generate(
@@ -765,6 +778,16 @@ def generate(
             timer.seconds[stage] = timer.seconds.get(stage, 0.0) + value
         files.update(variant_files)
         results.append(result)
+    from . import joints
+
+    unit_files, unit, seconds, lines = _generate_variant(_joint_kernels, JOINTS, joints.DESCRIPTION, digest,
+                                                         stem=JOINTS)
+    for line in lines:
+        log(line)
+    for stage, value in seconds.items():
+        timer.seconds[stage] = timer.seconds.get(stage, 0.0) + value
+    files.update(unit_files)
+    results.append(unit)
     with timer.stage("render"):
         files.update(render_package(variants, digest))
     return files, results

@@ -211,3 +211,32 @@ def test_threaded_element_kernels_are_bit_identical(threads):
     assert np.array_equal(serial_a, threaded_a)
     for name in ("x", "T", "v", "w", "a", "alpha", "theta", "theta_dot"):
         assert np.array_equal(getattr(serial, name), getattr(threaded, name)), name
+
+
+def test_the_ctypes_mirrors_have_the_compilers_layout():
+    """Every struct the C step reads is mirrored once in latdyn/step/library.py; their sizes and
+    every field's offset are those the compiler gives csrc/newton_step.c (a stale mirror once gave
+    wrong section properties, bb8e361)."""
+    import ctypes
+
+    from latdyn import native
+    from latdyn.step import library
+
+    mirrors = {"Model": library.ModelData, "Work": library.WorkData, "Configuration": library.ConfigurationData,
+               "StepVectors": library.VectorsData, "StepControl": library.ControlData, "Advance": library.AdvanceData,
+               "SparseLU": library.SparseLUStructure}
+    lines, expected = [], []
+    for c_name, mirror in mirrors.items():
+        lines.append(f"    out[{len(expected)}] = (int64_t)sizeof({c_name});")
+        expected.append((c_name, "sizeof", ctypes.sizeof(mirror)))
+        for field, _ in mirror._fields_:
+            lines.append(f"    out[{len(expected)}] = (int64_t)offsetof({c_name}, {field});")
+            expected.append((c_name, field, getattr(mirror, field).offset))
+    probe = (library.library_source("newton_step.c") + b"\n#include <stddef.h>\nvoid latdyn_layout(int64_t *out)\n{\n"
+             + "\n".join(lines).encode() + b"\n}\n")
+    lib = native.load(native.build("layout_probe", probe, native.C_FLAGS))
+    out = np.zeros(len(expected), np.int64)
+    lib.latdyn_layout(out.ctypes.data_as(ctypes.c_void_p))
+    wrong = [f"{struct}.{field}: C {int(value)}, ctypes {offset}"
+             for (struct, field, offset), value in zip(expected, out) if value != offset]
+    assert not wrong, "\n".join(wrong)

@@ -20,7 +20,7 @@ from latdyn.assembly.evaluation import Evaluation
 from latdyn.assembly.linked import evaluate_linked
 from latdyn.model.model import PRESCRIBED, Model
 from latdyn.numerics.linalg import DENSE_LIMIT
-from latdyn.numerics.so3 import expm_so3, skew
+from latdyn.numerics.so3 import expm_so3
 
 # ----------------------------------------------------------------------------- rotations
 
@@ -190,8 +190,22 @@ class Assembler:
         self.gravity = np.asarray(gravity, float)
         self.has_gravity = bool(np.any(self.gravity != 0))
         self.loads = model.scene.loads
+        points = [model.point(load.at) for load in self.loads]
+        self._load_nodes = np.array([node for node, _ in points], np.int64)
+        self._load_offsets = np.array([r for _, r in points], float).reshape(-1, 3)
+        self._follower = np.array([load.frame != "global" for load in self.loads], bool)
+        self._load_frames = np.array([model.body_node[load.frame] if load.frame != "global" else node
+                                      for load, (node, _) in zip(self.loads, points)], np.int64)
+        self._body_section = np.concatenate([model.body_mass[:, None], model.body_com,
+                                             model.body_inertia.reshape(-1, 9)], axis=1)
         self._hinge_plain = None  # constant hinge coefficients as arrays (_plain_hinges), on first use
         self.reindex()
+
+    def _load_columns(self) -> np.ndarray:
+        """The columns of each load's stiffness block (l, 6): its node's rotations, then its frame
+        body's (the node's again for a global load, whose frame block is zero)."""
+        dofs = self.model.node_dofs
+        return np.concatenate([dofs[self._load_nodes, 3:6], dofs[self._load_frames, 3:6]], axis=1)
 
     def reindex(self) -> None:
         """Scatter maps for the current coordinate numbering (rebuilt when a hinge latches)."""
@@ -199,10 +213,12 @@ class Assembler:
         n = m.n_assembled  # = n_dofs, plus the dependent nodes' coordinates with rigid links
         rows, cols = [], []
 
-        def block_pattern(dofs):
-            """Mask and (row, col) of the free×free entries of square blocks over ``dofs`` (b, k)."""
-            r = np.broadcast_to(dofs[:, :, None], dofs.shape + (dofs.shape[1],))
-            c = np.broadcast_to(dofs[:, None, :], dofs.shape + (dofs.shape[1],))
+        def block_pattern(dofs, column_dofs=None):
+            """Mask and (row, col) of the free×free entries of blocks over ``dofs`` (b, k) × ``column_dofs``
+            (b, j; default: ``dofs``, square blocks)."""
+            column_dofs = dofs if column_dofs is None else column_dofs
+            r = np.broadcast_to(dofs[:, :, None], dofs.shape + (column_dofs.shape[1],))
+            c = np.broadcast_to(column_dofs[:, None, :], dofs.shape + (column_dofs.shape[1],))
             mask = (r < n) & (c < n)
             rows.append(r[mask])
             cols.append(c[mask])
@@ -213,8 +229,8 @@ class Assembler:
         hd = m.hinge_dofs[m.free_hinges]
         rows.append(hd)
         cols.append(hd)
-        self._load_masks = [block_pattern(m.node_dofs[m.point(load.at)[0], 3:6][None, :])[0]
-                            for load in self.loads]
+        # a load's block: the node's rows × the rotations of the node, then of its frame body
+        self._load_mask = block_pattern(m.node_dofs[self._load_nodes], self._load_columns())
         rows = np.concatenate(rows) if rows else np.zeros(0, np.int64)
         cols = np.concatenate(cols) if cols else np.zeros(0, np.int64)
         key = rows * max(n, 1) + cols
@@ -272,32 +288,45 @@ class Assembler:
             return out
         return sps.csr_matrix((values, self._indices, self._indptr), shape=(n, n))
 
-    def rigid_bodies(self, state: State):
-        """Inertia of the joint bodies: M_b [a; α] + g_b, spatial rotations about the reference point."""
+    def body_kinematics(self, state: State) -> tuple[np.ndarray, np.ndarray]:
+        """Centre of mass from the reference point r_c = T c and inertia about it J = T I Tᵀ, global."""
+        m = self.model
+        T = state.T[m.body_nodes]
+        rc = np.einsum("bij,bj->bi", T, m.body_com)
+        return rc, T @ m.body_inertia @ np.transpose(T, (0, 2, 1))
+
+    def joint_bodies(self, state: State, inertia: bool, load_factor: float):
+        """The generated joint-body kernel (codegen/joints.py) for every body: residual rows, mass,
+        gyroscopic and gravity-stiffness blocks; without ``inertia`` the weight alone."""
         m = self.model
         i = m.body_nodes
-        T = state.T[i]
-        rc = np.einsum("bij,bj->bi", T, m.body_com)  # COM offset, global
-        J = T @ m.body_inertia @ np.transpose(T, (0, 2, 1))
-        mass = m.body_mass[:, None]
-        w = state.w[i]
-        S = skew(rc)
-        M = np.zeros((len(i), 6, 6))
-        M[:, :3, :3] = mass[:, :, None] * np.eye(3)
-        M[:, :3, 3:] = -mass[:, :, None] * S
-        M[:, 3:, :3] = mass[:, :, None] * S
-        M[:, 3:, 3:] = J - mass[:, :, None] * S @ S
-        wxr = np.cross(w, rc)
-        centripetal = mass * np.cross(w, wxr)
-        Jw = np.einsum("bij,bj->bi", J, w)
-        g = np.concatenate([centripetal, np.cross(rc, centripetal) + np.cross(w, Jw)], axis=1)
-        # ∂g/∂ω
-        wr = np.einsum("bi,bi->b", w, rc)[:, None, None]
-        dcent = mass[:, :, None] * (np.einsum("bi,bj->bij", w, rc) + wr * np.eye(3) - 2 * np.einsum("bi,bj->bij", rc, w))
-        G = np.zeros((len(i), 6, 6))
-        G[:, :3, 3:] = dcent
-        G[:, 3:, 3:] = S @ dcent + skew(w) @ J - skew(Jw)
-        return M, g, G, rc, J
+        if inertia:
+            motion = np.concatenate([state.w[i], state.a[i], state.alpha[i]], axis=1)
+        else:
+            motion = np.zeros((len(i), 9))
+        gravity = np.broadcast_to(load_factor * self.gravity, (len(i), 3))
+        force, mass, gyroscopic, gravity_stiffness, _ = self.kernels.joint_body(
+            state.T[i].reshape(-1, 9), motion, self._body_section, gravity)
+        return force, mass, gyroscopic, gravity_stiffness
+
+    def point_loads(self, state: State, load_factor: float):
+        """The generated point-load kernel (codegen/joints.py) for every load at ``state.t``: the
+        loads' residual rows on their nodes (l, 6), their power, and their stiffness blocks (l, 6, 6):
+        columns the node's rotations, then those of the frame body (zero for a global load)."""
+        nodes, offsets, frames, follower = self._load_nodes, self._load_offsets, self._load_frames, self._follower
+        t = state.t
+        values = np.zeros((len(self.loads), 6))
+        for k, load in enumerate(self.loads):
+            if load.force:
+                values[k, :3] = [g.value(t) for g in load.force]
+            if load.moment:
+                values[k, 3:] = [g.value(t) for g in load.moment]
+        R = np.where(follower[:, None, None], state.T[frames], np.eye(3))
+        velocity = np.concatenate([state.v[nodes], state.w[nodes]], axis=1)
+        force, power, by_node, by_frame = self.kernels.point_load(
+            state.T[nodes].reshape(-1, 9), offsets, load_factor * values, R.reshape(-1, 9), velocity)
+        blocks = np.concatenate([by_node, by_frame * follower[:, None, None]], axis=2)
+        return force, float(power.sum()), blocks
 
     # -- the equations of motion ------------------------------------------------
     def evaluate(self, state: State, matrices: bool = True, load_factor: float = 1.0,
@@ -344,48 +373,28 @@ class Assembler:
             gforce, _, _ = ks.beam_gravity(geometry, section, grav)
             elem_vec -= load_factor * gforce
 
-        # rigid bodies
+        # joint bodies (generated: codegen/joints.py)
         nb = len(m.body_nodes)
         body_vec = np.zeros((nb, 6))
-        body_mass = body_damp = np.zeros((nb, 6, 6))
-        body_stiff = np.zeros((nb, 6, 6))
+        body_mass = body_damp = body_stiff = np.zeros((nb, 6, 6))
         if nb:
-            Mb, gb, Gb, rc, _ = self.rigid_bodies(state)
+            body_vec, Mb, Gb, body_stiff = self.joint_bodies(state, inertia, load_factor)
             if inertia:
-                acc = np.concatenate([state.a[m.body_nodes], state.alpha[m.body_nodes]], axis=1)
-                body_vec += np.einsum("bij,bj->bi", Mb, acc) + gb
                 body_mass, body_damp = Mb, Gb
-            if self.has_gravity:
-                weight = m.body_mass[:, None] * self.gravity
-                body_vec[:, :3] -= load_factor * weight
-                body_vec[:, 3:] -= load_factor * np.cross(rc, weight)
-                # ∂/∂π of −(r_c × W): −skew(W) skew(r_c)
-                body_stiff[:, 3:, 3:] -= load_factor * skew(weight) @ skew(rc)
 
         # hinges: springs, dampers, applied torques (hinge_forces)
         extra = np.zeros(m.n_total + 1)
         hinge_force, hinge_k, hinge_c, power = self.hinge_forces(state, load_factor)
         extra[m.hinge_dofs] += hinge_force
 
-        # loads at points
-        load_blocks = []
-        for load in self.loads:
-            node, r = m.point(load.at)
-            rg = state.T[node] @ r
-            f = np.array([g.value(state.t) for g in load.force]) if load.force else np.zeros(3)
-            mo = np.array([g.value(state.t) for g in load.moment]) if load.moment else np.zeros(3)
-            if load.frame != "global":
-                R = state.T[m.body_node[load.frame]]
-                f, mo = R @ f, R @ mo
-            f, mo = load_factor * f, load_factor * mo
-            d = m.node_dofs[node]
-            extra[d[:3]] -= f
-            extra[d[3:]] -= np.cross(rg, f) + mo
-            vel = state.v[node] + np.cross(state.w[node], rg)
-            power += f @ vel + mo @ state.w[node]
-            load_blocks.append(-(skew(f) @ skew(rg))[self._load_masks[len(load_blocks)]])
+        # loads at points (generated: codegen/joints.py)
+        load_blocks = np.zeros(0)
+        if self.loads:
+            load_force, load_power, blocks = self.point_loads(state, load_factor)
+            np.add.at(extra, m.node_dofs[self._load_nodes], load_force)
+            power += load_power
+            load_blocks = blocks[self._load_mask]
 
-        load_blocks = np.concatenate(load_blocks) if load_blocks else np.zeros(0)
         total = self._scatter_vector(elem_vec, body_vec, extra)
         result = Evaluation(residual=total[:n], reaction=total[n:m.n_total], external_power=power,
                             assembler=self)
@@ -486,7 +495,7 @@ class Assembler:
         K, U, V = float(kinetic.sum()), float(strain.sum()), float(potential.sum())
         U += self.hinge_potential(state)
         if len(m.body_nodes):
-            _, _, _, rc, J = self.rigid_bodies(state)
+            rc, J = self.body_kinematics(state)
             i = m.body_nodes
             vc = state.v[i] + np.cross(state.w[i], rc)
             K += float(0.5 * np.sum(m.body_mass * np.einsum("bi,bi->b", vc, vc))
@@ -523,7 +532,7 @@ class Assembler:
             P[k] = np.sum(Mq * trans)
             H[k] = np.sum(Mq * rot)
         if len(m.body_nodes):
-            _, _, _, rc, J = self.rigid_bodies(state)
+            rc, J = self.body_kinematics(state)
             i = m.body_nodes
             vc = state.v[i] + np.cross(state.w[i], rc)
             p = m.body_mass[:, None] * vc

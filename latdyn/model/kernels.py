@@ -31,6 +31,8 @@ from latdyn.native import C_FLAGS, NO_COMPILER_ADVICE  # the one compile-and-cac
 
 BACKENDS = ("auto", "c", "numpy")
 PACKAGE = "latdyn_generated"
+#: The generated unit of joint bodies and point loads (codegen/joints.py), loaded with every variant.
+JOINTS = "joints"
 
 _LOADED: dict[tuple[str, str], "KernelSet"] = {}
 
@@ -104,20 +106,23 @@ def load_kernels(backend: str = "auto", variant: str = "default") -> KernelSet:
             return kernels
     key = (backend, variant)
     if key not in _LOADED:
-        module = importlib.import_module(f"{PACKAGE}.beam_{variant}")
-        info = module.KERNELS  # the generated kernels
-        libraries = None
-        if backend == "numpy":
-            functions = {name: _checked(name, meta, getattr(module, name)) for name, meta in info.items()}
-        else:
-            libraries = _compile(variant, list(info), {name: int(meta.get("op_count", 0))
-                                                       for name, meta in info.items()})
-            functions = {name: _checked(name, meta, _c_function(libraries[name], name, meta))
-                         for name, meta in info.items()}
+        info, functions, libraries = {}, {}, {}
+        # the beam kernels of the variant, and the joint bodies and point loads every variant shares
+        for stem in (f"beam_{variant}", JOINTS):
+            module = importlib.import_module(f"{PACKAGE}.{stem}")
+            unit = module.KERNELS  # the generated kernels
+            info.update(unit)
+            if backend == "numpy":
+                functions.update({name: _checked(name, meta, getattr(module, name)) for name, meta in unit.items()})
+            else:
+                built = _compile(stem, list(unit), {name: int(meta.get("op_count", 0)) for name, meta in unit.items()})
+                libraries.update(built)
+                functions.update({name: _checked(name, meta, _c_function(built[name], name, meta))
+                                  for name, meta in unit.items()})
         for name, parts in COMPOSED.items():  # not generated: no entry in ``info``
             meta = _composed_meta(name, parts, info)
             functions[name] = _checked(name, meta, _composed(meta, parts, info, functions))
-        _LOADED[key] = KernelSet(backend, variant, info, functions, libraries)
+        _LOADED[key] = KernelSet(backend, variant, info, functions, libraries or None)
     return _LOADED[key]
 
 
@@ -245,19 +250,19 @@ COMPOSED = {
 
 
 
-def _kernel_sources(variant: str, names) -> dict[str, bytes]:
+def _kernel_sources(stem: str, names) -> dict[str, bytes]:
     """The C source of each kernel as a translation unit of its own.
 
     ``codegen/templates/c_source.c.j2`` writes the includes, then every kernel after a comment
     line ``/* NAME: ...``; the unit is the includes plus that kernel."""
     try:
-        source = (importlib.resources.files(PACKAGE) / f"beam_{variant}.c").read_text()
+        source = (importlib.resources.files(PACKAGE) / f"{stem}.c").read_text()
     except (FileNotFoundError, OSError) as error:
-        raise RuntimeError(f"no C source for variant {variant!r}: {error}") from None
+        raise RuntimeError(f"no C source {stem}.c: {error}") from None
     marks = {name: source.find(f"\n/* {name}: ") for name in names}
     missing = [name for name, at in marks.items() if at < 0]
     if missing:
-        raise RuntimeError(f"beam_{variant}.c has no kernel {', '.join(missing)}")
+        raise RuntimeError(f"{stem}.c has no kernel {', '.join(missing)}")
     starts = sorted(marks.values())
     includes = source[: starts[0]].split("*/", 1)[-1]  # after the stamp comment
     units = {}
@@ -267,26 +272,26 @@ def _kernel_sources(variant: str, names) -> dict[str, bytes]:
     return units
 
 
-def _compile(variant: str, names, ops: dict[str, int] | None = None) -> dict[str, ctypes.CDLL]:
+def _compile(stem: str, names, ops: dict[str, int] | None = None) -> dict[str, ctypes.CDLL]:
     """Compile each kernel of ``names`` into the cache (:mod:`latdyn.native`: once per source,
     flags and compiler), in parallel, and load them; name -> library."""
     from latdyn import native
 
-    units = _kernel_sources(variant, names)
+    units = _kernel_sources(stem, names)
     using = native.compiler()  # NoCompiler (a RuntimeError) says why not
     flags = {name: (optimisation((ops or {}).get(name, 0)), *C_FLAGS[1:]) for name in units}
-    targets = {name: native.target(f"{name}-{variant}", units[name], flags[name], using) for name in units}
+    targets = {name: native.target(f"{name}-{stem}", units[name], flags[name], using) for name in units}
     todo = [name for name, target in targets.items() if not target.exists()]
     if todo:
         from concurrent.futures import ThreadPoolExecutor
 
         started = time.perf_counter()
-        print(f"latdyn: compiling {len(todo)} C kernels of variant {variant!r} with {using.name} into "
+        print(f"latdyn: compiling {len(todo)} C kernels of {stem}.c with {using.name} into "
               f"{native.cache_dir()} (first use only; seconds)", file=sys.stderr, flush=True)
         before = native.COMPILE_SECONDS["total"]
 
         def build(name):
-            native.build(f"{name}-{variant}", units[name], flags[name], using=using)
+            native.build(f"{name}-{stem}", units[name], flags[name], using=using)
 
         # the longest units first, so that the last one to finish started early
         order = sorted(todo, key=lambda name: -len(units[name]))

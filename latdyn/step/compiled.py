@@ -276,13 +276,14 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
             keep.append(analysis)
             new, kl, ku, ldab, size, position = analysis.new, 0, 0, 0, max(analysis.size, 1), analysis.position
 
-        def block_positions(dofs):
-            rows = np.broadcast_to(dofs[:, :, None], dofs.shape + (dofs.shape[1],))
-            cols = np.broadcast_to(dofs[:, None, :], dofs.shape + (dofs.shape[1],))
+        def block_positions(dofs, column_dofs=None):
+            column_dofs = dofs if column_dofs is None else column_dofs
+            rows = np.broadcast_to(dofs[:, :, None], dofs.shape + (column_dofs.shape[1],))
+            cols = np.broadcast_to(column_dofs[:, None, :], dofs.shape + (column_dofs.shape[1],))
             return position(rows, cols)
 
         body_dofs = m.node_dofs[m.body_nodes].reshape(-1, 6)
-        load_dofs = np.array([m.node_dofs[node, 3:6] for node in load_node], np.int64).reshape(-1, 3)
+        load_rows, load_columns = m.node_dofs[np.array(load_node, np.int64)].reshape(-1, 6), a._load_columns()
         hd = m.hinge_dofs
         hinge_position = np.where(hd < n, position(hd, hd), -1)
 
@@ -314,7 +315,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
             load_r=arr(np.array(load_r, float).reshape(-1, 3)),
             gravity=(ctypes.c_double * 3)(*a.gravity), has_gravity=int(a.has_gravity),
             element_position=ints(block_positions(m.element_dofs)), body_position=ints(block_positions(body_dofs)),
-            hinge_position=ints(hinge_position), load_position=ints(block_positions(load_dofs)),
+            hinge_position=ints(hinge_position), load_position=ints(block_positions(load_rows, load_columns)),
             band=int(not dense and sparse_lu is None), kl=kl, ku=ku, ldab=ldab, matrix_size=size, permutation=ints(new),
             internal_force=_kernel_address(kernels, "beam_internal_force"),
             internal_force_D_q=_kernel_address(kernels, "beam_internal_force_D_q"),
@@ -324,6 +325,8 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
             gravity_load=_kernel_address(kernels, "beam_gravity"),
             strain_energy=_kernel_address(kernels, "beam_strain_energy"),
             kinetic_energy=_kernel_address(kernels, "beam_kinetic_energy"),
+            joint_body=_kernel_address(kernels, "joint_body"), point_load=_kernel_address(kernels, "point_load"),
+            body_section=arr(a._body_section),
             getrf=lapack_address("dgetrf"), getrs=lapack_address("dgetrs"), gbtrf=lapack_address("dgbtrf"), gbtrs=lapack_address("dgbtrs"),
             parallel_elements=self.parallel_elements, threads=self.threads,
             node_colour=ints(colour), hinge_node=ints([h.node for h in m.hinges]), n_colours=int(colour.max(initial=-1)) + 1,
@@ -343,8 +346,9 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
             "force": (E, 14), "tangent": (E, 14, 14), "mass": (E, 14, 14), "quadratic": (E, 14),
             "quadratic_D": (E, 14, 14), "gravity_force": (E, 14), "gravity_potential": (E,),
             "first_moment": (E, 3), "body_vector": (B, 6), "body_mass": (B, 6, 6), "body_damping": (B, 6, 6),
-            "body_stiffness": (B, 6, 6),
-            "load_blocks": (L, 9), "strain": (E,), "section_forces": (E, 4), "kinetic": (E,), "total": (m.n_total + 1,),
+            "body_stiffness": (B, 6, 6), "body_inertia_stiffness": (B, 6, 6),
+            "load_blocks": (L, 6, 6), "load_vector": (L, 6), "load_power": (L,), "load_by_node": (L, 6, 3),
+            "load_by_frame": (L, 6, 3), "strain": (E,), "section_forces": (E, 4), "kinetic": (E,), "total": (m.n_total + 1,),
             "matrix": (size,), "rhs": (n,), "laws": (max(len(laws.functions), 1), 3), "hinge_d_theta": (H,),
             "hinge_d_rate": (H,)}
         # the inertia tangent's buffers (integrators.inertia_tangent), only once the run needs them

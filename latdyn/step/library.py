@@ -47,6 +47,7 @@ class ModelData(ctypes.Structure):
         ("band", I64), ("kl", I64), ("ku", I64), ("ldab", I64), ("matrix_size", I64), ("permutation", P),
         ("internal_force", P), ("internal_force_D_q", P), ("mass_matrix", P), ("quadratic_velocity", P),
         ("quadratic_velocity_D_qdot", P), ("gravity_load", P), ("strain_energy", P), ("kinetic_energy", P),
+        ("joint_body", P), ("point_load", P), ("body_section", P),
         ("getrf", P), ("getrs", P), ("gbtrf", P), ("gbtrs", P),
         ("parallel_elements", I64), ("threads", I64),
         ("node_colour", P), ("hinge_node", P), ("n_colours", I64),
@@ -62,7 +63,8 @@ class WorkData(ctypes.Structure):
     _fields_ = [(name, P) for name in (
         "geometry", "rates", "accelerations", "gravity_rows", "force", "tangent", "mass", "quadratic",
         "quadratic_D", "gravity_force", "gravity_potential", "first_moment", "body_vector", "body_mass",
-        "body_damping", "body_stiffness", "load_blocks", "strain",
+        "body_damping", "body_stiffness", "body_inertia_stiffness", "load_blocks", "load_vector", "load_power",
+        "load_by_node", "load_by_frame", "strain",
         "section_forces", "kinetic", "total",
         "matrix", "pivots", "rhs",
         "inertia_tangent", "forces_plus", "forces_minus", "perturbed_x", "perturbed_T", "perturbed_theta",

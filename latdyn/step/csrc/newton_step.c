@@ -45,6 +45,11 @@ typedef void (*kernel_2_2)(int64_t, const double *, const double *, double *, do
 typedef void (*kernel_3_1)(int64_t, const double *, const double *, const double *, double *);
 typedef void (*kernel_gravity)(int64_t, const double *, const double *, const double *, double *, double *,
                                double *);
+/* the generated unit generated/joints.c (codegen/joints.py) */
+typedef void (*kernel_joint_body)(int64_t, const double *, const double *, const double *, const double *, double *,
+                                  double *, double *, double *, double *);
+typedef void (*kernel_point_load)(int64_t, const double *, const double *, const double *, const double *,
+                                  const double *, double *, double *, double *, double *);
 typedef void (*lapack_getrf)(int *, int *, double *, int *, int *, int *);
 typedef void (*lapack_getrs)(char *, int *, int *, double *, int *, int *, double *, int *, int *);
 typedef void (*lapack_gbtrf)(int *, int *, int *, int *, double *, int *, int *, int *);
@@ -82,7 +87,7 @@ typedef struct {
     const int64_t *element_position; /* (n_elements, 14, 14) */
     const int64_t *body_position;    /* (n_bodies, 6, 6) */
     const int64_t *hinge_position;   /* (n_hinges) diagonal entry */
-    const int64_t *load_position;    /* (n_loads, 3, 3) */
+    const int64_t *load_position;    /* (n_loads, 6, 6): the node's rows × its rotations, then its frame body's */
     /* linear algebra: band storage when kl > 0 ... or kl == ku == -1 for dense */
     int64_t band, kl, ku, ldab, matrix_size;
     const int64_t *permutation; /* new index of each free coordinate */
@@ -95,6 +100,9 @@ typedef struct {
     kernel_gravity gravity_load;
     kernel_2_2 strain_energy;
     kernel_3_1 kinetic_energy;
+    kernel_joint_body joint_body;
+    kernel_point_load point_load;
+    const double *body_section; /* (n_bodies, 13): m c[3] I[9], the joint_body kernel's input */
     lapack_getrf getrf;
     lapack_getrs getrs;
     lapack_gbtrf gbtrf;
@@ -134,7 +142,9 @@ typedef struct {
     double *force, *tangent, *mass, *quadratic, *quadratic_D; /* (e,14) (e,14,14) (e,14,14) (e,14) (e,14,14) */
     double *gravity_force, *gravity_potential, *first_moment;  /* (e,14) (e) (e,3) */
     double *body_vector, *body_mass, *body_damping, *body_stiffness; /* (b,6) (b,6,6)×3 */
-    double *load_blocks;                                       /* (l,9) */
+    double *body_inertia_stiffness;                            /* (b,6,6) */
+    double *load_blocks;                                       /* (l,6,6) */
+    double *load_vector, *load_power, *load_by_node, *load_by_frame; /* (l,6) (l) (l,6,3) (l,6,3) */
     double *strain, *section_forces, *kinetic;                 /* (e) (e,4) (e) */
     double *total;                                             /* n_total + 1 */
     double *matrix;                                            /* matrix_size */
@@ -337,77 +347,18 @@ static void element_inputs(const Model *m, const Configuration *c, Work *w, int6
     element_inputs_to(m, c, w->geometry, w->rates, w->accelerations, begin, end_element);
 }
 
-/* Joint bodies (Assembler.rigid_bodies): M_b [a; α] + g_b − weight, and the blocks M_b, ∂g_b/∂ω,
- * and the load stiffness −skew(W) skew(r_c) of the weight's moment. */
+/* Joint bodies (Assembler.joint_bodies): the generated kernel codegen/joints.py, body by body. */
 static void joint_bodies(const Model *m, const Configuration *c, Work *w)
 {
+    double motion[9];
     for (int64_t b = 0; b < m->n_bodies; ++b) {
         int64_t i = m->body_nodes[b];
-        const double *T = c->T + 9 * i, *om = c->w + 3 * i;
-        double mass = m->body_mass[b];
-        double rc[3], S[9], J[9], TI[9], Tt[9], SS[9];
-        matvec3(T, m->body_com + 3 * b, rc);
-        for (int p = 0; p < 3; ++p)
-            for (int q = 0; q < 3; ++q) Tt[3 * p + q] = T[3 * q + p];
-        matmul3(T, m->body_inertia + 9 * b, TI);
-        matmul3(TI, Tt, J);
-        skew(rc, S);
-        matmul3(S, S, SS);
-        double *M = w->body_mass + 36 * b, *G = w->body_damping + 36 * b, *K = w->body_stiffness + 36 * b;
-        double *vec = w->body_vector + 6 * b;
-        memset(M, 0, sizeof(double) * 36);
-        memset(G, 0, sizeof(double) * 36);
-        memset(K, 0, sizeof(double) * 36);
-        for (int p = 0; p < 3; ++p) {
-            M[6 * p + p] = mass;
-            for (int q = 0; q < 3; ++q) {
-                M[6 * p + 3 + q] = -mass * S[3 * p + q];
-                M[6 * (3 + p) + q] = mass * S[3 * p + q];
-                M[6 * (3 + p) + 3 + q] = J[3 * p + q] - mass * SS[3 * p + q];
-            }
-        }
-        double wxr[3], centripetal[3], Jw[3], t1[3], t2[3];
-        cross(om, rc, wxr);
-        cross(om, wxr, centripetal);
-        for (int p = 0; p < 3; ++p) centripetal[p] *= mass;
-        matvec3(J, om, Jw);
-        cross(rc, centripetal, t1);
-        cross(om, Jw, t2);
-        double acc[6] = {c->a[3 * i], c->a[3 * i + 1], c->a[3 * i + 2],
-                         c->alpha[3 * i], c->alpha[3 * i + 1], c->alpha[3 * i + 2]};
-        for (int p = 0; p < 6; ++p) {
-            double s = 0.0;
-            for (int q = 0; q < 6; ++q) s += M[6 * p + q] * acc[q];
-            vec[p] = s + (p < 3 ? centripetal[p] : t1[p - 3] + t2[p - 3]);
-        }
-        /* ∂g/∂ω */
-        double wr = om[0] * rc[0] + om[1] * rc[1] + om[2] * rc[2];
-        double dcent[9], Sd[9], Wm[9], WJ[9], SJw[9];
-        for (int p = 0; p < 3; ++p)
-            for (int q = 0; q < 3; ++q)
-                dcent[3 * p + q] = mass * (om[p] * rc[q] + (p == q ? wr : 0.0) - 2.0 * rc[p] * om[q]);
-        matmul3(S, dcent, Sd);
-        skew(om, Wm);
-        matmul3(Wm, J, WJ);
-        skew(Jw, SJw);
-        for (int p = 0; p < 3; ++p)
-            for (int q = 0; q < 3; ++q) {
-                G[6 * p + 3 + q] = dcent[3 * p + q];
-                G[6 * (3 + p) + 3 + q] = Sd[3 * p + q] + WJ[3 * p + q] - SJw[3 * p + q];
-            }
-        if (m->has_gravity) {
-            double W[3] = {mass * m->gravity[0], mass * m->gravity[1], mass * m->gravity[2]}, rW[3];
-            double SW[9], SWS[9];
-            cross(rc, W, rW);
-            for (int p = 0; p < 3; ++p) {
-                vec[p] -= W[p];
-                vec[3 + p] -= rW[p];
-            }
-            skew(W, SW);
-            matmul3(SW, S, SWS);
-            for (int p = 0; p < 3; ++p)
-                for (int q = 0; q < 3; ++q) K[6 * (3 + p) + 3 + q] -= SWS[3 * p + q];
-        }
+        memcpy(motion, c->w + 3 * i, 3 * sizeof(double));
+        memcpy(motion + 3, c->a + 3 * i, 3 * sizeof(double));
+        memcpy(motion + 6, c->alpha + 3 * i, 3 * sizeof(double));
+        m->joint_body(1, c->T + 9 * i, motion, m->body_section + 13 * b, m->gravity, w->body_vector + 6 * b,
+                      w->body_mass + 36 * b, w->body_damping + 36 * b, w->body_stiffness + 36 * b,
+                      w->body_inertia_stiffness + 36 * b);
     }
 }
 
@@ -520,40 +471,31 @@ static double evaluate(const Model *m, const Configuration *c, Work *w, const do
         w->hinge_d_rate[j] = d_rate;
         w->total[m->hinge_dofs[j]] += f;
     }
-    /* point loads */
+    /* point loads (Assembler.point_loads): the generated kernel codegen/joints.py, load by load */
+    static const double identity[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
     for (int64_t l = 0; l < m->n_loads; ++l) {
-        int64_t i = m->load_node[l];
+        int64_t i = m->load_node[l], frame = m->load_frame_node[l];
         const int64_t *d = m->node_dofs + 6 * i;
-        double rg[3], f[3] = {0, 0, 0}, mo[3] = {0, 0, 0}, rf[3], vel[3], wr[3];
-        matvec3(c->T + 9 * i, m->load_r + 3 * l, rg);
+        double values[6] = {0, 0, 0, 0, 0, 0}, velocity[6];
         for (int p = 0; p < 3; ++p) {
             int64_t fl = m->load_force_law[3 * l + p], ml = m->load_moment_law[3 * l + p];
-            if (fl >= 0) f[p] = laws[3 * fl];
-            if (ml >= 0) mo[p] = laws[3 * ml];
+            if (fl >= 0) values[p] = laws[3 * fl];
+            if (ml >= 0) values[3 + p] = laws[3 * ml];
         }
-        if (m->load_frame_node[l] >= 0) {
-            const double *R = c->T + 9 * m->load_frame_node[l];
-            double Rf[3], Rm[3];
-            matvec3(R, f, Rf);
-            matvec3(R, mo, Rm);
-            memcpy(f, Rf, sizeof f);
-            memcpy(mo, Rm, sizeof mo);
-        }
-        cross(rg, f, rf);
-        for (int p = 0; p < 3; ++p) {
-            w->total[d[p]] -= f[p];
-            w->total[d[3 + p]] -= rf[p] + mo[p];
-        }
-        cross(c->w + 3 * i, rg, wr);
-        for (int p = 0; p < 3; ++p) vel[p] = c->v[3 * i + p] + wr[p];
-        power += f[0] * vel[0] + f[1] * vel[1] + f[2] * vel[2]
-               + mo[0] * c->w[3 * i] + mo[1] * c->w[3 * i + 1] + mo[2] * c->w[3 * i + 2];
+        memcpy(velocity, c->v + 3 * i, 3 * sizeof(double));
+        memcpy(velocity + 3, c->w + 3 * i, 3 * sizeof(double));
+        double *force = w->load_vector + 6 * l, *by_node = w->load_by_node + 18 * l, *by_frame = w->load_by_frame + 18 * l;
+        m->point_load(1, c->T + 9 * i, m->load_r + 3 * l, values, frame >= 0 ? c->T + 9 * frame : identity, velocity,
+                      force, w->load_power + l, by_node, by_frame);
+        for (int p = 0; p < 6; ++p) w->total[d[p]] += force[p];
+        power += w->load_power[l];
         if (matrices) {
-            double Sf[9], Sr[9], B[9];
-            skew(f, Sf);
-            skew(rg, Sr);
-            matmul3(Sf, Sr, B);
-            for (int p = 0; p < 9; ++p) w->load_blocks[9 * l + p] = -B[p];
+            double *block = w->load_blocks + 36 * l;
+            for (int p = 0; p < 6; ++p)
+                for (int q = 0; q < 3; ++q) {
+                    block[6 * p + q] = by_node[3 * p + q];
+                    block[6 * p + 3 + q] = frame >= 0 ? by_frame[3 * p + q] : 0.0;
+                }
         }
     }
     return power;
@@ -699,9 +641,9 @@ static void assemble(const Model *m, Work *w, double beta_p, double gamma_p, int
         if (m->hinge_position[j] >= 0)
             w->matrix[m->hinge_position[j]] += gamma_p * w->hinge_d_rate[j] + w->hinge_d_theta[j];
     for (int64_t l = 0; l < m->n_loads; ++l) {
-        const int64_t *pos = m->load_position + 9 * l;
-        for (int p = 0; p < 9; ++p)
-            if (pos[p] >= 0) w->matrix[pos[p]] += w->load_blocks[9 * l + p];
+        const int64_t *pos = m->load_position + 36 * l;
+        for (int p = 0; p < 36; ++p)
+            if (pos[p] >= 0) w->matrix[pos[p]] += w->load_blocks[36 * l + p];
     }
 }
 

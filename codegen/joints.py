@@ -1,0 +1,157 @@
+"""Joint bodies and point loads, derived like the element (unit ``joints`` of ``generated/``).
+
+CR-4402 models a joint as a rigid body whose reference point carries the translational
+coordinates d and whose frame T turns with spatial virtual rotations π, δT = skew(δπ) T
+(Eqs. 2, 59); its equations of motion are the Newton–Euler equations about that point. A
+point load acts at a grid point of a node, at r_g = T r from its reference point (Eq. 2),
+fixed in space (``frame: global``) or turning with a body (``frame: BODY``, a follower
+load). Both are written here once; their derivatives by π are taken under the same
+configuration update T ← exp(skew Δπ) T as the element's (to first order,
+T ← (I + skew Δπ) T), so the stiffness blocks are the exact Newton matrix of the Lie-group
+integrators.
+
+Joint body (one per body node), with r_c = T c the centre of mass from the reference point,
+J = T I_b Tᵀ the inertia about the centre of mass, ω the spatial angular velocity, a and α
+the acceleration of the reference point and the angular acceleration:
+
+    f   = m a + m α × r_c + m ω × (ω × r_c)                                     (Newton)
+    τ   = m r_c × a + (J − m S S) α + r_c × m ω × (ω × r_c) + ω × J ω,  S = skew(r_c)  (Euler)
+    body_force = [f; τ] − [W; r_c × W],   W = m g (g already scaled by the load factor)
+
+    body_mass = ∂[f; τ]/∂[a; α],  body_gyroscopic = ∂[f; τ]/∂ω,
+    body_gravity_stiffness = ∂(−[W; r_c × W])/∂π,
+    body_inertia_stiffness = ∂[f; τ]/∂π at fixed a, α, ω (the inertia tangent of the body).
+
+Point load, on the node it acts at (force F and moment Mo, given in global axes or in the
+axes R of its frame body and already scaled by the load factor): the residual takes the
+generalized force −[F; r_g × F + Mo] (it is on the right of the equations of motion), with
+F = R f and Mo = R mo; its power on the node's velocities is F·(v + ω × r_g) + Mo·ω.
+``load_stiffness_node`` is its derivative by the node's π, ``load_stiffness_frame`` by the
+frame body's π (zero for a global load, where R = I is passed).
+"""
+from __future__ import annotations
+
+import sympy as sp
+
+from .ir import Argument, KernelSpec, Output
+
+DESCRIPTION = "joint bodies (Newton-Euler about the reference point) and point loads, global and follower"
+
+BODY_FRAME = Argument("frame", 9, "T: the body's frame (columns = body axes in global axes), row-major")
+BODY_MOTION = Argument("motion", 9, "omega[3] a[3] alpha[3]: spatial angular velocity, acceleration of the "
+                       "reference point, angular acceleration")
+BODY_SECTION = Argument("body", 13, "m c[3] I[9]: mass, centre of mass from the reference point and inertia "
+                        "about the centre of mass (row-major), in body axes")
+GRAVITY = Argument("gravity", 3, "uniform gravity acceleration, global, times the load factor")
+
+LOAD_NODE = Argument("node_frame", 9, "T: frame of the node the load acts at, row-major")
+LOAD_OFFSET = Argument("offset", 3, "r: the point of the load from the node's reference point, in node axes")
+LOAD_VALUES = Argument("values", 6, "f[3] mo[3]: force and moment in the axes of the load's frame, times the "
+                       "load factor")
+LOAD_FRAME = Argument("load_frame", 9, "R: frame of the body the load turns with (the identity for a global "
+                      "load), row-major")
+LOAD_VELOCITY = Argument("node_velocity", 6, "v[3] omega[3]: velocity of the node's reference point and its "
+                         "spatial angular velocity")
+
+
+def _vector(symbols) -> sp.Matrix:
+    return sp.Matrix(list(symbols))
+
+
+def _matrix(symbols) -> sp.Matrix:
+    return sp.Matrix(3, 3, list(symbols))
+
+
+def skew(w) -> sp.Matrix:
+    return sp.Matrix([[0, -w[2], w[1]], [w[2], 0, -w[0]], [-w[1], w[0], 0]])
+
+
+def _turned(T: sp.Matrix, delta: sp.Matrix) -> sp.Matrix:
+    """T after a spatial virtual rotation δπ, to first order (all a derivative at δπ = 0 needs)."""
+    return (sp.eye(3) + skew(delta)) * T
+
+
+def _jacobian(expressions: sp.Matrix, variables: sp.Matrix, at: dict) -> sp.Matrix:
+    return expressions.jacobian(variables).xreplace(at)
+
+
+def _rows(matrix: sp.Matrix) -> list:
+    return list(matrix)
+
+
+def joint_body_terms(T, motion, body, gravity):
+    """(inertia forces [f; τ], weight terms −[W; r_c × W]) of a joint body (module docstring)."""
+    omega, a, alpha = _vector(motion[0:3]), _vector(motion[3:6]), _vector(motion[6:9])
+    m, c, inertia = body[0], _vector(body[1:4]), _matrix(body[4:13])
+    rc = T * c
+    J = T * inertia * T.T
+    S = skew(rc)
+    centripetal = m * omega.cross(omega.cross(rc))
+    f = m * a + m * alpha.cross(rc) + centripetal
+    tau = m * rc.cross(a) + (J - m * S * S) * alpha + rc.cross(centripetal) + omega.cross(J * omega)
+    W = m * _vector(gravity)
+    return sp.Matrix.vstack(f, tau), -sp.Matrix.vstack(W, rc.cross(W))
+
+
+def _joint_body_kernel() -> KernelSpec:
+    T = _matrix(BODY_FRAME.symbols())
+    motion, body, gravity = BODY_MOTION.symbols(), BODY_SECTION.symbols(), GRAVITY.symbols()
+    delta = sp.Matrix(sp.symbols("delta_0:3"))
+    zero = {d: 0 for d in delta}
+    inertia, weight = joint_body_terms(T, motion, body, gravity)
+    inertia_turned, weight_turned = joint_body_terms(_turned(T, delta), motion, body, gravity)
+    acceleration = _vector(motion[3:9])
+    omega = _vector(motion[0:3])
+    outputs = [
+        Output("body_force", (6,), _rows(inertia + weight), "[f; τ] − [W; r_c × W]: the body's row of the residual"),
+        Output("body_mass", (6, 6), _rows(inertia.jacobian(acceleration)), "∂[f; τ]/∂[a; α]"),
+        Output("body_gyroscopic", (6, 6), _rows(sp.Matrix.hstack(sp.zeros(6, 3), inertia.jacobian(omega))),
+               "∂[f; τ]/∂[v; ω] (no v: the reference point's velocity does not enter)"),
+        Output("body_gravity_stiffness", (6, 6),
+               _rows(sp.Matrix.hstack(sp.zeros(6, 3), _jacobian(weight_turned, delta, zero))),
+               "∂(−[W; r_c × W])/∂[d; π]"),
+        Output("body_inertia_stiffness", (6, 6),
+               _rows(sp.Matrix.hstack(sp.zeros(6, 3), _jacobian(inertia_turned, delta, zero))),
+               "∂[f; τ]/∂[d; π] at fixed a, α, ω: the inertia tangent of the body"),
+    ]
+    return KernelSpec(name="joint_body", doc="Newton-Euler equations of a joint body about its reference point, "
+                      "their mass, gyroscopic and gravity-stiffness blocks, and the body's inertia tangent",
+                      inputs=[BODY_FRAME, BODY_MOTION, BODY_SECTION, GRAVITY], outputs=outputs,
+                      variant="joints", equations="Eqs. 2, 59 (joint bodies as rigid bodies)")
+
+
+def point_load_terms(T, r, values, R, velocity):
+    """(generalized force on the node's residual, power) of a point load (module docstring)."""
+    rg = T * _vector(r)
+    F, Mo = R * _vector(values[0:3]), R * _vector(values[3:6])
+    v, omega = _vector(velocity[0:3]), _vector(velocity[3:6])
+    force = -sp.Matrix.vstack(F, rg.cross(F) + Mo)
+    power = F.dot(v + omega.cross(rg)) + Mo.dot(omega)
+    return force, power
+
+
+def _point_load_kernel() -> KernelSpec:
+    T, R = _matrix(LOAD_NODE.symbols()), _matrix(LOAD_FRAME.symbols())
+    r, values, velocity = LOAD_OFFSET.symbols(), LOAD_VALUES.symbols(), LOAD_VELOCITY.symbols()
+    delta = sp.Matrix(sp.symbols("delta_0:3"))
+    zero = {d: 0 for d in delta}
+    force, power = point_load_terms(T, r, values, R, velocity)
+    by_node, _ = point_load_terms(_turned(T, delta), r, values, R, velocity)
+    by_frame, _ = point_load_terms(T, r, values, _turned(R, delta), velocity)
+    outputs = [
+        Output("load_force", (6,), _rows(force), "−[F; r_g × F + Mo]: the load's part of the node's residual rows"),
+        Output("load_power", (), [power], "F·(v + ω × r_g) + Mo·ω"),
+        Output("load_stiffness_node", (6, 3), _rows(_jacobian(by_node, delta, zero)),
+               "∂load_force/∂π of the node"),
+        Output("load_stiffness_frame", (6, 3), _rows(_jacobian(by_frame, delta, zero)),
+               "∂load_force/∂π of the load's frame body (follower loads)"),
+    ]
+    return KernelSpec(name="point_load", doc="A point load on its node: generalized force, power, and its exact "
+                      "tangent, also for loads that turn with a body",
+                      inputs=[LOAD_NODE, LOAD_OFFSET, LOAD_VALUES, LOAD_FRAME, LOAD_VELOCITY], outputs=outputs,
+                      variant="joints", equations="Eq. 2 (the point), follower loads turning with a body")
+
+
+def build_kernels() -> list[KernelSpec]:
+    """The kernels of the ``joints`` unit."""
+    return [_joint_body_kernel(), _point_load_kernel()]
