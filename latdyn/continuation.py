@@ -57,7 +57,7 @@ import numpy as np
 from .assembly import advance, apply_prescribed
 from .errors import SceneError, SolverError
 from .integrators import increment_size, newton_diagnosis
-from .linalg import solve_linear, use_dense
+from .linalg import single_thread_blas, solve_linear, use_dense
 
 #: Most halvings of a load or displacement step (1/1024 of a grid step), of the arc length.
 MAX_CUTS = 10
@@ -116,7 +116,8 @@ class Path:
         try:
             if use_dense(K.shape[0]):
                 dense = K if isinstance(K, np.ndarray) else K.toarray()
-                out = np.linalg.solve(dense, np.column_stack(rhs))
+                with single_thread_blas():
+                    out = np.linalg.solve(dense, np.column_stack(rhs))
                 out = [out[:, i] for i in range(len(rhs))]
             else:
                 out = [solve_linear(K, b) for b in rhs]
@@ -144,7 +145,8 @@ class Path:
 
         dense = K if isinstance(K, np.ndarray) else K.toarray()
         # Sylvester's law of inertia: ½(K + Kᵀ) = L D Lᵀ (Bunch–Kaufman), D of 1×1 and 2×2 blocks
-        _, D, _ = sla.ldl(0.5 * (dense + dense.T), lower=True)
+        with single_thread_blas():
+            _, D, _ = sla.ldl(0.5 * (dense + dense.T), lower=True)
         eigenvalues = sla.eigvalsh_tridiagonal(np.diag(D).copy(), np.diag(D, 1).copy())
         scale = max(float(np.max(np.abs(eigenvalues))), 1e-300)
         return int(np.sum(eigenvalues < -1e-12 * scale))

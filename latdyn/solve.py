@@ -148,6 +148,8 @@ def run(scene, out_dir=None, backend: str = "auto", progress: bool = False, *, r
         writer.summary.update(resumed_from_t=resume_from.t, resumes=resume_from.resumes + 1)
     with writer, _sigterm_interrupts(enabled=checkpointer is not None):
         if analysis == "modes":
+            if getattr(scene.solve, "about", "initial") == "initial":
+                _warn_moving(scene, writer)
             frequencies = modal_analysis(prepared, scene.solve.count)
             writer.write_modes(frequencies)
             writer.summary["modes_hz"] = [float(f) for f in frequencies]
@@ -164,6 +166,16 @@ def run(scene, out_dir=None, backend: str = "auto", progress: bool = False, *, r
     if analysis == "modes":
         result.modes = np.asarray(writer.summary.get("modes_hz", []))
     return result
+
+
+def _warn_moving(scene: Scene, writer) -> None:
+    """A modal analysis about the initial configuration of a scene that moves says so (issue 22)."""
+    from .moving import modes_warning
+
+    warning = modes_warning(scene)
+    if warning is not None:
+        print(f"latdyn: warning: {warning}", file=sys.stderr)
+        writer.summary.setdefault("warnings", []).append(warning)
 
 
 class _sigterm_interrupts:
@@ -657,7 +669,7 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
             elif h < dt:
                 run.h = min(dt, 2 * h)  # recover the nominal step after a cut or a shortened step
             last = keep_accepted()
-    except (KeyboardInterrupt, Exception):
+    except (KeyboardInterrupt, Exception) as failure:
         # interrupted or failed: a checkpoint of the last accepted step, to resume from
         if checkpointer is not None and not writer.closed:
             try:
@@ -665,6 +677,11 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
                 writer.summary["checkpoint_t"] = last[0].state.t
             except Exception as exc:  # noqa: BLE001 - the original error matters more
                 print(f"latdyn: could not write a checkpoint: {type(exc).__name__}: {exc}", file=sys.stderr)
+        # failed: the last converged state is always a row (after the checkpoint, whose bookmark a
+        # resumed run returns to, so that the resumed files equal an uninterrupted run's)
+        if isinstance(failure, SolverError) and not writer.closed and run.state is not None \
+                and (last_recorded is None or last_recorded.t != run.state.t):
+            record(run.state, energies_of(run.state))
         raise
     finally:
         bar.close()
