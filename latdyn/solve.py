@@ -82,7 +82,11 @@ def _paraview_every(scene: Scene) -> float | None:
     if solve.analysis == "modes":
         return None
     if solve.analysis == "static":
-        return 0.0 if output.paraview_every == 0 else paraview.default_every(1.0, 1.0 / solve.steps)
+        if output.paraview_every == 0:
+            return 0.0
+        if solve.method == "arc-length":  # λ goes up and down along the path: a frame per path point
+            return None
+        return paraview.default_every(1.0, 1.0 / solve.steps)
     if output.paraview_every is not None:
         return output.paraview_every
     return paraview.default_every(solve.t_end, output.every or solve.dt)
