@@ -210,3 +210,52 @@ def test_a_bifurcation_on_the_trivial_branch_of_a_perfect_column(tmp_path):
         euler = math.pi ** 2 / 4 / 5.0  # λ of P_cr = π²EI/(4L²) under 5
         assert low < euler < high and high - low == pytest.approx(0.05)
         assert point["negative_eigenvalues"] == [0, 1]
+
+
+#: The shallow von Mises truss: two pin-jointed bars (one element each; bending stiff enough that
+#: the bars do not buckle before the truss snaps), half-span a = 10, rise h = 1, EA = 1e4.
+VON_MISES = """\
+title: shallow von Mises truss, snap-through
+sections:
+  bar: {EA: 1.0e4, EIy: 1.0e4, EIz: 1.0e4, GJ: 1.0e4, rhoA: 1.0}
+bodies:
+  left: {at: [-10, 0, 0], fixed: true}
+  apex: {at: [0, 1, 0]}
+  right: {at: [10, 0, 0], fixed: true}
+beams:
+  a: {from: left, to: apex, section: bar, elements: 1, start: {hinge: {axis: [0, 0, 1]}}}
+  b: {from: apex, to: right, section: bar, elements: 1, start: {hinge: {axis: [0, 0, 1]}},
+      end: {hinge: {axis: [0, 0, 1]}}}
+loads:
+  - {at: apex, force: [0, -20.0, 0]}
+solve: {analysis: static, method: arc-length, steps: 10, max_steps: 300}
+output:
+  probes:
+    w: {point: apex, quantity: displacement, component: y}
+"""
+
+
+def test_von_mises_truss_snaps_through_on_its_closed_form_path(tmp_path):
+    """Equilibrium of the apex under P with bars of length L(w) = √(a² + (h − w)²) and axial force
+    N = EA (L − L₀)/L₀: P(w) = 2 N (w − h)/L; limit loads ±max P(w) = ±3.81087 at w = 0.4236 and
+    2h − 0.4236 (a dense evaluation of the closed form)."""
+    a, h, EA = 10.0, 1.0, 1.0e4
+    L0 = math.hypot(a, h)
+
+    def load_of(w):
+        L = np.hypot(a, h - w)
+        return 2.0 * EA * (L - L0) / L0 * (w - h) / L
+
+    P_max = float(np.max(load_of(np.linspace(0.0, h, 200_001))))
+    for out in _run_both(tmp_path, VON_MISES):
+        summary = json.loads((out / "summary.json").read_text())
+        result = Result.load(out)
+        w, P = -np.asarray(result.probes["w"]), 20.0 * np.asarray(result.t)
+        # every row on the exact equilibrium path, through the snap (w from 0 past 2h) to λ = 1
+        np.testing.assert_allclose(P, load_of(w), atol=1e-9 * P_max)
+        assert w[-1] > 2 * h and result.t[-1] == 1.0 and np.min(P) < -0.99 * P_max
+        maximum, minimum = summary["limit_points"]
+        assert (maximum["kind"], minimum["kind"]) == ("maximum", "minimum")
+        assert 20.0 * maximum["load_factor"] == pytest.approx(P_max, rel=2e-3)   # 3.8128: +0.05 %
+        assert 20.0 * minimum["load_factor"] == pytest.approx(-P_max, rel=2e-3)  # −3.8141: +0.09 %
+        assert summary["bifurcation_points"] == []
