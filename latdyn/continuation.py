@@ -230,7 +230,8 @@ def load_control(path: Path, state) -> object:
             if h < 1.0 / (steps * 2 ** MAX_CUTS):
                 path.fail(state, lam, f"static analysis could not reach load factor {grid:.6g} (row {k + 1} of "
                                       f"{steps}): Newton failed at load factor {target:.6g} after {MAX_CUTS} cuts "
-                                      f"of the step; the last converged load factor, {lam:.6g}, is the last row",
+                                      f"of the step; the last converged load factor, {lam:.6g}, is the last row (past a limit point "
+                                      "load control cannot go on: solve.method: arc-length follows the path)",
                           residual, target, target - lam)
             continue
         state, lam = trial, target
