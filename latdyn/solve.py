@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import signal
+import sys
 import threading
 import time
 
@@ -34,7 +35,11 @@ def _paraview_every(scene: Scene) -> float | None:
     if solve.analysis == "modes":
         return None
     if solve.analysis == "static":
-        return 0.0 if output.paraview_every == 0 else paraview.default_every(1.0, 1.0 / solve.steps)
+        if output.paraview_every == 0:
+            return 0.0
+        if solve.method == "arc-length":  # λ goes up and down along the path: a frame per path point
+            return None
+        return paraview.default_every(1.0, 1.0 / solve.steps)
     if output.paraview_every is not None:
         return output.paraview_every
     return paraview.default_every(solve.t_end, output.every or solve.dt)
@@ -100,6 +105,8 @@ def run(scene, out_dir=None, backend: str = "auto", progress: bool = False, *, r
         writer.summary.update(resumed_from_t=resume_from.t, resumes=resume_from.resumes + 1)
     with writer, _sigterm_interrupts(enabled=checkpointer is not None):
         if analysis == "modes":
+            if getattr(scene.solve, "about", "initial") == "initial":
+                _warn_moving(scene, writer)
             frequencies = modal_analysis(prepared, scene.solve.count)
             writer.write_modes(frequencies)
             writer.summary["modes_hz"] = [float(f) for f in frequencies]
@@ -116,6 +123,16 @@ def run(scene, out_dir=None, backend: str = "auto", progress: bool = False, *, r
     if analysis == "modes":
         result.modes = np.asarray(writer.summary.get("modes_hz", []))
     return result
+
+
+def _warn_moving(scene: Scene, writer) -> None:
+    """A modal analysis about the initial configuration of a scene that moves says so (issue 22)."""
+    from latdyn.analyses.moving import modes_warning
+
+    warning = modes_warning(scene)
+    if warning is not None:
+        print(f"latdyn: warning: {warning}", file=sys.stderr)
+        writer.summary.setdefault("warnings", []).append(warning)
 
 
 class _sigterm_interrupts:

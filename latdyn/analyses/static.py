@@ -1,77 +1,18 @@
-"""Static analysis with load stepping, and modal analysis about the initial configuration."""
+"""Static analysis (load stepping and path following, :mod:`latdyn.analyses.continuation`), and modal analysis
+about the initial configuration."""
 from __future__ import annotations
 
 import numpy as np
 
-from latdyn.assembly.assembler import advance, apply_prescribed
-from latdyn.errors import SolverError
 from latdyn.numerics.inertia import split_inertia
-from latdyn.numerics.linalg import solve_linear
-from latdyn.step.integrators import increment_size, newton_diagnosis
 
 
 def static_analysis(prepared, probes, writer, length_scale: float) -> None:
-    """Newton on the tangent at load factors λ = k/steps, k = 1…steps.
+    """The static analysis by its ``solve.method``: load control on the grid λ = k/steps (default),
+    arc-length continuation or displacement control (:mod:`latdyn.analyses.continuation`)."""
+    from latdyn.analyses.continuation import static_path
 
-    Loads, gravity and hinge torques are their values at t = 0 scaled by λ;
-    prescribed bodies and hinge angles sit at their t = 0 positions.  A step
-    that does not converge is split in halves (down to 1/64 of a step).
-    """
-    scene, model, assembler = prepared.scene, prepared.model, prepared.assembler
-    state = prepared.state
-    state.v[:] = state.w[:] = 0.0
-    state.theta_dot[:] = 0.0
-    tol = scene.solve.tol if scene.solve.tol is not None else 1e-10
-    max_iter = max(scene.solve.max_iterations, 30)
-    writer.record(0.0, probes.values(state), state=state.as_dict(), frame=_frame(assembler, writer, state))
-    steps = scene.solve.steps
-    lam, dlam = 0.0, 1.0 / steps
-    iterations = 0
-    done = 0
-    while lam < 1.0 - 1e-12:
-        target = min(1.0, lam + dlam)
-        trial = state
-        converged = False
-        residual = None
-        for _ in range(max_iter):
-            ev = assembler.evaluate(trial, matrices=True, load_factor=target, inertia=False)
-            residual = ev.residual
-            if model.n_dofs == 0:
-                converged = True
-                break
-            try:
-                dx = solve_linear(ev.stiffness, -ev.residual)
-            except (np.linalg.LinAlgError, RuntimeError):
-                break
-            if not np.all(np.isfinite(dx)):
-                break
-            trial = advance(model, trial, dx)
-            apply_prescribed(model, trial, 0.0)
-            iterations += 1
-            if increment_size(model, dx, length_scale) <= tol:
-                converged = True
-                break
-        if not converged:
-            if dlam < 1.0 / (64 * steps):
-                raise SolverError(f"static analysis failed at load factor {target:.4g}",
-                                  newton_diagnosis(model, residual, target, dlam))
-            dlam /= 2
-            continue
-        state, lam = trial, target
-        done += 1
-        if abs(lam * steps - round(lam * steps)) < 1e-9:
-            writer.record(lam, probes.values(state), state=state.as_dict(), frame=_frame(assembler, writer, state))
-        dlam = min(dlam * 2, 1.0 / steps)
-        writer.summary.update(steps=done, newton_iterations=iterations)
-    prepared.state = state
-
-
-def _frame(assembler, writer, state):
-    """The ParaView frame of a load step, computed only if the writer writes it."""
-    from latdyn.results.paraview import frame
-
-    snapshot = state.copy()
-    return lambda: frame(assembler, writer.mesh, snapshot)
+    static_path(prepared, probes, writer, length_scale)
 
 
 def modal_analysis(prepared, count: int) -> np.ndarray:

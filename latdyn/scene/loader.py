@@ -74,12 +74,15 @@ from latdyn.scene.expressions import (
 
 __all__ = [
     "Section", "Hinge", "BeamEnd", "Beam", "Body", "PointRef", "Load", "Probe", "Solve",
-    "Output", "InitialVelocity", "Scene", "load_scene", "describe",
-    "ANALYSES", "METHODS", "FORMULATIONS", "MAX_ELEMENTS", "MAX_COUNT",
+    "Output", "Control", "InitialVelocity", "Scene", "load_scene", "describe",
+    "ANALYSES", "METHODS", "STATIC_METHODS", "FORMULATIONS", "MAX_ELEMENTS", "MAX_COUNT",
 ]
 
 ANALYSES = ("transient", "static", "modes")
 METHODS = ("generalized-alpha", "hht-alpha", "newmark", "explicit")
+#: ``solve.method`` of a static analysis (latdyn/analyses/continuation.py): load control on the grid
+#: λ = k/steps (default), arc-length continuation (Crisfield 1981), displacement control of a point.
+STATIC_METHODS = ("load-control", "arc-length", "displacement-control")
 #: Beam-element variants a scene may ask for (``solve.formulation``); each names the generated
 #: kernel variant ``generated/beam_<name>`` (codegen/formulation.py FORMULATIONS):
 #: ``default`` exact local rotations (log map of T_cᵀT_e) with geometric stiffening;
@@ -107,7 +110,9 @@ _BEAM_KEYS = ("from", "to", "section", "elements", "y_axis", "start", "end", "ri
 _HINGE_KEYS = ("axis", "stiffness", "damping", "torque", "angle", "lock_at", "rest_angle", "limits", "restitution")
 _LOAD_KEYS = ("at", "force", "moment", "frame")
 _SOLVE_KEYS = ("analysis", "t_end", "dt", "method", "rho_inf", "tol", "steps", "count",
-               "adaptive", "error_tol", "dt_min", "max_iterations", "formulation", "engine", "newton", "planar")
+               "adaptive", "error_tol", "dt_min", "max_iterations", "formulation", "engine", "newton", "planar",
+               "control", "max_steps")
+_CONTROL_KEYS = ("point", "direction", "to")
 #: ``solve.engine``: where the implicit step runs (latdyn/step/compiled.py); ``solve.newton``: full or modified
 #: Newton, or ``exact``: full Newton whose matrix holds the elements' inertia tangent from the start
 #: (latdyn.step.integrators.inertia_tangent; otherwise taken from the first Newton failure on).
@@ -287,6 +292,21 @@ class Solve:
     engine: str = "auto"
     newton: str = "full"
     planar: str = "auto"
+    #: static ``method: displacement-control``: the controlled point and its displacement
+    control: "Control | None" = None
+    #: static ``method: arc-length``: most path steps (default 20 × steps)
+    max_steps: int | None = None
+
+
+@dataclass
+class Control:
+    """Displacement control (static): the displacement of ``point`` along the unit vector
+    ``direction`` goes from 0 to ``to`` in ``steps`` equal increments; the load factor follows."""
+    point: PointRef
+    direction: np.ndarray
+    to: float
+    #: the direction as written (x, y, z or a vector), for messages
+    text: str = ""
 
 
 @dataclass
@@ -1014,8 +1034,27 @@ class _Reader:
         k = lambda sub: _join(key, sub)  # noqa: E731
         if "analysis" in spec:
             s.analysis = self.choice(spec["analysis"], k("analysis"), ANALYSES)
-        if "method" in spec:
+        if s.analysis == "static":
+            s.method = "load-control"
+            if "method" in spec:
+                s.method = self.choice(spec["method"], k("method"), STATIC_METHODS,
+                                       what="for a static analysis one of")
+        elif "method" in spec:
             s.method = self.choice(spec["method"], k("method"), METHODS)
+        for static_only in ("control", "max_steps"):
+            if static_only in spec and s.analysis != "static":
+                self.fail(k(static_only), "expected only in a static analysis (analysis: static)")
+        if "control" in spec:
+            if s.method != "displacement-control":
+                self.fail(k("control"), "expected only with method: displacement-control")
+            s.control = self.control(spec["control"], k("control"))
+        elif s.method == "displacement-control":
+            self.fail(k("control"), "missing required key 'control' (method: displacement-control needs "
+                                    "control: {point: POINT, direction: x|y|z|[dx, dy, dz], to: DISPLACEMENT})")
+        if "max_steps" in spec:
+            if s.method != "arc-length":
+                self.fail(k("max_steps"), "expected only with method: arc-length")
+            s.max_steps = self.integer(spec["max_steps"], k("max_steps"))
         if s.analysis == "transient":
             for req in ("t_end", "dt"):
                 if req not in spec:
@@ -1053,6 +1092,25 @@ class _Reader:
         if "planar" in spec:
             s.planar = self.choice(spec["planar"], k("planar"), PLANAR)
         return s
+
+    def control(self, spec, key) -> Control:
+        self.mapping(spec, key, _CONTROL_KEYS, required=_CONTROL_KEYS)
+        point = self.point(spec["point"], _join(key, "point"))
+        direction = spec["direction"]
+        if isinstance(direction, str) and direction in AXIS_COMPONENTS:
+            unit = np.eye(3)[AXIS_COMPONENTS.index(direction)]
+            text = direction
+        elif isinstance(direction, str):
+            self.fail(_join(key, "direction"), f"expected {_listing(AXIS_COMPONENTS)} or a vector [dx, dy, dz]",
+                      direction)
+        else:
+            vector = self.vector(direction, _join(key, "direction"), nonzero=True)
+            unit = vector / math.sqrt(float(np.dot(vector, vector)))
+            text = "[" + ", ".join(f"{c:g}" for c in vector) + "]"
+        to = self.number(spec["to"], _join(key, "to"))
+        if to == 0.0:
+            self.fail(_join(key, "to"), "expected a non-zero displacement", spec["to"])
+        return Control(point=point, direction=unit, to=to, text=text)
 
 
 # =========================================================================== entry points
@@ -1208,7 +1266,10 @@ def describe(scene: Scene) -> str:
         if s.adaptive:
             what += ", adaptive"
     elif s.analysis == "static":
-        what = f"static, {s.steps} load steps"
+        what = {"load-control": f"static, {s.steps} load steps",
+                "arc-length": f"static, arc-length continuation from {s.steps} load steps' first step",
+                "displacement-control": f"static, displacement of {s.control.point.text if s.control else ''} "
+                                        f"controlled in {s.steps} steps"}[s.method]
     else:
         what = f"modes, {s.count} lowest"
     lines.append(f"  solve:    {what}")

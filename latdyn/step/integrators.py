@@ -520,13 +520,14 @@ class CentralDifference:
 
 
 def newton_diagnosis(model, residual: np.ndarray | None, t: float, h: float, assembler=None,
-                     state=None) -> str:
-    """Name the coordinates, bodies and beams with the largest residual (cf. Exudyn's SolverErrorMessage)."""
+                     state=None, variable: str = "t") -> str:
+    """Name the coordinates, bodies and beams with the largest residual (cf. Exudyn's SolverErrorMessage);
+    ``variable`` names what ``t`` is (``load factor`` in a static analysis)."""
     if residual is None or len(residual) == 0:
-        return f"at t = {t:.6g} with step {h:.3g}: the linear system could not be solved"
+        return f"at {variable} = {t:.6g} with step {h:.3g}: Newton did not converge or the linear system could not be solved"
     names = model.dof_names()
     worst = np.argsort(-np.abs(residual))[:5]
-    lines = [f"Newton did not converge at t = {t:.6g} with step {h:.3g}; largest residual entries:"]
+    lines = [f"Newton did not converge at {variable} = {t:.6g} with step {h:.3g}; largest residual entries:"]
     for i in worst:
         lines.append(f"  {names[i]}: {residual[i]:.3e}")
     if assembler is not None and state is not None and len(model.element_nodes):

@@ -323,7 +323,7 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
             elif h < dt:
                 run.h = min(dt, 2 * h)  # recover the nominal step after a cut or a shortened step
             last = keep_accepted()
-    except (KeyboardInterrupt, Exception):
+    except (KeyboardInterrupt, Exception) as failure:
         # interrupted or failed: a checkpoint of the last accepted step, to resume from
         if checkpointer is not None and not writer.closed:
             try:
@@ -331,6 +331,11 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
                 writer.summary["checkpoint_t"] = last[0].state.t
             except Exception as exc:  # noqa: BLE001 - the original error matters more
                 print(f"latdyn: could not write a checkpoint: {type(exc).__name__}: {exc}", file=sys.stderr)
+        # failed: the last converged state is always a row (after the checkpoint, whose bookmark a
+        # resumed run returns to, so that the resumed files equal an uninterrupted run's)
+        if isinstance(failure, SolverError) and not writer.closed and run.state is not None \
+                and (last_recorded is None or last_recorded.t != run.state.t):
+            record(run.state, energies_of(run.state))
         raise
     finally:
         bar.close()

@@ -1,0 +1,456 @@
+"""Static equilibrium paths: load control, arc-length continuation, displacement control.
+
+The static residual is affine in the load factor λ (loads, gravity and hinge torques are their
+values at t = 0 scaled by λ; :meth:`latdyn.assembly.assembler.Assembler.evaluate`):
+
+    r(q, λ) = f_int(q) − λ q_ref(q) = 0,                 K = ∂r/∂q,   q_ref = r(q, λ) − r(q, λ + 1)
+
+(q_ref depends on q for loads that turn with a body).  Every method below solves this with
+Newton on the pair (Δq, Δλ) through the two solutions of one tangent
+
+    K δq_r = −r,   K δq_λ = q_ref,   δq = δq_r + δλ δq_λ               (Batoz & Dhatt 1979)
+
+and differs only in the equation that fixes δλ (``solve.method``, SCENE.md):
+
+- ``load-control``: λ on the grid k/steps; δλ = 0 after the step.  A step whose Newton fails is
+  cut in halves towards the *next grid point*, and the sub-steps climb back to it, so every
+  requested row λ = k/steps is written (the rows are never shifted off the grid).
+- ``arc-length``: Crisfield's cylindrical arc length (Crisfield 1981, Eq. 13):
+  ΔqᵀWΔq = Δs², with Δq the increment of the step (the sum of the Newton increments, in the
+  tangent space of the start state) and W weighting translations by 1/ℓ² (ℓ the size of the
+  scene) and rotations and hinge angles by 1, the norm of :func:`latdyn.step.integrators.increment_size`.
+  Each iteration solves the quadratic a₁δλ² + a₂δλ + a₃ = 0 (Crisfield 1981, Eqs. 20–22) and
+  takes the root whose increment turns least from the step so far.  The predictor
+  Δλ = ±Δs/‖δq_λ‖_W takes its sign from the previous step's direction, sign(Δq_{n−1}ᵀ W δq_λ)
+  (Feng, Perić & Owen 1996), which passes limit points and snap-backs alike, where the sign of
+  det K fails at a snap-back (Crisfield 1981 §3; Riks 1979 uses the same constraint linearised).
+  Δs adapts to the Newton iterations of the last step, Δs ← Δs·√(6/N), within [Δs₀/1024, Δs₀],
+  Δs₀ being the arc length of a first step Δλ = 1/steps.  The run ends when λ reaches 1 (the
+  last point is solved at λ = 1 exactly) or after ``max_steps`` path steps (a warning).
+- ``displacement-control``: the displacement c(q) = e·(p(q) − p₀) of a point p along a unit
+  vector e goes from 0 to ``to`` in ``steps`` equal increments; linearised, gᵀδq = c* − c(q) with
+  g = ∂c/∂q (e on the node's translations, (T r) × e on its rotation for an offset r), so
+  δλ = (c* − c − gᵀδq_r)/(gᵀδq_λ) (Batoz & Dhatt 1979).  λ may pass its maxima.
+
+Along every path the number of negative eigenvalues of the symmetric part of K is counted at
+each converged point (models up to :data:`PIVOT_COUNT_LIMIT` coordinates).  λ changing direction
+is a *limit point* (its load factor estimated by the vertex of the parabola λ(s) through the
+three points about the turn); the count changing while λ keeps its direction is a *bifurcation
+point*.  Both go to ``summary.json`` (``limit_points``, ``bifurcation_points``).
+
+Every converged state on the grid is a row of ``probes.csv`` (first column ``load_factor``); a
+run that cannot go on writes its last converged state as a row before it fails (exit 1), with a
+message in load factor.
+
+References: E. Riks, Int. J. Solids Struct. 15 (1979) 529–551; M. A. Crisfield, Comput. Struct.
+13 (1981) 55–62; J.-L. Batoz & G. Dhatt, Int. J. Numer. Meth. Eng. 14 (1979) 1262–1267;
+Y. T. Feng, D. Perić & D. R. J. Owen, Comput. Methods Appl. Mech. Eng. 130 (1996) 341–359.
+"""
+from __future__ import annotations
+
+import math
+import sys
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from latdyn.assembly.assembler import advance, apply_prescribed
+from latdyn.errors import SceneError, SolverError
+from latdyn.numerics.linalg import single_thread_blas, solve_linear, use_dense
+from latdyn.step.integrators import increment_size, newton_diagnosis
+
+#: Most halvings of a load or displacement step (1/1024 of a grid step), of the arc length.
+MAX_CUTS = 10
+#: Newton iterations a path step aims at (arc length adapts towards it).
+TARGET_ITERATIONS = 6
+#: Largest model whose tangent's negative eigenvalues are counted at every path point (dense).
+PIVOT_COUNT_LIMIT = 1000
+
+
+@dataclass
+class PathPoint:
+    """A converged point of the path: its step, load factor, arc length from the start (W-norm)
+    and the number of negative eigenvalues of the symmetric part of K (None: not counted)."""
+    step: int
+    load_factor: float
+    arc: float
+    negative: int | None
+
+
+@dataclass
+class Path:
+    """What the path methods share: the model, the writer, counters, the points passed."""
+    prepared: object
+    probes: object
+    writer: object
+    length_scale: float
+    tol: float = 1e-10
+    max_iter: int = 30
+    iterations: int = 0
+    steps: int = 0
+    rejected: int = 0
+    points: list = field(default_factory=list)
+    recorded_at: float | None = None  # load factor of the last row, the state it holds being `recorded`
+    recorded: object = None
+    weight: np.ndarray | None = None
+
+    def __post_init__(self):
+        scene = self.prepared.scene
+        self.model, self.assembler = self.prepared.model, self.prepared.assembler
+        self.tol = scene.solve.tol if scene.solve.tol is not None else 1e-10
+        self.max_iter = max(scene.solve.max_iterations, 30)
+        model = self.model
+        self.weight = np.ones(model.n_dofs)
+        translations = model.node_dofs[model.free_nodes, 0:3].ravel()
+        self.weight[translations[translations < model.n_dofs]] = 1.0 / self.length_scale ** 2
+
+    # ------------------------------------------------------------------ equations
+    def evaluate(self, state, load_factor: float):
+        """r(q, λ), K(q, λ) and q_ref(q) = r(q, λ) − r(q, λ + 1) (the residual is affine in λ)."""
+        ev = self.assembler.evaluate(state, matrices=True, load_factor=load_factor, inertia=False)
+        shifted = self.assembler.evaluate(state, matrices=False, load_factor=load_factor + 1.0, inertia=False)
+        return ev.residual, ev.stiffness, ev.residual - shifted.residual
+
+    def solve(self, K, *rhs):
+        """K⁻¹ for each right-hand side; None when K is singular or the result not finite."""
+        try:
+            if use_dense(K.shape[0]):
+                dense = K if isinstance(K, np.ndarray) else K.toarray()
+                with single_thread_blas():
+                    out = np.linalg.solve(dense, np.column_stack(rhs))
+                out = [out[:, i] for i in range(len(rhs))]
+            else:
+                out = [solve_linear(K, b) for b in rhs]
+        except (np.linalg.LinAlgError, RuntimeError):
+            return None
+        if not all(np.all(np.isfinite(x)) for x in out):
+            return None
+        return out
+
+    def norm(self, dq) -> float:
+        """‖Δq‖_W (translations over ℓ, rotations and hinge angles in radians)."""
+        return math.sqrt(float(dq @ (self.weight * dq)))
+
+    def step_to(self, state, dq):
+        new = advance(self.model, state, dq)
+        apply_prescribed(self.model, new, 0.0)
+        return new
+
+    def negative_eigenvalues(self, K) -> int | None:
+        """Negative eigenvalues of ½(K + Kᵀ) (None above PIVOT_COUNT_LIMIT coordinates)."""
+        n = K.shape[0]
+        if n == 0 or n > PIVOT_COUNT_LIMIT:
+            return None if n else 0
+        import scipy.linalg as sla
+
+        dense = K if isinstance(K, np.ndarray) else K.toarray()
+        # Sylvester's law of inertia: ½(K + Kᵀ) = L D Lᵀ (Bunch–Kaufman), D of 1×1 and 2×2 blocks
+        with single_thread_blas():
+            _, D, _ = sla.ldl(0.5 * (dense + dense.T), lower=True)
+        eigenvalues = sla.eigvalsh_tridiagonal(np.diag(D).copy(), np.diag(D, 1).copy())
+        scale = max(float(np.max(np.abs(eigenvalues))), 1e-300)
+        return int(np.sum(eigenvalues < -1e-12 * scale))
+
+    # ------------------------------------------------------------------ rows and summary
+    def record(self, state, load_factor: float) -> None:
+        self.writer.record(load_factor, self.probes.values(state), state=state.as_dict(),
+                           frame=load_step_frame(self.assembler, self.writer, state))
+        self.recorded_at, self.recorded = load_factor, state
+
+    def accept(self, state, load_factor: float, K, arc: float) -> None:
+        self.steps += 1
+        self.points.append(PathPoint(self.steps, float(load_factor), float(arc), self.negative_eigenvalues(K)))
+        self.summarize()
+
+    def summarize(self) -> None:
+        limits, bifurcations = critical_points(self.points)
+        last = self.points[-1].load_factor if self.points else 0.0
+        self.writer.summary.update(
+            steps=self.steps, newton_iterations=self.iterations, rejected_steps=self.rejected,
+            newton_iterations_per_step=self.iterations / max(self.steps, 1), newton_tolerance=self.tol,
+            method=self.prepared.scene.solve.method, load_factor_reached=last,
+            limit_points=limits, bifurcation_points=bifurcations,
+            negative_eigenvalues_counted=self.model.n_dofs <= PIVOT_COUNT_LIMIT)
+
+    def fail(self, state, load_factor: float, message: str, residual, at: float, step: float) -> None:
+        """Write the last converged state as a row (unless it is the last row) and raise."""
+        if self.recorded is not state:
+            self.record(state, load_factor)
+        self.summarize()
+        raise SolverError(message, newton_diagnosis(self.model, residual, at, step, variable="load factor"))
+
+
+def critical_points(points: list[PathPoint]) -> tuple[list[dict], list[dict]]:
+    """Limit points (λ turns) and bifurcation points (the count of negative eigenvalues changes
+    while λ keeps its direction) along ``points`` (the start, λ = 0, first)."""
+    lam = np.array([p.load_factor for p in points])
+    arc = np.array([p.arc for p in points])
+    d = np.diff(lam)
+    limits, turns = [], set()
+    for j in range(1, len(d)):
+        if d[j - 1] * d[j] < 0 and abs(d[j - 1]) > 1e-14 and abs(d[j]) > 1e-14:
+            turns.add(j)
+            s, y = arc[j - 1:j + 2], lam[j - 1:j + 2]
+            estimate = float(y[1])
+            if np.ptp(s) > 0 and len(set(s.tolist())) == 3:
+                a, b, c = np.polyfit(s - s[1], y, 2)
+                if a != 0.0:
+                    vertex = -b / (2 * a)
+                    if s[0] - s[1] <= vertex <= s[2] - s[1]:
+                        estimate = float(c - b * b / (4 * a))
+            limits.append({"load_factor": estimate, "recorded_load_factor": float(lam[j]), "step": points[j].step,
+                           "kind": "maximum" if d[j - 1] > 0 else "minimum"})
+    bifurcations = []
+    for j in range(1, len(points)):
+        before, after = points[j - 1].negative, points[j].negative
+        if before is None or after is None or before == after:
+            continue
+        if j - 1 in turns or j in turns or j + 1 >= len(points):
+            continue  # the change of a limit point, or not yet known which
+        bifurcations.append({"load_factor": 0.5 * float(lam[j - 1] + lam[j]), "step": points[j].step,
+                             "between_load_factors": [float(lam[j - 1]), float(lam[j])],
+                             "negative_eigenvalues": [before, after]})
+    return limits, bifurcations
+
+
+# ====================================================================== load control
+def load_control(path: Path, state) -> object:
+    """λ = k/steps, k = 1 … steps; a failed step is halved towards the next grid point."""
+    steps = path.prepared.scene.solve.steps
+    lam, k, h = 0.0, 0, 1.0 / steps
+    while k < steps:
+        grid = (k + 1) / steps
+        target = grid if lam + h >= grid - 1e-12 / steps else lam + h
+        trial, K, residual, converged = newton_fixed(path, state, target)
+        if not converged:
+            path.rejected += 1
+            h = min(h, target - lam) / 2
+            if h < 1.0 / (steps * 2 ** MAX_CUTS):
+                path.fail(state, lam, f"static analysis could not reach load factor {grid:.6g} (row {k + 1} of "
+                                      f"{steps}): Newton failed at load factor {target:.6g} after {MAX_CUTS} cuts "
+                                      f"of the step; the last converged load factor, {lam:.6g}, is the last row (past a limit point "
+                                      "load control cannot go on: solve.method: arc-length follows the path)",
+                          residual, target, target - lam)
+            continue
+        state, lam = trial, target
+        path.accept(state, lam, K, lam)
+        h = min(2 * h, 1.0 / steps)
+        if target == grid:
+            k += 1
+            path.record(state, lam)
+    return state
+
+
+def newton_fixed(path: Path, state, load_factor: float):
+    """Newton at a fixed load factor from ``state``: (state, K, residual, converged)."""
+    model, trial, K, residual = path.model, state, None, None
+    for _ in range(path.max_iter):
+        ev = path.assembler.evaluate(trial, matrices=True, load_factor=load_factor, inertia=False)
+        residual, K = ev.residual, ev.stiffness
+        if model.n_dofs == 0:
+            return trial, K, residual, True
+        solved = path.solve(K, -residual)
+        if solved is None:
+            return trial, K, residual, False
+        trial = path.step_to(trial, solved[0])
+        path.iterations += 1
+        if increment_size(model, solved[0], path.length_scale) <= path.tol:
+            return trial, K, residual, True
+    return trial, K, residual, False
+
+
+# ====================================================================== arc length
+def arc_length(path: Path, state) -> object:
+    """Crisfield's cylindrical arc length (module docstring) until λ = 1 or ``max_steps``."""
+    solve = path.prepared.scene.solve
+    max_steps = solve.max_steps if solve.max_steps is not None else 20 * solve.steps
+    model = path.model
+    if model.n_dofs == 0:
+        return load_control(path, state)
+    r, K, q = path.evaluate(state, 0.0)
+    solved = path.solve(K, q)
+    if solved is None or path.norm(solved[0]) == 0.0:
+        raise SolverError("arc-length continuation cannot start: the tangent at load factor 0 is singular "
+                          "or the loads move nothing", newton_diagnosis(model, r, 0.0, 0.0, variable="load factor"))
+    ds0 = path.norm(solved[0]) / solve.steps  # the first step: Δλ = 1/steps
+    ds, lam, arc = ds0, 0.0, 0.0
+    previous = solved[0] / path.norm(solved[0])  # direction of the last step, W-unit
+    while path.steps < max_steps:
+        result = arc_length_step(path, state, lam, ds, previous)
+        if result is not None and (lam - 1.0) * (result[1] - 1.0) <= 0.0 and lam != 1.0:
+            # λ = 1 inside the step: its end solved at λ = 1 exactly
+            landed, K_end, _, converged = newton_fixed(path, result[0], 1.0)
+            result = (landed, 1.0, result[2], K_end, result[4]) if converged else None
+            if result is not None:
+                new, new_lam, step_dq, K_end, n = result
+                path.accept(new, new_lam, K_end, arc + ds)
+                path.record(new, new_lam)
+                return new
+        if result is None:
+            path.rejected += 1
+            ds /= 2
+            if ds < ds0 / 2 ** MAX_CUTS:
+                path.fail(state, lam, f"arc-length continuation could not go on from load factor {lam:.6g}: "
+                                      f"Newton failed with arc lengths down to {ds0 / 2 ** MAX_CUTS:.3g} "
+                                      f"(1/{2 ** MAX_CUTS} of the first step)", None, lam, ds)
+            continue
+        new, new_lam, step_dq, K_end, n = result
+        arc += path.norm(step_dq)
+        state, lam = new, new_lam
+        previous = step_dq / max(path.norm(step_dq), 1e-300)
+        path.accept(state, lam, K_end, arc)
+        path.record(state, lam)
+        ds = min(ds0, ds * min(2.0, math.sqrt(TARGET_ITERATIONS / max(n, 1))))
+    message = (f"arc-length continuation stopped after max_steps = {max_steps} path steps at load factor "
+               f"{lam:.6g}, before the load factor reached 1")
+    path.writer.summary.setdefault("warnings", []).append(message)
+    path.writer.summary["end"] = "max_steps"
+    print(f"latdyn: warning: {message}", file=sys.stderr)
+    return state
+
+
+def arc_length_step(path: Path, state, lam: float, ds: float, previous):
+    """One step of arc length ``ds`` from (state, λ): (state, λ, Δq, K, iterations) or None."""
+    W = path.weight
+    r, K, q = path.evaluate(state, lam)
+    solved = path.solve(K, q)
+    if solved is None:
+        return None
+    tangent = solved[0]
+    size = path.norm(tangent)
+    if size == 0.0:
+        return None
+    sign = 1.0 if float(previous @ (W * tangent)) >= 0.0 else -1.0  # Feng et al. 1996
+    dlam = sign * ds / size
+    dq = dlam * tangent
+    trial, trial_lam = path.step_to(state, dq), lam + dlam
+    for n in range(1, path.max_iter + 1):
+        r, K, q = path.evaluate(trial, trial_lam)
+        solved = path.solve(K, -r, q)
+        if solved is None:
+            return None
+        dq_r, dq_l = solved
+        a = dq + dq_r
+        a1 = float(dq_l @ (W * dq_l))           # Crisfield 1981, Eq. 22
+        a2 = 2.0 * float(dq_l @ (W * a))
+        a3 = float(a @ (W * a)) - ds * ds
+        disc = a2 * a2 - 4.0 * a1 * a3
+        if a1 == 0.0 or disc < 0.0:
+            return None
+        roots = ((-a2 + math.sqrt(disc)) / (2 * a1), (-a2 - math.sqrt(disc)) / (2 * a1))
+        # the root whose step turns least from the step so far (Crisfield 1981, Eq. 23)
+        dl = max(roots, key=lambda root: float(dq @ (W * (a + root * dq_l))))
+        increment = dq_r + dl * dq_l
+        trial, trial_lam, dq = path.step_to(trial, increment), trial_lam + dl, dq + increment
+        path.iterations += 1
+        if increment_size(path.model, increment, path.length_scale) <= path.tol:
+            return trial, trial_lam, dq, K, n
+    return None
+
+
+# ====================================================================== displacement control
+def displacement_control(path: Path, state) -> object:
+    """The controlled displacement on the grid to·k/steps; a failed step is halved towards it."""
+    solve = path.prepared.scene.solve
+    control, steps = solve.control, solve.steps
+    model = path.model
+    node, offset = model.point(control.point)
+    if node not in set(int(n) for n in model.free_nodes):
+        raise SceneError(f"{path.prepared.scene.file}: solve.control.point: expected a point that moves "
+                         f"(on a free node), got {control.point.text!r} (fixed, prescribed or set by a rigid link)")
+    origin = state.x[node] + state.T[node] @ offset
+
+    def displacement(s) -> float:
+        return float(control.direction @ (s.x[node] + s.T[node] @ offset - origin))
+
+    def gradient(s) -> np.ndarray:
+        g = np.zeros(model.n_total + 1)
+        dofs = model.node_dofs[node]
+        g[dofs[0:3]] += control.direction
+        g[dofs[3:6]] += np.cross(s.T[node] @ offset, control.direction)  # δ(T r) = δπ × T r
+        return g[:model.n_dofs]
+
+    if not np.any(gradient(state)):
+        raise SceneError(f"{path.prepared.scene.file}: solve.control.direction: expected a direction in "
+                         f"which {control.point.text!r} can move, got {control.text} (out of the plane of "
+                         "a planar model? planar: off solves it in 3D)")
+    lam, reached, k, h = 0.0, 0.0, 0, 1.0 / steps
+    while k < steps:
+        grid = (k + 1) / steps
+        fraction = grid if reached + h >= grid - 1e-12 / steps else reached + h
+        result = displacement_step(path, state, lam, fraction * control.to, displacement, gradient)
+        if result is None:
+            path.rejected += 1
+            h = (fraction - reached) / 2
+            if h < 1.0 / (steps * 2 ** MAX_CUTS):
+                path.fail(state, lam, f"displacement control could not reach {control.point.text} displaced by "
+                                      f"{grid * control.to:.6g} along {control.text} (row {k + 1} of {steps}): "
+                                      f"Newton failed after {MAX_CUTS} cuts; the last converged state, at load "
+                                      f"factor {lam:.6g}, is the last row", None, lam, h)
+            continue
+        state, lam, K = result
+        reached = fraction
+        path.accept(state, lam, K, fraction)
+        h = min(2 * h, 1.0 / steps)
+        if fraction == grid:
+            k += 1
+            path.record(state, lam)
+    path.writer.summary["control_displacement"] = displacement(state)
+    return state
+
+
+def displacement_step(path: Path, state, lam: float, goal: float, displacement, gradient):
+    """Newton on (q, λ) with c(q) = goal from (state, λ): (state, λ, K) or None."""
+    r, K, q = path.evaluate(state, lam)
+    solved = path.solve(K, q)
+    if solved is None:
+        return None
+    g = gradient(state)
+    slope = float(g @ solved[0])  # dc/dλ along the tangent
+    trial, trial_lam = state, lam
+    if abs(slope) > 1e-14 * max(1.0, abs(goal)):
+        dlam = (goal - displacement(state)) / slope
+        trial, trial_lam = path.step_to(state, dlam * solved[0]), lam + dlam
+    for _ in range(path.max_iter):
+        r, K, q = path.evaluate(trial, trial_lam)
+        solved = path.solve(K, -r, q)
+        if solved is None:
+            return None
+        dq_r, dq_l = solved
+        g = gradient(trial)
+        denominator = float(g @ dq_l)
+        if denominator == 0.0:
+            return None
+        dl = (goal - displacement(trial) - float(g @ dq_r)) / denominator  # Batoz & Dhatt 1979
+        increment = dq_r + dl * dq_l
+        trial, trial_lam = path.step_to(trial, increment), trial_lam + dl
+        path.iterations += 1
+        if increment_size(path.model, increment, path.length_scale) <= path.tol:
+            return trial, trial_lam, K
+    return None
+
+
+METHODS = {"load-control": load_control, "arc-length": arc_length, "displacement-control": displacement_control}
+
+
+def static_path(prepared, probes, writer, length_scale: float) -> None:
+    """Solve the static analysis of ``prepared`` by its ``solve.method``; rows into ``writer``."""
+    path = Path(prepared, probes, writer, length_scale)
+    state = prepared.state
+    state.v[:] = state.w[:] = 0.0
+    state.theta_dot[:] = 0.0
+    path.record(state, 0.0)
+    K = prepared.assembler.evaluate(state, matrices=True, load_factor=0.0, inertia=False).stiffness \
+        if path.model.n_dofs else np.zeros((0, 0))
+    path.points.append(PathPoint(0, 0.0, 0.0, path.negative_eigenvalues(K)))
+    path.summarize()
+    prepared.state = METHODS[prepared.scene.solve.method](path, state)
+    path.summarize()
+
+
+def load_step_frame(assembler, writer, state):
+    """The ParaView frame of a load step, computed only if the writer writes it."""
+    from latdyn.results.paraview import frame
+
+    snapshot = state.copy()
+    return lambda: frame(assembler, writer.mesh, snapshot)
