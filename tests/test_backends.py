@@ -149,8 +149,10 @@ def test_numpy_c_and_sympy_agree(backends):
     variant, numpy_set, c_set = backends
     inputs = realistic_inputs(N, seed=11)
     specs = {spec.name: spec for spec in build_kernels(variant)}
-    assert set(specs) == set(numpy_set.info) == set(c_set.info), "generated/ is stale: run latdyn-codegen"
-    for name, meta in numpy_set.info.items():
+    beam = {name: meta for name, meta in numpy_set.info.items() if name.startswith("beam_")}  # joints: test_joints
+    names, c_names = sorted(specs), sorted(n for n in c_set.info if n.startswith("beam_"))
+    assert names == sorted(beam) == c_names, "generated/ is stale: run latdyn-codegen"
+    for name, meta in beam.items():
         arrays = [inputs[arg] for arg, _ in meta["inputs"]]
         from_numpy = getattr(numpy_set, name)(*arrays)
         from_c = getattr(c_set, name)(*arrays)
