@@ -53,6 +53,10 @@ class Formulation:
     #: "sine"  Eqs. 14–16 literally (entries of R_i: sines, first order in the rotation),
     #: "log"   the rotation vector log(R_i) (exact; Battini & Pacoste 2002), see :func:`log_rotation`.
     rotation_measure: str = "log"
+    #: how the corotational frame's t_c2, t_c3 are chosen about the chord (:func:`corotational`):
+    #: "first_node" the paper's Eqs. 20–21 (from node 1's section); "mean" from the mean of both
+    #: nodes' sections (twist-symmetric; docs/derivation.md, "Bending–twist coupling").
+    corotational_frame: str = "first_node"
     #: None: the 3D element. "xy", "yz", "zx": the same element restricted to motion in that
     #: coordinate plane (:class:`Plane`), for scenes that stay in it (``solve.planar``).
     plane: str | None = None
@@ -70,6 +74,8 @@ class Formulation:
     def __post_init__(self):
         if self.rotation_measure not in ROTATION_MEASURES:
             raise ValueError(f"rotation_measure {self.rotation_measure!r} not in {ROTATION_MEASURES}")
+        if self.corotational_frame not in COROTATIONAL_FRAMES:
+            raise ValueError(f"corotational_frame {self.corotational_frame!r} not in {COROTATIONAL_FRAMES}")
         if self.plane is not None and self.plane not in PLANES:
             raise ValueError(f"plane {self.plane!r} not in {tuple(PLANES)}")
         for shapes in (self.stiffening_shapes, self.inertia_shapes):
@@ -78,14 +84,16 @@ class Formulation:
 
 
 ROTATION_MEASURES = ("log", "sine")
+COROTATIONAL_FRAMES = ("first_node", "mean")
 TRANSVERSE_SHAPES = ("interdependent", "hermite")
 
 FORMULATIONS: dict[str, Formulation] = {
     "default": Formulation(
         "default",
         rotation_measure="log",
-        description="exact local rotations (log map of T_cᵀT_e), geometric stiffening, cross-section rotary inertia, "
-                    "IIE shear where 1/GA > 0",
+        corotational_frame="mean",
+        description="exact local rotations (log map of T_cᵀT_e) about a twist-symmetric corotational frame, "
+                    "geometric stiffening, cross-section rotary inertia, IIE shear where 1/GA > 0",
     ),
     "cr4402": Formulation(
         "cr4402",
@@ -328,7 +336,7 @@ class Corotational:
 
 
 def corotational(grid1, frame1, grid2, frame2, L0, measure: str = "sine", scales=None,
-                 planar: bool = False) -> Corotational:
+                 planar: bool = False, frame_choice: str = "first_node") -> Corotational:
     """Ψ and T_c from the two grid points and nodal frames.
 
     * α_x² = ‖x_g2 − x_g1‖ − L_e (Eqs. 12–13).
@@ -350,6 +358,15 @@ def corotational(grid1, frame1, grid2, frame2, L0, measure: str = "sine", scales
       ``scales`` = (f_1, f_2): callables giving θ/sin θ as a function of
       x = 1 − cos θ at each end (default: :func:`log_scale_closed`, exact but not
       safe at R = I; the kernels use :func:`log_scale` through a jet).
+    * ``frame_choice="mean"``: t_c2, t_c3 from m = t_e¹(2) + t_e²(2) instead of t_e¹(2),
+      t_c2 = (m − (t_c1·m) t_c1)/‖·‖, t_c3 = t_c1 × t_c2 (Crisfield 1990; Battini & Pacoste 2002):
+      the frame sits half-way between the two sections in twist, so both ends' bending
+      rotations are read in the mid-element section and the twist splits ±½ between the ends.
+      With the first node's frame, log(R_i) reads both ends' bending in a frame turned by
+      about a quarter of the element's twist from the mid-section, which with EI_y ≠ EI_z
+      couples bending and twist at O(h) (docs/derivation.md, "Bending–twist coupling").
+      In a planar configuration both choices give t_c2 = n × t_c1, so the planar variants
+      keep the first node's (cheaper) form.
     * ``planar`` (a configuration of a :class:`Plane`, local z = n): R_i turns about local z
       only, so log(R_i) = (0, 0, atan2(R_i[1, 0], R_i[0, 0])) exactly (|θ| < π): the same
       measure in closed form, without the series of θ/sin θ.  The sines are unchanged.
@@ -361,8 +378,18 @@ def corotational(grid1, frame1, grid2, frame2, L0, measure: str = "sine", scales
     b2, b3 = column(frame2, 1), column(frame2, 2)
     s = dot(e, a2)  # = −φ_z¹
     n = se.sqrt(1 - s * s)  # ‖t_e1(2) − s t_c1‖ on SO(3)
-    t2 = (a2 - e * s) / n
-    t3 = cross(e, a2) / n
+    mean = frame_choice == "mean" and not planar
+    if mean:
+        m = a2 + b2  # twice the mean section axis; only its direction normal to the chord counts
+        em = dot(e, m)
+        nm = se.sqrt(dot(m, m) - em * em)  # ‖m − (t_c1·m) t_c1‖
+        t2 = (m - e * em) / nm
+        t3 = cross(e, m) / nm
+    elif frame_choice == "first_node" or planar:
+        t2 = (a2 - e * s) / n
+        t3 = cross(e, a2) / n
+    else:
+        raise ValueError(f"unknown corotational frame {frame_choice!r}")
     frame = se.DenseMatrix(3, 3, [e[0], t2[0], t3[0], e[1], t2[1], t3[1], e[2], t2[2], t3[2]])
     if measure == "sine":
         psi = [
@@ -382,9 +409,12 @@ def corotational(grid1, frame1, grid2, frame2, L0, measure: str = "sine", scales
     # and t_e¹(1) = t_e¹(2) × t_e¹(3) (a rotation) every entry is a function of c_1, c_2 = s, c_3 and n:
     # t_c2·t_e¹(k) = (δ_2k − s c_k)/n, t_c3·t_e¹(1) = −c_3/n, t_c3·t_e¹(2) = 0, t_c3·t_e¹(3) = c_1/n
     # (docs/derivation.md, item 14–16 (log)); fewer entries to differentiate than nine dot products.
-    c1, c3 = dot(e, column(frame1, 0)), dot(e, a3)
-    R1 = se.DenseMatrix(3, 3, [c1, s, c3, -s * c1 / n, n, -s * c3 / n, -c3 / n, 0, c1 / n])
     axes = (e, t2, t3)
+    if mean:
+        R1 = se.DenseMatrix(3, 3, [dot(axes[i], column(frame1, j)) for i in range(3) for j in range(3)])
+    else:
+        c1, c3 = dot(e, column(frame1, 0)), dot(e, a3)
+        R1 = se.DenseMatrix(3, 3, [c1, s, c3, -s * c1 / n, n, -s * c3 / n, -c3 / n, 0, c1 / n])
     columns = [column(frame2, k) for k in range(3)]
     R2 = se.DenseMatrix(3, 3, [dot(axes[i], columns[j]) for i in range(3) for j in range(3)])
     if planar:
