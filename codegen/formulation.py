@@ -382,7 +382,7 @@ def corotational(grid1, frame1, grid2, frame2, L0, measure: str = "sine", scales
     if mean:
         m = a2 + b2  # twice the mean section axis; only its direction normal to the chord counts
         em = dot(e, m)
-        nm = se.sqrt(dot(m, m) - em * em)  # ‖m − (t_c1·m) t_c1‖
+        nm = se.sqrt(2 + 2 * dot(a2, b2) - em * em)  # ‖m − (t_c1·m) t_c1‖, |t_e¹(2)| = |t_e²(2)| = 1
         t2 = (m - e * em) / nm
         t3 = cross(e, m) / nm
     elif frame_choice == "first_node" or planar:
@@ -411,12 +411,12 @@ def corotational(grid1, frame1, grid2, frame2, L0, measure: str = "sine", scales
     # (docs/derivation.md, item 14–16 (log)); fewer entries to differentiate than nine dot products.
     axes = (e, t2, t3)
     if mean:
-        R1 = se.DenseMatrix(3, 3, [dot(axes[i], column(frame1, j)) for i in range(3) for j in range(3)])
+        R1, R2 = _mean_frame_rotations(e, frame1, frame2)
     else:
         c1, c3 = dot(e, column(frame1, 0)), dot(e, a3)
         R1 = se.DenseMatrix(3, 3, [c1, s, c3, -s * c1 / n, n, -s * c3 / n, -c3 / n, 0, c1 / n])
-    columns = [column(frame2, k) for k in range(3)]
-    R2 = se.DenseMatrix(3, 3, [dot(axes[i], columns[j]) for i in range(3) for j in range(3)])
+        columns = [column(frame2, k) for k in range(3)]
+        R2 = se.DenseMatrix(3, 3, [dot(axes[i], columns[j]) for i in range(3) for j in range(3)])
     if planar:
         # R_i[1,0] = t_c2·t_e^i(1) = n·(t_c1 × t_e^i(1)) and R_i[0,0] = t_c1·t_e^i(1), with t_c2 = n × t_c1
         # (the exact frame above for |θ_z¹| < 90°) and n = t_e^i(3); atan2 is blind to the positive
@@ -434,6 +434,33 @@ def corotational(grid1, frame1, grid2, frame2, L0, measure: str = "sine", scales
     (tx1, ty1, tz1), (tx2, ty2, tz2) = thetas
     psi = [ty1, tz1, ty2, tz2, tx2 - tx1, length - L0]
     return Corotational(chord, length, frame, psi, tuple(arguments))
+
+
+def _mean_frame_rotations(e, frame1, frame2):
+    """R_i = T_cᵀT_e^i for the mean frame, written with the orthonormality of T_e¹ and T_e².
+
+    With c_k = t_c1·t_e¹(k), d_k = t_c1·t_e²(k) and G = T_e¹ᵀT_e² (G_jk = t_e¹(j)·t_e²(k)), in the
+    nodes' own bases: m = t_e¹(2) + t_e²(2) has m·t_e¹(k) = δ_2k + G_k2, m·t_e²(k) = G_2k + δ_2k,
+    ‖m − (t_c1·m)t_c1‖² = 2 + 2G_22 − (c_2 + d_2)², and (t_c1 × m)·t_e¹(k) = (c × G_:2)_k + (c_1δ_3k − c_3δ_1k),
+    (t_c1 × m)·t_e²(k) = (d × G_2:)_k + (d_1δ_3k − d_3δ_1k).  The same matrices as the nine dot
+    products of T_c's columns with each T_e^i's, in fewer operations to differentiate."""
+    a = [column(frame1, k) for k in range(3)]
+    b = [column(frame2, k) for k in range(3)]
+    c = vector([dot(e, a[k]) for k in range(3)])
+    d = vector([dot(e, b[k]) for k in range(3)])
+    G = [[dot(a[j], b[k]) for k in range(3)] for j in range(3)]
+    em = c[1] + d[1]  # t_c1·m
+    nm = se.sqrt(2 + 2 * G[1][1] - em * em)  # ‖m − (t_c1·m) t_c1‖ on SO(3)
+    across1 = cross(c, vector([G[0][1], G[1][1], G[2][1]]))  # (t_c1 × t_e²(2))·t_e¹(k)
+    across2 = cross(d, vector(G[1]))  # (t_c1 × t_e¹(2))·t_e²(k)
+    delta = lambda j, k: 1 if j == k else 0  # noqa: E731
+    R1 = se.DenseMatrix(3, 3, [c[0], c[1], c[2]]
+                        + [(delta(1, k) + G[k][1] - em * c[k]) / nm for k in range(3)]
+                        + [(across1[k] + c[0] * delta(2, k) - c[2] * delta(0, k)) / nm for k in range(3)])
+    R2 = se.DenseMatrix(3, 3, [d[0], d[1], d[2]]
+                        + [(G[1][k] + delta(1, k) - em * d[k]) / nm for k in range(3)]
+                        + [(across2[k] + d[0] * delta(2, k) - d[2] * delta(0, k)) / nm for k in range(3)])
+    return R1, R2
 
 
 # --------------------------------------------------------------------------
