@@ -634,24 +634,29 @@ def transverse_fields(psi, shear=(1, 1)):
     return v, w, theta_z, theta_y
 
 
-def displacement_field(psi, L, rotary_inertia: bool, shear=(1, 1)):
+def displacement_field(psi, L, rotary_inertia: bool, shear=(1, 1), twist_origin=0):
     """u_c = N Ψ (Eqs. 44–45, corrected), components along the corotational axes.
 
     v, w the Hermite cubics of Eqs. 23–24 (Euler–Bernoulli, ``shear`` = (1, 1)) or the
     IIE shapes (:func:`interdependent_shapes`, ``shear`` = (μ_z, μ_y)), a linear twist
-    (Eq. 40's assumption, φ_x¹ = 0 by Eq. 11) and a linear stretch; a plane section
-    turns by its own rotations θ_z, θ_y (= v_x, −w_x without shear):
+    (Eq. 40's assumption) and a linear stretch; a plane section turns by its own
+    rotations θ_z, θ_y (= v_x, −w_x without shear) and twists by (ξ − ξ₀) φx2 against T_c:
 
-        u = ξ α − y θ_z + z θ_y,  v = L(n1 φz1 + n2 φz2) − z ξ φx2,
-        w = −L(n1 φy1 + n2 φy2) + y ξ φx2
+        u = ξ α − y θ_z + z θ_y,  v = L(n1 φz1 + n2 φz2) − z (ξ − ξ₀) φx2,
+        w = −L(n1 φy1 + n2 φy2) + y (ξ − ξ₀) φx2
+
+    ``twist_origin`` ξ₀ is where the section is untwisted against T_c: 0 for node 1's frame
+    (φ_x¹ = 0 by Eq. 11), ½ for the mean frame (the ends at ∓½φx2 + O(θ³), docs/derivation.md,
+    "Bending–twist coupling"; with ξ₀ = 0 there the twist rate of every section would be off by
+    ½φ̇x2, and the kinetic energy by O(h)).
     """
     phi_x2, alpha = psi[4], psi[5]
     v, w, theta_z, theta_y = transverse_fields(psi, shear)
     v, w = L * v, L * w
     if rotary_inertia:
         u = xi * alpha - ys * theta_z + zs * theta_y
-        v = v - zs * xi * phi_x2
-        w = w + ys * xi * phi_x2
+        v = v - zs * (xi - twist_origin) * phi_x2
+        w = w + ys * (xi - twist_origin) * phi_x2
     else:
         u = xi * alpha
     return sp.Matrix([u, v, w])
@@ -760,11 +765,16 @@ QUASI_VELOCITY = sp.symbols("u_0:12", real=True)
 def local_inertia(formulation: Formulation):
     """:func:`section_inertia` of the switches of ``formulation`` it depends on: variants that
     differ elsewhere (rotation measure, stiffening, plane) share one derivation per process."""
-    return section_inertia(formulation.rotary_inertia, formulation.inertia_shapes)
+    return section_inertia(formulation.rotary_inertia, formulation.inertia_shapes,
+                           TWIST_ORIGIN[formulation.corotational_frame])
+
+
+#: ξ₀ of :func:`displacement_field` for each corotational frame: where the section is untwisted against T_c
+TWIST_ORIGIN = {"first_node": 0, "mean": sp.Rational(1, 2)}
 
 
 @lru_cache(maxsize=None)
-def section_inertia(rotary_inertia: bool, inertia_shapes: str):
+def section_inertia(rotary_inertia: bool, inertia_shapes: str, twist_origin=0):
     """Mass matrix M̂(Ψ) and gyroscopic vector ĝ(Ψ, u) in the corotational frame.
 
     Quasi-velocities u = [v̂, ω̂, Ψ̇] (12): velocity of grid point 1 and angular
@@ -777,7 +787,8 @@ def section_inertia(rotary_inertia: bool, inertia_shapes: str):
 
     Expressions in :data:`PSI`, :data:`QUASI_VELOCITY`, the section symbols and, with
     ``inertia_shapes="interdependent"``, the shear factors :data:`SHEAR_FACTORS` (the IIE
-    shapes of :func:`displacement_field`; μ = 1 gives the Hermite mass exactly).
+    shapes of :func:`displacement_field`; μ = 1 gives the Hermite mass exactly); ``twist_origin``
+    ξ₀ as in :func:`displacement_field` (:data:`TWIST_ORIGIN` of the corotational frame).
     Returns (M̂, ĝ, ∂ĝ/∂u, S, P) with S = ρ∫Γ dV (3×12, used by gravity) and
     P = ρ∫r* dV (mass × centroid offset in S_c).
     """
@@ -788,7 +799,7 @@ def section_inertia(rotary_inertia: bool, inertia_shapes: str):
     L = section["L0"]
     # IIE shapes are polynomials in the shear factors μ_z, μ_y, which stay symbols (SHEAR_FACTORS)
     shear = SHEAR_FACTORS if inertia_shapes == "interdependent" else (1, 1)
-    N_psi = displacement_field(psi, L, rotary_inertia, shear)
+    N_psi = displacement_field(psi, L, rotary_inertia, shear, twist_origin)
     if rotary_inertia:
         r_c = sp.Matrix([L * xi, ys, zs])
     else:
