@@ -118,7 +118,7 @@ def _coordinates(name: str, plane: fm.Plane | None) -> list:
 
 
 @lru_cache(maxsize=None)
-def derive_kinematics(measure: str = "sine", plane: str | None = None) -> Kinematics:
+def derive_kinematics(measure: str = "sine", plane: str | None = None, frame_choice: str = "first_node") -> Kinematics:
     restriction = fm.PLANES[plane] if plane is not None else None
     end1, end2 = _planar_ends(*fm.geometry_inputs(), restriction)
     section = fm.section_inputs()
@@ -134,7 +134,8 @@ def derive_kinematics(measure: str = "sine", plane: str | None = None) -> Kinema
     g1, F1 = fm.moved_end(end1, [("increment", *i1, 1), ("virtual", *v1, 1)])
     g2, F2 = fm.moved_end(end2, [("increment", *i2, 1), ("virtual", *v2, 1)])
     at_rest = {s: 0 for s in virtual + increment if s != 0}
-    cor = fm.corotational(g1, F1, g2, F2, L0, measure, _log_jets(at_rest) if log else None, planar)
+    cor = fm.corotational(g1, F1, g2, F2, L0, measure, _log_jets(at_rest) if log else None, planar,
+                           frame_choice)
     first = [[_diff(p, d) for d in virtual] for p in cor.psi]
     B = [[b.subs(at_rest) for b in row] for row in first]
     H = [[[_diff(b, D).subs(at_rest) for D in increment] for b in row] for row in first]
@@ -151,7 +152,8 @@ def derive_kinematics(measure: str = "sine", plane: str | None = None) -> Kinema
     g1t, F1t = fm.moved_end(end1, [("time", *m1, 2)])
     g2t, F2t = fm.moved_end(end2, [("time", *m2, 2)])
     now = {t: 0}
-    cor_t = fm.corotational(g1t, F1t, g2t, F2t, L0, measure, _log_jets(now) if log else None, planar)
+    cor_t = fm.corotational(g1t, F1t, g2t, F2t, L0, measure, _log_jets(now) if log else None, planar,
+                             frame_choice)
 
     def rate(expr, order):
         for _ in range(order):
@@ -250,7 +252,7 @@ def build_kernels(variant: str = "default") -> list[KernelSpec]:
     if variant not in fm.FORMULATIONS:
         raise ValueError(f"unknown variant {variant!r} (known: {', '.join(fm.FORMULATIONS)})")
     formulation = fm.FORMULATIONS[variant]
-    kin = derive_kinematics(formulation.rotation_measure, formulation.plane)
+    kin = derive_kinematics(formulation.rotation_measure, formulation.plane, formulation.corotational_frame)
     plane = fm.PLANES[formulation.plane] if formulation.plane is not None else None
     section = _section_sympy()
     gravity = cv.GRAVITY.symbols()

@@ -53,6 +53,10 @@ class Formulation:
     #: "sine"  Eqs. 14–16 literally (entries of R_i: sines, first order in the rotation),
     #: "log"   the rotation vector log(R_i) (exact; Battini & Pacoste 2002), see :func:`log_rotation`.
     rotation_measure: str = "log"
+    #: how the corotational frame's t_c2, t_c3 are chosen about the chord (:func:`corotational`):
+    #: "first_node" the paper's Eqs. 20–21 (from node 1's section); "mean" from the mean of both
+    #: nodes' sections (twist-symmetric; docs/derivation.md, "Bending–twist coupling").
+    corotational_frame: str = "first_node"
     #: None: the 3D element. "xy", "yz", "zx": the same element restricted to motion in that
     #: coordinate plane (:class:`Plane`), for scenes that stay in it (``solve.planar``).
     plane: str | None = None
@@ -70,6 +74,8 @@ class Formulation:
     def __post_init__(self):
         if self.rotation_measure not in ROTATION_MEASURES:
             raise ValueError(f"rotation_measure {self.rotation_measure!r} not in {ROTATION_MEASURES}")
+        if self.corotational_frame not in COROTATIONAL_FRAMES:
+            raise ValueError(f"corotational_frame {self.corotational_frame!r} not in {COROTATIONAL_FRAMES}")
         if self.plane is not None and self.plane not in PLANES:
             raise ValueError(f"plane {self.plane!r} not in {tuple(PLANES)}")
         for shapes in (self.stiffening_shapes, self.inertia_shapes):
@@ -78,14 +84,16 @@ class Formulation:
 
 
 ROTATION_MEASURES = ("log", "sine")
+COROTATIONAL_FRAMES = ("first_node", "mean")
 TRANSVERSE_SHAPES = ("interdependent", "hermite")
 
 FORMULATIONS: dict[str, Formulation] = {
     "default": Formulation(
         "default",
         rotation_measure="log",
-        description="exact local rotations (log map of T_cᵀT_e), geometric stiffening, cross-section rotary inertia, "
-                    "IIE shear where 1/GA > 0",
+        corotational_frame="mean",
+        description="exact local rotations (log map of T_cᵀT_e) about a twist-symmetric corotational frame, "
+                    "geometric stiffening, cross-section rotary inertia, IIE shear where 1/GA > 0",
     ),
     "cr4402": Formulation(
         "cr4402",
@@ -328,7 +336,7 @@ class Corotational:
 
 
 def corotational(grid1, frame1, grid2, frame2, L0, measure: str = "sine", scales=None,
-                 planar: bool = False) -> Corotational:
+                 planar: bool = False, frame_choice: str = "first_node") -> Corotational:
     """Ψ and T_c from the two grid points and nodal frames.
 
     * α_x² = ‖x_g2 − x_g1‖ − L_e (Eqs. 12–13).
@@ -350,6 +358,15 @@ def corotational(grid1, frame1, grid2, frame2, L0, measure: str = "sine", scales
       ``scales`` = (f_1, f_2): callables giving θ/sin θ as a function of
       x = 1 − cos θ at each end (default: :func:`log_scale_closed`, exact but not
       safe at R = I; the kernels use :func:`log_scale` through a jet).
+    * ``frame_choice="mean"``: t_c2, t_c3 from m = t_e¹(2) + t_e²(2) instead of t_e¹(2),
+      t_c2 = (m − (t_c1·m) t_c1)/‖·‖, t_c3 = t_c1 × t_c2 (Crisfield 1990; Battini & Pacoste 2002):
+      the frame sits half-way between the two sections in twist, so both ends' bending
+      rotations are read in the mid-element section and the twist splits ±½ between the ends.
+      With the first node's frame, log(R_i) reads both ends' bending in a frame turned by
+      about a quarter of the element's twist from the mid-section, which with EI_y ≠ EI_z
+      couples bending and twist at O(h) (docs/derivation.md, "Bending–twist coupling").
+      In a planar configuration both choices give t_c2 = n × t_c1, so the planar variants
+      keep the first node's (cheaper) form.
     * ``planar`` (a configuration of a :class:`Plane`, local z = n): R_i turns about local z
       only, so log(R_i) = (0, 0, atan2(R_i[1, 0], R_i[0, 0])) exactly (|θ| < π): the same
       measure in closed form, without the series of θ/sin θ.  The sines are unchanged.
@@ -361,8 +378,18 @@ def corotational(grid1, frame1, grid2, frame2, L0, measure: str = "sine", scales
     b2, b3 = column(frame2, 1), column(frame2, 2)
     s = dot(e, a2)  # = −φ_z¹
     n = se.sqrt(1 - s * s)  # ‖t_e1(2) − s t_c1‖ on SO(3)
-    t2 = (a2 - e * s) / n
-    t3 = cross(e, a2) / n
+    mean = frame_choice == "mean" and not planar
+    if mean:
+        m = a2 + b2  # twice the mean section axis; only its direction normal to the chord counts
+        em = dot(e, m)
+        nm = se.sqrt(2 + 2 * dot(a2, b2) - em * em)  # ‖m − (t_c1·m) t_c1‖, |t_e¹(2)| = |t_e²(2)| = 1
+        t2 = (m - e * em) / nm
+        t3 = cross(e, m) / nm
+    elif frame_choice == "first_node" or planar:
+        t2 = (a2 - e * s) / n
+        t3 = cross(e, a2) / n
+    else:
+        raise ValueError(f"unknown corotational frame {frame_choice!r}")
     frame = se.DenseMatrix(3, 3, [e[0], t2[0], t3[0], e[1], t2[1], t3[1], e[2], t2[2], t3[2]])
     if measure == "sine":
         psi = [
@@ -382,11 +409,14 @@ def corotational(grid1, frame1, grid2, frame2, L0, measure: str = "sine", scales
     # and t_e¹(1) = t_e¹(2) × t_e¹(3) (a rotation) every entry is a function of c_1, c_2 = s, c_3 and n:
     # t_c2·t_e¹(k) = (δ_2k − s c_k)/n, t_c3·t_e¹(1) = −c_3/n, t_c3·t_e¹(2) = 0, t_c3·t_e¹(3) = c_1/n
     # (docs/derivation.md, item 14–16 (log)); fewer entries to differentiate than nine dot products.
-    c1, c3 = dot(e, column(frame1, 0)), dot(e, a3)
-    R1 = se.DenseMatrix(3, 3, [c1, s, c3, -s * c1 / n, n, -s * c3 / n, -c3 / n, 0, c1 / n])
     axes = (e, t2, t3)
-    columns = [column(frame2, k) for k in range(3)]
-    R2 = se.DenseMatrix(3, 3, [dot(axes[i], columns[j]) for i in range(3) for j in range(3)])
+    if mean:
+        R1, R2 = _mean_frame_rotations(e, frame1, frame2)
+    else:
+        c1, c3 = dot(e, column(frame1, 0)), dot(e, a3)
+        R1 = se.DenseMatrix(3, 3, [c1, s, c3, -s * c1 / n, n, -s * c3 / n, -c3 / n, 0, c1 / n])
+        columns = [column(frame2, k) for k in range(3)]
+        R2 = se.DenseMatrix(3, 3, [dot(axes[i], columns[j]) for i in range(3) for j in range(3)])
     if planar:
         # R_i[1,0] = t_c2·t_e^i(1) = n·(t_c1 × t_e^i(1)) and R_i[0,0] = t_c1·t_e^i(1), with t_c2 = n × t_c1
         # (the exact frame above for |θ_z¹| < 90°) and n = t_e^i(3); atan2 is blind to the positive
@@ -404,6 +434,33 @@ def corotational(grid1, frame1, grid2, frame2, L0, measure: str = "sine", scales
     (tx1, ty1, tz1), (tx2, ty2, tz2) = thetas
     psi = [ty1, tz1, ty2, tz2, tx2 - tx1, length - L0]
     return Corotational(chord, length, frame, psi, tuple(arguments))
+
+
+def _mean_frame_rotations(e, frame1, frame2):
+    """R_i = T_cᵀT_e^i for the mean frame, written with the orthonormality of T_e¹ and T_e².
+
+    With c_k = t_c1·t_e¹(k), d_k = t_c1·t_e²(k) and G = T_e¹ᵀT_e² (G_jk = t_e¹(j)·t_e²(k)), in the
+    nodes' own bases: m = t_e¹(2) + t_e²(2) has m·t_e¹(k) = δ_2k + G_k2, m·t_e²(k) = G_2k + δ_2k,
+    ‖m − (t_c1·m)t_c1‖² = 2 + 2G_22 − (c_2 + d_2)², and (t_c1 × m)·t_e¹(k) = (c × G_:2)_k + (c_1δ_3k − c_3δ_1k),
+    (t_c1 × m)·t_e²(k) = (d × G_2:)_k + (d_1δ_3k − d_3δ_1k).  The same matrices as the nine dot
+    products of T_c's columns with each T_e^i's, in fewer operations to differentiate."""
+    a = [column(frame1, k) for k in range(3)]
+    b = [column(frame2, k) for k in range(3)]
+    c = vector([dot(e, a[k]) for k in range(3)])
+    d = vector([dot(e, b[k]) for k in range(3)])
+    G = [[dot(a[j], b[k]) for k in range(3)] for j in range(3)]
+    em = c[1] + d[1]  # t_c1·m
+    nm = se.sqrt(2 + 2 * G[1][1] - em * em)  # ‖m − (t_c1·m) t_c1‖ on SO(3)
+    across1 = cross(c, vector([G[0][1], G[1][1], G[2][1]]))  # (t_c1 × t_e²(2))·t_e¹(k)
+    across2 = cross(d, vector(G[1]))  # (t_c1 × t_e¹(2))·t_e²(k)
+    delta = lambda j, k: 1 if j == k else 0  # noqa: E731
+    R1 = se.DenseMatrix(3, 3, [c[0], c[1], c[2]]
+                        + [(delta(1, k) + G[k][1] - em * c[k]) / nm for k in range(3)]
+                        + [(across1[k] + c[0] * delta(2, k) - c[2] * delta(0, k)) / nm for k in range(3)])
+    R2 = se.DenseMatrix(3, 3, [d[0], d[1], d[2]]
+                        + [(G[1][k] + delta(1, k) - em * d[k]) / nm for k in range(3)]
+                        + [(across2[k] + d[0] * delta(2, k) - d[2] * delta(0, k)) / nm for k in range(3)])
+    return R1, R2
 
 
 # --------------------------------------------------------------------------
@@ -577,24 +634,29 @@ def transverse_fields(psi, shear=(1, 1)):
     return v, w, theta_z, theta_y
 
 
-def displacement_field(psi, L, rotary_inertia: bool, shear=(1, 1)):
+def displacement_field(psi, L, rotary_inertia: bool, shear=(1, 1), twist_origin=0):
     """u_c = N Ψ (Eqs. 44–45, corrected), components along the corotational axes.
 
     v, w the Hermite cubics of Eqs. 23–24 (Euler–Bernoulli, ``shear`` = (1, 1)) or the
     IIE shapes (:func:`interdependent_shapes`, ``shear`` = (μ_z, μ_y)), a linear twist
-    (Eq. 40's assumption, φ_x¹ = 0 by Eq. 11) and a linear stretch; a plane section
-    turns by its own rotations θ_z, θ_y (= v_x, −w_x without shear):
+    (Eq. 40's assumption) and a linear stretch; a plane section turns by its own
+    rotations θ_z, θ_y (= v_x, −w_x without shear) and twists by (ξ − ξ₀) φx2 against T_c:
 
-        u = ξ α − y θ_z + z θ_y,  v = L(n1 φz1 + n2 φz2) − z ξ φx2,
-        w = −L(n1 φy1 + n2 φy2) + y ξ φx2
+        u = ξ α − y θ_z + z θ_y,  v = L(n1 φz1 + n2 φz2) − z (ξ − ξ₀) φx2,
+        w = −L(n1 φy1 + n2 φy2) + y (ξ − ξ₀) φx2
+
+    ``twist_origin`` ξ₀ is where the section is untwisted against T_c: 0 for node 1's frame
+    (φ_x¹ = 0 by Eq. 11), ½ for the mean frame (the ends at ∓½φx2 + O(θ³), docs/derivation.md,
+    "Bending–twist coupling"; with ξ₀ = 0 there the twist rate of every section would be off by
+    ½φ̇x2, and the kinetic energy by O(h)).
     """
     phi_x2, alpha = psi[4], psi[5]
     v, w, theta_z, theta_y = transverse_fields(psi, shear)
     v, w = L * v, L * w
     if rotary_inertia:
         u = xi * alpha - ys * theta_z + zs * theta_y
-        v = v - zs * xi * phi_x2
-        w = w + ys * xi * phi_x2
+        v = v - zs * (xi - twist_origin) * phi_x2
+        w = w + ys * (xi - twist_origin) * phi_x2
     else:
         u = xi * alpha
     return sp.Matrix([u, v, w])
@@ -703,11 +765,16 @@ QUASI_VELOCITY = sp.symbols("u_0:12", real=True)
 def local_inertia(formulation: Formulation):
     """:func:`section_inertia` of the switches of ``formulation`` it depends on: variants that
     differ elsewhere (rotation measure, stiffening, plane) share one derivation per process."""
-    return section_inertia(formulation.rotary_inertia, formulation.inertia_shapes)
+    return section_inertia(formulation.rotary_inertia, formulation.inertia_shapes,
+                           TWIST_ORIGIN[formulation.corotational_frame])
+
+
+#: ξ₀ of :func:`displacement_field` for each corotational frame: where the section is untwisted against T_c
+TWIST_ORIGIN = {"first_node": 0, "mean": sp.Rational(1, 2)}
 
 
 @lru_cache(maxsize=None)
-def section_inertia(rotary_inertia: bool, inertia_shapes: str):
+def section_inertia(rotary_inertia: bool, inertia_shapes: str, twist_origin=0):
     """Mass matrix M̂(Ψ) and gyroscopic vector ĝ(Ψ, u) in the corotational frame.
 
     Quasi-velocities u = [v̂, ω̂, Ψ̇] (12): velocity of grid point 1 and angular
@@ -720,7 +787,8 @@ def section_inertia(rotary_inertia: bool, inertia_shapes: str):
 
     Expressions in :data:`PSI`, :data:`QUASI_VELOCITY`, the section symbols and, with
     ``inertia_shapes="interdependent"``, the shear factors :data:`SHEAR_FACTORS` (the IIE
-    shapes of :func:`displacement_field`; μ = 1 gives the Hermite mass exactly).
+    shapes of :func:`displacement_field`; μ = 1 gives the Hermite mass exactly); ``twist_origin``
+    ξ₀ as in :func:`displacement_field` (:data:`TWIST_ORIGIN` of the corotational frame).
     Returns (M̂, ĝ, ∂ĝ/∂u, S, P) with S = ρ∫Γ dV (3×12, used by gravity) and
     P = ρ∫r* dV (mass × centroid offset in S_c).
     """
@@ -731,7 +799,7 @@ def section_inertia(rotary_inertia: bool, inertia_shapes: str):
     L = section["L0"]
     # IIE shapes are polynomials in the shear factors μ_z, μ_y, which stay symbols (SHEAR_FACTORS)
     shear = SHEAR_FACTORS if inertia_shapes == "interdependent" else (1, 1)
-    N_psi = displacement_field(psi, L, rotary_inertia, shear)
+    N_psi = displacement_field(psi, L, rotary_inertia, shear, twist_origin)
     if rotary_inertia:
         r_c = sp.Matrix([L * xi, ys, zs])
     else:

@@ -102,12 +102,15 @@ def test_inertia_and_offsets(checks):
 
 def test_log_measure(checks):
     """The default variant's exact local rotations (the deviation from Eqs. 14–16): Rodrigues, the series
-    and branch-free scale, the sines' second-order error, the twist at node 1, pure bending exact."""
+    and branch-free scale, the sines' second-order error, the twist at node 1, pure bending exact, and the
+    corotational frame: node 1's reads both ends' bending a quarter of the element twist off the mid-section
+    (issue 22's first-order bending–twist coupling), the mean frame reads it there (to O(ε³))."""
     c = checks["14–16 (log)"]
     assert c.verdict == report.CHOICE, (c.verdict, c.evidence)
     for name in ("rodrigues", "series", "branch_free_accuracy", "sines_differ_second_order", "twist_node1",
                  "pure_bending_exact", "pure_bending_sine_error", "frame_range",
-                 "node1_closed_form"):
+                 "node1_closed_form", "first_node_frame_quarter_twist", "mean_frame_exact_second_order",
+                 "mean_frame_closed_form"):
         assert c.outcomes[name], (name, c.evidence)
 
 

@@ -40,11 +40,12 @@ def d4(**solve) -> dict:
 
 
 def test_d4_as_published_passes_the_newton_failure_at_045_s(tmp_path):
-    """The scene with full Newton (Newmark, dt 1 ms): the first Newton failure (t ≈ 0.45 s)
-    switches the run to the inertia tangent, and it goes on, without cutting the step there."""
+    """The scene with full Newton (Newmark, dt 1 ms): the first Newton failure (t ≈ 0.51 s with the
+    mean corotational frame of `default`; 0.45 s with node 1's frame) switches the run to the inertia
+    tangent, and it goes on, without cutting the step there."""
     result, summary = _run(d4(t_end=0.6, newton="full"), tmp_path, "d4")
     assert summary["status"] == "solved"
-    assert 0.40 < summary["inertia_tangent_from"] < 0.46
+    assert 0.40 < summary["inertia_tangent_from"] < 0.55
     assert result.t[-1] == pytest.approx(0.6)
     energy = np.asarray(result.probes["energy"])
     assert np.max(np.abs(energy - energy[0])) / np.max(np.abs(result.probes["potential"])) < 5e-4
