@@ -73,7 +73,9 @@ __all__ = [
     "ANALYSES", "METHODS", "FORMULATIONS", "MAX_ELEMENTS", "MAX_COUNT",
 ]
 
-ANALYSES = ("transient", "static", "modes")
+ANALYSES = ("transient", "static", "modes", "buckling")
+#: ``solve.about`` of a modal analysis (latdyn/linearise.py); a mapping ``{t: T}`` is the fourth form
+ABOUT = ("initial", "static", "steady")
 METHODS = ("generalized-alpha", "hht-alpha", "newmark", "explicit")
 #: Beam-element variants a scene may ask for (``solve.formulation``); each names the generated
 #: kernel variant ``generated/beam_<name>`` (codegen/formulation.py FORMULATIONS):
@@ -102,7 +104,8 @@ _BEAM_KEYS = ("from", "to", "section", "elements", "y_axis", "start", "end", "ri
 _HINGE_KEYS = ("axis", "stiffness", "damping", "torque", "angle", "lock_at", "rest_angle", "limits", "restitution")
 _LOAD_KEYS = ("at", "force", "moment", "frame")
 _SOLVE_KEYS = ("analysis", "t_end", "dt", "method", "rho_inf", "tol", "steps", "count",
-               "adaptive", "error_tol", "dt_min", "max_iterations", "formulation", "engine", "newton", "planar")
+               "adaptive", "error_tol", "dt_min", "max_iterations", "formulation", "engine", "newton", "planar",
+               "about", "linear_model")
 #: ``solve.engine``: where the implicit step runs (latdyn/engine.py); ``solve.newton``: full or modified
 #: Newton, or ``exact``: full Newton whose matrix holds the elements' inertia tangent from the start
 #: (latdyn.integrators.inertia_tangent; otherwise taken from the first Newton failure on).
@@ -282,6 +285,10 @@ class Solve:
     engine: str = "auto"
     newton: str = "full"
     planar: str = "auto"
+    #: the state a modal analysis linearises about: "initial", "static", "steady" or a time T (float)
+    about: str | float = "initial"
+    #: ``{"inputs": [...], "outputs": [...]}``: write OUT/linear_model.npz (latdyn/linearise.py)
+    linear_model: dict | None = None
 
 
 @dataclass
@@ -913,6 +920,41 @@ class _Reader:
                            f"{beam.name!r}", value)
         return PointRef(text=value, beam=beam.name, node=node)
 
+    _INPUT = re.compile(r"^(?P<point>.+)\.(?P<kind>force|moment)\.(?P<component>[xyz])$")
+    _LOAD_INDEX = re.compile(r"^loads\[(?P<index>\d{1,9})\]$")
+
+    def linear_model_names(self, spec: dict, key: str, loads: list, probes: list) -> dict:
+        """The inputs of ``solve.linear_model`` as (kind, reference) pairs: ``("hinge", (beam, end))``
+        for ``BEAM.start|end`` (the torque about a free hinge's axis), ``("force"|"moment", (PointRef,
+        axis))`` for ``POINT.force.x`` (a global component at a point), ``("load", i)`` for ``loads[i]``
+        (that load, scaled by the input); outputs are probe names."""
+        inputs = []
+        forms = ("expected BEAM.start or BEAM.end (a hinge torque), POINT.force.x|y|z or "
+                 "POINT.moment.x|y|z (a global force or moment at a point), or loads[i]")
+        for i, name in enumerate(spec["inputs"]):
+            k = f"{key}.inputs[{i}]"
+            hinge, point, index = self._HINGE_REF.match(name), self._INPUT.match(name), self._LOAD_INDEX.match(name)
+            if hinge and hinge["name"] in self.beams:
+                end = getattr(self.beams[hinge["name"]], hinge["end"])
+                if end.hinge is None or end.hinge.angle is not None:
+                    self.fail(k, f"expected a hinge with a coordinate: {name} is not a free hinge", name)
+                inputs.append(("hinge", (hinge["name"], hinge["end"])))
+            elif point:
+                inputs.append((point["kind"], (self.point(point["point"], k), "xyz".index(point["component"]))))
+            elif index:
+                if int(index["index"]) >= len(loads):
+                    self.fail(k, f"expected loads[0] ... loads[{len(loads) - 1}] (the scene has {len(loads)} loads)",
+                              name)
+                inputs.append(("load", int(index["index"])))
+            else:
+                self.fail(k, forms, name)
+        known = [p.name for p in probes]
+        for i, name in enumerate(spec["outputs"]):
+            if name not in known:
+                self.fail(f"{key}.outputs[{i}]", f"expected the name of a probe (output.probes: {_listing(known)})",
+                          name)
+        return {"inputs": inputs, "input_names": list(spec["inputs"]), "outputs": list(spec["outputs"])}
+
     def load(self, spec, key) -> Load:
         self.mapping(spec, key, _LOAD_KEYS, required=("at",))
         if "force" not in spec and "moment" not in spec:
@@ -1047,7 +1089,30 @@ class _Reader:
             s.newton = self.choice(spec["newton"], k("newton"), NEWTON)
         if "planar" in spec:
             s.planar = self.choice(spec["planar"], k("planar"), PLANAR)
+        if "about" in spec:
+            s.about = self.about(spec["about"], k("about"))
+        if "linear_model" in spec:
+            s.linear_model = self.linear_model(spec["linear_model"], k("linear_model"))
         return s
+
+    def about(self, value, key):
+        """``solve.about``: initial | static | steady | {t: T} (SCENE.md, "Linearisation")."""
+        if isinstance(value, dict):
+            self.mapping(value, key, ("t",), required=("t",), what="a word or a mapping {t: T}")
+            return self.number(value["t"], _join(key, "t"), positive=True)
+        return self.choice(value, key, ABOUT, what="one of {t: T} or")
+
+    def linear_model(self, value, key) -> dict:
+        """``solve.linear_model: {inputs: [...], outputs: [...]}``: names, checked against the model
+        when it is built (hinges, points and probes by name, latdyn/linearise.py)."""
+        self.mapping(value, key, ("inputs", "outputs"))
+        out = {}
+        for part in ("inputs", "outputs"):
+            names = value.get(part, [])
+            if not isinstance(names, list) or not all(isinstance(n, str) and n.strip() for n in names):
+                self.fail(_join(key, part), "expected a list of names", names)
+            out[part] = list(names)
+        return out
 
 
 # =========================================================================== entry points
@@ -1169,6 +1234,8 @@ def _build(raw: Any, file: str) -> Scene:
     if out_spec.get("paraview_every") is not None:
         paraview_every = r.number(out_spec["paraview_every"], "output.paraview_every", nonnegative=True)
     probes = r.probes(out_spec.get("probes"), "output.probes")
+    if solve.linear_model is not None:
+        solve.linear_model = r.linear_model_names(solve.linear_model, "solve.linear_model", loads, probes)
 
     return Scene(
         title=title, file=file, source_hash=_canonical_hash(raw), gravity=gravity,
@@ -1204,7 +1271,9 @@ def describe(scene: Scene) -> str:
             what += ", adaptive"
     elif s.analysis == "static":
         what = f"static, {s.steps} load steps"
+    elif s.analysis == "buckling":
+        what = f"linearised buckling, {s.steps} load steps"
     else:
-        what = f"modes, {s.count} lowest"
+        what = f"modes, {s.count} lowest, about {s.about if isinstance(s.about, str) else f't = {s.about:g}'}"
     lines.append(f"  solve:    {what}")
     return "\n".join(lines)

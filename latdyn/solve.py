@@ -12,8 +12,9 @@ import numpy as np
 
 from . import __version__
 from . import checkpoint as checkpoints
+from . import linearise
 from . import paraview
-from .analysis import modal_analysis, static_analysis
+from .analysis import static_analysis
 from .assembly import Assembler, State, advance, free_velocity, initial_state, orthonormalize, pack, unpack_free
 from .errors import SceneError, SolverError
 from .integrators import AlphaParameters, CentralDifference, GeneralizedAlpha, newton_diagnosis
@@ -79,7 +80,7 @@ def _paraview_every(scene: Scene) -> float | None:
     :func:`latdyn.paraview.default_every`); for static runs in load factor, a frame per load
     step thinned the same way; None for modal runs (no frames)."""
     solve, output = scene.solve, scene.output
-    if solve.analysis == "modes":
+    if solve.analysis in ("modes", "buckling"):
         return None
     if solve.analysis == "static":
         return 0.0 if output.paraview_every == 0 else paraview.default_every(1.0, 1.0 / solve.steps)
@@ -147,10 +148,20 @@ def run(scene, out_dir=None, backend: str = "auto", progress: bool = False, *, r
     if resume_from is not None:
         writer.summary.update(resumed_from_t=resume_from.t, resumes=resume_from.resumes + 1)
     with writer, _sigterm_interrupts(enabled=checkpointer is not None):
-        if analysis == "modes":
-            frequencies = modal_analysis(prepared, scene.solve.count)
-            writer.write_modes(frequencies)
+        if scene.solve.linear_model is not None and analysis != "modes":  # about the chosen state, before the run
+            linearise.write_linear_model(prepared, out_dir, writer.summary)
+        if analysis == "modes":  # about solve.about (latdyn/linearise.py)
+            found, directions, lin = linearise.modal_analysis(prepared, scene.solve.count, scene.solve.about)
+            frequencies = [m.frequency_hz for m in found]
+            writer.write_modes(frequencies, linearise.modes_table(found, directions))
             writer.summary["modes_hz"] = [float(f) for f in frequencies]
+            writer.summary["damping_ratios"] = [float(m.damping_ratio) for m in found]
+            writer.summary["about"] = scene.solve.about
+            writer.summary["linearisation_s"] = None if lin is None else lin.seconds
+            if scene.solve.linear_model is not None and lin is not None:
+                linearise.write_linear_model(prepared, out_dir, writer.summary, lin)
+        elif analysis == "buckling":
+            writer.summary.update(linearise.buckling_analysis(prepared, scene.solve.count))
         elif analysis == "static":
             static_analysis(prepared, probes, writer, _length_scale(model))
         else:
