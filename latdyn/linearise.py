@@ -245,7 +245,9 @@ def modes(lin: Linearisation, count: int | None = None) -> list[Mode]:
         for k in range(len(lam)):
             if lam[k].imag > tol:
                 a = abs(lam[k])
-                found.append(Mode(lam[k], lam[k].imag / (2 * np.pi), a / (2 * np.pi), -lam[k].real / a,
+                zeta = -lam[k].real / a
+                zeta = 0.0 if abs(zeta) <= 1e-9 else zeta  # conservative gyroscopic pairs: round-off
+                found.append(Mode(lam[k], lam[k].imag / (2 * np.pi), a / (2 * np.pi), zeta,
                                   red.transform @ vectors[:m, k]))
         real.sort(key=lambda k: abs(lam[k]))
         zero = 1e-6 * np.sqrt(top)  # rigid-body pairs: ±√(round-off) about 0
