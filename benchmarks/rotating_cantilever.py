@@ -123,7 +123,7 @@ def draw(campbell, path: Path) -> None:
     ax.plot(rates, rates / (2 * np.pi), "k--", lw=0.8, label="1P (spin rate)")
     ax.set_xlabel("spin rate Ω (rad/s)")
     ax.set_ylabel("frequency in the spinning frame (Hz)")
-    ax.set_title("Rotating cantilever (L = 10 m, EI = 1.4e4 N m², ρA = 1.2 kg/m): Campbell diagram")
+    ax.set_title("Campbell diagram: rotating cantilever\n(L = 10 m, EI = 1.4e4 N m², ρA = 1.2 kg/m, hub radius 0)", fontsize=10)
     ax.set_ylim(0, None)
     ax.legend()
     ax.grid(alpha=0.3)
