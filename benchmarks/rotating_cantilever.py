@@ -56,7 +56,7 @@ def modes_of(omega: float, elements: int):
         rows = (Path(out) / "modes.csv").read_text().splitlines()
         summary = json.loads((Path(out) / "summary.json").read_text())
     header = rows[0].split(",")
-    table = [dict(zip(header, r.split(","))) for r in rows[1:]]
+    table = [dict(zip(header, r.split(",")), direction=d) for r, d in zip(rows[1:], summary["mode_directions"])]
     return table, seconds, summary["linearisation_s"]
 
 

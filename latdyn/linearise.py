@@ -32,7 +32,10 @@ oscillates at), ``natural_frequency_hz`` = |λ|/2π, ``damping_ratio`` = −Re �
 unstable).  Each conjugate pair is one mode; real eigenvalues (rigid-body, overdamped,
 divergent directions) are paired by size, a pair is one mode of frequency 0 (damping ratio 0
 for rigid-body pairs, −1 for a divergent one, −(λ₁+λ₂)/(2√(λ₁λ₂)) ≥ 1 for an overdamped one).
-Modes are listed by natural frequency.
+Modes are listed by natural frequency (an overdamped mode of high natural frequency does not
+come first for its damped frequency 0; undamped, ``frequency_hz`` ascends as before);
+``modes.csv`` holds numbers only, the dominant direction of each mode goes to ``summary.json``
+(``mode_directions``).
 """
 from __future__ import annotations
 
@@ -260,7 +263,7 @@ def modes(lin: Linearisation, count: int | None = None) -> list[Mode]:
                 w = np.sqrt(abs(np.prod(pair))) if len(pair) == 2 else abs(pair[0])
                 zeta = -1.0 if max(pair) > zero else (-sum(pair) / (2 * w) if len(pair) == 2 else 1.0)
             found.append(Mode(complex(max(pair)), 0.0, w / (2 * np.pi), zeta, red.transform @ vectors[:m, big]))
-    found.sort(key=lambda mode: mode.natural_frequency_hz)
+    found.sort(key=lambda mode: (mode.natural_frequency_hz, mode.frequency_hz))
     return found if count is None else found[:count]
 
 
@@ -470,8 +473,7 @@ def modal_analysis(prepared, count: int, about="initial"):
 def modes_table(found: list[Mode], directions: list[str]) -> dict:
     """The extra columns of ``modes.csv`` after ``frequency_hz``."""
     return {"damping_ratio": [m.damping_ratio for m in found],
-            "natural_frequency_hz": [m.natural_frequency_hz for m in found],
-            "direction": directions}
+            "natural_frequency_hz": [m.natural_frequency_hz for m in found]}
 
 
 def _static_equilibrium(assembler, state, load_factor: float, tol: float = 1e-12, max_iter: int = 30):

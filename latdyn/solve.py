@@ -156,6 +156,7 @@ def run(scene, out_dir=None, backend: str = "auto", progress: bool = False, *, r
             writer.write_modes(frequencies, linearise.modes_table(found, directions))
             writer.summary["modes_hz"] = [float(f) for f in frequencies]
             writer.summary["damping_ratios"] = [float(m.damping_ratio) for m in found]
+            writer.summary["mode_directions"] = directions
             writer.summary["about"] = scene.solve.about
             writer.summary["linearisation_s"] = None if lin is None else lin.seconds
             if scene.solve.linear_model is not None and lin is not None:
