@@ -224,7 +224,16 @@ def test_linear_model_against_the_nonlinear_transient(tmp_path):
     transient_model = latdyn.run(latdyn.load_scene(_yaml(LINEAR.format(
         solve="{analysis: transient, t_end: 0.01, dt: 0.01, linear_model: {inputs: [s.start], outputs: [hinge]}}"))),
         tmp_path / "transient")
-    assert (tmp_path / "transient" / "linear_model.npz").exists() and transient_model.summary["linear_model"]
+    assert transient_model.summary["linear_model"]
+    # that scene is planar (xy): its linear model has the in-plane coordinates only, and their
+    # frequencies are the 3D model's in-plane (y) ones
+    planar = np.load(tmp_path / "transient" / "linear_model.npz")
+    eigenvalues = np.linalg.eigvals(planar["A"])
+    in_plane = np.sort(np.abs(eigenvalues[eigenvalues.imag > 1e-9]))[:3] / (2 * np.pi)
+    assert planar["A"].shape[0] < model["A"].shape[0]
+    directions = json.loads((tmp_path / "out" / "summary.json").read_text())["mode_directions"]
+    in_plane_3d = [float(r["natural_frequency_hz"]) for r, d in zip(rows, directions) if d == "y"]
+    np.testing.assert_allclose(in_plane, in_plane_3d[:3], rtol=1e-8)
 
 
 @pytest.mark.parametrize("solve, key", [
