@@ -146,12 +146,35 @@ def test_euler_buckling_of_a_cantilever_column_through_cli_and_api(tmp_path):
     assert completed.returncode == 0, completed.stderr
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
     critical = np.pi**2 * 100 / (4 * 2.0**2)
-    # +1.2e-4: the column shortens by P/EA before it buckles
-    assert summary["buckling_factor"] * 100 == pytest.approx(critical, rel=3e-4)
-    assert summary["buckling_factors"][1] * 100 == pytest.approx(2 * critical, rel=3e-4)
-    assert summary["unstable_at_load_factor"] == 0.75 and summary["limit_load_factor"] is None
+    # +6e-5: the column shortens by P/EA before it buckles
+    assert summary["buckling_factor"] * 100 == pytest.approx(critical, rel=2e-4)
+    assert summary["buckling_kind"].startswith("bifurcation")
+    linearised = summary["linearised_buckling_factors"]
+    assert [x * 100 for x in linearised[:2]] == pytest.approx([critical, 2 * critical], rel=3e-4)
     api = latdyn.run(latdyn.load_scene(_yaml(COLUMN.format(load=10))))
-    assert api.summary["buckling_factor"] * 10 == pytest.approx(critical, rel=3e-4)
+    assert api.summary["buckling_factor"] * 10 == pytest.approx(critical, rel=2e-4)
+
+
+LATERAL = """\
+sections:
+  s: {EA: 1.0e7, EIy: 1000, EIz: 1, GJ: 1, rhoA: 1.0}
+bodies:
+  base: {at: [0, 0, 0], fixed: true}
+beams:
+  s: {from: base, to: [2, 0, 0], section: s, elements: 8}
+loads:
+  - {at: s.end, force: [0, 0, -1]}
+solve: {analysis: buckling}
+"""
+
+
+def test_lateral_buckling_of_a_cantilever_under_a_tip_load():
+    """P_cr = 4.0126 √(EI_weak GJ)/L² (Timoshenko & Gere, load at the centroid, EI_strong ≫ EI_weak).
+    The element converges to it at about first order (measured: +17.5 %, +7.4 %, +3.5 % with 4, 8,
+    16 elements); the linearised estimate about the unloaded beam would be spurious here."""
+    result = latdyn.run(latdyn.load_scene(_yaml(LATERAL)))
+    closed_form = 4.0126 * np.sqrt(1.0 * 1.0) / 2.0**2
+    assert 1.0 < result.summary["buckling_factor"] / closed_form < 1.09
 
 
 STRING = """\
