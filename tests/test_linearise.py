@@ -204,6 +204,27 @@ def test_loaded_frequencies_of_a_pretensioned_beam_about_static():
     assert unloaded.modes[3] < 0.5 * result.modes[3]  # about t = 0 the tension is not there
 
 
+PENDULUM = """\
+gravity: [0, -9.81, 0]
+sections:
+  rod: {EA: 1.0e7, EIy: 1.0e4, EIz: 1.0e4, GJ: 1.0e4, rhoA: 1.0}
+bodies:
+  top: {at: [0, 0, 0], fixed: true}
+beams:
+  rod: {from: top, to: [0, -1, 0], section: rod, elements: 4, start: {hinge: {axis: [0, 0, 1]}}}
+solve: {analysis: modes, about: static, count: 2}
+"""
+
+
+def test_a_hanging_pendulum_swings_about_its_static_state():
+    """Its restoring stiffness is the tension that gravity puts in the rod: about static the stiff
+    rod swings at √(3g/2L); about the unstretched initial configuration it has none (0 Hz)."""
+    hanging = latdyn.run(latdyn.load_scene(_yaml(PENDULUM)))
+    assert hanging.modes[0] == pytest.approx(np.sqrt(1.5 * 9.81) / (2 * np.pi), rel=1e-5)
+    unstretched = latdyn.run(latdyn.load_scene(_yaml(PENDULUM.replace("about: static", "about: initial"))))
+    assert unstretched.modes[0] < 1e-3 * hanging.modes[0]
+
+
 LINEAR = """\
 sections:
   s: {{EA: 1.0e5, EIy: 10, EIz: 10, GJ: 8, rhoA: 0.5}}
