@@ -718,3 +718,49 @@ def write_linear_model(prepared, out_dir, summary: dict, lin: Linearisation | No
 
 
 LINEAR_MODEL_FILE = "linear_model.npz"
+
+
+#: Frames per period of each mode's animation (``OUT/paraview/modes``).
+MODE_FRAMES = 16
+#: The largest translation of an animated mode, times the scene's size ℓ (or rotation, rad).
+MODE_AMPLITUDE = 0.05
+MODES_DIR = "modes"
+
+
+def write_mode_shapes(lin: Linearisation, found: list[Mode], out_dir) -> list[str]:
+    """The mode shapes as ParaView animations: ``OUT/paraview/modes/mode_<k>/<part>.vtkhdf``
+    (latdyn.paraview's parts and fields), one period in :data:`MODE_FRAMES` frames whose "time" is
+    the phase as a fraction of the period; the state ⊕ a·Re(φ e^{2πi·phase}), φ scaled so that its
+    largest translation is MODE_AMPLITUDE·ℓ (a mode without translation: its largest rotation
+    MODE_AMPLITUDE rad).  ``displacement`` is then the mode's motion about the state."""
+    import shutil
+    from pathlib import Path
+
+    from . import paraview
+
+    if out_dir is None or not found:
+        return []
+    folder = Path(out_dir) / paraview.PARAVIEW_DIR / MODES_DIR
+    if folder.is_dir():  # ours: an earlier run's modes go
+        shutil.rmtree(folder)
+    model, assembler, state = lin.model, lin.assembler, lin.state
+    length = length_scale(model)
+    mesh = paraview.parts(model, state)
+    translations = model.node_dofs[model.free_nodes, 0:3].ravel()
+    translations = translations[translations < model.n_dofs]
+    written = []
+    for k, mode in enumerate(found, start=1):
+        phi = mode.shape / max(np.abs(mode.shape).max(), 1e-300)
+        moved = np.abs(phi[translations]).max() if len(translations) else 0.0
+        scale = MODE_AMPLITUDE * (length / moved if moved > 1e-6 else 1.0)
+        writer = paraview.ParaviewWriter(folder / f"mode_{k:02d}", mesh, every=None)
+        try:
+            for j in range(MODE_FRAMES + 1):
+                phase = j / MODE_FRAMES
+                shifted = advance(model, state, scale * np.real(phi * np.exp(2j * np.pi * phase)))
+                writer.record(phase, paraview.frame(assembler, mesh, shifted))
+        finally:
+            writer.close()
+        written += [f"{paraview.PARAVIEW_DIR}/{MODES_DIR}/mode_{k:02d}/{name}" for name in
+                    (Path(f).name for f in writer.files)]
+    return written

@@ -159,6 +159,11 @@ def run(scene, out_dir=None, backend: str = "auto", progress: bool = False, *, r
             writer.summary["mode_directions"] = directions
             writer.summary["about"] = scene.solve.about
             writer.summary["linearisation_s"] = None if lin is None else lin.seconds
+            if lin is not None and scene.output.paraview_every != 0:  # the shapes, animated
+                try:
+                    writer.summary["mode_shapes"] = linearise.write_mode_shapes(lin, found, out_dir)
+                except ImportError as exc:  # h5py (latdyn's ParaView output) not installed
+                    writer.summary["mode_shapes"] = f"not written: {exc}"
             if scene.solve.linear_model is not None and lin is not None:
                 linearise.write_linear_model(prepared, out_dir, writer.summary, lin)
         elif analysis == "buckling":

@@ -81,6 +81,15 @@ def test_rotating_cantilever_against_the_published_table_through_the_cli(tmp_pat
     assert all(abs(float(r["damping_ratio"])) < 1e-9 for r in rows)  # gyroscopic, conservative
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
     assert summary["about"] == "steady" and summary["linearisation_s"] > 0
+    # the shapes, animated over a period for ParaView: the first flapwise mode moves along z, its
+    # largest translation 5 % of the scene's size ℓ = 10
+    h5py = pytest.importorskip("h5py")
+    assert len(summary["mode_shapes"]) == 2 * len(rows)
+    flap_mode = directions.index("z") + 1
+    with h5py.File(tmp_path / "out" / "paraview" / "modes" / f"mode_{flap_mode:02d}" / "beams.vtkhdf") as f:
+        motion = f["VTKHDF/PointData/displacement"][()].reshape(len(f["VTKHDF/Steps/Values"]), -1, 3)
+    largest = np.abs(motion).max(axis=(0, 1))
+    assert largest[2] == pytest.approx(0.05 * 10.0, rel=1e-6) and largest[1] < 1e-6 * largest[2]
 
 
 def test_modes_at_a_time_of_a_steady_spin_transient_equal_steady():
