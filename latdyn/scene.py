@@ -1272,7 +1272,7 @@ def describe(scene: Scene) -> str:
     elif s.analysis == "static":
         what = f"static, {s.steps} load steps"
     elif s.analysis == "buckling":
-        what = f"linearised buckling, {s.steps} load steps"
+        what = f"buckling (stability along the static path), {s.steps} load steps"
     else:
         what = f"modes, {s.count} lowest, about {s.about if isinstance(s.about, str) else f't = {s.about:g}'}"
     lines.append(f"  solve:    {what}")
