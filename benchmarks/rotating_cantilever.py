@@ -131,7 +131,7 @@ def response_check(elements: int, gamma: float = 5.0, duration: float = 40.0) ->
         k = int(np.argmax(spectrum[1:])) + 1
         a, b, c = np.log(spectrum[k - 1:k + 2])
         peak = freqs[k] + 0.5 * (a - c) / (a - 2 * b + c) * (freqs[1] - freqs[0])
-        predicted = [float(m["frequency_hz"]) for m in steady if m["direction"] == axis][0]
+        predicted = next(float(m["frequency_hz"]) for m in steady if m["direction"] == axis)
         out[axis] = {"response_hz": float(peak), "steady_modes_hz": predicted, "relative": float(peak / predicted - 1)}
         print(f"response check, tip {axis}: {peak:.5f} Hz from the transient, {predicted:.5f} Hz about steady "
               f"({peak / predicted - 1:+.1e})", flush=True)

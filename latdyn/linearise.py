@@ -63,7 +63,7 @@ class Frame:
     omega_dot: np.ndarray
 
     @classmethod
-    def inertial(cls) -> "Frame":
+    def inertial(cls) -> Frame:
         return cls(np.zeros(3), np.zeros(3))
 
 

@@ -58,7 +58,7 @@ def run_cli(tmp_path, text: str, name="scene.yaml"):
     path.write_text(text)
     env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
     return subprocess.run([sys.executable, "-m", "latdyn", "run", str(path), "-o", str(tmp_path / "out")],
-                          env=env, capture_output=True, text=True, cwd=tmp_path)
+                          env=env, capture_output=True, text=True, cwd=tmp_path, check=False)
 
 
 def nondimensional(rows, directions, direction):
