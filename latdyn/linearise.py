@@ -229,7 +229,12 @@ def modes(lin: Linearisation, count: int | None = None) -> list[Mode]:
         float(np.sqrt(np.abs(K).max() * np.abs(M).max())), 1e-300)
     found = []
     if symmetric:  # undamped, conservative: (K, M), as about the initial configuration
-        omega2, vectors = sla.eigh(0.5 * (K + K.T), M)
+        try:  # held (K positive definite): (M, K), whose largest eigenvalues 1/ω² are the low modes,
+            # accurate where stiff parts (K to 1e10) would drown them in the round-off of (K, M)
+            inverse, vectors = sla.eigh(M, 0.5 * (K + K.T))
+            omega2, vectors = 1.0 / inverse[::-1], vectors[:, ::-1]
+        except (np.linalg.LinAlgError, ValueError):  # rigid-body or divergent directions
+            omega2, vectors = sla.eigh(0.5 * (K + K.T), M)
         top = max(float(np.abs(omega2).max()), 1e-300)
         for w2, v in zip(omega2, vectors.T):
             if w2 >= 0 or abs(w2) <= 1e-10 * top:

@@ -105,7 +105,7 @@ _HINGE_KEYS = ("axis", "stiffness", "damping", "torque", "angle", "lock_at", "re
 _LOAD_KEYS = ("at", "force", "moment", "frame")
 _SOLVE_KEYS = ("analysis", "t_end", "dt", "method", "rho_inf", "tol", "steps", "count",
                "adaptive", "error_tol", "dt_min", "max_iterations", "formulation", "engine", "newton", "planar",
-               "about", "linear_model")
+               "about", "linear_model", "mode_shapes")
 #: ``solve.engine``: where the implicit step runs (latdyn/engine.py); ``solve.newton``: full or modified
 #: Newton, or ``exact``: full Newton whose matrix holds the elements' inertia tangent from the start
 #: (latdyn.integrators.inertia_tangent; otherwise taken from the first Newton failure on).
@@ -289,6 +289,8 @@ class Solve:
     about: str | float = "initial"
     #: ``{"inputs": [...], "outputs": [...]}``: write OUT/linear_model.npz (latdyn/linearise.py)
     linear_model: dict | None = None
+    #: a modal run also writes its mode shapes as ParaView animations (OUT/paraview/modes)
+    mode_shapes: bool = False
 
 
 @dataclass
@@ -1093,6 +1095,8 @@ class _Reader:
             s.about = self.about(spec["about"], k("about"))
         if "linear_model" in spec:
             s.linear_model = self.linear_model(spec["linear_model"], k("linear_model"))
+        if "mode_shapes" in spec:
+            s.mode_shapes = self.boolean(spec["mode_shapes"], k("mode_shapes"))
         return s
 
     def about(self, value, key):

@@ -159,7 +159,7 @@ def run(scene, out_dir=None, backend: str = "auto", progress: bool = False, *, r
             writer.summary["mode_directions"] = directions
             writer.summary["about"] = scene.solve.about
             writer.summary["linearisation_s"] = None if lin is None else lin.seconds
-            if lin is not None and scene.output.paraview_every != 0:  # the shapes, animated
+            if lin is not None and scene.solve.mode_shapes:  # the shapes, animated
                 try:
                     writer.summary["mode_shapes"] = linearise.write_mode_shapes(lin, found, out_dir)
                 except ImportError as exc:  # h5py (latdyn's ParaView output) not installed
