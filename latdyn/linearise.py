@@ -21,7 +21,8 @@ C = r_v + M B₁ holds the Coriolis (gyroscopic) terms of the frame, K the centr
 load stiffening and the inertia tangent.  r_q is the material tangent of the assembly
 (hinge springs and internal forces, load factor 0, analytic) plus central differences of
 everything else (inertia, gravity, loads, hinge torques): the difference of two residuals at
-the same q leaves the elastic forces out exactly, so rigid-body modes stay at round-off.
+the same q leaves the elastic forces out exactly, so rigid-body modes stay at round-off;
+columns that no row of the block pattern shares are perturbed together (:func:`column_groups`).
 
 Directions without inertia are condensed statically as in the modal analysis about the
 initial configuration (Guyan, exact for them): with the joint-by-joint basis Q = [Q_m Q_c]
