@@ -8,7 +8,8 @@ import time
 
 import numpy as np
 
-from latdyn.analyses.static import modal_analysis, static_analysis
+from latdyn.analyses import linearise
+from latdyn.analyses.static import static_analysis
 from latdyn.assembly.prepare import length_scale, prepare
 from latdyn.errors import ResultsError
 from latdyn.results import paraview as paraview
@@ -32,7 +33,7 @@ def _paraview_every(scene: Scene) -> float | None:
     :func:`latdyn.results.paraview.default_every`); for static runs in load factor, a frame per load
     step thinned the same way; None for modal runs (no frames)."""
     solve, output = scene.solve, scene.output
-    if solve.analysis == "modes":
+    if solve.analysis in ("modes", "buckling"):
         return None
     if solve.analysis == "static":
         if output.paraview_every == 0:
@@ -104,12 +105,28 @@ def run(scene, out_dir=None, backend: str = "auto", progress: bool = False, *, r
     if resume_from is not None:
         writer.summary.update(resumed_from_t=resume_from.t, resumes=resume_from.resumes + 1)
     with writer, _sigterm_interrupts(enabled=checkpointer is not None):
-        if analysis == "modes":
-            if getattr(scene.solve, "about", "initial") == "initial":
+        if scene.solve.linear_model is not None and analysis != "modes":  # about the chosen state, before the run
+            linearise.write_linear_model(prepared, out_dir, writer.summary)
+        if analysis == "modes":  # about solve.about (latdyn/analyses/linearise.py)
+            if scene.solve.about == "initial":
                 _warn_moving(scene, writer)
-            frequencies = modal_analysis(prepared, scene.solve.count)
-            writer.write_modes(frequencies)
+            found, directions, lin = linearise.modal_analysis(prepared, scene.solve.count, scene.solve.about)
+            frequencies = [m.frequency_hz for m in found]
+            writer.write_modes(frequencies, linearise.modes_table(found, directions))
             writer.summary["modes_hz"] = [float(f) for f in frequencies]
+            writer.summary["damping_ratios"] = [float(m.damping_ratio) for m in found]
+            writer.summary["mode_directions"] = directions
+            writer.summary["about"] = scene.solve.about
+            writer.summary["linearisation_s"] = None if lin is None else lin.seconds
+            if lin is not None and scene.solve.mode_shapes:  # the shapes, animated
+                try:
+                    writer.summary["mode_shapes"] = linearise.write_mode_shapes(lin, found, out_dir)
+                except ImportError as exc:  # h5py (latdyn's ParaView output) not installed
+                    writer.summary["mode_shapes"] = f"not written: {exc}"
+            if scene.solve.linear_model is not None and lin is not None:
+                linearise.write_linear_model(prepared, out_dir, writer.summary, lin)
+        elif analysis == "buckling":
+            writer.summary.update(linearise.buckling_analysis(prepared, scene.solve.count))
         elif analysis == "static":
             static_analysis(prepared, probes, writer, length_scale(model))
         else:

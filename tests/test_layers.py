@@ -18,10 +18,11 @@ LAYERS = {
     "model": 2,
     "assembly": 3,
     "step": 4, "results": 4,
-    "analyses": 5, "timeloop": 5,
-    "solve": 6,
-    "studies": 7,
-    "cli": 8, "__main__": 9, "__init__": 9,
+    "timeloop": 5,
+    "analyses": 6,  # a linearisation about a state a transient run reaches uses the time loop
+    "solve": 7,
+    "studies": 8,
+    "cli": 9, "__main__": 10, "__init__": 10,
 }
 
 

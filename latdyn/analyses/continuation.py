@@ -444,7 +444,9 @@ def static_path(prepared, probes, writer, length_scale: float) -> None:
         if path.model.n_dofs else np.zeros((0, 0))
     path.points.append(PathPoint(0, 0.0, 0.0, path.negative_eigenvalues(K)))
     path.summarize()
-    prepared.state = METHODS[prepared.scene.solve.method](path, state)
+    # a static path asked for by another analysis (modes about: static, buckling) is load control
+    method = prepared.scene.solve.method if prepared.scene.solve.method in METHODS else "load-control"
+    prepared.state = METHODS[method](path, state)
     path.summarize()
 
 

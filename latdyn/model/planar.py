@@ -96,8 +96,9 @@ def find_plane(scene) -> tuple[int | None, str]:
     ``latdyn check``. Tries the xy, zx, yz planes in turn."""
     if scene.solve.planar == "off":
         return None, "off (solve.planar: off): 3D model"
-    if scene.solve.analysis == "modes":
-        return None, "no: modal analysis keeps the out-of-plane modes (3D model)"
+    if scene.solve.analysis in ("modes", "buckling"):
+        return None, f"no: {'modal' if scene.solve.analysis == 'modes' else 'buckling'} analysis keeps the " \
+                     "out-of-plane modes (3D model)"
     reasons = []
     for normal in (2, 1, 0):
         blocker = _blocker(scene, normal)

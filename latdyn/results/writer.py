@@ -322,7 +322,7 @@ def _read_modes(path: Path) -> np.ndarray:
             rows = list(csv.reader(f))
         if not rows or rows[0][:2] != ["mode", "frequency_hz"]:
             raise ResultsError(f"{path}: expected a header 'mode,frequency_hz'")
-        return np.array([float(r[1]) for r in rows[1:] if len(r) == 2], dtype=float)
+        return np.array([float(r[1]) for r in rows[1:] if len(r) >= 2], dtype=float)
     except (OSError, ValueError, IndexError) as exc:
         if isinstance(exc, ResultsError):
             raise
@@ -787,13 +787,21 @@ class ResultWriter:
         self._paraview.record(t, frame)
 
     # -- modes and summary
-    def write_modes(self, frequencies_hz) -> None:
-        """Write ``modes.csv`` (``mode,frequency_hz``, modes numbered from 1)."""
+    def write_modes(self, frequencies_hz, columns: dict | None = None) -> None:
+        """Write ``modes.csv`` (``mode,frequency_hz``, then ``columns``: name -> values per mode,
+        numbers or words; modes numbered from 1)."""
         freqs = np.asarray(frequencies_hz, dtype=float).ravel()
         self._modes = freqs
         if self.out_dir is None:
             return
-        text = "mode,frequency_hz\n" + "".join(f"{i},{_format_float(f)}\n" for i, f in enumerate(freqs, start=1))
+        columns = columns or {}
+
+        def cell(value):
+            return value if isinstance(value, str) else _format_float(value)
+
+        text = ",".join(["mode", "frequency_hz", *columns]) + "\n" + "".join(
+            ",".join([str(i), _format_float(f), *(cell(values[i - 1]) for values in columns.values())]) + "\n"
+            for i, f in enumerate(freqs, start=1))
         _atomic_write_bytes(self.out_dir / MODES_FILE, text.encode())
 
     def _compose_summary(self, summary: dict | None, status: str | None) -> dict:

@@ -78,7 +78,9 @@ __all__ = [
     "ANALYSES", "METHODS", "STATIC_METHODS", "FORMULATIONS", "MAX_ELEMENTS", "MAX_COUNT",
 ]
 
-ANALYSES = ("transient", "static", "modes")
+ANALYSES = ("transient", "static", "modes", "buckling")
+#: ``solve.about`` of a modal analysis (latdyn/analyses/linearise.py); a mapping ``{t: T}`` is the fourth form
+ABOUT = ("initial", "static", "steady")
 METHODS = ("generalized-alpha", "hht-alpha", "newmark", "explicit")
 #: ``solve.method`` of a static analysis (latdyn/analyses/continuation.py): load control on the grid
 #: λ = k/steps (default), arc-length continuation (Crisfield 1981), displacement control of a point.
@@ -111,7 +113,7 @@ _HINGE_KEYS = ("axis", "stiffness", "damping", "torque", "angle", "lock_at", "re
 _LOAD_KEYS = ("at", "force", "moment", "frame")
 _SOLVE_KEYS = ("analysis", "t_end", "dt", "method", "rho_inf", "tol", "steps", "count",
                "adaptive", "error_tol", "dt_min", "max_iterations", "formulation", "engine", "newton", "planar",
-               "control", "max_steps")
+               "control", "max_steps", "about", "linear_model", "mode_shapes")
 _CONTROL_KEYS = ("point", "direction", "to")
 #: ``solve.engine``: where the implicit step runs (latdyn/step/compiled.py); ``solve.newton``: full or modified
 #: Newton, or ``exact``: full Newton whose matrix holds the elements' inertia tangent from the start
@@ -292,6 +294,12 @@ class Solve:
     engine: str = "auto"
     newton: str = "full"
     planar: str = "auto"
+    #: the state a modal analysis linearises about: "initial", "static", "steady" or a time T (float)
+    about: str | float = "initial"
+    #: ``{"inputs": [...], "outputs": [...]}``: write OUT/linear_model.npz (latdyn/analyses/linearise.py)
+    linear_model: dict | None = None
+    #: a modal run also writes its mode shapes as ParaView animations (OUT/paraview/modes)
+    mode_shapes: bool = False
     #: static ``method: displacement-control``: the controlled point and its displacement
     control: "Control | None" = None
     #: static ``method: arc-length``: most path steps (default 20 × steps)
@@ -938,6 +946,41 @@ class _Reader:
                            f"{beam.name!r}", value)
         return PointRef(text=value, beam=beam.name, node=node)
 
+    _INPUT = re.compile(r"^(?P<point>.+)\.(?P<kind>force|moment)\.(?P<component>[xyz])$")
+    _LOAD_INDEX = re.compile(r"^loads\[(?P<index>\d{1,9})\]$")
+
+    def linear_model_names(self, spec: dict, key: str, loads: list, probes: list) -> dict:
+        """The inputs of ``solve.linear_model`` as (kind, reference) pairs: ``("hinge", (beam, end))``
+        for ``BEAM.start|end`` (the torque about a free hinge's axis), ``("force"|"moment", (PointRef,
+        axis))`` for ``POINT.force.x`` (a global component at a point), ``("load", i)`` for ``loads[i]``
+        (that load, scaled by the input); outputs are probe names."""
+        inputs = []
+        forms = ("expected BEAM.start or BEAM.end (a hinge torque), POINT.force.x|y|z or "
+                 "POINT.moment.x|y|z (a global force or moment at a point), or loads[i]")
+        for i, name in enumerate(spec["inputs"]):
+            k = f"{key}.inputs[{i}]"
+            hinge, point, index = self._HINGE_REF.match(name), self._INPUT.match(name), self._LOAD_INDEX.match(name)
+            if hinge and hinge["name"] in self.beams:
+                end = getattr(self.beams[hinge["name"]], hinge["end"])
+                if end.hinge is None or end.hinge.angle is not None:
+                    self.fail(k, f"expected a hinge with a coordinate: {name} is not a free hinge", name)
+                inputs.append(("hinge", (hinge["name"], hinge["end"])))
+            elif point:
+                inputs.append((point["kind"], (self.point(point["point"], k), "xyz".index(point["component"]))))
+            elif index:
+                if int(index["index"]) >= len(loads):
+                    self.fail(k, f"expected loads[0] ... loads[{len(loads) - 1}] (the scene has {len(loads)} loads)",
+                              name)
+                inputs.append(("load", int(index["index"])))
+            else:
+                self.fail(k, forms, name)
+        known = [p.name for p in probes]
+        for i, name in enumerate(spec["outputs"]):
+            if name not in known:
+                self.fail(f"{key}.outputs[{i}]", f"expected the name of a probe (output.probes: {_listing(known)})",
+                          name)
+        return {"inputs": inputs, "input_names": list(spec["inputs"]), "outputs": list(spec["outputs"])}
+
     def load(self, spec, key) -> Load:
         self.mapping(spec, key, _LOAD_KEYS, required=("at",))
         if "force" not in spec and "moment" not in spec:
@@ -1091,6 +1134,12 @@ class _Reader:
             s.newton = self.choice(spec["newton"], k("newton"), NEWTON)
         if "planar" in spec:
             s.planar = self.choice(spec["planar"], k("planar"), PLANAR)
+        if "about" in spec:
+            s.about = self.about(spec["about"], k("about"))
+        if "linear_model" in spec:
+            s.linear_model = self.linear_model(spec["linear_model"], k("linear_model"))
+        if "mode_shapes" in spec:
+            s.mode_shapes = self.boolean(spec["mode_shapes"], k("mode_shapes"))
         return s
 
     def control(self, spec, key) -> Control:
@@ -1111,6 +1160,25 @@ class _Reader:
         if to == 0.0:
             self.fail(_join(key, "to"), "expected a non-zero displacement", spec["to"])
         return Control(point=point, direction=unit, to=to, text=text)
+
+    def about(self, value, key):
+        """``solve.about``: initial | static | steady | {t: T} (SCENE.md, "Linearisation")."""
+        if isinstance(value, dict):
+            self.mapping(value, key, ("t",), required=("t",), what="a word or a mapping {t: T}")
+            return self.number(value["t"], _join(key, "t"), positive=True)
+        return self.choice(value, key, ABOUT, what="one of {t: T} or")
+
+    def linear_model(self, value, key) -> dict:
+        """``solve.linear_model: {inputs: [...], outputs: [...]}``: names, checked against the model
+        when it is built (hinges, points and probes by name, latdyn/analyses/linearise.py)."""
+        self.mapping(value, key, ("inputs", "outputs"))
+        out = {}
+        for part in ("inputs", "outputs"):
+            names = value.get(part, [])
+            if not isinstance(names, list) or not all(isinstance(n, str) and n.strip() for n in names):
+                self.fail(_join(key, part), "expected a list of names", names)
+            out[part] = list(names)
+        return out
 
 
 # =========================================================================== entry points
@@ -1232,6 +1300,8 @@ def _build(raw: Any, file: str) -> Scene:
     if out_spec.get("paraview_every") is not None:
         paraview_every = r.number(out_spec["paraview_every"], "output.paraview_every", nonnegative=True)
     probes = r.probes(out_spec.get("probes"), "output.probes")
+    if solve.linear_model is not None:
+        solve.linear_model = r.linear_model_names(solve.linear_model, "solve.linear_model", loads, probes)
 
     return Scene(
         title=title, file=file, source_hash=_canonical_hash(raw), gravity=gravity,
@@ -1270,7 +1340,9 @@ def describe(scene: Scene) -> str:
                 "arc-length": f"static, arc-length continuation from {s.steps} load steps' first step",
                 "displacement-control": f"static, displacement of {s.control.point.text if s.control else ''} "
                                         f"controlled in {s.steps} steps"}[s.method]
+    elif s.analysis == "buckling":
+        what = f"buckling (stability along the static path), {s.steps} load steps"
     else:
-        what = f"modes, {s.count} lowest"
+        what = f"modes, {s.count} lowest, about {s.about if isinstance(s.about, str) else f't = {s.about:g}'}"
     lines.append(f"  solve:    {what}")
     return "\n".join(lines)
