@@ -1,4 +1,4 @@
-"""Joint bodies and point loads, derived like the element (unit ``joints`` of ``generated/``).
+"""Joint bodies, point loads and hinged beam ends, derived like the element (unit ``joints`` of ``generated/``).
 
 CR-4402 models a joint as a rigid body whose reference point carries the translational
 coordinates d and whose frame T turns with spatial virtual rotations π, δT = skew(δπ) T
@@ -28,6 +28,11 @@ generalized force −[F; r_g × F + Mo] (it is on the right of the equations of 
 F = R f and Mo = R mo; its power on the node's velocities is F·(v + ω × r_g) + Mo·ω.
 ``load_stiffness_node`` is its derivative by the node's π, ``load_stiffness_frame`` by the
 frame body's π (zero for a global load, where R = I is passed).
+
+Hinged beam end (the element's geometry, Eq. 17): the nodal frame of a beam end joined to node j
+by a hinge of unit axis a (node axes) at angle θ is T_e = T_j exp(θ skew a) E0, with E0 the
+element axes at t = 0 in node axes (a clamped end: a = 0, the same formula); its grid point sits
+at T_j r from the reference point (Eq. 2) and its hinge axis is T_j a (Eq. 9).
 """
 from __future__ import annotations
 
@@ -152,6 +157,30 @@ def _point_load_kernel() -> KernelSpec:
                       variant="joints", equations="Eq. 2 (the point), follower loads turning with a body")
 
 
+END_NODE = Argument("node_frame", 9, "T_j: frame of the node (joint body) the beam end is joined to, row-major")
+END_DATA = Argument("end", 16, "a[3] r[3] E0[9] theta: the hinge axis (unit; zero for a clamped end), the grid point "
+                    "and the element axes at t = 0 (row-major), all in node axes, and the hinge angle")
+
+
+def hinged_end(T, end):
+    """(nodal frame T_e, offset T_j r, axis T_j a) of a beam end at a joint (Eq. 17, Eqs. 2, 9)."""
+    a, r, E0, theta = _vector(end[0:3]), _vector(end[3:6]), _matrix(end[6:15]), end[15]
+    K = skew(a)
+    hinge = sp.eye(3) + sp.sin(theta) * K + (1 - sp.cos(theta)) * K * K  # exp(θ skew a), |a| = 1 or a = 0
+    return T * hinge * E0, T * r, T * a
+
+
+def _hinged_end_kernel() -> KernelSpec:
+    frame, offset, axis = hinged_end(_matrix(END_NODE.symbols()), END_DATA.symbols())
+    outputs = [Output("end_frame", (3, 3), list(frame), "T_e = T_j exp(θ skew a) E0, Eq. 17"),
+               Output("end_offset", (3,), list(offset), "T_j r: the grid point from the reference point, Eq. 2"),
+               Output("end_axis", (3,), list(axis), "T_j a: the hinge axis, global, Eq. 9")]
+    return KernelSpec(name="hinged_end", doc="The nodal frame, grid-point offset and hinge axis of a beam end at a "
+                      "joint turned by its hinge angle: the element's geometry block, end by end",
+                      inputs=[END_NODE, END_DATA], outputs=outputs, variant="joints",
+                      equations="Eqs. 2, 9, 17")
+
+
 def build_kernels() -> list[KernelSpec]:
     """The kernels of the ``joints`` unit."""
-    return [_joint_body_kernel(), _point_load_kernel()]
+    return [_joint_body_kernel(), _point_load_kernel(), _hinged_end_kernel()]

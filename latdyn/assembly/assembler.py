@@ -196,6 +196,11 @@ class Assembler:
         self._follower = np.array([load.frame != "global" for load in self.loads], bool)
         self._load_frames = np.array([model.body_node[load.frame] if load.frame != "global" else node
                                       for load, (node, _) in zip(self.loads, points)], np.int64)
+        # the hinged_end kernel's input of each element end (e, 2, 16): hinge axis, grid point, element
+        # axes at t = 0 (node axes), and the hinge angle, filled in at each evaluation
+        self._element_ends = np.concatenate([model.element_axes, model.element_offsets,
+                                             model.element_frames0.reshape(-1, 2, 9),
+                                             np.zeros(model.element_axes.shape[:2] + (1,))], axis=2)
         self._body_section = np.concatenate([model.body_mass[:, None], model.body_com,
                                              model.body_inertia.reshape(-1, 9)], axis=1)
         self._hinge_plain = None  # constant hinge coefficients as arrays (_plain_hinges), on first use
@@ -243,17 +248,18 @@ class Assembler:
 
     # -- pieces ----------------------------------------------------------------
     def element_geometry(self, state: State) -> np.ndarray:
+        """The element kernels' geometry block (codegen/conventions.py GEOMETRY): reference points,
+        and from the generated kernel ``hinged_end`` (codegen/joints.py) the offsets (Eq. 2), nodal
+        frames (Eq. 17) and hinge axes (Eq. 9) of both ends."""
         m = self.model
         nodes = m.element_nodes
-        T = state.T[nodes]  # (e, 2, 3, 3)
-        theta = np.append(state.theta, 0.0)[np.where(m.element_hinges >= 0, m.element_hinges, len(state.theta))]
-        hinge_rotation = expm_so3(m.element_axes * theta[..., None])
-        frames = T @ hinge_rotation @ m.element_frames0  # Eq. 17
-        offsets = np.einsum("eaij,eaj->eai", T, m.element_offsets)  # Eq. 2
-        axes = np.einsum("eaij,eaj->eai", T, m.element_axes)  # Eq. 9
+        ends = self._element_ends.copy()
+        ends[:, :, 15] = np.append(state.theta, 0.0)[np.where(m.element_hinges >= 0, m.element_hinges,
+                                                                len(state.theta))]
+        frames, offsets, axes = self.kernels.hinged_end(state.T[nodes].reshape(-1, 9), ends.reshape(-1, 16))
+        frames, offsets, axes = frames.reshape(-1, 2, 9), offsets.reshape(-1, 2, 3), axes.reshape(-1, 2, 3)
         x = state.x[nodes]
-        return np.concatenate([x[:, 0], x[:, 1], offsets[:, 0], offsets[:, 1],
-                               frames[:, 0].reshape(-1, 9), frames[:, 1].reshape(-1, 9),
+        return np.concatenate([x[:, 0], x[:, 1], offsets[:, 0], offsets[:, 1], frames[:, 0], frames[:, 1],
                                axes[:, 0], axes[:, 1]], axis=1)
 
     def element_rates(self, state: State, lin, ang, hinge) -> np.ndarray:

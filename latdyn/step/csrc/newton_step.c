@@ -50,6 +50,7 @@ typedef void (*kernel_joint_body)(int64_t, const double *, const double *, const
                                   double *, double *, double *, double *);
 typedef void (*kernel_point_load)(int64_t, const double *, const double *, const double *, const double *,
                                   const double *, double *, double *, double *, double *);
+typedef void (*kernel_hinged_end)(int64_t, const double *, const double *, double *, double *, double *);
 typedef void (*lapack_getrf)(int *, int *, double *, int *, int *, int *);
 typedef void (*lapack_getrs)(char *, int *, int *, double *, int *, int *, double *, int *, int *);
 typedef void (*lapack_gbtrf)(int *, int *, int *, int *, double *, int *, int *, int *);
@@ -103,6 +104,8 @@ typedef struct {
     kernel_joint_body joint_body;
     kernel_point_load point_load;
     const double *body_section; /* (n_bodies, 13): m c[3] I[9], the joint_body kernel's input */
+    kernel_hinged_end hinged_end;
+    const double *element_ends; /* (n_elements, 2, 16): a[3] r[3] E0[9] theta, the hinged_end kernel's input */
     lapack_getrf getrf;
     lapack_getrs getrs;
     lapack_gbtrf gbtrf;
@@ -320,15 +323,11 @@ static void element_inputs_to(const Model *m, const Configuration *c, double *ge
         double *r = rates + 14 * e, *acc = accelerations + 14 * e;
         for (int end = 0; end < 2; ++end) {
             int64_t i = m->element_nodes[2 * e + end], hinge = m->element_hinges[2 * e + end];
-            const double *T = c->T + 9 * i;
-            const double *axis = m->element_axes + 6 * e + 3 * end;
-            double theta = hinge >= 0 ? c->theta[hinge] : 0.0;
-            double H[9], TH[9];
-            expm_so3((double[3]){axis[0] * theta, axis[1] * theta, axis[2] * theta}, H);
-            matmul3(T, H, TH);
-            matmul3(TH, m->element_frames0 + 18 * e + 9 * end, g + 12 + 9 * end);
-            matvec3(T, m->element_offsets + 6 * e + 3 * end, g + 6 + 3 * end);
-            matvec3(T, axis, g + 30 + 3 * end);
+            /* Eqs. 2, 9, 17: the generated kernel (codegen/joints.py hinged_end) */
+            double data[16];
+            memcpy(data, m->element_ends + 32 * e + 16 * end, 15 * sizeof(double));
+            data[15] = hinge >= 0 ? c->theta[hinge] : 0.0;
+            m->hinged_end(1, c->T + 9 * i, data, g + 12 + 9 * end, g + 6 + 3 * end, g + 30 + 3 * end);
             for (int j = 0; j < 3; ++j) {
                 g[3 * end + j] = c->x[3 * i + j];
                 r[7 * end + j] = c->v[3 * i + j];
