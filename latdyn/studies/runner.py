@@ -24,6 +24,13 @@ Keys added to STUDY.md (keys may be added, none renamed):
 - ``peers: [NAME, ...]`` — other codes' points on the work-precision axes, read from
   ``benchmarks/peers.py`` where it exists (see :mod:`latdyn.studies.plots`).
 
+**Modal studies** — where the scene's ``solve.analysis`` is ``modes``, ``error`` and
+``reference`` may be left out (then there is no error column to fill, and ``work-precision``
+cannot be drawn); each solved case adds ``spin_rate`` and ``mode_k_hz``,
+``mode_k_damping_ratio``, ``mode_k_direction`` to its row from its ``summary.json``
+(:func:`_modal_columns`), and ``plots: [campbell]`` (the default when one key varies) draws
+them (:func:`latdyn.studies.plots.campbell`).
+
 Override paths are dotted scene paths (``solve.dt``, ``beams.arm.elements``,
 ``bodies.hub.motion.rotation.angle``), with ``[i]`` for list items (``loads[0].force``).
 Every part but the last must exist in the scene; the last may be a key the scene leaves
@@ -511,7 +518,7 @@ def _modal_columns(rows: list[dict], out: Path) -> list[str]:
     columns: ``spin_rate`` (rad/s, the rate of the frame the modes are seen in: the steady
     spin of ``solve.about: steady``) when some case spins, then ``mode_k_hz``,
     ``mode_k_damping_ratio``, ``mode_k_direction`` for k = 1 … the most modes a case found
-    (ascending frequency, as in the case's ``modes.csv``)."""
+    (in the order of the case's ``modes.csv``: by natural frequency)."""
     count, spins = 0, False
     for row in rows:
         summary = {}
