@@ -424,8 +424,7 @@ def campbell_axis(table, spec) -> tuple[str, list, bool]:
     rates = [r.get("spin_rate") for r in table.rows]
     known = [x for x in rates if x is not None]
     numeric = key in spec.numeric_keys
-    spin_changes = len(set(round(x, 12) for x in known)) > 1
-    if key.endswith("rotation.angle") or (not numeric and known) or (spin_changes and not numeric):
+    if known and (key.endswith("rotation.angle") or not numeric):  # an angle law "5*t": its rate
         return "spin rate Ω [rad/s]  (" + key + ")", rates, True
     if numeric:
         return axis_label(key), [r[key] for r in table.rows], False
@@ -440,7 +439,7 @@ def campbell(table, spec, path) -> None:
     label, xs, spin = campbell_axis(table, spec)
     rows = [(x, r) for x, r in zip(xs, table.rows) if x is not None and r["status"] == "solved"]
     rows.sort(key=lambda item: item[0])
-    count = max((len([c for c in table.columns if c.startswith("mode_") and c.endswith("_hz")]), 0))
+    count = sum(c.startswith("mode_") and c.endswith("_hz") for c in table.columns)
     fig = _figure((10.5, 6.2))
     ax = fig.subplots()
     colours = matplotlib.rcParams["axes.prop_cycle"].by_key()["color"]
