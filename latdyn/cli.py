@@ -213,9 +213,10 @@ def build_parser() -> argparse.ArgumentParser:
     plot.add_argument("results", metavar="OUT", help="results folder written by `latdyn run`")
     plot.add_argument("--out", metavar="DIR", help="where to write the PNGs (default: OUT/plots)")
     plot.set_defaults(handler=_command_plot)
-    study = commands.add_parser("study", parents=[common], help="run a study: work-precision, stability map, sweep",
+    study = commands.add_parser("study", parents=[common], help="run a study: work-precision, stability map, sweep, Campbell diagram",
                                 description="Run the cases of STUDY (shared/STUDY.md) and write study.csv, "
-                                "work_precision.png, stability.png, cases/ and summary.json into OUT.")
+                                "work_precision.png, stability.png (campbell.png for a modes scene), cases/ "
+                                "and summary.json into OUT.")
     study.add_argument("study", metavar="STUDY", help="study file (YAML)")
     study.add_argument("-o", "--out", metavar="OUT", help="study folder (default: ./<STUDY stem>_study)")
     study.add_argument("--scheduler", default="serial", metavar="serial|local[:N]|ADDRESS",

@@ -118,6 +118,9 @@ def run(scene, out_dir=None, backend: str = "auto", progress: bool = False, *, r
             writer.summary["mode_directions"] = directions
             writer.summary["about"] = scene.solve.about
             writer.summary["linearisation_s"] = None if lin is None else lin.seconds
+            if lin is not None:  # the frame the modes are seen in: the steady spin's, else at rest
+                writer.summary["frame_omega"] = [float(w) for w in lin.frame.omega]  # rad/s, global axes
+                writer.summary["spin_rate"] = float(np.linalg.norm(lin.frame.omega))  # rad/s
             if lin is not None and scene.solve.mode_shapes:  # the shapes, animated
                 try:
                     writer.summary["mode_shapes"] = linearise.write_mode_shapes(lin, found, out_dir)

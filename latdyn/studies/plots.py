@@ -17,6 +17,17 @@ Other codes' points (``peers: [exudyn]`` in the study) come from
 in the study, or ``solve.dt`` across and the first other key up), one panel per
 combination of the other keys; failed and unbounded cells carry the time they reached.
 
+**Campbell** (a study of a ``modes`` scene varying one key) — each mode's frequency [Hz]
+against the varied key: the spin rate [rad/s] (``spin_rate`` of each case, with its
+value in Hz on the top axis) when the key is a rotation angle law (``"5*t"``) or when the
+spin rate is what changes, else the key's own value. Line k joins the k-th lowest
+frequency of every case (sorted order, as ``modes.csv`` lists them); each point's marker
+is the mode's dominant direction (``mode_directions``), so a line whose marker changes
+is two modes crossing or veering, and the picture says so instead of guessing which
+branch is which. Over a spin rate, the engine-order lines f = n·Ω/2π (n = 1, 2) are
+dashed: where a mode meets one, the spin excites it resonantly. Frequencies are those
+seen in the frame that turns with the structure (``solve.about: steady``).
+
 Matplotlib's object-oriented API on an Agg canvas (``Figure`` + ``FigureCanvasAgg``), never
 pyplot: no display needed, and the caller's backend and open figures are left as they were.
 """
@@ -30,7 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["draw", "work_precision", "stability_map", "observed_orders", "axis_label"]
+__all__ = ["draw", "work_precision", "stability_map", "campbell", "campbell_axis", "observed_orders", "axis_label"]
 
 STATUS_STYLE = {
     "solved": {"marker": "o", "color": "#2ca02c", "label": "solved"},
@@ -391,4 +402,109 @@ def draw(table, spec, out) -> tuple[list[Path], list[dict]]:
     if "stability" in spec.plots and len(spec.vary) >= 2:
         stability_map(table, spec, out / "stability.png")
         written.append(out / "stability.png")
+    if "campbell" in spec.plots:
+        campbell(table, spec, out / "campbell.png")
+        written.append(out / "campbell.png")
     return written, orders
+
+
+# =========================================================================== Campbell
+#: Markers of a mode's dominant direction (``mode_directions``: latdyn/analyses/linearise.py).
+DIRECTION_MARKERS = {"x": "s", "y": "o", "z": "^", "rx": "D", "ry": "v", "rz": "P", "hinge": "*"}
+DIRECTION_WORDS = {"x": "x (axial for a beam along x)", "y": "y (chordwise, in the plane of a spin about z)",
+                   "z": "z (flapwise, out of the plane of a spin about z)", "rx": "rotation about x (torsion)",
+                   "ry": "rotation about y", "rz": "rotation about z", "hinge": "hinge angle"}
+#: Engine-order (per-revolution) lines drawn over a spin rate.
+HARMONICS = (1, 2)
+
+
+def campbell_axis(table, spec) -> tuple[str, list, bool]:
+    """(x-axis label, x of each row (None where unknown), whether x is the spin rate in rad/s)."""
+    key = next(iter(spec.vary))
+    rates = [r.get("spin_rate") for r in table.rows]
+    known = [x for x in rates if x is not None]
+    numeric = key in spec.numeric_keys
+    if known and (key.endswith("rotation.angle") or not numeric):  # an angle law "5*t": its rate
+        return "spin rate Ω [rad/s]  (" + key + ")", rates, True
+    if numeric:
+        return axis_label(key), [r[key] for r in table.rows], False
+    return key + " (case order)", list(range(len(table.rows))), False
+
+
+def campbell(table, spec, path) -> None:
+    """Draw ``path``: the Campbell diagram of a modal study (see the module docstring)."""
+    import matplotlib
+    from matplotlib.lines import Line2D
+
+    label, xs, spin = campbell_axis(table, spec)
+    rows = [(x, r) for x, r in zip(xs, table.rows) if x is not None and r["status"] == "solved"]
+    rows.sort(key=lambda item: item[0])
+    count = sum(c.startswith("mode_") and c.endswith("_hz") for c in table.columns)
+    fig = _figure((10.5, 6.2))
+    ax = fig.subplots()
+    colours = matplotlib.rcParams["axes.prop_cycle"].by_key()["color"]
+    seen_directions: list = []
+    ends = []
+    for k in range(1, count + 1):
+        colour = colours[(k - 1) % len(colours)]
+        points = [(x, r.get(f"mode_{k}_hz"), r.get(f"mode_{k}_direction") or "") for x, r in rows
+                  if r.get(f"mode_{k}_hz") is not None]
+        if not points:
+            continue
+        ax.plot([p[0] for p in points], [p[1] for p in points], color=colour, linewidth=1.4, zorder=2)
+        for direction in dict.fromkeys(p[2] for p in points):
+            at = [p for p in points if p[2] == direction]
+            ax.plot([p[0] for p in at], [p[1] for p in at], linestyle="none", color=colour, markersize=6,
+                    marker=DIRECTION_MARKERS.get(direction, "o"), markeredgecolor="k", markeredgewidth=0.5,
+                    zorder=3)
+            if direction not in seen_directions:
+                seen_directions.append(direction)
+        ends.append((points[-1][0], points[-1][1], f"mode {k}", colour))
+    failed = [(x, r) for x, r in zip(xs, table.rows) if x is not None and r["status"] != "solved"]
+    for x, r in failed:
+        ax.axvline(x, color="#d62728", linewidth=0.8, linestyle=":", zorder=1)
+    top = max([y for _, y, _, _ in ends] + [1e-12])
+    ax.set_ylim(0.0, top * 1.08)
+    if rows:
+        x0, x1 = rows[0][0], rows[-1][0]
+        ax.set_xlim(x0, x1 + 0.16 * max(x1 - x0, 1e-12))
+    harmonic_handles = []
+    if spin and rows:
+        grid = np.linspace(0.0, ax.get_xlim()[1], 200)
+        for n, style in zip(HARMONICS, ("--", (0, (6, 3, 1, 3)))):
+            ax.plot(grid, n * grid / (2 * np.pi), color="0.35", linestyle=style, linewidth=1.0, zorder=1)
+            harmonic_handles.append(Line2D([], [], color="0.35", linestyle=style,
+                                           label=f"{n}× spin: f = {n}·Ω/2π" if n > 1 else "1× spin: f = Ω/2π"))
+        ax.set_ylim(0.0, top * 1.08)
+        secondary = ax.secondary_xaxis("top", functions=(lambda w: w / (2 * np.pi), lambda f: f * 2 * np.pi))
+        secondary.set_xlabel("spin frequency Ω/2π [Hz]")
+    if ends:  # "mode k" beside the last point of each line, pushed apart to stay legible
+        to_display = ax.transData.transform
+        points = to_display([(x, y) for x, y, _, _ in ends])
+        spread = _spread(points[:, 1], 13.0)
+        for (x, y, text, colour), (px, _), py in zip(ends, points, spread):
+            xd, yd = ax.transData.inverted().transform((px + 12, py))
+            ax.annotate(text, (x, y), xytext=(xd, yd), textcoords="data", fontsize=8, color=colour,
+                        fontweight="bold", va="center", zorder=4,
+                        bbox={"boxstyle": "square,pad=0.1", "facecolor": "white", "edgecolor": "none", "alpha": 0.85},
+                        arrowprops={"arrowstyle": "-", "color": colour, "linewidth": 0.5, "alpha": 0.6})
+    handles = [Line2D([], [], linestyle="none", marker=DIRECTION_MARKERS.get(d, "o"), color="0.7",
+                      markeredgecolor="k", markersize=7,
+                      label=textwrap.fill("dominant " + DIRECTION_WORDS.get(d, d or "?"), 34, subsequent_indent="  "))
+               for d in seen_directions]
+    handles += harmonic_handles
+    if failed:
+        handles.append(Line2D([], [], color="#d62728", linestyle=":", label=f"{len(failed)} case(s) not solved"))
+    ax.legend(handles=handles, fontsize=7.5, loc="upper left", bbox_to_anchor=(1.01, 1.0), framealpha=0.9)
+    ax.set_xlabel(label)
+    ax.set_ylabel("frequency [Hz]" + ("  (seen in the spinning frame)" if spin else ""))
+    ax.grid(True, alpha=0.25)
+    fig.suptitle(textwrap.fill(spec.title or "Campbell diagram", 90), fontsize=10.5)
+    note = ("Line k joins the k-th lowest frequency of every case (sorted by frequency, not tracked by "
+            "shape); the marker is each mode's dominant direction, so a line whose marker changes is "
+            "two modes crossing or veering.")
+    if spin:
+        note += " Where a mode meets a dashed n× line, the spin excites it at resonance."
+    fig.text(0.695, 0.12, textwrap.fill(note, 44), va="bottom", ha="left", fontsize=7.5)
+    fig.subplots_adjust(left=0.08, right=0.68, bottom=0.1, top=0.84)
+    fig.savefig(path, dpi=130)

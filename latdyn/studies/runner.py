@@ -24,6 +24,13 @@ Keys added to STUDY.md (keys may be added, none renamed):
 - ``peers: [NAME, ...]`` — other codes' points on the work-precision axes, read from
   ``benchmarks/peers.py`` where it exists (see :mod:`latdyn.studies.plots`).
 
+**Modal studies** — where the scene's ``solve.analysis`` is ``modes``, ``error`` and
+``reference`` may be left out (then there is no error column to fill, and ``work-precision``
+cannot be drawn); each solved case adds ``spin_rate`` and ``mode_k_hz``,
+``mode_k_damping_ratio``, ``mode_k_direction`` to its row from its ``summary.json``
+(:func:`_modal_columns`), and ``plots: [campbell]`` (the default when one key varies) draws
+them (:func:`latdyn.studies.plots.campbell`).
+
 Override paths are dotted scene paths (``solve.dt``, ``beams.arm.elements``,
 ``bodies.hub.motion.rotation.angle``), with ``[i]`` for list items (``loads[0].force``).
 Every part but the last must exist in the scene; the last may be a key the scene leaves
@@ -104,7 +111,7 @@ __all__ = ["StudySpec", "Case", "StudyTable", "load_study", "expand", "study", "
            "COLUMNS", "STATUSES", "NORMS", "PLOTS", "CASE_FILE"]
 
 NORMS = ("max", "rms", "final")
-PLOTS = ("work-precision", "stability")
+PLOTS = ("work-precision", "stability", "campbell")
 #: The columns of study.csv after the ``vary`` keys (STUDY.md), then the added ones.
 COLUMNS = ("status", "error", "wall_s", "steps", "newton_iterations", "rejected_steps", "coordinates")
 EXTRA_COLUMNS = ("t_reached", "case", "message")
@@ -122,7 +129,7 @@ class StudySpec:
     scene_file: str
     base: dict                              # the scene's mapping, ``set`` applied
     vary: dict                              # key path -> list of values, in file order
-    probe: str
+    probe: str | None                       # None: a modal study without error
     norm: str = "max"
     reference_overrides: dict | None = None
     reference_file: str | None = None
@@ -131,6 +138,11 @@ class StudySpec:
     stability: tuple | None = None
     peers: tuple = ()
     set: dict = field(default_factory=dict)
+
+    @property
+    def modal(self) -> bool:
+        """The scene's ``solve.analysis`` is ``modes``: each case adds its frequencies to the table."""
+        return (self.base.get("solve") or {}).get("analysis") == "modes"
 
     @property
     def numeric_keys(self) -> list[str]:
@@ -270,7 +282,7 @@ def load_study(source, base_dir=None) -> StudySpec:
     for key in raw:
         if key not in _TOP_KEYS:
             _fail(file, str(key), f"unknown key; expected one of {', '.join(_TOP_KEYS)}")
-    for key in ("scene", "vary", "error"):
+    for key in ("scene", "vary"):
         if key not in raw:
             _fail(file, key, f"missing required key {key!r}")
 
@@ -313,30 +325,41 @@ def load_study(source, base_dir=None) -> StudySpec:
         if len(set(seen)) != len(seen):
             _fail(file, key, "expected each value once", values)
 
-    error = raw["error"]
-    if not isinstance(error, dict):
-        _fail(file, "error", "expected a mapping {probe: NAME, norm: max|rms|final}", error)
-    for key in error:
-        if key not in ("probe", "norm"):
-            _fail(file, f"error.{key}", "unknown key; expected probe or norm")
-    probe = error.get("probe")
+    modal = scene.solve.analysis == "modes"
     probes = [p.name for p in scene.output.probes]
     for name in probes:
         if name in ENERGY_PROBES:
             _fail(file, "scene", f"the probe name {name!r} is reserved for the study's energy probes")
-    if probe not in probes:
-        _fail(file, "error.probe", f"expected a probe of the scene ({', '.join(probes) or 'it has none'})", probe)
-    norm = error.get("norm", "max")
-    if norm not in NORMS:
-        _fail(file, "error.norm", f"expected one of {', '.join(NORMS)}", norm)
+    if "error" not in raw and not modal:
+        _fail(file, "error", "missing required key 'error' (a study of a modes scene may leave it out)")
+    if modal and "error" not in raw:
+        if "reference" in raw:
+            _fail(file, "reference", "a reference needs error: {probe: NAME}; a modal study tabulates its "
+                                     "frequencies without either")
+        probe, norm, reference = None, "max", None
+    else:
+        error = raw["error"]
+        if not isinstance(error, dict):
+            _fail(file, "error", "expected a mapping {probe: NAME, norm: max|rms|final}", error)
+        for key in error:
+            if key not in ("probe", "norm"):
+                _fail(file, f"error.{key}", "unknown key; expected probe or norm")
+        probe = error.get("probe")
+        if probe not in probes:
+            _fail(file, "error.probe", f"expected a probe of the scene ({', '.join(probes) or 'it has none'})", probe)
+        norm = error.get("norm", "max")
+        if norm not in NORMS:
+            _fail(file, "error.norm", f"expected one of {', '.join(NORMS)}", norm)
+        reference = raw.get("reference")
+        if reference is None:
+            _fail(file, "reference", "missing required key 'reference' (overrides: {...} or file: TABLE.csv)")
 
-    reference = raw.get("reference")
     ref_overrides, ref_file = None, None
-    if reference is None:
-        _fail(file, "reference", "missing required key 'reference' (overrides: {...} or file: TABLE.csv)")
-    if not isinstance(reference, dict) or len(reference) != 1 or next(iter(reference)) not in ("overrides", "file"):
+    if reference is None:  # a modal study without error: nothing to compare with
+        pass
+    elif not isinstance(reference, dict) or len(reference) != 1 or next(iter(reference)) not in ("overrides", "file"):
         _fail(file, "reference", "expected exactly one of overrides: {PATH: value} or file: TABLE.csv", reference)
-    if "overrides" in reference:
+    elif "overrides" in reference:
         ref_overrides = reference["overrides"] or {}
         if not isinstance(ref_overrides, dict):
             _fail(file, "reference.overrides", "expected a mapping of scene paths to values", ref_overrides)
@@ -356,9 +379,15 @@ def load_study(source, base_dir=None) -> StudySpec:
     repeats = raw.get("repeats", 1)
     if not isinstance(repeats, int) or isinstance(repeats, bool) or not 1 <= repeats <= 100:
         _fail(file, "repeats", "expected a whole number of runs from 1 to 100", repeats)
-    plots = raw.get("plots", list(PLOTS))
+    plots = raw.get("plots", default_plots(modal, vary, probe))
     if not isinstance(plots, list) or any(p not in PLOTS for p in plots):
         _fail(file, "plots", f"expected a list of {', '.join(PLOTS)}", plots)
+    if "work-precision" in plots and probe is None:
+        _fail(file, "plots", "work-precision needs error: {probe: NAME} and a reference", plots)
+    if "campbell" in plots and not modal:
+        _fail(file, "plots", "campbell needs a scene whose solve.analysis is modes", plots)
+    if "campbell" in plots and len(vary) != 1:
+        _fail(file, "plots", f"campbell draws frequency against one vary key; {len(vary)} vary", plots)
     stability = raw.get("stability")
     if stability is not None:
         if (not isinstance(stability, list) or len(stability) != 2 or len(set(map(str, stability))) != 2
@@ -375,6 +404,15 @@ def load_study(source, base_dir=None) -> StudySpec:
                      peers=tuple(peers), set=dict(overrides_set))
     expand(spec)  # every combination checked too (dt > t_end and the like)
     return spec
+
+
+def default_plots(modal: bool, vary: dict, probe: str | None) -> list[str]:
+    """The pictures drawn when the study names none: a modal study varying one key gets its
+    Campbell diagram; a study with an error gets work-precision and stability (the latter
+    only drawn where two keys vary)."""
+    if modal and probe is None:
+        return ["campbell"] if isinstance(vary, dict) and len(vary) == 1 else ["stability"]
+    return ["work-precision", "stability"] + (["campbell"] if modal and len(vary) == 1 else [])
 
 
 def _csv_header(path: Path) -> list[str]:
@@ -467,6 +505,36 @@ def case_error(t, values, t_ref, v_ref, norm: str) -> float:
     if norm == "rms":
         return float(np.sqrt(np.mean(difference ** 2)))
     return float(abs(difference[-1]))
+
+
+# =========================================================================== modal cases
+#: What a modal case's ``summary.json`` gives each mode k of ``study.csv``: column name -> summary key.
+MODE_COLUMNS = {"mode_{k}_hz": "modes_hz", "mode_{k}_damping_ratio": "damping_ratios",
+                "mode_{k}_direction": "mode_directions"}
+
+
+def _modal_columns(rows: list[dict], out: Path) -> list[str]:
+    """Add each solved modal case's frequencies to its row (in place) and return the new
+    columns: ``spin_rate`` (rad/s, the rate of the frame the modes are seen in: the steady
+    spin of ``solve.about: steady``) when some case spins, then ``mode_k_hz``,
+    ``mode_k_damping_ratio``, ``mode_k_direction`` for k = 1 … the most modes a case found
+    (in the order of the case's ``modes.csv``: by natural frequency)."""
+    count, spins = 0, False
+    for row in rows:
+        summary = {}
+        if row["status"] == "solved":
+            with contextlib.suppress(OSError, ValueError):
+                summary = json.loads((out / "cases" / row["case"] / "summary.json").read_text(encoding="utf-8"))
+        row["spin_rate"] = summary.get("spin_rate")
+        spins = spins or bool(row["spin_rate"])
+        for column, key in MODE_COLUMNS.items():
+            for k, value in enumerate(summary.get(key) or [], start=1):
+                row[column.format(k=k)] = value
+        count = max(count, len(summary.get("modes_hz") or []))
+    columns = ["spin_rate"] if spins else []
+    for k in range(1, count + 1):
+        columns += [column.format(k=k) for column in MODE_COLUMNS]
+    return columns
 
 
 # =========================================================================== the table
@@ -664,7 +732,7 @@ def study(source, scheduler: str | None = None, out=None, *, client=None, progre
         elif progress:
             print(f"study: the reference run is {rec['status']} ({rec.get('message', '')}); no errors",
                   file=sys.stderr)
-    else:
+    elif spec.reference_file is not None:
         reference_info = {"file": spec.reference_file}
         t_ref, probes = _load_table(spec.reference_file)
         v_ref = probes[spec.probe]
@@ -683,7 +751,8 @@ def study(source, scheduler: str | None = None, out=None, *, client=None, progre
                    coordinates=rec.get("coordinates"), t_reached=rec.get("t_reached"), case=case.hash,
                    message=rec.get("message", ""))
         rows.append(row)
-    table = StudyTable(keys + list(COLUMNS) + list(EXTRA_COLUMNS), rows, out_dir=out)
+    mode_columns = _modal_columns(rows, out) if spec.modal else []
+    table = StudyTable(keys + list(COLUMNS) + list(EXTRA_COLUMNS) + mode_columns, rows, out_dir=out)
     table.to_csv(out / "study.csv")
 
     pictures, orders = [], []
@@ -694,7 +763,8 @@ def study(source, scheduler: str | None = None, out=None, *, client=None, progre
     counts = {s: sum(r["status"] == s for r in rows) for s in STATUSES}
     summary = {
         "title": spec.title, "study_file": spec.file, "scene": spec.scene_file, "vary": spec.vary,
-        "set": spec.set, "error": {"probe": spec.probe, "norm": spec.norm}, "repeats": spec.repeats,
+        "set": spec.set,
+        "error": None if spec.probe is None else {"probe": spec.probe, "norm": spec.norm}, "repeats": spec.repeats,
         "reference": reference_info, "cases": len(cases), "ran": len(todo), "reused": len(unique) - len(todo),
         "statuses": counts, "orders": orders, "pictures": [p.name for p in pictures],
         "scheduler": runner.describe(), "machine": _machine(), "versions": _versions(),
