@@ -29,6 +29,10 @@ F = R f and Mo = R mo; its power on the node's velocities is F·(v + ω × r_g) 
 ``load_stiffness_node`` is its derivative by the node's π, ``load_stiffness_frame`` by the
 frame body's π (zero for a global load, where R = I is passed).
 
+Hinge (the coordinate θ of a joint): f = k s + c θ̇ − λ τ with s = θ − θ_r and k, c, τ the scene's
+laws in θ, θ̇ and t, given at the hinge's state with their first derivatives (compiled per scene by
+codegen/laws.py, or constants); the kernel returns f, ∂f/∂θ, ∂f/∂θ̇ and the powers.
+
 Hinged beam end (the element's geometry, Eq. 17): the nodal frame of a beam end joined to node j
 by a hinge of unit axis a (node axes) at angle θ is T_e = T_j exp(θ skew a) E0, with E0 the
 element axes at t = 0 in node axes (a clamped end: a = 0, the same formula); its grid point sits
@@ -181,6 +185,43 @@ def _hinged_end_kernel() -> KernelSpec:
                       equations="Eqs. 2, 9, 17")
 
 
+HINGE_STATE = Argument("hinge", 4, "theta theta_dot rest_angle load_factor: the hinge angle, its rate, the "
+                       "spring's rest angle, and the factor that scales the applied torque")
+HINGE_LAWS = Argument("laws", 9, "k dk/dtheta dk/dtheta_dot c dc/dtheta dc/dtheta_dot tau dtau/dtheta "
+                      "dtau/dtheta_dot: stiffness, damping and applied torque and their derivatives at the "
+                      "hinge's (theta, theta_dot, t): the compiled laws of the scene, or constants")
+
+
+def hinge_force(state, laws):
+    """(f, spring torque k s) of a hinge, f = k(θ, θ̇, t) s + c(θ, θ̇, t) θ̇ − λ τ(θ, θ̇, t), s = θ − θ_r.
+    Each law enters as its first-order expansion about the hinge's (θ, θ̇), which is all its exact
+    first derivatives need."""
+    theta, rate, rest, factor = state
+    d_theta, d_rate = sp.symbols("dtheta drate")
+    k, c, tau = ((laws[3 * j] + laws[3 * j + 1] * d_theta + laws[3 * j + 2] * d_rate) for j in range(3))
+    s = theta + d_theta - rest
+    f = k * s + c * (rate + d_rate) - factor * tau
+    zero = {d_theta: 0, d_rate: 0}
+    return f, sp.diff(f, d_theta).xreplace(zero), sp.diff(f, d_rate).xreplace(zero), f.xreplace(zero), \
+        (k * s).xreplace(zero)
+
+
+def _hinge_force_kernel() -> KernelSpec:
+    state, laws = HINGE_STATE.symbols(), HINGE_LAWS.symbols()
+    _, stiffness, damping, force, spring = hinge_force(state, laws)
+    rate, factor, tau = state[1], state[3], laws[6]
+    outputs = [Output("hinge_force", (), [force], "f = k s + c θ̇ − λ τ, s = θ − θ_r: the hinge's row of the residual"),
+               Output("hinge_stiffness", (), [stiffness], "∂f/∂θ = k + s ∂k/∂θ + θ̇ ∂c/∂θ − λ ∂τ/∂θ"),
+               Output("hinge_damping", (), [damping], "∂f/∂θ̇ = s ∂k/∂θ̇ + c + θ̇ ∂c/∂θ̇ − λ ∂τ/∂θ̇"),
+               Output("spring_power", (), [-spring * rate], "−k s θ̇: the spring's power, external work when the "
+                      "spring is not conservative (a law in θ̇ or t)"),
+               Output("torque_power", (), [factor * tau * rate], "λ τ θ̇: the applied torque's power")]
+    return KernelSpec(name="hinge_force", doc="A hinge's generalized force from its spring, damper and applied torque "
+                      "laws, its exact derivatives by the angle and its rate, and the power of what does external work",
+                      inputs=[HINGE_STATE, HINGE_LAWS], outputs=outputs, variant="joints",
+                      equations="hinge springs, dampers and torques (Eqs. 4, 9: the hinge coordinate)")
+
+
 def build_kernels() -> list[KernelSpec]:
     """The kernels of the ``joints`` unit."""
-    return [_joint_body_kernel(), _point_load_kernel(), _hinged_end_kernel()]
+    return [_joint_body_kernel(), _point_load_kernel(), _hinged_end_kernel(), _hinge_force_kernel()]

@@ -134,3 +134,34 @@ def test_follower_loads_converge_like_fixed_loads(tmp_path):
         result = latdyn.run(latdyn.load_scene(path), tmp_path / f"{frame}_out")
         iterations[frame] = result.summary["newton_iterations"] / result.summary["steps"]
     assert iterations["tip"] <= iterations["global"] + 0.5, iterations
+
+
+@pytest.mark.parametrize("backend", ["numpy", "c"])
+def test_hinge_force_against_differences(backend):
+    """f = k s + c θ̇ − λτ with laws in θ and θ̇: the kernel's ∂f/∂θ and ∂f/∂θ̇ from the laws'
+    values and derivatives equal central differences of f, and the powers are −k s θ̇ and λ τ θ̇."""
+    ks = load_kernels(backend, "default")
+
+    def laws(theta, rate):  # smooth laws with their partial derivatives
+        k = (2.0 + np.sin(theta) * rate, np.cos(theta) * rate, np.sin(theta))
+        c = (0.3 + 0.1 * theta**2 + 0.05 * rate**2, 0.2 * theta, 0.1 * rate)
+        tau = (np.exp(0.3 * theta) - rate, 0.3 * np.exp(0.3 * theta), -1.0)
+        return np.array([*k, *c, *tau])
+
+    def force(theta, rate, rest, factor):
+        k, c, tau = laws(theta, rate)[[0, 3, 6]]
+        return k * (theta - rest) + c * rate - factor * tau
+
+    n = 6
+    states = np.column_stack([RNG.normal(size=n), RNG.normal(size=n), RNG.normal(size=n), RNG.uniform(0.2, 1.5, n)])
+    values = np.array([laws(th, rt) for th, rt, _, _ in states])
+    f, d_theta, d_rate, spring_power, torque_power = ks.hinge_force(states, values)
+    eps = 1e-6
+    for j, (theta, rate, rest, factor) in enumerate(states):
+        assert np.isclose(f[j], force(theta, rate, rest, factor), rtol=1e-13, atol=1e-13)
+        fd_theta = (force(theta + eps, rate, rest, factor) - force(theta - eps, rate, rest, factor)) / (2 * eps)
+        fd_rate = (force(theta, rate + eps, rest, factor) - force(theta, rate - eps, rest, factor)) / (2 * eps)
+        assert np.isclose(d_theta[j], fd_theta, rtol=1e-7, atol=1e-8)
+        assert np.isclose(d_rate[j], fd_rate, rtol=1e-7, atol=1e-8)
+        assert np.isclose(spring_power[j], -values[j, 0] * (theta - rest) * rate, rtol=1e-13, atol=1e-13)
+        assert np.isclose(torque_power[j], factor * values[j, 6] * rate, rtol=1e-13, atol=1e-13)

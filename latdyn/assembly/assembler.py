@@ -204,6 +204,7 @@ class Assembler:
         self._body_section = np.concatenate([model.body_mass[:, None], model.body_com,
                                              model.body_inertia.reshape(-1, 9)], axis=1)
         self._hinge_plain = None  # constant hinge coefficients as arrays (_plain_hinges), on first use
+        self._conservative = np.array([h.conservative_spring for h in model.hinges], bool)
         self.reindex()
 
     def _load_columns(self) -> np.ndarray:
@@ -422,42 +423,29 @@ class Assembler:
         derivatives ∂f/∂θ and ∂f/∂θ̇ (diagonal entries of K and C), and the power of the hinges
         counted as external work: applied torques, and springs that are not conservative
         (a stiffness law in θ̇ or t; see :attr:`latdyn.model.model.HingeCoordinate.conservative_spring`).
-
-        With s = θ − θ_r:  ∂f/∂θ = k + s ∂k/∂θ + θ̇ ∂c/∂θ − λ ∂τ/∂θ,
-                           ∂f/∂θ̇ = s ∂k/∂θ̇ + c + θ̇ ∂c/∂θ̇ − λ ∂τ/∂θ̇.
-        """
+        The laws' values and first derivatives at each hinge's (θ, θ̇, t) go into the generated kernel
+        ``hinge_force`` (codegen/joints.py), which forms f and its derivatives."""
         hinges = self.model.hinges
+        if not hinges:
+            return np.zeros(0), np.zeros(0), np.zeros(0), 0.0
         if self._hinge_plain is None:
             self._hinge_plain = _plain_hinges(hinges)
         k0, c0, rest, with_law, with_torque = self._hinge_plain
-        # constant springs and dampers, all hinges at once; the laws below replace their entries
-        force = k0 * (state.theta - rest) + c0 * state.theta_dot
-        d_theta, d_rate = k0.copy(), c0.copy()
-        power = 0.0
+        laws = np.zeros((len(hinges), 9))
+        laws[:, 0], laws[:, 3] = k0, c0  # constant springs and dampers; the laws below replace them
         t = state.t
         for k in with_torque:  # torques of t alone on hinges with constant springs
-            tau = load_factor * hinges[k].torque.value(0.0, 0.0, t)
-            force[k] -= tau
-            power += tau * state.theta_dot[k]
+            laws[k, 6] = hinges[k].torque.value(0.0, 0.0, t)
         for k in with_law:
             hinge = hinges[k]
             theta, rate = float(state.theta[k]), float(state.theta_dot[k])
-            s = theta - hinge.rest_angle
-            stiffness, damping = hinge.stiffness, hinge.damping
-            ks, cs = stiffness.value(theta, rate, t), damping.value(theta, rate, t)
-            spring = ks * s
-            f = spring + cs * rate
-            df_dtheta = ks + s * stiffness.d_theta(theta, rate, t) + rate * damping.d_theta(theta, rate, t)
-            df_drate = s * stiffness.d_rate(theta, rate, t) + cs + rate * damping.d_rate(theta, rate, t)
-            if not hinge.conservative_spring:
-                power -= spring * rate
-            if hinge.torque is not None:
-                tau = load_factor * hinge.torque.value(theta, rate, t)
-                f -= tau
-                df_dtheta -= load_factor * hinge.torque.d_theta(theta, rate, t)
-                df_drate -= load_factor * hinge.torque.d_rate(theta, rate, t)
-                power += tau * rate
-            force[k], d_theta[k], d_rate[k] = f, df_dtheta, df_drate
+            for j, law in enumerate((hinge.stiffness, hinge.damping, hinge.torque)):
+                if law is not None:
+                    laws[k, 3 * j:3 * j + 3] = law.value(theta, rate, t), law.d_theta(theta, rate, t), \
+                        law.d_rate(theta, rate, t)
+        kinematics = np.column_stack([state.theta, state.theta_dot, rest, np.full(len(hinges), load_factor)])
+        force, d_theta, d_rate, spring_power, torque_power = self.kernels.hinge_force(kinematics, laws)
+        power = float(torque_power.sum() + spring_power[~self._conservative].sum())
         return force, d_theta, d_rate, power
 
     def hinge_potential(self, state: State, hinges=None) -> float:

@@ -51,6 +51,8 @@ typedef void (*kernel_joint_body)(int64_t, const double *, const double *, const
 typedef void (*kernel_point_load)(int64_t, const double *, const double *, const double *, const double *,
                                   const double *, double *, double *, double *, double *);
 typedef void (*kernel_hinged_end)(int64_t, const double *, const double *, double *, double *, double *);
+typedef void (*kernel_hinge_force)(int64_t, const double *, const double *, double *, double *, double *, double *,
+                                   double *);
 typedef void (*lapack_getrf)(int *, int *, double *, int *, int *, int *);
 typedef void (*lapack_getrs)(char *, int *, int *, double *, int *, int *, double *, int *, int *);
 typedef void (*lapack_gbtrf)(int *, int *, int *, int *, double *, int *, int *, int *);
@@ -106,6 +108,7 @@ typedef struct {
     const double *body_section; /* (n_bodies, 13): m c[3] I[9], the joint_body kernel's input */
     kernel_hinged_end hinged_end;
     const double *element_ends; /* (n_elements, 2, 16): a[3] r[3] E0[9] theta, the hinged_end kernel's input */
+    kernel_hinge_force hinge_force;
     lapack_getrf getrf;
     lapack_getrs getrs;
     lapack_gbtrf gbtrf;
@@ -434,40 +437,26 @@ static double evaluate(const Model *m, const Configuration *c, Work *w, const do
         const int64_t *d = m->node_dofs + 6 * m->body_nodes[b];
         for (int p = 0; p < 6; ++p) w->total[d[p]] += w->body_vector[6 * b + p];
     }
-    /* hinges (Assembler.hinge_forces): f = k (θ − θ_r) + c θ̇ − τ, with s = θ − θ_r
-     *   ∂f/∂θ = k + s ∂k/∂θ + θ̇ ∂c/∂θ − ∂τ/∂θ,   ∂f/∂θ̇ = s ∂k/∂θ̇ + c + θ̇ ∂c/∂θ̇ − ∂τ/∂θ̇ */
+    /* hinges (Assembler.hinge_forces): the laws' values and derivatives at (θ, θ̇, t), constants or
+     * the scene's compiled laws, into the generated kernel codegen/joints.py hinge_force */
     for (int64_t j = 0; j < m->n_hinges; ++j) {
-        const double theta = c->theta[j], rate = c->theta_dot[j], s = theta - m->hinge_rest_angle[j];
-        double f, d_theta, d_rate;
-        if (m->hinge_stiffness_law[j] < 0) {  /* constant spring and damper */
-            f = m->hinge_stiffness[j] * s + m->hinge_damping[j] * rate;
-            d_theta = m->hinge_stiffness[j];
-            d_rate = m->hinge_damping[j];
-            if (m->hinge_torque_law[j] >= 0) {
-                double tau = laws[3 * m->hinge_torque_law[j]];
-                f -= tau;
-                power += tau * rate;
-            }
+        double state[4] = {c->theta[j], c->theta_dot[j], m->hinge_rest_angle[j], 1.0};
+        double values[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
+        if (m->hinge_stiffness_law[j] < 0) {  /* constant spring and damper, a torque of t alone */
+            values[0] = m->hinge_stiffness[j];
+            values[3] = m->hinge_damping[j];
+            if (m->hinge_torque_law[j] >= 0) values[6] = laws[3 * m->hinge_torque_law[j]];
         } else {
-            double k[3], damping[3];
-            m->hinge_laws(m->hinge_stiffness_law[j], theta, rate, t, k);
-            m->hinge_laws(m->hinge_damping_law[j], theta, rate, t, damping);
-            double spring = k[0] * s;
-            f = spring + damping[0] * rate;
-            d_theta = k[0] + s * k[1] + rate * damping[1];
-            d_rate = s * k[2] + damping[0] + rate * damping[2];
-            if (!m->hinge_conservative[j]) power -= spring * rate;
-            if (m->hinge_torque_hinge_law[j] >= 0) {
-                double tau[3];
-                m->hinge_laws(m->hinge_torque_hinge_law[j], theta, rate, t, tau);
-                f -= tau[0];
-                d_theta -= tau[1];
-                d_rate -= tau[2];
-                power += tau[0] * rate;
-            }
+            m->hinge_laws(m->hinge_stiffness_law[j], state[0], state[1], t, values);
+            m->hinge_laws(m->hinge_damping_law[j], state[0], state[1], t, values + 3);
+            if (m->hinge_torque_hinge_law[j] >= 0)
+                m->hinge_laws(m->hinge_torque_hinge_law[j], state[0], state[1], t, values + 6);
         }
-        w->hinge_d_theta[j] = d_theta;
-        w->hinge_d_rate[j] = d_rate;
+        double f, spring_power, torque_power;
+        m->hinge_force(1, state, values, &f, w->hinge_d_theta + j, w->hinge_d_rate + j, &spring_power,
+                       &torque_power);
+        if (!m->hinge_conservative[j]) power += spring_power;
+        power += torque_power;
         w->total[m->hinge_dofs[j]] += f;
     }
     /* point loads (Assembler.point_loads): the generated kernel codegen/joints.py, load by load */
