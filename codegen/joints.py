@@ -222,6 +222,52 @@ def _hinge_force_kernel() -> KernelSpec:
                       equations="hinge springs, dampers and torques (Eqs. 4, 9: the hinge coordinate)")
 
 
+ROTATION_VECTOR = Argument("rotation_vector", 3, "w: a rotation vector (axis times angle), global")
+
+#: Below θ² = SO3_SWITCH the exponential's scalars are their Taylor polynomials in θ² (through θ⁸:
+#: the next term is below 3e-18 there); above, the closed forms, never evaluated at θ² < SO3_SWITCH.
+SO3_SWITCH = sp.Rational(1, 100)
+
+
+def so3_exp_scales(x):
+    """a = sin θ/θ and b = (1 − cos θ)/θ² = 2 sin²(θ/2)/θ² as functions of x = θ², branch-free and
+    finite at 0: F(x̂) + P(x̌) − P(x_s) with x̂ = max(x, x_s), x̌ = min(x, x_s), F the closed form and P
+    the Taylor polynomial. Above x_s that is F(x) (the two P terms are one and the same number);
+    below, P(x) plus the truncation constant F(x_s) − P(x_s) < 3e-18. Unlike the element's log map,
+    whose argument stays below 2, a rotation vector grows without bound (a prescribed spin), so the
+    polynomial is never evaluated beyond x_s, and x̌ is formed so that it *is* x_s there: with
+    d = x − x_s as a value of its own (an intermediate, which no simplification distributes),
+    x̌ = x_s − (|d| − d)/2 and x̂ = x_s + (d + |d|)/2. Returns (a, b, intermediates)."""
+    t = sp.Dummy("t", nonnegative=True)
+    d, excess, shortfall = sp.symbols("so3_d so3_excess so3_shortfall")
+    intermediates = [(d, x - SO3_SWITCH), (excess, (d + sp.Abs(d)) / 2), (shortfall, (sp.Abs(d) - d) / 2)]
+    above, below = SO3_SWITCH + excess, SO3_SWITCH - shortfall
+    root = sp.sqrt(above)
+    closed = (sp.sin(root) / root, 2 * sp.sin(root / 2) ** 2 / above)
+    series = (sum((-t) ** k / sp.factorial(2 * k + 1) for k in range(5)),
+              sum((-t) ** k / sp.factorial(2 * k + 2) for k in range(5)))
+    a, b = (F + sp.horner(P, wrt=t).subs(t, below) - P.subs(t, SO3_SWITCH) for F, P in zip(closed, series))
+    return a, b, intermediates
+
+
+def so3_exp(w):
+    """exp(skew w) = I + a W + b W² (Rodrigues), W = skew w; (matrix, intermediates)."""
+    W = skew(w)
+    a, b, intermediates = so3_exp_scales(w.dot(w))
+    return sp.eye(3) + a * W + b * W * W, intermediates
+
+
+def _so3_exp_kernel() -> KernelSpec:
+    R, intermediates = so3_exp(_vector(ROTATION_VECTOR.symbols()))
+    return KernelSpec(name="so3_exp", doc="The exponential map of SO(3) (Rodrigues), branch-free and exact to "
+                      "round-off at small angles: the configuration update T <- exp(skew dpi) T, prescribed "
+                      "rotations", inputs=[ROTATION_VECTOR],
+                      outputs=[Output("rotation", (3, 3), list(R), "exp(skew w), row-major")], variant="joints",
+                      equations="the configuration update on SO(3) (Eq. 59's virtual rotations)",
+                      intermediates=intermediates)
+
+
 def build_kernels() -> list[KernelSpec]:
     """The kernels of the ``joints`` unit."""
-    return [_joint_body_kernel(), _point_load_kernel(), _hinged_end_kernel(), _hinge_force_kernel()]
+    return [_joint_body_kernel(), _point_load_kernel(), _hinged_end_kernel(), _hinge_force_kernel(),
+            _so3_exp_kernel()]

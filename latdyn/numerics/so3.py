@@ -16,15 +16,20 @@ def skew(w: np.ndarray) -> np.ndarray:
 
 
 def expm_so3(w: np.ndarray) -> np.ndarray:
-    """Batched exponential map (Rodrigues), (..., 3) -> (..., 3, 3)."""
+    """Batched exponential map (Rodrigues), (..., 3) -> (..., 3, 3): the generated kernel ``so3_exp``
+    (codegen/joints.py; its NumPy form here, its C form in the compiled step), branch-free and
+    exact to round-off at small angles."""
+    global _SO3_EXP
+    if _SO3_EXP is None:
+        from latdyn_generated.joints import so3_exp
+
+        _SO3_EXP = so3_exp
     w = np.asarray(w, float)
-    angle = np.linalg.norm(w, axis=-1)[..., None, None]
-    W = skew(w)
-    small = angle < 1e-8
-    safe = np.where(small, 1.0, angle)
-    a = np.where(small, 1.0 - angle**2 / 6.0, np.sin(safe) / safe)
-    b = np.where(small, 0.5 - angle**2 / 24.0, (1.0 - np.cos(safe)) / safe**2)
-    return np.eye(3) + a * W + b * (W @ W)
+    (rotation,) = _SO3_EXP(np.ascontiguousarray(w.reshape(-1, 3)))
+    return np.asarray(rotation).reshape(w.shape[:-1] + (3, 3))
+
+
+_SO3_EXP = None
 
 
 def orthonormalize(T: np.ndarray) -> np.ndarray:

@@ -328,7 +328,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
             joint_body=_kernel_address(kernels, "joint_body"), point_load=_kernel_address(kernels, "point_load"),
             body_section=arr(a._body_section),
             hinged_end=_kernel_address(kernels, "hinged_end"), element_ends=arr(a._element_ends),
-            hinge_force=_kernel_address(kernels, "hinge_force"),
+            hinge_force=_kernel_address(kernels, "hinge_force"), so3_exp=_kernel_address(kernels, "so3_exp"),
             getrf=lapack_address("dgetrf"), getrs=lapack_address("dgetrs"), gbtrf=lapack_address("dgbtrf"), gbtrs=lapack_address("dgbtrs"),
             parallel_elements=self.parallel_elements, threads=self.threads,
             node_colour=ints(colour), hinge_node=ints([h.node for h in m.hinges]), n_colours=int(colour.max(initial=-1)) + 1,

@@ -47,7 +47,7 @@ class ModelData(ctypes.Structure):
         ("band", I64), ("kl", I64), ("ku", I64), ("ldab", I64), ("matrix_size", I64), ("permutation", P),
         ("internal_force", P), ("internal_force_D_q", P), ("mass_matrix", P), ("quadratic_velocity", P),
         ("quadratic_velocity_D_qdot", P), ("gravity_load", P), ("strain_energy", P), ("kinetic_energy", P),
-        ("joint_body", P), ("point_load", P), ("body_section", P), ("hinged_end", P), ("element_ends", P), ("hinge_force", P),
+        ("joint_body", P), ("point_load", P), ("body_section", P), ("hinged_end", P), ("element_ends", P), ("hinge_force", P), ("so3_exp", P),
         ("getrf", P), ("getrs", P), ("gbtrf", P), ("gbtrs", P),
         ("parallel_elements", I64), ("threads", I64),
         ("node_colour", P), ("hinge_node", P), ("n_colours", I64),

@@ -53,6 +53,7 @@ typedef void (*kernel_point_load)(int64_t, const double *, const double *, const
 typedef void (*kernel_hinged_end)(int64_t, const double *, const double *, double *, double *, double *);
 typedef void (*kernel_hinge_force)(int64_t, const double *, const double *, double *, double *, double *, double *,
                                    double *);
+typedef void (*kernel_so3_exp)(int64_t, const double *, double *);
 typedef void (*lapack_getrf)(int *, int *, double *, int *, int *, int *);
 typedef void (*lapack_getrs)(char *, int *, int *, double *, int *, int *, double *, int *, int *);
 typedef void (*lapack_gbtrf)(int *, int *, int *, int *, double *, int *, int *, int *);
@@ -109,6 +110,7 @@ typedef struct {
     kernel_hinged_end hinged_end;
     const double *element_ends; /* (n_elements, 2, 16): a[3] r[3] E0[9] theta, the hinged_end kernel's input */
     kernel_hinge_force hinge_force;
+    kernel_so3_exp so3_exp; /* exp(skew w), the generated kernel (codegen/joints.py) */
     lapack_getrf getrf;
     lapack_getrs getrs;
     lapack_gbtrf gbtrf;
@@ -200,29 +202,11 @@ static void cross(const double *a, const double *b, double *c)
     c[2] = a[0] * b[1] - a[1] * b[0];
 }
 
-/* Exponential map of so(3) (Rodrigues), as latdyn.assembly.expm_so3. */
 /* Entry d of a free-coordinate vector of length n; 0 for a node slot that is not a coordinate
  * (d >= n: the out-of-plane slots of a planar model, Model.node_slots). */
 static inline double free_entry(const double *vector, int64_t d, int64_t n)
 {
     return d < n ? vector[d] : 0.0;
-}
-
-static void expm_so3(const double *w, double *R)
-{
-    double angle = sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
-    double a, b, W[9], WW[9];
-    if (angle < 1e-8) {
-        a = 1.0 - angle * angle / 6.0;
-        b = 0.5 - angle * angle / 24.0;
-    } else {
-        a = sin(angle) / angle;
-        b = (1.0 - cos(angle)) / (angle * angle);
-    }
-    skew(w, W);
-    matmul3(W, W, WW);
-    for (int i = 0; i < 9; ++i) R[i] = a * W[i] + b * WW[i];
-    R[0] += 1.0; R[4] += 1.0; R[8] += 1.0;
 }
 
 /* ------------------------------------------------------------------------- configuration */
@@ -249,8 +233,8 @@ static void configure(const Model *m, const Configuration *base, Configuration *
         double R[9];
         const int64_t n = m->n_dofs;
         for (int j = 0; j < 3; ++j) c->x[3 * i + j] = base->x[3 * i + j] + free_entry(increment, d[j], n);
-        expm_so3((double[3]){free_entry(increment, d[3], n), free_entry(increment, d[4], n),
-                             free_entry(increment, d[5], n)}, R);
+        m->so3_exp(1, (double[3]){free_entry(increment, d[3], n), free_entry(increment, d[4], n),
+                                  free_entry(increment, d[5], n)}, R);
         matmul3(R, base->T + 9 * i, c->T + 9 * i);
     }
     for (int64_t k = 0; k < m->n_free_hinges; ++k) {
@@ -274,7 +258,7 @@ static void configure(const Model *m, const Configuration *base, Configuration *
         const double *axis = m->rotation_axis + 3 * k;
         if (m->angle_law[k] >= 0) {
             const double *g = laws + 3 * m->angle_law[k];
-            expm_so3((double[3]){axis[0] * g[0], axis[1] * g[0], axis[2] * g[0]}, c->T + 9 * i);
+            m->so3_exp(1, (double[3]){axis[0] * g[0], axis[1] * g[0], axis[2] * g[0]}, c->T + 9 * i);
             for (int j = 0; j < 3; ++j) {
                 c->w[3 * i + j] = axis[j] * g[1];
                 c->alpha[3 * i + j] = axis[j] * g[2];
@@ -552,7 +536,7 @@ static int64_t perturb(const Model *m, const Configuration *c, Work *w, Configur
             } else {
                 double rotation[3] = {0.0, 0.0, 0.0}, R[9];
                 rotation[k - 3] = sign * eps;
-                expm_so3(rotation, R);
+                m->so3_exp(1, rotation, R);
                 matmul3(R, c->T + 9 * i, p->T + 9 * i);
             }
         }
