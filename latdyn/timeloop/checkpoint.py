@@ -80,7 +80,7 @@ class Checkpoint:
     last_recorded: object | None  # State of the last recorded row when its ParaView frame is unwritten
     identity: dict  # format, latdyn_version, scene_hash, formulation, method, backend
     resumes: int = 0  # how many times the run had been resumed when this was written
-    #: modified Newton's held factorization (engine.CompiledGeneralizedAlpha.factorization_state), or None
+    #: modified Newton's held factorization (step.compiled.CompiledGeneralizedAlpha.factorization_state), or None
     factorization: dict | None = None
 
     @property

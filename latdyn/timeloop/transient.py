@@ -129,7 +129,7 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
     if last_recorded is not None:
         writer.reattach_last_frame(lambda snapshot=last_recorded: paraview.frame(assembler, writer.mesh, snapshot))
 
-    # modified Newton's held factorization (engine.CompiledGeneralizedAlpha): a checkpoint of the
+    # modified Newton's held factorization (step.compiled.CompiledGeneralizedAlpha): a checkpoint of the
     # last accepted step carries it when the engine still holds that step's (its mark unchanged)
     factorization_mark = getattr(integrator, "factorization_mark", None)
 
@@ -207,7 +207,7 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
                 k += 1
         return min(k, n_grid, run.grid_index + 256 - run.steps % 256)
 
-    # the loop of steps in C (engine.CompiledGeneralizedAlpha.advance): from a grid point at the
+    # the loop of steps in C (step.compiled.CompiledGeneralizedAlpha.advance): from a grid point at the
     # nominal step, the steps up to the next row are taken and accepted in one call; a step it
     # cannot accept as it comes (Newton fails, a hinge event) comes back to the loop below
     loop = (COMPILED_LOOP and hasattr(integrator, "advance") and not solve.adaptive

@@ -9,7 +9,7 @@
  * function pointers), the convergence test -- is here, so that no Python runs inside a
  * step.  It mirrors latdyn/step/integrators.py (GeneralizedAlpha.step) and latdyn/assembly/assembler.py
  * (Assembler.evaluate) line by line; tests/test_engine.py holds the two to 1e-10.
- * latdyn_advance runs the time loop's steps between two recorded rows (solve.transient),
+ * latdyn_advance runs the time loop's steps between two recorded rows (timeloop/transient.py),
  * with the scene's laws compiled by the code generator (codegen/laws.py), and hands back the
  * first step that the Python loop must handle (a Newton failure, a hinge event);
  * tests/test_compiled_loop.py holds it to the steps taken one by one from Python.
@@ -842,7 +842,7 @@ static double drive_power(const Model *m, const Configuration *c, const double *
     return power;
 }
 
-/* A loop of steps on the time grid (solve.transient's loop, for the steps it would accept as
+/* A loop of steps on the time grid (timeloop.transient's loop, for the steps it would accept as
  * they come). */
 typedef struct {
     /* in: the grid t_k = k dt (t_{n_grid} = t_end), the steps to take (grid_index → stop_index),
@@ -851,7 +851,7 @@ typedef struct {
     int64_t n_grid, grid_index, stop_index;
     double t, budget_s;
     /* in/out: the power of loads and prescribed motion at the last accepted state, and the work
-     * done since the start of the run (trapezoidal rule, as solve.transient) */
+     * done since the start of the run (trapezoidal rule, as timeloop.transient) */
     double power, external_work;
     /* out: steps accepted, their Newton iterations and factorizations; why the loop returned
      * (0 at stop_index, 1 a step did not converge, 2 a step holds an event, 3 the budget);
@@ -885,7 +885,7 @@ static double seconds_now(void)
 }
 
 /* Steps from `start` (at adv->t, on grid point grid_index) through grid point stop_index,
- * each landing on the grid (h = t_{k+1} − t_k) as solve.transient takes them at the nominal
+ * each landing on the grid (h = t_{k+1} − t_k) as timeloop.transient takes them at the nominal
  * step: latdyn_newton_step with the compiled laws, then acceptance (the algorithmic
  * acceleration carried, the external work by the trapezoidal rule). It returns at the first
  * step that does not converge or that holds a hinge event, without accepting it, so that the
