@@ -11,9 +11,9 @@ import pytest
 import yaml
 
 import latdyn
-from latdyn import cli, solve
+from latdyn import cli
 from latdyn.timeloop import checkpoint as checkpoint
-from latdyn.results import writer as results
+from latdyn.results import state_history
 from latdyn.results.writer import Result, ResultWriter, load_state_history
 from vtkhdf_frames import assert_same_frames, read_frames
 
@@ -173,7 +173,7 @@ def test_crash_after_a_periodic_checkpoint_is_cut_back_and_resumed(state_file, t
     out = tmp_path / "out"
     reference = uninterrupted("generalized-alpha")
     if state_file == "state.npz":
-        monkeypatch.setattr(results, "h5py", None)
+        monkeypatch.setattr(state_history, "h5py", None)
     save = checkpoint.Checkpointer.save
 
     def save_until(self, progress, *args):

@@ -72,11 +72,8 @@ only keeps the probe rows for :meth:`ResultWriter.result`.
 from __future__ import annotations
 
 import csv
-import io
 import json
-import math
 import os
-import shutil
 import sys
 import time
 from pathlib import Path
@@ -84,6 +81,8 @@ from pathlib import Path
 import numpy as np
 
 from latdyn.errors import ResultsError
+from latdyn.results.files import atomic_write_bytes, csv_line, format_float, json_safe
+from latdyn.results.state_history import LABELS_KEY, STATE_H5_FILE, STATE_NPZ_FILE, StateHistory
 
 try:  # optional: the NPZ fallback is used without it
     import h5py
@@ -109,20 +108,8 @@ __all__ = [
 PROBES_FILE = "probes.csv"
 MODES_FILE = "modes.csv"
 SUMMARY_FILE = "summary.json"
-STATE_H5_FILE = "state.h5"
-STATE_NPZ_FILE = "state.npz"
 PARAVIEW_DIR = "paraview"  # latdyn.results.paraview.PARAVIEW_DIR
-LABELS_KEY = "_labels"  # NPZ only: the labels as one JSON string
 
-#: ``description`` attributes of the state datasets a run writes (see :func:`state_labels`)
-STATE_DESCRIPTIONS = {
-    "x": "node reference points, global; 3 columns per node (x, y, z), node order = attribute nodes",
-    "T": "node rotations (node axes -> global), row-major; 9 columns per node, node order = attribute nodes",
-    "v": "node reference-point velocities, global; 3 columns per node",
-    "w": "node spatial angular velocities, global; 3 columns per node",
-    "theta": "hinge angles; one column per hinge, order = attribute hinges",
-    "theta_dot": "hinge rates; one column per hinge, order = attribute hinges",
-}
 
 #: keys that summary.json always has (SCENE.md); the caller fills the values
 SUMMARY_KEYS = (
@@ -141,58 +128,6 @@ STATUSES = ("running", "solved", "failed", "interrupted")
 #: close (an interrupt, a failure: the file is complete up to the last recorded row)
 CSV_BLOCK_ROWS = 512
 CSV_BLOCK_SECONDS = 1.0
-
-
-# ----------------------------------------------------------------------------- helpers
-def _atomic_write_bytes(path: Path, data: bytes, fsync: bool = True) -> None:
-    """Write ``data`` to ``path`` so that the file is either the old or the new one."""
-    tmp = path.with_name(path.name + ".tmp")
-    with open(tmp, "wb") as f:
-        f.write(data)
-        f.flush()
-        if fsync:
-            os.fsync(f.fileno())
-    os.replace(tmp, path)
-
-
-def _fsync_path(path: Path) -> None:
-    fd = os.open(path, os.O_RDONLY)
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)
-
-
-def _json_safe(value):
-    """Plain JSON types; numpy scalars/arrays converted, non-finite floats -> None."""
-    if isinstance(value, dict):
-        return {str(k): _json_safe(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_json_safe(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return _json_safe(value.tolist())
-    if isinstance(value, (bool, np.bool_)):
-        return bool(value)
-    if isinstance(value, (int, np.integer)):
-        return int(value)
-    if isinstance(value, (float, np.floating)):
-        value = float(value)
-        return value if math.isfinite(value) else None
-    if value is None or isinstance(value, str):
-        return value
-    if isinstance(value, Path):
-        return str(value)
-    return str(value)
-
-
-def _csv_line(fields) -> str:
-    buffer = io.StringIO()
-    csv.writer(buffer, lineterminator="\n").writerow(fields)
-    return buffer.getvalue()
-
-
-def _format_float(value) -> str:
-    return repr(float(value))
 
 
 # ----------------------------------------------------------------------------- Result
@@ -477,13 +412,8 @@ class ResultWriter:
         self._modes: np.ndarray | None = None
         self._final_summary: dict | None = None
 
-        # state history
-        self._state_keys: list[str] | None = None
-        self._state_widths: dict[str, int] = {}
-        self._pending_t: list[float] = []
-        self._pending: dict[str, list[np.ndarray]] = {}
-        self._use_h5 = h5py is not None
-        self._state_rows_on_disk = 0
+        # state history (latdyn.results.state_history), written at the writer's checkpoints
+        self._state = StateHistory(self.out_dir, first_column, self.meta, self._labels, self._attributes)
         self._last_checkpoint = time.perf_counter()
         self._last_checkpoint_cost = 0.0
 
@@ -517,7 +447,7 @@ class ResultWriter:
                     pass
         self._open_paraview()
         self._fd = os.open(folder / PROBES_FILE, os.O_WRONLY | os.O_CREAT | os.O_TRUNC | os.O_APPEND, 0o644)
-        self._write_text(_csv_line([self.first_column, *self.columns]))
+        self._write_text(csv_line([self.first_column, *self.columns]))
         self._write_summary({"status": "running"})
 
     def bookmark(self) -> dict:
@@ -530,8 +460,7 @@ class ResultWriter:
         depends only on these counts, so a resumed writer continues exactly as this one
         would have.
         """
-        state_rows = len(self._pending_t) + (self._state_rows_on_disk if self._use_h5 else 0)
-        return {"rows": len(self._t), "state_rows": state_rows if self._state_keys is not None else 0,
+        return {"rows": len(self._t), "state_rows": self._state.rows(),
                 "paraview": None if self._paraview is None else self._paraview.bookmark()}
 
     def reattach_last_frame(self, frame) -> None:
@@ -558,7 +487,7 @@ class ResultWriter:
         except OSError as exc:
             raise ResultsError(f"{path}: cannot resume ({exc})") from exc
         lines = data.split(b"\n")
-        header = _csv_line([self.first_column, *self.columns]).encode("utf-8")
+        header = csv_line([self.first_column, *self.columns]).encode("utf-8")
         if not data.startswith(header):
             raise ResultsError(f"{path}: cannot resume: its header is not {header.decode().strip()!r}")
         if len(lines) - 2 < rows:  # complete rows: the last piece is empty or a cut-off row
@@ -575,51 +504,11 @@ class ResultWriter:
             except FileNotFoundError:
                 pass
         if state_rows:
-            self._reopen_state(state_rows)
+            self._state.reopen(state_rows)
         # ParaView: the bookmark's frames; later ones go
         self._open_paraview(mark.get("paraview"))
         self._fd = os.open(path, os.O_WRONLY | os.O_APPEND)
         self._write_summary({"status": "running"})
-
-    def _reopen_state(self, rows: int) -> None:
-        """Resume the state history: its first ``rows`` rows (a later one goes, atomically)."""
-        path = self.out_dir / (STATE_H5_FILE if self._use_h5 else STATE_NPZ_FILE)
-        if not path.is_file():
-            raise ResultsError(f"{path}: cannot resume: the state history is missing")
-        if self._use_h5:
-            with h5py.File(path, "r") as f:
-                keys = [k for k in f.keys() if k != "t"]
-                widths = {k: int(f[k].shape[1]) for k in keys}
-                on_disk = int(f["t"].shape[0])
-        else:
-            with np.load(path) as f:
-                keys = [k for k in f.files if k not in ("t", LABELS_KEY)]
-                history = {k: f[k] for k in ["t", *keys]}
-            widths = {k: int(history[k].shape[1]) for k in keys}
-            on_disk = len(history["t"])
-        if on_disk < rows:
-            raise ResultsError(f"{path}: cannot resume: it has {on_disk} rows, the checkpoint recorded {rows}")
-        order = [k for k in ("x", "T", "v", "w", "theta", "theta_dot") if k in keys]  # State.as_dict order
-        self._state_keys = order + [k for k in keys if k not in order]
-        self._state_widths = widths
-        if self._use_h5:
-            self._pending = {k: [] for k in self._state_keys}
-            if on_disk > rows:
-                tmp = path.with_name(path.name + ".tmp")
-                shutil.copyfile(path, tmp)
-                with h5py.File(tmp, "a") as f:
-                    f["t"].resize((rows,))
-                    for k in keys:
-                        f[k].resize((rows, widths[k]))
-                _fsync_path(tmp)
-                os.replace(tmp, path)
-            self._state_rows_on_disk = rows
-        else:  # the whole history in memory, as the writer keeps it
-            self._pending_t = [float(x) for x in history["t"][:rows]]
-            self._pending = {k: [row.copy() for row in history[k][:rows]] for k in self._state_keys}
-            self._state_rows_on_disk = on_disk
-            if on_disk > rows:
-                self._checkpoint_npz()
 
     def _flush_rows(self) -> None:
         """The probe rows recorded since the last write, to probes.csv in one write."""
@@ -664,7 +553,7 @@ class ResultWriter:
                 raise ValueError(f"record() got {len(row)} values for {len(self.columns)} probes")
         t = float(t)
         if self._fd is not None:  # floats need no CSV quoting
-            self._csv_pending.append(",".join(map(_format_float, (t, *row))) + "\n")
+            self._csv_pending.append(",".join(map(format_float, (t, *row))) + "\n")
             if len(self._csv_pending) >= CSV_BLOCK_ROWS \
                     or time.perf_counter() - self._csv_written_at >= CSV_BLOCK_SECONDS:
                 self._flush_rows()
@@ -672,41 +561,16 @@ class ResultWriter:
         self._rows.append(row)
 
         if state is not None:
-            self._add_state(t, state)
+            self._state.add(t, state)
+            now = time.perf_counter()
+            due = self._state.unwritten() >= self.checkpoint_rows or now - self._last_checkpoint >= self.checkpoint_seconds
+            # keep checkpoints below ~10 % of the wall time
+            if self.out_dir is not None and due and now - self._last_checkpoint >= 9.0 * self._last_checkpoint_cost:
+                self.checkpoint()
         if frame is None and node_positions is not None:
             frame = {"beams": {"points": node_positions, "point_data": node_data or {}}}
         if frame is not None and self.out_dir is not None:
             self._add_frame(t, frame)
-
-    def _add_state(self, t: float, state: dict) -> None:
-        arrays = {str(k): np.array(v, dtype=float).ravel() for k, v in state.items()}
-        if self._state_keys is None:
-            if "t" in arrays:
-                raise ValueError("a state key may not be named 't'")
-            for k, a in arrays.items():
-                if k in self._labels and len(self._labels[k]) != a.size:
-                    raise ValueError(f"state {k!r} has {a.size} entries but {len(self._labels[k])} labels")
-            self._state_keys = list(arrays)
-            self._state_widths = {k: a.size for k, a in arrays.items()}
-            self._pending = {k: [] for k in self._state_keys}
-        elif set(arrays) != set(self._state_keys):
-            raise ValueError(f"state keys changed: {sorted(arrays)} vs {sorted(self._state_keys)}")
-        for k in self._state_keys:
-            if arrays[k].size != self._state_widths[k]:
-                raise ValueError(f"state {k!r} has {arrays[k].size} entries, expected {self._state_widths[k]}")
-            self._pending[k].append(arrays[k])
-        self._pending_t.append(t)
-        if self.out_dir is None:
-            self._pending_t.clear()
-            for k in self._state_keys:
-                self._pending[k].clear()
-            return
-        now = time.perf_counter()
-        new_rows = len(self._pending_t) - (0 if self._use_h5 else self._state_rows_on_disk)
-        due = new_rows >= self.checkpoint_rows or now - self._last_checkpoint >= self.checkpoint_seconds
-        # keep checkpoints below ~10 % of the wall time
-        if due and now - self._last_checkpoint >= 9.0 * self._last_checkpoint_cost:
-            self.checkpoint()
 
     def checkpoint(self) -> None:
         """Rewrite the state history on disk now (atomically), with every row so far; the probe
@@ -714,74 +578,11 @@ class ResultWriter:
         self._flush_rows()
         if self._paraview is not None:
             self._paraview.write_pending()
-        if self.out_dir is None or self._state_keys is None:
-            return
-        if self._use_h5 and not self._pending_t:
-            return
-        if not self._use_h5 and self._state_rows_on_disk == len(self._pending_t):
-            return
         began = time.perf_counter()
-        if self._use_h5:
-            self._checkpoint_h5()
-        else:
-            self._checkpoint_npz()
-        end = time.perf_counter()
-        self._last_checkpoint = end
-        self._last_checkpoint_cost = end - began
-
-    def _checkpoint_h5(self) -> None:
-        path = self.out_dir / STATE_H5_FILE
-        tmp = path.with_name(path.name + ".tmp")
-        n_new = len(self._pending_t)
-        if path.is_file():
-            shutil.copyfile(path, tmp)
-            mode = "a"
-        else:
-            mode = "w"
-        # HDF5 1.8 object format: attributes (the labels) may exceed 64 KiB
-        with h5py.File(tmp, mode, libver=("v108", "latest")) as f:
-            if mode == "w":
-                f.attrs["first_column"] = self.first_column
-                f.attrs["meta"] = json.dumps(_json_safe(self.meta))
-                for name, strings in self._attributes.items():
-                    f.attrs[name] = strings
-                f.create_dataset("t", shape=(0,), maxshape=(None,), dtype="f8", chunks=(1024,))
-                for k in self._state_keys:
-                    width = self._state_widths[k]
-                    rows_per_chunk = max(1, min(1024, (1 << 18) // max(1, width)))
-                    dataset = f.create_dataset(k, shape=(0, width), maxshape=(None, width), dtype="f8",
-                                               chunks=(rows_per_chunk, max(1, width)))
-                    if k in self._labels:
-                        dataset.attrs["columns"] = self._labels[k]
-                        if k in STATE_DESCRIPTIONS:
-                            dataset.attrs["description"] = STATE_DESCRIPTIONS[k]
-            n_old = f["t"].shape[0]
-            f["t"].resize((n_old + n_new,))
-            f["t"][n_old:] = np.asarray(self._pending_t)
-            for k in self._state_keys:
-                f[k].resize((n_old + n_new, self._state_widths[k]))
-                f[k][n_old:] = np.stack(self._pending[k]).reshape(n_new, self._state_widths[k])
-        _fsync_path(tmp)
-        os.replace(tmp, path)
-        self._state_rows_on_disk += n_new
-        self._pending_t.clear()
-        for k in self._state_keys:
-            self._pending[k].clear()
-
-    def _checkpoint_npz(self) -> None:
-        # no appending to an NPZ: the whole history stays in memory and is rewritten
-        arrays = {"t": np.asarray(self._pending_t, dtype=float)}
-        for k in self._state_keys:
-            width = self._state_widths[k]
-            arrays[k] = np.stack(self._pending[k]).reshape(-1, width) if self._pending[k] else np.zeros((0, width))
-        if self._labels or self._attributes:
-            labels = dict(self._attributes)
-            labels["columns"] = {k: v for k, v in self._labels.items() if k in self._state_widths}
-            arrays[LABELS_KEY] = np.array(json.dumps(labels))
-        buffer = io.BytesIO()
-        np.savez(buffer, **arrays)
-        _atomic_write_bytes(self.out_dir / STATE_NPZ_FILE, buffer.getvalue())
-        self._state_rows_on_disk = len(self._pending_t)
+        if self._state.write():
+            end = time.perf_counter()
+            self._last_checkpoint = end
+            self._last_checkpoint_cost = end - began
 
     def _add_frame(self, t: float, frame) -> None:
         self._paraview.record(t, frame)
@@ -797,12 +598,12 @@ class ResultWriter:
         columns = columns or {}
 
         def cell(value):
-            return value if isinstance(value, str) else _format_float(value)
+            return value if isinstance(value, str) else format_float(value)
 
         text = ",".join(["mode", "frequency_hz", *columns]) + "\n" + "".join(
-            ",".join([str(i), _format_float(f), *(cell(values[i - 1]) for values in columns.values())]) + "\n"
+            ",".join([str(i), format_float(f), *(cell(values[i - 1]) for values in columns.values())]) + "\n"
             for i, f in enumerate(freqs, start=1))
-        _atomic_write_bytes(self.out_dir / MODES_FILE, text.encode())
+        atomic_write_bytes(self.out_dir / MODES_FILE, text.encode())
 
     def _compose_summary(self, summary: dict | None, status: str | None) -> dict:
         merged = dict(self.meta)
@@ -823,21 +624,19 @@ class ResultWriter:
         merged["rows"] = len(self._t)
         merged["first_column"] = self.first_column
         merged["probes"] = list(self.columns)
-        if self._state_keys is not None and self.out_dir is not None:
-            merged["state_file"] = STATE_H5_FILE if self._use_h5 else STATE_NPZ_FILE
-            merged["state_rows"] = self._state_rows_on_disk
+        merged.update(self._state.summary())
         if self._paraview is not None and self._paraview.files:
             merged["paraview_files"] = self._paraview.files
             merged["paraview_frames"] = self._paraview.frames
         if self._modes is not None:
             merged["modes"] = int(self._modes.size)
-        return _json_safe(merged)
+        return json_safe(merged)
 
     def _write_summary(self, summary: dict) -> None:
         if self.out_dir is None:
             return
-        text = json.dumps(_json_safe(summary), indent=2, sort_keys=False, allow_nan=False) + "\n"
-        _atomic_write_bytes(self.out_dir / SUMMARY_FILE, text.encode())
+        text = json.dumps(json_safe(summary), indent=2, sort_keys=False, allow_nan=False) + "\n"
+        atomic_write_bytes(self.out_dir / SUMMARY_FILE, text.encode())
 
     def close(self, summary: dict | None = None, status: str | None = None) -> dict:
         """Finish every file and write ``summary.json``; returns the summary written.

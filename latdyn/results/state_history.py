@@ -1,0 +1,203 @@
+"""The state history of a run: every recorded state (node reference points, rotations,
+velocities, hinge angles and rates; one dataset per key, one row per record) in ``state.h5``
+(HDF5, appended to) or, without h5py, ``state.npz`` (the whole history rewritten). The writer
+(:class:`latdyn.results.writer.ResultWriter`) decides when the rows go to disk (its checkpoints);
+each write replaces the file atomically, and a resumed run cuts it back to the rows its bookmark
+recorded."""
+from __future__ import annotations
+
+import io
+import json
+import os
+import shutil
+from pathlib import Path
+
+import numpy as np
+
+from latdyn.errors import ResultsError
+from latdyn.results.files import atomic_write_bytes, fsync_path, json_safe
+
+try:  # optional: the NPZ fallback is used without it
+    import h5py
+except ImportError:  # pragma: no cover - exercised by monkeypatching in the tests
+    h5py = None
+
+STATE_H5_FILE = "state.h5"
+
+
+STATE_NPZ_FILE = "state.npz"
+
+
+LABELS_KEY = "_labels"  # NPZ only: the labels as one JSON string
+
+
+#: ``description`` attributes of the state datasets a run writes (see :func:`state_labels`)
+STATE_DESCRIPTIONS = {
+    "x": "node reference points, global; 3 columns per node (x, y, z), node order = attribute nodes",
+    "T": "node rotations (node axes -> global), row-major; 9 columns per node, node order = attribute nodes",
+    "v": "node reference-point velocities, global; 3 columns per node",
+    "w": "node spatial angular velocities, global; 3 columns per node",
+    "theta": "hinge angles; one column per hinge, order = attribute hinges",
+    "theta_dot": "hinge rates; one column per hinge, order = attribute hinges",
+}
+
+
+class StateHistory:
+    """The rows of the state history and their file in ``folder`` (None: rows are checked, not kept)."""
+
+    def __init__(self, folder: Path | None, first_column: str, meta: dict, labels: dict, attributes: dict):
+        self.folder = folder
+        self.first_column, self.meta, self.labels, self.attributes = first_column, meta, labels, attributes
+        self.keys: list[str] | None = None  # fixed by the first state
+        self.widths: dict[str, int] = {}
+        self._pending_t: list[float] = []
+        self._pending: dict[str, list[np.ndarray]] = {}
+        self.use_h5 = h5py is not None
+        self.rows_on_disk = 0
+
+    @property
+    def path(self) -> Path:
+        return self.folder / (STATE_H5_FILE if self.use_h5 else STATE_NPZ_FILE)
+
+    def rows(self) -> int:
+        """Rows recorded so far (a bookmark's ``state_rows``)."""
+        if self.keys is None:
+            return 0
+        return len(self._pending_t) + (self.rows_on_disk if self.use_h5 else 0)
+
+    def unwritten(self) -> int:
+        """Rows recorded but not yet in the file."""
+        return len(self._pending_t) - (0 if self.use_h5 else self.rows_on_disk)
+
+    def add(self, t: float, state: dict) -> None:
+        """One row: the same keys and widths every time (the first state fixes them)."""
+        arrays = {str(k): np.array(v, dtype=float).ravel() for k, v in state.items()}
+        if self.keys is None:
+            if "t" in arrays:
+                raise ValueError("a state key may not be named 't'")
+            for k, a in arrays.items():
+                if k in self.labels and len(self.labels[k]) != a.size:
+                    raise ValueError(f"state {k!r} has {a.size} entries but {len(self.labels[k])} labels")
+            self.keys = list(arrays)
+            self.widths = {k: a.size for k, a in arrays.items()}
+            self._pending = {k: [] for k in self.keys}
+        elif set(arrays) != set(self.keys):
+            raise ValueError(f"state keys changed: {sorted(arrays)} vs {sorted(self.keys)}")
+        for k in self.keys:
+            if arrays[k].size != self.widths[k]:
+                raise ValueError(f"state {k!r} has {arrays[k].size} entries, expected {self.widths[k]}")
+        if self.folder is None:
+            return
+        for k in self.keys:
+            self._pending[k].append(arrays[k])
+        self._pending_t.append(t)
+
+    def write(self) -> bool:
+        """Every row so far into the file (atomically); False when there was nothing to write."""
+        if self.folder is None or self.keys is None or self.unwritten() == 0:
+            return False
+        if self.use_h5:
+            self._write_h5()
+        else:
+            self._write_npz()
+        return True
+
+    def summary(self) -> dict:
+        """``state_file`` and ``state_rows`` for summary.json (nothing before the first state)."""
+        if self.keys is None or self.folder is None:
+            return {}
+        return {"state_file": self.path.name, "state_rows": self.rows_on_disk}
+
+    def _write_h5(self) -> None:
+        path = self.path
+        tmp = path.with_name(path.name + ".tmp")
+        n_new = len(self._pending_t)
+        if path.is_file():
+            shutil.copyfile(path, tmp)
+            mode = "a"
+        else:
+            mode = "w"
+        # HDF5 1.8 object format: attributes (the labels) may exceed 64 KiB
+        with h5py.File(tmp, mode, libver=("v108", "latest")) as f:
+            if mode == "w":
+                f.attrs["first_column"] = self.first_column
+                f.attrs["meta"] = json.dumps(json_safe(self.meta))
+                for name, strings in self.attributes.items():
+                    f.attrs[name] = strings
+                f.create_dataset("t", shape=(0,), maxshape=(None,), dtype="f8", chunks=(1024,))
+                for k in self.keys:
+                    width = self.widths[k]
+                    rows_per_chunk = max(1, min(1024, (1 << 18) // max(1, width)))
+                    dataset = f.create_dataset(k, shape=(0, width), maxshape=(None, width), dtype="f8",
+                                               chunks=(rows_per_chunk, max(1, width)))
+                    if k in self.labels:
+                        dataset.attrs["columns"] = self.labels[k]
+                        if k in STATE_DESCRIPTIONS:
+                            dataset.attrs["description"] = STATE_DESCRIPTIONS[k]
+            n_old = f["t"].shape[0]
+            f["t"].resize((n_old + n_new,))
+            f["t"][n_old:] = np.asarray(self._pending_t)
+            for k in self.keys:
+                f[k].resize((n_old + n_new, self.widths[k]))
+                f[k][n_old:] = np.stack(self._pending[k]).reshape(n_new, self.widths[k])
+        fsync_path(tmp)
+        os.replace(tmp, path)
+        self.rows_on_disk += n_new
+        self._pending_t.clear()
+        for k in self.keys:
+            self._pending[k].clear()
+
+    def _write_npz(self) -> None:
+        # no appending to an NPZ: the whole history stays in memory and is rewritten
+        arrays = {"t": np.asarray(self._pending_t, dtype=float)}
+        for k in self.keys:
+            width = self.widths[k]
+            arrays[k] = np.stack(self._pending[k]).reshape(-1, width) if self._pending[k] else np.zeros((0, width))
+        if self.labels or self.attributes:
+            labels = dict(self.attributes)
+            labels["columns"] = {k: v for k, v in self.labels.items() if k in self.widths}
+            arrays[LABELS_KEY] = np.array(json.dumps(labels))
+        buffer = io.BytesIO()
+        np.savez(buffer, **arrays)
+        atomic_write_bytes(self.path, buffer.getvalue())
+        self.rows_on_disk = len(self._pending_t)
+
+    def reopen(self, rows: int) -> None:
+        """Resume: the file's first ``rows`` rows (a later one goes, atomically)."""
+        path = self.path
+        if not path.is_file():
+            raise ResultsError(f"{path}: cannot resume: the state history is missing")
+        if self.use_h5:
+            with h5py.File(path, "r") as f:
+                keys = [k for k in f.keys() if k != "t"]
+                widths = {k: int(f[k].shape[1]) for k in keys}
+                on_disk = int(f["t"].shape[0])
+        else:
+            with np.load(path) as f:
+                keys = [k for k in f.files if k not in ("t", LABELS_KEY)]
+                history = {k: f[k] for k in ["t", *keys]}
+            widths = {k: int(history[k].shape[1]) for k in keys}
+            on_disk = len(history["t"])
+        if on_disk < rows:
+            raise ResultsError(f"{path}: cannot resume: it has {on_disk} rows, the checkpoint recorded {rows}")
+        order = [k for k in ("x", "T", "v", "w", "theta", "theta_dot") if k in keys]  # State.as_dict order
+        self.keys = order + [k for k in keys if k not in order]
+        self.widths = widths
+        if self.use_h5:
+            self._pending = {k: [] for k in self.keys}
+            if on_disk > rows:
+                tmp = path.with_name(path.name + ".tmp")
+                shutil.copyfile(path, tmp)
+                with h5py.File(tmp, "a") as f:
+                    f["t"].resize((rows,))
+                    for k in keys:
+                        f[k].resize((rows, widths[k]))
+                fsync_path(tmp)
+                os.replace(tmp, path)
+            self.rows_on_disk = rows
+        else:  # the whole history in memory, as the writer keeps it
+            self._pending_t = [float(x) for x in history["t"][:rows]]
+            self._pending = {k: [row.copy() for row in history[k][:rows]] for k in self.keys}
+            self.rows_on_disk = on_disk
+            if on_disk > rows:
+                self._write_npz()
