@@ -102,7 +102,7 @@ def joint_body_terms(T, motion, body, gravity):
     return sp.Matrix.vstack(f, tau), -sp.Matrix.vstack(W, rc.cross(W))
 
 
-def _joint_body_kernel() -> KernelSpec:
+def _joint_body_kernels() -> list[KernelSpec]:
     T = _matrix(BODY_FRAME.symbols())
     motion, body, gravity = BODY_MOTION.symbols(), BODY_SECTION.symbols(), GRAVITY.symbols()
     delta = sp.Matrix(sp.symbols("delta_0:3"))
@@ -119,14 +119,17 @@ def _joint_body_kernel() -> KernelSpec:
         Output("body_gravity_stiffness", (6, 6),
                _rows(sp.Matrix.hstack(sp.zeros(6, 3), _jacobian(weight_turned, delta, zero))),
                "∂(−[W; r_c × W])/∂[d; π]"),
-        Output("body_inertia_stiffness", (6, 6),
-               _rows(sp.Matrix.hstack(sp.zeros(6, 3), _jacobian(inertia_turned, delta, zero))),
-               "∂[f; τ]/∂[d; π] at fixed a, α, ω: the inertia tangent of the body"),
     ]
-    return KernelSpec(name="joint_body", doc="Newton-Euler equations of a joint body about its reference point, "
-                      "their mass, gyroscopic and gravity-stiffness blocks, and the body's inertia tangent",
-                      inputs=[BODY_FRAME, BODY_MOTION, BODY_SECTION, GRAVITY], outputs=outputs,
-                      variant="joints", equations="Eqs. 2, 59 (joint bodies as rigid bodies)")
+    tangent = [Output("body_inertia_stiffness", (6, 6),
+                      _rows(sp.Matrix.hstack(sp.zeros(6, 3), _jacobian(inertia_turned, delta, zero))),
+                      "∂[f; τ]/∂[d; π] at fixed a, α, ω: the inertia tangent of the body")]
+    inputs = [BODY_FRAME, BODY_MOTION, BODY_SECTION, GRAVITY]
+    return [KernelSpec(name="joint_body", doc="Newton-Euler equations of a joint body about its reference point, "
+                       "their mass, gyroscopic and gravity-stiffness blocks", inputs=inputs, outputs=outputs,
+                       variant="joints", equations="Eqs. 2, 59 (joint bodies as rigid bodies)"),
+            KernelSpec(name="joint_body_inertia_stiffness", doc="The inertia tangent of a joint body (not part of "
+                       "the time step's matrix, which leaves out inertia derivatives by q)", inputs=inputs,
+                       outputs=tangent, variant="joints", equations="Eqs. 2, 59 (joint bodies as rigid bodies)")]
 
 
 def point_load_terms(T, r, values, R, velocity):
@@ -269,5 +272,5 @@ def _so3_exp_kernel() -> KernelSpec:
 
 def build_kernels() -> list[KernelSpec]:
     """The kernels of the ``joints`` unit."""
-    return [_joint_body_kernel(), _point_load_kernel(), _hinged_end_kernel(), _hinge_force_kernel(),
+    return [*_joint_body_kernels(), _point_load_kernel(), _hinged_end_kernel(), _hinge_force_kernel(),
             _so3_exp_kernel()]

@@ -53,9 +53,11 @@ from latdyn.assembly.assembler import (
     pack,
     unpack_free,
 )
+from latdyn.assembly.prepare import length_scale
 from latdyn.errors import SceneError, SolverError
 from latdyn.numerics.inertia import split_inertia
 from latdyn.numerics.so3 import skew
+from latdyn.results.writer import ResultWriter
 from latdyn.step.integrators import increment_size
 
 #: Relative step of the central differences (translations: times the scene's size ℓ).
@@ -127,11 +129,6 @@ class Linearisation:
     damping: np.ndarray
     stiffness: np.ndarray
     seconds: float = 0.0
-
-
-def length_scale(model) -> float:
-    points = np.array([n.position for n in model.nodes]).reshape(-1, 3)
-    return max(2.0 * float(np.max(np.linalg.norm(points - points.mean(axis=0), axis=1))), 1e-3) if len(points) else 1.0
 
 
 def _steps(model, length: float) -> np.ndarray:
@@ -347,26 +344,6 @@ def dominant_directions(model, lin: Linearisation, found: list[Mode]) -> list[st
 
 
 # ----------------------------------------------------------------------------- the states to linearise about
-class QuietWriter:
-    """Stands in for the result writer of an analysis run only to reach a state: keeps the
-    recorded states (load factor or time, state arrays), writes nothing."""
-
-    def __init__(self):
-        self.summary: dict = {}
-        self.closed = False
-        self.mesh = None
-        self.rows: list = []
-
-    def record(self, t, values, state=None, frame=None):
-        self.rows.append((float(t), state))
-
-    def bookmark(self):
-        return {"paraview": None}
-
-    def reattach_last_frame(self, frame):
-        pass
-
-
 def _scene_copy(scene, **solve):
     """The scene with ``solve`` fields replaced (the model of a linearisation is always 3D,
     as the modal analysis's: latdyn.model.planar.find_plane)."""
@@ -390,7 +367,8 @@ def static_state(prepared):
 
     other = prepare(_scene_copy(prepared.scene, analysis="static", planar=_planar(prepared)),
                     prepared.assembler.kernels.backend)
-    static_analysis(other, ProbeSet(other.assembler, other.state), QuietWriter(), length_scale(other.model))
+    probes = ProbeSet(other.assembler, other.state)
+    static_analysis(other, probes, ResultWriter(None, probes.names, "load_factor"), length_scale(other.model))
     state = other.state.copy()
     state.v[:] = state.w[:] = state.a[:] = state.alpha[:] = 0.0
     state.theta_dot[:] = state.theta_ddot[:] = 0.0
@@ -409,7 +387,8 @@ def transient_state(prepared, t: float):
                                                  "transient of the scene to T with this step)")
     other = prepare(_scene_copy(scene, analysis="transient", t_end=float(t), planar=_planar(prepared)),
                     prepared.assembler.kernels.backend)
-    transient(other, ProbeSet(other.assembler, other.state), QuietWriter(), False)
+    probes = ProbeSet(other.assembler, other.state)
+    transient(other, probes, ResultWriter(None, probes.names), False)
     return other, other.state
 
 

@@ -312,9 +312,7 @@ class Assembler:
         else:
             motion = np.zeros((len(i), 9))
         gravity = np.broadcast_to(load_factor * self.gravity, (len(i), 3))
-        force, mass, gyroscopic, gravity_stiffness, _ = self.kernels.joint_body(
-            state.T[i].reshape(-1, 9), motion, self._body_section, gravity)
-        return force, mass, gyroscopic, gravity_stiffness
+        return self.kernels.joint_body(state.T[i].reshape(-1, 9), motion, self._body_section, gravity)
 
     def point_loads(self, state: State, load_factor: float):
         """The generated point-load kernel (codegen/joints.py) for every load at ``state.t``: the

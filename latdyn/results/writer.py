@@ -82,7 +82,12 @@ import numpy as np
 
 from latdyn.errors import ResultsError
 from latdyn.results.files import atomic_write_bytes, csv_line, format_float, json_safe
-from latdyn.results.state_history import LABELS_KEY, STATE_H5_FILE, STATE_NPZ_FILE, StateHistory
+from latdyn.results.state_history import (
+    LABELS_KEY,
+    STATE_H5_FILE,
+    STATE_NPZ_FILE,
+    StateHistory,
+)
 
 try:  # optional: the NPZ fallback is used without it
     import h5py

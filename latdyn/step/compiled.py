@@ -348,9 +348,8 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
             "force": (E, 14), "tangent": (E, 14, 14), "mass": (E, 14, 14), "quadratic": (E, 14),
             "quadratic_D": (E, 14, 14), "gravity_force": (E, 14), "gravity_potential": (E,),
             "first_moment": (E, 3), "body_vector": (B, 6), "body_mass": (B, 6, 6), "body_damping": (B, 6, 6),
-            "body_stiffness": (B, 6, 6), "body_inertia_stiffness": (B, 6, 6),
-            "load_blocks": (L, 6, 6), "load_vector": (L, 6), "load_power": (L,), "load_by_node": (L, 6, 3),
-            "load_by_frame": (L, 6, 3), "strain": (E,), "section_forces": (E, 4), "kinetic": (E,), "total": (m.n_total + 1,),
+            "body_stiffness": (B, 6, 6),
+            "load_blocks": (L, 6, 6), "strain": (E,), "section_forces": (E, 4), "kinetic": (E,), "total": (m.n_total + 1,),
             "matrix": (size,), "rhs": (n,), "laws": (max(len(laws.functions), 1), 3), "hinge_d_theta": (H,),
             "hinge_d_rate": (H,)}
         # the inertia tangent's buffers (integrators.inertia_tangent), only once the run needs them

@@ -63,8 +63,7 @@ class WorkData(ctypes.Structure):
     _fields_ = [(name, P) for name in (
         "geometry", "rates", "accelerations", "gravity_rows", "force", "tangent", "mass", "quadratic",
         "quadratic_D", "gravity_force", "gravity_potential", "first_moment", "body_vector", "body_mass",
-        "body_damping", "body_stiffness", "body_inertia_stiffness", "load_blocks", "load_vector", "load_power",
-        "load_by_node", "load_by_frame", "strain",
+        "body_damping", "body_stiffness", "load_blocks", "strain",
         "section_forces", "kinetic", "total",
         "matrix", "pivots", "rhs",
         "inertia_tangent", "forces_plus", "forces_minus", "perturbed_x", "perturbed_T", "perturbed_theta",

@@ -47,7 +47,7 @@ typedef void (*kernel_gravity)(int64_t, const double *, const double *, const do
                                double *);
 /* the generated unit generated/joints.c (codegen/joints.py) */
 typedef void (*kernel_joint_body)(int64_t, const double *, const double *, const double *, const double *, double *,
-                                  double *, double *, double *, double *);
+                                  double *, double *, double *);
 typedef void (*kernel_point_load)(int64_t, const double *, const double *, const double *, const double *,
                                   const double *, double *, double *, double *, double *);
 typedef void (*kernel_hinged_end)(int64_t, const double *, const double *, double *, double *, double *);
@@ -150,9 +150,7 @@ typedef struct {
     double *force, *tangent, *mass, *quadratic, *quadratic_D; /* (e,14) (e,14,14) (e,14,14) (e,14) (e,14,14) */
     double *gravity_force, *gravity_potential, *first_moment;  /* (e,14) (e) (e,3) */
     double *body_vector, *body_mass, *body_damping, *body_stiffness; /* (b,6) (b,6,6)×3 */
-    double *body_inertia_stiffness;                            /* (b,6,6) */
     double *load_blocks;                                       /* (l,6,6) */
-    double *load_vector, *load_power, *load_by_node, *load_by_frame; /* (l,6) (l) (l,6,3) (l,6,3) */
     double *strain, *section_forces, *kinetic;                 /* (e) (e,4) (e) */
     double *total;                                             /* n_total + 1 */
     double *matrix;                                            /* matrix_size */
@@ -343,8 +341,7 @@ static void joint_bodies(const Model *m, const Configuration *c, Work *w)
         memcpy(motion + 3, c->a + 3 * i, 3 * sizeof(double));
         memcpy(motion + 6, c->alpha + 3 * i, 3 * sizeof(double));
         m->joint_body(1, c->T + 9 * i, motion, m->body_section + 13 * b, m->gravity, w->body_vector + 6 * b,
-                      w->body_mass + 36 * b, w->body_damping + 36 * b, w->body_stiffness + 36 * b,
-                      w->body_inertia_stiffness + 36 * b);
+                      w->body_mass + 36 * b, w->body_damping + 36 * b, w->body_stiffness + 36 * b);
     }
 }
 
@@ -456,11 +453,11 @@ static double evaluate(const Model *m, const Configuration *c, Work *w, const do
         }
         memcpy(velocity, c->v + 3 * i, 3 * sizeof(double));
         memcpy(velocity + 3, c->w + 3 * i, 3 * sizeof(double));
-        double *force = w->load_vector + 6 * l, *by_node = w->load_by_node + 18 * l, *by_frame = w->load_by_frame + 18 * l;
+        double force[6], load_power, by_node[18], by_frame[18];
         m->point_load(1, c->T + 9 * i, m->load_r + 3 * l, values, frame >= 0 ? c->T + 9 * frame : identity, velocity,
-                      force, w->load_power + l, by_node, by_frame);
+                      force, &load_power, by_node, by_frame);
         for (int p = 0; p < 6; ++p) w->total[d[p]] += force[p];
-        power += w->load_power[l];
+        power += load_power;
         if (matrices) {
             double *block = w->load_blocks + 36 * l;
             for (int p = 0; p < 6; ++p)
