@@ -9,7 +9,7 @@ import time
 import numpy as np
 
 from latdyn.analyses import linearise
-from latdyn.analyses.static import static_analysis
+from latdyn.analyses.continuation import static_path
 from latdyn.assembly.prepare import length_scale, prepare
 from latdyn.errors import ResultsError
 from latdyn.results import paraview as paraview
@@ -131,7 +131,7 @@ def run(scene, out_dir=None, backend: str = "auto", progress: bool = False, *, r
         elif analysis == "buckling":
             writer.summary.update(linearise.buckling_analysis(prepared, scene.solve.count))
         elif analysis == "static":
-            static_analysis(prepared, probes, writer, length_scale(model))
+            static_path(prepared, probes, writer, length_scale(model))
         else:
             transient(prepared, probes, writer, progress, checkpointer, resume_from)
         writer.summary["wall_time_s"] = time.perf_counter() - wall0

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from latdyn.numerics.inertia import split_inertia
+
 #: Fewer steps per period of the lowest non-rigid mode than this: ``latdyn check`` warns.
 STEPS_PER_PERIOD = 10
 
@@ -36,7 +38,7 @@ def lowest_frequencies(model, assembler, state) -> float | None:
     """The lowest non-rigid natural frequency (Hz) about ``state`` (at rest), or None.
 
     Up to :data:`DENSE_MODES_LIMIT` coordinates: all modes, with the directions without inertia
-    condensed (:func:`latdyn.analyses.static.modal_analysis`). Beyond: shift-invert Lanczos on (K, M)
+    condensed (:func:`modal_analysis`). Beyond: shift-invert Lanczos on (K, M)
     at σ = −10⁻⁶ λ_ref (K − σM is regular where the model passed the held check; λ_ref the
     largest diag K / diag M), the 6 eigenvalues nearest zero to 1e-3. Modes with ω² below
     :data:`RIGID_MODE_RATIO` of the largest (dense) or :data:`LANCZOS_RIGID_RATIO` of λ_ref
@@ -46,7 +48,6 @@ def lowest_frequencies(model, assembler, state) -> float | None:
 
     ev = assembler.evaluate(state, matrices=True)
     if model.n_dofs <= DENSE_MODES_LIMIT:
-        from latdyn.analyses.static import modal_analysis
         from latdyn.assembly.prepare import Prepared
 
         omega2 = (2 * np.pi * modal_analysis(Prepared(model.scene, model, assembler, state), model.n_dofs)) ** 2
@@ -162,3 +163,35 @@ def check_report(prepared) -> str:
     and the dynamics lines of :func:`dynamics_report` about the initial state."""
     model = prepared.model
     return "\n".join([model.size_report(), *dynamics_report(model, prepared.assembler, prepared.state)])
+
+
+def modal_analysis(prepared, count: int) -> np.ndarray:
+    """Lowest ``count`` natural frequencies (Hz) about the initial configuration.
+
+    Directions without inertia (found joint by joint, :mod:`latdyn.numerics.inertia`) are
+    condensed statically, which is exact for them (Guyan):  in the basis
+    Q = [Q_m, Q_c] with M Q_c = 0,  K_red = K_mm − K_mc K_cc⁻¹ K_cm  and
+    M_red = Q_mᵀ M Q_m, positive definite.  Rigid-body modes come out near zero.
+    """
+    model, assembler = prepared.model, prepared.assembler
+    state = prepared.state.copy()
+    state.v[:] = state.w[:] = 0.0
+    state.theta_dot[:] = 0.0
+    if model.n_dofs == 0:
+        return np.zeros(0)
+    ev = assembler.evaluate(state, matrices=True)
+    M, K = ev.combined(1.0, 0.0, 0.0, dense=True), ev.combined(0.0, 0.0, 1.0, dense=True)
+    split = split_inertia(model, M)
+    Q = split.basis
+    M = Q.T @ (0.5 * (M + M.T)) @ Q
+    K = Q.T @ (0.5 * (K + K.T)) @ Q
+    m = slice(0, split.n_massive)
+    c = slice(split.n_massive, model.n_dofs)
+    if split.n_massless:
+        K = K[m, m] - K[m, c] @ np.linalg.solve(K[c, c], K[c, m])
+    M = M[m, m]
+    import scipy.linalg as sla
+
+    eigenvalues = sla.eigh(0.5 * (K + K.T), 0.5 * (M + M.T), eigvals_only=True)
+    omega = np.sqrt(np.clip(eigenvalues, 0.0, None))
+    return (omega / (2 * np.pi))[:count]

@@ -361,14 +361,14 @@ def _planar(prepared) -> str:
 
 def static_state(prepared):
     """The equilibrium of the static analysis of the scene (its loads, ``steps``), load factor 1."""
-    from latdyn.analyses.static import static_analysis
+    from latdyn.analyses.continuation import static_path
     from latdyn.assembly.prepare import prepare
     from latdyn.results.probes import ProbeSet
 
     other = prepare(_scene_copy(prepared.scene, analysis="static", planar=_planar(prepared)),
                     prepared.assembler.kernels.backend)
     probes = ProbeSet(other.assembler, other.state)
-    static_analysis(other, probes, ResultWriter(None, probes.names, "load_factor"), length_scale(other.model))
+    static_path(other, probes, ResultWriter(None, probes.names, "load_factor"), length_scale(other.model))
     state = other.state.copy()
     state.v[:] = state.w[:] = state.a[:] = state.alpha[:] = 0.0
     state.theta_dot[:] = state.theta_ddot[:] = 0.0
