@@ -496,8 +496,14 @@ def build_kernels(variant: str = "default") -> list[KernelSpec]:
 
     b = Builder(kin.auxiliary + shear_definitions)
     p = inertia(b, with_velocity=True)
-    add("beam_quadratic_velocity_D_qdot", "∂g^e/∂q̇ (exact)", "Eqs. 50-57", with_velocity,
-        [Output("quadratic_velocity_D_qdot", (N, N), _flat(quadratic_velocity_D_qdot(b, p)))], b)
+    # g^e is a quadratic form in q̇ (J̇q̇ at q̈ = 0 and ĝ are quadratic, u = Jq̇ linear), so by Euler's theorem
+    # g^e = ½ (∂g^e/∂q̇) q̇: a Newton iteration that needs the derivative gets the vector for 14² products
+    derivative = b.matrix("dg_dqdot", quadratic_velocity_D_qdot(b, p))
+    from_derivative = [sp.Add(*[derivative[a][c] * kin.velocity[c] for c in range(N)]) / 2 for a in range(N)]
+    add("beam_quadratic_velocity_D_qdot", "Quadratic-velocity vector g^e = ½(∂g^e/∂q̇)q̇ and ∂g^e/∂q̇ (exact)",
+        "Eqs. 50-57, 61-62", with_velocity,
+        [Output("quadratic_velocity", (N,), from_derivative),
+         Output("quadratic_velocity_D_qdot", (N, N), _flat(derivative))], b)
 
     b = Builder(kin.auxiliary + shear_definitions)
     p = inertia(b, with_velocity=True)

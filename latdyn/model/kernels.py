@@ -244,8 +244,7 @@ def optimisation(ops: int) -> str:
 
 #: Kernels composed from their parts in the C backend (see above), name -> parts.
 COMPOSED = {
-    "beam_dynamics": ("beam_internal_force_D_q", "beam_mass_matrix", "beam_quadratic_velocity",
-                      "beam_quadratic_velocity_D_qdot"),
+    "beam_dynamics": ("beam_internal_force_D_q", "beam_mass_matrix", "beam_quadratic_velocity_D_qdot"),
 }
 
 
