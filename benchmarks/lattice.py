@@ -631,9 +631,10 @@ def _history(t, u, digits: int = 9) -> dict:
     return {"t": [float(f"{x:.{digits}g}") for x in t], "u": [float(f"{x:.{digits}g}") for x in u]}
 
 
-def make_reference(bays_list, latdyn, exu=None, eii=None, ops=None, log=print) -> dict:
+def make_reference(bays_list, latdyn, exu=None, eii=None, ops=None, log=print, recompute: bool = False) -> dict:
     """Converged tip histories per size (both physics), with the checks; merged into
-    ``REFERENCE_FILE`` (sizes not in ``bays_list`` are kept)."""
+    ``REFERENCE_FILE`` after every run (sizes not in ``bays_list``, and runs already stored, are
+    kept unless ``recompute``)."""
     doc = load_reference()
     doc.setdefault("bays", {})
     doc["how"] = ("latdyn (solve.formulation default, full Newton, generalized-alpha rho_inf 0.8) with "
@@ -645,37 +646,56 @@ def make_reference(bays_list, latdyn, exu=None, eii=None, ops=None, log=print) -
                   "elements and twice the step (convergence), Exudyn geometrically exact beams and "
                   "OpenSeesPy elasticBeamColumn/Corotational at fine settings (cross-checks).  Made by "
                   "`python benchmarks/lattice.py --reference --bays ...`.")
+
+    def save():
+        REFERENCE_FILE.parent.mkdir(parents=True, exist_ok=True)
+        REFERENCE_FILE.write_text(json.dumps(doc, indent=None, separators=(",", ":")) + "\n")
+
     for bays in bays_list:
         eq = equivalent_beam(bays)
         e = reference_elements(bays)
-        entry = {"T": eq["T"], "t_end": eq["t_end"], "F0": eq["F0"], "tp": eq["tp"], "elements": e,
-                 "dt": eq["T"] / REFERENCE_STEPS, "checks": {}}
+        entry = doc["bays"].get(str(bays)) if not recompute else None
+        if entry is None or entry.get("elements") != e:
+            entry = {}
+        entry.update({"T": eq["T"], "t_end": eq["t_end"], "F0": eq["F0"], "tp": eq["tp"], "elements": e,
+                      "dt": eq["T"] / REFERENCE_STEPS})
+        entry.setdefault("checks", {})
+        doc["bays"][str(bays)] = entry
         for physics, extra in (("timoshenko", {}), ("euler_bernoulli", {"shear": False, "rotary": False})):
+            if physics in entry:
+                continue
             t0 = time.perf_counter()
             r = latdyn_run(latdyn, bays, dict(elements=e, dt=eq["T"] / REFERENCE_STEPS, **extra))
             if r["status"] != "ok":
                 raise RuntimeError(f"reference run failed: {bays} bays, {physics}: {r.get('note')}")
             entry[physics] = {"values": values(bays, r["t"], r["u"]), "history": _history(r["t"], r["u"]),
                               "solver_s": r["solver_s"], "load_average": os.getloadavg()[0]}
+            save()
             log(f"reference {bays} bays {physics}: {e} el/member, dt T/{REFERENCE_STEPS}: "
                 f"{time.perf_counter() - t0:.1f} s, peak {entry[physics]['values']['u_peak']:.7g}")
         ref_doc = {"bays": {str(bays): entry}}
+        half = max(1, e // 2)
         checks = [("latdyn_half", "timoshenko", lambda: latdyn_run(latdyn, bays, dict(
-                      elements=max(1, e // 2), dt=2 * eq["T"] / REFERENCE_STEPS)),
-                   f"latdyn {max(1, e // 2)} el/member, dt T/{REFERENCE_STEPS // 2}"),
+                      elements=half, dt=2 * eq["T"] / REFERENCE_STEPS)),
+                   f"latdyn {half} el/member, dt T/{REFERENCE_STEPS // 2}"),
                   ("latdyn_eb_vs_timoshenko", "timoshenko", None, "the euler_bernoulli reference")]
-        ee = 32 if bays < 8 else 4   # Exudyn's element converges slowly where members vibrate
+        # Exudyn's element converges slowly where the members vibrate (below 8 bays); an absolute
+        # Newton tolerance of 1e-6 F0 stalled it at 64 bays (minutes of Jacobian updates): 1e-4 F0
+        ee = 32 if bays < 8 else 4
         if exu is not None:
             checks.append(("exudyn_beam", "timoshenko", lambda: exudyn_run(exu, eii, bays, dict(
-                elements=ee, dt=2 * eq["T"] / REFERENCE_STEPS, atol=1e-6 * eq["F0"])),
+                elements=ee, dt=2 * eq["T"] / REFERENCE_STEPS, atol=1e-4 * eq["F0"])),
                 f"Exudyn ObjectBeamGeometricallyExact {ee} el/member, dt T/{REFERENCE_STEPS // 2}, "
-                f"modified Newton, abs tol 1e-6 F0"))
+                f"modified Newton, abs tol 1e-4 F0"))
+        eo = e if bays < 8 else 2
         if ops is not None:
             checks.append(("opensees_vs_euler_bernoulli", "euler_bernoulli", lambda: opensees_run(ops, bays, dict(
-                elements=e, dt=2 * eq["T"] / REFERENCE_STEPS, tol=1e-10)),
-                f"OpenSeesPy elasticBeamColumn/Corotational {e} el/member, dt T/{REFERENCE_STEPS // 2}, "
+                elements=eo, dt=2 * eq["T"] / REFERENCE_STEPS, tol=1e-10)),
+                f"OpenSeesPy elasticBeamColumn/Corotational {eo} el/member, dt T/{REFERENCE_STEPS // 2}, "
                 f"HHT, ModifiedNewton, tol 1e-10 L"))
         for name, physics, run, what in checks:
+            if entry["checks"].get(name, {}).get("what") == what:
+                continue
             t0 = time.perf_counter()
             if run is None:
                 h = entry["euler_bernoulli"]["history"]
@@ -685,16 +705,15 @@ def make_reference(bays_list, latdyn, exu=None, eii=None, ops=None, log=print) -
                 if r["status"] != "ok":
                     entry["checks"][name] = {"what": what, "status": r["status"], "note": r.get("note")}
                     log(f"check {bays} bays {name}: {r['status']} {r.get('note')}")
+                    save()
                     continue
                 t, u = r["t"], r["u"]
             dev, _ = error(bays, t, u, ref_doc, physics)
             entry["checks"][name] = {"what": what, "against": physics, "deviation": dev,
                                      "values": values(bays, t, u)}
+            save()
             log(f"check {bays} bays {name} ({what}) against {physics}: deviation {dev:.2e} "
                 f"({time.perf_counter() - t0:.1f} s, load {os.getloadavg()[0]:.2f})")
-        doc["bays"][str(bays)] = entry
-        REFERENCE_FILE.parent.mkdir(parents=True, exist_ok=True)
-        REFERENCE_FILE.write_text(json.dumps(doc, indent=None, separators=(",", ":")) + "\n")
     return doc
 
 

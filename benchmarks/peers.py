@@ -1,13 +1,15 @@
-"""latdyn against Exudyn on the same machine, in one run: error and solver time per setting.
+"""latdyn against Exudyn and OpenSeesPy on the same machine, in one run: error and solver time per setting.
 
 Run from the repository root::
 
-    pip install -e ".[peers]"          # Exudyn is an optional extra, never a requirement
-    python benchmarks/peers.py          # full sweep (several minutes on 2 cores)
+    pip install -e ".[peers]"          # Exudyn and OpenSeesPy are an optional extra, never a requirement
+    python benchmarks/peers.py          # full sweep (about half an hour on 2 cores, most of it the lattice)
     python benchmarks/peers.py --quick  # one or two settings per code, one repeat
+    python benchmarks/peers.py --problems lattice --bays 4,16,64   # the lattice alone (other rows kept)
+    python benchmarks/peers.py --reference --problems lattice --bays 4,16,64   # its reference histories
 
-Without Exudyn the script still runs and writes the latdyn rows, with a note saying how
-to install it.  Results: ``benchmarks/results/peers.json`` and ``peers.csv`` (``--out``
+Without Exudyn (or OpenSeesPy) the script still runs and writes the other codes' rows, with a
+note saying how to install it.  Results: ``benchmarks/results/peers.json`` and ``peers.csv`` (``--out``
 changes the stem); ``docs/performance.md`` reads them.
 
 Problems
@@ -18,6 +20,20 @@ Problems
                 tip deflection in the hub frame (y), against the converged solution of issue 8
                 (v(5 s) = -0.46843, v(10 s) = -0.36280, min -0.57379 m at 6.762 s).  Matched
                 accuracy: error <= 1e-3 m.
+``lattice``     A clamped 3D truss beam of N bays with rigid joints (``benchmarks/lattice.py``:
+                square section 0.5 m, bays of 0.5 m, 4 longerons, 4 battens a station, a
+                diagonal a face a bay, aluminium tubes, shear-deformable with rotary inertia),
+                a sin² tip pulse along z of length T/2, free vibration to 2 T (T ≈ the first
+                bending period), N in ``--bays`` (default 4, 16, 64).  Error: the largest
+                deviation of the tip history (mean z of the 4 tip joints) from the converged
+                reference history (``benchmarks/references/lattice.json``) over the peak.
+                Matched accuracy: <= 1 %.  Codes: latdyn, Exudyn (geometrically exact beams
+                welded at the joints; a rigid-body–spring model), OpenSeesPy
+                (elasticBeamColumn + Corotational; Euler–Bernoulli members without rotary
+                inertia, so also scored against a reference of that physics).  Each code's
+                fastest setting within 1 % is searched (elements a member 1, 2, 4, … and
+                steps per T 25 … 400, coarsest first; ``lattice_sweep``), then the
+                candidates are timed ``repeats`` times.
 ``cantilever``  Simo & Vu-Quoc right-angle cantilever,
                 ``examples/benchmarks/D2_right_angle_cantilever.yaml`` (two legs of 10, EA 1e6,
                 EI = GJ = 1e3, rhoA 1, rotary inertia [20, 10, 10], out-of-plane triangular
@@ -65,8 +81,8 @@ JSON schema (``peers.json``)
                           "error": str (definition), "error_unit": "m" | "relative",
                           "tolerance": float}},
       "rows": [{
-          "problem": "spinup" | "cantilever",
-          "code": "latdyn" | "exudyn",
+          "problem": "spinup" | "cantilever" | "lattice",
+          "code": "latdyn" | "exudyn" | "opensees",
           "engine": str,          # latdyn: "<kernel backend>/<step engine>" (summary.json
                                   # backend, engine); exudyn: element type
           "setting": str,         # label, unique per problem and code
@@ -89,12 +105,23 @@ JSON schema (``peers.json``)
           "compile_s": float | null,              # latdyn: when summary.json reports it
           "process_s": float | null,              # one fresh process, when measured
           "load_average": float,                  # 1-min, mean over the row's timed runs
-          "note": str}],
+          "note": str,
+          # lattice rows add: "bays", "elements_per_member", "coordinates" (the code's own count of
+          # unknowns), "steps_per_T", "variant" (the code's setting family), "candidate" (timed
+          # again: the coarsest step within tolerance of its variant and element count)
+          }],
       "matched": [{"problem", "tolerance", "latdyn_setting", "latdyn_error", "latdyn_s",
                    "exudyn_engine", "exudyn_setting", "exudyn_error", "exudyn_s",
                    "ratio": latdyn_s / exudyn_s,     # fastest ok row (by solver_s) of each code within
                    "latdyn_run_s", "exudyn_run_s",   # tolerance (t_end 10 s), one entry per Exudyn
                    "ratio_run": latdyn_run_s / exudyn_run_s}]   # element; ratio_run: same rows, run_s
+               # lattice entries: {"problem": "lattice", "bays", "tolerance", "latdyn_setting",
+               #   "latdyn_error", "latdyn_s", "latdyn_run_s", "latdyn_process_s", "latdyn_coordinates",
+               #   "peers": [{"code", "engine", "setting", "error", "solver_s", "run_s", "process_s",
+               #              "coordinates", "ratio": latdyn_s / solver_s, "ratio_run",
+               #              "own_physics": {...} (OpenSeesPy against the euler_bernoulli reference),
+               #              "note" (no setting within tolerance)}],
+               #   "best_peer", "ratio_best_peer"}
     }
 
 ``peers.csv`` holds the rows, one line each, with the scalar columns above.
