@@ -715,7 +715,7 @@ def lattice_matched(rows, bays_list):
                            key=lambda r: r["error"] if r["error"] is not None else math.inf, default=None)
                 peer["note"] = ("no setting within the tolerance" +
                                 (f"; smallest error {best['error']:.2e} ({best['setting']})" if best else ""))
-            if own:
+            if own and (not mine or min(own, key=lambda r: r["solver_s"])["setting"] != peer.get("setting")):
                 O = min(own, key=lambda r: r["solver_s"])
                 peer["own_physics"] = {"reference": "euler_bernoulli", "setting": O["setting"],
                                        "error": O["error_parts"]["history_vs_euler_bernoulli"],
@@ -1050,7 +1050,7 @@ def main(argv=None):
             ratios = ", ".join(f"{p['code']} {p['engine']}: {p['ratio']:.2f}" for p in x["peers"] if "ratio" in p)
             print(f"matched lattice {x['bays']} bays: latdyn {x.get('latdyn_setting')} "
                   f"{x.get('latdyn_s') or float('nan'):.3f} s; latdyn / peer: {ratios or '-'}")
-    for x in matched:
+    for x in (m for m in matched if m["problem"] != "lattice"):
         print(f"matched {x['problem']}: latdyn {x['latdyn_setting']} {x['latdyn_s']:.3f} s vs Exudyn "
               f"{x['exudyn_setting']} {x['exudyn_s']:.3f} s: ratio {x['ratio']:.2f}")
     specs = {
