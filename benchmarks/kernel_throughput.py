@@ -1,11 +1,25 @@
-"""Kernel throughput (elements/s) of the NumPy and C backends at 10⁴ elements.
+"""Throughput of the generated element kernels against this machine's limit.
 
-    python benchmarks/kernel_throughput.py [n_elements]
+    python benchmarks/kernel_throughput.py [n_elements] [--variant default] [--json PATH]
 
-Medians of 7 calls per kernel, both backends measured in one run.
+For every element kernel of a variant: operations after CSE (the generator's count: each
+add, multiply, divide, square root or call counts one), µs per element on the NumPy and C
+backends (medians of 7 calls on ``n_elements`` realistic elements), the C kernels' achieved
+rate in G operations/s and its fraction of one core's peak. Then the kernels of one Newton
+iteration of a 3D element as the compiled step calls them (internal force and tangent, mass
+matrix, quadratic-velocity vector and its q̇-derivative: ``beam_internal_force_D_q`` +
+``beam_mass_matrix`` + ``beam_quadratic_velocity_D_qdot``), summed. The step's own cost per
+element-iteration (geometry, scatter, factorisation too) is ``benchmarks/step_scaling.py``.
+
+Peak: SIMD lanes × 2 FMA pipes × 2 operations × the clock /proc/cpuinfo reports now (an
+assumption stated in the output: AMD Zen 2-4 and Intel since Haswell have two FMA pipes; a
+Zen 4 core runs AVX-512 on 256-bit halves, so its lanes are counted as 4).
 """
 from __future__ import annotations
 
+import argparse
+import json
+import os
 import platform
 import sys
 import time
@@ -16,7 +30,11 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from test_backends import realistic_inputs  # noqa: E402
 
+from latdyn import native  # noqa: E402
 from latdyn.model.kernels import load_kernels  # noqa: E402
+
+#: The element kernels one Newton iteration of the compiled step calls (csrc/newton_step.c, element_range).
+NEWTON_ITERATION = ("beam_internal_force_D_q", "beam_mass_matrix", "beam_quadratic_velocity_D_qdot")
 
 
 def median_time(function, arrays, repeats=7):
@@ -28,20 +46,58 @@ def median_time(function, arrays, repeats=7):
     return float(np.median(samples))
 
 
-def main(n: int = 10_000) -> None:
-    inputs = realistic_inputs(n, seed=1)
-    sets = {"numpy": load_kernels("numpy"), "c": load_kernels("c")}
+def machine_peak() -> dict:
+    """One core's peak in G operations/s, with what it assumes (see the module doc)."""
     cpu = next((line.split(":", 1)[1].strip() for line in open("/proc/cpuinfo") if "model name" in line), "?")
-    print(f"{n} elements; {platform.python_implementation()} {platform.python_version()}; CPU {cpu}")
-    print(f"{'kernel':34s} {'ops':>7s} {'numpy el/s':>12s} {'C el/s':>12s} {'C/numpy':>8s}")
+    mhz = [float(line.split(":", 1)[1]) for line in open("/proc/cpuinfo") if line.startswith("cpu MHz")]
+    flags = native.vector_flags()
+    macros = os.popen("cc -march=native -dM -E -x c /dev/null 2>/dev/null").read()
+    width = 8 if "__AVX512F__" in macros else 4 if "__AVX__" in macros else 2
+    zen = "EPYC" in cpu or "Ryzen" in cpu
+    pipe_width = min(width, 4) if zen else width  # Zen 4 splits a 512-bit operation into two 256-bit halves
+    clock = max(mhz) / 1e3 if mhz else float("nan")
+    return {"cpu": cpu, "cores": os.cpu_count(), "clock_ghz": clock, "simd_doubles": width,
+            "peak_gops_per_core": pipe_width * 2 * 2 * clock, "compile_flags": list(flags),
+            "assumes": f"{pipe_width} doubles per FMA pipe, 2 FMA pipes, 2 operations per FMA, {clock:.2f} GHz"}
+
+
+def main(argv=None) -> dict:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("n", nargs="?", type=int, default=10_000)
+    parser.add_argument("--variant", default="default")
+    parser.add_argument("--json", type=Path, default=None)
+    args = parser.parse_args(argv)
+    n = args.n
+    inputs = realistic_inputs(n, seed=1)
+    sets = {"numpy": load_kernels("numpy", args.variant), "c": load_kernels("c", args.variant)}
+    peak = machine_peak()
+    print(f"{n} elements, variant {args.variant}; {platform.python_implementation()} {platform.python_version()}; "
+          f"CPU {peak['cpu']}; load {os.getloadavg()[0]:.2f}")
+    print(f"peak {peak['peak_gops_per_core']:.1f} G operations/s per core ({peak['assumes']}); "
+          f"C flags {' '.join(peak['compile_flags']) or '(none)'}")
+    print(f"{'kernel':34s} {'ops':>7s} {'numpy µs':>9s} {'C µs':>8s} {'C Gop/s':>8s} {'of peak':>8s}")
+    rows = {}
     for name, meta in sets["numpy"].info.items():
         if not all(arg in inputs for arg, _ in meta["inputs"]):  # the joints unit: per body, load, end, hinge
             continue
         arrays = [inputs[arg] for arg, _ in meta["inputs"]]
-        rates = {b: n / median_time(getattr(k, name), arrays) for b, k in sets.items()}
-        print(f"{name:34s} {meta.get('op_count', 0):7d} {rates['numpy']:12.3g} {rates['c']:12.3g} "
-              f"{rates['c'] / rates['numpy']:8.1f}")
+        seconds = {b: median_time(getattr(k, name), arrays) / n for b, k in sets.items()}
+        ops = int(meta.get("op_count", 0))
+        rows[name] = {"ops": ops, "numpy_us": seconds["numpy"] * 1e6, "c_us": seconds["c"] * 1e6,
+                      "c_gops": ops / seconds["c"] / 1e9}
+    iteration = {"ops": sum(rows[k]["ops"] for k in NEWTON_ITERATION),
+                 "numpy_us": sum(rows[k]["numpy_us"] for k in NEWTON_ITERATION),
+                 "c_us": sum(rows[k]["c_us"] for k in NEWTON_ITERATION)}
+    iteration["c_gops"] = iteration["ops"] / iteration["c_us"] / 1e3
+    for name, row in [*rows.items(), ("Newton iteration (3 kernels)", iteration)]:
+        print(f"{name:34s} {row['ops']:7d} {row['numpy_us']:9.3f} {row['c_us']:8.3f} {row['c_gops']:8.2f} "
+              f"{row['c_gops'] / peak['peak_gops_per_core']:8.1%}")
+    result = {"n": n, "variant": args.variant, "machine": peak, "load_average": os.getloadavg(),
+              "kernels": rows, "newton_iteration": iteration}
+    if args.json:
+        args.json.write_text(json.dumps(result, indent=1) + "\n")
+    return result
 
 
 if __name__ == "__main__":
-    main(int(sys.argv[1]) if len(sys.argv) > 1 else 10_000)
+    main()

@@ -48,7 +48,12 @@ class Kinematics:
     frame: list  # T_c row-major, Eqs. 18–21
     grid1: list  # x_g1
     B: list  # ∂Ψ/∂q^e, 6×14 (Eqs. 33, 39, 42)
-    H: list  # ∂²Ψ_k/∂(virtual)∂(increment), 6×14×14
+    #: Σ_k w_k ∂²Ψ_k/∂(virtual)∂(increment), 14×14, in the weights :data:`PSI_WEIGHTS` and the
+    #: intermediates :attr:`geometric_definitions` (which use the weights too)
+    geometric: list
+    geometric_definitions: list
+    #: intermediates of Ψ̈ and its q̇-derivative (they use the velocities): for kernels with a velocity block
+    rate_definitions: list
     omega_map: list  # C: ω_c = C q̇, 3×14 (spatial angular velocity of S_c)
     psi_ddot: list  # Ψ̈ at q̈ = 0 (6), quadratic in q̇
     omega_dot: list  # ω̇_c at q̈ = 0 (3), spatial
@@ -96,6 +101,34 @@ def _log_auxiliary(arguments: tuple) -> list:
     return out
 
 
+#: w_k, the weights of Σ_k w_k ∂²Ψ_k/∂(virtual)∂(increment) (:attr:`Kinematics.geometric`): the kernels put ∂U/∂Ψ_k
+PSI_WEIGHTS = [se.Symbol(f"psi_weight_{k}") for k in range(6)]
+
+
+def _named(definitions: list, name: str, value):
+    """``value`` as a new named intermediate appended to ``definitions`` (numbers stay numbers)."""
+    if value.is_Number or value.is_Symbol:
+        return value
+    symbol = se.Symbol(name)
+    definitions.append((symbol, value))
+    return symbol
+
+
+def _jet_scale(jet, xbar):
+    """f(x) as its second-order jet about x̄: exact value, first and second derivatives at x = x̄."""
+    def scale(x):
+        d = x - xbar
+        return jet[0] + jet[1] * d + jet[2] * d * d / 2
+    return scale
+
+
+def _corotational_frame(end1, end2, L0, planar, frame_choice):
+    """T_c (row-major) of the ends at rest, Eqs. 18–21."""
+    cor = fm.corotational(end1.x + end1.offset, end1.frame, end2.x + end2.offset, end2.frame, L0, "sine",
+                          None, planar, frame_choice)
+    return [cor.frame[i, j] for i in range(3) for j in range(3)]
+
+
 def _diff(expr, symbol):
     """∂expr/∂symbol, zero for a coordinate the variant does not have (symbol 0)."""
     return se.Integer(0) if symbol == 0 else se.diff(expr, symbol)
@@ -126,7 +159,8 @@ def derive_kinematics(measure: str = "sine", plane: str | None = None, frame_cho
     planar = restriction is not None
     log = measure == "log" and not planar  # the planar log measure is closed-form (formulation.corotational)
 
-    # ---- first and mixed second derivatives of Ψ (B and H) ----
+    # ---- B = ∂Ψ/∂q and the weighted second derivative Σ_k w_k ∂²Ψ_k/∂(virtual)∂(increment), by the chain
+    # rule through the sixteen invariants ι (formulation.invariants): Ψ = F(ι), ι = ι(q) ----
     virtual = _coordinates("delta", restriction)
     increment = _coordinates("Delta", restriction)
     v1, v2 = _end_coordinates(virtual)
@@ -134,14 +168,57 @@ def derive_kinematics(measure: str = "sine", plane: str | None = None, frame_cho
     g1, F1 = fm.moved_end(end1, [("increment", *i1, 1), ("virtual", *v1, 1)])
     g2, F2 = fm.moved_end(end2, [("increment", *i2, 1), ("virtual", *v2, 1)])
     at_rest = {s: 0 for s in virtual + increment if s != 0}
-    cor = fm.corotational(g1, F1, g2, F2, L0, measure, _log_jets(at_rest) if log else None, planar,
-                           frame_choice)
-    first = [[_diff(p, d) for d in virtual] for p in cor.psi]
-    B = [[b.subs(at_rest) for b in row] for row in first]
-    H = [[[_diff(b, D).subs(at_rest) for D in increment] for b in row] for row in first]
-    psi = [p.subs(at_rest) for p in cor.psi]
-    frame = [cor.frame[i, j].subs(at_rest) for i in range(3) for j in range(3)]
-    grid1 = [g1[k].subs(at_rest) for k in range(3)]
+    moving = fm.invariants(g1, F1, g2, F2)
+    iota = [se.Symbol(f"iota_{name}") for name in fm.INVARIANT_NAMES]
+    definitions = [(symbol, value.subs(at_rest)) for symbol, value in zip(iota, moving)]
+    # S = ∂ι/∂q (16×14): each row the first variation of one dot product of rigidly moving vectors
+    dIota = [[_named(definitions, f"diota_{m}_{a}", _diff(value, d).subs(at_rest)) for a, d in enumerate(virtual)]
+             for m, value in enumerate(moving)]
+    # F(ι): Ψ, its Jacobian J_F = ∂Ψ/∂ι (6×16), and for weights w the gradient λ = J_Fᵀw and the Hessian
+    # ∂²(w·F)/∂ι² (16×16).  The log map's θ/sin θ enters as its jet about x̄_i (LOG_JET), x̄_i = x_i(ι).
+    xbar = [se.Symbol(f"logmap_xbar_{i}") for i in (1, 2)]
+    scales = None
+    if log:
+        scales = tuple(_jet_scale(LOG_JET[i], xbar[i]) for i in range(2))
+    psi_iota, arguments = fm.deformation_from_invariants(iota, L0, measure, scales, planar, frame_choice)
+    auxiliary = list(definitions)
+    rest_x = {}
+    if log:
+        for i in range(2):
+            rest_x[xbar[i]] = arguments[i]
+            auxiliary.append((se.Symbol(str(LOG_ARGUMENT[i])), arguments[i]))
+            for k in range(3):
+                auxiliary.append((LOG_JET[i][k], fm.log_scale(fm.to_sympy(LOG_ARGUMENT[i]), k)))
+    at_x = lambda expr: expr.subs(rest_x)  # noqa: E731  (x − x̄ = 0 once differentiated)
+    psi = [at_x(p) for p in psi_iota]
+    jacobian_raw = [[se.diff(p, i) for i in iota] for p in psi_iota]
+    jacobian = [[_named(auxiliary, f"dpsi_diota_{k}_{m}", at_x(value)) for m, value in enumerate(row)]
+                for k, row in enumerate(jacobian_raw)]
+    B = [[sum((jacobian[k][m] * dIota[m][a] for m in range(16)), se.Integer(0)) for a in range(N)] for k in range(6)]
+    weighted = sum((w * p for w, p in zip(PSI_WEIGHTS, psi_iota)), se.Integer(0))
+    weight_names = []
+    adjoint = [_named(weight_names, f"adj_iota_{m}", sum((w * jacobian[k][m] for k, w in enumerate(PSI_WEIGHTS)),
+                                                           se.Integer(0))) for m in range(16)]
+    gradient = [se.diff(weighted, i) for i in iota]
+    hessian = [[None] * 16 for _ in range(16)]
+    for m in range(16):
+        for n in range(m, 16):
+            hessian[m][n] = hessian[n][m] = _named(weight_names, f"hess_iota_{m}_{n}", at_x(se.diff(gradient[m], iota[n])))
+    # Σ_k w_k ∂²Ψ_k/∂δ∂Δ = Sᵀ [∂²(w·F)/∂ι²] S + Σ_m λ_m ∂²ι_m/∂δ∂Δ (the second term: the moving vectors' own
+    # second variations, which carry the order of the configuration update)
+    lifted = sum((lam * value for lam, value in zip(adjoint, moving)), se.Integer(0))
+    second = [[_diff(_diff(lifted, d), D).subs(at_rest) for D in increment] for d in virtual]
+    hS = [[_named(weight_names, f"hess_diota_{m}_{a}",
+                  sum((hessian[m][n] * dIota[n][a] for n in range(16)), se.Integer(0))) for a in range(N)]
+          for m in range(16)]
+    symmetric = [[None] * N for _ in range(N)]  # Sᵀ [∂²(w·F)/∂ι²] S, one triangle
+    for a in range(N):
+        for c in range(a, N):
+            symmetric[a][c] = symmetric[c][a] = _named(
+                weight_names, f"hess_q_{a}_{c}", sum((dIota[m][a] * hS[m][c] for m in range(16)), se.Integer(0)))
+    geometric = [[symmetric[a][c] + second[a][c] for c in range(N)] for a in range(N)]
+    frame = [cor_frame for cor_frame in _corotational_frame(end1, end2, L0, planar, frame_choice)]
+    grid1 = [(end1.x + end1.offset)[k] for k in range(3)]
 
     # ---- motion at constant spatial velocities (q̈ = 0) ----
     t = se.Symbol("time")
@@ -152,15 +229,30 @@ def derive_kinematics(measure: str = "sine", plane: str | None = None, frame_cho
     g1t, F1t = fm.moved_end(end1, [("time", *m1, 2)])
     g2t, F2t = fm.moved_end(end2, [("time", *m2, 2)])
     now = {t: 0}
-    cor_t = fm.corotational(g1t, F1t, g2t, F2t, L0, measure, _log_jets(now) if log else None, planar,
-                             frame_choice)
+    cor_t = fm.corotational(g1t, F1t, g2t, F2t, L0, "sine", None, planar, frame_choice)  # for T_c(t) only
 
     def rate(expr, order):
         for _ in range(order):
             expr = se.diff(expr, t)
         return expr.subs(now)
 
-    psi_ddot = [rate(p, 2) for p in cor_t.psi]
+    # Ψ̈ = J_F ῑ + ι̇ᵀ(∂²F/∂ι²)ι̇ and ∂Ψ̈/∂q̇ = J_F ∂ῑ/∂q̇ + 2 [(∂²F/∂ι²) ι̇]ᵀ S, with ι̇ = S q̇ and ῑ the
+    # invariants' second rate under the motion (quadratic in q̇): the chain of B, once more
+    rates = []  # named intermediates that use the velocities
+    moving_t = fm.invariants(g1t, F1t, g2t, F2t)
+    iota_dot = [_named(rates, f"iota_dot_{m}", sum((dIota[m][a] * qdot[a] for a in range(N)), se.Integer(0)))
+                for m in range(16)]
+    iota_ddot_raw = [rate(value, 2) for value in moving_t]
+    iota_ddot = [_named(rates, f"iota_ddot_{m}", value) for m, value in enumerate(iota_ddot_raw)]
+    diota_ddot = [[_named(rates, f"diota_ddot_{m}_{a}", _diff(value, q)) for a, q in enumerate(qdot)]
+                  for m, value in enumerate(iota_ddot_raw)]
+    curvature = [[_named(rates, f"dpsi_diota_rate_{k}_{m}",
+                         sum((at_x(se.diff(jacobian_raw[k][m], i)) * iota_dot[n] for n, i in enumerate(iota)),
+                             se.Integer(0))) for m in range(16)] for k in range(6)]
+    psi_ddot = [sum((jacobian[k][m] * iota_ddot[m] + curvature[k][m] * iota_dot[m] for m in range(16)), se.Integer(0))
+                for k in range(6)]
+    psi_ddot_D_qdot = [[sum((jacobian[k][m] * diota_ddot[m][a] + 2 * curvature[k][m] * dIota[m][a]
+                             for m in range(16)), se.Integer(0)) for a in range(N)] for k in range(6)]
     Tc = cor_t.frame.subs(now)
     Tc_dot = cor_t.frame.diff(t).subs(now)
     Tc_ddot = cor_t.frame.diff(t).diff(t).subs(now)
@@ -178,19 +270,16 @@ def derive_kinematics(measure: str = "sine", plane: str | None = None, frame_cho
         convective.append(sum((Tc_dot[k, i] * grid1_dot[k] + Tc[k, i] * grid1_ddot[k] for k in range(3)), se.Integer(0)))
     for i in range(3):
         convective.append(sum((Tc[k, i] * omega_dot[k] for k in range(3)), se.Integer(0)))
+    convective_D_qdot = [[_diff(c, q) for q in qdot] for c in convective] + psi_ddot_D_qdot
     convective += psi_ddot
-    convective_D_qdot = [[_diff(c, q) for q in qdot] for c in convective]
 
     S = fm.to_sympy
-    auxiliary = []
     if log:
-        arguments = [x.subs(at_rest) for x in cor.log_arguments]
-        # the jets' (x − x̄) must vanish identically at rest: B has no f″, Ψ no f′
+        # the jets' (x − x̄) must vanish identically once differentiated: B has no f″, Ψ no f′
         for i in range(2):
             assert all(LOG_JET[i][2] not in b.free_symbols for row in B for b in row), "log jet left (x − x̄) in B"
             assert all(LOG_JET[i][1] not in p.free_symbols for p in psi), "log jet left (x − x̄) in Ψ"
-            assert (cor_t.log_arguments[i].subs(now) - arguments[i]) == 0, "time and virtual motions disagree on x̄"
-        auxiliary = _log_auxiliary(tuple(arguments))
+    auxiliary = [(S(symbol), S(value)) for symbol, value in auxiliary]
     return Kinematics(
         auxiliary=auxiliary,
         convective=[S(c) for c in convective],
@@ -199,7 +288,9 @@ def derive_kinematics(measure: str = "sine", plane: str | None = None, frame_cho
         frame=[S(x) for x in frame],
         grid1=[S(x) for x in grid1],
         B=[[S(b) for b in row] for row in B],
-        H=[[[S(h) for h in r] for r in block] for block in H],
+        geometric=[[S(g) for g in row] for row in geometric],
+        geometric_definitions=[(S(symbol), S(value)) for symbol, value in weight_names],
+        rate_definitions=[(S(symbol), S(value)) for symbol, value in rates],
         omega_map=[[S(c) for c in row] for row in omega_map],
         psi_ddot=[S(p) for p in psi_ddot],
         omega_dot=[S(w) for w in omega_dot],
@@ -285,11 +376,16 @@ def build_kernels(variant: str = "default") -> list[KernelSpec]:
             return psi, force, None
         stiff_psi = b.matrix("d2U_dpsi2", [[e.xreplace(rename) for e in row] for row in ddU])
         KB = b.matrix("KB", _matmul(stiff_psi, Bm))
-        material = _matmul(_transpose(Bm), KB)
-        tangent = [
-            [material[a][c] + sp.Add(*[force_psi[k] * kin.H[k][a][c] for k in range(6)]) for c in range(N)]
-            for a in range(N)
-        ]
+        material = [[None] * N for _ in range(N)]  # Bᵀ (∂²U/∂Ψ²) B, symmetric: one triangle
+        for a in range(N):
+            for c in range(a, N):
+                material[a][c] = material[c][a] = b.define(
+                    f"material_{a}_{c}", sp.Add(*[Bm[k][a] * KB[k][c] for k in range(6)]))
+        # the geometric part Σ_k (∂U/∂Ψ_k) ∂²Ψ_k/∂q∂q, through the invariants (derive_kinematics)
+        weights = dict(zip(map(fm.to_sympy, PSI_WEIGHTS), force_psi))
+        for symbol, value in kin.geometric_definitions:
+            b.intermediates.append((symbol, value.xreplace(weights)))
+        tangent = [[material[a][c] + kin.geometric[a][c].xreplace(weights) for c in range(N)] for a in range(N)]
         return psi, force, tangent
 
     def inertia(b: Builder, with_velocity: bool):
@@ -318,6 +414,7 @@ def build_kernels(variant: str = "default") -> list[KernelSpec]:
         if not with_velocity:
             return parts
         qdot = kin.velocity
+        b.intermediates.extend(kin.rate_definitions)
         u = b.vector("u", [sp.Add(*[J[i][a] * qdot[a] for a in range(N)]) for i in range(12)])
         Jdq = b.vector("Jdq", kin.convective)
         urename = dict(zip(u_symbols, u))
@@ -399,8 +496,14 @@ def build_kernels(variant: str = "default") -> list[KernelSpec]:
 
     b = Builder(kin.auxiliary + shear_definitions)
     p = inertia(b, with_velocity=True)
-    add("beam_quadratic_velocity_D_qdot", "∂g^e/∂q̇ (exact)", "Eqs. 50-57", with_velocity,
-        [Output("quadratic_velocity_D_qdot", (N, N), _flat(quadratic_velocity_D_qdot(b, p)))], b)
+    # g^e is a quadratic form in q̇ (J̇q̇ at q̈ = 0 and ĝ are quadratic, u = Jq̇ linear), so by Euler's theorem
+    # g^e = ½ (∂g^e/∂q̇) q̇: a Newton iteration that needs the derivative gets the vector for 14² products
+    derivative = b.matrix("dg_dqdot", quadratic_velocity_D_qdot(b, p))
+    from_derivative = [sp.Add(*[derivative[a][c] * kin.velocity[c] for c in range(N)]) / 2 for a in range(N)]
+    add("beam_quadratic_velocity_D_qdot", "Quadratic-velocity vector g^e = ½(∂g^e/∂q̇)q̇ and ∂g^e/∂q̇ (exact)",
+        "Eqs. 50-57, 61-62", with_velocity,
+        [Output("quadratic_velocity", (N,), from_derivative),
+         Output("quadratic_velocity_D_qdot", (N, N), _flat(derivative))], b)
 
     b = Builder(kin.auxiliary + shear_definitions)
     p = inertia(b, with_velocity=True)

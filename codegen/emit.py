@@ -519,33 +519,49 @@ def c_prototype(spec: KernelSpec, restrict: bool = True) -> str:
     return f"void {spec.name}({', '.join(params)})"
 
 
+#: Functions of the C printer's output, and their lane-wise forms in the batched kernels
+#: (``codegen/templates/c_source.c.j2`` defines ``latdyn_<name>``).
+VECTOR_FUNCTIONS = {1: ("sqrt", "cbrt", "fabs", "exp", "log", "sin", "cos", "tan", "asin", "acos", "atan",
+                        "sinh", "cosh", "tanh", "floor", "ceil"),
+                    2: ("atan2", "pow", "hypot", "fmin", "fmax", "copysign", "fmod")}
+_VECTOR_CALL = __import__("re").compile(
+    r"\b(" + "|".join(name for names in VECTOR_FUNCTIONS.values() for name in names) + r")\(")
+
+
 def c_function(kernel: LoweredKernel) -> str:
-    """The C99 function of one kernel: a loop over elements, locals only for used inputs."""
+    """The C function of one kernel, batched over elements: the straight-line body is written once in
+    ``latdyn_vec``, a GCC/Clang vector of LATDYN_LANES doubles that holds one quantity of LATDYN_LANES
+    elements (structure of arrays within a batch), so every operation of the body is one SIMD
+    instruction across elements.  Inputs are gathered into lanes and outputs scattered back, so the
+    argument convention (``docs/kernels.md``: row-major blocks per element) is that of a scalar loop;
+    a last, partial batch repeats its last element in the unused lanes and does not store them."""
     printer = CPrinter()
     spec = kernel.spec
     columns = _used_inputs(kernel)
+
+    def vector(text: str) -> str:
+        return _VECTOR_CALL.sub(lambda m: f"latdyn_{m.group(1)}(", text)
+
     lines = [c_prototype(spec), "{"]
     for argument in spec.inputs:
         if not columns[argument.name]:
             lines.append(f"    (void){argument.name};")
-    lines.append("    for (int64_t i = 0; i < n; ++i) {")
+    lines.append("    for (int64_t i = 0; i < n; i += LATDYN_LANES) {")
+    lines.append("        int64_t e[LATDYN_LANES];")
+    lines.append("        const int lanes = latdyn_batch(e, i, n);")
     for argument in spec.inputs:
-        used = columns[argument.name]
-        if not used:
-            continue
-        lines.append(
-            f"        const double *restrict {argument.name}_i = {argument.name} + "
-            f"{argument.width}*i;"
-        )
-        for k in used:
-            lines.append(f"        const double {argument.name}_{k} = {argument.name}_i[{k}];")
+        for k in columns[argument.name]:
+            lines.append(f"        const latdyn_vec {argument.name}_{k} = "
+                         f"latdyn_load({argument.name}, {argument.width}, {k}, e);")
     for symbol, value in kernel.temporaries:
-        lines.append(f"        const double {symbol.name} = {printer.doprint(value)};")
+        text = vector(printer.doprint(value))
+        if not value.free_symbols:
+            text = f"latdyn_splat({text})"
+        lines.append(f"        const latdyn_vec {symbol.name} = {text};")
     for out, exprs in zip(spec.outputs, kernel.outputs):
-        lines.append(f"        double *restrict {out.name}_i = {out.name} + {out.size}*i;")
         for k, expr in enumerate(exprs):
-            text = _c_constant(expr) if not expr.free_symbols else printer.doprint(expr)
-            lines.append(f"        {out.name}_i[{k}] = {text};")
+            text = f"latdyn_splat({_c_constant(expr)})" if not expr.free_symbols else vector(printer.doprint(expr))
+            lines.append(f"        latdyn_store({out.name}, {out.size}, {k}, {text}, i, lanes);")
     lines.append("    }")
     lines.append("}")
     return "\n".join(lines) + "\n"
@@ -629,6 +645,7 @@ def _stamp(variant: str | None, description: str, kernels: list[PrintedKernel], 
         "variant": variant,
         "description": description,
         "kernels": kernels,
+        "vector_functions": VECTOR_FUNCTIONS,
     }
 
 

@@ -464,6 +464,91 @@ def _mean_frame_rotations(e, frame1, frame2):
 
 
 # --------------------------------------------------------------------------
+# Ψ as a function of sixteen invariants of the two ends (the structured derivation)
+# --------------------------------------------------------------------------
+#: The invariants ι of the element's configuration that Ψ depends on, with c = x_g2 − x_g1 the chord
+#: and a_k = t_e¹(k+1), b_k = t_e²(k+1) the nodal frames' axes: ι = [c·c, c·a_k, c·b_k, a_j·b_k]
+#: (1 + 3 + 3 + 9).  Every one is a dot product of two vectors that move rigidly under a change of
+#: coordinates, so its first and second derivatives in q^e are short; everything CR-4402 builds from
+#: them (Eqs. 12–21, the log map, Eq. 46) is a function of these sixteen numbers alone, written with
+#: the orthonormality of T_e¹ and T_e² (a_0 × a_1 = a_2, …), which every change of coordinates keeps.
+INVARIANT_NAMES = (["chord_chord"] + [f"chord_a{k}" for k in range(3)] + [f"chord_b{k}" for k in range(3)]
+                   + [f"a{j}_b{k}" for j in range(3) for k in range(3)])
+
+
+def invariants(grid1, frame1, grid2, frame2) -> list:
+    """ι = [c·c, c·a_k, c·b_k, a_j·b_k] (:data:`INVARIANT_NAMES`) of two grid points and nodal frames."""
+    chord = grid2 - grid1
+    a = [column(frame1, k) for k in range(3)]
+    b = [column(frame2, k) for k in range(3)]
+    return ([dot(chord, chord)] + [dot(chord, a[k]) for k in range(3)] + [dot(chord, b[k]) for k in range(3)]
+            + [dot(a[j], b[k]) for j in range(3) for k in range(3)])
+
+
+def deformation_from_invariants(iota, L0, measure: str = "sine", scales=None, planar: bool = False,
+                                frame_choice: str = "first_node"):
+    """Ψ (Eq. 46) as a function of the invariants ``iota`` (:func:`invariants`): the same Ψ as
+    :func:`corotational`, in sixteen variables instead of the 36 of the geometry block.
+
+    With ℓ = √(c·c) (Eq. 12), c_k = t_c1·a_k = (c·a_k)/ℓ, d_k = t_c1·b_k = (c·b_k)/ℓ and G_jk = a_j·b_k,
+    R_i = T_cᵀT_e^i (Eq. 6) is written in (c, d, G) for both corotational frames: the first node's
+    (t_c2·b_k = (G_1k − c_1 d_k)/n, t_c3·b_k = t_c1·(a_1 × b_k)/n = (c_0 G_2k − c_2 G_0k)/n, n = √(1 − c_1²))
+    and the mean one (:func:`_mean_frame_rotations`, the same identities).  Returns (Ψ, (x_1, x_2)):
+    the log map's arguments x_i = (3 − tr R_i)/2 for the "log" measure, else ().
+    """
+    chord2 = iota[0]
+    p, q = iota[1:4], iota[4:7]
+    G = [list(iota[7 + 3 * j: 10 + 3 * j]) for j in range(3)]
+    length = se.sqrt(chord2)
+    c = [pk / length for pk in p]
+    d = [qk / length for qk in q]
+    if planar and measure == "log":
+        # the closed-form planar log (:func:`corotational`): θ_z^i = atan2(t_e^i(3)·(c × t_e^i(1)), c·t_e^i(1))
+        # = atan2(−c·t_e^i(2), c·t_e^i(1)), as t_e^i(3) = n and t_e^i(1) × n = −t_e^i(2)
+        zero = se.Integer(0)
+        return [zero, se.atan2(-p[1], p[0]), zero, se.atan2(-q[1], q[0]), zero, length - L0], ()
+    if frame_choice == "mean" and not planar:  # in a planar configuration both frames are the same
+        R1, R2 = _mean_frame_rotations_in(c, d, G)
+    elif frame_choice in ("first_node", "mean"):
+        n = se.sqrt(1 - c[1] * c[1])
+        R1 = [c[0], c[1], c[2], -c[1] * c[0] / n, n, -c[1] * c[2] / n, -c[2] / n, se.Integer(0), c[0] / n]
+        R2 = (d + [(G[1][k] - c[1] * d[k]) / n for k in range(3)]
+              + [(c[0] * G[2][k] - c[2] * G[0][k]) / n for k in range(3)])
+    else:
+        raise ValueError(f"unknown corotational frame {frame_choice!r}")
+    if measure == "sine":
+        # φ_y¹ = t_c1·t_e¹(3), φ_z¹ = −t_c1·t_e¹(2), φ_y², φ_z² likewise (Eqs. 14–15), φ_x² = t_c3·t_e²(2) (Eq. 16)
+        return [R1[2], -R1[1], R2[2], -R2[1], R2[7], length - L0], ()
+    if measure != "log":
+        raise ValueError(f"unknown rotation measure {measure!r}")
+    if scales is None:
+        scales = (log_scale_closed_se, log_scale_closed_se)
+    thetas, arguments = [], []
+    for R, scale in ((R1, scales[0]), (R2, scales[1])):
+        R = se.DenseMatrix(3, 3, R)
+        x, _ = log_arguments(R)
+        thetas.append(log_rotation(R, scale))
+        arguments.append(x)
+    (tx1, ty1, tz1), (tx2, ty2, tz2) = thetas
+    return [ty1, tz1, ty2, tz2, tx2 - tx1, length - L0], tuple(arguments)
+
+
+def _mean_frame_rotations_in(c, d, G):
+    """R_1, R_2 of the mean frame (row-major lists) in c_k = t_c1·a_k, d_k = t_c1·b_k, G_jk = a_j·b_k
+    (the identities of :func:`_mean_frame_rotations`)."""
+    em = c[1] + d[1]
+    nm = se.sqrt(2 + 2 * G[1][1] - em * em)
+    across1 = cross(vector(c), vector([G[0][1], G[1][1], G[2][1]]))
+    across2 = cross(vector(d), vector(G[1]))
+    delta = lambda j, k: 1 if j == k else 0  # noqa: E731
+    R1 = (list(c) + [(delta(1, k) + G[k][1] - em * c[k]) / nm for k in range(3)]
+          + [(across1[k] + c[0] * delta(2, k) - c[2] * delta(0, k)) / nm for k in range(3)])
+    R2 = (list(d) + [(G[1][k] + delta(1, k) - em * d[k]) / nm for k in range(3)]
+          + [(across2[k] + d[0] * delta(2, k) - d[2] * delta(0, k)) / nm for k in range(3)])
+    return R1, R2
+
+
+# --------------------------------------------------------------------------
 # The log map, θ = log(R), in a form that is finite and smooth at R = I
 # --------------------------------------------------------------------------
 #: below x_s = 1 − cos θ_s (θ_s ≈ 26°) θ/sin θ is its Taylor polynomial, above the closed form

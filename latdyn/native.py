@@ -122,6 +122,33 @@ def compiler() -> Compiler:
     return found
 
 
+def vector_flags(using: Compiler | None = None) -> tuple[str, ...]:
+    """Flags that let the batched kernels (``codegen/templates/c_source.c.j2``) use this machine's SIMD.
+
+    ``-march=native``: the kernels then take as many lanes as one vector register holds doubles
+    (8 with AVX-512F, 4 with AVX, 2 otherwise: the template decides from the compiler's macros; a
+    4-lane vector type without AVX would be emulated, 10x slower).  The macros -march=native
+    defines are hashed into ``-DLATDYN_ISA=``, so that a cache shared by different machines keeps
+    one library per instruction set (a library built for another CPU could stop on an illegal
+    instruction).  Found once per compiler; () when the compiler does not take -march=native."""
+    using = using or compiler()
+    key = using.identity()
+    if key not in _VECTOR_FLAGS:
+        try:
+            result = subprocess.run([*using.command, "-march=native", "-dM", "-E", "-x", "c", os.devnull],
+                                    capture_output=True, timeout=120, check=False)
+            macros = result.stdout.decode(errors="replace") if result.returncode == 0 else ""
+        except (OSError, subprocess.SubprocessError):
+            macros = ""
+        defined = {line.split()[1] for line in macros.splitlines() if line.startswith("#define ")}
+        isa = hashlib.sha256("\n".join(sorted(defined)).encode()).hexdigest()[:12]
+        _VECTOR_FLAGS[key] = ("-march=native", f"-DLATDYN_ISA={isa}") if defined else ()
+    return _VECTOR_FLAGS[key]
+
+
+_VECTOR_FLAGS: dict[bytes, tuple[str, ...]] = {}
+
+
 def target(name: str, source: bytes, flags=C_FLAGS, using: Compiler | None = None) -> Path:
     """The cache path of ``source`` built with ``flags`` by ``using`` (default :func:`compiler`).
     ``source`` may stand for the source: anything that determines it (see ``key`` of :func:`build`)."""

@@ -87,7 +87,7 @@ def test_quadratic_velocity_derivative(kernels, regime):
     for s in states(3, deformation=regime):
         qdot = rng.normal(size=14)
         g = lambda v: kernels.beam_quadratic_velocity(s.geometry(), v[None], s.section[None])[0][0]  # noqa: E731
-        (exact,) = kernels.beam_quadratic_velocity_D_qdot(s.geometry(), qdot[None], s.section[None])
+        (_, exact) = kernels.beam_quadratic_velocity_D_qdot(s.geometry(), qdot[None], s.section[None])
         numeric = np.column_stack([(g(qdot + H * unit(k)) - g(qdot - H * unit(k))) / (2 * H) for k in range(14)])
         assert_close(exact[0], numeric, "∂g/∂q̇")
 
@@ -102,7 +102,7 @@ def test_dynamics_kernel_matches_separate_kernels(kernels):
                 kernels.beam_internal_force_D_q(geometry, section)[1],
                 kernels.beam_mass_matrix(geometry, section)[0],
                 kernels.beam_quadratic_velocity(geometry, qdot, section)[0],
-                kernels.beam_quadratic_velocity_D_qdot(geometry, qdot, section)[0]]
+                kernels.beam_quadratic_velocity_D_qdot(geometry, qdot, section)[1]]
     for a, b in zip(combined, separate):
         np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-12 * np.abs(b).max())
 

@@ -125,7 +125,7 @@ def test_no_pow_for_integer_powers(toy_dir):
     text = (toy_dir / "beam_default.c").read_text()
     calls = re.findall(r"pow\(([^;]*?)\)", text)
     assert all(not re.search(r",\s*-?\d+(\.0)?\s*$", c) for c in calls), calls
-    assert "sqrt(" in text and "*sqrt(" in text and "(1.0/" in text
+    assert "latdyn_sqrt(" in text and "*latdyn_sqrt(" in text and "(1.0/" in text  # lane-wise (batched) sqrt
 
 
 def test_power_printing():
@@ -172,7 +172,7 @@ def test_intermediates():
     names = [s.name for s, _ in lowered.temporaries]
     assert "a_len" in names and "b_unused" not in names
     text = emit.c_function(lowered)
-    assert "const double a_len =" in text
+    assert "const latdyn_vec a_len =" in text
 
 
 DETERMINISM_SCRIPT = r"""

@@ -101,7 +101,7 @@ def test_planar_kernels_equal_the_3d_element_in_the_plane(pair):
             (full.beam_quadratic_velocity(geometry, qdot, section),
              planar.beam_quadratic_velocity(geometry, qdot, section), "vector"),
             (full.beam_quadratic_velocity_D_qdot(geometry, qdot, section),
-             planar.beam_quadratic_velocity_D_qdot(geometry, qdot, section), "matrix"),
+             planar.beam_quadratic_velocity_D_qdot(geometry, qdot, section), "vector-matrix"),
             (full.beam_kinetic_energy(geometry, qdot, section), planar.beam_kinetic_energy(geometry, qdot, section),
              None),
             (full.beam_gravity(geometry, section, gravity), planar.beam_gravity(geometry, section, gravity),
@@ -149,7 +149,7 @@ def test_planar_derivatives_against_finite_differences(pair):
         np.testing.assert_allclose(tangent[:, keep], numeric_tangent, rtol=0, atol=1e-6 * np.abs(tangent).max())
         qdot = planar_velocity(rng, normal)
         g = lambda v: planar.beam_quadratic_velocity(s.geometry(), v[None], section)[0][0]  # noqa: E731
-        (exact,) = planar.beam_quadratic_velocity_D_qdot(s.geometry(), qdot[None], section)
+        (_, exact) = planar.beam_quadratic_velocity_D_qdot(s.geometry(), qdot[None], section)
         unit = np.eye(14)
         numeric = np.column_stack([(g(qdot + H * unit[k]) - g(qdot - H * unit[k])) / (2 * H) for k in keep])
         np.testing.assert_allclose(exact[0][:, keep], numeric, rtol=0, atol=1e-6 * np.abs(exact).max())

@@ -225,16 +225,14 @@ def _composed(meta: dict, parts, kernels: dict, functions: dict) -> Callable:
 # generator no longer emits it (14 µs per element against 11 µs for the combined function
 # in C, measured on the 2-core development machine).
 
-#: The optimisation level of each unit, by its operation count after CSE. A straight-line
-#: kernel of thousands of operations runs about as fast unoptimised (its temporaries live
-#: in the L1 cache either way) and compiles 20-30× faster: internal_force_D_q of cr4402
-#: (16 000 ops) takes 0.4 s at -O0 against 8.6 s at -O1 and 12.6 s at -O2, for 6.2 against
-#: 5.8 and 6.8 µs an element; the mass matrix (7 300 ops) 3.3 µs at -O0 against 1.9 at -O1
-#: for 0.16 against 1.7 s of compiling (benchmarks/compile_levels.py,
-#: results/compile_levels_cr4402.json). The log-map variant's kernels are 2-4× larger and
-#: GCC's -O1 needs minutes and gigabytes on some of them, so -O1 only pays for the small
-#: units; the first run's compile stays within seconds.
-OPT_LIMIT_OPS = 2_000
+#: The optimisation level of each unit, by its operation count after CSE. The kernels are
+#: batched over elements (codegen/templates/c_source.c.j2: one SIMD lane per element, the
+#: lane count of native.vector_flags) and derived through small Jacobians (issue 19), so
+#: the largest unit of the default element has 25 000 operations: -O1 compiles it in 6 s and
+#: runs it 2.3x faster than -O0 (0.81 against 1.88 µs an element with 8 lanes; -O2: 0.84 µs,
+#: 8 s; benchmarks/compile_levels.py). Units larger than OPT_LIMIT_OPS stay at -O0, where GCC
+#: needs seconds rather than minutes.
+OPT_LIMIT_OPS = 40_000
 
 
 def optimisation(ops: int) -> str:
@@ -244,8 +242,7 @@ def optimisation(ops: int) -> str:
 
 #: Kernels composed from their parts in the C backend (see above), name -> parts.
 COMPOSED = {
-    "beam_dynamics": ("beam_internal_force_D_q", "beam_mass_matrix", "beam_quadratic_velocity",
-                      "beam_quadratic_velocity_D_qdot"),
+    "beam_dynamics": ("beam_internal_force_D_q", "beam_mass_matrix", "beam_quadratic_velocity_D_qdot"),
 }
 
 
@@ -279,7 +276,8 @@ def _compile(stem: str, names, ops: dict[str, int] | None = None) -> dict[str, c
 
     units = _kernel_sources(stem, names)
     using = native.compiler()  # NoCompiler (a RuntimeError) says why not
-    flags = {name: (optimisation((ops or {}).get(name, 0)), *C_FLAGS[1:]) for name in units}
+    simd = native.vector_flags(using)
+    flags = {name: (optimisation((ops or {}).get(name, 0)), *C_FLAGS[1:], *simd) for name in units}
     targets = {name: native.target(f"{name}-{stem}", units[name], flags[name], using) for name in units}
     todo = [name for name, target in targets.items() if not target.exists()]
     if todo:

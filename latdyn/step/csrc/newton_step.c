@@ -43,6 +43,7 @@
 typedef void (*kernel_2_1)(int64_t, const double *, const double *, double *);
 typedef void (*kernel_2_2)(int64_t, const double *, const double *, double *, double *);
 typedef void (*kernel_3_1)(int64_t, const double *, const double *, const double *, double *);
+typedef void (*kernel_3_2)(int64_t, const double *, const double *, const double *, double *, double *);
 typedef void (*kernel_gravity)(int64_t, const double *, const double *, const double *, double *, double *,
                                double *);
 /* the generated unit generated/joints.c (codegen/joints.py) */
@@ -100,7 +101,7 @@ typedef struct {
     kernel_2_2 internal_force_D_q;
     kernel_2_1 mass_matrix;
     kernel_3_1 quadratic_velocity;
-    kernel_3_1 quadratic_velocity_D_qdot;
+    kernel_3_2 quadratic_velocity_D_qdot;  /* g^e and its q̇-derivative */
     kernel_gravity gravity_load;
     kernel_2_2 strain_energy;
     kernel_3_1 kinetic_energy;
@@ -376,12 +377,13 @@ static void element_range(const Model *m, const Configuration *c, Work *w, int64
     double *force = w->force + 14 * begin, *tangent = w->tangent + 196 * begin;
     if (matrices) {
         m->internal_force_D_q(n, geometry, section, force, tangent);
-        m->quadratic_velocity_D_qdot(n, geometry, rates, section, w->quadratic_D + 196 * begin);
+        m->quadratic_velocity_D_qdot(n, geometry, rates, section, w->quadratic + 14 * begin,
+                                     w->quadratic_D + 196 * begin);
     } else {
         m->internal_force(n, geometry, section, force);
+        m->quadratic_velocity(n, geometry, rates, section, w->quadratic + 14 * begin);
     }
     m->mass_matrix(n, geometry, section, w->mass + 196 * begin);
-    m->quadratic_velocity(n, geometry, rates, section, w->quadratic + 14 * begin);
     if (m->has_gravity)
         m->gravity_load(n, geometry, section, w->gravity_rows + 3 * begin, w->gravity_force + 14 * begin,
                         w->gravity_potential + begin, w->first_moment + 3 * begin);
