@@ -442,6 +442,8 @@ def exudyn_run(exu, eii, bays: int, cfg: dict) -> dict:
     ti.newton.useModifiedNewton = cfg.get("modified", True)
     if cfg.get("atol") is not None:
         ti.newton.absoluteTolerance = cfg["atol"]
+    if cfg.get("rtol") is not None:
+        ti.newton.relativeTolerance = cfg["rtol"]
     ss.solution.file.write = False
     ss.solution.sensors.writePeriod = cfg["dt"]
     ss.linearSolver.solverType = exu.LinearSolverType.EigenSparse
