@@ -64,6 +64,11 @@ BAYS = (8, 32, 128, 512, 2084, 8334)
 STEPS_PER_T = 50
 T_RES = (1.0, 0.1)      # s: periods a 500 s deployment run resolves (assumption, tabulated)
 SIMULATED = 500.0       # s
+EXTRAPOLATION_ASSUMPTIONS = (
+    "steps = 500 s / (T_res / k), k the steps per period of latdyn's fastest setting within 1 % at the largest "
+    "lattice of peers.json; its Newton iterations and factorizations per step; a factorizing iteration costs the "
+    "measured full iteration, the others the held one, at the largest model measured; the deployment converges "
+    "like the benchmark's vibration (no step cuts, same iterations per step), no results written.")
 
 
 def _steps(step, state, h, steps):
@@ -225,9 +230,19 @@ def main(argv=None) -> int:
     ap.add_argument("--peers", default=str(ROOT / "benchmarks" / "results" / "peers.json"))
     ap.add_argument("--out", default=str(OUT))
     ap.add_argument("--markdown", metavar="JSON")
+    ap.add_argument("--extrapolate-only", action="store_true",
+                    help="recompute the extrapolation of --out from its rows and the current --peers file")
     args = ap.parse_args(argv)
     if args.markdown:
         print(markdown(json.loads(Path(args.markdown).read_text())))
+        return 0
+    if args.extrapolate_only:
+        doc = json.loads(Path(args.out).read_text())
+        setting = matched_setting(Path(args.peers))
+        doc["matched_setting"] = setting
+        doc["extrapolation"] = extrapolate(doc["rows"], setting)
+        Path(args.out).write_text(json.dumps(doc, indent=1) + "\n")
+        print(markdown(doc))
         return 0
     bays = [int(b) for b in args.bays.split(",")]
     latdyn.scene.loader.MAX_ELEMENTS = max(latdyn.scene.loader.MAX_ELEMENTS, 12 * max(bays) + 12)
@@ -250,14 +265,11 @@ def main(argv=None) -> int:
     doc = {"schema": "latdyn-lattice-scaling/1", "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
            "machine": machine, "steps": args.steps, "steps_per_T": STEPS_PER_T, "rows": rows}
     setting = matched_setting(Path(args.peers))
+    doc["extrapolation_assumptions"] = EXTRAPOLATION_ASSUMPTIONS
     if setting is not None:
         doc["matched_setting"] = setting
         doc["extrapolation"] = extrapolate(rows, setting)
-        doc["extrapolation_assumptions"] = (
-            "steps = 500 s / (T_res / k), k the steps per period of latdyn's fastest setting within 1 % at the "
-            "largest lattice of peers.json; its Newton iterations and factorizations per step; a factorizing "
-            "iteration costs the measured full iteration, the others the held one, at the largest model measured; "
-            "the deployment converges like the benchmark's vibration (no step cuts), no results written.")
+
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
     Path(args.out).write_text(json.dumps(doc, indent=1) + "\n")
     print(markdown(doc))

@@ -1165,20 +1165,25 @@ def markdown(doc):
 
 
 def lattice_markdown(doc):
-    """The lattice tables: every run of the search (candidates in bold), then matched accuracy."""
+    """The lattice tables: the candidates of the search (per code, variant and element count the
+    coarsest step within tolerance, timed ``repeats`` times; every run of the search is in
+    peers.csv), then matched accuracy."""
     spec = doc["problems"]["lattice"]
+    n_rows = sum(r["problem"] == "lattice" for r in doc["rows"])
     out = ["", f"#### lattice (error: {spec['error']}; tolerance {spec['tolerance']:g})", "",
+           f"Candidates (the coarsest step within tolerance per code, variant and element count; all {n_rows} "
+           f"runs of the search are in peers.csv):", "",
            "| bays | code | engine | setting | status | error | solver s | run s | process s | coordinates | steps "
            "| Newton it. | Jacobians | load |", "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in doc["rows"]:
-        if r["problem"] != "lattice":
+        if r["problem"] != "lattice" or not r.get("candidate"):
             continue
         err = _fmt(r["error"], ".2e")
         if r["status"] != "ok":
             err = (r["note"] or r["status"])[:60]
         elif r["code"] == "opensees":
             err += f" (EB {_fmt(r['error_parts'].get('history_vs_euler_bernoulli'), '.2e')})"
-        setting = f"**{r['setting']}**" if r.get("candidate") else r["setting"]
+        setting = r["setting"]
         n_all = len(r.get("solver_s_all") or [])
         solver = _fmt(r["solver_s"], ".3f") + (f" ({n_all})" if n_all > 1 else "")
         out.append(f"| {r['bays']} | {r['code']} | {r['engine']} | {setting} | {r['status']} | {err} | {solver} | "
