@@ -618,15 +618,15 @@ def latdyn_run(latdyn, bays: int, cfg: dict) -> dict:
 
 
 # ----------------------------------------------------------------------------- reference
-#: The reference runs: latdyn with REFERENCE_ELEMENTS elements a member (8 below 8 bays, where
-#: the members' own vibrations are in the response) and dt = T/REFERENCE_STEPS, default
+#: The reference runs: latdyn with reference_elements(bays) elements a member (8 below 8 bays, where
+#: the members' own vibrations are in the response, 2 from 128 bays on) and dt = T/REFERENCE_STEPS, default
 #: formulation, full Newton; a run at half the elements and twice the step shows how far it is
 #: converged; Exudyn and OpenSeesPy at fine settings cross-check it.
 REFERENCE_STEPS = 800
 
 
 def reference_elements(bays: int) -> int:
-    return 8 if bays < 8 else 4
+    return 8 if bays < 8 else (4 if bays < 128 else 2)
 
 
 def _history(t, u, digits: int = 9) -> dict:
@@ -640,7 +640,7 @@ def make_reference(bays_list, latdyn, exu=None, eii=None, ops=None, log=print, r
     doc = load_reference()
     doc.setdefault("bays", {})
     doc["how"] = ("latdyn (solve.formulation default, full Newton, generalized-alpha rho_inf 0.8) with "
-                  "reference_elements(bays) elements a member (8 below 8 bays, else 4) and dt = T/800, "
+                  "reference_elements(bays) elements a member (8 below 8 bays, 4 below 128, else 2) and dt = T/800, "
                   "recorded every step; 'timoshenko': the benchmark's members (GA = 0.5 G A, rotary "
                   "inertia rho I); 'euler_bernoulli': the same members shear-rigid without rotary inertia "
                   "(what OpenSeesPy's elasticBeamColumn models).  'checks': the largest deviation of other "
@@ -683,13 +683,13 @@ def make_reference(bays_list, latdyn, exu=None, eii=None, ops=None, log=print, r
                   ("latdyn_eb_vs_timoshenko", "timoshenko", None, "the euler_bernoulli reference")]
         # Exudyn's element converges slowly where the members vibrate (below 8 bays); an absolute
         # Newton tolerance of 1e-6 F0 stalled it at 64 bays (minutes of Jacobian updates): 1e-4 F0
-        ee = 32 if bays < 8 else 4
+        ee = 32 if bays < 8 else (4 if bays < 128 else 2)
         if exu is not None:
             checks.append(("exudyn_beam", "timoshenko", lambda: exudyn_run(exu, eii, bays, dict(
                 elements=ee, dt=2 * eq["T"] / REFERENCE_STEPS, atol=1e-4 * eq["F0"])),
                 f"Exudyn ObjectBeamGeometricallyExact {ee} el/member, dt T/{REFERENCE_STEPS // 2}, "
                 f"modified Newton, abs tol 1e-4 F0"))
-        eo = e if bays < 8 else 2
+        eo = e if bays < 8 else (2 if bays < 128 else 1)
         if ops is not None:
             checks.append(("opensees_vs_euler_bernoulli", "euler_bernoulli", lambda: opensees_run(ops, bays, dict(
                 elements=eo, dt=2 * eq["T"] / REFERENCE_STEPS, tol=1e-10)),

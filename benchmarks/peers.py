@@ -643,7 +643,12 @@ def lattice_sweep(bays_list, quick, repeats, log):
     variants = lattice_variants(quick)
     ladder = (50, 100) if quick else STEP_LADDER
     entries = []   # [code, variant, bays, e, k, cfg, results]
+    reference = lattice_problem.load_reference()
     for bays in bays_list:
+        if str(bays) not in reference.get("bays", {}):
+            log(f"  lattice {bays} bays: no reference history in {lattice_problem.REFERENCE_FILE.name}: skipped "
+                f"(python benchmarks/peers.py --reference --problems lattice --bays {bays})")
+            continue
         # warm-up (not timed): kernels, the scene's laws, imports
         for code, variant, base, _ in variants:
             lattice_once(code, dict(base, bays=bays, elements=1 if code != "exudyn" else 2, steps_per_T=10,
@@ -699,6 +704,8 @@ def lattice_matched(rows, bays_list):
     for bays in bays_list:
         ok = [r for r in rows if r["problem"] == "lattice" and r["bays"] == bays and r["status"] == "ok"
               and r["solver_s"]]
+        if not ok:
+            continue
         within = [r for r in ok if r["error"] is not None and r["error"] <= LATTICE_TOL]
         lat = [r for r in within if r["code"] == "latdyn"]
         entry = {"problem": "lattice", "bays": bays, "tolerance": LATTICE_TOL}
@@ -726,7 +733,8 @@ def lattice_matched(rows, bays_list):
                 best = min((r for r in ok if r["code"] == code and r["engine"] == engine),
                            key=lambda r: r["error"] if r["error"] is not None else math.inf, default=None)
                 peer["note"] = ("no setting within the tolerance" +
-                                (f"; smallest error {best['error']:.2e} ({best['setting']})" if best else ""))
+                                (f"; smallest error {best['error']:.2e} ({best['setting']})"
+                                 if best and best["error"] is not None else ""))
             if own and (not mine or min(own, key=lambda r: r["solver_s"])["setting"] != peer.get("setting")):
                 O = min(own, key=lambda r: r["solver_s"])
                 peer["own_physics"] = {"reference": "euler_bernoulli", "setting": O["setting"],
@@ -1084,19 +1092,44 @@ def main(argv=None):
     out = Path(args.out)
     kept = []
     old = json.loads(out.with_suffix(".json").read_text()) if out.with_suffix(".json").exists() else None
+    measured = {"created": None, "git": info.get("git"), "load_average_start": info["load_average_start"],
+                "load_average_end": info["load_average_end"]}
+    for name in problems:
+        specs.get(name, {})["measured"] = measured   # which run measured a problem's rows
     if old is not None and set(problems) != {"spinup", "cantilever", "lattice"}:
         for name in old.get("problems", {}):
             if name not in problems:
                 kept.append(name)
                 specs[name] = old["problems"][name]
+                specs[name].setdefault("measured", {"created": old.get("created"), "git": old["machine"].get("git"),
+                                                    "load_average_start": old["machine"].get("load_average_start"),
+                                                    "load_average_end": old["machine"].get("load_average_end")})
                 rows = [r for r in old["rows"] if r["problem"] == name] + rows
                 matched = [m for m in old["matched"] if m["problem"] == name] + matched
-        if kept:
-            notes.append(f"rows of {', '.join(kept)} kept from the run of {old.get('created')} "
-                         f"(machine and load of that run: {json.dumps(old.get('machine', {}).get('load_average_start'))})")
+    if old is not None and "lattice" in problems and "lattice" in old.get("problems", {}):
+        done = set(bays_list)
+        old_rows = [r for r in old["rows"] if r["problem"] == "lattice" and r["bays"] not in done]
+        if old_rows:
+            sizes = sorted({r["bays"] for r in old_rows})
+            rows = [r for r in rows if r["problem"] != "lattice"] + old_rows + \
+                [r for r in rows if r["problem"] == "lattice"]
+            matched = matched + [m for m in old["matched"] if m["problem"] == "lattice" and m["bays"] not in done]
+            specs["lattice"]["bays"] = sorted(done | set(sizes))
+            specs["lattice"]["measured_sizes"] = dict(old["problems"]["lattice"].get("measured_sizes") or {
+                str(b): old["problems"]["lattice"].get("measured") for b in sizes})
+            specs["lattice"]["measured_sizes"].update({str(b): measured for b in bays_list})
+            notes.append(f"lattice rows of {sizes} bays kept from the run of "
+                         f"{old['problems']['lattice'].get('measured', {}).get('created')} (problems.lattice.measured_sizes)")
+    if kept:
+        notes.append("rows of " + ", ".join(f"{k} kept from the run of {specs[k]['measured']['created']}"
+                                            for k in kept) + " (problems.NAME.measured)")
+    matched = [m for m in matched if m["problem"] != "lattice"] + \
+        sorted((m for m in matched if m["problem"] == "lattice"), key=lambda m: m["bays"])
     specs = {k: v for k, v in specs.items() if k in problems or k in kept}
+    created = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
+    measured["created"] = created
     doc = {"schema": "latdyn-peers/1",
-           "created": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+           "created": created,
            "mode": "quick" if args.quick else "full", "repeats": repeats, "machine": info, "notes": notes,
            "problems": specs, "rows": rows, "matched": matched}
     out.parent.mkdir(parents=True, exist_ok=True)
