@@ -654,6 +654,11 @@ def lattice_sweep(bays_list, quick, repeats, log):
             lattice_once(code, dict(base, bays=bays, elements=1 if code != "exudyn" else 2, steps_per_T=10,
                                     t_end=lattice_problem.equivalent_beam(bays)["T"] / 5))
         for code, variant, base, element_list in variants:
+            if code == "exudyn" and base.get("atol_F0") == 1e-4 and bays >= 128:
+                # F0 falls as 1/L²: an absolute residual tolerance of 1e-4 F0 (0.4 mN at 256 bays)
+                # stalled Exudyn's Newton (a 256-bay run still going after 9 minutes): loose tolerance only
+                log(f"  lattice {bays} bays {code} {variant}: not searched from 128 bays on (Newton stalls)")
+                continue
             found = None   # (e, k) of the first candidate
             cost = None    # solver seconds per (element-member x step) seen, to predict run times
             for e in element_list:
