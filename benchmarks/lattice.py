@@ -352,7 +352,6 @@ def exudyn_model(exu, eii, bays: int, elements: int, model: str = "beam"):
 
 
 def _exudyn_rbs(exu, eii, SC, mbs, bays, elements, J):
-    from exudyn.rigidBodyUtilities import RotationMatrix2EulerParameters
     ground = mbs.AddObject(eii.ObjectGround())
     # nodes: joints and inner points, with lumped mass and inertia (global axes, t = 0)
     mass: dict = {}

@@ -42,7 +42,6 @@ import argparse
 import json
 import os
 import platform
-import statistics
 import sys
 import time
 from pathlib import Path
@@ -210,7 +209,8 @@ def markdown(doc: dict) -> str:
         lu = r["solver"] + (f" (kl {r['kl']})" if r.get("kl") is not None else "")
         f = lambda x, s=".2f": "–" if x is None else format(x, s)  # noqa: E731
         lines.append(f"| {r['bays']} | {r['elements']} | {r['coordinates']} | {r['formulation']} | {r['threads']} | "
-                     f"{lu} | {f(1e3 * r['full_iteration_s'])} | {f(r.get('held_iteration_s') and 1e3 * r['held_iteration_s'])} | "
+                     f"{lu} | {f(1e3 * r['full_iteration_s'])} | "
+                     f"{f(r.get('held_iteration_s') and 1e3 * r['held_iteration_s'])} | "
                      f"{f(r.get('tangent_part_s') and 1e3 * r['tangent_part_s'])} | "
                      f"{f(r.get('band_lu_s') and 1e3 * r['band_lu_s'])} | {f(r['us_per_element_full_iteration'])} | "
                      f"{f(r.get('us_per_element_held_iteration'))} | {f(r['build_s'], '.1f')} | "

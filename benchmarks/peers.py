@@ -1123,8 +1123,9 @@ def main(argv=None):
             specs["lattice"]["measured_sizes"] = dict(old["problems"]["lattice"].get("measured_sizes") or {
                 str(b): old["problems"]["lattice"].get("measured") for b in sizes})
             specs["lattice"]["measured_sizes"].update({str(b): measured for b in bays_list})
-            notes.append(f"lattice rows of {sizes} bays kept from the run of "
-                         f"{old['problems']['lattice'].get('measured', {}).get('created')} (problems.lattice.measured_sizes)")
+            when = old["problems"]["lattice"].get("measured", {}).get("created")
+            notes.append(f"lattice rows of {sizes} bays kept from the run of {when} "
+                         "(problems.lattice.measured_sizes)")
     if kept:
         notes.append("rows of " + ", ".join(f"{k} kept from the run of {specs[k]['measured']['created']}"
                                             for k in kept) + " (problems.NAME.measured)")
@@ -1140,7 +1141,8 @@ def main(argv=None):
     out.parent.mkdir(parents=True, exist_ok=True)
     out.with_suffix(".json").write_text(json.dumps(doc, indent=1, default=float) + "\n")
     cols = ["problem", "code", "engine", "setting", "bays", "elements", "coordinates", "dt", "t_end", "method",
-            "newton", "status", "error", "steps", "newton_iterations", "jacobian_updates", "solver_s", "run_s", "compile_s",
+            "newton", "status", "error", "steps", "newton_iterations", "jacobian_updates", "solver_s", "run_s",
+            "compile_s",
             "process_s", "load_average", "note"]
     with open(out.with_suffix(".csv"), "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=cols, extrasaction="ignore")
