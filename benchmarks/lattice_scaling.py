@@ -258,7 +258,9 @@ def main(argv=None) -> int:
     bays = [int(b) for b in args.bays.split(",")]
     latdyn.scene.loader.MAX_ELEMENTS = max(latdyn.scene.loader.MAX_ELEMENTS, 12 * max(bays) + 12)
     cpu = next((line.split(":", 1)[1].strip() for line in open("/proc/cpuinfo") if "model name" in line), "?")
-    machine = {"cpu": cpu, "cores": os.cpu_count(), "python": platform.python_version(),
+    from peers import _git
+
+    machine = {"cpu": cpu, "cores": os.cpu_count(), "python": platform.python_version(), "git": _git(),
                "OMP_NUM_THREADS": os.environ.get("OMP_NUM_THREADS"), "load_average_before": os.getloadavg()}
     rows = []
     for b in bays:
