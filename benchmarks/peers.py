@@ -1,13 +1,15 @@
-"""latdyn against Exudyn on the same machine, in one run: error and solver time per setting.
+"""latdyn against Exudyn and OpenSeesPy on the same machine, in one run: error and solver time per setting.
 
 Run from the repository root::
 
-    pip install -e ".[peers]"          # Exudyn is an optional extra, never a requirement
-    python benchmarks/peers.py          # full sweep (several minutes on 2 cores)
+    pip install -e ".[peers]"          # Exudyn and OpenSeesPy are an optional extra, never a requirement
+    python benchmarks/peers.py          # full sweep (about half an hour on 2 cores, most of it the lattice)
     python benchmarks/peers.py --quick  # one or two settings per code, one repeat
+    python benchmarks/peers.py --problems lattice --bays 4,16,64   # the lattice alone (other rows kept)
+    python benchmarks/peers.py --reference --problems lattice --bays 4,16,64   # its reference histories
 
-Without Exudyn the script still runs and writes the latdyn rows, with a note saying how
-to install it.  Results: ``benchmarks/results/peers.json`` and ``peers.csv`` (``--out``
+Without Exudyn (or OpenSeesPy) the script still runs and writes the other codes' rows, with a
+note saying how to install it.  Results: ``benchmarks/results/peers.json`` and ``peers.csv`` (``--out``
 changes the stem); ``docs/performance.md`` reads them.
 
 Problems
@@ -18,6 +20,20 @@ Problems
                 tip deflection in the hub frame (y), against the converged solution of issue 8
                 (v(5 s) = -0.46843, v(10 s) = -0.36280, min -0.57379 m at 6.762 s).  Matched
                 accuracy: error <= 1e-3 m.
+``lattice``     A clamped 3D truss beam of N bays with rigid joints (``benchmarks/lattice.py``:
+                square section 0.5 m, bays of 0.5 m, 4 longerons, 4 battens a station, a
+                diagonal a face a bay, aluminium tubes, shear-deformable with rotary inertia),
+                a sin² tip pulse along z of length T/2, free vibration to 2 T (T ≈ the first
+                bending period), N in ``--bays`` (default 4, 16, 64).  Error: the largest
+                deviation of the tip history (mean z of the 4 tip joints) from the converged
+                reference history (``benchmarks/references/lattice.json``) over the peak.
+                Matched accuracy: <= 1 %.  Codes: latdyn, Exudyn (geometrically exact beams
+                welded at the joints; a rigid-body–spring model), OpenSeesPy
+                (elasticBeamColumn + Corotational; Euler–Bernoulli members without rotary
+                inertia, so also scored against a reference of that physics).  Each code's
+                fastest setting within 1 % is searched (elements a member 1, 2, 4, … and
+                steps per T 25 … 400, coarsest first; ``lattice_sweep``), then the
+                candidates are timed ``repeats`` times.
 ``cantilever``  Simo & Vu-Quoc right-angle cantilever,
                 ``examples/benchmarks/D2_right_angle_cantilever.yaml`` (two legs of 10, EA 1e6,
                 EI = GJ = 1e3, rhoA 1, rotary inertia [20, 10, 10], out-of-plane triangular
@@ -65,8 +81,8 @@ JSON schema (``peers.json``)
                           "error": str (definition), "error_unit": "m" | "relative",
                           "tolerance": float}},
       "rows": [{
-          "problem": "spinup" | "cantilever",
-          "code": "latdyn" | "exudyn",
+          "problem": "spinup" | "cantilever" | "lattice",
+          "code": "latdyn" | "exudyn" | "opensees",
           "engine": str,          # latdyn: "<kernel backend>/<step engine>" (summary.json
                                   # backend, engine); exudyn: element type
           "setting": str,         # label, unique per problem and code
@@ -89,12 +105,23 @@ JSON schema (``peers.json``)
           "compile_s": float | null,              # latdyn: when summary.json reports it
           "process_s": float | null,              # one fresh process, when measured
           "load_average": float,                  # 1-min, mean over the row's timed runs
-          "note": str}],
+          "note": str,
+          # lattice rows add: "bays", "elements_per_member", "coordinates" (the code's own count of
+          # unknowns), "steps_per_T", "variant" (the code's setting family), "candidate" (timed
+          # again: the coarsest step within tolerance of its variant and element count)
+          }],
       "matched": [{"problem", "tolerance", "latdyn_setting", "latdyn_error", "latdyn_s",
                    "exudyn_engine", "exudyn_setting", "exudyn_error", "exudyn_s",
                    "ratio": latdyn_s / exudyn_s,     # fastest ok row (by solver_s) of each code within
                    "latdyn_run_s", "exudyn_run_s",   # tolerance (t_end 10 s), one entry per Exudyn
                    "ratio_run": latdyn_run_s / exudyn_run_s}]   # element; ratio_run: same rows, run_s
+               # lattice entries: {"problem": "lattice", "bays", "tolerance", "latdyn_setting",
+               #   "latdyn_error", "latdyn_s", "latdyn_run_s", "latdyn_process_s", "latdyn_coordinates",
+               #   "peers": [{"code", "engine", "setting", "error", "solver_s", "run_s", "process_s",
+               #              "coordinates", "ratio": latdyn_s / solver_s, "ratio_run",
+               #              "own_physics": {...} (OpenSeesPy against the euler_bernoulli reference),
+               #              "note" (no setting within tolerance)}],
+               #   "best_peer", "ratio_best_peer"}
     }
 
 ``peers.csv`` holds the rows, one line each, with the scalar columns above.
@@ -151,6 +178,12 @@ try:
 except ImportError:  # optional
     exu = eii = None
     EXUDYN_VERSION = None
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import lattice as lattice_problem  # noqa: E402  (benchmarks/lattice.py: the lattice problem's models)
+
+ops = lattice_problem.import_opensees()  # OpenSeesPy (optional), after its libraries are preloaded
+OPENSEES_VERSION = lattice_problem.opensees_version(ops) if ops is not None else None
 
 EXUDYN_MISSING = ("Exudyn is not installed: latdyn rows only.  Install the optional extra with "
                   "`pip install -e \".[peers]\"` (or `pip install exudyn`) and rerun.")
@@ -505,6 +538,266 @@ def exudyn_once(problem, cfg):
     return out
 
 
+# ----------------------------------------------------------------------------- lattice
+LATTICE_TOL = 1e-2          # relative: history deviation over the peak (benchmarks/lattice.py error)
+LATTICE_BAYS = (4, 16, 64)
+STEP_LADDER = (25, 35, 50, 70, 100, 140, 200, 280, 400)   # steps per period T tried, coarsest first
+LATTICE_RUN_BUDGET_S = 150.0  # a search run predicted to take longer is not started
+
+
+def lattice_variants(quick):
+    """(code, variant label, base cfg, elements a member to try) of the lattice search.
+
+    Tolerances: each code's Newton tolerance is part of its setting, held honest by the error
+    against the reference: latdyn's increment test (1e-8 of the scene's length, its default,
+    and 1e-6); Exudyn's residual test (absolute 1e-4 F0 with its default relative 1e-8, and a
+    loose absolute 1e-2 F0 / relative 1e-5); OpenSeesPy's NormDispIncr 1e-8 L (1e-6 and 1e-5
+    L took as many iterations in a trial at 16 bays).  OpenSeesPy's ``ModifiedNewton -initial``
+    is not searched: it failed within the first steps at 42 of the 45 settings tried (4, 16,
+    64 bays) in a first pass."""
+    out = [("latdyn", "cr4402, modified Newton, tol 1e-6",
+            {"formulation": "cr4402", "newton": "modified", "tol": 1e-6}, (1, 2, 4)),
+           ("latdyn", "cr4402, modified Newton", {"formulation": "cr4402", "newton": "modified"}, (1, 2, 4)),
+           ("latdyn", "default element, full Newton", {}, (1, 2, 4))]
+    if quick:
+        out = out[:1]
+    if exu is not None:
+        loose = {"atol_F0": 1e-2, "rtol": 1e-5}
+        out.append(("exudyn", "beam, modified Newton, loose tol", dict(model="beam", modified=True, **loose),
+                    (2, 4, 8, 16, 32)))
+        out.append(("exudyn", "rigid-body-spring, modified Newton, loose tol",
+                    dict(model="rbs", modified=True, **loose), (2, 4, 8, 16, 32)))
+        if not quick:
+            out.append(("exudyn", "rigid-body-spring, modified Newton",
+                        {"model": "rbs", "modified": True, "atol_F0": 1e-4}, (2, 4, 8, 16, 32)))
+    if ops is not None:
+        out.append(("opensees", "ModifiedNewton", {"algorithm": "ModifiedNewton"}, (1, 2, 4)))
+    return out
+
+
+def lattice_once(code, cfg):
+    """One lattice run of one code; the fields of a row (error against the timoshenko reference;
+    OpenSeesPy's also against the euler_bernoulli one, in error_parts)."""
+    bays = cfg["bays"]
+    eq = lattice_problem.equivalent_beam(bays)
+    run_cfg = dict(cfg, dt=eq["T"] / cfg["steps_per_T"])
+    if "atol_F0" in run_cfg:
+        run_cfg["atol"] = run_cfg.pop("atol_F0") * eq["F0"]
+    if code == "latdyn":
+        res = lattice_problem.latdyn_run(latdyn, bays, run_cfg)
+        res.pop("summary", None)
+    elif code == "exudyn":
+        res = lattice_problem.exudyn_run(exu, eii, bays, run_cfg)
+    else:
+        res = lattice_problem.opensees_run(ops, bays, run_cfg)
+    t, u = res.pop("t", None), res.pop("u", None)
+    if res.get("status") == "ok":
+        res["values"] = lattice_problem.values(bays, t, u)
+        res["error"], res["error_parts"] = lattice_problem.error(bays, t, u)
+        if code == "opensees":
+            eb, _ = lattice_problem.error(bays, t, u, physics="euler_bernoulli")
+            res["error_parts"]["history_vs_euler_bernoulli"] = eb
+    return res
+
+
+def _lattice_row(code, variant, bays, e, k, cfg, results):
+    eq = lattice_problem.equivalent_beam(bays)
+    last = results[-1]
+    ok = [r for r in results if r.get("status") == "ok"]
+    solver_all = [r["solver_s"] for r in results if r.get("solver_s") is not None]
+    run_all = [r["run_s"] for r in results if r.get("run_s") is not None]
+    if code == "latdyn":
+        engine = (last.get("backend") or "?") + "/" + (last.get("engine") or "python") + \
+                 f", {cfg.get('formulation', 'default')} element"
+        method = last.get("method") or "generalized-alpha"
+        method += " rho=0.8"
+        newton = (last.get("newton_mode") or cfg.get("newton") or "full") + \
+            (f" (tol {last.get('tol'):g})" if last.get("tol") else "")
+    elif code == "exudyn":
+        engine = "RigidBody+RigidBodySpringDamper" if cfg.get("model") == "rbs" else "ObjectBeamGeometricallyExact"
+        method = "generalized-alpha rho=0.8"
+        newton = ("modified" if cfg.get("modified", True) else "full") + f" (abs tol {cfg['atol_F0']:g} F0" + \
+            (f", rel tol {cfg['rtol']:g})" if cfg.get("rtol") else ")")
+    else:
+        engine = "elasticBeamColumn+Corotational"
+        method = "HHT alpha=0.889 (rho=0.8)"
+        newton = cfg.get("algorithm", "ModifiedNewton") + " (NormDispIncr 1e-8 L)"
+    label = f"{bays} bays, {e} el/member, dt T/{k:g}, {variant}"
+    return {"problem": "lattice", "code": code, "engine": engine, "setting": label, "bays": bays,
+            "elements_per_member": e, "elements": 12 * bays * e, "coordinates": last.get("coordinates"),
+            "steps_per_T": k, "dt": eq["T"] / k, "t_end": eq["t_end"], "method": method, "newton": newton,
+            "status": "ok" if results and len(ok) == len(results) else last.get("status", "error"),
+            "error": last.get("error"), "error_parts": last.get("error_parts", {}), "values": last.get("values", {}),
+            "steps": last.get("steps"), "step_cuts": last.get("step_cuts"),
+            "newton_iterations": last.get("newton_iterations"), "jacobian_updates": last.get("jacobian_updates"),
+            "solver_s": statistics.median(solver_all) if solver_all else None, "solver_s_all": solver_all,
+            "run_s": statistics.median(run_all) if run_all else None, "compile_s": last.get("compile_s"),
+            "process_s": None, "load_average": float(np.mean([r["load"] for r in results])),
+            "note": last.get("note", ""), "variant": variant, "candidate": False}
+
+
+def lattice_sweep(bays_list, quick, repeats, log):
+    """Search, per code, variant and size, the fastest setting within LATTICE_TOL, then time
+    the candidates (one per variant and element count: the coarsest step that met the
+    tolerance) ``repeats`` times in interleaved passes.  Returns the rows."""
+    variants = lattice_variants(quick)
+    ladder = (50, 100) if quick else STEP_LADDER
+    entries = []   # [code, variant, bays, e, k, cfg, results]
+    reference = lattice_problem.load_reference()
+    for bays in bays_list:
+        if str(bays) not in reference.get("bays", {}):
+            log(f"  lattice {bays} bays: no reference history in {lattice_problem.REFERENCE_FILE.name}: skipped "
+                f"(python benchmarks/peers.py --reference --problems lattice --bays {bays})")
+            continue
+        # warm-up (not timed): kernels, the scene's laws, imports
+        for code, variant, base, _ in variants:
+            lattice_once(code, dict(base, bays=bays, elements=1 if code != "exudyn" else 2, steps_per_T=10,
+                                    t_end=lattice_problem.equivalent_beam(bays)["T"] / 5))
+        for code, variant, base, element_list in variants:
+            if code == "exudyn" and base.get("atol_F0") == 1e-4 and bays >= 128:
+                # F0 falls as 1/L²: an absolute residual tolerance of 1e-4 F0 (0.4 mN at 256 bays)
+                # stalled Exudyn's Newton (a 256-bay run still going after 9 minutes): loose tolerance only
+                log(f"  lattice {bays} bays {code} {variant}: not searched from 128 bays on (Newton stalls)")
+                continue
+            found = None   # (e, k) of the first candidate
+            cost = None    # solver seconds per (element-member x step) seen, to predict run times
+            for e in element_list:
+                if found is not None and e > 2 * found[0]:
+                    break
+                for k in ladder:
+                    if found is not None and k >= found[1]:
+                        break   # more elements and as many steps: slower than the candidate
+                    if cost is not None and cost * e * k * 2 > LATTICE_RUN_BUDGET_S:
+                        log(f"  lattice {bays} bays {code} {variant}: {e} el/member, T/{k}: skipped "
+                            f"(predicted > {LATTICE_RUN_BUDGET_S:.0f} s)")
+                        break
+                    cfg = dict(base, bays=bays, elements=e, steps_per_T=k)
+                    res = lattice_once(code, cfg)
+                    res["load"] = load1()
+                    entries.append([code, variant, bays, e, k, cfg, [res]])
+                    err = res.get("error")
+                    log(f"  lattice {bays} bays {code} {variant}: {e} el/member, T/{k}: {res.get('status')} "
+                        f"error {'-' if err is None else f'{err:.2e}'} solver {res.get('solver_s') or 0:.3f} s "
+                        f"load {res['load']:.2f}")
+                    if res.get("solver_s"):
+                        cost = max(cost or 0.0, res["solver_s"] / (e * k * 2))
+                    if res.get("status") == "ok" and err is not None and err <= LATTICE_TOL:
+                        entries[-1].append(True)   # a candidate: timed again below
+                        found = found or (e, k)
+                        break
+    candidates = [x for x in entries if len(x) == 8]
+    for rep in range(1, repeats):
+        for x in candidates:
+            if x[6][0].get("solver_s", 0) >= LONG_RUN_S:
+                continue
+            res = lattice_once(x[0], x[5])
+            res["load"] = load1()
+            x[6].append(res)
+    rows = []
+    for x in entries:
+        row = _lattice_row(*x[:7])
+        row["candidate"] = len(x) == 8
+        rows.append(row)
+    return rows
+
+
+def lattice_matched(rows, bays_list):
+    """Per size: the fastest ok row of each code within LATTICE_TOL (by solver_s) and the
+    ratios latdyn / peer; OpenSeesPy also at its own physics (error against the
+    euler_bernoulli reference), marked so."""
+    matched = []
+    for bays in bays_list:
+        ok = [r for r in rows if r["problem"] == "lattice" and r["bays"] == bays and r["status"] == "ok"
+              and r["solver_s"]]
+        if not ok:
+            continue
+        within = [r for r in ok if r["error"] is not None and r["error"] <= LATTICE_TOL]
+        lat = [r for r in within if r["code"] == "latdyn"]
+        entry = {"problem": "lattice", "bays": bays, "tolerance": LATTICE_TOL}
+        if lat:
+            L = min(lat, key=lambda r: r["solver_s"])
+            entry.update(latdyn_setting=L["setting"], latdyn_error=L["error"], latdyn_s=L["solver_s"],
+                         latdyn_run_s=L["run_s"], latdyn_process_s=L.get("process_s"),
+                         latdyn_coordinates=L.get("coordinates"))
+        peers_found = []
+        for code, engine in dict.fromkeys((r["code"], r["engine"]) for r in ok if r["code"] != "latdyn"):
+            mine = [r for r in within if r["code"] == code and r["engine"] == engine]
+            own = None
+            if code == "opensees":
+                own = [r for r in ok if r["code"] == code and
+                       (r["error_parts"].get("history_vs_euler_bernoulli") or 1) <= LATTICE_TOL]
+            peer = {"code": code, "engine": engine}
+            if mine:
+                P = min(mine, key=lambda r: r["solver_s"])
+                peer.update(setting=P["setting"], error=P["error"], solver_s=P["solver_s"], run_s=P["run_s"],
+                            process_s=P.get("process_s"), coordinates=P.get("coordinates"))
+                if lat:
+                    peer["ratio"] = entry["latdyn_s"] / P["solver_s"]
+                    peer["ratio_run"] = entry["latdyn_run_s"] / P["run_s"] if P["run_s"] else None
+            else:
+                best = min((r for r in ok if r["code"] == code and r["engine"] == engine),
+                           key=lambda r: r["error"] if r["error"] is not None else math.inf, default=None)
+                peer["note"] = ("no setting within the tolerance" +
+                                (f"; smallest error {best['error']:.2e} ({best['setting']})"
+                                 if best and best["error"] is not None else ""))
+            if own and (not mine or min(own, key=lambda r: r["solver_s"])["setting"] != peer.get("setting")):
+                O = min(own, key=lambda r: r["solver_s"])
+                peer["own_physics"] = {"reference": "euler_bernoulli", "setting": O["setting"],
+                                       "error": O["error_parts"]["history_vs_euler_bernoulli"],
+                                       "solver_s": O["solver_s"],
+                                       "ratio": entry["latdyn_s"] / O["solver_s"] if lat else None}
+            peers_found.append(peer)
+        entry["peers"] = peers_found
+        timed = [p for p in peers_found if "ratio" in p]
+        if timed:
+            best = min(timed, key=lambda p: p["solver_s"])
+            entry["best_peer"] = f"{best['code']} {best['engine']}"
+            entry["ratio_best_peer"] = best["ratio"]
+        matched.append(entry)
+    return matched
+
+
+def lattice_process_times(rows, matched):
+    """Fresh-process times of the matched settings: latdyn as a user runs it (``latdyn run SCENE
+    -o OUT -q``, the scene written as YAML, results written), the peers by ``peers.py --one``."""
+    import tempfile
+
+    by_setting = {(r["code"], r["setting"]): r for r in rows if r["problem"] == "lattice"}
+    for entry in matched:
+        picks = []
+        if entry.get("latdyn_setting"):
+            picks.append(("latdyn", entry["latdyn_setting"]))
+        picks += [(p["code"], p["setting"]) for p in entry["peers"] if p.get("setting")]
+        for code, setting in picks:
+            row = by_setting[(code, setting)]
+            if code == "latdyn":
+                with tempfile.TemporaryDirectory() as tmp:
+                    eq = lattice_problem.equivalent_beam(row["bays"])
+                    kw = next(b for c, v, b, _ in lattice_variants(False) if c == code and v == row["variant"])
+                    scene = Path(tmp) / "lattice.yaml"
+                    scene.write_text(lattice_problem.scene_yaml(row["bays"], row["elements_per_member"],
+                                                                eq["T"] / row["steps_per_T"], **kw))
+                    for _ in range(2):
+                        t0 = time.perf_counter()
+                        p = subprocess.run([sys.executable, "-m", "latdyn", "run", str(scene), "-o",
+                                            str(Path(tmp) / "out"), "-q"], capture_output=True, text=True, cwd=tmp)
+                        wall = time.perf_counter() - t0
+                        if "compiling" not in p.stderr:
+                            break
+                    row["process_s"] = wall if p.returncode == 0 else None
+            else:
+                cfg = {"bays": row["bays"], "elements": row["elements_per_member"], "steps_per_T": row["steps_per_T"]}
+                cfg.update(next(b for c, v, b, _ in lattice_variants(False) if c == code and v == row["variant"]))
+                row["process_s"] = process_time("lattice", code, cfg)
+            row["process_load"] = load1()
+            if code == "latdyn":
+                entry["latdyn_process_s"] = row["process_s"]
+            else:
+                for p in entry["peers"]:
+                    if p.get("setting") == setting:
+                        p["process_s"] = row["process_s"]
+
+
 # ----------------------------------------------------------------------------- sweep
 def sweep(quick, engines):
     """(problem, code, cfg) in run order; cfg holds the setting, 'label', 'repeats', flags.
@@ -588,7 +881,7 @@ def machine():
         pass
     return {"cpu": cpu, "cores": os.cpu_count(), "platform": platform.platform(),
             "python": platform.python_version(), "numpy": np.__version__,
-            "latdyn": latdyn.__version__, "exudyn": EXUDYN_VERSION,
+            "latdyn": latdyn.__version__, "exudyn": EXUDYN_VERSION, "opensees": OPENSEES_VERSION,
             "git": _git(), "load_average_start": list(os.getloadavg())}
 
 
@@ -660,6 +953,8 @@ def process_time(problem, code, cfg):
 
 def run_one(problem, code, cfg):
     cfg = dict(cfg, problem=problem)
+    if problem == "lattice":
+        return lattice_once(code, cfg)
     return latdyn_once(problem, cfg) if code == "latdyn" else exudyn_once(problem, cfg)
 
 
@@ -671,15 +966,26 @@ def main(argv=None):
     ap.add_argument("--no-process", action="store_true", help="skip the fresh-process timings")
     ap.add_argument("--reference", action="store_true", help="converge the cantilever peaks with both codes")
     ap.add_argument("--markdown", metavar="JSON", help="print the tables of a peers.json as Markdown and exit")
+    ap.add_argument("--problems", default="spinup,cantilever,lattice",
+                    help="comma-separated subset of spinup, cantilever, lattice (rows of the others are kept "
+                         "from the existing output file)")
+    ap.add_argument("--bays", default=",".join(map(str, LATTICE_BAYS)),
+                    help="lattice sizes (bays), comma-separated (default %(default)s)")
     ap.add_argument("--one", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
+    problems = [p.strip() for p in args.problems.split(",") if p.strip()]
+    bays_list = [int(b) for b in args.bays.split(",")]
     if args.one:
         job = json.loads(args.one)
         res = run_one(job["problem"], job["code"], job["cfg"])
         print(json.dumps({k: res.get(k) for k in ("status", "error", "solver_s")}))
         return 0 if res.get("status") == "ok" else 1
     if args.reference:
-        return reference_run()
+        if "lattice" in problems:
+            lattice_problem.make_reference(bays_list, latdyn, exu, eii, ops, log=lambda m: print(m, flush=True))
+        if "cantilever" in problems:
+            return reference_run()
+        return 0
     if args.markdown:
         print(markdown(json.loads(Path(args.markdown).read_text())))
         return 0
@@ -692,8 +998,11 @@ def main(argv=None):
         _quiet_exudyn()  # Exudyn's own warnings (e.g. singular initial Jacobian)
     engines = latdyn_engines()
     notes.append("latdyn solve.engine values accepted: " + (", ".join(e for e in engines if e) or "none (one engine)"))
+    if ops is None:
+        notes.append(lattice_problem.OPENSEES_MISSING)
+        print("NOTE: " + lattice_problem.OPENSEES_MISSING, file=sys.stderr)
     info = machine()
-    plan = sweep(args.quick, engines)
+    plan = [x for x in sweep(args.quick, engines) if x[0] in problems]
     # warm-up: compile/cache kernels, first imports; not timed
     warm = {}
     for problem, code, cfg in plan:
@@ -744,16 +1053,31 @@ def main(argv=None):
         print(f"{problem:10s} {code:6s} {cfg['label']:32s} {row['status']:6s} error {err:>9s}  solver {st:>8s} s  "
               f"steps {row['steps']}  newton {row['newton_iterations']}  jac {row['jacobian_updates']}  "
               f"load {row['load_average']:.2f}", flush=True)
+    if "lattice" in problems:
+        lattice_rows = lattice_sweep(bays_list, args.quick, repeats,
+                                     log=lambda m: print(m, file=sys.stderr, flush=True))
+        lat_matched = lattice_matched(lattice_rows, bays_list)
+        if not args.quick and not args.no_process:
+            lattice_process_times(lattice_rows, lat_matched)
+        for row in lattice_rows:
+            err = "-" if row["error"] is None else f"{row['error']:.3g}"
+            st = "-" if row["solver_s"] is None else f"{row['solver_s']:.3f}"
+            print(f"lattice    {row['code']:8s} {row['setting']:60s} {row['status']:6s} error {err:>9s}  "
+                  f"solver {st:>8s} s  load {row['load_average']:.2f}", flush=True)
+        rows += lattice_rows
     info["load_average_end"] = list(os.getloadavg())
     info["warm_up_s"] = {f"{p}/{c}" + (f"/{e}" if e else ""): round(v, 3) for (p, c, e), v in warm.items()}
     matched = matched_pairs(rows)
-    for x in matched:
+    if "lattice" in problems:
+        matched += lat_matched
+        for x in lat_matched:
+            ratios = ", ".join(f"{p['code']} {p['engine']}: {p['ratio']:.2f}" for p in x["peers"] if "ratio" in p)
+            print(f"matched lattice {x['bays']} bays: latdyn {x.get('latdyn_setting')} "
+                  f"{x.get('latdyn_s') or float('nan'):.3f} s; latdyn / peer: {ratios or '-'}")
+    for x in (m for m in matched if m["problem"] != "lattice"):
         print(f"matched {x['problem']}: latdyn {x['latdyn_setting']} {x['latdyn_s']:.3f} s vs Exudyn "
               f"{x['exudyn_setting']} {x['exudyn_s']:.3f} s: ratio {x['ratio']:.2f}")
-    doc = {"schema": "latdyn-peers/1",
-           "created": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-           "mode": "quick" if args.quick else "full", "repeats": repeats, "machine": info, "notes": notes,
-           "problems": {
+    specs = {
                "spinup": {"scene": "examples/spinup.yaml", "t_end": 10.0, "reference": SPINUP_REF,
                           "error": "max(|v(5)-v5_ref|, |v(10)-v10_ref|, |min v - vmin_ref|), tip y in the hub frame",
                           "error_unit": "m", "tolerance": SPINUP_TOL},
@@ -761,13 +1085,64 @@ def main(argv=None):
                               "reference": CANTILEVER_REF, "published": CANTILEVER_PUBLISHED,
                               "error": "max of relative errors of the tip peak u3 (t<=10) and the elbow first "
                                        "peak u3 (t<=6), parabola-refined",
-                              "error_unit": "relative", "tolerance": CANTILEVER_TOL}},
-           "rows": rows, "matched": matched}
+                              "error_unit": "relative", "tolerance": CANTILEVER_TOL},
+             "lattice": {"scene": "benchmarks/lattice.py latdyn_scene(bays, elements, dt)", "bays": bays_list,
+                         "t_end": "2 T (benchmarks/lattice.py equivalent_beam)",
+                         "reference": {"file": "benchmarks/references/lattice.json",
+                                       "how": lattice_problem.load_reference().get("how")},
+                         "error": "max over the run's rows of |u - u_ref| / max |u_ref|, u the mean z-displacement "
+                                  "of the four tip joints, u_ref the timoshenko reference history (cubic spline); "
+                                  "OpenSeesPy rows also against the euler_bernoulli reference (error_parts)",
+                         "error_unit": "relative", "tolerance": LATTICE_TOL}}
     out = Path(args.out)
+    kept = []
+    old = json.loads(out.with_suffix(".json").read_text()) if out.with_suffix(".json").exists() else None
+    measured = {"created": None, "git": info.get("git"), "load_average_start": info["load_average_start"],
+                "load_average_end": info["load_average_end"]}
+    for name in problems:
+        specs.get(name, {})["measured"] = measured   # which run measured a problem's rows
+    if old is not None and set(problems) != {"spinup", "cantilever", "lattice"}:
+        for name in old.get("problems", {}):
+            if name not in problems:
+                kept.append(name)
+                specs[name] = old["problems"][name]
+                specs[name].setdefault("measured", {"created": old.get("created"), "git": old["machine"].get("git"),
+                                                    "load_average_start": old["machine"].get("load_average_start"),
+                                                    "load_average_end": old["machine"].get("load_average_end")})
+                rows = [r for r in old["rows"] if r["problem"] == name] + rows
+                matched = [m for m in old["matched"] if m["problem"] == name] + matched
+    if old is not None and "lattice" in problems and "lattice" in old.get("problems", {}):
+        done = set(bays_list)
+        old_rows = [r for r in old["rows"] if r["problem"] == "lattice" and r["bays"] not in done]
+        if old_rows:
+            sizes = sorted({r["bays"] for r in old_rows})
+            rows = [r for r in rows if r["problem"] != "lattice"] + old_rows + \
+                [r for r in rows if r["problem"] == "lattice"]
+            matched = matched + [m for m in old["matched"] if m["problem"] == "lattice" and m["bays"] not in done]
+            specs["lattice"]["bays"] = sorted(done | set(sizes))
+            specs["lattice"]["measured_sizes"] = dict(old["problems"]["lattice"].get("measured_sizes") or {
+                str(b): old["problems"]["lattice"].get("measured") for b in sizes})
+            specs["lattice"]["measured_sizes"].update({str(b): measured for b in bays_list})
+            when = old["problems"]["lattice"].get("measured", {}).get("created")
+            notes.append(f"lattice rows of {sizes} bays kept from the run of {when} "
+                         "(problems.lattice.measured_sizes)")
+    if kept:
+        notes.append("rows of " + ", ".join(f"{k} kept from the run of {specs[k]['measured']['created']}"
+                                            for k in kept) + " (problems.NAME.measured)")
+    matched = [m for m in matched if m["problem"] != "lattice"] + \
+        sorted((m for m in matched if m["problem"] == "lattice"), key=lambda m: m["bays"])
+    specs = {k: v for k, v in specs.items() if k in problems or k in kept}
+    created = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
+    measured["created"] = created
+    doc = {"schema": "latdyn-peers/1",
+           "created": created,
+           "mode": "quick" if args.quick else "full", "repeats": repeats, "machine": info, "notes": notes,
+           "problems": specs, "rows": rows, "matched": matched}
     out.parent.mkdir(parents=True, exist_ok=True)
     out.with_suffix(".json").write_text(json.dumps(doc, indent=1, default=float) + "\n")
-    cols = ["problem", "code", "engine", "setting", "elements", "dt", "t_end", "method", "newton", "status",
-            "error", "steps", "newton_iterations", "jacobian_updates", "solver_s", "run_s", "compile_s",
+    cols = ["problem", "code", "engine", "setting", "bays", "elements", "coordinates", "dt", "t_end", "method",
+            "newton", "status", "error", "steps", "newton_iterations", "jacobian_updates", "solver_s", "run_s",
+            "compile_s",
             "process_s", "load_average", "note"]
     with open(out.with_suffix(".csv"), "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=cols, extrasaction="ignore")
@@ -792,6 +1167,9 @@ def markdown(doc):
                f"at end {m['load_average_end'][0]:.2f}. Run {doc['created']}, mode {doc['mode']}, "
                f"median of {doc['repeats']} timed runs.")
     for problem, spec in doc["problems"].items():
+        if problem == "lattice":
+            out.extend(lattice_markdown(doc))
+            continue
         unit = spec["error_unit"]
         out.append("")
         out.append(f"#### {problem} (error: {spec['error']}; {unit}; tolerance {spec['tolerance']:g})")
@@ -809,17 +1187,69 @@ def markdown(doc):
                        f"{_fmt(r['solver_s'], '.3f')} | {_fmt(r['run_s'], '.3f')} | {_fmt(r['process_s'], '.2f')} | "
                        f"{_fmt(r['steps'], 'd')} | {_fmt(r['newton_iterations'], 'd')} | "
                        f"{_fmt(r['jacobian_updates'], 'd')} | {r['load_average']:.2f} |")
+    if not any(m["problem"] != "lattice" for m in doc["matched"]):
+        return "\n".join(out)
     out.append("")
     out.append("| problem | tolerance | latdyn setting | error | solver s | run s | Exudyn element | setting "
                "| error | solver s | run s | latdyn / Exudyn, solver | latdyn / Exudyn, run |")
     out.append("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for x in doc["matched"]:
+        if x["problem"] == "lattice":
+            continue
         out.append(f"| {x['problem']} | {x['tolerance']:g} | {x['latdyn_setting']} | {x['latdyn_error']:.2e} | "
                    f"{x['latdyn_s']:.3f} | {_fmt(x.get('latdyn_run_s'), '.3f')} | {x.get('exudyn_engine', '')} | "
                    f"{x['exudyn_setting']} | {x['exudyn_error']:.2e} | {x['exudyn_s']:.3f} | "
                    f"{_fmt(x.get('exudyn_run_s'), '.3f')} | **{x['ratio']:.2f}** | "
                    f"**{_fmt(x.get('ratio_run'), '.2f')}** |")
     return "\n".join(out)
+
+
+def lattice_markdown(doc):
+    """The lattice tables: the candidates of the search (per code, variant and element count the
+    coarsest step within tolerance, timed ``repeats`` times; every run of the search is in
+    peers.csv), then matched accuracy."""
+    spec = doc["problems"]["lattice"]
+    n_rows = sum(r["problem"] == "lattice" for r in doc["rows"])
+    out = ["", f"#### lattice (error: {spec['error']}; tolerance {spec['tolerance']:g})", "",
+           f"Candidates (the coarsest step within tolerance per code, variant and element count; all {n_rows} "
+           f"runs of the search are in peers.csv):", "",
+           "| bays | code | engine | setting | status | error | solver s | run s | process s | coordinates | steps "
+           "| Newton it. | Jacobians | load |", "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in doc["rows"]:
+        if r["problem"] != "lattice" or not r.get("candidate"):
+            continue
+        err = _fmt(r["error"], ".2e")
+        if r["status"] != "ok":
+            err = (r["note"] or r["status"])[:60]
+        elif r["code"] == "opensees":
+            err += f" (EB {_fmt(r['error_parts'].get('history_vs_euler_bernoulli'), '.2e')})"
+        setting = r["setting"]
+        n_all = len(r.get("solver_s_all") or [])
+        solver = _fmt(r["solver_s"], ".3f") + (f" ({n_all})" if n_all > 1 else "")
+        out.append(f"| {r['bays']} | {r['code']} | {r['engine']} | {setting} | {r['status']} | {err} | {solver} | "
+                   f"{_fmt(r['run_s'], '.3f')} | {_fmt(r['process_s'], '.2f')} | {_fmt(r.get('coordinates'), 'd')} | "
+                   f"{_fmt(r['steps'], 'd')} | {_fmt(r['newton_iterations'], 'd')} | "
+                   f"{_fmt(r['jacobian_updates'], 'd')} | {r['load_average']:.2f} |")
+    out += ["", "| bays | latdyn setting | error | solver s | process s | peer | peer setting | error | solver s "
+            "| process s | latdyn / peer, solver |", "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for x in doc["matched"]:
+        if x["problem"] != "lattice":
+            continue
+        head = (f"| {x['bays']} | {x.get('latdyn_setting', '–')} | {_fmt(x.get('latdyn_error'), '.2e')} | "
+                f"{_fmt(x.get('latdyn_s'), '.3f')} | {_fmt(x.get('latdyn_process_s'), '.2f')} | ")
+        for p in x["peers"]:
+            if p.get("setting"):
+                out.append(head + f"{p['code']} {p['engine']} | {p['setting']} | {p['error']:.2e} | "
+                           f"{p['solver_s']:.3f} | {_fmt(p.get('process_s'), '.2f')} | "
+                           f"**{_fmt(p.get('ratio'), '.2f')}** |")
+            else:
+                out.append(head + f"{p['code']} {p['engine']} | {p.get('note', '')} | – | – | – | – |")
+            own = p.get("own_physics")
+            if own:
+                out.append(head + f"{p['code']} {p['engine']}, against its own physics (Euler–Bernoulli reference) "
+                           f"| {own['setting']} | {own['error']:.2e} | {own['solver_s']:.3f} | – | "
+                           f"{_fmt(own.get('ratio'), '.2f')} |")
+    return out
 
 
 def reference_run():
