@@ -51,8 +51,8 @@ def machine_peak() -> dict:
     cpu = next((line.split(":", 1)[1].strip() for line in open("/proc/cpuinfo") if "model name" in line), "?")
     mhz = [float(line.split(":", 1)[1]) for line in open("/proc/cpuinfo") if line.startswith("cpu MHz")]
     flags = native.vector_flags()
-    macros = os.popen("cc -march=native -dM -E -x c /dev/null 2>/dev/null").read()
-    width = 8 if "__AVX512F__" in macros else 4 if "__AVX__" in macros else 2
+    macros = native.isa_macros()
+    width = 8 if "__AVX512F__" in macros else 4 if "__AVX__" in macros else 2  # as c_source.c.j2 chooses
     zen = "EPYC" in cpu or "Ryzen" in cpu
     pipe_width = min(width, 4) if zen else width  # Zen 4 splits a 512-bit operation into two 256-bit halves
     clock = max(mhz) / 1e3 if mhz else float("nan")

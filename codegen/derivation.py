@@ -73,34 +73,6 @@ LOG_JET = [[se.Symbol(f"logmap_f{k}_{i}") for k in range(3)] for i in (1, 2)]
 LOG_ARGUMENT = [se.Symbol(f"logmap_x_{i}") for i in (1, 2)]
 
 
-def _log_jets(rest: dict):
-    """Scales for :func:`formulation.log_rotation`: f(x) as its second-order jet about x̄ = x|rest.
-
-    f(x) = f(x̄) + f′(x̄)(x − x̄) + ½f″(x̄)(x − x̄)² has the exact first and second
-    derivatives of f(x) at rest, which is all the kinematics differentiate
-    (B, H, Ψ̈); f(x̄), f′(x̄), f″(x̄) stay symbols (:data:`LOG_JET`) and are defined once
-    per kernel by the branch-free :func:`formulation.log_scale`.
-    """
-    def make(jet):
-        def scale(x):
-            d = x - x.subs(rest)
-            return jet[0] + jet[1] * d + jet[2] * d * d / 2
-        return scale
-    return make(LOG_JET[0]), make(LOG_JET[1])
-
-
-def _log_auxiliary(arguments: tuple) -> list:
-    """The named definitions x_i = (3 − tr R_i)/2 and f⁽ᵏ⁾(x_i), in SymPy."""
-    S = fm.to_sympy
-    out = []
-    for i, x in enumerate(arguments):
-        symbol = S(LOG_ARGUMENT[i])
-        out.append((symbol, S(x)))
-        for k in range(3):
-            out.append((S(LOG_JET[i][k]), fm.log_scale(symbol, k)))
-    return out
-
-
 #: w_k, the weights of Σ_k w_k ∂²Ψ_k/∂(virtual)∂(increment) (:attr:`Kinematics.geometric`): the kernels put ∂U/∂Ψ_k
 PSI_WEIGHTS = [se.Symbol(f"psi_weight_{k}") for k in range(6)]
 
@@ -217,7 +189,7 @@ def derive_kinematics(measure: str = "sine", plane: str | None = None, frame_cho
             symmetric[a][c] = symmetric[c][a] = _named(
                 weight_names, f"hess_q_{a}_{c}", sum((dIota[m][a] * hS[m][c] for m in range(16)), se.Integer(0)))
     geometric = [[symmetric[a][c] + second[a][c] for c in range(N)] for a in range(N)]
-    frame = [cor_frame for cor_frame in _corotational_frame(end1, end2, L0, planar, frame_choice)]
+    frame = _corotational_frame(end1, end2, L0, planar, frame_choice)
     grid1 = [(end1.x + end1.offset)[k] for k in range(3)]
 
     # ---- motion at constant spatial velocities (q̈ = 0) ----

@@ -446,21 +446,11 @@ def _mean_frame_rotations(e, frame1, frame2):
     products of T_c's columns with each T_e^i's, in fewer operations to differentiate."""
     a = [column(frame1, k) for k in range(3)]
     b = [column(frame2, k) for k in range(3)]
-    c = vector([dot(e, a[k]) for k in range(3)])
-    d = vector([dot(e, b[k]) for k in range(3)])
+    c = [dot(e, a[k]) for k in range(3)]
+    d = [dot(e, b[k]) for k in range(3)]
     G = [[dot(a[j], b[k]) for k in range(3)] for j in range(3)]
-    em = c[1] + d[1]  # t_c1·m
-    nm = se.sqrt(2 + 2 * G[1][1] - em * em)  # ‖m − (t_c1·m) t_c1‖ on SO(3)
-    across1 = cross(c, vector([G[0][1], G[1][1], G[2][1]]))  # (t_c1 × t_e²(2))·t_e¹(k)
-    across2 = cross(d, vector(G[1]))  # (t_c1 × t_e¹(2))·t_e²(k)
-    delta = lambda j, k: 1 if j == k else 0  # noqa: E731
-    R1 = se.DenseMatrix(3, 3, [c[0], c[1], c[2]]
-                        + [(delta(1, k) + G[k][1] - em * c[k]) / nm for k in range(3)]
-                        + [(across1[k] + c[0] * delta(2, k) - c[2] * delta(0, k)) / nm for k in range(3)])
-    R2 = se.DenseMatrix(3, 3, [d[0], d[1], d[2]]
-                        + [(G[1][k] + delta(1, k) - em * d[k]) / nm for k in range(3)]
-                        + [(across2[k] + d[0] * delta(2, k) - d[2] * delta(0, k)) / nm for k in range(3)])
-    return R1, R2
+    R1, R2 = _mean_frame_rotations_in(c, d, G)
+    return se.DenseMatrix(3, 3, R1), se.DenseMatrix(3, 3, R2)
 
 
 # --------------------------------------------------------------------------

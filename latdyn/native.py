@@ -131,6 +131,15 @@ def vector_flags(using: Compiler | None = None) -> tuple[str, ...]:
     defines are hashed into ``-DLATDYN_ISA=``, so that a cache shared by different machines keeps
     one library per instruction set (a library built for another CPU could stop on an illegal
     instruction).  Found once per compiler; () when the compiler does not take -march=native."""
+    defined = isa_macros(using)
+    if not defined:
+        return ()
+    return ("-march=native", "-DLATDYN_ISA=" + hashlib.sha256("\n".join(sorted(defined)).encode()).hexdigest()[:12])
+
+
+def isa_macros(using: Compiler | None = None) -> frozenset[str]:
+    """The macros ``-march=native`` makes the compiler define (``__AVX512F__``, …); empty when it does not
+    take the option.  Found once per compiler."""
     using = using or compiler()
     key = using.identity()
     if key not in _VECTOR_FLAGS:
@@ -140,13 +149,12 @@ def vector_flags(using: Compiler | None = None) -> tuple[str, ...]:
             macros = result.stdout.decode(errors="replace") if result.returncode == 0 else ""
         except (OSError, subprocess.SubprocessError):
             macros = ""
-        defined = {line.split()[1] for line in macros.splitlines() if line.startswith("#define ")}
-        isa = hashlib.sha256("\n".join(sorted(defined)).encode()).hexdigest()[:12]
-        _VECTOR_FLAGS[key] = ("-march=native", f"-DLATDYN_ISA={isa}") if defined else ()
+        _VECTOR_FLAGS[key] = frozenset(line.split()[1] for line in macros.splitlines()
+                                       if line.startswith("#define "))
     return _VECTOR_FLAGS[key]
 
 
-_VECTOR_FLAGS: dict[bytes, tuple[str, ...]] = {}
+_VECTOR_FLAGS: dict[bytes, frozenset[str]] = {}
 
 
 def target(name: str, source: bytes, flags=C_FLAGS, using: Compiler | None = None) -> Path:
