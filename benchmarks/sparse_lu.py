@@ -129,7 +129,7 @@ def step_timing(elements: int, engine_kind: str, steps: int, band_limit: int | N
         if engine_kind == "compiled":  # serial element part, as the Python step (see the docstring)
             step = engine.CompiledGeneralizedAlpha(prepared.assembler, params, 1e-8, 8, 1.0, parallel_elements=0)
             step._setup()
-            solver = "sparse" if step._model.sparse_lu else ("band" if step._model.band else "dense")
+            solver = "sparse" if step._native.model.sparse_lu else ("band" if step._native.model.band else "dense")
         else:
             step = GeneralizedAlpha(prepared.assembler, params, 1e-8, 8, 1.0)
             solver = "superlu"

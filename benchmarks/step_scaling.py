@@ -88,8 +88,8 @@ def measure(elements: int, formulation: str, steps: int, threads: int | None = N
             cpu_samples.append(elapsed_cpu / done)
             iterations.append(done)
     per_iteration = float(np.median(samples))
-    return {"elements": elements, "coordinates": model.n_dofs, "band": bool(step._model.band),
-            "bandwidth": int(step._model.kl) if step._model.band else None,
+    return {"elements": elements, "coordinates": model.n_dofs, "band": bool(step._native.model.band),
+            "bandwidth": int(step._native.model.kl) if step._native.model.band else None,
             "iterations_per_step": float(np.mean(iterations)), "steps_converged": int(sum(converged[1:])),
             "steps": len(converged) - 1, "s_per_iteration": per_iteration,
             "us_per_element_iteration": 1e6 * per_iteration / elements,
@@ -134,7 +134,7 @@ def main() -> None:
     args = parser.parse_args()
     latdyn.scene.loader.MAX_ELEMENTS = max(latdyn.scene.loader.MAX_ELEMENTS, args.max)
     if args.threads:
-        from latdyn.step.library import openmp_threads, parallel_threshold
+        from latdyn.assembly.library import openmp_threads, parallel_threshold
 
         counts = [int(n) for n in args.threads.split(",")]
         sizes = [int(n) for n in args.sizes.split(",")] if args.sizes else [10, 100, 1000, 10_000, 100_000]

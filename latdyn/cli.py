@@ -121,9 +121,8 @@ def _command_check(args) -> int:
 
     scene = _load_scene(args.scene)
     print(describe(scene))
-    # the model, its held check (SceneError -> 2) and the initial state; NumPy kernels, so that
-    # checking never waits for a C compiler
-    print(check_report(prepare(scene, backend="numpy")))
+    # the model, its held check (SceneError -> 2) and the initial state
+    print(check_report(prepare(scene)))
     return 0
 
 
@@ -190,8 +189,8 @@ def build_parser() -> argparse.ArgumentParser:
                               "summary.json (and modes.csv, ParaView frames) into OUT.")
     run.add_argument("scene", metavar="SCENE", help="scene file (YAML or JSON)")
     run.add_argument("-o", "--out", metavar="OUT", help="results folder (default: ./<SCENE stem>_results)")
-    run.add_argument("--backend", choices=("auto", "c", "numpy"), default="auto",
-                     help="element kernels: compiled C, NumPy, or auto (C when a compiler works)")
+    run.add_argument("--backend", choices=("auto", "c"), default="auto",
+                     help="element kernels: compiled C (auto: the same, saying how to get a compiler when none works)")
     run.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     run.add_argument("--resume", action="store_true",
                      help="continue an interrupted or failed transient run from the checkpoint in OUT "

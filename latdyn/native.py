@@ -5,7 +5,7 @@ Three kinds of C unit are built at run time, all through :func:`build`:
 - the generated element kernels, one unit per kernel (:mod:`latdyn.model.kernels`);
 - the compiled time step, ``csrc/newton_step.c`` (:mod:`latdyn.step.compiled`), with ``-fopenmp``
   where the compiler takes it;
-- a scene's laws, printed by :mod:`codegen.laws` (:mod:`latdyn.step.compiled_laws`).
+- a scene's laws, printed by :mod:`codegen.laws` (:mod:`latdyn.assembly.compiled_laws`).
 
 A unit is compiled once per source, flags and compiler into the kernel cache
 (``$LATDYN_CACHE_DIR``, default ``~/.cache/latdyn/kernels``) as
@@ -17,8 +17,8 @@ which runs report apart from solver time.
 The compiler (:func:`compiler`): ``$CC`` when set (exactly that one); otherwise ``cc``,
 then Zig's C compiler from the ``ziglang`` wheel (``python -m ziglang cc``; ``pip install
 "latdyn[compiler]"``), so that a machine without a system compiler still gets the compiled
-kernels. :class:`NoCompiler` says why none works; :data:`NO_COMPILER_ADVICE` is the line a
-run prints then (the NumPy kernels, how much slower, how to fix it).
+kernels. :class:`NoCompiler` says why none works; :data:`NO_COMPILER_ADVICE` is how to fix
+it, which a run says when it stops for want of one (the runtime evaluates natively only).
 
 Runtime code: it imports neither SymPy nor the code generator.
 """
@@ -43,14 +43,11 @@ SUFFIX = ".dll" if sys.platform == "win32" else ".so"
 #: Seconds spent compiling in this process (reported apart from solver time).
 COMPILE_SECONDS = {"total": 0.0}
 
-#: What a run without a C compiler says (one line, after the reason). The factors are whole
-#: runs from the command line, NumPy kernels and the Python step against the compiled step,
-#: kernels cached, on the 2-core development machine: the spin-up example 27.4 s against
-#: 1.13 s (solver 24.9 s against 0.22 s, 110x); the 3D right-angle cantilever benchmark for
-#: 5 s of its 30 (100 steps) 11.6 s against 0.83 s (solver 10.4 s against 0.19 s, 54x).
+#: How to get a C compiler, said by a run that has none (the runtime evaluates natively only:
+#: latdyn/assembly/native_model.py).
 NO_COMPILER_ADVICE = (
-    "running on the NumPy kernels, about 25x slower on the spin-up example and 15x on the 3D "
-    "right-angle cantilever; pip install \"latdyn[compiler]\" (Zig's C compiler, used automatically) or install cc"
+    "a run needs a C compiler for its kernels: pip install \"latdyn[compiler]\" (Zig's C compiler, "
+    "used automatically) or install cc"
 )
 
 

@@ -190,14 +190,14 @@ def test_unknown_backend_and_variant():
         load_kernels("numpy", "nope")
 
 
-def test_auto_falls_back_to_numpy(monkeypatch, tmp_path):
+def test_auto_without_a_compiler_names_the_fix(monkeypatch, tmp_path):
     import latdyn.model.kernels as kernels
+    from latdyn.errors import MissingExtra
 
     monkeypatch.setattr(kernels, "_LOADED", {})
     monkeypatch.setenv("CC", str(tmp_path / "no-such-compiler"))
     monkeypatch.setenv("LATDYN_CACHE_DIR", str(tmp_path / "cache"))
-    with pytest.warns(RuntimeWarning, match="C kernels unavailable") as record:
-        loaded = kernels.load_kernels("auto", "default")
-    assert loaded.backend == "numpy" and len(record) == 1
+    with pytest.raises(MissingExtra, match=r'C kernels unavailable .*pip install "latdyn\[compiler\]"'):
+        kernels.load_kernels("auto", "default")
     with pytest.raises(RuntimeError):
         kernels.load_kernels("c", "default")

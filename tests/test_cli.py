@@ -127,10 +127,10 @@ def fake_modules(monkeypatch, tmp_path):
 
 def test_run_success_default_out_dir_and_summary_line(fake_modules, tmp_path, capsys):
     solve = fake_modules("ok")
-    assert cli.main(["run", "spin.yaml", "--backend", "numpy", "-q"]) == 0
+    assert cli.main(["run", "spin.yaml", "--backend", "c", "-q"]) == 0
     call = solve.calls[0]
     assert Path(call["out_dir"]) == tmp_path / "spin_results"
-    assert call["backend"] == "numpy" and call["progress"] is False
+    assert call["backend"] == "c" and call["progress"] is False
     out = capsys.readouterr().out
     assert "spin_results" in out and "7 steps" in out and "0.25 s" in out
     assert Result.load(tmp_path / "spin_results").summary["status"] == "solved"

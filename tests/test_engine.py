@@ -125,7 +125,7 @@ def test_the_band_solver_is_exercised():
     step = CompiledGeneralizedAlpha(prepared.assembler, AlphaParameters.for_method("generalized-alpha", 0.8),
                                     1e-8, 25, 3.0)
     step._setup()
-    assert prepared.model.n_dofs == 180 and step._model.band == 1 and step._model.kl < 40
+    assert prepared.model.n_dofs == 180 and step._native.model.band == 1 and step._native.model.kl < 40
 
 
 def test_a_latch_in_the_compiled_step(tmp_path):
@@ -185,7 +185,7 @@ def test_threaded_element_kernels_are_bit_identical(threads):
     order. Forced on for 30 elements (threshold 1) with 2 and 3 threads (uneven ranges), the
     states, accelerations and iteration counts equal the serial step's bit for bit."""
     from latdyn.step.compiled import CompiledGeneralizedAlpha
-    from latdyn.step.library import openmp_threads
+    from latdyn.assembly.library import openmp_threads
     from latdyn.step.integrators import AlphaParameters
     from latdyn.assembly.prepare import prepare
 
@@ -204,7 +204,7 @@ def test_threaded_element_kernels_are_bit_identical(threads):
             assert stats.converged
             step.accept()
             iterations.append(stats.iterations)
-        runs.append((state, iterations, step.a.copy(), step._model.parallel_elements))
+        runs.append((state, iterations, step.a.copy(), step._native.model.parallel_elements))
     (serial, serial_iterations, serial_a, off), (threaded, threaded_iterations, threaded_a, on) = runs
     assert off == 0 and on == 1
     assert serial_iterations == threaded_iterations
@@ -214,17 +214,17 @@ def test_threaded_element_kernels_are_bit_identical(threads):
 
 
 def test_the_ctypes_mirrors_have_the_compilers_layout():
-    """Every struct the C step reads is mirrored once in latdyn/step/library.py; their sizes and
-    every field's offset are those the compiler gives csrc/newton_step.c (a stale mirror once gave
-    wrong section properties, bb8e361)."""
+    """Every struct the C library reads is mirrored once in latdyn/assembly/library.py; their sizes and
+    every field's offset are those the compiler gives csrc/newton_step.c and the evaluate.c it
+    inlines (a stale mirror once gave wrong section properties, bb8e361)."""
     import ctypes
 
     from latdyn import native
-    from latdyn.step import library
+    from latdyn.assembly import library
 
     mirrors = {"Model": library.ModelData, "Work": library.WorkData, "Configuration": library.ConfigurationData,
                "StepVectors": library.VectorsData, "StepControl": library.ControlData, "Advance": library.AdvanceData,
-               "SparseLU": library.SparseLUStructure}
+               "SparseLU": library.SparseLUStructure, "EvaluationControl": library.EvaluationData}
     lines, expected = [], []
     for c_name, mirror in mirrors.items():
         lines.append(f"    out[{len(expected)}] = (int64_t)sizeof({c_name});")

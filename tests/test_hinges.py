@@ -131,7 +131,7 @@ def test_hinge_tangent_matches_finite_differences():
              "torque": "2*sin(theta) + theta_dot*cos(t)", "rest_angle": 0.2}
     scene = latdyn.load_scene(pendulum(hinge, gravity=G, solve={"analysis": "transient", "t_end": 1, "dt": 0.1}))
     model = Model.from_scene(scene)
-    assembler = Assembler(model, load_kernels("numpy"), scene.gravity)
+    assembler = Assembler(model, load_kernels("c"), scene.gravity)
     state = initial_state(model)
     k, bob = model.hinge_dofs[0], model.body_node["bob"]
     # the pendulum turned rigidly by 0.4 rad (a strained stiff arm would bury the FD in round-off)

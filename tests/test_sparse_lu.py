@@ -174,7 +174,7 @@ def test_wide_lattice_runs_compiled_and_equals_the_python_step(seed, tmp_path):
     step._setup()
     from latdyn.step.compiled import _band_plan
 
-    assert _band_plan(prepared.assembler)[0] > BAND_LIMIT and step._model.sparse_lu  # the sparse LU is used
+    assert _band_plan(prepared.assembler)[0] > BAND_LIMIT and step._native.model.sparse_lu  # the sparse LU is used
 
     python, python_summary = _run(raw, tmp_path, "python", engine="python")
     compiled, compiled_summary = _run(raw, tmp_path, "compiled", engine="compiled", newton="full")
@@ -204,7 +204,7 @@ def test_threaded_elements_of_a_lattice_equal_the_serial_step(threads):
     errors of 1e-3).  The states agree to round-off, not bit for bit: measured 6e-14 in v after
     three steps (the kernels' arithmetic depends on where a range starts)."""
     from latdyn.step.compiled import CompiledGeneralizedAlpha
-    from latdyn.step.library import openmp_threads
+    from latdyn.assembly.library import openmp_threads
     from latdyn.step.integrators import AlphaParameters
     from latdyn.assembly.prepare import prepare
 
@@ -278,7 +278,7 @@ def test_a_wide_planar_model_runs_compiled_and_equals_the_python_step(tmp_path):
     step = CompiledGeneralizedAlpha(prepared.assembler, AlphaParameters.for_method("generalized-alpha", 0.8),
                                     1e-8, 25, 1.0)
     step._setup()
-    assert _band_plan(prepared.assembler)[0] > BAND_LIMIT and step._model.sparse_lu
+    assert _band_plan(prepared.assembler)[0] > BAND_LIMIT and step._native.model.sparse_lu
     python, python_summary = _run(raw, tmp_path, "python", engine="python")
     compiled, compiled_summary = _run(raw, tmp_path, "compiled", engine="compiled", newton="full")
     assert compiled_summary["engine"] == "compiled"
@@ -301,9 +301,9 @@ def test_a_failed_pivot_fails_the_compiled_step_and_says_where():
     step.start(prepared.state)
     _, stats = step.step(prepared.state, 0.005)
     assert stats.converged
-    analysis = next(kept for kept in step._keep if isinstance(kept, SupernodalAnalysis))
+    analysis = next(kept for kept in step._native.matrix_storage if isinstance(kept, SupernodalAnalysis))
     assert analysis.pivot_failure() is None
-    step._model.sparse_lu.contents.pivot_tolerance = 1e300
+    step._native.model.sparse_lu.contents.pivot_tolerance = 1e300
     _, stats = step.step(prepared.state, 0.005)
     assert not stats.converged and stats.factorizations == 1
     assert "singular or needs pivoting" in analysis.pivot_failure()

@@ -56,11 +56,12 @@ class LinkedEvaluation(SeparateMatrices):
         return sps.csr_matrix(out)
 
 
-def evaluate_linked(links, assembler, state, matrices: bool, load_factor: float, inertia: bool):
+def evaluate_linked(links, assembler, state, matrices: bool, load_factor: float, inertia: bool,
+                    inertia_tangent: bool = False, length: float = 1.0):
     """The equations of motion on the minimum coordinates (module docstring)."""
     model = assembler.model
     links.complete(state)
-    full = assembler._evaluate_assembled(state, matrices, load_factor, inertia)
+    full = assembler.evaluate_assembled(state, matrices, load_factor, inertia, inertia_tangent, length)
     n, n_asm, n_total = model.n_dofs, model.n_assembled, model.n_total
     columns, twist = links.twists(model, state)
     n_dep = len(links.dependent)

@@ -22,11 +22,11 @@ import importlib.resources
 import os
 import sys
 import time
-import warnings
 from typing import Callable
 
 import numpy as np
 
+from latdyn.errors import MissingExtra
 from latdyn.native import C_FLAGS, NO_COMPILER_ADVICE  # the one compile-and-cache path
 
 BACKENDS = ("auto", "c", "numpy")
@@ -84,8 +84,9 @@ def plane_of(variant: str) -> int | None:
 def load_kernels(backend: str = "auto", variant: str = "default") -> KernelSet:
     """Load (once per process) the kernels of ``variant`` on ``backend`` ("auto", "c", "numpy").
 
-    "auto" uses C when a compiler works and falls back to NumPy with one warning;
-    "c" raises RuntimeError when the C kernels cannot be built.
+    "auto" and "c" use C: "auto" raises :class:`latdyn.errors.MissingExtra` naming the fix
+    when no compiler works (the runtime evaluates natively only), "c" raises RuntimeError when
+    the C kernels cannot be built. "numpy": the NumPy kernels, for the generator's checks.
     """
     if backend not in BACKENDS:
         raise ValueError(f"unknown kernel backend {backend!r} (known: {', '.join(BACKENDS)})")
@@ -95,15 +96,10 @@ def load_kernels(backend: str = "auto", variant: str = "default") -> KernelSet:
     if backend == "auto":
         if ("c", variant) in _LOADED:
             return _LOADED[("c", variant)]
-        if ("auto-numpy", variant) in _LOADED:
-            return _LOADED[("auto-numpy", variant)]
         try:
             return load_kernels("c", variant)
         except RuntimeError as error:
-            _no_compiler(error)
-            kernels = load_kernels("numpy", variant)
-            _LOADED[("auto-numpy", variant)] = kernels
-            return kernels
+            raise MissingExtra(f"C kernels unavailable ({error}); {NO_COMPILER_ADVICE}") from None
     key = (backend, variant)
     if key not in _LOADED:
         info, functions, libraries = {}, {}, {}
@@ -124,13 +120,6 @@ def load_kernels(backend: str = "auto", variant: str = "default") -> KernelSet:
             functions[name] = _checked(name, meta, _composed(meta, parts, info, functions))
         _LOADED[key] = KernelSet(backend, variant, info, functions, libraries or None)
     return _LOADED[key]
-
-
-def _no_compiler(error) -> None:
-    """Say (once per variant and process: ``_LOADED`` keeps the fallback) that the run uses
-    the NumPy kernels, why, how much slower that is and how to fix it: a RuntimeWarning, which
-    the command line prints as one line."""
-    warnings.warn(f"latdyn: C kernels unavailable ({error}); {NO_COMPILER_ADVICE}", RuntimeWarning, stacklevel=3)
 
 
 def _checked(name: str, meta: dict, function: Callable) -> Callable:

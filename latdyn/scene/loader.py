@@ -117,7 +117,7 @@ _SOLVE_KEYS = ("analysis", "t_end", "dt", "method", "rho_inf", "tol", "steps", "
 _CONTROL_KEYS = ("point", "direction", "to")
 #: ``solve.engine``: where the implicit step runs (latdyn/step/compiled.py); ``solve.newton``: full or modified
 #: Newton, or ``exact``: full Newton whose matrix holds the elements' inertia tangent from the start
-#: (latdyn.step.integrators.inertia_tangent; otherwise taken from the first Newton failure on).
+#: (inertia_tangent in latdyn/assembly/csrc/evaluate.c; otherwise taken from the first Newton failure on).
 #: The default stays ``full``, by measurement (benchmarks/newton_default.py, docs/performance.md
 #: "Newton default"): modified takes 0.33–1.2× the solver time (median 0.68) on the shipped
 #: scenes, but its last iterate is only within the tolerance (full Newton's is far inside it), and

@@ -1,5 +1,6 @@
-"""Layer 4, one time step: generalized-α and the explicit method in Python (``integrators``), the compiled
-step and loop (``compiled``, ``library`` — the native boundary — and ``csrc/``), the sparse LU
-(``sparse_lu``) and the scene's compiled laws (``compiled_laws``).
+"""Layer 4, one time step: the generalized-α family and the explicit method driven from Python
+(``integrators``), the Newton iteration, factorization and loop of steps in C (``compiled``, whose
+C source is ``latdyn/assembly/csrc/newton_step.c``), and the sparse LU's analysis (``sparse_lu``).
+Every evaluation is the native one of :mod:`latdyn.assembly.native_model`.
 
 Layers: see docs/architecture.md; tests/test_layers.py holds them."""

@@ -4,7 +4,7 @@ and the loop of steps between rows in C too.
 :class:`CompiledGeneralizedAlpha` is :class:`latdyn.step.integrators.GeneralizedAlpha` with
 ``step`` done by one call into C: the scene's laws at the step's end time (prescribed
 motion, torques, loads, and hinge laws in θ, θ̇ and t, compiled by the code generator:
-:mod:`codegen.laws`, :mod:`latdyn.step.compiled_laws`), configuration update on SO(3), prescribed
+:mod:`codegen.laws`, :mod:`latdyn.assembly.compiled_laws`), configuration update on SO(3), prescribed
 motion, element geometry (Eq. 17), the generated element kernels (called through function
 pointers from the per-kernel libraries of :mod:`latdyn.model.kernels`), joint bodies, hinges,
 point loads, scatter into a preallocated matrix, LAPACK's LU (dense ``getrf``, or banded
@@ -52,62 +52,37 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from latdyn.assembly.assembler import State, _plain_hinges
-from latdyn.model.model import PRESCRIBED
+from latdyn.assembly.assembler import State
+from latdyn.assembly.library import (
+    AdvanceData,
+    ConfigurationData,
+    ControlData,
+    VectorsData,
+    lapack_address,
+    native_library,
+    parallel_threshold,
+)
+from latdyn.assembly.native_model import INERTIA_TANGENT_STEP, STATE_FIELDS
 from latdyn.numerics.linalg import (
     BAND_LIMIT,
     DENSE_LIMIT,
     openblas_thread_functions,
     rcm_band,
 )
-from latdyn.step.compiled_laws import LawsUnavailable, compile_laws, unprintable
-from latdyn.step.integrators import (
-    INERTIA_TANGENT_STEP,
-    GeneralizedAlpha,
-    StepStats,
-    node_colouring,
-)
-from latdyn.step.library import (
-    AdvanceData,
-    ConfigurationData,
-    ControlData,
-    ModelData,
-    VectorsData,
-    WorkData,
-    lapack_address,
-    parallel_threshold,
-    step_library,
-)
+from latdyn.step.integrators import GeneralizedAlpha, StepStats
 from latdyn.step.sparse_lu import SupernodalAnalysis, blas_kernels
-
-# ----------------------------------------------------------------------------- the library
-
-
-def _kernel_address(kernels, name: str) -> int:
-    library = kernels.libraries[name]
-    return ctypes.cast(getattr(library, name), ctypes.c_void_p).value
-
 
 # ----------------------------------------------------------------------------- availability
 
 
 def unsupported(assembler) -> str | None:
     """Why the compiled step cannot run this model, or None when it can."""
-    model = assembler.model
-    if getattr(model, "links", None) is not None:
+    if getattr(assembler.model, "links", None) is not None:
         return "rigid links (dependent nodes, latdyn/model/links.py) run in the Python step"
-    if getattr(assembler.kernels, "backend", "numpy") != "c" or not hasattr(assembler.kernels, "libraries"):
-        return "the element kernels are not compiled (NumPy backend)"
-    _, _, _, with_law, _ = _plain_hinges(model.hinges)
-    for k in with_law:  # laws in θ, θ̇ or t: compiled (codegen/laws.py), so they must print in C
-        hinge = model.hinges[k]
-        why = unprintable([law for law in (hinge.stiffness, hinge.damping, hinge.torque) if law is not None])
-        if why is not None:
-            return f"hinge {hinge.beam}.{hinge.end} has a law the C printer cannot write ({why})"
     try:
-        step_library()
+        native_library()
     except RuntimeError as error:
-        return f"the step library could not be built ({error})"
+        return f"the native library could not be built ({error})"
     return None
 
 
@@ -119,32 +94,6 @@ def _band_plan(assembler):
 
 
 # ----------------------------------------------------------------------------- the step
-
-
-class _Laws:
-    """The scene's functions of time, numbered. They are compiled with the hinge laws
-    (:mod:`latdyn.step.compiled_laws`) and evaluated in C at each step's end time; where that
-    cannot be done, ``at(t)`` gives their (value, rate, acceleration) in Python for the step
-    to take (:class:`~latdyn.scene.expressions.TimeFunction` evaluates one float time through
-    ``math`` lambdas)."""
-
-    def __init__(self):
-        self.functions = []
-
-    def add(self, function) -> int:
-        if function is None:
-            return -1
-        self.functions.append(function)
-        return len(self.functions) - 1
-
-    def at(self, t: float) -> np.ndarray:
-        out = np.zeros((max(len(self.functions), 1), 3))
-        for k, f in enumerate(self.functions):
-            if hasattr(f, "rate"):  # a TimeFunction
-                out[k] = f.value(t), f.rate(t), f.accel(t)
-            else:  # a hinge torque law of t alone
-                out[k, 0] = f.value(0.0, 0.0, t)
-        return out
 
 
 class CompiledGeneralizedAlpha(GeneralizedAlpha):
@@ -163,93 +112,58 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         #: bumped whenever the held factorization (Work matrix and pivots, factored_h) may change:
         #: before each call into C that steps, on a rebuild of the buffers, on a restore
         self._factor_version = 0
-        self._key = None
-        self._library = step_library()
+        self._native = self._setup_for = None
+        self._library = native_library()
         self._last_trial = self._mass_for = None
         self._empty = np.zeros(1)
-        self._energy_out = np.zeros(3)
         self._made = None  # (the last state made, its C view, the C view of its base)
 
     # -- the model as arrays, rebuilt when the numbering changes (a latch) --------------------
-    def _current_key(self) -> tuple:
-        model = self.assembler.model
-        return (model.n_dofs, model.locked.tobytes(), self.inertia_tangent)
-
     def _setup(self) -> None:
-        model = self.assembler.model
-        key = self._current_key()
-        if key == self._key:
+        """The assembler's native model for the current numbering (latdyn/assembly/native_model.py),
+        with the storage of the iteration matrix, and the step's own structs."""
+        native = self.assembler.native(self.inertia_tangent)
+        if self._setup_for == (native, self.inertia_tangent):
             return
-        self._key = key
+        self._setup_for = (native, self.inertia_tangent)
+        self._native = native
         self._factor_version += 1
-        a, m = self.assembler, model
-        colour = node_colouring(m)
-        keep = []  # arrays the C structures point into
+        self._hold_matrix(native)
+        native.model.parallel_elements, native.model.threads = self.parallel_elements, self.threads
+        n = self.assembler.model.n_dofs
+        self._control = ControlData(max_iterations=self.max_iterations, modified=int(self.modified),
+                                    inertia_tangent=int(self.inertia_tangent), tangent_step=INERTIA_TANGENT_STEP,
+                                    contraction=self.contraction, factored_h=0.0, tol=self.tol,
+                                    length=self.length_scale)
+        for name in ("alpha_m", "alpha_f", "gamma", "beta"):
+            setattr(self._control, name, getattr(self.p, name))
+        size = max(n, 1)
+        self._step_vectors = {name: np.zeros(size) for name in VectorsData._fields_and_names()}
+        self._a_n, self._a_new = self._step_vectors["a_n"], self._step_vectors["a_new"]
+        self._vectors = VectorsData(**{name: b.ctypes.data for name, b in self._step_vectors.items()})
+        self._model_ref, self._work_ref, self._buffers = native.model_ref, native.work_ref, native.buffers
+        self._control_ref, self._vectors_ref = ctypes.byref(self._control), ctypes.byref(self._vectors)
+        self._step = self._library.latdyn_newton_step
+        self._layout()
+        # the loop of steps (advance): its two scratch configurations and its counters
+        self._scratch = [self._new_state(0.0) for _ in range(2)]
+        self._scratch_c = (ConfigurationData * 2)(self._scratch[0][1], self._scratch[1][1])
+        self._run = AdvanceData()
+        self._run_ref = ctypes.byref(self._run)
 
-        def arr(values, dtype=np.float64):
-            array = np.ascontiguousarray(values, dtype=dtype)
-            if array.size == 0:
-                array = np.zeros(1, dtype)
-            keep.append(array)
-            return array.ctypes.data
+    def _hold_matrix(self, native) -> None:
+        """The iteration matrix's storage in the native model: dense below DENSE_LIMIT coordinates,
+        else banded after a reverse Cuthill–McKee ordering, or the supernodal sparse LU when the band
+        is wider than BAND_LIMIT (latdyn/numerics/linalg.py), with every block entry's position in it."""
+        a, m = self.assembler, self.assembler.model
+        n = m.n_dofs
+        keep = []
 
         def ints(values):
-            return arr(values, np.int64)
+            array = np.ascontiguousarray(values, dtype=np.int64)
+            keep.append(array if array.size else np.zeros(1, np.int64))
+            return keep[-1].ctypes.data
 
-        laws = _Laws()
-        prescribed = [i for i, node in enumerate(m.nodes) if node.kind == PRESCRIBED]
-        translation, angle, axis = [], [], []
-        for i in prescribed:
-            body = m.scene.bodies[m.nodes[i].body]
-            if body.translation is not None:
-                translation.append([laws.add(g) for g in body.translation])
-            else:
-                translation.append([-1, -1, -1])
-            if body.rotation_angle is not None:
-                angle.append(laws.add(body.rotation_angle))
-                axis.append(np.asarray(body.rotation_axis, float))
-            else:
-                angle.append(-1)
-                axis.append(np.zeros(3))
-        hinge_angle = [laws.add(h.angle) for h in m.hinges]
-        # hinge forces (Assembler.hinge_forces): constant springs and dampers, with a torque of t
-        # among the laws of time; the other hinges' stiffness, damping and torque as hinge laws
-        stiffness, damping, _, with_law, _ = _plain_hinges(m.hinges)
-        hinge_laws, H = [], len(m.hinges)
-        stiffness_law, damping_law, torque_hinge_law = [-1] * H, [-1] * H, [-1] * H
-        for j in with_law:
-            h = m.hinges[j]
-            stiffness_law[j], damping_law[j] = len(hinge_laws), len(hinge_laws) + 1
-            hinge_laws += [h.stiffness, h.damping]
-            if h.torque is not None:
-                torque_hinge_law[j] = len(hinge_laws)
-                hinge_laws.append(h.torque)
-        torque = [-1 if j in with_law else laws.add(h.torque) for j, h in enumerate(m.hinges)]
-        load_node, load_r, force_law, moment_law, frame_node = [], [], [], [], []
-        for load in a.loads:
-            node, r = m.point(load.at)
-            load_node.append(node)
-            load_r.append(r)
-            force_law.append([laws.add(g) for g in load.force] if load.force else [-1, -1, -1])
-            moment_law.append([laws.add(g) for g in load.moment] if load.moment else [-1, -1, -1])
-            frame_node.append(-1 if load.frame == "global" else m.body_node[load.frame])
-        self._laws = laws
-        self._law_hinges = list(with_law)
-        try:
-            compiled = compile_laws(laws.functions, hinge_laws)
-            self._loop_reason = None
-        except LawsUnavailable as error:
-            if hinge_laws:  # unsupported() has checked that they print; a build failure then
-                raise RuntimeError(f"the hinge laws could not be compiled: {error}") from None
-            compiled, self._loop_reason = None, f"the laws of time are evaluated in Python ({error})"
-        self._compiled_laws = compiled
-
-        lock_at = [np.nan if h.lock_at is None else float(h.lock_at) for h in m.hinges]
-        lower = [np.nan if h.limits is None else float(h.limits[0]) for h in m.hinges]
-        upper = [np.nan if h.limits is None else float(h.limits[1]) for h in m.hinges]
-        has_events = any(m.hinges[k].lock_at is not None or m.hinges[k].limits is not None for k in m.free_hinges)
-
-        n = m.n_dofs
         dense = n <= DENSE_LIMIT
         if dense:
             new = np.arange(n, dtype=np.int64)
@@ -282,110 +196,24 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
             cols = np.broadcast_to(column_dofs[:, None, :], dofs.shape + (column_dofs.shape[1],))
             return position(rows, cols)
 
-        body_dofs = m.node_dofs[m.body_nodes].reshape(-1, 6)
-        load_rows, load_columns = m.node_dofs[np.array(load_node, np.int64)].reshape(-1, 6), a._load_columns()
         hd = m.hinge_dofs
-        hinge_position = np.where(hd < n, position(hd, hd), -1)
-
+        model = native.model
+        model.element_position = ints(block_positions(m.element_dofs))
+        model.body_position = ints(block_positions(m.node_dofs[m.body_nodes].reshape(-1, 6)))
+        model.hinge_position = ints(np.where(hd < n, position(hd, hd), -1))
+        model.load_position = ints(block_positions(m.node_dofs[a._load_nodes].reshape(-1, 6), a._load_columns()))
+        model.band, model.kl, model.ku, model.ldab = int(not dense and sparse_lu is None), kl, ku, ldab
+        model.matrix_size, model.permutation = size, ints(new)
+        model.getrf, model.getrs = lapack_address("dgetrf"), lapack_address("dgetrs")
+        model.gbtrf, model.gbtrs = lapack_address("dgbtrf"), lapack_address("dgbtrs")
+        model.sparse_lu = ctypes.pointer(sparse_lu) if sparse_lu is not None else None
         blas_threads = openblas_thread_functions()
-        kernels = a.kernels
-        E, B, L = len(m.element_nodes), len(m.body_nodes), len(a.loads)
-        H = len(m.hinges)
-        self._model = ModelData(
-            n_nodes=len(m.nodes), n_hinges=H, n_elements=E, n_bodies=B, n_loads=L, n_dofs=n, n_total=m.n_total,
-            node_dofs=ints(m.node_dofs), hinge_dofs=ints(m.hinge_dofs),
-            n_free_nodes=len(m.free_nodes), n_free_hinges=len(m.free_hinges),
-            free_nodes=ints(m.free_nodes), free_hinges=ints(m.free_hinges),
-            n_prescribed=len(prescribed), prescribed_nodes=ints(prescribed),
-            translation_law=ints(np.array(translation, np.int64).reshape(-1, 3)), angle_law=ints(angle),
-            rotation_axis=arr(np.array(axis).reshape(-1, 3)),
-            node_x0=arr(np.array([nd.position for nd in m.nodes], float).reshape(-1, 3)),
-            hinge_angle_law=ints(hinge_angle), hinge_locked=ints(np.asarray(m.locked, np.int64)),
-            element_nodes=ints(m.element_nodes), element_hinges=ints(m.element_hinges),
-            element_dofs=ints(m.element_dofs), element_axes=arr(m.element_axes),
-            element_frames0=arr(m.element_frames0), element_offsets=arr(m.element_offsets),
-            element_sections=arr(m.element_sections),
-            body_nodes=ints(m.body_nodes), body_mass=arr(m.body_mass), body_com=arr(m.body_com),
-            body_inertia=arr(m.body_inertia),
-            hinge_stiffness=arr(stiffness), hinge_damping=arr(damping),
-            hinge_rest_angle=arr([float(getattr(h, "rest_angle", 0.0)) for h in m.hinges]),
-            hinge_torque_law=ints(torque),
-            load_node=ints(load_node), load_force_law=ints(np.array(force_law, np.int64).reshape(-1, 3)),
-            load_moment_law=ints(np.array(moment_law, np.int64).reshape(-1, 3)), load_frame_node=ints(frame_node),
-            load_r=arr(np.array(load_r, float).reshape(-1, 3)),
-            gravity=(ctypes.c_double * 3)(*a.gravity), has_gravity=int(a.has_gravity),
-            element_position=ints(block_positions(m.element_dofs)), body_position=ints(block_positions(body_dofs)),
-            hinge_position=ints(hinge_position), load_position=ints(block_positions(load_rows, load_columns)),
-            band=int(not dense and sparse_lu is None), kl=kl, ku=ku, ldab=ldab, matrix_size=size, permutation=ints(new),
-            internal_force=_kernel_address(kernels, "beam_internal_force"),
-            internal_force_D_q=_kernel_address(kernels, "beam_internal_force_D_q"),
-            mass_matrix=_kernel_address(kernels, "beam_mass_matrix"),
-            quadratic_velocity=_kernel_address(kernels, "beam_quadratic_velocity"),
-            quadratic_velocity_D_qdot=_kernel_address(kernels, "beam_quadratic_velocity_D_qdot"),
-            gravity_load=_kernel_address(kernels, "beam_gravity"),
-            strain_energy=_kernel_address(kernels, "beam_strain_energy"),
-            kinetic_energy=_kernel_address(kernels, "beam_kinetic_energy"),
-            joint_body=_kernel_address(kernels, "joint_body"), point_load=_kernel_address(kernels, "point_load"),
-            body_section=arr(a._body_section),
-            hinged_end=_kernel_address(kernels, "hinged_end"), element_ends=arr(a._element_ends),
-            hinge_force=_kernel_address(kernels, "hinge_force"), so3_exp=_kernel_address(kernels, "so3_exp"),
-            getrf=lapack_address("dgetrf"), getrs=lapack_address("dgetrs"), gbtrf=lapack_address("dgbtrf"), gbtrs=lapack_address("dgbtrs"),
-            parallel_elements=self.parallel_elements, threads=self.threads,
-            node_colour=ints(colour), hinge_node=ints([h.node for h in m.hinges]), n_colours=int(colour.max(initial=-1)) + 1,
-            time_laws=None if compiled is None else compiled.time_laws,
-            hinge_laws=None if compiled is None else compiled.hinge_laws,
-            hinge_stiffness_law=ints(stiffness_law), hinge_damping_law=ints(damping_law),
-            hinge_torque_hinge_law=ints(torque_hinge_law),
-            hinge_conservative=ints([int(h.conservative_spring) for h in m.hinges]),
-            hinge_lock_at=arr(lock_at), hinge_lower_stop=arr(lower), hinge_upper_stop=arr(upper),
-            has_events=int(has_events),
-            sparse_lu=ctypes.pointer(sparse_lu) if sparse_lu is not None else None,
-            get_blas_threads=blas_threads[0] if blas_threads[1] else None, set_blas_threads=blas_threads[1],
-            section_width=m.element_sections.shape[1],
-        )
-        work = {
-            "geometry": (E, 36), "rates": (E, 14), "accelerations": (E, 14), "gravity_rows": (E, 3),
-            "force": (E, 14), "tangent": (E, 14, 14), "mass": (E, 14, 14), "quadratic": (E, 14),
-            "quadratic_D": (E, 14, 14), "gravity_force": (E, 14), "gravity_potential": (E,),
-            "first_moment": (E, 3), "body_vector": (B, 6), "body_mass": (B, 6, 6), "body_damping": (B, 6, 6),
-            "body_stiffness": (B, 6, 6),
-            "load_blocks": (L, 6, 6), "strain": (E,), "section_forces": (E, 4), "kinetic": (E,), "total": (m.n_total + 1,),
-            "matrix": (size,), "rhs": (n,), "laws": (max(len(laws.functions), 1), 3), "hinge_d_theta": (H,),
-            "hinge_d_rate": (H,)}
-        # the inertia tangent's buffers (integrators.inertia_tangent), only once the run needs them
-        N, H = len(m.nodes), len(m.hinges)
-        tangent = {"inertia_tangent": (E, 14, 14), "forces_plus": (E, 14), "forces_minus": (E, 14),
-                   "perturbed_x": (N, 3), "perturbed_T": (N, 3, 3), "perturbed_theta": (H,),
-                   "p_geometry": (E, 36), "p_rates": (E, 14), "p_accelerations": (E, 14), "p_mass": (E, 14, 14),
-                   "p_quadratic": (E, 14), "p_gravity_force": (E, 14), "p_gravity_potential": (E,),
-                   "p_first_moment": (E, 3)}
-        work.update({name: shape if self.inertia_tangent else (0,) for name, shape in tangent.items()})
-        self._buffers = {name: np.zeros(shape) for name, shape in work.items()}
-        self._buffers["gravity_rows"][:] = a.gravity
-        self._buffers["pivots"] = np.zeros(max(n, 1), np.int32)
-        self._work = WorkData(**{name: b.ctypes.data if b.size else arr(np.zeros(1)) for name, b in self._buffers.items()})
-        self._keep = keep
-        self._control = ControlData(max_iterations=self.max_iterations, modified=int(self.modified),
-                                 inertia_tangent=int(self.inertia_tangent), tangent_step=INERTIA_TANGENT_STEP,
-                                 contraction=self.contraction, factored_h=0.0, tol=self.tol,
-                                 length=self.length_scale)
-        for name in ("alpha_m", "alpha_f", "gamma", "beta"):
-            setattr(self._control, name, getattr(self.p, name))
-        size = max(n, 1)
-        self._step_vectors = {name: np.zeros(size) for name in VectorsData._fields_and_names()}
-        self._a_n, self._a_new = self._step_vectors["a_n"], self._step_vectors["a_new"]
-        self._vectors = VectorsData(**{name: b.ctypes.data for name, b in self._step_vectors.items()})
-        self._model_ref, self._work_ref = ctypes.byref(self._model), ctypes.byref(self._work)
-        self._control_ref, self._vectors_ref = ctypes.byref(self._control), ctypes.byref(self._vectors)
-        self._step = self._library.latdyn_newton_step
-        self._layout()
-        # the loop of steps (advance): its two scratch configurations and its counters
-        self._scratch = [self._new_state(0.0) for _ in range(2)]
-        self._scratch_c = (ConfigurationData * 2)(self._scratch[0][1], self._scratch[1][1])
-        self._run = AdvanceData()
-        self._run_ref = ctypes.byref(self._run)
-
-    _FIELDS = ("x", "T", "v", "w", "a", "alpha", "theta", "theta_dot", "theta_ddot")
+        model.get_blas_threads = blas_threads[0] if blas_threads[1] else None
+        model.set_blas_threads = blas_threads[1]
+        native.set_buffer("matrix", np.zeros(size))
+        native.set_buffer("rhs", np.zeros(n))
+        native.set_buffer("pivots", np.zeros(max(n, 1), np.int32))
+        native.matrix_storage = keep  # kept alive with the native model
 
     def _layout(self) -> None:
         """Offsets of a state's arrays in one flat buffer (a new state per step: the loop
@@ -395,12 +223,12 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         shapes = {"x": (N, 3), "T": (N, 3, 3), "v": (N, 3), "w": (N, 3), "a": (N, 3), "alpha": (N, 3),
                   "theta": (H,), "theta_dot": (H,), "theta_ddot": (H,)}
         self._shapes, self._offsets, offset = shapes, {}, 0
-        for name in self._FIELDS:
+        for name in STATE_FIELDS:
             self._offsets[name] = offset
             offset += max(int(np.prod(shapes[name])), 1)
         self._state_size = offset
         self._slices = [(self._offsets[name], self._offsets[name] + int(np.prod(shapes[name])), shapes[name])
-                        for name in self._FIELDS]
+                        for name in STATE_FIELDS]
 
     def _new_state(self, t: float) -> tuple[State, ConfigurationData]:
         buffer = np.empty(self._state_size)
@@ -410,7 +238,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
 
     def _copy_into(self, source: State, state: State) -> None:
         """``state`` ← ``source``'s arrays, in place."""
-        for name in self._FIELDS:
+        for name in STATE_FIELDS:
             np.copyto(getattr(state, name), getattr(source, name))
 
     def _configuration_of(self, state: State) -> ConfigurationData:
@@ -420,7 +248,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         checkpoints)."""
         if self._made is not None and self._made[0] is state:
             return self._made[1]
-        arrays = [np.ascontiguousarray(getattr(state, name), dtype=np.float64) for name in self._FIELDS]
+        arrays = [np.ascontiguousarray(getattr(state, name), dtype=np.float64) for name in STATE_FIELDS]
         pointers = [array.ctypes.data if array.size else self._empty.ctypes.data for array in arrays]
         self._copies = arrays
         return ConfigurationData(*pointers)
@@ -433,13 +261,12 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         base = self._configuration_of(state)
         trial_state, trial = self._new_state(t_new)
         self._a_n[:n] = self.a
-        laws = None if self._compiled_laws is not None else self._laws.at(t_new)  # else in C, at t_new
         control = self._control
         control.h = h
         control.t_new = t_new
         self._factor_version += 1
         failed = self._step(self._model_ref, self._work_ref, self._control_ref, ctypes.byref(base),
-                            ctypes.byref(trial), self._vectors_ref, None if laws is None else laws.ctypes.data)
+                            ctypes.byref(trial), self._vectors_ref)
         self.factorizations += control.factorizations
         self._last_trial = trial_state
         self._made = (trial_state, trial, base)
@@ -454,12 +281,6 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
             self.a_candidate = self._a_new[:n].copy()
         return trial_state, stats
 
-    @property
-    def loop_reason(self) -> str | None:
-        """Why :meth:`advance` cannot run (the laws could not be compiled), or None."""
-        self._setup()
-        return self._loop_reason
-
     def advance(self, state: State, *, grid_index: int, stop_index: int, dt: float, t_end: float, n_grid: int,
                 power: float, external_work: float, budget_s: float = 0.25) -> "Advanced":
         """Steps on the time grid in one call into C (``latdyn_advance``), from ``state`` on grid
@@ -469,9 +290,8 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         ``stop_index``, after ``budget_s`` of wall time, or at the first step that does not
         converge or holds a hinge event (lock_at, a stop): that step is given back, not
         accepted, for the time loop to handle as it handles any step (:attr:`Advanced.pending`).
-        Needs the laws compiled (:attr:`loop_reason` is None)."""
-        if self.loop_reason is not None:
-            raise RuntimeError(f"the loop of steps needs compiled laws: {self.loop_reason}")
+        """
+        self._setup()
         model = self.assembler.model
         n = model.n_dofs
         base = self._configuration_of(state)
@@ -530,7 +350,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         place in Work's ``matrix``) and of the pivots (dense and band LU). None when there is
         nothing to carry: full Newton, no factorization held, or one of a numbering (a latch)
         or an iteration matrix (the inertia tangent) that the next step will rebuild anyway."""
-        if not self.modified or self._key is None or self._key != self._current_key():
+        if not self.modified or self._setup_for != (self.assembler.native(self.inertia_tangent), self.inertia_tangent):
             return None
         h = float(self._control.factored_h)
         if h == 0.0:
@@ -560,17 +380,6 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         matrix[:] = got_matrix
         pivots[:] = got_pivots
         self._control.factored_h = float(saved["factored_h"])
-
-    def energies(self, state: State) -> dict[str, float]:
-        """:meth:`latdyn.assembly.assembler.Assembler.energies` in C (the time loop asks at every recorded row)."""
-        self._setup()
-        out = self._energy_out
-        self._library.latdyn_energies(self._model_ref, self._work_ref, ctypes.byref(self._configuration_of(state)),
-                                      out.ctypes.data)
-        strain = float(out[1])
-        if self._law_hinges:  # springs with a law: their potential integrates the law (Assembler.hinge_potential)
-            strain += self.assembler.hinge_potential(state, self._law_hinges)
-        return {"kinetic": float(out[0]), "strain": strain, "potential": float(out[2])}
 
     def error_estimate(self, h: float) -> float:
         """As :meth:`GeneralizedAlpha.error_estimate`, with the mass matrix of the step's end

@@ -21,8 +21,9 @@ with the nodal twist (a twist inertia ~ φ², :mod:`latdyn.numerics.inertia`), s
 and gravity forces change with the twist as much as the internal force does, in
 opposite sense, and K alone makes Newton diverge on the twist at any step size
 (D4, docs/verification.md).  When Newton fails, the time loop switches the run to
-``inertia_tangent`` (:func:`inertia_tangent`: the omitted term by central
-differences, element by element) before it cuts the step.
+``inertia_tangent`` (the omitted term by central differences, element by element, in the
+native evaluation: ``inertia_tangent`` of latdyn/assembly/csrc/evaluate.c, its perturbations
+colour by colour so that every element sees one end move at a time) before it cuts the step.
 
 The same scheme gives, by its parameters:
   ``generalized-alpha``: α_m = (2ρ∞ − 1)/(ρ∞ + 1), α_f = ρ∞/(ρ∞ + 1)
@@ -149,93 +150,6 @@ def consistent_acceleration(model, ev) -> np.ndarray:
     return delta
 
 
-#: Central-difference step of :func:`inertia_tangent` (radians for rotations and hinges,
-#: metres · ``length`` for translations).
-INERTIA_TANGENT_STEP = 1e-6
-
-
-def node_colouring(model) -> np.ndarray:
-    """A colour per node such that the two ends of every element differ (greedy, in node
-    order: a beam's chain of nodes gets two colours). Nodes of one colour can be perturbed
-    together: each element then sees the perturbation of one end only."""
-    n_nodes = len(model.nodes)
-    neighbours: list[set] = [set() for _ in range(n_nodes)]
-    for a, b in np.asarray(model.element_nodes).reshape(-1, 2):
-        if a != b:
-            neighbours[int(a)].add(int(b))
-            neighbours[int(b)].add(int(a))
-    colour = np.zeros(n_nodes, dtype=np.int64)
-    for i in range(n_nodes):
-        used = {int(colour[k]) for k in neighbours[i] if k < i}
-        c = 0
-        while c in used:
-            c += 1
-        colour[i] = c
-    return colour
-
-
-def inertia_rounds(model, colour: np.ndarray, length: float) -> list[np.ndarray]:
-    """The perturbation vectors of :func:`inertia_tangent`: for each colour and each of the
-    seven coordinates of an element end (d, π, θ), that coordinate of every free node (or
-    hinge) of that colour, scaled by the step (``length`` · step for translations)."""
-    n = model.n_dofs
-    eps = INERTIA_TANGENT_STEP
-    rounds = []
-    hinge_node = np.array([h.node for h in model.hinges], dtype=np.int64)
-    for c in range(int(colour.max(initial=-1)) + 1):
-        nodes = model.free_nodes[colour[model.free_nodes] == c]
-        for k in range(7):
-            delta = np.zeros(n + 1)
-            if k < 6:
-                dofs = model.node_dofs[nodes, k]
-                delta[dofs[dofs < n]] = eps * (length if k < 3 else 1.0)  # a planar node lacks 3 slots
-            else:
-                hinges = model.free_hinges[colour[hinge_node[model.free_hinges]] == c]
-                delta[model.hinge_dofs[hinges]] = eps
-            delta = delta[:n]
-            if np.any(delta):
-                rounds.append(delta)
-    return rounds
-
-
-def inertia_tangent(assembler, state, rounds: list[np.ndarray]) -> np.ndarray:
-    """∂(M v̇ + g − f_gravity)/∂q of every element at ``state``, (E, 14, 14), by central differences.
-
-    The term the iteration matrix leaves out (module docstring), at fixed velocities and
-    accelerations, for the same update T ← exp(skew Δπ) T, x ← x + Δd, θ ← θ + Δθ as the
-    internal-force tangent. Column j of an element is found from one perturbation of all
-    nodes of one colour in one coordinate (``rounds``, :func:`inertia_rounds`): no element
-    has both ends of one colour, so each element's change comes from one column; 7 × colours
-    perturbations in all (14 for a chain), whatever the model's size. Joint bodies are left
-    out: they carry their own inertia.
-    """
-    model = assembler.model
-    ks = assembler.kernels
-    n = model.n_dofs
-    section = model.element_sections
-    dofs = model.element_dofs
-
-    def forces(s) -> np.ndarray:
-        geometry = assembler.element_geometry(s)
-        qdot = assembler.element_rates(s, s.v, s.w, s.theta_dot)
-        qddot = assembler.element_rates(s, s.a, s.alpha, s.theta_ddot)
-        (m_e,) = ks.beam_mass_matrix(geometry, section)
-        (g_e,) = ks.beam_quadratic_velocity(geometry, qdot, section)
-        f = np.einsum("eij,ej->ei", m_e, qddot) + g_e
-        if assembler.has_gravity:
-            f -= ks.beam_gravity(geometry, section, np.broadcast_to(assembler.gravity, (len(geometry), 3)))[0]
-        return f
-
-    tangent = np.zeros((len(dofs), 14, 14))
-    for delta in rounds:
-        difference = forces(advance(model, state, delta)) - forces(advance(model, state, -delta))
-        step = np.append(delta, 0.0)[np.where(dofs < n, dofs, n)]  # (E, 14): the perturbed column of each element
-        for j in range(14):
-            hit = step[:, j] != 0.0
-            tangent[hit, :, j] = difference[hit] / (2.0 * step[hit, j][:, None])
-    return tangent
-
-
 class GeneralizedAlpha:
     """One step of the Lie-group generalized-α family; state kept explicit."""
 
@@ -247,7 +161,7 @@ class GeneralizedAlpha:
         self.max_iterations = max_iterations
         self.length_scale = length_scale
         self.a = None  # algorithmic acceleration (free coordinates)
-        #: add the elements' inertia tangent to the iteration matrix (:func:`inertia_tangent`);
+        #: add the elements' inertia tangent to the iteration matrix (module docstring);
         #: switched on by the time loop when Newton fails without it
         self.inertia_tangent = False
 
@@ -290,10 +204,8 @@ class GeneralizedAlpha:
         previous = np.inf
         for iteration in range(1, self.max_iterations + 1):
             trial = configured()
-            ev = self.assembler.evaluate(trial, matrices=True)
-            if self.inertia_tangent and n:
-                element, *rest = ev.blocks["stiffness"]
-                ev.blocks["stiffness"] = (element + inertia_tangent(self.assembler, trial, self.rounds()), *rest)
+            ev = self.assembler.evaluate(trial, matrices=True, inertia_tangent=self.inertia_tangent and n > 0,
+                                         length=self.length_scale)
             self.last_evaluation = ev
             if n == 0:
                 stats.converged = True
@@ -326,15 +238,6 @@ class GeneralizedAlpha:
 
     def accept(self) -> None:
         self.a = self.a_candidate
-
-    def rounds(self) -> list[np.ndarray]:
-        """Perturbations of :func:`inertia_tangent` for the current numbering (rebuilt after a latch)."""
-        model = self.assembler.model
-        key = (model.n_dofs, tuple(model.free_hinges))
-        if getattr(self, "_rounds_key", None) != key:
-            colour = node_colouring(model)
-            self._rounds, self._rounds_key = inertia_rounds(model, colour, self.length_scale), key
-        return self._rounds
 
     def error_estimate(self, h: float) -> float:
         """Local error of the position update, h²|β − 1/6| ‖a_{n+1} − a_n‖ (Géradin & Cardona).

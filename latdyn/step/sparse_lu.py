@@ -31,7 +31,7 @@ import heapq
 import numpy as np
 import scipy.sparse as sps
 
-from latdyn.step.library import SparseLUStructure, cython_address, step_library
+from latdyn.assembly.library import SparseLUStructure, cython_address, native_library
 
 I64 = ctypes.c_int64
 P = ctypes.c_void_p
@@ -275,7 +275,7 @@ def blas_kernels() -> tuple[int, int]:
 
 
 def _functions():
-    library = step_library()
+    library = native_library()
     factor, solve = library.latdyn_sparse_lu_factor, library.latdyn_sparse_lu_solve
     factor.restype, factor.argtypes = I64, [ctypes.POINTER(SparseLUStructure), P]
     solve.restype, solve.argtypes = None, [ctypes.POINTER(SparseLUStructure), P, P]

@@ -92,7 +92,7 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
     else:
         integrator = implicit_integrator(prepared, AlphaParameters.for_method(solve.method, solve.rho_inf), tol,
                                           length, writer.summary)
-    energies_of = getattr(integrator, "energies", assembler.energies)  # the compiled step has its own
+    energies_of = assembler.energies
     t_end, dt = float(solve.t_end), float(solve.dt)
     n_grid = max(1, int(np.ceil(t_end / dt - 1e-9)))
     dt_min = solve.dt_min if solve.dt_min is not None else dt * 1e-6
@@ -210,8 +210,7 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
     # the loop of steps in C (step.compiled.CompiledGeneralizedAlpha.advance): from a grid point at the
     # nominal step, the steps up to the next row are taken and accepted in one call; a step it
     # cannot accept as it comes (Newton fails, a hinge event) comes back to the loop below
-    loop = (COMPILED_LOOP and hasattr(integrator, "advance") and not solve.adaptive
-            and integrator.loop_reason is None)
+    loop = COMPILED_LOOP and hasattr(integrator, "advance") and not solve.adaptive
     writer.summary["time_loop"] = "compiled" if loop else "python"
 
     if resume_from is None:

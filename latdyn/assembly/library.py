@@ -1,7 +1,8 @@
-"""The native boundary: the compiled step library (``csrc/newton_step.c`` with the sparse LU of
-``csrc/sparse_lu.c`` inlined), built once into the kernel cache by :mod:`latdyn.native`, and the
-ctypes mirrors of its C structs (``Model``, ``Work``, ``Configuration``, ``Vectors``,
-``StepControl``, ``Advance``, ``SparseLUStructure``).
+"""The native boundary: the runtime's C library (``csrc/newton_step.c``, which inlines the one
+evaluation of ``csrc/evaluate.c`` and the sparse LU of ``csrc/sparse_lu.c``), built once into the
+kernel cache by :mod:`latdyn.native`, and the ctypes mirrors of its C structs (``Model``, ``Work``,
+``Configuration``, ``EvaluationControl``, ``Vectors``, ``StepControl``, ``Advance``,
+``SparseLUStructure``).
 
 Every struct the C side reads is declared here and nowhere else on the Python side;
 ``tests/test_engine.py`` checks their sizes and offsets against the compiler's.
@@ -92,6 +93,14 @@ class ControlData(ctypes.Structure):
         ("power", ctypes.c_double), ("contraction_seen", ctypes.c_double), ("t_new", ctypes.c_double)]
 
 
+class EvaluationData(ctypes.Structure):
+    """``EvaluationControl`` of csrc/evaluate.c."""
+
+    _fields_ = [("t", ctypes.c_double), ("load_factor", ctypes.c_double), ("inertia", I64), ("matrices", I64),
+                ("inertia_tangent", I64), ("tangent_step", ctypes.c_double), ("length", ctypes.c_double),
+                ("power", ctypes.c_double)]
+
+
 class AdvanceData(ctypes.Structure):
     _fields_ = [("dt", ctypes.c_double), ("t_end", ctypes.c_double), ("n_grid", I64), ("grid_index", I64),
                 ("stop_index", I64), ("t", ctypes.c_double), ("budget_s", ctypes.c_double),
@@ -122,7 +131,7 @@ def parallel_threshold() -> int:
         return PARALLEL_ELEMENTS
 
 
-def step_library() -> ctypes.CDLL:
+def native_library() -> ctypes.CDLL:
     """Compile (once, into the kernel cache) and load csrc/newton_step.c, with OpenMP where the
     compiler has it (a failed -fopenmp build is remembered in the cache by an empty marker file)."""
     global _LIBRARY
@@ -150,10 +159,15 @@ def step_library() -> ctypes.CDLL:
         library.latdyn_energies.restype = None
         library.latdyn_energies.argtypes = [ctypes.POINTER(ModelData), ctypes.POINTER(WorkData),
                                             ctypes.POINTER(ConfigurationData), P]
+        model, work, configuration = (ctypes.POINTER(ModelData), ctypes.POINTER(WorkData),
+                                      ctypes.POINTER(ConfigurationData))
+        library.latdyn_evaluate.restype = None
+        library.latdyn_evaluate.argtypes = [model, work, configuration, ctypes.POINTER(EvaluationData)]
+        library.latdyn_element_inputs.restype = None
+        library.latdyn_element_inputs.argtypes = [model, work, configuration]
         library.latdyn_newton_step.restype = I64
-        library.latdyn_newton_step.argtypes = [ctypes.POINTER(ModelData), ctypes.POINTER(WorkData),
-                                               ctypes.POINTER(ControlData), ctypes.POINTER(ConfigurationData),
-                                               ctypes.POINTER(ConfigurationData), ctypes.POINTER(VectorsData), P]
+        library.latdyn_newton_step.argtypes = [model, work, ctypes.POINTER(ControlData), configuration,
+                                               configuration, ctypes.POINTER(VectorsData)]
         library.latdyn_advance.restype = I64
         library.latdyn_advance.argtypes = [ctypes.POINTER(ModelData), ctypes.POINTER(WorkData), ctypes.POINTER(ControlData),
                                            ctypes.POINTER(ConfigurationData), ctypes.POINTER(ConfigurationData),
@@ -164,15 +178,15 @@ def step_library() -> ctypes.CDLL:
 
 
 def library_source(name: str) -> bytes:
-    """csrc/<name> with its local ``#include "x.c"`` lines replaced by those files (one source
-    file to compile, and the cache digest covers all of it)."""
-    folder = importlib.resources.files("latdyn.step") / "csrc"
+    """csrc/<name> with its local ``#include "x.c"`` lines replaced by those files, recursively (one
+    source file to compile, and the cache digest covers all of it)."""
+    folder = importlib.resources.files("latdyn.assembly") / "csrc"
     lines = []
     for number, line in enumerate((folder / name).read_bytes().splitlines(keepends=True), start=1):
         words = line.split()
         if len(words) >= 2 and words[0] == b"#include" and words[1].startswith(b'"'):
             included = words[1].strip(b'"')
-            lines += [b'#line 1 "%s"\n' % included, (folder / included.decode()).read_bytes(),
+            lines += [b'#line 1 "%s"\n' % included, library_source(included.decode()),
                       b'\n#line %d "%s"\n' % (number + 1, name.encode())]  # compiler messages keep their files
         else:
             lines.append(line)
@@ -181,7 +195,7 @@ def library_source(name: str) -> bytes:
 
 def openmp_threads() -> int:
     """Threads the compiled step uses above the threshold: 0 when it was built without OpenMP."""
-    return int(step_library().latdyn_threads())
+    return int(native_library().latdyn_threads())
 
 
 def cython_address(module, name: str) -> int:

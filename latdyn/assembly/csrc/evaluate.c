@@ -1,45 +1,37 @@
 /*
- * One Lie-group generalized-α time step, Newton iteration included, in C.
+ * One evaluation of the equations of motion of a model, in C: the runtime's only one.
  *
- * This is runtime code, written by hand: it holds no element physics.  The element terms
- * come from the generated kernels (generated/beam_<variant>.c), called through function
- * pointers; everything between them -- the configuration update on SO(3), prescribed
- * motion, element geometry (Eq. 17), rigid joint bodies, hinge springs, point loads,
- * scatter into a preallocated matrix, LAPACK's LU (dense or banded, through SciPy's
- * function pointers), the convergence test -- is here, so that no Python runs inside a
- * step.  It mirrors latdyn/step/integrators.py (GeneralizedAlpha.step) and latdyn/assembly/assembler.py
- * (Assembler.evaluate) line by line; tests/test_engine.py holds the two to 1e-10.
- * latdyn_advance runs the time loop's steps between two recorded rows (timeloop/transient.py),
- * with the scene's laws compiled by the code generator (codegen/laws.py), and hands back the
- * first step that the Python loop must handle (a Newton failure, a hinge event);
- * tests/test_compiled_loop.py holds it to the steps taken one by one from Python.
+ * Runtime code, written by hand, that holds no physics of its own: the element, joint-body,
+ * point-load, hinge, nodal-frame (Eq. 17) and SO(3) terms come from the generated kernels
+ * (generated/beam_<variant>.c, generated/joints.c; codegen/), called through function pointers,
+ * and the scene's laws from its compiled laws (codegen/laws.py). What is here gathers their
+ * inputs from a configuration, calls them, and sums their outputs into the vector of all
+ * coordinates (Eq. 58: r = Σ_e L_eᵀ [F_e + M_e a_e + g_e − λ Q_e^grav] + bodies + hinges − λ loads)
+ * with the element, body, hinge and load blocks of K, M and C kept apart, so that every analysis
+ * (the time step of newton_step.c, static paths, modes, the explicit method, rigid links through
+ * latdyn/assembly/linked.py) reads the same numbers: latdyn_evaluate, called from Python by
+ * latdyn/assembly/native_model.py. Also here: the trial configuration q ∘ exp(Δ) with prescribed
+ * motion (configure), the elements' inertia tangent by central differences, and the energies.
  *
  * Storage: node arrays row-major (x: n_nodes×3, T: n_nodes×3×3), coordinate vectors of
- * length n_total + 1 (index n_total is the dummy of clamped ends), matrices column-major
- * for LAPACK.  Matrix positions of the block entries are precomputed by the caller
- * (latdyn/step/compiled.py), for the dense or the band storage alike; -1 marks an entry on a
- * constrained coordinate.
+ * length n_total + 1 (index n_total is the dummy of clamped ends). The Model and Work structs
+ * are mirrored in latdyn/assembly/library.py (tests/test_engine.py checks every offset).
  *
  * Threads: the element part of an evaluation (geometry, Eq. 17, and the generated kernels)
  * is split into contiguous ranges of elements, one per OpenMP thread, when the model has at
- * least `parallel_elements` elements (0: never) and the library was compiled with -fopenmp
- * (latdyn/step/compiled.py tries it and falls back to a serial build).  Every element writes only
- * its own rows of the Work buffers, and the scatter into the residual and the matrix stays
- * one serial loop in element order, so the result equals the serial step's for any number
- * of threads (bit for bit on the tested beam, ~1e-14 on a lattice: tests/test_sparse_lu.py).  `threads` (0: OpenMP's default, i.e. OMP_NUM_THREADS or the
- * number of cores) sets how many.
+ * least `parallel_elements` elements (0: never) and the library was compiled with -fopenmp.
+ * Every element writes only its own rows of the Work buffers, and the sums into the vector of
+ * all coordinates stay one serial loop in element order, so the result equals the serial
+ * evaluation's for any number of threads.
  */
-#define _POSIX_C_SOURCE 199309L /* clock_gettime: the wall-time budget of latdyn_advance */
 #include <math.h>
 #include <stdint.h>
 #include <string.h>
-#include <time.h>
 #ifdef _OPENMP
 #include <omp.h>
 #endif
 
-#include "sparse_lu.c" /* the sparse LU (inlined into this source by latdyn/step/compiled.py's build) */
-
+#include "sparse_lu.c" /* the sparse LU's structure, which the Model points to */
 typedef void (*kernel_2_1)(int64_t, const double *, const double *, double *);
 typedef void (*kernel_2_2)(int64_t, const double *, const double *, double *, double *);
 typedef void (*kernel_3_1)(int64_t, const double *, const double *, const double *, double *);
@@ -119,13 +111,13 @@ typedef struct {
     /* threads (see the header): element count from which the element part runs in parallel
      * (0: never), and the number of threads (0: OpenMP's default) */
     int64_t parallel_elements, threads;
-    /* the inertia tangent (integrators.inertia_tangent): node colours (the ends of an element
+    /* the inertia tangent (inertia_tangent below): node colours (the ends of an element
      * differ), the node of each hinge, the number of colours */
     const int64_t *node_colour, *hinge_node;
     int64_t n_colours;
-    /* the scene's laws, compiled by the code generator (codegen/laws.py, latdyn/step/compiled_laws.py):
-     * every function of time at t (3 values each: f, f', f''), and hinge law k at (θ, θ̇, t)
-     * (f, ∂f/∂θ, ∂f/∂θ̇). time_laws NULL: the caller passes the law values (latdyn_newton_step). */
+    /* the scene's laws, compiled by the code generator (codegen/laws.py, latdyn/assembly/compiled_laws.py),
+     * or Python callbacks where a law does not print in C: every function of time at t (3 values
+     * each: f, f', f'') into the buffer given, and hinge law k at (θ, θ̇, t) (f, ∂f/∂θ, ∂f/∂θ̇). */
     void (*time_laws)(double, double *);
     void (*hinge_laws)(int64_t, double, double, double, double *);
     /* hinges with laws in θ, θ̇ or t (Assembler.hinge_forces): the hinge law of the stiffness,
@@ -210,22 +202,29 @@ static inline double free_entry(const double *vector, int64_t d, int64_t n)
 
 /* ------------------------------------------------------------------------- configuration */
 
+/* dst ← src, every node and hinge. */
+static void copy_configuration(const Model *m, const Configuration *src, Configuration *dst)
+{
+    const size_t N = (size_t)m->n_nodes, H = (size_t)m->n_hinges;
+    memcpy(dst->x, src->x, sizeof(double) * 3 * N);
+    memcpy(dst->T, src->T, sizeof(double) * 9 * N);
+    memcpy(dst->v, src->v, sizeof(double) * 3 * N);
+    memcpy(dst->w, src->w, sizeof(double) * 3 * N);
+    memcpy(dst->a, src->a, sizeof(double) * 3 * N);
+    memcpy(dst->alpha, src->alpha, sizeof(double) * 3 * N);
+    memcpy(dst->theta, src->theta, sizeof(double) * H);
+    memcpy(dst->theta_dot, src->theta_dot, sizeof(double) * H);
+    memcpy(dst->theta_ddot, src->theta_ddot, sizeof(double) * H);
+}
+
 /* The trial configuration q_n ∘ exp(increment) at time t with velocities v and accelerations
- * v̇ on the free coordinates (integrators.GeneralizedAlpha.step.configured: advance, then
- * apply_prescribed, then unpack_free). laws: (value, rate, acceleration) of every law at t. */
+ * v̇ on the free coordinates (as assembler.advance, then apply_prescribed, then unpack_free, for
+ * the analyses driven from Python). laws: (value, rate, acceleration) of every law at t. */
 static void configure(const Model *m, const Configuration *base, Configuration *c, const double *increment,
                       const double *velocity, const double *acceleration, const double *laws)
 {
-    const int64_t N = m->n_nodes, H = m->n_hinges;
-    memcpy(c->x, base->x, sizeof(double) * 3 * N);
-    memcpy(c->T, base->T, sizeof(double) * 9 * N);
-    memcpy(c->v, base->v, sizeof(double) * 3 * N);
-    memcpy(c->w, base->w, sizeof(double) * 3 * N);
-    memcpy(c->a, base->a, sizeof(double) * 3 * N);
-    memcpy(c->alpha, base->alpha, sizeof(double) * 3 * N);
-    memcpy(c->theta, base->theta, sizeof(double) * H);
-    memcpy(c->theta_dot, base->theta_dot, sizeof(double) * H);
-    memcpy(c->theta_ddot, base->theta_ddot, sizeof(double) * H);
+    const int64_t H = m->n_hinges;
+    copy_configuration(m, base, c);
     for (int64_t k = 0; k < m->n_free_nodes; ++k) {
         int64_t i = m->free_nodes[k];
         const int64_t *d = m->node_dofs + 6 * i;
@@ -332,21 +331,26 @@ static void element_inputs(const Model *m, const Configuration *c, Work *w, int6
     element_inputs_to(m, c, w->geometry, w->rates, w->accelerations, begin, end_element);
 }
 
-/* Joint bodies (Assembler.joint_bodies): the generated kernel codegen/joints.py, body by body. */
-static void joint_bodies(const Model *m, const Configuration *c, Work *w)
+/* Joint bodies: the generated kernel codegen/joints.py, body by body, under gravity λg; without
+ * inertia (a static residual) at rest, so that only the weight remains. */
+static void joint_bodies(const Model *m, const Configuration *c, Work *w, int inertia, double load_factor)
 {
-    double motion[9];
+    double motion[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
+    const double gravity[3] = {load_factor * m->gravity[0], load_factor * m->gravity[1],
+                               load_factor * m->gravity[2]};
     for (int64_t b = 0; b < m->n_bodies; ++b) {
         int64_t i = m->body_nodes[b];
-        memcpy(motion, c->w + 3 * i, 3 * sizeof(double));
-        memcpy(motion + 3, c->a + 3 * i, 3 * sizeof(double));
-        memcpy(motion + 6, c->alpha + 3 * i, 3 * sizeof(double));
-        m->joint_body(1, c->T + 9 * i, motion, m->body_section + 13 * b, m->gravity, w->body_vector + 6 * b,
+        if (inertia) {
+            memcpy(motion, c->w + 3 * i, 3 * sizeof(double));
+            memcpy(motion + 3, c->a + 3 * i, 3 * sizeof(double));
+            memcpy(motion + 6, c->alpha + 3 * i, 3 * sizeof(double));
+        }
+        m->joint_body(1, c->T + 9 * i, motion, m->body_section + 13 * b, gravity, w->body_vector + 6 * b,
                       w->body_mass + 36 * b, w->body_damping + 36 * b, w->body_stiffness + 36 * b);
     }
 }
 
-/* The equations of motion at c (Assembler.evaluate): the vector of all coordinates into
+/* The equations of motion at c : the vector of all coordinates into
  * w->total (residual = total[:n], reaction = total[n:n_total]); with matrices, the blocks.
  * Returns the power of loads and hinge torques. */
 /* The number of element ranges (= threads) of an evaluation: 1 below the threshold or without OpenMP. */
@@ -367,7 +371,7 @@ static int element_ranges(const Model *m)
 /* Geometry and the generated kernels of elements [begin, end): each element reads and writes
  * only its own rows of the Work buffers (kernel arguments offset to the range). */
 static void element_range(const Model *m, const Configuration *c, Work *w, int64_t begin, int64_t end,
-                          int matrices)
+                          int matrices, int inertia)
 {
     const int64_t n = end - begin;
     if (n <= 0) return;
@@ -375,21 +379,25 @@ static void element_range(const Model *m, const Configuration *c, Work *w, int64
     const double *geometry = w->geometry + 36 * begin, *rates = w->rates + 14 * begin;
     const double *section = m->element_sections + m->section_width * begin;
     double *force = w->force + 14 * begin, *tangent = w->tangent + 196 * begin;
-    if (matrices) {
+    if (matrices)
         m->internal_force_D_q(n, geometry, section, force, tangent);
-        m->quadratic_velocity_D_qdot(n, geometry, rates, section, w->quadratic + 14 * begin,
-                                     w->quadratic_D + 196 * begin);
-    } else {
+    else
         m->internal_force(n, geometry, section, force);
-        m->quadratic_velocity(n, geometry, rates, section, w->quadratic + 14 * begin);
+    if (inertia) {
+        if (matrices)
+            m->quadratic_velocity_D_qdot(n, geometry, rates, section, w->quadratic + 14 * begin,
+                                         w->quadratic_D + 196 * begin);
+        else
+            m->quadratic_velocity(n, geometry, rates, section, w->quadratic + 14 * begin);
+        m->mass_matrix(n, geometry, section, w->mass + 196 * begin);
     }
-    m->mass_matrix(n, geometry, section, w->mass + 196 * begin);
     if (m->has_gravity)
         m->gravity_load(n, geometry, section, w->gravity_rows + 3 * begin, w->gravity_force + 14 * begin,
                         w->gravity_potential + begin, w->first_moment + 3 * begin);
 }
 
-static double evaluate(const Model *m, const Configuration *c, Work *w, const double *laws, double t, int matrices)
+static double evaluate(const Model *m, const Configuration *c, Work *w, const double *laws, double t, int matrices,
+                       int inertia, double load_factor)
 {
     const int64_t E = m->n_elements;
     double power = 0.0;
@@ -399,23 +407,26 @@ static double evaluate(const Model *m, const Configuration *c, Work *w, const do
 #pragma omp parallel for schedule(static) num_threads(ranges)
 #endif
         for (int k = 0; k < ranges; ++k)
-            element_range(m, c, w, E * k / ranges, E * (k + 1) / ranges, matrices);
+            element_range(m, c, w, E * k / ranges, E * (k + 1) / ranges, matrices, inertia);
     } else {
-        element_range(m, c, w, 0, E, matrices);
+        element_range(m, c, w, 0, E, matrices, inertia);
     }
     memset(w->total, 0, sizeof(double) * (m->n_total + 1));
-    /* elements: F + M a + g − gravity (Eqs. 55, 58) */
+    /* elements: F + M a + g − λ gravity (Eqs. 55, 58); the static residual F − λ gravity */
     for (int64_t e = 0; e < E; ++e) {
         const double *M = w->mass + 196 * e, *acc = w->accelerations + 14 * e;
         const int64_t *dofs = m->element_dofs + 14 * e;
         for (int p = 0; p < 14; ++p) {
-            double s = w->force[14 * e + p] + w->quadratic[14 * e + p];
-            for (int q = 0; q < 14; ++q) s += M[14 * p + q] * acc[q];
-            if (m->has_gravity) s -= w->gravity_force[14 * e + p];
+            double s = w->force[14 * e + p];
+            if (inertia) {
+                s += w->quadratic[14 * e + p];
+                for (int q = 0; q < 14; ++q) s += M[14 * p + q] * acc[q];
+            }
+            if (m->has_gravity) s -= load_factor * w->gravity_force[14 * e + p];
             w->total[dofs[p]] += s;
         }
     }
-    joint_bodies(m, c, w);
+    joint_bodies(m, c, w, inertia, load_factor);
     for (int64_t b = 0; b < m->n_bodies; ++b) {
         const int64_t *d = m->node_dofs + 6 * m->body_nodes[b];
         for (int p = 0; p < 6; ++p) w->total[d[p]] += w->body_vector[6 * b + p];
@@ -423,7 +434,7 @@ static double evaluate(const Model *m, const Configuration *c, Work *w, const do
     /* hinges (Assembler.hinge_forces): the laws' values and derivatives at (θ, θ̇, t), constants or
      * the scene's compiled laws, into the generated kernel codegen/joints.py hinge_force */
     for (int64_t j = 0; j < m->n_hinges; ++j) {
-        double state[4] = {c->theta[j], c->theta_dot[j], m->hinge_rest_angle[j], 1.0};
+        double state[4] = {c->theta[j], c->theta_dot[j], m->hinge_rest_angle[j], load_factor};
         double values[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
         if (m->hinge_stiffness_law[j] < 0) {  /* constant spring and damper, a torque of t alone */
             values[0] = m->hinge_stiffness[j];
@@ -450,8 +461,8 @@ static double evaluate(const Model *m, const Configuration *c, Work *w, const do
         double values[6] = {0, 0, 0, 0, 0, 0}, velocity[6];
         for (int p = 0; p < 3; ++p) {
             int64_t fl = m->load_force_law[3 * l + p], ml = m->load_moment_law[3 * l + p];
-            if (fl >= 0) values[p] = laws[3 * fl];
-            if (ml >= 0) values[3 + p] = laws[3 * ml];
+            if (fl >= 0) values[p] = load_factor * laws[3 * fl];
+            if (ml >= 0) values[3 + p] = load_factor * laws[3 * ml];
         }
         memcpy(velocity, c->v + 3 * i, 3 * sizeof(double));
         memcpy(velocity + 3, c->w + 3 * i, 3 * sizeof(double));
@@ -499,7 +510,7 @@ static void perturbed_range(const Model *m, const Configuration *c, Work *w, dou
 }
 
 /* Whether coordinate k (0-5 of the node, 6 the hinge) of element end (e, end) is perturbed in the
- * round of `colour`, and its step (integrators.inertia_rounds). */
+ * round of `colour`, and its step. */
 static double column_step(const Model *m, int64_t e, int end, int k, int64_t colour, double eps, double length)
 {
     int64_t i = m->element_nodes[2 * e + end];
@@ -550,10 +561,11 @@ static int64_t perturb(const Model *m, const Configuration *c, Work *w, Configur
     return moved;
 }
 
-static int element_ranges(const Model *m);
-
 /* ∂(M v̇ + g − f_gravity)/∂q of every element at c, by central differences, colour by colour and
- * coordinate by coordinate (integrators.inertia_tangent), into w->inertia_tangent. */
+ * coordinate by coordinate, into w->inertia_tangent: the term K leaves out (latdyn/step/integrators.py).
+ * Each round moves one coordinate of every free node (or hinge) of one colour; no element has both
+ * ends of one colour, so each element's change comes from one column: 7 × colours rounds, whatever
+ * the model's size. Joint bodies are left out: their kernel carries its own inertia. */
 static void inertia_tangent(const Model *m, const Configuration *c, Work *w, double eps, double length)
 {
     const int64_t E = m->n_elements;
@@ -584,360 +596,6 @@ static void inertia_tangent(const Model *m, const Configuration *c, Work *w, dou
             }
         }
     }
-}
-
-/* S = β′M + γ′C + K scattered into the matrix storage (Evaluation.combined). */
-static void assemble(const Model *m, Work *w, double beta_p, double gamma_p, int with_inertia_tangent)
-{
-    memset(w->matrix, 0, sizeof(double) * m->matrix_size);
-    for (int64_t e = 0; e < m->n_elements; ++e) {
-        const int64_t *pos = m->element_position + 196 * e;
-        const double *K = w->tangent + 196 * e, *M = w->mass + 196 * e, *C = w->quadratic_D + 196 * e;
-        const double *D = w->inertia_tangent + 196 * e;
-        if (with_inertia_tangent) {
-            for (int p = 0; p < 196; ++p)
-                if (pos[p] >= 0) w->matrix[pos[p]] += beta_p * M[p] + gamma_p * C[p] + (K[p] + D[p]);
-        } else {
-            for (int p = 0; p < 196; ++p)
-                if (pos[p] >= 0) w->matrix[pos[p]] += beta_p * M[p] + gamma_p * C[p] + K[p];
-        }
-    }
-    for (int64_t b = 0; b < m->n_bodies; ++b) {
-        const int64_t *pos = m->body_position + 36 * b;
-        const double *M = w->body_mass + 36 * b, *C = w->body_damping + 36 * b, *K = w->body_stiffness + 36 * b;
-        for (int p = 0; p < 36; ++p)
-            if (pos[p] >= 0) w->matrix[pos[p]] += beta_p * M[p] + gamma_p * C[p] + K[p];
-    }
-    for (int64_t j = 0; j < m->n_hinges; ++j)
-        if (m->hinge_position[j] >= 0)
-            w->matrix[m->hinge_position[j]] += gamma_p * w->hinge_d_rate[j] + w->hinge_d_theta[j];
-    for (int64_t l = 0; l < m->n_loads; ++l) {
-        const int64_t *pos = m->load_position + 36 * l;
-        for (int p = 0; p < 36; ++p)
-            if (pos[p] >= 0) w->matrix[pos[p]] += w->load_blocks[36 * l + p];
-    }
-}
-
-/* The LU of the assembled matrix, with BLAS on one thread (latdyn/numerics/linalg.py: on a shared machine
- * a second OpenBLAS thread costs far more than it gains; the caller's setting is restored). */
-static int factor(const Model *m, Work *w)
-{
-    int n = (int)m->n_dofs, info = 0;
-    int threads = m->get_blas_threads ? m->get_blas_threads() : 1;
-    if (threads != 1) m->set_blas_threads(1);
-    if (m->sparse_lu) {
-        info = (int)latdyn_sparse_lu_factor(m->sparse_lu, w->matrix);
-    } else if (m->band) {
-        int kl = (int)m->kl, ku = (int)m->ku, ldab = (int)m->ldab;
-        m->gbtrf(&n, &n, &kl, &ku, w->matrix, &ldab, w->pivots, &info);
-    } else {
-        m->getrf(&n, &n, w->matrix, &n, w->pivots, &info);
-    }
-    if (threads != 1) m->set_blas_threads(threads);
-    return info;
-}
-
-/* dx = −S⁻¹ r in the permuted numbering of the factorization. */
-static int solve(const Model *m, Work *w, const double *residual, double *dx)
-{
-    int n = (int)m->n_dofs, one = 1, info = 0;
-    char trans = 'N';
-    for (int64_t i = 0; i < m->n_dofs; ++i) w->rhs[m->permutation[i]] = -residual[i];
-    if (m->sparse_lu) {
-        latdyn_sparse_lu_solve(m->sparse_lu, w->matrix, w->rhs);
-    } else if (m->band) {
-        int kl = (int)m->kl, ku = (int)m->ku, ldab = (int)m->ldab;
-        m->gbtrs(&trans, &n, &kl, &ku, &one, w->matrix, &ldab, w->pivots, w->rhs, &n, &info);
-    } else {
-        m->getrs(&trans, &n, &one, w->matrix, &n, w->pivots, w->rhs, &n, &info);
-    }
-    for (int64_t i = 0; i < m->n_dofs; ++i) dx[i] = w->rhs[m->permutation[i]];
-    return info;
-}
-
-/* integrators.increment_size: per free node |Δd|/ℓ and |Δπ|, per free hinge |Δθ|; the largest. */
-static double increment_size(const Model *m, const double *dx, double length)
-{
-    double size = 0.0;
-    for (int64_t k = 0; k < m->n_free_nodes; ++k) {
-        const int64_t *d = m->node_dofs + 6 * m->free_nodes[k];
-        double u[6];
-        for (int j = 0; j < 6; ++j) u[j] = free_entry(dx, d[j], m->n_dofs);
-        double t = sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]) / length;
-        double r = sqrt(u[3] * u[3] + u[4] * u[4] + u[5] * u[5]);
-        if (t > size) size = t;
-        if (r > size) size = r;
-    }
-    for (int64_t k = 0; k < m->n_free_hinges; ++k) {
-        double h = fabs(dx[m->hinge_dofs[m->free_hinges[k]]]);
-        if (h > size) size = h;
-    }
-    return size;
-}
-
-/* Settings and results of one step. */
-typedef struct {
-    /* in */
-    double h, alpha_m, alpha_f, gamma, beta, tol, length;
-    int64_t max_iterations;
-    int64_t modified;          /* keep the factorization while Newton contracts */
-    int64_t inertia_tangent;   /* add the elements' inertia tangent to the matrix (integrators.py) */
-    double tangent_step;       /* its central-difference step (INERTIA_TANGENT_STEP) */
-    double contraction;        /* rebuild when |Δx_k| > contraction |Δx_{k−1}| */
-    /* in/out: the factorization held in Work belongs to this step size (0: none) */
-    double factored_h;
-    /* out */
-    int64_t iterations, converged, factorizations;
-    double power;
-    double contraction_seen;   /* largest |Δx_k| / |Δx_{k−1}| of the step (StepStats.contraction) */
-    /* in: the step's end time (the laws' time when the model has them compiled) */
-    double t_new;
-} StepControl;
-
-/* One step from `base` (velocities v_n, accelerations v̇_n, algorithmic acceleration a_n on the
- * free coordinates) to `trial`; on return v and vdot hold the new velocities and accelerations,
- * w->total the last evaluation (residual and reaction). Mirrors GeneralizedAlpha.step. */
-/* v_n and v̇_n of the free coordinates from a configuration (assembly.free_velocity, free_acceleration). */
-static void free_rates(const Model *m, const Configuration *c, double *velocity, double *acceleration)
-{
-    for (int64_t k = 0; k < m->n_free_nodes; ++k) {
-        int64_t i = m->free_nodes[k];
-        const int64_t *d = m->node_dofs + 6 * i;
-        for (int j = 0; j < 6; ++j) {
-            if (d[j] >= m->n_dofs) continue;  /* not a coordinate (planar model) */
-            velocity[d[j]] = j < 3 ? c->v[3 * i + j] : c->w[3 * i + j - 3];
-            acceleration[d[j]] = j < 3 ? c->a[3 * i + j] : c->alpha[3 * i + j - 3];
-        }
-    }
-    for (int64_t k = 0; k < m->n_free_hinges; ++k) {
-        int64_t j = m->free_hinges[k];
-        velocity[m->hinge_dofs[j]] = c->theta_dot[j];
-        acceleration[m->hinge_dofs[j]] = c->theta_ddot[j];
-    }
-}
-
-/* Buffers of one step, each of n_dofs entries. */
-typedef struct {
-    double *v_n, *vdot_n, *a_n, *v, *vdot, *dq, *dx, *a_new;
-} StepVectors;
-
-int64_t latdyn_newton_step(const Model *m, Work *w, StepControl *s, const Configuration *base,
-                           Configuration *trial, StepVectors *x, const double *laws)
-{
-    const int64_t n = m->n_dofs;
-    const double h = s->h, am = s->alpha_m, af = s->alpha_f, ga = s->gamma, be = s->beta;
-    const double beta_p = (1 - am) / (h * h * be * (1 - af)), gamma_p = ga / (h * be);
-    const double *v_n = x->v_n, *vdot_n = x->vdot_n, *a_n = x->a_n;
-    double *v = x->v, *vdot = x->vdot, *dq = x->dq, *dx = x->dx;
-    double previous = INFINITY;
-    if (m->time_laws != NULL) {  /* the laws at the step's end time, compiled */
-        m->time_laws(s->t_new, w->laws);
-        laws = w->laws;
-    }
-    free_rates(m, base, x->v_n, x->vdot_n);
-    int rebuild = s->factored_h != h; /* modified Newton: the held factorization is stale */
-    s->iterations = 0;
-    s->converged = 0;
-    s->factorizations = 0;
-    s->contraction_seen = 0.0;
-    for (int64_t i = 0; i < n; ++i) {
-        double a_new = (af * vdot_n[i] + (1 - af) * vdot_n[i] - am * a_n[i]) / (1 - am);
-        vdot[i] = vdot_n[i];
-        v[i] = v_n[i] + h * (1 - ga) * a_n[i] + h * ga * a_new;
-        dq[i] = v_n[i] + h * (0.5 - be) * a_n[i] + h * be * a_new;
-    }
-    for (int64_t iteration = 1; iteration <= s->max_iterations; ++iteration) {
-        for (int64_t i = 0; i < n; ++i) dx[i] = h * dq[i];
-        configure(m, base, trial, dx, v, vdot, laws);
-        int matrices = !s->modified || rebuild;
-        s->power = evaluate(m, trial, w, laws, s->t_new, matrices);
-        if (n == 0) {
-            s->converged = 1;
-            return 0;
-        }
-        if (matrices) {
-            if (s->inertia_tangent) inertia_tangent(m, trial, w, s->tangent_step, s->length);
-            assemble(m, w, beta_p, gamma_p, (int)s->inertia_tangent);
-            s->factorizations += 1;
-            s->factored_h = 0.0;
-            if (factor(m, w) != 0) return 1;
-            s->factored_h = h;
-            rebuild = 0;
-        }
-        if (solve(m, w, w->total, dx) != 0) return 1;
-        for (int64_t i = 0; i < n; ++i)
-            if (!isfinite(dx[i])) return 1;
-        for (int64_t i = 0; i < n; ++i) {
-            dq[i] += dx[i] / h;
-            v[i] += gamma_p * dx[i];
-            vdot[i] += beta_p * dx[i];
-        }
-        s->iterations = iteration;
-        double size = increment_size(m, dx, s->length);
-        if (iteration > 1 && size / previous > s->contraction_seen) s->contraction_seen = size / previous;
-        if (size <= s->tol) {
-            s->converged = 1;
-            for (int64_t i = 0; i < n; ++i) {
-                dx[i] = h * dq[i];
-                /* the algorithmic acceleration of the new step (GeneralizedAlpha.a_candidate) */
-                x->a_new[i] = (af * vdot_n[i] + (1 - af) * vdot[i] - am * a_n[i]) / (1 - am);
-            }
-            configure(m, base, trial, dx, v, vdot, laws);
-            return 0;
-        }
-        /* modified Newton: a new matrix when the old one stops contracting */
-        if (s->modified && size > s->contraction * previous) rebuild = 1;
-        previous = size;
-    }
-    return 0;
-}
-
-/* ------------------------------------------------------------------------- the loop of steps */
-
-/* solve._lock_tolerance */
-static double lock_tolerance(double at) { return 1e-7 * fmax(1.0, fabs(at)); }
-
-/* Whether the step old → new holds an event that solve.py handles (and the loop must not
- * accept by itself): a free hinge that reaches or crosses its lock_at (solve._lock_events),
- * crosses a stop from inside (solve._stop_crossings), or ends on or beyond a stop moving into
- * it (solve._hinge_stops). */
-static int hinge_event(const Model *m, const Configuration *old, const Configuration *new_)
-{
-    for (int64_t k = 0; k < m->n_free_hinges; ++k) {
-        int64_t j = m->free_hinges[k];
-        double lock = m->hinge_lock_at[j];
-        if (!isnan(lock)) {
-            double before = old->theta[j] - lock, after = new_->theta[j] - lock;
-            if (before == 0.0 || fabs(after) <= lock_tolerance(lock) || before * after < 0.0) return 1;
-        }
-        for (int side = -1; side <= 1; side += 2) {
-            double stop = side < 0 ? m->hinge_lower_stop[j] : m->hinge_upper_stop[j];
-            if (isnan(stop)) continue;
-            double before = side * (old->theta[j] - stop), after = side * (new_->theta[j] - stop);
-            if (before < -lock_tolerance(stop) && after > lock_tolerance(stop)) return 1;
-            if (after >= -lock_tolerance(stop) && side * new_->theta_dot[j] >= 0.0) return 1;
-        }
-    }
-    return 0;
-}
-
-/* Power of the constraint forces that impose prescribed motion (solve._drive_power): the
- * reaction of the last evaluation (w->total on the constrained coordinates n_dofs … n_total−1)
- * times the velocities of those coordinates. */
-static double drive_power(const Model *m, const Configuration *c, const double *total)
-{
-    const int64_t n = m->n_dofs, n_total = m->n_total;
-    double power = 0.0;
-    for (int64_t i = 0; i < m->n_nodes; ++i) {
-        const int64_t *d = m->node_dofs + 6 * i;
-        for (int j = 0; j < 6; ++j)
-            if (d[j] >= n && d[j] < n_total)
-                power += total[d[j]] * (j < 3 ? c->v[3 * i + j] : c->w[3 * i + j - 3]);
-    }
-    for (int64_t j = 0; j < m->n_hinges; ++j) {
-        int64_t d = m->hinge_dofs[j];
-        if (d >= n && d < n_total) power += total[d] * c->theta_dot[j];
-    }
-    return power;
-}
-
-/* A loop of steps on the time grid (timeloop.transient's loop, for the steps it would accept as
- * they come). */
-typedef struct {
-    /* in: the grid t_k = k dt (t_{n_grid} = t_end), the steps to take (grid_index → stop_index),
-     * the start time, and the wall time after which the loop returns (≤ 0: none) */
-    double dt, t_end;
-    int64_t n_grid, grid_index, stop_index;
-    double t, budget_s;
-    /* in/out: the power of loads and prescribed motion at the last accepted state, and the work
-     * done since the start of the run (trapezoidal rule, as timeloop.transient) */
-    double power, external_work;
-    /* out: steps accepted, their Newton iterations and factorizations; why the loop returned
-     * (0 at stop_index, 1 a step did not converge, 2 a step holds an event, 3 the budget);
-     * the last accepted state's time (the state itself is copied to `last`); with status 1 or
-     * 2, the scratch configuration that holds the step not accepted (its counters stay in the
-     * StepControl) and that step's size */
-    int64_t steps, iterations, factorizations, status, last, pending;
-    double t_last, h_pending;
-} Advance;
-
-/* dst ← src, every node and hinge. */
-static void copy_configuration(const Model *m, const Configuration *src, Configuration *dst)
-{
-    const size_t N = (size_t)m->n_nodes, H = (size_t)m->n_hinges;
-    memcpy(dst->x, src->x, sizeof(double) * 3 * N);
-    memcpy(dst->T, src->T, sizeof(double) * 9 * N);
-    memcpy(dst->v, src->v, sizeof(double) * 3 * N);
-    memcpy(dst->w, src->w, sizeof(double) * 3 * N);
-    memcpy(dst->a, src->a, sizeof(double) * 3 * N);
-    memcpy(dst->alpha, src->alpha, sizeof(double) * 3 * N);
-    memcpy(dst->theta, src->theta, sizeof(double) * H);
-    memcpy(dst->theta_dot, src->theta_dot, sizeof(double) * H);
-    memcpy(dst->theta_ddot, src->theta_ddot, sizeof(double) * H);
-}
-
-static double seconds_now(void)
-{
-    struct timespec now;
-    clock_gettime(CLOCK_MONOTONIC, &now);
-    return (double)now.tv_sec + 1e-9 * (double)now.tv_nsec;
-}
-
-/* Steps from `start` (at adv->t, on grid point grid_index) through grid point stop_index,
- * each landing on the grid (h = t_{k+1} − t_k) as timeloop.transient takes them at the nominal
- * step: latdyn_newton_step with the compiled laws, then acceptance (the algorithmic
- * acceleration carried, the external work by the trapezoidal rule). It returns at the first
- * step that does not converge or that holds a hinge event, without accepting it, so that the
- * caller's loop handles that step as it always has; it never fails by itself. States alternate
- * between the two scratch configurations; `start` is read only; the last accepted state is
- * copied to `last` (when a step was accepted). */
-int64_t latdyn_advance(const Model *m, Work *w, StepControl *s, const Configuration *start,
-                       Configuration *scratch, Configuration *last, StepVectors *x, Advance *adv)
-{
-    const int64_t n = m->n_dofs;
-    const double started = adv->budget_s > 0.0 ? seconds_now() : 0.0;
-    const Configuration *base = start;
-    double t = adv->t;
-    adv->steps = adv->iterations = adv->factorizations = 0;
-    adv->last = -1;
-    adv->pending = -1;
-    adv->status = 0;
-    for (int64_t k = adv->grid_index; k < adv->stop_index; ++k) {
-        const double target = k + 1 >= adv->n_grid ? adv->t_end : (double)(k + 1) * adv->dt;
-        const int next = adv->last == 0 ? 1 : 0;
-        Configuration *trial = scratch + next;
-        s->h = target - t;
-        s->t_new = target;
-        int64_t failed = latdyn_newton_step(m, w, s, base, trial, x, NULL);
-        if (failed || !s->converged) {
-            adv->status = 1;
-        } else if (m->has_events && hinge_event(m, base, trial)) {
-            adv->status = 2;
-        }
-        if (adv->status) {
-            adv->pending = next;
-            adv->h_pending = s->h;
-            break;
-        }
-        /* accepted: GeneralizedAlpha.accept, and the work of loads and prescribed motion */
-        memcpy(x->a_n, x->a_new, sizeof(double) * (size_t)n);
-        double power = s->power + drive_power(m, trial, w->total);
-        adv->external_work += 0.5 * s->h * (adv->power + power);
-        adv->power = power;
-        adv->steps += 1;
-        adv->iterations += s->iterations;
-        adv->factorizations += s->factorizations;
-        adv->last = next;
-        base = trial;
-        t = target;
-        if (adv->budget_s > 0.0 && seconds_now() - started > adv->budget_s && k + 1 < adv->stop_index) {
-            adv->status = 3;
-            break;
-        }
-    }
-    adv->t_last = t;
-    if (adv->steps) copy_configuration(m, base, last);
-    return adv->status;
 }
 
 /* Kinetic, strain and gravity potential energy of the whole model at c (Assembler.energies):
@@ -983,12 +641,32 @@ void latdyn_energies(const Model *m, Work *w, const Configuration *c, double *ou
     out[2] = potential;
 }
 
-/* Threads an evaluation above the threshold would use: 0 when compiled without OpenMP. */
-int64_t latdyn_threads(void)
+/* What latdyn_evaluate computes and returns besides the Work buffers. */
+typedef struct {
+    double t;                /* the laws' time */
+    double load_factor;      /* λ: scales point loads, gravity and hinge torques */
+    int64_t inertia;         /* 0: the static residual, without inertia forces or M and C blocks */
+    int64_t matrices;        /* also the element, body, hinge and load blocks of K (and M, C) */
+    int64_t inertia_tangent; /* with matrices and inertia: the elements' inertia tangent too */
+    double tangent_step, length; /* its central-difference step, and the scene's length */
+    double power;            /* out: the power of point loads and hinge torques (external work) */
+} EvaluationControl;
+
+/* One evaluation at c (latdyn/assembly/native_model.py): w->total holds the vector of all
+ * coordinates (residual on the free ones, reaction on the constrained ones); with matrices, the
+ * blocks are in w->tangent, w->mass, w->quadratic_D (C of the elements), w->body_stiffness,
+ * w->body_mass, w->body_damping, w->hinge_d_theta, w->hinge_d_rate, w->load_blocks and, asked
+ * for, w->inertia_tangent. */
+void latdyn_evaluate(const Model *m, Work *w, const Configuration *c, EvaluationControl *e)
 {
-#ifdef _OPENMP
-    return omp_get_max_threads();
-#else
-    return 0;
-#endif
+    m->time_laws(e->t, w->laws);
+    e->power = evaluate(m, c, w, w->laws, e->t, (int)e->matrices, (int)e->inertia, e->load_factor);
+    if (e->matrices && e->inertia && e->inertia_tangent)
+        inertia_tangent(m, c, w, e->tangent_step, e->length);
+}
+
+/* The element kernels' inputs at c (Eqs. 2, 9, 17) into w->geometry, w->rates, w->accelerations. */
+void latdyn_element_inputs(const Model *m, Work *w, const Configuration *c)
+{
+    element_inputs(m, c, w, 0, m->n_elements);
 }

@@ -1,0 +1,370 @@
+/*
+ * One Lie-group generalized-α time step, Newton iteration included, in C, and the loop of
+ * steps between two recorded rows.
+ *
+ * Runtime code, written by hand: it holds no physics. Each Newton iteration configures the
+ * trial state and evaluates the equations of motion with evaluate.c (the one evaluation every
+ * analysis uses), scatters S = β′M + γ′C + K into a preallocated matrix, factorizes it with
+ * LAPACK's LU (dense or banded, through SciPy's function pointers) or the supernodal sparse LU
+ * of sparse_lu.c, and tests convergence on the invariant increment. latdyn/step/integrators.py
+ * documents the scheme; latdyn/step/compiled.py drives it. latdyn_advance runs the time loop's
+ * steps between two recorded rows (timeloop/transient.py) and hands back the first step that
+ * the Python loop must handle (a Newton failure, a hinge event); tests/test_compiled_loop.py
+ * holds it to the steps taken one by one from Python.
+ *
+ * Matrices are column-major for LAPACK; the matrix positions of the block entries are
+ * precomputed by the caller (latdyn/step/compiled.py), for the dense, band or sparse storage
+ * alike; -1 marks an entry on a constrained coordinate.
+ */
+#define _POSIX_C_SOURCE 199309L /* clock_gettime: the wall-time budget of latdyn_advance */
+#include <time.h>
+
+#include "evaluate.c" /* the evaluation (inlined into this source by latdyn/assembly/library.py) */
+
+/* S = β′M + γ′C + K scattered into the matrix storage (Evaluation.combined). */
+static void assemble(const Model *m, Work *w, double beta_p, double gamma_p, int with_inertia_tangent)
+{
+    memset(w->matrix, 0, sizeof(double) * m->matrix_size);
+    for (int64_t e = 0; e < m->n_elements; ++e) {
+        const int64_t *pos = m->element_position + 196 * e;
+        const double *K = w->tangent + 196 * e, *M = w->mass + 196 * e, *C = w->quadratic_D + 196 * e;
+        const double *D = w->inertia_tangent + 196 * e;
+        if (with_inertia_tangent) {
+            for (int p = 0; p < 196; ++p)
+                if (pos[p] >= 0) w->matrix[pos[p]] += beta_p * M[p] + gamma_p * C[p] + (K[p] + D[p]);
+        } else {
+            for (int p = 0; p < 196; ++p)
+                if (pos[p] >= 0) w->matrix[pos[p]] += beta_p * M[p] + gamma_p * C[p] + K[p];
+        }
+    }
+    for (int64_t b = 0; b < m->n_bodies; ++b) {
+        const int64_t *pos = m->body_position + 36 * b;
+        const double *M = w->body_mass + 36 * b, *C = w->body_damping + 36 * b, *K = w->body_stiffness + 36 * b;
+        for (int p = 0; p < 36; ++p)
+            if (pos[p] >= 0) w->matrix[pos[p]] += beta_p * M[p] + gamma_p * C[p] + K[p];
+    }
+    for (int64_t j = 0; j < m->n_hinges; ++j)
+        if (m->hinge_position[j] >= 0)
+            w->matrix[m->hinge_position[j]] += gamma_p * w->hinge_d_rate[j] + w->hinge_d_theta[j];
+    for (int64_t l = 0; l < m->n_loads; ++l) {
+        const int64_t *pos = m->load_position + 36 * l;
+        for (int p = 0; p < 36; ++p)
+            if (pos[p] >= 0) w->matrix[pos[p]] += w->load_blocks[36 * l + p];
+    }
+}
+
+/* The LU of the assembled matrix, with BLAS on one thread (latdyn/numerics/linalg.py: on a shared machine
+ * a second OpenBLAS thread costs far more than it gains; the caller's setting is restored). */
+static int factor(const Model *m, Work *w)
+{
+    int n = (int)m->n_dofs, info = 0;
+    int threads = m->get_blas_threads ? m->get_blas_threads() : 1;
+    if (threads != 1) m->set_blas_threads(1);
+    if (m->sparse_lu) {
+        info = (int)latdyn_sparse_lu_factor(m->sparse_lu, w->matrix);
+    } else if (m->band) {
+        int kl = (int)m->kl, ku = (int)m->ku, ldab = (int)m->ldab;
+        m->gbtrf(&n, &n, &kl, &ku, w->matrix, &ldab, w->pivots, &info);
+    } else {
+        m->getrf(&n, &n, w->matrix, &n, w->pivots, &info);
+    }
+    if (threads != 1) m->set_blas_threads(threads);
+    return info;
+}
+
+/* dx = −S⁻¹ r in the permuted numbering of the factorization. */
+static int solve(const Model *m, Work *w, const double *residual, double *dx)
+{
+    int n = (int)m->n_dofs, one = 1, info = 0;
+    char trans = 'N';
+    for (int64_t i = 0; i < m->n_dofs; ++i) w->rhs[m->permutation[i]] = -residual[i];
+    if (m->sparse_lu) {
+        latdyn_sparse_lu_solve(m->sparse_lu, w->matrix, w->rhs);
+    } else if (m->band) {
+        int kl = (int)m->kl, ku = (int)m->ku, ldab = (int)m->ldab;
+        m->gbtrs(&trans, &n, &kl, &ku, &one, w->matrix, &ldab, w->pivots, w->rhs, &n, &info);
+    } else {
+        m->getrs(&trans, &n, &one, w->matrix, &n, w->pivots, w->rhs, &n, &info);
+    }
+    for (int64_t i = 0; i < m->n_dofs; ++i) dx[i] = w->rhs[m->permutation[i]];
+    return info;
+}
+
+/* integrators.increment_size: per free node |Δd|/ℓ and |Δπ|, per free hinge |Δθ|; the largest. */
+static double increment_size(const Model *m, const double *dx, double length)
+{
+    double size = 0.0;
+    for (int64_t k = 0; k < m->n_free_nodes; ++k) {
+        const int64_t *d = m->node_dofs + 6 * m->free_nodes[k];
+        double u[6];
+        for (int j = 0; j < 6; ++j) u[j] = free_entry(dx, d[j], m->n_dofs);
+        double t = sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]) / length;
+        double r = sqrt(u[3] * u[3] + u[4] * u[4] + u[5] * u[5]);
+        if (t > size) size = t;
+        if (r > size) size = r;
+    }
+    for (int64_t k = 0; k < m->n_free_hinges; ++k) {
+        double h = fabs(dx[m->hinge_dofs[m->free_hinges[k]]]);
+        if (h > size) size = h;
+    }
+    return size;
+}
+
+/* Settings and results of one step. */
+typedef struct {
+    /* in */
+    double h, alpha_m, alpha_f, gamma, beta, tol, length;
+    int64_t max_iterations;
+    int64_t modified;          /* keep the factorization while Newton contracts */
+    int64_t inertia_tangent;   /* add the elements' inertia tangent to the matrix (integrators.py) */
+    double tangent_step;       /* its central-difference step (INERTIA_TANGENT_STEP) */
+    double contraction;        /* rebuild when |Δx_k| > contraction |Δx_{k−1}| */
+    /* in/out: the factorization held in Work belongs to this step size (0: none) */
+    double factored_h;
+    /* out */
+    int64_t iterations, converged, factorizations;
+    double power;
+    double contraction_seen;   /* largest |Δx_k| / |Δx_{k−1}| of the step (StepStats.contraction) */
+    /* in: the step's end time (the laws' time when the model has them compiled) */
+    double t_new;
+} StepControl;
+
+/* One step from `base` (velocities v_n, accelerations v̇_n, algorithmic acceleration a_n on the
+ * free coordinates) to `trial`; on return v and vdot hold the new velocities and accelerations,
+ * w->total the last evaluation (residual and reaction). Mirrors GeneralizedAlpha.step. */
+/* v_n and v̇_n of the free coordinates from a configuration (assembly.free_velocity, free_acceleration). */
+static void free_rates(const Model *m, const Configuration *c, double *velocity, double *acceleration)
+{
+    for (int64_t k = 0; k < m->n_free_nodes; ++k) {
+        int64_t i = m->free_nodes[k];
+        const int64_t *d = m->node_dofs + 6 * i;
+        for (int j = 0; j < 6; ++j) {
+            if (d[j] >= m->n_dofs) continue;  /* not a coordinate (planar model) */
+            velocity[d[j]] = j < 3 ? c->v[3 * i + j] : c->w[3 * i + j - 3];
+            acceleration[d[j]] = j < 3 ? c->a[3 * i + j] : c->alpha[3 * i + j - 3];
+        }
+    }
+    for (int64_t k = 0; k < m->n_free_hinges; ++k) {
+        int64_t j = m->free_hinges[k];
+        velocity[m->hinge_dofs[j]] = c->theta_dot[j];
+        acceleration[m->hinge_dofs[j]] = c->theta_ddot[j];
+    }
+}
+
+/* Buffers of one step, each of n_dofs entries. */
+typedef struct {
+    double *v_n, *vdot_n, *a_n, *v, *vdot, *dq, *dx, *a_new;
+} StepVectors;
+
+int64_t latdyn_newton_step(const Model *m, Work *w, StepControl *s, const Configuration *base,
+                           Configuration *trial, StepVectors *x)
+{
+    const int64_t n = m->n_dofs;
+    const double h = s->h, am = s->alpha_m, af = s->alpha_f, ga = s->gamma, be = s->beta;
+    const double beta_p = (1 - am) / (h * h * be * (1 - af)), gamma_p = ga / (h * be);
+    const double *v_n = x->v_n, *vdot_n = x->vdot_n, *a_n = x->a_n;
+    double *v = x->v, *vdot = x->vdot, *dq = x->dq, *dx = x->dx;
+    double previous = INFINITY;
+    const double *laws = w->laws;
+    m->time_laws(s->t_new, w->laws); /* the laws at the step's end time */
+    free_rates(m, base, x->v_n, x->vdot_n);
+    int rebuild = s->factored_h != h; /* modified Newton: the held factorization is stale */
+    s->iterations = 0;
+    s->converged = 0;
+    s->factorizations = 0;
+    s->contraction_seen = 0.0;
+    for (int64_t i = 0; i < n; ++i) {
+        double a_new = (af * vdot_n[i] + (1 - af) * vdot_n[i] - am * a_n[i]) / (1 - am);
+        vdot[i] = vdot_n[i];
+        v[i] = v_n[i] + h * (1 - ga) * a_n[i] + h * ga * a_new;
+        dq[i] = v_n[i] + h * (0.5 - be) * a_n[i] + h * be * a_new;
+    }
+    for (int64_t iteration = 1; iteration <= s->max_iterations; ++iteration) {
+        for (int64_t i = 0; i < n; ++i) dx[i] = h * dq[i];
+        configure(m, base, trial, dx, v, vdot, laws);
+        int matrices = !s->modified || rebuild;
+        s->power = evaluate(m, trial, w, laws, s->t_new, matrices, 1, 1.0);
+        if (n == 0) {
+            s->converged = 1;
+            return 0;
+        }
+        if (matrices) {
+            if (s->inertia_tangent) inertia_tangent(m, trial, w, s->tangent_step, s->length);
+            assemble(m, w, beta_p, gamma_p, (int)s->inertia_tangent);
+            s->factorizations += 1;
+            s->factored_h = 0.0;
+            if (factor(m, w) != 0) return 1;
+            s->factored_h = h;
+            rebuild = 0;
+        }
+        if (solve(m, w, w->total, dx) != 0) return 1;
+        for (int64_t i = 0; i < n; ++i)
+            if (!isfinite(dx[i])) return 1;
+        for (int64_t i = 0; i < n; ++i) {
+            dq[i] += dx[i] / h;
+            v[i] += gamma_p * dx[i];
+            vdot[i] += beta_p * dx[i];
+        }
+        s->iterations = iteration;
+        double size = increment_size(m, dx, s->length);
+        if (iteration > 1 && size / previous > s->contraction_seen) s->contraction_seen = size / previous;
+        if (size <= s->tol) {
+            s->converged = 1;
+            for (int64_t i = 0; i < n; ++i) {
+                dx[i] = h * dq[i];
+                /* the algorithmic acceleration of the new step (GeneralizedAlpha.a_candidate) */
+                x->a_new[i] = (af * vdot_n[i] + (1 - af) * vdot[i] - am * a_n[i]) / (1 - am);
+            }
+            configure(m, base, trial, dx, v, vdot, laws);
+            return 0;
+        }
+        /* modified Newton: a new matrix when the old one stops contracting */
+        if (s->modified && size > s->contraction * previous) rebuild = 1;
+        previous = size;
+    }
+    return 0;
+}
+
+/* ------------------------------------------------------------------------- the loop of steps */
+
+/* solve._lock_tolerance */
+static double lock_tolerance(double at) { return 1e-7 * fmax(1.0, fabs(at)); }
+
+/* Whether the step old → new holds an event that solve.py handles (and the loop must not
+ * accept by itself): a free hinge that reaches or crosses its lock_at (solve._lock_events),
+ * crosses a stop from inside (solve._stop_crossings), or ends on or beyond a stop moving into
+ * it (solve._hinge_stops). */
+static int hinge_event(const Model *m, const Configuration *old, const Configuration *new_)
+{
+    for (int64_t k = 0; k < m->n_free_hinges; ++k) {
+        int64_t j = m->free_hinges[k];
+        double lock = m->hinge_lock_at[j];
+        if (!isnan(lock)) {
+            double before = old->theta[j] - lock, after = new_->theta[j] - lock;
+            if (before == 0.0 || fabs(after) <= lock_tolerance(lock) || before * after < 0.0) return 1;
+        }
+        for (int side = -1; side <= 1; side += 2) {
+            double stop = side < 0 ? m->hinge_lower_stop[j] : m->hinge_upper_stop[j];
+            if (isnan(stop)) continue;
+            double before = side * (old->theta[j] - stop), after = side * (new_->theta[j] - stop);
+            if (before < -lock_tolerance(stop) && after > lock_tolerance(stop)) return 1;
+            if (after >= -lock_tolerance(stop) && side * new_->theta_dot[j] >= 0.0) return 1;
+        }
+    }
+    return 0;
+}
+
+/* Power of the constraint forces that impose prescribed motion (solve._drive_power): the
+ * reaction of the last evaluation (w->total on the constrained coordinates n_dofs … n_total−1)
+ * times the velocities of those coordinates. */
+static double drive_power(const Model *m, const Configuration *c, const double *total)
+{
+    const int64_t n = m->n_dofs, n_total = m->n_total;
+    double power = 0.0;
+    for (int64_t i = 0; i < m->n_nodes; ++i) {
+        const int64_t *d = m->node_dofs + 6 * i;
+        for (int j = 0; j < 6; ++j)
+            if (d[j] >= n && d[j] < n_total)
+                power += total[d[j]] * (j < 3 ? c->v[3 * i + j] : c->w[3 * i + j - 3]);
+    }
+    for (int64_t j = 0; j < m->n_hinges; ++j) {
+        int64_t d = m->hinge_dofs[j];
+        if (d >= n && d < n_total) power += total[d] * c->theta_dot[j];
+    }
+    return power;
+}
+
+/* A loop of steps on the time grid (timeloop.transient's loop, for the steps it would accept as
+ * they come). */
+typedef struct {
+    /* in: the grid t_k = k dt (t_{n_grid} = t_end), the steps to take (grid_index → stop_index),
+     * the start time, and the wall time after which the loop returns (≤ 0: none) */
+    double dt, t_end;
+    int64_t n_grid, grid_index, stop_index;
+    double t, budget_s;
+    /* in/out: the power of loads and prescribed motion at the last accepted state, and the work
+     * done since the start of the run (trapezoidal rule, as timeloop.transient) */
+    double power, external_work;
+    /* out: steps accepted, their Newton iterations and factorizations; why the loop returned
+     * (0 at stop_index, 1 a step did not converge, 2 a step holds an event, 3 the budget);
+     * the last accepted state's time (the state itself is copied to `last`); with status 1 or
+     * 2, the scratch configuration that holds the step not accepted (its counters stay in the
+     * StepControl) and that step's size */
+    int64_t steps, iterations, factorizations, status, last, pending;
+    double t_last, h_pending;
+} Advance;
+
+static double seconds_now(void)
+{
+    struct timespec now;
+    clock_gettime(CLOCK_MONOTONIC, &now);
+    return (double)now.tv_sec + 1e-9 * (double)now.tv_nsec;
+}
+
+/* Steps from `start` (at adv->t, on grid point grid_index) through grid point stop_index,
+ * each landing on the grid (h = t_{k+1} − t_k) as timeloop.transient takes them at the nominal
+ * step: latdyn_newton_step with the compiled laws, then acceptance (the algorithmic
+ * acceleration carried, the external work by the trapezoidal rule). It returns at the first
+ * step that does not converge or that holds a hinge event, without accepting it, so that the
+ * caller's loop handles that step as it always has; it never fails by itself. States alternate
+ * between the two scratch configurations; `start` is read only; the last accepted state is
+ * copied to `last` (when a step was accepted). */
+int64_t latdyn_advance(const Model *m, Work *w, StepControl *s, const Configuration *start,
+                       Configuration *scratch, Configuration *last, StepVectors *x, Advance *adv)
+{
+    const int64_t n = m->n_dofs;
+    const double started = adv->budget_s > 0.0 ? seconds_now() : 0.0;
+    const Configuration *base = start;
+    double t = adv->t;
+    adv->steps = adv->iterations = adv->factorizations = 0;
+    adv->last = -1;
+    adv->pending = -1;
+    adv->status = 0;
+    for (int64_t k = adv->grid_index; k < adv->stop_index; ++k) {
+        const double target = k + 1 >= adv->n_grid ? adv->t_end : (double)(k + 1) * adv->dt;
+        const int next = adv->last == 0 ? 1 : 0;
+        Configuration *trial = scratch + next;
+        s->h = target - t;
+        s->t_new = target;
+        int64_t failed = latdyn_newton_step(m, w, s, base, trial, x);
+        if (failed || !s->converged) {
+            adv->status = 1;
+        } else if (m->has_events && hinge_event(m, base, trial)) {
+            adv->status = 2;
+        }
+        if (adv->status) {
+            adv->pending = next;
+            adv->h_pending = s->h;
+            break;
+        }
+        /* accepted: GeneralizedAlpha.accept, and the work of loads and prescribed motion */
+        memcpy(x->a_n, x->a_new, sizeof(double) * (size_t)n);
+        double power = s->power + drive_power(m, trial, w->total);
+        adv->external_work += 0.5 * s->h * (adv->power + power);
+        adv->power = power;
+        adv->steps += 1;
+        adv->iterations += s->iterations;
+        adv->factorizations += s->factorizations;
+        adv->last = next;
+        base = trial;
+        t = target;
+        if (adv->budget_s > 0.0 && seconds_now() - started > adv->budget_s && k + 1 < adv->stop_index) {
+            adv->status = 3;
+            break;
+        }
+    }
+    adv->t_last = t;
+    if (adv->steps) copy_configuration(m, base, last);
+    return adv->status;
+}
+
+
+/* Threads an evaluation above the threshold would use: 0 when compiled without OpenMP. */
+int64_t latdyn_threads(void)
+{
+#ifdef _OPENMP
+    return omp_get_max_threads();
+#else
+    return 0;
+#endif
+}

@@ -1,0 +1,313 @@
+"""The model as the runtime's C library reads it, and the one evaluation of its equations of motion.
+
+:class:`NativeModel` lays a :class:`~latdyn.model.model.Model` out as the ``Model`` and ``Work``
+structs of ``csrc/evaluate.c`` (mirrored in :mod:`latdyn.assembly.library`) for one numbering of
+the coordinates: index arrays, the sections, the addresses of the generated kernels, and the
+scene's laws — compiled by the code generator (:mod:`latdyn.assembly.compiled_laws`), or, where a
+law does not print in C, Python callbacks that the C code calls in their place, so that every
+scene evaluates natively. :meth:`NativeModel.evaluate` is ``latdyn_evaluate``: residual and
+reactions, the power of loads and hinge torques, and the element, body, hinge and load blocks of
+K, M and C, each in its own Work buffer; :class:`latdyn.assembly.assembler.Assembler` turns them
+into an :class:`~latdyn.assembly.evaluation.Evaluation`. The compiled step
+(:mod:`latdyn.step.compiled`) adds the iteration matrix's storage (:meth:`NativeModel.hold_matrix`)
+and steps on the same structs.
+"""
+from __future__ import annotations
+
+import ctypes
+
+import numpy as np
+
+from latdyn.assembly.compiled_laws import LawsUnavailable, compile_laws, unprintable
+from latdyn.assembly.library import (
+    ConfigurationData,
+    EvaluationData,
+    ModelData,
+    WorkData,
+    native_library,
+    parallel_threshold,
+)
+from latdyn.model.model import PRESCRIBED
+
+#: Central-difference step of the elements' inertia tangent (radians for rotations and hinges,
+#: the scene's length times it for translations): latdyn/step/integrators.py says when it is used.
+INERTIA_TANGENT_STEP = 1e-6
+
+#: The arrays of a state, in the order of the C ``Configuration``.
+STATE_FIELDS = ("x", "T", "v", "w", "a", "alpha", "theta", "theta_dot", "theta_ddot")
+
+_TIME_LAWS = ctypes.CFUNCTYPE(None, ctypes.c_double, ctypes.POINTER(ctypes.c_double))
+_HINGE_LAWS = ctypes.CFUNCTYPE(None, ctypes.c_int64, ctypes.c_double, ctypes.c_double, ctypes.c_double,
+                               ctypes.POINTER(ctypes.c_double))
+
+
+def hinge_coefficients(hinges):
+    """(k, c, θ_r) of every hinge as arrays (0 where a law gives them), and the hinges whose force
+    needs their laws (a stiffness or damping that varies, a torque in θ or θ̇)."""
+    def plain(h):
+        torque_of_t = h.torque is None or set(h.torque.depends_on) <= {"t"}
+        return h.stiffness.is_constant and h.damping.is_constant and torque_of_t
+
+    flags = [plain(h) for h in hinges]
+    k0 = np.array([h.stiffness.constant if f else 0.0 for h, f in zip(hinges, flags)], float)
+    c0 = np.array([h.damping.constant if f else 0.0 for h, f in zip(hinges, flags)], float)
+    rest = np.array([h.rest_angle for h in hinges], float)
+    return k0, c0, rest, [k for k, f in enumerate(flags) if not f]
+
+
+def node_colouring(model) -> np.ndarray:
+    """A colour per node such that the two ends of every element differ (greedy, in node
+    order: a beam's chain of nodes gets two colours). Nodes of one colour are perturbed
+    together by the inertia tangent: each element then sees the perturbation of one end only."""
+    n_nodes = len(model.nodes)
+    neighbours: list[set] = [set() for _ in range(n_nodes)]
+    for a, b in np.asarray(model.element_nodes).reshape(-1, 2):
+        if a != b:
+            neighbours[int(a)].add(int(b))
+            neighbours[int(b)].add(int(a))
+    colour = np.zeros(n_nodes, dtype=np.int64)
+    for i in range(n_nodes):
+        used = {int(colour[k]) for k in neighbours[i] if k < i}
+        c = 0
+        while c in used:
+            c += 1
+        colour[i] = c
+    return colour
+
+
+class SceneLaws:
+    """The scene's functions of time and hinge laws, numbered as the C code reads them: every
+    function of time gives (value, rate, acceleration) at t, hinge law k gives (f, ∂f/∂θ, ∂f/∂θ̇)
+    at (θ, θ̇, t). :meth:`addresses` compiles them (once per text, cached) or, when a law does not
+    print in C or there is no compiler, returns Python callbacks with the same signature."""
+
+    def __init__(self):
+        self.functions, self.hinge_laws = [], []
+        self.reason = None  # why the laws are Python callbacks, or None when compiled
+        self._keep = None
+
+    def add(self, function) -> int:
+        if function is None:
+            return -1
+        self.functions.append(function)
+        return len(self.functions) - 1
+
+    def add_hinge_law(self, law) -> int:
+        self.hinge_laws.append(law)
+        return len(self.hinge_laws) - 1
+
+    def at(self, t: float) -> np.ndarray:
+        out = np.zeros((max(len(self.functions), 1), 3))
+        for k, f in enumerate(self.functions):
+            if hasattr(f, "rate"):  # a TimeFunction
+                out[k] = f.value(t), f.rate(t), f.accel(t)
+            else:  # a hinge torque law of t alone
+                out[k, 0] = f.value(0.0, 0.0, t)
+        return out
+
+    def addresses(self) -> tuple[int, int]:
+        """The addresses of ``time_laws(t, out)`` and ``hinge_laws(k, θ, θ̇, t, out)``."""
+        why = unprintable(self.hinge_laws) if self.hinge_laws else None
+        if why is None:
+            try:
+                compiled = compile_laws(self.functions, self.hinge_laws)
+                self._keep = compiled
+                return compiled.time_laws, compiled.hinge_laws
+            except LawsUnavailable as error:
+                why = str(error)
+        self.reason = why
+        n = max(len(self.functions), 1)
+
+        def time_laws(t, out):
+            values = self.at(t)
+            for i, v in enumerate(values.ravel()[:3 * n]):
+                out[i] = v
+
+        def hinge_laws(k, theta, rate, t, out):
+            law = self.hinge_laws[k]
+            out[0], out[1], out[2] = law.value(theta, rate, t), law.d_theta(theta, rate, t), law.d_rate(theta, rate, t)
+
+        callbacks = (_TIME_LAWS(time_laws), _HINGE_LAWS(hinge_laws))
+        self._keep = callbacks
+        return tuple(ctypes.cast(c, ctypes.c_void_p).value for c in callbacks)
+
+
+def _kernel_address(kernels, name: str) -> int:
+    return ctypes.cast(getattr(kernels.libraries[name], name), ctypes.c_void_p).value
+
+
+class NativeModel:
+    """One numbering of a model's coordinates as the C library's structs (module docstring).
+    ``inertia_tangent``: with the buffers of the elements' inertia tangent."""
+
+    def __init__(self, assembler, inertia_tangent: bool = False):
+        model, kernels = assembler.model, assembler.kernels
+        if getattr(kernels, "backend", None) != "c" or not getattr(kernels, "libraries", None):
+            raise RuntimeError("the runtime evaluates with the compiled kernels; these are "
+                               f"{getattr(kernels, 'backend', type(kernels).__name__)!r}")
+        self.library = native_library()
+        self.model_key = (model.n_dofs, model.locked.tobytes())
+        self.has_inertia_tangent = inertia_tangent
+        self._keep = []
+        m, a = model, assembler
+        arr, ints = self._array, lambda values: self._array(values, np.int64)
+
+        laws = SceneLaws()
+        prescribed = [i for i, node in enumerate(m.nodes) if node.kind == PRESCRIBED]
+        translation, angle, axis = [], [], []
+        for i in prescribed:
+            body = m.scene.bodies[m.nodes[i].body]
+            translation.append([laws.add(g) for g in body.translation] if body.translation is not None
+                               else [-1, -1, -1])
+            angle.append(laws.add(body.rotation_angle))
+            axis.append(np.asarray(body.rotation_axis, float) if body.rotation_angle is not None else np.zeros(3))
+        hinge_angle = [laws.add(h.angle) for h in m.hinges]
+        # hinge forces: constant springs and dampers, with a torque of t among the laws of time; the
+        # other hinges' stiffness, damping and torque as hinge laws
+        stiffness, damping, rest, with_law = hinge_coefficients(m.hinges)
+        H = len(m.hinges)
+        stiffness_law, damping_law, torque_hinge_law = [-1] * H, [-1] * H, [-1] * H
+        for j in with_law:
+            h = m.hinges[j]
+            stiffness_law[j], damping_law[j] = laws.add_hinge_law(h.stiffness), laws.add_hinge_law(h.damping)
+            if h.torque is not None:
+                torque_hinge_law[j] = laws.add_hinge_law(h.torque)
+        torque = [-1 if j in with_law else laws.add(h.torque) for j, h in enumerate(m.hinges)]
+        load_node, load_r, force_law, moment_law, frame_node = [], [], [], [], []
+        for load in m.scene.loads:
+            node, r = m.point(load.at)
+            load_node.append(node)
+            load_r.append(r)
+            force_law.append([laws.add(g) for g in load.force] if load.force else [-1, -1, -1])
+            moment_law.append([laws.add(g) for g in load.moment] if load.moment else [-1, -1, -1])
+            frame_node.append(-1 if load.frame == "global" else m.body_node[load.frame])
+        time_laws, hinge_laws = laws.addresses()
+        self.laws, self.law_hinges = laws, list(with_law)
+
+        lock_at = [np.nan if h.lock_at is None else float(h.lock_at) for h in m.hinges]
+        lower = [np.nan if h.limits is None else float(h.limits[0]) for h in m.hinges]
+        upper = [np.nan if h.limits is None else float(h.limits[1]) for h in m.hinges]
+        colour = node_colouring(m)
+        # the hinged_end kernel's input of each element end (e, 2, 16): hinge axis, grid point,
+        # element axes at t = 0 (node axes), and the hinge angle, filled in by the C code
+        element_ends = np.concatenate([m.element_axes, m.element_offsets, m.element_frames0.reshape(-1, 2, 9),
+                                       np.zeros(m.element_axes.shape[:2] + (1,))], axis=2)
+        body_section = np.concatenate([m.body_mass[:, None], m.body_com, m.body_inertia.reshape(-1, 9)], axis=1)
+        E, B, L, N = len(m.element_nodes), len(m.body_nodes), len(m.scene.loads), len(m.nodes)
+        kernel = {name: _kernel_address(kernels, name) for name in (
+            "beam_internal_force", "beam_internal_force_D_q", "beam_mass_matrix", "beam_quadratic_velocity",
+            "beam_quadratic_velocity_D_qdot", "beam_gravity", "beam_strain_energy", "beam_kinetic_energy",
+            "joint_body", "point_load", "hinged_end", "hinge_force", "so3_exp")}
+        self.model = ModelData(
+            n_nodes=N, n_hinges=H, n_elements=E, n_bodies=B, n_loads=L, n_dofs=m.n_dofs, n_total=m.n_total,
+            node_dofs=ints(m.node_dofs), hinge_dofs=ints(m.hinge_dofs),
+            n_free_nodes=len(m.free_nodes), n_free_hinges=len(m.free_hinges),
+            free_nodes=ints(m.free_nodes), free_hinges=ints(m.free_hinges),
+            n_prescribed=len(prescribed), prescribed_nodes=ints(prescribed),
+            translation_law=ints(np.array(translation, np.int64).reshape(-1, 3)), angle_law=ints(angle),
+            rotation_axis=arr(np.array(axis).reshape(-1, 3)),
+            node_x0=arr(np.array([nd.position for nd in m.nodes], float).reshape(-1, 3)),
+            hinge_angle_law=ints(hinge_angle), hinge_locked=ints(np.asarray(m.locked, np.int64)),
+            element_nodes=ints(m.element_nodes), element_hinges=ints(m.element_hinges),
+            element_dofs=ints(m.element_dofs), element_axes=arr(m.element_axes),
+            element_frames0=arr(m.element_frames0), element_offsets=arr(m.element_offsets),
+            element_sections=arr(m.element_sections),
+            body_nodes=ints(m.body_nodes), body_mass=arr(m.body_mass), body_com=arr(m.body_com),
+            body_inertia=arr(m.body_inertia),
+            hinge_stiffness=arr(stiffness), hinge_damping=arr(damping), hinge_rest_angle=arr(rest),
+            hinge_torque_law=ints(torque),
+            load_node=ints(load_node), load_force_law=ints(np.array(force_law, np.int64).reshape(-1, 3)),
+            load_moment_law=ints(np.array(moment_law, np.int64).reshape(-1, 3)), load_frame_node=ints(frame_node),
+            load_r=arr(np.array(load_r, float).reshape(-1, 3)),
+            gravity=(ctypes.c_double * 3)(*a.gravity), has_gravity=int(a.has_gravity),
+            internal_force=kernel["beam_internal_force"], internal_force_D_q=kernel["beam_internal_force_D_q"],
+            mass_matrix=kernel["beam_mass_matrix"], quadratic_velocity=kernel["beam_quadratic_velocity"],
+            quadratic_velocity_D_qdot=kernel["beam_quadratic_velocity_D_qdot"], gravity_load=kernel["beam_gravity"],
+            strain_energy=kernel["beam_strain_energy"], kinetic_energy=kernel["beam_kinetic_energy"],
+            joint_body=kernel["joint_body"], point_load=kernel["point_load"], body_section=arr(body_section),
+            hinged_end=kernel["hinged_end"], element_ends=arr(element_ends), hinge_force=kernel["hinge_force"],
+            so3_exp=kernel["so3_exp"],
+            parallel_elements=parallel_threshold(), threads=0,
+            node_colour=ints(colour), hinge_node=ints([h.node for h in m.hinges]),
+            n_colours=int(colour.max(initial=-1)) + 1,
+            time_laws=time_laws, hinge_laws=hinge_laws,
+            hinge_stiffness_law=ints(stiffness_law), hinge_damping_law=ints(damping_law),
+            hinge_torque_hinge_law=ints(torque_hinge_law),
+            hinge_conservative=ints([int(h.conservative_spring) for h in m.hinges]),
+            hinge_lock_at=arr(lock_at), hinge_lower_stop=arr(lower), hinge_upper_stop=arr(upper),
+            has_events=int(any(m.hinges[k].lock_at is not None or m.hinges[k].limits is not None
+                               for k in m.free_hinges)),
+            section_width=m.element_sections.shape[1],
+        )
+        work = {
+            "geometry": (E, 36), "rates": (E, 14), "accelerations": (E, 14), "gravity_rows": (E, 3),
+            "force": (E, 14), "tangent": (E, 14, 14), "mass": (E, 14, 14), "quadratic": (E, 14),
+            "quadratic_D": (E, 14, 14), "gravity_force": (E, 14), "gravity_potential": (E,),
+            "first_moment": (E, 3), "body_vector": (B, 6), "body_mass": (B, 6, 6), "body_damping": (B, 6, 6),
+            "body_stiffness": (B, 6, 6), "load_blocks": (L, 6, 6), "strain": (E,), "section_forces": (E, 4),
+            "kinetic": (E,), "total": (m.n_total + 1,), "laws": (max(len(laws.functions), 1), 3),
+            "hinge_d_theta": (H,), "hinge_d_rate": (H,), "matrix": (0,), "rhs": (0,)}
+        tangent = {"inertia_tangent": (E, 14, 14), "forces_plus": (E, 14), "forces_minus": (E, 14),
+                   "perturbed_x": (N, 3), "perturbed_T": (N, 3, 3), "perturbed_theta": (H,),
+                   "p_geometry": (E, 36), "p_rates": (E, 14), "p_accelerations": (E, 14), "p_mass": (E, 14, 14),
+                   "p_quadratic": (E, 14), "p_gravity_force": (E, 14), "p_gravity_potential": (E,),
+                   "p_first_moment": (E, 3)}
+        work.update({name: shape if inertia_tangent else (0,) for name, shape in tangent.items()})
+        self.buffers = {name: np.zeros(shape) for name, shape in work.items()}
+        self.buffers["gravity_rows"][:] = a.gravity
+        self.buffers["pivots"] = np.zeros(0, np.int32)
+        self.work = WorkData()
+        for name, buffer in self.buffers.items():
+            self.set_buffer(name, buffer)
+        self.model_ref, self.work_ref = ctypes.byref(self.model), ctypes.byref(self.work)
+        self._control = EvaluationData(tangent_step=INERTIA_TANGENT_STEP)
+        self._copies = None
+        self._empty = np.zeros(1)
+
+    def _array(self, values, dtype=np.float64) -> int:
+        """The address of a contiguous copy of ``values``, kept alive with this object."""
+        array = np.ascontiguousarray(values, dtype=dtype)
+        if array.size == 0:
+            array = np.zeros(1, dtype)
+        self._keep.append(array)
+        return array.ctypes.data
+
+    def set_buffer(self, name: str, buffer: np.ndarray) -> None:
+        """Point Work's ``name`` at ``buffer`` (kept with this object)."""
+        self.buffers[name] = buffer
+        setattr(self.work, name, buffer.ctypes.data if buffer.size else self._array(np.zeros(1)))
+
+    def configuration(self, state) -> ConfigurationData:
+        """The C view of a state through contiguous float64 copies of its arrays, kept alive until
+        the next call (nothing is attached to the state: it is pickled into checkpoints)."""
+        arrays = [np.ascontiguousarray(getattr(state, name), dtype=np.float64) for name in STATE_FIELDS]
+        self._copies = arrays
+        return ConfigurationData(*(a.ctypes.data if a.size else self._empty.ctypes.data for a in arrays))
+
+    def evaluate(self, state, matrices: bool, load_factor: float, inertia: bool, inertia_tangent: bool,
+                 length: float = 1.0) -> tuple[np.ndarray, float]:
+        """``latdyn_evaluate`` at ``state``: a copy of the vector of all coordinates (n_total + 1)
+        and the power of loads and hinge torques; the blocks are left in :attr:`buffers`."""
+        if inertia_tangent and not self.has_inertia_tangent:
+            raise ValueError("this native model was built without the inertia tangent's buffers")
+        control = self._control
+        control.t, control.load_factor = float(state.t), float(load_factor)
+        control.inertia, control.matrices = int(inertia), int(matrices)
+        control.inertia_tangent, control.length = int(inertia_tangent), float(length)
+        self.library.latdyn_evaluate(self.model_ref, self.work_ref, ctypes.byref(self.configuration(state)),
+                                     ctypes.byref(control))
+        return self.buffers["total"].copy(), float(control.power)
+
+    def element_inputs(self, state) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Copies of the element kernels' geometry (Eqs. 2, 9, 17), rates and accelerations at ``state``."""
+        self.library.latdyn_element_inputs(self.model_ref, self.work_ref, ctypes.byref(self.configuration(state)))
+        b = self.buffers
+        return b["geometry"].copy(), b["rates"].copy(), b["accelerations"].copy()
+
+    def energies(self, state) -> tuple[float, float, float]:
+        """Kinetic energy, strain energy (hinge springs with a constant stiffness included; those with
+        a law are the caller's) and gravity potential at ``state`` (``latdyn_energies``)."""
+        out = np.zeros(3)
+        self.library.latdyn_energies(self.model_ref, self.work_ref, ctypes.byref(self.configuration(state)),
+                                     out.ctypes.data)
+        return float(out[0]), float(out[1]), float(out[2])
