@@ -344,6 +344,15 @@ def dominant_directions(model, lin: Linearisation, found: list[Mode]) -> list[st
 
 
 # ----------------------------------------------------------------------------- the states to linearise about
+def at_rest(state):
+    """A copy of ``state`` without velocities and accelerations (nodes and hinges): the
+    configuration alone, as the modal analysis about the initial configuration sees it."""
+    state = state.copy()
+    state.v[:] = state.w[:] = state.a[:] = state.alpha[:] = 0.0
+    state.theta_dot[:] = state.theta_ddot[:] = 0.0
+    return state
+
+
 def _scene_copy(scene, **solve):
     """The scene with ``solve`` fields replaced (the model of a linearisation is always 3D,
     as the modal analysis's: latdyn.model.planar.find_plane)."""
@@ -369,10 +378,7 @@ def static_state(prepared):
                     prepared.assembler.kernels.backend)
     probes = ProbeSet(other.assembler, other.state)
     static_path(other, probes, ResultWriter(None, probes.names, "load_factor"), length_scale(other.model))
-    state = other.state.copy()
-    state.v[:] = state.w[:] = state.a[:] = state.alpha[:] = 0.0
-    state.theta_dot[:] = state.theta_ddot[:] = 0.0
-    return other, state
+    return other, at_rest(other.state)
 
 
 def transient_state(prepared, t: float):
@@ -495,10 +501,7 @@ def state_about(prepared, about):
     if isinstance(about, float):
         other, state = transient_state(prepared, about)
         return other, state, frame_of(other.model, state), 1.0
-    state = prepared.state.copy()  # initial: at rest, as the modal analysis has always been
-    state.v[:] = state.w[:] = state.a[:] = state.alpha[:] = 0.0
-    state.theta_dot[:] = state.theta_ddot[:] = 0.0
-    return prepared, state, Frame.inertial(), 1.0
+    return prepared, at_rest(prepared.state), Frame.inertial(), 1.0  # initial: at rest
 
 
 # ----------------------------------------------------------------------------- the analyses
@@ -573,9 +576,7 @@ def buckling_analysis(prepared, count: int = 6) -> dict:
     if model.n_dofs == 0:
         return {"buckling_factor": None}
     started = time.perf_counter()
-    reference = prepared.state.copy()
-    reference.v[:] = reference.w[:] = reference.a[:] = reference.alpha[:] = 0.0
-    reference.theta_dot[:] = reference.theta_ddot[:] = 0.0
+    reference = at_rest(prepared.state)
     K0 = tangent_q(assembler, reference, 0.0, inertia=False)
     K0s = 0.5 * (K0 + K0.T)
     try:
