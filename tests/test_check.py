@@ -4,6 +4,7 @@ from __future__ import annotations
 import math
 import re
 
+import numpy as np
 import pytest
 
 from latdyn.cli import main
@@ -84,3 +85,35 @@ def test_prescribed_hinge_angle_at_t0_is_checked_at_the_initial_configuration(tm
     scene["beams"]["arm"]["elements"] = 1
     out = run_check(tmp_path, capsys, scene)
     assert "warning: element arm.element[0] turns sin φ = 0.644 against its chord at the initial configuration" in out
+
+
+
+#: A rod on a hinge whose torque grows with the angle (a negative spring, 2000 N m/rad), stiff out
+#: of its plane (EIy) so that the modes (3D) list its in-plane bending second, as check (planar) sees it.
+PUSHED = """\
+sections:
+  rod: {EA: 1.0e6, EIy: 1.0e6, EIz: 1.0e4, GJ: 1.0e4, rhoA: 1.0}
+bodies:
+  base: {at: [0, 0, 0], fixed: true}
+beams:
+  rod: {from: base, to: [0, 1, 0], section: rod, elements: 4, start: {hinge: {axis: [0, 0, 1], torque: "2000*theta"}}}
+solve: {t_end: 1.0, dt: 0.001}
+"""
+
+
+def test_a_divergent_mode_is_not_the_lowest_mode_dt_must_resolve(tmp_path, capsys):
+    """The hinge mode diverges at about the rate s = √(2000/(ρA L³/3)) = 77/s of a rigid rod (natural
+    frequency s/2π = 12.3 Hz, the flexible rod's 12.6, damping ratio −1 in the modes about the initial
+    configuration); it does not oscillate, so the lowest mode check holds dt against is the next one,
+    the rod's first bending mode about its hinge (pinned–free without the negative spring:
+    3.9266² √(EI/ρA L⁴)/2π = 245 Hz)."""
+    path = tmp_path / "pushed.yaml"
+    path.write_text(PUSHED)
+    assert main(["check", str(path)]) == 0
+    found = float(re.search(r"lowest non-rigid mode: ([\d.]+) Hz", capsys.readouterr().out).group(1))
+    path.write_text(PUSHED.replace("solve: {t_end: 1.0, dt: 0.001}", "solve: {analysis: modes, count: 2}"))
+    assert main(["run", str(path), "-o", str(tmp_path / "out"), "--quiet"]) == 0
+    rows = [line.split(",") for line in (tmp_path / "out" / "modes.csv").read_text().splitlines()[1:]]
+    divergent, bending = ([float(x) for x in row] for row in rows)
+    assert divergent[2] == -1.0 and divergent[3] == pytest.approx(np.sqrt(6000) / (2 * math.pi), rel=0.03)
+    assert 200 < bending[1] < 250 and found == pytest.approx(bending[1], rel=5e-4)

@@ -244,6 +244,7 @@ beams:
 loads:
   - {{at: s.end, force: [0, "0.01*sin(3*t)", 0]}}
 output:
+  paraview_every: 0
   probes:
     tip_y: {{point: s.end, quantity: position, component: y}}
     hinge: {{hinge: s.start, quantity: angle}}

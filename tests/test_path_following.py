@@ -49,6 +49,7 @@ loads:
   - {at: load, force: [0, -40.0, 0]}
 solve: {analysis: static, method: arc-length, steps: 20, max_steps: 400}
 output:
+  paraview_every: 0
   probes:
     u: {point: load, quantity: displacement, component: x}
     v: {point: load, quantity: displacement, component: y}
@@ -67,6 +68,7 @@ loads:
   - {at: beam.end, force: [0, 4.0, 0]}
 solve: SOLVE
 output:
+  paraview_every: 0
   probes:
     tip_x: {point: beam.end, quantity: position, component: x}
     tip_y: {point: beam.end, quantity: position, component: y}
@@ -85,6 +87,7 @@ loads:
   - {at: col.end, force: [-5.0, 0, 0]}
 solve: {analysis: static, steps: 20}
 output:
+  paraview_every: 0
   probes:
     tip_x: {point: col.end, quantity: position, component: x}
 """
@@ -230,6 +233,7 @@ loads:
   - {at: apex, force: [0, -20.0, 0]}
 solve: {analysis: static, method: arc-length, steps: 10, max_steps: 300}
 output:
+  paraview_every: 0
   probes:
     w: {point: apex, quantity: displacement, component: y}
 """

@@ -35,6 +35,7 @@ loads:
   - {at: col.end, force: [-10, 0.01, 0.01], frame: global}
 solve: {analysis: static, steps: 50}
 output:
+  paraview_every: 0
   probes:
     tip_x: {point: col.end, quantity: position, frame: global, component: x}
     tip_y: {point: col.end, quantity: position, frame: global, component: y}
@@ -59,6 +60,7 @@ loads:
   - {at: load, force: [0, -20.0, 0]}
 solve: {analysis: static, steps: 40}
 output:
+  paraview_every: 0
   probes:
     v: {point: load, quantity: displacement, component: y}
 """
@@ -76,6 +78,7 @@ loads:
   - {at: arm.end, force: [0, "Piecewise((0, t < 0.52), (1.0e6, True))", 0]}
 solve: {analysis: transient, t_end: 1.0, dt: 0.01, dt_min: 0.01, max_iterations: 4}
 output:
+  paraview_every: 0
   every: 0.1
   probes:
     tip_y: {point: arm.end, quantity: position, component: y}

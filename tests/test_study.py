@@ -30,7 +30,7 @@ SPINUP = ROOT / "examples" / "spinup.yaml"
 SMALL = {
     "title": "small spin-up study",
     "scene": str(SPINUP),
-    "set": {"solve.t_end": 0.16, "beams.arm.elements": 2, "output.every": 0.04},
+    "set": {"solve.t_end": 0.16, "beams.arm.elements": 2, "output.every": 0.04, "output.paraview_every": 0},
     "vary": {"solve.dt": [0.04, 0.02], "solve.method": ["generalized-alpha", "newmark", "explicit"]},
     "reference": {"overrides": {"solve.dt": 0.01, "solve.method": "newmark"}},
     "error": {"probe": "tip_v", "norm": "max"},

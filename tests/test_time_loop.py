@@ -20,8 +20,8 @@ def pendulum(t_end=1.0, dt=0.005, **solve):
         "beams": {"rod": {"from": "pivot", "to": "bob", "section": "s", "elements": 1,
                           "start": {"hinge": {"axis": [0, 0, 1]}}}},
         "solve": {"analysis": "transient", "t_end": t_end, "dt": dt, "method": "newmark", **solve},
-        "output": {"every": 0.05, "probes": {"angle": {"hinge": "rod.start", "quantity": "angle"},
-                                             "total": {"energy": "total"}}},
+        "output": {"every": 0.05, "paraview_every": 0,
+                   "probes": {"angle": {"hinge": "rod.start", "quantity": "angle"}, "total": {"energy": "total"}}},
     }
 
 

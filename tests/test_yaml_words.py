@@ -29,6 +29,7 @@ solve:
   dt: 0.01
   planar: {planar}
 output:
+  paraview_every: 0
   probes:
     w: {{point: arm.end, quantity: displacement, component: z}}
 """

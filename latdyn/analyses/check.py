@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from latdyn.numerics.inertia import split_inertia
-
 #: Fewer steps per period of the lowest non-rigid mode than this: ``latdyn check`` warns.
 STEPS_PER_PERIOD = 10
 
@@ -37,8 +35,10 @@ DENSE_MODES_LIMIT = 1500
 def lowest_frequencies(model, assembler, state) -> float | None:
     """The lowest non-rigid natural frequency (Hz) about ``state`` (at rest), or None.
 
-    Up to :data:`DENSE_MODES_LIMIT` coordinates: all modes, with the directions without inertia
-    condensed (:func:`modal_analysis`). Beyond: shift-invert Lanczos on (K, M)
+    Up to :data:`DENSE_MODES_LIMIT` coordinates: every mode of the linearisation about ``state``
+    in the inertial frame, the modal analysis ``about: initial`` of :mod:`latdyn.analyses.linearise`
+    (the directions without inertia condensed, Guyan); a divergent mode (a real eigenvalue > 0, no
+    oscillation) is not one the time step has to resolve. Beyond: shift-invert Lanczos on (K, M)
     at σ = −10⁻⁶ λ_ref (K − σM is regular where the model passed the held check; λ_ref the
     largest diag K / diag M), the 6 eigenvalues nearest zero to 1e-3. Modes with ω² below
     :data:`RIGID_MODE_RATIO` of the largest (dense) or :data:`LANCZOS_RIGID_RATIO` of λ_ref
@@ -46,15 +46,17 @@ def lowest_frequencies(model, assembler, state) -> float | None:
     """
     from scipy.sparse.linalg import ArpackNoConvergence, eigsh
 
-    ev = assembler.evaluate(state, matrices=True)
     if model.n_dofs <= DENSE_MODES_LIMIT:
-        from latdyn.assembly.prepare import Prepared
+        from latdyn.analyses.linearise import Frame, linearise, modes
 
-        omega2 = (2 * np.pi * modal_analysis(Prepared(model.scene, model, assembler, state), model.n_dofs)) ** 2
+        found = modes(linearise(assembler, state, Frame.inertial()))
+        omega2 = np.array([(2 * np.pi * mode.natural_frequency_hz) ** 2 for mode in found
+                           if mode.frequency_hz > 0 or mode.eigenvalue.real <= 0])
         if not len(omega2):
             return None
         elastic = omega2[omega2 > RIGID_MODE_RATIO * omega2.max()]
     else:
+        ev = assembler.evaluate(state, matrices=True)
         K, M = ev.stiffness, ev.mass
         K, M = (0.5 * (K + K.T)).tocsc(), (0.5 * (M + M.T)).tocsc()
         m, k = M.diagonal(), K.diagonal()
@@ -105,15 +107,14 @@ def dynamics_report(model, assembler, state) -> list[str]:
     initial configuration and at a linear static estimate under the loads, gravity and
     hinge torques at t = 0 (K u = −r, when K is regular: a grounded structure).
     """
+    from latdyn.analyses.linearise import at_rest
     from latdyn.scene.loader import FORMULATIONS
 
     lines = []
     scene = model.scene
-    at_rest = state.copy()
-    at_rest.v[:] = at_rest.w[:] = 0.0
-    at_rest.theta_dot[:] = 0.0
+    resting = at_rest(state)
     if model.n_dofs:
-        frequencies = lowest_frequencies(model, assembler, at_rest)
+        frequencies = lowest_frequencies(model, assembler, resting)
         if frequencies is None:
             lines.append("  lowest non-rigid mode: not found (every mode found is rigid)")
         else:
@@ -133,7 +134,7 @@ def dynamics_report(model, assembler, state) -> list[str]:
     sine = scene.solve.formulation != "default" or "cr4402" not in FORMULATIONS
     limit, what = (SINE_LIMIT, "sin φ") if sine else (LOG_LIMIT, "|φ|")
     checks = [("at the initial configuration", state)]
-    estimate = static_estimate(model, assembler, at_rest)
+    estimate = static_estimate(model, assembler, resting)
     if estimate is None:
         lines.append("  rotations: no static estimate (the structure is not grounded, or has no loads)")
     else:
@@ -163,35 +164,3 @@ def check_report(prepared) -> str:
     and the dynamics lines of :func:`dynamics_report` about the initial state."""
     model = prepared.model
     return "\n".join([model.size_report(), *dynamics_report(model, prepared.assembler, prepared.state)])
-
-
-def modal_analysis(prepared, count: int) -> np.ndarray:
-    """Lowest ``count`` natural frequencies (Hz) about the initial configuration.
-
-    Directions without inertia (found joint by joint, :mod:`latdyn.numerics.inertia`) are
-    condensed statically, which is exact for them (Guyan):  in the basis
-    Q = [Q_m, Q_c] with M Q_c = 0,  K_red = K_mm − K_mc K_cc⁻¹ K_cm  and
-    M_red = Q_mᵀ M Q_m, positive definite.  Rigid-body modes come out near zero.
-    """
-    model, assembler = prepared.model, prepared.assembler
-    state = prepared.state.copy()
-    state.v[:] = state.w[:] = 0.0
-    state.theta_dot[:] = 0.0
-    if model.n_dofs == 0:
-        return np.zeros(0)
-    ev = assembler.evaluate(state, matrices=True)
-    M, K = ev.combined(1.0, 0.0, 0.0, dense=True), ev.combined(0.0, 0.0, 1.0, dense=True)
-    split = split_inertia(model, M)
-    Q = split.basis
-    M = Q.T @ (0.5 * (M + M.T)) @ Q
-    K = Q.T @ (0.5 * (K + K.T)) @ Q
-    m = slice(0, split.n_massive)
-    c = slice(split.n_massive, model.n_dofs)
-    if split.n_massless:
-        K = K[m, m] - K[m, c] @ np.linalg.solve(K[c, c], K[c, m])
-    M = M[m, m]
-    import scipy.linalg as sla
-
-    eigenvalues = sla.eigh(0.5 * (K + K.T), 0.5 * (M + M.T), eigvals_only=True)
-    omega = np.sqrt(np.clip(eigenvalues, 0.0, None))
-    return (omega / (2 * np.pi))[:count]

@@ -46,6 +46,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from latdyn.analyses import continuation
 from latdyn.assembly.assembler import (
     advance,
     apply_prescribed,
@@ -344,6 +345,15 @@ def dominant_directions(model, lin: Linearisation, found: list[Mode]) -> list[st
 
 
 # ----------------------------------------------------------------------------- the states to linearise about
+def at_rest(state):
+    """A copy of ``state`` without velocities and accelerations (nodes and hinges): the
+    configuration alone, as the modal analysis about the initial configuration sees it."""
+    state = state.copy()
+    state.v[:] = state.w[:] = state.a[:] = state.alpha[:] = 0.0
+    state.theta_dot[:] = state.theta_ddot[:] = 0.0
+    return state
+
+
 def _scene_copy(scene, **solve):
     """The scene with ``solve`` fields replaced (the model of a linearisation is always 3D,
     as the modal analysis's: latdyn.model.planar.find_plane)."""
@@ -361,18 +371,15 @@ def _planar(prepared) -> str:
 
 def static_state(prepared):
     """The equilibrium of the static analysis of the scene (its loads, ``steps``), load factor 1."""
-    from latdyn.analyses.continuation import static_path
     from latdyn.assembly.prepare import prepare
     from latdyn.results.probes import ProbeSet
 
     other = prepare(_scene_copy(prepared.scene, analysis="static", planar=_planar(prepared)),
                     prepared.assembler.kernels.backend)
     probes = ProbeSet(other.assembler, other.state)
-    static_path(other, probes, ResultWriter(None, probes.names, "load_factor"), length_scale(other.model))
-    state = other.state.copy()
-    state.v[:] = state.w[:] = state.a[:] = state.alpha[:] = 0.0
-    state.theta_dot[:] = state.theta_ddot[:] = 0.0
-    return other, state
+    writer = ResultWriter(None, probes.names, "load_factor")
+    continuation.static_path(other, probes, writer, length_scale(other.model))
+    return other, at_rest(other.state)
 
 
 def transient_state(prepared, t: float):
@@ -495,10 +502,7 @@ def state_about(prepared, about):
     if isinstance(about, float):
         other, state = transient_state(prepared, about)
         return other, state, frame_of(other.model, state), 1.0
-    state = prepared.state.copy()  # initial: at rest, as the modal analysis has always been
-    state.v[:] = state.w[:] = state.a[:] = state.alpha[:] = 0.0
-    state.theta_dot[:] = state.theta_ddot[:] = 0.0
-    return prepared, state, Frame.inertial(), 1.0
+    return prepared, at_rest(prepared.state), Frame.inertial(), 1.0  # initial: at rest
 
 
 # ----------------------------------------------------------------------------- the analyses
@@ -516,21 +520,6 @@ def modes_table(found: list[Mode], directions: list[str]) -> dict:
     """The extra columns of ``modes.csv`` after ``frequency_hz``."""
     return {"damping_ratio": [m.damping_ratio for m in found],
             "natural_frequency_hz": [m.natural_frequency_hz for m in found]}
-
-
-def _static_equilibrium(assembler, state, load_factor: float, tol: float = 1e-12, max_iter: int = 30):
-    """Newton on the static residual at one load factor (from ``state``)."""
-    model = assembler.model
-    length = length_scale(model)
-    for _ in range(max_iter):
-        ev = assembler.evaluate(state, matrices=False, load_factor=load_factor, inertia=False)
-        K = tangent_q(assembler, state, load_factor, inertia=False)
-        dx = np.linalg.solve(K, -ev.residual)
-        state = advance(model, state, dx)
-        apply_prescribed(model, state, 0.0)
-        if increment_size(model, dx, length) <= tol:
-            return state
-    raise SolverError(f"buckling: no static equilibrium at load factor {load_factor:g}")
 
 
 #: Load factor of the pre-buckling state that gives the change of the tangent K_1 = (K(λ₁) − K₀)/λ₁.
@@ -555,9 +544,9 @@ def buckling_analysis(prepared, count: int = 6) -> dict:
     ``buckling_factor``: the load factor λ at which the tangent of the static equilibrium path
     K_T(λ) (loads, gravity and hinge torques times λ, as the static analysis) stops being
     positive definite: the zero of f(λ) = min eig(K_T(λ), K₀), found by stepping along the path
-    (own Newton at each λ, tangents by latdyn.analyses.linearise.tangent_q) with secant predictions and
-    regula falsi once bracketed.  This is a bifurcation (an Euler column, lateral buckling) or a
-    limit point (then Newton stops beyond it: ``buckling_kind`` says which was seen).
+    (the static analysis's Newton at each λ, :func:`latdyn.analyses.continuation.newton_fixed` on the
+    analytic tangent; the stability tangents by :func:`tangent_q`) with secant predictions and regula
+    falsi once bracketed.  This is a bifurcation (an Euler column, lateral buckling) or a limit point (then Newton stops beyond it: ``buckling_kind`` says which was seen).
 
     ``linearised_buckling_factors``: the classical linearised estimate about the unloaded
     configuration, the smallest μ > 0 of det(K₀ + μ K₁) = 0 with K₁ = (K(λ₁) − K₀)/λ₁ at the small
@@ -573,9 +562,7 @@ def buckling_analysis(prepared, count: int = 6) -> dict:
     if model.n_dofs == 0:
         return {"buckling_factor": None}
     started = time.perf_counter()
-    reference = prepared.state.copy()
-    reference.v[:] = reference.w[:] = reference.a[:] = reference.alpha[:] = 0.0
-    reference.theta_dot[:] = reference.theta_ddot[:] = 0.0
+    reference = at_rest(prepared.state)
     K0 = tangent_q(assembler, reference, 0.0, inertia=False)
     K0s = 0.5 * (K0 + K0.T)
     try:
@@ -583,7 +570,10 @@ def buckling_analysis(prepared, count: int = 6) -> dict:
     except np.linalg.LinAlgError:
         raise SolverError("buckling: the unloaded structure is not held (its tangent is not positive "
                           "definite): a free structure or a mechanism has no buckling load") from None
-    loaded = _static_equilibrium(assembler, reference.copy(), PREBUCKLING_FACTOR)
+    path = continuation.Path(prepared, None, None, length_scale(model))  # Newton's settings and counters
+    loaded, _, _, converged = continuation.newton_fixed(path, reference, PREBUCKLING_FACTOR)
+    if not converged:
+        raise SolverError(f"buckling: no static equilibrium at load factor {PREBUCKLING_FACTOR:g}")
     K1 = (tangent_q(assembler, loaded, PREBUCKLING_FACTOR, inertia=False) - K0) / PREBUCKLING_FACTOR
     nu = sla.eigvals(-K1, K0)
     nu = nu[np.isfinite(nu)]
@@ -603,9 +593,8 @@ def buckling_analysis(prepared, count: int = 6) -> dict:
             (l0, f0, _), (l1, f1) = below, above
             target = l0 + (l1 - l0) * f0 / (f0 - f1)
             target = min(max(target, l0 + 0.01 * (l1 - l0)), l1 - 0.01 * (l1 - l0))
-        try:
-            trial = _static_equilibrium(assembler, below[2].copy(), target)
-        except (SolverError, np.linalg.LinAlgError):
+        trial, _, _, converged = continuation.newton_fixed(path, below[2], target)
+        if not converged:
             if above is None and step > STABILITY_TOL * max(below[0], 1e-12):
                 step *= 0.5
                 above_limit = target
