@@ -62,38 +62,16 @@ def run(scene, out_dir=None, backend: str = "auto", progress: bool = False, *, r
         raise ValueError(f"checkpoint_every must be a number of seconds >= 0, not {checkpoint_every!r}")
     scene = load_scene(scene)
     analysis = scene.solve.analysis
-    resume_from = None
-    if resume:
-        if out_dir is None:
-            raise checkpoints.CheckpointError("resuming needs the results folder of the run (out_dir)")
-        if analysis != "transient":
-            raise checkpoints.CheckpointError(f"{out_dir}: a {analysis} analysis is not checkpointed; "
-                                              "there is nothing to resume")
-        resume_from = checkpoints.load(out_dir, checkpoints.identity(scene))
+    resume_from = _checkpoint_to_resume(scene, out_dir) if resume else None
     prepared = prepare(scene, backend)
-    scene, model = prepared.scene, prepared.model
+    scene = prepared.scene
     kernel_backend = prepared.assembler.kernels.backend
     if resume_from is not None:
         checkpoints.check(resume_from, out_dir, {"backend": kernel_backend})
     elif out_dir is not None:
         checkpoints.discard(out_dir)  # a fresh run: a checkpoint of an earlier one is stale
     probes = ProbeSet(prepared.assembler, prepared.state)
-    first = "load_factor" if analysis == "static" else "t"
-    meta = {"analysis": analysis, "title": scene.title, "coordinates": model.n_dofs,
-            "elements": len(model.element_nodes), "backend": kernel_backend,
-            "formulation": scene.solve.formulation}
-    try:
-        writer = ResultWriter(out_dir, probes.names, first_column=first, mesh=paraview.parts(model, prepared.state),
-                              meta=meta,
-                              labels=state_labels([n.name for n in model.nodes],
-                                                  [f"{h.beam}.{h.end}" for h in model.hinges]),
-                              attributes={"nodes": [n.name for n in model.nodes],
-                                          "hinges": [f"{h.beam}.{h.end}" for h in model.hinges],
-                                          "coordinates": model.dof_names()},
-                              paraview_every=_paraview_every(scene),
-                              resume=None if resume_from is None else resume_from.writer)
-    except ResultsError as exc:  # resuming: files that do not hold what the checkpoint recorded
-        raise checkpoints.CheckpointError(f"{exc}") from exc
+    writer = _result_writer(prepared, probes, out_dir, analysis, resume_from)
     summary = {"latdyn_version": __version__, "scene_hash": scene.source_hash, "steps": 0,
                "newton_iterations": 0, "rejected_steps": 0, "energy_balance_error": None}
     writer.summary.update(summary)
@@ -105,35 +83,7 @@ def run(scene, out_dir=None, backend: str = "auto", progress: bool = False, *, r
     if resume_from is not None:
         writer.summary.update(resumed_from_t=resume_from.t, resumes=resume_from.resumes + 1)
     with writer, _sigterm_interrupts(enabled=checkpointer is not None):
-        if scene.solve.linear_model is not None and analysis != "modes":  # about the chosen state, before the run
-            linearise.write_linear_model(prepared, out_dir, writer.summary)
-        if analysis == "modes":  # about solve.about (latdyn/analyses/linearise.py)
-            if scene.solve.about == "initial":
-                _warn_moving(scene, writer)
-            found, directions, lin = linearise.modal_analysis(prepared, scene.solve.count, scene.solve.about)
-            frequencies = [m.frequency_hz for m in found]
-            writer.write_modes(frequencies, linearise.modes_table(found, directions))
-            writer.summary["modes_hz"] = [float(f) for f in frequencies]
-            writer.summary["damping_ratios"] = [float(m.damping_ratio) for m in found]
-            writer.summary["mode_directions"] = directions
-            writer.summary["about"] = scene.solve.about
-            writer.summary["linearisation_s"] = None if lin is None else lin.seconds
-            if lin is not None:  # the frame the modes are seen in: the steady spin's, else at rest
-                writer.summary["frame_omega"] = [float(w) for w in lin.frame.omega]  # rad/s, global axes
-                writer.summary["spin_rate"] = float(np.linalg.norm(lin.frame.omega))  # rad/s
-            if lin is not None and scene.solve.mode_shapes:  # the shapes, animated
-                try:
-                    writer.summary["mode_shapes"] = linearise.write_mode_shapes(lin, found, out_dir)
-                except ImportError as exc:  # h5py (latdyn's ParaView output) not installed
-                    writer.summary["mode_shapes"] = f"not written: {exc}"
-            if scene.solve.linear_model is not None and lin is not None:
-                linearise.write_linear_model(prepared, out_dir, writer.summary, lin)
-        elif analysis == "buckling":
-            writer.summary.update(linearise.buckling_analysis(prepared, scene.solve.count))
-        elif analysis == "static":
-            static_path(prepared, probes, writer, length_scale(model))
-        else:
-            transient(prepared, probes, writer, progress, checkpointer, resume_from)
+        _analyse(prepared, probes, writer, out_dir, analysis, progress, checkpointer, resume_from)
         writer.summary["wall_time_s"] = time.perf_counter() - wall0
         writer.summary["compile_s"] = _compile_seconds() - compiled0
         writer.close(dict(writer.summary), status="solved")
@@ -143,6 +93,82 @@ def run(scene, out_dir=None, backend: str = "auto", progress: bool = False, *, r
     if analysis == "modes":
         result.modes = np.asarray(writer.summary.get("modes_hz", []))
     return result
+
+
+def _checkpoint_to_resume(scene: Scene, out_dir) -> checkpoints.Checkpoint:
+    """The checkpoint in ``out_dir`` that a resumed run of ``scene`` goes on from
+    (:class:`latdyn.timeloop.checkpoint.CheckpointError` when there is none to resume)."""
+    analysis = scene.solve.analysis
+    if out_dir is None:
+        raise checkpoints.CheckpointError("resuming needs the results folder of the run (out_dir)")
+    if analysis != "transient":
+        raise checkpoints.CheckpointError(f"{out_dir}: a {analysis} analysis is not checkpointed; "
+                                          "there is nothing to resume")
+    return checkpoints.load(out_dir, checkpoints.identity(scene))
+
+
+def _result_writer(prepared, probes: ProbeSet, out_dir, analysis: str,
+                   resume_from: checkpoints.Checkpoint | None) -> ResultWriter:
+    """The result writer of the run (reopened at the checkpoint's bookmark when resuming)."""
+    scene, model = prepared.scene, prepared.model
+    first = "load_factor" if analysis == "static" else "t"
+    meta = {"analysis": analysis, "title": scene.title, "coordinates": model.n_dofs,
+            "elements": len(model.element_nodes), "backend": prepared.assembler.kernels.backend,
+            "formulation": scene.solve.formulation}
+    try:
+        return ResultWriter(out_dir, probes.names, first_column=first, mesh=paraview.parts(model, prepared.state),
+                            meta=meta,
+                            labels=state_labels([n.name for n in model.nodes],
+                                                [f"{h.beam}.{h.end}" for h in model.hinges]),
+                            attributes={"nodes": [n.name for n in model.nodes],
+                                        "hinges": [f"{h.beam}.{h.end}" for h in model.hinges],
+                                        "coordinates": model.dof_names()},
+                            paraview_every=_paraview_every(scene),
+                            resume=None if resume_from is None else resume_from.writer)
+    except ResultsError as exc:  # resuming: files that do not hold what the checkpoint recorded
+        raise checkpoints.CheckpointError(f"{exc}") from exc
+
+
+def _analyse(prepared, probes: ProbeSet, writer: ResultWriter, out_dir, analysis: str, progress: bool,
+             checkpointer: checkpoints.Checkpointer | None, resume_from: checkpoints.Checkpoint | None) -> None:
+    """The analysis of ``solve.analysis``, its results into ``writer``."""
+    scene = prepared.scene
+    if scene.solve.linear_model is not None and analysis != "modes":  # about the chosen state, before the run
+        linearise.write_linear_model(prepared, out_dir, writer.summary)
+    if analysis == "modes":  # about solve.about (latdyn/analyses/linearise.py)
+        _modes(prepared, writer, out_dir)
+    elif analysis == "buckling":
+        writer.summary.update(linearise.buckling_analysis(prepared, scene.solve.count))
+    elif analysis == "static":
+        static_path(prepared, probes, writer, length_scale(prepared.model))
+    else:
+        transient(prepared, probes, writer, progress, checkpointer, resume_from)
+
+
+def _modes(prepared, writer: ResultWriter, out_dir) -> None:
+    """The modal analysis about ``solve.about``: modes.csv, the summary's frequencies and damping
+    ratios, the mode shapes (animated) and the linear model where the scene asks for them."""
+    scene = prepared.scene
+    if scene.solve.about == "initial":
+        _warn_moving(scene, writer)
+    found, directions, lin = linearise.modal_analysis(prepared, scene.solve.count, scene.solve.about)
+    frequencies = [m.frequency_hz for m in found]
+    writer.write_modes(frequencies, linearise.modes_table(found, directions))
+    writer.summary["modes_hz"] = [float(f) for f in frequencies]
+    writer.summary["damping_ratios"] = [float(m.damping_ratio) for m in found]
+    writer.summary["mode_directions"] = directions
+    writer.summary["about"] = scene.solve.about
+    writer.summary["linearisation_s"] = None if lin is None else lin.seconds
+    if lin is not None:  # the frame the modes are seen in: the steady spin's, else at rest
+        writer.summary["frame_omega"] = [float(w) for w in lin.frame.omega]  # rad/s, global axes
+        writer.summary["spin_rate"] = float(np.linalg.norm(lin.frame.omega))  # rad/s
+    if lin is not None and scene.solve.mode_shapes:  # the shapes, animated
+        try:
+            writer.summary["mode_shapes"] = linearise.write_mode_shapes(lin, found, out_dir)
+        except ImportError as exc:  # h5py (latdyn's ParaView output) not installed
+            writer.summary["mode_shapes"] = f"not written: {exc}"
+    if scene.solve.linear_model is not None and lin is not None:
+        linearise.write_linear_model(prepared, out_dir, writer.summary, lin)
 
 
 def _warn_moving(scene: Scene, writer) -> None:

@@ -1,49 +1,50 @@
-"""The compiled time step: generalized-α with its Newton iteration in C (``csrc/newton_step.c``),
-and the loop of steps between rows in C too.
+"""The compiled time step: generalized-α with its Newton iteration in C
+(``latdyn/assembly/csrc/newton_step.c``), and the loop of steps between rows in C too.
 
 :class:`CompiledGeneralizedAlpha` is :class:`latdyn.step.integrators.GeneralizedAlpha` with
-``step`` done by one call into C: the scene's laws at the step's end time (prescribed
-motion, torques, loads, and hinge laws in θ, θ̇ and t, compiled by the code generator:
-:mod:`codegen.laws`, :mod:`latdyn.assembly.compiled_laws`), configuration update on SO(3), prescribed
-motion, element geometry (Eq. 17), the generated element kernels (called through function
-pointers from the per-kernel libraries of :mod:`latdyn.model.kernels`), joint bodies, hinges,
-point loads, scatter into a preallocated matrix, LAPACK's LU (dense ``getrf``, or banded
-``gbtrf`` after a reverse Cuthill–McKee ordering, as :mod:`latdyn.numerics.linalg` chooses; the
-function pointers are SciPy's ``cython_lapack``) or, for matrices too wide for a band, the
-supernodal sparse LU of ``csrc/sparse_lu.c`` (analysis once per pattern in
-:mod:`latdyn.step.sparse_lu`), and the convergence test.
+``step`` done by one call into C: the scene's laws at the step's end time (compiled by the code
+generator, :mod:`codegen.laws`, or called back in Python where a law does not print in C:
+:mod:`latdyn.assembly.native_model`), the configuration update on SO(3) with prescribed motion,
+the one evaluation of ``csrc/evaluate.c`` that every analysis uses (generated kernels through
+function pointers), the scatter of S = β′M + γ′C + K into a preallocated matrix, LAPACK's LU
+(dense ``getrf``, or banded ``gbtrf`` after a reverse Cuthill–McKee ordering, as
+:mod:`latdyn.numerics.linalg` chooses; the function pointers are SciPy's ``cython_lapack``) or,
+for matrices too wide for a band, the supernodal sparse LU of ``csrc/sparse_lu.c`` (analysis
+once per pattern in :mod:`latdyn.step.sparse_lu`), and the convergence test. The model's arrays
+and buffers are the assembler's :class:`~latdyn.assembly.native_model.NativeModel`; this module
+adds the iteration matrix's storage and the step's own structs.
 
 :meth:`CompiledGeneralizedAlpha.advance` takes the steps from one recorded row to the next in
 one call (``latdyn_advance``): each step on the time grid as ``step`` takes it, accepted as
-the time loop of :mod:`latdyn.solve` accepts it (algorithmic acceleration carried over,
+the time loop (:mod:`latdyn.timeloop.loop`) accepts it (algorithmic acceleration carried over,
 external work by the trapezoidal rule, power of loads and prescribed motion). A step it
 cannot accept as it comes (Newton fails; a hinge reaches lock_at or a stop) is handed back
 to the time loop, which handles it as before (cuts, the inertia tangent, latches, impacts)
 and calls the loop again once it is back on the grid at the nominal step. Python runs once
-per row: events, energies, probes, output, checkpoints (``solve.LOOP_BUDGET_S`` bounds a
-call, so that interrupts and the progress bar are seen). Adaptive steps, or laws that could
-not be compiled, take the steps from Python, one call each.
+per row: events, energies, probes, output, checkpoints (``timeloop.transient.LOOP_BUDGET_S``
+bounds a call, so that interrupts and the progress bar are seen). Adaptive steps take the steps
+from Python, one call each.
 
-The Python step stays the reference: with ``newton: full`` the compiled step takes the
-same iterations and equals it to round-off (``tests/test_engine.py``: 1e-10 relative), and the
-loop equals the steps taken one by one from Python (``tests/test_compiled_loop.py``; measured:
-bit for bit on the shipped examples).
+With ``newton: full`` the compiled step takes the same iterations as the Newton iteration driven
+from Python (:class:`~latdyn.step.integrators.GeneralizedAlpha`, which models with rigid links
+need) and equals it to round-off (``tests/test_engine.py``: 1e-10 relative), and the loop equals
+the steps taken one by one from Python (``tests/test_compiled_loop.py``; bit for bit on the
+shipped examples).
 ``newton: modified`` keeps the factorized iteration matrix from step to step while Newton
 contracts (|Δx_k| ≤ ``contraction`` · |Δx_{k−1}|) and rebuilds it when it stops doing so
-or the step size changes; only the residual is evaluated between rebuilds (the internal
-force, mass and quadratic-velocity kernels: ~4 µs an element against ~14 µs with the
-tangents, measured by ``benchmarks/compile_levels.py``). It converges to the same
-tolerance on the same invariant increment.
+or the step size changes; only the residual is evaluated between rebuilds. It converges to the
+same tolerance on the same invariant increment.
 
 Threads: the element part of each evaluation (geometry and generated kernels) runs on OpenMP
-threads, one contiguous range of elements each, from :data:`PARALLEL_ELEMENTS` elements on
-(``LATDYN_PARALLEL_ELEMENTS`` overrides it, 0 turns it off); ``OMP_NUM_THREADS`` sets the number
-of threads (default: the cores). The scatter stays serial in element order, so the results are
-equal whatever the threads (bit for bit on the tested beam, to ~1e-14 on a lattice). The library is built with ``-fopenmp`` where the compiler
-accepts it, else serially (:func:`openmp_threads` says 0).
+threads, one contiguous range of elements each, from ``PARALLEL_ELEMENTS`` elements on
+(:mod:`latdyn.assembly.library`; ``LATDYN_PARALLEL_ELEMENTS`` overrides it, 0 turns it off);
+``OMP_NUM_THREADS`` sets the number of threads (default: the cores). The sums stay serial in
+element order, so the results are equal whatever the threads (bit for bit on the tested beam, to
+~1e-14 on a lattice). The library is built with ``-fopenmp`` where the compiler accepts it, else
+serially (``openmp_threads`` says 0).
 
-Scenes the C step does not cover run the Python step (``engine_reason`` says why): the
-NumPy kernel backend (no compiler) and rigid links.
+Models with rigid links run the Newton iteration from Python (``engine_reason`` says so): their
+reduction onto minimum coordinates is :mod:`latdyn.assembly.linked`'s.
 """
 from __future__ import annotations
 

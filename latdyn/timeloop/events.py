@@ -1,4 +1,5 @@
-"""Events of the time loop: hinges that latch at ``lock_at`` and impacts on hinge stops."""
+"""Events of the time loop: hinges that latch at ``lock_at`` and impacts on hinge stops, the
+fraction of a step at which the first one happens (the loop shortens the step onto it)."""
 from __future__ import annotations
 
 import numpy as np
@@ -137,3 +138,11 @@ def latch_hinges(prepared: Prepared, integrator, old: State, new: State, h: floa
     assembler.reindex()
     integrator.a = pack(model, a_lin, a_ang, a_h)[: model.n_dofs]
     return True
+
+
+def hinge_events(prepared: Prepared, integrator, old: State, new: State, h: float) -> tuple[bool, bool]:
+    """The events at the end of the accepted step old → new of size ``h``: latches, then impacts on
+    stops. (Whether any hinge latched or hit a stop, whether any hit a stop.)"""
+    latched = latch_hinges(prepared, integrator, old, new, h)
+    stopped = hinge_stops(prepared, integrator, new)
+    return stopped or latched, stopped

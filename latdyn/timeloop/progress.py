@@ -1,4 +1,5 @@
-"""What the time loop carries from one step to the next (checkpointed), and its reports of cut steps."""
+"""What the time loop carries from one step to the next (checkpointed): the state, the step size,
+the work and energy bookkeeping and the counters; the reports of cut steps."""
 from __future__ import annotations
 
 import sys
@@ -6,7 +7,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from latdyn.assembly.assembler import State
+from latdyn.assembly.assembler import State, pack
+from latdyn.model.model import Model
 
 
 @dataclass
@@ -40,6 +42,44 @@ class TransientProgress:
     solver_s: float = 0.0  # wall time inside the integrator's steps
     cut_times: list = field(default_factory=list)  # the first times at which a step was cut
     inertia_tangent_from: float | None = None  # t from which Newton's matrix holds the inertia tangent
+
+    def count(self, stats) -> None:
+        """Count a step's Newton iterations and factorizations (``stats``: a StepStats)."""
+        self.newton_iterations += stats.iterations
+        self.factorizations += factorizations(stats)
+
+    def balance(self, energies: dict, external_work: float) -> None:
+        """Take the energies of a recorded row into the energy balance (SCENE.md): max |Δ(total −
+        external_work)| over the largest of kinetic, strain, |potential change| and |external work| seen."""
+        self.balance_error = max(self.balance_error, abs(sum(energies.values()) - self.total0 - external_work))
+        self.energy_scale = max(self.energy_scale, energies["kinetic"], energies["strain"],
+                                abs(energies["potential"] - self.potential0), abs(external_work))
+
+    def summary(self, tol: float, method: str) -> dict:
+        """The counters and the energy balance, as summary.json reports them."""
+        return dict(
+            steps=self.steps, newton_iterations=self.newton_iterations, rejected_steps=self.rejected_steps,
+            newton_cuts=self.newton_cuts, cut_times=self.cut_times,
+            energy_balance_error=self.balance_error / self.energy_scale if self.energy_scale > 0 else 0.0,
+            newton_iterations_per_step=self.newton_iterations / max(self.steps, 1),
+            newton_tolerance=tol, method=method, solver_s=self.solver_s, factorizations=self.factorizations,
+            inertia_tangent_from=self.inertia_tangent_from)
+
+
+def factorizations(stats) -> int:
+    """Iteration matrices a step factorized (StepStats; one per iteration where it does not say)."""
+    return stats.iterations if stats.factorizations is None else stats.factorizations
+
+
+def drive_power(model: Model, state: State, reaction: np.ndarray) -> float:
+    """Power of the constraint forces that impose prescribed motion."""
+    velocities = pack(model, state.v, state.w, state.theta_dot)[model.n_dofs:model.n_total]
+    return float(reaction @ velocities)
+
+
+def load_power(model: Model, state: State, evaluation) -> float:
+    """Power of loads and prescribed motion at ``state`` (``evaluation``: the assembler's, at that state)."""
+    return evaluation.external_power + drive_power(model, state, evaluation.reaction)
 
 
 #: Cut steps reported on stderr one by one up to this many, then only counted.

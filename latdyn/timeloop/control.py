@@ -1,0 +1,123 @@
+"""Where the steps of the time loop go, and how long they are (SCENE.md ``solve``: ``t_end``, ``dt``,
+``dt_min``, ``adaptive``, ``error_tol``; ``output.every``).
+
+Steps land on the time grid t_k = k·dt (the last one on t_end), computed from the grid index, never
+accumulated. A step Newton cannot converge is tried again with the inertia tangent in its iteration
+matrix, then cut in half, down to ``dt_min``. With ``adaptive`` steps the integrator's error estimate
+rejects a step and resizes the next one (never beyond dt). After a cut or a step shortened onto an
+event the step grows back to dt."""
+from __future__ import annotations
+
+import sys
+
+import numpy as np
+
+from latdyn.timeloop.progress import TransientProgress, report_cut
+
+
+class StepControl:
+    """The time grid, the rows recorded on it and the step size of one transient run."""
+
+    def __init__(self, solve, every: float | None, length: float):
+        """``solve``: the scene's solve section; ``every``: ``output.every`` (None: a row every step);
+        ``length``: the model's length scale (m), which makes ``error_tol`` relative."""
+        self.t_end, self.dt = float(solve.t_end), float(solve.dt)
+        self.n_grid = max(1, int(np.ceil(self.t_end / self.dt - 1e-9)))
+        self.dt_min = solve.dt_min if solve.dt_min is not None else self.dt * 1e-6
+        self.adaptive, self.error_tol, self.length = solve.adaptive, solve.error_tol, length
+        self.every = every
+
+    # ------------------------------------------------------------------------- the grid and its rows
+    def grid_time(self, k: int) -> float:
+        """t_k = k·dt, computed (the last grid point is t_end exactly)."""
+        return self.t_end if k >= self.n_grid else k * self.dt
+
+    def finished(self, run: TransientProgress) -> bool:
+        return run.grid_index >= self.n_grid
+
+    def on_grid(self, run: TransientProgress) -> bool:
+        """Whether the next step is a nominal one from a grid point (the loop of steps in C takes those)."""
+        return run.h == self.dt and run.state.t == self.grid_time(run.grid_index)
+
+    def next_step(self, run: TransientProgress) -> tuple[float, bool, float]:
+        """The step to try from ``run.state``: its size, whether it lands on the next grid point
+        (within 1e-9 of the step: then exactly), and that grid point's time."""
+        target = self.grid_time(run.grid_index + 1)
+        h = run.h
+        lands = h >= (target - run.state.t) * (1 - 1e-9)
+        if lands:
+            h = target - run.state.t
+        return h, lands, target
+
+    def row_due(self, run: TransientProgress, t: float) -> bool:
+        """Whether the step that ended at ``t`` is recorded: every output time, and t_end always."""
+        return self.every is None or t >= run.output_index * self.every - 1e-9 * self.dt or self.finished(run)
+
+    def row_recorded(self, run: TransientProgress, t: float) -> None:
+        """After the row at ``t``: the next output time."""
+        if self.every:
+            run.output_index = int(np.floor(t / self.every + 1e-9 * self.dt / self.every)) + 1
+
+    def next_row(self, run: TransientProgress) -> int:
+        """The grid point of the next recorded row (every step without ``every``), and at most the
+        step that ends on a multiple of 256 steps (where the loop puts rotations back on SO(3))."""
+        k = run.grid_index + 1
+        if self.every is not None:
+            due_at = run.output_index * self.every - 1e-9 * self.dt
+            k = max(k, min(self.n_grid, int(np.floor(due_at / self.dt))))
+            while k > run.grid_index + 1 and self.grid_time(k - 1) >= due_at:
+                k -= 1
+            while k < self.n_grid and self.grid_time(k) < due_at:
+                k += 1
+        return min(k, self.n_grid, run.grid_index + 256 - run.steps % 256)
+
+    # ------------------------------------------------------------------------- the step size
+    def relative_error(self, integrator, h: float) -> float:
+        """The integrator's error estimate of its last step, relative to ``error_tol`` · length."""
+        return integrator.error_estimate(h) / (self.error_tol * self.length)
+
+    def rejects(self, run: TransientProgress, integrator, h: float) -> bool:
+        """Adaptive steps: whether the converged step of size ``h`` is rejected by its error
+        estimate; then the step to try instead (at least ``dt_min``)."""
+        if not self.adaptive:
+            return False
+        error = self.relative_error(integrator, h)
+        if error <= 1.0:
+            return False
+        run.rejected_steps += 1
+        run.h = max(h * max(0.2, 0.9 * error ** (-1 / 3)), self.dt_min)
+        return True
+
+    def after_newton_failure(self, run: TransientProgress, integrator, h: float, iterations: int) -> bool:
+        """Newton did not converge in the step of size ``h`` from ``run.state``: the step is tried
+        again with the inertia tangent if the iteration matrix leaves it out, else cut in half.
+        False: half the step would be below ``dt_min``."""
+        run.rejected_steps += 1
+        t = run.state.t
+        if not getattr(integrator, "inertia_tangent", True):
+            # the iteration matrix leaves out the inertia tangent, which is exact only where
+            # β′M dominates it (latdyn.step.integrators); take it from here on, same step
+            integrator.inertia_tangent = True
+            run.inertia_tangent_from = float(t)
+            print(f"latdyn: Newton did not converge in {iterations} iterations at t = {t + h:.9g}; "
+                  "its matrix now includes the inertia tangent (directions with little inertia)",
+                  file=sys.stderr)
+            return True
+        if h / 2 < self.dt_min:
+            return False
+        report_cut(run, t + h, h, iterations)
+        run.h = h / 2
+        return True
+
+    def after_accepted(self, run: TransientProgress, integrator, h: float, latched: bool, stopped: bool) -> None:
+        """The step to try after the accepted step of size ``h`` (``latched``: a hinge latched or hit
+        a stop in it; ``stopped``: a stop)."""
+        if self.adaptive:
+            # after a latch the last Newton evaluation has the old numbering (estimate taken as 0,
+            # which is what error_estimate gives after accept() for a step without a latch)
+            error = 0.0 if latched else self.relative_error(integrator, h)
+            run.h = min(self.dt, h * min(2.0, 0.9 * max(error, 1e-10) ** (-1 / 3)))
+        elif stopped:
+            run.h = self.dt  # after an impact on a stop the integrator restarted: the nominal step
+        elif h < self.dt:
+            run.h = min(self.dt, 2 * h)  # recover the nominal step after a cut or a shortened step

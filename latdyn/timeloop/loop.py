@@ -1,0 +1,313 @@
+"""The loop over rows and steps of one transient run (:func:`latdyn.timeloop.transient.transient`
+starts it).
+
+From a grid point at the nominal step, the loop of steps in C (step.compiled.CompiledGeneralizedAlpha.advance)
+takes and accepts the steps up to the next row in one call; a step it cannot accept as it comes
+(Newton fails, a hinge event) comes back to this loop, which takes every other step from Python:
+
+    try a step → count it → rejected by its error estimate? (adaptive steps) → Newton failed?
+    (inertia tangent, cut: latdyn.timeloop.control) → shortened onto a hinge event → accepted:
+    latches and stops (latdyn.timeloop.events), the work of loads, the row if one is due,
+    the size of the next step, a checkpoint if one is due.
+
+Interrupted or failed, the run leaves a checkpoint of the last accepted step and, failed, the
+last converged state as a row."""
+from __future__ import annotations
+
+import copy
+import sys
+import time
+from typing import NamedTuple
+
+from latdyn.assembly.assembler import State
+from latdyn.assembly.prepare import Prepared
+from latdyn.errors import SolverError
+from latdyn.numerics.so3 import orthonormalize
+from latdyn.results import paraview
+from latdyn.results.probes import ProbeSet
+from latdyn.results.writer import ResultWriter, progress_bar
+from latdyn.step.integrators import newton_diagnosis
+from latdyn.timeloop import checkpoint as checkpoints
+from latdyn.timeloop.control import StepControl
+from latdyn.timeloop.events import crossing_fraction, hinge_events
+from latdyn.timeloop.progress import TransientProgress, factorizations, load_power
+
+
+class Attempt(NamedTuple):
+    """A step the integrator took from the run's state, not yet accepted."""
+
+    new: State
+    stats: object  # StepStats: converged, iterations, factorizations, residual
+    h: float
+    lands: bool  # on the next grid point
+
+
+class LastAccepted(NamedTuple):
+    """The last accepted step as a checkpoint keeps it."""
+
+    #: a shallow copy of the run's progress (once a step is accepted the loop replaces states and
+    #: arrays, never changes them in place)
+    progress: TransientProgress
+    external_work: float
+    bookmark: dict  # the writer's
+    last_recorded: State | None  # the last recorded state while its ParaView frame is not on disk
+    #: the mark of the factorization the engine holds for this step (None: not this step's; a
+    #: checkpoint then carries none)
+    factorization_mark: int | None
+
+
+class TimeLoop:
+    """One transient run: the integrator, the state it carries from step to step
+    (:class:`TransientProgress`), its rows (writer, probes) and its checkpoints.
+
+    ``compiled_loop``: whether steps between rows run in C where the integrator can;
+    ``loop_budget_s``: wall time after which that loop comes back to Python before the next row."""
+
+    def __init__(self, prepared: Prepared, integrator, probes: ProbeSet, writer: ResultWriter,
+                 control: StepControl, *, tol: float, checkpointer: checkpoints.Checkpointer | None = None,
+                 compiled_loop: bool = True, loop_budget_s: float = 0.25):
+        self.prepared, self.model, self.assembler = prepared, prepared.model, prepared.assembler
+        self.integrator, self.probes, self.writer, self.control = integrator, probes, writer, control
+        self.tol, self.checkpointer = tol, checkpointer
+        self.compiled_loop, self.loop_budget_s = compiled_loop, loop_budget_s
+        self.energies_of = prepared.assembler.energies
+        # modified Newton's held factorization (step.compiled.CompiledGeneralizedAlpha): a checkpoint of the
+        # last accepted step carries it when the engine still holds that step's (its mark unchanged)
+        self.factorization_mark = getattr(integrator, "factorization_mark", None)
+        self.progress: TransientProgress | None = None
+        self.bookmark: dict | None = None
+        self.last_recorded: State | None = None
+        self.last: LastAccepted | None = None
+        self.compiled = False
+        self.bar = None
+
+    # ------------------------------------------------------------------------- start, resume
+    def begin(self, resume_from: checkpoints.Checkpoint | None = None) -> None:
+        """Start from ``prepared.state`` (its row recorded), or go on from a loaded checkpoint,
+        the writer having been reopened at its bookmark."""
+        energy0 = self._start() if resume_from is None else self._resume(resume_from)
+        self.bookmark = self.writer.bookmark()
+        self.last_recorded = None if resume_from is None else resume_from.last_recorded
+        if self.last_recorded is not None:
+            self.writer.reattach_last_frame(
+                lambda snapshot=self.last_recorded: paraview.frame(self.assembler, self.writer.mesh, snapshot))
+        self.compiled = self.compiled_loop and hasattr(self.integrator, "advance") and not self.control.adaptive
+        self.writer.summary["time_loop"] = "compiled" if self.compiled else "python"
+        if resume_from is None:
+            self._record(self.progress.state, energy0)
+        self.last = self._accepted()
+
+    def _start(self) -> dict:
+        """The run's progress at t = 0; the energies there."""
+        state = self.prepared.state
+        self.integrator.start(state)
+        evaluation = self.assembler.evaluate(state, matrices=False)
+        energy0 = self.energies_of(state)
+        self.progress = TransientProgress(
+            state=state, algorithmic_acceleration=self.integrator.a, locked=self.model.locked.copy(),
+            h=self.control.dt, power=load_power(self.model, state, evaluation),
+            total0=sum(energy0.values()), potential0=energy0["potential"],
+            inertia_tangent_from=0.0 if getattr(self.integrator, "inertia_tangent", False) else None)
+        return energy0
+
+    def _resume(self, checkpoint: checkpoints.Checkpoint) -> None:
+        """The run's progress as the checkpoint keeps it: the latched hinges renumber the coordinates,
+        then the loop goes on as it was."""
+        self.progress = checkpoint.progress
+        self.model.locked[:] = self.progress.locked
+        self.model.number_coordinates()
+        self.assembler.reindex()
+        self.integrator.a = self.progress.algorithmic_acceleration
+        self.integrator.inertia_tangent = self.progress.inertia_tangent_from is not None
+        self.probes.external_work = checkpoint.external_work
+        if hasattr(self.integrator, "restore_factorization"):  # modified Newton's held matrix, as it was
+            try:
+                self.integrator.restore_factorization(checkpoint.factorization)
+            except ValueError as exc:
+                raise checkpoints.CheckpointError(f"{exc}; the checkpoint does not belong to this model") from exc
+
+    # ------------------------------------------------------------------------- the loop
+    def run(self, show_progress: bool) -> TransientProgress:
+        """Step to t_end (after :meth:`begin`); the progress at the end."""
+        self.bar = progress_bar(self.control.t_end, enabled=show_progress)
+        try:
+            while not self.control.finished(self.progress):
+                self._next_step()
+        except (KeyboardInterrupt, Exception) as failure:
+            self._stopped_by(failure)
+            raise
+        finally:
+            self.bar.close()
+            self._summarize()
+        self.prepared.state = self.progress.state
+        return self.progress
+
+    def _next_step(self) -> None:
+        """Steps in C up to the next row, or one step from Python; the step that comes back is
+        rejected (error estimate), tried again (Newton failed) or accepted."""
+        progress, control = self.progress, self.control
+        attempt = self._compiled_steps() if self.compiled and control.on_grid(progress) else self._python_step()
+        if attempt is None:
+            return
+        progress.count(attempt.stats)
+        if attempt.stats.converged and control.rejects(progress, self.integrator, attempt.h):
+            return
+        if not attempt.stats.converged:
+            if not control.after_newton_failure(progress, self.integrator, attempt.h, attempt.stats.iterations):
+                state, h = progress.state, attempt.h
+                raise SolverError("Newton failed below the minimum step", newton_diagnosis(
+                    self.model, attempt.stats.residual, state.t + h, h, self.assembler, state))
+            return
+        self._accept(self._land_on_event(attempt))
+
+    def _compiled_steps(self) -> Attempt | None:
+        """The loop of steps in C from a grid point: the steps up to the next row, taken and accepted
+        in one call; the step it could not accept as it came (None: none)."""
+        progress, control = self.progress, self.control
+        # back in Python at least every loop_budget_s (interrupts, progress) and when a checkpoint is due
+        budget = self.loop_budget_s if self.checkpointer is None else min(self.loop_budget_s,
+                                                                          self.checkpointer.remaining())
+        started = time.perf_counter()
+        done = self.integrator.advance(
+            progress.state, grid_index=progress.grid_index,
+            stop_index=control.next_row(progress) if budget > 0 else progress.grid_index + 1, dt=control.dt,
+            t_end=control.t_end, n_grid=control.n_grid, power=progress.power,
+            external_work=progress.external_work, budget_s=budget)
+        progress.solver_s += time.perf_counter() - started
+        if done.steps:
+            progress.steps += done.steps
+            progress.grid_index += done.steps
+            progress.newton_iterations += done.iterations
+            progress.factorizations += done.factorizations
+            progress.power = done.power
+            progress.external_work = self.probes.external_work = done.external_work
+            progress.state = done.state
+            progress.algorithmic_acceleration = self.integrator.a
+            self._after_accepted(done.state)
+            self._keep_accepted(done.factorization_kept)
+        if done.pending is None:
+            return None
+        new, stats, h = done.pending
+        return Attempt(new, stats, h, lands=True)
+
+    def _python_step(self) -> Attempt:
+        """One step from Python, of the size the step control says, landing on the grid if it reaches it."""
+        h, lands, target = self.control.next_step(self.progress)
+        new, stats = self._step(h, t_new=target if lands else None)
+        return Attempt(new, stats, h, lands)
+
+    def _step(self, h: float, t_new: float | None = None):
+        """The integrator's step of size ``h`` from the run's state, timed."""
+        started = time.perf_counter()
+        new, stats = self.integrator.step(self.progress.state, h, t_new=t_new)
+        self.progress.solver_s += time.perf_counter() - started
+        return new, stats
+
+    def _land_on_event(self, attempt: Attempt) -> Attempt:
+        """A hinge reaching lock_at or a stop inside the step: the step shortened to land on it
+        (secant on the angle, at most 4 passes; the last shorter step that converged)."""
+        progress = self.progress
+        new, stats, h, lands = attempt
+        for _ in range(4):
+            fraction = crossing_fraction(self.model, progress.state, new)
+            if fraction is None:
+                break
+            shorter = h * max(fraction, 1e-6)
+            retry, retry_stats = self._step(shorter)
+            progress.factorizations += factorizations(retry_stats)
+            if not retry_stats.converged:
+                break
+            progress.newton_iterations += retry_stats.iterations
+            new, stats, h, lands = retry, retry_stats, shorter, False
+        return Attempt(new, stats, h, lands)
+
+    def _accept(self, attempt: Attempt) -> None:
+        """Accept the converged step: its events, the work of loads over it, the row if one is due,
+        the size of the next step, a checkpoint if one is due."""
+        progress, model, integrator = self.progress, self.model, self.integrator
+        new, h = attempt.new, attempt.h
+        integrator.accept()
+        latched, stopped = hinge_events(self.prepared, integrator, progress.state, new, h)
+        # power of loads and prescribed motion: from the last Newton evaluation
+        # (within the Newton tolerance of the converged state) when there is one
+        evaluation = getattr(integrator, "last_evaluation", None)
+        if evaluation is None or len(evaluation.reaction) != model.n_total - model.n_dofs:
+            evaluation = self.assembler.evaluate(new, matrices=False)
+        new_power = load_power(model, new, evaluation)
+        self.probes.external_work += 0.5 * h * (progress.power + new_power)
+        progress.power = new_power
+        progress.external_work = self.probes.external_work
+        progress.state = new
+        progress.algorithmic_acceleration = integrator.a
+        progress.locked = model.locked.copy()
+        progress.steps += 1
+        if attempt.lands:
+            progress.grid_index += 1
+        self._after_accepted(new)
+        self.control.after_accepted(progress, integrator, h, latched, stopped)
+        self._keep_accepted()
+
+    def _after_accepted(self, state: State) -> None:
+        """After the accepted step(s) that ended at ``state``: rotations back on SO(3) every 256
+        steps, the row if one is due, the summary and the progress bar."""
+        progress, model = self.progress, self.model
+        if progress.steps % 256 == 0:  # exp updates keep T on SO(3) to round-off; remove the drift of long runs
+            state.T[model.free_nodes] = orthonormalize(state.T[model.free_nodes])
+        if self.control.row_due(progress, state.t):
+            self._record(state, self.energies_of(state))
+            self.control.row_recorded(progress, state.t)
+        self._summarize()
+        self.bar.update(state.t)
+
+    # ------------------------------------------------------------------------- rows, summary
+    def _record(self, state: State, energies: dict) -> None:
+        """A row at ``state`` (probes, state, ParaView frame when due), its energies in the balance."""
+        self.progress.balance(energies, self.probes.external_work)
+        snapshot = state.copy()
+        self.writer.record(state.t, self.probes.values(state, energies), state=state.as_dict(),
+                           frame=lambda: paraview.frame(self.assembler, self.writer.mesh, snapshot))
+        self.bookmark, self.last_recorded = self.writer.bookmark(), snapshot
+
+    def _summarize(self) -> None:
+        self.writer.summary.update(self.progress.summary(self.tol, self.prepared.scene.solve.method))
+
+    # ------------------------------------------------------------------------- checkpoints
+    def _accepted(self, kept_factorization: bool = True) -> LastAccepted:
+        """The last accepted step as a checkpoint keeps it (``kept_factorization``: whether the
+        engine holds this step's factorization)."""
+        kept = copy.copy(self.progress)  # dataclasses.replace without its per-field checks (once a row)
+        kept.cut_times = list(self.progress.cut_times)
+        mark = self.factorization_mark() if self.factorization_mark is not None and kept_factorization else None
+        unwritten = (self.bookmark["paraview"] or {}).get("unwritten") is not None
+        return LastAccepted(kept, self.progress.external_work, self.bookmark,
+                            self.last_recorded if unwritten else None, mark)
+
+    def _keep_accepted(self, kept_factorization: bool = True) -> None:
+        """Keep the step just accepted as the last one, and write its checkpoint when one is due."""
+        self.last = self._accepted(kept_factorization)
+        if self.checkpointer is not None and self.checkpointer.due():
+            self._save_checkpoint(self.last)
+
+    def _save_checkpoint(self, kept: LastAccepted) -> None:
+        """Write the checkpoint of ``kept``, with the held factorization while the engine has not
+        moved on from that step (else without: the resumed run rebuilds it)."""
+        factorization = None
+        if kept.factorization_mark is not None and kept.factorization_mark == self.factorization_mark():
+            factorization = self.integrator.factorization_state()
+        self.checkpointer.save(kept.progress, kept.external_work, kept.bookmark, kept.last_recorded,
+                               self.writer, factorization)
+
+    def _stopped_by(self, failure: BaseException) -> None:
+        """Interrupted or failed: a checkpoint of the last accepted step, to resume from; failed: the
+        last converged state is always a row (after the checkpoint, whose bookmark a resumed run
+        returns to, so that the resumed files equal an uninterrupted run's)."""
+        if self.checkpointer is not None and not self.writer.closed:
+            try:
+                self._save_checkpoint(self.last)
+                self.writer.summary["checkpoint_t"] = self.last.progress.state.t
+            except Exception as exc:  # noqa: BLE001 - the original error matters more
+                print(f"latdyn: could not write a checkpoint: {type(exc).__name__}: {exc}", file=sys.stderr)
+        state = self.progress.state
+        if isinstance(failure, SolverError) and not self.writer.closed and state is not None \
+                and (self.last_recorded is None or self.last_recorded.t != state.t):
+            self._record(state, self.energies_of(state))
