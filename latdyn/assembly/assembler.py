@@ -174,6 +174,7 @@ class Assembler:
         self.loads = model.scene.loads
         points = [model.point(load.at) for load in self.loads]
         self._load_nodes = np.array([node for node, _ in points], np.int64)
+        self._load_offsets = np.array([r for _, r in points], float).reshape(-1, 3)
         self._load_frames = np.array([model.body_node[load.frame] if load.frame != "global" else node
                                       for load, (node, _) in zip(self.loads, points)], np.int64)
         self._native = None
@@ -181,14 +182,17 @@ class Assembler:
 
     def native(self, inertia_tangent: bool = False) -> NativeModel:
         """The model as the C library reads it, for the current numbering (rebuilt after a latch,
-        or when the inertia tangent's buffers are first needed)."""
-        m = self.model
-        key = (m.n_dofs, m.locked.tobytes())
+        or when the inertia tangent's buffers are first needed; once there, they stay)."""
         native = self._native
-        if native is None or native.model_key != key or (inertia_tangent and not native.has_inertia_tangent):
-            self._native = native = NativeModel(self, inertia_tangent or (native is not None and native.model_key
-                                                                          == key and native.has_inertia_tangent))
+        with_tangent = inertia_tangent or (native is not None and native.has_inertia_tangent)
+        if self.current_native() is None or with_tangent != native.has_inertia_tangent:
+            self._native = native = NativeModel(self, with_tangent)
         return native
+
+    def current_native(self) -> NativeModel | None:
+        """The native model built for the current numbering, or None (none yet, or a latch since)."""
+        m, native = self.model, self._native
+        return native if native is not None and native.model_key == (m.n_dofs, m.locked.tobytes()) else None
 
     def _load_columns(self) -> np.ndarray:
         """The columns of each load's stiffness block (l, 6): its node's rotations, then its frame

@@ -119,9 +119,7 @@ class SceneLaws:
         n = max(len(self.functions), 1)
 
         def time_laws(t, out):
-            values = self.at(t)
-            for i, v in enumerate(values.ravel()[:3 * n]):
-                out[i] = v
+            np.ctypeslib.as_array(out, (n, 3))[:] = self.at(t)
 
         def hinge_laws(k, theta, rate, t, out):
             law = self.hinge_laws[k]
@@ -173,14 +171,9 @@ class NativeModel:
             if h.torque is not None:
                 torque_hinge_law[j] = laws.add_hinge_law(h.torque)
         torque = [-1 if j in with_law else laws.add(h.torque) for j, h in enumerate(m.hinges)]
-        load_node, load_r, force_law, moment_law, frame_node = [], [], [], [], []
-        for load in m.scene.loads:
-            node, r = m.point(load.at)
-            load_node.append(node)
-            load_r.append(r)
-            force_law.append([laws.add(g) for g in load.force] if load.force else [-1, -1, -1])
-            moment_law.append([laws.add(g) for g in load.moment] if load.moment else [-1, -1, -1])
-            frame_node.append(-1 if load.frame == "global" else m.body_node[load.frame])
+        force_law = [[laws.add(g) for g in load.force] if load.force else [-1, -1, -1] for load in a.loads]
+        moment_law = [[laws.add(g) for g in load.moment] if load.moment else [-1, -1, -1] for load in a.loads]
+        frame_node = [-1 if load.frame == "global" else node for load, node in zip(a.loads, a._load_frames)]
         time_laws, hinge_laws = laws.addresses()
         self.laws, self.law_hinges = laws, list(with_law)
 
@@ -193,7 +186,7 @@ class NativeModel:
         element_ends = np.concatenate([m.element_axes, m.element_offsets, m.element_frames0.reshape(-1, 2, 9),
                                        np.zeros(m.element_axes.shape[:2] + (1,))], axis=2)
         body_section = np.concatenate([m.body_mass[:, None], m.body_com, m.body_inertia.reshape(-1, 9)], axis=1)
-        E, B, L, N = len(m.element_nodes), len(m.body_nodes), len(m.scene.loads), len(m.nodes)
+        E, B, L, N = len(m.element_nodes), len(m.body_nodes), len(a.loads), len(m.nodes)
         kernel = {name: _kernel_address(kernels, name) for name in (
             "beam_internal_force", "beam_internal_force_D_q", "beam_mass_matrix", "beam_quadratic_velocity",
             "beam_quadratic_velocity_D_qdot", "beam_gravity", "beam_strain_energy", "beam_kinetic_energy",
@@ -216,9 +209,9 @@ class NativeModel:
             body_inertia=arr(m.body_inertia),
             hinge_stiffness=arr(stiffness), hinge_damping=arr(damping), hinge_rest_angle=arr(rest),
             hinge_torque_law=ints(torque),
-            load_node=ints(load_node), load_force_law=ints(np.array(force_law, np.int64).reshape(-1, 3)),
+            load_node=ints(a._load_nodes), load_force_law=ints(np.array(force_law, np.int64).reshape(-1, 3)),
             load_moment_law=ints(np.array(moment_law, np.int64).reshape(-1, 3)), load_frame_node=ints(frame_node),
-            load_r=arr(np.array(load_r, float).reshape(-1, 3)),
+            load_r=arr(a._load_offsets),
             gravity=(ctypes.c_double * 3)(*a.gravity), has_gravity=int(a.has_gravity),
             internal_force=kernel["beam_internal_force"], internal_force_D_q=kernel["beam_internal_force_D_q"],
             mass_matrix=kernel["beam_mass_matrix"], quadratic_velocity=kernel["beam_quadratic_velocity"],
@@ -262,6 +255,8 @@ class NativeModel:
         self.model_ref, self.work_ref = ctypes.byref(self.model), ctypes.byref(self.work)
         self._control = EvaluationData(tangent_step=INERTIA_TANGENT_STEP)
         self._copies = None
+        #: what the compiled step's iteration matrix storage keeps alive (latdyn.step.compiled)
+        self.matrix_storage = None
         self._empty = np.zeros(1)
 
     def _array(self, values, dtype=np.float64) -> int:

@@ -116,7 +116,6 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         self._native = self._setup_for = None
         self._library = native_library()
         self._last_trial = self._mass_for = None
-        self._empty = np.zeros(1)
         self._made = None  # (the last state made, its C view, the C view of its base)
 
     # -- the model as arrays, rebuilt when the numbering changes (a latch) --------------------
@@ -214,7 +213,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         native.set_buffer("matrix", np.zeros(size))
         native.set_buffer("rhs", np.zeros(n))
         native.set_buffer("pivots", np.zeros(max(n, 1), np.int32))
-        native.matrix_storage = keep  # kept alive with the native model
+        native.matrix_storage = keep
 
     def _layout(self) -> None:
         """Offsets of a state's arrays in one flat buffer (a new state per step: the loop
@@ -249,10 +248,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         checkpoints)."""
         if self._made is not None and self._made[0] is state:
             return self._made[1]
-        arrays = [np.ascontiguousarray(getattr(state, name), dtype=np.float64) for name in STATE_FIELDS]
-        pointers = [array.ctypes.data if array.size else self._empty.ctypes.data for array in arrays]
-        self._copies = arrays
-        return ConfigurationData(*pointers)
+        return self._native.configuration(state)
 
     def step(self, state: State, h: float, t_new: float | None = None) -> tuple[State, StepStats]:
         self._setup()
@@ -351,7 +347,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         place in Work's ``matrix``) and of the pivots (dense and band LU). None when there is
         nothing to carry: full Newton, no factorization held, or one of a numbering (a latch)
         or an iteration matrix (the inertia tangent) that the next step will rebuild anyway."""
-        if not self.modified or self._setup_for != (self.assembler.native(self.inertia_tangent), self.inertia_tangent):
+        if not self.modified or self._setup_for != (self.assembler.current_native(), self.inertia_tangent):
             return None
         h = float(self._control.factored_h)
         if h == 0.0:

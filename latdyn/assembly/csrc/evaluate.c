@@ -120,11 +120,11 @@ typedef struct {
      * each: f, f', f'') into the buffer given, and hinge law k at (θ, θ̇, t) (f, ∂f/∂θ, ∂f/∂θ̇). */
     void (*time_laws)(double, double *);
     void (*hinge_laws)(int64_t, double, double, double, double *);
-    /* hinges with laws in θ, θ̇ or t (Assembler.hinge_forces): the hinge law of the stiffness,
+    /* hinges with laws in θ, θ̇ or t: the hinge law of the stiffness,
      * the damping and the torque (-1: the constant of hinge_stiffness/hinge_damping, no torque
      * law in θ or θ̇), and whether the spring is conservative (else its power is external work) */
     const int64_t *hinge_stiffness_law, *hinge_damping_law, *hinge_torque_hinge_law, *hinge_conservative;
-    /* events that end a loop of steps (latdyn_advance; solve.py handles them): lock_at and the
+    /* events that end a loop of steps (latdyn_advance; latdyn/timeloop/events.py handles them): lock_at and the
      * lower and upper stop of each hinge (NAN: none) */
     const double *hinge_lock_at, *hinge_lower_stop, *hinge_upper_stop;
     int64_t has_events;
@@ -298,7 +298,7 @@ static void configure(const Model *m, const Configuration *base, Configuration *
 
 /* ------------------------------------------------------------------------- evaluation */
 
-/* Element inputs (Assembler.element_geometry, element_rates): x1, x2, offsets T r_g (Eq. 2),
+/* Element inputs: x1, x2, offsets T r_g (Eq. 2),
  * nodal frames T_j exp(θ h) E0 (Eq. 17), hinge axes T_j h (Eq. 9); rates and accelerations. */
 static void element_inputs_to(const Model *m, const Configuration *c, double *geometry, double *rates,
                               double *accelerations, int64_t begin, int64_t end_element)
@@ -431,7 +431,7 @@ static double evaluate(const Model *m, const Configuration *c, Work *w, const do
         const int64_t *d = m->node_dofs + 6 * m->body_nodes[b];
         for (int p = 0; p < 6; ++p) w->total[d[p]] += w->body_vector[6 * b + p];
     }
-    /* hinges (Assembler.hinge_forces): the laws' values and derivatives at (θ, θ̇, t), constants or
+    /* hinges: the laws' values and derivatives at (θ, θ̇, t), constants or
      * the scene's compiled laws, into the generated kernel codegen/joints.py hinge_force */
     for (int64_t j = 0; j < m->n_hinges; ++j) {
         double state[4] = {c->theta[j], c->theta_dot[j], m->hinge_rest_angle[j], load_factor};
@@ -453,7 +453,7 @@ static double evaluate(const Model *m, const Configuration *c, Work *w, const do
         power += torque_power;
         w->total[m->hinge_dofs[j]] += f;
     }
-    /* point loads (Assembler.point_loads): the generated kernel codegen/joints.py, load by load */
+    /* point loads: the generated kernel codegen/joints.py, load by load */
     static const double identity[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
     for (int64_t l = 0; l < m->n_loads; ++l) {
         int64_t i = m->load_node[l], frame = m->load_frame_node[l];
@@ -598,9 +598,10 @@ static void inertia_tangent(const Model *m, const Configuration *c, Work *w, dou
     }
 }
 
-/* Kinetic, strain and gravity potential energy of the whole model at c (Assembler.energies):
+/* Kinetic, strain and gravity potential energy of the whole model at c:
  * out = [kinetic, strain, potential]. Springs with a law have hinge_stiffness 0 here: the caller
- * adds their potential (Assembler.hinge_potential integrates the law). */
+ * adds their potential (Assembler.hinge_potential integrates the law). Joint bodies: ½m|v_c|² + ½ωᵀJω
+ * about the centre of mass r_c = T c, J = T I Tᵀ, and −m g·(x + r_c). */
 void latdyn_energies(const Model *m, Work *w, const Configuration *c, double *out)
 {
     const int64_t E = m->n_elements;

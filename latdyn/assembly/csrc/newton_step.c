@@ -227,13 +227,13 @@ int64_t latdyn_newton_step(const Model *m, Work *w, StepControl *s, const Config
 
 /* ------------------------------------------------------------------------- the loop of steps */
 
-/* solve._lock_tolerance */
+/* latdyn/timeloop/events.py lock_tolerance */
 static double lock_tolerance(double at) { return 1e-7 * fmax(1.0, fabs(at)); }
 
-/* Whether the step old → new holds an event that solve.py handles (and the loop must not
- * accept by itself): a free hinge that reaches or crosses its lock_at (solve._lock_events),
- * crosses a stop from inside (solve._stop_crossings), or ends on or beyond a stop moving into
- * it (solve._hinge_stops). */
+/* Whether the step old → new holds an event that latdyn/timeloop/events.py handles (and the loop must not
+ * accept by itself): a free hinge that reaches or crosses its lock_at (lock_events),
+ * crosses a stop from inside (stop_crossings), or ends on or beyond a stop moving into
+ * it (hinge_stops). */
 static int hinge_event(const Model *m, const Configuration *old, const Configuration *new_)
 {
     for (int64_t k = 0; k < m->n_free_hinges; ++k) {
@@ -254,7 +254,7 @@ static int hinge_event(const Model *m, const Configuration *old, const Configura
     return 0;
 }
 
-/* Power of the constraint forces that impose prescribed motion (solve._drive_power): the
+/* Power of the constraint forces that impose prescribed motion (latdyn/timeloop/progress.py drive_power): the
  * reaction of the last evaluation (w->total on the constrained coordinates n_dofs … n_total−1)
  * times the velocities of those coordinates. */
 static double drive_power(const Model *m, const Configuration *c, const double *total)
@@ -274,7 +274,7 @@ static double drive_power(const Model *m, const Configuration *c, const double *
     return power;
 }
 
-/* A loop of steps on the time grid (timeloop.transient's loop, for the steps it would accept as
+/* A loop of steps on the time grid (timeloop.loop's TimeLoop, for the steps it would accept as
  * they come). */
 typedef struct {
     /* in: the grid t_k = k dt (t_{n_grid} = t_end), the steps to take (grid_index → stop_index),
@@ -283,7 +283,7 @@ typedef struct {
     int64_t n_grid, grid_index, stop_index;
     double t, budget_s;
     /* in/out: the power of loads and prescribed motion at the last accepted state, and the work
-     * done since the start of the run (trapezoidal rule, as timeloop.transient) */
+     * done since the start of the run (trapezoidal rule, as timeloop.loop) */
     double power, external_work;
     /* out: steps accepted, their Newton iterations and factorizations; why the loop returned
      * (0 at stop_index, 1 a step did not converge, 2 a step holds an event, 3 the budget);
@@ -302,7 +302,7 @@ static double seconds_now(void)
 }
 
 /* Steps from `start` (at adv->t, on grid point grid_index) through grid point stop_index,
- * each landing on the grid (h = t_{k+1} − t_k) as timeloop.transient takes them at the nominal
+ * each landing on the grid (h = t_{k+1} − t_k) as timeloop.loop takes them at the nominal
  * step: latdyn_newton_step with the compiled laws, then acceptance (the algorithmic
  * acceleration carried, the external work by the trapezoidal rule). It returns at the first
  * step that does not converge or that holds a hinge event, without accepting it, so that the
