@@ -271,10 +271,16 @@ class Assembler:
                            inertia_tangent: bool = False, length: float = 1.0) -> Evaluation:
         """The equations of motion on the first ``n_assembled`` coordinates (free, then dependent):
         one native evaluation (``latdyn_evaluate``, csrc/evaluate.c), its blocks copied out."""
-        m = self.model
-        n = m.n_assembled
         native = self.native(inertia_tangent)
         total, power = native.evaluate(state, matrices, load_factor, inertia, inertia_tangent, length)
+        return self.evaluation_in(native, total, power, matrices, inertia, inertia_tangent)
+
+    def evaluation_in(self, native: NativeModel, total: np.ndarray, power: float, matrices: bool, inertia: bool,
+                      inertia_tangent: bool) -> Evaluation:
+        """The :class:`Evaluation` that ``native``'s Work buffers hold (its blocks copied out), with
+        ``total`` (n_total + 1: residual, then reactions) and the power as the evaluation left them."""
+        m = self.model
+        n = m.n_assembled
         result = Evaluation(residual=total[:n], reaction=total[n:m.n_total], external_power=power, assembler=self)
         if matrices:
             b = native.buffers

@@ -56,7 +56,7 @@ class ModelData(ctypes.Structure):
         ("hinge_stiffness_law", P), ("hinge_damping_law", P), ("hinge_torque_hinge_law", P), ("hinge_conservative", P),
         ("hinge_lock_at", P), ("hinge_lower_stop", P), ("hinge_upper_stop", P), ("has_events", I64),
         ("sparse_lu", ctypes.POINTER(SparseLUStructure)), ("get_blas_threads", P), ("set_blas_threads", P),
-        ("section_width", I64),
+        ("section_width", I64), ("complete_links", P), ("reduce_links", P),
     ]
 
 

@@ -59,9 +59,15 @@ class LinkedEvaluation(SeparateMatrices):
 def evaluate_linked(links, assembler, state, matrices: bool, load_factor: float, inertia: bool,
                     inertia_tangent: bool = False, length: float = 1.0):
     """The equations of motion on the minimum coordinates (module docstring)."""
-    model = assembler.model
     links.complete(state)
     full = assembler.evaluate_assembled(state, matrices, load_factor, inertia, inertia_tangent, length)
+    return reduce_linked(links, assembler, state, full, matrices, inertia)
+
+
+def reduce_linked(links, assembler, state, full, matrices: bool, inertia: bool) -> LinkedEvaluation:
+    """``full``, the evaluation on the independent and dependent coordinates at ``state`` (its
+    dependent nodes completed), reduced onto the minimum coordinates (module docstring)."""
+    model = assembler.model
     n, n_asm, n_total = model.n_dofs, model.n_assembled, model.n_total
     columns, twist = links.twists(model, state)
     n_dep = len(links.dependent)

@@ -144,6 +144,17 @@ class RigidLinks:
         state.v[:], state.w[:], state.a[:], state.alpha[:] = (x[0] for x in arrays[:4])
 
     # ------------------------------------------------------------------ the map J
+    def columns(self, model) -> np.ndarray:
+        """The coordinates (all numbering, sorted) the dependent nodes move with: their roots' 6
+        coordinates and the hinges on the edges."""
+        cols = []
+        for e in self.edges:
+            r = self.root[e.child]
+            cols.extend(int(i) for i in model.node_dofs[r])
+            if e.hinge >= 0:
+                cols.append(int(model.hinge_dofs[e.hinge]))
+        return np.array(sorted(set(cols)), dtype=np.int64)
+
     def twists(self, model, state):
         """Twist Jacobians of the dependent nodes and their roots on the coordinates they use.
 
@@ -151,13 +162,7 @@ class RigidLinks:
         roots' 6 coordinates and the hinges on the edges, and ``twist`` a dict node ->
         (6, len(columns)) array: δV = (δv_O, δω) of the node per unit of each column.
         """
-        cols = []
-        for e in self.edges:
-            r = self.root[e.child]
-            cols.extend(int(i) for i in model.node_dofs[r])
-            if e.hinge >= 0:
-                cols.append(int(model.hinge_dofs[e.hinge]))
-        columns = np.array(sorted(set(cols)), dtype=np.int64)
+        columns = self.columns(model)
         where = {int(c): k for k, c in enumerate(columns)}
         twist = {}
         for r in {self.root[c] for c in self.dependent}:

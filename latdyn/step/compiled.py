@@ -52,6 +52,7 @@ import ctypes
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.sparse as sps
 
 from latdyn.assembly.assembler import State
 from latdyn.assembly.library import (
@@ -63,6 +64,7 @@ from latdyn.assembly.library import (
     native_library,
     parallel_threshold,
 )
+from latdyn.assembly.linked import reduce_linked
 from latdyn.assembly.native_model import INERTIA_TANGENT_STEP, STATE_FIELDS
 from latdyn.numerics.linalg import (
     BAND_LIMIT,
@@ -78,8 +80,6 @@ from latdyn.step.sparse_lu import SupernodalAnalysis, blas_kernels
 
 def unsupported(assembler) -> str | None:
     """Why the compiled step cannot run this model, or None when it can."""
-    if getattr(assembler.model, "links", None) is not None:
-        return "rigid links (dependent nodes, latdyn/model/links.py) run in the Python step"
     try:
         native_library()
     except RuntimeError as error:
@@ -87,11 +87,101 @@ def unsupported(assembler) -> str | None:
     return None
 
 
-def _band_plan(assembler):
+def _band_plan(rows, cols, n):
     """RCM order of the iteration matrix's pattern (:func:`latdyn.numerics.linalg.rcm_band`):
     (bandwidth, new index of each coordinate, lower, upper)."""
-    _, new, lower, upper = rcm_band(assembler._csr_rows, assembler._csr_cols, assembler.model.n_dofs)
+    _, new, lower, upper = rcm_band(rows, cols, n)
     return max(lower, upper), new, lower, upper
+
+
+def matrix_pattern(assembler) -> tuple[np.ndarray, np.ndarray]:
+    """(row, col) of every entry the iteration matrix can hold, row by row: the assembler's pattern
+    on the free coordinates; with rigid links, that of Pᵀ A P, P = [I; J] with J's dependent rows
+    full on the coordinates the dependent nodes move with (:mod:`latdyn.assembly.linked`; its
+    geometric and convective terms lie inside it)."""
+    m = assembler.model
+    n, n_asm = m.n_dofs, m.n_assembled
+    rows, cols = assembler._csr_rows, assembler._csr_cols
+    if m.links is None:
+        return rows, cols
+    A = sps.csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(n_asm, n_asm))
+    moved = m.links.columns(m)
+    moved = moved[moved < n]
+    dependent_rows = m.node_dofs[m.links.dependent].ravel()
+    P = sps.csr_matrix((np.ones(n + len(dependent_rows) * len(moved)),
+                        (np.concatenate([np.arange(n), np.repeat(dependent_rows, len(moved))]),
+                         np.concatenate([np.arange(n), np.tile(moved, len(dependent_rows))]))), shape=(n_asm, n))
+    reduced = (P.T @ A @ P + sps.identity(n)).tocsr()
+    reduced.sort_indices()
+    return np.repeat(np.arange(n), np.diff(reduced.indptr)), reduced.indices.astype(np.int64)
+
+
+_COMPLETE_LINKS = ctypes.CFUNCTYPE(None, ctypes.c_void_p)
+_REDUCE_LINKS = ctypes.CFUNCTYPE(ctypes.c_int64, ctypes.c_void_p, ctypes.c_double, ctypes.c_double, ctypes.c_int64,
+                                 ctypes.c_int64)
+
+
+class LinkedReduction:
+    """The rigid links of a model in the compiled step: the C Newton iteration calls back
+    ``complete`` after every configuration update (dependent nodes placed, their rates completed:
+    :meth:`latdyn.model.links.RigidLinks.complete`) and ``reduce`` after every evaluation (the
+    evaluation in Work reduced onto the minimum coordinates by :func:`latdyn.assembly.linked.reduce_linked`,
+    the residual and reactions written back into Work's ``total``, and the reduced iteration
+    matrix β′M + γ′C + K into the step's matrix storage at ``position``). An exception in a callback
+    cannot cross C: it fails the step and :meth:`raise_pending` raises it once C has returned."""
+
+    def __init__(self, assembler, native, dense: bool, position):
+        self.assembler, self.native, self.dense, self.position = assembler, native, dense, position
+        self.error = None
+        model = assembler.model
+        N, H = len(model.nodes), len(model.hinges)
+        self._shapes = {"x": (N, 3), "T": (N, 3, 3), "v": (N, 3), "w": (N, 3), "a": (N, 3), "alpha": (N, 3),
+                        "theta": (H,), "theta_dot": (H,), "theta_ddot": (H,)}
+        self.callbacks = (_COMPLETE_LINKS(self._complete), _REDUCE_LINKS(self._reduce))
+        native.model.complete_links = ctypes.cast(self.callbacks[0], ctypes.c_void_p).value
+        native.model.reduce_links = ctypes.cast(self.callbacks[1], ctypes.c_void_p).value
+
+    def _state(self, address: int) -> State:
+        """The state whose arrays are those of the C configuration at ``address`` (views)."""
+        c = ConfigurationData.from_address(address)
+        arrays = [np.ctypeslib.as_array(ctypes.cast(getattr(c, name), ctypes.POINTER(ctypes.c_double)),
+                                        shape=self._shapes[name]) for name in STATE_FIELDS]
+        return State(0.0, *arrays)
+
+    def _complete(self, address):
+        try:
+            self.assembler.model.links.complete(self._state(address))
+        except BaseException as error:  # noqa: BLE001 - raised again by raise_pending
+            self.error = self.error or error
+
+    def _reduce(self, address, beta_p, gamma_p, matrices, inertia_tangent):
+        if self.error is not None:
+            return 1
+        try:
+            a, model, buffers = self.assembler, self.assembler.model, self.native.buffers
+            total = buffers["total"]
+            full = a.evaluation_in(self.native, total.copy(), 0.0, bool(matrices), True, bool(inertia_tangent))
+            reduced = reduce_linked(model.links, a, self._state(address), full, bool(matrices), True)
+            n = model.n_dofs
+            total[:n] = reduced.residual
+            total[n:model.n_total] = reduced.reaction
+            if matrices:
+                matrix = buffers["matrix"]
+                if self.dense:
+                    matrix[:] = np.ravel(reduced.combined(beta_p, gamma_p, 1.0, dense=True), order="F")
+                else:
+                    S = reduced.combined(beta_p, gamma_p, 1.0, dense=False).tocoo()
+                    matrix[:] = 0.0
+                    np.add.at(matrix, self.position(S.row, S.col), S.data)
+            return 0
+        except BaseException as error:  # noqa: BLE001 - raised again by raise_pending
+            self.error = error
+            return 1
+
+    def raise_pending(self) -> None:
+        error, self.error = self.error, None
+        if error is not None:
+            raise error
 
 
 # ----------------------------------------------------------------------------- the step
@@ -157,6 +247,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         is wider than BAND_LIMIT (latdyn/numerics/linalg.py), with every block entry's position in it."""
         a, m = self.assembler, self.assembler.model
         n = m.n_dofs
+        pattern_rows, pattern_cols = matrix_pattern(a)
         keep = []
 
         def ints(values):
@@ -174,7 +265,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
             def position(rows, cols):
                 return np.where((rows < n) & (cols < n), rows + cols * n, -1)
         else:
-            bandwidth, new, kl, ku = _band_plan(a)
+            bandwidth, new, kl, ku = _band_plan(pattern_rows, pattern_cols, n)
             ldab = 2 * kl + ku + 1
             size = ldab * n
 
@@ -185,7 +276,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
                 return np.where(ok, (kl + ku + i - j) + j * ldab, -1)
         sparse_lu = None
         if not dense and bandwidth > BAND_LIMIT:  # the supernodal LU of csrc/sparse_lu.c (linalg.py)
-            analysis = SupernodalAnalysis(a._csr_rows, a._csr_cols, n)
+            analysis = SupernodalAnalysis(pattern_rows, pattern_cols, n)
             sparse_lu = analysis.structure(*blas_kernels())
             keep.append(analysis)
             new, kl, ku, ldab, size, position = analysis.new, 0, 0, 0, max(analysis.size, 1), analysis.position
@@ -213,7 +304,10 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         native.set_buffer("matrix", np.zeros(size))
         native.set_buffer("rhs", np.zeros(n))
         native.set_buffer("pivots", np.zeros(max(n, 1), np.int32))
+        if m.links is not None:
+            keep.append(LinkedReduction(a, native, dense, position))
         native.matrix_storage = keep
+        self._links = keep[-1] if m.links is not None else None
 
     def _layout(self) -> None:
         """Offsets of a state's arrays in one flat buffer (a new state per step: the loop
@@ -264,6 +358,8 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         self._factor_version += 1
         failed = self._step(self._model_ref, self._work_ref, self._control_ref, ctypes.byref(base),
                             ctypes.byref(trial), self._vectors_ref)
+        if self._links is not None:
+            self._links.raise_pending()
         self.factorizations += control.factorizations
         self._last_trial = trial_state
         self._made = (trial_state, trial, base)
@@ -300,6 +396,8 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         self._factor_version += 1
         self._library.latdyn_advance(self._model_ref, self._work_ref, self._control_ref, ctypes.byref(base),
                                      self._scratch_c, ctypes.byref(out_c), self._vectors_ref, self._run_ref)
+        if self._links is not None:
+            self._links.raise_pending()
         control = self._control
         self.factorizations += run.factorizations
         last = state

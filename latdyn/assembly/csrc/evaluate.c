@@ -52,6 +52,11 @@ typedef void (*lapack_getrs)(char *, int *, int *, double *, int *, int *, doubl
 typedef void (*lapack_gbtrf)(int *, int *, int *, int *, double *, int *, int *, int *);
 typedef void (*lapack_gbtrs)(char *, int *, int *, int *, int *, double *, int *, int *, double *, int *, int *);
 
+/* A configuration: all nodes and hinges. */
+typedef struct {
+    double *x, *T, *v, *w, *a, *alpha, *theta, *theta_dot, *theta_ddot;
+} Configuration;
+
 /* The model, as arrays (latdyn.model.Model and the Assembler's scatter maps). */
 typedef struct {
     int64_t n_nodes, n_hinges, n_elements, n_bodies, n_loads, n_dofs, n_total;
@@ -135,6 +140,15 @@ typedef struct {
     int (*get_blas_threads)(void);
     void (*set_blas_threads)(int);
     int64_t section_width; /* columns of element_sections (latdyn.model.SECTION_WIDTH) */
+    /* models with rigid links (latdyn/assembly/linked.py; NULL without): complete_links places the
+     * dependent nodes of a configuration and completes their rates after every configuration update;
+     * reduce_links reduces the evaluation in Work onto the minimum coordinates (residual and
+     * reactions in place in `total`) and, when asked, writes the reduced iteration matrix
+     * S = Pᵀ(β′M + γ′C + K)P + … into `matrix`; nonzero: it failed. Python callbacks
+     * (latdyn/step/compiled.py): the reduction is the one latdyn.assembly.linked holds. */
+    void (*complete_links)(Configuration *);
+    int64_t (*reduce_links)(const Configuration *, double beta_p, double gamma_p, int64_t matrices,
+                            int64_t inertia_tangent);
 } Model;
 
 /* Scratch buffers, allocated once by the caller. */
@@ -159,11 +173,6 @@ typedef struct {
      * and ∂f/∂θ̇ of the last evaluation (n_hinges each: diagonal entries of K and C) */
     double *laws, *hinge_d_theta, *hinge_d_rate;
 } Work;
-
-/* A configuration: all nodes and hinges. */
-typedef struct {
-    double *x, *T, *v, *w, *a, *alpha, *theta, *theta_dot, *theta_ddot;
-} Configuration;
 
 /* ------------------------------------------------------------------------- small algebra */
 

@@ -110,6 +110,15 @@ static double increment_size(const Model *m, const double *dx, double length)
     return size;
 }
 
+/* q_n ∘ exp(h Δq) with the velocities and accelerations of the iteration (configure), the dependent
+ * nodes of a model with rigid links completed. */
+static void configure_trial(const Model *m, const Configuration *base, Configuration *trial, const double *increment,
+                            const double *velocity, const double *acceleration, const double *laws)
+{
+    configure(m, base, trial, increment, velocity, acceleration, laws);
+    if (m->complete_links) m->complete_links(trial);
+}
+
 /* Settings and results of one step. */
 typedef struct {
     /* in */
@@ -181,16 +190,18 @@ int64_t latdyn_newton_step(const Model *m, Work *w, StepControl *s, const Config
     }
     for (int64_t iteration = 1; iteration <= s->max_iterations; ++iteration) {
         for (int64_t i = 0; i < n; ++i) dx[i] = h * dq[i];
-        configure(m, base, trial, dx, v, vdot, laws);
+        configure_trial(m, base, trial, dx, v, vdot, laws);
         int matrices = !s->modified || rebuild;
         s->power = evaluate(m, trial, w, laws, s->t_new, matrices, 1, 1.0);
         if (n == 0) {
             s->converged = 1;
             return 0;
         }
+        if (matrices && s->inertia_tangent) inertia_tangent(m, trial, w, s->tangent_step, s->length);
+        if (m->reduce_links && m->reduce_links(trial, beta_p, gamma_p, matrices, s->inertia_tangent) != 0)
+            return 1;
         if (matrices) {
-            if (s->inertia_tangent) inertia_tangent(m, trial, w, s->tangent_step, s->length);
-            assemble(m, w, beta_p, gamma_p, (int)s->inertia_tangent);
+            if (!m->reduce_links) assemble(m, w, beta_p, gamma_p, (int)s->inertia_tangent);
             s->factorizations += 1;
             s->factored_h = 0.0;
             if (factor(m, w) != 0) return 1;
@@ -215,7 +226,7 @@ int64_t latdyn_newton_step(const Model *m, Work *w, StepControl *s, const Config
                 /* the algorithmic acceleration of the new step (GeneralizedAlpha.a_candidate) */
                 x->a_new[i] = (af * vdot_n[i] + (1 - af) * vdot[i] - am * a_n[i]) / (1 - am);
             }
-            configure(m, base, trial, dx, v, vdot, laws);
+            configure_trial(m, base, trial, dx, v, vdot, laws);
             return 0;
         }
         /* modified Newton: a new matrix when the old one stops contracting */
