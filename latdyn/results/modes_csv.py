@@ -10,7 +10,7 @@ import numpy as np
 
 from latdyn.results.files import atomic_write_bytes, format_float
 
-__all__ = ["write_modes_csv", "MODES_FILE"]
+__all__ = ["MODES_FILE", "write_modes_csv"]
 
 MODES_FILE = "modes.csv"
 

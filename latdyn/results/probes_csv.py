@@ -21,7 +21,7 @@ import numpy as np
 from latdyn.errors import ResultsError
 from latdyn.results.files import csv_line, format_float
 
-__all__ = ["ProbesCsv", "PROBES_FILE", "CSV_BLOCK_ROWS", "CSV_BLOCK_SECONDS"]
+__all__ = ["CSV_BLOCK_ROWS", "CSV_BLOCK_SECONDS", "PROBES_FILE", "ProbesCsv"]
 
 PROBES_FILE = "probes.csv"
 

@@ -17,7 +17,7 @@ from pathlib import Path
 from latdyn.results.files import atomic_write_bytes, json_safe
 from latdyn.version import __version__
 
-__all__ = ["compose_summary", "write_summary", "SUMMARY_FILE", "SUMMARY_KEYS", "STATUSES"]
+__all__ = ["STATUSES", "SUMMARY_FILE", "SUMMARY_KEYS", "compose_summary", "write_summary"]
 
 SUMMARY_FILE = "summary.json"
 

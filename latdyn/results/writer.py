@@ -44,23 +44,28 @@ from latdyn.results.paraview import PARAVIEW_DIR, ParaviewWriter
 from latdyn.results.probes_csv import PROBES_FILE, ProbesCsv
 from latdyn.results.progress import progress_bar
 from latdyn.results.result import Result, load_state_history, load_state_labels
-from latdyn.results.state_history import STATE_H5_FILE, STATE_NPZ_FILE, StateHistory, state_labels
+from latdyn.results.state_history import (
+    STATE_H5_FILE,
+    STATE_NPZ_FILE,
+    StateHistory,
+    state_labels,
+)
 from latdyn.results.summary import SUMMARY_FILE, compose_summary, write_summary
 
 __all__ = [
+    "MODES_FILE",
+    "PARAVIEW_DIR",
+    "PROBES_FILE",
+    "STATE_H5_FILE",
+    "STATE_NPZ_FILE",
+    "SUMMARY_FILE",
     "Result",
     "ResultWriter",
     "ResultsError",
     "load_state_history",
     "load_state_labels",
-    "state_labels",
     "progress_bar",
-    "PROBES_FILE",
-    "MODES_FILE",
-    "SUMMARY_FILE",
-    "STATE_H5_FILE",
-    "STATE_NPZ_FILE",
-    "PARAVIEW_DIR",
+    "state_labels",
 ]
 
 #: an earlier run's files, removed when a writer starts (probes.csv is emptied instead)
