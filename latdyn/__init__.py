@@ -14,7 +14,7 @@ def load_scene(source):
 
 
 def run(scene, out_dir=None, backend="auto", progress=False, *, resume=False, checkpoint_every=None):
-    """Solve a scene (a Scene, a dict or a path); returns a :class:`latdyn.results.writer.Result`.
+    """Solve a scene (a Scene, a dict or a path); returns a :class:`latdyn.results.result.Result`.
 
     Transient runs into ``out_dir`` write a checkpoint every ``checkpoint_every``
     seconds (default 60), on Ctrl-C/SIGTERM and on failure; ``resume=True`` continues

@@ -14,7 +14,8 @@ from latdyn.assembly.prepare import length_scale, prepare
 from latdyn.errors import ResultsError
 from latdyn.results import paraview as paraview
 from latdyn.results.probes import ProbeSet
-from latdyn.results.writer import ResultWriter, state_labels
+from latdyn.results.state_history import state_labels
+from latdyn.results.writer import ResultWriter
 from latdyn.scene.loader import Scene, load_scene
 from latdyn.timeloop import checkpoint as checkpoints
 from latdyn.timeloop.transient import transient
@@ -48,7 +49,7 @@ def _paraview_every(scene: Scene) -> float | None:
 
 def run(scene, out_dir=None, backend: str = "auto", progress: bool = False, *, resume: bool = False,
         checkpoint_every: float | None = None):
-    """Solve a scene and write its results; returns a :class:`latdyn.results.writer.Result`.
+    """Solve a scene and write its results; returns a :class:`latdyn.results.result.Result`.
 
     A transient run with an ``out_dir`` writes a checkpoint there (:mod:`latdyn.timeloop.checkpoint`)
     every ``checkpoint_every`` seconds of wall time (default 60; 0: every step), on

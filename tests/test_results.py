@@ -155,8 +155,8 @@ def test_sigkill_after_checkpoint_leaves_readable_files(tmp_path):
     assert completed.returncode == -signal.SIGKILL, completed.stderr
     lines = _csv_lines(out / "probes.csv")
     assert lines[0] == "t,x,y"
-    # rows go to probes.csv in blocks (results.CSV_BLOCK_ROWS): every row up to the checkpoint
-    # is there, later ones up to the last block written, each complete
+    # rows go to probes.csv in blocks (latdyn.results.probes_csv.CSV_BLOCK_ROWS): every row up to
+    # the checkpoint is there, later ones up to the last block written, each complete
     assert 51 <= len(lines) <= 74
     loaded = Result.load(out)
     np.testing.assert_array_equal(loaded.probes["x"], np.arange(len(lines) - 1.0))
@@ -251,6 +251,18 @@ def test_state_labels_must_fit_the_widths(tmp_path):
     with ResultWriter(tmp_path, [], labels={"x": ["a:x", "a:y"]}) as writer:
         with pytest.raises(ValueError, match="labels"):
             writer.record(0.0, [], state={"x": np.zeros(3)})
+
+
+def test_the_writer_module_still_offers_the_names_that_moved():
+    """Each output has its own module now; importers of latdyn.results.writer find the same objects."""
+    from latdyn.results import progress, result
+
+    assert results.Result is result.Result
+    assert results.load_state_history is result.load_state_history
+    assert results.load_state_labels is result.load_state_labels
+    assert results.state_labels is state_history.state_labels
+    assert results.progress_bar is progress.progress_bar
+    assert all(hasattr(results, name) for name in results.__all__)
 
 
 # ----------------------------------------------------------------------------- frames and labels of a run

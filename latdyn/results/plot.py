@@ -11,7 +11,7 @@ import re
 from pathlib import Path
 
 from latdyn.errors import ResultsError
-from latdyn.results.writer import Result
+from latdyn.results.result import Result
 
 __all__ = ["plot_results", "safe_file_name"]
 

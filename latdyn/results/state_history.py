@@ -3,7 +3,31 @@ velocities, hinge angles and rates; one dataset per key, one row per record) in 
 (HDF5, appended to) or, without h5py, ``state.npz`` (the whole history rewritten). The writer
 (:class:`latdyn.results.writer.ResultWriter`) decides when the rows go to disk (its checkpoints);
 each write replaces the file atomically, and a resumed run cuts it back to the rows its bookmark
-recorded."""
+recorded. :mod:`latdyn.results.result` reads it back.
+
+``state.h5`` holds dataset ``t`` ``(n_rows,)`` and one dataset per state key ``(n_rows, width)``,
+with attributes ``first_column`` and ``meta`` (JSON).
+*Labels:* the writer's ``attributes`` become file attributes (a run stores ``nodes``, the model
+node names such as ``"hub"``, ``"arm.node[3]"``, ``"arm.end"``; ``hinges``,
+``"BEAM.start"``/``"BEAM.end"``; ``coordinates``, the free coordinates at t = 0 in solver order,
+``"arm.node[3]:dx"`` …), and each dataset with ``labels`` has an attribute ``columns`` naming
+every column and a ``description``. For a run (see :func:`state_labels`) the layout is
+node-major: node ``i`` (``nodes[i]``) owns columns ``3i … 3i+2`` of ``x`` (reference point,
+global), ``v`` (its velocity) and ``w`` (spatial angular velocity), labelled ``"arm.node[3]:x"``
+… ``":z"``, and columns ``9i … 9i+8`` of ``T`` (rotation node axes → global, row-major,
+``":T[0,0]"`` … ``":T[2,2]"``); hinge ``k`` (``hinges[k]``) owns column ``k`` of ``theta`` and
+``theta_dot`` (labelled ``"arm.start"``). Datasets of empty arrays (no hinges) are absent.
+*Crash safety, the choice made:* the file on disk is always a complete, closed HDF5 file. New
+rows are held in memory and appended at a checkpoint by copying the current file to
+``state.h5.tmp``, appending to the copy (datasets are resizable and chunked), closing it,
+fsync-ing it and ``os.replace``-ing it over ``state.h5``. A SIGKILL therefore loses at most the
+rows since the last checkpoint and never leaves a half-written file (an HDF5 file kept open and
+flushed can be left unreadable by a kill during a metadata update). The writer checkpoints every
+``checkpoint_rows`` rows or ``checkpoint_seconds`` seconds, whichever comes first, but never more
+often than keeps checkpoint time below about 10 % of the run's wall time, and at its close. The
+NPZ fallback keeps the whole history in memory and rewrites ``state.npz`` the same way (temp +
+``os.replace``); its labels are one JSON string under the key ``_labels``.
+"""
 from __future__ import annotations
 
 import io
@@ -40,6 +64,21 @@ STATE_DESCRIPTIONS = {
     "theta": "hinge angles; one column per hinge, order = attribute hinges",
     "theta_dot": "hinge rates; one column per hinge, order = attribute hinges",
 }
+
+
+def state_labels(nodes, hinges) -> dict:
+    """Column labels of the state history of a run, for ``ResultWriter(labels=...)``.
+
+    ``nodes``: node names in model order; ``hinges``: hinge names (``"BEAM.start"``).
+    Returns ``{"x": ["NODE:x", "NODE:y", "NODE:z", ...], "v": ..., "w": ...,
+    "T": ["NODE:T[0,0]", ..., "NODE:T[2,2]", ...], "theta": hinges, "theta_dot": hinges}``
+    (the layout of ``State.as_dict``: node-major, T row-major).
+    """
+    nodes, hinges = [str(n) for n in nodes], [str(h) for h in hinges]
+    vector = [f"{n}:{c}" for n in nodes for c in "xyz"]
+    matrix = [f"{n}:T[{i},{j}]" for n in nodes for i in range(3) for j in range(3)]
+    return {"x": vector, "T": matrix, "v": list(vector), "w": list(vector),
+            "theta": hinges, "theta_dot": list(hinges)}
 
 
 class StateHistory:

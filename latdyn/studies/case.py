@@ -105,7 +105,7 @@ def run_case(task: dict) -> dict:
     from threadpoolctl import threadpool_limits
 
     from latdyn.errors import ResultsError
-    from latdyn.results.writer import Result
+    from latdyn.results.result import Result
     from latdyn.solve import run
     from latdyn.version import __version__
 

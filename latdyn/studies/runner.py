@@ -471,7 +471,7 @@ def reference_case(spec: StudySpec) -> Case | None:
 
 # =========================================================================== errors
 def _load_table(path) -> tuple[np.ndarray, dict]:
-    from latdyn.results.writer import Result
+    from latdyn.results.result import Result
 
     if Path(path).is_dir():
         result = Result.load(path)

@@ -25,7 +25,8 @@ from latdyn.errors import SolverError
 from latdyn.numerics.so3 import orthonormalize
 from latdyn.results import paraview
 from latdyn.results.probes import ProbeSet
-from latdyn.results.writer import ResultWriter, progress_bar
+from latdyn.results.progress import progress_bar
+from latdyn.results.writer import ResultWriter
 from latdyn.step.integrators import newton_diagnosis
 from latdyn.timeloop import checkpoint as checkpoints
 from latdyn.timeloop.control import StepControl
