@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from latdyn.assembly.assembler import State, advance, free_velocity, pack, unpack_free
+from latdyn.assembly.assembler import State, free_velocity, pack, unpack_free
 from latdyn.assembly.prepare import Prepared
 from latdyn.model.model import Model
 
@@ -92,7 +92,7 @@ def hinge_stops(prepared: Prepared, integrator, new: State) -> bool:
     NtAiN = N.T @ AiN
     # the same projection onto the stops for the configuration: what is rigid at the scale of
     # the step moves with the hinge, so that no strain is made
-    moved = advance(model, new, -AiN @ np.linalg.solve(NtAiN, new.theta[hits] - np.array(stops)))
+    moved = assembler.advance(new, -AiN @ np.linalg.solve(NtAiN, new.theta[hits] - np.array(stops)))
     new.x, new.T, new.theta = moved.x, moved.T, moved.theta
     new.theta[hits] = stops
     v = free_velocity(model, new)
