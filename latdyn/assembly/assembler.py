@@ -99,8 +99,8 @@ def free_acceleration(model: Model, state: State) -> np.ndarray:
 
 
 class Assembler:
-    """Evaluates the equations of motion of a model natively (:mod:`latdyn.assembly.native_model`) and
-    assembles their blocks on the free coordinates."""
+    """Updates the configuration of a model and evaluates its equations of motion natively
+    (:mod:`latdyn.assembly.native_model`), and assembles their blocks on the free coordinates."""
 
     def __init__(self, model: Model, kernels, gravity: np.ndarray):
         self.model = model
