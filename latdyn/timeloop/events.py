@@ -93,7 +93,8 @@ def hinge_stops(prepared: Prepared, integrator, new: State) -> bool:
     # the same projection onto the stops for the configuration: what is rigid at the scale of
     # the step moves with the hinge, so that no strain is made
     moved = assembler.advance(new, -AiN @ np.linalg.solve(NtAiN, new.theta[hits] - np.array(stops)))
-    new.x, new.T, new.theta = moved.x, moved.T, moved.theta
+    for name in ("x", "T", "theta"):  # in place: the compiled step may view this state's arrays
+        np.copyto(getattr(new, name), getattr(moved, name))
     new.theta[hits] = stops
     v = free_velocity(model, new)
     unpack_free(model, v - AiN @ np.linalg.solve(NtAiN, N.T @ v - target), new.v, new.w, new.theta_dot)
