@@ -158,7 +158,8 @@ class Assembler:
 
     def advance(self, state: State, increment: np.ndarray) -> State:
         """q ∘ exp(Δ) on the free coordinates: x += Δd, T ← exp(skew Δπ) T, θ += Δθ, into a new state
-        (``latdyn_advance_free``, csrc/evaluate.c); time, prescribed bodies and rates stay."""
+        (``latdyn_advance_free``, csrc/evaluate.c); time, prescribed bodies and rates stay. Δ is a
+        free-coordinate vector: node slots that are not coordinates (:meth:`Model.node_slots`) read 0."""
         new = state.copy()
         self.native().advance_free(new, increment)
         if self.model.links is not None:  # dependent nodes: forward kinematics, never integrated

@@ -8,7 +8,9 @@ law does not print in C, Python callbacks that the C code calls in their place, 
 scene evaluates natively. :meth:`NativeModel.evaluate` is ``latdyn_evaluate``: residual and
 reactions, the power of loads and hinge torques, and the element, body, hinge and load blocks of
 K, M and C, each in its own Work buffer; :class:`latdyn.assembly.assembler.Assembler` turns them
-into an :class:`~latdyn.assembly.evaluation.Evaluation`. The compiled step
+into an :class:`~latdyn.assembly.evaluation.Evaluation`. :meth:`NativeModel.advance_free` and
+:meth:`NativeModel.prescribe` are the configuration update q ∘ exp(Δ) and the prescribed motion
+(``latdyn_advance_free``, ``latdyn_prescribe``), the Newton step's own. The compiled step
 (:mod:`latdyn.step.compiled`) adds the iteration matrix's storage (:meth:`NativeModel.hold_matrix`)
 and steps on the same structs.
 """
