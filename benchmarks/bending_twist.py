@@ -37,7 +37,6 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 import latdyn  # noqa: E402
-from latdyn.assembly.assembler import advance, apply_prescribed  # noqa: E402
 from latdyn.assembly.prepare import prepare  # noqa: E402
 
 RESULTS = ROOT / "benchmarks" / "results" / "bending_twist.json"
@@ -113,13 +112,13 @@ def load_yaml(text: str):
 # Critical load: the loaded equilibrium's tangent loses positive definiteness
 # --------------------------------------------------------------------------
 def _equilibrium(prepared, state, load_factor: float, tol: float = 1e-11, max_iter: int = 40):
-    model, assembler = prepared.model, prepared.assembler
+    assembler = prepared.assembler
     for _ in range(max_iter):
         ev = assembler.evaluate(state, matrices=True, load_factor=load_factor, inertia=False)
         K = ev.combined(0.0, 0.0, 1.0, dense=True)
         dx = np.linalg.solve(K, -ev.residual)
-        state = advance(model, state, dx)
-        apply_prescribed(model, state, 0.0)
+        state = assembler.advance(state, dx)
+        assembler.apply_prescribed(state, 0.0)
         if np.linalg.norm(dx) < tol:
             ev = assembler.evaluate(state, matrices=True, load_factor=load_factor, inertia=False)
             return state, ev.combined(0.0, 0.0, 1.0, dense=True)

@@ -58,7 +58,7 @@ import scipy.sparse.linalg as spla
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from latdyn.assembly.assembler import Assembler, advance, initial_state, unpack_free  # noqa: E402
+from latdyn.assembly.assembler import Assembler, unpack_free  # noqa: E402
 from latdyn.model.kernels import load_kernels  # noqa: E402
 from latdyn.numerics.linalg import solve_linear  # noqa: E402
 from latdyn.model.model import Model  # noqa: E402
@@ -138,9 +138,9 @@ def build(raw: dict, seed: int = 0):
     scene = load_scene(raw)
     model = Model.from_scene(scene)
     assembler = Assembler(model, load_kernels(backend="auto", variant=scene.solve.formulation), scene.gravity)
-    state = initial_state(model)
+    state = assembler.initial_state()
     rng = np.random.default_rng(seed)
-    state = advance(model, state, 1e-3 * rng.standard_normal(model.n_dofs))
+    state = assembler.advance(state, 1e-3 * rng.standard_normal(model.n_dofs))
     v = 0.1 * rng.standard_normal(model.n_dofs)
     unpack_free(model, v, state.v, state.w, state.theta_dot)
     ev = assembler.evaluate(state, matrices=True)
@@ -332,7 +332,7 @@ def held_check_timings(repeats: int = 3) -> list[dict]:
         scene = load_scene(raw)
         model = Model.from_scene(scene)
         assembler = Assembler(model, load_kernels(backend="auto", variant=scene.solve.formulation), scene.gravity)
-        state = initial_state(model)
+        state = assembler.initial_state()
         evaluate, check, verdict = [], [], None
         for _ in range(repeats):
             t0 = time.perf_counter()

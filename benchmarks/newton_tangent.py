@@ -18,7 +18,7 @@ import yaml
 
 import latdyn.assembly.prepare as prepare_module
 import latdyn.solve as solve_module
-from latdyn.assembly.assembler import Assembler, advance
+from latdyn.assembly.assembler import Assembler
 from latdyn.errors import SolverError
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "spinup.yaml"
@@ -36,8 +36,8 @@ class FiniteDifferenceTangent(Assembler):
         for j in range(n):
             step = np.zeros(n)
             step[j] = h
-            plus = super().evaluate(advance(self.model, state, step), False, load_factor, inertia).residual
-            minus = super().evaluate(advance(self.model, state, -step), False, load_factor, inertia).residual
+            plus = super().evaluate(self.advance(state, step), False, load_factor, inertia).residual
+            minus = super().evaluate(self.advance(state, -step), False, load_factor, inertia).residual
             K[:, j] = (plus - minus) / (2 * h)
         exact_parts = ev.combined
 

@@ -86,6 +86,16 @@ def test_loop_hands_impacts_on_a_stop_back(tmp_path, monkeypatch):
     assert np.min(looped[0].probes["rate"]) < 0 < np.max(looped[0].probes["rate"])  # bounced
 
 
+def test_the_step_after_an_impact_starts_from_the_configuration_on_the_stop(tmp_path):
+    """The impact moves the configuration onto the stop (timeloop/events.py hinge_stops) in the
+    arrays of the state, which the compiled step views in place: it steps on from there, as the
+    Python step does (it stepped on from the configuration before the impact, 1e-7 off)."""
+    compiled, compiled_summary = _run(stop_scene(0.5), tmp_path, "compiled", engine="compiled")
+    python, python_summary = _run(stop_scene(0.5), tmp_path, "python", engine="python")
+    assert compiled_summary["engine"] == "compiled" and python_summary["engine"] == "python"
+    assert _relative_difference(compiled, python) <= 1e-10
+
+
 def test_loop_hands_newton_failures_back(tmp_path, monkeypatch):
     """Three Newton iterations are not enough for this chain's large steps: steps are cut and
     regrown, in the Python loop, between runs of the C loop."""

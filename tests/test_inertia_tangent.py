@@ -79,14 +79,14 @@ def test_compiled_step_equals_the_python_step_with_the_inertia_tangent(method, t
 def test_the_inertia_tangent_is_the_derivative_of_the_inertia_and_gravity_forces():
     """Against central differences of the whole residual at a random large-rotation state with
     random velocities and accelerations: K + inertia tangent is the residual's tangent."""
-    from latdyn.assembly.assembler import advance, unpack_free
+    from latdyn.assembly.assembler import unpack_free
     from latdyn.assembly.prepare import prepare
 
     prepared = prepare(latdyn.load_scene(copy.deepcopy(loaded_arm())))
     model, assembler = prepared.model, prepared.assembler
     rng = np.random.default_rng(3)
     n = model.n_dofs
-    state = advance(model, prepared.state, 0.4 * rng.standard_normal(n))
+    state = assembler.advance(prepared.state, 0.4 * rng.standard_normal(n))
     unpack_free(model, rng.standard_normal(n), state.v, state.w, state.theta_dot)
     unpack_free(model, 5 * rng.standard_normal(n), state.a, state.alpha, state.theta_ddot)
     ev = assembler.evaluate(state, matrices=True, inertia_tangent=True, length=3.0)
@@ -95,8 +95,8 @@ def test_the_inertia_tangent_is_the_derivative_of_the_inertia_and_gravity_forces
     for j in range(n):
         e = np.zeros(n)
         e[j] = 1e-6
-        exact[:, j] = (assembler.evaluate(advance(model, state, e), matrices=False).residual
-                       - assembler.evaluate(advance(model, state, -e), matrices=False).residual) / 2e-6
+        exact[:, j] = (assembler.evaluate(assembler.advance(state, e), matrices=False).residual
+                       - assembler.evaluate(assembler.advance(state, -e), matrices=False).residual) / 2e-6
     # joint bodies' inertia forces are not in the element tangent: compare away from their columns
     bodies = model.node_dofs[model.body_nodes].ravel()
     keep = np.setdiff1d(np.arange(n), bodies[bodies < n])

@@ -9,7 +9,7 @@ import scipy.sparse as sps
 
 import latdyn
 from latdyn.numerics import linalg as linalg
-from latdyn.assembly.assembler import Assembler, advance, initial_state, unpack_free
+from latdyn.assembly.assembler import Assembler, unpack_free
 from latdyn.model.kernels import load_kernels
 from latdyn.numerics.linalg import DENSE_LIMIT, psd_null_direction, single_thread_blas, solve_linear
 from latdyn.model.model import Model
@@ -58,7 +58,7 @@ def evaluation(raw: dict, seed: int = 0):
     model = Model.from_scene(scene)
     assembler = Assembler(model, load_kernels(variant=scene.solve.formulation), scene.gravity)
     rng = np.random.default_rng(seed)
-    state = advance(model, initial_state(model), 1e-3 * rng.standard_normal(model.n_dofs))
+    state = assembler.advance(assembler.initial_state(), 1e-3 * rng.standard_normal(model.n_dofs))
     unpack_free(model, 0.1 * rng.standard_normal(model.n_dofs), state.v, state.w, state.theta_dot)
     return model, assembler.evaluate(state, matrices=True)
 
@@ -199,7 +199,8 @@ def test_unheld_direction_not_along_a_coordinate_axis():
     # every single coordinate is held (nonzero diagonal): only a combination is free
     scene = load_scene(raw)
     model = Model.from_scene(scene)
-    ev = Assembler(model, load_kernels(), scene.gravity).evaluate(initial_state(model), matrices=True)
+    assembler = Assembler(model, load_kernels(), scene.gravity)
+    ev = assembler.evaluate(assembler.initial_state(), matrices=True)
     assert np.all(ev.stiffness.diagonal() > 0)
     refused(raw, "bodies.joint", "beams.b.end.hinge")
     # with rotary inertia on the joint its spin is held, and the hinge angle by the beam's torsion

@@ -16,7 +16,7 @@ from scipy.optimize import brentq
 from scipy.special import ellipk
 
 import latdyn
-from latdyn.assembly.assembler import advance, free_acceleration, free_velocity, unpack_free
+from latdyn.assembly.assembler import free_acceleration, free_velocity, unpack_free
 from latdyn.errors import SceneError
 from latdyn.model.model import Model
 from latdyn.scene.loader import load_scene
@@ -251,7 +251,7 @@ def finite_difference(prepared, state, what, eps=1e-6, **evaluate):
         residuals = []
         for sign in (1.0, -1.0):
             if what == "q":
-                trial = advance(model, state, sign * e)
+                trial = assembler.advance(state, sign * e)
                 for k in ("v", "w", "theta_dot", "a", "alpha", "theta_ddot"):
                     setattr(trial, k, np.array(getattr(state, k)))
             else:
@@ -275,7 +275,7 @@ def test_tangent_by_finite_differences(seed):
     model, assembler = prepared.model, prepared.assembler
     n = model.n_dofs
     assert n == 6 + 3  # the free root and three hinges: B and the link nodes have no coordinates
-    state = advance(model, prepared.state, rng.normal(size=n))
+    state = assembler.advance(prepared.state, rng.normal(size=n))
     unpack_free(model, rng.normal(size=n), state.v, state.w, state.theta_dot)
     unpack_free(model, rng.normal(size=n), state.a, state.alpha, state.theta_ddot)
     static = assembler.evaluate(state, matrices=True, inertia=False)
@@ -298,14 +298,14 @@ def test_newton_converges_quadratically_in_a_static_solve():
     scene["beams"]["l1"]["end"]["hinge"]["stiffness"] = 3.0
     scene["beams"]["l2"]["start"]["hinge"]["stiffness"] = 4.0
     prepared = prepare(scene)
-    model, assembler = prepared.model, prepared.assembler
+    assembler = prepared.assembler
     state = prepared.state
     for load_factor in (0.25, 0.5, 0.75, 1.0):  # load steps, the last one watched
         sizes = []
         for _ in range(20):
             ev = assembler.evaluate(state, matrices=True, inertia=False, load_factor=load_factor)
             dx = np.linalg.solve(ev.combined(0.0, 0.0, 1.0, dense=True), -ev.residual)
-            state = advance(model, state, dx)
+            state = assembler.advance(state, dx)
             sizes.append(np.abs(dx).max())
             if sizes[-1] < 1e-13:
                 break

@@ -73,7 +73,6 @@ def lowest_frequencies(model, assembler, state) -> float | None:
 def static_estimate(model, assembler, state):
     """The configuration of one Newton step from ``state`` under the loads at t = 0 (K u = −r),
     or None when K is singular or nothing loads the model."""
-    from latdyn.assembly.assembler import advance
     from latdyn.numerics.linalg import solve_linear
 
     if not model.n_dofs:
@@ -87,7 +86,7 @@ def static_estimate(model, assembler, state):
         return None
     if not np.all(np.isfinite(u)) or np.abs(u).max() > 1e6 * max(1.0, float(np.abs(state.x).max())):
         return None
-    return advance(model, state, u)
+    return assembler.advance(state, u)
 
 
 def dynamics_report(model, assembler, state) -> list[str]:

@@ -54,7 +54,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from latdyn.assembly.assembler import advance, apply_prescribed
 from latdyn.errors import SceneError, SolverError
 from latdyn.numerics.linalg import single_thread_blas, solve_linear, use_dense
 from latdyn.step.integrators import increment_size, newton_diagnosis
@@ -132,8 +131,8 @@ class Path:
         return math.sqrt(float(dq @ (self.weight * dq)))
 
     def step_to(self, state, dq):
-        new = advance(self.model, state, dq)
-        apply_prescribed(self.model, new, 0.0)
+        new = self.assembler.advance(state, dq)
+        self.assembler.apply_prescribed(new, 0.0)
         return new
 
     def negative_eigenvalues(self, K) -> int | None:

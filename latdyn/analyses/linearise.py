@@ -47,13 +47,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from latdyn.analyses import continuation
-from latdyn.assembly.assembler import (
-    advance,
-    apply_prescribed,
-    initial_state,
-    pack,
-    unpack_free,
-)
+from latdyn.assembly.assembler import pack, unpack_free
 from latdyn.assembly.prepare import length_scale
 from latdyn.errors import SceneError, SolverError
 from latdyn.numerics.inertia import split_inertia
@@ -190,7 +184,7 @@ def tangent_q(assembler, state, load_factor: float = 1.0, inertia: bool = True) 
     for group in groups:
         e = np.zeros(n)
         e[group] = h[group]
-        change = (rest(advance(model, state, e)) - rest(advance(model, state, -e)))
+        change = (rest(assembler.advance(state, e)) - rest(assembler.advance(state, -e)))
         if len(group) == 1:
             K[:, group[0]] += change / (2 * h[group[0]])
             continue
@@ -462,7 +456,7 @@ def steady_state(prepared, tol: float = 1e-10, max_iter: int = 40):
     frame = Frame(omega, np.zeros(3))
     length = length_scale(model)
     base = prepared.state.copy()
-    apply_prescribed(model, base, 0.0)
+    assembler.apply_prescribed(base, 0.0)
 
     def solve_at(state, rate):
         spun = Frame(rate, np.zeros(3))
@@ -473,7 +467,7 @@ def steady_state(prepared, tol: float = 1e-10, max_iter: int = 40):
             dx = np.linalg.solve(lin.stiffness, -residual)
             if not np.all(np.isfinite(dx)):
                 return None, iteration
-            state = advance(model, state, dx)
+            state = assembler.advance(state, dx)
             if increment_size(model, dx, length) <= tol:
                 return _spin(model, state, rate, point), iteration + 1
         return None, max_iter
@@ -681,7 +675,7 @@ def _output_jacobians(lin: Linearisation, names: list[str]):
     from latdyn.results.probes import ProbeSet
 
     model, assembler, state = lin.model, lin.assembler, lin.state
-    probes = ProbeSet(assembler, initial_state(model))
+    probes = ProbeSet(assembler, assembler.initial_state())
     index = [probes.names.index(name) for name in names]
 
     def y(s):
@@ -694,7 +688,7 @@ def _output_jacobians(lin: Linearisation, names: list[str]):
     for j in range(n):
         e = np.zeros(n)
         e[j] = h[j]
-        Cq[:, j] = (y(advance(model, state, e)) - y(advance(model, state, -e))) / (2 * h[j])
+        Cq[:, j] = (y(assembler.advance(state, e)) - y(assembler.advance(state, -e))) / (2 * h[j])
         plus, minus = state.copy(), state.copy()
         unpack_free(model, v0 + e, plus.v, plus.w, plus.theta_dot)
         unpack_free(model, v0 - e, minus.v, minus.w, minus.theta_dot)
@@ -788,7 +782,7 @@ def write_mode_shapes(lin: Linearisation, found: list[Mode], out_dir) -> list[st
         try:
             for j in range(MODE_FRAMES + 1):
                 phase = j / MODE_FRAMES
-                shifted = advance(model, state, scale * np.real(phi * np.exp(2j * np.pi * phase)))
+                shifted = assembler.advance(state, scale * np.real(phi * np.exp(2j * np.pi * phase)))
                 writer.record(phase, paraview.frame(assembler, mesh, shifted))
         finally:
             writer.close()

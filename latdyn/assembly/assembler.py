@@ -19,9 +19,8 @@ import scipy.sparse as sps
 from latdyn.assembly.evaluation import Evaluation
 from latdyn.assembly.linked import evaluate_linked
 from latdyn.assembly.native_model import NativeModel
-from latdyn.model.model import PRESCRIBED, Model
+from latdyn.model.model import Model
 from latdyn.numerics.linalg import DENSE_LIMIT
-from latdyn.numerics.so3 import expm_so3
 
 #: 16-point Gauss–Legendre nodes and weights on [−1, 1] (hinge spring potentials).
 _GAUSS_16 = np.polynomial.legendre.leggauss(16)
@@ -53,55 +52,6 @@ class State:
         out = {"x": self.x.ravel(), "T": self.T.ravel(), "v": self.v.ravel(), "w": self.w.ravel(),
                "theta": self.theta.copy(), "theta_dot": self.theta_dot.copy()}
         return {k: v for k, v in out.items() if v.size}
-
-
-def initial_state(model: Model) -> State:
-    n, h = len(model.nodes), len(model.hinges)
-    state = State(0.0, np.array([nd.position for nd in model.nodes], float).reshape(n, 3),
-                  np.tile(np.eye(3), (n, 1, 1)), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)),
-                  np.zeros((n, 3)), np.zeros(h), np.zeros(h), np.zeros(h))
-    iv = model.scene.initial_velocity
-    free = model.free_nodes
-    state.w[free] = iv.angular
-    state.v[free] = iv.linear + np.cross(iv.angular, state.x[free] - iv.about)
-    apply_prescribed(model, state, 0.0)
-    if model.links is not None:
-        model.links.complete(state)
-    return state
-
-
-def apply_prescribed(model: Model, state: State, t: float) -> None:
-    """Set prescribed bodies and hinge angles to their laws at time t (in place)."""
-    state.t = t
-    for i, node in enumerate(model.nodes):
-        if node.kind != PRESCRIBED:
-            continue
-        body = model.scene.bodies[node.body]
-        x0 = node.position
-        if body.translation is not None:
-            f = body.translation
-            state.x[i] = x0 + [g.value(t) for g in f]
-            state.v[i] = [g.rate(t) for g in f]
-            state.a[i] = [g.accel(t) for g in f]
-        else:
-            state.x[i], state.v[i], state.a[i] = x0, 0.0, 0.0
-        if body.rotation_angle is not None:
-            axis = body.rotation_axis
-            angle = body.rotation_angle
-            state.T[i] = expm_so3(axis * angle.value(t))
-            state.w[i] = axis * angle.rate(t)
-            state.alpha[i] = axis * angle.accel(t)
-        else:
-            state.T[i], state.w[i], state.alpha[i] = np.eye(3), 0.0, 0.0
-    for k, hinge in enumerate(model.hinges):
-        if hinge.angle is not None:
-            state.theta[k] = hinge.angle.value(t)
-            state.theta_dot[k] = hinge.angle.rate(t)
-            state.theta_ddot[k] = hinge.angle.accel(t)
-        elif model.locked[k]:
-            state.theta_dot[k] = state.theta_ddot[k] = 0.0
-    if model.links is not None:
-        model.links.place(state)
 
 
 # ----------------------------------------------------------------------------- coordinates ↔ state
@@ -145,26 +95,12 @@ def free_acceleration(model: Model, state: State) -> np.ndarray:
     return pack(model, state.a, state.alpha, state.theta_ddot)[: model.n_dofs]
 
 
-def advance(model: Model, state: State, increment: np.ndarray) -> State:
-    """q ∘ exp(Δ) on the free coordinates: x += Δd, T ← exp(skew Δπ) T, θ += Δθ."""
-    new = state.copy()
-    free = model.free_nodes
-    increment = padded(model, increment)
-    new.x[free] = state.x[free] + increment[model.node_dofs[free, 0:3]]
-    new.T[free] = expm_so3(increment[model.node_dofs[free, 3:6]]) @ state.T[free]
-    fh = model.free_hinges
-    new.theta[fh] = state.theta[fh] + increment[model.hinge_dofs[fh]]
-    if model.links is not None:  # dependent nodes: forward kinematics, never integrated
-        model.links.place(new)
-    return new
-
-
 # ----------------------------------------------------------------------------- evaluation
 
 
 class Assembler:
-    """Evaluates the equations of motion of a model natively (:mod:`latdyn.assembly.native_model`) and
-    assembles their blocks on the free coordinates."""
+    """Updates the configuration of a model and evaluates its equations of motion natively
+    (:mod:`latdyn.assembly.native_model`), and assembles their blocks on the free coordinates."""
 
     def __init__(self, model: Model, kernels, gravity: np.ndarray):
         self.model = model
@@ -193,6 +129,42 @@ class Assembler:
         """The native model built for the current numbering, or None (none yet, or a latch since)."""
         m, native = self.model, self._native
         return native if native is not None and native.model_key == (m.n_dofs, m.locked.tobytes()) else None
+
+    # -- the configuration (csrc/evaluate.c) ------------------------------------
+    def initial_state(self) -> State:
+        """The state at t = 0: nodes at their positions, free nodes with the scene's initial velocity
+        (a rigid motion), prescribed motion at t = 0, dependent nodes of rigid links completed."""
+        model = self.model
+        n, h = len(model.nodes), len(model.hinges)
+        state = State(0.0, np.array([nd.position for nd in model.nodes], float).reshape(n, 3),
+                      np.tile(np.eye(3), (n, 1, 1)), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)),
+                      np.zeros((n, 3)), np.zeros(h), np.zeros(h), np.zeros(h))
+        iv = model.scene.initial_velocity
+        free = model.free_nodes
+        state.w[free] = iv.angular
+        state.v[free] = iv.linear + np.cross(iv.angular, state.x[free] - iv.about)
+        self.apply_prescribed(state, 0.0)
+        if model.links is not None:
+            model.links.complete(state)
+        return state
+
+    def apply_prescribed(self, state: State, t: float) -> None:
+        """Set the time, prescribed bodies and hinge angles to their laws at t, locked hinges at
+        rest (in place; ``latdyn_prescribe``, csrc/evaluate.c)."""
+        state.t = t
+        self.native().prescribe(state, t)
+        if self.model.links is not None:
+            self.model.links.place(state)
+
+    def advance(self, state: State, increment: np.ndarray) -> State:
+        """q ∘ exp(Δ) on the free coordinates: x += Δd, T ← exp(skew Δπ) T, θ += Δθ, into a new state
+        (``latdyn_advance_free``, csrc/evaluate.c); time, prescribed bodies and rates stay. Δ is a
+        free-coordinate vector: node slots that are not coordinates (:meth:`Model.node_slots`) read 0."""
+        new = state.copy()
+        self.native().advance_free(new, increment)
+        if self.model.links is not None:  # dependent nodes: forward kinematics, never integrated
+            self.model.links.place(new)
+        return new
 
     def _load_columns(self) -> np.ndarray:
         """The columns of each load's stiffness block (l, 6): its node's rotations, then its frame

@@ -165,6 +165,10 @@ def native_library() -> ctypes.CDLL:
         library.latdyn_evaluate.argtypes = [model, work, configuration, ctypes.POINTER(EvaluationData)]
         library.latdyn_element_inputs.restype = None
         library.latdyn_element_inputs.argtypes = [model, work, configuration]
+        library.latdyn_advance_free.restype = None
+        library.latdyn_advance_free.argtypes = [model, configuration, P]
+        library.latdyn_prescribe.restype = None
+        library.latdyn_prescribe.argtypes = [model, work, configuration, ctypes.c_double]
         library.latdyn_newton_step.restype = I64
         library.latdyn_newton_step.argtypes = [model, work, ctypes.POINTER(ControlData), configuration,
                                                configuration, ctypes.POINTER(VectorsData)]

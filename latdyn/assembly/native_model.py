@@ -8,7 +8,9 @@ law does not print in C, Python callbacks that the C code calls in their place, 
 scene evaluates natively. :meth:`NativeModel.evaluate` is ``latdyn_evaluate``: residual and
 reactions, the power of loads and hinge torques, and the element, body, hinge and load blocks of
 K, M and C, each in its own Work buffer; :class:`latdyn.assembly.assembler.Assembler` turns them
-into an :class:`~latdyn.assembly.evaluation.Evaluation`. The compiled step
+into an :class:`~latdyn.assembly.evaluation.Evaluation`. :meth:`NativeModel.advance_free` and
+:meth:`NativeModel.prescribe` are the configuration update q ∘ exp(Δ) and the prescribed motion
+(``latdyn_advance_free``, ``latdyn_prescribe``), the Newton step's own. The compiled step
 (:mod:`latdyn.step.compiled`) adds the iteration matrix's storage (:meth:`NativeModel.hold_matrix`)
 and steps on the same structs.
 """
@@ -273,11 +275,38 @@ class NativeModel:
         setattr(self.work, name, buffer.ctypes.data if buffer.size else self._array(np.zeros(1)))
 
     def configuration(self, state) -> ConfigurationData:
-        """The C view of a state through contiguous float64 copies of its arrays, kept alive until
-        the next call (nothing is attached to the state: it is pickled into checkpoints)."""
+        """The C view of a state through contiguous float64 arrays: its own, or copies where they are
+        not, kept alive until the next call (nothing is attached to the state: it is pickled into
+        checkpoints)."""
         arrays = [np.ascontiguousarray(getattr(state, name), dtype=np.float64) for name in STATE_FIELDS]
         self._copies = arrays
         return ConfigurationData(*(a.ctypes.data if a.size else self._empty.ctypes.data for a in arrays))
+
+    def _written_back(self, state) -> None:
+        """Copy the arrays of the last :meth:`configuration` into ``state`` where they are copies
+        (arrays of the state that are not contiguous float64)."""
+        for name, array in zip(STATE_FIELDS, self._copies):
+            target = getattr(state, name)
+            if array is not target:
+                target[...] = array
+
+    def advance_free(self, state, increment: np.ndarray) -> None:
+        """q ∘ exp(Δ) on the free coordinates of ``state``, in place (``latdyn_advance_free``):
+        ``increment`` is a free-coordinate vector, at least ``n_dofs`` long."""
+        increment = np.ascontiguousarray(increment, dtype=np.float64)
+        if len(increment) < self.model.n_dofs:
+            raise ValueError(f"an increment of {len(increment)} coordinates; the model has {self.model.n_dofs}")
+        configuration = self.configuration(state)
+        self.library.latdyn_advance_free(self.model_ref, ctypes.byref(configuration),
+                                         increment.ctypes.data if increment.size else self._empty.ctypes.data)
+        self._written_back(state)
+
+    def prescribe(self, state, t: float) -> None:
+        """The prescribed motion at time ``t`` in ``state``, in place (``latdyn_prescribe``); the
+        state's time is the caller's."""
+        configuration = self.configuration(state)
+        self.library.latdyn_prescribe(self.model_ref, self.work_ref, ctypes.byref(configuration), float(t))
+        self._written_back(state)
 
     def evaluate(self, state, matrices: bool, load_factor: float, inertia: bool, inertia_tangent: bool,
                  length: float = 1.0) -> tuple[np.ndarray, float]:

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from latdyn.assembly.assembler import Assembler, State, initial_state
+from latdyn.assembly.assembler import Assembler, State
 from latdyn.model.kernels import load_kernels
 from latdyn.model.model import Model
 from latdyn.scene.loader import Scene, load_scene
@@ -26,7 +26,7 @@ def prepare(scene, backend: str = "auto") -> Prepared:
     model = Model.from_scene(scene)
     kernels = load_kernels(backend=backend, variant=model.kernel_variant)
     assembler = Assembler(model, kernels, scene.gravity)
-    state = initial_state(model)
+    state = assembler.initial_state()
     if model.n_dofs > 0:  # any size: a sparse LU and a few inverse iterations (Model.check_held)
         at_rest = state.copy()
         at_rest.v[:] = at_rest.w[:] = 0.0

@@ -57,8 +57,6 @@ import scipy.sparse as sps
 from latdyn.assembly.assembler import (
     Assembler,
     State,
-    advance,
-    apply_prescribed,
     free_acceleration,
     free_velocity,
     padded,
@@ -194,8 +192,8 @@ class GeneralizedAlpha:
 
         def configured() -> State:
             """q_n ∘ exp(hΔq) at t_{n+1}, with the current v and v̇."""
-            s = advance(model, state, h * dq)
-            apply_prescribed(model, s, t_new)
+            s = self.assembler.advance(state, h * dq)
+            self.assembler.apply_prescribed(s, t_new)
             unpack_free(model, v, s.v, s.w, s.theta_dot)
             unpack_free(model, vdot, s.a, s.alpha, s.theta_ddot)
             return s
@@ -370,13 +368,13 @@ class CentralDifference:
         stats = StepStats(converged=True)
         if model.n_dofs == 0:
             trial = state.copy()
-            apply_prescribed(model, trial, t_new)
+            self.assembler.apply_prescribed(trial, t_new)
             return trial, stats
         v = free_velocity(model, state)
         vdot = free_acceleration(model, state)
         v_half = v + 0.5 * h * vdot
-        trial = advance(model, state, h * v_half)
-        apply_prescribed(model, trial, t_new)
+        trial = self.assembler.advance(state, h * v_half)
+        self.assembler.apply_prescribed(trial, t_new)
         correction = np.zeros(model.n_dofs)
 
         def predicted() -> np.ndarray:
@@ -395,7 +393,7 @@ class CentralDifference:
                 except (np.linalg.LinAlgError, RuntimeError):
                     stats.converged = False
                     break
-                trial = advance(model, trial, dx)
+                trial = self.assembler.advance(trial, dx)
                 correction += dx
                 unpack_free(model, predicted(), trial.v, trial.w, trial.theta_dot)
                 stats.iterations += 1

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from latdyn.assembly.assembler import State, advance, free_velocity, pack, unpack_free
+from latdyn.assembly.assembler import State, free_velocity, pack, unpack_free
 from latdyn.assembly.prepare import Prepared
 from latdyn.model.model import Model
 
@@ -92,8 +92,9 @@ def hinge_stops(prepared: Prepared, integrator, new: State) -> bool:
     NtAiN = N.T @ AiN
     # the same projection onto the stops for the configuration: what is rigid at the scale of
     # the step moves with the hinge, so that no strain is made
-    moved = advance(model, new, -AiN @ np.linalg.solve(NtAiN, new.theta[hits] - np.array(stops)))
-    new.x, new.T, new.theta = moved.x, moved.T, moved.theta
+    moved = assembler.advance(new, -AiN @ np.linalg.solve(NtAiN, new.theta[hits] - np.array(stops)))
+    for name in ("x", "T", "theta"):  # in place: the compiled step may view this state's arrays
+        np.copyto(getattr(new, name), getattr(moved, name))
     new.theta[hits] = stops
     v = free_velocity(model, new)
     unpack_free(model, v - AiN @ np.linalg.solve(NtAiN, N.T @ v - target), new.v, new.w, new.theta_dot)

@@ -10,8 +10,10 @@
  * with the element, body, hinge and load blocks of K, M and C kept apart, so that every analysis
  * (the time step of newton_step.c, static paths, modes, the explicit method, rigid links through
  * latdyn/assembly/linked.py) reads the same numbers: latdyn_evaluate, called from Python by
- * latdyn/assembly/native_model.py. Also here: the trial configuration q ∘ exp(Δ) with prescribed
- * motion (configure), the elements' inertia tangent by central differences, and the energies.
+ * latdyn/assembly/native_model.py. Also here: the configuration update q ∘ exp(Δ) and the
+ * prescribed motion, the only ones (latdyn_advance_free and latdyn_prescribe for the analyses driven
+ * from Python, configure for the step), the elements' inertia tangent by central differences, and
+ * the energies.
  *
  * Storage: node arrays row-major (x: n_nodes×3, T: n_nodes×3×3), coordinate vectors of
  * length n_total + 1 (index n_total is the dummy of clamped ends). The Model and Work structs
@@ -226,29 +228,33 @@ static void copy_configuration(const Model *m, const Configuration *src, Configu
     memcpy(dst->theta_ddot, src->theta_ddot, sizeof(double) * H);
 }
 
-/* The trial configuration q_n ∘ exp(increment) at time t with velocities v and accelerations
- * v̇ on the free coordinates (as assembler.advance, then apply_prescribed, then unpack_free, for
- * the analyses driven from Python). laws: (value, rate, acceleration) of every law at t. */
-static void configure(const Model *m, const Configuration *base, Configuration *c, const double *increment,
-                      const double *velocity, const double *acceleration, const double *laws)
+/* q ∘ exp(Δ) on the free coordinates of c, in place: x += Δd, T ← exp(skew Δπ) T, θ += Δθ, with Δ
+ * the free-coordinate vector `increment` (node slots that are not coordinates read 0). Nothing else
+ * changes: time, prescribed bodies and rates are the caller's (Assembler.advance, configure). */
+void latdyn_advance_free(const Model *m, Configuration *c, const double *increment)
 {
-    const int64_t H = m->n_hinges;
-    copy_configuration(m, base, c);
+    const int64_t n = m->n_dofs;
     for (int64_t k = 0; k < m->n_free_nodes; ++k) {
         int64_t i = m->free_nodes[k];
         const int64_t *d = m->node_dofs + 6 * i;
-        double R[9];
-        const int64_t n = m->n_dofs;
-        for (int j = 0; j < 3; ++j) c->x[3 * i + j] = base->x[3 * i + j] + free_entry(increment, d[j], n);
+        double R[9], T[9];
+        for (int j = 0; j < 3; ++j) c->x[3 * i + j] += free_entry(increment, d[j], n);
         m->so3_exp(1, (double[3]){free_entry(increment, d[3], n), free_entry(increment, d[4], n),
                                   free_entry(increment, d[5], n)}, R);
-        matmul3(R, base->T + 9 * i, c->T + 9 * i);
+        memcpy(T, c->T + 9 * i, sizeof T);
+        matmul3(R, T, c->T + 9 * i);
     }
     for (int64_t k = 0; k < m->n_free_hinges; ++k) {
         int64_t j = m->free_hinges[k];
-        c->theta[j] = base->theta[j] + increment[m->hinge_dofs[j]];
+        c->theta[j] += increment[m->hinge_dofs[j]];
     }
-    /* apply_prescribed */
+}
+
+/* The prescribed motion in c, in place: prescribed bodies (x = x₀ + translation law, T = exp(skew(axis
+ * angle law))) and hinge angles with their rates and accelerations from their laws, at rest where a
+ * body has no law; locked hinges at rest. laws: (value, rate, acceleration) of every law at the time. */
+static void prescribe(const Model *m, Configuration *c, const double *laws)
+{
     for (int64_t k = 0; k < m->n_prescribed; ++k) {
         int64_t i = m->prescribed_nodes[k];
         const int64_t *law = m->translation_law + 3 * k;
@@ -276,7 +282,7 @@ static void configure(const Model *m, const Configuration *base, Configuration *
             for (int j = 0; j < 3; ++j) c->w[3 * i + j] = c->alpha[3 * i + j] = 0.0;
         }
     }
-    for (int64_t j = 0; j < H; ++j) {
+    for (int64_t j = 0; j < m->n_hinges; ++j) {
         if (m->hinge_angle_law[j] >= 0) {
             const double *g = laws + 3 * m->hinge_angle_law[j];
             c->theta[j] = g[0];
@@ -286,7 +292,27 @@ static void configure(const Model *m, const Configuration *base, Configuration *
             c->theta_dot[j] = c->theta_ddot[j] = 0.0;
         }
     }
-    /* unpack_free */
+}
+
+/* The prescribed motion at time t in c, in place (Assembler.apply_prescribed): the laws at t into
+ * w->laws, then as prescribe above. */
+void latdyn_prescribe(const Model *m, Work *w, Configuration *c, double t)
+{
+    m->time_laws(t, w->laws);
+    prescribe(m, c, w->laws);
+}
+
+/* The trial configuration q_n ∘ exp(increment) at the laws' time with velocities v and
+ * accelerations v̇ on the free coordinates (the step of newton_step.c; the analyses driven from
+ * Python take the same two updates, Assembler.advance and Assembler.apply_prescribed, then
+ * unpack_free). laws: (value, rate, acceleration) of every law at that time. */
+static void configure(const Model *m, const Configuration *base, Configuration *c, const double *increment,
+                      const double *velocity, const double *acceleration, const double *laws)
+{
+    copy_configuration(m, base, c);
+    latdyn_advance_free(m, c, increment);
+    prescribe(m, c, laws);
+    /* the free coordinates' rates */
     for (int64_t k = 0; k < m->n_free_nodes; ++k) {
         int64_t i = m->free_nodes[k];
         const int64_t *d = m->node_dofs + 6 * i;
@@ -533,7 +559,7 @@ static double column_step(const Model *m, int64_t e, int end, int k, int64_t col
 }
 
 /* The perturbed configuration of one round: c with coordinate k of every free node (hinge) of
- * `colour` moved by `sign` × its step (left update, as assembly.advance). Returns how many moved. */
+ * `colour` moved by `sign` × its step (left update, as latdyn_advance_free). Returns how many moved. */
 static int64_t perturb(const Model *m, const Configuration *c, Work *w, Configuration *p, int64_t colour, int k,
                        double sign, double eps, double length)
 {
