@@ -12,17 +12,18 @@ written to benchmarks/results/sparse_lu.json with the machine and its load avera
    matrix (latdyn.numerics.linalg's setting; COLAMD for reference), the analysis time (once per
    pattern), and the median time of one factorization + solve: the C sparse LU (values
    scattered into the factor storage, factorized, solved) against latdyn.numerics.linalg.solve_linear
-   (SuperLU with the order reused, what the Python step does).  "1/2": BLAS (dgemm, dtrsm)
+   (SuperLU with the order reused, what the analyses driven from Python use).  "1/2": BLAS (dgemm, dtrsm)
    pinned to one thread around the factorization, as the compiled step does, / left on
    OpenBLAS's two threads; two rounds, interleaved, the better median of each kept.
 2. *One Newton iteration of a time step*, everything included (configuration update, element
    kernels, assembly, factorization, solve): the compiled step (band LU while the RCM
    bandwidth ≤ BAND_LIMIT, else the sparse LU; with ``--compare-band`` also each forced to the
-   other, and free beams of 64–5000 elements, RCM bandwidth 11, on the band and the sparse LU)
-   against the Python step (SuperLU), generalized-α, full Newton, h = 1e-3: the wall
+   other, and free beams of 64–5000 elements, RCM bandwidth 11, on the band and the sparse LU),
+   generalized-α, full Newton, h = 1e-3: the wall
    and CPU time of a step over its iterations, median over ``--steps`` steps after one untimed,
-   the fastest of ``--rounds`` such timings.  The compiled step's element part runs serially
-   here (``parallel_elements=0``), like the Python step's: the comparison is of one core's
+   the fastest of ``--rounds`` such timings.  The results of 2026-11 also hold the Python step
+   (SuperLU), which issue 17 removed: the compiled step's Newton iteration is the only one now.
+   The compiled step's element part runs serially here (``parallel_elements=0``): the timings are of one core's
    work, and OpenMP threads on this shared 2-core machine swing by 2–9× with the other jobs'
    load (docs/performance.md, "Threads").
 """
@@ -45,7 +46,7 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 
 import latdyn  # noqa: E402
 import latdyn.step.compiled as engine  # noqa: E402
-from latdyn.step.integrators import AlphaParameters, GeneralizedAlpha  # noqa: E402
+from latdyn.step.integrators import AlphaParameters  # noqa: E402
 from latdyn.numerics.linalg import SUPERLU_OPTIONS, rcm_band, solve_linear  # noqa: E402
 from latdyn.assembly.prepare import prepare  # noqa: E402
 from latdyn.step.sparse_lu import SparseLU, SupernodalAnalysis  # noqa: E402
@@ -126,13 +127,9 @@ def step_timing(elements: int, engine_kind: str, steps: int, band_limit: int | N
     if band_limit is not None:
         engine.BAND_LIMIT = band_limit
     try:
-        if engine_kind == "compiled":  # serial element part, as the Python step (see the docstring)
-            step = engine.CompiledGeneralizedAlpha(prepared.assembler, params, 1e-8, 8, 1.0, parallel_elements=0)
-            step._setup()
-            solver = "sparse" if step._native.model.sparse_lu else ("band" if step._native.model.band else "dense")
-        else:
-            step = GeneralizedAlpha(prepared.assembler, params, 1e-8, 8, 1.0)
-            solver = "superlu"
+        step = engine.CompiledGeneralizedAlpha(prepared.assembler, params, 1e-8, 8, 1.0, parallel_elements=0)
+        step._setup()  # serial element part (see the docstring)
+        solver = "sparse" if step._native.model.sparse_lu else ("band" if step._native.model.band else "dense")
         step.start(prepared.state)
         state = prepared.state
         wall, cpu, iterations = [], [], []
@@ -190,13 +187,12 @@ def main(argv=None):
           f"{'CPU ms/it':>10s} {'it/step':>7s} {'load':>5s}")
     cases = []
     for elements in lattices:
-        cases += [("lattice", elements, "compiled", None), ("lattice", elements, "python", None)]
+        cases += [("lattice", elements, "compiled", None)]
         if args.compare_band and elements <= 1000:  # band LU at bandwidth ~ n^⅔: hopeless beyond
             cases += [("lattice", elements, "compiled", 0), ("lattice", elements, "compiled", 10 ** 9)]
     if args.compare_band:  # chains, RCM bandwidth 11: the band LU's home ground
         cases += [("beam", e, "compiled", limit) for e in BEAMS for limit in (None, 0)]
-    for kind in ("compiled", "python"):  # warm-up: the first timings of a process run slow
-        step_timing(lattices[0], kind, 2)
+    step_timing(lattices[0], "compiled", 2)  # warm-up: the first timings of a process run slow
     seen = {}
     for model, elements, kind, limit in cases:
         raw = beam_scene(elements) if model == "beam" else None

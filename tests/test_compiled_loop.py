@@ -5,7 +5,7 @@ References: the same run with every step taken from Python (``latdyn.timeloop.tr
 one call into C per step, the laws evaluated by ``latdyn.scene.expressions``), which the loop must
 equal to round-off with the same steps, iterations, factorizations and rejected steps, through
 rows that span several steps, Newton failures and cuts, latches and hinge stops; and the
-Python step itself (engine: python) for hinge laws in θ, θ̇ and t, which now run compiled.
+reference step of tests/reference_step.py for hinge laws in θ, θ̇ and t, which run compiled.
 The compiled laws equal :class:`~latdyn.scene.expressions.TimeFunction` and
 :class:`~latdyn.scene.expressions.HingeLaw` at random arguments.
 """
@@ -91,8 +91,8 @@ def test_the_step_after_an_impact_starts_from_the_configuration_on_the_stop(tmp_
     arrays of the state, which the compiled step views in place: it steps on from there, as the
     Python step does (it stepped on from the configuration before the impact, 1e-7 off)."""
     compiled, compiled_summary = _run(stop_scene(0.5), tmp_path, "compiled", engine="compiled")
-    python, python_summary = _run(stop_scene(0.5), tmp_path, "python", engine="python")
-    assert compiled_summary["engine"] == "compiled" and python_summary["engine"] == "python"
+    python, python_summary = _run(stop_scene(0.5), tmp_path, "python", engine="reference")
+    assert compiled_summary["engine"] == "compiled" and python_summary["engine"] == "reference"
     assert _relative_difference(compiled, python) <= 1e-10
 
 
@@ -128,11 +128,11 @@ def law_chain(t_end=0.3, R=np.eye(3), shift=np.zeros(3), rotary=0.0):
     return raw
 
 
-def test_hinge_laws_in_theta_run_compiled_and_equal_the_python_step(tmp_path):
+def test_hinge_laws_in_theta_run_compiled_and_equal_the_reference_step(tmp_path):
     raw = law_chain()
-    python, python_summary = _run(raw, tmp_path, "python", engine="python")
+    python, python_summary = _run(raw, tmp_path, "python", engine="reference")
     compiled, compiled_summary = _run(raw, tmp_path, "compiled", engine="compiled", newton="full")
-    assert python_summary["engine"] == "python" and compiled_summary["engine"] == "compiled"
+    assert python_summary["engine"] == "reference" and compiled_summary["engine"] == "compiled"
     assert compiled_summary["time_loop"] == "compiled"
     for key in ("steps", "newton_iterations", "rejected_steps"):
         assert compiled_summary[key] == python_summary[key], key

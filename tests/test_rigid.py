@@ -7,7 +7,6 @@ the whole scene; and finite differences of the tangent on the minimum coordinate
 """
 from __future__ import annotations
 
-import copy
 
 import numpy as np
 import pytest

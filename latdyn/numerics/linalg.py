@@ -60,8 +60,8 @@ two — but the choices below hold in each of the three full runs.)
   into the permuted CSC matrix and factorized in that order (SuperLU has no
   separate symbolic step; skipping its ordering saves 1.2–3×).
 
-**The compiled step beyond the band: a supernodal sparse LU in C.**  The Python step keeps
-SuperLU (above: the reference); the compiled step (latdyn/step/compiled.py) factorizes a matrix whose
+**The compiled step beyond the band: a supernodal sparse LU in C.**  The analyses driven from
+Python keep SuperLU (above; so does the reference step of tests/reference_step.py); the compiled step (latdyn/step/compiled.py) factorizes a matrix whose
 RCM bandwidth exceeds BAND_LIMIT with ``csrc/sparse_lu.c``: minimum degree on the node graph
 and a supernodal symbolic analysis once per pattern (:mod:`latdyn.step.sparse_lu`), the matrix
 assembled straight into the factor storage, a left-looking supernodal LU without pivoting
@@ -136,8 +136,8 @@ import scipy.sparse as sps
 DENSE_LIMIT = 120
 
 #: Sparse systems whose half-bandwidth after reverse Cuthill–McKee is at most
-#: this use LAPACK band LU; wider ones SuperLU in the Python step and the supernodal
-#: sparse LU of csrc/sparse_lu.c in the compiled step.
+#: this use LAPACK band LU; wider ones SuperLU in the analyses driven from Python and the
+#: supernodal sparse LU of csrc/sparse_lu.c in the compiled step.
 BAND_LIMIT = 100
 
 #: SuperLU options: minimum degree on AᵀA + A, diagonal pivots preferred.

@@ -115,7 +115,9 @@ _SOLVE_KEYS = ("analysis", "t_end", "dt", "method", "rho_inf", "tol", "steps", "
                "adaptive", "error_tol", "dt_min", "max_iterations", "formulation", "engine", "newton", "planar",
                "control", "max_steps", "about", "linear_model", "mode_shapes")
 _CONTROL_KEYS = ("point", "direction", "to")
-#: ``solve.engine``: where the implicit step runs (latdyn/step/compiled.py); ``solve.newton``: full or modified
+#: ``solve.engine``: ``auto`` or ``compiled``, the same: the implicit step's Newton iteration runs in C
+#: (latdyn/step/compiled.py), its one implementation (the Python step it once chose is gone, issue 17);
+#: ``solve.newton``: full or modified
 #: Newton, or ``exact``: full Newton whose matrix holds the elements' inertia tangent from the start
 #: (inertia_tangent in latdyn/assembly/csrc/evaluate.c; otherwise taken from the first Newton failure on).
 #: The default stays ``full``, by measurement (benchmarks/newton_default.py, docs/performance.md
@@ -123,7 +125,7 @@ _CONTROL_KEYS = ("point", "direction", "to")
 #: scenes, but its last iterate is only within the tolerance (full Newton's is far inside it), and
 #: on small-amplitude dynamics that error accumulates: tests/test_hinges.py's small oscillation
 #: comes out with a period 4.9 % off (full: within 1e-3).
-ENGINES = ("auto", "compiled", "python")
+ENGINES = ("auto", "compiled")
 #: ``solve.planar``: ``auto`` solves a scene that stays in a coordinate plane with in-plane
 #: coordinates only (latdyn/model/planar.py), ``off`` always in 3D.
 PLANAR = ("auto", "off")

@@ -25,9 +25,9 @@ per row: events, energies, probes, output, checkpoints (``timeloop.transient.LOO
 bounds a call, so that interrupts and the progress bar are seen). Adaptive steps take the steps
 from Python, one call each.
 
-With ``newton: full`` the compiled step takes the same iterations as the Newton iteration driven
-from Python (:class:`~latdyn.step.integrators.GeneralizedAlpha`, which models with rigid links
-need) and equals it to round-off (``tests/test_engine.py``: 1e-10 relative), and the loop equals
+This is the runtime's only Newton iteration of a time step. With ``newton: full`` it takes the same
+iterations as the NumPy reference kept in the tests (``tests/reference_step.py``) and equals it to
+round-off (``tests/test_engine.py``: 1e-10 relative), and the loop equals
 the steps taken one by one from Python (``tests/test_compiled_loop.py``; bit for bit on the
 shipped examples).
 ``newton: modified`` keeps the factorized iteration matrix from step to step while Newton
@@ -43,8 +43,11 @@ element order, so the results are equal whatever the threads (bit for bit on the
 ~1e-14 on a lattice). The library is built with ``-fopenmp`` where the compiler accepts it, else
 serially (``openmp_threads`` says 0).
 
-Models with rigid links run the Newton iteration from Python (``engine_reason`` says so): their
-reduction onto minimum coordinates is :mod:`latdyn.assembly.linked`'s.
+Models with rigid links take the same Newton iteration and loop of steps: after every configuration
+update C calls back :class:`LinkedReduction` to place the dependent nodes, and after every evaluation
+to reduce it onto the minimum coordinates (:mod:`latdyn.assembly.linked`), the reduced iteration
+matrix written into the same dense, band or sparse storage, on the pattern of Pᵀ A P
+(:func:`matrix_pattern`).
 """
 from __future__ import annotations
 
@@ -76,15 +79,6 @@ from latdyn.step.integrators import GeneralizedAlpha, StepStats
 from latdyn.step.sparse_lu import SupernodalAnalysis, blas_kernels
 
 # ----------------------------------------------------------------------------- availability
-
-
-def unsupported(assembler) -> str | None:
-    """Why the compiled step cannot run this model, or None when it can."""
-    try:
-        native_library()
-    except RuntimeError as error:
-        return f"the native library could not be built ({error})"
-    return None
 
 
 def _band_plan(rows, cols, n):

@@ -149,7 +149,10 @@ def consistent_acceleration(model, ev) -> np.ndarray:
 
 
 class GeneralizedAlpha:
-    """One step of the Lie-group generalized-α family; state kept explicit."""
+    """The Lie-group generalized-α family between steps: its parameters, the algorithmic acceleration
+    a_n carried from step to step, the consistent start, the acceptance and the local error estimate.
+    The step itself, Newton iteration included, is native: :class:`latdyn.step.compiled.CompiledGeneralizedAlpha`
+    (tests/reference_step.py restates it in NumPy, as the reference it must equal)."""
 
     def __init__(self, assembler: Assembler, params: AlphaParameters, tol: float, max_iterations: int,
                  length_scale: float):
@@ -171,68 +174,6 @@ class GeneralizedAlpha:
             vdot0 = free_acceleration(model, state) + consistent_acceleration(model, ev)
             unpack_free(model, vdot0, state.a, state.alpha, state.theta_ddot)
         self.a = free_acceleration(model, state)
-
-    def step(self, state: State, h: float, t_new: float | None = None) -> tuple[State, StepStats]:
-        """One step of size h from ``state``; ``t_new`` (default t + h) is the exact landing time."""
-        model = self.assembler.model
-        p = self.p
-        n = model.n_dofs
-        t_new = state.t + h if t_new is None else t_new
-        v_n = free_velocity(model, state)
-        vdot_n = free_acceleration(model, state)
-        a_n = self.a
-        # predictor: v̇_{n+1} = v̇_n
-        vdot = vdot_n.copy()
-        a_new = (p.alpha_f * vdot_n + (1 - p.alpha_f) * vdot - p.alpha_m * a_n) / (1 - p.alpha_m)
-        v = v_n + h * (1 - p.gamma) * a_n + h * p.gamma * a_new
-        dq = v_n + h * (0.5 - p.beta) * a_n + h * p.beta * a_new
-        beta_p = (1 - p.alpha_m) / (h * h * p.beta * (1 - p.alpha_f))
-        gamma_p = p.gamma / (h * p.beta)
-        stats = StepStats()
-
-        def configured() -> State:
-            """q_n ∘ exp(hΔq) at t_{n+1}, with the current v and v̇."""
-            s = self.assembler.advance(state, h * dq)
-            self.assembler.apply_prescribed(s, t_new)
-            unpack_free(model, v, s.v, s.w, s.theta_dot)
-            unpack_free(model, vdot, s.a, s.alpha, s.theta_ddot)
-            return s
-
-        trial = state
-        previous = np.inf
-        for iteration in range(1, self.max_iterations + 1):
-            trial = configured()
-            ev = self.assembler.evaluate(trial, matrices=True, inertia_tangent=self.inertia_tangent and n > 0,
-                                         length=self.length_scale)
-            self.last_evaluation = ev
-            if n == 0:
-                stats.converged = True
-                break
-            S = ev.combined(beta_p, gamma_p, 1.0)
-            try:
-                dx = solve_linear(S, -ev.residual)
-            except (np.linalg.LinAlgError, RuntimeError):
-                stats.residual = ev.residual
-                break
-            if not np.all(np.isfinite(dx)):
-                stats.residual = ev.residual
-                break
-            dq += dx / h
-            v += gamma_p * dx
-            vdot += beta_p * dx
-            stats.iterations = iteration
-            size = increment_size(model, dx, self.length_scale)
-            if iteration > 1:
-                stats.contraction = max(stats.contraction, size / previous)
-            previous = size
-            if size <= self.tol:
-                stats.converged = True
-                trial = configured()
-                break
-            stats.residual = ev.residual
-        if stats.converged:
-            self.a_candidate = (p.alpha_f * vdot_n + (1 - p.alpha_f) * vdot - p.alpha_m * a_n) / (1 - p.alpha_m)
-        return trial, stats
 
     def accept(self) -> None:
         self.a = self.a_candidate

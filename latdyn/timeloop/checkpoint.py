@@ -15,7 +15,7 @@ stopped:
   the step size it belongs to and the factorized iteration matrix with its pivots
   (:meth:`latdyn.step.compiled.CompiledGeneralizedAlpha.factorization_state`), so that the
   resumed run reuses the matrix where the uninterrupted one does; none with full
-  Newton, the Python step or the explicit method, and none where the next step
+  Newton or the explicit method, and none where the next step
   rebuilds it anyway (no factorization held, a latch just renumbered the
   coordinates, the inertia tangent was just switched on),
 * the result writer's bookmark (:meth:`latdyn.results.writer.ResultWriter.bookmark`:

@@ -5,10 +5,9 @@ step to step: :mod:`~latdyn.timeloop.progress`, its checkpoints: :mod:`~latdyn.t
 from __future__ import annotations
 
 from latdyn.assembly.prepare import Prepared, length_scale
-from latdyn.errors import SceneError
 from latdyn.results.probes import ProbeSet
 from latdyn.results.writer import ResultWriter
-from latdyn.step.integrators import AlphaParameters, CentralDifference, GeneralizedAlpha
+from latdyn.step.integrators import AlphaParameters, CentralDifference
 from latdyn.timeloop import checkpoint as checkpoints
 from latdyn.timeloop.control import StepControl
 from latdyn.timeloop.loop import TimeLoop
@@ -19,25 +18,17 @@ DEFAULT_TOL = 1e-8
 
 
 def implicit_integrator(prepared: Prepared, params: AlphaParameters, tol: float, length: float,
-                         summary: dict) -> GeneralizedAlpha:
-    """The generalized-α step in C (latdyn/step/compiled.py) where it covers the model, else in Python.
+                        summary: dict):
+    """The generalized-α step, its Newton iteration in C (latdyn/step/compiled.py).
 
-    ``solve.engine``: ``auto`` (C when it can), ``compiled`` (C, or exit 2 saying why not),
-    ``python`` (the reference step, full Newton). ``solve.newton`` (C only): ``modified``
-    keeps the factorized matrix while Newton contracts, ``full`` rebuilds it every iteration."""
-    from latdyn.step import compiled as engine
+    ``solve.newton``: ``modified`` keeps the factorized matrix while Newton contracts, ``full``
+    rebuilds it every iteration, ``exact`` adds the elements' inertia tangent from the start."""
+    from latdyn.step.compiled import CompiledGeneralizedAlpha  # the native library, loaded when a run steps
 
-    solve, assembler = prepared.scene.solve, prepared.assembler
-    reason = "solve.engine is python" if solve.engine == "python" else engine.unsupported(assembler)
-    if reason is not None and solve.engine == "compiled":
-        raise SceneError(prepared.scene.file, "solve.engine", f"the compiled step cannot run this scene: {reason}")
-    if reason is None:
-        integrator = engine.CompiledGeneralizedAlpha(assembler, params, tol, solve.max_iterations, length,
-                                                     newton=solve.newton)
-        summary.update(engine="compiled", newton=solve.newton)
-    else:
-        integrator = GeneralizedAlpha(assembler, params, tol, solve.max_iterations, length)
-        summary.update(engine="python", newton="exact" if solve.newton == "exact" else "full", engine_reason=reason)
+    solve = prepared.scene.solve
+    integrator = CompiledGeneralizedAlpha(prepared.assembler, params, tol, solve.max_iterations, length,
+                                          newton=solve.newton)
+    summary.update(engine="compiled", newton=solve.newton)
     integrator.inertia_tangent = solve.newton == "exact"
     return integrator
 

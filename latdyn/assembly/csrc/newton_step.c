@@ -140,7 +140,9 @@ typedef struct {
 
 /* One step from `base` (velocities v_n, accelerations v̇_n, algorithmic acceleration a_n on the
  * free coordinates) to `trial`; on return v and vdot hold the new velocities and accelerations,
- * w->total the last evaluation (residual and reaction). Mirrors GeneralizedAlpha.step. */
+ * w->total the last evaluation (residual and reaction); latdyn/step/integrators.py has the scheme,
+ * tests/reference_step.py the NumPy reference it must equal. With rigid links, every configuration
+ * is completed and every evaluation reduced by the model's callbacks (complete_links, reduce_links). */
 /* v_n and v̇_n of the free coordinates from a configuration (assembly.free_velocity, free_acceleration). */
 static void free_rates(const Model *m, const Configuration *c, double *velocity, double *acceleration)
 {
