@@ -53,6 +53,7 @@ from latdyn.errors import SceneError, SolverError
 from latdyn.numerics.inertia import split_inertia
 from latdyn.numerics.so3 import skew
 from latdyn.results.writer import ResultWriter
+from latdyn.step.compiled import matrix_pattern
 from latdyn.step.integrators import increment_size
 
 #: Relative step of the central differences (translations: times the scene's size ℓ).
@@ -135,18 +136,17 @@ def _steps(model, length: float) -> np.ndarray:
 
 def column_groups(assembler) -> list[np.ndarray] | None:
     """Columns of r_q that can be found from one perturbation together (Curtis, Powell & Reid
-    1974): no row of the assembly's block pattern (elements, joint bodies, hinges, loads at their
-    nodes) holds two of them, so each row's change comes from one column.  Greedy colouring,
-    about 3 × 6 groups for a chain of beams whatever its length.  None where the pattern does not
-    bound the residual's dependence (rigid links: the reduced coordinates couple further; a load in
-    a body's axes depends on that body's rotation): then every column alone."""
+    1974): no row of the iteration matrix's pattern (the assembly's blocks: elements, joint bodies,
+    hinges, loads at their nodes; with rigid links that of Pᵀ A P, :func:`latdyn.step.compiled.matrix_pattern`)
+    holds two of them, so each row's change comes from one column.  Greedy colouring, about 3 × 6
+    groups for a chain of beams whatever its length.  None where the pattern does not bound the
+    residual's dependence (a load in a body's axes depends on that body's rotation): then every
+    column alone."""
     model = assembler.model
-    if model.links is not None or any(load.frame != "global" for load in model.scene.loads):
+    if any(load.frame != "global" for load in model.scene.loads):
         return None
     n = model.n_dofs
-    rows, cols = assembler._csr_rows, assembler._csr_cols
-    keep = (rows < n) & (cols < n)
-    rows, cols = rows[keep], cols[keep]
+    rows, cols = _dependence(assembler)
     by_column = [[] for _ in range(n)]
     by_row = [[] for _ in range(n)]
     for r, c in zip(rows.tolist(), cols.tolist()):
@@ -180,7 +180,7 @@ def tangent_q(assembler, state, load_factor: float = 1.0, inertia: bool = True) 
     groups = column_groups(assembler)
     if groups is None:
         groups = [np.array([j]) for j in range(n)]
-    pattern = None if len(groups) == n else (np.asarray(material) != 0.0) | _block_pattern(assembler, n)
+    pattern = None if len(groups) == n else (np.asarray(material) != 0.0) | _block_pattern(assembler)
     for group in groups:
         e = np.zeros(n)
         e[group] = h[group]
@@ -194,12 +194,19 @@ def tangent_q(assembler, state, load_factor: float = 1.0, inertia: bool = True) 
     return K
 
 
-def _block_pattern(assembler, n: int) -> np.ndarray:
-    """(n, n) bool: the entries the assembly's blocks can fill."""
-    out = np.zeros((n, n), dtype=bool)
-    rows, cols = assembler._csr_rows, assembler._csr_cols
+def _dependence(assembler) -> tuple[np.ndarray, np.ndarray]:
+    """(row, col) on the free coordinates of every entry r_q can hold: the iteration matrix's pattern."""
+    n = assembler.model.n_dofs
+    rows, cols = matrix_pattern(assembler)
     keep = (rows < n) & (cols < n)
-    out[rows[keep], cols[keep]] = True
+    return rows[keep], cols[keep]
+
+
+def _block_pattern(assembler) -> np.ndarray:
+    """(n, n) bool: the entries r_q can hold (:func:`_dependence`)."""
+    n = assembler.model.n_dofs
+    out = np.zeros((n, n), dtype=bool)
+    out[_dependence(assembler)] = True
     return out
 
 
