@@ -1,4 +1,7 @@
-"""Linear solves of the Newton iteration matrix, and the null direction of a PSD pencil.
+"""The policy of the linear solves (storage by size and bandwidth, RCM order, BLAS threads), and the
+null direction of a PSD pencil.  The solves themselves are the one factorization of
+:mod:`latdyn.assembly.factorization` (C: ``csrc/factorization.c``), for the compiled step and the
+analyses alike; the tables below chose its limits.
 
 Policy, chosen by measurement: ``python benchmarks/linear_solvers.py``, full
 table in benchmarks/results/linear_solvers.json.  AMD EPYC, 2 cores of a KVM
@@ -40,9 +43,12 @@ two — but the choices below hold in each of the three full runs.)
   a busier run 0.29 → 216 ms; the band solve of lattice 260: 3.1 → 321 ms).
   Unloaded, these sizes are still too small for two threads to pay.  SuperLU
   does not use threaded BLAS here (1 and 2 threads time alike).  The pin is
-  taken and released around each call through threadpoolctl when it is
-  installed (≈1 µs), so the caller's BLAS setting is untouched; without
-  threadpoolctl nothing is pinned.
+  taken and released around each factorization and solve, in C
+  (``csrc/factorization.c``, through the OpenBLAS functions that
+  :func:`openblas_thread_functions` finds with threadpoolctl), so the caller's
+  BLAS setting is untouched; without threadpoolctl nothing is pinned.
+  :func:`single_thread_blas` does the same around the LAPACK calls left in
+  Python (the inertia count of static paths).
 * **Sparse: band LU when the reverse Cuthill–McKee bandwidth is small, else
   SuperLU.**  A chain of beams has bandwidth 11 after RCM whatever its length,
   and LAPACK's band LU (partial pivoting) beats every SuperLU variant 1.5–2×.
@@ -60,9 +66,10 @@ two — but the choices below hold in each of the three full runs.)
   into the permuted CSC matrix and factorized in that order (SuperLU has no
   separate symbolic step; skipping its ordering saves 1.2–3×).
 
-**The compiled step beyond the band: a supernodal sparse LU in C.**  The analyses driven from
-Python keep SuperLU (above; so does the reference step of tests/reference_step.py); the compiled step (latdyn/step/compiled.py) factorizes a matrix whose
-RCM bandwidth exceeds BAND_LIMIT with ``csrc/sparse_lu.c``: minimum degree on the node graph
+**Beyond the band: a supernodal sparse LU in C.**  SuperLU (above) was the analyses' solver
+until the factorization was made one (:mod:`latdyn.assembly.factorization`); now every matrix
+whose RCM bandwidth exceeds BAND_LIMIT, the compiled step's (latdyn/step/compiled.py) and the
+analyses' alike, is factorized with ``csrc/sparse_lu.c``: minimum degree on the node graph
 and a supernodal symbolic analysis once per pattern (:mod:`latdyn.assembly.sparse_lu`), the matrix
 assembled straight into the factor storage, a left-looking supernodal LU without pivoting
 (BLAS dgemm/dtrsm blocks, every pivot checked against its row's and column's scale) and the
@@ -70,8 +77,8 @@ substitutions in C.  ``python benchmarks/sparse_lu.py --compare-band``, results 
 benchmarks/results/sparse_lu.json: same 2-core AMD EPYC, load average 0.7 → 2.9 during the
 run (another job took one core), OpenBLAS pinned to one thread; 3D lattices as above.  Fill:
 nonzeros of L + U (the diagonal once); analysis: once per pattern; LU: one factorization and
-solve of S alone (C sparse LU: scatter + factor + solve; SuperLU: ``solve_linear``, scaled,
-order reused); Newton iteration: one iteration of a generalized-α step, everything included,
+solve of S alone (C sparse LU: scatter + factor + solve; SuperLU: scaled, order reused, as
+the analyses then solved); Newton iteration: one iteration of a generalized-α step, everything included,
 the element part serial in both steps (wall ms, fastest of 3 rounds of 4 steps):
 
     model          n      RCM   fill L+U (10³)   analysis  LU, ms              Newton iteration, ms
@@ -110,10 +117,11 @@ the element part serial in both steps (wall ms, fastest of 3 rounds of 4 steps):
   this, the compiled band LU ran unpinned too: lattice of 120 elements 30–120 ms an iteration
   against 4.6 ms pinned, under load.
 
-``solve_linear(matrix, rhs)`` dispatches on the matrix: a NumPy array is
-solved densely; a SciPy sparse matrix densely when n ≤ DENSE_LIMIT, else as
-above.  ``Assembler.assemble`` returns a dense array exactly when
-n ≤ DENSE_LIMIT, so the iteration matrix is assembled in the form it is solved in.
+``latdyn.assembly.factorization.solve_linear(matrix, rhs)`` dispatches on the matrix: a NumPy
+array is solved densely; a SciPy sparse matrix densely when n ≤ DENSE_LIMIT, else band or
+sparse LU as above (natively, BLAS held to one thread in C).  ``Assembler.assemble`` returns a
+dense array exactly when n ≤ DENSE_LIMIT, so the iteration matrix is assembled in the form it is
+solved in.
 
 ``psd_null_direction(A)`` finds a direction x with xᵀAx ≈ 0 for a sparse
 symmetric positive semi-definite A with unit diagonal (the held-coordinate
