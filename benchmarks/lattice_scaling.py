@@ -125,10 +125,10 @@ def measure(bays: int, formulation: str, steps: int, serial: bool) -> dict:
     for newton in ("full", "modified"):
         step = CompiledGeneralizedAlpha(prepared.assembler, params, 1e-8, 8, eq["L"], newton=newton, **parallel)
         step._setup()
-        m = step._native.model
-        row["solver"] = "sparse" if m.sparse_lu else ("band" if m.band else "dense")
-        if m.band:
-            row["kl"], row["ku"] = int(m.kl), int(m.ku) if hasattr(m, "ku") else int(m.kl)
+        f = step.factorization
+        row["solver"] = f.kind
+        if f.kind == "band":
+            row["kl"], row["ku"] = f.kl, f.ku
         step.start(prepared.state)
         t0 = time.perf_counter()
         samples = _steps(step, prepared.state, h, steps)

@@ -26,7 +26,7 @@ and writes medians to ``benchmarks/results/linear_solvers.json``:
   rcm_banded       reverse Cuthill–McKee once, a precomputed map from CSR values to LAPACK
                    band storage, then gbsv (scipy.linalg.solve_banded): a reused
                    symbolic analysis in the strict sense (skipped when the RCM bandwidth > 300)
-  latdyn           latdyn.numerics.linalg.solve_linear on the matrix the Assembler makes: the policy chosen
+  latdyn           latdyn.assembly.factorization.solve_linear on the matrix the Assembler makes: the policy chosen
                    from these numbers (dense LU up to DENSE_LIMIT, else band LU or reused SuperLU)
 
 It also times the unheld-coordinate check (``Model.check_held``) at ~10⁴ coordinates.
@@ -60,7 +60,7 @@ sys.path.insert(0, str(ROOT))
 
 from latdyn.assembly.assembler import Assembler, unpack_free  # noqa: E402
 from latdyn.model.kernels import load_kernels  # noqa: E402
-from latdyn.numerics.linalg import solve_linear  # noqa: E402
+from latdyn.assembly.factorization import solve_linear  # noqa: E402
 from latdyn.model.model import Model  # noqa: E402
 from latdyn.scene.loader import load_scene  # noqa: E402
 

@@ -8,11 +8,12 @@ written to benchmarks/results/sparse_lu.json with the machine and its load avera
 
 1. *The linear solve alone*, on the iteration matrix S = β′M + γ′C + K of a perturbed moving
    state (Newmark, h = 0.01): the fill (nonzeros of L + U, the diagonal once) of the node-graph
-   minimum degree (latdyn/step/sparse_lu.py) against SuperLU's MMD on AᵀA + A of the Jacobi-scaled
+   minimum degree (latdyn/assembly/sparse_lu.py) against SuperLU's MMD on AᵀA + A of the Jacobi-scaled
    matrix (latdyn.numerics.linalg's setting; COLAMD for reference), the analysis time (once per
    pattern), and the median time of one factorization + solve: the C sparse LU (values
-   scattered into the factor storage, factorized, solved) against latdyn.numerics.linalg.solve_linear
-   (SuperLU with the order reused, what the analyses driven from Python use).  "1/2": BLAS (dgemm, dtrsm)
+   scattered into the factor storage, factorized, solved) against SuperLU with the order reused
+   (benchmarks/linear_solvers.py splu_reuse, what the analyses driven from Python used before
+   latdyn.assembly.factorization).  "1/2": BLAS (dgemm, dtrsm)
    pinned to one thread around the factorization, as the compiled step does, / left on
    OpenBLAS's two threads; two rounds, interleaved, the better median of each kept.
 2. *One Newton iteration of a time step*, everything included (configuration update, element
@@ -45,12 +46,15 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
 import latdyn  # noqa: E402
+from latdyn.assembly import factorization  # noqa: E402
 import latdyn.step.compiled as engine  # noqa: E402
 from latdyn.step.integrators import AlphaParameters  # noqa: E402
-from latdyn.numerics.linalg import SUPERLU_OPTIONS, rcm_band, solve_linear  # noqa: E402
+from latdyn.numerics.linalg import SUPERLU_OPTIONS, rcm_band  # noqa: E402
 from latdyn.assembly.prepare import prepare  # noqa: E402
-from latdyn.step.sparse_lu import SparseLU, SupernodalAnalysis  # noqa: E402
-from linear_solvers import _scaled, beam_scene, build, combined, lattice_for, machine  # noqa: E402
+from latdyn.assembly.factorization import Factorization  # noqa: E402
+from latdyn.assembly.sparse_lu import SupernodalAnalysis  # noqa: E402
+from linear_solvers import (_reuse_setup, _reuse_solve, _scaled, beam_scene, build, combined, lattice_for,  # noqa: E402
+                            machine)
 
 try:
     from threadpoolctl import ThreadpoolController
@@ -80,21 +84,24 @@ def linear_solve_row(elements: int, budget: float, controller) -> dict:
     t0 = time.perf_counter()
     SupernodalAnalysis(rows, S.indices, n)
     analysis_s = time.perf_counter() - t0
-    lu = SparseLU(S)
+    lu = Factorization(rows, S.indices, n, kind="sparse").factor(S)
+    pinned = lu.structure.get_blas_threads  # None: the C factorization leaves OpenBLAS's threads alone
+    reused = _reuse_setup(ev)
     scaled, _ = _scaled(S)
     superlu = spla.splu(scaled.tocsc(), permc_spec="MMD_AT_PLUS_A", **SUPERLU_OPTIONS)
     colamd = spla.splu(S.tocsc(), permc_spec="COLAMD")
     rhs = np.random.default_rng(0).standard_normal(n)
-    reference = solve_linear(S, rhs)
+    reference = _reuse_solve(ev, rhs, reused)
     error = float(np.max(np.abs(lu.solve(rhs) - reference)) / np.max(np.abs(reference)))
     # "1": BLAS pinned to one thread around the factorization, as the compiled step does;
     # "2": OpenBLAS left on its two threads (SuperLU pins nothing it uses: the same both ways)
     times = {"sparse_lu": {}, "superlu_reused": {}}
     for _ in range(2):  # two rounds, settings interleaved; the better median of each is kept
         for threads in (1, 2):
+            lu.structure.get_blas_threads = pinned if threads == 1 else None
             with (controller.limit(limits=2, user_api="blas") if controller else _nothing()):
-                for name, solve in (("sparse_lu", lambda: lu.refactor(S, single_thread=threads == 1).solve(rhs)),
-                                    ("superlu_reused", lambda: solve_linear(S, rhs))):
+                for name, solve in (("sparse_lu", lambda: lu.factor(S).solve(rhs)),
+                                    ("superlu_reused", lambda: _reuse_solve(ev, rhs, reused))):
                     t = _median_time(solve, budget)
                     times[name][str(threads)] = min(t, times[name].get(str(threads), np.inf))
     a = lu.analysis
@@ -118,18 +125,18 @@ def step_timing(elements: int, engine_kind: str, steps: int, band_limit: int | N
                 raw: dict | None = None) -> dict:
     """Wall and CPU seconds per Newton iteration of `steps` steps (after one untimed) of the
     lattice of about ``elements`` elements (or of ``raw``); ``band_limit`` replaces
-    engine.BAND_LIMIT (0: the sparse LU forced, huge: the band LU forced)."""
+    factorization.BAND_LIMIT (0: the sparse LU forced, huge: the band LU forced)."""
     raw = lattice_for(elements) if raw is None else raw
     raw["solve"]["method"] = "generalized-alpha"
     prepared = prepare(latdyn.load_scene(raw))
     params = AlphaParameters.for_method("generalized-alpha", 0.8)
-    saved = engine.BAND_LIMIT
+    saved = factorization.BAND_LIMIT
     if band_limit is not None:
-        engine.BAND_LIMIT = band_limit
+        factorization.BAND_LIMIT = band_limit
     try:
         step = engine.CompiledGeneralizedAlpha(prepared.assembler, params, 1e-8, 8, 1.0, parallel_elements=0)
         step._setup()  # serial element part (see the docstring)
-        solver = "sparse" if step._native.model.sparse_lu else ("band" if step._native.model.band else "dense")
+        solver = step.factorization.kind
         step.start(prepared.state)
         state = prepared.state
         wall, cpu, iterations = [], [], []
@@ -146,7 +153,7 @@ def step_timing(elements: int, engine_kind: str, steps: int, band_limit: int | N
                 cpu.append((c1 - c0) / done)
                 iterations.append(done)
     finally:
-        engine.BAND_LIMIT = saved
+        factorization.BAND_LIMIT = saved
     return {"elements": elements, "n": prepared.model.n_dofs, "engine": engine_kind, "solver": solver,
             "wall_s_per_iteration": float(np.median(wall)), "cpu_s_per_iteration": float(np.median(cpu)),
             "iterations_per_step": float(np.mean(iterations)), "load_average": os.getloadavg()[0]}

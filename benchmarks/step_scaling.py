@@ -88,8 +88,8 @@ def measure(elements: int, formulation: str, steps: int, threads: int | None = N
             cpu_samples.append(elapsed_cpu / done)
             iterations.append(done)
     per_iteration = float(np.median(samples))
-    return {"elements": elements, "coordinates": model.n_dofs, "band": bool(step._native.model.band),
-            "bandwidth": int(step._native.model.kl) if step._native.model.band else None,
+    return {"elements": elements, "coordinates": model.n_dofs, "band": step.factorization.kind == "band",
+            "bandwidth": step.factorization.kl if step.factorization.kind == "band" else None,
             "iterations_per_step": float(np.mean(iterations)), "steps_converged": int(sum(converged[1:])),
             "steps": len(converged) - 1, "s_per_iteration": per_iteration,
             "us_per_element_iteration": 1e6 * per_iteration / elements,

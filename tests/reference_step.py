@@ -15,7 +15,7 @@ import contextlib
 import numpy as np
 
 from latdyn.assembly.assembler import State, free_acceleration, free_velocity, unpack_free
-from latdyn.numerics.linalg import solve_linear
+from latdyn.assembly.factorization import solve_linear
 from latdyn.step.integrators import GeneralizedAlpha, StepStats, increment_size
 from latdyn.timeloop import transient
 

@@ -1,8 +1,8 @@
-"""The compiled sparse LU (csrc/sparse_lu.c, latdyn/step/sparse_lu.py) and the wide models it brings
-into the compiled step.
+"""The one factorization (csrc/factorization.c, latdyn/assembly/factorization.py), its compiled sparse
+LU (csrc/sparse_lu.c, latdyn/assembly/sparse_lu.py) and the wide models it brings into the compiled step.
 
 The C factorization equals ``numpy.linalg.solve`` on random structurally symmetric, diagonally
-dominant matrices; its analysis holds every entry and keeps the fill of SuperLU's minimum degree;
+dominant matrices, in each storage and for several right-hand sides at once; its analysis holds every entry and keeps the fill of SuperLU's minimum degree;
 a zero or tiny pivot is reported, not solved.  3D lattices too wide for the band LU now run in the
 compiled step and equal the reference step of tests/reference_step.py (SuperLU) to 1e-10 with full Newton, in a random
 orientation; modified Newton, which keeps the factor over steps, reaches the Newton tolerance.
@@ -20,8 +20,9 @@ import scipy.sparse.linalg as spla
 import latdyn
 from reference_step import reference_engine
 from latdyn.model.kernels import load_kernels
-from latdyn.numerics.linalg import BAND_LIMIT, SUPERLU_OPTIONS
-from latdyn.step.sparse_lu import PIVOT_TOLERANCE, PivotError, SparseLU, SupernodalAnalysis, minimum_degree
+from latdyn.numerics.linalg import SUPERLU_OPTIONS
+from latdyn.assembly.factorization import KINDS, Factorization
+from latdyn.assembly.sparse_lu import PIVOT_TOLERANCE, PivotError, SupernodalAnalysis, minimum_degree
 
 from test_inertia import rigid_motion
 from test_linalg import evaluation, lattice
@@ -50,6 +51,33 @@ def random_symmetric_pattern(n: int, per_row: float, seed: int, blocks: int = 1)
     return (A + sps.diags(dominance * rng.choice([-1.0, 1.0], A.shape[0]))).tocsr()
 
 
+def factorized(A, kind: str = "sparse") -> Factorization:
+    """The factorization of the CSR matrix A in the storage ``kind``."""
+    rows = np.repeat(np.arange(A.shape[0]), np.diff(A.indptr))
+    return Factorization(rows, A.indices, A.shape[0], kind=kind).factor(A)
+
+
+@needs_c
+@pytest.mark.parametrize("kind", KINDS)
+@pytest.mark.parametrize("n, per_row, blocks, seed", [(1, 1, 1, 0), (9, 2, 1, 1), (150, 3, 6, 4)])
+def test_the_factorization_solves_several_right_hand_sides_in_each_storage(kind, n, per_row, blocks, seed):
+    """One factorization, then many right-hand sides with the factors held (what linearisation and
+    sensitivities ask for), in the dense, band and sparse storage alike; the values of the pattern
+    are factorized as the matrix is."""
+    A = random_symmetric_pattern(n, per_row, seed, blocks)
+    rng = np.random.default_rng(seed)
+    B = rng.standard_normal((A.shape[0], 4))
+    reference = np.linalg.solve(A.toarray(), B)
+    lu = factorized(A, kind)
+    assert lu.kind == kind
+    X = lu.solve(B)
+    assert X.shape == B.shape
+    assert np.max(np.abs(X - reference)) <= 1e-12 * np.max(np.abs(reference))
+    for k in range(B.shape[1]):  # one at a time: the same to round-off (LAPACK's kernels differ by count)
+        np.testing.assert_allclose(lu.solve(B[:, k]), X[:, k], rtol=0, atol=1e-13 * np.max(np.abs(X)))
+    np.testing.assert_array_equal(lu.factor(A.data).solve(B), X)
+
+
 @needs_c
 @pytest.mark.parametrize("n, per_row, blocks, seed", [(1, 1, 1, 0), (7, 2, 1, 1), (60, 3, 1, 2), (300, 4, 1, 3),
                                                       (600, 3, 6, 4), (1500, 2, 3, 5)])
@@ -57,7 +85,7 @@ def test_solve_equals_numpy_on_random_diagonally_dominant_matrices(n, per_row, b
     A = random_symmetric_pattern(n, per_row, seed, blocks)
     rng = np.random.default_rng(seed)
     b = rng.standard_normal(A.shape[0])
-    lu = SparseLU(A)
+    lu = factorized(A)
     reference = np.linalg.solve(A.toarray(), b)
     assert np.max(np.abs(lu.solve(b) - reference)) <= 1e-12 * np.max(np.abs(reference))
     # the same analysis, other values (off-diagonal entries shrunk: still dominant)
@@ -65,7 +93,7 @@ def test_solve_equals_numpy_on_random_diagonally_dominant_matrices(n, per_row, b
     B = A.copy()
     B.data *= np.where(rows == A.indices, 1.0, rng.uniform(0.5, 1.0, A.nnz))
     reference = np.linalg.solve(B.toarray(), b)
-    assert np.max(np.abs(lu.refactor(B).solve(b) - reference)) <= 1e-12 * np.max(np.abs(reference))
+    assert np.max(np.abs(lu.factor(B).solve(b) - reference)) <= 1e-12 * np.max(np.abs(reference))
 
 
 def test_positions_cover_every_entry_once():
@@ -97,11 +125,11 @@ def test_zero_and_tiny_pivots_are_reported():
     A = A.tocsr()
     A.eliminate_zeros()
     with pytest.raises(PivotError, match="coordinate 5 is 0 ×"):
-        SparseLU(A)
+        factorized(A)
     # a structurally nonzero but tiny pivot that SuperLU's row exchanges would avoid
     B = sps.csr_matrix(np.array([[1e-14, 1.0], [1.0, 1.0]]))
     with pytest.raises(PivotError, match="singular or needs pivoting"):
-        SparseLU(B)
+        factorized(B.tocsr())
     assert PIVOT_TOLERANCE < 1e-6
 
 
@@ -112,7 +140,7 @@ def test_fill_is_that_of_superlu_minimum_degree_on_a_lattice():
     the solve equals SuperLU's."""
     model, ev = evaluation(lattice(5, 4))
     S = ev.combined(1e4, 100.0, 1.0, dense=False).tocsr()
-    lu = SparseLU(S)
+    lu = factorized(S)
     superlu = spla.splu(S.tocsc(), permc_spec="MMD_AT_PLUS_A", **SUPERLU_OPTIONS)
     reference_fill = superlu.L.nnz + superlu.U.nnz - S.shape[0]
     assert lu.analysis.nonzeros < 1.1 * reference_fill
@@ -176,10 +204,7 @@ def test_wide_lattice_runs_compiled_and_equals_the_reference_step(seed, tmp_path
     step = CompiledGeneralizedAlpha(prepared.assembler, AlphaParameters.for_method("generalized-alpha", 0.8),
                                     1e-8, 25, 1.0)
     step._setup()
-    from latdyn.step.compiled import _band_plan, matrix_pattern
-
-    bandwidth = _band_plan(*matrix_pattern(prepared.assembler), prepared.model.n_dofs)[0]
-    assert bandwidth > BAND_LIMIT and step._native.model.sparse_lu  # the sparse LU is used
+    assert step.factorization.kind == "sparse"  # the RCM band is wider than BAND_LIMIT
 
     python, python_summary = _run(raw, tmp_path, "python", engine="reference")
     compiled, compiled_summary = _run(raw, tmp_path, "compiled", engine="compiled", newton="full")
@@ -272,7 +297,7 @@ SECTION_PLANAR = {"EA": 1.0e5, "EIy": 60.0, "EIz": 60.0, "GJ": 40.0, "rhoA": 1.0
 
 @needs_c
 def test_a_wide_planar_model_runs_compiled_and_equals_the_python_step(tmp_path):
-    from latdyn.step.compiled import CompiledGeneralizedAlpha, _band_plan, matrix_pattern
+    from latdyn.step.compiled import CompiledGeneralizedAlpha
     from latdyn.step.integrators import AlphaParameters
     from latdyn.assembly.prepare import prepare
 
@@ -283,8 +308,7 @@ def test_a_wide_planar_model_runs_compiled_and_equals_the_python_step(tmp_path):
     step = CompiledGeneralizedAlpha(prepared.assembler, AlphaParameters.for_method("generalized-alpha", 0.8),
                                     1e-8, 25, 1.0)
     step._setup()
-    bandwidth = _band_plan(*matrix_pattern(prepared.assembler), prepared.model.n_dofs)[0]
-    assert bandwidth > BAND_LIMIT and step._native.model.sparse_lu
+    assert step.factorization.kind == "sparse"
     python, python_summary = _run(raw, tmp_path, "python", engine="reference")
     compiled, compiled_summary = _run(raw, tmp_path, "compiled", engine="compiled", newton="full")
     assert compiled_summary["engine"] == "compiled"
@@ -294,7 +318,7 @@ def test_a_wide_planar_model_runs_compiled_and_equals_the_python_step(tmp_path):
 
 @needs_c
 def test_a_failed_pivot_fails_the_compiled_step_and_says_where():
-    """The compiled step's factor() returns the sparse LU's failure: the step is reported not
+    """The compiled step's latdyn_factor returns the sparse LU's failure: the step is reported not
     converged (the time loop then cuts it, as for a singular band LU), never solved with a
     bad factor. Forced here by a pivot tolerance no pivot can pass."""
     from latdyn.step.compiled import CompiledGeneralizedAlpha
@@ -307,9 +331,9 @@ def test_a_failed_pivot_fails_the_compiled_step_and_says_where():
     step.start(prepared.state)
     _, stats = step.step(prepared.state, 0.005)
     assert stats.converged
-    analysis = next(kept for kept in step._native.matrix_storage if isinstance(kept, SupernodalAnalysis))
+    analysis = step.factorization.analysis
     assert analysis.pivot_failure() is None
-    step._native.model.sparse_lu.contents.pivot_tolerance = 1e300
+    step.factorization.structure.sparse_lu.contents.pivot_tolerance = 1e300
     _, stats = step.step(prepared.state, 0.005)
     assert not stats.converged and stats.factorizations == 1
     assert "singular or needs pivoting" in analysis.pivot_failure()
@@ -323,7 +347,7 @@ def test_a_latch_in_a_wide_lattice_reanalyses_the_pattern(tmp_path, monkeypatch)
     raw = oriented_lattice(3, t_end=0.1)
     raw["beams"]["b0_1_1_0"]["end"]["hinge"]["lock_at"] = 0.1  # reached at t ≈ 0.07
     raw["output"]["probes"]["latched"] = {"hinge": "b0_1_1_0.end", "quantity": "rate"}
-    import latdyn.step.compiled
+    import latdyn.assembly.factorization
 
     analysed = []
 
@@ -332,7 +356,7 @@ def test_a_latch_in_a_wide_lattice_reanalyses_the_pattern(tmp_path, monkeypatch)
             analysed.append(n)
             super().__init__(rows, cols, n)
 
-    monkeypatch.setattr(latdyn.step.compiled, "SupernodalAnalysis", Counted)
+    monkeypatch.setattr(latdyn.assembly.factorization, "SupernodalAnalysis", Counted)
     python, python_summary = _run(raw, tmp_path, "python", engine="reference")
     compiled, compiled_summary = _run(raw, tmp_path, "compiled", engine="compiled", newton="full")
     assert compiled_summary["engine"] == "compiled"

@@ -54,8 +54,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from latdyn.assembly.factorization import solve_linear
 from latdyn.errors import SceneError, SolverError
-from latdyn.numerics.linalg import single_thread_blas, solve_linear, use_dense
+from latdyn.numerics.linalg import single_thread_blas
 from latdyn.step.integrators import increment_size, newton_diagnosis
 
 #: Most halvings of a load or displacement step (1/1024 of a grid step), of the arc length.
@@ -113,15 +114,10 @@ class Path:
     def solve(self, K, *rhs):
         """K⁻¹ for each right-hand side; None when K is singular or the result not finite."""
         try:
-            if use_dense(K.shape[0]):
-                dense = K if isinstance(K, np.ndarray) else K.toarray()
-                with single_thread_blas():
-                    out = np.linalg.solve(dense, np.column_stack(rhs))
-                out = [out[:, i] for i in range(len(rhs))]
-            else:
-                out = [solve_linear(K, b) for b in rhs]
-        except (np.linalg.LinAlgError, RuntimeError):
+            x = solve_linear(K, np.column_stack(rhs))  # one factorization for all of them
+        except np.linalg.LinAlgError:
             return None
+        out = [x[:, i] for i in range(len(rhs))]
         if not all(np.all(np.isfinite(x)) for x in out):
             return None
         return out

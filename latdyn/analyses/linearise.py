@@ -48,6 +48,7 @@ import numpy as np
 
 from latdyn.analyses import continuation
 from latdyn.assembly.assembler import pack, unpack_free
+from latdyn.assembly.factorization import Factorization, solve_linear
 from latdyn.assembly.prepare import length_scale
 from latdyn.errors import SceneError, SolverError
 from latdyn.numerics.inertia import split_inertia
@@ -245,7 +246,8 @@ def reduce(lin: Linearisation) -> Reduced:
     M, C, K = (Q.T @ X @ Q for X in (lin.mass, lin.damping, lin.stiffness))
     m, c = slice(0, split.n_massive), slice(split.n_massive, Q.shape[0])
     if split.n_massless:
-        G = np.linalg.solve(K[c, c], K[c, m])  # z_c = −G z_m (+ K_cc⁻¹ F̃_c δf)
+        K_cc = Factorization((), (), Q.shape[0] - split.n_massive, kind="dense").factor(K[c, c])
+        G = K_cc.solve(K[c, m])  # z_c = −G z_m (+ K_cc⁻¹ F̃_c δf)
         K_r = K[m, m] - K[m, c] @ G
         C_r = C[m, m] - C[m, c] @ G
         T = Q[:, m] - Q[:, c] @ G
@@ -256,7 +258,7 @@ def reduce(lin: Linearisation) -> Reduced:
         Ft = Q.T @ F
         if not split.n_massless:
             return Ft[m], np.zeros_like(F)
-        Fc = np.linalg.solve(K[c, c], Ft[c])
+        Fc = K_cc.solve(Ft[c])  # the factors of K_cc, held
         return Ft[m] - K[m, c] @ Fc, Q[:, c] @ Fc
 
     return Reduced(0.5 * (M[m, m] + M[m, m].T), C_r, K_r, T, Q, split.n_massive, condense)
@@ -471,7 +473,7 @@ def steady_state(prepared, tol: float = 1e-10, max_iter: int = 40):
             _spin(model, state, rate, point)
             residual = assembler.evaluate(state, matrices=False).residual
             lin = linearise(assembler, state, spun)
-            dx = np.linalg.solve(lin.stiffness, -residual)
+            dx = solve_linear(lin.stiffness, -residual)
             if not np.all(np.isfinite(dx)):
                 return None, iteration
             state = assembler.advance(state, dx)

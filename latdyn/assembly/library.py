@@ -1,8 +1,9 @@
 """The native boundary: the runtime's C library (``csrc/newton_step.c``, which inlines the one
-evaluation of ``csrc/evaluate.c`` and the sparse LU of ``csrc/sparse_lu.c``), built once into the
-kernel cache by :mod:`latdyn.native`, and the ctypes mirrors of its C structs (``Model``, ``Work``,
-``Configuration``, ``EvaluationControl``, ``Vectors``, ``StepControl``, ``Advance``,
-``SparseLUStructure``).
+evaluation of ``csrc/evaluate.c`` and the one LU factorization of ``csrc/factorization.c`` with the
+sparse LU of ``csrc/sparse_lu.c``), built once into the kernel cache by :mod:`latdyn.native`, the
+ctypes mirrors of its C structs (``Model``, ``Work``, ``Configuration``, ``EvaluationControl``,
+``Vectors``, ``StepControl``, ``Advance``, ``Factorization``, ``SparseLU``) and the signatures of
+its exported functions (``latdyn_factor`` and ``latdyn_solve`` among them).
 
 Every struct the C side reads is declared here and nowhere else on the Python side;
 ``tests/test_engine.py`` checks their sizes and offsets against the compiler's.
@@ -31,6 +32,14 @@ class SparseLUStructure(ctypes.Structure):
                 ("failed_column", I64), ("failed_ratio", ctypes.c_double)]
 
 
+class FactorizationStructure(ctypes.Structure):
+    """``Factorization`` of csrc/factorization.c: the storage of one LU (kind 0 dense, 1 band, 2 sparse)."""
+
+    _fields_ = [("n", I64), ("kind", I64), ("kl", I64), ("ku", I64), ("ldab", I64), ("size", I64),
+                ("permutation", P), ("getrf", P), ("getrs", P), ("gbtrf", P), ("gbtrs", P),
+                ("sparse_lu", ctypes.POINTER(SparseLUStructure)), ("get_blas_threads", P), ("set_blas_threads", P)]
+
+
 class ModelData(ctypes.Structure):
     _fields_ = [(name, I64) for name in ("n_nodes", "n_hinges", "n_elements", "n_bodies", "n_loads", "n_dofs",
                                           "n_total")] + [
@@ -45,17 +54,15 @@ class ModelData(ctypes.Structure):
         ("load_node", P), ("load_force_law", P), ("load_moment_law", P), ("load_frame_node", P), ("load_r", P),
         ("gravity", ctypes.c_double * 3), ("has_gravity", I64),
         ("element_position", P), ("body_position", P), ("hinge_position", P), ("load_position", P),
-        ("band", I64), ("kl", I64), ("ku", I64), ("ldab", I64), ("matrix_size", I64), ("permutation", P),
+        ("factorization", ctypes.POINTER(FactorizationStructure)),
         ("internal_force", P), ("internal_force_D_q", P), ("mass_matrix", P), ("quadratic_velocity", P),
         ("quadratic_velocity_D_qdot", P), ("gravity_load", P), ("strain_energy", P), ("kinetic_energy", P),
         ("joint_body", P), ("point_load", P), ("body_section", P), ("hinged_end", P), ("element_ends", P), ("hinge_force", P), ("so3_exp", P),
-        ("getrf", P), ("getrs", P), ("gbtrf", P), ("gbtrs", P),
         ("parallel_elements", I64), ("threads", I64),
         ("node_colour", P), ("hinge_node", P), ("n_colours", I64),
         ("time_laws", P), ("hinge_laws", P),
         ("hinge_stiffness_law", P), ("hinge_damping_law", P), ("hinge_torque_hinge_law", P), ("hinge_conservative", P),
         ("hinge_lock_at", P), ("hinge_lower_stop", P), ("hinge_upper_stop", P), ("has_events", I64),
-        ("sparse_lu", ctypes.POINTER(SparseLUStructure)), ("get_blas_threads", P), ("set_blas_threads", P),
         ("section_width", I64), ("complete_links", P), ("reduce_links", P),
     ]
 
@@ -169,6 +176,11 @@ def native_library() -> ctypes.CDLL:
         library.latdyn_advance_free.argtypes = [model, configuration, P]
         library.latdyn_prescribe.restype = None
         library.latdyn_prescribe.argtypes = [model, work, configuration, ctypes.c_double]
+        factorization = ctypes.POINTER(FactorizationStructure)
+        library.latdyn_factor.restype = I64
+        library.latdyn_factor.argtypes = [factorization, P, P]
+        library.latdyn_solve.restype = I64
+        library.latdyn_solve.argtypes = [factorization, P, P, I64, P]
         library.latdyn_newton_step.restype = I64
         library.latdyn_newton_step.argtypes = [model, work, ctypes.POINTER(ControlData), configuration,
                                                configuration, ctypes.POINTER(VectorsData)]

@@ -1,4 +1,7 @@
-"""Linear solves of the Newton iteration matrix, and the null direction of a PSD pencil.
+"""The policy of the linear solves (storage by size and bandwidth, RCM order, BLAS threads), and the
+null direction of a PSD pencil.  The solves themselves are the one factorization of
+:mod:`latdyn.assembly.factorization` (C: ``csrc/factorization.c``), for the compiled step and the
+analyses alike; the tables below chose its limits.
 
 Policy, chosen by measurement: ``python benchmarks/linear_solvers.py``, full
 table in benchmarks/results/linear_solvers.json.  AMD EPYC, 2 cores of a KVM
@@ -40,9 +43,12 @@ two — but the choices below hold in each of the three full runs.)
   a busier run 0.29 → 216 ms; the band solve of lattice 260: 3.1 → 321 ms).
   Unloaded, these sizes are still too small for two threads to pay.  SuperLU
   does not use threaded BLAS here (1 and 2 threads time alike).  The pin is
-  taken and released around each call through threadpoolctl when it is
-  installed (≈1 µs), so the caller's BLAS setting is untouched; without
-  threadpoolctl nothing is pinned.
+  taken and released around each factorization and solve, in C
+  (``csrc/factorization.c``, through the OpenBLAS functions that
+  :func:`openblas_thread_functions` finds with threadpoolctl), so the caller's
+  BLAS setting is untouched; without threadpoolctl nothing is pinned.
+  :func:`single_thread_blas` does the same around the LAPACK calls left in
+  Python (the inertia count of static paths).
 * **Sparse: band LU when the reverse Cuthill–McKee bandwidth is small, else
   SuperLU.**  A chain of beams has bandwidth 11 after RCM whatever its length,
   and LAPACK's band LU (partial pivoting) beats every SuperLU variant 1.5–2×.
@@ -60,18 +66,19 @@ two — but the choices below hold in each of the three full runs.)
   into the permuted CSC matrix and factorized in that order (SuperLU has no
   separate symbolic step; skipping its ordering saves 1.2–3×).
 
-**The compiled step beyond the band: a supernodal sparse LU in C.**  The analyses driven from
-Python keep SuperLU (above; so does the reference step of tests/reference_step.py); the compiled step (latdyn/step/compiled.py) factorizes a matrix whose
-RCM bandwidth exceeds BAND_LIMIT with ``csrc/sparse_lu.c``: minimum degree on the node graph
-and a supernodal symbolic analysis once per pattern (:mod:`latdyn.step.sparse_lu`), the matrix
+**Beyond the band: a supernodal sparse LU in C.**  SuperLU (above) was the analyses' solver
+until the factorization was made one (:mod:`latdyn.assembly.factorization`); now every matrix
+whose RCM bandwidth exceeds BAND_LIMIT, the compiled step's (latdyn/step/compiled.py) and the
+analyses' alike, is factorized with ``csrc/sparse_lu.c``: minimum degree on the node graph
+and a supernodal symbolic analysis once per pattern (:mod:`latdyn.assembly.sparse_lu`), the matrix
 assembled straight into the factor storage, a left-looking supernodal LU without pivoting
 (BLAS dgemm/dtrsm blocks, every pivot checked against its row's and column's scale) and the
 substitutions in C.  ``python benchmarks/sparse_lu.py --compare-band``, results in
 benchmarks/results/sparse_lu.json: same 2-core AMD EPYC, load average 0.7 → 2.9 during the
 run (another job took one core), OpenBLAS pinned to one thread; 3D lattices as above.  Fill:
 nonzeros of L + U (the diagonal once); analysis: once per pattern; LU: one factorization and
-solve of S alone (C sparse LU: scatter + factor + solve; SuperLU: ``solve_linear``, scaled,
-order reused); Newton iteration: one iteration of a generalized-α step, everything included,
+solve of S alone (C sparse LU: scatter + factor + solve; SuperLU: scaled, order reused, as
+the analyses then solved); Newton iteration: one iteration of a generalized-α step, everything included,
 the element part serial in both steps (wall ms, fastest of 3 rounds of 4 steps):
 
     model          n      RCM   fill L+U (10³)   analysis  LU, ms              Newton iteration, ms
@@ -100,7 +107,7 @@ the element part serial in both steps (wall ms, fastest of 3 rounds of 4 steps):
   size), and the sparse LU wins from 141 on (×1.7 there, ×2.6 at 434); the band LU pivots
   (partial pivoting: no pivot can fail), so it keeps the range where it ties.  Without
   pivoting the sparse LU relies on the β′M-dominated diagonal; a pivot smaller than 1e-10 of
-  its row's and column's largest entry (:data:`latdyn.step.sparse_lu.PIVOT_TOLERANCE`) fails the
+  its row's and column's largest entry (:data:`latdyn.assembly.sparse_lu.PIVOT_TOLERANCE`) fails the
   factorization, and the step is reported not converged, like a singular band LU.
 * **OpenBLAS on one thread in the compiled step too** (``openblas_thread_functions``: the
   compiled factorization sets and restores SciPy's OpenBLAS thread count around dense, band and
@@ -110,10 +117,11 @@ the element part serial in both steps (wall ms, fastest of 3 rounds of 4 steps):
   this, the compiled band LU ran unpinned too: lattice of 120 elements 30–120 ms an iteration
   against 4.6 ms pinned, under load.
 
-``solve_linear(matrix, rhs)`` dispatches on the matrix: a NumPy array is
-solved densely; a SciPy sparse matrix densely when n ≤ DENSE_LIMIT, else as
-above.  ``Assembler.assemble`` returns a dense array exactly when
-n ≤ DENSE_LIMIT, so the iteration matrix is assembled in the form it is solved in.
+``latdyn.assembly.factorization.solve_linear(matrix, rhs)`` dispatches on the matrix: a NumPy
+array is solved densely; a SciPy sparse matrix densely when n ≤ DENSE_LIMIT, else band or
+sparse LU as above (natively, BLAS held to one thread in C).  ``Assembler.assemble`` returns a
+dense array exactly when n ≤ DENSE_LIMIT, so the iteration matrix is assembled in the form it is
+solved in.
 
 ``psd_null_direction(A)`` finds a direction x with xᵀAx ≈ 0 for a sparse
 symmetric positive semi-definite A with unit diagonal (the held-coordinate
@@ -123,24 +131,23 @@ eigen-solve (10⁴ coordinates: 13 ms for a beam, 51 ms for a 3D lattice).
 """
 from __future__ import annotations
 
-from collections import OrderedDict
 from contextlib import contextmanager
 
 import numpy as np
 import scipy.sparse as sps
 
-# scipy.sparse.linalg (SuperLU), scipy.sparse.csgraph (RCM) and scipy.linalg.lapack (band LU)
-# are imported where they are used: the compiled step of a small model needs none of them.
+# scipy.sparse.linalg (SuperLU, psd_null_direction) and scipy.sparse.csgraph (RCM) are imported
+# where they are used: the compiled step of a small model needs neither.
 
 #: Models with at most this many free coordinates use dense matrices and LU.
 DENSE_LIMIT = 120
 
 #: Sparse systems whose half-bandwidth after reverse Cuthill–McKee is at most
-#: this use LAPACK band LU; wider ones SuperLU in the analyses driven from Python and the
-#: supernodal sparse LU of csrc/sparse_lu.c in the compiled step.
+#: this use LAPACK band LU; wider ones the supernodal sparse LU of csrc/sparse_lu.c
+#: (latdyn.assembly.factorization, for the compiled step and the analyses alike).
 BAND_LIMIT = 100
 
-#: SuperLU options: minimum degree on AᵀA + A, diagonal pivots preferred.
+#: SuperLU options (psd_null_direction): minimum degree on AᵀA + A, diagonal pivots preferred.
 SUPERLU_OPTIONS = {"diag_pivot_thresh": 0.1, "options": {"SymmetricMode": True}}
 
 
@@ -211,122 +218,6 @@ def use_dense(n: int) -> bool:
     return n <= DENSE_LIMIT
 
 
-def solve_linear(matrix, rhs: np.ndarray) -> np.ndarray:
-    """Solve ``matrix @ x = rhs``: dense LU for arrays and small systems, band LU or
-    SuperLU beyond (see the module docstring).  Raises ``np.linalg.LinAlgError``
-    or ``RuntimeError`` for a singular matrix."""
-    rhs = np.asarray(rhs, float)
-    if isinstance(matrix, np.ndarray):
-        with single_thread_blas():
-            return np.linalg.solve(matrix, rhs)
-    if use_dense(matrix.shape[0]):
-        with single_thread_blas():
-            return np.linalg.solve(matrix.toarray(), rhs)
-    A = matrix if matrix.format == "csr" else matrix.tocsr()
-    if not A.has_canonical_format:
-        A = A.copy()
-        A.sum_duplicates()
-    return _plan_for(A).solve(A, rhs)
-
-
-class _Plan:
-    """The symbolic analysis of one sparsity pattern (CSR indptr/indices), reused."""
-
-    def __init__(self, A):
-        n = A.shape[0]
-        self.n = n
-        self.indptr = A.indptr.copy()
-        self.indices = A.indices.copy()
-        self.rows = np.repeat(np.arange(n), np.diff(A.indptr))
-        on_diagonal = np.flatnonzero(self.rows == self.indices)
-        self.diagonal = np.full(n, -1, dtype=np.int64)  # position of (i, i) in the values, or −1
-        self.diagonal[self.rows[on_diagonal]] = on_diagonal
-        perm, new, lower, upper = rcm_band(self.rows, A.indices, n)
-        i, j = new[self.rows], new[A.indices]
-        self.bandwidth = max(lower, upper)
-        if self.bandwidth <= BAND_LIMIT:
-            self.kind = "band"
-            self.perm, self.lower, self.upper = perm, lower, upper
-            # LAPACK gbsv storage: row kl + ku + i − j of a (2kl + ku + 1) × n array
-            self.band_rows = lower + upper + i - j
-            self.band_cols = j
-        else:
-            self.kind = "superlu"
-            self.order = None  # set by the first factorization
-
-    def solve(self, A, rhs):
-        if self.kind == "band":
-            return self._band(A, rhs)
-        return self._superlu(A, rhs)
-
-    def _band(self, A, rhs):
-        ab = np.zeros((2 * self.lower + self.upper + 1, self.n))
-        ab[self.band_rows, self.band_cols] = A.data
-        b = rhs[self.perm]
-        with single_thread_blas():
-            _, _, x, info = _gbsv(self.lower, self.upper, ab, b, overwrite_ab=1, overwrite_b=1)
-        if info != 0:
-            raise np.linalg.LinAlgError(f"band LU: singular matrix (gbsv info {info})")
-        out = np.empty_like(x)
-        out[self.perm] = x
-        return out
-
-    def _superlu(self, A, rhs):
-        """SuperLU on D A D, D = |diag A|^(-1/2): unit diagonal, so that threshold pivoting
-        keeps to the diagonal and the symmetric ordering's fill (lattice of 6210
-        coordinates: 2.1 M nonzeros in L + U against 4.9 M unscaled, 5× faster)."""
-        d = np.ones(self.n)
-        has = self.diagonal >= 0
-        d[has] = np.abs(A.data[self.diagonal[has]])
-        d[~(d > 0) | ~np.isfinite(d)] = 1.0
-        s = 1.0 / np.sqrt(d)
-        data = A.data * s[self.rows] * s[self.indices]
-        b = s * rhs
-        if self.order is None:
-            import scipy.sparse.linalg as spla
-
-            C = sps.csr_matrix((data, self.indices, self.indptr), shape=A.shape).tocsc()
-            lu = spla.splu(C, permc_spec="MMD_AT_PLUS_A", **SUPERLU_OPTIONS)
-            self._remember_order(A.shape, lu.perm_c)
-            return s * lu.solve(b)
-        import scipy.sparse.linalg as spla
-
-        B = sps.csc_matrix((data[self.order], self.B_indices, self.B_indptr), shape=A.shape)
-        lu = spla.splu(B, permc_spec="NATURAL", **SUPERLU_OPTIONS)
-        out = np.empty(self.n)
-        out[self.inverse] = lu.solve(b[self.inverse])
-        return s * out
-
-    def _remember_order(self, shape, perm_c):
-        """B = P A Pᵀ in CSC with the first factorization's column order (old column c
-        goes to place perm_c[c]), and the map from A's CSR values to B's CSC values."""
-        inverse = np.empty_like(perm_c)
-        inverse[perm_c] = np.arange(len(perm_c))  # place -> old index
-        nnz = len(self.indices)
-        tag = sps.csr_matrix((np.arange(1, nnz + 1, dtype=float), self.indices, self.indptr), shape=shape)
-        B = tag[inverse][:, inverse].tocsc()
-        B.sort_indices()
-        self.order = B.data.astype(np.int64) - 1
-        self.B_indices, self.B_indptr = B.indices.copy(), B.indptr.copy()
-        self.inverse = inverse
-
-
-def _gbsv(*args, **options):
-    """LAPACK's band LU solve (``scipy.linalg.lapack`` ``dgbsv``, looked up on first use)."""
-    if not _GBSV:
-        from scipy.linalg import lapack
-
-        _GBSV.append(lapack.get_lapack_funcs("gbsv", (np.zeros(1),)))
-    return _GBSV[0](*args, **options)
-
-
-_GBSV: list = []
-
-
-_plans: "OrderedDict[tuple, list[_Plan]]" = OrderedDict()
-_MAX_PLANS = 4  # the iteration matrix, the mass and massless blocks, one spare
-
-
 def rcm_band(rows: np.ndarray, cols: np.ndarray, n: int):
     """Reverse Cuthill–McKee order of the pattern (rows, cols) of an n × n matrix:
     (perm, new, lower, upper) with ``perm`` the old index at each new place, ``new`` its
@@ -339,21 +230,6 @@ def rcm_band(rows: np.ndarray, cols: np.ndarray, n: int):
     new[perm] = np.arange(n)
     i, j = new[rows], new[cols]
     return perm, new.astype(np.int64), int(np.max(i - j, initial=0)), int(np.max(j - i, initial=0))
-
-
-def _plan_for(A) -> _Plan:
-    """The cached plan of A's pattern (compared exactly), made on first sight."""
-    key = (A.shape[0], A.nnz)
-    for plan in _plans.get(key, ()):
-        if np.array_equal(plan.indptr, A.indptr) and np.array_equal(plan.indices, A.indices):
-            _plans.move_to_end(key)
-            return plan
-    plan = _Plan(A)
-    _plans.setdefault(key, []).append(plan)
-    _plans.move_to_end(key)
-    while sum(len(v) for v in _plans.values()) > _MAX_PLANS:
-        _plans.popitem(last=False)
-    return plan
 
 
 # ----------------------------------------------------------------------------- null directions
@@ -401,5 +277,5 @@ def psd_null_direction(A, tol: float = 1e-10, shift: float = 1e-9, iterations: i
     return rho, x / np.max(np.abs(x))
 
 
-__all__ = ["DENSE_LIMIT", "BAND_LIMIT", "use_dense", "solve_linear", "single_thread_blas", "openblas_thread_functions",
+__all__ = ["DENSE_LIMIT", "BAND_LIMIT", "use_dense", "rcm_band", "single_thread_blas", "openblas_thread_functions",
            "psd_null_direction"]

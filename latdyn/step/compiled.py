@@ -6,13 +6,13 @@
 generator, :mod:`codegen.laws`, or called back in Python where a law does not print in C:
 :mod:`latdyn.assembly.native_model`), the configuration update on SO(3) with prescribed motion,
 the one evaluation of ``csrc/evaluate.c`` that every analysis uses (generated kernels through
-function pointers), the scatter of S = β′M + γ′C + K into a preallocated matrix, LAPACK's LU
-(dense ``getrf``, or banded ``gbtrf`` after a reverse Cuthill–McKee ordering, as
-:mod:`latdyn.numerics.linalg` chooses; the function pointers are SciPy's ``cython_lapack``) or,
-for matrices too wide for a band, the supernodal sparse LU of ``csrc/sparse_lu.c`` (analysis
-once per pattern in :mod:`latdyn.step.sparse_lu`), and the convergence test. The model's arrays
-and buffers are the assembler's :class:`~latdyn.assembly.native_model.NativeModel`; this module
-adds the iteration matrix's storage and the step's own structs.
+function pointers), the scatter of S = β′M + γ′C + K into a preallocated matrix, the one LU
+factorization of ``csrc/factorization.c`` (dense or banded LAPACK, or the supernodal sparse LU
+of ``csrc/sparse_lu.c``; storage, order and analysis chosen once per pattern by
+:class:`latdyn.assembly.factorization.Factorization`, the class the analyses driven from Python
+solve with), and the convergence test. The model's arrays and buffers are the assembler's
+:class:`~latdyn.assembly.native_model.NativeModel`; this module adds the iteration matrix's
+storage (:attr:`CompiledGeneralizedAlpha.factorization`) and the step's own structs.
 
 :meth:`CompiledGeneralizedAlpha.advance` takes the steps from one recorded row to the next in
 one call (``latdyn_advance``): each step on the time grid as ``step`` takes it, accepted as
@@ -58,34 +58,18 @@ import numpy as np
 import scipy.sparse as sps
 
 from latdyn.assembly.assembler import State
+from latdyn.assembly.factorization import Factorization
 from latdyn.assembly.library import (
     AdvanceData,
     ConfigurationData,
     ControlData,
     VectorsData,
-    lapack_address,
     native_library,
     parallel_threshold,
 )
 from latdyn.assembly.linked import reduce_linked
 from latdyn.assembly.native_model import INERTIA_TANGENT_STEP, STATE_FIELDS
-from latdyn.numerics.linalg import (
-    BAND_LIMIT,
-    DENSE_LIMIT,
-    openblas_thread_functions,
-    rcm_band,
-)
 from latdyn.step.integrators import GeneralizedAlpha, StepStats
-from latdyn.step.sparse_lu import SupernodalAnalysis, blas_kernels
-
-# ----------------------------------------------------------------------------- availability
-
-
-def _band_plan(rows, cols, n):
-    """RCM order of the iteration matrix's pattern (:func:`latdyn.numerics.linalg.rcm_band`):
-    (bandwidth, new index of each coordinate, lower, upper)."""
-    _, new, lower, upper = rcm_band(rows, cols, n)
-    return max(lower, upper), new, lower, upper
 
 
 def matrix_pattern(assembler) -> tuple[np.ndarray, np.ndarray]:
@@ -198,6 +182,9 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         #: before each call into C that steps, on a rebuild of the buffers, on a restore
         self._factor_version = 0
         self._native = self._setup_for = None
+        #: the iteration matrix's storage and LU (set up with the native model): after a step that
+        #: factorized, its ``solve`` solves with the factors the step held
+        self.factorization = None
         self._library = native_library()
         self._last_trial = self._mass_for = None
         self._made = None  # (the last state made, its C view, the C view of its base)
@@ -236,44 +223,19 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         self._run_ref = ctypes.byref(self._run)
 
     def _hold_matrix(self, native) -> None:
-        """The iteration matrix's storage in the native model: dense below DENSE_LIMIT coordinates,
-        else banded after a reverse Cuthill–McKee ordering, or the supernodal sparse LU when the band
-        is wider than BAND_LIMIT (latdyn/numerics/linalg.py), with every block entry's position in it."""
+        """The iteration matrix's storage in the native model: a :class:`Factorization` of the
+        matrix's pattern (dense, band or sparse, as :mod:`latdyn.numerics.linalg` chooses) whose
+        values and pivots are Work's ``matrix`` and ``pivots``, with every block entry's position in it."""
         a, m = self.assembler, self.assembler.model
         n = m.n_dofs
-        pattern_rows, pattern_cols = matrix_pattern(a)
-        keep = []
+        factorization = Factorization(*matrix_pattern(a), n)
+        position = factorization.position
+        keep = [factorization]
 
         def ints(values):
             array = np.ascontiguousarray(values, dtype=np.int64)
             keep.append(array if array.size else np.zeros(1, np.int64))
             return keep[-1].ctypes.data
-
-        dense = n <= DENSE_LIMIT
-        if dense:
-            new = np.arange(n, dtype=np.int64)
-            kl = ku = 0
-            ldab = n
-            size = n * n
-
-            def position(rows, cols):
-                return np.where((rows < n) & (cols < n), rows + cols * n, -1)
-        else:
-            bandwidth, new, kl, ku = _band_plan(pattern_rows, pattern_cols, n)
-            ldab = 2 * kl + ku + 1
-            size = ldab * n
-
-            def position(rows, cols):
-                ok = (rows < n) & (cols < n)
-                i = new[np.where(ok, rows, 0)]
-                j = new[np.where(ok, cols, 0)]
-                return np.where(ok, (kl + ku + i - j) + j * ldab, -1)
-        sparse_lu = None
-        if not dense and bandwidth > BAND_LIMIT:  # the supernodal LU of csrc/sparse_lu.c (linalg.py)
-            analysis = SupernodalAnalysis(pattern_rows, pattern_cols, n)
-            sparse_lu = analysis.structure(*blas_kernels())
-            keep.append(analysis)
-            new, kl, ku, ldab, size, position = analysis.new, 0, 0, 0, max(analysis.size, 1), analysis.position
 
         def block_positions(dofs, column_dofs=None):
             column_dofs = dofs if column_dofs is None else column_dofs
@@ -287,20 +249,14 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         model.body_position = ints(block_positions(m.node_dofs[m.body_nodes].reshape(-1, 6)))
         model.hinge_position = ints(np.where(hd < n, position(hd, hd), -1))
         model.load_position = ints(block_positions(m.node_dofs[a._load_nodes].reshape(-1, 6), a._load_columns()))
-        model.band, model.kl, model.ku, model.ldab = int(not dense and sparse_lu is None), kl, ku, ldab
-        model.matrix_size, model.permutation = size, ints(new)
-        model.getrf, model.getrs = lapack_address("dgetrf"), lapack_address("dgetrs")
-        model.gbtrf, model.gbtrs = lapack_address("dgbtrf"), lapack_address("dgbtrs")
-        model.sparse_lu = ctypes.pointer(sparse_lu) if sparse_lu is not None else None
-        blas_threads = openblas_thread_functions()
-        model.get_blas_threads = blas_threads[0] if blas_threads[1] else None
-        model.set_blas_threads = blas_threads[1]
-        native.set_buffer("matrix", np.zeros(size))
+        model.factorization = ctypes.pointer(factorization.structure)
+        native.set_buffer("matrix", factorization.values)
         native.set_buffer("rhs", np.zeros(n))
-        native.set_buffer("pivots", np.zeros(max(n, 1), np.int32))
+        native.set_buffer("pivots", factorization.pivots)
         if m.links is not None:
-            keep.append(LinkedReduction(a, native, dense, position))
+            keep.append(LinkedReduction(a, native, factorization.kind == "dense", position))
         native.matrix_storage = keep
+        self.factorization = factorization
         self._links = keep[-1] if m.links is not None else None
 
     def _layout(self) -> None:

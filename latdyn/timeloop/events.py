@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from latdyn.assembly.assembler import State, free_velocity, pack, unpack_free
+from latdyn.assembly.factorization import solve_linear
 from latdyn.assembly.prepare import Prepared
 from latdyn.model.model import Model
 
@@ -68,9 +69,6 @@ def stop_crossings(model: Model, old: State, new: State) -> list[tuple[int, int,
 
 def hinge_stops(prepared: Prepared, integrator, new: State) -> bool:
     """Impacts on hinge stops at the end of an accepted step (see above); True when any."""
-    import scipy.sparse as sps
-    from scipy.sparse.linalg import splu
-
     model, assembler = prepared.model, prepared.assembler
     hits, stops = [], []
     for k in model.free_hinges:
@@ -88,16 +86,16 @@ def hinge_stops(prepared: Prepared, integrator, new: State) -> bool:
     A = assembler.evaluate(new, matrices=True).combined(1.0, 0.0, dt * dt)
     N = np.zeros((model.n_dofs, len(hits)))
     N[model.hinge_dofs[hits], np.arange(len(hits))] = 1.0
-    AiN = np.linalg.solve(A, N) if isinstance(A, np.ndarray) else splu(sps.csc_matrix(A)).solve(N)
+    AiN = solve_linear(A, N)
     NtAiN = N.T @ AiN
     # the same projection onto the stops for the configuration: what is rigid at the scale of
     # the step moves with the hinge, so that no strain is made
-    moved = assembler.advance(new, -AiN @ np.linalg.solve(NtAiN, new.theta[hits] - np.array(stops)))
+    moved = assembler.advance(new, -AiN @ solve_linear(NtAiN, new.theta[hits] - np.array(stops)))
     for name in ("x", "T", "theta"):  # in place: the compiled step may view this state's arrays
         np.copyto(getattr(new, name), getattr(moved, name))
     new.theta[hits] = stops
     v = free_velocity(model, new)
-    unpack_free(model, v - AiN @ np.linalg.solve(NtAiN, N.T @ v - target), new.v, new.w, new.theta_dot)
+    unpack_free(model, v - AiN @ solve_linear(NtAiN, N.T @ v - target), new.v, new.w, new.theta_dot)
     # the hinge's acceleration into the stop ends with the impact
     if getattr(integrator, "a", None) is not None:  # the explicit step keeps no algorithmic acceleration
         integrator.a[model.hinge_dofs[hits]] = 0.0
@@ -124,8 +122,8 @@ def latch_hinges(prepared: Prepared, integrator, old: State, new: State, h: floa
     Nmat = np.zeros((model.n_dofs, len(latched)))
     for j, k in enumerate(latched):
         Nmat[model.hinge_dofs[k], j] = 1.0
-    AiN = np.linalg.solve(A, Nmat)
-    lam = np.linalg.solve(Nmat.T @ AiN, Nmat.T @ v)
+    AiN = solve_linear(A, Nmat)
+    lam = solve_linear(Nmat.T @ AiN, Nmat.T @ v)
     v = v - AiN @ lam
     unpack_free(model, v, new.v, new.w, new.theta_dot)
     # carry the algorithmic acceleration across the renumbering

@@ -33,7 +33,7 @@
 #include <omp.h>
 #endif
 
-#include "sparse_lu.c" /* the sparse LU's structure, which the Model points to */
+#include "factorization.c" /* the iteration matrix's storage and LU, which the Model points to */
 typedef void (*kernel_2_1)(int64_t, const double *, const double *, double *);
 typedef void (*kernel_2_2)(int64_t, const double *, const double *, double *, double *);
 typedef void (*kernel_3_1)(int64_t, const double *, const double *, const double *, double *);
@@ -49,10 +49,6 @@ typedef void (*kernel_hinged_end)(int64_t, const double *, const double *, doubl
 typedef void (*kernel_hinge_force)(int64_t, const double *, const double *, double *, double *, double *, double *,
                                    double *);
 typedef void (*kernel_so3_exp)(int64_t, const double *, double *);
-typedef void (*lapack_getrf)(int *, int *, double *, int *, int *, int *);
-typedef void (*lapack_getrs)(char *, int *, int *, double *, int *, int *, double *, int *, int *);
-typedef void (*lapack_gbtrf)(int *, int *, int *, int *, double *, int *, int *, int *);
-typedef void (*lapack_gbtrs)(char *, int *, int *, int *, int *, double *, int *, int *, double *, int *, int *);
 
 /* A configuration: all nodes and hinges. */
 typedef struct {
@@ -87,14 +83,13 @@ typedef struct {
     const double *load_r;
     double gravity[3];
     int64_t has_gravity;
-    /* matrix positions of the block entries (dense or band storage), -1: constrained */
+    /* matrix positions of the block entries (dense, band or sparse storage), -1: constrained */
     const int64_t *element_position; /* (n_elements, 14, 14) */
     const int64_t *body_position;    /* (n_bodies, 6, 6) */
     const int64_t *hinge_position;   /* (n_hinges) diagonal entry */
     const int64_t *load_position;    /* (n_loads, 6, 6): the node's rows × its rotations, then its frame body's */
-    /* linear algebra: band storage when kl > 0 ... or kl == ku == -1 for dense */
-    int64_t band, kl, ku, ldab, matrix_size;
-    const int64_t *permutation; /* new index of each free coordinate */
+    /* the iteration matrix's storage and LU (factorization.c) */
+    const Factorization *factorization;
     /* kernels */
     kernel_2_1 internal_force;
     kernel_2_2 internal_force_D_q;
@@ -111,10 +106,6 @@ typedef struct {
     const double *element_ends; /* (n_elements, 2, 16): a[3] r[3] E0[9] theta, the hinged_end kernel's input */
     kernel_hinge_force hinge_force;
     kernel_so3_exp so3_exp; /* exp(skew w), the generated kernel (codegen/joints.py) */
-    lapack_getrf getrf;
-    lapack_getrs getrs;
-    lapack_gbtrf gbtrf;
-    lapack_gbtrs gbtrs;
     /* threads (see the header): element count from which the element part runs in parallel
      * (0: never), and the number of threads (0: OpenMP's default) */
     int64_t parallel_elements, threads;
@@ -135,12 +126,6 @@ typedef struct {
      * lower and upper stop of each hinge (NAN: none) */
     const double *hinge_lock_at, *hinge_lower_stop, *hinge_upper_stop;
     int64_t has_events;
-    /* the sparse LU (csrc/sparse_lu.c) when the matrix is too wide for a band LU, else NULL:
-     * the matrix storage is then its factor storage */
-    SparseLU *sparse_lu;
-    /* OpenBLAS's thread count of the library behind getrf/gbtrf/gemm/trsm (NULL: not pinned) */
-    int (*get_blas_threads)(void);
-    void (*set_blas_threads)(int);
     int64_t section_width; /* columns of element_sections (latdyn.model.SECTION_WIDTH) */
     /* models with rigid links (latdyn/assembly/linked.py; NULL without): complete_links places the
      * dependent nodes of a configuration and completes their rates after every configuration update;
@@ -162,7 +147,7 @@ typedef struct {
     double *load_blocks;                                       /* (l,6,6) */
     double *strain, *section_forces, *kinetic;                 /* (e) (e,4) (e) */
     double *total;                                             /* n_total + 1 */
-    double *matrix;                                            /* matrix_size */
+    double *matrix;                                            /* factorization->size */
     int *pivots;                                               /* n_dofs */
     double *rhs;                                               /* n_dofs */
     /* the inertia tangent: its blocks (e,14,14), the element forces at ± a perturbation (e,14)

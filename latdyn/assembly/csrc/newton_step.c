@@ -4,17 +4,17 @@
  *
  * Runtime code, written by hand: it holds no physics. Each Newton iteration configures the
  * trial state and evaluates the equations of motion with evaluate.c (the one evaluation every
- * analysis uses), scatters S = β′M + γ′C + K into a preallocated matrix, factorizes it with
- * LAPACK's LU (dense or banded, through SciPy's function pointers) or the supernodal sparse LU
- * of sparse_lu.c, and tests convergence on the invariant increment. latdyn/step/integrators.py
+ * analysis uses), scatters S = β′M + γ′C + K into a preallocated matrix, factorizes and solves it
+ * with factorization.c (the LU every analysis uses: dense or banded LAPACK, or the supernodal
+ * sparse LU of sparse_lu.c), and tests convergence on the invariant increment. latdyn/step/integrators.py
  * documents the scheme; latdyn/step/compiled.py drives it. latdyn_advance runs the time loop's
  * steps between two recorded rows (timeloop/transient.py) and hands back the first step that
  * the Python loop must handle (a Newton failure, a hinge event); tests/test_compiled_loop.py
  * holds it to the steps taken one by one from Python.
  *
- * Matrices are column-major for LAPACK; the matrix positions of the block entries are
- * precomputed by the caller (latdyn/step/compiled.py), for the dense, band or sparse storage
- * alike; -1 marks an entry on a constrained coordinate.
+ * The matrix positions of the block entries in the factorization's storage are precomputed by
+ * the caller (latdyn/step/compiled.py, latdyn/assembly/factorization.py), for the dense, band or
+ * sparse storage alike; -1 marks an entry on a constrained coordinate.
  */
 #define _POSIX_C_SOURCE 199309L /* clock_gettime: the wall-time budget of latdyn_advance */
 #include <time.h>
@@ -24,7 +24,7 @@
 /* S = β′M + γ′C + K scattered into the matrix storage (Evaluation.combined). */
 static void assemble(const Model *m, Work *w, double beta_p, double gamma_p, int with_inertia_tangent)
 {
-    memset(w->matrix, 0, sizeof(double) * m->matrix_size);
+    memset(w->matrix, 0, sizeof(double) * m->factorization->size);
     for (int64_t e = 0; e < m->n_elements; ++e) {
         const int64_t *pos = m->element_position + 196 * e;
         const double *K = w->tangent + 196 * e, *M = w->mass + 196 * e, *C = w->quadratic_D + 196 * e;
@@ -53,40 +53,13 @@ static void assemble(const Model *m, Work *w, double beta_p, double gamma_p, int
     }
 }
 
-/* The LU of the assembled matrix, with BLAS on one thread (latdyn/numerics/linalg.py: on a shared machine
- * a second OpenBLAS thread costs far more than it gains; the caller's setting is restored). */
-static int factor(const Model *m, Work *w)
-{
-    int n = (int)m->n_dofs, info = 0;
-    int threads = m->get_blas_threads ? m->get_blas_threads() : 1;
-    if (threads != 1) m->set_blas_threads(1);
-    if (m->sparse_lu) {
-        info = (int)latdyn_sparse_lu_factor(m->sparse_lu, w->matrix);
-    } else if (m->band) {
-        int kl = (int)m->kl, ku = (int)m->ku, ldab = (int)m->ldab;
-        m->gbtrf(&n, &n, &kl, &ku, w->matrix, &ldab, w->pivots, &info);
-    } else {
-        m->getrf(&n, &n, w->matrix, &n, w->pivots, &info);
-    }
-    if (threads != 1) m->set_blas_threads(threads);
-    return info;
-}
-
-/* dx = −S⁻¹ r in the permuted numbering of the factorization. */
+/* dx = −S⁻¹ r with the factors held in Work (factorization.c), through the factor's order. */
 static int solve(const Model *m, Work *w, const double *residual, double *dx)
 {
-    int n = (int)m->n_dofs, one = 1, info = 0;
-    char trans = 'N';
-    for (int64_t i = 0; i < m->n_dofs; ++i) w->rhs[m->permutation[i]] = -residual[i];
-    if (m->sparse_lu) {
-        latdyn_sparse_lu_solve(m->sparse_lu, w->matrix, w->rhs);
-    } else if (m->band) {
-        int kl = (int)m->kl, ku = (int)m->ku, ldab = (int)m->ldab;
-        m->gbtrs(&trans, &n, &kl, &ku, &one, w->matrix, &ldab, w->pivots, w->rhs, &n, &info);
-    } else {
-        m->getrs(&trans, &n, &one, w->matrix, &n, w->pivots, w->rhs, &n, &info);
-    }
-    for (int64_t i = 0; i < m->n_dofs; ++i) dx[i] = w->rhs[m->permutation[i]];
+    const int64_t *permutation = m->factorization->permutation;
+    for (int64_t i = 0; i < m->n_dofs; ++i) w->rhs[permutation[i]] = -residual[i];
+    int info = (int)latdyn_solve(m->factorization, w->matrix, w->pivots, 1, w->rhs);
+    for (int64_t i = 0; i < m->n_dofs; ++i) dx[i] = w->rhs[permutation[i]];
     return info;
 }
 
@@ -206,7 +179,7 @@ int64_t latdyn_newton_step(const Model *m, Work *w, StepControl *s, const Config
             if (!m->reduce_links) assemble(m, w, beta_p, gamma_p, (int)s->inertia_tangent);
             s->factorizations += 1;
             s->factored_h = 0.0;
-            if (factor(m, w) != 0) return 1;
+            if (latdyn_factor(m->factorization, w->matrix, w->pivots) != 0) return 1;
             s->factored_h = h;
             rebuild = 0;
         }

@@ -2,7 +2,7 @@
  * Sparse LU of a structurally symmetric matrix in a static, fill-reducing order, without
  * pivoting: supernodal and left-looking, with dense block kernels from BLAS.
  *
- * The symbolic analysis is made once per sparsity pattern, in Python (latdyn/step/sparse_lu.py):
+ * The symbolic analysis is made once per sparsity pattern, in Python (latdyn/assembly/sparse_lu.py):
  * a minimum-degree order of the node graph, the structure of L (U's is its transpose: the
  * pattern is symmetric), a partition of the columns into supernodes -- consecutive columns
  * with one row structure below their diagonal block -- and the position in the factor

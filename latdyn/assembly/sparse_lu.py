@@ -1,9 +1,9 @@
 """The symbolic analysis of the compiled sparse LU (``csrc/sparse_lu.c``), made once per pattern.
 
-The compiled step factorizes the Newton iteration matrix S = β′M + γ′C + K of a model too
-wide for a band LU (see :mod:`latdyn.numerics.linalg`) by a supernodal LU in C, in a static order and
-without pivoting.  Everything that depends only on the sparsity pattern is done here, once,
-in NumPy, and reused until the pattern changes (a hinge latches):
+A matrix too wide for a band LU (see :mod:`latdyn.numerics.linalg`) -- the compiled step's Newton
+iteration matrix S = β′M + γ′C + K, or any matrix an analysis solves with -- is factorized by a
+supernodal LU in C, in a static order and without pivoting.  Everything that depends only on
+the sparsity pattern is done here, once, in NumPy, and reused until the pattern changes (a hinge latches):
 
 1. *Nodes.*  Coordinates whose rows have the same pattern (the 6 of a node in 3D, the 3 of
    a planar node, a hinge's one) are indistinguishable: they are ordered together and form
@@ -21,20 +21,17 @@ in NumPy, and reused until the pattern changes (a hinge latches):
 4. *Positions.*  The offset in the factor storage (``csrc/sparse_lu.c`` describes it) of every
    entry (row, col) of S, so that the matrix is assembled straight into the factor.
 
-:class:`SparseLU` runs the C factorization on a SciPy matrix (tests, benchmarks).
+:class:`latdyn.assembly.factorization.Factorization` holds an analysis for a matrix too wide for a
+band LU and runs the C factorization (``csrc/factorization.c``) on it.
 """
 from __future__ import annotations
 
-import ctypes
 import heapq
 
 import numpy as np
 import scipy.sparse as sps
 
-from latdyn.assembly.library import SparseLUStructure, cython_address, native_library
-
-I64 = ctypes.c_int64
-P = ctypes.c_void_p
+from latdyn.assembly.library import SparseLUStructure, cython_address
 
 #: A pivot whose magnitude is at most this times the largest entry of its row and column in
 #: the matrix stops the factorization (csrc/sparse_lu.c): without pivoting, the factor would
@@ -264,7 +261,7 @@ class SupernodalAnalysis:
                 f"its row and column (at most {PIVOT_TOLERANCE:g}): the matrix is singular or needs pivoting")
 
 
-# ----------------------------------------------------------------------------- C entry points
+# ----------------------------------------------------------------------------- BLAS
 
 
 def blas_kernels() -> tuple[int, int]:
@@ -274,58 +271,4 @@ def blas_kernels() -> tuple[int, int]:
     return cython_address(blas, "dgemm"), cython_address(blas, "dtrsm")
 
 
-def _functions():
-    library = native_library()
-    factor, solve = library.latdyn_sparse_lu_factor, library.latdyn_sparse_lu_solve
-    factor.restype, factor.argtypes = I64, [ctypes.POINTER(SparseLUStructure), P]
-    solve.restype, solve.argtypes = None, [ctypes.POINTER(SparseLUStructure), P, P]
-    return factor, solve
-
-
-class SparseLU:
-    """The compiled sparse LU of a square SciPy sparse matrix: ``SparseLU(A).solve(b)``; the
-    analysis is reused by :meth:`refactor` for a matrix of the same pattern.  Raises
-    :class:`PivotError` when a pivot is unusable."""
-
-    def __init__(self, matrix):
-        A = sps.csr_matrix(matrix)
-        A.sum_duplicates()
-        n = A.shape[0]
-        rows = np.repeat(np.arange(n), np.diff(A.indptr))
-        self.analysis = SupernodalAnalysis(rows, A.indices, n)
-        self._indptr, self._indices = A.indptr.copy(), A.indices.copy()
-        self._positions = self.analysis.position(rows, A.indices)
-        self._structure = self.analysis.structure(*blas_kernels())
-        self._factor, self._solve = _functions()
-        self.values = np.zeros(max(self.analysis.size, 1))
-        self.refactor(A)
-
-    def refactor(self, matrix, single_thread: bool = True) -> "SparseLU":
-        """Factorize a matrix of the analysed pattern, BLAS on one thread unless told otherwise
-        (:func:`latdyn.numerics.linalg.single_thread_blas`, as the compiled step does)."""
-        from latdyn.numerics.linalg import single_thread_blas
-
-        A = sps.csr_matrix(matrix)
-        A.sum_duplicates()
-        if not (np.array_equal(A.indptr, self._indptr) and np.array_equal(A.indices, self._indices)):
-            raise ValueError("refactor: the matrix has another pattern than the analysed one")
-        self.values[:] = 0.0
-        self.values[self._positions] = A.data
-        if single_thread:
-            with single_thread_blas():
-                failed = self._factor(ctypes.byref(self._structure), self.values.ctypes.data)
-        else:
-            failed = self._factor(ctypes.byref(self._structure), self.values.ctypes.data)
-        if failed:
-            raise PivotError(self.analysis.pivot_failure())
-        return self
-
-    def solve(self, rhs: np.ndarray) -> np.ndarray:
-        x = np.ascontiguousarray(np.asarray(rhs, float)[self.analysis.perm])
-        self._solve(ctypes.byref(self._structure), self.values.ctypes.data, x.ctypes.data)
-        out = np.empty_like(x)
-        out[self.analysis.perm] = x
-        return out
-
-
-__all__ = ["PIVOT_TOLERANCE", "PivotError", "SparseLU", "SupernodalAnalysis", "minimum_degree", "blas_kernels"]
+__all__ = ["PIVOT_TOLERANCE", "PivotError", "SupernodalAnalysis", "minimum_degree", "blas_kernels"]

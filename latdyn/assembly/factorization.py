@@ -1,0 +1,182 @@
+"""The one LU factorization: of the compiled step's Newton iteration matrix and of every linear
+solve of the analyses driven from Python.
+
+:class:`Factorization` is made from a matrix's pattern (rows, cols, n) and chooses its storage as
+:mod:`latdyn.numerics.linalg` documents: dense up to ``DENSE_LIMIT`` coordinates (LAPACK
+getrf/getrs), else banded after a reverse Cuthill–McKee order while the bandwidth is at most
+``BAND_LIMIT`` (gbtrf/gbtrs), else the supernodal sparse LU of ``csrc/sparse_lu.c`` with its
+analysis made once per pattern (:mod:`latdyn.assembly.sparse_lu`). It holds the storage, the
+permutation into the factor's order, the pivots and :meth:`Factorization.position` (where an
+entry (row, col) of the matrix lies in the storage). Factorization and solves are the C functions
+``latdyn_factor`` and ``latdyn_solve`` of ``csrc/factorization.c``, with SciPy's LAPACK and BLAS
+behind them and OpenBLAS held to one thread around each call.
+
+The compiled step (:mod:`latdyn.step.compiled`) assembles its iteration matrix in C straight into
+a factorization's storage (its ``values`` and ``pivots`` are the step's Work buffers) and calls the
+same C functions; :meth:`Factorization.factor` and :meth:`Factorization.solve` do it from Python,
+for one or many right-hand sides with the factors held. :func:`solve_linear` factorizes and solves
+in one call, reusing the factorization (the analysis of its pattern) while the pattern lasts.
+"""
+from __future__ import annotations
+
+import ctypes
+from collections import OrderedDict
+
+import numpy as np
+import scipy.sparse as sps
+
+from latdyn.assembly.library import FactorizationStructure, lapack_address, native_library
+from latdyn.assembly.sparse_lu import PivotError, SupernodalAnalysis, blas_kernels
+from latdyn.numerics.linalg import BAND_LIMIT, DENSE_LIMIT, openblas_thread_functions, rcm_band
+
+#: The storages, in the order of csrc/factorization.c's ``kind``.
+KINDS = ("dense", "band", "sparse")
+
+
+class Factorization:
+    """The LU of n × n matrices with the pattern (rows, cols) (see the module docstring).
+
+    ``kind``: "dense", "band" or "sparse", chosen from n and the pattern unless given;
+    ``new[i]``: the place of coordinate i in the factor's order; ``values``: the storage of
+    ``size`` doubles, the matrix before :meth:`factor`, its factors after; ``pivots``: LAPACK's
+    row pivots (dense and band)."""
+
+    def __init__(self, rows, cols, n: int, kind: str | None = None):
+        rows, cols = np.asarray(rows, np.int64), np.asarray(cols, np.int64)
+        self.n, self.rows, self.cols = n, rows, cols
+        self.kl = self.ku = 0
+        self.analysis = None
+        if kind is None and n <= DENSE_LIMIT:
+            kind = "dense"
+        if kind != "dense":
+            _, new, kl, ku = rcm_band(rows, cols, n)
+            if kind is None:
+                kind = "band" if max(kl, ku) <= BAND_LIMIT else "sparse"
+        if kind == "dense":
+            self.new, self.ldab, self.size = np.arange(n, dtype=np.int64), n, n * n
+        elif kind == "band":
+            self.new, self.kl, self.ku = new, kl, ku
+            self.ldab = 2 * kl + ku + 1  # LAPACK gbtrf's storage, room for the fill of pivoting
+            self.size = self.ldab * n
+        elif kind == "sparse":
+            self.analysis = SupernodalAnalysis(rows, cols, n)
+            self.new, self.ldab, self.size = self.analysis.new, 0, max(self.analysis.size, 1)
+        else:
+            raise ValueError(f"Factorization: kind {kind!r}, not one of {KINDS}")
+        self.kind = kind
+        self.values = np.zeros(self.size)
+        self.pivots = np.zeros(max(n, 1), np.int32)
+        self._pattern_positions = None
+        self._permutation = self.new if n else np.zeros(1, np.int64)
+        blas_threads = openblas_thread_functions()
+        self.structure = FactorizationStructure(
+            n=n, kind=KINDS.index(kind), kl=self.kl, ku=self.ku, ldab=self.ldab, size=self.size,
+            permutation=self._permutation.ctypes.data,
+            getrf=lapack_address("dgetrf"), getrs=lapack_address("dgetrs"),
+            gbtrf=lapack_address("dgbtrf"), gbtrs=lapack_address("dgbtrs"),
+            sparse_lu=ctypes.pointer(self.analysis.structure(*blas_kernels())) if kind == "sparse" else None,
+            get_blas_threads=blas_threads[0] if blas_threads[1] else None, set_blas_threads=blas_threads[1])
+        self._library = native_library()
+
+    def position(self, rows, cols) -> np.ndarray:
+        """Offsets in ``values`` of the matrix entries (rows, cols) (broadcast); −1 where a row or
+        column is ≥ n (a constrained coordinate). Entries must lie in the pattern."""
+        rows, cols = np.asarray(rows, np.int64), np.asarray(cols, np.int64)
+        n = self.n
+        if self.kind == "sparse":
+            return self.analysis.position(rows, cols)
+        ok = (rows < n) & (cols < n)
+        if self.kind == "dense":
+            return np.where(ok, rows + cols * n, -1)
+        i, j = self.new[np.where(ok, rows, 0)], self.new[np.where(ok, cols, 0)]
+        return np.where(ok, (self.kl + self.ku + i - j) + j * self.ldab, -1)
+
+    def factor(self, matrix) -> "Factorization":
+        """Factorize ``matrix``, in place in ``values``: a SciPy sparse matrix whose entries lie in
+        the pattern, the values of the pattern (a vector, in the order of rows and cols, duplicates
+        summed) or, for dense storage, a NumPy array. Raises ``np.linalg.LinAlgError``
+        (:class:`~latdyn.assembly.sparse_lu.PivotError` for the sparse LU) for a singular matrix."""
+        if self.kind == "dense" and (sps.issparse(matrix) or np.ndim(matrix) == 2):
+            dense = matrix.toarray() if sps.issparse(matrix) else np.asarray(matrix, float)
+            self.values[:] = dense.ravel(order="F")
+        else:
+            if sps.issparse(matrix):
+                coo = matrix.tocoo()
+                same = np.array_equal(coo.row, self.rows) and np.array_equal(coo.col, self.cols)
+                positions = self._positions() if same else self.position(coo.row, coo.col)
+                data = coo.data
+            elif np.ndim(matrix) == 1:
+                positions, data = self._positions(), np.asarray(matrix, float)
+            else:
+                raise TypeError(f"a {self.kind} factorization takes a sparse matrix or the values of its pattern")
+            self.values[:] = np.bincount(positions, weights=data, minlength=self.size)
+        info = self._library.latdyn_factor(ctypes.byref(self.structure), self.values.ctypes.data,
+                                           self.pivots.ctypes.data)
+        if info != 0:
+            if self.kind == "sparse":
+                raise PivotError(self.analysis.pivot_failure())
+            raise np.linalg.LinAlgError(f"{self.kind} LU: singular matrix (LAPACK info {info})")
+        return self
+
+    def solve(self, rhs) -> np.ndarray:
+        """x with A x = rhs for the matrix last factorized (:meth:`factor`, or the compiled step
+        whose storage this is): one right-hand side (a vector) or many (the columns of a matrix)."""
+        b = np.asarray(rhs, float)
+        columns = b.reshape(self.n, -1)
+        x = np.empty((columns.shape[1], self.n))  # each right-hand side contiguous, in the factor's order
+        x[:, self.new] = columns.T
+        if self.n:
+            self._library.latdyn_solve(ctypes.byref(self.structure), self.values.ctypes.data, self.pivots.ctypes.data,
+                                       columns.shape[1], x.ctypes.data)
+        return x[:, self.new].T.reshape(b.shape)
+
+    def _positions(self) -> np.ndarray:
+        """The positions of the pattern's entries (made on first use)."""
+        if self._pattern_positions is None:
+            self._pattern_positions = self.position(self.rows, self.cols)
+        return self._pattern_positions
+
+
+# ----------------------------------------------------------------------------- one-off solves
+
+_held: "OrderedDict[tuple, list[Factorization]]" = OrderedDict()
+_MAX_HELD = 4  # the iteration matrix, the mass and massless blocks, one spare
+
+
+def solve_linear(matrix, rhs) -> np.ndarray:
+    """Solve ``matrix @ x = rhs`` for one right-hand side or many (the columns of ``rhs``): a
+    NumPy array densely, a SciPy sparse matrix in the storage :class:`Factorization` chooses for
+    its pattern, whose analysis is kept for the next matrices of that pattern. Raises
+    ``np.linalg.LinAlgError`` for a singular matrix."""
+    return factorization_for(matrix).factor(matrix).solve(rhs)
+
+
+def factorization_for(matrix) -> Factorization:
+    """A factorization for ``matrix``'s pattern (compared exactly; dense for a NumPy array), the
+    one held for that pattern or a new one, not yet factorized."""
+    if isinstance(matrix, np.ndarray):
+        return _held_for(("dense", matrix.shape[0]), None,
+                         lambda: Factorization((), (), matrix.shape[0], kind="dense"))
+    A = matrix if matrix.format == "csr" else matrix.tocsr()
+    if not A.has_canonical_format:
+        A = A.copy()
+        A.sum_duplicates()
+    n = A.shape[0]
+    rows = np.repeat(np.arange(n, dtype=np.int64), np.diff(A.indptr))
+    return _held_for((n, A.nnz), (rows, A.indices), lambda: Factorization(rows, A.indices, n))
+
+
+def _held_for(key, pattern, make) -> Factorization:
+    for held in _held.get(key, ()):
+        if pattern is None or (np.array_equal(held.rows, pattern[0]) and np.array_equal(held.cols, pattern[1])):
+            _held.move_to_end(key)
+            return held
+    made = make()
+    _held.setdefault(key, []).append(made)
+    _held.move_to_end(key)
+    while sum(len(v) for v in _held.values()) > _MAX_HELD:
+        _held.popitem(last=False)
+    return made
+
+
+__all__ = ["KINDS", "Factorization", "factorization_for", "solve_linear"]
