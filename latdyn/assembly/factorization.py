@@ -67,6 +67,7 @@ class Factorization:
         self.values = np.zeros(self.size)
         self.pivots = np.zeros(max(n, 1), np.int32)
         self._pattern_positions = None
+        self._band = self._pivoted = None  # the band LU that stands in where a sparse pivot fails
         self._permutation = self.new if n else np.zeros(1, np.int64)
         blas_threads = openblas_thread_functions()
         self.structure = FactorizationStructure(
@@ -110,17 +111,34 @@ class Factorization:
             else:
                 raise TypeError(f"a {self.kind} factorization takes a sparse matrix or the values of its pattern")
             self.values[:] = np.bincount(positions, weights=data, minlength=self.size)
+        self._pivoted = None
         info = self._library.latdyn_factor(ctypes.byref(self.structure), self.values.ctypes.data,
                                            self.pivots.ctypes.data)
         if info != 0:
             if self.kind == "sparse":
-                raise PivotError(self.analysis.pivot_failure())
+                return self._factor_pivoted(matrix, PivotError(self.analysis.pivot_failure()))
             raise np.linalg.LinAlgError(f"{self.kind} LU: singular matrix (LAPACK info {info})")
+        return self
+
+    def _factor_pivoted(self, matrix, failure: PivotError) -> "Factorization":
+        """The sparse LU does not pivot: where a pivot fails (an indefinite matrix, e.g. a static
+        stiffness past a limit point), the band LU with LAPACK's partial pivoting on the same
+        pattern and order, slower at this bandwidth but exact; :meth:`solve` then uses it. Raises
+        ``failure`` when that matrix is singular too."""
+        if self._band is None:
+            self._band = Factorization(self.rows, self.cols, self.n, kind="band")
+        try:
+            self._pivoted = self._band.factor(matrix if sps.issparse(matrix) or np.ndim(matrix) == 1
+                                              else sps.csr_matrix(matrix))
+        except np.linalg.LinAlgError:
+            raise failure from None
         return self
 
     def solve(self, rhs) -> np.ndarray:
         """x with A x = rhs for the matrix last factorized (:meth:`factor`, or the compiled step
         whose storage this is): one right-hand side (a vector) or many (the columns of a matrix)."""
+        if self._pivoted is not None:
+            return self._pivoted.solve(rhs)
         b = np.asarray(rhs, float)
         columns = b.reshape(self.n, -1)
         x = np.empty((columns.shape[1], self.n))  # each right-hand side contiguous, in the factor's order
