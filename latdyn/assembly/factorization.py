@@ -93,10 +93,23 @@ class Factorization:
         return np.where(ok, (self.kl + self.ku + i - j) + j * self.ldab, -1)
 
     def factor(self, matrix) -> "Factorization":
-        """Factorize ``matrix``, in place in ``values``: a SciPy sparse matrix whose entries lie in
-        the pattern, the values of the pattern (a vector, in the order of rows and cols, duplicates
-        summed) or, for dense storage, a NumPy array. Raises ``np.linalg.LinAlgError``
-        (:class:`~latdyn.assembly.sparse_lu.PivotError` for the sparse LU) for a singular matrix."""
+        """Factorize ``matrix`` (as :meth:`load` takes it), in place in ``values``. Raises
+        ``np.linalg.LinAlgError`` (:class:`~latdyn.assembly.sparse_lu.PivotError` for the sparse LU)
+        for a singular matrix."""
+        self.load(matrix)
+        self._pivoted = None
+        info = self._library.latdyn_factor(ctypes.byref(self.structure), self.values.ctypes.data,
+                                           self.pivots.ctypes.data)
+        if info != 0:
+            if self.kind == "sparse":
+                return self._factor_pivoted(matrix, PivotError(self.analysis.pivot_failure()))
+            raise np.linalg.LinAlgError(f"{self.kind} LU: singular matrix (LAPACK info {info})")
+        return self
+
+    def load(self, matrix) -> None:
+        """``matrix`` into ``values``, not factorized (the compiled step factorizes what is loaded):
+        a SciPy sparse matrix whose entries lie in the pattern, the values of the pattern (a vector,
+        in the order of rows and cols, duplicates summed) or, for dense storage, a NumPy array."""
         if self.kind == "dense" and (sps.issparse(matrix) or np.ndim(matrix) == 2):
             dense = matrix.toarray() if sps.issparse(matrix) else np.asarray(matrix, float)
             self.values[:] = dense.ravel(order="F")
@@ -111,14 +124,6 @@ class Factorization:
             else:
                 raise TypeError(f"a {self.kind} factorization takes a sparse matrix or the values of its pattern")
             self.values[:] = np.bincount(positions, weights=data, minlength=self.size)
-        self._pivoted = None
-        info = self._library.latdyn_factor(ctypes.byref(self.structure), self.values.ctypes.data,
-                                           self.pivots.ctypes.data)
-        if info != 0:
-            if self.kind == "sparse":
-                return self._factor_pivoted(matrix, PivotError(self.analysis.pivot_failure()))
-            raise np.linalg.LinAlgError(f"{self.kind} LU: singular matrix (LAPACK info {info})")
-        return self
 
     def _factor_pivoted(self, matrix, failure: PivotError) -> "Factorization":
         """The sparse LU does not pivot: where a pivot fails (an indefinite matrix, e.g. a static
@@ -128,8 +133,7 @@ class Factorization:
         if self._band is None:
             self._band = Factorization(self.rows, self.cols, self.n, kind="band")
         try:
-            self._pivoted = self._band.factor(matrix if sps.issparse(matrix) or np.ndim(matrix) == 1
-                                              else sps.csr_matrix(matrix))
+            self._pivoted = self._band.factor(matrix)
         except np.linalg.LinAlgError:
             raise failure from None
         return self

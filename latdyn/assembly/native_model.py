@@ -38,6 +38,13 @@ INERTIA_TANGENT_STEP = 1e-6
 #: The arrays of a state, in the order of the C ``Configuration``.
 STATE_FIELDS = ("x", "T", "v", "w", "a", "alpha", "theta", "theta_dot", "theta_ddot")
 
+
+def state_shapes(model) -> dict[str, tuple]:
+    """The shape of each of a state's arrays (:data:`STATE_FIELDS`) for ``model``."""
+    N, H = len(model.nodes), len(model.hinges)
+    return {"x": (N, 3), "T": (N, 3, 3), "v": (N, 3), "w": (N, 3), "a": (N, 3), "alpha": (N, 3),
+            "theta": (H,), "theta_dot": (H,), "theta_ddot": (H,)}
+
 _TIME_LAWS = ctypes.CFUNCTYPE(None, ctypes.c_double, ctypes.POINTER(ctypes.c_double))
 _HINGE_LAWS = ctypes.CFUNCTYPE(None, ctypes.c_int64, ctypes.c_double, ctypes.c_double, ctypes.c_double,
                                ctypes.POINTER(ctypes.c_double))

@@ -68,7 +68,7 @@ from latdyn.assembly.library import (
     parallel_threshold,
 )
 from latdyn.assembly.linked import reduce_linked
-from latdyn.assembly.native_model import INERTIA_TANGENT_STEP, STATE_FIELDS
+from latdyn.assembly.native_model import INERTIA_TANGENT_STEP, STATE_FIELDS, state_shapes
 from latdyn.step.integrators import GeneralizedAlpha, StepStats
 
 
@@ -105,16 +105,13 @@ class LinkedReduction:
     :meth:`latdyn.model.links.RigidLinks.complete`) and ``reduce`` after every evaluation (the
     evaluation in Work reduced onto the minimum coordinates by :func:`latdyn.assembly.linked.reduce_linked`,
     the residual and reactions written back into Work's ``total``, and the reduced iteration
-    matrix β′M + γ′C + K into the step's matrix storage at ``position``). An exception in a callback
+    matrix β′M + γ′C + K loaded into the step's :class:`Factorization`). An exception in a callback
     cannot cross C: it fails the step and :meth:`raise_pending` raises it once C has returned."""
 
-    def __init__(self, assembler, native, dense: bool, position):
-        self.assembler, self.native, self.dense, self.position = assembler, native, dense, position
+    def __init__(self, assembler, native, factorization: Factorization):
+        self.assembler, self.native, self.factorization = assembler, native, factorization
         self.error = None
-        model = assembler.model
-        N, H = len(model.nodes), len(model.hinges)
-        self._shapes = {"x": (N, 3), "T": (N, 3, 3), "v": (N, 3), "w": (N, 3), "a": (N, 3), "alpha": (N, 3),
-                        "theta": (H,), "theta_dot": (H,), "theta_ddot": (H,)}
+        self._shapes = state_shapes(assembler.model)
         self.callbacks = (_COMPLETE_LINKS(self._complete), _REDUCE_LINKS(self._reduce))
         native.model.complete_links = ctypes.cast(self.callbacks[0], ctypes.c_void_p).value
         native.model.reduce_links = ctypes.cast(self.callbacks[1], ctypes.c_void_p).value
@@ -144,13 +141,8 @@ class LinkedReduction:
             total[:n] = reduced.residual
             total[n:model.n_total] = reduced.reaction
             if matrices:
-                matrix = buffers["matrix"]
-                if self.dense:
-                    matrix[:] = np.ravel(reduced.combined(beta_p, gamma_p, 1.0, dense=True), order="F")
-                else:
-                    S = reduced.combined(beta_p, gamma_p, 1.0, dense=False).tocoo()
-                    matrix[:] = 0.0
-                    np.add.at(matrix, self.position(S.row, S.col), S.data)
+                self.factorization.load(reduced.combined(beta_p, gamma_p, 1.0,
+                                                         dense=self.factorization.kind == "dense"))
             return 0
         except BaseException as error:  # noqa: BLE001 - raised again by raise_pending
             self.error = error
@@ -187,7 +179,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         self.factorization = None
         self._library = native_library()
         self._last_trial = self._mass_for = None
-        self._made = None  # (the last state made, its C view, the C view of its base)
+        self._made = None  # (the last state made, its C view)
 
     # -- the model as arrays, rebuilt when the numbering changes (a latch) --------------------
     def _setup(self) -> None:
@@ -254,7 +246,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         native.set_buffer("rhs", np.zeros(n))
         native.set_buffer("pivots", factorization.pivots)
         if m.links is not None:
-            keep.append(LinkedReduction(a, native, factorization.kind == "dense", position))
+            keep.append(LinkedReduction(a, native, factorization))
         native.matrix_storage = keep
         self.factorization = factorization
         self._links = keep[-1] if m.links is not None else None
@@ -262,10 +254,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
     def _layout(self) -> None:
         """Offsets of a state's arrays in one flat buffer (a new state per step: the loop
         keeps the old one for its events and checkpoints)."""
-        model = self.assembler.model
-        N, H = len(model.nodes), len(model.hinges)
-        shapes = {"x": (N, 3), "T": (N, 3, 3), "v": (N, 3), "w": (N, 3), "a": (N, 3), "alpha": (N, 3),
-                  "theta": (H,), "theta_dot": (H,), "theta_ddot": (H,)}
+        shapes = state_shapes(self.assembler.model)
         self._shapes, self._offsets, offset = shapes, {}, 0
         for name in STATE_FIELDS:
             self._offsets[name] = offset
@@ -312,7 +301,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
             self._links.raise_pending()
         self.factorizations += control.factorizations
         self._last_trial = trial_state
-        self._made = (trial_state, trial, base)
+        self._made = (trial_state, trial)
         total = self._buffers["total"]
         stats = StepStats(iterations=control.iterations, converged=bool(control.converged) and not failed,
                           factorizations=control.factorizations, contraction=control.contraction_seen)
@@ -355,7 +344,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
             last = out
             last.t = run.t_last
             self.a = self._a_n[:n].copy()
-            self._made = (last, out_c, None)
+            self._made = (last, out_c)
         pending = None
         kept = True  # the held factorization is that of the last accepted step (or of `state`)
         if run.status in (1, 2):
@@ -374,7 +363,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
                 stats.residual = self._buffers["total"][:n].copy()
                 control.factored_h = 0.0  # a failed step may leave a partial factorization
             self._last_trial = trial
-            self._made = (trial, trial_c, ctypes.byref(out_c if run.steps else base))
+            self._made = (trial, trial_c)
             pending = (trial, stats, run.h_pending)
         self.last_evaluation = _LastEvaluation(self._buffers["total"], n, model.n_total, control.power)
         return Advanced(state=last, steps=run.steps, iterations=run.iterations, factorizations=run.factorizations,
