@@ -89,7 +89,8 @@ def test_loop_hands_impacts_on_a_stop_back(tmp_path, monkeypatch):
 def test_the_step_after_an_impact_starts_from_the_configuration_on_the_stop(tmp_path):
     """The impact moves the configuration onto the stop (timeloop/events.py hinge_stops) in the
     arrays of the state, which the compiled step views in place: it steps on from there, as the
-    Python step does (it stepped on from the configuration before the impact, 1e-7 off)."""
+    reference step does (before the fix it stepped on from the configuration before the impact,
+    1e-7 off)."""
     compiled, compiled_summary = _run(stop_scene(0.5), tmp_path, "compiled", engine="compiled")
     python, python_summary = _run(stop_scene(0.5), tmp_path, "python", engine="reference")
     assert compiled_summary["engine"] == "compiled" and python_summary["engine"] == "reference"
@@ -145,7 +146,7 @@ def test_hinge_laws_in_theta_run_compiled_and_equal_the_reference_step(tmp_path)
 def test_loop_with_hinge_laws_is_invariant_under_rigid_motions(seed, rotary, tmp_path):
     """The law chain moved by a random rigid motion (hinge axes, gravity, points with it), with
     and without rotary inertia, in the compiled loop: the same hinge angles, and the tip moved
-    with the scene (as tests/test_inertia.py holds the Python step)."""
+    with the scene (as tests/test_inertia.py holds the step without laws)."""
     R, shift = rigid_motion(seed)
     plain, plain_summary = _run(law_chain(rotary=rotary), tmp_path, "plain", engine="compiled")
     moved, moved_summary = _run(law_chain(R=R, shift=shift, rotary=rotary), tmp_path, "moved", engine="compiled")

@@ -97,7 +97,7 @@ the element part serial in both steps (wall ms, fastest of 3 rounds of 4 steps):
 * **Fill and speed.**  Minimum degree on the node graph (6 coordinates a node) gives SuperLU's
   MMD fill to within −3 … +2 %, and the static order keeps it; the LU is 2.2–3.2× faster than
   SuperLU (4896 elements: 3.9 GFlop in 166 ms, 24 GFlop/s on one core, dgemm's rate) and equals
-  it to 2e-14.  The compiled step's Newton iteration is 1.3–2.1× faster than the Python step's
+  it to 2e-14.  The compiled step's Newton iteration was 1.3–2.1× faster than the Python step's (removed by issue 17)
   on the lattices, where the element kernels share the time; a quieter run (load 1.1–1.2) gave
   the same ratios (e.g. 4896 elements: 283 against 536 ms).  The analysis (NumPy and Python
   sets) costs about three compiled iterations at 12 000 coordinates (1 s), once per pattern
