@@ -4,7 +4,8 @@ shipped transient scene, planar and 3D.
     python benchmarks/newton_default.py [--repeats 3] [--t-end-cap 10]
 
 For each transient scene in ``examples/`` and ``examples/benchmarks/`` (scenes the compiled
-step covers; up to issue 17 the Python step, which had no modified Newton, ran the others), and for each planar scene once more with
+step covers; up to issue 17 the Python step, which had no modified Newton, ran the others),
+and for each planar scene once more with
 ``planar: off`` (its 3D model), the scene is run with ``solve.newton: full`` and ``modified``
 in process, with no results folder, after one untimed warm-up of each. The repeats are
 interleaved (pass 1 runs every setting, then pass 2, ...); ``solver_s`` (the time inside the
