@@ -41,6 +41,9 @@ import time
 from pathlib import Path
 
 import numpy as np
+import yaml
+
+from latdyn.scene.builder import SceneBuilder
 
 ROOT = Path(__file__).resolve().parents[1]
 REFERENCE_FILE = ROOT / "benchmarks" / "references" / "lattice.json"
@@ -76,7 +79,8 @@ def joints(bays: int) -> dict:
 
 
 def members(bays: int) -> list:
-    """(name, start joint, end joint, section) of every member, bay by bay."""
+    """(name, start joint, end joint, section) of every member, bay by bay (none joins two
+    clamped joints: station 0 has no battens)."""
     out = []
     for i in range(bays):
         for k in range(4):
@@ -151,25 +155,19 @@ def latdyn_scene(bays: int, elements: int, dt: float, *, t_end: float | None = N
     peak force held constant, for ``analysis: static``).  ``shear``/``rotary``: False leaves out
     the sections' GA (Euler–Bernoulli members) / rotary inertia (as OpenSeesPy's elements)."""
     eq = equivalent_beam(bays)
-    sections = {}
+    b = SceneBuilder(f"clamped 3D truss beam, {bays} bays, rigid joints, tip pulse")
     for name, s in SECTIONS.items():
-        sections[name] = {"EA": s["EA"], "EIy": s["EI"], "EIz": s["EI"], "GJ": s["GJ"], "rhoA": s["rhoA"]}
-        if rotary:
-            sections[name].update(rhoIy=s["rhoI"], rhoIz=s["rhoI"])
-        if shear:
-            sections[name].update(GAy=s["GA"], GAz=s["GA"])
-    bodies = {}
-    for name, (x, y, z) in joints(bays).items():
-        bodies[name] = {"at": [x, y, z], "fixed": True} if is_fixed(name) else {"at": [x, y, z]}
-    beams = {}
-    for name, a, b, sec in members(bays):
-        if is_fixed(a) and is_fixed(b):
-            continue
-        beams[name] = {"from": a, "to": b, "section": sec, "elements": elements}
+        b.section(name, EA=s["EA"], EIy=s["EI"], EIz=s["EI"], GJ=s["GJ"], rhoA=s["rhoA"],
+                  rhoIy=s["rhoI"] if rotary else None, rhoIz=s["rhoI"] if rotary else None,
+                  GAy=s["GA"] if shear else None, GAz=s["GA"] if shear else None)
+    for name, at in joints(bays).items():
+        b.body(name, at, fixed=is_fixed(name))
+    for name, start, end, section in members(bays):
+        b.beam(name, start, end, section, elements=elements)
     force = pulse_expression(eq["F0"] / 4, eq["tp"]) if load == "pulse" else eq["F0"] / 4
-    loads = [{"at": j, "force": [0.0, 0.0, force]} for j in tip_joints(bays)]
-    probes = {f"u{k}": {"point": j, "quantity": "displacement", "frame": "global", "component": "z"}
-              for k, j in enumerate(tip_joints(bays))}
+    for k, joint in enumerate(tip_joints(bays)):
+        b.load(joint, force=[0.0, 0.0, force])
+        b.probe(f"u{k}", point=joint, quantity="displacement", frame="global", component="z")
     solve = {"analysis": analysis}
     if analysis == "transient":
         solve.update(t_end=t_end or eq["t_end"], dt=dt)
@@ -179,18 +177,13 @@ def latdyn_scene(bays: int, elements: int, dt: float, *, t_end: float | None = N
                 solve[key] = value
     if formulation:
         solve["formulation"] = formulation
-    output = {"probes": probes, "paraview_every": 0}
-    if analysis == "transient":
-        output["every"] = every if every is not None else dt
-    return {"title": f"clamped 3D truss beam, {bays} bays, rigid joints, tip pulse",
-            "sections": sections, "bodies": bodies, "beams": beams, "loads": loads,
-            "solve": solve, "output": output}
+    b.solve(**solve)
+    b.output(every=(every if every is not None else dt) if analysis == "transient" else None, paraview_every=0)
+    return b.to_dict()
 
 
 def scene_yaml(bays: int, elements: int, dt: float, **kw) -> str:
     """The scene as YAML text (what a user writes to a file for ``latdyn run``)."""
-    import yaml
-
     return yaml.safe_dump(latdyn_scene(bays, elements, dt, **kw), sort_keys=False, default_flow_style=None,
                           width=140)
 
@@ -319,8 +312,6 @@ def exudyn_model(exu, eii, bays: int, elements: int, model: str = "beam"):
     ground = mbs.AddObject(eii.ObjectGround())
     at_joint: dict[str, list] = {}   # joint -> [(node, R)]
     for name, a, b, sec in members(bays):
-        if is_fixed(a) and is_fixed(b):
-            continue
         pa, pb = np.asarray(J[a]), np.asarray(J[b])
         R = member_frame(pa, pb)
         ep = list(RotationMatrix2EulerParameters(R))
@@ -359,8 +350,6 @@ def _exudyn_rbs(exu, eii, SC, mbs, bays, elements, J):
     pos: dict = {}
     segments = []   # (key a, key b, midpoint, R, stiffness)
     for name, a, b, sec in members(bays):
-        if is_fixed(a) and is_fixed(b):
-            continue
         s = SECTIONS[sec]
         pa, pb = np.asarray(J[a]), np.asarray(J[b])
         R = member_frame(pa, pb)
@@ -531,8 +520,6 @@ def opensees_run(ops, bays: int, cfg: dict) -> dict:
     transf = 0
     element = 0
     for name, a, b, sec in members(bays):
-        if is_fixed(a) and is_fixed(b):
-            continue
         s = SECTIONS[sec]
         pa, pb = np.asarray(J[a]), np.asarray(J[b])
         R = member_frame(pa, pb)

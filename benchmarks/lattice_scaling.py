@@ -53,6 +53,7 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 from peers import latdyn  # noqa: E402  (latdyn of this checkout)
 
 import lattice  # noqa: E402
+from step_scaling import timed_steps  # noqa: E402
 import latdyn.scene.loader  # noqa: E402
 from latdyn.assembly.prepare import prepare  # noqa: E402
 from latdyn.step.compiled import CompiledGeneralizedAlpha  # noqa: E402
@@ -68,23 +69,6 @@ EXTRAPOLATION_ASSUMPTIONS = (
     "lattice of peers.json; its Newton iterations and factorizations per step; a factorizing iteration costs the "
     "measured full iteration, the others the held one, at the largest model measured; the deployment converges "
     "like the benchmark's vibration (no step cuts, same iterations per step), no results written.")
-
-
-def _steps(step, state, h, steps):
-    """``steps`` timed steps after one untimed; per step (wall s, iterations, factorizations)."""
-    out = []
-    previous = state
-    for k in range(steps + 1):
-        t0 = time.perf_counter()
-        new, stats = step.step(previous, h)
-        wall = time.perf_counter() - t0
-        if stats.converged:
-            step.accept()
-            previous = new
-        factorizations = stats.factorizations if stats.factorizations is not None else stats.iterations
-        if k:
-            out.append((wall, max(stats.iterations, 1), factorizations, bool(stats.converged)))
-    return out
 
 
 def band_lu_seconds(n: int, kl: int, ku: int, repeats: int = 3) -> float:
@@ -131,7 +115,10 @@ def measure(bays: int, formulation: str, steps: int, serial: bool) -> dict:
             row["kl"], row["ku"] = f.kl, f.ku
         step.start(prepared.state)
         t0 = time.perf_counter()
-        samples = _steps(step, prepared.state, h, steps)
+        # per timed step (wall s, iterations, factorizations, converged)
+        samples = [(wall, max(stats.iterations, 1),
+                    stats.factorizations if stats.factorizations is not None else stats.iterations,
+                    bool(stats.converged)) for wall, _, stats in timed_steps(step, prepared.state, h, steps)]
         row[f"{newton}_wall_s"] = time.perf_counter() - t0
         if newton == "full":
             per = [w / it for w, it, _, _ in samples]

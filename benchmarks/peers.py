@@ -220,21 +220,7 @@ def _elbow_force(t):
     return 0.0
 
 
-def peak(t, y, window):
-    """Largest value of y for t in window, refined by a parabola through three samples."""
-    t, y = np.asarray(t, float), np.asarray(y, float)
-    m = (t >= window[0] - 1e-12) & (t <= window[1] + 1e-12)
-    idx = np.flatnonzero(m)
-    i = idx[int(np.argmax(y[idx]))]
-    if 0 < i < len(t) - 1:
-        t0, t1, t2 = t[i - 1:i + 2]
-        y0, y1, y2 = y[i - 1:i + 2]
-        a = np.polyfit([t0 - t1, 0.0, t2 - t1], [y0, y1, y2], 2)
-        if a[0] < 0:
-            tp = -a[1] / (2 * a[0])
-            if t0 - t1 <= tp <= t2 - t1:
-                return float(np.polyval(a, tp)), float(t1 + tp)
-    return float(y[i]), float(t[i])
+peak = lattice_problem.peak  # largest value in a window, refined by a parabola
 
 
 def spinup_error(t, v):

@@ -55,6 +55,7 @@ from latdyn.assembly.factorization import Factorization  # noqa: E402
 from latdyn.assembly.sparse_lu import SupernodalAnalysis  # noqa: E402
 from linear_solvers import (_reuse_setup, _reuse_solve, _scaled, beam_scene, build, combined, lattice_for,  # noqa: E402
                             machine)
+from step_scaling import timed_steps  # noqa: E402
 
 try:
     from threadpoolctl import ThreadpoolController
@@ -138,20 +139,10 @@ def step_timing(elements: int, engine_kind: str, steps: int, band_limit: int | N
         step._setup()  # serial element part (see the docstring)
         solver = step.factorization.kind
         step.start(prepared.state)
-        state = prepared.state
-        wall, cpu, iterations = [], [], []
-        for k in range(steps + 1):
-            t0, c0 = time.perf_counter(), time.process_time()
-            new, stats = step.step(state, 1e-3)
-            t1, c1 = time.perf_counter(), time.process_time()
-            if stats.converged:
-                step.accept()
-                state = new
-            done = max(stats.iterations, 1)
-            if k:
-                wall.append((t1 - t0) / done)
-                cpu.append((c1 - c0) / done)
-                iterations.append(done)
+        timed = timed_steps(step, prepared.state, 1e-3, steps)
+        iterations = [max(stats.iterations, 1) for _, _, stats in timed]
+        wall = [w / done for (w, _, _), done in zip(timed, iterations)]
+        cpu = [c / done for (_, c, _), done in zip(timed, iterations)]
     finally:
         factorization.BAND_LIMIT = saved
     return {"elements": elements, "n": prepared.model.n_dofs, "engine": engine_kind, "solver": solver,

@@ -58,6 +58,24 @@ def beam(elements: int, formulation: str) -> dict:
     }
 
 
+def timed_steps(step, state, h: float, steps: int) -> list:
+    """``steps`` steps of the started ``step`` after one untimed (the first sets up the scatter
+    maps and buffers), each from the last converged state (a step that does not converge is
+    timed all the same: the cost of an iteration is what is measured): per timed step
+    (wall s, CPU s of the process, its StepStats)."""
+    out = []
+    for k in range(steps + 1):
+        started, started_cpu = time.perf_counter(), time.process_time()
+        new, stats = step.step(state, h)
+        wall, cpu = time.perf_counter() - started, time.process_time() - started_cpu
+        if stats.converged:
+            step.accept()
+            state = new
+        if k:
+            out.append((wall, cpu, stats))
+    return out
+
+
 def measure(elements: int, formulation: str, steps: int, threads: int | None = None, prepared=None) -> dict:
     """Time ``steps`` steps (after one untimed); ``threads``: None = the runtime's default
     threshold, 1 = serial, n > 1 = the element part forced onto n threads."""
@@ -69,32 +87,17 @@ def measure(elements: int, formulation: str, steps: int, threads: int | None = N
     step = CompiledGeneralizedAlpha(prepared.assembler, AlphaParameters.for_method("generalized-alpha", 0.8),
                                     1e-8, ITERATIONS, 10.0, **parallel)
     step.start(prepared.state)
-    state = previous = prepared.state
-    samples, cpu_samples, iterations, converged = [], [], [], []
-    for k in range(steps + 1):
-        started, started_cpu = time.perf_counter(), time.process_time()
-        state, stats = step.step(state, 1e-3)
-        elapsed, elapsed_cpu = time.perf_counter() - started, time.process_time() - started_cpu
-        done = stats.iterations if stats.converged else ITERATIONS
-        if stats.converged:
-            step.accept()
-            converged.append(True)
-        else:  # the cost of an iteration is what is measured: go on from the same state
-            state = previous
-            converged.append(False)
-        previous = state
-        if k:  # the first step sets up the scatter maps and buffers
-            samples.append(elapsed / done)
-            cpu_samples.append(elapsed_cpu / done)
-            iterations.append(done)
-    per_iteration = float(np.median(samples))
+    timed = timed_steps(step, prepared.state, 1e-3, steps)
+    iterations = [stats.iterations if stats.converged else ITERATIONS for _, _, stats in timed]
+    per_iteration = float(np.median([wall / done for (wall, _, _), done in zip(timed, iterations)]))
     return {"elements": elements, "coordinates": model.n_dofs, "band": step.factorization.kind == "band",
             "bandwidth": step.factorization.kl if step.factorization.kind == "band" else None,
-            "iterations_per_step": float(np.mean(iterations)), "steps_converged": int(sum(converged[1:])),
-            "steps": len(converged) - 1, "s_per_iteration": per_iteration,
+            "iterations_per_step": float(np.mean(iterations)),
+            "steps_converged": int(sum(stats.converged for _, _, stats in timed)),
+            "steps": len(timed), "s_per_iteration": per_iteration,
             "us_per_element_iteration": 1e6 * per_iteration / elements,
-            "cpu_s_per_iteration": float(np.median(cpu_samples)), "threads": threads,
-            "load_average": os.getloadavg()[0]}
+            "cpu_s_per_iteration": float(np.median([cpu / done for (_, cpu, _), done in zip(timed, iterations)])),
+            "threads": threads, "load_average": os.getloadavg()[0]}
 
 
 def thread_table(sizes: list[int], counts: list[int], formulation: str, steps: int, repeats: int) -> list[dict]:

@@ -166,9 +166,11 @@ class SceneBuilder:
         self.data["solve"] = dict(spec)
         return self
 
-    def output(self, every=None) -> "SceneBuilder":
-        if every is not None:
-            self.data.setdefault("output", {})["every"] = float(every)
+    def output(self, every=None, paraview_every=None) -> "SceneBuilder":
+        """``output.every`` and ``output.paraview_every`` (SCENE.md; 0: no ParaView frames)."""
+        for key, value in (("every", every), ("paraview_every", paraview_every)):
+            if value is not None:
+                self.data.setdefault("output", {})[key] = float(value)
         return self
 
     # -- results -----------------------------------------------------------------------------
