@@ -47,9 +47,8 @@ class LastAccepted(NamedTuple):
     """The last accepted step as a checkpoint keeps it."""
 
     #: a shallow copy of the run's progress (once a step is accepted the loop replaces states and
-    #: arrays, never changes them in place)
+    #: arrays, never changes them in place); its external_work is the probes'
     progress: TransientProgress
-    external_work: float
     bookmark: dict  # the writer's
     last_recorded: State | None  # the last recorded state while its ParaView frame is not on disk
     #: the mark of the factorization the engine holds for this step (None: not this step's; a
@@ -250,14 +249,14 @@ class TimeLoop:
 
     def _after_accepted(self, state: State) -> None:
         """After the accepted step(s) that ended at ``state``: rotations back on SO(3) every 256
-        steps, the row if one is due, the summary and the progress bar."""
+        steps, the row if one is due and the progress bar (the summary: once, when the loop ends,
+        :meth:`run`; nothing reads it before the writer closes)."""
         progress, model = self.progress, self.model
         if progress.steps % 256 == 0:  # exp updates keep T on SO(3) to round-off; remove the drift of long runs
             state.T[model.free_nodes] = orthonormalize(state.T[model.free_nodes])
         if self.control.row_due(progress, state.t):
             self._record(state, self.energies_of(state))
             self.control.row_recorded(progress, state.t)
-        self._summarize()
         self.bar.update(state.t)
 
     # ------------------------------------------------------------------------- rows, summary
@@ -280,8 +279,7 @@ class TimeLoop:
         kept.cut_times = list(self.progress.cut_times)
         mark = self.factorization_mark() if self.factorization_mark is not None and kept_factorization else None
         unwritten = (self.bookmark["paraview"] or {}).get("unwritten") is not None
-        return LastAccepted(kept, self.progress.external_work, self.bookmark,
-                            self.last_recorded if unwritten else None, mark)
+        return LastAccepted(kept, self.bookmark, self.last_recorded if unwritten else None, mark)
 
     def _keep_accepted(self, kept_factorization: bool = True) -> None:
         """Keep the step just accepted as the last one, and write its checkpoint when one is due."""
@@ -295,7 +293,7 @@ class TimeLoop:
         factorization = None
         if kept.factorization_mark is not None and kept.factorization_mark == self.factorization_mark():
             factorization = self.integrator.factorization_state()
-        self.checkpointer.save(kept.progress, kept.external_work, kept.bookmark, kept.last_recorded,
+        self.checkpointer.save(kept.progress, kept.progress.external_work, kept.bookmark, kept.last_recorded,
                                self.writer, factorization)
 
     def _stopped_by(self, failure: BaseException) -> None:
