@@ -179,7 +179,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         self.factorization = None
         self._library = native_library()
         self._last_trial = self._mass_for = None
-        self._made = None  # (the last state made, its C view)
+        self._made = None  # (the arrays of the last state made, their C view)
 
     # -- the model as arrays, rebuilt when the numbering changes (a latch) --------------------
     def _setup(self) -> None:
@@ -269,17 +269,23 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         state = State(t, *(buffer[start:stop].reshape(shape) for start, stop, shape in self._slices))
         return state, ConfigurationData(*(base + 8 * start for start, _, _ in self._slices))
 
+    @staticmethod
+    def _view(state: State, configuration: ConfigurationData) -> tuple:
+        """What :meth:`_configuration_of` recognises a state this step made by: its arrays, and their C view."""
+        return tuple(getattr(state, name) for name in STATE_FIELDS), configuration
+
     def _copy_into(self, source: State, state: State) -> None:
         """``state`` ← ``source``'s arrays, in place."""
         for name in STATE_FIELDS:
             np.copyto(getattr(state, name), getattr(source, name))
 
     def _configuration_of(self, state: State) -> ConfigurationData:
-        """The C view of a state: the last state this step made is viewed in place; any other
-        (the start, a state after an event) through contiguous float64 copies of its arrays,
-        kept alive until the next call. Nothing is attached to the state (it is pickled into
-        checkpoints)."""
-        if self._made is not None and self._made[0] is state:
+        """The C view of a state: the last state this step made is viewed in place while it still
+        holds the arrays the view points into; any other state (the start, a state after an event,
+        one whose arrays were replaced) through contiguous float64 copies of its arrays, kept alive
+        until the next call. Nothing is attached to the state (it is pickled into checkpoints)."""
+        if self._made is not None and all(getattr(state, name) is array
+                                          for name, array in zip(STATE_FIELDS, self._made[0])):
             return self._made[1]
         return self._native.configuration(state)
 
@@ -301,7 +307,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
             self._links.raise_pending()
         self.factorizations += control.factorizations
         self._last_trial = trial_state
-        self._made = (trial_state, trial)
+        self._made = self._view(trial_state, trial)
         total = self._buffers["total"]
         stats = StepStats(iterations=control.iterations, converged=bool(control.converged) and not failed,
                           factorizations=control.factorizations, contraction=control.contraction_seen)
@@ -344,7 +350,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
             last = out
             last.t = run.t_last
             self.a = self._a_n[:n].copy()
-            self._made = (last, out_c)
+            self._made = self._view(last, out_c)
         pending = None
         kept = True  # the held factorization is that of the last accepted step (or of `state`)
         if run.status in (1, 2):
@@ -363,7 +369,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
                 stats.residual = self._buffers["total"][:n].copy()
                 control.factored_h = 0.0  # a failed step may leave a partial factorization
             self._last_trial = trial
-            self._made = (trial, trial_c)
+            self._made = self._view(trial, trial_c)
             pending = (trial, stats, run.h_pending)
         self.last_evaluation = _LastEvaluation(self._buffers["total"], n, model.n_total, control.power)
         return Advanced(state=last, steps=run.steps, iterations=run.iterations, factorizations=run.factorizations,

@@ -383,6 +383,15 @@ def newton_diagnosis(model, residual: np.ndarray | None, t: float, h: float, ass
         if rotation[e] > 0.5:
             lines.append("  CR-4402 assumes small rotations within an element (Eq. 6): refine the mesh of "
                          f"beam {beam!r}.")
-    lines.append("Usual causes: a step too large for the fastest mode, a coordinate held only by a tiny "
-                 "stiffness, a load or prescribed motion that jumps, or a structure that buckles.")
+    lines.append(_USUAL_CAUSES.get(variable, _USUAL_CAUSES["t"]))
     return "\n".join(lines)
+
+
+#: What most often stops Newton, in a time step and on a static path (``newton_diagnosis``'s ``variable``).
+_USUAL_CAUSES = {
+    "t": "Usual causes: a step too large for the fastest mode, a coordinate held only by a tiny stiffness, a "
+         "load or prescribed motion that jumps, or a structure that buckles.",
+    "load factor": "Usual causes: a load step past a limit point or a bifurcation (solve.method: arc-length "
+                   "follows the path past limit points), a coordinate held only by a tiny stiffness (a mechanism "
+                   "the loads move), or rotations within an element too large for the mesh.",
+}
