@@ -25,7 +25,7 @@ from it settles in: the side of a pitchfork is the start's, a fold is passed bec
 the spin rate is followed.  Continuation in the spin rate from rest cannot do this (at rest with
 gravity every start hangs, and the hanging branch goes on through Ω_c); it is the fallback
 (Ω² ramped in ``solve.steps`` stages, each a descent from the last) when the descent does not
-converge in ``max_iter`` steps, and then the run says so.
+converge in ``max_iter`` (200) steps, and then the run says so.
 
 The state found is then judged by its modes (:func:`stability`): a root with a positive real
 part (divergence, flutter) makes it unstable; ``summary.json`` ``steady_state`` and a warning on
@@ -153,10 +153,11 @@ def _distance(model, start, state) -> tuple[float, float]:
             float(max(np.max(turned, initial=0.0), np.max(hinges, initial=0.0))))
 
 
-def steady_state(prepared, tol: float = 1e-10, max_iter: int = 200):
+def steady_state(prepared, tol: float = 1e-10, max_iter: int = 200, stage_iter: int = 40):
     """(prepared, state, frame, :class:`SteadySearch`): the relative equilibrium the initial
-    configuration leads to, by the descent of the module docstring at the full rate, else by
-    the spin rate ramped (Ω² in ``solve.steps`` stages), each stage a descent from the last."""
+    configuration leads to, by the descent of the module docstring at the full rate (at most
+    ``max_iter`` steps), else by the spin rate ramped (Ω² in ``solve.steps`` stages, each a
+    descent of at most ``stage_iter`` steps from the last)."""
     from latdyn.analyses.linearise import Frame, linearise
 
     model, assembler = prepared.model, prepared.assembler
@@ -165,10 +166,10 @@ def steady_state(prepared, tol: float = 1e-10, max_iter: int = 200):
     start = prepared.state.copy()
     assembler.apply_prescribed(start, 0.0)
 
-    def descend(state, rate):
+    def descend(state, rate, limit):
         """(state, iterations, None) at the equilibrium, or (None, iterations, why not)."""
         frame = Frame(rate, np.zeros(3))
-        for iteration in range(max_iter):
+        for iteration in range(limit):
             spin(model, state, rate, point)
             residual = assembler.evaluate(state, matrices=False).residual
             lin = linearise(assembler, state, frame)
@@ -184,14 +185,14 @@ def steady_state(prepared, tol: float = 1e-10, max_iter: int = 200):
             state = assembler.advance(state, dx)
             if size <= tol:
                 return spin(model, state, rate, point), iteration + 1, None
-        return None, max_iter, f"no convergence in {max_iter} steps"
+        return None, limit, f"no convergence in {limit} steps"
 
-    state, iterations, why = descend(start.copy(), omega)
+    state, iterations, why = descend(start.copy(), omega, max_iter)
     found_by = "descent"
     if state is None:
         found_by, steps, state = "spin-rate ramp", prepared.scene.solve.steps, start.copy()
         for k in range(1, steps + 1):
-            state, its, failure = descend(state, omega * np.sqrt(k / steps))
+            state, its, failure = descend(state, omega * np.sqrt(k / steps), stage_iter)
             iterations += its
             if state is None:
                 raise SolverError(f"about: steady: no relative equilibrium found: the descent from the "
