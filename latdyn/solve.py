@@ -152,7 +152,12 @@ def _modes(prepared, writer: ResultWriter, out_dir) -> None:
     scene = prepared.scene
     if scene.solve.about == "initial":
         _warn_moving(scene, writer)
-    found, directions, lin = linearise.modal_analysis(prepared, scene.solve.count, scene.solve.about)
+    found, directions, lin, report = linearise.modal_analysis(prepared, scene.solve.count, scene.solve.about)
+    if "steady_state" in report:  # stable or not, how it was found (latdyn/analyses/steady.py)
+        writer.summary["steady_state"] = report["steady_state"]
+    for warning in report.get("warnings", []):
+        print(f"latdyn: warning: {warning}", file=sys.stderr)
+        writer.summary.setdefault("warnings", []).append(warning)
     frequencies = [m.frequency_hz for m in found]
     writer.write_modes(frequencies, linearise.modes_table(found, directions))
     writer.summary["modes_hz"] = [float(f) for f in frequencies]

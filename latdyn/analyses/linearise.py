@@ -48,14 +48,13 @@ import numpy as np
 
 from latdyn.analyses import continuation
 from latdyn.assembly.assembler import pack, unpack_free
-from latdyn.assembly.factorization import Factorization, solve_linear
+from latdyn.assembly.factorization import Factorization
 from latdyn.assembly.prepare import length_scale
 from latdyn.errors import SceneError, SolverError
 from latdyn.numerics.inertia import split_inertia
 from latdyn.numerics.so3 import skew
 from latdyn.results.writer import ResultWriter
 from latdyn.step.compiled import matrix_pattern
-from latdyn.step.integrators import increment_size
 
 #: Relative step of the central differences (translations: times the scene's size ℓ).
 DIFFERENCE_STEP = 1e-6
@@ -402,104 +401,14 @@ def transient_state(prepared, t: float):
     return other, other.state
 
 
-def _spin_of(prepared):
-    """Ω and a point p of the axis of the scene's steady rotation (SCENE.md: prescribed rotations
-    at constant rate), refusing scenes that have none or other prescribed motion."""
-    from latdyn.model.model import PRESCRIBED
-
-    scene, model = prepared.scene, prepared.model
-    key = "solve.about"
-    omega, point = None, None
-    for node in model.nodes:
-        if node.kind != PRESCRIBED:
-            continue
-        body = scene.bodies[node.body]
-        if body.translation is not None and any(not g.is_constant for g in body.translation):
-            raise SceneError(scene.file, key, f"steady needs rotations only; body {node.body!r} translates")
-        if body.rotation_angle is None:
-            raise SceneError(scene.file, key, f"steady needs every prescribed body to spin; {node.body!r} does not")
-        angle = body.rotation_angle
-        rate = angle.rate(0.0)
-        if abs(angle.accel(0.0)) > 1e-12 * max(abs(rate), 1.0) or abs(angle.rate(1.0) - rate) > 1e-9 * max(abs(rate), 1):
-            raise SceneError(scene.file, key, f"steady needs rotations at constant rate; body {node.body!r} "
-                                              "accelerates (its angle is not linear in t)")
-        w = body.rotation_axis * rate
-        x = np.asarray(node.position, float)
-        if omega is None:
-            omega, point = w, x
-        elif np.abs(w - omega).max() > 1e-12 * max(np.abs(omega).max(), 1.0) or \
-                np.linalg.norm(np.cross(x - point, omega)) > 1e-9 * length_scale(model) * max(np.linalg.norm(omega), 1e-300):
-            raise SceneError(scene.file, key, "steady needs all prescribed bodies to spin about one axis at one rate")
-    for body_name, body in scene.bodies.items():
-        if body.fixed and omega is not None and np.any(omega):
-            raise SceneError(scene.file, key, f"steady: body {body_name!r} is fixed while others spin")
-    for hinge in model.hinges:
-        if hinge.angle is not None and abs(hinge.angle.rate(0.0)) > 0:
-            raise SceneError(scene.file, key, f"steady: the prescribed angle of hinge {hinge.beam}.{hinge.end} "
-                                              "moves; prescribe the spin on a body instead")
-    if omega is None:
-        raise SceneError(scene.file, key, "steady needs a body with a prescribed rotation at constant rate "
-                                          "(bodies.NAME.motion.rotation)")
-    return omega, point
-
-
-def _spin(model, state, omega, point):
-    """Set the free nodes on the steady spin: v = Ω×(x − p), ω = Ω, v̇ = Ω×Ω×(x − p), ω̇ = 0."""
-    free = model.free_nodes
-    r = state.x[free] - point
-    state.v[free] = np.cross(omega, r)
-    state.w[free] = omega
-    state.a[free] = np.cross(omega, np.cross(omega, r))
-    state.alpha[free] = 0.0
-    state.theta_dot[model.free_hinges] = state.theta_ddot[model.free_hinges] = 0.0
-    return state
-
-
-def steady_state(prepared, tol: float = 1e-10, max_iter: int = 40):
-    """The relative equilibrium of a steady spin: Newton on r(q, v(q), v̇(q)) = 0 with the spin
-    imposed (inertia forces of the spin: centrifugal loads), its Jacobian the K of the
-    linearisation in the spinning frame (module docstring); the rate is raised in ``steps``
-    stages (Ω² ramped) if Newton fails at the full rate."""
-    model, assembler = prepared.model, prepared.assembler
-    omega, point = _spin_of(prepared)
-    frame = Frame(omega, np.zeros(3))
-    length = length_scale(model)
-    base = prepared.state.copy()
-    assembler.apply_prescribed(base, 0.0)
-
-    def solve_at(state, rate):
-        spun = Frame(rate, np.zeros(3))
-        for iteration in range(max_iter):
-            _spin(model, state, rate, point)
-            residual = assembler.evaluate(state, matrices=False).residual
-            lin = linearise(assembler, state, spun)
-            dx = solve_linear(lin.stiffness, -residual)
-            if not np.all(np.isfinite(dx)):
-                return None, iteration
-            state = assembler.advance(state, dx)
-            if increment_size(model, dx, length) <= tol:
-                return _spin(model, state, rate, point), iteration + 1
-        return None, max_iter
-
-    state, iterations = solve_at(base.copy(), omega)
-    if state is None:
-        steps = prepared.scene.solve.steps
-        state = base.copy()
-        for k in range(1, steps + 1):
-            state, its = solve_at(state, omega * np.sqrt(k / steps))
-            iterations += its
-            if state is None:
-                raise SolverError(f"about: steady: Newton did not find the relative equilibrium at "
-                                  f"{np.sqrt(k / steps):.3g} of the spin rate")
-    return prepared, state, frame, iterations
-
-
 def state_about(prepared, about):
     """(prepared, state, frame, load factor) of ``solve.about``."""
     if about == "static":
         other, state = static_state(prepared)
         return other, state, Frame.inertial(), 1.0
-    if about == "steady":
+    if about == "steady":  # latdyn/analyses/steady.py
+        from latdyn.analyses.steady import steady_state
+
         other, state, frame, _ = steady_state(prepared)
         return other, state, frame, 1.0
     if isinstance(about, float):
@@ -510,13 +419,26 @@ def state_about(prepared, about):
 
 # ----------------------------------------------------------------------------- the analyses
 def modal_analysis(prepared, count: int, about="initial"):
-    """Modes about ``about`` (SCENE.md): (list of :class:`Mode`, dominant directions, Linearisation)."""
-    other, state, frame, load_factor = state_about(prepared, about)
+    """Modes about ``about`` (SCENE.md): (list of :class:`Mode`, dominant directions, Linearisation,
+    report).  ``report`` holds what the run says of the state beyond its modes: about a steady
+    spin, ``steady_state`` (stable or not, how it was found: latdyn/analyses/steady.py) and
+    ``warnings``; empty otherwise."""
+    report = {}
+    if about == "steady":
+        from latdyn.analyses.steady import steady_state, steady_summary
+
+        other, state, frame, search = steady_state(prepared)
+        load_factor = 1.0
+    else:
+        other, state, frame, load_factor = state_about(prepared, about)
     if other.model.n_dofs == 0:
-        return [], [], None
+        return [], [], None, report
     lin = linearise(other.assembler, state, frame, load_factor)
-    found = modes(lin, count)
-    return found, dominant_directions(other.model, lin, found), lin
+    found = modes(lin, None if about == "steady" else count)
+    if about == "steady":  # judged by all its roots, not only the listed ones
+        report["steady_state"], report["warnings"] = steady_summary(search, found)
+        found = found[:count]
+    return found, dominant_directions(other.model, lin, found), lin, report
 
 
 def modes_table(found: list[Mode], directions: list[str]) -> dict:
