@@ -149,6 +149,16 @@ def test_static_path_under_a_follower_load_reports_divergence_not_the_symmetric_
     assert lo < 1 / 1.3 < hi and hi - lo == pytest.approx(0.1)
 
 
+def test_flutter_of_a_structure_without_mass_is_said_to_be_unsearched(capsys):
+    """No mass, no modes: the summary and stderr say flutter was not searched (never "none")."""
+    text = ziegler().replace("mass: 2.0", "mass: 0.0").replace("mass: 1.0", "mass: 0.0")
+    summary = run_api(text)
+    assert summary["flutter_factor"] is None and summary["flutter_searched_to"] is None
+    assert any("flutter not searched" in w for w in summary["warnings"])
+    assert "flutter not searched" in capsys.readouterr().err
+    assert summary["instability"] == "none" and summary["divergence_searched_to"] == 1000.0
+
+
 def test_a_load_in_the_axes_of_a_fixed_body_is_not_a_follower_load():
     from latdyn.analyses.stability import follower_loads
     from latdyn.assembly.prepare import prepare

@@ -41,6 +41,7 @@ come first for its damped frequency 0; undamped, ``frequency_hz`` ascends as bef
 from __future__ import annotations
 
 import copy
+import sys
 import time
 from dataclasses import dataclass
 
@@ -558,6 +559,11 @@ def buckling_analysis(prepared, count: int = 6) -> dict:
     structure (a cantilever's tip load) the latter makes spurious low factors (measured: 0.14
     for a cantilever with EI_strong/EI_weak = 100 whose lateral buckling is at 1.0), so it is
     reported, not used.  For a column (axial pre-buckling) the two agree.
+
+    Under follower loads (:func:`latdyn.analyses.stability.follower_loads`) the symmetric part of
+    the tangent tells nothing: divergence and flutter are searched instead
+    (:func:`latdyn.analyses.stability.search`, ``solve.flutter``); conservative problems take the
+    search above, unchanged (``instability``: ``buckling`` or ``none``).
     """
     import scipy.linalg as sla
 
@@ -593,6 +599,8 @@ def buckling_analysis(prepared, count: int = 6) -> dict:
                    buckling_s=time.perf_counter() - started)
         if not flutter:
             out.update(flutter_factor=None, flutter_searched_to=None)  # not searched
+        for warning in out.get("warnings", []):
+            print(f"latdyn: warning: {warning}", file=sys.stderr)
         return out
 
     # along the path: f(λ) = min eig(K_T(λ), K₀) from f(0) = 1 to its zero
@@ -646,6 +654,8 @@ def buckling_analysis(prepared, count: int = 6) -> dict:
     return {"buckling_factor": None if factor is None else float(factor),
             "buckling_kind": kind, "conservative": True,
             "instability": "none" if factor is None else "buckling",
+            **({"flutter_factor": None, "flutter_searched_to": None}  # conservative: no flutter to search
+               if prepared.scene.solve.flutter else {}),
             "linearised_buckling_factors": [float(x) for x in linearised[:count]],
             "stability_evaluations": evaluations,
             "buckling_s": time.perf_counter() - started}

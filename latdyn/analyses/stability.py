@@ -136,6 +136,12 @@ def search(prepared, path, reference, K0s, first_step: float, flutter: bool, tol
     assembler = prepared.assembler
     cholesky = np.linalg.cholesky(K0s)
     evaluations = 0
+    warnings = []
+    if flutter and not np.any(assembler.evaluate(reference, matrices=True, load_factor=0.0).combined(
+            1.0, 0.0, 0.0, dense=True)):
+        flutter = False  # no dynamic eigenproblem: said, never reported as "no flutter"
+        warnings.append("buckling: flutter not searched: the structure has no mass (sections' rhoA, "
+                        "bodies' mass), so it has no modes about the loaded states")
 
     def measure(lam, state) -> PathState:
         nonlocal evaluations
@@ -201,6 +207,9 @@ def search(prepared, path, reference, K0s, first_step: float, flutter: bool, tol
         reached = below.load_factor if above is None else above.load_factor
         out.update(divergence_factor=None, divergence_searched_to=float(reached),
                    buckling_kind=None)
+    if warnings:
+        out["warnings"] = warnings
+        out.update(flutter_factor=None, flutter_searched_to=None)
     if flutter:
         if above is not None and above.fluttered:
             kind = kind or "flutter"
