@@ -108,6 +108,27 @@ def test_ziegler_pendulum_follower_load_flutters_at_the_closed_form():
     assert summary["divergence_factor"] is None and summary["buckling_factor"] is None
 
 
+def test_ziegler_pendulum_with_hinge_dampers_flutters_where_the_damped_roots_cross():
+    """Ziegler's paradox: equal small hinge dampers c lower the flutter load towards 41/28 (from
+    7/2 − √2); the reference is the root crossing of the 2-coordinate first-order form with
+    C = c [[2, −1], [−1, 1]] (the springs' and dampers' relative angles), found here independently."""
+    from scipy.optimize import brentq
+
+    c = 1e-3
+    summary = run_api(ziegler().replace("stiffness: 1.0}", f"stiffness: 1.0, damping: {c}}}"))
+    M, C = np.array([[3.0, 1.0], [1.0, 1.0]]), c * np.array([[2.0, -1.0], [-1.0, 1.0]])
+
+    def growth(p):
+        K = np.array([[2 - p, p - 1], [-1.0, 1.0]])
+        A = np.block([[np.zeros((2, 2)), np.eye(2)], [-np.linalg.solve(M, K), -np.linalg.solve(M, C)]])
+        return np.linalg.eigvals(A).real.max()
+
+    reference = brentq(growth, 1.0, 2.0, xtol=1e-14)
+    assert reference == pytest.approx(41 / 28, rel=1e-6)
+    assert summary["instability"] == "flutter"
+    assert summary["flutter_factor"] == pytest.approx(reference, rel=1e-6)
+
+
 def test_ziegler_pendulum_without_the_flutter_search_finds_no_divergence_up_to_the_limit(tmp_path):
     from latdyn.analyses.stability import SEARCH_LIMIT
 

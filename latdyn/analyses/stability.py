@@ -18,14 +18,18 @@ P L²/EI = 20.05; Bolotin 1963, Ch. 1; Ziegler 1968, §3).  Two instabilities ar
   growing amplitude, while det K_T ≠ 0.  Its measure is the growth g(λ) = max Re s/|s| over the
   oscillatory roots (−ζ of the least damped mode); flutter where g > :data:`FLUTTER_TOL`.  Without
   damping (C = 0) the roots come from the eigenvalues μ = ω² of (K_r, M_r): s = ±√(−μ), and a
-  pair μ meeting and becoming complex is flutter (Re s ≠ 0).
+  pair μ meeting and becoming complex is flutter (Re s ≠ 0).  With damping (hinge dampers) the
+  least damped root's Re s crosses zero (:data:`DAMPED_FLUTTER_TOL`); vanishing damping lowers the
+  flutter load (Ziegler's paradox: his pendulum with equal small hinge dampers flutters at
+  Pl/k = 41/28 instead of 7/2 − √2).
 
 Both are followed from λ = 0 along the equilibrium path (Newton of the static analysis at each λ,
 :func:`latdyn.analyses.continuation.newton_fixed`), with steps that grow to at most half the load
 factor reached, up to :data:`SEARCH_LIMIT`; the first instability met is bracketed and the
 bracket halved to :data:`~latdyn.analyses.linearise.STABILITY_TOL` (relative).  The divergence
 load is the zero of d by linear interpolation in the final bracket, the flutter load the upper
-end of the final bracket (g grows as √(λ − λ_f) past it).
+end of the final bracket without damping (g grows as √(λ − λ_f) past it), the zero of g
+interpolated in it with damping.
 
 References: M. Beck, ZAMP 3 (1952) 225–228; H. Ziegler, Principles of Structural Stability
 (1968); V. V. Bolotin, Nonconservative Problems of the Theory of Elastic Stability (1963).
@@ -39,9 +43,15 @@ import numpy as np
 from latdyn.model.model import DEPENDENT, FREE
 from latdyn.numerics.linalg import single_thread_blas
 
-#: Growth ratio Re s/|s| above which an oscillatory root is unstable (flutter).  Past the flutter
-#: load the ratio grows as c √(λ − λ_f); the threshold moves the load by ~(1e-6/c)², nothing.
+#: Growth ratio Re s/|s| above which an oscillatory root is unstable (flutter), without damping.
+#: Past the flutter load the ratio grows as c √(λ − λ_f); the threshold moves the load by
+#: ~(1e-6/c)², nothing, and stays clear of the round-off of nearly equal ω² (~√ε).
 FLUTTER_TOL = 1e-6
+#: The same with damping, where Re s crosses zero linearly, with a slope as small as the damping
+#: (Ziegler's pendulum with hinge dampers c = 1e-3: 4e-4 per unit load factor, so that 1e-6 would
+#: move the load by 0.2 %); the roots of the first-order form are not near a double root there, and
+#: their round-off is ~ε.  The load is then the zero of the ratio, interpolated in the final bracket.
+DAMPED_FLUTTER_TOL = 1e-10
 #: The search along the path stops at this load factor when nothing was found before.
 SEARCH_LIMIT = 1000.0
 #: An eigenvalue μ of the stability pencil is real when |Im μ| <= REAL_TOL · max(1, |μ|).
@@ -79,6 +89,11 @@ class Growth:
     """The least stable oscillatory root of a linearisation: g = Re s/|s| (−ζ) and |Im s|/2π."""
     ratio: float
     frequency_hz: float
+    damped: bool = False
+
+    @property
+    def unstable(self) -> bool:
+        return self.ratio > (DAMPED_FLUTTER_TOL if self.damped else FLUTTER_TOL)
 
 
 def flutter_measure(lin) -> Growth:
@@ -104,10 +119,10 @@ def flutter_measure(lin) -> Growth:
     size = np.maximum(np.abs(s), 1e-300)
     oscillatory = np.abs(s.imag) > REAL_TOL * size
     if not np.any(oscillatory):
-        return Growth(0.0, 0.0)
+        return Growth(0.0, 0.0, not undamped)
     ratio = s.real / size
     k = np.flatnonzero(oscillatory)[np.argmax(ratio[oscillatory])]
-    return Growth(float(ratio[k]), float(abs(s[k].imag)) / (2 * np.pi))
+    return Growth(float(ratio[k]), float(abs(s[k].imag)) / (2 * np.pi), not undamped)
 
 
 @dataclass
@@ -124,7 +139,7 @@ class PathState:
 
     @property
     def fluttered(self) -> bool:
-        return self.growth is not None and self.growth.ratio > FLUTTER_TOL
+        return self.growth is not None and self.growth.unstable
 
 
 def search(prepared, path, reference, K0s, first_step: float, flutter: bool, tol: float) -> dict:
@@ -213,8 +228,15 @@ def search(prepared, path, reference, K0s, first_step: float, flutter: bool, tol
     if flutter:
         if above is not None and above.fluttered:
             kind = kind or "flutter"
-            out.update(flutter_factor=float(above.load_factor), flutter_searched_to=float(above.load_factor),
+            factor = above.load_factor
+            g0, g1 = below.growth.ratio, above.growth.ratio
+            if above.growth.damped and below.growth.damped and g0 < g1:  # Re s crosses zero linearly
+                factor = below.load_factor + (above.load_factor - below.load_factor) * min(max(
+                    -g0 / (g1 - g0), 0.0), 1.0)
+            out.update(flutter_factor=float(factor), flutter_searched_to=float(factor),
                        flutter_frequency_hz=above.growth.frequency_hz)
+            if out["divergence_factor"] is None:
+                out["divergence_searched_to"] = float(factor)
         else:
             out.update(flutter_factor=None, flutter_searched_to=out["divergence_searched_to"],
                        flutter_frequency_hz=None)
