@@ -26,7 +26,9 @@ P L²/EI = 20.05; Bolotin 1963, Ch. 1; Ziegler 1968, §3).  Two instabilities ar
 Both are followed from λ = 0 along the equilibrium path (Newton of the static analysis at each λ,
 :func:`latdyn.analyses.continuation.newton_fixed`), with steps that grow to at most half the load
 factor reached, up to :data:`SEARCH_LIMIT`; the first instability met is bracketed and the
-bracket halved to :data:`~latdyn.analyses.linearise.STABILITY_TOL` (relative).  The divergence
+bracket narrowed to :data:`~latdyn.analyses.linearise.STABILITY_TOL` (relative) by regula falsi
+(Illinois) on a measure that crosses zero linearly there (d; for flutter :meth:`Growth.margin`),
+bisecting where it does not halve the bracket in two tries.  The divergence
 load is the zero of d by linear interpolation in the final bracket, the flutter load the upper
 end of the final bracket without damping (g grows as √(λ − λ_f) past it), the zero of g
 interpolated in it with damping.
@@ -90,6 +92,40 @@ class Growth:
     ratio: float
     frequency_hz: float
     damped: bool = False
+    #: without damping: the eigenvalues ω² of (K_r, M_r), for :meth:`margin`
+    omega2: np.ndarray | None = None
+
+    def margin(self, meeting: float | None) -> float:
+        """A measure that crosses zero linearly at the flutter load (positive below), for the regula
+        falsi of :func:`search`: with damping 1e-10 − g; without, below flutter the squared relative
+        distance of the two real ω² about ``meeting`` (the real part of the pair that is complex
+        past it: the pair meets as a ± √(c(λ_f − λ))), past it −(Im ω²/|ω²|)² of that pair."""
+        if self.damped:
+            return DAMPED_FLUTTER_TOL - self.ratio
+        w2 = self.omega2
+        complex_ = np.abs(w2.imag) > REAL_TOL * np.maximum(np.abs(w2), 1e-300)
+        if np.any(complex_):
+            k = np.flatnonzero(complex_)
+            if meeting is not None:
+                k = k[np.argmin(np.abs(w2[k].real - meeting))]
+            return -float(np.max(np.abs(w2[k].imag) / np.abs(w2[k]))) ** 2
+        real = np.sort(w2.real)
+        if len(real) < 2 or meeting is None:
+            return np.inf  # no pair to follow: bisection
+        distance = np.maximum(np.maximum(real[:-1] - meeting, meeting - real[1:]), 0.0)
+        i = int(np.argmin(distance))
+        return float((real[i + 1] - real[i]) / max(abs(real[i + 1]) + abs(real[i]), 1e-300)) ** 2
+
+    def meeting(self) -> float | None:
+        """Without damping, the real part of the least stable complex pair of ω² (None: none)."""
+        if self.damped or self.omega2 is None:
+            return None
+        w2 = self.omega2
+        complex_ = np.abs(w2.imag) > REAL_TOL * np.maximum(np.abs(w2), 1e-300)
+        if not np.any(complex_):
+            return None
+        k = np.flatnonzero(complex_)
+        return float(w2[k[np.argmax(np.abs(w2[k].imag) / np.abs(w2[k]))]].real)
 
     @property
     def unstable(self) -> bool:
@@ -118,11 +154,12 @@ def flutter_measure(lin) -> Growth:
         s = np.linalg.eigvals(A)
     size = np.maximum(np.abs(s), 1e-300)
     oscillatory = np.abs(s.imag) > REAL_TOL * size
+    omega2 = mu if undamped else None
     if not np.any(oscillatory):
-        return Growth(0.0, 0.0, not undamped)
+        return Growth(0.0, 0.0, not undamped, omega2)
     ratio = s.real / size
     k = np.flatnonzero(oscillatory)[np.argmax(ratio[oscillatory])]
-    return Growth(float(ratio[k]), float(abs(s[k].imag)) / (2 * np.pi), not undamped)
+    return Growth(float(ratio[k]), float(abs(s[k].imag)) / (2 * np.pi), not undamped, omega2)
 
 
 @dataclass
@@ -190,19 +227,41 @@ def search(prepared, path, reference, K0s, first_step: float, flutter: bool, tol
             break
         below = point
         step = min(2.0 * step, max(first_step, 0.5 * below.load_factor))
-    if above is not None:  # halve the bracket
+    if above is not None:  # narrow the bracket: Illinois regula falsi on the measure that turned
+        diverging = above.diverged
+
+        def signed(point, meeting):
+            return point.divergence if diverging else point.growth.margin(meeting)
+
+        scale, moved, widths = [1.0, 1.0], 0, []  # Illinois: the weights of the ends kept
         while above.load_factor - below.load_factor > tol * below.load_factor:
-            middle = 0.5 * (below.load_factor + above.load_factor)
-            trial, _, _, converged = continuation.newton_fixed(path, below.state, middle)
+            lo, hi = below.load_factor, above.load_factor
+            slow = len(widths) >= 2 and hi - lo > 0.5 * widths[-2]  # not halved in two tries: bisect
+            widths.append(hi - lo)
+            meeting = None if diverging or above.growth is None else above.growth.meeting()
+            f_below = scale[0] * signed(below, meeting)
+            f_above = scale[1] * signed(above, meeting) if above.state is not None else -np.inf
+            target = 0.5 * (lo + hi)
+            if not slow and np.isfinite(f_below) and np.isfinite(f_above) and f_below > 0.0 > f_above:
+                target = lo + (hi - lo) * f_below / (f_below - f_above)
+                # a quarter of the tolerance past the estimate, towards the end that moved least
+                # recently: once the estimate is good, the next point closes the bracket
+                target += 0.25 * tol * lo * (-1.0 if moved < 0 else 1.0)
+                target = min(max(target, lo + 1e-3 * (hi - lo)), hi - 1e-3 * (hi - lo))
+            trial, _, _, converged = continuation.newton_fixed(path, below.state, target)
             if not converged:
-                above = PathState(middle, None, -np.inf, None)  # a fold inside: the path ends there
+                above = PathState(target, None, -np.inf, None)  # a fold inside
                 limit_point = True
                 continue
-            point = measure(middle, trial)
+            point = measure(target, trial)
             if point.diverged or point.fluttered:
                 above = point
+                scale = [scale[0] * (0.5 if moved < 0 else 1.0), 1.0]
+                moved = -1
             else:
                 below = point
+                scale = [1.0, scale[1] * (0.5 if moved > 0 else 1.0)]
+                moved = 1
     out = {"conservative": False, "stability_evaluations": evaluations}
     kind = None
     if limit_point and (above is None or above.state is None):
