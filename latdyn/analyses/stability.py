@@ -103,6 +103,8 @@ class Growth:
         if self.damped:
             return DAMPED_FLUTTER_TOL - self.ratio
         w2 = self.omega2
+        if w2 is None:  # the unloaded start, not measured: bisection
+            return np.inf
         complex_ = np.abs(w2.imag) > REAL_TOL * np.maximum(np.abs(w2), 1e-300)
         if np.any(complex_):
             k = np.flatnonzero(complex_)
