@@ -101,10 +101,11 @@ def test_becks_column_modes_about_the_loaded_state_agree_with_the_flutter_load()
     assert min(above["damping_ratios"]) < -1e-2
 
 
-def test_ziegler_pendulum_follower_load_flutters_at_the_closed_form():
-    summary = run_api(ziegler())
+@pytest.mark.parametrize("P", [1.0, 30.0])  # 30: flutter inside the first load step (1/steps)
+def test_ziegler_pendulum_follower_load_flutters_at_the_closed_form(P):
+    summary = run_api(ziegler(P=P))
     assert summary["instability"] == "flutter"
-    assert summary["flutter_factor"] == pytest.approx(3.5 - np.sqrt(2.0), rel=1e-6)
+    assert summary["flutter_factor"] * P == pytest.approx(3.5 - np.sqrt(2.0), rel=1e-6)
     assert summary["divergence_factor"] is None and summary["buckling_factor"] is None
 
 
