@@ -156,6 +156,10 @@ def test_ziegler_pendulum_dead_load_buckles_at_the_closed_form(tmp_path):
     assert summary["conservative"] is True and summary["instability"] == "buckling"
     assert summary["buckling_factor"] == pytest.approx((3 - np.sqrt(5.0)) / 2, rel=1e-9)
     assert "flutter_factor" not in summary and "divergence_factor" not in summary
+    # flutter asked on conservative loads: said not searched (none to find), the buckling load unchanged
+    asked = run_api(ziegler(frame="global", solve="{analysis: buckling, flutter: true}"))
+    assert asked["flutter_factor"] is None and asked["flutter_searched_to"] is None
+    assert asked["buckling_factor"] == summary["buckling_factor"]
 
 
 def test_static_path_under_a_follower_load_reports_divergence_not_the_symmetric_part():
