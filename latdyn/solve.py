@@ -139,7 +139,11 @@ def _analyse(prepared, probes: ProbeSet, writer: ResultWriter, out_dir, analysis
     if analysis == "modes":  # about solve.about (latdyn/analyses/linearise.py)
         _modes(prepared, writer, out_dir)
     elif analysis == "buckling":
-        writer.summary.update(linearise.buckling_analysis(prepared, scene.solve.count))
+        found = linearise.buckling_analysis(prepared, scene.solve.count)
+        warnings = found.pop("warnings", [])
+        writer.summary.update(found)
+        if warnings:
+            writer.summary.setdefault("warnings", []).extend(warnings)
     elif analysis == "static":
         static_path(prepared, probes, writer, length_scale(prepared.model))
     else:

@@ -38,6 +38,15 @@ is a *limit point* (its load factor estimated by the vertex of the parabola λ(s
 three points about the turn); the count changing while λ keeps its direction is a *bifurcation
 point*.  Both go to ``summary.json`` (``limit_points``, ``bifurcation_points``).
 
+Under follower loads (:func:`latdyn.analyses.stability.follower_loads`) K is unsymmetric and its
+symmetric part says nothing about stability; there the count is of the *real* negative
+eigenvalues of K itself (models up to :data:`NONSYMMETRIC_COUNT_LIMIT` coordinates), and a point
+is reported only where a real eigenvalue passes through zero (*divergence*, ``kind:
+divergence``): the count of real negative eigenvalues and that of all eigenvalues with a negative
+real part change together.  Two real eigenvalues meeting and leaving the real axis change the
+first count alone, a complex pair crossing the imaginary axis the second alone; neither is a
+static instability (flutter is dynamic: ``analysis: buckling``, latdyn/analyses/stability.py).
+
 Every converged state on the grid is a row of ``probes.csv`` (first column ``load_factor``); a
 run that cannot go on writes its last converged state as a row before it fails (exit 1), with a
 message in load factor.
@@ -54,6 +63,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from latdyn.analyses.stability import REAL_TOL, follower_loads
 from latdyn.assembly.factorization import solve_linear
 from latdyn.errors import SceneError, SolverError
 from latdyn.numerics.linalg import single_thread_blas
@@ -65,16 +75,21 @@ MAX_CUTS = 10
 TARGET_ITERATIONS = 6
 #: Largest model whose tangent's negative eigenvalues are counted at every path point (dense).
 PIVOT_COUNT_LIMIT = 1000
+#: The same under follower loads, where the count needs the eigenvalues of the unsymmetric K (dense).
+NONSYMMETRIC_COUNT_LIMIT = 400
 
 
 @dataclass
 class PathPoint:
     """A converged point of the path: its step, load factor, arc length from the start (W-norm)
-    and the number of negative eigenvalues of the symmetric part of K (None: not counted)."""
+    and the number of negative eigenvalues of the symmetric part of K (None: not counted); under
+    follower loads the number of real negative eigenvalues of K and, in ``negative_real_part``,
+    of all its eigenvalues with a negative real part (module docstring)."""
     step: int
     load_factor: float
     arc: float
     negative: int | None
+    negative_real_part: int | None = None
 
 
 @dataclass
@@ -90,6 +105,8 @@ class Path:
     steps: int = 0
     rejected: int = 0
     points: list = field(default_factory=list)
+    #: no load turns with a body: the symmetric part of K tells stability (module docstring)
+    conservative: bool = True
     recorded_at: float | None = None  # load factor of the last row, the state it holds being `recorded`
     recorded: object = None
     weight: np.ndarray | None = None
@@ -103,6 +120,7 @@ class Path:
         self.weight = np.ones(model.n_dofs)
         translations = model.node_dofs[model.free_nodes, 0:3].ravel()
         self.weight[translations[translations < model.n_dofs]] = 1.0 / self.length_scale ** 2
+        self.conservative = not follower_loads(model)
 
     # ------------------------------------------------------------------ equations
     def evaluate(self, state, load_factor: float):
@@ -131,6 +149,26 @@ class Path:
         self.assembler.apply_prescribed(new, 0.0)
         return new
 
+    def point(self, step: int, load_factor: float, arc: float, K) -> PathPoint:
+        """The path point with the eigenvalue counts of K (:meth:`negative_eigenvalues`)."""
+        if self.conservative:
+            return PathPoint(step, float(load_factor), float(arc), self.negative_eigenvalues(K))
+        return PathPoint(step, float(load_factor), float(arc), *self.negative_real_eigenvalues(K))
+
+    def negative_real_eigenvalues(self, K) -> tuple[int | None, int | None]:
+        """Under follower loads: the real negative eigenvalues of K and all its eigenvalues with a
+        negative real part (None, None above NONSYMMETRIC_COUNT_LIMIT coordinates)."""
+        n = K.shape[0]
+        if n == 0 or n > NONSYMMETRIC_COUNT_LIMIT:
+            return (None, None) if n else (0, 0)
+        dense = K if isinstance(K, np.ndarray) else K.toarray()
+        with single_thread_blas():
+            mu = np.linalg.eigvals(dense)
+        scale = max(float(np.max(np.abs(mu))), 1e-300)
+        negative = mu.real < -1e-12 * scale
+        real = np.abs(mu.imag) <= REAL_TOL * np.maximum(np.abs(mu), 1e-12 * scale)
+        return int(np.sum(negative & real)), int(np.sum(negative))
+
     def negative_eigenvalues(self, K) -> int | None:
         """Negative eigenvalues of ½(K + Kᵀ) (None above PIVOT_COUNT_LIMIT coordinates)."""
         n = K.shape[0]
@@ -154,7 +192,7 @@ class Path:
 
     def accept(self, state, load_factor: float, K, arc: float) -> None:
         self.steps += 1
-        self.points.append(PathPoint(self.steps, float(load_factor), float(arc), self.negative_eigenvalues(K)))
+        self.points.append(self.point(self.steps, load_factor, arc, K))
         self.summarize()
 
     def summarize(self) -> None:
@@ -164,8 +202,9 @@ class Path:
             steps=self.steps, newton_iterations=self.iterations, rejected_steps=self.rejected,
             newton_iterations_per_step=self.iterations / max(self.steps, 1), newton_tolerance=self.tol,
             method=self.prepared.scene.solve.method, load_factor_reached=last,
-            limit_points=limits, bifurcation_points=bifurcations,
-            negative_eigenvalues_counted=self.model.n_dofs <= PIVOT_COUNT_LIMIT)
+            limit_points=limits, bifurcation_points=bifurcations, conservative=self.conservative,
+            negative_eigenvalues_counted=self.model.n_dofs <= (
+                PIVOT_COUNT_LIMIT if self.conservative else NONSYMMETRIC_COUNT_LIMIT))
 
     def fail(self, state, load_factor: float, message: str, residual, at: float, step: float) -> None:
         """Write the last converged state as a row (unless it is the last row) and raise."""
@@ -202,9 +241,15 @@ def critical_points(points: list[PathPoint]) -> tuple[list[dict], list[dict]]:
             continue
         if j - 1 in turns or j in turns or j + 1 >= len(points):
             continue  # the change of a limit point, or not yet known which
-        bifurcations.append({"load_factor": 0.5 * float(lam[j - 1] + lam[j]), "step": points[j].step,
-                             "between_load_factors": [float(lam[j - 1]), float(lam[j])],
-                             "negative_eigenvalues": [before, after]})
+        follower = points[j].negative_real_part is not None
+        if follower and points[j - 1].negative_real_part == points[j].negative_real_part:
+            continue  # real eigenvalues that met and left the real axis: no divergence (module docstring)
+        entry = {"load_factor": 0.5 * float(lam[j - 1] + lam[j]), "step": points[j].step,
+                 "between_load_factors": [float(lam[j - 1]), float(lam[j])],
+                 "negative_eigenvalues": [before, after]}
+        if follower:
+            entry["kind"] = "divergence"
+        bifurcations.append(entry)
     return limits, bifurcations
 
 
@@ -437,7 +482,7 @@ def static_path(prepared, probes, writer, length_scale: float) -> None:
     path.record(state, 0.0)
     K = prepared.assembler.evaluate(state, matrices=True, load_factor=0.0, inertia=False).stiffness \
         if path.model.n_dofs else np.zeros((0, 0))
-    path.points.append(PathPoint(0, 0.0, 0.0, path.negative_eigenvalues(K)))
+    path.points.append(path.point(0, 0.0, 0.0, K))
     path.summarize()
     # a static path asked for by another analysis (modes about: static, buckling) is load control
     method = prepared.scene.solve.method if prepared.scene.solve.method in METHODS else "load-control"

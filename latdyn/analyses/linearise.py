@@ -41,12 +41,13 @@ come first for its damped frequency 0; undamped, ``frequency_hz`` ascends as bef
 from __future__ import annotations
 
 import copy
+import sys
 import time
 from dataclasses import dataclass
 
 import numpy as np
 
-from latdyn.analyses import continuation
+from latdyn.analyses import continuation, stability
 from latdyn.assembly.assembler import pack, unpack_free
 from latdyn.assembly.factorization import Factorization
 from latdyn.assembly.prepare import length_scale
@@ -480,6 +481,11 @@ def buckling_analysis(prepared, count: int = 6) -> dict:
     structure (a cantilever's tip load) the latter makes spurious low factors (measured: 0.14
     for a cantilever with EI_strong/EI_weak = 100 whose lateral buckling is at 1.0), so it is
     reported, not used.  For a column (axial pre-buckling) the two agree.
+
+    Under follower loads (:func:`latdyn.analyses.stability.follower_loads`) the symmetric part of
+    the tangent tells nothing: divergence and flutter are searched instead
+    (:func:`latdyn.analyses.stability.search`, ``solve.flutter``); conservative problems take the
+    search above, unchanged (``instability``: ``buckling`` or ``none``).
     """
     import scipy.linalg as sla
 
@@ -496,13 +502,28 @@ def buckling_analysis(prepared, count: int = 6) -> dict:
         raise SolverError("buckling: the unloaded structure is not held (its tangent is not positive "
                           "definite): a free structure or a mechanism has no buckling load") from None
     path = continuation.Path(prepared, None, None, length_scale(model))  # Newton's settings and counters
+    followers = stability.follower_loads(model)
     loaded, _, _, converged = continuation.newton_fixed(path, reference, PREBUCKLING_FACTOR)
     if not converged:
         raise SolverError(f"buckling: no static equilibrium at load factor {PREBUCKLING_FACTOR:g}")
     K1 = (tangent_q(assembler, loaded, PREBUCKLING_FACTOR, inertia=False) - K0) / PREBUCKLING_FACTOR
     nu = sla.eigvals(-K1, K0)
     nu = nu[np.isfinite(nu)]
+    if followers:  # directions the load does not change (axial, torsion) give ν of round-off, 1/ν ~ 1e11
+        nu = nu[np.abs(nu) > 1e-9 * max(float(np.abs(nu).max(initial=0.0)), 1e-300)]
     linearised = np.sort([1.0 / v.real for v in nu if v.real > 0 and abs(v.imag) <= 1e-8 * abs(v)])
+    if followers:  # non-conservative: divergence and flutter along the path (latdyn/analyses/stability.py)
+        step = min(1.0 / prepared.scene.solve.steps, 0.5 * float(linearised[0]) if len(linearised) else 1.0)
+        flutter = prepared.scene.solve.flutter is not False
+        out = stability.search(prepared, path, reference, K0s, step, flutter, STABILITY_TOL)
+        out.update(follower_loads=[f"loads[{i}]" for i in followers],
+                   linearised_buckling_factors=[float(x) for x in linearised[:count]],
+                   buckling_s=time.perf_counter() - started)
+        if not flutter:
+            out.update(flutter_factor=None, flutter_searched_to=None)  # not searched
+        for warning in out.get("warnings", []):
+            print(f"latdyn: warning: {warning}", file=sys.stderr)
+        return out
 
     # along the path: f(λ) = min eig(K_T(λ), K₀) from f(0) = 1 to its zero
     lam, f, state = 0.0, 1.0, reference
@@ -553,7 +574,10 @@ def buckling_analysis(prepared, count: int = 6) -> dict:
     else:
         factor = None
     return {"buckling_factor": None if factor is None else float(factor),
-            "buckling_kind": kind,
+            "buckling_kind": kind, "conservative": True,
+            "instability": "none" if factor is None else "buckling",
+            **({"flutter_factor": None, "flutter_searched_to": None}  # conservative: no flutter to search
+               if prepared.scene.solve.flutter else {}),
             "linearised_buckling_factors": [float(x) for x in linearised[:count]],
             "stability_evaluations": evaluations,
             "buckling_s": time.perf_counter() - started}

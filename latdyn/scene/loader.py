@@ -113,7 +113,7 @@ _HINGE_KEYS = ("axis", "stiffness", "damping", "torque", "angle", "lock_at", "re
 _LOAD_KEYS = ("at", "force", "moment", "frame")
 _SOLVE_KEYS = ("analysis", "t_end", "dt", "method", "rho_inf", "tol", "steps", "count",
                "adaptive", "error_tol", "dt_min", "max_iterations", "formulation", "engine", "newton", "planar",
-               "control", "max_steps", "about", "linear_model", "mode_shapes")
+               "control", "max_steps", "about", "linear_model", "mode_shapes", "flutter")
 _CONTROL_KEYS = ("point", "direction", "to")
 #: ``solve.engine``: ``auto`` or ``compiled``, the same: the implicit step's Newton iteration runs in C
 #: (latdyn/step/compiled.py), its one implementation (the Python step it once chose is gone, issue 17);
@@ -306,6 +306,9 @@ class Solve:
     control: "Control | None" = None
     #: static ``method: arc-length``: most path steps (default 20 × steps)
     max_steps: int | None = None
+    #: buckling: search the flutter load along the path (None: where the loads are follower loads,
+    #: latdyn/analyses/stability.py)
+    flutter: bool | None = None
 
 
 @dataclass
@@ -1142,6 +1145,10 @@ class _Reader:
             s.linear_model = self.linear_model(spec["linear_model"], k("linear_model"))
         if "mode_shapes" in spec:
             s.mode_shapes = self.boolean(spec["mode_shapes"], k("mode_shapes"))
+        if "flutter" in spec:
+            if s.analysis != "buckling":
+                self.fail(k("flutter"), "expected only in a buckling analysis (analysis: buckling)")
+            s.flutter = self.boolean(spec["flutter"], k("flutter"))
         return s
 
     def control(self, spec, key) -> Control:

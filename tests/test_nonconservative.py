@@ -1,0 +1,204 @@
+"""Stability under follower loads (issue 30, item 1; latdyn/analyses/stability.py): divergence and
+flutter, not the symmetric part of the tangent.  Scenes as a user writes them, through the command
+line and the API, against closed forms: Beck's column, Ziegler's double pendulum."""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+import latdyn
+
+ROOT = Path(__file__).resolve().parents[1]
+
+#: Beck's column: a cantilever (EI = 1, L = 1, ρA = 1) under a tangential (follower) tip force P.
+#: No divergence at any load; flutter at P L²/EI = 20.051 (Beck 1952).  The symmetric part of the
+#: tangent is singular at P L²/EI ≈ π², which latdyn reported as the buckling load before.
+BECK = """\
+title: Beck's column
+sections:
+  col: {{EA: 1.0e5, EIy: 1.0, EIz: 2.0, GJ: 1.0, rhoA: 1.0}}
+bodies:
+  base: {{at: [0, 0, 0], fixed: true}}
+  tip: {{at: [0, 0, 1]}}
+beams:
+  col: {{from: base, to: tip, section: col, elements: 8}}
+loads:
+  - {{at: tip, force: [0, 0, -{P}], frame: tip}}
+solve: {solve}
+"""
+BECK_FLUTTER = 20.051  # P L²/EI, Beck (1952); Bolotin (1963)
+
+#: Ziegler's double pendulum: two rigid links of length l = 1 on hinges with springs k = 1, masses
+#: 2m at the middle hinge and m at the tip (m = 1), a force P at the tip.  Lagrange, angles θ₁, θ₂
+#: of the links: M = m l² [[3, 1], [1, 1]] and, P turning with the upper link (``frame: tip``),
+#: K = [[2k − Pl, Pl − k], [−k, k]]: det K = k² (no divergence); det(K − ω²M) = 0 is
+#: 2Ω² + (2p − 7)Ω + 1 = 0 (p = Pl/k, Ω = ω²ml²/k), whose roots turn complex (flutter) at
+#: (2p − 7)² = 8: p = 7/2 − √2.  A dead P (global axes): K = [[2k − Pl, −k], [−k, k − Pl]], buckling
+#: at p² − 3p + 1 = 0: p = (3 − √5)/2.  P turning with the lower link (``frame: middle``):
+#: K = [[2k, −k], [Pl − k, k − Pl]], det K = k(k − Pl): divergence at p = 1 (and no flutter before:
+#: the discriminant 16p² − 48p + 41 of det(K − ω²M) stays positive), where the symmetric part of K
+#: is singular at p = 2√2 − 2 = 0.83.
+ZIEGLER = """\
+title: Ziegler's double pendulum
+sections:
+  link: {{EA: 1.0, EIy: 1.0, EIz: 1.0, GJ: 1.0, rhoA: 0.0}}
+bodies:
+  base: {{at: [0, 0, 0], fixed: true}}
+  middle: {{at: [1, 0, 0], mass: 2.0}}
+  tip: {{at: [2, 0, 0], mass: 1.0}}
+beams:
+  lower: {{from: base, to: middle, section: link, rigid: true, start: {{hinge: {{axis: [0, 0, 1], stiffness: 1.0}}}}}}
+  upper: {{from: middle, to: tip, section: link, rigid: true, start: {{hinge: {{axis: [0, 0, 1], stiffness: 1.0}}}}}}
+loads:
+  - {{at: tip, force: [-{P}, 0, 0]{frame}}}
+solve: {solve}
+"""
+
+
+def ziegler(P=1.0, frame="tip", solve="{analysis: buckling}") -> str:
+    return ZIEGLER.format(P=P, frame="" if frame == "global" else f", frame: {frame}", solve=solve)
+
+
+def run_cli(tmp_path, text: str):
+    path = tmp_path / "scene.yaml"
+    path.write_text(text)
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    completed = subprocess.run([sys.executable, "-m", "latdyn", "run", str(path), "-o", str(tmp_path / "out")],
+                               env=env, capture_output=True, text=True, cwd=tmp_path, check=False)
+    summary = tmp_path / "out" / "summary.json"
+    return completed, json.loads(summary.read_text()) if summary.exists() else None
+
+
+def run_api(text: str) -> dict:
+    return latdyn.run(latdyn.load_scene(yaml.safe_load(text))).summary
+
+
+def test_becks_column_flutters_and_does_not_diverge_through_the_cli(tmp_path):
+    completed, summary = run_cli(tmp_path, BECK.format(P=10, solve="{analysis: buckling}"))
+    assert completed.returncode == 0, completed.stderr
+    assert summary["conservative"] is False and summary["follower_loads"] == ["loads[0]"]
+    assert summary["instability"] == "flutter"
+    # 8 elements: +0.035 % (measured); before: 0.987, the symmetric part's zero
+    assert summary["flutter_factor"] * 10 == pytest.approx(BECK_FLUTTER, rel=2e-3)
+    assert summary["flutter_frequency_hz"] > 0
+    # no divergence up to the flutter load, and no static buckling load is claimed
+    assert summary["divergence_factor"] is None and summary["buckling_factor"] is None
+    assert summary["divergence_searched_to"] == pytest.approx(summary["flutter_factor"])
+
+
+def test_becks_column_modes_about_the_loaded_state_agree_with_the_flutter_load():
+    """The modal analysis about the static state: stable (ζ >= 0) below 20.05, a growing mode above."""
+    below = run_api(BECK.format(P=19.5, solve="{analysis: modes, about: static, steps: 2, count: 4}"))
+    above = run_api(BECK.format(P=20.6, solve="{analysis: modes, about: static, steps: 2, count: 4}"))
+    assert min(below["damping_ratios"]) > -1e-6
+    assert min(above["damping_ratios"]) < -1e-2
+
+
+@pytest.mark.parametrize("P", [1.0, 30.0])  # 30: flutter inside the first load step (1/steps)
+def test_ziegler_pendulum_follower_load_flutters_at_the_closed_form(P):
+    summary = run_api(ziegler(P=P))
+    assert summary["instability"] == "flutter"
+    assert summary["flutter_factor"] * P == pytest.approx(3.5 - np.sqrt(2.0), rel=1e-6)
+    assert summary["divergence_factor"] is None and summary["buckling_factor"] is None
+
+
+def test_ziegler_pendulum_with_hinge_dampers_flutters_where_the_damped_roots_cross():
+    """Ziegler's paradox: equal small hinge dampers c lower the flutter load towards 41/28 (from
+    7/2 − √2); the reference is the root crossing of the 2-coordinate first-order form with
+    C = c [[2, −1], [−1, 1]] (the springs' and dampers' relative angles), found here independently."""
+    from scipy.optimize import brentq
+
+    c = 1e-3
+    summary = run_api(ziegler().replace("stiffness: 1.0}", f"stiffness: 1.0, damping: {c}}}"))
+    M, C = np.array([[3.0, 1.0], [1.0, 1.0]]), c * np.array([[2.0, -1.0], [-1.0, 1.0]])
+
+    def growth(p):
+        K = np.array([[2 - p, p - 1], [-1.0, 1.0]])
+        A = np.block([[np.zeros((2, 2)), np.eye(2)], [-np.linalg.solve(M, K), -np.linalg.solve(M, C)]])
+        return np.linalg.eigvals(A).real.max()
+
+    reference = brentq(growth, 1.0, 2.0, xtol=1e-14)
+    assert reference == pytest.approx(41 / 28, rel=1e-6)
+    assert summary["instability"] == "flutter"
+    assert summary["flutter_factor"] == pytest.approx(reference, rel=1e-6)
+
+
+def test_ziegler_pendulum_without_the_flutter_search_finds_no_divergence_up_to_the_limit():
+    from latdyn.analyses.stability import SEARCH_LIMIT
+
+    summary = run_api(ziegler(solve="{analysis: buckling, flutter: false}"))
+    assert summary["instability"] == "none"
+    assert summary["buckling_factor"] is None and summary["divergence_factor"] is None
+    assert summary["divergence_searched_to"] == SEARCH_LIMIT
+    assert summary["flutter_factor"] is None and summary["flutter_searched_to"] is None  # not searched
+
+
+def test_ziegler_pendulum_load_turning_with_the_lower_link_diverges_at_the_closed_form(tmp_path):
+    completed, summary = run_cli(tmp_path, ziegler(frame="middle"))
+    assert completed.returncode == 0, completed.stderr
+    assert summary["instability"] == "divergence"
+    assert summary["divergence_factor"] == pytest.approx(1.0, rel=1e-6)
+    assert summary["buckling_factor"] == summary["divergence_factor"]
+    assert summary["buckling_kind"].startswith("divergence")
+    assert summary["flutter_factor"] is None and summary["flutter_searched_to"] == pytest.approx(1.0, rel=1e-6)
+
+
+def test_ziegler_pendulum_dead_load_buckles_at_the_closed_form(tmp_path):
+    completed, summary = run_cli(tmp_path, ziegler(frame="global"))
+    assert completed.returncode == 0, completed.stderr
+    assert summary["conservative"] is True and summary["instability"] == "buckling"
+    assert summary["buckling_factor"] == pytest.approx((3 - np.sqrt(5.0)) / 2, rel=1e-9)
+    assert "flutter_factor" not in summary and "divergence_factor" not in summary
+    # flutter asked on conservative loads: said not searched (none to find), the buckling load unchanged
+    asked = run_api(ziegler(frame="global", solve="{analysis: buckling, flutter: true}"))
+    assert asked["flutter_factor"] is None and asked["flutter_searched_to"] is None
+    assert asked["buckling_factor"] == summary["buckling_factor"]
+
+
+def test_static_path_under_a_follower_load_reports_divergence_not_the_symmetric_part():
+    """Beck's column to P L²/EI = 15 (past π², below flutter): no point; the pendulum whose load
+    turns with the lower link: one divergence point where p = 1 (λ = 1/1.3), not at 0.83."""
+    beck = run_api(BECK.format(P=15, solve="{analysis: static, steps: 5}"))
+    assert beck["conservative"] is False and beck["bifurcation_points"] == []
+    pendulum = run_api(ziegler(P=1.3, frame="middle", solve="{analysis: static, steps: 10}"))
+    (point,) = pendulum["bifurcation_points"]
+    assert point["kind"] == "divergence" and point["negative_eigenvalues"] == [0, 1]
+    lo, hi = point["between_load_factors"]
+    assert lo < 1 / 1.3 < hi and hi - lo == pytest.approx(0.1)
+
+
+def test_flutter_of_a_structure_without_mass_is_said_to_be_unsearched(capsys):
+    """No mass, no modes: the summary and stderr say flutter was not searched (never "none")."""
+    text = ziegler().replace("mass: 2.0", "mass: 0.0").replace("mass: 1.0", "mass: 0.0")
+    summary = run_api(text)
+    assert summary["flutter_factor"] is None and summary["flutter_searched_to"] is None
+    assert any("flutter not searched" in w for w in summary["warnings"])
+    assert "flutter not searched" in capsys.readouterr().err
+    assert summary["instability"] == "none" and summary["divergence_searched_to"] == 1000.0
+
+
+def test_a_load_in_the_axes_of_a_fixed_body_is_not_a_follower_load():
+    from latdyn.analyses.stability import follower_loads
+    from latdyn.assembly.prepare import prepare
+
+    text = ziegler(frame="base")
+    prepared = prepare(latdyn.load_scene(yaml.safe_load(text)))
+    assert follower_loads(prepared.model) == []
+    assert follower_loads(prepare(latdyn.load_scene(yaml.safe_load(ziegler()))).model) == [0]
+
+
+@pytest.mark.parametrize("solve, expected", [
+    ("{analysis: static, flutter: true}", "solve.flutter: expected only in a buckling analysis"),
+    ("{analysis: buckling, flutter: sometimes}", "solve.flutter"),
+])
+def test_flutter_key_is_validated(tmp_path, solve, expected):
+    completed, _ = run_cli(tmp_path, ziegler(solve=solve))
+    assert completed.returncode == 2
+    assert expected in completed.stderr and "Traceback" not in completed.stderr
