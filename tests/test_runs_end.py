@@ -1,0 +1,104 @@
+"""Runs that end, and messages that say what is true (issue 30, item 5).
+
+Every scene here is YAML text as a user types it, run through ``python -m latdyn run`` in a
+subprocess with a timeout: a run that crawls fails the test by its timeout, not by hanging the suite.
+"""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def run_cli(tmp_path: Path, text: str, timeout: float = 60.0) -> tuple[subprocess.CompletedProcess, Path]:
+    """``latdyn run`` of the scene ``text``; the completed process and the results folder."""
+    scene, out = tmp_path / "scene.yaml", tmp_path / "out"
+    scene.write_text(textwrap.dedent(text))
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    completed = subprocess.run([sys.executable, "-m", "latdyn", "run", str(scene), "-o", str(out)],
+                               env=env, capture_output=True, text=True, cwd=tmp_path, timeout=timeout)
+    return completed, out
+
+
+def summary(out: Path) -> dict:
+    return json.loads((out / "summary.json").read_text())
+
+
+# A deploying arm: a flexible upper arm on a hinge with stops (restitution 0.3) driven into its upper
+# stop by a preloaded spring, with a damper whose coefficient grows with θ̇²; a rigid lower link on a
+# hinge that latches at 0.8.
+DEPLOYING_ARM = """\
+    title: deploying arm with stops, a latch and a rate-dependent damper
+    gravity: [0, -9.81, 0]
+    sections:
+      arm: {EA: 1.0e8, EIy: 1.0e4, EIz: 1.0e4, GJ: 1.0e4, rhoA: 1.0}
+    bodies:
+      base: {at: [0, 0, 0], fixed: true}
+      elbow: {at: [1, 0, 0], mass: 0.5}
+      tip: {at: [2, 0, 0], mass: 0.2}
+    beams:
+      upper:
+        from: base
+        to: elbow
+        section: arm
+        elements: 2
+        start:
+          hinge: {axis: [0, 0, 1], stiffness: 20, rest_angle: 1.0, damping: "0.05*theta_dot**2",
+                  limits: [-0.3, 0.4], restitution: 0.3}
+      lower:
+        from: elbow
+        to: tip
+        section: arm
+        elements: 2
+        start:
+          hinge: {axis: [0, 0, 1], stiffness: 5, rest_angle: 1.5, lock_at: 0.8}
+    solve: {analysis: transient, t_end: 1, dt: 0.01, adaptive: true, dt_min: 2.0e-4}
+    output:
+      probes:
+        upper: {hinge: upper.start, quantity: angle}
+        lower: {hinge: lower.start, quantity: angle}
+    """
+
+
+def test_adaptive_steps_never_go_below_dt_min(tmp_path):
+    """The floor holds for every step of the adaptive path — steps resized by the error estimate,
+    steps shortened onto a stop or a latch — save the last one onto a grid point (a row every
+    step, so probes.csv lists the end of every accepted step). It once had none: steps of 7e-7 s
+    with dt_min = 2e-4 here, and of 1e-12 s where stops chattered."""
+    completed, out = run_cli(tmp_path, DEPLOYING_ARM)
+    assert completed.returncode == 0, completed.stderr
+    t = np.loadtxt(out / "probes.csv", delimiter=",", skiprows=1)[:, 0]
+    steps, ends = np.diff(t), t[1:]
+    on_grid = np.abs(ends / 0.01 - np.round(ends / 0.01)) < 1e-6
+    assert summary(out)["steps"] > 100  # the stops and the latch shortened and cut steps
+    assert steps[~on_grid].min() >= 2.0e-4 * (1 - 1e-9)
+
+
+def test_a_motion_that_blows_up_in_finite_time_ends_with_a_clean_failure(tmp_path):
+    """θ̈ ∝ 1 + θ̇² blows up at a finite time (θ̇ = tan): adaptive steps follow it down to dt_min
+    and the run ends there, exit 1, with the message of the fixed-step path, what was recorded kept."""
+    text = DEPLOYING_ARM.replace('stiffness: 20, rest_angle: 1.0, damping: "0.05*theta_dot**2"',
+                                 'torque: "20*(1 + theta_dot**2)", damping: "0.1/(1 + theta_dot**2)"')
+    text = text.replace("limits: [-0.3, 0.4]", "limits: [-0.5, 100]").replace("dt_min: 2.0e-4", "dt_min: 1.0e-5")
+    completed, out = run_cli(tmp_path, text)
+    assert completed.returncode == 1, completed.stderr
+    assert "below the minimum step" in completed.stderr or "at the minimum step" in completed.stderr
+    assert "Traceback" not in completed.stderr
+    assert summary(out)["status"] == "failed"
+    rows = np.loadtxt(out / "probes.csv", delimiter=",", skiprows=1)
+    assert rows[-1, 0] > 0 and np.isfinite(rows).all()  # t = 0 and the last converged state, at least
+
+
+def test_a_minimum_step_lost_in_the_round_off_of_t_is_refused(tmp_path):
+    text = DEPLOYING_ARM.replace("dt_min: 2.0e-4", "dt_min: 1.0e-15")
+    completed, _ = run_cli(tmp_path, text)
+    assert completed.returncode == 2
+    assert "solve.dt_min" in completed.stderr and "1e-12 * t_end" in completed.stderr
