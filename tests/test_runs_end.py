@@ -15,6 +15,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from latdyn import cli
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -26,6 +28,15 @@ def run_cli(tmp_path: Path, text: str, timeout: float = 60.0) -> tuple[subproces
     completed = subprocess.run([sys.executable, "-m", "latdyn", "run", str(scene), "-o", str(out)],
                                env=env, capture_output=True, text=True, cwd=tmp_path, timeout=timeout)
     return completed, out
+
+
+def main_cli(tmp_path: Path, text: str, capsys) -> tuple[int, str, Path]:
+    """``latdyn run`` of the scene ``text`` in this process (for runs that cannot hang: statics);
+    the exit status, stderr and the results folder."""
+    scene, out = tmp_path / "scene.yaml", tmp_path / "out"
+    scene.write_text(textwrap.dedent(text))
+    status = cli.main(["run", str(scene), "-o", str(out), "-q"])
+    return status, capsys.readouterr().err, out
 
 
 def summary(out: Path) -> dict:
@@ -102,3 +113,76 @@ def test_a_minimum_step_lost_in_the_round_off_of_t_is_refused(tmp_path):
     completed, _ = run_cli(tmp_path, text)
     assert completed.returncode == 2
     assert "solve.dt_min" in completed.stderr and "1e-12 * t_end" in completed.stderr
+
+
+# ----------------------------------------------------------------------------- mechanisms in statics
+HINGED_ARM = """\
+    title: a hinged arm that nothing holds against its load
+    sections:
+      arm: {EA: 1.0e7, EIy: 1.0e3, EIz: 1.0e3, GJ: 1.0e3, rhoA: 1.0}
+    bodies:
+      base: {at: [0, 0, 0], fixed: true}
+    beams:
+      arm:
+        from: base
+        to: [1, 0, 0]
+        section: arm
+        elements: 2
+        start: {hinge: {axis: [0, 0, 1]}}
+    loads:
+      - {at: arm.end, force: [0, -10, 0]}
+    solve: {analysis: static, steps: 4}
+    output:
+      probes:
+        tip: {point: arm.end, quantity: displacement, component: y}
+    """
+
+
+@pytest.mark.parametrize("solve", [
+    "{analysis: static, steps: 4}",
+    "{analysis: static, steps: 4, method: arc-length}",
+    "{analysis: static, steps: 4, method: displacement-control, control: {point: arm.end, direction: y, to: -0.5}}",
+    "{analysis: buckling}",
+])
+def test_a_static_analysis_of_a_mechanism_names_the_coordinate_that_nothing_holds(tmp_path, capsys, solve):
+    """A hinge with no stiffness under a load across it: no equilibrium near the start for any
+    load factor. The message names the hinge, and no limit point (once: "past a limit point load
+    control cannot go on"; arc length: "the tangent at load factor 0 is singular")."""
+    status, err, _ = main_cli(tmp_path, HINGED_ARM.replace("{analysis: static, steps: 4}", solve), capsys)
+    assert status == 1, err
+    assert "hinge arm.start" in err and "nothing holds" in err
+    assert "limit point load control" not in err and "tangent at load factor 0 is singular" not in err
+
+
+def test_a_hinge_with_a_stop_is_not_held_by_it_in_statics_and_the_message_says_so(tmp_path, capsys):
+    text = HINGED_ARM.replace("{hinge: {axis: [0, 0, 1]}}", "{hinge: {axis: [0, 0, 1], limits: [-0.3, 0.3]}}")
+    status, err, _ = main_cli(tmp_path, text, capsys)
+    assert status == 1
+    assert "hinge arm.start" in err and "transient runs only" in err
+
+
+def test_a_free_floating_structure_names_its_free_nodes(tmp_path, capsys):
+    text = HINGED_ARM.replace("base: {at: [0, 0, 0], fixed: true}", "base: {at: [0, 0, 0], mass: 1.0}")
+    text = text.replace("        start: {hinge: {axis: [0, 0, 1]}}\n", "")
+    status, err, _ = main_cli(tmp_path, text, capsys)
+    assert status == 1, err
+    assert "base" in err and "arm.end" in err and "dy" in err and "nothing holds" in err
+
+
+def test_a_hinge_the_loads_do_not_move_is_named_free_not_pushed(tmp_path, capsys):
+    """A tensile load along the arm does not turn the free hinge, but its tangent is singular at
+    the start: the message says it is free and that the loads do not move it."""
+    status, err, _ = main_cli(tmp_path, HINGED_ARM.replace("force: [0, -10, 0]", "force: [10, 0, 0]"), capsys)
+    assert status == 1, err
+    assert "hinge arm.start is free" in err and "do not move it" in err
+
+
+def test_a_held_structure_past_its_limit_point_still_says_limit_point(tmp_path, capsys):
+    """The mechanism check looks at the structure's own tangent: a shallow arch of hinged bars
+    (Lee's frame) under load control past its limit load keeps the limit-point message."""
+    text = (ROOT / "tests" / "test_path_following.py").read_text()
+    lee = text.split('LEE = """\\\n', 1)[1].split('"""', 1)[0]
+    lee = lee.replace("method: arc-length, steps: 20, max_steps: 400", "steps: 4")
+    status, err, _ = main_cli(tmp_path, lee, capsys)
+    assert status == 1
+    assert "past a limit point" in err and "nothing holds" not in err

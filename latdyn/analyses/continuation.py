@@ -55,6 +55,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from latdyn.assembly.factorization import solve_linear
+from latdyn.analyses.mechanism import mechanism_message
 from latdyn.errors import SceneError, SolverError
 from latdyn.numerics.linalg import single_thread_blas
 from latdyn.step.integrators import increment_size, newton_diagnosis
@@ -172,6 +173,9 @@ class Path:
         if self.recorded is not state:
             self.record(state, load_factor)
         self.summarize()
+        free = mechanism_message(self, state, load_factor)  # a mechanism, not a limit point: say which
+        if free is not None:
+            raise SolverError(free, f"(the last converged state, at load factor {load_factor:.6g}, is the last row)")
         raise SolverError(message, newton_diagnosis(self.model, residual, at, step, variable="load factor"))
 
 
@@ -265,6 +269,9 @@ def arc_length(path: Path, state) -> object:
     r, K, q = path.evaluate(state, 0.0)
     solved = path.solve(K, q)
     if solved is None or path.norm(solved[0]) == 0.0:
+        free = mechanism_message(path, state, 0.0)
+        if free is not None:
+            raise SolverError(free)
         raise SolverError("arc-length continuation cannot start: the tangent at load factor 0 is singular "
                           "or the loads move nothing", newton_diagnosis(model, r, 0.0, 0.0, variable="load factor"))
     ds0 = path.norm(solved[0]) / solve.steps  # the first step: Δλ = 1/steps
