@@ -186,3 +186,32 @@ def test_a_held_structure_past_its_limit_point_still_says_limit_point(tmp_path, 
     status, err, _ = main_cli(tmp_path, lee, capsys)
     assert status == 1
     assert "past a limit point" in err and "nothing holds" not in err
+
+
+# ----------------------------------------------------------------------------- displacement control
+def lee_frame() -> str:
+    """Lee's frame as tests/test_path_following.py has it (arc length; its deflection v at the load
+    turns back at 60.9 in, between the limit points of λ)."""
+    text = (ROOT / "tests" / "test_path_following.py").read_text()
+    return text.split('LEE = """\\\n', 1)[1].split('"""', 1)[0]
+
+
+def test_displacement_control_that_meets_a_snap_back_of_its_displacement_says_arc_length_is_needed(
+        tmp_path, capsys):
+    """Controlled to 100 in in steps of 5 in, Lee's frame's deflection turns back at 60.9 in: the run
+    once went on from 60 in to 65 in on the far stretch of the path (the horizontal displacement
+    jumped from 52 to 93 in, λ from 0.37 to −0.21), skipped the snap-back loop between, and ended
+    "solved". Now it ends at the turn, exit 1, naming it and arc length, its last row at the turn."""
+    solve = ("solve: {analysis: static, method: displacement-control, steps: 20, "
+             "control: {point: load, direction: [0, -1, 0], to: 100.0}}")
+    lee = lee_frame().replace("solve: {analysis: static, method: arc-length, steps: 20, max_steps: 400}", solve)
+    status, err, out = main_cli(tmp_path, lee, capsys)
+    assert status == 1, err
+    assert "turns back" in err and "arc-length" in err
+    rows = np.loadtxt(out / "probes.csv", delimiter=",", skiprows=1)
+    lam, u, v = rows[:, 0], rows[:, 1], -rows[:, 2]
+    assert np.all(lam >= 0) and np.all(np.diff(u) > 0)  # along the path up to the turn, no jump
+    # the turn of v on the arc length's path of the same frame (test_path_following's LEE, measured:
+    # v = 60.978 and 60.982 in at λ = 0.3079 and 0.2905, u = 60.70 and 62.66 in)
+    assert v[-1] == pytest.approx(60.98, abs=0.02)
+    assert lam[-1] == pytest.approx(0.3045, abs=2e-3) and 60.7 < u[-1] < 62.66
