@@ -215,3 +215,40 @@ def test_displacement_control_that_meets_a_snap_back_of_its_displacement_says_ar
     # v = 60.978 and 60.982 in at λ = 0.3079 and 0.2905, u = 60.70 and 62.66 in)
     assert v[-1] == pytest.approx(60.98, abs=0.02)
     assert lam[-1] == pytest.approx(0.3045, abs=2e-3) and 60.7 < u[-1] < 62.66
+
+
+# ----------------------------------------------------------------------------- solver_s
+COLUMN = """\
+    title: a cantilever column under a dead axial load
+    sections:
+      s: {EA: 1.0e4, EIy: 1.0, EIz: 1.0, GJ: 1.0, rhoA: 1.0}
+    bodies:
+      root: {at: [0, 0, 0], fixed: true}
+    beams:
+      col: {from: root, to: [1, 0, 0], section: s, elements: 4}
+    loads:
+      - {at: col.end, force: [-1.0, 0.01, 0]}
+    solve: SOLVE
+    output:
+      paraview_every: 0
+      probes:
+        tip: {point: col.end, quantity: displacement, component: y}
+    """
+
+
+@pytest.mark.parametrize("solve", ["{analysis: static, steps: 4}", "{analysis: buckling}",
+                                   "{analysis: modes, count: 3}", "{analysis: modes, count: 3, about: static}",
+                                   "{analysis: transient, t_end: 0.01, dt: 0.005}"])
+def test_every_analysis_reports_solver_s(tmp_path, capsys, solve):
+    """summary.json solver_s: the time of the solution itself, for every analysis (once transient only)."""
+    status, err, out = main_cli(tmp_path, COLUMN.replace("SOLVE", solve), capsys)
+    assert status == 0, err
+    report = summary(out)
+    assert 0.0 < report["solver_s"] <= report["wall_time_s"]
+
+
+def test_a_failed_static_run_reports_solver_s(tmp_path, capsys):
+    status, _, out = main_cli(tmp_path, HINGED_ARM, capsys)
+    assert status == 1
+    report = summary(out)
+    assert report["status"] == "failed" and report["solver_s"] > 0.0
