@@ -252,3 +252,31 @@ def test_a_failed_static_run_reports_solver_s(tmp_path, capsys):
     assert status == 1
     report = summary(out)
     assert report["status"] == "failed" and report["solver_s"] > 0.0
+
+
+# ----------------------------------------------------------------------------- the crawl guard
+def test_the_step_control_ends_a_run_whose_steps_stay_near_the_minimum():
+    """Events that re-trigger at the same instant (a stop chattering) keep every step near dt_min
+    however the step control grows it back: 1000 accepted steps averaging under 100 dt_min end the
+    run (SolverError, exit 1) rather than let it crawl; steps of 200 dt_min go on, and so do steps
+    of dt where dt_min = dt (the crawling step is never above dt/1000)."""
+    from types import SimpleNamespace
+
+    from latdyn.errors import SolverError
+    from latdyn.timeloop.control import CRAWL_STEPS, StepControl
+
+    solve = SimpleNamespace(t_end=1.0, dt=1e-2, dt_min=None, adaptive=False, error_tol=1e-4)
+
+    def accepted_steps(size: float, count: int, dt_min: float | None = None) -> float:
+        control = StepControl(SimpleNamespace(**{**vars(solve), "dt_min": dt_min}), None, 1.0)
+        run = SimpleNamespace(state=SimpleNamespace(t=0.1), h=control.dt)
+        for _ in range(count):
+            run.state.t += size
+            control.after_accepted(run, None, size, latched=True, stopped=True)
+        return run.state.t
+
+    assert accepted_steps(200 * 1e-8, 3 * CRAWL_STEPS) > 0.1
+    assert accepted_steps(1e-2, 3 * CRAWL_STEPS, dt_min=1e-2) > 0.1  # dt_min = dt: steps of dt never crawl
+    with pytest.raises(SolverError, match="stays near the minimum step") as failure:
+        accepted_steps(3 * 1e-8, 3 * CRAWL_STEPS)
+    assert "ended on a latch or a stop" in str(failure.value) and "a stop chattering" in str(failure.value)

@@ -11,7 +11,8 @@ Every run ends: no step is shorter than ``dt_min`` (default dt·10⁻⁶; the lo
 10⁻¹² t_end, lost in the round-off of t) save the last one onto a grid point; a step that Newton
 cannot converge, or that the error estimate rejects, at ``dt_min`` ends the run with a SolverError
 (exit 1), and so does a run that crawls — :data:`CRAWL_STEPS` accepted steps in a row averaging
-less than :data:`CRAWL_FACTOR` · dt_min (events that re-trigger at the same instant, a motion the
+less than the crawling step, min(:data:`CRAWL_FACTOR` · dt_min, :data:`CRAWL_FRACTION` · dt) (events
+that re-trigger at the same instant, a motion the
 error estimate cannot follow). Without an accepted step the tried steps only shrink (cut, rejected,
 shortened onto the grid), so the floor also bounds the attempts in a row."""
 from __future__ import annotations
@@ -23,9 +24,12 @@ import numpy as np
 from latdyn.errors import SolverError
 from latdyn.timeloop.progress import TransientProgress, report_cut
 
-#: A run whose last CRAWL_STEPS accepted steps average less than CRAWL_FACTOR · dt_min is crawling.
+#: A run whose last CRAWL_STEPS accepted steps average less than min(CRAWL_FACTOR · dt_min,
+#: CRAWL_FRACTION · dt) is crawling (1e-4 dt with the default dt_min; never above dt/1000, where a
+#: dt_min close to dt would make every run crawl).
 CRAWL_STEPS = 1000
 CRAWL_FACTOR = 100.0
+CRAWL_FRACTION = 1e-3
 
 
 class StepControl:
@@ -39,6 +43,7 @@ class StepControl:
         self.dt_min = solve.dt_min if solve.dt_min is not None else self.dt * 1e-6
         self.adaptive, self.error_tol, self.length = solve.adaptive, solve.error_tol, length
         self.every = every
+        self.crawling_step = min(CRAWL_FACTOR * self.dt_min, CRAWL_FRACTION * self.dt)
         # the crawl window: its accepted steps so far and the time it started at
         self.window_steps, self.window_events, self.window_t = 0, 0, None
 
@@ -153,8 +158,7 @@ class StepControl:
 
     def _watch_crawl(self, run: TransientProgress, h: float, event: bool) -> None:
         """Count the accepted step of size ``h`` (``event``: it ended on a latch or a stop) into the
-        crawl window; a full window that advanced less than CRAWL_STEPS · CRAWL_FACTOR · dt_min ends
-        the run."""
+        crawl window; a full window that advanced less than CRAWL_STEPS crawling steps ends the run."""
         if self.window_t is None:
             self.window_t, self.window_steps, self.window_events = run.state.t - h, 0, 0
         self.window_steps += 1
@@ -162,12 +166,12 @@ class StepControl:
         if self.window_steps < CRAWL_STEPS:
             return
         advanced = run.state.t - self.window_t
-        if advanced < CRAWL_STEPS * CRAWL_FACTOR * self.dt_min:
+        if advanced < CRAWL_STEPS * self.crawling_step:
             raise SolverError(
                 "the time step stays near the minimum step",
                 f"{CRAWL_STEPS} steps from t = {self.window_t:.9g} advanced {advanced:.3g}, on average "
-                f"{advanced / CRAWL_STEPS:.3g} a step, less than {CRAWL_FACTOR:g} dt_min = "
-                f"{CRAWL_FACTOR * self.dt_min:.3g}; {self.window_events} of them ended on a latch or a stop"
+                f"{advanced / CRAWL_STEPS:.3g} a step, less than {self.crawling_step:.3g} (dt_min = "
+                f"{self.dt_min:.3g}); {self.window_events} of them ended on a latch or a stop"
                 + (" (events that re-trigger at the same instant: a stop chattering)" if self.window_events
                    else " (a motion the error estimate or Newton cannot follow at a larger step)")
                 + "; the run ends here rather than crawl (a motion meant to need such steps: a smaller "
