@@ -108,6 +108,32 @@ def test_a_motion_that_blows_up_in_finite_time_ends_with_a_clean_failure(tmp_pat
     assert rows[-1, 0] > 0 and np.isfinite(rows).all()  # t = 0 and the last converged state, at least
 
 
+def test_a_step_the_error_estimate_rejects_at_dt_min_ends_the_run(tmp_path):
+    """error_tol far below what a step of dt_min meets: the step at dt_min was once rejected and
+    retried at dt_min for ever (21 731 rejections of the first step in 30 s, no step taken); now
+    the run ends at once, exit 1, saying so."""
+    text = """\
+        title: a pendulum with an error tolerance no step of dt_min meets
+        gravity: [0, -9.81, 0]
+        sections:
+          link: {EA: 1.0e8, EIy: 1.0e4, EIz: 1.0e4, GJ: 1.0e4, rhoA: 1.0}
+        bodies:
+          base: {at: [0, 0, 0], fixed: true}
+          bob: {at: [1, 0, 0], mass: 1.0}
+        beams:
+          arm: {from: base, to: bob, section: link, start: {hinge: {axis: [0, 0, 1]}}}
+        solve: {analysis: transient, t_end: 2, dt: 0.1, adaptive: true, error_tol: 1.0e-9, dt_min: 0.05}
+        output:
+          probes:
+            a: {hinge: arm.start, quantity: angle}
+        """
+    completed, out = run_cli(tmp_path, text, timeout=30.0)
+    assert completed.returncode == 1, completed.stderr
+    assert "the error estimate rejects the step at the minimum step" in completed.stderr
+    assert "error_tol asks for steps below dt_min" in completed.stderr
+    assert summary(out)["status"] == "failed"
+
+
 def test_a_minimum_step_lost_in_the_round_off_of_t_is_refused(tmp_path):
     text = DEPLOYING_ARM.replace("dt_min: 2.0e-4", "dt_min: 1.0e-15")
     completed, _ = run_cli(tmp_path, text)

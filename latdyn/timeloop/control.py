@@ -115,8 +115,8 @@ class StepControl:
                 "the error estimate rejects the step at the minimum step",
                 f"at t = {run.state.t + h:.6g} the step {h:.3g} (dt_min = {self.dt_min:.3g}) has an error estimate "
                 f"{error:.3g} times error_tol: the motion is not smooth at that scale there (a finite-time "
-                "blow-up, a law or load that jumps, events that re-trigger at the same instant); "
-                "the run ends here rather than crawl.")
+                "blow-up, a law or load that jumps, events that re-trigger at the same instant), or "
+                "error_tol asks for steps below dt_min; the run ends here rather than retry it.")
         run.h = max(h * max(0.2, 0.9 * error ** (-1 / 3)), self.dt_min)
         return True
 
