@@ -306,3 +306,43 @@ def test_the_step_control_ends_a_run_whose_steps_stay_near_the_minimum():
     with pytest.raises(SolverError, match="stays near the minimum step") as failure:
         accepted_steps(3 * 1e-8, 3 * CRAWL_STEPS)
     assert "ended on a latch or a stop" in str(failure.value) and "a stop chattering" in str(failure.value)
+
+
+# ----------------------------------------------------------------------------- a stop to rest on
+RESTING = """\
+    title: a pendulum that falls onto its stop, bounces and comes to rest on it
+    gravity: [0, -9.81, 0]
+    sections:
+      arm: {EA: 1.0e10, EIy: 1.0e9, EIz: 1.0e9, GJ: 1.0e9, rhoA: 0.01}
+    bodies:
+      pivot: {at: [0, 0, 0], fixed: true}
+      bob: {at: [1, 0, 0], mass: 1.0}
+    beams:
+      arm:
+        from: pivot
+        to: bob
+        section: arm
+        start:
+          hinge: {axis: [0, 0, 1], damping: "0.01*theta_dot**2", limits: [-0.3, 0.3], restitution: 0.5}
+    solve: {analysis: transient, t_end: 2, dt: 0.01, adaptive: true}
+    output:
+      probes:
+        angle: {hinge: arm.start, quantity: angle}
+        rate: {hinge: arm.start, quantity: rate}
+    """
+
+
+def test_a_hinge_that_comes_to_rest_on_its_stop_rests_there(tmp_path):
+    """Bounces of e = 0.5 ever shorter, at ever closer instants (the Zeno sequence of a stop with
+    restitution under a load that holds the hinge on it): once a bounce is shorter than a step the
+    hinge rests, rate 0. It once kept a bounce of e × (the rate gravity gives in one step) at
+    every step for ever: a rate of 0.031 rad/s recorded at rest, the stop hit again each step."""
+    completed, out = run_cli(tmp_path, RESTING, timeout=60.0)
+    assert completed.returncode == 0, completed.stderr
+    rows = np.loadtxt(out / "probes.csv", delimiter=",", skiprows=1)
+    t, angle, rate = rows.T
+    first = int(np.argmax(angle <= -0.3 + 1e-9))
+    assert rate[first] > 0.3 * abs(rate[first - 1])  # the first impact bounces with its restitution
+    resting = t > 1.0
+    np.testing.assert_allclose(angle[resting], -0.3, atol=1e-9)
+    np.testing.assert_allclose(rate[resting], 0.0, atol=1e-12)
