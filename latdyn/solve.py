@@ -132,22 +132,33 @@ def _result_writer(prepared, probes: ProbeSet, out_dir, analysis: str,
 
 def _analyse(prepared, probes: ProbeSet, writer: ResultWriter, out_dir, analysis: str, progress: bool,
              checkpointer: checkpoints.Checkpointer | None, resume_from: checkpoints.Checkpoint | None) -> None:
-    """The analysis of ``solve.analysis``, its results into ``writer``."""
+    """The analysis of ``solve.analysis``, its results into ``writer``.
+
+    ``summary.json`` ``solver_s``: the wall time of the solution itself — a transient run's inside
+    the integrator's steps (:mod:`latdyn.timeloop`); a static, buckling or modal run's of its
+    analysis (the path with its rows; the stepping along the path and the eigenproblems; the state
+    the modes are about and the eigenproblem), without preparing the model, compiling kernels or a
+    linear model written before it. Failed runs report it too."""
     scene = prepared.scene
     if scene.solve.linear_model is not None and analysis != "modes":  # about the chosen state, before the run
         linearise.write_linear_model(prepared, out_dir, writer.summary)
-    if analysis == "modes":  # about solve.about (latdyn/analyses/linearise.py)
-        _modes(prepared, writer, out_dir)
-    elif analysis == "buckling":
-        found = linearise.buckling_analysis(prepared, scene.solve.count)
-        warnings = found.pop("warnings", [])
-        writer.summary.update(found)
-        if warnings:
-            writer.summary.setdefault("warnings", []).extend(warnings)
-    elif analysis == "static":
-        static_path(prepared, probes, writer, length_scale(prepared.model))
-    else:
+    if analysis == "transient":
         transient(prepared, probes, writer, progress, checkpointer, resume_from)
+        return
+    started = time.perf_counter()
+    try:
+        if analysis == "modes":  # about solve.about (latdyn/analyses/linearise.py)
+            _modes(prepared, writer, out_dir)
+        elif analysis == "buckling":
+            found = linearise.buckling_analysis(prepared, scene.solve.count)
+            warnings = found.pop("warnings", [])
+            writer.summary.update(found)
+            if warnings:
+                writer.summary.setdefault("warnings", []).extend(warnings)
+        else:
+            static_path(prepared, probes, writer, length_scale(prepared.model))
+    finally:
+        writer.summary["solver_s"] = time.perf_counter() - started
 
 
 def _modes(prepared, writer: ResultWriter, out_dir) -> None:

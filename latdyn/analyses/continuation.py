@@ -30,7 +30,14 @@ and differs only in the equation that fixes δλ (``solve.method``, SCENE.md):
 - ``displacement-control``: the displacement c(q) = e·(p(q) − p₀) of a point p along a unit
   vector e goes from 0 to ``to`` in ``steps`` equal increments; linearised, gᵀδq = c* − c(q) with
   g = ∂c/∂q (e on the node's translations, (T r) × e on its rotation for an offset r), so
-  δλ = (c* − c − gᵀδq_r)/(gᵀδq_λ) (Batoz & Dhatt 1979).  λ may pass its maxima.
+  δλ = (c* − c − gᵀδq_r)/(gᵀδq_λ) (Batoz & Dhatt 1979).  λ may pass its maxima; c may not: where
+  the controlled displacement turns back (a snap-back of c), no state on the path beyond has the
+  next c, and Newton either fails or converges onto another stretch of the path, skipping the loop
+  between.  So a converged step whose Δq differs from the tangent's prediction δλ δq_λ by more than
+  :data:`BRANCH_MISMATCH` of the larger has left the path and is halved like a failed one; a run
+  that cannot go on after a step left the path, or where the rate of c along the path (its share
+  of the path's W-norm motion) has fallen below :data:`TURNING_RATE` of its largest, says that c
+  turns back there and that arc length follows the path (exit 1).
 
 Along every path the number of negative eigenvalues of the symmetric part of K is counted at
 each converged point (models up to :data:`PIVOT_COUNT_LIMIT` coordinates).  λ changing direction
@@ -65,6 +72,7 @@ import numpy as np
 
 from latdyn.analyses.stability import REAL_TOL, follower_loads
 from latdyn.assembly.factorization import solve_linear
+from latdyn.analyses.mechanism import mechanism_message
 from latdyn.errors import SceneError, SolverError
 from latdyn.numerics.linalg import single_thread_blas
 from latdyn.step.integrators import increment_size, newton_diagnosis
@@ -206,12 +214,18 @@ class Path:
             negative_eigenvalues_counted=self.model.n_dofs <= (
                 PIVOT_COUNT_LIMIT if self.conservative else NONSYMMETRIC_COUNT_LIMIT))
 
-    def fail(self, state, load_factor: float, message: str, residual, at: float, step: float) -> None:
-        """Write the last converged state as a row (unless it is the last row) and raise."""
+    def fail(self, state, load_factor: float, message: str, residual, at: float, step: float,
+             diagnosis: str | None = None) -> None:
+        """Write the last converged state as a row (unless it is the last row) and raise (with
+        ``diagnosis``, else Newton's at ``at``)."""
         if self.recorded is not state:
             self.record(state, load_factor)
         self.summarize()
-        raise SolverError(message, newton_diagnosis(self.model, residual, at, step, variable="load factor"))
+        free = mechanism_message(self, state, load_factor)  # a mechanism, not a limit point: say which
+        if free is not None:
+            raise SolverError(free, f"(the last converged state, at load factor {load_factor:.6g}, is the last row)")
+        raise SolverError(message, diagnosis if diagnosis is not None else
+                          newton_diagnosis(self.model, residual, at, step, variable="load factor"))
 
 
 def critical_points(points: list[PathPoint]) -> tuple[list[dict], list[dict]]:
@@ -310,6 +324,9 @@ def arc_length(path: Path, state) -> object:
     r, K, q = path.evaluate(state, 0.0)
     solved = path.solve(K, q)
     if solved is None or path.norm(solved[0]) == 0.0:
+        free = mechanism_message(path, state, 0.0)
+        if free is not None:
+            raise SolverError(free)
         raise SolverError("arc-length continuation cannot start: the tangent at load factor 0 is singular "
                           "or the loads move nothing", newton_diagnosis(model, r, 0.0, 0.0, variable="load factor"))
     ds0 = path.norm(solved[0]) / solve.steps  # the first step: Δλ = 1/steps
@@ -415,42 +432,96 @@ def displacement_control(path: Path, state) -> object:
                          f"which {control.point.text!r} can move, got {control.text} (out of the plane of "
                          "a planar model? planar: off solves it in 3D)")
     lam, reached, k, h = 0.0, 0.0, 0, 1.0 / steps
+    left_path = False  # a step towards the next row converged off the path
+    rates = []  # the displacement rate at the start of every accepted step
     while k < steps:
         grid = (k + 1) / steps
         fraction = grid if reached + h >= grid - 1e-12 / steps else reached + h
         result = displacement_step(path, state, lam, fraction * control.to, displacement, gradient)
-        if result is None:
+        if result is None or result is LEFT_THE_PATH:
             path.rejected += 1
+            left_path = left_path or result is LEFT_THE_PATH
             h = (fraction - reached) / 2
             if h < 1.0 / (steps * 2 ** MAX_CUTS):
-                path.fail(state, lam, f"displacement control could not reach {control.point.text} displaced by "
-                                      f"{grid * control.to:.6g} along {control.text} (row {k + 1} of {steps}): "
+                goal = f"{control.point.text} displaced by {grid * control.to:.6g} along {control.text}"
+                if left_path or turning_back(path, state, lam, rates, gradient):
+                    raise_snap_back(path, state, lam, goal, displacement(state), k, steps)
+                path.fail(state, lam, f"displacement control could not reach {goal} (row {k + 1} of {steps}): "
                                       f"Newton failed after {MAX_CUTS} cuts; the last converged state, at load "
                                       f"factor {lam:.6g}, is the last row", None, lam, h)
             continue
-        state, lam, K = result
+        state, lam, K, rate = result
+        rates.append(rate)
         reached = fraction
         path.accept(state, lam, K, fraction)
         h = min(2 * h, 1.0 / steps)
         if fraction == grid:
             k += 1
+            left_path = False
             path.record(state, lam)
     path.writer.summary["control_displacement"] = displacement(state)
     return state
 
 
+#: A displacement-control step whose converged Δq differs from the tangent's prediction by more
+#: than this fraction of the larger of the two left the path (it is halved).
+BRANCH_MISMATCH = 0.5
+#: What :func:`displacement_step` returns for a step that converged off the path.
+LEFT_THE_PATH = "left the path"
+
+
+#: Displacement control that fails where the displacement rate has fallen below this fraction of
+#: its largest along the path is at a turn of the controlled displacement.
+TURNING_RATE = 0.1
+
+
+def turning_back(path: Path, state, lam: float, rates: list, gradient) -> bool:
+    """Whether the controlled displacement is about to turn back at ``state``: its rate there
+    (:func:`displacement_rate`) below TURNING_RATE of the largest seen along the path."""
+    _, K, q = path.evaluate(state, lam)
+    solved = path.solve(K, q)
+    if solved is None or not rates:
+        return False
+    rate = displacement_rate(path, float(gradient(state) @ solved[0]), solved[0])
+    return rate < TURNING_RATE * max(rates)
+
+
+def raise_snap_back(path: Path, state, lam: float, goal: str, reached: float, k: int, steps: int) -> None:
+    """Displacement control that cannot go on because its displacement turns back: the last converged
+    state as the last row, and a SolverError that says arc length is needed there."""
+    path.fail(state, lam, f"displacement control could not reach {goal} (row {k + 1} of {steps}): the "
+                          f"controlled displacement turns back at {reached:.6g} (a snap-back of it: the path "
+                          "goes on to smaller displacements), where displacement control cannot follow the "
+                          "path without leaving it; solve.method: arc-length follows it there", None, lam, 0.0,
+              f"(the last converged state, at load factor {lam:.6g}, is the last row)")
+
+
+def displacement_rate(path: Path, slope: float, tangent) -> float:
+    """|dc/ds|/ℓ along the path's tangent δq_λ = K⁻¹q_ref at a state (``slope`` = gᵀδq_λ = dc/dλ, s the
+    W-norm arc length): the share of the path's motion that is the controlled displacement, 0 where
+    c turns back."""
+    return abs(slope) / (path.length_scale * max(path.norm(tangent), 1e-300))
+
+
 def displacement_step(path: Path, state, lam: float, goal: float, displacement, gradient):
-    """Newton on (q, λ) with c(q) = goal from (state, λ): (state, λ, K) or None."""
+    """Newton on (q, λ) with c(q) = goal from (state, λ): (state, λ, K, the displacement rate at the
+    start, :func:`displacement_rate`); None where Newton fails;
+    LEFT_THE_PATH where it converged far from the tangent's prediction Δq = δλ K⁻¹q_ref (or there
+    was none: dc/dλ = 0), onto another branch of the path or across a snap-back of c."""
     r, K, q = path.evaluate(state, lam)
     solved = path.solve(K, q)
     if solved is None:
         return None
     g = gradient(state)
     slope = float(g @ solved[0])  # dc/dλ along the tangent
+    rate = displacement_rate(path, slope, solved[0])
     trial, trial_lam = state, lam
+    predicted = np.zeros_like(solved[0])  # the tangent's Δq to the goal
     if abs(slope) > 1e-14 * max(1.0, abs(goal)):
         dlam = (goal - displacement(state)) / slope
-        trial, trial_lam = path.step_to(state, dlam * solved[0]), lam + dlam
+        predicted = dlam * solved[0]
+        trial, trial_lam = path.step_to(state, predicted), lam + dlam
+    step = predicted.copy()  # Δq of the step so far (increments summed in the tangent space)
     for _ in range(path.max_iter):
         r, K, q = path.evaluate(trial, trial_lam)
         solved = path.solve(K, -r, q)
@@ -464,9 +535,12 @@ def displacement_step(path: Path, state, lam: float, goal: float, displacement, 
         dl = (goal - displacement(trial) - float(g @ dq_r)) / denominator  # Batoz & Dhatt 1979
         increment = dq_r + dl * dq_l
         trial, trial_lam = path.step_to(trial, increment), trial_lam + dl
+        step += increment
         path.iterations += 1
         if increment_size(path.model, increment, path.length_scale) <= path.tol:
-            return trial, trial_lam, K
+            # the converged step far from the tangent's: it left the path (module docstring)
+            mismatch = path.norm(step - predicted) / max(path.norm(step), path.norm(predicted), 1e-300)
+            return (trial, trial_lam, K, rate) if mismatch <= BRANCH_MISMATCH else LEFT_THE_PATH
     return None
 
 

@@ -47,7 +47,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from latdyn.analyses import continuation, stability
+from latdyn.analyses import continuation, mechanism, stability
 from latdyn.assembly.assembler import pack, unpack_free
 from latdyn.assembly.factorization import Factorization
 from latdyn.assembly.prepare import length_scale
@@ -496,12 +496,14 @@ def buckling_analysis(prepared, count: int = 6) -> dict:
     reference = at_rest(prepared.state)
     K0 = tangent_q(assembler, reference, 0.0, inertia=False)
     K0s = 0.5 * (K0 + K0.T)
+    path = continuation.Path(prepared, None, None, length_scale(model))  # Newton's settings and counters
     try:
         np.linalg.cholesky(K0s)
     except np.linalg.LinAlgError:
-        raise SolverError("buckling: the unloaded structure is not held (its tangent is not positive "
-                          "definite): a free structure or a mechanism has no buckling load") from None
-    path = continuation.Path(prepared, None, None, length_scale(model))  # Newton's settings and counters
+        free = mechanism.coordinate_names(model, mechanism.free_directions(K0, path.weight)[0])
+        raise SolverError("buckling: the unloaded structure is not held (its tangent is not positive definite"
+                          + (f"; nothing holds {', '.join(free)}: no stiffness, no support" if free else "")
+                          + "): a free structure or a mechanism has no buckling load") from None
     followers = stability.follower_loads(model)
     loaded, _, _, converged = continuation.newton_fixed(path, reference, PREBUCKLING_FACTOR)
     if not converged:

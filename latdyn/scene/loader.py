@@ -1129,6 +1129,9 @@ class _Reader:
             s.dt_min = self.number(spec["dt_min"], k("dt_min"), positive=True)
             if s.dt is not None and s.dt_min > s.dt:
                 self.fail(k("dt_min"), f"expected dt_min <= dt = {s.dt:g}", spec["dt_min"])
+            if s.t_end is not None and s.dt_min < 1e-12 * s.t_end:
+                self.fail(k("dt_min"), f"expected dt_min >= 1e-12 * t_end = {1e-12 * s.t_end:g} (a shorter "
+                                       "step is lost in the round-off of t)", spec["dt_min"])
         if "max_iterations" in spec:
             s.max_iterations = self.integer(spec["max_iterations"], k("max_iterations"))
         if "formulation" in spec:

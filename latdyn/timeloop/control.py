@@ -5,14 +5,31 @@ Steps land on the time grid t_k = k·dt (the last one on t_end), computed from t
 accumulated. A step Newton cannot converge is tried again with the inertia tangent in its iteration
 matrix, then cut in half, down to ``dt_min``. With ``adaptive`` steps the integrator's error estimate
 rejects a step and resizes the next one (never beyond dt). After a cut or a step shortened onto an
-event the step grows back to dt."""
+event the step grows back to dt.
+
+Every run ends: no step is shorter than ``dt_min`` (default dt·10⁻⁶; the loader refuses one below
+10⁻¹² t_end, lost in the round-off of t) save the last one onto a grid point; a step that Newton
+cannot converge, or that the error estimate rejects, at ``dt_min`` ends the run with a SolverError
+(exit 1), and so does a run that crawls — :data:`CRAWL_STEPS` accepted steps in a row averaging
+less than the crawling step, min(:data:`CRAWL_FACTOR` · dt_min, :data:`CRAWL_FRACTION` · dt) (events
+that re-trigger at the same instant, a motion the error estimate cannot follow). Without an
+accepted step the tried steps only shrink (cut, rejected, shortened onto the grid), so the floor
+also bounds the attempts in a row."""
 from __future__ import annotations
 
 import sys
 
 import numpy as np
 
+from latdyn.errors import SolverError
 from latdyn.timeloop.progress import TransientProgress, report_cut
+
+#: A run whose last CRAWL_STEPS accepted steps average less than min(CRAWL_FACTOR · dt_min,
+#: CRAWL_FRACTION · dt) is crawling (1e-4 dt with the default dt_min; never above dt/1000, where a
+#: dt_min close to dt would make every run crawl).
+CRAWL_STEPS = 1000
+CRAWL_FACTOR = 100.0
+CRAWL_FRACTION = 1e-3
 
 
 class StepControl:
@@ -26,6 +43,9 @@ class StepControl:
         self.dt_min = solve.dt_min if solve.dt_min is not None else self.dt * 1e-6
         self.adaptive, self.error_tol, self.length = solve.adaptive, solve.error_tol, length
         self.every = every
+        self.crawling_step = min(CRAWL_FACTOR * self.dt_min, CRAWL_FRACTION * self.dt)
+        # the crawl window: its accepted steps so far and the time it started at
+        self.window_steps, self.window_events, self.window_t = 0, 0, None
 
     # ------------------------------------------------------------------------- the grid and its rows
     def grid_time(self, k: int) -> float:
@@ -76,15 +96,27 @@ class StepControl:
         """The integrator's error estimate of its last step, relative to ``error_tol`` · length."""
         return integrator.error_estimate(h) / (self.error_tol * self.length)
 
+    def at_minimum(self, h: float) -> bool:
+        """Whether a step of size ``h`` is at (or, landing on a grid point, below) ``dt_min``."""
+        return h <= self.dt_min * (1 + 1e-9)
+
     def rejects(self, run: TransientProgress, integrator, h: float) -> bool:
         """Adaptive steps: whether the converged step of size ``h`` is rejected by its error
-        estimate; then the step to try instead (at least ``dt_min``)."""
+        estimate; then the step to try instead (at least ``dt_min``). A step at ``dt_min`` that
+        the estimate rejects ends the run (SolverError)."""
         if not self.adaptive:
             return False
         error = self.relative_error(integrator, h)
         if error <= 1.0:
             return False
         run.rejected_steps += 1
+        if self.at_minimum(h):
+            raise SolverError(
+                "the error estimate rejects the step at the minimum step",
+                f"at t = {run.state.t + h:.6g} the step {h:.3g} (dt_min = {self.dt_min:.3g}) has an error estimate "
+                f"{error:.3g} times error_tol: the motion is not smooth at that scale there (a finite-time "
+                "blow-up, a law or load that jumps, events that re-trigger at the same instant), or "
+                "error_tol asks for steps below dt_min; the run ends here rather than retry it.")
         run.h = max(h * max(0.2, 0.9 * error ** (-1 / 3)), self.dt_min)
         return True
 
@@ -110,14 +142,38 @@ class StepControl:
         return True
 
     def after_accepted(self, run: TransientProgress, integrator, h: float, latched: bool, stopped: bool) -> None:
-        """The step to try after the accepted step of size ``h`` (``latched``: a hinge latched or hit
-        a stop in it; ``stopped``: a stop)."""
+        """The step to try after the accepted step of size ``h`` that ended at ``run.state`` (``latched``:
+        a hinge latched or hit a stop in it; ``stopped``: a stop). A run that crawls ends here
+        (SolverError)."""
+        self._watch_crawl(run, h, latched)
         if self.adaptive:
             # after a latch the last Newton evaluation has the old numbering (estimate taken as 0,
             # which is what error_estimate gives after accept() for a step without a latch)
             error = 0.0 if latched else self.relative_error(integrator, h)
-            run.h = min(self.dt, h * min(2.0, 0.9 * max(error, 1e-10) ** (-1 / 3)))
+            run.h = min(self.dt, max(self.dt_min, h * min(2.0, 0.9 * max(error, 1e-10) ** (-1 / 3))))
         elif stopped:
             run.h = self.dt  # after an impact on a stop the integrator restarted: the nominal step
         elif h < self.dt:
             run.h = min(self.dt, 2 * h)  # recover the nominal step after a cut or a shortened step
+
+    def _watch_crawl(self, run: TransientProgress, h: float, event: bool) -> None:
+        """Count the accepted step of size ``h`` (``event``: it ended on a latch or a stop) into the
+        crawl window; a full window that advanced less than CRAWL_STEPS crawling steps ends the run."""
+        if self.window_t is None:
+            self.window_t, self.window_steps, self.window_events = run.state.t - h, 0, 0
+        self.window_steps += 1
+        self.window_events += bool(event)
+        if self.window_steps < CRAWL_STEPS:
+            return
+        advanced = run.state.t - self.window_t
+        if advanced < CRAWL_STEPS * self.crawling_step:
+            raise SolverError(
+                "the time step stays near the minimum step",
+                f"{CRAWL_STEPS} steps from t = {self.window_t:.9g} advanced {advanced:.3g}, on average "
+                f"{advanced / CRAWL_STEPS:.3g} a step, less than {self.crawling_step:.3g} (dt_min = "
+                f"{self.dt_min:.3g}); {self.window_events} of them ended on a latch or a stop"
+                + (" (events that re-trigger at the same instant: a stop chattering)" if self.window_events
+                   else " (a motion the error estimate or Newton cannot follow at a larger step)")
+                + "; the run ends here rather than crawl (a motion meant to need such steps: a smaller "
+                  "solve.dt_min).")
+        self.window_t, self.window_steps, self.window_events = run.state.t, 0, 0

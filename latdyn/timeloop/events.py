@@ -67,22 +67,30 @@ def stop_crossings(model: Model, old: State, new: State) -> list[tuple[int, int,
     return out
 
 
-def hinge_stops(prepared: Prepared, integrator, new: State) -> bool:
-    """Impacts on hinge stops at the end of an accepted step (see above); True when any."""
+def hinge_stops(prepared: Prepared, integrator, new: State, old: State | None = None) -> bool:
+    """Impacts on hinge stops at the end of an accepted step from ``old`` (see above); True when any.
+
+    A hinge that started the step on its stop and ends it on or beyond it again rests on the stop:
+    it takes restitution 0 there. Its bounce, if any, was shorter than the step: the Zeno limit of
+    a stop with restitution resting on it (bounces ever shorter, at ever closer instants) is rest,
+    which is where the sequence ends; the step keeps no bounce of e·(the rate gained in one step)
+    that would show a rate at rest and re-trigger the stop at every step."""
     model, assembler = prepared.model, prepared.assembler
-    hits, stops = [], []
+    hits, stops, restitution = [], [], []
     for k in model.free_hinges:
         limits = model.hinges[k].limits
         if limits is None:
             continue
         for side, stop in ((-1, limits[0]), (1, limits[1])):
             if side * (new.theta[k] - stop) >= -lock_tolerance(stop) and side * new.theta_dot[k] >= 0.0:
+                resting = old is not None and side * (old.theta[k] - stop) >= -lock_tolerance(stop)
                 hits.append(int(k))
                 stops.append(stop)
+                restitution.append(0.0 if resting else model.hinges[k].restitution)
     if not hits:
         return False
     dt = prepared.scene.solve.dt
-    target = -np.array([model.hinges[k].restitution for k in hits]) * new.theta_dot[hits]
+    target = -np.array(restitution) * new.theta_dot[hits]
     A = assembler.evaluate(new, matrices=True).combined(1.0, 0.0, dt * dt)
     N = np.zeros((model.n_dofs, len(hits)))
     N[model.hinge_dofs[hits], np.arange(len(hits))] = 1.0
@@ -143,5 +151,5 @@ def hinge_events(prepared: Prepared, integrator, old: State, new: State, h: floa
     """The events at the end of the accepted step old → new of size ``h``: latches, then impacts on
     stops. (Whether any hinge latched or hit a stop, whether any hit a stop.)"""
     latched = latch_hinges(prepared, integrator, old, new, h)
-    stopped = hinge_stops(prepared, integrator, new)
+    stopped = hinge_stops(prepared, integrator, new, old)
     return stopped or latched, stopped

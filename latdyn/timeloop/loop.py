@@ -205,14 +205,17 @@ class TimeLoop:
 
     def _land_on_event(self, attempt: Attempt) -> Attempt:
         """A hinge reaching lock_at or a stop inside the step: the step shortened to land on it
-        (secant on the angle, at most 4 passes; the last shorter step that converged)."""
+        (secant on the angle, at most 4 passes, never shorter than dt_min; the last shorter step that
+        converged)."""
         progress = self.progress
         new, stats, h, lands = attempt
         for _ in range(4):
             fraction = crossing_fraction(self.model, progress.state, new)
             if fraction is None:
                 break
-            shorter = h * max(fraction, 1e-6)
+            shorter = max(h * fraction, self.control.dt_min)  # no step below the floor (control)
+            if shorter >= h:
+                break
             retry, retry_stats = self._step(shorter)
             progress.factorizations += factorizations(retry_stats)
             if not retry_stats.converged:
