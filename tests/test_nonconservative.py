@@ -185,7 +185,7 @@ def test_flutter_of_a_structure_without_mass_is_said_to_be_unsearched(capsys):
 
 
 def test_a_load_in_the_axes_of_a_fixed_body_is_not_a_follower_load():
-    from latdyn.analyses.stability import follower_loads
+    from latdyn.analyses.followers import follower_loads
     from latdyn.assembly.prepare import prepare
 
     text = ziegler(frame="base")

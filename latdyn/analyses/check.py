@@ -47,7 +47,7 @@ def lowest_frequencies(model, assembler, state) -> float | None:
     from scipy.sparse.linalg import ArpackNoConvergence, eigsh
 
     if model.n_dofs <= DENSE_MODES_LIMIT:
-        from latdyn.analyses.linearise import Frame, linearise, modes
+        from latdyn.analyses.linearisation import Frame, linearise, modes
 
         found = modes(linearise(assembler, state, Frame.inertial()))
         omega2 = np.array([(2 * np.pi * mode.natural_frequency_hz) ** 2 for mode in found
@@ -106,7 +106,7 @@ def dynamics_report(model, assembler, state) -> list[str]:
     initial configuration and at a linear static estimate under the loads, gravity and
     hinge torques at t = 0 (K u = −r, when K is regular: a grounded structure).
     """
-    from latdyn.analyses.linearise import at_rest
+    from latdyn.analyses.linearisation import at_rest
     from latdyn.scene.loader import FORMULATIONS
 
     lines = []

@@ -45,7 +45,7 @@ is a *limit point* (its load factor estimated by the vertex of the parabola λ(s
 three points about the turn); the count changing while λ keeps its direction is a *bifurcation
 point*.  Both go to ``summary.json`` (``limit_points``, ``bifurcation_points``).
 
-Under follower loads (:func:`latdyn.analyses.stability.follower_loads`) K is unsymmetric and its
+Under follower loads (:func:`latdyn.analyses.followers.follower_loads`) K is unsymmetric and its
 symmetric part says nothing about stability; there the count is of the *real* negative
 eigenvalues of K itself (models up to :data:`NONSYMMETRIC_COUNT_LIMIT` coordinates), and a point
 is reported only where a real eigenvalue passes through zero (*divergence*, ``kind:
@@ -70,7 +70,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from latdyn.analyses.stability import REAL_TOL, follower_loads
+from latdyn.analyses.followers import REAL_TOL, follower_loads
 from latdyn.assembly.factorization import solve_linear
 from latdyn.analyses.mechanism import mechanism_message
 from latdyn.errors import SceneError, SolverError

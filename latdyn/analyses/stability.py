@@ -42,7 +42,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from latdyn.model.model import DEPENDENT, FREE
+from latdyn.analyses import continuation
+from latdyn.analyses.followers import REAL_TOL
+from latdyn.analyses.linearisation import Frame, at_rest, linearise, reduce, tangent_q
 from latdyn.numerics.linalg import single_thread_blas
 
 #: Growth ratio Re s/|s| above which an oscillatory root is unstable (flutter), without damping.
@@ -56,24 +58,6 @@ FLUTTER_TOL = 1e-6
 DAMPED_FLUTTER_TOL = 1e-10
 #: The search along the path stops at this load factor when nothing was found before.
 SEARCH_LIMIT = 1000.0
-#: An eigenvalue μ of the stability pencil is real when |Im μ| <= REAL_TOL · max(1, |μ|).
-REAL_TOL = 1e-7
-
-
-def follower_loads(model) -> list[int]:
-    """Indices of the scene's loads that turn with a moving body (``frame: BODY``, the body free or
-    carried by a rigid link): follower loads, non-conservative.  Loads in global axes, gravity and
-    hinge springs and torques are conservative (a load in the axes of a fixed or prescribed body
-    does not turn with the structure)."""
-    out = []
-    for i, load in enumerate(model.scene.loads):
-        if load.frame == "global":
-            continue
-        if model.nodes[model.body_node[load.frame]].kind in (FREE, DEPENDENT):
-            out.append(i)
-    return out
-
-
 def divergence_measure(K, K0_cholesky) -> float:
     """d = the smallest real eigenvalue of the pencil (K, K₀) (module docstring), from the
     standard eigenproblem L⁻¹ K L⁻ᵀ (K₀ = L Lᵀ); +inf when every eigenvalue is complex."""
@@ -138,7 +122,6 @@ def flutter_measure(lin) -> Growth:
     """g(λ) of the module docstring about the linearisation ``lin`` (inertial frame, at rest)."""
     import scipy.linalg as sla
 
-    from latdyn.analyses.linearise import reduce
 
     red = reduce(lin)
     M, C, K = red.mass, red.damping, red.stiffness
@@ -184,8 +167,6 @@ class PathState:
 def search(prepared, path, reference, K0s, first_step: float, flutter: bool, tol: float) -> dict:
     """Divergence and (``flutter``) flutter along the static path from ``reference`` at λ = 0
     (module docstring): the summary's keys (SCENE.md, docs/linearisation.md)."""
-    from latdyn.analyses import continuation
-    from latdyn.analyses.linearise import Frame, at_rest, linearise, tangent_q
 
     assembler = prepared.assembler
     cholesky = np.linalg.cholesky(K0s)

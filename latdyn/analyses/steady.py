@@ -39,6 +39,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from latdyn.analyses.linearisation import Frame, linearise
 from latdyn.assembly.factorization import solve_linear
 from latdyn.assembly.prepare import length_scale
 from latdyn.errors import SceneError, SolverError
@@ -158,7 +159,6 @@ def steady_state(prepared, tol: float = 1e-10, max_iter: int = 200, stage_iter: 
     configuration leads to, by the descent of the module docstring at the full rate (at most
     ``max_iter`` steps), else by the spin rate ramped (Ω² in ``solve.steps`` stages, each a
     descent of at most ``stage_iter`` steps from the last)."""
-    from latdyn.analyses.linearise import Frame, linearise
 
     model, assembler = prepared.model, prepared.assembler
     omega, point = spin_of(prepared)
