@@ -1,16 +1,17 @@
 """Results that do not depend on the CPU: the element kernels compiled for another instruction set
 (``LATDYN_MARCH``, :func:`latdyn.native.march`) give the same results as those compiled for this
-machine's (``-march=native``).
+machine's (``-march=native``), and OpenBLAS's kernels for another CPU (``OPENBLAS_CORETYPE``)
+give the same results to round-off.
 
 The lanes of a batched kernel are elements, each computed by the same operations in the same
 order whatever the vector width, and every unit is compiled with ``-ffp-contract=off`` (no
 fused multiply-add the source did not ask for), so the instruction set changes how many
 elements one instruction handles, not the rounding: ``x86-64-v2`` (SSE4.2, 2 lanes) and
-``native`` (8 lanes with AVX-512) give bit-for-bit the same probes with GCC. The tolerance,
-1e-12 of each probe's largest magnitude, is what one different rounding per operation (a
-compiler that contracts after all, a libm that rounds its last bit otherwise) could leave in
-these short, stable scenes: a relative change of the order of 1e-16 per operation, propagated
-over ~100 steps of a Newton iteration converged to ~1e-10, reaches 1e-13 and not 1e-12.
+``native`` (8 lanes with AVX-512) give bit-for-bit the same probes with GCC (measured: 0). The
+tolerance, 1e-9 of each probe's largest magnitude, admits a compiler or libm that rounds some
+operation otherwise: a different rounding leaves at most 2.9e-10 in these scenes (measured with
+OpenBLAS's kernels of another CPU, below), while a kernel that computes something else (a lane
+mixed up, a batch tail mishandled) differs by far more.
 
 Each instruction set runs in a process of its own (a process loads one set of kernels), through
 the command line, on scenes as a user types them: planar and 3D beams, a hinge with a spring,
@@ -186,12 +187,13 @@ def _x86_64() -> bool:
         return False
 
 
-def _run_all(folder: Path, march: str | None) -> None:
+def _run_all(folder: Path, tag: str, **environment: str) -> None:
+    """Every scene of SCENES through the command line, in a process of its own with ``environment``
+    (and without ``LATDYN_MARCH`` unless it names it); results in ``<scene>_<tag>``."""
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]))
-    env.pop("LATDYN_MARCH", None)
-    if march:
-        env["LATDYN_MARCH"] = march
-    tag = march or "native"
+    for name in ("LATDYN_MARCH", "OPENBLAS_CORETYPE"):
+        env.pop(name, None)
+    env.update(environment)
     code = _RUNNER.replace("sys.argv[0]", repr(tag))
     result = subprocess.run([sys.executable, "-c", code, str(folder), *SCENES], env=env, cwd=folder,
                             capture_output=True, text=True, timeout=900)
@@ -205,26 +207,52 @@ def _table(path: Path) -> dict[str, np.ndarray]:
     return dict(zip(header, values.T))
 
 
-@pytest.mark.skipif(not _x86_64(), reason="x86-64 instruction sets: another CPU has its own")
-def test_kernels_for_x86_64_v2_and_for_this_cpu_give_the_same_results(tmp_path):
-    for name, text in SCENES.items():
-        (tmp_path / f"{name}.yaml").write_text(text)
-    _run_all(tmp_path, None)
-    _run_all(tmp_path, OTHER)
-    compared = 0
+def _largest_difference(folder: Path, tag: str, other: str) -> float:
+    """The largest difference of a probe (or a mode's frequency) between the runs ``tag`` and
+    ``other`` of every scene, relative to that column's largest magnitude."""
+    worst, compared = 0.0, 0
     for name in SCENES:
-        native_out, other_out = tmp_path / f"{name}_native", tmp_path / f"{name}_{OTHER}"
-        files = ["modes.csv"] if (native_out / "modes.csv").exists() else ["probes.csv"]
-        for file in files:
-            a, b = _table(native_out / file), _table(other_out / file)
-            assert a.keys() == b.keys()
-            for column in a:
-                assert a[column].shape == b[column].shape, (name, column)
-                scale = max(float(np.max(np.abs(a[column]))), 1e-300)
-                difference = float(np.max(np.abs(a[column] - b[column]))) / scale
-                assert difference <= 1e-12, (name, file, column, difference)
-                compared += 1
+        one, two = folder / f"{name}_{tag}", folder / f"{name}_{other}"
+        file = "modes.csv" if (one / "modes.csv").exists() else "probes.csv"
+        a, b = _table(one / file), _table(two / file)
+        assert a.keys() == b.keys()
+        for column in a:
+            assert a[column].shape == b[column].shape, (name, column)
+            scale = max(float(np.max(np.abs(a[column]))), 1e-300)
+            worst = max(worst, float(np.max(np.abs(a[column] - b[column]))) / scale)
+            compared += 1
     assert compared >= 20
+    return worst
+
+
+@pytest.fixture(scope="module")
+def default_runs(tmp_path_factory):
+    """The scenes run as a user runs them (native kernels, OpenBLAS's choice): ``<scene>_default``."""
+    folder = tmp_path_factory.mktemp("instruction_sets")
+    for name, text in SCENES.items():
+        (folder / f"{name}.yaml").write_text(text)
+    _run_all(folder, "default")
+    return folder
+
+
+@pytest.mark.skipif(not _x86_64(), reason="x86-64 instruction sets: another CPU has its own")
+def test_kernels_for_x86_64_v2_and_for_this_cpu_give_the_same_results(default_runs):
+    _run_all(default_runs, OTHER, LATDYN_MARCH=OTHER)
+    assert _largest_difference(default_runs, "default", OTHER) <= 1e-9  # measured: 0, bit for bit
+
+
+@pytest.mark.skipif(not _x86_64(), reason="OpenBLAS's x86-64 kernels")
+def test_openblas_kernels_of_another_cpu_give_the_same_results_to_round_off(default_runs):
+    """The LU of Newton's matrix is LAPACK's from SciPy's OpenBLAS, whose kernels are chosen by the
+    CPU (``OPENBLAS_CORETYPE`` forces one; an OpenBLAS built for one CPU ignores it, and the test
+    then compares a run with itself). Those round differently, so here the results agree to
+    round-off and not bit for bit. Measured between the SkylakeX and Haswell kernels: at most 7e-13
+    of a probe's largest magnitude, except the total energy of the hinged panels, 2.9e-10 of its
+    largest (3.9e-11 J of the 0.137 J the damper and the stop take out: a sum of parts far larger
+    than itself). The tolerance is Newton's default (1e-8, timeloop.transient.DEFAULT_TOL): a
+    difference below it is decided by where Newton stops anyway."""
+    _run_all(default_runs, "haswell", OPENBLAS_CORETYPE="Haswell")
+    assert _largest_difference(default_runs, "default", "haswell") <= 1e-8
 
 
 def test_a_march_the_compiler_does_not_take_is_refused_naming_the_variable(tmp_path):
