@@ -20,6 +20,13 @@ then Zig's C compiler from the ``ziglang`` wheel (``python -m ziglang cc``; ``pi
 kernels. :class:`NoCompiler` says why none works; :data:`NO_COMPILER_ADVICE` is how to fix
 it, which a run says when it stops for want of one (the runtime evaluates natively only).
 
+The instruction set: the element kernels are compiled for this machine's (``-march=native``)
+unless ``$LATDYN_MARCH`` names another (:func:`march`: ``x86-64-v2``, ``x86-64-v3``, ``x86-64-v4``,
+``haswell``, … — anything the compiler's ``-march=`` takes and this CPU runs). Every unit is
+compiled with ``-ffp-contract=off`` (no fused multiply-add unless the source asks for one), so
+that the instruction set changes how many elements one vector holds and not the arithmetic:
+kernels built for any of them give the same results (``tests/test_instruction_sets.py``).
+
 Runtime code: it imports neither SymPy nor the code generator.
 """
 from __future__ import annotations
@@ -28,6 +35,7 @@ import ctypes
 import hashlib
 import importlib.util
 import os
+import re
 import shlex
 import shutil
 import subprocess
@@ -37,7 +45,13 @@ import time
 from pathlib import Path
 
 #: Flags of every unit (the kernels choose their own -O level, kernels.optimisation).
-C_FLAGS = ("-O2", "-std=c99", "-fPIC", "-shared")
+#: ``-ffp-contract=off``: a compiler may not fuse a * b + c into one FMA (Clang, zig cc, does by
+#: default where the instruction set has it; GCC does not in ISO C mode), which would make
+#: results depend on the instruction set compiled for.
+C_FLAGS = ("-O2", "-std=c99", "-fPIC", "-shared", "-ffp-contract=off")
+
+#: The environment variable that chooses the instruction set of the element kernels (:func:`march`).
+MARCH_VARIABLE = "LATDYN_MARCH"
 SUFFIX = ".dll" if sys.platform == "win32" else ".so"
 
 #: Seconds spent compiling in this process (reported apart from solver time).
@@ -119,29 +133,70 @@ def compiler() -> Compiler:
     return found
 
 
+def march() -> str:
+    """The ``-march=`` value the element kernels are compiled for: ``$LATDYN_MARCH``, default
+    ``native`` (this machine's instruction set). ``x86-64-v2`` (SSE4.2, 2 lanes), ``x86-64-v3``
+    (AVX2, 4 lanes) and ``x86-64-v4`` (AVX-512, 8 lanes) are the usual others; any value the
+    compiler takes is accepted, and :func:`vector_flags` refuses one this CPU cannot run."""
+    return os.environ.get(MARCH_VARIABLE, "").strip() or "native"
+
+
+def _march_error(expected: str):
+    from latdyn.errors import SceneError
+
+    return SceneError("environment", MARCH_VARIABLE, expected)
+
+
 def vector_flags(using: Compiler | None = None) -> tuple[str, ...]:
-    """Flags that let the batched kernels (``codegen/templates/c_source.c.j2``) use this machine's SIMD.
+    """Flags that let the batched kernels (``codegen/templates/c_source.c.j2``) use the SIMD of the
+    instruction set :func:`march` names (default ``-march=native``, this machine's).
 
-    ``-march=native``: the kernels then take as many lanes as one vector register holds doubles
-    (8 with AVX-512F, 4 with AVX, 2 otherwise: the template decides from the compiler's macros; a
-    4-lane vector type without AVX would be emulated, 10x slower).  The macros -march=native
-    defines are hashed into ``-DLATDYN_ISA=``, so that a cache shared by different machines keeps
-    one library per instruction set (a library built for another CPU could stop on an illegal
-    instruction).  Found once per compiler; () when the compiler does not take -march=native."""
-    defined = isa_macros(using)
-    if not defined:
-        return ()
-    return ("-march=native", "-DLATDYN_ISA=" + hashlib.sha256("\n".join(sorted(defined)).encode()).hexdigest()[:12])
+    The kernels then take as many lanes as one vector register holds doubles (8 with
+    AVX-512F, 4 with AVX, 2 otherwise: the template decides from the compiler's macros; a 4-lane
+    vector type without AVX would be emulated, 10x slower). The lanes are elements, each
+    computed with the same operations in the same order (and ``-ffp-contract=off``, in
+    :data:`C_FLAGS`), so the instruction set changes the speed, not the results. The macros the
+    ``-march=`` defines are hashed into ``-DLATDYN_ISA=``, so that a cache shared by different
+    machines keeps one library per instruction set (a library built for another CPU could stop
+    on an illegal instruction). Found once per compiler and ``$LATDYN_MARCH``; () when the
+    compiler does not take -march=native and ``$LATDYN_MARCH`` is unset.
+
+    A ``$LATDYN_MARCH`` that is not a plain word, that the compiler refuses, or that needs an
+    instruction this CPU lacks (``x86-64-v4`` on a CPU without AVX-512) raises
+    :class:`latdyn.errors.SceneError` naming the variable (exit status 2 on the command line)."""
+    chosen = march()
+    here = isa_macros(using)
+    if chosen == "native":
+        defined = here
+        if not defined:
+            return ()
+    else:
+        if not re.fullmatch(r"[A-Za-z0-9][A-Za-z0-9_.+-]*", chosen):
+            raise _march_error(f"an instruction set for the compiler's -march= (native, x86-64-v2, "
+                               f"x86-64-v3, x86-64-v4, ...), not {chosen!r}")
+        using = using or compiler()
+        defined = isa_macros(using, chosen)
+        if not defined:
+            raise _march_error(f"{using.name} does not take -march={chosen} (native, x86-64-v2, "
+                               f"x86-64-v3 and x86-64-v4 are the usual values on x86-64)")
+        # feature macros are upper case (__AVX512F__); CPU names are not (__k8, __tune_znver3__)
+        lacking = sorted(macro for macro in defined - here if macro.isupper())
+        if here and lacking:
+            raise _march_error(f"-march={chosen} needs instructions this CPU lacks "
+                               f"({', '.join(name.strip('_') for name in lacking[:6])}"
+                               f"{', ...' if len(lacking) > 6 else ''}): its kernels would stop on "
+                               f"an illegal instruction; unset it (native) or name a smaller set")
+    return (f"-march={chosen}", "-DLATDYN_ISA=" + hashlib.sha256("\n".join(sorted(defined)).encode()).hexdigest()[:12])
 
 
-def isa_macros(using: Compiler | None = None) -> frozenset[str]:
-    """The macros ``-march=native`` makes the compiler define (``__AVX512F__``, …); empty when it does not
-    take the option.  Found once per compiler."""
+def isa_macros(using: Compiler | None = None, chosen: str = "native") -> frozenset[str]:
+    """The macros ``-march=<chosen>`` makes the compiler define (``__AVX512F__``, …); empty when it
+    does not take the option. Found once per compiler and instruction set."""
     using = using or compiler()
-    key = using.identity()
+    key = (using.identity(), chosen)
     if key not in _VECTOR_FLAGS:
         try:
-            result = subprocess.run([*using.command, "-march=native", "-dM", "-E", "-x", "c", os.devnull],
+            result = subprocess.run([*using.command, f"-march={chosen}", "-dM", "-E", "-x", "c", os.devnull],
                                     capture_output=True, timeout=120, check=False)
             macros = result.stdout.decode(errors="replace") if result.returncode == 0 else ""
         except (OSError, subprocess.SubprocessError):
@@ -151,7 +206,7 @@ def isa_macros(using: Compiler | None = None) -> frozenset[str]:
     return _VECTOR_FLAGS[key]
 
 
-_VECTOR_FLAGS: dict[bytes, frozenset[str]] = {}
+_VECTOR_FLAGS: dict[tuple[bytes, str], frozenset[str]] = {}
 
 
 def target(name: str, source: bytes, flags=C_FLAGS, using: Compiler | None = None) -> Path:

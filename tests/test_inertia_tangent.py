@@ -52,17 +52,48 @@ def test_d4_as_published_passes_the_newton_failure_at_045_s(tmp_path):
 
 
 def test_d4_with_the_inertia_tangent_from_the_start_runs_through_1_s(tmp_path):
-    """``newton: exact``: 1 s, no step cut, energy kept to Newmark's time error (4.0e-4 of the
-    largest |potential| at dt 1 ms, 1.0e-4 at 0.5 ms, 2.5e-5 at 0.25 ms: second order), and the
-    planar motion stays planar (the out-of-plane motion grows from round-off, to ~1e-14 m)."""
-    result, summary = _run(d4(newton="exact"), tmp_path, "d4")
+    """``newton: exact`` with generalized-α (ρ∞ = 0.8, the default method): 1 s, no step cut,
+    and the planar motion stays planar (the out-of-plane motion stays at round-off, ~1e-19 m).
+
+    Not with Newmark: its trapezoidal rule leaves every frequency undamped, among them those of
+    the twist without rotary inertia (ρI = 0) that no step resolves, and there the out-of-plane
+    round-off grows by ~1e15 from 0.5 s on, by amounts that depend on the step and not converging
+    with it (|z| at 0.65 s after a 1e-9 N tip impulse: 7e-11 m at dt 1 ms, 9e-8 at 0.5 ms, 3e-3 at
+    0.25 ms, 6e-8 at 0.125 ms), and Newton cuts the step from t ≈ 0.88 s. A numerical artefact,
+    not an instability of the planar motion, which is stable
+    (:func:`test_d4_planar_motion_is_stable_against_an_out_of_plane_push`): which CPU rounded the
+    seed decided whether the old Newmark version of this test passed (docs/verification.md,
+    "D4 in 3D: out-of-plane motion")."""
+    result, summary = _run(d4(newton="exact", method="generalized-alpha", rho_inf=0.8), tmp_path, "d4")
     assert summary["status"] == "solved" and summary["newton_cuts"] == 0
     assert summary["inertia_tangent_from"] == 0.0
     assert result.t[-1] == pytest.approx(1.0)
     energy = np.asarray(result.probes["energy"])
+    # measured 4.3e-4 of the largest |potential| (8.9e-5 lost at 1 s): the time error of the step
     drift = np.max(np.abs(energy - energy[0])) / np.max(np.abs(result.probes["potential"]))
-    assert drift < 5e-4
-    assert np.max(np.abs(result.probes["tip_z"])) < 1e-6
+    assert drift < 1e-3
+    assert np.max(np.abs(result.probes["tip_z"])) < 1e-12
+
+
+def test_d4_planar_motion_is_stable_against_an_out_of_plane_push(tmp_path):
+    """The physics behind the test above: the planar motion of D4 is stable out of its plane, even
+    where the pendulum is compressed (axial force down to -57 N after 0.6 s). Pushed out of plane
+    (1e-9 N at the tip for 10 ms: 3.9e-12 m) with the section's rotary inertia (ρI = ρ·I =
+    5540 × 1.215e-8, which the published data leave out) and Newmark, which damps nothing, the
+    out-of-plane motion stays at the push's size through 1 s (largest |z| 2.2e-11, 1.6e-11 and
+    1.45e-11 m at dt 1, 0.5 and 0.25 ms: converging at second order, unlike the ρI = 0 Newmark
+    runs; generalized-α with ρI = 0 gives 1.9e-11 m at dt 1 ms)."""
+    raw = d4(newton="exact")
+    raw["sections"]["s"].update(rhoIy=6.73e-5, rhoIz=6.73e-5)
+    raw["loads"] = [{"at": "pendulum.end", "force": [0, 0, "1e-9*Heaviside(0.01 - t)"]}]
+    result, summary = _run(raw, tmp_path, "pushed")
+    assert summary["status"] == "solved" and summary["newton_cuts"] == 0
+    assert result.t[-1] == pytest.approx(1.0)
+    tip_z = np.abs(np.asarray(result.probes["tip_z"]))
+    t = np.asarray(result.t)
+    pushed = np.max(tip_z[t <= 0.2])
+    assert 1e-12 < pushed < 1e-11  # the push itself, far above round-off
+    assert np.max(tip_z) < 20 * pushed  # bounded: no growth of 1e15 as in the ρI = 0 Newmark run
 
 
 @pytest.mark.parametrize("method", ["generalized-alpha", "newmark"])

@@ -273,7 +273,8 @@ def _compile(stem: str, names, ops: dict[str, int] | None = None) -> dict[str, c
         from concurrent.futures import ThreadPoolExecutor
 
         started = time.perf_counter()
-        print(f"latdyn: compiling {len(todo)} C kernels of {stem}.c with {using.name} into "
+        target_set = f" for -march={native.march()}" if simd else ""
+        print(f"latdyn: compiling {len(todo)} C kernels of {stem}.c with {using.name}{target_set} into "
               f"{native.cache_dir()} (first use only; seconds)", file=sys.stderr, flush=True)
         before = native.COMPILE_SECONDS["total"]
 
