@@ -206,7 +206,9 @@ def structure_view(history: StructureHistory) -> StructureView:
         plane = tuple(i for i in range(3) if i != normal)
     centre = 0.5 * (lower + upper)
     if plane is not None:
-        half = 0.5 * size * 1.08  # a margin, so points on the edge stay visible
+        # each in-plane axis as long as the structure is along it (at least a fifth of the largest,
+        # so a straight beam keeps some height), with a margin so that points on the edge show
+        half = 0.5 * np.maximum(extent, 0.2 * size) + 0.04 * size
         return StructureView(plane, centre - half, centre + half)
     # 3D: each axis as long as the structure is along it (at least a third of the largest, so a
     # flat structure keeps some depth), on the same scale; seen from off its thinnest direction
@@ -235,9 +237,11 @@ def make_axes(figure, view: StructureView, units: str = "m"):
         return axes
     i, j = view.plane
     axes = figure.add_subplot()
-    axes.set_xlim(view.lower[i], view.upper[i])
-    axes.set_ylim(view.lower[j], view.upper[j])
-    axes.set_aspect("equal", adjustable="box")
+    # the box every frame fits in as data limits, grown (never cut) to fill the axes at equal scales
+    axes.update_datalim([(view.lower[i], view.lower[j]), (view.upper[i], view.upper[j])])
+    axes.margins(0.0)
+    axes.autoscale_view()
+    axes.set_aspect("equal", adjustable="datalim")
     axes.set_xlabel(f"{_AXIS_NAMES[i]} ({units})")
     axes.set_ylabel(f"{_AXIS_NAMES[j]} ({units})")
     axes.grid(True, alpha=0.3)
@@ -316,7 +320,11 @@ def plot_structure(out_dir, path, title: str | None = None, dpi: int = 120,
     history = history if history is not None else load_structure(out_dir)
     view = structure_view(history)
     frames = history.picture_frames(count)
-    figure = _figure(8.5, 5.5)
+    if view.plane is None:
+        figure = _figure(8.5, 5.5)
+    else:  # the axes' own aspect, and room for the legend beside them
+        width, height = (view.upper - view.lower)[list(view.plane)]
+        figure = _figure(min(max(4.0 * width / height, 3.0), 9.0) + 2.0, 5.0)
     axes = make_axes(figure, view)
     colours = colormaps["viridis"](np.linspace(0.0, 0.85, len(frames)))
     handles = []
