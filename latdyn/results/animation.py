@@ -60,7 +60,7 @@ def animate(out_dir, path=None, max_frames: int = MAX_FRAMES, fps: float = 20.0,
     missing or unreadable results folder, one without ParaView files, an extension other than
     ``.gif``/``.mp4``, or ``.mp4`` without ffmpeg; nothing is written then.
     """
-    from latdyn.results.plot import _figure
+    from latdyn.results.figures import agg_figure as _figure
 
     path = Path(path) if path is not None else Path(out_dir) / ANIMATION_FILE
     if not fps > 0:

@@ -12,6 +12,7 @@ import re
 from pathlib import Path
 
 from latdyn.errors import ResultsError
+from latdyn.results.figures import agg_figure as _figure
 from latdyn.results.paraview import PARAVIEW_DIR
 from latdyn.results.result import Result
 from latdyn.results.structure import STRUCTURE_FILE, plot_structure
@@ -33,13 +34,6 @@ def _unit_of(label: str) -> str | None:
     return f"{found.group(1)}" if found else None
 
 
-def _figure(width: float, height: float):
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    figure = Figure(figsize=(width, height), layout="constrained")
-    FigureCanvasAgg(figure)
-    return figure
 
 
 def plot_results(out_dir, plot_dir=None, dpi: int = 120) -> list[Path]:

@@ -315,7 +315,7 @@ def plot_structure(out_dir, path, title: str | None = None, dpi: int = 120,
     from matplotlib import colormaps
     from matplotlib.lines import Line2D
 
-    from latdyn.results.plot import _figure
+    from latdyn.results.figures import agg_figure as _figure
 
     history = history if history is not None else load_structure(out_dir)
     view = structure_view(history)
