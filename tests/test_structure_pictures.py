@@ -193,3 +193,25 @@ def test_probe_plots_say_what_each_probe_measures_and_its_unit(planar_results):
     assert labels == {"tip_y": "tip_y: position y of tip (m)",
                       "swing": "swing: hinge angle of arm.start (rad)",
                       "energy": "energy: total energy (J)"}
+
+
+def test_the_deploying_truss_example_latches_straight():
+    """examples/deploying_truss.yaml (the README's picture): every member of a bay is hinged at its
+    start about the station's batten line, and the latch angles, turned through bay after bay,
+    bring every bay in line with x: the truss it latches is straight (the run itself takes a
+    minute, too long for the suite; its picture is docs/pictures/deploying_truss_structure.png)."""
+    from scipy.spatial.transform import Rotation
+
+    import latdyn
+
+    scene = latdyn.load_scene(str(Path(__file__).resolve().parents[1] / "examples" / "deploying_truss.yaml"))
+    turned = np.eye(3)  # the rotation of the bays before this one, deployed
+    for bay in (1, 2, 3):
+        members = [scene.beams[f"bay{bay}_{m}"] for m in "abd"]
+        hinges = [m.start.hinge for m in members]
+        assert all(h is not None and h.lock_at is not None and h.rest_angle > h.lock_at for h in hinges)
+        axis, lock = hinges[0].axis, hinges[0].lock_at
+        assert all(np.allclose(h.axis, axis) and h.lock_at == lock for h in hinges)  # one hinge line a bay
+        chord = members[0].end.point - members[0].start.point
+        turned = Rotation.from_rotvec(lock * (turned @ axis)).as_matrix() @ turned
+        np.testing.assert_allclose(turned @ chord, [np.linalg.norm(chord), 0.0, 0.0], atol=1e-6)
