@@ -114,6 +114,8 @@ def _result_writer(prepared, probes: ProbeSet, out_dir, analysis: str,
     """The result writer of the run (reopened at the checkpoint's bookmark when resuming)."""
     scene, model = prepared.scene, prepared.model
     first = "load_factor" if analysis == "static" else "t"
+    # summary.json: what the run is; probe_labels {probe: "name: what it measures (unit)"}
+    # (latdyn/results/probe_labels.py) names the probe plots' axes (latdyn plot, docs/usage.md)
     meta = {"analysis": analysis, "title": scene.title, "coordinates": model.n_dofs,
             "elements": len(model.element_nodes), "backend": prepared.assembler.kernels.backend,
             "formulation": scene.solve.formulation, "probe_labels": probe_labels(scene.output.probes)}
