@@ -215,3 +215,16 @@ def test_the_deploying_truss_example_latches_straight():
         chord = members[0].end.point - members[0].start.point
         turned = Rotation.from_rotvec(lock * (turned @ axis)).as_matrix() @ turned
         np.testing.assert_allclose(turned @ chord, [np.linalg.norm(chord), 0.0, 0.0], atol=1e-6)
+
+
+def test_a_modal_run_with_mode_shapes_is_plotted_without_a_structure_picture(tmp_path, capsys):
+    """paraview/ of a modal run holds only the mode shapes (paraview/modes/): `latdyn plot` draws its
+    modes and no structure, and `latdyn animate` says there is no motion to draw."""
+    text = PLANAR_SCENE.replace("solve: {t_end: 0.2, dt: 0.01}", "solve: {analysis: modes, count: 3, mode_shapes: true}")
+    out = _run(tmp_path, text, "modal")
+    assert (out / "paraview" / "modes").is_dir()
+    assert cli.main(["plot", str(out)]) == 0
+    assert (out / "plots" / "modes.png").is_file() and not (out / "plots" / "structure.png").exists()
+    capsys.readouterr()
+    assert cli.main(["animate", str(out)]) == 2
+    assert "ParaView" in capsys.readouterr().err

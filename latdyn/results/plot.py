@@ -13,7 +13,7 @@ from pathlib import Path
 
 from latdyn.errors import ResultsError
 from latdyn.results.figures import agg_figure as _figure
-from latdyn.results.paraview import PARAVIEW_DIR
+from latdyn.results.paraview import PARAVIEW_DIR, part_file
 from latdyn.results.result import Result
 from latdyn.results.structure import STRUCTURE_FILE, plot_structure
 
@@ -114,6 +114,7 @@ def plot_results(out_dir, plot_dir=None, dpi: int = 120) -> list[Path]:
         figure.savefig(path, dpi=dpi)
         written.append(path)
 
-    if (Path(out_dir) / PARAVIEW_DIR).is_dir():
+    if any((Path(out_dir) / PARAVIEW_DIR / part_file(part)).is_file() for part in ("beams", "bodies")):
+        # (a modal run's paraview/ holds only its mode shapes, paraview/modes/: no motion to draw)
         written.append(plot_structure(out_dir, target / STRUCTURE_FILE, title=title, dpi=dpi))
     return written
