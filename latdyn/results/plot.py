@@ -28,10 +28,11 @@ def safe_file_name(name: str) -> str:
     return stem or "probe"
 
 
-def _unit_of(label: str) -> str | None:
-    """``"(m)"`` of ``"tip: position y of arm.end (m)"``, or None."""
+def _y_label(name: str, label: str) -> str:
+    """``tip (m)`` for the probe ``tip`` labelled ``"tip: position y of arm.end (m)"``; the name alone
+    when the label gives no unit."""
     found = re.search(r"\(([^()]*)\)$", label)
-    return f"{found.group(1)}" if found else None
+    return f"{name} ({found.group(1)})" if found else name
 
 
 
@@ -64,7 +65,7 @@ def plot_results(out_dir, plot_dir=None, dpi: int = 120) -> list[Path]:
         axes.plot(x, values, lw=1.2, marker="." if len(x) < 30 else None)
         axes.set_xlabel(x_label)
         label = str(labels.get(name, name))
-        axes.set_ylabel(_unit_of(label) or name)
+        axes.set_ylabel(_y_label(name, label))
         axes.set_title(label + (f" — {title}" if title else ""), fontsize="medium")
         axes.grid(True, alpha=0.3)
         stem = safe_file_name(name)
@@ -85,7 +86,7 @@ def plot_results(out_dir, plot_dir=None, dpi: int = 120) -> list[Path]:
             axes = axes_grid[index // columns][index % columns]
             axes.plot(x, values, lw=1.0)
             label = str(labels.get(name, name))
-            axes.set_ylabel(_unit_of(label) or name)
+            axes.set_ylabel(_y_label(name, label))
             axes.set_title(label, fontsize="medium")
             axes.grid(True, alpha=0.3)
         for index in range(n, rows * columns):
