@@ -228,3 +228,17 @@ def test_a_modal_run_with_mode_shapes_is_plotted_without_a_structure_picture(tmp
     capsys.readouterr()
     assert cli.main(["animate", str(out)]) == 2
     assert "ParaView" in capsys.readouterr().err
+
+
+def test_a_static_path_is_drawn_by_load_factor(tmp_path):
+    from latdyn.results.structure import time_text
+
+    text = PLANAR_SCENE.replace("start: {hinge: {axis: [0, 0, 1]}}", "start: clamped").replace(
+        "solve: {t_end: 0.2, dt: 0.01}", "solve: {analysis: static, steps: 4}").replace(
+        "    swing: {hinge: arm.start, quantity: angle}\n", "")
+    out = _run(tmp_path, text, "static")
+    history = load_structure(out)
+    assert history.time_label == "load factor" and history.frames == 5
+    np.testing.assert_allclose(history.times, np.linspace(0.0, 1.0, 5))
+    assert time_text(history, 4) == "load factor 1"
+    assert cli.main(["plot", str(out)]) == 0 and (out / "plots" / "structure.png").is_file()
