@@ -657,6 +657,12 @@ def render_variant(
     env = _environment()
     context = _stamp(variant, description, kernels, digest)
     stem = stem or f"beam_{variant}"
+    context["stem"] = stem
+    # what the unit holds, for the sentences of its files: the beam element of a variant, or
+    # the ``joints`` unit (joint bodies, point loads, hinges) that every variant shares
+    context["unit"] = (f"the CR-4402 beam element, variant `{variant}`" if stem == f"beam_{variant}"
+                       else f"`{stem}`: {description}")
+    context["item"] = "element" if stem == f"beam_{variant}" else "item"
     context["header_name"] = f"{stem}.h"
     context["guard"] = f"LATDYN_{stem.upper()}_H"
     return {

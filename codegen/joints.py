@@ -44,7 +44,8 @@ import sympy as sp
 
 from .ir import Argument, KernelSpec, Output
 
-DESCRIPTION = "joint bodies (Newton-Euler about the reference point) and point loads, global and follower"
+DESCRIPTION = ("joint bodies (Newton-Euler about the reference point), point loads (global and follower), "
+               "hinged beam ends, hinge laws and the SO(3) exponential")
 
 BODY_FRAME = Argument("frame", 9, "T: the body's frame (columns = body axes in global axes), row-major")
 BODY_MOTION = Argument("motion", 9, "omega[3] a[3] alpha[3]: spatial angular velocity, acceleration of the "

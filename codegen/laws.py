@@ -3,14 +3,14 @@
 The element kernels are derived once and committed (``generated/``); the laws of a scene
 (prescribed motion, loads, hinge torques, springs and dampers; SCENE.md "Expressions") are
 known only when the scene is read. They go through the same pipeline on a smaller scale:
-the SymPy expressions that :mod:`latdyn.expressions` parsed and differentiated, CSE
+the SymPy expressions that :mod:`latdyn.scene.expressions` parsed and differentiated, CSE
 (``sympy.cse``, one block per law: its value shares subexpressions with its derivatives),
 the C99 printer of :mod:`codegen.emit` (no ``pow()`` for small integer and half-integer
-powers), and the template ``codegen/templates/laws.c.j2`` with the file stamp. :mod:`latdyn.engine`
+powers), and the template ``codegen/templates/laws.c.j2`` with the file stamp. :mod:`latdyn.assembly.compiled_laws`
 compiles the unit once per distinct source into the kernel cache and calls it from C, so
 that no law is evaluated in Python inside the time loop.
 
-The unit's two functions (the ABI :mod:`latdyn.engine` and ``latdyn/csrc/newton_step.c`` use):
+The unit's two functions (the ABI :mod:`latdyn.assembly.compiled_laws` and ``latdyn/assembly/csrc/newton_step.c`` use):
 
 ``void latdyn_time_laws(double t, double *out)``
     every function of time at ``t``: ``out[3k], out[3k+1], out[3k+2]`` = f_k, df_k/dt, d²f_k/dt².
@@ -20,7 +20,7 @@ The unit's two functions (the ABI :mod:`latdyn.engine` and ``latdyn/csrc/newton_
 Laws are plain data here (:class:`TimeLaw`, :class:`HingeLawC`), so that this module does
 not import the runtime. A table in t is linear between its points and constant beyond them,
 evaluated as ``numpy.interp`` does; its rate is the slope of the segment that starts at or
-before t (0 beyond the ends), its acceleration 0 (:class:`latdyn.expressions.TimeFunction`).
+before t (0 beyond the ends), its acceleration 0 (:class:`latdyn.scene.expressions.TimeFunction`).
 """
 from __future__ import annotations
 
@@ -30,7 +30,7 @@ import sympy as sp
 
 from .emit import COMMAND, MARKER, CPrinter, EmitError, _comment_text, _environment, formulation_hash, tool_versions
 
-#: The C names of the law variables (latdyn.expressions: ``t``; hinge laws ``theta``, ``theta_dot``, ``t``).
+#: The C names of the law variables (latdyn.scene.expressions: ``t``; hinge laws ``theta``, ``theta_dot``, ``t``).
 VARIABLES = ("t", "theta", "theta_dot")
 
 

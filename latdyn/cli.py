@@ -1,11 +1,13 @@
-"""The ``latdyn`` command (also ``python -m latdyn``): ``run``, ``check``, ``plot``, ``study``.
+"""The ``latdyn`` command (also ``python -m latdyn``): ``run``, ``check``, ``plot``, ``animate``, ``study``.
 
 Exit statuses (SCENE.md):
 
 =====  ===============================================================================
-0      solved (``run``), valid (``check``), plotted (``plot``), study finished (failed cases are rows)
+0      solved (``run``), valid (``check``), plotted (``plot``), animated (``animate``), study finished
+       (failed cases are rows)
 1      the solver failed (what was recorded is left complete), or an internal error
-2      invalid scene, missing scene file, bad arguments, missing/invalid results folder,
+2      invalid scene, missing scene file, bad arguments, missing/invalid results folder (for
+       ``animate`` also: no ParaView files in it, an extension other than .gif/.mp4, .mp4 without ffmpeg),
        ``run --resume`` without a checkpoint of this scene and version, invalid study or --scheduler
 130    interrupted (Ctrl-C, SIGTERM); what was recorded is left complete, with a
        checkpoint for ``run --resume``
@@ -142,6 +144,40 @@ def _command_plot(args) -> int:
     return 0
 
 
+def _command_animate(args) -> int:
+    from latdyn.errors import ResultsError
+    from latdyn.results.animation import animate
+
+    try:
+        options = {"max_frames": args.frames} if args.frames is not None else {}
+        path = animate(args.results, args.out, fps=args.fps, **options)
+    except ResultsError as exc:
+        _error(str(exc))
+        return 2
+    print(f"{PROG}: wrote {path}")
+    return 0
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, not {text!r}")
+    return value
+
+
+def _positive_number(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not 0.0 < value < float("inf"):
+        raise argparse.ArgumentTypeError(f"expected a number > 0, not {text!r}")
+    return value
+
+
 def _command_study(args) -> int:
     if not Path(args.study).is_file():
         raise _UsageError(f"{args.study}: no such study file")
@@ -206,12 +242,23 @@ def build_parser() -> argparse.ArgumentParser:
     check.add_argument("scene", metavar="SCENE", help="scene file (YAML or JSON)")
     check.set_defaults(handler=_command_check)
 
-    plot = commands.add_parser("plot", parents=[common], help="plot the probes of a results folder",
-                               description="Write one PNG per probe, overview.png (and modes.png) "
-                               "into OUT/plots or DIR.")
+    plot = commands.add_parser("plot", parents=[common], help="plot the probes and the structure of a results folder",
+                               description="Write one PNG per probe, overview.png (and modes.png), and "
+                               "structure.png (the structure at several recorded times, from the ParaView "
+                               "files) into OUT/plots or DIR.")
     plot.add_argument("results", metavar="OUT", help="results folder written by `latdyn run`")
     plot.add_argument("--out", metavar="DIR", help="where to write the PNGs (default: OUT/plots)")
     plot.set_defaults(handler=_command_plot)
+    animate = commands.add_parser("animate", parents=[common], help="animate the structure's motion in a results folder",
+                                  description="Write an animation of the structure (from OUT's ParaView files) "
+                                  "to FILE: .gif (Pillow) or .mp4 (needs ffmpeg on PATH), by its extension.")
+    animate.add_argument("results", metavar="OUT", help="results folder written by `latdyn run`")
+    animate.add_argument("-o", "--out", metavar="FILE", help="animation file, .gif or .mp4 (default: OUT/animation.gif)")
+    animate.add_argument("--frames", metavar="N", type=_positive_int, default=None,
+                         help="at most N frames, taken evenly from the recorded ParaView frames (default 120)")
+    animate.add_argument("--fps", metavar="FPS", type=_positive_number, default=20.0,
+                         help="frames per second of the animation (default 20)")
+    animate.set_defaults(handler=_command_animate)
     study = commands.add_parser("study", parents=[common], help="run a study: work-precision, stability map, sweep, Campbell diagram",
                                 description="Run the cases of STUDY (shared/STUDY.md) and write study.csv, "
                                 "work_precision.png, stability.png (campbell.png for a modes scene), cases/ "

@@ -13,6 +13,7 @@ from latdyn.analyses.continuation import static_path
 from latdyn.assembly.prepare import length_scale, prepare
 from latdyn.errors import ResultsError
 from latdyn.results import paraview as paraview
+from latdyn.results.probe_labels import probe_labels
 from latdyn.results.probes import ProbeSet
 from latdyn.results.state_history import state_labels
 from latdyn.results.writer import ResultWriter
@@ -113,9 +114,11 @@ def _result_writer(prepared, probes: ProbeSet, out_dir, analysis: str,
     """The result writer of the run (reopened at the checkpoint's bookmark when resuming)."""
     scene, model = prepared.scene, prepared.model
     first = "load_factor" if analysis == "static" else "t"
+    # summary.json: what the run is; probe_labels {probe: "name: what it measures (unit)"}
+    # (latdyn/results/probe_labels.py) names the probe plots' axes (latdyn plot, docs/usage.md)
     meta = {"analysis": analysis, "title": scene.title, "coordinates": model.n_dofs,
             "elements": len(model.element_nodes), "backend": prepared.assembler.kernels.backend,
-            "formulation": scene.solve.formulation}
+            "formulation": scene.solve.formulation, "probe_labels": probe_labels(scene.output.probes)}
     try:
         return ResultWriter(out_dir, probes.names, first_column=first, mesh=paraview.parts(model, prepared.state),
                             meta=meta,

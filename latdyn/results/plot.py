@@ -1,4 +1,5 @@
-"""Plots of a results folder (``latdyn plot OUT``): one PNG per probe, an overview, modes.
+"""Plots of a results folder (``latdyn plot OUT``): one PNG per probe, an overview, modes, and
+the picture of the structure at several recorded times (:mod:`latdyn.results.structure`).
 
 Figures are drawn on matplotlib's Agg canvas directly (``matplotlib.figure.Figure``),
 never through pyplot, so plotting neither needs a display nor changes the backend of
@@ -11,11 +12,14 @@ import re
 from pathlib import Path
 
 from latdyn.errors import ResultsError
+from latdyn.results.figures import agg_figure as _figure
+from latdyn.results.paraview import PARAVIEW_DIR, part_file
 from latdyn.results.result import Result
+from latdyn.results.structure import STRUCTURE_FILE, plot_structure
 
 __all__ = ["plot_results", "safe_file_name"]
 
-_X_LABELS = {"t": "t (time)", "load_factor": "load factor"}
+_X_LABELS = {"t": "time t (s)", "load_factor": "load factor λ"}
 
 
 def safe_file_name(name: str) -> str:
@@ -24,20 +28,21 @@ def safe_file_name(name: str) -> str:
     return stem or "probe"
 
 
-def _figure(width: float, height: float):
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
+def _y_label(name: str, label: str) -> str:
+    """``tip (m)`` for the probe ``tip`` labelled ``"tip: position y of arm.end (m)"``; the name alone
+    when the label gives no unit."""
+    found = re.search(r"\(([^()]*)\)$", label)
+    return f"{name} ({found.group(1)})" if found else name
 
-    figure = Figure(figsize=(width, height), layout="constrained")
-    FigureCanvasAgg(figure)
-    return figure
+
 
 
 def plot_results(out_dir, plot_dir=None, dpi: int = 120) -> list[Path]:
     """Write the plots of ``out_dir`` into ``plot_dir`` (default ``out_dir/plots``).
 
     Returns the paths written: ``<probe>.png`` for each probe, ``overview.png`` with
-    every probe as a subplot, and ``modes.png`` when ``modes.csv`` exists. Raises
+    every probe as a subplot, ``modes.png`` when ``modes.csv`` exists, and ``structure.png``
+    (the structure at several recorded times) when the run wrote ParaView files. Raises
     :class:`latdyn.errors.ResultsError` naming the path for a missing or invalid folder.
     """
     result = Result.load(out_dir)
@@ -50,16 +55,18 @@ def plot_results(out_dir, plot_dir=None, dpi: int = 120) -> list[Path]:
     x = result.t
     x_label = _X_LABELS.get(result.first_column, result.first_column)
     title = result.summary.get("title")
+    labels = result.summary.get("probe_labels") or {}  # "name: what it measures (unit)"
     written: list[Path] = []
-    used_names: set[str] = {"overview", "modes"}
+    used_names: set[str] = {"overview", "modes", Path(STRUCTURE_FILE).stem}
 
     for name, values in result.probes.items():
         figure = _figure(7.0, 4.0)
         axes = figure.add_subplot()
         axes.plot(x, values, lw=1.2, marker="." if len(x) < 30 else None)
         axes.set_xlabel(x_label)
-        axes.set_ylabel(name)
-        axes.set_title(f"{name}" + (f" — {title}" if title else ""))
+        label = str(labels.get(name, name))
+        axes.set_ylabel(_y_label(name, label))
+        axes.set_title(label + (f" — {title}" if title else ""), fontsize="medium")
         axes.grid(True, alpha=0.3)
         stem = safe_file_name(name)
         while stem in used_names:
@@ -78,8 +85,9 @@ def plot_results(out_dir, plot_dir=None, dpi: int = 120) -> list[Path]:
         for index, (name, values) in enumerate(result.probes.items()):
             axes = axes_grid[index // columns][index % columns]
             axes.plot(x, values, lw=1.0)
-            axes.set_ylabel(name)
-            axes.set_title(name, fontsize="medium")
+            label = str(labels.get(name, name))
+            axes.set_ylabel(_y_label(name, label))
+            axes.set_title(label, fontsize="medium")
             axes.grid(True, alpha=0.3)
         for index in range(n, rows * columns):
             axes_grid[index // columns][index % columns].set_visible(False)
@@ -106,4 +114,8 @@ def plot_results(out_dir, plot_dir=None, dpi: int = 120) -> list[Path]:
         path = target / "modes.png"
         figure.savefig(path, dpi=dpi)
         written.append(path)
+
+    if any((Path(out_dir) / PARAVIEW_DIR / part_file(part)).is_file() for part in ("beams", "bodies")):
+        # (a modal run's paraview/ holds only its mode shapes, paraview/modes/: no motion to draw)
+        written.append(plot_structure(out_dir, target / STRUCTURE_FILE, title=title, dpi=dpi))
     return written
