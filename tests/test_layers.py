@@ -13,16 +13,17 @@ PACKAGE = Path(latdyn.__file__).parent
 #: Layer of each top-level module or subpackage of latdyn; an import may only go down, or sideways
 #: within one subpackage. Subpackages of one layer do not import each other.
 LAYERS = {
-    "version": 0, "errors": 0, "native": 0, "numerics": 0,
-    "scene": 1,
-    "model": 2,
-    "assembly": 3,
-    "step": 4, "results": 4,
-    "timeloop": 5,
-    "analyses": 6,  # a linearisation about a state a transient run reaches uses the time loop
-    "solve": 7,
-    "studies": 8,
-    "cli": 9, "__main__": 10, "__init__": 10,
+    "version": 0, "errors": 0,
+    "native": 1, "numerics": 1,  # native refuses a LATDYN_MARCH it cannot build for (a SceneError)
+    "scene": 2,
+    "model": 3,
+    "assembly": 4,
+    "step": 5, "results": 5,
+    "timeloop": 6,
+    "analyses": 7,  # a linearisation about a state a transient run reaches uses the time loop
+    "solve": 8,
+    "studies": 9,
+    "cli": 10, "__main__": 11, "__init__": 11,
 }
 
 
