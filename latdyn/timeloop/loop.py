@@ -107,6 +107,7 @@ class TimeLoop:
         self.progress = TransientProgress(
             state=state, algorithmic_acceleration=self.integrator.a, locked=self.model.locked.copy(),
             h=self.control.dt, power=load_power(self.model, state, evaluation),
+            dissipation_power=evaluation.dissipation_power,
             total0=sum(energy0.values()), potential0=energy0["potential"],
             received0=energy0["kinetic"] + energy0["strain"] + 1e-8 * abs(energy0["potential"]),
             inertia_tangent_from=0.0 if getattr(self.integrator, "inertia_tangent", False) else None)
@@ -175,7 +176,8 @@ class TimeLoop:
             progress.state, grid_index=progress.grid_index,
             stop_index=control.next_row(progress) if budget > 0 else progress.grid_index + 1, dt=control.dt,
             t_end=control.t_end, n_grid=control.n_grid, power=progress.power,
-            external_work=progress.external_work, budget_s=budget)
+            external_work=progress.external_work, dissipation_power=progress.dissipation_power,
+            dissipated=progress.dissipated, budget_s=budget)
         progress.solver_s += time.perf_counter() - started
         if done.steps:
             progress.steps += done.steps
@@ -184,6 +186,8 @@ class TimeLoop:
             progress.factorizations += done.factorizations
             progress.power = done.power
             progress.external_work = self.probes.external_work = done.external_work
+            progress.dissipation_power = done.dissipation_power
+            progress.dissipated = self.probes.dissipated = done.dissipated
             progress.state = done.state
             progress.algorithmic_acceleration = self.integrator.a
             self._after_accepted(done.state)
@@ -240,7 +244,15 @@ class TimeLoop:
         self.probes.external_work += 0.5 * h * (progress.power + new_power)
         progress.power = new_power
         progress.external_work = self.probes.external_work
-        progress.dissipated = self.probes.dissipated = progress.dissipated + events.loss
+        # declared dissipation: the dampers' over the step (trapezoidal, as the work; at its end
+        # from the step's own last evaluation, before the events' jump), then the events' loss;
+        # the dampers' power after the jump starts the next step
+        ended = getattr(integrator, "last_evaluation", None) or evaluation
+        damped = 0.5 * h * (progress.dissipation_power + ended.dissipation_power)
+        progress.dissipation_power = evaluation.dissipation_power
+        if events.any and evaluation is ended:
+            progress.dissipation_power = self.assembler.evaluate(new, matrices=False).dissipation_power
+        progress.dissipated = self.probes.dissipated = progress.dissipated + damped + events.loss
         progress.state = new
         progress.algorithmic_acceleration = integrator.a
         progress.locked = model.locked.copy()
