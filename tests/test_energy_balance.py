@@ -107,6 +107,7 @@ def test_d2_with_newmark_at_dt_0_2_ends_unbounded_with_the_time_and_its_rows_kep
     assert 20.0 < t_break < 30.0
     summary = json.loads((out / "summary.json").read_text())
     assert summary["status"] == "unbounded"
+    assert not (out / "checkpoint.npz").exists() and "--resume" not in process.stderr  # the run is over
     result = Result.load(out)
     assert result.t[-1] == pytest.approx(t_break, rel=1e-5)
     assert np.all(np.isfinite(result.probes["energy"]))

@@ -340,7 +340,12 @@ class TimeLoop:
     def _stopped_by(self, failure: BaseException) -> None:
         """Interrupted or failed: a checkpoint of the last accepted step, to resume from; failed: the
         last converged state is always a row (after the checkpoint, whose bookmark a resumed run
-        returns to, so that the resumed files equal an uninterrupted run's)."""
+        returns to, so that the resumed files equal an uninterrupted run's). Unbounded: the run is
+        over (resuming would go on from the broken balance), so no checkpoint is left."""
+        if isinstance(failure, UnboundedError):
+            if self.checkpointer is not None:
+                self.checkpointer.discard()
+            return
         if self.checkpointer is not None and not self.writer.closed:
             try:
                 self._save_checkpoint(self.last)
