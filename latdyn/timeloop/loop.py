@@ -15,6 +15,7 @@ last converged state as a row."""
 from __future__ import annotations
 
 import copy
+import math
 import sys
 import time
 from typing import NamedTuple
@@ -294,10 +295,15 @@ class TimeLoop:
             self.unbounded = True
             progress = self.progress
             received = progress.received0 + progress.work_seen + progress.potential_seen
-            raise UnboundedError(
-                f"unbounded: the energy balance broke at t = {t:.6g}: the integrator created {created:.3g} "
-                f"times the energy the structure received ({received:.4g}; a run ends past {UNBOUNDED:g} times); "
-                f"a smaller step or numerical dissipation (rho_inf < 1) may keep it bounded", t)
+            if math.isnan(created):
+                what = "the energies are not finite"
+            elif received > 0:
+                what = (f"the integrator created {created:.3g} times the energy the structure received "
+                        f"({received:.4g}; a run ends past {UNBOUNDED:g} times)")
+            else:
+                what = "the integrator created energy while the structure received none"
+            raise UnboundedError(f"unbounded: the energy balance broke at t = {t:.6g}: {what}; a smaller step or "
+                                 f"numerical dissipation (rho_inf < 1) may keep it bounded", t)
 
     def _summarize(self) -> None:
         """The run's counters and energy balance into the summary; a balance error past
