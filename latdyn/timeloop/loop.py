@@ -289,19 +289,17 @@ class TimeLoop:
 
     def _judge_balance(self, t: float, created: float) -> None:
         """The energy balance at the row at ``t`` (docs/energy.md): energy created (``created``:
-        relative to the energy received) past :data:`UNBOUNDED`, or not finite, ends the run as
-        unbounded, the row at ``t`` recorded first."""
+        relative to the energy received, :meth:`TransientProgress.balance`) past :data:`UNBOUNDED`,
+        or not finite, ends the run as unbounded, the row at ``t`` recorded first."""
         if not created <= UNBOUNDED:  # NaN too
             self.unbounded = True
             progress = self.progress
             received = progress.received0 + progress.work_seen + progress.potential_seen
             if math.isnan(created):
                 what = "the energies are not finite"
-            elif received > 0:
+            else:
                 what = (f"the integrator created {created:.3g} times the energy the structure received "
                         f"({received:.4g}; a run ends past {UNBOUNDED:g} times)")
-            else:
-                what = "the integrator created energy while the structure received none"
             raise UnboundedError(f"unbounded: the energy balance broke at t = {t:.6g}: {what}; a smaller step or "
                                  f"numerical dissipation (rho_inf < 1) may keep it bounded", t)
 

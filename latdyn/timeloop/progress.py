@@ -2,6 +2,7 @@
 the work and energy bookkeeping and the counters; the reports of cut steps."""
 from __future__ import annotations
 
+import math
 import sys
 from dataclasses import dataclass, field
 
@@ -61,12 +62,15 @@ class TransientProgress:
         self.factorizations += factorizations(stats)
 
     def balance(self, t: float, energies: dict, external_work: float) -> float:
-        """Take the energies of the row at ``t`` into the energy balance (docs/energy.md); the
-        energy the integrator created up to this row, total − total0 − external_work + dissipated
-        (negative where it dissipated), over the energy the structure received up to it
-        (:attr:`received0`, :attr:`work_seen`, :attr:`potential_seen`; inf when it created energy
-        from none)."""
-        created = sum(energies.values()) - self.total0 - external_work + self.dissipated
+        """Take the energies of the row at ``t`` into the energy balance (docs/energy.md). Returns
+        the energy gain that :data:`UNBOUNDED` judges, relative to the energy the structure received
+        up to this row (:attr:`received0`, :attr:`work_seen`, :attr:`potential_seen`): the smaller
+        of the energy the integrator created, total − total0 − external_work + dissipated, and the
+        energy the structure gained, total − total0 + dissipated (so that noise in the work of a
+        structure that holds no energy is not taken for a gain); NaN when an energy is not finite,
+        0 when the structure received nothing (it is then judged on finite energies alone)."""
+        gained = sum(energies.values()) - self.total0 + self.dissipated
+        created = gained - external_work
         potential_change = abs(energies["potential"] - self.potential0)
         self.energy_scale = max(self.energy_scale, energies["kinetic"], energies["strain"], potential_change,
                                 abs(external_work), self.dissipated)
@@ -75,9 +79,9 @@ class TransientProgress:
         self.work_seen = max(self.work_seen, abs(external_work))
         self.potential_seen = max(self.potential_seen, potential_change)
         received = self.received0 + self.work_seen + self.potential_seen
-        if received > 0:
-            return created / received
-        return created * np.inf if created != 0 else 0.0
+        if not np.isfinite(created):
+            return math.nan
+        return min(created, gained) / received if received > 0 else 0.0
 
     @property
     def relative_balance_error(self) -> float:
