@@ -280,25 +280,26 @@ class TimeLoop:
     def _record(self, state: State, energies: dict) -> None:
         """A row at ``state`` (probes, state, ParaView frame when due), its energies in the balance;
         then the balance judged (:meth:`_judge_balance`)."""
-        created = self.progress.balance(state.t, energies, self.probes.external_work)
+        gain = self.progress.balance(state.t, energies, self.probes.external_work)
         snapshot = state.copy()
         self.writer.record(state.t, self.probes.values(state, energies), state=state.as_dict(),
                            frame=lambda: paraview.frame(self.assembler, self.writer.mesh, snapshot))
         self.bookmark, self.last_recorded = self.writer.bookmark(), snapshot
-        self._judge_balance(state.t, created)
+        self._judge_balance(state.t, gain)
 
-    def _judge_balance(self, t: float, created: float) -> None:
-        """The energy balance at the row at ``t`` (docs/energy.md): energy created (``created``:
-        relative to the energy received, :meth:`TransientProgress.balance`) past :data:`UNBOUNDED`,
-        or not finite, ends the run as unbounded, the row at ``t`` recorded first."""
-        if not created <= UNBOUNDED:  # NaN too
+    def _judge_balance(self, t: float, gain: float) -> None:
+        """The energy balance at the row at ``t`` (docs/energy.md): an energy gain (``gain``: the
+        energy created and held, relative to the energy received, :meth:`TransientProgress.balance`)
+        past :data:`UNBOUNDED`, or not finite, ends the run as unbounded, the row at ``t`` recorded
+        first."""
+        if not gain <= UNBOUNDED:  # NaN too
             self.unbounded = True
             progress = self.progress
             received = progress.received0 + progress.work_seen + progress.potential_seen
-            if math.isnan(created):
+            if math.isnan(gain):
                 what = "the energies are not finite"
             else:
-                what = (f"the integrator created {created:.3g} times the energy the structure received "
+                what = (f"the integrator created {gain:.3g} times the energy the structure received "
                         f"({received:.4g}; a run ends past {UNBOUNDED:g} times)")
             raise UnboundedError(f"unbounded: the energy balance broke at t = {t:.6g}: {what}; a smaller step or "
                                  f"numerical dissipation (rho_inf < 1) may keep it bounded", t)
