@@ -1,7 +1,7 @@
 """latdyn: transient dynamics of joint-dominated flexible structures (NASA CR-4402)."""
 from __future__ import annotations
 
-from latdyn.errors import SceneError, SolverError
+from latdyn.errors import SceneError, SolverError, UnboundedError
 
 from .version import __version__
 
@@ -18,7 +18,9 @@ def run(scene, out_dir=None, backend="auto", progress=False, *, resume=False, ch
 
     Transient runs into ``out_dir`` write a checkpoint every ``checkpoint_every``
     seconds (default 60), on Ctrl-C/SIGTERM and on failure; ``resume=True`` continues
-    from it (see :mod:`latdyn.timeloop.checkpoint`).
+    from it (see :mod:`latdyn.timeloop.checkpoint`). A transient run whose energy balance breaks
+    raises :class:`UnboundedError` (a :class:`SolverError`) after its rows are written
+    (docs/energy.md).
     """
     from latdyn.solve import run as _run
 
@@ -40,4 +42,4 @@ def study(source, scheduler=None, out=None, *, client=None, **options):
     return _study(source, scheduler=scheduler, out=out, client=client, **options)
 
 
-__all__ = ["load_scene", "run", "study", "SceneError", "SolverError", "__version__"]
+__all__ = ["load_scene", "run", "study", "SceneError", "SolverError", "UnboundedError", "__version__"]

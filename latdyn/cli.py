@@ -5,7 +5,8 @@ Exit statuses (SCENE.md):
 =====  ===============================================================================
 0      solved (``run``), valid (``check``), plotted (``plot``), animated (``animate``), study finished
        (failed cases are rows)
-1      the solver failed (what was recorded is left complete), or an internal error
+1      the solver failed, or the run ended unbounded (its energy balance broke: summary.json status
+       ``unbounded``; docs/energy.md), what was recorded being left complete; or an internal error
 2      invalid scene, missing scene file, bad arguments, missing/invalid results folder (for
        ``animate`` also: no ParaView files in it, an extension other than .gif/.mp4, .mp4 without ffmpeg),
        ``run --resume`` without a checkpoint of this scene and version, invalid study or --scheduler
@@ -26,7 +27,7 @@ import traceback
 import warnings
 from pathlib import Path
 
-from latdyn.errors import MissingExtra, SceneError, SolverError
+from latdyn.errors import MissingExtra, SceneError, SolverError, UnboundedError
 from latdyn.timeloop.checkpoint import CHECKPOINT_FILE, CheckpointError
 from latdyn.version import __version__
 
@@ -82,6 +83,11 @@ def _command_run(args) -> int:
         if not existed and out_dir.is_dir():
             shutil.rmtree(out_dir, ignore_errors=True)
         raise
+    except UnboundedError as exc:  # resuming would only go on from the broken balance: no hint
+        _error(str(exc))
+        if out_dir.is_dir():
+            print(f"{PROG}: what was recorded up to t = {exc.t:.6g} is in {out_dir}", file=sys.stderr)
+        return 1
     except SolverError as exc:
         if getattr(args, "debug", False):
             traceback.print_exc()

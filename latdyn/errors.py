@@ -55,6 +55,18 @@ class SolverError(RuntimeError):
         super().__init__(message if not diagnosis else f"{message}\n{diagnosis}")
 
 
+class UnboundedError(SolverError):
+    """The run's energy balance broke (docs/energy.md): the integrator created more energy than the
+    threshold allows by time ``t``. Exit status 1, ``summary.json`` status ``unbounded``; what was
+    recorded up to then (the row at ``t`` included) stays readable."""
+
+    status = "unbounded"
+
+    def __init__(self, message: str, t: float):
+        self.t = t
+        super().__init__(message)
+
+
 class MissingExtra(ImportError):
     """A feature needs a package of an optional extra that is not installed; the message
     names the ``pip install`` that brings it (exit status 1 on the command line)."""

@@ -44,7 +44,7 @@ def arm3d(lock_b=-0.9, every=0.01, **solve_options):
             "rb": {"hinge": "b.start", "quantity": "rate"},
             "tip_z": {"point": "b.end", "quantity": "position", "component": "z"},
             "tip_v": {"point": "b.end", "quantity": "velocity", "frame": "elbow", "component": "norm"},
-            "E": {"energy": "total"}, "W": {"energy": "external_work"},
+            "E": {"energy": "total"}, "W": {"energy": "external_work"}, "D": {"energy": "dissipated"},
             "M": {"element": "b.element[0]", "quantity": "moment_y"},
             "Hx": {"momentum": "angular", "component": "x"}}},
     }

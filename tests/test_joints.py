@@ -140,7 +140,8 @@ def test_follower_loads_converge_like_fixed_loads(tmp_path):
 @pytest.mark.parametrize("backend", ["numpy", "c"])
 def test_hinge_force_against_differences(backend):
     """f = k s + c θ̇ − λτ with laws in θ and θ̇: the kernel's ∂f/∂θ and ∂f/∂θ̇ from the laws'
-    values and derivatives equal central differences of f, and the powers are −k s θ̇ and λ τ θ̇."""
+    values and derivatives equal central differences of f, and the powers are −k s θ̇ and λ τ θ̇, and
+    the damper's dissipation c θ̇²."""
     ks = load_kernels(backend, "default")
 
     def laws(theta, rate):  # smooth laws with their partial derivatives
@@ -156,7 +157,7 @@ def test_hinge_force_against_differences(backend):
     n = 6
     states = np.column_stack([RNG.normal(size=n), RNG.normal(size=n), RNG.normal(size=n), RNG.uniform(0.2, 1.5, n)])
     values = np.array([laws(th, rt) for th, rt, _, _ in states])
-    f, d_theta, d_rate, spring_power, torque_power = ks.hinge_force(states, values)
+    f, d_theta, d_rate, spring_power, torque_power, damper_power = ks.hinge_force(states, values)
     eps = 1e-6
     for j, (theta, rate, rest, factor) in enumerate(states):
         assert np.isclose(f[j], force(theta, rate, rest, factor), rtol=1e-13, atol=1e-13)
@@ -166,6 +167,7 @@ def test_hinge_force_against_differences(backend):
         assert np.isclose(d_rate[j], fd_rate, rtol=1e-7, atol=1e-8)
         assert np.isclose(spring_power[j], -values[j, 0] * (theta - rest) * rate, rtol=1e-13, atol=1e-13)
         assert np.isclose(torque_power[j], factor * values[j, 6] * rate, rtol=1e-13, atol=1e-13)
+        assert np.isclose(damper_power[j], values[j, 3] * rate**2, rtol=1e-13, atol=1e-13)
 
 
 @pytest.mark.parametrize("backend", ["numpy", "c"])

@@ -253,7 +253,8 @@ class Assembler:
         ``total`` (n_total + 1: residual, then reactions) and the power as the evaluation left them."""
         m = self.model
         n = m.n_assembled
-        result = Evaluation(residual=total[:n], reaction=total[n:m.n_total], external_power=power, assembler=self)
+        result = Evaluation(residual=total[:n], reaction=total[n:m.n_total], external_power=power,
+                            dissipation_power=float(native.buffers["dissipation"][0]), assembler=self)
         if matrices:
             b = native.buffers
             stiffness = b["tangent"] + b["inertia_tangent"] if inertia_tangent and inertia else b["tangent"].copy()

@@ -38,6 +38,7 @@ class Evaluation(SeparateMatrices):
     residual: np.ndarray  # (n_dofs,)
     reaction: np.ndarray  # (n_total - n_dofs,) generalized force needed on constrained coordinates
     external_power: float = 0.0  # loads and hinge torques on the current velocities
+    dissipation_power: float = 0.0  # c θ̇² of the hinge dampers (declared dissipation)
     blocks: dict | None = None  # kind -> [element (e,14,14), body (b,6,6), hinge diag, load blocks]
     assembler: object = None  # the Assembler that made it: its scatter maps assemble the blocks
 

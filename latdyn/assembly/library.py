@@ -76,7 +76,7 @@ class WorkData(ctypes.Structure):
         "matrix", "pivots", "rhs",
         "inertia_tangent", "forces_plus", "forces_minus", "perturbed_x", "perturbed_T", "perturbed_theta",
         "p_geometry", "p_rates", "p_accelerations", "p_mass", "p_quadratic", "p_gravity_force",
-        "p_gravity_potential", "p_first_moment", "laws", "hinge_d_theta", "hinge_d_rate")]
+        "p_gravity_potential", "p_first_moment", "laws", "hinge_d_theta", "hinge_d_rate", "dissipation")]
 
 
 class ConfigurationData(ctypes.Structure):
@@ -113,7 +113,8 @@ class AdvanceData(ctypes.Structure):
                 ("stop_index", I64), ("t", ctypes.c_double), ("budget_s", ctypes.c_double),
                 ("power", ctypes.c_double), ("external_work", ctypes.c_double),
                 ("steps", I64), ("iterations", I64), ("factorizations", I64), ("status", I64), ("last", I64),
-                ("pending", I64), ("t_last", ctypes.c_double), ("h_pending", ctypes.c_double)]
+                ("pending", I64), ("t_last", ctypes.c_double), ("h_pending", ctypes.c_double),
+                ("dissipation_power", ctypes.c_double), ("dissipated", ctypes.c_double)]
 
 
 #: Element count from which the element part of an evaluation (geometry and kernels) runs on

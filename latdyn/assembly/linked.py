@@ -23,8 +23,9 @@ class LinkedEvaluation(SeparateMatrices):
     links: the blocks are assembled on the independent and dependent coordinates and reduced
     by the projection P (module docstring)."""
 
-    def __init__(self, residual, reaction, external_power, blocks, assembler):
+    def __init__(self, residual, reaction, external_power, blocks, assembler, dissipation_power: float = 0.0):
         self.residual, self.reaction, self.external_power = residual, reaction, external_power
+        self.dissipation_power = dissipation_power
         self.blocks, self.assembler = blocks, assembler
         self.projection = self.geometric = self.velocity_derivative = self.dependent_rows = None
         self._mass_all = self._dense = None
@@ -86,7 +87,7 @@ def reduce_linked(links, assembler, state, full, matrices: bool, inertia: bool) 
     constrained = columns >= n_asm
     reaction[columns[constrained] - n] += J[:, constrained].T @ r_dep
     out = LinkedEvaluation(residual=residual, reaction=reaction, external_power=full.external_power,
-                           blocks=full.blocks, assembler=assembler)
+                           blocks=full.blocks, assembler=assembler, dissipation_power=full.dissipation_power)
     if matrices:
         Jf = J[:, free_cols]
         rows = np.concatenate([np.arange(n), dep_rows[np.repeat(np.arange(6 * n_dep), Jf.shape[1])]])

@@ -31,6 +31,7 @@ class ProbeSet:
         self.names = [p.name for p in self.probes]
         self.initial = initial.copy()
         self.external_work = 0.0
+        self.dissipated = 0.0  # declared dissipation so far (the time loop's, docs/energy.md)
         kinds = {p.kind for p in self.probes}
         self._need_energy = "energy" in kinds
         self._need_momentum = "momentum" in kinds
@@ -83,6 +84,8 @@ class ProbeSet:
                 kind = p.quantity
                 if kind == "external_work":
                     out.append(self.external_work)
+                elif kind == "dissipated":
+                    out.append(self.dissipated)
                 elif kind == "total":
                     out.append(energies["kinetic"] + energies["strain"] + energies["potential"])
                 else:

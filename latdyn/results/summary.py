@@ -1,8 +1,8 @@
 """``summary.json``, what a run was and how it ended (SCENE.md, "Commands and results").
 
 Written atomically at the start with ``"status": "running"`` (so a killed run is recognisable)
-and again when the writer closes, with the final status ``solved``, ``failed`` or
-``interrupted``. Keys always present: ``latdyn_version``, ``scene_hash``, ``wall_time_s``,
+and again when the writer closes, with the final status ``solved``, ``failed``, ``unbounded`` (a
+transient run whose energy balance broke: docs/energy.md) or ``interrupted``. Keys always present: ``latdyn_version``, ``scene_hash``, ``wall_time_s``,
 ``steps``, ``newton_iterations``, ``rejected_steps``, ``energy_balance_error`` (``null`` when the
 caller did not give one), ``status``, ``rows``, ``first_column``, ``probes``, plus the writer's
 ``meta`` and whatever the caller passes (:func:`compose_summary`). Non-finite floats are written
@@ -31,7 +31,7 @@ SUMMARY_KEYS = (
     "rejected_steps",
     "energy_balance_error",
 )
-STATUSES = ("running", "solved", "failed", "interrupted")
+STATUSES = ("running", "solved", "failed", "unbounded", "interrupted")
 
 
 def compose_summary(given: dict, status: str | None, started: float, recorded: dict) -> dict:

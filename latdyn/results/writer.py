@@ -38,7 +38,7 @@ from pathlib import Path
 
 import numpy as np
 
-from latdyn.errors import ResultsError
+from latdyn.errors import ResultsError, UnboundedError
 from latdyn.results.modes_csv import MODES_FILE, write_modes_csv
 from latdyn.results.paraview import PARAVIEW_DIR, ParaviewWriter
 from latdyn.results.probes_csv import PROBES_FILE, ProbesCsv
@@ -291,7 +291,7 @@ class ResultWriter:
     def close(self, summary: dict | None = None, status: str | None = None) -> dict:
         """Finish every file and write ``summary.json``; returns the summary written.
 
-        ``status`` (or ``summary["status"]``) is ``solved`` (default), ``failed`` or
+        ``status`` (or ``summary["status"]``) is ``solved`` (default), ``failed``, ``unbounded`` or
         ``interrupted``. A second call does nothing and returns the same summary.
         """
         if self.closed:
@@ -327,7 +327,8 @@ class ResultWriter:
         elif issubclass(exc_type, KeyboardInterrupt):
             self.close({"error": "interrupted"}, status="interrupted")
         else:
-            self.close({"error": f"{exc_type.__name__}: {exc}"}, status="failed")
+            status = "unbounded" if isinstance(exc, UnboundedError) else "failed"
+            self.close({"error": f"{exc_type.__name__}: {exc}"}, status=status)
         return False  # re-raise
 
     def result(self) -> Result:

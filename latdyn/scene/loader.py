@@ -99,7 +99,7 @@ MAX_COUNT = 10**9
 POINT_QUANTITIES = ("position", "displacement", "velocity")
 POINT_COMPONENTS = ("x", "y", "z", "norm")
 HINGE_QUANTITIES = ("angle", "rate")
-ENERGY_KINDS = ("kinetic", "strain", "potential", "external_work", "total")
+ENERGY_KINDS = ("kinetic", "strain", "potential", "external_work", "dissipated", "total")
 MOMENTUM_KINDS = ("linear", "angular")
 AXIS_COMPONENTS = ("x", "y", "z")
 ELEMENT_QUANTITIES = ("axial_force", "torque", "moment_y", "moment_z")
@@ -263,7 +263,7 @@ class Probe:
 
     - ``point``: point, quantity (position|displacement|velocity), frame, component (x|y|z|norm);
     - ``hinge``: beam, end ("start"|"end"), quantity (angle|rate);
-    - ``energy``: quantity (kinetic|strain|potential|external_work|total);
+    - ``energy``: quantity (kinetic|strain|potential|external_work|dissipated|total);
     - ``momentum``: quantity (linear|angular), component (x|y|z);
     - ``element``: beam, element (0-based index), quantity (axial_force|torque|moment_y|moment_z).
     """

@@ -311,7 +311,8 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         total = self._buffers["total"]
         stats = StepStats(iterations=control.iterations, converged=bool(control.converged) and not failed,
                           factorizations=control.factorizations, contraction=control.contraction_seen)
-        self.last_evaluation = _LastEvaluation(total, n, model.n_total, control.power)
+        self.last_evaluation = _LastEvaluation(total, n, model.n_total, control.power,
+                                               self._buffers["dissipation"][0])
         if not stats.converged:
             stats.residual = total[:n].copy()
             control.factored_h = 0.0  # a failed step may leave a partial factorization
@@ -320,11 +321,13 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         return trial_state, stats
 
     def advance(self, state: State, *, grid_index: int, stop_index: int, dt: float, t_end: float, n_grid: int,
-                power: float, external_work: float, budget_s: float = 0.25) -> "Advanced":
+                power: float, external_work: float, dissipation_power: float = 0.0, dissipated: float = 0.0,
+                budget_s: float = 0.25) -> "Advanced":
         """Steps on the time grid in one call into C (``latdyn_advance``), from ``state`` on grid
         point ``grid_index`` through ``stop_index``, each as :meth:`step` takes it with
         h = t_{k+1} − t_k and accepted as the time loop accepts it (algorithmic acceleration
-        carried, external work by the trapezoidal rule from ``power``). The call returns at
+        carried, external work by the trapezoidal rule from ``power``, the dampers' dissipated energy
+        from ``dissipation_power``). The call returns at
         ``stop_index``, after ``budget_s`` of wall time, or at the first step that does not
         converge or holds a hinge event (lock_at, a stop): that step is given back, not
         accepted, for the time loop to handle as it handles any step (:attr:`Advanced.pending`).
@@ -338,6 +341,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         run = self._run
         run.dt, run.t_end, run.n_grid, run.grid_index, run.stop_index = dt, t_end, n_grid, grid_index, stop_index
         run.t, run.budget_s, run.power, run.external_work = state.t, budget_s, power, external_work
+        run.dissipation_power, run.dissipated = dissipation_power, dissipated
         self._factor_version += 1
         self._library.latdyn_advance(self._model_ref, self._work_ref, self._control_ref, ctypes.byref(base),
                                      self._scratch_c, ctypes.byref(out_c), self._vectors_ref, self._run_ref)
@@ -371,10 +375,12 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
             self._last_trial = trial
             self._made = self._view(trial, trial_c)
             pending = (trial, stats, run.h_pending)
-        self.last_evaluation = _LastEvaluation(self._buffers["total"], n, model.n_total, control.power)
+        self.last_evaluation = _LastEvaluation(self._buffers["total"], n, model.n_total, control.power,
+                                               self._buffers["dissipation"][0])
         return Advanced(state=last, steps=run.steps, iterations=run.iterations, factorizations=run.factorizations,
                         power=run.power, external_work=run.external_work, status=run.status, pending=pending,
-                        factorization_kept=kept)
+                        factorization_kept=kept, dissipation_power=run.dissipation_power,
+                        dissipated=run.dissipated)
 
     # -- the held factorization of modified Newton, for checkpoints (latdyn.timeloop.checkpoint) -------
     def factorization_mark(self) -> int:
@@ -455,12 +461,16 @@ class Advanced:
     #: whether the held factorization is still that of the last accepted step (False when the
     #: step given back factorized or failed): a checkpoint of that step can carry it
     factorization_kept: bool = True
+    dissipation_power: float = 0.0  # c θ̇² of the hinge dampers at that state
+    dissipated: float = 0.0  # the energy the dampers dissipated since the start of the run
 
 
 class _LastEvaluation:
     """What the time loop reads of the last Newton evaluation: the reaction on the
-    constrained coordinates and the external power (the residual only on failure)."""
+    constrained coordinates, the external power and the power the hinge dampers dissipate (the
+    residual only on failure)."""
 
-    def __init__(self, total, n, n_total, external_power):
+    def __init__(self, total, n, n_total, external_power, dissipation_power=0.0):
         self.reaction = total[n:n_total].copy()
         self.external_power = external_power
+        self.dissipation_power = float(dissipation_power)

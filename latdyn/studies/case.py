@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from latdyn.errors import SolverError
+from latdyn.errors import SolverError, UnboundedError
 
 __all__ = ["run_case", "cached_record", "failed_record", "STATUSES", "ENERGY_PROBES", "CASE_FILE"]
 
@@ -155,7 +155,8 @@ def run_case(task: dict) -> dict:
         if error is not None:
             record["message"] += f"; then {type(error).__name__}: {_first_line(error)}"
     elif error is not None:
-        unstable = isinstance(error, SolverError) and "became unstable" in str(error)
+        unstable = isinstance(error, UnboundedError) or (isinstance(error, SolverError)
+                                                          and "became unstable" in str(error))
         record["status"] = "unbounded" if unstable else "failed"
         prefix = "" if isinstance(error, SolverError) else "internal error: "
         record["message"] = f"{prefix}{type(error).__name__}: {_first_line(error)}"

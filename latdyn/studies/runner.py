@@ -42,7 +42,8 @@ at its default (``solve.rho_inf``), and the scene loader decides whether it is a
   did not converge even below the minimum step; or any other error, whose message is
   kept) and the history recorded up to then is bounded by the rule below;
 - ``unbounded`` — a recorded value is not finite, or the explicit method stopped on a
-  non-finite residual ("became unstable"), or the integrator *created* more energy than
+  non-finite residual ("became unstable"), or the run ended unbounded
+  (:class:`~latdyn.errors.UnboundedError`, docs/energy.md), or the integrator *created* more energy than
   the structure ever received: with the kinetic K, strain S and potential P energies and
   the external work W (the work of loads and of the prescribed motions, SCENE.md) probed
   at every recorded time, ``created(t) = (K+S+P)(t) − (K+S+P)(0) − W(t)`` and

@@ -2,6 +2,8 @@
 fraction of a step at which the first one happens (the loop shortens the step onto it)."""
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from latdyn.assembly.assembler import State, free_velocity, pack, unpack_free
@@ -67,8 +69,9 @@ def stop_crossings(model: Model, old: State, new: State) -> list[tuple[int, int,
     return out
 
 
-def hinge_stops(prepared: Prepared, integrator, new: State, old: State | None = None) -> bool:
-    """Impacts on hinge stops at the end of an accepted step from ``old`` (see above); True when any.
+def hinge_stops(prepared: Prepared, integrator, new: State, old: State | None = None) -> float | None:
+    """Impacts on hinge stops at the end of an accepted step from ``old`` (see above): the energy
+    they removed (:func:`hinge_events`), or None when no hinge hit a stop.
 
     A hinge that started the step on its stop and ends it on or beyond it again rests on the stop:
     it takes restitution 0 there. Its bounce, if any, was shorter than the step: the Zeno limit of
@@ -88,7 +91,8 @@ def hinge_stops(prepared: Prepared, integrator, new: State, old: State | None = 
                 stops.append(stop)
                 restitution.append(0.0 if resting else model.hinges[k].restitution)
     if not hits:
-        return False
+        return None
+    before = kinetic_energy(assembler, new)
     dt = prepared.scene.solve.dt
     target = -np.array(restitution) * new.theta_dot[hits]
     A = assembler.evaluate(new, matrices=True).combined(1.0, 0.0, dt * dt)
@@ -108,21 +112,23 @@ def hinge_stops(prepared: Prepared, integrator, new: State, old: State | None = 
     if getattr(integrator, "a", None) is not None:  # the explicit step keeps no algorithmic acceleration
         integrator.a[model.hinge_dofs[hits]] = 0.0
     new.theta_ddot[hits] = 0.0
-    return True
+    return before - kinetic_energy(assembler, new)
 
 
-def latch_hinges(prepared: Prepared, integrator, old: State, new: State, h: float) -> bool:
+def latch_hinges(prepared: Prepared, integrator, old: State, new: State, h: float) -> float | None:
     """Latch every free hinge whose angle crossed its lock_at during the step.
 
     The latch is a perfectly plastic impulsive constraint θ̇ = 0: the free
     velocities jump by the projection that conserves momentum,
     v⁺ = v⁻ − A⁻¹n (nᵀA⁻¹n)⁻¹ nᵀv⁻, with A = M + h²K (M alone may be singular).
+    Returns the energy the latch removed (:func:`hinge_events`), or None when no hinge latched.
     """
     model, assembler = prepared.model, prepared.assembler
     reached, crossing = lock_events(model, old, new)
     latched = reached + [k for k, _ in crossing]
     if not latched:
-        return False
+        return None
+    before = kinetic_energy(assembler, new)
 
     ev = assembler.evaluate(new, matrices=True)
     A = ev.combined(1.0, 0.0, h * h, dense=True)
@@ -144,12 +150,36 @@ def latch_hinges(prepared: Prepared, integrator, old: State, new: State, h: floa
     model.number_coordinates()
     assembler.reindex()
     integrator.a = pack(model, a_lin, a_ang, a_h)[: model.n_dofs]
-    return True
+    return before - kinetic_energy(assembler, new)
 
 
-def hinge_events(prepared: Prepared, integrator, old: State, new: State, h: float) -> tuple[bool, bool]:
+def kinetic_energy(assembler, state: State) -> float:
+    return assembler.energies(state)["kinetic"]
+
+
+class HingeEvents(NamedTuple):
+    """The events at the end of an accepted step."""
+
+    any: bool  # a hinge latched or hit a stop
+    stopped: bool  # a hinge hit a stop
+    #: the energy the events removed (:func:`hinge_events`): declared dissipation
+    loss: float
+
+
+def hinge_events(prepared: Prepared, integrator, old: State, new: State, h: float) -> HingeEvents:
     """The events at the end of the accepted step old → new of size ``h``: latches, then impacts on
-    stops. (Whether any hinge latched or hit a stop, whether any hit a stop.)"""
+    stops, and the energy they removed.
+
+    Event loss: an impact with restitution e and a latch (e = 0) are declared losses of energy,
+    the kinetic energy lost in the velocity jump — for a rigid impact on a hinge stop (1 − e²)
+    times the kinetic energy of the hinge's motion before it. The time loop counts it as
+    dissipated energy, so that the energy balance measures the integrator alone
+    (docs/energy.md). A hinge held against its stop (a load pushing it there) loses the small
+    kinetic energy of the step that carried it beyond the stop, every step; what putting its
+    configuration back on the stop changes of the strain and potential energy is not declared and
+    stays in the balance (the method's error: with the trapezoidal rule, a constant torque τ
+    pushing a hinge of inertia I into its stop gains ⅛ τ²h²/I a step)."""
     latched = latch_hinges(prepared, integrator, old, new, h)
     stopped = hinge_stops(prepared, integrator, new, old)
-    return stopped or latched, stopped
+    loss = (latched or 0.0) + (stopped or 0.0)
+    return HingeEvents(stopped is not None or latched is not None, stopped is not None, loss)

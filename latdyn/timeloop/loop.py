@@ -15,13 +15,14 @@ last converged state as a row."""
 from __future__ import annotations
 
 import copy
+import math
 import sys
 import time
 from typing import NamedTuple
 
 from latdyn.assembly.assembler import State
 from latdyn.assembly.prepare import Prepared
-from latdyn.errors import SolverError
+from latdyn.errors import SolverError, UnboundedError
 from latdyn.numerics.so3 import orthonormalize
 from latdyn.results import paraview
 from latdyn.results.probes import ProbeSet
@@ -31,7 +32,7 @@ from latdyn.step.integrators import newton_diagnosis
 from latdyn.timeloop import checkpoint as checkpoints
 from latdyn.timeloop.control import StepControl
 from latdyn.timeloop.events import crossing_fraction, hinge_events
-from latdyn.timeloop.progress import TransientProgress, factorizations, load_power
+from latdyn.timeloop.progress import DRIFT_WARNING, UNBOUNDED, TransientProgress, factorizations, load_power
 
 
 class Attempt(NamedTuple):
@@ -79,6 +80,7 @@ class TimeLoop:
         self.last_recorded: State | None = None
         self.last: LastAccepted | None = None
         self.compiled = False
+        self.unbounded = False  # the energy balance broke (_judge_balance)
         self.bar = None
 
     # ------------------------------------------------------------------------- start, resume
@@ -106,7 +108,9 @@ class TimeLoop:
         self.progress = TransientProgress(
             state=state, algorithmic_acceleration=self.integrator.a, locked=self.model.locked.copy(),
             h=self.control.dt, power=load_power(self.model, state, evaluation),
+            dissipation_power=evaluation.dissipation_power,
             total0=sum(energy0.values()), potential0=energy0["potential"],
+            received0=energy0["kinetic"] + energy0["strain"] + 1e-8 * abs(energy0["potential"]),
             inertia_tangent_from=0.0 if getattr(self.integrator, "inertia_tangent", False) else None)
         return energy0
 
@@ -120,6 +124,7 @@ class TimeLoop:
         self.integrator.a = self.progress.algorithmic_acceleration
         self.integrator.inertia_tangent = self.progress.inertia_tangent_from is not None
         self.probes.external_work = checkpoint.external_work
+        self.probes.dissipated = self.progress.dissipated
         if hasattr(self.integrator, "restore_factorization"):  # modified Newton's held matrix, as it was
             try:
                 self.integrator.restore_factorization(checkpoint.factorization)
@@ -172,7 +177,8 @@ class TimeLoop:
             progress.state, grid_index=progress.grid_index,
             stop_index=control.next_row(progress) if budget > 0 else progress.grid_index + 1, dt=control.dt,
             t_end=control.t_end, n_grid=control.n_grid, power=progress.power,
-            external_work=progress.external_work, budget_s=budget)
+            external_work=progress.external_work, dissipation_power=progress.dissipation_power,
+            dissipated=progress.dissipated, budget_s=budget)
         progress.solver_s += time.perf_counter() - started
         if done.steps:
             progress.steps += done.steps
@@ -181,6 +187,8 @@ class TimeLoop:
             progress.factorizations += done.factorizations
             progress.power = done.power
             progress.external_work = self.probes.external_work = done.external_work
+            progress.dissipation_power = done.dissipation_power
+            progress.dissipated = self.probes.dissipated = done.dissipated
             progress.state = done.state
             progress.algorithmic_acceleration = self.integrator.a
             self._after_accepted(done.state)
@@ -230,7 +238,7 @@ class TimeLoop:
         progress, model, integrator = self.progress, self.model, self.integrator
         new, h = attempt.new, attempt.h
         integrator.accept()
-        latched, stopped = hinge_events(self.prepared, integrator, progress.state, new, h)
+        events = hinge_events(self.prepared, integrator, progress.state, new, h)
         # power of loads and prescribed motion: from the last Newton evaluation
         # (within the Newton tolerance of the converged state) when there is one
         evaluation = getattr(integrator, "last_evaluation", None)
@@ -240,6 +248,15 @@ class TimeLoop:
         self.probes.external_work += 0.5 * h * (progress.power + new_power)
         progress.power = new_power
         progress.external_work = self.probes.external_work
+        # declared dissipation: the dampers' over the step (trapezoidal, as the work; at its end
+        # from the step's own last evaluation, before the events' jump), then the events' loss;
+        # the dampers' power after the jump starts the next step
+        ended = getattr(integrator, "last_evaluation", None) or evaluation
+        damped = 0.5 * h * (progress.dissipation_power + ended.dissipation_power)
+        progress.dissipation_power = evaluation.dissipation_power
+        if events.any and evaluation is ended:
+            progress.dissipation_power = self.assembler.evaluate(new, matrices=False).dissipation_power
+        progress.dissipated = self.probes.dissipated = progress.dissipated + damped + events.loss
         progress.state = new
         progress.algorithmic_acceleration = integrator.a
         progress.locked = model.locked.copy()
@@ -247,7 +264,7 @@ class TimeLoop:
         if attempt.lands:
             progress.grid_index += 1
         self._after_accepted(new)
-        self.control.after_accepted(progress, integrator, h, latched, stopped)
+        self.control.after_accepted(progress, integrator, h, events.any, events.stopped)
         self._keep_accepted()
 
     def _after_accepted(self, state: State) -> None:
@@ -264,15 +281,44 @@ class TimeLoop:
 
     # ------------------------------------------------------------------------- rows, summary
     def _record(self, state: State, energies: dict) -> None:
-        """A row at ``state`` (probes, state, ParaView frame when due), its energies in the balance."""
-        self.progress.balance(energies, self.probes.external_work)
+        """A row at ``state`` (probes, state, ParaView frame when due), its energies in the balance;
+        then the balance judged (:meth:`_judge_balance`)."""
+        gain = self.progress.balance(state.t, energies, self.probes.external_work)
         snapshot = state.copy()
         self.writer.record(state.t, self.probes.values(state, energies), state=state.as_dict(),
                            frame=lambda: paraview.frame(self.assembler, self.writer.mesh, snapshot))
         self.bookmark, self.last_recorded = self.writer.bookmark(), snapshot
+        self._judge_balance(state.t, gain)
+
+    def _judge_balance(self, t: float, gain: float) -> None:
+        """The energy balance at the row at ``t`` (docs/energy.md): an energy gain (``gain``: the
+        energy created and held, relative to the energy received, :meth:`TransientProgress.balance`)
+        past :data:`UNBOUNDED`, or not finite, ends the run as unbounded, the row at ``t`` recorded
+        first."""
+        if not gain <= UNBOUNDED:  # NaN too
+            self.unbounded = True
+            progress = self.progress
+            received = progress.received0 + progress.work_seen + progress.potential_seen
+            if math.isnan(gain):
+                what = "the energies are not finite"
+            else:
+                what = (f"the integrator created {gain:.3g} times the energy the structure received "
+                        f"({received:.4g}; a run ends past {UNBOUNDED:g} times)")
+            raise UnboundedError(f"unbounded: the energy balance broke at t = {t:.6g}: {what}; a smaller step or "
+                                 f"numerical dissipation (rho_inf < 1) may keep it bounded", t)
 
     def _summarize(self) -> None:
-        self.writer.summary.update(self.progress.summary(self.tol, self.prepared.scene.solve.method))
+        """The run's counters and energy balance into the summary; a balance error past
+        :data:`DRIFT_WARNING` is a warning on stderr and in summary.json ``warnings``."""
+        progress, summary = self.progress, self.writer.summary
+        summary.update(progress.summary(self.tol, self.prepared.scene.solve.method))
+        error = progress.relative_balance_error
+        if error > DRIFT_WARNING and progress.balance_error_t is not None and not self.unbounded:
+            warning = (f"the energy balance drifts: energy_balance_error {error:.3g} (> {DRIFT_WARNING:g}), "
+                       f"largest at t = {progress.balance_error_t:.6g}; the integrator's error is that large "
+                       f"(a smaller step reduces it)")
+            print(f"latdyn: warning: {warning}", file=sys.stderr)
+            summary.setdefault("warnings", []).append(warning)
 
     # ------------------------------------------------------------------------- checkpoints
     def _accepted(self, kept_factorization: bool = True) -> LastAccepted:
@@ -302,7 +348,12 @@ class TimeLoop:
     def _stopped_by(self, failure: BaseException) -> None:
         """Interrupted or failed: a checkpoint of the last accepted step, to resume from; failed: the
         last converged state is always a row (after the checkpoint, whose bookmark a resumed run
-        returns to, so that the resumed files equal an uninterrupted run's)."""
+        returns to, so that the resumed files equal an uninterrupted run's). Unbounded: the run is
+        over (resuming would go on from the broken balance), so no checkpoint is left."""
+        if isinstance(failure, UnboundedError):
+            if self.checkpointer is not None:
+                self.checkpointer.discard()
+            return
         if self.checkpointer is not None and not self.writer.closed:
             try:
                 self._save_checkpoint(self.last)

@@ -2,6 +2,7 @@
 the work and energy bookkeeping and the counters; the reports of cut steps."""
 from __future__ import annotations
 
+import math
 import sys
 from dataclasses import dataclass, field
 
@@ -30,10 +31,22 @@ class TransientProgress:
     output_index: int = 1  # next recorded time is output_index · every
     external_work: float = 0.0
     power: float = 0.0  # power of loads and prescribed motion at state.t
+    #: declared dissipation since t = 0: impacts on stops and latches (the energy each event
+    #: removed, latdyn.timeloop.events.hinge_events) and hinge dampers (∫ c θ̇² dt, trapezoidal
+    #: over each step, as the external work)
+    dissipated: float = 0.0
+    dissipation_power: float = 0.0  # c θ̇² of the hinge dampers at state.t
     total0: float = 0.0  # kinetic + strain + potential at t = 0
     potential0: float = 0.0
-    balance_error: float = 0.0  # max |Δ(total − external_work)|
-    energy_scale: float = 0.0  # max of kinetic, strain, |potential change|, |external work|
+    #: the energy the structure received (docs/energy.md): kinetic + strain at t = 0 (with a floor
+    #: of 1e-8 |potential| at t = 0, the round-off of the energies), the largest |external work| and
+    #: the largest |potential change| seen
+    received0: float = 0.0
+    work_seen: float = 0.0
+    potential_seen: float = 0.0
+    balance_error: float = 0.0  # max |total − total0 − external_work + dissipated| over the rows
+    energy_scale: float = 0.0  # max of kinetic, strain, |potential change|, |external work|, dissipated
+    balance_error_t: float | None = None  # the time of the row with the largest balance error
     steps: int = 0
     newton_iterations: int = 0
     rejected_steps: int = 0  # all rejected attempts: Newton failures and error-control rejections
@@ -48,22 +61,52 @@ class TransientProgress:
         self.newton_iterations += stats.iterations
         self.factorizations += factorizations(stats)
 
-    def balance(self, energies: dict, external_work: float) -> None:
-        """Take the energies of a recorded row into the energy balance (SCENE.md): max |Δ(total −
-        external_work)| over the largest of kinetic, strain, |potential change| and |external work| seen."""
-        self.balance_error = max(self.balance_error, abs(sum(energies.values()) - self.total0 - external_work))
-        self.energy_scale = max(self.energy_scale, energies["kinetic"], energies["strain"],
-                                abs(energies["potential"] - self.potential0), abs(external_work))
+    def balance(self, t: float, energies: dict, external_work: float) -> float:
+        """Take the energies of the row at ``t`` into the energy balance (docs/energy.md). Returns
+        the energy gain that :data:`UNBOUNDED` judges, relative to the energy the structure received
+        up to this row (:attr:`received0`, :attr:`work_seen`, :attr:`potential_seen`): the smaller
+        of the energy the integrator created, total − total0 − external_work + dissipated, and the
+        energy the structure gained, total − total0 + dissipated (so that noise in the work of a
+        structure that holds no energy is not taken for a gain); NaN when an energy is not finite,
+        0 when the structure received nothing (it is then judged on finite energies alone)."""
+        gained = sum(energies.values()) - self.total0 + self.dissipated
+        created = gained - external_work
+        potential_change = abs(energies["potential"] - self.potential0)
+        self.energy_scale = max(self.energy_scale, energies["kinetic"], energies["strain"], potential_change,
+                                abs(external_work), self.dissipated)
+        if abs(created) > self.balance_error:
+            self.balance_error, self.balance_error_t = abs(created), float(t)
+        self.work_seen = max(self.work_seen, abs(external_work))
+        self.potential_seen = max(self.potential_seen, potential_change)
+        received = self.received0 + self.work_seen + self.potential_seen
+        if not np.isfinite(created):
+            return math.nan
+        return min(created, gained) / received if received > 0 else 0.0
+
+    @property
+    def relative_balance_error(self) -> float:
+        """``energy_balance_error`` of summary.json: max |total − total0 − external_work + dissipated|
+        over the rows, divided by the largest of kinetic, strain, |potential change|, |external work|
+        and dissipated energy seen."""
+        return self.balance_error / self.energy_scale if self.energy_scale > 0 else 0.0
 
     def summary(self, tol: float, method: str) -> dict:
         """The counters and the energy balance, as summary.json reports them."""
         return dict(
             steps=self.steps, newton_iterations=self.newton_iterations, rejected_steps=self.rejected_steps,
             newton_cuts=self.newton_cuts, cut_times=self.cut_times,
-            energy_balance_error=self.balance_error / self.energy_scale if self.energy_scale > 0 else 0.0,
+            energy_balance_error=self.relative_balance_error, dissipated_energy=self.dissipated,
             newton_iterations_per_step=self.newton_iterations / max(self.steps, 1),
             newton_tolerance=tol, method=method, solver_s=self.solver_s, factorizations=self.factorizations,
             inertia_tangent_from=self.inertia_tangent_from)
+
+
+#: ``energy_balance_error`` (relative) past which a run is flagged: a warning on stderr and in
+#: summary.json ``warnings`` (docs/energy.md says how it was chosen).
+DRIFT_WARNING = 1e-2
+#: Energy created by the integrator, relative to the energy scale, past which a run ends as
+#: ``unbounded`` (exit status 1; docs/energy.md).
+UNBOUNDED = 1.0
 
 
 def factorizations(stats) -> int:

@@ -47,7 +47,7 @@ typedef void (*kernel_point_load)(int64_t, const double *, const double *, const
                                   const double *, double *, double *, double *, double *);
 typedef void (*kernel_hinged_end)(int64_t, const double *, const double *, double *, double *, double *);
 typedef void (*kernel_hinge_force)(int64_t, const double *, const double *, double *, double *, double *, double *,
-                                   double *);
+                                   double *, double *);
 typedef void (*kernel_so3_exp)(int64_t, const double *, double *);
 
 /* A configuration: all nodes and hinges. */
@@ -159,6 +159,8 @@ typedef struct {
     /* the law values at the step's time (n_laws, 3), and the hinge forces' derivatives ∂f/∂θ
      * and ∂f/∂θ̇ of the last evaluation (n_hinges each: diagonal entries of K and C) */
     double *laws, *hinge_d_theta, *hinge_d_rate;
+    /* the power the hinge dampers dissipate at the last evaluation, c θ̇² summed (1) */
+    double *dissipation;
 } Work;
 
 /* ------------------------------------------------------------------------- small algebra */
@@ -372,7 +374,8 @@ static void joint_bodies(const Model *m, const Configuration *c, Work *w, int in
 
 /* The equations of motion at c : the vector of all coordinates into
  * w->total (residual = total[:n], reaction = total[n:n_total]); with matrices, the blocks.
- * Returns the power of loads and hinge torques. */
+ * Returns the power of loads and hinge torques; the power the hinge dampers dissipate, c θ̇² summed
+ * over the hinges, into w->dissipation[0]. */
 /* The number of element ranges (= threads) of an evaluation: 1 below the threshold or without OpenMP. */
 static int element_ranges(const Model *m)
 {
@@ -420,7 +423,7 @@ static double evaluate(const Model *m, const Configuration *c, Work *w, const do
                        int inertia, double load_factor)
 {
     const int64_t E = m->n_elements;
-    double power = 0.0;
+    double power = 0.0, dissipation = 0.0;
     const int ranges = element_ranges(m);
     if (ranges > 1) {
 #ifdef _OPENMP
@@ -466,11 +469,12 @@ static double evaluate(const Model *m, const Configuration *c, Work *w, const do
             if (m->hinge_torque_hinge_law[j] >= 0)
                 m->hinge_laws(m->hinge_torque_hinge_law[j], state[0], state[1], t, values + 6);
         }
-        double f, spring_power, torque_power;
+        double f, spring_power, torque_power, damper_power;
         m->hinge_force(1, state, values, &f, w->hinge_d_theta + j, w->hinge_d_rate + j, &spring_power,
-                       &torque_power);
+                       &torque_power, &damper_power);
         if (!m->hinge_conservative[j]) power += spring_power;
         power += torque_power;
+        dissipation += damper_power;
         w->total[m->hinge_dofs[j]] += f;
     }
     /* point loads: the generated kernel codegen/joints.py, load by load */
@@ -500,6 +504,7 @@ static double evaluate(const Model *m, const Configuration *c, Work *w, const do
                 }
         }
     }
+    w->dissipation[0] = dissipation;
     return power;
 }
 

@@ -278,6 +278,9 @@ typedef struct {
      * StepControl) and that step's size */
     int64_t steps, iterations, factorizations, status, last, pending;
     double t_last, h_pending;
+    /* in/out: the power the hinge dampers dissipate at the last accepted state, and the energy
+     * they dissipated since the start of the run (trapezoidal rule, as the external work) */
+    double dissipation_power, dissipated;
 } Advance;
 
 static double seconds_now(void)
@@ -290,7 +293,8 @@ static double seconds_now(void)
 /* Steps from `start` (at adv->t, on grid point grid_index) through grid point stop_index,
  * each landing on the grid (h = t_{k+1} − t_k) as timeloop.loop takes them at the nominal
  * step: latdyn_newton_step with the compiled laws, then acceptance (the algorithmic
- * acceleration carried, the external work by the trapezoidal rule). It returns at the first
+ * acceleration carried, the external work and the dampers' dissipation by the trapezoidal
+ * rule). It returns at the first
  * step that does not converge or that holds a hinge event, without accepting it, so that the
  * caller's loop handles that step as it always has; it never fails by itself. States alternate
  * between the two scratch configurations; `start` is read only; the last accepted state is
@@ -328,6 +332,8 @@ int64_t latdyn_advance(const Model *m, Work *w, StepControl *s, const Configurat
         double power = s->power + drive_power(m, trial, w->total);
         adv->external_work += 0.5 * s->h * (adv->power + power);
         adv->power = power;
+        adv->dissipated += 0.5 * s->h * (adv->dissipation_power + w->dissipation[0]);
+        adv->dissipation_power = w->dissipation[0];
         adv->steps += 1;
         adv->iterations += s->iterations;
         adv->factorizations += s->factorizations;
