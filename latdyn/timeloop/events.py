@@ -125,16 +125,14 @@ def latch_hinges(prepared: Prepared, integrator, old: State, new: State, h: floa
     lam = solve_linear(Nmat.T @ AiN, Nmat.T @ v)
     v = v - AiN @ lam
     unpack_free(model, v, new.v, new.w, new.theta_dot)
-    # carry the algorithmic acceleration across the renumbering
-    a_lin, a_ang, a_h = np.zeros_like(new.v), np.zeros_like(new.w), np.zeros_like(new.theta)
-    unpack_free(model, integrator.a, a_lin, a_ang, a_h)
     for k in latched:
         model.locked[k] = True
         new.theta_dot[k] = new.theta_ddot[k] = 0.0
-        a_h[k] = 0.0
     model.number_coordinates()
     assembler.reindex()
-    integrator.a = pack(model, a_lin, a_ang, a_h)[: model.n_dofs]
+    # the latch changed the equations (the hinge's moment is now a reaction): the accelerations
+    # the integrator goes on from are those consistent with the latched model, as at t = 0
+    integrator.start(new)
     return True
 
 
