@@ -188,7 +188,9 @@ class GeneralizedAlpha:
         self.inertia_tangent = False
 
     def start(self, state: State) -> None:
-        """Consistent initial accelerations (see :func:`consistent_acceleration`)."""
+        """Accelerations consistent with the equations of motion at ``state`` (see
+        :func:`consistent_acceleration`), in the state and as the algorithmic acceleration: at t = 0,
+        and again after a latch (:func:`latdyn.timeloop.events.latch_hinges`)."""
         model = self.assembler.model
         if model.n_dofs:
             ev = self.assembler.evaluate(state, matrices=True)
@@ -246,7 +248,8 @@ def explicit_acceleration(model, ev, split, vdot: np.ndarray) -> np.ndarray:
         Q_cᵀ K (Q_m y_m + Q_c y_c) = 0           (Q_c follows its statics, linearised)
 
     For exactly massless Q_c, Q_mᵀ M Q_c = 0 and this is :func:`consistent_acceleration`
-    applied from v̇ = 0;
+    applied from v̇ = 0 at a configuration in equilibrium along Q_c (where the step's Newton
+    iteration on Q_c leaves it);
     for light Q_c (:func:`latdyn.numerics.inertia.split_inertia` with a step) the coupling term
     keeps the inertia that the massive directions feel from the condensed motion,
     and only Q_c's own inertia force, Q_cᵀ M v̇ (relative size ≤ λ), is dropped.

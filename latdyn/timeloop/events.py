@@ -46,7 +46,8 @@ def crossing_fraction(model: Model, old: State, new: State) -> float | None:
 # velocities jump so that the hinge rate reverses, θ̇⁺ = −e θ̇⁻ (Newton's impact law), by the
 # impulsive projection that conserves momentum, v⁺ = v⁻ − A⁻¹N λ, Nᵀv⁺ = −e Nᵀv⁻, A = M + dt²K (M alone may be singular; directions
 # without inertia and modes faster than the nominal step dt take the impact quasi-statically,
-# as in the integrator's own iteration matrix); the hinge's acceleration is set to zero. A hinge pushed against its stop (e = 0, or a load that holds it there) ends
+# as in the integrator's own iteration matrix); the accelerations go on (the forces are continuous
+# through the impact: docs/initial_state.md). A hinge pushed against its stop (e = 0, or a load that holds it there) ends
 # each step slightly beyond it and is put back with θ̇ = 0: a unilateral constraint enforced
 # by projection at the end of every step, released by itself as soon as the load pulls away.
 # Events rather than a penalty: exact landing on the stop and no contact stiffness that the
