@@ -1,183 +1,152 @@
-"""The velocities at t = 0: the scene's rigid motion (``initial_velocity``) carried onto the
-coordinates through hinges, flexible beams and rigid links alike, with the rates of prescribed
+"""The velocities at t = 0: the scene's rigid motion (``initial_velocity``) carried onto every
+coordinate, through hinges, flexible beams and rigid links alike, with the rates of prescribed
 bodies and prescribed hinge angles (docs/initial_state.md).
 
 The structure is cut into *parts*: each joint body and each beam (flexible or rigid link).  A
-part moves rigidly at t = 0, with the spatial twist V = (v_O, ω) at the global origin (the
-velocity of a point y of the part is v_O + ω × y), so no element starts with a strain rate
-where the joints allow it.  A beam end joined to a body is an *edge* from its parent to its
-child along the beam's direction (``from`` body → beam → ``to`` body, as for rigid links,
-latdyn/model/links.py); every edge reads, with g the hinge axis, o the hinge point and
-ξ = (o × g, g) the joint twist,
+beam end joined to a body is a joint from its parent to its child along the beam's direction
+(``from`` body → beam → ``to`` body, as for rigid links, latdyn/model/links.py).  Twists are
+spatial, V = (v_O, ω) with the velocity of a point y equal to v_O + ω × y; a hinge with axis g
+at the point o has the joint twist ξ = (o × g, g), and the beam end turns relative to its body
+by θ̇ ξ.
 
-    V_beam − V_body − θ̇ ξ = 0          (θ̇ = 0 clamped, the law's rate prescribed, free otherwise)
+*Targets.*  Every part that is neither fixed nor prescribed moves with the rigid motion V₀ of
+``initial_velocity`` plus the motion Δ that the prescribed motions carry into it:
 
-and the twists are found by least squares in two ranks: first the *constraints* (these edge
-equations, fixed bodies at rest, prescribed bodies at their law's rate), then the *rigid
-motion* V₀ of ``initial_velocity`` for the parts the constraints leave free:
+    Δ = the law's twist on a prescribed body, 0 on a fixed one and on a part without parent,
+    Δ_child = Δ_parent (+ θ̇_p ξ for the beam, − θ̇_p ξ for the body) across a joint,
 
-- a part with no parent edge (a free body that no beam ends at, a beam from a free point):
-  its whole twist, V = V₀;
-- a part whose parent edges are free hinges only: its angular velocity, ω = ω₀ (the free
-  hinge takes the relative rate, θ̇ = g·(ω₀ − ω_parent); the part keeps the velocity of the
-  hinge point that its parent gives it);
-- a part with a clamped or prescribed parent edge follows its parent (plus the prescribed
-  rate): nothing of V₀ is asked of it, so that a rotor spun by a prescribed hinge angle
-  spins relative to its gimbal, the gimbal keeping V₀.
+θ̇_p the rate of a prescribed hinge angle (0 on a clamped end and on a free hinge: a free hinge
+passes its parent's motion on as a clamp would, the rigid motion V₀ being the same on both
+sides).  So a rotor behind a hinge with ``angle: 20*t`` spins at 20 rad/s relative to its arm,
+a beam clamped to a hub with a prescribed rotation turns with the hub, and a structure clamped
+to a fixed body starts in V₀ all the same (an impulsively loaded cantilever) — the fixed body
+adds nothing.  In a closed loop a part reached twice takes the first Δ it is reached with.
 
-On a tree of parts both ranks hold exactly; only a closed loop whose joints cannot take the
-motion leaves a residual (the least-squares compromise, spread as strain rate).  Rows are
-written at the hinge point (translations divided by the scene's size ℓ), so the result does
-not depend on the origin or the units.  The free coordinates then take the twist of their
-part: node velocities v = v_O + ω × x, w = ω, free hinge rates θ̇; the dependent nodes of rigid
-links are completed from them.
+*Coordinates.*  A free node takes its part's target twist exactly: v = v_O + ω × x, w = ω (the
+elastic coordinates of flexible beams included).  A free hinge takes the rate that turns its
+beam end closest to the target: θ̇ = g·(ω_beam − ω_body) (least squares on the end frame's
+angular velocity), with the target of whichever side the hinge positions and the actual motion
+of the side that positions it — in tree order for rigid links, where the child's motion then
+follows from the hinge rate (:meth:`latdyn.model.links.RigidLinks.complete`).  A rod hinged to
+a fixed body with V₀ = ω thus turns about its hinge at θ̇ = ω·g, as a rigid link or as a
+flexible beam.
 """
 from __future__ import annotations
 
+from collections import deque
+
 import numpy as np
-import scipy.sparse as sps
-from scipy.sparse.linalg import spsolve
 
 from latdyn.model.model import FIXED, PRESCRIBED
 
-#: weight of the constraint rows against the rigid motion's (ranks of the least squares): on a
-#: tree both hold exactly whatever it is; in a loop that cannot take the motion the constraints
-#: are violated by ~1/CONSTRAINT_WEIGHT² of the rigid motion's residual
-CONSTRAINT_WEIGHT = 1e4
 
-
-def _skew(a: np.ndarray) -> np.ndarray:
-    return np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
-
-
-def initial_velocities(model, state) -> None:
-    """Set the free coordinates' velocities of ``state`` (t = 0, prescribed motion applied) from
-    the scene's rigid motion, in place (module docstring)."""
-    from latdyn.assembly.prepare import length_scale  # prepare builds the assembler, which calls this
-
-    length = length_scale(model)
-    scene = model.scene
-    iv = scene.initial_velocity
-    omega0 = np.asarray(iv.angular, float)
-    v_origin0 = np.asarray(iv.linear, float) - np.cross(omega0, iv.about)  # V₀ at the origin
-    parts = list(scene.bodies) + [f"beam {name}" for name in scene.beams]
-    index = {p: k for k, p in enumerate(parts)}
-    free_hinges = [k for k in model.free_hinges]
-    hinge_column = {k: 6 * len(parts) + j for j, k in enumerate(free_hinges)}
-    n = 6 * len(parts) + len(free_hinges)
-    scale = 1.0 / max(length, 1e-12)
-    strong, weak = _Rows(n), _Rows(n)
-
-    def block(part):
-        return slice(6 * index[part], 6 * index[part] + 3), slice(6 * index[part] + 3, 6 * index[part] + 6)
-
-    def point_velocity(part, y, sign=1.0):
-        """The velocity of point y of ``part`` (3 rows) as column blocks, scaled by 1/ℓ."""
-        lin, ang = block(part)
-        return [(lin, sign * scale * np.eye(3)), (ang, -sign * scale * _skew(y))]  # ω × y = −skew(y) ω
-
-    def angular(part, sign=1.0):
-        return [(block(part)[1], sign * np.eye(3))]
-
-    # bodies: fixed at rest, prescribed at their law's rate (strong rows)
-    parent_edges = {p: [] for p in parts}
-    for name, body in scene.bodies.items():
-        node = model.body_node[name]
-        kind = model.nodes[node].kind
-        if kind in (FIXED, PRESCRIBED):
-            x, v, w = state.x[node], state.v[node], state.w[node]
-            strong.add(point_velocity(name, x), v * scale)
-            strong.add(angular(name), w)
-            parent_edges[name].append("fixed")
-    # edges: V_beam − V_body − θ̇ ξ = 0 at the hinge point o
-    for name, beam in scene.beams.items():
-        part = f"beam {name}"
+def _joints(model, state) -> list:
+    """(parent part, child part, hinge index or −1, sign of θ̇ ξ on the child, ξ) of every beam end
+    joined to a body; parts are body names and ``("beam", name)``."""
+    out = []
+    for name, beam in model.scene.beams.items():
         for end, spec in (("start", beam.start), ("end", beam.end)):
             if spec.body is None:
                 continue
-            body = spec.body
-            node = model.body_node[body]
-            o = state.x[node] + state.T[node] @ np.asarray(spec.offset, float)
+            node = model.body_node[spec.body]
             try:
                 h = model.hinge_index(name, end)
             except KeyError:
                 h = -1
-            strong.add(point_velocity(part, o) + point_velocity(body, o, -1.0), np.zeros(3))  # o moves with both
-            m = angular(part) + angular(body, -1.0)
-            rhs = np.zeros(3)
-            kind = "clamped"
+            xi = np.zeros(6)
             if h >= 0:
                 g = state.T[node] @ model.hinges[h].axis
-                if h in hinge_column:
-                    m.append((slice(hinge_column[h], hinge_column[h] + 1), -g[:, None]))
-                    kind = "free"
-                else:  # prescribed (or latched: at rest)
-                    rhs = state.theta_dot[h] * g
-                    kind = "prescribed"
-            strong.add(m, rhs)
-            child = part if end == "start" else body
-            parent_edges[child].append(kind)
-    # the rigid motion, for the parts the constraints leave free
-    for part in parts:
-        kinds = parent_edges[part]
-        if any(k != "free" for k in kinds):
-            continue  # fixed, prescribed, or following a parent through a clamp or a prescribed hinge
-        weak.add(angular(part), omega0)
-        if not kinds:
-            y = _reference_point(model, scene, part)
-            weak.add(point_velocity(part, y), (v_origin0 + np.cross(omega0, y)) * scale)
-    A = sps.vstack([CONSTRAINT_WEIGHT * strong.matrix(), weak.matrix()]).tocsc()
-    b = np.concatenate([CONSTRAINT_WEIGHT * strong.rhs(), weak.rhs()])
-    # the augmented system [[I, A], [Aᵀ, 0]] [r; z] = [b; 0] of the least squares (conditioned
-    # like A, where the normal equations would square it)
-    m = A.shape[0]
-    augmented = sps.bmat([[sps.identity(m), A], [A.T, None]], format="csc")
-    z = np.atleast_1d(spsolve(augmented, np.concatenate([b, np.zeros(n)])))[m:]
-    # the free coordinates take the twist of their part
-    node_part = {}
-    for name in scene.bodies:
-        node_part[model.body_node[name]] = name
+                o = state.x[node] + state.T[node] @ np.asarray(spec.offset, float)
+                xi = np.concatenate([np.cross(o, g), g])
+            beam_part = ("beam", name)
+            if end == "start":
+                out.append((spec.body, beam_part, h, 1.0, xi))
+            else:
+                out.append((beam_part, spec.body, h, -1.0, xi))
+    return out
+
+
+def _node_twist(state, node: int) -> np.ndarray:
+    """The spatial twist (v_O, ω) of a node's frame."""
+    return np.concatenate([state.v[node] - np.cross(state.w[node], state.x[node]), state.w[node]])
+
+
+def initial_velocities(model, state) -> None:
+    """Set the free coordinates' velocities of ``state`` (t = 0, prescribed motion applied) from the
+    scene's rigid motion and the prescribed rates, in place (module docstring); the dependent
+    nodes of rigid links are completed from them."""
+    scene = model.scene
+    iv = scene.initial_velocity
+    omega0 = np.asarray(iv.angular, float)
+    rigid_motion = np.concatenate([np.asarray(iv.linear, float) - np.cross(omega0, iv.about), omega0])
+    joints = _joints(model, state)
+    # Δ: the prescribed motion carried into every part, breadth first from the prescribed bodies,
+    # then from the fixed ones, the parts without parent and any part not reached yet (Δ = 0 there)
+    children = {}
+    for parent, child, h, sign, xi in joints:
+        children.setdefault(parent, []).append((child, h, sign, xi))
+    kind = {name: model.nodes[model.body_node[name]].kind for name in scene.bodies}
+    parts = list(scene.bodies) + [("beam", name) for name in scene.beams]
+    has_parent = {child for _, child, _, _, _ in joints}
+    starts = ([p for p in parts if kind.get(p) == PRESCRIBED] + [p for p in parts if kind.get(p) == FIXED]
+              + [p for p in parts if p not in has_parent] + parts)  # the last: loops of free parts
+    carried = {}
+    for start in starts:
+        if start in carried:
+            continue
+        carried[start] = _node_twist(state, model.body_node[start]) if kind.get(start) == PRESCRIBED else np.zeros(6)
+        queue = deque([start])
+        while queue:
+            parent = queue.popleft()
+            for child, h, sign, xi in children.get(parent, []):
+                if child in carried or kind.get(child) in (FIXED, PRESCRIBED):
+                    continue
+                prescribed_rate = state.theta_dot[h] if h >= 0 and model.hinges[h].angle is not None else 0.0
+                carried[child] = carried[parent] + sign * prescribed_rate * xi
+                queue.append(child)
+
+    def target(part) -> np.ndarray:
+        if part in scene.bodies:
+            node = model.body_node[part]
+            if model.nodes[node].kind in (FIXED, PRESCRIBED):
+                return _node_twist(state, node)
+        return rigid_motion + carried[part]
+
+    # free nodes: their part's target
+    node_part = {model.body_node[name]: name for name in scene.bodies}
     for name in scene.beams:
         for node in model.beam_nodes[name]:
-            node_part.setdefault(int(node), f"beam {name}")
+            node_part.setdefault(int(node), ("beam", name))
     for node in model.free_nodes:
-        part = node_part[int(node)]
-        k = index[part]
-        v_origin, omega = z[6 * k:6 * k + 3], z[6 * k + 3:6 * k + 6]
-        state.w[node] = omega
-        state.v[node] = v_origin + np.cross(omega, state.x[node])
-    for k, column in hinge_column.items():
-        state.theta_dot[k] = z[column]
-
-
-def _reference_point(model, scene, part: str) -> np.ndarray:
-    """A point of a part at t = 0: a body's reference point, a beam's mid-point."""
-    if part in scene.bodies:
-        return np.asarray(scene.bodies[part].at, float)
-    beam = scene.beams[part[len("beam "):]]
-    return 0.5 * (np.asarray(beam.start.point, float) + np.asarray(beam.end.point, float))
-
-
-class _Rows:
-    """Rows of a sparse least-squares problem, gathered 3 at a time as (column slice, (3, k) block) pairs."""
-
-    def __init__(self, n: int):
-        self.n, self._rows, self._cols, self._values, self._b = n, [], [], [], []
-
-    def add(self, blocks: list, b: np.ndarray) -> None:
-        first = 3 * len(self._b)
-        for columns, values in blocks:
-            cols = np.arange(columns.start, columns.stop)
-            self._rows.append(np.repeat(first + np.arange(3), len(cols)))
-            self._cols.append(np.tile(cols, 3))
-            self._values.append(np.ravel(values))
-        self._b.append(np.asarray(b, float))
-
-    def matrix(self):
-        if not self._b:
-            return sps.csr_matrix((0, self.n))
-        return sps.csr_matrix((np.concatenate(self._values), (np.concatenate(self._rows), np.concatenate(self._cols))),
-                              shape=(3 * len(self._b), self.n))
-
-    def rhs(self) -> np.ndarray:
-        return np.concatenate(self._b) if self._b else np.zeros(0)
+        twist = target(node_part[int(node)])
+        state.w[node] = twist[3:]
+        state.v[node] = twist[:3] + np.cross(twist[3:], state.x[node])
+    free = np.zeros(len(model.hinges), dtype=bool)
+    free[model.free_hinges] = True
+    # rigid links in tree order: a free hinge turns its child towards the child's target
+    links = model.links
+    omega = {int(i): state.w[i].copy() for i in range(len(model.nodes))}
+    if links is not None:
+        for e in links.edges:
+            child_part = node_part[e.child]  # the link's beam for its link node, else the body at its end
+            if e.hinge >= 0:
+                g = state.T[e.parent] @ e.axis
+                if free[e.hinge]:
+                    state.theta_dot[e.hinge] = e.sign * float(g @ (target(child_part)[3:] - omega[e.parent]))
+                omega[e.child] = omega[e.parent] + e.sign * state.theta_dot[e.hinge] * g
+            else:
+                omega[e.child] = omega[e.parent]
+        links.complete(state)
+    # flexible beams: a free hinge turns the beam end towards the beam's target
+    for name, beam in scene.beams.items():
+        if beam.rigid:
+            continue
+        for end in ("start", "end"):
+            try:
+                h = model.hinge_index(name, end)
+            except KeyError:
+                continue
+            if free[h]:
+                node = model.hinges[h].node
+                g = state.T[node] @ model.hinges[h].axis
+                state.theta_dot[h] = float(g @ (target(("beam", name))[3:] - state.w[node]))
