@@ -40,7 +40,12 @@ import numpy as np
 from latdyn.model.model import FIXED, PRESCRIBED
 
 
-def _joints(model, state) -> list:
+def _hinge_of(model) -> dict:
+    """(beam, end) -> hinge index, for the beam ends that have a hinge."""
+    return {(hinge.beam, hinge.end): k for k, hinge in enumerate(model.hinges)}
+
+
+def _joints(model, state, hinge_of: dict) -> list:
     """(parent part, child part, hinge index or −1, sign of θ̇ ξ on the child, ξ) of every beam end
     joined to a body; parts are body names and ``("beam", name)``."""
     out = []
@@ -49,10 +54,7 @@ def _joints(model, state) -> list:
             if spec.body is None:
                 continue
             node = model.body_node[spec.body]
-            try:
-                h = model.hinge_index(name, end)
-            except KeyError:
-                h = -1
+            h = hinge_of.get((name, end), -1)
             xi = np.zeros(6)
             if h >= 0:
                 g = state.T[node] @ model.hinges[h].axis
@@ -79,7 +81,8 @@ def initial_velocities(model, state) -> None:
     iv = scene.initial_velocity
     omega0 = np.asarray(iv.angular, float)
     rigid_motion = np.concatenate([np.asarray(iv.linear, float) - np.cross(omega0, iv.about), omega0])
-    joints = _joints(model, state)
+    hinge_of = _hinge_of(model)
+    joints = _joints(model, state, hinge_of)
     # Δ: the prescribed motion carried into every part, breadth first from the prescribed bodies,
     # then from the fixed ones, the parts without parent and any part not reached yet (Δ = 0 there)
     children = {}
@@ -142,11 +145,8 @@ def initial_velocities(model, state) -> None:
         if beam.rigid:
             continue
         for end in ("start", "end"):
-            try:
-                h = model.hinge_index(name, end)
-            except KeyError:
-                continue
-            if free[h]:
+            h = hinge_of.get((name, end), -1)
+            if h >= 0 and free[h]:
                 node = model.hinges[h].node
                 g = state.T[node] @ model.hinges[h].axis
                 state.theta_dot[h] = float(g @ (target(("beam", name))[3:] - state.w[node]))
