@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from latdyn.assembly.assembler import State, free_velocity, pack, unpack_free
+from latdyn.assembly.assembler import State, free_velocity, unpack_free
 from latdyn.assembly.factorization import solve_linear
 from latdyn.assembly.prepare import Prepared
 from latdyn.model.model import Model
