@@ -181,6 +181,14 @@ def test_a_beam_clamped_to_a_prescribed_hub_starts_with_the_hub_rate():
     assert result.probes["strain"].max() < 1e-4
 
 
+def test_a_given_initial_velocity_is_the_blades_own_whatever_the_hub():
+    """A scene that gives ``initial_velocity`` says how its blade moves (D1 starts its blade at
+    6.1 rad/s on a hub at 6 to excite a mode): the hub's rate is not added to it."""
+    result = run_yaml(HUB.replace("beams:", "initial_velocity: {angular: [0, 0, 5.1]}\nbeams:"))
+    # the clamped root turns with the hub: 8.6695 J against 8.67 J for the whole blade at 5.1 (8.33 at 5)
+    assert result.probes["kinetic"][0] == pytest.approx(0.5 * (2.0 / 3.0) * 5.1**2, rel=1e-4)
+
+
 GYROSCOPE = """
 gravity: [0, 0, -9.81]
 initial_velocity: {{angular: [0, 0, {precession}]}}

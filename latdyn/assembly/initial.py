@@ -12,15 +12,18 @@ by θ̇ ξ.
 *Targets.*  Every part that is neither fixed nor prescribed moves with the rigid motion V₀ of
 ``initial_velocity`` plus the motion Δ that the prescribed motions carry into it:
 
-    Δ = the law's twist on a prescribed body, 0 on a fixed one and on a part without parent,
+    Δ = the law's twist on a prescribed body when the scene gives no ``initial_velocity``
+        (a given rigid motion is absolute: the parts a prescribed body holds move with it
+        only when the scene says nothing), 0 on a fixed body and on a part without parent,
     Δ_child = Δ_parent (+ θ̇_p ξ for the beam, − θ̇_p ξ for the body) across a joint,
 
 θ̇_p the rate of a prescribed hinge angle (0 on a clamped end and on a free hinge: a free hinge
 passes its parent's motion on as a clamp would, the rigid motion V₀ being the same on both
 sides).  So a rotor behind a hinge with ``angle: 20*t`` spins at 20 rad/s relative to its arm,
-a beam clamped to a hub with a prescribed rotation turns with the hub, and a structure clamped
-to a fixed body starts in V₀ all the same (an impulsively loaded cantilever) — the fixed body
-adds nothing.  In a closed loop a part reached twice takes the first Δ it is reached with.
+a beam clamped to a hub with a prescribed rotation turns with the hub (unless the scene gives
+its initial rigid rotation), and a structure clamped to a fixed body starts in V₀ all the same
+(an impulsively loaded cantilever) — the fixed body adds nothing.  In a closed loop a part
+reached twice takes the first Δ it is reached with.
 
 *Coordinates.*  A free node takes its part's target twist exactly: v = v_O + ω × x, w = ω (the
 elastic coordinates of flexible beams included).  A free hinge takes the rate that turns its
@@ -97,7 +100,8 @@ def initial_velocities(model, state) -> None:
     for start in starts:
         if start in carried:
             continue
-        carried[start] = _node_twist(state, model.body_node[start]) if kind.get(start) == PRESCRIBED else np.zeros(6)
+        held = kind.get(start) == PRESCRIBED and not iv.given  # a given rigid motion is absolute
+        carried[start] = _node_twist(state, model.body_node[start]) if held else np.zeros(6)
         queue = deque([start])
         while queue:
             parent = queue.popleft()
