@@ -17,6 +17,7 @@ import numpy as np
 import scipy.sparse as sps
 
 from latdyn.assembly.evaluation import Evaluation
+from latdyn.assembly.initial import initial_velocities
 from latdyn.assembly.linked import evaluate_linked
 from latdyn.assembly.native_model import NativeModel
 from latdyn.model.model import Model
@@ -132,18 +133,18 @@ class Assembler:
 
     # -- the configuration (csrc/evaluate.c) ------------------------------------
     def initial_state(self) -> State:
-        """The state at t = 0: nodes at their positions, free nodes with the scene's initial velocity
-        (a rigid motion), prescribed motion at t = 0, dependent nodes of rigid links completed."""
+        """The state at t = 0: nodes at their positions, prescribed motion at t = 0, the free
+        coordinates' rates (node velocities, hinge rates) from the scene's rigid motion carried
+        through the joints with the prescribed rates (:func:`latdyn.assembly.initial.initial_velocities`),
+        dependent nodes of rigid links completed. Accelerations: those of the prescribed motion, zero
+        on the free coordinates until the integrator makes them consistent (its ``start``)."""
         model = self.model
         n, h = len(model.nodes), len(model.hinges)
         state = State(0.0, np.array([nd.position for nd in model.nodes], float).reshape(n, 3),
                       np.tile(np.eye(3), (n, 1, 1)), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)),
                       np.zeros((n, 3)), np.zeros(h), np.zeros(h), np.zeros(h))
-        iv = model.scene.initial_velocity
-        free = model.free_nodes
-        state.w[free] = iv.angular
-        state.v[free] = iv.linear + np.cross(iv.angular, state.x[free] - iv.about)
         self.apply_prescribed(state, 0.0)
+        initial_velocities(model, state)
         if model.links is not None:
             model.links.complete(state)
         return state

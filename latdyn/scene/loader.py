@@ -332,10 +332,13 @@ class Output:
 
 @dataclass
 class InitialVelocity:
-    """Rigid motion of the whole structure at t = 0: velocity ``linear`` at ``about``."""
+    """Rigid motion of the whole structure at t = 0: velocity ``linear`` at ``about``; ``given``:
+    the scene says it (without, the parts that prescribed bodies hold start with them:
+    docs/initial_state.md)."""
     linear: np.ndarray
     angular: np.ndarray
     about: np.ndarray
+    given: bool = False
 
     def velocity_at(self, point) -> np.ndarray:
         """Velocity of a material point at ``point`` (3,) at t = 0."""
@@ -1275,6 +1278,7 @@ def _build(raw: Any, file: str) -> Scene:
         linear=r.vector(iv["linear"], "initial_velocity.linear") if "linear" in iv else np.zeros(3),
         angular=r.vector(iv["angular"], "initial_velocity.angular") if "angular" in iv else np.zeros(3),
         about=r.vector(iv["about"], "initial_velocity.about") if "about" in iv else np.zeros(3),
+        given=raw.get("initial_velocity") is not None,
     )
 
     for name, spec in r.named_mapping(raw.get("sections"), "sections", "section").items():

@@ -124,28 +124,49 @@ def consistent_acceleration(model, ev) -> np.ndarray:
     """The correction Δv̇ that makes the accelerations consistent with the equations of motion.
 
     With Q = [Q_m, Q_c] from :func:`latdyn.numerics.inertia.split_inertia` (M Q_c = 0) and
-    Δv̇ = Q_m y_m + Q_c y_c:  Q_mᵀ M Q_m y_m = −Q_mᵀ r  (the residual is affine in
-    v̇ with slope M), and the directions without inertia follow the massive ones as
-    the time derivative of their static equilibrium prescribes to first order,
-    Q_cᵀ K Q_c y_c = −Q_cᵀ K Q_m y_m.  No artificial inertia is added anywhere.
+    Δv̇ = Q_m y_m + Q_c y_c.  The directions without inertia carry no inertia force, so their
+    equations are statics, Q_cᵀ r = 0, which the configuration need not satisfy yet (a torque
+    that starts at t = 0 on a hinge between a joint body and a massless beam: nothing holds it
+    until the beam winds up).  They take it within the first step, δq = Q_c d with
+    Q_cᵀ K Q_c d = −Q_cᵀ r, and what they transmit then acts on the directions with inertia
+    from the start: the residual is affine in v̇ with slope M, so
+
+        Q_mᵀ M Q_m y_m = −Q_mᵀ (r + K Q_c d)      (statically condensed: Q_mᵀ r − K_mc K_cc⁻¹ r_c)
+
+    (without it the massive directions start with the acceleration of the unloaded state and
+    the run is first order from its start: tests/test_initial_state.py). The directions
+    without inertia follow the massive ones as the time derivative of their static
+    equilibrium prescribes to first order, Q_cᵀ K Q_c y_c = −Q_cᵀ K Q_m y_m.  No artificial
+    inertia is added anywhere.
     """
     M = ev.mass
     split = split_inertia(model, M)
     Qm, Qc = split.massive, split.massless
     delta = np.zeros(model.n_dofs)
-    if split.n_massive:
-        y_m = solve_linear((Qm.T @ M @ Qm).tocsr(), -(Qm.T @ ev.residual))
-        delta += Qm @ y_m
+    residual = ev.residual
+    K = Kcc = None
     if split.n_massless:
         K = ev.stiffness
-        Kcc = (Qc.T @ K @ Qc).tocsr()
-        try:
-            delta += Qc @ solve_linear(Kcc, -(Qc.T @ (K @ delta)))
-        except np.linalg.LinAlgError as exc:
-            raise SolverError("a coordinate without inertia is held by no stiffness",
-                              "directions of the model carry neither inertia nor stiffness; "
-                              "`latdyn check` names the coordinate") from exc
+        Kcc = (Qc.T @ K @ Qc).tocsr() if sps.issparse(Qc) else Qc.T @ K @ Qc
+        unbalanced = Qc.T @ residual
+        if np.any(unbalanced):
+            residual = residual + K @ (Qc @ _solve_massless(Kcc, -unbalanced))
+    if split.n_massive:
+        y_m = solve_linear((Qm.T @ M @ Qm).tocsr() if sps.issparse(Qm) else Qm.T @ M @ Qm, -(Qm.T @ residual))
+        delta += Qm @ y_m
+    if split.n_massless:
+        delta += Qc @ _solve_massless(Kcc, -(Qc.T @ (K @ delta)))
     return delta
+
+
+def _solve_massless(Kcc, rhs: np.ndarray) -> np.ndarray:
+    """K_cc⁻¹ rhs on the directions without inertia, refused when no stiffness holds them."""
+    try:
+        return solve_linear(Kcc, rhs)
+    except np.linalg.LinAlgError as exc:
+        raise SolverError("a coordinate without inertia is held by no stiffness",
+                          "directions of the model carry neither inertia nor stiffness; "
+                          "`latdyn check` names the coordinate") from exc
 
 
 class GeneralizedAlpha:
@@ -167,7 +188,9 @@ class GeneralizedAlpha:
         self.inertia_tangent = False
 
     def start(self, state: State) -> None:
-        """Consistent initial accelerations (see :func:`consistent_acceleration`)."""
+        """Accelerations consistent with the equations of motion at ``state`` (see
+        :func:`consistent_acceleration`), in the state and as the algorithmic acceleration: at t = 0,
+        and again after a latch (:func:`latdyn.timeloop.events.latch_hinges`)."""
         model = self.assembler.model
         if model.n_dofs:
             ev = self.assembler.evaluate(state, matrices=True)
@@ -225,7 +248,8 @@ def explicit_acceleration(model, ev, split, vdot: np.ndarray) -> np.ndarray:
         Q_cᵀ K (Q_m y_m + Q_c y_c) = 0           (Q_c follows its statics, linearised)
 
     For exactly massless Q_c, Q_mᵀ M Q_c = 0 and this is :func:`consistent_acceleration`
-    applied from v̇ = 0;
+    applied from v̇ = 0 at a configuration in equilibrium along Q_c (where the step's Newton
+    iteration on Q_c leaves it);
     for light Q_c (:func:`latdyn.numerics.inertia.split_inertia` with a step) the coupling term
     keeps the inertia that the massive directions feel from the condensed motion,
     and only Q_c's own inertia force, Q_cᵀ M v̇ (relative size ≤ λ), is dropped.

@@ -6,7 +6,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from latdyn.assembly.assembler import State, free_velocity, pack, unpack_free
+from latdyn.assembly.assembler import State, free_velocity, unpack_free
 from latdyn.assembly.factorization import solve_linear
 from latdyn.assembly.prepare import Prepared
 from latdyn.model.model import Model
@@ -48,7 +48,8 @@ def crossing_fraction(model: Model, old: State, new: State) -> float | None:
 # velocities jump so that the hinge rate reverses, θ̇⁺ = −e θ̇⁻ (Newton's impact law), by the
 # impulsive projection that conserves momentum, v⁺ = v⁻ − A⁻¹N λ, Nᵀv⁺ = −e Nᵀv⁻, A = M + dt²K (M alone may be singular; directions
 # without inertia and modes faster than the nominal step dt take the impact quasi-statically,
-# as in the integrator's own iteration matrix); the hinge's acceleration is set to zero. A hinge pushed against its stop (e = 0, or a load that holds it there) ends
+# as in the integrator's own iteration matrix); the accelerations go on (the forces are continuous
+# through the impact: docs/initial_state.md). A hinge pushed against its stop (e = 0, or a load that holds it there) ends
 # each step slightly beyond it and is put back with θ̇ = 0: a unilateral constraint enforced
 # by projection at the end of every step, released by itself as soon as the load pulls away.
 # Events rather than a penalty: exact landing on the stop and no contact stiffness that the
@@ -108,10 +109,9 @@ def hinge_stops(prepared: Prepared, integrator, new: State, old: State | None = 
     new.theta[hits] = stops
     v = free_velocity(model, new)
     unpack_free(model, v - AiN @ solve_linear(NtAiN, N.T @ v - target), new.v, new.w, new.theta_dot)
-    # the hinge's acceleration into the stop ends with the impact
-    if getattr(integrator, "a", None) is not None:  # the explicit step keeps no algorithmic acceleration
-        integrator.a[model.hinge_dofs[hits]] = 0.0
-    new.theta_ddot[hits] = 0.0
+    # the accelerations go on: the configuration is continuous through the impact, and so are the
+    # forces (a hinge that the load holds against its stop is put back onto it at the end of the
+    # next step); zeroing the hinge's acceleration made the run first order after every impact
     return before - kinetic_energy(assembler, new)
 
 
@@ -140,16 +140,14 @@ def latch_hinges(prepared: Prepared, integrator, old: State, new: State, h: floa
     lam = solve_linear(Nmat.T @ AiN, Nmat.T @ v)
     v = v - AiN @ lam
     unpack_free(model, v, new.v, new.w, new.theta_dot)
-    # carry the algorithmic acceleration across the renumbering
-    a_lin, a_ang, a_h = np.zeros_like(new.v), np.zeros_like(new.w), np.zeros_like(new.theta)
-    unpack_free(model, integrator.a, a_lin, a_ang, a_h)
     for k in latched:
         model.locked[k] = True
         new.theta_dot[k] = new.theta_ddot[k] = 0.0
-        a_h[k] = 0.0
     model.number_coordinates()
     assembler.reindex()
-    integrator.a = pack(model, a_lin, a_ang, a_h)[: model.n_dofs]
+    # the latch changed the equations (the hinge's moment is now a reaction): the accelerations
+    # the integrator goes on from are those consistent with the latched model, as at t = 0
+    integrator.start(new)
     return before - kinetic_energy(assembler, new)
 
 

@@ -1,0 +1,156 @@
+"""The velocities at t = 0: the scene's rigid motion (``initial_velocity``) carried onto every
+coordinate, through hinges, flexible beams and rigid links alike, with the rates of prescribed
+bodies and prescribed hinge angles (docs/initial_state.md).
+
+The structure is cut into *parts*: each joint body and each beam (flexible or rigid link).  A
+beam end joined to a body is a joint from its parent to its child along the beam's direction
+(``from`` body → beam → ``to`` body, as for rigid links, latdyn/model/links.py).  Twists are
+spatial, V = (v_O, ω) with the velocity of a point y equal to v_O + ω × y; a hinge with axis g
+at the point o has the joint twist ξ = (o × g, g), and the beam end turns relative to its body
+by θ̇ ξ.
+
+*Targets.*  Every part that is neither fixed nor prescribed moves with the rigid motion V₀ of
+``initial_velocity`` plus the motion Δ that the prescribed motions carry into it:
+
+    Δ = the law's twist on a prescribed body when the scene gives no ``initial_velocity``
+        (a given rigid motion is absolute: the parts a prescribed body holds move with it
+        only when the scene says nothing), 0 on a fixed body and on a part without parent,
+    Δ_child = Δ_parent (+ θ̇_p ξ for the beam, − θ̇_p ξ for the body) across a joint,
+
+θ̇_p the rate of a prescribed hinge angle (0 on a clamped end and on a free hinge: a free hinge
+passes its parent's motion on as a clamp would, the rigid motion V₀ being the same on both
+sides).  So a rotor behind a hinge with ``angle: 20*t`` spins at 20 rad/s relative to its arm,
+a beam clamped to a hub with a prescribed rotation turns with the hub (unless the scene gives
+its initial rigid rotation), and a structure clamped to a fixed body starts in V₀ all the same
+(an impulsively loaded cantilever) — the fixed body adds nothing.  In a closed loop a part
+reached twice takes the first Δ it is reached with.
+
+*Coordinates.*  A free node takes its part's target twist exactly: v = v_O + ω × x, w = ω (the
+elastic coordinates of flexible beams included).  A free hinge takes the rate that turns its
+beam end closest to the target: θ̇ = g·(ω_beam − ω_body) (least squares on the end frame's
+angular velocity), with the target of whichever side the hinge positions and the actual motion
+of the side that positions it — in tree order for rigid links, where the child's motion then
+follows from the hinge rate (:meth:`latdyn.model.links.RigidLinks.complete`).  A rod hinged to
+a fixed body with V₀ = ω thus turns about its hinge at θ̇ = ω·g, as a rigid link or as a
+flexible beam.
+"""
+from __future__ import annotations
+
+from collections import deque
+
+import numpy as np
+
+from latdyn.model.model import FIXED, PRESCRIBED
+
+
+def _hinge_of(model) -> dict:
+    """(beam, end) -> hinge index, for the beam ends that have a hinge."""
+    return {(hinge.beam, hinge.end): k for k, hinge in enumerate(model.hinges)}
+
+
+def _joints(model, state, hinge_of: dict) -> list:
+    """(parent part, child part, hinge index or −1, sign of θ̇ ξ on the child, ξ) of every beam end
+    joined to a body; parts are body names and ``("beam", name)``."""
+    out = []
+    for name, beam in model.scene.beams.items():
+        for end, spec in (("start", beam.start), ("end", beam.end)):
+            if spec.body is None:
+                continue
+            node = model.body_node[spec.body]
+            h = hinge_of.get((name, end), -1)
+            xi = np.zeros(6)
+            if h >= 0:
+                g = state.T[node] @ model.hinges[h].axis
+                o = state.x[node] + state.T[node] @ np.asarray(spec.offset, float)
+                xi = np.concatenate([np.cross(o, g), g])
+            beam_part = ("beam", name)
+            if end == "start":
+                out.append((spec.body, beam_part, h, 1.0, xi))
+            else:
+                out.append((beam_part, spec.body, h, -1.0, xi))
+    return out
+
+
+def _node_twist(state, node: int) -> np.ndarray:
+    """The spatial twist (v_O, ω) of a node's frame."""
+    return np.concatenate([state.v[node] - np.cross(state.w[node], state.x[node]), state.w[node]])
+
+
+def initial_velocities(model, state) -> None:
+    """Set the free coordinates' velocities of ``state`` (t = 0, prescribed motion applied) from the
+    scene's rigid motion and the prescribed rates, in place (module docstring); the dependent
+    nodes of rigid links are completed from them."""
+    scene = model.scene
+    iv = scene.initial_velocity
+    omega0 = np.asarray(iv.angular, float)
+    rigid_motion = np.concatenate([np.asarray(iv.linear, float) - np.cross(omega0, iv.about), omega0])
+    hinge_of = _hinge_of(model)
+    joints = _joints(model, state, hinge_of)
+    # Δ: the prescribed motion carried into every part, breadth first from the prescribed bodies,
+    # then from the fixed ones, the parts without parent and any part not reached yet (Δ = 0 there)
+    children = {}
+    for parent, child, h, sign, xi in joints:
+        children.setdefault(parent, []).append((child, h, sign, xi))
+    kind = {name: model.nodes[model.body_node[name]].kind for name in scene.bodies}
+    parts = list(scene.bodies) + [("beam", name) for name in scene.beams]
+    has_parent = {child for _, child, _, _, _ in joints}
+    starts = ([p for p in parts if kind.get(p) == PRESCRIBED] + [p for p in parts if kind.get(p) == FIXED]
+              + [p for p in parts if p not in has_parent] + parts)  # the last: loops of free parts
+    carried = {}
+    for start in starts:
+        if start in carried:
+            continue
+        held = kind.get(start) == PRESCRIBED and not iv.given  # a given rigid motion is absolute
+        carried[start] = _node_twist(state, model.body_node[start]) if held else np.zeros(6)
+        queue = deque([start])
+        while queue:
+            parent = queue.popleft()
+            for child, h, sign, xi in children.get(parent, []):
+                if child in carried or kind.get(child) in (FIXED, PRESCRIBED):
+                    continue
+                prescribed_rate = state.theta_dot[h] if h >= 0 and model.hinges[h].angle is not None else 0.0
+                carried[child] = carried[parent] + sign * prescribed_rate * xi
+                queue.append(child)
+
+    def target(part) -> np.ndarray:
+        if part in scene.bodies:
+            node = model.body_node[part]
+            if model.nodes[node].kind in (FIXED, PRESCRIBED):
+                return _node_twist(state, node)
+        return rigid_motion + carried[part]
+
+    # free nodes: their part's target
+    node_part = {model.body_node[name]: name for name in scene.bodies}
+    for name in scene.beams:
+        for node in model.beam_nodes[name]:
+            node_part.setdefault(int(node), ("beam", name))
+    for node in model.free_nodes:
+        twist = target(node_part[int(node)])
+        state.w[node] = twist[3:]
+        state.v[node] = twist[:3] + np.cross(twist[3:], state.x[node])
+    free = np.zeros(len(model.hinges), dtype=bool)
+    free[model.free_hinges] = True
+    # rigid links in tree order: a free hinge turns its child towards the child's target
+    links = model.links
+    omega = {int(i): state.w[i].copy() for i in range(len(model.nodes))}
+    if links is not None:
+        for e in links.edges:
+            child_part = node_part[e.child]  # the link's beam for its link node, else the body at its end
+            if e.hinge >= 0:
+                g = state.T[e.parent] @ e.axis
+                if free[e.hinge]:
+                    state.theta_dot[e.hinge] = e.sign * float(g @ (target(child_part)[3:] - omega[e.parent]))
+                omega[e.child] = omega[e.parent] + e.sign * state.theta_dot[e.hinge] * g
+            else:
+                omega[e.child] = omega[e.parent]
+        links.complete(state)
+    # flexible beams: a free hinge turns the beam end towards the beam's target
+    for name, beam in scene.beams.items():
+        if beam.rigid:
+            continue
+        for end in ("start", "end"):
+            h = hinge_of.get((name, end), -1)
+            if h >= 0 and free[h]:
+                node = model.hinges[h].node
+                g = state.T[node] @ model.hinges[h].axis
+                state.theta_dot[h] = float(g @ (target(("beam", name))[3:] - state.w[node]))
