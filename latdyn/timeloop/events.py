@@ -7,9 +7,9 @@ from typing import NamedTuple
 import numpy as np
 
 from latdyn.assembly.assembler import State, free_velocity, unpack_free
-from latdyn.assembly.factorization import solve_linear
 from latdyn.assembly.prepare import Prepared
 from latdyn.model.model import Model
+from latdyn.timeloop.impulse import hinge_directions, impulse_response, jump
 
 
 def lock_tolerance(lock: float) -> float:
@@ -94,21 +94,16 @@ def hinge_stops(prepared: Prepared, integrator, new: State, old: State | None = 
     if not hits:
         return None
     before = kinetic_energy(assembler, new)
-    dt = prepared.scene.solve.dt
     target = -np.array(restitution) * new.theta_dot[hits]
-    A = assembler.evaluate(new, matrices=True).combined(1.0, 0.0, dt * dt)
-    N = np.zeros((model.n_dofs, len(hits)))
-    N[model.hinge_dofs[hits], np.arange(len(hits))] = 1.0
-    AiN = solve_linear(A, N)
-    NtAiN = N.T @ AiN
-    # the same projection onto the stops for the configuration: what is rigid at the scale of
-    # the step moves with the hinge, so that no strain is made
-    moved = assembler.advance(new, -AiN @ solve_linear(NtAiN, new.theta[hits] - np.array(stops)))
+    N = hinge_directions(model, hits)
+    X = impulse_response(model, assembler.evaluate(new, matrices=True), N, prepared.scene.solve.dt)
+    # the configuration onto the stops along the same directions: the directions without inertia
+    # stay in their statics, so that the massless parts are not strained to hold the hinge there
+    moved = assembler.advance(new, -X @ np.linalg.solve(N.T @ X, new.theta[hits] - np.array(stops)))
     for name in ("x", "T", "theta"):  # in place: the compiled step may view this state's arrays
         np.copyto(getattr(new, name), getattr(moved, name))
     new.theta[hits] = stops
-    v = free_velocity(model, new)
-    unpack_free(model, v - AiN @ solve_linear(NtAiN, N.T @ v - target), new.v, new.w, new.theta_dot)
+    unpack_free(model, jump(X, N, free_velocity(model, new), target), new.v, new.w, new.theta_dot)
     # the accelerations go on: the configuration is continuous through the impact, and so are the
     # forces (a hinge that the load holds against its stop is put back onto it at the end of the
     # next step); zeroing the hinge's acceleration made the run first order after every impact
@@ -130,15 +125,9 @@ def latch_hinges(prepared: Prepared, integrator, old: State, new: State, h: floa
         return None
     before = kinetic_energy(assembler, new)
 
-    ev = assembler.evaluate(new, matrices=True)
-    A = ev.combined(1.0, 0.0, h * h, dense=True)
-    v = free_velocity(model, new)
-    Nmat = np.zeros((model.n_dofs, len(latched)))
-    for j, k in enumerate(latched):
-        Nmat[model.hinge_dofs[k], j] = 1.0
-    AiN = solve_linear(A, Nmat)
-    lam = solve_linear(Nmat.T @ AiN, Nmat.T @ v)
-    v = v - AiN @ lam
+    N = hinge_directions(model, latched)
+    X = impulse_response(model, assembler.evaluate(new, matrices=True), N, prepared.scene.solve.dt)
+    v = jump(X, N, free_velocity(model, new), np.zeros(len(latched)))
     unpack_free(model, v, new.v, new.w, new.theta_dot)
     for k in latched:
         model.locked[k] = True
