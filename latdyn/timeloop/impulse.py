@@ -19,13 +19,19 @@ impulse law on the condensed system is
     M_mm Δy_m = Ñ λ,     Ñᵀ Δy_m = u − Nᵀv⁻,     M_mm = Q_mᵀ M Q_m,
 
 so that Δv = X (NᵀX)⁻¹ (u − Nᵀv⁻) with X = Q T M_mm⁻¹ Ñ, the *impulse response* (the velocity
-change per unit impulse on each hinge). It does not depend on the step: a run through an impact
-converges to the impact of the model, at the integrator's order (tests/test_impacts.py).
-Without directions without inertia, X = M⁻¹N.
+change per unit impulse on each hinge). On the massive directions the step's iteration matrix
+weights what the step does not resolve, M_mm + h² K_red (K_red the condensed stiffness), as the
+projection with M + h²K did before: stiff modes with inertia take the impact quasi-statically
+(with M_mm alone the arm of tests/test_hinges.py, EI = 1e9, rang at ω ~ 1e5 rad/s and the run
+ended unbounded). On a mechanism direction this changes the jump by O(h² k / I): second order.
 
-The kinetic energy the jump removes is that of rigid-body impact theory: with one hinge moving
-into its stop at u⁻ and restitution e, (1 − e²) · ½ u⁻² / (Ñᵀ M_mm⁻¹ Ñ), the kinetic energy of
-the impacting motion (docs/energy.md).
+The kinetic energy the jump removes: with one hinge moving into its stop at u⁻ and restitution
+e, (1 − e²) · ½ u⁻² / (Ñᵀ M_mm⁻¹ Ñ) where M_mm alone weights the jump, the kinetic energy of the
+impacting motion (docs/energy.md).
+
+Open: where a massless beam's *bending* couples the hinge to a body's translation (a hinge across
+a massless beam), the condensed Ñ lets the translation take part of the jump with weight
+M_mm + h² K_red, and the result still depends on the step (docs/initial_state.md).
 
 (Before, the jump was the projection weighted by A = M + dt²K, the integrator's iteration
 matrix: the directions without inertia took part of the jump with weight dt²K against the
