@@ -44,12 +44,13 @@ def crossing_fraction(model: Model, old: State, new: State) -> float | None:
 # Hinge ``limits: [lo, hi]`` with ``restitution`` e are events, like lock_at: a step in which
 # a hinge crosses a stop from inside is shortened to land on it (secant on the angle, as for
 # latches); then, for every free hinge on or beyond a stop and moving into it, the
-# configuration is projected onto the stop, Δq = −A⁻¹N μ with Nᵀ(q + Δq) = stop, and the
+# configuration is projected onto the stop, Δq = −X μ with Nᵀ(q + Δq) = stop, and the
 # velocities jump so that the hinge rate reverses, θ̇⁺ = −e θ̇⁻ (Newton's impact law), by the
-# impulsive projection that conserves momentum, v⁺ = v⁻ − A⁻¹N λ, Nᵀv⁺ = −e Nᵀv⁻, A = M + dt²K (M alone may be singular; directions
-# without inertia and modes faster than the nominal step dt take the impact quasi-statically,
-# as in the integrator's own iteration matrix); the accelerations go on (the forces are continuous
-# through the impact: docs/initial_state.md). A hinge pushed against its stop (e = 0, or a load that holds it there) ends
+# impulse that conserves momentum, v⁺ = v⁻ + X λ, Nᵀv⁺ = −e Nᵀv⁻, X the impulse response of
+# latdyn/timeloop/impulse.py (elements without inertia rigid through the jump, the other
+# directions without inertia in their statics, the massive ones weighted by M + dt²K, with which
+# modes faster than the nominal step dt take the impact quasi-statically); the accelerations go
+# on (the forces are continuous through the impact: docs/initial_state.md). A hinge pushed against its stop (e = 0, or a load that holds it there) ends
 # each step slightly beyond it and is put back with θ̇ = 0: a unilateral constraint enforced
 # by projection at the end of every step, released by itself as soon as the load pulls away.
 # Events rather than a penalty: exact landing on the stop and no contact stiffness that the
@@ -114,8 +115,9 @@ def latch_hinges(prepared: Prepared, integrator, old: State, new: State, h: floa
     """Latch every free hinge whose angle crossed its lock_at during the step.
 
     The latch is a perfectly plastic impulsive constraint θ̇ = 0: the free
-    velocities jump by the projection that conserves momentum,
-    v⁺ = v⁻ − A⁻¹n (nᵀA⁻¹n)⁻¹ nᵀv⁻, with A = M + h²K (M alone may be singular).
+    velocities jump by the impulse that conserves momentum,
+    v⁺ = v⁻ − X (nᵀX)⁻¹ nᵀv⁻, X the impulse response of :mod:`latdyn.timeloop.impulse`
+    weighted with the step h that reached the latch.
     Returns the energy the latch removed (:func:`hinge_events`), or None when no hinge latched.
     """
     model, assembler = prepared.model, prepared.assembler
@@ -126,7 +128,7 @@ def latch_hinges(prepared: Prepared, integrator, old: State, new: State, h: floa
     before = kinetic_energy(assembler, new)
 
     N = hinge_directions(model, latched)
-    X = impulse_response(model, assembler.evaluate(new, matrices=True), N, prepared.scene.solve.dt)
+    X = impulse_response(model, assembler.evaluate(new, matrices=True), N, h)  # the step that reached the latch, as before
     v = jump(X, N, free_velocity(model, new), np.zeros(len(latched)))
     unpack_free(model, v, new.v, new.w, new.theta_dot)
     for k in latched:
