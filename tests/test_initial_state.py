@@ -327,4 +327,4 @@ def test_a_run_through_a_latch_converges_at_order_two():
     the run lost its order: Richardson's ratio was 11.9 at these steps, −3.5 at half of them);
     Richardson's ratio of the successive differences is 4."""
     angles = np.array([run_yaml(LATCH.format(dt=dt)).probes["angle"][-1] for dt in COARSE_STEPS])
-    assert richardson_ratio(angles) == pytest.approx(4.0, rel=0.1)  # 3.74 measured
+    assert richardson_ratio(angles) == pytest.approx(4.0, rel=0.1)  # 4.32 measured (3.74 with the jump weighted by the landing step h rather than dt)

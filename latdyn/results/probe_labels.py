@@ -12,7 +12,8 @@ __all__ = ["probe_label", "probe_labels"]
 _POINT_UNITS = {"position": "m", "displacement": "m", "velocity": "m/s"}
 _HINGE = {"angle": ("hinge angle", "rad"), "rate": ("hinge rate", "rad/s")}
 _ENERGY = {"kinetic": "kinetic energy", "strain": "strain energy", "potential": "potential energy",
-           "external_work": "external work", "total": "total energy"}
+           "external_work": "external work", "total": "total energy",
+           "dissipated": "declared dissipated energy (impacts, latches, hinge dampers)"}
 _MOMENTUM = {"linear": ("linear momentum", "kg·m/s"), "angular": ("angular momentum about the origin", "kg·m²/s")}
 _SECTION = {"axial_force": ("axial force", "N"), "torque": ("torque", "N·m"),
             "moment_y": ("bending moment about local y", "N·m"), "moment_z": ("bending moment about local z", "N·m")}

@@ -7,9 +7,9 @@ from typing import NamedTuple
 import numpy as np
 
 from latdyn.assembly.assembler import State, free_velocity, unpack_free
-from latdyn.assembly.factorization import solve_linear
 from latdyn.assembly.prepare import Prepared
 from latdyn.model.model import Model
+from latdyn.timeloop.impulse import hinge_directions, impulse_response, jump
 
 
 def lock_tolerance(lock: float) -> float:
@@ -44,12 +44,13 @@ def crossing_fraction(model: Model, old: State, new: State) -> float | None:
 # Hinge ``limits: [lo, hi]`` with ``restitution`` e are events, like lock_at: a step in which
 # a hinge crosses a stop from inside is shortened to land on it (secant on the angle, as for
 # latches); then, for every free hinge on or beyond a stop and moving into it, the
-# configuration is projected onto the stop, Δq = −A⁻¹N μ with Nᵀ(q + Δq) = stop, and the
+# configuration is projected onto the stop, Δq = −X μ with Nᵀ(q + Δq) = stop, and the
 # velocities jump so that the hinge rate reverses, θ̇⁺ = −e θ̇⁻ (Newton's impact law), by the
-# impulsive projection that conserves momentum, v⁺ = v⁻ − A⁻¹N λ, Nᵀv⁺ = −e Nᵀv⁻, A = M + dt²K (M alone may be singular; directions
-# without inertia and modes faster than the nominal step dt take the impact quasi-statically,
-# as in the integrator's own iteration matrix); the accelerations go on (the forces are continuous
-# through the impact: docs/initial_state.md). A hinge pushed against its stop (e = 0, or a load that holds it there) ends
+# impulse that conserves momentum, v⁺ = v⁻ + X λ, Nᵀv⁺ = −e Nᵀv⁻, X the impulse response of
+# latdyn/timeloop/impulse.py (elements without inertia rigid through the jump, the other
+# directions without inertia in their statics, the massive ones weighted by M + dt²K, with which
+# modes faster than the nominal step dt take the impact quasi-statically); the accelerations go
+# on (the forces are continuous through the impact: docs/initial_state.md). A hinge pushed against its stop (e = 0, or a load that holds it there) ends
 # each step slightly beyond it and is put back with θ̇ = 0: a unilateral constraint enforced
 # by projection at the end of every step, released by itself as soon as the load pulls away.
 # Events rather than a penalty: exact landing on the stop and no contact stiffness that the
@@ -94,21 +95,16 @@ def hinge_stops(prepared: Prepared, integrator, new: State, old: State | None = 
     if not hits:
         return None
     before = kinetic_energy(assembler, new)
-    dt = prepared.scene.solve.dt
     target = -np.array(restitution) * new.theta_dot[hits]
-    A = assembler.evaluate(new, matrices=True).combined(1.0, 0.0, dt * dt)
-    N = np.zeros((model.n_dofs, len(hits)))
-    N[model.hinge_dofs[hits], np.arange(len(hits))] = 1.0
-    AiN = solve_linear(A, N)
-    NtAiN = N.T @ AiN
-    # the same projection onto the stops for the configuration: what is rigid at the scale of
-    # the step moves with the hinge, so that no strain is made
-    moved = assembler.advance(new, -AiN @ solve_linear(NtAiN, new.theta[hits] - np.array(stops)))
+    N = hinge_directions(model, hits)
+    X = impulse_response(model, assembler.evaluate(new, matrices=True), N, prepared.scene.solve.dt)
+    # the configuration onto the stops along the same directions: the directions without inertia
+    # stay in their statics, so that the massless parts are not strained to hold the hinge there
+    moved = assembler.advance(new, -X @ np.linalg.solve(N.T @ X, new.theta[hits] - np.array(stops)))
     for name in ("x", "T", "theta"):  # in place: the compiled step may view this state's arrays
         np.copyto(getattr(new, name), getattr(moved, name))
     new.theta[hits] = stops
-    v = free_velocity(model, new)
-    unpack_free(model, v - AiN @ solve_linear(NtAiN, N.T @ v - target), new.v, new.w, new.theta_dot)
+    unpack_free(model, jump(X, N, free_velocity(model, new), target), new.v, new.w, new.theta_dot)
     # the accelerations go on: the configuration is continuous through the impact, and so are the
     # forces (a hinge that the load holds against its stop is put back onto it at the end of the
     # next step); zeroing the hinge's acceleration made the run first order after every impact
@@ -119,8 +115,12 @@ def latch_hinges(prepared: Prepared, integrator, old: State, new: State, h: floa
     """Latch every free hinge whose angle crossed its lock_at during the step.
 
     The latch is a perfectly plastic impulsive constraint θ̇ = 0: the free
-    velocities jump by the projection that conserves momentum,
-    v⁺ = v⁻ − A⁻¹n (nᵀA⁻¹n)⁻¹ nᵀv⁻, with A = M + h²K (M alone may be singular).
+    velocities jump by the impulse that conserves momentum,
+    v⁺ = v⁻ − X (nᵀX)⁻¹ nᵀv⁻, X the impulse response of :mod:`latdyn.timeloop.impulse`
+    weighted with the nominal step dt, as for stops. (It was weighted with the step h that
+    landed on the latch, a fraction of dt that changes erratically with dt: θ(1) of the two-link
+    arm of flexible beams in tests/test_initial_state.py came out 0.07029, 0.07001, 0.07039 at
+    dt = 0.02, 0.01, 0.005; with dt, 0.06949, 0.07015, 0.07015.)
     Returns the energy the latch removed (:func:`hinge_events`), or None when no hinge latched.
     """
     model, assembler = prepared.model, prepared.assembler
@@ -130,15 +130,9 @@ def latch_hinges(prepared: Prepared, integrator, old: State, new: State, h: floa
         return None
     before = kinetic_energy(assembler, new)
 
-    ev = assembler.evaluate(new, matrices=True)
-    A = ev.combined(1.0, 0.0, h * h, dense=True)
-    v = free_velocity(model, new)
-    Nmat = np.zeros((model.n_dofs, len(latched)))
-    for j, k in enumerate(latched):
-        Nmat[model.hinge_dofs[k], j] = 1.0
-    AiN = solve_linear(A, Nmat)
-    lam = solve_linear(Nmat.T @ AiN, Nmat.T @ v)
-    v = v - AiN @ lam
+    N = hinge_directions(model, latched)
+    X = impulse_response(model, assembler.evaluate(new, matrices=True), N, prepared.scene.solve.dt)
+    v = jump(X, N, free_velocity(model, new), np.zeros(len(latched)))
     unpack_free(model, v, new.v, new.w, new.theta_dot)
     for k in latched:
         model.locked[k] = True

@@ -1,0 +1,148 @@
+"""The response of the free coordinates to impulses on hinges: impacts on stops and latches.
+
+An impact lasts no time: the configuration, and so every finite force (elastic, applied,
+gravity), is continuous through it, and only inertia forces take the impulse. The velocities
+jump by Newton's impulse law, Δv = X (NᵀX)⁻¹ (u − Nᵀv⁻) for the hinge rates Nᵀv brought to u
+(−e times their rate into a stop; 0 for a latch), X the *impulse response*, the velocity change
+per unit impulse on each hinge. What X is where parts carry no inertia:
+
+- **Elements without inertia** (``rhoA: 0``) are rigid through the jump. An element can pass an
+  impulse from one part with inertia to another only as a rigid body: passing it elastically
+  would take an impulsive strain. (Their statics alone, below, would let a body's translation
+  turn the end of a massless arm through its bending, 1.5 rad per m of a cantilever's tip: the
+  jump then set the body ringing on the arm, and the run ended unbounded.) They are made rigid
+  by a stiffness :data:`RIGID` times the inertia they move, extrapolated to the rigid limit.
+- **The other directions without inertia** (Q_c of :func:`latdyn.numerics.inertia.split_inertia`,
+  M Q_c = 0: the twist of an Euler–Bernoulli beam without rotary inertia, a joint without
+  inertia about its hinge) take no impulse and stay in their statics, Q_cᵀ r = 0, through it:
+  their velocities are those the massive ones imply, Δy_c = −K_cc⁻¹ K_cm Δy_m (K_ab = Q_aᵀ K Q_b;
+  static condensation, as in :func:`latdyn.step.integrators.consistent_acceleration`). A hinge
+  constraint acts on the massive directions through the condensed Jacobian
+  Ñ = Q_mᵀN − K_cmᵀ K_cc⁻ᵀ Q_cᵀN (an impulse on a direction without inertia passes statically to
+  the massive ones, by virtual work), and M_mm Δy_m = Ñ λ.
+- **Directions with inertia** jump as the impulse law weights them, by M_mm + h² K_red (h the
+  nominal step, K_red = K_mm − K_mc K_cc⁻¹ K_cm the condensed stiffness), as the projection with
+  M + h²K did before: stiff elastic modes with inertia take the impact quasi-statically (with
+  M_mm alone the pendulum of tests/test_hinges.py, EI = 1e9, rang at ω ~ 1e5 rad/s after its
+  impact and the run ended unbounded). On a mechanism direction (a hinge spring k, a body of
+  inertia I) this changes the jump by O(h² k / I), second order. Modes with inertia whose
+  frequency ω is near 1/h are weighted by how the step resolves them: a latch or an impact on a
+  flexible structure with inertia converges at second order only once the step resolves them or
+  is far from them (docs/initial_state.md).
+
+Where a hinge's rate moves no direction with inertia (NᵀX singular: parts without inertia on
+both sides of it), nothing takes an impulse, and its stop acts as a static constraint: X is
+then (M + h²K)⁻¹ N, whose K-weighted projection keeps those parts in their statics against it.
+
+The kinetic energy the jump removes: with one hinge moving into its stop at u⁻, restitution e
+and the weight M_mm, (1 − e²) · ½ u⁻² / (Ñᵀ M_mm⁻¹ Ñ), the kinetic energy of the impacting
+motion (docs/energy.md).
+
+(Before, X was (M + h²K)⁻¹ N everywhere: the directions without inertia took part of the jump
+with weight h²K against the inertia of the massive ones, so a body bounced off a stop behind a
+massless beam came out with answers that changed with the step and converged to nothing:
+tests/test_impacts.py.)
+"""
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sps
+
+from latdyn.assembly.evaluation import Evaluation
+from latdyn.assembly.factorization import solve_linear
+from latdyn.errors import SolverError
+from latdyn.numerics.inertia import split_inertia
+
+
+def hinge_directions(model, hinges) -> np.ndarray:
+    """N: one column per hinge, the unit vector of its free coordinate (Nᵀv are the hinge rates)."""
+    N = np.zeros((model.n_dofs, len(hinges)))
+    N[model.hinge_dofs[list(hinges)], np.arange(len(hinges))] = 1.0
+    return N
+
+
+#: How much stiffer than the inertia it moves an element without inertia is made through an
+#: impulse (relative to the largest diagonals of M and of the elements' K); the response is
+#: extrapolated to the rigid limit from this stiffness and twice it (module docstring).
+RIGID = 1e8
+
+
+def massless_element_stiffness(ev):
+    """K of the elements without inertia alone (``rhoA: 0``, no rotary inertia: their mass blocks
+    are zero), on the free coordinates; None where there are none."""
+    element_mass = np.asarray(ev.blocks["mass"][0])
+    massless = ~np.any(element_mass != 0.0, axis=(1, 2)) if element_mass.size else np.zeros(0, bool)
+    if not massless.any():
+        return None
+    element, body, hinge, loads = ev.blocks["stiffness"]
+    blocks = dict(ev.blocks)
+    blocks["stiffness"] = (np.asarray(element) * massless[:, None, None], np.zeros_like(body),
+                           np.zeros_like(hinge), np.zeros_like(np.asarray(loads)))
+    K = Evaluation(residual=None, reaction=None, blocks=blocks, assembler=ev.assembler).combined(
+        0.0, 0.0, 1.0, dense=False)
+    projection = getattr(ev, "projection", None)  # rigid links: onto the minimum coordinates
+    return K if projection is None else sps.csr_matrix(projection.T @ K @ projection)
+
+
+def impulse_response(model, ev, N: np.ndarray, step: float) -> np.ndarray:
+    """X: the change of the free velocities per unit impulse on the constraint directions N (n × k):
+    the elements without inertia rigid, the other directions without inertia in their statics
+    (module docstring). The elements without inertia are made rigid by adding s K_massless to K,
+    s h² = RIGID m / k (m, k the largest diagonals of M and K_massless), and the response is
+    extrapolated to s → ∞ from s and 2s (X(s) = X(∞) + O(1/s): 2 X(2s) − X(s) leaves O(1/s²))."""
+    M = ev.mass
+    K = ev.stiffness
+    Kml = massless_element_stiffness(ev)
+    if Kml is not None:
+        m = float(np.max(np.abs(M.diagonal()), initial=0.0))
+        k = float(np.max(np.abs(Kml.diagonal()), initial=0.0))
+        if m > 0.0 and k > 0.0:
+            s = RIGID * m / (step * step * k)
+            stiff, stiffer = (_response(model, M, (K + f * s * Kml).tocsr(), N, step) for f in (1.0, 2.0))
+            return 2.0 * stiffer - stiff
+    return _response(model, M, K, N, step)
+
+
+def _response(model, M, K, N: np.ndarray, step: float) -> np.ndarray:
+    """X for the stiffness K (:func:`impulse_response`):
+
+        [ Q_mᵀ(M + h²K)Q_m   h² Q_mᵀK Q_c ] [y_m]   [Ñ]
+        [ Q_cᵀK Q_m            Q_cᵀK Q_c  ] [y_c] = [0],      X = Q_m y_m + Q_c y_c,
+
+    h the nominal step; the second row is the statics of the directions without inertia, the
+    first the impulse law on the massive ones, M_mm + h² K_red (K_red = K_mm − K_mc K_cc⁻¹ K_cm,
+    never formed) weighting what the step does not resolve as in the integrator's iteration
+    matrix. Without directions without inertia X = (M + h²K)⁻¹ N. Where a hinge's rate moves no
+    direction with inertia (NᵀX singular: massless parts on both sides of it), nothing takes an
+    impulse and its stop acts as a static constraint: X = (M + h²K)⁻¹ N, whose K-weighted
+    projection keeps the massless parts in their statics against the stop."""
+    quasi_static = (M + (step * step) * K).tocsr()
+    split = split_inertia(model, M)
+    if split.n_massless == 0 or split.n_massive == 0:
+        return solve_linear(quasi_static, N).reshape(N.shape)
+    Qm, Qc = split.massive, split.massless
+    Kcc = (Qc.T @ K @ Qc).tocsr()
+    Kcm = (Qc.T @ K @ Qm).tocsr()
+    try:
+        # Ñ = Q_mᵀN − K_cmᵀ K_cc⁻ᵀ Q_cᵀN: the impulse on the massless directions, passed on statically
+        passed = solve_linear(Kcc.T.tocsr(), np.asarray(Qc.T @ N))
+    except np.linalg.LinAlgError as exc:
+        raise SolverError("a coordinate without inertia is held by no stiffness",
+                          "directions of the model carry neither inertia nor stiffness; "
+                          "`latdyn check` names the coordinate") from exc
+    condensed = (np.asarray(Qm.T @ N).reshape(split.n_massive, -1)
+                 - np.asarray(Kcm.T @ passed).reshape(split.n_massive, -1))
+    B = sps.bmat([[Qm.T @ quasi_static @ Qm, (step * step) * (Qm.T @ K @ Qc)], [Kcm, Kcc]], format="csr")
+    rhs = np.vstack([condensed, np.zeros((split.n_massless, condensed.shape[1]))])
+    X = np.asarray(split.basis @ solve_linear(B, rhs)).reshape(N.shape)
+    NtX = N.T @ X
+    scale = max(float(np.max(np.abs(np.diag(NtX)), initial=0.0)), 1e-300)
+    if not np.all(np.isfinite(NtX)) or np.linalg.matrix_rank(NtX, tol=1e-10 * scale) < N.shape[1]:
+        return solve_linear(quasi_static, N).reshape(N.shape)
+    return X
+
+
+def jump(X: np.ndarray, N: np.ndarray, v: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """v⁺ = v⁻ + X (NᵀX)⁻¹ (target − Nᵀv⁻): the velocities after the impulses that bring the hinge
+    rates Nᵀv to ``target``."""
+    return v + X @ np.linalg.solve(N.T @ X, target - N.T @ v)
