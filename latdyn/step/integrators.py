@@ -181,15 +181,17 @@ class GeneralizedAlpha:
     def error_estimate(self, h: float) -> float:
         """Local error of the position update, h²|β − 1/6| ‖a_{n+1} − a_n‖ (Géradin & Cardona).
 
-        The norm is the largest mass-weighted joint norm (:func:`latdyn.numerics.inertia.joint_norms`):
-        a length, blind to directions without inertia (whose algorithmic accelerations
-        carry no dynamics) and invariant under rigid motions of the scene.
+        The norm is the largest inertia-weighted joint norm (:func:`latdyn.numerics.inertia.joint_norms`):
+        a length, over every direction with inertia (rotations of joints without translational
+        mass, such as the hinge of a rigid link on a fixed body, included), blind to
+        directions without inertia (whose algorithmic accelerations carry no dynamics) and
+        invariant under rigid motions of the scene.
         """
         ev = getattr(self, "last_evaluation", None)
         if ev is None or self.assembler.model.n_dofs == 0:
             return 0.0
         blocks = joint_blocks(self.assembler.model, ev.mass, self.groups())
-        size = joint_norms(blocks, self.a_candidate - self.a)
+        size = joint_norms(blocks, self.a_candidate - self.a, self.length_scale)
         return h * h * abs(self.p.beta - 1 / 6) * float(np.max(size, initial=0.0))
 
     def groups(self) -> np.ndarray:
