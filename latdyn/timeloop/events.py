@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from latdyn.assembly.assembler import State, free_velocity, pack, unpack_free
+from latdyn.assembly.assembler import State, free_acceleration, free_velocity, pack, unpack_free
 from latdyn.assembly.factorization import solve_linear
 from latdyn.assembly.prepare import Prepared
 from latdyn.model.model import Model
@@ -46,7 +46,8 @@ def crossing_fraction(model: Model, old: State, new: State) -> float | None:
 # velocities jump so that the hinge rate reverses, θ̇⁺ = −e θ̇⁻ (Newton's impact law), by the
 # impulsive projection that conserves momentum, v⁺ = v⁻ − A⁻¹N λ, Nᵀv⁺ = −e Nᵀv⁻, A = M + dt²K (M alone may be singular; directions
 # without inertia and modes faster than the nominal step dt take the impact quasi-statically,
-# as in the integrator's own iteration matrix); the hinge's acceleration is set to zero. A hinge pushed against its stop (e = 0, or a load that holds it there) ends
+# as in the integrator's own iteration matrix); the accelerations restart from the equations of motion
+# after the impact, with the same quasi-static treatment (:func:`restart_accelerations`). A hinge pushed against its stop (e = 0, or a load that holds it there) ends
 # each step slightly beyond it and is put back with θ̇ = 0: a unilateral constraint enforced
 # by projection at the end of every step, released by itself as soon as the load pulls away.
 # Events rather than a penalty: exact landing on the stop and no contact stiffness that the
@@ -104,11 +105,34 @@ def hinge_stops(prepared: Prepared, integrator, new: State, old: State | None = 
     new.theta[hits] = stops
     v = free_velocity(model, new)
     unpack_free(model, v - AiN @ solve_linear(NtAiN, N.T @ v - target), new.v, new.w, new.theta_dot)
-    # the hinge's acceleration into the stop ends with the impact
-    if getattr(integrator, "a", None) is not None:  # the explicit step keeps no algorithmic acceleration
-        integrator.a[model.hinge_dofs[hits]] = 0.0
-    new.theta_ddot[hits] = 0.0
+    restart_accelerations(prepared, integrator, new, dt)
     return True
+
+
+def restart_accelerations(prepared: Prepared, integrator, new: State, dt: float) -> None:
+    """The accelerations the integrator goes on from after an impact: those of the equations of
+    motion at the state after it, with the directions that are stiff at the scale of the nominal
+    step ``dt`` taken quasi-statically, as the impact's projection takes their velocities:
+
+        (M + dt²K) v̇ = −r₀,   r₀ = r − M v̇⁻  (the residual at zero acceleration; r is affine in v̇)
+
+    On the motion that strains nothing (K ≈ 0 there: the swing of a pendulum) this is M⁻¹f; on a
+    direction with little inertia and a stiffness ω ≫ 1/dt (the rotation of a stiff beam's end node
+    without rotary inertia, a hinge's own spin on a stiff beam) it is the acceleration of the motion
+    it follows, not the force it is out of balance by over its inertia.  The accelerations of the
+    step that led to the impact must not go on: that step was shortened onto the stop, as short as
+    1e-7 s, and its algorithmic acceleration carries Newton's tolerance on those stiff directions
+    over h² (1e4 rad/s² on a pendulum of EI = 1e9 falling at 10 rad/s²), which the next steps' rate
+    update turned into a ringing rate that grew at every bounce until Newton failed.  Nor may the
+    exact M⁻¹f: on those directions it is the same noise over their tiny inertia."""
+    model, assembler = prepared.model, prepared.assembler
+    ev = assembler.evaluate(new, matrices=True)
+    vdot = free_acceleration(model, new)
+    r0 = ev.residual - ev.combined(1.0, 0.0, 0.0) @ vdot
+    vdot = -solve_linear(ev.combined(1.0, 0.0, dt * dt), r0)
+    unpack_free(model, vdot, new.a, new.alpha, new.theta_ddot)
+    if getattr(integrator, "a", None) is not None:  # the explicit step keeps no algorithmic acceleration
+        integrator.a = vdot.copy()
 
 
 def latch_hinges(prepared: Prepared, integrator, old: State, new: State, h: float) -> bool:
