@@ -52,7 +52,7 @@ RIGID_PENDULUM = """\
       bob: {at: [1, 0, 0], mass: 1.0}
     beams:
       arm: {from: base, to: bob, section: link, rigid: true, start: {hinge: {axis: [0, 0, 1]}}}
-    solve: {analysis: transient, t_end: 2, dt: 0.1, adaptive: true, error_tol: 1.0e-6}
+    solve: {analysis: transient, t_end: 2, dt: 0.1, adaptive: true, error_tol: 1.0e-5}
     output:
       probes:
         a: {hinge: arm.start, quantity: angle}
@@ -63,15 +63,15 @@ def test_a_rigid_pendulum_adaptive_run_meets_its_tolerance(tmp_path):
     """The hinge of a rigid link on a fixed body is a joint without translational mass.  Reference:
     the pendulum's equation J θ̈ = −g (m_b L + m_r L/2) cos θ, J = m_b L² + m_r L²/3 (bob 1 kg, rod
     1 kg, L = 1 m), integrated to 1e-12 (it equals a fixed-step run at dt = 5e-4 to 2e-7: −0.297212).
-    Before the fix: 20 steps of dt, none rejected, θ(2) = −0.335; after it, 278 steps and an error of
-    2e-4 rad, within the sum of the local tolerances of its steps (278 · 1e-6 · ℓ, ℓ = 4/3 m)."""
+    Before the fix: 20 steps of dt, none rejected, θ(2) = −0.335 (error 0.038); after it, 139 steps
+    and an error of 8.3e-4 rad (error_tol 1e-5; at 1e-6: 278 steps, 2e-4 rad)."""
     out = run_cli(tmp_path, RIGID_PENDULUM)
     k = 9.81 * 1.5 / (4.0 / 3.0)
     exact = solve_ivp(lambda t, y: [y[1], -k * np.cos(y[0])], (0.0, 2.0), [0.0, 0.0],
                       rtol=1e-12, atol=1e-12).y[0, -1]
     summary = json.loads((out / "summary.json").read_text())
     assert summary["steps"] > 100  # the error estimate sees the hinge: far more than t_end/dt = 20
-    assert abs(final_angle(out) - exact) < 1e-3  # 2e-4 measured; 0.038 before
+    assert abs(final_angle(out) - exact) < 2e-3  # 8.3e-4 measured; 0.038 before
 
 
 @pytest.mark.parametrize("rigid", ["true", "false"])
@@ -80,8 +80,8 @@ def test_a_body_with_rotary_inertia_only_on_a_hinge_meets_its_tolerance(tmp_path
     massless spoke (a rigid link, or a flexible beam whose end node then has rotary inertia only),
     on a hinge spring k = 8 preloaded to rest_angle 0.5: θ = 0.5 (1 − cos ω t), ω = (k/J)^½ = 2.
     Before the fix both ran 6 steps of dt = 0.5 with no rejection (θ(3) off by 0.11 and 0.32);
-    after it 231 and 278 steps, off by 7e-5 and 2.6e-4 (the flexible one also starts a dt/2 late,
-    issue 30 item 3)."""
+    after it (error_tol 1e-5) the rigid one 110 steps, off by 2.8e-4 (at 1e-6: 231 steps, 7e-5; the
+    flexible one at 1e-6: 278 steps, 2.6e-4, it also starts a dt/2 late, issue 30 item 3)."""
     out = run_cli(tmp_path, f"""\
         title: a wheel with rotary inertia only on a hinge spring
         sections:
@@ -96,13 +96,13 @@ def test_a_body_with_rotary_inertia_only_on_a_hinge_meets_its_tolerance(tmp_path
             section: spoke
             rigid: {rigid}
             start: {{hinge: {{axis: [0, 0, 1], stiffness: 8.0, rest_angle: 0.5}}}}
-        solve: {{analysis: transient, t_end: 3, dt: 0.5, adaptive: true, error_tol: 1.0e-6}}
+        solve: {{analysis: transient, t_end: 3, dt: 0.5, adaptive: true, error_tol: 1.0e-5}}
         output:
           probes:
             a: {{hinge: spoke.start, quantity: angle}}
         """)
     exact = 0.5 * (1.0 - np.cos(2.0 * 3.0))
-    assert abs(final_angle(out) - exact) < 1e-3
+    assert abs(final_angle(out) - exact) < 2e-3
 
 
 def test_joint_norms_measure_joints_without_translational_mass():
