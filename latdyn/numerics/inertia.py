@@ -232,17 +232,29 @@ def split_inertia(model, mass, groups: np.ndarray | None = None, stiffness=None,
     return InertiaSplit(Q if sps.issparse(mass) else Q.toarray(), n_massive, int(light.sum()))
 
 
-def joint_norms(joint: JointBlocks, vector: np.ndarray) -> np.ndarray:
-    """Per joint, the mass-weighted size of a coordinate vector in length units.
+def joint_norms(joint: JointBlocks, vector: np.ndarray, length: float) -> np.ndarray:
+    """Per joint, the inertia-weighted size of a coordinate vector in length units.
 
-    sqrt(x_gᵀ M_gg x_g / m_g), m_g the translational mass of the joint: a
-    translation counts as itself, a rotation by the lever arm of the inertia
-    it moves; directions without inertia count for nothing.  Invariant under
-    rigid motions of the scene.  Joints without translational mass give 0.
+    sqrt(x_gᵀ M_gg x_g / m_g): a translation counts as itself, a rotation by the
+    lever arm of the inertia it moves.  m_g is the joint's translational mass; a
+    joint without one (the hinge of a rigid link or of a beam on a fixed body, a
+    body with rotary inertia only) takes the mean translational mass of the joints
+    that have one, so that its rotations count by the same kind of lever arm as the
+    others'; in a model where no joint has translational mass (a rigid pendulum on a
+    fixed body), rotations count in radians times ``length`` (the scene's size, the
+    length ``error_tol`` is relative to): ℓ·sqrt(x_gᵀ M_gg x_g / J_g), J_g the mean
+    diagonal of the block.  Every direction with inertia is measured, directions
+    without inertia count for nothing.  Invariant under rigid motions of the scene
+    (traces and quadratic forms).
     """
     groups = joint.groups
     padded = np.append(vector, 0.0)
     x = padded[np.where(groups >= 0, groups, len(vector))]
-    energy = np.einsum("gi,gij,gj->g", x, joint.blocks, x)
+    energy = np.clip(np.einsum("gi,gij,gj->g", x, joint.blocks, x), 0.0, None)
     mass = joint.translation_mass
-    return np.where(mass > 0, np.sqrt(np.clip(energy, 0.0, None) / np.where(mass > 0, mass, 1.0)), 0.0)
+    if np.any(mass > 0):
+        reference = np.where(mass > 0, mass, np.mean(mass[mass > 0]))
+        return np.sqrt(energy / reference)
+    diagonal = np.diagonal(joint.blocks, axis1=1, axis2=2)
+    inertia = diagonal.sum(axis=1) / np.maximum((groups >= 0).sum(axis=1), 1)
+    return np.where(inertia > 0, length * np.sqrt(energy / np.where(inertia > 0, inertia, 1.0)), 0.0)

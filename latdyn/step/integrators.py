@@ -169,6 +169,34 @@ def _solve_massless(Kcc, rhs: np.ndarray) -> np.ndarray:
                           "`latdyn check` names the coordinate") from exc
 
 
+def newmark_warning(model, mass) -> str | None:
+    """What a Newmark run of a 3D model with directions without inertia must say (None otherwise).
+
+    The trapezoidal rule (γ = ½, β = ¼) determines the rate and acceleration of a direction
+    without inertia only through their own recursion: with its configuration fixed by statics,
+    (v, h a) go on by the matrix [[−1, 0], [−4, −1]] a step, a double eigenvalue −1 — undamped,
+    alternating in sign, growing linearly — where generalized-α (ρ∞ < 1) has a double root −ρ∞.
+    The same holds for the directions whose inertia is tiny against their stiffness (the twist
+    of a bent Euler–Bernoulli element without rotary inertia, inertia ~ φ²: ωh ≫ 1, amplification
+    (1 − (ωh)²/4)/(1 + (ωh)²/4) → −1).  In a 3D model those rates enter the forces that depend on
+    velocities (the element's inertia forces through its twist-dependent centreline, gyroscopic
+    terms of joint bodies), so round-off on them grows instead of staying at round-off: D4 in 3D
+    with ρI = 0 goes out of plane from 1e-20 m to 1e-2 m by 1 s with 65 step cuts, not converging
+    as dt shrinks (docs/verification.md, "D4 in 3D: out-of-plane motion").  Generalized-α, or a
+    rotary inertia (rhoIy, rhoIz) on the beams, gives results the package stands behind; the
+    method is not changed here, the run says so."""
+    if model.plane is not None or model.n_dofs == 0:
+        return None
+    split = split_inertia(model, mass)
+    if not split.n_massless:
+        return None
+    return (f"method newmark on a 3D model with {split.n_massless} direction(s) without inertia (the twist "
+            "of beams without rhoIy/rhoIz, joints without mass or inertia): the trapezoidal rule leaves "
+            "their rates undamped, ringing from round-off, and through velocity-dependent forces that can "
+            "grow into motion no step size converges (docs/verification.md, 'D4 in 3D: out-of-plane "
+            "motion'); method generalized-alpha, or rotary inertia on the beams, avoids it")
+
+
 class GeneralizedAlpha:
     """The Lie-group generalized-α family between steps: its parameters, the algorithmic acceleration
     a_n carried from step to step, the consistent start, the acceptance and the local error estimate.
@@ -204,15 +232,17 @@ class GeneralizedAlpha:
     def error_estimate(self, h: float) -> float:
         """Local error of the position update, h²|β − 1/6| ‖a_{n+1} − a_n‖ (Géradin & Cardona).
 
-        The norm is the largest mass-weighted joint norm (:func:`latdyn.numerics.inertia.joint_norms`):
-        a length, blind to directions without inertia (whose algorithmic accelerations
-        carry no dynamics) and invariant under rigid motions of the scene.
+        The norm is the largest inertia-weighted joint norm (:func:`latdyn.numerics.inertia.joint_norms`):
+        a length, over every direction with inertia (rotations of joints without translational
+        mass, such as the hinge of a rigid link on a fixed body, included), blind to
+        directions without inertia (whose algorithmic accelerations carry no dynamics) and
+        invariant under rigid motions of the scene.
         """
         ev = getattr(self, "last_evaluation", None)
         if ev is None or self.assembler.model.n_dofs == 0:
             return 0.0
         blocks = joint_blocks(self.assembler.model, ev.mass, self.groups())
-        size = joint_norms(blocks, self.a_candidate - self.a)
+        size = joint_norms(blocks, self.a_candidate - self.a, self.length_scale)
         return h * h * abs(self.p.beta - 1 / 6) * float(np.max(size, initial=0.0))
 
     def groups(self) -> np.ndarray:

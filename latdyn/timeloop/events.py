@@ -6,7 +6,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from latdyn.assembly.assembler import State, free_velocity, unpack_free
+from latdyn.assembly.assembler import State, free_acceleration, free_velocity, unpack_free
+from latdyn.assembly.factorization import solve_linear
 from latdyn.assembly.prepare import Prepared
 from latdyn.model.model import Model
 from latdyn.timeloop.impulse import hinge_directions, impulse_response, jump
@@ -49,8 +50,9 @@ def crossing_fraction(model: Model, old: State, new: State) -> float | None:
 # impulse that conserves momentum, v⁺ = v⁻ + X λ, Nᵀv⁺ = −e Nᵀv⁻, X the impulse response of
 # latdyn/timeloop/impulse.py (elements without inertia rigid through the jump, the other
 # directions without inertia in their statics, the massive ones weighted by M + dt²K, with which
-# modes faster than the nominal step dt take the impact quasi-statically); the accelerations go
-# on (the forces are continuous through the impact: docs/initial_state.md). A hinge pushed against its stop (e = 0, or a load that holds it there) ends
+# modes faster than the nominal step dt take the impact quasi-statically); the accelerations
+# restart from the equations of motion after the impact, with the same quasi-static treatment
+# (:func:`restart_accelerations`). A hinge pushed against its stop (e = 0, or a load that holds it there) ends
 # each step slightly beyond it and is put back with θ̇ = 0: a unilateral constraint enforced
 # by projection at the end of every step, released by itself as soon as the load pulls away.
 # Events rather than a penalty: exact landing on the stop and no contact stiffness that the
@@ -105,10 +107,34 @@ def hinge_stops(prepared: Prepared, integrator, new: State, old: State | None = 
         np.copyto(getattr(new, name), getattr(moved, name))
     new.theta[hits] = stops
     unpack_free(model, jump(X, N, free_velocity(model, new), target), new.v, new.w, new.theta_dot)
-    # the accelerations go on: the configuration is continuous through the impact, and so are the
-    # forces (a hinge that the load holds against its stop is put back onto it at the end of the
-    # next step); zeroing the hinge's acceleration made the run first order after every impact
+    restart_accelerations(prepared, integrator, new, prepared.scene.solve.dt)
     return before - kinetic_energy(assembler, new)
+
+
+def restart_accelerations(prepared: Prepared, integrator, new: State, dt: float) -> None:
+    """The accelerations the integrator goes on from after an impact: those of the equations of
+    motion at the state after it, with the directions that are stiff at the scale of the nominal
+    step ``dt`` taken quasi-statically, as the impact's projection takes their velocities:
+
+        (M + dt²K) v̇ = −r₀,   r₀ = r − M v̇⁻  (the residual at zero acceleration; r is affine in v̇)
+
+    On the motion that strains nothing (K ≈ 0 there: the swing of a pendulum) this is M⁻¹f; on a
+    direction with little inertia and a stiffness ω ≫ 1/dt (the rotation of a stiff beam's end node
+    without rotary inertia, a hinge's own spin on a stiff beam) it is the acceleration of the motion
+    it follows, not the force it is out of balance by over its inertia.  The accelerations of the
+    step that led to the impact must not go on: that step was shortened onto the stop, as short as
+    1e-7 s, and its algorithmic acceleration carries Newton's tolerance on those stiff directions
+    over h² (1e4 rad/s² on a pendulum of EI = 1e9 falling at 10 rad/s²), which the next steps' rate
+    update turned into a ringing rate that grew at every bounce until Newton failed.  Nor may the
+    exact M⁻¹f: on those directions it is the same noise over their tiny inertia."""
+    model, assembler = prepared.model, prepared.assembler
+    ev = assembler.evaluate(new, matrices=True)
+    vdot = free_acceleration(model, new)
+    r0 = ev.residual - ev.combined(1.0, 0.0, 0.0) @ vdot
+    vdot = -solve_linear(ev.combined(1.0, 0.0, dt * dt), r0)
+    unpack_free(model, vdot, new.a, new.alpha, new.theta_ddot)
+    if getattr(integrator, "a", None) is not None:  # the explicit step keeps no algorithmic acceleration
+        integrator.a = vdot.copy()
 
 
 def latch_hinges(prepared: Prepared, integrator, old: State, new: State, h: float) -> float | None:

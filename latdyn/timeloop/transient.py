@@ -4,10 +4,12 @@ for, and the time loop that drives it (:mod:`latdyn.timeloop.loop`; its step siz
 step to step: :mod:`~latdyn.timeloop.progress`, its checkpoints: :mod:`~latdyn.timeloop.checkpoint`)."""
 from __future__ import annotations
 
+import sys
+
 from latdyn.assembly.prepare import Prepared, length_scale
 from latdyn.results.probes import ProbeSet
 from latdyn.results.writer import ResultWriter
-from latdyn.step.integrators import AlphaParameters, CentralDifference
+from latdyn.step.integrators import AlphaParameters, CentralDifference, newmark_warning
 from latdyn.timeloop import checkpoint as checkpoints
 from latdyn.timeloop.control import StepControl
 from latdyn.timeloop.loop import TimeLoop
@@ -66,4 +68,10 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
     loop = TimeLoop(prepared, integrator, probes, writer, StepControl(scene.solve, scene.output.every, length),
                     tol=tol, checkpointer=checkpointer, compiled_loop=COMPILED_LOOP, loop_budget_s=LOOP_BUDGET_S)
     loop.begin(resume_from)
+    if scene.solve.method == "newmark":
+        state = loop.progress.state
+        warning = newmark_warning(prepared.model, prepared.assembler.evaluate(state, matrices=True).mass)
+        if warning is not None:
+            print(f"latdyn: warning: {warning}", file=sys.stderr)
+            writer.summary.setdefault("warnings", []).append(warning)
     return loop.run(progress)
