@@ -423,8 +423,11 @@ def check_folder(out: Path, scene: dict, status: int) -> list[str]:
         else:
             if not _finite(result.modes):
                 bad("NaN in modes.csv", "nan_solved")
-            if len(result.modes) > solve.get("count", 6) or len(result.modes) == 0:
+            # no modes only where there is nothing to move (every part fixed or prescribed)
+            if len(result.modes) > solve.get("count", 6) or (len(result.modes) == 0 and summary.get("coordinates")):
                 bad(f"modes.csv has {len(result.modes)} modes, count is {solve.get('count', 6)}")
+    if status == 0 and not all(f is not None for f in summary.get("modes_hz", [])):
+        bad("a frequency in summary.json modes_hz is NaN (null)", "nan_solved")
     if analysis == "buckling" and status == 0 and "buckling_factor" not in summary:
         bad("buckling run without buckling_factor in summary.json")
     state_file = summary.get("state_file")
@@ -494,6 +497,8 @@ def judge(status, stderr: str, scene_path: Path, out: Path, scene: dict) -> tupl
         key = m["key"] if m else ""
         if not m or m["file"] != str(scene_path) or not key.strip() or key in ("<file>", "<source>", "(top level)"):
             return "refusal_without_key", stderr.strip()[:300]
+        if out.exists():
+            return "unreadable", f"refused ({key}) but a results folder was left behind"
         return "refused", f"{key}: {m['what'].strip().splitlines()[0][:200]}"
     if status == 1 and "latdyn: error: the solver failed:" not in stderr:
         return "failure_without_message", stderr.strip()[:300]

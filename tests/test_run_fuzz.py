@@ -105,6 +105,13 @@ def test_the_judge_names_each_defect(tmp_path, status, stderr, expected):
     assert outcome == expected
 
 
+def test_the_judge_finds_a_refused_run_that_left_a_folder(tmp_path):
+    scene_path = tmp_path / "scene.yaml"
+    (tmp_path / "out").mkdir()
+    stderr = f"latdyn: error: {scene_path}: solve.dt: expected a positive number\n"
+    assert fuzz_runs.judge(2, stderr, scene_path, tmp_path / "out", SCENE)[0] == "unreadable"
+
+
 GOOD = "t,a,b\n0.0,1.0,2.0\n0.05,1.0,2.0\n0.1,1.0,2.0\n"
 
 
@@ -190,3 +197,51 @@ def test_every_scene_error_names_a_file_a_key_and_what_was_expected():
                 if len(node.args) + len(node.keywords) != 3 and not any(isinstance(a, ast.Starred) for a in node.args):
                     wrong.append(f"{source.relative_to(ROOT)}:{node.lineno}")
     assert not wrong, wrong
+
+
+PRESCRIBED_LINK = """\
+sections:
+  s: {EA: 1.0e6, EIy: 100, EIz: 100, GJ: 80, rhoA: 1}
+bodies:
+  g: {at: [0, 0, 0], fixed: true}
+beams:
+  crank:
+    from: g
+    to: [0, 0, 1]
+    section: s
+    rigid: true
+    start: {hinge: {axis: [0, 0, 1], angle: "0.5*t**2"}}
+loads:
+  - {at: crank.end, force: [1, 0, 0]}
+solve:
+  analysis: ANALYSIS
+  linear_model: {inputs: ["loads[0]"], outputs: [spin]}
+output:
+  probes:
+    spin: {hinge: crank.start, quantity: rate}
+"""
+
+
+@pytest.mark.parametrize("analysis", ["modes", "transient", "static"])
+def test_a_linear_model_of_a_structure_without_coordinates_is_refused(tmp_path, analysis):
+    """Found as case 193 of seed 1: a modal run of a rigid link on a prescribed hinge asked for a
+    linear model and ended "solved" without linear_model.npz (and without a word)."""
+    text = PRESCRIBED_LINK.replace("ANALYSIS", analysis)
+    if analysis == "transient":
+        text = text.replace("  linear_model:", "  t_end: 0.1\n  dt: 0.05\n  linear_model:")
+    status, err, path, out = run_cli(tmp_path, text)
+    assert status == 2, err
+    assert error_line(err).startswith(f"latdyn: error: {path}: solve.linear_model: expected "), err
+    assert not out.exists()
+
+
+def test_modes_of_a_structure_without_coordinates_are_none_and_say_so(tmp_path):
+    """Without a linear model the same scene's modal run is solved with no modes: modes.csv has its
+    header and no rows, summary.json ``coordinates`` 0."""
+    text = PRESCRIBED_LINK.replace("ANALYSIS", "modes").replace(
+        '  linear_model: {inputs: ["loads[0]"], outputs: [spin]}\n', "")
+    status, err, path, out = run_cli(tmp_path, text)
+    assert status == 0, err
+    assert (out / "modes.csv").read_text().splitlines()[0].startswith("mode,frequency_hz")
+    assert len((out / "modes.csv").read_text().splitlines()) == 1
+    assert json.loads((out / "summary.json").read_text())["coordinates"] == 0
