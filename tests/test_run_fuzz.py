@@ -245,3 +245,44 @@ def test_modes_of_a_structure_without_coordinates_are_none_and_say_so(tmp_path):
     assert (out / "modes.csv").read_text().splitlines()[0].startswith("mode,frequency_hz")
     assert len((out / "modes.csv").read_text().splitlines()) == 1
     assert json.loads((out / "summary.json").read_text())["coordinates"] == 0
+
+
+LINK_ON_A_HINGE = """\
+sections:
+  s: {EA: 1.0e6, EIy: 100, EIz: 100, GJ: 80, rhoA: 1}
+bodies:
+  g: {at: [0, 0, 0], fixed: true}
+beams:
+  link:
+    from: g
+    to: [1, 0, 0]
+    section: s
+    rigid: true
+    start: {hinge: {axis: [0, 0, 1], torque: 5, EVENT}}
+solve: {analysis: transient, t_end: 0.15, dt: 0.002, method: METHOD}
+output:
+  paraview_every: 0
+  probes:
+    angle: {hinge: link.start, quantity: angle}
+    rate: {hinge: link.start, quantity: rate}
+"""
+
+
+@pytest.mark.parametrize("event", ["lock_at: 0.1", "limits: [-0.5, 0.1], restitution: 0.5"], ids=["latch", "stop"])
+@pytest.mark.parametrize("method", ["generalized-alpha", "hht-alpha", "newmark", "explicit"])
+def test_every_method_meets_latches_and_stops(tmp_path, method, event):
+    """Found as case 196 of seed 1: a latch under the explicit method (which keeps no algorithmic
+    acceleration) raised TypeError (internal error). A rigid link driven by a unit-free torque 5
+    (θ = 7.5 t², at 0.1 rad at t = 0.115 s) latches there or bounces off the stop."""
+    status, err, path, out = run_cli(tmp_path, LINK_ON_A_HINGE.replace("EVENT", event).replace("METHOD", method))
+    assert status == 0, err
+    from latdyn.results.result import Result
+
+    result = Result.load(out)
+    angle, rate = result.probes["angle"], result.probes["rate"]
+    assert result.t[-1] == pytest.approx(0.15) and np.all(np.isfinite(angle))
+    assert angle.max() <= 0.1 + 1e-6
+    if event.startswith("lock_at"):
+        assert angle[-1] == pytest.approx(0.1, abs=1e-6) and rate[-1] == 0.0   # latched where it was located
+    else:
+        assert np.any(rate < 0)   # it came back off the stop

@@ -126,16 +126,19 @@ def latch_hinges(prepared: Prepared, integrator, old: State, new: State, h: floa
     lam = solve_linear(Nmat.T @ AiN, Nmat.T @ v)
     v = v - AiN @ lam
     unpack_free(model, v, new.v, new.w, new.theta_dot)
-    # carry the algorithmic acceleration across the renumbering
+    # carry the algorithmic acceleration across the renumbering (the explicit step keeps none)
+    algorithmic = getattr(integrator, "a", None)
     a_lin, a_ang, a_h = np.zeros_like(new.v), np.zeros_like(new.w), np.zeros_like(new.theta)
-    unpack_free(model, integrator.a, a_lin, a_ang, a_h)
+    if algorithmic is not None:
+        unpack_free(model, algorithmic, a_lin, a_ang, a_h)
     for k in latched:
         model.locked[k] = True
         new.theta_dot[k] = new.theta_ddot[k] = 0.0
         a_h[k] = 0.0
     model.number_coordinates()
     assembler.reindex()
-    integrator.a = pack(model, a_lin, a_ang, a_h)[: model.n_dofs]
+    if algorithmic is not None:
+        integrator.a = pack(model, a_lin, a_ang, a_h)[: model.n_dofs]
     return True
 
 
