@@ -70,11 +70,6 @@ TIMEOUT_S = 60.0
 #: a run past its timeout runs again with this many times the time before it counts as a hang
 RETRY = 4
 
-#: Classes of failure owned by other items of issue 30 while they are open; the generator leaves
-#: out what provokes them when ``exclude_open`` is set (the suite). Empty: none excluded.
-OPEN_ITEMS: dict[str, str] = {}
-
-
 # =========================================================================== the scene generator
 AXES = ([0, 0, 1], [0, 1, 0], [1, 0, 0])
 
@@ -513,8 +508,7 @@ def judge(status, stderr: str, scene_path: Path, out: Path, scene: dict) -> tupl
     return "solved", ""
 
 
-def run_case(seed: int, index: int, workdir: Path, *, timeout: float = TIMEOUT_S, resume_every: int = 8,
-             exclude_open: bool = False) -> dict:
+def run_case(seed: int, index: int, workdir: Path, *, timeout: float = TIMEOUT_S, resume_every: int = 8) -> dict:
     """Generate case ``index`` of ``seed``, run it (and, for every ``resume_every``-th transient case,
     interrupt and resume it) and judge it. Returns a record: index, outcome, detail, wall seconds, scene."""
     rng = np.random.default_rng([seed, index])
