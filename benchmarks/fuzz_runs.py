@@ -533,7 +533,8 @@ def run_case(seed: int, index: int, workdir: Path, *, timeout: float = TIMEOUT_S
               "analysis": scene["solve"]["analysis"], "stderr": stderr[-4000:], "scene": scene}
     if (outcome in ("solved", "failed") and scene["solve"]["analysis"] == "transient" and resume_every
             and index % resume_every == resume_every - 1):
-        record.update(_resume_check(scene_path, scene, out, status, case_dir, timeout))
+        # the interrupted and resumed runs may take as long as the uninterrupted one did
+        record.update(_resume_check(scene_path, scene, out, status, case_dir, RETRY * timeout))
     return record
 
 
