@@ -72,6 +72,8 @@ RETRY = 4
 
 # =========================================================================== the scene generator
 AXES = ([0, 0, 1], [0, 1, 0], [1, 0, 0])
+#: directions of a member from its start body
+DIRECTIONS = [[1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 1, 0], [0, -1, 0], [-1, 0, 0.5]]
 
 
 def _r(rng, lo, hi, digits=4) -> float:
@@ -166,7 +168,7 @@ def random_scene(rng: np.random.Generator) -> dict:
         name = f"m{i}"
         start = _choice(rng, names)
         at = np.array(bodies[start]["at"], float)
-        direction = np.array(_choice(rng, [[1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 1, 0], [0, -1, 0], [-1, 0, 0.5]]), float)
+        direction = np.array(_choice(rng, DIRECTIONS), float)
         length = _r(rng, 0.3, 2, 2)
         to_point = [round(float(x), 4) for x in at + length * direction / np.linalg.norm(direction)]
         rigid = rng.random() < 0.3

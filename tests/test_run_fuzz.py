@@ -193,7 +193,8 @@ def test_every_scene_error_names_a_file_a_key_and_what_was_expected():
     wrong = []
     for source in sorted((ROOT / "latdyn").rglob("*.py")):
         for node in ast.walk(ast.parse(source.read_text(encoding="utf-8"))):
-            if isinstance(node, ast.Call) and getattr(node.func, "id", getattr(node.func, "attr", None)) == "SceneError":
+            called = getattr(node, "func", None)
+            if isinstance(node, ast.Call) and getattr(called, "id", getattr(called, "attr", None)) == "SceneError":
                 if len(node.args) + len(node.keywords) != 3 and not any(isinstance(a, ast.Starred) for a in node.args):
                     wrong.append(f"{source.relative_to(ROOT)}:{node.lineno}")
     assert not wrong, wrong
