@@ -11,7 +11,7 @@ import numpy as np
 from latdyn.analyses import linearise
 from latdyn.analyses.continuation import static_path
 from latdyn.assembly.prepare import length_scale, prepare
-from latdyn.errors import ResultsError
+from latdyn.errors import ResultsError, SceneError
 from latdyn.results import paraview as paraview
 from latdyn.results.probe_labels import probe_labels
 from latdyn.results.probes import ProbeSet
@@ -67,6 +67,7 @@ def run(scene, out_dir=None, backend: str = "auto", progress: bool = False, *, r
     resume_from = _checkpoint_to_resume(scene, out_dir) if resume else None
     prepared = prepare(scene, backend)
     scene = prepared.scene
+    _check_linear_model(prepared)
     kernel_backend = prepared.assembler.kernels.backend
     if resume_from is not None:
         checkpoints.check(resume_from, out_dir, {"backend": kernel_backend})
@@ -95,6 +96,17 @@ def run(scene, out_dir=None, backend: str = "auto", progress: bool = False, *, r
     if analysis == "modes":
         result.modes = np.asarray(writer.summary.get("modes_hz", []))
     return result
+
+
+def _check_linear_model(prepared) -> None:
+    """``solve.linear_model`` of a structure with no coordinates (every part fixed, prescribed or set
+    by them) is refused before anything is written: it would have no states, and the file was once
+    left out without a word (found by benchmarks/fuzz_runs.py)."""
+    scene = prepared.scene
+    if scene.solve.linear_model is not None and prepared.model.n_dofs == 0:
+        raise SceneError(scene.file, "solve.linear_model",
+                         "expected a structure that can move: every part of this one is fixed or prescribed "
+                         "(it has no coordinates), so a linear model would have no states")
 
 
 def _checkpoint_to_resume(scene: Scene, out_dir) -> checkpoints.Checkpoint:

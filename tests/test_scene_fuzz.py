@@ -14,7 +14,8 @@ another exception, a traceback, exit status 1, or a hang. The examples are
 derandomized so that every run (and CI) tests the same ones.
 
 The regression tests below the properties are the crashes the fuzzing found,
-each with the mutation that caused it.
+each with the mutation that caused it. Whole runs of random valid scenes (every analysis,
+method and output, through ``latdyn run``) are fuzzed in ``tests/test_run_fuzz.py``.
 """
 from __future__ import annotations
 

@@ -413,8 +413,9 @@ def displacement_control(path: Path, state) -> object:
     model = path.model
     node, offset = model.point(control.point)
     if node not in set(int(n) for n in model.free_nodes):
-        raise SceneError(f"{path.prepared.scene.file}: solve.control.point: expected a point that moves "
-                         f"(on a free node), got {control.point.text!r} (fixed, prescribed or set by a rigid link)")
+        raise SceneError(path.prepared.scene.file, "solve.control.point",
+                         f"expected a point that moves (on a free node), got {control.point.text!r} (fixed, "
+                         "prescribed or set by a rigid link)")
     origin = state.x[node] + state.T[node] @ offset
 
     def displacement(s) -> float:
@@ -428,9 +429,9 @@ def displacement_control(path: Path, state) -> object:
         return g[:model.n_dofs]
 
     if not np.any(gradient(state)):
-        raise SceneError(f"{path.prepared.scene.file}: solve.control.direction: expected a direction in "
-                         f"which {control.point.text!r} can move, got {control.text} (out of the plane of "
-                         "a planar model? planar: off solves it in 3D)")
+        raise SceneError(path.prepared.scene.file, "solve.control.direction",
+                         f"expected a direction in which {control.point.text!r} can move, got {control.text} (out "
+                         "of the plane of a planar model? planar: off solves it in 3D)")
     lam, reached, k, h = 0.0, 0.0, 0, 1.0 / steps
     left_path = False  # a step towards the next row converged off the path
     rates = []  # the displacement rate at the start of every accepted step
