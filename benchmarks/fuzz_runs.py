@@ -15,6 +15,8 @@ The scene is written as YAML text and run in its own process, with a timeout. Th
 ==================  ===========================================================================
 ``solved``          exit 0; the results folder reads back (below)
 ``failed``          exit 1 with ``latdyn: error: the solver failed: ...``; what was recorded reads back
+``unbounded``       exit 1 with ``latdyn: error: unbounded: ...`` (the energy balance broke, docs/energy.md;
+                    summary.json status ``unbounded``); what was recorded reads back
 ``refused``         exit 2 with ``latdyn: error: FILE: KEY: ...`` (the message names the file and a key)
 ==================  ===========================================================================
 
@@ -30,7 +32,7 @@ and the defects, each a reason to look:
                             wrong rows or columns; a solved run whose status is not ``solved``, whose
                             last time is not ``t_end``, or that left its checkpoint behind
 ``refusal_without_key``     exit 2 whose message does not name the file and a key path
-``failure_without_message`` exit 1 without ``the solver failed:``
+``failure_without_message`` exit 1 without ``the solver failed:`` or ``unbounded:``
 ``resume_mismatch``         an interrupted and resumed run whose exit status or probes differ from
                             the uninterrupted run's
 ==========================  =====================================================================
@@ -62,7 +64,7 @@ import yaml
 
 REPO = Path(__file__).resolve().parents[1]
 
-OUTCOMES = ("solved", "failed", "refused")
+OUTCOMES = ("solved", "failed", "unbounded", "refused")
 DEFECTS = ("traceback", "hang", "exit_status", "nan_solved", "unreadable", "refusal_without_key",
            "failure_without_message", "resume_mismatch")
 #: default wall-clock limit of one ``latdyn run`` (a case is sized to take a few seconds)
@@ -497,13 +499,19 @@ def judge(status, stderr: str, scene_path: Path, out: Path, scene: dict) -> tupl
         if out.exists():
             return "unreadable", f"refused ({key}) but a results folder was left behind"
         return "refused", f"{key}: {m['what'].strip().splitlines()[0][:200]}"
-    if status == 1 and "latdyn: error: the solver failed:" not in stderr:
+    unbounded = status == 1 and "latdyn: error: unbounded:" in stderr
+    if status == 1 and not unbounded and "latdyn: error: the solver failed:" not in stderr:
         return "failure_without_message", stderr.strip()[:300]
     problems = check_folder(out, scene, status)
     if problems:
         kinds = [k for k, _ in problems]
         kind = "nan_solved" if "nan_solved" in kinds else "unreadable"
         return kind, "; ".join(d for _, d in problems)[:500]
+    if unbounded:
+        status_in_summary = json.loads((out / "summary.json").read_text()).get("status")
+        if status_in_summary != "unbounded":
+            return "unreadable", f"unbounded on stderr, summary.json status {status_in_summary!r}"
+        return "unbounded", re.search(r"unbounded: (.*)", stderr).group(1)[:200]
     if status == 1:
         m = re.search(r"the solver failed: (.*)", stderr)
         return "failed", m.group(1)[:200] if m else ""
