@@ -131,13 +131,14 @@ eigen-solve (10⁴ coordinates: 13 ms for a beam, 51 ms for a 3D lattice).
 """
 from __future__ import annotations
 
+import sys
 from contextlib import contextmanager
 
 import numpy as np
-import scipy.sparse as sps
 
-# scipy.sparse.linalg (SuperLU, psd_null_direction) and scipy.sparse.csgraph (RCM) are imported
-# where they are used: the compiled step of a small model needs neither.
+# scipy.sparse (and its linalg and csgraph) is imported where it is used: a model that the dense
+# LU serves runs without it (the import costs more CPU time than a short run; docs/performance.md,
+# "First run"). `issparse` tells a SciPy sparse matrix without importing SciPy.
 
 #: Models with at most this many free coordinates use dense matrices and LU.
 DENSE_LIMIT = 120
@@ -149,6 +150,13 @@ BAND_LIMIT = 100
 
 #: SuperLU options (psd_null_direction): minimum degree on AᵀA + A, diagonal pivots preferred.
 SUPERLU_OPTIONS = {"diag_pivot_thresh": 0.1, "options": {"SymmetricMode": True}}
+
+
+def issparse(matrix) -> bool:
+    """Whether ``matrix`` is a SciPy sparse matrix or array; without importing scipy.sparse, which
+    cannot have made one when it is not imported."""
+    sparse = sys.modules.get("scipy.sparse")
+    return sparse is not None and sparse.issparse(matrix)
 
 
 # ----------------------------------------------------------------------------- BLAS threads
@@ -222,6 +230,7 @@ def rcm_band(rows: np.ndarray, cols: np.ndarray, n: int):
     """Reverse Cuthill–McKee order of the pattern (rows, cols) of an n × n matrix:
     (perm, new, lower, upper) with ``perm`` the old index at each new place, ``new`` its
     inverse, and the lower and upper bandwidths in the new order."""
+    import scipy.sparse as sps  # only for band and sparse storage (see the top of the module)
     import scipy.sparse.csgraph as csgraph
 
     pattern = sps.csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n))
@@ -248,21 +257,30 @@ def psd_null_direction(A, tol: float = 1e-10, shift: float = 1e-9, iterations: i
     can never be reported unheld; with a null space the quotient falls to
     round-off (~1e-16) within two or three steps.  Iteration stops when the
     quotient is ≤ tol·1e-3 or no longer falls.
+
+    A dense ``A`` (a NumPy array: a model of at most DENSE_LIMIT coordinates) is factorized by
+    NumPy's LU, once (its inverse), a sparse one by SuperLU; the iteration is the same.
     """
-    A = sps.csc_matrix(A)
     n = A.shape[0]
     if n == 0:
         return np.inf, np.zeros(0)
-    import scipy.sparse.linalg as spla
+    if issparse(A):
+        import scipy.sparse as sps  # only for sparse matrices (see the top of the module)
+        import scipy.sparse.linalg as spla
 
-    shifted = (A + shift * sps.identity(n, format="csc")).tocsc()
-    lu = spla.splu(shifted, permc_spec="MMD_AT_PLUS_A", **SUPERLU_OPTIONS)
+        A = sps.csc_matrix(A)
+        shifted = (A + shift * sps.identity(n, format="csc")).tocsc()
+        solve = spla.splu(shifted, permc_spec="MMD_AT_PLUS_A", **SUPERLU_OPTIONS).solve
+    else:
+        A = np.asarray(A, float)
+        inverse = np.linalg.inv(A + shift * np.eye(n))  # positive definite: the LU exists
+        solve = inverse.__matmul__
     rng = np.random.default_rng(seed)
     x = rng.standard_normal(n)
     x /= np.linalg.norm(x)
     best = (np.inf, x)
     for _ in range(iterations):
-        y = lu.solve(x)
+        y = solve(x)
         norm = np.linalg.norm(y)
         if not np.isfinite(norm) or norm == 0.0:
             break
@@ -277,5 +295,5 @@ def psd_null_direction(A, tol: float = 1e-10, shift: float = 1e-9, iterations: i
     return rho, x / np.max(np.abs(x))
 
 
-__all__ = ["DENSE_LIMIT", "BAND_LIMIT", "use_dense", "rcm_band", "single_thread_blas", "openblas_thread_functions",
+__all__ = ["DENSE_LIMIT", "BAND_LIMIT", "issparse", "use_dense", "rcm_band", "single_thread_blas", "openblas_thread_functions",
            "psd_null_direction"]

@@ -52,7 +52,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.sparse as sps
 
 from latdyn.assembly.assembler import (
     Assembler,
@@ -70,6 +69,7 @@ from latdyn.numerics.inertia import (
     split_inertia,
 )
 from latdyn.assembly.factorization import solve_linear
+from latdyn.numerics.linalg import issparse
 
 
 @dataclass(frozen=True)
@@ -129,16 +129,16 @@ def consistent_acceleration(model, ev) -> np.ndarray:
     the time derivative of their static equilibrium prescribes to first order,
     Q_cᵀ K Q_c y_c = −Q_cᵀ K Q_m y_m.  No artificial inertia is added anywhere.
     """
-    M = ev.mass
+    M = ev.combined(1.0, 0.0, 0.0)  # dense where the dense LU serves the model, else CSR
     split = split_inertia(model, M)
     Qm, Qc = split.massive, split.massless
     delta = np.zeros(model.n_dofs)
     if split.n_massive:
-        y_m = solve_linear((Qm.T @ M @ Qm).tocsr(), -(Qm.T @ ev.residual))
+        y_m = solve_linear(Qm.T @ M @ Qm, -(Qm.T @ ev.residual))
         delta += Qm @ y_m
     if split.n_massless:
-        K = ev.stiffness
-        Kcc = (Qc.T @ K @ Qc).tocsr()
+        K = ev.combined(0.0, 0.0, 1.0)
+        Kcc = Qc.T @ K @ Qc
         try:
             delta += Qc @ solve_linear(Kcc, -(Qc.T @ (K @ delta)))
         except np.linalg.LinAlgError as exc:
@@ -188,7 +188,7 @@ class GeneralizedAlpha:
         ev = getattr(self, "last_evaluation", None)
         if ev is None or self.assembler.model.n_dofs == 0:
             return 0.0
-        blocks = joint_blocks(self.assembler.model, ev.mass, self.groups())
+        blocks = joint_blocks(self.assembler.model, ev.combined(1.0, 0.0, 0.0), self.groups())
         size = joint_norms(blocks, self.a_candidate - self.a)
         return h * h * abs(self.p.beta - 1 / 6) * float(np.max(size, initial=0.0))
 
@@ -236,7 +236,9 @@ def explicit_acceleration(model, ev, split, vdot: np.ndarray) -> np.ndarray:
     if split.n_massless == 0:
         return Qm @ solve_linear(Qm.T @ M @ Qm, -(Qm.T @ r0))
     blocks = [[Qm.T @ M @ Qm, Qm.T @ M @ Qc], [Qc.T @ K @ Qm, Qc.T @ K @ Qc]]
-    if sps.issparse(M):
+    if issparse(M):
+        import scipy.sparse as sps  # on use: the dense LU's models run without it
+
         A = sps.bmat(blocks, format="csr")
     else:
         A = np.block(blocks)
