@@ -360,9 +360,10 @@ class Model:
         Jacobi-scaled (unit diagonal), which makes the test blind to units and to
         the n⁴ spread of bending stiffness in fine meshes.  A coordinate with a
         zero diagonal is unheld at once; otherwise :func:`latdyn.numerics.linalg.psd_null_direction`
-        (inverse iteration on one LU, dense for a model the dense LU serves, else sparse; any size) returns the smallest
-        Rayleigh quotient it reaches: round-off (~1e-16) for an unheld direction,
-        never below λ_min(A) for a held model, where the weakest held direction
+        (inverse iteration on one sparse LU, any size; for a model the dense LU serves, the exact
+        smallest eigenpair of the dense A) returns the smallest Rayleigh quotient it reaches:
+        round-off (~1e-16) for an unheld direction, not below λ_min(A) (but for round-off) for a
+        held model, where the weakest held direction
         of a fine mesh still has λ ≳ 1/N² (N elements in a chain).  The
         direction need not be a coordinate axis (a massless body spinning about
         the axis of a hinge that carries its only beam): the coordinates with the

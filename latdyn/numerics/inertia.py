@@ -154,7 +154,8 @@ def joint_blocks(model, mass, groups: np.ndarray | None = None) -> JointBlocks:
     diag = np.diagonal(blocks, axis1=1, axis2=2)
     scale = np.ones(groups.shape)
     translation_mass = np.zeros(len(groups))
-    for unit in np.unique(kind[kind >= 0]):
+    # the units present, ascending (a plain np.unique would import numpy.ma: docs/performance.md)
+    for unit in np.flatnonzero(np.bincount(kind[kind >= 0].ravel())):
         in_unit = kind == unit
         count = in_unit.sum(axis=1)
         mean = (diag * in_unit).sum(axis=1) / np.maximum(count, 1)

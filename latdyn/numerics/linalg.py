@@ -258,23 +258,25 @@ def psd_null_direction(A, tol: float = 1e-10, shift: float = 1e-9, iterations: i
     round-off (~1e-16) within two or three steps.  Iteration stops when the
     quotient is ≤ tol·1e-3 or no longer falls.
 
-    A dense ``A`` (a NumPy array: a model of at most DENSE_LIMIT coordinates) is factorized by
-    NumPy's LU, once (its inverse), a sparse one by SuperLU; the iteration is the same.
+    A dense ``A`` (a NumPy array: a model of at most DENSE_LIMIT coordinates, the held check of a
+    model the dense LU serves) is solved exactly instead: its smallest eigenvalue and eigenvector
+    (LAPACK ``syevd``; ≤ 120 coordinates: ~1 ms), λ_min to round-off, without SciPy and without
+    NumPy's random generator, whose import alone costs more than that (docs/performance.md,
+    "First run").
     """
     n = A.shape[0]
     if n == 0:
         return np.inf, np.zeros(0)
-    if issparse(A):
-        import scipy.sparse as sps  # only for sparse matrices (see the top of the module)
-        import scipy.sparse.linalg as spla
+    if not issparse(A):
+        eigenvalues, vectors = np.linalg.eigh(np.asarray(A, float))
+        x = vectors[:, 0]
+        return float(eigenvalues[0]), x / np.max(np.abs(x))
+    import scipy.sparse as sps  # only for sparse matrices (see the top of the module)
+    import scipy.sparse.linalg as spla
 
-        A = sps.csc_matrix(A)
-        shifted = (A + shift * sps.identity(n, format="csc")).tocsc()
-        solve = spla.splu(shifted, permc_spec="MMD_AT_PLUS_A", **SUPERLU_OPTIONS).solve
-    else:
-        A = np.asarray(A, float)
-        inverse = np.linalg.inv(A + shift * np.eye(n))  # positive definite: the LU exists
-        solve = inverse.__matmul__
+    A = sps.csc_matrix(A)
+    shifted = (A + shift * sps.identity(n, format="csc")).tocsc()
+    solve = spla.splu(shifted, permc_spec="MMD_AT_PLUS_A", **SUPERLU_OPTIONS).solve
     rng = np.random.default_rng(seed)
     x = rng.standard_normal(n)
     x /= np.linalg.norm(x)
