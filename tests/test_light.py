@@ -178,6 +178,32 @@ def test_scipy_lapack_without_scipy_linalg_is_the_same_lapack(tmp_path):
 
 
 
+def test_scipy_openblas_is_pinned_though_blas_was_asked_before_it_was_loaded(tmp_path):
+    """SciPy's LAPACK is loaded on use, so BLAS may be limited (``single_thread_blas``, e.g. the
+    held check of a model of 65–120 coordinates) before SciPy's OpenBLAS is there: the compiled
+    step must still pin SciPy's OpenBLAS, not NumPy's."""
+    found = _python("""
+        import ctypes, json
+        from latdyn.numerics import linalg
+        with linalg.single_thread_blas():  # BLAS looked up before SciPy's LAPACK is loaded
+            pass
+        from latdyn.assembly.library import lapack_address
+        lapack_address("dgetrf")
+        get, put = linalg.openblas_thread_functions()
+        own = [lib for lib in linalg._blas_controllers(refresh=True)
+               if lib.internal_api == "openblas" and linalg._in_scipy_folder(lib.filepath)]
+        expected = None
+        if len(own) == 1:
+            prefix, suffix = own[0]._find_affixes()
+            function = getattr(own[0].dynlib, f"{prefix}openblas_get_num_threads{suffix}")
+            expected = ctypes.cast(function, ctypes.c_void_p).value
+        print(json.dumps({"get": get, "expected": expected, "scipy_openblas": len(own)}))
+    """, tmp_path / "cache")
+    if found["scipy_openblas"] != 1:
+        pytest.skip("SciPy's LAPACK is not its own OpenBLAS here")
+    assert found["get"] == found["expected"] is not None
+
+
 def test_instruction_set_macros_are_asked_once_per_compiler_and_cpu(monkeypatch, tmp_path):
     """The macros of -march= come from the kernel cache after the first process has asked the
     compiler; another CPU (another /proc/cpuinfo) asks the compiler again, into its own file."""

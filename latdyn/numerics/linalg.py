@@ -127,7 +127,10 @@ solved in.
 symmetric positive semi-definite A with unit diagonal (the held-coordinate
 check of the scene, see :meth:`latdyn.model.model.Model.check_held`), by inverse
 iteration with one sparse LU of A + δI: at any size, without a dense
-eigen-solve (10⁴ coordinates: 13 ms for a beam, 51 ms for a 3D lattice).
+eigen-solve (10⁴ coordinates: 13 ms for a beam, 51 ms for a 3D lattice).  A dense A (a model
+of at most DENSE_LIMIT coordinates, assembled as a NumPy array) gets its exact smallest
+eigenpair instead (``numpy.linalg.eigh``), with neither SciPy's sparse package nor NumPy's random
+generator imported.
 """
 from __future__ import annotations
 
@@ -148,6 +151,12 @@ DENSE_LIMIT = 120
 #: (latdyn.assembly.factorization, for the compiled step and the analyses alike).
 BAND_LIMIT = 100
 
+#: Dense symmetric eigenproblems above this size are solved with BLAS on one thread
+#: (:func:`psd_null_direction`). Measured 2026-11-26 on the 2-core AMD EPYC, load ≈ 10, OpenBLAS
+#: free to take both cores: n = 120 took 1.5 ms in one round and 53 ms in another, on one thread
+#: 0.9 ms; n = 24–96 took 0.05–0.85 ms.
+SINGLE_THREAD_EIGH = 64
+
 #: SuperLU options (psd_null_direction): minimum degree on AᵀA + A, diagonal pivots preferred.
 SUPERLU_OPTIONS = {"diag_pivot_thresh": 0.1, "options": {"SymmetricMode": True}}
 
@@ -164,9 +173,10 @@ def issparse(matrix) -> bool:
 _blas = None  # list of threadpoolctl library controllers, [] when unavailable
 
 
-def _blas_controllers() -> list:
+def _blas_controllers(refresh: bool = False) -> list:
+    """threadpoolctl's controllers of the BLAS libraries loaded when first asked (``refresh``: now)."""
     global _blas
-    if _blas is None:
+    if _blas is None or refresh:
         try:
             from threadpoolctl import ThreadpoolController
 
@@ -195,6 +205,14 @@ def single_thread_blas():
             lib.set_num_threads(k)
 
 
+def _in_scipy_folder(path) -> bool:
+    """Whether a library lies in SciPy's own folders (``scipy.libs/``, ``scipy/.dylibs/``): by the
+    folders, not the file's name, which NumPy's OpenBLAS shares (``numpy.libs/libscipy_openblas64_…``)."""
+    from pathlib import PurePath
+
+    return any(part == "scipy" or part.startswith("scipy.") for part in PurePath(str(path)).parent.parts)
+
+
 def openblas_thread_functions() -> tuple[int | None, int | None]:
     """Addresses of ``openblas_get_num_threads`` and ``openblas_set_num_threads`` of the OpenBLAS
     behind SciPy's cython_blas / cython_lapack (the library under SciPy's folder, or the only
@@ -203,8 +221,13 @@ def openblas_thread_functions() -> tuple[int | None, int | None]:
     threadpoolctl (then nothing is pinned)."""
     import ctypes
 
-    candidates = [lib for lib in _blas_controllers() if getattr(lib, "internal_api", "") == "openblas"]
-    scipy_own = [lib for lib in candidates if "scipy" in str(getattr(lib, "filepath", ""))]
+    def openblas(controllers):
+        found = [lib for lib in controllers if getattr(lib, "internal_api", "") == "openblas"]
+        return found, [lib for lib in found if _in_scipy_folder(getattr(lib, "filepath", ""))]
+
+    candidates, scipy_own = openblas(_blas_controllers())
+    if not scipy_own:  # asked before SciPy's LAPACK was loaded (it is loaded on use): look again
+        candidates, scipy_own = openblas(_blas_controllers(refresh=True))
     chosen = scipy_own or (candidates if len(candidates) == 1 else [])
     if not chosen:
         return None, None
@@ -268,7 +291,12 @@ def psd_null_direction(A, tol: float = 1e-10, shift: float = 1e-9, iterations: i
     if n == 0:
         return np.inf, np.zeros(0)
     if not issparse(A):
-        eigenvalues, vectors = np.linalg.eigh(np.asarray(A, float))
+        A = np.asarray(A, float)
+        if n > SINGLE_THREAD_EIGH:  # OpenBLAS may thread here; on a busy core that costs ×30
+            with single_thread_blas():
+                eigenvalues, vectors = np.linalg.eigh(A)
+        else:
+            eigenvalues, vectors = np.linalg.eigh(A)
         x = vectors[:, 0]
         return float(eigenvalues[0]), x / np.max(np.abs(x))
     import scipy.sparse as sps  # only for sparse matrices (see the top of the module)
