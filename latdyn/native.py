@@ -220,16 +220,20 @@ def isa_macros(using: Compiler | None = None, chosen: str = "native") -> frozens
 
 def _cpu_identity() -> bytes | None:
     """What identifies this CPU's instruction set: the vendor, model and feature flags of the first
-    processor in ``/proc/cpuinfo`` (what ``-march=native`` reads through CPUID); None where there is
-    no such file (then the compiler is asked in every process)."""
+    processor in ``/proc/cpuinfo`` (what ``-march=native`` reads through CPUID; ``Features`` and the
+    CPU part on ARM); None where there is no such file or it lists no features (then the compiler
+    is asked in every process)."""
     try:
         text = Path("/proc/cpuinfo").read_bytes()
     except OSError:
         return None
     first = text.split(b"\n\n", 1)[0]
-    wanted = (b"vendor_id", b"cpu family", b"model", b"model name", b"stepping", b"flags")
+    wanted = (b"vendor_id", b"cpu family", b"model", b"model name", b"stepping", b"flags", b"Features",
+              b"CPU implementer", b"CPU architecture", b"CPU variant", b"CPU part", b"CPU revision")
     lines = [line for line in first.splitlines() if line.split(b":", 1)[0].strip() in wanted]
-    return b"\n".join(lines) if lines else None
+    if not any(line.split(b":", 1)[0].strip() in (b"flags", b"Features") for line in lines):
+        return None
+    return b"\n".join(lines)
 
 
 def _stored_macros(using: Compiler, chosen: str) -> Path | None:

@@ -27,7 +27,7 @@ def prepare(scene, backend: str = "auto") -> Prepared:
     kernels = load_kernels(backend=backend, variant=model.kernel_variant)
     assembler = Assembler(model, kernels, scene.gravity)
     state = assembler.initial_state()
-    if model.n_dofs > 0:  # any size: one LU and a few inverse iterations (Model.check_held)
+    if model.n_dofs > 0:  # any size: inverse iterations on one sparse LU, or a dense eigenproblem (Model.check_held)
         at_rest = state.copy()
         at_rest.v[:] = at_rest.w[:] = 0.0
         at_rest.theta_dot[:] = 0.0

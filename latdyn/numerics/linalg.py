@@ -325,5 +325,5 @@ def psd_null_direction(A, tol: float = 1e-10, shift: float = 1e-9, iterations: i
     return rho, x / np.max(np.abs(x))
 
 
-__all__ = ["DENSE_LIMIT", "BAND_LIMIT", "issparse", "use_dense", "rcm_band", "single_thread_blas", "openblas_thread_functions",
-           "psd_null_direction"]
+__all__ = ["DENSE_LIMIT", "BAND_LIMIT", "SINGLE_THREAD_EIGH", "issparse", "use_dense", "rcm_band", "single_thread_blas",
+           "openblas_thread_functions", "psd_null_direction"]
