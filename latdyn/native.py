@@ -191,19 +191,73 @@ def vector_flags(using: Compiler | None = None) -> tuple[str, ...]:
 
 def isa_macros(using: Compiler | None = None, chosen: str = "native") -> frozenset[str]:
     """The macros ``-march=<chosen>`` makes the compiler define (``__AVX512F__``, …); empty when it
-    does not take the option. Found once per compiler and instruction set."""
+    does not take the option. Found once per compiler and instruction set: asked of the compiler
+    (a preprocessor run, 15–40 ms of a fresh process) once per compiler, instruction set and CPU,
+    then read from the kernel cache (:func:`_stored_macros`)."""
     using = using or compiler()
     key = (using.identity(), chosen)
     if key not in _VECTOR_FLAGS:
-        try:
-            result = subprocess.run([*using.command, f"-march={chosen}", "-dM", "-E", "-x", "c", os.devnull],
-                                    capture_output=True, timeout=120, check=False)
-            macros = result.stdout.decode(errors="replace") if result.returncode == 0 else ""
-        except (OSError, subprocess.SubprocessError):
-            macros = ""
+        stored = _stored_macros(using, chosen)
+        macros = None
+        if stored is not None:
+            try:
+                macros = stored.read_text()
+            except (OSError, UnicodeDecodeError):
+                macros = None
+        if macros is None:
+            try:
+                result = subprocess.run([*using.command, f"-march={chosen}", "-dM", "-E", "-x", "c", os.devnull],
+                                        capture_output=True, timeout=120, check=False)
+                macros = result.stdout.decode(errors="replace") if result.returncode == 0 else ""
+            except (OSError, subprocess.SubprocessError):
+                macros = ""
+            if macros and stored is not None:
+                _store(stored, macros)
         _VECTOR_FLAGS[key] = frozenset(line.split()[1] for line in macros.splitlines()
                                        if line.startswith("#define "))
     return _VECTOR_FLAGS[key]
+
+
+def _cpu_identity() -> bytes | None:
+    """What identifies this CPU's instruction set: the vendor, model and feature flags of the first
+    processor in ``/proc/cpuinfo`` (what ``-march=native`` reads through CPUID; ``Features`` and the
+    CPU part on ARM); None where there is no such file or it lists no features (then the compiler
+    is asked in every process)."""
+    try:
+        text = Path("/proc/cpuinfo").read_bytes()
+    except OSError:
+        return None
+    first = text.split(b"\n\n", 1)[0]
+    wanted = (b"vendor_id", b"cpu family", b"model", b"model name", b"stepping", b"flags", b"Features",
+              b"CPU implementer", b"CPU architecture", b"CPU variant", b"CPU part", b"CPU revision")
+    lines = [line for line in first.splitlines() if line.split(b":", 1)[0].strip() in wanted]
+    if not any(line.split(b":", 1)[0].strip() in (b"flags", b"Features") for line in lines):
+        return None
+    return b"\n".join(lines)
+
+
+def _stored_macros(using: Compiler, chosen: str) -> Path | None:
+    """Where the kernel cache keeps the macros of ``-march=<chosen>`` for this compiler (its
+    :meth:`Compiler.identity`) on this CPU (:func:`_cpu_identity`): a cache shared by machines keeps
+    one file per CPU, so that no machine reads another's instruction set. None without a CPU identity."""
+    cpu = _cpu_identity()
+    if cpu is None:
+        return None
+    digest = hashlib.sha256(b"\0".join([using.identity(), chosen.encode(), cpu])).hexdigest()[:16]
+    return cache_dir() / f"isa-{digest}.txt"
+
+
+def _store(path: Path, text: str) -> None:
+    """``text`` into ``path`` atomically (a scratch file renamed); a cache that cannot be written
+    is left alone (the compiler is asked again next time)."""
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile("w", dir=path.parent, prefix=path.name, suffix=".tmp",
+                                         delete=False) as scratch:
+            scratch.write(text)
+        os.replace(scratch.name, path)
+    except OSError:
+        pass
 
 
 _VECTOR_FLAGS: dict[tuple[bytes, str], frozenset[str]] = {}

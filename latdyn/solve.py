@@ -8,8 +8,6 @@ import time
 
 import numpy as np
 
-from latdyn.analyses import linearise
-from latdyn.analyses.continuation import static_path
 from latdyn.assembly.prepare import length_scale, prepare
 from latdyn.errors import ResultsError, SceneError
 from latdyn.results import paraview as paraview
@@ -156,6 +154,8 @@ def _analyse(prepared, probes: ProbeSet, writer: ResultWriter, out_dir, analysis
     linear model written before it. Failed runs report it too."""
     scene = prepared.scene
     if scene.solve.linear_model is not None and analysis != "modes":  # about the chosen state, before the run
+        from latdyn.analyses import linearise  # on use: a transient run needs no analysis (docs/performance.md)
+
         linearise.write_linear_model(prepared, out_dir, writer.summary)
     if analysis == "transient":
         transient(prepared, probes, writer, progress, checkpointer, resume_from)
@@ -165,12 +165,16 @@ def _analyse(prepared, probes: ProbeSet, writer: ResultWriter, out_dir, analysis
         if analysis == "modes":  # about solve.about (latdyn/analyses/linearise.py)
             _modes(prepared, writer, out_dir)
         elif analysis == "buckling":
+            from latdyn.analyses import linearise
+
             found = linearise.buckling_analysis(prepared, scene.solve.count)
             warnings = found.pop("warnings", [])
             writer.summary.update(found)
             if warnings:
                 writer.summary.setdefault("warnings", []).extend(warnings)
         else:
+            from latdyn.analyses.continuation import static_path
+
             static_path(prepared, probes, writer, length_scale(prepared.model))
     finally:
         writer.summary["solver_s"] = time.perf_counter() - started
@@ -179,6 +183,8 @@ def _analyse(prepared, probes: ProbeSet, writer: ResultWriter, out_dir, analysis
 def _modes(prepared, writer: ResultWriter, out_dir) -> None:
     """The modal analysis about ``solve.about``: modes.csv, the summary's frequencies and damping
     ratios, the mode shapes (animated) and the linear model where the scene asks for them."""
+    from latdyn.analyses import linearise  # on use: a transient run needs no analysis (docs/performance.md)
+
     scene = prepared.scene
     if scene.solve.about == "initial":
         _warn_moving(scene, writer)

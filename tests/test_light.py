@@ -107,6 +107,131 @@ def test_scene_with_expressions_uses_the_caches_in_a_later_process(tmp_path):
     assert "compiling" not in second["stderr"]
 
 
+#: What ``latdyn run`` of a transient scene that the dense LU serves must not import (issue 31,
+#: item 5; docs/performance.md, "First run"): SciPy's sparse and dense packages (its LAPACK comes
+#: from the extension ``scipy.linalg.cython_lapack`` alone), the analyses and the studies, and
+#: what only they or SciPy's packages pull in (NumPy's random, masked arrays, f2py and testing).
+NOT_FOR_A_SMALL_RUN = HEAVY + ("scipy.sparse", "scipy.linalg", "scipy.optimize", "scipy.integrate",
+                               "numpy.random", "numpy.ma", "numpy.f2py", "numpy.testing", "unittest",
+                               "difflib", "latdyn.analyses", "latdyn.studies")
+
+#: Writes the modules a process imported, as JSON, to $LATDYN_TEST_MODULES when it exits
+#: (a sitecustomize on PYTHONPATH: the command itself runs unchanged).
+_MODULES_HOOK = """\
+import atexit, json, os, sys
+
+def _dump():
+    with open(os.environ["LATDYN_TEST_MODULES"], "w") as out:
+        json.dump(sorted(sys.modules), out)
+
+atexit.register(_dump)
+"""
+
+
+def _imported_by_a_run(tmp_path, scene_text: str) -> set[str]:
+    """The modules a fresh ``python -m latdyn run`` of ``scene_text`` imports, with the kernels
+    and laws already in the cache (a first run puts them there; the second is the one read)."""
+    scene = tmp_path / "scene.yaml"
+    scene.write_text(scene_text)
+    hook = tmp_path / "hook"
+    hook.mkdir()
+    (hook / "sitecustomize.py").write_text(_MODULES_HOOK)
+    listing = tmp_path / "modules.json"
+    environment = {**os.environ, "PYTHONPATH": os.pathsep.join([str(hook), str(SOURCE)]),
+                   "LATDYN_TEST_MODULES": str(listing)}
+    for out in ("first", "second"):
+        done = subprocess.run([sys.executable, "-m", "latdyn", "run", str(scene), "-o", str(tmp_path / out), "-q"],
+                              capture_output=True, text=True, env=environment, timeout=600, cwd=tmp_path)
+        assert done.returncode == 0, done.stderr
+    assert (tmp_path / "second" / "probes.csv").read_text() == (tmp_path / "first" / "probes.csv").read_text()
+    return set(json.loads(listing.read_text()))
+
+
+def test_a_small_transient_run_imports_only_what_it_needs(tmp_path):
+    """A beam on a hub (24 coordinates: the dense LU) run through the CLI: no SciPy package but
+    its LAPACK extension, no analysis, nothing of NumPy's that only SciPy's packages import."""
+    modules = _imported_by_a_run(tmp_path, NO_EXPRESSIONS.replace("t_end: 0.2", "t_end: 0.05"))
+    assert {"latdyn.solve", "latdyn.timeloop.transient", "numpy", "h5py"} <= modules  # the hook saw the run
+    assert "scipy.linalg.cython_lapack" in modules  # where the dense LU's LAPACK comes from
+    unneeded = sorted(m for m in modules - {"scipy.linalg.cython_lapack"}
+                      if m in NOT_FOR_A_SMALL_RUN or m.startswith(tuple(n + "." for n in NOT_FOR_A_SMALL_RUN)))
+    assert unneeded == [], f"a small transient run imported {unneeded}"
+
+
+def test_scipy_lapack_without_scipy_linalg_is_the_same_lapack(tmp_path):
+    """:func:`latdyn.assembly.library.scipy_extension` loads SciPy's LAPACK capsules without
+    ``scipy.linalg``: the same routines as the ordinary import, which still works after it."""
+    found = _python("""
+        import json, sys
+        from latdyn.assembly.library import cython_address, lapack_address
+        before = {name: lapack_address(name) for name in ("dgetrf", "dgetrs", "dgbtrf", "dgbtrs")}
+        alone = "scipy.linalg" not in sys.modules and "scipy.sparse" not in sys.modules
+        import numpy as np
+        import scipy.linalg
+        import scipy.linalg.cython_lapack as lapack
+        after = {name: cython_address(lapack, name) for name in before}
+        lu, piv = scipy.linalg.lu_factor(np.array([[4.0, 3.0], [6.0, 3.0]]))
+        print(json.dumps({"alone": alone, "same": before == after, "lu": lu.tolist()}))
+    """, tmp_path / "cache")
+    assert found["alone"] and found["same"]
+    assert found["lu"] == [[6.0, 3.0], [4.0 / 6.0, 1.0]]
+
+
+
+def test_scipy_openblas_is_pinned_though_blas_was_asked_before_it_was_loaded(tmp_path):
+    """SciPy's LAPACK is loaded on use, so BLAS may be limited (``single_thread_blas``, e.g. the
+    held check of a model of 65–120 coordinates) before SciPy's OpenBLAS is there: the compiled
+    step must still pin SciPy's OpenBLAS, not NumPy's."""
+    found = _python("""
+        import ctypes, json
+        from latdyn.numerics import linalg
+        with linalg.single_thread_blas():  # BLAS looked up before SciPy's LAPACK is loaded
+            pass
+        from latdyn.assembly.library import lapack_address
+        lapack_address("dgetrf")
+        get, put = linalg.openblas_thread_functions()
+        own = [lib for lib in linalg._blas_controllers(refresh=True)
+               if lib.internal_api == "openblas" and linalg._in_scipy_folder(lib.filepath)]
+        expected = None
+        if len(own) == 1:
+            prefix, suffix = own[0]._find_affixes()
+            function = getattr(own[0].dynlib, f"{prefix}openblas_get_num_threads{suffix}")
+            expected = ctypes.cast(function, ctypes.c_void_p).value
+        print(json.dumps({"get": get, "expected": expected, "scipy_openblas": len(own)}))
+    """, tmp_path / "cache")
+    if found["scipy_openblas"] != 1:
+        pytest.skip("SciPy's LAPACK is not its own OpenBLAS here")
+    assert found["get"] == found["expected"] is not None
+
+
+def test_instruction_set_macros_are_asked_once_per_compiler_and_cpu(monkeypatch, tmp_path):
+    """The macros of -march= come from the kernel cache after the first process has asked the
+    compiler; another CPU (another /proc/cpuinfo) asks the compiler again, into its own file."""
+    from latdyn import native
+
+    if native._cpu_identity() is None:
+        pytest.skip("no /proc/cpuinfo: the compiler is asked in every process")
+    monkeypatch.setenv("LATDYN_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.setattr(native, "_VECTOR_FLAGS", {})
+    asked = []
+    real_run = native.subprocess.run
+
+    def counting_run(command, *args, **kwargs):
+        if "-dM" in command:
+            asked.append(command)
+        return real_run(command, *args, **kwargs)
+
+    monkeypatch.setattr(native.subprocess, "run", counting_run)
+    first = native.isa_macros()
+    assert first and len(asked) == 1 and len(list((tmp_path / "cache").glob("isa-*.txt"))) == 1
+    monkeypatch.setattr(native, "_VECTOR_FLAGS", {})  # a fresh process
+    assert native.isa_macros() == first and len(asked) == 1
+    monkeypatch.setattr(native, "_VECTOR_FLAGS", {})
+    monkeypatch.setattr(native, "_cpu_identity", lambda: b"flags: another cpu")
+    assert native.isa_macros() == first and len(asked) == 2  # asked again (same compiler here)
+    assert len(list((tmp_path / "cache").glob("isa-*.txt"))) == 2
+
+
 def _fresh(monkeypatch, tmp_path):
     import latdyn.scene.expressions as expressions
 

@@ -142,6 +142,28 @@ def test_psd_null_direction_finds_an_oblique_null_vector():
     assert np.max(np.abs(x[4:])) < 1e-6
 
 
+
+def test_psd_null_direction_of_a_dense_matrix_is_its_smallest_eigenpair():
+    """A NumPy array (a model the dense LU serves): the smallest eigenvalue and its vector, an
+    oblique null vector found as in the sparse case; a definite matrix gives its λ_min."""
+    rng = np.random.default_rng(4)
+    n = 40
+    Q = rng.standard_normal((n, n)) / np.sqrt(n) + np.eye(n)
+    A = Q @ Q.T
+    rho, _ = psd_null_direction(A / A.diagonal().max())
+    assert rho == pytest.approx(np.linalg.eigvalsh(A / A.diagonal().max())[0], rel=1e-12) and rho > 1e-6
+    v = rng.standard_normal(4)
+    P = np.eye(n)
+    P[:4, :4] -= np.outer(v, v) / (v @ v)
+    B = P @ A @ P.T
+    d = 1.0 / np.sqrt(B.diagonal())
+    rho, x = psd_null_direction(d[:, None] * B * d[None, :])
+    assert abs(rho) < 1e-13
+    expected = v / d[:4]
+    np.testing.assert_allclose(np.abs(x[:4]), np.abs(expected / np.max(np.abs(expected))), atol=1e-8)
+    assert np.max(np.abs(x[4:])) < 1e-8
+
+
 # ----------------------------------------------------------------------------- the held check
 
 

@@ -14,7 +14,6 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 import numpy as np
-import scipy.sparse as sps
 
 from latdyn.assembly.evaluation import Evaluation
 from latdyn.assembly.initial import initial_velocities
@@ -219,6 +218,8 @@ class Assembler:
             out = np.zeros((n, n))
             out[self._csr_rows, self._csr_cols] = values
             return out
+        import scipy.sparse as sps  # on use: the dense LU's models run without it
+
         return sps.csr_matrix((values, self._indices, self._indptr), shape=(n, n))
 
     def element_geometry(self, state: State) -> np.ndarray:

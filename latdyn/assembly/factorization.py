@@ -23,11 +23,10 @@ import ctypes
 from collections import OrderedDict
 
 import numpy as np
-import scipy.sparse as sps
 
 from latdyn.assembly.library import FactorizationStructure, lapack_address, native_library
 from latdyn.assembly.sparse_lu import PivotError, SupernodalAnalysis, blas_kernels
-from latdyn.numerics.linalg import BAND_LIMIT, DENSE_LIMIT, openblas_thread_functions, rcm_band
+from latdyn.numerics.linalg import BAND_LIMIT, DENSE_LIMIT, issparse, openblas_thread_functions, rcm_band
 
 #: The storages, in the order of csrc/factorization.c's ``kind``.
 KINDS = ("dense", "band", "sparse")
@@ -110,11 +109,11 @@ class Factorization:
         """``matrix`` into ``values``, not factorized (the compiled step factorizes what is loaded):
         a SciPy sparse matrix whose entries lie in the pattern, the values of the pattern (a vector,
         in the order of rows and cols, duplicates summed) or, for dense storage, a NumPy array."""
-        if self.kind == "dense" and (sps.issparse(matrix) or np.ndim(matrix) == 2):
-            dense = matrix.toarray() if sps.issparse(matrix) else np.asarray(matrix, float)
+        if self.kind == "dense" and (issparse(matrix) or np.ndim(matrix) == 2):
+            dense = matrix.toarray() if issparse(matrix) else np.asarray(matrix, float)
             self.values[:] = dense.ravel(order="F")
         else:
-            if sps.issparse(matrix):
+            if issparse(matrix):
                 coo = matrix.tocoo()
                 same = np.array_equal(coo.row, self.rows) and np.array_equal(coo.col, self.cols)
                 positions = self._positions() if same else self.position(coo.row, coo.col)

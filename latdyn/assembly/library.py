@@ -225,10 +225,45 @@ def cython_address(module, name: str) -> int:
     return get_pointer(capsule, get_name(capsule))
 
 
+def scipy_extension(name: str):
+    """SciPy's compiled module ``scipy.<name>`` (``"linalg.cython_lapack"``), loaded without the
+    package around it: ``import scipy.linalg.cython_lapack`` would run ``scipy/linalg/__init__.py``,
+    which imports all of scipy.linalg and scipy.sparse's array machinery (≈0.2 s of CPU, more than
+    a short run; docs/performance.md, "First run"), while the capsules need only the extension
+    itself (and SciPy's top package, which loads SciPy's OpenBLAS). The module is registered
+    under its own name, so a later ``import scipy.linalg`` finds it rather than loading it twice."""
+    import importlib.machinery
+    import importlib.util
+    import sys
+
+    full = f"scipy.{name}"
+    if full in sys.modules:
+        return sys.modules[full]
+    package = importlib.util.find_spec("scipy")  # the top package only: scipy.linalg is not run
+    if package is None or not package.submodule_search_locations:
+        raise ImportError(f"SciPy is not installed: no {full}")
+    folder = os.path.join(package.submodule_search_locations[0], *name.split(".")[:-1])
+    for suffix in importlib.machinery.EXTENSION_SUFFIXES:
+        path = os.path.join(folder, name.split(".")[-1] + suffix)
+        if os.path.exists(path):
+            break
+    else:  # not a compiled module where this SciPy keeps it: the ordinary import
+        return importlib.import_module(full)
+    import scipy  # noqa: F401 - the extension's own imports (scipy._cyutility) need the top package
+
+    spec = importlib.util.spec_from_file_location(full, path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[full] = module
+    try:
+        spec.loader.exec_module(module)
+    except BaseException:
+        del sys.modules[full]
+        raise
+    return module
+
+
 def lapack_address(name: str) -> int:
     """The address of a LAPACK routine from SciPy's cython_lapack capsules."""
-    import scipy.linalg.cython_lapack as lapack
-
-    return cython_address(lapack, name)
+    return cython_address(scipy_extension("linalg.cython_lapack"), name)
 
 

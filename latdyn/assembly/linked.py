@@ -8,7 +8,6 @@ K_min = Pᵀ K P + ∂(Pᵀ)/∂q · r_all.
 from __future__ import annotations
 
 import numpy as np
-import scipy.sparse as sps
 
 from latdyn.assembly.evaluation import Evaluation, SeparateMatrices
 from latdyn.numerics.linalg import DENSE_LIMIT
@@ -35,6 +34,8 @@ class LinkedEvaluation(SeparateMatrices):
         return raw.combined(cm, cc, ck, dense=dense)
 
     def combined(self, cm: float, cc: float, ck: float, dense: bool | None = None):
+        import scipy.sparse as sps  # on use: only models with rigid links need it
+
         P = self.projection
         n_asm, n = P.shape
         small = n_asm <= DENSE_LIMIT  # small models: dense products (sparse overhead dominates)
@@ -68,6 +69,8 @@ def evaluate_linked(links, assembler, state, matrices: bool, load_factor: float,
 def reduce_linked(links, assembler, state, full, matrices: bool, inertia: bool) -> LinkedEvaluation:
     """``full``, the evaluation on the independent and dependent coordinates at ``state`` (its
     dependent nodes completed), reduced onto the minimum coordinates (module docstring)."""
+    import scipy.sparse as sps  # on use: only models with rigid links need it
+
     model = assembler.model
     n, n_asm, n_total = model.n_dofs, model.n_assembled, model.n_total
     columns, twist = links.twists(model, state)

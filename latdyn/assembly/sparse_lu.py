@@ -27,11 +27,14 @@ band LU and runs the C factorization (``csrc/factorization.c``) on it.
 from __future__ import annotations
 
 import heapq
+from typing import TYPE_CHECKING
 
 import numpy as np
-import scipy.sparse as sps
 
-from latdyn.assembly.library import SparseLUStructure, cython_address
+from latdyn.assembly.library import SparseLUStructure, cython_address, scipy_extension
+
+if TYPE_CHECKING:
+    import scipy.sparse as sps
 
 #: A pivot whose magnitude is at most this times the largest entry of its row and column in
 #: the matrix stops the factorization (csrc/sparse_lu.c): without pivoting, the factor would
@@ -140,6 +143,8 @@ class SupernodalAnalysis:
     included); ``nonzeros``: the structural nonzeros of L + U (the diagonal once)."""
 
     def __init__(self, rows: np.ndarray, cols: np.ndarray, n: int):
+        import scipy.sparse as sps  # on use: the dense and band LU's models run without it
+
         rows, cols = np.asarray(rows, np.int64), np.asarray(cols, np.int64)
         self.n = n
         diagonal = np.arange(n)
@@ -266,7 +271,7 @@ class SupernodalAnalysis:
 
 def blas_kernels() -> tuple[int, int]:
     """(dgemm, dtrsm) from SciPy's BLAS."""
-    import scipy.linalg.cython_blas as blas
+    blas = scipy_extension("linalg.cython_blas")
 
     return cython_address(blas, "dgemm"), cython_address(blas, "dtrsm")
 

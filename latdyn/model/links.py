@@ -43,7 +43,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.sparse as sps
 
 from latdyn.numerics.so3 import expm_so3, skew
 
@@ -197,6 +196,8 @@ class RigidLinks:
             root:   −skew(f) (δx_c − δx_r)
             hinge:  s [(g × u)·δω_p + (f × g)·(δx_c − δo)],  u = m + (x_c − o) × f
         """
+        import scipy.sparse as sps  # on use: only models with rigid links need it
+
         rows, cols, values = [], [], []
 
         def add(row_indices, block):
@@ -234,6 +235,8 @@ class RigidLinks:
     def convective_derivative(self, model, state, columns) -> np.ndarray:
         """∂a_dep/∂v on the free coordinates, (6 n_dep, n): central differences of the dependent
         accelerations, which are quadratic in the velocities (exact up to round-off)."""
+        import scipy.sparse as sps  # on use: only models with rigid links need it
+
         n = model.n_dofs
         free_cols = columns[columns < n]
         n_dep = len(self.dependent)

@@ -22,12 +22,11 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.sparse as sps
 
 from latdyn.errors import SceneError
 from latdyn.model.kernels import planar_variant
 from latdyn.model.planar import find_plane, restrict_to_plane
-from latdyn.numerics.linalg import psd_null_direction
+from latdyn.numerics.linalg import issparse, psd_null_direction
 from latdyn.scene.expressions import HingeLaw, TimeFunction
 from latdyn.scene.loader import Scene
 
@@ -361,9 +360,10 @@ class Model:
         Jacobi-scaled (unit diagonal), which makes the test blind to units and to
         the n⁴ spread of bending stiffness in fine meshes.  A coordinate with a
         zero diagonal is unheld at once; otherwise :func:`latdyn.numerics.linalg.psd_null_direction`
-        (inverse iteration on one sparse LU, any size) returns the smallest
-        Rayleigh quotient it reaches: round-off (~1e-16) for an unheld direction,
-        never below λ_min(A) for a held model, where the weakest held direction
+        (inverse iteration on one sparse LU, any size; for a model the dense LU serves, the exact
+        smallest eigenpair of the dense A) returns the smallest Rayleigh quotient it reaches:
+        round-off (~1e-16) for an unheld direction, not below λ_min(A) (but for round-off) for a
+        held model, where the weakest held direction
         of a fine mesh still has λ ≳ 1/N² (N elements in a chain).  The
         direction need not be a coordinate axis (a massless body spinning about
         the axis of a hinge that carries its only beam): the coordinates with the
@@ -374,6 +374,10 @@ class Model:
         if n == 0:
             return
         names = self.dof_names()
+        if issparse(mass) or issparse(stiffness):  # one kind for both (dense + sparse is np.matrix)
+            import scipy.sparse as sps  # a model the dense LU serves runs without scipy.sparse
+
+            mass, stiffness = sps.csr_matrix(mass), sps.csr_matrix(stiffness)
         A = _normalised(mass) + _normalised(stiffness)
         d = A.diagonal()
         empty = np.flatnonzero(d <= 1e-14)
@@ -381,8 +385,14 @@ class Model:
             raise SceneError(file, self._key_of(names[empty[0]]),
                              "a coordinate that nothing holds (neither inertia nor stiffness): "
                              + ", ".join(names[i] for i in empty[:3]))
-        scale = sps.diags(1.0 / np.sqrt(d))
-        rho, mode = psd_null_direction((scale @ A @ scale).tocsc(), tol=HELD_TOLERANCE)
+        scale = 1.0 / np.sqrt(d)
+        if issparse(A):
+            import scipy.sparse as sps
+
+            scaled = (sps.diags(scale) @ A @ sps.diags(scale)).tocsc()
+        else:
+            scaled = scale[:, None] * A * scale[None, :]
+        rho, mode = psd_null_direction(scaled, tol=HELD_TOLERANCE)
         if rho <= HELD_TOLERANCE:
             worst = [names[i] for i in np.argsort(-np.abs(mode))[:3] if abs(mode[i]) > 0.1]
             raise SceneError(file, self._key_of(worst[0]),
@@ -522,8 +532,13 @@ HELD_TOLERANCE = 1e-10
 
 
 def _normalised(matrix):
-    """Symmetric part of a dense or sparse matrix as CSR, divided by its largest |diagonal|."""
-    A = sps.csr_matrix(matrix)
-    A = (0.5 * (A + A.T)).tocsr()
+    """Symmetric part of a dense or sparse matrix (a NumPy array or CSR), divided by its largest
+    |diagonal|."""
+    if issparse(matrix):
+        A = matrix.tocsr()
+        A = (0.5 * (A + A.T)).tocsr()
+    else:
+        A = np.asarray(matrix, float)
+        A = 0.5 * (A + A.T)
     top = float(np.abs(A.diagonal()).max(initial=0.0))
     return A / top if top > 0 else A

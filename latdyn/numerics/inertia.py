@@ -57,7 +57,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.sparse as sps
+
+from latdyn.numerics.linalg import issparse
 
 #: Relative eigenvalue of a scaled joint block below which a direction has no inertia.
 MASSLESS_TOL = 1e-9
@@ -125,7 +126,7 @@ def diagonal_blocks(matrix, groups: np.ndarray) -> np.ndarray:
     safe = np.where(valid, groups, 0)
     rows = np.broadcast_to(safe[:, :, None], safe.shape + safe.shape[1:])
     cols = np.broadcast_to(safe[:, None, :], safe.shape + safe.shape[1:])
-    if sps.issparse(matrix):
+    if issparse(matrix):
         values = np.asarray(matrix.tocsr()[rows.ravel(), cols.ravel()]).reshape(rows.shape)
     else:
         values = np.asarray(matrix)[rows, cols]
@@ -153,7 +154,8 @@ def joint_blocks(model, mass, groups: np.ndarray | None = None) -> JointBlocks:
     diag = np.diagonal(blocks, axis1=1, axis2=2)
     scale = np.ones(groups.shape)
     translation_mass = np.zeros(len(groups))
-    for unit in np.unique(kind[kind >= 0]):
+    # the units present, ascending (a plain np.unique would import numpy.ma: docs/performance.md)
+    for unit in np.flatnonzero(np.bincount(kind[kind >= 0].ravel())):
         in_unit = kind == unit
         count = in_unit.sum(axis=1)
         mean = (diag * in_unit).sum(axis=1) / np.maximum(count, 1)
@@ -228,8 +230,15 @@ def split_inertia(model, mass, groups: np.ndarray | None = None, stiffness=None,
     g, i, j = np.nonzero(valid[:, :, None] & (column[:, None, :] >= 0))
     values = (vectors * root[:, :, None])[g, i, j]  # columns D^{-1/2} u
     n = model.n_dofs
-    Q = sps.csr_matrix((values, (groups[g, i], column[g, j])), shape=(n, n))
-    return InertiaSplit(Q if sps.issparse(mass) else Q.toarray(), n_massive, int(light.sum()))
+    rows, cols = groups[g, i], column[g, j]
+    if issparse(mass):
+        import scipy.sparse as sps  # on use: the dense LU's models run without it
+
+        Q = sps.csr_matrix((values, (rows, cols)), shape=(n, n))
+    else:
+        Q = np.zeros((n, n))
+        np.add.at(Q, (rows, cols), values)
+    return InertiaSplit(Q, n_massive, int(light.sum()))
 
 
 def joint_norms(joint: JointBlocks, vector: np.ndarray, length: float) -> np.ndarray:

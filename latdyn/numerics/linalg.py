@@ -127,17 +127,21 @@ solved in.
 symmetric positive semi-definite A with unit diagonal (the held-coordinate
 check of the scene, see :meth:`latdyn.model.model.Model.check_held`), by inverse
 iteration with one sparse LU of A + δI: at any size, without a dense
-eigen-solve (10⁴ coordinates: 13 ms for a beam, 51 ms for a 3D lattice).
+eigen-solve (10⁴ coordinates: 13 ms for a beam, 51 ms for a 3D lattice).  A dense A (a model
+of at most DENSE_LIMIT coordinates, assembled as a NumPy array) gets its exact smallest
+eigenpair instead (``numpy.linalg.eigh``), with neither SciPy's sparse package nor NumPy's random
+generator imported.
 """
 from __future__ import annotations
 
+import sys
 from contextlib import contextmanager
 
 import numpy as np
-import scipy.sparse as sps
 
-# scipy.sparse.linalg (SuperLU, psd_null_direction) and scipy.sparse.csgraph (RCM) are imported
-# where they are used: the compiled step of a small model needs neither.
+# scipy.sparse (and its linalg and csgraph) is imported where it is used: a model that the dense
+# LU serves runs without it (the import costs more CPU time than a short run; docs/performance.md,
+# "First run"). `issparse` tells a SciPy sparse matrix without importing SciPy.
 
 #: Models with at most this many free coordinates use dense matrices and LU.
 DENSE_LIMIT = 120
@@ -147,8 +151,21 @@ DENSE_LIMIT = 120
 #: (latdyn.assembly.factorization, for the compiled step and the analyses alike).
 BAND_LIMIT = 100
 
+#: Dense symmetric eigenproblems above this size are solved with BLAS on one thread
+#: (:func:`psd_null_direction`). Measured 2026-11-26 on the 2-core AMD EPYC, load ≈ 10, OpenBLAS
+#: free to take both cores: n = 120 took 1.5 ms in one round and 53 ms in another, on one thread
+#: 0.9 ms; n = 24–96 took 0.05–0.85 ms.
+SINGLE_THREAD_EIGH = 64
+
 #: SuperLU options (psd_null_direction): minimum degree on AᵀA + A, diagonal pivots preferred.
 SUPERLU_OPTIONS = {"diag_pivot_thresh": 0.1, "options": {"SymmetricMode": True}}
+
+
+def issparse(matrix) -> bool:
+    """Whether ``matrix`` is a SciPy sparse matrix or array; without importing scipy.sparse, which
+    cannot have made one when it is not imported."""
+    sparse = sys.modules.get("scipy.sparse")
+    return sparse is not None and sparse.issparse(matrix)
 
 
 # ----------------------------------------------------------------------------- BLAS threads
@@ -156,9 +173,10 @@ SUPERLU_OPTIONS = {"diag_pivot_thresh": 0.1, "options": {"SymmetricMode": True}}
 _blas = None  # list of threadpoolctl library controllers, [] when unavailable
 
 
-def _blas_controllers() -> list:
+def _blas_controllers(refresh: bool = False) -> list:
+    """threadpoolctl's controllers of the BLAS libraries loaded when first asked (``refresh``: now)."""
     global _blas
-    if _blas is None:
+    if _blas is None or refresh:
         try:
             from threadpoolctl import ThreadpoolController
 
@@ -187,6 +205,14 @@ def single_thread_blas():
             lib.set_num_threads(k)
 
 
+def _in_scipy_folder(path) -> bool:
+    """Whether a library lies in SciPy's own folders (``scipy.libs/``, ``scipy/.dylibs/``): by the
+    folders, not the file's name, which NumPy's OpenBLAS shares (``numpy.libs/libscipy_openblas64_…``)."""
+    from pathlib import PurePath
+
+    return any(part == "scipy" or part.startswith("scipy.") for part in PurePath(str(path)).parent.parts)
+
+
 def openblas_thread_functions() -> tuple[int | None, int | None]:
     """Addresses of ``openblas_get_num_threads`` and ``openblas_set_num_threads`` of the OpenBLAS
     behind SciPy's cython_blas / cython_lapack (the library under SciPy's folder, or the only
@@ -195,8 +221,13 @@ def openblas_thread_functions() -> tuple[int | None, int | None]:
     threadpoolctl (then nothing is pinned)."""
     import ctypes
 
-    candidates = [lib for lib in _blas_controllers() if getattr(lib, "internal_api", "") == "openblas"]
-    scipy_own = [lib for lib in candidates if "scipy" in str(getattr(lib, "filepath", ""))]
+    def openblas(controllers):
+        found = [lib for lib in controllers if getattr(lib, "internal_api", "") == "openblas"]
+        return found, [lib for lib in found if _in_scipy_folder(getattr(lib, "filepath", ""))]
+
+    candidates, scipy_own = openblas(_blas_controllers())
+    if not scipy_own:  # asked before SciPy's LAPACK was loaded (it is loaded on use): look again
+        candidates, scipy_own = openblas(_blas_controllers(refresh=True))
     chosen = scipy_own or (candidates if len(candidates) == 1 else [])
     if not chosen:
         return None, None
@@ -222,6 +253,7 @@ def rcm_band(rows: np.ndarray, cols: np.ndarray, n: int):
     """Reverse Cuthill–McKee order of the pattern (rows, cols) of an n × n matrix:
     (perm, new, lower, upper) with ``perm`` the old index at each new place, ``new`` its
     inverse, and the lower and upper bandwidths in the new order."""
+    import scipy.sparse as sps  # only for band and sparse storage (see the top of the module)
     import scipy.sparse.csgraph as csgraph
 
     pattern = sps.csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n))
@@ -248,21 +280,37 @@ def psd_null_direction(A, tol: float = 1e-10, shift: float = 1e-9, iterations: i
     can never be reported unheld; with a null space the quotient falls to
     round-off (~1e-16) within two or three steps.  Iteration stops when the
     quotient is ≤ tol·1e-3 or no longer falls.
+
+    A dense ``A`` (a NumPy array: a model of at most DENSE_LIMIT coordinates, the held check of a
+    model the dense LU serves) is solved exactly instead: its smallest eigenvalue and eigenvector
+    (LAPACK ``syevd``; ≤ 120 coordinates: ~1 ms), λ_min to round-off, without SciPy and without
+    NumPy's random generator, whose import alone costs more than that (docs/performance.md,
+    "First run").
     """
-    A = sps.csc_matrix(A)
     n = A.shape[0]
     if n == 0:
         return np.inf, np.zeros(0)
+    if not issparse(A):
+        A = np.asarray(A, float)
+        if n > SINGLE_THREAD_EIGH:  # OpenBLAS may thread here; on a busy core that costs ×30
+            with single_thread_blas():
+                eigenvalues, vectors = np.linalg.eigh(A)
+        else:
+            eigenvalues, vectors = np.linalg.eigh(A)
+        x = vectors[:, 0]
+        return float(eigenvalues[0]), x / np.max(np.abs(x))
+    import scipy.sparse as sps  # only for sparse matrices (see the top of the module)
     import scipy.sparse.linalg as spla
 
+    A = sps.csc_matrix(A)
     shifted = (A + shift * sps.identity(n, format="csc")).tocsc()
-    lu = spla.splu(shifted, permc_spec="MMD_AT_PLUS_A", **SUPERLU_OPTIONS)
+    solve = spla.splu(shifted, permc_spec="MMD_AT_PLUS_A", **SUPERLU_OPTIONS).solve
     rng = np.random.default_rng(seed)
     x = rng.standard_normal(n)
     x /= np.linalg.norm(x)
     best = (np.inf, x)
     for _ in range(iterations):
-        y = lu.solve(x)
+        y = solve(x)
         norm = np.linalg.norm(y)
         if not np.isfinite(norm) or norm == 0.0:
             break
@@ -277,5 +325,5 @@ def psd_null_direction(A, tol: float = 1e-10, shift: float = 1e-9, iterations: i
     return rho, x / np.max(np.abs(x))
 
 
-__all__ = ["DENSE_LIMIT", "BAND_LIMIT", "use_dense", "rcm_band", "single_thread_blas", "openblas_thread_functions",
-           "psd_null_direction"]
+__all__ = ["DENSE_LIMIT", "BAND_LIMIT", "SINGLE_THREAD_EIGH", "issparse", "use_dense", "rcm_band", "single_thread_blas",
+           "openblas_thread_functions", "psd_null_direction"]

@@ -52,7 +52,6 @@ Limits, so that a scene is refused rather than hang or exhaust memory:
 from __future__ import annotations
 
 import copy
-import difflib
 import hashlib
 import json
 import math
@@ -646,6 +645,8 @@ class _Reader:
             if not isinstance(k, str):
                 self.fail(label, f"expected text keys ({_listing(allowed)})", k)
             if k not in allowed:
+                import difflib  # on use: only a refused key needs it
+
                 close = difflib.get_close_matches(k, allowed, n=1)
                 hint = f" (did you mean {close[0]!r}?)" if close else ""
                 self.fail(_join(key, k), f"unknown key{hint}; allowed keys here: {_listing(allowed)}")

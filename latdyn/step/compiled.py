@@ -55,7 +55,6 @@ import ctypes
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.sparse as sps
 
 from latdyn.assembly.assembler import State
 from latdyn.assembly.factorization import Factorization
@@ -82,6 +81,8 @@ def matrix_pattern(assembler) -> tuple[np.ndarray, np.ndarray]:
     rows, cols = assembler._csr_rows, assembler._csr_cols
     if m.links is None:
         return rows, cols
+    import scipy.sparse as sps  # on use: only models with rigid links need it
+
     A = sps.csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(n_asm, n_asm))
     moved = m.links.columns(m)
     moved = moved[moved < n]

@@ -52,7 +52,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.sparse as sps
 
 from latdyn.assembly.assembler import (
     Assembler,
@@ -70,6 +69,7 @@ from latdyn.numerics.inertia import (
     split_inertia,
 )
 from latdyn.assembly.factorization import solve_linear
+from latdyn.numerics.linalg import issparse
 
 
 @dataclass(frozen=True)
@@ -139,24 +139,29 @@ def consistent_acceleration(model, ev) -> np.ndarray:
     equilibrium prescribes to first order, Q_cᵀ K Q_c y_c = −Q_cᵀ K Q_m y_m.  No artificial
     inertia is added anywhere.
     """
-    M = ev.mass
+    M = ev.combined(1.0, 0.0, 0.0)  # dense where the dense LU serves the model, else CSR
     split = split_inertia(model, M)
     Qm, Qc = split.massive, split.massless
     delta = np.zeros(model.n_dofs)
     residual = ev.residual
     K = Kcc = None
     if split.n_massless:
-        K = ev.stiffness
-        Kcc = (Qc.T @ K @ Qc).tocsr() if sps.issparse(Qc) else Qc.T @ K @ Qc
+        K = ev.combined(0.0, 0.0, 1.0)
+        Kcc = _csr(Qc.T @ K @ Qc)
         unbalanced = Qc.T @ residual
         if np.any(unbalanced):
             residual = residual + K @ (Qc @ _solve_massless(Kcc, -unbalanced))
     if split.n_massive:
-        y_m = solve_linear((Qm.T @ M @ Qm).tocsr() if sps.issparse(Qm) else Qm.T @ M @ Qm, -(Qm.T @ residual))
+        y_m = solve_linear(_csr(Qm.T @ M @ Qm), -(Qm.T @ residual))
         delta += Qm @ y_m
     if split.n_massless:
         delta += Qc @ _solve_massless(Kcc, -(Qc.T @ (K @ delta)))
     return delta
+
+
+def _csr(A):
+    """A sparse product in the CSR form the sparse LU takes; a dense one as it is."""
+    return A.tocsr() if issparse(A) else A
 
 
 def _solve_massless(Kcc, rhs: np.ndarray) -> np.ndarray:
@@ -241,7 +246,7 @@ class GeneralizedAlpha:
         ev = getattr(self, "last_evaluation", None)
         if ev is None or self.assembler.model.n_dofs == 0:
             return 0.0
-        blocks = joint_blocks(self.assembler.model, ev.mass, self.groups())
+        blocks = joint_blocks(self.assembler.model, ev.combined(1.0, 0.0, 0.0), self.groups())
         size = joint_norms(blocks, self.a_candidate - self.a, self.length_scale)
         return h * h * abs(self.p.beta - 1 / 6) * float(np.max(size, initial=0.0))
 
@@ -290,7 +295,9 @@ def explicit_acceleration(model, ev, split, vdot: np.ndarray) -> np.ndarray:
     if split.n_massless == 0:
         return Qm @ solve_linear(Qm.T @ M @ Qm, -(Qm.T @ r0))
     blocks = [[Qm.T @ M @ Qm, Qm.T @ M @ Qc], [Qc.T @ K @ Qm, Qc.T @ K @ Qc]]
-    if sps.issparse(M):
+    if issparse(M):
+        import scipy.sparse as sps  # on use: the dense LU's models run without it
+
         A = sps.bmat(blocks, format="csr")
     else:
         A = np.block(blocks)
