@@ -46,7 +46,6 @@ tests/test_impacts.py.)
 from __future__ import annotations
 
 import numpy as np
-import scipy.sparse as sps
 
 from latdyn.assembly.evaluation import Evaluation
 from latdyn.assembly.factorization import solve_linear
@@ -81,7 +80,11 @@ def massless_element_stiffness(ev):
     K = Evaluation(residual=None, reaction=None, blocks=blocks, assembler=ev.assembler).combined(
         0.0, 0.0, 1.0, dense=False)
     projection = getattr(ev, "projection", None)  # rigid links: onto the minimum coordinates
-    return K if projection is None else sps.csr_matrix(projection.T @ K @ projection)
+    if projection is None:
+        return K
+    import scipy.sparse as sps  # on use (an impact with rigid links): a run without events never loads it
+
+    return sps.csr_matrix(projection.T @ K @ projection)
 
 
 def impulse_response(model, ev, N: np.ndarray, step: float) -> np.ndarray:
@@ -132,6 +135,8 @@ def _response(model, M, K, N: np.ndarray, step: float) -> np.ndarray:
                           "`latdyn check` names the coordinate") from exc
     condensed = (np.asarray(Qm.T @ N).reshape(split.n_massive, -1)
                  - np.asarray(Kcm.T @ passed).reshape(split.n_massive, -1))
+    import scipy.sparse as sps  # on use (an impact next to directions without inertia)
+
     B = sps.bmat([[Qm.T @ quasi_static @ Qm, (step * step) * (Qm.T @ K @ Qc)], [Kcm, Kcc]], format="csr")
     rhs = np.vstack([condensed, np.zeros((split.n_massless, condensed.shape[1]))])
     X = np.asarray(split.basis @ solve_linear(B, rhs)).reshape(N.shape)
