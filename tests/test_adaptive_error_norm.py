@@ -11,28 +11,21 @@ from __future__ import annotations
 
 import csv
 import json
-import os
-import subprocess
-import sys
 import textwrap
 from pathlib import Path
 
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
+from cli_runs import latdyn_run, summary_of
 
-ROOT = Path(__file__).resolve().parents[1]
 
 
 def run_cli(tmp_path: Path, text: str) -> Path:
     """``latdyn run`` of the scene ``text``; the results folder (the run must be solved)."""
-    scene, out = tmp_path / "scene.yaml", tmp_path / "out"
-    scene.write_text(textwrap.dedent(text))
-    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    done = subprocess.run([sys.executable, "-m", "latdyn", "run", str(scene), "-o", str(out), "-q"],
-                          env=env, capture_output=True, text=True, timeout=120)
+    done, out = latdyn_run(tmp_path, textwrap.dedent(text), quiet=True, timeout=120)
     assert done.returncode == 0, done.stderr
-    assert json.loads((out / "summary.json").read_text())["status"] == "solved"
+    assert summary_of(out)["status"] == "solved"
     return out
 
 

@@ -15,9 +15,6 @@ energy of the impacting motion.
 """
 from __future__ import annotations
 
-import csv
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -25,6 +22,7 @@ import pytest
 import yaml
 
 import latdyn
+from cli_runs import latdyn_run, probe_columns
 
 STEPS = (0.01, 0.005, 0.0025)
 K, REST, STOP, E = 1.0, 1.0, 0.5, 0.5  # hinge spring, its rest angle, the stop, the restitution
@@ -71,15 +69,9 @@ def test_a_stop_behind_a_massless_beam_converges_to_the_closed_form(rho_a):
 
 def run_cli(text: str, tmp_path: Path) -> dict[str, np.ndarray]:
     """A scene typed as YAML, run through the CLI; its probes.csv as columns."""
-    scene = tmp_path / "scene.yaml"
-    scene.write_text(text)
-    out = tmp_path / "out"
-    done = subprocess.run([sys.executable, "-m", "latdyn", "run", str(scene), "-o", str(out)],
-                          capture_output=True, text=True, cwd=tmp_path, timeout=120)
+    done, out = latdyn_run(tmp_path, text, timeout=120)
     assert done.returncode == 0, done.stderr
-    with open(out / "probes.csv") as f:
-        rows = list(csv.DictReader(f))
-    return {k: np.array([float(r[k]) for r in rows]) for k in rows[0]}
+    return probe_columns(out)
 
 
 def test_a_stop_behind_a_massless_beam_removes_one_minus_e_squared_of_the_kinetic_energy(tmp_path):

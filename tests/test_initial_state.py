@@ -10,9 +10,6 @@ the order of convergence against closed-form motions of a joint body on a hinge.
 """
 from __future__ import annotations
 
-import csv
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -20,6 +17,7 @@ import pytest
 import yaml
 
 import latdyn
+from cli_runs import latdyn_run, probe_columns
 
 
 
@@ -30,15 +28,9 @@ def run_yaml(text: str):
 
 def run_cli(text: str, tmp_path: Path) -> dict[str, np.ndarray]:
     """A scene typed as YAML, run through the CLI; its probes.csv as columns."""
-    scene = tmp_path / "scene.yaml"
-    scene.write_text(text)
-    out = tmp_path / "out"
-    done = subprocess.run([sys.executable, "-m", "latdyn", "run", str(scene), "-o", str(out)],
-                          capture_output=True, text=True, cwd=tmp_path, timeout=120)
+    done, out = latdyn_run(tmp_path, text, timeout=120)
     assert done.returncode == 0, done.stderr
-    with open(out / "probes.csv") as f:
-        rows = list(csv.DictReader(f))
-    return {k: np.array([float(r[k]) for r in rows]) for k in rows[0]}
+    return probe_columns(out)
 
 
 # ----------------------------------------------------------------------------- initial velocities

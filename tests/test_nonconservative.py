@@ -3,19 +3,14 @@ flutter, not the symmetric part of the tangent.  Scenes as a user writes them, t
 line and the API, against closed forms: Beck's column, Ziegler's double pendulum."""
 from __future__ import annotations
 
-import json
-import os
-import subprocess
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 import yaml
 
 import latdyn
+from cli_runs import latdyn_run, summary_of
 
-ROOT = Path(__file__).resolve().parents[1]
 
 #: Beck's column: a cantilever (EI = 1, L = 1, ρA = 1) under a tangential (follower) tip force P.
 #: No divergence at any load; flutter at P L²/EI = 20.051 (Beck 1952).  The symmetric part of the
@@ -67,13 +62,8 @@ def ziegler(P=1.0, frame="tip", solve="{analysis: buckling}") -> str:
 
 
 def run_cli(tmp_path, text: str):
-    path = tmp_path / "scene.yaml"
-    path.write_text(text)
-    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    completed = subprocess.run([sys.executable, "-m", "latdyn", "run", str(path), "-o", str(tmp_path / "out")],
-                               env=env, capture_output=True, text=True, cwd=tmp_path, check=False)
-    summary = tmp_path / "out" / "summary.json"
-    return completed, json.loads(summary.read_text()) if summary.exists() else None
+    completed, out = latdyn_run(tmp_path, text)
+    return completed, summary_of(out)
 
 
 def run_api(text: str) -> dict:

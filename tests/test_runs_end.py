@@ -6,9 +6,7 @@ subprocess with a timeout: a run that crawls fails the test by its timeout, not 
 from __future__ import annotations
 
 import json
-import os
 import subprocess
-import sys
 import textwrap
 from pathlib import Path
 
@@ -16,18 +14,14 @@ import numpy as np
 import pytest
 
 from latdyn import cli
+from cli_runs import latdyn_run
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
 def run_cli(tmp_path: Path, text: str, timeout: float = 60.0) -> tuple[subprocess.CompletedProcess, Path]:
     """``latdyn run`` of the scene ``text``; the completed process and the results folder."""
-    scene, out = tmp_path / "scene.yaml", tmp_path / "out"
-    scene.write_text(textwrap.dedent(text))
-    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    completed = subprocess.run([sys.executable, "-m", "latdyn", "run", str(scene), "-o", str(out)],
-                               env=env, capture_output=True, text=True, cwd=tmp_path, timeout=timeout)
-    return completed, out
+    return latdyn_run(tmp_path, textwrap.dedent(text), timeout=timeout)
 
 
 def main_cli(tmp_path: Path, text: str, capsys) -> tuple[int, str, Path]:

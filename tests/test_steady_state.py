@@ -14,18 +14,13 @@ The hinge has no spring, so nothing else holds the rod: which equilibrium a sear
 the search's doing."""
 from __future__ import annotations
 
-import json
-import os
-import subprocess
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 import latdyn
+from cli_runs import latdyn_run, summary_of
 
-ROOT = Path(__file__).resolve().parents[1]
 G, L = 9.81, 1.0
 CRITICAL = np.sqrt(3 * G / (2 * L))  # 3.836 rad/s
 
@@ -72,13 +67,8 @@ def run_api(tmp_path, text: str):
 
 
 def run_cli(tmp_path, text: str):
-    path = tmp_path / "rod.yaml"
-    path.write_text(text)
-    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    completed = subprocess.run([sys.executable, "-m", "latdyn", "run", str(path), "-o", str(tmp_path / "out")],
-                               env=env, capture_output=True, text=True, cwd=tmp_path, check=False, timeout=120)
-    summary = json.loads((tmp_path / "out" / "summary.json").read_text()) if completed.returncode == 0 else None
-    return completed, summary
+    completed, out = latdyn_run(tmp_path, text, name="rod.yaml", timeout=120)
+    return completed, summary_of(out) if completed.returncode == 0 else None
 
 
 @pytest.mark.parametrize("omega", [6.0, 20.0])

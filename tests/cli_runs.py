@@ -1,0 +1,42 @@
+"""A scene typed as YAML, run as a user runs it: ``python -m latdyn run SCENE -o OUT`` in a fresh
+process, this checkout first on the path; and what the results folder holds, read back.
+
+One helper for the test files that go through the front door (they kept copies of it)."""
+from __future__ import annotations
+
+import csv
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def latdyn_run(tmp_path: Path, text: str, *, name: str = "scene.yaml", quiet: bool = False,
+               timeout: float | None = None) -> tuple[subprocess.CompletedProcess, Path]:
+    """Write ``text`` to ``tmp_path/name`` and run it into ``tmp_path/out``: (the completed
+    process, the results folder)."""
+    scene, out = tmp_path / name, tmp_path / "out"
+    scene.write_text(text)
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    command = [sys.executable, "-m", "latdyn", "run", str(scene), "-o", str(out)] + (["-q"] if quiet else [])
+    completed = subprocess.run(command, env=env, capture_output=True, text=True, cwd=tmp_path,
+                               timeout=timeout, check=False)
+    return completed, out
+
+
+def summary_of(out: Path) -> dict | None:
+    """summary.json of a results folder, None when there is none."""
+    path = out / "summary.json"
+    return json.loads(path.read_text()) if path.exists() else None
+
+
+def probe_columns(out: Path) -> dict[str, np.ndarray]:
+    """probes.csv of a results folder, as columns."""
+    with open(out / "probes.csv") as f:
+        rows = list(csv.DictReader(f))
+    return {k: np.array([float(r[k]) for r in rows]) for k in rows[0]}
