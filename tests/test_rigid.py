@@ -446,10 +446,10 @@ def test_prescribed_root_energy_balance_and_latch():
 
 
 def test_linked_tangent_from_coloured_columns_equals_column_by_column(monkeypatch):
-    """r_q of a model with a rigid link (linearise.tangent_q: the analytic material tangent plus
+    """r_q of a model with a rigid link (linearisation.tangent_q: the analytic material tangent plus
     central differences of the rest) from columns perturbed together, coloured on the reduced
     pattern Pᵀ A P, equals the one taken column by column: the pattern bounds the dependence."""
-    from latdyn.analyses import linearise
+    from latdyn.analyses import linearisation
     from latdyn.assembly.prepare import prepare
 
     raw = link_with_flexible_beam()
@@ -458,9 +458,9 @@ def test_linked_tangent_from_coloured_columns_equals_column_by_column(monkeypatc
     a, state = prepared.assembler, prepared.state
     state.w[:] = [0.3, -0.5, 0.8]  # rates and accelerations at which the gyroscopic terms differ from zero
     state.alpha[:] = [1.0, 0.2, -0.4]
-    groups = linearise.column_groups(a)
+    groups = linearisation.column_groups(a)
     assert groups is not None and len(groups) < a.model.n_dofs / 2
-    coloured = linearise.tangent_q(a, state)
-    monkeypatch.setattr(linearise, "column_groups", lambda assembler: None)
-    alone = linearise.tangent_q(a, state)
+    coloured = linearisation.tangent_q(a, state)
+    monkeypatch.setattr(linearisation, "column_groups", lambda assembler: None)
+    alone = linearisation.tangent_q(a, state)
     assert np.max(np.abs(coloured - alone)) <= 1e-8 * np.max(np.abs(alone))
