@@ -150,12 +150,12 @@ def consistent_acceleration(model, ev) -> np.ndarray:
         Kcc = _csr(Qc.T @ K @ Qc)
         unbalanced = Qc.T @ residual
         if np.any(unbalanced):
-            residual = residual + K @ (Qc @ _solve_massless(Kcc, -unbalanced))
+            residual = residual + K @ (Qc @ solve_held(Kcc, -unbalanced))
     if split.n_massive:
         y_m = solve_linear(_csr(Qm.T @ M @ Qm), -(Qm.T @ residual))
         delta += Qm @ y_m
     if split.n_massless:
-        delta += Qc @ _solve_massless(Kcc, -(Qc.T @ (K @ delta)))
+        delta += Qc @ solve_held(Kcc, -(Qc.T @ (K @ delta)))
     return delta
 
 
@@ -164,10 +164,12 @@ def _csr(A):
     return A.tocsr() if issparse(A) else A
 
 
-def _solve_massless(Kcc, rhs: np.ndarray) -> np.ndarray:
-    """K_cc⁻¹ rhs on the directions without inertia, refused when no stiffness holds them."""
+def solve_held(matrix, rhs: np.ndarray) -> np.ndarray:
+    """matrix⁻¹ rhs for a matrix whose rows of the directions without inertia are their statics
+    (K_cc, or a block system with it): singular when no stiffness holds such a direction, and
+    then refused with the message that says so."""
     try:
-        return solve_linear(Kcc, rhs)
+        return solve_linear(matrix, rhs)
     except np.linalg.LinAlgError as exc:
         raise SolverError("a coordinate without inertia is held by no stiffness",
                           "directions of the model carry neither inertia nor stiffness; "
@@ -302,13 +304,7 @@ def explicit_acceleration(model, ev, split, vdot: np.ndarray) -> np.ndarray:
     else:
         A = np.block(blocks)
     rhs = np.concatenate([-(Qm.T @ r0), np.zeros(split.n_massless)])
-    try:
-        y = solve_linear(A, rhs)
-    except np.linalg.LinAlgError as exc:
-        raise SolverError("a coordinate without inertia is held by no stiffness",
-                          "directions of the model carry neither inertia nor stiffness; "
-                          "`latdyn check` names the coordinate") from exc
-    return split.basis @ y
+    return split.basis @ solve_held(A, rhs)
 
 
 class CentralDifference:

@@ -49,8 +49,8 @@ import numpy as np
 
 from latdyn.assembly.evaluation import Evaluation
 from latdyn.assembly.factorization import solve_linear
-from latdyn.errors import SolverError
 from latdyn.numerics.inertia import split_inertia
+from latdyn.step.integrators import solve_held
 
 
 def hinge_directions(model, hinges) -> np.ndarray:
@@ -95,18 +95,19 @@ def impulse_response(model, ev, N: np.ndarray, step: float) -> np.ndarray:
     extrapolated to s → ∞ from s and 2s (X(s) = X(∞) + O(1/s): 2 X(2s) − X(s) leaves O(1/s²))."""
     M = ev.mass
     K = ev.stiffness
+    split = split_inertia(model, M)  # M is the same for every stiffness tried below
     Kml = massless_element_stiffness(ev)
     if Kml is not None:
         m = float(np.max(np.abs(M.diagonal()), initial=0.0))
         k = float(np.max(np.abs(Kml.diagonal()), initial=0.0))
         if m > 0.0 and k > 0.0:
             s = RIGID * m / (step * step * k)
-            stiff, stiffer = (_response(model, M, (K + f * s * Kml).tocsr(), N, step) for f in (1.0, 2.0))
+            stiff, stiffer = (_response(split, M, (K + f * s * Kml).tocsr(), N, step) for f in (1.0, 2.0))
             return 2.0 * stiffer - stiff
-    return _response(model, M, K, N, step)
+    return _response(split, M, K, N, step)
 
 
-def _response(model, M, K, N: np.ndarray, step: float) -> np.ndarray:
+def _response(split, M, K, N: np.ndarray, step: float) -> np.ndarray:
     """X for the stiffness K (:func:`impulse_response`):
 
         [ Q_mᵀ(M + h²K)Q_m   h² Q_mᵀK Q_c ] [y_m]   [Ñ]
@@ -120,19 +121,13 @@ def _response(model, M, K, N: np.ndarray, step: float) -> np.ndarray:
     impulse and its stop acts as a static constraint: X = (M + h²K)⁻¹ N, whose K-weighted
     projection keeps the massless parts in their statics against the stop."""
     quasi_static = (M + (step * step) * K).tocsr()
-    split = split_inertia(model, M)
     if split.n_massless == 0 or split.n_massive == 0:
         return solve_linear(quasi_static, N).reshape(N.shape)
     Qm, Qc = split.massive, split.massless
     Kcc = (Qc.T @ K @ Qc).tocsr()
     Kcm = (Qc.T @ K @ Qm).tocsr()
-    try:
-        # Ñ = Q_mᵀN − K_cmᵀ K_cc⁻ᵀ Q_cᵀN: the impulse on the massless directions, passed on statically
-        passed = solve_linear(Kcc.T.tocsr(), np.asarray(Qc.T @ N))
-    except np.linalg.LinAlgError as exc:
-        raise SolverError("a coordinate without inertia is held by no stiffness",
-                          "directions of the model carry neither inertia nor stiffness; "
-                          "`latdyn check` names the coordinate") from exc
+    # Ñ = Q_mᵀN − K_cmᵀ K_cc⁻ᵀ Q_cᵀN: the impulse on the massless directions, passed on statically
+    passed = solve_held(Kcc.T.tocsr(), np.asarray(Qc.T @ N))
     condensed = (np.asarray(Qm.T @ N).reshape(split.n_massive, -1)
                  - np.asarray(Kcm.T @ passed).reshape(split.n_massive, -1))
     import scipy.sparse as sps  # on use (an impact next to directions without inertia)
