@@ -170,8 +170,8 @@ def _analyse(prepared, probes: ProbeSet, writer: ResultWriter, out_dir, analysis
             found = linearise.buckling_analysis(prepared, scene.solve.count)
             warnings = found.pop("warnings", [])
             writer.summary.update(found)
-            if warnings:
-                writer.summary.setdefault("warnings", []).extend(warnings)
+            for warning in warnings:
+                _warn(writer, warning)
         else:
             from latdyn.analyses.continuation import static_path
 
@@ -192,8 +192,7 @@ def _modes(prepared, writer: ResultWriter, out_dir) -> None:
     if "steady_state" in report:  # stable or not, how it was found (latdyn/analyses/steady.py)
         writer.summary["steady_state"] = report["steady_state"]
     for warning in report.get("warnings", []):
-        print(f"latdyn: warning: {warning}", file=sys.stderr)
-        writer.summary.setdefault("warnings", []).append(warning)
+        _warn(writer, warning)
     frequencies = [m.frequency_hz for m in found]
     writer.write_modes(frequencies, linearise.modes_table(found, directions))
     writer.summary["modes_hz"] = [float(f) for f in frequencies]
@@ -219,8 +218,13 @@ def _warn_moving(scene: Scene, writer) -> None:
 
     warning = modes_warning(scene)
     if warning is not None:
-        print(f"latdyn: warning: {warning}", file=sys.stderr)
-        writer.summary.setdefault("warnings", []).append(warning)
+        _warn(writer, warning)
+
+
+def _warn(writer, warning: str) -> None:
+    """A warning of the analysis: on stderr and in summary.json ``warnings``."""
+    print(f"latdyn: warning: {warning}", file=sys.stderr)
+    writer.summary.setdefault("warnings", []).append(warning)
 
 
 class _sigterm_interrupts:

@@ -11,16 +11,15 @@ and the mode-shape files.
 from __future__ import annotations
 
 import copy
-import sys
 import time
 
 import numpy as np
 
 from latdyn.analyses import continuation, mechanism, stability
 from latdyn.analyses.followers import follower_loads
-from latdyn.analyses.linearisation import (  # noqa: F401  (the names this module's users know)
-    Frame, Linearisation, Mode, _steps, at_rest, column_groups, dominant_directions,  # noqa: F401
-    frame_kinematics, frame_of, linearise, modes, reduce, tangent_q,
+from latdyn.analyses.linearisation import (
+    Frame, Linearisation, Mode, _steps, at_rest, dominant_directions, frame_kinematics, frame_of, linearise,
+    modes, reduce, tangent_q,
 )
 from latdyn.assembly.assembler import pack, unpack_free
 from latdyn.assembly.prepare import length_scale
@@ -195,9 +194,7 @@ def buckling_analysis(prepared, count: int = 6) -> dict:
                    buckling_s=time.perf_counter() - started)
         if not flutter:
             out.update(flutter_factor=None, flutter_searched_to=None)  # not searched
-        for warning in out.get("warnings", []):
-            print(f"latdyn: warning: {warning}", file=sys.stderr)
-        return out
+        return out  # its warnings are said by the caller (solve: stderr and summary.json)
 
     # along the path: f(λ) = min eig(K_T(λ), K₀) from f(0) = 1 to its zero
     lam, f, state = 0.0, 1.0, reference

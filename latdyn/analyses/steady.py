@@ -5,7 +5,7 @@ prescribed body turns about one axis at one constant rate Ω; in the frame turni
 relative equilibrium is a configuration q at which r(q, v(q), v̇(q)) = 0 with the spin imposed
 (v = Ω×(x − p), ω = Ω, v̇ = Ω×Ω×(x − p)): gravity, loads and the centrifugal forces balance.
 Its Jacobian is the stiffness K of the linearisation in the spinning frame
-(:func:`latdyn.analyses.linearise.linearise`).
+(:func:`latdyn.analyses.linearisation.linearise`).
 
 A spinning structure can have several relative equilibria (a rod hinged to a vertical shaft:
 hanging, upright, and above the speed Ω_c² = 3g/2L the two cones cos φ = 3g/2LΩ²).  Newton
