@@ -48,7 +48,6 @@ import argparse
 import collections
 import csv
 import json
-import math
 import os
 import re
 import signal
@@ -363,7 +362,7 @@ def _finite(values) -> bool:
     return bool(np.all(np.isfinite(np.asarray(values, dtype=float))))
 
 
-def check_folder(out: Path, scene: dict, status: int) -> list[str]:
+def check_folder(out: Path, scene: dict, status: int) -> list[tuple[str, str]]:
     """What is wrong with the results folder of a run that exited with ``status`` (0 or 1):
     a list of ``(defect, detail)`` notes, empty when it reads back."""
     from latdyn.errors import ResultsError

@@ -60,8 +60,6 @@ class UnboundedError(SolverError):
     threshold allows by time ``t``. Exit status 1, ``summary.json`` status ``unbounded``; what was
     recorded up to then (the row at ``t`` included) stays readable."""
 
-    status = "unbounded"
-
     def __init__(self, message: str, t: float):
         self.t = t
         super().__init__(message)

@@ -17,7 +17,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def latdyn_run(tmp_path: Path, text: str, *, name: str = "scene.yaml", quiet: bool = False,
-               timeout: float | None = None) -> tuple[subprocess.CompletedProcess, Path]:
+               timeout: float | None = 120.0) -> tuple[subprocess.CompletedProcess, Path]:
     """Write ``text`` to ``tmp_path/name`` and run it into ``tmp_path/out``: (the completed
     process, the results folder)."""
     scene, out = tmp_path / name, tmp_path / "out"

@@ -308,7 +308,8 @@ def _read(doc: Path) -> str:
 
 @pytest.mark.parametrize("doc", DOCS, ids=lambda p: p.relative_to(ROOT).as_posix())
 def test_documented_cli_options_exist(doc):
-    assert not _option_problems(_read(doc)), "\n".join(_option_problems(_read(doc)))
+    problems = _option_problems(_read(doc))
+    assert not problems, "\n".join(problems)
 
 
 @pytest.mark.parametrize("doc", DOCS, ids=lambda p: p.relative_to(ROOT).as_posix())

@@ -71,7 +71,7 @@ def test_d4_with_the_inertia_tangent_from_the_start_runs_through_1_s(tmp_path):
     energy = np.asarray(result.probes["energy"])
     # measured 4.3e-4 of the largest |potential| (8.9e-5 lost at 1 s): the time error of the step
     drift = np.max(np.abs(energy - energy[0])) / np.max(np.abs(result.probes["potential"]))
-    assert drift < 1e-3
+    assert drift < 5e-4
     assert np.max(np.abs(result.probes["tip_z"])) < 1e-12
 
 
