@@ -204,8 +204,10 @@ def steady_state(prepared, tol: float = 1e-10, max_iter: int = 200, stage_iter: 
 
 
 def stability(found) -> dict:
-    """``stable`` and ``growth_rate`` (1/s: the largest real part of the roots, Re λ = −ζ·|λ|;
-    rigid-body and conservative pairs read 0) of a list of all the modes about a state."""
+    """``stable`` and ``growth_rate`` (1/s: the largest −ζ·|λ| of the modes — the real part of an
+    oscillating pair, the positive root of a divergent one, the mean of the two roots of an
+    overdamped pair; rigid-body and conservative pairs read 0) of a list of all the modes about a
+    state."""
     growth = max((-m.damping_ratio * 2 * np.pi * m.natural_frequency_hz for m in found), default=0.0)
     return {"stable": bool(all(m.damping_ratio >= 0.0 for m in found)), "growth_rate": float(growth) + 0.0}
 
