@@ -360,3 +360,55 @@ def test_each_check_finds_a_planted_falsehood(text, check):
 def test_true_statements_pass(text):
     assert not (_option_problems(text) + _key_problems(text) + _module_problems(text)
                 + _path_problems(ROOT / "README.md", text))
+
+
+# ----------------------------------------------------------------------------- the scene reference
+def _scene_reference():
+    """docs/_ext/scene_reference.py, the page it writes at every docs build, and what it could not describe."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("scene_reference", ROOT / "docs" / "_ext" / "scene_reference.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    text, undescribed = module.reference()
+    return module, text, undescribed
+
+
+def _reference_sections(text: str) -> dict:
+    """``{place: keys listed in its table(s)}`` of the scene reference's Markdown."""
+    sections: dict[str, set] = {}
+    place = None
+    for line in text.splitlines():
+        heading = re.match(r"## (?:`([^`]*)`|Top level)", line)
+        if heading:
+            place = heading[1] or ""
+            sections.setdefault(place, set())
+        elif place is not None and (row := re.match(r"\| `([^`]+)` \|", line)):
+            sections[place].add(row[1])
+    return sections
+
+
+def test_scene_reference_names_every_key_the_loader_accepts_and_describes_each():
+    """Every key at every place the loader checks (recorded on the shipped scenes, as the other
+    checks here do) has its row under that place, and every key of every table of keys in
+    latdyn/scene/ is on the page; none is left without a description (unit, default)."""
+    module, text, undescribed = _scene_reference()
+    sections = _reference_sections(text)
+    missing = [f"{place or '(top level)'}.{key}" for place, keys in _accepted_keys().items()
+               for key in keys if key not in sections.get(place, set())]
+    assert not missing, f"the scene reference lacks: {missing}"
+    on_page = set().union(*sections.values())
+    for table, keys in module.source_tables().items():
+        assert set(keys) <= on_page, f"{table}: {sorted(set(keys) - on_page)} not in the scene reference"
+    assert not undescribed, (f"add what each is, its unit and default to DESCRIPTIONS in "
+                             f"docs/_ext/scene_reference.py: {undescribed}")
+
+
+def test_scene_reference_catches_a_key_it_was_not_told_about(monkeypatch):
+    """A key added to a loader table (as a new feature adds one) appears on the page at once, and is
+    reported as undescribed until DESCRIPTIONS says what it is."""
+    from latdyn.scene import loader
+
+    monkeypatch.setattr(loader, "_SOLVE_KEYS", loader._SOLVE_KEYS + ("no_such_setting",))
+    module, text, undescribed = _scene_reference()
+    assert "| `no_such_setting` |" in text and "solve.no_such_setting" in undescribed
