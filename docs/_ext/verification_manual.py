@@ -145,7 +145,7 @@ def _from_problems(name: str, reference: str, check, **options):
 
 CASES = [
     _from_problems("Modes of a uniform beam (clamped-free 8 elements, free-free 16)",
-                   "Euler–Bernoulli frequencies β²√(EI/ρAL⁴), β L = 1.8751, 4.6941, 7.8548 / 4.7300, 7.8532, 10.9956",
+                   "Euler–Bernoulli frequencies, dimensionless: ω√(ρA L⁴/EI) = (βL)², βL = 1.8751, 4.6941, 7.8548 (clamped-free), 4.7300, 7.8532, 10.9956 (free-free)",
                    "check_L1"),
     _from_problems("Spin-up (Kane, Ryan & Banerjee 1987): oscillation at constant 6 rad/s",
                    "period of the tip's oscillation about the steady deflection (benchmarks.json D1)",
