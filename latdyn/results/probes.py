@@ -36,6 +36,7 @@ class ProbeSet:
         self._need_energy = "energy" in kinds
         self._need_momentum = "momentum" in kinds
         self._need_sections = "element" in kinds
+        self._joint_forces = None  # (state, forces) of the last call of joint_forces
 
     def _point(self, probe, state: State) -> np.ndarray:
         m = self.model
@@ -62,6 +63,42 @@ class ProbeSet:
             return float(np.linalg.norm(value))
         return float(value[_COMPONENT[probe.component]])
 
+    def joint_forces(self, state: State) -> np.ndarray:
+        """The generalized force each joint (hinge or guide, in model order) applies on its coordinate,
+        positive when it drives θ or s up (SCENE.md, the joint probes ``torque``/``force``).
+
+        One evaluation of the equations of motion at ``state``, r = G + f with f the joint's law
+        (spring, damper, applied torque or force: the generated ``hinge_force``, as the evaluation
+        summed it, ``joint_forces`` of csrc/evaluate.c) and G all the rest (inertia, the structure,
+        loads). A free joint applies −f. A joint without a coordinate (prescribed, latched) applies
+        −f plus its reaction r: G. A free joint resting on a rigid stop (on it, not moving away)
+        applies what holds its coordinate's acceleration at zero, G with θ̈ = 0 (the other
+        accelerations as the step left them), when that pushes into the stop; −f otherwise."""
+        if self._joint_forces is not None and self._joint_forces[0] is state:
+            return self._joint_forces[1]
+        m, assembler = self.model, self.assembler
+        out = np.zeros(len(m.hinges))
+        if not len(out):
+            return out
+        resting = [k for k in m.free_hinges if _on_stop(m.hinges[k], state, int(k))]
+        held = state
+        if resting:
+            held = state.copy()
+            held.theta_ddot[resting] = 0.0
+        ev = assembler.evaluate(held, matrices=False)
+        f = assembler.native().buffers["joint_forces"].copy()
+        n = m.n_dofs
+        for k in range(len(out)):
+            d = int(m.hinge_dofs[k])
+            out[k] = -f[k] if d < n else float(ev.reaction[d - n]) - f[k]
+        for k in resting:
+            side = _on_stop(m.hinges[k], state, int(k))
+            stop_force = float(ev.residual[m.hinge_dofs[k]]) - f[k]  # G at θ̈ = 0 (r = G + f)
+            if side * (stop_force + f[k]) < 0.0:  # unheld it would accelerate into the stop: the stop holds it
+                out[k] = stop_force
+        self._joint_forces = (state, out)
+        return out
+
     def values(self, state: State, energies: dict | None = None) -> list[float]:
         """Probe values in file order; ``energies`` may be passed when already computed."""
         m = self.model
@@ -77,9 +114,14 @@ class ProbeSet:
         for p in self.probes:
             if p.kind == "point":
                 out.append(self._point(p, state))
-            elif p.kind == "hinge":
-                k = m.hinge_index(p.beam, p.end)
-                out.append(float(state.theta[k] if p.quantity == "angle" else state.theta_dot[k]))
+            elif p.kind in ("hinge", "guide"):
+                k = m.hinge_index(p.beam, p.end) if p.kind == "hinge" else m.hinge_index(p.body, "guide")
+                if p.quantity in ("angle", "position"):
+                    out.append(float(state.theta[k]))
+                elif p.quantity == "rate":
+                    out.append(float(state.theta_dot[k]))
+                else:  # torque | force
+                    out.append(float(self.joint_forces(state)[k]))
             elif p.kind == "energy":
                 kind = p.quantity
                 if kind == "external_work":
@@ -100,3 +142,15 @@ class ProbeSet:
             else:  # pragma: no cover - the scene validator refuses other kinds
                 raise ValueError(p.kind)
         return out
+
+
+def _on_stop(joint, state: State, k: int) -> int:
+    """+1 (−1) when joint ``k`` rests on its upper (lower) rigid stop: on it within the events'
+    tolerance and not moving away; 0 otherwise."""
+    if joint.limits is None:
+        return 0
+    for side, stop in ((-1, joint.limits[0]), (1, joint.limits[1])):
+        tolerance = 1e-7 * max(1.0, abs(stop))  # latdyn.timeloop.events.lock_tolerance
+        if abs(state.theta[k] - stop) <= tolerance and side * state.theta_dot[k] >= -tolerance:
+            return side
+    return 0
