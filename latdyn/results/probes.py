@@ -36,7 +36,7 @@ class ProbeSet:
         self._need_energy = "energy" in kinds
         self._need_momentum = "momentum" in kinds
         self._need_sections = "element" in kinds
-        self._joint_forces = None  # (state, forces) of the last call of joint_forces
+        self._joint_forces = None  # (key of the state, forces) of the last call of joint_forces
 
     def _point(self, probe, state: State) -> np.ndarray:
         m = self.model
@@ -67,14 +67,22 @@ class ProbeSet:
         """The generalized force each joint (hinge or guide, in model order) applies on its coordinate,
         positive when it drives θ or s up (SCENE.md, the joint probes ``torque``/``force``).
 
-        One evaluation of the equations of motion at ``state``, r = G + f with f the joint's law
-        (spring, damper, applied torque or force: the generated ``hinge_force``, as the evaluation
-        summed it, ``joint_forces`` of csrc/evaluate.c) and G all the rest (inertia, the structure,
-        loads). A free joint applies −f. A joint without a coordinate (prescribed, latched) applies
-        −f plus its reaction r: G. A free joint resting on a rigid stop (on it, not moving away)
-        applies what holds its coordinate's acceleration at zero, G with θ̈ = 0 (the other
-        accelerations as the step left them), when that pushes into the stop; −f otherwise."""
-        if self._joint_forces is not None and self._joint_forces[0] is state:
+        One evaluation of the equations of motion at ``state``: the residual of the joint's
+        coordinate is r = G + f, with f its law (spring, damper, applied torque or force: the
+        generated ``hinge_force``, as the evaluation summed it, ``joint_forces`` of
+        csrc/evaluate.c) and G all the rest (inertia, the structure, loads).
+
+        - A free joint applies its law: −f.
+        - A joint without a coordinate (prescribed, latched) applies, besides its law, the reaction
+          that holds it, the multiplier of its constraint: r (the residual of that coordinate's
+          equation, the law in it). That is the value reported: the drive torque a prescribed angle
+          needs, the load a latch carries.
+        - A free joint resting on a rigid stop (on it within the events' tolerance and not moving
+          away) is held by the stop when, unheld, it would accelerate into it: then the stop's
+          reaction is reported, r with the joint's own acceleration zero (the other accelerations as
+          the step left them); otherwise −f."""
+        key = (id(state), float(state.t), state.theta.tobytes(), state.theta_dot.tobytes())
+        if self._joint_forces is not None and self._joint_forces[0] == key:  # the same row's state
             return self._joint_forces[1]
         m, assembler = self.model, self.assembler
         out = np.zeros(len(m.hinges))
@@ -90,13 +98,13 @@ class ProbeSet:
         n = m.n_dofs
         for k in range(len(out)):
             d = int(m.hinge_dofs[k])
-            out[k] = -f[k] if d < n else float(ev.reaction[d - n]) - f[k]
+            out[k] = -f[k] if d < n else float(ev.reaction[d - n])
         for k in resting:
             side = _on_stop(m.hinges[k], state, int(k))
-            stop_force = float(ev.residual[m.hinge_dofs[k]]) - f[k]  # G at θ̈ = 0 (r = G + f)
-            if side * (stop_force + f[k]) < 0.0:  # unheld it would accelerate into the stop: the stop holds it
-                out[k] = stop_force
-        self._joint_forces = (state, out)
+            held_by_stop = float(ev.residual[m.hinge_dofs[k]])  # r at θ̈ = 0
+            if side * held_by_stop < 0.0:  # unheld it would accelerate into the stop: the stop holds it
+                out[k] = held_by_stop
+        self._joint_forces = (key, out)
         return out
 
     def values(self, state: State, energies: dict | None = None) -> list[float]:
