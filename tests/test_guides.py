@@ -366,3 +366,24 @@ def _written(tmp_path, text: str):
     path = tmp_path / "scene.yaml"
     path.write_text(text)
     return path
+
+
+def test_static_sag_and_frequency_of_a_guided_spring_mass(tmp_path):
+    """Static: s = m g·a/k on a tilted guide, the guide holding the weight's component, k s; modes: the
+    frequency √(k/m)/2π."""
+    text = """
+gravity: [0, 0, -9.81]
+bodies:
+  m: {at: [0, 0, 0], mass: 2.0, guide: {axis: [0, 0.6, 0.8], stiffness: 50.0}}
+solve: {analysis: static, steps: 2}
+output: {probes: {s: {guide: m, quantity: position}, f: {guide: m, quantity: force}}}
+"""
+    result = run_text(tmp_path, text)
+    sag = -2.0 * 9.81 * 0.8 / 50.0
+    assert result.probes["s"][-1] == pytest.approx(sag, rel=1e-12)
+    assert result.probes["f"][-1] == pytest.approx(-50.0 * sag, rel=1e-12)
+    out = tmp_path / "modes"
+    latdyn.run(latdyn.load_scene(str(_written(tmp_path, text.replace("{analysis: static, steps: 2}",
+                                                                     "{analysis: modes, count: 1}")))), out)
+    frequency = float((out / "modes.csv").read_text().splitlines()[1].split(",")[1])
+    assert frequency == pytest.approx(5.0 / (2.0 * np.pi), rel=1e-12)

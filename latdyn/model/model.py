@@ -303,14 +303,18 @@ class Model:
         angle or latched hinge. ``latdyn check`` adds :func:`latdyn.analyses.check.dynamics_report`.
         """
         n_free = len(self.free_nodes)
-        free_hinges = len(self.free_hinges)
+        free_guides = sum(1 for k in self.free_hinges if self.hinges[k].kind == "guide")
+        free_hinges = len(self.free_hinges) - free_guides
+        n_guides = sum(1 for h in self.hinges if h.kind == "guide")
         slots = self.node_slots()
         translations, rotations = int(slots[:3].sum()), int(slots[3:].sum())
         lines = [
             f"model: {len(self.nodes)} nodes ({n_free} free), {len(self.element_nodes)} elements, "
-            f"{len(self.hinges)} hinges ({free_hinges} with a coordinate), {self.n_dofs} coordinates",
+            f"{len(self.hinges) - n_guides} hinges ({free_hinges} with a coordinate), "
+            + (f"{n_guides} guides ({free_guides} with a coordinate), " if n_guides else "")
+            + f"{self.n_dofs} coordinates",
             f"  coordinates: {translations * n_free} node translations + {rotations * n_free} node rotations "
-            f"+ {free_hinges} hinge angles = {self.n_dofs}",
+            f"+ {free_hinges} hinge angles" + (f" + {free_guides} slides" if n_guides else "") + f" = {self.n_dofs}",
             f"  planar: {self.plane_reason}",
         ]
         bodies = [n for n in self.nodes if n.body is not None]
@@ -323,19 +327,21 @@ class Model:
                      + f"; {int(slots.sum())} coordinates per free node")
         fixed = [n.name for n in self.nodes if n.kind == FIXED]
         prescribed = [n.name for n in self.nodes if n.kind == PRESCRIBED]
-        prescribed_angles = [f"{h.beam}.{h.end}" for h in self.hinges if h.angle is not None]
-        latched = [f"{h.beam}.{h.end}" for k, h in enumerate(self.hinges) if self.locked[k]]
+        prescribed_angles = [h.name for h in self.hinges if h.angle is not None and h.kind == "hinge"]
+        prescribed_slides = [h.name for h in self.hinges if h.angle is not None and h.kind == "guide"]
+        latched = [h.name for k, h in enumerate(self.hinges) if self.locked[k]]
         out_of_plane = [self.nodes[i].name for i in self.free_nodes] if self.plane is not None else []
         removed = [(6, "fixed bodies", fixed), (6, "prescribed bodies", prescribed),
-                   (1, "prescribed hinge angles", prescribed_angles), (1, "latched hinges", latched),
+                   (1, "prescribed hinge angles", prescribed_angles), (1, "prescribed slides", prescribed_slides),
+                   (1, "latched joints", latched),
                    (3, "free nodes out of plane", out_of_plane)]
         parts = [f"{per * len(names)} for {len(names)} {what} ({_short(names)})"
                  for per, what, names in removed if names]
         lines.append("  removed: " + ("; ".join(parts) if parts else "none"))
         if self.links is not None:
             lines.append(self.links.report(self))
-        events = [f"{h.beam}.{h.end}" for h in self.hinges if h.lock_at is not None and h.angle is None]
-        stops = [f"{h.beam}.{h.end}" for h in self.hinges if h.limits is not None and h.angle is None]
+        events = [h.name for h in self.hinges if h.lock_at is not None and h.angle is None]
+        stops = [h.name for h in self.hinges if h.limits is not None and h.angle is None]
         if events or stops:
             lines.append(f"  events: {len(events)} hinges with lock_at ({_short(events) or '-'}), each removing its "
                          f"coordinate when it latches; {len(stops)} hinges with stops ({_short(stops) or '-'})")

@@ -1451,7 +1451,7 @@ def describe(scene: Scene) -> str:
     lines = [f"{scene.title or '(untitled)'}  [{scene.file}]"]
     kinds = []
     for b in scene.bodies.values():
-        state = "fixed" if b.fixed else "prescribed" if b.prescribed else "free"
+        state = "fixed" if b.fixed else "prescribed" if b.prescribed else "guided" if b.guide is not None else "free"
         kinds.append(f"{b.name} ({state}{f', mass {b.mass:g}' if b.mass else ''})")
     lines.append(f"  bodies:   {len(scene.bodies)}" + (f": {', '.join(kinds)}" if kinds else ""))
     beams = [f"{b.name} ({'rigid link' if b.rigid else f'{b.elements} el'}, L = {b.length:g}, "
@@ -1461,6 +1461,10 @@ def describe(scene: Scene) -> str:
     hinges = [f"{beam}.{which}" + (" (prescribed)" if h.angle is not None else "")
               for beam, which, h in scene.hinges]
     lines.append(f"  hinges:   {len(hinges)}" + (f": {', '.join(hinges)}" if hinges else ""))
+    guides = [f"{name} on {b.guide.on or 'the ground'}" + (" (prescribed)" if b.guide.position is not None else "")
+              for name, b in scene.bodies.items() if b.guide is not None]
+    if guides:
+        lines.append(f"  guides:   {len(guides)}: {', '.join(guides)}")
     lines.append(f"  loads:    {len(scene.loads)}")
     names = [p.name for p in scene.output.probes]
     lines.append(f"  probes:   {len(names)}" + (f": {', '.join(names)}" if names else ""))
