@@ -98,7 +98,7 @@ class ProbeSet:
         n = m.n_dofs
         for k in range(len(out)):
             d = int(m.hinge_dofs[k])
-            out[k] = -f[k] if d < n else float(ev.reaction[d - n])
+            out[k] = 0.0 - f[k] if d < n else float(ev.reaction[d - n])  # 0.0 − f: no −0.0
         for k in resting:
             side = _on_stop(m.hinges[k], state, int(k))
             held_by_stop = float(ev.residual[m.hinge_dofs[k]])  # r at θ̈ = 0
