@@ -387,3 +387,14 @@ output: {probes: {s: {guide: m, quantity: position}, f: {guide: m, quantity: for
                                                                      "{analysis: modes, count: 1}")))), out)
     frequency = float((out / "modes.csv").read_text().splitlines()[1].split(",")[1])
     assert frequency == pytest.approx(5.0 / (2.0 * np.pi), rel=1e-12)
+
+
+def test_the_key_on_read_as_a_boolean_is_refused_with_a_hint(tmp_path):
+    """A mapping from ``yaml.safe_load`` (YAML 1.1) holds the key ``on`` as True: refused with the key
+    and the fix, not a message about True; latdyn's own reader of the same text reads the word."""
+    import yaml
+
+    with pytest.raises(SceneError) as caught:
+        latdyn.load_scene(yaml.safe_load(BEAD))
+    assert caught.value.key == "bodies.bead.guide.on" and "quote it" in str(caught.value)
+    assert latdyn.load_scene(str(_written(tmp_path, BEAD))).bodies["bead"].guide.on == "rod"

@@ -895,7 +895,11 @@ class _Reader:
 
     def guide(self, name, spec, key) -> Guide:
         """``bodies.NAME.guide`` (SCENE.md): a sliding joint; read after every body, as ``on`` may
-        name a body defined later in the file."""
+        name a body defined later in the file. The key ``on`` that a YAML 1.1 reader (``yaml.safe_load``,
+        not latdyn's) turned into ``True`` is refused with a message to quote it (SCENE.md, "YAML words")."""
+        if isinstance(spec, dict) and True in spec:
+            self.fail(_join(key, "on"), "a YAML 1.1 reader took the key `on` for the boolean true; quote it "
+                                        "('on': BODY), or read the file with latdyn.load_scene(path)")
         self.mapping(spec, key, _GUIDE_KEYS, required=("axis",))
         body = self.bodies[name]
         if body.fixed or body.prescribed:
