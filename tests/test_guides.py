@@ -398,3 +398,31 @@ def test_the_key_on_read_as_a_boolean_is_refused_with_a_hint(tmp_path):
         latdyn.load_scene(yaml.safe_load(BEAD))
     assert caught.value.key == "bodies.bead.guide.on" and "quote it" in str(caught.value)
     assert latdyn.load_scene(str(_written(tmp_path, BEAD))).bodies["bead"].guide.on == "rod"
+
+
+def test_torque_of_a_held_hinge_of_a_flexible_cantilever(tmp_path):
+    """Static: a flexible beam whose root hinge is held at angle 0 carries a tip force P along y; the
+    hinge applies −P x_tip (x_tip the deformed tip's lever arm), the moment that holds the beam."""
+    text = """
+sections:
+  s: {EA: 1.0e7, EIy: 1.0e3, EIz: 1.0e3, GJ: 1.0e3, rhoA: 1.0}
+bodies:
+  root: {at: [0, 0, 0], fixed: true}
+beams:
+  arm:
+    from: root
+    to: [2, 0, 0]
+    section: s
+    elements: 4
+    start: {hinge: {axis: [0, 0, 1], angle: 0}}
+loads:
+  - {at: arm.end, force: [0, 3, 0]}
+solve: {analysis: static, steps: 1}
+output:
+  probes:
+    tau: {hinge: arm.start, quantity: torque}
+    x: {point: arm.end, quantity: position, component: x}
+"""
+    result = run_text(tmp_path, text)
+    assert result.probes["x"][-1] < 2.0 - 1e-6  # deformed: the lever arm is the current one
+    assert result.probes["tau"][-1] == pytest.approx(-3.0 * result.probes["x"][-1], rel=1e-10)
