@@ -22,8 +22,9 @@ fixed in the parent and keeps the parent's orientation; its coordinate is the sl
 
 with o the child's reference point at s = 0 from the parent's (parent axes).  Its joint twist is
 ξ = (g, 0), g = T_p a: a translation along the current axis; every formula below holds for it
-with that ξ (V_p ×̂ ξ = (ω × g, 0) is the Coriolis term 2ω × ṡg and, through the parent's
-accelerations, the centrifugal one of a slide on a turning body).
+with that ξ: in the acceleration, ṡ V_p ×̂ ξ = (ṡ ω × g, 0) and the ω × v_c of the point's
+acceleration make the Coriolis term 2ω × ṡg, and the parent's acceleration at the child's point
+the centrifugal one of a slide on a turning body.
 
 Velocities are spatial twists at the global origin, V = (v_O, ω) with the velocity of a
 point y equal to v_O + ω × y; a node's coordinate velocities are (v, w) = (v_O + ω × x, ω).
