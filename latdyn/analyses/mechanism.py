@@ -81,7 +81,7 @@ def mechanism_message(path, state, load_factor: float) -> str | None:
     size = float(np.linalg.norm(scaled_load))
     pushed = size > 0 and float(np.linalg.norm(left.T @ scaled_load)) > 1e-8 * size
     free = " and ".join(names) if len(names) <= 3 else ", ".join(names[:3]) + f" and {len(names) - 3} more"
-    stopped = {f"hinge {h.beam}.{h.end}" for h in model.hinges if h.limits is not None}
+    stopped = {f"{h.kind} {h.name}" for h in model.hinges if h.limits is not None}
     holds = ("no stiffness, no support; a stop, hinge limits, acts in transient runs only"
              if stopped & set(names) else "no stiffness, no support")
     if pushed:

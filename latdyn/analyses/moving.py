@@ -27,6 +27,9 @@ def motions(scene) -> list[str]:
     for beam, end, hinge in scene.hinges:
         if hinge.angle is not None and not hinge.angle.is_constant:
             out.append(f"hinge {beam}.{end} has a prescribed angle")
+    for body in scene.bodies.values():
+        if body.guide is not None and body.guide.position is not None and not body.guide.position.is_constant:
+            out.append(f"guide {body.name!r} has a prescribed position")
     v = scene.initial_velocity
     if np.any(v.linear) or np.any(v.angular):
         out.append(f"initial_velocity is linear {_vector(v.linear)}, angular {_vector(v.angular)}")

@@ -100,9 +100,13 @@ def spin_of(prepared):
     for body_name, body in scene.bodies.items():
         if body.fixed and omega is not None and np.any(omega):
             raise SceneError(scene.file, key, f"steady: body {body_name!r} is fixed while others spin")
+        if body.guide is not None and body.guide.on is None and omega is not None and np.any(omega):
+            raise SceneError(scene.file, key, f"steady: body {body_name!r} slides on a guide on the ground while "
+                                              "others spin")
     for hinge in model.hinges:
         if hinge.angle is not None and abs(hinge.angle.rate(0.0)) > 0:
-            raise SceneError(scene.file, key, f"steady: the prescribed angle of hinge {hinge.beam}.{hinge.end} "
+            what = "angle of hinge" if hinge.kind == "hinge" else "position of guide"
+            raise SceneError(scene.file, key, f"steady: the prescribed {what} {hinge.name} "
                                               "moves; prescribe the spin on a body instead")
     if omega is None:
         raise SceneError(scene.file, key, "steady needs a body with a prescribed rotation at constant rate "

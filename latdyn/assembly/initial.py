@@ -25,6 +25,10 @@ its initial rigid rotation), and a structure clamped to a fixed body starts in V
 (an impulsively loaded cantilever) — the fixed body adds nothing.  In a closed loop a part
 reached twice takes the first Δ it is reached with.
 
+A guide (``bodies.NAME.guide``) on a body is a joint from ``on`` to the guided body with the
+joint twist ξ = (g, 0); a free guide takes the slide rate ṡ = g·(v_target − v_on) at the body's
+reference point: the component along the axis of its target velocity relative to ``on``.
+
 *Coordinates.*  A free node takes its part's target twist exactly: v = v_O + ω × x, w = ω (the
 elastic coordinates of flexible beams included).  A free hinge takes the rate that turns its
 beam end closest to the target: θ̇ = g·(ω_beam − ω_body) (least squares on the end frame's
@@ -68,12 +72,22 @@ def _joints(model, state, hinge_of: dict) -> list:
                 out.append((spec.body, beam_part, h, 1.0, xi))
             else:
                 out.append((beam_part, spec.body, h, -1.0, xi))
+    for name, body in model.scene.bodies.items():  # guides on a body: a slide ṡ (g, 0) from ``on``
+        if body.guide is not None and body.guide.on is not None:
+            h = hinge_of[(name, "guide")]
+            g = state.T[model.body_node[body.guide.on]] @ model.hinges[h].axis
+            out.append((body.guide.on, name, h, 1.0, np.concatenate([g, np.zeros(3)])))
     return out
 
 
 def _node_twist(state, node: int) -> np.ndarray:
     """The spatial twist (v_O, ω) of a node's frame."""
     return np.concatenate([state.v[node] - np.cross(state.w[node], state.x[node]), state.w[node]])
+
+
+def _point_velocity(twist: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """The velocity of the point y of a body moving with the spatial twist (v_O, ω)."""
+    return twist[:3] + np.cross(twist[3:], y)
 
 
 def initial_velocities(model, state) -> None:
@@ -136,7 +150,16 @@ def initial_velocities(model, state) -> None:
     if links is not None:
         for e in links.edges:
             child_part = node_part[e.child]  # the link's beam for its link node, else the body at its end
-            if e.hinge >= 0:
+            if e.prismatic:  # a guide: the slide rate that gives the child its target velocity along g
+                if free[e.hinge]:
+                    links.complete(state)  # the parent's actual motion (edges before this one are set)
+                    g = state.T[e.parent] @ e.axis
+                    x_c = state.x[e.child]
+                    relative = (_point_velocity(target(child_part), x_c)
+                                - _point_velocity(_node_twist(state, e.parent), x_c))
+                    state.theta_dot[e.hinge] = float(g @ relative)
+                omega[e.child] = omega[e.parent]
+            elif e.hinge >= 0:
                 g = state.T[e.parent] @ e.axis
                 if free[e.hinge]:
                     state.theta_dot[e.hinge] = e.sign * float(g @ (target(child_part)[3:] - omega[e.parent]))

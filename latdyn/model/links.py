@@ -15,6 +15,17 @@ prescribed),
 with a the hinge axis, o the hinge point and b the child's reference point from the hinge
 point, all in the parent's node axes at θ = 0 (θ ≡ 0 on a clamped edge), s = ±1.
 
+A *prismatic* edge (a sliding joint, ``bodies.NAME.guide``) moves the child along the axis a
+fixed in the parent and keeps the parent's orientation; its coordinate is the slide s:
+
+    T_c = T_p,    x_c = x_p + T_p (o + s a)                                   (prismatic edge)
+
+with o the child's reference point at s = 0 from the parent's (parent axes).  Its joint twist is
+ξ = (g, 0), g = T_p a: a translation along the current axis; every formula below holds for it
+with that ξ: in the acceleration, ṡ V_p ×̂ ξ = (ṡ ω × g, 0) and the ω × v_c of the point's
+acceleration make the Coriolis term 2ω × ṡg, and the parent's acceleration at the child's point
+the centrifugal one of a slide on a turning body.
+
 Velocities are spatial twists at the global origin, V = (v_O, ω) with the velocity of a
 point y equal to v_O + ω × y; a node's coordinate velocities are (v, w) = (v_O + ω × x, ω).
 Along an edge V_c = V_p + s θ̇ ξ with the joint twist ξ = (o_g × g, g) (g = T_p a the
@@ -64,7 +75,8 @@ class Edge:
     sign: float  # s: +1 at a link's start, −1 at its end
     point: np.ndarray  # o, hinge point from the parent's reference point, parent node axes
     arm: np.ndarray  # b, child's reference point from the hinge point, parent node axes at θ = 0
-    link: str  # the rigid link (beam name) the edge belongs to
+    link: str  # the rigid link (beam name) the edge belongs to; for a guide, the guided body
+    prismatic: bool = False  # a sliding joint: the hinge coordinate is the slide along `axis`
 
 
 @dataclass
@@ -95,16 +107,24 @@ class RigidLinks:
         """Forward kinematics on SO(3), in tree order: x and T of every dependent node (in place)."""
         for e in self.edges:
             theta = state.theta[e.hinge] if e.hinge >= 0 else 0.0
+            if e.prismatic:
+                Tp = state.T[e.parent]
+                state.T[e.child] = Tp
+                state.x[e.child] = state.x[e.parent] + Tp @ (e.point + theta * e.axis)
+                continue
             R = expm_so3(e.axis * (e.sign * theta)) if e.hinge >= 0 else np.eye(3)
             Tp = state.T[e.parent]
             state.T[e.child] = Tp @ R
             state.x[e.child] = state.x[e.parent] + Tp @ (e.point + R @ e.arm)
 
     def _joint(self, state, e: Edge):
-        """Current axis g = T_p a, hinge point o_g and joint twist ξ = (o_g × g, g) of an edge."""
+        """Current axis g = T_p a, hinge point o_g and joint twist ξ = (o_g × g, g) of an edge;
+        ξ = (g, 0) on a prismatic edge (o_g is then the child's point at s = 0)."""
         Tp = state.T[e.parent]
         g = Tp @ e.axis
         o = state.x[e.parent] + Tp @ e.point
+        if e.prismatic:
+            return g, o, np.concatenate([g, np.zeros(3)])
         return g, o, np.concatenate([_cross(o, g), g])
 
     def _rates(self, state, v, w, a, alpha, theta_dot, theta_ddot) -> None:
@@ -190,11 +210,13 @@ class RigidLinks:
         """∂(Pᵀ)/∂q · r_all on the free coordinates (n, n), r_all held fixed.
 
         For a dependent node c with residual wrench (f, m) (force, moment about x_c), Pᵀ puts
-        m + (x_c − x_r) × f on its root's rotations and s g·(m + (x_c − o) × f) on each hinge of
-        its path (axis g, point o).  Varied with f, m fixed (g, o move with the edge's parent p):
+        m + (x_c − x_r) × f on its root's rotations, s g·(m + (x_c − o) × f) on each hinge of
+        its path (axis g, point o) and g·f on each slide.  Varied with f, m fixed (g, o move with
+        the edge's parent p):
 
             root:   −skew(f) (δx_c − δx_r)
             hinge:  s [(g × u)·δω_p + (f × g)·(δx_c − δo)],  u = m + (x_c − o) × f
+            slide:  (g × f)·δω_p
         """
         import scipy.sparse as sps  # on use: only models with rigid links need it
 
@@ -224,8 +246,11 @@ class RigidLinks:
                 if e.hinge < 0 or model.hinge_dofs[e.hinge] >= n:
                     continue
                 g, o, _ = self._joint(state, e)
-                u = m + _cross(x_c - o, f)
                 tp = twist[e.parent]
+                if e.prismatic:
+                    add(np.array([model.hinge_dofs[e.hinge]]), (e.sign * _cross(g, f) @ tp[3:])[free])
+                    continue
+                u = m + _cross(x_c - o, f)
                 row = e.sign * (_cross(g, u) @ tp[3:] + _cross(f, g) @ (dx_c - self.point_jacobian(tp, o)))
                 add(np.array([model.hinge_dofs[e.hinge]]), row[free])
         if not rows:
@@ -277,8 +302,11 @@ class RigidLinks:
     def report(self, model) -> str:
         dependent_bodies = [model.nodes[c].name for c in self.dependent if model.nodes[c].body is not None]
         link_nodes = [model.nodes[c].name for c in self.dependent if model.nodes[c].body is None]
+        guides = [e.link for e in self.edges if e.prismatic]
         return (f"  rigid links: {len(self.links)} ({', '.join(self.links[:4])}"
-                f"{', …' if len(self.links) > 4 else ''}); dependent nodes (no coordinates of their own): "
+                f"{', …' if len(self.links) > 4 else ''}); guides: {len(guides)}"
+                + (f" ({', '.join(guides[:4])}{', …' if len(guides) > 4 else ''})" if guides else "")
+                + "; dependent nodes (no coordinates of their own): "
                 f"{len(link_nodes)} link nodes, {len(dependent_bodies)} bodies"
                 + (f" ({', '.join(dependent_bodies[:4])})" if dependent_bodies else "")
                 + f"; {6 * len(self.dependent)} coordinates removed")

@@ -62,6 +62,14 @@ class HingeCoordinate:
     rest_angle: float = 0.0
     limits: tuple[float, float] | None = None
     restitution: float = 0.0
+    #: "hinge" (revolute, θ an angle) or "guide" (prismatic, ``bodies.NAME.guide``: θ is the slide s,
+    #: ``beam`` the guided body's name, ``end`` "guide"); both have the same laws and events
+    kind: str = "hinge"
+
+    @property
+    def name(self) -> str:
+        """The joint's name in results: ``BEAM.start|end`` for a hinge, the guided body for a guide."""
+        return self.beam if self.kind == "guide" else f"{self.beam}.{self.end}"
 
     @property
     def conservative_spring(self) -> bool:
@@ -136,6 +144,7 @@ class Model:
         beam_elements, beam_nodes, beam_grid_offsets = {}, {}, {}
         link_bodies = []  # (node, mass, com, inertia) of the rigid links
         edges = []
+        _guides(scene, nodes, body_node, hinges, edges)
         for beam in scene.beams.values():
             if beam.rigid:
                 _rigid_link(scene, beam, nodes, body_node, hinges, edges, link_bodies,
@@ -283,7 +292,7 @@ class Model:
             for k in range(6):
                 names[self.node_dofs[i, k]] = f"{node.name}:{labels[k]}"
         for k, hinge in enumerate(self.hinges):
-            names[self.hinge_dofs[k]] = f"hinge {hinge.beam}.{hinge.end}"
+            names[self.hinge_dofs[k]] = f"{hinge.kind} {hinge.name}"
         return names[: self.n_dofs]
 
     def size_report(self) -> str:
@@ -294,38 +303,45 @@ class Model:
         angle or latched hinge. ``latdyn check`` adds :func:`latdyn.analyses.check.dynamics_report`.
         """
         n_free = len(self.free_nodes)
-        free_hinges = len(self.free_hinges)
+        free_guides = sum(1 for k in self.free_hinges if self.hinges[k].kind == "guide")
+        free_hinges = len(self.free_hinges) - free_guides
+        n_guides = sum(1 for h in self.hinges if h.kind == "guide")
         slots = self.node_slots()
         translations, rotations = int(slots[:3].sum()), int(slots[3:].sum())
         lines = [
             f"model: {len(self.nodes)} nodes ({n_free} free), {len(self.element_nodes)} elements, "
-            f"{len(self.hinges)} hinges ({free_hinges} with a coordinate), {self.n_dofs} coordinates",
+            f"{len(self.hinges) - n_guides} hinges ({free_hinges} with a coordinate), "
+            + (f"{n_guides} guides ({free_guides} with a coordinate), " if n_guides else "")
+            + f"{self.n_dofs} coordinates",
             f"  coordinates: {translations * n_free} node translations + {rotations * n_free} node rotations "
-            f"+ {free_hinges} hinge angles = {self.n_dofs}",
+            f"+ {free_hinges} hinge angles" + (f" + {free_guides} slides" if n_guides else "") + f" = {self.n_dofs}",
             f"  planar: {self.plane_reason}",
         ]
         bodies = [n for n in self.nodes if n.body is not None]
         link_nodes = [n for n in self.nodes if n.body is None and n.beam in _rigid_names(self.scene)]
         interior = sum(1 for n in self.nodes if n.body is None and ".node[" in n.name)
-        free_ends = sum(1 for n in self.nodes if n.body is None and ".node[" not in n.name) - len(link_nodes)
+        free_ends = sum(1 for n in self.nodes if n.body is None and n.beam is not None
+                        and ".node[" not in n.name) - len(link_nodes)
         lines.append(f"  nodes: {len(bodies)} joint bodies, {interior} interior beam nodes, "
                      f"{free_ends} free beam ends" + (f", {len(link_nodes)} rigid-link nodes" if link_nodes else "")
                      + f"; {int(slots.sum())} coordinates per free node")
         fixed = [n.name for n in self.nodes if n.kind == FIXED]
         prescribed = [n.name for n in self.nodes if n.kind == PRESCRIBED]
-        prescribed_angles = [f"{h.beam}.{h.end}" for h in self.hinges if h.angle is not None]
-        latched = [f"{h.beam}.{h.end}" for k, h in enumerate(self.hinges) if self.locked[k]]
+        prescribed_angles = [h.name for h in self.hinges if h.angle is not None and h.kind == "hinge"]
+        prescribed_slides = [h.name for h in self.hinges if h.angle is not None and h.kind == "guide"]
+        latched = [h.name for k, h in enumerate(self.hinges) if self.locked[k]]
         out_of_plane = [self.nodes[i].name for i in self.free_nodes] if self.plane is not None else []
         removed = [(6, "fixed bodies", fixed), (6, "prescribed bodies", prescribed),
-                   (1, "prescribed hinge angles", prescribed_angles), (1, "latched hinges", latched),
+                   (1, "prescribed hinge angles", prescribed_angles), (1, "prescribed slides", prescribed_slides),
+                   (1, "latched joints", latched),
                    (3, "free nodes out of plane", out_of_plane)]
         parts = [f"{per * len(names)} for {len(names)} {what} ({_short(names)})"
                  for per, what, names in removed if names]
         lines.append("  removed: " + ("; ".join(parts) if parts else "none"))
         if self.links is not None:
             lines.append(self.links.report(self))
-        events = [f"{h.beam}.{h.end}" for h in self.hinges if h.lock_at is not None and h.angle is None]
-        stops = [f"{h.beam}.{h.end}" for h in self.hinges if h.limits is not None and h.angle is None]
+        events = [h.name for h in self.hinges if h.lock_at is not None and h.angle is None]
+        stops = [h.name for h in self.hinges if h.limits is not None and h.angle is None]
         if events or stops:
             lines.append(f"  events: {len(events)} hinges with lock_at ({_short(events) or '-'}), each removing its "
                          f"coordinate when it latches; {len(stops)} hinges with stops ({_short(stops) or '-'})")
@@ -333,6 +349,7 @@ class Model:
 
 
     def hinge_index(self, beam: str, end: str) -> int:
+        """The index of hinge ``beam.end``, or of the guide of body ``beam`` with ``end`` "guide"."""
         for k, hinge in enumerate(self.hinges):
             if hinge.beam == beam and hinge.end == end:
                 return k
@@ -401,6 +418,8 @@ class Model:
 
     def _key_of(self, dof_name: str) -> str:
         """The scene key a coordinate belongs to, for error messages."""
+        if dof_name.startswith("guide "):
+            return f"bodies.{dof_name[len('guide '):]}.guide"
         if dof_name.startswith("hinge "):
             beam, end = dof_name[len("hinge "):].rsplit(".", 1)
             return f"beams.{beam}.{end}.hinge"
@@ -428,6 +447,32 @@ def _add_hinge(hinges: list, beam: str, which: str, node: int, hinge) -> int:
                                   None if h.lock_at is None else float(h.lock_at),
                                   float(h.rest_angle), h.limits, float(h.restitution)))
     return len(hinges) - 1
+
+
+def _guides(scene, nodes, body_node, hinges, edges) -> None:
+    """The sliding joints (``bodies.NAME.guide``): each guided body becomes a dependent node on a prismatic
+    edge (:mod:`latdyn.model.links`) from the node of ``on`` (a fixed node at the origin, ``ground``, when
+    the guide is on the ground), its slide s the coordinate of a :class:`HingeCoordinate` of kind "guide"."""
+    from latdyn.model.links import Edge
+
+    ground = None
+    for body in scene.bodies.values():
+        g = body.guide
+        if g is None:
+            continue
+        if g.on is None and ground is None:
+            ground = len(nodes)
+            nodes.append(Node("ground", np.zeros(3), FIXED))
+        parent = ground if g.on is None else body_node[g.on]
+        child = body_node[body.name]
+        nodes[child].kind = DEPENDENT
+        hinges.append(HingeCoordinate(body.name, "guide", child, np.array(g.axis, float), _law(g.stiffness),
+                                      _law(g.damping), None if g.force is None else _law(g.force), g.position,
+                                      None if g.lock_at is None else float(g.lock_at), float(g.rest), g.limits,
+                                      float(g.restitution), kind="guide"))
+        edges.append(Edge(parent, child, len(hinges) - 1, np.array(g.axis, float), 1.0,
+                          np.asarray(body.at, float) - nodes[parent].position, np.zeros(3), body.name,
+                          prismatic=True))
 
 
 def _rigid_names(scene) -> set:
@@ -473,6 +518,11 @@ def _rigid_link(scene, beam, nodes, body_node, hinges, edges, link_bodies, beam_
                                               "a rigid link positions the body at its `to` end, and this one is "
                                               f"positioned already; expected the {what} body as the link's `from` "
                                               "(or rigid: false)")
+        if node.kind == DEPENDENT and scene.bodies[end.body].guide is not None:
+            raise SceneError(scene.file, key, f"rigid link {beam.name!r} ends at body {end.body!r}, which slides on "
+                                              "a guide: the guide positions the body already (a closed loop that "
+                                              "minimum coordinates cannot express); make the beam flexible "
+                                              "(rigid: false) or start the link at the body")
         if node.kind == DEPENDENT:
             other = next(e.link for e in edges if e.child == child)
             raise SceneError(scene.file, key, f"body {end.body!r} is reached by two rigid links ({other!r} and "

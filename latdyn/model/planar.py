@@ -63,6 +63,8 @@ def _blocker(scene, normal: int) -> str | None:
             return f"bodies.{body.name}.motion.rotation.axis is not the normal"
         if body.translation is not None and not _zero(body.translation[normal]):
             return f"bodies.{body.name}.motion.translation leaves the plane"
+        if body.guide is not None:  # a guided body is a dependent node with all 6 coordinates (links.py)
+            return f"bodies.{body.name}.guide: scenes with guides run in 3D"
     for beam in scene.beams.values():
         if beam.rigid:  # rigid links map dependent nodes with all 6 coordinates (latdyn/model/links.py)
             return f"beams.{beam.name}.rigid: scenes with rigid links run in 3D"

@@ -10,7 +10,9 @@ from __future__ import annotations
 __all__ = ["probe_label", "probe_labels"]
 
 _POINT_UNITS = {"position": "m", "displacement": "m", "velocity": "m/s"}
-_HINGE = {"angle": ("hinge angle", "rad"), "rate": ("hinge rate", "rad/s")}
+_HINGE = {"angle": ("hinge angle", "rad"), "rate": ("hinge rate", "rad/s"),
+          "torque": ("torque the hinge applies", "N·m")}
+_GUIDE = {"position": ("slide", "m"), "rate": ("slide rate", "m/s"), "force": ("force the guide applies", "N")}
 _ENERGY = {"kinetic": "kinetic energy", "strain": "strain energy", "potential": "potential energy",
            "external_work": "external work", "total": "total energy",
            "dissipated": "declared dissipated energy (impacts, latches, hinge dampers)"}
@@ -30,6 +32,9 @@ def probe_label(probe) -> str:
     elif kind == "hinge":
         words, unit = _HINGE[quantity]
         text = f"{words} of {probe.beam}.{probe.end}"
+    elif kind == "guide":
+        words, unit = _GUIDE[quantity]
+        text = f"{words} of the guide of {probe.body}"
     elif kind == "energy":
         text, unit = _ENERGY[quantity], "J"
     elif kind == "momentum":

@@ -36,6 +36,7 @@ class ProbeSet:
         self._need_energy = "energy" in kinds
         self._need_momentum = "momentum" in kinds
         self._need_sections = "element" in kinds
+        self._joint_forces = None  # (key of the state, forces) of the last call of joint_forces
 
     def _point(self, probe, state: State) -> np.ndarray:
         m = self.model
@@ -62,6 +63,50 @@ class ProbeSet:
             return float(np.linalg.norm(value))
         return float(value[_COMPONENT[probe.component]])
 
+    def joint_forces(self, state: State) -> np.ndarray:
+        """The generalized force each joint (hinge or guide, in model order) applies on its coordinate,
+        positive when it drives θ or s up (SCENE.md, the joint probes ``torque``/``force``).
+
+        One evaluation of the equations of motion at ``state``: the residual of the joint's
+        coordinate is r = G + f, with f its law (spring, damper, applied torque or force: the
+        generated ``hinge_force``, as the evaluation summed it, ``joint_forces`` of
+        csrc/evaluate.c) and G all the rest (inertia, the structure, loads).
+
+        - A free joint applies its law: −f.
+        - A joint without a coordinate (prescribed, latched) applies, besides its law, the reaction
+          that holds it, the multiplier of its constraint: r (the residual of that coordinate's
+          equation, the law in it). That is the value reported: the drive torque a prescribed angle
+          needs, the load a latch carries.
+        - A free joint resting on a rigid stop (on it within the events' tolerance and not moving
+          away) is held by the stop when, unheld, it would accelerate into it: then the stop's
+          reaction is reported, r with the joint's own acceleration zero (the other accelerations as
+          the step left them); otherwise −f."""
+        key = (id(state), float(state.t), state.theta.tobytes(), state.theta_dot.tobytes())
+        if self._joint_forces is not None and self._joint_forces[0] == key:  # the same row's state
+            return self._joint_forces[1]
+        m, assembler = self.model, self.assembler
+        out = np.zeros(len(m.hinges))
+        if not len(out):
+            return out
+        resting = [k for k in m.free_hinges if _on_stop(m.hinges[k], state, int(k))]
+        held = state
+        if resting:
+            held = state.copy()
+            held.theta_ddot[resting] = 0.0
+        ev = assembler.evaluate(held, matrices=False)
+        f = assembler.native().buffers["joint_forces"].copy()
+        n = m.n_dofs
+        for k in range(len(out)):
+            d = int(m.hinge_dofs[k])
+            out[k] = 0.0 - f[k] if d < n else float(ev.reaction[d - n])  # 0.0 − f: no −0.0
+        for k in resting:
+            side = _on_stop(m.hinges[k], state, int(k))
+            held_by_stop = float(ev.residual[m.hinge_dofs[k]])  # r at θ̈ = 0
+            if side * held_by_stop < 0.0:  # unheld it would accelerate into the stop: the stop holds it
+                out[k] = held_by_stop
+        self._joint_forces = (key, out)
+        return out
+
     def values(self, state: State, energies: dict | None = None) -> list[float]:
         """Probe values in file order; ``energies`` may be passed when already computed."""
         m = self.model
@@ -77,9 +122,14 @@ class ProbeSet:
         for p in self.probes:
             if p.kind == "point":
                 out.append(self._point(p, state))
-            elif p.kind == "hinge":
-                k = m.hinge_index(p.beam, p.end)
-                out.append(float(state.theta[k] if p.quantity == "angle" else state.theta_dot[k]))
+            elif p.kind in ("hinge", "guide"):
+                k = m.hinge_index(p.beam, p.end) if p.kind == "hinge" else m.hinge_index(p.body, "guide")
+                if p.quantity in ("angle", "position"):
+                    out.append(float(state.theta[k]))
+                elif p.quantity == "rate":
+                    out.append(float(state.theta_dot[k]))
+                else:  # torque | force
+                    out.append(float(self.joint_forces(state)[k]))
             elif p.kind == "energy":
                 kind = p.quantity
                 if kind == "external_work":
@@ -100,3 +150,15 @@ class ProbeSet:
             else:  # pragma: no cover - the scene validator refuses other kinds
                 raise ValueError(p.kind)
         return out
+
+
+def _on_stop(joint, state: State, k: int) -> int:
+    """+1 (−1) when joint ``k`` rests on its upper (lower) rigid stop: on it within the events'
+    tolerance and not moving away; 0 otherwise."""
+    if joint.limits is None:
+        return 0
+    for side, stop in ((-1, joint.limits[0]), (1, joint.limits[1])):
+        tolerance = 1e-7 * max(1.0, abs(stop))  # latdyn.timeloop.events.lock_tolerance
+        if abs(state.theta[k] - stop) <= tolerance and side * state.theta_dot[k] >= -tolerance:
+            return side
+    return 0

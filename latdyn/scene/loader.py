@@ -102,11 +102,15 @@ ENERGY_KINDS = ("kinetic", "strain", "potential", "external_work", "dissipated",
 MOMENTUM_KINDS = ("linear", "angular")
 AXIS_COMPONENTS = ("x", "y", "z")
 ELEMENT_QUANTITIES = ("axial_force", "torque", "moment_y", "moment_z")
-PROBE_KINDS = ("point", "hinge", "energy", "momentum", "element")
+PROBE_KINDS = ("point", "hinge", "guide", "energy", "momentum", "element")
+#: ``{hinge: ..., quantity: torque}``: the generalized force the joint applies on its coordinate
+HINGE_PROBE_QUANTITIES = HINGE_QUANTITIES + ("torque",)
+GUIDE_QUANTITIES = ("position", "rate", "force")
 
 _TOP_KEYS = ("title", "gravity", "initial_velocity", "sections", "bodies", "beams", "loads", "solve", "output")
 _SECTION_KEYS = ("EA", "EIy", "EIz", "GJ", "rhoA", "rhoIy", "rhoIz", "GAy", "GAz")
-_BODY_KEYS = ("at", "mass", "com", "inertia", "fixed", "motion")
+_BODY_KEYS = ("at", "mass", "com", "inertia", "fixed", "motion", "guide")
+_GUIDE_KEYS = ("on", "axis", "stiffness", "damping", "force", "rest", "limits", "restitution", "lock_at", "position")
 _BEAM_KEYS = ("from", "to", "section", "elements", "y_axis", "start", "end", "rigid")
 _HINGE_KEYS = ("axis", "stiffness", "damping", "torque", "angle", "lock_at", "rest_angle", "limits", "restitution")
 _LOAD_KEYS = ("at", "force", "moment", "frame")
@@ -132,6 +136,7 @@ NEWTON = ("full", "modified", "exact")
 _PROBE_KEYS = {
     "point": ("point", "quantity", "frame", "component"),
     "hinge": ("hinge", "quantity"),
+    "guide": ("guide", "quantity"),
     "energy": ("energy",),
     "momentum": ("momentum", "component"),
     "element": ("element", "quantity"),
@@ -187,6 +192,39 @@ class Hinge:
 
 
 @dataclass
+class Guide:
+    """A prismatic (sliding) joint of a body (SCENE.md ``bodies.NAME.guide``): the body slides along
+    ``axis``, fixed in body ``on`` (None: the ground), and keeps ``on``'s orientation.
+
+    Its coordinate is the slide s (from the body's position at t = 0, along the axis), its rate
+    s_dot; the laws are those of a hinge with s for θ (:class:`Hinge`): the generalized force on s
+    is f = k(s, ṡ, t)(s − s_r) + c(s, ṡ, t) ṡ − F(s, ṡ, t), s_r = ``rest``. The laws are stored with
+    the hinge's variable names (``theta``, ``theta_dot``), so that a guide's law is evaluated by the
+    same code as a hinge's (:func:`guide_law_text`)."""
+    axis: np.ndarray                        # (3,) unit, global at t = 0
+    on: str | None = None                   # the body the axis is fixed in; None: the ground
+    stiffness: float | HingeLaw = 0.0
+    damping: float | HingeLaw = 0.0
+    force: TimeFunction | HingeLaw | None = None   # applied along the axis
+    position: TimeFunction | None = None    # prescribed slide (no coordinate)
+    lock_at: float | None = None            # latches when the slide reaches this value
+    rest: float = 0.0                       # neutral slide of the spring
+    limits: tuple[float, float] | None = None   # hard stops [lo, hi] on the slide
+    restitution: float = 0.0                # of an impact on a stop, in [0, 1]
+
+
+def guide_law_text(value, file, key):
+    """A guide's law as the hinge-law text it equals: ``s`` → ``theta``, ``s_dot`` → ``theta_dot``
+    (whole words; a number or a table is returned as it is). ``theta``/``theta_dot`` in a guide's
+    law are refused: its variables are s and s_dot."""
+    if not isinstance(value, str):
+        return value
+    if re.search(r"\btheta(_dot)?\b", value):
+        raise SceneError(file, key, f"a guide's law is in s, s_dot and t (not theta, theta_dot), got {value!r}")
+    return re.sub(r"\bs_dot\b", "theta_dot", re.sub(r"\bs\b(?!_)", "theta", value))
+
+
+@dataclass
 class BeamEnd:
     """One end of a beam: the grid point and how it is joined."""
     body: str | None        # None for a free end (a new massless node)
@@ -229,6 +267,7 @@ class Body:
     translation: list[TimeFunction] | None = None   # displacement of `at`
     rotation_axis: np.ndarray | None = None          # (3,) unit, through `at`
     rotation_angle: TimeFunction | None = None
+    guide: "Guide | None" = None  # a sliding joint: the body's one coordinate is its slide
 
     @property
     def prescribed(self) -> bool:
@@ -261,7 +300,8 @@ class Probe:
     ``kind`` and the fields it uses:
 
     - ``point``: point, quantity (position|displacement|velocity), frame, component (x|y|z|norm);
-    - ``hinge``: beam, end ("start"|"end"), quantity (angle|rate);
+    - ``hinge``: beam, end ("start"|"end"), quantity (angle|rate|torque);
+    - ``guide``: body (the guided body), quantity (position|rate|force);
     - ``energy``: quantity (kinetic|strain|potential|external_work|dissipated|total);
     - ``momentum``: quantity (linear|angular), component (x|y|z);
     - ``element``: beam, element (0-based index), quantity (axial_force|torque|moment_y|moment_z).
@@ -275,6 +315,7 @@ class Probe:
     beam: str | None = None
     end: str | None = None
     element: int | None = None
+    body: str | None = None  # a guide probe's guided body
 
 
 @dataclass
@@ -852,6 +893,76 @@ class _Reader:
             h.restitution = self.number(spec["restitution"], rkey, lo=0.0, hi=1.0)
         return h
 
+    def guide(self, name, spec, key) -> Guide:
+        """``bodies.NAME.guide`` (SCENE.md): a sliding joint; read after every body, as ``on`` may
+        name a body defined later in the file. The key ``on`` that a YAML 1.1 reader (``yaml.safe_load``,
+        not latdyn's) turned into ``True`` is refused with a message to quote it (SCENE.md, "YAML words")."""
+        if isinstance(spec, dict) and True in spec:
+            self.fail(_join(key, "on"), "a YAML 1.1 reader took the key `on` for the boolean true; quote it "
+                                        "('on': BODY), or read the file with latdyn.load_scene(path)")
+        self.mapping(spec, key, _GUIDE_KEYS, required=("axis",))
+        body = self.bodies[name]
+        if body.fixed or body.prescribed:
+            self.fail(key, f"body {name!r} is {'fixed' if body.fixed else 'prescribed (motion)'}; a body with a "
+                           "guide takes no fixed or motion: its motion is its slide (prescribe it with "
+                           "guide.position)")
+        g = Guide(axis=self.unit(spec["axis"], _join(key, "axis")))
+        if spec.get("on") is not None:
+            g.on = self.ref(spec["on"], _join(key, "on"), self.bodies, "body")
+            if g.on == name:
+                self.fail(_join(key, "on"), "expected another body (or none: the ground), not the guided body itself",
+                          spec["on"])
+
+        def law(sub):
+            return guide_law_text(spec[sub], self.file, _join(key, sub))
+
+        for sub in ("stiffness", "damping"):
+            if sub in spec:
+                setattr(g, sub, self.hinge_coefficient(law(sub), _join(key, sub)))
+        if "force" in spec:
+            fkey = _join(key, "force")
+            hinge_law = parse_hinge_law(law("force"), self.file, fkey)
+            g.force = hinge_law if {"theta", "theta_dot"} & set(hinge_law.depends_on) else \
+                parse_time_function(spec["force"], self.file, fkey)
+        if "position" in spec:
+            g.position = parse_time_function(spec["position"], self.file, _join(key, "position"))
+        if "rest" in spec:
+            g.rest = self.number(spec["rest"], _join(key, "rest"))
+        if "lock_at" in spec:
+            g.lock_at = self.number(spec["lock_at"], _join(key, "lock_at"))
+        if "limits" in spec:
+            lkey = _join(key, "limits")
+            value = spec["limits"]
+            if not isinstance(value, (list, tuple)) or len(value) != 2:
+                self.fail(lkey, "expected hard stops [lo, hi] on the slide s", value)
+            lo, hi = (self.number(x, f"{lkey}[{i}]") for i, x in enumerate(value))
+            if not lo <= 0.0 <= hi or not lo < hi:
+                self.fail(lkey, "expected lo <= 0 <= hi and lo < hi (the slide is 0 at t = 0)", value)
+            if g.position is not None:
+                self.fail(lkey, "a prescribed guide (position) has no free slide to stop; expected no limits "
+                                "with position", value)
+            if g.lock_at is not None and not lo <= g.lock_at <= hi:
+                self.fail(_join(key, "lock_at"), f"expected lock_at within the limits [{lo:g}, {hi:g}] "
+                                                 "(it could never be reached)", spec["lock_at"])
+            g.limits = (lo, hi)
+        if "restitution" in spec:
+            rkey = _join(key, "restitution")
+            if g.limits is None:
+                self.fail(rkey, "restitution applies to impacts on hard stops; expected limits: [lo, hi] with it")
+            g.restitution = self.number(spec["restitution"], rkey, lo=0.0, hi=1.0)
+        return g
+
+    def guide_loops(self) -> None:
+        """Refuse guides that carry each other round a loop (a on b, b on a)."""
+        for name, body in self.bodies.items():
+            seen, walk = [name], body
+            while walk.guide is not None and walk.guide.on is not None:
+                if walk.guide.on in seen:
+                    self.fail(f"bodies.{name}.guide.on", "guides that carry each other round a loop ("
+                              + " -> ".join(seen + [walk.guide.on]) + "); expected a tree of guides", walk.guide.on)
+                seen.append(walk.guide.on)
+                walk = self.bodies[walk.guide.on]
+
     def hinge_coefficient(self, value, key) -> float | HingeLaw:
         """A hinge stiffness or damping: a number >= 0, or a law in theta, theta_dot and t."""
         if _is_number(value):
@@ -1029,7 +1140,15 @@ class _Reader:
             if end.joint != "hinge":
                 self.fail(k("hinge"), f"expected a hinged beam end, but {ref} is {end.joint}", ref)
             return Probe(name=name, kind=kind, beam=beam.name, end=m["end"],
-                         quantity=self.choice(spec["quantity"], k("quantity"), HINGE_QUANTITIES))
+                         quantity=self.choice(spec["quantity"], k("quantity"), HINGE_PROBE_QUANTITIES))
+        if kind == "guide":
+            ref = spec["guide"]
+            guided = [n for n, b in self.bodies.items() if b.guide is not None]
+            if not isinstance(ref, str) or ref not in guided:
+                self.fail(k("guide"), f"expected the name of a body with a guide (guided bodies: {_listing(guided)})",
+                          ref)
+            return Probe(name=name, kind=kind, body=ref,
+                         quantity=self.choice(spec["quantity"], k("quantity"), GUIDE_QUANTITIES))
         if kind == "energy":
             return Probe(name=name, kind=kind, quantity=self.choice(spec["energy"], k("energy"), ENERGY_KINDS))
         if kind == "momentum":
@@ -1286,6 +1405,10 @@ def _build(raw: Any, file: str) -> Scene:
         r.sections[name] = r.section(name, spec, f"sections.{name}")
     for name, spec in r.named_mapping(raw.get("bodies"), "bodies", "body").items():
         r.bodies[name] = r.body(name, spec, f"bodies.{name}")
+    for name, spec in (raw.get("bodies") or {}).items():
+        if isinstance(spec, dict) and "guide" in spec:
+            r.bodies[name].guide = r.guide(name, spec["guide"], f"bodies.{name}.guide")
+    r.guide_loops()
     for name, spec in r.named_mapping(raw.get("beams"), "beams", "beam").items():
         r.beams[name] = r.beam(name, spec, f"beams.{name}")
     if not r.bodies and not r.beams:
@@ -1294,7 +1417,7 @@ def _build(raw: Any, file: str) -> Scene:
     attached = {end.body for b in r.beams.values() for end in (b.start, b.end) if end.body is not None}
     for name, body in r.bodies.items():
         if (body.mass == 0.0 and not np.any(body.inertia) and not body.fixed and not body.prescribed
-                and name not in attached):
+                and name not in attached and (body.guide is None or body.guide.position is None)):
             r.fail(f"bodies.{name}", f"a coordinate that nothing holds: body {name!r} has no mass, no inertia "
                                      "and no beam attached; expected mass/inertia, a beam, fixed: true or a motion")
 
@@ -1332,7 +1455,7 @@ def describe(scene: Scene) -> str:
     lines = [f"{scene.title or '(untitled)'}  [{scene.file}]"]
     kinds = []
     for b in scene.bodies.values():
-        state = "fixed" if b.fixed else "prescribed" if b.prescribed else "free"
+        state = "fixed" if b.fixed else "prescribed" if b.prescribed else "guided" if b.guide is not None else "free"
         kinds.append(f"{b.name} ({state}{f', mass {b.mass:g}' if b.mass else ''})")
     lines.append(f"  bodies:   {len(scene.bodies)}" + (f": {', '.join(kinds)}" if kinds else ""))
     beams = [f"{b.name} ({'rigid link' if b.rigid else f'{b.elements} el'}, L = {b.length:g}, "
@@ -1342,6 +1465,10 @@ def describe(scene: Scene) -> str:
     hinges = [f"{beam}.{which}" + (" (prescribed)" if h.angle is not None else "")
               for beam, which, h in scene.hinges]
     lines.append(f"  hinges:   {len(hinges)}" + (f": {', '.join(hinges)}" if hinges else ""))
+    guides = [f"{name} on {b.guide.on or 'the ground'}" + (" (prescribed)" if b.guide.position is not None else "")
+              for name, b in scene.bodies.items() if b.guide is not None]
+    if guides:
+        lines.append(f"  guides:   {len(guides)}: {', '.join(guides)}")
     lines.append(f"  loads:    {len(scene.loads)}")
     names = [p.name for p in scene.output.probes]
     lines.append(f"  probes:   {len(names)}" + (f": {', '.join(names)}" if names else ""))

@@ -284,6 +284,9 @@ class TimeLoop:
         """A row at ``state`` (probes, state, ParaView frame when due), its energies in the balance;
         then the balance judged (:meth:`_judge_balance`)."""
         gain = self.progress.balance(state.t, energies, self.probes.external_work)
+        if self.model.hinges:  # summary.json joint_peaks, over the recorded rows
+            self.progress.note_joint_forces([h.name for h in self.model.hinges], self.probes.joint_forces(state),
+                                            state.t)
         snapshot = state.copy()
         self.writer.record(state.t, self.probes.values(state, energies), state=state.as_dict(),
                            frame=lambda: paraview.frame(self.assembler, self.writer.mesh, snapshot))

@@ -54,6 +54,9 @@ class TransientProgress:
     factorizations: int = 0  # iteration matrices factorized (modified Newton keeps one over steps)
     solver_s: float = 0.0  # wall time inside the integrator's steps
     cut_times: list = field(default_factory=list)  # the first times at which a step was cut
+    #: summary.json ``joint_peaks``: {joint: {"peak": the force (torque) of largest magnitude the joint
+    #: applied on its coordinate at a recorded row, signed, "t": its first time}} (:meth:`note_joint_forces`)
+    joint_peaks: dict = field(default_factory=dict)
     inertia_tangent_from: float | None = None  # t from which Newton's matrix holds the inertia tangent
 
     def count(self, stats) -> None:
@@ -90,6 +93,13 @@ class TransientProgress:
         and dissipated energy seen."""
         return self.balance_error / self.energy_scale if self.energy_scale > 0 else 0.0
 
+    def note_joint_forces(self, names, forces, t: float) -> None:
+        """Keep each joint's peak force (:attr:`joint_peaks`) with the forces at the row at ``t``."""
+        for name, value in zip(names, forces):
+            peak = self.joint_peaks.get(name)
+            if peak is None or abs(value) > abs(peak["peak"]):
+                self.joint_peaks[name] = {"peak": float(value), "t": float(t)}
+
     def summary(self, tol: float, method: str) -> dict:
         """The counters and the energy balance, as summary.json reports them."""
         return dict(
@@ -98,7 +108,7 @@ class TransientProgress:
             energy_balance_error=self.relative_balance_error, dissipated_energy=self.dissipated,
             newton_iterations_per_step=self.newton_iterations / max(self.steps, 1),
             newton_tolerance=tol, method=method, solver_s=self.solver_s, factorizations=self.factorizations,
-            inertia_tangent_from=self.inertia_tangent_from)
+            inertia_tangent_from=self.inertia_tangent_from, joint_peaks=self.joint_peaks)
 
 
 #: ``energy_balance_error`` (relative) past which a run is flagged: a warning on stderr and in

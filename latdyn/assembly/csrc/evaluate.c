@@ -161,6 +161,9 @@ typedef struct {
     double *laws, *hinge_d_theta, *hinge_d_rate;
     /* the power the hinge dampers dissipate at the last evaluation, c θ̇² summed (1) */
     double *dissipation;
+    /* each joint's law force f of the last evaluation (n_hinges: hinges and guides), for the joint
+     * force probes (latdyn/results/probes.py ProbeSet.joint_forces) */
+    double *joint_forces;
 } Work;
 
 /* ------------------------------------------------------------------------- small algebra */
@@ -475,6 +478,7 @@ static double evaluate(const Model *m, const Configuration *c, Work *w, const do
         if (!m->hinge_conservative[j]) power += spring_power;
         power += torque_power;
         dissipation += damper_power;
+        w->joint_forces[j] = f;
         w->total[m->hinge_dofs[j]] += f;
     }
     /* point loads: the generated kernel codegen/joints.py, load by load */
