@@ -123,6 +123,19 @@ DESCRIPTIONS: dict[str, tuple[str, str, str | None]] = {
     "HINGE.rest_angle": ("neutral angle of the spring", "rad", None),
     "HINGE.limits": ("hard stops [lo, hi] on the angle (lo ≤ 0 ≤ hi)", "rad", "none"),
     "HINGE.restitution": ("coefficient of restitution of an impact on a stop, in [0, 1]", "—", None),
+    # sliding joints (guides)
+    "bodies.NAME.guide": ("a sliding (prismatic) joint: the body slides along an axis fixed in `on`, keeping "
+                          "its orientation; its one coordinate is the slide s", "—", "none"),
+    "bodies.NAME.guide.on": ("the body the axis is fixed in", "—", "the ground"),
+    "bodies.NAME.guide.axis": ("slide axis [ax, ay, az], global at t = 0 (s = 0 at t = 0)", "—", "required"),
+    "bodies.NAME.guide.stiffness": ("spring: a number or an expression in s, s_dot, t", "F/L", "none"),
+    "bodies.NAME.guide.damping": ("damper: a number or an expression in s, s_dot, t", "F·T/L", "none"),
+    "bodies.NAME.guide.force": ("applied force along the axis: an expression in t (or s, s_dot)", "F", "none"),
+    "bodies.NAME.guide.rest": ("neutral slide of the spring", "L", "0"),
+    "bodies.NAME.guide.limits": ("hard stops [lo, hi] on the slide (lo ≤ 0 ≤ hi)", "L", "none"),
+    "bodies.NAME.guide.restitution": ("coefficient of restitution of an impact on a stop, in [0, 1]", "—", "0"),
+    "bodies.NAME.guide.lock_at": ("latches rigidly when the slide reaches this value", "L", "never"),
+    "bodies.NAME.guide.position": ("prescribed slide, an expression in t (then no coordinate)", "L", "free"),
     # loads
     "loads.at": ("the point: BODY, BEAM.start, BEAM.end or BEAM.node[i]", "—", "required"),
     "loads.force": ("force [fx, fy, fz], expressions in t", "F", "none"),
@@ -163,11 +176,13 @@ DESCRIPTIONS: dict[str, tuple[str, str, str | None]] = {
     "output.paraview_every": ("time between ParaView frames; 0: none", "T", "the package's choice"),
     "output.probes": ("recorded columns of probes.csv, by name", "—", "none"),
     "output.probes.NAME.point": ("point probe: the point", "—", "required"),
-    "output.probes.NAME.quantity": ("what is measured (position|displacement|velocity; angle|rate; "
-                                    "axial_force|torque|moment_y|moment_z)", "L, L/T, rad, rad/T, F, F·L", "required"),
+    "output.probes.NAME.quantity": ("what is measured (point: position|displacement|velocity; hinge: angle|rate|torque; "
+                                    "guide: position|rate|force; element: axial_force|torque|moment_y|moment_z)",
+                                    "L, L/T, rad, rad/T, F, F·L", "required"),
     "output.probes.NAME.frame": ("point probe: global, or a body (relative to its `at`, in its axes)", "—", "global"),
     "output.probes.NAME.component": ("x, y, z or norm (point); x, y, z (momentum)", "—", "norm (point)"),
     "output.probes.NAME.hinge": ("hinge probe: BEAM.start or BEAM.end", "—", "required"),
+    "output.probes.NAME.guide": ("guide probe: the guided body (quantity position, rate or force)", "—", "required"),
     "output.probes.NAME.energy": ("kinetic, strain, potential, external_work, dissipated or total", "F·L",
                                   "required"),
     "output.probes.NAME.momentum": ("linear or angular (about the global origin)", "M·L/T, M·L²/T", "required"),
