@@ -70,6 +70,7 @@ from latdyn.scene.expressions import (
     parse_hinge_law,
     parse_time_function,
 )
+from latdyn.scene.parameters import Parameters, parameter_scope, read_parameters
 
 __all__ = [
     "Section", "Hinge", "BeamEnd", "Beam", "Body", "PointRef", "Load", "Probe", "Solve",
@@ -104,7 +105,7 @@ AXIS_COMPONENTS = ("x", "y", "z")
 ELEMENT_QUANTITIES = ("axial_force", "torque", "moment_y", "moment_z")
 PROBE_KINDS = ("point", "hinge", "energy", "momentum", "element")
 
-_TOP_KEYS = ("title", "gravity", "initial_velocity", "sections", "bodies", "beams", "loads", "solve", "output")
+_TOP_KEYS = ("title", "parameters", "gravity", "initial_velocity", "sections", "bodies", "beams", "loads", "solve", "output")
 _SECTION_KEYS = ("EA", "EIy", "EIz", "GJ", "rhoA", "rhoIy", "rhoIz", "GAy", "GAz")
 _BODY_KEYS = ("at", "mass", "com", "inertia", "fixed", "motion")
 _BEAM_KEYS = ("from", "to", "section", "elements", "y_axis", "start", "end", "rigid")
@@ -112,7 +113,7 @@ _HINGE_KEYS = ("axis", "stiffness", "damping", "torque", "angle", "lock_at", "re
 _LOAD_KEYS = ("at", "force", "moment", "frame")
 _SOLVE_KEYS = ("analysis", "t_end", "dt", "method", "rho_inf", "tol", "steps", "count",
                "adaptive", "error_tol", "dt_min", "max_iterations", "formulation", "engine", "newton", "planar",
-               "control", "max_steps", "about", "linear_model", "mode_shapes", "flutter")
+               "control", "max_steps", "about", "linear_model", "mode_shapes", "flutter", "sensitivities")
 _CONTROL_KEYS = ("point", "direction", "to")
 #: ``solve.engine``: ``auto`` or ``compiled``, the same: the implicit step's Newton iteration runs in C
 #: (latdyn/step/compiled.py), its one implementation (the Python step it once chose is gone, issue 17);
@@ -308,6 +309,8 @@ class Solve:
     #: buckling: search the flutter load along the path (None: where the loads are follower loads,
     #: latdyn/analyses/stability.py)
     flutter: bool | None = None
+    #: names of parameters whose derivatives of the probes are asked for (latdyn/scene/parameters.py)
+    sensitivities: list[str] = field(default_factory=list)
 
 
 @dataclass
@@ -358,6 +361,8 @@ class Scene:
     solve: Solve
     output: Output
     raw: dict
+    #: ``parameters``: their values and which key paths use them (latdyn/scene/parameters.py)
+    parameters: Parameters = field(default_factory=Parameters)
 
     @property
     def n_elements(self) -> int:
@@ -698,6 +703,11 @@ class _Reader:
     def integer(self, value, key, *, minimum=1, maximum=MAX_COUNT, why="") -> int:
         """A whole number in [minimum, maximum]; ``why`` explains the maximum in the message."""
         number = value
+        if isinstance(number, str):   # a constant expression ("2*n" of parameters n)
+            function = parse_time_function(number, self.file, key)
+            if not function.is_constant:
+                self.fail(key, f"expected a whole number >= {minimum}", value)
+            number = function.value(0.0)
         if isinstance(number, float) and math.isfinite(number) and number.is_integer():
             number = int(number)
         if not isinstance(number, (int, np.integer)) or isinstance(number, (bool, np.bool_)):
@@ -1257,6 +1267,49 @@ def _build(raw: Any, file: str) -> Scene:
     if raw is None:
         r.fail("(top level)", f"expected a mapping of scene keys ({_listing(_TOP_KEYS)}), got an empty scene")
     r.mapping(raw, "", _TOP_KEYS, what="a scene: a mapping")
+    params = read_parameters(raw.get("parameters"), file, _probe_names(raw.get("output")))
+    with parameter_scope(params):
+        scene = _build_parts(r, raw, file)
+    scene.parameters = params
+    scene.solve.sensitivities = _sensitivities(r, raw.get("solve"), params)
+    return scene
+
+
+def _probe_names(output) -> list:
+    """The probe names an ``output`` mapping gives, unchecked (for the clash with parameter names)."""
+    probes = output.get("probes") if isinstance(output, dict) else None
+    if isinstance(probes, dict):
+        return list(probes)
+    if isinstance(probes, list):
+        return [p.get("name") for p in probes if isinstance(p, dict)]
+    return []
+
+
+def _sensitivities(r: _Reader, solve, params: Parameters) -> list[str]:
+    """``solve.sensitivities: [NAME, …]``: names of parameters, each once (latdyn/scene/parameters.py
+    says which the package can differentiate; the others are refused there)."""
+    if not isinstance(solve, dict) or "sensitivities" not in solve:
+        return []
+    key, value = "solve.sensitivities", solve["sensitivities"]
+    if not isinstance(value, list) or not value:
+        r.fail(key, "expected a list of parameter names [NAME, ...]", value)
+    names = []
+    for i, name in enumerate(value):
+        if not isinstance(name, str) or name not in params.values:
+            r.fail(f"{key}[{i}]", f"expected the name of a parameter (parameters: {_listing(params.values)})", name)
+        if name in names:
+            r.fail(f"{key}[{i}]", "duplicated parameter name; expected each name once", name)
+        names.append(name)
+    # Refused rather than approximated (docs/parameters.md, "Sensitivities"): this version records
+    # which numbers depend on each parameter and their exact derivatives (Parameters.derivative),
+    # but does not yet carry them through the step.
+    r.fail(key, "sensitivities are not computed by this version of latdyn (the exact derivative of the "
+                "computed solution is not built yet, and a finite-difference estimate is not offered in its "
+                "place: vary the parameter in a study, docs/parameters.md); expected no solve.sensitivities",
+           value)
+
+
+def _build_parts(r: _Reader, raw: dict, file: str) -> Scene:
     title = raw.get("title", "")
     if title is None:
         title = ""
@@ -1345,6 +1398,9 @@ def describe(scene: Scene) -> str:
     lines.append(f"  loads:    {len(scene.loads)}")
     names = [p.name for p in scene.output.probes]
     lines.append(f"  probes:   {len(names)}" + (f": {', '.join(names)}" if names else ""))
+    if scene.parameters:
+        lines.append(f"  parameters: {len(scene.parameters.values)}")
+        lines.extend(f"    {line}" for line in scene.parameters.describe())
     s = scene.solve
     if s.analysis == "transient":
         what = f"transient, t_end = {s.t_end:g}, dt = {s.dt:g}, {s.method}"
