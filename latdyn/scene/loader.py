@@ -26,6 +26,13 @@ Extensions to SCENE.md (keys may be added, never renamed):
 - expression names ``asin acos atan atan2 sinh cosh tanh``;
 - hinge ``stiffness``/``damping``/``torque`` also as a table in t.
 
+Parameters (SCENE.md, "Parameters and sensitivities"): ``parameters: {NAME: number}`` is read
+first and the rest of the scene inside :func:`~latdyn.scene.parameters.parameter_scope`, so that
+every number and expression may name them (:mod:`latdyn.scene.parameters`; whole numbers such as
+``elements`` take a constant expression too); ``Scene.parameters`` records what uses which.
+``solve.sensitivities: [NAME, …]`` is checked (parameters, each once) and refused: the exact
+derivatives are not built yet (docs/parameters.md).
+
 Rigid links (``rigid: true``, SCENE.md): the beam is one rigid body (mass ρA·L at mid-length, the
 slender rod's inertia), hinged or clamped at its ends like any beam; ``elements`` is ignored (the
 link counts as one element for point names: ``LINK.node[0]`` = start, ``LINK.node[1]`` = end) and
