@@ -250,6 +250,7 @@ def test_a_parameter_named_like_a_word_of_the_expression_language_is_refused(nam
     ({"k": [1, 2]}, "expected a number"),
     ({"k": 1e308 * 10}, "finite number"),
     ({"tip_y": 1.0}, "name of a probe"),
+    ({"k2": "2*k"}, "may not name parameters (k)"),
 ])
 def test_bad_parameters_are_refused_naming_the_parameter(value, expected):
     error = _refused(lambda d: d["parameters"].update(value))

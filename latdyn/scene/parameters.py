@@ -139,6 +139,11 @@ def read_parameters(value, file: str, probe_names=()) -> Parameters:
         if isinstance(number, bool) or not isinstance(number, (int, float, str)):
             raise SceneError(file, key, f"expected a number, got {show_value(number)}")
         if isinstance(number, str):
+            named = [n for n in _names_in(number) if n in value and n not in RESERVED]
+            if named:
+                raise SceneError(file, key, f"a parameter's value may not name parameters ({', '.join(named)}); "
+                                            "expected a number (write the expression where the number is used), "
+                                            f"got {show_value(number)}")
             function = expressions.parse_time_function(number, file, key)   # no scope yet: no parameters
             if not function.is_constant:
                 raise SceneError(file, key, f"expected a number or a constant expression (without t), "
