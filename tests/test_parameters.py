@@ -4,7 +4,7 @@ A scene written with parameters is the scene written with their values: loaded, 
 the same to the last bit, and run through the CLI and the API, the probes are the same, planar and
 genuinely 3D. What depends on which parameter is recorded, and its derivative agrees with central
 differences of the scene loaded at perturbed values. Bad names and unknown names are refused
-naming the key path; sensitivities are refused (not built yet) rather than approximated."""
+naming the key path."""
 from __future__ import annotations
 
 import os
@@ -276,11 +276,13 @@ def test_a_name_of_a_part_is_never_read_as_a_parameter():
     assert scene.beams["arm"].start.body == "L" and scene.beams["arm"].end.point[0] == 1.2
 
 
-def test_sensitivities_are_refused_not_approximated(tmp_path):
+def test_sensitivities_name_parameters_and_a_transient_run_refuses_them(tmp_path):
+    """Names are checked by the loader; a transient run's sensitivities are not built yet and are
+    refused (exit 2) rather than approximated (tests/test_sensitivities.py: the static ones)."""
     text = PLANAR.replace("solve: {t_end: 0.03, dt: 0.01}", "solve: {t_end: 0.03, dt: 0.01, sensitivities: [k]}")
     run, out = latdyn_run(tmp_path, text)
     assert run.returncode == 2
-    assert "solve.sensitivities" in run.stderr and "not computed by this version" in run.stderr
+    assert "solve.sensitivities" in run.stderr and "static load control only" in run.stderr
     assert "Traceback" not in run.stderr and not (out / "sensitivities.csv").exists()
     error = _refused(lambda d: d["solve"].update(sensitivities=["kk"]))
     assert error.key == "solve.sensitivities[0]" and "L, k, c, P" in error.expected

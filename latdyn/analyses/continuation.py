@@ -73,6 +73,7 @@ import numpy as np
 from latdyn.analyses.followers import REAL_TOL, follower_loads
 from latdyn.assembly.factorization import solve_linear
 from latdyn.analyses.mechanism import mechanism_message
+from latdyn.analyses.sensitivities import StaticSensitivities
 from latdyn.errors import SceneError, SolverError
 from latdyn.numerics.linalg import single_thread_blas
 from latdyn.step.integrators import increment_size, newton_diagnosis
@@ -118,6 +119,8 @@ class Path:
     recorded_at: float | None = None  # load factor of the last row, the state it holds being `recorded`
     recorded: object = None
     weight: np.ndarray | None = None
+    #: solve.sensitivities: a StaticSensitivities that records each row's (latdyn/analyses/sensitivities.py)
+    sensitivities: object = None
 
     def __post_init__(self):
         scene = self.prepared.scene
@@ -196,6 +199,8 @@ class Path:
     def record(self, state, load_factor: float) -> None:
         self.writer.record(load_factor, self.probes.values(state), state=state.as_dict(),
                            frame=load_step_frame(self.assembler, self.writer, state))
+        if self.sensitivities is not None:
+            self.sensitivities.record(state, load_factor)
         self.recorded_at, self.recorded = load_factor, state
 
     def accept(self, state, load_factor: float, K, arc: float) -> None:
@@ -551,6 +556,8 @@ METHODS = {"load-control": load_control, "arc-length": arc_length, "displacement
 def static_path(prepared, probes, writer, length_scale: float) -> None:
     """Solve the static analysis of ``prepared`` by its ``solve.method``; rows into ``writer``."""
     path = Path(prepared, probes, writer, length_scale)
+    if prepared.scene.solve.sensitivities and prepared.scene.solve.analysis == "static":
+        path.sensitivities = StaticSensitivities(prepared)
     state = prepared.state
     state.v[:] = state.w[:] = 0.0
     state.theta_dot[:] = 0.0
@@ -563,6 +570,18 @@ def static_path(prepared, probes, writer, length_scale: float) -> None:
     method = prepared.scene.solve.method if prepared.scene.solve.method in METHODS else "load-control"
     prepared.state = METHODS[method](path, state)
     path.summarize()
+    if path.sensitivities is not None:
+        _write_sensitivities(path.sensitivities, writer)
+
+
+def _write_sensitivities(sensitivities, writer) -> None:
+    """sensitivities.csv, summary.json's probe_sensitivities (and event_sensitivities: a static path
+    has no events), and the table the Result carries."""
+    writer.sensitivities = sensitivities.table()
+    writer.summary["probe_sensitivities"] = sensitivities.summary(writer.result().probes)
+    writer.summary["event_sensitivities"] = []
+    if writer.out_dir is not None:
+        sensitivities.write(writer.out_dir)
 
 
 def load_step_frame(assembler, writer, state):

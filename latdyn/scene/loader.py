@@ -30,8 +30,8 @@ Parameters (SCENE.md, "Parameters and sensitivities"): ``parameters: {NAME: numb
 first and the rest of the scene inside :func:`~latdyn.scene.parameters.parameter_scope`, so that
 every number and expression may name them (:mod:`latdyn.scene.parameters`; whole numbers such as
 ``elements`` take a constant expression too); ``Scene.parameters`` records what uses which.
-``solve.sensitivities: [NAME, …]`` is checked (parameters, each once) and refused: the exact
-derivatives are not built yet (docs/parameters.md).
+``solve.sensitivities: [NAME, …]`` is checked here (parameters, each once); what can be
+differentiated exactly is decided in :mod:`latdyn.analyses.sensitivities` (docs/parameters.md).
 
 Rigid links (``rigid: true``, SCENE.md): the beam is one rigid body (mass ρA·L at mid-length, the
 slender rod's inertia), hinged or clamped at its ends like any beam; ``elements`` is ignored (the
@@ -1293,8 +1293,8 @@ def _probe_names(output) -> list:
 
 
 def _sensitivities(r: _Reader, solve, params: Parameters) -> list[str]:
-    """``solve.sensitivities: [NAME, …]``: names of parameters, each once (latdyn/scene/parameters.py
-    says which the package can differentiate; the others are refused there)."""
+    """``solve.sensitivities: [NAME, …]``: names of parameters, each once (which the package can
+    differentiate exactly is decided with the model: latdyn/analyses/sensitivities.py ``refusal``)."""
     if not isinstance(solve, dict) or "sensitivities" not in solve:
         return []
     key, value = "solve.sensitivities", solve["sensitivities"]
@@ -1307,13 +1307,7 @@ def _sensitivities(r: _Reader, solve, params: Parameters) -> list[str]:
         if name in names:
             r.fail(f"{key}[{i}]", "duplicated parameter name; expected each name once", name)
         names.append(name)
-    # Refused rather than approximated (docs/parameters.md, "Sensitivities"): this version records
-    # which numbers depend on each parameter and their exact derivatives (Parameters.derivative),
-    # but does not yet carry them through the step.
-    r.fail(key, "sensitivities are not computed by this version of latdyn (the exact derivative of the "
-                "computed solution is not built yet, and a finite-difference estimate is not offered in its "
-                "place: vary the parameter in a study, docs/parameters.md); expected no solve.sensitivities",
-           value)
+    return names
 
 
 def _build_parts(r: _Reader, raw: dict, file: str) -> Scene:

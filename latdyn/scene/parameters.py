@@ -93,8 +93,10 @@ class Parameters:
         extra = tuple(names) + tuple(v for v in HINGE_VARIABLES + ("s", "s_dot") if v != "t")
         _, expr = expressions.parse_symbolic(text, None, key, extra)
         expr = expr.subs({sp.Symbol(n, real=True): symbols[n] for n in names})
-        derivative = sp.diff(expr, symbols[name]).subs({symbols[n]: self.values[n] for n in names})
-        return str(sp.nsimplify(derivative) if derivative.is_Rational else derivative)
+        derivative = expressions._drop_deltas(  # noqa: SLF001 (the package's one rule for deltas)
+            sp.diff(expr, symbols[name]))
+        derivative = derivative.subs({symbols[n]: self.values[n] for n in names})
+        return re.sub(r"\bAbs\(", "abs(", str(derivative))
 
     def describe(self) -> list[str]:
         """One line per parameter for ``latdyn check``: its value and the keys that use it."""

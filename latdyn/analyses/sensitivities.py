@@ -1,0 +1,213 @@
+"""Exact sensitivities of a static load-control path (SCENE.md, "Parameters and sensitivities").
+
+The computed static solution at a recorded load factor λ > 0 is the configuration q at which
+Newton made the residual r(q; λ, p) vanish. Its derivative by a parameter p is the tangent vector
+
+    δq/δp = −K⁻¹ ∂r/∂p,      K = ∂r/∂Δ at (q, λ)   (the static Newton matrix, at the converged q)
+
+in the coordinates of the configuration update (translations added, rotations T ← exp(skew δπ) T,
+hinge angles added): rotation sensitivities live in the tangent space, as the step's own
+increments do. The row at λ = 0 is the initial configuration, which Newton does not solve for and
+which no supported parameter moves: its sensitivities are zero.
+
+∂r/∂p comes from the generated kernels the residual itself is made of, by their linearity:
+
+- a load component F_c(t; p) enters the residual through ``point_load``, linear in the load's
+  values: ∂r/∂p = point_load(…, values = λ ∂F/∂p) (global or turning with a body);
+- a hinge's stiffness k, damping c and torque τ enter through ``hinge_force``, f = k s + c θ̇ − λ τ
+  with s = θ − θ_r, linear in (k, c, τ): ∂f/∂p = hinge_force(…, laws = (∂k/∂p, ∂c/∂p, ∂τ/∂p)), the
+  laws' derivatives those of :meth:`latdyn.scene.parameters.Parameters.derivative`; the rest angle
+  enters affinely: ∂f/∂θ_r = hinge_force(θ = θ̇ = 0, θ_r = 1, laws = (k, 0, 0)).
+
+A probe's derivative is its value's derivative along δq: a point x + T r moves by δx + δπ × T r;
+a hinge angle by δθ.
+
+What is refused (:func:`refusal`, exit 2 naming ``solve.sensitivities``): any analysis but static
+load control; a parameter used anywhere but in load components and hinge stiffness, damping,
+torque and rest angle; probes other than point positions and displacements in the global frame
+and hinge angles; rigid links; hinges with limits or ``lock_at`` (events). docs/parameters.md.
+"""
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+
+from latdyn.assembly.assembler import unpack_free
+from latdyn.assembly.factorization import solve_linear
+from latdyn.errors import SceneError, SolverError
+from latdyn.results.result import SENSITIVITIES_FILE
+from latdyn.scene.expressions import parse_hinge_law
+
+__all__ = ["refusal", "StaticSensitivities", "SENSITIVITIES_FILE"]
+
+
+_LOAD_KEY = re.compile(r"^loads\[(?P<load>\d+)\]\.(?P<kind>force|moment)\[(?P<axis>[0-2])\]$")
+_HINGE_KEY = re.compile(r"^beams\.(?P<beam>.+)\.(?P<end>start|end)\.hinge\.(?P<law>stiffness|damping|torque|rest_angle)$")
+
+
+def refusal(scene) -> SceneError | None:
+    """The SceneError that refuses ``solve.sensitivities`` of ``scene``, or None when every named
+    parameter, the analysis and every probe are differentiated exactly here."""
+    names = scene.solve.sensitivities
+    if not names:
+        return None
+    key, solve = "solve.sensitivities", scene.solve
+
+    def refuse(what):
+        return SceneError(scene.file, key, f"{what}; expected sensitivities only where they are exact "
+                                           "(docs/parameters.md, \"Sensitivities\")")
+
+    if solve.analysis != "static" or solve.method != "load-control":
+        method = f"{solve.analysis}" + (f" ({solve.method})" if solve.analysis == "static" else "")
+        return refuse(f"sensitivities are computed for static load control only, not yet for a {method} "
+                      "analysis")
+    if any(beam.rigid for beam in scene.beams.values()):
+        return refuse("sensitivities of scenes with rigid links are not computed yet")
+    for beam, which, hinge in scene.hinges:
+        if hinge.limits is not None or hinge.lock_at is not None:
+            return refuse(f"sensitivities through hinge events (limits, lock_at of {beam}.{which}) are not "
+                          "computed yet")
+    for name in names:
+        for used in scene.parameters.depending_on(name):
+            if not (_LOAD_KEY.match(used) or _HINGE_KEY.match(used)):
+                return refuse(f"parameter {name!r} is used at {used}: sensitivities are computed for parameters "
+                              "of load components and of hinge stiffness, damping, torque and rest_angle only")
+    for probe in scene.output.probes:
+        point = probe.kind == "point" and probe.quantity in ("position", "displacement") and probe.frame == "global"
+        if not (point or (probe.kind == "hinge" and probe.quantity == "angle")):
+            return refuse(f"probe {probe.name!r} ({probe.kind} {probe.quantity}"
+                          f"{'' if probe.kind != 'point' else ', frame ' + probe.frame}) is not differentiated yet: "
+                          "point positions and displacements in the global frame and hinge angles are")
+    return None
+
+
+class StaticSensitivities:
+    """The sensitivities of the recorded rows of a static path: :meth:`record` at each row,
+    :meth:`finish` writes ``sensitivities.csv`` and the summary's ``probe_sensitivities``."""
+
+    def __init__(self, prepared):
+        self.scene = prepared.scene
+        self.model, self.assembler = prepared.model, prepared.assembler
+        self.kernels = self.assembler.kernels
+        self.names = list(self.scene.solve.sensitivities)
+        self.probes = list(self.scene.output.probes)
+        self.columns = [f"{p.name}/{name}" for p in self.probes for name in self.names]
+        self.rows: list[tuple[float, list[float]]] = []
+        params = self.scene.parameters
+        # the derivative laws, parsed once: key -> {name: HingeLaw in theta, theta_dot, t}
+        self.derivatives = {
+            key: {name: parse_hinge_law(params.derivative(key, name), self.scene.file, key) for name in self.names}
+            for name in self.names for key in params.depending_on(name)}
+
+    # ------------------------------------------------------------------ ∂r/∂p
+    def residual_derivatives(self, state, load_factor: float) -> np.ndarray:
+        """∂r/∂p on the free coordinates, one column per parameter (n_dofs, k)."""
+        model, k = self.model, len(self.names)
+        total = np.zeros((model.n_total + 1, k))
+        for key, laws in self.derivatives.items():
+            load, hinge = _LOAD_KEY.match(key), _HINGE_KEY.match(key)
+            for column, name in enumerate(self.names):
+                law = laws[name]
+                if load:
+                    slot = int(load["axis"]) + (3 if load["kind"] == "moment" else 0)
+                    values = np.zeros(6)
+                    values[slot] = load_factor * law.value(0.0, 0.0, state.t)
+                    node, force = self._load_force(state, int(load["load"]), values)
+                    total[model.node_dofs[node], column] += force
+                else:
+                    j = model.hinge_index(hinge["beam"], hinge["end"])
+                    total[model.hinge_dofs[j], column] += self._hinge_force(state, j, hinge["law"], law, load_factor)
+        return total[:model.n_dofs]
+
+    def _load_force(self, state, index: int, values: np.ndarray):
+        """(node, the generalized force of load ``index`` with these values): the point_load kernel."""
+        model, load = self.model, self.scene.loads[index]
+        node, offset = model.point(load.at)
+        frame = state.T[model.body_node[load.frame]] if load.frame != "global" else np.eye(3)
+        row = lambda a: np.ascontiguousarray(np.reshape(a, (1, -1)), dtype=float)  # noqa: E731
+        velocity = np.concatenate([state.v[node], state.w[node]])
+        force = self.kernels.point_load(row(state.T[node]), row(offset), row(values), row(frame), row(velocity))[0]
+        return node, np.asarray(force).reshape(6)
+
+    def _hinge_force(self, state, j: int, which: str, law, load_factor: float) -> float:
+        """∂f/∂p of hinge ``j`` through its ``which`` law (the hinge_force kernel, linear in the laws)."""
+        hinge = self.model.hinges[j]
+        theta, rate, t = float(state.theta[j]), float(state.theta_dot[j]), state.t
+        laws = np.zeros((1, 9))
+        derivative = law.value(theta, rate, t)
+        if which == "rest_angle":   # f = k (θ − θ_r) + …: affine in θ_r
+            laws[0, 0] = hinge.stiffness.value(theta, rate, t)
+            unit_rest = np.array([[0.0, 0.0, 1.0, load_factor]])
+            return derivative * float(np.asarray(self.kernels.hinge_force(unit_rest, laws)[0]).reshape(-1)[0])
+        laws[0, {"stiffness": 0, "damping": 3, "torque": 6}[which]] = derivative
+        at = np.array([[theta, rate, hinge.rest_angle, load_factor]])
+        return float(np.asarray(self.kernels.hinge_force(at, laws)[0]).reshape(-1)[0])
+
+    # ------------------------------------------------------------------ rows
+    def record(self, state, load_factor: float) -> None:
+        """The sensitivities of every probe at this recorded row."""
+        model, k = self.model, len(self.names)
+        if load_factor == 0.0 or model.n_dofs == 0:
+            self.rows.append((load_factor, [0.0] * len(self.columns)))
+            return
+        ev = self.assembler.evaluate(state, matrices=True, load_factor=load_factor, inertia=False)
+        try:
+            tangent = solve_linear(ev.stiffness, -self.residual_derivatives(state, load_factor))
+        except np.linalg.LinAlgError:
+            raise SolverError(f"the sensitivities at load factor {load_factor:.6g} need the static stiffness, "
+                              "which is singular there (a limit or bifurcation point)") from None
+        tangent = np.asarray(tangent).reshape(model.n_dofs, k)
+        by_parameter = []
+        for column in range(k):
+            dx, dpi = np.zeros_like(state.x), np.zeros_like(state.x)
+            dtheta = np.zeros_like(state.theta)
+            unpack_free(model, tangent[:, column], dx, dpi, dtheta)
+            by_parameter.append((dx, dpi, dtheta))
+        self.rows.append((load_factor, [self._probe_derivative(p, state, *by_parameter[c])
+                                        for p in self.probes for c in range(k)]))
+
+    def _probe_derivative(self, probe, state, dx, dpi, dtheta) -> float:
+        model = self.model
+        if probe.kind == "hinge":
+            return float(dtheta[model.hinge_index(probe.beam, probe.end)])
+        node, offset = model.point(probe.point)
+        arm = state.T[node] @ offset
+        moved = dx[node] + np.cross(dpi[node], arm)                  # δ(x + T r)
+        if probe.component in (None, "norm"):
+            value = state.x[node] + arm
+            if probe.quantity == "displacement":
+                value = value - self._initial_point(node, offset)
+            size = float(np.linalg.norm(value))
+            return float(value @ moved) / size if size > 0 else float("nan")
+        return float(moved["xyz".index(probe.component)])
+
+    def _initial_point(self, node: int, offset) -> np.ndarray:
+        initial = self.assembler.initial_state()
+        return initial.x[node] + initial.T[node] @ offset
+
+    # ------------------------------------------------------------------ results
+    def table(self) -> dict:
+        """``{(probe, name): array over the rows}``."""
+        data = np.array([values for _, values in self.rows]).reshape(len(self.rows), len(self.columns))
+        return {(p.name, name): data[:, i * len(self.names) + c]
+                for i, p in enumerate(self.probes) for c, name in enumerate(self.names)}
+
+    def summary(self, probe_values: dict) -> dict:
+        """``probe_sensitivities``: each probe's derivative at the last row, and at the rows of its
+        largest and smallest value (the first where several tie)."""
+        table, out = self.table(), {}
+        for p in self.probes:
+            values = np.asarray(probe_values[p.name])
+            last, high, low = len(values) - 1, int(np.argmax(values)), int(np.argmin(values))
+            out[p.name] = {which: {name: float(table[(p.name, name)][row]) for name in self.names}
+                           for which, row in (("end", last), ("max", high), ("min", low))}
+        return out
+
+    def write(self, folder) -> None:
+        """``sensitivities.csv``: ``load_factor,<probe>/<NAME>,…``, one row per recorded row."""
+        from latdyn.results.files import atomic_write_bytes, csv_line
+
+        text = csv_line(["load_factor", *self.columns]) + "".join(csv_line([lam, *values]) for lam, values in self.rows)
+        atomic_write_bytes(Path(folder) / SENSITIVITIES_FILE, text.encode("utf-8"))
