@@ -96,29 +96,37 @@ class StaticSensitivities:
         self.columns = [f"{p.name}/{name}" for p in self.probes for name in self.names]
         self.rows: list[tuple[float, list[float]]] = []
         params = self.scene.parameters
-        # the derivative laws, parsed once: key -> {name: HingeLaw in theta, theta_dot, t}
-        self.derivatives = {
-            key: {name: parse_hinge_law(params.derivative(key, name), self.scene.file, key) for name in self.names}
-            for name in self.names for key in params.depending_on(name)}
+        # the derivative laws, parsed once: key -> {column: HingeLaw in theta, theta_dot, t}, only
+        # where the key uses the parameter
+        self.derivatives: dict[str, dict[int, object]] = {}
+        for column, name in enumerate(self.names):
+            for key in params.depending_on(name):
+                law = parse_hinge_law(params.derivative(key, name), self.scene.file, key)
+                self.derivatives.setdefault(key, {})[column] = law
+        initial = self.assembler.initial_state()
+        self.initial_points = {p.name: initial.x[node] + initial.T[node] @ offset
+                               for p in self.probes if p.kind == "point"
+                               for node, offset in [self.model.point(p.point)]}
 
     # ------------------------------------------------------------------ ∂r/∂p
     def residual_derivatives(self, state, load_factor: float) -> np.ndarray:
         """∂r/∂p on the free coordinates, one column per parameter (n_dofs, k)."""
         model, k = self.model, len(self.names)
         total = np.zeros((model.n_total + 1, k))
+        load_values: dict[tuple[int, int], np.ndarray] = {}   # (load, column) -> λ ∂(its six values)/∂p
         for key, laws in self.derivatives.items():
             load, hinge = _LOAD_KEY.match(key), _HINGE_KEY.match(key)
-            for column, name in enumerate(self.names):
-                law = laws[name]
+            for column, law in laws.items():
                 if load:
                     slot = int(load["axis"]) + (3 if load["kind"] == "moment" else 0)
-                    values = np.zeros(6)
-                    values[slot] = load_factor * law.value(0.0, 0.0, state.t)
-                    node, force = self._load_force(state, int(load["load"]), values)
-                    total[model.node_dofs[node], column] += force
+                    values = load_values.setdefault((int(load["load"]), column), np.zeros(6))
+                    values[slot] += load_factor * law.value(0.0, 0.0, state.t)
                 else:
                     j = model.hinge_index(hinge["beam"], hinge["end"])
                     total[model.hinge_dofs[j], column] += self._hinge_force(state, j, hinge["law"], law, load_factor)
+        for (index, column), values in load_values.items():   # the kernel is linear in the values
+            node, force = self._load_force(state, index, values)
+            total[model.node_dofs[node], column] += force
         return total[:model.n_dofs]
 
     def _load_force(self, state, index: int, values: np.ndarray):
@@ -178,14 +186,10 @@ class StaticSensitivities:
         if probe.component in (None, "norm"):
             value = state.x[node] + arm
             if probe.quantity == "displacement":
-                value = value - self._initial_point(node, offset)
+                value = value - self.initial_points[probe.name]
             size = float(np.linalg.norm(value))
             return float(value @ moved) / size if size > 0 else float("nan")
         return float(moved["xyz".index(probe.component)])
-
-    def _initial_point(self, node: int, offset) -> np.ndarray:
-        initial = self.assembler.initial_state()
-        return initial.x[node] + initial.T[node] @ offset
 
     # ------------------------------------------------------------------ results
     def table(self) -> dict:
