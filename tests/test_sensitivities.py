@@ -25,9 +25,9 @@ from tests.cli_runs import ROOT, latdyn_run
 
 ARM_3D = """
 title: static 3D arm with a hinged second beam
-parameters: {F: 2.0, k: 30.0, th0: 0.1, M: 0.5}
+parameters: {F: 2.0, k: 30.0, th0: 0.1, M: 0.5, EI: 20.0, G: 15.0}
 sections:
-  s: {EA: 1.0e5, EIy: 20.0, EIz: 30.0, GJ: 15.0, rhoA: 0.5}
+  s: {EA: 1.0e5, EIy: "EI", EIz: "1.5*EI", GJ: "G", rhoA: 0.5}
 bodies:
   base: {at: [0, 0, 0], fixed: true}
   knee: {at: [1, 0, 0]}
@@ -43,7 +43,7 @@ beams:
 loads:
   - {at: b.end, force: ["0.3*F", "-F", "0.5*F"], moment: [0, "M", 0]}
   - {at: knee, force: [0, 0, "-2*F"], frame: knee}
-solve: {analysis: static, steps: 4, sensitivities: [F, k, th0, M]}
+solve: {analysis: static, steps: 4, sensitivities: [F, k, th0, M, EI, G]}
 output:
   probes:
     tip_x: {point: b.end, quantity: position, component: x}
@@ -77,6 +77,27 @@ output:
 """
 
 
+PLANAR_TURNED = """
+title: planar frame whose sections' local z lies in the plane (the model turns them a quarter)
+parameters: {P: 3.0, EI: 5.0, G: 4.0}
+sections:
+  s: {EA: 1.0e5, EIy: "EI", EIz: "3*EI", GJ: "G", rhoA: 0.5}
+bodies:
+  base: {at: [0, 0, 0], fixed: true}
+  knee: {at: [1.0, 0.2, 0]}
+beams:
+  a: {from: base, to: knee, section: s, elements: 3, y_axis: [0, 0, 1]}
+  b: {from: knee, to: [1.3, 1.0, 0], section: s, elements: 3, y_axis: [0, 0, 1]}
+loads:
+  - {at: b.end, force: ["P", "-0.4*P", 0]}
+solve: {analysis: static, steps: 3, sensitivities: [P, EI, G]}
+output:
+  probes:
+    tip_x: {point: b.end, quantity: displacement, component: x}
+    tip_y: {point: b.end, quantity: position, component: y}
+"""
+
+
 def _run(text: str, **parameters):
     data = yaml.safe_load(text)
     data["parameters"].update(parameters)
@@ -103,7 +124,7 @@ def arm_3d():
     return _run(ARM_3D)
 
 
-@pytest.mark.parametrize("name", ["F", "k", "th0", "M"])
+@pytest.mark.parametrize("name", ["F", "k", "th0", "M", "EI", "G"])
 def test_3d_static_sensitivities_agree_with_richardson_central_differences(arm_3d, name):
     """Each probe's sensitivity over the rows, against the extrapolated differences: within 1e-8 of the
     probe's largest sensitivity (measured 2e-13 … 1.5e-9)."""
@@ -117,14 +138,41 @@ def test_3d_static_sensitivities_agree_with_richardson_central_differences(arm_3
         assert computed[0] == 0.0   # the initial configuration, which no load or hinge parameter moves
 
 
-def test_planar_static_sensitivities_agree_with_richardson_central_differences():
-    result = _run(PLANAR)
-    for name in ("P", "k"):
-        reference = _richardson(PLANAR, name)
+@pytest.mark.parametrize("text, names", [(PLANAR, ("P", "k")), (PLANAR_TURNED, ("P", "EI"))],
+                         ids=["hinged", "sections_turned"])
+def test_planar_static_sensitivities_agree_with_richardson_central_differences(text, names):
+    result = _run(text)
+    assert result.summary.get("planar") is not False
+    for name in names:
+        reference = _richardson(text, name)
         for probe, expected in reference.items():
             scale = np.abs(expected).max()
             assert scale > 1e-7
             assert np.abs(result.sensitivities[(probe, name)] - expected).max() <= 1e-8 * scale, (probe, name)
+    assert all(np.all(values == 0.0) for (probe, name), values in result.sensitivities.items() if name == "G")
+
+
+def test_the_element_force_is_linear_in_the_section_stiffnesses():
+    """What the section sensitivities rest on: for a shear-rigid section, beam_internal_force at a
+    deformed state is the sum of the forces of the section's stiffness columns one by one (random
+    large-rotation states of tests/element_states.py, each regime)."""
+    from latdyn.model.kernels import load_kernels
+    from tests.element_states import REGIMES, random_state
+
+    kernels = load_kernels("c", "default")
+    rng = np.random.default_rng(34)
+    for deformation in REGIMES.values():
+        state = random_state(rng, deformation=deformation)
+        section = state.section.copy()
+        section[8:] = 0.0                                  # shear-rigid
+        whole = kernels.beam_internal_force(state.geometry(), section[None])[0].reshape(14)
+        parts = np.zeros(14)
+        for column in (1, 2, 3, 4):                        # EA, EIy, EIz, GJ
+            one = np.zeros_like(section)
+            one[0], one[column] = section[0], section[column]
+            parts += kernels.beam_internal_force(state.geometry(), one[None])[0].reshape(14)
+        assert np.abs(whole).max() > 0
+        assert np.abs(parts - whole).max() <= 1e-11 * np.abs(whole).max(), deformation
 
 
 def _turned(text: str, rotation: np.ndarray) -> str:
@@ -158,7 +206,7 @@ def test_sensitivities_of_a_rigidly_turned_scene_are_the_turned_sensitivities(ar
     data["loads"][1].pop("frame")     # the same scene with the knee's load global, then turned
     original = latdyn.run(latdyn.load_scene(data))
     turned = latdyn.run(latdyn.load_scene(yaml.safe_load(_turned(yaml.safe_dump(data), rotation))))
-    for name in ("F", "k", "th0", "M"):
+    for name in ("F", "k", "th0", "M", "EI", "G"):
         before = np.array([original.sensitivities[(f"tip_{c}", name)] for c in "xyz"])
         after = np.array([turned.sensitivities[(f"tip_{c}", name)] for c in "xyz"])
         scale = np.abs(before).max()
@@ -171,14 +219,14 @@ def test_the_cli_writes_sensitivities_csv_and_the_summary(tmp_path, arm_3d):
     run, out = latdyn_run(tmp_path, ARM_3D)
     assert run.returncode == 0, run.stderr
     header = (out / "sensitivities.csv").read_text().splitlines()[0].split(",")
-    assert header[0] == "load_factor" and header[1:5] == ["tip_x/F", "tip_x/k", "tip_x/th0", "tip_x/M"]
-    assert len(header) == 1 + 5 * 4
+    assert header[0] == "load_factor" and header[1:7] == [f"tip_x/{n}" for n in ("F", "k", "th0", "M", "EI", "G")]
+    assert len(header) == 1 + 5 * 6
     loaded = Result.load(out)
     for key, values in arm_3d.sensitivities.items():
         assert np.array_equal(loaded.sensitivities[key], values)
     summary = json.loads((out / "summary.json").read_text())
     end = summary["probe_sensitivities"]["hinge"]["end"]
-    assert end == {name: arm_3d.sensitivities[("hinge", name)][-1] for name in ("F", "k", "th0", "M")}
+    assert end == {name: arm_3d.sensitivities[("hinge", name)][-1] for name in ("F", "k", "th0", "M", "EI", "G")}
     rows = arm_3d.probes["tip_z"]
     lowest = summary["probe_sensitivities"]["tip_z"]["min"]["F"]
     assert lowest == arm_3d.sensitivities[("tip_z", "F")][int(np.argmin(rows))]
@@ -188,7 +236,9 @@ def test_the_cli_writes_sensitivities_csv_and_the_summary(tmp_path, arm_3d):
 @pytest.mark.parametrize("change, expected", [
     (lambda d: d["solve"].update(analysis="transient", t_end=0.1, dt=0.05, steps=None), "static load control only"),
     (lambda d: d["solve"].update(method="arc-length"), "static load control only"),
-    (lambda d: d["sections"]["s"].update(EIy="10*k"), "used at sections.s.EIy"),
+    (lambda d: d["sections"]["s"].update(rhoA="0.01*k"), "used at sections.s.rhoA"),
+    (lambda d: d["sections"]["s"].update(GAy=1.0e4), "shear-flexible"),
+    (lambda d: d["solve"].update(formulation="cr4402"), "formulation: default only"),
     (lambda d: d["bodies"]["knee"].update(at=["F/2", 0, 0]), "used at bodies.knee.at[0]"),
     (lambda d: d["output"]["probes"].update(e={"energy": "strain"}), "probe 'e'"),
     (lambda d: d["output"]["probes"].update(v={"point": "b.end", "quantity": "position", "frame": "knee"}),

@@ -22,9 +22,14 @@ which no supported parameter moves: its sensitivities are zero.
 A probe's derivative is its value's derivative along δq: a point x + T r moves by δx + δπ × T r;
 a hinge angle by δθ.
 
+- a section's EA, EIy, EIz, GJ enter through ``beam_internal_force``, whose strain energy (and so
+  its force) is linear in them for a shear-rigid section: ∂F/∂p = beam_internal_force(…, section =
+  (L0, ∂EA/∂p, ∂EIy/∂p, ∂EIz/∂p, ∂GJ/∂p, 0, …)), the planar model's quarter turns of the section
+  axes applied as the model applies them.
+
 What is refused (:func:`refusal`, exit 2 naming ``solve.sensitivities``): any analysis but static
-load control; a parameter used anywhere but in load components and hinge stiffness, damping,
-torque and rest angle; probes other than point positions and displacements in the global frame
+load control; a parameter used anywhere but in load components, hinge stiffness, damping,
+torque and rest angle and the EA, EIy, EIz, GJ of shear-rigid sections (formulation default); probes other than point positions and displacements in the global frame
 and hinge angles; rigid links; hinges with limits or ``lock_at`` (events). docs/parameters.md.
 """
 from __future__ import annotations
@@ -44,6 +49,9 @@ __all__ = ["refusal", "StaticSensitivities", "SENSITIVITIES_FILE"]
 
 
 _LOAD_KEY = re.compile(r"^loads\[(?P<load>\d+)\]\.(?P<kind>force|moment)\[(?P<axis>[0-2])\]$")
+_SECTION_KEY = re.compile(r"^sections\.(?P<section>[^.]+)\.(?P<value>EA|EIy|EIz|GJ)$")
+#: the section block's columns (codegen/conventions.py: L0 EA EIy EIz GJ rhoA rhoIy rhoIz 1/GAy 1/GAz)
+_SECTION_COLUMN = {"EA": 1, "EIy": 2, "EIz": 3, "GJ": 4}
 _HINGE_KEY = re.compile(r"^beams\.(?P<beam>.+)\.(?P<end>start|end)\.hinge\.(?P<law>stiffness|damping|torque|rest_angle)$")
 
 
@@ -71,9 +79,17 @@ def refusal(scene) -> SceneError | None:
                           "computed yet")
     for name in names:
         for used in scene.parameters.depending_on(name):
-            if not (_LOAD_KEY.match(used) or _HINGE_KEY.match(used)):
+            section = _SECTION_KEY.match(used)
+            if not (_LOAD_KEY.match(used) or _HINGE_KEY.match(used) or section):
                 return refuse(f"parameter {name!r} is used at {used}: sensitivities are computed for parameters "
-                              "of load components and of hinge stiffness, damping, torque and rest_angle only")
+                              "of load components, of hinge stiffness, damping, torque and rest_angle and of "
+                              "section EA, EIy, EIz and GJ only")
+            if section and solve.formulation != "default":
+                return refuse(f"parameter {name!r} is used at {used}: sensitivities by section values are computed "
+                              f"for formulation: default only, not {solve.formulation}")
+            if section and {"GAy", "GAz"} & set(scene.raw["sections"][section["section"]]):
+                return refuse(f"parameter {name!r} is used at {used}: the section is shear-flexible (GAy, GAz), "
+                              "and its element is not linear in its section values")
     for probe in scene.output.probes:
         point = probe.kind == "point" and probe.quantity in ("position", "displacement") and probe.frame == "global"
         if not (point or (probe.kind == "hinge" and probe.quantity == "angle")):
@@ -121,13 +137,41 @@ class StaticSensitivities:
                     slot = int(load["axis"]) + (3 if load["kind"] == "moment" else 0)
                     values = load_values.setdefault((int(load["load"]), column), np.zeros(6))
                     values[slot] += load_factor * law.value(0.0, 0.0, state.t)
-                else:
+                elif hinge:
                     j = model.hinge_index(hinge["beam"], hinge["end"])
                     total[model.hinge_dofs[j], column] += self._hinge_force(state, j, hinge["law"], law, load_factor)
+        self._section_forces(state, total)
         for (index, column), values in load_values.items():   # the kernel is linear in the values
             node, force = self._load_force(state, index, values)
             total[model.node_dofs[node], column] += force
         return total[:model.n_dofs]
+
+    def _section_forces(self, state, total: np.ndarray) -> None:
+        """Add ∂(element internal forces)/∂p into ``total`` for the section values that name a parameter:
+        ``beam_internal_force`` with the section block's stiffness columns replaced by their derivatives
+        (the element's strain energy, hence its force, is linear in EA, EIy, EIz and GJ of a
+        shear-rigid section: tests/test_sensitivities.py checks the kernel for it)."""
+        model = self.model
+        geometry = None
+        for key, laws in self.derivatives.items():
+            section = _SECTION_KEY.match(key)
+            if not section:
+                continue
+            elements = np.array([e for e, beam in enumerate(model.element_beam)
+                                 if self.scene.beams[beam].section.name == section["section"]], dtype=np.int64)
+            if len(elements) == 0:
+                continue
+            geometry = self.assembler.element_geometry(state) if geometry is None else geometry
+            for column, law in laws.items():
+                rows = np.zeros((len(elements), model.element_sections.shape[1]))
+                rows[:, 0] = model.element_sections[elements, 0]                       # L0
+                rows[:, _SECTION_COLUMN[section["value"]]] = law.value(0.0, 0.0, state.t)
+                if model.plane is not None:   # latdyn.model.planar.restrict_to_plane: a quarter turn swaps y, z
+                    quarter = np.abs(np.sin(model.section_turns[elements])) > 0.5
+                    rows[quarter, 2], rows[quarter, 3] = rows[quarter, 3].copy(), rows[quarter, 2].copy()
+                forces = np.asarray(self.kernels.beam_internal_force(
+                    np.ascontiguousarray(geometry[elements]), rows)[0]).reshape(len(elements), 14)
+                np.add.at(total[:, column], model.element_dofs[elements], forces)
 
     def _load_force(self, state, index: int, values: np.ndarray):
         """(node, the generalized force of load ``index`` with these values): the point_load kernel."""
