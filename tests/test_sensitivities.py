@@ -98,6 +98,18 @@ output:
 """
 
 
+#: ARM_3D under gravity, its beams massless (under gravity, beams with mass are refused: the static
+#: Newton matrix lacks their gravity load's derivative), the knee's mass, centre of mass and inertia
+#: (which a static residual does not see) named
+GRAVITY_3D = (ARM_3D
+              .replace("parameters: {", "parameters: {m: 0.8, cx: 0.05, J: 0.01, ")
+              .replace("rhoA: 0.5}", "rhoA: 0.0}")
+              .replace("knee: {at: [1, 0, 0]}", "knee: {at: [1, 0, 0], mass: \"m\", com: [\"cx\", 0, \"-cx\"], "
+                                                "inertia: [\"J\", \"J\", \"2*J\"]}")
+              .replace("sensitivities: [F, k, th0, M, EI, G]", "sensitivities: [m, cx, J]")
+              .replace("title: static 3D arm", "gravity: [0, 0, -9.81]\ntitle: static 3D arm"))
+
+
 def _run(text: str, **parameters):
     data = yaml.safe_load(text)
     data["parameters"].update(parameters)
@@ -138,6 +150,17 @@ def test_3d_static_sensitivities_agree_with_richardson_central_differences(arm_3
         assert computed[0] == 0.0   # the initial configuration, which no load or hinge parameter moves
 
 
+@pytest.mark.parametrize("name", ["m", "cx"])
+def test_3d_static_sensitivities_by_masses_under_gravity_agree_with_richardson_central_differences(name):
+    result = _run(GRAVITY_3D)
+    reference = _richardson(GRAVITY_3D, name)
+    for probe, expected in reference.items():
+        scale = np.abs(expected).max()
+        assert scale > 1e-7, (probe, name)
+        assert np.abs(result.sensitivities[(probe, name)] - expected).max() <= 1e-8 * scale, (probe, name)
+    assert all(np.all(result.sensitivities[(probe, "J")] == 0.0) for probe in reference)   # no inertia in statics
+
+
 @pytest.mark.parametrize("text, names", [(PLANAR, ("P", "k")), (PLANAR_TURNED, ("P", "EI"))],
                          ids=["hinged", "sections_turned"])
 def test_planar_static_sensitivities_agree_with_richardson_central_differences(text, names):
@@ -152,10 +175,10 @@ def test_planar_static_sensitivities_agree_with_richardson_central_differences(t
     assert all(np.all(values == 0.0) for (probe, name), values in result.sensitivities.items() if name == "G")
 
 
-def test_the_element_force_is_linear_in_the_section_stiffnesses():
-    """What the section sensitivities rest on: for a shear-rigid section, beam_internal_force at a
-    deformed state is the sum of the forces of the section's stiffness columns one by one (random
-    large-rotation states of tests/element_states.py, each regime)."""
+def test_the_element_force_and_gravity_load_are_linear_in_the_section_values():
+    """What the section sensitivities rest on: for a shear-rigid section, beam_internal_force and
+    beam_gravity at a deformed state are the sums over the section's values (EA … ρIz) one by one
+    (random large-rotation states of tests/element_states.py, each regime)."""
     from latdyn.model.kernels import load_kernels
     from tests.element_states import REGIMES, random_state
 
@@ -165,13 +188,18 @@ def test_the_element_force_is_linear_in_the_section_stiffnesses():
         state = random_state(rng, deformation=deformation)
         section = state.section.copy()
         section[8:] = 0.0                                  # shear-rigid
-        whole = kernels.beam_internal_force(state.geometry(), section[None])[0].reshape(14)
-        parts = np.zeros(14)
-        for column in (1, 2, 3, 4):                        # EA, EIy, EIz, GJ
+        gravity = np.array([[0.3, -9.81, 1.2]])
+
+        def forces(block):
+            return np.concatenate([kernels.beam_internal_force(state.geometry(), block[None])[0].reshape(14),
+                                   kernels.beam_gravity(state.geometry(), block[None], gravity)[0].reshape(14)])
+
+        whole, parts = forces(section), np.zeros(28)
+        for column in range(1, 8):                         # EA, EIy, EIz, GJ, rhoA, rhoIy, rhoIz
             one = np.zeros_like(section)
             one[0], one[column] = section[0], section[column]
-            parts += kernels.beam_internal_force(state.geometry(), one[None])[0].reshape(14)
-        assert np.abs(whole).max() > 0
+            parts += forces(one)
+        assert np.abs(whole[:14]).max() > 0 and np.abs(whole[14:]).max() > 0
         assert np.abs(parts - whole).max() <= 1e-11 * np.abs(whole).max(), deformation
 
 
@@ -236,7 +264,8 @@ def test_the_cli_writes_sensitivities_csv_and_the_summary(tmp_path, arm_3d):
 @pytest.mark.parametrize("change, expected", [
     (lambda d: d["solve"].update(analysis="transient", t_end=0.1, dt=0.05, steps=None), "static load control only"),
     (lambda d: d["solve"].update(method="arc-length"), "static load control only"),
-    (lambda d: d["sections"]["s"].update(rhoA="0.01*k"), "used at sections.s.rhoA"),
+    (lambda d: d.update(gravity=[0, 0, "-k"]), "used at gravity[2]"),
+    (lambda d: d.update(gravity=[0, 0, -9.81]), "beams with mass"),
     (lambda d: d["sections"]["s"].update(GAy=1.0e4), "shear-flexible"),
     (lambda d: d["solve"].update(formulation="cr4402"), "formulation: default only"),
     (lambda d: d["bodies"]["knee"].update(at=["F/2", 0, 0]), "used at bodies.knee.at[0]"),

@@ -22,15 +22,21 @@ which no supported parameter moves: its sensitivities are zero.
 A probe's derivative is its value's derivative along δq: a point x + T r moves by δx + δπ × T r;
 a hinge angle by δθ.
 
-- a section's EA, EIy, EIz, GJ enter through ``beam_internal_force``, whose strain energy (and so
-  its force) is linear in them for a shear-rigid section: ∂F/∂p = beam_internal_force(…, section =
-  (L0, ∂EA/∂p, ∂EIy/∂p, ∂EIz/∂p, ∂GJ/∂p, 0, …)), the planar model's quarter turns of the section
-  axes applied as the model applies them.
+- a section's values enter through ``beam_internal_force`` and ``beam_gravity`` (F − λ G), linear in
+  EA, EIy, EIz, GJ, ρA, ρIy, ρIz for a shear-rigid section: the same kernels with the section block
+  (L0, ∂EA/∂p, …, ∂ρIz/∂p, 0, 0), the planar model's quarter turns of the section axes applied as
+  the model applies them;
+- a joint body's mass m and centre of mass c enter a static residual through ``joint_body`` at
+  rest, λ-gravity alone, linear in m at fixed c and affine in c at fixed m: the kernel with
+  (∂m/∂p, c), and with (m, ∂c/∂p) less with (m, 0); inertias do not enter it.
 
 What is refused (:func:`refusal`, exit 2 naming ``solve.sensitivities``): any analysis but static
 load control; a parameter used anywhere but in load components, hinge stiffness, damping,
-torque and rest angle and the EA, EIy, EIz, GJ of shear-rigid sections (formulation default); probes other than point positions and displacements in the global frame
-and hinge angles; rigid links; hinges with limits or ``lock_at`` (events). docs/parameters.md.
+torque and rest angle, section values of shear-rigid sections (formulation default) and body
+masses, centres of mass and inertias; probes other than point positions and displacements in the global frame
+and hinge angles; rigid links; hinges with limits or ``lock_at`` (events); gravity on beams with
+mass (the static Newton matrix does not hold the derivative of the beams' gravity load, so it is
+not the exact tangent there). docs/parameters.md.
 """
 from __future__ import annotations
 
@@ -49,9 +55,10 @@ __all__ = ["refusal", "StaticSensitivities", "SENSITIVITIES_FILE"]
 
 
 _LOAD_KEY = re.compile(r"^loads\[(?P<load>\d+)\]\.(?P<kind>force|moment)\[(?P<axis>[0-2])\]$")
-_SECTION_KEY = re.compile(r"^sections\.(?P<section>[^.]+)\.(?P<value>EA|EIy|EIz|GJ)$")
+_SECTION_KEY = re.compile(r"^sections\.(?P<section>[^.]+)\.(?P<value>EA|EIy|EIz|GJ|rhoA|rhoIy|rhoIz)$")
 #: the section block's columns (codegen/conventions.py: L0 EA EIy EIz GJ rhoA rhoIy rhoIz 1/GAy 1/GAz)
-_SECTION_COLUMN = {"EA": 1, "EIy": 2, "EIz": 3, "GJ": 4}
+_SECTION_COLUMN = {"EA": 1, "EIy": 2, "EIz": 3, "GJ": 4, "rhoA": 5, "rhoIy": 6, "rhoIz": 7}
+_BODY_KEY = re.compile(r"^bodies\.(?P<body>[^.]+)\.(?:(?P<mass>mass)|com\[(?P<com>[0-2])\]|(?P<inertia>inertia)\[.*)$")
 _HINGE_KEY = re.compile(r"^beams\.(?P<beam>.+)\.(?P<end>start|end)\.hinge\.(?P<law>stiffness|damping|torque|rest_angle)$")
 
 
@@ -80,16 +87,22 @@ def refusal(scene) -> SceneError | None:
     for name in names:
         for used in scene.parameters.depending_on(name):
             section = _SECTION_KEY.match(used)
-            if not (_LOAD_KEY.match(used) or _HINGE_KEY.match(used) or section):
+            if not (_LOAD_KEY.match(used) or _HINGE_KEY.match(used) or section or _BODY_KEY.match(used)):
                 return refuse(f"parameter {name!r} is used at {used}: sensitivities are computed for parameters "
-                              "of load components, of hinge stiffness, damping, torque and rest_angle and of "
-                              "section EA, EIy, EIz and GJ only")
+                              "of load components, of hinge stiffness, damping, torque and rest_angle, of section "
+                              "stiffnesses and masses (shear-rigid) and of body masses, centres of mass and "
+                              "inertias only")
             if section and solve.formulation != "default":
                 return refuse(f"parameter {name!r} is used at {used}: sensitivities by section values are computed "
                               f"for formulation: default only, not {solve.formulation}")
             if section and {"GAy", "GAz"} & set(scene.raw["sections"][section["section"]]):
                 return refuse(f"parameter {name!r} is used at {used}: the section is shear-flexible (GAy, GAz), "
                               "and its element is not linear in its section values")
+    if np.any(scene.gravity) and any(not beam.rigid and (beam.section.rhoA > 0 or beam.section.rhoIy > 0
+                                                         or beam.section.rhoIz > 0) for beam in scene.beams.values()):
+        return refuse("under gravity, beams with mass make the static Newton matrix inexact (it does not hold "
+                      "the derivative of the beams' gravity load), so their sensitivities would not be exact: "
+                      "they are computed under gravity only with massless beams (rhoA = rhoIy = rhoIz = 0)")
     for probe in scene.output.probes:
         point = probe.kind == "point" and probe.quantity in ("position", "displacement") and probe.frame == "global"
         if not (point or (probe.kind == "hinge" and probe.quantity == "angle")):
@@ -140,18 +153,20 @@ class StaticSensitivities:
                 elif hinge:
                     j = model.hinge_index(hinge["beam"], hinge["end"])
                     total[model.hinge_dofs[j], column] += self._hinge_force(state, j, hinge["law"], law, load_factor)
-        self._section_forces(state, total)
+        self._section_forces(state, total, load_factor)
+        self._body_forces(state, total, load_factor)
         for (index, column), values in load_values.items():   # the kernel is linear in the values
             node, force = self._load_force(state, index, values)
             total[model.node_dofs[node], column] += force
         return total[:model.n_dofs]
 
-    def _section_forces(self, state, total: np.ndarray) -> None:
-        """Add ∂(element internal forces)/∂p into ``total`` for the section values that name a parameter:
-        ``beam_internal_force`` with the section block's stiffness columns replaced by their derivatives
-        (the element's strain energy, hence its force, is linear in EA, EIy, EIz and GJ of a
-        shear-rigid section: tests/test_sensitivities.py checks the kernel for it)."""
+    def _section_forces(self, state, total: np.ndarray, load_factor: float) -> None:
+        """Add ∂(element internal force − λ gravity load)/∂p into ``total`` for the section values that
+        name a parameter: ``beam_internal_force`` and ``beam_gravity`` with the section block replaced
+        by its derivative (both linear in the section values EA … ρIz of a shear-rigid section:
+        tests/test_sensitivities.py checks the kernels for it)."""
         model = self.model
+        gravity = load_factor * np.asarray(self.assembler.gravity, float)
         geometry = None
         for key, laws in self.derivatives.items():
             section = _SECTION_KEY.match(key)
@@ -168,10 +183,46 @@ class StaticSensitivities:
                 rows[:, _SECTION_COLUMN[section["value"]]] = law.value(0.0, 0.0, state.t)
                 if model.plane is not None:   # latdyn.model.planar.restrict_to_plane: a quarter turn swaps y, z
                     quarter = np.abs(np.sin(model.section_turns[elements])) > 0.5
-                    rows[quarter, 2], rows[quarter, 3] = rows[quarter, 3].copy(), rows[quarter, 2].copy()
-                forces = np.asarray(self.kernels.beam_internal_force(
-                    np.ascontiguousarray(geometry[elements]), rows)[0]).reshape(len(elements), 14)
+                    for a, b in ((2, 3), (6, 7)):
+                        rows[quarter, a], rows[quarter, b] = rows[quarter, b].copy(), rows[quarter, a].copy()
+                at = np.ascontiguousarray(geometry[elements])
+                forces = np.asarray(self.kernels.beam_internal_force(at, rows)[0]).reshape(len(elements), 14)
+                if np.any(gravity):   # evaluate.c: the static residual F − λ gravity load
+                    rows_g = np.repeat(gravity[None], len(elements), axis=0)
+                    forces = forces - np.asarray(self.kernels.beam_gravity(at, rows, rows_g)[0]).reshape(len(elements), 14)
                 np.add.at(total[:, column], model.element_dofs[elements], forces)
+
+    def _body_forces(self, state, total: np.ndarray, load_factor: float) -> None:
+        """Add ∂(joint body force)/∂p into ``total`` for body masses and centres of mass that name a
+        parameter: ``joint_body`` at rest (a static state) is λ-gravity alone, linear in the mass at a
+        fixed centre of mass (the kernel with (∂m/∂p, c)) and affine in the centre of mass at a fixed
+        mass (the kernel with (m, ∂c/∂p) less the kernel with (m, 0)). Inertias do not enter a static
+        residual (their derivative is zero)."""
+        model, gravity = self.model, load_factor * np.asarray(self.assembler.gravity, float)
+        if not np.any(gravity):
+            return
+        for key, laws in self.derivatives.items():
+            body = _BODY_KEY.match(key)
+            if not body or body["inertia"]:
+                continue
+            spec = self.scene.bodies[body["body"]]
+            node = model.body_node[body["body"]]
+            frame = np.ascontiguousarray(state.T[node].reshape(1, 9))
+
+            def at_rest(block):
+                return np.asarray(self.kernels.joint_body(frame, np.zeros((1, 9)), block, gravity[None])[0]).reshape(6)
+
+            for column, law in laws.items():
+                block = np.zeros((1, 13))
+                if body["mass"]:
+                    block[0, 0], block[0, 1:4] = law.value(0.0, 0.0, state.t), spec.com
+                    force = at_rest(block)
+                else:
+                    block[0, 0] = spec.mass
+                    without = at_rest(block)
+                    block[0, 1 + int(body["com"])] = law.value(0.0, 0.0, state.t)
+                    force = at_rest(block) - without
+                total[model.node_dofs[node], column] += force
 
     def _load_force(self, state, index: int, values: np.ndarray):
         """(node, the generalized force of load ``index`` with these values): the point_load kernel."""
