@@ -76,8 +76,10 @@ def refusal(scene) -> SceneError | None:
 
     if solve.analysis != "static" or solve.method != "load-control":
         method = f"{solve.analysis}" + (f" ({solve.method})" if solve.analysis == "static" else "")
+        why = (" (the step's Newton matrix is not yet the exact Jacobian of the step)" if solve.analysis == "transient"
+               else "")
         return refuse(f"sensitivities are computed for static load control only, not yet for a {method} "
-                      "analysis")
+                      f"analysis{why}")
     if any(beam.rigid for beam in scene.beams.values()):
         return refuse("sensitivities of scenes with rigid links are not computed yet")
     for beam, which, hinge in scene.hinges:
