@@ -115,8 +115,9 @@ def refusal(scene) -> SceneError | None:
 
 
 class StaticSensitivities:
-    """The sensitivities of the recorded rows of a static path: :meth:`record` at each row,
-    :meth:`finish` writes ``sensitivities.csv`` and the summary's ``probe_sensitivities``."""
+    """The sensitivities of the recorded rows of a static path: :meth:`record` at each row; then
+    :meth:`table` (``Result.sensitivities``), :meth:`summary` (``probe_sensitivities``) and
+    :meth:`write` (``sensitivities.csv``), called by latdyn/analyses/continuation.py."""
 
     def __init__(self, prepared):
         self.scene = prepared.scene
