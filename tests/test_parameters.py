@@ -280,7 +280,7 @@ def test_sensitivities_name_parameters_and_a_transient_run_refuses_them():
     data["solve"]["sensitivities"] = ["k"]
     with pytest.raises(SceneError) as info:
         latdyn.run(load_scene(data))
-    assert info.value.key == "solve.sensitivities" and "static load control only" in info.value.expected
+    assert info.value.key == "solve.sensitivities" and "static load control and displacement control only" in info.value.expected
     error = _refused(lambda d: d["solve"].update(sensitivities=["kk"]))
     assert error.key == "solve.sensitivities[0]" and "L, k, c, P" in error.expected
     error = _refused(lambda d: d["solve"].update(sensitivities=["k", "k"]))

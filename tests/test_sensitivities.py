@@ -110,6 +110,34 @@ GRAVITY_3D = (ARM_3D
               .replace("title: static 3D arm", "gravity: [0, 0, -9.81]\ntitle: static 3D arm"))
 
 
+def _arch() -> str:
+    """A shallow circular arch (radius 1, half-angle 0.35 rad, six members of two elements, clamped at
+    both supports) in a plane tilted 0.5 rad about x (a 3D model), its crown pushed down by
+    displacement control through a near-limit plateau into membrane stiffening (λ from 27 to 470)."""
+    angles = np.linspace(-0.35, 0.35, 7)
+    tilt = np.array([[1, 0, 0], [0, np.cos(0.5), -np.sin(0.5)], [0, np.sin(0.5), np.cos(0.5)]])
+    points = [tilt @ [np.sin(a), np.cos(a) - np.cos(0.35), 0.0] for a in angles]
+    down = tilt @ [0.0, -1.0, 0.0]
+    scene = {
+        "title": "shallow arch, displacement control, tilted",
+        "parameters": {"EI": 1.0, "EA0": 5.0e5, "P": 1.0},
+        "sections": {"s": {"EA": "EA0", "EIy": "EI", "EIz": "1.2*EI", "GJ": 1.0, "rhoA": 0.1}},
+        "bodies": {f"n{i}": {"at": [float(c) for c in p], **({"fixed": True} if i in (0, 6) else {})}
+                   for i, p in enumerate(points)},
+        "beams": {f"s{i}": {"from": f"n{i}", "to": f"n{i + 1}", "section": "s", "elements": 2} for i in range(6)},
+        "loads": [{"at": "n3", "force": [f"({float(c)!r})*P" for c in down]}],
+        "solve": {"analysis": "static", "method": "displacement-control", "steps": 12,
+                  "control": {"point": "n3", "direction": [float(c) for c in down], "to": 0.12},
+                  "sensitivities": ["EI", "EA0", "P"]},
+        "output": {"probes": {"crown_z": {"point": "n3", "quantity": "position", "component": "z"},
+                              "n1_y": {"point": "n1", "quantity": "displacement", "component": "y"},
+                              "n2_x": {"point": "n2", "quantity": "displacement", "component": "x"}}}}
+    return yaml.safe_dump(scene, sort_keys=False)
+
+
+ARCH = _arch()
+
+
 def _run(text: str, **parameters):
     data = yaml.safe_load(text)
     data["parameters"].update(parameters)
@@ -159,6 +187,31 @@ def test_3d_static_sensitivities_by_masses_under_gravity_agree_with_richardson_c
         assert scale > 1e-7, (probe, name)
         assert np.abs(result.sensitivities[(probe, name)] - expected).max() <= 1e-8 * scale, (probe, name)
     assert all(np.all(result.sensitivities[(probe, "J")] == 0.0) for probe in reference)   # no inertia in statics
+
+
+@pytest.fixture(scope="module")
+def arch():
+    return _run(ARCH)
+
+
+@pytest.mark.parametrize("name", ["EI", "EA0"])
+def test_displacement_control_sensitivities_agree_with_richardson_central_differences(arch, name):
+    """The load factor moves with the parameters (the crown's displacement is what is held): the
+    bordered solve's sensitivities against the extrapolated differences of whole runs (measured
+    ≤ 1.8e-9 of each probe's largest)."""
+    reference = _richardson(ARCH, name)
+    assert np.ptp(arch.t) > 400   # through the plateau near λ = 27 into membrane stiffening
+    for probe, expected in reference.items():
+        scale = np.abs(expected).max()
+        assert scale > 0, (probe, name)
+        assert np.abs(arch.sensitivities[(probe, name)] - expected).max() <= 1e-7 * scale, (probe, name)
+
+
+def test_under_displacement_control_the_load_amplitude_moves_nothing_but_the_load_factor(arch):
+    """r = f(q) − λ P e: at a held displacement q does not depend on P (λ P does): exactly zero in
+    exact arithmetic, round-off here."""
+    for probe in ("crown_z", "n1_y", "n2_x"):
+        assert np.abs(arch.sensitivities[(probe, "P")]).max() <= 1e-10 * np.abs(arch.probes[probe]).max()
 
 
 @pytest.mark.parametrize("text, names", [(PLANAR, ("P", "k")), (PLANAR_TURNED, ("P", "EI"))],
@@ -262,8 +315,8 @@ def test_the_cli_writes_sensitivities_csv_and_the_summary(tmp_path, arm_3d):
 
 
 @pytest.mark.parametrize("change, expected", [
-    (lambda d: d["solve"].update(analysis="transient", t_end=0.1, dt=0.05, steps=None), "static load control only"),
-    (lambda d: d["solve"].update(method="arc-length"), "static load control only"),
+    (lambda d: d["solve"].update(analysis="transient", t_end=0.1, dt=0.05, steps=None), "static load control and displacement control only"),
+    (lambda d: d["solve"].update(method="arc-length"), "not yet for a static (arc-length)"),
     (lambda d: d.update(gravity=[0, 0, "-k"]), "used at gravity[2]"),
     (lambda d: d.update(gravity=[0, 0, -9.81]), "beams with mass"),
     (lambda d: d["sections"]["s"].update(GAy=1.0e4), "shear-flexible"),
@@ -291,4 +344,4 @@ def test_a_refused_sensitivity_exits_2_in_run_and_check_and_writes_nothing(tmp_p
     env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
     check = subprocess.run([sys.executable, "-m", "latdyn", "check", str(tmp_path / "scene.yaml")], env=env,
                            capture_output=True, text=True, timeout=120, check=False)
-    assert check.returncode == 2 and "static load control only" in check.stderr
+    assert check.returncode == 2 and "static load control and displacement control only" in check.stderr

@@ -121,6 +121,8 @@ class Path:
     weight: np.ndarray | None = None
     #: solve.sensitivities: a StaticSensitivities that records each row's (latdyn/analyses/sensitivities.py)
     sensitivities: object = None
+    #: displacement control: the gradient of the controlled displacement, state -> (n_dofs,)
+    constraint_gradient: object = None
 
     def __post_init__(self):
         scene = self.prepared.scene
@@ -200,7 +202,7 @@ class Path:
         self.writer.record(load_factor, self.probes.values(state), state=state.as_dict(),
                            frame=load_step_frame(self.assembler, self.writer, state))
         if self.sensitivities is not None:
-            self.sensitivities.record(state, load_factor)
+            self.sensitivities.record(state, load_factor, self.constraint_gradient)
         self.recorded_at, self.recorded = load_factor, state
 
     def accept(self, state, load_factor: float, K, arc: float) -> None:
@@ -437,6 +439,7 @@ def displacement_control(path: Path, state) -> object:
         raise SceneError(path.prepared.scene.file, "solve.control.direction",
                          f"expected a direction in which {control.point.text!r} can move, got {control.text} (out "
                          "of the plane of a planar model? planar: off solves it in 3D)")
+    path.constraint_gradient = gradient
     lam, reached, k, h = 0.0, 0.0, 0, 1.0 / steps
     left_path = False  # a step towards the next row converged off the path
     rates = []  # the displacement rate at the start of every accepted step

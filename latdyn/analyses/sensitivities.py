@@ -1,4 +1,5 @@
-"""Exact sensitivities of a static load-control path (SCENE.md, "Parameters and sensitivities").
+"""Exact sensitivities of static paths, load and displacement control (SCENE.md, "Parameters and
+sensitivities").
 
 The computed static solution at a recorded load factor λ > 0 is the configuration q at which
 Newton made the residual r(q; λ, p) vanish. Its derivative by a parameter p is the tangent vector
@@ -30,8 +31,11 @@ a hinge angle by δθ.
   rest, λ-gravity alone, linear in m at fixed c and affine in c at fixed m: the kernel with
   (∂m/∂p, c), and with (m, ∂c/∂p) less with (m, 0); inertias do not enter it.
 
+Under displacement control the controlled displacement c(q) is held and λ moves instead: with
+g = ∂c/∂q and q_ref = −∂r/∂λ, δq = δq_r + δλ K⁻¹q_ref, δq_r = −K⁻¹ ∂r/∂p, δλ = −g·δq_r / g·K⁻¹q_ref.
+
 What is refused (:func:`refusal`, exit 2 naming ``solve.sensitivities``): any analysis but static
-load control; a parameter used anywhere but in load components, hinge stiffness, damping,
+load and displacement control; a parameter used anywhere but in load components, hinge stiffness, damping,
 torque and rest angle, section values of shear-rigid sections (formulation default) and body
 masses, centres of mass and inertias; probes other than point positions and displacements in the global frame
 and hinge angles; rigid links; hinges with limits or ``lock_at`` (events); gravity on beams with
@@ -74,12 +78,12 @@ def refusal(scene) -> SceneError | None:
         return SceneError(scene.file, key, f"{what}; expected sensitivities only where they are exact "
                                            "(docs/parameters.md, \"Sensitivities\")")
 
-    if solve.analysis != "static" or solve.method != "load-control":
+    if solve.analysis != "static" or solve.method not in ("load-control", "displacement-control"):
         method = f"{solve.analysis}" + (f" ({solve.method})" if solve.analysis == "static" else "")
         why = (" (the step's Newton matrix is not yet the exact Jacobian of the step)" if solve.analysis == "transient"
                else "")
-        return refuse(f"sensitivities are computed for static load control only, not yet for a {method} "
-                      f"analysis{why}")
+        return refuse(f"sensitivities are computed for static load control and displacement control only, "
+                      f"not yet for a {method} analysis{why}")
     if any(beam.rigid for beam in scene.beams.values()):
         return refuse("sensitivities of scenes with rigid links are not computed yet")
     for beam, which, hinge in scene.hinges:
@@ -252,19 +256,30 @@ class StaticSensitivities:
         return float(np.asarray(self.kernels.hinge_force(at, laws)[0]).reshape(-1)[0])
 
     # ------------------------------------------------------------------ rows
-    def record(self, state, load_factor: float) -> None:
-        """The sensitivities of every probe at this recorded row."""
+    def record(self, state, load_factor: float, constraint_gradient=None) -> None:
+        """The sensitivities of every probe at this recorded row. Load control: δq = −K⁻¹ ∂r/∂p.
+        Displacement control (``constraint_gradient``: the controlled displacement's gradient g, its
+        target fixed): the load factor moves too, r(q, λ) = 0 and g·δq = 0 give
+        δq = δq_r + δλ δq_λ with δq_r = −K⁻¹ ∂r/∂p, δq_λ = K⁻¹ q_ref (∂r/∂λ = −q_ref) and
+        δλ = −g·δq_r / g·δq_λ."""
         model, k = self.model, len(self.names)
         if load_factor == 0.0 or model.n_dofs == 0:
             self.rows.append((load_factor, [0.0] * len(self.columns)))
             return
         ev = self.assembler.evaluate(state, matrices=True, load_factor=load_factor, inertia=False)
+        rhs = -self.residual_derivatives(state, load_factor)
+        if constraint_gradient is not None:   # the residual is affine in λ: q_ref = r(λ) − r(λ + 1)
+            shifted = self.assembler.evaluate(state, matrices=False, load_factor=load_factor + 1.0, inertia=False)
+            rhs = np.column_stack([rhs, ev.residual - shifted.residual])
         try:
-            tangent = solve_linear(ev.stiffness, -self.residual_derivatives(state, load_factor))
+            solved = np.asarray(solve_linear(ev.stiffness, rhs)).reshape(model.n_dofs, -1)
         except np.linalg.LinAlgError:
             raise SolverError(f"the sensitivities at load factor {load_factor:.6g} need the static stiffness, "
                               "which is singular there (a limit or bifurcation point)") from None
-        tangent = np.asarray(tangent).reshape(model.n_dofs, k)
+        tangent = solved[:, :k]
+        if constraint_gradient is not None:
+            g, along_load = constraint_gradient(state), solved[:, k]
+            tangent = tangent - np.outer(along_load, g @ tangent) / float(g @ along_load)
         by_parameter = []
         for column in range(k):
             dx, dpi = np.zeros_like(state.x), np.zeros_like(state.x)
