@@ -144,9 +144,9 @@ def _run(text: str, **parameters):
     return latdyn.run(latdyn.load_scene(data))
 
 
-def _richardson(text: str, name: str) -> dict:
+def _richardson(text: str, name: str, load_factor: bool = False) -> dict:
     """d(probe)/d(name) over the rows by Richardson-extrapolated central differences of whole runs
-    (without solve.sensitivities)."""
+    (without solve.sensitivities); with ``load_factor``, also d(load factor)/d(name)."""
     data = yaml.safe_load(text)
     del data["solve"]["sensitivities"]
     plain = yaml.safe_dump(data)
@@ -156,6 +156,8 @@ def _richardson(text: str, name: str) -> dict:
     for step in (h, h / 2):
         up, down = _run(plain, **{name: p0 + step}), _run(plain, **{name: p0 - step})
         central.append({k: (up.probes[k] - down.probes[k]) / (2 * step) for k in up.probes})
+        if load_factor:
+            central[-1]["load_factor"] = (up.t - down.t) / (2 * step)
     return {k: (4 * central[1][k] - central[0][k]) / 3 for k in central[0]}
 
 
@@ -199,7 +201,7 @@ def test_displacement_control_sensitivities_agree_with_richardson_central_differ
     """The load factor moves with the parameters (the crown's displacement is what is held): the
     bordered solve's sensitivities against the extrapolated differences of whole runs (measured
     ≤ 1.8e-9 of each probe's largest)."""
-    reference = _richardson(ARCH, name)
+    reference = _richardson(ARCH, name, load_factor=True)
     assert np.ptp(arch.t) > 400   # through the plateau near λ = 27 into membrane stiffening
     for probe, expected in reference.items():
         scale = np.abs(expected).max()
@@ -208,10 +210,21 @@ def test_displacement_control_sensitivities_agree_with_richardson_central_differ
 
 
 def test_under_displacement_control_the_load_amplitude_moves_nothing_but_the_load_factor(arch):
-    """r = f(q) − λ P e: at a held displacement q does not depend on P (λ P does): exactly zero in
-    exact arithmetic, round-off here."""
+    """r = f(q) − λ P e: at a held displacement q does not depend on P, and λ P does not either:
+    δλ/δP = −λ/P (exact), the probes' zero but round-off."""
     for probe in ("crown_z", "n1_y", "n2_x"):
         assert np.abs(arch.sensitivities[(probe, "P")]).max() <= 1e-10 * np.abs(arch.probes[probe]).max()
+    assert np.abs(arch.sensitivities[("load_factor", "P")] + arch.t / 1.0).max() <= 1e-10 * arch.t.max()
+
+
+def test_the_load_factors_sensitivities_are_in_the_summary(tmp_path, arch):
+    run, out = latdyn_run(tmp_path, ARCH)
+    assert run.returncode == 0, run.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    peak = int(np.argmax(arch.t))
+    assert summary["load_factor_sensitivities"]["max"] == {
+        name: arch.sensitivities[("load_factor", name)][peak] for name in ("EI", "EA0", "P")}
+    assert set(summary["probe_sensitivities"]) == {"crown_z", "n1_y", "n2_x"}
 
 
 @pytest.mark.parametrize("text, names", [(PLANAR, ("P", "k")), (PLANAR_TURNED, ("P", "EI"))],

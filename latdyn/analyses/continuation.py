@@ -581,7 +581,11 @@ def _write_sensitivities(sensitivities, writer) -> None:
     """sensitivities.csv, summary.json's probe_sensitivities (and event_sensitivities: a static path
     has no events), and the table the Result carries."""
     writer.sensitivities = sensitivities.table()
-    writer.summary["probe_sensitivities"] = sensitivities.summary(writer.result().probes)
+    recorded = writer.result()
+    summary = sensitivities.summary(recorded.probes, recorded.t)
+    writer.summary["probe_sensitivities"] = {k: v for k, v in summary.items() if k != "load_factor"}
+    if "load_factor" in summary:   # displacement control: the load factor's own (the limit load's at max)
+        writer.summary["load_factor_sensitivities"] = summary["load_factor"]
     writer.summary["event_sensitivities"] = []
     if writer.out_dir is not None:
         sensitivities.write(writer.out_dir)

@@ -131,6 +131,10 @@ class StaticSensitivities:
         self.probes = list(self.scene.output.probes)
         self.columns = [f"{p.name}/{name}" for p in self.probes for name in self.names]
         self.rows: list[tuple[float, list[float]]] = []
+        #: δλ/δp per row and parameter: zero under load control (λ is the grid's), moving under
+        #: displacement control
+        self.load_factor_rows: list[list[float]] = []
+        self.controlled = self.scene.solve.method == "displacement-control"
         params = self.scene.parameters
         # the derivative laws, parsed once: key -> {column: HingeLaw in theta, theta_dot, t}, only
         # where the key uses the parameter
@@ -265,6 +269,7 @@ class StaticSensitivities:
         model, k = self.model, len(self.names)
         if load_factor == 0.0 or model.n_dofs == 0:
             self.rows.append((load_factor, [0.0] * len(self.columns)))
+            self.load_factor_rows.append([0.0] * k)
             return
         ev = self.assembler.evaluate(state, matrices=True, load_factor=load_factor, inertia=False)
         rhs = -self.residual_derivatives(state, load_factor)
@@ -276,10 +281,12 @@ class StaticSensitivities:
         except np.linalg.LinAlgError:
             raise SolverError(f"the sensitivities at load factor {load_factor:.6g} need the static stiffness, "
                               "which is singular there (a limit or bifurcation point)") from None
-        tangent = solved[:, :k]
+        tangent, moved = solved[:, :k], np.zeros(k)
         if constraint_gradient is not None:
             g, along_load = constraint_gradient(state), solved[:, k]
-            tangent = tangent - np.outer(along_load, g @ tangent) / float(g @ along_load)
+            moved = -(g @ tangent) / float(g @ along_load)          # δλ
+            tangent = tangent + np.outer(along_load, moved)
+        self.load_factor_rows.append([float(x) for x in moved])
         by_parameter = []
         for column in range(k):
             dx, dpi = np.zeros_like(state.x), np.zeros_like(state.x)
@@ -306,20 +313,29 @@ class StaticSensitivities:
 
     # ------------------------------------------------------------------ results
     def table(self) -> dict:
-        """``{(probe, name): array over the rows}``."""
+        """``{(probe, name): array over the rows}``; under displacement control also
+        ``("load_factor", name)``, the load factor's own sensitivity."""
         data = np.array([values for _, values in self.rows]).reshape(len(self.rows), len(self.columns))
-        return {(p.name, name): data[:, i * len(self.names) + c]
-                for i, p in enumerate(self.probes) for c, name in enumerate(self.names)}
+        out = {(p.name, name): data[:, i * len(self.names) + c]
+               for i, p in enumerate(self.probes) for c, name in enumerate(self.names)}
+        if self.controlled:
+            moved = np.array(self.load_factor_rows).reshape(len(self.rows), len(self.names))
+            out.update({("load_factor", name): moved[:, c] for c, name in enumerate(self.names)})
+        return out
 
-    def summary(self, probe_values: dict) -> dict:
+    def summary(self, probe_values: dict, load_factors=None) -> dict:
         """``probe_sensitivities``: each probe's derivative at the last row, and at the rows of its
-        largest and smallest value (the first where several tie)."""
+        largest and smallest value (the first where several tie); with ``load_factors`` (displacement
+        control) the same for the load factor, under the name ``load_factor``."""
         table, out = self.table(), {}
-        for p in self.probes:
-            values = np.asarray(probe_values[p.name])
+        series = {p.name: probe_values[p.name] for p in self.probes}
+        if load_factors is not None and self.controlled:
+            series["load_factor"] = load_factors
+        for name_of, values in series.items():
+            values = np.asarray(values)
             last, high, low = len(values) - 1, int(np.argmax(values)), int(np.argmin(values))
-            out[p.name] = {which: {name: float(table[(p.name, name)][row]) for name in self.names}
-                           for which, row in (("end", last), ("max", high), ("min", low))}
+            out[name_of] = {which: {name: float(table[(name_of, name)][row]) for name in self.names}
+                            for which, row in (("end", last), ("max", high), ("min", low))}
         return out
 
     def write(self, folder) -> None:
