@@ -358,3 +358,7 @@ def test_a_refused_sensitivity_exits_2_in_run_and_check_and_writes_nothing(tmp_p
     check = subprocess.run([sys.executable, "-m", "latdyn", "check", str(tmp_path / "scene.yaml")], env=env,
                            capture_output=True, text=True, timeout=120, check=False)
     assert check.returncode == 2 and "static load control and displacement control only" in check.stderr
+    (tmp_path / "supported.yaml").write_text(ARM_3D)
+    check = subprocess.run([sys.executable, "-m", "latdyn", "check", str(tmp_path / "supported.yaml")], env=env,
+                           capture_output=True, text=True, timeout=120, check=False)
+    assert check.returncode == 0 and "sensitivities by: F, k, th0, M, EI, G" in check.stdout

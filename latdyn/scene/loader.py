@@ -1402,6 +1402,8 @@ def describe(scene: Scene) -> str:
     if scene.parameters:
         lines.append(f"  parameters: {len(scene.parameters.values)}")
         lines.extend(f"    {line}" for line in scene.parameters.describe())
+        if scene.solve.sensitivities:
+            lines.append(f"    sensitivities by: {', '.join(scene.solve.sensitivities)}")
     s = scene.solve
     if s.analysis == "transient":
         what = f"transient, t_end = {s.t_end:g}, dt = {s.dt:g}, {s.method}"
