@@ -128,6 +128,11 @@ def _command_check(args) -> int:
     from .scene.loader import describe
 
     scene = _load_scene(args.scene)
+    if scene.solve.sensitivities:   # what run would refuse (SceneError -> 2)
+        from .analyses.sensitivities import refusal
+
+        if refusal(scene) is not None:
+            raise refusal(scene)
     print(describe(scene))
     # the model, its held check (SceneError -> 2) and the initial state
     print(check_report(prepare(scene)))

@@ -61,6 +61,11 @@ def run(scene, out_dir=None, backend: str = "auto", progress: bool = False, *, r
     if checkpoint_every is not None and not checkpoint_every >= 0:
         raise ValueError(f"checkpoint_every must be a number of seconds >= 0, not {checkpoint_every!r}")
     scene = load_scene(scene)
+    if scene.solve.sensitivities:   # refused before anything is compiled or written
+        from latdyn.analyses.sensitivities import refusal
+
+        if refusal(scene) is not None:
+            raise refusal(scene)
     analysis = scene.solve.analysis
     resume_from = _checkpoint_to_resume(scene, out_dir) if resume else None
     prepared = prepare(scene, backend)

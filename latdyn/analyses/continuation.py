@@ -73,6 +73,7 @@ import numpy as np
 from latdyn.analyses.followers import REAL_TOL, follower_loads
 from latdyn.assembly.factorization import solve_linear
 from latdyn.analyses.mechanism import mechanism_message
+from latdyn.analyses.sensitivities import StaticSensitivities
 from latdyn.errors import SceneError, SolverError
 from latdyn.numerics.linalg import single_thread_blas
 from latdyn.step.integrators import increment_size, newton_diagnosis
@@ -118,6 +119,10 @@ class Path:
     recorded_at: float | None = None  # load factor of the last row, the state it holds being `recorded`
     recorded: object = None
     weight: np.ndarray | None = None
+    #: solve.sensitivities: a StaticSensitivities that records each row's (latdyn/analyses/sensitivities.py)
+    sensitivities: object = None
+    #: displacement control: the gradient of the controlled displacement, state -> (n_dofs,)
+    constraint_gradient: object = None
 
     def __post_init__(self):
         scene = self.prepared.scene
@@ -196,6 +201,8 @@ class Path:
     def record(self, state, load_factor: float) -> None:
         self.writer.record(load_factor, self.probes.values(state), state=state.as_dict(),
                            frame=load_step_frame(self.assembler, self.writer, state))
+        if self.sensitivities is not None:
+            self.sensitivities.record(state, load_factor, self.constraint_gradient)
         self.recorded_at, self.recorded = load_factor, state
 
     def accept(self, state, load_factor: float, K, arc: float) -> None:
@@ -432,6 +439,7 @@ def displacement_control(path: Path, state) -> object:
         raise SceneError(path.prepared.scene.file, "solve.control.direction",
                          f"expected a direction in which {control.point.text!r} can move, got {control.text} (out "
                          "of the plane of a planar model? planar: off solves it in 3D)")
+    path.constraint_gradient = gradient
     lam, reached, k, h = 0.0, 0.0, 0, 1.0 / steps
     left_path = False  # a step towards the next row converged off the path
     rates = []  # the displacement rate at the start of every accepted step
@@ -551,6 +559,8 @@ METHODS = {"load-control": load_control, "arc-length": arc_length, "displacement
 def static_path(prepared, probes, writer, length_scale: float) -> None:
     """Solve the static analysis of ``prepared`` by its ``solve.method``; rows into ``writer``."""
     path = Path(prepared, probes, writer, length_scale)
+    if prepared.scene.solve.sensitivities and prepared.scene.solve.analysis == "static":
+        path.sensitivities = StaticSensitivities(prepared)
     state = prepared.state
     state.v[:] = state.w[:] = 0.0
     state.theta_dot[:] = 0.0
@@ -563,6 +573,22 @@ def static_path(prepared, probes, writer, length_scale: float) -> None:
     method = prepared.scene.solve.method if prepared.scene.solve.method in METHODS else "load-control"
     prepared.state = METHODS[method](path, state)
     path.summarize()
+    if path.sensitivities is not None:
+        _write_sensitivities(path.sensitivities, writer)
+
+
+def _write_sensitivities(sensitivities, writer) -> None:
+    """sensitivities.csv, summary.json's probe_sensitivities (and event_sensitivities: a static path
+    has no events), and the table the Result carries."""
+    writer.sensitivities = sensitivities.table()
+    recorded = writer.result()
+    summary = sensitivities.summary(recorded.probes, recorded.t)
+    writer.summary["probe_sensitivities"] = {k: v for k, v in summary.items() if k != "load_factor"}
+    if "load_factor" in summary:   # displacement control: the load factor's own (the limit load's at max)
+        writer.summary["load_factor_sensitivities"] = summary["load_factor"]
+    writer.summary["event_sensitivities"] = []
+    if writer.out_dir is not None:
+        sensitivities.write(writer.out_dir)
 
 
 def load_step_frame(assembler, writer, state):

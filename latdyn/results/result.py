@@ -1,6 +1,6 @@
 """A run's result: :class:`Result`, what a run recorded, in memory (from
 :meth:`latdyn.results.writer.ResultWriter.result`) or read back from its results folder
-(:meth:`Result.load`: ``probes.csv``, ``summary.json``, ``modes.csv``); and the state history of a
+(:meth:`Result.load`: ``probes.csv``, ``summary.json``, ``modes.csv``, ``sensitivities.csv``); and the state history of a
 folder with its labels (:func:`load_state_history`, :func:`load_state_labels`). The formats: the
 modules that write them, :mod:`latdyn.results.probes_csv`, :mod:`latdyn.results.summary`,
 :mod:`latdyn.results.modes_csv`, :mod:`latdyn.results.state_history`."""
@@ -17,6 +17,9 @@ from latdyn.results.modes_csv import MODES_FILE
 from latdyn.results.probes_csv import PROBES_FILE
 from latdyn.results.state_history import LABELS_KEY, STATE_H5_FILE, STATE_NPZ_FILE
 from latdyn.results.summary import SUMMARY_FILE
+
+#: written by latdyn/analyses/sensitivities.py (a later layer): ``load_factor|t,<probe>/<NAME>,…``
+SENSITIVITIES_FILE = "sensitivities.csv"
 
 try:  # optional: without it only state.npz can be read
     import h5py
@@ -43,6 +46,9 @@ class Result:
         Natural frequencies in Hz for modal runs.
     first_column : str
         ``"t"`` or ``"load_factor"``.
+    sensitivities : dict[tuple[str, str], np.ndarray]
+        ``(probe, parameter)`` -> d(probe)/d(parameter) over the rows, for a run with
+        ``solve.sensitivities`` (``sensitivities.csv``; latdyn/analyses/sensitivities.py); else empty.
     """
 
     def __init__(self, t, probes, summary=None, out_dir=None, modes=None, first_column="t"):
@@ -52,6 +58,7 @@ class Result:
         self.out_dir = None if out_dir is None else str(out_dir)
         self.modes = None if modes is None else np.asarray(modes, dtype=float)
         self.first_column = first_column
+        self.sensitivities: dict = {}
 
     @property
     def load_factor(self) -> np.ndarray:
@@ -114,7 +121,11 @@ class Result:
                 summary = json.loads(summary_path.read_text(encoding="utf-8"))
             except (OSError, ValueError) as exc:
                 raise ResultsError(f"{summary_path}: unreadable summary ({exc})") from exc
-        return cls(t, probes, summary=summary, out_dir=str(folder), modes=modes, first_column=first_column)
+        result = cls(t, probes, summary=summary, out_dir=str(folder), modes=modes, first_column=first_column)
+        if (folder / SENSITIVITIES_FILE).is_file():
+            _, _, columns = _read_probes(folder / SENSITIVITIES_FILE)
+            result.sensitivities = {tuple(name.rsplit("/", 1)): values for name, values in columns.items()}
+        return result
 
 
 def _read_probes(path: Path):

@@ -134,6 +134,8 @@ class ResultWriter:
         if first_column in self.columns:
             raise ValueError(f"a probe may not be named {first_column!r}")
         self.first_column = first_column
+        #: ``{(probe, parameter): values over the rows}`` of a run with solve.sensitivities (latdyn/analyses/sensitivities.py)
+        self.sensitivities: dict = {}
         self.meta = dict(meta or {})
         self.out_dir = None if out_dir is None else Path(out_dir)
         self.checkpoint_rows = max(1, int(checkpoint_rows))
@@ -335,8 +337,10 @@ class ResultWriter:
         """The :class:`Result` of what was recorded so far."""
         t, probes = self._probes.table()
         summary = self._final_summary if self._final_summary is not None else {"status": "running"}
-        return Result(
+        result = Result(
             t, probes, summary=summary,
             out_dir=None if self.out_dir is None else str(self.out_dir),
             modes=self._modes, first_column=self.first_column,
         )
+        result.sensitivities = dict(self.sensitivities)
+        return result

@@ -38,8 +38,9 @@ clamped = "clamped"
 
 
 def _vector(value) -> list:
-    """A 3-vector as a list of plain floats (NumPy arrays and tuples accepted)."""
-    return [float(x) for x in value]
+    """A 3-vector as a list of plain floats (NumPy arrays and tuples accepted); a component given
+    as text (an expression of the scene's parameters, ``"L"``) stays text."""
+    return [x if isinstance(x, str) else float(x) for x in value]
 
 
 def _scalar(value):
@@ -70,6 +71,12 @@ class SceneBuilder:
         self.data: dict[str, Any] = {"title": title, "sections": {}, "bodies": {}, "beams": {}}
 
     # -- parts -----------------------------------------------------------------------------
+    def parameters(self, **values) -> "SceneBuilder":
+        """Named numbers (SCENE.md ``parameters``): ``parameters(L=1.5, k=40)``; any number of the
+        scene may then be an expression of them (``body("tip", at=["L", 0, 0])``)."""
+        self.data.setdefault("parameters", {}).update({k: _scalar(v) for k, v in values.items()})
+        return self
+
     def gravity(self, g) -> "SceneBuilder":
         self.data["gravity"] = _vector(g)
         return self
@@ -82,8 +89,8 @@ class SceneBuilder:
 
     def section(self, name: str, *, EA, EIy, EIz, GJ, rhoA, **optional) -> str:
         """A cross-section; ``optional``: rhoIy, rhoIz, GAy, GAz (SCENE.md). Returns ``name``."""
-        spec = {"EA": float(EA), "EIy": float(EIy), "EIz": float(EIz), "GJ": float(GJ), "rhoA": float(rhoA)}
-        spec.update((k, float(v)) for k, v in optional.items() if v is not None)
+        spec = {"EA": _scalar(EA), "EIy": _scalar(EIy), "EIz": _scalar(EIz), "GJ": _scalar(GJ), "rhoA": _scalar(rhoA)}
+        spec.update((k, _scalar(v)) for k, v in optional.items() if v is not None)
         self.data["sections"][name] = spec
         return name
 
@@ -93,11 +100,12 @@ class SceneBuilder:
         ``(axis, angle)`` (prescribed rotation). Returns ``name``."""
         spec: dict[str, Any] = {"at": _vector(at)}
         if mass is not None:
-            spec["mass"] = float(mass)
+            spec["mass"] = _scalar(mass)
         if com is not None:
             spec["com"] = _vector(com)
         if inertia is not None:
-            spec["inertia"] = [_vector(row) for row in inertia] if hasattr(inertia[0], "__len__") \
+            spec["inertia"] = [_vector(row) for row in inertia] \
+                if hasattr(inertia[0], "__len__") and not isinstance(inertia[0], str) \
                 else _vector(inertia)
         if fixed:
             spec["fixed"] = True

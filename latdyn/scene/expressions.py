@@ -63,6 +63,7 @@ so that the hinge force feeds exact entries into the Newton matrix
 from __future__ import annotations
 
 import ast
+import contextvars
 import io
 import math
 import re
@@ -73,7 +74,7 @@ import numpy as np
 
 from latdyn.errors import SceneError, show_value
 
-__all__ = ["TimeFunction", "parse_time_function", "HingeLaw", "parse_hinge_law", "HINGE_VARIABLES", "ALLOWED_NAMES", "ALLOWED_OPERATORS",
+__all__ = ["TimeFunction", "parse_time_function", "parse_symbolic", "ACTIVE_PARAMETERS", "HingeLaw", "parse_hinge_law", "HINGE_VARIABLES", "ALLOWED_NAMES", "ALLOWED_OPERATORS",
            "MAX_TEXT", "MAX_DEPTH", "MAX_NODES"]
 
 #: Names a scene expression may use (SCENE.md), then the documented extension.
@@ -127,6 +128,21 @@ def _sympy_namespace(extra: tuple[str, ...] = ()):
     return t, local, glob
 
 
+#: The parameters of the scene being read (:class:`latdyn.scene.parameters.Parameters`, set by
+#: :func:`latdyn.scene.parameters.parameter_scope`), or None: while set, every expression text
+#: read here has the parameters' names replaced by their values first (:func:`_with_parameters`).
+ACTIVE_PARAMETERS: contextvars.ContextVar = contextvars.ContextVar("latdyn_parameters", default=None)
+
+
+def _with_parameters(text, key):
+    """``text`` with the active scene parameters substituted (recorded under ``key``); as is
+    when no parameters are active or ``text`` is not text."""
+    params = ACTIVE_PARAMETERS.get()
+    if params is None or not isinstance(text, str):
+        return text
+    return params.substitute(text, key)
+
+
 # --------------------------------------------------------------------------- text checks
 def _refuse(file, key, what, expected=_ALLOWED_TEXT):
     raise SceneError(file, key, f"{what}; expected {expected}")
@@ -147,7 +163,10 @@ def _check_tokens(text: str, file, key, extra: tuple[str, ...] = (), allowed_tex
                 _refuse(file, key, f"number {s!r} in {text!r} is not a plain decimal number", allowed_text)
         elif kind == tokenize.NAME:
             if s not in ALLOWED_NAMES and s not in extra:
-                _refuse(file, key, f"name {s!r} in {text!r} is not allowed", allowed_text)
+                params = ACTIVE_PARAMETERS.get()
+                known = f" (nor a parameter: {', '.join(params.values)})" if params else ""
+                shown = params.written.get(text, text) if params else text
+                _refuse(file, key, f"name {s!r} in {shown!r} is not allowed{known}", allowed_text)
         elif kind == tokenize.OP:
             if s not in ALLOWED_OPERATORS:
                 _refuse(file, key, f"{s!r} in {text!r} is not allowed", allowed_text)
@@ -285,6 +304,7 @@ def _parse_text(text: str, file, key, extra: tuple[str, ...] = (), allowed_text:
     import sympy as sp
     from sympy.parsing.sympy_parser import parse_expr, standard_transformations
 
+    text = _with_parameters(text, key)
     if len(text) > MAX_TEXT:
         _refuse(file, key, f"expression of {len(text)} characters {show_value(text)}",
                 f"at most {MAX_TEXT} characters (a longer function of time is a table)")
@@ -319,6 +339,16 @@ def _parse_text(text: str, file, key, extra: tuple[str, ...] = (), allowed_text:
     if expr.has(sp.zoo, sp.nan, sp.oo, -sp.oo):
         _refuse(file, key, f"{text!r} is infinite or undefined somewhere", "a finite expression in t")
     return symbol, expr
+
+
+def parse_symbolic(text: str, file, key, extra: tuple[str, ...] = ()):
+    """Checked text -> (symbol t, SymPy expression) with ``extra`` names as real symbols and no
+    parameters substituted (what :meth:`latdyn.scene.parameters.Parameters.derivative` differentiates)."""
+    token = ACTIVE_PARAMETERS.set(None)
+    try:
+        return _parse_text(text, file, key, extra)
+    finally:
+        ACTIVE_PARAMETERS.reset(token)
 
 
 def _scalar_functions(symbol, expressions, vectorised):
@@ -570,7 +600,7 @@ class TimeFunction(_BySource):
                 raise SceneError(file, key, f"expected a finite number, got {show_value(source)}")
             return value
         if isinstance(source, str):
-            return source
+            return _with_parameters(source, key)
         if isinstance(source, dict):
             if set(source) != {"table"}:
                 raise SceneError(file, key, "expected a table as {table: [[t0, v0], [t1, v1], ...]}, "
@@ -764,7 +794,8 @@ class HingeLaw(_BySource):
 
     def __init__(self, source: Any, file: str | None = None, key: str = "expression"):
         self._file, self._key = file, key
-        self._source = source._source if isinstance(source, (HingeLaw, TimeFunction)) else source
+        self._source = source._source if isinstance(source, (HingeLaw, TimeFunction)) \
+            else _with_parameters(source, key)
         self._compiled = None
         self._compile()
         try:

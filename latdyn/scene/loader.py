@@ -26,6 +26,13 @@ Extensions to SCENE.md (keys may be added, never renamed):
 - expression names ``asin acos atan atan2 sinh cosh tanh``;
 - hinge ``stiffness``/``damping``/``torque`` also as a table in t.
 
+Parameters (SCENE.md, "Parameters and sensitivities"): ``parameters: {NAME: number}`` is read
+first and the rest of the scene inside :func:`~latdyn.scene.parameters.parameter_scope`, so that
+every number and expression may name them (:mod:`latdyn.scene.parameters`; whole numbers such as
+``elements`` take a constant expression too); ``Scene.parameters`` records what uses which.
+``solve.sensitivities: [NAME, …]`` is checked here (parameters, each once); what can be
+differentiated exactly is decided in :mod:`latdyn.analyses.sensitivities` (docs/parameters.md).
+
 Rigid links (``rigid: true``, SCENE.md): the beam is one rigid body (mass ρA·L at mid-length, the
 slender rod's inertia), hinged or clamped at its ends like any beam; ``elements`` is ignored (the
 link counts as one element for point names: ``LINK.node[0]`` = start, ``LINK.node[1]`` = end) and
@@ -70,6 +77,7 @@ from latdyn.scene.expressions import (
     parse_hinge_law,
     parse_time_function,
 )
+from latdyn.scene.parameters import Parameters, parameter_scope, read_parameters
 
 __all__ = [
     "Section", "Hinge", "BeamEnd", "Beam", "Body", "PointRef", "Load", "Probe", "Solve",
@@ -107,7 +115,7 @@ PROBE_KINDS = ("point", "hinge", "guide", "energy", "momentum", "element")
 HINGE_PROBE_QUANTITIES = HINGE_QUANTITIES + ("torque",)
 GUIDE_QUANTITIES = ("position", "rate", "force")
 
-_TOP_KEYS = ("title", "gravity", "initial_velocity", "sections", "bodies", "beams", "loads", "solve", "output")
+_TOP_KEYS = ("title", "parameters", "gravity", "initial_velocity", "sections", "bodies", "beams", "loads", "solve", "output")
 _SECTION_KEYS = ("EA", "EIy", "EIz", "GJ", "rhoA", "rhoIy", "rhoIz", "GAy", "GAz")
 _BODY_KEYS = ("at", "mass", "com", "inertia", "fixed", "motion", "guide")
 _GUIDE_KEYS = ("on", "axis", "stiffness", "damping", "force", "rest", "limits", "restitution", "lock_at", "position")
@@ -116,7 +124,7 @@ _HINGE_KEYS = ("axis", "stiffness", "damping", "torque", "angle", "lock_at", "re
 _LOAD_KEYS = ("at", "force", "moment", "frame")
 _SOLVE_KEYS = ("analysis", "t_end", "dt", "method", "rho_inf", "tol", "steps", "count",
                "adaptive", "error_tol", "dt_min", "max_iterations", "formulation", "engine", "newton", "planar",
-               "control", "max_steps", "about", "linear_model", "mode_shapes", "flutter")
+               "control", "max_steps", "about", "linear_model", "mode_shapes", "flutter", "sensitivities")
 _CONTROL_KEYS = ("point", "direction", "to")
 #: ``solve.engine``: ``auto`` or ``compiled``, the same: the implicit step's Newton iteration runs in C
 #: (latdyn/step/compiled.py), its one implementation (the Python step it once chose is gone, issue 17);
@@ -349,6 +357,8 @@ class Solve:
     #: buckling: search the flutter load along the path (None: where the loads are follower loads,
     #: latdyn/analyses/stability.py)
     flutter: bool | None = None
+    #: names of parameters whose derivatives of the probes are asked for (latdyn/scene/parameters.py)
+    sensitivities: list[str] = field(default_factory=list)
 
 
 @dataclass
@@ -399,6 +409,8 @@ class Scene:
     solve: Solve
     output: Output
     raw: dict
+    #: ``parameters``: their values and which key paths use them (latdyn/scene/parameters.py)
+    parameters: Parameters = field(default_factory=Parameters)
 
     @property
     def n_elements(self) -> int:
@@ -739,6 +751,11 @@ class _Reader:
     def integer(self, value, key, *, minimum=1, maximum=MAX_COUNT, why="") -> int:
         """A whole number in [minimum, maximum]; ``why`` explains the maximum in the message."""
         number = value
+        if isinstance(number, str):   # a constant expression ("2*n" of parameters n)
+            function = parse_time_function(number, self.file, key)
+            if not function.is_constant:
+                self.fail(key, f"expected a whole number >= {minimum}", value)
+            number = function.value(0.0)
         if isinstance(number, float) and math.isfinite(number) and number.is_integer():
             number = int(number)
         if not isinstance(number, (int, np.integer)) or isinstance(number, (bool, np.bool_)):
@@ -1376,6 +1393,43 @@ def _build(raw: Any, file: str) -> Scene:
     if raw is None:
         r.fail("(top level)", f"expected a mapping of scene keys ({_listing(_TOP_KEYS)}), got an empty scene")
     r.mapping(raw, "", _TOP_KEYS, what="a scene: a mapping")
+    params = read_parameters(raw.get("parameters"), file, _probe_names(raw.get("output")))
+    with parameter_scope(params):
+        scene = _build_parts(r, raw, file)
+    scene.parameters = params
+    scene.solve.sensitivities = _sensitivities(r, raw.get("solve"), params)
+    return scene
+
+
+def _probe_names(output) -> list:
+    """The probe names an ``output`` mapping gives, unchecked (for the clash with parameter names)."""
+    probes = output.get("probes") if isinstance(output, dict) else None
+    if isinstance(probes, dict):
+        return list(probes)
+    if isinstance(probes, list):
+        return [p.get("name") for p in probes if isinstance(p, dict)]
+    return []
+
+
+def _sensitivities(r: _Reader, solve, params: Parameters) -> list[str]:
+    """``solve.sensitivities: [NAME, …]``: names of parameters, each once (which the package can
+    differentiate exactly is decided with the model: latdyn/analyses/sensitivities.py ``refusal``)."""
+    if not isinstance(solve, dict) or "sensitivities" not in solve:
+        return []
+    key, value = "solve.sensitivities", solve["sensitivities"]
+    if not isinstance(value, list) or not value:
+        r.fail(key, "expected a list of parameter names [NAME, ...]", value)
+    names = []
+    for i, name in enumerate(value):
+        if not isinstance(name, str) or name not in params.values:
+            r.fail(f"{key}[{i}]", f"expected the name of a parameter (parameters: {_listing(params.values)})", name)
+        if name in names:
+            r.fail(f"{key}[{i}]", "duplicated parameter name; expected each name once", name)
+        names.append(name)
+    return names
+
+
+def _build_parts(r: _Reader, raw: dict, file: str) -> Scene:
     title = raw.get("title", "")
     if title is None:
         title = ""
@@ -1472,6 +1526,11 @@ def describe(scene: Scene) -> str:
     lines.append(f"  loads:    {len(scene.loads)}")
     names = [p.name for p in scene.output.probes]
     lines.append(f"  probes:   {len(names)}" + (f": {', '.join(names)}" if names else ""))
+    if scene.parameters:
+        lines.append(f"  parameters: {len(scene.parameters.values)}")
+        lines.extend(f"    {line}" for line in scene.parameters.describe())
+        if scene.solve.sensitivities:
+            lines.append(f"    sensitivities by: {', '.join(scene.solve.sensitivities)}")
     s = scene.solve
     if s.analysis == "transient":
         what = f"transient, t_end = {s.t_end:g}, dt = {s.dt:g}, {s.method}"

@@ -316,6 +316,7 @@ def load_study(source, base_dir=None) -> StudySpec:
         key = f"vary.{path}"
         if not isinstance(values, list) or not values:
             _fail(file, key, "expected a non-empty list of values", values)
+        _check_parameter_path(scene, path, file, key)
         for i, value in enumerate(values):
             if not isinstance(value, (str, int, float, bool)) and not (isinstance(value, (list, dict))):
                 _fail(file, f"{key}[{i}]", "expected a number, a string, a boolean, a list or a mapping", value)
@@ -438,6 +439,14 @@ def _with_energy_probes(raw: dict) -> dict:
     else:
         probes.update({name: {"energy": kind} for name, kind in ENERGY_PROBES.items()})
     return raw
+
+
+def _check_parameter_path(scene, path: str, file: str, key: str) -> None:
+    """A ``vary`` path ``parameters.NAME`` names a parameter the scene has (a new name would be a
+    parameter that nothing uses, and the study would vary nothing)."""
+    if path.startswith("parameters.") and path[len("parameters."):] not in scene.parameters.values:
+        known = ", ".join(scene.parameters.values) or "none"
+        _fail(file, key, f"expected parameters.NAME of a parameter of the scene (parameters: {known})", path)
 
 
 def _case_scene(spec: StudySpec, overrides: dict, key: str):

@@ -1,0 +1,346 @@
+"""Exact sensitivities of static paths, load and displacement control (SCENE.md, "Parameters and
+sensitivities").
+
+The computed static solution at a recorded load factor λ > 0 is the configuration q at which
+Newton made the residual r(q; λ, p) vanish. Its derivative by a parameter p is the tangent vector
+
+    δq/δp = −K⁻¹ ∂r/∂p,      K = ∂r/∂Δ at (q, λ)   (the static Newton matrix, at the converged q)
+
+in the coordinates of the configuration update (translations added, rotations T ← exp(skew δπ) T,
+hinge angles added): rotation sensitivities live in the tangent space, as the step's own
+increments do. The row at λ = 0 is the initial configuration, which Newton does not solve for and
+which no supported parameter moves: its sensitivities are zero.
+
+∂r/∂p comes from the generated kernels the residual itself is made of, by their linearity:
+
+- a load component F_c(t; p) enters the residual through ``point_load``, linear in the load's
+  values: ∂r/∂p = point_load(…, values = λ ∂F/∂p) (global or turning with a body);
+- a hinge's stiffness k, damping c and torque τ enter through ``hinge_force``, f = k s + c θ̇ − λ τ
+  with s = θ − θ_r, linear in (k, c, τ): ∂f/∂p = hinge_force(…, laws = (∂k/∂p, ∂c/∂p, ∂τ/∂p)), the
+  laws' derivatives those of :meth:`latdyn.scene.parameters.Parameters.derivative`; the rest angle
+  enters affinely: ∂f/∂θ_r = hinge_force(θ = θ̇ = 0, θ_r = 1, laws = (k, 0, 0)).
+
+A probe's derivative is its value's derivative along δq: a point x + T r moves by δx + δπ × T r;
+a hinge angle by δθ.
+
+- a section's values enter through ``beam_internal_force`` and ``beam_gravity`` (F − λ G), linear in
+  EA, EIy, EIz, GJ, ρA, ρIy, ρIz for a shear-rigid section: the same kernels with the section block
+  (L0, ∂EA/∂p, …, ∂ρIz/∂p, 0, 0), the planar model's quarter turns of the section axes applied as
+  the model applies them;
+- a joint body's mass m and centre of mass c enter a static residual through ``joint_body`` at
+  rest, λ-gravity alone, linear in m at fixed c and affine in c at fixed m: the kernel with
+  (∂m/∂p, c), and with (m, ∂c/∂p) less with (m, 0); inertias do not enter it.
+
+Under displacement control the controlled displacement c(q) is held and λ moves instead: with
+g = ∂c/∂q and q_ref = −∂r/∂λ, δq = δq_r + δλ K⁻¹q_ref, δq_r = −K⁻¹ ∂r/∂p, δλ = −g·δq_r / g·K⁻¹q_ref.
+
+What is refused (:func:`refusal`, exit 2 naming ``solve.sensitivities``): any analysis but static
+load and displacement control; a parameter used anywhere but in load components, hinge stiffness, damping,
+torque and rest angle, section values of shear-rigid sections (formulation default) and body
+masses, centres of mass and inertias; probes other than point positions and displacements in the global frame
+and hinge angles; rigid links; hinges with limits or ``lock_at`` (events); gravity on beams with
+mass (the static Newton matrix does not hold the derivative of the beams' gravity load, so it is
+not the exact tangent there). docs/parameters.md.
+"""
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+
+from latdyn.assembly.assembler import unpack_free
+from latdyn.assembly.factorization import solve_linear
+from latdyn.errors import SceneError, SolverError
+from latdyn.results.result import SENSITIVITIES_FILE
+from latdyn.scene.expressions import parse_hinge_law
+
+__all__ = ["refusal", "StaticSensitivities", "SENSITIVITIES_FILE"]
+
+
+_LOAD_KEY = re.compile(r"^loads\[(?P<load>\d+)\]\.(?P<kind>force|moment)\[(?P<axis>[0-2])\]$")
+_SECTION_KEY = re.compile(r"^sections\.(?P<section>[^.]+)\.(?P<value>EA|EIy|EIz|GJ|rhoA|rhoIy|rhoIz)$")
+#: the section block's columns (codegen/conventions.py: L0 EA EIy EIz GJ rhoA rhoIy rhoIz 1/GAy 1/GAz)
+_SECTION_COLUMN = {"EA": 1, "EIy": 2, "EIz": 3, "GJ": 4, "rhoA": 5, "rhoIy": 6, "rhoIz": 7}
+_BODY_KEY = re.compile(r"^bodies\.(?P<body>[^.]+)\.(?:(?P<mass>mass)|com\[(?P<com>[0-2])\]|(?P<inertia>inertia)\[.*)$")
+_HINGE_KEY = re.compile(r"^beams\.(?P<beam>.+)\.(?P<end>start|end)\.hinge\.(?P<law>stiffness|damping|torque|rest_angle)$")
+
+
+def refusal(scene) -> SceneError | None:
+    """The SceneError that refuses ``solve.sensitivities`` of ``scene``, or None when every named
+    parameter, the analysis and every probe are differentiated exactly here."""
+    names = scene.solve.sensitivities
+    if not names:
+        return None
+    key, solve = "solve.sensitivities", scene.solve
+
+    def refuse(what):
+        return SceneError(scene.file, key, f"{what}; expected sensitivities only where they are exact "
+                                           "(docs/parameters.md, \"Sensitivities\")")
+
+    if solve.analysis != "static" or solve.method not in ("load-control", "displacement-control"):
+        method = f"{solve.analysis}" + (f" ({solve.method})" if solve.analysis == "static" else "")
+        why = (" (the step's Newton matrix is not yet the exact Jacobian of the step)" if solve.analysis == "transient"
+               else "")
+        return refuse(f"sensitivities are computed for static load control and displacement control only, "
+                      f"not yet for a {method} analysis{why}")
+    if any(beam.rigid for beam in scene.beams.values()):
+        return refuse("sensitivities of scenes with rigid links are not computed yet")
+    for beam, which, hinge in scene.hinges:
+        if hinge.limits is not None or hinge.lock_at is not None:
+            return refuse(f"sensitivities through hinge events (limits, lock_at of {beam}.{which}) are not "
+                          "computed yet")
+    for name in names:
+        for used in scene.parameters.depending_on(name):
+            section = _SECTION_KEY.match(used)
+            if not (_LOAD_KEY.match(used) or _HINGE_KEY.match(used) or section or _BODY_KEY.match(used)):
+                return refuse(f"parameter {name!r} is used at {used}: sensitivities are computed for parameters "
+                              "of load components, of hinge stiffness, damping, torque and rest_angle, of section "
+                              "stiffnesses and masses (shear-rigid) and of body masses, centres of mass and "
+                              "inertias only")
+            if section and solve.formulation != "default":
+                return refuse(f"parameter {name!r} is used at {used}: sensitivities by section values are computed "
+                              f"for formulation: default only, not {solve.formulation}")
+            if section and {"GAy", "GAz"} & set(scene.raw["sections"][section["section"]]):
+                return refuse(f"parameter {name!r} is used at {used}: the section is shear-flexible (GAy, GAz), "
+                              "and its element is not linear in its section values")
+    if np.any(scene.gravity) and any(not beam.rigid and (beam.section.rhoA > 0 or beam.section.rhoIy > 0
+                                                         or beam.section.rhoIz > 0) for beam in scene.beams.values()):
+        return refuse("under gravity, beams with mass make the static Newton matrix inexact (it does not hold "
+                      "the derivative of the beams' gravity load), so their sensitivities would not be exact: "
+                      "they are computed under gravity only with massless beams (rhoA = rhoIy = rhoIz = 0)")
+    for probe in scene.output.probes:
+        point = probe.kind == "point" and probe.quantity in ("position", "displacement") and probe.frame == "global"
+        if not (point or (probe.kind == "hinge" and probe.quantity == "angle")):
+            return refuse(f"probe {probe.name!r} ({probe.kind} {probe.quantity}"
+                          f"{'' if probe.kind != 'point' else ', frame ' + probe.frame}) is not differentiated yet: "
+                          "point positions and displacements in the global frame and hinge angles are")
+    return None
+
+
+class StaticSensitivities:
+    """The sensitivities of the recorded rows of a static path: :meth:`record` at each row; then
+    :meth:`table` (``Result.sensitivities``), :meth:`summary` (``probe_sensitivities``) and
+    :meth:`write` (``sensitivities.csv``), called by latdyn/analyses/continuation.py."""
+
+    def __init__(self, prepared):
+        self.scene = prepared.scene
+        self.model, self.assembler = prepared.model, prepared.assembler
+        self.kernels = self.assembler.kernels
+        self.names = list(self.scene.solve.sensitivities)
+        self.probes = list(self.scene.output.probes)
+        self.columns = [f"{p.name}/{name}" for p in self.probes for name in self.names]
+        self.rows: list[tuple[float, list[float]]] = []
+        #: δλ/δp per row and parameter: zero under load control (λ is the grid's), moving under
+        #: displacement control
+        self.load_factor_rows: list[list[float]] = []
+        self.controlled = self.scene.solve.method == "displacement-control"
+        params = self.scene.parameters
+        # the derivative laws, parsed once: key -> {column: HingeLaw in theta, theta_dot, t}, only
+        # where the key uses the parameter
+        self.derivatives: dict[str, dict[int, object]] = {}
+        for column, name in enumerate(self.names):
+            for key in params.depending_on(name):
+                law = parse_hinge_law(params.derivative(key, name), self.scene.file, key)
+                self.derivatives.setdefault(key, {})[column] = law
+        initial = self.assembler.initial_state()
+        self.initial_points = {p.name: initial.x[node] + initial.T[node] @ offset
+                               for p in self.probes if p.kind == "point"
+                               for node, offset in [self.model.point(p.point)]}
+
+    # ------------------------------------------------------------------ ∂r/∂p
+    def residual_derivatives(self, state, load_factor: float) -> np.ndarray:
+        """∂r/∂p on the free coordinates, one column per parameter (n_dofs, k)."""
+        model, k = self.model, len(self.names)
+        total = np.zeros((model.n_total + 1, k))
+        load_values: dict[tuple[int, int], np.ndarray] = {}   # (load, column) -> λ ∂(its six values)/∂p
+        for key, laws in self.derivatives.items():
+            load, hinge = _LOAD_KEY.match(key), _HINGE_KEY.match(key)
+            for column, law in laws.items():
+                if load:
+                    slot = int(load["axis"]) + (3 if load["kind"] == "moment" else 0)
+                    values = load_values.setdefault((int(load["load"]), column), np.zeros(6))
+                    values[slot] += load_factor * law.value(0.0, 0.0, state.t)
+                elif hinge:
+                    j = model.hinge_index(hinge["beam"], hinge["end"])
+                    total[model.hinge_dofs[j], column] += self._hinge_force(state, j, hinge["law"], law, load_factor)
+        self._section_forces(state, total, load_factor)
+        self._body_forces(state, total, load_factor)
+        for (index, column), values in load_values.items():   # the kernel is linear in the values
+            node, force = self._load_force(state, index, values)
+            total[model.node_dofs[node], column] += force
+        return total[:model.n_dofs]
+
+    def _section_forces(self, state, total: np.ndarray, load_factor: float) -> None:
+        """Add ∂(element internal force − λ gravity load)/∂p into ``total`` for the section values that
+        name a parameter: ``beam_internal_force`` and ``beam_gravity`` with the section block replaced
+        by its derivative (both linear in the section values EA … ρIz of a shear-rigid section:
+        tests/test_sensitivities.py checks the kernels for it)."""
+        model = self.model
+        gravity = load_factor * np.asarray(self.assembler.gravity, float)
+        geometry = None
+        for key, laws in self.derivatives.items():
+            section = _SECTION_KEY.match(key)
+            if not section:
+                continue
+            elements = np.array([e for e, beam in enumerate(model.element_beam)
+                                 if self.scene.beams[beam].section.name == section["section"]], dtype=np.int64)
+            if len(elements) == 0:
+                continue
+            geometry = self.assembler.element_geometry(state) if geometry is None else geometry
+            for column, law in laws.items():
+                rows = np.zeros((len(elements), model.element_sections.shape[1]))
+                rows[:, 0] = model.element_sections[elements, 0]                       # L0
+                rows[:, _SECTION_COLUMN[section["value"]]] = law.value(0.0, 0.0, state.t)
+                if model.plane is not None:   # latdyn.model.planar.restrict_to_plane: a quarter turn swaps y, z
+                    quarter = np.abs(np.sin(model.section_turns[elements])) > 0.5
+                    for a, b in ((2, 3), (6, 7)):
+                        rows[quarter, a], rows[quarter, b] = rows[quarter, b].copy(), rows[quarter, a].copy()
+                at = np.ascontiguousarray(geometry[elements])
+                forces = np.asarray(self.kernels.beam_internal_force(at, rows)[0]).reshape(len(elements), 14)
+                if np.any(gravity):   # evaluate.c: the static residual F − λ gravity load
+                    rows_g = np.repeat(gravity[None], len(elements), axis=0)
+                    forces = forces - np.asarray(self.kernels.beam_gravity(at, rows, rows_g)[0]).reshape(len(elements), 14)
+                np.add.at(total[:, column], model.element_dofs[elements], forces)
+
+    def _body_forces(self, state, total: np.ndarray, load_factor: float) -> None:
+        """Add ∂(joint body force)/∂p into ``total`` for body masses and centres of mass that name a
+        parameter: ``joint_body`` at rest (a static state) is λ-gravity alone, linear in the mass at a
+        fixed centre of mass (the kernel with (∂m/∂p, c)) and affine in the centre of mass at a fixed
+        mass (the kernel with (m, ∂c/∂p) less the kernel with (m, 0)). Inertias do not enter a static
+        residual (their derivative is zero)."""
+        model, gravity = self.model, load_factor * np.asarray(self.assembler.gravity, float)
+        if not np.any(gravity):
+            return
+        for key, laws in self.derivatives.items():
+            body = _BODY_KEY.match(key)
+            if not body or body["inertia"]:
+                continue
+            spec = self.scene.bodies[body["body"]]
+            node = model.body_node[body["body"]]
+            frame = np.ascontiguousarray(state.T[node].reshape(1, 9))
+
+            def at_rest(block):
+                return np.asarray(self.kernels.joint_body(frame, np.zeros((1, 9)), block, gravity[None])[0]).reshape(6)
+
+            for column, law in laws.items():
+                block = np.zeros((1, 13))
+                if body["mass"]:
+                    block[0, 0], block[0, 1:4] = law.value(0.0, 0.0, state.t), spec.com
+                    force = at_rest(block)
+                else:
+                    block[0, 0] = spec.mass
+                    without = at_rest(block)
+                    block[0, 1 + int(body["com"])] = law.value(0.0, 0.0, state.t)
+                    force = at_rest(block) - without
+                total[model.node_dofs[node], column] += force
+
+    def _load_force(self, state, index: int, values: np.ndarray):
+        """(node, the generalized force of load ``index`` with these values): the point_load kernel."""
+        model, load = self.model, self.scene.loads[index]
+        node, offset = model.point(load.at)
+        frame = state.T[model.body_node[load.frame]] if load.frame != "global" else np.eye(3)
+        row = lambda a: np.ascontiguousarray(np.reshape(a, (1, -1)), dtype=float)  # noqa: E731
+        velocity = np.concatenate([state.v[node], state.w[node]])
+        force = self.kernels.point_load(row(state.T[node]), row(offset), row(values), row(frame), row(velocity))[0]
+        return node, np.asarray(force).reshape(6)
+
+    def _hinge_force(self, state, j: int, which: str, law, load_factor: float) -> float:
+        """∂f/∂p of hinge ``j`` through its ``which`` law (the hinge_force kernel, linear in the laws)."""
+        hinge = self.model.hinges[j]
+        theta, rate, t = float(state.theta[j]), float(state.theta_dot[j]), state.t
+        laws = np.zeros((1, 9))
+        derivative = law.value(theta, rate, t)
+        if which == "rest_angle":   # f = k (θ − θ_r) + …: affine in θ_r
+            laws[0, 0] = hinge.stiffness.value(theta, rate, t)
+            unit_rest = np.array([[0.0, 0.0, 1.0, load_factor]])
+            return derivative * float(np.asarray(self.kernels.hinge_force(unit_rest, laws)[0]).reshape(-1)[0])
+        laws[0, {"stiffness": 0, "damping": 3, "torque": 6}[which]] = derivative
+        at = np.array([[theta, rate, hinge.rest_angle, load_factor]])
+        return float(np.asarray(self.kernels.hinge_force(at, laws)[0]).reshape(-1)[0])
+
+    # ------------------------------------------------------------------ rows
+    def record(self, state, load_factor: float, constraint_gradient=None) -> None:
+        """The sensitivities of every probe at this recorded row. Load control: δq = −K⁻¹ ∂r/∂p.
+        Displacement control (``constraint_gradient``: the controlled displacement's gradient g, its
+        target fixed): the load factor moves too, r(q, λ) = 0 and g·δq = 0 give
+        δq = δq_r + δλ δq_λ with δq_r = −K⁻¹ ∂r/∂p, δq_λ = K⁻¹ q_ref (∂r/∂λ = −q_ref) and
+        δλ = −g·δq_r / g·δq_λ."""
+        model, k = self.model, len(self.names)
+        if load_factor == 0.0 or model.n_dofs == 0:
+            self.rows.append((load_factor, [0.0] * len(self.columns)))
+            self.load_factor_rows.append([0.0] * k)
+            return
+        ev = self.assembler.evaluate(state, matrices=True, load_factor=load_factor, inertia=False)
+        rhs = -self.residual_derivatives(state, load_factor)
+        if constraint_gradient is not None:   # the residual is affine in λ: q_ref = r(λ) − r(λ + 1)
+            shifted = self.assembler.evaluate(state, matrices=False, load_factor=load_factor + 1.0, inertia=False)
+            rhs = np.column_stack([rhs, ev.residual - shifted.residual])
+        try:
+            solved = np.asarray(solve_linear(ev.stiffness, rhs)).reshape(model.n_dofs, -1)
+        except np.linalg.LinAlgError:
+            raise SolverError(f"the sensitivities at load factor {load_factor:.6g} need the static stiffness, "
+                              "which is singular there (a limit or bifurcation point)") from None
+        tangent, moved = solved[:, :k], np.zeros(k)
+        if constraint_gradient is not None:
+            g, along_load = constraint_gradient(state), solved[:, k]
+            moved = -(g @ tangent) / float(g @ along_load)          # δλ
+            tangent = tangent + np.outer(along_load, moved)
+        self.load_factor_rows.append([float(x) for x in moved])
+        by_parameter = []
+        for column in range(k):
+            dx, dpi = np.zeros_like(state.x), np.zeros_like(state.x)
+            dtheta = np.zeros_like(state.theta)
+            unpack_free(model, tangent[:, column], dx, dpi, dtheta)
+            by_parameter.append((dx, dpi, dtheta))
+        self.rows.append((load_factor, [self._probe_derivative(p, state, *by_parameter[c])
+                                        for p in self.probes for c in range(k)]))
+
+    def _probe_derivative(self, probe, state, dx, dpi, dtheta) -> float:
+        model = self.model
+        if probe.kind == "hinge":
+            return float(dtheta[model.hinge_index(probe.beam, probe.end)])
+        node, offset = model.point(probe.point)
+        arm = state.T[node] @ offset
+        moved = dx[node] + np.cross(dpi[node], arm)                  # δ(x + T r)
+        if probe.component in (None, "norm"):
+            value = state.x[node] + arm
+            if probe.quantity == "displacement":
+                value = value - self.initial_points[probe.name]
+            size = float(np.linalg.norm(value))
+            return float(value @ moved) / size if size > 0 else float("nan")
+        return float(moved["xyz".index(probe.component)])
+
+    # ------------------------------------------------------------------ results
+    def table(self) -> dict:
+        """``{(probe, name): array over the rows}``; under displacement control also
+        ``("load_factor", name)``, the load factor's own sensitivity."""
+        data = np.array([values for _, values in self.rows]).reshape(len(self.rows), len(self.columns))
+        out = {(p.name, name): data[:, i * len(self.names) + c]
+               for i, p in enumerate(self.probes) for c, name in enumerate(self.names)}
+        if self.controlled:
+            moved = np.array(self.load_factor_rows).reshape(len(self.rows), len(self.names))
+            out.update({("load_factor", name): moved[:, c] for c, name in enumerate(self.names)})
+        return out
+
+    def summary(self, probe_values: dict, load_factors=None) -> dict:
+        """``probe_sensitivities``: each probe's derivative at the last row, and at the rows of its
+        largest and smallest value (the first where several tie); with ``load_factors`` (displacement
+        control) the same for the load factor, under the name ``load_factor``."""
+        table, out = self.table(), {}
+        series = {p.name: probe_values[p.name] for p in self.probes}
+        if load_factors is not None and self.controlled:
+            series["load_factor"] = load_factors
+        for name_of, values in series.items():
+            values = np.asarray(values)
+            last, high, low = len(values) - 1, int(np.argmax(values)), int(np.argmin(values))
+            out[name_of] = {which: {name: float(table[(name_of, name)][row]) for name in self.names}
+                            for which, row in (("end", last), ("max", high), ("min", low))}
+        return out
+
+    def write(self, folder) -> None:
+        """``sensitivities.csv``: ``load_factor,<probe>/<NAME>,…``, one row per recorded row."""
+        from latdyn.results.files import atomic_write_bytes, csv_line
+
+        text = csv_line(["load_factor", *self.columns]) + "".join(csv_line([lam, *values]) for lam, values in self.rows)
+        atomic_write_bytes(Path(folder) / SENSITIVITIES_FILE, text.encode("utf-8"))

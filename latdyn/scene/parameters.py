@@ -1,0 +1,171 @@
+"""Named parameters of a scene (SCENE.md, "Parameters and sensitivities").
+
+``parameters: {NAME: number, …}`` names numbers; any number of the scene may then be an
+expression of them (``EIy: "E*I"``, ``at: ["L", 0, 0]``, ``stiffness: "k*(theta - theta0)"``).
+
+How it works, once for every key: :func:`latdyn.scene.loader.load_scene` reads ``parameters``
+first and reads the rest of the scene inside :func:`parameter_scope`. While the scope is open,
+every expression text the scene's readers hand to :mod:`latdyn.scene.expressions` (a number
+written as text, a function of time, a hinge law, and whatever key is added later that goes
+through the same parsers) has the parameters' names replaced by their values
+(:meth:`Parameters.substitute`: by token, never inside other names, each value written exactly,
+``repr`` of the float, in parentheses), before any other check. The expression that is kept, cached,
+pickled and compiled therefore holds numbers only: a law compiled for one value of ``k`` is not
+reused for another, and nothing downstream knows the parameters exist.
+
+What depends on what is recorded (:attr:`Parameters.uses`): for every key path whose text named a
+parameter, the text as written and the parameters it names. :meth:`Parameters.derivative` gives
+∂(that number or law)/∂(parameter), symbolically (SymPy), evaluated at the parameters' values — what
+sensitivities need. A number written in the scene as a number depends on nothing.
+
+Names: a parameter name is a plain identifier (letters, digits, ``_``; not starting with a digit)
+that is not a word of the expression language (:data:`RESERVED`: ``t``, ``pi``, ``e``, ``theta``,
+``theta_dot``, ``s``, ``s_dot``, the function names) nor a Python keyword; it may not be the name of a
+probe either (probes, inputs, parameters and controllers share one namespace, SCENE.md). A value is a
+finite number or a constant expression without names of parameters (``"pi/2"``).
+"""
+from __future__ import annotations
+
+import contextlib
+import keyword
+import math
+import re
+from dataclasses import dataclass, field
+
+from latdyn.errors import SceneError, show_value
+from latdyn.scene import expressions
+from latdyn.scene.expressions import ALLOWED_NAMES, HINGE_VARIABLES
+
+__all__ = ["Parameters", "RESERVED", "read_parameters", "parameter_scope"]
+
+#: Words of the expression language that a parameter may not be named: the names of
+#: expressions (``t``, ``pi``, ``e``, functions), the variables of hinge and guide laws, and the
+#: relations the parser writes for comparisons.
+RESERVED = tuple(dict.fromkeys(
+    ALLOWED_NAMES + HINGE_VARIABLES + ("s", "s_dot") + ("Lt", "Le", "Gt", "Ge", "Eq", "Ne", "And")))
+_IDENTIFIER = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+
+
+@dataclass
+class Parameters:
+    """The scene's parameters: ``values`` (name -> float, file order) and ``uses`` (key path ->
+    (the text as written, the parameter names it uses)), filled while the scene is read."""
+    values: dict[str, float] = field(default_factory=dict)
+    uses: dict[str, tuple[str, tuple[str, ...]]] = field(default_factory=dict)
+    #: substituted text -> the text as written (for messages about an expression)
+    written: dict[str, str] = field(default_factory=dict, repr=False)
+
+    def __bool__(self) -> bool:
+        return bool(self.values)
+
+    def substitute(self, text: str, key: str) -> str:
+        """``text`` with every parameter name (a whole NAME token) replaced by its value; the use is
+        recorded under ``key``. Text that names no parameter comes back unchanged."""
+        if not self.values:
+            return text
+        named = [name for name in _names_in(text) if name in self.values]
+        if not named:
+            return text
+        self.uses[key] = (text, tuple(dict.fromkeys(named)))
+
+        def value(match):
+            name = match["name"]
+            return f"({self.values[name]!r})" if name in self.values else match.group(0)
+
+        substituted = _TOKEN.sub(value, text)
+        self.written[substituted] = self.written[" ".join(substituted.split())] = text
+        return substituted
+
+    def depending_on(self, name: str) -> list[str]:
+        """The key paths whose number or law uses the parameter ``name``, in reading order."""
+        return [key for key, (_, names) in self.uses.items() if name in names]
+
+    def derivative(self, key: str, name: str) -> str:
+        """∂(the expression at ``key``)/∂``name`` at the parameters' values, as expression text
+        (in ``t``, ``theta``, ``theta_dot``, ``s``, ``s_dot`` where the law uses them; ``"0"`` where
+        ``key`` does not depend on ``name``). Symbolic: SymPy differentiates the text as written."""
+        if key not in self.uses or name not in self.uses[key][1]:
+            return "0"
+        import sympy as sp
+
+        text, names = self.uses[key]
+        symbols = {n: sp.Symbol(n, real=True) for n in names}
+        extra = tuple(names) + tuple(v for v in HINGE_VARIABLES + ("s", "s_dot") if v != "t")
+        _, expr = expressions.parse_symbolic(text, None, key, extra)
+        expr = expr.subs({sp.Symbol(n, real=True): symbols[n] for n in names})
+        derivative = expressions._drop_deltas(  # noqa: SLF001 (the package's one rule for deltas)
+            sp.diff(expr, symbols[name]))
+        derivative = derivative.subs({symbols[n]: self.values[n] for n in names})
+        return re.sub(r"\bAbs\(", "abs(", str(derivative))
+
+    def describe(self) -> list[str]:
+        """One line per parameter for ``latdyn check``: its value and the keys that use it."""
+        lines = []
+        for name, value in self.values.items():
+            keys = self.depending_on(name)
+            used = ", ".join(keys) if keys else "used nowhere"
+            lines.append(f"{name} = {value:g}  ({used})")
+        return lines
+
+
+#: A number (so that ``2e5`` is not read as a name ``e5``) or a name, left to right.
+_TOKEN = re.compile(r"(?P<number>(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)|(?P<name>[A-Za-z_][A-Za-z0-9_]*)")
+
+
+def _names_in(text: str) -> list[str]:
+    """The names of an expression text, in order."""
+    return [m["name"] for m in _TOKEN.finditer(text) if m["name"]]
+
+
+def read_parameters(value, file: str, probe_names=()) -> Parameters:
+    """``parameters: {NAME: number, …}`` checked: names (see the module's docstring) and finite values.
+    A problem raises a SceneError naming ``parameters.NAME``."""
+    params = Parameters()
+    if value is None:
+        return params
+    if not isinstance(value, dict):
+        raise SceneError(file, "parameters", f"expected a mapping of parameter names to numbers "
+                                             f"({{k: 2.5, L: 1.0}}), got {show_value(value)}")
+    for name, number in value.items():
+        key = f"parameters.{name}"
+        if not isinstance(name, str) or not _IDENTIFIER.match(name):
+            raise SceneError(file, key if isinstance(name, str) else "parameters",
+                             "expected a parameter name of letters, digits and _ (not starting with a digit), "
+                             f"got {show_value(name)}")
+        if name in RESERVED or keyword.iskeyword(name):
+            raise SceneError(file, key, f"{name!r} is a word of the expression language (reserved: "
+                                        f"{', '.join(RESERVED)}); expected another parameter name")
+        if name in probe_names:
+            raise SceneError(file, key, f"{name!r} is also the name of a probe (probes and parameters share "
+                                        "one namespace); expected another parameter name")
+        if isinstance(number, bool) or not isinstance(number, (int, float, str)):
+            raise SceneError(file, key, f"expected a number, got {show_value(number)}")
+        if isinstance(number, str):
+            named = [n for n in _names_in(number) if n in value and n not in RESERVED]
+            if named:
+                raise SceneError(file, key, f"a parameter's value may not name parameters ({', '.join(named)}); "
+                                            "expected a number (write the expression where the number is used), "
+                                            f"got {show_value(number)}")
+            function = expressions.parse_time_function(number, file, key)   # no scope yet: no parameters
+            if not function.is_constant:
+                raise SceneError(file, key, f"expected a number or a constant expression (without t), "
+                                            f"got {show_value(number)}")
+            number = function.value(0.0)
+        try:
+            number = float(number)
+        except OverflowError:
+            number = math.inf
+        if not math.isfinite(number):
+            raise SceneError(file, key, f"expected a finite number, got {show_value(value[name])}")
+        params.values[name] = number
+    return params
+
+
+@contextlib.contextmanager
+def parameter_scope(params: Parameters):
+    """Read a scene's expressions with ``params`` substituted (see the module's docstring)."""
+    token = expressions.ACTIVE_PARAMETERS.set(params if params else None)
+    try:
+        yield params
+    finally:
+        expressions.ACTIVE_PARAMETERS.reset(token)
