@@ -65,6 +65,8 @@ DESCRIPTIONS: dict[str, tuple[str, str, str | None]] = {
     "gravity": ("gravitational acceleration [gx, gy, gz]", "L/T²", "[0, 0, 0]"),
     "initial_velocity": ("rigid motion of the whole structure at t = 0 (prescribed bodies follow their own law)",
                          "—", "at rest"),
+    "parameters": ("named numbers {NAME: number}; any number of the scene may be an expression of them "
+                   "(docs/parameters.md)", "—", "none"),
     "sections": ("beam cross-sections, by name", "—", "none"),
     "bodies": ("rigid joint bodies, by name", "—", "none"),
     "beams": ("flexible beams (or rigid links), by name", "—", "none"),
@@ -170,6 +172,8 @@ DESCRIPTIONS: dict[str, tuple[str, str, str | None]] = {
     "solve.linear_model.inputs": ("hinge torques (BEAM.start|end) and load components by name", "—", "required"),
     "solve.linear_model.outputs": ("probes by name", "—", "required"),
     "solve.mode_shapes": ("modes: also write the mode shapes as ParaView animations", "—", None),
+    "solve.sensitivities": ("parameters whose exact derivatives of the recorded probes are written to "
+                            "sensitivities.csv (static load and displacement control; others are refused)", "—", "none"),
     "solve.flutter": ("buckling: search the flutter load along the path", "—", "where loads are follower loads"),
     # output
     "output.every": ("time between recorded rows", "T", "every step"),
