@@ -46,6 +46,9 @@ class StepControl:
         self.crawling_step = min(CRAWL_FACTOR * self.dt_min, CRAWL_FRACTION * self.dt)
         # the crawl window: its accepted steps so far and the time it started at
         self.window_steps, self.window_events, self.window_t = 0, 0, None
+        # where the loop pauses (pause_at): its time, the last grid point not after it, and the
+        # step that was shortened to land on it (restored once it has)
+        self.pause, self.pause_index, self.h_before_pause = None, None, None
 
     # ------------------------------------------------------------------------- the grid and its rows
     def grid_time(self, k: int) -> float:
@@ -59,15 +62,47 @@ class StepControl:
         """Whether the next step is a nominal one from a grid point (the loop of steps in C takes those)."""
         return run.h == self.dt and run.state.t == self.grid_time(run.grid_index)
 
-    def next_step(self, run: TransientProgress) -> tuple[float, bool, float]:
+    def next_step(self, run: TransientProgress) -> tuple[float, bool, float | None]:
         """The step to try from ``run.state``: its size, whether it lands on the next grid point
-        (within 1e-9 of the step: then exactly), and that grid point's time."""
+        (within 1e-9 of the step: then exactly), and the time it ends at exactly when it lands on
+        that grid point or on the pause (:meth:`pause_at`) before it, else None."""
         target = self.grid_time(run.grid_index + 1)
         h = run.h
+        if self.pause is not None and self.pause < target:  # the pause comes first (off the grid)
+            if h < (self.pause - run.state.t) * (1 - 1e-9):
+                return h, False, None
+            self.h_before_pause = h
+            return self.pause - run.state.t, False, self.pause
         lands = h >= (target - run.state.t) * (1 - 1e-9)
         if lands:
             h = target - run.state.t
-        return h, lands, target
+        return h, lands, target if lands else None
+
+    # ------------------------------------------------------------------------- a pause (stepping from Python)
+    def pause_at(self, t: float | None) -> None:
+        """Steps land on time ``t`` and the loop pauses there (:meth:`paused`;
+        :class:`latdyn.stepping.simulation.Simulation`): a ``t`` within 1e-9 dt of a grid point is
+        that point (the loop of steps in C stops on it); between grid points, the step that would
+        cross ``t`` is shortened to land on it exactly, and the step after it goes on to the next
+        grid point with the size the shortened one had. None: no pause."""
+        self.h_before_pause = None
+        if t is None:
+            self.pause = self.pause_index = None
+            return
+        k = min(self.n_grid, int(round(t / self.dt)))
+        if abs(t - self.grid_time(k)) <= 1e-9 * self.dt:
+            self.pause, self.pause_index = self.grid_time(k), k
+        else:
+            self.pause, self.pause_index = float(t), min(self.n_grid, int(np.floor(t / self.dt)))
+
+    def paused(self, run: TransientProgress) -> bool:
+        """Whether the run has reached the pause (a step landed on it)."""
+        return self.pause is not None and run.state.t >= self.pause
+
+    def before_pause(self, run: TransientProgress) -> bool:
+        """Whether the pause comes before the next grid point (the next step, shortened onto it, is
+        taken from Python)."""
+        return self.pause is not None and self.pause_index <= run.grid_index
 
     def row_due(self, run: TransientProgress, t: float) -> bool:
         """Whether the step that ended at ``t`` is recorded: every output time, and t_end always."""
@@ -89,6 +124,8 @@ class StepControl:
                 k -= 1
             while k < self.n_grid and self.grid_time(k) < due_at:
                 k += 1
+        if self.pause_index is not None and self.pause_index > run.grid_index:
+            k = min(k, self.pause_index)
         return min(k, self.n_grid, run.grid_index + 256 - run.steps % 256)
 
     # ------------------------------------------------------------------------- the step size
@@ -146,6 +183,9 @@ class StepControl:
         a hinge latched or hit a stop in it; ``stopped``: a stop). A run that crawls ends here
         (SolverError)."""
         self._watch_crawl(run, h, latched)
+        if self.h_before_pause is not None and run.state.t == self.pause and not (latched or stopped):
+            run.h, self.h_before_pause = self.h_before_pause, None  # shortened only to land on the pause
+            return
         if self.adaptive:
             # after a latch the last Newton evaluation has the old numbering (estimate taken as 0,
             # which is what error_estimate gives after accept() for a step without a latch)

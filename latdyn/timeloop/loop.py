@@ -136,22 +136,66 @@ class TimeLoop:
         """Step to t_end (after :meth:`begin`); the progress at the end."""
         self.bar = progress_bar(self.control.t_end, enabled=show_progress)
         try:
-            while not self.control.finished(self.progress):
+            self._steps()
+        finally:
+            self.bar.close()
+            self._summarize()
+        return self.progress
+
+    def advance_to(self, t: float) -> TransientProgress:
+        """Step on from where the loop is (after :meth:`begin`) to time ``t`` (≤ t_end) and pause
+        there, the steps as :meth:`run` takes them save the one shortened to land on ``t``
+        (:meth:`StepControl.pause_at`); the loop goes on with a later call, or :meth:`end`.
+        Failed or interrupted, it leaves what :meth:`run` leaves."""
+        if self.bar is None:
+            self.bar = progress_bar(self.control.t_end, enabled=False)
+        self.control.pause_at(t)
+        try:
+            self._steps()
+        finally:
+            self.control.pause_at(None)
+        return self.progress
+
+    def end(self) -> None:
+        """After the last :meth:`advance_to`: the run's counters and balance into the summary."""
+        self._summarize()
+
+    def record_last(self) -> None:
+        """The state the loop stands at as a row, unless it is one already (a run ended at a pause)."""
+        state = self.progress.state
+        if self.last_recorded is None or self.last_recorded.t != state.t:
+            self._record(state, self.energies_of(state))
+
+    def restart(self) -> None:
+        """The laws jumped at the state the loop stands at (an input set from outside at a pause):
+        the integrator goes on from accelerations consistent with the equations of motion under
+        the new laws, as at t = 0 and after a latch, and the power of the loads and dampers that
+        starts the next step's work and dissipation is the new laws'."""
+        progress = self.progress
+        state = progress.state.copy()  # accepted states are replaced, never changed in place
+        self.integrator.start(state)
+        evaluation = self.assembler.evaluate(state, matrices=False)
+        progress.state = self.prepared.state = state
+        progress.algorithmic_acceleration = getattr(self.integrator, "a", None)
+        progress.power = load_power(self.model, state, evaluation)
+        progress.dissipation_power = evaluation.dissipation_power
+
+    def _steps(self) -> None:
+        """Steps until t_end or the pause; interrupted or failed: :meth:`_stopped_by`."""
+        try:
+            while not self.control.finished(self.progress) and not self.control.paused(self.progress):
                 self._next_step()
         except (KeyboardInterrupt, Exception) as failure:
             self._stopped_by(failure)
             raise
-        finally:
-            self.bar.close()
-            self._summarize()
         self.prepared.state = self.progress.state
-        return self.progress
 
     def _next_step(self) -> None:
         """Steps in C up to the next row, or one step from Python; the step that comes back is
         rejected (error estimate), tried again (Newton failed) or accepted."""
         progress, control = self.progress, self.control
-        attempt = self._compiled_steps() if self.compiled and control.on_grid(progress) else self._python_step()
+        compiled = self.compiled and control.on_grid(progress) and not control.before_pause(progress)
+        attempt = self._compiled_steps() if compiled else self._python_step()
         if attempt is None:
             return
         progress.count(attempt.stats)
@@ -200,8 +244,8 @@ class TimeLoop:
 
     def _python_step(self) -> Attempt:
         """One step from Python, of the size the step control says, landing on the grid if it reaches it."""
-        h, lands, target = self.control.next_step(self.progress)
-        new, stats = self._step(h, t_new=target if lands else None)
+        h, lands, t_new = self.control.next_step(self.progress)
+        new, stats = self._step(h, t_new=t_new)
         return Attempt(new, stats, h, lands)
 
     def _step(self, h: float, t_new: float | None = None):

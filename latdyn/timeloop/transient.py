@@ -61,6 +61,15 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
     checkpoint of the last accepted step is written at its interval, on an interrupt and on a
     failure; ``resume_from`` (a loaded checkpoint) continues from one, the writer having been
     reopened at its bookmark. ``progress``: show a progress bar."""
+    return start_transient(prepared, probes, writer, checkpointer, resume_from).run(progress)
+
+
+def start_transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter,
+                    checkpointer: checkpoints.Checkpointer | None = None,
+                    resume_from: checkpoints.Checkpoint | None = None) -> TimeLoop:
+    """The time loop of the scene's transient run, begun (its first row recorded, or reopened at
+    the checkpoint ``resume_from``): :meth:`TimeLoop.run` steps it to ``solve.t_end``,
+    :meth:`TimeLoop.advance_to` to a time where it pauses (latdyn.stepping)."""
     scene = prepared.scene
     length = length_scale(prepared.model)
     tol = scene.solve.tol if scene.solve.tol is not None else DEFAULT_TOL
@@ -74,4 +83,4 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
         if warning is not None:
             print(f"latdyn: warning: {warning}", file=sys.stderr)
             writer.summary.setdefault("warnings", []).append(warning)
-    return loop.run(progress)
+    return loop
