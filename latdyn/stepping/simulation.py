@@ -54,8 +54,9 @@ class Simulation:
         self._prepared, self._probes, self._writer = open_run(scene, out_dir, backend)
         self._result: Result | None = None
         self._ended: str | None = None  # why the run can take no more steps
-        self._inputs = dict(getattr(scene, "inputs", None) or {})
-        self._changed: set[str] = set()  # inputs set since the last advance
+        #: the scene's inputs (latdyn.scene.inputs.Inputs: the values the laws read), None without any
+        self._inputs = getattr(self._prepared.scene, "inputs", None)
+        self._jumped = False  # an input changed since the last advance: the laws jumped at sim.t
         try:
             write_linear_model_first(self._prepared, self._writer, out_dir)
             self._loop = start_transient(self._prepared, self._probes, self._writer)
@@ -77,7 +78,7 @@ class Simulation:
     @property
     def input_names(self) -> list[str]:
         """The scene's ``inputs``, in file order."""
-        return list(self._inputs)
+        return list(self._inputs.names) if self._inputs is not None else []
 
     @property
     def probe_names(self) -> list[str]:
@@ -90,16 +91,17 @@ class Simulation:
         return dict(zip(self._probes.names, (float(v) for v in self._probes.values(state))))
 
     def inputs(self) -> dict[str, float]:
-        """The inputs' current values (the scene's until set)."""
-        return dict(self._inputs)
+        """The inputs' current values (the scene's until set), by name in file order."""
+        return self._inputs.current() if self._inputs is not None else {}
 
     # ------------------------------------------------------------------------- driving
     def set_input(self, name: str, value: float) -> None:
         """Set the scene's input ``name`` to ``value`` from :attr:`t` on (held until set again).
         An unknown name, or a value that is not a finite number, is a ValueError naming it."""
         self._check_open("set_input")
-        if name not in self._inputs:
-            known = ", ".join(self._inputs) if self._inputs else "none (the scene has no inputs)"
+        names = self.input_names
+        if name not in names:
+            known = ", ".join(names) if names else "none (the scene has no inputs)"
             raise ValueError(f"set_input: the scene has no input named {name!r}; its inputs: {known}")
         try:
             number = float(value)
@@ -108,8 +110,8 @@ class Simulation:
         if not math.isfinite(number) or isinstance(value, bool):
             raise ValueError(f"set_input: input {name!r} takes a finite number, not {value!r}")
         if number != self._inputs[name]:
-            self._inputs[name] = number
-            self._changed.add(name)
+            self._inputs.set(name, number)
+            self._jumped = True
 
     def advance_to(self, t: float) -> None:
         """Step the run from :attr:`t` to ``t`` (sim.t ≤ t ≤ ``solve.t_end``, within 1e-9 dt): steps
@@ -129,8 +131,9 @@ class Simulation:
                              f"(t must be at least sim.t)")
         if target > t_end + slack:
             raise ValueError(f"advance_to({t!r}): past solve.t_end = {t_end!r}, where the scene's run ends")
-        if self._changed:
-            self._apply_inputs()
+        if self._jumped:  # the laws jumped at sim.t: the integrator goes on from there under them
+            self._jumped = False
+            self._loop.restart()
         if target <= now + slack:
             return
         try:
@@ -177,13 +180,6 @@ class Simulation:
     def _check_open(self, what: str) -> None:
         if self._ended is not None:
             raise SimulationClosed(f"{what}: the simulation takes no more steps: {self._ended}")
-
-    def _apply_inputs(self) -> None:
-        """The inputs set since the last advance, into the run's laws; the integrator restarts
-        from the pause under them (a jump of the laws)."""
-        changed = {name: self._inputs[name] for name in self._changed}
-        self._changed.clear()
-        self._loop.set_inputs(changed)
 
     def _fail(self, failure: BaseException) -> None:
         """The run failed or was interrupted: the result files finished as ``latdyn.run`` finishes a

@@ -46,9 +46,10 @@ class StepControl:
         self.crawling_step = min(CRAWL_FACTOR * self.dt_min, CRAWL_FRACTION * self.dt)
         # the crawl window: its accepted steps so far and the time it started at
         self.window_steps, self.window_events, self.window_t = 0, 0, None
-        # where the loop pauses (pause_at): its time, the last grid point not after it, and the
-        # step that was shortened to land on it (restored once it has)
-        self.pause, self.pause_index, self.h_before_pause = None, None, None
+        # where the loop pauses (pause_at): its time and the last grid point not after it; the step
+        # that was shortened to land on it, restored once the run is back on the grid
+        self.pause, self.pause_index = None, None
+        self.h_resume, self.leaving_pause = None, False
 
     # ------------------------------------------------------------------------- the grid and its rows
     def grid_time(self, k: int) -> float:
@@ -71,7 +72,7 @@ class StepControl:
         if self.pause is not None and self.pause < target:  # the pause comes first (off the grid)
             if h < (self.pause - run.state.t) * (1 - 1e-9):
                 return h, False, None
-            self.h_before_pause = h
+            self.h_resume = h
             return self.pause - run.state.t, False, self.pause
         lands = h >= (target - run.state.t) * (1 - 1e-9)
         if lands:
@@ -83,9 +84,8 @@ class StepControl:
         """Steps land on time ``t`` and the loop pauses there (:meth:`paused`;
         :class:`latdyn.stepping.simulation.Simulation`): a ``t`` within 1e-9 dt of a grid point is
         that point (the loop of steps in C stops on it); between grid points, the step that would
-        cross ``t`` is shortened to land on it exactly, and the step after it goes on to the next
-        grid point with the size the shortened one had. None: no pause."""
-        self.h_before_pause = None
+        cross ``t`` is shortened to land on it exactly, the step after it goes on to the next grid
+        point, and the steps after that have the size the shortened one had. None: no pause."""
         if t is None:
             self.pause = self.pause_index = None
             return
@@ -183,9 +183,15 @@ class StepControl:
         a hinge latched or hit a stop in it; ``stopped``: a stop). A run that crawls ends here
         (SolverError)."""
         self._watch_crawl(run, h, latched)
-        if self.h_before_pause is not None and run.state.t == self.pause and not (latched or stopped):
-            run.h, self.h_before_pause = self.h_before_pause, None  # shortened only to land on the pause
-            return
+        if self.h_resume is not None:  # shortened only to land on the pause, then back on the grid
+            if not (latched or stopped) and run.state.t == self.pause:
+                run.h, self.leaving_pause = self.h_resume, True
+                return
+            if not (latched or stopped) and self.leaving_pause:  # the step from the pause
+                run.h = self.h_resume
+                self.h_resume, self.leaving_pause = None, False
+                return
+            self.h_resume, self.leaving_pause = None, False
         if self.adaptive:
             # after a latch the last Newton evaluation has the old numbering (estimate taken as 0,
             # which is what error_estimate gives after accept() for a step without a latch)
