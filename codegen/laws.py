@@ -16,6 +16,10 @@ The unit's two functions (the ABI :mod:`latdyn.assembly.compiled_laws` and ``lat
     every function of time at ``t``: ``out[3k], out[3k+1], out[3k+2]`` = f_k, df_k/dt, d²f_k/dt².
 ``void latdyn_hinge_laws(int64_t k, double theta, double theta_dot, double t, double *out)``
     hinge law k at (θ, θ̇, t): ``out[0..2]`` = f, ∂f/∂θ, ∂f/∂θ̇.
+``void latdyn_bind_inputs(const double *values)``
+    the scene's inputs (SCENE.md ``inputs``; :mod:`latdyn.scene.inputs`): a law that names input i
+    reads ``values[i]`` at each call, the array the runtime owns and sets from outside. Inputs
+    are constant between settings: they add nothing to the time derivatives.
 
 Laws are plain data here (:class:`TimeLaw`, :class:`HingeLawC`), so that this module does
 not import the runtime. A table in t is linear between its points and constant beyond them,
@@ -67,12 +71,17 @@ class _LawPrinter(CPrinter):
         return f"latdyn_heaviside({self._print(expr.args[0])}, {self._print(sp.Float(at_zero, 17))})"
 
 
-def _block(variables: dict, expressions, out: str, first: int) -> list[str]:
-    """C statements of one law: CSE temporaries, then ``out[first + i] = ...``."""
+def _block(variables: dict, expressions, out: str, first: int, inputs: tuple = ()) -> list[str]:
+    """C statements of one law: CSE temporaries, then ``out[first + i] = ...``; a symbol named
+    like input i of ``inputs`` reads ``latdyn_inputs[i]``."""
     printer = _LawPrinter()
+    variables = {s: v for s, v in variables.items() if s.name not in inputs}
     renamed = [sp.sympify(e).xreplace(variables) for e in expressions]
+    named = {s: sp.Symbol(f"latdyn_inputs[{inputs.index(s.name)}]") for e in renamed for s in e.free_symbols
+             if s.name in inputs}
+    renamed = [e.xreplace(named) for e in renamed]
     for e in renamed:
-        strangers = e.free_symbols - set(variables.values())
+        strangers = e.free_symbols - set(variables.values()) - set(named.values())
         if strangers:
             raise EmitError(f"a law uses {', '.join(sorted(map(str, strangers)))}, not one of {', '.join(VARIABLES)}")
     temporaries, reduced = sp.cse(renamed, symbols=sp.numbered_symbols("w"), optimizations="basic")
@@ -97,7 +106,7 @@ def _c_names(symbols) -> dict:
     return {s: sp.Symbol(s.name) for s in symbols}
 
 
-def _time_block(law: TimeLaw, out: str, first: int) -> dict:
+def _time_block(law: TimeLaw, out: str, first: int, inputs: tuple = ()) -> dict:
     if law.kind == "constant":
         lines = [f"{out}[{first}] = {float(law.value)!r};", f"{out}[{first + 1}] = 0.0;", f"{out}[{first + 2}] = 0.0;"]
     elif law.kind == "table":
@@ -109,29 +118,32 @@ def _time_block(law: TimeLaw, out: str, first: int) -> dict:
                  f"latdyn_table(t, {n}, times, values, {out} + {first});",
                  f"{out}[{first + 2}] = 0.0;"]
     elif law.kind == "expression":
-        lines = _block(_c_names([law.variable]), law.expressions, out, first)
+        lines = _block(_c_names([law.variable]), law.expressions, out, first, inputs)
     else:
         raise EmitError(f"unknown kind of law {law.kind!r}")
     return {"text": _comment_text(law.text), "lines": lines}
 
 
-def _hinge_block(law: HingeLawC) -> dict:
+def _hinge_block(law: HingeLawC, inputs: tuple = ()) -> dict:
     if law.time is not None:
-        block = _time_block(law.time, "out", 0)
+        block = _time_block(law.time, "out", 0, inputs)
         # f(t) only: its θ and θ̇ derivatives are zero (out[1] held df/dt: overwritten)
         block["lines"] = [line for line in block["lines"] if not line.startswith(("out[1]", "out[2]"))]
         block["lines"] += ["out[1] = 0.0;", "out[2] = 0.0;"]
         block["text"] = _comment_text(law.text)
         return block
-    return {"text": _comment_text(law.text), "lines": _block(_c_names(law.variables), law.expressions, "out", 0)}
+    return {"text": _comment_text(law.text),
+            "lines": _block(_c_names(law.variables), law.expressions, "out", 0, inputs)}
 
 
-def laws_source(time_laws: list[TimeLaw], hinge_laws: list[HingeLawC]) -> str:
-    """The C unit of a scene's laws (see the module docstring). :class:`EmitError` when a
-    law cannot be printed in C (the caller then evaluates the laws in Python)."""
+def laws_source(time_laws: list[TimeLaw], hinge_laws: list[HingeLawC], inputs: tuple = ()) -> str:
+    """The C unit of a scene's laws (see the module docstring); ``inputs``: the scene's input names
+    in order. :class:`EmitError` when a law cannot be printed in C (the caller then evaluates the
+    laws in Python)."""
+    inputs = tuple(inputs)
     template = _environment().get_template("laws.c.j2")
     return template.render(
         marker=MARKER, command=COMMAND, versions=tool_versions(), hash=formulation_hash(), variant=None,
-        time_laws=[_time_block(law, "out", 3 * k) for k, law in enumerate(time_laws)],
-        hinge_laws=[_hinge_block(law) for law in hinge_laws],
+        time_laws=[_time_block(law, "out", 3 * k, inputs) for k, law in enumerate(time_laws)],
+        hinge_laws=[_hinge_block(law, inputs) for law in hinge_laws],
     )

@@ -88,12 +88,26 @@ class SceneLaws:
     """The scene's functions of time and hinge laws, numbered as the C code reads them: every
     function of time gives (value, rate, acceleration) at t, hinge law k gives (f, ∂f/∂θ, ∂f/∂θ̇)
     at (θ, θ̇, t). :meth:`addresses` compiles them (once per text, cached) or, when a law does not
-    print in C or there is no compiler, returns Python callbacks with the same signature."""
+    print in C or there is no compiler, returns Python callbacks with the same signature.
+    ``inputs``: the scene's :class:`~latdyn.scene.inputs.Inputs`, whose values the laws read
+    (:meth:`bind_inputs`)."""
 
-    def __init__(self):
+    def __init__(self, inputs=None):
         self.functions, self.hinge_laws = [], []
+        self.inputs = inputs
         self.reason = None  # why the laws are Python callbacks, or None when compiled
         self._keep = None
+        self._compiled = None
+
+    @property
+    def input_names(self) -> tuple:
+        return self.inputs.names if self.inputs is not None else ()
+
+    def bind_inputs(self) -> None:
+        """Point the compiled laws at this scene's input values (a library is shared by the models
+        with the same laws in a process); nothing to do for Python callbacks, which read them."""
+        if self._compiled is not None and self.inputs is not None and len(self.inputs):
+            self._compiled.bind_inputs(self.inputs.values)
 
     def add(self, function) -> int:
         if function is None:
@@ -116,11 +130,12 @@ class SceneLaws:
 
     def addresses(self) -> tuple[int, int]:
         """The addresses of ``time_laws(t, out)`` and ``hinge_laws(k, θ, θ̇, t, out)``."""
-        why = unprintable(self.hinge_laws) if self.hinge_laws else None
+        why = unprintable(self.hinge_laws, self.input_names) if self.hinge_laws else None
         if why is None:
             try:
-                compiled = compile_laws(self.functions, self.hinge_laws)
-                self._keep = compiled
+                compiled = compile_laws(self.functions, self.hinge_laws, self.input_names)
+                self._keep = self._compiled = compiled
+                self.bind_inputs()
                 return compiled.time_laws, compiled.hinge_laws
             except LawsUnavailable as error:
                 why = str(error)
@@ -159,7 +174,7 @@ class NativeModel:
         m, a = model, assembler
         arr, ints = self._array, lambda values: self._array(values, np.int64)
 
-        laws = SceneLaws()
+        laws = SceneLaws(getattr(m.scene, "inputs", None))
         prescribed = [i for i, node in enumerate(m.nodes) if node.kind == PRESCRIBED]
         translation, angle, axis = [], [], []
         for i in prescribed:
@@ -312,6 +327,7 @@ class NativeModel:
         """The prescribed motion at time ``t`` in ``state``, in place (``latdyn_prescribe``); the
         state's time is the caller's."""
         configuration = self.configuration(state)
+        self.laws.bind_inputs()
         self.library.latdyn_prescribe(self.model_ref, self.work_ref, ctypes.byref(configuration), float(t))
         self._written_back(state)
 
@@ -325,6 +341,7 @@ class NativeModel:
         control.t, control.load_factor = float(state.t), float(load_factor)
         control.inertia, control.matrices = int(inertia), int(matrices)
         control.inertia_tangent, control.length = int(inertia_tangent), float(length)
+        self.laws.bind_inputs()
         self.library.latdyn_evaluate(self.model_ref, self.work_ref, ctypes.byref(self.configuration(state)),
                                      ctypes.byref(control))
         return self.buffers["total"].copy(), float(control.power)

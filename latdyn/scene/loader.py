@@ -54,6 +54,7 @@ from __future__ import annotations
 import copy
 import hashlib
 import json
+import keyword
 import math
 import os
 import re
@@ -64,11 +65,14 @@ from typing import Any
 import numpy as np
 
 from latdyn.errors import SceneError, show_value
+from latdyn.scene.inputs import Inputs
 from latdyn.scene.expressions import (
+    ALLOWED_NAMES,
     HingeLaw,
     TimeFunction,
     parse_hinge_law,
     parse_time_function,
+    reading_inputs,
 )
 
 __all__ = [
@@ -104,7 +108,8 @@ AXIS_COMPONENTS = ("x", "y", "z")
 ELEMENT_QUANTITIES = ("axial_force", "torque", "moment_y", "moment_z")
 PROBE_KINDS = ("point", "hinge", "energy", "momentum", "element")
 
-_TOP_KEYS = ("title", "gravity", "initial_velocity", "sections", "bodies", "beams", "loads", "solve", "output")
+_TOP_KEYS = ("title", "gravity", "initial_velocity", "inputs", "sections", "bodies", "beams", "loads", "solve",
+             "output")
 _SECTION_KEYS = ("EA", "EIy", "EIz", "GJ", "rhoA", "rhoIy", "rhoIz", "GAy", "GAz")
 _BODY_KEYS = ("at", "mass", "com", "inertia", "fixed", "motion")
 _BEAM_KEYS = ("from", "to", "section", "elements", "y_axis", "start", "end", "rigid")
@@ -137,6 +142,10 @@ _PROBE_KEYS = {
     "element": ("element", "quantity"),
 }
 _RESERVED_COLUMNS = ("t", "load_factor")
+#: Words of the expression language (latdyn.scene.expressions), which cannot name an input or a controller.
+RESERVED_WORDS = tuple(sorted(set(ALLOWED_NAMES) | {"theta", "theta_dot", "s", "s_dot", "Lt", "Le", "Gt", "Ge",
+                                                    "Eq", "Ne", "And", "Integer", "Float", "Rational", "Symbol"}
+                              | set(keyword.kwlist)))
 
 
 # =========================================================================== dataclasses
@@ -358,6 +367,8 @@ class Scene:
     solve: Solve
     output: Output
     raw: dict
+    #: ``inputs``: named external signals (latdyn.scene.inputs); set from outside with ``inputs.set(NAME, value)``
+    inputs: Inputs = field(default_factory=Inputs)
 
     @property
     def n_elements(self) -> int:
@@ -958,6 +969,26 @@ class _Reader:
     _INPUT = re.compile(r"^(?P<point>.+)\.(?P<kind>force|moment)\.(?P<component>[xyz])$")
     _LOAD_INDEX = re.compile(r"^loads\[(?P<index>\d{1,9})\]$")
 
+    def inputs(self, value, key) -> Inputs:
+        """``inputs: {NAME: number}``: names that are not words of the expression language."""
+        if value is None:
+            return Inputs()
+        if not isinstance(value, dict):
+            self.fail(key, "expected a mapping of input names to numbers {NAME: number, ...}", value)
+        initial = {}
+        for name, number in value.items():
+            self.check_name(name, key, "input")
+            if not re.fullmatch(r"[A-Za-z_][A-Za-z_0-9]*", name):
+                self.fail(_join(key, name), "expected an input name that an expression can use: a letter or _ "
+                                            "followed by letters, digits or _", name)
+            if name in RESERVED_WORDS:
+                self.fail(_join(key, name), "a word of the expression language cannot name an input; expected "
+                                            f"a name other than {_listing(RESERVED_WORDS)}", name)
+            if isinstance(number, str) or not _is_number(number):
+                self.fail(_join(key, name), "expected a number (the input's value in latdyn run)", number)
+            initial[name] = self.number(number, _join(key, name))
+        return Inputs(initial)
+
     def linear_model_names(self, spec: dict, key: str, loads: list, probes: list) -> dict:
         """The inputs of ``solve.linear_model`` as (kind, reference) pairs: ``("hinge", (beam, end))``
         for ``BEAM.start|end`` (the torque about a free hinge's axis), ``("force"|"moment", (PointRef,
@@ -1257,6 +1288,18 @@ def _build(raw: Any, file: str) -> Scene:
     if raw is None:
         r.fail("(top level)", f"expected a mapping of scene keys ({_listing(_TOP_KEYS)}), got an empty scene")
     r.mapping(raw, "", _TOP_KEYS, what="a scene: a mapping")
+    inputs = r.inputs(raw.get("inputs"), "inputs")
+    with reading_inputs(inputs):  # every expression of the scene may name them
+        scene = _build_parts(r, raw, file)
+    scene.inputs = inputs
+    for probe in scene.output.probes:
+        if probe.name in inputs:
+            r.fail(f"output.probes.{probe.name}", "a probe named like an input; probes and inputs share one "
+                                                  "namespace: expected another name", probe.name)
+    return scene
+
+
+def _build_parts(r: "_Reader", raw: dict, file: str) -> Scene:
     title = raw.get("title", "")
     if title is None:
         title = ""

@@ -302,6 +302,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         control.h = h
         control.t_new = t_new
         self._factor_version += 1
+        self._native.laws.bind_inputs()  # this scene's input values (SceneLaws.bind_inputs)
         failed = self._step(self._model_ref, self._work_ref, self._control_ref, ctypes.byref(base),
                             ctypes.byref(trial), self._vectors_ref)
         if self._links is not None:
@@ -344,6 +345,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         run.t, run.budget_s, run.power, run.external_work = state.t, budget_s, power, external_work
         run.dissipation_power, run.dissipated = dissipation_power, dissipated
         self._factor_version += 1
+        self._native.laws.bind_inputs()  # this scene's input values (SceneLaws.bind_inputs)
         self._library.latdyn_advance(self._model_ref, self._work_ref, self._control_ref, ctypes.byref(base),
                                      self._scratch_c, ctypes.byref(out_c), self._vectors_ref, self._run_ref)
         if self._links is not None:
