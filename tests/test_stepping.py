@@ -210,3 +210,82 @@ def test_a_scene_that_is_not_transient_is_refused_naming_solve_analysis(tmp_path
     path = scene_file(tmp_path, ARM_3D.replace("solve: {t_end: 0.3, dt: 0.005}", "solve: {analysis: modes}"))
     with pytest.raises(latdyn.SceneError, match=r"scene\.yaml: solve\.analysis: expected transient"):
         latdyn.Simulation(str(path))
+
+
+# ----------------------------------------------------------------------------- a controller in Python
+def hub_scene(planar: bool, dt: float) -> str:
+    """A rigid rod (rhoA 3, length 1) on a hinge driven by the input ``u``: about a tilted axis
+    [1, 2, 2]/3 (3D; inertia about the axis rhoA L³/3 · |d × n|² = 8/9) or about z (planar; 1)."""
+    axis = "[0, 0, 1]" if planar else "[1, 2, 2]"
+    return f"""\
+    title: rigid hub slewed by a PD loop written in Python
+    inputs: {{u: 0.0}}
+    sections:
+      rod: {{EA: 1.0e9, EIy: 1.0e6, EIz: 1.0e6, GJ: 1.0e6, rhoA: 3.0}}
+    bodies:
+      base: {{at: [0.3, -0.2, 0.5], fixed: true}}
+    beams:
+      hub:
+        from: base
+        to: [1.3, -0.2, 0.5]
+        section: rod
+        rigid: true
+        start: {{hinge: {{axis: {axis}, torque: u}}}}
+    solve: {{t_end: 1.5, dt: {dt}, tol: 1.0e-12}}
+    output:
+      every: 0.01
+      probes:
+        angle: {{hinge: hub.start, quantity: angle}}
+        rate: {{hinge: hub.start, quantity: rate}}
+    """
+
+
+@pytest.mark.parametrize("planar, dt", [(False, 0.01), (True, 0.0025)], ids=["3d-one-step", "planar-four-steps"])
+def test_a_python_pd_at_100_hz_follows_the_exact_discrete_time_solution(tmp_path, planar, dt):
+    """u_k = −Kp (θ_k − 1) − Kd θ̇_k from the probes every T = 0.01 s, held between samples
+    (set_input, advance_to): the hub I θ̈ = u is a double integrator, whose exact zero-order-hold
+    discretization is x_{k+1} = Φ x_k + Γ u_k, Φ = [[1, T], [0, 1]], Γ = [T²/2I, T/I]. The input's
+    jump restarts the integrator from consistent accelerations, and generalized-α integrates a
+    constant acceleration exactly: measured 1.3e-15 rad (3D, one step a sample) and 1.8e-15 (planar,
+    four steps a sample, the compiled loop between samples) over 150 samples; energy_balance_error
+    8.7e-16 and 2.7e-15. (Without the restart the error was 0.079 rad.)"""
+    inertia = 1.0 if planar else 8.0 / 9.0
+    T, omega, zeta = 0.01, 4.0, 0.7
+    kp, kd = inertia * omega ** 2, 2 * zeta * omega * inertia
+    phi, gamma = np.array([[1.0, T], [0.0, 1.0]]), np.array([T * T / (2 * inertia), T / inertia])
+    sim = latdyn.Simulation(str(scene_file(tmp_path, hub_scene(planar, dt))), out_dir=tmp_path / "out")
+    exact, errors = np.zeros(2), []
+    for k in range(150):
+        measured = sim.probes()
+        errors.append(max(abs(measured["angle"] - exact[0]), abs(measured["rate"] - exact[1])))
+        sim.set_input("u", -kp * (measured["angle"] - 1.0) - kd * measured["rate"])
+        exact = phi @ exact + gamma * (-kp * (exact[0] - 1.0) - kd * exact[1])
+        sim.advance_to((k + 1) * T)
+    errors.append(max(abs(sim.probes()["angle"] - exact[0]), abs(sim.probes()["rate"] - exact[1])))
+    result = sim.close()
+    assert max(errors) < 1e-12
+    assert exact[0] > 0.9  # the slew happened
+    assert result.summary["status"] == "solved" and len(result.t) == 151
+    assert summary_of(tmp_path / "out")["energy_balance_error"] < 1e-12  # the work of the jumping torque counted
+
+
+def test_an_input_is_held_until_set_and_a_bad_name_or_value_is_refused(tmp_path):
+    """Never set, the input keeps the scene's value: the run equals ``latdyn run`` bit for bit. The
+    loaded scene given to a Simulation keeps its own inputs."""
+    text = hub_scene(False, 0.01).replace("inputs: {u: 0.0}", "inputs: {u: 0.25}")
+    path = scene_file(tmp_path, text)
+    scene = latdyn.load_scene(str(path))
+    reference = latdyn.run(scene)
+    sim = latdyn.Simulation(scene)
+    assert sim.input_names == ["u"] and sim.inputs() == {"u": 0.25}
+    with pytest.raises(ValueError, match=r"no input named 'v'; its inputs: u"):
+        sim.set_input("v", 1.0)
+    for bad in (float("inf"), "fast", None, True):
+        with pytest.raises(ValueError, match=r"input 'u' takes a finite number"):
+            sim.set_input("u", bad)
+    for k in range(1, 16):
+        sim.advance_to(0.1 * k)
+    assert np.array_equal(rows_of(sim.close()), rows_of(reference))
+    sim = latdyn.Simulation(scene)
+    sim.set_input("u", -1.0)
+    assert sim.inputs() == {"u": -1.0} and scene.inputs.current() == {"u": 0.25}

@@ -17,17 +17,32 @@ integrator goes on from accelerations consistent with the equations of motion at
 the new value (:meth:`latdyn.timeloop.loop.TimeLoop.restart`)."""
 from __future__ import annotations
 
+import copy
 import math
 import time
 
 from latdyn.errors import SceneError, UnboundedError
 from latdyn.results.result import Result
-from latdyn.scene.loader import load_scene
+from latdyn.scene.loader import Scene, load_scene
 from latdyn.solve import _compile_seconds, close_run, open_run, write_linear_model_first
 from latdyn.timeloop.transient import start_transient
 
 #: A time within this fraction of ``solve.dt`` of ``sim.t``, a grid point or ``solve.t_end`` is that time.
 TIME_TOLERANCE = 1e-9
+
+
+def _own_scene(source) -> Scene:
+    """The scene the simulation runs, its own: a path or mapping is loaded; a loaded
+    :class:`~latdyn.scene.loader.Scene` is loaded again from its mapping (its file name and its
+    inputs' current values kept), so that the inputs the simulation sets are not those of the scene
+    it was given (which another run or simulation may use)."""
+    if not isinstance(source, Scene):
+        return load_scene(source)
+    scene = load_scene(copy.deepcopy(source.raw))
+    scene.file = source.file
+    for name, value in source.inputs.current().items():
+        scene.inputs.set(name, value)
+    return scene
 
 
 class SimulationClosed(RuntimeError):
@@ -45,7 +60,7 @@ class Simulation:
 
     def __init__(self, scene, out_dir=None, backend: str = "auto"):
         self._wall0, self._compiled0 = time.perf_counter(), _compile_seconds()
-        scene = load_scene(scene)
+        scene = _own_scene(scene)
         if scene.solve.analysis != "transient":
             raise SceneError(scene.file, "solve.analysis",
                              f"expected transient: a Simulation steps a transient run, and this scene's "
