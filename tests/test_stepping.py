@@ -289,3 +289,85 @@ def test_an_input_is_held_until_set_and_a_bad_name_or_value_is_refused(tmp_path)
     sim = latdyn.Simulation(scene)
     sim.set_input("u", -1.0)
     assert sim.inputs() == {"u": -1.0} and scene.inputs.current() == {"u": 0.25}
+
+
+# ----------------------------------------------------------------------------- the FMU
+ARM_3D_WITH_INPUT = ARM_3D.replace('torque: "2*sin(3*t)"', 'torque: "2*sin(3*t) + u"').replace(
+    "    gravity:", "    inputs: {u: 0.0}\n    gravity:")
+
+
+def relative_difference(ours, reference) -> float:
+    """max |ours − reference| over the rows, relative to the largest |reference|, worst probe."""
+    return max(float(np.max(np.abs(np.asarray(ours[name]) - np.asarray(reference[name]))))
+               / max(float(np.max(np.abs(reference[name]))), 1e-300) for name in reference)
+
+
+def test_the_fmu_under_fmpy_gives_latdyn_runs_probes_and_follows_its_input_as_the_simulation_does(tmp_path):
+    """``latdyn fmu`` through the front door; FMPy simulates it (default experiment: 0 … t_end,
+    communication every ``output.every``). Inputs at their start values: the probes of ``latdyn run``
+    (CLI) — measured equal bit for bit (contract: 1e-8 relative). A step of the input at t = 0.1234
+    (off the step grid: FMPy makes it a communication point): the probes of a Simulation set and
+    advanced at the same communication points — measured equal bit for bit."""
+    fmpy = pytest.importorskip("fmpy")
+    path = scene_file(tmp_path, ARM_3D_WITH_INPUT)
+    built = cli("fmu", path, "-o", tmp_path / "arm.fmu", cwd=tmp_path)
+    assert built.returncode == 0, built.stderr
+    assert "FMI 2.0 co-simulation" in built.stdout and "Python with latdyn" in built.stdout
+    description = fmpy.read_model_description(str(tmp_path / "arm.fmu"))
+    variables = {v.name: v for v in description.modelVariables}
+    assert variables["u"].causality == "input" and float(variables["u"].start) == 0.0
+    assert [v.name for v in description.outputs and [o.variable for o in description.outputs]] == \
+        ["angle", "tip_z", "tip_v", "bending", "total"]
+    assert description.defaultExperiment.stopTime == "0.3" and description.defaultExperiment.stepSize == "0.01"
+
+    ran = cli("run", path, "-o", tmp_path / "ref", "-q", cwd=tmp_path)
+    assert ran.returncode == 0, ran.stderr
+    reference = probe_columns(tmp_path / "ref")
+    fmu = fmpy.simulate_fmu(str(tmp_path / "arm.fmu"))
+    assert np.allclose(fmu["time"], reference["t"], rtol=0, atol=1e-12)
+    assert relative_difference(fmu, {k: v for k, v in reference.items() if k != "t"}) <= 1e-8
+
+    signal = np.array([(0.0, 0.0), (0.1234, 0.0), (0.1234, 1.5), (0.3, 1.5)], dtype=[("time", float), ("u", float)])
+    driven = fmpy.simulate_fmu(str(tmp_path / "arm.fmu"), input=signal)
+    assert 0.1234 in driven["time"] and len(driven) == len(fmu) + 1
+    sim = latdyn.Simulation(str(path))
+    replay = {name: [value] for name, value in sim.probes().items()}
+    for before, t in zip(driven["time"][:-1], driven["time"][1:]):
+        sim.set_input("u", 1.5 if before >= 0.1234 else 0.0)
+        sim.advance_to(t)
+        for name, value in sim.probes().items():
+            replay[name].append(value)
+    sim.close()
+    assert relative_difference(driven, replay) <= 1e-8
+    on_rows = np.isin(driven["time"], fmu["time"])
+    assert np.max(np.abs(driven["angle"][on_rows] - fmu["angle"])) > 1e-2  # the input acted
+
+
+def test_an_fmu_of_a_bad_or_not_transient_scene_is_refused_with_exit_2(tmp_path):
+    bad = scene_file(tmp_path, ARM_3D.replace("section: rod", "section: tube"), "bad.yaml")
+    completed = cli("fmu", bad, "-o", tmp_path / "bad.fmu", cwd=tmp_path)
+    assert completed.returncode == 2 and "bad.yaml: beams.arm.section" in completed.stderr
+    assert "Traceback" not in completed.stderr and not (tmp_path / "bad.fmu").exists()
+    modal = scene_file(tmp_path, ARM_3D.replace("solve: {t_end: 0.3, dt: 0.005}", "solve: {analysis: modes}"),
+                       "modal.yaml")
+    completed = cli("fmu", modal, cwd=tmp_path)
+    assert completed.returncode == 2 and "modal.yaml: solve.analysis: expected transient" in completed.stderr
+    completed = cli("fmu", scene_file(tmp_path, ARM_3D), "-o", tmp_path / "arm.zip", cwd=tmp_path)
+    assert completed.returncode == 2 and "arm.zip: an FMU file name ends in .fmu" in completed.stderr
+
+
+def test_an_fmu_asked_to_go_past_t_end_fails_loudly(tmp_path):
+    """A communication step the run cannot take (past ``solve.t_end`` here; a solver failure alike)
+    is logged with status error, naming what was wrong, and ends the FMU with fmi2Fatal (an
+    exception is the only failure PythonFMU's slave can report besides fmi2Discard, which FMPy
+    takes as a quiet early stop): FMPy raises. Another FMU in the same process runs after it."""
+    fmpy = pytest.importorskip("fmpy")
+    from latdyn.stepping.fmu import build_fmu
+
+    fmu = build_fmu(scene_file(tmp_path, ARM_3D), tmp_path / "arm.fmu")
+    logged = []
+    with pytest.raises(Exception, match="fmi2DoStep failed"):
+        fmpy.simulate_fmu(str(fmu), stop_time=0.35, debug_logging=True,
+                          logger=lambda env, instance, status, category, message: logged.append(message.decode()))
+    assert any("advance_to(0.31): past solve.t_end = 0.3" in message for message in logged)
+    assert len(fmpy.simulate_fmu(str(fmu))) == 31

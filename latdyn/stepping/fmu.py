@@ -8,8 +8,10 @@ latdyn installed (``pip install latdyn[fmu]``); the FMU carries no solver of its
 from __future__ import annotations
 
 import keyword
+import os
 import re
 import shutil
+import subprocess
 import sys
 import tempfile
 from pathlib import Path
@@ -22,7 +24,9 @@ SCENE_RESOURCE = "scene.yaml"
 
 #: The slave module written into the FMU (``resources/<identifier>_slave.py``).
 SLAVE_MODULE = """\"\"\"The FMU's slave: latdyn's Simulation of resources/{scene} (latdyn.stepping.fmu_slave).\"\"\"
-from latdyn.stepping.fmu_slave import LatdynSlave
+from latdyn.stepping.fmu_slave import LatdynSlave, hold_module_namespace
+
+hold_module_namespace(globals())  # PythonFMU's loader releases it once per instance (fmu_slave)
 
 
 class {name}(LatdynSlave):
@@ -42,7 +46,12 @@ def model_identifier(fmu_path) -> str:
 def build_fmu(scene_path, fmu_path) -> Path:
     """Write the FMU of the scene file ``scene_path`` to ``fmu_path`` (ending in ``.fmu``); returns
     its path. The scene is validated first (:class:`latdyn.SceneError`, also for one that is not
-    transient); PythonFMU missing is a :class:`latdyn.errors.MissingExtra`."""
+    transient); PythonFMU missing is a :class:`latdyn.errors.MissingExtra`.
+
+    PythonFMU packs it in a process of its own (``python -m pythonfmu build``): its builder imports
+    the slave module and takes its binaries from the ``pythonfmu`` this process imported, which,
+    once an FMU has run here, may be the copy inside that FMU (its resources go first on sys.path),
+    without binaries."""
     scene_path, fmu_path = Path(scene_path), Path(fmu_path)
     scene = load_scene(str(scene_path))
     if scene.solve.analysis != "transient":
@@ -51,23 +60,24 @@ def build_fmu(scene_path, fmu_path) -> Path:
                          f"{scene.solve.analysis}")
     if fmu_path.suffix != ".fmu":
         raise ValueError(f"{fmu_path}: an FMU file name ends in .fmu")
-    builder = require("fmu", "latdyn fmu", "pythonfmu.builder")
+    require("fmu", "latdyn fmu", "pythonfmu")
     name = model_identifier(fmu_path)
+    fmu_path = fmu_path.resolve()
     fmu_path.parent.mkdir(parents=True, exist_ok=True)
-    module = f"{name}_slave"  # not the identifier itself: an FMU named json.fmu must not import json
-    path_before, modules_before = list(sys.path), set(sys.modules)
     with tempfile.TemporaryDirectory(prefix="latdyn_fmu_") as folder:
         folder = Path(folder)
-        script = folder / f"{module}.py"
+        # the module is not named after the identifier itself: an FMU named json.fmu must not import json
+        script = folder / f"{name}_slave.py"
         title = (scene.title or scene_path.name).replace('"', "'").replace("\\", "/")
         script.write_text(SLAVE_MODULE.format(scene=SCENE_RESOURCE, name=name, title=title))
         resource = folder / "resources"
         resource.mkdir()
         shutil.copyfile(scene_path, resource / SCENE_RESOURCE)
-        try:
-            built = builder.FmuBuilder.build_FMU(script, dest=fmu_path, project_files=[resource / SCENE_RESOURCE])
-        finally:  # PythonFMU imports the slave module from the folder: forget both
-            sys.path[:] = path_before
-            if module not in modules_before:
-                sys.modules.pop(module, None)
-    return Path(built)
+        package_root = str(Path(__file__).resolve().parents[2])  # latdyn importable in the builder
+        env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [package_root, os.environ.get("PYTHONPATH")])))
+        packed = subprocess.run([sys.executable, "-m", "pythonfmu", "build", "-f", str(script), "-d", str(fmu_path),
+                                 str(resource / SCENE_RESOURCE)], cwd=folder, env=env, capture_output=True,
+                                text=True, check=False)
+    if packed.returncode != 0 or not fmu_path.is_file():
+        raise RuntimeError(f"PythonFMU could not pack {fmu_path}: {(packed.stderr or packed.stdout).strip()[-2000:]}")
+    return fmu_path

@@ -6,9 +6,12 @@ Its real inputs are the scene's ``inputs`` (start values the scene's), its real 
 scene's probes (file order). ``fmi2DoStep(t, h)`` sets the inputs' current values and advances
 the run to t + h (:meth:`Simulation.advance_to`: the steps land on the communication points);
 the outputs are the probes there. The default experiment is 0 … ``solve.t_end`` with a
-communication step of ``output.every`` (else ``solve.dt``). The run ends (``fmi2Terminate``)
-with :meth:`Simulation.close`. It runs in the Python that loads the FMU: that Python needs
-latdyn (and PythonFMU's runtime, carried in the FMU)."""
+communication step of ``output.every`` (else ``solve.dt``). A step the run cannot take (past
+``solve.t_end``, a solver failure) is logged with status error, naming what was wrong, and ends the
+FMU with fmi2Fatal (PythonFMU reports an exception so; its only other failure, fmi2Discard, FMPy
+takes as a quiet early stop). The run ends (``fmi2Terminate``) with :meth:`Simulation.close`. It
+runs in the Python that loads the FMU: that Python needs latdyn (PythonFMU's runtime is carried in
+the FMU)."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -19,6 +22,19 @@ from pythonfmu.enums import Fmi2Status
 from latdyn.scene.loader import load_scene
 from latdyn.stepping.fmu import SCENE_RESOURCE
 from latdyn.stepping.simulation import Simulation
+
+
+#: The namespaces of the slave modules, one reference per execution of their source.
+_HELD: list[dict] = []
+
+
+def hold_module_namespace(namespace: dict) -> None:
+    """Keep one more reference to the slave module's namespace. PythonFMU's loader (0.6.5 … 0.7,
+    ``findClass`` in PySlaveInstance.cpp) runs the module's source again in its namespace for every
+    instance it creates and then releases that namespace, a reference it only borrowed: the second
+    instance in one process found it freed ("module has no attribute", or a crash; PythonFMU issue
+    #228). The module's source calls this each time it runs, which balances that release."""
+    _HELD.append(namespace)
 
 
 class LatdynSlave(Fmi2Slave):
@@ -73,9 +89,9 @@ class LatdynSlave(Fmi2Slave):
         try:
             self.push_inputs()
             simulation.advance_to(current_time + step_size)
-        except Exception as failure:  # noqa: BLE001 - the importer hears of it as fmi2Error
+        except Exception as failure:  # the importer hears of it as fmi2Error, its message logged
             self.log(f"latdyn: {type(failure).__name__}: {failure}", Fmi2Status.error)
-            return False
+            raise
         self.outputs = simulation.probes()
         return True
 

@@ -31,7 +31,7 @@ from latdyn.results.writer import ResultWriter
 from latdyn.step.integrators import newton_diagnosis
 from latdyn.timeloop import checkpoint as checkpoints
 from latdyn.timeloop.control import StepControl
-from latdyn.timeloop.events import crossing_fraction, hinge_events
+from latdyn.timeloop.events import crossing_fraction, hinge_events, restart_accelerations
 from latdyn.timeloop.progress import DRIFT_WARNING, UNBOUNDED, TransientProgress, factorizations, load_power
 
 
@@ -168,12 +168,16 @@ class TimeLoop:
 
     def restart(self) -> None:
         """The laws jumped at the state the loop stands at (an input set from outside at a pause):
-        the integrator goes on from accelerations consistent with the equations of motion under
-        the new laws, as at t = 0 and after a latch, and the power of the loads and dampers that
-        starts the next step's work and dissipation is the new laws'."""
+        the integrator goes on from the accelerations of the equations of motion under the new
+        laws, with the directions that are stiff at the scale of dt taken quasi-statically, as after
+        an impact (:func:`latdyn.timeloop.events.restart_accelerations`: a torque that jumps on a
+        hinge of a flexible beam would otherwise give its directions of little inertia the jump over
+        their inertia, 1e7 rad/s² on a 3-element arm, and Newton failed in the steps after it); and
+        the power of the loads and dampers that starts the next step's work and dissipation is the
+        new laws'."""
         progress = self.progress
         state = progress.state.copy()  # accepted states are replaced, never changed in place
-        self.integrator.start(state)
+        restart_accelerations(self.prepared, self.integrator, state, self.control.dt)
         evaluation = self.assembler.evaluate(state, matrices=False)
         progress.state = self.prepared.state = state
         progress.algorithmic_acceleration = getattr(self.integrator, "a", None)
