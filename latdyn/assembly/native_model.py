@@ -89,25 +89,30 @@ class SceneLaws:
     function of time gives (value, rate, acceleration) at t, hinge law k gives (f, ∂f/∂θ, ∂f/∂θ̇)
     at (θ, θ̇, t). :meth:`addresses` compiles them (once per text, cached) or, when a law does not
     print in C or there is no compiler, returns Python callbacks with the same signature.
-    ``inputs``: the scene's :class:`~latdyn.scene.inputs.Inputs`, whose values the laws read
-    (:meth:`bind_inputs`)."""
+    ``inputs``, ``controllers``: the scene's :class:`~latdyn.scene.inputs.Inputs` and
+    :class:`~latdyn.scene.inputs.ControllerOutputs`, whose values the laws read (:meth:`bind_inputs`)."""
 
-    def __init__(self, inputs=None):
+    def __init__(self, inputs=None, controllers=None):
+        from latdyn.scene.inputs import Signals
+
         self.functions, self.hinge_laws = [], []
-        self.inputs = inputs
+        self.inputs = inputs if inputs is not None else Signals()
+        self.controllers = controllers if controllers is not None else Signals()
         self.reason = None  # why the laws are Python callbacks, or None when compiled
         self._keep = None
         self._compiled = None
 
     @property
-    def input_names(self) -> tuple:
-        return self.inputs.names if self.inputs is not None else ()
+    def signal_names(self) -> tuple:
+        """The names of the scene's inputs and of its controllers."""
+        return self.inputs.names, self.controllers.names
 
     def bind_inputs(self) -> None:
-        """Point the compiled laws at this scene's input values (a library is shared by the models
-        with the same laws in a process); nothing to do for Python callbacks, which read them."""
-        if self._compiled is not None and self.inputs is not None and len(self.inputs):
-            self._compiled.bind_inputs(self.inputs.values)
+        """Point the compiled laws at this scene's inputs and controller outputs (a library is shared
+        by the models with the same laws in a process); nothing to do for Python callbacks, which
+        read them."""
+        if self._compiled is not None and (len(self.inputs) or len(self.controllers)):
+            self._compiled.bind_inputs(self.inputs.values, self.controllers.values)
 
     def add(self, function) -> int:
         if function is None:
@@ -130,10 +135,10 @@ class SceneLaws:
 
     def addresses(self) -> tuple[int, int]:
         """The addresses of ``time_laws(t, out)`` and ``hinge_laws(k, θ, θ̇, t, out)``."""
-        why = unprintable(self.hinge_laws, self.input_names) if self.hinge_laws else None
+        why = unprintable(self.hinge_laws, self.signal_names) if self.hinge_laws else None
         if why is None:
             try:
-                compiled = compile_laws(self.functions, self.hinge_laws, self.input_names)
+                compiled = compile_laws(self.functions, self.hinge_laws, self.signal_names)
                 self._keep = self._compiled = compiled
                 self.bind_inputs()
                 return compiled.time_laws, compiled.hinge_laws
@@ -174,7 +179,7 @@ class NativeModel:
         m, a = model, assembler
         arr, ints = self._array, lambda values: self._array(values, np.int64)
 
-        laws = SceneLaws(getattr(m.scene, "inputs", None))
+        laws = SceneLaws(getattr(m.scene, "inputs", None), getattr(m.scene, "controller_outputs", None))
         prescribed = [i for i, node in enumerate(m.nodes) if node.kind == PRESCRIBED]
         translation, angle, axis = [], [], []
         for i in prescribed:

@@ -97,6 +97,10 @@ class ProbeSet:
                 e = int(m.beam_elements[p.beam][p.element])
                 column = SECTION_QUANTITIES.index(p.quantity)
                 out.append(float(sections[e, column]))
+            elif p.kind == "controller":  # its current output (held, or last evaluated), or a state
+                scene = m.scene
+                out.append(scene.controller_outputs[p.controller] if p.state is None
+                           else scene.controller_states[f"{p.controller}.{p.state}"])
             else:  # pragma: no cover - the scene validator refuses other kinds
                 raise ValueError(p.kind)
         return out
