@@ -16,6 +16,9 @@ The unit's two functions (the ABI :mod:`latdyn.assembly.compiled_laws` and ``lat
     every function of time at ``t``: ``out[3k], out[3k+1], out[3k+2]`` = f_k, df_k/dt, d²f_k/dt².
 ``void latdyn_hinge_laws(int64_t k, double theta, double theta_dot, double t, double *out)``
     hinge law k at (θ, θ̇, t): ``out[0..2]`` = f, ∂f/∂θ, ∂f/∂θ̇.
+``void latdyn_controller_laws(int64_t k, double t, const double *s, double *out)``
+    continuous controller k (SCENE.md ``controllers``) at t with the values ``s`` of the probes it
+    reads: ``out[0]`` its output y (before saturation), ``out[1 + m]`` = ∂y/∂s_m, exact.
 ``void latdyn_bind_inputs(const double *inputs, const double *controllers)``
     the scene's inputs (SCENE.md ``inputs``; :mod:`latdyn.scene.inputs`) and its controllers'
     outputs: a law that names input i reads ``inputs[i]`` at each call, one that names controller k
@@ -60,6 +63,16 @@ class HingeLawC:
 
     text: str
     time: TimeLaw | None = None
+    variables: tuple = ()
+    expressions: tuple = ()
+
+
+@dataclass(frozen=True)
+class ControllerLawC:
+    """A continuous controller: ``variables`` = (t, s_0, s_1, …) its time and the probes it reads,
+    ``expressions`` = y, ∂y/∂s_0, ∂y/∂s_1, …"""
+
+    text: str
     variables: tuple = ()
     expressions: tuple = ()
 
@@ -137,8 +150,14 @@ def _hinge_block(law: HingeLawC, inputs: dict | None = None) -> dict:
             "lines": _block(_c_names(law.variables), law.expressions, "out", 0, inputs)}
 
 
+def _controller_block(law: ControllerLawC, inputs: dict) -> dict:
+    t, *sensors = law.variables
+    variables = {t: sp.Symbol("t"), **{v: sp.Symbol(f"s[{m}]") for m, v in enumerate(sensors)}}
+    return {"text": _comment_text(law.text), "lines": _block(variables, law.expressions, "out", 0, inputs)}
+
+
 def laws_source(time_laws: list[TimeLaw], hinge_laws: list[HingeLawC], inputs: tuple = (),
-                controllers: tuple = ()) -> str:
+                controllers: tuple = (), controller_laws: tuple = ()) -> str:
     """The C unit of a scene's laws (see the module docstring); ``inputs``, ``controllers``: the
     names of the scene's inputs and controllers in order. :class:`EmitError` when a law cannot be
     printed in C (the caller then evaluates the laws in Python)."""
@@ -149,4 +168,5 @@ def laws_source(time_laws: list[TimeLaw], hinge_laws: list[HingeLawC], inputs: t
         marker=MARKER, command=COMMAND, versions=tool_versions(), hash=formulation_hash(), variant=None,
         time_laws=[_time_block(law, "out", 3 * k, inputs) for k, law in enumerate(time_laws)],
         hinge_laws=[_hinge_block(law, inputs) for law in hinge_laws],
+        controller_laws=[_controller_block(law, inputs) for law in controller_laws],
     )

@@ -60,6 +60,21 @@ def hinge_law(law: HingeLaw):
     return HingeLawC(str(law.source), variables=tuple(variables), expressions=tuple(expressions))
 
 
+def controller_law(controller, sensors: tuple):
+    """The plain description of a continuous controller that :mod:`codegen.laws` prints: its output
+    and the output's exact derivatives by the probes ``sensors`` it reads (Dirac deltas dropped)."""
+    import sympy as sp
+    from codegen.laws import ControllerLawC
+
+    from latdyn.scene.expressions import _drop_deltas
+
+    by_name = {s.name: s for s in controller.symbols}
+    variables = [by_name[n] for n in sensors]
+    y = controller.output_expr
+    return ControllerLawC(f"{controller.name}: {controller.output_text}", variables=(by_name["t"], *variables),
+                          expressions=(y, *(_drop_deltas(sp.diff(y, v)) for v in variables)))
+
+
 class CompiledLaws:
     """The loaded library of one scene's laws and its two functions' addresses."""
 
@@ -67,6 +82,7 @@ class CompiledLaws:
         self.library, self.path = library, path
         self.time_laws = ctypes.cast(library.latdyn_time_laws, ctypes.c_void_p).value
         self.hinge_laws = ctypes.cast(library.latdyn_hinge_laws, ctypes.c_void_p).value
+        self.controller_laws = ctypes.cast(library.latdyn_controller_laws, ctypes.c_void_p).value
         self._bind = library.latdyn_bind_inputs
         self._bind.argtypes, self._bind.restype = [ctypes.c_void_p, ctypes.c_void_p], None
 
@@ -100,31 +116,33 @@ def generator_version() -> str:
     return _VERSION[0]
 
 
-def _text_key(time_functions, hinge_laws, signals=((), ())) -> str:
+def _text_key(time_functions, hinge_laws, signals=((), ()), controllers=()) -> str:
     return repr([(type(f).__name__, f.source) for f in time_functions]
-                + [(type(h).__name__, h.source) for h in hinge_laws] + [("signals", tuple(map(tuple, signals)))])
+                + [(type(h).__name__, h.source) for h in hinge_laws] + [("signals", tuple(map(tuple, signals)))]
+                + [("controller", c.name, str(c.output_text), tuple(sensors)) for c, sensors in controllers])
 
 
-def _print(time_functions, hinge_laws, signals=((), ())) -> bytes:
+def _print(time_functions, hinge_laws, signals=((), ()), controllers=()) -> bytes:
     """The C unit of the laws (SymPy and the C printer); LawsUnavailable when a law does not print."""
     from codegen.emit import EmitError
     from codegen.laws import laws_source
 
     try:
         return laws_source([time_law(f) for f in time_functions], [hinge_law(h) for h in hinge_laws],
-                           *map(tuple, signals)).encode()
+                           *map(tuple, signals), [controller_law(c, sensors) for c, sensors in controllers]).encode()
     except EmitError as error:
         raise LawsUnavailable(str(error)) from None
 
 
-def compile_laws(time_functions: list, hinge_laws: list[HingeLaw], signals=((), ())) -> CompiledLaws:
+def compile_laws(time_functions: list, hinge_laws: list[HingeLaw], signals=((), ()), controllers=()) -> CompiledLaws:
     """The compiled laws (``time_functions``: :class:`TimeFunction` in the step's numbering;
     ``hinge_laws``: :class:`HingeLaw`; ``signals``: the names of the scene's inputs and of its
-    controllers, in order), from the cache when these laws were built before."""
+    controllers, in order; ``controllers``: (continuous controller, the probes it reads) pairs), from
+    the cache when these laws were built before."""
     from latdyn import native
 
     # the same laws again (a study's runs, a renumbering after a latch): no lookup
-    key = _text_key(time_functions, hinge_laws, signals)
+    key = _text_key(time_functions, hinge_laws, signals, controllers)
     if key in _LOADED:
         return _LOADED[key]
     try:
@@ -134,7 +152,7 @@ def compile_laws(time_functions: list, hinge_laws: list[HingeLaw], signals=((), 
         if not target.exists():  # print the unit only now
             announce = (f"latdyn: compiling the scene's laws ({len(time_functions)} of time, {len(hinge_laws)} "
                         f"hinge laws) with {using.name} into {target.parent}")
-            target = native.build("laws", _print(time_functions, hinge_laws, signals), native.C_FLAGS, using=using,
+            target = native.build("laws", _print(time_functions, hinge_laws, signals, controllers), native.C_FLAGS, using=using,
                                   key=text, announce=announce)
         loaded = CompiledLaws(native.load(target), target)
     except RuntimeError as error:  # no compiler, a failed build, a library that does not load

@@ -216,9 +216,6 @@ def read_controllers(value, file: str, order: tuple, probes: list, inputs: tuple
                     _fail(file, k, f"a continuous controller cannot read the {kinds[n]} probe {n!r} (not a function "
                                    "of the coordinates it can differentiate); expected a sampled controller "
                                    f"(rate: HZ) to read it", n)
-        if rate is None:
-            _fail(file, f"{key}.rate", "a continuous controller (without rate) is not run by this version of the "
-                                       "package; expected rate: HZ (sampled)")
         import sympy as sp
 
         symbols = (sp.Symbol("t", real=True), *[sp.Symbol(n, real=True) for n in reads + states])
