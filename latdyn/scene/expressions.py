@@ -111,10 +111,11 @@ _READING_INPUTS: contextvars.ContextVar = contextvars.ContextVar("latdyn_reading
 
 
 @contextlib.contextmanager
-def reading_inputs(inputs):
-    """Within the block, expressions may name the inputs of ``inputs`` (an
-    :class:`~latdyn.scene.inputs.Inputs`, or None): a law that names one reads its current value."""
-    token = _READING_INPUTS.set(inputs if inputs is not None and len(inputs) else None)
+def reading_inputs(*holders):
+    """Within the block, expressions may name the signals of ``holders`` (each a
+    :class:`~latdyn.scene.inputs.Signals`: the scene's inputs, its controllers' outputs; None is
+    skipped): a law that names one reads its current value."""
+    token = _READING_INPUTS.set(tuple(h for h in holders if h is not None and len(h)) or None)
     try:
         yield
     finally:
@@ -122,13 +123,14 @@ def reading_inputs(inputs):
 
 
 def _inputs_named(source) -> tuple:
-    """(the Inputs being read, the input names ``source`` uses in file order) when a text names one, else (None, ())."""
-    inputs = _READING_INPUTS.get()
-    if inputs is None or not isinstance(source, str):
-        return None, ()
+    """(the holder of each signal ``source`` names, their names), in the holders' order; ((), ())
+    when it names none."""
+    holders = _READING_INPUTS.get()
+    if holders is None or not isinstance(source, str):
+        return (), ()
     words = set(re.findall(r"[A-Za-z_][A-Za-z_0-9]*", source))
-    used = tuple(name for name in inputs.names if name in words)
-    return (inputs, used) if used else (None, ())
+    used = [(h, name) for h in holders for name in h.names if name in words]
+    return tuple(h for h, _ in used), tuple(n for _, n in used)
 
 
 def _allowed_with(allowed_text: str, names: tuple) -> str:
@@ -548,8 +550,8 @@ class _BySource:
     """A law known by its source: pickled as the source (compiled again lazily), equal and
     hashed by it, shown as ``ClassName(source)``."""
 
-    _inputs = None  # the scene's Inputs when the law names one of them
-    _input_names: tuple = ()  # the input names it uses, in the scene's order
+    _inputs: tuple = ()  # the holder (latdyn.scene.inputs.Signals) of each signal the law names
+    _input_names: tuple = ()  # the signals' names (inputs, controller outputs), in the scene's order
 
     def __getstate__(self):
         return {"source": self._source, "file": self._file, "key": self._key,
@@ -557,16 +559,16 @@ class _BySource:
 
     def __setstate__(self, state):
         self._source, self._file, self._key = state["source"], state["file"], state["key"]
-        self._inputs, self._input_names = state.get("inputs"), state.get("input_names", ())
+        self._inputs, self._input_names = state.get("inputs", ()), state.get("input_names", ())
         self._compiled = None
 
     def _input_values(self) -> list[float]:
         """The current values of the inputs the law uses (the order of :attr:`input_names`)."""
-        return [float(self._inputs.values[self._inputs.index(n)]) for n in self._input_names]
+        return [float(h.values[h.index(n)]) for h, n in zip(self._inputs, self._input_names)]
 
     @property
     def input_names(self) -> tuple:
-        """The scene's inputs this law names (latdyn.scene.inputs), in the scene's order."""
+        """The scene's signals this law names (inputs, controller outputs: latdyn.scene.inputs), in the scene's order."""
         return self._input_names
 
     def _input_symbols(self) -> list:
@@ -952,3 +954,25 @@ def parse_hinge_law(value: Any, file: str | None, key: str) -> HingeLaw:
     if isinstance(value, HingeLaw):
         return value
     return HingeLaw(value, file=file, key=key)
+
+
+# --------------------------------------------------------------------------- controller expressions
+def parse_named_expression(text: Any, names: tuple[str, ...], file: str | None, key: str, what: str):
+    """A controller's expression (SCENE.md ``controllers``): a number or a text in ``t`` and ``names``
+    (probes, inputs, earlier controllers, its states), checked as every scene expression is;
+    ``what`` says which names are allowed, for the message. Returns ``(symbols, expr)``: the real
+    SymPy symbols of ``t`` and of ``names`` in that order, and the expression."""
+    import sympy as sp
+
+    allowed = (f"a number or an expression in t and {what}, using numbers, the operators "
+               + " ".join(ALLOWED_OPERATORS) + " and the names " + " ".join(ALLOWED_NAMES))
+    if isinstance(text, bool) or not isinstance(text, (str, int, float)):
+        _refuse(file, key, f"got {show_value(text)}", allowed)
+    if not isinstance(text, str):
+        value = _finite_float(text)
+        if value is None:
+            _refuse(file, key, f"got {show_value(text)}", "a finite number or an expression")
+        text = repr(value)
+    symbol, expr = _parse_text(text, file, key, extra=tuple(names), allowed_text=allowed)
+    _check_size(expr, 0, text, file, key)
+    return (symbol, *[sp.Symbol(n, real=True) for n in names]), expr

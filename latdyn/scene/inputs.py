@@ -15,12 +15,12 @@ import math
 
 import numpy as np
 
-__all__ = ["Inputs"]
+__all__ = ["Signals", "Inputs", "ControllerOutputs"]
 
 
-class Inputs:
-    """The scene's inputs in file order. ``values`` is the one array every law reads (float64,
-    one entry per name, never reallocated); ``initial`` the values the scene file gives."""
+class Signals:
+    """Named values that the scene's laws read by name: ``values`` is the one array every law reads
+    (float64, one entry per name, never reallocated); ``initial`` the values at the start."""
 
     def __init__(self, initial: dict[str, float] | None = None):
         self.initial = {str(name): float(value) for name, value in (initial or {}).items()}
@@ -70,4 +70,15 @@ class Inputs:
             self.values[k] = self.initial[name]
 
     def __repr__(self):
-        return f"Inputs({self.current()!r})"
+        return f"{type(self).__name__}({self.current()!r})"
+
+
+class Inputs(Signals):
+    """The scene's inputs in file order (``inputs: {NAME: number}``); ``initial``: the values the
+    scene file gives, :meth:`set` from outside."""
+
+
+class ControllerOutputs(Signals):
+    """The current output of each of the scene's controllers, in file order (latdyn.scene.controllers):
+    the held value of a sampled one, the last evaluated value of a continuous one. The time loop
+    writes them; a law that names a controller reads them (``latdyn_controllers`` in the compiled laws)."""

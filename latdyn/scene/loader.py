@@ -65,7 +65,8 @@ from typing import Any
 import numpy as np
 
 from latdyn.errors import SceneError, show_value
-from latdyn.scene.inputs import Inputs
+from latdyn.scene.controllers import Controller, controller_names, read_controllers
+from latdyn.scene.inputs import ControllerOutputs, Inputs, Signals
 from latdyn.scene.expressions import (
     ALLOWED_NAMES,
     HingeLaw,
@@ -106,10 +107,10 @@ ENERGY_KINDS = ("kinetic", "strain", "potential", "external_work", "dissipated",
 MOMENTUM_KINDS = ("linear", "angular")
 AXIS_COMPONENTS = ("x", "y", "z")
 ELEMENT_QUANTITIES = ("axial_force", "torque", "moment_y", "moment_z")
-PROBE_KINDS = ("point", "hinge", "energy", "momentum", "element")
+PROBE_KINDS = ("point", "hinge", "energy", "momentum", "element", "controller")
 
-_TOP_KEYS = ("title", "gravity", "initial_velocity", "inputs", "sections", "bodies", "beams", "loads", "solve",
-             "output")
+_TOP_KEYS = ("title", "gravity", "initial_velocity", "inputs", "sections", "bodies", "beams", "loads",
+             "controllers", "solve", "output")
 _SECTION_KEYS = ("EA", "EIy", "EIz", "GJ", "rhoA", "rhoIy", "rhoIz", "GAy", "GAz")
 _BODY_KEYS = ("at", "mass", "com", "inertia", "fixed", "motion")
 _BEAM_KEYS = ("from", "to", "section", "elements", "y_axis", "start", "end", "rigid")
@@ -140,6 +141,7 @@ _PROBE_KEYS = {
     "energy": ("energy",),
     "momentum": ("momentum", "component"),
     "element": ("element", "quantity"),
+    "controller": ("controller", "state"),
 }
 _RESERVED_COLUMNS = ("t", "load_factor")
 #: Words of the expression language (latdyn.scene.expressions), which cannot name an input or a controller.
@@ -284,6 +286,9 @@ class Probe:
     beam: str | None = None
     end: str | None = None
     element: int | None = None
+    #: ``controller``: its output, or with ``state`` that state (latdyn.scene.controllers)
+    controller: str | None = None
+    state: str | None = None
 
 
 @dataclass
@@ -369,6 +374,12 @@ class Scene:
     raw: dict
     #: ``inputs``: named external signals (latdyn.scene.inputs); set from outside with ``inputs.set(NAME, value)``
     inputs: Inputs = field(default_factory=Inputs)
+    #: ``controllers``: control laws in the loop (latdyn.scene.controllers), in file order
+    controllers: dict[str, Controller] = field(default_factory=dict)
+    #: each controller's current output, which the laws that name it read
+    controller_outputs: ControllerOutputs = field(default_factory=ControllerOutputs)
+    #: each controller state's current value, named ``CONTROLLER.STATE``
+    controller_states: Signals = field(default_factory=Signals)
 
     @property
     def n_elements(self) -> int:
@@ -643,6 +654,7 @@ class _Reader:
         self.bodies: dict[str, Body] = {}
         self.beams: dict[str, Beam] = {}
         self.n_elements = 0  # elements of the beams read so far
+        self.controller_specs: dict | None = None  # the scene's controllers as written (probes name them)
 
     # -- primitive checks -------------------------------------------------------
     def fail(self, key: str, expected: str, got: Any = _MISSING):
@@ -1042,9 +1054,11 @@ class _Reader:
             self.fail(key, f"expected exactly one of {_listing(PROBE_KINDS)} in a probe, "
                            f"got {_listing(kinds) if kinds else 'none'}")
         kind = kinds[0]
-        self.mapping(spec, key, _PROBE_KEYS[kind], required=_PROBE_KEYS[kind][:2] if kind != "energy" else ("energy",),
-                     what=f"a {kind} probe")
+        self.mapping(spec, key, _PROBE_KEYS[kind], required=_PROBE_KEYS[kind][:2] if kind not in ("energy", "controller")
+                     else (kind,), what=f"a {kind} probe")
         k = lambda sub: _join(key, sub)  # noqa: E731
+        if kind == "controller":
+            return self.controller_probe(name, spec, key)
         if kind == "point":
             return Probe(name=name, kind=kind, point=self.point(spec["point"], k("point")),
                          quantity=self.choice(spec["quantity"], k("quantity"), POINT_QUANTITIES),
@@ -1080,6 +1094,21 @@ class _Reader:
                                     f"for beam {beam.name!r}", ref)
         return Probe(name=name, kind=kind, beam=beam.name, element=index,
                      quantity=self.choice(spec["quantity"], k("quantity"), ELEMENT_QUANTITIES))
+
+    def controller_probe(self, name, spec, key) -> Probe:
+        """``{controller: NAME}`` (its output) or ``{controller: NAME, state: S}``."""
+        specs = self.controller_specs or {}
+        ref = spec["controller"]
+        if not isinstance(ref, str) or ref not in specs:
+            self.fail(_join(key, "controller"), f"expected the name of a controller (known: {_listing(specs)})", ref)
+        state = spec.get("state")
+        if state is not None:
+            states = specs[ref].get("states") if isinstance(specs[ref], dict) else None
+            states = states if isinstance(states, dict) else {}
+            if not isinstance(state, str) or state not in states:
+                self.fail(_join(key, "state"), f"expected a state of controller {ref!r} (its states: "
+                                               f"{_listing(states) if states else 'none'})", state)
+        return Probe(name=name, kind="controller", controller=ref, state=state)
 
     def probes(self, value, key) -> list[Probe]:
         if value is None:
@@ -1289,13 +1318,21 @@ def _build(raw: Any, file: str) -> Scene:
         r.fail("(top level)", f"expected a mapping of scene keys ({_listing(_TOP_KEYS)}), got an empty scene")
     r.mapping(raw, "", _TOP_KEYS, what="a scene: a mapping")
     inputs = r.inputs(raw.get("inputs"), "inputs")
-    with reading_inputs(inputs):  # every expression of the scene may name them
+    names = controller_names(raw.get("controllers"), file, RESERVED_WORDS, {n: "an input" for n in inputs})
+    outputs = ControllerOutputs({n: 0.0 for n in names})
+    r.controller_specs = raw.get("controllers") or {}
+    with reading_inputs(inputs, outputs):  # every expression of the scene may name them
         scene = _build_parts(r, raw, file)
-    scene.inputs = inputs
+    scene.inputs, scene.controller_outputs = inputs, outputs
     for probe in scene.output.probes:
-        if probe.name in inputs:
-            r.fail(f"output.probes.{probe.name}", "a probe named like an input; probes and inputs share one "
-                                                  "namespace: expected another name", probe.name)
+        if probe.name in inputs or probe.name in outputs:
+            what = "an input" if probe.name in inputs else "a controller"
+            r.fail(f"output.probes.{probe.name}", f"a probe named like {what}; probes, inputs and controllers share "
+                                                  "one namespace: expected another name", probe.name)
+    scene.controllers = read_controllers(raw.get("controllers"), file, names, scene.output.probes, inputs.names,
+                                         RESERVED_WORDS)
+    scene.controller_states = Signals({f"{c.name}.{s}": c.initial[s] for c in scene.controllers.values()
+                                       for s in c.states})
     return scene
 
 

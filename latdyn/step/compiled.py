@@ -242,6 +242,9 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         model.body_position = ints(block_positions(m.node_dofs[m.body_nodes].reshape(-1, 6)))
         model.hinge_position = ints(np.where(hd < n, position(hd, hd), -1))
         model.load_position = ints(block_positions(m.node_dofs[a._load_nodes].reshape(-1, 6), a._load_columns()))
+        rows, cols = a.control.coupling_rows, a.control.coupling_cols
+        model.coupling_position = ints(block_positions(rows[:, None], cols[:, None])[:, 0, 0] if len(rows)
+                                       else np.zeros(0, np.int64))
         model.factorization = ctypes.pointer(factorization.structure)
         native.set_buffer("matrix", factorization.values)
         native.set_buffer("rhs", np.zeros(n))

@@ -35,11 +35,21 @@ CRAWL_FRACTION = 1e-3
 class StepControl:
     """The time grid, the rows recorded on it and the step size of one transient run."""
 
-    def __init__(self, solve, every: float | None, length: float):
+    def __init__(self, solve, every: float | None, length: float, instants: np.ndarray | None = None):
         """``solve``: the scene's solve section; ``every``: ``output.every`` (None: a row every step);
-        ``length``: the model's length scale (m), which makes ``error_tol`` relative."""
+        ``length``: the model's length scale (m), which makes ``error_tol`` relative; ``instants``:
+        times the steps must land on besides k·dt (sampled controllers' instants), put on the grid."""
         self.t_end, self.dt = float(solve.t_end), float(solve.dt)
         self.n_grid = max(1, int(np.ceil(self.t_end / self.dt - 1e-9)))
+        #: the grid's times where instants are added to it (None: k·dt)
+        self.grid = None
+        if instants is not None and len(instants):
+            self.tolerance = 1e-9 * self.dt
+            nominal = [self.grid_time(k) for k in range(self.n_grid + 1)]
+            extra = [t for t in instants if t < self.t_end
+                     and abs(nominal[min(int(round(t / self.dt)), self.n_grid)] - t) > self.tolerance]
+            self.grid = np.unique(np.array(nominal + extra, dtype=float))
+            self.n_grid = len(self.grid) - 1
         self.dt_min = solve.dt_min if solve.dt_min is not None else self.dt * 1e-6
         self.adaptive, self.error_tol, self.length = solve.adaptive, solve.error_tol, length
         self.every = every
@@ -53,7 +63,9 @@ class StepControl:
 
     # ------------------------------------------------------------------------- the grid and its rows
     def grid_time(self, k: int) -> float:
-        """t_k = k·dt, computed (the last grid point is t_end exactly)."""
+        """t_k = k·dt, computed (the last grid point is t_end exactly); with instants, the k-th time of the grid."""
+        if self.grid is not None:
+            return float(self.grid[min(k, self.n_grid)])
         return self.t_end if k >= self.n_grid else k * self.dt
 
     def finished(self, run: TransientProgress) -> bool:

@@ -66,11 +66,13 @@ class TimeLoop:
 
     def __init__(self, prepared: Prepared, integrator, probes: ProbeSet, writer: ResultWriter,
                  control: StepControl, *, tol: float, checkpointer: checkpoints.Checkpointer | None = None,
-                 compiled_loop: bool = True, loop_budget_s: float = 0.25):
+                 compiled_loop: bool = True, loop_budget_s: float = 0.25, sampler=None):
         self.prepared, self.model, self.assembler = prepared, prepared.model, prepared.assembler
         self.integrator, self.probes, self.writer, self.control = integrator, probes, writer, control
         self.tol, self.checkpointer = tol, checkpointer
         self.compiled_loop, self.loop_budget_s = compiled_loop, loop_budget_s
+        #: the sampled controllers (latdyn.timeloop.sampling), None without
+        self.sampler = sampler if sampler else None
         self.energies_of = prepared.assembler.energies
         # modified Newton's held factorization (step.compiled.CompiledGeneralizedAlpha): a checkpoint of the
         # last accepted step carries it when the engine still holds that step's (its mark unchanged)
@@ -93,7 +95,9 @@ class TimeLoop:
         if self.last_recorded is not None:
             self.writer.reattach_last_frame(
                 lambda snapshot=self.last_recorded: paraview.frame(self.assembler, self.writer.mesh, snapshot))
-        self.compiled = self.compiled_loop and hasattr(self.integrator, "advance") and not self.control.adaptive
+        # sampled controllers: back in Python at each sample instant, so one step at a time
+        self.compiled = (self.compiled_loop and hasattr(self.integrator, "advance") and not self.control.adaptive
+                         and self.sampler is None)
         self.writer.summary["time_loop"] = "compiled" if self.compiled else "python"
         if resume_from is None:
             self._record(self.progress.state, energy0)
@@ -102,6 +106,8 @@ class TimeLoop:
     def _start(self) -> dict:
         """The run's progress at t = 0; the energies there."""
         state = self.prepared.state
+        if self.sampler is not None:
+            self.sampler.start(state, 1e-9 * self.control.dt)
         self.integrator.start(state)
         evaluation = self.assembler.evaluate(state, matrices=False)
         energy0 = self.energies_of(state)
@@ -111,13 +117,16 @@ class TimeLoop:
             dissipation_power=evaluation.dissipation_power,
             total0=sum(energy0.values()), potential0=energy0["potential"],
             received0=energy0["kinetic"] + energy0["strain"] + 1e-8 * abs(energy0["potential"]),
-            inertia_tangent_from=0.0 if getattr(self.integrator, "inertia_tangent", False) else None)
+            inertia_tangent_from=0.0 if getattr(self.integrator, "inertia_tangent", False) else None,
+            controller_memory=self.sampler.memory() if self.sampler is not None else None)
         return energy0
 
     def _resume(self, checkpoint: checkpoints.Checkpoint) -> None:
         """The run's progress as the checkpoint keeps it: the latched hinges renumber the coordinates,
         then the loop goes on as it was."""
         self.progress = checkpoint.progress
+        if self.sampler is not None:
+            self.sampler.restore(self.progress.controller_memory)
         self.model.locked[:] = self.progress.locked
         self.model.number_coordinates()
         self.assembler.reindex()
@@ -320,6 +329,16 @@ class TimeLoop:
         steps, the row if one is due and the progress bar (the summary: once, when the loop ends,
         :meth:`run`; nothing reads it before the writer closes)."""
         progress, model = self.progress, self.model
+        if self.sampler is not None and self.sampler.sample(state, state.t, 1e-9 * self.control.dt):
+            # the held outputs jumped (an event of the laws): the accelerations go on from those
+            # consistent with the new outputs, as after a latch, and the power of the loads after
+            # the jump starts the next step
+            progress.controller_memory = self.sampler.memory()
+            self.integrator.start(state)
+            progress.algorithmic_acceleration = self.integrator.a
+            evaluation = self.assembler.evaluate(state, matrices=False)
+            progress.power = load_power(model, state, evaluation)
+            progress.dissipation_power = evaluation.dissipation_power
         if progress.steps % 256 == 0:  # exp updates keep T on SO(3) to round-off; remove the drift of long runs
             state.T[model.free_nodes] = orthonormalize(state.T[model.free_nodes])
         if self.control.row_due(progress, state.t):

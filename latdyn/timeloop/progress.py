@@ -55,6 +55,9 @@ class TransientProgress:
     solver_s: float = 0.0  # wall time inside the integrator's steps
     cut_times: list = field(default_factory=list)  # the first times at which a step was cut
     inertia_tangent_from: float | None = None  # t from which Newton's matrix holds the inertia tangent
+    #: the controllers' held outputs and states after the last sample (latdyn.timeloop.sampling;
+    #: replaced, never changed in place, so that a kept copy of the progress keeps its own)
+    controller_memory: np.ndarray | None = None
 
     def count(self, stats) -> None:
         """Count a step's Newton iterations and factorizations (``stats``: a StepStats)."""

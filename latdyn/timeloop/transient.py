@@ -14,6 +14,7 @@ from latdyn.timeloop import checkpoint as checkpoints
 from latdyn.timeloop.control import StepControl
 from latdyn.timeloop.loop import TimeLoop
 from latdyn.timeloop.progress import TransientProgress
+from latdyn.timeloop.sampling import SampledControllers
 
 #: Default Newton tolerance on :func:`latdyn.step.integrators.increment_size` (see docs/verification.md).
 DEFAULT_TOL = 1e-8
@@ -74,8 +75,11 @@ def start_transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter,
     length = length_scale(prepared.model)
     tol = scene.solve.tol if scene.solve.tol is not None else DEFAULT_TOL
     integrator = integrator_for(prepared, tol, length, writer.summary)
-    loop = TimeLoop(prepared, integrator, probes, writer, StepControl(scene.solve, scene.output.every, length),
-                    tol=tol, checkpointer=checkpointer, compiled_loop=COMPILED_LOOP, loop_budget_s=LOOP_BUDGET_S)
+    sampler = SampledControllers(scene, probes)
+    control = StepControl(scene.solve, scene.output.every, length,
+                          instants=sampler.instants(float(scene.solve.t_end)) if sampler else None)
+    loop = TimeLoop(prepared, integrator, probes, writer, control, tol=tol, checkpointer=checkpointer,
+                    compiled_loop=COMPILED_LOOP, loop_budget_s=LOOP_BUDGET_S, sampler=sampler)
     loop.begin(resume_from)
     if scene.solve.method == "newmark":
         state = loop.progress.state
