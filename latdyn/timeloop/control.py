@@ -101,11 +101,15 @@ class StepControl:
         if t is None:
             self.pause = self.pause_index = None
             return
-        k = min(self.n_grid, int(round(t / self.dt)))
-        if abs(t - self.grid_time(k)) <= 1e-9 * self.dt:
-            self.pause, self.pause_index = self.grid_time(k), k
-        else:
-            self.pause, self.pause_index = float(t), min(self.n_grid, int(np.floor(t / self.dt)))
+        if self.grid is None:
+            below = min(self.n_grid, int(np.floor(t / self.dt)))
+        else:  # sample instants on the grid
+            below = min(self.n_grid, max(0, int(np.searchsorted(self.grid, t, side="right")) - 1))
+        for k in (below, below + 1):
+            if k <= self.n_grid and abs(t - self.grid_time(k)) <= 1e-9 * self.dt:
+                self.pause, self.pause_index = self.grid_time(k), k
+                return
+        self.pause, self.pause_index = float(t), below
 
     def paused(self, run: TransientProgress) -> bool:
         """Whether the run has reached the pause (a step landed on it)."""
