@@ -12,9 +12,10 @@ points shortens the step that would cross it to land on it exactly, and the next
 the next grid point. Paused only on grid points (and with the inputs unchanged), the steps, rows
 and probes are those of one ``latdyn run`` of the scene, to round-off.
 
-A changed input is a jump of the laws that read it at the pause, like the jump of a latch: the
-integrator goes on from accelerations consistent with the equations of motion at the pause, under
-the new value (:meth:`latdyn.timeloop.loop.TimeLoop.restart`)."""
+A changed input is a jump of the laws that read it at the pause: the integrator goes on from the
+accelerations of the equations of motion at the pause under the new value, the directions stiff at
+the scale of dt taken quasi-statically as after an impact (:meth:`latdyn.timeloop.loop.TimeLoop.restart`);
+set before the first advance, the start is made again as if the scene gave that value."""
 from __future__ import annotations
 
 import copy
