@@ -16,6 +16,14 @@ The unit's two functions (the ABI :mod:`latdyn.assembly.compiled_laws` and ``lat
     every function of time at ``t``: ``out[3k], out[3k+1], out[3k+2]`` = f_k, df_k/dt, d²f_k/dt².
 ``void latdyn_hinge_laws(int64_t k, double theta, double theta_dot, double t, double *out)``
     hinge law k at (θ, θ̇, t): ``out[0..2]`` = f, ∂f/∂θ, ∂f/∂θ̇.
+``void latdyn_controller_laws(int64_t k, double t, const double *s, double *out)``
+    continuous controller k (SCENE.md ``controllers``) at t with the values ``s`` of the probes it
+    reads: ``out[0]`` its output y (before saturation), ``out[1 + m]`` = ∂y/∂s_m, exact.
+``void latdyn_bind_inputs(const double *inputs, const double *controllers)``
+    the scene's inputs (SCENE.md ``inputs``; :mod:`latdyn.scene.inputs`) and its controllers'
+    outputs: a law that names input i reads ``inputs[i]`` at each call, one that names controller k
+    ``controllers[k]``, arrays the runtime owns (inputs set from outside, outputs held by the time
+    loop). They are constant between settings: they add nothing to the time derivatives.
 
 Laws are plain data here (:class:`TimeLaw`, :class:`HingeLawC`), so that this module does
 not import the runtime. A table in t is linear between its points and constant beyond them,
@@ -59,6 +67,16 @@ class HingeLawC:
     expressions: tuple = ()
 
 
+@dataclass(frozen=True)
+class ControllerLawC:
+    """A continuous controller: ``variables`` = (t, s_0, s_1, …) its time and the probes it reads,
+    ``expressions`` = y, ∂y/∂s_0, ∂y/∂s_1, …"""
+
+    text: str
+    variables: tuple = ()
+    expressions: tuple = ()
+
+
 class _LawPrinter(CPrinter):
     """The element printer, with ``Heaviside(x, h0)`` as a call of the unit's own helper."""
 
@@ -67,12 +85,17 @@ class _LawPrinter(CPrinter):
         return f"latdyn_heaviside({self._print(expr.args[0])}, {self._print(sp.Float(at_zero, 17))})"
 
 
-def _block(variables: dict, expressions, out: str, first: int) -> list[str]:
-    """C statements of one law: CSE temporaries, then ``out[first + i] = ...``."""
+def _block(variables: dict, expressions, out: str, first: int, signals: dict | None = None) -> list[str]:
+    """C statements of one law: CSE temporaries, then ``out[first + i] = ...``; a symbol named
+    like a signal of ``signals`` (name -> the C text that reads it) reads it."""
     printer = _LawPrinter()
+    signals = signals or {}
+    variables = {s: v for s, v in variables.items() if s.name not in signals}
     renamed = [sp.sympify(e).xreplace(variables) for e in expressions]
+    named = {s: sp.Symbol(signals[s.name]) for e in renamed for s in e.free_symbols if s.name in signals}
+    renamed = [e.xreplace(named) for e in renamed]
     for e in renamed:
-        strangers = e.free_symbols - set(variables.values())
+        strangers = e.free_symbols - set(variables.values()) - set(named.values())
         if strangers:
             raise EmitError(f"a law uses {', '.join(sorted(map(str, strangers)))}, not one of {', '.join(VARIABLES)}")
     temporaries, reduced = sp.cse(renamed, symbols=sp.numbered_symbols("w"), optimizations="basic")
@@ -97,7 +120,7 @@ def _c_names(symbols) -> dict:
     return {s: sp.Symbol(s.name) for s in symbols}
 
 
-def _time_block(law: TimeLaw, out: str, first: int) -> dict:
+def _time_block(law: TimeLaw, out: str, first: int, inputs: dict | None = None) -> dict:
     if law.kind == "constant":
         lines = [f"{out}[{first}] = {float(law.value)!r};", f"{out}[{first + 1}] = 0.0;", f"{out}[{first + 2}] = 0.0;"]
     elif law.kind == "table":
@@ -109,29 +132,41 @@ def _time_block(law: TimeLaw, out: str, first: int) -> dict:
                  f"latdyn_table(t, {n}, times, values, {out} + {first});",
                  f"{out}[{first + 2}] = 0.0;"]
     elif law.kind == "expression":
-        lines = _block(_c_names([law.variable]), law.expressions, out, first)
+        lines = _block(_c_names([law.variable]), law.expressions, out, first, inputs)
     else:
         raise EmitError(f"unknown kind of law {law.kind!r}")
     return {"text": _comment_text(law.text), "lines": lines}
 
 
-def _hinge_block(law: HingeLawC) -> dict:
+def _hinge_block(law: HingeLawC, inputs: dict | None = None) -> dict:
     if law.time is not None:
-        block = _time_block(law.time, "out", 0)
+        block = _time_block(law.time, "out", 0, inputs)
         # f(t) only: its θ and θ̇ derivatives are zero (out[1] held df/dt: overwritten)
         block["lines"] = [line for line in block["lines"] if not line.startswith(("out[1]", "out[2]"))]
         block["lines"] += ["out[1] = 0.0;", "out[2] = 0.0;"]
         block["text"] = _comment_text(law.text)
         return block
-    return {"text": _comment_text(law.text), "lines": _block(_c_names(law.variables), law.expressions, "out", 0)}
+    return {"text": _comment_text(law.text),
+            "lines": _block(_c_names(law.variables), law.expressions, "out", 0, inputs)}
 
 
-def laws_source(time_laws: list[TimeLaw], hinge_laws: list[HingeLawC]) -> str:
-    """The C unit of a scene's laws (see the module docstring). :class:`EmitError` when a
-    law cannot be printed in C (the caller then evaluates the laws in Python)."""
+def _controller_block(law: ControllerLawC, inputs: dict) -> dict:
+    t, *sensors = law.variables
+    variables = {t: sp.Symbol("t"), **{v: sp.Symbol(f"s[{m}]") for m, v in enumerate(sensors)}}
+    return {"text": _comment_text(law.text), "lines": _block(variables, law.expressions, "out", 0, inputs)}
+
+
+def laws_source(time_laws: list[TimeLaw], hinge_laws: list[HingeLawC], inputs: tuple = (),
+                controllers: tuple = (), controller_laws: tuple = ()) -> str:
+    """The C unit of a scene's laws (see the module docstring); ``inputs``, ``controllers``: the
+    names of the scene's inputs and controllers in order. :class:`EmitError` when a law cannot be
+    printed in C (the caller then evaluates the laws in Python)."""
+    inputs = {**{name: f"latdyn_inputs[{i}]" for i, name in enumerate(inputs)},
+              **{name: f"latdyn_controllers[{k}]" for k, name in enumerate(controllers)}}
     template = _environment().get_template("laws.c.j2")
     return template.render(
         marker=MARKER, command=COMMAND, versions=tool_versions(), hash=formulation_hash(), variant=None,
-        time_laws=[_time_block(law, "out", 3 * k) for k, law in enumerate(time_laws)],
-        hinge_laws=[_hinge_block(law) for law in hinge_laws],
+        time_laws=[_time_block(law, "out", 3 * k, inputs) for k, law in enumerate(time_laws)],
+        hinge_laws=[_hinge_block(law, inputs) for law in hinge_laws],
+        controller_laws=[_controller_block(law, inputs) for law in controller_laws],
     )

@@ -42,4 +42,16 @@ def study(source, scheduler=None, out=None, *, client=None, **options):
     return _study(source, scheduler=scheduler, out=out, client=client, **options)
 
 
-__all__ = ["load_scene", "run", "study", "SceneError", "SolverError", "UnboundedError", "__version__"]
+def __getattr__(name: str):
+    """``latdyn.Simulation``: a transient run stepped from Python (imported on first use, like the
+    solver behind :func:`run`); see :class:`latdyn.stepping.simulation.Simulation` and
+    docs/stepping.md."""
+    if name == "Simulation":
+        from latdyn.stepping.simulation import Simulation
+
+        return Simulation
+    raise AttributeError(f"module 'latdyn' has no attribute {name!r}")
+
+
+__all__ = ["load_scene", "run", "study", "Simulation", "SceneError", "SolverError", "UnboundedError",
+           "__version__"]

@@ -1,15 +1,17 @@
-"""The ``latdyn`` command (also ``python -m latdyn``): ``run``, ``check``, ``plot``, ``animate``, ``study``.
+"""The ``latdyn`` command (also ``python -m latdyn``): ``run``, ``check``, ``plot``, ``animate``, ``study``,
+``fmu``.
 
 Exit statuses (SCENE.md):
 
 =====  ===============================================================================
 0      solved (``run``), valid (``check``), plotted (``plot``), animated (``animate``), study finished
-       (failed cases are rows)
+       (failed cases are rows), FMU written (``fmu``)
 1      the solver failed, or the run ended unbounded (its energy balance broke: summary.json status
        ``unbounded``; docs/energy.md), what was recorded being left complete; or an internal error
 2      invalid scene, missing scene file, bad arguments, missing/invalid results folder (for
        ``animate`` also: no ParaView files in it, an extension other than .gif/.mp4, .mp4 without ffmpeg),
-       ``run --resume`` without a checkpoint of this scene and version, invalid study or --scheduler
+       ``run --resume`` without a checkpoint of this scene and version, invalid study or --scheduler,
+       ``fmu`` of a scene that is not transient or to a file not ending in .fmu
 130    interrupted (Ctrl-C, SIGTERM); what was recorded is left complete, with a
        checkpoint for ``run --resume``
 =====  ===============================================================================
@@ -204,6 +206,16 @@ def _command_study(args) -> int:
     return 0
 
 
+def _command_fmu(args) -> int:
+    _load_scene(args.scene)  # SceneError -> 2 before anything is written
+    out = Path(args.out) if args.out else Path.cwd() / f"{Path(args.scene).stem}.fmu"
+    if out.suffix != ".fmu":
+        raise _UsageError(f"{out}: an FMU file name ends in .fmu")
+    built = _module("latdyn.stepping.fmu").build_fmu(args.scene, out)
+    print(f"{PROG}: wrote {built} (FMI 2.0 co-simulation; it runs in a Python with latdyn installed)")
+    return 0
+
+
 # ----------------------------------------------------------------------------- parser
 def _seconds(text: str) -> float:
     try:
@@ -280,6 +292,15 @@ def build_parser() -> argparse.ArgumentParser:
                        help="serial (default), a local Dask cluster of N processes, or a Dask scheduler address")
     study.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
     study.set_defaults(handler=_command_study)
+    fmu = commands.add_parser("fmu", parents=[common], help="build an FMI 2.0 co-simulation FMU of a transient scene",
+                              description="Write an FMI 2.0 co-simulation FMU of SCENE (a transient scene) to "
+                              "FILE.fmu, packed by PythonFMU: its real inputs are the scene's inputs (start values "
+                              "the scene's), its real outputs the scene's probes; each communication step advances "
+                              "the run to the next communication point. The FMU runs latdyn in an embedded Python: "
+                              "where it runs, that Python needs latdyn installed (pip install \"latdyn[fmu]\").")
+    fmu.add_argument("scene", metavar="SCENE", help="scene file (YAML or JSON)")
+    fmu.add_argument("-o", "--out", metavar="FILE.fmu", help="the FMU file (default: ./<SCENE stem>.fmu)")
+    fmu.set_defaults(handler=_command_fmu)
     return parser
 
 

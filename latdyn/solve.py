@@ -68,19 +68,9 @@ def run(scene, out_dir=None, backend: str = "auto", progress: bool = False, *, r
             raise refusal(scene)
     analysis = scene.solve.analysis
     resume_from = _checkpoint_to_resume(scene, out_dir) if resume else None
-    prepared = prepare(scene, backend)
+    prepared, probes, writer = open_run(scene, out_dir, backend, resume_from)
     scene = prepared.scene
-    _check_linear_model(prepared)
     kernel_backend = prepared.assembler.kernels.backend
-    if resume_from is not None:
-        checkpoints.check(resume_from, out_dir, {"backend": kernel_backend})
-    elif out_dir is not None:
-        checkpoints.discard(out_dir)  # a fresh run: a checkpoint of an earlier one is stale
-    probes = ProbeSet(prepared.assembler, prepared.state)
-    writer = _result_writer(prepared, probes, out_dir, analysis, resume_from)
-    summary = {"latdyn_version": __version__, "scene_hash": scene.source_hash, "steps": 0,
-               "newton_iterations": 0, "rejected_steps": 0, "energy_balance_error": None}
-    writer.summary.update(summary)
     checkpointer = None
     if analysis == "transient" and out_dir is not None:
         checkpointer = checkpoints.Checkpointer(
@@ -90,15 +80,54 @@ def run(scene, out_dir=None, backend: str = "auto", progress: bool = False, *, r
         writer.summary.update(resumed_from_t=resume_from.t, resumes=resume_from.resumes + 1)
     with writer, _sigterm_interrupts(enabled=checkpointer is not None):
         _analyse(prepared, probes, writer, out_dir, analysis, progress, checkpointer, resume_from)
-        writer.summary["wall_time_s"] = time.perf_counter() - wall0
-        writer.summary["compile_s"] = _compile_seconds() - compiled0
-        writer.close(dict(writer.summary), status="solved")
+        close_run(writer, wall0, compiled0)
     if checkpointer is not None:
         checkpointer.discard()  # finished: nothing to resume
     result = writer.result()
     if analysis == "modes":
         result.modes = np.asarray(writer.summary.get("modes_hz", []))
     return result
+
+
+def open_run(scene: Scene, out_dir, backend: str = "auto",
+             resume_from: checkpoints.Checkpoint | None = None) -> tuple:
+    """The loaded ``scene`` prepared, its probes and its result writer (open, ``summary.json``
+    saying ``running``): ``(prepared, probes, writer)``, for :func:`run` and
+    :class:`latdyn.stepping.simulation.Simulation`. A fresh run into ``out_dir`` removes the
+    checkpoint of an earlier one; ``resume_from`` (a loaded checkpoint) must belong to this model."""
+    prepared = prepare(scene, backend)
+    scene = prepared.scene
+    _check_linear_model(prepared)
+    if resume_from is not None:
+        checkpoints.check(resume_from, out_dir, {"backend": prepared.assembler.kernels.backend})
+    elif out_dir is not None:
+        checkpoints.discard(out_dir)  # a fresh run: a checkpoint of an earlier one is stale
+    probes = ProbeSet(prepared.assembler, prepared.state)
+    writer = _result_writer(prepared, probes, out_dir, scene.solve.analysis, resume_from)
+    summary = {"latdyn_version": __version__, "scene_hash": scene.source_hash, "steps": 0,
+               "newton_iterations": 0, "rejected_steps": 0, "energy_balance_error": None}
+    writer.summary.update(summary)
+    return prepared, probes, writer
+
+
+def close_run(writer: ResultWriter, wall0: float, compiled0: float, status: str = "solved",
+              error: str | None = None) -> None:
+    """Finish the result files of a run begun at ``wall0`` (``time.perf_counter``) after
+    ``compiled0`` seconds of compiling (:func:`_compile_seconds`): ``wall_time_s``, ``compile_s``
+    and ``status`` (with ``error`` when given) into ``summary.json``."""
+    writer.summary["wall_time_s"] = time.perf_counter() - wall0
+    writer.summary["compile_s"] = _compile_seconds() - compiled0
+    if error is not None:
+        writer.summary["error"] = error
+    writer.close(dict(writer.summary), status=status)
+
+
+def write_linear_model_first(prepared, writer: ResultWriter, out_dir) -> None:
+    """``solve.linear_model`` of a run that is not modal: about the chosen state, before the run."""
+    if prepared.scene.solve.linear_model is not None and prepared.scene.solve.analysis != "modes":
+        from latdyn.analyses import linearise  # on use: a transient run needs no analysis (docs/performance.md)
+
+        linearise.write_linear_model(prepared, out_dir, writer.summary)
 
 
 def _check_linear_model(prepared) -> None:
@@ -158,10 +187,7 @@ def _analyse(prepared, probes: ProbeSet, writer: ResultWriter, out_dir, analysis
     the modes are about and the eigenproblem), without preparing the model, compiling kernels or a
     linear model written before it. Failed runs report it too."""
     scene = prepared.scene
-    if scene.solve.linear_model is not None and analysis != "modes":  # about the chosen state, before the run
-        from latdyn.analyses import linearise  # on use: a transient run needs no analysis (docs/performance.md)
-
-        linearise.write_linear_model(prepared, out_dir, writer.summary)
+    write_linear_model_first(prepared, writer, out_dir)
     if analysis == "transient":
         transient(prepared, probes, writer, progress, checkpointer, resume_from)
         return

@@ -22,7 +22,7 @@ LAYERS = {
     "timeloop": 6,
     "analyses": 7,  # a linearisation about a state a transient run reaches uses the time loop
     "solve": 8,
-    "studies": 9,
+    "studies": 9, "stepping": 9,  # stepping: a transient run driven from Python, and its FMU
     "cli": 10, "__main__": 11, "__init__": 11,
 }
 

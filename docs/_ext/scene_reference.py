@@ -54,6 +54,25 @@ bodies: {a: {at: [0, 0, 0], fixed: true}}
 beams: {m: {from: a, to: [1, 0, 0], section: s}}
 solve: {analysis: modes, about: {t: 0.1}, t_end: 0.2, dt: 0.1}
 """,
+    """
+parameters: {k: 2.0}
+inputs: {target: 0.5}
+sections: {s: {EA: 1.0, EIy: 1.0, EIz: 1.0, GJ: 1.0, rhoA: 1.0}}
+bodies:
+  hub: {at: [0, 0, 0], fixed: true}
+  arm: {at: [1, 0, 0], mass: 1.0, inertia: [0.1, 0.1, 0.1]}
+beams: {link: {from: hub, to: arm, section: s, rigid: true, start: {hinge: {axis: [0, 0, 1], torque: pd + pi_}}}}
+controllers:
+  pd: {output: "k*(target - angle) - rate", limits: [-5, 5]}
+  pi_: {output: "0.1*z", states: {z: "target - angle"}, initial: {z: 0}, rate: 100}
+solve: {t_end: 0.02, dt: 0.01}
+output:
+  probes:
+    angle: {hinge: link.start, quantity: angle}
+    rate: {hinge: link.start, quantity: rate}
+    u: {controller: pd}
+    zs: {controller: pi_, state: z}
+""",
 ]
 
 # ----------------------------------------------------------------------------- descriptions
@@ -138,6 +157,17 @@ DESCRIPTIONS: dict[str, tuple[str, str, str | None]] = {
     "bodies.NAME.guide.restitution": ("coefficient of restitution of an impact on a stop, in [0, 1]", "—", "0"),
     "bodies.NAME.guide.lock_at": ("latches rigidly when the slide reaches this value", "L", "never"),
     "bodies.NAME.guide.position": ("prescribed slide, an expression in t (then no coordinate)", "L", "free"),
+    # inputs and controllers
+    "inputs": ("named external signals {NAME: number}, usable by name in any expression; held in `latdyn run`, "
+               "set from Python (latdyn.Simulation) or an FMU", "—", "none"),
+    "controllers": ("control laws in the loop, by name, in file order (docs/control.md)", "—", "none"),
+    "controllers.NAME.output": ("the output: an expression of t, probes, inputs, parameters, its states and "
+                                "controllers defined before it", "—", "required"),
+    "controllers.NAME.states": ("{S: EXPR}: dS/dt = EXPR (sampled: S ← S + EXPR/rate once a sample)", "—", "none"),
+    "controllers.NAME.initial": ("{S: number}: the states at t = 0", "—", "0"),
+    "controllers.NAME.rate": ("sampling rate: output computed at t = k/rate and held (zero-order hold)", "1/T",
+                              "continuous"),
+    "controllers.NAME.limits": ("saturation [lo, hi] of the output (lo < hi)", "—", "none"),
     # loads
     "loads.at": ("the point: BODY, BEAM.start, BEAM.end or BEAM.node[i]", "—", "required"),
     "loads.force": ("force [fx, fy, fz], expressions in t", "F", "none"),
@@ -187,6 +217,8 @@ DESCRIPTIONS: dict[str, tuple[str, str, str | None]] = {
     "output.probes.NAME.component": ("x, y, z or norm (point); x, y, z (momentum)", "—", "norm (point)"),
     "output.probes.NAME.hinge": ("hinge probe: BEAM.start or BEAM.end", "—", "required"),
     "output.probes.NAME.guide": ("guide probe: the guided body (quantity position, rate or force)", "—", "required"),
+    "output.probes.NAME.controller": ("controller probe: its output (after saturation)", "—", "required"),
+    "output.probes.NAME.state": ("controller probe: one of its states instead of its output", "—", "the output"),
     "output.probes.NAME.energy": ("kinetic, strain, potential, external_work, dissipated or total", "F·L",
                                   "required"),
     "output.probes.NAME.momentum": ("linear or angular (about the global origin)", "M·L/T, M·L²/T", "required"),
@@ -251,7 +283,17 @@ def recorded_tables() -> dict[str, list[tuple[tuple[str, ...], tuple[str, ...]]]
                 loader.load_scene(str(scene))
     finally:
         loader._Reader.mapping = original
+    import importlib
+    for place, (module, table, required) in READ_ELSEWHERE.items():
+        keys = tuple(getattr(importlib.import_module(f"latdyn.scene.{module}"), table))
+        if (keys, required) not in tables.setdefault(place, []):
+            tables[place].append((keys, required))
     return tables
+
+
+#: places whose keys a module of latdyn/scene/ reads with its own table instead of the loader's
+#: mapping(): {place: (module, table, required keys)}
+READ_ELSEWHERE = {"controllers.NAME": ("controllers", "CONTROLLER_KEYS", ("output",))}
 
 
 def source_tables() -> dict[str, tuple[str, ...]]:

@@ -18,6 +18,7 @@ import numpy as np
 from latdyn.assembly.evaluation import Evaluation
 from latdyn.assembly.initial import initial_velocities
 from latdyn.assembly.linked import evaluate_linked
+from latdyn.assembly.control import wiring
 from latdyn.assembly.native_model import NativeModel
 from latdyn.model.model import Model
 from latdyn.numerics.linalg import DENSE_LIMIT
@@ -196,6 +197,10 @@ class Assembler:
         cols.append(hd)
         # a load's block: the node's rows × the rotations of the node, then of its frame body
         self._load_mask = block_pattern(m.node_dofs[self._load_nodes], self._load_columns())
+        # continuous controllers: each actuator's rows × its sensors' coordinates (latdyn.assembly.control)
+        self.control = wiring(m, self)
+        self._coupling_mask = block_pattern(self.control.coupling_rows[:, None],
+                                            self.control.coupling_cols[:, None])[:, 0, 0]
         rows = np.concatenate(rows) if rows else np.zeros(0, np.int64)
         cols = np.concatenate(cols) if cols else np.zeros(0, np.int64)
         key = rows * max(n, 1) + cols
@@ -264,13 +269,16 @@ class Assembler:
             free = m.free_hinges
             load_blocks = b["load_blocks"][self._load_mask]
             zero_loads = np.zeros_like(load_blocks)
+            couplings = self._coupling_mask
             result.blocks = {
-                "stiffness": (stiffness, b["body_stiffness"].copy(), b["hinge_d_theta"][free], load_blocks),
+                "stiffness": (stiffness, b["body_stiffness"].copy(), b["hinge_d_theta"][free], load_blocks,
+                              b["coupling_stiffness"][couplings]),
                 "mass": (b["mass"].copy() if inertia else zero_elements,
-                         b["body_mass"].copy() if inertia else zero_bodies, np.zeros(len(free)), zero_loads),
+                         b["body_mass"].copy() if inertia else zero_bodies, np.zeros(len(free)), zero_loads,
+                         np.zeros(int(couplings.sum()))),
                 "damping": (b["quadratic_D"].copy() if inertia else zero_elements,
                             b["body_damping"].copy() if inertia else zero_bodies, b["hinge_d_rate"][free],
-                            zero_loads),
+                            zero_loads, b["coupling_damping"][couplings]),
             }
         return result
 

@@ -4,7 +4,10 @@ The compiled time step (:mod:`latdyn.step.compiled`) numbers the scene's functio
 (prescribed translations and angles, load components, hinge torques of t) and its hinge laws
 in θ, θ̇ and t; :func:`compile_laws` emits their C unit, compiles it once (``-O2``, a few
 tenths of a second on first use, reported as compile time; :mod:`latdyn.native`) and returns
-the addresses of ``latdyn_time_laws`` and ``latdyn_hinge_laws`` for the step to call.
+the addresses of ``latdyn_time_laws`` and ``latdyn_hinge_laws`` for the step to call. A law that
+names one of the scene's inputs or controllers reads it from the arrays bound with
+:meth:`CompiledLaws.bind_inputs` (:attr:`latdyn.scene.inputs.Signals.values`), so that a value set
+between steps is the one the next step uses, without compiling again.
 
 The library is found in the cache by the laws' own text (kind and source of each law, in the
 step's numbering), the generator's version (:func:`generator_version`: the code generator's
@@ -57,6 +60,21 @@ def hinge_law(law: HingeLaw):
     return HingeLawC(str(law.source), variables=tuple(variables), expressions=tuple(expressions))
 
 
+def controller_law(controller, sensors: tuple):
+    """The plain description of a continuous controller that :mod:`codegen.laws` prints: its output
+    and the output's exact derivatives by the probes ``sensors`` it reads (Dirac deltas dropped)."""
+    import sympy as sp
+    from codegen.laws import ControllerLawC
+
+    from latdyn.scene.expressions import _drop_deltas
+
+    by_name = {s.name: s for s in controller.symbols}
+    variables = [by_name[n] for n in sensors]
+    y = controller.output_expr
+    return ControllerLawC(f"{controller.name}: {controller.output_text}", variables=(by_name["t"], *variables),
+                          expressions=(y, *(_drop_deltas(sp.diff(y, v)) for v in variables)))
+
+
 class CompiledLaws:
     """The loaded library of one scene's laws and its two functions' addresses."""
 
@@ -64,6 +82,15 @@ class CompiledLaws:
         self.library, self.path = library, path
         self.time_laws = ctypes.cast(library.latdyn_time_laws, ctypes.c_void_p).value
         self.hinge_laws = ctypes.cast(library.latdyn_hinge_laws, ctypes.c_void_p).value
+        self.controller_laws = ctypes.cast(library.latdyn_controller_laws, ctypes.c_void_p).value
+        self._bind = library.latdyn_bind_inputs
+        self._bind.argtypes, self._bind.restype = [ctypes.c_void_p, ctypes.c_void_p], None
+
+    def bind_inputs(self, inputs, controllers) -> None:
+        """Point the laws at ``inputs`` and ``controllers`` (float64, C-contiguous, one entry per input
+        and per controller, kept alive by the caller). A library is shared by every model with the
+        same laws in a process: the step binds its own arrays before it calls the laws."""
+        self._bind(inputs.ctypes.data, controllers.ctypes.data)
 
 
 #: loaded libraries by the laws' own sources (the C source is a function of them in a process)
@@ -89,29 +116,33 @@ def generator_version() -> str:
     return _VERSION[0]
 
 
-def _text_key(time_functions, hinge_laws) -> str:
+def _text_key(time_functions, hinge_laws, signals=((), ()), controllers=()) -> str:
     return repr([(type(f).__name__, f.source) for f in time_functions]
-                + [(type(h).__name__, h.source) for h in hinge_laws])
+                + [(type(h).__name__, h.source) for h in hinge_laws] + [("signals", tuple(map(tuple, signals)))]
+                + [("controller", c.name, str(c.output_text), tuple(sensors)) for c, sensors in controllers])
 
 
-def _print(time_functions, hinge_laws) -> bytes:
+def _print(time_functions, hinge_laws, signals=((), ()), controllers=()) -> bytes:
     """The C unit of the laws (SymPy and the C printer); LawsUnavailable when a law does not print."""
     from codegen.emit import EmitError
     from codegen.laws import laws_source
 
     try:
-        return laws_source([time_law(f) for f in time_functions], [hinge_law(h) for h in hinge_laws]).encode()
+        return laws_source([time_law(f) for f in time_functions], [hinge_law(h) for h in hinge_laws],
+                           *map(tuple, signals), [controller_law(c, sensors) for c, sensors in controllers]).encode()
     except EmitError as error:
         raise LawsUnavailable(str(error)) from None
 
 
-def compile_laws(time_functions: list, hinge_laws: list[HingeLaw]) -> CompiledLaws:
+def compile_laws(time_functions: list, hinge_laws: list[HingeLaw], signals=((), ()), controllers=()) -> CompiledLaws:
     """The compiled laws (``time_functions``: :class:`TimeFunction` in the step's numbering;
-    ``hinge_laws``: :class:`HingeLaw`), from the cache when these laws were built before."""
+    ``hinge_laws``: :class:`HingeLaw`; ``signals``: the names of the scene's inputs and of its
+    controllers, in order; ``controllers``: (continuous controller, the probes it reads) pairs), from
+    the cache when these laws were built before."""
     from latdyn import native
 
     # the same laws again (a study's runs, a renumbering after a latch): no lookup
-    key = _text_key(time_functions, hinge_laws)
+    key = _text_key(time_functions, hinge_laws, signals, controllers)
     if key in _LOADED:
         return _LOADED[key]
     try:
@@ -121,7 +152,7 @@ def compile_laws(time_functions: list, hinge_laws: list[HingeLaw]) -> CompiledLa
         if not target.exists():  # print the unit only now
             announce = (f"latdyn: compiling the scene's laws ({len(time_functions)} of time, {len(hinge_laws)} "
                         f"hinge laws) with {using.name} into {target.parent}")
-            target = native.build("laws", _print(time_functions, hinge_laws), native.C_FLAGS, using=using,
+            target = native.build("laws", _print(time_functions, hinge_laws, signals, controllers), native.C_FLAGS, using=using,
                                   key=text, announce=announce)
         loaded = CompiledLaws(native.load(target), target)
     except RuntimeError as error:  # no compiler, a failed build, a library that does not load
@@ -130,16 +161,16 @@ def compile_laws(time_functions: list, hinge_laws: list[HingeLaw]) -> CompiledLa
     return loaded
 
 
-def unprintable(hinge_laws: list[HingeLaw]) -> str | None:
+def unprintable(hinge_laws: list[HingeLaw], signals=((), ())) -> str | None:
     """Why these hinge laws cannot be printed in C, or None. A success is remembered in the
     cache by the laws' text (an empty marker file), so that a later run does not print them."""
     from latdyn import native
 
-    marker = native.cache_dir() / f"laws-printable-{source_digest(_text_key([], hinge_laws), generator_version())}"
+    marker = native.cache_dir() / f"laws-printable-{source_digest(_text_key([], hinge_laws, signals), generator_version())}"
     if marker.exists():
         return None
     try:
-        _print([], hinge_laws)
+        _print([], hinge_laws, signals)
     except LawsUnavailable as error:
         return str(error)
     try:

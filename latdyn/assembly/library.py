@@ -64,6 +64,12 @@ class ModelData(ctypes.Structure):
         ("hinge_stiffness_law", P), ("hinge_damping_law", P), ("hinge_torque_hinge_law", P), ("hinge_conservative", P),
         ("hinge_lock_at", P), ("hinge_lower_stop", P), ("hinge_upper_stop", P), ("has_events", I64),
         ("section_width", I64), ("complete_links", P), ("reduce_links", P),
+        ("n_controllers", I64), ("n_sensors", I64), ("n_actuators", I64), ("n_couplings", I64),
+        ("controller_laws", P), ("controller_outputs", P), ("controller_slot", P), ("controller_limits", P),
+        ("sensor_start", P), ("sensor_kind", P), ("sensor_index", P), ("sensor_origin", P),
+        ("hinge_controller", P), ("load_controller", P), ("actuator_kind", P), ("actuator_index", P),
+        ("actuator_component", P), ("actuator_controller", P), ("coupling_actuator", P), ("coupling_slot", P),
+        ("coupling_sensor", P), ("coupling_position", P),
     ]
 
 
@@ -77,7 +83,8 @@ class WorkData(ctypes.Structure):
         "inertia_tangent", "forces_plus", "forces_minus", "perturbed_x", "perturbed_T", "perturbed_theta",
         "p_geometry", "p_rates", "p_accelerations", "p_mass", "p_quadratic", "p_gravity_force",
         "p_gravity_potential", "p_first_moment", "laws", "hinge_d_theta", "hinge_d_rate", "dissipation",
-        "joint_forces")]
+        "joint_forces",
+        "sensor_values", "controller_gradient", "controller_scratch", "coupling_stiffness", "coupling_damping")]
 
 
 class ConfigurationData(ctypes.Structure):

@@ -48,6 +48,8 @@ def state_shapes(model) -> dict[str, tuple]:
 _TIME_LAWS = ctypes.CFUNCTYPE(None, ctypes.c_double, ctypes.POINTER(ctypes.c_double))
 _HINGE_LAWS = ctypes.CFUNCTYPE(None, ctypes.c_int64, ctypes.c_double, ctypes.c_double, ctypes.c_double,
                                ctypes.POINTER(ctypes.c_double))
+_CONTROLLER_LAWS = ctypes.CFUNCTYPE(None, ctypes.c_int64, ctypes.c_double, ctypes.POINTER(ctypes.c_double),
+                                    ctypes.POINTER(ctypes.c_double))
 
 
 def hinge_coefficients(hinges):
@@ -88,12 +90,33 @@ class SceneLaws:
     """The scene's functions of time and hinge laws, numbered as the C code reads them: every
     function of time gives (value, rate, acceleration) at t, hinge law k gives (f, ∂f/∂θ, ∂f/∂θ̇)
     at (θ, θ̇, t). :meth:`addresses` compiles them (once per text, cached) or, when a law does not
-    print in C or there is no compiler, returns Python callbacks with the same signature."""
+    print in C or there is no compiler, returns Python callbacks with the same signature.
+    ``inputs``, ``controllers``: the scene's :class:`~latdyn.scene.inputs.Inputs` and
+    :class:`~latdyn.scene.inputs.ControllerOutputs`, whose values the laws read (:meth:`bind_inputs`)."""
 
-    def __init__(self):
+    def __init__(self, inputs=None, controllers=None):
+        from latdyn.scene.inputs import Signals
+
         self.functions, self.hinge_laws = [], []
+        #: continuous controllers and the probes each reads (latdyn.assembly.control.Wiring)
+        self.controller_laws: list[tuple] = []
+        self.inputs = inputs if inputs is not None else Signals()
+        self.controllers = controllers if controllers is not None else Signals()
         self.reason = None  # why the laws are Python callbacks, or None when compiled
         self._keep = None
+        self._compiled = None
+
+    @property
+    def signal_names(self) -> tuple:
+        """The names of the scene's inputs and of its controllers."""
+        return self.inputs.names, self.controllers.names
+
+    def bind_inputs(self) -> None:
+        """Point the compiled laws at this scene's inputs and controller outputs (a library is shared
+        by the models with the same laws in a process); nothing to do for Python callbacks, which
+        read them."""
+        if self._compiled is not None and (len(self.inputs) or len(self.controllers)):
+            self._compiled.bind_inputs(self.inputs.values, self.controllers.values)
 
     def add(self, function) -> int:
         if function is None:
@@ -114,14 +137,16 @@ class SceneLaws:
                 out[k, 0] = f.value(0.0, 0.0, t)
         return out
 
-    def addresses(self) -> tuple[int, int]:
-        """The addresses of ``time_laws(t, out)`` and ``hinge_laws(k, θ, θ̇, t, out)``."""
-        why = unprintable(self.hinge_laws) if self.hinge_laws else None
+    def addresses(self) -> tuple[int, int, int]:
+        """The addresses of ``time_laws(t, out)``, ``hinge_laws(k, θ, θ̇, t, out)`` and
+        ``controller_laws(k, t, s, out)``."""
+        why = unprintable(self.hinge_laws, self.signal_names) if self.hinge_laws else None
         if why is None:
             try:
-                compiled = compile_laws(self.functions, self.hinge_laws)
-                self._keep = compiled
-                return compiled.time_laws, compiled.hinge_laws
+                compiled = compile_laws(self.functions, self.hinge_laws, self.signal_names, self.controller_laws)
+                self._keep = self._compiled = compiled
+                self.bind_inputs()
+                return compiled.time_laws, compiled.hinge_laws, compiled.controller_laws
             except LawsUnavailable as error:
                 why = str(error)
         self.reason = why
@@ -134,9 +159,34 @@ class SceneLaws:
             law = self.hinge_laws[k]
             out[0], out[1], out[2] = law.value(theta, rate, t), law.d_theta(theta, rate, t), law.d_rate(theta, rate, t)
 
-        callbacks = (_TIME_LAWS(time_laws), _HINGE_LAWS(hinge_laws))
+        controllers = [self._python_controller(c, sensors) for c, sensors in self.controller_laws]
+
+        def controller_laws(k, t, s, out):
+            function, n = controllers[k]
+            values = function(t, *(s[i] for i in range(n)))
+            for i, value in enumerate(values):
+                out[i] = value
+
+        callbacks = (_TIME_LAWS(time_laws), _HINGE_LAWS(hinge_laws), _CONTROLLER_LAWS(controller_laws))
         self._keep = callbacks
         return tuple(ctypes.cast(c, ctypes.c_void_p).value for c in callbacks)
+
+    def _python_controller(self, controller, sensors):
+        """Controller law in Python (where the laws do not print in C): (f(t, *s) -> [y, ∂y/∂s…], len(s))."""
+        import sympy as sp
+
+        from latdyn.assembly.compiled_laws import controller_law
+
+        law = controller_law(controller, sensors)
+        signals = sorted({s for e in law.expressions for s in sp.sympify(e).free_symbols} - set(law.variables),
+                         key=lambda s: s.name)
+        functions = [sp.lambdify([*law.variables, *signals], e, modules="math") for e in law.expressions]
+
+        def evaluate(t, *s):
+            read = [self.inputs[x.name] if x.name in self.inputs else self.controllers[x.name] for x in signals]
+            return [float(f(t, *s, *read)) for f in functions]
+
+        return evaluate, len(sensors)
 
 
 def _kernel_address(kernels, name: str) -> int:
@@ -159,7 +209,7 @@ class NativeModel:
         m, a = model, assembler
         arr, ints = self._array, lambda values: self._array(values, np.int64)
 
-        laws = SceneLaws()
+        laws = SceneLaws(getattr(m.scene, "inputs", None), getattr(m.scene, "controller_outputs", None))
         prescribed = [i for i, node in enumerate(m.nodes) if node.kind == PRESCRIBED]
         translation, angle, axis = [], [], []
         for i in prescribed:
@@ -183,8 +233,11 @@ class NativeModel:
         force_law = [[laws.add(g) for g in load.force] if load.force else [-1, -1, -1] for load in a.loads]
         moment_law = [[laws.add(g) for g in load.moment] if load.moment else [-1, -1, -1] for load in a.loads]
         frame_node = [-1 if load.frame == "global" else node for load, node in zip(a.loads, a._load_frames)]
-        time_laws, hinge_laws = laws.addresses()
+        wired = a.control
+        laws.controller_laws = [(c, wired.sensor_names(k)) for k, c in enumerate(wired.controllers)]
+        time_laws, hinge_laws, controller_laws = laws.addresses()
         self.laws, self.law_hinges = laws, list(with_law)
+        outputs = laws.controllers.values  # the array the compiled laws read, written by the C evaluation
 
         lock_at = [np.nan if h.lock_at is None else float(h.lock_at) for h in m.hinges]
         lower = [np.nan if h.limits is None else float(h.limits[0]) for h in m.hinges]
@@ -240,7 +293,19 @@ class NativeModel:
             has_events=int(any(m.hinges[k].lock_at is not None or m.hinges[k].limits is not None
                                for k in m.free_hinges)),
             section_width=m.element_sections.shape[1],
+            n_controllers=wired.n, n_sensors=len(wired.sensor_kind), n_actuators=len(wired.actuator_kind),
+            n_couplings=len(wired.coupling_actuator), controller_laws=controller_laws,
+            controller_outputs=outputs.ctypes.data, controller_slot=ints(wired.slots),
+            controller_limits=arr(wired.limits.reshape(-1, 2)), sensor_start=ints(wired.sensor_start),
+            sensor_kind=ints(wired.sensor_kind), sensor_index=ints(wired.sensor_index),
+            sensor_origin=arr(wired.sensor_origin), hinge_controller=ints(wired.hinge_controller),
+            load_controller=ints(wired.load_controller.reshape(-1, 6)), actuator_kind=ints(wired.actuator_kind),
+            actuator_index=ints(wired.actuator_index), actuator_component=ints(wired.actuator_component),
+            actuator_controller=ints(wired.actuator_controller), coupling_actuator=ints(wired.coupling_actuator),
+            coupling_slot=ints(wired.coupling_slot), coupling_sensor=ints(wired.coupling_sensor),
+            coupling_position=ints(np.full(len(wired.coupling_actuator), -1, np.int64)),
         )
+        self._keep.append(outputs)
         work = {
             "geometry": (E, 36), "rates": (E, 14), "accelerations": (E, 14), "gravity_rows": (E, 3),
             "force": (E, 14), "tangent": (E, 14, 14), "mass": (E, 14, 14), "quadratic": (E, 14),
@@ -249,7 +314,10 @@ class NativeModel:
             "body_stiffness": (B, 6, 6), "load_blocks": (L, 6, 6), "strain": (E,), "section_forces": (E, 4),
             "kinetic": (E,), "total": (m.n_total + 1,), "laws": (max(len(laws.functions), 1), 3),
             "hinge_d_theta": (H,), "hinge_d_rate": (H,), "matrix": (0,), "rhs": (0,), "dissipation": (1,),
-            "joint_forces": (H,)}
+            "joint_forces": (H,),
+            "sensor_values": (len(wired.sensor_kind),), "controller_gradient": (len(wired.sensor_kind),),
+            "controller_scratch": (len(wired.sensor_kind) + 1,),
+            "coupling_stiffness": (len(wired.coupling_actuator),), "coupling_damping": (len(wired.coupling_actuator),)}
         tangent = {"inertia_tangent": (E, 14, 14), "forces_plus": (E, 14), "forces_minus": (E, 14),
                    "perturbed_x": (N, 3), "perturbed_T": (N, 3, 3), "perturbed_theta": (H,),
                    "p_geometry": (E, 36), "p_rates": (E, 14), "p_accelerations": (E, 14), "p_mass": (E, 14, 14),
@@ -313,6 +381,7 @@ class NativeModel:
         """The prescribed motion at time ``t`` in ``state``, in place (``latdyn_prescribe``); the
         state's time is the caller's."""
         configuration = self.configuration(state)
+        self.laws.bind_inputs()
         self.library.latdyn_prescribe(self.model_ref, self.work_ref, ctypes.byref(configuration), float(t))
         self._written_back(state)
 
@@ -326,6 +395,7 @@ class NativeModel:
         control.t, control.load_factor = float(state.t), float(load_factor)
         control.inertia, control.matrices = int(inertia), int(matrices)
         control.inertia_tangent, control.length = int(inertia_tangent), float(length)
+        self.laws.bind_inputs()
         self.library.latdyn_evaluate(self.model_ref, self.work_ref, ctypes.byref(self.configuration(state)),
                                      ctypes.byref(control))
         return self.buffers["total"].copy(), float(control.power)

@@ -568,7 +568,7 @@ def _law(value) -> HingeLaw:
     if isinstance(value, HingeLaw):
         return value
     if isinstance(value, TimeFunction):
-        return HingeLaw(value.source)
+        return HingeLaw(value)  # keeps the inputs it names
     return HingeLaw(float(value))
 
 

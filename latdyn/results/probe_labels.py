@@ -43,6 +43,9 @@ def probe_label(probe) -> str:
     elif kind == "element":
         words, unit = _SECTION[quantity]
         text = f"{words} in {probe.beam}.element[{probe.element}]"
+    elif kind == "controller":
+        text, unit = (f"output of controller {probe.controller}" if probe.state is None
+                      else f"state {probe.state} of controller {probe.controller}"), "its own unit"
     else:  # a probe kind added later without a label here: its name says what it is
         return probe.name
     return f"{probe.name}: {text} ({unit})"

@@ -37,6 +37,8 @@ class ProbeSet:
         self._need_momentum = "momentum" in kinds
         self._need_sections = "element" in kinds
         self._joint_forces = None  # (key of the state, forces) of the last call of joint_forces
+        self._continuous = any(p.kind == "controller" and not self.model.scene.controllers[p.controller].sampled
+                               for p in self.probes)
 
     def _point(self, probe, state: State) -> np.ndarray:
         m = self.model
@@ -147,10 +149,28 @@ class ProbeSet:
                 e = int(m.beam_elements[p.beam][p.element])
                 column = SECTION_QUANTITIES.index(p.quantity)
                 out.append(float(sections[e, column]))
+            elif p.kind == "controller":  # a sampled one's held output or a state; a continuous one's: below
+                scene = m.scene
+                out.append(scene.controller_outputs[p.controller] if p.state is None
+                           else scene.controller_states[f"{p.controller}.{p.state}"])
             else:  # pragma: no cover - the scene validator refuses other kinds
                 raise ValueError(p.kind)
+        if self._continuous:
+            self._continuous_outputs(state, out)
         return out
 
+    def _continuous_outputs(self, state: State, out: list) -> None:
+        """The outputs of continuous controllers at ``state``, from the values of the probes they read
+        (the expression the compiled evaluation uses, here in Python; clipped to its limits)."""
+        scene = self.model.scene
+        values = dict(zip(self.names, out))
+        for i, p in enumerate(self.probes):
+            c = scene.controllers.get(p.controller) if p.kind == "controller" and p.state is None else None
+            if c is None or c.sampled:
+                continue
+            read = [values[n] if n in values else scene.inputs[n] if n in scene.inputs
+                    else scene.controller_outputs[n] for n in c.reads]
+            out[i] = c.clip(float(c.functions()[0](float(state.t), *read)))
 
 def _on_stop(joint, state: State, k: int) -> int:
     """+1 (−1) when joint ``k`` rests on its upper (lower) rigid stop: on it within the events'

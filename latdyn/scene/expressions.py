@@ -63,6 +63,7 @@ so that the hinge force feeds exact entries into the Newton matrix
 from __future__ import annotations
 
 import ast
+import contextlib
 import contextvars
 import io
 import math
@@ -102,6 +103,38 @@ _ALLOWED_TEXT = (
     "the operators " + " ".join(ALLOWED_OPERATORS) + " and the names " + " ".join(ALLOWED_NAMES)
 )
 _ALLOWED_SHORT = "a real scalar expression in t"
+
+# --------------------------------------------------------------------------- inputs
+#: The scene's inputs (latdyn.scene.inputs.Inputs) while the loader reads the scene: their names
+#: are allowed in every expression read meanwhile (:func:`reading_inputs`).
+_READING_INPUTS: contextvars.ContextVar = contextvars.ContextVar("latdyn_reading_inputs", default=None)
+
+
+@contextlib.contextmanager
+def reading_inputs(*holders):
+    """Within the block, expressions may name the signals of ``holders`` (each a
+    :class:`~latdyn.scene.inputs.Signals`: the scene's inputs, its controllers' outputs; None is
+    skipped): a law that names one reads its current value."""
+    token = _READING_INPUTS.set(tuple(h for h in holders if h is not None and len(h)) or None)
+    try:
+        yield
+    finally:
+        _READING_INPUTS.reset(token)
+
+
+def _inputs_named(source) -> tuple:
+    """(the holder of each signal ``source`` names, their names), in the holders' order; ((), ())
+    when it names none."""
+    holders = _READING_INPUTS.get()
+    if holders is None or not isinstance(source, str):
+        return (), ()
+    words = set(re.findall(r"[A-Za-z_][A-Za-z_0-9]*", source))
+    used = [(h, name) for h in holders for name in h.names if name in words]
+    return tuple(h for h, _ in used), tuple(n for _, n in used)
+
+
+def _allowed_with(allowed_text: str, names: tuple) -> str:
+    return allowed_text + (", and the scene's inputs " + " ".join(names) if names else "")
 
 
 def _sympy_namespace(extra: tuple[str, ...] = ()):
@@ -225,16 +258,16 @@ def _fold(node: ast.AST) -> float:
 _VARIABLES = ("t", "theta", "theta_dot")
 
 
-def _uses_t(node: ast.AST) -> bool:
-    """True when the subtree depends on a variable (t, or theta/theta_dot in a hinge law)."""
-    return any(isinstance(n, ast.Name) and n.id in _VARIABLES for n in ast.walk(node))
+def _uses_t(node: ast.AST, extra: tuple[str, ...] = ()) -> bool:
+    """True when the subtree depends on a variable (t, or theta/theta_dot in a hinge law, or an input)."""
+    return any(isinstance(n, ast.Name) and (n.id in _VARIABLES or n.id in extra) for n in ast.walk(node))
 
 
 class _Rewrite(ast.NodeTransformer):
     """Comparisons -> SymPy relationals; bound powers of constants."""
 
-    def __init__(self, text, file, key):
-        self.text, self.file, self.key = text, file, key
+    def __init__(self, text, file, key, extra: tuple[str, ...] = ()):
+        self.text, self.file, self.key, self.extra = text, file, key, extra
 
     def visit_Compare(self, node):
         self.generic_visit(node)
@@ -254,7 +287,7 @@ class _Rewrite(ast.NodeTransformer):
         return node
 
     def _check_power(self, node):
-        exponent_t, base_t = _uses_t(node.right), _uses_t(node.left)
+        exponent_t, base_t = _uses_t(node.right, self.extra), _uses_t(node.left, self.extra)
         too_big = (f"the power {ast.unparse(node)!r} in {self.text!r} is too large or not a plain number; "
                    "expected powers of constants within the floating-point range and exponents up to 1e4")
         try:
@@ -321,7 +354,7 @@ def _parse_text(text: str, file, key, extra: tuple[str, ...] = (), allowed_text:
         _refuse(file, key, f"{text!r} is nested too deeply", too_deep)
     if _depth(tree) > MAX_DEPTH:
         _refuse(file, key, f"{text!r} is nested too deeply", too_deep)
-    tree = ast.fix_missing_locations(_Rewrite(text, file, key).visit(tree))
+    tree = ast.fix_missing_locations(_Rewrite(text, file, key, extra).visit(tree))
     symbol, local, glob = _sympy_namespace(extra)
     try:
         expr = parse_expr(ast.unparse(tree), local_dict=local, global_dict=glob,
@@ -546,12 +579,31 @@ class _BySource:
     """A law known by its source: pickled as the source (compiled again lazily), equal and
     hashed by it, shown as ``ClassName(source)``."""
 
+    _inputs: tuple = ()  # the holder (latdyn.scene.inputs.Signals) of each signal the law names
+    _input_names: tuple = ()  # the signals' names (inputs, controller outputs), in the scene's order
+
     def __getstate__(self):
-        return {"source": self._source, "file": self._file, "key": self._key}
+        return {"source": self._source, "file": self._file, "key": self._key,
+                "inputs": self._inputs, "input_names": self._input_names}
 
     def __setstate__(self, state):
         self._source, self._file, self._key = state["source"], state["file"], state["key"]
+        self._inputs, self._input_names = state.get("inputs", ()), state.get("input_names", ())
         self._compiled = None
+
+    def _input_values(self) -> list[float]:
+        """The current values of the inputs the law uses (the order of :attr:`input_names`)."""
+        return [float(h.values[h.index(n)]) for h, n in zip(self._inputs, self._input_names)]
+
+    @property
+    def input_names(self) -> tuple:
+        """The scene's signals this law names (inputs, controller outputs: latdyn.scene.inputs), in the scene's order."""
+        return self._input_names
+
+    def _input_symbols(self) -> list:
+        import sympy as sp
+
+        return [sp.Symbol(n, real=True) for n in self._input_names]
 
     def __eq__(self, other):
         return type(other) is type(self) and self._source == other._source
@@ -576,6 +628,8 @@ class TimeFunction(_BySource):
     def __init__(self, source: Any, file: str | None = None, key: str = "expression"):
         self._file, self._key = file, key
         self._source = self._normalise(source, file, key)
+        self._inputs, self._input_names = (source._inputs, source._input_names) \
+            if isinstance(source, _BySource) and source._input_names else _inputs_named(self._source)
         self._compiled = None
         self._compile()
         try:
@@ -646,6 +700,8 @@ class TimeFunction(_BySource):
                                 if len(slopes) else 0.0, 0.0)
 
             self._fns = (lambda t: np.interp(t, ts, vs), rate, lambda t: 0.0)
+        elif self._input_names:  # names the scene's inputs: parsed each time, never from the cache
+            self._symbolic()
         else:
             cached = _load("time", src)
             if cached is not None:  # parsed, checked and lambdified by an earlier process
@@ -662,7 +718,8 @@ class TimeFunction(_BySource):
         import sympy as sp
 
         src = self._source
-        symbol, expr = _parse_text(src, self._file, self._key)
+        symbol, expr = _parse_text(src, self._file, self._key, extra=self._input_names,
+                                   allowed_text=_allowed_with(_ALLOWED_TEXT, self._input_names))
         _check_size(expr, 0, src, self._file, self._key)
         d1 = _drop_deltas(sp.diff(expr, symbol))
         _check_size(d1, 1, src, self._file, self._key)
@@ -671,12 +728,14 @@ class TimeFunction(_BySource):
         self._kind = "constant" if not expr.free_symbols else "expression"
         self._expr_cache = expr
         self._derivative_cache = (symbol, (expr, d1, d2))
+        arguments = [symbol, *self._input_symbols()]
         try:
-            self._fns = tuple(sp.lambdify(symbol, e, modules="numpy") for e in (expr, d1, d2))
+            self._fns = tuple(sp.lambdify(arguments, e, modules="numpy") for e in (expr, d1, d2))
         except Exception as exc:  # a construct the NumPy printer cannot write
             raise SceneError(self._file, self._key, f"{src!r} cannot be evaluated numerically "
                                                     f"({type(exc).__name__}: {exc}); expected {_ALLOWED_SHORT}")
-        self._scalar = _scalar_functions(symbol, (expr, d1, d2), self._fns) if self._kind == "expression" else None
+        self._scalar = _scalar_functions(symbol, (expr, d1, d2), self._fns) \
+            if self._kind == "expression" and not self._input_names else None
 
     # -- evaluation
     def _eval(self, which: int, t):
@@ -689,7 +748,7 @@ class TimeFunction(_BySource):
                 pass
         tt = np.asarray(t, dtype=float)
         with np.errstate(all="ignore"):
-            out = self._fns[which](tt)
+            out = self._fns[which](tt, *self._input_values())
         out = np.broadcast_to(np.asarray(out, dtype=float), tt.shape)
         if tt.ndim == 0:
             return float(out)
@@ -796,6 +855,8 @@ class HingeLaw(_BySource):
         self._file, self._key = file, key
         self._source = source._source if isinstance(source, (HingeLaw, TimeFunction)) \
             else _with_parameters(source, key)
+        self._inputs, self._input_names = (source._inputs, source._input_names) \
+            if isinstance(source, _BySource) and source._input_names else _inputs_named(self._source)
         self._compiled = None
         self._compile()
         try:
@@ -817,14 +878,15 @@ class HingeLaw(_BySource):
             self._fns = None
         else:
             self._time = None
-            cached = _load("hinge", src)
+            cached = None if self._input_names else _load("hinge", src)  # a law naming inputs: never cached
             if cached is not None:  # parsed, checked and lambdified by an earlier process
                 self._depends, self._constant = tuple(cached["depends"]), cached["constant"]
                 self._fns, self._law_cache = cached["numpy"], None  # SymPy again on demand
             else:
                 self._symbolic()
-                _store("hinge", src, {"depends": list(self._depends), "constant": self._constant},
-                       {"numpy": self._fns}, _HINGE_PROBES)
+                if not self._input_names:
+                    _store("hinge", src, {"depends": list(self._depends), "constant": self._constant},
+                           {"numpy": self._fns}, _HINGE_PROBES)
         self._compiled = True
 
     def _symbolic(self):
@@ -832,21 +894,22 @@ class HingeLaw(_BySource):
         import sympy as sp
 
         src = self._source
-        _, expr = _parse_text(src, self._file, self._key, extra=("theta", "theta_dot"),
-                              allowed_text=_HINGE_TEXT)
+        _, expr = _parse_text(src, self._file, self._key, extra=("theta", "theta_dot", *self._input_names),
+                              allowed_text=_allowed_with(_HINGE_TEXT, self._input_names))
         _check_size(expr, 0, src, self._file, self._key)
         names = {s.name: s for s in expr.free_symbols}
         symbols = [names.get(n, sp.Symbol(n, real=True)) for n in HINGE_VARIABLES]
+        inputs = self._input_symbols()
         derivatives = []
         for variable in symbols[:2]:
             d = _drop_deltas(sp.diff(expr, variable))
             _check_size(d, 1, src, self._file, self._key)
             derivatives.append(d)
-        self._law_cache = (tuple(symbols), (expr, *derivatives))
+        self._law_cache = (tuple(symbols + inputs), (expr, *derivatives))
         self._depends = tuple(n for n in HINGE_VARIABLES if n in names)
-        self._constant = float(expr) if not self._depends else None
+        self._constant = float(expr) if not self._depends and not self._input_names else None
         try:
-            self._fns = tuple(sp.lambdify(symbols, e, modules="numpy") for e in (expr, *derivatives))
+            self._fns = tuple(sp.lambdify(symbols + inputs, e, modules="numpy") for e in (expr, *derivatives))
         except Exception as exc:  # a construct the NumPy printer cannot write
             raise SceneError(self._file, self._key, f"{src!r} cannot be evaluated numerically "
                                                     f"({type(exc).__name__}: {exc}); expected {_HINGE_TEXT}")
@@ -859,7 +922,7 @@ class HingeLaw(_BySource):
         if self._fns is None:  # a table in t
             return float(self._time.value(t)) if which == 0 else 0.0
         with np.errstate(all="ignore"):
-            return float(self._fns[which](float(theta), float(rate), float(t)))
+            return float(self._fns[which](float(theta), float(rate), float(t), *self._input_values()))
 
     def value(self, theta: float, rate: float, t: float) -> float:
         """f(θ, θ̇, t)."""
@@ -882,7 +945,7 @@ class HingeLaw(_BySource):
 
     @property
     def is_constant(self) -> bool:
-        return not self.depends_on
+        return not self.depends_on and not self._input_names
 
     @property
     def constant(self) -> float | None:
@@ -921,3 +984,25 @@ def parse_hinge_law(value: Any, file: str | None, key: str) -> HingeLaw:
     if isinstance(value, HingeLaw):
         return value
     return HingeLaw(value, file=file, key=key)
+
+
+# --------------------------------------------------------------------------- controller expressions
+def parse_named_expression(text: Any, names: tuple[str, ...], file: str | None, key: str, what: str):
+    """A controller's expression (SCENE.md ``controllers``): a number or a text in ``t`` and ``names``
+    (probes, inputs, earlier controllers, its states), checked as every scene expression is;
+    ``what`` says which names are allowed, for the message. Returns ``(symbols, expr)``: the real
+    SymPy symbols of ``t`` and of ``names`` in that order, and the expression."""
+    import sympy as sp
+
+    allowed = (f"a number or an expression in t and {what}, using numbers, the operators "
+               + " ".join(ALLOWED_OPERATORS) + " and the names " + " ".join(ALLOWED_NAMES))
+    if isinstance(text, bool) or not isinstance(text, (str, int, float)):
+        _refuse(file, key, f"got {show_value(text)}", allowed)
+    if not isinstance(text, str):
+        value = _finite_float(text)
+        if value is None:
+            _refuse(file, key, f"got {show_value(text)}", "a finite number or an expression")
+        text = repr(value)
+    symbol, expr = _parse_text(text, file, key, extra=tuple(names), allowed_text=allowed)
+    _check_size(expr, 0, text, file, key)
+    return (symbol, *[sp.Symbol(n, real=True) for n in names]), expr

@@ -61,6 +61,7 @@ from __future__ import annotations
 import copy
 import hashlib
 import json
+import keyword
 import math
 import os
 import re
@@ -71,11 +72,15 @@ from typing import Any
 import numpy as np
 
 from latdyn.errors import SceneError, show_value
+from latdyn.scene.controllers import Controller, controller_names, read_controllers
+from latdyn.scene.inputs import ControllerOutputs, Inputs, Signals
 from latdyn.scene.expressions import (
+    ALLOWED_NAMES,
     HingeLaw,
     TimeFunction,
     parse_hinge_law,
     parse_time_function,
+    reading_inputs,
 )
 from latdyn.scene.parameters import Parameters, parameter_scope, read_parameters
 
@@ -110,12 +115,13 @@ ENERGY_KINDS = ("kinetic", "strain", "potential", "external_work", "dissipated",
 MOMENTUM_KINDS = ("linear", "angular")
 AXIS_COMPONENTS = ("x", "y", "z")
 ELEMENT_QUANTITIES = ("axial_force", "torque", "moment_y", "moment_z")
-PROBE_KINDS = ("point", "hinge", "guide", "energy", "momentum", "element")
+PROBE_KINDS = ("point", "hinge", "guide", "energy", "momentum", "element", "controller")
 #: ``{hinge: ..., quantity: torque}``: the generalized force the joint applies on its coordinate
 HINGE_PROBE_QUANTITIES = HINGE_QUANTITIES + ("torque",)
 GUIDE_QUANTITIES = ("position", "rate", "force")
 
-_TOP_KEYS = ("title", "parameters", "gravity", "initial_velocity", "sections", "bodies", "beams", "loads", "solve", "output")
+_TOP_KEYS = ("title", "parameters", "gravity", "initial_velocity", "inputs", "sections", "bodies", "beams", "loads",
+             "controllers", "solve", "output")
 _SECTION_KEYS = ("EA", "EIy", "EIz", "GJ", "rhoA", "rhoIy", "rhoIz", "GAy", "GAz")
 _BODY_KEYS = ("at", "mass", "com", "inertia", "fixed", "motion", "guide")
 _GUIDE_KEYS = ("on", "axis", "stiffness", "damping", "force", "rest", "limits", "restitution", "lock_at", "position")
@@ -148,8 +154,13 @@ _PROBE_KEYS = {
     "energy": ("energy",),
     "momentum": ("momentum", "component"),
     "element": ("element", "quantity"),
+    "controller": ("controller", "state"),
 }
 _RESERVED_COLUMNS = ("t", "load_factor")
+#: Words of the expression language (latdyn.scene.expressions), which cannot name an input or a controller.
+RESERVED_WORDS = tuple(sorted(set(ALLOWED_NAMES) | {"theta", "theta_dot", "s", "s_dot", "Lt", "Le", "Gt", "Ge",
+                                                    "Eq", "Ne", "And", "Integer", "Float", "Rational", "Symbol"}
+                              | set(keyword.kwlist)))
 
 
 # =========================================================================== dataclasses
@@ -324,6 +335,9 @@ class Probe:
     end: str | None = None
     element: int | None = None
     body: str | None = None  # a guide probe's guided body
+    #: ``controller``: its output, or with ``state`` that state (latdyn.scene.controllers)
+    controller: str | None = None
+    state: str | None = None
 
 
 @dataclass
@@ -411,6 +425,14 @@ class Scene:
     raw: dict
     #: ``parameters``: their values and which key paths use them (latdyn/scene/parameters.py)
     parameters: Parameters = field(default_factory=Parameters)
+    #: ``inputs``: named external signals (latdyn.scene.inputs); set from outside with ``inputs.set(NAME, value)``
+    inputs: Inputs = field(default_factory=Inputs)
+    #: ``controllers``: control laws in the loop (latdyn.scene.controllers), in file order
+    controllers: dict[str, Controller] = field(default_factory=dict)
+    #: each controller's current output, which the laws that name it read
+    controller_outputs: ControllerOutputs = field(default_factory=ControllerOutputs)
+    #: each controller state's current value, named ``CONTROLLER.STATE``
+    controller_states: Signals = field(default_factory=Signals)
 
     @property
     def n_elements(self) -> int:
@@ -685,6 +707,7 @@ class _Reader:
         self.bodies: dict[str, Body] = {}
         self.beams: dict[str, Beam] = {}
         self.n_elements = 0  # elements of the beams read so far
+        self.controller_specs: dict | None = None  # the scene's controllers as written (probes name them)
 
     # -- primitive checks -------------------------------------------------------
     def fail(self, key: str, expected: str, got: Any = _MISSING):
@@ -1086,6 +1109,26 @@ class _Reader:
     _INPUT = re.compile(r"^(?P<point>.+)\.(?P<kind>force|moment)\.(?P<component>[xyz])$")
     _LOAD_INDEX = re.compile(r"^loads\[(?P<index>\d{1,9})\]$")
 
+    def inputs(self, value, key) -> Inputs:
+        """``inputs: {NAME: number}``: names that are not words of the expression language."""
+        if value is None:
+            return Inputs()
+        if not isinstance(value, dict):
+            self.fail(key, "expected a mapping of input names to numbers {NAME: number, ...}", value)
+        initial = {}
+        for name, number in value.items():
+            self.check_name(name, key, "input")
+            if not re.fullmatch(r"[A-Za-z_][A-Za-z_0-9]*", name):
+                self.fail(_join(key, name), "expected an input name that an expression can use: a letter or _ "
+                                            "followed by letters, digits or _", name)
+            if name in RESERVED_WORDS:
+                self.fail(_join(key, name), "a word of the expression language cannot name an input; expected "
+                                            f"a name other than {_listing(RESERVED_WORDS)}", name)
+            if isinstance(number, str) or not _is_number(number):
+                self.fail(_join(key, name), "expected a number (the input's value in latdyn run)", number)
+            initial[name] = self.number(number, _join(key, name))
+        return Inputs(initial)
+
     def linear_model_names(self, spec: dict, key: str, loads: list, probes: list) -> dict:
         """The inputs of ``solve.linear_model`` as (kind, reference) pairs: ``("hinge", (beam, end))``
         for ``BEAM.start|end`` (the torque about a free hinge's axis), ``("force"|"moment", (PointRef,
@@ -1139,9 +1182,11 @@ class _Reader:
             self.fail(key, f"expected exactly one of {_listing(PROBE_KINDS)} in a probe, "
                            f"got {_listing(kinds) if kinds else 'none'}")
         kind = kinds[0]
-        self.mapping(spec, key, _PROBE_KEYS[kind], required=_PROBE_KEYS[kind][:2] if kind != "energy" else ("energy",),
-                     what=f"a {kind} probe")
+        self.mapping(spec, key, _PROBE_KEYS[kind], required=_PROBE_KEYS[kind][:2] if kind not in ("energy", "controller")
+                     else (kind,), what=f"a {kind} probe")
         k = lambda sub: _join(key, sub)  # noqa: E731
+        if kind == "controller":
+            return self.controller_probe(name, spec, key)
         if kind == "point":
             return Probe(name=name, kind=kind, point=self.point(spec["point"], k("point")),
                          quantity=self.choice(spec["quantity"], k("quantity"), POINT_QUANTITIES),
@@ -1185,6 +1230,21 @@ class _Reader:
                                     f"for beam {beam.name!r}", ref)
         return Probe(name=name, kind=kind, beam=beam.name, element=index,
                      quantity=self.choice(spec["quantity"], k("quantity"), ELEMENT_QUANTITIES))
+
+    def controller_probe(self, name, spec, key) -> Probe:
+        """``{controller: NAME}`` (its output) or ``{controller: NAME, state: S}``."""
+        specs = self.controller_specs or {}
+        ref = spec["controller"]
+        if not isinstance(ref, str) or ref not in specs:
+            self.fail(_join(key, "controller"), f"expected the name of a controller (known: {_listing(specs)})", ref)
+        state = spec.get("state")
+        if state is not None:
+            states = specs[ref].get("states") if isinstance(specs[ref], dict) else None
+            states = states if isinstance(states, dict) else {}
+            if not isinstance(state, str) or state not in states:
+                self.fail(_join(key, "state"), f"expected a state of controller {ref!r} (its states: "
+                                               f"{_listing(states) if states else 'none'})", state)
+        return Probe(name=name, kind="controller", controller=ref, state=state)
 
     def probes(self, value, key) -> list[Probe]:
         if value is None:
@@ -1393,9 +1453,13 @@ def _build(raw: Any, file: str) -> Scene:
     if raw is None:
         r.fail("(top level)", f"expected a mapping of scene keys ({_listing(_TOP_KEYS)}), got an empty scene")
     r.mapping(raw, "", _TOP_KEYS, what="a scene: a mapping")
-    params = read_parameters(raw.get("parameters"), file, _probe_names(raw.get("output")))
+    names_taken = {n: "a probe" for n in _probe_names(raw.get("output"))}
+    for section, what in (("inputs", "an input"), ("controllers", "a controller")):
+        if isinstance(raw.get(section), dict):
+            names_taken.update({n: what for n in raw[section] if isinstance(n, str)})
+    params = read_parameters(raw.get("parameters"), file, names_taken)
     with parameter_scope(params):
-        scene = _build_parts(r, raw, file)
+        scene = _build_controlled_parts(r, raw, file)
     scene.parameters = params
     scene.solve.sensitivities = _sensitivities(r, raw.get("solve"), params)
     return scene
@@ -1427,6 +1491,28 @@ def _sensitivities(r: _Reader, solve, params: Parameters) -> list[str]:
             r.fail(f"{key}[{i}]", "duplicated parameter name; expected each name once", name)
         names.append(name)
     return names
+
+
+def _build_controlled_parts(r: "_Reader", raw: dict, file: str) -> Scene:
+    """The scene's parts read with its ``inputs`` and ``controllers`` named, then the controllers."""
+    inputs = r.inputs(raw.get("inputs"), "inputs")
+    names = controller_names(raw.get("controllers"), file, RESERVED_WORDS, {n: "an input" for n in inputs})
+    outputs = ControllerOutputs({n: 0.0 for n in names})
+    r.controller_specs = raw.get("controllers") or {}
+    with reading_inputs(inputs, outputs):  # every expression of the scene may name them
+        scene = _build_parts(r, raw, file)
+    scene.inputs, scene.controller_outputs = inputs, outputs
+    for probe in scene.output.probes:
+        if probe.name in inputs or probe.name in outputs:
+            what = "an input" if probe.name in inputs else "a controller"
+            r.fail(f"output.probes.{probe.name}", f"a probe named like {what}; probes, inputs and controllers share "
+                                                  "one namespace: expected another name", probe.name)
+    scene.controllers = read_controllers(raw.get("controllers"), file, names, scene.output.probes, inputs.names,
+                                         RESERVED_WORDS)
+    scene.controller_states = Signals({f"{c.name}.{s}": c.initial[s] for c in scene.controllers.values()
+                                       for s in c.states})
+    return scene
+
 
 
 def _build_parts(r: _Reader, raw: dict, file: str) -> Scene:

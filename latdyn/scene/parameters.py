@@ -136,8 +136,9 @@ def read_parameters(value, file: str, probe_names=()) -> Parameters:
             raise SceneError(file, key, f"{name!r} is a word of the expression language (reserved: "
                                         f"{', '.join(RESERVED)}); expected another parameter name")
         if name in probe_names:
-            raise SceneError(file, key, f"{name!r} is also the name of a probe (probes and parameters share "
-                                        "one namespace); expected another parameter name")
+            what = probe_names[name] if isinstance(probe_names, dict) else "a probe"
+            raise SceneError(file, key, f"{name!r} is also the name of {what} (probes, inputs, controllers and "
+                                        "parameters share one namespace); expected another parameter name")
         if isinstance(number, bool) or not isinstance(number, (int, float, str)):
             raise SceneError(file, key, f"expected a number, got {show_value(number)}")
         if isinstance(number, str):

@@ -242,6 +242,9 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         model.body_position = ints(block_positions(m.node_dofs[m.body_nodes].reshape(-1, 6)))
         model.hinge_position = ints(np.where(hd < n, position(hd, hd), -1))
         model.load_position = ints(block_positions(m.node_dofs[a._load_nodes].reshape(-1, 6), a._load_columns()))
+        rows, cols = a.control.coupling_rows, a.control.coupling_cols
+        model.coupling_position = ints(block_positions(rows[:, None], cols[:, None])[:, 0, 0] if len(rows)
+                                       else np.zeros(0, np.int64))
         model.factorization = ctypes.pointer(factorization.structure)
         native.set_buffer("matrix", factorization.values)
         native.set_buffer("rhs", np.zeros(n))
@@ -302,6 +305,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         control.h = h
         control.t_new = t_new
         self._factor_version += 1
+        self._native.laws.bind_inputs()  # this scene's input values (SceneLaws.bind_inputs)
         failed = self._step(self._model_ref, self._work_ref, self._control_ref, ctypes.byref(base),
                             ctypes.byref(trial), self._vectors_ref)
         if self._links is not None:
@@ -344,6 +348,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         run.t, run.budget_s, run.power, run.external_work = state.t, budget_s, power, external_work
         run.dissipation_power, run.dissipated = dissipation_power, dissipated
         self._factor_version += 1
+        self._native.laws.bind_inputs()  # this scene's input values (SceneLaws.bind_inputs)
         self._library.latdyn_advance(self._model_ref, self._work_ref, self._control_ref, ctypes.byref(base),
                                      self._scratch_c, ctypes.byref(out_c), self._vectors_ref, self._run_ref)
         if self._links is not None:

@@ -35,21 +35,37 @@ CRAWL_FRACTION = 1e-3
 class StepControl:
     """The time grid, the rows recorded on it and the step size of one transient run."""
 
-    def __init__(self, solve, every: float | None, length: float):
+    def __init__(self, solve, every: float | None, length: float, instants: np.ndarray | None = None):
         """``solve``: the scene's solve section; ``every``: ``output.every`` (None: a row every step);
-        ``length``: the model's length scale (m), which makes ``error_tol`` relative."""
+        ``length``: the model's length scale (m), which makes ``error_tol`` relative; ``instants``:
+        times the steps must land on besides k·dt (sampled controllers' instants), put on the grid."""
         self.t_end, self.dt = float(solve.t_end), float(solve.dt)
         self.n_grid = max(1, int(np.ceil(self.t_end / self.dt - 1e-9)))
+        #: the grid's times where instants are added to it (None: k·dt)
+        self.grid = None
+        if instants is not None and len(instants):
+            self.tolerance = 1e-9 * self.dt
+            nominal = [self.grid_time(k) for k in range(self.n_grid + 1)]
+            extra = [t for t in instants if t < self.t_end
+                     and abs(nominal[min(int(round(t / self.dt)), self.n_grid)] - t) > self.tolerance]
+            self.grid = np.unique(np.array(nominal + extra, dtype=float))
+            self.n_grid = len(self.grid) - 1
         self.dt_min = solve.dt_min if solve.dt_min is not None else self.dt * 1e-6
         self.adaptive, self.error_tol, self.length = solve.adaptive, solve.error_tol, length
         self.every = every
         self.crawling_step = min(CRAWL_FACTOR * self.dt_min, CRAWL_FRACTION * self.dt)
         # the crawl window: its accepted steps so far and the time it started at
         self.window_steps, self.window_events, self.window_t = 0, 0, None
+        # where the loop pauses (pause_at): its time and the last grid point not after it; the step
+        # that was shortened to land on it, restored once the run is back on the grid
+        self.pause, self.pause_index = None, None
+        self.h_resume, self.leaving_pause = None, False
 
     # ------------------------------------------------------------------------- the grid and its rows
     def grid_time(self, k: int) -> float:
-        """t_k = k·dt, computed (the last grid point is t_end exactly)."""
+        """t_k = k·dt, computed (the last grid point is t_end exactly); with instants, the k-th time of the grid."""
+        if self.grid is not None:
+            return float(self.grid[min(k, self.n_grid)])
         return self.t_end if k >= self.n_grid else k * self.dt
 
     def finished(self, run: TransientProgress) -> bool:
@@ -59,15 +75,50 @@ class StepControl:
         """Whether the next step is a nominal one from a grid point (the loop of steps in C takes those)."""
         return run.h == self.dt and run.state.t == self.grid_time(run.grid_index)
 
-    def next_step(self, run: TransientProgress) -> tuple[float, bool, float]:
+    def next_step(self, run: TransientProgress) -> tuple[float, bool, float | None]:
         """The step to try from ``run.state``: its size, whether it lands on the next grid point
-        (within 1e-9 of the step: then exactly), and that grid point's time."""
+        (within 1e-9 of the step: then exactly), and the time it ends at exactly when it lands on
+        that grid point or on the pause (:meth:`pause_at`) before it, else None."""
         target = self.grid_time(run.grid_index + 1)
         h = run.h
+        if self.pause is not None and self.pause < target:  # the pause comes first (off the grid)
+            if h < (self.pause - run.state.t) * (1 - 1e-9):
+                return h, False, None
+            self.h_resume = h
+            return self.pause - run.state.t, False, self.pause
         lands = h >= (target - run.state.t) * (1 - 1e-9)
         if lands:
             h = target - run.state.t
-        return h, lands, target
+        return h, lands, target if lands else None
+
+    # ------------------------------------------------------------------------- a pause (stepping from Python)
+    def pause_at(self, t: float | None) -> None:
+        """Steps land on time ``t`` and the loop pauses there (:meth:`paused`;
+        :class:`latdyn.stepping.simulation.Simulation`): a ``t`` within 1e-9 dt of a grid point is
+        that point (the loop of steps in C stops on it); between grid points, the step that would
+        cross ``t`` is shortened to land on it exactly, the step after it goes on to the next grid
+        point, and the steps after that have the size the shortened one had. None: no pause."""
+        if t is None:
+            self.pause = self.pause_index = None
+            return
+        if self.grid is None:
+            below = min(self.n_grid, int(np.floor(t / self.dt)))
+        else:  # sample instants on the grid
+            below = min(self.n_grid, max(0, int(np.searchsorted(self.grid, t, side="right")) - 1))
+        for k in (below, below + 1):
+            if k <= self.n_grid and abs(t - self.grid_time(k)) <= 1e-9 * self.dt:
+                self.pause, self.pause_index = self.grid_time(k), k
+                return
+        self.pause, self.pause_index = float(t), below
+
+    def paused(self, run: TransientProgress) -> bool:
+        """Whether the run has reached the pause (a step landed on it)."""
+        return self.pause is not None and run.state.t >= self.pause
+
+    def before_pause(self, run: TransientProgress) -> bool:
+        """Whether the pause comes before the next grid point (the next step, shortened onto it, is
+        taken from Python)."""
+        return self.pause is not None and self.pause_index <= run.grid_index
 
     def row_due(self, run: TransientProgress, t: float) -> bool:
         """Whether the step that ended at ``t`` is recorded: every output time, and t_end always."""
@@ -89,6 +140,8 @@ class StepControl:
                 k -= 1
             while k < self.n_grid and self.grid_time(k) < due_at:
                 k += 1
+        if self.pause_index is not None and self.pause_index > run.grid_index:
+            k = min(k, self.pause_index)
         return min(k, self.n_grid, run.grid_index + 256 - run.steps % 256)
 
     # ------------------------------------------------------------------------- the step size
@@ -146,6 +199,15 @@ class StepControl:
         a hinge latched or hit a stop in it; ``stopped``: a stop). A run that crawls ends here
         (SolverError)."""
         self._watch_crawl(run, h, latched)
+        if self.h_resume is not None:  # shortened only to land on the pause, then back on the grid
+            if not (latched or stopped) and run.state.t == self.pause:
+                run.h, self.leaving_pause = self.h_resume, True
+                return
+            if not (latched or stopped) and self.leaving_pause:  # the step from the pause
+                run.h = self.h_resume
+                self.h_resume, self.leaving_pause = None, False
+                return
+            self.h_resume, self.leaving_pause = None, False
         if self.adaptive:
             # after a latch the last Newton evaluation has the old numbering (estimate taken as 0,
             # which is what error_estimate gives after accept() for a step without a latch)

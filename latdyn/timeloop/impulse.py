@@ -73,10 +73,10 @@ def massless_element_stiffness(ev):
     massless = ~np.any(element_mass != 0.0, axis=(1, 2)) if element_mass.size else np.zeros(0, bool)
     if not massless.any():
         return None
-    element, body, hinge, loads = ev.blocks["stiffness"]
+    element, body, hinge, loads, couplings = ev.blocks["stiffness"]
     blocks = dict(ev.blocks)
     blocks["stiffness"] = (np.asarray(element) * massless[:, None, None], np.zeros_like(body),
-                           np.zeros_like(hinge), np.zeros_like(np.asarray(loads)))
+                           np.zeros_like(hinge), np.zeros_like(np.asarray(loads)), np.zeros_like(couplings))
     K = Evaluation(residual=None, reaction=None, blocks=blocks, assembler=ev.assembler).combined(
         0.0, 0.0, 1.0, dense=False)
     projection = getattr(ev, "projection", None)  # rigid links: onto the minimum coordinates

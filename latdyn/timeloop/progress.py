@@ -58,6 +58,9 @@ class TransientProgress:
     #: applied on its coordinate at a recorded row, signed, "t": its first time}} (:meth:`note_joint_forces`)
     joint_peaks: dict = field(default_factory=dict)
     inertia_tangent_from: float | None = None  # t from which Newton's matrix holds the inertia tangent
+    #: the controllers' held outputs and states after the last sample (latdyn.timeloop.sampling;
+    #: replaced, never changed in place, so that a kept copy of the progress keeps its own)
+    controller_memory: np.ndarray | None = None
 
     def count(self, stats) -> None:
         """Count a step's Newton iterations and factorizations (``stats``: a StepStats)."""

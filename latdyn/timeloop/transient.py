@@ -14,6 +14,7 @@ from latdyn.timeloop import checkpoint as checkpoints
 from latdyn.timeloop.control import StepControl
 from latdyn.timeloop.loop import TimeLoop
 from latdyn.timeloop.progress import TransientProgress
+from latdyn.timeloop.sampling import SampledControllers
 
 #: Default Newton tolerance on :func:`latdyn.step.integrators.increment_size` (see docs/verification.md).
 DEFAULT_TOL = 1e-8
@@ -61,12 +62,24 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
     checkpoint of the last accepted step is written at its interval, on an interrupt and on a
     failure; ``resume_from`` (a loaded checkpoint) continues from one, the writer having been
     reopened at its bookmark. ``progress``: show a progress bar."""
+    return start_transient(prepared, probes, writer, checkpointer, resume_from).run(progress)
+
+
+def start_transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter,
+                    checkpointer: checkpoints.Checkpointer | None = None,
+                    resume_from: checkpoints.Checkpoint | None = None) -> TimeLoop:
+    """The time loop of the scene's transient run, begun (its first row recorded, or reopened at
+    the checkpoint ``resume_from``): :meth:`TimeLoop.run` steps it to ``solve.t_end``,
+    :meth:`TimeLoop.advance_to` to a time where it pauses (latdyn.stepping)."""
     scene = prepared.scene
     length = length_scale(prepared.model)
     tol = scene.solve.tol if scene.solve.tol is not None else DEFAULT_TOL
     integrator = integrator_for(prepared, tol, length, writer.summary)
-    loop = TimeLoop(prepared, integrator, probes, writer, StepControl(scene.solve, scene.output.every, length),
-                    tol=tol, checkpointer=checkpointer, compiled_loop=COMPILED_LOOP, loop_budget_s=LOOP_BUDGET_S)
+    sampler = SampledControllers(scene, probes)
+    control = StepControl(scene.solve, scene.output.every, length,
+                          instants=sampler.instants(float(scene.solve.t_end)) if sampler else None)
+    loop = TimeLoop(prepared, integrator, probes, writer, control, tol=tol, checkpointer=checkpointer,
+                    compiled_loop=COMPILED_LOOP, loop_budget_s=LOOP_BUDGET_S, sampler=sampler)
     loop.begin(resume_from)
     if scene.solve.method == "newmark":
         state = loop.progress.state
@@ -74,4 +87,4 @@ def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progre
         if warning is not None:
             print(f"latdyn: warning: {warning}", file=sys.stderr)
             writer.summary.setdefault("warnings", []).append(warning)
-    return loop.run(progress)
+    return loop

@@ -136,6 +136,24 @@ typedef struct {
     void (*complete_links)(Configuration *);
     int64_t (*reduce_links)(const Configuration *, double beta_p, double gamma_p, int64_t matrices,
                             int64_t inertia_tangent);
+    /* continuous controllers (latdyn/assembly/control.py; n_controllers 0: none): controller k reads
+     * sensors sensor_start[k] … sensor_start[k+1]−1 (kind: 0 hinge angle, 1 hinge rate, 2 node
+     * position component, 3 node velocity component; index: the hinge, or 3·node + axis; origin
+     * subtracted), its generated law (controller_laws: y, ∂y/∂s) gives the output, clipped to
+     * controller_limits and written to controller_outputs[controller_slot[k]] (the array the
+     * compiled laws read); actuators (kind 0: hinge torque, 1: load component) apply it, and each
+     * coupling entry (actuator, row slot, sensor) is ∂r/∂q of the actuator's row by the sensor's
+     * coordinate, in K (position sensors) or C (rate sensors), at coupling_position in the matrix. */
+    int64_t n_controllers, n_sensors, n_actuators, n_couplings;
+    void (*controller_laws)(int64_t, double, const double *, double *);
+    double *controller_outputs;
+    const int64_t *controller_slot;
+    const double *controller_limits;
+    const int64_t *sensor_start, *sensor_kind, *sensor_index;
+    const double *sensor_origin;
+    const int64_t *hinge_controller, *load_controller;
+    const int64_t *actuator_kind, *actuator_index, *actuator_component, *actuator_controller;
+    const int64_t *coupling_actuator, *coupling_slot, *coupling_sensor, *coupling_position;
 } Model;
 
 /* Scratch buffers, allocated once by the caller. */
@@ -164,6 +182,9 @@ typedef struct {
     /* each joint's law force f of the last evaluation (n_hinges: hinges and guides), for the joint
      * force probes (latdyn/results/probes.py ProbeSet.joint_forces) */
     double *joint_forces;
+    /* continuous controllers: the sensors' values and ∂y/∂s (n_sensors; 0 where saturated), the
+     * controller law's output buffer (n_sensors + 1), and the coupling entries of K and C (n_couplings) */
+    double *sensor_values, *controller_gradient, *controller_scratch, *coupling_stiffness, *coupling_damping;
 } Work;
 
 /* ------------------------------------------------------------------------- small algebra */
@@ -422,6 +443,64 @@ static void element_range(const Model *m, const Configuration *c, Work *w, int64
                         w->gravity_potential + begin, w->first_moment + 3 * begin);
 }
 
+/* Continuous controllers at c (see Model): outputs (clipped) into m->controller_outputs, ∂y/∂s into
+ * w->controller_gradient (0 when saturated). */
+static void controller_outputs(const Model *m, const Configuration *c, Work *w, double t)
+{
+    for (int64_t i = 0; i < m->n_sensors; ++i) {
+        int64_t index = m->sensor_index[i];
+        double value = 0.0;
+        switch (m->sensor_kind[i]) {
+        case 0: value = c->theta[index]; break;
+        case 1: value = c->theta_dot[index]; break;
+        case 2: value = c->x[index]; break;
+        default: value = c->v[index]; break;
+        }
+        w->sensor_values[i] = value - m->sensor_origin[i];
+    }
+    for (int64_t k = 0; k < m->n_controllers; ++k) {
+        int64_t first = m->sensor_start[k], count = m->sensor_start[k + 1] - first;
+        m->controller_laws(k, t, w->sensor_values + first, w->controller_scratch);
+        double y = w->controller_scratch[0], lo = m->controller_limits[2 * k], hi = m->controller_limits[2 * k + 1];
+        int saturated = y < lo || y > hi;
+        m->controller_outputs[m->controller_slot[k]] = y < lo ? lo : (y > hi ? hi : y);
+        for (int64_t i = 0; i < count; ++i)
+            w->controller_gradient[first + i] = saturated ? 0.0 : w->controller_scratch[1 + i];
+    }
+}
+
+/* The coupling entries of K and C (see Model): each actuator's generalized force per unit output
+ * (−λ on a hinge's coordinate; the point-load kernel's force for a unit component, times λ), times
+ * ∂y/∂s of its controller's sensors. */
+static void controller_couplings(const Model *m, const Configuration *c, Work *w, double load_factor)
+{
+    static const double identity[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+    double gains[6];
+    int64_t done = -1;
+    for (int64_t e = 0; e < m->n_couplings; ++e) {
+        int64_t a = m->coupling_actuator[e];
+        if (a != done) {
+            done = a;
+            int64_t i = m->actuator_index[a];
+            memset(gains, 0, sizeof gains);
+            if (m->actuator_kind[a] == 0) {
+                gains[0] = -load_factor;
+            } else {
+                int64_t node = m->load_node[i], frame = m->load_frame_node[i];
+                double values[6] = {0, 0, 0, 0, 0, 0}, velocity[6] = {0, 0, 0, 0, 0, 0};
+                double power, by_node[18], by_frame[18];
+                values[m->actuator_component[a]] = load_factor;
+                m->point_load(1, c->T + 9 * node, m->load_r + 3 * i, values,
+                              frame >= 0 ? c->T + 9 * frame : identity, velocity, gains, &power, by_node, by_frame);
+            }
+        }
+        int64_t sensor = m->coupling_sensor[e], kind = m->sensor_kind[sensor];
+        double value = gains[m->coupling_slot[e]] * w->controller_gradient[sensor];
+        w->coupling_stiffness[e] = kind == 0 || kind == 2 ? value : 0.0;
+        w->coupling_damping[e] = kind == 1 || kind == 3 ? value : 0.0;
+    }
+}
+
 static double evaluate(const Model *m, const Configuration *c, Work *w, const double *laws, double t, int matrices,
                        int inertia, double load_factor)
 {
@@ -453,6 +532,10 @@ static double evaluate(const Model *m, const Configuration *c, Work *w, const do
         }
     }
     joint_bodies(m, c, w, inertia, load_factor);
+    if (m->n_controllers) {
+        controller_outputs(m, c, w, t);
+        if (matrices) controller_couplings(m, c, w, load_factor);
+    }
     for (int64_t b = 0; b < m->n_bodies; ++b) {
         const int64_t *d = m->node_dofs + 6 * m->body_nodes[b];
         for (int p = 0; p < 6; ++p) w->total[d[p]] += w->body_vector[6 * b + p];
@@ -471,6 +554,10 @@ static double evaluate(const Model *m, const Configuration *c, Work *w, const do
             m->hinge_laws(m->hinge_damping_law[j], state[0], state[1], t, values + 3);
             if (m->hinge_torque_hinge_law[j] >= 0)
                 m->hinge_laws(m->hinge_torque_hinge_law[j], state[0], state[1], t, values + 6);
+        }
+        if (m->n_controllers && m->hinge_controller[j] >= 0) {  /* a continuous controller's output */
+            values[6] = m->controller_outputs[m->controller_slot[m->hinge_controller[j]]];
+            values[7] = values[8] = 0.0;
         }
         double f, spring_power, torque_power, damper_power;
         m->hinge_force(1, state, values, &f, w->hinge_d_theta + j, w->hinge_d_rate + j, &spring_power,
@@ -492,6 +579,10 @@ static double evaluate(const Model *m, const Configuration *c, Work *w, const do
             if (fl >= 0) values[p] = load_factor * laws[3 * fl];
             if (ml >= 0) values[3 + p] = load_factor * laws[3 * ml];
         }
+        if (m->n_controllers)  /* components a continuous controller drives */
+            for (int p = 0; p < 6; ++p)
+                if (m->load_controller[6 * l + p] >= 0)
+                    values[p] = load_factor * m->controller_outputs[m->controller_slot[m->load_controller[6 * l + p]]];
         memcpy(velocity, c->v + 3 * i, 3 * sizeof(double));
         memcpy(velocity + 3, c->w + 3 * i, 3 * sizeof(double));
         double force[6], load_power, by_node[18], by_frame[18];

@@ -51,6 +51,10 @@ static void assemble(const Model *m, Work *w, double beta_p, double gamma_p, int
         for (int p = 0; p < 36; ++p)
             if (pos[p] >= 0) w->matrix[pos[p]] += w->load_blocks[36 * l + p];
     }
+    /* continuous controllers: the actuators' rows by the sensors' coordinates (evaluate.c) */
+    for (int64_t e = 0; e < m->n_couplings; ++e)
+        if (m->coupling_position[e] >= 0)
+            w->matrix[m->coupling_position[e]] += gamma_p * w->coupling_damping[e] + w->coupling_stiffness[e];
 }
 
 /* dx = −S⁻¹ r with the factors held in Work (factorization.c), through the factor's order. */

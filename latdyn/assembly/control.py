@@ -1,0 +1,188 @@
+"""Continuous controllers wired into the equations of motion (SCENE.md ``controllers`` without ``rate``).
+
+A continuous controller k reads sensors s (probes: hinge angles and rates, global components of
+the position, displacement or velocity of a point without offset) and drives actuators (a hinge
+torque, a load component, each naming the controller alone). In the one evaluation
+(``csrc/evaluate.c``, ``controllers``) its output y_k = clip(f_k(t, s)) is computed from the
+configuration with the generated law (codegen/laws.py ``latdyn_controller_laws``: y and ∂y/∂s,
+exact), the actuators apply it, and the coupling of each actuator's rows to each sensor's
+coordinate enters K (a sensor of position) or C (a sensor of rate):
+
+    ∂r_row/∂q_sensor = g_row · ∂y/∂s,
+
+g_row the actuator's generalized force per unit output (−λ on a hinge's coordinate: f = … − λτ; the
+point-load kernel's force for a unit component, times λ, on a load's node). A non-collocated
+controller thus couples the actuator's equation to the sensor's coordinates: the entries are in
+the assembler's pattern (:meth:`latdyn.assembly.assembler.Assembler.reindex`), so the iteration
+matrix's factorization, the linearisation (the closed loop) and the reduction onto the minimum
+coordinates with rigid links take them. Saturated (output at a limit), ∂y/∂s = 0.
+
+:func:`wiring` lays this out for one numbering of the coordinates; what it cannot wire (a sensor or
+an actuator outside the list above, a continuous controller with states or reading another
+continuous controller) is refused with the key path.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from latdyn.errors import SceneError
+
+#: sensor kinds (csrc/evaluate.c): hinge angle, hinge rate, node position component, node velocity component
+ANGLE, RATE, POSITION, VELOCITY = 0, 1, 2, 3
+_AXIS = {"x": 0, "y": 1, "z": 2}
+
+
+@dataclass
+class Wiring:
+    """The continuous controllers of a model for one numbering (arrays as csrc/evaluate.c reads them)."""
+
+    controllers: list = field(default_factory=list)  # latdyn.scene.controllers.Controller, k = 0, 1, …
+    slots: list = field(default_factory=list)  # each one's index in the scene's ControllerOutputs
+    limits: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    sensor_start: np.ndarray = field(default_factory=lambda: np.zeros(1, np.int64))
+    sensor_kind: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    sensor_index: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    sensor_origin: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    sensor_dof: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    hinge_controller: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    load_controller: np.ndarray = field(default_factory=lambda: np.zeros((0, 6), np.int64))
+    actuator_kind: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))  # 0 hinge, 1 load
+    actuator_index: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    actuator_component: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    actuator_controller: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    coupling_actuator: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    coupling_slot: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    coupling_sensor: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    coupling_rows: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    coupling_cols: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+
+    @property
+    def n(self) -> int:
+        return len(self.controllers)
+
+    def sensor_names(self, k: int) -> tuple:
+        """The probes controller k reads, in the order of its sensors."""
+        c = self.controllers[k]
+        return tuple(n for n in c.reads if n in self._probe_names)
+
+    _probe_names: tuple = ()
+
+
+def _refuse(scene, key, what):
+    raise SceneError(scene.file, key, what)
+
+
+def _sensor(scene, model, controller, probe):
+    """(kind, index, origin, dof) of the probe a continuous controller reads."""
+    key = f"controllers.{controller.name}.output"
+    if probe.kind == "hinge":
+        j = model.hinge_index(probe.beam, probe.end)
+        return (ANGLE if probe.quantity == "angle" else RATE), j, 0.0, int(model.hinge_dofs[j])
+    if probe.kind == "point" and probe.frame == "global" and probe.component in _AXIS:
+        node, r = model.point(probe.point)
+        if np.any(np.asarray(r) != 0.0):
+            _refuse(scene, key, f"the probe {probe.name!r} is at a grid point offset from its node: a continuous "
+                                "controller reads a point without offset (a body's reference point, a beam node); "
+                                "expected such a point, or a sampled controller (rate: HZ)")
+        c = _AXIS[probe.component]
+        origin = float(model.nodes[node].position[c]) if probe.quantity == "displacement" else 0.0
+        kind = VELOCITY if probe.quantity == "velocity" else POSITION
+        return kind, 3 * node + c, origin, int(model.node_dofs[node, c])
+    _refuse(scene, key, f"a continuous controller reads hinge angles and rates and the global x, y or z component "
+                        f"of a point's position, displacement or velocity; the probe {probe.name!r} is not one "
+                        "(expected one of those, or a sampled controller: rate: HZ)")
+
+
+def _named_alone(law, name: str) -> bool:
+    return law is not None and isinstance(law.source, str) and law.source.strip() == name
+
+
+def wiring(model, assembler) -> Wiring:
+    """The continuous controllers of ``model`` wired for its current numbering (module docstring)."""
+    scene = model.scene
+    continuous = [c for c in getattr(scene, "controllers", {}).values() if not c.sampled]
+    out = Wiring(_probe_names=tuple(p.name for p in scene.output.probes))
+    H, L = len(model.hinges), len(assembler.loads)
+    out.hinge_controller = np.full(H, -1, np.int64)
+    out.load_controller = np.full((L, 6), -1, np.int64)
+    if not continuous:
+        return out
+    probes = {p.name: p for p in scene.output.probes}
+    index = {c.name: k for k, c in enumerate(continuous)}
+    kinds, indices, origins, dofs, start = [], [], [], [], [0]
+    for c in continuous:
+        key = f"controllers.{c.name}"
+        if c.states:
+            _refuse(scene, f"{key}.states", "a continuous controller with states is not run by this version of the "
+                                            "package; expected a sampled controller (rate: HZ) for states")
+        for name in c.reads:
+            if name in index:
+                _refuse(scene, f"{key}.output", f"a continuous controller that reads another continuous one ({name!r}) "
+                                                "is not run by this version of the package; expected the sensors "
+                                                "written into its own output")
+            if name in probes:
+                kind, i, origin, dof = _sensor(scene, model, c, probes[name])
+                kinds.append(kind)
+                indices.append(i)
+                origins.append(origin)
+                dofs.append(dof)
+        start.append(len(kinds))
+    out.controllers = continuous
+    out.slots = [scene.controller_outputs.index(c.name) for c in continuous]
+    out.limits = np.array([c.limits if c.limits is not None else (-np.inf, np.inf) for c in continuous], float)
+    out.sensor_start = np.array(start, np.int64)
+    out.sensor_kind, out.sensor_index = np.array(kinds, np.int64), np.array(indices, np.int64)
+    out.sensor_origin, out.sensor_dof = np.array(origins, float), np.array(dofs, np.int64)
+
+    def driven(law, key):
+        """The continuous controller a law names (alone), or -1; refused inside an expression."""
+        names = [n for n in getattr(law, "input_names", ()) if n in index]
+        if not names:
+            return -1
+        if not _named_alone(law, names[0]) or len(names) > 1:
+            _refuse(scene, key, f"a continuous controller ({names[0]!r}) drives a hinge torque or a load component "
+                                "that names it alone; expected the controller's name alone (write the expression "
+                                "into its output), or a sampled controller")
+        return index[names[0]]
+
+    def not_driven(law, key):
+        names = [n for n in getattr(law, "input_names", ()) if n in index]
+        if names:
+            _refuse(scene, key, f"a continuous controller ({names[0]!r}) drives a hinge torque or a load component; "
+                                "expected it nowhere else (a sampled controller may be named anywhere)")
+
+    for name, body in scene.bodies.items():
+        for law in [*(body.translation or ()), body.rotation_angle]:
+            not_driven(law, f"bodies.{name}.motion")
+    actuators = []  # (kind, index, component, controller)
+    for j, h in enumerate(model.hinges):
+        path = f"beams.{h.beam}.{h.end}.hinge"
+        for what in ("stiffness", "damping", "angle"):
+            not_driven(getattr(h, what, None), f"{path}.{what}")
+        k = driven(h.torque, f"{path}.torque")
+        if k >= 0:
+            out.hinge_controller[j] = k
+            actuators.append((0, j, 0, k))
+    for l, load in enumerate(assembler.loads):
+        for offset, components in ((0, load.force), (3, load.moment)):
+            for p, law in enumerate(components or ()):
+                k = driven(law, f"loads[{l}]")
+                if k >= 0:
+                    out.load_controller[l, offset + p] = k
+                    actuators.append((1, l, offset + p, k))
+    if actuators:
+        out.actuator_kind, out.actuator_index, out.actuator_component, out.actuator_controller = (
+            np.array(column, np.int64) for column in zip(*actuators))
+    entries = []  # (actuator, slot, sensor, row, col)
+    for a, (kind, i, p, k) in enumerate(actuators):
+        rows = [int(model.hinge_dofs[i])] if kind == 0 else \
+            [int(d) for d in model.node_dofs[assembler._load_nodes[i]]]
+        for slot, row in enumerate(rows):
+            for m in range(start[k], start[k + 1]):
+                entries.append((a, slot, m, row, dofs[m]))
+    if entries:
+        (out.coupling_actuator, out.coupling_slot, out.coupling_sensor, out.coupling_rows,
+         out.coupling_cols) = (np.array(column, np.int64) for column in zip(*entries))
+    return out

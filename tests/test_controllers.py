@@ -1,0 +1,271 @@
+"""``controllers`` (SCENE.md, "Added with the issues of 2026-11-26"): control laws in the loop.
+
+Exact references: a rigid link on a hinge (a hub of inertia J about the hinge axis) under a sampled
+PD controller is a double integrator with a zero-order-hold input, whose exact discrete-time
+solution at the sample instants is θ_{k+1} = θ_k + T ω_k + u_k T²/2J, ω_{k+1} = ω_k + u_k T/J; with
+a discrete integrator state S_{k+1} = S_k + e_k/rate. Planar (axis z) and genuinely 3D (axis
+[0, 1, 1]/√2, the link along x)."""
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+import yaml
+
+import latdyn
+from cli_runs import latdyn_run, probe_columns
+
+#: a rigid link to a tip mass m at distance L, on a hinge about AXIS at the fixed hub: J = m L²
+HUB = """
+{inputs}
+controllers:
+{controllers}
+sections:
+  s: {{EA: 1, EIy: 1, EIz: 1, GJ: 1, rhoA: 0}}
+bodies:
+  hub: {{at: [0, 0, 0], fixed: true}}
+  tip: {{at: [0.5, 0, 0], mass: 4.0}}
+beams:
+  arm:
+    from: hub
+    to: tip
+    section: s
+    rigid: true
+    start: {{hinge: {{axis: {axis}, torque: "{torque}"}}}}
+solve: {solve}
+output:
+  probes:
+    th: {{hinge: arm.start, quantity: angle}}
+    om: {{hinge: arm.start, quantity: rate}}
+{probes}
+"""
+J = 4.0 * 0.5 ** 2
+PLANAR, SPATIAL = "[0, 0, 1]", "[0, 0.7071067811865476, 0.7071067811865476]"
+
+
+def hub(controllers: str, *, torque: str = "ctl", axis: str = PLANAR, solve: str = "{t_end: 2.0, dt: 0.01}",
+        probes: str = "", inputs: str = "") -> str:
+    return HUB.format(controllers=controllers, torque=torque, axis=axis, solve=solve, probes=probes, inputs=inputs)
+
+
+SAMPLED_PI = """
+  ctl:
+    output: "-kp*(th - ref) - kd*om - ki*S"
+    states: {S: "th - ref"}
+    initial: {S: 0.5}
+    rate: 10
+"""
+
+
+def discrete_pi(kp, kd, ki, ref, rate, n, S0=0.5):
+    """The exact discrete-time solution of J θ̈ = u with u held over each sample interval."""
+    T, th, om, S = 1.0 / rate, 0.0, 0.0, S0
+    out = [(th, om, S)]
+    for _ in range(n):
+        u = -kp * (th - ref) - kd * om - ki * S
+        S = S + (th - ref) / rate
+        th, om = th + T * om + u * T * T / (2 * J), om + u * T / J
+        out.append((th, om, S))
+    return np.array(out)
+
+
+@pytest.mark.parametrize("axis", [PLANAR, SPATIAL], ids=["planar", "3d"])
+def test_sampled_pi_equals_the_exact_discrete_time_solution(tmp_path, axis):
+    """Sampled at 10 Hz with dt = 0.03 (steps shortened onto the instants): at every sample instant
+    the hinge angle, rate and the integrator state equal the discrete-time solution to round-off."""
+    inputs = "inputs: {kp: 6.0, kd: 2.0, ki: 1.0, ref: 1.0}"
+    text = hub(SAMPLED_PI, axis=axis, solve="{t_end: 3.0, dt: 0.03}", inputs=inputs,
+               probes="    u: {controller: ctl}\n    Sp: {controller: ctl, state: S}")
+    completed, out = latdyn_run(tmp_path, text)
+    assert completed.returncode == 0, completed.stderr
+    p = probe_columns(out)
+    exact = discrete_pi(6.0, 2.0, 1.0, 1.0, 10, 30)
+    for k in range(31):
+        row = int(np.argmin(np.abs(p["t"] - k / 10)))
+        assert abs(p["t"][row] - k / 10) < 1e-12  # a step landed on the instant
+        assert abs(p["th"][row] - exact[k, 0]) < 1e-10
+        assert abs(p["om"][row] - exact[k, 1]) < 1e-10
+        if k < 30:  # recorded at the instant: the new held output, and the state advanced by the sample
+            th, om, S = exact[k]
+            assert abs(p["u"][row] - (-6 * (th - 1) - 2 * om - 1.0 * S)) < 1e-9
+            assert abs(p["Sp"][row] - exact[k + 1, 2]) < 1e-12
+
+
+def test_sampled_saturation_and_chain_api():
+    """``limits`` clip the held output (not the state); a controller reads an earlier one by name
+    and sees its new value at the same instant."""
+    scene = latdyn.load_scene(yaml.safe_load(hub("""
+  raw:
+    output: "-20*(th - 1) - 4*om"
+    rate: 20
+  ctl:
+    output: "raw"
+    limits: [-1.5, 1.5]
+    rate: 20
+""", probes="    u: {controller: ctl}\n    r: {controller: raw}", solve="{t_end: 1.0, dt: 0.01}")))
+    result = latdyn.run(scene)
+    T, th, om = 0.05, 0.0, 0.0
+    for k in range(20):
+        raw = -20 * (th - 1) - 4 * om
+        u = min(max(raw, -1.5), 1.5)
+        row = int(np.argmin(np.abs(result.t - k * T)))
+        assert abs(result.probes["r"][row] - raw) < 1e-9 and abs(result.probes["u"][row] - u) < 1e-12
+        assert abs(result.probes["th"][row] - th) < 1e-10
+        th, om = th + T * om + u * T * T / (2 * J), om + u * T / J
+
+
+def test_sampled_controller_resumes_bit_for_bit(tmp_path, monkeypatch):
+    """Interrupted between two samples and resumed (``--resume``): the held output and the state
+    come back from the checkpoint and the files equal an uninterrupted run's."""
+    from test_checkpoint import interrupt_at
+
+    text = hub(SAMPLED_PI, inputs="inputs: {kp: 6.0, kd: 2.0, ki: 1.0, ref: 1.0}",
+               probes="    u: {controller: ctl}\n    Sp: {controller: ctl, state: S}")
+    scene = yaml.safe_load(text)
+    full, out = tmp_path / "full", tmp_path / "out"
+    latdyn.run(scene, full)
+    with monkeypatch.context() as m:
+        interrupt_at(m, 0.737)
+        with pytest.raises(KeyboardInterrupt):
+            latdyn.run(scene, out)
+    latdyn.run(scene, out, resume=True)
+    assert (out / "probes.csv").read_text() == (full / "probes.csv").read_text()
+
+
+@pytest.mark.parametrize("controllers, key, says", [
+    ("  t: {output: 1, rate: 1}", "controllers.t", "word of the expression language"),
+    ("  ctl: {output: \"ctl + 1\", rate: 1}", "controllers.ctl.output", "a cycle"),
+    ("  ctl: {output: \"later\", rate: 1}\n  later: {output: 1, rate: 1}", "controllers.ctl.output",
+     "defined later"),
+    ("  ctl: {output: \"u\", rate: 1}", "controllers.ctl.output", "through the probe 'u'"),
+    ("  ctl: {output: \"E\"}", "controllers.ctl.output", "continuous controller cannot read the energy probe"),
+    ("  ctl: {output: \"nope\", rate: 1}", "controllers.ctl.output", "name 'nope'"),
+    ("  ctl: {output: 1, rate: 0}", "controllers.ctl.rate", "positive number"),
+    ("  ctl: {output: 1, limits: [1, 1]}", "controllers.ctl.limits", "lo < hi"),
+    ("  ctl: {output: 1, states: {theta: 1}}", "controllers.ctl.states.theta", "word of the expression language"),
+    ("  ctl: {output: 1, states: {th: 1}}", "controllers.ctl.states.th", "already names a probe"),
+    ("  ctl: {output: 1, initial: {S: 1}}", "controllers.ctl.initial.S", "expected one of the controller's states"),
+    ("  ctl: {output: 1, gain: 2}", "controllers.ctl.gain", "unknown key"),
+    ("  th: {output: 1}", "output.probes.th", "share one namespace"),
+    # what this version does not run continuously (sampled, each runs)
+    ("  ctl: {output: \"th\", states: {S: th}}", "controllers.ctl.states", "with states is not run"),
+    ("  a: {output: \"th\"}\n  ctl: {output: \"a\"}", "controllers.ctl.output", "reads another continuous"),
+    ("  ctl: {output: \"E\", rate: 2}\n  c2: {output: \"th\"}", "beams.arm.start.hinge.torque", "name alone"),
+])
+def test_refusals_name_the_key(tmp_path, controllers, key, says):
+    torque = "2*c2" if "c2:" in controllers else "ctl" if "continuous" in says or "states" in says else "0"
+    text = hub(controllers, torque=torque, probes="    u: {controller: ctl}\n    E: {energy: kinetic}"
+               if "ctl:" in controllers else "    E: {energy: kinetic}")
+    completed, _ = latdyn_run(tmp_path, text)
+    assert completed.returncode == 2, completed.stderr
+    assert key in completed.stderr and says in completed.stderr, completed.stderr
+    assert "Traceback" not in completed.stderr
+
+
+# ----------------------------------------------------------------------------- continuous controllers
+CONTINUOUS_PD = """
+  ctl:
+    output: "-kp*(th - ref) - kd*om"
+"""
+GAINS = "inputs: {kp: 40.0, kd: 8.0, ref: 1.0}"
+
+
+def pd_exact(t, kp=40.0, kd=8.0, ref=1.0):
+    """θ(t) of J θ̈ = −kp (θ − ref) − kd θ̇ from rest at 0 (underdamped)."""
+    wn, zeta = math.sqrt(kp / J), kd / (2 * math.sqrt(kp * J))
+    wd = wn * math.sqrt(1 - zeta ** 2)
+    return ref * (1 - np.exp(-zeta * wn * t) * (np.cos(wd * t) + zeta * wn / wd * np.sin(wd * t)))
+
+
+def test_continuous_pd_slew_cli_planar(tmp_path):
+    """A continuous PD on the hinge angle and rate probes slews the hub: θ(t) against the exact
+    second-order solution (generalized-α's O(h²) error, measured 3.4e-5, 8.5e-6, 2.1e-6 at h = 0.004,
+    0.002, 0.001); its exact
+    derivatives in Newton's matrix make each step of this linear loop converge in two iterations."""
+    completed, out = latdyn_run(tmp_path, hub(CONTINUOUS_PD, inputs=GAINS, solve="{t_end: 2.0, dt: 0.002}",
+                                              probes="    u: {controller: ctl}"))
+    assert completed.returncode == 0, completed.stderr
+    p = probe_columns(out)
+    assert np.max(np.abs(p["th"] - pd_exact(p["t"]))) < 1e-5
+    assert np.max(np.abs(p["u"] - (-40 * (p["th"] - 1) - 8 * p["om"]))) < 1e-9
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["newton_iterations"] <= 2 * summary["steps"]
+
+
+def test_continuous_pd_slew_api_3d():
+    scene = latdyn.load_scene(yaml.safe_load(hub(CONTINUOUS_PD, inputs=GAINS, axis=SPATIAL,
+                                                 solve="{t_end: 2.0, dt: 0.002}")))
+    result = latdyn.run(scene)
+    assert np.max(np.abs(result.probes["th"] - pd_exact(result.t))) < 1e-5
+
+
+def test_saturated_pd_against_an_independent_integration():
+    """limits [-3, 3] on a stiff PD: θ against scipy's solve_ivp of J θ̈ = clip(u) (rtol 1e-10)."""
+    from scipy.integrate import solve_ivp
+
+    text = hub(CONTINUOUS_PD.replace('om"', 'om"\n    limits: [-3, 3]'), inputs="inputs: {kp: 200.0, kd: 30.0, ref: 1.0}",
+               solve="{t_end: 2.0, dt: 0.001}", probes="    u: {controller: ctl}")
+    result = latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
+
+    def rhs(t, x):
+        return [x[1], min(max(-200 * (x[0] - 1) - 30 * x[1], -3.0), 3.0) / J]
+
+    reference = solve_ivp(rhs, (0, 2), [0.0, 0.0], t_eval=result.t, rtol=1e-10, atol=1e-12, method="DOP853")
+    assert np.max(np.abs(result.probes["u"])) <= 3.0 + 1e-12
+    assert np.any(np.abs(result.probes["u"]) == 3.0)  # it saturated
+    assert np.max(np.abs(result.probes["th"] - reference.y[0])) < 2e-5
+
+
+def linear_model_of(text: str) -> dict:
+    import tempfile
+    from pathlib import Path
+
+    with tempfile.TemporaryDirectory() as folder:
+        latdyn.run(latdyn.load_scene(yaml.safe_load(text)), Path(folder))
+        with np.load(Path(folder) / "linear_model.npz") as data:
+            return {k: data[k] for k in data.files}
+
+
+@pytest.mark.parametrize("axis", [PLANAR, SPATIAL], ids=["planar", "3d"])
+def test_closed_loop_linear_model_is_open_loop_plus_bkc(axis):
+    """Static output feedback u = K y, K = [−kp, −kd] on y = [θ, θ̇]: the linear model of the scene
+    with the controller has A = A_ol + B K C of the scene without it, to round-off; its mode's
+    damping ratio is the loop's, kd / 2√(kp J)."""
+    modes = '{analysis: modes, count: 1, linear_model: {inputs: [arm.start], outputs: [th, om]}}'
+    closed = linear_model_of(hub(CONTINUOUS_PD, inputs=GAINS, axis=axis, solve=modes))
+    opened = linear_model_of(hub("  other: {output: 0}", torque="0", inputs=GAINS, axis=axis, solve=modes))
+    K = np.array([[-40.0, -8.0]])
+    expected = opened["A"] + opened["B"] @ K @ opened["C"]
+    assert np.max(np.abs(closed["A"] - expected)) < 1e-9 * np.max(np.abs(expected))
+    eigenvalues = np.linalg.eigvals(closed["A"])
+    zeta = -eigenvalues.real / np.abs(eigenvalues)
+    assert np.allclose(zeta, 8.0 / (2 * math.sqrt(40.0 * J)), rtol=1e-9)
+
+
+def test_non_collocated_load_controller_3d_linear_model():
+    """A force along z on body a driven by the z displacement of body b at the other end of an
+    elastic beam (non-collocated: a's equations coupled to b's coordinate): A = A_ol + B K C."""
+    scene = """
+{controllers}
+sections:
+  s: {{EA: 1.0e4, EIy: 50.0, EIz: 80.0, GJ: 40.0, rhoA: 0.5}}
+bodies:
+  base: {{at: [0, 0, 0], fixed: true}}
+  a: {{at: [1, 0, 0], mass: 2.0, inertia: [0.1, 0.1, 0.1]}}
+  b: {{at: [2, 1, 0], mass: 1.0, inertia: [0.1, 0.1, 0.1]}}
+beams:
+  post: {{from: base, to: a, section: s, elements: 2}}
+  arm: {{from: a, to: b, section: s, elements: 2}}
+loads:
+  - {{at: a, force: [0, 0, "{force}"]}}
+solve: {{analysis: modes, count: 4, linear_model: {{inputs: [a.force.z], outputs: [zb]}}}}
+output:
+  probes:
+    zb: {{point: b, quantity: displacement, component: z}}
+"""
+    closed = linear_model_of(scene.format(controllers='controllers:\n  ctl: {output: "-30*zb"}', force="ctl"))
+    opened = linear_model_of(scene.format(controllers="", force="0"))
+    expected = opened["A"] + opened["B"] @ np.array([[-30.0]]) @ opened["C"]
+    assert np.max(np.abs(closed["A"] - expected)) < 1e-8 * np.max(np.abs(expected))
