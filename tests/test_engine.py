@@ -230,7 +230,8 @@ def test_the_ctypes_mirrors_have_the_compilers_layout():
     from latdyn import native
     from latdyn.assembly import library
 
-    mirrors = {"Model": library.ModelData, "Work": library.WorkData, "Configuration": library.ConfigurationData,
+    mirrors = {"Model": library.ModelData, "Links": library.LinksData, "Work": library.WorkData,
+               "Configuration": library.ConfigurationData,
                "StepVectors": library.VectorsData, "StepControl": library.ControlData, "Advance": library.AdvanceData,
                "SparseLU": library.SparseLUStructure, "EvaluationControl": library.EvaluationData}
     lines, expected = [], []

@@ -1,7 +1,7 @@
 """The native boundary: the runtime's C library (``csrc/newton_step.c``, which inlines the one
 evaluation of ``csrc/evaluate.c`` and the one LU factorization of ``csrc/factorization.c`` with the
 sparse LU of ``csrc/sparse_lu.c``), built once into the kernel cache by :mod:`latdyn.native`, the
-ctypes mirrors of its C structs (``Model``, ``Work``, ``Configuration``, ``EvaluationControl``,
+ctypes mirrors of its C structs (``Model``, ``Links``, ``Work``, ``Configuration``, ``EvaluationControl``,
 ``Vectors``, ``StepControl``, ``Advance``, ``Factorization``, ``SparseLU``) and the signatures of
 its exported functions (``latdyn_factor`` and ``latdyn_solve`` among them).
 
@@ -63,8 +63,22 @@ class ModelData(ctypes.Structure):
         ("time_laws", P), ("hinge_laws", P),
         ("hinge_stiffness_law", P), ("hinge_damping_law", P), ("hinge_torque_hinge_law", P), ("hinge_conservative", P),
         ("hinge_lock_at", P), ("hinge_lower_stop", P), ("hinge_upper_stop", P), ("has_events", I64),
-        ("section_width", I64), ("complete_links", P), ("reduce_links", P),
+        ("section_width", I64), ("links", P),
     ]
+
+
+class LinksData(ctypes.Structure):
+    """``Links`` of csrc/links.c: the rigid links of a model in the compiled step
+    (:mod:`latdyn.assembly.native_links` fills it)."""
+
+    _fields_ = [(name, I64) for name in ("n_edges", "n_slots", "width", "n_assembled")] + [
+        (name, P) for name in (
+            "edge_parent", "edge_child", "edge_hinge", "edge_parent_slot", "edge_slot", "edge_data",
+            "slot_node", "slot_root", "slot_edge", "slot_count", "slot_columns", "slot_position",
+            "element_block", "body_block", "load_block", "block_rows", "block_columns", "block_position",
+            "positions", "expansion_size", "expansion_reduced", "expansion_start", "dof_slot", "dof_component",
+            "dof_map", "rigid_link_edge", "hinge_wrench", "root_wrench", "jacobian", "convective", "wrench",
+            "scratch")]
 
 
 class WorkData(ctypes.Structure):

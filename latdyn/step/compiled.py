@@ -43,11 +43,12 @@ element order, so the results are equal whatever the threads (bit for bit on the
 ~1e-14 on a lattice). The library is built with ``-fopenmp`` where the compiler accepts it, else
 serially (``openmp_threads`` says 0).
 
-Models with rigid links take the same Newton iteration and loop of steps: after every configuration
-update C calls back :class:`LinkedReduction` to place the dependent nodes, and after every evaluation
-to reduce it onto the minimum coordinates (:mod:`latdyn.assembly.linked`), the reduced iteration
-matrix written into the same dense, band or sparse storage, on the pattern of Pᵀ A P
-(:func:`matrix_pattern`).
+Models with rigid links take the same Newton iteration and loop of steps, in C too: after every
+configuration update the dependent nodes are completed, and every evaluation is reduced onto the
+minimum coordinates (``csrc/links.c`` with the generated edge kernels of ``codegen/joints.py``, laid
+out by :mod:`latdyn.assembly.native_links`), the reduced iteration matrix written into the same dense,
+band or sparse storage, on the pattern of Pᵀ A P (:func:`matrix_pattern`). No Python runs inside a
+Newton iteration.
 """
 from __future__ import annotations
 
@@ -66,8 +67,8 @@ from latdyn.assembly.library import (
     native_library,
     parallel_threshold,
 )
-from latdyn.assembly.linked import reduce_linked
-from latdyn.assembly.native_model import INERTIA_TANGENT_STEP, STATE_FIELDS, state_shapes
+from latdyn.assembly.native_links import native_links
+from latdyn.assembly.native_model import INERTIA_TANGENT_STEP, STATE_FIELDS, _kernel_address, state_shapes
 from latdyn.step.integrators import GeneralizedAlpha, StepStats
 
 
@@ -90,69 +91,12 @@ def matrix_pattern(assembler) -> tuple[np.ndarray, np.ndarray]:
     P = sps.csr_matrix((np.ones(n + len(dependent_rows) * len(moved)),
                         (np.concatenate([np.arange(n), np.repeat(dependent_rows, len(moved))]),
                          np.concatenate([np.arange(n), np.tile(moved, len(dependent_rows))]))), shape=(n_asm, n))
-    reduced = (P.T @ A @ P + sps.identity(n)).tocsr()
+    # moved × moved: the geometric stiffness of the reduction (csrc/links.c) writes there
+    among = sps.csr_matrix((np.ones(len(moved) ** 2), (np.repeat(moved, len(moved)), np.tile(moved, len(moved)))),
+                           shape=(n, n))
+    reduced = (P.T @ A @ P + sps.identity(n) + among).tocsr()
     reduced.sort_indices()
     return np.repeat(np.arange(n), np.diff(reduced.indptr)), reduced.indices.astype(np.int64)
-
-
-_COMPLETE_LINKS = ctypes.CFUNCTYPE(None, ctypes.c_void_p)
-_REDUCE_LINKS = ctypes.CFUNCTYPE(ctypes.c_int64, ctypes.c_void_p, ctypes.c_double, ctypes.c_double, ctypes.c_int64,
-                                 ctypes.c_int64)
-
-
-class LinkedReduction:
-    """The rigid links of a model in the compiled step: the C Newton iteration calls back
-    ``complete`` after every configuration update (dependent nodes placed, their rates completed:
-    :meth:`latdyn.model.links.RigidLinks.complete`) and ``reduce`` after every evaluation (the
-    evaluation in Work reduced onto the minimum coordinates by :func:`latdyn.assembly.linked.reduce_linked`,
-    the residual and reactions written back into Work's ``total``, and the reduced iteration
-    matrix β′M + γ′C + K loaded into the step's :class:`Factorization`). An exception in a callback
-    cannot cross C: it fails the step and :meth:`raise_pending` raises it once C has returned."""
-
-    def __init__(self, assembler, native, factorization: Factorization):
-        self.assembler, self.native, self.factorization = assembler, native, factorization
-        self.error = None
-        self._shapes = state_shapes(assembler.model)
-        self.callbacks = (_COMPLETE_LINKS(self._complete), _REDUCE_LINKS(self._reduce))
-        native.model.complete_links = ctypes.cast(self.callbacks[0], ctypes.c_void_p).value
-        native.model.reduce_links = ctypes.cast(self.callbacks[1], ctypes.c_void_p).value
-
-    def _state(self, address: int) -> State:
-        """The state whose arrays are those of the C configuration at ``address`` (views)."""
-        c = ConfigurationData.from_address(address)
-        arrays = [np.ctypeslib.as_array(ctypes.cast(getattr(c, name), ctypes.POINTER(ctypes.c_double)),
-                                        shape=self._shapes[name]) for name in STATE_FIELDS]
-        return State(0.0, *arrays)
-
-    def _complete(self, address):
-        try:
-            self.assembler.model.links.complete(self._state(address))
-        except BaseException as error:  # noqa: BLE001 - raised again by raise_pending
-            self.error = self.error or error
-
-    def _reduce(self, address, beta_p, gamma_p, matrices, inertia_tangent):
-        if self.error is not None:
-            return 1
-        try:
-            a, model, buffers = self.assembler, self.assembler.model, self.native.buffers
-            total = buffers["total"]
-            full = a.evaluation_in(self.native, total.copy(), 0.0, bool(matrices), True, bool(inertia_tangent))
-            reduced = reduce_linked(model.links, a, self._state(address), full, bool(matrices), True)
-            n = model.n_dofs
-            total[:n] = reduced.residual
-            total[n:model.n_total] = reduced.reaction
-            if matrices:
-                self.factorization.load(reduced.combined(beta_p, gamma_p, 1.0,
-                                                         dense=self.factorization.kind == "dense"))
-            return 0
-        except BaseException as error:  # noqa: BLE001 - raised again by raise_pending
-            self.error = error
-            return 1
-
-    def raise_pending(self) -> None:
-        error, self.error = self.error, None
-        if error is not None:
-            raise error
 
 
 # ----------------------------------------------------------------------------- the step
@@ -247,10 +191,13 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         native.set_buffer("rhs", np.zeros(n))
         native.set_buffer("pivots", factorization.pivots)
         if m.links is not None:
-            keep.append(LinkedReduction(a, native, factorization))
+            links, arrays = native_links(a, factorization, lambda name: _kernel_address(a.kernels, name))
+            keep += [links, arrays]
+            model.links = ctypes.addressof(links)
+        else:
+            model.links = None
         native.matrix_storage = keep
         self.factorization = factorization
-        self._links = keep[-1] if m.links is not None else None
 
     def _layout(self) -> None:
         """Offsets of a state's arrays in one flat buffer (a new state per step: the loop
@@ -304,8 +251,6 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         self._factor_version += 1
         failed = self._step(self._model_ref, self._work_ref, self._control_ref, ctypes.byref(base),
                             ctypes.byref(trial), self._vectors_ref)
-        if self._links is not None:
-            self._links.raise_pending()
         self.factorizations += control.factorizations
         self._last_trial = trial_state
         self._made = self._view(trial_state, trial)
@@ -346,8 +291,6 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         self._factor_version += 1
         self._library.latdyn_advance(self._model_ref, self._work_ref, self._control_ref, ctypes.byref(base),
                                      self._scratch_c, ctypes.byref(out_c), self._vectors_ref, self._run_ref)
-        if self._links is not None:
-            self._links.raise_pending()
         control = self._control
         self.factorizations += run.factorizations
         last = state

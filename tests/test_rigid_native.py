@@ -1,0 +1,211 @@
+"""Rigid links evaluated natively (issue 31, item 2): the generated edge and wrench kernels
+(codegen/joints.py, generated/joints.*) against latdyn.model.links and central differences, both
+backends; the compiled Newton iteration, which completes and reduces in C (csrc/links.c), against
+the reference step of tests/reference_step.py, which reduces in Python (latdyn.assembly.linked);
+and a rigid link against ever stiffer flexible beams."""
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+import pytest
+import yaml
+
+import latdyn
+from latdyn.model.kernels import load_kernels
+from latdyn.model.links import Edge, RigidLinks
+from latdyn.numerics.so3 import expm_so3, skew
+
+from reference_step import reference_engine
+from test_engine import loaded_arm
+from test_initial_state import GYROSCOPE
+from test_rigid import tree_scene
+
+RNG = np.random.default_rng(20261126)
+BACKENDS = ["numpy", "c"]
+
+
+def edge_inputs(clamped=False):
+    """A random parent (position, frame, rates) and edge (axis, point, arm, sign, angle and rates)."""
+    T = expm_so3(RNG.normal(size=3))
+    parent = np.concatenate([RNG.normal(size=3), T.ravel(), RNG.normal(size=12)])
+    axis = RNG.normal(size=3)
+    axis /= np.linalg.norm(axis)
+    sign = 0.0 if clamped else float(RNG.choice([-1.0, 1.0]))
+    edge = np.concatenate([axis, RNG.normal(size=3), RNG.normal(size=3), [sign], RNG.normal(size=3)])
+    return parent, edge
+
+
+class _State:
+    """The arrays of latdyn.model.links' state for one parent (node 0) and its child (node 1)."""
+
+    def __init__(self, parent, edge):
+        self.x, self.T = np.zeros((2, 3)), np.tile(np.eye(3), (2, 1, 1))
+        self.v, self.w, self.a, self.alpha = (np.zeros((2, 3)) for _ in range(4))
+        self.x[0], self.T[0] = parent[:3], parent[3:12].reshape(3, 3)
+        self.v[0], self.w[0], self.a[0], self.alpha[0] = (parent[k:k + 3] for k in (12, 15, 18, 21))
+        self.theta, self.theta_dot, self.theta_ddot = edge[10:11], edge[11:12], edge[12:13]
+
+
+def links_reference(parent, edge):
+    """Child position, frame and rates by latdyn.model.links (forward kinematics and twists)."""
+    hinged = edge[9] != 0.0
+    links = RigidLinks([Edge(parent=0, child=1, hinge=0 if hinged else -1, axis=edge[:3], sign=edge[9] or 1.0,
+                             point=edge[3:6], arm=edge[6:9], link="l")], ["l"])
+    state = _State(parent, edge)
+    links.complete(state)
+    return state.x[1], state.T[1], np.concatenate([state.v[1], state.w[1], state.a[1], state.alpha[1]])
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+@pytest.mark.parametrize("clamped", [False, True])
+def test_link_edge_kernel_against_links_and_differences(backend, clamped):
+    """rigid_link_edge: the child's frame, position and rates equal latdyn.model.links' to 1e-12;
+    child_transfer and child_joint are the derivatives of the child's configuration by the parent's
+    (x += δd, T ← exp(skew δπ) T) and by θ, and of its velocity by the parent's and θ̇; child_convective
+    the derivative of its acceleration by (v_p, ω_p, θ̇): all against central differences (1e-7)."""
+    kernel = load_kernels(backend, "default").rigid_link_edge
+    eps = 1e-6
+    for _ in range(3):
+        parent, edge = edge_inputs(clamped)
+        position, frame, rates, transfer, joint, convective = (o[0] for o in kernel(parent[None], edge[None]))
+        x_ref, T_ref, rates_ref = links_reference(parent, edge)
+        assert np.allclose(position, x_ref, rtol=0, atol=1e-12)
+        assert np.allclose(frame.reshape(3, 3), T_ref, rtol=0, atol=1e-12)
+        assert np.allclose(rates, rates_ref, rtol=0, atol=1e-11)
+
+        def configuration(p, e):
+            x, T = (o[0] for o in kernel(p[None], e[None])[:2])
+            return x, T.reshape(3, 3)
+
+        def moved_parent(k, h):  # parent moved along coordinate k (0-2 δd, 3-5 δπ) by h
+            p = parent.copy()
+            if k < 3:
+                p[k] += h
+            else:
+                p[3:12] = (expm_so3(np.eye(3)[k - 3] * h) @ parent[3:12].reshape(3, 3)).ravel()
+            return p
+
+        def twist_difference(plus, minus):  # (δx, δπ) of the child between two configurations
+            (xp, Tp), (xm, Tm) = plus, minus
+            W = (Tp - Tm) / (2 * eps) @ frame.reshape(3, 3).T
+            return np.concatenate([(xp - xm) / (2 * eps), [W[2, 1], W[0, 2], W[1, 0]]])
+
+        by_parent = np.column_stack([twist_difference(configuration(moved_parent(k, eps), edge),
+                                                      configuration(moved_parent(k, -eps), edge)) for k in range(6)])
+        assert np.allclose(transfer, by_parent, rtol=0, atol=1e-7)
+        up, down = edge.copy(), edge.copy()
+        up[10] += eps
+        down[10] -= eps
+        assert np.allclose(joint, twist_difference(configuration(parent, up), configuration(parent, down)),
+                           rtol=0, atol=1e-7)
+        columns = []
+        for k in range(7):  # v_p, ω_p, θ̇
+            p_up, p_down, e_up, e_down = parent.copy(), parent.copy(), edge.copy(), edge.copy()
+            if k < 6:
+                p_up[12 + k] += eps
+                p_down[12 + k] -= eps
+            else:
+                e_up[11] += eps
+                e_down[11] -= eps
+            rates_up, rates_down = kernel(p_up[None], e_up[None])[2][0], kernel(p_down[None], e_down[None])[2][0]
+            columns.append((rates_up - rates_down) / (2 * eps))
+        by_rates = np.column_stack(columns)
+        assert np.allclose(by_rates[:6, :6], transfer, rtol=0, atol=1e-7)  # the velocity by the parent's
+        assert np.allclose(by_rates[:6, 6], joint, rtol=0, atol=1e-7)
+        assert np.allclose(by_rates[6:], convective, rtol=0, atol=1e-7)
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_wrench_kernels_against_differences(backend):
+    """hinge_wrench and root_wrench: Jᵀ(f, m) of a wrench at y on a hinge (s g·((y − o_g) × f + m)) and
+    on a root (f, m + (y − x_r) × f), by hand; their derivatives by (δx_p, δπ_p, δy) and (δx_r, δy)
+    against central differences (1e-7)."""
+    ks = load_kernels(backend, "default")
+    eps = 1e-6
+    for _ in range(3):
+        parent, edge = edge_inputs()
+        T = parent[3:12].reshape(3, 3)
+        wrench = RNG.normal(size=9)
+        data = np.concatenate([edge[:6], edge[9:10]])
+        value, derivative = (o[0] for o in ks.hinge_wrench(parent[None, :12], data[None], wrench[None]))
+        g, o = T @ edge[:3], parent[:3] + T @ edge[3:6]
+        y, f, m = wrench[:3], wrench[3:6], wrench[6:]
+        assert value == pytest.approx(edge[9] * g @ (np.cross(y - o, f) + m), abs=1e-12)
+        columns = []
+        for k in range(9):
+            p_up, p_down, w_up, w_down = parent[:12].copy(), parent[:12].copy(), wrench.copy(), wrench.copy()
+            if k < 3:
+                p_up[k] += eps
+                p_down[k] -= eps
+            elif k < 6:
+                p_up[3:12] = (expm_so3(np.eye(3)[k - 3] * eps) @ T).ravel()
+                p_down[3:12] = (expm_so3(-np.eye(3)[k - 3] * eps) @ T).ravel()
+            else:
+                w_up[k - 6] += eps
+                w_down[k - 6] -= eps
+            columns.append((ks.hinge_wrench(p_up[None], data[None], w_up[None])[0][0]
+                            - ks.hinge_wrench(p_down[None], data[None], w_down[None])[0][0]) / (2 * eps))
+        assert np.allclose(derivative, columns, rtol=0, atol=1e-7)
+
+        root_input = RNG.normal(size=12)
+        value, derivative = (o[0] for o in ks.root_wrench(root_input[None]))
+        x_r, y, f, m = root_input[:3], root_input[3:6], root_input[6:9], root_input[9:]
+        assert np.allclose(value, np.concatenate([f, m + np.cross(y - x_r, f)]), rtol=0, atol=1e-12)
+        by_difference = np.column_stack([(ks.root_wrench((root_input + eps * np.eye(12)[k])[None])[0][0]
+                                          - ks.root_wrench((root_input - eps * np.eye(12)[k])[None])[0][0])
+                                         / (2 * eps) for k in range(6)])
+        assert np.allclose(derivative, by_difference, rtol=0, atol=1e-7)
+        assert np.allclose(derivative[3:], np.hstack([skew(f), -skew(f)]), rtol=0, atol=1e-12)
+
+
+def gimbal():
+    """The gyroscope's gimbal of rigid links (tests/test_initial_state.py): a prescribed spin hinge on a
+    dependent body, gravity, released at rest."""
+    raw = yaml.safe_load(GYROSCOPE.format(rigid="true", precession=0.0))
+    raw["solve"]["t_end"] = 0.1
+    return raw
+
+
+def transient_tree():
+    """tests/test_rigid.py's tree, in motion: a free root body, links to a dependent body and on, loads on
+    dependent nodes, a hinge spring, gravity."""
+    raw = tree_scene()
+    raw["solve"] = {"t_end": 0.1, "dt": 0.005}
+    raw["output"] = {"probes": {"kinetic": {"energy": "kinetic"}, "a1": {"hinge": "l1.start", "quantity": "angle"},
+                                "a2": {"hinge": "l1.end", "quantity": "rate"},
+                                "a3": {"hinge": "l2.start", "quantity": "angle"},
+                                "tip": {"point": "l2.end", "quantity": "position", "component": "y"}}}
+    return raw
+
+
+def arm_with_a_rigid_link():
+    """tests/test_engine.py's loaded arm with beam b rigid: a prescribed hinge on the link, the elbow body
+    dependent, a flexible beam hanging from it with a follower load, springs, dampers, torques."""
+    raw = loaded_arm(t_end=0.1)
+    raw["beams"]["b"]["rigid"] = True
+    return raw
+
+
+RIGID_SCENES = {"gimbal": gimbal, "transient_tree": transient_tree, "arm_with_a_rigid_link": arm_with_a_rigid_link}
+
+
+def _run(raw, **solve):
+    raw = copy.deepcopy(raw)
+    raw["solve"].update(solve)
+    return latdyn.run(latdyn.load_scene(raw))
+
+
+@pytest.mark.parametrize("scene", sorted(RIGID_SCENES))
+def test_the_native_reduction_steps_as_the_python_one(scene):
+    """The compiled step completes and reduces in C; the reference step of tests/reference_step.py
+    with latdyn.assembly.linked in Python: the same Newton iterations, probes equal to 1e-10 of their
+    range (round-off: 2e-14 measured)."""
+    raw = RIGID_SCENES[scene]()
+    with reference_engine():
+        python = _run(raw)
+    native = _run(raw, engine="compiled", newton="full")
+    assert native.summary["newton_iterations"] == python.summary["newton_iterations"]
+    for name in python.probes:
+        x, y = np.asarray(python.probes[name]), np.asarray(native.probes[name])
+        assert np.max(np.abs(x - y)) <= 1e-10 * max(float(np.max(np.abs(x))), 1e-12), name
