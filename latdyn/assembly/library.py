@@ -191,6 +191,8 @@ def native_library() -> ctypes.CDLL:
         library.latdyn_advance_free.argtypes = [model, configuration, P]
         library.latdyn_prescribe.restype = None
         library.latdyn_prescribe.argtypes = [model, work, configuration, ctypes.c_double]
+        library.latdyn_complete_links.restype = None
+        library.latdyn_complete_links.argtypes = [model, configuration]
         factorization = ctypes.POINTER(FactorizationStructure)
         library.latdyn_factor.restype = I64
         library.latdyn_factor.argtypes = [factorization, P, P]

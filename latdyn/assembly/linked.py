@@ -61,7 +61,7 @@ class LinkedEvaluation(SeparateMatrices):
 def evaluate_linked(links, assembler, state, matrices: bool, load_factor: float, inertia: bool,
                     inertia_tangent: bool = False, length: float = 1.0):
     """The equations of motion on the minimum coordinates (module docstring)."""
-    links.complete(state)
+    assembler.complete_links(state)
     full = assembler.evaluate_assembled(state, matrices, load_factor, inertia, inertia_tangent, length)
     return reduce_linked(links, assembler, state, full, matrices, inertia)
 

@@ -67,7 +67,8 @@ class _Expansions:
 
 def native_links(assembler, factorization, kernel_address) -> tuple[LinksData, list]:
     """The ``Links`` struct of the assembler's model for ``factorization``'s storage, and the arrays it
-    points into (to be kept alive with it). ``kernel_address(name)``: a generated kernel's address."""
+    points into (to be kept alive with it). ``kernel_address(name)``: a generated kernel's address.
+    ``factorization`` None: the kinematics alone (``latdyn_complete_links``), no block is reduced."""
     m = assembler.model
     links, n = m.links, m.n_dofs
     keep = []
@@ -106,7 +107,10 @@ def native_links(assembler, factorization, kernel_address) -> tuple[LinksData, l
     columns = np.full((n_slots, width), -1, np.int64)
     for s, c in enumerate(slot_columns):
         columns[s, :len(c)] = c
-    position = factorization.position
+    def position(rows, cols):
+        shape = np.broadcast(rows, cols).shape
+        return factorization.position(rows, cols) if factorization is not None else np.full(shape, -1, np.int64)
+
     pairs = np.full((n_slots, width, width), -1, np.int64)
     for s, c in enumerate(slot_columns):
         c = np.array(c, np.int64)
@@ -126,7 +130,7 @@ def native_links(assembler, factorization, kernel_address) -> tuple[LinksData, l
 
     def block(row_dofs, column_dofs) -> int:
         nonlocal offset
-        if not (x.touches(row_dofs) or x.touches(column_dofs)):
+        if factorization is None or not (x.touches(row_dofs) or x.touches(column_dofs)):
             return -1
         rows = x.add(row_dofs, slot_columns)
         cols = x.add(column_dofs, slot_columns) if column_dofs is not row_dofs else rows

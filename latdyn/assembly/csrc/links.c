@@ -106,6 +106,13 @@ static void complete_links(const Model *m, Configuration *c)
     }
 }
 
+/* The dependent nodes of c completed from the independent ones, in place (NativeModel.complete_links:
+ * probes, energies and the analyses driven from Python); nothing without rigid links. */
+void latdyn_complete_links(const Model *m, Configuration *c)
+{
+    if (m->links) complete_links(m, c);
+}
+
 /* P_e (size × reduced) of expansion x from the slots' J, and its ∂c/∂v rows (NULL: not wanted). */
 static void expand(const Links *L, int64_t x, double *P, double *C)
 {
