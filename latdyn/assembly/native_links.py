@@ -65,9 +65,26 @@ class _Expansions:
         return len(self.size) - 1
 
 
-def native_links(assembler, factorization, kernel_address) -> tuple[LinksData, list]:
-    """The ``Links`` struct of the assembler's model for ``factorization``'s storage, and the arrays it
-    points into (to be kept alive with it). ``kernel_address(name)``: a generated kernel's address.
+class NativeLinks:
+    """The ``Links`` struct (:attr:`data`) with the arrays it points into, and what Python reads of it:
+    per slot its node, columns (:attr:`columns`, :attr:`count`), and J and ∂c/∂v as the last
+    ``latdyn_complete_links`` or Newton iteration left them (:attr:`jacobian`, :attr:`convective`,
+    (n_slots, 6, width)); :attr:`slot_of_node` maps a node to its slot."""
+
+    def __init__(self, data, keep, slot_node, columns, count, buffers):
+        self.data, self.keep = data, keep
+        self.slot_node, self.columns, self.count = np.asarray(slot_node), columns, count
+        self.jacobian, self.convective = buffers["jacobian"], buffers["convective"]
+        self.slot_of_node = {int(node): s for s, node in enumerate(slot_node)}
+
+    @property
+    def address(self) -> int:
+        return ctypes.addressof(self.data)
+
+
+def native_links(assembler, factorization, kernel_address) -> NativeLinks:
+    """The ``Links`` struct of the assembler's model for ``factorization``'s storage, with the arrays it
+    points into (kept alive with it). ``kernel_address(name)``: a generated kernel's address.
     ``factorization`` None: the kinematics alone (``latdyn_complete_links``), no block is reduced."""
     m = assembler.model
     links, n = m.links, m.n_dofs
@@ -166,4 +183,4 @@ def native_links(assembler, factorization, kernel_address) -> tuple[LinksData, l
         rigid_link_edge=kernel_address("rigid_link_edge"), hinge_wrench=kernel_address("hinge_wrench"),
         root_wrench=kernel_address("root_wrench"),
         **{name: buffer.ctypes.data for name, buffer in buffers.items()})
-    return data, keep
+    return NativeLinks(data, keep, slot_node, columns, count, buffers)

@@ -46,8 +46,9 @@ serially (``openmp_threads`` says 0).
 Models with rigid links take the same Newton iteration and loop of steps, in C too: after every
 configuration update the dependent nodes are completed, and every evaluation is reduced onto the
 minimum coordinates (``csrc/links.c`` with the generated edge kernels of ``codegen/joints.py``, laid
-out by :mod:`latdyn.assembly.native_links`), the reduced iteration matrix written into the same dense,
-band or sparse storage, on the pattern of Pᵀ A P (:func:`matrix_pattern`). No Python runs inside a
+out by :mod:`latdyn.assembly.native_links` for the matrix's storage,
+:meth:`~latdyn.assembly.native_model.NativeModel.hold_links`), the reduced iteration matrix written
+into the same dense, band or sparse storage, on the pattern of Pᵀ A P (:func:`matrix_pattern`). No Python runs inside a
 Newton iteration.
 """
 from __future__ import annotations
@@ -67,36 +68,32 @@ from latdyn.assembly.library import (
     native_library,
     parallel_threshold,
 )
-from latdyn.assembly.native_links import native_links
-from latdyn.assembly.native_model import INERTIA_TANGENT_STEP, STATE_FIELDS, _kernel_address, state_shapes
+from latdyn.assembly.native_model import INERTIA_TANGENT_STEP, STATE_FIELDS, state_shapes
 from latdyn.step.integrators import GeneralizedAlpha, StepStats
 
 
 def matrix_pattern(assembler) -> tuple[np.ndarray, np.ndarray]:
     """(row, col) of every entry the iteration matrix can hold, row by row: the assembler's pattern
     on the free coordinates; with rigid links, that of Pᵀ A P, P = [I; J] with J's dependent rows
-    full on the coordinates the dependent nodes move with (:mod:`latdyn.assembly.linked`; its
-    geometric and convective terms lie inside it)."""
+    full on the free coordinates the dependent nodes move with (:mod:`latdyn.assembly.linked`),
+    and all of those among themselves (where the geometric and convective terms lie)."""
     m = assembler.model
     n, n_asm = m.n_dofs, m.n_assembled
     rows, cols = assembler._csr_rows, assembler._csr_cols
     if m.links is None:
         return rows, cols
-    import scipy.sparse as sps  # on use: only models with rigid links need it
-
-    A = sps.csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(n_asm, n_asm))
     moved = m.links.columns(m)
     moved = moved[moved < n]
-    dependent_rows = m.node_dofs[m.links.dependent].ravel()
-    P = sps.csr_matrix((np.ones(n + len(dependent_rows) * len(moved)),
-                        (np.concatenate([np.arange(n), np.repeat(dependent_rows, len(moved))]),
-                         np.concatenate([np.arange(n), np.tile(moved, len(dependent_rows))]))), shape=(n_asm, n))
-    # moved × moved: the geometric stiffness of the reduction (csrc/links.c) writes there
-    among = sps.csr_matrix((np.ones(len(moved) ** 2), (np.repeat(moved, len(moved)), np.tile(moved, len(moved)))),
-                           shape=(n, n))
-    reduced = (P.T @ A @ P + sps.identity(n) + among).tocsr()
-    reduced.sort_indices()
-    return np.repeat(np.arange(n), np.diff(reduced.indptr)), reduced.indices.astype(np.int64)
+    free_row, free_col = rows < n, cols < n
+    dependent_row, dependent_col = (rows >= n) & (rows < n_asm), (cols >= n) & (cols < n_asm)
+    after = np.unique(cols[dependent_row & free_col])  # columns of a dependent node's rows
+    before = np.unique(rows[free_row & dependent_col])  # rows of a dependent node's columns
+    pairs = [(rows[free_row & free_col], cols[free_row & free_col]), (np.arange(n), np.arange(n)),
+             (np.repeat(moved, len(moved)), np.tile(moved, len(moved))),
+             (np.repeat(moved, len(after)), np.tile(after, len(moved))),
+             (np.repeat(before, len(moved)), np.tile(moved, len(before)))]
+    keys = np.unique(np.concatenate([r.astype(np.int64) * n + c for r, c in pairs]))
+    return keys // n, keys % n
 
 
 # ----------------------------------------------------------------------------- the step
@@ -191,11 +188,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         native.set_buffer("rhs", np.zeros(n))
         native.set_buffer("pivots", factorization.pivots)
         if m.links is not None:
-            links, arrays = native_links(a, factorization, lambda name: _kernel_address(a.kernels, name))
-            keep += [links, arrays]
-            model.links = ctypes.addressof(links)
-        else:
-            model.links = None
+            native.hold_links(a, factorization)
         native.matrix_storage = keep
         self.factorization = factorization
 
