@@ -252,3 +252,21 @@ def test_a_rigid_gimbal_is_the_limit_of_stiffer_flexible_beams():
     assert tilt[1] < 2e-3
     assert difference(0.01, "precession") < 3e-3
     assert difference(1.0, "precession") < 2e-4
+
+
+@pytest.mark.parametrize("newton", ["full", "modified"])
+def test_a_rigid_gimbal_resumes_bit_for_bit(newton, tmp_path, monkeypatch):
+    """Interrupted (Ctrl-C) at t = 0.05 and resumed, the gimbal of rigid links writes the files of the
+    uninterrupted run, bit for bit (modified Newton's held factorization of the reduced matrix included)."""
+    from test_checkpoint import interrupt_at, relative_difference
+
+    raw = gimbal()
+    raw["solve"].update(newton=newton)
+    latdyn.run(latdyn.load_scene(raw), tmp_path / "whole")
+    with monkeypatch.context() as m:
+        interrupt_at(m, 0.05)
+        with pytest.raises(KeyboardInterrupt):
+            latdyn.run(latdyn.load_scene(raw), tmp_path / "resumed")
+    result = latdyn.run(latdyn.load_scene(raw), tmp_path / "resumed", resume=True)
+    assert result.summary["resumed_from_t"] == pytest.approx(0.05, abs=1e-9)
+    assert relative_difference(tmp_path / "whole", tmp_path / "resumed") == 0.0
