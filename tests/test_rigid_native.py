@@ -10,10 +10,11 @@ import copy
 import numpy as np
 import pytest
 import yaml
+from scipy.linalg import expm
 
 import latdyn
+
 from latdyn.model.kernels import load_kernels
-from latdyn.model.links import Edge, RigidLinks
 from latdyn.numerics.so3 import expm_so3, skew
 
 from reference_step import reference_engine
@@ -36,31 +37,34 @@ def edge_inputs(clamped=False):
     return parent, edge
 
 
-class _State:
-    """The arrays of latdyn.model.links' state for one parent (node 0) and its child (node 1)."""
-
-    def __init__(self, parent, edge):
-        self.x, self.T = np.zeros((2, 3)), np.tile(np.eye(3), (2, 1, 1))
-        self.v, self.w, self.a, self.alpha = (np.zeros((2, 3)) for _ in range(4))
-        self.x[0], self.T[0] = parent[:3], parent[3:12].reshape(3, 3)
-        self.v[0], self.w[0], self.a[0], self.alpha[0] = (parent[k:k + 3] for k in (12, 15, 18, 21))
-        self.theta, self.theta_dot, self.theta_ddot = edge[10:11], edge[11:12], edge[12:13]
+def spatial_cross(V, U):
+    """(v, ω) ×̂ (v', ω') = (ω × v' + v × ω', ω × ω')."""
+    return np.concatenate([np.cross(V[3:], U[:3]) + np.cross(V[:3], U[3:]), np.cross(V[3:], U[3:])])
 
 
 def links_reference(parent, edge):
-    """Child position, frame and rates by latdyn.model.links (forward kinematics and twists)."""
-    hinged = edge[9] != 0.0
-    links = RigidLinks([Edge(parent=0, child=1, hinge=0 if hinged else -1, axis=edge[:3], sign=edge[9] or 1.0,
-                             point=edge[3:6], arm=edge[6:9], link="l")], ["l"])
-    state = _State(parent, edge)
-    links.complete(state)
-    return state.x[1], state.T[1], np.concatenate([state.v[1], state.w[1], state.a[1], state.alpha[1]])
+    """Child position, frame and rates by the twists of latdyn.model.links' module docstring, in NumPy:
+    T_c = T_p R(a, sθ), x_c = x_p + T_p(o + R b), V_c = V_p + sθ̇ ξ, V̇_c = V̇_p + s(θ̈ ξ + θ̇ V_p ×̂ ξ)."""
+    x, T = parent[:3], parent[3:12].reshape(3, 3)
+    v, w, a, alpha = parent[12:15], parent[15:18], parent[18:21], parent[21:24]
+    axis, point, arm, sign = edge[:3], edge[3:6], edge[6:9], edge[9]
+    rate, accel = sign * edge[11], sign * edge[12]
+    R = expm(skew(axis * sign * edge[10]))
+    frame, position = T @ R, x + T @ (point + R @ arm)
+    g = T @ axis
+    xi = np.concatenate([np.cross(x + T @ point, g), g])
+    V = np.concatenate([v - np.cross(w, x), w])
+    V_dot = np.concatenate([a - np.cross(alpha, x) - np.cross(w, v), alpha])
+    V_c, V_dot_c = V + rate * xi, V_dot + accel * xi + rate * spatial_cross(V, xi)
+    v_c = V_c[:3] + np.cross(V_c[3:], position)
+    a_c = V_dot_c[:3] + np.cross(V_dot_c[3:], position) + np.cross(V_c[3:], v_c)
+    return position, frame, np.concatenate([v_c, V_c[3:], a_c, V_dot_c[3:]])
 
 
 @pytest.mark.parametrize("backend", BACKENDS)
 @pytest.mark.parametrize("clamped", [False, True])
 def test_link_edge_kernel_against_links_and_differences(backend, clamped):
-    """rigid_link_edge: the child's frame, position and rates equal latdyn.model.links' to 1e-12;
+    """rigid_link_edge: the child's frame, position and rates equal the twists' (links_reference) to 1e-12;
     child_transfer and child_joint are the derivatives of the child's configuration by the parent's
     (x += δd, T ← exp(skew δπ) T) and by θ, and of its velocity by the parent's and θ̇; child_convective
     the derivative of its acceleration by (v_p, ω_p, θ̇): all against central differences (1e-7)."""

@@ -143,7 +143,7 @@ class Assembler:
                       np.tile(np.eye(3), (n, 1, 1)), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)),
                       np.zeros((n, 3)), np.zeros(h), np.zeros(h), np.zeros(h))
         self.apply_prescribed(state, 0.0)
-        initial_velocities(model, state)
+        initial_velocities(model, state, self.complete_links)
         self.complete_links(state)
         return state
 

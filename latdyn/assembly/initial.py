@@ -76,10 +76,11 @@ def _node_twist(state, node: int) -> np.ndarray:
     return np.concatenate([state.v[node] - np.cross(state.w[node], state.x[node]), state.w[node]])
 
 
-def initial_velocities(model, state) -> None:
+def initial_velocities(model, state, complete_links) -> None:
     """Set the free coordinates' velocities of ``state`` (t = 0, prescribed motion applied) from the
     scene's rigid motion and the prescribed rates, in place (module docstring); the dependent
-    nodes of rigid links are completed from them."""
+    nodes of rigid links are completed from them by ``complete_links(state)``
+    (:meth:`latdyn.assembly.assembler.Assembler.complete_links`)."""
     scene = model.scene
     iv = scene.initial_velocity
     omega0 = np.asarray(iv.angular, float)
@@ -143,7 +144,7 @@ def initial_velocities(model, state) -> None:
                 omega[e.child] = omega[e.parent] + e.sign * state.theta_dot[e.hinge] * g
             else:
                 omega[e.child] = omega[e.parent]
-        links.complete(state)
+        complete_links(state)
     # flexible beams: a free hinge turns the beam end towards the beam's target
     for name, beam in scene.beams.items():
         if beam.rigid:

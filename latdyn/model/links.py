@@ -36,26 +36,16 @@ last term of K_min (*geometric*) is the derivative of Pᵀ by q at fixed r_all. 
 package, K omits the derivatives of inertia forces by q. The runtime evaluates all of it from
 the generated kernels of codegen/joints.py (``rigid_link_edge`` per edge: the child's
 configuration and rates, its factors of J and ∂c/∂v; ``hinge_wrench`` and ``root_wrench``: the
-geometric stiffness), composed along the tree in C (latdyn/assembly/csrc/links.c); this module
-holds the tree and the same kinematics in NumPy (:meth:`RigidLinks.complete`: the start's
-velocities, latdyn.assembly.initial, and the kernels' reference in tests/test_rigid_native.py).
-Configurations of dependent nodes are never integrated: they are set by forward kinematics in tree
-order after every update of the independent coordinates.
+geometric stiffness), composed along the tree in C (latdyn/assembly/csrc/links.c, laid out by
+latdyn/assembly/native_links.py); this module holds the tree. Configurations of dependent nodes
+are never integrated: they are set by forward kinematics in tree order after every update of the
+independent coordinates (:meth:`latdyn.assembly.assembler.Assembler.complete_links`).
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 
 import numpy as np
-
-from latdyn.numerics.so3 import expm_so3
-
-
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a × b over the last axis, broadcast (numpy.cross costs ~20 µs a call in these loops)."""
-    a, b = np.asarray(a), np.asarray(b)
-    return np.stack([a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1], a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2],
-                     a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]], axis=-1)
 
 
 @dataclass
@@ -93,58 +83,6 @@ class RigidLinks:
             out.append(k)
             node = self.edges[k].parent
         return out[::-1]
-
-    # ------------------------------------------------------------------ kinematics
-    def place(self, state) -> None:
-        """Forward kinematics on SO(3), in tree order: x and T of every dependent node (in place)."""
-        for e in self.edges:
-            theta = state.theta[e.hinge] if e.hinge >= 0 else 0.0
-            R = expm_so3(e.axis * (e.sign * theta)) if e.hinge >= 0 else np.eye(3)
-            Tp = state.T[e.parent]
-            state.T[e.child] = Tp @ R
-            state.x[e.child] = state.x[e.parent] + Tp @ (e.point + R @ e.arm)
-
-    def _joint(self, state, e: Edge):
-        """Current axis g = T_p a, hinge point o_g and joint twist ξ = (o_g × g, g) of an edge."""
-        Tp = state.T[e.parent]
-        g = Tp @ e.axis
-        o = state.x[e.parent] + Tp @ e.point
-        return g, o, np.concatenate([_cross(o, g), g])
-
-    def _rates(self, state, v, w, a, alpha, theta_dot, theta_ddot) -> None:
-        """Velocities and accelerations of the dependent nodes from the independent ones, batched:
-        v, w, a, alpha (batch, n_nodes, 3) and theta_dot, theta_ddot (batch, n_hinges), in place."""
-        for e in self.edges:
-            p, c = e.parent, e.child
-            xp, xc = state.x[p], state.x[c]
-            omega, omega_dot = w[:, p], alpha[:, p]
-            v_origin = v[:, p] - _cross(omega, xp)  # V_p = (v_p − ω × x_p, ω)
-            v_origin_dot = a[:, p] - _cross(omega_dot, xp) - _cross(omega, v[:, p])
-            if e.hinge >= 0:
-                _, _, xi = self._joint(state, e)
-                rate = e.sign * theta_dot[:, e.hinge][:, None]
-                accel = e.sign * theta_ddot[:, e.hinge][:, None]
-                # V_p ×̂ ξ = (ω × ξ_v + v_O × ξ_ω, ω × ξ_ω)
-                cross_v = _cross(omega, xi[:3]) + _cross(v_origin, xi[3:])
-                cross_w = _cross(omega, xi[3:])
-                v_origin_dot = v_origin_dot + accel * xi[:3] + rate * cross_v
-                omega_dot = omega_dot + accel * xi[3:] + rate * cross_w
-                v_origin = v_origin + rate * xi[:3]
-                omega = omega + rate * xi[3:]
-            w[:, c] = omega
-            alpha[:, c] = omega_dot
-            v[:, c] = v_origin + _cross(omega, xc)
-            a[:, c] = v_origin_dot + _cross(omega_dot, xc) + _cross(omega, v[:, c])
-
-    def complete(self, state) -> None:
-        """Configuration, velocities and accelerations of every dependent node from the
-        independent ones (in place; idempotent)."""
-        self.place(state)
-        arrays = [state.v[None], state.w[None], state.a[None], state.alpha[None],
-                  state.theta_dot[None], state.theta_ddot[None]]
-        arrays = [np.array(x) for x in arrays]
-        self._rates(state, *arrays)
-        state.v[:], state.w[:], state.a[:], state.alpha[:] = (x[0] for x in arrays[:4])
 
     # ------------------------------------------------------------------ the map J
     def columns(self, model) -> np.ndarray:
