@@ -30,7 +30,7 @@ elastic coordinates of flexible beams included).  A free hinge takes the rate th
 beam end closest to the target: θ̇ = g·(ω_beam − ω_body) (least squares on the end frame's
 angular velocity), with the target of whichever side the hinge positions and the actual motion
 of the side that positions it — in tree order for rigid links, where the child's motion then
-follows from the hinge rate (:meth:`latdyn.model.links.RigidLinks.complete`).  A rod hinged to
+follows from the hinge rate (:meth:`latdyn.assembly.assembler.Assembler.complete_links`).  A rod hinged to
 a fixed body with V₀ = ω thus turns about its hinge at θ̇ = ω·g, as a rigid link or as a
 flexible beam.
 """
