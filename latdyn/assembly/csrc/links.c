@@ -165,7 +165,7 @@ static void reduce_block(const Links *L, Work *w, int64_t b, const double *S, co
         }
 }
 
-/* The element, body and load blocks S = β′M + γ′C + K of linked block b, row-major, into `out`. */
+/* A block's S = β′M + γ′C + K (+ D, the inertia tangent), row-major, into `out`; M, C, D may be NULL. */
 static void combined_block(const double *M, const double *C, const double *K, const double *D, int64_t size,
                            double beta_p, double gamma_p, double *out)
 {
