@@ -37,6 +37,37 @@ Hinged beam end (the element's geometry, Eq. 17): the nodal frame of a beam end 
 by a hinge of unit axis a (node axes) at angle θ is T_e = T_j exp(θ skew a) E0, with E0 the
 element axes at t = 0 in node axes (a clamped end: a = 0, the same formula); its grid point sits
 at T_j r from the reference point (Eq. 2) and its hinge axis is T_j a (Eq. 9).
+
+Rigid link edge (latdyn/model/links.py): a dependent node c follows its parent p through a hinge of
+unit axis a (parent node axes; s = ±1 the sign of the angle on the edge, s = 0 on a clamped edge),
+hinge point o and arm b (parent node axes at θ = 0):
+
+    T_c = T_p R(a, sθ),   x_c = x_p + T_p (o + R b)                              (edge)
+
+and, with g = T_p a, o_g = x_p + T_p o, the joint twist ξ = (o_g × g, g) and the parent's twist at the
+origin V_p = (v_p − ω_p × x_p, ω_p), the child's twist and its rate
+
+    V_c = V_p + s θ̇ ξ,   V̇_c = V̇_p + s (θ̈ ξ + θ̇ V_p ×̂ ξ),   (v, ω) ×̂ (v', ω') = (ω × v' + v × ω', ω × ω'),
+
+returned as node rates (v_c = v_O + ω_c × x_c, a_c = v̇_O + ω̇_c × x_c + ω_c × v_c). The map J of the
+dependent coordinates is composed edge by edge from ``child_transfer`` (∂(v_c, ω_c)/∂(v_p, ω_p), equal
+to ∂(a_c, ω̇_c)/∂(a_p, ω̇_p)) and ``child_joint`` (∂(v_c, ω_c)/∂θ̇ = ∂(a_c, ω̇_c)/∂θ̈); the
+velocity-quadratic part of the accelerations from ``child_convective`` (∂(a_c, ω̇_c)/∂(v_p, ω_p, θ̇)).
+A wrench (f, m) at a point y of a dependent node (its residual rows) enters the minimum coordinates as
+Jᵀ(f, m): s g·((y − o_g) × f + m) on each hinge of its path (``hinge_wrench``) and (f, m + (y − x_r) × f)
+on its root r (``root_wrench``); their derivatives by the configuration at fixed (f, m) are the
+geometric stiffness ∂(Pᵀ)/∂q · r of the reduction.
+
+Prismatic edge (a sliding joint, ``bodies.NAME.guide``): the child keeps its parent's frame and slides
+by s along the axis a fixed in the parent (s its coordinate, σ = ±1 its sign on the edge):
+
+    T_c = T_p,   x_c = x_p + T_p (o + σ s a + b)                                 (prismatic edge)
+
+with the joint twist ξ = (g, 0), g = T_p a, in the same rates (V_p ×̂ ξ = (ω_p × g, 0)): the Coriolis
+term 2ω × ṡg and the centrifugal one of a slide on a turning body arise from them
+(``prismatic_link_edge``, the same inputs and outputs as ``rigid_link_edge``). A wrench (f, m) at y
+enters the slide as σ g·f (``slide_wrench``), whose derivative by the configuration at fixed (f, m) is
+σ (g × f)·δπ_p, the edge parent's turn alone.
 """
 from __future__ import annotations
 
@@ -45,7 +76,7 @@ import sympy as sp
 from .ir import Argument, KernelSpec, Output
 
 DESCRIPTION = ("joint bodies (Newton-Euler about the reference point), point loads (global and follower), "
-               "hinged beam ends, hinge laws and the SO(3) exponential")
+               "hinged beam ends, hinge laws, rigid link and prismatic edges and the SO(3) exponential")
 
 BODY_FRAME = Argument("frame", 9, "T: the body's frame (columns = body axes in global axes), row-major")
 BODY_MOTION = Argument("motion", 9, "omega[3] a[3] alpha[3]: spatial angular velocity, acceleration of the "
@@ -274,7 +305,164 @@ def _so3_exp_kernel() -> KernelSpec:
                       intermediates=intermediates)
 
 
+LINK_PARENT = Argument("parent", 24, "x[3] T[9] v[3] w[3] a[3] alpha[3]: the parent node's position, frame "
+                       "(row-major), velocity, spatial angular velocity, acceleration and angular acceleration")
+LINK_EDGE = Argument("edge", 13, "a[3] o[3] b[3] s theta theta_dot theta_ddot: hinge axis (unit), hinge point and "
+                     "the child's reference point from it, in the parent's node axes at theta = 0; the sign of the "
+                     "angle on the edge (0 on a clamped edge); the hinge angle, rate and acceleration")
+
+
+def rotation_about(axis, angle):
+    """R(a, φ) = exp(φ skew a) = I + sin φ K + (1 − cos φ) K², K = skew a, |a| = 1 (or a = 0)."""
+    K = skew(axis)
+    return sp.eye(3) + sp.sin(angle) * K + (1 - sp.cos(angle)) * K * K
+
+
+def link_edge(parent, edge, prismatic: bool = False):
+    """(x_c, T_c, v_c, ω_c, a_c, ω̇_c) of a rigid link edge's child (module docstring, "Rigid link edge"),
+    or of a prismatic edge's (``prismatic``: "Prismatic edge", θ the slide)."""
+    x, T = _vector(parent[0:3]), _matrix(parent[3:12])
+    v, w, acc, alpha = (_vector(parent[k:k + 3]) for k in (12, 15, 18, 21))
+    a, o, b, s = _vector(edge[0:3]), _vector(edge[3:6]), _vector(edge[6:9]), edge[9]
+    theta, rate, accel = edge[10], s * edge[11], s * edge[12]
+    origin, origin_rate = v - w.cross(x), acc - alpha.cross(x) - w.cross(v)  # V_p and V̇_p at the origin
+    g = T * a
+    if prismatic:  # ξ = (g, 0): V_c = V_p + s ṡ ξ, V̇_c = V̇_p + s(s̈ ξ + ṡ (ω_p × g, 0))
+        frame, position = T, x + T * (o + s * theta * a + b)
+        origin_rate_c = origin_rate + accel * g + rate * w.cross(g)
+        alpha_c, origin_c, w_c = alpha, origin + rate * g, w
+    else:
+        R = rotation_about(a, s * theta)
+        frame, position = T * R, x + T * (o + R * b)
+        hinge_point = x + T * o
+        xi_v = hinge_point.cross(g)
+        # V̇_c = V̇_p + s(θ̈ ξ + θ̇ V_p ×̂ ξ), V_c = V_p + s θ̇ ξ
+        origin_rate_c = origin_rate + accel * xi_v + rate * (w.cross(xi_v) + origin.cross(g))
+        alpha_c = alpha + accel * g + rate * w.cross(g)
+        origin_c, w_c = origin + rate * xi_v, w + rate * g
+    v_c = origin_c + w_c.cross(position)
+    a_c = origin_rate_c + alpha_c.cross(position) + w_c.cross(v_c)
+    return position, frame, v_c, w_c, a_c, alpha_c
+
+
+def _link_edge_kernel(prismatic: bool = False) -> KernelSpec:
+    parent, edge = LINK_PARENT.symbols(), LINK_EDGE.symbols()
+    position, frame, v_c, w_c, a_c, alpha_c = link_edge(parent, edge, prismatic)
+    velocity, acceleration = sp.Matrix.vstack(v_c, w_c), sp.Matrix.vstack(a_c, alpha_c)
+    parent_velocity = _vector(parent[12:18])
+    outputs = [
+        Output("child_position", (3,), list(position), "x_c = x_p + T_p (o + R b)"),
+        Output("child_frame", (3, 3), list(frame), "T_c = T_p R(a, s theta)"),
+        Output("child_rates", (12,), _rows(sp.Matrix.vstack(velocity, acceleration)),
+               "v_c w_c a_c alpha_c: the child's velocity, angular velocity, acceleration, angular acceleration"),
+        Output("child_transfer", (6, 6), _rows(velocity.jacobian(parent_velocity)),
+               "∂(v_c, w_c)/∂(v_p, w_p) (= ∂(a_c, alpha_c)/∂(a_p, alpha_p))"),
+        Output("child_joint", (6,), _rows(velocity.diff(edge[11])),
+               "∂(v_c, w_c)/∂theta_dot (= ∂(a_c, alpha_c)/∂theta_ddot): the column of the edge's hinge in J"),
+        Output("child_convective", (6, 7),
+               _rows(acceleration.jacobian(sp.Matrix.vstack(parent_velocity, sp.Matrix([edge[11]])))),
+               "∂(a_c, alpha_c)/∂(v_p, w_p, theta_dot) at fixed accelerations: the velocity-quadratic terms"),
+    ]
+    if prismatic:
+        outputs[0] = Output("child_position", (3,), list(position), "x_c = x_p + T_p (o + s theta a + b)")
+        outputs[1] = Output("child_frame", (3, 3), list(frame), "T_c = T_p")
+        return KernelSpec(name="prismatic_link_edge", doc="A guided body (a dependent node on a prismatic edge) "
+                          "from its parent through the slide (edge's theta: the slide s): frame, position, rates, "
+                          "and the edge's factors of J and of the velocity-quadratic accelerations (the same "
+                          "inputs and outputs as rigid_link_edge)", inputs=[LINK_PARENT, LINK_EDGE],
+                          outputs=outputs, variant="joints",
+                          equations="Eq. 2 (a point of the parent), the slide along an axis fixed in it")
+    return KernelSpec(name="rigid_link_edge", doc="A rigid link's dependent node from its parent through the edge's "
+                      "hinge: frame, position, rates, and the edge's factors of J and of the velocity-quadratic "
+                      "accelerations", inputs=[LINK_PARENT, LINK_EDGE], outputs=outputs, variant="joints",
+                      equations="Eqs. 2, 4, 17 (a rigid link's motion through its hinges)")
+
+
+WRENCH_PARENT = Argument("parent", 12, "x[3] T[9]: the position and frame (row-major) of the node the hinge's "
+                         "edge leaves from")
+WRENCH_EDGE = Argument("edge", 7, "a[3] o[3] s: the hinge axis and point in that node's axes, the sign of the "
+                       "angle on the edge")
+WRENCH_POINT = Argument("wrench", 9, "y[3] f[3] m[3]: the point the wrench acts at (a dependent node's reference "
+                        "point), its force and moment")
+
+
+def hinge_wrench(parent, edge, wrench):
+    """s g·((y − o_g) × f + m): the generalized force on a hinge of a wrench (f, m) at y (module docstring)."""
+    x, T = _vector(parent[0:3]), _matrix(parent[3:12])
+    a, o, s = _vector(edge[0:3]), _vector(edge[3:6]), edge[6]
+    y, f, m = _vector(wrench[0:3]), _vector(wrench[3:6]), _vector(wrench[6:9])
+    g, hinge_point = T * a, x + T * o
+    return s * g.dot((y - hinge_point).cross(f) + m)
+
+
+def _hinge_wrench_kernel() -> KernelSpec:
+    parent, edge, wrench = WRENCH_PARENT.symbols(), WRENCH_EDGE.symbols(), WRENCH_POINT.symbols()
+    delta = sp.Matrix(sp.symbols("delta_0:9"))  # δx_p, δπ_p, δy
+    zero = {d: 0 for d in delta}
+    moved_parent = list(_vector(parent[0:3]) + delta[0:3, :]) + list(_turned(_matrix(parent[3:12]), delta[3:6, :]))
+    moved_wrench = list(_vector(wrench[0:3]) + delta[6:9, :]) + list(wrench[3:9])
+    value = hinge_wrench(parent, edge, wrench)
+    moved = sp.Matrix([hinge_wrench(moved_parent, edge, moved_wrench)])
+    outputs = [Output("hinge_wrench", (), [value], "s g·((y − o_g) × f + m): the wrench's generalized force on "
+                      "the hinge"),
+               Output("hinge_wrench_D_q", (9,), _rows(_jacobian(moved, delta, zero)),
+                      "its derivative by (δx_p, δπ_p, δy) at fixed f, m: a row of the geometric stiffness")]
+    return KernelSpec(name="hinge_wrench", doc="The generalized force on a hinge of a rigid link of a wrench at a "
+                      "point it moves, and its derivative by the configuration", inputs=[WRENCH_PARENT, WRENCH_EDGE,
+                      WRENCH_POINT], outputs=outputs, variant="joints",
+                      equations="Eqs. 4, 9 (the hinge coordinate); the reduction onto minimum coordinates")
+
+
+def slide_wrench(parent, edge, wrench):
+    """s g·f: the generalized force on a slide of a wrench (f, m) at y (module docstring, "Prismatic edge")."""
+    T = _matrix(parent[3:12])
+    a, s, f = _vector(edge[0:3]), edge[6], _vector(wrench[3:6])
+    return s * (T * a).dot(f)
+
+
+def _slide_wrench_kernel() -> KernelSpec:
+    parent, edge, wrench = WRENCH_PARENT.symbols(), WRENCH_EDGE.symbols(), WRENCH_POINT.symbols()
+    delta = sp.Matrix(sp.symbols("delta_0:9"))  # δx_p, δπ_p, δy
+    zero = {d: 0 for d in delta}
+    moved_parent = list(_vector(parent[0:3]) + delta[0:3, :]) + list(_turned(_matrix(parent[3:12]), delta[3:6, :]))
+    moved_wrench = list(_vector(wrench[0:3]) + delta[6:9, :]) + list(wrench[3:9])
+    value = slide_wrench(parent, edge, wrench)
+    moved = sp.Matrix([slide_wrench(moved_parent, edge, moved_wrench)])
+    outputs = [Output("slide_wrench", (), [value], "s g·f: the wrench's generalized force on the slide"),
+               Output("slide_wrench_D_q", (9,), _rows(_jacobian(moved, delta, zero)),
+                      "its derivative by (δx_p, δπ_p, δy) at fixed f, m: s (g × f) on δπ_p, a row of the "
+                      "geometric stiffness")]
+    return KernelSpec(name="slide_wrench", doc="The generalized force on a slide (a guide's prismatic edge) of a "
+                      "wrench at a point it moves, and its derivative by the configuration (the same inputs and "
+                      "outputs as hinge_wrench; the edge's point is not read)", inputs=[WRENCH_PARENT, WRENCH_EDGE,
+                      WRENCH_POINT], outputs=outputs, variant="joints",
+                      equations="The slide coordinate; the reduction onto minimum coordinates")
+
+
+ROOT_WRENCH = Argument("wrench", 12, "x_r[3] y[3] f[3] m[3]: the root's reference point, the point the wrench acts "
+                       "at, its force and moment")
+
+
+def root_wrench(wrench):
+    """(f, m + (y − x_r) × f): the generalized force on a root node of a wrench at y (module docstring)."""
+    x, y, f, m = (_vector(wrench[k:k + 3]) for k in (0, 3, 6, 9))
+    return sp.Matrix.vstack(f, m + (y - x).cross(f))
+
+
+def _root_wrench_kernel() -> KernelSpec:
+    wrench = ROOT_WRENCH.symbols()
+    value = root_wrench(wrench)
+    outputs = [Output("root_wrench", (6,), _rows(value), "(f, m + (y − x_r) × f) on the root's coordinates"),
+               Output("root_wrench_D_q", (6, 6), _rows(value.jacobian(_vector(wrench[0:6]))),
+                      "its derivative by (δx_r, δy) at fixed f, m: rows of the geometric stiffness")]
+    return KernelSpec(name="root_wrench", doc="The generalized force on the root node of a rigid link tree of a "
+                      "wrench at a point it moves, and its derivative by the configuration", inputs=[ROOT_WRENCH],
+                      outputs=outputs, variant="joints", equations="Eq. 2 (the point); the reduction onto minimum "
+                      "coordinates")
+
+
 def build_kernels() -> list[KernelSpec]:
     """The kernels of the ``joints`` unit."""
     return [*_joint_body_kernels(), _point_load_kernel(), _hinged_end_kernel(), _hinge_force_kernel(),
-            _so3_exp_kernel()]
+            _so3_exp_kernel(), _link_edge_kernel(), _hinge_wrench_kernel(), _root_wrench_kernel(),
+            _link_edge_kernel(prismatic=True), _slide_wrench_kernel()]

@@ -164,8 +164,8 @@ def test_modified_newton_reaches_the_newton_tolerance_with_fewer_matrices(tmp_pa
 
 
 def test_rigid_links_step_in_c_with_modified_newton(tmp_path):
-    """A model with a rigid link takes the C Newton iteration (its reduction called back in
-    Python): modified Newton keeps the factorization and converges to the same solution."""
+    """A model with a rigid link takes the C Newton iteration (its reduction in C too,
+    csrc/links.c): modified Newton keeps the factorization and converges to the same solution."""
     raw = hinged_chain(t_end=0.1)
     raw["beams"]["l2"]["rigid"] = True
     full, full_summary = _run(raw, tmp_path, "full", engine="compiled", newton="full")
@@ -230,7 +230,8 @@ def test_the_ctypes_mirrors_have_the_compilers_layout():
     from latdyn import native
     from latdyn.assembly import library
 
-    mirrors = {"Model": library.ModelData, "Work": library.WorkData, "Configuration": library.ConfigurationData,
+    mirrors = {"Model": library.ModelData, "Links": library.LinksData, "Work": library.WorkData,
+               "Configuration": library.ConfigurationData,
                "StepVectors": library.VectorsData, "StepControl": library.ControlData, "Advance": library.AdvanceData,
                "SparseLU": library.SparseLUStructure, "EvaluationControl": library.EvaluationData}
     lines, expected = [], []

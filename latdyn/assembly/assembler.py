@@ -144,18 +144,22 @@ class Assembler:
                       np.tile(np.eye(3), (n, 1, 1)), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)),
                       np.zeros((n, 3)), np.zeros(h), np.zeros(h), np.zeros(h))
         self.apply_prescribed(state, 0.0)
-        initial_velocities(model, state)
-        if model.links is not None:
-            model.links.complete(state)
+        initial_velocities(model, state, self.complete_links)
+        self.complete_links(state)
         return state
+
+    def complete_links(self, state: State) -> None:
+        """The dependent nodes of rigid links completed from the independent coordinates, in place
+        (:meth:`NativeModel.complete_links`); nothing without rigid links."""
+        if self.model.links is not None:
+            self.native().complete_links(state)
 
     def apply_prescribed(self, state: State, t: float) -> None:
         """Set the time, prescribed bodies and hinge angles to their laws at t, locked hinges at
         rest (in place; ``latdyn_prescribe``, csrc/evaluate.c)."""
         state.t = t
         self.native().prescribe(state, t)
-        if self.model.links is not None:
-            self.model.links.place(state)
+        self.complete_links(state)
 
     def advance(self, state: State, increment: np.ndarray) -> State:
         """q ∘ exp(Δ) on the free coordinates: x += Δd, T ← exp(skew Δπ) T, θ += Δθ, into a new state
@@ -163,8 +167,7 @@ class Assembler:
         free-coordinate vector: node slots that are not coordinates (:meth:`Model.node_slots`) read 0."""
         new = state.copy()
         self.native().advance_free(new, increment)
-        if self.model.links is not None:  # dependent nodes: forward kinematics, never integrated
-            self.model.links.place(new)
+        self.complete_links(new)  # dependent nodes: forward kinematics, never integrated
         return new
 
     def _load_columns(self) -> np.ndarray:
@@ -310,9 +313,7 @@ class Assembler:
     def energies(self, state: State) -> dict[str, float]:
         """Kinetic, strain and gravity potential energy of the whole model (``latdyn_energies``; the
         potential of hinge springs with a stiffness law integrated here, :meth:`hinge_potential`)."""
-        m = self.model
-        if m.links is not None:
-            m.links.complete(state)
+        self.complete_links(state)
         native = self.native()
         kinetic, strain, potential = native.energies(state)
         if native.law_hinges:
@@ -328,8 +329,7 @@ class Assembler:
         r × m v_c + J ω about its centre of mass r = x + T c, with J = T I Tᵀ.
         """
         m = self.model
-        if m.links is not None:
-            m.links.complete(state)
+        self.complete_links(state)
         geometry, qdot, _ = self.native().element_inputs(state)
         (mass,) = self.kernels.beam_mass_matrix(geometry, m.element_sections)
         Mq = np.einsum("eij,ej->ei", mass, qdot)

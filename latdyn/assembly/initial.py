@@ -34,7 +34,7 @@ elastic coordinates of flexible beams included).  A free hinge takes the rate th
 beam end closest to the target: θ̇ = g·(ω_beam − ω_body) (least squares on the end frame's
 angular velocity), with the target of whichever side the hinge positions and the actual motion
 of the side that positions it — in tree order for rigid links, where the child's motion then
-follows from the hinge rate (:meth:`latdyn.model.links.RigidLinks.complete`).  A rod hinged to
+follows from the hinge rate (:meth:`latdyn.assembly.assembler.Assembler.complete_links`).  A rod hinged to
 a fixed body with V₀ = ω thus turns about its hinge at θ̇ = ω·g, as a rigid link or as a
 flexible beam.
 """
@@ -90,10 +90,11 @@ def _point_velocity(twist: np.ndarray, y: np.ndarray) -> np.ndarray:
     return twist[:3] + np.cross(twist[3:], y)
 
 
-def initial_velocities(model, state) -> None:
+def initial_velocities(model, state, complete_links) -> None:
     """Set the free coordinates' velocities of ``state`` (t = 0, prescribed motion applied) from the
     scene's rigid motion and the prescribed rates, in place (module docstring); the dependent
-    nodes of rigid links are completed from them."""
+    nodes of rigid links are completed from them by ``complete_links(state)``
+    (:meth:`latdyn.assembly.assembler.Assembler.complete_links`)."""
     scene = model.scene
     iv = scene.initial_velocity
     omega0 = np.asarray(iv.angular, float)
@@ -152,7 +153,7 @@ def initial_velocities(model, state) -> None:
             child_part = node_part[e.child]  # the link's beam for its link node, else the body at its end
             if e.prismatic:  # a guide: the slide rate that gives the child its target velocity along g
                 if free[e.hinge]:
-                    links.complete(state)  # the parent's actual motion (edges before this one are set)
+                    complete_links(state)  # the parent's actual motion (edges before this one are set)
                     g = state.T[e.parent] @ e.axis
                     x_c = state.x[e.child]
                     relative = (_point_velocity(target(child_part), x_c)
@@ -166,7 +167,7 @@ def initial_velocities(model, state) -> None:
                 omega[e.child] = omega[e.parent] + e.sign * state.theta_dot[e.hinge] * g
             else:
                 omega[e.child] = omega[e.parent]
-        links.complete(state)
+        complete_links(state)
     # flexible beams: a free hinge turns the beam end towards the beam's target
     for name, beam in scene.beams.items():
         if beam.rigid:

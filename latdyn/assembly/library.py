@@ -1,7 +1,7 @@
 """The native boundary: the runtime's C library (``csrc/newton_step.c``, which inlines the one
 evaluation of ``csrc/evaluate.c`` and the one LU factorization of ``csrc/factorization.c`` with the
 sparse LU of ``csrc/sparse_lu.c``), built once into the kernel cache by :mod:`latdyn.native`, the
-ctypes mirrors of its C structs (``Model``, ``Work``, ``Configuration``, ``EvaluationControl``,
+ctypes mirrors of its C structs (``Model``, ``Links``, ``Work``, ``Configuration``, ``EvaluationControl``,
 ``Vectors``, ``StepControl``, ``Advance``, ``Factorization``, ``SparseLU``) and the signatures of
 its exported functions (``latdyn_factor`` and ``latdyn_solve`` among them).
 
@@ -63,7 +63,7 @@ class ModelData(ctypes.Structure):
         ("time_laws", P), ("hinge_laws", P),
         ("hinge_stiffness_law", P), ("hinge_damping_law", P), ("hinge_torque_hinge_law", P), ("hinge_conservative", P),
         ("hinge_lock_at", P), ("hinge_lower_stop", P), ("hinge_upper_stop", P), ("has_events", I64),
-        ("section_width", I64), ("complete_links", P), ("reduce_links", P),
+        ("section_width", I64), ("links", P),
         ("n_controllers", I64), ("n_sensors", I64), ("n_actuators", I64), ("n_couplings", I64),
         ("controller_laws", P), ("controller_outputs", P), ("controller_slot", P), ("controller_limits", P),
         ("sensor_start", P), ("sensor_kind", P), ("sensor_index", P), ("sensor_origin", P),
@@ -71,6 +71,21 @@ class ModelData(ctypes.Structure):
         ("actuator_component", P), ("actuator_controller", P), ("coupling_actuator", P), ("coupling_slot", P),
         ("coupling_sensor", P), ("coupling_position", P),
     ]
+
+
+class LinksData(ctypes.Structure):
+    """``Links`` of csrc/links.c: the rigid links of a model in the compiled step
+    (:mod:`latdyn.assembly.native_links` fills it)."""
+
+    _fields_ = [(name, I64) for name in ("n_edges", "n_slots", "width", "n_assembled")] + [
+        (name, P) for name in (
+            "edge_parent", "edge_child", "edge_hinge", "edge_prismatic", "edge_parent_slot", "edge_slot", "edge_data",
+            "slot_node", "slot_root", "slot_edge", "slot_count", "slot_columns", "slot_position",
+            "element_block", "body_block", "load_block", "coupling_block", "block_rows", "block_columns", "block_position",
+            "positions", "expansion_size", "expansion_reduced", "expansion_start", "dof_slot", "dof_component",
+            "dof_map", "rigid_link_edge", "hinge_wrench", "root_wrench", "prismatic_link_edge", "slide_wrench",
+            "jacobian", "convective", "wrench",
+            "scratch")]
 
 
 class WorkData(ctypes.Structure):
@@ -185,6 +200,8 @@ def native_library() -> ctypes.CDLL:
         library.latdyn_advance_free.argtypes = [model, configuration, P]
         library.latdyn_prescribe.restype = None
         library.latdyn_prescribe.argtypes = [model, work, configuration, ctypes.c_double]
+        library.latdyn_complete_links.restype = None
+        library.latdyn_complete_links.argtypes = [model, configuration]
         factorization = ctypes.POINTER(FactorizationStructure)
         library.latdyn_factor.restype = I64
         library.latdyn_factor.argtypes = [factorization, P, P]

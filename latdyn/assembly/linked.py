@@ -27,24 +27,16 @@ class LinkedEvaluation(SeparateMatrices):
         self.dissipation_power = dissipation_power
         self.blocks, self.assembler = blocks, assembler
         self.projection = self.geometric = self.velocity_derivative = self.dependent_rows = None
-        self._mass_all = self._dense = None
+        self._mass_all = None
 
     def _assembled(self, cm, cc, ck, dense):
         raw = Evaluation(residual=None, reaction=None, blocks=self.blocks, assembler=self.assembler)
         return raw.combined(cm, cc, ck, dense=dense)
 
     def combined(self, cm: float, cc: float, ck: float, dense: bool | None = None):
-        import scipy.sparse as sps  # on use: only models with rigid links need it
-
-        P = self.projection
+        P, geometric, velocity_derivative = self.projection, self.geometric, self.velocity_derivative
         n_asm, n = P.shape
-        small = n_asm <= DENSE_LIMIT  # small models: dense products (sparse overhead dominates)
-        if small:
-            if self._dense is None:
-                self._dense = (P.toarray(), self.geometric.toarray(), self.velocity_derivative.toarray())
-            P, geometric, velocity_derivative = self._dense
-        else:
-            geometric, velocity_derivative = self.geometric, self.velocity_derivative
+        small = n_asm <= DENSE_LIMIT  # small models: dense products (sparse overhead dominates), arrays
         out = P.T @ self._assembled(cm, cc, ck, small) @ P
         if cc != 0.0 and len(self.dependent_rows):
             if self._mass_all is None:
@@ -55,30 +47,38 @@ class LinkedEvaluation(SeparateMatrices):
             out = out + ck * geometric
         if _is_dense(dense, n):
             return out if small else out.toarray()
+        import scipy.sparse as sps  # on use: a sparse matrix asked for
+
         return sps.csr_matrix(out)
 
 
 def evaluate_linked(links, assembler, state, matrices: bool, load_factor: float, inertia: bool,
                     inertia_tangent: bool = False, length: float = 1.0):
     """The equations of motion on the minimum coordinates (module docstring)."""
-    links.complete(state)
+    assembler.complete_links(state)
     full = assembler.evaluate_assembled(state, matrices, load_factor, inertia, inertia_tangent, length)
     return reduce_linked(links, assembler, state, full, matrices, inertia)
 
 
 def reduce_linked(links, assembler, state, full, matrices: bool, inertia: bool) -> LinkedEvaluation:
     """``full``, the evaluation on the independent and dependent coordinates at ``state`` (its
-    dependent nodes completed), reduced onto the minimum coordinates (module docstring)."""
-    import scipy.sparse as sps  # on use: only models with rigid links need it
-
+    dependent nodes completed), reduced onto the minimum coordinates (module docstring). J and ∂c/∂v
+    are those of the compiled step (the generated edge kernels composed along the tree in C,
+    :meth:`latdyn.assembly.native_model.NativeModel.complete_links`), the geometric stiffness the
+    generated wrench kernels' (:func:`geometric_stiffness`)."""
     model = assembler.model
     n, n_asm, n_total = model.n_dofs, model.n_assembled, model.n_total
-    columns, twist = links.twists(model, state)
+    assembler.complete_links(state)  # J and ∂c/∂v of this state in the native links' buffers
+    native = assembler.native().links
+    columns = links.columns(model)
+    where = {int(c): k for k, c in enumerate(columns)}
     n_dep = len(links.dependent)
-    J = np.zeros((6 * n_dep, len(columns)))
+    J, convective = np.zeros((6 * n_dep, len(columns))), np.zeros((6 * n_dep, len(columns)))
     for k, c in enumerate(links.dependent):
-        J[6 * k:6 * k + 3] = links.point_jacobian(twist[c], state.x[c])
-        J[6 * k + 3:6 * k + 6] = twist[c][3:]
+        s = native.slot_of_node[int(c)]
+        at = [where[int(col)] for col in native.columns[s, :native.count[s]]]
+        J[6 * k:6 * k + 6, at] = native.jacobian[s, :, :len(at)]
+        convective[6 * k:6 * k + 6, at] = native.convective[s, :, :len(at)]
     dep_rows = model.node_dofs[links.dependent].ravel()  # n ≤ index < n_asm, in order
     assert np.all((dep_rows >= n) & (dep_rows < n_asm))
     r_dep = full.residual[dep_rows]  # tree order, like the rows of J
@@ -92,13 +92,91 @@ def reduce_linked(links, assembler, state, full, matrices: bool, inertia: bool) 
     out = LinkedEvaluation(residual=residual, reaction=reaction, external_power=full.external_power,
                            blocks=full.blocks, assembler=assembler, dissipation_power=full.dissipation_power)
     if matrices:
+        small = n_asm <= DENSE_LIMIT
         Jf = J[:, free_cols]
-        rows = np.concatenate([np.arange(n), dep_rows[np.repeat(np.arange(6 * n_dep), Jf.shape[1])]])
-        cols = np.concatenate([np.arange(n), np.tile(columns[free_cols], 6 * n_dep)])
-        P = sps.csr_matrix((np.concatenate([np.ones(n), Jf.ravel()]), (rows, cols)), shape=(n_asm, n))
+        if small:  # dense products (and no SciPy import) for small models
+            P = np.zeros((n_asm, n))
+            P[np.arange(n), np.arange(n)] = 1.0
+            P[np.ix_(dep_rows, columns[free_cols])] = Jf
+            velocity_derivative = np.zeros((6 * n_dep, n))
+            if inertia:
+                velocity_derivative[:, columns[free_cols]] = convective[:, free_cols]
+        else:
+            import scipy.sparse as sps  # on use: large models with rigid links
+
+            rows = np.concatenate([np.arange(n), dep_rows[np.repeat(np.arange(6 * n_dep), Jf.shape[1])]])
+            cols = np.concatenate([np.arange(n), np.tile(columns[free_cols], 6 * n_dep)])
+            P = sps.csr_matrix((np.concatenate([np.ones(n), Jf.ravel()]), (rows, cols)), shape=(n_asm, n))
+            Cf = convective[:, free_cols] if inertia else np.zeros_like(Jf)
+            velocity_derivative = sps.csr_matrix(
+                (Cf.ravel(), (np.repeat(np.arange(6 * n_dep), Jf.shape[1]), np.tile(columns[free_cols], 6 * n_dep))),
+                shape=(6 * n_dep, n))
         out.projection = P
-        out.geometric = links.geometric_stiffness(model, state, columns, twist, full.residual, n)
-        out.velocity_derivative = (links.convective_derivative(model, state, columns) if inertia
-                                   else sps.csr_matrix((6 * n_dep, n)))
+        out.geometric = geometric_stiffness(links, assembler, state, native, r_dep, small)
+        out.velocity_derivative = velocity_derivative
         out.dependent_rows = dep_rows
     return out
+
+
+def geometric_stiffness(links, assembler, state, native, r_dep, dense: bool):
+    """∂(Pᵀ)/∂q · r_all on the free coordinates (n, n), r_all held fixed: for each dependent node c
+    with residual wrench (f, m) at x_c, the derivative of its generalized force on its root
+    (``root_wrench``: (f, m + (x_c − x_r) × f), by δx_r and δx_c) and on every hinge of its path
+    (``hinge_wrench``: s g·((x_c − o_g) × f + m); on a guide's slide ``slide_wrench``: s g·f; by the edge
+    parent's δx, δπ and δx_c), the generated
+    kernels of codegen/joints.py, chained with J of the parent and of c (as csrc/links.c does)."""
+    model, kernels = assembler.model, assembler.kernels
+    n = model.n_dofs
+    rows, cols, values = [], [], []
+    pairs = []  # (dependent index, edge index) of every hinge and slide on every path
+    for k, c in enumerate(links.dependent):
+        if np.any(r_dep[6 * k:6 * k + 6]):
+            pairs += [(k, e) for e in links.path(int(c)) if links.edges[e].hinge >= 0]
+    nodes = [k for k, c in enumerate(links.dependent) if np.any(r_dep[6 * k:6 * k + 6])]
+
+    def add(slot, row_columns, block):  # block (rows, count of the slot's columns)
+        columns = native.columns[slot, :block.shape[1]]
+        for row, values_row in zip(row_columns, block):
+            keep = (columns < n) & (row < n)
+            rows.append(np.full(int(keep.sum()), row))
+            cols.append(columns[keep])
+            values.append(values_row[keep])
+
+    if nodes:
+        dependent = links.dependent[nodes]
+        roots = [links.root[int(c)] for c in dependent]
+        wrench = np.concatenate([state.x[roots], state.x[dependent], r_dep.reshape(-1, 6)[nodes]], axis=1)
+        _, derivative = kernels.root_wrench(np.ascontiguousarray(wrench))
+        for c, D in zip(dependent, derivative):
+            s = native.slot_of_node[int(c)]
+            Jc = native.jacobian[s, :, :native.count[s]]
+            block = D[:, 3:] @ Jc[:3]
+            block[:, :3] += D[:, :3]  # δx_r: the root's translations, its slot's first columns
+            add(s, native.columns[s, :6], block)
+    if pairs:
+        edges = [links.edges[e] for _, e in pairs]
+        parent = np.concatenate([state.x[[e.parent for e in edges]], state.T[[e.parent for e in edges]].reshape(-1, 9)],
+                                axis=1)
+        data = np.array([np.concatenate([e.axis, e.point, [e.sign]]) for e in edges])
+        wrench = np.array([np.concatenate([state.x[links.dependent[k]], r_dep[6 * k:6 * k + 6]]) for k, _ in pairs])
+        derivative = np.empty((len(pairs), 9))
+        for prismatic, kernel in ((False, kernels.hinge_wrench), (True, kernels.slide_wrench)):
+            kind = np.array([e.prismatic == prismatic for e in edges])
+            if kind.any():
+                derivative[kind] = kernel(parent[kind], data[kind], wrench[kind])[1]
+        for (k, e), edge, D in zip(pairs, edges, derivative):
+            s, p = native.slot_of_node[int(links.dependent[k])], native.slot_of_node[int(edge.parent)]
+            Jc, Jp = native.jacobian[s, :, :native.count[s]], native.jacobian[p, :, :native.count[p]]
+            row = D[6:] @ Jc[:3]
+            row[:Jp.shape[1]] += D[:6] @ Jp
+            add(s, [int(model.hinge_dofs[edge.hinge])], row[None])
+    rows = np.concatenate(rows) if rows else np.zeros(0, np.int64)
+    cols = np.concatenate(cols) if cols else np.zeros(0, np.int64)
+    values = np.concatenate(values) if values else np.zeros(0)
+    if dense:
+        out = np.zeros((n, n))
+        np.add.at(out, (rows, cols), values)
+        return out
+    import scipy.sparse as sps  # on use: large models with rigid links
+
+    return sps.csr_matrix((values, (rows, cols)), shape=(n, n))

@@ -29,6 +29,7 @@ from latdyn.assembly.library import (
     native_library,
     parallel_threshold,
 )
+from latdyn.assembly.native_links import native_links
 from latdyn.model.model import PRESCRIBED
 
 #: Central-difference step of the elements' inertia tangent (radians for rotations and hinges,
@@ -324,6 +325,11 @@ class NativeModel:
                    "p_quadratic": (E, 14), "p_gravity_force": (E, 14), "p_gravity_potential": (E,),
                    "p_first_moment": (E, 3)}
         work.update({name: shape if inertia_tangent else (0,) for name, shape in tangent.items()})
+        #: the rigid links as csrc/links.c reads them (None without): their kinematics, until the
+        #: compiled step holds its matrix (hold_links)
+        self.links = None
+        if m.links is not None:
+            self.hold_links(assembler, None)
         self.buffers = {name: np.zeros(shape) for name, shape in work.items()}
         self.buffers["gravity_rows"][:] = a.gravity
         self.buffers["pivots"] = np.zeros(0, np.int32)
@@ -375,6 +381,21 @@ class NativeModel:
         configuration = self.configuration(state)
         self.library.latdyn_advance_free(self.model_ref, ctypes.byref(configuration),
                                          increment.ctypes.data if increment.size else self._empty.ctypes.data)
+        self._written_back(state)
+
+    def hold_links(self, assembler, factorization) -> None:
+        """The rigid links laid out for ``factorization``'s storage (the compiled step's iteration
+        matrix; None: the kinematics alone), :attr:`links` and the Model's ``links`` (native_links)."""
+        self.links = native_links(assembler, factorization,
+                                  lambda name: _kernel_address(assembler.kernels, name))
+        self.model.links = self.links.address
+
+    def complete_links(self, state) -> None:
+        """The dependent nodes of rigid links in ``state`` from the independent nodes and hinges: frames,
+        positions, velocities and accelerations, in place (``latdyn_complete_links``: the generated
+        kernel rigid_link_edge edge by edge, latdyn.model.links' module docstring)."""
+        configuration = self.configuration(state)
+        self.library.latdyn_complete_links(self.model_ref, ctypes.byref(configuration))
         self._written_back(state)
 
     def prescribe(self, state, t: float) -> None:

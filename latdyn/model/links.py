@@ -42,27 +42,21 @@ The equations of motion are assembled, as for any model, on the independent coor
     r_min = Pᵀ r_all,   M_min = Pᵀ M P,   C_min = Pᵀ (C P + M_·dep ∂c/∂v),
     K_min = Pᵀ K P + ∂(Pᵀ)/∂q · r_all
 
-where c(q, v) = J̇ v is the velocity-quadratic part of the dependent accelerations (its
-derivative by v is taken by central differences, exact for a quadratic to round-off) and the
-last term of K_min (*geometric*) is analytic (:meth:`RigidLinks.geometric_stiffness`).
-Like the rest of the package, K omits the derivatives of inertia forces by q.
-Configurations of dependent nodes are never integrated: :meth:`RigidLinks.place` sets them
-by forward kinematics in tree order after every update of the independent coordinates.
+where c(q, v) = J̇ v is the velocity-quadratic part of the dependent accelerations and the
+last term of K_min (*geometric*) is the derivative of Pᵀ by q at fixed r_all. Like the rest of the
+package, K omits the derivatives of inertia forces by q. The runtime evaluates all of it from
+the generated kernels of codegen/joints.py (``rigid_link_edge`` per edge, ``prismatic_link_edge``
+per prismatic edge: the child's configuration and rates, its factors of J and ∂c/∂v;
+``hinge_wrench``, ``slide_wrench`` and ``root_wrench``: the geometric stiffness), composed along the tree in C (latdyn/assembly/csrc/links.c, laid out by
+latdyn/assembly/native_links.py); this module holds the tree. Configurations of dependent nodes
+are never integrated: they are set by forward kinematics in tree order after every update of the
+independent coordinates (:meth:`latdyn.assembly.assembler.Assembler.complete_links`).
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 
 import numpy as np
-
-from latdyn.numerics.so3 import expm_so3, skew
-
-
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a × b over the last axis, broadcast (numpy.cross costs ~20 µs a call in these loops)."""
-    a, b = np.asarray(a), np.asarray(b)
-    return np.stack([a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1], a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2],
-                     a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]], axis=-1)
 
 
 @dataclass
@@ -102,66 +96,6 @@ class RigidLinks:
             node = self.edges[k].parent
         return out[::-1]
 
-    # ------------------------------------------------------------------ kinematics
-    def place(self, state) -> None:
-        """Forward kinematics on SO(3), in tree order: x and T of every dependent node (in place)."""
-        for e in self.edges:
-            theta = state.theta[e.hinge] if e.hinge >= 0 else 0.0
-            if e.prismatic:
-                Tp = state.T[e.parent]
-                state.T[e.child] = Tp
-                state.x[e.child] = state.x[e.parent] + Tp @ (e.point + theta * e.axis)
-                continue
-            R = expm_so3(e.axis * (e.sign * theta)) if e.hinge >= 0 else np.eye(3)
-            Tp = state.T[e.parent]
-            state.T[e.child] = Tp @ R
-            state.x[e.child] = state.x[e.parent] + Tp @ (e.point + R @ e.arm)
-
-    def _joint(self, state, e: Edge):
-        """Current axis g = T_p a, hinge point o_g and joint twist ξ = (o_g × g, g) of an edge;
-        ξ = (g, 0) on a prismatic edge (o_g is then the child's point at s = 0)."""
-        Tp = state.T[e.parent]
-        g = Tp @ e.axis
-        o = state.x[e.parent] + Tp @ e.point
-        if e.prismatic:
-            return g, o, np.concatenate([g, np.zeros(3)])
-        return g, o, np.concatenate([_cross(o, g), g])
-
-    def _rates(self, state, v, w, a, alpha, theta_dot, theta_ddot) -> None:
-        """Velocities and accelerations of the dependent nodes from the independent ones, batched:
-        v, w, a, alpha (batch, n_nodes, 3) and theta_dot, theta_ddot (batch, n_hinges), in place."""
-        for e in self.edges:
-            p, c = e.parent, e.child
-            xp, xc = state.x[p], state.x[c]
-            omega, omega_dot = w[:, p], alpha[:, p]
-            v_origin = v[:, p] - _cross(omega, xp)  # V_p = (v_p − ω × x_p, ω)
-            v_origin_dot = a[:, p] - _cross(omega_dot, xp) - _cross(omega, v[:, p])
-            if e.hinge >= 0:
-                _, _, xi = self._joint(state, e)
-                rate = e.sign * theta_dot[:, e.hinge][:, None]
-                accel = e.sign * theta_ddot[:, e.hinge][:, None]
-                # V_p ×̂ ξ = (ω × ξ_v + v_O × ξ_ω, ω × ξ_ω)
-                cross_v = _cross(omega, xi[:3]) + _cross(v_origin, xi[3:])
-                cross_w = _cross(omega, xi[3:])
-                v_origin_dot = v_origin_dot + accel * xi[:3] + rate * cross_v
-                omega_dot = omega_dot + accel * xi[3:] + rate * cross_w
-                v_origin = v_origin + rate * xi[:3]
-                omega = omega + rate * xi[3:]
-            w[:, c] = omega
-            alpha[:, c] = omega_dot
-            v[:, c] = v_origin + _cross(omega, xc)
-            a[:, c] = v_origin_dot + _cross(omega_dot, xc) + _cross(omega, v[:, c])
-
-    def complete(self, state) -> None:
-        """Configuration, velocities and accelerations of every dependent node from the
-        independent ones (in place; idempotent)."""
-        self.place(state)
-        arrays = [state.v[None], state.w[None], state.a[None], state.alpha[None],
-                  state.theta_dot[None], state.theta_ddot[None]]
-        arrays = [np.array(x) for x in arrays]
-        self._rates(state, *arrays)
-        state.v[:], state.w[:], state.a[:], state.alpha[:] = (x[0] for x in arrays[:4])
-
     # ------------------------------------------------------------------ the map J
     def columns(self, model) -> np.ndarray:
         """The coordinates (all numbering, sorted) the dependent nodes move with: their roots' 6
@@ -173,130 +107,6 @@ class RigidLinks:
             if e.hinge >= 0:
                 cols.append(int(model.hinge_dofs[e.hinge]))
         return np.array(sorted(set(cols)), dtype=np.int64)
-
-    def twists(self, model, state):
-        """Twist Jacobians of the dependent nodes and their roots on the coordinates they use.
-
-        Returns (columns, twist) with ``columns`` the coordinate indices (all numbering) of the
-        roots' 6 coordinates and the hinges on the edges, and ``twist`` a dict node ->
-        (6, len(columns)) array: δV = (δv_O, δω) of the node per unit of each column.
-        """
-        columns = self.columns(model)
-        where = {int(c): k for k, c in enumerate(columns)}
-        twist = {}
-        for r in {self.root[c] for c in self.dependent}:
-            X = np.zeros((6, len(columns)))
-            d = [where[int(i)] for i in model.node_dofs[r]]
-            X[:3, d[:3]] = np.eye(3)
-            X[:3, d[3:]] = skew(state.x[r])  # δv_O = δd + x × δπ
-            X[3:, d[3:]] = np.eye(3)
-            twist[r] = X
-        for e in self.edges:
-            X = twist[e.parent].copy()
-            if e.hinge >= 0:
-                _, _, xi = self._joint(state, e)
-                X[:, where[int(model.hinge_dofs[e.hinge])]] += e.sign * xi
-            twist[e.child] = X
-        return columns, twist
-
-    @staticmethod
-    def point_jacobian(twist: np.ndarray, y: np.ndarray) -> np.ndarray:
-        """δy of a point y of a body from its twist Jacobian: δv_O + δω × y, (3, n_columns)."""
-        return twist[:3] - skew(y) @ twist[3:]
-
-
-
-    def geometric_stiffness(self, model, state, columns, twist, residual_all, n) -> np.ndarray:
-        """∂(Pᵀ)/∂q · r_all on the free coordinates (n, n), r_all held fixed.
-
-        For a dependent node c with residual wrench (f, m) (force, moment about x_c), Pᵀ puts
-        m + (x_c − x_r) × f on its root's rotations, s g·(m + (x_c − o) × f) on each hinge of
-        its path (axis g, point o) and g·f on each slide.  Varied with f, m fixed (g, o move with
-        the edge's parent p):
-
-            root:   −skew(f) (δx_c − δx_r)
-            hinge:  s [(g × u)·δω_p + (f × g)·(δx_c − δo)],  u = m + (x_c − o) × f
-            slide:  (g × f)·δω_p
-        """
-        import scipy.sparse as sps  # on use: only models with rigid links need it
-
-        rows, cols, values = [], [], []
-
-        def add(row_indices, block):
-            rows.append(np.repeat(row_indices, len(fc)))
-            cols.append(np.tile(fc, len(row_indices)))
-            values.append(np.ravel(block))
-
-        free = columns < n
-        fc = columns[free]
-        for c in self.dependent:
-            d = model.node_dofs[c]
-            f, m = residual_all[d[:3]], residual_all[d[3:]]
-            if not (np.any(f) or np.any(m)):
-                continue
-            x_c = state.x[c]
-            dx_c = self.point_jacobian(twist[c], x_c)
-            r = self.root[c]
-            rd = model.node_dofs[r]
-            if rd[3] < n:
-                dx_r = self.point_jacobian(twist[r], state.x[r])
-                add(rd[3:], (-skew(f) @ (dx_c - dx_r))[:, free])
-            for k in self.path(c):
-                e = self.edges[k]
-                if e.hinge < 0 or model.hinge_dofs[e.hinge] >= n:
-                    continue
-                g, o, _ = self._joint(state, e)
-                tp = twist[e.parent]
-                if e.prismatic:
-                    add(np.array([model.hinge_dofs[e.hinge]]), (e.sign * _cross(g, f) @ tp[3:])[free])
-                    continue
-                u = m + _cross(x_c - o, f)
-                row = e.sign * (_cross(g, u) @ tp[3:] + _cross(f, g) @ (dx_c - self.point_jacobian(tp, o)))
-                add(np.array([model.hinge_dofs[e.hinge]]), row[free])
-        if not rows:
-            return sps.csr_matrix((n, n))
-        return sps.csr_matrix((np.concatenate(values), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n))
-
-    def convective_derivative(self, model, state, columns) -> np.ndarray:
-        """∂a_dep/∂v on the free coordinates, (6 n_dep, n): central differences of the dependent
-        accelerations, which are quadratic in the velocities (exact up to round-off)."""
-        import scipy.sparse as sps  # on use: only models with rigid links need it
-
-        n = model.n_dofs
-        free_cols = columns[columns < n]
-        n_dep = len(self.dependent)
-        out = np.zeros((6 * n_dep, len(free_cols)))
-        if not len(free_cols):
-            return sps.csr_matrix((6 * n_dep, n))
-        batch = 2 * len(free_cols)
-        v = np.repeat(state.v[None], batch, axis=0)
-        w = np.repeat(state.w[None], batch, axis=0)
-        a = np.repeat(state.a[None], batch, axis=0)
-        alpha = np.repeat(state.alpha[None], batch, axis=0)
-        theta_dot = np.repeat(state.theta_dot[None], batch, axis=0)
-        theta_ddot = np.repeat(state.theta_ddot[None], batch, axis=0)
-        # which node slot / hinge each free column is
-        node_of = {}
-        for i, row in enumerate(model.node_dofs):
-            for k, dof in enumerate(row):
-                if dof < n:
-                    node_of[int(dof)] = (i, k)
-        hinge_of = {int(d): k for k, d in enumerate(model.hinge_dofs) if d < n}
-        step = max(1.0, float(np.abs(np.concatenate([state.v.ravel(), state.w.ravel(),
-                                                       state.theta_dot])).max(initial=0.0)))
-        for j, col in enumerate(free_cols):
-            for b, sign in ((2 * j, 1.0), (2 * j + 1, -1.0)):
-                if int(col) in hinge_of:
-                    theta_dot[b, hinge_of[int(col)]] += sign * step
-                else:
-                    i, k = node_of[int(col)]
-                    (v if k < 3 else w)[b, i, k % 3] += sign * step
-        self._rates(state, v, w, a, alpha, theta_dot, theta_ddot)
-        for k, c in enumerate(self.dependent):
-            diff = np.concatenate([a[0::2, c] - a[1::2, c], alpha[0::2, c] - alpha[1::2, c]], axis=1)
-            out[6 * k:6 * k + 6] = diff.T / (2 * step)
-        rows = np.repeat(np.arange(6 * n_dep), len(free_cols))
-        return sps.csr_matrix((out.ravel(), (rows, np.tile(free_cols, 6 * n_dep))), shape=(6 * n_dep, n))
 
     # ------------------------------------------------------------------ report
     def report(self, model) -> str:

@@ -174,8 +174,7 @@ def frame(assembler, mesh: dict, state) -> dict:
     {"points", "point_data", "cell_data"}}`` with the cell data that changes (section forces)."""
     from latdyn.results.probes import SECTION_QUANTITIES, section_forces
 
-    if assembler.model.links is not None:
-        assembler.model.links.complete(state)
+    assembler.complete_links(state)
     out = {}
     for name, part in mesh.items():
         nodes = part["node"]

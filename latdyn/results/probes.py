@@ -112,8 +112,7 @@ class ProbeSet:
     def values(self, state: State, energies: dict | None = None) -> list[float]:
         """Probe values in file order; ``energies`` may be passed when already computed."""
         m = self.model
-        if m.links is not None:
-            m.links.complete(state)
+        self.assembler.complete_links(state)
         if energies is None and self._need_energy:
             energies = self.assembler.energies(state)
         momentum = self.assembler.momentum(state) if self._need_momentum else None

@@ -43,11 +43,13 @@ element order, so the results are equal whatever the threads (bit for bit on the
 ~1e-14 on a lattice). The library is built with ``-fopenmp`` where the compiler accepts it, else
 serially (``openmp_threads`` says 0).
 
-Models with rigid links take the same Newton iteration and loop of steps: after every configuration
-update C calls back :class:`LinkedReduction` to place the dependent nodes, and after every evaluation
-to reduce it onto the minimum coordinates (:mod:`latdyn.assembly.linked`), the reduced iteration
-matrix written into the same dense, band or sparse storage, on the pattern of Pᵀ A P
-(:func:`matrix_pattern`).
+Models with rigid links take the same Newton iteration and loop of steps, in C too: after every
+configuration update the dependent nodes are completed, and every evaluation is reduced onto the
+minimum coordinates (``csrc/links.c`` with the generated edge kernels of ``codegen/joints.py``, laid
+out by :mod:`latdyn.assembly.native_links` for the matrix's storage,
+:meth:`~latdyn.assembly.native_model.NativeModel.hold_links`), the reduced iteration matrix written
+into the same dense, band or sparse storage, on the pattern of Pᵀ A P (:func:`matrix_pattern`). No Python runs inside a
+Newton iteration.
 """
 from __future__ import annotations
 
@@ -66,7 +68,6 @@ from latdyn.assembly.library import (
     native_library,
     parallel_threshold,
 )
-from latdyn.assembly.linked import reduce_linked
 from latdyn.assembly.native_model import INERTIA_TANGENT_STEP, STATE_FIELDS, state_shapes
 from latdyn.step.integrators import GeneralizedAlpha, StepStats
 
@@ -74,85 +75,25 @@ from latdyn.step.integrators import GeneralizedAlpha, StepStats
 def matrix_pattern(assembler) -> tuple[np.ndarray, np.ndarray]:
     """(row, col) of every entry the iteration matrix can hold, row by row: the assembler's pattern
     on the free coordinates; with rigid links, that of Pᵀ A P, P = [I; J] with J's dependent rows
-    full on the coordinates the dependent nodes move with (:mod:`latdyn.assembly.linked`; its
-    geometric and convective terms lie inside it)."""
+    full on the free coordinates the dependent nodes move with (:mod:`latdyn.assembly.linked`),
+    and all of those among themselves (where the geometric and convective terms lie)."""
     m = assembler.model
     n, n_asm = m.n_dofs, m.n_assembled
     rows, cols = assembler._csr_rows, assembler._csr_cols
     if m.links is None:
         return rows, cols
-    import scipy.sparse as sps  # on use: only models with rigid links need it
-
-    A = sps.csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(n_asm, n_asm))
     moved = m.links.columns(m)
     moved = moved[moved < n]
-    dependent_rows = m.node_dofs[m.links.dependent].ravel()
-    P = sps.csr_matrix((np.ones(n + len(dependent_rows) * len(moved)),
-                        (np.concatenate([np.arange(n), np.repeat(dependent_rows, len(moved))]),
-                         np.concatenate([np.arange(n), np.tile(moved, len(dependent_rows))]))), shape=(n_asm, n))
-    reduced = (P.T @ A @ P + sps.identity(n)).tocsr()
-    reduced.sort_indices()
-    return np.repeat(np.arange(n), np.diff(reduced.indptr)), reduced.indices.astype(np.int64)
-
-
-_COMPLETE_LINKS = ctypes.CFUNCTYPE(None, ctypes.c_void_p)
-_REDUCE_LINKS = ctypes.CFUNCTYPE(ctypes.c_int64, ctypes.c_void_p, ctypes.c_double, ctypes.c_double, ctypes.c_int64,
-                                 ctypes.c_int64)
-
-
-class LinkedReduction:
-    """The rigid links of a model in the compiled step: the C Newton iteration calls back
-    ``complete`` after every configuration update (dependent nodes placed, their rates completed:
-    :meth:`latdyn.model.links.RigidLinks.complete`) and ``reduce`` after every evaluation (the
-    evaluation in Work reduced onto the minimum coordinates by :func:`latdyn.assembly.linked.reduce_linked`,
-    the residual and reactions written back into Work's ``total``, and the reduced iteration
-    matrix β′M + γ′C + K loaded into the step's :class:`Factorization`). An exception in a callback
-    cannot cross C: it fails the step and :meth:`raise_pending` raises it once C has returned."""
-
-    def __init__(self, assembler, native, factorization: Factorization):
-        self.assembler, self.native, self.factorization = assembler, native, factorization
-        self.error = None
-        self._shapes = state_shapes(assembler.model)
-        self.callbacks = (_COMPLETE_LINKS(self._complete), _REDUCE_LINKS(self._reduce))
-        native.model.complete_links = ctypes.cast(self.callbacks[0], ctypes.c_void_p).value
-        native.model.reduce_links = ctypes.cast(self.callbacks[1], ctypes.c_void_p).value
-
-    def _state(self, address: int) -> State:
-        """The state whose arrays are those of the C configuration at ``address`` (views)."""
-        c = ConfigurationData.from_address(address)
-        arrays = [np.ctypeslib.as_array(ctypes.cast(getattr(c, name), ctypes.POINTER(ctypes.c_double)),
-                                        shape=self._shapes[name]) for name in STATE_FIELDS]
-        return State(0.0, *arrays)
-
-    def _complete(self, address):
-        try:
-            self.assembler.model.links.complete(self._state(address))
-        except BaseException as error:  # noqa: BLE001 - raised again by raise_pending
-            self.error = self.error or error
-
-    def _reduce(self, address, beta_p, gamma_p, matrices, inertia_tangent):
-        if self.error is not None:
-            return 1
-        try:
-            a, model, buffers = self.assembler, self.assembler.model, self.native.buffers
-            total = buffers["total"]
-            full = a.evaluation_in(self.native, total.copy(), 0.0, bool(matrices), True, bool(inertia_tangent))
-            reduced = reduce_linked(model.links, a, self._state(address), full, bool(matrices), True)
-            n = model.n_dofs
-            total[:n] = reduced.residual
-            total[n:model.n_total] = reduced.reaction
-            if matrices:
-                self.factorization.load(reduced.combined(beta_p, gamma_p, 1.0,
-                                                         dense=self.factorization.kind == "dense"))
-            return 0
-        except BaseException as error:  # noqa: BLE001 - raised again by raise_pending
-            self.error = error
-            return 1
-
-    def raise_pending(self) -> None:
-        error, self.error = self.error, None
-        if error is not None:
-            raise error
+    free_row, free_col = rows < n, cols < n
+    dependent_row, dependent_col = (rows >= n) & (rows < n_asm), (cols >= n) & (cols < n_asm)
+    after = np.unique(cols[dependent_row & free_col])  # columns of a dependent node's rows
+    before = np.unique(rows[free_row & dependent_col])  # rows of a dependent node's columns
+    pairs = [(rows[free_row & free_col], cols[free_row & free_col]), (np.arange(n), np.arange(n)),
+             (np.repeat(moved, len(moved)), np.tile(moved, len(moved))),
+             (np.repeat(moved, len(after)), np.tile(after, len(moved))),
+             (np.repeat(before, len(moved)), np.tile(moved, len(before)))]
+    keys = np.unique(np.concatenate([r.astype(np.int64) * n + c for r, c in pairs]))
+    return keys // n, keys % n
 
 
 # ----------------------------------------------------------------------------- the step
@@ -250,10 +191,9 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         native.set_buffer("rhs", np.zeros(n))
         native.set_buffer("pivots", factorization.pivots)
         if m.links is not None:
-            keep.append(LinkedReduction(a, native, factorization))
+            native.hold_links(a, factorization)
         native.matrix_storage = keep
         self.factorization = factorization
-        self._links = keep[-1] if m.links is not None else None
 
     def _layout(self) -> None:
         """Offsets of a state's arrays in one flat buffer (a new state per step: the loop
@@ -308,8 +248,6 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         self._native.laws.bind_inputs()  # this scene's input values (SceneLaws.bind_inputs)
         failed = self._step(self._model_ref, self._work_ref, self._control_ref, ctypes.byref(base),
                             ctypes.byref(trial), self._vectors_ref)
-        if self._links is not None:
-            self._links.raise_pending()
         self.factorizations += control.factorizations
         self._last_trial = trial_state
         self._made = self._view(trial_state, trial)
@@ -351,8 +289,6 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         self._native.laws.bind_inputs()  # this scene's input values (SceneLaws.bind_inputs)
         self._library.latdyn_advance(self._model_ref, self._work_ref, self._control_ref, ctypes.byref(base),
                                      self._scratch_c, ctypes.byref(out_c), self._vectors_ref, self._run_ref)
-        if self._links is not None:
-            self._links.raise_pending()
         control = self._control
         self.factorizations += run.factorizations
         last = state

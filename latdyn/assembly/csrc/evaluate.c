@@ -34,6 +34,7 @@
 #endif
 
 #include "factorization.c" /* the iteration matrix's storage and LU, which the Model points to */
+struct Links; /* rigid links in the compiled step: links.c */
 typedef void (*kernel_2_1)(int64_t, const double *, const double *, double *);
 typedef void (*kernel_2_2)(int64_t, const double *, const double *, double *, double *);
 typedef void (*kernel_3_1)(int64_t, const double *, const double *, const double *, double *);
@@ -127,15 +128,10 @@ typedef struct {
     const double *hinge_lock_at, *hinge_lower_stop, *hinge_upper_stop;
     int64_t has_events;
     int64_t section_width; /* columns of element_sections (latdyn.model.SECTION_WIDTH) */
-    /* models with rigid links (latdyn/assembly/linked.py; NULL without): complete_links places the
-     * dependent nodes of a configuration and completes their rates after every configuration update;
-     * reduce_links reduces the evaluation in Work onto the minimum coordinates (residual and
-     * reactions in place in `total`) and, when asked, writes the reduced iteration matrix
-     * S = Pᵀ(β′M + γ′C + K)P + … into `matrix`; nonzero: it failed. Python callbacks
-     * (latdyn/step/compiled.py): the reduction is the one latdyn.assembly.linked holds. */
-    void (*complete_links)(Configuration *);
-    int64_t (*reduce_links)(const Configuration *, double beta_p, double gamma_p, int64_t matrices,
-                            int64_t inertia_tangent);
+    /* models with rigid links (NULL without): their dependent nodes, the edges and the expansions the
+     * compiled step completes and reduces each Newton iteration with (links.c, set up by
+     * latdyn/step/compiled.py); the analyses driven from Python reduce with latdyn/assembly/linked.py */
+    const struct Links *links;
     /* continuous controllers (latdyn/assembly/control.py; n_controllers 0: none): controller k reads
      * sensors sensor_start[k] … sensor_start[k+1]−1 (kind: 0 hinge angle, 1 hinge rate, 2 node
      * position component, 3 node velocity component; index: the hinge, or 3·node + axis; origin

@@ -20,6 +20,7 @@
 #include <time.h>
 
 #include "evaluate.c" /* the evaluation (inlined into this source by latdyn/assembly/library.py) */
+#include "links.c"    /* rigid links: dependent nodes completed, evaluations reduced */
 
 /* S = β′M + γ′C + K scattered into the matrix storage (Evaluation.combined). */
 static void assemble(const Model *m, Work *w, double beta_p, double gamma_p, int with_inertia_tangent)
@@ -93,7 +94,7 @@ static void configure_trial(const Model *m, const Configuration *base, Configura
                             const double *velocity, const double *acceleration, const double *laws)
 {
     configure(m, base, trial, increment, velocity, acceleration, laws);
-    if (m->complete_links) m->complete_links(trial);
+    if (m->links) complete_links(m, trial);
 }
 
 /* Settings and results of one step. */
@@ -119,7 +120,7 @@ typedef struct {
  * free coordinates) to `trial`; on return v and vdot hold the new velocities and accelerations,
  * w->total the last evaluation (residual and reaction); latdyn/step/integrators.py has the scheme,
  * tests/reference_step.py the NumPy reference it must equal. With rigid links, every configuration
- * is completed and every evaluation reduced by the model's callbacks (complete_links, reduce_links). */
+ * is completed and every evaluation reduced onto the minimum coordinates (links.c). */
 /* v_n and v̇_n of the free coordinates from a configuration (assembly.free_velocity, free_acceleration). */
 static void free_rates(const Model *m, const Configuration *c, double *velocity, double *acceleration)
 {
@@ -177,10 +178,9 @@ int64_t latdyn_newton_step(const Model *m, Work *w, StepControl *s, const Config
             return 0;
         }
         if (matrices && s->inertia_tangent) inertia_tangent(m, trial, w, s->tangent_step, s->length);
-        if (m->reduce_links && m->reduce_links(trial, beta_p, gamma_p, matrices, s->inertia_tangent) != 0)
-            return 1;
+        if (m->links) reduce_links(m, w, trial, beta_p, gamma_p, matrices, (int)s->inertia_tangent);
         if (matrices) {
-            if (!m->reduce_links) assemble(m, w, beta_p, gamma_p, (int)s->inertia_tangent);
+            if (!m->links) assemble(m, w, beta_p, gamma_p, (int)s->inertia_tangent);
             s->factorizations += 1;
             s->factored_h = 0.0;
             if (latdyn_factor(m->factorization, w->matrix, w->pivots) != 0) return 1;

@@ -1,0 +1,312 @@
+/*
+ * Rigid links in the compiled Newton iteration: the dependent nodes completed after every
+ * configuration update, and every evaluation reduced onto the minimum coordinates, in C.
+ *
+ * Runtime code, written by hand, that holds no physics of its own: a dependent node's frame,
+ * position and rates from its parent through the edge's hinge or slide, the edge's factors of the
+ * map J and of the velocity-quadratic accelerations (kernels rigid_link_edge, prismatic_link_edge),
+ * and the generalized force of a wrench on a hinge, a slide or a root with its derivative by the
+ * configuration (hinge_wrench, slide_wrench, root_wrench) come from the generated unit generated/joints.c (codegen/joints.py, whose module
+ * docstring has the equations), called through function pointers. What is here composes them
+ * along the tree and applies the projection P = [I; J] of latdyn/model/links.py:
+ *
+ *     r_min = Pᵀ r_all,   S_min = Pᵀ (β′M + γ′C + K) P + γ′ Pᵀ M_·dep ∂c/∂v + ∂(Pᵀ)/∂q · r_all
+ *
+ * (latdyn/assembly/linked.py holds the same reduction for the analyses driven from Python).
+ *
+ * Slots: every dependent node and every root of the link trees has a slot, with its columns: the
+ * coordinates its configuration moves with (a root's six; a dependent node's parent's columns, then
+ * its edge's hinge), so that a slot's columns begin with its parent's. Per slot, J (6 × width,
+ * row-major: the slot node's [δd, δπ] per unit of each column; a root's is the identity) and ∂c/∂v
+ * (6 × width: ∂(a, α)/∂ of the columns' rates). Blocks (element, body, load) that touch a dependent
+ * coordinate are reduced through their expansions: per block coordinate, its slot and component (a
+ * dependent coordinate) or its column among the block's reduced coordinates (a free one; -1 for a
+ * constrained one), and, for a dependent coordinate, the reduced column of each of its slot's
+ * columns (-1: constrained). Every matrix position is precomputed by latdyn/step/compiled.py.
+ */
+
+/* generated/joints.c (codegen/joints.py) */
+typedef void (*kernel_rigid_link_edge)(int64_t, const double *, const double *, double *, double *, double *,
+                                       double *, double *, double *);
+typedef void (*kernel_hinge_wrench)(int64_t, const double *, const double *, const double *, double *, double *);
+typedef void (*kernel_root_wrench)(int64_t, const double *, double *, double *);
+
+/* The rigid links of a model, as the C step reads them (mirrored in latdyn/assembly/library.py). */
+typedef struct Links {
+    int64_t n_edges, n_slots, width, n_assembled;
+    /* edges in tree order (parents before children): nodes, hinge (-1 clamped), kind (1: prismatic,
+     * a guide's slide, its hinge coordinate the slide s; 0: revolute or clamped), slots, and
+     * a[3] o[3] b[3] s of each (s = 0 on a clamped edge), the kernel's input */
+    const int64_t *edge_parent, *edge_child, *edge_hinge, *edge_prismatic, *edge_parent_slot, *edge_slot;
+    const double *edge_data; /* (n_edges, 10) */
+    /* slots: node, root slot, the edge into it (-1: a root), column count and columns (n_slots, width),
+     * the matrix positions of (column, column) pairs (n_slots, width, width; -1: constrained) */
+    const int64_t *slot_node, *slot_root, *slot_edge, *slot_count, *slot_columns, *slot_position;
+    /* blocks that touch a dependent coordinate: the linked block of each element, body, load and
+     * continuous controller's coupling entry (-1: none), its row and column expansion and where its
+     * positions (reduced rows × reduced columns, row-major) begin in `positions` */
+    const int64_t *element_block, *body_block, *load_block, *coupling_block;
+    const int64_t *block_rows, *block_columns, *block_position, *positions;
+    /* expansions: coordinates, reduced columns, where their coordinates begin; per coordinate
+     * (all expansions one after the other) the slot (-1: not dependent), the component, and the
+     * reduced column map (width each) */
+    const int64_t *expansion_size, *expansion_reduced, *expansion_start;
+    const int64_t *dof_slot, *dof_component, *dof_map;
+    kernel_rigid_link_edge rigid_link_edge;
+    kernel_hinge_wrench hinge_wrench;
+    kernel_root_wrench root_wrench;
+    kernel_rigid_link_edge prismatic_link_edge; /* the same signatures: a guide's edge and slide */
+    kernel_hinge_wrench slide_wrench;
+    /* buffers: J and ∂c/∂v of every slot (n_slots, 6, width); the dependent nodes' residual rows
+     * (n_slots, 6); scratch of the block reduction (4 × max coordinates × max reduced + max reduced²) */
+    double *jacobian, *convective, *wrench, *scratch;
+} Links;
+
+/* The dependent nodes of c from their parents, edge by edge in tree order (frames, positions and
+ * rates in place), with J and ∂c/∂v of every slot. */
+static void complete_links(const Model *m, Configuration *c)
+{
+    const Links *L = m->links;
+    const int64_t W = L->width;
+    for (int64_t k = 0; k < L->n_edges; ++k) {
+        const int64_t p = L->edge_parent[k], child = L->edge_child[k], h = L->edge_hinge[k];
+        double parent[24], edge[13], transfer[36], joint[6], conv[42], rates[12];
+        memcpy(parent, c->x + 3 * p, 3 * sizeof(double));
+        memcpy(parent + 3, c->T + 9 * p, 9 * sizeof(double));
+        memcpy(parent + 12, c->v + 3 * p, 3 * sizeof(double));
+        memcpy(parent + 15, c->w + 3 * p, 3 * sizeof(double));
+        memcpy(parent + 18, c->a + 3 * p, 3 * sizeof(double));
+        memcpy(parent + 21, c->alpha + 3 * p, 3 * sizeof(double));
+        memcpy(edge, L->edge_data + 10 * k, 10 * sizeof(double));
+        edge[10] = h >= 0 ? c->theta[h] : 0.0;
+        edge[11] = h >= 0 ? c->theta_dot[h] : 0.0;
+        edge[12] = h >= 0 ? c->theta_ddot[h] : 0.0;
+        (L->edge_prismatic[k] ? L->prismatic_link_edge : L->rigid_link_edge)(
+            1, parent, edge, c->x + 3 * child, c->T + 9 * child, rates, transfer, joint, conv);
+        memcpy(c->v + 3 * child, rates, 3 * sizeof(double));
+        memcpy(c->w + 3 * child, rates + 3, 3 * sizeof(double));
+        memcpy(c->a + 3 * child, rates + 6, 3 * sizeof(double));
+        memcpy(c->alpha + 3 * child, rates + 9, 3 * sizeof(double));
+        /* J_c = transfer J_p (+ the joint column); ∂c_c/∂v = transfer ∂c_p/∂v + conv [J_p; e_θ] */
+        const int64_t sp = L->edge_parent_slot[k], sc = L->edge_slot[k];
+        const int64_t np = L->slot_count[sp], nc = L->slot_count[sc];
+        const double *Jp = L->jacobian + 6 * W * sp, *Cp = L->convective + 6 * W * sp;
+        double *Jc = L->jacobian + 6 * W * sc, *Cc = L->convective + 6 * W * sc;
+        for (int i = 0; i < 6; ++i) {
+            for (int64_t j = 0; j < np; ++j) {
+                double s = 0.0, t = 0.0;
+                for (int q = 0; q < 6; ++q) {
+                    s += transfer[6 * i + q] * Jp[W * q + j];
+                    t += transfer[6 * i + q] * Cp[W * q + j] + conv[7 * i + q] * Jp[W * q + j];
+                }
+                Jc[W * i + j] = s;
+                Cc[W * i + j] = t;
+            }
+            if (nc > np) {  /* the edge's hinge: the last column */
+                Jc[W * i + np] = joint[i];
+                Cc[W * i + np] = conv[7 * i + 6];
+            }
+        }
+    }
+}
+
+/* The dependent nodes of c completed from the independent ones, in place (NativeModel.complete_links:
+ * probes, energies and the analyses driven from Python); nothing without rigid links. */
+void latdyn_complete_links(const Model *m, Configuration *c)
+{
+    if (m->links) complete_links(m, c);
+}
+
+/* P_e (size × reduced) of expansion x from the slots' J, and its ∂c/∂v rows (NULL: not wanted). */
+static void expand(const Links *L, int64_t x, double *P, double *C)
+{
+    const int64_t W = L->width, size = L->expansion_size[x], reduced = L->expansion_reduced[x];
+    const int64_t start = L->expansion_start[x];
+    memset(P, 0, sizeof(double) * size * reduced);
+    if (C) memset(C, 0, sizeof(double) * size * reduced);
+    for (int64_t d = 0; d < size; ++d) {
+        const int64_t slot = L->dof_slot[start + d], *map = L->dof_map + W * (start + d);
+        if (slot < 0) {
+            if (map[0] >= 0) P[reduced * d + map[0]] = 1.0;
+            continue;
+        }
+        const int64_t k = L->dof_component[start + d];
+        const double *J = L->jacobian + 6 * W * slot + W * k, *Cv = L->convective + 6 * W * slot + W * k;
+        for (int64_t j = 0; j < L->slot_count[slot]; ++j) {
+            if (map[j] < 0) continue;
+            P[reduced * d + map[j]] = J[j];
+            if (C) C[reduced * d + map[j]] = Cv[j];
+        }
+    }
+}
+
+/* Pᵀ_rows (S P_cols + γ′ M ∂c/∂v_cols) of linked block b into the matrix: S the block's β′M + γ′C + K
+ * (rows × columns, row-major), M its mass block or NULL. */
+static void reduce_block(const Links *L, Work *w, int64_t b, const double *S, const double *M, double gamma_p)
+{
+    const int64_t xr = L->block_rows[b], xc = L->block_columns[b];
+    const int64_t nr = L->expansion_size[xr], nc = L->expansion_size[xc];
+    const int64_t ur = L->expansion_reduced[xr], uc = L->expansion_reduced[xc];
+    double *Pr = L->scratch, *Pc = Pr + nr * ur, *Cc = Pc + nc * uc, *B = Cc + nc * uc;
+    expand(L, xr, Pr, NULL);
+    expand(L, xc, Pc, M ? Cc : NULL);
+    for (int64_t i = 0; i < nr; ++i)
+        for (int64_t j = 0; j < uc; ++j) {
+            double s = 0.0;
+            for (int64_t q = 0; q < nc; ++q) {
+                s += S[nc * i + q] * Pc[uc * q + j];
+                if (M) s += gamma_p * M[nc * i + q] * Cc[uc * q + j];
+            }
+            B[uc * i + j] = s;
+        }
+    const int64_t *position = L->positions + L->block_position[b];
+    for (int64_t i = 0; i < ur; ++i)
+        for (int64_t j = 0; j < uc; ++j) {
+            if (position[uc * i + j] < 0) continue;
+            double s = 0.0;
+            for (int64_t q = 0; q < nr; ++q) s += Pr[ur * q + i] * B[uc * q + j];
+            w->matrix[position[uc * i + j]] += s;
+        }
+}
+
+/* A block's S = β′M + γ′C + K (+ D, the inertia tangent), row-major, into `out`; M, C, D may be NULL. */
+static void combined_block(const double *M, const double *C, const double *K, const double *D, int64_t size,
+                           double beta_p, double gamma_p, double *out)
+{
+    for (int64_t p = 0; p < size; ++p)
+        out[p] = (M ? beta_p * M[p] : 0.0) + (C ? gamma_p * C[p] : 0.0) + K[p] + (D ? D[p] : 0.0);
+}
+
+/* The reduced iteration matrix Pᵀ(β′M + γ′C + K)P + γ′ Pᵀ M_·dep ∂c/∂v + ∂(Pᵀ)/∂q · r_all into the
+ * matrix storage (assemble's counterpart for a model with rigid links): the blocks without a
+ * dependent coordinate as assemble scatters them, the others through their expansions, then the
+ * geometric stiffness from the dependent nodes' residual rows (L->wrench). */
+static void assemble_linked(const Model *m, Work *w, const Configuration *c, double beta_p, double gamma_p,
+                            int with_inertia_tangent)
+{
+    const Links *L = m->links;
+    const int64_t W = L->width;
+    double S[196];
+    memset(w->matrix, 0, sizeof(double) * m->factorization->size);
+    for (int64_t e = 0; e < m->n_elements; ++e) {
+        const double *K = w->tangent + 196 * e, *M = w->mass + 196 * e, *C = w->quadratic_D + 196 * e;
+        const double *D = with_inertia_tangent ? w->inertia_tangent + 196 * e : NULL;
+        if (L->element_block[e] >= 0) {
+            combined_block(M, C, K, D, 196, beta_p, gamma_p, S);
+            reduce_block(L, w, L->element_block[e], S, M, gamma_p);
+            continue;
+        }
+        const int64_t *pos = m->element_position + 196 * e;
+        for (int p = 0; p < 196; ++p)
+            if (pos[p] >= 0) w->matrix[pos[p]] += beta_p * M[p] + gamma_p * C[p] + K[p] + (D ? D[p] : 0.0);
+    }
+    for (int64_t b = 0; b < m->n_bodies; ++b) {
+        const double *M = w->body_mass + 36 * b, *C = w->body_damping + 36 * b, *K = w->body_stiffness + 36 * b;
+        if (L->body_block[b] >= 0) {
+            combined_block(M, C, K, NULL, 36, beta_p, gamma_p, S);
+            reduce_block(L, w, L->body_block[b], S, M, gamma_p);
+            continue;
+        }
+        const int64_t *pos = m->body_position + 36 * b;
+        for (int p = 0; p < 36; ++p)
+            if (pos[p] >= 0) w->matrix[pos[p]] += beta_p * M[p] + gamma_p * C[p] + K[p];
+    }
+    for (int64_t j = 0; j < m->n_hinges; ++j)
+        if (m->hinge_position[j] >= 0)
+            w->matrix[m->hinge_position[j]] += gamma_p * w->hinge_d_rate[j] + w->hinge_d_theta[j];
+    for (int64_t l = 0; l < m->n_loads; ++l) {
+        const double *K = w->load_blocks + 36 * l;
+        if (L->load_block[l] >= 0) {
+            reduce_block(L, w, L->load_block[l], K, NULL, gamma_p);
+            continue;
+        }
+        const int64_t *pos = m->load_position + 36 * l;
+        for (int p = 0; p < 36; ++p)
+            if (pos[p] >= 0) w->matrix[pos[p]] += K[p];
+    }
+    /* continuous controllers: the actuators' rows by the sensors' coordinates (evaluate.c), an entry
+     * at a dependent coordinate through its expansions */
+    for (int64_t e = 0; e < m->n_couplings; ++e) {
+        const double value = gamma_p * w->coupling_damping[e] + w->coupling_stiffness[e];
+        if (L->coupling_block[e] >= 0)
+            reduce_block(L, w, L->coupling_block[e], &value, NULL, gamma_p);
+        else if (m->coupling_position[e] >= 0)
+            w->matrix[m->coupling_position[e]] += value;
+    }
+    /* ∂(Pᵀ)/∂q · r_all: each dependent node's wrench (f, m) at x_c, on its root (root_wrench, by δx_r
+     * and δx_c) and on every hinge or slide of its path (hinge_wrench or slide_wrench, by the edge
+     * parent's δx, δπ and δx_c) */
+    double row[W > 0 ? W : 1];
+    for (int64_t s = 0; s < L->n_slots; ++s) {
+        const int64_t edge = L->slot_edge[s];
+        if (edge < 0) continue;
+        const double *r = L->wrench + 6 * s;
+        if (!(r[0] || r[1] || r[2] || r[3] || r[4] || r[5])) continue;
+        const int64_t node = L->slot_node[s], count = L->slot_count[s], root = L->slot_root[s];
+        const double *Jc = L->jacobian + 6 * W * s;
+        const int64_t *position = L->slot_position + W * W * s;
+        double input[12], value[6], D[36];
+        memcpy(input, c->x + 3 * L->slot_node[root], 3 * sizeof(double));
+        memcpy(input + 3, c->x + 3 * node, 3 * sizeof(double));
+        memcpy(input + 6, r, 6 * sizeof(double));
+        L->root_wrench(1, input, value, D);
+        for (int i = 0; i < 6; ++i) {  /* the root's column i: δx_r is the identity on columns 0-2 */
+            for (int64_t j = 0; j < count; ++j) {
+                double g = j < 3 ? D[6 * i + j] : 0.0;
+                for (int q = 0; q < 3; ++q) g += D[6 * i + 3 + q] * Jc[W * q + j];
+                row[j] = g;
+            }
+            for (int64_t j = 0; j < count; ++j)
+                if (position[W * i + j] >= 0) w->matrix[position[W * i + j]] += row[j];
+        }
+        for (int64_t t = s; L->slot_edge[t] >= 0; t = L->edge_parent_slot[L->slot_edge[t]]) {
+            const int64_t k = L->slot_edge[t];
+            if (L->edge_hinge[k] < 0) continue;
+            const int64_t p = L->edge_parent[k], sp = L->edge_parent_slot[k], column = L->slot_count[t] - 1;
+            const double *Jp = L->jacobian + 6 * W * sp;
+            double parent[12], data[7], wrench[9], force, Dh[9];
+            memcpy(parent, c->x + 3 * p, 3 * sizeof(double));
+            memcpy(parent + 3, c->T + 9 * p, 9 * sizeof(double));
+            memcpy(data, L->edge_data + 10 * k, 6 * sizeof(double));
+            data[6] = L->edge_data[10 * k + 9];
+            memcpy(wrench, c->x + 3 * node, 3 * sizeof(double));
+            memcpy(wrench + 3, r, 6 * sizeof(double));
+            (L->edge_prismatic[k] ? L->slide_wrench : L->hinge_wrench)(1, parent, data, wrench, &force, Dh);
+            for (int64_t j = 0; j < count; ++j) {
+                double g = 0.0;
+                if (j < L->slot_count[sp])
+                    for (int q = 0; q < 6; ++q) g += Dh[q] * Jp[W * q + j];
+                for (int q = 0; q < 3; ++q) g += Dh[6 + q] * Jc[W * q + j];
+                if (position[W * column + j] >= 0) w->matrix[position[W * column + j]] += g;
+            }
+        }
+    }
+}
+
+/* The evaluation in w->total reduced onto the minimum coordinates, in place: r_min = Pᵀ r_all on the
+ * free coordinates, Jᵀ r_dep added to the reactions of the constrained ones, the dependent rows
+ * cleared (kept in L->wrench for the geometric stiffness); with matrices, the reduced iteration
+ * matrix (assemble_linked). The configuration's dependent nodes are those complete_links made. */
+static void reduce_links(const Model *m, Work *w, const Configuration *c, double beta_p, double gamma_p,
+                         int matrices, int with_inertia_tangent)
+{
+    const Links *L = m->links;
+    const int64_t W = L->width;
+    for (int64_t s = 0; s < L->n_slots; ++s) {
+        if (L->slot_edge[s] < 0) continue;
+        const int64_t *d = m->node_dofs + 6 * L->slot_node[s];
+        for (int k = 0; k < 6; ++k) L->wrench[6 * s + k] = w->total[d[k]];
+    }
+    for (int64_t i = m->n_dofs; i < L->n_assembled; ++i) w->total[i] = 0.0;
+    for (int64_t s = 0; s < L->n_slots; ++s) {
+        if (L->slot_edge[s] < 0) continue;
+        const double *J = L->jacobian + 6 * W * s, *r = L->wrench + 6 * s;
+        const int64_t *columns = L->slot_columns + W * s;
+        for (int64_t j = 0; j < L->slot_count[s]; ++j) {
+            double f = 0.0;
+            for (int k = 0; k < 6; ++k) f += J[W * k + j] * r[k];
+            w->total[columns[j]] += f;
+        }
+    }
+    if (matrices) assemble_linked(m, w, c, beta_p, gamma_p, with_inertia_tangent);
+}
