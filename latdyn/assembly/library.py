@@ -202,6 +202,9 @@ def native_library() -> ctypes.CDLL:
         library.latdyn_prescribe.argtypes = [model, work, configuration, ctypes.c_double]
         library.latdyn_complete_links.restype = None
         library.latdyn_complete_links.argtypes = [model, configuration]
+        library.latdyn_iteration_matrix.restype = None
+        library.latdyn_iteration_matrix.argtypes = [model, ctypes.POINTER(WorkData), configuration, ctypes.c_double,
+                                                    ctypes.c_double, I64]
         factorization = ctypes.POINTER(FactorizationStructure)
         library.latdyn_factor.restype = I64
         library.latdyn_factor.argtypes = [factorization, P, P]

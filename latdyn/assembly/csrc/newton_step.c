@@ -58,6 +58,18 @@ static void assemble(const Model *m, Work *w, double beta_p, double gamma_p, int
             w->matrix[m->coupling_position[e]] += gamma_p * w->coupling_damping[e] + w->coupling_stiffness[e];
 }
 
+/* The iteration matrix S = β′M + γ′C + K of the evaluation left in w (latdyn_evaluate at c, with
+ * matrices and inertia), as the Newton iteration forms it before factoring it: with rigid links and
+ * guides reduced onto the minimum coordinates (c's dependent nodes completed by latdyn_complete_links;
+ * the residual in w->total reduced in place). Into the matrix storage, unfactored; tests compare it with
+ * latdyn.assembly.linked's reduction. */
+void latdyn_iteration_matrix(const Model *m, Work *w, const Configuration *c, double beta_p, double gamma_p,
+                             int64_t with_inertia_tangent)
+{
+    if (m->links) reduce_links(m, w, c, beta_p, gamma_p, 1, (int)with_inertia_tangent);
+    else assemble(m, w, beta_p, gamma_p, (int)with_inertia_tangent);
+}
+
 /* dx = −S⁻¹ r with the factors held in Work (factorization.c), through the factor's order. */
 static int solve(const Model *m, Work *w, const double *residual, double *dx)
 {
