@@ -63,7 +63,7 @@ class ModelData(ctypes.Structure):
         ("time_laws", P), ("hinge_laws", P),
         ("hinge_stiffness_law", P), ("hinge_damping_law", P), ("hinge_torque_hinge_law", P), ("hinge_conservative", P),
         ("hinge_lock_at", P), ("hinge_lower_stop", P), ("hinge_upper_stop", P), ("has_events", I64),
-        ("section_width", I64), ("complete_links", P), ("reduce_links", P),
+        ("section_width", I64), ("complete_links", P), ("reduce_links", P), ("hinge_contact", P),
     ]
 
 

@@ -62,6 +62,8 @@ class HingeCoordinate:
     rest_angle: float = 0.0
     limits: tuple[float, float] | None = None
     restitution: float = 0.0
+    contact: object = None   # latdyn.scene.loader.StopContact | None: the stops compliant
+    friction: object = None  # latdyn.scene.loader.JointFriction | None
 
     @property
     def conservative_spring(self) -> bool:
@@ -426,7 +428,7 @@ def _add_hinge(hinges: list, beam: str, which: str, node: int, hinge) -> int:
     hinges.append(HingeCoordinate(beam, which, node, np.array(h.axis, float), _law(h.stiffness), _law(h.damping),
                                   None if h.torque is None else _law(h.torque), h.angle,
                                   None if h.lock_at is None else float(h.lock_at),
-                                  float(h.rest_angle), h.limits, float(h.restitution)))
+                                  float(h.rest_angle), h.limits, float(h.restitution), h.contact, h.friction))
     return len(hinges) - 1
 
 

@@ -58,6 +58,9 @@ def crossing_fraction(model: Model, old: State, new: State) -> float | None:
 # Events rather than a penalty: exact landing on the stop and no contact stiffness that the
 # step would have to resolve; rather than a complementarity solve inside Newton: the time
 # step (shared with the compiled step of solve.py) stays as it is.
+# A stop with ``contact`` is compliant instead: its Hunt–Crossley force is part of the hinge's force
+# (the generated hinge_force, codegen/joints.py joint_contact) and no impulse applies; the step still
+# lands on its onset (stop_crossings: δ = 0 within lock_tolerance), where the force law has its kink.
 def stop_crossings(model: Model, old: State, new: State) -> list[tuple[int, int, float]]:
     """(hinge, side, fraction of the step) for free hinges that crossed a stop from inside during the
     step (side −1 lower, +1 upper), the angle interpolated linearly."""
@@ -86,7 +89,7 @@ def hinge_stops(prepared: Prepared, integrator, new: State, old: State | None = 
     hits, stops, restitution = [], [], []
     for k in model.free_hinges:
         limits = model.hinges[k].limits
-        if limits is None:
+        if limits is None or model.hinges[k].contact is not None:  # a compliant stop is a force, no impact
             continue
         for side, stop in ((-1, limits[0]), (1, limits[1])):
             if side * (new.theta[k] - stop) >= -lock_tolerance(stop) and side * new.theta_dot[k] >= 0.0:

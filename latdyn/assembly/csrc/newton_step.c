@@ -218,8 +218,8 @@ static double lock_tolerance(double at) { return 1e-7 * fmax(1.0, fabs(at)); }
 
 /* Whether the step old → new holds an event that latdyn/timeloop/events.py handles (and the loop must not
  * accept by itself): a free hinge that reaches or crosses its lock_at (lock_events),
- * crosses a stop from inside (stop_crossings), or ends on or beyond a stop moving into
- * it (hinge_stops). */
+ * crosses a stop from inside (stop_crossings; the onset of a compliant stop's contact too), or ends on or
+ * beyond a rigid stop moving into it (hinge_stops). */
 static int hinge_event(const Model *m, const Configuration *old, const Configuration *new_)
 {
     for (int64_t k = 0; k < m->n_free_hinges; ++k) {
@@ -234,7 +234,9 @@ static int hinge_event(const Model *m, const Configuration *old, const Configura
             if (isnan(stop)) continue;
             double before = side * (old->theta[j] - stop), after = side * (new_->theta[j] - stop);
             if (before < -lock_tolerance(stop) && after > lock_tolerance(stop)) return 1;
-            if (after >= -lock_tolerance(stop) && side * new_->theta_dot[j] >= 0.0) return 1;
+            /* a compliant stop (contact stiffness > 0) is a force, not an impact: only its onset lands */
+            if (after >= -lock_tolerance(stop) && side * new_->theta_dot[j] >= 0.0 && !(m->hinge_contact[11 * j + 2] > 0.0))
+                return 1;
         }
     }
     return 0;
