@@ -184,9 +184,10 @@ def contact_reference(theta, rate, row):
             force += side * hc
             potential += k * depth ** (n + 1) / (n + 1)
             stop_loss += (hc - k * depth**n) * depth_rate
-    speed = abs(rate)
-    decay = np.exp(-(rate * inverse) ** 2) if smooth else min(max(2 - speed / v0, 0.0), 1.0)
-    friction = (fc + (fs - fc) * decay) * min(max(rate / v0, -1.0), 1.0) + cv * rate
+    w = min(max(abs(rate) / v0 - 1, 0.0), 1.0)
+    decay = np.exp(-(rate * inverse) ** 2) if smooth else 1 - w**2 * (3 - 2 * w)
+    y = min(max(rate / v0, -1.0), 1.0)
+    friction = (fc + (fs - fc) * decay) * y * (2 - abs(y)) + cv * rate
     return force + friction, potential, stop_loss + friction * rate
 
 
