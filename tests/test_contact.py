@@ -261,3 +261,18 @@ def test_a_bad_contact_value_exits_2_with_the_key_through_the_cli(tmp_path):
     done, _ = latdyn_run(tmp_path, panel("limits: [-1, 1], contact: {stiffness: 5, exponent: 0.5}"))
     assert done.returncode == 2
     assert "beams.arm.start.hinge.contact.exponent" in done.stderr and "Traceback" not in done.stderr
+
+
+def test_the_scene_builder_writes_contact_and_friction():
+    """`latdyn.scene.builder.hinge(..., contact=..., friction=...)`: the keys as a user types them,
+    read back with their defaults."""
+    from latdyn.scene.builder import hinge
+
+    end = hinge([0, 0, 1], limits=[-1, 0.1], contact={"stiffness": 1e3, "exponent": 1.5},
+                friction={"coulomb": 0.2, "stribeck_rate": 0.05})
+    scene = yaml.safe_load(panel("damping: 0.0"))
+    scene["beams"]["arm"]["start"] = end
+    h = latdyn.load_scene(scene).beams["arm"].start.hinge
+    assert (h.contact.stiffness, h.contact.exponent, h.contact.damping) == (1e3, 1.5, 0.0)
+    assert (h.friction.coulomb, h.friction.static, h.friction.stribeck_rate, h.friction.viscous,
+            h.friction.stick_rate) == (0.2, 0.2, 0.05, 0.0, 1e-3)
