@@ -276,3 +276,13 @@ def test_the_scene_builder_writes_contact_and_friction():
     assert (h.contact.stiffness, h.contact.exponent, h.contact.damping) == (1e3, 1.5, 0.0)
     assert (h.friction.coulomb, h.friction.static, h.friction.stribeck_rate, h.friction.viscous,
             h.friction.stick_rate) == (0.2, 0.2, 0.05, 0.0, 1e-3)
+
+
+def test_a_static_spring_held_by_a_compliant_stop():
+    """Static: a hinge spring (k_s = 1, rest 0.45) pushes the panel into a linear compliant stop at
+    0.1 (k = 1000) and friction carries nothing at rest: θ = (k_s·0.45 + k·0.1)/(k_s + k) to 1e-9."""
+    scene = yaml.safe_load(panel("stiffness: 1.0, rest_angle: 0.45, limits: [-1, 0.1], "
+                                 "contact: {stiffness: 1000.0, damping: 50.0}, friction: {coulomb: 0.01}"))
+    scene["solve"] = {"analysis": "static", "steps": 4}
+    result = latdyn.run(scene)
+    assert result.probes["angle"][-1] == pytest.approx((0.45 + 1000.0 * 0.1) / 1001.0, abs=1e-9)
