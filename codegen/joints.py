@@ -213,7 +213,7 @@ class _Step(sp.Function):
 
 class _PositivePower(sp.Function):
     """⟨x⟩ⁿ, ⟨x⟩ = max(x, 0): differentiated as n ⟨x⟩ⁿ⁻¹ step(x), never through x⁻¹ (which is
-    0/0 outside contact), and printed branch-free by :func:`_branch_free`."""
+    0/0 outside contact), and printed branch-free by :class:`_BranchFree`."""
 
     def fdiff(self, argindex=1):
         x, n = self.args

@@ -28,7 +28,7 @@ from latdyn.model.kernels import planar_variant
 from latdyn.model.planar import find_plane, restrict_to_plane
 from latdyn.numerics.linalg import issparse, psd_null_direction
 from latdyn.scene.expressions import HingeLaw, TimeFunction
-from latdyn.scene.loader import Scene
+from latdyn.scene.loader import JointFriction, Scene, StopContact
 
 #: columns of the kernels' section block (codegen/conventions.py SECTION):
 #: L0 EA EIy EIz GJ rhoA rhoIy rhoIz 1/GAy 1/GAz
@@ -62,8 +62,8 @@ class HingeCoordinate:
     rest_angle: float = 0.0
     limits: tuple[float, float] | None = None
     restitution: float = 0.0
-    contact: object = None   # latdyn.scene.loader.StopContact | None: the stops compliant
-    friction: object = None  # latdyn.scene.loader.JointFriction | None
+    contact: StopContact | None = None  # the stops compliant (Hunt–Crossley), docs/contact.md
+    friction: JointFriction | None = None
 
     @property
     def conservative_spring(self) -> bool:
