@@ -255,7 +255,7 @@ class NativeModel:
             hinge_conservative=ints([int(h.conservative_spring) for h in m.hinges]),
             hinge_lock_at=arr(lock_at), hinge_lower_stop=arr(lower), hinge_upper_stop=arr(upper),
             has_events=int(any(m.hinges[k].lock_at is not None or m.hinges[k].limits is not None
-                               for k in m.free_hinges)),
+                               or m.hinges[k].friction is not None for k in m.free_hinges)),
             section_width=m.element_sections.shape[1], hinge_contact=arr(joint_contact_rows(m.hinges)),
         )
         work = {

@@ -103,6 +103,9 @@ class Model:
     body_inertia: np.ndarray  # (n_b, 3, 3) about the COM, node axes
     body_node: dict[str, int]  # scene body name -> node index
     locked: np.ndarray = field(default=None)  # (n_hinge,) bool
+    #: (n_hinge,) bool: the locked hinges that stick by friction (latdyn.timeloop.events.stick_and_slip);
+    #: they are released when their reaction exceeds the breakaway level, a latch never is
+    stuck: np.ndarray = field(default=None)
     # coordinate numbering (rebuilt when a hinge latches)
     node_dofs: np.ndarray = field(default=None)  # (n_nodes, 6) index or -1
     hinge_dofs: np.ndarray = field(default=None)  # (n_hinge,) index or -1
@@ -211,6 +214,7 @@ class Model:
             body_node=body_node, links=links,
         )
         model.locked = np.zeros(len(hinges), dtype=bool)
+        model.stuck = np.zeros(len(hinges), dtype=bool)
         model.section_turns = np.zeros(len(model.element_nodes))
         normal, model.plane_reason = find_plane(scene)
         if normal is not None:

@@ -1,5 +1,6 @@
-"""Events of the time loop: hinges that latch at ``lock_at`` and impacts on hinge stops, the
-fraction of a step at which the first one happens (the loop shortens the step onto it)."""
+"""Events of the time loop: hinges that latch at ``lock_at``, impacts on hinge stops, and joints
+that stick and slip by friction; the fraction of a step at which the first one happens (the loop
+shortens the step onto it)."""
 from __future__ import annotations
 
 from typing import NamedTuple
@@ -35,9 +36,11 @@ def lock_events(model: Model, old: State, new: State) -> tuple[list[int], list[t
 
 
 def crossing_fraction(model: Model, old: State, new: State) -> float | None:
-    """The fraction of the step at which the first hinge crosses its lock_at or a stop, or None."""
+    """The fraction of the step at which the first hinge crosses its lock_at or a stop, or the rate of
+    a hinge with friction crosses zero, or None."""
     _, crossing = lock_events(model, old, new)
     fractions = [f for _, f in crossing] + [f for _, _, f in stop_crossings(model, old, new)]
+    fractions += [f for _, f in rate_reversals(model, old, new)]
     return min(fractions) if fractions else None
 
 
@@ -174,6 +177,89 @@ def latch_hinges(prepared: Prepared, integrator, old: State, new: State, h: floa
     return before - kinetic_energy(assembler, new)
 
 
+# ----------------------------------------------------------------------------- stick and slip
+# A joint with friction (static level F_s > 0) sticks by an event, not by its regularised law alone:
+# a step in which its rate reverses is shortened to land on θ̇ = 0 (secant on the rate), and a joint
+# whose rate is within the stick band (|θ̇| ≤ stick_rate, or reversed over the step) is locked there
+# on trial, as a latch is (the momentum-conserving jump to θ̇ = 0, the coordinates renumbered, the
+# accelerations consistent with the locked model); it stays locked (``model.stuck``) while the
+# reaction that holds it, |R| ≤ F_s, the breakaway level, and the trial is undone otherwise (state
+# and integrator as they were). A stuck joint is released after the first step at whose end its
+# reaction exceeds F_s; the regularised law (codegen/joints.py joint_contact) is its friction while
+# it slips. The C loop of steps hands back every step that may stick a joint (newton_step.c
+# hinge_event), and the loop takes the steps of a run with a stuck joint from Python, to check it.
+def sticking_hinges(model: Model) -> list[int]:
+    """The free hinges whose friction can hold them (static level > 0)."""
+    return [int(k) for k in model.free_hinges
+            if model.hinges[k].friction is not None and model.hinges[k].friction.static > 0.0]
+
+
+def rate_reversals(model: Model, old: State, new: State) -> list[tuple[int, float]]:
+    """(hinge, fraction of the step) for hinges with friction whose rate changed sign over the step
+    (linear interpolation of the rate)."""
+    out = []
+    for k in sticking_hinges(model):
+        before, after = old.theta_dot[k], new.theta_dot[k]
+        if before * after < 0.0:
+            out.append((k, before / (before - after)))
+    return out
+
+
+def _may_stick(model: Model, k: int, old: State, new: State) -> bool:
+    """Whether hinge k is tried for sticking at the end of the step (newton_step.c hinge_event)."""
+    before, after = old.theta_dot[k], new.theta_dot[k]
+    return before * after <= 0.0 or abs(after) <= model.hinges[k].friction.stick_rate
+
+
+def holding_reaction(prepared: Prepared, state: State, k: int) -> float:
+    """The generalized force that holds locked hinge k at ``state`` (its accelerations consistent)."""
+    model = prepared.model
+    return float(prepared.assembler.evaluate(state, matrices=False).reaction[model.hinge_dofs[k] - model.n_dofs])
+
+
+def _renumber(prepared: Prepared, integrator, state: State) -> None:
+    prepared.model.number_coordinates()
+    prepared.assembler.reindex()
+    integrator.start(state)
+
+
+def stick_and_slip(prepared: Prepared, integrator, old: State, new: State) -> float | None:
+    """Release the stuck hinges whose reaction exceeds the breakaway level, then stick those whose rate
+    reached the stick band and whose holding reaction is within it (see above). Returns the kinetic
+    energy the sticking jumps removed, or None when no hinge stuck or slipped."""
+    model, assembler = prepared.model, prepared.assembler
+    changed, loss = False, 0.0
+    for k in np.flatnonzero(model.stuck):
+        if abs(holding_reaction(prepared, new, int(k))) > model.hinges[k].friction.static:
+            model.locked[k] = model.stuck[k] = False
+            _renumber(prepared, integrator, new)
+            changed = True
+    for k in sticking_hinges(model):
+        if not _may_stick(model, k, old, new):
+            continue
+        saved = {name: getattr(new, name).copy() for name in ("v", "w", "theta_dot", "a", "alpha", "theta_ddot")}
+        saved_a = None if getattr(integrator, "a", None) is None else integrator.a.copy()
+        before = kinetic_energy(assembler, new)
+        N = hinge_directions(model, [k])
+        X = impulse_response(model, assembler.evaluate(new, matrices=True), N, prepared.scene.solve.dt)
+        unpack_free(model, jump(X, N, free_velocity(model, new), np.zeros(1)), new.v, new.w, new.theta_dot)
+        model.locked[k] = model.stuck[k] = True
+        new.theta_dot[k] = new.theta_ddot[k] = 0.0
+        _renumber(prepared, integrator, new)
+        if abs(holding_reaction(prepared, new, k)) <= model.hinges[k].friction.static:
+            loss += before - kinetic_energy(assembler, new)
+            changed = True
+            continue
+        model.locked[k] = model.stuck[k] = False  # it slips on: the trial undone
+        model.number_coordinates()
+        assembler.reindex()
+        for name, value in saved.items():
+            np.copyto(getattr(new, name), value)
+        if saved_a is not None:
+            integrator.a = saved_a
+    return loss if changed else None
+
+
 def kinetic_energy(assembler, state: State) -> float:
     return assembler.energies(state)["kinetic"]
 
@@ -181,7 +267,7 @@ def kinetic_energy(assembler, state: State) -> float:
 class HingeEvents(NamedTuple):
     """The events at the end of an accepted step."""
 
-    any: bool  # a hinge latched or hit a stop
+    any: bool  # a hinge latched, hit a stop, stuck or slipped
     stopped: bool  # a hinge hit a stop
     #: the energy the events removed (:func:`hinge_events`): declared dissipation
     loss: float
@@ -202,5 +288,6 @@ def hinge_events(prepared: Prepared, integrator, old: State, new: State, h: floa
     pushing a hinge of inertia I into its stop gains ⅛ τ²h²/I a step)."""
     latched = latch_hinges(prepared, integrator, old, new, h)
     stopped = hinge_stops(prepared, integrator, new, old)
-    loss = (latched or 0.0) + (stopped or 0.0)
-    return HingeEvents(stopped is not None or latched is not None, stopped is not None, loss)
+    stuck = stick_and_slip(prepared, integrator, old, new)
+    loss = (latched or 0.0) + (stopped or 0.0) + (stuck or 0.0)
+    return HingeEvents(stopped is not None or latched is not None or stuck is not None, stopped is not None, loss)

@@ -25,7 +25,7 @@ class TransientProgress:
 
     state: State
     algorithmic_acceleration: np.ndarray | None
-    locked: np.ndarray  # latched hinges
+    locked: np.ndarray  # latched hinges (and hinges stuck by friction)
     h: float  # step size to try next
     grid_index: int = 0  # nominal steps completed
     output_index: int = 1  # next recorded time is output_index · every
@@ -55,6 +55,7 @@ class TransientProgress:
     solver_s: float = 0.0  # wall time inside the integrator's steps
     cut_times: list = field(default_factory=list)  # the first times at which a step was cut
     inertia_tangent_from: float | None = None  # t from which Newton's matrix holds the inertia tangent
+    stuck: np.ndarray | None = None  # the locked hinges that stick by friction (None: none)
 
     def count(self, stats) -> None:
         """Count a step's Newton iterations and factorizations (``stats``: a StepStats)."""
