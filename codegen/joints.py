@@ -244,12 +244,6 @@ def _engaged(x):
     return y * (2 - _absolute(y))
 
 
-def _smooth_drop(u):
-    """1 at u ≤ 0 to 0 at u ≥ 1, C¹: 1 − w²(3 − 2w), w = u clipped to [0, 1]."""
-    w = (_clipped(2 * u - 1) + 1) / 2
-    return 1 - w ** 2 * (3 - 2 * w)
-
-
 class _BranchFree:
     """The kinks in what the printers write: ⟨x⟩ = (g + |g|)/2 (a power of it when n ≠ 1) and
     step(x) = (1 + g/(|g| + KINK))/2, with g = x a named intermediate of the kernel, which no
@@ -301,12 +295,13 @@ def joint_contact(theta, rate, contact):
     F_u − F_l; the potential is k (⟨δ_u⟩ⁿ⁺¹ + ⟨δ_l⟩ⁿ⁺¹)/(n + 1); what the stop takes beyond it,
     (F_u − k⟨δ_u⟩ⁿ) θ̇ − (F_l − k⟨δ_l⟩ⁿ) θ̇ ≥ 0, is dissipated.
 
-    Friction, regularised: f = L(v) g(v/v₀) + c_v v, with the engagement g(x) = y(2 − |y|), y = x
-    clipped to [−1, 1] (C¹: ±1 from |v| = v₀ on) and the level
+    Friction while the joint slips, regularised: f = L(v) g(v/v₀) + c_v v, with the engagement
+    g(x) = y(2 − |y|), y = x clipped to [−1, 1] (C¹: ±1 from |v| = v₀ on) and the level
         L(v) = F_c + (F_s − F_c) exp(−(v/v_s)²)                 (v_s > 0, Stribeck)
-        L(v) = F_c + (F_s − F_c) D(|v|/v₀ − 1)                  (v_s = 0: F_s up to v₀, F_c from 2v₀)
-    with D the C¹ drop from 1 to 0 over [0, 1] (:func:`_smooth_drop`). A joint that must carry a force
-    F below its breakaway level L(v₀) turns at |v| = v₀ (1 − √(1 − F/L)) < v₀: the stick tolerance
+        L(v) = F_c                                              (v_s = 0: F_s is only the breakaway
+                                                                 level of a stuck joint, an event)
+    Sticking is an event (latdyn/timeloop/events.py stick_and_slip); below it, a joint that must carry
+    a force F < L(v₀) would turn at |v| = v₀ (1 − √(1 − F/L)) < v₀: the stick tolerance
     of SCENE.md. Its power f v ≥ 0 is dissipated."""
     lower, upper, k, n, c, coulomb, static, inverse, smooth, viscous, stick = contact
     upper_power, lower_power = _PositivePower(theta - upper, n), _PositivePower(lower - theta, n)
@@ -314,9 +309,7 @@ def joint_contact(theta, rate, contact):
     lower_force = lower_power * _positive(k - c * rate)
     potential = k * (_PositivePower(theta - upper, n + 1) + _PositivePower(lower - theta, n + 1)) / (n + 1)
     stop_loss = (upper_force - k * upper_power) * rate - (lower_force - k * lower_power) * rate
-    speed = _absolute(rate)
-    decay = smooth * sp.exp(-(rate * inverse) ** 2) + (1 - smooth) * _smooth_drop(speed / stick - 1)
-    level = coulomb + (static - coulomb) * decay
+    level = coulomb + (static - coulomb) * smooth * sp.exp(-(rate * inverse) ** 2)
     friction = level * _engaged(rate / stick) + viscous * rate
     return upper_force - lower_force + friction, potential, stop_loss + friction * rate
 

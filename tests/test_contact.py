@@ -198,22 +198,46 @@ def test_a_torsional_oscillator_with_coulomb_friction_on_a_skew_axis_through_the
     check_coulomb_oscillator(result.t, result.probes, result.summary)
 
 
+def test_a_stuck_joint_breaks_away_at_the_static_level():
+    """A torque τ = t on a panel (I = 1) whose hinge has F_s = 0.3, F_c = 0.2 (stribeck_rate 0): it
+    sticks (rate 0) until τ = F_s at t = 0.3, then slips against F_c:
+    θ = (t³ − t_b³)/6 − F_c(t² − t_b²)/2 − (t_b²/2 − F_c t_b)(t − t_b); measured to 9.6e-6 at dt = 0.005
+    (the release comes at the end of the step in which the reaction exceeds F_s)."""
+    tb, static, coulomb = 0.3, 0.3, 0.2
+    text = panel(f"torque: t, friction: {{coulomb: {coulomb}, static: {static}}}", omega=0.0,
+                 inertia="[1.0, 1.0, 1.0]", t_end=1.0, dt=0.005)
+    result = latdyn.run(yaml.safe_load(text))
+    t, angle, rate = result.t, result.probes["angle"], result.probes["rate"]
+    slipping = (t**3 - tb**3) / 6 - coulomb * (t**2 - tb**2) / 2 - (tb**2 / 2 - coulomb * tb) * (t - tb)
+    reference = np.where(t > tb, slipping, 0.0)
+    assert np.all(rate[(t > 0.0) & (t < tb - 1e-9)] == 0.0)  # stuck, by an event
+    assert np.abs(angle[t < tb]).max() < 1e-7  # (the first step's regularised creep before it stuck)
+    assert np.abs(angle - reference).max() < 1e-4
+
+
 def test_checkpoint_and_resume_with_contact_and_friction(tmp_path, monkeypatch):
     """Interrupted while the panel is in contact with a damped Hertz stop and its hinge has friction
-    and a Stribeck breakaway: the resumed run's files equal the uninterrupted run's bit for bit."""
+    and a Stribeck breakaway, and while the Coulomb oscillator's joint is stuck (an event the
+    checkpoint carries): the resumed runs' files equal the uninterrupted runs' bit for bit."""
     from test_checkpoint import interrupt_at, relative_difference
 
-    text = panel("limits: [-1, 0.1], contact: {stiffness: 1000.0, exponent: 1.5, damping: 100.0}, "
-                 "friction: {coulomb: 0.2, static: 0.3, stribeck_rate: 0.05, viscous: 0.01}", t_end=0.3)
-    scene = yaml.safe_load(text)
-    latdyn.run(scene, tmp_path / "whole")
-    with monkeypatch.context() as m:
-        interrupt_at(m, 0.2)
-        with pytest.raises(KeyboardInterrupt):
-            latdyn.run(scene, tmp_path / "cut")
-    assert summary_of(tmp_path / "cut")["status"] == "interrupted"
-    latdyn.run(scene, tmp_path / "cut", resume=True)
-    assert relative_difference(tmp_path / "whole", tmp_path / "cut") == 0.0
+    from latdyn.timeloop import checkpoint
+
+    contact = panel("limits: [-1, 0.1], contact: {stiffness: 1000.0, exponent: 1.5, damping: 100.0}, "
+                    "friction: {coulomb: 0.2, static: 0.3, stribeck_rate: 0.05, viscous: 0.01}", t_end=0.3)
+    stuck = coulomb_oscillator([0, 0, 1]).replace("t_end: 0.8", "t_end: 0.75")
+    for name, text, t_stop in (("contact", contact, 0.2), ("stuck", stuck, 0.7)):
+        scene = yaml.safe_load(text)
+        latdyn.run(scene, tmp_path / name)
+        with monkeypatch.context() as m:
+            interrupt_at(m, t_stop)
+            with pytest.raises(KeyboardInterrupt):
+                latdyn.run(scene, tmp_path / f"{name}-cut")
+        assert summary_of(tmp_path / f"{name}-cut")["status"] == "interrupted"
+        saved = checkpoint.load(tmp_path / f"{name}-cut", checkpoint.identity(latdyn.load_scene(scene)))
+        assert saved.progress.stuck.tolist() == [name == "stuck"]
+        latdyn.run(scene, tmp_path / f"{name}-cut", resume=True)
+        assert relative_difference(tmp_path / name, tmp_path / f"{name}-cut") == 0.0
 
 
 def test_a_study_varies_a_friction_value(tmp_path):

@@ -174,8 +174,8 @@ def test_hinge_force_against_differences(backend):
 
 def contact_reference(theta, rate, row):
     """The force, potential and dissipated power of a compliant stop and friction, restated from
-    SCENE.md "Contact and friction at joints" (Hunt–Crossley k δⁿ + c δⁿ δ̇ clipped at 0; Coulomb,
-    Stribeck, viscous, regularised below the stick rate: docs/contact.md)."""
+    SCENE.md "Contact and friction at joints" (Hunt–Crossley k δⁿ + c δⁿ δ̇ clipped at 0; the slip law:
+    Coulomb, Stribeck, viscous, regularised below the stick rate: docs/contact.md)."""
     lo, hi, k, n, c, fc, fs, inverse, smooth, cv, v0 = row
     force = potential = stop_loss = 0.0
     for depth, depth_rate, side in ((theta - hi, rate, 1.0), (lo - theta, -rate, -1.0)):
@@ -184,8 +184,7 @@ def contact_reference(theta, rate, row):
             force += side * hc
             potential += k * depth ** (n + 1) / (n + 1)
             stop_loss += (hc - k * depth**n) * depth_rate
-    w = min(max(abs(rate) / v0 - 1, 0.0), 1.0)
-    decay = np.exp(-(rate * inverse) ** 2) if smooth else 1 - w**2 * (3 - 2 * w)
+    decay = np.exp(-(rate * inverse) ** 2) if smooth else 0.0  # v_s = 0: F_s only as the breakaway (events)
     y = min(max(rate / v0, -1.0), 1.0)
     friction = (fc + (fs - fc) * decay) * y * (2 - abs(y)) + cv * rate
     return force + friction, potential, stop_loss + friction * rate
@@ -194,9 +193,9 @@ def contact_reference(theta, rate, row):
 @pytest.mark.parametrize("backend", ["numpy", "c"])
 def test_contact_and_friction_against_differences(backend):
     """The generated compliant stop (Hunt–Crossley, n = 1, 1.5, 2.3, with and without damping, the
-    clip at 0 of a fast separation) and friction (Coulomb, Stribeck with v_s > 0 and the stick
-    band's drop with v_s = 0, viscous): the force, potential and dissipation equal the restatement
-    above, its ∂f/∂θ and ∂f/∂θ̇ central differences, away from the kinks (δ = 0, |θ̇| = v₀, 2v₀, the
+    clip at 0 of a fast separation) and friction (Coulomb, Stribeck with v_s > 0, F_s only a
+    breakaway level with v_s = 0, viscous): the force, potential and dissipation equal the restatement
+    above, its ∂f/∂θ and ∂f/∂θ̇ central differences, away from the kinks (δ = 0, |θ̇| = v₀, the
     clip), where the law has no derivative."""
     ks = load_kernels(backend, "default")
     rows, states = [], []
