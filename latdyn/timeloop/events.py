@@ -36,11 +36,9 @@ def lock_events(model: Model, old: State, new: State) -> tuple[list[int], list[t
 
 
 def crossing_fraction(model: Model, old: State, new: State) -> float | None:
-    """The fraction of the step at which the first hinge crosses its lock_at or a stop, or the rate of
-    a hinge with friction crosses zero, or None."""
+    """The fraction of the step at which the first hinge crosses its lock_at or a stop, or None."""
     _, crossing = lock_events(model, old, new)
     fractions = [f for _, f in crossing] + [f for _, _, f in stop_crossings(model, old, new)]
-    fractions += [f for _, f in rate_reversals(model, old, new)]
     return min(fractions) if fractions else None
 
 
@@ -179,30 +177,21 @@ def latch_hinges(prepared: Prepared, integrator, old: State, new: State, h: floa
 
 # ----------------------------------------------------------------------------- stick and slip
 # A joint with friction (static level F_s > 0) sticks by an event, not by its regularised law alone:
-# a step in which its rate reverses is shortened to land on θ̇ = 0 (secant on the rate), and a joint
-# whose rate is within the stick band (|θ̇| ≤ stick_rate, or reversed over the step) is locked there
-# on trial, as a latch is (the momentum-conserving jump to θ̇ = 0, the coordinates renumbered, the
-# accelerations consistent with the locked model); it stays locked (``model.stuck``) while the
-# reaction that holds it, |R| ≤ F_s, the breakaway level, and the trial is undone otherwise (state
-# and integrator as they were). A stuck joint is released after the first step at whose end its
-# reaction exceeds F_s; the regularised law (codegen/joints.py joint_contact) is its friction while
-# it slips. The C loop of steps hands back every step that may stick a joint (newton_step.c
-# hinge_event), and the loop takes the steps of a run with a stuck joint from Python, to check it.
+# at the end of a step in which its rate reversed or ended within the stick band (|θ̇| ≤ stick_rate),
+# it is locked on trial, as a latch is (the momentum-conserving jump to θ̇ = 0, the coordinates
+# renumbered, the accelerations consistent with the locked model); it stays locked (``model.stuck``)
+# while the reaction that holds it, |R| ≤ F_s, the breakaway level, and the trial is undone otherwise
+# (state and integrator as they were). A stuck joint is released after the first step at whose end
+# its reaction exceeds F_s; the regularised law (codegen/joints.py joint_contact) is its friction
+# while it slips. The step is not shortened onto the reversal: a step that starts at θ̇ = 0, on the
+# steepest part of the slip law, failed Newton at about one reversal in ten on a flexible boom
+# (docs/contact.md), and the rate at the end of a reversing step is within one step's change of 0.
+# The C loop of steps hands back every step that may stick a joint (newton_step.c hinge_event), and
+# the loop takes the steps of a run with a stuck joint from Python, to check it.
 def sticking_hinges(model: Model) -> list[int]:
     """The free hinges whose friction can hold them (static level > 0)."""
     return [int(k) for k in model.free_hinges
             if model.hinges[k].friction is not None and model.hinges[k].friction.static > 0.0]
-
-
-def rate_reversals(model: Model, old: State, new: State) -> list[tuple[int, float]]:
-    """(hinge, fraction of the step) for hinges with friction whose rate changed sign over the step
-    (linear interpolation of the rate)."""
-    out = []
-    for k in sticking_hinges(model):
-        before, after = old.theta_dot[k], new.theta_dot[k]
-        if before * after < 0.0:
-            out.append((k, before / (before - after)))
-    return out
 
 
 def _may_stick(model: Model, k: int, old: State, new: State) -> bool:

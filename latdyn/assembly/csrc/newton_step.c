@@ -229,8 +229,8 @@ static int hinge_event(const Model *m, const Configuration *old, const Configura
             double before = old->theta[j] - lock, after = new_->theta[j] - lock;
             if (before == 0.0 || fabs(after) <= lock_tolerance(lock) || before * after < 0.0) return 1;
         }
-        /* friction that can hold the joint (static level > 0): a rate that reverses or enters the stick
-         * band (events.py stick_and_slip, _may_stick) */
+        /* friction that can hold the joint (static level > 0): a rate that reversed or ended in the
+         * stick band (events.py stick_and_slip, _may_stick) */
         const double *contact = m->hinge_contact + 11 * j;
         if (contact[6] > 0.0 && (old->theta_dot[j] * new_->theta_dot[j] <= 0.0 || fabs(new_->theta_dot[j]) <= contact[10]))
             return 1;
