@@ -238,8 +238,9 @@ def _clipped(x):
 def _engaged(x):
     """The friction's engagement at rate ratio x = v/v₀: y(2 − |y|), y = x clipped to [−1, 1]; C¹
     (its slope 2 at 0 falls to 0 at |x| = 1, where it meets ±1): Newton's matrix is continuous
-    across the end of the stick band (a linear ramp's has a corner there; on the oscillator of
-    docs/contact.md both cut the step at every reversal: 12 and 10 rejected steps over five)."""
+    across the end of the stick band (a linear ramp's has a corner there; with the regularised law
+    alone holding a sticking joint, on the oscillator of docs/contact.md released from 1.05, both
+    cut the step at every reversal: 12 and 10 rejected steps over five)."""
     y = _clipped(x)
     return y * (2 - _absolute(y))
 

@@ -205,9 +205,10 @@ class StopContact:
 @dataclass(frozen=True)
 class JointFriction:
     """Friction in a joint: Coulomb ``coulomb``, static level ``static`` with its Stribeck decay
-    exp(−(rate/stribeck_rate)²) (stribeck_rate 0: ``static`` is the breakaway level of a sticking
-    joint), viscous ``viscous``·rate, regularised so that a sticking joint turns slower than
-    ``stick_rate`` (codegen/joints.py ``joint_contact``; docs/contact.md)."""
+    exp(−(rate/stribeck_rate)²) (stribeck_rate 0: ``static`` is the breakaway level of a stuck
+    joint only), viscous ``viscous``·rate, regularised below ``stick_rate`` while the joint slips
+    (codegen/joints.py ``joint_contact``); a joint sticks by an event while its reaction is within
+    ``static`` (latdyn/timeloop/events.py ``stick_and_slip``; docs/contact.md)."""
     coulomb: float
     static: float
     stribeck_rate: float = 0.0
