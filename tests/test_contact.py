@@ -225,8 +225,10 @@ def test_checkpoint_and_resume_with_contact_and_friction(tmp_path, monkeypatch):
 
     contact = panel("limits: [-1, 0.1], contact: {stiffness: 1000.0, exponent: 1.5, damping: 100.0}, "
                     "friction: {coulomb: 0.2, static: 0.3, stribeck_rate: 0.05, viscous: 0.01}", t_end=0.3)
-    stuck = coulomb_oscillator([0, 0, 1]).replace("t_end: 0.8", "t_end: 0.75")
-    for name, text, t_stop in (("contact", contact, 0.2), ("stuck", stuck, 0.7)):
+    # released 0.25 from its rest: one half cycle to −0.05, where it sticks (t ≈ 0.31)
+    stuck = coulomb_oscillator([0, 0, 1]).replace("rest_angle: 0.45", "rest_angle: 0.25").replace("t_end: 0.8",
+                                                                                                  "t_end: 0.4")
+    for name, text, t_stop in (("contact", contact, 0.2), ("stuck", stuck, 0.35)):
         scene = yaml.safe_load(text)
         latdyn.run(scene, tmp_path / name)
         with monkeypatch.context() as m:
