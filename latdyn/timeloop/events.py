@@ -177,8 +177,8 @@ def latch_hinges(prepared: Prepared, integrator, old: State, new: State, h: floa
 
 # ----------------------------------------------------------------------------- stick and slip
 # A joint with friction (static level F_s > 0) sticks by an event, not by its regularised law alone:
-# at the end of a step in which its rate reversed or ended within the stick band (|θ̇| ≤ stick_rate),
-# it is locked on trial, as a latch is (the momentum-conserving jump to θ̇ = 0, the coordinates
+# at the end of a step in which its rate reversed or fell into the stick band (|θ̇| ≤ stick_rate and
+# slowing), or the first step of a run that starts it at rest, it is locked on trial, as a latch is (the momentum-conserving jump to θ̇ = 0, the coordinates
 # renumbered, the accelerations consistent with the locked model); it stays locked (``model.stuck``)
 # while the reaction that holds it, |R| ≤ F_s, the breakaway level, and the trial is undone otherwise
 # (state and integrator as they were). A stuck joint is released after the first step at whose end
@@ -195,9 +195,12 @@ def sticking_hinges(model: Model) -> list[int]:
 
 
 def _may_stick(model: Model, k: int, old: State, new: State) -> bool:
-    """Whether hinge k is tried for sticking at the end of the step (newton_step.c hinge_event)."""
+    """Whether hinge k is tried for sticking at the end of the step: its rate reversed, or fell into
+    the stick band, or it started the run at rest (newton_step.c hinge_event hands back these steps).
+    Not a joint just released (rate 0 at the step's start, growing): it slips until it reverses."""
     before, after = old.theta_dot[k], new.theta_dot[k]
-    return before * after <= 0.0 or abs(after) <= model.hinges[k].friction.stick_rate
+    settling = abs(after) <= model.hinges[k].friction.stick_rate and abs(after) < abs(before)
+    return before * after < 0.0 or settling or (before == 0.0 and old.t == 0.0)
 
 
 def holding_reaction(prepared: Prepared, state: State, k: int) -> float:
@@ -207,9 +210,14 @@ def holding_reaction(prepared: Prepared, state: State, k: int) -> float:
 
 
 def _renumber(prepared: Prepared, integrator, state: State) -> None:
+    """The coordinates renumbered after a joint stuck or slipped, and the accelerations restarted as
+    after an impact (:func:`restart_accelerations`: the stiff directions quasi-static)."""
     prepared.model.number_coordinates()
     prepared.assembler.reindex()
-    integrator.start(state)
+    if prepared.model.n_dofs:
+        restart_accelerations(prepared, integrator, state, prepared.scene.solve.dt)
+    else:  # nothing left to move (the stuck joint was the only coordinate)
+        integrator.start(state)
 
 
 def stick_and_slip(prepared: Prepared, integrator, old: State, new: State) -> float | None:

@@ -229,10 +229,12 @@ static int hinge_event(const Model *m, const Configuration *old, const Configura
             double before = old->theta[j] - lock, after = new_->theta[j] - lock;
             if (before == 0.0 || fabs(after) <= lock_tolerance(lock) || before * after < 0.0) return 1;
         }
-        /* friction that can hold the joint (static level > 0): a rate that reversed or ended in the
-         * stick band (events.py stick_and_slip, _may_stick) */
+        /* friction that can hold the joint (static level > 0): a rate that reversed, fell into the stick
+         * band, or started at 0 (events.py _may_stick decides; this hands back a superset) */
         const double *contact = m->hinge_contact + 11 * j;
-        if (contact[6] > 0.0 && (old->theta_dot[j] * new_->theta_dot[j] <= 0.0 || fabs(new_->theta_dot[j]) <= contact[10]))
+        const double before = old->theta_dot[j], after = new_->theta_dot[j];
+        if (contact[6] > 0.0 && (before * after < 0.0 || before == 0.0 ||
+                                 (fabs(after) <= contact[10] && fabs(after) < fabs(before))))
             return 1;
         for (int side = -1; side <= 1; side += 2) {
             double stop = side < 0 ? m->hinge_lower_stop[j] : m->hinge_upper_stop[j];
