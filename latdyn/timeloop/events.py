@@ -178,16 +178,19 @@ def latch_hinges(prepared: Prepared, integrator, old: State, new: State, h: floa
 # ----------------------------------------------------------------------------- stick and slip
 # A joint with friction (static level F_s > 0) sticks by an event, not by its regularised law alone:
 # at the end of a step in which its rate reversed or fell into the stick band (|θ̇| ≤ stick_rate and
-# slowing), or the first step of a run that starts it at rest, it is locked on trial, as a latch is (the momentum-conserving jump to θ̇ = 0, the coordinates
-# renumbered, the accelerations consistent with the locked model); it stays locked (``model.stuck``)
-# while the reaction that holds it, |R| ≤ F_s, the breakaway level, and the trial is undone otherwise
-# (state and integrator as they were). A stuck joint is released after the first step at whose end
-# its reaction exceeds F_s; the regularised law (codegen/joints.py joint_contact) is its friction
-# while it slips. The step is not shortened onto the reversal: a step that starts at θ̇ = 0, on the
-# steepest part of the slip law, failed Newton at about one reversal in ten on a flexible boom
-# (docs/contact.md), and the rate at the end of a reversing step is within one step's change of 0.
-# The C loop of steps hands back every step that may stick a joint (newton_step.c hinge_event), and
-# the loop takes the steps of a run with a stuck joint from Python, to check it.
+# slowing), or the first step of a run that starts it at rest, it is locked on trial, as a latch is
+# (the momentum-conserving jump to θ̇ = 0, the coordinates renumbered), the accelerations restarted as
+# after an impact (:func:`restart_accelerations`); it stays locked (``model.stuck``) while the
+# reaction that holds it, |R| ≤ F_s, the breakaway level, and the trial is undone otherwise (state
+# and integrator as they were). A stuck joint is released after the first step at whose end its
+# reaction exceeds F_s; the regularised law (codegen/joints.py joint_contact) is its friction while
+# it slips, until its rate reverses or slows into the band (not retried at once: on a flexible beam
+# it chattered stuck/slipping at every step). The step is not shortened onto the reversal: a step
+# that starts at θ̇ = 0, on the steepest part of the slip law, failed Newton at about one reversal in
+# ten on a flexible boom (docs/contact.md), and the rate at the end of a reversing step is within one
+# step's change of 0. The C loop of steps hands back every step that may stick a joint
+# (newton_step.c hinge_event), and the loop takes the steps of a run with a stuck joint from Python,
+# to check it.
 def sticking_hinges(model: Model) -> list[int]:
     """The free hinges whose friction can hold them (static level > 0)."""
     return [int(k) for k in model.free_hinges
@@ -204,7 +207,7 @@ def _may_stick(model: Model, k: int, old: State, new: State) -> bool:
 
 
 def holding_reaction(prepared: Prepared, state: State, k: int) -> float:
-    """The generalized force that holds locked hinge k at ``state`` (its accelerations consistent)."""
+    """The generalized force that holds locked hinge k at ``state`` (at its accelerations as restarted)."""
     model = prepared.model
     return float(prepared.assembler.evaluate(state, matrices=False).reaction[model.hinge_dofs[k] - model.n_dofs])
 
