@@ -168,6 +168,20 @@ DESCRIPTIONS: dict[str, tuple[str, str, str | None]] = {
     "controllers.NAME.rate": ("sampling rate: output computed at t = k/rate and held (zero-order hold)", "1/T",
                               "continuous"),
     "controllers.NAME.limits": ("saturation [lo, hi] of the output (lo < hi)", "—", "none"),
+    # contact and friction at joints (hinges and guides: θ is the slide s of a guide, N·m read N)
+    "HINGE.contact": ("the stops compliant (Hunt–Crossley) instead of rigid events: k δⁿ + c δⁿ δ̇, never "
+                      "pulling (docs/contact.md); needs limits, excludes restitution", "—", "rigid stops"),
+    "HINGE.contact.stiffness": ("k (> 0)", "F·L/radⁿ (guide: F/Lⁿ)", "required"),
+    "HINGE.contact.exponent": ("n (≥ 1; 1.5: Hertz)", "—", "1"),
+    "HINGE.contact.damping": ("c (≥ 0) of the Hunt–Crossley law", "F·L·T/radⁿ⁺¹ (guide: F·T/Lⁿ⁺¹)", "0"),
+    "HINGE.friction": ("friction opposing the joint's rate: Coulomb, static (stiction), Stribeck, viscous "
+                       "(docs/contact.md)", "—", "none"),
+    "HINGE.friction.coulomb": ("Coulomb level Fc (≥ 0)", "F·L (guide: F)", "required"),
+    "HINGE.friction.static": ("breakaway (static) level Fs ≥ Fc", "F·L (guide: F)", "coulomb"),
+    "HINGE.friction.stribeck_rate": ("vs: Fs decays to Fc as exp(−(rate/vs)²); 0: no decay", "rad/T (guide: L/T)",
+                                     "0"),
+    "HINGE.friction.viscous": ("cv: adds cv·rate", "F·L·T/rad (guide: F·T/L)", "0"),
+    "HINGE.friction.stick_rate": ("v₀: the rate below which a joint sticks", "rad/T (guide: L/T)", "1e-3"),
     # loads
     "loads.at": ("the point: BODY, BEAM.start, BEAM.end or BEAM.node[i]", "—", "required"),
     "loads.force": ("force [fx, fy, fz], expressions in t", "F", "none"),
@@ -226,7 +240,8 @@ DESCRIPTIONS: dict[str, tuple[str, str, str | None]] = {
 }
 
 #: places whose keys are one table under several names: (place pattern, name in DESCRIPTIONS)
-_ALIASES = [(re.compile(r"^beams\.NAME\.(start|end)\.hinge\."), "HINGE.")]
+_ALIASES = [(re.compile(r"^beams\.NAME\.(start|end)\.hinge\."), "HINGE."),
+            (re.compile(r"^bodies\.NAME\.guide\.(?=contact|friction)"), "HINGE.")]
 
 #: the dataclass whose field defaults are those of the keys at a place
 _DATACLASSES = {"sections.NAME": "Section", "bodies.NAME": "Body", "beams.NAME": "Beam", "HINGE": "Hinge",

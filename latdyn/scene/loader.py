@@ -45,7 +45,10 @@ Hinge additions (SCENE.md): ``rest_angle``, ``limits: [lo, hi]`` (lo <= 0 <= hi,
 0 at t = 0; not with a prescribed ``angle``; a ``lock_at`` must lie within them),
 ``restitution`` (only with limits), and laws in ``theta``, ``theta_dot``, ``t``
 (:class:`~latdyn.scene.expressions.HingeLaw`); a constant law is kept as a number, a torque of t
-alone as a :class:`~latdyn.scene.expressions.TimeFunction`.
+alone as a :class:`~latdyn.scene.expressions.TimeFunction`. ``contact: {stiffness, exponent, damping}``
+(only with limits, not with restitution) makes the stops compliant (:class:`StopContact`), and
+``friction: {coulomb, static, stribeck_rate, viscous, stick_rate}`` (not on a prescribed angle) adds
+friction (:class:`JointFriction`); docs/contact.md.
 
 Limits, so that a scene is refused rather than hang or exhaust memory:
 
@@ -124,9 +127,11 @@ _TOP_KEYS = ("title", "parameters", "gravity", "initial_velocity", "inputs", "se
              "controllers", "solve", "output")
 _SECTION_KEYS = ("EA", "EIy", "EIz", "GJ", "rhoA", "rhoIy", "rhoIz", "GAy", "GAz")
 _BODY_KEYS = ("at", "mass", "com", "inertia", "fixed", "motion", "guide")
-_GUIDE_KEYS = ("on", "axis", "stiffness", "damping", "force", "rest", "limits", "restitution", "lock_at", "position")
+_GUIDE_KEYS = ("on", "axis", "stiffness", "damping", "force", "rest", "limits", "restitution", "lock_at", "position",
+               "contact", "friction")
 _BEAM_KEYS = ("from", "to", "section", "elements", "y_axis", "start", "end", "rigid")
-_HINGE_KEYS = ("axis", "stiffness", "damping", "torque", "angle", "lock_at", "rest_angle", "limits", "restitution")
+_HINGE_KEYS = ("axis", "stiffness", "damping", "torque", "angle", "lock_at", "rest_angle", "limits", "restitution",
+               "contact", "friction")
 _LOAD_KEYS = ("at", "force", "moment", "frame")
 _SOLVE_KEYS = ("analysis", "t_end", "dt", "method", "rho_inf", "tol", "steps", "count",
                "adaptive", "error_tol", "dt_min", "max_iterations", "formulation", "engine", "newton", "planar",
@@ -208,6 +213,32 @@ class Hinge:
     rest_angle: float = 0.0                 # neutral angle of the spring
     limits: tuple[float, float] | None = None   # hard stops [lo, hi] on the angle
     restitution: float = 0.0                # of an impact on a stop, in [0, 1]
+    contact: StopContact | None = None      # the stops made compliant (Hunt–Crossley)
+    friction: JointFriction | None = None
+
+
+@dataclass(frozen=True)
+class StopContact:
+    """A compliant stop (SCENE.md "Contact and friction at joints"): past a limit by δ > 0 the joint
+    takes the Hunt–Crossley force k δⁿ + c δⁿ δ̇, never pulling (clipped at 0); restitution does not
+    apply (refused with it). The law is codegen/joints.py ``joint_contact``."""
+    stiffness: float
+    exponent: float = 1.0
+    damping: float = 0.0
+
+
+@dataclass(frozen=True)
+class JointFriction:
+    """Friction in a joint: Coulomb ``coulomb``, static level ``static`` with its Stribeck decay
+    exp(−(rate/stribeck_rate)²) (stribeck_rate 0: ``static`` is the breakaway level of a stuck
+    joint only), viscous ``viscous``·rate, regularised below ``stick_rate`` while the joint slips
+    (codegen/joints.py ``joint_contact``); a joint sticks by an event while its reaction is within
+    ``static`` (latdyn/timeloop/events.py ``stick_and_slip``; docs/contact.md)."""
+    coulomb: float
+    static: float
+    stribeck_rate: float = 0.0
+    viscous: float = 0.0
+    stick_rate: float = 1e-3
 
 
 @dataclass
@@ -230,6 +261,8 @@ class Guide:
     rest: float = 0.0                       # neutral slide of the spring
     limits: tuple[float, float] | None = None   # hard stops [lo, hi] on the slide
     restitution: float = 0.0                # of an impact on a stop, in [0, 1]
+    contact: StopContact | None = None      # the stops compliant (Hunt–Crossley), docs/contact.md
+    friction: JointFriction | None = None   # Coulomb, Stribeck and viscous friction on the slide
 
 
 def guide_law_text(value, file, key):
@@ -931,6 +964,10 @@ class _Reader:
                 self.fail(rkey, "restitution applies to impacts on hard stops; expected limits: [lo, hi] "
                                 "with it")
             h.restitution = self.number(spec["restitution"], rkey, lo=0.0, hi=1.0)
+        if "contact" in spec:
+            h.contact = self.stop_contact(spec, key, h.limits)
+        if "friction" in spec:
+            h.friction = self.joint_friction(spec["friction"], _join(key, "friction"), spec.get("angle"))
         return h
 
     def guide(self, name, spec, key) -> Guide:
@@ -990,6 +1027,10 @@ class _Reader:
             if g.limits is None:
                 self.fail(rkey, "restitution applies to impacts on hard stops; expected limits: [lo, hi] with it")
             g.restitution = self.number(spec["restitution"], rkey, lo=0.0, hi=1.0)
+        if "contact" in spec:
+            g.contact = self.stop_contact(spec, key, g.limits)
+        if "friction" in spec:
+            g.friction = self.joint_friction(spec["friction"], _join(key, "friction"), spec.get("position"))
         return g
 
     def guide_loops(self) -> None:
@@ -1002,6 +1043,37 @@ class _Reader:
                               + " -> ".join(seen + [walk.guide.on]) + "); expected a tree of guides", walk.guide.on)
                 seen.append(walk.guide.on)
                 walk = self.bodies[walk.guide.on]
+
+    def stop_contact(self, spec, key, limits) -> StopContact:
+        """A joint's ``contact`` (compliant stops): only with ``limits``, never with ``restitution``."""
+        ckey = _join(key, "contact")
+        value = self.mapping(spec["contact"], ckey, ("stiffness", "exponent", "damping"), required=("stiffness",))
+        if limits is None:
+            self.fail(ckey, "contact makes the stops compliant; expected limits: [lo, hi] with it")
+        if "restitution" in spec:
+            self.fail(_join(key, "restitution"), "a compliant stop (contact) has no restitution: its damping "
+                                                 "sets the loss; expected contact or restitution, not both")
+        stiffness = self.number(value["stiffness"], _join(ckey, "stiffness"), positive=True)
+        exponent = self.number(value.get("exponent", 1.0), _join(ckey, "exponent"))
+        if exponent < 1.0:
+            self.fail(_join(ckey, "exponent"), "expected an exponent >= 1 (1: linear, 1.5: Hertz)", value["exponent"])
+        damping = self.number(value.get("damping", 0.0), _join(ckey, "damping"), nonnegative=True)
+        return StopContact(stiffness, exponent, damping)
+
+    def joint_friction(self, value, key, prescribed) -> JointFriction:
+        """A joint's ``friction``: forces >= 0, static >= coulomb, stick_rate > 0; not on a prescribed joint."""
+        self.mapping(value, key, ("coulomb", "static", "stribeck_rate", "viscous", "stick_rate"),
+                     required=("coulomb",))
+        if prescribed is not None:
+            self.fail(key, "a prescribed joint has no free coordinate to resist; expected no friction with it")
+        coulomb = self.number(value["coulomb"], _join(key, "coulomb"), nonnegative=True)
+        static = self.number(value.get("static", coulomb), _join(key, "static"), nonnegative=True)
+        if static < coulomb:
+            self.fail(_join(key, "static"), f"expected a static level >= coulomb ({coulomb:g})", value["static"])
+        stribeck = self.number(value.get("stribeck_rate", 0.0), _join(key, "stribeck_rate"), nonnegative=True)
+        viscous = self.number(value.get("viscous", 0.0), _join(key, "viscous"), nonnegative=True)
+        stick = self.number(value.get("stick_rate", 1e-3), _join(key, "stick_rate"), positive=True)
+        return JointFriction(coulomb, static, stribeck, viscous, stick)
 
     def hinge_coefficient(self, value, key) -> float | HingeLaw:
         """A hinge stiffness or damping: a number >= 0, or a law in theta, theta_dot and t."""

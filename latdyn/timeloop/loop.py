@@ -113,6 +113,7 @@ class TimeLoop:
         energy0 = self.energies_of(state)
         self.progress = TransientProgress(
             state=state, algorithmic_acceleration=self.integrator.a, locked=self.model.locked.copy(),
+            stuck=self.model.stuck.copy(),
             h=self.control.dt, power=load_power(self.model, state, evaluation),
             dissipation_power=evaluation.dissipation_power,
             total0=sum(energy0.values()), potential0=energy0["potential"],
@@ -128,6 +129,8 @@ class TimeLoop:
         if self.sampler is not None:
             self.sampler.restore(self.progress.controller_memory)
         self.model.locked[:] = self.progress.locked
+        if self.progress.stuck is not None:
+            self.model.stuck[:] = self.progress.stuck
         self.model.number_coordinates()
         self.assembler.reindex()
         self.integrator.a = self.progress.algorithmic_acceleration
@@ -219,7 +222,9 @@ class TimeLoop:
         """Steps in C up to the next row, or one step from Python; the step that comes back is
         rejected (error estimate), tried again (Newton failed) or accepted."""
         progress, control = self.progress, self.control
-        compiled = self.compiled and control.on_grid(progress) and not control.before_pause(progress)
+        # a hinge stuck by friction is checked for release after every step: those steps from Python
+        compiled = self.compiled and control.on_grid(progress) and not control.before_pause(progress) \
+            and not self.model.stuck.any()
         attempt = self._compiled_steps() if compiled else self._python_step()
         if attempt is None:
             return
@@ -328,7 +333,7 @@ class TimeLoop:
         progress.dissipated = self.probes.dissipated = progress.dissipated + damped + events.loss
         progress.state = new
         progress.algorithmic_acceleration = integrator.a
-        progress.locked = model.locked.copy()
+        progress.locked, progress.stuck = model.locked.copy(), model.stuck.copy()
         progress.steps += 1
         if attempt.lands:
             progress.grid_index += 1

@@ -25,7 +25,7 @@ class TransientProgress:
 
     state: State
     algorithmic_acceleration: np.ndarray | None
-    locked: np.ndarray  # latched hinges
+    locked: np.ndarray  # latched hinges (and hinges stuck by friction)
     h: float  # step size to try next
     grid_index: int = 0  # nominal steps completed
     output_index: int = 1  # next recorded time is output_index · every
@@ -61,6 +61,7 @@ class TransientProgress:
     #: the controllers' held outputs and states after the last sample (latdyn.timeloop.sampling;
     #: replaced, never changed in place, so that a kept copy of the progress keeps its own)
     controller_memory: np.ndarray | None = None
+    stuck: np.ndarray | None = None  # the locked hinges that stick by friction (None: none)
 
     def count(self, stats) -> None:
         """Count a step's Newton iterations and factorizations (``stats``: a StepStats)."""

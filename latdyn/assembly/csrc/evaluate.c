@@ -46,8 +46,8 @@ typedef void (*kernel_joint_body)(int64_t, const double *, const double *, const
 typedef void (*kernel_point_load)(int64_t, const double *, const double *, const double *, const double *,
                                   const double *, double *, double *, double *, double *);
 typedef void (*kernel_hinged_end)(int64_t, const double *, const double *, double *, double *, double *);
-typedef void (*kernel_hinge_force)(int64_t, const double *, const double *, double *, double *, double *, double *,
-                                   double *, double *);
+typedef void (*kernel_hinge_force)(int64_t, const double *, const double *, const double *, double *, double *,
+                                   double *, double *, double *, double *, double *);
 typedef void (*kernel_so3_exp)(int64_t, const double *, double *);
 
 /* A configuration: all nodes and hinges. */
@@ -154,6 +154,9 @@ typedef struct {
     const int64_t *hinge_controller, *load_controller;
     const int64_t *actuator_kind, *actuator_index, *actuator_component, *actuator_controller;
     const int64_t *coupling_actuator, *coupling_slot, *coupling_sensor, *coupling_position;
+    /* (n_hinges, 11): each joint's compliant stop and friction, the hinge_force kernel's `contact`
+     * input (codegen/joints.py joint_contact; zeros with stick_rate 1: none) */
+    const double *hinge_contact;
 } Model;
 
 /* Scratch buffers, allocated once by the caller. */
@@ -559,9 +562,9 @@ static double evaluate(const Model *m, const Configuration *c, Work *w, const do
             values[6] = m->controller_outputs[m->controller_slot[m->hinge_controller[j]]];
             values[7] = values[8] = 0.0;
         }
-        double f, spring_power, torque_power, damper_power;
-        m->hinge_force(1, state, values, &f, w->hinge_d_theta + j, w->hinge_d_rate + j, &spring_power,
-                       &torque_power, &damper_power);
+        double f, spring_power, torque_power, damper_power, contact_energy;
+        m->hinge_force(1, state, values, m->hinge_contact + 11 * j, &f, w->hinge_d_theta + j, w->hinge_d_rate + j,
+                       &spring_power, &torque_power, &damper_power, &contact_energy);
         if (!m->hinge_conservative[j]) power += spring_power;
         power += torque_power;
         dissipation += damper_power;
@@ -740,6 +743,12 @@ void latdyn_energies(const Model *m, Work *w, const Configuration *c, double *ou
     for (int64_t j = 0; j < m->n_hinges; ++j) {
         double s = c->theta[j] - m->hinge_rest_angle[j];
         strain += 0.5 * m->hinge_stiffness[j] * s * s;
+        /* a compliant stop's potential, from the generated hinge_force (its other outputs unused) */
+        double state[4] = {c->theta[j], c->theta_dot[j], m->hinge_rest_angle[j], 0.0}, values[9] = {0};
+        double f, d_theta, d_rate, spring_power, torque_power, damper_power, contact_energy;
+        m->hinge_force(1, state, values, m->hinge_contact + 11 * j, &f, &d_theta, &d_rate, &spring_power,
+                       &torque_power, &damper_power, &contact_energy);
+        strain += contact_energy;
     }
     for (int64_t b = 0; b < m->n_bodies; ++b) {
         int64_t i = m->body_nodes[b];
