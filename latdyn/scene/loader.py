@@ -1415,9 +1415,12 @@ def _build(raw: Any, file: str) -> Scene:
         r.fail("beams", "expected at least one body or beam in the scene")
 
     attached = {end.body for b in r.beams.values() for end in (b.start, b.end) if end.body is not None}
+    # a body that carries a guided body, and a guided body (its slide may be held by its spring or by
+    # what it carries), are left to the model's check of each coordinate (Model.check_held)
+    attached |= {body.guide.on for body in r.bodies.values() if body.guide is not None}
     for name, body in r.bodies.items():
         if (body.mass == 0.0 and not np.any(body.inertia) and not body.fixed and not body.prescribed
-                and name not in attached and (body.guide is None or body.guide.position is None)):
+                and name not in attached and body.guide is None):
             r.fail(f"bodies.{name}", f"a coordinate that nothing holds: body {name!r} has no mass, no inertia "
                                      "and no beam attached; expected mass/inertia, a beam, fixed: true or a motion")
 

@@ -1,0 +1,119 @@
+"""Acceptance of sliding joints and joint probes (issue 32) as an outside checker runs them: scenes
+typed from SCENE.md ("Added with the issues of 2026-11-26"), each against a reference derived apart
+from the package (closed forms, or an independent ``solve_ivp`` of equations derived here), through
+the API and the CLI; and the defects this check found, each with the scene that showed it.
+
+Defects found and fixed (each test says which):
+- a massless guided body held by its spring, or a massless carriage that carries a guided body with
+  mass, was refused as "a coordinate that nothing holds" by the loader before the model could see
+  what holds the slide (SCENE.md: refused only when neither inertia nor stiffness holds it);
+- ``joint_peaks`` gave, for a latch's constant reaction, the time of a later row whose last digit
+  happened to be larger, not the first time the load was carried."""
+from __future__ import annotations
+
+import numpy as np
+
+import latdyn
+from cli_runs import latdyn_run, probe_columns, summary_of
+
+
+def run_text(tmp_path, text: str, name: str = "scene.yaml"):
+    """A scene typed as YAML, through the API (``latdyn.load_scene`` of the file, ``latdyn.run``)."""
+    path = tmp_path / name
+    path.write_text(text)
+    return latdyn.run(latdyn.load_scene(str(path)))
+
+
+MASSLESS_SLIDER = """
+title: a massless slider on its spring, driven by a force (quasi-static, s = F/k)
+bodies:
+  m: {at: [1, 0, 0], guide: {axis: [0, 3, 4], stiffness: 3, force: "sin(t)"}}
+solve: {t_end: 0.5, dt: 0.05}
+output:
+  probes:
+    s: {guide: m, quantity: position}
+    f: {guide: m, quantity: force}
+"""
+
+MASSLESS_CARRIAGE = """
+title: a massless carriage on a spring carries a slider of 2 kg on a cross guide
+bodies:
+  carriage: {at: [0, 0, 0], guide: {axis: [1, 0, 0], stiffness: 10}}
+  slider: {at: [0, 1, 0], mass: 2, guide: {on: carriage, axis: [0, 1, 0], stiffness: 5}}
+initial_velocity: {linear: [0.3, 0.2, 0]}
+solve: {t_end: 0.6, dt: 0.005}
+output:
+  every: 0.05
+  probes:
+    carriage: {guide: carriage, quantity: position}
+    slider: {guide: slider, quantity: position}
+"""
+
+
+def test_a_massless_guided_body_held_by_its_spring_or_by_what_it_carries_runs(tmp_path):
+    """Defect: refused before the run as a coordinate that nothing holds. A massless slider on a
+    spring k = 3 under F = sin t sits at s = F/k (the force its guide applies, −k s + F, is 0); a
+    massless carriage on a spring k = 10 carrying 2 kg on a cross guide (k = 5) is two independent
+    oscillators of 2 kg, started by initial_velocity: s = (v·a/ω) sin ωt."""
+    result = run_text(tmp_path, MASSLESS_SLIDER)
+    np.testing.assert_allclose(result.probes["s"], np.sin(result.t) / 3.0, atol=1e-12)
+    np.testing.assert_allclose(result.probes["f"], 0.0, atol=1e-12)
+    result = run_text(tmp_path, MASSLESS_CARRIAGE)
+    t = result.t
+    for probe, k, v0 in (("carriage", 10.0, 0.3), ("slider", 5.0, 0.2)):
+        omega = np.sqrt(k / 2.0)
+        exact = v0 / omega * np.sin(omega * t)
+        assert np.abs(result.probes[probe] - exact).max() < 2e-4 * np.abs(exact).max()
+
+
+def test_a_guided_body_that_nothing_holds_is_still_refused(tmp_path):
+    """Neither mass nor spring: exit 2, the guide's key path named, no traceback; a massless body
+    that carries a slider whose mass holds only some of its directions is refused with its name."""
+    completed, _ = latdyn_run(tmp_path, "bodies:\n  m: {at: [1, 0, 0], guide: {axis: [1, 0, 0]}}\n"
+                                        "solve: {t_end: 0.1, dt: 0.01}\n")
+    assert completed.returncode == 2 and "Traceback" not in completed.stderr
+    assert "scene.yaml: bodies.m.guide: a coordinate that nothing holds" in completed.stderr
+    completed, _ = latdyn_run(tmp_path, """
+bodies:
+  cart: {at: [0, 0, 0]}
+  slider: {at: [0, 1, 0], mass: 2, guide: {on: cart, axis: [0, 1, 0], stiffness: 5}}
+solve: {t_end: 0.1, dt: 0.01}
+""")
+    assert completed.returncode == 2 and "Traceback" not in completed.stderr
+    assert "scene.yaml: bodies.cart: a coordinate that nothing holds" in completed.stderr
+
+
+LATCH_ON_A_SPINNING_ROD = """
+title: a bead thrown out along a rod spinning at 3 rad/s latches at s = 0.1
+bodies:
+  rod:
+    at: [0, 0, 0]
+    motion:
+      rotation: {axis: [0, 0, 1], angle: "3*t"}
+  bead:
+    at: [0.2, 0, 0]
+    mass: 0.4
+    guide: {on: rod, axis: [1, 0, 0], lock_at: 0.1}
+solve: {t_end: 1.0, dt: 0.005}
+output:
+  probes:
+    s: {guide: bead, quantity: position}
+    f: {guide: bead, quantity: force}
+"""
+
+
+def test_latch_on_a_spinning_rod_holds_the_centripetal_load_from_the_latch_time(tmp_path):
+    """s = r₀(cosh Ωt − 1) until s = 0.1 at t_l = acosh(1 + 0.1/r₀)/Ω; then the latch holds the bead
+    with the centripetal force −mΩ²(r₀ + 0.1) = −1.08 N. Defect: joint_peaks gave t = 0.845, a later
+    row of the same constant reaction; the peak is first carried at the latch."""
+    result = run_text(tmp_path, LATCH_ON_A_SPINNING_ROD)
+    t, s, f = result.t, result.probes["s"], result.probes["f"]
+    latch = np.arccosh(1.0 + 0.1 / 0.2) / 3.0
+    before, after = t < latch - 1e-4, t > latch + 1e-4
+    assert np.abs(s[before] - 0.2 * (np.cosh(3.0 * t[before]) - 1.0)).max() < 1e-5  # measured 4.2e-6
+    np.testing.assert_allclose(s[after], 0.1, atol=1e-7)
+    np.testing.assert_allclose(f[before], 0.0, atol=1e-12)
+    np.testing.assert_allclose(f[after], -0.4 * 9.0 * 0.3, rtol=1e-7)
+    peak = result.summary["joint_peaks"]["bead"]
+    assert abs(peak["peak"] + 1.08) < 1e-7
+    assert abs(peak["t"] - latch) < 1e-4  # the row the latch step lands on
