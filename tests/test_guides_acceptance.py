@@ -117,3 +117,38 @@ def test_latch_on_a_spinning_rod_holds_the_centripetal_load_from_the_latch_time(
     peak = result.summary["joint_peaks"]["bead"]
     assert abs(peak["peak"] + 1.08) < 1e-7
     assert abs(peak["t"] - latch) < 1e-4  # the row the latch step lands on
+
+
+LINEAR_MODEL = """
+title: linear model of a damped spring slider on an oblique guide, pushed along x
+bodies:
+  m:
+    at: [0, 0, 0]
+    mass: 2.0
+    guide: {axis: [1, 1, 0], stiffness: 50, damping: 0.8}
+loads:
+  - {at: m, force: [1, 0, 0]}
+solve:
+  analysis: modes
+  count: 1
+  linear_model: {inputs: [m.force.x, "loads[0]"], outputs: [s, f]}
+output:
+  probes:
+    s: {guide: m, quantity: position}
+    f: {guide: m, quantity: force}
+"""
+
+
+def test_linear_model_with_an_input_at_a_guided_body(tmp_path):
+    """Defect: an input at a guided body (a point force or a load by name) was refused as 'fixed,
+    prescribed or rigidly linked'. m s̈ + c ṡ + k s = a_x u: poles the roots of m λ² + c λ + k, static
+    gains s/u = a_x/k and f/u = −a_x (the force the guide's spring applies), for both inputs."""
+    completed, out = latdyn_run(tmp_path, LINEAR_MODEL)
+    assert completed.returncode == 0, completed.stderr
+    model = np.load(out / "linear_model.npz")
+    A, B, C, D = model["A"], model["B"], model["C"], model["D"]
+    np.testing.assert_allclose(np.sort_complex(np.linalg.eigvals(A)), np.sort_complex(np.roots([2.0, 0.8, 50.0])),
+                               rtol=1e-10)
+    gains = -C @ np.linalg.solve(A, B) + D
+    a_x = 1.0 / np.sqrt(2.0)
+    np.testing.assert_allclose(gains, [[a_x / 50.0, a_x / 50.0], [-a_x, -a_x]], rtol=1e-8)
