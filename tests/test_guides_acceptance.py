@@ -152,3 +152,19 @@ def test_linear_model_with_an_input_at_a_guided_body(tmp_path):
     gains = -C @ np.linalg.solve(A, B) + D
     a_x = 1.0 / np.sqrt(2.0)
     np.testing.assert_allclose(gains, [[a_x / 50.0, a_x / 50.0], [-a_x, -a_x]], rtol=1e-8)
+
+
+def test_a_bad_name_in_a_guides_law_is_refused_in_the_guides_words(tmp_path):
+    """Defect: the refusal quoted the law with theta for the user's s ('theta*q' for 's*q') and
+    offered theta and theta_dot, which a guide's law refuses. Exit 2, the key path, the text as typed,
+    the guide's variables."""
+    for sub, text in (("stiffness", "s*q"), ("force", "s_dot + qq(s)"), ("damping", "abc")):
+        completed, _ = latdyn_run(tmp_path, f"""
+bodies:
+  m: {{at: [1, 0, 0], mass: 1, guide: {{axis: [1, 0, 0], {sub}: "{text}"}}}}
+solve: {{t_end: 0.1, dt: 0.01}}
+""")
+        assert completed.returncode == 2 and "Traceback" not in completed.stderr
+        message = completed.stderr
+        assert f"scene.yaml: bodies.m.guide.{sub}: name" in message and f"in {text!r} is not allowed" in message
+        assert "s (the slide), s_dot (its rate) and t" in message and "theta" not in message

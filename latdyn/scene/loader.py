@@ -224,6 +224,15 @@ def guide_law_text(value, file, key):
     return re.sub(r"\bs_dot\b", "theta_dot", re.sub(r"\bs\b(?!_)", "theta", value))
 
 
+def in_guide_words(error: SceneError) -> SceneError:
+    """A refusal of a guide's law (parsed as the hinge law it equals, :func:`guide_law_text`) said in
+    the guide's words: the user's ``s``, ``s_dot`` where the hinge law's ``theta``, ``theta_dot`` stand,
+    so that the message quotes the text as it was typed and names the variables a guide's law takes."""
+    said = error.expected.replace("theta (hinge angle), theta_dot (its rate)", "s (the slide), s_dot (its rate)")
+    said = re.sub(r"\btheta_dot\b", "s_dot", re.sub(r"\btheta\b(?!_)", "s", said))
+    return SceneError(error.file, error.key, said)
+
+
 @dataclass
 class BeamEnd:
     """One end of a beam: the grid point and how it is joined."""
@@ -916,14 +925,19 @@ class _Reader:
         def law(sub):
             return guide_law_text(spec[sub], self.file, _join(key, sub))
 
-        for sub in ("stiffness", "damping"):
-            if sub in spec:
-                setattr(g, sub, self.hinge_coefficient(law(sub), _join(key, sub)))
-        if "force" in spec:
-            fkey = _join(key, "force")
-            hinge_law = parse_hinge_law(law("force"), self.file, fkey)
-            g.force = hinge_law if {"theta", "theta_dot"} & set(hinge_law.depends_on) else \
-                parse_time_function(spec["force"], self.file, fkey)
+        try:
+            for sub in ("stiffness", "damping"):
+                if sub in spec:
+                    setattr(g, sub, self.hinge_coefficient(law(sub), _join(key, sub)))
+            if "force" in spec:
+                fkey = _join(key, "force")
+                hinge_law = parse_hinge_law(law("force"), self.file, fkey)
+                g.force = hinge_law if {"theta", "theta_dot"} & set(hinge_law.depends_on) else \
+                    parse_time_function(spec["force"], self.file, fkey)
+        except SceneError as error:
+            if "(not theta, theta_dot)" in error.expected:  # guide_law_text's own refusal, already a guide's
+                raise
+            raise in_guide_words(error) from None
         if "position" in spec:
             g.position = parse_time_function(spec["position"], self.file, _join(key, "position"))
         if "rest" in spec:
