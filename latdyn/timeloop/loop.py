@@ -254,8 +254,10 @@ class TimeLoop:
         ended = getattr(integrator, "last_evaluation", None) or evaluation
         damped = 0.5 * h * (progress.dissipation_power + ended.dissipation_power)
         progress.dissipation_power = evaluation.dissipation_power
-        if events.any and evaluation is ended:
-            progress.dissipation_power = self.assembler.evaluate(new, matrices=False).dissipation_power
+        if events.any and evaluation is ended:  # the velocities jumped: the powers after the jump start
+            after = self.assembler.evaluate(new, matrices=False)  # the next step (those before it ended this one)
+            progress.dissipation_power = after.dissipation_power
+            progress.power = load_power(model, new, after)
         progress.dissipated = self.probes.dissipated = progress.dissipated + damped + events.loss
         progress.state = new
         progress.algorithmic_acceleration = integrator.a
