@@ -12,9 +12,11 @@ Defects found and fixed (each test says which):
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 import latdyn
-from cli_runs import latdyn_run, probe_columns, summary_of
+from cli_runs import latdyn_run
+from latdyn.errors import SceneError
 
 
 def run_text(tmp_path, text: str, name: str = "scene.yaml"):
@@ -73,14 +75,13 @@ def test_a_guided_body_that_nothing_holds_is_still_refused(tmp_path):
                                         "solve: {t_end: 0.1, dt: 0.01}\n")
     assert completed.returncode == 2 and "Traceback" not in completed.stderr
     assert "scene.yaml: bodies.m.guide: a coordinate that nothing holds" in completed.stderr
-    completed, _ = latdyn_run(tmp_path, """
+    with pytest.raises(SceneError, match=r"scene.yaml: bodies.cart: a coordinate that nothing holds"):
+        run_text(tmp_path, """
 bodies:
   cart: {at: [0, 0, 0]}
   slider: {at: [0, 1, 0], mass: 2, guide: {on: cart, axis: [0, 1, 0], stiffness: 5}}
 solve: {t_end: 0.1, dt: 0.01}
 """)
-    assert completed.returncode == 2 and "Traceback" not in completed.stderr
-    assert "scene.yaml: bodies.cart: a coordinate that nothing holds" in completed.stderr
 
 
 LATCH_ON_A_SPINNING_ROD = """
@@ -157,15 +158,21 @@ def test_linear_model_with_an_input_at_a_guided_body(tmp_path):
 def test_a_bad_name_in_a_guides_law_is_refused_in_the_guides_words(tmp_path):
     """Defect: the refusal quoted the law with theta for the user's s ('theta*q' for 's*q') and
     offered theta and theta_dot, which a guide's law refuses. Exit 2, the key path, the text as typed,
-    the guide's variables."""
-    for sub, text in (("stiffness", "s*q"), ("force", "s_dot + qq(s)"), ("damping", "abc")):
-        completed, _ = latdyn_run(tmp_path, f"""
+    the guide's variables (the first through the CLI, the others through ``latdyn.load_scene``)."""
+    for i, (sub, text) in enumerate((("stiffness", "s*q"), ("force", "s_dot + qq(s)"), ("damping", "abc"))):
+        scene = f"""
 bodies:
   m: {{at: [1, 0, 0], mass: 1, guide: {{axis: [1, 0, 0], {sub}: "{text}"}}}}
 solve: {{t_end: 0.1, dt: 0.01}}
-""")
-        assert completed.returncode == 2 and "Traceback" not in completed.stderr
-        message = completed.stderr
+"""
+        if i == 0:
+            completed, _ = latdyn_run(tmp_path, scene)
+            assert completed.returncode == 2 and "Traceback" not in completed.stderr
+            message = completed.stderr
+        else:
+            with pytest.raises(SceneError) as refused:
+                run_text(tmp_path, scene)
+            message = str(refused.value)
         assert f"scene.yaml: bodies.m.guide.{sub}: name" in message and f"in {text!r} is not allowed" in message
         assert "s (the slide), s_dot (its rate) and t" in message and "theta" not in message
 
@@ -224,3 +231,142 @@ def test_bounces_on_a_stop_and_the_work_of_the_force_across_them(tmp_path):
     np.testing.assert_allclose(f[t > settled + 0.01], -2.0, atol=1e-9)
     assert result.summary["energy_balance_error"] < 1e-9
     assert not result.summary.get("warnings")
+
+
+INCLINED_ROD = """
+title: a bead on a rod inclined 45 degrees to the spin axis z, turning at 2 rad/s, under gravity
+gravity: [0, 0, -9.81]
+bodies:
+  rod:
+    at: [0, 0, 0]
+    motion:
+      rotation: {axis: [0, 0, 1], angle: "2*t"}
+  bead:
+    at: [0.3, 0.1, 0.2]
+    mass: 0.5
+    guide: {on: rod, axis: [1, 0, 1]}
+solve: {t_end: 0.6, dt: 0.004}
+output:
+  every: 0.02
+  probes:
+    s: {guide: bead, quantity: position}
+    f: {guide: bead, quantity: force}
+    x: {point: bead, quantity: position, component: x}
+    y: {point: bead, quantity: position, component: y}
+    z: {point: bead, quantity: position, component: z}
+"""
+
+
+def test_bead_on_an_inclined_spinning_rod_under_gravity(tmp_path):
+    """3D, the rod off the plane normal to the spin and off the spin axis: in the turning frame
+    s̈ = Ω²[(x₀ + s a)·a − ((x₀ + s a)·z)(a·z)] − g a_z (centrifugal and gravity along the rod; Coriolis
+    is normal to it), so s = (C/λ²)(cosh λt − 1) with λ² = Ω²(1 − a_z²), C = Ω²(x₀·a − x₀_z a_z) − g a_z;
+    the bead at R_z(Ωt)(x₀ + s a). Measured: s 1.6e-6 relative, position 4e-6 (dt = 0.002)."""
+    result = run_text(tmp_path, INCLINED_ROD)
+    t = result.t
+    a, x0, spin = np.array([1.0, 0.0, 1.0]) / np.sqrt(2.0), np.array([0.3, 0.1, 0.2]), 2.0
+    rate2 = spin ** 2 * (1.0 - a[2] ** 2)
+    drive = spin ** 2 * (x0 @ a - x0[2] * a[2]) - 9.81 * a[2]
+    s = drive / rate2 * (np.cosh(np.sqrt(rate2) * t) - 1.0)
+    assert np.abs(result.probes["s"] - s).max() < 2e-5 * np.abs(s).max()
+    np.testing.assert_allclose(result.probes["f"], 0.0, atol=1e-12)  # frictionless, no law
+    local = x0[None, :] + s[:, None] * a[None, :]
+    c, sn = np.cos(spin * t), np.sin(spin * t)
+    exact = np.stack([c * local[:, 0] - sn * local[:, 1], sn * local[:, 0] + c * local[:, 1], local[:, 2]], axis=1)
+    point = np.stack([result.probes[k] for k in "xyz"], axis=1)
+    assert np.abs(point - exact).max() < 2e-5 * np.abs(s).max()
+
+
+def _arm_carrying_a_spring_bead(length=0.4):
+    n_axis = np.array([1.0, -1.0, 0.0]) / np.sqrt(2.0)
+    at = ", ".join(repr(float(x)) for x in length * n_axis)
+    axis = ", ".join(repr(float(x)) for x in n_axis)
+    return f"""
+title: an arm turned at 3 rad/s about [1, 1, 1] carries a spring bead (the drive torque of Coriolis)
+sections:
+  arm: {{EA: 1.0e8, EIy: 1.0e4, EIz: 1.0e4, GJ: 1.0e4, rhoA: 0.0}}
+bodies:
+  hub: {{at: [0, 0, 0], fixed: true}}
+  tip: {{at: [{at}]}}
+  bead:
+    at: [{at}]
+    mass: 0.5
+    guide: {{on: tip, axis: [{axis}], stiffness: 12}}
+beams:
+  arm:
+    from: hub
+    to: tip
+    section: arm
+    rigid: true
+    start: {{hinge: {{axis: [1, 1, 1], angle: "3*t"}}}}
+solve: {{t_end: 0.6, dt: 0.003}}
+output:
+  every: 0.01
+  probes:
+    s: {{guide: bead, quantity: position}}
+    tau: {{hinge: arm.start, quantity: torque}}
+    f: {{guide: bead, quantity: force}}
+"""
+
+
+def test_drive_torque_of_a_turning_arm_carrying_a_spring_bead(tmp_path):
+    """A massless rigid arm turned at Ω = 3 about [1, 1, 1] (prescribed hinge angle), a bead of 0.5 kg
+    on a spring k = 12 along it from r₀ = 0.4: s = Ω²r₀/ω²(1 − cos ωt), ω² = k/m − Ω²; the drive
+    torque is the Coriolis moment 2 m r ṙ Ω, the guide's force −k s, joint_peaks at the torque's peak.
+    Measured: s 6.8e-6, torque 2.2e-5 relative (dt = 0.002)."""
+    result = run_text(tmp_path, _arm_carrying_a_spring_bead())
+    t, spin, m, k, r0 = result.t, 3.0, 0.5, 12.0, 0.4
+    omega = np.sqrt(k / m - spin ** 2)
+    s = spin ** 2 * r0 / omega ** 2 * (1.0 - np.cos(omega * t))
+    rate = spin ** 2 * r0 / omega * np.sin(omega * t)
+    torque = 2.0 * m * (r0 + s) * rate * spin
+    assert np.abs(result.probes["s"] - s).max() < 3e-5 * s.max()
+    assert np.abs(result.probes["tau"] - torque).max() < 1e-4 * np.abs(torque).max()
+    np.testing.assert_allclose(result.probes["f"], -k * result.probes["s"], atol=1e-12)
+    peak = result.summary["joint_peaks"]["arm.start"]
+    assert peak["t"] == t[np.argmax(np.abs(result.probes["tau"]))]
+    assert abs(peak["peak"] - torque.max()) < 1e-4 * torque.max()
+
+
+def test_modes_of_guides_on_guides_on_a_free_body_and_at_a_flexible_cantilever(tmp_path):
+    """Frequencies in closed form, each exact to round-off (modes about the initial state or about
+    static under gravity, which a linear guide does not change):
+    a slider on a carriage, both oblique: the 2 × 2 problem M = [[m₁+m₂, m₂ a₁·a₂], [m₂ a₁·a₂, m₂]],
+    K = diag(k₁, k₂); a bead on a spring along an axis through the centre of mass of a free body with
+    inertia: six rigid modes and √(k/μ), μ the reduced mass; the tip body of a massless oblique
+    cantilever on a guide across it (12 EI/L³) and along it (EA/L)."""
+    two_stage = """
+gravity: [0, 0, -9.81]
+bodies:
+  carriage: {at: [0, 0, 0], mass: 3.0, guide: {axis: [1, 0, 1], stiffness: 400}}
+  slider: {at: [0.2, 0.3, 0.1], mass: 1.0, guide: {on: carriage, axis: [0, 1, 2], stiffness: 150}}
+solve: {analysis: modes, about: static, count: 2}
+"""
+    a1, a2 = np.array([1.0, 0.0, 1.0]) / np.sqrt(2.0), np.array([0.0, 1.0, 2.0]) / np.sqrt(5.0)
+    mass = np.array([[4.0, a1 @ a2], [a1 @ a2, 1.0]])
+    exact = np.sqrt(np.sort(np.linalg.eigvals(np.linalg.solve(mass, np.diag([400.0, 150.0]))).real)) / (2 * np.pi)
+    np.testing.assert_allclose(run_text(tmp_path, two_stage).modes, exact, rtol=1e-12)
+    free_body = """
+bodies:
+  body: {at: [0, 0, 0], mass: 5.0, inertia: [[0.45, 0.002, 0.05], [0.002, 0.58, -0.05], [0.05, -0.05, 0.47]]}
+  bead: {at: [0.1, -0.2, 0.2], mass: 1.0, guide: {on: body, axis: [1, -2, 2], stiffness: 40}}
+solve: {analysis: modes, count: 7}
+"""
+    frequencies = run_text(tmp_path, free_body).modes
+    np.testing.assert_allclose(frequencies[:6], 0.0, atol=1e-6)
+    assert abs(frequencies[6] - np.sqrt(40.0 / (5.0 / 6.0)) / (2 * np.pi)) < 1e-12 * frequencies[6]
+    along = np.array([1.0, 2.0, 2.0]) / 3.0
+    across = np.cross(along, [0.0, 0.0, 1.0]) / np.linalg.norm(np.cross(along, [0.0, 0.0, 1.0]))
+    for axis, stiffness in ((across, 12 * 200.0 / 27.0), (along, 3.0e5 / 3.0)):
+        text = f"""
+sections:
+  s: {{EA: 3.0e5, EIy: 200.0, EIz: 200.0, GJ: 150.0, rhoA: 0.0}}
+bodies:
+  base: {{at: [0, 0, 0], fixed: true}}
+  tip: {{at: [1, 2, 2], mass: 2.5, guide: {{axis: [{", ".join(repr(float(x)) for x in axis)}]}}}}
+beams:
+  b: {{from: base, to: tip, section: s, elements: 2}}
+solve: {{analysis: modes, count: 1}}
+"""
+        frequency = run_text(tmp_path, text).modes[0]
+        assert abs(frequency - np.sqrt(stiffness / 2.5) / (2 * np.pi)) < 1e-10 * frequency
