@@ -370,3 +370,28 @@ solve: {{analysis: modes, count: 1}}
 """
         frequency = run_text(tmp_path, text).modes[0]
         assert abs(frequency - np.sqrt(stiffness / 2.5) / (2 * np.pi)) < 1e-10 * frequency
+
+
+def test_a_static_state_past_a_guides_stop_or_latch_is_flagged(tmp_path):
+    """Defect: a weight k s = m g pulled a guided slider to s = −0.5, through its stop at −0.1, and the
+    static run reported it as solved with no word. A static analysis does not apply stops or latches
+    (events of the time loop): such a state is flagged in summary.json warnings (and on stderr); within
+    its limits it is not, and it is the closed form m g / k."""
+    text = """
+gravity: [0, 0, -9.81]
+bodies:
+  m: {at: [0, 0, 0], mass: 1.0, guide: {axis: [0, 0, 1], stiffness: 19.62, EXTRA}}
+solve: {analysis: static, steps: 2}
+output:
+  probes:
+    s: {guide: m, quantity: position}
+"""
+    for extra, flagged in (("limits: [-0.1, 0.1]", "past its limits [-0.1, 0.1]"),
+                           ("lock_at: -0.2", "past its lock_at -0.2"), ("limits: [-1, 1]", None)):
+        result = run_text(tmp_path, text.replace("EXTRA", extra))
+        assert abs(result.probes["s"][-1] + 0.5) < 1e-12
+        warnings = result.summary.get("warnings", [])
+        if flagged is None:
+            assert not warnings
+        else:
+            assert len(warnings) == 1 and "the static state puts guide m at s = -0.5, " + flagged in warnings[0]
