@@ -395,3 +395,23 @@ output:
             assert not warnings
         else:
             assert len(warnings) == 1 and "the static state puts guide m at s = -0.5, " + flagged in warnings[0]
+
+
+def test_a_latch_a_guide_cannot_use_is_refused(tmp_path):
+    """Defects: lock_at with a prescribed position was accepted and never acted (limits with it are
+    refused: no free slide); lock_at: 0, where the slide is at t = 0, latched after the first step at
+    s = F h²/2m past it, with an energy balance error of 1. Both refused with the key path."""
+    for extra, expected in (('position: "t", lock_at: 0.05', "has no free slide to latch"),
+                            ("force: 1, lock_at: 0", "the slide is 0 at t = 0")):
+        with pytest.raises(SceneError, match=r"scene.yaml: bodies.m.guide.lock_at: .*" + expected):
+            latdyn.load_scene(str(_written(tmp_path, f"""
+bodies:
+  m: {{at: [1, 0, 0], mass: 1, guide: {{axis: [1, 0, 0], {extra}}}}}
+solve: {{t_end: 0.1, dt: 0.01}}
+""")))
+
+
+def _written(tmp_path, text: str):
+    path = tmp_path / "scene.yaml"
+    path.write_text(text)
+    return path

@@ -944,6 +944,13 @@ class _Reader:
             g.rest = self.number(spec["rest"], _join(key, "rest"))
         if "lock_at" in spec:
             g.lock_at = self.number(spec["lock_at"], _join(key, "lock_at"))
+            if g.position is not None:
+                self.fail(_join(key, "lock_at"), "a prescribed guide (position) has no free slide to latch; "
+                                                 "expected no lock_at with position", spec["lock_at"])
+            if g.lock_at == 0.0:
+                self.fail(_join(key, "lock_at"), "the slide is 0 at t = 0, so it would be latched from the start; "
+                                                 "expected a lock_at other than 0 (a body held from the start "
+                                                 "is a rigid link or a fixed body)", spec["lock_at"])
         if "limits" in spec:
             lkey = _join(key, "limits")
             value = spec["limits"]
