@@ -400,7 +400,8 @@ output:
 def test_a_latch_a_guide_cannot_use_is_refused(tmp_path):
     """Defects: lock_at with a prescribed position was accepted and never acted (limits with it are
     refused: no free slide); lock_at: 0, where the slide is at t = 0, latched after the first step at
-    s = F h²/2m past it, with an energy balance error of 1. Both refused with the key path."""
+    s = F h²/2m past it, with an energy balance error of 1 (a hinge's lock_at: 0 the same). Refused with
+    the key path."""
     for extra, expected in (('position: "t", lock_at: 0.05', "has no free slide to latch"),
                             ("force: 1, lock_at: 0", "the slide is 0 at t = 0")):
         with pytest.raises(SceneError, match=r"scene.yaml: bodies.m.guide.lock_at: .*" + expected):
@@ -408,6 +409,16 @@ def test_a_latch_a_guide_cannot_use_is_refused(tmp_path):
 bodies:
   m: {{at: [1, 0, 0], mass: 1, guide: {{axis: [1, 0, 0], {extra}}}}}
 solve: {{t_end: 0.1, dt: 0.01}}
+""")))
+    with pytest.raises(SceneError, match=r"scene.yaml: beams.arm.start.hinge.lock_at: the hinge angle is 0 at t = 0"):
+        latdyn.load_scene(str(_written(tmp_path, """
+sections:
+  arm: {EA: 1.0e8, EIy: 1.0e4, EIz: 1.0e4, GJ: 1.0e4, rhoA: 1.0}
+bodies:
+  hub: {at: [0, 0, 0], fixed: true}
+beams:
+  arm: {from: hub, to: [1, 0, 0], section: arm, rigid: true, start: {hinge: {axis: [0, 0, 1], torque: 1, lock_at: 0}}}
+solve: {t_end: 0.1, dt: 0.01}
 """)))
 
 

@@ -877,6 +877,10 @@ class _Reader:
             h.angle = parse_time_function(spec["angle"], self.file, _join(key, "angle"))
         if "lock_at" in spec:
             h.lock_at = self.number(spec["lock_at"], _join(key, "lock_at"))
+            if h.lock_at == 0.0:  # latched a step late, past it (measured: energy balance error 1)
+                self.fail(_join(key, "lock_at"), "the hinge angle is 0 at t = 0, so it would be latched from "
+                                                 "the start; expected a lock_at other than 0 (a joint held from "
+                                                 "the start is a clamped end)", spec["lock_at"])
         if "rest_angle" in spec:
             h.rest_angle = self.number(spec["rest_angle"], _join(key, "rest_angle"))
         if "limits" in spec:
