@@ -929,18 +929,17 @@ class _Reader:
         def law(sub):
             return guide_law_text(spec[sub], self.file, _join(key, sub))
 
-        try:
+        laws = {sub: law(sub) for sub in ("stiffness", "damping", "force") if sub in spec}
+        try:  # parsed as the hinge laws they equal; a refusal is said in the guide's words
             for sub in ("stiffness", "damping"):
-                if sub in spec:
-                    setattr(g, sub, self.hinge_coefficient(law(sub), _join(key, sub)))
-            if "force" in spec:
+                if sub in laws:
+                    setattr(g, sub, self.hinge_coefficient(laws[sub], _join(key, sub)))
+            if "force" in laws:
                 fkey = _join(key, "force")
-                hinge_law = parse_hinge_law(law("force"), self.file, fkey)
+                hinge_law = parse_hinge_law(laws["force"], self.file, fkey)
                 g.force = hinge_law if {"theta", "theta_dot"} & set(hinge_law.depends_on) else \
                     parse_time_function(spec["force"], self.file, fkey)
         except SceneError as error:
-            if "(not theta, theta_dot)" in error.expected:  # guide_law_text's own refusal, already a guide's
-                raise
             raise in_guide_words(error) from None
         if "position" in spec:
             g.position = parse_time_function(spec["position"], self.file, _join(key, "position"))
