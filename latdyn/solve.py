@@ -195,6 +195,9 @@ def _modes(prepared, writer: ResultWriter, out_dir) -> None:
         writer.summary["steady_state"] = report["steady_state"]
     for warning in report.get("warnings", []):
         _warn(writer, warning)
+    if scene.solve.about == "static" and lin is not None:
+        for warning in stops_passed(prepared.model, lin.state):
+            _warn(writer, warning)
     frequencies = [m.frequency_hz for m in found]
     writer.write_modes(frequencies, linearise.modes_table(found, directions))
     writer.summary["modes_hz"] = [float(f) for f in frequencies]

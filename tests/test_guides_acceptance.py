@@ -378,7 +378,8 @@ def test_a_static_state_past_a_guides_stop_or_latch_is_flagged(tmp_path):
     """Defect: a weight k s = m g pulled a guided slider to s = −0.5, through its stop at −0.1, and the
     static run reported it as solved with no word. A static analysis does not apply stops or latches
     (events of the time loop): such a state is flagged in summary.json warnings (and on stderr); within
-    its limits it is not, and it is the closed form m g / k."""
+    its limits it is not, and it is the closed form m g / k. Modes about such a static state are flagged
+    the same."""
     text = """
 gravity: [0, 0, -9.81]
 bodies:
@@ -397,6 +398,10 @@ output:
             assert not warnings
         else:
             assert len(warnings) == 1 and "the static state puts guide m at s = -0.5, " + flagged in warnings[0]
+    modes = run_text(tmp_path, text.replace("EXTRA", "limits: [-0.1, 0.1]").replace(
+        "analysis: static, steps: 2", "analysis: modes, about: static, count: 1"))
+    assert abs(modes.modes[0] - np.sqrt(19.62) / (2 * np.pi)) < 1e-12
+    assert "past its limits [-0.1, 0.1]" in modes.summary["warnings"][0]
 
 
 def test_a_latch_a_guide_cannot_use_is_refused(tmp_path):
