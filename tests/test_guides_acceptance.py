@@ -221,17 +221,24 @@ def test_bounces_on_a_stop_and_the_work_of_the_force_across_them(tmp_path):
     form, the work of the force F s between the impacts, then the stop's reaction −F. Defect: the power
     of the loads after an impact was the one before its velocity jump, so the first step after each
     impact counted ½ h F v⁻ of work that was never done (measured 5.7e-3 J of the 0.1 J, dt = 0.01), and
-    the run was flagged with an energy balance drift it did not have."""
+    the run was flagged with an energy balance drift it did not have; at rest on the stop, each step
+    counted the work of the motion past the stop that the projection undid (and its kinetic energy
+    as lost): the work grew by 15 % in 0.33 s at dt = 0.01."""
     result = run_text(tmp_path, BOUNCING_SLIDER)
     t, s, f, work = result.t, result.probes["s"], result.probes["f"], result.probes["work"]
     exact, first, settled = bouncing_on_a_stop(t, 2.0, 0.05, 0.5)
     assert np.abs(s - exact).max() < 5e-7  # measured 1.2e-7: the impacts land within the events' tolerance
+    # the work F s to the landing tolerance of the impacts while bouncing (measured 2.7e-7; 2.2e-3
+    # before the first fix), and at rest to the last bounce, which ends inside a step (measured 5.1e-6;
+    # growing by F²h²/2m a step before the second fix, 1.5e-2 at t = 1)
     bouncing = t < settled - 0.02
-    # the work F s to the landing tolerance of the impacts (measured 2.7e-7; 2.2e-3 before the fix)
     np.testing.assert_allclose(work[bouncing], 2.0 * s[bouncing], atol=5e-7)
+    np.testing.assert_allclose(work[~bouncing], 2.0 * s[~bouncing], atol=1e-5)
     np.testing.assert_allclose(f[t < first], 2.0)
     np.testing.assert_allclose(f[t > settled + 0.01], -2.0, atol=1e-9)
-    assert result.summary["energy_balance_error"] < 1e-9
+    # all the work lost in the impacts: the kinetic energy is 0 at rest
+    assert abs(result.summary["dissipated_energy"] - work[-1]) < 1e-5  # measured 3.2e-6
+    assert result.summary["energy_balance_error"] < 1e-4  # measured 3.2e-5: the last bounce inside a step
     assert not result.summary.get("warnings")
 
 
