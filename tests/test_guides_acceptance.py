@@ -8,7 +8,13 @@ Defects found and fixed (each test says which):
   mass, was refused as "a coordinate that nothing holds" by the loader before the model could see
   what holds the slide (SCENE.md: refused only when neither inertia nor stiffness holds it);
 - ``joint_peaks`` gave, for a latch's constant reaction, the time of a later row whose last digit
-  happened to be larger, not the first time the load was carried."""
+  happened to be larger, not the first time the load was carried;
+- ``solve.linear_model`` refused an input at a guided body (a point force or a load by name);
+- a guide's law that did not parse was quoted with theta for the user's s and told to use theta;
+- the work of the loads after an impact began from the power before the velocity jump, and at rest
+  on a stop counted each step the motion the projection undid (a false energy drift warning);
+- a static state (or modes about it) past a guide's stop or latch was reported without a word;
+- lock_at with a prescribed position was ignored, and lock_at: 0 latched a step late."""
 from __future__ import annotations
 
 import numpy as np
