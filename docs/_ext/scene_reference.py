@@ -140,7 +140,7 @@ DESCRIPTIONS: dict[str, tuple[str, str, str | None]] = {
     "HINGE.damping": ("damper: a number or an expression in theta, theta_dot, t", "F·L·T/rad", None),
     "HINGE.torque": ("applied torque about the axis: an expression in t (or theta, theta_dot)", "F·L", "none"),
     "HINGE.angle": ("prescribed angle, an expression in t (the hinge then has no coordinate)", "rad", "free"),
-    "HINGE.lock_at": ("latches rigidly when the angle reaches this value", "rad", "never"),
+    "HINGE.lock_at": ("latches rigidly when the angle reaches this value (not 0, where it starts)", "rad", "never"),
     "HINGE.rest_angle": ("neutral angle of the spring", "rad", None),
     "HINGE.limits": ("hard stops [lo, hi] on the angle (lo ≤ 0 ≤ hi)", "rad", "none"),
     "HINGE.restitution": ("coefficient of restitution of an impact on a stop, in [0, 1]", "—", None),
@@ -155,7 +155,8 @@ DESCRIPTIONS: dict[str, tuple[str, str, str | None]] = {
     "bodies.NAME.guide.rest": ("neutral slide of the spring", "L", "0"),
     "bodies.NAME.guide.limits": ("hard stops [lo, hi] on the slide (lo ≤ 0 ≤ hi)", "L", "none"),
     "bodies.NAME.guide.restitution": ("coefficient of restitution of an impact on a stop, in [0, 1]", "—", "0"),
-    "bodies.NAME.guide.lock_at": ("latches rigidly when the slide reaches this value", "L", "never"),
+    "bodies.NAME.guide.lock_at": ("latches rigidly when the slide reaches this value (not 0, where it starts; "
+                                  "not with position)", "L", "never"),
     "bodies.NAME.guide.position": ("prescribed slide, an expression in t (then no coordinate)", "L", "free"),
     # inputs and controllers
     "inputs": ("named external signals {NAME: number}, usable by name in any expression; held in `latdyn run`, "

@@ -285,14 +285,33 @@ def _input_forces(model, state, inputs) -> np.ndarray:
             f, mo = np.zeros(3), np.zeros(3)
             (f if kind == "force" else mo)[axis] = 1.0
         node, r = model.point(point)
-        if node not in set(model.free_nodes.tolist()):
+        if node in set(model.free_nodes.tolist()):
+            d = model.node_dofs[node]
+            F[d[:3], j] += f
+            F[d[3:], j] += np.cross(state.T[node] @ r, f) + mo
+        elif model.links is not None and node in set(model.links.dependent):
+            F[:model.n_dofs, j] += _dependent_input_force(model, state, node, r, f, mo)
+        else:
             raise SceneError(scene.file, "solve.linear_model.inputs",
-                             f"expected an input at a point that moves freely; {model.nodes[node].name} "
-                             "is fixed, prescribed or rigidly linked")
-        d = model.node_dofs[node]
-        F[d[:3], j] += f
-        F[d[3:], j] += np.cross(state.T[node] @ r, f) + mo
+                             f"expected an input at a point that moves; {model.nodes[node].name} "
+                             "is fixed or prescribed")
     return F[:model.n_dofs]
+
+
+def _dependent_input_force(model, state, node, r, f, mo) -> np.ndarray:
+    """The generalized force (n,) of a force ``f`` at the offset ``r`` (body axes) of a node that
+    follows rigid links or a guide, and a moment ``mo``: Jᵀ (f, mo) with J the point's and the body's
+    twist Jacobian on the minimum coordinates (:meth:`latdyn.model.links.RigidLinks.twists`), the
+    reduction Pᵀ that carries the loads on dependent nodes in every analysis."""
+    links = model.links
+    links.place(state)
+    columns, twist = links.twists(model, state)
+    point_jacobian = links.point_jacobian(twist[node], state.x[node] + state.T[node] @ r)
+    generalized = point_jacobian.T @ f + twist[node][3:].T @ mo
+    force = np.zeros(model.n_dofs)
+    free = columns < model.n_dofs
+    force[columns[free]] = generalized[free]
+    return force
 
 
 def _output_jacobians(lin: Linearisation, names: list[str]):

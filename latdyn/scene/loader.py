@@ -276,6 +276,15 @@ def guide_law_text(value, file, key):
     return re.sub(r"\bs_dot\b", "theta_dot", re.sub(r"\bs\b(?!_)", "theta", value))
 
 
+def in_guide_words(error: SceneError) -> SceneError:
+    """A refusal of a guide's law (parsed as the hinge law it equals, :func:`guide_law_text`) said in
+    the guide's words: the user's ``s``, ``s_dot`` where the hinge law's ``theta``, ``theta_dot`` stand,
+    so that the message quotes the text as it was typed and names the variables a guide's law takes."""
+    said = error.expected.replace("theta (hinge angle), theta_dot (its rate)", "s (the slide), s_dot (its rate)")
+    said = re.sub(r"\btheta_dot\b", "s_dot", re.sub(r"\btheta\b(?!_)", "s", said))
+    return SceneError(error.file, error.key, said)
+
+
 @dataclass
 class BeamEnd:
     """One end of a beam: the grid point and how it is joined."""
@@ -941,6 +950,10 @@ class _Reader:
             h.angle = parse_time_function(spec["angle"], self.file, _join(key, "angle"))
         if "lock_at" in spec:
             h.lock_at = self.number(spec["lock_at"], _join(key, "lock_at"))
+            if h.lock_at == 0.0:  # latched a step late, past it (measured: energy balance error 1)
+                self.fail(_join(key, "lock_at"), "the hinge angle is 0 at t = 0, so it would be latched from "
+                                                 "the start; expected a lock_at other than 0 (a joint held from "
+                                                 "the start is a clamped end)", spec["lock_at"])
         if "rest_angle" in spec:
             h.rest_angle = self.number(spec["rest_angle"], _join(key, "rest_angle"))
         if "limits" in spec:
@@ -993,20 +1006,31 @@ class _Reader:
         def law(sub):
             return guide_law_text(spec[sub], self.file, _join(key, sub))
 
-        for sub in ("stiffness", "damping"):
-            if sub in spec:
-                setattr(g, sub, self.hinge_coefficient(law(sub), _join(key, sub)))
-        if "force" in spec:
-            fkey = _join(key, "force")
-            hinge_law = parse_hinge_law(law("force"), self.file, fkey)
-            g.force = hinge_law if {"theta", "theta_dot"} & set(hinge_law.depends_on) else \
-                parse_time_function(spec["force"], self.file, fkey)
+        laws = {sub: law(sub) for sub in ("stiffness", "damping", "force") if sub in spec}
+        try:  # parsed as the hinge laws they equal; a refusal is said in the guide's words
+            for sub in ("stiffness", "damping"):
+                if sub in laws:
+                    setattr(g, sub, self.hinge_coefficient(laws[sub], _join(key, sub)))
+            if "force" in laws:
+                fkey = _join(key, "force")
+                hinge_law = parse_hinge_law(laws["force"], self.file, fkey)
+                g.force = hinge_law if {"theta", "theta_dot"} & set(hinge_law.depends_on) else \
+                    parse_time_function(spec["force"], self.file, fkey)
+        except SceneError as error:
+            raise in_guide_words(error) from None
         if "position" in spec:
             g.position = parse_time_function(spec["position"], self.file, _join(key, "position"))
         if "rest" in spec:
             g.rest = self.number(spec["rest"], _join(key, "rest"))
         if "lock_at" in spec:
             g.lock_at = self.number(spec["lock_at"], _join(key, "lock_at"))
+            if g.position is not None:
+                self.fail(_join(key, "lock_at"), "a prescribed guide (position) has no free slide to latch; "
+                                                 "expected no lock_at with position", spec["lock_at"])
+            if g.lock_at == 0.0:
+                self.fail(_join(key, "lock_at"), "the slide is 0 at t = 0, so it would be latched from the start; "
+                                                 "expected a lock_at other than 0 (a body held from the start "
+                                                 "is a rigid link or a fixed body)", spec["lock_at"])
         if "limits" in spec:
             lkey = _join(key, "limits")
             value = spec["limits"]
@@ -1627,9 +1651,12 @@ def _build_parts(r: _Reader, raw: dict, file: str) -> Scene:
         r.fail("beams", "expected at least one body or beam in the scene")
 
     attached = {end.body for b in r.beams.values() for end in (b.start, b.end) if end.body is not None}
+    # a body that carries a guided body, and a guided body (its slide may be held by its spring or by
+    # what it carries), are left to the model's check of each coordinate (Model.check_held)
+    attached |= {body.guide.on for body in r.bodies.values() if body.guide is not None}
     for name, body in r.bodies.items():
         if (body.mass == 0.0 and not np.any(body.inertia) and not body.fixed and not body.prescribed
-                and name not in attached and (body.guide is None or body.guide.position is None)):
+                and name not in attached and body.guide is None):
             r.fail(f"bodies.{name}", f"a coordinate that nothing holds: body {name!r} has no mass, no inertia "
                                      "and no beam attached; expected mass/inertia, a beam, fixed: true or a motion")
 

@@ -316,7 +316,8 @@ class TimeLoop:
         # power of loads and prescribed motion: from the last Newton evaluation
         # (within the Newton tolerance of the converged state) when there is one
         evaluation = getattr(integrator, "last_evaluation", None)
-        if evaluation is None or len(evaluation.reaction) != model.n_total - model.n_dofs:
+        if evaluation is None or len(evaluation.reaction) != model.n_total - model.n_dofs or events.resting:
+            # resting on a stop: the step ends where the projection put it back (events.HingeEvents)
             evaluation = self.assembler.evaluate(new, matrices=False)
         new_power = load_power(model, new, evaluation)
         self.probes.external_work += 0.5 * h * (progress.power + new_power)
@@ -325,11 +326,13 @@ class TimeLoop:
         # declared dissipation: the dampers' over the step (trapezoidal, as the work; at its end
         # from the step's own last evaluation, before the events' jump), then the events' loss;
         # the dampers' power after the jump starts the next step
-        ended = getattr(integrator, "last_evaluation", None) or evaluation
+        ended = evaluation if events.resting else getattr(integrator, "last_evaluation", None) or evaluation
         damped = 0.5 * h * (progress.dissipation_power + ended.dissipation_power)
         progress.dissipation_power = evaluation.dissipation_power
-        if events.any and evaluation is ended:
-            progress.dissipation_power = self.assembler.evaluate(new, matrices=False).dissipation_power
+        if events.any and evaluation is ended and not events.resting:  # the velocities jumped: the powers
+            after = self.assembler.evaluate(new, matrices=False)  # after the jump start the next step
+            progress.dissipation_power = after.dissipation_power
+            progress.power = load_power(model, new, after)
         progress.dissipated = self.probes.dissipated = progress.dissipated + damped + events.loss
         progress.state = new
         progress.algorithmic_acceleration = integrator.a

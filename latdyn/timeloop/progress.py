@@ -98,10 +98,14 @@ class TransientProgress:
         return self.balance_error / self.energy_scale if self.energy_scale > 0 else 0.0
 
     def note_joint_forces(self, names, forces, t: float) -> None:
-        """Keep each joint's peak force (:attr:`joint_peaks`) with the forces at the row at ``t``."""
+        """Keep each joint's peak force (:attr:`joint_peaks`) with the forces at the row at ``t``.
+
+        A later row takes the peak only when it is larger by more than round-off
+        (:data:`PEAK_ROUND_OFF` relative): a load held constant (a latch's reaction) has its peak at
+        the first row that carries it, not at a later row whose last digit happens to be larger."""
         for name, value in zip(names, forces):
             peak = self.joint_peaks.get(name)
-            if peak is None or abs(value) > abs(peak["peak"]):
+            if peak is None or abs(value) > abs(peak["peak"]) * (1.0 + PEAK_ROUND_OFF):
                 self.joint_peaks[name] = {"peak": float(value), "t": float(t)}
 
     def summary(self, tol: float, method: str) -> dict:
@@ -115,6 +119,9 @@ class TransientProgress:
             inertia_tangent_from=self.inertia_tangent_from, joint_peaks=self.joint_peaks)
 
 
+#: Relative margin by which a row's joint force must exceed the kept peak to replace it in
+#: ``joint_peaks`` (round-off of a constant reaction, several times the 2.2e-16 of a double).
+PEAK_ROUND_OFF = 1e-12
 #: ``energy_balance_error`` (relative) past which a run is flagged: a warning on stderr and in
 #: summary.json ``warnings`` (docs/energy.md says how it was chosen).
 DRIFT_WARNING = 1e-2
