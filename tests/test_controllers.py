@@ -336,3 +336,19 @@ def test_flexible_slewing_beam_with_tip_feedback_decays_as_its_closed_loop_eigen
     for lam, (sigma, omega), tolerance in zip(slowest, (fitted[0:2], fitted[4:6]), (5e-4, 2e-3)):
         assert abs(sigma - lam.real) < tolerance * abs(lam) and abs(omega - lam.imag) < tolerance * abs(lam)
     assert np.max(np.abs(two_modes(t, *fitted) - theta)) < 1e-2 * np.max(np.abs(theta))
+
+
+def test_continuous_controller_resumes_bit_for_bit(tmp_path, monkeypatch):
+    """A continuous controller keeps nothing between steps (its output is a function of the state):
+    interrupted and resumed, probes.csv equals the uninterrupted run's."""
+    from test_checkpoint import interrupt_at
+
+    scene = yaml.safe_load(hub(CONTINUOUS_PD, inputs=GAINS, probes="    u: {controller: ctl}"))
+    full, out = tmp_path / "full", tmp_path / "out"
+    latdyn.run(scene, full)
+    with monkeypatch.context() as m:
+        interrupt_at(m, 0.737)
+        with pytest.raises(KeyboardInterrupt):
+            latdyn.run(scene, out)
+    latdyn.run(scene, out, resume=True)
+    assert (out / "probes.csv").read_text() == (full / "probes.csv").read_text()
