@@ -154,13 +154,23 @@ def test_sampled_controller_resumes_bit_for_bit(tmp_path, monkeypatch):
     ("  a: {output: \"th\"}\n  ctl: {output: \"a\"}", "controllers.ctl.output", "reads another continuous"),
     ("  ctl: {output: \"E\", rate: 2}\n  c2: {output: \"th\"}", "beams.arm.start.hinge.torque", "name alone"),
 ])
-def test_refusals_name_the_key(tmp_path, controllers, key, says):
+def test_refusals_name_the_key(controllers, key, says):
+    """Each refusal in Python (the loader's, or the model's wiring for what is not built); the CLI's
+    exit status 2 and message without a traceback: test_a_refusal_through_the_cli."""
+    from latdyn.errors import SceneError
+
     torque = "2*c2" if "c2:" in controllers else "ctl" if "continuous" in says or "states" in says else "0"
     text = hub(controllers, torque=torque, probes="    u: {controller: ctl}\n    E: {energy: kinetic}"
                if "ctl:" in controllers else "    E: {energy: kinetic}")
-    completed, _ = latdyn_run(tmp_path, text)
-    assert completed.returncode == 2, completed.stderr
-    assert key in completed.stderr and says in completed.stderr, completed.stderr
+    with pytest.raises(SceneError) as refused:
+        latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
+    assert key in str(refused.value) and says in str(refused.value), str(refused.value)
+
+
+def test_a_refusal_through_the_cli(tmp_path):
+    completed, _ = latdyn_run(tmp_path, hub('  ctl: {output: "later", rate: 1}\n  later: {output: 1, rate: 1}'))
+    assert completed.returncode == 2
+    assert "controllers.ctl.output" in completed.stderr and "defined later" in completed.stderr
     assert "Traceback" not in completed.stderr
 
 
@@ -182,13 +192,13 @@ def pd_exact(t, kp=40.0, kd=8.0, ref=1.0):
 def test_continuous_pd_slew_cli_planar(tmp_path):
     """A continuous PD on the hinge angle and rate probes slews the hub: θ(t) against the exact
     second-order solution (generalized-α's O(h²) error, measured 3.4e-5, 8.5e-6, 2.1e-6 at h = 0.004,
-    0.002, 0.001); its exact
+    0.002, 0.001; run here at 0.004); its exact
     derivatives in Newton's matrix make each step of this linear loop converge in two iterations."""
-    completed, out = latdyn_run(tmp_path, hub(CONTINUOUS_PD, inputs=GAINS, solve="{t_end: 2.0, dt: 0.002}",
+    completed, out = latdyn_run(tmp_path, hub(CONTINUOUS_PD, inputs=GAINS, solve="{t_end: 1.5, dt: 0.004}",
                                               probes="    u: {controller: ctl}"))
     assert completed.returncode == 0, completed.stderr
     p = probe_columns(out)
-    assert np.max(np.abs(p["th"] - pd_exact(p["t"]))) < 1e-5
+    assert np.max(np.abs(p["th"] - pd_exact(p["t"]))) < 4e-5
     assert np.max(np.abs(p["u"] - (-40 * (p["th"] - 1) - 8 * p["om"]))) < 1e-9
     summary = json.loads((out / "summary.json").read_text())
     assert summary["newton_iterations"] <= 2 * summary["steps"]
@@ -196,9 +206,9 @@ def test_continuous_pd_slew_cli_planar(tmp_path):
 
 def test_continuous_pd_slew_api_3d():
     scene = latdyn.load_scene(yaml.safe_load(hub(CONTINUOUS_PD, inputs=GAINS, axis=SPATIAL,
-                                                 solve="{t_end: 2.0, dt: 0.002}")))
+                                                 solve="{t_end: 1.5, dt: 0.004}")))
     result = latdyn.run(scene)
-    assert np.max(np.abs(result.probes["th"] - pd_exact(result.t))) < 1e-5
+    assert np.max(np.abs(result.probes["th"] - pd_exact(result.t))) < 4e-5
 
 
 def test_saturated_pd_against_an_independent_integration():
@@ -206,16 +216,16 @@ def test_saturated_pd_against_an_independent_integration():
     from scipy.integrate import solve_ivp
 
     text = hub(CONTINUOUS_PD.replace('om"', 'om"\n    limits: [-3, 3]'), inputs="inputs: {kp: 200.0, kd: 30.0, ref: 1.0}",
-               solve="{t_end: 2.0, dt: 0.001}", probes="    u: {controller: ctl}")
+               solve="{t_end: 1.0, dt: 0.002}", probes="    u: {controller: ctl}")
     result = latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
 
     def rhs(t, x):
         return [x[1], min(max(-200 * (x[0] - 1) - 30 * x[1], -3.0), 3.0) / J]
 
-    reference = solve_ivp(rhs, (0, 2), [0.0, 0.0], t_eval=result.t, rtol=1e-10, atol=1e-12, method="DOP853")
+    reference = solve_ivp(rhs, (0, 1), [0.0, 0.0], t_eval=result.t, rtol=1e-10, atol=1e-12, method="DOP853")
     assert np.max(np.abs(result.probes["u"])) <= 3.0 + 1e-12
     assert np.any(np.abs(result.probes["u"]) == 3.0)  # it saturated
-    assert np.max(np.abs(result.probes["th"] - reference.y[0])) < 2e-5
+    assert np.max(np.abs(result.probes["th"] - reference.y[0])) < 1e-4  # measured 5.1e-5 of 1.19 at dt = 0.002
 
 
 def linear_model_of(text: str) -> dict:
