@@ -254,10 +254,7 @@ def test_closed_loop_linear_model_is_open_loop_plus_bkc(axis):
     assert np.allclose(zeta, 8.0 / (2 * math.sqrt(40.0 * J)), rtol=1e-9)
 
 
-def test_non_collocated_load_controller_3d_linear_model():
-    """A force along z on body a driven by the z displacement of body b at the other end of an
-    elastic beam (non-collocated: a's equations coupled to b's coordinate): A = A_ol + B K C."""
-    scene = """
+TWO_BODIES = """
 {controllers}
 sections:
   s: {{EA: 1.0e4, EIy: 50.0, EIz: 80.0, GJ: 40.0, rhoA: 0.5}}
@@ -275,6 +272,12 @@ output:
   probes:
     zb: {{point: b, quantity: displacement, component: z}}
 """
+
+
+def test_non_collocated_load_controller_3d_linear_model():
+    """A force along z on body a driven by the z displacement of body b at the other end of an
+    elastic beam (non-collocated: a's equations coupled to b's coordinate): A = A_ol + B K C."""
+    scene = TWO_BODIES
     closed = linear_model_of(scene.format(controllers='controllers:\n  ctl: {output: "-30*zb"}', force="ctl"))
     opened = linear_model_of(scene.format(controllers="", force="0"))
     expected = opened["A"] + opened["B"] @ np.array([[-30.0]]) @ opened["C"]
@@ -362,3 +365,16 @@ def test_continuous_controller_resumes_bit_for_bit(tmp_path, monkeypatch):
             latdyn.run(scene, out)
     latdyn.run(scene, out, resume=True)
     assert (out / "probes.csv").read_text() == (full / "probes.csv").read_text()
+
+
+def test_linear_model_inputs_name_scene_inputs():
+    """``solve.linear_model.inputs`` may name a scene input: its B column is the exact derivative of
+    the forces that name it — a load component "3*w" gives 3 × the column of the force input, and
+    the reference of a continuous PD (torque = −kp (θ − ref) − kd θ̇) gives kp × the hinge torque's."""
+    modes = "{analysis: modes, count: 1, linear_model: {inputs: [arm.start, ref], outputs: [th]}}"
+    B = linear_model_of(hub(CONTINUOUS_PD, inputs=GAINS, solve=modes))["B"]
+    assert np.max(np.abs(B[:, 0])) > 0 and np.max(np.abs(B[:, 1] - 40.0 * B[:, 0])) < 1e-12 * np.max(np.abs(B))
+    text = "inputs: {w: 0.5}\n" + TWO_BODIES.format(controllers="", force="3*w").replace(
+        "inputs: [a.force.z]", "inputs: [w, a.force.z]")
+    B = linear_model_of(text)["B"]
+    assert np.max(np.abs(B[:, 1])) > 0 and np.max(np.abs(B[:, 0] - 3.0 * B[:, 1])) < 1e-12 * np.max(np.abs(B))
