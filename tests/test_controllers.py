@@ -378,3 +378,15 @@ def test_linear_model_inputs_name_scene_inputs():
         "inputs: [a.force.z]", "inputs: [w, a.force.z]")
     B = linear_model_of(text)["B"]
     assert np.max(np.abs(B[:, 1])) > 0 and np.max(np.abs(B[:, 0] - 3.0 * B[:, 1])) < 1e-12 * np.max(np.abs(B))
+
+
+def test_static_equilibrium_held_by_a_continuous_controller():
+    """Gravity on the hub's tip mass held by a P controller alone (the hinge has no spring): the static
+    path ends where kp θ + m g L cos θ = 0 (the controller is not ramped with the loads)."""
+    from scipy.optimize import brentq
+
+    text = hub('  ctl: {output: "-400*th"}', solve="{analysis: static, steps: 4}").replace(
+        "sections:", "gravity: [0, -9.81, 0]\nsections:")
+    result = latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
+    exact = brentq(lambda th: 400 * th + 4.0 * 9.81 * 0.5 * math.cos(th), -1, 1)
+    assert abs(result.probes["th"][-1] - exact) < 1e-9
