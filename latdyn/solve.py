@@ -187,6 +187,8 @@ def _analyse(prepared, probes: ProbeSet, writer: ResultWriter, out_dir, analysis
     the modes are about and the eigenproblem), without preparing the model, compiling kernels or a
     linear model written before it. Failed runs report it too."""
     scene = prepared.scene
+    if analysis != "transient" or scene.solve.linear_model is not None:
+        _hold_sampled_controllers(prepared, probes, writer)
     write_linear_model_first(prepared, writer, out_dir)
     if analysis == "transient":
         transient(prepared, probes, writer, progress, checkpointer, resume_from)
@@ -246,6 +248,22 @@ def _modes(prepared, writer: ResultWriter, out_dir) -> None:
             writer.summary["mode_shapes"] = f"not written: {exc}"
     if scene.solve.linear_model is not None and lin is not None:
         linearise.write_linear_model(prepared, out_dir, writer.summary, lin)
+
+
+def _hold_sampled_controllers(prepared, probes: ProbeSet, writer: ResultWriter) -> None:
+    """Sampled controllers in an analysis that is not a transient run (and in a linear model): their
+    output sampled at the initial state and held (a state reached by a transient, ``about: {t: T}``,
+    holds its own last samples); ``summary.json`` ``warnings`` says so (SCENE.md ``controllers``)."""
+    from latdyn.timeloop.sampling import SampledControllers
+
+    sampler = SampledControllers(prepared.scene, probes)
+    if not sampler:
+        return
+    sampler.start(prepared.state, 1e-12)
+    names = ", ".join(c.name for c in sampler.controllers)
+    _warn(writer, f"sampled controllers ({names}) are held at their output in this analysis (sampled at the "
+                  "initial state, or the last sample of the transient that reaches the state it is about); the "
+                  "linearisation holds only the continuous controllers' feedback")
 
 
 def _warn_moving(scene: Scene, writer) -> None:

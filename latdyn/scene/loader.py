@@ -750,6 +750,7 @@ class _Reader:
         self.beams: dict[str, Beam] = {}
         self.n_elements = 0  # elements of the beams read so far
         self.controller_specs: dict | None = None  # the scene's controllers as written (probes name them)
+        self.input_names: tuple = ()  # the scene's inputs (solve.linear_model.inputs may name them)
 
     # -- primitive checks -------------------------------------------------------
     def fail(self, key: str, expected: str, got: Any = _MISSING):
@@ -1232,9 +1233,13 @@ class _Reader:
         (that load, scaled by the input); outputs are probe names."""
         inputs = []
         forms = ("expected BEAM.start or BEAM.end (a hinge torque), POINT.force.x|y|z or "
-                 "POINT.moment.x|y|z (a global force or moment at a point), or loads[i]")
+                 "POINT.moment.x|y|z (a global force or moment at a point), loads[i], or the name of one of "
+                 "the scene's inputs")
         for i, name in enumerate(spec["inputs"]):
             k = f"{key}.inputs[{i}]"
+            if isinstance(name, str) and name in self.input_names:  # a scene input (latdyn.scene.inputs)
+                inputs.append(("input", name))
+                continue
             hinge, point, index = self._HINGE_REF.match(name), self._INPUT.match(name), self._LOAD_INDEX.match(name)
             if hinge and hinge["name"] in self.beams:
                 end = getattr(self.beams[hinge["name"]], hinge["end"])
@@ -1595,6 +1600,7 @@ def _build_controlled_parts(r: "_Reader", raw: dict, file: str) -> Scene:
     names = controller_names(raw.get("controllers"), file, RESERVED_WORDS, {n: "an input" for n in inputs})
     outputs = ControllerOutputs({n: 0.0 for n in names})
     r.controller_specs = raw.get("controllers") or {}
+    r.input_names = inputs.names
     with reading_inputs(inputs, outputs):  # every expression of the scene may name them
         scene = _build_parts(r, raw, file)
     scene.inputs, scene.controller_outputs = inputs, outputs

@@ -473,9 +473,10 @@ static void controller_outputs(const Model *m, const Configuration *c, Work *w, 
 }
 
 /* The coupling entries of K and C (see Model): each actuator's generalized force per unit output
- * (−λ on a hinge's coordinate; the point-load kernel's force for a unit component, times λ), times
- * ∂y/∂s of its controller's sensors. */
-static void controller_couplings(const Model *m, const Configuration *c, Work *w, double load_factor)
+ * (−1 on a hinge's coordinate; the point-load kernel's force for a unit component), times ∂y/∂s of
+ * its controller's sensors. A controller's output is feedback: the load factor λ of a static path
+ * does not scale it. */
+static void controller_couplings(const Model *m, const Configuration *c, Work *w)
 {
     static const double identity[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
     double gains[6];
@@ -487,12 +488,12 @@ static void controller_couplings(const Model *m, const Configuration *c, Work *w
             int64_t i = m->actuator_index[a];
             memset(gains, 0, sizeof gains);
             if (m->actuator_kind[a] == 0) {
-                gains[0] = -load_factor;
+                gains[0] = -1.0;
             } else {
                 int64_t node = m->load_node[i], frame = m->load_frame_node[i];
                 double values[6] = {0, 0, 0, 0, 0, 0}, velocity[6] = {0, 0, 0, 0, 0, 0};
                 double power, by_node[18], by_frame[18];
-                values[m->actuator_component[a]] = load_factor;
+                values[m->actuator_component[a]] = 1.0;
                 m->point_load(1, c->T + 9 * node, m->load_r + 3 * i, values,
                               frame >= 0 ? c->T + 9 * frame : identity, velocity, gains, &power, by_node, by_frame);
             }
@@ -537,7 +538,7 @@ static double evaluate(const Model *m, const Configuration *c, Work *w, const do
     joint_bodies(m, c, w, inertia, load_factor);
     if (m->n_controllers) {
         controller_outputs(m, c, w, t);
-        if (matrices) controller_couplings(m, c, w, load_factor);
+        if (matrices) controller_couplings(m, c, w);
     }
     for (int64_t b = 0; b < m->n_bodies; ++b) {
         const int64_t *d = m->node_dofs + 6 * m->body_nodes[b];
@@ -558,13 +559,16 @@ static double evaluate(const Model *m, const Configuration *c, Work *w, const do
             if (m->hinge_torque_hinge_law[j] >= 0)
                 m->hinge_laws(m->hinge_torque_hinge_law[j], state[0], state[1], t, values + 6);
         }
-        if (m->n_controllers && m->hinge_controller[j] >= 0) {  /* a continuous controller's output */
-            values[6] = m->controller_outputs[m->controller_slot[m->hinge_controller[j]]];
-            values[7] = values[8] = 0.0;
+        double control = 0.0;  /* a continuous controller's output: feedback, not ramped with the loads (λ) */
+        if (m->n_controllers && m->hinge_controller[j] >= 0) {
+            control = m->controller_outputs[m->controller_slot[m->hinge_controller[j]]];
+            values[6] = values[7] = values[8] = 0.0;
         }
         double f, spring_power, torque_power, damper_power, contact_energy;
         m->hinge_force(1, state, values, m->hinge_contact + 11 * j, &f, w->hinge_d_theta + j, w->hinge_d_rate + j,
                        &spring_power, &torque_power, &damper_power, &contact_energy);
+        f -= control;
+        torque_power += control * c->theta_dot[j];
         if (!m->hinge_conservative[j]) power += spring_power;
         power += torque_power;
         dissipation += damper_power;
@@ -582,10 +586,10 @@ static double evaluate(const Model *m, const Configuration *c, Work *w, const do
             if (fl >= 0) values[p] = load_factor * laws[3 * fl];
             if (ml >= 0) values[3 + p] = load_factor * laws[3 * ml];
         }
-        if (m->n_controllers)  /* components a continuous controller drives */
+        if (m->n_controllers)  /* components a continuous controller drives: feedback, not ramped with λ */
             for (int p = 0; p < 6; ++p)
                 if (m->load_controller[6 * l + p] >= 0)
-                    values[p] = load_factor * m->controller_outputs[m->controller_slot[m->load_controller[6 * l + p]]];
+                    values[p] = m->controller_outputs[m->controller_slot[m->load_controller[6 * l + p]]];
         memcpy(velocity, c->v + 3 * i, 3 * sizeof(double));
         memcpy(velocity + 3, c->w + 3 * i, 3 * sizeof(double));
         double force[6], load_power, by_node[18], by_frame[18];
