@@ -225,39 +225,177 @@ HINGE_STATE = Argument("hinge", 4, "theta theta_dot rest_angle load_factor: the 
 HINGE_LAWS = Argument("laws", 9, "k dk/dtheta dk/dtheta_dot c dc/dtheta dc/dtheta_dot tau dtau/dtheta "
                       "dtau/dtheta_dot: stiffness, damping and applied torque and their derivatives at the "
                       "hinge's (theta, theta_dot, t): the compiled laws of the scene, or constants")
+JOINT_CONTACT = Argument("contact", 11, "lower upper stiffness exponent damping coulomb static stribeck_inverse "
+                         "stribeck_smooth viscous stick_rate: a compliant stop's limits and Hunt-Crossley law "
+                         "(stiffness 0, damping 0: none) and the friction law (1/stribeck_rate, or 0 with "
+                         "stribeck_smooth 0 when stribeck_rate is 0; all forces 0: none, stick_rate then 1)")
+
+#: |x| below this is the kink itself: the step x/(|x| + KINK) is exactly 0 or 1 in floating point for
+#: |x| > 1e-284, ½ at x = 0 (a branch-free Heaviside for the derivatives of the kinks)
+KINK = sp.Float("1e-300")
 
 
-def hinge_force(state, laws):
-    """(f, spring torque k s) of a hinge, f = k(θ, θ̇, t) s + c(θ, θ̇, t) θ̇ − λ τ(θ, θ̇, t), s = θ − θ_r.
-    Each law enters as its first-order expansion about the hinge's (θ, θ̇), which is all its exact
-    first derivatives need."""
+class _Step(sp.Function):
+    """The Heaviside step of a kink (its own derivative 0 away from the kink)."""
+
+    def fdiff(self, argindex=1):
+        return sp.S.Zero
+
+
+class _PositivePower(sp.Function):
+    """⟨x⟩ⁿ, ⟨x⟩ = max(x, 0): differentiated as n ⟨x⟩ⁿ⁻¹ step(x), never through x⁻¹ (which is
+    0/0 outside contact), and printed branch-free by :class:`_BranchFree`."""
+
+    def fdiff(self, argindex=1):
+        x, n = self.args
+        if argindex != 1:
+            raise sp.ArgumentIndexError(self, argindex)
+        return n * _PositivePower(x, n - 1) * _Step(x)
+
+
+def _positive(x):
+    return _PositivePower(x, 1)
+
+
+def _absolute(x):
+    return 2 * _PositivePower(x, 1) - x
+
+
+def _clipped(x):
+    """x clipped to [−1, 1]: ⟨x + 1⟩ − ⟨x − 1⟩ − 1."""
+    return _positive(x + 1) - _positive(x - 1) - 1
+
+
+def _engaged(x):
+    """The friction's engagement at rate ratio x = v/v₀: y(2 − |y|), y = x clipped to [−1, 1]; C¹
+    (its slope 2 at 0 falls to 0 at |x| = 1, where it meets ±1): Newton's matrix is continuous
+    across the end of the stick band (a linear ramp's has a corner there; with the regularised law
+    alone holding a sticking joint, on the oscillator of docs/contact.md released from 1.05, both
+    cut the step at every reversal: 12 and 10 rejected steps over five)."""
+    y = _clipped(x)
+    return y * (2 - _absolute(y))
+
+
+class _BranchFree:
+    """The kinks in what the printers write: ⟨x⟩ = (g + |g|)/2 (a power of it when n ≠ 1) and
+    step(x) = (1 + g/(|g| + KINK))/2, with g = x a named intermediate of the kernel, which no
+    simplification distributes, so that ⟨x⟩ is exactly 0 for x ≤ 0 (distributed, −a/2 + b/2 + |b − a|/2
+    rounds to ±1e-17, and a negative base of a fractional power is NaN)."""
+
+    def __init__(self):
+        self.named: dict = {}
+
+    def _name(self, x):
+        if x.is_Symbol:
+            return x
+        if x not in self.named:
+            self.named[x] = sp.Symbol(f"kink_{len(self.named)}", real=True)
+        return self.named[x]
+
+    def __call__(self, expr):
+        def power(x, n):
+            g = self._name(x)
+            positive = (g + sp.Abs(g)) / 2
+            return positive if n == 1 else positive ** n
+
+        def step(x):
+            g = self._name(x)
+            return (1 + g / (sp.Abs(g) + KINK)) / 2
+
+        # innermost first: an argument that holds a kink is named after its own kinks are
+        for _ in range(8):
+            if not expr.has(_PositivePower, _Step):
+                return expr
+            expr = expr.replace(lambda e: isinstance(e, (_PositivePower, _Step)) and
+                                not e.args[0].has(_PositivePower, _Step),
+                                lambda e: power(*e.args) if isinstance(e, _PositivePower) else step(*e.args))
+        raise ValueError("kinks nested too deep")
+
+    @property
+    def intermediates(self) -> list:
+        return [(symbol, value) for value, symbol in self.named.items()]
+
+
+def joint_contact(theta, rate, contact):
+    """(force on the joint's coordinate, contact potential, dissipated power) of a compliant stop and
+    of friction in a joint (SCENE.md "Contact and friction at joints"), for a coordinate θ (an angle or
+    a slide) and its rate v = θ̇.
+
+    Stop (Hunt–Crossley), penetrations δ_u = θ − hi and δ_l = lo − θ:
+        F_u = ⟨δ_u⟩ⁿ ⟨k + c θ̇⟩,  F_l = ⟨δ_l⟩ⁿ ⟨k − c θ̇⟩,   ⟨x⟩ = max(x, 0)
+    i.e. k δⁿ + c δⁿ δ̇ while δ > 0, clipped at 0 (never pulling); the row of the residual takes
+    F_u − F_l; the potential is k (⟨δ_u⟩ⁿ⁺¹ + ⟨δ_l⟩ⁿ⁺¹)/(n + 1); what the stop takes beyond it,
+    (F_u − k⟨δ_u⟩ⁿ) θ̇ − (F_l − k⟨δ_l⟩ⁿ) θ̇ ≥ 0, is dissipated.
+
+    Friction while the joint slips, regularised: f = L(v) g(v/v₀) + c_v v, with the engagement
+    g(x) = y(2 − |y|), y = x clipped to [−1, 1] (C¹: ±1 from |v| = v₀ on) and the level
+        L(v) = F_c + (F_s − F_c) exp(−(v/v_s)²)                 (v_s > 0, Stribeck)
+        L(v) = F_c                                              (v_s = 0: F_s is only the breakaway
+                                                                 level of a stuck joint, an event)
+    Sticking is an event (latdyn/timeloop/events.py stick_and_slip); below it, a joint that must carry
+    a force F < L(v₀) would turn at |v| = v₀ (1 − √(1 − F/L)) < v₀: the stick tolerance
+    of SCENE.md. Its power f v ≥ 0 is dissipated."""
+    lower, upper, k, n, c, coulomb, static, inverse, smooth, viscous, stick = contact
+    upper_power, lower_power = _PositivePower(theta - upper, n), _PositivePower(lower - theta, n)
+    upper_force = upper_power * _positive(k + c * rate)
+    lower_force = lower_power * _positive(k - c * rate)
+    potential = k * (_PositivePower(theta - upper, n + 1) + _PositivePower(lower - theta, n + 1)) / (n + 1)
+    stop_loss = (upper_force - k * upper_power) * rate - (lower_force - k * lower_power) * rate
+    level = coulomb + (static - coulomb) * smooth * sp.exp(-(rate * inverse) ** 2)
+    friction = level * _engaged(rate / stick) + viscous * rate
+    return upper_force - lower_force + friction, potential, stop_loss + friction * rate
+
+
+def hinge_force(state, laws, contact=None, branch_free=None):
+    """(f, ∂f/∂θ, ∂f/∂θ̇, f at the state, spring torque k s, contact potential, contact and friction
+    power) of a hinge, f = k(θ, θ̇, t) s + c(θ, θ̇, t) θ̇ − λ τ(θ, θ̇, t) + f_contact(θ, θ̇), s = θ − θ_r
+    (f_contact: :func:`joint_contact`; omitted without ``contact``). Each law enters as its
+    first-order expansion about the hinge's (θ, θ̇), which is all its exact first derivatives need;
+    ``branch_free`` (a :class:`_BranchFree`) names the kinks' arguments (the kernel's intermediates)."""
     theta, rate, rest, factor = state
+    branch_free = branch_free or _BranchFree()
     d_theta, d_rate = sp.symbols("dtheta drate")
     k, c, tau = ((laws[3 * j] + laws[3 * j + 1] * d_theta + laws[3 * j + 2] * d_rate) for j in range(3))
     s = theta + d_theta - rest
     f = k * s + c * (rate + d_rate) - factor * tau
+    potential = loss = sp.S.Zero
+    if contact is not None:
+        stop, potential, loss = joint_contact(theta + d_theta, rate + d_rate, contact)
+        f = f + stop
     zero = {d_theta: 0, d_rate: 0}
-    return f, sp.diff(f, d_theta).xreplace(zero), sp.diff(f, d_rate).xreplace(zero), f.xreplace(zero), \
-        (k * s).xreplace(zero)
+
+    def at_state(expr):
+        return branch_free(expr.xreplace(zero))
+
+    return at_state(sp.diff(f, d_theta)), at_state(sp.diff(f, d_rate)), at_state(f), (k * s).xreplace(zero), \
+        at_state(potential), at_state(loss)
 
 
 def _hinge_force_kernel() -> KernelSpec:
-    state, laws = HINGE_STATE.symbols(), HINGE_LAWS.symbols()
-    _, stiffness, damping, force, spring = hinge_force(state, laws)
+    state, laws, contact = HINGE_STATE.symbols(), HINGE_LAWS.symbols(), JOINT_CONTACT.symbols()
+    branch_free = _BranchFree()
+    stiffness, damping, force, spring, potential, loss = hinge_force(state, laws, contact, branch_free)
     rate, factor, tau, damper = state[1], state[3], laws[6], laws[3]
-    outputs = [Output("hinge_force", (), [force], "f = k s + c θ̇ − λ τ, s = θ − θ_r: the hinge's row of the residual"),
-               Output("hinge_stiffness", (), [stiffness], "∂f/∂θ = k + s ∂k/∂θ + θ̇ ∂c/∂θ − λ ∂τ/∂θ"),
-               Output("hinge_damping", (), [damping], "∂f/∂θ̇ = s ∂k/∂θ̇ + c + θ̇ ∂c/∂θ̇ − λ ∂τ/∂θ̇"),
+    outputs = [Output("hinge_force", (), [force], "f = k s + c θ̇ − λ τ + f_contact, s = θ − θ_r: the hinge's row "
+                      "of the residual (f_contact: a compliant stop's and friction's force)"),
+               Output("hinge_stiffness", (), [stiffness], "∂f/∂θ = k + s ∂k/∂θ + θ̇ ∂c/∂θ − λ ∂τ/∂θ + ∂f_contact/∂θ"),
+               Output("hinge_damping", (), [damping], "∂f/∂θ̇ = s ∂k/∂θ̇ + c + θ̇ ∂c/∂θ̇ − λ ∂τ/∂θ̇ + ∂f_contact/∂θ̇"),
                Output("spring_power", (), [-spring * rate], "−k s θ̇: the spring's power, external work when the "
                       "spring is not conservative (a law in θ̇ or t)"),
                Output("torque_power", (), [factor * tau * rate], "λ τ θ̇: the applied torque's power"),
-               Output("damper_power", (), [damper * rate * rate], "c θ̇²: the power the damper dissipates "
-                      "(declared dissipation, latdyn.timeloop.progress)")]
+               Output("damper_power", (), [damper * rate * rate + loss], "c θ̇² + what a compliant stop's damping "
+                      "and friction take: the power the joint dissipates (declared dissipation, "
+                      "latdyn.timeloop.progress)"),
+               Output("contact_energy", (), [potential], "k (⟨δ_u⟩ⁿ⁺¹ + ⟨δ_l⟩ⁿ⁺¹)/(n + 1): the potential of a "
+                      "compliant stop's spring (strain energy)")]
     return KernelSpec(name="hinge_force", doc="A hinge's generalized force from its spring, damper and applied torque "
-                      "laws, its exact derivatives by the angle and its rate, the power of what does external work and "
-                      "the power its damper dissipates",
-                      inputs=[HINGE_STATE, HINGE_LAWS], outputs=outputs, variant="joints",
-                      equations="hinge springs, dampers and torques (Eqs. 4, 9: the hinge coordinate)")
+                      "laws, a compliant stop (Hunt-Crossley) and friction, its exact derivatives by the angle and "
+                      "its rate, the power of what does external work, the power the joint dissipates and the "
+                      "stop's potential",
+                      inputs=[HINGE_STATE, HINGE_LAWS, JOINT_CONTACT], outputs=outputs, variant="joints",
+                      equations="hinge springs, dampers and torques (Eqs. 4, 9: the hinge coordinate); "
+                                "Hunt-Crossley contact, Coulomb-Stribeck-viscous friction",
+                      intermediates=branch_free.intermediates)
 
 
 ROTATION_VECTOR = Argument("rotation_vector", 3, "w: a rotation vector (axis times angle), global")

@@ -187,6 +187,8 @@ def _analyse(prepared, probes: ProbeSet, writer: ResultWriter, out_dir, analysis
     the modes are about and the eigenproblem), without preparing the model, compiling kernels or a
     linear model written before it. Failed runs report it too."""
     scene = prepared.scene
+    if analysis != "transient" or scene.solve.linear_model is not None:
+        _hold_sampled_controllers(prepared, probes, writer)
     write_linear_model_first(prepared, writer, out_dir)
     if analysis == "transient":
         transient(prepared, probes, writer, progress, checkpointer, resume_from)
@@ -207,6 +209,8 @@ def _analyse(prepared, probes: ProbeSet, writer: ResultWriter, out_dir, analysis
             from latdyn.analyses.continuation import static_path
 
             static_path(prepared, probes, writer, length_scale(prepared.model))
+            for warning in stops_passed(prepared.model, prepared.state):
+                _warn(writer, warning)
     finally:
         writer.summary["solver_s"] = time.perf_counter() - started
 
@@ -224,6 +228,9 @@ def _modes(prepared, writer: ResultWriter, out_dir) -> None:
         writer.summary["steady_state"] = report["steady_state"]
     for warning in report.get("warnings", []):
         _warn(writer, warning)
+    if scene.solve.about == "static" and lin is not None:
+        for warning in stops_passed(prepared.model, lin.state):
+            _warn(writer, warning)
     frequencies = [m.frequency_hz for m in found]
     writer.write_modes(frequencies, linearise.modes_table(found, directions))
     writer.summary["modes_hz"] = [float(f) for f in frequencies]
@@ -243,6 +250,22 @@ def _modes(prepared, writer: ResultWriter, out_dir) -> None:
         linearise.write_linear_model(prepared, out_dir, writer.summary, lin)
 
 
+def _hold_sampled_controllers(prepared, probes: ProbeSet, writer: ResultWriter) -> None:
+    """Sampled controllers in an analysis that is not a transient run (and in a linear model): their
+    output sampled at the initial state and held (a state reached by a transient, ``about: {t: T}``,
+    holds its own last samples); ``summary.json`` ``warnings`` says so (SCENE.md ``controllers``)."""
+    from latdyn.timeloop.sampling import SampledControllers
+
+    sampler = SampledControllers(prepared.scene, probes)
+    if not sampler:
+        return
+    sampler.start(prepared.state, 1e-12)
+    names = ", ".join(c.name for c in sampler.controllers)
+    _warn(writer, f"sampled controllers ({names}) are held at their output in this analysis (sampled at the "
+                  "initial state, or the last sample of the transient that reaches the state it is about); the "
+                  "linearisation holds only the continuous controllers' feedback")
+
+
 def _warn_moving(scene: Scene, writer) -> None:
     """A modal analysis about the initial configuration of a scene that moves says so (issue 22)."""
     from latdyn.analyses.moving import modes_warning
@@ -250,6 +273,29 @@ def _warn_moving(scene: Scene, writer) -> None:
     warning = modes_warning(scene)
     if warning is not None:
         _warn(writer, warning)
+
+
+def stops_passed(model, state) -> list[str]:
+    """What a static state that lies past a joint's stop (``limits`` of a hinge or a guide) says:
+    stops are events of the time loop, which a static analysis does not apply (docs/static_paths.md),
+    so such a state is not the equilibrium the structure reaches; one warning for each joint."""
+    found = []
+    for k, joint in enumerate(model.hinges):
+        value = float(state.theta[k])
+        what = f"guide {joint.name} at s = {value:.6g}" if joint.kind == "guide" else \
+            f"hinge {joint.name} at {value:.6g} rad"
+        if joint.limits is not None:
+            lo, hi = joint.limits
+            margin = 1e-9 * max(1.0, abs(lo), abs(hi))
+            if value < lo - margin or value > hi + margin:
+                found.append(f"the static state puts {what}, past its limits [{lo:g}, {hi:g}]: a static "
+                             "analysis does not apply stops (they are events of the time loop), so this is "
+                             "not the equilibrium the stop allows")
+        if joint.lock_at is not None and joint.lock_at != 0.0 and (value - joint.lock_at) * joint.lock_at > 0.0:
+            found.append(f"the static state puts {what}, past its lock_at {joint.lock_at:g}: a static analysis "
+                         "does not latch (latches are events of the time loop), so this is not the equilibrium "
+                         "the latch allows")
+    return found
 
 
 def _warn(writer, warning: str) -> None:

@@ -154,13 +154,23 @@ def test_sampled_controller_resumes_bit_for_bit(tmp_path, monkeypatch):
     ("  a: {output: \"th\"}\n  ctl: {output: \"a\"}", "controllers.ctl.output", "reads another continuous"),
     ("  ctl: {output: \"E\", rate: 2}\n  c2: {output: \"th\"}", "beams.arm.start.hinge.torque", "name alone"),
 ])
-def test_refusals_name_the_key(tmp_path, controllers, key, says):
+def test_refusals_name_the_key(controllers, key, says):
+    """Each refusal in Python (the loader's, or the model's wiring for what is not built); the CLI's
+    exit status 2 and message without a traceback: test_a_refusal_through_the_cli."""
+    from latdyn.errors import SceneError
+
     torque = "2*c2" if "c2:" in controllers else "ctl" if "continuous" in says or "states" in says else "0"
     text = hub(controllers, torque=torque, probes="    u: {controller: ctl}\n    E: {energy: kinetic}"
                if "ctl:" in controllers else "    E: {energy: kinetic}")
-    completed, _ = latdyn_run(tmp_path, text)
-    assert completed.returncode == 2, completed.stderr
-    assert key in completed.stderr and says in completed.stderr, completed.stderr
+    with pytest.raises(SceneError) as refused:
+        latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
+    assert key in str(refused.value) and says in str(refused.value), str(refused.value)
+
+
+def test_a_refusal_through_the_cli(tmp_path):
+    completed, _ = latdyn_run(tmp_path, hub('  ctl: {output: "later", rate: 1}\n  later: {output: 1, rate: 1}'))
+    assert completed.returncode == 2
+    assert "controllers.ctl.output" in completed.stderr and "defined later" in completed.stderr
     assert "Traceback" not in completed.stderr
 
 
@@ -182,13 +192,13 @@ def pd_exact(t, kp=40.0, kd=8.0, ref=1.0):
 def test_continuous_pd_slew_cli_planar(tmp_path):
     """A continuous PD on the hinge angle and rate probes slews the hub: θ(t) against the exact
     second-order solution (generalized-α's O(h²) error, measured 3.4e-5, 8.5e-6, 2.1e-6 at h = 0.004,
-    0.002, 0.001); its exact
+    0.002, 0.001; run here at 0.004); its exact
     derivatives in Newton's matrix make each step of this linear loop converge in two iterations."""
-    completed, out = latdyn_run(tmp_path, hub(CONTINUOUS_PD, inputs=GAINS, solve="{t_end: 2.0, dt: 0.002}",
+    completed, out = latdyn_run(tmp_path, hub(CONTINUOUS_PD, inputs=GAINS, solve="{t_end: 1.5, dt: 0.004}",
                                               probes="    u: {controller: ctl}"))
     assert completed.returncode == 0, completed.stderr
     p = probe_columns(out)
-    assert np.max(np.abs(p["th"] - pd_exact(p["t"]))) < 1e-5
+    assert np.max(np.abs(p["th"] - pd_exact(p["t"]))) < 4e-5
     assert np.max(np.abs(p["u"] - (-40 * (p["th"] - 1) - 8 * p["om"]))) < 1e-9
     summary = json.loads((out / "summary.json").read_text())
     assert summary["newton_iterations"] <= 2 * summary["steps"]
@@ -196,9 +206,9 @@ def test_continuous_pd_slew_cli_planar(tmp_path):
 
 def test_continuous_pd_slew_api_3d():
     scene = latdyn.load_scene(yaml.safe_load(hub(CONTINUOUS_PD, inputs=GAINS, axis=SPATIAL,
-                                                 solve="{t_end: 2.0, dt: 0.002}")))
+                                                 solve="{t_end: 1.5, dt: 0.004}")))
     result = latdyn.run(scene)
-    assert np.max(np.abs(result.probes["th"] - pd_exact(result.t))) < 1e-5
+    assert np.max(np.abs(result.probes["th"] - pd_exact(result.t))) < 4e-5
 
 
 def test_saturated_pd_against_an_independent_integration():
@@ -206,16 +216,16 @@ def test_saturated_pd_against_an_independent_integration():
     from scipy.integrate import solve_ivp
 
     text = hub(CONTINUOUS_PD.replace('om"', 'om"\n    limits: [-3, 3]'), inputs="inputs: {kp: 200.0, kd: 30.0, ref: 1.0}",
-               solve="{t_end: 2.0, dt: 0.001}", probes="    u: {controller: ctl}")
+               solve="{t_end: 1.0, dt: 0.002}", probes="    u: {controller: ctl}")
     result = latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
 
     def rhs(t, x):
         return [x[1], min(max(-200 * (x[0] - 1) - 30 * x[1], -3.0), 3.0) / J]
 
-    reference = solve_ivp(rhs, (0, 2), [0.0, 0.0], t_eval=result.t, rtol=1e-10, atol=1e-12, method="DOP853")
+    reference = solve_ivp(rhs, (0, 1), [0.0, 0.0], t_eval=result.t, rtol=1e-10, atol=1e-12, method="DOP853")
     assert np.max(np.abs(result.probes["u"])) <= 3.0 + 1e-12
     assert np.any(np.abs(result.probes["u"]) == 3.0)  # it saturated
-    assert np.max(np.abs(result.probes["th"] - reference.y[0])) < 2e-5
+    assert np.max(np.abs(result.probes["th"] - reference.y[0])) < 1e-4  # measured 5.1e-5 of 1.19 at dt = 0.002
 
 
 def linear_model_of(text: str) -> dict:
@@ -244,10 +254,7 @@ def test_closed_loop_linear_model_is_open_loop_plus_bkc(axis):
     assert np.allclose(zeta, 8.0 / (2 * math.sqrt(40.0 * J)), rtol=1e-9)
 
 
-def test_non_collocated_load_controller_3d_linear_model():
-    """A force along z on body a driven by the z displacement of body b at the other end of an
-    elastic beam (non-collocated: a's equations coupled to b's coordinate): A = A_ol + B K C."""
-    scene = """
+TWO_BODIES = """
 {controllers}
 sections:
   s: {{EA: 1.0e4, EIy: 50.0, EIz: 80.0, GJ: 40.0, rhoA: 0.5}}
@@ -265,7 +272,121 @@ output:
   probes:
     zb: {{point: b, quantity: displacement, component: z}}
 """
+
+
+def test_non_collocated_load_controller_3d_linear_model():
+    """A force along z on body a driven by the z displacement of body b at the other end of an
+    elastic beam (non-collocated: a's equations coupled to b's coordinate): A = A_ol + B K C."""
+    scene = TWO_BODIES
     closed = linear_model_of(scene.format(controllers='controllers:\n  ctl: {output: "-30*zb"}', force="ctl"))
     opened = linear_model_of(scene.format(controllers="", force="0"))
     expected = opened["A"] + opened["B"] @ np.array([[-30.0]]) @ opened["C"]
     assert np.max(np.abs(closed["A"] - expected)) < 1e-8 * np.max(np.abs(expected))
+
+
+def test_modes_hold_a_sampled_controller_and_say_so(tmp_path):
+    """A sampled controller is held in a modal analysis (its output at the initial state), and
+    summary.json warnings says so; the continuous one beside it is in the closed loop."""
+    text = hub(SAMPLED_PI.replace("ctl:", "held:") + CONTINUOUS_PD, inputs="inputs: {kp: 40.0, kd: 8.0, ki: 1.0, ref: 1.0}",
+               solve="{analysis: modes, count: 1}", probes="    h: {controller: held}")
+    completed, out = latdyn_run(tmp_path, text)
+    assert completed.returncode == 0, completed.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert any("sampled controllers (held) are held" in w for w in summary["warnings"])
+    assert summary["damping_ratios"][0] == pytest.approx(8.0 / (2 * math.sqrt(40.0 * J)), rel=1e-9)
+
+
+FLEXIBLE = """
+inputs: {{kp: 400.0, kd: 60.0, kt: 5.0}}
+controllers:
+  ctl: {{output: "-kp*th - kd*om - kt*vt"}}
+sections:
+  s: {{EA: 1.0e6, EIy: 100.0, EIz: 100.0, GJ: 80.0, rhoA: 1.0}}
+bodies:
+  hub: {{at: [0, 0, 0], fixed: true}}
+beams:
+  arm:
+    from: hub
+    to: [2, 0, 0]
+    section: s
+    elements: 4
+    start: {{hinge: {{axis: [0, 0, 1], torque: "ctl"}}}}
+initial_velocity: {{angular: [0, 0, 0.01]}}
+solve: {solve}
+output:
+  probes:
+    th: {{hinge: arm.start, quantity: angle}}
+    om: {{hinge: arm.start, quantity: rate}}
+    vt: {{point: arm.end, quantity: velocity, component: y}}
+"""
+
+
+def test_flexible_slewing_beam_with_tip_feedback_decays_as_its_closed_loop_eigenvalues():
+    """A flexible beam on a hinge under PD plus tip-velocity feedback (non-collocated), set turning
+    slowly: the two least-damped in-plane modes fitted to the hinge angle of the nonlinear transient
+    (t ≥ 1 s) have the decay rate and frequency of the closed loop's eigenvalues from linear_model.
+    Measured: λ₁ = −1.4334 + 8.3243i: σ 2.1e-4 |λ|, ω 8e-5 |λ|; λ₂ = −1.4717 + 54.025i: σ 2.0e-4 |λ|,
+    ω 8.8e-4 |λ| (generalized-α's period error (ω dt)²/12 at dt = 0.002, rho_inf 1); the two modes
+    leave 0.4 % of the angle unexplained (the faster ones)."""
+    from scipy.optimize import curve_fit
+
+    A = linear_model_of(FLEXIBLE.format(solve="{analysis: modes, count: 2, linear_model: "
+                                              "{inputs: [arm.start], outputs: [th]}}"))["A"]
+    eigenvalues = np.linalg.eigvals(A)
+    # the damped in-plane modes the step resolves (ω dt < 0.2); the undamped ones are out of plane
+    controlled = eigenvalues[(eigenvalues.real < -1e-6) & (eigenvalues.imag > 0) & (eigenvalues.imag < 100)]
+    slowest = controlled[np.argsort(-controlled.real)][:2]
+    result = latdyn.run(latdyn.load_scene(yaml.safe_load(FLEXIBLE.format(solve="{t_end: 6.0, dt: 0.002, rho_inf: 1.0}"))))
+    late = result.t >= 1.0
+    t, theta = result.t[late], result.probes["th"][late]
+
+    def two_modes(t, s1, w1, a1, b1, s2, w2, a2, b2):
+        return (np.exp(s1 * t) * (a1 * np.cos(w1 * t) + b1 * np.sin(w1 * t))
+                + np.exp(s2 * t) * (a2 * np.cos(w2 * t) + b2 * np.sin(w2 * t)))
+
+    start = [slowest[0].real, slowest[0].imag, 1e-4, 1e-4, slowest[1].real, slowest[1].imag, 1e-6, 1e-6]
+    fitted, _ = curve_fit(two_modes, t, theta, p0=start, maxfev=20000)
+    for lam, (sigma, omega), tolerance in zip(slowest, (fitted[0:2], fitted[4:6]), (5e-4, 2e-3)):
+        assert abs(sigma - lam.real) < tolerance * abs(lam) and abs(omega - lam.imag) < tolerance * abs(lam)
+    assert np.max(np.abs(two_modes(t, *fitted) - theta)) < 1e-2 * np.max(np.abs(theta))
+
+
+def test_continuous_controller_resumes_bit_for_bit(tmp_path, monkeypatch):
+    """A continuous controller keeps nothing between steps (its output is a function of the state):
+    interrupted and resumed, probes.csv equals the uninterrupted run's."""
+    from test_checkpoint import interrupt_at
+
+    scene = yaml.safe_load(hub(CONTINUOUS_PD, inputs=GAINS, probes="    u: {controller: ctl}"))
+    full, out = tmp_path / "full", tmp_path / "out"
+    latdyn.run(scene, full)
+    with monkeypatch.context() as m:
+        interrupt_at(m, 0.737)
+        with pytest.raises(KeyboardInterrupt):
+            latdyn.run(scene, out)
+    latdyn.run(scene, out, resume=True)
+    assert (out / "probes.csv").read_text() == (full / "probes.csv").read_text()
+
+
+def test_linear_model_inputs_name_scene_inputs():
+    """``solve.linear_model.inputs`` may name a scene input: its B column is the exact derivative of
+    the forces that name it — a load component "3*w" gives 3 × the column of the force input, and
+    the reference of a continuous PD (torque = −kp (θ − ref) − kd θ̇) gives kp × the hinge torque's."""
+    modes = "{analysis: modes, count: 1, linear_model: {inputs: [arm.start, ref], outputs: [th]}}"
+    B = linear_model_of(hub(CONTINUOUS_PD, inputs=GAINS, solve=modes))["B"]
+    assert np.max(np.abs(B[:, 0])) > 0 and np.max(np.abs(B[:, 1] - 40.0 * B[:, 0])) < 1e-12 * np.max(np.abs(B))
+    text = "inputs: {w: 0.5}\n" + TWO_BODIES.format(controllers="", force="3*w").replace(
+        "inputs: [a.force.z]", "inputs: [w, a.force.z]")
+    B = linear_model_of(text)["B"]
+    assert np.max(np.abs(B[:, 1])) > 0 and np.max(np.abs(B[:, 0] - 3.0 * B[:, 1])) < 1e-12 * np.max(np.abs(B))
+
+
+def test_static_equilibrium_held_by_a_continuous_controller():
+    """Gravity on the hub's tip mass held by a P controller alone (the hinge has no spring): the static
+    path ends where kp θ + m g L cos θ = 0 (the controller is not ramped with the loads)."""
+    from scipy.optimize import brentq
+
+    text = hub('  ctl: {output: "-400*th"}', solve="{analysis: static, steps: 4}").replace(
+        "sections:", "gravity: [0, -9.81, 0]\nsections:")
+    result = latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
+    exact = brentq(lambda th: 400 * th + 4.0 * 9.81 * 0.5 * math.cos(th), -1, 1)
+    assert abs(result.probes["th"][-1] - exact) < 1e-9

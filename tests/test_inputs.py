@@ -92,12 +92,12 @@ def test_hinge_law_names_an_input(tmp_path):
     """A spring of stiffness k_in and torque u: θ = u/k (1 − cos ωt), ω = √(k/I); its modes the
     frequency ω/2π, through the hinge law's exact derivative."""
     law = 'stiffness: "k_in", torque: "u"'
-    completed, out = latdyn_run(tmp_path, link(law, "{t_end: 1.0, dt: 0.001, rho_inf: 1.0}"))
+    completed, out = latdyn_run(tmp_path, link(law, "{t_end: 1.0, dt: 0.004, rho_inf: 1.0}"))
     assert completed.returncode == 0, completed.stderr
     p = probe_columns(out)
     omega = math.sqrt(8.0 / INERTIA)
     exact = 2.0 / 8.0 * (1 - np.cos(omega * p["t"]))
-    assert np.max(np.abs(p["th"] - exact)) < 2e-6
+    assert np.max(np.abs(p["th"] - exact)) < 1e-5  # measured 4.9e-6 of 0.5 at dt = 0.004
     modes = latdyn.run(latdyn.load_scene(__import__("yaml").safe_load(
         link(law, "{analysis: modes, count: 1}"))))
     assert abs(modes.modes[0] - omega / (2 * math.pi)) < 1e-9 * omega
@@ -112,11 +112,17 @@ def test_hinge_law_names_an_input(tmp_path):
     ("[u]", "inputs", "expected a mapping of input names"),
 ])
 def test_refused_inputs(tmp_path, inputs, key, says):
+    from latdyn.errors import SceneError
+
     text = link().replace("inputs: {u: 2.0, k_in: 8.0}", f"inputs: {inputs}")
-    completed, _ = latdyn_run(tmp_path, text)
-    assert completed.returncode == 2
-    assert key in completed.stderr and says in completed.stderr, completed.stderr
-    assert "Traceback" not in completed.stderr
+    if key == "inputs.t":  # through the CLI once: exit 2, the key, no traceback
+        completed, _ = latdyn_run(tmp_path, text)
+        assert completed.returncode == 2
+        assert key in completed.stderr and says in completed.stderr, completed.stderr
+        assert "Traceback" not in completed.stderr
+    with pytest.raises(SceneError) as refused:
+        latdyn.load_scene(__import__("yaml").safe_load(text))
+    assert key in str(refused.value) and says in str(refused.value)
 
 
 def test_probe_named_like_an_input_is_refused(tmp_path):

@@ -157,7 +157,9 @@ def test_hinge_force_against_differences(backend):
     n = 6
     states = np.column_stack([RNG.normal(size=n), RNG.normal(size=n), RNG.normal(size=n), RNG.uniform(0.2, 1.5, n)])
     values = np.array([laws(th, rt) for th, rt, _, _ in states])
-    f, d_theta, d_rate, spring_power, torque_power, damper_power = ks.hinge_force(states, values)
+    none = np.tile([0, 0, 0, 1, 0, 0, 0, 0, 0, 0, 1.0], (n, 1))  # no compliant stop, no friction
+    f, d_theta, d_rate, spring_power, torque_power, damper_power, contact_energy = ks.hinge_force(states, values, none)
+    assert not np.any(contact_energy)
     eps = 1e-6
     for j, (theta, rate, rest, factor) in enumerate(states):
         assert np.isclose(f[j], force(theta, rate, rest, factor), rtol=1e-13, atol=1e-13)
@@ -168,6 +170,60 @@ def test_hinge_force_against_differences(backend):
         assert np.isclose(spring_power[j], -values[j, 0] * (theta - rest) * rate, rtol=1e-13, atol=1e-13)
         assert np.isclose(torque_power[j], factor * values[j, 6] * rate, rtol=1e-13, atol=1e-13)
         assert np.isclose(damper_power[j], values[j, 3] * rate**2, rtol=1e-13, atol=1e-13)
+
+
+def contact_reference(theta, rate, row):
+    """The force, potential and dissipated power of a compliant stop and friction, restated from
+    SCENE.md "Contact and friction at joints" (Hunt–Crossley k δⁿ + c δⁿ δ̇ clipped at 0; the slip law:
+    Coulomb, Stribeck, viscous, regularised below the stick rate: docs/contact.md)."""
+    lo, hi, k, n, c, fc, fs, inverse, smooth, cv, v0 = row
+    force = potential = stop_loss = 0.0
+    for depth, depth_rate, side in ((theta - hi, rate, 1.0), (lo - theta, -rate, -1.0)):
+        if depth > 0:
+            hc = max(k * depth**n + c * depth**n * depth_rate, 0.0)
+            force += side * hc
+            potential += k * depth ** (n + 1) / (n + 1)
+            stop_loss += (hc - k * depth**n) * depth_rate
+    decay = np.exp(-(rate * inverse) ** 2) if smooth else 0.0  # v_s = 0: F_s only as the breakaway (events)
+    y = min(max(rate / v0, -1.0), 1.0)
+    friction = (fc + (fs - fc) * decay) * y * (2 - abs(y)) + cv * rate
+    return force + friction, potential, stop_loss + friction * rate
+
+
+@pytest.mark.parametrize("backend", ["numpy", "c"])
+def test_contact_and_friction_against_differences(backend):
+    """The generated compliant stop (Hunt–Crossley, n = 1, 1.5, 2.3, with and without damping, the
+    clip at 0 of a fast separation) and friction (Coulomb, Stribeck with v_s > 0, F_s only a
+    breakaway level with v_s = 0, viscous): the force, potential and dissipation equal the restatement
+    above, its ∂f/∂θ and ∂f/∂θ̇ central differences, away from the kinks (δ = 0, |θ̇| = v₀, the
+    clip), where the law has no derivative."""
+    ks = load_kernels(backend, "default")
+    rows, states = [], []
+    for n_exp, c, inverse, smooth in ((1.0, 0.0, 0.0, 0.0), (1.5, 3.0, 2.0, 1.0), (2.3, 40.0, 0.0, 0.0)):
+        for theta in (-0.73, -0.41, 0.05, 0.27, 0.52):
+            for rate in (-2.0, -0.3, -0.0004, 0.0007, 0.0015, 0.4, 1.9):
+                rows.append([-0.4, 0.25, 70.0, n_exp, c, 0.8, 1.3, inverse, smooth, 0.15, 1e-3])
+                states.append([theta, rate, 0.1, 1.0])
+    rows, states = np.array(rows), np.array(states)
+    laws = np.tile([2.0, 0, 0, 0.1, 0, 0, 0, 0, 0], (len(rows), 1))
+    f, d_theta, d_rate, _, _, damper_power, energy = ks.hinge_force(states, laws, rows)
+    spring = 2.0 * (states[:, 0] - 0.1) + 0.1 * states[:, 1]
+    clipped = 0
+    for j, ((theta, rate, _, _), row) in enumerate(zip(states, rows)):
+        force, potential, loss = contact_reference(theta, rate, row)
+        clipped += force != 0 and abs(theta) > 0.4 and row[4] * abs(rate) > row[2]
+        assert np.isclose(f[j] - spring[j], force, rtol=1e-13, atol=1e-13)
+        assert np.isclose(energy[j], potential, rtol=1e-13, atol=1e-15)
+        assert np.isclose(damper_power[j] - 0.1 * rate**2, loss, rtol=1e-12, atol=1e-13)
+        assert loss >= 0.0
+        eps_theta, eps_rate = 1e-7, 1e-7 * min(1.0, abs(rate))
+        fd_theta = (contact_reference(theta + eps_theta, rate, row)[0]
+                    - contact_reference(theta - eps_theta, rate, row)[0]) / (2 * eps_theta)
+        fd_rate = (contact_reference(theta, rate + eps_rate, row)[0]
+                   - contact_reference(theta, rate - eps_rate, row)[0]) / (2 * eps_rate)
+        assert np.isclose(d_theta[j] - 2.0, fd_theta, rtol=1e-6, atol=1e-6)
+        assert np.isclose(d_rate[j] - 0.1, fd_rate, rtol=1e-6, atol=1e-5)
+    assert clipped > 0  # the clip of a fast separation was among the states
 
 
 @pytest.mark.parametrize("backend", ["numpy", "c"])

@@ -264,13 +264,16 @@ def _state_from(model, template, arrays: dict):
 
 
 # ----------------------------------------------------------------------------- linear models
-def _input_forces(model, state, inputs) -> np.ndarray:
+def _input_forces(model, state, inputs, assembler=None) -> np.ndarray:
     """F (n × k): the generalized force of each unit input (``Scene.solve.linear_model``)."""
     scene = model.scene
     F = np.zeros((model.n_total + 1, len(inputs)))
     for j, (kind, ref) in enumerate(inputs):
         if kind == "hinge":
             F[model.hinge_dofs[model.hinge_index(*ref)], j] = 1.0
+            continue
+        if kind == "input":
+            F[:, j] = _scene_input_force(model, assembler, state, ref, j)
             continue
         if kind == "load":
             load = scene.loads[ref]
@@ -285,14 +288,128 @@ def _input_forces(model, state, inputs) -> np.ndarray:
             f, mo = np.zeros(3), np.zeros(3)
             (f if kind == "force" else mo)[axis] = 1.0
         node, r = model.point(point)
-        if node not in set(model.free_nodes.tolist()):
+        if node in set(model.free_nodes.tolist()):
+            d = model.node_dofs[node]
+            F[d[:3], j] += f
+            F[d[3:], j] += np.cross(state.T[node] @ r, f) + mo
+        elif model.links is not None and node in set(model.links.dependent):
+            F[:model.n_dofs, j] += _dependent_input_force(model, assembler, state, node, r, f, mo)
+        else:
             raise SceneError(scene.file, "solve.linear_model.inputs",
-                             f"expected an input at a point that moves freely; {model.nodes[node].name} "
-                             "is fixed, prescribed or rigidly linked")
-        d = model.node_dofs[node]
-        F[d[:3], j] += f
-        F[d[3:], j] += np.cross(state.T[node] @ r, f) + mo
+                             f"expected an input at a point that moves; {model.nodes[node].name} "
+                             "is fixed or prescribed")
     return F[:model.n_dofs]
+
+
+def _dependent_input_force(model, assembler, state, node, r, f, mo) -> np.ndarray:
+    """The generalized force (n,) of a force ``f`` at the offset ``r`` (body axes) of a node that
+    follows rigid links or a guide, and a moment ``mo``: Jᵀ (f, (T r) × f + mo) with J the node's rows
+    of the links' map onto the minimum coordinates (δx, δπ per unit of each column, as the compiled
+    step composes it: :meth:`latdyn.assembly.native_model.NativeModel.complete_links`), the reduction
+    Pᵀ that carries the loads on dependent nodes in every analysis."""
+    assembler.complete_links(state)  # the node placed, and its J in the native links' buffers
+    native = assembler.native().links
+    s = native.slot_of_node[int(node)]
+    columns = native.columns[s, :native.count[s]]
+    J = native.jacobian[s, :, :len(columns)]
+    generalized = J[:3].T @ f + J[3:].T @ (np.cross(state.T[node] @ r, f) + mo)
+    force = np.zeros(model.n_dofs)
+    free = columns < model.n_dofs
+    np.add.at(force, columns[free], generalized[free])
+    return force
+
+
+def _scene_input_force(model, assembler, state, name: str, j: int) -> np.ndarray:
+    """The generalized force of a unit change of the scene's input ``name`` (SCENE.md ``inputs``;
+    ``solve.linear_model.inputs[j]``), exact: ∂τ/∂u of every hinge torque and ∂f/∂u of every load
+    component that names it (SymPy derivatives at the state, the other inputs at their current
+    values), and of every continuous controller whose output reads it, on that controller's
+    actuators (∂y/∂u; 0 at a limit). An input in a stiffness, a damping or a prescribed motion is
+    refused (what it changes is not a force)."""
+    import sympy as sp
+
+    scene = model.scene
+    u = sp.Symbol(name, real=True)
+    key = f"solve.linear_model.inputs[{j}]"
+    values = {sp.Symbol(n, real=True): v for n, v in {**scene.inputs.current(),
+                                                       **scene.controller_outputs.current()}.items()}
+    values[sp.Symbol("t", real=True)] = float(state.t)
+
+    def rate(law, extra=None):
+        if law is None or name not in getattr(law, "input_names", ()):
+            return 0.0
+        if hasattr(law, "d_theta"):  # a HingeLaw: (θ, θ̇, t, inputs…), (f, …)
+            symbols, (f, *_) = law.expressions
+            at = dict(values)
+            at.update({symbols[0]: extra[0], symbols[1]: extra[1]})
+        else:
+            f, at = law.expr, values
+        return float(sp.diff(f, u).evalf(subs=at))
+
+    for what, laws in [(f"bodies.{b}.motion", [*(body.translation or ()), body.rotation_angle])
+                       for b, body in scene.bodies.items()] + \
+            [(f"beams.{h.beam}.{h.end}.hinge", [h.stiffness, h.damping, h.angle]) for h in model.hinges]:
+        if any(name in getattr(law, "input_names", ()) for law in laws):
+            raise SceneError(scene.file, key, f"input {name!r} changes a stiffness, a damping or a prescribed motion "
+                                              f"({what}), not a force; expected an input of hinge torques, load "
+                                              "components or controllers")
+    F = np.zeros(model.n_total + 1)
+    for k, h in enumerate(model.hinges):
+        F[model.hinge_dofs[k]] += rate(h.torque, (float(state.theta[k]), float(state.theta_dot[k])))
+    components = [(l, load, offset + p, law) for l, load in enumerate(scene.loads)
+                  for offset, laws in ((0, load.force), (3, load.moment)) for p, law in enumerate(laws or ())]
+    gains = _controller_input_gains(model, assembler, state, u, values)
+    for l, load, c, law in components:
+        derivative = rate(law) + gains.get(("load", l, c), 0.0)
+        if derivative == 0.0:
+            continue
+        f, mo = np.zeros(3), np.zeros(3)
+        (f if c < 3 else mo)[c % 3] = derivative
+        if load.frame != "global":
+            R = state.T[model.body_node[load.frame]]
+            f, mo = R @ f, R @ mo
+        node, r = model.point(load.at)
+        if node not in set(model.free_nodes.tolist()):
+            raise SceneError(scene.file, key, f"expected an input of loads at points that move freely; "
+                                              f"{model.nodes[node].name} is fixed, prescribed or rigidly linked")
+        d = model.node_dofs[node]
+        F[d[:3]] += f
+        F[d[3:]] += np.cross(state.T[node] @ r, f) + mo
+    for k in range(len(model.hinges)):
+        F[model.hinge_dofs[k]] += gains.get(("hinge", k, 0), 0.0)
+    F[model.n_total] = 0.0  # the dummy of constrained coordinates
+    return F
+
+
+def _controller_input_gains(model, assembler, state, u, values) -> dict:
+    """∂y/∂u of each continuous controller that reads the input ``u``, by actuator:
+    {("hinge", k, 0) | ("load", l, component): ∂y/∂u} (0 at a limit)."""
+    import sympy as sp
+
+    from latdyn.results.probes import ProbeSet
+
+    scene = model.scene
+    continuous = [c for c in scene.controllers.values() if not c.sampled and u.name in c.reads]
+    if not continuous:
+        return {}
+    probes = ProbeSet(assembler, assembler.initial_state())
+    at = dict(values)
+    at.update({sp.Symbol(n, real=True): v for n, v in zip(probes.names, probes.values(state.copy()))})
+    gains = {}
+    for c in continuous:
+        y = float(c.output_expr.evalf(subs=at))
+        if c.limits is not None and not c.limits[0] <= y <= c.limits[1]:
+            continue
+        dy = float(sp.diff(c.output_expr, u).evalf(subs=at))
+        for k, h in enumerate(model.hinges):
+            if str(getattr(h.torque, "source", "")).strip() == c.name:
+                gains[("hinge", k, 0)] = gains.get(("hinge", k, 0), 0.0) + dy
+        for l, load in enumerate(scene.loads):
+            for offset, laws in ((0, load.force), (3, load.moment)):
+                for p, law in enumerate(laws or ()):
+                    if str(getattr(law, "source", "")).strip() == c.name:
+                        gains[("load", l, offset + p)] = gains.get(("load", l, offset + p), 0.0) + dy
+    return gains
 
 
 def _output_jacobians(lin: Linearisation, names: list[str]):
@@ -328,7 +445,7 @@ def linear_model(lin: Linearisation, spec: dict) -> dict:
     arrays for ``numpy.savez`` (``scipy.signal.StateSpace(A, B, C, D)``)."""
     red = reduce(lin)
     m = red.n_massive
-    F = _input_forces(lin.model, lin.state, spec["inputs"])
+    F = _input_forces(lin.model, lin.state, spec["inputs"], lin.assembler)
     Br, Du = red.condense(F)
     Minv = np.linalg.inv(red.mass)
     A = np.block([[np.zeros((m, m)), np.eye(m)], [-Minv @ red.stiffness, -Minv @ red.damping]])

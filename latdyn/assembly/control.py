@@ -10,8 +10,10 @@ coordinate enters K (a sensor of position) or C (a sensor of rate):
 
     ∂r_row/∂q_sensor = g_row · ∂y/∂s,
 
-g_row the actuator's generalized force per unit output (−λ on a hinge's coordinate: f = … − λτ; the
-point-load kernel's force for a unit component, times λ, on a load's node). A non-collocated
+g_row the actuator's generalized force per unit output (−1 on a hinge's coordinate: f = … − y; the
+point-load kernel's force for a unit component on a load's node). A controller's output is
+feedback, not a load: the load factor λ of a static path does not scale it (it acts at full
+strength while loads and gravity are ramped). A non-collocated
 controller thus couples the actuator's equation to the sensor's coordinates: the entries are in
 the assembler's pattern (:meth:`latdyn.assembly.assembler.Assembler.reindex`), so the iteration
 matrix's factorization, the linearisation (the closed loop) and the reduction onto the minimum

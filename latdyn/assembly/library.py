@@ -70,6 +70,7 @@ class ModelData(ctypes.Structure):
         ("hinge_controller", P), ("load_controller", P), ("actuator_kind", P), ("actuator_index", P),
         ("actuator_component", P), ("actuator_controller", P), ("coupling_actuator", P), ("coupling_slot", P),
         ("coupling_sensor", P), ("coupling_position", P),
+        ("hinge_contact", P),
     ]
 
 

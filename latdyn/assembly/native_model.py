@@ -67,6 +67,23 @@ def hinge_coefficients(hinges):
     return k0, c0, rest, [k for k, f in enumerate(flags) if not f]
 
 
+def joint_contact_rows(hinges) -> np.ndarray:
+    """(n_hinges, 11): the ``contact`` input of the generated hinge_force (codegen/joints.py
+    ``joint_contact``) of each joint: lower upper k n c (its compliant stops; zeros without),
+    F_c F_s 1/v_s [v_s > 0] c_v v₀ (its friction; zeros with v₀ = 1 without)."""
+    rows = np.zeros((len(hinges), 11))
+    rows[:, 3], rows[:, 10] = 1.0, 1.0
+    for row, h in zip(rows, hinges):
+        if h.contact is not None:
+            row[0:5] = (*h.limits, h.contact.stiffness, h.contact.exponent, h.contact.damping)
+        f = h.friction
+        if f is not None:
+            smooth = f.stribeck_rate > 0.0
+            row[5:11] = (f.coulomb, f.static, 1.0 / f.stribeck_rate if smooth else 0.0, float(smooth), f.viscous,
+                         f.stick_rate)
+    return rows
+
+
 def node_colouring(model) -> np.ndarray:
     """A colour per node such that the two ends of every element differ (greedy, in node
     order: a beam's chain of nodes gets two colours). Nodes of one colour are perturbed
@@ -292,7 +309,7 @@ class NativeModel:
             hinge_conservative=ints([int(h.conservative_spring) for h in m.hinges]),
             hinge_lock_at=arr(lock_at), hinge_lower_stop=arr(lower), hinge_upper_stop=arr(upper),
             has_events=int(any(m.hinges[k].lock_at is not None or m.hinges[k].limits is not None
-                               for k in m.free_hinges)),
+                               or m.hinges[k].friction is not None for k in m.free_hinges)),
             section_width=m.element_sections.shape[1],
             n_controllers=wired.n, n_sensors=len(wired.sensor_kind), n_actuators=len(wired.actuator_kind),
             n_couplings=len(wired.coupling_actuator), controller_laws=controller_laws,
@@ -305,6 +322,7 @@ class NativeModel:
             actuator_controller=ints(wired.actuator_controller), coupling_actuator=ints(wired.coupling_actuator),
             coupling_slot=ints(wired.coupling_slot), coupling_sensor=ints(wired.coupling_sensor),
             coupling_position=ints(np.full(len(wired.coupling_actuator), -1, np.int64)),
+            hinge_contact=arr(joint_contact_rows(m.hinges)),
         )
         self._keep.append(outputs)
         work = {

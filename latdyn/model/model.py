@@ -28,7 +28,7 @@ from latdyn.model.kernels import planar_variant
 from latdyn.model.planar import find_plane, restrict_to_plane
 from latdyn.numerics.linalg import issparse, psd_null_direction
 from latdyn.scene.expressions import HingeLaw, TimeFunction
-from latdyn.scene.loader import Scene
+from latdyn.scene.loader import JointFriction, Scene, StopContact
 
 #: columns of the kernels' section block (codegen/conventions.py SECTION):
 #: L0 EA EIy EIz GJ rhoA rhoIy rhoIz 1/GAy 1/GAz
@@ -62,6 +62,8 @@ class HingeCoordinate:
     rest_angle: float = 0.0
     limits: tuple[float, float] | None = None
     restitution: float = 0.0
+    contact: StopContact | None = None  # the stops compliant (Hunt–Crossley), docs/contact.md
+    friction: JointFriction | None = None
     #: "hinge" (revolute, θ an angle) or "guide" (prismatic, ``bodies.NAME.guide``: θ is the slide s,
     #: ``beam`` the guided body's name, ``end`` "guide"); both have the same laws and events
     kind: str = "hinge"
@@ -109,6 +111,9 @@ class Model:
     body_inertia: np.ndarray  # (n_b, 3, 3) about the COM, node axes
     body_node: dict[str, int]  # scene body name -> node index
     locked: np.ndarray = field(default=None)  # (n_hinge,) bool
+    #: (n_hinge,) bool: the locked hinges that stick by friction (latdyn.timeloop.events.stick_and_slip);
+    #: they are released when their reaction exceeds the breakaway level, a latch never is
+    stuck: np.ndarray = field(default=None)
     # coordinate numbering (rebuilt when a hinge latches)
     node_dofs: np.ndarray = field(default=None)  # (n_nodes, 6) index or -1
     hinge_dofs: np.ndarray = field(default=None)  # (n_hinge,) index or -1
@@ -218,6 +223,7 @@ class Model:
             body_node=body_node, links=links,
         )
         model.locked = np.zeros(len(hinges), dtype=bool)
+        model.stuck = np.zeros(len(hinges), dtype=bool)
         model.section_turns = np.zeros(len(model.element_nodes))
         normal, model.plane_reason = find_plane(scene)
         if normal is not None:
@@ -445,7 +451,7 @@ def _add_hinge(hinges: list, beam: str, which: str, node: int, hinge) -> int:
     hinges.append(HingeCoordinate(beam, which, node, np.array(h.axis, float), _law(h.stiffness), _law(h.damping),
                                   None if h.torque is None else _law(h.torque), h.angle,
                                   None if h.lock_at is None else float(h.lock_at),
-                                  float(h.rest_angle), h.limits, float(h.restitution)))
+                                  float(h.rest_angle), h.limits, float(h.restitution), h.contact, h.friction))
     return len(hinges) - 1
 
 
@@ -469,7 +475,7 @@ def _guides(scene, nodes, body_node, hinges, edges) -> None:
         hinges.append(HingeCoordinate(body.name, "guide", child, np.array(g.axis, float), _law(g.stiffness),
                                       _law(g.damping), None if g.force is None else _law(g.force), g.position,
                                       None if g.lock_at is None else float(g.lock_at), float(g.rest), g.limits,
-                                      float(g.restitution), kind="guide"))
+                                      float(g.restitution), contact=g.contact, friction=g.friction, kind="guide"))
         edges.append(Edge(parent, child, len(hinges) - 1, np.array(g.axis, float), 1.0,
                           np.asarray(body.at, float) - nodes[parent].position, np.zeros(3), body.name,
                           prismatic=True))

@@ -51,9 +51,10 @@ def _scalar(value):
 
 
 def hinge(axis, *, stiffness=None, damping=None, torque=None, angle=None, lock_at=None, rest_angle=None,
-          limits=None, restitution=None) -> dict:
+          limits=None, restitution=None, contact=None, friction=None) -> dict:
     """A hinged beam end, ``{hinge: {...}}`` (SCENE.md HINGE and "Hinge additions"); ``None``
-    leaves a key out (its default applies)."""
+    leaves a key out (its default applies). ``contact`` and ``friction`` are mappings of their keys
+    (``{"stiffness": 1e3, "exponent": 1.5}``, ``{"coulomb": 0.2}``; docs/contact.md)."""
     spec: dict[str, Any] = {"axis": _vector(axis)}
     for key, value in (("stiffness", stiffness), ("damping", damping), ("torque", torque), ("angle", angle),
                        ("lock_at", lock_at), ("rest_angle", rest_angle), ("restitution", restitution)):
@@ -61,6 +62,9 @@ def hinge(axis, *, stiffness=None, damping=None, torque=None, angle=None, lock_a
             spec[key] = _scalar(value)
     if limits is not None:
         spec["limits"] = [_scalar(x) for x in limits]
+    for key, value in (("contact", contact), ("friction", friction)):
+        if value is not None:
+            spec[key] = {name: _scalar(x) for name, x in dict(value).items()}
     return {"hinge": spec}
 
 

@@ -349,7 +349,7 @@ def _parse_text(text: str, file, key, extra: tuple[str, ...] = (), allowed_text:
     try:
         tree = ast.parse(clean, mode="eval")
     except SyntaxError as exc:
-        _refuse(file, key, f"{text!r} is not a valid expression ({exc.msg})")
+        _refuse(file, key, f"{text!r} is not a valid expression ({exc.msg})", allowed_text)
     except (RecursionError, MemoryError):
         _refuse(file, key, f"{text!r} is nested too deeply", too_deep)
     if _depth(tree) > MAX_DEPTH:

@@ -45,7 +45,10 @@ Hinge additions (SCENE.md): ``rest_angle``, ``limits: [lo, hi]`` (lo <= 0 <= hi,
 0 at t = 0; not with a prescribed ``angle``; a ``lock_at`` must lie within them),
 ``restitution`` (only with limits), and laws in ``theta``, ``theta_dot``, ``t``
 (:class:`~latdyn.scene.expressions.HingeLaw`); a constant law is kept as a number, a torque of t
-alone as a :class:`~latdyn.scene.expressions.TimeFunction`.
+alone as a :class:`~latdyn.scene.expressions.TimeFunction`. ``contact: {stiffness, exponent, damping}``
+(only with limits, not with restitution) makes the stops compliant (:class:`StopContact`), and
+``friction: {coulomb, static, stribeck_rate, viscous, stick_rate}`` (not on a prescribed angle) adds
+friction (:class:`JointFriction`); docs/contact.md.
 
 Limits, so that a scene is refused rather than hang or exhaust memory:
 
@@ -124,9 +127,11 @@ _TOP_KEYS = ("title", "parameters", "gravity", "initial_velocity", "inputs", "se
              "controllers", "solve", "output")
 _SECTION_KEYS = ("EA", "EIy", "EIz", "GJ", "rhoA", "rhoIy", "rhoIz", "GAy", "GAz")
 _BODY_KEYS = ("at", "mass", "com", "inertia", "fixed", "motion", "guide")
-_GUIDE_KEYS = ("on", "axis", "stiffness", "damping", "force", "rest", "limits", "restitution", "lock_at", "position")
+_GUIDE_KEYS = ("on", "axis", "stiffness", "damping", "force", "rest", "limits", "restitution", "lock_at", "position",
+               "contact", "friction")
 _BEAM_KEYS = ("from", "to", "section", "elements", "y_axis", "start", "end", "rigid")
-_HINGE_KEYS = ("axis", "stiffness", "damping", "torque", "angle", "lock_at", "rest_angle", "limits", "restitution")
+_HINGE_KEYS = ("axis", "stiffness", "damping", "torque", "angle", "lock_at", "rest_angle", "limits", "restitution",
+               "contact", "friction")
 _LOAD_KEYS = ("at", "force", "moment", "frame")
 _SOLVE_KEYS = ("analysis", "t_end", "dt", "method", "rho_inf", "tol", "steps", "count",
                "adaptive", "error_tol", "dt_min", "max_iterations", "formulation", "engine", "newton", "planar",
@@ -208,6 +213,32 @@ class Hinge:
     rest_angle: float = 0.0                 # neutral angle of the spring
     limits: tuple[float, float] | None = None   # hard stops [lo, hi] on the angle
     restitution: float = 0.0                # of an impact on a stop, in [0, 1]
+    contact: StopContact | None = None      # the stops made compliant (Hunt–Crossley)
+    friction: JointFriction | None = None
+
+
+@dataclass(frozen=True)
+class StopContact:
+    """A compliant stop (SCENE.md "Contact and friction at joints"): past a limit by δ > 0 the joint
+    takes the Hunt–Crossley force k δⁿ + c δⁿ δ̇, never pulling (clipped at 0); restitution does not
+    apply (refused with it). The law is codegen/joints.py ``joint_contact``."""
+    stiffness: float
+    exponent: float = 1.0
+    damping: float = 0.0
+
+
+@dataclass(frozen=True)
+class JointFriction:
+    """Friction in a joint: Coulomb ``coulomb``, static level ``static`` with its Stribeck decay
+    exp(−(rate/stribeck_rate)²) (stribeck_rate 0: ``static`` is the breakaway level of a stuck
+    joint only), viscous ``viscous``·rate, regularised below ``stick_rate`` while the joint slips
+    (codegen/joints.py ``joint_contact``); a joint sticks by an event while its reaction is within
+    ``static`` (latdyn/timeloop/events.py ``stick_and_slip``; docs/contact.md)."""
+    coulomb: float
+    static: float
+    stribeck_rate: float = 0.0
+    viscous: float = 0.0
+    stick_rate: float = 1e-3
 
 
 @dataclass
@@ -230,6 +261,8 @@ class Guide:
     rest: float = 0.0                       # neutral slide of the spring
     limits: tuple[float, float] | None = None   # hard stops [lo, hi] on the slide
     restitution: float = 0.0                # of an impact on a stop, in [0, 1]
+    contact: StopContact | None = None      # the stops compliant (Hunt–Crossley), docs/contact.md
+    friction: JointFriction | None = None   # Coulomb, Stribeck and viscous friction on the slide
 
 
 def guide_law_text(value, file, key):
@@ -241,6 +274,15 @@ def guide_law_text(value, file, key):
     if re.search(r"\btheta(_dot)?\b", value):
         raise SceneError(file, key, f"a guide's law is in s, s_dot and t (not theta, theta_dot), got {value!r}")
     return re.sub(r"\bs_dot\b", "theta_dot", re.sub(r"\bs\b(?!_)", "theta", value))
+
+
+def in_guide_words(error: SceneError) -> SceneError:
+    """A refusal of a guide's law (parsed as the hinge law it equals, :func:`guide_law_text`) said in
+    the guide's words: the user's ``s``, ``s_dot`` where the hinge law's ``theta``, ``theta_dot`` stand,
+    so that the message quotes the text as it was typed and names the variables a guide's law takes."""
+    said = error.expected.replace("theta (hinge angle), theta_dot (its rate)", "s (the slide), s_dot (its rate)")
+    said = re.sub(r"\btheta_dot\b", "s_dot", re.sub(r"\btheta\b(?!_)", "s", said))
+    return SceneError(error.file, error.key, said)
 
 
 @dataclass
@@ -708,6 +750,7 @@ class _Reader:
         self.beams: dict[str, Beam] = {}
         self.n_elements = 0  # elements of the beams read so far
         self.controller_specs: dict | None = None  # the scene's controllers as written (probes name them)
+        self.input_names: tuple = ()  # the scene's inputs (solve.linear_model.inputs may name them)
 
     # -- primitive checks -------------------------------------------------------
     def fail(self, key: str, expected: str, got: Any = _MISSING):
@@ -908,6 +951,10 @@ class _Reader:
             h.angle = parse_time_function(spec["angle"], self.file, _join(key, "angle"))
         if "lock_at" in spec:
             h.lock_at = self.number(spec["lock_at"], _join(key, "lock_at"))
+            if h.lock_at == 0.0:  # latched a step late, past it (measured: energy balance error 1)
+                self.fail(_join(key, "lock_at"), "the hinge angle is 0 at t = 0, so it would be latched from "
+                                                 "the start; expected a lock_at other than 0 (a joint held from "
+                                                 "the start is a clamped end)", spec["lock_at"])
         if "rest_angle" in spec:
             h.rest_angle = self.number(spec["rest_angle"], _join(key, "rest_angle"))
         if "limits" in spec:
@@ -931,6 +978,10 @@ class _Reader:
                 self.fail(rkey, "restitution applies to impacts on hard stops; expected limits: [lo, hi] "
                                 "with it")
             h.restitution = self.number(spec["restitution"], rkey, lo=0.0, hi=1.0)
+        if "contact" in spec:
+            h.contact = self.stop_contact(spec, key, h.limits)
+        if "friction" in spec:
+            h.friction = self.joint_friction(spec["friction"], _join(key, "friction"), spec.get("angle"))
         return h
 
     def guide(self, name, spec, key) -> Guide:
@@ -956,20 +1007,31 @@ class _Reader:
         def law(sub):
             return guide_law_text(spec[sub], self.file, _join(key, sub))
 
-        for sub in ("stiffness", "damping"):
-            if sub in spec:
-                setattr(g, sub, self.hinge_coefficient(law(sub), _join(key, sub)))
-        if "force" in spec:
-            fkey = _join(key, "force")
-            hinge_law = parse_hinge_law(law("force"), self.file, fkey)
-            g.force = hinge_law if {"theta", "theta_dot"} & set(hinge_law.depends_on) else \
-                parse_time_function(spec["force"], self.file, fkey)
+        laws = {sub: law(sub) for sub in ("stiffness", "damping", "force") if sub in spec}
+        try:  # parsed as the hinge laws they equal; a refusal is said in the guide's words
+            for sub in ("stiffness", "damping"):
+                if sub in laws:
+                    setattr(g, sub, self.hinge_coefficient(laws[sub], _join(key, sub)))
+            if "force" in laws:
+                fkey = _join(key, "force")
+                hinge_law = parse_hinge_law(laws["force"], self.file, fkey)
+                g.force = hinge_law if {"theta", "theta_dot"} & set(hinge_law.depends_on) else \
+                    parse_time_function(spec["force"], self.file, fkey)
+        except SceneError as error:
+            raise in_guide_words(error) from None
         if "position" in spec:
             g.position = parse_time_function(spec["position"], self.file, _join(key, "position"))
         if "rest" in spec:
             g.rest = self.number(spec["rest"], _join(key, "rest"))
         if "lock_at" in spec:
             g.lock_at = self.number(spec["lock_at"], _join(key, "lock_at"))
+            if g.position is not None:
+                self.fail(_join(key, "lock_at"), "a prescribed guide (position) has no free slide to latch; "
+                                                 "expected no lock_at with position", spec["lock_at"])
+            if g.lock_at == 0.0:
+                self.fail(_join(key, "lock_at"), "the slide is 0 at t = 0, so it would be latched from the start; "
+                                                 "expected a lock_at other than 0 (a body held from the start "
+                                                 "is a rigid link or a fixed body)", spec["lock_at"])
         if "limits" in spec:
             lkey = _join(key, "limits")
             value = spec["limits"]
@@ -990,6 +1052,10 @@ class _Reader:
             if g.limits is None:
                 self.fail(rkey, "restitution applies to impacts on hard stops; expected limits: [lo, hi] with it")
             g.restitution = self.number(spec["restitution"], rkey, lo=0.0, hi=1.0)
+        if "contact" in spec:
+            g.contact = self.stop_contact(spec, key, g.limits)
+        if "friction" in spec:
+            g.friction = self.joint_friction(spec["friction"], _join(key, "friction"), spec.get("position"))
         return g
 
     def guide_loops(self) -> None:
@@ -1002,6 +1068,37 @@ class _Reader:
                               + " -> ".join(seen + [walk.guide.on]) + "); expected a tree of guides", walk.guide.on)
                 seen.append(walk.guide.on)
                 walk = self.bodies[walk.guide.on]
+
+    def stop_contact(self, spec, key, limits) -> StopContact:
+        """A joint's ``contact`` (compliant stops): only with ``limits``, never with ``restitution``."""
+        ckey = _join(key, "contact")
+        value = self.mapping(spec["contact"], ckey, ("stiffness", "exponent", "damping"), required=("stiffness",))
+        if limits is None:
+            self.fail(ckey, "contact makes the stops compliant; expected limits: [lo, hi] with it")
+        if "restitution" in spec:
+            self.fail(_join(key, "restitution"), "a compliant stop (contact) has no restitution: its damping "
+                                                 "sets the loss; expected contact or restitution, not both")
+        stiffness = self.number(value["stiffness"], _join(ckey, "stiffness"), positive=True)
+        exponent = self.number(value.get("exponent", 1.0), _join(ckey, "exponent"))
+        if exponent < 1.0:
+            self.fail(_join(ckey, "exponent"), "expected an exponent >= 1 (1: linear, 1.5: Hertz)", value["exponent"])
+        damping = self.number(value.get("damping", 0.0), _join(ckey, "damping"), nonnegative=True)
+        return StopContact(stiffness, exponent, damping)
+
+    def joint_friction(self, value, key, prescribed) -> JointFriction:
+        """A joint's ``friction``: forces >= 0, static >= coulomb, stick_rate > 0; not on a prescribed joint."""
+        self.mapping(value, key, ("coulomb", "static", "stribeck_rate", "viscous", "stick_rate"),
+                     required=("coulomb",))
+        if prescribed is not None:
+            self.fail(key, "a prescribed joint has no free coordinate to resist; expected no friction with it")
+        coulomb = self.number(value["coulomb"], _join(key, "coulomb"), nonnegative=True)
+        static = self.number(value.get("static", coulomb), _join(key, "static"), nonnegative=True)
+        if static < coulomb:
+            self.fail(_join(key, "static"), f"expected a static level >= coulomb ({coulomb:g})", value["static"])
+        stribeck = self.number(value.get("stribeck_rate", 0.0), _join(key, "stribeck_rate"), nonnegative=True)
+        viscous = self.number(value.get("viscous", 0.0), _join(key, "viscous"), nonnegative=True)
+        stick = self.number(value.get("stick_rate", 1e-3), _join(key, "stick_rate"), positive=True)
+        return JointFriction(coulomb, static, stribeck, viscous, stick)
 
     def hinge_coefficient(self, value, key) -> float | HingeLaw:
         """A hinge stiffness or damping: a number >= 0, or a law in theta, theta_dot and t."""
@@ -1136,9 +1233,13 @@ class _Reader:
         (that load, scaled by the input); outputs are probe names."""
         inputs = []
         forms = ("expected BEAM.start or BEAM.end (a hinge torque), POINT.force.x|y|z or "
-                 "POINT.moment.x|y|z (a global force or moment at a point), or loads[i]")
+                 "POINT.moment.x|y|z (a global force or moment at a point), loads[i], or the name of one of "
+                 "the scene's inputs")
         for i, name in enumerate(spec["inputs"]):
             k = f"{key}.inputs[{i}]"
+            if isinstance(name, str) and name in self.input_names:  # a scene input (latdyn.scene.inputs)
+                inputs.append(("input", name))
+                continue
             hinge, point, index = self._HINGE_REF.match(name), self._INPUT.match(name), self._LOAD_INDEX.match(name)
             if hinge and hinge["name"] in self.beams:
                 end = getattr(self.beams[hinge["name"]], hinge["end"])
@@ -1499,6 +1600,7 @@ def _build_controlled_parts(r: "_Reader", raw: dict, file: str) -> Scene:
     names = controller_names(raw.get("controllers"), file, RESERVED_WORDS, {n: "an input" for n in inputs})
     outputs = ControllerOutputs({n: 0.0 for n in names})
     r.controller_specs = raw.get("controllers") or {}
+    r.input_names = inputs.names
     with reading_inputs(inputs, outputs):  # every expression of the scene may name them
         scene = _build_parts(r, raw, file)
     scene.inputs, scene.controller_outputs = inputs, outputs
@@ -1555,9 +1657,12 @@ def _build_parts(r: _Reader, raw: dict, file: str) -> Scene:
         r.fail("beams", "expected at least one body or beam in the scene")
 
     attached = {end.body for b in r.beams.values() for end in (b.start, b.end) if end.body is not None}
+    # a body that carries a guided body, and a guided body (its slide may be held by its spring or by
+    # what it carries), are left to the model's check of each coordinate (Model.check_held)
+    attached |= {body.guide.on for body in r.bodies.values() if body.guide is not None}
     for name, body in r.bodies.items():
         if (body.mass == 0.0 and not np.any(body.inertia) and not body.fixed and not body.prescribed
-                and name not in attached and (body.guide is None or body.guide.position is None)):
+                and name not in attached and body.guide is None):
             r.fail(f"bodies.{name}", f"a coordinate that nothing holds: body {name!r} has no mass, no inertia "
                                      "and no beam attached; expected mass/inertia, a beam, fixed: true or a motion")
 

@@ -113,6 +113,7 @@ class TimeLoop:
         energy0 = self.energies_of(state)
         self.progress = TransientProgress(
             state=state, algorithmic_acceleration=self.integrator.a, locked=self.model.locked.copy(),
+            stuck=self.model.stuck.copy(),
             h=self.control.dt, power=load_power(self.model, state, evaluation),
             dissipation_power=evaluation.dissipation_power,
             total0=sum(energy0.values()), potential0=energy0["potential"],
@@ -128,6 +129,8 @@ class TimeLoop:
         if self.sampler is not None:
             self.sampler.restore(self.progress.controller_memory)
         self.model.locked[:] = self.progress.locked
+        if self.progress.stuck is not None:
+            self.model.stuck[:] = self.progress.stuck
         self.model.number_coordinates()
         self.assembler.reindex()
         self.integrator.a = self.progress.algorithmic_acceleration
@@ -219,7 +222,9 @@ class TimeLoop:
         """Steps in C up to the next row, or one step from Python; the step that comes back is
         rejected (error estimate), tried again (Newton failed) or accepted."""
         progress, control = self.progress, self.control
-        compiled = self.compiled and control.on_grid(progress) and not control.before_pause(progress)
+        # a hinge stuck by friction is checked for release after every step: those steps from Python
+        compiled = self.compiled and control.on_grid(progress) and not control.before_pause(progress) \
+            and not self.model.stuck.any()
         attempt = self._compiled_steps() if compiled else self._python_step()
         if attempt is None:
             return
@@ -311,7 +316,8 @@ class TimeLoop:
         # power of loads and prescribed motion: from the last Newton evaluation
         # (within the Newton tolerance of the converged state) when there is one
         evaluation = getattr(integrator, "last_evaluation", None)
-        if evaluation is None or len(evaluation.reaction) != model.n_total - model.n_dofs:
+        if evaluation is None or len(evaluation.reaction) != model.n_total - model.n_dofs or events.resting:
+            # resting on a stop: the step ends where the projection put it back (events.HingeEvents)
             evaluation = self.assembler.evaluate(new, matrices=False)
         new_power = load_power(model, new, evaluation)
         self.probes.external_work += 0.5 * h * (progress.power + new_power)
@@ -320,15 +326,17 @@ class TimeLoop:
         # declared dissipation: the dampers' over the step (trapezoidal, as the work; at its end
         # from the step's own last evaluation, before the events' jump), then the events' loss;
         # the dampers' power after the jump starts the next step
-        ended = getattr(integrator, "last_evaluation", None) or evaluation
+        ended = evaluation if events.resting else getattr(integrator, "last_evaluation", None) or evaluation
         damped = 0.5 * h * (progress.dissipation_power + ended.dissipation_power)
         progress.dissipation_power = evaluation.dissipation_power
-        if events.any and evaluation is ended:
-            progress.dissipation_power = self.assembler.evaluate(new, matrices=False).dissipation_power
+        if events.any and evaluation is ended and not events.resting:  # the velocities jumped: the powers
+            after = self.assembler.evaluate(new, matrices=False)  # after the jump start the next step
+            progress.dissipation_power = after.dissipation_power
+            progress.power = load_power(model, new, after)
         progress.dissipated = self.probes.dissipated = progress.dissipated + damped + events.loss
         progress.state = new
         progress.algorithmic_acceleration = integrator.a
-        progress.locked = model.locked.copy()
+        progress.locked, progress.stuck = model.locked.copy(), model.stuck.copy()
         progress.steps += 1
         if attempt.lands:
             progress.grid_index += 1

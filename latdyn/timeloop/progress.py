@@ -25,7 +25,7 @@ class TransientProgress:
 
     state: State
     algorithmic_acceleration: np.ndarray | None
-    locked: np.ndarray  # latched hinges
+    locked: np.ndarray  # latched hinges (and hinges stuck by friction)
     h: float  # step size to try next
     grid_index: int = 0  # nominal steps completed
     output_index: int = 1  # next recorded time is output_index · every
@@ -61,6 +61,7 @@ class TransientProgress:
     #: the controllers' held outputs and states after the last sample (latdyn.timeloop.sampling;
     #: replaced, never changed in place, so that a kept copy of the progress keeps its own)
     controller_memory: np.ndarray | None = None
+    stuck: np.ndarray | None = None  # the locked hinges that stick by friction (None: none)
 
     def count(self, stats) -> None:
         """Count a step's Newton iterations and factorizations (``stats``: a StepStats)."""
@@ -97,10 +98,14 @@ class TransientProgress:
         return self.balance_error / self.energy_scale if self.energy_scale > 0 else 0.0
 
     def note_joint_forces(self, names, forces, t: float) -> None:
-        """Keep each joint's peak force (:attr:`joint_peaks`) with the forces at the row at ``t``."""
+        """Keep each joint's peak force (:attr:`joint_peaks`) with the forces at the row at ``t``.
+
+        A later row takes the peak only when it is larger by more than round-off
+        (:data:`PEAK_ROUND_OFF` relative): a load held constant (a latch's reaction) has its peak at
+        the first row that carries it, not at a later row whose last digit happens to be larger."""
         for name, value in zip(names, forces):
             peak = self.joint_peaks.get(name)
-            if peak is None or abs(value) > abs(peak["peak"]):
+            if peak is None or abs(value) > abs(peak["peak"]) * (1.0 + PEAK_ROUND_OFF):
                 self.joint_peaks[name] = {"peak": float(value), "t": float(t)}
 
     def summary(self, tol: float, method: str) -> dict:
@@ -114,6 +119,9 @@ class TransientProgress:
             inertia_tangent_from=self.inertia_tangent_from, joint_peaks=self.joint_peaks)
 
 
+#: Relative margin by which a row's joint force must exceed the kept peak to replace it in
+#: ``joint_peaks`` (round-off of a constant reaction, several times the 2.2e-16 of a double).
+PEAK_ROUND_OFF = 1e-12
 #: ``energy_balance_error`` (relative) past which a run is flagged: a warning on stderr and in
 #: summary.json ``warnings`` (docs/energy.md says how it was chosen).
 DRIFT_WARNING = 1e-2

@@ -47,8 +47,8 @@ typedef void (*kernel_joint_body)(int64_t, const double *, const double *, const
 typedef void (*kernel_point_load)(int64_t, const double *, const double *, const double *, const double *,
                                   const double *, double *, double *, double *, double *);
 typedef void (*kernel_hinged_end)(int64_t, const double *, const double *, double *, double *, double *);
-typedef void (*kernel_hinge_force)(int64_t, const double *, const double *, double *, double *, double *, double *,
-                                   double *, double *);
+typedef void (*kernel_hinge_force)(int64_t, const double *, const double *, const double *, double *, double *,
+                                   double *, double *, double *, double *, double *);
 typedef void (*kernel_so3_exp)(int64_t, const double *, double *);
 
 /* A configuration: all nodes and hinges. */
@@ -150,6 +150,9 @@ typedef struct {
     const int64_t *hinge_controller, *load_controller;
     const int64_t *actuator_kind, *actuator_index, *actuator_component, *actuator_controller;
     const int64_t *coupling_actuator, *coupling_slot, *coupling_sensor, *coupling_position;
+    /* (n_hinges, 11): each joint's compliant stop and friction, the hinge_force kernel's `contact`
+     * input (codegen/joints.py joint_contact; zeros with stick_rate 1: none) */
+    const double *hinge_contact;
 } Model;
 
 /* Scratch buffers, allocated once by the caller. */
@@ -466,9 +469,10 @@ static void controller_outputs(const Model *m, const Configuration *c, Work *w, 
 }
 
 /* The coupling entries of K and C (see Model): each actuator's generalized force per unit output
- * (−λ on a hinge's coordinate; the point-load kernel's force for a unit component, times λ), times
- * ∂y/∂s of its controller's sensors. */
-static void controller_couplings(const Model *m, const Configuration *c, Work *w, double load_factor)
+ * (−1 on a hinge's coordinate; the point-load kernel's force for a unit component), times ∂y/∂s of
+ * its controller's sensors. A controller's output is feedback: the load factor λ of a static path
+ * does not scale it. */
+static void controller_couplings(const Model *m, const Configuration *c, Work *w)
 {
     static const double identity[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
     double gains[6];
@@ -480,12 +484,12 @@ static void controller_couplings(const Model *m, const Configuration *c, Work *w
             int64_t i = m->actuator_index[a];
             memset(gains, 0, sizeof gains);
             if (m->actuator_kind[a] == 0) {
-                gains[0] = -load_factor;
+                gains[0] = -1.0;
             } else {
                 int64_t node = m->load_node[i], frame = m->load_frame_node[i];
                 double values[6] = {0, 0, 0, 0, 0, 0}, velocity[6] = {0, 0, 0, 0, 0, 0};
                 double power, by_node[18], by_frame[18];
-                values[m->actuator_component[a]] = load_factor;
+                values[m->actuator_component[a]] = 1.0;
                 m->point_load(1, c->T + 9 * node, m->load_r + 3 * i, values,
                               frame >= 0 ? c->T + 9 * frame : identity, velocity, gains, &power, by_node, by_frame);
             }
@@ -530,7 +534,7 @@ static double evaluate(const Model *m, const Configuration *c, Work *w, const do
     joint_bodies(m, c, w, inertia, load_factor);
     if (m->n_controllers) {
         controller_outputs(m, c, w, t);
-        if (matrices) controller_couplings(m, c, w, load_factor);
+        if (matrices) controller_couplings(m, c, w);
     }
     for (int64_t b = 0; b < m->n_bodies; ++b) {
         const int64_t *d = m->node_dofs + 6 * m->body_nodes[b];
@@ -551,13 +555,16 @@ static double evaluate(const Model *m, const Configuration *c, Work *w, const do
             if (m->hinge_torque_hinge_law[j] >= 0)
                 m->hinge_laws(m->hinge_torque_hinge_law[j], state[0], state[1], t, values + 6);
         }
-        if (m->n_controllers && m->hinge_controller[j] >= 0) {  /* a continuous controller's output */
-            values[6] = m->controller_outputs[m->controller_slot[m->hinge_controller[j]]];
-            values[7] = values[8] = 0.0;
+        double control = 0.0;  /* a continuous controller's output: feedback, not ramped with the loads (λ) */
+        if (m->n_controllers && m->hinge_controller[j] >= 0) {
+            control = m->controller_outputs[m->controller_slot[m->hinge_controller[j]]];
+            values[6] = values[7] = values[8] = 0.0;
         }
-        double f, spring_power, torque_power, damper_power;
-        m->hinge_force(1, state, values, &f, w->hinge_d_theta + j, w->hinge_d_rate + j, &spring_power,
-                       &torque_power, &damper_power);
+        double f, spring_power, torque_power, damper_power, contact_energy;
+        m->hinge_force(1, state, values, m->hinge_contact + 11 * j, &f, w->hinge_d_theta + j, w->hinge_d_rate + j,
+                       &spring_power, &torque_power, &damper_power, &contact_energy);
+        f -= control;
+        torque_power += control * c->theta_dot[j];
         if (!m->hinge_conservative[j]) power += spring_power;
         power += torque_power;
         dissipation += damper_power;
@@ -575,10 +582,10 @@ static double evaluate(const Model *m, const Configuration *c, Work *w, const do
             if (fl >= 0) values[p] = load_factor * laws[3 * fl];
             if (ml >= 0) values[3 + p] = load_factor * laws[3 * ml];
         }
-        if (m->n_controllers)  /* components a continuous controller drives */
+        if (m->n_controllers)  /* components a continuous controller drives: feedback, not ramped with λ */
             for (int p = 0; p < 6; ++p)
                 if (m->load_controller[6 * l + p] >= 0)
-                    values[p] = load_factor * m->controller_outputs[m->controller_slot[m->load_controller[6 * l + p]]];
+                    values[p] = m->controller_outputs[m->controller_slot[m->load_controller[6 * l + p]]];
         memcpy(velocity, c->v + 3 * i, 3 * sizeof(double));
         memcpy(velocity + 3, c->w + 3 * i, 3 * sizeof(double));
         double force[6], load_power, by_node[18], by_frame[18];
@@ -736,6 +743,12 @@ void latdyn_energies(const Model *m, Work *w, const Configuration *c, double *ou
     for (int64_t j = 0; j < m->n_hinges; ++j) {
         double s = c->theta[j] - m->hinge_rest_angle[j];
         strain += 0.5 * m->hinge_stiffness[j] * s * s;
+        /* a compliant stop's potential, from the generated hinge_force (its other outputs unused) */
+        double state[4] = {c->theta[j], c->theta_dot[j], m->hinge_rest_angle[j], 0.0}, values[9] = {0};
+        double f, d_theta, d_rate, spring_power, torque_power, damper_power, contact_energy;
+        m->hinge_force(1, state, values, m->hinge_contact + 11 * j, &f, &d_theta, &d_rate, &spring_power,
+                       &torque_power, &damper_power, &contact_energy);
+        strain += contact_energy;
     }
     for (int64_t b = 0; b < m->n_bodies; ++b) {
         int64_t i = m->body_nodes[b];

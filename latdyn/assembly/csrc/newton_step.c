@@ -234,8 +234,8 @@ static double lock_tolerance(double at) { return 1e-7 * fmax(1.0, fabs(at)); }
 
 /* Whether the step old → new holds an event that latdyn/timeloop/events.py handles (and the loop must not
  * accept by itself): a free hinge that reaches or crosses its lock_at (lock_events),
- * crosses a stop from inside (stop_crossings), or ends on or beyond a stop moving into
- * it (hinge_stops). */
+ * crosses a stop from inside (stop_crossings; the onset of a compliant stop's contact too), or ends on or
+ * beyond a rigid stop moving into it (hinge_stops). */
 static int hinge_event(const Model *m, const Configuration *old, const Configuration *new_)
 {
     for (int64_t k = 0; k < m->n_free_hinges; ++k) {
@@ -245,12 +245,21 @@ static int hinge_event(const Model *m, const Configuration *old, const Configura
             double before = old->theta[j] - lock, after = new_->theta[j] - lock;
             if (before == 0.0 || fabs(after) <= lock_tolerance(lock) || before * after < 0.0) return 1;
         }
+        /* friction that can hold the joint (static level > 0): a rate that reversed, fell into the stick
+         * band, or started at 0 (events.py _may_stick decides; this hands back a superset) */
+        const double *contact = m->hinge_contact + 11 * j;
+        const double before = old->theta_dot[j], after = new_->theta_dot[j];
+        if (contact[6] > 0.0 && (before * after < 0.0 || before == 0.0 ||
+                                 (fabs(after) <= contact[10] && fabs(after) < fabs(before))))
+            return 1;
         for (int side = -1; side <= 1; side += 2) {
             double stop = side < 0 ? m->hinge_lower_stop[j] : m->hinge_upper_stop[j];
             if (isnan(stop)) continue;
             double before = side * (old->theta[j] - stop), after = side * (new_->theta[j] - stop);
             if (before < -lock_tolerance(stop) && after > lock_tolerance(stop)) return 1;
-            if (after >= -lock_tolerance(stop) && side * new_->theta_dot[j] >= 0.0) return 1;
+            /* a compliant stop (contact stiffness > 0) is a force, not an impact: only its onset lands */
+            if (after >= -lock_tolerance(stop) && side * new_->theta_dot[j] >= 0.0 && !(m->hinge_contact[11 * j + 2] > 0.0))
+                return 1;
         }
     }
     return 0;
