@@ -51,6 +51,7 @@ import numpy as np
 
 from latdyn.assembly.assembler import unpack_free
 from latdyn.assembly.factorization import solve_linear
+from latdyn.assembly.native_model import NO_CONTACT
 from latdyn.errors import SceneError, SolverError
 from latdyn.results.result import SENSITIVITIES_FILE
 from latdyn.scene.expressions import parse_hinge_law
@@ -246,7 +247,9 @@ class StaticSensitivities:
         return node, np.asarray(force).reshape(6)
 
     def _hinge_force(self, state, j: int, which: str, law, load_factor: float) -> float:
-        """∂f/∂p of hinge ``j`` through its ``which`` law (the hinge_force kernel, linear in the laws)."""
+        """∂f/∂p of hinge ``j`` through its ``which`` law (the hinge_force kernel, linear in the laws;
+        its compliant stops and friction depend on no law, so they are left out: ``NO_CONTACT``)."""
+        contact = NO_CONTACT[None]
         hinge = self.model.hinges[j]
         theta, rate, t = float(state.theta[j]), float(state.theta_dot[j]), state.t
         laws = np.zeros((1, 9))
@@ -254,10 +257,10 @@ class StaticSensitivities:
         if which == "rest_angle":   # f = k (θ − θ_r) + …: affine in θ_r
             laws[0, 0] = hinge.stiffness.value(theta, rate, t)
             unit_rest = np.array([[0.0, 0.0, 1.0, load_factor]])
-            return derivative * float(np.asarray(self.kernels.hinge_force(unit_rest, laws)[0]).reshape(-1)[0])
+            return derivative * float(np.asarray(self.kernels.hinge_force(unit_rest, laws, contact)[0]).reshape(-1)[0])
         laws[0, {"stiffness": 0, "damping": 3, "torque": 6}[which]] = derivative
         at = np.array([[theta, rate, hinge.rest_angle, load_factor]])
-        return float(np.asarray(self.kernels.hinge_force(at, laws)[0]).reshape(-1)[0])
+        return float(np.asarray(self.kernels.hinge_force(at, laws, contact)[0]).reshape(-1)[0])
 
     # ------------------------------------------------------------------ rows
     def record(self, state, load_factor: float, constraint_gradient=None) -> None:

@@ -67,12 +67,16 @@ def hinge_coefficients(hinges):
     return k0, c0, rest, [k for k, f in enumerate(flags) if not f]
 
 
+#: the ``contact`` input of the generated hinge_force for a joint without compliant stops or friction
+#: (:func:`joint_contact_rows`): its force is then the laws' alone
+NO_CONTACT = np.array([0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0])
+
+
 def joint_contact_rows(hinges) -> np.ndarray:
     """(n_hinges, 11): the ``contact`` input of the generated hinge_force (codegen/joints.py
     ``joint_contact``) of each joint: lower upper k n c (its compliant stops; zeros without),
-    F_c F_s 1/v_s [v_s > 0] c_v v₀ (its friction; zeros with v₀ = 1 without)."""
-    rows = np.zeros((len(hinges), 11))
-    rows[:, 3], rows[:, 10] = 1.0, 1.0
+    F_c F_s 1/v_s [v_s > 0] c_v v₀ (its friction; zeros with v₀ = 1 without: :data:`NO_CONTACT`)."""
+    rows = np.tile(NO_CONTACT, (len(hinges), 1))
     for row, h in zip(rows, hinges):
         if h.contact is not None:
             row[0:5] = (*h.limits, h.contact.stiffness, h.contact.exponent, h.contact.damping)
