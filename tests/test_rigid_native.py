@@ -2,7 +2,8 @@
 (codegen/joints.py, generated/joints.*; revolute, clamped and prismatic edges) against
 latdyn.model.links' twists, a sliding point's kinematics and central differences, both backends; the compiled Newton iteration, which completes and reduces in C (csrc/links.c), against
 the reference step of tests/reference_step.py, which reduces in Python (latdyn.assembly.linked);
-and a rigid link against ever stiffer flexible beams."""
+and a rigid link against ever stiffer flexible beams; a linear model's inputs at a rigidly linked body
+through the native links' J."""
 from __future__ import annotations
 
 import copy
@@ -18,6 +19,7 @@ import latdyn
 from latdyn.model.kernels import load_kernels
 from latdyn.numerics.so3 import expm_so3, skew
 
+from cli_runs import latdyn_run
 from reference_step import reference_engine
 from test_engine import loaded_arm
 from test_initial_state import GYROSCOPE
@@ -465,3 +467,41 @@ def test_a_rigid_gimbal_resumes_bit_for_bit(newton, tmp_path, monkeypatch):
     result = latdyn.run(latdyn.load_scene(raw), tmp_path / "resumed", resume=True)
     assert result.summary["resumed_from_t"] == pytest.approx(0.05, abs=1e-9)
     assert relative_difference(tmp_path / "whole", tmp_path / "resumed") == 0.0
+
+
+LINKED_INPUTS = """
+title: a body carried by a rigid arm on a skew spring hinge, pushed and turned at the body
+sections: {link: {EA: 1.0e9, EIy: 1.0e9, EIz: 1.0e9, GJ: 1.0e9, rhoA: 0.0}}
+bodies:
+  base: {at: [0, 0, 0], fixed: true}
+  panel: {at: [1, 0, 0], mass: 2.0, inertia: [0.5, 0.7, 0.9]}
+beams:
+  arm:
+    from: base
+    to: panel
+    section: link
+    rigid: true
+    start: {hinge: {axis: [1, 2, 2], stiffness: 4.0}}
+solve:
+  analysis: modes
+  count: 1
+  linear_model: {inputs: [panel.force.z, panel.moment.x], outputs: [angle]}
+output:
+  probes:
+    angle: {hinge: arm.start, quantity: angle}
+"""
+
+
+def test_linear_model_inputs_at_a_rigidly_linked_body_reach_the_hinge_through_j(tmp_path):
+    """An input at a node that follows a rigid link reaches the minimum coordinates through the native
+    links' J (linearise._dependent_input_force). About the skew axis a = [1, 2, 2]/3 through the origin,
+    the body at p = [1, 0, 0]: I_a = m |a × p|² + aᵀ I a, poles ±i √(k/I_a); static gains of the angle
+    a·(p × e_z)/k = −2/(3k) for the force along z and a·e_x/k = 1/(3k) for the moment about x (3D, CLI)."""
+    done, out = latdyn_run(tmp_path, LINKED_INPUTS)
+    assert done.returncode == 0, done.stderr
+    model = np.load(out / "linear_model.npz")
+    A, B, C, D = model["A"], model["B"], model["C"], model["D"]
+    a, p, k = np.array([1.0, 2.0, 2.0]) / 3.0, np.array([1.0, 0.0, 0.0]), 4.0
+    inertia = 2.0 * np.dot(np.cross(a, p), np.cross(a, p)) + a @ np.diag([0.5, 0.7, 0.9]) @ a
+    np.testing.assert_allclose(np.sort(np.abs(np.linalg.eigvals(A).imag)), [np.sqrt(k / inertia)] * 2, rtol=1e-10)
+    np.testing.assert_allclose(-C @ np.linalg.solve(A, B) + D, [[-2.0 / (3.0 * k), 1.0 / (3.0 * k)]], rtol=1e-10)
