@@ -505,3 +505,53 @@ def test_linear_model_inputs_at_a_rigidly_linked_body_reach_the_hinge_through_j(
     inertia = 2.0 * np.dot(np.cross(a, p), np.cross(a, p)) + a @ np.diag([0.5, 0.7, 0.9]) @ a
     np.testing.assert_allclose(np.sort(np.abs(np.linalg.eigvals(A).imag)), [np.sqrt(k / inertia)] * 2, rtol=1e-10)
     np.testing.assert_allclose(-C @ np.linalg.solve(A, B) + D, [[-2.0 / (3.0 * k), 1.0 / (3.0 * k)]], rtol=1e-10)
+
+
+GUIDE_FRICTION = """
+bodies:
+  m: {at: [0.3, -0.2, 0.5], mass: 1.0, inertia: [0.1, 0.2, 0.3],
+      guide: {axis: [1, 2, 2], stiffness: 100.0, rest: -0.105, friction: {coulomb: 1.0}}}
+solve: {t_end: 2.0, dt: 0.002}
+output:
+  probes:
+    s: {guide: m, quantity: position}
+    rate: {guide: m, quantity: rate}
+    total: {energy: total}
+    dissipated: {energy: dissipated}
+"""
+
+GUIDE_STOP = """
+bodies:
+  m: {at: [0.3, -0.2, 0.5], mass: 2.0, inertia: [0.1, 0.2, 0.3],
+      guide: {axis: [1, 2, 2], limits: [-1, 0.05], contact: {stiffness: 800.0}}}
+initial_velocity: {linear: [0.3333333333333333, 0.6666666666666666, 0.6666666666666666]}
+solve: {t_end: 0.3, dt: 0.001}
+output:
+  probes:
+    s: {guide: m, quantity: position}
+    rate: {guide: m, quantity: rate}
+"""
+
+
+def test_a_guide_with_coulomb_friction_and_one_on_a_compliant_stop():
+    """Contact and friction at a guide, whose slider is a dependent node completed and reduced in C (3D:
+    the axis [1, 2, 2]). Friction: m s̈ + k (s − r) + F sign ṡ = 0 from u = s − r = 0.105 (m 1, k 100,
+    F 1): each half cycle π/ω the swing shrinks by 2F/k = 0.02 and the slider sticks at u = −0.005
+    (k |u| < F) after five; measured at dt = 0.002: extremes and the rest within 1.1e-5, stuck from
+    t = 1.570 (5π/10 = 1.5708), dissipated = lost to 1.1e-4. A linear compliant stop (k_c 800, m 2) hit
+    at 1 m/s: the peak penetration v √(m/k_c) = 0.05 to 2.2e-6 and the rebound at −1 to 1.6e-5."""
+    result = latdyn.run(latdyn.load_scene(yaml.safe_load(GUIDE_FRICTION)))
+    t, u, rate = result.t, result.probes["s"] + 0.105, result.probes["rate"]
+    half = np.pi / 10.0
+    for k, extreme in enumerate((-0.085, 0.065, -0.045, 0.025), start=1):
+        window = np.abs(t - k * half) < 0.25 * half
+        assert (u[window].min() if extreme < 0 else u[window].max()) == pytest.approx(extreme, abs=3e-5)
+    moving = np.nonzero(rate != 0.0)[0]
+    assert t[moving[-1] + 1] == pytest.approx(5 * half, abs=0.004) and np.any(rate[t < 1.5] != 0.0)
+    assert u[-1] == pytest.approx(-0.005, abs=3e-5)
+    lost = result.probes["total"][0] - result.probes["total"][-1]
+    assert result.probes["dissipated"][-1] == pytest.approx(lost, rel=5e-4)
+
+    result = latdyn.run(latdyn.load_scene(yaml.safe_load(GUIDE_STOP)))
+    assert result.probes["s"].max() == pytest.approx(0.05 + 0.05, abs=1e-5)
+    assert result.probes["rate"][-1] == pytest.approx(-1.0, abs=1e-4)
