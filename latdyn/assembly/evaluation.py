@@ -56,4 +56,4 @@ class Evaluation(SeparateMatrices):
     def _flat(self, kind):
         element, body, hinge, loads = self.blocks[kind]
         a = self.assembler
-        return [element[a._elem_mask], body[a._body_mask], hinge] + list(loads)
+        return [element[a._elem_mask], body[a._body_mask], hinge, np.ravel(loads)]

@@ -64,6 +64,8 @@ class ModelData(ctypes.Structure):
         ("hinge_stiffness_law", P), ("hinge_damping_law", P), ("hinge_torque_hinge_law", P), ("hinge_conservative", P),
         ("hinge_lock_at", P), ("hinge_lower_stop", P), ("hinge_upper_stop", P), ("has_events", I64),
         ("section_width", I64), ("complete_links", P), ("reduce_links", P),
+        ("n_cables", I64), ("cable_nodes", P), ("cable_offsets", P), ("cable_section", P), ("cable_rest_law", P),
+        ("cable_position", P), ("cable_force", P),
     ]
 
 
@@ -76,7 +78,8 @@ class WorkData(ctypes.Structure):
         "matrix", "pivots", "rhs",
         "inertia_tangent", "forces_plus", "forces_minus", "perturbed_x", "perturbed_T", "perturbed_theta",
         "p_geometry", "p_rates", "p_accelerations", "p_mass", "p_quadratic", "p_gravity_force",
-        "p_gravity_potential", "p_first_moment", "laws", "hinge_d_theta", "hinge_d_rate", "dissipation")]
+        "p_gravity_potential", "p_first_moment", "laws", "hinge_d_theta", "hinge_d_rate", "dissipation",
+        "cable_vector", "cable_stiffness", "cable_damping", "cable_state", "cable_strain", "cable_before")]
 
 
 class ConfigurationData(ctypes.Structure):
@@ -166,7 +169,7 @@ def native_library() -> ctypes.CDLL:
         library.latdyn_threads.argtypes = []
         library.latdyn_energies.restype = None
         library.latdyn_energies.argtypes = [ctypes.POINTER(ModelData), ctypes.POINTER(WorkData),
-                                            ctypes.POINTER(ConfigurationData), P]
+                                            ctypes.POINTER(ConfigurationData), ctypes.c_double, P]
         model, work, configuration = (ctypes.POINTER(ModelData), ctypes.POINTER(WorkData),
                                       ctypes.POINTER(ConfigurationData))
         library.latdyn_evaluate.restype = None

@@ -183,6 +183,8 @@ class NativeModel:
         force_law = [[laws.add(g) for g in load.force] if load.force else [-1, -1, -1] for load in a.loads]
         moment_law = [[laws.add(g) for g in load.moment] if load.moment else [-1, -1, -1] for load in a.loads]
         frame_node = [-1 if load.frame == "global" else node for load, node in zip(a.loads, a._load_frames)]
+        cables = m.cables
+        rest_law = [laws.add(f) for f in cables.rest_length] if cables is not None else []
         time_laws, hinge_laws = laws.addresses()
         self.laws, self.law_hinges = laws, list(with_law)
 
@@ -199,7 +201,8 @@ class NativeModel:
         kernel = {name: _kernel_address(kernels, name) for name in (
             "beam_internal_force", "beam_internal_force_D_q", "beam_mass_matrix", "beam_quadratic_velocity",
             "beam_quadratic_velocity_D_qdot", "beam_gravity", "beam_strain_energy", "beam_kinetic_energy",
-            "joint_body", "point_load", "hinged_end", "hinge_force", "so3_exp")}
+            "joint_body", "point_load", "hinged_end", "hinge_force", "so3_exp", "cable_force")}
+        CE = len(cables) if cables is not None else 0
         self.model = ModelData(
             n_nodes=N, n_hinges=H, n_elements=E, n_bodies=B, n_loads=L, n_dofs=m.n_dofs, n_total=m.n_total,
             node_dofs=ints(m.node_dofs), hinge_dofs=ints(m.hinge_dofs),
@@ -237,10 +240,15 @@ class NativeModel:
             hinge_torque_hinge_law=ints(torque_hinge_law),
             hinge_conservative=ints([int(h.conservative_spring) for h in m.hinges]),
             hinge_lock_at=arr(lock_at), hinge_lower_stop=arr(lower), hinge_upper_stop=arr(upper),
-            has_events=int(any(m.hinges[k].lock_at is not None or m.hinges[k].limits is not None
-                               for k in m.free_hinges)),
+            has_events=int(CE > 0 or any(m.hinges[k].lock_at is not None or m.hinges[k].limits is not None
+                                         for k in m.free_hinges)),
             section_width=m.element_sections.shape[1],
+            n_cables=CE, cable_force=kernel["cable_force"],
         )
+        if CE:
+            self.model.cable_nodes, self.model.cable_offsets = ints(cables.nodes), arr(cables.offsets)
+            self.model.cable_section = arr(np.column_stack([cables.share, cables.EA, cables.damping]))
+            self.model.cable_rest_law = ints(np.asarray(rest_law, np.int64)[cables.cable])
         work = {
             "geometry": (E, 36), "rates": (E, 14), "accelerations": (E, 14), "gravity_rows": (E, 3),
             "force": (E, 14), "tangent": (E, 14, 14), "mass": (E, 14, 14), "quadratic": (E, 14),
@@ -248,7 +256,9 @@ class NativeModel:
             "first_moment": (E, 3), "body_vector": (B, 6), "body_mass": (B, 6, 6), "body_damping": (B, 6, 6),
             "body_stiffness": (B, 6, 6), "load_blocks": (L, 6, 6), "strain": (E,), "section_forces": (E, 4),
             "kinetic": (E,), "total": (m.n_total + 1,), "laws": (max(len(laws.functions), 1), 3),
-            "hinge_d_theta": (H,), "hinge_d_rate": (H,), "matrix": (0,), "rhs": (0,), "dissipation": (1,)}
+            "hinge_d_theta": (H,), "hinge_d_rate": (H,), "matrix": (0,), "rhs": (0,), "dissipation": (1,),
+            "cable_vector": (CE, 12), "cable_stiffness": (CE, 12, 12), "cable_damping": (CE, 12, 12),
+            "cable_state": (CE, 5), "cable_strain": (CE,), "cable_before": (CE,)}
         tangent = {"inertia_tangent": (E, 14, 14), "forces_plus": (E, 14), "forces_minus": (E, 14),
                    "perturbed_x": (N, 3), "perturbed_T": (N, 3, 3), "perturbed_theta": (H,),
                    "p_geometry": (E, 36), "p_rates": (E, 14), "p_accelerations": (E, 14), "p_mass": (E, 14, 14),
@@ -329,6 +339,12 @@ class NativeModel:
                                      ctypes.byref(control))
         return self.buffers["total"].copy(), float(control.power)
 
+    def cable_state(self, state) -> np.ndarray:
+        """(ce, 5) [ℓ, ℓ̇, ℓ − L0, N_el, N] of every cable element at ``state`` (N = 0 while slack), from
+        an evaluation (``latdyn_evaluate``)."""
+        self.evaluate(state, matrices=False, load_factor=1.0, inertia=False, inertia_tangent=False)
+        return self.buffers["cable_state"].copy()
+
     def element_inputs(self, state) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Copies of the element kernels' geometry (Eqs. 2, 9, 17), rates and accelerations at ``state``."""
         self.library.latdyn_element_inputs(self.model_ref, self.work_ref, ctypes.byref(self.configuration(state)))
@@ -340,5 +356,5 @@ class NativeModel:
         a law are the caller's) and gravity potential at ``state`` (``latdyn_energies``)."""
         out = np.zeros(3)
         self.library.latdyn_energies(self.model_ref, self.work_ref, ctypes.byref(self.configuration(state)),
-                                     out.ctypes.data)
+                                     float(state.t), out.ctypes.data)
         return float(out[0]), float(out[1]), float(out[2])

@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from latdyn.errors import SceneError
+from latdyn.model.cables import add_cables
 from latdyn.model.kernels import planar_variant
 from latdyn.model.planar import find_plane, restrict_to_plane
 from latdyn.numerics.linalg import issparse, psd_null_direction
@@ -120,6 +121,11 @@ class Model:
     # after the free ones, and the assembly works on the first n_assembled coordinates
     links: object = None
     n_assembled: int = 0
+    #: the cable elements (:class:`latdyn.model.cables.CableElements`), None without cables
+    cables: object = None
+    #: (n_nodes,) bool: nodes with translations only (a cable's inner and free end nodes; their
+    #: rotations are no coordinates)
+    translation_only: np.ndarray = field(default=None)
 
     # ------------------------------------------------------------------ building
     @classmethod
@@ -183,6 +189,15 @@ class Model:
             beam_nodes[beam.name] = np.array(node_list)
             beam_grid_offsets[beam.name] = (ends[0][1], ends[1][1])
 
+        cable_nodes, point_masses = [], []  # translation-only nodes; (node, mass, offset) lumped cable mass
+
+        def cable_node(name, position):
+            cable_nodes.append(len(nodes))
+            nodes.append(Node(name, position, FREE, beam=name.split(".")[0]))
+            return len(nodes) - 1
+
+        cables = add_cables(scene, body_node, cable_node, beam_nodes, beam_grid_offsets, point_masses)
+        link_bodies += [(node, mass, offset, np.zeros((3, 3))) for node, mass, offset in point_masses]
         massive = [b for b in scene.bodies.values() if b.mass > 0 or np.any(b.inertia != 0)]
         links = None
         if edges:
@@ -206,8 +221,10 @@ class Model:
             body_com=np.array([b.com for b in massive] + [lb[2] for lb in link_bodies], float).reshape(-1, 3),
             body_inertia=np.array([b.inertia for b in massive] + [lb[3] for lb in link_bodies],
                                   float).reshape(-1, 3, 3),
-            body_node=body_node, links=links,
+            body_node=body_node, links=links, cables=cables,
         )
+        model.translation_only = np.zeros(len(nodes), dtype=bool)
+        model.translation_only[cable_nodes] = True
         model.locked = np.zeros(len(hinges), dtype=bool)
         model.section_turns = np.zeros(len(model.element_nodes))
         normal, model.plane_reason = find_plane(scene)
@@ -241,6 +258,8 @@ class Model:
         dependent = np.array([n.kind == DEPENDENT for n in self.nodes], dtype=bool)
         order_hinges = np.concatenate([np.flatnonzero(free_hinge), np.flatnonzero(~free_hinge)]).astype(np.int64)
         free_slot = free_node[:, None] & self.node_slots()[None, :]  # (n_nodes, 6)
+        if self.translation_only is not None:
+            free_slot[self.translation_only, 3:] = False
         self.node_dofs = np.zeros((n_nodes, 6), dtype=np.int64)
         self.hinge_dofs = np.zeros(n_hinges, dtype=np.int64)
         n_free_slots, n_free_hinges = int(free_slot.sum()), int(free_hinge.sum())

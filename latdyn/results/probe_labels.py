@@ -38,6 +38,9 @@ def probe_label(probe) -> str:
     elif kind == "element":
         words, unit = _SECTION[quantity]
         text = f"{words} in {probe.beam}.element[{probe.element}]"
+    elif kind == "cable":
+        text, unit = (f"tension of cable {probe.beam} (its first element)", "N") if quantity == "tension" \
+            else (f"length of cable {probe.beam} along it", "m")
     else:  # a probe kind added later without a label here: its name says what it is
         return probe.name
     return f"{probe.name}: {text} ({unit})"

@@ -72,7 +72,7 @@ from latdyn.scene.expressions import (
 )
 
 __all__ = [
-    "Section", "Hinge", "BeamEnd", "Beam", "Body", "PointRef", "Load", "Probe", "Solve",
+    "Section", "Hinge", "BeamEnd", "Beam", "Cable", "Body", "PointRef", "Load", "Probe", "Solve",
     "Output", "Control", "InitialVelocity", "Scene", "load_scene", "describe",
     "ANALYSES", "METHODS", "STATIC_METHODS", "FORMULATIONS", "MAX_ELEMENTS", "MAX_COUNT",
 ]
@@ -102,14 +102,17 @@ ENERGY_KINDS = ("kinetic", "strain", "potential", "external_work", "dissipated",
 MOMENTUM_KINDS = ("linear", "angular")
 AXIS_COMPONENTS = ("x", "y", "z")
 ELEMENT_QUANTITIES = ("axial_force", "torque", "moment_y", "moment_z")
-PROBE_KINDS = ("point", "hinge", "energy", "momentum", "element")
+CABLE_QUANTITIES = ("tension", "length")
+PROBE_KINDS = ("point", "hinge", "energy", "momentum", "element", "cable")
 
-_TOP_KEYS = ("title", "gravity", "initial_velocity", "sections", "bodies", "beams", "loads", "solve", "output")
+_TOP_KEYS = ("title", "gravity", "initial_velocity", "sections", "bodies", "beams", "cables", "loads", "solve",
+             "output")
 _SECTION_KEYS = ("EA", "EIy", "EIz", "GJ", "rhoA", "rhoIy", "rhoIz", "GAy", "GAz")
 _BODY_KEYS = ("at", "mass", "com", "inertia", "fixed", "motion")
 _BEAM_KEYS = ("from", "to", "section", "elements", "y_axis", "start", "end", "rigid")
 _HINGE_KEYS = ("axis", "stiffness", "damping", "torque", "angle", "lock_at", "rest_angle", "limits", "restitution")
 _LOAD_KEYS = ("at", "force", "moment", "frame")
+_CABLE_KEYS = ("from", "to", "EA", "rhoA", "damping", "elements", "rest_length")
 _SOLVE_KEYS = ("analysis", "t_end", "dt", "method", "rho_inf", "tol", "steps", "count",
                "adaptive", "error_tol", "dt_min", "max_iterations", "formulation", "engine", "newton", "planar",
                "control", "max_steps", "about", "linear_model", "mode_shapes", "flutter")
@@ -135,6 +138,7 @@ _PROBE_KEYS = {
     "energy": ("energy",),
     "momentum": ("momentum", "component"),
     "element": ("element", "quantity"),
+    "cable": ("cable", "quantity"),
 }
 _RESERVED_COLUMNS = ("t", "load_factor")
 
@@ -218,6 +222,27 @@ class Beam:
 
 
 @dataclass
+class Cable:
+    """A tension-only member (``cables.NAME``, latdyn/model/cables.py): ``elements`` equal elements
+    between two ends (``body`` None: a free end node at ``point``), axial stiffness EA, mass per
+    unstretched length rhoA, axial damping c; its rest length a function of time (the initial distance
+    of its ends when the scene gives none)."""
+    name: str
+    start: BeamEnd
+    end: BeamEnd
+    EA: float
+    rhoA: float
+    damping: float
+    elements: int
+    rest_length: TimeFunction
+
+    @property
+    def length(self) -> float:
+        """The distance of its ends at t = 0."""
+        return float(np.linalg.norm(self.end.point - self.start.point))
+
+
+@dataclass
 class Body:
     """A rigid joint body; frame parallel to the global axes at t = 0."""
     name: str
@@ -264,7 +289,8 @@ class Probe:
     - ``hinge``: beam, end ("start"|"end"), quantity (angle|rate);
     - ``energy``: quantity (kinetic|strain|potential|external_work|dissipated|total);
     - ``momentum``: quantity (linear|angular), component (x|y|z);
-    - ``element``: beam, element (0-based index), quantity (axial_force|torque|moment_y|moment_z).
+    - ``element``: beam, element (0-based index), quantity (axial_force|torque|moment_y|moment_z);
+    - ``cable``: beam (the cable's name), quantity (tension|length).
     """
     name: str
     kind: str
@@ -358,6 +384,7 @@ class Scene:
     solve: Solve
     output: Output
     raw: dict
+    cables: dict[str, Cable] = field(default_factory=dict)
 
     @property
     def n_elements(self) -> int:
@@ -631,6 +658,7 @@ class _Reader:
         self.sections: dict[str, Section] = {}
         self.bodies: dict[str, Body] = {}
         self.beams: dict[str, Beam] = {}
+        self.cables: dict[str, Cable] = {}
         self.n_elements = 0  # elements of the beams read so far
 
     # -- primitive checks -------------------------------------------------------
@@ -944,9 +972,10 @@ class _Reader:
         if value in self.bodies:
             return PointRef(text=value, body=value)
         m = self._POINT.match(value)
-        if not m or m["name"] not in self.beams:
-            self.fail(key, forms, value)
-        beam = self.beams[m["name"]]
+        if not m or (m["name"] not in self.beams and m["name"] not in self.cables):
+            self.fail(key, forms + (f" or CABLE.start, CABLE.end, CABLE.node[i] (cables: {_listing(self.cables)})"
+                                    if self.cables else ""), value)
+        beam = self.beams.get(m["name"]) or self.cables[m["name"]]
         if m["end"]:
             return PointRef(text=value, beam=beam.name, node=0 if m["end"] == "start" else beam.elements)
         node = int(m["node"])
@@ -990,6 +1019,36 @@ class _Reader:
                           name)
         return {"inputs": inputs, "input_names": list(spec["inputs"]), "outputs": list(spec["outputs"])}
 
+    def cable(self, name, spec, key) -> Cable:
+        """``cables.NAME`` (SCENE.md): ends as for beams (no joints), EA > 0, rhoA ≥ 0, damping ≥ 0,
+        elements ≥ 1 (several only with rhoA > 0: massless inner nodes would hold nothing), rest_length
+        a positive number or an expression in t."""
+        if name in self.beams:
+            self.fail(key, f"expected a cable name that is not a beam's ({name!r} is a beam)", name)
+        self.mapping(spec, key, _CABLE_KEYS, required=("from", "to", "EA"))
+        ends = [self.beam_end(spec[side], _join(key, side), None, "", False) for side in ("from", "to")]
+        d = ends[1].point - ends[0].point
+        length = float(np.linalg.norm(d))
+        scale = max(np.abs(ends[0].point).max(), np.abs(ends[1].point).max(), 1.0)
+        if not math.isfinite(length) or length <= 1e-12 * scale:
+            self.fail(key, f"zero-length cable: from and to are both at {ends[0].point.tolist()}; "
+                           "expected two distinct points")
+        EA = self.number(spec["EA"], _join(key, "EA"), positive=True)
+        rhoA = self.number(spec.get("rhoA", 0.0), _join(key, "rhoA"), nonnegative=True)
+        damping = self.number(spec.get("damping", 0.0), _join(key, "damping"), nonnegative=True)
+        elements = self.integer(spec.get("elements", 1), _join(key, "elements"), maximum=MAX_ELEMENTS)
+        if elements > 1 and rhoA == 0.0:
+            self.fail(_join(key, "elements"), "a massless cable is one element (its inner nodes would have "
+                                              "nothing to hold them); expected 1, or rhoA > 0", elements)
+        rest_key = _join(key, "rest_length")
+        rest = parse_time_function(spec.get("rest_length", length), self.file, rest_key)
+        if rest.is_constant:
+            self.number(rest.value(0.0), rest_key, positive=True)
+        elif not rest.value(0.0) > 0.0:
+            self.fail(rest_key, f"expected a rest length > 0 at t = 0 (it is {rest.value(0.0):g})", spec["rest_length"])
+        return Cable(name=name, start=ends[0], end=ends[1], EA=EA, rhoA=rhoA, damping=damping, elements=elements,
+                     rest_length=rest)
+
     def load(self, spec, key) -> Load:
         self.mapping(spec, key, _LOAD_KEYS, required=("at",))
         if "force" not in spec and "moment" not in spec:
@@ -1032,6 +1091,9 @@ class _Reader:
                          quantity=self.choice(spec["quantity"], k("quantity"), HINGE_QUANTITIES))
         if kind == "energy":
             return Probe(name=name, kind=kind, quantity=self.choice(spec["energy"], k("energy"), ENERGY_KINDS))
+        if kind == "cable":
+            return Probe(name=name, kind=kind, beam=self.ref(spec["cable"], k("cable"), self.cables, "cable"),
+                         quantity=self.choice(spec["quantity"], k("quantity"), CABLE_QUANTITIES))
         if kind == "momentum":
             return Probe(name=name, kind=kind, quantity=self.choice(spec["momentum"], k("momentum"), MOMENTUM_KINDS),
                          component=self.choice(spec["component"], k("component"), AXIS_COMPONENTS))
@@ -1288,10 +1350,13 @@ def _build(raw: Any, file: str) -> Scene:
         r.bodies[name] = r.body(name, spec, f"bodies.{name}")
     for name, spec in r.named_mapping(raw.get("beams"), "beams", "beam").items():
         r.beams[name] = r.beam(name, spec, f"beams.{name}")
+    for name, spec in r.named_mapping(raw.get("cables"), "cables", "cable").items():
+        r.cables[name] = r.cable(name, spec, f"cables.{name}")
     if not r.bodies and not r.beams:
         r.fail("beams", "expected at least one body or beam in the scene")
 
-    attached = {end.body for b in r.beams.values() for end in (b.start, b.end) if end.body is not None}
+    attached = {end.body for b in [*r.beams.values(), *r.cables.values()] for end in (b.start, b.end)
+                if end.body is not None}
     for name, body in r.bodies.items():
         if (body.mass == 0.0 and not np.any(body.inertia) and not body.fixed and not body.prescribed
                 and name not in attached):
@@ -1324,6 +1389,7 @@ def _build(raw: Any, file: str) -> Scene:
         title=title, file=file, source_hash=_canonical_hash(raw), gravity=gravity,
         initial_velocity=initial_velocity, sections=r.sections, bodies=r.bodies, beams=r.beams,
         loads=loads, solve=solve, output=Output(every=every, paraview_every=paraview_every, probes=probes), raw=raw,
+        cables=r.cables,
     )
 
 

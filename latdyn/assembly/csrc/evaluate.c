@@ -136,6 +136,16 @@ typedef struct {
     void (*complete_links)(Configuration *);
     int64_t (*reduce_links)(const Configuration *, double beta_p, double gamma_p, int64_t matrices,
                             int64_t inertia_tangent);
+    /* cable elements (latdyn/model/cables.py): the node of each end (ce,2), the end points in node
+     * axes (ce,2,3), share of the rest length, EA, c (ce,3), the law of the cable's rest length
+     * (ce), the positions of their (12,12) blocks in the matrix storage (ce,144; set with it), and
+     * the generated taut law (codegen/joints.py cable_force) */
+    int64_t n_cables;
+    const int64_t *cable_nodes;
+    const double *cable_offsets, *cable_section;
+    const int64_t *cable_rest_law, *cable_position;
+    void (*cable_force)(int64_t, const double *, const double *, const double *, double *, double *, double *,
+                        double *, double *, double *, double *, double *);
 } Model;
 
 /* Scratch buffers, allocated once by the caller. */
@@ -161,6 +171,11 @@ typedef struct {
     double *laws, *hinge_d_theta, *hinge_d_rate;
     /* the power the hinge dampers dissipate at the last evaluation, c θ̇² summed (1) */
     double *dissipation;
+    /* cable elements at the last evaluation: residual rows (ce,12), K and C blocks (ce,12,12) (zero
+     * while slack), [ℓ, ℓ̇, ℓ − L0, N_el, N] with N = 0 while slack (ce,5), strain energy (ce) */
+    double *cable_vector, *cable_stiffness, *cable_damping, *cable_state, *cable_strain;
+    /* the stretch ℓ − L0 of each cable element at the last accepted state (latdyn_advance's events) */
+    double *cable_before;
 } Work;
 
 /* ------------------------------------------------------------------------- small algebra */
@@ -419,6 +434,57 @@ static void element_range(const Model *m, const Configuration *c, Work *w, int64
                         w->gravity_potential + begin, w->first_moment + 3 * begin);
 }
 
+/* Cable elements at c: the generated taut law (codegen/joints.py cable_force) where an element is taut,
+ * zero where it is slack (stretch ℓ − L0 ≤ 0) or where its damper would push (N ≤ 0: the force is
+ * clipped at 0 and the damper dissipates −N_el ℓ̇); the rows into w->total, the reel's power
+ * ∂U/∂L0·L̇0 into *power and the dampers' into *dissipation. The blocks always (the kernel gives
+ * them with the force). latdyn/model/cables.py. */
+static void cables(const Model *m, const Configuration *c, Work *w, const double *laws, double *power,
+                   double *dissipation)
+{
+    for (int64_t e = 0; e < m->n_cables; ++e) {
+        double geometry[12], velocity[12], section[4];
+        const double *data = m->cable_section + 3 * e, *rest = laws + 3 * m->cable_rest_law[e];
+        for (int end = 0; end < 2; ++end) {
+            int64_t i = m->cable_nodes[2 * e + end];
+            matvec3(c->T + 9 * i, m->cable_offsets + 6 * e + 3 * end, geometry + 6 + 3 * end);
+            memcpy(geometry + 3 * end, c->x + 3 * i, 3 * sizeof(double));
+            memcpy(velocity + 6 * end, c->v + 3 * i, 3 * sizeof(double));
+            memcpy(velocity + 6 * end + 3, c->w + 3 * i, 3 * sizeof(double));
+        }
+        section[0] = data[0] * rest[0];
+        section[1] = data[0] * rest[1];
+        section[2] = data[1];
+        section[3] = data[2];
+        double *force = w->cable_vector + 12 * e, *K = w->cable_stiffness + 144 * e, *C = w->cable_damping + 144 * e;
+        double *state = w->cable_state + 5 * e, reel, damper, clipped;
+        m->cable_force(1, geometry, velocity, section, force, K, C, state, w->cable_strain + e, &reel, &damper,
+                       &clipped);
+        if (state[2] <= 0.0) { /* slack */
+            memset(force, 0, 12 * sizeof(double));
+            memset(K, 0, 144 * sizeof(double));
+            memset(C, 0, 144 * sizeof(double));
+            state[4] = 0.0;
+            w->cable_strain[e] = 0.0;
+            continue;
+        }
+        *power += reel;
+        if (state[4] <= 0.0) { /* taut, but the damper cancels the elastic tension */
+            memset(force, 0, 12 * sizeof(double));
+            memset(K, 0, 144 * sizeof(double));
+            memset(C, 0, 144 * sizeof(double));
+            state[4] = 0.0;
+            *dissipation += clipped;
+            continue;
+        }
+        *dissipation += damper;
+        for (int end = 0; end < 2; ++end) {
+            const int64_t *d = m->node_dofs + 6 * m->cable_nodes[2 * e + end];
+            for (int p = 0; p < 6; ++p) w->total[d[p]] += force[6 * end + p];
+        }
+    }
+}
+
 static double evaluate(const Model *m, const Configuration *c, Work *w, const double *laws, double t, int matrices,
                        int inertia, double load_factor)
 {
@@ -504,6 +570,7 @@ static double evaluate(const Model *m, const Configuration *c, Work *w, const do
                 }
         }
     }
+    cables(m, c, w, laws, &power, &dissipation);
     w->dissipation[0] = dissipation;
     return power;
 }
@@ -627,7 +694,7 @@ static void inertia_tangent(const Model *m, const Configuration *c, Work *w, dou
  * out = [kinetic, strain, potential]. Springs with a law have hinge_stiffness 0 here: the caller
  * adds their potential (Assembler.hinge_potential integrates the law). Joint bodies: ½m|v_c|² + ½ωᵀJω
  * about the centre of mass r_c = T c, J = T I Tᵀ, and −m g·(x + r_c). */
-void latdyn_energies(const Model *m, Work *w, const Configuration *c, double *out)
+void latdyn_energies(const Model *m, Work *w, const Configuration *c, double t, double *out)
 {
     const int64_t E = m->n_elements;
     double kinetic = 0.0, strain = 0.0, potential = 0.0;
@@ -661,6 +728,13 @@ void latdyn_energies(const Model *m, Work *w, const Configuration *c, double *ou
         kinetic += 0.5 * mass * (vc[0] * vc[0] + vc[1] * vc[1] + vc[2] * vc[2])
                  + 0.5 * (om[0] * Jw[0] + om[1] * Jw[1] + om[2] * Jw[2]);
         for (int p = 0; p < 3; ++p) potential -= mass * (c->x[3 * i + p] + rc[p]) * m->gravity[p];
+    }
+    if (m->n_cables > 0) { /* the cables' strain energy at the rest lengths of time t */
+        double power = 0.0, dissipation = 0.0;
+        m->time_laws(t, w->laws);
+        memset(w->total, 0, sizeof(double) * (m->n_total + 1));
+        cables(m, c, w, w->laws, &power, &dissipation);
+        for (int64_t e = 0; e < m->n_cables; ++e) strain += w->cable_strain[e];
     }
     out[0] = kinetic;
     out[1] = strain;

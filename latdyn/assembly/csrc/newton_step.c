@@ -51,6 +51,12 @@ static void assemble(const Model *m, Work *w, double beta_p, double gamma_p, int
         for (int p = 0; p < 36; ++p)
             if (pos[p] >= 0) w->matrix[pos[p]] += w->load_blocks[36 * l + p];
     }
+    for (int64_t e = 0; e < m->n_cables; ++e) {
+        const int64_t *pos = m->cable_position + 144 * e;
+        const double *K = w->cable_stiffness + 144 * e, *C = w->cable_damping + 144 * e;
+        for (int p = 0; p < 144; ++p)
+            if (pos[p] >= 0) w->matrix[pos[p]] += gamma_p * C[p] + K[p];
+    }
 }
 
 /* dx = −S⁻¹ r with the factors held in Work (factorization.c), through the factor's order. */
@@ -240,6 +246,22 @@ static int hinge_event(const Model *m, const Configuration *old, const Configura
     return 0;
 }
 
+/* latdyn/timeloop/events.py cable_tolerance: of a stretch, for an element of rest length L0 */
+static double cable_tolerance(double L0) { return 1e-9 * L0; }
+
+/* Whether a cable element went from slack to taut or back between the last accepted state (its
+ * stretch in w->cable_before) and the step's last evaluation (latdyn/timeloop/events.py
+ * cable_crossings). */
+static int cable_event(const Model *m, const Work *w)
+{
+    for (int64_t e = 0; e < m->n_cables; ++e) {
+        const double *state = w->cable_state + 5 * e;
+        double before = w->cable_before[e], after = state[2], tol = cable_tolerance(state[0] - state[2]);
+        if ((before < -tol && after > tol) || (before > tol && after < -tol)) return 1;
+    }
+    return 0;
+}
+
 /* Power of the constraint forces that impose prescribed motion (latdyn/timeloop/progress.py drive_power): the
  * reaction of the last evaluation (w->total on the constrained coordinates n_dofs … n_total−1)
  * times the velocities of those coordinates. */
@@ -319,9 +341,10 @@ int64_t latdyn_advance(const Model *m, Work *w, StepControl *s, const Configurat
         int64_t failed = latdyn_newton_step(m, w, s, base, trial, x);
         if (failed || !s->converged) {
             adv->status = 1;
-        } else if (m->has_events && hinge_event(m, base, trial)) {
+        } else if (m->has_events && (hinge_event(m, base, trial) || cable_event(m, w))) {
             adv->status = 2;
         }
+        for (int64_t e = 0; !adv->status && e < m->n_cables; ++e) w->cable_before[e] = w->cable_state[5 * e + 2];
         if (adv->status) {
             adv->pending = next;
             adv->h_pending = s->h;
