@@ -34,11 +34,74 @@ def lock_events(model: Model, old: State, new: State) -> tuple[list[int], list[t
     return reached, crossing
 
 
-def crossing_fraction(model: Model, old: State, new: State) -> float | None:
-    """The fraction of the step at which the first hinge crosses its lock_at or a stop, or None."""
+def crossing_fraction(model: Model, old: State, new: State, assembler=None) -> float | None:
+    """The fraction of the step at which the first hinge crosses its lock_at or a stop, or a cable
+    element goes slack or taut (with ``assembler``), or None."""
     _, crossing = lock_events(model, old, new)
     fractions = [f for _, f in crossing] + [f for _, _, f in stop_crossings(model, old, new)]
+    if assembler is not None and model.cables is not None:
+        fractions += [f for _, f in cable_crossings(assembler, old, new)]
     return min(fractions) if fractions else None
+
+
+# ----------------------------------------------------------------------------- cables
+# A cable element goes taut when its stretch ℓ − L0 passes zero upwards and slack when it passes it
+# downwards (latdyn/model/cables.py). Located like a stop: a step in which a stretch crosses zero by more
+# than cable_tolerance is shortened to land on it (secant on the stretch); the step that lands (within
+# the tolerance) decides the element's side by where it came from. Nothing jumps at the change (the
+# velocities are continuous; the tension rises from zero), so there is no impulse: the event only keeps
+# the law smooth inside every step (docs/cables.md measures what that buys).
+def cable_tolerance(rest: np.ndarray) -> np.ndarray:
+    """The stretch within which a cable element of rest length ``rest`` is on its change (csrc/newton_step.c
+    cable_tolerance)."""
+    return 1e-9 * rest
+
+
+def cable_stretches(assembler, state: State) -> tuple[np.ndarray, np.ndarray]:
+    """(stretch ℓ − L0, its tolerance) of every cable element at ``state``."""
+    values = assembler.native().cable_state(state)
+    return values[:, 2], cable_tolerance(values[:, 0] - values[:, 2])
+
+
+def cable_crossings(assembler, old: State, new: State) -> list[tuple[int, float]]:
+    """(cable element, fraction of the step) for each element whose stretch crosses zero by more than its
+    tolerance during the step (linear interpolation of the stretch)."""
+    before, tol = cable_stretches(assembler, old)
+    after, _ = cable_stretches(assembler, new)
+    crossed = ((before < -tol) & (after > tol)) | ((before > tol) & (after < -tol))
+    return [(int(e), float(before[e] / (before[e] - after[e]))) for e in np.flatnonzero(crossed)]
+
+
+def cable_sides(assembler, state: State) -> list[int]:
+    """+1 (taut: stretched beyond the tolerance) or −1 (slack) for every cable element at ``state``."""
+    stretch, tol = cable_stretches(assembler, state)
+    return [1 if s > t else -1 for s, t in zip(stretch, tol)]
+
+
+def cable_events(assembler, sides: list, old: State, new: State) -> tuple[list, list]:
+    """The elements' sides at ``new`` (from ``sides`` at ``old``) and the changes of whole cables,
+    [(cable name, "taut" | "slack")]: a cable is taut while any of its elements is. An element within
+    its tolerance of zero at ``new`` keeps its side, unless it came there from beyond the tolerance on
+    its side (the step landed on its change: it takes the other side)."""
+    before, tol = cable_stretches(assembler, old)
+    after, _ = cable_stretches(assembler, new)
+    new_sides = []
+    for e, side in enumerate(sides):
+        if after[e] > tol[e]:
+            side = 1
+        elif after[e] < -tol[e]:
+            side = -1
+        elif abs(before[e]) > tol[e]:
+            side = -1 if before[e] > 0 else 1
+        new_sides.append(side)
+    cables = assembler.model.cables
+    changes = []
+    for k, name in enumerate(cables.names):
+        elements = np.flatnonzero(cables.cable == k)
+        was, now = any(sides[e] > 0 for e in elements), any(new_sides[e] > 0 for e in elements)
+        if was != now:
+            changes.append((name, "taut" if now else "slack"))
+    return new_sides, changes
 
 
 # ----------------------------------------------------------------------------- hard stops
@@ -73,7 +136,8 @@ def stop_crossings(model: Model, old: State, new: State) -> list[tuple[int, int,
     return out
 
 
-def hinge_stops(prepared: Prepared, integrator, new: State, old: State | None = None) -> float | None:
+def hinge_stops(prepared: Prepared, integrator, new: State, old: State | None = None,
+                log: list | None = None) -> float | None:
     """Impacts on hinge stops at the end of an accepted step from ``old`` (see above): the energy
     they removed (:func:`hinge_events`), or None when no hinge hit a stop.
 
@@ -94,6 +158,8 @@ def hinge_stops(prepared: Prepared, integrator, new: State, old: State | None = 
                 hits.append(int(k))
                 stops.append(stop)
                 restitution.append(0.0 if resting else model.hinges[k].restitution)
+                if log is not None and not resting:  # an impact; a hinge resting on its stop is no new event
+                    log.append((f"{model.hinges[k].beam}.{model.hinges[k].end}", "stop"))
     if not hits:
         return None
     before = kinetic_energy(assembler, new)
@@ -137,7 +203,8 @@ def restart_accelerations(prepared: Prepared, integrator, new: State, dt: float)
         integrator.a = vdot.copy()
 
 
-def latch_hinges(prepared: Prepared, integrator, old: State, new: State, h: float) -> float | None:
+def latch_hinges(prepared: Prepared, integrator, old: State, new: State, h: float,
+                 log: list | None = None) -> float | None:
     """Latch every free hinge whose angle crossed its lock_at during the step.
 
     The latch is a perfectly plastic impulsive constraint θ̇ = 0: the free
@@ -154,6 +221,8 @@ def latch_hinges(prepared: Prepared, integrator, old: State, new: State, h: floa
     latched = reached + [k for k, _ in crossing]
     if not latched:
         return None
+    if log is not None:
+        log.extend((f"{model.hinges[k].beam}.{model.hinges[k].end}", "latch") for k in latched)
     before = kinetic_energy(assembler, new)
 
     N = hinge_directions(model, latched)
@@ -182,6 +251,8 @@ class HingeEvents(NamedTuple):
     stopped: bool  # a hinge hit a stop
     #: the energy the events removed (:func:`hinge_events`): declared dissipation
     loss: float
+    #: (joint, kind) of each event: latch, stop (an impact)
+    log: list = []
 
 
 def hinge_events(prepared: Prepared, integrator, old: State, new: State, h: float) -> HingeEvents:
@@ -197,7 +268,8 @@ def hinge_events(prepared: Prepared, integrator, old: State, new: State, h: floa
     configuration back on the stop changes of the strain and potential energy is not declared and
     stays in the balance (the method's error: with the trapezoidal rule, a constant torque τ
     pushing a hinge of inertia I into its stop gains ⅛ τ²h²/I a step)."""
-    latched = latch_hinges(prepared, integrator, old, new, h)
-    stopped = hinge_stops(prepared, integrator, new, old)
+    log = []
+    latched = latch_hinges(prepared, integrator, old, new, h, log)
+    stopped = hinge_stops(prepared, integrator, new, old, log)
     loss = (latched or 0.0) + (stopped or 0.0)
-    return HingeEvents(stopped is not None or latched is not None, stopped is not None, loss)
+    return HingeEvents(stopped is not None or latched is not None, stopped is not None, loss, log)

@@ -55,6 +55,12 @@ class TransientProgress:
     solver_s: float = 0.0  # wall time inside the integrator's steps
     cut_times: list = field(default_factory=list)  # the first times at which a step was cut
     inertia_tangent_from: float | None = None  # t from which Newton's matrix holds the inertia tangent
+    #: the events so far, summary.json ``events``: {joint, kind: latch|stop|slack|taut, t}, in time order
+    #: (a new list on each event: checkpoints keep shallow copies)
+    events: list = field(default_factory=list)
+    #: per cable element, +1 taut or −1 slack at ``state`` (latdyn.timeloop.events.cable_events); None
+    #: until the first step of a model with cables
+    cable_sides: list | None = None
 
     def count(self, stats) -> None:
         """Count a step's Newton iterations and factorizations (``stats``: a StepStats)."""
@@ -98,7 +104,7 @@ class TransientProgress:
             energy_balance_error=self.relative_balance_error, dissipated_energy=self.dissipated,
             newton_iterations_per_step=self.newton_iterations / max(self.steps, 1),
             newton_tolerance=tol, method=method, solver_s=self.solver_s, factorizations=self.factorizations,
-            inertia_tangent_from=self.inertia_tangent_from)
+            inertia_tangent_from=self.inertia_tangent_from, events=self.events)
 
 
 #: ``energy_balance_error`` (relative) past which a run is flagged: a warning on stderr and in
