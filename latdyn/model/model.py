@@ -426,7 +426,8 @@ class Model:
         node = dof_name.split(":")[0]
         for nd in self.nodes:
             if nd.name == node:
-                return f"bodies.{nd.body}" if nd.body else f"beams.{nd.beam}"
+                group = "cables" if nd.beam in self.scene.cables else "beams"
+                return f"bodies.{nd.body}" if nd.body else f"{group}.{nd.beam}"
         return "bodies"
 
 
