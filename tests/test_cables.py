@@ -363,3 +363,21 @@ def test_checkpoint_and_resume_across_a_cable_event_bit_for_bit(tmp_path, monkey
     extra = {"wall_time_s", "solver_s", "compile_s", "resumed_from_t", "resumes"}
     assert {k: v for k, v in b.items() if k not in extra} == {k: v for k, v in a.items() if k not in extra}
     assert [e["state"] for e in b["cable_events"]] == ["taut", "slack"]
+
+
+def test_a_study_varies_a_cables_rest_length(tmp_path):
+    """A study over cables.rope.rest_length: each case goes taut after its own fall, at √(2h/g)."""
+    import yaml
+
+    (tmp_path / "drop.yaml").write_text(drop_scene([0, -1, 0], 0.0, 0.8, dt=2e-3, every=1e-2))
+    study = {"scene": "drop.yaml", "vary": {"cables.rope.rest_length": [1.0, 1.2]},
+             "reference": {"overrides": {"solve.dt": 1e-3}}, "error": {"probe": "N", "norm": "max"}}
+    (tmp_path / "study.yaml").write_text(yaml.safe_dump(study))
+    latdyn.study(str(tmp_path / "study.yaml"), out=str(tmp_path / "out"), progress=False)
+    with open(tmp_path / "out" / "study.csv") as f:
+        rows = list(__import__("csv").DictReader(f))
+    assert [r["status"] for r in rows] == ["solved", "solved"]
+    for row in rows:
+        rest = float(row["cables.rope.rest_length"])
+        summary = json.loads((tmp_path / "out" / "cases" / row["case"] / "summary.json").read_text())
+        assert summary["cable_events"][0]["t"] == pytest.approx(math.sqrt(2 * (rest - 0.2) / G), abs=1e-9)
