@@ -167,6 +167,9 @@ def native_library() -> ctypes.CDLL:
         library = native.load(path)
         library.latdyn_threads.restype = I64
         library.latdyn_threads.argtypes = []
+        library.latdyn_cables.restype = None
+        library.latdyn_cables.argtypes = [ctypes.POINTER(ModelData), ctypes.POINTER(WorkData),
+                                          ctypes.POINTER(ConfigurationData), ctypes.c_double]
         library.latdyn_energies.restype = None
         library.latdyn_energies.argtypes = [ctypes.POINTER(ModelData), ctypes.POINTER(WorkData),
                                             ctypes.POINTER(ConfigurationData), ctypes.c_double, P]

@@ -340,9 +340,10 @@ class NativeModel:
         return self.buffers["total"].copy(), float(control.power)
 
     def cable_state(self, state) -> np.ndarray:
-        """(ce, 5) [ℓ, ℓ̇, ℓ − L0, N_el, N] of every cable element at ``state`` (N = 0 while slack), from
-        an evaluation (``latdyn_evaluate``)."""
-        self.evaluate(state, matrices=False, load_factor=1.0, inertia=False, inertia_tangent=False)
+        """(ce, 5) [ℓ, ℓ̇, ℓ − L0, N_el, N] of every cable element at ``state`` (N = 0 while slack):
+        ``latdyn_cables``, which leaves the last evaluation's rows in Work as they are."""
+        self.library.latdyn_cables(self.model_ref, self.work_ref, ctypes.byref(self.configuration(state)),
+                                   float(state.t))
         return self.buffers["cable_state"].copy()
 
     def element_inputs(self, state) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

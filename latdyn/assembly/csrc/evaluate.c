@@ -437,10 +437,10 @@ static void element_range(const Model *m, const Configuration *c, Work *w, int64
 /* Cable elements at c: the generated taut law (codegen/joints.py cable_force) where an element is taut,
  * zero where it is slack (stretch ℓ − L0 ≤ 0) or where its damper would push (N ≤ 0: the force is
  * clipped at 0 and the damper dissipates −N_el ℓ̇); the rows into w->total, the reel's power
- * ∂U/∂L0·L̇0 into *power and the dampers' into *dissipation. The blocks always (the kernel gives
- * them with the force). latdyn/model/cables.py. */
+ * ∂U/∂L0·L̇0 into *power and the dampers' into *dissipation (rows only where total is not NULL). The
+ * blocks always (the kernel gives them with the force). latdyn/model/cables.py. */
 static void cables(const Model *m, const Configuration *c, Work *w, const double *laws, double *power,
-                   double *dissipation)
+                   double *dissipation, double *total)
 {
     for (int64_t e = 0; e < m->n_cables; ++e) {
         double geometry[12], velocity[12], section[4];
@@ -478,9 +478,9 @@ static void cables(const Model *m, const Configuration *c, Work *w, const double
             continue;
         }
         *dissipation += damper;
-        for (int end = 0; end < 2; ++end) {
+        for (int end = 0; total && end < 2; ++end) {
             const int64_t *d = m->node_dofs + 6 * m->cable_nodes[2 * e + end];
-            for (int p = 0; p < 6; ++p) w->total[d[p]] += force[6 * end + p];
+            for (int p = 0; p < 6; ++p) total[d[p]] += force[6 * end + p];
         }
     }
 }
@@ -570,7 +570,7 @@ static double evaluate(const Model *m, const Configuration *c, Work *w, const do
                 }
         }
     }
-    cables(m, c, w, laws, &power, &dissipation);
+    cables(m, c, w, laws, &power, &dissipation, w->total);
     w->dissipation[0] = dissipation;
     return power;
 }
@@ -732,8 +732,7 @@ void latdyn_energies(const Model *m, Work *w, const Configuration *c, double t, 
     if (m->n_cables > 0) { /* the cables' strain energy at the rest lengths of time t */
         double power = 0.0, dissipation = 0.0;
         m->time_laws(t, w->laws);
-        memset(w->total, 0, sizeof(double) * (m->n_total + 1));
-        cables(m, c, w, w->laws, &power, &dissipation);
+        cables(m, c, w, w->laws, &power, &dissipation, NULL);
         for (int64_t e = 0; e < m->n_cables; ++e) strain += w->cable_strain[e];
     }
     out[0] = kinetic;
@@ -763,6 +762,16 @@ void latdyn_evaluate(const Model *m, Work *w, const Configuration *c, Evaluation
     e->power = evaluate(m, c, w, w->laws, e->t, (int)e->matrices, (int)e->inertia, e->load_factor);
     if (e->matrices && e->inertia && e->inertia_tangent)
         inertia_tangent(m, c, w, e->tangent_step, e->length);
+}
+
+/* The cable elements at c and time t into w->cable_state, w->cable_strain and their blocks, and nothing
+ * else of Work but the laws (latdyn/timeloop/events.py reads the stretches between steps, where the
+ * last evaluation's rows must stay as they are). */
+void latdyn_cables(const Model *m, Work *w, const Configuration *c, double t)
+{
+    double power = 0.0, dissipation = 0.0;
+    m->time_laws(t, w->laws);
+    cables(m, c, w, w->laws, &power, &dissipation, NULL);
 }
 
 /* The element kernels' inputs at c (Eqs. 2, 9, 17) into w->geometry, w->rates, w->accelerations. */
