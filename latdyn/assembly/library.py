@@ -65,7 +65,7 @@ class ModelData(ctypes.Structure):
         ("hinge_lock_at", P), ("hinge_lower_stop", P), ("hinge_upper_stop", P), ("has_events", I64),
         ("section_width", I64), ("complete_links", P), ("reduce_links", P),
         ("n_cables", I64), ("cable_nodes", P), ("cable_offsets", P), ("cable_section", P), ("cable_rest_law", P),
-        ("cable_position", P), ("cable_force", P),
+        ("cable_position", P), ("cable_force", P), ("cable_side", P),
     ]
 
 
@@ -79,7 +79,7 @@ class WorkData(ctypes.Structure):
         "inertia_tangent", "forces_plus", "forces_minus", "perturbed_x", "perturbed_T", "perturbed_theta",
         "p_geometry", "p_rates", "p_accelerations", "p_mass", "p_quadratic", "p_gravity_force",
         "p_gravity_potential", "p_first_moment", "laws", "hinge_d_theta", "hinge_d_rate", "dissipation",
-        "cable_vector", "cable_stiffness", "cable_damping", "cable_state", "cable_strain", "cable_before")]
+        "cable_vector", "cable_stiffness", "cable_damping", "cable_state", "cable_strain", "cable_gap")]
 
 
 class ConfigurationData(ctypes.Structure):

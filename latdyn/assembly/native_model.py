@@ -249,6 +249,8 @@ class NativeModel:
             self.model.cable_nodes, self.model.cable_offsets = ints(cables.nodes), arr(cables.offsets)
             self.model.cable_section = arr(np.column_stack([cables.share, cables.EA, cables.damping]))
             self.model.cable_rest_law = ints(np.asarray(rest_law, np.int64)[cables.cable])
+            self._keep.append(cables.sides)  # the model's own array: the time loop sets it in place
+            self.model.cable_side = cables.sides.ctypes.data
         work = {
             "geometry": (E, 36), "rates": (E, 14), "accelerations": (E, 14), "gravity_rows": (E, 3),
             "force": (E, 14), "tangent": (E, 14, 14), "mass": (E, 14, 14), "quadratic": (E, 14),
@@ -258,7 +260,7 @@ class NativeModel:
             "kinetic": (E,), "total": (m.n_total + 1,), "laws": (max(len(laws.functions), 1), 3),
             "hinge_d_theta": (H,), "hinge_d_rate": (H,), "matrix": (0,), "rhs": (0,), "dissipation": (1,),
             "cable_vector": (CE, 12), "cable_stiffness": (CE, 12, 12), "cable_damping": (CE, 12, 12),
-            "cable_state": (CE, 5), "cable_strain": (CE,), "cable_before": (CE,)}
+            "cable_state": (CE, 5), "cable_strain": (CE,), "cable_gap": (CE,)}
         tangent = {"inertia_tangent": (E, 14, 14), "forces_plus": (E, 14), "forces_minus": (E, 14),
                    "perturbed_x": (N, 3), "perturbed_T": (N, 3, 3), "perturbed_theta": (H,),
                    "p_geometry": (E, 36), "p_rates": (E, 14), "p_accelerations": (E, 14), "p_mass": (E, 14, 14),

@@ -45,6 +45,9 @@ class CableElements:
     names: list  # cable names, scene order
     rest_length: list  # each cable's TimeFunction
     first: np.ndarray  # (n_cables,) index of each cable's first element
+    #: (ce,) float: the side the time loop holds each element on through a step, +1 taut, −1 slack; 0 (every
+    #: other analysis): the stretch decides (latdyn.timeloop.events; read by the C evaluation in place)
+    sides: np.ndarray = None
 
     def __len__(self) -> int:
         return len(self.nodes)
@@ -94,4 +97,4 @@ def add_cables(scene, body_node: dict, new_node, beam_nodes: dict, beam_grid_off
         share=np.array(rows["share"], float), EA=np.array(rows["EA"], float), damping=np.array(rows["damping"], float),
         cable=np.array(rows["cable"], np.int64), names=list(scene.cables), rest_length=[c.rest_length for c in
                                                                                          scene.cables.values()],
-        first=np.array(first, np.int64))
+        first=np.array(first, np.int64), sides=np.zeros(len(rows["nodes"])))

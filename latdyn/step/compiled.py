@@ -344,8 +344,6 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         run.dt, run.t_end, run.n_grid, run.grid_index, run.stop_index = dt, t_end, n_grid, grid_index, stop_index
         run.t, run.budget_s, run.power, run.external_work = state.t, budget_s, power, external_work
         run.dissipation_power, run.dissipated = dissipation_power, dissipated
-        if model.cables is not None:  # the stretches the loop's cable events start from
-            self._buffers["cable_before"][:] = self.assembler.native().cable_state(state)[:, 2]
         self._factor_version += 1
         self._library.latdyn_advance(self._model_ref, self._work_ref, self._control_ref, ctypes.byref(base),
                                      self._scratch_c, ctypes.byref(out_c), self._vectors_ref, self._run_ref)

@@ -45,54 +45,64 @@ def crossing_fraction(model: Model, old: State, new: State, assembler=None) -> f
 
 
 # ----------------------------------------------------------------------------- cables
-# A cable element goes taut when its stretch ℓ − L0 passes zero upwards and slack when it passes it
-# downwards (latdyn/model/cables.py). Located like a stop: a step in which a stretch crosses zero by more
-# than cable_tolerance is shortened to land on it (secant on the stretch); the step that lands (within
-# the tolerance) decides the element's side by where it came from. Nothing jumps at the change (the
-# velocities are continuous; the tension rises from zero), so there is no impulse: the event only keeps
-# the law smooth inside every step (docs/cables.md measures what that buys).
-def cable_tolerance(rest: np.ndarray) -> np.ndarray:
-    """The stretch within which a cable element of rest length ``rest`` is on its change (csrc/newton_step.c
-    cable_tolerance)."""
-    return 1e-9 * rest
+# A cable element is taut while its gap g = min(N_el, N) is positive: stretched (N_el = EA (ℓ − L0)/L0 > 0)
+# and pulling (N = N_el + c ℓ̇ > 0; g is continuous in time). Each element is held on a side through a
+# step, taut (+1) or slack (−1), in the model's ``cables.sides`` that the evaluation reads
+# (latdyn/model/cables.py): Newton sees one smooth law in a step. A step that ends with an element's gap
+# beyond cable_tolerance on the other side of zero is shortened to land on the zero (secant on the gap,
+# as for hinge stops; the compiled loop hands such a step back: csrc/newton_step.c cable_event); the
+# accepted step that reached the zero from its side, or crossed it, turns the element over
+# (:func:`cable_events`). The velocities do not jump at the change, so there is no impulse
+# (docs/cables.md measures this against a C¹ transition).
+def cable_tolerance(EA: np.ndarray) -> np.ndarray:
+    """The gap (a force) within which a cable element of axial stiffness ``EA`` is on its change
+    (csrc/newton_step.c cable_tolerance): a stretch of 1e-9 of its rest length."""
+    return 1e-9 * EA
 
 
-def cable_stretches(assembler, state: State) -> tuple[np.ndarray, np.ndarray]:
-    """(stretch ℓ − L0, its tolerance) of every cable element at ``state``."""
-    values = assembler.native().cable_state(state)
-    return values[:, 2], cable_tolerance(values[:, 0] - values[:, 2])
-
-
-def cable_crossings(assembler, old: State, new: State) -> list[tuple[int, float]]:
-    """(cable element, fraction of the step) for each element whose stretch crosses zero by more than its
-    tolerance during the step (linear interpolation of the stretch)."""
-    before, tol = cable_stretches(assembler, old)
-    after, _ = cable_stretches(assembler, new)
-    crossed = ((before < -tol) & (after > tol)) | ((before > tol) & (after < -tol))
-    return [(int(e), float(before[e] / (before[e] - after[e]))) for e in np.flatnonzero(crossed)]
+def cable_gaps(assembler, state: State) -> tuple[np.ndarray, np.ndarray]:
+    """(gap min(N_el, N), its tolerance) of every cable element at ``state``."""
+    native = assembler.native()
+    native.cable_state(state)
+    return native.buffers["cable_gap"].copy(), cable_tolerance(assembler.model.cables.EA)
 
 
 def cable_sides(assembler, state: State) -> list[int]:
-    """+1 (taut: stretched beyond the tolerance) or −1 (slack) for every cable element at ``state``."""
-    stretch, tol = cable_stretches(assembler, state)
+    """+1 (taut: the gap beyond the tolerance) or −1 (slack) for every cable element at ``state``."""
+    stretch, tol = cable_gaps(assembler, state)
     return [1 if s > t else -1 for s, t in zip(stretch, tol)]
 
 
+def cable_crossings(assembler, old: State, new: State) -> list[tuple[int, float]]:
+    """(cable element, fraction of the step) for each element whose gap ends the step beyond its
+    tolerance on the other side of zero from the side the step held it on (linear interpolation of the
+    gap from ``old``)."""
+    sides = assembler.model.cables.sides
+    after, tol = cable_gaps(assembler, new)
+    crossed = ((sides > 0) & (after < -tol)) | ((sides < 0) & (after > tol))
+    if not crossed.any():
+        return []
+    before, _ = cable_gaps(assembler, old)
+    out = []
+    for e in np.flatnonzero(crossed):
+        span = before[e] - after[e]
+        out.append((int(e), float(min(max(before[e] / span, 0.0), 1.0)) if span != 0.0 else 0.0))
+    return out
+
+
 def cable_events(assembler, sides: list, old: State, new: State) -> tuple[list, list]:
-    """The elements' sides at ``new`` (from ``sides`` at ``old``) and the changes of whole cables,
-    [(cable name, "taut" | "slack")]: a cable is taut while any of its elements is. An element within
-    its tolerance of zero at ``new`` keeps its side, unless it came there from beyond the tolerance on
-    its side (the step landed on its change: it takes the other side)."""
-    before, tol = cable_stretches(assembler, old)
-    after, _ = cable_stretches(assembler, new)
+    """The elements' sides after the accepted step old → new (from ``sides``, those it was held on) and
+    the changes of whole cables, [(cable name, "taut" | "slack")]: an element turns over where its
+    gap reached zero from its side (within the tolerance, moving towards it) or went past it; a
+    cable is taut while any of its elements is."""
+    after, tol = cable_gaps(assembler, new)
+    before, _ = cable_gaps(assembler, old)
     new_sides = []
     for e, side in enumerate(sides):
-        if after[e] > tol[e]:
-            side = 1
-        elif after[e] < -tol[e]:
+        if side > 0 and after[e] <= tol[e] and after[e] < before[e]:
             side = -1
-        elif abs(before[e]) > tol[e]:
-            side = -1 if before[e] > 0 else 1
+        elif side < 0 and after[e] >= -tol[e] and after[e] > before[e]:
+            side = 1
         new_sides.append(side)
     cables = assembler.model.cables
     changes = []

@@ -151,6 +151,7 @@ class TimeLoop:
         """Steps in C up to the next row, or one step from Python; the step that comes back is
         rejected (error estimate), tried again (Newton failed) or accepted."""
         progress, control = self.progress, self.control
+        self._hold_cable_sides()
         attempt = self._compiled_steps() if self.compiled and control.on_grid(progress) else self._python_step()
         if attempt is None:
             return
@@ -272,15 +273,24 @@ class TimeLoop:
         self.control.after_accepted(progress, integrator, h, events.any, events.stopped)
         self._keep_accepted()
 
+    def _hold_cable_sides(self) -> None:
+        """The side each cable element is held on through the next step (latdyn.timeloop.events): the
+        progress's (from the state at t = 0 the first time), into the model's array the evaluation reads."""
+        cables, progress = self.model.cables, self.progress
+        if cables is None:
+            return
+        if progress.cable_sides is None:
+            progress.cable_sides = cable_sides(self.assembler, progress.state)
+        cables.sides[:] = progress.cable_sides
+
     def _track_cables(self, old: State, new: State) -> None:
         """The cables' slack and taut changes over the accepted step(s) old → new, into the events
-        (latdyn.timeloop.events.cable_events; the step landed on each, or started within its tolerance)."""
+        (latdyn.timeloop.events.cable_events: the step landed on each)."""
         if self.model.cables is None:
             return
         progress = self.progress
-        if progress.cable_sides is None:
-            progress.cable_sides = cable_sides(self.assembler, old)
         progress.cable_sides, changes = cable_events(self.assembler, progress.cable_sides, old, new)
+        self.model.cables.sides[:] = progress.cable_sides
         if changes:
             progress.events = progress.events + [{"joint": name, "kind": kind, "t": float(new.t)}
                                                  for name, kind in changes]

@@ -146,6 +146,9 @@ typedef struct {
     const int64_t *cable_rest_law, *cable_position;
     void (*cable_force)(int64_t, const double *, const double *, const double *, double *, double *, double *,
                         double *, double *, double *, double *, double *);
+    /* the side of each cable element (ce) that the time loop holds for a step: +1 taut, −1 slack, 0 the
+     * stretch decides (every other analysis); latdyn/timeloop/events.py */
+    const double *cable_side;
 } Model;
 
 /* Scratch buffers, allocated once by the caller. */
@@ -174,8 +177,8 @@ typedef struct {
     /* cable elements at the last evaluation: residual rows (ce,12), K and C blocks (ce,12,12) (zero
      * while slack), [ℓ, ℓ̇, ℓ − L0, N_el, N] with N = 0 while slack (ce,5), strain energy (ce) */
     double *cable_vector, *cable_stiffness, *cable_damping, *cable_state, *cable_strain;
-    /* the stretch ℓ − L0 of each cable element at the last accepted state (latdyn_advance's events) */
-    double *cable_before;
+    /* each element's gap min(N_el, N) (ce): > 0 taut; its sign changes are the events */
+    double *cable_gap;
 } Work;
 
 /* ------------------------------------------------------------------------- small algebra */
@@ -435,7 +438,10 @@ static void element_range(const Model *m, const Configuration *c, Work *w, int64
 }
 
 /* Cable elements at c: the generated taut law (codegen/joints.py cable_force) where an element is taut,
- * zero where it is slack (stretch ℓ − L0 ≤ 0) or where its damper would push (N ≤ 0: the force is
+ * zero where it is slack: its side −1, or side 0 and the gap min(N_el, N) ≤ 0 (not stretched, or the
+ * damper would push). The time loop holds each element's side through a step and lands the step where
+ * the gap (w->cable_gap) changes sign, so that Newton sees one smooth law; where the damper cancels the
+ * elastic tension of a stretched element (N ≤ 0: the force is
  * clipped at 0 and the damper dissipates −N_el ℓ̇); the rows into w->total, the reel's power
  * ∂U/∂L0·L̇0 into *power and the dampers' into *dissipation (rows only where total is not NULL). The
  * blocks always (the kernel gives them with the force). latdyn/model/cables.py. */
@@ -460,7 +466,12 @@ static void cables(const Model *m, const Configuration *c, Work *w, const double
         double *state = w->cable_state + 5 * e, reel, damper, clipped;
         m->cable_force(1, geometry, velocity, section, force, K, C, state, w->cable_strain + e, &reel, &damper,
                        &clipped);
-        if (state[2] <= 0.0) { /* slack */
+        /* taut while stretched and pulling: the gap min(N_el, N) > 0 (the side the time loop holds, or,
+         * side 0, the gap decides) */
+        const double side = m->cable_side[e], gap = fmin(state[3], state[4]);
+        const int taut = side > 0.0 || (side == 0.0 && gap > 0.0);
+        w->cable_gap[e] = gap;
+        if (!taut && state[2] <= 0.0) { /* slack */
             memset(force, 0, 12 * sizeof(double));
             memset(K, 0, 144 * sizeof(double));
             memset(C, 0, 144 * sizeof(double));
@@ -469,7 +480,7 @@ static void cables(const Model *m, const Configuration *c, Work *w, const double
             continue;
         }
         *power += reel;
-        if (state[4] <= 0.0) { /* taut, but the damper cancels the elastic tension */
+        if (!taut) { /* stretched, but the damper cancels the elastic tension */
             memset(force, 0, 12 * sizeof(double));
             memset(K, 0, 144 * sizeof(double));
             memset(C, 0, 144 * sizeof(double));

@@ -246,18 +246,16 @@ static int hinge_event(const Model *m, const Configuration *old, const Configura
     return 0;
 }
 
-/* latdyn/timeloop/events.py cable_tolerance: of a stretch, for an element of rest length L0 */
-static double cable_tolerance(double L0) { return 1e-9 * L0; }
+/* latdyn/timeloop/events.py cable_tolerance: of a gap (a force), for an element of axial stiffness EA */
+static double cable_tolerance(double EA) { return 1e-9 * EA; }
 
-/* Whether a cable element went from slack to taut or back between the last accepted state (its
- * stretch in w->cable_before) and the step's last evaluation (latdyn/timeloop/events.py
- * cable_crossings). */
+/* Whether the step's last evaluation has a cable element's gap min(N_el, N) beyond its tolerance on the
+ * other side of zero from the side the step held (latdyn/timeloop/events.py cable_crossings). */
 static int cable_event(const Model *m, const Work *w)
 {
     for (int64_t e = 0; e < m->n_cables; ++e) {
-        const double *state = w->cable_state + 5 * e;
-        double before = w->cable_before[e], after = state[2], tol = cable_tolerance(state[0] - state[2]);
-        if ((before < -tol && after > tol) || (before > tol && after < -tol)) return 1;
+        double side = m->cable_side[e], after = w->cable_gap[e], tol = cable_tolerance(m->cable_section[3 * e + 1]);
+        if ((side > 0.0 && after < -tol) || (side < 0.0 && after > tol)) return 1;
     }
     return 0;
 }
@@ -344,7 +342,6 @@ int64_t latdyn_advance(const Model *m, Work *w, StepControl *s, const Configurat
         } else if (m->has_events && (hinge_event(m, base, trial) || cable_event(m, w))) {
             adv->status = 2;
         }
-        for (int64_t e = 0; !adv->status && e < m->n_cables; ++e) w->cable_before[e] = w->cable_state[5 * e + 2];
         if (adv->status) {
             adv->pending = next;
             adv->h_pending = s->h;
