@@ -316,19 +316,23 @@ class Model:
         free_hinges = len(self.free_hinges)
         slots = self.node_slots()
         translations, rotations = int(slots[:3].sum()), int(slots[3:].sum())
+        own = self.translation_only if self.translation_only is not None else np.zeros(len(self.nodes), bool)
+        n_own = int(own[self.free_nodes].sum())  # a cable's own nodes: translations only
         lines = [
             f"model: {len(self.nodes)} nodes ({n_free} free), {len(self.element_nodes)} elements, "
             f"{len(self.hinges)} hinges ({free_hinges} with a coordinate), {self.n_dofs} coordinates",
-            f"  coordinates: {translations * n_free} node translations + {rotations * n_free} node rotations "
+            f"  coordinates: {translations * n_free} node translations + {rotations * (n_free - n_own)} node rotations "
             f"+ {free_hinges} hinge angles = {self.n_dofs}",
             f"  planar: {self.plane_reason}",
         ]
         bodies = [n for n in self.nodes if n.body is not None]
         link_nodes = [n for n in self.nodes if n.body is None and n.beam in _rigid_names(self.scene)]
-        interior = sum(1 for n in self.nodes if n.body is None and ".node[" in n.name)
-        free_ends = sum(1 for n in self.nodes if n.body is None and ".node[" not in n.name) - len(link_nodes)
+        interior = sum(1 for i, n in enumerate(self.nodes) if n.body is None and ".node[" in n.name and not own[i])
+        free_ends = sum(1 for i, n in enumerate(self.nodes)
+                        if n.body is None and ".node[" not in n.name and not own[i]) - len(link_nodes)
         lines.append(f"  nodes: {len(bodies)} joint bodies, {interior} interior beam nodes, "
                      f"{free_ends} free beam ends" + (f", {len(link_nodes)} rigid-link nodes" if link_nodes else "")
+                     + (f", {int(own.sum())} cable nodes (translations only)" if own.any() else "")
                      + f"; {int(slots.sum())} coordinates per free node")
         fixed = [n.name for n in self.nodes if n.kind == FIXED]
         prescribed = [n.name for n in self.nodes if n.kind == PRESCRIBED]

@@ -1405,6 +1405,9 @@ def describe(scene: Scene) -> str:
              f"{b.start.joint}-{b.end.joint})" for b in scene.beams.values()]
     lines.append(f"  beams:    {len(scene.beams)}" + (f": {', '.join(beams)}" if beams else ""))
     lines.append(f"  elements: {scene.n_elements}")
+    if scene.cables:
+        cables = [f"{c.name} ({c.elements} el, EA = {c.EA:g})" for c in scene.cables.values()]
+        lines.append(f"  cables:   {len(cables)}: {', '.join(cables)}")
     hinges = [f"{beam}.{which}" + (" (prescribed)" if h.angle is not None else "")
               for beam, which, h in scene.hinges]
     lines.append(f"  hinges:   {len(hinges)}" + (f": {', '.join(hinges)}" if hinges else ""))
