@@ -381,3 +381,25 @@ def test_a_study_varies_a_cables_rest_length(tmp_path):
         rest = float(row["cables.rope.rest_length"])
         summary = json.loads((tmp_path / "out" / "cases" / row["case"] / "summary.json").read_text())
         assert summary["cable_events"][0]["t"] == pytest.approx(math.sqrt(2 * (rest - 0.2) / G), abs=1e-8)
+
+
+def test_stop_impacts_in_summary_events(tmp_path):
+    """The events list holds impacts on hinge stops (kind stop), in time order; a hinge resting on its
+    stop is no new event."""
+    text = """
+gravity: [0, -9.81, 0]
+sections:
+  s: {EA: 1.0e7, EIy: 1.0e3, EIz: 1.0e3, GJ: 1.0e3, rhoA: 1.0}
+bodies:
+  hub: {at: [0, 0, 0], fixed: true}
+beams:
+  arm: {from: hub, to: [1, 0, 0], section: s, elements: 2,
+        start: {hinge: {axis: [0, 0, 1], limits: [-0.5, 1.0], restitution: 0.5}}}
+solve: {analysis: transient, t_end: 1.5, dt: 0.005}
+"""
+    completed, out = latdyn_run(tmp_path, text, quiet=True)
+    assert completed.returncode == 0, completed.stderr
+    events = summary_of(out)["events"]
+    assert len(events) >= 2 and {(e["joint"], e["kind"]) for e in events} == {("arm.start", "stop")}
+    times = [e["t"] for e in events]
+    assert times == sorted(times) and len(set(times)) == len(times)

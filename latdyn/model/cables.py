@@ -13,8 +13,9 @@ end coordinates and by their rates, the strain energy ½ EA (ℓ − L0)²/L0, t
 codegen/joints.py); the evaluation (csrc/evaluate.c ``cables``) takes them where the element is
 taut and zero where it is slack.
 
-The change between slack and taut (ℓ = L0) is an event, located like a hinge stop: a step in
-which an element's stretch ℓ − L0 changes sign is shortened to land on it
+The change between slack and taut is an event, located like a hinge stop: the time loop holds each
+element taut or slack through a step (:attr:`CableElements.sides`, read by the evaluation in place)
+and shortens a step in which the element's gap min(N_el, N) changes sign to land on the change
 (latdyn.timeloop.events), so that every step sees one smooth law; docs/cables.md gives the
 measurements that chose this over a C¹ transition.
 
@@ -93,8 +94,9 @@ def add_cables(scene, body_node: dict, new_node, beam_nodes: dict, beam_grid_off
                 point_masses.append((chain[i], 0.5 * element_mass, o1))
                 point_masses.append((chain[i + 1], 0.5 * element_mass, o2))
     return CableElements(
-        nodes=np.array(rows["nodes"], np.int64).reshape(-1, 2), offsets=np.array(rows["offsets"], float).reshape(-1, 2, 3),
-        share=np.array(rows["share"], float), EA=np.array(rows["EA"], float), damping=np.array(rows["damping"], float),
-        cable=np.array(rows["cable"], np.int64), names=list(scene.cables), rest_length=[c.rest_length for c in
-                                                                                         scene.cables.values()],
+        nodes=np.array(rows["nodes"], np.int64).reshape(-1, 2),
+        offsets=np.array(rows["offsets"], float).reshape(-1, 2, 3),
+        share=np.array(rows["share"], float), EA=np.array(rows["EA"], float),
+        damping=np.array(rows["damping"], float), cable=np.array(rows["cable"], np.int64),
+        names=list(scene.cables), rest_length=[c.rest_length for c in scene.cables.values()],
         first=np.array(first, np.int64), sides=np.zeros(len(rows["nodes"])))
