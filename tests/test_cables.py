@@ -222,6 +222,11 @@ solve: {analysis: transient, t_end: 0.6, dt: 0.005}
     ("EA: 1.0, spool: 1", "cables.rope.spool", "unknown key"),
 ])
 def test_bad_cables_are_refused_with_the_key(tmp_path, change, key, words):
+    """Through the loader (the CLI's exit 2 and message: the first case, and the test below)."""
+    import yaml
+
+    from latdyn.errors import SceneError
+
     text = f"""
 bodies:
   anchor: {{at: [0, 0, 0], fixed: true}}
@@ -230,9 +235,12 @@ cables:
   rope: {{from: anchor, to: w, {change}}}
 solve: {{analysis: transient, t_end: 0.1, dt: 0.01}}
 """
-    completed, _ = latdyn_run(tmp_path, text)
-    assert completed.returncode == 2, completed.stderr
-    assert key in completed.stderr and words in completed.stderr and "Traceback" not in completed.stderr
+    with pytest.raises(SceneError) as refused:
+        latdyn.load_scene(yaml.safe_load(text))
+    assert key in str(refused.value) and words in str(refused.value)
+    if change == "EA: -1.0":
+        completed, _ = latdyn_run(tmp_path, text)
+        assert completed.returncode == 2 and key in completed.stderr and "Traceback" not in completed.stderr
 
 
 def test_zero_length_and_unheld_free_end_are_refused(tmp_path):
