@@ -145,8 +145,15 @@ def check_drop(summary, probes, fall, offset):
 def test_mass_dropped_on_a_slack_cable_planar_through_the_cli(tmp_path):
     completed, out = latdyn_run(tmp_path, drop_scene([0, -1, 0], 0.0, 0.8), quiet=True)
     assert completed.returncode == 0, completed.stderr
-    check_drop(summary_of(out), probe_columns(out), 0.8, 0.0)
-    assert (out / "paraview" / "cables.vtkhdf").is_file()
+    probes = probe_columns(out)
+    check_drop(summary_of(out), probes, 0.8, 0.0)
+    from vtkhdf_frames import read_frames  # the cable drawn as a line, its tension the probe's, read by VTK
+
+    for frame in read_frames(out / "paraview" / "cables.vtkhdf"):
+        row = int(np.argmin(np.abs(probes["t"] - frame.t)))
+        assert frame.cells == [(3, [0, 1])] and probes["t"][row] == pytest.approx(frame.t, abs=1e-12)
+        assert frame.cell_data["tension"][0] == pytest.approx(probes["N"][row], rel=1e-12, abs=1e-9)
+        assert np.linalg.norm(frame.points[1] - frame.points[0]) == pytest.approx(probes["ell"][row], rel=1e-12)
 
 
 def test_mass_dropped_on_a_slack_cable_in_3d_through_the_api(tmp_path):
