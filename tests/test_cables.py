@@ -418,3 +418,38 @@ solve: {analysis: transient, t_end: 1.5, dt: 0.005}
     assert len(events) >= 2 and {(e["joint"], e["kind"]) for e in events} == {("arm.start", "stop")}
     times = [e["t"] for e in events]
     assert times == sorted(times) and len(set(times)) == len(times)
+
+
+def test_damped_cable_goes_slack_where_its_tension_reaches_zero(tmp_path):
+    """The drop with an axial damper c: taut at √(2h/g) (the tension jumps to c v there), slack where
+    N = k x + c ẋ reaches zero (before the stretch does), both against the closed form of the damped
+    oscillator; the damper's work is declared dissipation, so the energy balance holds."""
+    c, fall = 20.0, 0.8
+    text = drop_scene([0, -1, 0], 0.0, fall, dt=5e-4, every=5e-4).replace(
+        "rest_length: 1.0}", f"rest_length: 1.0, damping: {c}}}").replace(
+        "    K: {energy: kinetic}", "    K: {energy: kinetic}\n    D: {energy: dissipated}")
+    completed, out = latdyn_run(tmp_path, text, quiet=True)
+    assert completed.returncode == 0, completed.stderr
+    summary, probes = summary_of(out), probe_columns(out)
+    k = EA / REST
+    t_taut, v = math.sqrt(2 * fall / G), math.sqrt(2 * G * fall)
+    omega, zeta = math.sqrt(k / MASS), c / (2 * math.sqrt(k * MASS))
+    wd, static = omega * math.sqrt(1 - zeta ** 2), MASS * G / k
+    A, B = -static, (v - zeta * omega * static) / wd  # y = x − x_eq, y(0) = −x_eq, ẏ(0) = v
+
+    def tension(tau):
+        e = math.exp(-zeta * omega * tau)
+        y = e * (A * math.cos(wd * tau) + B * math.sin(wd * tau))
+        ydot = e * ((B * wd - zeta * omega * A) * math.cos(wd * tau) - (A * wd + zeta * omega * B) * math.sin(wd * tau))
+        return k * (y + static) + c * ydot
+
+    lo, hi = math.pi / (2 * wd), math.pi / wd  # N > 0 at the peak, < 0 by half a period
+    slack = t_taut + brent(tension, lo, hi)
+    events = summary["cable_events"]
+    assert [e["state"] for e in events] == ["taut", "slack"]
+    assert events[0]["t"] == pytest.approx(t_taut, abs=1e-9)
+    assert events[1]["t"] == pytest.approx(slack, abs=1e-5)  # measured 1.7e-6 s
+    peak = max(tension(tau) for tau in np.linspace(0.0, hi, 20001))
+    assert probes["N"].max() == pytest.approx(peak, rel=5e-5)  # measured −3.2e-6
+    assert summary["energy_balance_error"] < 1e-4  # measured 3.8e-5
+    assert probes["D"][-1] > 0.1 * probes["K"].max()
