@@ -37,6 +37,12 @@ Hinged beam end (the element's geometry, Eq. 17): the nodal frame of a beam end 
 by a hinge of unit axis a (node axes) at angle θ is T_e = T_j exp(θ skew a) E0, with E0 the
 element axes at t = 0 in node axes (a clamped end: a = 0, the same formula); its grid point sits
 at T_j r from the reference point (Eq. 2) and its hinge axis is T_j a (Eq. 9).
+
+Cable element (a tension-only axial member between the points p_i = x_i + T_i r_i of two nodes):
+the taut law N = EA (ℓ − L0)/L0 + c ℓ̇ on the residual rows of both ends, its exact derivatives by
+the end coordinates (same spatial update) and by their rates, the strain energy ½ EA (ℓ − L0)²/L0,
+the power ∂U/∂L0 · L̇0 a reel puts in, and the dampers' powers. Slack (ℓ ≤ L0, or N ≤ 0) is the
+runtime's choice of zero (csrc/evaluate.c ``cables``; latdyn/model/cables.py).
 """
 from __future__ import annotations
 
@@ -45,7 +51,7 @@ import sympy as sp
 from .ir import Argument, KernelSpec, Output
 
 DESCRIPTION = ("joint bodies (Newton-Euler about the reference point), point loads (global and follower), "
-               "hinged beam ends, hinge laws and the SO(3) exponential")
+               "hinged beam ends, hinge laws, cable elements and the SO(3) exponential")
 
 BODY_FRAME = Argument("frame", 9, "T: the body's frame (columns = body axes in global axes), row-major")
 BODY_MOTION = Argument("motion", 9, "omega[3] a[3] alpha[3]: spatial angular velocity, acceleration of the "
@@ -367,6 +373,71 @@ def _hinge_force_kernel() -> KernelSpec:
                       intermediates=branch_free.intermediates)
 
 
+CABLE_GEOMETRY = Argument("cable_geometry", 12, "x1[3] x2[3] o1[3] o2[3]: the reference points of the nodes at the "
+                          "element's ends and the offsets T_i r_i of its end points from them, global")
+CABLE_VELOCITY = Argument("cable_velocity", 12, "v1[3] w1[3] v2[3] w2[3]: velocities of the reference points and "
+                          "spatial angular velocities of the end nodes")
+CABLE_SECTION = Argument("cable_section", 4, "L0 L0_dot EA c: the element's share of the rest length and its rate "
+                         "(a reel), the axial stiffness and the axial damping coefficient")
+
+
+def cable_terms(geometry, velocity, section):
+    """The taut law of a cable element between the points p_i = x_i + o_i (module docstring of
+    latdyn/model/cables.py): length ℓ = |p2 − p1|, rate ℓ̇ = e·(ṗ2 − ṗ1) with ṗ_i = v_i + ω_i × o_i,
+    elastic tension N_el = EA (ℓ − L0)/L0, tension N = N_el + c ℓ̇; the generalized force on the
+    residual rows [d1, π1, d2, π2] is −[F1; o1 × F1; F2; o2 × F2] with F1 = N e = −F2 (the cable
+    pulls its ends together). Returns (force, length, rate, elastic tension, tension)."""
+    x1, x2, o1, o2 = (_vector(geometry[3 * k:3 * k + 3]) for k in range(4))
+    v1, w1, v2, w2 = (_vector(velocity[3 * k:3 * k + 3]) for k in range(4))
+    L0, _, EA, c = section
+    u = (x2 + o2) - (x1 + o1)
+    length = sp.sqrt(u.dot(u))
+    e = u / length
+    rate = e.dot((v2 + w2.cross(o2)) - (v1 + w1.cross(o1)))
+    elastic = EA * (length - L0) / L0
+    tension = elastic + c * rate
+    F1 = tension * e
+    force = -sp.Matrix.vstack(F1, o1.cross(F1), -F1, o2.cross(-F1))
+    return force, length, rate, elastic, tension
+
+
+def _cable_force_kernel() -> KernelSpec:
+    geometry, velocity, section = CABLE_GEOMETRY.symbols(), CABLE_VELOCITY.symbols(), CABLE_SECTION.symbols()
+    force, length, rate, elastic, tension = cable_terms(geometry, velocity, section)
+    # the configuration update of both ends: x_i += δd_i, o_i ← (I + skew δπ_i) o_i (spatial, to first order)
+    delta = sp.Matrix(sp.symbols("delta_0:12"))
+    zero = {d: 0 for d in delta}
+    moved = list(geometry)
+    for k in range(2):
+        d, pi = delta[6 * k:6 * k + 3, 0], delta[6 * k + 3:6 * k + 6, 0]
+        moved[3 * k:3 * k + 3] = list(_vector(geometry[3 * k:3 * k + 3]) + d)
+        o = _vector(geometry[6 + 3 * k:9 + 3 * k])
+        moved[6 + 3 * k:9 + 3 * k] = list(o + pi.cross(o))
+    force_moved = cable_terms(moved, velocity, section)[0]
+    L0, L0_dot, EA, c = section
+    stretch = length - L0
+    outputs = [
+        Output("cable_force", (12,), _rows(force), "−[F1; o1 × F1; F2; o2 × F2], F1 = N e = −F2: the taut element's "
+               "rows of the residual on [d1, π1, d2, π2]"),
+        Output("cable_stiffness", (12, 12), _rows(_jacobian(force_moved, delta, zero)),
+               "∂cable_force/∂[d1, π1, d2, π2] at fixed velocities (spatial update)"),
+        Output("cable_damping", (12, 12), _rows(force.jacobian(_vector(velocity))),
+               "∂cable_force/∂[v1, ω1, v2, ω2]"),
+        Output("cable_state", (5,), [length, rate, stretch, elastic, tension],
+               "ℓ, ℓ̇, ℓ − L0, N_el = EA (ℓ − L0)/L0, N = N_el + c ℓ̇"),
+        Output("cable_strain_energy", (), [EA * stretch ** 2 / (2 * L0)], "½ EA (ℓ − L0)²/L0"),
+        Output("reel_power", (), [sp.diff(EA * stretch ** 2 / (2 * L0), L0) * L0_dot],
+               "∂U/∂L0 · L̇0: the power a reel puts in by changing the rest length (external work)"),
+        Output("cable_damper_power", (), [c * rate ** 2], "c ℓ̇²: the power the taut damper dissipates"),
+        Output("clipped_damper_power", (), [-elastic * rate],
+               "−N_el ℓ̇: the power dissipated while the damper cancels the elastic tension (N clipped at 0)"),
+    ]
+    return KernelSpec(name="cable_force", doc="A taut cable element between two points of nodes: its generalized "
+                      "force, exact derivatives by the end coordinates and rates, length, tension, strain energy, "
+                      "the reel's power and the damper's", inputs=[CABLE_GEOMETRY, CABLE_VELOCITY, CABLE_SECTION],
+                      outputs=outputs, variant="joints", equations="Eq. 2 (the end points); cables, issue 32")
+
+
 ROTATION_VECTOR = Argument("rotation_vector", 3, "w: a rotation vector (axis times angle), global")
 
 #: Below θ² = SO3_SWITCH the exponential's scalars are their Taylor polynomials in θ² (through θ⁸:
@@ -415,4 +486,4 @@ def _so3_exp_kernel() -> KernelSpec:
 def build_kernels() -> list[KernelSpec]:
     """The kernels of the ``joints`` unit."""
     return [*_joint_body_kernels(), _point_load_kernel(), _hinged_end_kernel(), _hinge_force_kernel(),
-            _so3_exp_kernel()]
+            _cable_force_kernel(), _so3_exp_kernel()]

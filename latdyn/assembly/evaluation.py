@@ -39,7 +39,7 @@ class Evaluation(SeparateMatrices):
     reaction: np.ndarray  # (n_total - n_dofs,) generalized force needed on constrained coordinates
     external_power: float = 0.0  # loads and hinge torques on the current velocities
     dissipation_power: float = 0.0  # c θ̇² of the hinge dampers (declared dissipation)
-    #: kind -> [element (e,14,14), body (b,6,6), hinge diag, load blocks, controller couplings (c,)]
+    #: kind -> [element (e,14,14), body (b,6,6), hinge diag, load and cable element blocks, controller couplings (c,)]
     blocks: dict | None = None
     assembler: object = None  # the Assembler that made it: its scatter maps assemble the blocks
 
@@ -57,4 +57,4 @@ class Evaluation(SeparateMatrices):
     def _flat(self, kind):
         element, body, hinge, loads, couplings = self.blocks[kind]
         a = self.assembler
-        return [element[a._elem_mask], body[a._body_mask], hinge] + list(loads) + [couplings]
+        return [element[a._elem_mask], body[a._body_mask], hinge, np.ravel(loads), couplings]

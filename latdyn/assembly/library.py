@@ -71,6 +71,8 @@ class ModelData(ctypes.Structure):
         ("actuator_component", P), ("actuator_controller", P), ("coupling_actuator", P), ("coupling_slot", P),
         ("coupling_sensor", P), ("coupling_position", P),
         ("hinge_contact", P),
+        ("n_cables", I64), ("cable_nodes", P), ("cable_offsets", P), ("cable_section", P), ("cable_rest_law", P),
+        ("cable_position", P), ("cable_force", P), ("cable_side", P),
     ]
 
 
@@ -85,7 +87,8 @@ class WorkData(ctypes.Structure):
         "p_geometry", "p_rates", "p_accelerations", "p_mass", "p_quadratic", "p_gravity_force",
         "p_gravity_potential", "p_first_moment", "laws", "hinge_d_theta", "hinge_d_rate", "dissipation",
         "joint_forces",
-        "sensor_values", "controller_gradient", "controller_scratch", "coupling_stiffness", "coupling_damping")]
+        "sensor_values", "controller_gradient", "controller_scratch", "coupling_stiffness", "coupling_damping",
+        "cable_vector", "cable_stiffness", "cable_damping", "cable_state", "cable_strain", "cable_gap")]
 
 
 class ConfigurationData(ctypes.Structure):
@@ -173,9 +176,12 @@ def native_library() -> ctypes.CDLL:
         library = native.load(path)
         library.latdyn_threads.restype = I64
         library.latdyn_threads.argtypes = []
+        library.latdyn_cables.restype = None
+        library.latdyn_cables.argtypes = [ctypes.POINTER(ModelData), ctypes.POINTER(WorkData),
+                                          ctypes.POINTER(ConfigurationData), ctypes.c_double]
         library.latdyn_energies.restype = None
         library.latdyn_energies.argtypes = [ctypes.POINTER(ModelData), ctypes.POINTER(WorkData),
-                                            ctypes.POINTER(ConfigurationData), P]
+                                            ctypes.POINTER(ConfigurationData), ctypes.c_double, P]
         model, work, configuration = (ctypes.POINTER(ModelData), ctypes.POINTER(WorkData),
                                       ctypes.POINTER(ConfigurationData))
         library.latdyn_evaluate.restype = None

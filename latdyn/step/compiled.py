@@ -245,6 +245,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         rows, cols = a.control.coupling_rows, a.control.coupling_cols
         model.coupling_position = ints(block_positions(rows[:, None], cols[:, None])[:, 0, 0] if len(rows)
                                        else np.zeros(0, np.int64))
+        model.cable_position = ints(block_positions(a.cable_dofs()))
         model.factorization = ctypes.pointer(factorization.structure)
         native.set_buffer("matrix", factorization.values)
         native.set_buffer("rhs", np.zeros(n))

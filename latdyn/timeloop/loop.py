@@ -31,7 +31,7 @@ from latdyn.results.writer import ResultWriter
 from latdyn.step.integrators import newton_diagnosis
 from latdyn.timeloop import checkpoint as checkpoints
 from latdyn.timeloop.control import StepControl
-from latdyn.timeloop.events import crossing_fraction, hinge_events, restart_accelerations
+from latdyn.timeloop.events import cable_events, cable_sides, crossing_fraction, hinge_events, restart_accelerations
 from latdyn.timeloop.progress import DRIFT_WARNING, UNBOUNDED, TransientProgress, factorizations, load_power
 
 
@@ -222,6 +222,7 @@ class TimeLoop:
         """Steps in C up to the next row, or one step from Python; the step that comes back is
         rejected (error estimate), tried again (Newton failed) or accepted."""
         progress, control = self.progress, self.control
+        self._hold_cable_sides()
         # a hinge stuck by friction is checked for release after every step: those steps from Python
         compiled = self.compiled and control.on_grid(progress) and not control.before_pause(progress) \
             and not self.model.stuck.any()
@@ -263,6 +264,7 @@ class TimeLoop:
             progress.external_work = self.probes.external_work = done.external_work
             progress.dissipation_power = done.dissipation_power
             progress.dissipated = self.probes.dissipated = done.dissipated
+            self._track_cables(progress.state, done.state)
             progress.state = done.state
             progress.algorithmic_acceleration = self.integrator.a
             self._after_accepted(done.state)
@@ -292,7 +294,7 @@ class TimeLoop:
         progress = self.progress
         new, stats, h, lands = attempt
         for _ in range(4):
-            fraction = crossing_fraction(self.model, progress.state, new)
+            fraction = crossing_fraction(self.model, progress.state, new, self.assembler)
             if fraction is None:
                 break
             shorter = max(h * fraction, self.control.dt_min)  # no step below the floor (control)
@@ -313,6 +315,10 @@ class TimeLoop:
         new, h = attempt.new, attempt.h
         integrator.accept()
         events = hinge_events(self.prepared, integrator, progress.state, new, h)
+        if events.log:
+            progress.events = progress.events + [{"joint": joint, "kind": kind, "t": float(new.t)}
+                                                 for joint, kind in events.log]
+        self._track_cables(progress.state, new)
         # power of loads and prescribed motion: from the last Newton evaluation
         # (within the Newton tolerance of the converged state) when there is one
         evaluation = getattr(integrator, "last_evaluation", None)
@@ -343,6 +349,28 @@ class TimeLoop:
         self._after_accepted(new)
         self.control.after_accepted(progress, integrator, h, events.any, events.stopped)
         self._keep_accepted()
+
+    def _hold_cable_sides(self) -> None:
+        """The side each cable element is held on through the next step (latdyn.timeloop.events): the
+        progress's (from the state at t = 0 the first time), into the model's array the evaluation reads."""
+        cables, progress = self.model.cables, self.progress
+        if cables is None:
+            return
+        if progress.cable_sides is None:
+            progress.cable_sides = cable_sides(self.assembler, progress.state)
+        cables.sides[:] = progress.cable_sides
+
+    def _track_cables(self, old: State, new: State) -> None:
+        """The cables' slack and taut changes over the accepted step(s) old → new, into the events
+        (latdyn.timeloop.events.cable_events: the step landed on each)."""
+        if self.model.cables is None:
+            return
+        progress = self.progress
+        progress.cable_sides, changes = cable_events(self.assembler, progress.cable_sides, old, new)
+        self.model.cables.sides[:] = progress.cable_sides
+        if changes:
+            progress.events = progress.events + [{"joint": name, "kind": kind, "t": float(new.t)}
+                                                 for name, kind in changes]
 
     def _after_accepted(self, state: State) -> None:
         """After the accepted step(s) that ended at ``state``: rotations back on SO(3) every 256
@@ -402,6 +430,9 @@ class TimeLoop:
         :data:`DRIFT_WARNING` is a warning on stderr and in summary.json ``warnings``."""
         progress, summary = self.progress, self.writer.summary
         summary.update(progress.summary(self.tol, self.prepared.scene.solve.method))
+        if self.model.cables is not None:
+            summary["cable_events"] = [{"cable": e["joint"], "t": e["t"], "state": e["kind"]} for e in progress.events
+                                       if e["kind"] in ("slack", "taut")]
         error = progress.relative_balance_error
         if error > DRIFT_WARNING and progress.balance_error_t is not None and not self.unbounded:
             warning = (f"the energy balance drifts: energy_balance_error {error:.3g} (> {DRIFT_WARNING:g}), "

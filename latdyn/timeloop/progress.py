@@ -62,6 +62,12 @@ class TransientProgress:
     #: replaced, never changed in place, so that a kept copy of the progress keeps its own)
     controller_memory: np.ndarray | None = None
     stuck: np.ndarray | None = None  # the locked hinges that stick by friction (None: none)
+    #: the events so far, summary.json ``events``: {joint, kind: latch|stop|slack|taut, t}, in time order
+    #: (a new list on each event: checkpoints keep shallow copies)
+    events: list = field(default_factory=list)
+    #: per cable element, +1 taut or −1 slack at ``state`` (latdyn.timeloop.events.cable_events); None
+    #: until the first step of a model with cables
+    cable_sides: list | None = None
 
     def count(self, stats) -> None:
         """Count a step's Newton iterations and factorizations (``stats``: a StepStats)."""
@@ -116,7 +122,7 @@ class TransientProgress:
             energy_balance_error=self.relative_balance_error, dissipated_energy=self.dissipated,
             newton_iterations_per_step=self.newton_iterations / max(self.steps, 1),
             newton_tolerance=tol, method=method, solver_s=self.solver_s, factorizations=self.factorizations,
-            inertia_tangent_from=self.inertia_tangent_from, joint_peaks=self.joint_peaks)
+            inertia_tangent_from=self.inertia_tangent_from, joint_peaks=self.joint_peaks, events=self.events)
 
 
 #: Relative margin by which a row's joint force must exceed the kept peak to replace it in

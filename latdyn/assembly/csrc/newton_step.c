@@ -55,6 +55,12 @@ static void assemble(const Model *m, Work *w, double beta_p, double gamma_p, int
     for (int64_t e = 0; e < m->n_couplings; ++e)
         if (m->coupling_position[e] >= 0)
             w->matrix[m->coupling_position[e]] += gamma_p * w->coupling_damping[e] + w->coupling_stiffness[e];
+    for (int64_t e = 0; e < m->n_cables; ++e) {
+        const int64_t *pos = m->cable_position + 144 * e;
+        const double *K = w->cable_stiffness + 144 * e, *C = w->cable_damping + 144 * e;
+        for (int p = 0; p < 144; ++p)
+            if (pos[p] >= 0) w->matrix[pos[p]] += gamma_p * C[p] + K[p];
+    }
 }
 
 /* dx = −S⁻¹ r with the factors held in Work (factorization.c), through the factor's order. */
@@ -253,6 +259,20 @@ static int hinge_event(const Model *m, const Configuration *old, const Configura
     return 0;
 }
 
+/* latdyn/timeloop/events.py cable_tolerance: of a gap (a force), for an element of axial stiffness EA */
+static double cable_tolerance(double EA) { return 1e-9 * EA; }
+
+/* Whether the step's last evaluation has a cable element's gap min(N_el, N) beyond its tolerance on the
+ * other side of zero from the side the step held (latdyn/timeloop/events.py cable_crossings). */
+static int cable_event(const Model *m, const Work *w)
+{
+    for (int64_t e = 0; e < m->n_cables; ++e) {
+        double side = m->cable_side[e], after = w->cable_gap[e], tol = cable_tolerance(m->cable_section[3 * e + 1]);
+        if ((side > 0.0 && after < -tol) || (side < 0.0 && after > tol)) return 1;
+    }
+    return 0;
+}
+
 /* Power of the constraint forces that impose prescribed motion (latdyn/timeloop/progress.py drive_power): the
  * reaction of the last evaluation (w->total on the constrained coordinates n_dofs … n_total−1)
  * times the velocities of those coordinates. */
@@ -332,7 +352,7 @@ int64_t latdyn_advance(const Model *m, Work *w, StepControl *s, const Configurat
         int64_t failed = latdyn_newton_step(m, w, s, base, trial, x);
         if (failed || !s->converged) {
             adv->status = 1;
-        } else if (m->has_events && hinge_event(m, base, trial)) {
+        } else if (m->has_events && (hinge_event(m, base, trial) || cable_event(m, w))) {
             adv->status = 2;
         }
         if (adv->status) {
