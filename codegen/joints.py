@@ -217,14 +217,14 @@ def _hinge_force_kernel() -> KernelSpec:
     outputs = [Output("hinge_force", (), [force], "f = k s + c θ̇ − λ τ, s = θ − θ_r: the hinge's row of the residual"),
                Output("hinge_stiffness", (), [stiffness], "∂f/∂θ = k + s ∂k/∂θ + θ̇ ∂c/∂θ − λ ∂τ/∂θ"),
                Output("hinge_damping", (), [damping], "∂f/∂θ̇ = s ∂k/∂θ̇ + c + θ̇ ∂c/∂θ̇ − λ ∂τ/∂θ̇"),
-               Output("spring_power", (), [-spring * rate], "−k s θ̇: the spring's power, external work when the "
+               Output("spring_torque", (), [spring], "k s: the spring's torque; its work is external when the "
                       "spring is not conservative (a law in θ̇ or t)"),
-               Output("torque_power", (), [factor * tau * rate], "λ τ θ̇: the applied torque's power"),
-               Output("damper_power", (), [damper * rate * rate], "c θ̇²: the power the damper dissipates "
-                      "(declared dissipation, latdyn.timeloop.progress)")]
+               Output("applied_torque", (), [factor * tau], "λ τ: the applied torque"),
+               Output("damper_torque", (), [damper * rate], "c θ̇: the damper's torque, whose work is the declared "
+                      "dissipation (latdyn.timeloop.progress)")]
     return KernelSpec(name="hinge_force", doc="A hinge's generalized force from its spring, damper and applied torque "
-                      "laws, its exact derivatives by the angle and its rate, the power of what does external work and "
-                      "the power its damper dissipates",
+                      "laws, its exact derivatives by the angle and its rate, and the torques whose work the "
+                      "energy balance integrates over each step's Δθ (external work, the damper's dissipation)",
                       inputs=[HINGE_STATE, HINGE_LAWS], outputs=outputs, variant="joints",
                       equations="hinge springs, dampers and torques (Eqs. 4, 9: the hinge coordinate)")
 

@@ -157,7 +157,7 @@ def test_hinge_force_against_differences(backend):
     n = 6
     states = np.column_stack([RNG.normal(size=n), RNG.normal(size=n), RNG.normal(size=n), RNG.uniform(0.2, 1.5, n)])
     values = np.array([laws(th, rt) for th, rt, _, _ in states])
-    f, d_theta, d_rate, spring_power, torque_power, damper_power = ks.hinge_force(states, values)
+    f, d_theta, d_rate, spring_torque, applied_torque, damper_torque = ks.hinge_force(states, values)
     eps = 1e-6
     for j, (theta, rate, rest, factor) in enumerate(states):
         assert np.isclose(f[j], force(theta, rate, rest, factor), rtol=1e-13, atol=1e-13)
@@ -165,9 +165,12 @@ def test_hinge_force_against_differences(backend):
         fd_rate = (force(theta, rate + eps, rest, factor) - force(theta, rate - eps, rest, factor)) / (2 * eps)
         assert np.isclose(d_theta[j], fd_theta, rtol=1e-7, atol=1e-8)
         assert np.isclose(d_rate[j], fd_rate, rtol=1e-7, atol=1e-8)
-        assert np.isclose(spring_power[j], -values[j, 0] * (theta - rest) * rate, rtol=1e-13, atol=1e-13)
-        assert np.isclose(torque_power[j], factor * values[j, 6] * rate, rtol=1e-13, atol=1e-13)
-        assert np.isclose(damper_power[j], values[j, 3] * rate**2, rtol=1e-13, atol=1e-13)
+        # the torques whose work the energy balance integrates over Δθ (progress.hinge_work): with the
+        # residual they make up, f = k s + c θ̇ − λ τ
+        assert np.isclose(spring_torque[j], values[j, 0] * (theta - rest), rtol=1e-13, atol=1e-13)
+        assert np.isclose(applied_torque[j], factor * values[j, 6], rtol=1e-13, atol=1e-13)
+        assert np.isclose(damper_torque[j], values[j, 3] * rate, rtol=1e-13, atol=1e-13)
+        assert np.isclose(spring_torque[j] + damper_torque[j] - applied_torque[j], f[j], rtol=1e-13, atol=1e-13)
 
 
 @pytest.mark.parametrize("backend", ["numpy", "c"])

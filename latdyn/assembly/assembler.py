@@ -256,7 +256,8 @@ class Assembler:
         m = self.model
         n = m.n_assembled
         result = Evaluation(residual=total[:n], reaction=total[n:m.n_total], external_power=power,
-                            dissipation_power=float(native.buffers["dissipation"][0]), assembler=self)
+                            hinge_work_torque=native.buffers["hinge_work_torque"].copy(),
+                            hinge_damper_torque=native.buffers["hinge_damper_torque"].copy(), assembler=self)
         if matrices:
             b = native.buffers
             stiffness = b["tangent"] + b["inertia_tangent"] if inertia_tangent and inertia else b["tangent"].copy()

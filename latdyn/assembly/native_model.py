@@ -248,7 +248,8 @@ class NativeModel:
             "first_moment": (E, 3), "body_vector": (B, 6), "body_mass": (B, 6, 6), "body_damping": (B, 6, 6),
             "body_stiffness": (B, 6, 6), "load_blocks": (L, 6, 6), "strain": (E,), "section_forces": (E, 4),
             "kinetic": (E,), "total": (m.n_total + 1,), "laws": (max(len(laws.functions), 1), 3),
-            "hinge_d_theta": (H,), "hinge_d_rate": (H,), "matrix": (0,), "rhs": (0,), "dissipation": (1,)}
+            "hinge_d_theta": (H,), "hinge_d_rate": (H,), "matrix": (0,), "rhs": (0,),
+            "hinge_work_torque": (H,), "hinge_damper_torque": (H,)}
         tangent = {"inertia_tangent": (E, 14, 14), "forces_plus": (E, 14), "forces_minus": (E, 14),
                    "perturbed_x": (N, 3), "perturbed_T": (N, 3, 3), "perturbed_theta": (H,),
                    "p_geometry": (E, 36), "p_rates": (E, 14), "p_accelerations": (E, 14), "p_mass": (E, 14, 14),

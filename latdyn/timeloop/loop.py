@@ -32,7 +32,8 @@ from latdyn.step.integrators import newton_diagnosis
 from latdyn.timeloop import checkpoint as checkpoints
 from latdyn.timeloop.control import StepControl
 from latdyn.timeloop.events import crossing_fraction, hinge_events
-from latdyn.timeloop.progress import DRIFT_WARNING, UNBOUNDED, TransientProgress, factorizations, load_power
+from latdyn.timeloop.progress import (DRIFT_WARNING, UNBOUNDED, UNBOUNDED_ROWS, TransientProgress, factorizations,
+                                      hinge_work, load_power)
 
 
 class Attempt(NamedTuple):
@@ -108,7 +109,8 @@ class TimeLoop:
         self.progress = TransientProgress(
             state=state, algorithmic_acceleration=self.integrator.a, locked=self.model.locked.copy(),
             h=self.control.dt, power=load_power(self.model, state, evaluation),
-            dissipation_power=evaluation.dissipation_power,
+            hinge_work_torque=evaluation.hinge_work_torque.copy(),
+            hinge_damper_torque=evaluation.hinge_damper_torque.copy(),
             total0=sum(energy0.values()), potential0=energy0["potential"],
             received0=energy0["kinetic"] + energy0["strain"] + 1e-8 * abs(energy0["potential"]),
             inertia_tangent_from=0.0 if getattr(self.integrator, "inertia_tangent", False) else None)
@@ -177,8 +179,8 @@ class TimeLoop:
             progress.state, grid_index=progress.grid_index,
             stop_index=control.next_row(progress) if budget > 0 else progress.grid_index + 1, dt=control.dt,
             t_end=control.t_end, n_grid=control.n_grid, power=progress.power,
-            external_work=progress.external_work, dissipation_power=progress.dissipation_power,
-            dissipated=progress.dissipated, budget_s=budget)
+            external_work=progress.external_work, hinge_work_torque=progress.hinge_work_torque,
+            hinge_damper_torque=progress.hinge_damper_torque, dissipated=progress.dissipated, budget_s=budget)
         progress.solver_s += time.perf_counter() - started
         if done.steps:
             progress.steps += done.steps
@@ -187,7 +189,7 @@ class TimeLoop:
             progress.factorizations += done.factorizations
             progress.power = done.power
             progress.external_work = self.probes.external_work = done.external_work
-            progress.dissipation_power = done.dissipation_power
+            progress.hinge_work_torque, progress.hinge_damper_torque = done.hinge_work_torque, done.hinge_damper_torque
             progress.dissipated = self.probes.dissipated = done.dissipated
             progress.state = done.state
             progress.algorithmic_acceleration = self.integrator.a
@@ -239,24 +241,26 @@ class TimeLoop:
         new, h = attempt.new, attempt.h
         integrator.accept()
         events = hinge_events(self.prepared, integrator, progress.state, new, h)
-        # power of loads and prescribed motion: from the last Newton evaluation
+        # power of point loads and prescribed motion: from the last Newton evaluation
         # (within the Newton tolerance of the converged state) when there is one
         evaluation = getattr(integrator, "last_evaluation", None)
         if evaluation is None or len(evaluation.reaction) != model.n_total - model.n_dofs:
             evaluation = self.assembler.evaluate(new, matrices=False)
         new_power = load_power(model, new, evaluation)
-        self.probes.external_work += 0.5 * h * (progress.power + new_power)
+        external_work = self.probes.external_work + 0.5 * h * (progress.power + new_power)
         progress.power = new_power
-        progress.external_work = self.probes.external_work
-        # declared dissipation: the dampers' over the step (trapezoidal, as the work; at its end
-        # from the step's own last evaluation, before the events' jump), then the events' loss;
-        # the dampers' power after the jump starts the next step
+        # the hinges' torques over the step's Δθ (progress.hinge_work): external work and the dampers'
+        # dissipation, at its end from the step's own last evaluation, before the events' jump; then
+        # the events' loss; the torques after the jump start the next step
         ended = getattr(integrator, "last_evaluation", None) or evaluation
-        damped = 0.5 * h * (progress.dissipation_power + ended.dissipation_power)
-        progress.dissipation_power = evaluation.dissipation_power
-        if events.any and evaluation is ended:
-            progress.dissipation_power = self.assembler.evaluate(new, matrices=False).dissipation_power
-        progress.dissipated = self.probes.dissipated = progress.dissipated + damped + events.loss
+        external_work, dissipated = hinge_work(
+            progress.state, new, (progress.hinge_work_torque, progress.hinge_damper_torque),
+            (ended.hinge_work_torque, ended.hinge_damper_torque), external_work, progress.dissipated)
+        progress.external_work = self.probes.external_work = external_work
+        after = self.assembler.evaluate(new, matrices=False) if events.any else ended
+        progress.hinge_work_torque = after.hinge_work_torque.copy()
+        progress.hinge_damper_torque = after.hinge_damper_torque.copy()
+        progress.dissipated = self.probes.dissipated = dissipated + events.loss
         progress.state = new
         progress.algorithmic_acceleration = integrator.a
         progress.locked = model.locked.copy()
@@ -293,9 +297,9 @@ class TimeLoop:
     def _judge_balance(self, t: float, gain: float) -> None:
         """The energy balance at the row at ``t`` (docs/energy.md): an energy gain (``gain``: the
         energy created and held, relative to the energy received, :meth:`TransientProgress.balance`)
-        past :data:`UNBOUNDED`, or not finite, ends the run as unbounded, the row at ``t`` recorded
-        first."""
-        if not gain <= UNBOUNDED:  # NaN too
+        past :data:`UNBOUNDED`, growing, at :data:`UNBOUNDED_ROWS` rows in a row, or not finite,
+        ends the run as unbounded, the row at ``t`` recorded first."""
+        if self.progress.unbounded:
             self.unbounded = True
             progress = self.progress
             received = progress.received0 + progress.work_seen + progress.potential_seen
@@ -303,7 +307,7 @@ class TimeLoop:
                 what = "the energies are not finite"
             else:
                 what = (f"the integrator created {gain:.3g} times the energy the structure received "
-                        f"({received:.4g}; a run ends past {UNBOUNDED:g} times)")
+                        f"({received:.4g}; a run ends past {UNBOUNDED:g} times at {UNBOUNDED_ROWS} rows in a row)")
             raise UnboundedError(f"unbounded: the energy balance broke at t = {t:.6g}: {what}; a smaller step or "
                                  f"numerical dissipation (rho_inf < 1) may keep it bounded", t)
 

@@ -120,7 +120,7 @@ typedef struct {
     void (*hinge_laws)(int64_t, double, double, double, double *);
     /* hinges with laws in θ, θ̇ or t: the hinge law of the stiffness,
      * the damping and the torque (-1: the constant of hinge_stiffness/hinge_damping, no torque
-     * law in θ or θ̇), and whether the spring is conservative (else its power is external work) */
+     * law in θ or θ̇), and whether the spring is conservative (else its work is external) */
     const int64_t *hinge_stiffness_law, *hinge_damping_law, *hinge_torque_hinge_law, *hinge_conservative;
     /* events that end a loop of steps (latdyn_advance; latdyn/timeloop/events.py handles them): lock_at and the
      * lower and upper stop of each hinge (NAN: none) */
@@ -159,8 +159,10 @@ typedef struct {
     /* the law values at the step's time (n_laws, 3), and the hinge forces' derivatives ∂f/∂θ
      * and ∂f/∂θ̇ of the last evaluation (n_hinges each: diagonal entries of K and C) */
     double *laws, *hinge_d_theta, *hinge_d_rate;
-    /* the power the hinge dampers dissipate at the last evaluation, c θ̇² summed (1) */
-    double *dissipation;
+    /* per hinge at the last evaluation (n_hinges each): the torque whose work is external (the applied
+     * torque λ τ, less k s of a spring that is not conservative) and the damper's torque c θ̇; the
+     * time loop integrates their work over each step's Δθ (newton_step.c latdyn_advance) */
+    double *hinge_work_torque, *hinge_damper_torque;
 } Work;
 
 /* ------------------------------------------------------------------------- small algebra */
@@ -374,8 +376,8 @@ static void joint_bodies(const Model *m, const Configuration *c, Work *w, int in
 
 /* The equations of motion at c : the vector of all coordinates into
  * w->total (residual = total[:n], reaction = total[n:n_total]); with matrices, the blocks.
- * Returns the power of loads and hinge torques; the power the hinge dampers dissipate, c θ̇² summed
- * over the hinges, into w->dissipation[0]. */
+ * Returns the power of the point loads; each hinge's torque that does external work and its damper's
+ * torque into w->hinge_work_torque and w->hinge_damper_torque. */
 /* The number of element ranges (= threads) of an evaluation: 1 below the threshold or without OpenMP. */
 static int element_ranges(const Model *m)
 {
@@ -423,7 +425,7 @@ static double evaluate(const Model *m, const Configuration *c, Work *w, const do
                        int inertia, double load_factor)
 {
     const int64_t E = m->n_elements;
-    double power = 0.0, dissipation = 0.0;
+    double power = 0.0;
     const int ranges = element_ranges(m);
     if (ranges > 1) {
 #ifdef _OPENMP
@@ -469,12 +471,10 @@ static double evaluate(const Model *m, const Configuration *c, Work *w, const do
             if (m->hinge_torque_hinge_law[j] >= 0)
                 m->hinge_laws(m->hinge_torque_hinge_law[j], state[0], state[1], t, values + 6);
         }
-        double f, spring_power, torque_power, damper_power;
-        m->hinge_force(1, state, values, &f, w->hinge_d_theta + j, w->hinge_d_rate + j, &spring_power,
-                       &torque_power, &damper_power);
-        if (!m->hinge_conservative[j]) power += spring_power;
-        power += torque_power;
-        dissipation += damper_power;
+        double f, spring_torque, applied_torque;
+        m->hinge_force(1, state, values, &f, w->hinge_d_theta + j, w->hinge_d_rate + j, &spring_torque,
+                       &applied_torque, w->hinge_damper_torque + j);
+        w->hinge_work_torque[j] = m->hinge_conservative[j] ? applied_torque : applied_torque - spring_torque;
         w->total[m->hinge_dofs[j]] += f;
     }
     /* point loads: the generated kernel codegen/joints.py, load by load */
@@ -504,7 +504,6 @@ static double evaluate(const Model *m, const Configuration *c, Work *w, const do
                 }
         }
     }
-    w->dissipation[0] = dissipation;
     return power;
 }
 
@@ -675,7 +674,7 @@ typedef struct {
     int64_t matrices;        /* also the element, body, hinge and load blocks of K (and M, C) */
     int64_t inertia_tangent; /* with matrices and inertia: the elements' inertia tangent too */
     double tangent_step, length; /* its central-difference step, and the scene's length */
-    double power;            /* out: the power of point loads and hinge torques (external work) */
+    double power;            /* out: the power of the point loads (external work) */
 } EvaluationControl;
 
 /* One evaluation at c (latdyn/assembly/native_model.py): w->total holds the vector of all

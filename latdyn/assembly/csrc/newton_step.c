@@ -268,8 +268,9 @@ typedef struct {
     double dt, t_end;
     int64_t n_grid, grid_index, stop_index;
     double t, budget_s;
-    /* in/out: the power of loads and prescribed motion at the last accepted state, and the work
-     * done since the start of the run (trapezoidal rule, as timeloop.loop) */
+    /* in/out: the power of point loads and prescribed motion at the last accepted state, and the
+     * work done since the start of the run (theirs by the trapezoidal rule in time, the hinges' by
+     * hinge_work) */
     double power, external_work;
     /* out: steps accepted, their Newton iterations and factorizations; why the loop returned
      * (0 at stop_index, 1 a step did not converge, 2 a step holds an event, 3 the budget);
@@ -278,10 +279,28 @@ typedef struct {
      * StepControl) and that step's size */
     int64_t steps, iterations, factorizations, status, last, pending;
     double t_last, h_pending;
-    /* in/out: the power the hinge dampers dissipate at the last accepted state, and the energy
-     * they dissipated since the start of the run (trapezoidal rule, as the external work) */
-    double dissipation_power, dissipated;
+    /* in/out: the energy the hinge dampers dissipated since the start of the run (hinge_work) */
+    double dissipated;
+    /* in/out (n_hinges each): each hinge's torque that does external work and its damper's torque
+     * at the last accepted state (Work.hinge_work_torque, hinge_damper_torque) */
+    double *hinge_work_torque, *hinge_damper_torque;
 } Advance;
+
+/* The work of the hinges' torques over the accepted step old → new (latdyn/timeloop/progress.py
+ * hinge_work): ∑ ½(τ_n + τ_{n+1}) Δθ, the trapezoidal rule in θ, the work the discrete step received,
+ * into the external work, and ∑ ½(c θ̇_n + c θ̇_{n+1}) Δθ, the dampers' dissipation, into the dissipated
+ * energy; the torques at the new state (the last evaluation's) are carried to the next step. */
+static void hinge_work(const Model *m, const Work *w, const Configuration *old, const Configuration *new_,
+                       Advance *adv)
+{
+    for (int64_t j = 0; j < m->n_hinges; ++j) {
+        const double increment = new_->theta[j] - old->theta[j];
+        adv->external_work += 0.5 * (adv->hinge_work_torque[j] + w->hinge_work_torque[j]) * increment;
+        adv->dissipated += 0.5 * (adv->hinge_damper_torque[j] + w->hinge_damper_torque[j]) * increment;
+        adv->hinge_work_torque[j] = w->hinge_work_torque[j];
+        adv->hinge_damper_torque[j] = w->hinge_damper_torque[j];
+    }
+}
 
 static double seconds_now(void)
 {
@@ -293,8 +312,8 @@ static double seconds_now(void)
 /* Steps from `start` (at adv->t, on grid point grid_index) through grid point stop_index,
  * each landing on the grid (h = t_{k+1} − t_k) as timeloop.loop takes them at the nominal
  * step: latdyn_newton_step with the compiled laws, then acceptance (the algorithmic
- * acceleration carried, the external work and the dampers' dissipation by the trapezoidal
- * rule). It returns at the first
+ * acceleration carried, the external work of point loads and prescribed motion by the
+ * trapezoidal rule in time, the hinges' work and their dampers' dissipation by hinge_work). It returns at the first
  * step that does not converge or that holds a hinge event, without accepting it, so that the
  * caller's loop handles that step as it always has; it never fails by itself. States alternate
  * between the two scratch configurations; `start` is read only; the last accepted state is
@@ -332,8 +351,7 @@ int64_t latdyn_advance(const Model *m, Work *w, StepControl *s, const Configurat
         double power = s->power + drive_power(m, trial, w->total);
         adv->external_work += 0.5 * s->h * (adv->power + power);
         adv->power = power;
-        adv->dissipated += 0.5 * s->h * (adv->dissipation_power + w->dissipation[0]);
-        adv->dissipation_power = w->dissipation[0];
+        hinge_work(m, w, base, trial, adv);
         adv->steps += 1;
         adv->iterations += s->iterations;
         adv->factorizations += s->factorizations;
