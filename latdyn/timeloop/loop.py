@@ -240,6 +240,7 @@ class TimeLoop:
         progress, model, integrator = self.progress, self.model, self.integrator
         new, h = attempt.new, attempt.h
         integrator.accept()
+        theta_end = new.theta.copy()  # the step's own end, before an event puts a hinge on its stop
         events = hinge_events(self.prepared, integrator, progress.state, new, h)
         # power of point loads and prescribed motion: from the last Newton evaluation
         # (within the Newton tolerance of the converged state) when there is one
@@ -249,12 +250,13 @@ class TimeLoop:
         new_power = load_power(model, new, evaluation)
         external_work = self.probes.external_work + 0.5 * h * (progress.power + new_power)
         progress.power = new_power
-        # the hinges' torques over the step's Δθ (progress.hinge_work): external work and the dampers'
-        # dissipation, at its end from the step's own last evaluation, before the events' jump; then
-        # the events' loss; the torques after the jump start the next step
+        # the work of the hinges' torques (progress.hinge_work): external work and the dampers'
+        # dissipation over the step's own Δθ, the torques at its end from its last evaluation, before
+        # the events' jump and their putting a hinge back on its stop; then the events' loss; the
+        # torques after the jump start the next step
         ended = getattr(integrator, "last_evaluation", None) or evaluation
         external_work, dissipated = hinge_work(
-            progress.state, new, (progress.hinge_work_torque, progress.hinge_damper_torque),
+            progress.state.theta, theta_end, (progress.hinge_work_torque, progress.hinge_damper_torque),
             (ended.hinge_work_torque, ended.hinge_damper_torque), external_work, progress.dissipated)
         progress.external_work = self.probes.external_work = external_work
         after = self.assembler.evaluate(new, matrices=False) if events.any else ended

@@ -149,10 +149,10 @@ def load_power(model: Model, state: State, evaluation) -> float:
     return evaluation.external_power + drive_power(model, state, evaluation.reaction)
 
 
-def hinge_work(old: State, new: State, torques_old: tuple, torques_new: tuple, external_work: float,
-               dissipated: float) -> tuple[float, float]:
-    """``external_work`` and ``dissipated`` with the work of the hinges' torques over the step
-    ``old`` → ``new`` added (docs/energy.md): ½(τ_n + τ_{n+1}) Δθ of each torque that does external
+def hinge_work(theta_old: np.ndarray, theta_new: np.ndarray, torques_old: tuple, torques_new: tuple,
+               external_work: float, dissipated: float) -> tuple[float, float]:
+    """``external_work`` and ``dissipated`` with the work of the hinges' torques over the step from
+    the hinge angles ``theta_old`` to ``theta_new`` added (docs/energy.md): ½(τ_n + τ_{n+1}) Δθ of each torque that does external
     work, and ½(c θ̇_n + c θ̇_{n+1}) Δθ of each damper (its declared dissipation); ``torques_*`` are
     (work torques, damper torques) per hinge at each end. The trapezoidal rule in θ, not in time: the
     work ∫ τ dθ the discrete step received whatever the integrator's Δθ is (with generalized-α,
@@ -160,8 +160,8 @@ def hinge_work(old: State, new: State, torques_old: tuple, torques_new: tuple, e
     Newmark's average acceleration and a linear hinge it closes the balance to round-off.
     csrc/newton_step.c hinge_work is the same sum, hinge by hinge, in the compiled loop."""
     (work_old, damper_old), (work_new, damper_new) = torques_old, torques_new
-    for j in range(len(new.theta)):
-        increment = float(new.theta[j]) - float(old.theta[j])
+    for j in range(len(theta_new)):
+        increment = float(theta_new[j]) - float(theta_old[j])
         external_work += 0.5 * (float(work_old[j]) + float(work_new[j])) * increment
         dissipated += 0.5 * (float(damper_old[j]) + float(damper_new[j])) * increment
     return external_work, dissipated
