@@ -292,15 +292,15 @@ class _BranchFree:
 
 
 def joint_contact(theta, rate, contact):
-    """(force on the joint's coordinate, contact potential, dissipated power) of a compliant stop and
+    """(force on the joint's coordinate, contact potential, its dissipative part) of a compliant stop and
     of friction in a joint (SCENE.md "Contact and friction at joints"), for a coordinate θ (an angle or
     a slide) and its rate v = θ̇.
 
     Stop (Hunt–Crossley), penetrations δ_u = θ − hi and δ_l = lo − θ:
         F_u = ⟨δ_u⟩ⁿ ⟨k + c θ̇⟩,  F_l = ⟨δ_l⟩ⁿ ⟨k − c θ̇⟩,   ⟨x⟩ = max(x, 0)
     i.e. k δⁿ + c δⁿ δ̇ while δ > 0, clipped at 0 (never pulling); the row of the residual takes
-    F_u − F_l; the potential is k (⟨δ_u⟩ⁿ⁺¹ + ⟨δ_l⟩ⁿ⁺¹)/(n + 1); what the stop takes beyond it,
-    (F_u − k⟨δ_u⟩ⁿ) θ̇ − (F_l − k⟨δ_l⟩ⁿ) θ̇ ≥ 0, is dissipated.
+    F_u − F_l; the potential is k (⟨δ_u⟩ⁿ⁺¹ + ⟨δ_l⟩ⁿ⁺¹)/(n + 1); the rest of the force,
+    (F_u − k⟨δ_u⟩ⁿ) − (F_l − k⟨δ_l⟩ⁿ) (its damping and clip), is dissipative: its power times θ̇ ≥ 0.
 
     Friction while the joint slips, regularised: f = L(v) g(v/v₀) + c_v v, with the engagement
     g(x) = y(2 − |y|), y = x clipped to [−1, 1] (C¹: ±1 from |v| = v₀ on) and the level
@@ -309,21 +309,23 @@ def joint_contact(theta, rate, contact):
                                                                  level of a stuck joint, an event)
     Sticking is an event (latdyn/timeloop/events.py stick_and_slip); below it, a joint that must carry
     a force F < L(v₀) would turn at |v| = v₀ (1 − √(1 − F/L)) < v₀: the stick tolerance
-    of SCENE.md. Its power f v ≥ 0 is dissipated."""
+    of SCENE.md. It is dissipative too (f v ≥ 0). The dissipative part returned is the stop's
+    damping and clip plus the friction: the time loop integrates its work over each step's Δθ as the
+    declared dissipation (latdyn.timeloop.progress.hinge_work)."""
     lower, upper, k, n, c, coulomb, static, inverse, smooth, viscous, stick = contact
     upper_power, lower_power = _PositivePower(theta - upper, n), _PositivePower(lower - theta, n)
     upper_force = upper_power * _positive(k + c * rate)
     lower_force = lower_power * _positive(k - c * rate)
     potential = k * (_PositivePower(theta - upper, n + 1) + _PositivePower(lower - theta, n + 1)) / (n + 1)
-    stop_loss = (upper_force - k * upper_power) * rate - (lower_force - k * lower_power) * rate
+    stop_dissipative = (upper_force - k * upper_power) - (lower_force - k * lower_power)
     level = coulomb + (static - coulomb) * smooth * sp.exp(-(rate * inverse) ** 2)
     friction = level * _engaged(rate / stick) + viscous * rate
-    return upper_force - lower_force + friction, potential, stop_loss + friction * rate
+    return upper_force - lower_force + friction, potential, stop_dissipative + friction
 
 
 def hinge_force(state, laws, contact=None, branch_free=None):
-    """(f, ∂f/∂θ, ∂f/∂θ̇, f at the state, spring torque k s, contact potential, contact and friction
-    power) of a hinge, f = k(θ, θ̇, t) s + c(θ, θ̇, t) θ̇ − λ τ(θ, θ̇, t) + f_contact(θ, θ̇), s = θ − θ_r
+    """(∂f/∂θ, ∂f/∂θ̇, f at the state, spring torque k s, contact potential, the dissipative part of
+    the contact and friction force) of a hinge, f = k(θ, θ̇, t) s + c(θ, θ̇, t) θ̇ − λ τ(θ, θ̇, t) + f_contact(θ, θ̇), s = θ − θ_r
     (f_contact: :func:`joint_contact`; omitted without ``contact``). Each law enters as its
     first-order expansion about the hinge's (θ, θ̇), which is all its exact first derivatives need;
     ``branch_free`` (a :class:`_BranchFree`) names the kinks' arguments (the kernel's intermediates)."""
@@ -333,9 +335,9 @@ def hinge_force(state, laws, contact=None, branch_free=None):
     k, c, tau = ((laws[3 * j] + laws[3 * j + 1] * d_theta + laws[3 * j + 2] * d_rate) for j in range(3))
     s = theta + d_theta - rest
     f = k * s + c * (rate + d_rate) - factor * tau
-    potential = loss = sp.S.Zero
+    potential = dissipative = sp.S.Zero
     if contact is not None:
-        stop, potential, loss = joint_contact(theta + d_theta, rate + d_rate, contact)
+        stop, potential, dissipative = joint_contact(theta + d_theta, rate + d_rate, contact)
         f = f + stop
     zero = {d_theta: 0, d_rate: 0}
 
@@ -343,30 +345,30 @@ def hinge_force(state, laws, contact=None, branch_free=None):
         return branch_free(expr.xreplace(zero))
 
     return at_state(sp.diff(f, d_theta)), at_state(sp.diff(f, d_rate)), at_state(f), (k * s).xreplace(zero), \
-        at_state(potential), at_state(loss)
+        at_state(potential), at_state(dissipative)
 
 
 def _hinge_force_kernel() -> KernelSpec:
     state, laws, contact = HINGE_STATE.symbols(), HINGE_LAWS.symbols(), JOINT_CONTACT.symbols()
     branch_free = _BranchFree()
-    stiffness, damping, force, spring, potential, loss = hinge_force(state, laws, contact, branch_free)
+    stiffness, damping, force, spring, potential, dissipative = hinge_force(state, laws, contact, branch_free)
     rate, factor, tau, damper = state[1], state[3], laws[6], laws[3]
     outputs = [Output("hinge_force", (), [force], "f = k s + c θ̇ − λ τ + f_contact, s = θ − θ_r: the hinge's row "
                       "of the residual (f_contact: a compliant stop's and friction's force)"),
                Output("hinge_stiffness", (), [stiffness], "∂f/∂θ = k + s ∂k/∂θ + θ̇ ∂c/∂θ − λ ∂τ/∂θ + ∂f_contact/∂θ"),
                Output("hinge_damping", (), [damping], "∂f/∂θ̇ = s ∂k/∂θ̇ + c + θ̇ ∂c/∂θ̇ − λ ∂τ/∂θ̇ + ∂f_contact/∂θ̇"),
-               Output("spring_power", (), [-spring * rate], "−k s θ̇: the spring's power, external work when the "
+               Output("spring_torque", (), [spring], "k s: the spring's torque; its work is external when the "
                       "spring is not conservative (a law in θ̇ or t)"),
-               Output("torque_power", (), [factor * tau * rate], "λ τ θ̇: the applied torque's power"),
-               Output("damper_power", (), [damper * rate * rate + loss], "c θ̇² + what a compliant stop's damping "
-                      "and friction take: the power the joint dissipates (declared dissipation, "
-                      "latdyn.timeloop.progress)"),
+               Output("applied_torque", (), [factor * tau], "λ τ: the applied torque"),
+               Output("damper_torque", (), [damper * rate + dissipative], "c θ̇ + the dissipative part of a "
+                      "compliant stop's force (its damping and clip, F − k δⁿ) and the friction: the torque whose "
+                      "work is the declared dissipation (latdyn.timeloop.progress)"),
                Output("contact_energy", (), [potential], "k (⟨δ_u⟩ⁿ⁺¹ + ⟨δ_l⟩ⁿ⁺¹)/(n + 1): the potential of a "
                       "compliant stop's spring (strain energy)")]
     return KernelSpec(name="hinge_force", doc="A hinge's generalized force from its spring, damper and applied torque "
                       "laws, a compliant stop (Hunt-Crossley) and friction, its exact derivatives by the angle and "
-                      "its rate, the power of what does external work, the power the joint dissipates and the "
-                      "stop's potential",
+                      "its rate, the torques whose work the energy balance integrates over each step's Δθ (external "
+                      "work, the joint's dissipation) and the stop's potential",
                       inputs=[HINGE_STATE, HINGE_LAWS, JOINT_CONTACT], outputs=outputs, variant="joints",
                       equations="hinge springs, dampers and torques (Eqs. 4, 9: the hinge coordinate); "
                                 "Hunt-Crossley contact, Coulomb-Stribeck-viscous friction",

@@ -269,6 +269,8 @@ class Assembler:
         m = self.model
         n = m.n_assembled
         result = Evaluation(residual=total[:n], reaction=total[n:m.n_total], external_power=power,
+                            hinge_work_torque=native.buffers["hinge_work_torque"].copy(),
+                            hinge_damper_torque=native.buffers["hinge_damper_torque"].copy(),
                             dissipation_power=float(native.buffers["dissipation"][0]), assembler=self)
         if matrices:
             b = native.buffers

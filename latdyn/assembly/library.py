@@ -88,7 +88,8 @@ class WorkData(ctypes.Structure):
         "p_gravity_potential", "p_first_moment", "laws", "hinge_d_theta", "hinge_d_rate", "dissipation",
         "joint_forces",
         "sensor_values", "controller_gradient", "controller_scratch", "coupling_stiffness", "coupling_damping",
-        "cable_vector", "cable_stiffness", "cable_damping", "cable_state", "cable_strain", "cable_gap")]
+        "cable_vector", "cable_stiffness", "cable_damping", "cable_state", "cable_strain", "cable_gap",
+        "hinge_work_torque", "hinge_damper_torque")]
 
 
 class ConfigurationData(ctypes.Structure):
@@ -126,7 +127,8 @@ class AdvanceData(ctypes.Structure):
                 ("power", ctypes.c_double), ("external_work", ctypes.c_double),
                 ("steps", I64), ("iterations", I64), ("factorizations", I64), ("status", I64), ("last", I64),
                 ("pending", I64), ("t_last", ctypes.c_double), ("h_pending", ctypes.c_double),
-                ("dissipation_power", ctypes.c_double), ("dissipated", ctypes.c_double)]
+                ("dissipation_power", ctypes.c_double), ("dissipated", ctypes.c_double),
+                ("hinge_work_torque", P), ("hinge_damper_torque", P)]
 
 
 #: Element count from which the element part of an evaluation (geometry and kernels) runs on

@@ -347,7 +347,8 @@ class NativeModel:
             "controller_scratch": (len(wired.sensor_kind) + 1,),
             "coupling_stiffness": (len(wired.coupling_actuator),), "coupling_damping": (len(wired.coupling_actuator),),
             "cable_vector": (CE, 12), "cable_stiffness": (CE, 12, 12), "cable_damping": (CE, 12, 12),
-            "cable_state": (CE, 5), "cable_strain": (CE,), "cable_gap": (CE,)}
+            "cable_state": (CE, 5), "cable_strain": (CE,), "cable_gap": (CE,),
+            "hinge_work_torque": (H,), "hinge_damper_torque": (H,)}
         tangent = {"inertia_tangent": (E, 14, 14), "forces_plus": (E, 14), "forces_minus": (E, 14),
                    "perturbed_x": (N, 3), "perturbed_T": (N, 3, 3), "perturbed_theta": (H,),
                    "p_geometry": (E, 36), "p_rates": (E, 14), "p_accelerations": (E, 14), "p_mass": (E, 14, 14),

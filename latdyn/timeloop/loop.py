@@ -32,7 +32,8 @@ from latdyn.step.integrators import newton_diagnosis
 from latdyn.timeloop import checkpoint as checkpoints
 from latdyn.timeloop.control import StepControl
 from latdyn.timeloop.events import cable_events, cable_sides, crossing_fraction, hinge_events, restart_accelerations
-from latdyn.timeloop.progress import DRIFT_WARNING, UNBOUNDED, TransientProgress, factorizations, load_power
+from latdyn.timeloop.progress import (DRIFT_WARNING, UNBOUNDED, UNBOUNDED_ROWS, TransientProgress, factorizations,
+                                      hinge_work, load_power)
 
 
 class Attempt(NamedTuple):
@@ -116,6 +117,8 @@ class TimeLoop:
             stuck=self.model.stuck.copy(),
             h=self.control.dt, power=load_power(self.model, state, evaluation),
             dissipation_power=evaluation.dissipation_power,
+            hinge_work_torque=evaluation.hinge_work_torque.copy(),
+            hinge_damper_torque=evaluation.hinge_damper_torque.copy(),
             total0=sum(energy0.values()), potential0=energy0["potential"],
             received0=energy0["kinetic"] + energy0["strain"] + 1e-8 * abs(energy0["potential"]),
             inertia_tangent_from=0.0 if getattr(self.integrator, "inertia_tangent", False) else None,
@@ -206,7 +209,7 @@ class TimeLoop:
         progress.state = self.prepared.state = state
         progress.algorithmic_acceleration = getattr(self.integrator, "a", None)
         progress.power = load_power(self.model, state, evaluation)
-        progress.dissipation_power = evaluation.dissipation_power
+        self._torques_from(evaluation)
 
     def _steps(self) -> None:
         """Steps until t_end or the pause; interrupted or failed: :meth:`_stopped_by`."""
@@ -252,7 +255,8 @@ class TimeLoop:
             progress.state, grid_index=progress.grid_index,
             stop_index=control.next_row(progress) if budget > 0 else progress.grid_index + 1, dt=control.dt,
             t_end=control.t_end, n_grid=control.n_grid, power=progress.power,
-            external_work=progress.external_work, dissipation_power=progress.dissipation_power,
+            external_work=progress.external_work, hinge_work_torque=progress.hinge_work_torque,
+            hinge_damper_torque=progress.hinge_damper_torque, dissipation_power=progress.dissipation_power,
             dissipated=progress.dissipated, budget_s=budget)
         progress.solver_s += time.perf_counter() - started
         if done.steps:
@@ -262,6 +266,7 @@ class TimeLoop:
             progress.factorizations += done.factorizations
             progress.power = done.power
             progress.external_work = self.probes.external_work = done.external_work
+            progress.hinge_work_torque, progress.hinge_damper_torque = done.hinge_work_torque, done.hinge_damper_torque
             progress.dissipation_power = done.dissipation_power
             progress.dissipated = self.probes.dissipated = done.dissipated
             self._track_cables(progress.state, done.state)
@@ -314,32 +319,40 @@ class TimeLoop:
         progress, model, integrator = self.progress, self.model, self.integrator
         new, h = attempt.new, attempt.h
         integrator.accept()
+        theta_end = new.theta.copy()  # the step's own end, before an event puts a hinge on its stop
         events = hinge_events(self.prepared, integrator, progress.state, new, h)
         if events.log:
             progress.events = progress.events + [{"joint": joint, "kind": kind, "t": float(new.t)}
                                                  for joint, kind in events.log]
         self._track_cables(progress.state, new)
-        # power of loads and prescribed motion: from the last Newton evaluation
+        # power of point loads, cable reels and prescribed motion: from the last Newton evaluation
         # (within the Newton tolerance of the converged state) when there is one
         evaluation = getattr(integrator, "last_evaluation", None)
         if evaluation is None or len(evaluation.reaction) != model.n_total - model.n_dofs or events.resting:
             # resting on a stop: the step ends where the projection put it back (events.HingeEvents)
             evaluation = self.assembler.evaluate(new, matrices=False)
         new_power = load_power(model, new, evaluation)
-        self.probes.external_work += 0.5 * h * (progress.power + new_power)
+        external_work = self.probes.external_work + 0.5 * h * (progress.power + new_power)
         progress.power = new_power
-        progress.external_work = self.probes.external_work
-        # declared dissipation: the dampers' over the step (trapezoidal, as the work; at its end
-        # from the step's own last evaluation, before the events' jump), then the events' loss;
-        # the dampers' power after the jump starts the next step
+        # the work of the hinges' torques (progress.hinge_work): external work and the joints'
+        # dissipation over the step's own Δθ, the torques at its end from its last evaluation, before
+        # the events' jump and their putting a hinge back on its stop (resting on a stop: after it, where
+        # the step moved nothing, events.HingeEvents); the cables' dampers by the trapezoidal rule in
+        # time, as the point loads' work; then the events' loss; the torques and powers after the jump
+        # start the next step
         ended = evaluation if events.resting else getattr(integrator, "last_evaluation", None) or evaluation
-        damped = 0.5 * h * (progress.dissipation_power + ended.dissipation_power)
-        progress.dissipation_power = evaluation.dissipation_power
-        if events.any and evaluation is ended and not events.resting:  # the velocities jumped: the powers
-            after = self.assembler.evaluate(new, matrices=False)  # after the jump start the next step
-            progress.dissipation_power = after.dissipation_power
+        external_work, dissipated = hinge_work(
+            progress.state.theta, new.theta if events.resting else theta_end,
+            (progress.hinge_work_torque, progress.hinge_damper_torque),
+            (ended.hinge_work_torque, ended.hinge_damper_torque), external_work, progress.dissipated)
+        dissipated += 0.5 * h * (progress.dissipation_power + ended.dissipation_power)
+        progress.external_work = self.probes.external_work = external_work
+        after = evaluation
+        if events.any and evaluation is ended and not events.resting:  # the velocities jumped
+            after = self.assembler.evaluate(new, matrices=False)
             progress.power = load_power(model, new, after)
-        progress.dissipated = self.probes.dissipated = progress.dissipated + damped + events.loss
+        self._torques_from(after)
+        progress.dissipated = self.probes.dissipated = dissipated + events.loss
         progress.state = new
         progress.algorithmic_acceleration = integrator.a
         progress.locked, progress.stuck = model.locked.copy(), model.stuck.copy()
@@ -349,6 +362,14 @@ class TimeLoop:
         self._after_accepted(new)
         self.control.after_accepted(progress, integrator, h, events.any, events.stopped)
         self._keep_accepted()
+
+    def _torques_from(self, evaluation) -> None:
+        """The hinges' work and dissipative torques and the cables' damper power at the state of
+        ``evaluation``, which the next step's work and dissipation start from (progress.hinge_work)."""
+        progress = self.progress
+        progress.dissipation_power = evaluation.dissipation_power
+        progress.hinge_work_torque = evaluation.hinge_work_torque.copy()
+        progress.hinge_damper_torque = evaluation.hinge_damper_torque.copy()
 
     def _hold_cable_sides(self) -> None:
         """The side each cable element is held on through the next step (latdyn.timeloop.events): the
@@ -386,7 +407,7 @@ class TimeLoop:
             progress.algorithmic_acceleration = self.integrator.a
             evaluation = self.assembler.evaluate(state, matrices=False)
             progress.power = load_power(model, state, evaluation)
-            progress.dissipation_power = evaluation.dissipation_power
+            self._torques_from(evaluation)
         if progress.steps % 256 == 0:  # exp updates keep T on SO(3) to round-off; remove the drift of long runs
             state.T[model.free_nodes] = orthonormalize(state.T[model.free_nodes])
         if self.control.row_due(progress, state.t):
@@ -411,9 +432,9 @@ class TimeLoop:
     def _judge_balance(self, t: float, gain: float) -> None:
         """The energy balance at the row at ``t`` (docs/energy.md): an energy gain (``gain``: the
         energy created and held, relative to the energy received, :meth:`TransientProgress.balance`)
-        past :data:`UNBOUNDED`, or not finite, ends the run as unbounded, the row at ``t`` recorded
-        first."""
-        if not gain <= UNBOUNDED:  # NaN too
+        past :data:`UNBOUNDED`, growing, at :data:`UNBOUNDED_ROWS` rows in a row, or not finite,
+        ends the run as unbounded, the row at ``t`` recorded first."""
+        if self.progress.unbounded:
             self.unbounded = True
             progress = self.progress
             received = progress.received0 + progress.work_seen + progress.potential_seen
@@ -421,7 +442,7 @@ class TimeLoop:
                 what = "the energies are not finite"
             else:
                 what = (f"the integrator created {gain:.3g} times the energy the structure received "
-                        f"({received:.4g}; a run ends past {UNBOUNDED:g} times)")
+                        f"({received:.4g}; a run ends past {UNBOUNDED:g} times at {UNBOUNDED_ROWS} rows in a row)")
             raise UnboundedError(f"unbounded: the energy balance broke at t = {t:.6g}: {what}; a smaller step or "
                                  f"numerical dissipation (rho_inf < 1) may keep it bounded", t)
 

@@ -120,7 +120,7 @@ typedef struct {
     void (*hinge_laws)(int64_t, double, double, double, double *);
     /* hinges with laws in θ, θ̇ or t: the hinge law of the stiffness,
      * the damping and the torque (-1: the constant of hinge_stiffness/hinge_damping, no torque
-     * law in θ or θ̇), and whether the spring is conservative (else its power is external work) */
+     * law in θ or θ̇), and whether the spring is conservative (else its work is external) */
     const int64_t *hinge_stiffness_law, *hinge_damping_law, *hinge_torque_hinge_law, *hinge_conservative;
     /* events that end a loop of steps (latdyn_advance; latdyn/timeloop/events.py handles them): lock_at and the
      * lower and upper stop of each hinge (NAN: none) */
@@ -193,7 +193,8 @@ typedef struct {
     /* the law values at the step's time (n_laws, 3), and the hinge forces' derivatives ∂f/∂θ
      * and ∂f/∂θ̇ of the last evaluation (n_hinges each: diagonal entries of K and C) */
     double *laws, *hinge_d_theta, *hinge_d_rate;
-    /* the power the hinge dampers dissipate at the last evaluation, c θ̇² summed (1) */
+    /* the power the cable dampers dissipate at the last evaluation, summed (1; the hinges' is their
+     * damper torque's work, hinge_damper_torque) */
     double *dissipation;
     /* each joint's law force f of the last evaluation (n_hinges: hinges and guides), for the joint
      * force probes (latdyn/results/probes.py ProbeSet.joint_forces) */
@@ -206,6 +207,11 @@ typedef struct {
     double *cable_vector, *cable_stiffness, *cable_damping, *cable_state, *cable_strain;
     /* each element's gap min(N_el, N) (ce): > 0 taut; its sign changes are the events */
     double *cable_gap;
+    /* per hinge at the last evaluation (n_hinges each): the torque whose work is external (the applied
+     * torque λ τ and a continuous controller's output, less k s of a spring that is not conservative)
+     * and the dissipative torque (the damper's c θ̇, a compliant stop's damping and friction); the time
+     * loop integrates their work over each step's Δθ (newton_step.c latdyn_advance) */
+    double *hinge_work_torque, *hinge_damper_torque;
 } Work;
 
 /* ------------------------------------------------------------------------- small algebra */
@@ -419,8 +425,9 @@ static void joint_bodies(const Model *m, const Configuration *c, Work *w, int in
 
 /* The equations of motion at c : the vector of all coordinates into
  * w->total (residual = total[:n], reaction = total[n:n_total]); with matrices, the blocks.
- * Returns the power of loads and hinge torques; the power the hinge dampers dissipate, c θ̇² summed
- * over the hinges, into w->dissipation[0]. */
+ * Returns the power of the point loads and of the cables' reels; each hinge's torque that does external
+ * work and its dissipative torque into w->hinge_work_torque and w->hinge_damper_torque; the power the
+ * cables' dampers dissipate into w->dissipation[0]. */
 /* The number of element ranges (= threads) of an evaluation: 1 below the threshold or without OpenMP. */
 static int element_ranges(const Model *m)
 {
@@ -641,14 +648,12 @@ static double evaluate(const Model *m, const Configuration *c, Work *w, const do
             control = m->controller_outputs[m->controller_slot[m->hinge_controller[j]]];
             values[6] = values[7] = values[8] = 0.0;
         }
-        double f, spring_power, torque_power, damper_power, contact_energy;
+        double f, spring_torque, applied_torque, contact_energy;
         m->hinge_force(1, state, values, m->hinge_contact + 11 * j, &f, w->hinge_d_theta + j, w->hinge_d_rate + j,
-                       &spring_power, &torque_power, &damper_power, &contact_energy);
+                       &spring_torque, &applied_torque, w->hinge_damper_torque + j, &contact_energy);
         f -= control;
-        torque_power += control * c->theta_dot[j];
-        if (!m->hinge_conservative[j]) power += spring_power;
-        power += torque_power;
-        dissipation += damper_power;
+        applied_torque += control;  /* the controller's output is an applied torque: its work is counted alike */
+        w->hinge_work_torque[j] = m->hinge_conservative[j] ? applied_torque : applied_torque - spring_torque;
         w->joint_forces[j] = f;
         w->total[m->hinge_dofs[j]] += f;
     }
@@ -827,9 +832,9 @@ void latdyn_energies(const Model *m, Work *w, const Configuration *c, double t, 
         strain += 0.5 * m->hinge_stiffness[j] * s * s;
         /* a compliant stop's potential, from the generated hinge_force (its other outputs unused) */
         double state[4] = {c->theta[j], c->theta_dot[j], m->hinge_rest_angle[j], 0.0}, values[9] = {0};
-        double f, d_theta, d_rate, spring_power, torque_power, damper_power, contact_energy;
-        m->hinge_force(1, state, values, m->hinge_contact + 11 * j, &f, &d_theta, &d_rate, &spring_power,
-                       &torque_power, &damper_power, &contact_energy);
+        double f, d_theta, d_rate, spring_torque, applied_torque, damper_torque, contact_energy;
+        m->hinge_force(1, state, values, m->hinge_contact + 11 * j, &f, &d_theta, &d_rate, &spring_torque,
+                       &applied_torque, &damper_torque, &contact_energy);
         strain += contact_energy;
     }
     for (int64_t b = 0; b < m->n_bodies; ++b) {
@@ -867,7 +872,7 @@ typedef struct {
     int64_t matrices;        /* also the element, body, hinge and load blocks of K (and M, C) */
     int64_t inertia_tangent; /* with matrices and inertia: the elements' inertia tangent too */
     double tangent_step, length; /* its central-difference step, and the scene's length */
-    double power;            /* out: the power of point loads and hinge torques (external work) */
+    double power;            /* out: the power of the point loads and cable reels (external work) */
 } EvaluationControl;
 
 /* One evaluation at c (latdyn/assembly/native_model.py): w->total holds the vector of all
