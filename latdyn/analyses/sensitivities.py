@@ -63,6 +63,9 @@ _SECTION_KEY = re.compile(r"^sections\.(?P<section>[^.]+)\.(?P<value>EA|EIy|EIz|
 #: the section block's columns (codegen/conventions.py: L0 EA EIy EIz GJ rhoA rhoIy rhoIz 1/GAy 1/GAz)
 _SECTION_COLUMN = {"EA": 1, "EIy": 2, "EIz": 3, "GJ": 4, "rhoA": 5, "rhoIy": 6, "rhoIz": 7}
 _BODY_KEY = re.compile(r"^bodies\.(?P<body>[^.]+)\.(?:(?P<mass>mass)|com\[(?P<com>[0-2])\]|(?P<inertia>inertia)\[.*)$")
+#: The hinge_force kernel's ``contact`` input of a joint without a compliant stop or friction
+#: (latdyn.assembly.native_model.joint_contact_rows' row then): ∂f/∂p through a law has no contact term.
+_NO_CONTACT = np.array([[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0]])
 _HINGE_KEY = re.compile(r"^beams\.(?P<beam>.+)\.(?P<end>start|end)\.hinge\.(?P<law>stiffness|damping|torque|rest_angle)$")
 
 
@@ -246,7 +249,8 @@ class StaticSensitivities:
         return node, np.asarray(force).reshape(6)
 
     def _hinge_force(self, state, j: int, which: str, law, load_factor: float) -> float:
-        """∂f/∂p of hinge ``j`` through its ``which`` law (the hinge_force kernel, linear in the laws)."""
+        """∂f/∂p of hinge ``j`` through its ``which`` law (the hinge_force kernel, linear in the laws; its
+        compliant stop and friction, which no law enters, left out: :data:`_NO_CONTACT`)."""
         hinge = self.model.hinges[j]
         theta, rate, t = float(state.theta[j]), float(state.theta_dot[j]), state.t
         laws = np.zeros((1, 9))
@@ -254,10 +258,11 @@ class StaticSensitivities:
         if which == "rest_angle":   # f = k (θ − θ_r) + …: affine in θ_r
             laws[0, 0] = hinge.stiffness.value(theta, rate, t)
             unit_rest = np.array([[0.0, 0.0, 1.0, load_factor]])
-            return derivative * float(np.asarray(self.kernels.hinge_force(unit_rest, laws)[0]).reshape(-1)[0])
+            return derivative * float(np.asarray(self.kernels.hinge_force(unit_rest, laws, _NO_CONTACT)[0])
+                                       .reshape(-1)[0])
         laws[0, {"stiffness": 0, "damping": 3, "torque": 6}[which]] = derivative
         at = np.array([[theta, rate, hinge.rest_angle, load_factor]])
-        return float(np.asarray(self.kernels.hinge_force(at, laws)[0]).reshape(-1)[0])
+        return float(np.asarray(self.kernels.hinge_force(at, laws, _NO_CONTACT)[0]).reshape(-1)[0])
 
     # ------------------------------------------------------------------ rows
     def record(self, state, load_factor: float, constraint_gradient=None) -> None:
