@@ -68,6 +68,12 @@ term 2ω × ṡg and the centrifugal one of a slide on a turning body arise from
 (``prismatic_link_edge``, the same inputs and outputs as ``rigid_link_edge``). A wrench (f, m) at y
 enters the slide as σ g·f (``slide_wrench``), whose derivative by the configuration at fixed (f, m) is
 σ (g × f)·δπ_p, the edge parent's turn alone.
+
+Cable element (a tension-only axial member between the points p_i = x_i + T_i r_i of two nodes):
+the taut law N = EA (ℓ − L0)/L0 + c ℓ̇ on the residual rows of both ends, its exact derivatives by
+the end coordinates (same spatial update) and by their rates, the strain energy ½ EA (ℓ − L0)²/L0,
+the power ∂U/∂L0 · L̇0 a reel puts in, and the dampers' powers. Slack (ℓ ≤ L0, or N ≤ 0) is the
+runtime's choice of zero (csrc/evaluate.c ``cables``; latdyn/model/cables.py).
 """
 from __future__ import annotations
 
@@ -76,7 +82,7 @@ import sympy as sp
 from .ir import Argument, KernelSpec, Output
 
 DESCRIPTION = ("joint bodies (Newton-Euler about the reference point), point loads (global and follower), "
-               "hinged beam ends, hinge laws, rigid link and prismatic edges and the SO(3) exponential")
+               "hinged beam ends, hinge laws, rigid link and prismatic edges, cable elements and the SO(3) exponential")
 
 BODY_FRAME = Argument("frame", 9, "T: the body's frame (columns = body axes in global axes), row-major")
 BODY_MOTION = Argument("motion", 9, "omega[3] a[3] alpha[3]: spatial angular velocity, acceleration of the "
@@ -317,15 +323,15 @@ class _BranchFree:
 
 
 def joint_contact(theta, rate, contact):
-    """(force on the joint's coordinate, contact potential, dissipated power) of a compliant stop and
+    """(force on the joint's coordinate, contact potential, its dissipative part) of a compliant stop and
     of friction in a joint (SCENE.md "Contact and friction at joints"), for a coordinate θ (an angle or
     a slide) and its rate v = θ̇.
 
     Stop (Hunt–Crossley), penetrations δ_u = θ − hi and δ_l = lo − θ:
         F_u = ⟨δ_u⟩ⁿ ⟨k + c θ̇⟩,  F_l = ⟨δ_l⟩ⁿ ⟨k − c θ̇⟩,   ⟨x⟩ = max(x, 0)
     i.e. k δⁿ + c δⁿ δ̇ while δ > 0, clipped at 0 (never pulling); the row of the residual takes
-    F_u − F_l; the potential is k (⟨δ_u⟩ⁿ⁺¹ + ⟨δ_l⟩ⁿ⁺¹)/(n + 1); what the stop takes beyond it,
-    (F_u − k⟨δ_u⟩ⁿ) θ̇ − (F_l − k⟨δ_l⟩ⁿ) θ̇ ≥ 0, is dissipated.
+    F_u − F_l; the potential is k (⟨δ_u⟩ⁿ⁺¹ + ⟨δ_l⟩ⁿ⁺¹)/(n + 1); the rest of the force,
+    (F_u − k⟨δ_u⟩ⁿ) − (F_l − k⟨δ_l⟩ⁿ) (its damping and clip), is dissipative: its power times θ̇ ≥ 0.
 
     Friction while the joint slips, regularised: f = L(v) g(v/v₀) + c_v v, with the engagement
     g(x) = y(2 − |y|), y = x clipped to [−1, 1] (C¹: ±1 from |v| = v₀ on) and the level
@@ -334,21 +340,23 @@ def joint_contact(theta, rate, contact):
                                                                  level of a stuck joint, an event)
     Sticking is an event (latdyn/timeloop/events.py stick_and_slip); below it, a joint that must carry
     a force F < L(v₀) would turn at |v| = v₀ (1 − √(1 − F/L)) < v₀: the stick tolerance
-    of SCENE.md. Its power f v ≥ 0 is dissipated."""
+    of SCENE.md. It is dissipative too (f v ≥ 0). The dissipative part returned is the stop's
+    damping and clip plus the friction: the time loop integrates its work over each step's Δθ as the
+    declared dissipation (latdyn.timeloop.progress.hinge_work)."""
     lower, upper, k, n, c, coulomb, static, inverse, smooth, viscous, stick = contact
     upper_power, lower_power = _PositivePower(theta - upper, n), _PositivePower(lower - theta, n)
     upper_force = upper_power * _positive(k + c * rate)
     lower_force = lower_power * _positive(k - c * rate)
     potential = k * (_PositivePower(theta - upper, n + 1) + _PositivePower(lower - theta, n + 1)) / (n + 1)
-    stop_loss = (upper_force - k * upper_power) * rate - (lower_force - k * lower_power) * rate
+    stop_dissipative = (upper_force - k * upper_power) - (lower_force - k * lower_power)
     level = coulomb + (static - coulomb) * smooth * sp.exp(-(rate * inverse) ** 2)
     friction = level * _engaged(rate / stick) + viscous * rate
-    return upper_force - lower_force + friction, potential, stop_loss + friction * rate
+    return upper_force - lower_force + friction, potential, stop_dissipative + friction
 
 
 def hinge_force(state, laws, contact=None, branch_free=None):
-    """(f, ∂f/∂θ, ∂f/∂θ̇, f at the state, spring torque k s, contact potential, contact and friction
-    power) of a hinge, f = k(θ, θ̇, t) s + c(θ, θ̇, t) θ̇ − λ τ(θ, θ̇, t) + f_contact(θ, θ̇), s = θ − θ_r
+    """(∂f/∂θ, ∂f/∂θ̇, f at the state, spring torque k s, contact potential, the dissipative part of
+    the contact and friction force) of a hinge, f = k(θ, θ̇, t) s + c(θ, θ̇, t) θ̇ − λ τ(θ, θ̇, t) + f_contact(θ, θ̇), s = θ − θ_r
     (f_contact: :func:`joint_contact`; omitted without ``contact``). Each law enters as its
     first-order expansion about the hinge's (θ, θ̇), which is all its exact first derivatives need;
     ``branch_free`` (a :class:`_BranchFree`) names the kinks' arguments (the kernel's intermediates)."""
@@ -358,9 +366,9 @@ def hinge_force(state, laws, contact=None, branch_free=None):
     k, c, tau = ((laws[3 * j] + laws[3 * j + 1] * d_theta + laws[3 * j + 2] * d_rate) for j in range(3))
     s = theta + d_theta - rest
     f = k * s + c * (rate + d_rate) - factor * tau
-    potential = loss = sp.S.Zero
+    potential = dissipative = sp.S.Zero
     if contact is not None:
-        stop, potential, loss = joint_contact(theta + d_theta, rate + d_rate, contact)
+        stop, potential, dissipative = joint_contact(theta + d_theta, rate + d_rate, contact)
         f = f + stop
     zero = {d_theta: 0, d_rate: 0}
 
@@ -368,34 +376,99 @@ def hinge_force(state, laws, contact=None, branch_free=None):
         return branch_free(expr.xreplace(zero))
 
     return at_state(sp.diff(f, d_theta)), at_state(sp.diff(f, d_rate)), at_state(f), (k * s).xreplace(zero), \
-        at_state(potential), at_state(loss)
+        at_state(potential), at_state(dissipative)
 
 
 def _hinge_force_kernel() -> KernelSpec:
     state, laws, contact = HINGE_STATE.symbols(), HINGE_LAWS.symbols(), JOINT_CONTACT.symbols()
     branch_free = _BranchFree()
-    stiffness, damping, force, spring, potential, loss = hinge_force(state, laws, contact, branch_free)
+    stiffness, damping, force, spring, potential, dissipative = hinge_force(state, laws, contact, branch_free)
     rate, factor, tau, damper = state[1], state[3], laws[6], laws[3]
     outputs = [Output("hinge_force", (), [force], "f = k s + c θ̇ − λ τ + f_contact, s = θ − θ_r: the hinge's row "
                       "of the residual (f_contact: a compliant stop's and friction's force)"),
                Output("hinge_stiffness", (), [stiffness], "∂f/∂θ = k + s ∂k/∂θ + θ̇ ∂c/∂θ − λ ∂τ/∂θ + ∂f_contact/∂θ"),
                Output("hinge_damping", (), [damping], "∂f/∂θ̇ = s ∂k/∂θ̇ + c + θ̇ ∂c/∂θ̇ − λ ∂τ/∂θ̇ + ∂f_contact/∂θ̇"),
-               Output("spring_power", (), [-spring * rate], "−k s θ̇: the spring's power, external work when the "
+               Output("spring_torque", (), [spring], "k s: the spring's torque; its work is external when the "
                       "spring is not conservative (a law in θ̇ or t)"),
-               Output("torque_power", (), [factor * tau * rate], "λ τ θ̇: the applied torque's power"),
-               Output("damper_power", (), [damper * rate * rate + loss], "c θ̇² + what a compliant stop's damping "
-                      "and friction take: the power the joint dissipates (declared dissipation, "
-                      "latdyn.timeloop.progress)"),
+               Output("applied_torque", (), [factor * tau], "λ τ: the applied torque"),
+               Output("damper_torque", (), [damper * rate + dissipative], "c θ̇ + the dissipative part of a "
+                      "compliant stop's force (its damping and clip, F − k δⁿ) and the friction: the torque whose "
+                      "work is the declared dissipation (latdyn.timeloop.progress)"),
                Output("contact_energy", (), [potential], "k (⟨δ_u⟩ⁿ⁺¹ + ⟨δ_l⟩ⁿ⁺¹)/(n + 1): the potential of a "
                       "compliant stop's spring (strain energy)")]
     return KernelSpec(name="hinge_force", doc="A hinge's generalized force from its spring, damper and applied torque "
                       "laws, a compliant stop (Hunt-Crossley) and friction, its exact derivatives by the angle and "
-                      "its rate, the power of what does external work, the power the joint dissipates and the "
-                      "stop's potential",
+                      "its rate, the torques whose work the energy balance integrates over each step's Δθ (external "
+                      "work, the joint's dissipation) and the stop's potential",
                       inputs=[HINGE_STATE, HINGE_LAWS, JOINT_CONTACT], outputs=outputs, variant="joints",
                       equations="hinge springs, dampers and torques (Eqs. 4, 9: the hinge coordinate); "
                                 "Hunt-Crossley contact, Coulomb-Stribeck-viscous friction",
                       intermediates=branch_free.intermediates)
+
+
+CABLE_GEOMETRY = Argument("cable_geometry", 12, "x1[3] x2[3] o1[3] o2[3]: the reference points of the nodes at the "
+                          "element's ends and the offsets T_i r_i of its end points from them, global")
+CABLE_VELOCITY = Argument("cable_velocity", 12, "v1[3] w1[3] v2[3] w2[3]: velocities of the reference points and "
+                          "spatial angular velocities of the end nodes")
+CABLE_SECTION = Argument("cable_section", 4, "L0 L0_dot EA c: the element's share of the rest length and its rate "
+                         "(a reel), the axial stiffness and the axial damping coefficient")
+
+
+def cable_terms(geometry, velocity, section):
+    """The taut law of a cable element between the points p_i = x_i + o_i (module docstring of
+    latdyn/model/cables.py): length ℓ = |p2 − p1|, rate ℓ̇ = e·(ṗ2 − ṗ1) with ṗ_i = v_i + ω_i × o_i,
+    elastic tension N_el = EA (ℓ − L0)/L0, tension N = N_el + c ℓ̇; the generalized force on the
+    residual rows [d1, π1, d2, π2] is −[F1; o1 × F1; F2; o2 × F2] with F1 = N e = −F2 (the cable
+    pulls its ends together). Returns (force, length, rate, elastic tension, tension)."""
+    x1, x2, o1, o2 = (_vector(geometry[3 * k:3 * k + 3]) for k in range(4))
+    v1, w1, v2, w2 = (_vector(velocity[3 * k:3 * k + 3]) for k in range(4))
+    L0, _, EA, c = section
+    u = (x2 + o2) - (x1 + o1)
+    length = sp.sqrt(u.dot(u))
+    e = u / length
+    rate = e.dot((v2 + w2.cross(o2)) - (v1 + w1.cross(o1)))
+    elastic = EA * (length - L0) / L0
+    tension = elastic + c * rate
+    F1 = tension * e
+    force = -sp.Matrix.vstack(F1, o1.cross(F1), -F1, o2.cross(-F1))
+    return force, length, rate, elastic, tension
+
+
+def _cable_force_kernel() -> KernelSpec:
+    geometry, velocity, section = CABLE_GEOMETRY.symbols(), CABLE_VELOCITY.symbols(), CABLE_SECTION.symbols()
+    force, length, rate, elastic, tension = cable_terms(geometry, velocity, section)
+    # the configuration update of both ends: x_i += δd_i, o_i ← (I + skew δπ_i) o_i (spatial, to first order)
+    delta = sp.Matrix(sp.symbols("delta_0:12"))
+    zero = {d: 0 for d in delta}
+    moved = list(geometry)
+    for k in range(2):
+        d, pi = delta[6 * k:6 * k + 3, 0], delta[6 * k + 3:6 * k + 6, 0]
+        moved[3 * k:3 * k + 3] = list(_vector(geometry[3 * k:3 * k + 3]) + d)
+        o = _vector(geometry[6 + 3 * k:9 + 3 * k])
+        moved[6 + 3 * k:9 + 3 * k] = list(o + pi.cross(o))
+    force_moved = cable_terms(moved, velocity, section)[0]
+    L0, L0_dot, EA, c = section
+    stretch = length - L0
+    outputs = [
+        Output("cable_force", (12,), _rows(force), "−[F1; o1 × F1; F2; o2 × F2], F1 = N e = −F2: the taut element's "
+               "rows of the residual on [d1, π1, d2, π2]"),
+        Output("cable_stiffness", (12, 12), _rows(_jacobian(force_moved, delta, zero)),
+               "∂cable_force/∂[d1, π1, d2, π2] at fixed velocities (spatial update)"),
+        Output("cable_damping", (12, 12), _rows(force.jacobian(_vector(velocity))),
+               "∂cable_force/∂[v1, ω1, v2, ω2]"),
+        Output("cable_state", (5,), [length, rate, stretch, elastic, tension],
+               "ℓ, ℓ̇, ℓ − L0, N_el = EA (ℓ − L0)/L0, N = N_el + c ℓ̇"),
+        Output("cable_strain_energy", (), [EA * stretch ** 2 / (2 * L0)], "½ EA (ℓ − L0)²/L0"),
+        Output("reel_power", (), [sp.diff(EA * stretch ** 2 / (2 * L0), L0) * L0_dot],
+               "∂U/∂L0 · L̇0: the power a reel puts in by changing the rest length (external work)"),
+        Output("cable_damper_power", (), [c * rate ** 2], "c ℓ̇²: the power the taut damper dissipates"),
+        Output("clipped_damper_power", (), [-elastic * rate],
+               "−N_el ℓ̇: the power dissipated while the damper cancels the elastic tension (N clipped at 0)"),
+    ]
+    return KernelSpec(name="cable_force", doc="A taut cable element between two points of nodes: its generalized "
+                      "force, exact derivatives by the end coordinates and rates, length, tension, strain energy, "
+                      "the reel's power and the damper's", inputs=[CABLE_GEOMETRY, CABLE_VELOCITY, CABLE_SECTION],
+                      outputs=outputs, variant="joints", equations="Eq. 2 (the end points); cables, issue 32")
 
 
 ROTATION_VECTOR = Argument("rotation_vector", 3, "w: a rotation vector (axis times angle), global")
@@ -603,4 +676,4 @@ def build_kernels() -> list[KernelSpec]:
     """The kernels of the ``joints`` unit."""
     return [*_joint_body_kernels(), _point_load_kernel(), _hinged_end_kernel(), _hinge_force_kernel(),
             _so3_exp_kernel(), _link_edge_kernel(), _hinge_wrench_kernel(), _root_wrench_kernel(),
-            _link_edge_kernel(prismatic=True), _slide_wrench_kernel()]
+            _link_edge_kernel(prismatic=True), _slide_wrench_kernel(), _cable_force_kernel()]

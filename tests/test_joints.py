@@ -158,7 +158,8 @@ def test_hinge_force_against_differences(backend):
     states = np.column_stack([RNG.normal(size=n), RNG.normal(size=n), RNG.normal(size=n), RNG.uniform(0.2, 1.5, n)])
     values = np.array([laws(th, rt) for th, rt, _, _ in states])
     none = np.tile([0, 0, 0, 1, 0, 0, 0, 0, 0, 0, 1.0], (n, 1))  # no compliant stop, no friction
-    f, d_theta, d_rate, spring_power, torque_power, damper_power, contact_energy = ks.hinge_force(states, values, none)
+    f, d_theta, d_rate, spring_torque, applied_torque, damper_torque, contact_energy = ks.hinge_force(states, values,
+                                                                                                       none)
     assert not np.any(contact_energy)
     eps = 1e-6
     for j, (theta, rate, rest, factor) in enumerate(states):
@@ -167,27 +168,30 @@ def test_hinge_force_against_differences(backend):
         fd_rate = (force(theta, rate + eps, rest, factor) - force(theta, rate - eps, rest, factor)) / (2 * eps)
         assert np.isclose(d_theta[j], fd_theta, rtol=1e-7, atol=1e-8)
         assert np.isclose(d_rate[j], fd_rate, rtol=1e-7, atol=1e-8)
-        assert np.isclose(spring_power[j], -values[j, 0] * (theta - rest) * rate, rtol=1e-13, atol=1e-13)
-        assert np.isclose(torque_power[j], factor * values[j, 6] * rate, rtol=1e-13, atol=1e-13)
-        assert np.isclose(damper_power[j], values[j, 3] * rate**2, rtol=1e-13, atol=1e-13)
+        # the torques whose work the energy balance integrates over Δθ (progress.hinge_work): with the
+        # residual they make up, f = k s + c θ̇ − λ τ
+        assert np.isclose(spring_torque[j], values[j, 0] * (theta - rest), rtol=1e-13, atol=1e-13)
+        assert np.isclose(applied_torque[j], factor * values[j, 6], rtol=1e-13, atol=1e-13)
+        assert np.isclose(damper_torque[j], values[j, 3] * rate, rtol=1e-13, atol=1e-13)
+        assert np.isclose(spring_torque[j] + damper_torque[j] - applied_torque[j], f[j], rtol=1e-13, atol=1e-13)
 
 
 def contact_reference(theta, rate, row):
-    """The force, potential and dissipated power of a compliant stop and friction, restated from
+    """The force, potential and dissipative part of the force of a compliant stop and friction, restated from
     SCENE.md "Contact and friction at joints" (Hunt–Crossley k δⁿ + c δⁿ δ̇ clipped at 0; the slip law:
     Coulomb, Stribeck, viscous, regularised below the stick rate: docs/contact.md)."""
     lo, hi, k, n, c, fc, fs, inverse, smooth, cv, v0 = row
-    force = potential = stop_loss = 0.0
+    force = potential = dissipative = 0.0
     for depth, depth_rate, side in ((theta - hi, rate, 1.0), (lo - theta, -rate, -1.0)):
         if depth > 0:
             hc = max(k * depth**n + c * depth**n * depth_rate, 0.0)
             force += side * hc
             potential += k * depth ** (n + 1) / (n + 1)
-            stop_loss += (hc - k * depth**n) * depth_rate
+            dissipative += side * (hc - k * depth**n)  # the damping and the clip: all but k δⁿ
     decay = np.exp(-(rate * inverse) ** 2) if smooth else 0.0  # v_s = 0: F_s only as the breakaway (events)
     y = min(max(rate / v0, -1.0), 1.0)
     friction = (fc + (fs - fc) * decay) * y * (2 - abs(y)) + cv * rate
-    return force + friction, potential, stop_loss + friction * rate
+    return force + friction, potential, dissipative + friction
 
 
 @pytest.mark.parametrize("backend", ["numpy", "c"])
@@ -206,16 +210,22 @@ def test_contact_and_friction_against_differences(backend):
                 states.append([theta, rate, 0.1, 1.0])
     rows, states = np.array(rows), np.array(states)
     laws = np.tile([2.0, 0, 0, 0.1, 0, 0, 0, 0, 0], (len(rows), 1))
-    f, d_theta, d_rate, _, _, damper_power, energy = ks.hinge_force(states, laws, rows)
+    f, d_theta, d_rate, spring_torque, applied_torque, damper_torque, energy = ks.hinge_force(states, laws, rows)
     spring = 2.0 * (states[:, 0] - 0.1) + 0.1 * states[:, 1]
     clipped = 0
     for j, ((theta, rate, _, _), row) in enumerate(zip(states, rows)):
-        force, potential, loss = contact_reference(theta, rate, row)
+        force, potential, dissipative = contact_reference(theta, rate, row)
         clipped += force != 0 and abs(theta) > 0.4 and row[4] * abs(rate) > row[2]
         assert np.isclose(f[j] - spring[j], force, rtol=1e-13, atol=1e-13)
         assert np.isclose(energy[j], potential, rtol=1e-13, atol=1e-15)
-        assert np.isclose(damper_power[j] - 0.1 * rate**2, loss, rtol=1e-12, atol=1e-13)
-        assert loss >= 0.0
+        # the dissipative torque (its work over Δθ is declared dissipation): the damper's c θ̇, the stop's
+        # damping and clip and the friction, dissipating (power ≥ 0); the rest of f is the springs'
+        assert np.isclose(damper_torque[j] - 0.1 * rate, dissipative, rtol=1e-12, atol=1e-13)
+        assert dissipative * rate >= 0.0
+        assert applied_torque[j] == 0.0
+        assert np.isclose(spring_torque[j], 2.0 * (theta - 0.1), rtol=1e-13, atol=1e-13)
+        conservative = force - dissipative  # the stop's k δⁿ
+        assert np.isclose(f[j] - spring_torque[j] - damper_torque[j], conservative, rtol=1e-12, atol=1e-12)
         eps_theta, eps_rate = 1e-7, 1e-7 * min(1.0, abs(rate))
         fd_theta = (contact_reference(theta + eps_theta, rate, row)[0]
                     - contact_reference(theta - eps_theta, rate, row)[0]) / (2 * eps_theta)

@@ -73,6 +73,17 @@ output:
     u: {controller: pd}
     zs: {controller: pi_, state: z}
 """,
+    """
+bodies: {a: {at: [0, 0, 0], fixed: true}, b: {at: [0, -1, 0], mass: 1.0}}
+cables:
+  c: {from: {body: a, offset: [0, 0, 0]}, to: {body: b, offset: [0, 0, 0]}, EA: 100.0, rhoA: 0.1, damping: 0.1,
+      elements: 2, rest_length: "1 - 0.01*t"}
+solve: {t_end: 0.02, dt: 0.01}
+output:
+  probes:
+    n: {cable: c, quantity: tension}
+    l: {cable: c, quantity: length}
+""",
 ]
 
 # ----------------------------------------------------------------------------- descriptions
@@ -158,7 +169,24 @@ DESCRIPTIONS: dict[str, tuple[str, str, str | None]] = {
     "bodies.NAME.guide.lock_at": ("latches rigidly when the slide reaches this value (not 0, where it starts; "
                                   "not with position)", "L", "never"),
     "bodies.NAME.guide.position": ("prescribed slide, an expression in t (then no coordinate)", "L", "free"),
-    # inputs and controllers
+    # cables (docs/cables.md)
+    "cables": ("tension-only members between two points, by name (docs/cables.md)", "—", "none"),
+    "cables.NAME.from": ("one end: a body, `{body, offset}`, a point BEAM.start|end|node[i], or [x, y, z] "
+                         "(a free end: a new massless node)", "—", "required"),
+    "cables.NAME.to": ("the other end, as `from`", "—", "required"),
+    "cables.NAME.from.body": ("the body the end belongs to", "—", "required"),
+    "cables.NAME.from.offset": ("the end's offset from the body's `at`, in body axes", "L", "[0, 0, 0]"),
+    "cables.NAME.to.body": ("the body the end belongs to", "—", "required"),
+    "cables.NAME.to.offset": ("the end's offset from the body's `at`, in body axes", "L", "[0, 0, 0]"),
+    "cables.NAME.EA": ("axial stiffness (> 0): tension N = EA (ℓ − L₀)/L₀ in each element while taut, 0 while "
+                       "slack", "F", "required"),
+    "cables.NAME.rhoA": ("mass per unstretched length (≥ 0), lumped at the cable's own nodes", "M/L", "0"),
+    "cables.NAME.damping": ("c (≥ 0): adds c·dℓ/dt while taut; the total never pushes (N ≥ 0)", "F·T/L", "0"),
+    "cables.NAME.elements": ("number of equal elements (several only with rhoA > 0); inner nodes "
+                             "CABLE.node[i] have translations only", "—", "1"),
+    "cables.NAME.rest_length": ("unstretched length: a number or an expression in t (a reel; its work is "
+                                "external work); shorter than the ends' distance = pretensioned", "L",
+                                "the initial distance of its ends"),
     "inputs": ("named external signals {NAME: number}, usable by name in any expression; held in `latdyn run`, "
                "set from Python (latdyn.Simulation) or an FMU", "—", "none"),
     "controllers": ("control laws in the loop, by name, in file order (docs/control.md)", "—", "none"),
@@ -226,7 +254,8 @@ DESCRIPTIONS: dict[str, tuple[str, str, str | None]] = {
     "output.probes": ("recorded columns of probes.csv, by name", "—", "none"),
     "output.probes.NAME.point": ("point probe: the point", "—", "required"),
     "output.probes.NAME.quantity": ("what is measured (point: position|displacement|velocity; hinge: angle|rate|torque; "
-                                    "guide: position|rate|force; element: axial_force|torque|moment_y|moment_z)",
+                                    "guide: position|rate|force; element: axial_force|torque|moment_y|moment_z; "
+                                    "cable: tension|length)",
                                     "L, L/T, rad, rad/T, F, F·L", "required"),
     "output.probes.NAME.frame": ("point probe: global, or a body (relative to its `at`, in its axes)", "—", "global"),
     "output.probes.NAME.component": ("x, y, z or norm (point); x, y, z (momentum)", "—", "norm (point)"),
@@ -238,6 +267,8 @@ DESCRIPTIONS: dict[str, tuple[str, str, str | None]] = {
                                   "required"),
     "output.probes.NAME.momentum": ("linear or angular (about the global origin)", "M·L/T, M·L²/T", "required"),
     "output.probes.NAME.element": ("element probe: BEAM.element[i] (0-based)", "—", "required"),
+    "output.probes.NAME.cable": ("cable probe: the cable (quantity tension: its first element's axial force; "
+                                 "length: along the cable)", "—", "required"),
 }
 
 #: places whose keys are one table under several names: (place pattern, name in DESCRIPTIONS)

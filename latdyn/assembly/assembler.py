@@ -176,6 +176,13 @@ class Assembler:
         dofs = self.model.node_dofs
         return np.concatenate([dofs[self._load_nodes, 3:6], dofs[self._load_frames, 3:6]], axis=1)
 
+    def cable_dofs(self) -> np.ndarray:
+        """(ce, 12) the coordinates of each cable element's block: [d, π] of its two end nodes."""
+        cables = self.model.cables
+        if cables is None:
+            return np.zeros((0, 12), np.int64)
+        return self.model.node_dofs[cables.nodes].reshape(-1, 12)
+
     def reindex(self) -> None:
         """Scatter maps for the current coordinate numbering (rebuilt when a hinge latches)."""
         m = self.model
@@ -200,6 +207,7 @@ class Assembler:
         cols.append(hd)
         # a load's block: the node's rows × the rotations of the node, then of its frame body
         self._load_mask = block_pattern(m.node_dofs[self._load_nodes], self._load_columns())
+        self._cable_mask = block_pattern(self.cable_dofs())  # cable elements: [d, π] of both ends, squared
         # continuous controllers: each actuator's rows × its sensors' coordinates (latdyn.assembly.control)
         self.control = wiring(m, self)
         self._coupling_mask = block_pattern(self.control.coupling_rows[:, None],
@@ -264,13 +272,18 @@ class Assembler:
         m = self.model
         n = m.n_assembled
         result = Evaluation(residual=total[:n], reaction=total[n:m.n_total], external_power=power,
+                            hinge_work_torque=native.buffers["hinge_work_torque"].copy(),
+                            hinge_damper_torque=native.buffers["hinge_damper_torque"].copy(),
                             dissipation_power=float(native.buffers["dissipation"][0]), assembler=self)
         if matrices:
             b = native.buffers
             stiffness = b["tangent"] + b["inertia_tangent"] if inertia_tangent and inertia else b["tangent"].copy()
             zero_elements, zero_bodies = np.zeros_like(stiffness), np.zeros_like(b["body_mass"])
             free = m.free_hinges
-            load_blocks = b["load_blocks"][self._load_mask]
+            # the cable elements' blocks ride with the loads' (K and C: none is a mass)
+            load_blocks = np.concatenate([b["load_blocks"][self._load_mask], b["cable_stiffness"][self._cable_mask]])
+            cable_damping = np.concatenate([np.zeros(int(self._load_mask.sum())),
+                                            b["cable_damping"][self._cable_mask]])
             zero_loads = np.zeros_like(load_blocks)
             couplings = self._coupling_mask
             result.blocks = {
@@ -281,7 +294,7 @@ class Assembler:
                          np.zeros(int(couplings.sum()))),
                 "damping": (b["quadratic_D"].copy() if inertia else zero_elements,
                             b["body_damping"].copy() if inertia else zero_bodies, b["hinge_d_rate"][free],
-                            zero_loads, b["coupling_damping"][couplings]),
+                            cable_damping, b["coupling_damping"][couplings]),
             }
         return result
 

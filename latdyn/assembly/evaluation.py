@@ -1,10 +1,11 @@
 """One evaluation of the equations of motion: the residual on the free coordinates, the reactions
-on the constrained ones, the power of the loads, and the element, body, hinge and load blocks
+on the constrained ones, the power of the point loads, the hinges' torques whose work the energy
+balance integrates, and the element, body, hinge and load blocks
 of the mass, damping and stiffness matrices, assembled on demand, separately or combined
 (``combined(cm, cc, ck)`` = cm·M + cc·C + ck·K)."""
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -37,9 +38,14 @@ class Evaluation(SeparateMatrices):
 
     residual: np.ndarray  # (n_dofs,)
     reaction: np.ndarray  # (n_total - n_dofs,) generalized force needed on constrained coordinates
-    external_power: float = 0.0  # loads and hinge torques on the current velocities
-    dissipation_power: float = 0.0  # c θ̇² of the hinge dampers (declared dissipation)
-    #: kind -> [element (e,14,14), body (b,6,6), hinge diag, load blocks, controller couplings (c,)]
+    external_power: float = 0.0  # the power of point loads and cable reels on the current velocities
+    dissipation_power: float = 0.0  # the power the cables' dampers dissipate (declared dissipation)
+    #: per hinge: the torque that does external work (λ τ and a continuous controller's output, less
+    #: k s of a spring that is not conservative) and the dissipative torque (c θ̇, a compliant stop's
+    #: damping, friction) (latdyn.timeloop.progress.hinge_work)
+    hinge_work_torque: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    hinge_damper_torque: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    #: kind -> [element (e,14,14), body (b,6,6), hinge diag, load and cable element blocks, controller couplings (c,)]
     blocks: dict | None = None
     assembler: object = None  # the Assembler that made it: its scatter maps assemble the blocks
 
@@ -57,4 +63,4 @@ class Evaluation(SeparateMatrices):
     def _flat(self, kind):
         element, body, hinge, loads, couplings = self.blocks[kind]
         a = self.assembler
-        return [element[a._elem_mask], body[a._body_mask], hinge] + list(loads) + [couplings]
+        return [element[a._elem_mask], body[a._body_mask], hinge, np.ravel(loads), couplings]

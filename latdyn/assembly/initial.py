@@ -140,6 +140,11 @@ def initial_velocities(model, state, complete_links) -> None:
         for node in model.beam_nodes[name]:
             node_part.setdefault(int(node), ("beam", name))
     for node in model.free_nodes:
+        if model.translation_only is not None and model.translation_only[node]:
+            # a cable's own node (translations only): the scene's rigid motion at its point
+            state.w[node] = 0.0
+            state.v[node] = rigid_motion[:3] + np.cross(rigid_motion[3:], state.x[node])
+            continue
         twist = target(node_part[int(node)])
         state.w[node] = twist[3:]
         state.v[node] = twist[:3] + np.cross(twist[3:], state.x[node])

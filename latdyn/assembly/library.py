@@ -71,6 +71,8 @@ class ModelData(ctypes.Structure):
         ("actuator_component", P), ("actuator_controller", P), ("coupling_actuator", P), ("coupling_slot", P),
         ("coupling_sensor", P), ("coupling_position", P),
         ("hinge_contact", P),
+        ("n_cables", I64), ("cable_nodes", P), ("cable_offsets", P), ("cable_section", P), ("cable_rest_law", P),
+        ("cable_position", P), ("cable_force", P), ("cable_side", P),
     ]
 
 
@@ -100,7 +102,9 @@ class WorkData(ctypes.Structure):
         "p_geometry", "p_rates", "p_accelerations", "p_mass", "p_quadratic", "p_gravity_force",
         "p_gravity_potential", "p_first_moment", "laws", "hinge_d_theta", "hinge_d_rate", "dissipation",
         "joint_forces",
-        "sensor_values", "controller_gradient", "controller_scratch", "coupling_stiffness", "coupling_damping")]
+        "sensor_values", "controller_gradient", "controller_scratch", "coupling_stiffness", "coupling_damping",
+        "cable_vector", "cable_stiffness", "cable_damping", "cable_state", "cable_strain", "cable_gap",
+        "hinge_work_torque", "hinge_damper_torque")]
 
 
 class ConfigurationData(ctypes.Structure):
@@ -138,7 +142,8 @@ class AdvanceData(ctypes.Structure):
                 ("power", ctypes.c_double), ("external_work", ctypes.c_double),
                 ("steps", I64), ("iterations", I64), ("factorizations", I64), ("status", I64), ("last", I64),
                 ("pending", I64), ("t_last", ctypes.c_double), ("h_pending", ctypes.c_double),
-                ("dissipation_power", ctypes.c_double), ("dissipated", ctypes.c_double)]
+                ("dissipation_power", ctypes.c_double), ("dissipated", ctypes.c_double),
+                ("hinge_work_torque", P), ("hinge_damper_torque", P)]
 
 
 #: Element count from which the element part of an evaluation (geometry and kernels) runs on
@@ -188,9 +193,12 @@ def native_library() -> ctypes.CDLL:
         library = native.load(path)
         library.latdyn_threads.restype = I64
         library.latdyn_threads.argtypes = []
+        library.latdyn_cables.restype = None
+        library.latdyn_cables.argtypes = [ctypes.POINTER(ModelData), ctypes.POINTER(WorkData),
+                                          ctypes.POINTER(ConfigurationData), ctypes.c_double]
         library.latdyn_energies.restype = None
         library.latdyn_energies.argtypes = [ctypes.POINTER(ModelData), ctypes.POINTER(WorkData),
-                                            ctypes.POINTER(ConfigurationData), P]
+                                            ctypes.POINTER(ConfigurationData), ctypes.c_double, P]
         model, work, configuration = (ctypes.POINTER(ModelData), ctypes.POINTER(WorkData),
                                       ctypes.POINTER(ConfigurationData))
         library.latdyn_evaluate.restype = None

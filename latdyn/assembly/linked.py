@@ -22,8 +22,11 @@ class LinkedEvaluation(SeparateMatrices):
     links: the blocks are assembled on the independent and dependent coordinates and reduced
     by the projection P (module docstring)."""
 
-    def __init__(self, residual, reaction, external_power, blocks, assembler, dissipation_power: float = 0.0):
+    def __init__(self, residual, reaction, external_power, blocks, assembler, hinge_work_torque=None,
+                 hinge_damper_torque=None, dissipation_power: float = 0.0):
         self.residual, self.reaction, self.external_power = residual, reaction, external_power
+        self.hinge_work_torque = np.zeros(0) if hinge_work_torque is None else hinge_work_torque
+        self.hinge_damper_torque = np.zeros(0) if hinge_damper_torque is None else hinge_damper_torque
         self.dissipation_power = dissipation_power
         self.blocks, self.assembler = blocks, assembler
         self.projection = self.geometric = self.velocity_derivative = self.dependent_rows = None
@@ -90,7 +93,9 @@ def reduce_linked(links, assembler, state, full, matrices: bool, inertia: bool) 
     constrained = columns >= n_asm
     reaction[columns[constrained] - n] += J[:, constrained].T @ r_dep
     out = LinkedEvaluation(residual=residual, reaction=reaction, external_power=full.external_power,
-                           blocks=full.blocks, assembler=assembler, dissipation_power=full.dissipation_power)
+                           blocks=full.blocks, assembler=assembler,
+                           hinge_work_torque=full.hinge_work_torque, hinge_damper_torque=full.hinge_damper_torque,
+                           dissipation_power=full.dissipation_power)
     if matrices:
         small = n_asm <= DENSE_LIMIT
         Jf = J[:, free_cols]

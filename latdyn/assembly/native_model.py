@@ -255,6 +255,8 @@ class NativeModel:
         force_law = [[laws.add(g) for g in load.force] if load.force else [-1, -1, -1] for load in a.loads]
         moment_law = [[laws.add(g) for g in load.moment] if load.moment else [-1, -1, -1] for load in a.loads]
         frame_node = [-1 if load.frame == "global" else node for load, node in zip(a.loads, a._load_frames)]
+        cables = m.cables
+        rest_law = [laws.add(f) for f in cables.rest_length] if cables is not None else []
         wired = a.control
         laws.controller_laws = [(c, wired.sensor_names(k)) for k, c in enumerate(wired.controllers)]
         time_laws, hinge_laws, controller_laws = laws.addresses()
@@ -274,7 +276,8 @@ class NativeModel:
         kernel = {name: _kernel_address(kernels, name) for name in (
             "beam_internal_force", "beam_internal_force_D_q", "beam_mass_matrix", "beam_quadratic_velocity",
             "beam_quadratic_velocity_D_qdot", "beam_gravity", "beam_strain_energy", "beam_kinetic_energy",
-            "joint_body", "point_load", "hinged_end", "hinge_force", "so3_exp")}
+            "joint_body", "point_load", "hinged_end", "hinge_force", "so3_exp", "cable_force")}
+        CE = len(cables) if cables is not None else 0
         self.model = ModelData(
             n_nodes=N, n_hinges=H, n_elements=E, n_bodies=B, n_loads=L, n_dofs=m.n_dofs, n_total=m.n_total,
             node_dofs=ints(m.node_dofs), hinge_dofs=ints(m.hinge_dofs),
@@ -312,8 +315,8 @@ class NativeModel:
             hinge_torque_hinge_law=ints(torque_hinge_law),
             hinge_conservative=ints([int(h.conservative_spring) for h in m.hinges]),
             hinge_lock_at=arr(lock_at), hinge_lower_stop=arr(lower), hinge_upper_stop=arr(upper),
-            has_events=int(any(m.hinges[k].lock_at is not None or m.hinges[k].limits is not None
-                               or m.hinges[k].friction is not None for k in m.free_hinges)),
+            has_events=int(CE > 0 or any(m.hinges[k].lock_at is not None or m.hinges[k].limits is not None
+                                         or m.hinges[k].friction is not None for k in m.free_hinges)),
             section_width=m.element_sections.shape[1],
             n_controllers=wired.n, n_sensors=len(wired.sensor_kind), n_actuators=len(wired.actuator_kind),
             n_couplings=len(wired.coupling_actuator), controller_laws=controller_laws,
@@ -327,8 +330,15 @@ class NativeModel:
             coupling_slot=ints(wired.coupling_slot), coupling_sensor=ints(wired.coupling_sensor),
             coupling_position=ints(np.full(len(wired.coupling_actuator), -1, np.int64)),
             hinge_contact=arr(joint_contact_rows(m.hinges)),
+            n_cables=CE, cable_force=kernel["cable_force"],
         )
         self._keep.append(outputs)
+        if CE:
+            self.model.cable_nodes, self.model.cable_offsets = ints(cables.nodes), arr(cables.offsets)
+            self.model.cable_section = arr(np.column_stack([cables.share, cables.EA, cables.damping]))
+            self.model.cable_rest_law = ints(np.asarray(rest_law, np.int64)[cables.cable])
+            self._keep.append(cables.sides)  # the model's own array: the time loop sets it in place
+            self.model.cable_side = cables.sides.ctypes.data
         work = {
             "geometry": (E, 36), "rates": (E, 14), "accelerations": (E, 14), "gravity_rows": (E, 3),
             "force": (E, 14), "tangent": (E, 14, 14), "mass": (E, 14, 14), "quadratic": (E, 14),
@@ -340,7 +350,10 @@ class NativeModel:
             "joint_forces": (H,),
             "sensor_values": (len(wired.sensor_kind),), "controller_gradient": (len(wired.sensor_kind),),
             "controller_scratch": (len(wired.sensor_kind) + 1,),
-            "coupling_stiffness": (len(wired.coupling_actuator),), "coupling_damping": (len(wired.coupling_actuator),)}
+            "coupling_stiffness": (len(wired.coupling_actuator),), "coupling_damping": (len(wired.coupling_actuator),),
+            "cable_vector": (CE, 12), "cable_stiffness": (CE, 12, 12), "cable_damping": (CE, 12, 12),
+            "cable_state": (CE, 5), "cable_strain": (CE,), "cable_gap": (CE,),
+            "hinge_work_torque": (H,), "hinge_damper_torque": (H,)}
         tangent = {"inertia_tangent": (E, 14, 14), "forces_plus": (E, 14), "forces_minus": (E, 14),
                    "perturbed_x": (N, 3), "perturbed_T": (N, 3, 3), "perturbed_theta": (H,),
                    "p_geometry": (E, 36), "p_rates": (E, 14), "p_accelerations": (E, 14), "p_mass": (E, 14, 14),
@@ -443,6 +456,13 @@ class NativeModel:
                                      ctypes.byref(control))
         return self.buffers["total"].copy(), float(control.power)
 
+    def cable_state(self, state) -> np.ndarray:
+        """(ce, 5) [ℓ, ℓ̇, ℓ − L0, N_el, N] of every cable element at ``state`` (N = 0 while slack):
+        ``latdyn_cables``, which leaves the last evaluation's rows in Work as they are."""
+        self.library.latdyn_cables(self.model_ref, self.work_ref, ctypes.byref(self.configuration(state)),
+                                   float(state.t))
+        return self.buffers["cable_state"].copy()
+
     def element_inputs(self, state) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Copies of the element kernels' geometry (Eqs. 2, 9, 17), rates and accelerations at ``state``."""
         self.library.latdyn_element_inputs(self.model_ref, self.work_ref, ctypes.byref(self.configuration(state)))
@@ -454,5 +474,5 @@ class NativeModel:
         a law are the caller's) and gravity potential at ``state`` (``latdyn_energies``)."""
         out = np.zeros(3)
         self.library.latdyn_energies(self.model_ref, self.work_ref, ctypes.byref(self.configuration(state)),
-                                     out.ctypes.data)
+                                     float(state.t), out.ctypes.data)
         return float(out[0]), float(out[1]), float(out[2])

@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from latdyn.errors import SceneError
+from latdyn.model.cables import add_cables
 from latdyn.model.kernels import planar_variant
 from latdyn.model.planar import find_plane, restrict_to_plane
 from latdyn.numerics.linalg import issparse, psd_null_direction
@@ -133,6 +134,11 @@ class Model:
     # after the free ones, and the assembly works on the first n_assembled coordinates
     links: object = None
     n_assembled: int = 0
+    #: the cable elements (:class:`latdyn.model.cables.CableElements`), None without cables
+    cables: object = None
+    #: (n_nodes,) bool: nodes with translations only (a cable's inner and free end nodes; their
+    #: rotations are no coordinates)
+    translation_only: np.ndarray = field(default=None)
 
     # ------------------------------------------------------------------ building
     @classmethod
@@ -197,6 +203,15 @@ class Model:
             beam_nodes[beam.name] = np.array(node_list)
             beam_grid_offsets[beam.name] = (ends[0][1], ends[1][1])
 
+        cable_nodes, point_masses = [], []  # translation-only nodes; (node, mass, offset) lumped cable mass
+
+        def cable_node(name, position):
+            cable_nodes.append(len(nodes))
+            nodes.append(Node(name, position, FREE, beam=name.split(".")[0]))
+            return len(nodes) - 1
+
+        cables = add_cables(scene, body_node, cable_node, beam_nodes, beam_grid_offsets, point_masses)
+        link_bodies += [(node, mass, offset, np.zeros((3, 3))) for node, mass, offset in point_masses]
         massive = [b for b in scene.bodies.values() if b.mass > 0 or np.any(b.inertia != 0)]
         links = None
         if edges:
@@ -220,8 +235,10 @@ class Model:
             body_com=np.array([b.com for b in massive] + [lb[2] for lb in link_bodies], float).reshape(-1, 3),
             body_inertia=np.array([b.inertia for b in massive] + [lb[3] for lb in link_bodies],
                                   float).reshape(-1, 3, 3),
-            body_node=body_node, links=links,
+            body_node=body_node, links=links, cables=cables,
         )
+        model.translation_only = np.zeros(len(nodes), dtype=bool)
+        model.translation_only[cable_nodes] = True
         model.locked = np.zeros(len(hinges), dtype=bool)
         model.stuck = np.zeros(len(hinges), dtype=bool)
         model.section_turns = np.zeros(len(model.element_nodes))
@@ -256,6 +273,8 @@ class Model:
         dependent = np.array([n.kind == DEPENDENT for n in self.nodes], dtype=bool)
         order_hinges = np.concatenate([np.flatnonzero(free_hinge), np.flatnonzero(~free_hinge)]).astype(np.int64)
         free_slot = free_node[:, None] & self.node_slots()[None, :]  # (n_nodes, 6)
+        if self.translation_only is not None:
+            free_slot[self.translation_only, 3:] = False
         self.node_dofs = np.zeros((n_nodes, 6), dtype=np.int64)
         self.hinge_dofs = np.zeros(n_hinges, dtype=np.int64)
         n_free_slots, n_free_hinges = int(free_slot.sum()), int(free_hinge.sum())
@@ -314,22 +333,25 @@ class Model:
         n_guides = sum(1 for h in self.hinges if h.kind == "guide")
         slots = self.node_slots()
         translations, rotations = int(slots[:3].sum()), int(slots[3:].sum())
+        own = self.translation_only if self.translation_only is not None else np.zeros(len(self.nodes), bool)
+        n_own = int(own[self.free_nodes].sum())  # a cable's own nodes: translations only
         lines = [
             f"model: {len(self.nodes)} nodes ({n_free} free), {len(self.element_nodes)} elements, "
             f"{len(self.hinges) - n_guides} hinges ({free_hinges} with a coordinate), "
             + (f"{n_guides} guides ({free_guides} with a coordinate), " if n_guides else "")
             + f"{self.n_dofs} coordinates",
-            f"  coordinates: {translations * n_free} node translations + {rotations * n_free} node rotations "
+            f"  coordinates: {translations * n_free} node translations + {rotations * (n_free - n_own)} node rotations "
             f"+ {free_hinges} hinge angles" + (f" + {free_guides} slides" if n_guides else "") + f" = {self.n_dofs}",
             f"  planar: {self.plane_reason}",
         ]
         bodies = [n for n in self.nodes if n.body is not None]
         link_nodes = [n for n in self.nodes if n.body is None and n.beam in _rigid_names(self.scene)]
-        interior = sum(1 for n in self.nodes if n.body is None and ".node[" in n.name)
-        free_ends = sum(1 for n in self.nodes if n.body is None and n.beam is not None
-                        and ".node[" not in n.name) - len(link_nodes)
+        interior = sum(1 for i, n in enumerate(self.nodes) if n.body is None and ".node[" in n.name and not own[i])
+        free_ends = sum(1 for i, n in enumerate(self.nodes) if n.body is None and n.beam is not None
+                        and ".node[" not in n.name and not own[i]) - len(link_nodes)
         lines.append(f"  nodes: {len(bodies)} joint bodies, {interior} interior beam nodes, "
                      f"{free_ends} free beam ends" + (f", {len(link_nodes)} rigid-link nodes" if link_nodes else "")
+                     + (f", {int(own.sum())} cable nodes (translations only)" if own.any() else "")
                      + f"; {int(slots.sum())} coordinates per free node")
         fixed = [n.name for n in self.nodes if n.kind == FIXED]
         prescribed = [n.name for n in self.nodes if n.kind == PRESCRIBED]
@@ -432,7 +454,8 @@ class Model:
         node = dof_name.split(":")[0]
         for nd in self.nodes:
             if nd.name == node:
-                return f"bodies.{nd.body}" if nd.body else f"beams.{nd.beam}"
+                group = "cables" if nd.beam in self.scene.cables else "beams"
+                return f"bodies.{nd.body}" if nd.body else f"{group}.{nd.beam}"
         return "bodies"
 
 

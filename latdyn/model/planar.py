@@ -114,9 +114,10 @@ def find_plane(scene) -> tuple[int | None, str]:
 
 
 def _points(scene) -> np.ndarray:
-    """(n, 3) the bodies' reference points and the beams' end points at t = 0."""
+    """(n, 3) the bodies' reference points and the beams' and cables' end points at t = 0."""
     points = [body.at for body in scene.bodies.values()]
     points += [end.point for beam in scene.beams.values() for end in (beam.start, beam.end)]
+    points += [end.point for cable in getattr(scene, "cables", {}).values() for end in (cable.start, cable.end)]
     return np.array(points, float).reshape(-1, 3)
 
 

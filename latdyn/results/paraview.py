@@ -18,6 +18,10 @@ What is drawn (:func:`parts`, :func:`frame`, for a run built by :mod:`latdyn.sol
   (index in scene order, also on its connector lines), ``mass`` (0 on connector lines) and
   ``kind`` (0 free, 1 prescribed, 2 fixed, 3 placed by a rigid link).
 
+- ``cables``: the cables' points (ends and inner nodes), one line cell per cable element; point data
+  ``displacement`` and ``velocity``; cell data ``tension`` (N of each element, 0 while slack) and
+  ``cable`` (index in scene order).
+
 A part without cells (a scene without beams has no ``beams``) is skipped: it has no file.
 
 How it is written (:class:`ParaviewWriter`): ``OUT/paraview/<part>.vtkhdf``, one HDF5 file
@@ -166,6 +170,20 @@ def parts(model, state) -> dict:
             "cell_data": {"body": cell_body, "mass": np.concatenate([mass, np.zeros(n_c)]),
                           "kind": np.array([model.nodes[i].kind for i in body_nodes[cell_body]], dtype=np.int64)},
         }
+    cables = model.cables
+    if cables is not None:
+        node, offset = cables.nodes.reshape(-1), cables.offsets.reshape(-1, 3)
+        _, first, inverse = np.unique(np.column_stack([node, offset]), axis=0, return_index=True,
+                                      return_inverse=True)
+        order = np.argsort(first)
+        rank = np.empty_like(order)
+        rank[order] = np.arange(len(order))
+        mesh["cables"] = {
+            "n_points": len(order), "cells": [("line", rank[inverse.reshape(-1)].reshape(-1, 2))],
+            "node": node[first[order]], "offset": offset[first[order]],
+            "p0": positions(node[first[order]], offset[first[order]]),
+            "cell_data": {"cable": cables.cable.copy()},
+        }
     return mesh
 
 
@@ -189,6 +207,8 @@ def frame(assembler, mesh: dict, state) -> dict:
             if part["elements"]:
                 forces[: part["elements"]] = section_forces(assembler, state)
             cell_data.update(zip(SECTION_QUANTITIES, forces.T))
+        elif name == "cables":
+            cell_data["tension"] = assembler.native().cable_state(state)[:, 4]
         else:
             point_data.update(angular_velocity=state.w[nodes], axis_x=R[:, :, 0], axis_y=R[:, :, 1], axis_z=R[:, :, 2])
         out[name] = {"points": points, "point_data": point_data, "cell_data": cell_data}

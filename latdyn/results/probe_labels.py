@@ -46,6 +46,9 @@ def probe_label(probe) -> str:
     elif kind == "controller":
         text, unit = (f"output of controller {probe.controller}" if probe.state is None
                       else f"state {probe.state} of controller {probe.controller}"), "its own unit"
+    elif kind == "cable":
+        text, unit = (f"tension of cable {probe.beam} (its first element)", "N") if quantity == "tension" \
+            else (f"length of cable {probe.beam} along it", "m")
     else:  # a probe kind added later without a label here: its name says what it is
         return probe.name
     return f"{probe.name}: {text} ({unit})"

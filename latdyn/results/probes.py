@@ -12,6 +12,17 @@ _COMPONENT = {"x": 0, "y": 1, "z": 2}
 SECTION_QUANTITIES = ("axial_force", "torque", "moment_y", "moment_z")
 
 
+def cable_value(cables, state: np.ndarray, name: str, quantity: str) -> float:
+    """A ``{cable: NAME, quantity: tension|length}`` probe from the cable elements' [ℓ, ℓ̇, ℓ − L0,
+    N_el, N] (``state``, :meth:`latdyn.assembly.native_model.NativeModel.cable_state`): the tension N of
+    its first element (0 while slack), or its length along the cable, Σ ℓ over its elements."""
+    k = cables.names.index(name)
+    elements = cables.cable == k
+    if quantity == "tension":
+        return float(state[cables.first[k], 4])
+    return float(state[elements, 0].sum())
+
+
 def section_forces(assembler: Assembler, state: State, geometry: np.ndarray | None = None) -> np.ndarray:
     """Mid-element section forces of every element, shape (n_elem, 4), columns
     :data:`SECTION_QUANTITIES`; ``geometry`` may be passed when already computed."""
@@ -39,6 +50,7 @@ class ProbeSet:
         self._joint_forces = None  # (key of the state, forces) of the last call of joint_forces
         self._continuous = any(p.kind == "controller" and not self.model.scene.controllers[p.controller].sampled
                                for p in self.probes)
+        self._need_cables = "cable" in kinds
 
     def _point(self, probe, state: State) -> np.ndarray:
         m = self.model
@@ -119,6 +131,7 @@ class ProbeSet:
         sections = None
         if self._need_sections:
             sections = section_forces(self.assembler, state)
+        cables = self.assembler.native().cable_state(state) if self._need_cables else None
         out = []
         for p in self.probes:
             if p.kind == "point":
@@ -152,6 +165,8 @@ class ProbeSet:
                 scene = m.scene
                 out.append(scene.controller_outputs[p.controller] if p.state is None
                            else scene.controller_states[f"{p.controller}.{p.state}"])
+            elif p.kind == "cable":
+                out.append(cable_value(m.cables, cables, p.beam, p.quantity))
             else:  # pragma: no cover - the scene validator refuses other kinds
                 raise ValueError(p.kind)
         if self._continuous:

@@ -6,7 +6,8 @@ hold the grid points of every frame and how they connect: ``paraview/beams.vtkhd
 elements as line cells between consecutive grid points, so each beam is a polyline; rigid links
 as line cells with cell data ``rigid`` = 1) and ``paraview/bodies.vtkhdf`` (joint bodies as vertex
 cells, cell data ``kind`` 0 free, 1 prescribed, 2 fixed, 3 placed by a rigid link, and a line from a
-body to each grid point at an offset from it). :func:`load_structure` reads them into a
+body to each grid point at an offset from it), and ``paraview/cables.vtkhdf`` when the scene has cables
+(one line cell per cable element, drawn as thin dashed lines). :func:`load_structure` reads them into a
 :class:`StructureHistory`; :func:`draw_structure` draws one frame of it on matplotlib axes;
 :func:`plot_structure` draws several recorded times on one picture, coloured by time.
 
@@ -52,6 +53,7 @@ class StructureHistory:
     body_points : (n_frames, n_body_points, 3) joint bodies' reference points and lever-arm ends.
     bodies : (n_bodies,) point index of each joint body; ``body_fixed`` (n_bodies,) bool.
     arm_segments : (n_arms, 2) lines from a joint body to a grid point at an offset from it.
+    cable_points : (n_frames, n_cable_points, 3) the cables' points; ``cable_segments`` (n, 2) their elements.
     """
 
     times: np.ndarray
@@ -63,6 +65,8 @@ class StructureHistory:
     bodies: np.ndarray
     body_fixed: np.ndarray
     arm_segments: np.ndarray
+    cable_points: np.ndarray | None = None
+    cable_segments: np.ndarray | None = None
 
     @property
     def frames(self) -> int:
@@ -70,7 +74,8 @@ class StructureHistory:
 
     def all_points(self) -> np.ndarray:
         """Every point of every frame, (n, 3): what the axes must hold."""
-        return np.concatenate([self.beam_points.reshape(-1, 3), self.body_points.reshape(-1, 3)])
+        cables = [] if self.cable_points is None else [self.cable_points.reshape(-1, 3)]
+        return np.concatenate([self.beam_points.reshape(-1, 3), self.body_points.reshape(-1, 3), *cables])
 
     def frame_index(self, t: float) -> int:
         """The recorded frame nearest to ``t``."""
@@ -156,8 +161,15 @@ def load_structure(out_dir) -> StructureHistory:
         kind = bodies["cell_data"].get("kind", np.zeros(len(bodies["types"]), dtype=np.int64))
         body_fixed = kind[which] == _FIXED
         arm_segments = _cells(bodies, _LINE)[0]
+    cables_path = folder / PARAVIEW_DIR / part_file("cables")
+    cables = _read_part(cables_path) if cables_path.is_file() else None
+    if cables is not None and len(cables["times"]) != len(times):
+        raise ResultsError(f"{folder / PARAVIEW_DIR}: the cables file has {len(cables['times'])} frames, "
+                           f"the others {len(times)}; the files do not belong together")
     first_column = _first_column(folder)
     return StructureHistory(
+        cable_points=cables["points"] if cables is not None else empty_points,
+        cable_segments=_cells(cables, _LINE)[0] if cables is not None else no_segments,
         times=times, time_label="load factor" if first_column == "load_factor" else "t",
         beam_points=beams["points"] if beams is not None else empty_points,
         beam_segments=beam_segments, link_segments=link_segments,
@@ -266,10 +278,14 @@ def draw_structure(axes, history: StructureHistory, frame: int, view: StructureV
         Collection = LineCollection
     beam_points, body_points = history.beam_points[frame], history.body_points[frame]
     artists = {}
+    cable_points = history.cable_points[frame] if history.cable_points is not None else np.zeros((0, 3))
+    cable_segments = history.cable_segments if history.cable_segments is not None else np.zeros((0, 2), np.int64)
     for key, points, pairs, width in (("beams", beam_points, history.beam_segments, 1.6),
                                       ("links", beam_points, history.link_segments, 3.5),
-                                      ("arms", body_points, history.arm_segments, 0.8)):
-        collection = Collection(_segments(points, pairs, view), colors=[colour], linewidths=width, alpha=alpha)
+                                      ("arms", body_points, history.arm_segments, 0.8),
+                                      ("cables", cable_points, cable_segments, 0.9)):
+        collection = Collection(_segments(points, pairs, view), colors=[colour], linewidths=width, alpha=alpha,
+                                linestyles="dashed" if key == "cables" else "solid")
         axes.add_collection(collection)
         artists[key] = collection
     for key, chosen, marker, size in (("free_bodies", ~history.body_fixed, "o", 4.0),
@@ -292,6 +308,8 @@ def update_structure(artists: dict, history: StructureHistory, frame: int, view:
     artists["beams"].set_segments(_segments(beam_points, history.beam_segments, view))
     artists["links"].set_segments(_segments(beam_points, history.link_segments, view))
     artists["arms"].set_segments(_segments(body_points, history.arm_segments, view))
+    if history.cable_points is not None and history.cable_segments is not None:
+        artists["cables"].set_segments(_segments(history.cable_points[frame], history.cable_segments, view))
     for key, chosen in (("free_bodies", ~history.body_fixed), ("fixed_bodies", history.body_fixed)):
         coords = body_points[history.bodies[chosen]]
         if view.plane is None:

@@ -88,7 +88,7 @@ from latdyn.scene.expressions import (
 from latdyn.scene.parameters import Parameters, parameter_scope, read_parameters
 
 __all__ = [
-    "Section", "Hinge", "BeamEnd", "Beam", "Body", "PointRef", "Load", "Probe", "Solve",
+    "Section", "Hinge", "BeamEnd", "Beam", "Cable", "Body", "PointRef", "Load", "Probe", "Solve",
     "Output", "Control", "InitialVelocity", "Scene", "load_scene", "describe",
     "ANALYSES", "METHODS", "STATIC_METHODS", "FORMULATIONS", "MAX_ELEMENTS", "MAX_COUNT",
 ]
@@ -118,13 +118,14 @@ ENERGY_KINDS = ("kinetic", "strain", "potential", "external_work", "dissipated",
 MOMENTUM_KINDS = ("linear", "angular")
 AXIS_COMPONENTS = ("x", "y", "z")
 ELEMENT_QUANTITIES = ("axial_force", "torque", "moment_y", "moment_z")
-PROBE_KINDS = ("point", "hinge", "guide", "energy", "momentum", "element", "controller")
+PROBE_KINDS = ("point", "hinge", "guide", "energy", "momentum", "element", "controller", "cable")
 #: ``{hinge: ..., quantity: torque}``: the generalized force the joint applies on its coordinate
 HINGE_PROBE_QUANTITIES = HINGE_QUANTITIES + ("torque",)
 GUIDE_QUANTITIES = ("position", "rate", "force")
+CABLE_QUANTITIES = ("tension", "length")
 
-_TOP_KEYS = ("title", "parameters", "gravity", "initial_velocity", "inputs", "sections", "bodies", "beams", "loads",
-             "controllers", "solve", "output")
+_TOP_KEYS = ("title", "parameters", "gravity", "initial_velocity", "inputs", "sections", "bodies", "beams", "cables",
+             "loads", "controllers", "solve", "output")
 _SECTION_KEYS = ("EA", "EIy", "EIz", "GJ", "rhoA", "rhoIy", "rhoIz", "GAy", "GAz")
 _BODY_KEYS = ("at", "mass", "com", "inertia", "fixed", "motion", "guide")
 _GUIDE_KEYS = ("on", "axis", "stiffness", "damping", "force", "rest", "limits", "restitution", "lock_at", "position",
@@ -133,6 +134,7 @@ _BEAM_KEYS = ("from", "to", "section", "elements", "y_axis", "start", "end", "ri
 _HINGE_KEYS = ("axis", "stiffness", "damping", "torque", "angle", "lock_at", "rest_angle", "limits", "restitution",
                "contact", "friction")
 _LOAD_KEYS = ("at", "force", "moment", "frame")
+_CABLE_KEYS = ("from", "to", "EA", "rhoA", "damping", "elements", "rest_length")
 _SOLVE_KEYS = ("analysis", "t_end", "dt", "method", "rho_inf", "tol", "steps", "count",
                "adaptive", "error_tol", "dt_min", "max_iterations", "formulation", "engine", "newton", "planar",
                "control", "max_steps", "about", "linear_model", "mode_shapes", "flutter", "sensitivities")
@@ -160,6 +162,7 @@ _PROBE_KEYS = {
     "momentum": ("momentum", "component"),
     "element": ("element", "quantity"),
     "controller": ("controller", "state"),
+    "cable": ("cable", "quantity"),
 }
 _RESERVED_COLUMNS = ("t", "load_factor")
 #: Words of the expression language (latdyn.scene.expressions), which cannot name an input or a controller.
@@ -317,6 +320,27 @@ class Beam:
 
 
 @dataclass
+class Cable:
+    """A tension-only member (``cables.NAME``, latdyn/model/cables.py): ``elements`` equal elements
+    between two ends (``body`` None: a free end node at ``point``), axial stiffness EA, mass per
+    unstretched length rhoA, axial damping c; its rest length a function of time (the initial distance
+    of its ends when the scene gives none)."""
+    name: str
+    start: BeamEnd
+    end: BeamEnd
+    EA: float
+    rhoA: float
+    damping: float
+    elements: int
+    rest_length: TimeFunction
+
+    @property
+    def length(self) -> float:
+        """The distance of its ends at t = 0."""
+        return float(np.linalg.norm(self.end.point - self.start.point))
+
+
+@dataclass
 class Body:
     """A rigid joint body; frame parallel to the global axes at t = 0."""
     name: str
@@ -365,7 +389,8 @@ class Probe:
     - ``guide``: body (the guided body), quantity (position|rate|force);
     - ``energy``: quantity (kinetic|strain|potential|external_work|dissipated|total);
     - ``momentum``: quantity (linear|angular), component (x|y|z);
-    - ``element``: beam, element (0-based index), quantity (axial_force|torque|moment_y|moment_z).
+    - ``element``: beam, element (0-based index), quantity (axial_force|torque|moment_y|moment_z);
+    - ``cable``: beam (the cable's name), quantity (tension|length).
     """
     name: str
     kind: str
@@ -475,6 +500,8 @@ class Scene:
     controller_outputs: ControllerOutputs = field(default_factory=ControllerOutputs)
     #: each controller state's current value, named ``CONTROLLER.STATE``
     controller_states: Signals = field(default_factory=Signals)
+    #: ``cables``: tension-only members between points (latdyn/model/cables.py), in file order
+    cables: dict[str, Cable] = field(default_factory=dict)
 
     @property
     def n_elements(self) -> int:
@@ -748,6 +775,7 @@ class _Reader:
         self.sections: dict[str, Section] = {}
         self.bodies: dict[str, Body] = {}
         self.beams: dict[str, Beam] = {}
+        self.cables: dict[str, Cable] = {}
         self.n_elements = 0  # elements of the beams read so far
         self.controller_specs: dict | None = None  # the scene's controllers as written (probes name them)
         self.input_names: tuple = ()  # the scene's inputs (solve.linear_model.inputs may name them)
@@ -1192,9 +1220,10 @@ class _Reader:
         if value in self.bodies:
             return PointRef(text=value, body=value)
         m = self._POINT.match(value)
-        if not m or m["name"] not in self.beams:
-            self.fail(key, forms, value)
-        beam = self.beams[m["name"]]
+        if not m or (m["name"] not in self.beams and m["name"] not in self.cables):
+            self.fail(key, forms + (f" or CABLE.start, CABLE.end, CABLE.node[i] (cables: {_listing(self.cables)})"
+                                    if self.cables else ""), value)
+        beam = self.beams.get(m["name"]) or self.cables[m["name"]]
         if m["end"]:
             return PointRef(text=value, beam=beam.name, node=0 if m["end"] == "start" else beam.elements)
         node = int(m["node"])
@@ -1262,6 +1291,36 @@ class _Reader:
                           name)
         return {"inputs": inputs, "input_names": list(spec["inputs"]), "outputs": list(spec["outputs"])}
 
+    def cable(self, name, spec, key) -> Cable:
+        """``cables.NAME`` (SCENE.md): ends as for beams (no joints), EA > 0, rhoA ≥ 0, damping ≥ 0,
+        elements ≥ 1 (several only with rhoA > 0: massless inner nodes would hold nothing), rest_length
+        a positive number or an expression in t."""
+        if name in self.beams:
+            self.fail(key, f"expected a cable name that is not a beam's ({name!r} is a beam)", name)
+        self.mapping(spec, key, _CABLE_KEYS, required=("from", "to", "EA"))
+        ends = [self.beam_end(spec[side], _join(key, side), None, "", False) for side in ("from", "to")]
+        d = ends[1].point - ends[0].point
+        length = float(np.linalg.norm(d))
+        scale = max(np.abs(ends[0].point).max(), np.abs(ends[1].point).max(), 1.0)
+        if not math.isfinite(length) or length <= 1e-12 * scale:
+            self.fail(key, f"zero-length cable: from and to are both at {ends[0].point.tolist()}; "
+                           "expected two distinct points")
+        EA = self.number(spec["EA"], _join(key, "EA"), positive=True)
+        rhoA = self.number(spec.get("rhoA", 0.0), _join(key, "rhoA"), nonnegative=True)
+        damping = self.number(spec.get("damping", 0.0), _join(key, "damping"), nonnegative=True)
+        elements = self.integer(spec.get("elements", 1), _join(key, "elements"), maximum=MAX_ELEMENTS)
+        if elements > 1 and rhoA == 0.0:
+            self.fail(_join(key, "elements"), "a massless cable is one element (its inner nodes would have "
+                                              "nothing to hold them); expected 1, or rhoA > 0", elements)
+        rest_key = _join(key, "rest_length")
+        rest = parse_time_function(spec.get("rest_length", length), self.file, rest_key)
+        if rest.is_constant:
+            self.number(rest.value(0.0), rest_key, positive=True)
+        elif not rest.value(0.0) > 0.0:
+            self.fail(rest_key, f"expected a rest length > 0 at t = 0 (it is {rest.value(0.0):g})", spec["rest_length"])
+        return Cable(name=name, start=ends[0], end=ends[1], EA=EA, rhoA=rhoA, damping=damping, elements=elements,
+                     rest_length=rest)
+
     def load(self, spec, key) -> Load:
         self.mapping(spec, key, _LOAD_KEYS, required=("at",))
         if "force" not in spec and "moment" not in spec:
@@ -1314,6 +1373,9 @@ class _Reader:
                          quantity=self.choice(spec["quantity"], k("quantity"), GUIDE_QUANTITIES))
         if kind == "energy":
             return Probe(name=name, kind=kind, quantity=self.choice(spec["energy"], k("energy"), ENERGY_KINDS))
+        if kind == "cable":
+            return Probe(name=name, kind=kind, beam=self.ref(spec["cable"], k("cable"), self.cables, "cable"),
+                         quantity=self.choice(spec["quantity"], k("quantity"), CABLE_QUANTITIES))
         if kind == "momentum":
             return Probe(name=name, kind=kind, quantity=self.choice(spec["momentum"], k("momentum"), MOMENTUM_KINDS),
                          component=self.choice(spec["component"], k("component"), AXIS_COMPONENTS))
@@ -1653,10 +1715,13 @@ def _build_parts(r: _Reader, raw: dict, file: str) -> Scene:
     r.guide_loops()
     for name, spec in r.named_mapping(raw.get("beams"), "beams", "beam").items():
         r.beams[name] = r.beam(name, spec, f"beams.{name}")
+    for name, spec in r.named_mapping(raw.get("cables"), "cables", "cable").items():
+        r.cables[name] = r.cable(name, spec, f"cables.{name}")
     if not r.bodies and not r.beams:
         r.fail("beams", "expected at least one body or beam in the scene")
 
-    attached = {end.body for b in r.beams.values() for end in (b.start, b.end) if end.body is not None}
+    attached = {end.body for b in [*r.beams.values(), *r.cables.values()] for end in (b.start, b.end)
+                if end.body is not None}
     # a body that carries a guided body, and a guided body (its slide may be held by its spring or by
     # what it carries), are left to the model's check of each coordinate (Model.check_held)
     attached |= {body.guide.on for body in r.bodies.values() if body.guide is not None}
@@ -1692,6 +1757,7 @@ def _build_parts(r: _Reader, raw: dict, file: str) -> Scene:
         title=title, file=file, source_hash=_canonical_hash(raw), gravity=gravity,
         initial_velocity=initial_velocity, sections=r.sections, bodies=r.bodies, beams=r.beams,
         loads=loads, solve=solve, output=Output(every=every, paraview_every=paraview_every, probes=probes), raw=raw,
+        cables=r.cables,
     )
 
 
@@ -1707,6 +1773,9 @@ def describe(scene: Scene) -> str:
              f"{b.start.joint}-{b.end.joint})" for b in scene.beams.values()]
     lines.append(f"  beams:    {len(scene.beams)}" + (f": {', '.join(beams)}" if beams else ""))
     lines.append(f"  elements: {scene.n_elements}")
+    if scene.cables:
+        cables = [f"{c.name} ({c.elements} el, EA = {c.EA:g})" for c in scene.cables.values()]
+        lines.append(f"  cables:   {len(cables)}: {', '.join(cables)}")
     hinges = [f"{beam}.{which}" + (" (prescribed)" if h.angle is not None else "")
               for beam, which, h in scene.hinges]
     lines.append(f"  hinges:   {len(hinges)}" + (f": {', '.join(hinges)}" if hinges else ""))

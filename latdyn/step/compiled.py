@@ -17,7 +17,7 @@ storage (:attr:`CompiledGeneralizedAlpha.factorization`) and the step's own stru
 :meth:`CompiledGeneralizedAlpha.advance` takes the steps from one recorded row to the next in
 one call (``latdyn_advance``): each step on the time grid as ``step`` takes it, accepted as
 the time loop (:mod:`latdyn.timeloop.loop`) accepts it (algorithmic acceleration carried over,
-external work by the trapezoidal rule, power of loads and prescribed motion). A step it
+the external work and the dampers' dissipation as latdyn.timeloop.progress says). A step it
 cannot accept as it comes (Newton fails; a hinge reaches lock_at or a stop) is handed back
 to the time loop, which handles it as before (cuts, the inertia tangent, latches, impacts)
 and calls the loop again once it is back on the grid at the nominal step. Python runs once
@@ -186,6 +186,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         rows, cols = a.control.coupling_rows, a.control.coupling_cols
         model.coupling_position = ints(block_positions(rows[:, None], cols[:, None])[:, 0, 0] if len(rows)
                                        else np.zeros(0, np.int64))
+        model.cable_position = ints(block_positions(a.cable_dofs()))
         model.factorization = ctypes.pointer(factorization.structure)
         native.set_buffer("matrix", factorization.values)
         native.set_buffer("rhs", np.zeros(n))
@@ -254,8 +255,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         total = self._buffers["total"]
         stats = StepStats(iterations=control.iterations, converged=bool(control.converged) and not failed,
                           factorizations=control.factorizations, contraction=control.contraction_seen)
-        self.last_evaluation = _LastEvaluation(total, n, model.n_total, control.power,
-                                               self._buffers["dissipation"][0])
+        self.last_evaluation = _LastEvaluation(total, n, model.n_total, control.power, self._buffers)
         if not stats.converged:
             stats.residual = total[:n].copy()
             control.factored_h = 0.0  # a failed step may leave a partial factorization
@@ -264,13 +264,16 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         return trial_state, stats
 
     def advance(self, state: State, *, grid_index: int, stop_index: int, dt: float, t_end: float, n_grid: int,
-                power: float, external_work: float, dissipation_power: float = 0.0, dissipated: float = 0.0,
-                budget_s: float = 0.25) -> "Advanced":
+                power: float, external_work: float, hinge_work_torque: np.ndarray, hinge_damper_torque: np.ndarray,
+                dissipation_power: float = 0.0, dissipated: float = 0.0, budget_s: float = 0.25) -> "Advanced":
         """Steps on the time grid in one call into C (``latdyn_advance``), from ``state`` on grid
         point ``grid_index`` through ``stop_index``, each as :meth:`step` takes it with
         h = t_{k+1} − t_k and accepted as the time loop accepts it (algorithmic acceleration
-        carried, external work by the trapezoidal rule from ``power``, the dampers' dissipated energy
-        from ``dissipation_power``). The call returns at
+        carried, the point loads' and prescribed motion's external work by the trapezoidal rule in time
+        from ``power``, the hinges' work and their dampers' dissipated energy over each step's Δθ from
+        the torques ``hinge_work_torque`` and ``hinge_damper_torque`` at ``state``, as
+        latdyn.timeloop.progress.hinge_work, and the cables' dampers' from ``dissipation_power``, by the
+        trapezoidal rule in time). The call returns at
         ``stop_index``, after ``budget_s`` of wall time, or at the first step that does not
         converge or holds a hinge event (lock_at, a stop): that step is given back, not
         accepted, for the time loop to handle as it handles any step (:attr:`Advanced.pending`).
@@ -284,7 +287,10 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         run = self._run
         run.dt, run.t_end, run.n_grid, run.grid_index, run.stop_index = dt, t_end, n_grid, grid_index, stop_index
         run.t, run.budget_s, run.power, run.external_work = state.t, budget_s, power, external_work
+        work_torque = np.array(hinge_work_torque, dtype=float)  # carried in place by the loop (in/out)
+        damper_torque = np.array(hinge_damper_torque, dtype=float)
         run.dissipation_power, run.dissipated = dissipation_power, dissipated
+        run.hinge_work_torque, run.hinge_damper_torque = work_torque.ctypes.data, damper_torque.ctypes.data
         self._factor_version += 1
         self._native.laws.bind_inputs()  # this scene's input values (SceneLaws.bind_inputs)
         self._library.latdyn_advance(self._model_ref, self._work_ref, self._control_ref, ctypes.byref(base),
@@ -318,10 +324,11 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
             self._made = self._view(trial, trial_c)
             pending = (trial, stats, run.h_pending)
         self.last_evaluation = _LastEvaluation(self._buffers["total"], n, model.n_total, control.power,
-                                               self._buffers["dissipation"][0])
+                                               self._buffers)
         return Advanced(state=last, steps=run.steps, iterations=run.iterations, factorizations=run.factorizations,
                         power=run.power, external_work=run.external_work, status=run.status, pending=pending,
-                        factorization_kept=kept, dissipation_power=run.dissipation_power,
+                        factorization_kept=kept, hinge_work_torque=work_torque,
+                        hinge_damper_torque=damper_torque, dissipation_power=run.dissipation_power,
                         dissipated=run.dissipated)
 
     # -- the held factorization of modified Newton, for checkpoints (latdyn.timeloop.checkpoint) -------
@@ -403,16 +410,21 @@ class Advanced:
     #: whether the held factorization is still that of the last accepted step (False when the
     #: step given back factorized or failed): a checkpoint of that step can carry it
     factorization_kept: bool = True
-    dissipation_power: float = 0.0  # c θ̇² of the hinge dampers at that state
+    #: per hinge at that state: the torque that does external work and the damper's torque
+    hinge_work_torque: np.ndarray | None = None
+    hinge_damper_torque: np.ndarray | None = None
+    dissipation_power: float = 0.0  # the power the cables' dampers dissipate at that state
     dissipated: float = 0.0  # the energy the dampers dissipated since the start of the run
 
 
 class _LastEvaluation:
     """What the time loop reads of the last Newton evaluation: the reaction on the
-    constrained coordinates, the external power and the power the hinge dampers dissipate (the
-    residual only on failure)."""
+    constrained coordinates, the point loads' power, the hinges' work and damper torques and the
+    cables' damper power (the residual only on failure)."""
 
-    def __init__(self, total, n, n_total, external_power, dissipation_power=0.0):
+    def __init__(self, total, n, n_total, external_power, buffers):
         self.reaction = total[n:n_total].copy()
         self.external_power = external_power
-        self.dissipation_power = float(dissipation_power)
+        self.hinge_work_torque = buffers["hinge_work_torque"].copy()
+        self.hinge_damper_torque = buffers["hinge_damper_torque"].copy()
+        self.dissipation_power = float(buffers["dissipation"][0])

@@ -35,11 +35,84 @@ def lock_events(model: Model, old: State, new: State) -> tuple[list[int], list[t
     return reached, crossing
 
 
-def crossing_fraction(model: Model, old: State, new: State) -> float | None:
-    """The fraction of the step at which the first hinge crosses its lock_at or a stop, or None."""
+def crossing_fraction(model: Model, old: State, new: State, assembler=None) -> float | None:
+    """The fraction of the step at which the first hinge crosses its lock_at or a stop, or a cable
+    element goes slack or taut (with ``assembler``), or None."""
     _, crossing = lock_events(model, old, new)
     fractions = [f for _, f in crossing] + [f for _, _, f in stop_crossings(model, old, new)]
+    if assembler is not None and model.cables is not None:
+        fractions += [f for _, f in cable_crossings(assembler, old, new)]
     return min(fractions) if fractions else None
+
+
+# ----------------------------------------------------------------------------- cables
+# A cable element is taut while its gap g = min(N_el, N) is positive: stretched (N_el = EA (ℓ − L0)/L0 > 0)
+# and pulling (N = N_el + c ℓ̇ > 0; g is continuous in time). Each element is held on a side through a
+# step, taut (+1) or slack (−1), in the model's ``cables.sides`` that the evaluation reads
+# (latdyn/model/cables.py): Newton sees one smooth law in a step. A step that ends with an element's gap
+# beyond cable_tolerance on the other side of zero is shortened to land on the zero (secant on the gap,
+# as for hinge stops; the compiled loop hands such a step back: csrc/newton_step.c cable_event); the
+# accepted step that reached the zero from its side, or crossed it, turns the element over
+# (:func:`cable_events`). The velocities do not jump at the change, so there is no impulse
+# (docs/cables.md measures this against a C¹ transition).
+def cable_tolerance(EA: np.ndarray) -> np.ndarray:
+    """The gap (a force) within which a cable element of axial stiffness ``EA`` is on its change
+    (csrc/newton_step.c cable_tolerance): a stretch of 1e-9 of its rest length."""
+    return 1e-9 * EA
+
+
+def cable_gaps(assembler, state: State) -> tuple[np.ndarray, np.ndarray]:
+    """(gap min(N_el, N), its tolerance) of every cable element at ``state``."""
+    native = assembler.native()
+    native.cable_state(state)
+    return native.buffers["cable_gap"].copy(), cable_tolerance(assembler.model.cables.EA)
+
+
+def cable_sides(assembler, state: State) -> list[int]:
+    """+1 (taut: the gap beyond the tolerance) or −1 (slack) for every cable element at ``state``."""
+    stretch, tol = cable_gaps(assembler, state)
+    return [1 if s > t else -1 for s, t in zip(stretch, tol)]
+
+
+def cable_crossings(assembler, old: State, new: State) -> list[tuple[int, float]]:
+    """(cable element, fraction of the step) for each element whose gap ends the step beyond its
+    tolerance on the other side of zero from the side the step held it on (linear interpolation of the
+    gap from ``old``)."""
+    sides = assembler.model.cables.sides
+    after, tol = cable_gaps(assembler, new)
+    crossed = ((sides > 0) & (after < -tol)) | ((sides < 0) & (after > tol))
+    if not crossed.any():
+        return []
+    before, _ = cable_gaps(assembler, old)
+    out = []
+    for e in np.flatnonzero(crossed):
+        span = before[e] - after[e]
+        out.append((int(e), float(min(max(before[e] / span, 0.0), 1.0)) if span != 0.0 else 0.0))
+    return out
+
+
+def cable_events(assembler, sides: list, old: State, new: State) -> tuple[list, list]:
+    """The elements' sides after the accepted step old → new (from ``sides``, those it was held on) and
+    the changes of whole cables, [(cable name, "taut" | "slack")]: an element turns over where its
+    gap reached zero from its side (within the tolerance, moving towards it) or went past it; a
+    cable is taut while any of its elements is."""
+    after, tol = cable_gaps(assembler, new)
+    before, _ = cable_gaps(assembler, old)
+    new_sides = []
+    for e, side in enumerate(sides):
+        if side > 0 and after[e] <= tol[e] and after[e] < before[e]:
+            side = -1
+        elif side < 0 and after[e] >= -tol[e] and after[e] > before[e]:
+            side = 1
+        new_sides.append(side)
+    cables = assembler.model.cables
+    changes = []
+    for k, name in enumerate(cables.names):
+        elements = np.flatnonzero(cables.cable == k)
+        was, now = any(sides[e] > 0 for e in elements), any(new_sides[e] > 0 for e in elements)
+        if was != now:
+            changes.append((name, "taut" if now else "slack"))
+    return new_sides, changes
 
 
 # ----------------------------------------------------------------------------- hard stops
@@ -77,7 +150,8 @@ def stop_crossings(model: Model, old: State, new: State) -> list[tuple[int, int,
     return out
 
 
-def hinge_stops(prepared: Prepared, integrator, new: State, old: State | None = None) -> tuple[float, bool] | None:
+def hinge_stops(prepared: Prepared, integrator, new: State, old: State | None = None,
+                log: list | None = None) -> tuple[float, bool] | None:
     """Impacts on hinge stops at the end of an accepted step from ``old`` (see above): the energy
     they removed (:func:`hinge_events`) and whether every joint that met its stop rests there (started
     the step on it), or None when no hinge hit a stop.
@@ -100,6 +174,8 @@ def hinge_stops(prepared: Prepared, integrator, new: State, old: State | None = 
                 stops.append(stop)
                 restitution.append(0.0 if resting else model.hinges[k].restitution)
                 rests.append(resting)
+                if log is not None and not resting:  # an impact; a hinge resting on its stop is no new event
+                    log.append((model.hinges[k].name, "stop"))
     if not hits:
         return None
     before = kinetic_energy(assembler, new)
@@ -143,7 +219,8 @@ def restart_accelerations(prepared: Prepared, integrator, new: State, dt: float)
         integrator.a = vdot.copy()
 
 
-def latch_hinges(prepared: Prepared, integrator, old: State, new: State, h: float) -> float | None:
+def latch_hinges(prepared: Prepared, integrator, old: State, new: State, h: float,
+                 log: list | None = None) -> float | None:
     """Latch every free hinge whose angle crossed its lock_at during the step.
 
     The latch is a perfectly plastic impulsive constraint θ̇ = 0: the free
@@ -160,6 +237,8 @@ def latch_hinges(prepared: Prepared, integrator, old: State, new: State, h: floa
     latched = reached + [k for k, _ in crossing]
     if not latched:
         return None
+    if log is not None:
+        log.extend((model.hinges[k].name, "latch") for k in latched)
     before = kinetic_energy(assembler, new)
 
     N = hinge_directions(model, latched)
@@ -276,6 +355,8 @@ class HingeEvents(NamedTuple):
     #: the only event: joints that rest on their stops, put back where they started the step (so the
     #: step moved nothing there: its work and dissipation are those of the state after the projection)
     resting: bool = False
+    #: (joint, kind) of each event: latch, stop (an impact)
+    log: list = []
 
 
 def hinge_events(prepared: Prepared, integrator, old: State, new: State, h: float) -> HingeEvents:
@@ -292,13 +373,14 @@ def hinge_events(prepared: Prepared, integrator, old: State, new: State, h: floa
     loop takes the step's end power after the projection; measured on a slider held on its stop by a
     constant force, the work F s to the events' landing tolerance (3e-8), where counting both grew the work by 15 % in 0.33 s at
     h = 0.01); what putting the rest of the configuration back changes of the strain and potential
-    energy is not declared and stays in the balance."""
-    latched = latch_hinges(prepared, integrator, old, new, h)
-    stopped = hinge_stops(prepared, integrator, new, old)
+    energy is not declared and stays in the balance. ``log``: the latches and stop impacts, (joint, kind)."""
+    log = []
+    latched = latch_hinges(prepared, integrator, old, new, h, log)
+    stopped = hinge_stops(prepared, integrator, new, old, log)
     stuck = stick_and_slip(prepared, integrator, old, new)
     resting = stopped is not None and stopped[1] and latched is None and stuck is None
     # resting: the kinetic energy the step gave the joint past its stop came from the work of a motion the
     # projection undid; neither is counted (the time loop takes the step's power after the projection)
     loss = (latched or 0.0) + (stopped[0] if stopped is not None and not resting else 0.0) + (stuck or 0.0)
     return HingeEvents(stopped is not None or latched is not None or stuck is not None, stopped is not None, loss,
-                       resting)
+                       resting, log)

@@ -31,8 +31,9 @@ from latdyn.results.writer import ResultWriter
 from latdyn.step.integrators import newton_diagnosis
 from latdyn.timeloop import checkpoint as checkpoints
 from latdyn.timeloop.control import StepControl
-from latdyn.timeloop.events import crossing_fraction, hinge_events, restart_accelerations
-from latdyn.timeloop.progress import DRIFT_WARNING, UNBOUNDED, TransientProgress, factorizations, load_power
+from latdyn.timeloop.events import cable_events, cable_sides, crossing_fraction, hinge_events, restart_accelerations
+from latdyn.timeloop.progress import (DRIFT_WARNING, UNBOUNDED, UNBOUNDED_ROWS, TransientProgress, factorizations,
+                                      hinge_work, load_power)
 
 
 class Attempt(NamedTuple):
@@ -116,6 +117,8 @@ class TimeLoop:
             stuck=self.model.stuck.copy(),
             h=self.control.dt, power=load_power(self.model, state, evaluation),
             dissipation_power=evaluation.dissipation_power,
+            hinge_work_torque=evaluation.hinge_work_torque.copy(),
+            hinge_damper_torque=evaluation.hinge_damper_torque.copy(),
             total0=sum(energy0.values()), potential0=energy0["potential"],
             received0=energy0["kinetic"] + energy0["strain"] + 1e-8 * abs(energy0["potential"]),
             inertia_tangent_from=0.0 if getattr(self.integrator, "inertia_tangent", False) else None,
@@ -206,7 +209,7 @@ class TimeLoop:
         progress.state = self.prepared.state = state
         progress.algorithmic_acceleration = getattr(self.integrator, "a", None)
         progress.power = load_power(self.model, state, evaluation)
-        progress.dissipation_power = evaluation.dissipation_power
+        self._torques_from(evaluation)
 
     def _steps(self) -> None:
         """Steps until t_end or the pause; interrupted or failed: :meth:`_stopped_by`."""
@@ -222,6 +225,7 @@ class TimeLoop:
         """Steps in C up to the next row, or one step from Python; the step that comes back is
         rejected (error estimate), tried again (Newton failed) or accepted."""
         progress, control = self.progress, self.control
+        self._hold_cable_sides()
         # a hinge stuck by friction is checked for release after every step: those steps from Python
         compiled = self.compiled and control.on_grid(progress) and not control.before_pause(progress) \
             and not self.model.stuck.any()
@@ -251,7 +255,8 @@ class TimeLoop:
             progress.state, grid_index=progress.grid_index,
             stop_index=control.next_row(progress) if budget > 0 else progress.grid_index + 1, dt=control.dt,
             t_end=control.t_end, n_grid=control.n_grid, power=progress.power,
-            external_work=progress.external_work, dissipation_power=progress.dissipation_power,
+            external_work=progress.external_work, hinge_work_torque=progress.hinge_work_torque,
+            hinge_damper_torque=progress.hinge_damper_torque, dissipation_power=progress.dissipation_power,
             dissipated=progress.dissipated, budget_s=budget)
         progress.solver_s += time.perf_counter() - started
         if done.steps:
@@ -261,8 +266,10 @@ class TimeLoop:
             progress.factorizations += done.factorizations
             progress.power = done.power
             progress.external_work = self.probes.external_work = done.external_work
+            progress.hinge_work_torque, progress.hinge_damper_torque = done.hinge_work_torque, done.hinge_damper_torque
             progress.dissipation_power = done.dissipation_power
             progress.dissipated = self.probes.dissipated = done.dissipated
+            self._track_cables(progress.state, done.state)
             progress.state = done.state
             progress.algorithmic_acceleration = self.integrator.a
             self._after_accepted(done.state)
@@ -292,7 +299,7 @@ class TimeLoop:
         progress = self.progress
         new, stats, h, lands = attempt
         for _ in range(4):
-            fraction = crossing_fraction(self.model, progress.state, new)
+            fraction = crossing_fraction(self.model, progress.state, new, self.assembler)
             if fraction is None:
                 break
             shorter = max(h * fraction, self.control.dt_min)  # no step below the floor (control)
@@ -312,28 +319,40 @@ class TimeLoop:
         progress, model, integrator = self.progress, self.model, self.integrator
         new, h = attempt.new, attempt.h
         integrator.accept()
+        theta_end = new.theta.copy()  # the step's own end, before an event puts a hinge on its stop
         events = hinge_events(self.prepared, integrator, progress.state, new, h)
-        # power of loads and prescribed motion: from the last Newton evaluation
+        if events.log:
+            progress.events = progress.events + [{"joint": joint, "kind": kind, "t": float(new.t)}
+                                                 for joint, kind in events.log]
+        self._track_cables(progress.state, new)
+        # power of point loads, cable reels and prescribed motion: from the last Newton evaluation
         # (within the Newton tolerance of the converged state) when there is one
         evaluation = getattr(integrator, "last_evaluation", None)
         if evaluation is None or len(evaluation.reaction) != model.n_total - model.n_dofs or events.resting:
             # resting on a stop: the step ends where the projection put it back (events.HingeEvents)
             evaluation = self.assembler.evaluate(new, matrices=False)
         new_power = load_power(model, new, evaluation)
-        self.probes.external_work += 0.5 * h * (progress.power + new_power)
+        external_work = self.probes.external_work + 0.5 * h * (progress.power + new_power)
         progress.power = new_power
-        progress.external_work = self.probes.external_work
-        # declared dissipation: the dampers' over the step (trapezoidal, as the work; at its end
-        # from the step's own last evaluation, before the events' jump), then the events' loss;
-        # the dampers' power after the jump starts the next step
+        # the work of the hinges' torques (progress.hinge_work): external work and the joints'
+        # dissipation over the step's own Δθ, the torques at its end from its last evaluation, before
+        # the events' jump and their putting a hinge back on its stop (resting on a stop: after it, where
+        # the step moved nothing, events.HingeEvents); the cables' dampers by the trapezoidal rule in
+        # time, as the point loads' work; then the events' loss; the torques and powers after the jump
+        # start the next step
         ended = evaluation if events.resting else getattr(integrator, "last_evaluation", None) or evaluation
-        damped = 0.5 * h * (progress.dissipation_power + ended.dissipation_power)
-        progress.dissipation_power = evaluation.dissipation_power
-        if events.any and evaluation is ended and not events.resting:  # the velocities jumped: the powers
-            after = self.assembler.evaluate(new, matrices=False)  # after the jump start the next step
-            progress.dissipation_power = after.dissipation_power
+        external_work, dissipated = hinge_work(
+            progress.state.theta, new.theta if events.resting else theta_end,
+            (progress.hinge_work_torque, progress.hinge_damper_torque),
+            (ended.hinge_work_torque, ended.hinge_damper_torque), external_work, progress.dissipated)
+        dissipated += 0.5 * h * (progress.dissipation_power + ended.dissipation_power)
+        progress.external_work = self.probes.external_work = external_work
+        after = evaluation
+        if events.any and evaluation is ended and not events.resting:  # the velocities jumped
+            after = self.assembler.evaluate(new, matrices=False)
             progress.power = load_power(model, new, after)
-        progress.dissipated = self.probes.dissipated = progress.dissipated + damped + events.loss
+        self._torques_from(after)
+        progress.dissipated = self.probes.dissipated = dissipated + events.loss
         progress.state = new
         progress.algorithmic_acceleration = integrator.a
         progress.locked, progress.stuck = model.locked.copy(), model.stuck.copy()
@@ -343,6 +362,36 @@ class TimeLoop:
         self._after_accepted(new)
         self.control.after_accepted(progress, integrator, h, events.any, events.stopped)
         self._keep_accepted()
+
+    def _torques_from(self, evaluation) -> None:
+        """The hinges' work and dissipative torques and the cables' damper power at the state of
+        ``evaluation``, which the next step's work and dissipation start from (progress.hinge_work)."""
+        progress = self.progress
+        progress.dissipation_power = evaluation.dissipation_power
+        progress.hinge_work_torque = evaluation.hinge_work_torque.copy()
+        progress.hinge_damper_torque = evaluation.hinge_damper_torque.copy()
+
+    def _hold_cable_sides(self) -> None:
+        """The side each cable element is held on through the next step (latdyn.timeloop.events): the
+        progress's (from the state at t = 0 the first time), into the model's array the evaluation reads."""
+        cables, progress = self.model.cables, self.progress
+        if cables is None:
+            return
+        if progress.cable_sides is None:
+            progress.cable_sides = cable_sides(self.assembler, progress.state)
+        cables.sides[:] = progress.cable_sides
+
+    def _track_cables(self, old: State, new: State) -> None:
+        """The cables' slack and taut changes over the accepted step(s) old → new, into the events
+        (latdyn.timeloop.events.cable_events: the step landed on each)."""
+        if self.model.cables is None:
+            return
+        progress = self.progress
+        progress.cable_sides, changes = cable_events(self.assembler, progress.cable_sides, old, new)
+        self.model.cables.sides[:] = progress.cable_sides
+        if changes:
+            progress.events = progress.events + [{"joint": name, "kind": kind, "t": float(new.t)}
+                                                 for name, kind in changes]
 
     def _after_accepted(self, state: State) -> None:
         """After the accepted step(s) that ended at ``state``: rotations back on SO(3) every 256
@@ -358,7 +407,7 @@ class TimeLoop:
             progress.algorithmic_acceleration = self.integrator.a
             evaluation = self.assembler.evaluate(state, matrices=False)
             progress.power = load_power(model, state, evaluation)
-            progress.dissipation_power = evaluation.dissipation_power
+            self._torques_from(evaluation)
         if progress.steps % 256 == 0:  # exp updates keep T on SO(3) to round-off; remove the drift of long runs
             state.T[model.free_nodes] = orthonormalize(state.T[model.free_nodes])
         if self.control.row_due(progress, state.t):
@@ -383,9 +432,9 @@ class TimeLoop:
     def _judge_balance(self, t: float, gain: float) -> None:
         """The energy balance at the row at ``t`` (docs/energy.md): an energy gain (``gain``: the
         energy created and held, relative to the energy received, :meth:`TransientProgress.balance`)
-        past :data:`UNBOUNDED`, or not finite, ends the run as unbounded, the row at ``t`` recorded
-        first."""
-        if not gain <= UNBOUNDED:  # NaN too
+        past :data:`UNBOUNDED`, growing, at :data:`UNBOUNDED_ROWS` rows in a row, or not finite,
+        ends the run as unbounded, the row at ``t`` recorded first."""
+        if self.progress.unbounded:
             self.unbounded = True
             progress = self.progress
             received = progress.received0 + progress.work_seen + progress.potential_seen
@@ -393,7 +442,7 @@ class TimeLoop:
                 what = "the energies are not finite"
             else:
                 what = (f"the integrator created {gain:.3g} times the energy the structure received "
-                        f"({received:.4g}; a run ends past {UNBOUNDED:g} times)")
+                        f"({received:.4g}; a run ends past {UNBOUNDED:g} times at {UNBOUNDED_ROWS} rows in a row)")
             raise UnboundedError(f"unbounded: the energy balance broke at t = {t:.6g}: {what}; a smaller step or "
                                  f"numerical dissipation (rho_inf < 1) may keep it bounded", t)
 
@@ -402,6 +451,9 @@ class TimeLoop:
         :data:`DRIFT_WARNING` is a warning on stderr and in summary.json ``warnings``."""
         progress, summary = self.progress, self.writer.summary
         summary.update(progress.summary(self.tol, self.prepared.scene.solve.method))
+        if self.model.cables is not None:
+            summary["cable_events"] = [{"cable": e["joint"], "t": e["t"], "state": e["kind"]} for e in progress.events
+                                       if e["kind"] in ("slack", "taut")]
         error = progress.relative_balance_error
         if error > DRIFT_WARNING and progress.balance_error_t is not None and not self.unbounded:
             warning = (f"the energy balance drifts: energy_balance_error {error:.3g} (> {DRIFT_WARNING:g}), "

@@ -30,12 +30,17 @@ class TransientProgress:
     grid_index: int = 0  # nominal steps completed
     output_index: int = 1  # next recorded time is output_index · every
     external_work: float = 0.0
-    power: float = 0.0  # power of loads and prescribed motion at state.t
-    #: declared dissipation since t = 0: impacts on stops and latches (the energy each event
-    #: removed, latdyn.timeloop.events.hinge_events) and hinge dampers (∫ c θ̇² dt, trapezoidal
-    #: over each step, as the external work)
+    power: float = 0.0  # power of point loads, cable reels and prescribed motion at state.t
+    #: declared dissipation since t = 0: impacts on stops, latches and sticking (the energy each event
+    #: removed, latdyn.timeloop.events.hinge_events), hinge dampers, compliant stops' damping and
+    #: friction (∫ f dθ of their dissipative torque f over each step, :func:`hinge_work`) and cable
+    #: dampers (their power, trapezoidal in time over each step)
     dissipated: float = 0.0
-    dissipation_power: float = 0.0  # c θ̇² of the hinge dampers at state.t
+    dissipation_power: float = 0.0  # the power the cables' dampers dissipate at state.t
+    #: per hinge at state.t: the torque that does external work (with a continuous controller's
+    #: output) and the dissipative torque (c θ̇, a compliant stop's damping, friction) (:func:`hinge_work`)
+    hinge_work_torque: np.ndarray | None = None
+    hinge_damper_torque: np.ndarray | None = None
     total0: float = 0.0  # kinetic + strain + potential at t = 0
     potential0: float = 0.0
     #: the energy the structure received (docs/energy.md): kinetic + strain at t = 0 (with a floor
@@ -47,6 +52,10 @@ class TransientProgress:
     balance_error: float = 0.0  # max |total − total0 − external_work + dissipated| over the rows
     energy_scale: float = 0.0  # max of kinetic, strain, |potential change|, |external work|, dissipated
     balance_error_t: float | None = None  # the time of the row with the largest balance error
+    #: consecutive rows, up to the last, whose energy gain passed :data:`UNBOUNDED` with the energy
+    #: the integrator created growing from the row before (:meth:`balance`, :data:`UNBOUNDED_ROWS`)
+    gain_rows: int = 0
+    created: float = 0.0  # the energy the integrator created, at the last row
     steps: int = 0
     newton_iterations: int = 0
     rejected_steps: int = 0  # all rejected attempts: Newton failures and error-control rejections
@@ -62,6 +71,12 @@ class TransientProgress:
     #: replaced, never changed in place, so that a kept copy of the progress keeps its own)
     controller_memory: np.ndarray | None = None
     stuck: np.ndarray | None = None  # the locked hinges that stick by friction (None: none)
+    #: the events so far, summary.json ``events``: {joint, kind: latch|stop|slack|taut, t}, in time order
+    #: (a new list on each event: checkpoints keep shallow copies)
+    events: list = field(default_factory=list)
+    #: per cable element, +1 taut or −1 slack at ``state`` (latdyn.timeloop.events.cable_events); None
+    #: until the first step of a model with cables
+    cable_sides: list | None = None
 
     def count(self, stats) -> None:
         """Count a step's Newton iterations and factorizations (``stats``: a StepStats)."""
@@ -75,7 +90,9 @@ class TransientProgress:
         of the energy the integrator created, total − total0 − external_work + dissipated, and the
         energy the structure gained, total − total0 + dissipated (so that noise in the work of a
         structure that holds no energy is not taken for a gain); NaN when an energy is not finite,
-        0 when the structure received nothing (it is then judged on finite energies alone)."""
+        0 when the structure received nothing (it is then judged on finite energies alone). Counts
+        :attr:`gain_rows`: a gain past :data:`UNBOUNDED` with the created energy grown since the
+        row before extends the streak, any other row ends it."""
         gained = sum(energies.values()) - self.total0 + self.dissipated
         created = gained - external_work
         potential_change = abs(energies["potential"] - self.potential0)
@@ -87,8 +104,18 @@ class TransientProgress:
         self.potential_seen = max(self.potential_seen, potential_change)
         received = self.received0 + self.work_seen + self.potential_seen
         if not np.isfinite(created):
+            self.created = math.nan
             return math.nan
-        return min(created, gained) / received if received > 0 else 0.0
+        gain = min(created, gained) / received if received > 0 else 0.0
+        self.gain_rows = self.gain_rows + 1 if gain > UNBOUNDED and created > self.created else 0
+        self.created = created
+        return gain
+
+    @property
+    def unbounded(self) -> bool:
+        """Whether the balance has broken (docs/energy.md): the energy gain of the last row is not
+        finite, or it passed :data:`UNBOUNDED`, growing, at :data:`UNBOUNDED_ROWS` rows in a row."""
+        return not np.isfinite(self.created) or self.gain_rows >= UNBOUNDED_ROWS
 
     @property
     def relative_balance_error(self) -> float:
@@ -116,7 +143,7 @@ class TransientProgress:
             energy_balance_error=self.relative_balance_error, dissipated_energy=self.dissipated,
             newton_iterations_per_step=self.newton_iterations / max(self.steps, 1),
             newton_tolerance=tol, method=method, solver_s=self.solver_s, factorizations=self.factorizations,
-            inertia_tangent_from=self.inertia_tangent_from, joint_peaks=self.joint_peaks)
+            inertia_tangent_from=self.inertia_tangent_from, joint_peaks=self.joint_peaks, events=self.events)
 
 
 #: Relative margin by which a row's joint force must exceed the kept peak to replace it in
@@ -128,6 +155,11 @@ DRIFT_WARNING = 1e-2
 #: Energy created by the integrator, relative to the energy scale, past which a run ends as
 #: ``unbounded`` (exit status 1; docs/energy.md).
 UNBOUNDED = 1.0
+#: Consecutive rows at which the gain must pass :data:`UNBOUNDED`, the created energy growing from
+#: row to row, before a run ends as ``unbounded``: an instability grows from row to row, while an
+#: error of the work's estimate at small energies (the first rows of a run) passes one row and not
+#: the next (docs/energy.md).
+UNBOUNDED_ROWS = 2
 
 
 def factorizations(stats) -> int:
@@ -142,8 +174,26 @@ def drive_power(model: Model, state: State, reaction: np.ndarray) -> float:
 
 
 def load_power(model: Model, state: State, evaluation) -> float:
-    """Power of loads and prescribed motion at ``state`` (``evaluation``: the assembler's, at that state)."""
+    """Power of point loads and prescribed motion at ``state`` (``evaluation``: the assembler's, at that state)."""
     return evaluation.external_power + drive_power(model, state, evaluation.reaction)
+
+
+def hinge_work(theta_old: np.ndarray, theta_new: np.ndarray, torques_old: tuple, torques_new: tuple,
+               external_work: float, dissipated: float) -> tuple[float, float]:
+    """``external_work`` and ``dissipated`` with the work of the hinges' torques over the step from
+    the hinge angles ``theta_old`` to ``theta_new`` added (docs/energy.md): ½(τ_n + τ_{n+1}) Δθ of each torque that does external
+    work, and ½(c θ̇_n + c θ̇_{n+1}) Δθ of each damper (its declared dissipation); ``torques_*`` are
+    (work torques, damper torques) per hinge at each end. The trapezoidal rule in θ, not in time: the
+    work ∫ τ dθ the discrete step received whatever the integrator's Δθ is (with generalized-α,
+    Δθ ≠ h (θ̇_n + θ̇_{n+1})/2, and the trapezoid of the power τ θ̇ in time is not that work); for
+    Newmark's average acceleration and a linear hinge it closes the balance to round-off.
+    csrc/newton_step.c hinge_work is the same sum, hinge by hinge, in the compiled loop."""
+    (work_old, damper_old), (work_new, damper_new) = torques_old, torques_new
+    for j in range(len(theta_new)):
+        increment = float(theta_new[j]) - float(theta_old[j])
+        external_work += 0.5 * (float(work_old[j]) + float(work_new[j])) * increment
+        dissipated += 0.5 * (float(damper_old[j]) + float(damper_new[j])) * increment
+    return external_work, dissipated
 
 
 #: Cut steps reported on stderr one by one up to this many, then only counted.

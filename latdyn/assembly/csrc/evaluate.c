@@ -121,7 +121,7 @@ typedef struct {
     void (*hinge_laws)(int64_t, double, double, double, double *);
     /* hinges with laws in θ, θ̇ or t: the hinge law of the stiffness,
      * the damping and the torque (-1: the constant of hinge_stiffness/hinge_damping, no torque
-     * law in θ or θ̇), and whether the spring is conservative (else its power is external work) */
+     * law in θ or θ̇), and whether the spring is conservative (else its work is external) */
     const int64_t *hinge_stiffness_law, *hinge_damping_law, *hinge_torque_hinge_law, *hinge_conservative;
     /* events that end a loop of steps (latdyn_advance; latdyn/timeloop/events.py handles them): lock_at and the
      * lower and upper stop of each hinge (NAN: none) */
@@ -153,6 +153,19 @@ typedef struct {
     /* (n_hinges, 11): each joint's compliant stop and friction, the hinge_force kernel's `contact`
      * input (codegen/joints.py joint_contact; zeros with stick_rate 1: none) */
     const double *hinge_contact;
+    /* cable elements (latdyn/model/cables.py): the node of each end (ce,2), the end points in node
+     * axes (ce,2,3), share of the rest length, EA, c (ce,3), the law of the cable's rest length
+     * (ce), the positions of their (12,12) blocks in the matrix storage (ce,144; set with it), and
+     * the generated taut law (codegen/joints.py cable_force) */
+    int64_t n_cables;
+    const int64_t *cable_nodes;
+    const double *cable_offsets, *cable_section;
+    const int64_t *cable_rest_law, *cable_position;
+    void (*cable_force)(int64_t, const double *, const double *, const double *, double *, double *, double *,
+                        double *, double *, double *, double *, double *);
+    /* the side of each cable element (ce) that the time loop holds for a step: +1 taut, −1 slack, 0 the
+     * stretch decides (every other analysis); latdyn/timeloop/events.py */
+    const double *cable_side;
 } Model;
 
 /* Scratch buffers, allocated once by the caller. */
@@ -176,7 +189,8 @@ typedef struct {
     /* the law values at the step's time (n_laws, 3), and the hinge forces' derivatives ∂f/∂θ
      * and ∂f/∂θ̇ of the last evaluation (n_hinges each: diagonal entries of K and C) */
     double *laws, *hinge_d_theta, *hinge_d_rate;
-    /* the power the hinge dampers dissipate at the last evaluation, c θ̇² summed (1) */
+    /* the power the cable dampers dissipate at the last evaluation, summed (1; the hinges' is their
+     * damper torque's work, hinge_damper_torque) */
     double *dissipation;
     /* each joint's law force f of the last evaluation (n_hinges: hinges and guides), for the joint
      * force probes (latdyn/results/probes.py ProbeSet.joint_forces) */
@@ -184,6 +198,16 @@ typedef struct {
     /* continuous controllers: the sensors' values and ∂y/∂s (n_sensors; 0 where saturated), the
      * controller law's output buffer (n_sensors + 1), and the coupling entries of K and C (n_couplings) */
     double *sensor_values, *controller_gradient, *controller_scratch, *coupling_stiffness, *coupling_damping;
+    /* cable elements at the last evaluation: residual rows (ce,12), K and C blocks (ce,12,12) (zero
+     * while slack), [ℓ, ℓ̇, ℓ − L0, N_el, N] with N = 0 while slack (ce,5), strain energy (ce) */
+    double *cable_vector, *cable_stiffness, *cable_damping, *cable_state, *cable_strain;
+    /* each element's gap min(N_el, N) (ce): > 0 taut; its sign changes are the events */
+    double *cable_gap;
+    /* per hinge at the last evaluation (n_hinges each): the torque whose work is external (the applied
+     * torque λ τ and a continuous controller's output, less k s of a spring that is not conservative)
+     * and the dissipative torque (the damper's c θ̇, a compliant stop's damping and friction); the time
+     * loop integrates their work over each step's Δθ (newton_step.c latdyn_advance) */
+    double *hinge_work_torque, *hinge_damper_torque;
 } Work;
 
 /* ------------------------------------------------------------------------- small algebra */
@@ -397,8 +421,9 @@ static void joint_bodies(const Model *m, const Configuration *c, Work *w, int in
 
 /* The equations of motion at c : the vector of all coordinates into
  * w->total (residual = total[:n], reaction = total[n:n_total]); with matrices, the blocks.
- * Returns the power of loads and hinge torques; the power the hinge dampers dissipate, c θ̇² summed
- * over the hinges, into w->dissipation[0]. */
+ * Returns the power of the point loads and of the cables' reels; each hinge's torque that does external
+ * work and its dissipative torque into w->hinge_work_torque and w->hinge_damper_torque; the power the
+ * cables' dampers dissipate into w->dissipation[0]. */
 /* The number of element ranges (= threads) of an evaluation: 1 below the threshold or without OpenMP. */
 static int element_ranges(const Model *m)
 {
@@ -501,6 +526,65 @@ static void controller_couplings(const Model *m, const Configuration *c, Work *w
     }
 }
 
+/* Cable elements at c: the generated taut law (codegen/joints.py cable_force) where an element is taut,
+ * zero where it is slack: its side −1, or side 0 and the gap min(N_el, N) ≤ 0 (not stretched, or the
+ * damper would push). The time loop holds each element's side through a step and lands the step where
+ * the gap (w->cable_gap) changes sign, so that Newton sees one smooth law; where the damper cancels the
+ * elastic tension of a stretched element (N ≤ 0: the force is
+ * clipped at 0 and the damper dissipates −N_el ℓ̇); the rows into w->total, the reel's power
+ * ∂U/∂L0·L̇0 into *power and the dampers' into *dissipation (rows only where total is not NULL). The
+ * blocks always (the kernel gives them with the force). latdyn/model/cables.py. */
+static void cables(const Model *m, const Configuration *c, Work *w, const double *laws, double *power,
+                   double *dissipation, double *total)
+{
+    for (int64_t e = 0; e < m->n_cables; ++e) {
+        double geometry[12], velocity[12], section[4];
+        const double *data = m->cable_section + 3 * e, *rest = laws + 3 * m->cable_rest_law[e];
+        for (int end = 0; end < 2; ++end) {
+            int64_t i = m->cable_nodes[2 * e + end];
+            matvec3(c->T + 9 * i, m->cable_offsets + 6 * e + 3 * end, geometry + 6 + 3 * end);
+            memcpy(geometry + 3 * end, c->x + 3 * i, 3 * sizeof(double));
+            memcpy(velocity + 6 * end, c->v + 3 * i, 3 * sizeof(double));
+            memcpy(velocity + 6 * end + 3, c->w + 3 * i, 3 * sizeof(double));
+        }
+        section[0] = data[0] * rest[0];
+        section[1] = data[0] * rest[1];
+        section[2] = data[1];
+        section[3] = data[2];
+        double *force = w->cable_vector + 12 * e, *K = w->cable_stiffness + 144 * e, *C = w->cable_damping + 144 * e;
+        double *state = w->cable_state + 5 * e, reel, damper, clipped;
+        m->cable_force(1, geometry, velocity, section, force, K, C, state, w->cable_strain + e, &reel, &damper,
+                       &clipped);
+        /* taut while stretched and pulling: the gap min(N_el, N) > 0 (the side the time loop holds, or,
+         * side 0, the gap decides) */
+        const double side = m->cable_side[e], gap = fmin(state[3], state[4]);
+        const int taut = side > 0.0 || (side == 0.0 && gap > 0.0);
+        w->cable_gap[e] = gap;
+        if (!taut && state[2] <= 0.0) { /* slack */
+            memset(force, 0, 12 * sizeof(double));
+            memset(K, 0, 144 * sizeof(double));
+            memset(C, 0, 144 * sizeof(double));
+            state[4] = 0.0;
+            w->cable_strain[e] = 0.0;
+            continue;
+        }
+        *power += reel;
+        if (!taut) { /* stretched, but the damper cancels the elastic tension */
+            memset(force, 0, 12 * sizeof(double));
+            memset(K, 0, 144 * sizeof(double));
+            memset(C, 0, 144 * sizeof(double));
+            state[4] = 0.0;
+            *dissipation += clipped;
+            continue;
+        }
+        *dissipation += damper;
+        for (int end = 0; total && end < 2; ++end) {
+            const int64_t *d = m->node_dofs + 6 * m->cable_nodes[2 * e + end];
+            for (int p = 0; p < 6; ++p) total[d[p]] += force[6 * end + p];
+        }
+    }
+}
+
 static double evaluate(const Model *m, const Configuration *c, Work *w, const double *laws, double t, int matrices,
                        int inertia, double load_factor)
 {
@@ -560,14 +644,12 @@ static double evaluate(const Model *m, const Configuration *c, Work *w, const do
             control = m->controller_outputs[m->controller_slot[m->hinge_controller[j]]];
             values[6] = values[7] = values[8] = 0.0;
         }
-        double f, spring_power, torque_power, damper_power, contact_energy;
+        double f, spring_torque, applied_torque, contact_energy;
         m->hinge_force(1, state, values, m->hinge_contact + 11 * j, &f, w->hinge_d_theta + j, w->hinge_d_rate + j,
-                       &spring_power, &torque_power, &damper_power, &contact_energy);
+                       &spring_torque, &applied_torque, w->hinge_damper_torque + j, &contact_energy);
         f -= control;
-        torque_power += control * c->theta_dot[j];
-        if (!m->hinge_conservative[j]) power += spring_power;
-        power += torque_power;
-        dissipation += damper_power;
+        applied_torque += control;  /* the controller's output is an applied torque: its work is counted alike */
+        w->hinge_work_torque[j] = m->hinge_conservative[j] ? applied_torque : applied_torque - spring_torque;
         w->joint_forces[j] = f;
         w->total[m->hinge_dofs[j]] += f;
     }
@@ -602,6 +684,7 @@ static double evaluate(const Model *m, const Configuration *c, Work *w, const do
                 }
         }
     }
+    cables(m, c, w, laws, &power, &dissipation, w->total);
     w->dissipation[0] = dissipation;
     return power;
 }
@@ -725,7 +808,7 @@ static void inertia_tangent(const Model *m, const Configuration *c, Work *w, dou
  * out = [kinetic, strain, potential]. Springs with a law have hinge_stiffness 0 here: the caller
  * adds their potential (Assembler.hinge_potential integrates the law). Joint bodies: ½m|v_c|² + ½ωᵀJω
  * about the centre of mass r_c = T c, J = T I Tᵀ, and −m g·(x + r_c). */
-void latdyn_energies(const Model *m, Work *w, const Configuration *c, double *out)
+void latdyn_energies(const Model *m, Work *w, const Configuration *c, double t, double *out)
 {
     const int64_t E = m->n_elements;
     double kinetic = 0.0, strain = 0.0, potential = 0.0;
@@ -745,9 +828,9 @@ void latdyn_energies(const Model *m, Work *w, const Configuration *c, double *ou
         strain += 0.5 * m->hinge_stiffness[j] * s * s;
         /* a compliant stop's potential, from the generated hinge_force (its other outputs unused) */
         double state[4] = {c->theta[j], c->theta_dot[j], m->hinge_rest_angle[j], 0.0}, values[9] = {0};
-        double f, d_theta, d_rate, spring_power, torque_power, damper_power, contact_energy;
-        m->hinge_force(1, state, values, m->hinge_contact + 11 * j, &f, &d_theta, &d_rate, &spring_power,
-                       &torque_power, &damper_power, &contact_energy);
+        double f, d_theta, d_rate, spring_torque, applied_torque, damper_torque, contact_energy;
+        m->hinge_force(1, state, values, m->hinge_contact + 11 * j, &f, &d_theta, &d_rate, &spring_torque,
+                       &applied_torque, &damper_torque, &contact_energy);
         strain += contact_energy;
     }
     for (int64_t b = 0; b < m->n_bodies; ++b) {
@@ -766,6 +849,12 @@ void latdyn_energies(const Model *m, Work *w, const Configuration *c, double *ou
                  + 0.5 * (om[0] * Jw[0] + om[1] * Jw[1] + om[2] * Jw[2]);
         for (int p = 0; p < 3; ++p) potential -= mass * (c->x[3 * i + p] + rc[p]) * m->gravity[p];
     }
+    if (m->n_cables > 0) { /* the cables' strain energy at the rest lengths of time t */
+        double power = 0.0, dissipation = 0.0;
+        m->time_laws(t, w->laws);
+        cables(m, c, w, w->laws, &power, &dissipation, NULL);
+        for (int64_t e = 0; e < m->n_cables; ++e) strain += w->cable_strain[e];
+    }
     out[0] = kinetic;
     out[1] = strain;
     out[2] = potential;
@@ -779,7 +868,7 @@ typedef struct {
     int64_t matrices;        /* also the element, body, hinge and load blocks of K (and M, C) */
     int64_t inertia_tangent; /* with matrices and inertia: the elements' inertia tangent too */
     double tangent_step, length; /* its central-difference step, and the scene's length */
-    double power;            /* out: the power of point loads and hinge torques (external work) */
+    double power;            /* out: the power of the point loads and cable reels (external work) */
 } EvaluationControl;
 
 /* One evaluation at c (latdyn/assembly/native_model.py): w->total holds the vector of all
@@ -793,6 +882,16 @@ void latdyn_evaluate(const Model *m, Work *w, const Configuration *c, Evaluation
     e->power = evaluate(m, c, w, w->laws, e->t, (int)e->matrices, (int)e->inertia, e->load_factor);
     if (e->matrices && e->inertia && e->inertia_tangent)
         inertia_tangent(m, c, w, e->tangent_step, e->length);
+}
+
+/* The cable elements at c and time t into w->cable_state, w->cable_strain and their blocks, and nothing
+ * else of Work but the laws (latdyn/timeloop/events.py reads the stretches between steps, where the
+ * last evaluation's rows must stay as they are). */
+void latdyn_cables(const Model *m, Work *w, const Configuration *c, double t)
+{
+    double power = 0.0, dissipation = 0.0;
+    m->time_laws(t, w->laws);
+    cables(m, c, w, w->laws, &power, &dissipation, NULL);
 }
 
 /* The element kernels' inputs at c (Eqs. 2, 9, 17) into w->geometry, w->rates, w->accelerations. */

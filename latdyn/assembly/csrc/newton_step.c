@@ -56,6 +56,12 @@ static void assemble(const Model *m, Work *w, double beta_p, double gamma_p, int
     for (int64_t e = 0; e < m->n_couplings; ++e)
         if (m->coupling_position[e] >= 0)
             w->matrix[m->coupling_position[e]] += gamma_p * w->coupling_damping[e] + w->coupling_stiffness[e];
+    for (int64_t e = 0; e < m->n_cables; ++e) {
+        const int64_t *pos = m->cable_position + 144 * e;
+        const double *K = w->cable_stiffness + 144 * e, *C = w->cable_damping + 144 * e;
+        for (int p = 0; p < 144; ++p)
+            if (pos[p] >= 0) w->matrix[pos[p]] += gamma_p * C[p] + K[p];
+    }
 }
 
 /* The iteration matrix S = β′M + γ′C + K of the evaluation left in w (latdyn_evaluate at c, with
@@ -265,6 +271,20 @@ static int hinge_event(const Model *m, const Configuration *old, const Configura
     return 0;
 }
 
+/* latdyn/timeloop/events.py cable_tolerance: of a gap (a force), for an element of axial stiffness EA */
+static double cable_tolerance(double EA) { return 1e-9 * EA; }
+
+/* Whether the step's last evaluation has a cable element's gap min(N_el, N) beyond its tolerance on the
+ * other side of zero from the side the step held (latdyn/timeloop/events.py cable_crossings). */
+static int cable_event(const Model *m, const Work *w)
+{
+    for (int64_t e = 0; e < m->n_cables; ++e) {
+        double side = m->cable_side[e], after = w->cable_gap[e], tol = cable_tolerance(m->cable_section[3 * e + 1]);
+        if ((side > 0.0 && after < -tol) || (side < 0.0 && after > tol)) return 1;
+    }
+    return 0;
+}
+
 /* Power of the constraint forces that impose prescribed motion (latdyn/timeloop/progress.py drive_power): the
  * reaction of the last evaluation (w->total on the constrained coordinates n_dofs … n_total−1)
  * times the velocities of those coordinates. */
@@ -293,8 +313,9 @@ typedef struct {
     double dt, t_end;
     int64_t n_grid, grid_index, stop_index;
     double t, budget_s;
-    /* in/out: the power of loads and prescribed motion at the last accepted state, and the work
-     * done since the start of the run (trapezoidal rule, as timeloop.loop) */
+    /* in/out: the power of point loads, cable reels and prescribed motion at the last accepted state,
+     * and the work done since the start of the run (theirs by the trapezoidal rule in time, the
+     * hinges' by hinge_work) */
     double power, external_work;
     /* out: steps accepted, their Newton iterations and factorizations; why the loop returned
      * (0 at stop_index, 1 a step did not converge, 2 a step holds an event, 3 the budget);
@@ -303,10 +324,31 @@ typedef struct {
      * StepControl) and that step's size */
     int64_t steps, iterations, factorizations, status, last, pending;
     double t_last, h_pending;
-    /* in/out: the power the hinge dampers dissipate at the last accepted state, and the energy
-     * they dissipated since the start of the run (trapezoidal rule, as the external work) */
+    /* in/out: the power the cables' dampers dissipate at the last accepted state, and the energy
+     * dissipated since the start of the run (the hinges' by hinge_work, the cables' by the
+     * trapezoidal rule in time, as the external work of point loads) */
     double dissipation_power, dissipated;
+    /* in/out (n_hinges each): each hinge's torque that does external work and its damper's torque
+     * at the last accepted state (Work.hinge_work_torque, hinge_damper_torque) */
+    double *hinge_work_torque, *hinge_damper_torque;
 } Advance;
+
+/* The work of the hinges' torques over the accepted step old → new (latdyn/timeloop/progress.py
+ * hinge_work): ∑ ½(τ_n + τ_{n+1}) Δθ, the trapezoidal rule in θ, the work the discrete step received,
+ * into the external work, and ∑ ½(f_n + f_{n+1}) Δθ of the dissipative torques f (the dampers' c θ̇,
+ * a compliant stop's damping, friction: Work.hinge_damper_torque), their dissipation, into the dissipated
+ * energy; the torques at the new state (the last evaluation's) are carried to the next step. */
+static void hinge_work(const Model *m, const Work *w, const Configuration *old, const Configuration *new_,
+                       Advance *adv)
+{
+    for (int64_t j = 0; j < m->n_hinges; ++j) {
+        const double increment = new_->theta[j] - old->theta[j];
+        adv->external_work += 0.5 * (adv->hinge_work_torque[j] + w->hinge_work_torque[j]) * increment;
+        adv->dissipated += 0.5 * (adv->hinge_damper_torque[j] + w->hinge_damper_torque[j]) * increment;
+        adv->hinge_work_torque[j] = w->hinge_work_torque[j];
+        adv->hinge_damper_torque[j] = w->hinge_damper_torque[j];
+    }
+}
 
 static double seconds_now(void)
 {
@@ -318,8 +360,9 @@ static double seconds_now(void)
 /* Steps from `start` (at adv->t, on grid point grid_index) through grid point stop_index,
  * each landing on the grid (h = t_{k+1} − t_k) as timeloop.loop takes them at the nominal
  * step: latdyn_newton_step with the compiled laws, then acceptance (the algorithmic
- * acceleration carried, the external work and the dampers' dissipation by the trapezoidal
- * rule). It returns at the first
+ * acceleration carried, the external work of point loads, cable reels and prescribed motion and the
+ * cable dampers' dissipation by the trapezoidal rule in time, the hinges' work and dissipation by
+ * hinge_work). It returns at the first
  * step that does not converge or that holds a hinge event, without accepting it, so that the
  * caller's loop handles that step as it always has; it never fails by itself. States alternate
  * between the two scratch configurations; `start` is read only; the last accepted state is
@@ -344,7 +387,7 @@ int64_t latdyn_advance(const Model *m, Work *w, StepControl *s, const Configurat
         int64_t failed = latdyn_newton_step(m, w, s, base, trial, x);
         if (failed || !s->converged) {
             adv->status = 1;
-        } else if (m->has_events && hinge_event(m, base, trial)) {
+        } else if (m->has_events && (hinge_event(m, base, trial) || cable_event(m, w))) {
             adv->status = 2;
         }
         if (adv->status) {
@@ -359,6 +402,7 @@ int64_t latdyn_advance(const Model *m, Work *w, StepControl *s, const Configurat
         adv->power = power;
         adv->dissipated += 0.5 * s->h * (adv->dissipation_power + w->dissipation[0]);
         adv->dissipation_power = w->dissipation[0];
+        hinge_work(m, w, base, trial, adv);
         adv->steps += 1;
         adv->iterations += s->iterations;
         adv->factorizations += s->factorizations;

@@ -1,0 +1,102 @@
+"""Cables: tension-only axial members between points of nodes (SCENE.md ``cables``).
+
+A cable of ``elements`` equal elements runs from a point of one node to a point of another
+(a body's grid point, or a free end node of its own at a point ``[x, y, z]``) through
+``elements − 1`` inner nodes. Each element pulls its two end points together with
+
+    N = EA (ℓ − L0)/L0 + c ℓ̇   while ℓ > L0 and N > 0,   0 otherwise (slack),
+
+ℓ the distance of its end points, L0 = L(t)/elements its share of the cable's rest length L(t) (a
+number or a law of time: a reel), c the axial damping. The taut law, its exact derivatives by the
+end coordinates and by their rates, the strain energy ½ EA (ℓ − L0)²/L0, the reel's power
+∂U/∂L0 · L̇0 (external work) and the dampers' powers are generated (``cable_force`` of
+codegen/joints.py); the evaluation (csrc/evaluate.c ``cables``) takes them where the element is
+taut and zero where it is slack.
+
+The change between slack and taut is an event, located like a hinge stop: the time loop holds each
+element taut or slack through a step (:attr:`CableElements.sides`, read by the evaluation in place)
+and shortens a step in which the element's gap min(N_el, N) changes sign to land on the change
+(latdyn.timeloop.events), so that every step sees one smooth law; docs/cables.md gives the
+measurements that chose this over a C¹ transition.
+
+Mass: ``rhoA`` times the rest length at t = 0, lumped: each element's half at each of its end
+points, as point masses (joint bodies without rotary inertia, centred on the point). Inner nodes
+and free end nodes have translations only (their rotations are no coordinates,
+:attr:`latdyn.model.model.Model.translation_only`).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["CableElements", "add_cables"]
+
+
+@dataclass
+class CableElements:
+    """The cable elements of a model, as arrays (``ce`` elements in all)."""
+
+    nodes: np.ndarray  # (ce, 2) node of each end
+    offsets: np.ndarray  # (ce, 2, 3) the end point from the node's reference point, in node axes
+    share: np.ndarray  # (ce,) its share of its cable's rest length (1/elements)
+    EA: np.ndarray  # (ce,)
+    damping: np.ndarray  # (ce,)
+    cable: np.ndarray  # (ce,) index of its cable in :attr:`names`
+    names: list  # cable names, scene order
+    rest_length: list  # each cable's TimeFunction
+    first: np.ndarray  # (n_cables,) index of each cable's first element
+    #: (ce,) float: the side the time loop holds each element on through a step, +1 taut, −1 slack; 0 (every
+    #: other analysis): the stretch decides (latdyn.timeloop.events; read by the C evaluation in place)
+    sides: np.ndarray = None
+
+    def __len__(self) -> int:
+        return len(self.nodes)
+
+
+def add_cables(scene, body_node: dict, new_node, beam_nodes: dict, beam_grid_offsets: dict,
+               point_masses: list) -> CableElements | None:
+    """Make the cables' own nodes with ``new_node(name, position) -> index`` (free end nodes and inner
+    nodes: free, translations only), register each cable's node chain and end offsets as a
+    beam's (``CABLE.start``, ``CABLE.node[i]``, ``CABLE.end`` resolve like a beam's points), and its
+    lumped mass as point masses ``(node, mass, offset)``; None without cables."""
+    if not scene.cables:
+        return None
+    rows = {"nodes": [], "offsets": [], "share": [], "EA": [], "damping": [], "cable": []}
+    first = []
+    for k, cable in enumerate(scene.cables.values()):
+        ends = []
+        for which, spec in (("start", cable.start), ("end", cable.end)):
+            if spec.body is not None:
+                ends.append((body_node[spec.body], np.array(spec.offset, float)))
+            else:
+                ends.append((new_node(f"{cable.name}.{which}", np.array(spec.point, float)), np.zeros(3)))
+        n = cable.elements
+        start, end = cable.start.point, cable.end.point
+        chain = [ends[0][0]]
+        for i in range(1, n):
+            chain.append(new_node(f"{cable.name}.node[{i}]", start + (end - start) * i / n))
+        chain.append(ends[1][0])
+        beam_nodes[cable.name] = np.array(chain, dtype=np.int64)
+        beam_grid_offsets[cable.name] = (ends[0][1], ends[1][1])
+        first.append(len(rows["nodes"]))
+        element_mass = cable.rhoA * float(cable.rest_length.value(0.0)) / n
+        for i in range(n):
+            o1 = ends[0][1] if i == 0 else np.zeros(3)
+            o2 = ends[1][1] if i == n - 1 else np.zeros(3)
+            rows["nodes"].append((chain[i], chain[i + 1]))
+            rows["offsets"].append((o1, o2))
+            rows["share"].append(1.0 / n)
+            rows["EA"].append(cable.EA)
+            rows["damping"].append(cable.damping)
+            rows["cable"].append(k)
+            if element_mass > 0.0:
+                point_masses.append((chain[i], 0.5 * element_mass, o1))
+                point_masses.append((chain[i + 1], 0.5 * element_mass, o2))
+    return CableElements(
+        nodes=np.array(rows["nodes"], np.int64).reshape(-1, 2),
+        offsets=np.array(rows["offsets"], float).reshape(-1, 2, 3),
+        share=np.array(rows["share"], float), EA=np.array(rows["EA"], float),
+        damping=np.array(rows["damping"], float), cable=np.array(rows["cable"], np.int64),
+        names=list(scene.cables), rest_length=[c.rest_length for c in scene.cables.values()],
+        first=np.array(first, np.int64), sides=np.zeros(len(rows["nodes"])))

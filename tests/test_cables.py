@@ -1,0 +1,455 @@
+"""Cables (issue 32 item 1; SCENE.md ``cables``): the generated taut law against central differences,
+a mass dropped on a slack cable against the closed form (free fall, the taut event at √(2h/g), the
+peak stretch and tension, the slack event, energy conserved across the events), planar and 3D,
+through the CLI and the API; a taut string's modes about its pretensioned static state against
+fₙ = (n/2L)√(T/μ) (exactly: the lumped string's); slack and taut in summary.json ``events`` with a
+latch's; bad values refused with the key named."""
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+import latdyn
+from cli_runs import latdyn_run, probe_columns, summary_of
+from latdyn.model.kernels import load_kernels
+from latdyn.numerics.so3 import expm_so3
+
+RNG = np.random.default_rng(20261126)
+
+
+def cable_inputs(n=4):
+    x = RNG.normal(size=(n, 6))
+    offsets = RNG.normal(size=(n, 6)) * 0.3
+    velocity = RNG.normal(size=(n, 12))
+    length = np.linalg.norm((x[:, 3:6] + offsets[:, 3:6]) - (x[:, 0:3] + offsets[:, 0:3]), axis=1)
+    section = np.column_stack([0.9 * length, RNG.normal(size=n), RNG.uniform(10.0, 100.0, n),
+                               RNG.uniform(0.5, 2.0, n)])
+    return np.concatenate([x, offsets], axis=1), velocity, section
+
+
+def moved(geometry, k, step):
+    """The geometry after coordinate k of [d1, π1, d2, π2] moves by ``step`` (spatial update of the offset)."""
+    g = geometry.copy()
+    end, slot = divmod(k, 6)
+    if slot < 3:
+        g[3 * end + slot] += step
+    else:
+        R = expm_so3(np.eye(3)[slot - 3] * step)
+        g[6 + 3 * end:9 + 3 * end] = R @ g[6 + 3 * end:9 + 3 * end]
+    return g
+
+
+@pytest.mark.parametrize("backend", ["numpy", "c"])
+def test_cable_force_against_differences(backend):
+    """cable_force's stiffness (by [d, π] of both ends) and damping (by the rates) against central
+    differences of its force; the force against N e by hand; the reel power against ∂U/∂L0 · L̇0."""
+    ks = load_kernels(backend, "default")
+    geometry, velocity, section = cable_inputs()
+    force, K, C, state, energy, reel, damper, clipped = ks.cable_force(geometry, velocity, section)
+    eps = 1e-6
+    for b in range(len(geometry)):
+        g, v, s = geometry[b], velocity[b], section[b]
+        p1, p2 = g[0:3] + g[6:9], g[3:6] + g[9:12]
+        ell = np.linalg.norm(p2 - p1)
+        e = (p2 - p1) / ell
+        rate = e @ ((v[6:9] + np.cross(v[9:12], g[9:12])) - (v[0:3] + np.cross(v[3:6], g[6:9])))
+        N = s[2] * (ell - s[0]) / s[0] + s[3] * rate
+        F1 = N * e
+        assert np.allclose(force[b], -np.concatenate([F1, np.cross(g[6:9], F1), -F1, np.cross(g[9:12], -F1)]),
+                           rtol=1e-12, atol=1e-12)
+        assert np.allclose(state[b], [ell, rate, ell - s[0], s[2] * (ell - s[0]) / s[0], N], rtol=1e-12)
+        U = lambda L0: s[2] * (ell - L0) ** 2 / (2 * L0)  # noqa: E731
+        assert np.isclose(energy[b], U(s[0]), rtol=1e-12)
+        assert np.isclose(reel[b], (U(s[0] + eps) - U(s[0] - eps)) / (2 * eps) * s[1], rtol=1e-6)
+        assert np.isclose(damper[b], s[3] * rate ** 2, rtol=1e-12) and np.isclose(clipped[b], -state[b, 3] * rate)
+        for k in range(12):
+            up = ks.cable_force(moved(g, k, eps)[None], v[None], s[None])[0][0]
+            down = ks.cable_force(moved(g, k, -eps)[None], v[None], s[None])[0][0]
+            scale = max(1.0, np.abs(K[b]).max())
+            assert np.allclose(K[b][:, k], (up - down) / (2 * eps), atol=1e-7 * scale), (b, k)
+            dv = np.eye(12)[k] * eps
+            up = ks.cable_force(g[None], (v + dv)[None], s[None])[0][0]
+            down = ks.cable_force(g[None], (v - dv)[None], s[None])[0][0]
+            assert np.allclose(C[b][:, k], (up - down) / (2 * eps), atol=1e-7 * max(1.0, np.abs(C[b]).max()))
+
+
+G, MASS, EA, REST = 9.81, 2.0, 2000.0, 1.0
+
+
+def drop_reference(fall: float) -> dict:
+    """A mass m dropped from rest on a slack massless cable of rest length L and stiffness k = EA/L
+    that goes taut after a fall h: taut at √(2h/g) with v = √(2gh); the peak stretch δ from
+    ½kδ² = ½mv² + mgδ, the peak tension kδ; slack again when the stretch returns to zero (a
+    harmonic motion about mg/k, symmetric about its peak)."""
+    k = EA / REST
+    t_taut, v = math.sqrt(2 * fall / G), math.sqrt(2 * G * fall)
+    static = MASS * G / k
+    delta = static + math.sqrt(static ** 2 + MASS * v * v / k)
+    omega = math.sqrt(k / MASS)
+    amplitude = delta - static
+    t_peak = (math.pi / 2 + math.asin(static / amplitude)) / omega
+    return {"t_taut": t_taut, "delta": delta, "tension": k * delta, "t_slack": t_taut + 2 * t_peak,
+            "t_peak": t_taut + t_peak}
+
+
+def drop_scene(direction, offset: float, fall: float, dt: float = 1e-3, every: float = 1e-3) -> str:
+    """The drop along the unit ``direction`` (gravity along it): the cable from a fixed anchor at the
+    origin to a point of the weight ``offset`` from its centre towards the anchor; its ends start
+    REST − fall apart."""
+    d = np.asarray(direction, float) / np.linalg.norm(direction)
+    at = (REST - fall + offset) * d
+    gravity = G * d
+    vector = lambda v: "[" + ", ".join(repr(float(x)) for x in v) + "]"  # noqa: E731
+    return f"""
+title: a mass dropped on a slack cable
+gravity: {vector(gravity)}
+bodies:
+  anchor: {{at: [0, 0, 0], fixed: true}}
+  weight: {{at: {vector(at)}, mass: {MASS}, inertia: [0.01, 0.01, 0.01]}}
+cables:
+  rope: {{from: anchor, to: {{body: weight, offset: {vector(-offset * d)}}}, EA: {EA}, rest_length: {REST}}}
+solve: {{analysis: transient, t_end: 0.6, dt: {dt}}}
+output:
+  every: {every}
+  probes:
+    x: {{point: weight, quantity: position, component: norm}}
+    N: {{cable: rope, quantity: tension}}
+    ell: {{cable: rope, quantity: length}}
+    E: {{energy: total}}
+    K: {{energy: kinetic}}
+"""
+
+
+def check_drop(summary, probes, fall, offset):
+    reference = drop_reference(fall)
+    events = summary["cable_events"]
+    assert [e["state"] for e in events] == ["taut", "slack"]
+    assert events[0]["t"] == pytest.approx(reference["t_taut"], abs=1e-9)
+    # the slack change carries the integrator's phase error over the taut half-swing (ωh = 0.032:
+    # measured 9.0e-6 s of 0.104 s at dt = 1e-3), the taut one only the landing's
+    assert events[1]["t"] == pytest.approx(reference["t_slack"], abs=2e-5)
+    assert [(e["joint"], e["kind"]) for e in summary["events"]] == [("rope", "taut"), ("rope", "slack")]
+    peak = int(np.argmax(probes["N"]))
+    assert probes["t"][peak] == pytest.approx(reference["t_peak"], abs=1e-3)  # the row nearest the peak
+    assert probes["N"][peak] == pytest.approx(reference["tension"], rel=5e-5)
+    assert probes["x"].max() - offset == pytest.approx(REST + reference["delta"], rel=5e-6)
+    assert probes["ell"][peak] == pytest.approx(REST + reference["delta"], rel=5e-6)
+    energy = probes["E"]  # conserved across both events: no damping, the tension rises from 0
+    assert np.abs(energy - energy[0]).max() <= 2e-4 * probes["K"].max()
+    assert summary["energy_balance_error"] < 1e-4
+
+
+def test_mass_dropped_on_a_slack_cable_planar_through_the_cli(tmp_path):
+    completed, out = latdyn_run(tmp_path, drop_scene([0, -1, 0], 0.0, 0.8), quiet=True)
+    assert completed.returncode == 0, completed.stderr
+    probes = probe_columns(out)
+    check_drop(summary_of(out), probes, 0.8, 0.0)
+    from vtkhdf_frames import read_frames  # the cable drawn as a line, its tension the probe's, read by VTK
+
+    for frame in read_frames(out / "paraview" / "cables.vtkhdf"):
+        row = int(np.argmin(np.abs(probes["t"] - frame.t)))
+        assert frame.cells == [(3, [0, 1])] and probes["t"][row] == pytest.approx(frame.t, abs=1e-12)
+        assert frame.cell_data["tension"][0] == pytest.approx(probes["N"][row], rel=1e-12, abs=1e-9)
+        assert np.linalg.norm(frame.points[1] - frame.points[0]) == pytest.approx(probes["ell"][row], rel=1e-12)
+
+
+def test_mass_dropped_on_a_slack_cable_in_3d_through_the_api(tmp_path):
+    """Along a direction out of every coordinate plane, the cable at a point of the weight off its
+    reference point (on the line of the fall, so that nothing turns it)."""
+    scene = latdyn.load_scene(json.loads(json.dumps(__import__("yaml").safe_load(
+        drop_scene([1.0, -2.0, 2.0], 0.05, 0.7)))))
+    result = latdyn.run(scene, out_dir=str(tmp_path / "out"))
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    probes = {"t": np.asarray(result.t), **{k: np.asarray(result.probes[k]) for k in ("x", "N", "ell", "E", "K")}}
+    check_drop(summary, probes, 0.7, 0.05)
+
+
+def string_scene(axis, elements=20, tension_strain=1e-3) -> tuple[str, float, float]:
+    length, EA, rhoA = 2.0, 1.0e5, 0.1
+    rest = length / (1 + tension_strain)
+    end = length * np.asarray(axis, float) / np.linalg.norm(axis)
+    text = f"""
+bodies:
+  a: {{at: [0, 0, 0], fixed: true}}
+  b: {{at: [{float(end[0])!r}, {float(end[1])!r}, {float(end[2])!r}], fixed: true}}
+cables:
+  s: {{from: a, to: b, EA: {EA}, rhoA: {rhoA}, elements: {elements}, rest_length: {rest!r}}}
+solve: {{analysis: modes, about: static, count: 6}}
+"""
+    return text, EA * (length - rest) / rest, rhoA
+
+
+@pytest.mark.parametrize("axis", [[1, 0, 0], [1, 2, -2]])
+def test_taut_string_modes_about_the_pretensioned_state(tmp_path, axis):
+    """Modes about the static state of a string held by its pretension T = EA (L − L0)/L0 alone: pairs
+    of transverse modes at the lumped string's ω_k = 2 √(T/(m h)) sin(kπ/2n) (m = μ L0/n, h = L/n), and
+    the continuous fₖ = (k/2L)√(T/μ) to the discretisation's error."""
+    text, T, mu = string_scene(axis)
+    completed, out = latdyn_run(tmp_path, text, quiet=True)
+    assert completed.returncode == 0, completed.stderr
+    rows = np.loadtxt(out / "modes.csv", delimiter=",", skiprows=1)
+    n, L = 20, 2.0
+    m, h = mu * (L / (1 + 1e-3)) / n, L / n
+    lumped = [2 * math.sqrt(T / (m * h)) * math.sin(k * math.pi / (2 * n)) / (2 * math.pi) for k in (1, 1, 2, 2, 3, 3)]
+    assert np.allclose(rows[:, 1], lumped, rtol=1e-10)
+    continuous = [k / (2 * L) * math.sqrt(T / mu) for k in (1, 1, 2, 2, 3, 3)]
+    assert np.allclose(rows[:, 1], continuous, rtol=1e-2)
+
+
+def test_latch_in_summary_events(tmp_path):
+    """The events list holds latches too: a hinged arm swung onto its lock_at."""
+    text = """
+gravity: [0, -9.81, 0]
+sections:
+  s: {EA: 1.0e7, EIy: 1.0e3, EIz: 1.0e3, GJ: 1.0e3, rhoA: 1.0}
+bodies:
+  hub: {at: [0, 0, 0], fixed: true}
+beams:
+  arm: {from: hub, to: [1, 0, 0], section: s, elements: 2, start: {hinge: {axis: [0, 0, 1], lock_at: -0.5}}}
+solve: {analysis: transient, t_end: 0.6, dt: 0.005}
+"""
+    completed, out = latdyn_run(tmp_path, text, quiet=True)
+    assert completed.returncode == 0, completed.stderr
+    events = summary_of(out)["events"]
+    assert [(e["joint"], e["kind"]) for e in events] == [("arm.start", "latch")]
+    assert 0.0 < events[0]["t"] < 0.6
+
+
+@pytest.mark.parametrize("change, key, words", [
+    ("EA: -1.0", "cables.rope.EA", "positive"),
+    ("EA: 1.0, elements: 0", "cables.rope.elements", ">= 1"),
+    ("EA: 1.0, elements: 3", "cables.rope.elements", "rhoA > 0"),
+    ("EA: 1.0, rest_length: 0", "cables.rope.rest_length", "positive"),
+    ("EA: 1.0, rest_length: 't - 1'", "cables.rope.rest_length", "> 0 at t = 0"),
+    ("EA: 1.0, rhoA: -2", "cables.rope.rhoA", ">= 0"),
+    ("EA: 1.0, damping: -2", "cables.rope.damping", ">= 0"),
+    ("EA: 1.0, spool: 1", "cables.rope.spool", "unknown key"),
+])
+def test_bad_cables_are_refused_with_the_key(tmp_path, change, key, words):
+    """Through the loader (the CLI's exit 2 and message: the first case, and the test below)."""
+    import yaml
+
+    from latdyn.errors import SceneError
+
+    text = f"""
+bodies:
+  anchor: {{at: [0, 0, 0], fixed: true}}
+  w: {{at: [1, 0, 0], mass: 1, inertia: [1, 1, 1]}}
+cables:
+  rope: {{from: anchor, to: w, {change}}}
+solve: {{analysis: transient, t_end: 0.1, dt: 0.01}}
+"""
+    with pytest.raises(SceneError) as refused:
+        latdyn.load_scene(yaml.safe_load(text))
+    assert key in str(refused.value) and words in str(refused.value)
+    if change == "EA: -1.0":
+        completed, _ = latdyn_run(tmp_path, text)
+        assert completed.returncode == 2 and key in completed.stderr and "Traceback" not in completed.stderr
+
+
+def test_zero_length_and_unheld_free_end_are_refused(tmp_path):
+    """A cable from a body to itself is refused; a slack massless cable's free end node is held by
+    nothing, refused as any such coordinate is, naming the cable."""
+    base = """
+bodies:
+  anchor: {{at: [0, 0, 0], fixed: true}}
+  w: {{at: [1, 0, 0], mass: 1, inertia: [1, 1, 1]}}
+cables:
+  rope: {{from: anchor, to: {to}, EA: 10.0}}
+solve: {{analysis: transient, t_end: 0.1, dt: 0.01}}
+"""
+    completed, _ = latdyn_run(tmp_path, base.format(to="anchor"))
+    assert completed.returncode == 2 and "cables.rope" in completed.stderr and "zero-length" in completed.stderr
+    completed, _ = latdyn_run(tmp_path, base.format(to="[2, 0, 0]"))
+    assert completed.returncode == 2 and "cables.rope" in completed.stderr and "nothing holds" in completed.stderr
+
+
+def catenary_scene(span_vector) -> str:
+    b = ", ".join(repr(float(x)) for x in span_vector)
+    return f"""
+title: elastic catenary
+gravity: [0, -9.81, 0]
+bodies:
+  a: {{at: [0, 0, 0], fixed: true}}
+  b: {{at: [{b}], fixed: true}}
+cables:
+  rope: {{from: a, to: b, EA: 1.0e4, rhoA: 1.0, elements: 20, rest_length: 9.99}}
+solve: {{analysis: static, steps: 10}}
+output:
+  probes:
+    sag: {{point: rope.node[10], quantity: position, component: y}}
+    N: {{cable: rope, quantity: tension}}
+"""
+
+
+def brent(f, lo, hi):
+    """The root of f in [lo, hi] by bisection to round-off (no SciPy needed)."""
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if f(lo) * f(mid) > 0 else (lo, mid)
+    return 0.5 * (lo + hi)
+
+
+@pytest.mark.parametrize("span_vector", [[10.0, 0.0, 0.0], [6.0, 0.0, 8.0]])
+def test_elastic_catenary_static(tmp_path, span_vector):
+    """A cable of 20 elements hung between two supports 10 apart at one height, pretensioned at the start
+    (rest length 9.99: loads are ramped, rest lengths are not), under its own weight: the midspan sag and
+    the first element's tension against the exact statics of the lumped chain (H from the span), and
+    against Irvine's elastic catenary to the discretisation's error (sag; the support tension half an
+    element away)."""
+    completed, out = latdyn_run(tmp_path, catenary_scene(span_vector), quiet=True)
+    assert completed.returncode == 0, completed.stderr
+    probes = probe_columns(out)
+    assert probes["N"][0] == pytest.approx(1.0e4 * (10 - 9.99) / 9.99, rel=1e-9)  # the pretension at λ = 0
+    span, L0, EA, w, n = 10.0, 9.99, 1.0e4, 9.81, 20
+    P = w * L0 / n
+
+    def chain(H):
+        V = (n - 1) * P / 2 - np.arange(n) * P
+        T = np.hypot(H, V)
+        return L0 / n * (1 + T / EA), V, T
+
+    H = brent(lambda H: np.sum(chain(H)[0] * H / chain(H)[2]) - span, 1.0, 1e5)
+    ell, V, T = chain(H)
+    assert -probes["sag"][-1] == pytest.approx(np.sum((ell * V / T)[: n // 2]), rel=1e-9)
+    assert probes["N"][-1] == pytest.approx(T[0], rel=1e-9)
+    Vc = w * L0 / 2
+    Hc = brent(lambda H: H * L0 / EA + 2 * H / w * np.arcsinh(Vc / H) - span, 1.0, 1e5)
+    irvine_sag = L0 / (2 * EA) * (Vc - w * L0 / 4) + Hc / w * (np.sqrt(1 + (Vc / Hc) ** 2) - 1)
+    assert -probes["sag"][-1] == pytest.approx(irvine_sag, rel=1.5e-3)  # measured 8.2e-4
+    assert probes["N"][-1] == pytest.approx(math.hypot(Hc, Vc), rel=1e-2)  # measured 4.9e-3
+
+
+def test_reel_work_is_external_work(tmp_path):
+    """A winch shortening the rest length (1 − 0.3 t²) lifts a hanging mass through a damped cable: the
+    reel's power ∂U/∂L0 · L̇0 is external work, so the energy balance holds to the integrator's error;
+    the mass follows the rest length (quasi-static, N ≈ m (g + 0.6))."""
+    text = """
+gravity: [0, -9.81, 0]
+bodies:
+  anchor: {at: [0, 0, 0], fixed: true}
+  weight: {at: [0, -1.00981, 0], mass: 2.0, inertia: [0.01, 0.01, 0.01]}
+cables:
+  rope: {from: anchor, to: weight, EA: 2000.0, damping: 5.0, rest_length: "1 - 0.3*t**2"}
+solve: {analysis: transient, t_end: 1.0, dt: 0.001}
+output:
+  every: 0.01
+  probes:
+    y: {point: weight, quantity: position, component: y}
+    E: {energy: total}
+    W: {energy: external_work}
+    D: {energy: dissipated}
+"""
+    completed, out = latdyn_run(tmp_path, text, quiet=True)
+    assert completed.returncode == 0, completed.stderr
+    summary, probes = summary_of(out), probe_columns(out)
+    assert summary["energy_balance_error"] < 1e-5  # measured 1.6e-7
+    gained = probes["E"][-1] - probes["E"][0]
+    assert gained == pytest.approx(probes["W"][-1] - probes["D"][-1], rel=1e-5)
+    assert gained > 6.0 and probes["D"][-1] > 0.1
+    assert probes["y"][-1] == pytest.approx(-0.7 * (1 + 2.0 * (9.81 + 0.6) / 2000.0), abs=3e-3)
+    assert summary["events"] == [] and summary["cable_events"] == []
+
+
+def test_checkpoint_and_resume_across_a_cable_event_bit_for_bit(tmp_path, monkeypatch):
+    """Interrupted between the taut and the slack change, resumed: probes, state history, ParaView
+    frames (the cables part included) and summary.json (events included) equal the uninterrupted run's."""
+    from test_checkpoint import interrupt_at, relative_difference
+    from vtkhdf_frames import assert_same_frames
+
+    import yaml
+
+    scene = yaml.safe_load(drop_scene([0, -1, 0], 0.0, 0.8, dt=2e-3, every=1e-2))
+    reference, out = tmp_path / "full", tmp_path / "out"
+    latdyn.run(scene, str(reference))
+    with monkeypatch.context() as m:
+        interrupt_at(m, 0.45)
+        with pytest.raises(KeyboardInterrupt):
+            latdyn.run(scene, str(out))
+    latdyn.run(scene, str(out), resume=True)
+    assert relative_difference(reference, out) == 0.0
+    for name in ("beams", "bodies", "cables"):
+        if (reference / "paraview" / f"{name}.vtkhdf").exists():
+            assert_same_frames(reference / "paraview" / f"{name}.vtkhdf", out / "paraview" / f"{name}.vtkhdf")
+    a, b = (json.loads((p / "summary.json").read_text()) for p in (reference, out))
+    extra = {"wall_time_s", "solver_s", "compile_s", "resumed_from_t", "resumes"}
+    assert {k: v for k, v in b.items() if k not in extra} == {k: v for k, v in a.items() if k not in extra}
+    assert [e["state"] for e in b["cable_events"]] == ["taut", "slack"]
+
+
+def test_a_study_varies_a_cables_rest_length(tmp_path):
+    """A study over cables.rope.rest_length: each case goes taut after its own fall, at √(2h/g)."""
+    import yaml
+
+    (tmp_path / "drop.yaml").write_text(drop_scene([0, -1, 0], 0.0, 0.8, dt=2e-3, every=1e-2))
+    study = {"scene": "drop.yaml", "vary": {"cables.rope.rest_length": [1.0, 1.2]},
+             "reference": {"overrides": {"solve.dt": 1e-3}}, "error": {"probe": "N", "norm": "max"}}
+    (tmp_path / "study.yaml").write_text(yaml.safe_dump(study))
+    latdyn.study(str(tmp_path / "study.yaml"), out=str(tmp_path / "out"), progress=False)
+    with open(tmp_path / "out" / "study.csv") as f:
+        rows = list(__import__("csv").DictReader(f))
+    assert [r["status"] for r in rows] == ["solved", "solved"]
+    for row in rows:
+        rest = float(row["cables.rope.rest_length"])
+        summary = json.loads((tmp_path / "out" / "cases" / row["case"] / "summary.json").read_text())
+        assert summary["cable_events"][0]["t"] == pytest.approx(math.sqrt(2 * (rest - 0.2) / G), abs=1e-8)
+
+
+def test_stop_impacts_in_summary_events(tmp_path):
+    """The events list holds impacts on hinge stops (kind stop), in time order; a hinge resting on its
+    stop is no new event."""
+    text = """
+gravity: [0, -9.81, 0]
+sections:
+  s: {EA: 1.0e7, EIy: 1.0e3, EIz: 1.0e3, GJ: 1.0e3, rhoA: 1.0}
+bodies:
+  hub: {at: [0, 0, 0], fixed: true}
+beams:
+  arm: {from: hub, to: [1, 0, 0], section: s, elements: 2,
+        start: {hinge: {axis: [0, 0, 1], limits: [-0.5, 1.0], restitution: 0.5}}}
+solve: {analysis: transient, t_end: 1.5, dt: 0.005}
+"""
+    completed, out = latdyn_run(tmp_path, text, quiet=True)
+    assert completed.returncode == 0, completed.stderr
+    events = summary_of(out)["events"]
+    assert len(events) >= 2 and {(e["joint"], e["kind"]) for e in events} == {("arm.start", "stop")}
+    times = [e["t"] for e in events]
+    assert times == sorted(times) and len(set(times)) == len(times)
+
+
+def test_damped_cable_goes_slack_where_its_tension_reaches_zero(tmp_path):
+    """The drop with an axial damper c: taut at √(2h/g) (the tension jumps to c v there), slack where
+    N = k x + c ẋ reaches zero (before the stretch does), both against the closed form of the damped
+    oscillator; the damper's work is declared dissipation, so the energy balance holds."""
+    c, fall = 20.0, 0.8
+    text = drop_scene([0, -1, 0], 0.0, fall, dt=5e-4, every=5e-4).replace(
+        "rest_length: 1.0}", f"rest_length: 1.0, damping: {c}}}").replace(
+        "    K: {energy: kinetic}", "    K: {energy: kinetic}\n    D: {energy: dissipated}")
+    completed, out = latdyn_run(tmp_path, text, quiet=True)
+    assert completed.returncode == 0, completed.stderr
+    summary, probes = summary_of(out), probe_columns(out)
+    k = EA / REST
+    t_taut, v = math.sqrt(2 * fall / G), math.sqrt(2 * G * fall)
+    omega, zeta = math.sqrt(k / MASS), c / (2 * math.sqrt(k * MASS))
+    wd, static = omega * math.sqrt(1 - zeta ** 2), MASS * G / k
+    A, B = -static, (v - zeta * omega * static) / wd  # y = x − x_eq, y(0) = −x_eq, ẏ(0) = v
+
+    def tension(tau):
+        e = math.exp(-zeta * omega * tau)
+        y = e * (A * math.cos(wd * tau) + B * math.sin(wd * tau))
+        ydot = e * ((B * wd - zeta * omega * A) * math.cos(wd * tau) - (A * wd + zeta * omega * B) * math.sin(wd * tau))
+        return k * (y + static) + c * ydot
+
+    lo, hi = math.pi / (2 * wd), math.pi / wd  # N > 0 at the peak, < 0 by half a period
+    slack = t_taut + brent(tension, lo, hi)
+    events = summary["cable_events"]
+    assert [e["state"] for e in events] == ["taut", "slack"]
+    assert events[0]["t"] == pytest.approx(t_taut, abs=1e-9)
+    assert events[1]["t"] == pytest.approx(slack, abs=1e-5)  # measured 1.7e-6 s
+    peak = max(tension(tau) for tau in np.linspace(0.0, hi, 20001))
+    assert probes["N"].max() == pytest.approx(peak, rel=5e-5)  # measured −3.2e-6
+    assert summary["energy_balance_error"] < 1e-4  # measured 3.8e-5
+    assert probes["D"][-1] > 0.1 * probes["K"].max()
