@@ -266,11 +266,18 @@ def test_a_case_that_kills_its_worker_is_a_failed_row_after_the_retries(tmp_path
 
     # one task at a time on a worker (as on local:N), so that only the crashing case is blamed
     with dask.config.set({"distributed.scheduler.allowed-failures": 1, "distributed.scheduler.worker-saturation": 1.0}):
-        with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None,
-                                      silence_logs=50) as cluster, distributed.Client(cluster) as client:
-            with open_scheduler(("client", client)) as runner:
+        cluster = distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None,
+                                           silence_logs=50)
+        try:
+            with distributed.Client(cluster) as client, open_scheduler(("client", client)) as runner:
                 done = {task["hash"]: record for task, record in
                         runner.run(case, [{"hash": "crash", "overrides": {"solve.dt": 1.0}}, {"hash": "fine"}])}
+        finally:
+            try:
+                cluster.close()
+            except AssertionError as exc:  # distributed's nanny may still be restarting the killed worker
+                if "can only join a started process" not in str(exc):  # (a race in distributed's teardown,
+                    raise                                                # seen under load; not latdyn's)
     assert done["fine"]["status"] == "solved" and done["fine"]["pid"] != os.getpid()
     lost = done["crash"]
     assert lost["status"] == "failed" and lost["message"].startswith("worker lost: KilledWorker"), lost
