@@ -9,7 +9,9 @@
    (docs/energy.md, "How the thresholds were chosen"): the first is refused truly, where the step
    cannot follow its start (dt = 0.005: 57 J of kinetic energy in one step from 7e-4 J of work); as
    dt halves its balance closes. The second is solved: its balance error (0.17-0.23) is energy lost
-   to the integrator's damping at the impacts, never energy created.
+   to the integrator's damping at the impacts, never energy created. Found on the way: a stiffer such
+   boom whose impact's jump added 93 J was booked as −93 J dissipated, hiding it; the events' loss is
+   never below zero now.
 3. ``latdyn.load_scene(mapping)`` with NumPy numbers: accepted, the same scene as plain floats.
 4. ``latdyn check`` names compliant stops, friction and cables."""
 from __future__ import annotations
@@ -122,6 +124,24 @@ def test_a_spring_pushing_a_flexible_boom_into_a_rigid_stop_creates_no_energy(tm
     assert np.all(probes["th"] <= 0.2 + 1e-9)
     assert np.max(probes["total"] + probes["d"] - probes["w"]) <= 10.0 * (1 + 1e-9)
     assert summary["dissipated_energy"] > 0
+
+
+def test_an_impact_that_raises_the_kinetic_energy_is_not_booked_as_negative_dissipation(tmp_path):
+    """A stiff preloaded spring (400, rest_angle 0.5: 50 J) throws a 3-element boom onto its stop at 0.2
+    within the first step (dt = 0.0025, 0.8 ms); the impact's jump, weighted by M + dt²K, raised the
+    kinetic energy from 16 J to 109 J and the run booked −93 J as "dissipated": the balance closed
+    (0.217, a warning) over 109 J of kinetic energy out of 50 J. Dissipation is what the events remove;
+    energy a jump adds stays in the balance as created: refused (unbounded at t = 0.0035), or within
+    the 50 J."""
+    completed, out = latdyn_run(tmp_path, arm("stiffness: 400, rest_angle: 0.5, limits: [-1, 0.2], restitution: 0.3",
+                                              elements=3, t_end=0.05, dt=0.0025).replace(
+        "    total: {energy: total}", "    total: {energy: total}\n    ek: {energy: kinetic}"), quiet=True)
+    summary, probes = summary_of(out), probe_columns(out)
+    assert np.all(np.diff(probes["d"]) >= 0.0) and probes["d"][-1] >= 0.0
+    if summary["status"] != "unbounded":
+        assert np.max(probes["ek"]) <= 50.0 and np.max(probes["total"] + probes["d"] - probes["w"]) <= 50.0 * (1 + 1e-6)
+    else:
+        assert completed.returncode == 1
 
 
 # ---------------------------------------------------------------------------------------- 3
