@@ -55,7 +55,7 @@ def test_report_counts_coordinates_per_kind_and_what_was_removed(tmp_path, capsy
     assert "nodes: 3 joint bodies, 3 interior beam nodes, 2 free beam ends" in out
     assert ("removed: 6 for 1 fixed bodies (ground); 6 for 1 prescribed bodies (hub); "
             "1 for 1 prescribed hinge angles (b.start)") in out
-    assert "events: 1 hinges with lock_at (a.start)" in out and "1 hinges with stops (c.start)" in out
+    assert "events: 1 joints with lock_at (a.start)" in out and "1 joints with rigid stops (c.start (e = 0))" in out
 
 
 def test_dt_too_large_for_the_lowest_mode_is_warned_with_its_frequency(tmp_path, capsys):

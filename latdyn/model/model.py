@@ -368,12 +368,37 @@ class Model:
         lines.append("  removed: " + ("; ".join(parts) if parts else "none"))
         if self.links is not None:
             lines.append(self.links.report(self))
-        events = [h.name for h in self.hinges if h.lock_at is not None and h.angle is None]
-        stops = [h.name for h in self.hinges if h.limits is not None and h.angle is None]
-        if events or stops:
-            lines.append(f"  events: {len(events)} hinges with lock_at ({_short(events) or '-'}), each removing its "
-                         f"coordinate when it latches; {len(stops)} hinges with stops ({_short(stops) or '-'})")
+        lines.extend(self.joint_law_lines())
         return "\n".join(lines)
+
+    def joint_law_lines(self) -> list[str]:
+        """``latdyn check``'s lines on what acts at the joints and cables beyond their laws: latches and
+        rigid stops (events), compliant stops (a Hunt–Crossley force, no event), friction (stick and slip
+        by events) and cables (tension only, slack and taut located in time)."""
+        free = [h for h in self.hinges if h.angle is None]
+        latches = [h.name for h in free if h.lock_at is not None]
+        rigid = [f"{h.name} (e = {h.restitution:g})" for h in free if h.limits is not None and h.contact is None]
+        lines = []
+        if latches or rigid:
+            lines.append(f"  events: {len(latches)} joints with lock_at ({_short(latches) or '-'}), each removing its "
+                         f"coordinate when it latches; {len(rigid)} joints with rigid stops ({_short(rigid) or '-'})")
+        compliant = [f"{h.name} (k = {h.contact.stiffness:g}, n = {h.contact.exponent:g}, c = {h.contact.damping:g})"
+                     for h in free if h.contact is not None]
+        if compliant:
+            lines.append(f"  compliant stops: {len(compliant)} joints ({_short(compliant)}), the force k δⁿ + c δⁿ δ̇ "
+                         "past a limit, no event")
+        friction = [f"{h.name} (coulomb {h.friction.coulomb:g}, static {h.friction.static:g}"
+                    + (f", viscous {h.friction.viscous:g}" if h.friction.viscous else "") + ")"
+                    for h in free if h.friction is not None]
+        if friction:
+            lines.append(f"  friction: {len(friction)} joints ({_short(friction)}), sticking and slipping by events")
+        if self.cables is not None:
+            cables = self.cables
+            described = [f"{name} ({int(np.sum(cables.cable == i))} el, EA = {cables.EA[cables.first[i]]:g}"
+                         + (f", damping {cables.damping[cables.first[i]]:g}" if cables.damping[cables.first[i]] else "")
+                         + ")" for i, name in enumerate(cables.names)]
+            lines.append(f"  cables: {len(described)} ({_short(described)}), tension only, slack and taut by events")
+        return lines
 
 
     def hinge_index(self, beam: str, end: str) -> int:

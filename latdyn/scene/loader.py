@@ -979,6 +979,9 @@ class _Reader:
             h.angle = parse_time_function(spec["angle"], self.file, _join(key, "angle"))
         if "lock_at" in spec:
             h.lock_at = self.number(spec["lock_at"], _join(key, "lock_at"))
+            if h.angle is not None:  # it was accepted and never latched
+                self.fail(_join(key, "lock_at"), "a prescribed hinge (angle) has no free angle to latch; "
+                                                 "expected no lock_at with angle", spec["lock_at"])
             if h.lock_at == 0.0:  # latched a step late, past it (measured: energy balance error 1)
                 self.fail(_join(key, "lock_at"), "the hinge angle is 0 at t = 0, so it would be latched from "
                                                  "the start; expected a lock_at other than 0 (a joint held from "
