@@ -63,7 +63,7 @@ class ModelData(ctypes.Structure):
         ("time_laws", P), ("hinge_laws", P),
         ("hinge_stiffness_law", P), ("hinge_damping_law", P), ("hinge_torque_hinge_law", P), ("hinge_conservative", P),
         ("hinge_lock_at", P), ("hinge_lower_stop", P), ("hinge_upper_stop", P), ("has_events", I64),
-        ("section_width", I64), ("complete_links", P), ("reduce_links", P),
+        ("section_width", I64), ("complete_links", P), ("reduce_links", P), ("gravity_load_D_q", P),
     ]
 
 
@@ -77,7 +77,7 @@ class WorkData(ctypes.Structure):
         "inertia_tangent", "forces_plus", "forces_minus", "perturbed_x", "perturbed_T", "perturbed_theta",
         "p_geometry", "p_rates", "p_accelerations", "p_mass", "p_quadratic", "p_gravity_force",
         "p_gravity_potential", "p_first_moment", "laws", "hinge_d_theta", "hinge_d_rate", "dissipation",
-        "joint_forces")]
+        "joint_forces", "gravity_tangent", "gravity_force_D_q")]
 
 
 class ConfigurationData(ctypes.Structure):

@@ -139,6 +139,12 @@ class SceneLaws:
         return tuple(ctypes.cast(c, ctypes.c_void_p).value for c in callbacks)
 
 
+def has_gravity_tangent(kernels) -> bool:
+    """Whether ``kernels`` (a variant's KernelSet) hold ``beam_gravity_D_q``, the gravity load's exact
+    tangent that the static Newton matrix K − λ ∂Q/∂q needs (a variant generated before it has not)."""
+    return "beam_gravity_D_q" in (getattr(kernels, "libraries", None) or {})
+
+
 def _kernel_address(kernels, name: str) -> int:
     return ctypes.cast(getattr(kernels.libraries[name], name), ctypes.c_void_p).value
 
@@ -196,10 +202,13 @@ class NativeModel:
                                        np.zeros(m.element_axes.shape[:2] + (1,))], axis=2)
         body_section = np.concatenate([m.body_mass[:, None], m.body_com, m.body_inertia.reshape(-1, 9)], axis=1)
         E, B, L, N = len(m.element_nodes), len(m.body_nodes), len(a.loads), len(m.nodes)
-        kernel = {name: _kernel_address(kernels, name) for name in (
+        # beam_gravity_D_q: None (C's NULL, the gravity tangent left out) in a variant generated before it
+        kernel = {"beam_gravity_D_q": _kernel_address(kernels, "beam_gravity_D_q") if has_gravity_tangent(kernels)
+                  else None}
+        kernel.update({name: _kernel_address(kernels, name) for name in (
             "beam_internal_force", "beam_internal_force_D_q", "beam_mass_matrix", "beam_quadratic_velocity",
             "beam_quadratic_velocity_D_qdot", "beam_gravity", "beam_strain_energy", "beam_kinetic_energy",
-            "joint_body", "point_load", "hinged_end", "hinge_force", "so3_exp")}
+            "joint_body", "point_load", "hinged_end", "hinge_force", "so3_exp")})
         self.model = ModelData(
             n_nodes=N, n_hinges=H, n_elements=E, n_bodies=B, n_loads=L, n_dofs=m.n_dofs, n_total=m.n_total,
             node_dofs=ints(m.node_dofs), hinge_dofs=ints(m.hinge_dofs),
@@ -239,7 +248,7 @@ class NativeModel:
             hinge_lock_at=arr(lock_at), hinge_lower_stop=arr(lower), hinge_upper_stop=arr(upper),
             has_events=int(any(m.hinges[k].lock_at is not None or m.hinges[k].limits is not None
                                for k in m.free_hinges)),
-            section_width=m.element_sections.shape[1],
+            section_width=m.element_sections.shape[1], gravity_load_D_q=kernel["beam_gravity_D_q"],
         )
         work = {
             "geometry": (E, 36), "rates": (E, 14), "accelerations": (E, 14), "gravity_rows": (E, 3),
@@ -249,7 +258,9 @@ class NativeModel:
             "body_stiffness": (B, 6, 6), "load_blocks": (L, 6, 6), "strain": (E,), "section_forces": (E, 4),
             "kinetic": (E,), "total": (m.n_total + 1,), "laws": (max(len(laws.functions), 1), 3),
             "hinge_d_theta": (H,), "hinge_d_rate": (H,), "matrix": (0,), "rhs": (0,), "dissipation": (1,),
-            "joint_forces": (H,)}
+            "joint_forces": (H,),
+            "gravity_tangent": (E, 14, 14) if a.has_gravity else (0,),
+            "gravity_force_D_q": (E, 14) if a.has_gravity else (0,)}
         tangent = {"inertia_tangent": (E, 14, 14), "forces_plus": (E, 14), "forces_minus": (E, 14),
                    "perturbed_x": (N, 3), "perturbed_T": (N, 3, 3), "perturbed_theta": (H,),
                    "p_geometry": (E, 36), "p_rates": (E, 14), "p_accelerations": (E, 14), "p_mass": (E, 14, 14),

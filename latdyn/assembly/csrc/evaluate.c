@@ -136,6 +136,9 @@ typedef struct {
     void (*complete_links)(Configuration *);
     int64_t (*reduce_links)(const Configuration *, double beta_p, double gamma_p, int64_t matrices,
                             int64_t inertia_tangent);
+    /* the gravity load and its exact tangent ∂Q/∂q (the generated kernel beam_gravity_D_q): the
+     * static Newton matrix's K − λ ∂Q/∂q; NULL in a variant generated before it (left out) */
+    kernel_3_2 gravity_load_D_q;
 } Model;
 
 /* Scratch buffers, allocated once by the caller. */
@@ -164,6 +167,9 @@ typedef struct {
     /* each joint's law force f of the last evaluation (n_hinges: hinges and guides), for the joint
      * force probes (latdyn/results/probes.py ProbeSet.joint_forces) */
     double *joint_forces;
+    /* the static evaluation's gravity tangent ∂Q/∂q (e,14,14) and the kernel's Q beside it (e,14)
+     * (only with gravity: length 0 without) */
+    double *gravity_tangent, *gravity_force_D_q;
 } Work;
 
 /* ------------------------------------------------------------------------- small algebra */
@@ -397,7 +403,7 @@ static int element_ranges(const Model *m)
 /* Geometry and the generated kernels of elements [begin, end): each element reads and writes
  * only its own rows of the Work buffers (kernel arguments offset to the range). */
 static void element_range(const Model *m, const Configuration *c, Work *w, int64_t begin, int64_t end,
-                          int matrices, int inertia)
+                          int matrices, int inertia, double load_factor)
 {
     const int64_t n = end - begin;
     if (n <= 0) return;
@@ -420,6 +426,13 @@ static void element_range(const Model *m, const Configuration *c, Work *w, int64
     if (m->has_gravity)
         m->gravity_load(n, geometry, section, w->gravity_rows + 3 * begin, w->gravity_force + 14 * begin,
                         w->gravity_potential + begin, w->first_moment + 3 * begin);
+    /* the static tangent: K − λ ∂Q/∂q in the element block (with inertia, the elements' inertia
+     * tangent carries the gravity load's derivative with the inertia forces': inertia_tangent) */
+    if (m->has_gravity && matrices && !inertia && m->gravity_load_D_q) {
+        double *dQ = w->gravity_tangent + 196 * begin;
+        m->gravity_load_D_q(n, geometry, section, w->gravity_rows + 3 * begin, w->gravity_force_D_q + 14 * begin, dQ);
+        for (int64_t k = 0; k < 196 * n; ++k) tangent[k] -= load_factor * dQ[k];
+    }
 }
 
 static double evaluate(const Model *m, const Configuration *c, Work *w, const double *laws, double t, int matrices,
@@ -433,9 +446,9 @@ static double evaluate(const Model *m, const Configuration *c, Work *w, const do
 #pragma omp parallel for schedule(static) num_threads(ranges)
 #endif
         for (int k = 0; k < ranges; ++k)
-            element_range(m, c, w, E * k / ranges, E * (k + 1) / ranges, matrices, inertia);
+            element_range(m, c, w, E * k / ranges, E * (k + 1) / ranges, matrices, inertia, load_factor);
     } else {
-        element_range(m, c, w, 0, E, matrices, inertia);
+        element_range(m, c, w, 0, E, matrices, inertia, load_factor);
     }
     memset(w->total, 0, sizeof(double) * (m->n_total + 1));
     /* elements: F + M a + g − λ gravity (Eqs. 55, 58); the static residual F − λ gravity */
