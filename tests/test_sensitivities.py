@@ -249,8 +249,16 @@ def test_the_load_factors_sensitivities_are_in_the_summary(tmp_path, arch):
     assert set(summary["probe_sensitivities"]) == {"crown_z", "n1_y", "n2_x"}
 
 
-@pytest.mark.parametrize("text, names", [(PLANAR, ("P", "k")), (PLANAR_TURNED, ("P", "EI"))],
-                         ids=["hinged", "sections_turned"])
+#: PLANAR_TURNED under an in-plane gravity, its beams' mass per length named
+PLANAR_GRAVITY = (PLANAR_TURNED.replace("parameters: {", "parameters: {rho: 0.8, ")
+                  .replace("rhoA: 0.5}", "rhoA: \"rho\"}")
+                  .replace("sensitivities: [P, EI, G]", "sensitivities: [rho, EI]")
+                  .replace("title: planar frame", "gravity: [0.5, -9.81, 0]\ntitle: planar frame"))
+
+
+@pytest.mark.parametrize("text, names", [(PLANAR, ("P", "k")), (PLANAR_TURNED, ("P", "EI")),
+                                         (PLANAR_GRAVITY, ("rho", "EI"))],
+                         ids=["hinged", "sections_turned", "gravity"])
 def test_planar_static_sensitivities_agree_with_richardson_central_differences(text, names):
     result = _run(text)
     assert result.summary.get("planar") is not False
