@@ -391,3 +391,21 @@ def test_a_refused_sensitivity_exits_2_in_run_and_check_and_writes_nothing(tmp_p
     check = subprocess.run([sys.executable, "-m", "latdyn", "check", str(tmp_path / "supported.yaml")], env=env,
                            capture_output=True, text=True, timeout=120, check=False)
     assert check.returncode == 0 and "sensitivities by: F, k, th0, M, EI, G" in check.stdout
+
+
+def test_a_kernel_variant_without_the_gravity_tangent_refuses_beams_with_mass_under_gravity():
+    """A variant generated before beam_gravity_D_q has no exact static matrix under gravity: refused,
+    naming the variant to regenerate; massless beams or no gravity pass."""
+    from types import SimpleNamespace
+
+    from latdyn.analyses.sensitivities import _refuse_without_gravity_tangent
+    from latdyn.assembly.prepare import prepare
+
+    prepared = prepare(yaml.safe_load(GRAVITY_BEAMS_3D))
+    stale = SimpleNamespace(libraries={"beam_gravity": None}, variant="default")
+    with pytest.raises(SceneError) as info:
+        _refuse_without_gravity_tangent(prepared.scene, prepared.model, stale)
+    assert info.value.key == "solve.sensitivities" and "python -m codegen --variant default" in info.value.expected
+    _refuse_without_gravity_tangent(prepared.scene, prepared.model, prepared.assembler.kernels)   # regenerated
+    massless = prepare(yaml.safe_load(GRAVITY_3D))
+    _refuse_without_gravity_tangent(massless.scene, massless.model, stale)
