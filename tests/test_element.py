@@ -232,6 +232,20 @@ def test_gravity_load_and_potential(kernels, regime):
         assert_close(-force[0], numeric, "gravity load vs −∂V/∂q")
 
 
+def test_gravity_tangent_is_derivative_of_gravity_load(kernels, regime):
+    """beam_gravity_D_q: its load is beam_gravity's, its tangent ∂Q/∂q the load's central differences
+    (rotations perturbed through the exponential map, as the configuration update)."""
+    gravity = np.array([[0.3, -9.81, 1.2]])
+    if not hasattr(kernels, "beam_gravity_D_q"):
+        pytest.skip("this variant was generated before beam_gravity_D_q (regenerate it)")
+    for s in states(10, deformation=regime):
+        load = lambda st: kernels.beam_gravity(st.geometry(), st.section[None], gravity)[0][0]  # noqa: E731
+        force, tangent = kernels.beam_gravity_D_q(s.geometry(), s.section[None], gravity)
+        np.testing.assert_allclose(force[0], load(s), rtol=1e-12, atol=1e-12 * np.abs(load(s)).max())
+        numeric = np.column_stack([central(load, s, k) for k in range(14)])
+        assert_close(tangent[0], numeric, "∂Q/∂q")
+
+
 # ----------------------------------------------------------------- the local rotation measures
 def _local_rotations(kernels, s):
     """R_i = T_cᵀT_e^i from the kernel's own T_c, and its Ψ."""

@@ -98,9 +98,8 @@ output:
 """
 
 
-#: ARM_3D under gravity, its beams massless (under gravity, beams with mass are refused: the static
-#: Newton matrix lacks their gravity load's derivative), the knee's mass, centre of mass and inertia
-#: (which a static residual does not see) named
+#: ARM_3D under gravity, its beams massless, the knee's mass, centre of mass and inertia (which a
+#: static residual does not see) named
 GRAVITY_3D = (ARM_3D
               .replace("parameters: {", "parameters: {m: 0.8, cx: 0.05, J: 0.01, ")
               .replace("rhoA: 0.5}", "rhoA: 0.0}")
@@ -108,6 +107,16 @@ GRAVITY_3D = (ARM_3D
                                                 "inertia: [\"J\", \"J\", \"2*J\"]}")
               .replace("sensitivities: [F, k, th0, M, EI, G]", "sensitivities: [m, cx, J]")
               .replace("title: static 3D arm", "gravity: [0, 0, -9.81]\ntitle: static 3D arm"))
+
+
+#: ARM_3D under gravity with beams with mass: the beams' gravity load, whose exact tangent
+#: (beam_gravity_D_q) the static Newton matrix holds, comparable to the tip loads; rhoA and the
+#: section stiffness named
+GRAVITY_BEAMS_3D = (ARM_3D
+                    .replace("parameters: {", "parameters: {rho: 0.6, ")
+                    .replace("rhoA: 0.5}", "rhoA: \"rho\", rhoIy: \"0.01*rho\", rhoIz: \"0.02*rho\"}")
+                    .replace("sensitivities: [F, k, th0, M, EI, G]", "sensitivities: [rho, EI, k]")
+                    .replace("title: static 3D arm", "gravity: [1.5, -2.0, -9.81]\ntitle: static 3D arm"))
 
 
 def _arch() -> str:
@@ -191,6 +200,19 @@ def test_3d_static_sensitivities_by_masses_under_gravity_agree_with_richardson_c
     assert all(np.all(result.sensitivities[(probe, "J")] == 0.0) for probe in reference)   # no inertia in statics
 
 
+@pytest.mark.parametrize("name", ["rho", "EI", "k"])
+def test_3d_static_sensitivities_under_gravity_on_beams_with_mass_agree_with_richardson_central_differences(name):
+    """The static Newton matrix holds the beams' gravity tangent, so δq = −K⁻¹ ∂r/∂p is exact under
+    gravity too: a section's mass per length (∂Q/∂ρA through beam_gravity, linear), its stiffness and a
+    hinge law, within 1e-8 of the probe's largest sensitivity."""
+    result = _run(GRAVITY_BEAMS_3D)
+    reference = _richardson(GRAVITY_BEAMS_3D, name)
+    for probe, expected in reference.items():
+        scale = np.abs(expected).max()
+        assert scale > 1e-7, (probe, name)
+        assert np.abs(result.sensitivities[(probe, name)] - expected).max() <= 1e-8 * scale, (probe, name)
+
+
 @pytest.fixture(scope="module")
 def arch():
     return _run(ARCH)
@@ -227,8 +249,16 @@ def test_the_load_factors_sensitivities_are_in_the_summary(tmp_path, arch):
     assert set(summary["probe_sensitivities"]) == {"crown_z", "n1_y", "n2_x"}
 
 
-@pytest.mark.parametrize("text, names", [(PLANAR, ("P", "k")), (PLANAR_TURNED, ("P", "EI"))],
-                         ids=["hinged", "sections_turned"])
+#: PLANAR_TURNED under an in-plane gravity, its beams' mass per length named
+PLANAR_GRAVITY = (PLANAR_TURNED.replace("parameters: {", "parameters: {rho: 0.8, ")
+                  .replace("rhoA: 0.5}", "rhoA: \"rho\"}")
+                  .replace("sensitivities: [P, EI, G]", "sensitivities: [rho, EI]")
+                  .replace("title: planar frame", "gravity: [0.5, -9.81, 0]\ntitle: planar frame"))
+
+
+@pytest.mark.parametrize("text, names", [(PLANAR, ("P", "k")), (PLANAR_TURNED, ("P", "EI")),
+                                         (PLANAR_GRAVITY, ("rho", "EI"))],
+                         ids=["hinged", "sections_turned", "gravity"])
 def test_planar_static_sensitivities_agree_with_richardson_central_differences(text, names):
     result = _run(text)
     assert result.summary.get("planar") is not False
@@ -331,7 +361,6 @@ def test_the_cli_writes_sensitivities_csv_and_the_summary(tmp_path, arm_3d):
     (lambda d: d["solve"].update(analysis="transient", t_end=0.1, dt=0.05, steps=None), "static load control and displacement control only"),
     (lambda d: d["solve"].update(method="arc-length"), "not yet for a static (arc-length)"),
     (lambda d: d.update(gravity=[0, 0, "-k"]), "used at gravity[2]"),
-    (lambda d: d.update(gravity=[0, 0, -9.81]), "beams with mass"),
     (lambda d: d["sections"]["s"].update(GAy=1.0e4), "shear-flexible"),
     (lambda d: d["solve"].update(formulation="cr4402"), "formulation: default only"),
     (lambda d: d["bodies"]["knee"].update(at=["F/2", 0, 0]), "used at bodies.knee.at[0]"),
@@ -362,3 +391,21 @@ def test_a_refused_sensitivity_exits_2_in_run_and_check_and_writes_nothing(tmp_p
     check = subprocess.run([sys.executable, "-m", "latdyn", "check", str(tmp_path / "supported.yaml")], env=env,
                            capture_output=True, text=True, timeout=120, check=False)
     assert check.returncode == 0 and "sensitivities by: F, k, th0, M, EI, G" in check.stdout
+
+
+def test_a_kernel_variant_without_the_gravity_tangent_refuses_beams_with_mass_under_gravity():
+    """A variant generated before beam_gravity_D_q has no exact static matrix under gravity: refused,
+    naming the variant to regenerate; massless beams or no gravity pass."""
+    from types import SimpleNamespace
+
+    from latdyn.analyses.sensitivities import _refuse_without_gravity_tangent
+    from latdyn.assembly.prepare import prepare
+
+    prepared = prepare(yaml.safe_load(GRAVITY_BEAMS_3D))
+    stale = SimpleNamespace(libraries={"beam_gravity": None}, variant="default")
+    with pytest.raises(SceneError) as info:
+        _refuse_without_gravity_tangent(prepared.scene, prepared.model, stale)
+    assert info.value.key == "solve.sensitivities" and "python -m codegen --variant default" in info.value.expected
+    _refuse_without_gravity_tangent(prepared.scene, prepared.model, prepared.assembler.kernels)   # regenerated
+    massless = prepare(yaml.safe_load(GRAVITY_3D))
+    _refuse_without_gravity_tangent(massless.scene, massless.model, stale)

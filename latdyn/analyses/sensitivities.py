@@ -38,9 +38,9 @@ What is refused (:func:`refusal`, exit 2 naming ``solve.sensitivities``): any an
 load and displacement control; a parameter used anywhere but in load components, hinge stiffness, damping,
 torque and rest angle, section values of shear-rigid sections (formulation default) and body
 masses, centres of mass and inertias; probes other than point positions and displacements in the global frame
-and hinge angles; rigid links; hinges with limits or ``lock_at`` (events); gravity on beams with
-mass (the static Newton matrix does not hold the derivative of the beams' gravity load, so it is
-not the exact tangent there). docs/parameters.md.
+and hinge angles; rigid links; hinges with limits or ``lock_at`` (events). Under gravity the static
+Newton matrix K − λ ∂Q/∂q holds the beams' gravity tangent (the generated ``beam_gravity_D_q``), so
+beams with mass are differentiated exactly there too. docs/parameters.md.
 """
 from __future__ import annotations
 
@@ -105,11 +105,6 @@ def refusal(scene) -> SceneError | None:
             if section and {"GAy", "GAz"} & set(scene.raw["sections"][section["section"]]):
                 return refuse(f"parameter {name!r} is used at {used}: the section is shear-flexible (GAy, GAz), "
                               "and its element is not linear in its section values")
-    if np.any(scene.gravity) and any(not beam.rigid and (beam.section.rhoA > 0 or beam.section.rhoIy > 0
-                                                         or beam.section.rhoIz > 0) for beam in scene.beams.values()):
-        return refuse("under gravity, beams with mass make the static Newton matrix inexact (it does not hold "
-                      "the derivative of the beams' gravity load), so their sensitivities would not be exact: "
-                      "they are computed under gravity only with massless beams (rhoA = rhoIy = rhoIz = 0)")
     for probe in scene.output.probes:
         point = probe.kind == "point" and probe.quantity in ("position", "displacement") and probe.frame == "global"
         if not (point or (probe.kind == "hinge" and probe.quantity == "angle")):
@@ -117,6 +112,19 @@ def refusal(scene) -> SceneError | None:
                           f"{'' if probe.kind != 'point' else ', frame ' + probe.frame}) is not differentiated yet: "
                           "point positions and displacements in the global frame and hinge angles are")
     return None
+
+
+def _refuse_without_gravity_tangent(scene, model, kernels) -> None:
+    """Refuse (SceneError naming ``solve.sensitivities``) beams with mass under gravity when the scene's
+    kernel variant was generated before ``beam_gravity_D_q``: without it the static Newton matrix
+    lacks the gravity load's tangent and is not the exact one."""
+    from latdyn.assembly.native_model import has_gravity_tangent
+    massive = np.any(model.element_sections[:, 5:8] != 0.0) if len(model.element_sections) else False
+    if np.any(scene.gravity) and massive and not has_gravity_tangent(kernels):
+        raise SceneError(scene.file, "solve.sensitivities",
+                         f"sensitivities under gravity on beams with mass need the kernel beam_gravity_D_q, which "
+                         f"the generated variant {kernels.variant!r} does not hold yet (python -m codegen --variant "
+                         f"{kernels.variant})")
 
 
 class StaticSensitivities:
@@ -129,6 +137,7 @@ class StaticSensitivities:
         self.model, self.assembler = prepared.model, prepared.assembler
         self.kernels = self.assembler.kernels
         self.names = list(self.scene.solve.sensitivities)
+        _refuse_without_gravity_tangent(self.scene, self.model, self.kernels)
         self.probes = list(self.scene.output.probes)
         self.columns = [f"{p.name}/{name}" for p in self.probes for name in self.names]
         self.rows: list[tuple[float, list[float]]] = []

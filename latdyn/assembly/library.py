@@ -73,6 +73,7 @@ class ModelData(ctypes.Structure):
         ("hinge_contact", P),
         ("n_cables", I64), ("cable_nodes", P), ("cable_offsets", P), ("cable_section", P), ("cable_rest_law", P),
         ("cable_position", P), ("cable_force", P), ("cable_side", P),
+        ("gravity_load_D_q", P),
     ]
 
 
@@ -104,7 +105,7 @@ class WorkData(ctypes.Structure):
         "joint_forces",
         "sensor_values", "controller_gradient", "controller_scratch", "coupling_stiffness", "coupling_damping",
         "cable_vector", "cable_stiffness", "cable_damping", "cable_state", "cable_strain", "cable_gap",
-        "hinge_work_torque", "hinge_damper_torque")]
+        "hinge_work_torque", "hinge_damper_torque", "gravity_tangent", "gravity_force_D_q")]
 
 
 class ConfigurationData(ctypes.Structure):

@@ -211,6 +211,12 @@ class SceneLaws:
         return evaluate, len(sensors)
 
 
+def has_gravity_tangent(kernels) -> bool:
+    """Whether ``kernels`` (a variant's KernelSet) hold ``beam_gravity_D_q``, the gravity load's exact
+    tangent that the static Newton matrix K − λ ∂Q/∂q needs (a variant generated before it has not)."""
+    return "beam_gravity_D_q" in (getattr(kernels, "libraries", None) or {})
+
+
 def _kernel_address(kernels, name: str) -> int:
     return ctypes.cast(getattr(kernels.libraries[name], name), ctypes.c_void_p).value
 
@@ -273,10 +279,13 @@ class NativeModel:
                                        np.zeros(m.element_axes.shape[:2] + (1,))], axis=2)
         body_section = np.concatenate([m.body_mass[:, None], m.body_com, m.body_inertia.reshape(-1, 9)], axis=1)
         E, B, L, N = len(m.element_nodes), len(m.body_nodes), len(a.loads), len(m.nodes)
-        kernel = {name: _kernel_address(kernels, name) for name in (
+        # beam_gravity_D_q: None (C's NULL, the gravity tangent left out) in a variant generated before it
+        kernel = {"beam_gravity_D_q": _kernel_address(kernels, "beam_gravity_D_q") if has_gravity_tangent(kernels)
+                  else None}
+        kernel.update({name: _kernel_address(kernels, name) for name in (
             "beam_internal_force", "beam_internal_force_D_q", "beam_mass_matrix", "beam_quadratic_velocity",
             "beam_quadratic_velocity_D_qdot", "beam_gravity", "beam_strain_energy", "beam_kinetic_energy",
-            "joint_body", "point_load", "hinged_end", "hinge_force", "so3_exp", "cable_force")}
+            "joint_body", "point_load", "hinged_end", "hinge_force", "so3_exp", "cable_force")})
         CE = len(cables) if cables is not None else 0
         self.model = ModelData(
             n_nodes=N, n_hinges=H, n_elements=E, n_bodies=B, n_loads=L, n_dofs=m.n_dofs, n_total=m.n_total,
@@ -330,7 +339,7 @@ class NativeModel:
             coupling_slot=ints(wired.coupling_slot), coupling_sensor=ints(wired.coupling_sensor),
             coupling_position=ints(np.full(len(wired.coupling_actuator), -1, np.int64)),
             hinge_contact=arr(joint_contact_rows(m.hinges)),
-            n_cables=CE, cable_force=kernel["cable_force"],
+            n_cables=CE, cable_force=kernel["cable_force"], gravity_load_D_q=kernel["beam_gravity_D_q"],
         )
         self._keep.append(outputs)
         if CE:
@@ -353,7 +362,9 @@ class NativeModel:
             "coupling_stiffness": (len(wired.coupling_actuator),), "coupling_damping": (len(wired.coupling_actuator),),
             "cable_vector": (CE, 12), "cable_stiffness": (CE, 12, 12), "cable_damping": (CE, 12, 12),
             "cable_state": (CE, 5), "cable_strain": (CE,), "cable_gap": (CE,),
-            "hinge_work_torque": (H,), "hinge_damper_torque": (H,)}
+            "hinge_work_torque": (H,), "hinge_damper_torque": (H,),
+            "gravity_tangent": (E, 14, 14) if a.has_gravity else (0,),
+            "gravity_force_D_q": (E, 14) if a.has_gravity else (0,)}
         tangent = {"inertia_tangent": (E, 14, 14), "forces_plus": (E, 14), "forces_minus": (E, 14),
                    "perturbed_x": (N, 3), "perturbed_T": (N, 3, 3), "perturbed_theta": (H,),
                    "p_geometry": (E, 36), "p_rates": (E, 14), "p_accelerations": (E, 14), "p_mass": (E, 14, 14),

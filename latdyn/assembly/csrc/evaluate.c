@@ -166,6 +166,9 @@ typedef struct {
     /* the side of each cable element (ce) that the time loop holds for a step: +1 taut, −1 slack, 0 the
      * stretch decides (every other analysis); latdyn/timeloop/events.py */
     const double *cable_side;
+    /* the gravity load and its exact tangent ∂Q/∂q (the generated kernel beam_gravity_D_q): the
+     * static Newton matrix's K − λ ∂Q/∂q; NULL in a variant generated before it (left out) */
+    kernel_3_2 gravity_load_D_q;
 } Model;
 
 /* Scratch buffers, allocated once by the caller. */
@@ -208,6 +211,9 @@ typedef struct {
      * and the dissipative torque (the damper's c θ̇, a compliant stop's damping and friction); the time
      * loop integrates their work over each step's Δθ (newton_step.c latdyn_advance) */
     double *hinge_work_torque, *hinge_damper_torque;
+    /* the static evaluation's gravity tangent ∂Q/∂q (e,14,14) and the kernel's Q beside it (e,14)
+     * (only with gravity: length 0 without) */
+    double *gravity_tangent, *gravity_force_D_q;
 } Work;
 
 /* ------------------------------------------------------------------------- small algebra */
@@ -442,7 +448,7 @@ static int element_ranges(const Model *m)
 /* Geometry and the generated kernels of elements [begin, end): each element reads and writes
  * only its own rows of the Work buffers (kernel arguments offset to the range). */
 static void element_range(const Model *m, const Configuration *c, Work *w, int64_t begin, int64_t end,
-                          int matrices, int inertia)
+                          int matrices, int inertia, double load_factor)
 {
     const int64_t n = end - begin;
     if (n <= 0) return;
@@ -465,6 +471,13 @@ static void element_range(const Model *m, const Configuration *c, Work *w, int64
     if (m->has_gravity)
         m->gravity_load(n, geometry, section, w->gravity_rows + 3 * begin, w->gravity_force + 14 * begin,
                         w->gravity_potential + begin, w->first_moment + 3 * begin);
+    /* the static tangent: K − λ ∂Q/∂q in the element block (with inertia, the elements' inertia
+     * tangent carries the gravity load's derivative with the inertia forces': inertia_tangent) */
+    if (m->has_gravity && matrices && !inertia && m->gravity_load_D_q) {
+        double *dQ = w->gravity_tangent + 196 * begin;
+        m->gravity_load_D_q(n, geometry, section, w->gravity_rows + 3 * begin, w->gravity_force_D_q + 14 * begin, dQ);
+        for (int64_t k = 0; k < 196 * n; ++k) tangent[k] -= load_factor * dQ[k];
+    }
 }
 
 /* Continuous controllers at c (see Model): outputs (clipped) into m->controller_outputs, ∂y/∂s into
@@ -596,9 +609,9 @@ static double evaluate(const Model *m, const Configuration *c, Work *w, const do
 #pragma omp parallel for schedule(static) num_threads(ranges)
 #endif
         for (int k = 0; k < ranges; ++k)
-            element_range(m, c, w, E * k / ranges, E * (k + 1) / ranges, matrices, inertia);
+            element_range(m, c, w, E * k / ranges, E * (k + 1) / ranges, matrices, inertia, load_factor);
     } else {
-        element_range(m, c, w, 0, E, matrices, inertia);
+        element_range(m, c, w, 0, E, matrices, inertia, load_factor);
     }
     memset(w->total, 0, sizeof(double) * (m->n_total + 1));
     /* elements: F + M a + g − λ gravity (Eqs. 55, 58); the static residual F − λ gravity */
