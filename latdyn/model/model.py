@@ -47,6 +47,12 @@ class Node:
     beam: str | None = None  # for beam nodes
 
 
+def lock_tolerance(at: float) -> float:
+    """How near a joint's coordinate must be to a latch or stop position ``at`` to be on it (the events of
+    latdyn/timeloop/events.py, the joint probes of latdyn/results/probes.py; csrc/newton_step.c has its twin)."""
+    return 1e-7 * max(1.0, abs(at))
+
+
 @dataclass
 class HingeCoordinate:
     """A hinge of the model. Its generalized force on the angle coordinate is

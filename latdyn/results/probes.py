@@ -4,6 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from latdyn.assembly.assembler import Assembler, State
+from latdyn.model.model import lock_tolerance
 from latdyn.model.planar import section_moments_back
 
 _COMPONENT = {"x": 0, "y": 1, "z": 2}
@@ -186,13 +187,14 @@ class ProbeSet:
                     else scene.controller_outputs[n] for n in c.reads]
             out[i] = c.clip(float(c.functions()[0](float(state.t), *read)))
 
+
 def _on_stop(joint, state: State, k: int) -> int:
     """+1 (−1) when joint ``k`` rests on its upper (lower) rigid stop: on it within the events'
     tolerance and not moving away; 0 otherwise."""
     if joint.limits is None:
         return 0
     for side, stop in ((-1, joint.limits[0]), (1, joint.limits[1])):
-        tolerance = 1e-7 * max(1.0, abs(stop))  # latdyn.timeloop.events.lock_tolerance
+        tolerance = lock_tolerance(stop)
         if abs(state.theta[k] - stop) <= tolerance and side * state.theta_dot[k] >= -tolerance:
             return side
     return 0

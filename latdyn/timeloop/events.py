@@ -10,12 +10,8 @@ import numpy as np
 from latdyn.assembly.assembler import State, free_acceleration, free_velocity, unpack_free
 from latdyn.assembly.factorization import solve_linear
 from latdyn.assembly.prepare import Prepared
-from latdyn.model.model import Model
+from latdyn.model.model import Model, lock_tolerance
 from latdyn.timeloop.impulse import hinge_directions, impulse_response, jump
-
-
-def lock_tolerance(lock: float) -> float:
-    return 1e-7 * max(1.0, abs(lock))
 
 
 def lock_events(model: Model, old: State, new: State) -> tuple[list[int], list[tuple[int, float]]]:

@@ -235,7 +235,7 @@ int64_t latdyn_newton_step(const Model *m, Work *w, StepControl *s, const Config
 
 /* ------------------------------------------------------------------------- the loop of steps */
 
-/* latdyn/timeloop/events.py lock_tolerance */
+/* latdyn/model/model.py lock_tolerance */
 static double lock_tolerance(double at) { return 1e-7 * fmax(1.0, fabs(at)); }
 
 /* Whether the step old → new holds an event that latdyn/timeloop/events.py handles (and the loop must not
