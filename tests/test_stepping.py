@@ -7,8 +7,6 @@ round-off: bit for bit here), the exact discrete-time solution of a sampled PD l
 FMPy simulating the FMU against both. Scenes are YAML text as a user types it."""
 from __future__ import annotations
 
-import json
-import math
 import subprocess
 import sys
 import textwrap
@@ -18,7 +16,7 @@ import numpy as np
 import pytest
 
 import latdyn
-from cli_runs import ROOT, latdyn_run, probe_columns, summary_of
+from cli_runs import ROOT, probe_columns, summary_of
 from latdyn.stepping.simulation import SimulationClosed
 
 #: A flexible arm on a tilted hinge under gravity, driven by a torque in t: genuinely 3D (out of
