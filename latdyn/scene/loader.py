@@ -70,7 +70,7 @@ import os
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -169,6 +169,23 @@ _RESERVED_COLUMNS = ("t", "load_factor")
 RESERVED_WORDS = tuple(sorted(set(ALLOWED_NAMES) | {"theta", "theta_dot", "s", "s_dot", "Lt", "Le", "Gt", "Ge",
                                                     "Eq", "Ne", "And", "Integer", "Float", "Rational", "Symbol"}
                               | set(keyword.kwlist)))
+
+
+class _Travel(NamedTuple):
+    """How the loader speaks of a joint's coordinate in its refusals (:meth:`_Reader.stops_and_latch`)."""
+
+    joint: str  # "hinge"
+    prescribed: str  # the key (and attribute) that prescribes the coordinate: "angle"
+    free: str  # "angle"
+    coordinate: str  # "the hinge angle"
+    symbol: str  # what the stops bound: "the hinge angle"
+    held: str  # what a joint held from the start is instead
+
+
+_HINGE_TRAVEL = _Travel("hinge", "angle", "angle", "the hinge angle", "the hinge angle",
+                        "a joint held from the start is a clamped end")
+_GUIDE_TRAVEL = _Travel("guide", "position", "slide", "the slide", "the slide s",
+                        "a body held from the start is a rigid link or a fixed body")
 
 
 # =========================================================================== dataclasses
@@ -977,43 +994,49 @@ class _Reader:
                 parse_time_function(spec["torque"], self.file, _join(key, "torque"))
         if "angle" in spec:
             h.angle = parse_time_function(spec["angle"], self.file, _join(key, "angle"))
-        if "lock_at" in spec:
-            h.lock_at = self.number(spec["lock_at"], _join(key, "lock_at"))
-            if h.angle is not None:  # it was accepted and never latched
-                self.fail(_join(key, "lock_at"), "a prescribed hinge (angle) has no free angle to latch; "
-                                                 "expected no lock_at with angle", spec["lock_at"])
-            if h.lock_at == 0.0:  # latched a step late, past it (measured: energy balance error 1)
-                self.fail(_join(key, "lock_at"), "the hinge angle is 0 at t = 0, so it would be latched from "
-                                                 "the start; expected a lock_at other than 0 (a joint held from "
-                                                 "the start is a clamped end)", spec["lock_at"])
+        self.stops_and_latch(h, spec, key, _HINGE_TRAVEL)
         if "rest_angle" in spec:
             h.rest_angle = self.number(spec["rest_angle"], _join(key, "rest_angle"))
-        if "limits" in spec:
-            lkey = _join(key, "limits")
-            value = spec["limits"]
-            if not isinstance(value, (list, tuple)) or len(value) != 2:
-                self.fail(lkey, "expected hard stops [lo, hi] on the hinge angle", value)
-            lo, hi = (self.number(x, f"{lkey}[{i}]") for i, x in enumerate(value))
-            if not lo <= 0.0 <= hi or not lo < hi:
-                self.fail(lkey, "expected lo <= 0 <= hi and lo < hi (the hinge angle is 0 at t = 0)", value)
-            if h.angle is not None:
-                self.fail(lkey, "a prescribed hinge (angle) has no free angle to stop; expected no limits "
-                                "with angle", value)
-            if h.lock_at is not None and not lo <= h.lock_at <= hi:
-                self.fail(_join(key, "lock_at"), f"expected lock_at within the limits [{lo:g}, {hi:g}] "
-                                                 "(it could never be reached)", spec["lock_at"])
-            h.limits = (lo, hi)
-        if "restitution" in spec:
-            rkey = _join(key, "restitution")
-            if h.limits is None:
-                self.fail(rkey, "restitution applies to impacts on hard stops; expected limits: [lo, hi] "
-                                "with it")
-            h.restitution = self.number(spec["restitution"], rkey, lo=0.0, hi=1.0)
         if "contact" in spec:
             h.contact = self.stop_contact(spec, key, h.limits)
         if "friction" in spec:
             h.friction = self.joint_friction(spec["friction"], _join(key, "friction"), spec.get("angle"))
         return h
+
+    def stops_and_latch(self, joint, spec, key, words: _Travel) -> None:
+        """``lock_at``, ``limits`` and ``restitution`` of a hinge or a guide (SCENE.md): one reading for
+        both joints, said in the joint's words (:class:`_Travel`); sets them on ``joint``."""
+        prescribed = getattr(joint, words.prescribed) is not None
+        if "lock_at" in spec:
+            joint.lock_at = self.number(spec["lock_at"], _join(key, "lock_at"))
+            if prescribed:  # it was accepted and never latched
+                self.fail(_join(key, "lock_at"), f"a prescribed {words.joint} ({words.prescribed}) has no free "
+                                                 f"{words.free} to latch; expected no lock_at with "
+                                                 f"{words.prescribed}", spec["lock_at"])
+            if joint.lock_at == 0.0:  # latched a step late, past it (measured: energy balance error 1)
+                self.fail(_join(key, "lock_at"), f"{words.coordinate} is 0 at t = 0, so it would be latched from "
+                                                 f"the start; expected a lock_at other than 0 ({words.held})",
+                          spec["lock_at"])
+        if "limits" in spec:
+            lkey = _join(key, "limits")
+            value = spec["limits"]
+            if not isinstance(value, (list, tuple)) or len(value) != 2:
+                self.fail(lkey, f"expected hard stops [lo, hi] on {words.symbol}", value)
+            lo, hi = (self.number(x, f"{lkey}[{i}]") for i, x in enumerate(value))
+            if not lo <= 0.0 <= hi or not lo < hi:
+                self.fail(lkey, f"expected lo <= 0 <= hi and lo < hi ({words.coordinate} is 0 at t = 0)", value)
+            if prescribed:
+                self.fail(lkey, f"a prescribed {words.joint} ({words.prescribed}) has no free {words.free} to "
+                                f"stop; expected no limits with {words.prescribed}", value)
+            if joint.lock_at is not None and not lo <= joint.lock_at <= hi:
+                self.fail(_join(key, "lock_at"), f"expected lock_at within the limits [{lo:g}, {hi:g}] "
+                                                 "(it could never be reached)", spec["lock_at"])
+            joint.limits = (lo, hi)
+        if "restitution" in spec:
+            rkey = _join(key, "restitution")
+            if joint.limits is None:
+                self.fail(rkey, "restitution applies to impacts on hard stops; expected limits: [lo, hi] with it")
+            joint.restitution = self.number(spec["restitution"], rkey, lo=0.0, hi=1.0)
 
     def guide(self, name, spec, key) -> Guide:
         """``bodies.NAME.guide`` (SCENE.md): a sliding joint; read after every body, as ``on`` may
@@ -1054,35 +1077,7 @@ class _Reader:
             g.position = parse_time_function(spec["position"], self.file, _join(key, "position"))
         if "rest" in spec:
             g.rest = self.number(spec["rest"], _join(key, "rest"))
-        if "lock_at" in spec:
-            g.lock_at = self.number(spec["lock_at"], _join(key, "lock_at"))
-            if g.position is not None:
-                self.fail(_join(key, "lock_at"), "a prescribed guide (position) has no free slide to latch; "
-                                                 "expected no lock_at with position", spec["lock_at"])
-            if g.lock_at == 0.0:
-                self.fail(_join(key, "lock_at"), "the slide is 0 at t = 0, so it would be latched from the start; "
-                                                 "expected a lock_at other than 0 (a body held from the start "
-                                                 "is a rigid link or a fixed body)", spec["lock_at"])
-        if "limits" in spec:
-            lkey = _join(key, "limits")
-            value = spec["limits"]
-            if not isinstance(value, (list, tuple)) or len(value) != 2:
-                self.fail(lkey, "expected hard stops [lo, hi] on the slide s", value)
-            lo, hi = (self.number(x, f"{lkey}[{i}]") for i, x in enumerate(value))
-            if not lo <= 0.0 <= hi or not lo < hi:
-                self.fail(lkey, "expected lo <= 0 <= hi and lo < hi (the slide is 0 at t = 0)", value)
-            if g.position is not None:
-                self.fail(lkey, "a prescribed guide (position) has no free slide to stop; expected no limits "
-                                "with position", value)
-            if g.lock_at is not None and not lo <= g.lock_at <= hi:
-                self.fail(_join(key, "lock_at"), f"expected lock_at within the limits [{lo:g}, {hi:g}] "
-                                                 "(it could never be reached)", spec["lock_at"])
-            g.limits = (lo, hi)
-        if "restitution" in spec:
-            rkey = _join(key, "restitution")
-            if g.limits is None:
-                self.fail(rkey, "restitution applies to impacts on hard stops; expected limits: [lo, hi] with it")
-            g.restitution = self.number(spec["restitution"], rkey, lo=0.0, hi=1.0)
+        self.stops_and_latch(g, spec, key, _GUIDE_TRAVEL)
         if "contact" in spec:
             g.contact = self.stop_contact(spec, key, g.limits)
         if "friction" in spec:
