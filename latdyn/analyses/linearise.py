@@ -288,17 +288,25 @@ def _input_forces(model, state, inputs, assembler=None) -> np.ndarray:
             f, mo = np.zeros(3), np.zeros(3)
             (f if kind == "force" else mo)[axis] = 1.0
         node, r = model.point(point)
-        if node in set(model.free_nodes.tolist()):
-            d = model.node_dofs[node]
-            F[d[:3], j] += f
-            F[d[3:], j] += np.cross(state.T[node] @ r, f) + mo
-        elif model.links is not None and node in set(model.links.dependent):
+        if model.links is not None and node in set(model.links.dependent):
             F[:model.n_dofs, j] += _dependent_input_force(model, assembler, state, node, r, f, mo)
+        elif node in set(model.free_nodes.tolist()):
+            F[model.node_dofs[node], j] += _node_wrench(assembler, state, node, r, f, mo)
         else:
             raise SceneError(scene.file, "solve.linear_model.inputs",
                              f"expected an input at a point that moves; {model.nodes[node].name} "
                              "is fixed or prescribed")
     return F[:model.n_dofs]
+
+
+def _node_wrench(assembler, state, node, r, f, mo) -> np.ndarray:
+    """(F, r_g × F + Mo) on ``node`` of a force ``f`` (global) at the offset ``r`` (node axes) and a
+    moment ``mo``: the generated ``point_load`` kernel (Eq. 2; its load_force is minus this)."""
+    row = lambda a: np.ascontiguousarray(np.reshape(a, (1, -1)), dtype=float)  # noqa: E731
+    velocity = np.concatenate([state.v[node], state.w[node]])
+    force = assembler.kernels.point_load(row(state.T[node]), row(r), row(np.concatenate([f, mo])), row(np.eye(3)),
+                                         row(velocity))[0]
+    return -np.asarray(force, dtype=float).reshape(6)
 
 
 def _dependent_input_force(model, assembler, state, node, r, f, mo) -> np.ndarray:
@@ -312,7 +320,8 @@ def _dependent_input_force(model, assembler, state, node, r, f, mo) -> np.ndarra
     s = native.slot_of_node[int(node)]
     columns = native.columns[s, :native.count[s]]
     J = native.jacobian[s, :, :len(columns)]
-    generalized = J[:3].T @ f + J[3:].T @ (np.cross(state.T[node] @ r, f) + mo)
+    wrench = _node_wrench(assembler, state, node, r, f, mo)
+    generalized = J[:3].T @ wrench[:3] + J[3:].T @ wrench[3:]
     force = np.zeros(model.n_dofs)
     free = columns < model.n_dofs
     np.add.at(force, columns[free], generalized[free])
@@ -369,12 +378,13 @@ def _scene_input_force(model, assembler, state, name: str, j: int) -> np.ndarray
             R = state.T[model.body_node[load.frame]]
             f, mo = R @ f, R @ mo
         node, r = model.point(load.at)
-        if node not in set(model.free_nodes.tolist()):
-            raise SceneError(scene.file, key, f"expected an input of loads at points that move freely; "
-                                              f"{model.nodes[node].name} is fixed, prescribed or rigidly linked")
-        d = model.node_dofs[node]
-        F[d[:3]] += f
-        F[d[3:]] += np.cross(state.T[node] @ r, f) + mo
+        if model.links is not None and node in set(model.links.dependent):
+            F[:model.n_dofs] += _dependent_input_force(model, assembler, state, node, r, f, mo)
+        elif node in set(model.free_nodes.tolist()):
+            F[model.node_dofs[node]] += _node_wrench(assembler, state, node, r, f, mo)
+        else:
+            raise SceneError(scene.file, key, f"expected an input of loads at points that move; "
+                                              f"{model.nodes[node].name} is fixed or prescribed")
     for k in range(len(model.hinges)):
         F[model.hinge_dofs[k]] += gains.get(("hinge", k, 0), 0.0)
     F[model.n_total] = 0.0  # the dummy of constrained coordinates
