@@ -80,12 +80,14 @@ def refusal(scene) -> SceneError | None:
         return SceneError(scene.file, key, f"{what}; expected sensitivities only where they are exact "
                                            "(docs/parameters.md, \"Sensitivities\")")
 
-    if solve.analysis != "static" or solve.method not in ("load-control", "displacement-control"):
+    why = _transient_refusal(scene) if solve.analysis == "transient" else None
+    if why is not None:
+        return refuse(why)
+    if solve.analysis not in ("static", "transient") or (
+            solve.analysis == "static" and solve.method not in ("load-control", "displacement-control")):
         method = f"{solve.analysis}" + (f" ({solve.method})" if solve.analysis == "static" else "")
-        why = (" (the step's Newton matrix is not yet the exact Jacobian of the step)" if solve.analysis == "transient"
-               else "")
-        return refuse(f"sensitivities are computed for static load control and displacement control only, "
-                      f"not yet for a {method} analysis{why}")
+        return refuse(f"sensitivities are computed for static load control and displacement control and for "
+                      f"transient runs with an implicit method only, not yet for a {method} analysis")
     if any(beam.rigid for beam in scene.beams.values()):
         return refuse("sensitivities of scenes with rigid links are not computed yet")
     for beam, which, hinge in scene.hinges:
@@ -112,6 +114,30 @@ def refusal(scene) -> SceneError | None:
             return refuse(f"probe {probe.name!r} ({probe.kind} {probe.quantity}"
                           f"{'' if probe.kind != 'point' else ', frame ' + probe.frame}) is not differentiated yet: "
                           "point positions and displacements in the global frame and hinge angles are")
+    return None
+
+
+def _transient_refusal(scene) -> str | None:
+    """Why ``solve.sensitivities`` of a transient ``scene`` is not exact here, or None
+    (latdyn/analyses/transient_sensitivities.py; docs/parameters.md, "Transient sensitivities")."""
+    solve = scene.solve
+    if solve.method == "explicit":
+        return "sensitivities of a transient run are computed for the implicit methods (generalized-alpha, " \
+               "hht-alpha, newmark), not for method explicit"
+    if solve.adaptive:
+        return "with adaptive step control the accepted step sizes depend on the parameters, which the " \
+               "derivative does not follow yet; expected a fixed step (adaptive: false)"
+    if scene.controllers or len(scene.inputs):
+        return "sensitivities of runs with controllers or inputs (sampled outputs, laws that jump) are not " \
+               "computed yet"
+    if scene.cables:
+        return "sensitivities of runs with cables (slack and taut events) are not computed yet"
+    if any(body.guide is not None for body in scene.bodies.values()):
+        return "sensitivities of runs with guides (prismatic joints) are not computed yet"
+    for beam, which, hinge in scene.hinges:
+        if hinge.contact is not None or hinge.friction is not None:
+            return (f"sensitivities through compliant stops and friction ({beam}.{which}: sticking and the "
+                    "stops' contact are events) are not computed yet")
     return None
 
 
