@@ -330,7 +330,9 @@ class ParameterDerivatives:
             if probe.quantity == "displacement":
                 value = value - self.initial_points[probe.name]
             size = float(np.linalg.norm(value))
-            return float(value @ moved) / size if size > 0 else float("nan")
+            if size > 0:
+                return float(value @ moved) / size
+            return 0.0 if not np.any(moved) else float("nan")   # |·| at 0: differentiable only along 0
         return float(moved["xyz".index(probe.component)])
 
 
