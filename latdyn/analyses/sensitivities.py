@@ -34,8 +34,12 @@ a hinge angle by δθ.
 Under displacement control the controlled displacement c(q) is held and λ moves instead: with
 g = ∂c/∂q and q_ref = −∂r/∂λ, δq = δq_r + δλ K⁻¹q_ref, δq_r = −K⁻¹ ∂r/∂p, δλ = −g·δq_r / g·K⁻¹q_ref.
 
+Transient runs: :mod:`latdyn.analyses.transient_sensitivities` (the step differentiated), on
+:class:`ParameterDerivatives` (∂r/∂p with the inertia forces).
+
 What is refused (:func:`refusal`, exit 2 naming ``solve.sensitivities``): any analysis but static
-load and displacement control; a parameter used anywhere but in load components, hinge stiffness, damping,
+load and displacement control and transient runs of an implicit method at fixed steps without
+events, cables, guides, controllers and inputs (:func:`_transient_refusal`); a parameter used anywhere but in load components, hinge stiffness, damping,
 torque and rest angle, section values of shear-rigid sections (formulation default) and body
 masses, centres of mass and inertias; probes other than point positions and displacements in the global frame
 and hinge angles; rigid links; hinges with limits or ``lock_at`` (events). Under gravity the static
