@@ -7,6 +7,7 @@ from __future__ import annotations
 import sys
 
 from latdyn.assembly.prepare import Prepared, length_scale
+from latdyn.errors import SceneError
 from latdyn.results.probes import ProbeSet
 from latdyn.results.writer import ResultWriter
 from latdyn.step.integrators import AlphaParameters, CentralDifference, newmark_warning
@@ -73,6 +74,10 @@ def start_transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter,
     the checkpoint ``resume_from``): :meth:`TimeLoop.run` steps it to ``solve.t_end``,
     :meth:`TimeLoop.advance_to` to a time where it pauses (latdyn.stepping)."""
     scene = prepared.scene
+    if scene.solve.sensitivities and sensitivities is None:   # latdyn.solve hands them in; nothing else does yet
+        raise SceneError(scene.file, "solve.sensitivities",
+                         "sensitivities are computed by latdyn.run and latdyn run only, not for a run stepped from "
+                         "Python (latdyn.Simulation) yet; expected no solve.sensitivities here")
     length = length_scale(prepared.model)
     tol = scene.solve.tol if scene.solve.tol is not None else DEFAULT_TOL
     integrator = integrator_for(prepared, tol, length, writer.summary)
