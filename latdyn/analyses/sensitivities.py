@@ -69,6 +69,8 @@ _SECTION_KEY = re.compile(r"^sections\.(?P<section>[^.]+)\.(?P<value>EA|EIy|EIz|
 _SECTION_COLUMN = {"EA": 1, "EIy": 2, "EIz": 3, "GJ": 4, "rhoA": 5, "rhoIy": 6, "rhoIz": 7}
 _BODY_KEY = re.compile(r"^bodies\.(?P<body>[^.]+)\.(?:(?P<mass>mass)|com\[(?P<com>[0-2])\]|"
                        r"(?P<inertia>inertia)\[(?P<row>[0-2])\](?:\[(?P<col>[0-2])\])?)$")
+#: a component of the rigid motion at t = 0 (transient runs: the velocities are affine in it at a fixed ``about``)
+_INITIAL_VELOCITY_KEY = re.compile(r"^initial_velocity\.(?P<kind>linear|angular)\[(?P<axis>[0-2])\]$")
 _HINGE_KEY = re.compile(r"^beams\.(?P<beam>.+)\.(?P<end>start|end)\.hinge\.(?P<law>stiffness|damping|torque|rest_angle)$")
 
 
@@ -101,11 +103,12 @@ def refusal(scene) -> SceneError | None:
     for name in names:
         for used in scene.parameters.depending_on(name):
             section = _SECTION_KEY.match(used)
-            if not (_LOAD_KEY.match(used) or _HINGE_KEY.match(used) or section or _BODY_KEY.match(used)):
+            initial = solve.analysis == "transient" and _INITIAL_VELOCITY_KEY.match(used)
+            if not (_LOAD_KEY.match(used) or _HINGE_KEY.match(used) or section or _BODY_KEY.match(used) or initial):
                 return refuse(f"parameter {name!r} is used at {used}: sensitivities are computed for parameters "
                               "of load components, of hinge stiffness, damping, torque and rest_angle, of section "
-                              "stiffnesses and masses (shear-rigid) and of body masses, centres of mass and "
-                              "inertias only")
+                              "stiffnesses and masses (shear-rigid), of body masses, centres of mass and "
+                              "inertias and, in transient runs, of initial_velocity.linear and .angular only")
             if section and solve.formulation != "default":
                 return refuse(f"parameter {name!r} is used at {used}: sensitivities by section values are computed "
                               f"for formulation: default only, not {solve.formulation}")

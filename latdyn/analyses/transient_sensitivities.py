@@ -31,11 +31,13 @@ factorised afresh. ∂r/∂p comes from the generated kernels by their linearity
 accepted step sizes are held: a fixed-step run (its cuts after a Newton failure included) is
 differentiated exactly; adaptive step control is refused (its step sizes depend on p).
 
-At t = 0 the configuration and velocities depend on no supported parameter (δq_0 = δv_0 = 0) and
-the start's consistent accelerations (:func:`latdyn.step.integrators.consistent_acceleration`) are
+At t = 0 the configuration depends on no supported parameter (δq_0 = 0); the velocities do through
+``initial_velocity.linear`` and ``.angular`` only, in which they are affine at a fixed ``about``
+(:func:`latdyn.assembly.initial.initial_velocities`): δv_0 = v_0(its values + their derivatives) −
+v_0(its values), exactly. The start's consistent accelerations (:func:`latdyn.step.integrators.consistent_acceleration`) are
 differentiated as the start computes them: v̇_0 = Δ(r) is linear in the residual r at fixed M, K
-and split into directions with and without inertia, so δv̇_0 = Δ(∂r/∂p at the started state), and
-δa_0 = δv̇_0. That is exact when the split has no directions without inertia (then Δ = −M⁻¹r, and
+and split into directions with and without inertia, so δv̇_0 = Δ(∂r/∂p + C δv_0 at the started
+state), and δa_0 = δv̇_0. That is exact when the split has no directions without inertia (then Δ = −M⁻¹r, and
 ∂r/∂p at the started state holds ∂M/∂p v̇_0), or when the parameter moves neither M, K nor the split
 (global load components, hinge damping, torque and rest angle), or when the start is at rest in
 equilibrium (Δ = 0 and the statics of the directions without inertia balanced, to 1e-9 in SI
@@ -53,8 +55,8 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from latdyn.analyses.sensitivities import (_BODY_KEY, _HINGE_KEY, _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE,
-                                           ParameterDerivatives)
+from latdyn.analyses.sensitivities import (_BODY_KEY, _HINGE_KEY, _INITIAL_VELOCITY_KEY, _LOAD_KEY, _SECTION_KEY,
+                                           SENSITIVITIES_FILE, ParameterDerivatives)
 from latdyn.assembly.assembler import free_velocity, unpack_free
 from latdyn.assembly.factorization import solve_linear
 from latdyn.errors import SceneError, SolverError
@@ -96,17 +98,39 @@ class TransientSensitivities(ParameterDerivatives):
         split = split_inertia(model, ev.combined(1.0, 0.0, 0.0))
         if split.n_massless:
             self._refuse_start(state, ev, split)
-        rhs = self.residual_derivatives(state, 1.0, inertia=True)
+        dv = self._initial_velocities()
+        rhs = self.residual_derivatives(state, 1.0, inertia=True) + ev.combined(0.0, 1.0, 0.0) @ dv
         dvdot = np.column_stack([consistent_acceleration(model, SimpleNamespace(residual=rhs[:, c],
                                                                                 combined=ev.combined))
                                  for c in range(k)])
-        return {**carried, "dvdot": dvdot, "da": dvdot.copy()}
+        return {**carried, "dv": dv, "dvdot": dvdot, "da": dvdot.copy()}
+
+    def _initial_velocities(self) -> np.ndarray:
+        """δv_0 (n, k): the initial state's free velocities with the rigid motion's components moved by
+        their derivatives, less without (affine in them at a fixed ``about``)."""
+        model, scene = self.model, self.scene
+        dv = np.zeros((model.n_dofs, len(self.names)))
+        given = scene.initial_velocity
+        for key, laws in self.derivatives.items():
+            initial = _INITIAL_VELOCITY_KEY.match(key)
+            if not initial:
+                continue
+            for column, law in laws.items():
+                moved = {"linear": np.array(given.linear, float), "angular": np.array(given.angular, float)}
+                moved[initial["kind"]][int(initial["axis"])] += law.value(0.0, 0.0, 0.0)
+                try:
+                    scene.initial_velocity = type(given)(moved["linear"], moved["angular"], given.about, given.given)
+                    ahead = free_velocity(model, self.assembler.initial_state())
+                finally:
+                    scene.initial_velocity = given
+                dv[:, column] += ahead - free_velocity(model, self.assembler.initial_state())
+        return dv
 
     def _refuse_start(self, state, ev, split) -> None:
         """With directions without inertia, the start's derivative is exact only for parameters that move
         neither M nor K, or at rest in equilibrium (module docstring)."""
         moving = [key for key in self.derivatives
-                  if _SECTION_KEY.match(key) or _BODY_KEY.match(key)
+                  if _SECTION_KEY.match(key) or _BODY_KEY.match(key) or _INITIAL_VELOCITY_KEY.match(key)
                   or (_HINGE_KEY.match(key) and _HINGE_KEY.match(key)["law"] == "stiffness")
                   or (_LOAD_KEY.match(key) and self.scene.loads[int(_LOAD_KEY.match(key)["load"])].frame != "global")]
         if not moving:
