@@ -65,8 +65,8 @@ def main() -> None:
     print(f"load average (1 min): {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
     base = min(times["0 (loop in C)"])
     for name, measured in times.items():
-        print(f"{name:14s} parameters: min {min(measured) * 1e3:8.1f} ms, median {statistics.median(measured) * 1e3:8.1f} ms,"
-              f" {min(measured) / base:.2f}x the run without (minima)")
+        print(f"{name:14s} parameters: min {min(measured) * 1e3:8.1f} ms, "
+              f"median {statistics.median(measured) * 1e3:8.1f} ms, {min(measured) / base:.2f}x the run without (minima)")
 
 
 if __name__ == "__main__":

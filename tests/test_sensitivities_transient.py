@@ -220,7 +220,10 @@ def test_the_joint_body_is_linear_in_mass_and_inertia_and_quadratic_in_the_centr
     rng = np.random.default_rng(34)
     frame = expm_so3(rng.normal(size=3)).reshape(1, 9)
     motion, gravity = rng.normal(size=(1, 9)), np.array([[0.3, -9.81, 1.2]])
-    force = lambda block: np.asarray(kernels.joint_body(frame, motion, block[None], gravity)[0]).reshape(6)  # noqa: E731
+
+    def force(block):
+        return np.asarray(kernels.joint_body(frame, motion, block[None], gravity)[0]).reshape(6)
+
     inertia = rng.normal(size=(3, 3))
     body = np.concatenate([[0.7], rng.normal(size=3), (inertia @ inertia.T).reshape(9)])
     mass_only, inertia_only = body.copy(), body.copy()

@@ -34,7 +34,8 @@ differentiated exactly; adaptive step control is refused (its step sizes depend 
 At t = 0 the configuration depends on no supported parameter (δq_0 = 0); the velocities do through
 ``initial_velocity.linear`` and ``.angular`` only, in which they are affine at a fixed ``about``
 (:func:`latdyn.assembly.initial.initial_velocities`): δv_0 = v_0(its values + their derivatives) −
-v_0(its values), exactly. The start's consistent accelerations (:func:`latdyn.step.integrators.consistent_acceleration`) are
+v_0(its values), exactly. The start's consistent accelerations
+(:func:`latdyn.step.integrators.consistent_acceleration`) are
 differentiated as the start computes them: v̇_0 = Δ(r) is linear in the residual r at fixed M, K
 and split into directions with and without inertia, so δv̇_0 = Δ(∂r/∂p + C δv_0 at the started
 state), and δa_0 = δv̇_0. That is exact when the split has no directions without inertia (then Δ = −M⁻¹r, and

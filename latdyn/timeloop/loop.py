@@ -463,7 +463,7 @@ class TimeLoop:
         :data:`DRIFT_WARNING` is a warning on stderr and in summary.json ``warnings``."""
         progress, summary = self.progress, self.writer.summary
         summary.update(progress.summary(self.tol, self.prepared.scene.solve.method))
-        if self.sensitivities is not None and not self.writer.closed:
+        if self.sensitivities is not None and progress.sensitivities is not None and not self.writer.closed:
             self.sensitivities.finish(progress.sensitivities, self.writer)
         if self.model.cables is not None:
             summary["cable_events"] = [{"cable": e["joint"], "t": e["t"], "state": e["kind"]} for e in progress.events
