@@ -191,7 +191,12 @@ def _analyse(prepared, probes: ProbeSet, writer: ResultWriter, out_dir, analysis
         _hold_sampled_controllers(prepared, probes, writer)
     write_linear_model_first(prepared, writer, out_dir)
     if analysis == "transient":
-        transient(prepared, probes, writer, progress, checkpointer, resume_from)
+        sensitivities = None
+        if scene.solve.sensitivities:   # exact sensitivities of the run (docs/parameters.md)
+            from latdyn.analyses.transient_sensitivities import TransientSensitivities
+
+            sensitivities = TransientSensitivities(prepared)
+        transient(prepared, probes, writer, progress, checkpointer, resume_from, sensitivities)
         return
     started = time.perf_counter()
     try:

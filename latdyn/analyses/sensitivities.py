@@ -34,8 +34,12 @@ a hinge angle by δθ.
 Under displacement control the controlled displacement c(q) is held and λ moves instead: with
 g = ∂c/∂q and q_ref = −∂r/∂λ, δq = δq_r + δλ K⁻¹q_ref, δq_r = −K⁻¹ ∂r/∂p, δλ = −g·δq_r / g·K⁻¹q_ref.
 
+Transient runs: :mod:`latdyn.analyses.transient_sensitivities` (the step differentiated), on
+:class:`ParameterDerivatives` (∂r/∂p with the inertia forces).
+
 What is refused (:func:`refusal`, exit 2 naming ``solve.sensitivities``): any analysis but static
-load and displacement control; a parameter used anywhere but in load components, hinge stiffness, damping,
+load and displacement control and transient runs of an implicit method at fixed steps without
+events, cables, guides, controllers and inputs (:func:`_transient_refusal`); a parameter used anywhere but in load components, hinge stiffness, damping,
 torque and rest angle, section values of shear-rigid sections (formulation default) and body
 masses, centres of mass and inertias; probes other than point positions and displacements in the global frame
 and hinge angles; rigid links; hinges with limits or ``lock_at`` (events). Under gravity the static
@@ -63,7 +67,10 @@ _LOAD_KEY = re.compile(r"^loads\[(?P<load>\d+)\]\.(?P<kind>force|moment)\[(?P<ax
 _SECTION_KEY = re.compile(r"^sections\.(?P<section>[^.]+)\.(?P<value>EA|EIy|EIz|GJ|rhoA|rhoIy|rhoIz)$")
 #: the section block's columns (codegen/conventions.py: L0 EA EIy EIz GJ rhoA rhoIy rhoIz 1/GAy 1/GAz)
 _SECTION_COLUMN = {"EA": 1, "EIy": 2, "EIz": 3, "GJ": 4, "rhoA": 5, "rhoIy": 6, "rhoIz": 7}
-_BODY_KEY = re.compile(r"^bodies\.(?P<body>[^.]+)\.(?:(?P<mass>mass)|com\[(?P<com>[0-2])\]|(?P<inertia>inertia)\[.*)$")
+_BODY_KEY = re.compile(r"^bodies\.(?P<body>[^.]+)\.(?:(?P<mass>mass)|com\[(?P<com>[0-2])\]|"
+                       r"(?P<inertia>inertia)\[(?P<row>[0-2])\](?:\[(?P<col>[0-2])\])?)$")
+#: a component of the rigid motion at t = 0 (transient runs: the velocities are affine in it at a fixed ``about``)
+_INITIAL_VELOCITY_KEY = re.compile(r"^initial_velocity\.(?P<kind>linear|angular)\[(?P<axis>[0-2])\]$")
 _HINGE_KEY = re.compile(r"^beams\.(?P<beam>.+)\.(?P<end>start|end)\.hinge\.(?P<law>stiffness|damping|torque|rest_angle)$")
 
 
@@ -79,12 +86,14 @@ def refusal(scene) -> SceneError | None:
         return SceneError(scene.file, key, f"{what}; expected sensitivities only where they are exact "
                                            "(docs/parameters.md, \"Sensitivities\")")
 
-    if solve.analysis != "static" or solve.method not in ("load-control", "displacement-control"):
+    why = _transient_refusal(scene) if solve.analysis == "transient" else None
+    if why is not None:
+        return refuse(why)
+    if solve.analysis not in ("static", "transient") or (
+            solve.analysis == "static" and solve.method not in ("load-control", "displacement-control")):
         method = f"{solve.analysis}" + (f" ({solve.method})" if solve.analysis == "static" else "")
-        why = (" (the step's Newton matrix is not yet the exact Jacobian of the step)" if solve.analysis == "transient"
-               else "")
-        return refuse(f"sensitivities are computed for static load control and displacement control only, "
-                      f"not yet for a {method} analysis{why}")
+        return refuse(f"sensitivities are computed for static load control and displacement control and for "
+                      f"transient runs with an implicit method only, not yet for a {method} analysis")
     if any(beam.rigid for beam in scene.beams.values()):
         return refuse("sensitivities of scenes with rigid links are not computed yet")
     for beam, which, hinge in scene.hinges:
@@ -94,11 +103,12 @@ def refusal(scene) -> SceneError | None:
     for name in names:
         for used in scene.parameters.depending_on(name):
             section = _SECTION_KEY.match(used)
-            if not (_LOAD_KEY.match(used) or _HINGE_KEY.match(used) or section or _BODY_KEY.match(used)):
+            initial = solve.analysis == "transient" and _INITIAL_VELOCITY_KEY.match(used)
+            if not (_LOAD_KEY.match(used) or _HINGE_KEY.match(used) or section or _BODY_KEY.match(used) or initial):
                 return refuse(f"parameter {name!r} is used at {used}: sensitivities are computed for parameters "
                               "of load components, of hinge stiffness, damping, torque and rest_angle, of section "
-                              "stiffnesses and masses (shear-rigid) and of body masses, centres of mass and "
-                              "inertias only")
+                              "stiffnesses and masses (shear-rigid), of body masses, centres of mass and "
+                              "inertias and, in transient runs, of initial_velocity.linear and .angular only")
             if section and solve.formulation != "default":
                 return refuse(f"parameter {name!r} is used at {used}: sensitivities by section values are computed "
                               f"for formulation: default only, not {solve.formulation}")
@@ -111,6 +121,30 @@ def refusal(scene) -> SceneError | None:
             return refuse(f"probe {probe.name!r} ({probe.kind} {probe.quantity}"
                           f"{'' if probe.kind != 'point' else ', frame ' + probe.frame}) is not differentiated yet: "
                           "point positions and displacements in the global frame and hinge angles are")
+    return None
+
+
+def _transient_refusal(scene) -> str | None:
+    """Why ``solve.sensitivities`` of a transient ``scene`` is not exact here, or None
+    (latdyn/analyses/transient_sensitivities.py; docs/parameters.md, "Transient sensitivities")."""
+    solve = scene.solve
+    if solve.method == "explicit":
+        return "sensitivities of a transient run are computed for the implicit methods (generalized-alpha, " \
+               "hht-alpha, newmark), not for method explicit"
+    if solve.adaptive:
+        return "with adaptive step control the accepted step sizes depend on the parameters, which the " \
+               "derivative does not follow yet; expected a fixed step (adaptive: false)"
+    if scene.controllers or len(scene.inputs):
+        return "sensitivities of runs with controllers or inputs (sampled outputs, laws that jump) are not " \
+               "computed yet"
+    if scene.cables:
+        return "sensitivities of runs with cables (slack and taut events) are not computed yet"
+    if any(body.guide is not None for body in scene.bodies.values()):
+        return "sensitivities of runs with guides (prismatic joints) are not computed yet"
+    for beam, which, hinge in scene.hinges:
+        if hinge.contact is not None or hinge.friction is not None:
+            return (f"sensitivities through compliant stops and friction ({beam}.{which}: sticking and the "
+                    "stops' contact are events) are not computed yet")
     return None
 
 
@@ -127,24 +161,18 @@ def _refuse_without_gravity_tangent(scene, model, kernels) -> None:
                          f"{kernels.variant})")
 
 
-class StaticSensitivities:
-    """The sensitivities of the recorded rows of a static path: :meth:`record` at each row; then
-    :meth:`table` (``Result.sensitivities``), :meth:`summary` (``probe_sensitivities``) and
-    :meth:`write` (``sensitivities.csv``), called by latdyn/analyses/continuation.py."""
+class ParameterDerivatives:
+    """What the static and the transient sensitivities share: the named parameters, the laws of
+    their derivatives, ∂r/∂p at a state from the generated kernels (:meth:`residual_derivatives`),
+    a probe's derivative along a tangent vector (:meth:`probe_row`) and the summary of the rows."""
 
     def __init__(self, prepared):
         self.scene = prepared.scene
         self.model, self.assembler = prepared.model, prepared.assembler
         self.kernels = self.assembler.kernels
         self.names = list(self.scene.solve.sensitivities)
-        _refuse_without_gravity_tangent(self.scene, self.model, self.kernels)
         self.probes = list(self.scene.output.probes)
         self.columns = [f"{p.name}/{name}" for p in self.probes for name in self.names]
-        self.rows: list[tuple[float, list[float]]] = []
-        #: δλ/δp per row and parameter: zero under load control (λ is the grid's), moving under
-        #: displacement control
-        self.load_factor_rows: list[list[float]] = []
-        self.controlled = self.scene.solve.method == "displacement-control"
         params = self.scene.parameters
         # the derivative laws, parsed once: key -> {column: HingeLaw in theta, theta_dot, t}, only
         # where the key uses the parameter
@@ -159,8 +187,10 @@ class StaticSensitivities:
                                for node, offset in [self.model.point(p.point)]}
 
     # ------------------------------------------------------------------ ∂r/∂p
-    def residual_derivatives(self, state, load_factor: float) -> np.ndarray:
-        """∂r/∂p on the free coordinates, one column per parameter (n_dofs, k)."""
+    def residual_derivatives(self, state, load_factor: float, inertia: bool = False) -> np.ndarray:
+        """∂r/∂p on the free coordinates, one column per parameter (n_dofs, k): of the static residual,
+        or with ``inertia`` of the equations of motion r(q, v, v̇, t) at ``state`` (its velocities and
+        accelerations)."""
         model, k = self.model, len(self.names)
         total = np.zeros((model.n_total + 1, k))
         load_values: dict[tuple[int, int], np.ndarray] = {}   # (load, column) -> λ ∂(its six values)/∂p
@@ -174,21 +204,23 @@ class StaticSensitivities:
                 elif hinge:
                     j = model.hinge_index(hinge["beam"], hinge["end"])
                     total[model.hinge_dofs[j], column] += self._hinge_force(state, j, hinge["law"], law, load_factor)
-        self._section_forces(state, total, load_factor)
-        self._body_forces(state, total, load_factor)
+        self._section_forces(state, total, load_factor, inertia)
+        self._body_forces(state, total, load_factor, inertia)
         for (index, column), values in load_values.items():   # the kernel is linear in the values
             node, force = self._load_force(state, index, values)
             total[model.node_dofs[node], column] += force
         return total[:model.n_dofs]
 
-    def _section_forces(self, state, total: np.ndarray, load_factor: float) -> None:
+    def _section_forces(self, state, total: np.ndarray, load_factor: float, inertia: bool = False) -> None:
         """Add ∂(element internal force − λ gravity load)/∂p into ``total`` for the section values that
         name a parameter: ``beam_internal_force`` and ``beam_gravity`` with the section block replaced
         by its derivative (both linear in the section values EA … ρIz of a shear-rigid section:
-        tests/test_sensitivities.py checks the kernels for it)."""
+        tests/test_sensitivities.py checks the kernels for it); with ``inertia`` also the inertia
+        force M a + g (``beam_mass_matrix`` times the element's accelerations and
+        ``beam_quadratic_velocity``, linear in ρA, ρIy, ρIz), as evaluate.c sums them."""
         model = self.model
         gravity = load_factor * np.asarray(self.assembler.gravity, float)
-        geometry = None
+        geometry = rates = accelerations = None
         for key, laws in self.derivatives.items():
             section = _SECTION_KEY.match(key)
             if not section:
@@ -197,7 +229,8 @@ class StaticSensitivities:
                                  if self.scene.beams[beam].section.name == section["section"]], dtype=np.int64)
             if len(elements) == 0:
                 continue
-            geometry = self.assembler.element_geometry(state) if geometry is None else geometry
+            if geometry is None:
+                geometry, rates, accelerations = self.assembler.native().element_inputs(state)
             for column, law in laws.items():
                 rows = np.zeros((len(elements), model.element_sections.shape[1]))
                 rows[:, 0] = model.element_sections[elements, 0]                       # L0
@@ -211,38 +244,59 @@ class StaticSensitivities:
                 if np.any(gravity):   # evaluate.c: the static residual F − λ gravity load
                     rows_g = np.repeat(gravity[None], len(elements), axis=0)
                     forces = forces - np.asarray(self.kernels.beam_gravity(at, rows, rows_g)[0]).reshape(len(elements), 14)
+                if inertia:   # evaluate.c: F + M a + g − gravity
+                    rate = np.ascontiguousarray(rates[elements])
+                    mass = np.asarray(self.kernels.beam_mass_matrix(at, rows)[0]).reshape(len(elements), 14, 14)
+                    forces = forces + np.einsum("epq,eq->ep", mass, accelerations[elements]) \
+                        + np.asarray(self.kernels.beam_quadratic_velocity(at, rate, rows)[0]).reshape(len(elements), 14)
                 np.add.at(total[:, column], model.element_dofs[elements], forces)
 
-    def _body_forces(self, state, total: np.ndarray, load_factor: float) -> None:
-        """Add ∂(joint body force)/∂p into ``total`` for body masses and centres of mass that name a
-        parameter: ``joint_body`` at rest (a static state) is λ-gravity alone, linear in the mass at a
-        fixed centre of mass (the kernel with (∂m/∂p, c)) and affine in the centre of mass at a fixed
-        mass (the kernel with (m, ∂c/∂p) less the kernel with (m, 0)). Inertias do not enter a static
-        residual (their derivative is zero)."""
+    def _body_forces(self, state, total: np.ndarray, load_factor: float, inertia: bool = False) -> None:
+        """Add ∂(joint body force)/∂p into ``total`` for body masses, centres of mass and inertias that
+        name a parameter, from the generated ``joint_body`` (codegen/joints.py ``joint_body_terms``).
+        Static (at rest) it is λ-gravity alone; with ``inertia`` the Newton–Euler forces at the node's
+        ω, a, α. It is linear in (m, I) at a fixed centre of mass c — the kernel with (∂m/∂p, c, ∂I/∂p)
+        —, and a polynomial of degree two in c at fixed (m, I), whose derivative along ∂c/∂p is
+        exactly ½ (f(c + ∂c/∂p) − f(c − ∂c/∂p)) (a polynomial identity, no truncation:
+        tests/test_sensitivities_transient.py checks the degree)."""
         model, gravity = self.model, load_factor * np.asarray(self.assembler.gravity, float)
-        if not np.any(gravity):
+        if not np.any(gravity) and not inertia:
             return
         for key, laws in self.derivatives.items():
             body = _BODY_KEY.match(key)
-            if not body or body["inertia"]:
+            if not body or (body["inertia"] and not inertia):
                 continue
-            spec = self.scene.bodies[body["body"]]
             node = model.body_node[body["body"]]
+            b = int(np.flatnonzero(model.body_nodes == node)[0])
             frame = np.ascontiguousarray(state.T[node].reshape(1, 9))
+            motion = np.zeros((1, 9))
+            if inertia:
+                motion[0] = np.concatenate([state.w[node], state.a[node], state.alpha[node]])
 
-            def at_rest(block):
-                return np.asarray(self.kernels.joint_body(frame, np.zeros((1, 9)), block, gravity[None])[0]).reshape(6)
+            def force_of(block):
+                return np.asarray(self.kernels.joint_body(frame, motion, block, gravity[None])[0]).reshape(6)
 
             for column, law in laws.items():
+                value = law.value(0.0, 0.0, state.t)
                 block = np.zeros((1, 13))
                 if body["mass"]:
-                    block[0, 0], block[0, 1:4] = law.value(0.0, 0.0, state.t), spec.com
-                    force = at_rest(block)
+                    block[0, 0], block[0, 1:4] = value, model.body_com[b]
+                    force = force_of(block)
+                elif body["inertia"]:   # inertia[i] (the diagonal) or inertia[i][j] (symmetrised)
+                    i, j = body["row"], body["col"] if body["col"] is not None else body["row"]
+                    step = np.zeros((3, 3))
+                    step[int(i), int(j)] += 0.5 * value
+                    step[int(j), int(i)] += 0.5 * value
+                    block[0, 1:4], block[0, 4:13] = model.body_com[b], step.reshape(9)
+                    force = force_of(block)
                 else:
-                    block[0, 0] = spec.mass
-                    without = at_rest(block)
-                    block[0, 1 + int(body["com"])] = law.value(0.0, 0.0, state.t)
-                    force = at_rest(block) - without
+                    block[0, 0], block[0, 4:13] = model.body_mass[b], model.body_inertia[b].reshape(9)
+                    along = np.zeros(3)
+                    along[int(body["com"])] = value
+                    block[0, 1:4] = model.body_com[b] + along
+                    ahead = force_of(block)
+                    block[0, 1:4] = model.body_com[b] - along
+                    force = 0.5 * (ahead - force_of(block))
                 total[model.node_dofs[node], column] += force
 
     def _load_force(self, state, index: int, values: np.ndarray):
@@ -270,6 +324,38 @@ class StaticSensitivities:
         laws[0, {"stiffness": 0, "damping": 3, "torque": 6}[which]] = derivative
         at = np.array([[theta, rate, hinge.rest_angle, load_factor]])
         return float(np.asarray(self.kernels.hinge_force(at, laws, contact)[0]).reshape(-1)[0])
+
+    def _probe_derivative(self, probe, state, dx, dpi, dtheta) -> float:
+        model = self.model
+        if probe.kind == "hinge":
+            return float(dtheta[model.hinge_index(probe.beam, probe.end)])
+        node, offset = model.point(probe.point)
+        arm = state.T[node] @ offset
+        moved = dx[node] + np.cross(dpi[node], arm)                  # δ(x + T r)
+        if probe.component in (None, "norm"):
+            value = state.x[node] + arm
+            if probe.quantity == "displacement":
+                value = value - self.initial_points[probe.name]
+            size = float(np.linalg.norm(value))
+            if size > 0:
+                return float(value @ moved) / size
+            return 0.0 if not np.any(moved) else float("nan")   # |·| at 0: differentiable only along 0
+        return float(moved["xyz".index(probe.component)])
+
+
+class StaticSensitivities(ParameterDerivatives):
+    """The sensitivities of the recorded rows of a static path: :meth:`record` at each row; then
+    :meth:`table` (``Result.sensitivities``), :meth:`summary` (``probe_sensitivities``) and
+    :meth:`write` (``sensitivities.csv``), called by latdyn/analyses/continuation.py."""
+
+    def __init__(self, prepared):
+        super().__init__(prepared)
+        _refuse_without_gravity_tangent(self.scene, self.model, self.kernels)
+        self.rows: list[tuple[float, list[float]]] = []
+        #: δλ/δp per row and parameter: zero under load control (λ is the grid's), moving under
+        #: displacement control
+        self.load_factor_rows: list[list[float]] = []
+        self.controlled = self.scene.solve.method == "displacement-control"
 
     # ------------------------------------------------------------------ rows
     def record(self, state, load_factor: float, constraint_gradient=None) -> None:
@@ -307,21 +393,6 @@ class StaticSensitivities:
             by_parameter.append((dx, dpi, dtheta))
         self.rows.append((load_factor, [self._probe_derivative(p, state, *by_parameter[c])
                                         for p in self.probes for c in range(k)]))
-
-    def _probe_derivative(self, probe, state, dx, dpi, dtheta) -> float:
-        model = self.model
-        if probe.kind == "hinge":
-            return float(dtheta[model.hinge_index(probe.beam, probe.end)])
-        node, offset = model.point(probe.point)
-        arm = state.T[node] @ offset
-        moved = dx[node] + np.cross(dpi[node], arm)                  # δ(x + T r)
-        if probe.component in (None, "norm"):
-            value = state.x[node] + arm
-            if probe.quantity == "displacement":
-                value = value - self.initial_points[probe.name]
-            size = float(np.linalg.norm(value))
-            return float(value @ moved) / size if size > 0 else float("nan")
-        return float(moved["xyz".index(probe.component)])
 
     # ------------------------------------------------------------------ results
     def table(self) -> dict:

@@ -32,6 +32,23 @@ def expm_so3(w: np.ndarray) -> np.ndarray:
 _SO3_EXP = None
 
 
+def dexp_so3(w: np.ndarray) -> np.ndarray:
+    """Batched tangent operator of the exponential map in the spatial (left) form, (..., 3) -> (..., 3, 3):
+    exp(skew(w + δw)) = exp(skew(J δw)) exp(skew w) to first order, with
+    J = I + (1 − cos θ)/θ² W + (θ − sin θ)/θ³ W², W = skew w, θ = |w| (Taylor series below θ = 1e-2,
+    exact to round-off there). The step's sensitivities carry rotations through it
+    (latdyn/analyses/transient_sensitivities.py)."""
+    w = np.asarray(w, float)
+    theta = np.linalg.norm(w, axis=-1)[..., None, None]
+    small = theta < 1e-2
+    t2 = theta * theta
+    safe = np.where(small, 1.0, theta)
+    first = np.where(small, 0.5 - t2 / 24 + t2 * t2 / 720, (1 - np.cos(safe)) / safe ** 2)
+    second = np.where(small, 1 / 6 - t2 / 120 + t2 * t2 / 5040, (safe - np.sin(safe)) / safe ** 3)
+    W = skew(w)
+    return np.eye(3) + first * W + second * (W @ W)
+
+
 def orthonormalize(T: np.ndarray) -> np.ndarray:
     """Nearest rotations (polar decomposition), against round-off drift of long runs."""
     U, _, Vt = np.linalg.svd(T)

@@ -67,13 +67,18 @@ class TimeLoop:
 
     def __init__(self, prepared: Prepared, integrator, probes: ProbeSet, writer: ResultWriter,
                  control: StepControl, *, tol: float, checkpointer: checkpoints.Checkpointer | None = None,
-                 compiled_loop: bool = True, loop_budget_s: float = 0.25, sampler=None):
+                 compiled_loop: bool = True, loop_budget_s: float = 0.25, sampler=None, sensitivities=None):
         self.prepared, self.model, self.assembler = prepared, prepared.model, prepared.assembler
         self.integrator, self.probes, self.writer, self.control = integrator, probes, writer, control
         self.tol, self.checkpointer = tol, checkpointer
         self.compiled_loop, self.loop_budget_s = compiled_loop, loop_budget_s
         #: the sampled controllers (latdyn.timeloop.sampling), None without
         self.sampler = sampler if sampler else None
+        #: solve.sensitivities (latdyn.analyses.transient_sensitivities.TransientSensitivities, handed in
+        #: by latdyn.solve): differentiated once per accepted step, on the per-step path
+        self.sensitivities = sensitivities
+        if sensitivities is not None:
+            sensitivities.bind(integrator)
         self.energies_of = prepared.assembler.energies
         # modified Newton's held factorization (step.compiled.CompiledGeneralizedAlpha): a checkpoint of the
         # last accepted step carries it when the engine still holds that step's (its mark unchanged)
@@ -98,7 +103,7 @@ class TimeLoop:
                 lambda snapshot=self.last_recorded: paraview.frame(self.assembler, self.writer.mesh, snapshot))
         # sampled controllers: back in Python at each sample instant, so one step at a time
         self.compiled = (self.compiled_loop and hasattr(self.integrator, "advance") and not self.control.adaptive
-                         and self.sampler is None)
+                         and self.sampler is None and self.sensitivities is None)
         self.writer.summary["time_loop"] = "compiled" if self.compiled else "python"
         if resume_from is None:
             self._record(self.progress.state, energy0)
@@ -123,6 +128,8 @@ class TimeLoop:
             received0=energy0["kinetic"] + energy0["strain"] + 1e-8 * abs(energy0["potential"]),
             inertia_tangent_from=0.0 if getattr(self.integrator, "inertia_tangent", False) else None,
             controller_memory=self.sampler.memory() if self.sampler is not None else None)
+        if self.sensitivities is not None:
+            self.progress.sensitivities = self.sensitivities.start(state)
         return energy0
 
     def _resume(self, checkpoint: checkpoints.Checkpoint) -> None:
@@ -353,6 +360,9 @@ class TimeLoop:
             progress.power = load_power(model, new, after)
         self._torques_from(after)
         progress.dissipated = self.probes.dissipated = dissipated + events.loss
+        if self.sensitivities is not None:   # the step differentiated (no events: refused, solve.sensitivities)
+            progress.sensitivities = self.sensitivities.step(progress.sensitivities, progress.state, new, h,
+                                                             progress.algorithmic_acceleration, integrator.a)
         progress.state = new
         progress.algorithmic_acceleration = integrator.a
         progress.locked, progress.stuck = model.locked.copy(), model.stuck.copy()
@@ -424,6 +434,8 @@ class TimeLoop:
             self.progress.note_joint_forces([h.name for h in self.model.hinges], self.probes.joint_forces(state),
                                             state.t)
         snapshot = state.copy()
+        if self.sensitivities is not None:
+            self.progress.sensitivities = self.sensitivities.record(self.progress.sensitivities, state)
         self.writer.record(state.t, self.probes.values(state, energies), state=state.as_dict(),
                            frame=lambda: paraview.frame(self.assembler, self.writer.mesh, snapshot))
         self.bookmark, self.last_recorded = self.writer.bookmark(), snapshot
@@ -451,6 +463,8 @@ class TimeLoop:
         :data:`DRIFT_WARNING` is a warning on stderr and in summary.json ``warnings``."""
         progress, summary = self.progress, self.writer.summary
         summary.update(progress.summary(self.tol, self.prepared.scene.solve.method))
+        if self.sensitivities is not None and progress.sensitivities is not None and not self.writer.closed:
+            self.sensitivities.finish(progress.sensitivities, self.writer)
         if self.model.cables is not None:
             summary["cable_events"] = [{"cable": e["joint"], "t": e["t"], "state": e["kind"]} for e in progress.events
                                        if e["kind"] in ("slack", "taut")]

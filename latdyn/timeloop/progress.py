@@ -77,6 +77,9 @@ class TransientProgress:
     #: per cable element, +1 taut or −1 slack at ``state`` (latdyn.timeloop.events.cable_events); None
     #: until the first step of a model with cables
     cable_sides: list | None = None
+    #: solve.sensitivities of a transient run (latdyn/analyses/transient_sensitivities.py): δq, δv, δv̇, δa
+    #: on the free coordinates (n, k) and the recorded rows; replaced, never changed in place
+    sensitivities: dict | None = None
 
     def count(self, stats) -> None:
         """Count a step's Newton iterations and factorizations (``stats``: a StepStats)."""

@@ -7,6 +7,7 @@ from __future__ import annotations
 import sys
 
 from latdyn.assembly.prepare import Prepared, length_scale
+from latdyn.errors import SceneError
 from latdyn.results.probes import ProbeSet
 from latdyn.results.writer import ResultWriter
 from latdyn.step.integrators import AlphaParameters, CentralDifference, newmark_warning
@@ -57,21 +58,26 @@ def integrator_for(prepared: Prepared, tol: float, length: float, summary: dict)
 
 def transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter, progress: bool,
               checkpointer: checkpoints.Checkpointer | None = None,
-              resume_from: checkpoints.Checkpoint | None = None) -> TransientProgress:
+              resume_from: checkpoints.Checkpoint | None = None, sensitivities=None) -> TransientProgress:
     """Run the time loop to ``solve.t_end``; the progress at the end. With a ``checkpointer``, a
     checkpoint of the last accepted step is written at its interval, on an interrupt and on a
     failure; ``resume_from`` (a loaded checkpoint) continues from one, the writer having been
-    reopened at its bookmark. ``progress``: show a progress bar."""
-    return start_transient(prepared, probes, writer, checkpointer, resume_from).run(progress)
+    reopened at its bookmark. ``progress``: show a progress bar. ``sensitivities``: solve.sensitivities
+    (latdyn.analyses.transient_sensitivities.TransientSensitivities), None without."""
+    return start_transient(prepared, probes, writer, checkpointer, resume_from, sensitivities).run(progress)
 
 
 def start_transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter,
                     checkpointer: checkpoints.Checkpointer | None = None,
-                    resume_from: checkpoints.Checkpoint | None = None) -> TimeLoop:
+                    resume_from: checkpoints.Checkpoint | None = None, sensitivities=None) -> TimeLoop:
     """The time loop of the scene's transient run, begun (its first row recorded, or reopened at
     the checkpoint ``resume_from``): :meth:`TimeLoop.run` steps it to ``solve.t_end``,
     :meth:`TimeLoop.advance_to` to a time where it pauses (latdyn.stepping)."""
     scene = prepared.scene
+    if scene.solve.sensitivities and sensitivities is None:   # latdyn.solve hands them in; nothing else does yet
+        raise SceneError(scene.file, "solve.sensitivities",
+                         "sensitivities are computed by latdyn.run and latdyn run only, not for a run stepped from "
+                         "Python (latdyn.Simulation) yet; expected no solve.sensitivities here")
     length = length_scale(prepared.model)
     tol = scene.solve.tol if scene.solve.tol is not None else DEFAULT_TOL
     integrator = integrator_for(prepared, tol, length, writer.summary)
@@ -79,7 +85,8 @@ def start_transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter,
     control = StepControl(scene.solve, scene.output.every, length,
                           instants=sampler.instants(float(scene.solve.t_end)) if sampler else None)
     loop = TimeLoop(prepared, integrator, probes, writer, control, tol=tol, checkpointer=checkpointer,
-                    compiled_loop=COMPILED_LOOP, loop_budget_s=LOOP_BUDGET_S, sampler=sampler)
+                    compiled_loop=COMPILED_LOOP, loop_budget_s=LOOP_BUDGET_S, sampler=sampler,
+                    sensitivities=sensitivities)
     loop.begin(resume_from)
     if scene.solve.method == "newmark":
         state = loop.progress.state

@@ -1,0 +1,73 @@
+"""What exact transient sensitivities cost: 0, 1 and 10 parameters.
+
+    python benchmarks/transient_sensitivities_cost.py [--repeats 3]
+
+A 3D cantilever of 30 elements (EIy != EIz, rotary inertia, tilted out of every coordinate plane)
+carries ten point loads, the i-th of amplitude ``F<i>`` (a named parameter) growing linearly in
+time, and is stepped 40 steps of generalized-α (dt = 0.002); two probes at the tip, a row every 5
+steps. The same scene is run in process without sensitivities (the loop of steps in C), without
+them on the per-step path a sensitivity run takes (every step from Python, ``COMPILED_LOOP`` off),
+with ``solve.sensitivities: [F0]`` and with ``[F0, …, F9]``, kernels and laws compiled before, the
+cases interleaved ``--repeats`` times (the machine may be shared). Per accepted step the
+sensitivities add one evaluation of M, C and the exact K (the elements' inertia tangent by
+``newton: exact``'s evaluation), one factorization and k back-substitutions, and the kernels of
+∂r/∂p (latdyn/analyses/transient_sensitivities.py). Printed: the minimum and median wall time of
+``latdyn.run`` and the ratio of the minima to the run without; the 1-minute load average with them.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import time
+
+import latdyn
+from latdyn.timeloop import transient
+
+
+def scene(names: list[str]) -> dict:
+    loads = [{"at": f"arm.node[{3 * (i + 1)}]", "force": [f"0.1*F{i}*t", f"-F{i}*t", f"0.3*F{i}*t"]}
+             for i in range(10)]
+    solve = {"analysis": "transient", "dt": 0.002, "t_end": 0.08, **({"sensitivities": names} if names else {})}
+    return {"parameters": {f"F{i}": 50.0 + 10.0 * i for i in range(10)},
+            "sections": {"s": {"EA": 1e6, "EIy": 50.0, "EIz": 80.0, "GJ": 40.0, "rhoA": 1.0,
+                               "rhoIy": 0.01, "rhoIz": 0.02}},
+            "bodies": {"base": {"at": [0, 0, 0], "fixed": True}},
+            "beams": {"arm": {"from": "base", "to": [3.0, 1.0, 0.5], "section": "s", "elements": 30}},
+            "loads": loads, "solve": solve,
+            "output": {"every": 0.01,
+                       "probes": {"tip_z": {"point": "arm.end", "quantity": "position", "component": "z"},
+                                  "tip_y": {"point": "arm.end", "quantity": "displacement", "component": "y"}}}}
+
+
+def run(loaded, per_step: bool) -> float:
+    transient.COMPILED_LOOP = not per_step
+    try:
+        start = time.perf_counter()
+        latdyn.run(loaded)
+        return time.perf_counter() - start
+    finally:
+        transient.COMPILED_LOOP = True
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeats", type=int, default=3)
+    args = parser.parse_args()
+    cases = {"0 (loop in C)": (0, False), "0 (per step)": (0, True), "1": (1, False), "10": (10, False)}
+    loaded = {name: latdyn.load_scene(scene([f"F{i}" for i in range(k)])) for name, (k, _) in cases.items()}
+    for name, (_, per_step) in cases.items():
+        run(loaded[name], per_step)   # compile the kernels and laws once
+    times: dict[str, list[float]] = {name: [] for name in cases}
+    for _ in range(args.repeats):
+        for name, (_, per_step) in cases.items():
+            times[name].append(run(loaded[name], per_step))
+    print(f"load average (1 min): {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+    base = min(times["0 (loop in C)"])
+    for name, measured in times.items():
+        print(f"{name:14s} parameters: min {min(measured) * 1e3:8.1f} ms, "
+              f"median {statistics.median(measured) * 1e3:8.1f} ms, {min(measured) / base:.2f}x the run without (minima)")
+
+
+if __name__ == "__main__":
+    main()
