@@ -18,11 +18,14 @@ gyroscopic ∂g/∂q̇ of the kernels) and M = ∂r/∂v̇,
     M ü + (r_v + M B₁) u̇ + (r_q + r_v A₁ + M B₀) u = F δf       (δv = u̇ + A₁u, δv̇ = ü + B₁u̇ + B₀u)
 
 C = r_v + M B₁ holds the Coriolis (gyroscopic) terms of the frame, K the centrifugal and
-load stiffening and the inertia tangent.  r_q is the material tangent of the assembly
-(hinge springs and internal forces, load factor 0, analytic) plus central differences of
-everything else (inertia, gravity, loads, hinge torques): the difference of two residuals at
-the same q leaves the elastic forces out exactly, so rigid-body modes stay at round-off;
-columns that no row of the block pattern shares are perturbed together (:func:`column_groups`).
+load stiffening and the inertia tangent.  r_q is the exact tangent of the generated kernels
+(:meth:`latdyn.assembly.assembler.Assembler.exact_matrices`: the elements' material, geometric,
+load, gravity and inertia tangents, the joint bodies' inertia tangent, the hinges' laws); with
+rigid links or guides, whose reduction onto the minimum coordinates has no exact tangent yet, it is
+the material tangent (load factor 0, analytic) plus central differences of everything else
+(inertia, gravity, loads, hinge torques): the difference of two residuals at the same q leaves
+the elastic forces out exactly, so rigid-body modes stay at round-off; columns that no row of the
+block pattern shares are perturbed together (:func:`column_groups`).
 
 Directions without inertia are condensed statically as in the modal analysis about the
 initial configuration (Guyan, exact for them): with the joint-by-joint basis Q = [Q_m Q_c]
@@ -158,10 +161,16 @@ def column_groups(assembler) -> list[np.ndarray] | None:
 
 
 def tangent_q(assembler, state, load_factor: float = 1.0, inertia: bool = True) -> np.ndarray:
-    """r_q = ∂r/∂q at fixed velocities and accelerations (dense): the analytic material tangent
-    at load factor 0 plus central differences of the rest of the residual (module docstring),
-    the columns of one :func:`column_groups` group from one pair of perturbations."""
+    """r_q = ∂r/∂q at fixed velocities and accelerations (dense): the exact matrix of the generated
+    kernels (:meth:`latdyn.assembly.assembler.Assembler.exact_matrices`: the tangent with the
+    elements' and the joint bodies' inertia tangents) — with rigid links or guides, whose reduction
+    has no exact tangent yet, the analytic material tangent at load factor 0 plus central
+    differences of the rest of the residual (module docstring), the columns of one
+    :func:`column_groups` group from one pair of perturbations."""
     model = assembler.model
+    if model.links is None:
+        return np.asarray(assembler.exact_matrices(state, load_factor, inertia, length_scale(model), dense=True)[2],
+                          dtype=float)
     n = model.n_dofs
     material = assembler.evaluate(state, matrices=True, load_factor=0.0, inertia=False).combined(
         0.0, 0.0, 1.0, dense=True)

@@ -257,6 +257,46 @@ class Assembler:
                                    inertia_tangent, length)
         return self.evaluate_assembled(state, matrices, load_factor, inertia, inertia_tangent, length)
 
+    def exact_matrices(self, state: State, load_factor: float = 1.0, inertia: bool = True, length: float = 1.0,
+                       dense: bool | None = None):
+        """(M, C, K) on the free coordinates at ``state``, K the EXACT ∂r/∂q at fixed velocities and
+        accelerations, for the analyses that need the derivative itself rather than a Newton matrix
+        (linearisation, transient sensitivities): the evaluation with the elements' inertia tangent
+        (``inertia_tangent``) plus the joint bodies' (the generated ``joint_body_inertia_stiffness``,
+        under gravity times ``load_factor``), both of which the time step's Newton matrix leaves out.
+        Models without rigid links or guides only: their reduction's matrix is not exact (the
+        linearisation keeps differences there, :func:`latdyn.analyses.linearisation.tangent_q`)."""
+        model = self.model
+        if model.links is not None:
+            raise ValueError("exact_matrices: the reduction onto minimum coordinates of rigid links and guides "
+                             "has no exact tangent here")
+        ev = self.evaluate(state, matrices=True, load_factor=load_factor, inertia=inertia, inertia_tangent=inertia,
+                           length=length)
+        M, C, K = (ev.combined(*c, dense=dense) for c in ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)))
+        if not (inertia and len(model.body_nodes)):
+            return M, C, K
+        nodes = model.body_nodes
+        frames = np.ascontiguousarray(state.T[nodes].reshape(-1, 9))
+        motion = np.ascontiguousarray(np.concatenate([state.w[nodes], state.a[nodes], state.alpha[nodes]], axis=1))
+        section = np.ascontiguousarray(np.concatenate([model.body_mass[:, None], model.body_com,
+                                                       model.body_inertia.reshape(-1, 9)], axis=1))
+        gravity = np.repeat(load_factor * self.gravity[None], len(nodes), axis=0)
+        blocks = np.asarray(self.kernels.joint_body_inertia_stiffness(frames, motion, section, gravity)[0])
+        blocks = blocks.reshape(len(nodes), 6, 6)
+        dofs = model.node_dofs[nodes]
+        rows = np.broadcast_to(dofs[:, :, None], blocks.shape)
+        cols = np.broadcast_to(dofs[:, None, :], blocks.shape)
+        free = (rows < model.n_dofs) & (cols < model.n_dofs)
+        from latdyn.numerics.linalg import issparse
+
+        if issparse(K):
+            import scipy.sparse as sps  # on use, as in matrix()
+
+            K = (K + sps.csr_matrix((blocks[free], (rows[free], cols[free])), shape=K.shape)).tocsr()
+        else:
+            np.add.at(K, (rows[free], cols[free]), blocks[free])
+        return M, C, K
+
     def evaluate_assembled(self, state: State, matrices: bool, load_factor: float, inertia: bool,
                            inertia_tangent: bool = False, length: float = 1.0) -> Evaluation:
         """The equations of motion on the first ``n_assembled`` coordinates (free, then dependent):
