@@ -320,3 +320,44 @@ def _rotation(axis, angle) -> np.ndarray:
     axis = np.asarray(axis, float)
     return expm_so3(axis / np.linalg.norm(axis) * angle)
 
+
+
+SKEW_ARM = """\
+title: a 3D arm on a skew hinge under skew gravity, a joint body with an offset centre of mass, a follower load
+gravity: [0.8, -9.81, 1.3]
+sections:
+  arm: {EA: 2.0e6, EIy: 900.0, EIz: 1300.0, GJ: 700.0, rhoA: 2.5, rhoIy: 0.01, rhoIz: 0.02}
+bodies:
+  base: {at: [0, 0, 0], fixed: true}
+  tip: {at: [0.9, 0.4, -0.3], mass: 0.7, com: [0.05, -0.02, 0.03], inertia: [0.02, 0.03, 0.025]}
+beams:
+  arm:
+    from: base
+    to: tip
+    section: arm
+    elements: 3
+    start: {hinge: {axis: [0.3, 0.5, 0.81], stiffness: "40*(theta - 0.1) + 5*theta**3", damping: 0.4}}
+loads:
+  - {at: tip, force: [0, 2.0, -1.5], moment: [0.3, 0, 0.2], frame: tip}
+solve: {analysis: modes, count: 2}
+"""
+
+
+@pytest.mark.parametrize("inertia", [True, False])
+def test_the_exact_tangent_equals_differences_of_the_residual_at_a_moving_state(inertia):
+    """r_q = ∂r/∂q at fixed velocities and accelerations from the generated kernels (the elements'
+    and the joint bodies' inertia tangents, gravity, follower load and hinge-law tangents) equals
+    central differences of the residual at a random moved, moving and accelerating 3D state, at load
+    factor 0.7 (measured: ≤ 3e-11 of max|K|, the differences' own error)."""
+    from latdyn.analyses.linearisation import tangent_q, tangent_q_by_differences
+    from latdyn.assembly.prepare import prepare
+
+    assembler = prepare(latdyn.load_scene(_yaml(SKEW_ARM))).assembler
+    rng = np.random.default_rng(7)
+    state = assembler.advance(assembler.initial_state(), 0.1 * rng.standard_normal(assembler.model.n_dofs))
+    for name in ("v", "w", "a", "alpha", "theta_dot", "theta_ddot"):
+        getattr(state, name)[:] = rng.standard_normal(getattr(state, name).shape)
+    exact = tangent_q(assembler, state, 0.7, inertia=inertia)
+    differences = tangent_q_by_differences(assembler, state, 0.7, inertia=inertia)
+    assert np.abs(exact - differences).max() <= 1e-9 * np.abs(exact).max()
+    assert np.abs(exact - differences).max() > 0.0  # two computations, not one

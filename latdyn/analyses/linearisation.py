@@ -171,6 +171,13 @@ def tangent_q(assembler, state, load_factor: float = 1.0, inertia: bool = True) 
     if model.links is None:
         return np.asarray(assembler.exact_matrices(state, load_factor, inertia, length_scale(model), dense=True)[2],
                           dtype=float)
+    return tangent_q_by_differences(assembler, state, load_factor, inertia)
+
+
+def tangent_q_by_differences(assembler, state, load_factor: float = 1.0, inertia: bool = True) -> np.ndarray:
+    """r_q as the material tangent at load factor 0 plus central differences of the rest of the residual
+    (module docstring): the models with rigid links or guides, and the check of the exact one."""
+    model = assembler.model
     n = model.n_dofs
     material = assembler.evaluate(state, matrices=True, load_factor=0.0, inertia=False).combined(
         0.0, 0.0, 1.0, dense=True)

@@ -704,7 +704,7 @@ static double evaluate(const Model *m, const Configuration *c, Work *w, const do
 
 /* M a + g − gravity of elements [begin, end) at the perturbed configuration c, into `out` (e,14). */
 static void perturbed_range(const Model *m, const Configuration *c, Work *w, double *out, int64_t begin,
-                            int64_t end)
+                            int64_t end, double load_factor)
 {
     const int64_t n = end - begin;
     if (n <= 0) return;
@@ -722,7 +722,7 @@ static void perturbed_range(const Model *m, const Configuration *c, Work *w, dou
             double f = 0.0;
             for (int q = 0; q < 14; ++q) f += M[14 * p + q] * acc[q];
             f += w->p_quadratic[14 * e + p];
-            if (m->has_gravity) f -= w->p_gravity_force[14 * e + p];
+            if (m->has_gravity) f -= load_factor * w->p_gravity_force[14 * e + p];
             out[14 * e + p] = f;
         }
     }
@@ -780,12 +780,13 @@ static int64_t perturb(const Model *m, const Configuration *c, Work *w, Configur
     return moved;
 }
 
-/* ∂(M v̇ + g − f_gravity)/∂q of every element at c, by central differences, colour by colour and
+/* ∂(M v̇ + g − λ f_gravity)/∂q of every element at c, by central differences, colour by colour and
  * coordinate by coordinate, into w->inertia_tangent: the term K leaves out (latdyn/step/integrators.py).
  * Each round moves one coordinate of every free node (or hinge) of one colour; no element has both
  * ends of one colour, so each element's change comes from one column: 7 × colours rounds, whatever
  * the model's size. Joint bodies are left out: their kernel carries its own inertia. */
-static void inertia_tangent(const Model *m, const Configuration *c, Work *w, double eps, double length)
+static void inertia_tangent(const Model *m, const Configuration *c, Work *w, double eps, double length,
+                            double load_factor)
 {
     const int64_t E = m->n_elements;
     const int ranges = element_ranges(m);
@@ -800,7 +801,7 @@ static void inertia_tangent(const Model *m, const Configuration *c, Work *w, dou
 #pragma omp parallel for schedule(static) num_threads(ranges) if (ranges > 1)
 #endif
                 for (int r = 0; r < ranges; ++r)
-                    perturbed_range(m, &p, w, out, E * r / ranges, E * (r + 1) / ranges);
+                    perturbed_range(m, &p, w, out, E * r / ranges, E * (r + 1) / ranges, load_factor);
                 if (side == 0) continue;
                 for (int64_t e = 0; e < E; ++e) {
                     for (int end = 0; end < 2; ++end) {
@@ -894,7 +895,7 @@ void latdyn_evaluate(const Model *m, Work *w, const Configuration *c, Evaluation
     m->time_laws(e->t, w->laws);
     e->power = evaluate(m, c, w, w->laws, e->t, (int)e->matrices, (int)e->inertia, e->load_factor);
     if (e->matrices && e->inertia && e->inertia_tangent)
-        inertia_tangent(m, c, w, e->tangent_step, e->length);
+        inertia_tangent(m, c, w, e->tangent_step, e->length, e->load_factor);
 }
 
 /* The cable elements at c and time t into w->cable_state, w->cable_strain and their blocks, and nothing

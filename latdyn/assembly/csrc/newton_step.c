@@ -195,7 +195,7 @@ int64_t latdyn_newton_step(const Model *m, Work *w, StepControl *s, const Config
             s->converged = 1;
             return 0;
         }
-        if (matrices && s->inertia_tangent) inertia_tangent(m, trial, w, s->tangent_step, s->length);
+        if (matrices && s->inertia_tangent) inertia_tangent(m, trial, w, s->tangent_step, s->length, 1.0);
         if (m->links) reduce_links(m, w, trial, beta_p, gamma_p, matrices, (int)s->inertia_tangent);
         if (matrices) {
             if (!m->links) assemble(m, w, beta_p, gamma_p, (int)s->inertia_tangent);
