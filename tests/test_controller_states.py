@@ -1,0 +1,148 @@
+"""States of continuous controllers (SCENE.md ``controllers.NAME.states`` without ``rate``): dS/dt = EXPR.
+
+Exact references on the rigid hub of tests/test_controllers.py (a link to a tip mass on a hinge,
+J θ̈ = u + d): a PI loop u = −kp θ − kd θ̇ − ki S, Ṡ = θ, under a constant disturbance torque d is
+the linear system ẋ = A x + b, x = [θ, θ̇, S], whose exact solution is x(t) = A⁻¹(e^{At} − I) b
+(and its steady state θ = 0: no steady-state error, S = d/ki); a first-order low-pass filter
+Ḟ = (θ − F)/τ of θ = c t² (the hub under a constant torque alone) is
+F = c (t² − 2τt + 2τ²(1 − e^{−t/τ})). Planar (axis z, through the CLI) and 3D (axis [0, 1, 1]/√2,
+through the API)."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import yaml
+from scipy.linalg import expm
+
+import latdyn
+from cli_runs import latdyn_run, probe_columns
+from test_controllers import PLANAR, SPATIAL, J, hub, linear_model_of
+
+PI = """
+  ctl:
+    output: "-kp*th - kd*om - ki*S"
+    states: {S: "th"}
+"""
+GAINS = "inputs: {kp: 6.0, kd: 2.0, ki: 3.0}"
+KP, KD, KI, D = 6.0, 2.0, 3.0, 0.8
+
+
+def disturbed(text: str, axis: str) -> str:
+    """``text`` with a constant moment D about the hinge axis on the tip (a torque D about the hinge)."""
+    a = np.array(yaml.safe_load(axis), float)
+    return text + "loads:\n  - {at: tip, moment: [%r, %r, %r]}\n" % tuple(float(x) for x in D * a)
+
+
+def pi_exact(t: np.ndarray) -> np.ndarray:
+    A = np.array([[0, 1, 0], [-KP / J, -KD / J, -KI / J], [1, 0, 0]])
+    b = np.array([0, D / J, 0])
+    return np.array([np.linalg.solve(A, (expm(A * s) - np.eye(3)) @ b) for s in t])
+
+
+def pi_scene(axis: str, dt: float = 0.005, t_end: float = 4.0) -> str:
+    return disturbed(hub(PI, inputs=GAINS, axis=axis, solve=f"{{t_end: {t_end}, dt: {dt}}}",
+                         probes="    u: {controller: ctl}\n    Sp: {controller: ctl, state: S}"), axis)
+
+
+def check_pi(t, p, tolerance):
+    exact = pi_exact(t)
+    for k, name in enumerate(("th", "om", "Sp")):
+        assert np.max(np.abs(p[name] - exact[:, k])) < tolerance, name
+    u = -KP * exact[:, 0] - KD * exact[:, 1] - KI * exact[:, 2]
+    assert np.max(np.abs(p["u"] - u)) < 6 * tolerance
+
+
+def test_pi_with_a_disturbance_planar_cli(tmp_path):
+    """Planar, through the CLI: θ, θ̇, S and u against the exact solution (measured at dt = 0.005:
+    θ 2.2e-6, θ̇ 4.9e-6, S 9.4e-7, u 1.2e-5; at dt = 0.01 four times these: second order), in the
+    compiled loop; and the error is driven out: S → d/ki (the integral action)."""
+    completed, out = latdyn_run(tmp_path, pi_scene(PLANAR, t_end=3.0))
+    assert completed.returncode == 0, completed.stderr
+    p = probe_columns(out)
+    check_pi(p["t"], p, 3e-6 * 2)
+    # the slowest root −0.617: e^(−0.617·30) = 9e-9 of the transient left at t = 30
+    long = latdyn.run(latdyn.load_scene(yaml.safe_load(pi_scene(PLANAR, dt=0.05, t_end=30.0))))
+    assert abs(long.probes["th"][-1]) < 1e-7 and abs(long.probes["Sp"][-1] - D / KI) < 1e-7
+
+
+def test_pi_with_a_disturbance_3d_api_second_order():
+    """3D (axis [0, 1, 1]/√2), through the API, at dt = 0.01 and 0.005: the same errors as planar, and
+    their ratio 4 (the trapezoidal rule of the states beside generalized-α: second order kept)."""
+    errors = []
+    for dt in (0.01, 0.005):
+        result = latdyn.run(latdyn.load_scene(yaml.safe_load(pi_scene(SPATIAL, dt=dt))))
+        assert result.summary["time_loop"] == "compiled"
+        errors.append(np.max(np.abs(result.probes["th"] - pi_exact(result.t)[:, 0])))
+    assert errors[1] < 2.5e-6
+    assert 3.5 < errors[0] / errors[1] < 4.5
+
+
+FILTER = """
+  lp:
+    output: "F"
+    states: {F: "(th - F)/tau"}
+"""
+
+
+@pytest.mark.parametrize("axis", [PLANAR, SPATIAL], ids=["planar", "3d"])
+def test_low_pass_filter_state(axis):
+    """A filter state F of θ = c t² (c = τ_d/2J under the constant torque τ_d = D) against its closed form
+    (measured 2.5e-6 of F(1) = 0.249 at dt = 0.01, 6.1e-7 at dt = 0.005: the trapezoidal rule's second order;
+    θ exact to 2e-16; the filter reads the hinge angle and drives nothing)."""
+    text = disturbed(hub(FILTER, torque="0", inputs="inputs: {tau: 0.25}", axis=axis,
+                         solve="{t_end: 1.0, dt: 0.01}", probes="    Fp: {controller: lp, state: F}\n"
+                                                                "    y: {controller: lp}"), axis)
+    result = latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
+    t, tau, c = result.t, 0.25, D / (2 * J)
+    assert np.max(np.abs(result.probes["th"] - c * t ** 2)) < 1e-10
+    exact = c * (t ** 2 - 2 * tau * t + 2 * tau ** 2 * (1 - np.exp(-t / tau)))
+    assert np.max(np.abs(result.probes["Fp"] - exact)) < 3e-6
+    assert np.max(np.abs(result.probes["y"] - result.probes["Fp"])) == 0.0
+
+
+@pytest.mark.parametrize("axis", [PLANAR, SPATIAL], ids=["planar", "3d"])
+def test_closed_loop_linear_model_with_integral_action(axis):
+    """``linear_model`` with the PI: x = [θ, θ̇, S], A = [[A_ol + B K C, B (−ki)], [C_θ, 0]] of the
+    open-loop model (K = [−kp, −kd] on y = [θ, θ̇]), to round-off; the modes are its eigenvalues."""
+    spec = '{analysis: modes, count: 3, linear_model: {inputs: [arm.start], outputs: [th, om, Sp]}}'
+    closed = linear_model_of(hub(PI, inputs=GAINS, axis=axis, solve=spec,
+                                 probes="    Sp: {controller: ctl, state: S}"))
+    opened = linear_model_of(hub("  other: {output: 0}", torque="0", inputs=GAINS, axis=axis,
+                                 solve='{analysis: modes, count: 1, linear_model: {inputs: [arm.start], '
+                                       'outputs: [th, om]}}'))
+    A_ol, B, C = opened["A"], opened["B"], opened["C"]
+    expected = np.block([[A_ol + B @ np.array([[-KP, -KD]]) @ C, -KI * B], [C[:1], np.zeros((1, 1))]])
+    assert closed["A"].shape == (3, 3)
+    assert np.max(np.abs(closed["A"] - expected)) < 1e-12 * np.max(np.abs(expected))
+    hand = np.array([[0, 1, 0], [-KP / J, -KD / J, -KI / J], [1, 0, 0]])
+    assert np.max(np.abs(closed["A"] - hand)) < 1e-12 * np.max(np.abs(hand))
+    assert np.allclose(closed["C"][2], [0, 0, 1]) and list(closed["states"])[-1] == "controller ctl.S"
+
+
+def test_modes_of_the_closed_loop_with_a_state(tmp_path):
+    """``modes`` of the PI loop: its three roots (a pair and a real one) from A, in modes.csv."""
+    text = hub(PI, inputs=GAINS, solve="{analysis: modes, count: 3}")
+    completed, out = latdyn_run(tmp_path, text)
+    assert completed.returncode == 0, completed.stderr
+    roots = np.linalg.eigvals(np.array([[0, 1, 0], [-KP / J, -KD / J, -KI / J], [1, 0, 0]]))
+    natural = sorted({round(abs(r) / (2 * math.pi), 12) for r in roots})
+    table = np.genfromtxt(out / "modes.csv", delimiter=",", names=True)
+    assert np.allclose(sorted(table["natural_frequency_hz"]), natural, rtol=1e-9)
+
+
+def test_controller_state_resumes_bit_for_bit(tmp_path, monkeypatch):
+    """Interrupted and resumed, a run with the PI's state gives probes.csv equal to the uninterrupted
+    run's (the states and their rates are in the checkpoint)."""
+    from test_checkpoint import interrupt_at
+
+    scene = yaml.safe_load(pi_scene(PLANAR, dt=0.01, t_end=1.5))
+    full, out = tmp_path / "full", tmp_path / "out"
+    latdyn.run(scene, full)
+    with monkeypatch.context() as m:
+        interrupt_at(m, 0.737)
+        with pytest.raises(KeyboardInterrupt):
+            latdyn.run(scene, out)
+    latdyn.run(scene, out, resume=True)
+    assert (out / "probes.csv").read_text() == (full / "probes.csv").read_text()
