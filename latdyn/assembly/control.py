@@ -132,6 +132,16 @@ def state_rates(scene) -> np.ndarray:
     return states.rates
 
 
+def refuse_states_without_step(scene, method: str) -> None:
+    """The states of continuous controllers are integrated by the implicit step (the trapezoidal rule
+    condensed into its Newton iteration): the explicit method (``solve.method: explicit``) is refused."""
+    for c in getattr(scene, "controllers", {}).values():
+        if not c.sampled and c.states and method == "explicit":
+            _refuse(scene, f"controllers.{c.name}.states",
+                    "the states of a continuous controller are integrated with the implicit step; expected "
+                    "solve.method generalized-alpha or newmark, or a sampled controller (rate: HZ)")
+
+
 def _named_alone(law, name: str) -> bool:
     return law is not None and isinstance(law.source, str) and law.source.strip() == name
 

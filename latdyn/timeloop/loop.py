@@ -32,9 +32,9 @@ from latdyn.step.integrators import newton_diagnosis
 from latdyn.timeloop import checkpoint as checkpoints
 from latdyn.timeloop.control import StepControl
 from latdyn.timeloop.events import cable_events, cable_sides, crossing_fraction, hinge_events, restart_accelerations
-from latdyn.timeloop.sampling import controller_memory, restore_controller_memory
 from latdyn.timeloop.progress import (DRIFT_WARNING, UNBOUNDED, UNBOUNDED_ROWS, TransientProgress, factorizations,
                                       hinge_work, load_power)
+from latdyn.timeloop.sampling import controller_memory, restore_controller_memory
 
 
 class Attempt(NamedTuple):
@@ -97,9 +97,10 @@ class TimeLoop:
         if self.last_recorded is not None:
             self.writer.reattach_last_frame(
                 lambda snapshot=self.last_recorded: paraview.frame(self.assembler, self.writer.mesh, snapshot))
-        # sampled controllers: back in Python at each sample instant, so one step at a time
+        # sampled controllers: the loop of steps in C stops on each sample instant (control.next_row), the
+        # sample taken in Python (_after_accepted); instants off the grid k·dt: one step at a time
         self.compiled = (self.compiled_loop and hasattr(self.integrator, "advance") and not self.control.adaptive
-                         and self.sampler is None)
+                         and (self.sampler is None or self.control.instants_on_nominal_grid))
         self.writer.summary["time_loop"] = "compiled" if self.compiled else "python"
         if resume_from is None:
             self._record(self.progress.state, energy0)
