@@ -146,3 +146,54 @@ def test_controller_state_resumes_bit_for_bit(tmp_path, monkeypatch):
             latdyn.run(scene, out)
     latdyn.run(scene, out, resume=True)
     assert (out / "probes.csv").read_text() == (full / "probes.csv").read_text()
+
+
+NONLINEAR = """
+  ctl:
+    output: "-kp*th - kd*om - ki*S*(1 + S**2)"
+    states: {S: "sin(th) - S*om"}
+    initial: {S: 0.3}
+"""
+
+
+@pytest.mark.parametrize("h", [0.0, 0.01], ids=["held", "in-a-step"])
+def test_condensed_state_derivative_against_central_differences(h):
+    """The evaluation's coupling entries of a controller with a state nonlinear in S and the sensors:
+    in a step of size h (the trapezoidal rule condensed, h/2 in the Work's buffer) the output's total
+    derivatives dy/dθ and dy/dθ̇ (the state solved again at each perturbed sensor) against central
+    differences of the output the evaluation gives (measured 5.6e-11 and 7.0e-11 relative: dy/dθ =
+    −6.01771, dy/dθ̇ = −1.99415, where the partials are −6 and −2); held (h = 0) the partials ∂y/∂s of
+    the generated law (4.5e-11 and 2.9e-11 against the differences, exact against −kp and −kd)."""
+    from latdyn.assembly.control import state_rates
+    from latdyn.assembly.prepare import prepare
+
+    prepared = prepare(latdyn.load_scene(yaml.safe_load(hub(NONLINEAR, inputs=GAINS))))
+    assembler, state = prepared.assembler, prepared.state.copy()
+    scene = prepared.scene
+    state.theta[0], state.theta_dot[0] = 0.4, -0.7
+    state_rates(scene)[:] = 0.25  # f_n of the step's start, as an accepted step leaves it
+    native = assembler.native()
+    native.buffers["controller_half_step"][0] = 0.5 * h
+    slot = scene.controller_outputs.index("ctl")
+
+    def output(theta, rate):
+        s = state.copy()
+        s.theta[0], s.theta_dot[0] = theta, rate
+        assembler.evaluate(s, matrices=False)
+        return scene.controller_outputs.values[slot]
+
+    try:
+        ev = assembler.evaluate(state, matrices=True)
+        kinds = assembler.control.sensor_kind[assembler.control.coupling_sensor]
+        coupling = native.buffers["coupling_stiffness"] + native.buffers["coupling_damping"]
+        exact = {int(kind): -float(value) for kind, value in zip(kinds, coupling)}  # g = −1 on a hinge
+        e = 1e-6
+        by_angle = (output(0.4 + e, -0.7) - output(0.4 - e, -0.7)) / (2 * e)
+        by_rate = (output(0.4, -0.7 + e) - output(0.4, -0.7 - e)) / (2 * e)
+    finally:
+        native.buffers["controller_half_step"][0] = 0.0
+    assert ev is not None
+    assert abs(exact[0] - by_angle) < 1e-8 * abs(by_angle)
+    assert abs(exact[1] - by_rate) < 1e-8 * abs(by_rate)
+    if h == 0.0:  # the partials of the generated law at S = 0.3
+        assert exact[0] == pytest.approx(-KP, rel=1e-14) and exact[1] == pytest.approx(-KD, rel=1e-14)
