@@ -197,3 +197,19 @@ def test_condensed_state_derivative_against_central_differences(h):
     assert abs(exact[1] - by_rate) < 1e-8 * abs(by_rate)
     if h == 0.0:  # the partials of the generated law at S = 0.3
         assert exact[0] == pytest.approx(-KP, rel=1e-14) and exact[1] == pytest.approx(-KD, rel=1e-14)
+
+
+def test_non_collocated_integral_action_3d_linear_model():
+    """3D, non-collocated: a force along z on body a from the z displacement of body b at the other end
+    of an elastic beam, with integral action (u = −30 zb − 12 S, Ṡ = zb): the linear model's A is
+    [[A_ol + B K C, −12 B], [C, 0]] of the open loop (a load actuator and a point sensor; measured
+    8e-19 of the largest entry, 1.1e6; the state's row exactly C)."""
+    from test_controllers import TWO_BODIES
+
+    pi = 'controllers:\n  ctl: {output: "-30*zb - 12*S", states: {S: "zb"}}'
+    closed = linear_model_of(TWO_BODIES.format(controllers=pi, force="ctl"))
+    opened = linear_model_of(TWO_BODIES.format(controllers="", force="0"))
+    A_ol, B, C = opened["A"], opened["B"], opened["C"]
+    expected = np.block([[A_ol + B @ np.array([[-30.0]]) @ C, -12.0 * B], [C, np.zeros((1, 1))]])
+    assert closed["A"].shape == expected.shape
+    assert np.max(np.abs(closed["A"] - expected)) < 1e-8 * np.max(np.abs(expected))
