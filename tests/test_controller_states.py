@@ -223,3 +223,17 @@ def test_explicit_method_with_states_is_refused():
     text = hub(PI, inputs=GAINS, solve="{t_end: 0.1, dt: 0.001, method: explicit}")
     with pytest.raises(SceneError, match=r"controllers\.ctl\.states.*generalized-alpha"):
         latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
+
+
+def test_python_stepping_with_a_state_equals_the_run():
+    """``latdyn.Simulation`` advanced to 20 pauses on the grid gives the rows of ``latdyn.run``, the
+    state and the output included, bit for bit (3D)."""
+    text = pi_scene(SPATIAL, dt=0.01, t_end=1.0)
+    reference = latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
+    sim = latdyn.Simulation(latdyn.load_scene(yaml.safe_load(text)))
+    for k in range(1, 21):
+        sim.advance_to(0.05 * k)
+    result = sim.close()
+    assert np.array_equal(result.t, reference.t)
+    for name in ("th", "om", "Sp", "u"):
+        assert np.array_equal(result.probes[name], reference.probes[name]), name
