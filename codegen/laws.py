@@ -17,8 +17,10 @@ The unit's two functions (the ABI :mod:`latdyn.assembly.compiled_laws` and ``lat
 ``void latdyn_hinge_laws(int64_t k, double theta, double theta_dot, double t, double *out)``
     hinge law k at (θ, θ̇, t): ``out[0..2]`` = f, ∂f/∂θ, ∂f/∂θ̇.
 ``void latdyn_controller_laws(int64_t k, double t, const double *s, double *out)``
-    continuous controller k (SCENE.md ``controllers``) at t with the values ``s`` of the probes it
-    reads: ``out[0]`` its output y (before saturation), ``out[1 + m]`` = ∂y/∂s_m, exact.
+    continuous controller k (SCENE.md ``controllers``) at t with the arguments ``s`` = the values of
+    the m probes it reads, then of its p states: ``out[0]`` its output y (before saturation),
+    ``out[1 + i]`` = ∂y/∂s_i (i < m + p), then for each state j at ``(1 + j)(1 + m + p)`` its rate
+    f_j = dS_j/dt and ∂f_j/∂s_i, all exact ((1 + p)(1 + m + p) values; without states, y and ∂y/∂s).
 ``void latdyn_bind_inputs(const double *inputs, const double *controllers)``
     the scene's inputs (SCENE.md ``inputs``; :mod:`latdyn.scene.inputs`) and its controllers'
     outputs: a law that names input i reads ``inputs[i]`` at each call, one that names controller k
@@ -69,8 +71,9 @@ class HingeLawC:
 
 @dataclass(frozen=True)
 class ControllerLawC:
-    """A continuous controller: ``variables`` = (t, s_0, s_1, …) its time and the probes it reads,
-    ``expressions`` = y, ∂y/∂s_0, ∂y/∂s_1, …"""
+    """A continuous controller: ``variables`` = (t, s_0, s_1, …) its time and its arguments (the
+    probes it reads, then its states), ``expressions`` = y, ∂y/∂s_0, ∂y/∂s_1, …, then each state's
+    rate and its derivatives in the same order (the module docstring's layout)."""
 
     text: str
     variables: tuple = ()

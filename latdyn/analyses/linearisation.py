@@ -283,8 +283,11 @@ class Mode:
     shape: np.ndarray  # (n,) complex, free coordinates
 
 
-def modes(lin: Linearisation, count: int | None = None) -> list[Mode]:
-    """The modes of the linearisation, lowest natural frequency first (module docstring)."""
+def modes(lin: Linearisation, count: int | None = None, first_order=None) -> list[Mode]:
+    """The modes of the linearisation, lowest natural frequency first (module docstring).
+    ``first_order``: a function of the :class:`Reduced` model giving the A of ẋ = A x, x = [z, ż, …]
+    with further first-order states (the continuous controllers' states:
+    :func:`latdyn.analyses.linearise.closed_loop_matrix`), whose eigenvalues are then the modes'."""
     import scipy.linalg as sla
 
     red = reduce(lin)
@@ -293,7 +296,7 @@ def modes(lin: Linearisation, count: int | None = None) -> list[Mode]:
     if m == 0:
         return []
     scale = max(float(np.abs(K).max()), 1e-300)
-    symmetric = np.abs(K - K.T).max() <= 1e-9 * scale and np.abs(C).max() <= 1e-12 * max(
+    symmetric = first_order is None and np.abs(K - K.T).max() <= 1e-9 * scale and np.abs(C).max() <= 1e-12 * max(
         float(np.sqrt(np.abs(K).max() * np.abs(M).max())), 1e-300)
     found = []
     if symmetric:  # undamped, conservative: (K, M), as about the initial configuration
@@ -313,7 +316,8 @@ def modes(lin: Linearisation, count: int | None = None) -> list[Mode]:
                 found.append(Mode(s + 0j, 0.0, s / (2 * np.pi), -1.0, red.transform @ v))
     else:
         Minv = np.linalg.inv(M)
-        A = np.block([[np.zeros((m, m)), np.eye(m)], [-Minv @ K, -Minv @ C]])
+        A = np.block([[np.zeros((m, m)), np.eye(m)], [-Minv @ K, -Minv @ C]]) if first_order is None \
+            else first_order(red)
         lam, vectors = np.linalg.eig(A)
         top = max(float(np.abs(lam).max()), 1e-300)
         tol = 1e-9 * top

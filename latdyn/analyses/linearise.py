@@ -13,6 +13,8 @@ from __future__ import annotations
 import copy
 import time
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from latdyn.analyses import continuation, mechanism, stability
@@ -106,7 +108,9 @@ def modal_analysis(prepared, count: int, about="initial"):
     if other.model.n_dofs == 0:
         return [], [], None, report
     lin = linearise(other.assembler, state, frame, load_factor)
-    found = modes(lin, None if about == "steady" else count)
+    states = controller_states(lin)  # continuous controllers' states: the closed loop's first-order modes
+    first_order = None if states is None else (lambda red: closed_loop_matrix(lin, red, states)[0])
+    found = modes(lin, None if about == "steady" else count, first_order)
     if about == "steady":  # judged by all its roots, not only the listed ones
         report["steady_state"], report["warnings"] = steady_summary(search, found)
         found = found[:count]
@@ -422,6 +426,110 @@ def _controller_input_gains(model, assembler, state, u, values) -> dict:
     return gains
 
 
+def _actuator_force(model, state, name: str, gain: float) -> np.ndarray:
+    """The generalized force (n_total + 1) of the actuators of the continuous controller ``name`` (hinge
+    torques and load components that name it alone: latdyn.assembly.control) at the output ``gain``."""
+    scene = model.scene
+    F = np.zeros(model.n_total + 1)
+    for k, h in enumerate(model.hinges):
+        if str(getattr(h.torque, "source", "")).strip() == name:
+            F[model.hinge_dofs[k]] += gain
+    for load in scene.loads:
+        for offset, laws in ((0, load.force), (3, load.moment)):
+            for p, law in enumerate(laws or ()):
+                if str(getattr(law, "source", "")).strip() != name:
+                    continue
+                f, mo = np.zeros(3), np.zeros(3)
+                (f if offset == 0 else mo)[p] = gain
+                if load.frame != "global":
+                    R = state.T[model.body_node[load.frame]]
+                    f, mo = R @ f, R @ mo
+                node, r = model.point(load.at)
+                d = model.node_dofs[node]
+                F[d[:3]] += f
+                F[d[3:]] += np.cross(state.T[node] @ r, f) + mo
+    F[model.n_total] = 0.0
+    return F
+
+
+@dataclass
+class ControllerStates:
+    """The continuous controllers' states S in a linear model, about the state: the generalized force
+    per unit δS on their actuators (``force``: g ∂y/∂S, n × p), and δṠ = ``by_sensor`` δs + ``by_state`` δS
+    + ``by_input`` δu (∂f/∂s, ∂f/∂S, ∂f/∂u: SymPy's derivatives at the state), s the ``sensors`` (probes)."""
+
+    names: list
+    sensors: list
+    force: np.ndarray
+    by_sensor: np.ndarray
+    by_state: np.ndarray
+    by_input: np.ndarray
+    output_gain: dict  # controller name -> ∂y/∂S over all states (0 at a limit)
+
+
+def controller_states(lin: Linearisation, input_names=()) -> ControllerStates | None:
+    """The continuous controllers' states about the linearisation's state (:class:`ControllerStates`),
+    None without. ``input_names``: the scene inputs that are columns of B (None where a column is not one)."""
+    import sympy as sp
+
+    from latdyn.results.probes import ProbeSet
+
+    model, state = lin.model, lin.state
+    scene = model.scene
+    continuous = [c for c in scene.controllers.values() if not c.sampled and c.states]
+    if not continuous:
+        return None
+    probes = ProbeSet(lin.assembler, lin.assembler.initial_state())
+    values = {**scene.inputs.current(), **scene.controller_outputs.current(),
+              **dict(zip(probes.names, probes.values(state.copy())))}
+    sensors = [n for n in probes.names if any(n in c.reads for c in continuous)]
+    p = sum(len(c.states) for c in continuous)
+    force = np.zeros((model.n_dofs, p))
+    by_sensor, by_state = np.zeros((p, len(sensors))), np.zeros((p, p))
+    by_input = np.zeros((p, len(input_names)))
+    names, gains, first = [], {}, 0
+    for c in continuous:
+        symbol = {x.name: x for x in c.symbols}
+        at = {x: float(state.t) if x.name == "t" else
+              (scene.controller_states[f"{c.name}.{x.name}"] if x.name in c.states else values[x.name]) for x in c.symbols}
+        y = float(c.output_expr.evalf(subs=at))
+        held = c.limits is None or c.limits[0] <= y <= c.limits[1]
+        gains[c.name] = np.zeros(p)
+        for j, (s, f) in enumerate(zip(c.states, c.state_exprs)):
+            dy = float(sp.diff(c.output_expr, symbol[s]).evalf(subs=at)) if held else 0.0
+            gains[c.name][first + j] = dy
+            force[:, first + j] = _actuator_force(model, state, c.name, dy)[:model.n_dofs]
+            for i, sensor in enumerate(sensors):
+                if sensor in symbol:
+                    by_sensor[first + j, i] = float(sp.diff(f, symbol[sensor]).evalf(subs=at))
+            for l, other in enumerate(c.states):
+                by_state[first + j, first + l] = float(sp.diff(f, symbol[other]).evalf(subs=at))
+            for k, u in enumerate(input_names):
+                if u is not None and u in symbol:
+                    by_input[first + j, k] = float(sp.diff(f, symbol[u]).evalf(subs=at))
+            names.append(f"{c.name}.{s}")
+        first += len(c.states)
+    return ControllerStates(names, sensors, force, by_sensor, by_state, by_input, gains)
+
+
+def closed_loop_matrix(lin: Linearisation, red, states: ControllerStates) -> tuple[np.ndarray, dict]:
+    """A of ẋ = A x, x = [z, ż, S]: the structure's rows with the states' forces, and the states' rows
+    δṠ = ∂f/∂s (C_s [z, ż] + C_s,u D_S δS) + ∂f/∂S δS, the sensors' C_s from the probes (as the linear
+    model's outputs) and D_S the static displacement of the directions without inertia under the
+    states' forces; with the pieces the linear model's B and C take (``parts``)."""
+    m, p = red.n_massive, len(states.names)
+    Minv = np.linalg.inv(red.mass)
+    B_S, D_S = red.condense(states.force)
+    _, Cq, Cv = _output_jacobians(lin, states.sensors)
+    A1, _, _ = frame_kinematics(lin.model, lin.state, lin.frame)
+    Cs = Cq + Cv @ A1
+    A = np.block([[np.zeros((m, m)), np.eye(m), np.zeros((m, p))],
+                  [-Minv @ red.stiffness, -Minv @ red.damping, Minv @ B_S],
+                  [states.by_sensor @ Cs @ red.transform, states.by_sensor @ Cv @ red.transform,
+                   states.by_state + states.by_sensor @ Cs @ D_S]])
+    return A, {"Cs": Cs, "D_S": D_S}
+
+
 def _output_jacobians(lin: Linearisation, names: list[str]):
     """y₀, ∂y/∂q (at fixed velocities) and ∂y/∂v of the named probes, by central differences of
     the probe functions (latdyn/probes.py)."""
@@ -468,9 +576,24 @@ def linear_model(lin: Linearisation, spec: dict) -> dict:
     names = lin.model.dof_names()
     # a state's name: the coordinate it moves most (the basis is block-diagonal by joint)
     z_names = [names[int(np.argmax(np.abs(red.basis[:, k])))] for k in range(m)]
+    extra = controller_states(lin, [ref if kind == "input" else None for kind, ref in spec["inputs"]])
+    if extra is not None:  # the continuous controllers' states: x = [z, ż, S]
+        A, parts = closed_loop_matrix(lin, red, extra)
+        B = np.vstack([B, extra.by_sensor @ parts["Cs"] @ Du + extra.by_input])
+        C = np.hstack([C, Cy @ parts["D_S"]])
+        scene = lin.model.scene
+        for row, name in enumerate(spec["outputs"]):
+            probe = next(q for q in scene.output.probes if q.name == name)
+            if probe.kind != "controller":
+                continue
+            if probe.state is not None and f"{probe.controller}.{probe.state}" in extra.names:
+                C[row, 2 * m + extra.names.index(f"{probe.controller}.{probe.state}")] = 1.0
+            elif probe.state is None and probe.controller in extra.output_gain:
+                C[row, 2 * m:] += extra.output_gain[probe.controller]
     return {"A": A, "B": B, "C": C, "D": D, "y0": y0,
             "inputs": np.array(spec["input_names"]), "outputs": np.array(spec["outputs"]),
-            "states": np.array(z_names + [f"d/dt {s}" for s in z_names]),
+            "states": np.array(z_names + [f"d/dt {s}" for s in z_names]
+                               + ([f"controller {n}" for n in extra.names] if extra is not None else [])),
             "state_description": np.array(
                 "x = [z, dz/dt]: the coordinates with inertia (directions without inertia condensed "
                 "statically), perturbations about the state in the frame turning at frame_omega, "

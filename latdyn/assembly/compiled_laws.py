@@ -61,18 +61,22 @@ def hinge_law(law: HingeLaw):
 
 
 def controller_law(controller, sensors: tuple):
-    """The plain description of a continuous controller that :mod:`codegen.laws` prints: its output
-    and the output's exact derivatives by the probes ``sensors`` it reads (Dirac deltas dropped)."""
+    """The plain description of a continuous controller that :mod:`codegen.laws` prints, the
+    arguments a = (s_0 … s_{m−1}, S_0 … S_{p−1}) being the probes ``sensors`` it reads and its states
+    (in the order of ``controllers.NAME.states``): its output y and ∂y/∂a, then for each state j its
+    rate f_j = dS_j/dt and ∂f_j/∂a, all exact (Dirac deltas dropped); (1 + p)(1 + m + p) values."""
     import sympy as sp
     from codegen.laws import ControllerLawC
 
     from latdyn.scene.expressions import _drop_deltas
 
     by_name = {s.name: s for s in controller.symbols}
-    variables = [by_name[n] for n in sensors]
-    y = controller.output_expr
-    return ControllerLawC(f"{controller.name}: {controller.output_text}", variables=(by_name["t"], *variables),
-                          expressions=(y, *(_drop_deltas(sp.diff(y, v)) for v in variables)))
+    arguments = [by_name[n] for n in (*sensors, *controller.states)]
+    expressions = []
+    for f in (controller.output_expr, *controller.state_exprs):
+        expressions += [f, *(_drop_deltas(sp.diff(f, a)) for a in arguments)]
+    return ControllerLawC(f"{controller.name}: {controller.output_text}", variables=(by_name["t"], *arguments),
+                          expressions=tuple(expressions))
 
 
 class CompiledLaws:
@@ -119,7 +123,8 @@ def generator_version() -> str:
 def _text_key(time_functions, hinge_laws, signals=((), ()), controllers=()) -> str:
     return repr([(type(f).__name__, f.source) for f in time_functions]
                 + [(type(h).__name__, h.source) for h in hinge_laws] + [("signals", tuple(map(tuple, signals)))]
-                + [("controller", c.name, str(c.output_text), tuple(sensors)) for c, sensors in controllers])
+                + [("controller", c.name, str(c.output_text), tuple(sensors), c.states, tuple(map(str, c.state_texts)))
+                   for c, sensors in controllers])
 
 
 def _print(time_functions, hinge_laws, signals=((), ()), controllers=()) -> bytes:

@@ -59,6 +59,32 @@ class Wiring:
     coupling_sensor: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     coupling_rows: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     coupling_cols: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    #: the controllers' states (controller k: state_start[k] … state_start[k+1]−1), each one's index in
+    #: the scene's controller_states (``states``, whose values are S at the last accepted state) and
+    #: ``state_rates`` (dS/dt there, what the trapezoidal rule starts each step from)
+    state_start: np.ndarray = field(default_factory=lambda: np.zeros(1, np.int64))
+    state_slot: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    states: object = None
+    state_rates: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    @property
+    def law_values(self) -> int:
+        """The most values a controller law gives: (1 + p)(1 + m + p), m sensors and p states."""
+        return max([1] + [(1 + p) * (1 + m + p) for m, p in self._sizes()])
+
+    @property
+    def law_arguments(self) -> int:
+        return max([1] + [m + p for m, p in self._sizes()])
+
+    @property
+    def solve_size(self) -> int:
+        """The scratch of a controller's local solve: p² + p·max(m, 1)."""
+        return max([1] + [p * p + p * max(m, 1) for m, p in self._sizes()])
+
+    def _sizes(self):
+        return [(int(self.sensor_start[k + 1] - self.sensor_start[k]), int(self.state_start[k + 1] - self.state_start[k]))
+                for k in range(self.n)] if len(self.state_start) == self.n + 1 else \
+            [(int(self.sensor_start[k + 1] - self.sensor_start[k]), 0) for k in range(self.n)]
 
     @property
     def n(self) -> int:
@@ -97,6 +123,25 @@ def _sensor(scene, model, controller, probe):
                         "(expected one of those, or a sampled controller: rate: HZ)")
 
 
+def state_rates(scene) -> np.ndarray:
+    """dS/dt of every controller state at the last accepted state (entries of continuous controllers'
+    states; the array beside ``scene.controller_states.values``, one per scene, kept across numberings)."""
+    states = scene.controller_states
+    if getattr(states, "rates", None) is None or len(states.rates) != len(states.values):
+        states.rates = np.zeros(len(states.values))
+    return states.rates
+
+
+def refuse_states_without_step(scene, method: str) -> None:
+    """The states of continuous controllers are integrated by the implicit step (the trapezoidal rule
+    condensed into its Newton iteration): the explicit method (``solve.method: explicit``) is refused."""
+    for c in getattr(scene, "controllers", {}).values():
+        if not c.sampled and c.states and method == "explicit":
+            _refuse(scene, f"controllers.{c.name}.states",
+                    "the states of a continuous controller are integrated with the implicit step; expected "
+                    "solve.method generalized-alpha or newmark, or a sampled controller (rate: HZ)")
+
+
 def _named_alone(law, name: str) -> bool:
     return law is not None and isinstance(law.source, str) and law.source.strip() == name
 
@@ -116,9 +161,6 @@ def wiring(model, assembler) -> Wiring:
     kinds, indices, origins, dofs, start = [], [], [], [], [0]
     for c in continuous:
         key = f"controllers.{c.name}"
-        if c.states:
-            _refuse(scene, f"{key}.states", "a continuous controller with states is not run by this version of the "
-                                            "package; expected a sampled controller (rate: HZ) for states")
         for name in c.reads:
             if name in index:
                 _refuse(scene, f"{key}.output", f"a continuous controller that reads another continuous one ({name!r}) "
@@ -132,6 +174,11 @@ def wiring(model, assembler) -> Wiring:
                 dofs.append(dof)
         start.append(len(kinds))
     out.controllers = continuous
+    states = scene.controller_states
+    out.states = states
+    out.state_start = np.cumsum([0] + [len(c.states) for c in continuous]).astype(np.int64)
+    out.state_slot = np.array([states.index(f"{c.name}.{s}") for c in continuous for s in c.states], np.int64)
+    out.state_rates = state_rates(scene)
     out.slots = [scene.controller_outputs.index(c.name) for c in continuous]
     out.limits = np.array([c.limits if c.limits is not None else (-np.inf, np.inf) for c in continuous], float)
     out.sensor_start = np.array(start, np.int64)

@@ -74,6 +74,8 @@ class ModelData(ctypes.Structure):
         ("n_cables", I64), ("cable_nodes", P), ("cable_offsets", P), ("cable_section", P), ("cable_rest_law", P),
         ("cable_position", P), ("cable_force", P), ("cable_side", P),
         ("gravity_load_D_q", P),
+        ("n_controller_states", I64), ("controller_state_start", P), ("controller_state_slot", P),
+        ("controller_states", P), ("controller_state_rate", P),
     ]
 
 
@@ -105,7 +107,8 @@ class WorkData(ctypes.Structure):
         "joint_forces",
         "sensor_values", "controller_gradient", "controller_scratch", "coupling_stiffness", "coupling_damping",
         "cable_vector", "cable_stiffness", "cable_damping", "cable_state", "cable_strain", "cable_gap",
-        "hinge_work_torque", "hinge_damper_torque", "gravity_tangent", "gravity_force_D_q")]
+        "hinge_work_torque", "hinge_damper_torque", "gravity_tangent", "gravity_force_D_q",
+        "controller_state_trial", "controller_arguments", "controller_solve", "controller_half_step")]
 
 
 class ConfigurationData(ctypes.Structure):
@@ -223,6 +226,9 @@ def native_library() -> ctypes.CDLL:
         library.latdyn_newton_step.restype = I64
         library.latdyn_newton_step.argtypes = [model, work, ctypes.POINTER(ControlData), configuration,
                                                configuration, ctypes.POINTER(VectorsData)]
+        library.latdyn_controller_states_accept.restype = None
+        library.latdyn_controller_states_accept.argtypes = [model, work, configuration, ctypes.c_double,
+                                                            ctypes.c_double]
         library.latdyn_advance.restype = I64
         library.latdyn_advance.argtypes = [ctypes.POINTER(ModelData), ctypes.POINTER(WorkData), ctypes.POINTER(ControlData),
                                            ctypes.POINTER(ConfigurationData), ctypes.POINTER(ConfigurationData),

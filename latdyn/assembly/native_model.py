@@ -208,7 +208,7 @@ class SceneLaws:
             read = [self.inputs[x.name] if x.name in self.inputs else self.controllers[x.name] for x in signals]
             return [float(f(t, *s, *read)) for f in functions]
 
-        return evaluate, len(sensors)
+        return evaluate, len(sensors) + len(controller.states)
 
 
 def has_gravity_tangent(kernels) -> bool:
@@ -340,7 +340,13 @@ class NativeModel:
             coupling_position=ints(np.full(len(wired.coupling_actuator), -1, np.int64)),
             hinge_contact=arr(joint_contact_rows(m.hinges)),
             n_cables=CE, cable_force=kernel["cable_force"], gravity_load_D_q=kernel["beam_gravity_D_q"],
+            n_controller_states=len(wired.state_slot), controller_state_start=ints(wired.state_start),
+            controller_state_slot=ints(wired.state_slot),
         )
+        if len(wired.state_slot):  # the runtime's arrays, read and written in place (latdyn.assembly.control)
+            states, rates = wired.states.values, wired.state_rates
+            self._keep += [states, rates]
+            self.model.controller_states, self.model.controller_state_rate = states.ctypes.data, rates.ctypes.data
         self._keep.append(outputs)
         if CE:
             self.model.cable_nodes, self.model.cable_offsets = ints(cables.nodes), arr(cables.offsets)
@@ -358,7 +364,9 @@ class NativeModel:
             "hinge_d_theta": (H,), "hinge_d_rate": (H,), "matrix": (0,), "rhs": (0,), "dissipation": (1,),
             "joint_forces": (H,),
             "sensor_values": (len(wired.sensor_kind),), "controller_gradient": (len(wired.sensor_kind),),
-            "controller_scratch": (len(wired.sensor_kind) + 1,),
+            "controller_scratch": (wired.law_values,), "controller_state_trial": (len(wired.state_slot),),
+            "controller_arguments": (wired.law_arguments,), "controller_solve": (wired.solve_size,),
+            "controller_half_step": (1,),
             "coupling_stiffness": (len(wired.coupling_actuator),), "coupling_damping": (len(wired.coupling_actuator),),
             "cable_vector": (CE, 12), "cable_stiffness": (CE, 12, 12), "cable_damping": (CE, 12, 12),
             "cable_state": (CE, 5), "cable_strain": (CE,), "cable_gap": (CE,),
@@ -479,6 +487,13 @@ class NativeModel:
         self.library.latdyn_element_inputs(self.model_ref, self.work_ref, ctypes.byref(self.configuration(state)))
         b = self.buffers
         return b["geometry"].copy(), b["rates"].copy(), b["accelerations"].copy()
+
+    def accept_controller_states(self, state, h: float) -> None:
+        """The continuous controllers' states accepted at the end of a step of size ``h`` that ended at
+        ``state`` (``latdyn_controller_states_accept``; h = 0: S kept, its rate dS/dt taken at ``state``)."""
+        if self.model.n_controller_states:
+            self.library.latdyn_controller_states_accept(self.model_ref, self.work_ref,
+                                                         ctypes.byref(self.configuration(state)), float(state.t), h)
 
     def energies(self, state) -> tuple[float, float, float]:
         """Kinetic energy, strain energy (hinge springs with a constant stiffness included; those with

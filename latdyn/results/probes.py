@@ -185,7 +185,8 @@ class ProbeSet:
                 continue
             read = [values[n] if n in values else scene.inputs[n] if n in scene.inputs
                     else scene.controller_outputs[n] for n in c.reads]
-            out[i] = c.clip(float(c.functions()[0](float(state.t), *read)))
+            own = [scene.controller_states[f"{c.name}.{s}"] for s in c.states]  # S at the accepted state
+            out[i] = c.clip(float(c.functions()[0](float(state.t), *read, *own)))
 
 
 def _on_stop(joint, state: State, k: int) -> int:

@@ -234,6 +234,22 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
             return self._made[1]
         return self._native.configuration(state)
 
+    def start(self, state: State) -> None:
+        """:meth:`GeneralizedAlpha.start`, and the rates dS/dt of the continuous controllers' states at
+        ``state`` that the next step's trapezoidal rule starts from (their values kept)."""
+        super().start(state)
+        native = self.assembler.native(self.inertia_tangent)
+        native.laws.bind_inputs()
+        native.accept_controller_states(state, 0.0)
+
+    def accept(self) -> None:
+        """:meth:`GeneralizedAlpha.accept`, and the continuous controllers' states at the end of the step
+        accepted (the last one taken: :meth:`step`, or the one :meth:`advance` gave back)."""
+        super().accept()
+        if self._last_trial is not None and self._native is not None:
+            self._native.laws.bind_inputs()
+            self._native.accept_controller_states(self._last_trial, self._last_h)
+
     def step(self, state: State, h: float, t_new: float | None = None) -> tuple[State, StepStats]:
         self._setup()
         model = self.assembler.model
@@ -250,7 +266,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         failed = self._step(self._model_ref, self._work_ref, self._control_ref, ctypes.byref(base),
                             ctypes.byref(trial), self._vectors_ref)
         self.factorizations += control.factorizations
-        self._last_trial = trial_state
+        self._last_trial, self._last_h = trial_state, h
         self._made = self._view(trial_state, trial)
         total = self._buffers["total"]
         stats = StepStats(iterations=control.iterations, converged=bool(control.converged) and not failed,
@@ -320,7 +336,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
             else:
                 stats.residual = self._buffers["total"][:n].copy()
                 control.factored_h = 0.0  # a failed step may leave a partial factorization
-            self._last_trial = trial
+            self._last_trial, self._last_h = trial, run.h_pending
             self._made = self._view(trial, trial_c)
             pending = (trial, stats, run.h_pending)
         self.last_evaluation = _LastEvaluation(self._buffers["total"], n, model.n_total, control.power,

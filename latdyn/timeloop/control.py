@@ -43,6 +43,9 @@ class StepControl:
         self.n_grid = max(1, int(np.ceil(self.t_end / self.dt - 1e-9)))
         #: the grid's times where instants are added to it (None: k·dt)
         self.grid = None
+        #: the grid indices of the instants, sorted (the loop of steps in C stops on each: next_row), and
+        #: whether every instant is a point k·dt of the nominal grid (the loop of steps in C walks only that)
+        self.instant_indices, self.instants_on_nominal_grid = np.zeros(0, np.int64), True
         if instants is not None and len(instants):
             self.tolerance = 1e-9 * self.dt
             nominal = [self.grid_time(k) for k in range(self.n_grid + 1)]
@@ -50,6 +53,9 @@ class StepControl:
                      and abs(nominal[min(int(round(t / self.dt)), self.n_grid)] - t) > self.tolerance]
             self.grid = np.unique(np.array(nominal + extra, dtype=float))
             self.n_grid = len(self.grid) - 1
+            self.instants_on_nominal_grid = not extra
+            found = np.searchsorted(self.grid, np.asarray(instants, float) - self.tolerance)
+            self.instant_indices = np.unique(found[found <= self.n_grid]).astype(np.int64)
         self.dt_min = solve.dt_min if solve.dt_min is not None else self.dt * 1e-6
         self.adaptive, self.error_tol, self.length = solve.adaptive, solve.error_tol, length
         self.every = every
@@ -131,7 +137,15 @@ class StepControl:
 
     def next_row(self, run: TransientProgress) -> int:
         """The grid point of the next recorded row (every step without ``every``), and at most the
-        step that ends on a multiple of 256 steps (where the loop puts rotations back on SO(3))."""
+        step that ends on a multiple of 256 steps (where the loop puts rotations back on SO(3)) and the
+        next instant (a sampled controller's sample, taken in Python: latdyn.timeloop.sampling)."""
+        following = self.instant_indices[self.instant_indices > run.grid_index]
+        if len(following):
+            return min(self.next_row_only(run), int(following[0]))
+        return self.next_row_only(run)
+
+    def next_row_only(self, run: TransientProgress) -> int:
+        """:meth:`next_row` without the instants."""
         k = run.grid_index + 1
         if self.every is not None:
             due_at = run.output_index * self.every - 1e-9 * self.dt

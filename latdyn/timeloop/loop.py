@@ -34,6 +34,7 @@ from latdyn.timeloop.control import StepControl
 from latdyn.timeloop.events import cable_events, cable_sides, crossing_fraction, hinge_events, restart_accelerations
 from latdyn.timeloop.progress import (DRIFT_WARNING, UNBOUNDED, UNBOUNDED_ROWS, TransientProgress, factorizations,
                                       hinge_work, load_power)
+from latdyn.timeloop.sampling import controller_memory, restore_controller_memory
 
 
 class Attempt(NamedTuple):
@@ -101,9 +102,11 @@ class TimeLoop:
         if self.last_recorded is not None:
             self.writer.reattach_last_frame(
                 lambda snapshot=self.last_recorded: paraview.frame(self.assembler, self.writer.mesh, snapshot))
-        # sampled controllers: back in Python at each sample instant, so one step at a time
+        # sampled controllers: the loop of steps in C stops on each sample instant (control.next_row), the
+        # sample taken in Python (_after_accepted); instants off the grid k·dt: one step at a time
         self.compiled = (self.compiled_loop and hasattr(self.integrator, "advance") and not self.control.adaptive
-                         and self.sampler is None and self.sensitivities is None)
+                         and (self.sampler is None or self.control.instants_on_nominal_grid)
+                         and self.sensitivities is None)
         self.writer.summary["time_loop"] = "compiled" if self.compiled else "python"
         if resume_from is None:
             self._record(self.progress.state, energy0)
@@ -112,6 +115,7 @@ class TimeLoop:
     def _start(self) -> dict:
         """The run's progress at t = 0; the energies there."""
         state = self.prepared.state
+        self.model.scene.controller_states.reset()  # continuous states from `initial` (sampled: start, below)
         if self.sampler is not None:
             self.sampler.start(state, 1e-9 * self.control.dt)
         self.integrator.start(state)
@@ -127,7 +131,7 @@ class TimeLoop:
             total0=sum(energy0.values()), potential0=energy0["potential"],
             received0=energy0["kinetic"] + energy0["strain"] + 1e-8 * abs(energy0["potential"]),
             inertia_tangent_from=0.0 if getattr(self.integrator, "inertia_tangent", False) else None,
-            controller_memory=self.sampler.memory() if self.sampler is not None else None)
+            controller_memory=controller_memory(self.model.scene))
         if self.sensitivities is not None:
             self.progress.sensitivities = self.sensitivities.start(state)
         return energy0
@@ -136,8 +140,7 @@ class TimeLoop:
         """The run's progress as the checkpoint keeps it: the latched hinges renumber the coordinates,
         then the loop goes on as it was."""
         self.progress = checkpoint.progress
-        if self.sampler is not None:
-            self.sampler.restore(self.progress.controller_memory)
+        restore_controller_memory(self.model.scene, self.progress.controller_memory)
         self.model.locked[:] = self.progress.locked
         if self.progress.stuck is not None:
             self.model.stuck[:] = self.progress.stuck
@@ -482,6 +485,7 @@ class TimeLoop:
         engine holds this step's factorization)."""
         kept = copy.copy(self.progress)  # dataclasses.replace without its per-field checks (once a row)
         kept.cut_times = list(self.progress.cut_times)
+        kept.controller_memory = controller_memory(self.model.scene)  # continuous states change every step
         mark = self.factorization_mark() if self.factorization_mark is not None and kept_factorization else None
         unwritten = (self.bookmark["paraview"] or {}).get("unwritten") is not None
         return LastAccepted(kept, self.bookmark, self.last_recorded if unwritten else None, mark)

@@ -20,6 +20,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from latdyn.assembly.control import state_rates
+
 
 class SampledControllers:
     """The scene's sampled controllers and the instants they sample at."""
@@ -72,13 +74,31 @@ class SampledControllers:
         return True
 
     def memory(self) -> np.ndarray:
-        """A copy of every controller's output and state (what a checkpoint keeps)."""
-        return np.concatenate([self.outputs.values, self.states.values]).copy()
+        """A copy of every controller's output and state (what a checkpoint keeps: :func:`controller_memory`)."""
+        return controller_memory(self.scene)
 
     def restore(self, memory: np.ndarray | None) -> None:
         """Outputs and states as :meth:`memory` gave them."""
-        if memory is None:
-            return
-        n = len(self.outputs.values)
-        self.outputs.values[:] = memory[:n]
-        self.states.values[:] = memory[n:]
+        restore_controller_memory(self.scene, memory)
+
+
+def controller_memory(scene) -> np.ndarray | None:
+    """A copy of every controller's output and state and of the states' rates dS/dt (those of the
+    continuous controllers' states: :func:`latdyn.assembly.control.state_rates`), what a checkpoint
+    keeps; None for a scene without controllers."""
+    if not getattr(scene, "controllers", None):
+        return None
+    return np.concatenate([scene.controller_outputs.values, scene.controller_states.values, state_rates(scene)])
+
+
+def restore_controller_memory(scene, memory: np.ndarray | None) -> None:
+    """Outputs, states and rates as :func:`controller_memory` gave them (a checkpoint of a run without
+    the rates, from before the states of continuous controllers: outputs and states)."""
+    if memory is None:
+        return
+    outputs, states = scene.controller_outputs.values, scene.controller_states.values
+    n, p = len(outputs), len(states)
+    outputs[:] = memory[:n]
+    states[:] = memory[n:n + p]
+    if len(memory) >= n + 2 * p:
+        state_rates(scene)[:] = memory[n + p:n + 2 * p]

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import sys
 
+from latdyn.assembly.control import refuse_states_without_step
 from latdyn.assembly.prepare import Prepared, length_scale
 from latdyn.errors import SceneError
 from latdyn.results.probes import ProbeSet
@@ -50,6 +51,7 @@ LOOP_BUDGET_S = 0.25
 def integrator_for(prepared: Prepared, tol: float, length: float, summary: dict):
     """The step of ``solve.method``: the central difference (explicit), else generalized-α (implicit_integrator)."""
     solve = prepared.scene.solve
+    refuse_states_without_step(prepared.scene, solve.method)
     if solve.method == "explicit":
         return CentralDifference(prepared.assembler, tol, solve.max_iterations, length)
     return implicit_integrator(prepared, AlphaParameters.for_method(solve.method, solve.rho_inf), tol, length,

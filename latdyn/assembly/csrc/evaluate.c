@@ -169,6 +169,15 @@ typedef struct {
     /* the gravity load and its exact tangent ∂Q/∂q (the generated kernel beam_gravity_D_q): the
      * static Newton matrix's K − λ ∂Q/∂q; NULL in a variant generated before it (left out) */
     kernel_3_2 gravity_load_D_q;
+    /* states of continuous controllers (latdyn/assembly/control.py; n_controller_states 0: none):
+     * controller k's states are state_start[k] … state_start[k+1]−1, state i the entry
+     * controller_state_slot[i] of controller_states (S at the last accepted state: the runtime's
+     * array, scene.controller_states) with its rate dS/dt there in controller_state_rate[i]. A law of
+     * a controller with p states and m sensors reads (s, S) and gives (1 + p)(1 + m + p) values:
+     * y, ∂y/∂(s, S), then f_j, ∂f_j/∂(s, S) of each state (codegen/laws.py). */
+    int64_t n_controller_states;
+    const int64_t *controller_state_start, *controller_state_slot;
+    double *controller_states, *controller_state_rate;
 } Model;
 
 /* Scratch buffers, allocated once by the caller. */
@@ -214,6 +223,10 @@ typedef struct {
     /* the static evaluation's gravity tangent ∂Q/∂q (e,14,14) and the kernel's Q beside it (e,14)
      * (only with gravity: length 0 without) */
     double *gravity_tangent, *gravity_force_D_q;
+    /* states of continuous controllers: S_{n+1} of the last evaluation (n_controller_states), the
+     * law's arguments (s, S) of one controller, the scratch of its states' local solve, and the
+     * step's h/2 of the trapezoidal rule (1; 0 outside a step: the states held at S_n) */
+    double *controller_state_trial, *controller_arguments, *controller_solve, *controller_half_step;
 } Work;
 
 /* ------------------------------------------------------------------------- small algebra */
@@ -480,8 +493,77 @@ static void element_range(const Model *m, const Configuration *c, Work *w, int64
     }
 }
 
+/* x ← A⁻¹ x for the p × p matrix A (row-major, overwritten) and `columns` right-hand sides x (p × columns,
+ * row-major): Gaussian elimination with partial pivoting (a controller's few states). */
+static void solve_small(int64_t p, double *A, double *x, int64_t columns)
+{
+    for (int64_t k = 0; k < p; ++k) {
+        int64_t pivot = k;
+        for (int64_t i = k + 1; i < p; ++i)
+            if (fabs(A[p * i + k]) > fabs(A[p * pivot + k])) pivot = i;
+        if (pivot != k) {
+            for (int64_t j = 0; j < p; ++j) { double t = A[p * k + j]; A[p * k + j] = A[p * pivot + j]; A[p * pivot + j] = t; }
+            for (int64_t j = 0; j < columns; ++j) { double t = x[columns * k + j]; x[columns * k + j] = x[columns * pivot + j]; x[columns * pivot + j] = t; }
+        }
+        for (int64_t i = k + 1; i < p; ++i) {
+            double f = A[p * i + k] / A[p * k + k];
+            for (int64_t j = k; j < p; ++j) A[p * i + j] -= f * A[p * k + j];
+            for (int64_t j = 0; j < columns; ++j) x[columns * i + j] -= f * x[columns * k + j];
+        }
+    }
+    for (int64_t k = p - 1; k >= 0; --k)
+        for (int64_t j = 0; j < columns; ++j) {
+            double v = x[columns * k + j];
+            for (int64_t i = k + 1; i < p; ++i) v -= A[p * k + i] * x[columns * i + j];
+            x[columns * k + j] = v / A[p * k + k];
+        }
+}
+
+/* The states S of continuous controller k (first state `first`, p states, m sensors) at the end of the
+ * step, the law's arguments (s, S) in `args` and its values there in w->controller_scratch: the
+ * trapezoidal rule S = S_n + h/2 (f_n + f(s, S)) with hh = h/2 = w->controller_half_step[0], solved by
+ * Newton on S (exact in one iteration for f linear in S) with the law's ∂f/∂S; hh = 0 holds S at S_n.
+ * On return `dS` (p × m) holds dS/ds = (I − hh ∂f/∂S)⁻¹ hh ∂f/∂s, the states' exact dependence on the
+ * sensors that the condensed step's matrix takes (0 when hh = 0). */
+static void controller_states_at(const Model *m, Work *w, int64_t k, double t, int64_t first, int64_t p,
+                                 int64_t count, double *args, double *dS)
+{
+    const double hh = w->controller_half_step[0];
+    const int64_t width = 1 + count + p;
+    double *out = w->controller_scratch, *A = w->controller_solve;
+    for (int64_t j = 0; j < p; ++j) args[count + j] = m->controller_states[m->controller_state_slot[first + j]];
+    m->controller_laws(k, t, args, out);
+    if (hh > 0.0) {
+        for (int iteration = 0; iteration < 50; ++iteration) {
+            double change = 0.0, size = 0.0;
+            for (int64_t i = 0; i < p; ++i) {
+                const double *f = out + width * (1 + i);
+                for (int64_t j = 0; j < p; ++j) A[p * i + j] = (i == j ? 1.0 : 0.0) - hh * f[1 + count + j];
+                dS[i] = -(args[count + i] - m->controller_states[m->controller_state_slot[first + i]]
+                          - hh * (m->controller_state_rate[first + i] + f[0]));
+            }
+            solve_small(p, A, dS, 1);
+            for (int64_t i = 0; i < p; ++i) {
+                args[count + i] += dS[i];
+                change = fmax(change, fabs(dS[i]));
+                size = fmax(size, fabs(args[count + i]));
+            }
+            m->controller_laws(k, t, args, out);
+            if (change <= 1e-15 * fmax(1.0, size)) break;
+        }
+    }
+    for (int64_t i = 0; i < p; ++i) {
+        const double *f = out + width * (1 + i);
+        for (int64_t j = 0; j < p; ++j) A[p * i + j] = (i == j ? 1.0 : 0.0) - hh * f[1 + count + j];
+        for (int64_t j = 0; j < count; ++j) dS[count * i + j] = hh * f[1 + j];
+    }
+    if (hh > 0.0 && count > 0) solve_small(p, A, dS, count);
+    for (int64_t i = 0; i < p; ++i) w->controller_state_trial[first + i] = args[count + i];
+}
+
 /* Continuous controllers at c (see Model): outputs (clipped) into m->controller_outputs, ∂y/∂s into
- * w->controller_gradient (0 when saturated). */
+ * w->controller_gradient (0 when saturated); with states, S at the step's end (controller_states_at)
+ * and ∂y/∂s + ∂y/∂S dS/ds. */
 static void controller_outputs(const Model *m, const Configuration *c, Work *w, double t)
 {
     for (int64_t i = 0; i < m->n_sensors; ++i) {
@@ -497,13 +579,50 @@ static void controller_outputs(const Model *m, const Configuration *c, Work *w, 
     }
     for (int64_t k = 0; k < m->n_controllers; ++k) {
         int64_t first = m->sensor_start[k], count = m->sensor_start[k + 1] - first;
-        m->controller_laws(k, t, w->sensor_values + first, w->controller_scratch);
+        int64_t p = m->n_controller_states ? m->controller_state_start[k + 1] - m->controller_state_start[k] : 0;
+        double *dS = w->controller_solve + (p * p > p ? p * p : p);
+        if (p) {
+            double *args = w->controller_arguments;
+            for (int64_t i = 0; i < count; ++i) args[i] = w->sensor_values[first + i];
+            controller_states_at(m, w, k, t, m->controller_state_start[k], p, count, args, dS);
+        } else {
+            m->controller_laws(k, t, w->sensor_values + first, w->controller_scratch);
+        }
         double y = w->controller_scratch[0], lo = m->controller_limits[2 * k], hi = m->controller_limits[2 * k + 1];
         int saturated = y < lo || y > hi;
         m->controller_outputs[m->controller_slot[k]] = y < lo ? lo : (y > hi ? hi : y);
-        for (int64_t i = 0; i < count; ++i)
-            w->controller_gradient[first + i] = saturated ? 0.0 : w->controller_scratch[1 + i];
+        for (int64_t i = 0; i < count; ++i) {
+            double gradient = w->controller_scratch[1 + i];
+            for (int64_t j = 0; j < p; ++j) gradient += w->controller_scratch[1 + count + j] * dS[count * j + i];
+            w->controller_gradient[first + i] = saturated ? 0.0 : gradient;
+        }
     }
+}
+
+/* The states of the continuous controllers accepted at the end of a step of size h ending at c (time t):
+ * S_{n+1} from the trapezoidal rule at c (controller_states_at) into the runtime's array, and their rates
+ * f(s, S_{n+1}) there, which the next step starts from. h = 0 keeps S and takes its rate at c: the start
+ * (t = 0, a resumed run, a restart of the integrator). */
+void latdyn_controller_states_accept(const Model *m, Work *w, const Configuration *c, double t, double h)
+{
+    if (!m->n_controller_states) return;
+    const double held = w->controller_half_step[0];
+    w->controller_half_step[0] = 0.5 * h;
+    controller_outputs(m, c, w, t);
+    for (int64_t k = 0; k < m->n_controllers; ++k) {
+        int64_t first = m->controller_state_start[k], p = m->controller_state_start[k + 1] - first;
+        if (!p) continue;
+        int64_t count = m->sensor_start[k + 1] - m->sensor_start[k];
+        double *args = w->controller_arguments, *out = w->controller_scratch;
+        for (int64_t i = 0; i < count; ++i) args[i] = w->sensor_values[m->sensor_start[k] + i];
+        for (int64_t j = 0; j < p; ++j) {
+            args[count + j] = w->controller_state_trial[first + j];
+            m->controller_states[m->controller_state_slot[first + j]] = args[count + j];
+        }
+        m->controller_laws(k, t, args, out);
+        for (int64_t j = 0; j < p; ++j) m->controller_state_rate[first + j] = out[(1 + count + p) * (1 + j)];
+    }
+    w->controller_half_step[0] = held;
 }
 
 /* The coupling entries of K and C (see Model): each actuator's generalized force per unit output

@@ -163,8 +163,22 @@ typedef struct {
     double *v_n, *vdot_n, *a_n, *v, *vdot, *dq, *dx, *a_new;
 } StepVectors;
 
+static int64_t newton_iterations(const Model *m, Work *w, StepControl *s, const Configuration *base,
+                                 Configuration *trial, StepVectors *x);
+
+/* The step (newton_iterations), with the states of continuous controllers condensed by the trapezoidal
+ * rule of the step's h (evaluate.c controller_states_at): h/2 set for its evaluations only. */
 int64_t latdyn_newton_step(const Model *m, Work *w, StepControl *s, const Configuration *base,
                            Configuration *trial, StepVectors *x)
+{
+    if (m->n_controller_states) w->controller_half_step[0] = 0.5 * s->h;
+    int64_t failed = newton_iterations(m, w, s, base, trial, x);
+    if (m->n_controller_states) w->controller_half_step[0] = 0.0;
+    return failed;
+}
+
+static int64_t newton_iterations(const Model *m, Work *w, StepControl *s, const Configuration *base,
+                                 Configuration *trial, StepVectors *x)
 {
     const int64_t n = m->n_dofs;
     const double h = s->h, am = s->alpha_m, af = s->alpha_f, ga = s->gamma, be = s->beta;
@@ -403,6 +417,7 @@ int64_t latdyn_advance(const Model *m, Work *w, StepControl *s, const Configurat
         adv->dissipated += 0.5 * s->h * (adv->dissipation_power + w->dissipation[0]);
         adv->dissipation_power = w->dissipation[0];
         hinge_work(m, w, base, trial, adv);
+        latdyn_controller_states_accept(m, w, trial, target, s->h);  /* continuous controllers' states */
         adv->steps += 1;
         adv->iterations += s->iterations;
         adv->factorizations += s->factorizations;
