@@ -180,32 +180,10 @@ class TransientSensitivities(ParameterDerivatives):
                 "da": da0 + (1 - af) / (1 - am) * dvdot_new, "rows": carried["rows"]}
 
     def _matrices(self, state):
-        """M, C and the exact K at ``state``: the evaluation ``newton: exact`` uses (the elements'
-        inertia tangent), with the joint bodies' inertia tangent added (the generated
-        ``joint_body_inertia_stiffness``)."""
-        model = self.model
-        ev = self.assembler.evaluate(state, matrices=True, inertia_tangent=True, length=self.length)
-        M, C, K = ev.combined(1.0, 0.0, 0.0), ev.combined(0.0, 1.0, 0.0), ev.combined(0.0, 0.0, 1.0)
-        if len(model.body_nodes):
-            nodes = model.body_nodes
-            frames = np.ascontiguousarray(state.T[nodes].reshape(-1, 9))
-            motion = np.ascontiguousarray(np.concatenate([state.w[nodes], state.a[nodes], state.alpha[nodes]], axis=1))
-            section = np.ascontiguousarray(np.concatenate([model.body_mass[:, None], model.body_com,
-                                                           model.body_inertia.reshape(-1, 9)], axis=1))
-            gravity = np.repeat(np.asarray(self.assembler.gravity, float)[None], len(nodes), axis=0)
-            blocks = np.asarray(self.kernels.joint_body_inertia_stiffness(frames, motion, section, gravity)[0])
-            blocks = blocks.reshape(len(nodes), 6, 6)
-            dofs = model.node_dofs[nodes]
-            rows = np.broadcast_to(dofs[:, :, None], blocks.shape)
-            cols = np.broadcast_to(dofs[:, None, :], blocks.shape)
-            free = (rows < model.n_dofs) & (cols < model.n_dofs)
-            if issparse(K):
-                import scipy.sparse as sps
-
-                K = (K + sps.csr_matrix((blocks[free], (rows[free], cols[free])), shape=K.shape)).tocsr()
-            else:
-                np.add.at(K, (rows[free], cols[free]), blocks[free])
-        return M, C, K
+        """M, C and the exact K at ``state`` (:meth:`latdyn.assembly.assembler.Assembler.exact_matrices`:
+        the elements' inertia tangent and the joint bodies' ``joint_body_inertia_stiffness``, which the
+        step's Newton matrix leaves out)."""
+        return self.assembler.exact_matrices(state, length=self.length)
 
     def _rotation_operators(self, increment: np.ndarray):
         """(R·, J·) on free-coordinate columns for the step's increment hΔq: on each free node's
