@@ -480,6 +480,14 @@ class NativeModel:
         b = self.buffers
         return b["geometry"].copy(), b["rates"].copy(), b["accelerations"].copy()
 
+    def momentum(self, state) -> np.ndarray:
+        """[P, H] at ``state``: the linear momentum and the angular momentum about the global origin
+        (``latdyn_momentum``, csrc/rows.c)."""
+        out = np.zeros(6)
+        self.library.latdyn_momentum(self.model_ref, self.work_ref, ctypes.byref(self.configuration(state)),
+                                     out.ctypes.data)
+        return out
+
     def energies(self, state) -> tuple[float, float, float]:
         """Kinetic energy, strain energy (hinge springs with a constant stiffness included; those with
         a law are the caller's) and gravity potential at ``state`` (``latdyn_energies``)."""
