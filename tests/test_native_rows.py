@@ -39,7 +39,6 @@ except RuntimeError:
 
 pytestmark = pytest.mark.skipif(not HAVE_C, reason="no C compiler: the compiled step needs one")
 
-ROOT = Path(__file__).resolve().parents[1]
 TIMINGS = ("wall_time_s", "solver_s", "compile_s")
 
 #: a free beam (no support) of mass RHO_A·LENGTH, in rigid translation with V0 under gravity G
@@ -239,18 +238,29 @@ def test_blocks_cut_by_the_buffer_or_the_budget_give_the_same_rows(cut, tmp_path
     _same_files(tmp_path / "True", tmp_path / "False")
 
 
-def test_an_unbounded_run_stops_at_the_same_row_with_nothing_written_past_it(tmp_path, monkeypatch, blocks):
-    """The right-angle cantilever with the trapezoidal rule at dt = 0.2 (tests/test_energy_balance.py):
-    its balance breaks inside a block of rows recorded in C; the run ends at the same row, with the
-    same message and counters, and the rows after it in the block are not written."""
-    raw = yaml.safe_load((ROOT / "examples/benchmarks/D2_right_angle_cantilever.yaml").read_text())
-    raw["solve"]["dt"] = 0.2
+def test_a_balance_that_breaks_inside_a_block_ends_the_run_at_that_row(tmp_path, monkeypatch, blocks):
+    """The balance judged broken from t = 0.12 on (TransientProgress.unbounded made so; the break of a
+    real run, the right-angle cantilever at dt = 0.2 of tests/test_energy_balance.py, ends the same way,
+    docs/performance.md): the row at t = 0.12 lies inside a block recorded in C; the run ends there,
+    with the same message and counters as the rows one by one, and the block's later rows are not written."""
+    from latdyn.timeloop.progress import TransientProgress
+
+    balance = TransientProgress.balance
+
+    def judged(self, t, energies, external_work):
+        self.row_t = t
+        return balance(self, t, energies, external_work)
+
+    monkeypatch.setattr(TransientProgress, "balance", judged)
+    monkeypatch.setattr(TransientProgress, "unbounded", property(lambda self: getattr(self, "row_t", 0.0) >= 0.12))
+    scene = yaml.safe_load(driven_beam(False))
     messages = {}
     for native in (True, False):
         _rows_one_by_one(monkeypatch, native)
         with pytest.raises(UnboundedError) as raised:
-            latdyn.run(latdyn.load_scene(raw), tmp_path / str(native))
+            latdyn.run(latdyn.load_scene(scene), tmp_path / str(native))
         messages[native] = str(raised.value)
-    assert messages[True] == messages[False] and "energy balance broke" in messages[True]
-    assert blocks and max(blocks) > 10
+    assert messages[True] == messages[False] and "energy balance broke at t = 0.12" in messages[True]
+    assert blocks == [59]  # the block held the rows up to t_end; those after the break were dropped
     _same_files(tmp_path / "True", tmp_path / "False")
+    assert probe_columns(tmp_path / "True")["t"][-1] == pytest.approx(0.12)
