@@ -136,15 +136,28 @@ def _rows_one_by_one(monkeypatch, native: bool) -> None:
     monkeypatch.setattr(loop_module, "NATIVE_ROWS", native)
 
 
-def _same_files(a: Path, b: Path) -> None:
-    """probes.csv byte for byte, state.h5 array for array, summary.json but its timings."""
-    assert (a / "probes.csv").read_bytes() == (b / "probes.csv").read_bytes()
-    with h5py.File(a / "state.h5") as fa, h5py.File(b / "state.h5") as fb:
-        names = []
+def _same_datasets(a: Path, b: Path) -> None:
+    """Every dataset of two HDF5 files equal, NaN where NaN."""
+    with h5py.File(a) as fa, h5py.File(b) as fb:
+        names, other = [], []
         fa.visit(lambda name: names.append(name) if isinstance(fa[name], h5py.Dataset) else None)
-        assert names
+        fb.visit(lambda name: other.append(name) if isinstance(fb[name], h5py.Dataset) else None)
+        assert names and names == other
         for name in names:
-            assert np.array_equal(fa[name][()], fb[name][()]), name
+            x, y = fa[name][()], fb[name][()]
+            assert x.shape == y.shape and (np.array_equal(x, y, equal_nan=True) if x.dtype.kind == "f"
+                                           else np.array_equal(x, y)), name
+
+
+def _same_files(a: Path, b: Path) -> None:
+    """probes.csv byte for byte, state.h5 and the ParaView files dataset for dataset, summary.json but
+    its timings."""
+    assert (a / "probes.csv").read_bytes() == (b / "probes.csv").read_bytes()
+    _same_datasets(a / "state.h5", b / "state.h5")
+    frames = sorted(p.name for p in (a / "paraview").glob("*.vtkhdf"))
+    assert frames and frames == sorted(p.name for p in (b / "paraview").glob("*.vtkhdf"))
+    for name in frames:
+        _same_datasets(a / "paraview" / name, b / "paraview" / name)
     sa, sb = (json.loads((x / "summary.json").read_text()) for x in (a, b))
     assert {k: v for k, v in sa.items() if k not in TIMINGS} == {k: v for k, v in sb.items() if k not in TIMINGS}
 

@@ -187,9 +187,11 @@ def parts(model, state) -> dict:
     return mesh
 
 
-def frame(assembler, mesh: dict, state) -> dict:
+def frame(assembler, mesh: dict, state, kernel_sections=None) -> dict:
     """One ParaView frame of ``state`` for the parts of :func:`parts` (vectorized): ``{part:
-    {"points", "point_data", "cell_data"}}`` with the cell data that changes (section forces)."""
+    {"points", "point_data", "cell_data"}}`` with the cell data that changes (section forces;
+    ``kernel_sections``: the strain-energy kernel's at ``state`` when computed already, a row
+    recorded where the step runs)."""
     from latdyn.results.probes import SECTION_QUANTITIES, section_forces
 
     assembler.complete_links(state)
@@ -205,7 +207,7 @@ def frame(assembler, mesh: dict, state) -> dict:
             n_cells = len(part["cells"][0][1])
             forces = np.full((n_cells, len(SECTION_QUANTITIES)), np.nan)
             if part["elements"]:
-                forces[: part["elements"]] = section_forces(assembler, state)
+                forces[: part["elements"]] = section_forces(assembler, state, kernel_sections=kernel_sections)
             cell_data.update(zip(SECTION_QUANTITIES, forces.T))
         elif name == "cables":
             cell_data["tension"] = assembler.native().cable_state(state)[:, 4]

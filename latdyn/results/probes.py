@@ -28,12 +28,16 @@ def cable_value(cables, state: np.ndarray, name: str, quantity: str) -> float:
     return float(state[elements, 0].sum())
 
 
-def section_forces(assembler: Assembler, state: State, geometry: np.ndarray | None = None) -> np.ndarray:
+def section_forces(assembler: Assembler, state: State, geometry: np.ndarray | None = None,
+                   kernel_sections: np.ndarray | None = None) -> np.ndarray:
     """Mid-element section forces of every element, shape (n_elem, 4), columns
-    :data:`SECTION_QUANTITIES`; ``geometry`` may be passed when already computed."""
-    if geometry is None:
-        geometry = assembler.element_geometry(state)
-    _, sections = assembler.kernels.beam_strain_energy(geometry, assembler.model.element_sections)
+    :data:`SECTION_QUANTITIES`; ``geometry`` may be passed when already computed, or the
+    strain-energy kernel's section forces ``kernel_sections`` (a row recorded where the step runs)."""
+    sections = kernel_sections
+    if sections is None:
+        if geometry is None:
+            geometry = assembler.element_geometry(state)
+        _, sections = assembler.kernels.beam_strain_energy(geometry, assembler.model.element_sections)
     return section_moments_back(assembler.model, sections)  # a planar model turned some sections
 
 

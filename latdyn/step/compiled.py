@@ -476,6 +476,13 @@ class RowBlock:
         s = self.states
         return State(float(s.t[r]), *(getattr(s, name)[r] for name in STATE_FIELDS))
 
+    def kept(self, rows: int) -> "RowBlock":
+        """The first ``rows`` rows, copied out of the buffers (valid after the next loop call)."""
+        s = self.states
+        return RowBlock(self.scalars[:rows].copy(),
+                        State(s.t[:rows].copy(), *(getattr(s, name)[:rows].copy() for name in STATE_FIELDS)),
+                        None if self.section_forces is None else self.section_forces[:rows].copy())
+
 
 class RowBuffers:
     """The preallocated buffers of the rows the loop of steps records (``Rows`` of csrc/rows.c): the

@@ -19,6 +19,7 @@ last converged state as a row."""
 from __future__ import annotations
 
 import copy
+import functools
 import math
 import sys
 import time
@@ -274,7 +275,8 @@ class TimeLoop:
         stop, rows = (control.next_row(progress) if budget > 0 else progress.grid_index + 1), []
         if self.native_rows and budget > 0:
             stop, rows = self._rows_on_the_way()
-        momentum, sections = self.probes.needs
+        # the section forces for the probes and the ParaView frames
+        momentum, sections = self.probes.needs[0], len(self.model.element_nodes) > 0
         started = time.perf_counter()
         done = self.integrator.advance(
             progress.state, grid_index=progress.grid_index, stop_index=stop, dt=control.dt,
@@ -327,26 +329,57 @@ class TimeLoop:
         return end, rows
 
     def _record_rows(self, block) -> None:
-        """The rows the loop of steps recorded on its way (a step.compiled.RowBlock), in order, each as
-        :meth:`_record` records a row: the run's counters and energy accounts as they were at it, its
-        energies and probe values from the block, the energy balance judged before the next (an
-        unbounded run stops at the same row as row by row, nothing written past it)."""
-        progress, probes, began = self.progress, self.probes, self._loop_began
-        scalars = block.scalars
-        states = [block.state(r) for r in range(len(block))]
-        energies = scalars[:, 6:9]
-        values = probes.rows(block.states, energies, block.column("external_work"), block.column("dissipated"),
-                             scalars[:, 9:15] if probes.needs[0] else None, block.section_forces, states.__getitem__)
-        for r, state in enumerate(states):
-            steps, iterations, factorizations, external_work, dissipated = scalars[r, 1:6]
+        """The rows the loop of steps recorded on its way (a step.compiled.RowBlock), in order, as
+        :meth:`_record` records each: the run's counters and energy accounts as they were at each row,
+        its energies into the balance, the joint peaks, the balance judged row by row (an unbounded run
+        ends at the same row as row by row); then the rows up to there written in one block (probes,
+        state history, ParaView frames from the block's states and section forces), nothing past it."""
+        progress, probes, began, model = self.progress, self.probes, self._loop_began, self.model
+        k = len(block)
+        times, scalars = block.column("t").tolist(), block.scalars
+        counters, energies = scalars[:, 1:6].tolist(), scalars[:, 6:9].tolist()
+        states: dict[int, State] = {}
+
+        def state_of(r: int) -> State:  # one State per row (ProbeSet.joint_forces caches by it)
+            if r not in states:
+                states[r] = block.state(r)
+            return states[r]
+
+        names = [h.name for h in model.hinges] if model.hinges else None
+        end, gain = k, 0.0
+        for r in range(k):
+            steps, iterations, factorizations, external_work, dissipated = counters[r]
             progress.steps, progress.grid_index = began[0] + int(steps), began[1] + int(steps)
             progress.newton_iterations, progress.factorizations = began[2] + int(iterations), began[3] + int(factorizations)
-            progress.external_work = probes.external_work = float(external_work)
-            progress.dissipated = probes.dissipated = float(dissipated)
+            progress.external_work = probes.external_work = external_work
+            progress.dissipated = probes.dissipated = dissipated
             kinetic, strain, potential = energies[r]
-            self._record(state, {"kinetic": float(kinetic), "strain": float(strain), "potential": float(potential)},
-                         values[r].tolist(), last=r == len(states) - 1)
-            self.control.row_recorded(progress, state.t)
+            gain = progress.balance(times[r], {"kinetic": kinetic, "strain": strain, "potential": potential},
+                                    external_work)
+            if names:  # summary.json joint_peaks, over the recorded rows
+                progress.note_joint_forces(names, probes.joint_forces(state_of(r)), times[r])
+            self.control.row_recorded(progress, times[r])
+            if progress.unbounded:
+                end = r + 1
+                break
+        values = probes.rows(block.states, scalars[:, 6:9], block.column("external_work"),
+                             block.column("dissipated"), scalars[:, 9:15] if probes.needs[0] else None,
+                             block.section_forces if probes.needs[1] else None, state_of)
+        kept = block.kept(end)  # the states the frames and the checkpoint read later
+        s = kept.states
+        history = {name: array.reshape(end, -1) for name, array in
+                   (("x", s.x), ("T", s.T), ("v", s.v), ("w", s.w), ("theta", s.theta), ("theta_dot", s.theta_dot))
+                   if array[0].size}  # State.as_dict of each row
+        frames = [functools.partial(self._frame_of, kept, r) for r in range(end)]
+        self.writer.record_rows(times[:end], values[:end], history, frames)
+        self.last_recorded = kept.state(end - 1)
+        self.bookmark = self.writer.bookmark()
+        self._judge_balance(times[end - 1], gain)
+
+    def _frame_of(self, block, r: int) -> dict:
+        """The ParaView frame of row ``r`` of a block of rows (its section forces the rows')."""
+        sections = None if block.section_forces is None else block.section_forces[r]
+        return paraview.frame(self.assembler, self.writer.mesh, block.state(r), kernel_sections=sections)
 
     def _python_step(self) -> Attempt:
         """One step from Python, of the size the step control says, landing on the grid if it reaches it."""
