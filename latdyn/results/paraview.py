@@ -503,6 +503,22 @@ class ParaviewWriter:
         if self.every:
             self._next = math.floor(t / self.every + 1e-9) + 1
 
+    def record_rows(self, times, frame_of) -> None:
+        """The frames of rows at ``times``, as :meth:`record` of each: ``frame_of(r)`` gives row r's
+        frame (or a callable), asked for the rows whose frame is written now and for the last row."""
+        if self.every == 0 or not len(times):
+            return
+        for r, t in enumerate(times):
+            if self.every is None or t >= self._next * self.every - 1e-9 * self.every:
+                self._unwritten = None
+                self._write(t, frame_of(r))
+                if self.every:
+                    self._next = math.floor(t / self.every + 1e-9) + 1
+            else:
+                self._unwritten = (t, None)
+        if self._unwritten is not None:
+            self._unwritten = (self._unwritten[0], frame_of(len(times) - 1))
+
     def reattach_last_frame(self, data) -> None:
         """Resumed: the frame (or a callable) of the bookmark's ``unwritten`` record."""
         if self._unwritten is not None:

@@ -260,9 +260,9 @@ class ResultWriter:
 
     def record_rows(self, times, values, states: dict, frames) -> None:
         """Append k rows at once (rows recorded where the step runs): ``times`` (k,), ``values``
-        (k, probes) in ``columns`` order, ``states`` name -> (k, width) arrays, ``frames`` k frames or
-        callables (None: none); the same files as :meth:`record` of each row (the state history's
-        checkpoint judged once, after them)."""
+        (k, probes) in ``columns`` order, ``states`` name -> (k, width) arrays, ``frames(r)`` row r's
+        frame or a callable giving it, asked only for the frames written (None: none); the same files
+        as :meth:`record` of each row (the state history's checkpoint judged once, after them)."""
         if self.closed:
             raise RuntimeError("ResultWriter.record_rows() after close()")
         self._probes.add_rows(times, values)
@@ -272,8 +272,7 @@ class ResultWriter:
         if self.out_dir is not None and due and now - self._last_checkpoint >= 9.0 * self._last_checkpoint_cost:
             self.checkpoint()
         if frames is not None and self.out_dir is not None:
-            for t, frame in zip(times, frames):
-                self._paraview.record(float(t), frame)
+            self._paraview.record_rows(times, frames)
 
     def checkpoint(self) -> None:
         """Rewrite the state history on disk now (atomically), with every row so far; the probe

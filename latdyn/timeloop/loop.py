@@ -316,6 +316,9 @@ class TimeLoop:
         on a stand-in of the run's progress."""
         progress, control = self.progress, self.control
         end, capacity = control.loop_end(progress), self.integrator.row_capacity()
+        if control.every is None:  # a row every step
+            rows = list(range(progress.grid_index + 1, min(end, progress.grid_index + 1 + capacity)))
+            return (rows[-1] + 1 if len(rows) == capacity else end), rows
         ahead = _RowsAhead(progress.output_index, progress.grid_index)
         rows = []
         for k in range(progress.grid_index + 1, end):
@@ -370,8 +373,7 @@ class TimeLoop:
         history = {name: array.reshape(end, -1) for name, array in
                    (("x", s.x), ("T", s.T), ("v", s.v), ("w", s.w), ("theta", s.theta), ("theta_dot", s.theta_dot))
                    if array[0].size}  # State.as_dict of each row
-        frames = [functools.partial(self._frame_of, kept, r) for r in range(end)]
-        self.writer.record_rows(times[:end], values[:end], history, frames)
+        self.writer.record_rows(times[:end], values[:end], history, functools.partial(self._frame_of, kept))
         self.last_recorded = kept.state(end - 1)
         self.bookmark = self.writer.bookmark()
         self._judge_balance(times[end - 1], gain)
