@@ -33,12 +33,17 @@ def section_forces(assembler: Assembler, state: State, geometry: np.ndarray | No
     """Mid-element section forces of every element, shape (n_elem, 4), columns
     :data:`SECTION_QUANTITIES`; ``geometry`` may be passed when already computed, or the
     strain-energy kernel's section forces ``kernel_sections`` (a row recorded where the step runs)."""
-    sections = kernel_sections
-    if sections is None:
-        if geometry is None:
-            geometry = assembler.element_geometry(state)
-        _, sections = assembler.kernels.beam_strain_energy(geometry, assembler.model.element_sections)
+    sections = kernel_section_forces(assembler, state, geometry) if kernel_sections is None else kernel_sections
     return section_moments_back(assembler.model, sections)  # a planar model turned some sections
+
+
+def kernel_section_forces(assembler: Assembler, state: State, geometry: np.ndarray | None = None) -> np.ndarray:
+    """The strain-energy kernel's mid-element section forces at ``state``, (n_elem, 4), in the
+    sections' own axes (before :func:`section_moments_back`; what the rows recorded in the loop of
+    steps hold)."""
+    if geometry is None:
+        geometry = assembler.element_geometry(state)
+    return assembler.kernels.beam_strain_energy(geometry, assembler.model.element_sections)[1]
 
 
 class ProbeSet:
@@ -153,7 +158,7 @@ class ProbeSet:
             energies = self.assembler.energies(state)
         energies = energies or {"kinetic": 0.0, "strain": 0.0, "potential": 0.0}
         momentum = np.concatenate(self.assembler.momentum(state))[None] if self._need_momentum else None
-        sections = section_forces(self.assembler, state)[None] if self._need_sections else None
+        sections = kernel_section_forces(self.assembler, state)[None] if self._need_sections else None
         one = State(np.array([state.t]), *(np.asarray(getattr(state, name))[None] for name in STATE_FIELDS))
         out = self.rows(one, np.array([[energies["kinetic"], energies["strain"], energies["potential"]]]),
                         np.array([self.external_work]), np.array([self.dissipated]), momentum, sections,
