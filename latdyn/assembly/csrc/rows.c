@@ -15,12 +15,12 @@
  * kernel), q̇_t the rigid translation e_k of both ends and q̇_r the rigid rotation e_k about the origin
  * (ends moving with e_k × x, turning with e_k; the hinge rates 0). A joint body: m v_c and
  * r_c × m v_c + J ω about its centre of mass r_c = x + T c, J = T I Tᵀ. */
-void latdyn_momentum(const Model *m, Work *w, const Configuration *c, double *out)
+static void momentum_of(const Model *m, Work *w, const Configuration *c, int inputs_ready, double *out)
 {
     const int64_t E = m->n_elements;
     double P[3] = {0.0, 0.0, 0.0}, H[3] = {0.0, 0.0, 0.0};
     if (E > 0) {
-        element_inputs(m, c, w, 0, E);
+        if (!inputs_ready) element_inputs(m, c, w, 0, E);
         m->mass_matrix(E, w->geometry, m->element_sections, w->mass);
     }
     for (int64_t e = 0; e < E; ++e) {
@@ -69,6 +69,11 @@ void latdyn_momentum(const Model *m, Work *w, const Configuration *c, double *ou
     }
 }
 
+void latdyn_momentum(const Model *m, Work *w, const Configuration *c, double *out)
+{
+    momentum_of(m, w, c, 0, out);
+}
+
 /* The scalars of a row, in this order (latdyn/step/compiled.py ROW_SCALARS): its time; the steps, Newton
  * iterations and factorizations of the loop call up to it; the external work and the dissipated energy
  * since the start of the run; kinetic, strain and potential energy (latdyn_energies); P and H (with
@@ -100,7 +105,7 @@ static void record_row(const Model *m, Work *w, Rows *rows, const Configuration 
     latdyn_energies(m, w, c, t, out + 6);
     if (rows->sections)
         memcpy(rows->section_forces + 4 * m->n_elements * r, w->section_forces, sizeof(double) * 4 * (size_t)m->n_elements);
-    if (rows->momentum) latdyn_momentum(m, w, c, out + 9);
+    if (rows->momentum) momentum_of(m, w, c, 1, out + 9); /* the element inputs latdyn_energies left in Work */
     else for (int k = 0; k < 6; ++k) out[9 + k] = 0.0;
     rows->recorded = r + 1;
 }
