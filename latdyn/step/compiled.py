@@ -21,8 +21,11 @@ the external work and the dampers' dissipation as latdyn.timeloop.progress says)
 cannot accept as it comes (Newton fails; a hinge reaches lock_at or a stop) is handed back
 to the time loop, which handles it as before (cuts, the inertia tangent, latches, impacts)
 and calls the loop again once it is back on the grid at the nominal step. Python runs once
-per row: events, energies, probes, output, checkpoints (``timeloop.transient.LOOP_BUDGET_S``
-bounds a call, so that interrupts and the progress bar are seen). Adaptive steps take the steps
+a call: events, output, checkpoints (``timeloop.transient.LOOP_BUDGET_S`` bounds a call, so that
+interrupts and the progress bar are seen); without ``rows``, a call ends at the next row. With ``rows`` the loop steps on
+through the recorded rows and records each on its way (``csrc/rows.c``: the state, the energies, the
+section forces and the momenta, into :class:`RowBuffers`), so that Python takes them a block at a
+time (:meth:`latdyn.timeloop.loop.TimeLoop._record_rows`). Adaptive steps take the steps
 from Python, one call each.
 
 This is the runtime's only Newton iteration of a time step. With ``newton: full`` it takes the same
@@ -470,6 +473,22 @@ class RowBlock:
 
     def column(self, name: str) -> np.ndarray:
         return self.scalars[:, ROW_SCALARS.index(name)]
+
+    @property
+    def counters(self) -> np.ndarray:
+        """(k, 5): steps, Newton iterations and factorizations of the loop call up to each row, the
+        external work and the dissipated energy since the start of the run."""
+        return self.scalars[:, 1:6]
+
+    @property
+    def energies(self) -> np.ndarray:
+        """(k, 3): kinetic, strain and potential energy (latdyn_energies)."""
+        return self.scalars[:, 6:9]
+
+    @property
+    def momenta(self) -> np.ndarray:
+        """(k, 6): [P, H] (zeros unless the loop call was asked for them)."""
+        return self.scalars[:, 9:15]
 
     def state(self, r: int) -> State:
         """Row ``r``'s state (views of the buffers)."""

@@ -339,8 +339,7 @@ class TimeLoop:
         state history, ParaView frames from the block's states and section forces), nothing past it."""
         progress, probes, began, model = self.progress, self.probes, self._loop_began, self.model
         k = len(block)
-        times, scalars = block.column("t").tolist(), block.scalars
-        counters, energies = scalars[:, 1:6].tolist(), scalars[:, 6:9].tolist()
+        times, counters, energies = block.column("t").tolist(), block.counters.tolist(), block.energies.tolist()
         states: dict[int, State] = {}
 
         def state_of(r: int) -> State:  # one State per row (ProbeSet.joint_forces caches by it)
@@ -365,8 +364,8 @@ class TimeLoop:
             if progress.unbounded:
                 end = r + 1
                 break
-        values = probes.rows(block.states, scalars[:, 6:9], block.column("external_work"),
-                             block.column("dissipated"), scalars[:, 9:15] if probes.needs[0] else None,
+        values = probes.rows(block.states, block.energies, block.column("external_work"),
+                             block.column("dissipated"), block.momenta if probes.needs[0] else None,
                              block.section_forces if probes.needs[1] else None, state_of)
         kept = block.kept(end)  # the states the frames and the checkpoint read later
         s = kept.states
