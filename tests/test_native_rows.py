@@ -235,12 +235,13 @@ def test_a_hinge_hitting_its_stop_hands_the_step_back_between_rows_recorded_in_c
     step that reaches the stop in the middle of a block; the rows before it, the joint peaks and
     the impact's dissipation are those of the rows one by one."""
     scene = stop_scene(0.5)
+    scene["solve"]["t_end"] = 0.6  # the stop is reached at t ≈ 0.5 s
     scene["output"]["probes"]["torque"] = {"hinge": "arm.start", "quantity": "torque"}
     scene["output"]["probes"]["dissipated"] = {"energy": "dissipated"}
     for native in (True, False):
         _rows_one_by_one(monkeypatch, native)
         latdyn.run(latdyn.load_scene(scene), tmp_path / str(native))
-    assert len(blocks) > 4 and sum(blocks) > 1000
+    assert len(blocks) > 2 and sum(blocks) > 500
     _same_files(tmp_path / "True", tmp_path / "False")
     summary = json.loads((tmp_path / "True" / "summary.json").read_text())
     assert summary["events"] and summary["joint_peaks"] and summary["dissipated_energy"] > 0
