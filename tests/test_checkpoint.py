@@ -64,7 +64,8 @@ SCENES = {
 
 def interrupt_at(monkeypatch, t_stop: float, how="keyboard"):
     """Ctrl-C (or SIGTERM) when the first step from t >= t_stop begins (a step from Python, or
-    the compiled loop of steps between rows)."""
+    the compiled loop of steps between rows; a loop of steps through rows, which would step past
+    t_stop in one call, ends at it, as at its wall-time budget)."""
     from latdyn.step.compiled import CompiledGeneralizedAlpha
     from latdyn.step.integrators import CentralDifference
 
@@ -77,6 +78,12 @@ def interrupt_at(monkeypatch, t_stop: float, how="keyboard"):
                 if how == "sigterm":
                     signal.raise_signal(signal.SIGTERM)
                 raise KeyboardInterrupt
+            if "stop_index" in kwargs:  # a loop of steps through rows (rows recorded in C) ends at t_stop
+                dt, stop = kwargs["dt"], kwargs["stop_index"]
+                k_stop = int(np.ceil(t_stop / dt - 1e-9))
+                if kwargs["grid_index"] < k_stop < stop:
+                    kwargs["stop_index"] = k_stop
+                    kwargs["rows"] = [k for k in kwargs.get("rows") or [] if k < k_stop]
             return _original(self, state, *args, **kwargs)
 
         monkeypatch.setattr(cls, name, step)

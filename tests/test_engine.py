@@ -233,6 +233,7 @@ def test_the_ctypes_mirrors_have_the_compilers_layout():
     mirrors = {"Model": library.ModelData, "Links": library.LinksData, "Work": library.WorkData,
                "Configuration": library.ConfigurationData,
                "StepVectors": library.VectorsData, "StepControl": library.ControlData, "Advance": library.AdvanceData,
+               "Rows": library.RowsData,
                "SparseLU": library.SparseLUStructure, "EvaluationControl": library.EvaluationData}
     lines, expected = [], []
     for c_name, mirror in mirrors.items():

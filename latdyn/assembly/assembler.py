@@ -374,38 +374,14 @@ class Assembler:
         return {"kinetic": kinetic, "strain": strain, "potential": potential}
 
     def momentum(self, state: State) -> tuple[np.ndarray, np.ndarray]:
-        """Linear momentum and angular momentum about the global origin.
+        """Linear momentum and angular momentum about the global origin (``latdyn_momentum``,
+        csrc/rows.c, which the rows recorded in the loop of steps call too).
 
         For an element, P·c = q̇ᵀ M q̇_c with q̇_c the rigid translation c, and
         H·c = q̇ᵀ M q̇_c with q̇_c the rigid rotation c about the origin
         (B q̇_c = c × X), so the mass-matrix kernel gives both exactly. A joint body: m v_c and
         r × m v_c + J ω about its centre of mass r = x + T c, with J = T I Tᵀ.
         """
-        m = self.model
         self.complete_links(state)
-        geometry, qdot, _ = self.native().element_inputs(state)
-        (mass,) = self.kernels.beam_mass_matrix(geometry, m.element_sections)
-        Mq = np.einsum("eij,ej->ei", mass, qdot)
-        P, H = np.zeros(3), np.zeros(3)
-        x1, x2 = geometry[:, 0:3], geometry[:, 3:6]
-        for k in range(3):
-            c = np.eye(3)[k]
-            trans = np.zeros_like(qdot)
-            trans[:, 0:3] = c
-            trans[:, 7:10] = c
-            rot = np.zeros_like(qdot)
-            rot[:, 0:3] = np.cross(c, x1)
-            rot[:, 3:6] = c
-            rot[:, 7:10] = np.cross(c, x2)
-            rot[:, 10:13] = c
-            P[k] = np.sum(Mq * trans)
-            H[k] = np.sum(Mq * rot)
-        if len(m.body_nodes):
-            i = m.body_nodes
-            T = state.T[i]
-            rc = np.einsum("bij,bj->bi", T, m.body_com)
-            J = T @ m.body_inertia @ np.transpose(T, (0, 2, 1))
-            p = m.body_mass[:, None] * (state.v[i] + np.cross(state.w[i], rc))
-            P += p.sum(axis=0)
-            H += np.sum(np.cross(state.x[i] + rc, p) + np.einsum("bij,bj->bi", J, state.w[i]), axis=0)
-        return P, H
+        out = self.native().momentum(state)
+        return out[:3], out[3:]

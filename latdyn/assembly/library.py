@@ -2,7 +2,7 @@
 evaluation of ``csrc/evaluate.c`` and the one LU factorization of ``csrc/factorization.c`` with the
 sparse LU of ``csrc/sparse_lu.c``), built once into the kernel cache by :mod:`latdyn.native`, the
 ctypes mirrors of its C structs (``Model``, ``Links``, ``Work``, ``Configuration``, ``EvaluationControl``,
-``Vectors``, ``StepControl``, ``Advance``, ``Factorization``, ``SparseLU``) and the signatures of
+``Vectors``, ``StepControl``, ``Advance``, ``Rows``, ``Factorization``, ``SparseLU``) and the signatures of
 its exported functions (``latdyn_factor`` and ``latdyn_solve`` among them).
 
 Every struct the C side reads is declared here and nowhere else on the Python side;
@@ -147,7 +147,14 @@ class AdvanceData(ctypes.Structure):
                 ("steps", I64), ("iterations", I64), ("factorizations", I64), ("status", I64), ("last", I64),
                 ("pending", I64), ("t_last", ctypes.c_double), ("h_pending", ctypes.c_double),
                 ("dissipation_power", ctypes.c_double), ("dissipated", ctypes.c_double),
-                ("hinge_work_torque", P), ("hinge_damper_torque", P)]
+                ("hinge_work_torque", P), ("hinge_damper_torque", P), ("rows", P)]
+
+
+class RowsData(ctypes.Structure):
+    """``Rows`` of csrc/rows.c: the rows one loop of steps records on the way (latdyn.step.compiled.RowBuffers)."""
+
+    _fields_ = [("capacity", I64), ("planned", I64), ("grid_point", P), ("momentum", I64), ("sections", I64),
+                ("recorded", I64), ("scalars", P), ("section_forces", P), ("states", P)]
 
 
 #: Element count from which the element part of an evaluation (geometry and kernels) runs on
@@ -205,6 +212,8 @@ def native_library() -> ctypes.CDLL:
                                             ctypes.POINTER(ConfigurationData), ctypes.c_double, P]
         model, work, configuration = (ctypes.POINTER(ModelData), ctypes.POINTER(WorkData),
                                       ctypes.POINTER(ConfigurationData))
+        library.latdyn_momentum.restype = None
+        library.latdyn_momentum.argtypes = [model, work, configuration, P]
         library.latdyn_evaluate.restype = None
         library.latdyn_evaluate.argtypes = [model, work, configuration, ctypes.POINTER(EvaluationData)]
         library.latdyn_element_inputs.restype = None

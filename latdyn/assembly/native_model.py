@@ -495,6 +495,14 @@ class NativeModel:
             self.library.latdyn_controller_states_accept(self.model_ref, self.work_ref,
                                                          ctypes.byref(self.configuration(state)), float(state.t), h)
 
+    def momentum(self, state) -> np.ndarray:
+        """[P, H] at ``state``: the linear momentum and the angular momentum about the global origin
+        (``latdyn_momentum``, csrc/rows.c)."""
+        out = np.zeros(6)
+        self.library.latdyn_momentum(self.model_ref, self.work_ref, ctypes.byref(self.configuration(state)),
+                                     out.ctypes.data)
+        return out
+
     def energies(self, state) -> tuple[float, float, float]:
         """Kinetic energy, strain energy (hinge springs with a constant stiffness included; those with
         a law are the caller's) and gravity potential at ``state`` (``latdyn_energies``)."""

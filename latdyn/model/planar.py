@@ -153,7 +153,7 @@ def section_moments_back(model, forces: np.ndarray) -> np.ndarray:
     if not np.any(beta):
         return forces
     c, s = np.cos(beta), np.sin(beta)
-    out = forces.copy()
-    out[:, 2] = c * forces[:, 2] - s * forces[:, 3]
-    out[:, 3] = s * forces[:, 2] + c * forces[:, 3]
+    out = forces.copy()  # (n_elem, 4), or with leading row axes (rows recorded in a block)
+    out[..., 2] = c * forces[..., 2] - s * forces[..., 3]
+    out[..., 3] = s * forces[..., 2] + c * forces[..., 3]
     return out

@@ -187,9 +187,11 @@ def parts(model, state) -> dict:
     return mesh
 
 
-def frame(assembler, mesh: dict, state) -> dict:
+def frame(assembler, mesh: dict, state, kernel_sections=None) -> dict:
     """One ParaView frame of ``state`` for the parts of :func:`parts` (vectorized): ``{part:
-    {"points", "point_data", "cell_data"}}`` with the cell data that changes (section forces)."""
+    {"points", "point_data", "cell_data"}}`` with the cell data that changes (section forces;
+    ``kernel_sections``: the strain-energy kernel's at ``state`` when computed already, a row
+    recorded where the step runs)."""
     from latdyn.results.probes import SECTION_QUANTITIES, section_forces
 
     assembler.complete_links(state)
@@ -205,7 +207,7 @@ def frame(assembler, mesh: dict, state) -> dict:
             n_cells = len(part["cells"][0][1])
             forces = np.full((n_cells, len(SECTION_QUANTITIES)), np.nan)
             if part["elements"]:
-                forces[: part["elements"]] = section_forces(assembler, state)
+                forces[: part["elements"]] = section_forces(assembler, state, kernel_sections=kernel_sections)
             cell_data.update(zip(SECTION_QUANTITIES, forces.T))
         elif name == "cables":
             cell_data["tension"] = assembler.native().cable_state(state)[:, 4]
@@ -500,6 +502,22 @@ class ParaviewWriter:
         self._write(t, data)
         if self.every:
             self._next = math.floor(t / self.every + 1e-9) + 1
+
+    def record_rows(self, times, frame_of) -> None:
+        """The frames of rows at ``times``, as :meth:`record` of each: ``frame_of(r)`` gives row r's
+        frame (or a callable), asked for the rows whose frame is written now and for the last row."""
+        if self.every == 0 or not len(times):
+            return
+        for r, t in enumerate(times):
+            if self.every is None or t >= self._next * self.every - 1e-9 * self.every:
+                self._unwritten = None
+                self._write(t, frame_of(r))
+                if self.every:
+                    self._next = math.floor(t / self.every + 1e-9) + 1
+            else:
+                self._unwritten = (t, None)
+        if self._unwritten is not None:
+            self._unwritten = (self._unwritten[0], frame_of(len(times) - 1))
 
     def reattach_last_frame(self, data) -> None:
         """Resumed: the frame (or a callable) of the bookmark's ``unwritten`` record."""

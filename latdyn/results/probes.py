@@ -4,10 +4,14 @@ from __future__ import annotations
 import numpy as np
 
 from latdyn.assembly.assembler import Assembler, State
+from latdyn.assembly.native_model import STATE_FIELDS
 from latdyn.model.model import lock_tolerance
 from latdyn.model.planar import section_moments_back
 
 _COMPONENT = {"x": 0, "y": 1, "z": 2}
+
+#: the energies of a row, in the order of Assembler.energies and of the rows the loop records
+ENERGIES = ("kinetic", "strain", "potential")
 
 #: the columns of :func:`section_forces`, as spelled by ``{element: ..., quantity: ...}`` probes
 SECTION_QUANTITIES = ("axial_force", "torque", "moment_y", "moment_z")
@@ -24,13 +28,22 @@ def cable_value(cables, state: np.ndarray, name: str, quantity: str) -> float:
     return float(state[elements, 0].sum())
 
 
-def section_forces(assembler: Assembler, state: State, geometry: np.ndarray | None = None) -> np.ndarray:
+def section_forces(assembler: Assembler, state: State, geometry: np.ndarray | None = None,
+                   kernel_sections: np.ndarray | None = None) -> np.ndarray:
     """Mid-element section forces of every element, shape (n_elem, 4), columns
-    :data:`SECTION_QUANTITIES`; ``geometry`` may be passed when already computed."""
+    :data:`SECTION_QUANTITIES`; ``geometry`` may be passed when already computed, or the
+    strain-energy kernel's section forces ``kernel_sections`` (a row recorded where the step runs)."""
+    sections = kernel_section_forces(assembler, state, geometry) if kernel_sections is None else kernel_sections
+    return section_moments_back(assembler.model, sections)  # a planar model turned some sections
+
+
+def kernel_section_forces(assembler: Assembler, state: State, geometry: np.ndarray | None = None) -> np.ndarray:
+    """The strain-energy kernel's mid-element section forces at ``state``, (n_elem, 4), in the
+    sections' own axes (before :func:`section_moments_back`; what the rows recorded in the loop of
+    steps hold)."""
     if geometry is None:
         geometry = assembler.element_geometry(state)
-    _, sections = assembler.kernels.beam_strain_energy(geometry, assembler.model.element_sections)
-    return section_moments_back(assembler.model, sections)  # a planar model turned some sections
+    return assembler.kernels.beam_strain_energy(geometry, assembler.model.element_sections)[1]
 
 
 class ProbeSet:
@@ -53,30 +66,34 @@ class ProbeSet:
                                for p in self.probes)
         self._need_cables = "cable" in kinds
 
-    def _point(self, probe, state: State) -> np.ndarray:
+    def _point(self, probe, states: State) -> np.ndarray:
+        """A point probe at every row of ``states`` (state arrays with a leading row axis: x (k, n, 3),
+        T (k, n, 3, 3), …): (k,) values. The same arithmetic for one row as for a block, so that rows
+        recorded in the loop of steps equal those recorded one by one."""
         m = self.model
         node, r = m.point(probe.point)
-        p = state.x[node] + state.T[node] @ r
+        offset = _turned(states.T[:, node], r)
+        p = states.x[:, node] + offset
         if probe.quantity == "velocity":
-            value = state.v[node] + np.cross(state.w[node], state.T[node] @ r)
+            value = states.v[:, node] + np.cross(states.w[:, node], offset)
         else:
             value = p
         if probe.frame != "global":
             b = m.body_node[probe.frame]
-            R, xb = state.T[b], state.x[b]
+            R, xb = states.T[:, b], states.x[:, b]
             if probe.quantity == "velocity":
-                value = R.T @ (value - state.v[b] - np.cross(state.w[b], p - xb))
+                value = _turned_back(R, value - states.v[:, b] - np.cross(states.w[:, b], p - xb))
             else:
-                value = R.T @ (p - xb)
+                value = _turned_back(R, p - xb)
                 if probe.quantity == "displacement":
                     b0 = self.initial
-                    p0 = b0.x[node] + b0.T[node] @ r
-                    value = value - b0.T[b].T @ (p0 - b0.x[b])
+                    p0 = b0.x[node] + _turned(b0.T[node], r)
+                    value = value - _turned_back(b0.T[b], p0 - b0.x[b])
         elif probe.quantity == "displacement":
-            value = value - (self.initial.x[node] + self.initial.T[node] @ r)
+            value = value - (self.initial.x[node] + _turned(self.initial.T[node], r))
         if probe.component == "norm" or probe.component is None:
-            return float(np.linalg.norm(value))
-        return float(value[_COMPONENT[probe.component]])
+            return np.sqrt((value * value).sum(axis=-1))
+        return value[:, _COMPONENT[probe.component]]
 
     def joint_forces(self, state: State) -> np.ndarray:
         """The generalized force each joint (hinge or guide, in model order) applies on its coordinate,
@@ -122,56 +139,83 @@ class ProbeSet:
         self._joint_forces = (key, out)
         return out
 
+    @property
+    def rows_in_loop(self) -> bool:
+        """Whether the loop of steps may record this scene's rows where it runs (:meth:`rows`): every
+        probe but a controller's (whose values are those of the laws at the row, which only the
+        evaluation of that row's step holds)."""
+        return not any(p.kind == "controller" for p in self.probes)
+
+    @property
+    def needs(self) -> tuple[bool, bool]:
+        """Whether the probes read the momenta, and the section forces."""
+        return self._need_momentum, self._need_sections
+
     def values(self, state: State, energies: dict | None = None) -> list[float]:
         """Probe values in file order; ``energies`` may be passed when already computed."""
-        m = self.model
         self.assembler.complete_links(state)
         if energies is None and self._need_energy:
             energies = self.assembler.energies(state)
-        momentum = self.assembler.momentum(state) if self._need_momentum else None
-        sections = None
-        if self._need_sections:
-            sections = section_forces(self.assembler, state)
-        cables = self.assembler.native().cable_state(state) if self._need_cables else None
-        out = []
-        for p in self.probes:
+        energies = energies or {"kinetic": 0.0, "strain": 0.0, "potential": 0.0}
+        momentum = np.concatenate(self.assembler.momentum(state))[None] if self._need_momentum else None
+        sections = kernel_section_forces(self.assembler, state)[None] if self._need_sections else None
+        one = State(np.array([state.t]), *(np.asarray(getattr(state, name))[None] for name in STATE_FIELDS))
+        out = self.rows(one, np.array([[energies["kinetic"], energies["strain"], energies["potential"]]]),
+                        np.array([self.external_work]), np.array([self.dissipated]), momentum, sections,
+                        lambda r: state)[0].tolist()
+        if self._continuous:
+            self._continuous_outputs(state, out)
+        return out
+
+    def rows(self, states: State, energies: np.ndarray, external_work: np.ndarray, dissipated: np.ndarray,
+             momentum: np.ndarray | None, sections: np.ndarray | None, state_of) -> np.ndarray:
+        """Probe values of k rows, (k, probes) in file order: ``states`` the rows' state arrays with a
+        leading row axis (:meth:`_point`), ``energies`` (k, 3) kinetic, strain, potential, the external
+        work and dissipated energy (k,), ``momentum`` (k, 6) [P, H] and ``sections`` (k, n_elements, 4)
+        as the strain-energy kernel gives them, where the probes read them; ``state_of(r)`` row r's
+        :class:`State`, for the probes evaluated at one state (joint forces, cables). A continuous
+        controller's output is :meth:`values`'s."""
+        m = self.model
+        k = len(states.t)
+        out = np.empty((k, len(self.probes)))
+        if sections is not None:
+            sections = section_moments_back(m, sections)  # a planar model turned some sections
+        for i, p in enumerate(self.probes):
             if p.kind == "point":
-                out.append(self._point(p, state))
+                out[:, i] = self._point(p, states)
             elif p.kind in ("hinge", "guide"):
-                k = m.hinge_index(p.beam, p.end) if p.kind == "hinge" else m.hinge_index(p.body, "guide")
+                j = m.hinge_index(p.beam, p.end) if p.kind == "hinge" else m.hinge_index(p.body, "guide")
                 if p.quantity in ("angle", "position"):
-                    out.append(float(state.theta[k]))
+                    out[:, i] = states.theta[:, j]
                 elif p.quantity == "rate":
-                    out.append(float(state.theta_dot[k]))
+                    out[:, i] = states.theta_dot[:, j]
                 else:  # torque | force
-                    out.append(float(self.joint_forces(state)[k]))
+                    out[:, i] = [self.joint_forces(state_of(r))[j] for r in range(k)]
             elif p.kind == "energy":
                 kind = p.quantity
                 if kind == "external_work":
-                    out.append(self.external_work)
+                    out[:, i] = external_work
                 elif kind == "dissipated":
-                    out.append(self.dissipated)
+                    out[:, i] = dissipated
                 elif kind == "total":
-                    out.append(energies["kinetic"] + energies["strain"] + energies["potential"])
+                    out[:, i] = energies[:, 0] + energies[:, 1] + energies[:, 2]
                 else:
-                    out.append(energies[kind])
+                    out[:, i] = energies[:, ENERGIES.index(kind)]
             elif p.kind == "momentum":
-                vec = momentum[0] if p.quantity == "linear" else momentum[1]
-                out.append(float(vec[_COMPONENT[p.component]]))
+                out[:, i] = momentum[:, _COMPONENT[p.component] + (0 if p.quantity == "linear" else 3)]
             elif p.kind == "element":
                 e = int(m.beam_elements[p.beam][p.element])
-                column = SECTION_QUANTITIES.index(p.quantity)
-                out.append(float(sections[e, column]))
-            elif p.kind == "controller":  # a sampled one's held output or a state; a continuous one's: below
+                out[:, i] = sections[:, e, SECTION_QUANTITIES.index(p.quantity)]
+            elif p.kind == "controller":  # a sampled one's held output or a state; a continuous one's: values
                 scene = m.scene
-                out.append(scene.controller_outputs[p.controller] if p.state is None
-                           else scene.controller_states[f"{p.controller}.{p.state}"])
+                out[:, i] = (scene.controller_outputs[p.controller] if p.state is None
+                             else scene.controller_states[f"{p.controller}.{p.state}"])
             elif p.kind == "cable":
-                out.append(cable_value(m.cables, cables, p.beam, p.quantity))
+                native = self.assembler.native()
+                out[:, i] = [cable_value(m.cables, native.cable_state(state_of(r)), p.beam, p.quantity)
+                             for r in range(k)]
             else:  # pragma: no cover - the scene validator refuses other kinds
                 raise ValueError(p.kind)
-        if self._continuous:
-            self._continuous_outputs(state, out)
         return out
 
     def _continuous_outputs(self, state: State, out: list) -> None:
@@ -187,6 +231,17 @@ class ProbeSet:
                     else scene.controller_outputs[n] for n in c.reads]
             own = [scene.controller_states[f"{c.name}.{s}"] for s in c.states]  # S at the accepted state
             out[i] = c.clip(float(c.functions()[0](float(state.t), *read, *own)))
+
+
+def _turned(T: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """T r over the last two axes of T (any leading axes), as elementwise sums (the same rounding for
+    one row as for a block)."""
+    return (T * r[..., None, :]).sum(axis=-1)
+
+
+def _turned_back(T: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Tᵀ v over the last two axes of T (any leading axes)."""
+    return (T * v[..., :, None]).sum(axis=-2)
 
 
 def _on_stop(joint, state: State, k: int) -> int:

@@ -89,6 +89,18 @@ class ProbesCsv:
             row = [float(v) for v in np.ravel(np.asarray(values, dtype=float))]
             if len(row) != len(self.columns):
                 raise ValueError(f"record() got {len(row)} values for {len(self.columns)} probes")
+        self._append(t, row)
+
+    def add_rows(self, times, values: np.ndarray) -> None:
+        """Rows at ``times`` (k,), ``values`` (k, probes) in column order: as :meth:`add` of each."""
+        values = np.asarray(values, dtype=float)
+        if values.shape != (len(times), len(self.columns)):
+            raise ValueError(f"record_rows() got values of shape {values.shape} for {len(times)} rows of "
+                             f"{len(self.columns)} probes")
+        for t, row in zip(times, values.tolist()):
+            self._append(float(t), row)
+
+    def _append(self, t: float, row: list[float]) -> None:
         if self._fd is not None:  # floats need no CSV quoting
             self._unwritten.append(",".join(map(format_float, (t, *row))) + "\n")
             if len(self._unwritten) >= CSV_BLOCK_ROWS \

@@ -131,6 +131,19 @@ class StateHistory:
             self._pending[k].append(arrays[k])
         self._pending_t.append(t)
 
+    def add_rows(self, times, states: dict) -> None:
+        """Rows at ``times`` (k,): ``states`` name -> (k, width) arrays, as :meth:`add` of each row
+        (copied once)."""
+        if not len(times):
+            return
+        arrays = {str(k): np.array(v, dtype=float).reshape(len(times), -1) for k, v in states.items()}
+        self.add(times[0], {k: a[0] for k, a in arrays.items()})
+        if self.folder is None:
+            return
+        for k in self.keys:
+            self._pending[k].extend(arrays[k][1:])
+        self._pending_t.extend(float(t) for t in times[1:])
+
     def write(self) -> bool:
         """Every row so far into the file (atomically); False when there was nothing to write."""
         if self.folder is None or self.keys is None or self.unwritten() == 0:

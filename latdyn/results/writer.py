@@ -258,6 +258,22 @@ class ResultWriter:
         if frame is not None and self.out_dir is not None:
             self._paraview.record(t, frame)
 
+    def record_rows(self, times, values, states: dict, frames) -> None:
+        """Append k rows at once (rows recorded where the step runs): ``times`` (k,), ``values``
+        (k, probes) in ``columns`` order, ``states`` name -> (k, width) arrays, ``frames(r)`` row r's
+        frame or a callable giving it, asked only for the frames written (None: none); the same files
+        as :meth:`record` of each row (the state history's checkpoint judged once, after them)."""
+        if self.closed:
+            raise RuntimeError("ResultWriter.record_rows() after close()")
+        self._probes.add_rows(times, values)
+        self._state.add_rows(times, states)
+        now = time.perf_counter()
+        due = self._state.unwritten() >= self.checkpoint_rows or now - self._last_checkpoint >= self.checkpoint_seconds
+        if self.out_dir is not None and due and now - self._last_checkpoint >= 9.0 * self._last_checkpoint_cost:
+            self.checkpoint()
+        if frames is not None and self.out_dir is not None:
+            self._paraview.record_rows(times, frames)
+
     def checkpoint(self) -> None:
         """Rewrite the state history on disk now (atomically), with every row so far; the probe
         rows not yet in probes.csv and the ParaView frames not yet in their files go there first."""

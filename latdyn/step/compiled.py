@@ -21,8 +21,11 @@ the external work and the dampers' dissipation as latdyn.timeloop.progress says)
 cannot accept as it comes (Newton fails; a hinge reaches lock_at or a stop) is handed back
 to the time loop, which handles it as before (cuts, the inertia tangent, latches, impacts)
 and calls the loop again once it is back on the grid at the nominal step. Python runs once
-per row: events, energies, probes, output, checkpoints (``timeloop.transient.LOOP_BUDGET_S``
-bounds a call, so that interrupts and the progress bar are seen). Adaptive steps take the steps
+a call: events, output, checkpoints (``timeloop.transient.LOOP_BUDGET_S`` bounds a call, so that
+interrupts and the progress bar are seen); without ``rows``, a call ends at the next row. With ``rows`` the loop steps on
+through the recorded rows and records each on its way (``csrc/rows.c``: the state, the energies, the
+section forces and the momenta, into :class:`RowBuffers`), so that Python takes them a block at a
+time (:meth:`latdyn.timeloop.loop.TimeLoop._record_rows`). Adaptive steps take the steps
 from Python, one call each.
 
 This is the runtime's only Newton iteration of a time step. With ``newton: full`` it takes the same
@@ -64,6 +67,7 @@ from latdyn.assembly.library import (
     AdvanceData,
     ConfigurationData,
     ControlData,
+    RowsData,
     VectorsData,
     native_library,
     parallel_threshold,
@@ -155,6 +159,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         self._scratch_c = (ConfigurationData * 2)(self._scratch[0][1], self._scratch[1][1])
         self._run = AdvanceData()
         self._run_ref = ctypes.byref(self._run)
+        self._rows = None  # RowBuffers of this numbering (rows), made on the first loop that records rows
 
     def _hold_matrix(self, native) -> None:
         """The iteration matrix's storage in the native model: a :class:`Factorization` of the
@@ -281,7 +286,8 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
 
     def advance(self, state: State, *, grid_index: int, stop_index: int, dt: float, t_end: float, n_grid: int,
                 power: float, external_work: float, hinge_work_torque: np.ndarray, hinge_damper_torque: np.ndarray,
-                dissipation_power: float = 0.0, dissipated: float = 0.0, budget_s: float = 0.25) -> "Advanced":
+                dissipation_power: float = 0.0, dissipated: float = 0.0, budget_s: float = 0.25,
+                rows: list[int] | None = None, momentum: bool = False, sections: bool = False) -> "Advanced":
         """Steps on the time grid in one call into C (``latdyn_advance``), from ``state`` on grid
         point ``grid_index`` through ``stop_index``, each as :meth:`step` takes it with
         h = t_{k+1} − t_k and accepted as the time loop accepts it (algorithmic acceleration
@@ -293,6 +299,11 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         ``stop_index``, after ``budget_s`` of wall time, or at the first step that does not
         converge or holds a hinge event (lock_at, a stop): that step is given back, not
         accepted, for the time loop to handle as it handles any step (:attr:`Advanced.pending`).
+
+        ``rows``: grid points (rising, each before ``stop_index``, at most :meth:`row_capacity`) after
+        whose steps the loop records a row where it runs (csrc/rows.c): the state, the counters and
+        energy accounts, the energies, and with ``momentum`` / ``sections`` the momenta and the section
+        forces; :attr:`Advanced.rows` holds those it recorded (a :class:`RowBlock`, valid until the next call).
         """
         self._setup()
         model = self.assembler.model
@@ -307,6 +318,11 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         damper_torque = np.array(hinge_damper_torque, dtype=float)
         run.dissipation_power, run.dissipated = dissipation_power, dissipated
         run.hinge_work_torque, run.hinge_damper_torque = work_torque.ctypes.data, damper_torque.ctypes.data
+        buffers = None
+        if rows:
+            buffers = self._row_buffers()
+            buffers.plan(rows, momentum, sections)
+        run.rows = buffers.reference if buffers is not None else None
         self._factor_version += 1
         self._native.laws.bind_inputs()  # this scene's input values (SceneLaws.bind_inputs)
         self._library.latdyn_advance(self._model_ref, self._work_ref, self._control_ref, ctypes.byref(base),
@@ -345,7 +361,17 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
                         power=run.power, external_work=run.external_work, status=run.status, pending=pending,
                         factorization_kept=kept, hinge_work_torque=work_torque,
                         hinge_damper_torque=damper_torque, dissipation_power=run.dissipation_power,
-                        dissipated=run.dissipated)
+                        dissipated=run.dissipated, rows=buffers.block() if buffers is not None else None)
+
+    def row_capacity(self) -> int:
+        """The most rows one :meth:`advance` records (its buffers, :class:`RowBuffers`)."""
+        self._setup()
+        return self._row_buffers().capacity
+
+    def _row_buffers(self) -> "RowBuffers":
+        if self._rows is None or self._rows.native is not self._native:
+            self._rows = RowBuffers(self._native, self._state_size, self._slices, self.assembler.model)
+        return self._rows
 
     # -- the held factorization of modified Newton, for checkpoints (latdyn.timeloop.checkpoint) -------
     def factorization_mark(self) -> int:
@@ -431,6 +457,105 @@ class Advanced:
     hinge_damper_torque: np.ndarray | None = None
     dissipation_power: float = 0.0  # the power the cables' dampers dissipate at that state
     dissipated: float = 0.0  # the energy the dampers dissipated since the start of the run
+    #: the rows recorded on the way (``advance``'s ``rows``), None without
+    rows: "RowBlock | None" = None
+
+
+#: The columns of a row's scalars (csrc/rows.c ROW_SCALARS): its time, the loop call's steps, Newton
+#: iterations and factorizations up to it, the run's external work and dissipated energy, the energies
+#: of ``latdyn_energies`` and the momenta [P, H] (0 unless asked for).
+ROW_SCALARS = ("t", "steps", "iterations", "factorizations", "external_work", "dissipated",
+               "kinetic", "strain", "potential", "Px", "Py", "Pz", "Hx", "Hy", "Hz")
+
+#: The bytes of row buffers one loop call may hold (its rows: at most this, at least one).
+ROW_BUFFER_BYTES = 8 << 20
+#: The most rows of one loop call (the loop returns every 256 steps anyway, timeloop.control.next_row).
+MAX_ROWS = 256
+
+
+@dataclass
+class RowBlock:
+    """Rows recorded in one loop call, in order: ``scalars`` (k, :data:`ROW_SCALARS`), ``states``
+    (the state arrays of every row with a leading row axis: ``states.x`` (k, n, 3), ``states.T``
+    (k, n, 3, 3), …, ``states.t`` (k,)), ``section_forces`` (k, n_elements, 4, as the strain-energy
+    kernel gives them) or None. Views of the buffers: valid until the next loop call."""
+
+    scalars: np.ndarray
+    states: State
+    section_forces: np.ndarray | None
+
+    def __len__(self) -> int:
+        return len(self.scalars)
+
+    def column(self, name: str) -> np.ndarray:
+        return self.scalars[:, ROW_SCALARS.index(name)]
+
+    @property
+    def counters(self) -> np.ndarray:
+        """(k, 5): steps, Newton iterations and factorizations of the loop call up to each row, the
+        external work and the dissipated energy since the start of the run."""
+        return self.scalars[:, 1:6]
+
+    @property
+    def energies(self) -> np.ndarray:
+        """(k, 3): kinetic, strain and potential energy (latdyn_energies)."""
+        return self.scalars[:, 6:9]
+
+    @property
+    def momenta(self) -> np.ndarray:
+        """(k, 6): [P, H] (zeros unless the loop call was asked for them)."""
+        return self.scalars[:, 9:15]
+
+    def state(self, r: int) -> State:
+        """Row ``r``'s state (views of the buffers)."""
+        s = self.states
+        return State(float(s.t[r]), *(getattr(s, name)[r] for name in STATE_FIELDS))
+
+    def kept(self, rows: int) -> "RowBlock":
+        """The first ``rows`` rows, copied out of the buffers (valid after the next loop call)."""
+        s = self.states
+        return RowBlock(self.scalars[:rows].copy(),
+                        State(s.t[:rows].copy(), *(getattr(s, name)[:rows].copy() for name in STATE_FIELDS)),
+                        None if self.section_forces is None else self.section_forces[:rows].copy())
+
+
+class RowBuffers:
+    """The preallocated buffers of the rows the loop of steps records (``Rows`` of csrc/rows.c): the
+    states in the step's own layout, one row after the other, the scalars and the section forces."""
+
+    def __init__(self, native, state_size: int, slices, model):
+        self.native = native
+        self.n_elements = len(model.element_nodes)
+        row_bytes = 8 * (state_size + len(ROW_SCALARS) + 4 * self.n_elements)
+        self.capacity = max(1, min(MAX_ROWS, ROW_BUFFER_BYTES // row_bytes))
+        self.state_buffer = np.zeros((self.capacity, state_size))
+        self.scalars = np.zeros((self.capacity, len(ROW_SCALARS)))
+        self.section_forces = np.zeros((self.capacity, max(self.n_elements, 1), 4))
+        self.grid_point = np.zeros(self.capacity, np.int64)
+        base, stride = self.state_buffer.ctypes.data, 8 * state_size
+        self.configurations = (ConfigurationData * self.capacity)(
+            *(ConfigurationData(*(base + r * stride + 8 * start for start, _, _ in slices)) for r in range(self.capacity)))
+        self.slices = slices
+        self.data = RowsData(capacity=self.capacity, grid_point=self.grid_point.ctypes.data,
+                             scalars=self.scalars.ctypes.data, section_forces=self.section_forces.ctypes.data,
+                             states=ctypes.cast(self.configurations, ctypes.c_void_p))
+        self.reference = ctypes.addressof(self.data)
+        self.sections = False
+
+    def plan(self, rows: list[int], momentum: bool, sections: bool) -> None:
+        if len(rows) > self.capacity:
+            raise ValueError(f"{len(rows)} rows planned, the buffers hold {self.capacity}")
+        self.grid_point[:len(rows)] = rows
+        self.data.planned, self.data.recorded = len(rows), 0
+        self.data.momentum, self.data.sections = int(momentum), int(sections)
+        self.sections = sections
+
+    def block(self) -> RowBlock:
+        k = self.data.recorded
+        states = self.state_buffer[:k]
+        arrays = [states[:, start:stop].reshape(k, *shape) for start, stop, shape in self.slices]
+        return RowBlock(self.scalars[:k], State(self.scalars[:k, 0], *arrays),
+                        self.section_forces[:k, :self.n_elements] if self.sections else None)
 
 
 class _LastEvaluation:

@@ -154,9 +154,15 @@ class StepControl:
                 k -= 1
             while k < self.n_grid and self.grid_time(k) < due_at:
                 k += 1
+        return min(k, self.loop_end(run))
+
+    def loop_end(self, run: TransientProgress) -> int:
+        """The grid point a loop of steps in C ends at, rows or none on the way: t_end, the pause, or
+        the step that ends on a multiple of 256 steps (where the loop puts rotations back on SO(3))."""
+        k = min(self.n_grid, run.grid_index + 256 - run.steps % 256)
         if self.pause_index is not None and self.pause_index > run.grid_index:
             k = min(k, self.pause_index)
-        return min(k, self.n_grid, run.grid_index + 256 - run.steps % 256)
+        return k
 
     # ------------------------------------------------------------------------- the step size
     def relative_error(self, integrator, h: float) -> float:

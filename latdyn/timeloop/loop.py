@@ -2,7 +2,11 @@
 starts it).
 
 From a grid point at the nominal step, the loop of steps in C (step.compiled.CompiledGeneralizedAlpha.advance)
-takes and accepts the steps up to the next row in one call; a step it cannot accept as it comes
+takes and accepts the steps up to the next row in one call, or, with rows recorded where the step runs
+(:data:`NATIVE_ROWS`), through the rows up to the next multiple of 256 steps (t_end, a pause), recording
+each row on the way into buffers (csrc/rows.c: the state, the energies, the momenta and section forces the
+probes read); this loop then takes that block of rows in order as it takes one (:meth:`TimeLoop._record_rows`:
+probes, writer, joint peaks, the energy balance judged row by row). A step it cannot accept as it comes
 (Newton fails, a hinge event) comes back to this loop, which takes every other step from Python:
 
     try a step → count it → rejected by its error estimate? (adaptive steps) → Newton failed?
@@ -15,6 +19,7 @@ last converged state as a row."""
 from __future__ import annotations
 
 import copy
+import functools
 import math
 import sys
 import time
@@ -37,6 +42,11 @@ from latdyn.timeloop.progress import (DRIFT_WARNING, UNBOUNDED, UNBOUNDED_ROWS, 
 from latdyn.timeloop.sampling import controller_memory, restore_controller_memory
 
 
+#: Whether the loop of steps in C records the rows on its way (csrc/rows.c) instead of returning to
+#: Python for each (False: a row at a time, the reference it must equal: tests/test_native_rows.py).
+NATIVE_ROWS = True
+
+
 class Attempt(NamedTuple):
     """A step the integrator took from the run's state, not yet accepted."""
 
@@ -44,6 +54,13 @@ class Attempt(NamedTuple):
     stats: object  # StepStats: converged, iterations, factorizations, residual
     h: float
     lands: bool  # on the next grid point
+
+
+class _RowsAhead:
+    """What StepControl.row_due and row_recorded read of a run's progress, for the rows ahead of it."""
+
+    def __init__(self, output_index: int, grid_index: int):
+        self.output_index, self.grid_index = output_index, grid_index
 
 
 class LastAccepted(NamedTuple):
@@ -108,6 +125,10 @@ class TimeLoop:
                          and (self.sampler is None or self.control.instants_on_nominal_grid)
                          and self.sensitivities is None)
         self.writer.summary["time_loop"] = "compiled" if self.compiled else "python"
+        # rows where the step runs: not for the probes of a controller (probes.rows_in_loop) nor for hinge
+        # springs with a law, whose potential Python integrates (Assembler.energies)
+        self.native_rows = (self.compiled and NATIVE_ROWS and hasattr(self.integrator, "row_capacity")
+                            and self.probes.rows_in_loop and not self.assembler.native().law_hinges)
         if resume_from is None:
             self._record(self.progress.state, energy0)
         self.last = self._accepted()
@@ -257,23 +278,31 @@ class TimeLoop:
         """The loop of steps in C from a grid point: the steps up to the next row, taken and accepted
         in one call; the step it could not accept as it came (None: none)."""
         progress, control = self.progress, self.control
+        self._loop_began = (progress.steps, progress.grid_index, progress.newton_iterations, progress.factorizations)
         # back in Python at least every loop_budget_s (interrupts, progress) and when a checkpoint is due
         budget = self.loop_budget_s if self.checkpointer is None else min(self.loop_budget_s,
                                                                           self.checkpointer.remaining())
+        stop, rows = (control.next_row(progress) if budget > 0 else progress.grid_index + 1), []
+        if self.native_rows and budget > 0:
+            stop, rows = self._rows_on_the_way()
+        # the section forces for the probes and the ParaView frames
+        momentum, sections = self.probes.needs[0], len(self.model.element_nodes) > 0
         started = time.perf_counter()
         done = self.integrator.advance(
-            progress.state, grid_index=progress.grid_index,
-            stop_index=control.next_row(progress) if budget > 0 else progress.grid_index + 1, dt=control.dt,
+            progress.state, grid_index=progress.grid_index, stop_index=stop, dt=control.dt,
             t_end=control.t_end, n_grid=control.n_grid, power=progress.power,
             external_work=progress.external_work, hinge_work_torque=progress.hinge_work_torque,
             hinge_damper_torque=progress.hinge_damper_torque, dissipation_power=progress.dissipation_power,
-            dissipated=progress.dissipated, budget_s=budget)
+            dissipated=progress.dissipated, budget_s=budget, rows=rows, momentum=momentum, sections=sections)
         progress.solver_s += time.perf_counter() - started
+        ended_on_a_row = False
+        if done.rows is not None and len(done.rows):
+            self._record_rows(done.rows)
+            ended_on_a_row = int(done.rows.column("steps")[-1]) == done.steps
         if done.steps:
-            progress.steps += done.steps
-            progress.grid_index += done.steps
-            progress.newton_iterations += done.iterations
-            progress.factorizations += done.factorizations
+            progress.steps, progress.grid_index = self._loop_began[0] + done.steps, self._loop_began[1] + done.steps
+            progress.newton_iterations = self._loop_began[2] + done.iterations
+            progress.factorizations = self._loop_began[3] + done.factorizations
             progress.power = done.power
             progress.external_work = self.probes.external_work = done.external_work
             progress.hinge_work_torque, progress.hinge_damper_torque = done.hinge_work_torque, done.hinge_damper_torque
@@ -282,12 +311,86 @@ class TimeLoop:
             self._track_cables(progress.state, done.state)
             progress.state = done.state
             progress.algorithmic_acceleration = self.integrator.a
-            self._after_accepted(done.state)
+            self._after_accepted(done.state, recorded=ended_on_a_row)
             self._keep_accepted(done.factorization_kept)
         if done.pending is None:
             return None
         new, stats, h = done.pending
         return Attempt(new, stats, h, lands=True)
+
+    def _rows_on_the_way(self) -> tuple[int, list[int]]:
+        """The loop of steps with rows recorded where it runs: the grid point it stops at (the loop's end,
+        :meth:`StepControl.loop_end`, or the row after the buffers' last) and the grid points of the rows
+        it records on the way, before that stop (the row at the stop is :meth:`_after_accepted`'s, after
+        the rotations are put back on SO(3) there). The rows due as :meth:`StepControl.row_due` says,
+        on a stand-in of the run's progress."""
+        progress, control = self.progress, self.control
+        end, capacity = control.loop_end(progress), self.integrator.row_capacity()
+        if control.every is None:  # a row every step
+            rows = list(range(progress.grid_index + 1, min(end, progress.grid_index + 1 + capacity)))
+            return (rows[-1] + 1 if len(rows) == capacity else end), rows
+        ahead = _RowsAhead(progress.output_index, progress.grid_index)
+        rows = []
+        for k in range(progress.grid_index + 1, end):
+            t = control.grid_time(k)
+            ahead.grid_index = k
+            if control.row_due(ahead, t):
+                if len(rows) == capacity:
+                    return k, rows
+                rows.append(k)
+                control.row_recorded(ahead, t)
+        return end, rows
+
+    def _record_rows(self, block) -> None:
+        """The rows the loop of steps recorded on its way (a step.compiled.RowBlock), in order, as
+        :meth:`_record` records each: the run's counters and energy accounts as they were at each row,
+        its energies into the balance, the joint peaks, the balance judged row by row (an unbounded run
+        ends at the same row as row by row); then the rows up to there written in one block (probes,
+        state history, ParaView frames from the block's states and section forces), nothing past it."""
+        progress, probes, began, model = self.progress, self.probes, self._loop_began, self.model
+        k = len(block)
+        times, counters, energies = block.column("t").tolist(), block.counters.tolist(), block.energies.tolist()
+        states: dict[int, State] = {}
+
+        def state_of(r: int) -> State:  # one State per row (ProbeSet.joint_forces caches by it)
+            if r not in states:
+                states[r] = block.state(r)
+            return states[r]
+
+        names = [h.name for h in model.hinges] if model.hinges else None
+        end, gain = k, 0.0
+        for r in range(k):
+            steps, iterations, factorizations, external_work, dissipated = counters[r]
+            progress.steps, progress.grid_index = began[0] + int(steps), began[1] + int(steps)
+            progress.newton_iterations, progress.factorizations = began[2] + int(iterations), began[3] + int(factorizations)
+            progress.external_work = probes.external_work = external_work
+            progress.dissipated = probes.dissipated = dissipated
+            kinetic, strain, potential = energies[r]
+            gain = progress.balance(times[r], {"kinetic": kinetic, "strain": strain, "potential": potential},
+                                    external_work)
+            if names:  # summary.json joint_peaks, over the recorded rows
+                progress.note_joint_forces(names, probes.joint_forces(state_of(r)), times[r])
+            self.control.row_recorded(progress, times[r])
+            if progress.unbounded:
+                end = r + 1
+                break
+        values = probes.rows(block.states, block.energies, block.column("external_work"),
+                             block.column("dissipated"), block.momenta if probes.needs[0] else None,
+                             block.section_forces if probes.needs[1] else None, state_of)
+        kept = block.kept(end)  # the states the frames and the checkpoint read later
+        s = kept.states
+        history = {name: array.reshape(end, -1) for name, array in
+                   (("x", s.x), ("T", s.T), ("v", s.v), ("w", s.w), ("theta", s.theta), ("theta_dot", s.theta_dot))
+                   if array[0].size}  # State.as_dict of each row
+        self.writer.record_rows(times[:end], values[:end], history, functools.partial(self._frame_of, kept))
+        self.last_recorded = kept.state(end - 1)
+        self.bookmark = self.writer.bookmark()
+        self._judge_balance(times[end - 1], gain)
+
+    def _frame_of(self, block, r: int) -> dict:
+        """The ParaView frame of row ``r`` of a block of rows (its section forces the rows')."""
+        sections = None if block.section_forces is None else block.section_forces[r]
+        return paraview.frame(self.assembler, self.writer.mesh, block.state(r), kernel_sections=sections)
 
     def _python_step(self) -> Attempt:
         """One step from Python, of the size the step control says, landing on the grid if it reaches it."""
@@ -406,10 +509,11 @@ class TimeLoop:
             progress.events = progress.events + [{"joint": name, "kind": kind, "t": float(new.t)}
                                                  for name, kind in changes]
 
-    def _after_accepted(self, state: State) -> None:
+    def _after_accepted(self, state: State, recorded: bool = False) -> None:
         """After the accepted step(s) that ended at ``state``: rotations back on SO(3) every 256
-        steps, the row if one is due and the progress bar (the summary: once, when the loop ends,
-        :meth:`run`; nothing reads it before the writer closes)."""
+        steps, the row if one is due (``recorded``: the loop of steps recorded it already) and the
+        progress bar (the summary: once, when the loop ends, :meth:`run`; nothing reads it before the
+        writer closes)."""
         progress, model = self.progress, self.model
         if self.sampler is not None and self.sampler.sample(state, state.t, 1e-9 * self.control.dt):
             # the held outputs jumped (an event of the laws): the accelerations go on from those
@@ -423,15 +527,17 @@ class TimeLoop:
             self._torques_from(evaluation)
         if progress.steps % 256 == 0:  # exp updates keep T on SO(3) to round-off; remove the drift of long runs
             state.T[model.free_nodes] = orthonormalize(state.T[model.free_nodes])
-        if self.control.row_due(progress, state.t):
+        if not recorded and self.control.row_due(progress, state.t):
             self._record(state, self.energies_of(state))
             self.control.row_recorded(progress, state.t)
         self.bar.update(state.t)
 
     # ------------------------------------------------------------------------- rows, summary
-    def _record(self, state: State, energies: dict) -> None:
+    def _record(self, state: State, energies: dict, values: list | None = None, last: bool = True) -> None:
         """A row at ``state`` (probes, state, ParaView frame when due), its energies in the balance;
-        then the balance judged (:meth:`_judge_balance`)."""
+        then the balance judged (:meth:`_judge_balance`). ``values``: the probe values when computed
+        already (a block of rows, :meth:`_record_rows`); ``last``: whether the writer's bookmark is
+        kept (the last row of a block: only it can be a checkpoint's)."""
         gain = self.progress.balance(state.t, energies, self.probes.external_work)
         if self.model.hinges:  # summary.json joint_peaks, over the recorded rows
             self.progress.note_joint_forces([h.name for h in self.model.hinges], self.probes.joint_forces(state),
@@ -439,9 +545,11 @@ class TimeLoop:
         snapshot = state.copy()
         if self.sensitivities is not None:
             self.progress.sensitivities = self.sensitivities.record(self.progress.sensitivities, state)
-        self.writer.record(state.t, self.probes.values(state, energies), state=state.as_dict(),
-                           frame=lambda: paraview.frame(self.assembler, self.writer.mesh, snapshot))
-        self.bookmark, self.last_recorded = self.writer.bookmark(), snapshot
+        self.writer.record(state.t, self.probes.values(state, energies) if values is None else values,
+                           state=state.as_dict(), frame=lambda: paraview.frame(self.assembler, self.writer.mesh, snapshot))
+        self.last_recorded = snapshot
+        if last:
+            self.bookmark = self.writer.bookmark()
         self._judge_balance(state.t, gain)
 
     def _judge_balance(self, t: float, gain: float) -> None:

@@ -21,6 +21,7 @@
 
 #include "evaluate.c" /* the evaluation (inlined into this source by latdyn/assembly/library.py) */
 #include "links.c"    /* rigid links: dependent nodes completed, evaluations reduced */
+#include "rows.c"     /* rows where the step runs: the recorded rows' buffers, the momenta */
 
 /* S = β′M + γ′C + K scattered into the matrix storage (Evaluation.combined). */
 static void assemble(const Model *m, Work *w, double beta_p, double gamma_p, int with_inertia_tangent)
@@ -345,6 +346,8 @@ typedef struct {
     /* in/out (n_hinges each): each hinge's torque that does external work and its damper's torque
      * at the last accepted state (Work.hinge_work_torque, hinge_damper_torque) */
     double *hinge_work_torque, *hinge_damper_torque;
+    /* in/out: the rows to record on the way (rows.c; NULL: none, the caller records the row at stop_index) */
+    Rows *rows;
 } Advance;
 
 /* The work of the hinges' torques over the accepted step old → new (latdyn/timeloop/progress.py
@@ -421,6 +424,12 @@ int64_t latdyn_advance(const Model *m, Work *w, StepControl *s, const Configurat
         adv->steps += 1;
         adv->iterations += s->iterations;
         adv->factorizations += s->factorizations;
+        Rows *rows = adv->rows;
+        if (rows && rows->recorded < rows->planned && k + 1 == rows->grid_point[rows->recorded]) {
+            const double counters[5] = {(double)adv->steps, (double)adv->iterations, (double)adv->factorizations,
+                                        adv->external_work, adv->dissipated};
+            record_row(m, w, rows, trial, target, counters);
+        }
         adv->last = next;
         base = trial;
         t = target;

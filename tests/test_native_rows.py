@@ -1,0 +1,310 @@
+"""Rows where the step runs (csrc/rows.c, latdyn.step.compiled.RowBuffers, latdyn.timeloop.loop
+TimeLoop._record_rows): the loop of steps in C records the rows on its way (state, energies, momenta,
+section forces) and Python takes them a block at a time.
+
+References: a free beam in rigid translation under gravity, whose probes are closed-form (every node
+moves with v0 + g t, which generalized-α integrates exactly from consistent accelerations: positions,
+velocities, momenta, energies to round-off; section forces zero); and the same run with a row at a
+time (``latdyn.timeloop.loop.NATIVE_ROWS = False``, rows recorded from Python after each call into C),
+which the rows recorded in C must equal byte for byte (probes.csv, state.h5, summary.json but its
+timings), on a 3D and a planar beam driven by a hub, a hinge hitting a stop, blocks cut by a small
+buffer and by the wall-time budget, and a run whose energy balance breaks.
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+import yaml
+
+import latdyn
+import latdyn.step.compiled as compiled_module
+import latdyn.timeloop.loop as loop_module
+import latdyn.timeloop.transient as transient_module
+from latdyn.errors import UnboundedError
+from latdyn.model.kernels import load_kernels
+from latdyn.scene.loader import _yaml_loader
+from latdyn.timeloop.loop import TimeLoop
+
+from cli_runs import latdyn_run, probe_columns, summary_of
+from test_hinges import stop_scene
+from test_planar import chain_scene, rotated
+
+try:
+    load_kernels("c", "default")
+    HAVE_C = True
+except RuntimeError:
+    HAVE_C = False
+
+pytestmark = pytest.mark.skipif(not HAVE_C, reason="no C compiler: the compiled step needs one")
+
+TIMINGS = ("wall_time_s", "solver_s", "compile_s")
+
+#: a free beam (no support) of mass RHO_A·LENGTH, in rigid translation with V0 under gravity G
+RHO_A, LENGTH = 1.5, 2.0
+FREE_BEAM = """\
+title: free beam in rigid translation
+sections:
+  bar: {EA: 1.0e7, EIy: 2.0e3, EIz: 1.0e3, GJ: 1.5e3, rhoA: 1.5, rhoIy: 1.0e-4, rhoIz: 1.0e-4}
+beams:
+  bar: {from: [0, 0, 0], to: [2, 0, 0], section: bar, elements: 4}
+gravity: GRAVITY
+initial_velocity: {linear: VELOCITY}
+solve: {analysis: transient, t_end: 0.2, dt: 0.01}
+output:
+  probes:
+    tip_x: {point: bar.end, quantity: position, component: x}
+    tip_y: {point: bar.end, quantity: position, component: y}
+    tip_z: {point: bar.end, quantity: position, component: z}
+    tip_vz: {point: bar.end, quantity: velocity, component: z}
+    tip_speed: {point: bar.end, quantity: velocity, component: norm}
+    tip_dx: {point: bar.end, quantity: displacement, component: x}
+    kinetic: {energy: kinetic}
+    strain: {energy: strain}
+    potential: {energy: potential}
+    work: {energy: external_work}
+    total: {energy: total}
+    Px: {momentum: linear, component: x}
+    Py: {momentum: linear, component: y}
+    Pz: {momentum: linear, component: z}
+    Hx: {momentum: angular, component: x}
+    Hy: {momentum: angular, component: y}
+    Hz: {momentum: angular, component: z}
+    N1: {element: "bar.element[1]", quantity: axial_force}
+    My1: {element: "bar.element[1]", quantity: moment_y}
+"""
+
+#: a beam driven by a hub that turns about a tilted axis, gravity across it: every probe kind the
+#: rows in C hold (points in global and hub axes, energies, momenta, section forces)
+DRIVEN_BEAM = """\
+title: driven beam
+sections:
+  arm: {EA: 2.8e7, EIy: 1.4e4, EIz: 1.0e4, GJ: 1.0e4, rhoA: 1.2}
+bodies:
+  hub:
+    at: [0, 0, 0]
+    motion: {rotation: {axis: AXIS, angle: "0.5*t**2"}}
+beams:
+  arm: {from: hub, to: [10, 0, 0], section: arm, elements: 8}
+gravity: GRAVITY
+solve: {analysis: transient, t_end: 0.3, dt: 0.005}
+output:
+EVERY  probes:
+    tip_x: {point: arm.end, quantity: position, component: x}
+    tip_dz: {point: arm.end, quantity: displacement, frame: hub, component: y}
+    tip_v: {point: arm.end, quantity: velocity, frame: hub, component: norm}
+    tip_vy: {point: arm.end, quantity: velocity, component: y}
+    kinetic: {energy: kinetic}
+    strain: {energy: strain}
+    work: {energy: external_work}
+    total: {energy: total}
+    N0: {element: "arm.element[0]", quantity: axial_force}
+    M0: {element: "arm.element[0]", quantity: moment_z}
+    T0: {element: "arm.element[0]", quantity: torque}
+    Px: {momentum: linear, component: x}
+    Hz: {momentum: angular, component: z}
+"""
+
+
+def driven_beam(planar: bool, every: float | None = None) -> str:
+    axis, gravity = ("[0, 0, 1]", "[0, -9.81, 0]") if planar else ("[0, 1, 1]", "[0, 0, -9.81]")
+    return (DRIVEN_BEAM.replace("AXIS", axis).replace("GRAVITY", gravity)
+            .replace("EVERY", f"  every: {every}\n" if every else ""))
+
+
+def free_beam(planar: bool) -> str:
+    velocity, gravity = ("[1.0, 2.0, 0.0]", "[0, -9.81, 0]") if planar else ("[1.0, -0.5, 2.0]", "[0, 0, -9.81]")
+    return FREE_BEAM.replace("VELOCITY", velocity).replace("GRAVITY", gravity)
+
+
+@pytest.fixture
+def blocks(monkeypatch):
+    """The rows each block recorded in C held, run after run (the rows one by one record none)."""
+    seen = []
+    original = TimeLoop._record_rows
+
+    def counted(self, block):
+        seen.append(len(block))
+        return original(self, block)
+
+    monkeypatch.setattr(TimeLoop, "_record_rows", counted)
+    return seen
+
+
+def _rows_one_by_one(monkeypatch, native: bool) -> None:
+    monkeypatch.setattr(loop_module, "NATIVE_ROWS", native)
+
+
+def _same_datasets(a: Path, b: Path) -> None:
+    """Every dataset of two HDF5 files equal, NaN where NaN."""
+    with h5py.File(a) as fa, h5py.File(b) as fb:
+        names, other = [], []
+        fa.visit(lambda name: names.append(name) if isinstance(fa[name], h5py.Dataset) else None)
+        fb.visit(lambda name: other.append(name) if isinstance(fb[name], h5py.Dataset) else None)
+        assert names and names == other
+        for name in names:
+            x, y = fa[name][()], fb[name][()]
+            assert x.shape == y.shape and (np.array_equal(x, y, equal_nan=True) if x.dtype.kind == "f"
+                                           else np.array_equal(x, y)), name
+
+
+def _same_files(a: Path, b: Path) -> None:
+    """probes.csv byte for byte, state.h5 and the ParaView files dataset for dataset, summary.json but
+    its timings."""
+    assert (a / "probes.csv").read_bytes() == (b / "probes.csv").read_bytes()
+    _same_datasets(a / "state.h5", b / "state.h5")
+    frames = sorted(p.name for p in (a / "paraview").glob("*.vtkhdf"))
+    assert frames and frames == sorted(p.name for p in (b / "paraview").glob("*.vtkhdf"))
+    for name in frames:
+        _same_datasets(a / "paraview" / name, b / "paraview" / name)
+    sa, sb = (json.loads((x / "summary.json").read_text()) for x in (a, b))
+    assert {k: v for k, v in sa.items() if k not in TIMINGS} == {k: v for k, v in sb.items() if k not in TIMINGS}
+
+
+@pytest.mark.parametrize("planar", [False, True])
+def test_a_free_beam_in_rigid_translation_gives_its_closed_form_rows(planar, tmp_path, blocks):
+    """x(t) = x0 + v0 t + ½ g t², v = v0 + g t on every node; P = m v, H = m x_c × v, kinetic ½ m |v|²,
+    potential −m g·x_c, no strain and no section force, external work 0 (gravity is a potential):
+    every row but the last recorded in C (one block), each to round-off of its scale."""
+    result = latdyn.run(latdyn.load_scene(yaml.safe_load(free_beam(planar))), tmp_path / "out")
+    p, t = result.probes, np.asarray(result.t)
+    assert len(t) == 21 and sum(blocks) == 19  # t = 0 and t_end are recorded from Python
+    scene = yaml.safe_load(free_beam(planar))
+    v0, g = np.array(scene["initial_velocity"]["linear"]), np.array(scene["gravity"])
+    mass = RHO_A * LENGTH
+    x_tip = np.array([LENGTH, 0, 0]) + np.outer(t, v0) + 0.5 * np.outer(t**2, g)
+    x_c = np.array([LENGTH / 2, 0, 0]) + np.outer(t, v0) + 0.5 * np.outer(t**2, g)
+    v = v0 + np.outer(t, g)
+    for i, c in enumerate("xyz"):
+        assert np.max(np.abs(p[f"tip_{c}"] - x_tip[:, i])) <= 1e-12 * LENGTH
+        assert np.max(np.abs(p[f"P{c}"] - mass * v[:, i])) <= 1e-12 * mass * np.abs(v).max()
+    assert np.max(np.abs(p["tip_vz"] - v[:, 2])) <= 1e-12
+    assert np.max(np.abs(p["tip_speed"] - np.linalg.norm(v, axis=1))) <= 1e-12
+    assert np.max(np.abs(p["tip_dx"] - v0[0] * t)) <= 1e-12
+    H = mass * np.cross(x_c, v)
+    for i, c in enumerate("xyz"):
+        assert np.max(np.abs(p[f"H{c}"] - H[:, i])) <= 1e-12 * mass * LENGTH * np.abs(v).max()
+    kinetic = 0.5 * mass * np.sum(v * v, axis=1)
+    assert np.max(np.abs(p["kinetic"] - kinetic)) <= 1e-12 * kinetic.max()
+    potential = -mass * x_c @ g
+    assert np.max(np.abs(p["potential"] - potential)) <= 1e-12 * mass * 9.81 * LENGTH
+    assert np.max(np.abs(p["strain"])) <= 1e-20 and np.all(p["work"] == 0.0)
+    assert np.max(np.abs(p["N1"])) <= 1e-6 and np.max(np.abs(p["My1"])) <= 1e-6  # round-off of EA, EI
+    assert result.summary["energy_balance_error"] <= 1e-12
+
+
+@pytest.mark.parametrize("planar, every, rows", [(False, None, 59), (False, 0.01, 29), (False, 0.0123, 23),
+                                                (True, None, 59)])
+def test_rows_recorded_in_c_equal_rows_one_by_one(planar, every, rows, tmp_path, monkeypatch, blocks):
+    """A hub-driven beam, 3D and planar, a row every step, every other step, and at output times off
+    the grid of steps (each the first step at or after it): the same files."""
+    scene = yaml.safe_load(driven_beam(planar, every))
+    for native in (True, False):
+        _rows_one_by_one(monkeypatch, native)
+        latdyn.run(latdyn.load_scene(scene), tmp_path / str(native))
+    assert sum(blocks) == rows  # all rows but t = 0 and t_end (0.0123 · 24 falls in the last step)
+    _same_files(tmp_path / "True", tmp_path / "False")
+
+
+def test_a_planar_chain_with_a_turned_section_gives_the_rows_one_by_one(tmp_path, monkeypatch, blocks):
+    """tests/test_planar.py's chain in the y-z plane (hinges with spring, damper and torque law, a joint
+    body, a follower load, the tip's section turned a quarter in the planar model): the section forces
+    the rows recorded in C hold are turned back once, in the probes and the ParaView frames alike."""
+    scene = rotated(chain_scene(t_end=0.1), 0)
+    for native in (True, False):
+        _rows_one_by_one(monkeypatch, native)
+        latdyn.run(latdyn.load_scene(scene), tmp_path / str(native))
+    assert sum(blocks) > 10
+    _same_files(tmp_path / "True", tmp_path / "False")
+
+
+def test_the_shipped_slider_crank_gives_the_rows_one_by_one(tmp_path, monkeypatch, blocks):
+    """examples/slider_crank.yaml (a rigid link and a guide, their dependent nodes completed in C), a row
+    every step for 0.3 s: the same files."""
+    text = (Path(__file__).resolve().parents[1] / "examples" / "slider_crank.yaml").read_text()
+    scene = yaml.load(text, Loader=_yaml_loader())  # the loader's YAML: `rod.node[2]` unquoted
+    scene["solve"]["t_end"] = 0.3
+    scene["output"].pop("every", None)
+    for native in (True, False):
+        _rows_one_by_one(monkeypatch, native)
+        latdyn.run(latdyn.load_scene(scene), tmp_path / str(native))
+    assert sum(blocks) == 149  # 150 steps: all rows but t = 0 and t_end
+    _same_files(tmp_path / "True", tmp_path / "False")
+
+
+def test_rows_recorded_in_c_as_a_user_runs_it_equal_rows_one_by_one(tmp_path, monkeypatch):
+    """``python -m latdyn run`` (rows in C) against the API with a row at a time: the same files."""
+    completed, out = latdyn_run(tmp_path, driven_beam(False), quiet=True)
+    assert completed.returncode == 0, completed.stderr
+    _rows_one_by_one(monkeypatch, False)
+    latdyn.run(latdyn.load_scene(tmp_path / "scene.yaml"), tmp_path / "python")
+    _same_files(out, tmp_path / "python")
+    assert summary_of(out)["rows"] == len(probe_columns(out)["t"]) == 61
+
+
+def test_a_hinge_hitting_its_stop_hands_the_step_back_between_rows_recorded_in_c(tmp_path, monkeypatch, blocks):
+    """The pendulum of tests/test_hinges.py driven into its stop (e = 0.5): the loop returns the
+    step that reaches the stop in the middle of a block; the rows before it, the joint peaks and
+    the impact's dissipation are those of the rows one by one."""
+    scene = stop_scene(0.5)
+    scene["solve"]["t_end"] = 0.6  # the stop is reached at t ≈ 0.5 s
+    scene["output"]["probes"]["torque"] = {"hinge": "arm.start", "quantity": "torque"}
+    scene["output"]["probes"]["dissipated"] = {"energy": "dissipated"}
+    for native in (True, False):
+        _rows_one_by_one(monkeypatch, native)
+        latdyn.run(latdyn.load_scene(scene), tmp_path / str(native))
+    assert len(blocks) > 2 and sum(blocks) > 500
+    _same_files(tmp_path / "True", tmp_path / "False")
+    summary = json.loads((tmp_path / "True" / "summary.json").read_text())
+    assert summary["events"] and summary["joint_peaks"] and summary["dissipated_energy"] > 0
+
+
+@pytest.mark.parametrize("cut", ["buffer", "budget"])
+def test_blocks_cut_by_the_buffer_or_the_budget_give_the_same_rows(cut, tmp_path, monkeypatch, blocks):
+    """Buffers of 3 rows (the loop stops at the row after them), or a wall-time budget that ends every
+    call after one step (on a row it recorded): the same files as the rows one by one."""
+    if cut == "buffer":
+        monkeypatch.setattr(compiled_module, "MAX_ROWS", 3)
+    else:
+        monkeypatch.setattr(transient_module, "LOOP_BUDGET_S", 1e-12)
+    scene = yaml.safe_load(driven_beam(False))
+    for native in (True, False):
+        _rows_one_by_one(monkeypatch, native)
+        latdyn.run(latdyn.load_scene(scene), tmp_path / str(native))
+    if cut == "buffer":
+        assert max(blocks) == 3 and sum(blocks) == 45  # of 60 steps, each fourth row (after a full buffer) Python's
+    else:
+        # one step a call: its row recorded in C is the state the call ends at, not recorded again
+        assert set(blocks) == {1} and sum(blocks) == 59
+    _same_files(tmp_path / "True", tmp_path / "False")
+
+
+def test_a_balance_that_breaks_inside_a_block_ends_the_run_at_that_row(tmp_path, monkeypatch, blocks):
+    """The balance judged broken from t = 0.12 on (TransientProgress.unbounded made so; the break of a
+    real run, the right-angle cantilever at dt = 0.2 of tests/test_energy_balance.py, ends the same way,
+    docs/performance.md): the row at t = 0.12 lies inside a block recorded in C; the run ends there,
+    with the same message and counters as the rows one by one, and the block's later rows are not written."""
+    from latdyn.timeloop.progress import TransientProgress
+
+    balance = TransientProgress.balance
+
+    def judged(self, t, energies, external_work):
+        self.row_t = t
+        return balance(self, t, energies, external_work)
+
+    monkeypatch.setattr(TransientProgress, "balance", judged)
+    monkeypatch.setattr(TransientProgress, "unbounded", property(lambda self: getattr(self, "row_t", 0.0) >= 0.12))
+    scene = yaml.safe_load(driven_beam(False))
+    messages = {}
+    for native in (True, False):
+        _rows_one_by_one(monkeypatch, native)
+        with pytest.raises(UnboundedError) as raised:
+            latdyn.run(latdyn.load_scene(scene), tmp_path / str(native))
+        messages[native] = str(raised.value)
+    assert messages[True] == messages[False] and "energy balance broke at t = 0.12" in messages[True]
+    assert blocks == [59]  # the block held the rows up to t_end; those after the break were dropped
+    _same_files(tmp_path / "True", tmp_path / "False")
+    assert probe_columns(tmp_path / "True")["t"][-1] == pytest.approx(0.12)
