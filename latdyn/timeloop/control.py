@@ -137,15 +137,7 @@ class StepControl:
 
     def next_row(self, run: TransientProgress) -> int:
         """The grid point of the next recorded row (every step without ``every``), and at most the
-        step that ends on a multiple of 256 steps (where the loop puts rotations back on SO(3)) and the
-        next instant (a sampled controller's sample, taken in Python: latdyn.timeloop.sampling)."""
-        following = self.instant_indices[self.instant_indices > run.grid_index]
-        if len(following):
-            return min(self.next_row_only(run), int(following[0]))
-        return self.next_row_only(run)
-
-    def next_row_only(self, run: TransientProgress) -> int:
-        """:meth:`next_row` without the instants."""
+        loop's end (:meth:`loop_end`: a multiple of 256 steps, the pause, the next sample instant)."""
         k = run.grid_index + 1
         if self.every is not None:
             due_at = run.output_index * self.every - 1e-9 * self.dt
@@ -157,11 +149,16 @@ class StepControl:
         return min(k, self.loop_end(run))
 
     def loop_end(self, run: TransientProgress) -> int:
-        """The grid point a loop of steps in C ends at, rows or none on the way: t_end, the pause, or
-        the step that ends on a multiple of 256 steps (where the loop puts rotations back on SO(3))."""
+        """The grid point a loop of steps in C ends at, rows or none on the way: t_end, the pause, the
+        step that ends on a multiple of 256 steps (where the loop puts rotations back on SO(3)), or the
+        next sample instant of a sampled controller (the sample is taken in Python:
+        latdyn.timeloop.sampling)."""
         k = min(self.n_grid, run.grid_index + 256 - run.steps % 256)
         if self.pause_index is not None and self.pause_index > run.grid_index:
             k = min(k, self.pause_index)
+        following = self.instant_indices[self.instant_indices > run.grid_index]
+        if len(following):
+            k = min(k, int(following[0]))
         return k
 
     # ------------------------------------------------------------------------- the step size
