@@ -5,8 +5,9 @@ Run from the repository root::
     python benchmarks/slider_crank.py              # latdyn at several (elements, dt) against the reference
     python benchmarks/slider_crank.py --reference  # the reference itself, from Exudyn (pip install exudyn)
 
-The problem is the classic flexible connecting rod of a slider-crank in the proportions of Simo &
-Vu-Quoc (1986) and Jasinski, Lee & Sandor (1971): a rigid crank of 0.152 m, a steel rod of 0.304 m
+The problem is the classic flexible connecting rod of a slider-crank in the proportions it is usually
+quoted with (after Jasinski, Lee & Sandor 1971 and Simo & Vu-Quoc 1986; taken from public code that
+cites them, not checked against the papers): a rigid crank of 0.152 m, a steel rod of 0.304 m
 and 6 mm diameter (E = 200 GPa, ρ = 7870 kg/m³; Euler–Bernoulli, no rotary inertia), pinned at both
 ends, its far end carrying a slider of half the rod's mass on a frictionless guide through the
 crank's pivot. No gravity. The crank is driven through its hinge angle from rest to Ω = 150 rad/s
@@ -29,14 +30,15 @@ also runs 8 elements at 2e-5 s and 16 elements at 1e-5 and 1e-4 s and records th
 (measured: 3.6e-7 m, 3.6e-7 m and 8.4e-6 m against a peak of 4.21e-3 m).
 
 No digitised published curve of this problem was available to this project; the peer's converged
-history is the reference, and the run-up differs from the papers' (they start at Ω with the rigid
-motion's velocities), so their figures are not this one.
+history is the reference. The run-up, the slider's mass and the start from rest are this problem's,
+so the papers' figures are not this one.
 """
 from __future__ import annotations
 
 import argparse
 import json
 import math
+import os
 import sys
 import tempfile
 import time
@@ -257,9 +259,7 @@ def main(argv=None) -> None:
     if args.reference:
         write_reference()
         return
-    sys.path.insert(0, str(ROOT))
-    import os
-
+    sys.path.insert(0, str(ROOT))  # this checkout's latdyn
     reference = load_reference()
     rows, histories = [], {}
     for elements, dt in ((4, 1.0e-4), (8, 1.0e-4), (8, 2.0e-5), (16, 2.0e-5)):

@@ -6,9 +6,9 @@ the rod's mid-span deflection against Exudyn's converged history of the same pro
 (``benchmarks/references/slider_crank.json``, 16 ANCF cable elements, h = 2e-5 s), through the CLI in
 the plane z = 0 and through the API in a plane turned in space; a free crank with a flywheel, whose
 energy stays at the work that spun it up and whose slide follows the loop's kinematics. And the
-refusal, with its key, of a
-loop closed by rigid links only (minimum coordinates cannot express it; docs/guides.md, "Closed
-loops"). The rigid slider-crank's exact kinematics (a rod of EA = 1e10) is
+refusal, with its key, of a loop closed by rigid links only (minimum coordinates cannot express it;
+docs/guides.md, "A rigid rod that closes the loop: refused"). The rigid slider-crank's exact
+kinematics (a rod of EA = 1e10) is
 ``tests/test_guides.py::test_rigid_slider_crank_follows_the_exact_kinematics``."""
 from __future__ import annotations
 
