@@ -205,12 +205,29 @@ solve: {t_end: 0.1, dt: 0.01}
 """
 
 
+RIGID_TRIANGLE = """
+title: two free bodies joined twice by rigid links (a loop back onto the first)
+sections:
+  bar: {EA: 1.0e9, EIy: 1.0e4, EIz: 1.0e4, GJ: 1.0e4, rhoA: 1.0}
+bodies:
+  a: {at: [0, 0, 0], mass: 1.0, inertia: [1, 1, 1]}
+  b: {at: [1, 0, 0], mass: 1.0, inertia: [1, 1, 1]}
+beams:
+  out: {from: a, to: b, section: bar, rigid: true, start: {hinge: {axis: [0, 0, 1]}}}
+  back: {from: b, to: a, section: bar, rigid: true, start: {hinge: {axis: [0, 0, 1]}}}
+solve: {t_end: 0.1, dt: 0.01}
+"""
+
+
 def test_loops_of_rigid_links_are_refused_with_the_key(tmp_path):
-    """A rigid rod that ends at a guided slider, and a four-bar whose three moving bars are rigid: exit 2,
-    the key of the link that closes the loop named, the way out said, no traceback."""
+    """A rigid rod that ends at a guided slider, a four-bar whose three moving bars are rigid, and a rigid
+    link back onto the body another one starts at: exit 2, the key of the link that closes the loop
+    named, the way out said (a flexible beam, stiff: the rigid kinematics), no traceback."""
     for text, key, words in ((LOOP_CLOSED_BY_A_RIGID_ROD, "beams.rod.rigid", "slides on a guide"),
-                             (RIGID_FOUR_BAR, "beams.rocker.rigid", "reached by two rigid links")):
+                             (RIGID_FOUR_BAR, "beams.rocker.rigid", "reached by two rigid links"),
+                             (RIGID_TRIANGLE, "beams.back.rigid", "close a loop")):
         completed, out = latdyn_run(tmp_path, text)
         assert completed.returncode == 2, completed.stderr
         assert key in completed.stderr and words in completed.stderr, completed.stderr
-        assert "rigid: false" in completed.stderr and "Traceback" not in completed.stderr
+        assert "rigid: false; a stiff section follows the rigid kinematics" in completed.stderr
+        assert "Traceback" not in completed.stderr

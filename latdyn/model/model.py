@@ -582,13 +582,15 @@ def _rigid_link(scene, beam, nodes, body_node, hinges, edges, link_bodies, beam_
             raise SceneError(scene.file, key, f"rigid link {beam.name!r} ends at body {end.body!r}, which slides on "
                                               "a guide: the guide positions the body already (a closed loop that "
                                               "minimum coordinates cannot express); make the beam flexible "
-                                              "(rigid: false) or start the link at the body")
+                                              "(rigid: false; a stiff section follows the rigid kinematics, "
+                                              "docs/guides.md 'The slider-crank') or start the link at the body")
         if node.kind == DEPENDENT:
             other = next(e.link for e in edges if e.child == child)
             raise SceneError(scene.file, key, f"body {end.body!r} is reached by two rigid links ({other!r} and "
                                               f"{beam.name!r}): a closed loop that minimum coordinates cannot "
-                                              "express; make one beam of the loop flexible (rigid: false), or start "
-                                              "one of the links at the body")
+                                              "express; make one beam of the loop flexible (rigid: false; a stiff "
+                                              "section follows the rigid kinematics, docs/guides.md 'The "
+                                              "slider-crank'), or start one of the links at the body")
         node.kind = DEPENDENT
         h = _add_hinge(hinges, beam.name, "end", child, end.hinge)
         edges.append(Edge(link, child, h, hinges[h].axis.copy() if h >= 0 else np.zeros(3), -1.0,
@@ -604,7 +606,8 @@ def _rigid_link(scene, beam, nodes, body_node, hinges, edges, link_bodies, beam_
             if walk == child:
                 raise SceneError(scene.file, key, "the rigid links " + ", ".join(repr(n) for n in loop[::-1])
                                  + " close a loop: a closed loop made only of rigid links cannot be expressed in "
-                                 "minimum coordinates; make one beam of the loop flexible (rigid: false)")
+                                 "minimum coordinates; make one beam of the loop flexible (rigid: false; a stiff "
+                                 "section follows the rigid kinematics, docs/guides.md 'The slider-crank')")
     beam_elements[beam.name] = np.zeros(0, dtype=np.int64)
     beam_nodes[beam.name] = np.array([link, link])
     beam_grid_offsets[beam.name] = (np.zeros(3), vector.copy())
