@@ -16,6 +16,7 @@ import json
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 import latdyn
 from cli_runs import latdyn_run, probe_columns
@@ -172,21 +173,6 @@ def test_free_crank_with_a_flywheel_conserves_energy(tmp_path):
     assert np.abs(p["total"] - p["work"]).max() < 2e-5 * total.mean()
 
 
-LOOP_CLOSED_BY_A_RIGID_ROD = """
-title: a slider-crank whose rod is rigid (a closed loop of rigid links)
-sections:
-  bar: {EA: 1.0e9, EIy: 1.0e4, EIz: 1.0e4, GJ: 1.0e4, rhoA: 1.0}
-bodies:
-  hub: {at: [0, 0, 0], fixed: true}
-  pin: {at: [0.1, 0, 0]}
-  slider: {at: [0.4, 0, 0], mass: 1.0, guide: {axis: [1, 0, 0]}}
-beams:
-  crank: {from: hub, to: pin, section: bar, rigid: true, start: {hinge: {axis: [0, 0, 1], angle: "10*t"}}}
-  rod: {from: pin, to: slider, section: bar, rigid: true,
-        start: {hinge: {axis: [0, 0, 1]}}, end: {hinge: {axis: [0, 0, 1]}}}
-solve: {t_end: 0.1, dt: 0.01}
-"""
-
 RIGID_FOUR_BAR = """
 title: a four-bar of rigid links
 sections:
@@ -220,14 +206,272 @@ solve: {t_end: 0.1, dt: 0.01}
 
 
 def test_loops_of_rigid_links_are_refused_with_the_key(tmp_path):
-    """A rigid rod that ends at a guided slider, a four-bar whose three moving bars are rigid, and a rigid
-    link back onto the body another one starts at: exit 2, the key of the link that closes the loop
+    """Loops of rigid links other than a slider-crank's: a four-bar whose three moving bars are rigid, and a
+    rigid link back onto the body another one starts at: exit 2, the key of the link that closes the loop
     named, the way out said (a flexible beam, stiff: the rigid kinematics), no traceback."""
-    for text, key, words in ((LOOP_CLOSED_BY_A_RIGID_ROD, "beams.rod.rigid", "slides on a guide"),
-                             (RIGID_FOUR_BAR, "beams.rocker.rigid", "reached by two rigid links"),
+    for text, key, words in ((RIGID_FOUR_BAR, "beams.rocker.rigid", "reached by two rigid links"),
                              (RIGID_TRIANGLE, "beams.back.rigid", "close a loop")):
         completed, out = latdyn_run(tmp_path, text)
         assert completed.returncode == 2, completed.stderr
         assert key in completed.stderr and words in completed.stderr, completed.stderr
         assert "rigid: false; a stiff section follows the rigid kinematics" in completed.stderr
         assert "Traceback" not in completed.stderr
+
+
+# ----------------------------------------------------------------------------- the rigid slider-crank
+TURN = np.array([[2.0, -1.0, 2.0], [2.0, 2.0, -1.0], [-1.0, 2.0, 2.0]]) / 3.0  # columns: a, b, n of a turned plane
+
+
+def rigid_slider_crank(rotation=np.eye(3), crank: str = 'angle: "10*t"', solve: str = "t_end: 1.0, dt: 0.01",
+                       extra_probes: str = "", pin_mass: float = 0.0, gravity: str = "") -> str:
+    """Crank R = 0.1 (hub at the origin), rigid rod L = 0.3, slider of 1 kg on a ground guide along the
+    turned x axis, in the plane of normal ``rotation`` z."""
+    def vector(v):
+        return "[" + ", ".join(f"{x:.16g}" for x in rotation @ np.asarray(v, float)) + "]"
+
+    z = vector([0, 0, 1])
+    return f"""
+title: a rigid slider-crank (a closed loop of rigid links)
+{gravity}
+sections:
+  bar: {{EA: 1.0e9, EIy: 1.0e4, EIz: 1.0e4, GJ: 1.0e4, rhoA: 2.0}}
+bodies:
+  hub: {{at: [0, 0, 0], fixed: true}}
+  pin: {{at: {vector([0.1, 0, 0])}, mass: {pin_mass}}}
+  slider: {{at: {vector([0.4, 0, 0])}, mass: 1.0, guide: {{axis: {vector([1, 0, 0])}}}}}
+beams:
+  crank: {{from: hub, to: pin, section: bar, rigid: true, start: {{hinge: {{axis: {z}, {crank}}}}}}}
+  rod: {{from: pin, to: slider, section: bar, rigid: true,
+        start: {{hinge: {{axis: {z}}}}}, end: {{hinge: {{axis: {z}}}}}}}
+solve: {{{solve}}}
+output:
+  every: 0.01
+  probes:
+    x: {{point: slider, quantity: position, component: x}}
+    y: {{point: slider, quantity: position, component: y}}
+    z: {{point: slider, quantity: position, component: z}}
+{extra_probes}"""
+
+
+def exact_slide(theta, R=0.1, L=0.3):
+    """x = R cos θ + √(L² − R² sin² θ): the slider's distance from the crank's pivot."""
+    return R * np.cos(theta) + np.sqrt(L ** 2 - (R * np.sin(theta)) ** 2)
+
+
+def test_rigid_slider_crank_with_a_prescribed_crank_follows_the_exact_kinematics(tmp_path):
+    """Through the CLI, in the plane z = 0: the crank turned at 10 rad/s (1.6 turns), the rod rigid: the
+    slider at R cos θ + √(L² − R² sin² θ) on its guide, to round-off."""
+    completed, out = latdyn_run(tmp_path, rigid_slider_crank())
+    assert completed.returncode == 0, completed.stderr
+    c = probe_columns(out)
+    assert np.abs(c["x"] - exact_slide(10.0 * c["t"])).max() < 1e-12  # measured 1.1e-16 m
+    assert np.abs(c["y"]).max() < 1e-14 and np.abs(c["z"]).max() < 1e-14
+
+
+def crank_reference(t, torque, R=0.1, L=0.3, m_crank=0.2, m_pin=5.0, m_rod=0.6, m_slider=1.0):
+    """θ(t) of the rigid slider-crank with a free crank, integrated apart from the package: Lagrange's
+    equation of its one coordinate, M(θ) θ̈ + ½ M′(θ) θ̇² = τ(t), with M(θ) the kinetic energy's
+    coefficient (crank and rod slender and uniform, pin and slider points), to 1e-12 (SciPy)."""
+    import sympy as sp
+    from scipy.integrate import solve_ivp
+
+    th = sp.symbols("theta")
+    pin = sp.Matrix([R * sp.cos(th), R * sp.sin(th)])
+    slider = sp.Matrix([R * sp.cos(th) + sp.sqrt(L ** 2 - R ** 2 * sp.sin(th) ** 2), 0])
+    centre, turn = (pin + slider) / 2, sp.asin(-R * sp.sin(th) / L)
+    M = (m_crank * R ** 2 / 3 + m_pin * R ** 2 + m_rod * centre.diff(th).dot(centre.diff(th))
+         + m_rod * L ** 2 / 12 * turn.diff(th) ** 2 + m_slider * slider.diff(th).dot(slider.diff(th)))
+    inertia, slope = sp.lambdify(th, M), sp.lambdify(th, M.diff(th))
+    solution = solve_ivp(lambda s, y: [y[1], (torque(s) - 0.5 * slope(y[0]) * y[1] ** 2) / inertia(y[0])],
+                         (0.0, float(t[-1])), [0.0, 0.0], rtol=1e-12, atol=1e-14, dense_output=True, max_step=1e-3)
+    return solution.sol(t)[0]
+
+
+def test_rigid_slider_crank_with_a_flywheel_against_lagrange_in_a_turned_plane(tmp_path):
+    """Through the API, in the plane of normal (2, −1, 2)/3: a free crank with a 5 kg flywheel mass at the
+    pin, spun by τ = 2 sin²(πt/0.4) N m for 0.4 s, then free through both dead centres. The crank angle
+    against Lagrange's equation of the one coordinate integrated apart (5.97e-6 rad at dt = 1e-3,
+    1.49e-6 at 5e-4 measured in the plane z = 0: the step's second order), the slider on the exact
+    kinematics of the measured angle to round-off, and the energy after the drive constant (ρ∞ = 1)."""
+    torque = 'torque: "Piecewise((2*sin(pi*t/0.4)**2, t < 0.4), (0, True))"'
+    probes = ("    crank: {hinge: crank.start, quantity: angle}\n    total: {energy: total}\n"
+              "    work: {energy: external_work}\n")
+    path = tmp_path / "flywheel.yaml"
+    path.write_text(rigid_slider_crank(TURN, torque, "t_end: 1.0, dt: 0.001, rho_inf: 1.0", probes, pin_mass=5.0))
+    result = latdyn.run(latdyn.load_scene(str(path)))
+    t, p = np.asarray(result.t), result.probes
+    theta = np.asarray(p["crank"])
+    reference = crank_reference(t, lambda s: 2.0 * np.sin(np.pi * s / 0.4) ** 2 if s < 0.4 else 0.0)
+    assert reference[-1] > 5.5
+    assert np.abs(theta - reference).max() < 1.2e-5  # measured 6.0e-6 rad
+    slider = np.column_stack([p["x"], p["y"], p["z"]])
+    assert np.abs(slider @ TURN[:, 0] - exact_slide(theta)).max() < 1e-12
+    assert np.abs(slider @ TURN[:, 1]).max() < 1e-12 and np.abs(slider @ TURN[:, 2]).max() < 1e-12
+    free = t > 0.4 + 1e-9
+    total = np.asarray(p["total"])
+    assert np.ptp(total[free]) < 2e-5 * total[free].mean()
+    assert np.abs(total - np.asarray(p["work"])).max() < 2e-5 * total[free].mean()
+
+
+def test_tangent_of_a_rigid_slider_crank_by_finite_differences():
+    """The closure in the reduction (latdyn.assembly.linked, and csrc/links.c in the compiled step): at a
+    random crank angle, rate and acceleration, in the turned plane, under oblique gravity and with a
+    spring on the crank, K = ∂r/∂q (with the closure's geometric term J_pᵀ D J_p and the slider's and
+    rod's wrenches passed to the pin), C = ∂r/∂v and M = ∂r/∂v̇ of the one coordinate against central
+    differences; and the iteration matrix and residual the compiled step assembles in C equal Python's."""
+    import ctypes
+
+    from latdyn.assembly.assembler import unpack_free
+    from latdyn.assembly.linked import evaluate_linked
+    from latdyn.assembly.prepare import prepare
+    from latdyn.step.compiled import CompiledGeneralizedAlpha
+    from latdyn.step.integrators import AlphaParameters
+    from test_rigid import finite_difference
+
+    text = rigid_slider_crank(TURN, "stiffness: 3.0, damping: 0.2", "t_end: 0.1, dt: 0.01", pin_mass=5.0,
+                              gravity="gravity: [0.3, -1.0, -9.81]")
+    prepared = prepare(latdyn.load_scene(yaml_mapping(text)))
+    model, assembler = prepared.model, prepared.assembler
+    assert model.n_dofs == 1 and {e.closure for e in model.links.edges} == {"", "rod", "slider"}
+    rng = np.random.default_rng(11)
+    for _ in range(3):
+        state = assembler.advance(prepared.state, rng.uniform(-3.0, 3.0, size=1))
+        unpack_free(model, rng.normal(size=1), state.v, state.w, state.theta_dot)
+        unpack_free(model, rng.normal(size=1), state.a, state.alpha, state.theta_ddot)
+        static = assembler.evaluate(state, matrices=True, inertia=False)
+        K, K_fd = static.combined(0.0, 0.0, 1.0, dense=True), finite_difference(prepared, state, "q", inertia=False)
+        assert np.abs(K - K_fd).max() < 1e-7 * np.abs(K_fd).max()
+        dynamic = assembler.evaluate(state, matrices=True)
+        for (cm, cc), what in (((0.0, 1.0), "v"), ((1.0, 0.0), "a")):
+            exact, fd = dynamic.combined(cm, cc, 0.0, dense=True), finite_difference(prepared, state, what)
+            assert np.abs(exact - fd).max() < 1e-7 * np.abs(fd).max()
+        python = evaluate_linked(model.links, assembler, state, True, 1.0, True)
+        step = CompiledGeneralizedAlpha(assembler, AlphaParameters.for_method("generalized-alpha", 0.8), 1e-10, 25,
+                                        1.0)
+        step._setup()
+        native, factorization = step._native, step.factorization
+        for beta_p, gamma_p in ((0.0, 0.0), (0.0, 1.0), (400.0, 20.0)):
+            native.complete_links(state)
+            native.evaluate(state, matrices=True, load_factor=1.0, inertia=True, inertia_tangent=False)
+            native.library.latdyn_iteration_matrix(native.model_ref, native.work_ref,
+                                                   ctypes.byref(native.configuration(state)), beta_p, gamma_p, 0)
+            expected = np.asarray(python.combined(beta_p, gamma_p, 1.0, dense=True))
+            matrix = factorization.values[factorization.position(np.array([0]), np.array([0]))]
+            assert abs(matrix[0] - expected[0, 0]) <= 1e-12 * abs(expected[0, 0])
+            assert abs(native.buffers["total"][0] - python.residual[0]) <= 1e-12 * abs(python.residual[0])
+
+
+def yaml_mapping(text: str) -> dict:
+    import yaml
+
+    return yaml.safe_load(text)
+
+
+@pytest.mark.parametrize("backend", ["numpy", "c"])
+def test_closure_kernels_against_differences(backend):
+    """slider_closure_edge and rod_closure_edge (codegen/joints.py, "Closure edges"), in the turned plane at
+    random pins, pin velocities and accelerations: the slider on its line at the rod's length from the pin
+    and the rod's frame turning its initial direction onto the pin → slider direction (exact to 1e-12);
+    child_transfer the derivative of the child's configuration by the pin's, child_rates the first and
+    second derivatives along the pin's path p + v t + a t²/2, child_convective the derivative of the
+    acceleration by the pin's velocity; slider_ and rod_closure_wrench the transfer's transpose on a
+    wrench and its derivative by the pin's position: all against central differences (1e-6 relative)."""
+    from latdyn.model.kernels import load_kernels
+
+    kernels = load_kernels(backend, "default")
+    a, b, n = TURN[:, 0], TURN[:, 1], TURN[:, 2]
+    o, length, u0 = 0.4 * a, 0.3, 0.4 * a - 0.1 * a  # the slider at t = 0, the rod's initial direction (pin 0.1 a)
+    data = np.concatenate([o, a, n, [length, 1.0, 0.0, 0.0]])
+    rng = np.random.default_rng(5)
+    eps = 1e-6
+    for rod in (False, True):
+        edge_kernel = kernels.rod_closure_edge if rod else kernels.slider_closure_edge
+        wrench_kernel = kernels.rod_closure_wrench if rod else kernels.slider_closure_wrench
+        for _ in range(3):
+            pin = 0.1 * (np.cos(rng.uniform(0, 6.3)) * a + np.sin(rng.uniform(0, 6.3)) * b)
+            v, acc = rng.normal(size=3), rng.normal(size=3)
+            parent = np.concatenate([pin, np.eye(3).ravel(), v, rng.normal(size=3), acc, rng.normal(size=3)])
+
+            def child(p):
+                q = parent.copy()
+                q[0:3] = p
+                x, T = (out[0] for out in edge_kernel(q[None], data[None])[:2])
+                return x, T.reshape(3, 3)
+
+            x, T = child(pin)
+            slide = o + a * (a @ (x - o))
+            if rod:
+                direction = T @ (u0 / np.linalg.norm(u0))
+                slider_at = pin + length * direction
+                assert np.allclose(x, pin, atol=1e-12) and abs(b @ (slider_at - o)) < 1e-12
+                assert abs(n @ direction) < 1e-12 and np.allclose(T @ n, n, atol=1e-12)
+            else:
+                assert np.allclose(x, slide, atol=1e-12) and abs(np.linalg.norm(x - pin) - length) < 1e-12
+                assert np.allclose(T, np.eye(3), atol=1e-15)
+            _, _, rates, transfer, joint, convective = (out[0] for out in edge_kernel(parent[None], data[None]))
+            assert not np.any(joint)
+
+            def twist(p_plus, p_minus, h):
+                (xp, Tp), (xm, Tm) = child(p_plus), child(p_minus)
+                W = (Tp - Tm) / (2 * h) @ T.T
+                return np.concatenate([(xp - xm) / (2 * h), [W[2, 1], W[0, 2], W[1, 0]]])
+
+            by_pin = np.column_stack([twist(pin + eps * e, pin - eps * e, eps) for e in np.eye(3)])
+            scale = np.abs(by_pin).max()
+            assert np.abs(transfer.reshape(6, 6)[:, :3] - by_pin).max() < 1e-6 * scale
+            assert not np.any(transfer.reshape(6, 6)[:, 3:])
+            path = [pin + v * s + 0.5 * acc * s ** 2 for s in (-2e-4, -1e-4, 0.0, 1e-4, 2e-4)]
+            velocity = twist(path[3], path[1], 1e-4)
+            assert np.abs(rates[:6] - velocity).max() < 1e-6 * np.abs(velocity).max()
+            x2 = [child(p)[0] for p in path[1:4]]
+            assert np.abs(rates[6:9] - (x2[0] - 2 * x2[1] + x2[2]) / 1e-8).max() < 1e-5 * max(1.0, np.abs(rates[6:]).max())
+            if rod:  # the rod's angle from the slider kernel's slider: atan2(b·d, a·d), d = slider − pin
+                def angle(p):
+                    q = parent.copy()
+                    q[0:3] = p
+                    d = kernels.slider_closure_edge(q[None], data[None])[0][0] - p
+                    return np.arctan2(b @ d, a @ d)
+
+                turn = [angle(p) for p in path[1:4]]
+                assert abs(rates[3:6] @ n - (turn[2] - turn[0]) / 2e-4) < 1e-6 * abs(rates[3:6] @ n)
+                assert np.allclose(rates[3:6], n * (rates[3:6] @ n), atol=1e-14)
+                assert abs(rates[9:] @ n - (turn[0] - 2 * turn[1] + turn[2]) / 1e-8) < 1e-5 * max(1.0, abs(rates[9:] @ n))
+            columns = []
+            for k in range(6):
+                up, down = parent.copy(), parent.copy()
+                up[12 + k] += eps
+                down[12 + k] -= eps
+                columns.append((edge_kernel(up[None], data[None])[2][0] - edge_kernel(down[None], data[None])[2][0])
+                               / (2 * eps))
+            by_rate = np.column_stack(columns)
+            assert np.abs(by_rate[6:] - convective.reshape(6, 7)[:, :6]).max() < 1e-6 * max(1.0, np.abs(by_rate).max())
+            r = rng.normal(size=6)
+            g, D = (out[0] for out in wrench_kernel(pin[None], data[None], r[None]))
+            assert np.allclose(g, transfer.reshape(6, 6)[:, :3].T @ r, rtol=0, atol=1e-12 * np.abs(g).max())
+            by_position = np.column_stack([(wrench_kernel((pin + eps * e)[None], data[None], r[None])[0][0]
+                                            - wrench_kernel((pin - eps * e)[None], data[None], r[None])[0][0])
+                                           / (2 * eps) for e in np.eye(3)])
+            assert np.abs(D.reshape(3, 3) - by_position).max() < 1e-6 * np.abs(by_position).max()
+
+
+@pytest.mark.parametrize("change, key, words", [
+    (("[0.1, 0, 0]", "[0.25, 0, 0]"), "beams.rod.rigid", "cannot close the loop at every crank angle"),
+    (("rod: {from: pin, to: slider, section: bar, rigid: true,\n        start: {hinge: {axis: [0, 0, 1]}}",
+      "rod: {from: pin, to: slider, section: bar, rigid: true,\n        start: {hinge: {axis: [0, 0, 1], stiffness: 2}}"),
+     "beams.rod.start.hinge", "no stiffness"),
+    (("end: {hinge: {axis: [0, 0, 1]}}}", "end: {hinge: {axis: [0, 1, 0]}}}"), "beams.rod.end.hinge", "not planar"),
+    (("guide: {axis: [1, 0, 0]}", "guide: {axis: [1, 0, 0], limits: [-0.5, 0.5]}"), "bodies.slider.guide",
+     "no stiffness"),
+    (("    x: {point: slider", "    s: {guide: slider, quantity: position}\n    x: {point: slider"),
+     "output.probes.s", "no coordinate"),
+])
+def test_bad_rigid_loops_are_refused_with_the_key(tmp_path, change, key, words):
+    """A crank whose turn would pull the rod past the guide (R = 0.25 against L = 0.15: a dead point, then
+    no closure), a law on a hinge or on the guide of the loop, a loop that is not planar, and a probe of
+    a joint without a coordinate: exit 2 with the key, no traceback."""
+    text = rigid_slider_crank().replace(*change)
+    assert text != rigid_slider_crank()
+    completed, _ = latdyn_run(tmp_path, text)
+    assert completed.returncode == 2, completed.stderr
+    assert key in completed.stderr and words in completed.stderr, completed.stderr
+    assert "Traceback" not in completed.stderr
