@@ -134,9 +134,12 @@ class RigidLinks:
         dependent_bodies = [model.nodes[c].name for c in self.dependent if model.nodes[c].body is not None]
         link_nodes = [model.nodes[c].name for c in self.dependent if model.nodes[c].body is None]
         guides = [e.link for e in self.edges if e.prismatic]
+        loops = [e.link for e in self.edges if e.closure == "rod"]
         return (f"  rigid links: {len(self.links)} ({', '.join(self.links[:4])}"
                 f"{', …' if len(self.links) > 4 else ''}); guides: {len(guides)}"
                 + (f" ({', '.join(guides[:4])}{', …' if len(guides) > 4 else ''})" if guides else "")
+                + (f"; slider-cranks closed by a rigid rod: {len(loops)} ({', '.join(loops[:4])}; the slide and "
+                   "the rod's hinge angles follow the crank)" if loops else "")
                 + "; dependent nodes (no coordinates of their own): "
                 f"{len(link_nodes)} link nodes, {len(dependent_bodies)} bodies"
                 + (f" ({', '.join(dependent_bodies[:4])})" if dependent_bodies else "")
