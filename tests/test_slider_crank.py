@@ -505,3 +505,33 @@ def test_drive_torque_and_frequency_of_a_rigid_slider_crank(tmp_path):
     M0 = R ** 2 * (m_crank / 3 + m_pin + m_rod / 3)
     assert float(M.subs(th, 0)) == pytest.approx(M0, rel=1e-14)
     assert frequency == pytest.approx(np.sqrt(3.0 / M0) / (2 * np.pi), rel=1e-12)  # measured 3.7e-16
+
+
+def test_interrupted_rigid_slider_crank_resumes_bit_for_bit_and_draws_it(tmp_path, monkeypatch):
+    """The free crank with its flywheel (the Lagrange test's scene, in the plane z = 0, to t = 0.5),
+    interrupted at t = 0.3 and resumed: the files equal the uninterrupted run's; the ParaView bodies (from
+    which the structure picture is drawn) carry the slider on the exact kinematics of the recorded crank
+    angle."""
+    from latdyn.results.structure import load_structure
+    from test_checkpoint import assert_same_files, interrupt_at
+
+    torque = 'torque: "Piecewise((2*sin(pi*t/0.4)**2, t < 0.4), (0, True))"'
+    path = tmp_path / "flywheel.yaml"
+    path.write_text(rigid_slider_crank(np.eye(3), torque, "t_end: 0.5, dt: 0.001, rho_inf: 1.0",
+                                       "    crank: {hinge: crank.start, quantity: angle}\n", pin_mass=5.0))
+    scene = latdyn.load_scene(str(path))
+    full, out = tmp_path / "full", tmp_path / "out"
+    reference = latdyn.run(scene, full)
+    with monkeypatch.context() as m:
+        interrupt_at(m, 0.3)
+        with pytest.raises(KeyboardInterrupt):
+            latdyn.run(scene, out)
+    latdyn.run(scene, out, resume=True)
+    assert_same_files(full, out)
+    history = load_structure(full)
+    slider = history.body_points[:, history.bodies[~history.body_fixed]]
+    theta = np.interp(history.times, np.asarray(reference.t), np.asarray(reference.probes["crank"]))
+    on_rows = np.isin(np.round(history.times, 9), np.round(np.asarray(reference.t), 9))
+    assert on_rows.sum() >= 5
+    distance = np.abs(slider[on_rows, :, 0] - exact_slide(theta[on_rows])[:, None]).min(axis=1)
+    assert distance.max() < 1e-12
