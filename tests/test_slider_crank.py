@@ -464,11 +464,13 @@ def test_closure_kernels_against_differences(backend):
      "no stiffness"),
     (("    x: {point: slider", "    s: {guide: slider, quantity: position}\n    x: {point: slider"),
      "output.probes.s", "no coordinate"),
+    (("solve:", "  arm: {from: slider, to: [0.4, 0.2, 0], section: bar, rigid: true}\nsolve:"), "beams.rod.rigid",
+     "carries a rigid link or a guide of its own"),
 ])
 def test_bad_rigid_loops_are_refused_with_the_key(tmp_path, change, key, words):
     """A crank whose turn would pull the rod past the guide (R = 0.25 against L = 0.15: a dead point, then
-    no closure), a law on a hinge or on the guide of the loop, a loop that is not planar, and a probe of
-    a joint without a coordinate: exit 2 with the key, no traceback."""
+    no closure), a law on a hinge or on the guide of the loop, a loop that is not planar, a probe of a
+    joint without a coordinate, and a rigid link hung from the slider: exit 2 with the key, no traceback."""
     text = rigid_slider_crank().replace(*change)
     assert text != rigid_slider_crank()
     completed, _ = latdyn_run(tmp_path, text)

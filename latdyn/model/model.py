@@ -715,6 +715,11 @@ def _check_closures(scene, nodes, edges) -> None:
     point, no angle where the rod cannot reach the guide). Refused with the rod's key otherwise."""
     parent_of = {e.child: e for e in edges}
     for e in edges:
+        if e.closure and any(other.parent == e.child for other in edges):
+            raise SceneError(scene.file, f"beams.{e.link}.rigid", f"the rigid rod {e.link!r} closes a loop whose "
+                             f"{'slider' if e.closure == 'slider' else 'rod'} carries a rigid link or a guide of its own; "
+                             "a closed loop of rigid links is built with nothing hung from the slider but beams and "
+                             "loads; expected the link or guide elsewhere (or the rod flexible, rigid: false)")
         if e.closure != "rod":
             continue
         key = f"beams.{e.link}.rigid"
