@@ -209,13 +209,19 @@ def test_loops_of_rigid_links_are_refused_with_the_key(tmp_path):
     """Loops of rigid links other than a slider-crank's: a four-bar whose three moving bars are rigid, and a
     rigid link back onto the body another one starts at: exit 2, the key of the link that closes the loop
     named, the way out said (a flexible beam, stiff: the rigid kinematics), no traceback."""
-    for text, key, words in ((RIGID_FOUR_BAR, "beams.rocker.rigid", "reached by two rigid links"),
-                             (RIGID_TRIANGLE, "beams.back.rigid", "close a loop")):
-        completed, out = latdyn_run(tmp_path, text)
-        assert completed.returncode == 2, completed.stderr
-        assert key in completed.stderr and words in completed.stderr, completed.stderr
-        assert "rigid: false; a stiff section follows the rigid kinematics" in completed.stderr
-        assert "Traceback" not in completed.stderr
+    from latdyn.errors import SceneError
+
+    completed, out = latdyn_run(tmp_path, RIGID_FOUR_BAR)
+    assert completed.returncode == 2, completed.stderr
+    assert "beams.rocker.rigid" in completed.stderr and "reached by two rigid links" in completed.stderr
+    assert "rigid: false; a stiff section follows the rigid kinematics" in completed.stderr
+    assert "Traceback" not in completed.stderr
+    path = tmp_path / "triangle.yaml"
+    path.write_text(RIGID_TRIANGLE)
+    with pytest.raises(SceneError) as refused:
+        latdyn.run(latdyn.load_scene(str(path)))
+    assert refused.value.key == "beams.back.rigid" and "close a loop" in refused.value.expected
+    assert "rigid: false; a stiff section follows the rigid kinematics" in refused.value.expected
 
 
 # ----------------------------------------------------------------------------- the rigid slider-crank
@@ -470,13 +476,22 @@ def test_closure_kernels_against_differences(backend):
 def test_bad_rigid_loops_are_refused_with_the_key(tmp_path, change, key, words):
     """A crank whose turn would pull the rod past the guide (R = 0.25 against L = 0.15: a dead point, then
     no closure), a law on a hinge or on the guide of the loop, a loop that is not planar, a probe of a
-    joint without a coordinate, and a rigid link hung from the slider: exit 2 with the key, no traceback."""
+    joint without a coordinate, and a rigid link hung from the slider: a SceneError with the key through
+    the API; the first through the CLI too (exit 2, no traceback)."""
+    from latdyn.errors import SceneError
+
     text = rigid_slider_crank().replace(*change)
     assert text != rigid_slider_crank()
-    completed, _ = latdyn_run(tmp_path, text)
-    assert completed.returncode == 2, completed.stderr
-    assert key in completed.stderr and words in completed.stderr, completed.stderr
-    assert "Traceback" not in completed.stderr
+    path = tmp_path / "scene.yaml"
+    path.write_text(text)
+    with pytest.raises(SceneError) as refused:
+        latdyn.run(latdyn.load_scene(str(path)))
+    assert refused.value.key == key and words in refused.value.expected, str(refused.value)
+    if "0.25" in change[1]:
+        completed, _ = latdyn_run(tmp_path, text)
+        assert completed.returncode == 2, completed.stderr
+        assert key in completed.stderr and words in completed.stderr, completed.stderr
+        assert "Traceback" not in completed.stderr
 
 
 def test_drive_torque_and_frequency_of_a_rigid_slider_crank(tmp_path):
