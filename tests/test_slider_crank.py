@@ -4,12 +4,16 @@ The flexible slider-crank of Simo & Vu-Quoc's proportions (crank 0.152 m, steel 
 the crank run up to 150 rad/s; ``benchmarks/slider_crank.py`` has the problem and the long study):
 the rod's mid-span deflection against Exudyn's converged history of the same problem
 (``benchmarks/references/slider_crank.json``, 16 ANCF cable elements, h = 2e-5 s), through the CLI in
-the plane z = 0 and through the API in a plane turned in space; a free crank with a flywheel, whose
-energy stays at the work that spun it up and whose slide follows the loop's kinematics. And the
-refusal, with its key, of a loop closed by rigid links only (minimum coordinates cannot express it;
-docs/guides.md, "A rigid rod that closes the loop: refused"). The rigid slider-crank's exact
-kinematics (a rod of EA = 1e10) is
-``tests/test_guides.py::test_rigid_slider_crank_follows_the_exact_kinematics``."""
+the plane z = 0 and through the API in a plane turned in space; a free crank with a flywheel on a
+flexible rod, whose energy stays at the work that spun it up.
+
+The rigid slider-crank, a closed loop of rigid links computed by closure edges (docs/guides.md, "The
+rigid slider-crank"): a prescribed crank against the exact kinematics, a free crank with a flywheel
+against Lagrange's equation integrated apart, the drive torque and the frequency against the
+Lagrangian, the tangent against central differences and the compiled step's matrix against Python's,
+the generated closure kernels against differences, resume bit for bit; and the refusals, with their
+key, of the loops it does not cover.
+"""
 from __future__ import annotations
 
 import json
