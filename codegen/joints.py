@@ -69,6 +69,22 @@ term 2ω × ṡg and the centrifugal one of a slide on a turning body arise from
 enters the slide as σ g·f (``slide_wrench``), whose derivative by the configuration at fixed (f, m) is
 σ (g × f)·δπ_p, the edge parent's turn alone.
 
+Closure edges (a slider-crank whose rigid rod closes the loop: latdyn/model/links.py, "Closure"): the
+slider and the rod are functions of the pin's position p alone. With the guide line o + s a (global,
+fixed), the loop's plane normal n (the hinge axes; n ⟂ a), b = n × a, d = p − o, the rod length l and
+σ = ±1 the side of the pin the slider is on along a,
+
+    s(p) = a·d + σ r,   r = √(l² − |d|² + (a·d)²)                              (the slider on its line)
+    α(p) = atan2(−b·d, σ r) − β₀                                                 (the rod's turn about n)
+
+the slider's node x_c = o + s a keeps its frame (``slider_closure_edge``), the rod's node x_c = p turns
+as T_c = R(n, α) (``rod_closure_edge``; both node frames are the global axes at t = 0). Their rates
+are those of functions of p: v_c = ∇x_c v_p, a_c = ∇x_c a_p + (v_p·∇)² x_c, in the outputs of
+``rigid_link_edge`` (``child_joint`` zero: no coordinate of their own). A wrench (f, m) on such a node
+enters the pin's translation as g = (∂x_c/∂p)ᵀ f + ∇α (n·m) (``slider_closure_wrench``,
+``rod_closure_wrench``), whose derivative by p at fixed (f, m) is the closure's geometric stiffness.
+r → 0 is a dead point (the rod normal to the guide), where the loop stops being a function of p.
+
 Cable element (a tension-only axial member between the points p_i = x_i + T_i r_i of two nodes):
 the taut law N = EA (ℓ − L0)/L0 + c ℓ̇ on the residual rows of both ends, its exact derivatives by
 the end coordinates (same spatial update) and by their rates, the strain energy ½ EA (ℓ − L0)²/L0,
@@ -82,7 +98,8 @@ import sympy as sp
 from .ir import Argument, KernelSpec, Output
 
 DESCRIPTION = ("joint bodies (Newton-Euler about the reference point), point loads (global and follower), "
-               "hinged beam ends, hinge laws, rigid link and prismatic edges, cable elements and the SO(3) exponential")
+               "hinged beam ends, hinge laws, rigid link, prismatic and closure edges, cable elements and the SO(3) "
+               "exponential")
 
 BODY_FRAME = Argument("frame", 9, "T: the body's frame (columns = body axes in global axes), row-major")
 BODY_MOTION = Argument("motion", 9, "omega[3] a[3] alpha[3]: spatial angular velocity, acceleration of the "
@@ -672,8 +689,92 @@ def _root_wrench_kernel() -> KernelSpec:
                       "coordinates")
 
 
+CLOSURE_EDGE = Argument("edge", 13, "o[3] a[3] n[3] l sigma beta0 (unused): the guide line's point and unit axis "
+                        "(global), the loop's unit normal, the rod length, the slider's side of the pin along a, the "
+                        "rod's initial angle atan2(b·u0, a·u0) (b = n × a)")
+CLOSURE_PIN = Argument("pin", 3, "p[3]: the position of the pin (the closure edge's parent node)")
+CLOSURE_WRENCH = Argument("wrench", 6, "f[3] m[3]: the residual rows of the closure edge's child")
+
+
+def closure_slide_and_turn(p, edge):
+    """(s, α) of the module docstring, "Closure edges": the slide of the slider along the guide and the rod's
+    turn about n, as functions of the pin's position p."""
+    o, a, n = _vector(edge[0:3]), _vector(edge[3:6]), _vector(edge[6:9])
+    length, sigma, beta0 = edge[9], edge[10], edge[11]
+    d = p - o
+    along = a.dot(d)
+    r = sp.sqrt(length ** 2 - d.dot(d) + along ** 2)
+    return along + sigma * r, sp.atan2(-(n.cross(a)).dot(d), sigma * r) - beta0
+
+
+def closure_edge(parent, edge, rod: bool):
+    """(x_c, T_c, v_c, ω_c, a_c, ω̇_c) of a closure edge's child: the rod's node (``rod``) or the slider's."""
+    p, v, acc = _vector(parent[0:3]), _vector(parent[12:15]), _vector(parent[18:21])
+    o, a, n = _vector(edge[0:3]), _vector(edge[3:6]), _vector(edge[6:9])
+    slide, turn = closure_slide_and_turn(p, edge)
+    value = turn if rod else slide
+    gradient = sp.Matrix([value]).jacobian(p)
+    hessian = gradient.T.jacobian(p)
+    rate = (gradient * v)[0]
+    acceleration = (gradient * acc)[0] + (v.T * hessian * v)[0]
+    zero = sp.zeros(3, 1)
+    if rod:
+        return p, rotation_about(n, turn), v, rate * n, acc, acceleration * n
+    return o + slide * a, sp.eye(3), rate * a, zero, acceleration * a, zero
+
+
+def _closure_edge_kernel(rod: bool) -> KernelSpec:
+    parent, edge = LINK_PARENT.symbols(), CLOSURE_EDGE.symbols()
+    position, frame, v_c, w_c, a_c, alpha_c = closure_edge(parent, edge, rod)
+    velocity, acceleration = sp.Matrix.vstack(v_c, w_c), sp.Matrix.vstack(a_c, alpha_c)
+    parent_velocity = _vector(parent[12:18])
+    name = "rod_closure_edge" if rod else "slider_closure_edge"
+    outputs = [
+        Output("child_position", (3,), list(position), "x_c = p (the rod's node) or o + s(p) a (the slider's)"),
+        Output("child_frame", (3, 3), list(frame), "T_c = R(n, alpha(p)) (the rod's) or the identity (the slider's)"),
+        Output("child_rates", (12,), _rows(sp.Matrix.vstack(velocity, acceleration)),
+               "v_c w_c a_c alpha_c: the child's velocity, angular velocity, acceleration, angular acceleration"),
+        Output("child_transfer", (6, 6), _rows(velocity.jacobian(parent_velocity)),
+               "∂(v_c, w_c)/∂(v_p, w_p) (= ∂(a_c, alpha_c)/∂(a_p, alpha_p))"),
+        Output("child_joint", (6,), [0] * 6, "zero: a closure edge has no coordinate of its own"),
+        Output("child_convective", (6, 7),
+               _rows(acceleration.jacobian(sp.Matrix.vstack(parent_velocity, sp.Matrix([edge[12]])))),
+               "∂(a_c, alpha_c)/∂(v_p, w_p, -) at fixed accelerations: the velocity-quadratic terms"),
+    ]
+    what = "rigid rod (its node at the pin, turning about n)" if rod else "slider (on its guide line)"
+    return KernelSpec(name=name, doc=f"A slider-crank's {what} as a function of the pin's position: frame, position, "
+                      "rates, and the edge's factors of J and of the velocity-quadratic accelerations (the same "
+                      "outputs as rigid_link_edge)", inputs=[LINK_PARENT, CLOSURE_EDGE], outputs=outputs,
+                      variant="joints", equations="The closure of a slider-crank's loop (rigid rod, guide on the ground)")
+
+
+def closure_wrench(pin, edge, wrench, rod: bool):
+    """g = (∂x_c/∂p)ᵀ f + ∇α (n·m) (the rod's) or ∇s (a·f) (the slider's): a wrench on the child on the pin."""
+    p, f, m = _vector(pin), _vector(wrench[0:3]), _vector(wrench[3:6])
+    a, n = _vector(edge[3:6]), _vector(edge[6:9])
+    slide, turn = closure_slide_and_turn(p, edge)
+    if rod:
+        return f + sp.Matrix([turn]).jacobian(p).T * n.dot(m)
+    return sp.Matrix([slide]).jacobian(p).T * a.dot(f)
+
+
+def _closure_wrench_kernel(rod: bool) -> KernelSpec:
+    pin, edge, wrench = CLOSURE_PIN.symbols(), CLOSURE_EDGE.symbols(), CLOSURE_WRENCH.symbols()
+    value = closure_wrench(pin, edge, wrench, rod)
+    name = "rod_closure_wrench" if rod else "slider_closure_wrench"
+    outputs = [Output(name, (3,), _rows(value), "the wrench's generalized force on the pin's translation"),
+               Output(f"{name}_D_q", (3, 3), _rows(value.jacobian(_vector(pin))),
+                      "its derivative by the pin's position at fixed f, m: the closure's geometric stiffness")]
+    return KernelSpec(name=name, doc="The generalized force on the pin's translation of a wrench on a slider-crank's "
+                      + ("rod" if rod else "slider") + " node, and its derivative by the pin's position",
+                      inputs=[CLOSURE_PIN, CLOSURE_EDGE, CLOSURE_WRENCH], outputs=outputs, variant="joints",
+                      equations="The closure of a slider-crank's loop; the reduction onto minimum coordinates")
+
+
 def build_kernels() -> list[KernelSpec]:
     """The kernels of the ``joints`` unit."""
     return [*_joint_body_kernels(), _point_load_kernel(), _hinged_end_kernel(), _hinge_force_kernel(),
             _so3_exp_kernel(), _link_edge_kernel(), _hinge_wrench_kernel(), _root_wrench_kernel(),
-            _link_edge_kernel(prismatic=True), _slide_wrench_kernel(), _cable_force_kernel()]
+            _link_edge_kernel(prismatic=True), _slide_wrench_kernel(), _cable_force_kernel(),
+            _closure_edge_kernel(rod=False), _closure_edge_kernel(rod=True), _closure_wrench_kernel(rod=False),
+            _closure_wrench_kernel(rod=True)]

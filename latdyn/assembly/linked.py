@@ -129,10 +129,13 @@ def geometric_stiffness(links, assembler, state, native, r_dep, dense: bool):
     (``root_wrench``: (f, m + (x_c − x_r) × f), by δx_r and δx_c) and on every hinge of its path
     (``hinge_wrench``: s g·((x_c − o_g) × f + m); on a guide's slide ``slide_wrench``: s g·f; by the edge
     parent's δx, δπ and δx_c), the generated
-    kernels of codegen/joints.py, chained with J of the parent and of c (as csrc/links.c does)."""
+    kernels of codegen/joints.py, chained with J of the parent and of c (as csrc/links.c does); a closure
+    edge's child first passes its wrench to its pin (:func:`_closure_wrenches`)."""
     model, kernels = assembler.model, assembler.kernels
     n = model.n_dofs
     rows, cols, values = [], [], []
+    closure_block = _closure_wrenches(links, state, native, kernels, r_dep)
+    r_dep = closure_block.pop("residual")
     pairs = []  # (dependent index, edge index) of every hinge and slide on every path
     for k, c in enumerate(links.dependent):
         if np.any(r_dep[6 * k:6 * k + 6]):
@@ -147,6 +150,8 @@ def geometric_stiffness(links, assembler, state, native, r_dep, dense: bool):
             cols.append(columns[keep])
             values.append(values_row[keep])
 
+    for slot, block in closure_block.items():
+        add(slot, native.columns[slot, :block.shape[1]], block)
     if nodes:
         dependent = links.dependent[nodes]
         roots = [links.root[int(c)] for c in dependent]
@@ -185,3 +190,30 @@ def geometric_stiffness(links, assembler, state, native, r_dep, dense: bool):
     import scipy.sparse as sps  # on use: large models with rigid links
 
     return sps.csr_matrix((values, (rows, cols)), shape=(n, n))
+
+
+def _closure_wrenches(links, state, native, kernels, r_dep) -> dict:
+    """The closure edges' part of ∂(Pᵀ)/∂q · r_all (as csrc/links.c's): each closure child's wrench r moves its
+    pin as g = transferᵀ r (``slider_closure_wrench``, ``rod_closure_wrench``), with J_pᵀ D J_p on the pin's
+    columns, D = ∂g/∂p; g joins a dependent pin's wrench. Returns {pin slot: block} and, under "residual",
+    r_dep with the closure children's wrenches passed on (zero) and the pins' grown."""
+    r_dep = np.array(r_dep, float)
+    out = {}
+    index_of = {int(c): k for k, c in enumerate(links.dependent)}
+    for k, c in enumerate(links.dependent):
+        edge = links.edges[links.edge_of[int(c)]]
+        r = r_dep[6 * k:6 * k + 6]
+        if not edge.closure or not np.any(r):
+            continue
+        kernel = kernels.rod_closure_wrench if edge.closure == "rod" else kernels.slider_closure_wrench
+        g, D = kernel(np.ascontiguousarray(state.x[[edge.parent]]), np.ascontiguousarray(edge.closure_data[None]),
+                      np.ascontiguousarray(r[None]))
+        slot = native.slot_of_node[int(edge.parent)]
+        Jp = native.jacobian[slot, :3, :native.count[slot]]
+        out[slot] = out.get(slot, 0.0) + Jp.T @ D.reshape(3, 3) @ Jp
+        if int(edge.parent) in index_of:
+            j = index_of[int(edge.parent)]
+            r_dep[6 * j:6 * j + 3] += g.reshape(3)
+        r_dep[6 * k:6 * k + 6] = 0.0
+    out["residual"] = r_dep
+    return out

@@ -2,8 +2,9 @@
 
 The compiled Newton iteration completes the dependent nodes after every configuration update and
 reduces every evaluation onto the minimum coordinates in C (``csrc/links.c``, with the generated
-kernels ``rigid_link_edge``, ``hinge_wrench`` and ``root_wrench`` of ``codegen/joints.py``, and
-``prismatic_link_edge`` and ``slide_wrench`` on the prismatic edges of guides): no
+kernels ``rigid_link_edge``, ``hinge_wrench`` and ``root_wrench`` of ``codegen/joints.py``,
+``prismatic_link_edge`` and ``slide_wrench`` on the prismatic edges of guides, and the closure edges'
+kernels on a slider-crank whose rigid rod closes the loop): no
 Python runs inside an iteration. :func:`native_links` lays out what it needs for one numbering of
 the coordinates and one storage of the iteration matrix: the edges of :mod:`latdyn.model.links` in
 tree order, a *slot* per root and dependent node with its columns (the coordinates it moves with:
@@ -137,8 +138,9 @@ def native_links(assembler, factorization, kernel_address) -> NativeLinks:
     for s in range(n_slots):
         if slot_edge[s] < 0:
             jacobian[s, :, :6] = np.eye(6)
-    edge_data = np.array([np.concatenate([e.axis if e.hinge >= 0 else np.zeros(3), e.point, e.arm,
-                                          [e.sign if e.hinge >= 0 else 0.0]]) for e in links.edges], float)
+    edge_data = np.array([e.closure_data if e.closure else
+                          np.concatenate([e.axis if e.hinge >= 0 else np.zeros(3), e.point, e.arm,
+                                          [e.sign if e.hinge >= 0 else 0.0], np.zeros(3)]) for e in links.edges], float)
 
     # the blocks that touch a dependent coordinate, through their expansions
     slot_of_dof = {int(d): (slot_of_node[c], k) for c in links.dependent for k, d in enumerate(m.node_dofs[c])}
@@ -174,7 +176,7 @@ def native_links(assembler, factorization, kernel_address) -> NativeLinks:
     data = LinksData(
         n_edges=len(links.edges), n_slots=n_slots, width=width, n_assembled=m.n_assembled,
         edge_parent=ints([e.parent for e in links.edges]), edge_child=ints([e.child for e in links.edges]),
-        edge_hinge=ints([e.hinge for e in links.edges]), edge_prismatic=ints([e.prismatic for e in links.edges]),
+        edge_hinge=ints([e.hinge for e in links.edges]), edge_kind=ints([e.kind for e in links.edges]),
         edge_parent_slot=ints(edge_parent_slot),
         edge_slot=ints(edge_slot), edge_data=doubles(edge_data),
         slot_node=ints(slot_node), slot_root=ints(slot_root), slot_edge=ints(slot_edge), slot_count=ints(count),
@@ -187,6 +189,9 @@ def native_links(assembler, factorization, kernel_address) -> NativeLinks:
         dof_slot=ints(x.slot), dof_component=ints(x.component), dof_map=ints(np.array(x.map).reshape(-1)),
         rigid_link_edge=kernel_address("rigid_link_edge"), hinge_wrench=kernel_address("hinge_wrench"),
         root_wrench=kernel_address("root_wrench"), prismatic_link_edge=kernel_address("prismatic_link_edge"),
-        slide_wrench=kernel_address("slide_wrench"),
+        slide_wrench=kernel_address("slide_wrench"), slider_closure_edge=kernel_address("slider_closure_edge"),
+        rod_closure_edge=kernel_address("rod_closure_edge"),
+        slider_closure_wrench=kernel_address("slider_closure_wrench"),
+        rod_closure_wrench=kernel_address("rod_closure_wrench"),
         **{name: buffer.ctypes.data for name, buffer in buffers.items()})
     return NativeLinks(data, keep, slot_node, columns, count, buffers)

@@ -26,6 +26,18 @@ with that ξ: in the acceleration, ṡ V_p ×̂ ξ = (ṡ ω × g, 0) and the ω
 acceleration make the Coriolis term 2ω × ṡg, and the parent's acceleration at the child's point
 the centrifugal one of a slide on a turning body.
 
+A *closure* edge (a slider-crank whose rigid rod closes the loop onto a slider on a fixed guide,
+:func:`latdyn.model.model._closure`) makes its child a function of the parent's (the pin's) position p
+alone, with no coordinate of its own: the slider on its line o + s(p) a at the rod's length l from p,
+the rod's node at p turned about the loop's normal n by α(p) (codegen/joints.py, "Closure edges"):
+
+    x_c = o + s(p) a, T_c = T_c(0)   (slider),   x_c = p, T_c = R(n, α(p))   (rod)      (closure edge)
+
+so V_c = A(p) V_p with A = ∂(x_c, π_c)/∂p on the parent's translation, J_c = A J_p, and the
+velocity-quadratic acceleration (v_p·∇)² of x_c and α. A wrench r on the child moves the pin as
+g = Aᵀ r, whose derivative by p at fixed r (D) adds J_pᵀ D J_p to K; g joins the pin's wrench for the
+terms of its path. A closure child is a leaf of the tree.
+
 Velocities are spatial twists at the global origin, V = (v_O, ω) with the velocity of a
 point y equal to v_O + ω × y; a node's coordinate velocities are (v, w) = (v_O + ω × x, ω).
 Along an edge V_c = V_p + s θ̇ ξ with the joint twist ξ = (o_g × g, g) (g = T_p a the
@@ -71,6 +83,15 @@ class Edge:
     arm: np.ndarray  # b, child's reference point from the hinge point, parent node axes at θ = 0
     link: str  # the rigid link (beam name) the edge belongs to; for a guide, the guided body
     prismatic: bool = False  # a sliding joint: the hinge coordinate is the slide along `axis`
+    #: a closure edge (module docstring, "Closure"): "slider" or "rod", its child a function of the parent's
+    #: position with no coordinate; ``closure_data`` the kernel's input o[3] a[3] n[3] l σ β₀ 0
+    closure: str = ""
+    closure_data: np.ndarray = None
+
+    @property
+    def kind(self) -> int:
+        """The edge's kind in csrc/links.c: 0 revolute or clamped, 1 prismatic, 2 slider closure, 3 rod closure."""
+        return 1 if self.prismatic else {"": 0, "slider": 2, "rod": 3}[self.closure]
 
 
 @dataclass
@@ -113,9 +134,12 @@ class RigidLinks:
         dependent_bodies = [model.nodes[c].name for c in self.dependent if model.nodes[c].body is not None]
         link_nodes = [model.nodes[c].name for c in self.dependent if model.nodes[c].body is None]
         guides = [e.link for e in self.edges if e.prismatic]
+        loops = [e.link for e in self.edges if e.closure == "rod"]
         return (f"  rigid links: {len(self.links)} ({', '.join(self.links[:4])}"
                 f"{', …' if len(self.links) > 4 else ''}); guides: {len(guides)}"
                 + (f" ({', '.join(guides[:4])}{', …' if len(guides) > 4 else ''})" if guides else "")
+                + (f"; slider-cranks closed by a rigid rod: {len(loops)} ({', '.join(loops[:4])}; the slide and "
+                   "the rod's hinge angles follow the crank)" if loops else "")
                 + "; dependent nodes (no coordinates of their own): "
                 f"{len(link_nodes)} link nodes, {len(dependent_bodies)} bodies"
                 + (f" ({', '.join(dependent_bodies[:4])})" if dependent_bodies else "")

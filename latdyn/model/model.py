@@ -161,7 +161,8 @@ class Model:
         beam_elements, beam_nodes, beam_grid_offsets = {}, {}, {}
         link_bodies = []  # (node, mass, com, inertia) of the rigid links
         edges = []
-        _guides(scene, nodes, body_node, hinges, edges)
+        closing = _closing_sliders(scene)
+        _guides(scene, nodes, body_node, hinges, edges, skip=closing)
         for beam in scene.beams.values():
             if beam.rigid:
                 _rigid_link(scene, beam, nodes, body_node, hinges, edges, link_bodies,
@@ -216,6 +217,7 @@ class Model:
             nodes.append(Node(name, position, FREE, beam=name.split(".")[0]))
             return len(nodes) - 1
 
+        _check_closures(scene, nodes, edges)
         cables = add_cables(scene, body_node, cable_node, beam_nodes, beam_grid_offsets, point_masses)
         link_bodies += [(node, mass, offset, np.zeros((3, 3))) for node, mass, offset in point_masses]
         massive = [b for b in scene.bodies.values() if b.mass > 0 or np.any(b.inertia != 0)]
@@ -509,7 +511,7 @@ def _add_hinge(hinges: list, beam: str, which: str, node: int, hinge) -> int:
     return len(hinges) - 1
 
 
-def _guides(scene, nodes, body_node, hinges, edges) -> None:
+def _guides(scene, nodes, body_node, hinges, edges, skip=()) -> None:
     """The sliding joints (``bodies.NAME.guide``): each guided body becomes a dependent node on a prismatic
     edge (:mod:`latdyn.model.links`) from the node of ``on`` (a fixed node at the origin, ``ground``, when
     the guide is on the ground), its slide s the coordinate of a :class:`HingeCoordinate` of kind "guide"."""
@@ -518,7 +520,7 @@ def _guides(scene, nodes, body_node, hinges, edges) -> None:
     ground = None
     for body in scene.bodies.values():
         g = body.guide
-        if g is None:
+        if g is None or body.name in skip:  # a slider a rigid rod closes onto: a closure edge (_closure)
             continue
         if g.on is None and ground is None:
             ground = len(nodes)
@@ -560,7 +562,13 @@ def _rigid_link(scene, beam, nodes, body_node, hinges, edges, link_bodies, beam_
     inertia = frame @ np.diag([(s.rhoIy + s.rhoIz) * length, rod + s.rhoIy * length,
                                rod + s.rhoIz * length]) @ frame.T
     link = len(nodes)
-    if start.body is not None:
+    closes = end.body is not None and end.body in _closing_sliders(scene)
+    if closes:  # the rod of a slider-crank closing its loop: its node and the slider follow the pin (_closure)
+        if start.body is None:
+            raise SceneError(scene.file, key, f"rigid link {beam.name!r} closes a loop onto the guided body "
+                                              f"{end.body!r} from a free end; expected it to start at a body (the pin)")
+        nodes.append(Node(f"{beam.name}.link", np.array(start.point, float), DEPENDENT, beam=beam.name))
+    elif start.body is not None:
         parent = body_node[start.body]
         nodes.append(Node(f"{beam.name}.link", np.array(start.point, float), DEPENDENT, beam=beam.name))
         h = _add_hinge(hinges, beam.name, "start", parent, start.hinge)
@@ -578,17 +586,25 @@ def _rigid_link(scene, beam, nodes, body_node, hinges, edges, link_bodies, beam_
                                               "a rigid link positions the body at its `to` end, and this one is "
                                               f"positioned already; expected the {what} body as the link's `from` "
                                               "(or rigid: false)")
+        if closes and node.kind != DEPENDENT:
+            _closure(scene, beam, nodes, body_node, edges, link)
+            beam_elements[beam.name] = np.zeros(0, dtype=np.int64)
+            beam_nodes[beam.name] = np.array([link, link])
+            beam_grid_offsets[beam.name] = (np.zeros(3), vector.copy())
+            return
         if node.kind == DEPENDENT and scene.bodies[end.body].guide is not None:
             raise SceneError(scene.file, key, f"rigid link {beam.name!r} ends at body {end.body!r}, which slides on "
                                               "a guide: the guide positions the body already (a closed loop that "
                                               "minimum coordinates cannot express); make the beam flexible "
-                                              "(rigid: false) or start the link at the body")
+                                              "(rigid: false; a stiff section follows the rigid kinematics, "
+                                              "docs/guides.md 'The slider-crank') or start the link at the body")
         if node.kind == DEPENDENT:
             other = next(e.link for e in edges if e.child == child)
             raise SceneError(scene.file, key, f"body {end.body!r} is reached by two rigid links ({other!r} and "
                                               f"{beam.name!r}): a closed loop that minimum coordinates cannot "
-                                              "express; make one beam of the loop flexible (rigid: false), or start "
-                                              "one of the links at the body")
+                                              "express; make one beam of the loop flexible (rigid: false; a stiff "
+                                              "section follows the rigid kinematics, docs/guides.md 'The "
+                                              "slider-crank'), or start one of the links at the body")
         node.kind = DEPENDENT
         h = _add_hinge(hinges, beam.name, "end", child, end.hinge)
         edges.append(Edge(link, child, h, hinges[h].axis.copy() if h >= 0 else np.zeros(3), -1.0,
@@ -604,10 +620,137 @@ def _rigid_link(scene, beam, nodes, body_node, hinges, edges, link_bodies, beam_
             if walk == child:
                 raise SceneError(scene.file, key, "the rigid links " + ", ".join(repr(n) for n in loop[::-1])
                                  + " close a loop: a closed loop made only of rigid links cannot be expressed in "
-                                 "minimum coordinates; make one beam of the loop flexible (rigid: false)")
+                                 "minimum coordinates; make one beam of the loop flexible (rigid: false; a stiff "
+                                 "section follows the rigid kinematics, docs/guides.md 'The slider-crank')")
     beam_elements[beam.name] = np.zeros(0, dtype=np.int64)
     beam_nodes[beam.name] = np.array([link, link])
     beam_grid_offsets[beam.name] = (np.zeros(3), vector.copy())
+
+
+def _closing_sliders(scene) -> set:
+    """The guided bodies a rigid link ends at: each closes a slider-crank's loop (:func:`_closure`)."""
+    return {b.end.body for b in scene.beams.values()
+            if b.rigid and b.end.body is not None and scene.bodies[b.end.body].guide is not None}
+
+
+def _free_joint(joint) -> bool:
+    """True when a hinge or guide carries no law, stop, latch or prescription (a closure's joints must not)."""
+    return (joint is not None and isinstance(joint.stiffness, (int, float)) and joint.stiffness == 0
+            and isinstance(joint.damping, (int, float)) and joint.damping == 0
+            and getattr(joint, "torque", getattr(joint, "force", None)) is None
+            and getattr(joint, "angle", getattr(joint, "position", None)) is None
+            and joint.limits is None and joint.lock_at is None and joint.contact is None and joint.friction is None)
+
+
+def _closure(scene, beam, nodes, body_node, edges, link) -> None:
+    """A slider-crank whose rigid rod ``beam`` closes the loop onto a slider on a fixed guide
+    (:mod:`latdyn.model.links`, "Closure"): the rod's node ``link`` and the slider follow the pin (the rod's
+    start body) on closure edges, functions of the pin's position; the rod's hinges and the guide have no
+    coordinate. Refused, with the key, unless the rod is hinged at both ends about one normal n of the
+    loop's plane, with no law, stop, latch or offset, and the guide is on the ground or a fixed body, at
+    right angles to n, with no law either (:func:`_check_closures` checks the crank)."""
+    from latdyn.model.links import Edge
+
+    key = f"beams.{beam.name}"
+    slider = scene.bodies[beam.end.body]
+    guide = slider.guide
+    if guide.on is not None and not scene.bodies[guide.on].fixed:
+        raise SceneError(scene.file, f"bodies.{slider.name}.guide.on", f"the rigid rod {beam.name!r} closes a loop "
+                         f"onto {slider.name!r}, whose guide is on the moving body {guide.on!r}; a closed loop of "
+                         "rigid links is built for a slider on the ground or a fixed body (docs/guides.md, 'The "
+                         "slider-crank'); expected that, or the rod flexible (rigid: false)")
+    if not _free_joint(guide):
+        raise SceneError(scene.file, f"bodies.{slider.name}.guide", f"the guide of {slider.name!r} closes the loop of "
+                         f"the rigid rod {beam.name!r}: its slide is no coordinate, so it takes no stiffness, damping, "
+                         "force, position, limits, lock_at, contact or friction; expected none (or the rod flexible, "
+                         "rigid: false)")
+    for which, end in (("start", beam.start), ("end", beam.end)):
+        if not _free_joint(end.hinge):
+            raise SceneError(scene.file, f"{key}.{which}.hinge", f"the rigid rod {beam.name!r} closes a loop: it needs "
+                             "a hinge at both ends with no stiffness, damping, torque, angle, limits, lock_at, contact "
+                             "or friction (its angles are no coordinates); expected such a hinge (or the rod "
+                             "flexible, rigid: false)")
+        if np.linalg.norm(end.offset) > 0:
+            raise SceneError(scene.file, f"{key}.{which}", f"the rigid rod {beam.name!r} closes a loop: its ends are "
+                             "the pin's and the slider's reference points; expected no offset")
+    for probe in scene.output.probes:
+        if (probe.kind == "hinge" and probe.beam == beam.name) or (probe.kind == "guide" and probe.body == slider.name):
+            raise SceneError(scene.file, f"output.probes.{probe.name}", f"the {probe.kind} of the rigid rod "
+                             f"{beam.name!r}'s closed loop has no coordinate to record; expected a point probe "
+                             f"({{point: {slider.name}, quantity: position}}) or the crank's hinge")
+    normal = np.array(beam.start.hinge.axis, float)
+    normal /= np.linalg.norm(normal)
+    axis = np.array(guide.axis, float)
+    axis /= np.linalg.norm(axis)
+    pin, end = np.array(beam.start.point, float), np.array(beam.end.point, float)
+    tolerance = 1e-9
+    if (np.linalg.norm(np.cross(normal, beam.end.hinge.axis)) > tolerance or abs(normal @ axis) > tolerance
+            or abs(normal @ (end - pin)) > tolerance * np.linalg.norm(end - pin)):
+        raise SceneError(scene.file, f"{key}.end.hinge", f"the rigid rod {beam.name!r} closes a loop that is not "
+                         "planar: a closed loop of rigid links is built for a slider-crank whose hinge axes are one "
+                         "normal n, its guide and rod at right angles to n; expected that (or the rod flexible, "
+                         "rigid: false)")
+    length = float(np.linalg.norm(end - pin))
+    direction = (end - pin) / length
+    side = float(axis @ direction)
+    if abs(side) < 1e-9:
+        raise SceneError(scene.file, f"{key}.rigid", f"the rigid rod {beam.name!r} starts at right angles to the "
+                         f"guide of {slider.name!r}: a dead point, where the slider's position is no function of the "
+                         "crank's; expected the mechanism away from it")
+    across = np.cross(normal, axis)
+    data = np.concatenate([end, axis, normal, [length, np.sign(side),
+                                               np.arctan2(across @ direction, axis @ direction), 0.0]])
+    parent, child = body_node[beam.start.body], body_node[slider.name]
+    nodes[child].kind = DEPENDENT
+    edges.append(Edge(parent, link, -1, np.zeros(3), 0.0, np.zeros(3), np.zeros(3), beam.name, closure="rod",
+                      closure_data=data))
+    edges.append(Edge(parent, child, -1, np.zeros(3), 0.0, np.zeros(3), np.zeros(3), beam.name, closure="slider",
+                      closure_data=data.copy()))
+
+
+def _check_closures(scene, nodes, edges) -> None:
+    """Each closure's pin turns on one crank about a fixed pivot with the loop's normal n as axis (its path up
+    the tree: one revolute edge about n, clamped ones, a fixed root), and every crank angle closes the loop:
+    the pin's distance R from the pivot and the pivot's height c above the guide line with |c| + R < l (no dead
+    point, no angle where the rod cannot reach the guide). Refused with the rod's key otherwise."""
+    parent_of = {e.child: e for e in edges}
+    for e in edges:
+        if e.closure and any(other.parent == e.child for other in edges):
+            raise SceneError(scene.file, f"beams.{e.link}.rigid", f"the rigid rod {e.link!r} closes a loop whose "
+                             f"{'slider' if e.closure == 'slider' else 'rod'} carries a rigid link or a guide of its own; "
+                             "a closed loop of rigid links is built with nothing hung from the slider but beams and "
+                             "loads; expected the link or guide elsewhere (or the rod flexible, rigid: false)")
+        if e.closure != "rod":
+            continue
+        key = f"beams.{e.link}.rigid"
+        o, axis, normal = e.closure_data[0:3], e.closure_data[3:6], e.closure_data[6:9]
+        length = e.closure_data[9]
+        pin = nodes[e.parent].position
+        walk, cranks = e.parent, []
+        while walk in parent_of:
+            up = parent_of[walk]
+            if up.closure or up.prismatic:
+                cranks.append(None)
+            elif up.hinge >= 0:
+                cranks.append(up)
+            walk = up.parent
+        if nodes[walk].kind != FIXED or len(cranks) != 1 or cranks[0] is None:
+            raise SceneError(scene.file, key, f"the rigid rod {e.link!r} closes a loop whose pin is not turned by one "
+                             "crank about a fixed pivot: a closed loop of rigid links is built for a slider-crank (one "
+                             "hinge between a fixed body and the pin); expected that (or the rod flexible, rigid: false)")
+        crank = cranks[0]
+        pivot = nodes[crank.parent].position + crank.point
+        if np.linalg.norm(np.cross(crank.axis, normal)) > 1e-9:
+            raise SceneError(scene.file, key, f"the crank of the rigid rod {e.link!r} turns about an axis that is not "
+                             "the loop's normal (the rod's hinge axes): the loop is not planar; expected one axis")
+        arm = pin - pivot
+        radius = float(np.linalg.norm(arm - normal * (normal @ arm)))
+        height = float(np.cross(normal, axis) @ (pivot - o))
+        if abs(height) + radius >= length:
+            raise SceneError(scene.file, key, f"the rigid rod {e.link!r} (length {length:.6g}) cannot close the loop at "
+                             f"every crank angle: the crank's radius {radius:.6g} and its pivot's distance "
+                             f"{abs(height):.6g} from the guide line reach a dead point (the rod at right angles to the "
+                             "guide) or beyond; expected a rod longer than their sum")
 
 
 def _tree_order(scene, edges, nodes) -> list:

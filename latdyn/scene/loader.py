@@ -39,7 +39,8 @@ link counts as one element for point names: ``LINK.node[0]`` = start, ``LINK.nod
 it has no element probes. A body at its ``to`` end becomes a *dependent node* (its configuration
 follows from the link's; :mod:`latdyn.model.links`). What minimum coordinates cannot express is refused
 by :meth:`latdyn.model.model.Model.from_scene` with a SceneError naming ``beams.NAME.rigid``: a closed
-loop of rigid links, a ``to`` body that is fixed or prescribed, or one reached by two links.
+loop of rigid links (but a slider-crank's rigid rod closing onto a slider on a fixed guide, computed
+by closure edges: docs/guides.md), a ``to`` body that is fixed or prescribed, or one reached by two links.
 
 Hinge additions (SCENE.md): ``rest_angle``, ``limits: [lo, hi]`` (lo <= 0 <= hi, the angle being
 0 at t = 0; not with a prescribed ``angle``; a ``lock_at`` must lie within them),

@@ -30,15 +30,19 @@ typedef void (*kernel_rigid_link_edge)(int64_t, const double *, const double *, 
                                        double *, double *, double *);
 typedef void (*kernel_hinge_wrench)(int64_t, const double *, const double *, const double *, double *, double *);
 typedef void (*kernel_root_wrench)(int64_t, const double *, double *, double *);
+typedef void (*kernel_closure_wrench)(int64_t, const double *, const double *, const double *, double *, double *);
 
 /* The rigid links of a model, as the C step reads them (mirrored in latdyn/assembly/library.py). */
 typedef struct Links {
     int64_t n_edges, n_slots, width, n_assembled;
     /* edges in tree order (parents before children): nodes, hinge (-1 clamped), kind (1: prismatic,
-     * a guide's slide, its hinge coordinate the slide s; 0: revolute or clamped), slots, and
-     * a[3] o[3] b[3] s of each (s = 0 on a clamped edge), the kernel's input */
-    const int64_t *edge_parent, *edge_child, *edge_hinge, *edge_prismatic, *edge_parent_slot, *edge_slot;
-    const double *edge_data; /* (n_edges, 10) */
+     * a guide's slide, its hinge coordinate the slide s; 0: revolute or clamped; 2, 3: a closure edge,
+     * the slider or the rigid rod of a slider-crank, functions of the parent's position, with no
+     * coordinate; the closure's child is a leaf), slots, and each edge's kernel input: a[3] o[3] b[3] s
+     * (s = 0 on a clamped edge; the hinge's angle, rate and acceleration follow), or a closure edge's
+     * o[3] a[3] n[3] l sigma beta0 0 (codegen/joints.py, "Closure edges") */
+    const int64_t *edge_parent, *edge_child, *edge_hinge, *edge_kind, *edge_parent_slot, *edge_slot;
+    const double *edge_data; /* (n_edges, 13) */
     /* slots: node, root slot, the edge into it (-1: a root), column count and columns (n_slots, width),
      * the matrix positions of (column, column) pairs (n_slots, width, width; -1: constrained) */
     const int64_t *slot_node, *slot_root, *slot_edge, *slot_count, *slot_columns, *slot_position;
@@ -57,6 +61,8 @@ typedef struct Links {
     kernel_root_wrench root_wrench;
     kernel_rigid_link_edge prismatic_link_edge; /* the same signatures: a guide's edge and slide */
     kernel_hinge_wrench slide_wrench;
+    kernel_rigid_link_edge slider_closure_edge, rod_closure_edge; /* the same signature: closure edges */
+    kernel_closure_wrench slider_closure_wrench, rod_closure_wrench;
     /* buffers: J and ∂c/∂v of every slot (n_slots, 6, width); the dependent nodes' residual rows
      * (n_slots, 6); scratch of the block reduction (4 × max coordinates × max reduced + max reduced²) */
     double *jacobian, *convective, *wrench, *scratch;
@@ -77,12 +83,16 @@ static void complete_links(const Model *m, Configuration *c)
         memcpy(parent + 15, c->w + 3 * p, 3 * sizeof(double));
         memcpy(parent + 18, c->a + 3 * p, 3 * sizeof(double));
         memcpy(parent + 21, c->alpha + 3 * p, 3 * sizeof(double));
-        memcpy(edge, L->edge_data + 10 * k, 10 * sizeof(double));
-        edge[10] = h >= 0 ? c->theta[h] : 0.0;
-        edge[11] = h >= 0 ? c->theta_dot[h] : 0.0;
-        edge[12] = h >= 0 ? c->theta_ddot[h] : 0.0;
-        (L->edge_prismatic[k] ? L->prismatic_link_edge : L->rigid_link_edge)(
-            1, parent, edge, c->x + 3 * child, c->T + 9 * child, rates, transfer, joint, conv);
+        const int64_t kind = L->edge_kind[k];
+        memcpy(edge, L->edge_data + 13 * k, 13 * sizeof(double));
+        if (kind < 2) {
+            edge[10] = h >= 0 ? c->theta[h] : 0.0;
+            edge[11] = h >= 0 ? c->theta_dot[h] : 0.0;
+            edge[12] = h >= 0 ? c->theta_ddot[h] : 0.0;
+        }
+        const kernel_rigid_link_edge kernel = kind == 1 ? L->prismatic_link_edge : kind == 2 ? L->slider_closure_edge
+                                            : kind == 3 ? L->rod_closure_edge : L->rigid_link_edge;
+        kernel(1, parent, edge, c->x + 3 * child, c->T + 9 * child, rates, transfer, joint, conv);
         memcpy(c->v + 3 * child, rates, 3 * sizeof(double));
         memcpy(c->w + 3 * child, rates + 3, 3 * sizeof(double));
         memcpy(c->a + 3 * child, rates + 6, 3 * sizeof(double));
@@ -237,9 +247,34 @@ static void assemble_linked(const Model *m, Work *w, const Configuration *c, dou
      * and δx_c) and on every hinge or slide of its path (hinge_wrench or slide_wrench, by the edge
      * parent's δx, δπ and δx_c) */
     double row[W > 0 ? W : 1];
+    /* closure edges (leaves): their wrench r moves the pin as g = transferᵀ r, whose derivative by the pin's
+     * position D (slider_closure_wrench, rod_closure_wrench) gives J_pᵀ D J_p on the pin's columns; g joins
+     * the pin's wrench (a dependent pin) for the terms of the pin's path below */
     for (int64_t s = 0; s < L->n_slots; ++s) {
         const int64_t edge = L->slot_edge[s];
-        if (edge < 0) continue;
+        if (edge < 0 || L->edge_kind[edge] < 2) continue;
+        const double *r = L->wrench + 6 * s;
+        if (!(r[0] || r[1] || r[2] || r[3] || r[4] || r[5])) continue;
+        const int64_t sp = L->edge_parent_slot[edge], count = L->slot_count[sp];
+        const double *Jp = L->jacobian + 6 * W * sp;
+        const int64_t *position = L->slot_position + W * W * sp;
+        double g[3], D[9];
+        (L->edge_kind[edge] == 2 ? L->slider_closure_wrench : L->rod_closure_wrench)(
+            1, c->x + 3 * L->edge_parent[edge], L->edge_data + 13 * edge, r, g, D);
+        for (int64_t i = 0; i < count; ++i)
+            for (int64_t j = 0; j < count; ++j) {
+                if (position[W * i + j] < 0) continue;
+                double value = 0.0;
+                for (int a = 0; a < 3; ++a)
+                    for (int b = 0; b < 3; ++b) value += Jp[W * a + i] * D[3 * a + b] * Jp[W * b + j];
+                w->matrix[position[W * i + j]] += value;
+            }
+        if (L->slot_edge[sp] >= 0)
+            for (int a = 0; a < 3; ++a) L->wrench[6 * sp + a] += g[a];
+    }
+    for (int64_t s = 0; s < L->n_slots; ++s) {
+        const int64_t edge = L->slot_edge[s];
+        if (edge < 0 || L->edge_kind[edge] >= 2) continue;
         const double *r = L->wrench + 6 * s;
         if (!(r[0] || r[1] || r[2] || r[3] || r[4] || r[5])) continue;
         const int64_t node = L->slot_node[s], count = L->slot_count[s], root = L->slot_root[s];
@@ -267,11 +302,11 @@ static void assemble_linked(const Model *m, Work *w, const Configuration *c, dou
             double parent[12], data[7], wrench[9], force, Dh[9];
             memcpy(parent, c->x + 3 * p, 3 * sizeof(double));
             memcpy(parent + 3, c->T + 9 * p, 9 * sizeof(double));
-            memcpy(data, L->edge_data + 10 * k, 6 * sizeof(double));
-            data[6] = L->edge_data[10 * k + 9];
+            memcpy(data, L->edge_data + 13 * k, 6 * sizeof(double));
+            data[6] = L->edge_data[13 * k + 9];
             memcpy(wrench, c->x + 3 * node, 3 * sizeof(double));
             memcpy(wrench + 3, r, 6 * sizeof(double));
-            (L->edge_prismatic[k] ? L->slide_wrench : L->hinge_wrench)(1, parent, data, wrench, &force, Dh);
+            (L->edge_kind[k] == 1 ? L->slide_wrench : L->hinge_wrench)(1, parent, data, wrench, &force, Dh);
             for (int64_t j = 0; j < count; ++j) {
                 double g = 0.0;
                 if (j < L->slot_count[sp])
