@@ -453,3 +453,46 @@ def test_damped_cable_goes_slack_where_its_tension_reaches_zero(tmp_path):
     assert probes["N"].max() == pytest.approx(peak, rel=5e-5)  # measured −3.2e-6
     assert summary["energy_balance_error"] < 1e-4  # measured 3.8e-5
     assert probes["D"][-1] > 0.1 * probes["K"].max()
+
+
+def test_massless_free_end_going_slack_ends_the_run_naming_the_cable(tmp_path):
+    """A massless cable from an anchor to a free end point, kept taut by a load on its end along it
+    that falls to zero at t = 0.25 and then pushes: the end is held by the tension alone (no mass,
+    nothing else attached), so when the cable goes slack nothing holds it. The run ends there
+    (exit 1) with the slack change recorded and a message that names the cable and what to add,
+    not Newton's diagnosis naming the end's coordinates."""
+    text = """
+bodies:
+  anchor: {at: [0, 0, 0], fixed: true}
+cables:
+  rope: {from: anchor, to: [1, 0, 0], EA: 100.0, rest_length: 0.99}
+loads:
+  - {at: rope.end, force: ["1 - 4*t", 0, 0]}
+solve: {analysis: transient, t_end: 0.5, dt: 0.01}
+"""
+    completed, out = latdyn_run(tmp_path, text)
+    assert completed.returncode == 1 and "Traceback" not in completed.stderr
+    error = completed.stderr[completed.stderr.index("latdyn: error"):]
+    assert "cables.rope went slack" in error and "rope.end" in error and "rhoA" in error
+    assert "rope.end:d" not in error  # not Newton's coordinate-level diagnosis
+    summary = summary_of(out)
+    assert summary["status"] == "failed"
+    assert [e["state"] for e in summary["cable_events"]] == ["slack"]
+    assert summary["cable_events"][0]["t"] == pytest.approx(0.25, abs=1e-9)  # the load's zero, a grid time
+
+
+def test_massive_free_end_goes_slack_and_on(tmp_path):
+    """The same with mass on the cable (rhoA > 0: half its mass lumped at the free end): the end is held
+    by its inertia while slack, and the run goes on past the slack change."""
+    text = """
+bodies:
+  anchor: {at: [0, 0, 0], fixed: true}
+cables:
+  rope: {from: anchor, to: [1, 0, 0], EA: 100.0, rhoA: 0.02, rest_length: 0.99}
+loads:
+  - {at: rope.end, force: ["1 - 4*t", 0, 0]}
+solve: {analysis: transient, t_end: 0.5, dt: 0.01}
+"""
+    completed, out = latdyn_run(tmp_path, text, quiet=True)
+    assert completed.returncode == 0, completed.stderr
+    assert [e["state"] for e in summary_of(out)["cable_events"]][:1] == ["slack"]

@@ -23,6 +23,7 @@ from typing import NamedTuple
 from latdyn.assembly.assembler import State
 from latdyn.assembly.prepare import Prepared
 from latdyn.errors import SolverError, UnboundedError
+from latdyn.model.cables import slack_and_unheld
 from latdyn.numerics.so3 import orthonormalize
 from latdyn.results import paraview
 from latdyn.results.probes import ProbeSet
@@ -392,6 +393,19 @@ class TimeLoop:
         if changes:
             progress.events = progress.events + [{"joint": name, "kind": kind, "t": float(new.t)}
                                                  for name, kind in changes]
+            self._refuse_unheld_cable_ends(new, progress.cable_sides)
+
+    def _refuse_unheld_cable_ends(self, state: State, sides) -> None:
+        """End the run (SolverError naming the cable) where a massless cable whose free end only its
+        tension holds is slack in ``sides`` (latdyn.model.cables.slack_and_unheld): nothing holds
+        that end's coordinates from here on."""
+        for name, ends in slack_and_unheld(self.model.cables, sides):
+            raise SolverError(
+                f"cables.{name} went slack at t = {float(state.t):.6g}, and nothing holds its free end "
+                f"{' and '.join(ends)} while it is slack (a massless cable's end given as a point)",
+                "A slack massless cable holds nothing: give the cable a mass per length (rhoA > 0), end it at "
+                "a body with mass ({body: NAME}), or keep it taut (a load that keeps pulling its end, a "
+                "shorter rest_length).")
 
     def _after_accepted(self, state: State) -> None:
         """After the accepted step(s) that ended at ``state``: rotations back on SO(3) every 256
