@@ -45,7 +45,8 @@ def moved(geometry, k, step):
 @pytest.mark.parametrize("backend", ["numpy", "c"])
 def test_cable_force_against_differences(backend):
     """cable_force's stiffness (by [d, π] of both ends) and damping (by the rates) against central
-    differences of its force; the force against N e by hand; the reel power against ∂U/∂L0 · L̇0."""
+    differences of its force; the force against N e by hand; the rest length's generalized force
+    against central differences ∂U/∂L0 of the strain energy; the dampers' forces c ℓ̇ and −N_el."""
     ks = load_kernels(backend, "default")
     geometry, velocity, section = cable_inputs()
     force, K, C, state, energy, reel, damper, clipped = ks.cable_force(geometry, velocity, section)
@@ -63,8 +64,8 @@ def test_cable_force_against_differences(backend):
         assert np.allclose(state[b], [ell, rate, ell - s[0], s[2] * (ell - s[0]) / s[0], N], rtol=1e-12)
         U = lambda L0: s[2] * (ell - L0) ** 2 / (2 * L0)  # noqa: E731
         assert np.isclose(energy[b], U(s[0]), rtol=1e-12)
-        assert np.isclose(reel[b], (U(s[0] + eps) - U(s[0] - eps)) / (2 * eps) * s[1], rtol=1e-6)
-        assert np.isclose(damper[b], s[3] * rate ** 2, rtol=1e-12) and np.isclose(clipped[b], -state[b, 3] * rate)
+        assert np.isclose(reel[b], (U(s[0] + eps) - U(s[0] - eps)) / (2 * eps), rtol=1e-6)
+        assert np.isclose(damper[b], s[3] * rate, rtol=1e-12) and np.isclose(clipped[b], -state[b, 3])
         for k in range(12):
             up = ks.cable_force(moved(g, k, eps)[None], v[None], s[None])[0][0]
             down = ks.cable_force(moved(g, k, -eps)[None], v[None], s[None])[0][0]

@@ -8,10 +8,11 @@ A cable of ``elements`` equal elements runs from a point of one node to a point 
 
 ℓ the distance of its end points, L0 = L(t)/elements its share of the cable's rest length L(t) (a
 number or a law of time: a reel), c the axial damping. The taut law, its exact derivatives by the
-end coordinates and by their rates, the strain energy ½ EA (ℓ − L0)²/L0, the reel's power
-∂U/∂L0 · L̇0 (external work) and the dampers' powers are generated (``cable_force`` of
-codegen/joints.py); the evaluation (csrc/evaluate.c ``cables``) takes them where the element is
-taut and zero where it is slack.
+end coordinates and by their rates, the strain energy ½ EA (ℓ − L0)²/L0, the rest length's
+generalized force ∂U/∂L0 (a reel's work ∫ ∂U/∂L0 dL0 is external work) and the damper's force are
+generated (``cable_force`` of codegen/joints.py); the evaluation (csrc/evaluate.c ``cables``) takes
+them where the element is taut and zero where it is slack; the time loop integrates the reel's work
+and the damper's dissipation over each step's ΔL0 and Δℓ (latdyn.timeloop.progress.cable_work).
 
 The change between slack and taut is an event, located like a hinge stop: the time loop holds each
 element taut or slack through a step (:attr:`CableElements.sides`, read by the evaluation in place)
