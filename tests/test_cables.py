@@ -347,7 +347,7 @@ output:
     completed, out = latdyn_run(tmp_path, text, quiet=True)
     assert completed.returncode == 0, completed.stderr
     summary, probes = summary_of(out), probe_columns(out)
-    assert summary["energy_balance_error"] < 1e-5  # measured 1.6e-7
+    assert summary["energy_balance_error"] < 1e-5  # measured 8.9e-8
     gained = probes["E"][-1] - probes["E"][0]
     assert gained == pytest.approx(probes["W"][-1] - probes["D"][-1], rel=1e-5)
     assert gained > 6.0 and probes["D"][-1] > 0.1
@@ -452,7 +452,7 @@ def test_damped_cable_goes_slack_where_its_tension_reaches_zero(tmp_path):
     assert events[1]["t"] == pytest.approx(slack, abs=1e-5)  # measured 1.7e-6 s
     peak = max(tension(tau) for tau in np.linspace(0.0, hi, 20001))
     assert probes["N"].max() == pytest.approx(peak, rel=5e-5)  # measured −3.2e-6
-    assert summary["energy_balance_error"] < 1e-4  # measured 3.8e-5
+    assert summary["energy_balance_error"] < 1e-4  # measured 1.2e-5 (3.8e-5 with the time trapezoid of the power)
     assert probes["D"][-1] > 0.1 * probes["K"].max()
 
 
