@@ -32,7 +32,8 @@ from latdyn.results.writer import ResultWriter
 from latdyn.step.integrators import newton_diagnosis
 from latdyn.timeloop import checkpoint as checkpoints
 from latdyn.timeloop.control import StepControl
-from latdyn.timeloop.events import cable_events, cable_sides, crossing_fraction, hinge_events, restart_accelerations
+from latdyn.timeloop.events import (CABLE_LANDING, TAUT_JUMP_STEP, cable_events, cable_sides, crossing_fraction, hinge_events,
+                                   restart_accelerations)
 from latdyn.timeloop.progress import (DRIFT_WARNING, UNBOUNDED, UNBOUNDED_ROWS, TransientProgress, factorizations,
                                       cable_work, hinge_work, load_power)
 
@@ -294,23 +295,38 @@ class TimeLoop:
         return new, stats
 
     def _land_on_event(self, attempt: Attempt) -> Attempt:
-        """A hinge reaching lock_at or a stop inside the step: the step shortened to land on it
-        (secant on the angle, at most 4 passes, never shorter than dt_min; the last shorter step that
+        """A hinge reaching lock_at or a stop, or a cable going slack or taut, inside the step: the step
+        shortened to land on it (secant on the angle or the cable's gap, at most 4 passes, never shorter
+        than dt_min, nor than CABLE_LANDING · dt for a cable's change; the last shorter step that
         converged)."""
         progress = self.progress
         new, stats, h, lands = attempt
+        old = progress.state
+        # a cable's change alone (no hinge event in the step): the secant on the bracket [short, past]
+        # of the trial ends (regula falsi), so that the landing does not end short of the change, which
+        # left the next step a sliver of 1e-7 s to land on (docs/cables.md: after such slivers Newton
+        # failed on the example truss with damped cables); a hinge's: the secant from the step's start
+        bracket = self.model.cables is not None and crossing_fraction(self.model, old, new) is None
+        short, past = old, new
         for _ in range(4):
-            fraction = crossing_fraction(self.model, progress.state, new, self.assembler)
+            floor = CABLE_LANDING * self.control.dt / (past.t - short.t) if short is old else 0.0
+            fraction = crossing_fraction(self.model, short, past, self.assembler, cable_floor=floor)
             if fraction is None:
                 break
-            shorter = max(h * fraction, self.control.dt_min)  # no step below the floor (control)
-            if shorter >= h:
+            shorter = max(short.t - old.t + (past.t - short.t) * fraction, self.control.dt_min)
+            if shorter >= past.t - old.t:
                 break
             retry, retry_stats = self._step(shorter)
             progress.factorizations += factorizations(retry_stats)
             if not retry_stats.converged:
                 break
             progress.newton_iterations += retry_stats.iterations
+            if not bracket or crossing_fraction(self.model, old, retry, self.assembler) is not None:
+                past = retry  # the change is in the retried step (or a hinge's: from the start again)
+                if not bracket:
+                    short = old
+            else:
+                short = retry
             new, stats, h, lands = retry, retry_stats, shorter, False
         return Attempt(new, stats, h, lands)
 
@@ -325,7 +341,7 @@ class TimeLoop:
         if events.log:
             progress.events = progress.events + [{"joint": joint, "kind": kind, "t": float(new.t)}
                                                  for joint, kind in events.log]
-        self._track_cables(progress.state, new)
+        tension_jumped = self._track_cables(progress.state, new)
         # power of point loads and prescribed motion: from the last Newton evaluation
         # (within the Newton tolerance of the converged state) when there is one
         evaluation = getattr(integrator, "last_evaluation", None)
@@ -365,6 +381,8 @@ class TimeLoop:
             progress.grid_index += 1
         self._after_accepted(new)
         self.control.after_accepted(progress, integrator, h, events.any, events.stopped)
+        if tension_jumped:  # the steps after a damped cable's jump of tension grow from TAUT_JUMP_STEP · dt
+            progress.h = min(progress.h, TAUT_JUMP_STEP * self.control.dt)
         self._keep_accepted()
 
     def _torques_from(self, evaluation) -> None:
@@ -386,18 +404,23 @@ class TimeLoop:
             progress.cable_sides = cable_sides(self.assembler, progress.state)
         cables.sides[:] = progress.cable_sides
 
-    def _track_cables(self, old: State, new: State) -> None:
+    def _track_cables(self, old: State, new: State) -> bool:
         """The cables' slack and taut changes over the accepted step(s) old → new, into the events
-        (latdyn.timeloop.events.cable_events: the step landed on each)."""
+        (latdyn.timeloop.events.cable_events: the step landed on each); whether a damped element went
+        taut (its tension jumped from 0 to c ℓ̇)."""
         if self.model.cables is None:
-            return
+            return False
         progress = self.progress
+        held = progress.cable_sides
         progress.cable_sides, changes = cable_events(self.assembler, progress.cable_sides, old, new)
         self.model.cables.sides[:] = progress.cable_sides
+        damping = self.model.cables.damping
+        jumped = any(a < 0 < b and damping[e] > 0 for e, (a, b) in enumerate(zip(held, progress.cable_sides)))
         if changes:
             progress.events = progress.events + [{"joint": name, "kind": kind, "t": float(new.t)}
                                                  for name, kind in changes]
             self._refuse_unheld_cable_ends(new, progress.cable_sides)
+        return jumped
 
     def _refuse_unheld_cable_ends(self, state: State, sides) -> None:
         """End the run (SolverError naming the cable) where a massless cable whose free end only its
