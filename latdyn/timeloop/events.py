@@ -61,13 +61,15 @@ def crossing_fraction(model: Model, old: State, new: State, assembler=None, cabl
 #: cable's tension grazes zero on a vibrating light part, carried Newton's tolerance over h² into the
 #: algorithmic accelerations, and Newton failed in the steps after them: the example truss with
 #: damped cables (c = 50 N·s/m on 0.1 kg stations, dt = 2e-3, 0.8 s) went through 291 cut steps and
-#: 158 s of solver time with exact landings, none and 1.4 s with this floor (docs/cables.md).
+#: 159 s of solver time with the landings from the step's start; 71 s with this floor alone; no cut and
+#: 5.5 s with it, the regula falsi landing (latdyn/timeloop/loop.py ``_land_on_event``) and
+#: :data:`TAUT_JUMP_STEP` (docs/cables.md).
 CABLE_LANDING = 1e-3
 #: The step after a damped cable element went taut, as a fraction of the nominal step dt (the steps after
 #: it grow from there as after any shortened step): its tension jumps from 0 to c ℓ̇ there, and the
 #: generalized-α step that follows a jump of the force carries an error of the order of its size (on
 #: tests/test_cables.py's light drop with c = 2 N·s/m at dt = 1e-4, the next changes came 3.7e-5 s late
-#: with a full step after the jump, 2.4e-6 s with this one).
+#: with a full step after the jump, 4.8e-6 s with this one).
 TAUT_JUMP_STEP = 1e-2
 
 
