@@ -88,7 +88,9 @@ r → 0 is a dead point (the rod normal to the guide), where the loop stops bein
 Cable element (a tension-only axial member between the points p_i = x_i + T_i r_i of two nodes):
 the taut law N = EA (ℓ − L0)/L0 + c ℓ̇ on the residual rows of both ends, its exact derivatives by
 the end coordinates (same spatial update) and by their rates, the strain energy ½ EA (ℓ − L0)²/L0,
-the power ∂U/∂L0 · L̇0 a reel puts in, and the dampers' powers. Slack (ℓ ≤ L0, or N ≤ 0) is the
+the generalized force ∂U/∂L0 of the rest length (a reel's work is ∫ ∂U/∂L0 dL0) and the dampers'
+forces (their dissipation ∫ f dℓ), integrated over each step by the trapezoidal rule in L0 and ℓ, as
+the hinges' torques are in θ (latdyn/timeloop/progress.py cable_work). Slack (ℓ ≤ L0, or N ≤ 0) is the
 runtime's choice of zero (csrc/evaluate.c ``cables``; latdyn/model/cables.py).
 """
 from __future__ import annotations
@@ -476,15 +478,18 @@ def _cable_force_kernel() -> KernelSpec:
         Output("cable_state", (5,), [length, rate, stretch, elastic, tension],
                "ℓ, ℓ̇, ℓ − L0, N_el = EA (ℓ − L0)/L0, N = N_el + c ℓ̇"),
         Output("cable_strain_energy", (), [EA * stretch ** 2 / (2 * L0)], "½ EA (ℓ − L0)²/L0"),
-        Output("reel_power", (), [sp.diff(EA * stretch ** 2 / (2 * L0), L0) * L0_dot],
-               "∂U/∂L0 · L̇0: the power a reel puts in by changing the rest length (external work)"),
-        Output("cable_damper_power", (), [c * rate ** 2], "c ℓ̇²: the power the taut damper dissipates"),
-        Output("clipped_damper_power", (), [-elastic * rate],
-               "−N_el ℓ̇: the power dissipated while the damper cancels the elastic tension (N clipped at 0)"),
+        Output("reel_force", (), [sp.diff(EA * stretch ** 2 / (2 * L0), L0)],
+               "∂U/∂L0: the generalized force of the rest length; a reel that changes it by ΔL0 over a step "
+               "does ½(f_n + f_{n+1}) ΔL0 of external work"),
+        Output("cable_damper_force", (), [c * rate],
+               "c ℓ̇: the taut damper's force; over a step its dissipation is ½(f_n + f_{n+1}) Δℓ"),
+        Output("clipped_damper_force", (), [-elastic],
+               "−N_el: the dissipative force while the damper cancels the elastic tension (N clipped at 0), "
+               "dissipating ½(f_n + f_{n+1}) Δℓ over a step"),
     ]
     return KernelSpec(name="cable_force", doc="A taut cable element between two points of nodes: its generalized "
                       "force, exact derivatives by the end coordinates and rates, length, tension, strain energy, "
-                      "the reel's power and the damper's", inputs=[CABLE_GEOMETRY, CABLE_VELOCITY, CABLE_SECTION],
+                      "the rest length's generalized force (a reel) and the dampers' forces", inputs=[CABLE_GEOMETRY, CABLE_VELOCITY, CABLE_SECTION],
                       outputs=outputs, variant="joints", equations="Eq. 2 (the end points); cables, issue 32")
 
 

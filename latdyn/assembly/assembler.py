@@ -314,7 +314,7 @@ class Assembler:
         result = Evaluation(residual=total[:n], reaction=total[n:m.n_total], external_power=power,
                             hinge_work_torque=native.buffers["hinge_work_torque"].copy(),
                             hinge_damper_torque=native.buffers["hinge_damper_torque"].copy(),
-                            dissipation_power=float(native.buffers["dissipation"][0]), assembler=self)
+                            cable_work=native.buffers["cable_work"].copy(), assembler=self)
         if matrices:
             b = native.buffers
             stiffness = b["tangent"] + b["inertia_tangent"] if inertia_tangent and inertia else b["tangent"].copy()

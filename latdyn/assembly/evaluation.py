@@ -38,8 +38,11 @@ class Evaluation(SeparateMatrices):
 
     residual: np.ndarray  # (n_dofs,)
     reaction: np.ndarray  # (n_total - n_dofs,) generalized force needed on constrained coordinates
-    external_power: float = 0.0  # the power of point loads and cable reels on the current velocities
-    dissipation_power: float = 0.0  # the power the cables' dampers dissipate (declared dissipation)
+    external_power: float = 0.0  # the power of point loads on the current velocities
+    #: per cable element (ce, 4): [ℓ, L0, ∂U/∂L0, f], its length and share of the rest length, the
+    #: rest length's generalized force (a reel's) and its damper's dissipative force
+    #: (latdyn.timeloop.progress.cable_work)
+    cable_work: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)))
     #: per hinge: the torque that does external work (λ τ and a continuous controller's output, less
     #: k s of a spring that is not conservative) and the dissipative torque (c θ̇, a compliant stop's
     #: damping, friction) (latdyn.timeloop.progress.hinge_work)

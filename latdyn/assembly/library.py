@@ -104,7 +104,7 @@ class WorkData(ctypes.Structure):
         "matrix", "pivots", "rhs",
         "inertia_tangent", "forces_plus", "forces_minus", "perturbed_x", "perturbed_T", "perturbed_theta",
         "p_geometry", "p_rates", "p_accelerations", "p_mass", "p_quadratic", "p_gravity_force",
-        "p_gravity_potential", "p_first_moment", "laws", "hinge_d_theta", "hinge_d_rate", "dissipation",
+        "p_gravity_potential", "p_first_moment", "laws", "hinge_d_theta", "hinge_d_rate", "cable_work",
         "joint_forces",
         "sensor_values", "controller_gradient", "controller_scratch", "coupling_stiffness", "coupling_damping",
         "cable_vector", "cable_stiffness", "cable_damping", "cable_state", "cable_strain", "cable_gap",
@@ -147,8 +147,8 @@ class AdvanceData(ctypes.Structure):
                 ("power", ctypes.c_double), ("external_work", ctypes.c_double),
                 ("steps", I64), ("iterations", I64), ("factorizations", I64), ("status", I64), ("last", I64),
                 ("pending", I64), ("t_last", ctypes.c_double), ("h_pending", ctypes.c_double),
-                ("dissipation_power", ctypes.c_double), ("dissipated", ctypes.c_double),
-                ("hinge_work_torque", P), ("hinge_damper_torque", P), ("rows", P)]
+                ("dissipated", ctypes.c_double), ("hinge_work_torque", P), ("hinge_damper_torque", P),
+                ("rows", P), ("cable_work", P)]
 
 
 class RowsData(ctypes.Structure):

@@ -23,11 +23,11 @@ class LinkedEvaluation(SeparateMatrices):
     by the projection P (module docstring)."""
 
     def __init__(self, residual, reaction, external_power, blocks, assembler, hinge_work_torque=None,
-                 hinge_damper_torque=None, dissipation_power: float = 0.0):
+                 hinge_damper_torque=None, cable_work=None):
         self.residual, self.reaction, self.external_power = residual, reaction, external_power
         self.hinge_work_torque = np.zeros(0) if hinge_work_torque is None else hinge_work_torque
         self.hinge_damper_torque = np.zeros(0) if hinge_damper_torque is None else hinge_damper_torque
-        self.dissipation_power = dissipation_power
+        self.cable_work = np.zeros((0, 4)) if cable_work is None else cable_work
         self.blocks, self.assembler = blocks, assembler
         self.projection = self.geometric = self.velocity_derivative = self.dependent_rows = None
         self._mass_all = None
@@ -95,7 +95,7 @@ def reduce_linked(links, assembler, state, full, matrices: bool, inertia: bool) 
     out = LinkedEvaluation(residual=residual, reaction=reaction, external_power=full.external_power,
                            blocks=full.blocks, assembler=assembler,
                            hinge_work_torque=full.hinge_work_torque, hinge_damper_torque=full.hinge_damper_torque,
-                           dissipation_power=full.dissipation_power)
+                           cable_work=full.cable_work)
     if matrices:
         small = n_asm <= DENSE_LIMIT
         Jf = J[:, free_cols]

@@ -361,7 +361,7 @@ class NativeModel:
             "first_moment": (E, 3), "body_vector": (B, 6), "body_mass": (B, 6, 6), "body_damping": (B, 6, 6),
             "body_stiffness": (B, 6, 6), "load_blocks": (L, 6, 6), "strain": (E,), "section_forces": (E, 4),
             "kinetic": (E,), "total": (m.n_total + 1,), "laws": (max(len(laws.functions), 1), 3),
-            "hinge_d_theta": (H,), "hinge_d_rate": (H,), "matrix": (0,), "rhs": (0,), "dissipation": (1,),
+            "hinge_d_theta": (H,), "hinge_d_rate": (H,), "matrix": (0,), "rhs": (0,), "cable_work": (CE, 4),
             "joint_forces": (H,),
             "sensor_values": (len(wired.sensor_kind),), "controller_gradient": (len(wired.sensor_kind),),
             "controller_scratch": (wired.law_values,), "controller_state_trial": (len(wired.state_slot),),

@@ -8,10 +8,11 @@ A cable of ``elements`` equal elements runs from a point of one node to a point 
 
 ℓ the distance of its end points, L0 = L(t)/elements its share of the cable's rest length L(t) (a
 number or a law of time: a reel), c the axial damping. The taut law, its exact derivatives by the
-end coordinates and by their rates, the strain energy ½ EA (ℓ − L0)²/L0, the reel's power
-∂U/∂L0 · L̇0 (external work) and the dampers' powers are generated (``cable_force`` of
-codegen/joints.py); the evaluation (csrc/evaluate.c ``cables``) takes them where the element is
-taut and zero where it is slack.
+end coordinates and by their rates, the strain energy ½ EA (ℓ − L0)²/L0, the rest length's
+generalized force ∂U/∂L0 (a reel's work ∫ ∂U/∂L0 dL0 is external work) and the damper's force are
+generated (``cable_force`` of codegen/joints.py); the evaluation (csrc/evaluate.c ``cables``) takes
+them where the element is taut and zero where it is slack; the time loop integrates the reel's work
+and the damper's dissipation over each step's ΔL0 and Δℓ (latdyn.timeloop.progress.cable_work).
 
 The change between slack and taut is an event, located like a hinge stop: the time loop holds each
 element taut or slack through a step (:attr:`CableElements.sides`, read by the evaluation in place)
@@ -30,7 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["CableElements", "add_cables"]
+__all__ = ["CableElements", "add_cables", "slack_and_unheld"]
 
 
 @dataclass
@@ -46,6 +47,9 @@ class CableElements:
     names: list  # cable names, scene order
     rest_length: list  # each cable's TimeFunction
     first: np.ndarray  # (n_cables,) index of each cable's first element
+    #: per cable, the points of its free end nodes that only its tension holds (``CABLE.start``,
+    #: ``CABLE.end``: an end given as a point ``[x, y, z]`` of a massless cable), empty for the others
+    held_by_tension: list = None
     #: (ce,) float: the side the time loop holds each element on through a step, +1 taut, −1 slack; 0 (every
     #: other analysis): the stretch decides (latdyn.timeloop.events; read by the C evaluation in place)
     sides: np.ndarray = None
@@ -63,7 +67,7 @@ def add_cables(scene, body_node: dict, new_node, beam_nodes: dict, beam_grid_off
     if not scene.cables:
         return None
     rows = {"nodes": [], "offsets": [], "share": [], "EA": [], "damping": [], "cable": []}
-    first = []
+    first, held_by_tension = [], []
     for k, cable in enumerate(scene.cables.values()):
         ends = []
         for which, spec in (("start", cable.start), ("end", cable.end)):
@@ -71,6 +75,8 @@ def add_cables(scene, body_node: dict, new_node, beam_nodes: dict, beam_grid_off
                 ends.append((body_node[spec.body], np.array(spec.offset, float)))
             else:
                 ends.append((new_node(f"{cable.name}.{which}", np.array(spec.point, float)), np.zeros(3)))
+        held_by_tension.append([f"{cable.name}.{which}" for which, spec in (("start", cable.start), ("end", cable.end))
+                                if spec.body is None and cable.rhoA == 0.0])
         n = cable.elements
         start, end = cable.start.point, cable.end.point
         chain = [ends[0][0]]
@@ -99,4 +105,16 @@ def add_cables(scene, body_node: dict, new_node, beam_nodes: dict, beam_grid_off
         share=np.array(rows["share"], float), EA=np.array(rows["EA"], float),
         damping=np.array(rows["damping"], float), cable=np.array(rows["cable"], np.int64),
         names=list(scene.cables), rest_length=[c.rest_length for c in scene.cables.values()],
-        first=np.array(first, np.int64), sides=np.zeros(len(rows["nodes"])))
+        first=np.array(first, np.int64), sides=np.zeros(len(rows["nodes"])), held_by_tension=held_by_tension)
+
+
+def slack_and_unheld(cables: CableElements, sides) -> list[tuple[str, list]]:
+    """(cable name, its free end points) of each cable that is slack in all its elements (``sides``, +1
+    taut, −1 slack, per element) and has a free end node that only its tension holds: a massless
+    cable's end given as a point has no inertia and nothing but the cable attached, so that while
+    the cable is slack nothing holds it (its coordinates have no equation: SCENE.md, a coordinate
+    nothing holds). The start of a run refuses this (:meth:`latdyn.model.model.Model.check_held`);
+    a run in which such a cable goes slack ends there (latdyn.timeloop.loop)."""
+    sides = np.asarray(sides, float)
+    return [(name, cables.held_by_tension[k]) for k, name in enumerate(cables.names)
+            if cables.held_by_tension[k] and not np.any(sides[cables.cable == k] > 0)]

@@ -286,7 +286,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
 
     def advance(self, state: State, *, grid_index: int, stop_index: int, dt: float, t_end: float, n_grid: int,
                 power: float, external_work: float, hinge_work_torque: np.ndarray, hinge_damper_torque: np.ndarray,
-                dissipation_power: float = 0.0, dissipated: float = 0.0, budget_s: float = 0.25,
+                cable_work: np.ndarray | None = None, dissipated: float = 0.0, budget_s: float = 0.25,
                 rows: list[int] | None = None, momentum: bool = False, sections: bool = False) -> "Advanced":
         """Steps on the time grid in one call into C (``latdyn_advance``), from ``state`` on grid
         point ``grid_index`` through ``stop_index``, each as :meth:`step` takes it with
@@ -294,8 +294,9 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         carried, the point loads' and prescribed motion's external work by the trapezoidal rule in time
         from ``power``, the hinges' work and their dampers' dissipated energy over each step's Δθ from
         the torques ``hinge_work_torque`` and ``hinge_damper_torque`` at ``state``, as
-        latdyn.timeloop.progress.hinge_work, and the cables' dampers' from ``dissipation_power``, by the
-        trapezoidal rule in time). The call returns at
+        latdyn.timeloop.progress.hinge_work, and the cables' reels' work and dampers' dissipation over
+        each step's ΔL0 and Δℓ from ``cable_work`` at ``state``, as latdyn.timeloop.progress.cable_work).
+        The call returns at
         ``stop_index``, after ``budget_s`` of wall time, or at the first step that does not
         converge or holds a hinge event (lock_at, a stop): that step is given back, not
         accepted, for the time loop to handle as it handles any step (:attr:`Advanced.pending`).
@@ -316,13 +317,15 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         run.t, run.budget_s, run.power, run.external_work = state.t, budget_s, power, external_work
         work_torque = np.array(hinge_work_torque, dtype=float)  # carried in place by the loop (in/out)
         damper_torque = np.array(hinge_damper_torque, dtype=float)
-        run.dissipation_power, run.dissipated = dissipation_power, dissipated
+        cables = np.array(np.zeros((0, 4)) if cable_work is None else cable_work, dtype=float)  # in/out
+        run.dissipated = dissipated
         run.hinge_work_torque, run.hinge_damper_torque = work_torque.ctypes.data, damper_torque.ctypes.data
         buffers = None
         if rows:
             buffers = self._row_buffers()
             buffers.plan(rows, momentum, sections)
         run.rows = buffers.reference if buffers is not None else None
+        run.cable_work = cables.ctypes.data
         self._factor_version += 1
         self._native.laws.bind_inputs()  # this scene's input values (SceneLaws.bind_inputs)
         self._library.latdyn_advance(self._model_ref, self._work_ref, self._control_ref, ctypes.byref(base),
@@ -360,7 +363,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         return Advanced(state=last, steps=run.steps, iterations=run.iterations, factorizations=run.factorizations,
                         power=run.power, external_work=run.external_work, status=run.status, pending=pending,
                         factorization_kept=kept, hinge_work_torque=work_torque,
-                        hinge_damper_torque=damper_torque, dissipation_power=run.dissipation_power,
+                        hinge_damper_torque=damper_torque, cable_work=cables,
                         dissipated=run.dissipated, rows=buffers.block() if buffers is not None else None)
 
     def row_capacity(self) -> int:
@@ -455,7 +458,7 @@ class Advanced:
     #: per hinge at that state: the torque that does external work and the damper's torque
     hinge_work_torque: np.ndarray | None = None
     hinge_damper_torque: np.ndarray | None = None
-    dissipation_power: float = 0.0  # the power the cables' dampers dissipate at that state
+    cable_work: np.ndarray | None = None  # per cable element at that state: [ℓ, L0, ∂U/∂L0, f]
     dissipated: float = 0.0  # the energy the dampers dissipated since the start of the run
     #: the rows recorded on the way (``advance``'s ``rows``), None without
     rows: "RowBlock | None" = None
@@ -561,11 +564,11 @@ class RowBuffers:
 class _LastEvaluation:
     """What the time loop reads of the last Newton evaluation: the reaction on the
     constrained coordinates, the point loads' power, the hinges' work and damper torques and the
-    cables' damper power (the residual only on failure)."""
+    cables' [ℓ, L0, ∂U/∂L0, f] (the residual only on failure)."""
 
     def __init__(self, total, n, n_total, external_power, buffers):
         self.reaction = total[n:n_total].copy()
         self.external_power = external_power
         self.hinge_work_torque = buffers["hinge_work_torque"].copy()
         self.hinge_damper_torque = buffers["hinge_damper_torque"].copy()
-        self.dissipation_power = float(buffers["dissipation"][0])
+        self.cable_work = buffers["cable_work"].copy()

@@ -31,13 +31,14 @@ def lock_events(model: Model, old: State, new: State) -> tuple[list[int], list[t
     return reached, crossing
 
 
-def crossing_fraction(model: Model, old: State, new: State, assembler=None) -> float | None:
+def crossing_fraction(model: Model, old: State, new: State, assembler=None, cable_floor: float = 0.0) -> float | None:
     """The fraction of the step at which the first hinge crosses its lock_at or a stop, or a cable
-    element goes slack or taut (with ``assembler``), or None."""
+    element goes slack or taut (with ``assembler``; an element that changes back, having changed at
+    the step's start, never below ``cable_floor``: see :data:`CABLE_LANDING`), or None."""
     _, crossing = lock_events(model, old, new)
     fractions = [f for _, f in crossing] + [f for _, _, f in stop_crossings(model, old, new)]
     if assembler is not None and model.cables is not None:
-        fractions += [f for _, f in cable_crossings(assembler, old, new)]
+        fractions += [max(f, cable_floor) if back else f for _, f, back in cable_crossings(assembler, old, new)]
     return min(fractions) if fractions else None
 
 
@@ -51,6 +52,27 @@ def crossing_fraction(model: Model, old: State, new: State, assembler=None) -> f
 # accepted step that reached the zero from its side, or crossed it, turns the element over
 # (:func:`cable_events`). The velocities do not jump at the change, so there is no impulse
 # (docs/cables.md measures this against a C¹ transition).
+#: The shortest step that lands on a cable element's change back, as a fraction of the nominal step dt:
+#: an element that changed side at the step's start (its gap within the tolerance there) and crosses
+#: back closer than this to the start is taken to change back at this time instead (the side held a
+#: little past its change: a tension that hovers at zero, where the force is zero on both sides or, at
+#: the stretch's zero with a damper, jumps by c ℓ̇ ≈ 0). Every other change, the first of a bounce
+#: among them, is landed on to the tolerance. Landing steps of 1e-7 s, where a damped
+#: cable's tension grazes zero on a vibrating light part, carried Newton's tolerance over h² into the
+#: algorithmic accelerations, and Newton failed in the steps after them: the example truss with
+#: damped cables (c = 50 N·s/m on 0.1 kg stations, dt = 2e-3, 0.8 s) went through 291 cut steps and
+#: 159 s of solver time with the landings from the step's start; 71 s with this floor alone; no cut and
+#: 5.5 s with it, the regula falsi landing (latdyn/timeloop/loop.py ``_land_on_event``) and
+#: :data:`TAUT_JUMP_STEP` (docs/cables.md).
+CABLE_LANDING = 1e-3
+#: The step after a damped cable element went taut, as a fraction of the nominal step dt (the steps after
+#: it grow from there as after any shortened step): its tension jumps from 0 to c ℓ̇ there, and the
+#: generalized-α step that follows a jump of the force carries an error of the order of its size (on
+#: tests/test_cables.py's light drop with c = 2 N·s/m at dt = 1e-4, the next changes came 3.7e-5 s late
+#: with a full step after the jump, 4.8e-6 s with this one).
+TAUT_JUMP_STEP = 1e-2
+
+
 def cable_tolerance(EA: np.ndarray) -> np.ndarray:
     """The gap (a force) within which a cable element of axial stiffness ``EA`` is on its change
     (csrc/newton_step.c cable_tolerance): a stretch of 1e-9 of its rest length."""
@@ -70,10 +92,11 @@ def cable_sides(assembler, state: State) -> list[int]:
     return [1 if s > t else -1 for s, t in zip(stretch, tol)]
 
 
-def cable_crossings(assembler, old: State, new: State) -> list[tuple[int, float]]:
-    """(cable element, fraction of the step) for each element whose gap ends the step beyond its
+def cable_crossings(assembler, old: State, new: State) -> list[tuple[int, float, bool]]:
+    """(cable element, fraction of the step, back) for each element whose gap ends the step beyond its
     tolerance on the other side of zero from the side the step held it on (linear interpolation of the
-    gap from ``old``)."""
+    gap from ``old``); back: its gap was within the tolerance at ``old`` (it had just changed side, and
+    changes back)."""
     sides = assembler.model.cables.sides
     after, tol = cable_gaps(assembler, new)
     crossed = ((sides > 0) & (after < -tol)) | ((sides < 0) & (after > tol))
@@ -83,7 +106,8 @@ def cable_crossings(assembler, old: State, new: State) -> list[tuple[int, float]
     out = []
     for e in np.flatnonzero(crossed):
         span = before[e] - after[e]
-        out.append((int(e), float(min(max(before[e] / span, 0.0), 1.0)) if span != 0.0 else 0.0))
+        out.append((int(e), float(min(max(before[e] / span, 0.0), 1.0)) if span != 0.0 else 0.0,
+                    bool(abs(before[e]) <= tol[e])))
     return out
 
 

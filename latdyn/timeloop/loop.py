@@ -28,6 +28,7 @@ from typing import NamedTuple
 from latdyn.assembly.assembler import State
 from latdyn.assembly.prepare import Prepared
 from latdyn.errors import SolverError, UnboundedError
+from latdyn.model.cables import slack_and_unheld
 from latdyn.numerics.so3 import orthonormalize
 from latdyn.results import paraview
 from latdyn.results.probes import ProbeSet
@@ -36,9 +37,10 @@ from latdyn.results.writer import ResultWriter
 from latdyn.step.integrators import newton_diagnosis
 from latdyn.timeloop import checkpoint as checkpoints
 from latdyn.timeloop.control import StepControl
-from latdyn.timeloop.events import cable_events, cable_sides, crossing_fraction, hinge_events, restart_accelerations
+from latdyn.timeloop.events import (CABLE_LANDING, TAUT_JUMP_STEP, cable_events, cable_sides, crossing_fraction, hinge_events,
+                                   restart_accelerations)
 from latdyn.timeloop.progress import (DRIFT_WARNING, UNBOUNDED, UNBOUNDED_ROWS, TransientProgress, factorizations,
-                                      hinge_work, load_power)
+                                      cable_work, hinge_work, load_power)
 from latdyn.timeloop.sampling import controller_memory, restore_controller_memory
 
 
@@ -146,7 +148,7 @@ class TimeLoop:
             state=state, algorithmic_acceleration=self.integrator.a, locked=self.model.locked.copy(),
             stuck=self.model.stuck.copy(),
             h=self.control.dt, power=load_power(self.model, state, evaluation),
-            dissipation_power=evaluation.dissipation_power,
+            cable_work=evaluation.cable_work.copy(),
             hinge_work_torque=evaluation.hinge_work_torque.copy(),
             hinge_damper_torque=evaluation.hinge_damper_torque.copy(),
             total0=sum(energy0.values()), potential0=energy0["potential"],
@@ -292,7 +294,7 @@ class TimeLoop:
             progress.state, grid_index=progress.grid_index, stop_index=stop, dt=control.dt,
             t_end=control.t_end, n_grid=control.n_grid, power=progress.power,
             external_work=progress.external_work, hinge_work_torque=progress.hinge_work_torque,
-            hinge_damper_torque=progress.hinge_damper_torque, dissipation_power=progress.dissipation_power,
+            hinge_damper_torque=progress.hinge_damper_torque, cable_work=progress.cable_work,
             dissipated=progress.dissipated, budget_s=budget, rows=rows, momentum=momentum, sections=sections)
         progress.solver_s += time.perf_counter() - started
         ended_on_a_row = False
@@ -306,7 +308,7 @@ class TimeLoop:
             progress.power = done.power
             progress.external_work = self.probes.external_work = done.external_work
             progress.hinge_work_torque, progress.hinge_damper_torque = done.hinge_work_torque, done.hinge_damper_torque
-            progress.dissipation_power = done.dissipation_power
+            progress.cable_work = done.cable_work
             progress.dissipated = self.probes.dissipated = done.dissipated
             self._track_cables(progress.state, done.state)
             progress.state = done.state
@@ -406,23 +408,38 @@ class TimeLoop:
         return new, stats
 
     def _land_on_event(self, attempt: Attempt) -> Attempt:
-        """A hinge reaching lock_at or a stop inside the step: the step shortened to land on it
-        (secant on the angle, at most 4 passes, never shorter than dt_min; the last shorter step that
+        """A hinge reaching lock_at or a stop, or a cable going slack or taut, inside the step: the step
+        shortened to land on it (secant on the angle or the cable's gap, at most 4 passes, never shorter
+        than dt_min, nor than CABLE_LANDING · dt for a cable's change; the last shorter step that
         converged)."""
         progress = self.progress
         new, stats, h, lands = attempt
+        old = progress.state
+        # a cable's change alone (no hinge event in the step): the secant on the bracket [short, past]
+        # of the trial ends (regula falsi), so that the landing does not end short of the change, which
+        # left the next step a sliver of 1e-7 s to land on (docs/cables.md: after such slivers Newton
+        # failed on the example truss with damped cables); a hinge's: the secant from the step's start
+        bracket = self.model.cables is not None and crossing_fraction(self.model, old, new) is None
+        short, past = old, new
         for _ in range(4):
-            fraction = crossing_fraction(self.model, progress.state, new, self.assembler)
+            floor = CABLE_LANDING * self.control.dt / (past.t - short.t) if short is old else 0.0
+            fraction = crossing_fraction(self.model, short, past, self.assembler, cable_floor=floor)
             if fraction is None:
                 break
-            shorter = max(h * fraction, self.control.dt_min)  # no step below the floor (control)
-            if shorter >= h:
+            shorter = max(short.t - old.t + (past.t - short.t) * fraction, self.control.dt_min)
+            if shorter >= past.t - old.t:
                 break
             retry, retry_stats = self._step(shorter)
             progress.factorizations += factorizations(retry_stats)
             if not retry_stats.converged:
                 break
             progress.newton_iterations += retry_stats.iterations
+            if not bracket or crossing_fraction(self.model, old, retry, self.assembler) is not None:
+                past = retry  # the change is in the retried step (or a hinge's: from the start again)
+                if not bracket:
+                    short = old
+            else:
+                short = retry
             new, stats, h, lands = retry, retry_stats, shorter, False
         return Attempt(new, stats, h, lands)
 
@@ -437,8 +454,8 @@ class TimeLoop:
         if events.log:
             progress.events = progress.events + [{"joint": joint, "kind": kind, "t": float(new.t)}
                                                  for joint, kind in events.log]
-        self._track_cables(progress.state, new)
-        # power of point loads, cable reels and prescribed motion: from the last Newton evaluation
+        tension_jumped = self._track_cables(progress.state, new)
+        # power of point loads and prescribed motion: from the last Newton evaluation
         # (within the Newton tolerance of the converged state) when there is one
         evaluation = getattr(integrator, "last_evaluation", None)
         if evaluation is None or len(evaluation.reaction) != model.n_total - model.n_dofs or events.resting:
@@ -450,15 +467,18 @@ class TimeLoop:
         # the work of the hinges' torques (progress.hinge_work): external work and the joints'
         # dissipation over the step's own Δθ, the torques at its end from its last evaluation, before
         # the events' jump and their putting a hinge back on its stop (resting on a stop: after it, where
-        # the step moved nothing, events.HingeEvents); the cables' dampers by the trapezoidal rule in
-        # time, as the point loads' work; then the events' loss; the torques and powers after the jump
-        # start the next step
+        # the step moved nothing, events.HingeEvents); the cables' reels and dampers over the step's
+        # ΔL0 and Δℓ (progress.cable_work); then the events' loss; the torques and forces after the
+        # jump start the next step. A cable that changed side at the step's end starts the next step
+        # from its forces on the side it was held on, as the integrator does (its acceleration carries
+        # them): measured on docs/cables.md's damped truss, forces re-evaluated on the new side gave
+        # a balance error 2.4 times larger
         ended = evaluation if events.resting else getattr(integrator, "last_evaluation", None) or evaluation
         external_work, dissipated = hinge_work(
             progress.state.theta, new.theta if events.resting else theta_end,
             (progress.hinge_work_torque, progress.hinge_damper_torque),
             (ended.hinge_work_torque, ended.hinge_damper_torque), external_work, progress.dissipated)
-        dissipated += 0.5 * h * (progress.dissipation_power + ended.dissipation_power)
+        external_work, dissipated = cable_work(progress.cable_work, ended.cable_work, external_work, dissipated)
         progress.external_work = self.probes.external_work = external_work
         after = evaluation
         if events.any and evaluation is ended and not events.resting:  # the velocities jumped
@@ -477,13 +497,16 @@ class TimeLoop:
             progress.grid_index += 1
         self._after_accepted(new)
         self.control.after_accepted(progress, integrator, h, events.any, events.stopped)
+        if tension_jumped:  # the steps after a damped cable's jump of tension grow from TAUT_JUMP_STEP · dt
+            progress.h = min(progress.h, TAUT_JUMP_STEP * self.control.dt)
         self._keep_accepted()
 
     def _torques_from(self, evaluation) -> None:
-        """The hinges' work and dissipative torques and the cables' damper power at the state of
-        ``evaluation``, which the next step's work and dissipation start from (progress.hinge_work)."""
+        """The hinges' work and dissipative torques and the cables' work forces at the state of
+        ``evaluation``, which the next step's work and dissipation start from (progress.hinge_work,
+        progress.cable_work)."""
         progress = self.progress
-        progress.dissipation_power = evaluation.dissipation_power
+        progress.cable_work = evaluation.cable_work.copy()
         progress.hinge_work_torque = evaluation.hinge_work_torque.copy()
         progress.hinge_damper_torque = evaluation.hinge_damper_torque.copy()
 
@@ -497,17 +520,35 @@ class TimeLoop:
             progress.cable_sides = cable_sides(self.assembler, progress.state)
         cables.sides[:] = progress.cable_sides
 
-    def _track_cables(self, old: State, new: State) -> None:
+    def _track_cables(self, old: State, new: State) -> bool:
         """The cables' slack and taut changes over the accepted step(s) old → new, into the events
-        (latdyn.timeloop.events.cable_events: the step landed on each)."""
+        (latdyn.timeloop.events.cable_events: the step landed on each); whether a damped element went
+        taut (its tension jumped from 0 to c ℓ̇)."""
         if self.model.cables is None:
-            return
+            return False
         progress = self.progress
+        held = progress.cable_sides
         progress.cable_sides, changes = cable_events(self.assembler, progress.cable_sides, old, new)
         self.model.cables.sides[:] = progress.cable_sides
+        damping = self.model.cables.damping
+        jumped = any(a < 0 < b and damping[e] > 0 for e, (a, b) in enumerate(zip(held, progress.cable_sides)))
         if changes:
             progress.events = progress.events + [{"joint": name, "kind": kind, "t": float(new.t)}
                                                  for name, kind in changes]
+            self._refuse_unheld_cable_ends(new, progress.cable_sides)
+        return jumped
+
+    def _refuse_unheld_cable_ends(self, state: State, sides) -> None:
+        """End the run (SolverError naming the cable) where a massless cable whose free end only its
+        tension holds is slack in ``sides`` (latdyn.model.cables.slack_and_unheld): nothing holds
+        that end's coordinates from here on."""
+        for name, ends in slack_and_unheld(self.model.cables, sides):
+            raise SolverError(
+                f"cables.{name} went slack at t = {float(state.t):.6g}, and nothing holds its free end "
+                f"{' and '.join(ends)} while it is slack (a massless cable's end given as a point)",
+                "A slack massless cable holds nothing: give the cable a mass per length (rhoA > 0), end it at "
+                "a body with mass ({body: NAME}), or keep it taut (a load that keeps pulling its end, a "
+                "shorter rest_length).")
 
     def _after_accepted(self, state: State, recorded: bool = False) -> None:
         """After the accepted step(s) that ended at ``state``: rotations back on SO(3) every 256

@@ -30,13 +30,14 @@ class TransientProgress:
     grid_index: int = 0  # nominal steps completed
     output_index: int = 1  # next recorded time is output_index · every
     external_work: float = 0.0
-    power: float = 0.0  # power of point loads, cable reels and prescribed motion at state.t
+    power: float = 0.0  # power of point loads and prescribed motion at state.t
     #: declared dissipation since t = 0: impacts on stops, latches and sticking (the energy each event
     #: removed, latdyn.timeloop.events.hinge_events), hinge dampers, compliant stops' damping and
     #: friction (∫ f dθ of their dissipative torque f over each step, :func:`hinge_work`) and cable
-    #: dampers (their power, trapezoidal in time over each step)
+    #: dampers (∫ f dℓ over each step, :func:`cable_work`)
     dissipated: float = 0.0
-    dissipation_power: float = 0.0  # the power the cables' dampers dissipate at state.t
+    #: per cable element at state.t (ce, 4): [ℓ, L0, ∂U/∂L0, f] (:func:`cable_work`)
+    cable_work: np.ndarray | None = None
     #: per hinge at state.t: the torque that does external work (with a continuous controller's
     #: output) and the dissipative torque (c θ̇, a compliant stop's damping, friction) (:func:`hinge_work`)
     hinge_work_torque: np.ndarray | None = None
@@ -196,6 +197,22 @@ def hinge_work(theta_old: np.ndarray, theta_new: np.ndarray, torques_old: tuple,
         increment = float(theta_new[j]) - float(theta_old[j])
         external_work += 0.5 * (float(work_old[j]) + float(work_new[j])) * increment
         dissipated += 0.5 * (float(damper_old[j]) + float(damper_new[j])) * increment
+    return external_work, dissipated
+
+
+def cable_work(old: np.ndarray, new: np.ndarray, external_work: float, dissipated: float) -> tuple[float, float]:
+    """``external_work`` and ``dissipated`` with the cable elements' work over a step added, from
+    [ℓ, L0, ∂U/∂L0, f] of each element at its start (``old``) and end (``new``), (ce, 4) each
+    (latdyn.assembly.evaluation.Evaluation.cable_work): ½(r_n + r_{n+1}) ΔL0 of the rest length's
+    generalized force r = ∂U/∂L0 (a reel's work, external: U the strain energy) and ½(f_n + f_{n+1}) Δℓ
+    of each damper's dissipative force f (c ℓ̇ taut, −N_el while the damper cancels the elastic
+    tension, 0 slack). The trapezoidal rule in L0 and ℓ, as :func:`hinge_work`'s in θ: the work the
+    discrete step received, which the time trapezoid of the powers r L̇0 and f ℓ̇ is not
+    (docs/cables.md measures the two). csrc/newton_step.c cable_work is the same sum."""
+    if len(new) == 0:
+        return external_work, dissipated
+    external_work += float(np.sum(0.5 * (old[:, 2] + new[:, 2]) * (new[:, 1] - old[:, 1])))
+    dissipated += float(np.sum(0.5 * (old[:, 3] + new[:, 3]) * (new[:, 0] - old[:, 0])))
     return external_work, dissipated
 
 

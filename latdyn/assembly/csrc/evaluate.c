@@ -201,9 +201,11 @@ typedef struct {
     /* the law values at the step's time (n_laws, 3), and the hinge forces' derivatives ∂f/∂θ
      * and ∂f/∂θ̇ of the last evaluation (n_hinges each: diagonal entries of K and C) */
     double *laws, *hinge_d_theta, *hinge_d_rate;
-    /* the power the cable dampers dissipate at the last evaluation, summed (1; the hinges' is their
-     * damper torque's work, hinge_damper_torque) */
-    double *dissipation;
+    /* per cable element at the last evaluation (ce,4): [ℓ, L0, ∂U/∂L0, f] its length, its share of the
+     * rest length, the rest length's generalized force (a reel's: 0 while slack) and the dissipative
+     * force f of its damper (c ℓ̇ taut, −N_el while the damper cancels the elastic tension, 0 slack);
+     * the time loop integrates their work over each step's ΔL0 and Δℓ (newton_step.c cable_work) */
+    double *cable_work;
     /* each joint's law force f of the last evaluation (n_hinges: hinges and guides), for the joint
      * force probes (latdyn/results/probes.py ProbeSet.joint_forces) */
     double *joint_forces;
@@ -440,9 +442,9 @@ static void joint_bodies(const Model *m, const Configuration *c, Work *w, int in
 
 /* The equations of motion at c : the vector of all coordinates into
  * w->total (residual = total[:n], reaction = total[n:n_total]); with matrices, the blocks.
- * Returns the power of the point loads and of the cables' reels; each hinge's torque that does external
- * work and its dissipative torque into w->hinge_work_torque and w->hinge_damper_torque; the power the
- * cables' dampers dissipate into w->dissipation[0]. */
+ * Returns the power of the point loads; each hinge's torque that does external work and its
+ * dissipative torque into w->hinge_work_torque and w->hinge_damper_torque; each cable element's
+ * length, rest length and the forces whose work the time loop integrates into w->cable_work. */
 /* The number of element ranges (= threads) of an evaluation: 1 below the threshold or without OpenMP. */
 static int element_ranges(const Model *m)
 {
@@ -662,12 +664,11 @@ static void controller_couplings(const Model *m, const Configuration *c, Work *w
  * zero where it is slack: its side −1, or side 0 and the gap min(N_el, N) ≤ 0 (not stretched, or the
  * damper would push). The time loop holds each element's side through a step and lands the step where
  * the gap (w->cable_gap) changes sign, so that Newton sees one smooth law; where the damper cancels the
- * elastic tension of a stretched element (N ≤ 0: the force is
- * clipped at 0 and the damper dissipates −N_el ℓ̇); the rows into w->total, the reel's power
- * ∂U/∂L0·L̇0 into *power and the dampers' into *dissipation (rows only where total is not NULL). The
- * blocks always (the kernel gives them with the force). latdyn/model/cables.py. */
-static void cables(const Model *m, const Configuration *c, Work *w, const double *laws, double *power,
-                   double *dissipation, double *total)
+ * elastic tension of a stretched element (N ≤ 0: the force is clipped at 0 and the damper's
+ * dissipative force is −N_el); the rows into w->total (only where it is not NULL), [ℓ, L0, ∂U/∂L0, f]
+ * into w->cable_work (the rest length's generalized force and the damper's dissipative force f, zero
+ * while slack). The blocks always (the kernel gives them with the force). latdyn/model/cables.py. */
+static void cables(const Model *m, const Configuration *c, Work *w, const double *laws, double *total)
 {
     for (int64_t e = 0; e < m->n_cables; ++e) {
         double geometry[12], velocity[12], section[4];
@@ -684,7 +685,7 @@ static void cables(const Model *m, const Configuration *c, Work *w, const double
         section[2] = data[1];
         section[3] = data[2];
         double *force = w->cable_vector + 12 * e, *K = w->cable_stiffness + 144 * e, *C = w->cable_damping + 144 * e;
-        double *state = w->cable_state + 5 * e, reel, damper, clipped;
+        double *state = w->cable_state + 5 * e, *work = w->cable_work + 4 * e, reel, damper, clipped;
         m->cable_force(1, geometry, velocity, section, force, K, C, state, w->cable_strain + e, &reel, &damper,
                        &clipped);
         /* taut while stretched and pulling: the gap min(N_el, N) > 0 (the side the time loop holds, or,
@@ -692,6 +693,9 @@ static void cables(const Model *m, const Configuration *c, Work *w, const double
         const double side = m->cable_side[e], gap = fmin(state[3], state[4]);
         const int taut = side > 0.0 || (side == 0.0 && gap > 0.0);
         w->cable_gap[e] = gap;
+        work[0] = state[0];
+        work[1] = section[0];
+        work[2] = work[3] = 0.0;
         if (!taut && state[2] <= 0.0) { /* slack */
             memset(force, 0, 12 * sizeof(double));
             memset(K, 0, 144 * sizeof(double));
@@ -700,16 +704,16 @@ static void cables(const Model *m, const Configuration *c, Work *w, const double
             w->cable_strain[e] = 0.0;
             continue;
         }
-        *power += reel;
+        work[2] = reel;
         if (!taut) { /* stretched, but the damper cancels the elastic tension */
             memset(force, 0, 12 * sizeof(double));
             memset(K, 0, 144 * sizeof(double));
             memset(C, 0, 144 * sizeof(double));
             state[4] = 0.0;
-            *dissipation += clipped;
+            work[3] = clipped;
             continue;
         }
-        *dissipation += damper;
+        work[3] = damper;
         for (int end = 0; total && end < 2; ++end) {
             const int64_t *d = m->node_dofs + 6 * m->cable_nodes[2 * e + end];
             for (int p = 0; p < 6; ++p) total[d[p]] += force[6 * end + p];
@@ -721,7 +725,7 @@ static double evaluate(const Model *m, const Configuration *c, Work *w, const do
                        int inertia, double load_factor)
 {
     const int64_t E = m->n_elements;
-    double power = 0.0, dissipation = 0.0;
+    double power = 0.0;
     const int ranges = element_ranges(m);
     if (ranges > 1) {
 #ifdef _OPENMP
@@ -816,8 +820,7 @@ static double evaluate(const Model *m, const Configuration *c, Work *w, const do
                 }
         }
     }
-    cables(m, c, w, laws, &power, &dissipation, w->total);
-    w->dissipation[0] = dissipation;
+    cables(m, c, w, laws, w->total);
     return power;
 }
 
@@ -983,9 +986,8 @@ void latdyn_energies(const Model *m, Work *w, const Configuration *c, double t, 
         for (int p = 0; p < 3; ++p) potential -= mass * (c->x[3 * i + p] + rc[p]) * m->gravity[p];
     }
     if (m->n_cables > 0) { /* the cables' strain energy at the rest lengths of time t */
-        double power = 0.0, dissipation = 0.0;
         m->time_laws(t, w->laws);
-        cables(m, c, w, w->laws, &power, &dissipation, NULL);
+        cables(m, c, w, w->laws, NULL);
         for (int64_t e = 0; e < m->n_cables; ++e) strain += w->cable_strain[e];
     }
     out[0] = kinetic;
@@ -1001,7 +1003,7 @@ typedef struct {
     int64_t matrices;        /* also the element, body, hinge and load blocks of K (and M, C) */
     int64_t inertia_tangent; /* with matrices and inertia: the elements' inertia tangent too */
     double tangent_step, length; /* its central-difference step, and the scene's length */
-    double power;            /* out: the power of the point loads and cable reels (external work) */
+    double power;            /* out: the power of the point loads (external work) */
 } EvaluationControl;
 
 /* One evaluation at c (latdyn/assembly/native_model.py): w->total holds the vector of all
@@ -1022,9 +1024,8 @@ void latdyn_evaluate(const Model *m, Work *w, const Configuration *c, Evaluation
  * last evaluation's rows must stay as they are). */
 void latdyn_cables(const Model *m, Work *w, const Configuration *c, double t)
 {
-    double power = 0.0, dissipation = 0.0;
     m->time_laws(t, w->laws);
-    cables(m, c, w, w->laws, &power, &dissipation, NULL);
+    cables(m, c, w, w->laws, NULL);
 }
 
 /* The element kernels' inputs at c (Eqs. 2, 9, 17) into w->geometry, w->rates, w->accelerations. */

@@ -328,7 +328,7 @@ typedef struct {
     double dt, t_end;
     int64_t n_grid, grid_index, stop_index;
     double t, budget_s;
-    /* in/out: the power of point loads, cable reels and prescribed motion at the last accepted state,
+    /* in/out: the power of point loads and prescribed motion at the last accepted state,
      * and the work done since the start of the run (theirs by the trapezoidal rule in time, the
      * hinges' by hinge_work) */
     double power, external_work;
@@ -339,15 +339,17 @@ typedef struct {
      * StepControl) and that step's size */
     int64_t steps, iterations, factorizations, status, last, pending;
     double t_last, h_pending;
-    /* in/out: the power the cables' dampers dissipate at the last accepted state, and the energy
-     * dissipated since the start of the run (the hinges' by hinge_work, the cables' by the
-     * trapezoidal rule in time, as the external work of point loads) */
-    double dissipation_power, dissipated;
+    /* in/out: the energy dissipated since the start of the run (the hinges' by hinge_work, the
+     * cables' by cable_work) */
+    double dissipated;
     /* in/out (n_hinges each): each hinge's torque that does external work and its damper's torque
      * at the last accepted state (Work.hinge_work_torque, hinge_damper_torque) */
     double *hinge_work_torque, *hinge_damper_torque;
     /* in/out: the rows to record on the way (rows.c; NULL: none, the caller records the row at stop_index) */
     Rows *rows;
+    /* in/out (n_cables, 4): each cable element's [ℓ, L0, ∂U/∂L0, f] at the last accepted state
+     * (Work.cable_work) */
+    double *cable_work;
 } Advance;
 
 /* The work of the hinges' torques over the accepted step old → new (latdyn/timeloop/progress.py
@@ -367,6 +369,22 @@ static void hinge_work(const Model *m, const Work *w, const Configuration *old, 
     }
 }
 
+/* The work of the cable elements over the accepted step (latdyn/timeloop/progress.py cable_work): of
+ * the rest length's generalized force ∂U/∂L0 over ΔL0, ½(r_n + r_{n+1}) ΔL0 (a reel's: external
+ * work), and of each damper's dissipative force over Δℓ, ½(f_n + f_{n+1}) Δℓ (dissipated), the
+ * trapezoidal rule in L0 and ℓ as hinge_work's in θ; the new state's values are carried to the next
+ * step. */
+static void cable_work(const Model *m, const Work *w, Advance *adv)
+{
+    for (int64_t e = 0; e < m->n_cables; ++e) {
+        double *old = adv->cable_work + 4 * e;
+        const double *new_ = w->cable_work + 4 * e;
+        adv->external_work += 0.5 * (old[2] + new_[2]) * (new_[1] - old[1]);
+        adv->dissipated += 0.5 * (old[3] + new_[3]) * (new_[0] - old[0]);
+        memcpy(old, new_, 4 * sizeof(double));
+    }
+}
+
 static double seconds_now(void)
 {
     struct timespec now;
@@ -377,9 +395,9 @@ static double seconds_now(void)
 /* Steps from `start` (at adv->t, on grid point grid_index) through grid point stop_index,
  * each landing on the grid (h = t_{k+1} − t_k) as timeloop.loop takes them at the nominal
  * step: latdyn_newton_step with the compiled laws, then acceptance (the algorithmic
- * acceleration carried, the external work of point loads, cable reels and prescribed motion and the
- * cable dampers' dissipation by the trapezoidal rule in time, the hinges' work and dissipation by
- * hinge_work). It returns at the first
+ * acceleration carried, the external work of point loads and prescribed motion by the trapezoidal
+ * rule in time, the hinges' work and dissipation by hinge_work, the cables' by cable_work). It
+ * returns at the first
  * step that does not converge or that holds a hinge event, without accepting it, so that the
  * caller's loop handles that step as it always has; it never fails by itself. States alternate
  * between the two scratch configurations; `start` is read only; the last accepted state is
@@ -417,10 +435,9 @@ int64_t latdyn_advance(const Model *m, Work *w, StepControl *s, const Configurat
         double power = s->power + drive_power(m, trial, w->total);
         adv->external_work += 0.5 * s->h * (adv->power + power);
         adv->power = power;
-        adv->dissipated += 0.5 * s->h * (adv->dissipation_power + w->dissipation[0]);
-        adv->dissipation_power = w->dissipation[0];
         hinge_work(m, w, base, trial, adv);
         latdyn_controller_states_accept(m, w, trial, target, s->h);  /* continuous controllers' states */
+        cable_work(m, w, adv);
         adv->steps += 1;
         adv->iterations += s->iterations;
         adv->factorizations += s->factorizations;
