@@ -97,8 +97,8 @@ def refusal(scene) -> SceneError | None:
     if any(beam.rigid for beam in scene.beams.values()):
         return refuse("sensitivities of scenes with rigid links are not computed yet")
     for beam, which, hinge in scene.hinges:
-        if hinge.limits is not None or hinge.lock_at is not None:
-            return refuse(f"sensitivities through hinge events (limits, lock_at of {beam}.{which}) are not "
+        if solve.analysis != "transient" and (hinge.limits is not None or hinge.lock_at is not None):
+            return refuse(f"static sensitivities through hinge events (limits, lock_at of {beam}.{which}) are not "
                           "computed yet")
     for name in names:
         for used in scene.parameters.depending_on(name):

@@ -304,6 +304,8 @@ class TimeLoop:
         (secant on the angle, at most 4 passes, never shorter than dt_min; the last shorter step that
         converged)."""
         progress = self.progress
+        if self.sensitivities is not None:  # their derivative is that of a step landing exactly on the event
+            return Attempt(*self.sensitivities.land(self._step, progress.state, attempt))
         new, stats, h, lands = attempt
         for _ in range(4):
             fraction = crossing_fraction(self.model, progress.state, new, self.assembler)
@@ -327,6 +329,9 @@ class TimeLoop:
         new, h = attempt.new, attempt.h
         integrator.accept()
         theta_end = new.theta.copy()  # the step's own end, before an event puts a hinge on its stop
+        if self.sensitivities is not None:  # the step differentiated, with its events' jumps (before they renumber)
+            carried = self.sensitivities.step(progress.sensitivities, progress.state, new, h,
+                                              progress.algorithmic_acceleration, integrator.a, attempt.lands)
         events = hinge_events(self.prepared, integrator, progress.state, new, h)
         if events.log:
             progress.events = progress.events + [{"joint": joint, "kind": kind, "t": float(new.t)}
@@ -360,9 +365,8 @@ class TimeLoop:
             progress.power = load_power(model, new, after)
         self._torques_from(after)
         progress.dissipated = self.probes.dissipated = dissipated + events.loss
-        if self.sensitivities is not None:   # the step differentiated (no events: refused, solve.sensitivities)
-            progress.sensitivities = self.sensitivities.step(progress.sensitivities, progress.state, new, h,
-                                                             progress.algorithmic_acceleration, integrator.a)
+        if self.sensitivities is not None:   # after the events: their renumbering and restarted accelerations
+            progress.sensitivities = self.sensitivities.after_events(carried, new)
         progress.state = new
         progress.algorithmic_acceleration = integrator.a
         progress.locked, progress.stuck = model.locked.copy(), model.stuck.copy()
@@ -370,7 +374,11 @@ class TimeLoop:
         if attempt.lands:
             progress.grid_index += 1
         self._after_accepted(new)
-        self.control.after_accepted(progress, integrator, h, events.any, events.stopped)
+        # with sensitivities an event, and a step onto the grid, restart at the nominal step as a stop does:
+        # the step after an event lands on the grid and the next ones are nominal, their sizes smooth in the
+        # parameters (latdyn/analyses/transient_sensitivities.py)
+        restarted = events.stopped or (self.sensitivities is not None and (events.any or attempt.lands))
+        self.control.after_accepted(progress, integrator, h, events.any, restarted)
         self._keep_accepted()
 
     def _torques_from(self, evaluation) -> None:
