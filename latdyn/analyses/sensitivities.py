@@ -42,7 +42,8 @@ load and displacement control and transient runs of an implicit method at fixed 
 events, cables, guides, controllers and inputs (:func:`_transient_refusal`); a parameter used anywhere but in load components, hinge stiffness, damping,
 torque and rest angle, section values of shear-rigid sections (formulation default) and body
 masses, centres of mass and inertias; probes other than point positions and displacements in the global frame
-and hinge angles; rigid links; hinges with limits or ``lock_at`` (events). Under gravity the static
+and hinge angles; rigid links; in static paths hinges with limits or ``lock_at`` (events; transient runs
+differentiate latches and rigid stops: latdyn/analyses/transient_sensitivities.py). Under gravity the static
 Newton matrix K − λ ∂Q/∂q holds the beams' gravity tangent (the generated ``beam_gravity_D_q``), so
 beams with mass are differentiated exactly there too. docs/parameters.md.
 """

@@ -45,6 +45,14 @@ equilibrium (Δ = 0 and the statics of the directions without inertia balanced, 
 units), where the terms ∂M/∂p Δ, ∂K/∂p Δ vanish; anything else is refused
 (:class:`latdyn.errors.SceneError` naming ``solve.sensitivities``).
 
+Events (docs/parameters.md, "Sensitivities through events"): a latch or a rigid stop is landed on
+exactly (|θ − θ_e| ≤ :data:`LANDING`, :meth:`TransientSensitivities.land`); the step's derivative has a
+column for a unit change of its size h, and the event time's derivative δh makes the hinge angle's
+total derivative vanish; the jump of δv through the impulse and the restarted accelerations are
+differentiated (:meth:`TransientSensitivities._jump`, :meth:`TransientSensitivities.after_events`); the
+derivative of the impulse weight M + dt²K along δq (a third derivative of the element, not generated)
+is taken by a central difference (:meth:`TransientSensitivities._weight_derivative`).
+
 This round runs one step at a time from Python (the time loop's per-step path; the native loop is
 later); it carries (δq, δv, δv̇, δa) on the free coordinates, (n, k), in
 :attr:`latdyn.timeloop.progress.TransientProgress.sensitivities`, checkpointed with the run.
