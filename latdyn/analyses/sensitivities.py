@@ -196,7 +196,7 @@ class ParameterDerivatives:
         total = np.zeros((model.n_total + 1, k))
         load_values: dict[tuple[int, int], np.ndarray] = {}   # (load, column) -> λ ∂(its six values)/∂p
         for key, laws in self.derivatives.items():
-            load, hinge = _LOAD_KEY.match(key), _HINGE_KEY.match(key)
+            load, hinge = self._key_kinds(key)
             for column, law in laws.items():
                 if load:
                     slot = int(load["axis"]) + (3 if load["kind"] == "moment" else 0)
@@ -207,9 +207,10 @@ class ParameterDerivatives:
                     total[model.hinge_dofs[j], column] += self._hinge_force(state, j, hinge["law"], law, load_factor)
         self._section_forces(state, total, load_factor, inertia)
         self._body_forces(state, total, load_factor, inertia)
-        for (index, column), values in load_values.items():   # the kernel is linear in the values
-            node, force = self._load_force(state, index, values)
-            total[model.node_dofs[node], column] += force
+        if load_values:   # the kernel is linear in the values: one call for every (load, column)
+            pairs = list(load_values)
+            nodes, forces = self._load_forces(state, [index for index, _ in pairs], np.array(list(load_values.values())))
+            np.add.at(total, (model.node_dofs[nodes], np.array([column for _, column in pairs])[:, None]), forces)
         return total[:model.n_dofs]
 
     def _section_forces(self, state, total: np.ndarray, load_factor: float, inertia: bool = False) -> None:
@@ -300,15 +301,26 @@ class ParameterDerivatives:
                     force = 0.5 * (ahead - force_of(block))
                 total[model.node_dofs[node], column] += force
 
-    def _load_force(self, state, index: int, values: np.ndarray):
-        """(node, the generalized force of load ``index`` with these values): the point_load kernel."""
-        model, load = self.model, self.scene.loads[index]
-        node, offset = model.point(load.at)
-        frame = state.T[model.body_node[load.frame]] if load.frame != "global" else np.eye(3)
-        row = lambda a: np.ascontiguousarray(np.reshape(a, (1, -1)), dtype=float)  # noqa: E731
-        velocity = np.concatenate([state.v[node], state.w[node]])
-        force = self.kernels.point_load(row(state.T[node]), row(offset), row(values), row(frame), row(velocity))[0]
-        return node, np.asarray(force).reshape(6)
+    def _key_kinds(self, key: str):
+        """(the load key's match, the hinge key's match) of a parameter's use, matched once."""
+        cache = self.__dict__.setdefault("_kinds", {})
+        if key not in cache:
+            cache[key] = (_LOAD_KEY.match(key), _HINGE_KEY.match(key))
+        return cache[key]
+
+    def _load_forces(self, state, indices: list, values: np.ndarray):
+        """(nodes (m,), generalized forces (m, 6)) of loads ``indices`` with these values (m, 6): one call of
+        the point_load kernel for them all."""
+        model = self.model
+        points = [model.point(self.scene.loads[index].at) for index in indices]
+        nodes = np.array([node for node, _ in points], dtype=int)
+        frames = np.array([state.T[model.body_node[self.scene.loads[index].frame]]
+                           if self.scene.loads[index].frame != "global" else np.eye(3) for index in indices])
+        rows = lambda a: np.ascontiguousarray(np.reshape(a, (len(indices), -1)), dtype=float)  # noqa: E731
+        velocity = np.concatenate([state.v[nodes], state.w[nodes]], axis=1)
+        force = self.kernels.point_load(rows(state.T[nodes]), rows([offset for _, offset in points]), rows(values),
+                                        rows(frames), rows(velocity))[0]
+        return nodes, np.asarray(force).reshape(len(indices), 6)
 
     def _hinge_force(self, state, j: int, which: str, law, load_factor: float) -> float:
         """∂f/∂p of hinge ``j`` through its ``which`` law (the hinge_force kernel, linear in the laws;
