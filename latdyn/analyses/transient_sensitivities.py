@@ -140,9 +140,12 @@ class TransientSensitivities(ParameterDerivatives):
             self._refuse_start(state, ev, split)
         dv = self._initial_velocities()
         rhs = self.residual_derivatives(state, 1.0, inertia=True) + ev.combined(0.0, 1.0, 0.0) @ dv
-        dvdot = np.column_stack([consistent_acceleration(model, SimpleNamespace(residual=rhs[:, c],
-                                                                                combined=ev.combined))
-                                 for c in range(k)])
+        if split.n_massless == 0:   # Δ = −M⁻¹r: one factorization for every column
+            dvdot = -np.asarray(solve_linear(ev.combined(1.0, 0.0, 0.0), rhs)).reshape(n, k)
+        else:
+            dvdot = np.column_stack([consistent_acceleration(model, SimpleNamespace(residual=rhs[:, c],
+                                                                                    combined=ev.combined))
+                                     for c in range(k)])
         return {**carried, "dv": dv, "dvdot": dvdot, "da": dvdot.copy()}
 
     def _initial_velocities(self) -> np.ndarray:
