@@ -140,3 +140,59 @@ def test_events_behind_directions_without_inertia_are_refused():
     text = LATCH_3D.replace(', rhoIy: "0.01*rho", rhoIz: "0.01*rho"', "")
     with pytest.raises(SceneError, match="solve.sensitivities"):
         _run(text)
+
+
+def test_the_cli_writes_the_event_sensitivities_and_the_api_gives_the_same(tmp_path, latch_planar):
+    """Through ``python -m latdyn run``: summary.json ``event_sensitivities`` and sensitivities.csv, equal
+    to the API's run."""
+    import json
+
+    from latdyn.results.result import Result
+    from tests.cli_runs import latdyn_run
+
+    run, out = latdyn_run(tmp_path, LATCH_PLANAR)
+    assert run.returncode == 0, run.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["event_sensitivities"] == latch_planar.summary["event_sensitivities"]
+    assert summary["events"] == [{k: v for k, v in e.items() if k != "dt"} for e in summary["event_sensitivities"]]
+    result = Result.load(out)
+    for key, values in latch_planar.sensitivities.items():
+        np.testing.assert_array_equal(values, result.sensitivities[key])
+
+
+def test_a_run_interrupted_after_the_latch_resumes_to_the_same_sensitivities(tmp_path, monkeypatch):
+    """The event's sensitivities ride in the checkpoint with the rest: resumed after the latch,
+    sensitivities.csv is the uninterrupted one byte for byte."""
+    import json
+
+    from latdyn.step.compiled import CompiledGeneralizedAlpha
+
+    scene = yaml.safe_load(LATCH_PLANAR)
+    scene["solve"]["sensitivities"] = ["k", "m"]
+    whole = tmp_path / "whole"
+    latdyn.run(scene, whole)
+    original = CompiledGeneralizedAlpha.step
+
+    def step(self, state, *args, **kwargs):
+        if state.t >= 0.52:
+            raise KeyboardInterrupt
+        return original(self, state, *args, **kwargs)
+
+    out = tmp_path / "out"
+    with monkeypatch.context() as m:
+        m.setattr(CompiledGeneralizedAlpha, "step", step)
+        with pytest.raises(KeyboardInterrupt):
+            latdyn.run(scene, out)
+    latdyn.run(scene, out, resume=True)
+    assert (out / "sensitivities.csv").read_bytes() == (whole / "sensitivities.csv").read_bytes()
+    assert (json.loads((out / "summary.json").read_text())["event_sensitivities"]
+            == json.loads((whole / "summary.json").read_text())["event_sensitivities"])
+
+
+def test_events_with_laws_in_time_are_refused():
+    """A torque growing in time: after an event the steps' ends move in time, and ∂r/∂t is not
+    differentiated, so the run is refused naming solve.sensitivities and the hinge."""
+    text = LATCH_PLANAR.replace('damping: "c",', 'damping: "c", torque: "0.1*t",')
+    with pytest.raises(SceneError, match="depends on t") as refused:
+        _run(text)
+    assert refused.value.key == "solve.sensitivities"
