@@ -480,22 +480,37 @@ class TransientSensitivities(ParameterDerivatives):
             return apply
 
         turn, tangent = operator(R), operator(J)
-        rows = np.broadcast_to(slots[:, :, None], J.shape)
-        cols = np.broadcast_to(slots[:, None, :], J.shape)
-        keep = (rows < n) & (cols < n)
-        fixed = np.ones(n, bool)
-        fixed[slots[on]] = False
-        r = np.concatenate([np.flatnonzero(fixed), rows[keep]])
-        c = np.concatenate([np.flatnonzero(fixed), cols[keep]])
-        values = np.concatenate([np.ones(int(fixed.sum())), J[keep]])
         if n <= 0:
             matrix = np.zeros((0, 0))
         else:
             import scipy.sparse as sps
 
-            matrix = sps.csr_matrix((values, (r, c)), shape=(n, n))
+            keep, fixed, indices, indptr, order = self._tangent_pattern(slots, n)
+            values = np.concatenate([np.ones(fixed), J[keep]])
+            matrix = sps.csr_matrix((values[order], indices, indptr), shape=(n, n))
         tangent.matrix = matrix
         return turn, tangent
+
+    def _tangent_pattern(self, slots: np.ndarray, n: int):
+        """The CSR pattern of J (the identity off the rotation coordinates, 3 × 3 blocks on them) for this
+        numbering, built once: (the blocks' entries kept, how many identity rows, indices, indptr, the
+        order of [identity entries, kept block entries] in the CSR data)."""
+        key = (n, slots.tobytes())
+        cache = self.__dict__.setdefault("_patterns", {})
+        if key not in cache:
+            import scipy.sparse as sps
+
+            rows = np.broadcast_to(slots[:, :, None], (len(slots), 3, 3))
+            cols = np.broadcast_to(slots[:, None, :], (len(slots), 3, 3))
+            keep = (rows < n) & (cols < n)
+            fixed = np.ones(n, bool)
+            fixed[slots[slots < n]] = False
+            r = np.concatenate([np.flatnonzero(fixed), rows[keep]])
+            c = np.concatenate([np.flatnonzero(fixed), cols[keep]])
+            pattern = sps.csr_matrix((np.arange(1.0, len(r) + 1.0), (r, c)), shape=(n, n))
+            cache[key] = (keep, int(fixed.sum()), pattern.indices.copy(), pattern.indptr.copy(),
+                          pattern.data.astype(int) - 1)
+        return cache[key]
 
     # ------------------------------------------------------------------ rows
     def record(self, carried: dict, state) -> dict:
