@@ -146,6 +146,16 @@ def _transient_refusal(scene) -> str | None:
         if hinge.contact is not None or hinge.friction is not None:
             return (f"sensitivities through compliant stops and friction ({beam}.{which}: sticking and the "
                     "stops' contact are events) are not computed yet")
+    events = [f"{beam}.{which}" for beam, which, hinge in scene.hinges
+              if hinge.lock_at is not None or hinge.limits is not None]
+    if events:
+        from latdyn.analyses.transient_sensitivities import depends_on_time
+
+        if depends_on_time(scene):
+            return (f"sensitivities through the events of {events[0]} (lock_at, limits) with a load, hinge law or "
+                    "motion that depends on t are not computed yet: an event moves the ends of the steps after it "
+                    "in time, and the time derivative of the equations is not differentiated; expected laws "
+                    "constant in time (docs/parameters.md, \"Sensitivities through events\")")
     return None
 
 

@@ -79,7 +79,7 @@ from latdyn.timeloop.impulse import hinge_directions, massless_element_stiffness
 __all__ = ["TransientSensitivities"]
 
 
-def _depends_on_time(scene) -> bool:
+def depends_on_time(scene) -> bool:
     """Whether a load component, hinge law or prescribed motion of ``scene`` depends on t."""
     def timed(law):
         if law is None or isinstance(law, (int, float)):
@@ -193,8 +193,8 @@ class TransientSensitivities(ParameterDerivatives):
 
     def _refuse_events(self, ev, split) -> None:
         """Events (a latch, a rigid stop) are differentiated where the impulse's weight is M + dt²K
-        alone (no directions or elements without inertia: latdyn/timeloop/impulse.py) and the equations
-        do not depend on time explicitly (the event moves the steps' ends in time); else refused."""
+        alone (no directions or elements without inertia: latdyn/timeloop/impulse.py); else refused
+        (laws in time with events are refused before the run: latdyn.analyses.sensitivities.refusal)."""
         model, scene = self.model, self.scene
         events = [h.name for h in model.hinges if h.lock_at is not None or (h.limits is not None and h.contact is None)]
         if not events:
@@ -204,10 +204,6 @@ class TransientSensitivities(ParameterDerivatives):
             why = (f"the model has directions without inertia ({split.n_massless}) or elements without mass, "
                    "whose impulse response (rigid and static through the jump) is not differentiated yet; "
                    "expected beams with rhoA and rotary inertia (rhoIy, rhoIz)")
-        elif _depends_on_time(scene):
-            why = ("a load, hinge law or motion depends on t: an event moves the ends of the steps after it in "
-                   "time, and the time derivative of the equations is not differentiated yet; expected laws "
-                   "constant in time")
         if why is not None:
             raise SceneError(scene.file, "solve.sensitivities",
                              f"sensitivities through the events of {events[0]} (lock_at, limits): {why} "
