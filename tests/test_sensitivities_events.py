@@ -202,3 +202,14 @@ def test_events_with_laws_in_time_are_refused(tmp_path):
     run, out = latdyn_run(tmp_path, text)
     assert run.returncode == 2 and "solve.sensitivities" in run.stderr and "arm.start" in run.stderr
     assert "Traceback" not in run.stderr
+
+
+def test_a_landing_that_misses_the_event_is_flagged(latch_planar, monkeypatch):
+    """The event-time derivative assumes the step ends on the event: one secant pass leaves it 2e-8 off,
+    which summary.json ``warnings`` says; the default landing (to 1e-12) says nothing."""
+    import latdyn.analyses.transient_sensitivities as transient_sensitivities
+
+    assert not any("landed" in w for w in latch_planar.summary.get("warnings", []))
+    monkeypatch.setattr(transient_sensitivities, "LANDING_PASSES", 1)
+    (warning,) = [w for w in _run(LATCH_PLANAR, "k").summary["warnings"] if "landed" in w]
+    assert "arm.start" in warning and "not exact" in warning

@@ -59,6 +59,7 @@ later); it carries (δq, δv, δv̇, δa) on the free coordinates, (n, k), in
 """
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -104,6 +105,9 @@ AT_REST = 1e-9
 LANDING = 1e-12
 #: secant passes at most for that landing
 LANDING_PASSES = 30
+#: a landing farther than this (relative, as LANDING) from the event is flagged in summary.json warnings:
+#: the event-time derivative assumes the step ends on it
+LANDING_MISSED = 1e-10
 #: the configuration step (times the length scale) of the central differences of the impulse weight
 #: M + dt²K along δq (module docstring, "Events": the one derivative not generated)
 WEIGHT_STEP = 1e-5
@@ -342,6 +346,11 @@ class TransientSensitivities(ParameterDerivatives):
         dt_event = carried["dt"]
         record = {"joint": model.hinges[hinge].name, "kind": kind, "t": float(new.t),
                   "dt": {name: float(dt_event[c]) for c, name in enumerate(self.names)}}
+        at = model.hinges[hinge].lock_at if kind == "latch" else min(model.hinges[hinge].limits,
+                                                                   key=lambda stop: abs(new.theta[hinge] - stop))
+        miss = abs(float(new.theta[hinge]) - at) / max(1.0, abs(at))
+        if miss > LANDING_MISSED:   # the derivative assumes the step on the event: flagged (finish)
+            carried = {**carried, "missed": carried.get("missed", []) + [(record["joint"], record["t"], miss)]}
         return {**carried, "events": carried["events"] + [record],
                 "pending": {"kind": kind, "dq": self._on_nodes(carried["dq"]), "dv": self._on_nodes(dv_plus)}}
 
@@ -571,6 +580,11 @@ class TransientSensitivities(ParameterDerivatives):
                            for which, row in (("end", last), ("max", high), ("min", low))}
         writer.summary["probe_sensitivities"] = out
         writer.summary["event_sensitivities"] = list(carried.get("events", []))
+        for joint, t, miss in carried.get("missed", []):
+            warning = (f"the step landed {miss:.2g} (relative) off the event of {joint} at t = {t:.9g} (secant "
+                       "on the step size not converged): its sensitivities are not exact to better than that")
+            print(f"latdyn: warning: {warning}", file=sys.stderr)
+            writer.summary.setdefault("warnings", []).append(warning)
         if writer.out_dir is not None:
             text = csv_line(["t", *self.columns]) + "".join(csv_line(row) for row in carried["rows"])
             atomic_write_bytes(Path(writer.out_dir) / SENSITIVITIES_FILE, text.encode("utf-8"))
