@@ -232,17 +232,14 @@ class ParameterDerivatives:
         ``beam_quadratic_velocity``, linear in ρA, ρIy, ρIz), as evaluate.c sums them."""
         model = self.model
         gravity = load_factor * np.asarray(self.assembler.gravity, float)
-        geometry = rates = accelerations = None
+        chosen, columns, blocks = [], [], []   # every (parameter's use, column): its elements and section rows
         for key, laws in self.derivatives.items():
             section = _SECTION_KEY.match(key)
             if not section:
                 continue
-            elements = np.array([e for e, beam in enumerate(model.element_beam)
-                                 if self.scene.beams[beam].section.name == section["section"]], dtype=np.int64)
+            elements = self._section_elements(section["section"])
             if len(elements) == 0:
                 continue
-            if geometry is None:
-                geometry, rates, accelerations = self.assembler.native().element_inputs(state)
             for column, law in laws.items():
                 rows = np.zeros((len(elements), model.element_sections.shape[1]))
                 rows[:, 0] = model.element_sections[elements, 0]                       # L0
@@ -251,17 +248,34 @@ class ParameterDerivatives:
                     quarter = np.abs(np.sin(model.section_turns[elements])) > 0.5
                     for a, b in ((2, 3), (6, 7)):
                         rows[quarter, a], rows[quarter, b] = rows[quarter, b].copy(), rows[quarter, a].copy()
-                at = np.ascontiguousarray(geometry[elements])
-                forces = np.asarray(self.kernels.beam_internal_force(at, rows)[0]).reshape(len(elements), 14)
-                if np.any(gravity):   # evaluate.c: the static residual F − λ gravity load
-                    rows_g = np.repeat(gravity[None], len(elements), axis=0)
-                    forces = forces - np.asarray(self.kernels.beam_gravity(at, rows, rows_g)[0]).reshape(len(elements), 14)
-                if inertia:   # evaluate.c: F + M a + g − gravity
-                    rate = np.ascontiguousarray(rates[elements])
-                    mass = np.asarray(self.kernels.beam_mass_matrix(at, rows)[0]).reshape(len(elements), 14, 14)
-                    forces = forces + np.einsum("epq,eq->ep", mass, accelerations[elements]) \
-                        + np.asarray(self.kernels.beam_quadratic_velocity(at, rate, rows)[0]).reshape(len(elements), 14)
-                np.add.at(total[:, column], model.element_dofs[elements], forces)
+                chosen.append(elements)
+                columns.append(np.full(len(elements), column))
+                blocks.append(rows)
+        if not chosen:
+            return
+        # the kernels once for all of them (each row its element's geometry and a section derivative)
+        elements, column, rows = np.concatenate(chosen), np.concatenate(columns), np.ascontiguousarray(np.vstack(blocks))
+        geometry, rates, accelerations = self.assembler.native().element_inputs(state)
+        at = np.ascontiguousarray(geometry[elements])
+        m = len(elements)
+        forces = np.asarray(self.kernels.beam_internal_force(at, rows)[0]).reshape(m, 14)
+        if np.any(gravity):   # evaluate.c: the static residual F − λ gravity load
+            rows_g = np.repeat(gravity[None], m, axis=0)
+            forces = forces - np.asarray(self.kernels.beam_gravity(at, rows, rows_g)[0]).reshape(m, 14)
+        if inertia:   # evaluate.c: F + M a + g − gravity
+            rate = np.ascontiguousarray(rates[elements])
+            mass = np.asarray(self.kernels.beam_mass_matrix(at, rows)[0]).reshape(m, 14, 14)
+            forces = forces + np.einsum("epq,eq->ep", mass, accelerations[elements]) \
+                + np.asarray(self.kernels.beam_quadratic_velocity(at, rate, rows)[0]).reshape(m, 14)
+        np.add.at(total, (model.element_dofs[elements], column[:, None]), forces)
+
+    def _section_elements(self, name: str) -> np.ndarray:
+        """The elements of the beams of section ``name`` (found once)."""
+        cache = self.__dict__.setdefault("_elements_of_section", {})
+        if name not in cache:
+            cache[name] = np.array([e for e, beam in enumerate(self.model.element_beam)
+                                    if self.scene.beams[beam].section.name == name], dtype=np.int64)
+        return cache[name]
 
     def _body_forces(self, state, total: np.ndarray, load_factor: float, inertia: bool = False) -> None:
         """Add ∂(joint body force)/∂p into ``total`` for body masses, centres of mass and inertias that
