@@ -454,12 +454,33 @@ class TransientSensitivities(ParameterDerivatives):
             cols = np.broadcast_to(dofs[:, None, :], blocks.shape)
             free = (rows < model.n_dofs) & (cols < model.n_dofs)
             if issparse(K):
-                import scipy.sparse as sps
-
-                K = (K + sps.csr_matrix((blocks[free], (rows[free], cols[free])), shape=K.shape)).tocsr()
+                K = self._add_into(K.tocsr(), rows[free], cols[free], blocks[free])
             else:
                 np.add.at(K, (rows[free], cols[free]), blocks[free])
         return M, C, K
+
+    def _add_into(self, K, rows: np.ndarray, cols: np.ndarray, values: np.ndarray):
+        """K (CSR) with ``values`` added at (rows, cols): into its data where its pattern holds them all (the
+        positions found once per pattern), else by a sparse sum."""
+        key = (K.shape, K.indptr.tobytes(), K.indices.tobytes(), rows.tobytes(), cols.tobytes())
+        cache = self.__dict__.setdefault("_positions", {})
+        if key not in cache:
+            positions = np.full(len(rows), -1, dtype=np.int64)
+            for i, (r, c) in enumerate(zip(rows, cols)):
+                start, stop = K.indptr[r], K.indptr[r + 1]
+                j = start + np.searchsorted(K.indices[start:stop], c)
+                if j < stop and K.indices[j] == c and K.has_sorted_indices:
+                    positions[i] = j
+            cache.clear()   # one numbering at a time
+            cache[key] = positions
+        positions = cache[key]
+        if np.any(positions < 0):
+            import scipy.sparse as sps
+
+            return (K + sps.csr_matrix((values, (rows, cols)), shape=K.shape)).tocsr()
+        K = K.copy()
+        np.add.at(K.data, positions, values)
+        return K
 
     def _rotation_operators(self, increment: np.ndarray):
         """(R·, J·) on free-coordinate columns for the step's increment hΔq: on each free node's
