@@ -1,13 +1,13 @@
-"""What exact transient sensitivities cost: 0, 1 and 10 parameters.
+"""What exact transient sensitivities cost: 0, 1, 10 and 100 parameters.
 
-    python benchmarks/transient_sensitivities_cost.py [--repeats 3]
+    python benchmarks/transient_sensitivities_cost.py [--repeats 3] [--scene cantilever|lattice]
 
 A 3D cantilever of 30 elements (EIy != EIz, rotary inertia, tilted out of every coordinate plane)
-carries ten point loads, the i-th of amplitude ``F<i>`` (a named parameter) growing linearly in
-time, and is stepped 40 steps of generalized-α (dt = 0.002); two probes at the tip, a row every 5
+carries fifty point loads at its nodes, the i-th with two components of amplitudes ``F<2i>`` and
+``F<2i+1>`` (named parameters, 100 in all) growing linearly in time, and is stepped 40 steps of generalized-α (dt = 0.002); two probes at the tip, a row every 5
 steps. The same scene is run in process without sensitivities (the loop of steps in C), without
 them on the per-step path a sensitivity run takes (every step from Python, ``COMPILED_LOOP`` off),
-with ``solve.sensitivities: [F0]`` and with ``[F0, …, F9]``, kernels and laws compiled before, the
+with ``solve.sensitivities: [F0]``, ``[F0, …, F9]`` and ``[F0, …, F99]``, kernels and laws compiled before, the
 cases interleaved ``--repeats`` times (the machine may be shared). Per accepted step the
 sensitivities add one evaluation of M, C and the exact K (the elements' inertia tangent by
 ``newton: exact``'s evaluation), one factorization and k back-substitutions, and the kernels of
@@ -26,10 +26,10 @@ from latdyn.timeloop import transient
 
 
 def scene(names: list[str]) -> dict:
-    loads = [{"at": f"arm.node[{3 * (i + 1)}]", "force": [f"0.1*F{i}*t", f"-F{i}*t", f"0.3*F{i}*t"]}
-             for i in range(10)]
+    loads = [{"at": f"arm.node[{1 + i % 30}]", "force": [f"0.1*F{2 * i}*t", f"-F{2 * i + 1}*t", f"0.3*F{2 * i}*t"]}
+             for i in range(50)]
     solve = {"analysis": "transient", "dt": 0.002, "t_end": 0.08, **({"sensitivities": names} if names else {})}
-    return {"parameters": {f"F{i}": 50.0 + 10.0 * i for i in range(10)},
+    return {"parameters": {f"F{i}": 5.0 + 0.2 * i for i in range(100)},
             "sections": {"s": {"EA": 1e6, "EIy": 50.0, "EIz": 80.0, "GJ": 40.0, "rhoA": 1.0,
                                "rhoIy": 0.01, "rhoIz": 0.02}},
             "bodies": {"base": {"at": [0, 0, 0], "fixed": True}},
@@ -38,6 +38,29 @@ def scene(names: list[str]) -> dict:
             "output": {"every": 0.01,
                        "probes": {"tip_z": {"point": "arm.end", "quantity": "position", "component": "z"},
                                   "tip_y": {"point": "arm.end", "quantity": "displacement", "component": "y"}}}}
+
+
+def lattice(names: list[str]) -> dict:
+    """``--scene lattice``: a planar lattice cantilever of 25 bays (100 tubes of 1 element, each its own
+    section whose EA is the parameter ``F<i>``: a lattice's member sections), a tip load growing in time,
+    40 steps."""
+    bays, nodes, members = 25, {}, {}
+    for i in range(bays + 1):
+        nodes[f"b{i}"], nodes[f"t{i}"] = [0.2 * i, 0.0, 0.0], [0.2 * i, 0.2, 0.0]
+    for i in range(bays):
+        for name, (a, b) in (("bottom", (f"b{i}", f"b{i + 1}")), ("top", (f"t{i}", f"t{i + 1}")),
+                             ("diagonal", (f"b{i}", f"t{i + 1}")), ("vertical", (f"b{i + 1}", f"t{i + 1}"))):
+            members[f"{name}{i}"] = (a, b)
+    solve = {"analysis": "transient", "dt": 0.002, "t_end": 0.08, **({"sensitivities": names} if names else {})}
+    return {"parameters": {f"F{i}": 2.0e6 for i in range(len(members))},
+            "sections": {m: {"EA": f"F{i}", "EIy": 40.0, "EIz": 40.0, "GJ": 30.0, "rhoA": 0.8, "rhoIy": 1e-4,
+                             "rhoIz": 1e-4} for i, m in enumerate(members)},
+            "bodies": {n: ({"at": at, "fixed": True} if n in ("b0", "t0") else {"at": at, "mass": 0.05})
+                       for n, at in nodes.items()},
+            "beams": {m: {"from": a, "to": b, "section": m, "elements": 1} for m, (a, b) in members.items()},
+            "loads": [{"at": f"b{bays}", "force": [0, "-400*t", 0]}], "solve": solve,
+            "output": {"every": 0.01, "probes": {"tip_y": {"point": f"b{bays}", "quantity": "displacement",
+                                                           "component": "y"}}}}
 
 
 def run(loaded, per_step: bool) -> float:
@@ -53,9 +76,13 @@ def run(loaded, per_step: bool) -> float:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--scene", choices=("cantilever", "lattice"), default="cantilever",
+                        help="the cantilever with 100 load parameters, or the lattice with 100 section parameters")
     args = parser.parse_args()
-    cases = {"0 (loop in C)": (0, False), "0 (per step)": (0, True), "1": (1, False), "10": (10, False)}
-    loaded = {name: latdyn.load_scene(scene([f"F{i}" for i in range(k)])) for name, (k, _) in cases.items()}
+    make = scene if args.scene == "cantilever" else lattice
+    cases = {"0 (loop in C)": (0, False), "0 (per step)": (0, True), "1": (1, False), "10": (10, False),
+             "100": (100, False)}
+    loaded = {name: latdyn.load_scene(make([f"F{i}" for i in range(k)])) for name, (k, _) in cases.items()}
     for name, (_, per_step) in cases.items():
         run(loaded[name], per_step)   # compile the kernels and laws once
     times: dict[str, list[float]] = {name: [] for name in cases}

@@ -42,7 +42,8 @@ load and displacement control and transient runs of an implicit method at fixed 
 events, cables, guides, controllers and inputs (:func:`_transient_refusal`); a parameter used anywhere but in load components, hinge stiffness, damping,
 torque and rest angle, section values of shear-rigid sections (formulation default) and body
 masses, centres of mass and inertias; probes other than point positions and displacements in the global frame
-and hinge angles; rigid links; hinges with limits or ``lock_at`` (events). Under gravity the static
+and hinge angles; rigid links; in static paths hinges with limits or ``lock_at`` (events; transient runs
+differentiate latches and rigid stops: latdyn/analyses/transient_sensitivities.py). Under gravity the static
 Newton matrix K − λ ∂Q/∂q holds the beams' gravity tangent (the generated ``beam_gravity_D_q``), so
 beams with mass are differentiated exactly there too. docs/parameters.md.
 """
@@ -97,8 +98,8 @@ def refusal(scene) -> SceneError | None:
     if any(beam.rigid for beam in scene.beams.values()):
         return refuse("sensitivities of scenes with rigid links are not computed yet")
     for beam, which, hinge in scene.hinges:
-        if hinge.limits is not None or hinge.lock_at is not None:
-            return refuse(f"sensitivities through hinge events (limits, lock_at of {beam}.{which}) are not "
+        if solve.analysis != "transient" and (hinge.limits is not None or hinge.lock_at is not None):
+            return refuse(f"static sensitivities through hinge events (limits, lock_at of {beam}.{which}) are not "
                           "computed yet")
     for name in names:
         for used in scene.parameters.depending_on(name):
@@ -145,6 +146,16 @@ def _transient_refusal(scene) -> str | None:
         if hinge.contact is not None or hinge.friction is not None:
             return (f"sensitivities through compliant stops and friction ({beam}.{which}: sticking and the "
                     "stops' contact are events) are not computed yet")
+    events = [f"{beam}.{which}" for beam, which, hinge in scene.hinges
+              if hinge.lock_at is not None or hinge.limits is not None]
+    if events:
+        from latdyn.analyses.transient_sensitivities import depends_on_time
+
+        if depends_on_time(scene):
+            return (f"sensitivities through the events of {events[0]} (lock_at, limits) with a load, hinge law or "
+                    "motion that depends on t are not computed yet: an event moves the ends of the steps after it "
+                    "in time, and the time derivative of the equations is not differentiated; expected laws "
+                    "constant in time (docs/parameters.md, \"Sensitivities through events\")")
     return None
 
 
@@ -195,7 +206,7 @@ class ParameterDerivatives:
         total = np.zeros((model.n_total + 1, k))
         load_values: dict[tuple[int, int], np.ndarray] = {}   # (load, column) -> λ ∂(its six values)/∂p
         for key, laws in self.derivatives.items():
-            load, hinge = _LOAD_KEY.match(key), _HINGE_KEY.match(key)
+            load, hinge = self._key_kinds(key)
             for column, law in laws.items():
                 if load:
                     slot = int(load["axis"]) + (3 if load["kind"] == "moment" else 0)
@@ -206,9 +217,10 @@ class ParameterDerivatives:
                     total[model.hinge_dofs[j], column] += self._hinge_force(state, j, hinge["law"], law, load_factor)
         self._section_forces(state, total, load_factor, inertia)
         self._body_forces(state, total, load_factor, inertia)
-        for (index, column), values in load_values.items():   # the kernel is linear in the values
-            node, force = self._load_force(state, index, values)
-            total[model.node_dofs[node], column] += force
+        if load_values:   # the kernel is linear in the values: one call for every (load, column)
+            pairs = list(load_values)
+            nodes, forces = self._load_forces(state, [index for index, _ in pairs], np.array(list(load_values.values())))
+            np.add.at(total, (model.node_dofs[nodes], np.array([column for _, column in pairs])[:, None]), forces)
         return total[:model.n_dofs]
 
     def _section_forces(self, state, total: np.ndarray, load_factor: float, inertia: bool = False) -> None:
@@ -220,17 +232,14 @@ class ParameterDerivatives:
         ``beam_quadratic_velocity``, linear in ρA, ρIy, ρIz), as evaluate.c sums them."""
         model = self.model
         gravity = load_factor * np.asarray(self.assembler.gravity, float)
-        geometry = rates = accelerations = None
+        chosen, columns, blocks = [], [], []   # every (parameter's use, column): its elements and section rows
         for key, laws in self.derivatives.items():
             section = _SECTION_KEY.match(key)
             if not section:
                 continue
-            elements = np.array([e for e, beam in enumerate(model.element_beam)
-                                 if self.scene.beams[beam].section.name == section["section"]], dtype=np.int64)
+            elements = self._section_elements(section["section"])
             if len(elements) == 0:
                 continue
-            if geometry is None:
-                geometry, rates, accelerations = self.assembler.native().element_inputs(state)
             for column, law in laws.items():
                 rows = np.zeros((len(elements), model.element_sections.shape[1]))
                 rows[:, 0] = model.element_sections[elements, 0]                       # L0
@@ -239,17 +248,34 @@ class ParameterDerivatives:
                     quarter = np.abs(np.sin(model.section_turns[elements])) > 0.5
                     for a, b in ((2, 3), (6, 7)):
                         rows[quarter, a], rows[quarter, b] = rows[quarter, b].copy(), rows[quarter, a].copy()
-                at = np.ascontiguousarray(geometry[elements])
-                forces = np.asarray(self.kernels.beam_internal_force(at, rows)[0]).reshape(len(elements), 14)
-                if np.any(gravity):   # evaluate.c: the static residual F − λ gravity load
-                    rows_g = np.repeat(gravity[None], len(elements), axis=0)
-                    forces = forces - np.asarray(self.kernels.beam_gravity(at, rows, rows_g)[0]).reshape(len(elements), 14)
-                if inertia:   # evaluate.c: F + M a + g − gravity
-                    rate = np.ascontiguousarray(rates[elements])
-                    mass = np.asarray(self.kernels.beam_mass_matrix(at, rows)[0]).reshape(len(elements), 14, 14)
-                    forces = forces + np.einsum("epq,eq->ep", mass, accelerations[elements]) \
-                        + np.asarray(self.kernels.beam_quadratic_velocity(at, rate, rows)[0]).reshape(len(elements), 14)
-                np.add.at(total[:, column], model.element_dofs[elements], forces)
+                chosen.append(elements)
+                columns.append(np.full(len(elements), column))
+                blocks.append(rows)
+        if not chosen:
+            return
+        # the kernels once for all of them (each row its element's geometry and a section derivative)
+        elements, column, rows = np.concatenate(chosen), np.concatenate(columns), np.ascontiguousarray(np.vstack(blocks))
+        geometry, rates, accelerations = self.assembler.native().element_inputs(state)
+        at = np.ascontiguousarray(geometry[elements])
+        m = len(elements)
+        forces = np.asarray(self.kernels.beam_internal_force(at, rows)[0]).reshape(m, 14)
+        if np.any(gravity):   # evaluate.c: the static residual F − λ gravity load
+            rows_g = np.repeat(gravity[None], m, axis=0)
+            forces = forces - np.asarray(self.kernels.beam_gravity(at, rows, rows_g)[0]).reshape(m, 14)
+        if inertia:   # evaluate.c: F + M a + g − gravity
+            rate = np.ascontiguousarray(rates[elements])
+            mass = np.asarray(self.kernels.beam_mass_matrix(at, rows)[0]).reshape(m, 14, 14)
+            forces = forces + np.einsum("epq,eq->ep", mass, accelerations[elements]) \
+                + np.asarray(self.kernels.beam_quadratic_velocity(at, rate, rows)[0]).reshape(m, 14)
+        np.add.at(total, (model.element_dofs[elements], column[:, None]), forces)
+
+    def _section_elements(self, name: str) -> np.ndarray:
+        """The elements of the beams of section ``name`` (found once)."""
+        cache = self.__dict__.setdefault("_elements_of_section", {})
+        if name not in cache:
+            cache[name] = np.array([e for e, beam in enumerate(self.model.element_beam)
+                                    if self.scene.beams[beam].section.name == name], dtype=np.int64)
+        return cache[name]
 
     def _body_forces(self, state, total: np.ndarray, load_factor: float, inertia: bool = False) -> None:
         """Add ∂(joint body force)/∂p into ``total`` for body masses, centres of mass and inertias that
@@ -299,15 +325,26 @@ class ParameterDerivatives:
                     force = 0.5 * (ahead - force_of(block))
                 total[model.node_dofs[node], column] += force
 
-    def _load_force(self, state, index: int, values: np.ndarray):
-        """(node, the generalized force of load ``index`` with these values): the point_load kernel."""
-        model, load = self.model, self.scene.loads[index]
-        node, offset = model.point(load.at)
-        frame = state.T[model.body_node[load.frame]] if load.frame != "global" else np.eye(3)
-        row = lambda a: np.ascontiguousarray(np.reshape(a, (1, -1)), dtype=float)  # noqa: E731
-        velocity = np.concatenate([state.v[node], state.w[node]])
-        force = self.kernels.point_load(row(state.T[node]), row(offset), row(values), row(frame), row(velocity))[0]
-        return node, np.asarray(force).reshape(6)
+    def _key_kinds(self, key: str):
+        """(the load key's match, the hinge key's match) of a parameter's use, matched once."""
+        cache = self.__dict__.setdefault("_kinds", {})
+        if key not in cache:
+            cache[key] = (_LOAD_KEY.match(key), _HINGE_KEY.match(key))
+        return cache[key]
+
+    def _load_forces(self, state, indices: list, values: np.ndarray):
+        """(nodes (m,), generalized forces (m, 6)) of loads ``indices`` with these values (m, 6): one call of
+        the point_load kernel for them all."""
+        model = self.model
+        points = [model.point(self.scene.loads[index].at) for index in indices]
+        nodes = np.array([node for node, _ in points], dtype=int)
+        frames = np.array([state.T[model.body_node[self.scene.loads[index].frame]]
+                           if self.scene.loads[index].frame != "global" else np.eye(3) for index in indices])
+        rows = lambda a: np.ascontiguousarray(np.reshape(a, (len(indices), -1)), dtype=float)  # noqa: E731
+        velocity = np.concatenate([state.v[nodes], state.w[nodes]], axis=1)
+        force = self.kernels.point_load(rows(state.T[nodes]), rows([offset for _, offset in points]), rows(values),
+                                        rows(frames), rows(velocity))[0]
+        return nodes, np.asarray(force).reshape(len(indices), 6)
 
     def _hinge_force(self, state, j: int, which: str, law, load_factor: float) -> float:
         """∂f/∂p of hinge ``j`` through its ``which`` law (the hinge_force kernel, linear in the laws;

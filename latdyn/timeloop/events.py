@@ -170,18 +170,9 @@ def stop_crossings(model: Model, old: State, new: State) -> list[tuple[int, int,
     return out
 
 
-def hinge_stops(prepared: Prepared, integrator, new: State, old: State | None = None,
-                log: list | None = None) -> tuple[float, bool] | None:
-    """Impacts on hinge stops at the end of an accepted step from ``old`` (see above): the energy
-    they removed (:func:`hinge_events`) and whether every joint that met its stop rests there (started
-    the step on it), or None when no hinge hit a stop.
-
-    A hinge that started the step on its stop and ends it on or beyond it again rests on the stop:
-    it takes restitution 0 there. Its bounce, if any, was shorter than the step: the Zeno limit of
-    a stop with restitution resting on it (bounces ever shorter, at ever closer instants) is rest,
-    which is where the sequence ends; the step keeps no bounce of e·(the rate gained in one step)
-    that would show a rate at rest and re-trigger the stop at every step."""
-    model, assembler = prepared.model, prepared.assembler
+def stop_hits(model: Model, new: State, old: State | None = None) -> tuple[list, list, list, list]:
+    """The free hinges on or beyond a rigid stop at ``new`` and moving into it: (hinges, their stops, the
+    restitution each takes, whether each rests there: started the step from ``old`` on it, restitution 0)."""
     hits, stops, restitution, rests = [], [], [], []
     for k in model.free_hinges:
         limits = model.hinges[k].limits
@@ -194,8 +185,38 @@ def hinge_stops(prepared: Prepared, integrator, new: State, old: State | None = 
                 stops.append(stop)
                 restitution.append(0.0 if resting else model.hinges[k].restitution)
                 rests.append(resting)
-                if log is not None and not resting:  # an impact; a hinge resting on its stop is no new event
-                    log.append((model.hinges[k].name, "stop"))
+    return hits, stops, restitution, rests
+
+
+def first_crossing(model: Model, old: State, new: State) -> tuple[int, float] | None:
+    """(hinge, the lock_at or stop it crosses or reached) of the first hinge event over the step old → new
+    (the earliest crossing; else a hinge that reached its lock_at), or None: what a landing aims at."""
+    reached, crossing = lock_events(model, old, new)
+    found = [(f, k, model.hinges[k].lock_at) for k, f in crossing]
+    found += [(f, k, model.hinges[k].limits[0 if side < 0 else 1]) for k, side, f in stop_crossings(model, old, new)]
+    if found:
+        _, k, at = min(found)
+        return int(k), float(at)
+    if reached:
+        return int(reached[0]), float(model.hinges[reached[0]].lock_at)
+    return None
+
+
+def hinge_stops(prepared: Prepared, integrator, new: State, old: State | None = None,
+                log: list | None = None) -> tuple[float, bool] | None:
+    """Impacts on hinge stops at the end of an accepted step from ``old`` (see above): the energy
+    they removed (:func:`hinge_events`) and whether every joint that met its stop rests there (started
+    the step on it), or None when no hinge hit a stop.
+
+    A hinge that started the step on its stop and ends it on or beyond it again rests on the stop:
+    it takes restitution 0 there. Its bounce, if any, was shorter than the step: the Zeno limit of
+    a stop with restitution resting on it (bounces ever shorter, at ever closer instants) is rest,
+    which is where the sequence ends; the step keeps no bounce of e·(the rate gained in one step)
+    that would show a rate at rest and re-trigger the stop at every step."""
+    model, assembler = prepared.model, prepared.assembler
+    hits, stops, restitution, rests = stop_hits(model, new, old)
+    if log is not None:  # the impacts; a hinge resting on its stop is no new event
+        log.extend((model.hinges[k].name, "stop") for k, resting in zip(hits, rests) if not resting)
     if not hits:
         return None
     before = kinetic_energy(assembler, new)

@@ -413,6 +413,8 @@ class TimeLoop:
         than dt_min, nor than CABLE_LANDING · dt for a cable's change; the last shorter step that
         converged)."""
         progress = self.progress
+        if self.sensitivities is not None:  # their derivative is that of a step landing exactly on the event
+            return Attempt(*self.sensitivities.land(self._step, progress.state, attempt))
         new, stats, h, lands = attempt
         old = progress.state
         # a cable's change alone (no hinge event in the step): the secant on the bracket [short, past]
@@ -450,6 +452,9 @@ class TimeLoop:
         new, h = attempt.new, attempt.h
         integrator.accept()
         theta_end = new.theta.copy()  # the step's own end, before an event puts a hinge on its stop
+        if self.sensitivities is not None:  # the step differentiated, with its events' jumps (before they renumber)
+            carried = self.sensitivities.step(progress.sensitivities, progress.state, new, h,
+                                              progress.algorithmic_acceleration, integrator.a, attempt.lands)
         events = hinge_events(self.prepared, integrator, progress.state, new, h)
         if events.log:
             progress.events = progress.events + [{"joint": joint, "kind": kind, "t": float(new.t)}
@@ -486,9 +491,8 @@ class TimeLoop:
             progress.power = load_power(model, new, after)
         self._torques_from(after)
         progress.dissipated = self.probes.dissipated = dissipated + events.loss
-        if self.sensitivities is not None:   # the step differentiated (no events: refused, solve.sensitivities)
-            progress.sensitivities = self.sensitivities.step(progress.sensitivities, progress.state, new, h,
-                                                             progress.algorithmic_acceleration, integrator.a)
+        if self.sensitivities is not None:   # after the events: their renumbering and restarted accelerations
+            progress.sensitivities = self.sensitivities.after_events(carried, new)
         progress.state = new
         progress.algorithmic_acceleration = integrator.a
         progress.locked, progress.stuck = model.locked.copy(), model.stuck.copy()
@@ -496,7 +500,11 @@ class TimeLoop:
         if attempt.lands:
             progress.grid_index += 1
         self._after_accepted(new)
-        self.control.after_accepted(progress, integrator, h, events.any, events.stopped)
+        # with sensitivities an event, and a step onto the grid, restart at the nominal step as a stop does:
+        # the step after an event lands on the grid and the next ones are nominal, their sizes smooth in the
+        # parameters (latdyn/analyses/transient_sensitivities.py)
+        restarted = events.stopped or (self.sensitivities is not None and (events.any or attempt.lands))
+        self.control.after_accepted(progress, integrator, h, events.any, restarted)
         if tension_jumped:  # the steps after a damped cable's jump of tension grow from TAUT_JUMP_STEP · dt
             progress.h = min(progress.h, TAUT_JUMP_STEP * self.control.dt)
         self._keep_accepted()
