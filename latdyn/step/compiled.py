@@ -500,7 +500,8 @@ class StaticNewton:
         return native
 
     def iteration(self, state, load_factor: float, reference: bool = True) -> StaticIteration:
-        """r, q_ref, δq_r, δq_λ at ``state`` and λ (one evaluation at λ with K, one at λ + 1 for q_ref)."""
+        """r, q_ref, δq_r, δq_λ at ``state`` and λ (one evaluation at λ with K, one at λ + 1 for q_ref);
+        the dependent nodes of rigid links in ``state`` are completed first, in place."""
         native = self._setup()
         n = self.assembler.model.n_dofs
         control = self.control
@@ -509,6 +510,7 @@ class StaticNewton:
         status = self._library.latdyn_static_iteration(native.model_ref, native.work_ref, ctypes.byref(control),
                                                        ctypes.byref(native.configuration(state)),
                                                        self._out.ctypes.data)
+        native._written_back(state)  # the dependent nodes of rigid links completed (the same values)
         out = self._out
         residual, q_ref = out[:n].copy(), (out[n:2 * n].copy() if reference else None)
         if status == 1 and self.factorization.kind == "sparse":
@@ -518,7 +520,7 @@ class StaticNewton:
         return StaticIteration(residual, q_ref, out[2 * n:3 * n].copy(),
                                out[3 * n:4 * n].copy() if reference else None, float(control.size))
 
-    def _pivoted(self, state, load_factor, residual, q_ref) -> StaticIteration:
+    def _pivoted(self, state, load_factor: float, residual, q_ref) -> StaticIteration:
         """An iteration whose sparse LU failed on its static pivots, solved by :class:`Factorization`."""
         from latdyn.assembly.factorization import solve_linear
 
@@ -550,25 +552,24 @@ class StaticNewton:
         native._written_back(trial)
         residual = self._out[:n].copy()
         if status == 1 and self.factorization.kind == "sparse":
-            return self._newton_pivoted(trial, load_factor, int(control.iterations))
+            return self.newton_from_python(trial, load_factor, int(control.iterations))
         return trial, residual, int(control.iterations), bool(control.converged) and not status
 
-    def _newton_pivoted(self, trial, load_factor: float, done: int):
-        """:meth:`newton` on from ``trial`` where the sparse LU's static pivots failed: iterations of
-        :meth:`_pivoted`, the same update and test."""
+    def newton_from_python(self, trial, load_factor: float, done: int = 0):
+        """:meth:`newton` on from ``trial`` after ``done`` iterations, one :meth:`iteration` a call (the
+        same update and test; where the sparse LU's static pivots failed, :meth:`_pivoted` solves)."""
         residual = None
         for iteration in range(done + 1, int(self.control.max_iterations) + 1):
-            step = self._pivoted(trial, load_factor, self._evaluate_residual(trial, load_factor), None)
+            step = self.iteration(trial, load_factor, reference=False)
             residual = step.residual
+            if self.assembler.model.n_dofs == 0:
+                return trial, residual, iteration - 1, True
             if step.dq_r is None:
                 return trial, residual, iteration - 1, False
             trial = self.assembler.advance(trial, step.dq_r)
             if step.size <= self.control.tol:
                 return trial, residual, iteration, True
         return trial, residual, int(self.control.max_iterations), False
-
-    def _evaluate_residual(self, state, load_factor: float) -> np.ndarray:
-        return self.assembler.evaluate(state, matrices=False, load_factor=load_factor, inertia=False).residual
 
     def increment_size(self, dx: np.ndarray) -> float:
         """The time step's convergence measure of an increment (``latdyn_increment_size``)."""

@@ -461,11 +461,12 @@ typedef struct {
     double size;               /* increment_size of the last Newton increment K⁻¹(−r) */
 } StaticControl;
 
-/* One static iteration at c (dependent nodes of rigid links completed): into out (6 n_dofs doubles)
+/* One static iteration at c (its dependent nodes of rigid links completed first, in place: the reduction
+ * takes the links' Jacobian from that completion): into out (6 n_dofs doubles)
  * r, then with s->reference q_ref, then δq_r = −K⁻¹ r and δq_λ = K⁻¹ q_ref (Batoz & Dhatt 1979), the
  * last 2 n_dofs scratch; w->total and the matrix blocks hold the evaluation at λ (reduced with rigid
  * links), the matrix storage the factors of K. s->size is increment_size(δq_r). Returns s->status. */
-int64_t latdyn_static_iteration(const Model *m, Work *w, StaticControl *s, const Configuration *c, double *out)
+int64_t latdyn_static_iteration(const Model *m, Work *w, StaticControl *s, Configuration *c, double *out)
 {
     const int64_t n = m->n_dofs;
     const int64_t *permutation = m->factorization->permutation;
@@ -473,6 +474,7 @@ int64_t latdyn_static_iteration(const Model *m, Work *w, StaticControl *s, const
     const int64_t n_rhs = s->reference ? 2 : 1;
     m->time_laws(0.0, w->laws);
     s->status = 0;
+    if (m->links) complete_links(m, c);
     if (s->reference) { /* r(q, λ + 1) first: the evaluation left in w is that at λ */
         evaluate(m, c, w, w->laws, 0.0, 0, 0, s->load_factor + 1.0);
         if (m->links) reduce_links(m, w, c, 0.0, 0.0, 0, 0);
@@ -516,7 +518,7 @@ int64_t latdyn_static_newton(const Model *m, Work *w, StaticControl *s, Configur
             return 0;
         }
         latdyn_advance_free(m, c, out + 2 * n);
-        if (m->links) complete_links(m, c);
+        if (m->links) complete_links(m, c);  /* the state handed back complete */
         s->iterations = iteration;
         if (s->size <= s->tol) {
             s->converged = 1;
