@@ -39,8 +39,18 @@ and differs only in the equation that fixes δλ (``solve.method``, SCENE.md):
   of the path's W-norm motion) has fallen below :data:`TURNING_RATE` of its largest, says that c
   turns back there and that arc length follows the path (exit 1).
 
-Along every path the number of negative eigenvalues of the symmetric part of K is counted at
-each converged point (models up to :data:`PIVOT_COUNT_LIMIT` coordinates).  λ changing direction
+The Newton iterations of all three are the static mode of the native Newton iteration
+(:class:`latdyn.step.compiled.StaticNewton`, ``csrc/newton_step.c``): the evaluation at (q, λ) and at
+λ + 1 for q_ref, K scattered into the time step's matrix storage (rigid links reduced as the step
+reduces them), the step's LU solving both right-hand sides [−r, q_ref] with one factorization, and
+the step's convergence test, increment_size(Δq) ≤ tol on the iteration's increment. Load control
+runs its whole Newton at a fixed λ in one call into C; arc length and displacement control call one
+iteration at a time and do their bordered update (a scalar equation for δλ) in Python, where it
+costs a few dot products.
+
+Along every path the number of negative eigenvalues of the symmetric part of K (evaluated at the
+converged state) is counted at each converged point (models up to :data:`PIVOT_COUNT_LIMIT`
+coordinates).  λ changing direction
 is a *limit point* (its load factor estimated by the vertex of the parabola λ(s) through the
 three points about the turn); the count changing while λ keeps its direction is a *bifurcation
 point*.  Both go to ``summary.json`` (``limit_points``, ``bifurcation_points``).
