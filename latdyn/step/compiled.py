@@ -103,7 +103,9 @@ def hold_matrix(assembler, native) -> Factorization:
     pattern (dense, band or sparse, as :mod:`latdyn.numerics.linalg` chooses) whose values and pivots
     are Work's ``matrix`` and ``pivots``, with every block entry's position in it. Made once per
     native model (a numbering) and shared by the time step and the static mode (:class:`StaticNewton`),
-    which factorize into the same storage."""
+    which factorize into the same storage: a static solve between two steps of modified Newton would
+    replace the factors the step holds (no analysis does: the static paths, the states that modes and
+    buckling are taken about, come before any time step)."""
     held = getattr(native, "held_factorization", None)
     if held is not None:
         return held
@@ -462,7 +464,7 @@ class _LastEvaluation:
 # ----------------------------------------------------------------------------- the static mode
 @dataclass
 class StaticIteration:
-    """One static iteration at a state (:meth:`StaticNewton.iteration`): r(q, λ), q_ref(q) (zeros
+    """One static iteration at a state (:meth:`StaticNewton.iteration`): r(q, λ), q_ref(q) (None
     unless asked for), δq_r = −K⁻¹r, δq_λ = K⁻¹q_ref; None in their place where K is singular or a
     solution not finite. ``size``: increment_size(δq_r)."""
     residual: np.ndarray
