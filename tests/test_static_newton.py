@@ -89,6 +89,7 @@ def test_the_native_static_iteration_equals_the_evaluation_and_factorization_fro
         assert relative(native.dq_r, dq_r) <= 1e-9
         assert relative(native.dq_lambda, dq_l) <= 1e-9
         assert native.size == increment_size(prepared.model, native.dq_r, path.length_scale)
+        assert relative(path.tangent(state, lam), K) <= 1e-12  # the eigenvalue counts' K, from the dense storage
         assert path.increment_size(dq_r) == increment_size(prepared.model, dq_r, path.length_scale)
 
 

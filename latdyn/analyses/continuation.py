@@ -163,8 +163,9 @@ class Path:
         return self.newton.iteration(state, load_factor)
 
     def tangent(self, state, load_factor: float):
-        """K(q, λ) as a matrix, for the eigenvalue counts at a converged point."""
-        return self.assembler.evaluate(state, matrices=True, load_factor=load_factor, inertia=False).stiffness
+        """K(q, λ) as a matrix, for the eigenvalue counts at a converged point (the static mode's,
+        :meth:`latdyn.step.compiled.StaticNewton.tangent`)."""
+        return self.newton.tangent(state, load_factor)
 
     def increment_size(self, dq) -> float:
         """The time step's convergence measure of a Newton increment (csrc/newton_step.c increment_size)."""

@@ -145,7 +145,7 @@ class StaticControlData(ctypes.Structure):
 
     _fields_ = [("load_factor", ctypes.c_double), ("tol", ctypes.c_double), ("length", ctypes.c_double),
                 ("max_iterations", I64), ("reference", I64), ("iterations", I64), ("converged", I64),
-                ("status", I64), ("size", ctypes.c_double)]
+                ("status", I64), ("size", ctypes.c_double), ("matrix_copy", P)]
 
 
 class AdvanceData(ctypes.Structure):

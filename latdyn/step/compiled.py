@@ -538,6 +538,22 @@ class StaticNewton:
         return StaticIteration(residual, q_ref, dq_r, x[:, 1].copy() if q_ref is not None else None,
                                self.increment_size(dq_r))
 
+    def tangent(self, state, load_factor: float):
+        """K(q, λ) at ``state`` as a matrix: in the dense storage, the matrix the static iteration
+        assembles there (copied before it is factorized); in the band and sparse storages, the
+        evaluation's from Python (:meth:`Assembler.evaluate`)."""
+        native = self._setup()
+        n = self.assembler.model.n_dofs
+        if self.factorization.kind != "dense" or n == 0:
+            return self.assembler.evaluate(state, matrices=True, load_factor=load_factor, inertia=False).stiffness
+        copy = np.empty(self.factorization.size)
+        self.control.matrix_copy = copy.ctypes.data
+        try:
+            self.iteration(state, load_factor, reference=False)
+        finally:
+            self.control.matrix_copy = None
+        return copy.reshape((n, n), order="F")
+
     def newton(self, state, load_factor: float) -> tuple[object, np.ndarray, int, bool]:
         """Newton at the fixed load factor λ from ``state`` in one call (q ← q ∘ exp(δq_r) until
         increment_size(δq_r) ≤ tol): (the state reached, the last residual, iterations, converged)."""

@@ -459,6 +459,9 @@ typedef struct {
     int64_t iterations, converged;
     int64_t status;            /* 0; 1 K singular (the factorization failed); 2 a solution not finite */
     double size;               /* increment_size of the last Newton increment K⁻¹(−r) */
+    /* in: where latdyn_static_iteration copies the matrix storage (factorization->size doubles) before
+     * factorizing it, K as assembled (NULL: not copied) */
+    double *matrix_copy;
 } StaticControl;
 
 /* One static iteration at c (its dependent nodes of rigid links completed first, in place: the reduction
@@ -487,6 +490,7 @@ int64_t latdyn_static_iteration(const Model *m, Work *w, StaticControl *s, Confi
     if (s->reference)
         for (int64_t i = 0; i < n; ++i) q_ref[i] = r[i] - q_ref[i];
     if (n == 0) return 0;
+    if (s->matrix_copy) memcpy(s->matrix_copy, w->matrix, sizeof(double) * (size_t)m->factorization->size);
     if (latdyn_factor(m->factorization, w->matrix, w->pivots) != 0) return s->status = 1;
     for (int64_t i = 0; i < n; ++i) {
         x[permutation[i]] = -r[i];
