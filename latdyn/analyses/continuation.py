@@ -39,8 +39,18 @@ and differs only in the equation that fixes δλ (``solve.method``, SCENE.md):
   of the path's W-norm motion) has fallen below :data:`TURNING_RATE` of its largest, says that c
   turns back there and that arc length follows the path (exit 1).
 
-Along every path the number of negative eigenvalues of the symmetric part of K is counted at
-each converged point (models up to :data:`PIVOT_COUNT_LIMIT` coordinates).  λ changing direction
+The Newton iterations of all three are the static mode of the native Newton iteration
+(:class:`latdyn.step.compiled.StaticNewton`, ``csrc/newton_step.c``): the evaluation at (q, λ) and at
+λ + 1 for q_ref, K scattered into the time step's matrix storage (rigid links reduced as the step
+reduces them), the step's LU solving both right-hand sides [−r, q_ref] with one factorization, and
+the step's convergence test, increment_size(Δq) ≤ tol on the iteration's increment. Load control
+runs its whole Newton at a fixed λ in one call into C; arc length and displacement control call one
+iteration at a time and do their bordered update (a scalar equation for δλ) in Python, where it
+costs a few dot products.
+
+Along every path the number of negative eigenvalues of the symmetric part of K (evaluated at the
+converged state) is counted at each converged point (models up to :data:`PIVOT_COUNT_LIMIT`
+coordinates).  λ changing direction
 is a *limit point* (its load factor estimated by the vertex of the parabola λ(s) through the
 three points about the turn); the count changing while λ keeps its direction is a *bifurcation
 point*.  Both go to ``summary.json`` (``limit_points``, ``bifurcation_points``).
@@ -71,12 +81,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from latdyn.analyses.followers import REAL_TOL, follower_loads
-from latdyn.assembly.factorization import solve_linear
 from latdyn.analyses.mechanism import mechanism_message
 from latdyn.analyses.sensitivities import StaticSensitivities
 from latdyn.errors import SceneError, SolverError
 from latdyn.numerics.linalg import single_thread_blas
-from latdyn.step.integrators import increment_size, newton_diagnosis
+from latdyn.step.compiled import StaticNewton
+from latdyn.step.integrators import newton_diagnosis
 
 #: Most halvings of a load or displacement step (1/1024 of a grid step), of the arc length.
 MAX_CUTS = 10
@@ -123,6 +133,8 @@ class Path:
     sensitivities: object = None
     #: displacement control: the gradient of the controlled displacement, state -> (n_dofs,)
     constraint_gradient: object = None
+    #: the static mode of the native Newton iteration (latdyn.step.compiled.StaticNewton)
+    newton: object = None
 
     def __post_init__(self):
         scene = self.prepared.scene
@@ -134,24 +146,30 @@ class Path:
         translations = model.node_dofs[model.free_nodes, 0:3].ravel()
         self.weight[translations[translations < model.n_dofs]] = 1.0 / self.length_scale ** 2
         self.conservative = not follower_loads(model)
+        self.newton = StaticNewton(self.assembler, self.tol, self.max_iter, self.length_scale)
 
     # ------------------------------------------------------------------ equations
     def evaluate(self, state, load_factor: float):
-        """r(q, λ), K(q, λ) and q_ref(q) = r(q, λ) − r(q, λ + 1) (the residual is affine in λ)."""
+        """r(q, λ), K(q, λ) and q_ref(q) = r(q, λ) − r(q, λ + 1) (the residual is affine in λ) as
+        matrices, for the diagnoses (a mechanism's free directions); Newton takes :meth:`iterate`."""
         ev = self.assembler.evaluate(state, matrices=True, load_factor=load_factor, inertia=False)
         shifted = self.assembler.evaluate(state, matrices=False, load_factor=load_factor + 1.0, inertia=False)
         return ev.residual, ev.stiffness, ev.residual - shifted.residual
 
-    def solve(self, K, *rhs):
-        """K⁻¹ for each right-hand side; None when K is singular or the result not finite."""
-        try:
-            x = solve_linear(K, np.column_stack(rhs))  # one factorization for all of them
-        except np.linalg.LinAlgError:
-            return None
-        out = [x[:, i] for i in range(len(rhs))]
-        if not all(np.all(np.isfinite(x)) for x in out):
-            return None
-        return out
+    def iterate(self, state, load_factor: float):
+        """One iteration of the native static Newton at (state, λ): r, q_ref, δq_r = −K⁻¹r and
+        δq_λ = K⁻¹q_ref from one factorization (:class:`latdyn.step.compiled.StaticIteration`;
+        δq_r None where K is singular or a solution not finite)."""
+        return self.newton.iteration(state, load_factor)
+
+    def tangent(self, state, load_factor: float):
+        """K(q, λ) as a matrix, for the eigenvalue counts at a converged point (the static mode's,
+        :meth:`latdyn.step.compiled.StaticNewton.tangent`)."""
+        return self.newton.tangent(state, load_factor)
+
+    def increment_size(self, dq) -> float:
+        """The time step's convergence measure of a Newton increment (csrc/newton_step.c increment_size)."""
+        return self.newton.increment_size(dq)
 
     def norm(self, dq) -> float:
         """‖Δq‖_W (translations over ℓ, rotations and hinge angles in radians)."""
@@ -162,11 +180,16 @@ class Path:
         self.assembler.apply_prescribed(new, 0.0)
         return new
 
-    def point(self, step: int, load_factor: float, arc: float, K) -> PathPoint:
-        """The path point with the eigenvalue counts of K (:meth:`negative_eigenvalues`)."""
+    def point(self, step: int, load_factor: float, arc: float, tangent) -> PathPoint:
+        """The path point with the eigenvalue counts of K (:meth:`negative_eigenvalues`); ``tangent()``
+        makes K, called only where the model is small enough for the counts."""
+        n = self.model.n_dofs
+        limit = PIVOT_COUNT_LIMIT if self.conservative else NONSYMMETRIC_COUNT_LIMIT
+        K = tangent() if 0 < n <= limit else np.zeros((n, n)) if n == 0 else None
         if self.conservative:
-            return PathPoint(step, float(load_factor), float(arc), self.negative_eigenvalues(K))
-        return PathPoint(step, float(load_factor), float(arc), *self.negative_real_eigenvalues(K))
+            return PathPoint(step, float(load_factor), float(arc), None if K is None else self.negative_eigenvalues(K))
+        return PathPoint(step, float(load_factor), float(arc),
+                         *((None, None) if K is None else self.negative_real_eigenvalues(K)))
 
     def negative_real_eigenvalues(self, K) -> tuple[int | None, int | None]:
         """Under follower loads: the real negative eigenvalues of K and all its eigenvalues with a
@@ -205,9 +228,10 @@ class Path:
             self.sensitivities.record(state, load_factor, self.constraint_gradient)
         self.recorded_at, self.recorded = load_factor, state
 
-    def accept(self, state, load_factor: float, K, arc: float) -> None:
+    def accept(self, state, load_factor: float, arc: float) -> None:
+        """A converged point of the path, its eigenvalues counted on K at the converged state."""
         self.steps += 1
-        self.points.append(self.point(self.steps, load_factor, arc, K))
+        self.points.append(self.point(self.steps, load_factor, arc, lambda: self.tangent(state, load_factor)))
         self.summarize()
 
     def summarize(self) -> None:
@@ -282,7 +306,7 @@ def load_control(path: Path, state) -> object:
     while k < steps:
         grid = (k + 1) / steps
         target = grid if lam + h >= grid - 1e-12 / steps else lam + h
-        trial, K, residual, converged = newton_fixed(path, state, target)
+        trial, _, residual, converged = newton_fixed(path, state, target)
         if not converged:
             path.rejected += 1
             h = min(h, target - lam) / 2
@@ -294,7 +318,7 @@ def load_control(path: Path, state) -> object:
                           residual, target, target - lam)
             continue
         state, lam = trial, target
-        path.accept(state, lam, K, lam)
+        path.accept(state, lam, lam)
         h = min(2 * h, 1.0 / steps)
         if target == grid:
             k += 1
@@ -303,21 +327,14 @@ def load_control(path: Path, state) -> object:
 
 
 def newton_fixed(path: Path, state, load_factor: float):
-    """Newton at a fixed load factor from ``state``: (state, K, residual, converged)."""
-    model, trial, K, residual = path.model, state, None, None
-    for _ in range(path.max_iter):
-        ev = path.assembler.evaluate(trial, matrices=True, load_factor=load_factor, inertia=False)
-        residual, K = ev.residual, ev.stiffness
-        if model.n_dofs == 0:
-            return trial, K, residual, True
-        solved = path.solve(K, -residual)
-        if solved is None:
-            return trial, K, residual, False
-        trial = path.step_to(trial, solved[0])
-        path.iterations += 1
-        if increment_size(model, solved[0], path.length_scale) <= path.tol:
-            return trial, K, residual, True
-    return trial, K, residual, False
+    """Newton at a fixed load factor from ``state``, in one call into the native static Newton
+    (:meth:`latdyn.step.compiled.StaticNewton.newton`): (state, None, residual, converged), the
+    residual that of the last evaluation (the tangent is :meth:`Path.tangent`'s where it is needed)."""
+    start = state.copy()
+    path.assembler.apply_prescribed(start, 0.0)
+    trial, residual, iterations, converged = path.newton.newton(start, load_factor)
+    path.iterations += iterations
+    return trial, None, residual, converged
 
 
 # ====================================================================== arc length
@@ -328,26 +345,27 @@ def arc_length(path: Path, state) -> object:
     model = path.model
     if model.n_dofs == 0:
         return load_control(path, state)
-    r, K, q = path.evaluate(state, 0.0)
-    solved = path.solve(K, q)
-    if solved is None or path.norm(solved[0]) == 0.0:
+    start = path.iterate(state, 0.0)
+    if start.dq_lambda is None or path.norm(start.dq_lambda) == 0.0:
         free = mechanism_message(path, state, 0.0)
         if free is not None:
             raise SolverError(free)
         raise SolverError("arc-length continuation cannot start: the tangent at load factor 0 is singular "
-                          "or the loads move nothing", newton_diagnosis(model, r, 0.0, 0.0, variable="load factor"))
-    ds0 = path.norm(solved[0]) / solve.steps  # the first step: Δλ = 1/steps
+                          "or the loads move nothing",
+                          newton_diagnosis(model, start.residual, 0.0, 0.0, variable="load factor"))
+    tangent = start.dq_lambda
+    ds0 = path.norm(tangent) / solve.steps  # the first step: Δλ = 1/steps
     ds, lam, arc = ds0, 0.0, 0.0
-    previous = solved[0] / path.norm(solved[0])  # direction of the last step, W-unit
+    previous = tangent / path.norm(tangent)  # direction of the last step, W-unit
     while path.steps < max_steps:
         result = arc_length_step(path, state, lam, ds, previous)
         if result is not None and (lam - 1.0) * (result[1] - 1.0) <= 0.0 and lam != 1.0:
             # λ = 1 inside the step: its end solved at λ = 1 exactly
-            landed, K_end, _, converged = newton_fixed(path, result[0], 1.0)
-            result = (landed, 1.0, result[2], K_end, result[4]) if converged else None
+            landed, _, _, converged = newton_fixed(path, result[0], 1.0)
+            result = (landed, 1.0, result[2], result[3]) if converged else None
             if result is not None:
-                new, new_lam, step_dq, K_end, n = result
-                path.accept(new, new_lam, K_end, arc + ds)
+                new, new_lam, step_dq, n = result
+                path.accept(new, new_lam, arc + ds)
                 path.record(new, new_lam)
                 return new
         if result is None:
@@ -358,11 +376,11 @@ def arc_length(path: Path, state) -> object:
                                       f"Newton failed with arc lengths down to {ds0 / 2 ** MAX_CUTS:.3g} "
                                       f"(1/{2 ** MAX_CUTS} of the first step)", None, lam, ds)
             continue
-        new, new_lam, step_dq, K_end, n = result
+        new, new_lam, step_dq, n = result
         arc += path.norm(step_dq)
         state, lam = new, new_lam
         previous = step_dq / max(path.norm(step_dq), 1e-300)
-        path.accept(state, lam, K_end, arc)
+        path.accept(state, lam, arc)
         path.record(state, lam)
         ds = min(ds0, ds * min(2.0, math.sqrt(TARGET_ITERATIONS / max(n, 1))))
     message = (f"arc-length continuation stopped after max_steps = {max_steps} path steps at load factor "
@@ -374,13 +392,11 @@ def arc_length(path: Path, state) -> object:
 
 
 def arc_length_step(path: Path, state, lam: float, ds: float, previous):
-    """One step of arc length ``ds`` from (state, λ): (state, λ, Δq, K, iterations) or None."""
+    """One step of arc length ``ds`` from (state, λ): (state, λ, Δq, iterations) or None."""
     W = path.weight
-    r, K, q = path.evaluate(state, lam)
-    solved = path.solve(K, q)
-    if solved is None:
+    tangent = path.iterate(state, lam).dq_lambda
+    if tangent is None:
         return None
-    tangent = solved[0]
     size = path.norm(tangent)
     if size == 0.0:
         return None
@@ -389,11 +405,10 @@ def arc_length_step(path: Path, state, lam: float, ds: float, previous):
     dq = dlam * tangent
     trial, trial_lam = path.step_to(state, dq), lam + dlam
     for n in range(1, path.max_iter + 1):
-        r, K, q = path.evaluate(trial, trial_lam)
-        solved = path.solve(K, -r, q)
-        if solved is None:
+        iteration = path.iterate(trial, trial_lam)
+        if iteration.dq_r is None:
             return None
-        dq_r, dq_l = solved
+        dq_r, dq_l = iteration.dq_r, iteration.dq_lambda
         a = dq + dq_r
         a1 = float(dq_l @ (W * dq_l))           # Crisfield 1981, Eq. 22
         a2 = 2.0 * float(dq_l @ (W * a))
@@ -407,8 +422,8 @@ def arc_length_step(path: Path, state, lam: float, ds: float, previous):
         increment = dq_r + dl * dq_l
         trial, trial_lam, dq = path.step_to(trial, increment), trial_lam + dl, dq + increment
         path.iterations += 1
-        if increment_size(path.model, increment, path.length_scale) <= path.tol:
-            return trial, trial_lam, dq, K, n
+        if path.increment_size(increment) <= path.tol:
+            return trial, trial_lam, dq, n
     return None
 
 
@@ -459,10 +474,10 @@ def displacement_control(path: Path, state) -> object:
                                       f"Newton failed after {MAX_CUTS} cuts; the last converged state, at load "
                                       f"factor {lam:.6g}, is the last row", None, lam, h)
             continue
-        state, lam, K, rate = result
+        state, lam, rate = result
         rates.append(rate)
         reached = fraction
-        path.accept(state, lam, K, fraction)
+        path.accept(state, lam, fraction)
         h = min(2 * h, 1.0 / steps)
         if fraction == grid:
             k += 1
@@ -487,11 +502,10 @@ TURNING_RATE = 0.1
 def turning_back(path: Path, state, lam: float, rates: list, gradient) -> bool:
     """Whether the controlled displacement is about to turn back at ``state``: its rate there
     (:func:`displacement_rate`) below TURNING_RATE of the largest seen along the path."""
-    _, K, q = path.evaluate(state, lam)
-    solved = path.solve(K, q)
-    if solved is None or not rates:
+    tangent = path.iterate(state, lam).dq_lambda
+    if tangent is None or not rates:
         return False
-    rate = displacement_rate(path, float(gradient(state) @ solved[0]), solved[0])
+    rate = displacement_rate(path, float(gradient(state) @ tangent), tangent)
     return rate < TURNING_RATE * max(rates)
 
 
@@ -513,30 +527,28 @@ def displacement_rate(path: Path, slope: float, tangent) -> float:
 
 
 def displacement_step(path: Path, state, lam: float, goal: float, displacement, gradient):
-    """Newton on (q, λ) with c(q) = goal from (state, λ): (state, λ, K, the displacement rate at the
+    """Newton on (q, λ) with c(q) = goal from (state, λ): (state, λ, the displacement rate at the
     start, :func:`displacement_rate`); None where Newton fails;
     LEFT_THE_PATH where it converged far from the tangent's prediction Δq = δλ K⁻¹q_ref (or there
     was none: dc/dλ = 0), onto another branch of the path or across a snap-back of c."""
-    r, K, q = path.evaluate(state, lam)
-    solved = path.solve(K, q)
-    if solved is None:
+    tangent = path.iterate(state, lam).dq_lambda
+    if tangent is None:
         return None
     g = gradient(state)
-    slope = float(g @ solved[0])  # dc/dλ along the tangent
-    rate = displacement_rate(path, slope, solved[0])
+    slope = float(g @ tangent)  # dc/dλ along the tangent
+    rate = displacement_rate(path, slope, tangent)
     trial, trial_lam = state, lam
-    predicted = np.zeros_like(solved[0])  # the tangent's Δq to the goal
+    predicted = np.zeros_like(tangent)  # the tangent's Δq to the goal
     if abs(slope) > 1e-14 * max(1.0, abs(goal)):
         dlam = (goal - displacement(state)) / slope
-        predicted = dlam * solved[0]
+        predicted = dlam * tangent
         trial, trial_lam = path.step_to(state, predicted), lam + dlam
     step = predicted.copy()  # Δq of the step so far (increments summed in the tangent space)
     for _ in range(path.max_iter):
-        r, K, q = path.evaluate(trial, trial_lam)
-        solved = path.solve(K, -r, q)
-        if solved is None:
+        iteration = path.iterate(trial, trial_lam)
+        if iteration.dq_r is None:
             return None
-        dq_r, dq_l = solved
+        dq_r, dq_l = iteration.dq_r, iteration.dq_lambda
         g = gradient(trial)
         denominator = float(g @ dq_l)
         if denominator == 0.0:
@@ -546,10 +558,10 @@ def displacement_step(path: Path, state, lam: float, goal: float, displacement, 
         trial, trial_lam = path.step_to(trial, increment), trial_lam + dl
         step += increment
         path.iterations += 1
-        if increment_size(path.model, increment, path.length_scale) <= path.tol:
+        if path.increment_size(increment) <= path.tol:
             # the converged step far from the tangent's: it left the path (module docstring)
             mismatch = path.norm(step - predicted) / max(path.norm(step), path.norm(predicted), 1e-300)
-            return (trial, trial_lam, K, rate) if mismatch <= BRANCH_MISMATCH else LEFT_THE_PATH
+            return (trial, trial_lam, rate) if mismatch <= BRANCH_MISMATCH else LEFT_THE_PATH
     return None
 
 
@@ -565,9 +577,7 @@ def static_path(prepared, probes, writer, length_scale: float) -> None:
     state.v[:] = state.w[:] = 0.0
     state.theta_dot[:] = 0.0
     path.record(state, 0.0)
-    K = prepared.assembler.evaluate(state, matrices=True, load_factor=0.0, inertia=False).stiffness \
-        if path.model.n_dofs else np.zeros((0, 0))
-    path.points.append(path.point(0, 0.0, 0.0, K))
+    path.points.append(path.point(0, 0.0, 0.0, lambda: path.tangent(state, 0.0)))
     path.summarize()
     # a static path asked for by another analysis (modes about: static, buckling) is load control
     method = prepared.scene.solve.method if prepared.scene.solve.method in METHODS else "load-control"

@@ -141,6 +141,14 @@ class EvaluationData(ctypes.Structure):
                 ("power", ctypes.c_double)]
 
 
+class StaticControlData(ctypes.Structure):
+    """``StaticControl`` of csrc/newton_step.c (the static mode of the Newton iteration)."""
+
+    _fields_ = [("load_factor", ctypes.c_double), ("tol", ctypes.c_double), ("length", ctypes.c_double),
+                ("max_iterations", I64), ("reference", I64), ("iterations", I64), ("converged", I64),
+                ("status", I64), ("size", ctypes.c_double), ("matrix_copy", P)]
+
+
 class AdvanceData(ctypes.Structure):
     _fields_ = [("dt", ctypes.c_double), ("t_end", ctypes.c_double), ("n_grid", I64), ("grid_index", I64),
                 ("stop_index", I64), ("t", ctypes.c_double), ("budget_s", ctypes.c_double),
@@ -244,6 +252,13 @@ def native_library() -> ctypes.CDLL:
                                            ctypes.POINTER(ConfigurationData), ctypes.POINTER(ConfigurationData),
                                            ctypes.POINTER(ConfigurationData), ctypes.POINTER(VectorsData),
                                            ctypes.POINTER(AdvanceData)]
+        static = ctypes.POINTER(StaticControlData)
+        library.latdyn_static_iteration.restype = I64
+        library.latdyn_static_iteration.argtypes = [model, work, static, configuration, P]
+        library.latdyn_static_newton.restype = I64
+        library.latdyn_static_newton.argtypes = [model, work, static, configuration, P]
+        library.latdyn_increment_size.restype = ctypes.c_double
+        library.latdyn_increment_size.argtypes = [model, P, ctypes.c_double]
         _LIBRARY = library
     return _LIBRARY
 

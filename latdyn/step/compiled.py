@@ -57,6 +57,7 @@ Newton iteration.
 from __future__ import annotations
 
 import ctypes
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -65,6 +66,7 @@ from latdyn.assembly.assembler import State
 from latdyn.assembly.factorization import Factorization
 from latdyn.assembly.library import (
     AdvanceData,
+    StaticControlData,
     ConfigurationData,
     ControlData,
     RowsData,
@@ -98,6 +100,55 @@ def matrix_pattern(assembler) -> tuple[np.ndarray, np.ndarray]:
              (np.repeat(before, len(moved)), np.tile(moved, len(before)))]
     keys = np.unique(np.concatenate([r.astype(np.int64) * n + c for r, c in pairs]))
     return keys // n, keys % n
+
+
+def hold_matrix(assembler, native) -> Factorization:
+    """The iteration matrix's storage in the native model: a :class:`Factorization` of the matrix's
+    pattern (dense, band or sparse, as :mod:`latdyn.numerics.linalg` chooses) whose values and pivots
+    are Work's ``matrix`` and ``pivots``, with every block entry's position in it. Made once per
+    native model (a numbering) and shared by the time step and the static mode (:class:`StaticNewton`),
+    which factorize into the same storage: a static solve between two steps of modified Newton would
+    replace the factors the step holds (no analysis does: the static paths, the states that modes and
+    buckling are taken about, come before any time step)."""
+    held = getattr(native, "held_factorization", None)
+    if held is not None:
+        return held
+    a, m = assembler, assembler.model
+    n = m.n_dofs
+    factorization = Factorization(*matrix_pattern(a), n)
+    position = factorization.position
+    keep = [factorization]
+
+    def ints(values):
+        array = np.ascontiguousarray(values, dtype=np.int64)
+        keep.append(array if array.size else np.zeros(1, np.int64))
+        return keep[-1].ctypes.data
+
+    def block_positions(dofs, column_dofs=None):
+        column_dofs = dofs if column_dofs is None else column_dofs
+        rows = np.broadcast_to(dofs[:, :, None], dofs.shape + (column_dofs.shape[1],))
+        cols = np.broadcast_to(column_dofs[:, None, :], dofs.shape + (column_dofs.shape[1],))
+        return position(rows, cols)
+
+    hd = m.hinge_dofs
+    model = native.model
+    model.element_position = ints(block_positions(m.element_dofs))
+    model.body_position = ints(block_positions(m.node_dofs[m.body_nodes].reshape(-1, 6)))
+    model.hinge_position = ints(np.where(hd < n, position(hd, hd), -1))
+    model.load_position = ints(block_positions(m.node_dofs[a._load_nodes].reshape(-1, 6), a._load_columns()))
+    rows, cols = a.control.coupling_rows, a.control.coupling_cols
+    model.coupling_position = ints(block_positions(rows[:, None], cols[:, None])[:, 0, 0] if len(rows)
+                                   else np.zeros(0, np.int64))
+    model.cable_position = ints(block_positions(a.cable_dofs()))
+    model.factorization = ctypes.pointer(factorization.structure)
+    native.set_buffer("matrix", factorization.values)
+    native.set_buffer("rhs", np.zeros(n))
+    native.set_buffer("pivots", factorization.pivots)
+    if m.links is not None:
+        native.hold_links(a, factorization)
+    native.matrix_storage = keep
+    native.held_factorization = factorization
+    return factorization
 
 
 # ----------------------------------------------------------------------------- the step
@@ -162,44 +213,8 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         self._rows = None  # RowBuffers of this numbering (rows), made on the first loop that records rows
 
     def _hold_matrix(self, native) -> None:
-        """The iteration matrix's storage in the native model: a :class:`Factorization` of the
-        matrix's pattern (dense, band or sparse, as :mod:`latdyn.numerics.linalg` chooses) whose
-        values and pivots are Work's ``matrix`` and ``pivots``, with every block entry's position in it."""
-        a, m = self.assembler, self.assembler.model
-        n = m.n_dofs
-        factorization = Factorization(*matrix_pattern(a), n)
-        position = factorization.position
-        keep = [factorization]
-
-        def ints(values):
-            array = np.ascontiguousarray(values, dtype=np.int64)
-            keep.append(array if array.size else np.zeros(1, np.int64))
-            return keep[-1].ctypes.data
-
-        def block_positions(dofs, column_dofs=None):
-            column_dofs = dofs if column_dofs is None else column_dofs
-            rows = np.broadcast_to(dofs[:, :, None], dofs.shape + (column_dofs.shape[1],))
-            cols = np.broadcast_to(column_dofs[:, None, :], dofs.shape + (column_dofs.shape[1],))
-            return position(rows, cols)
-
-        hd = m.hinge_dofs
-        model = native.model
-        model.element_position = ints(block_positions(m.element_dofs))
-        model.body_position = ints(block_positions(m.node_dofs[m.body_nodes].reshape(-1, 6)))
-        model.hinge_position = ints(np.where(hd < n, position(hd, hd), -1))
-        model.load_position = ints(block_positions(m.node_dofs[a._load_nodes].reshape(-1, 6), a._load_columns()))
-        rows, cols = a.control.coupling_rows, a.control.coupling_cols
-        model.coupling_position = ints(block_positions(rows[:, None], cols[:, None])[:, 0, 0] if len(rows)
-                                       else np.zeros(0, np.int64))
-        model.cable_position = ints(block_positions(a.cable_dofs()))
-        model.factorization = ctypes.pointer(factorization.structure)
-        native.set_buffer("matrix", factorization.values)
-        native.set_buffer("rhs", np.zeros(n))
-        native.set_buffer("pivots", factorization.pivots)
-        if m.links is not None:
-            native.hold_links(a, factorization)
-        native.matrix_storage = keep
-        self.factorization = factorization
+        """The iteration matrix's storage in the native model (:func:`hold_matrix`)."""
+        self.factorization = hold_matrix(self.assembler, native)
 
     def _layout(self) -> None:
         """Offsets of a state's arrays in one flat buffer (a new state per step: the loop
@@ -572,3 +587,141 @@ class _LastEvaluation:
         self.hinge_work_torque = buffers["hinge_work_torque"].copy()
         self.hinge_damper_torque = buffers["hinge_damper_torque"].copy()
         self.cable_work = buffers["cable_work"].copy()
+
+
+# ----------------------------------------------------------------------------- the static mode
+@dataclass
+class StaticIteration:
+    """One static iteration at a state (:meth:`StaticNewton.iteration`): r(q, λ), q_ref(q) (None
+    unless asked for), δq_r = −K⁻¹r, δq_λ = K⁻¹q_ref; None in their place where K is singular or a
+    solution not finite. ``size``: increment_size(δq_r)."""
+    residual: np.ndarray
+    reference: np.ndarray | None
+    dq_r: np.ndarray | None
+    dq_lambda: np.ndarray | None
+    size: float
+
+
+class StaticNewton:
+    """The static mode of the native Newton iteration (``latdyn_static_iteration`` and
+    ``latdyn_static_newton`` of csrc/newton_step.c): the static residual r(q, λ) at t = 0 without
+    inertia, K = ∂r/∂q scattered into the time step's matrix storage (:func:`hold_matrix`, β′ = γ′ = 0,
+    rigid links reduced as the step reduces them), factorized and solved by the step's LU, and the
+    step's convergence test (increment_size). latdyn/analyses/continuation.py drives it: load control
+    runs its whole Newton at a fixed load factor in one call, arc length and displacement control one
+    call per iteration (their bordered update is two right-hand sides of the one factorization).
+
+    A sparse LU whose static pivots fail (:class:`~latdyn.assembly.sparse_lu.PivotError`) has no
+    fallback in C: such an iteration is solved from Python by :class:`Factorization` (its pivoted
+    band LU stands in), with the same evaluation."""
+
+    def __init__(self, assembler, tol: float, max_iterations: int, length_scale: float):
+        self.assembler = assembler
+        self.control = StaticControlData(tol=tol, length=length_scale, max_iterations=max_iterations)
+        self._library = native_library()
+        self._setup_for = None
+
+    def _setup(self):
+        native = self.assembler.native()
+        if self._setup_for is not native:
+            self._setup_for = native
+            self.factorization = hold_matrix(self.assembler, native)
+            self._out = np.zeros(6 * max(self.assembler.model.n_dofs, 1))
+        return native
+
+    def iteration(self, state, load_factor: float, reference: bool = True) -> StaticIteration:
+        """r, q_ref, δq_r, δq_λ at ``state`` and λ (one evaluation at λ with K, one at λ + 1 for q_ref);
+        the dependent nodes of rigid links in ``state`` are completed first, in place."""
+        native = self._setup()
+        n = self.assembler.model.n_dofs
+        control = self.control
+        control.load_factor, control.reference = float(load_factor), int(reference)
+        native.laws.bind_inputs()
+        status = self._library.latdyn_static_iteration(native.model_ref, native.work_ref, ctypes.byref(control),
+                                                       ctypes.byref(native.configuration(state)),
+                                                       self._out.ctypes.data)
+        native._written_back(state)  # the dependent nodes of rigid links completed (the same values)
+        out = self._out
+        residual, q_ref = out[:n].copy(), (out[n:2 * n].copy() if reference else None)
+        if status == 1 and self.factorization.kind == "sparse":
+            return self._pivoted(state, load_factor, residual, q_ref)
+        if status:
+            return StaticIteration(residual, q_ref, None, None, math.inf)
+        return StaticIteration(residual, q_ref, out[2 * n:3 * n].copy(),
+                               out[3 * n:4 * n].copy() if reference else None, float(control.size))
+
+    def _pivoted(self, state, load_factor: float, residual, q_ref) -> StaticIteration:
+        """An iteration whose sparse LU failed on its static pivots, solved by :class:`Factorization`."""
+        from latdyn.assembly.factorization import solve_linear
+
+        K = self.assembler.evaluate(state, matrices=True, load_factor=load_factor, inertia=False).stiffness
+        rhs = np.column_stack([-residual] + ([q_ref] if q_ref is not None else []))
+        try:
+            x = solve_linear(K, rhs)
+        except np.linalg.LinAlgError:
+            return StaticIteration(residual, q_ref, None, None, math.inf)
+        if not np.all(np.isfinite(x)):
+            return StaticIteration(residual, q_ref, None, None, math.inf)
+        dq_r = x[:, 0].copy()
+        return StaticIteration(residual, q_ref, dq_r, x[:, 1].copy() if q_ref is not None else None,
+                               self.increment_size(dq_r))
+
+    def tangent(self, state, load_factor: float):
+        """K(q, λ) at ``state`` as a matrix: in the dense storage, the matrix the static iteration
+        assembles there (copied before it is factorized); in the band and sparse storages, the
+        evaluation's from Python (:meth:`Assembler.evaluate`)."""
+        self._setup()
+        n = self.assembler.model.n_dofs
+        if self.factorization.kind != "dense" or n == 0:
+            return self.assembler.evaluate(state, matrices=True, load_factor=load_factor, inertia=False).stiffness
+        copy = np.empty(self.factorization.size)
+        self.control.matrix_copy = copy.ctypes.data
+        try:
+            self.iteration(state, load_factor, reference=False)
+        finally:
+            self.control.matrix_copy = None
+        return copy.reshape((n, n), order="F")
+
+    def newton(self, state, load_factor: float) -> tuple[object, np.ndarray, int, bool]:
+        """Newton at the fixed load factor λ from ``state`` in one call (q ← q ∘ exp(δq_r) until
+        increment_size(δq_r) ≤ tol): (the state reached, the last residual, iterations, converged)."""
+        native = self._setup()
+        n = self.assembler.model.n_dofs
+        trial = state.copy()
+        trial.t = 0.0
+        control = self.control
+        control.load_factor = float(load_factor)
+        native.laws.bind_inputs()
+        configuration = native.configuration(trial)
+        status = self._library.latdyn_static_newton(native.model_ref, native.work_ref, ctypes.byref(control),
+                                                    ctypes.byref(configuration), self._out.ctypes.data)
+        native._written_back(trial)
+        residual = self._out[:n].copy()
+        if status == 1 and self.factorization.kind == "sparse":
+            return self.newton_from_python(trial, load_factor, int(control.iterations))
+        return trial, residual, int(control.iterations), bool(control.converged) and not status
+
+    def newton_from_python(self, trial, load_factor: float, done: int = 0):
+        """:meth:`newton` on from ``trial`` after ``done`` iterations, one :meth:`iteration` a call (the
+        same update and test; where the sparse LU's static pivots failed, :meth:`_pivoted` solves)."""
+        residual = None
+        for iteration in range(done + 1, int(self.control.max_iterations) + 1):
+            step = self.iteration(trial, load_factor, reference=False)
+            residual = step.residual
+            if self.assembler.model.n_dofs == 0:
+                return trial, residual, iteration - 1, True
+            if step.dq_r is None:
+                return trial, residual, iteration - 1, False
+            trial = self.assembler.advance(trial, step.dq_r)
+            if step.size <= self.control.tol:
+                return trial, residual, iteration, True
+        return trial, residual, int(self.control.max_iterations), False
+
+    def increment_size(self, dx: np.ndarray) -> float:
+        """The time step's convergence measure of an increment (``latdyn_increment_size``)."""
+        native = self._setup()
+        dx = np.ascontiguousarray(dx, dtype=np.float64)
+        if not dx.size:
+            return 0.0
+        return float(self._library.latdyn_increment_size(native.model_ref, dx.ctypes.data,
+                                                         float(self.control.length)))

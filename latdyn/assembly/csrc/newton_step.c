@@ -470,3 +470,96 @@ int64_t latdyn_threads(void)
     return 0;
 #endif
 }
+
+/* ------------------------------------------------------------------------- the static mode */
+
+/* Settings and results of the static Newton iteration (latdyn/analyses/continuation.py): the residual
+ * r(q, λ) = f_int(q) − λ q_ref(q) at t = 0 without inertia, its tangent K = ∂r/∂q (the iteration matrix
+ * of the time step with β′ = γ′ = 0) assembled, factorized and solved by the same code as the step's. */
+typedef struct {
+    /* in */
+    double load_factor, tol, length;
+    int64_t max_iterations;
+    int64_t reference;         /* latdyn_static_iteration: also q_ref = r(q, λ) − r(q, λ + 1) and K⁻¹ q_ref */
+    /* out */
+    int64_t iterations, converged;
+    int64_t status;            /* 0; 1 K singular (the factorization failed); 2 a solution not finite */
+    double size;               /* increment_size of the last Newton increment K⁻¹(−r) */
+    /* in: where latdyn_static_iteration copies the matrix storage (factorization->size doubles) before
+     * factorizing it, K as assembled (NULL: not copied) */
+    double *matrix_copy;
+} StaticControl;
+
+/* One static iteration at c (its dependent nodes of rigid links completed first, in place: the reduction
+ * takes the links' Jacobian from that completion): into out (6 n_dofs doubles)
+ * r, then with s->reference q_ref, then δq_r = −K⁻¹ r and δq_λ = K⁻¹ q_ref (Batoz & Dhatt 1979), the
+ * last 2 n_dofs scratch; w->total and the matrix blocks hold the evaluation at λ (reduced with rigid
+ * links), the matrix storage the factors of K. s->size is increment_size(δq_r). Returns s->status. */
+int64_t latdyn_static_iteration(const Model *m, Work *w, StaticControl *s, Configuration *c, double *out)
+{
+    const int64_t n = m->n_dofs;
+    const int64_t *permutation = m->factorization->permutation;
+    double *r = out, *q_ref = out + n, *dq_r = out + 2 * n, *dq_l = out + 3 * n, *x = out + 4 * n;
+    const int64_t n_rhs = s->reference ? 2 : 1;
+    m->time_laws(0.0, w->laws);
+    s->status = 0;
+    if (m->links) complete_links(m, c);
+    if (s->reference) { /* r(q, λ + 1) first: the evaluation left in w is that at λ */
+        evaluate(m, c, w, w->laws, 0.0, 0, 0, s->load_factor + 1.0);
+        if (m->links) reduce_links(m, w, c, 0.0, 0.0, 0, 0);
+        memcpy(q_ref, w->total, sizeof(double) * (size_t)n);
+    }
+    evaluate(m, c, w, w->laws, 0.0, 1, 0, s->load_factor);
+    if (m->links) reduce_links(m, w, c, 0.0, 0.0, 1, 0);
+    else assemble(m, w, 0.0, 0.0, 0);
+    memcpy(r, w->total, sizeof(double) * (size_t)n);
+    if (s->reference)
+        for (int64_t i = 0; i < n; ++i) q_ref[i] = r[i] - q_ref[i];
+    if (n == 0) return 0;
+    if (s->matrix_copy) memcpy(s->matrix_copy, w->matrix, sizeof(double) * (size_t)m->factorization->size);
+    if (latdyn_factor(m->factorization, w->matrix, w->pivots) != 0) return s->status = 1;
+    for (int64_t i = 0; i < n; ++i) {
+        x[permutation[i]] = -r[i];
+        if (s->reference) x[n + permutation[i]] = q_ref[i];
+    }
+    if (latdyn_solve(m->factorization, w->matrix, w->pivots, n_rhs, x) != 0) return s->status = 1;
+    for (int64_t i = 0; i < n; ++i) {
+        dq_r[i] = x[permutation[i]];
+        dq_l[i] = s->reference ? x[n + permutation[i]] : 0.0;
+        if (!isfinite(dq_r[i]) || !isfinite(dq_l[i])) s->status = 2;
+    }
+    s->size = increment_size(m, dq_r, s->length);
+    return s->status;
+}
+
+/* Newton at the fixed load factor s->load_factor from c, in place (load control): per iteration
+ * latdyn_static_iteration, then q ← q ∘ exp(δq_r) (latdyn_advance_free, the dependent nodes of rigid
+ * links completed), converged when increment_size(δq_r) ≤ tol, the time step's test. On return out[0:n]
+ * holds the residual of the last evaluation (before its increment). Returns s->status. */
+int64_t latdyn_static_newton(const Model *m, Work *w, StaticControl *s, Configuration *c, double *out)
+{
+    const int64_t n = m->n_dofs;
+    s->iterations = s->converged = 0;
+    s->reference = 0;
+    for (int64_t iteration = 1; iteration <= s->max_iterations; ++iteration) {
+        if (latdyn_static_iteration(m, w, s, c, out) != 0) return s->status;
+        if (n == 0) {
+            s->converged = 1;
+            return 0;
+        }
+        latdyn_advance_free(m, c, out + 2 * n);
+        if (m->links) complete_links(m, c);  /* the state handed back complete */
+        s->iterations = iteration;
+        if (s->size <= s->tol) {
+            s->converged = 1;
+            return 0;
+        }
+    }
+    return 0;
+}
+
+/* increment_size for the iterations driven from Python (arc length, displacement control). */
+double latdyn_increment_size(const Model *m, const double *dx, double length)
+{
+    return increment_size(m, dx, length);
+}
