@@ -24,6 +24,7 @@ from latdyn.analyses.linearisation import (
     modes, reduce, tangent_q,
 )
 from latdyn.assembly.assembler import pack, unpack_free
+from latdyn.assembly.control import actuator_gain
 from latdyn.assembly.prepare import length_scale
 from latdyn.errors import SceneError, SolverError
 from latdyn.results.writer import ResultWriter
@@ -416,13 +417,15 @@ def _controller_input_gains(model, assembler, state, u, values) -> dict:
             continue
         dy = float(sp.diff(c.output_expr, u).evalf(subs=at))
         for k, h in enumerate(model.hinges):
-            if str(getattr(h.torque, "source", "")).strip() == c.name:
-                gains[("hinge", k, 0)] = gains.get(("hinge", k, 0), 0.0) + dy
+            a = actuator_gain(h.torque, c.name)  # ∂τ/∂y: 1 for the name alone
+            if a is not None:
+                gains[("hinge", k, 0)] = gains.get(("hinge", k, 0), 0.0) + a * dy
         for l, load in enumerate(scene.loads):
             for offset, laws in ((0, load.force), (3, load.moment)):
                 for p, law in enumerate(laws or ()):
-                    if str(getattr(law, "source", "")).strip() == c.name:
-                        gains[("load", l, offset + p)] = gains.get(("load", l, offset + p), 0.0) + dy
+                    a = actuator_gain(law, c.name)
+                    if a is not None:
+                        gains[("load", l, offset + p)] = gains.get(("load", l, offset + p), 0.0) + a * dy
     return gains
 
 
@@ -432,15 +435,17 @@ def _actuator_force(model, state, name: str, gain: float) -> np.ndarray:
     scene = model.scene
     F = np.zeros(model.n_total + 1)
     for k, h in enumerate(model.hinges):
-        if str(getattr(h.torque, "source", "")).strip() == name:
-            F[model.hinge_dofs[k]] += gain
+        a = actuator_gain(h.torque, name)  # ∂τ/∂y: 1 for the name alone
+        if a is not None:
+            F[model.hinge_dofs[k]] += a * gain
     for load in scene.loads:
         for offset, laws in ((0, load.force), (3, load.moment)):
             for p, law in enumerate(laws or ()):
-                if str(getattr(law, "source", "")).strip() != name:
+                a = actuator_gain(law, name)
+                if a is None:
                     continue
                 f, mo = np.zeros(3), np.zeros(3)
-                (f if offset == 0 else mo)[p] = gain
+                (f if offset == 0 else mo)[p] = a * gain
                 if load.frame != "global":
                     R = state.T[model.body_node[load.frame]]
                     f, mo = R @ f, R @ mo

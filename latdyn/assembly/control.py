@@ -1,8 +1,9 @@
 """Continuous controllers wired into the equations of motion (SCENE.md ``controllers`` without ``rate``).
 
-A continuous controller k reads sensors s (probes: hinge angles and rates, global components of
-the position, displacement or velocity of a point without offset) and drives actuators (a hinge
-torque, a load component, each naming the controller alone). In the one evaluation
+A continuous controller k reads sensors s (probes: hinge angles and rates, guide slides and rates,
+global components of the position, displacement or velocity of a point without offset) and drives
+actuators (a hinge torque, a guide force, a load component, each naming the controller alone or in
+an expression τ = a y + b with a constant a = ∂τ/∂y, :func:`actuator_gain`). In the one evaluation
 (``csrc/evaluate.c``, ``controllers``) its output y_k = clip(f_k(t, s)) is computed from the
 configuration with the generated law (codegen/laws.py ``latdyn_controller_laws``: y and ∂y/∂s,
 exact), the actuators apply it, and the coupling of each actuator's rows to each sensor's
@@ -11,7 +12,8 @@ coordinate enters K (a sensor of position) or C (a sensor of rate):
     ∂r_row/∂q_sensor = g_row · ∂y/∂s,
 
 g_row the actuator's generalized force per unit output (−1 on a hinge's coordinate: f = … − y; the
-point-load kernel's force for a unit component on a load's node). A controller's output is
+point-load kernel's force for a unit component on a load's node), times λ a for an expression (the
+law applies λ τ, ramped like any load). A controller's output is
 feedback, not a load: the load factor λ of a static path does not scale it (it acts at full
 strength while loads and gravity are ramped). A non-collocated
 controller thus couples the actuator's equation to the sensor's coordinates: the entries are in
@@ -20,8 +22,8 @@ matrix's factorization, the linearisation (the closed loop) and the reduction on
 coordinates with rigid links take them. Saturated (output at a limit), ∂y/∂s = 0.
 
 :func:`wiring` lays this out for one numbering of the coordinates; what it cannot wire (a sensor or
-an actuator outside the list above, a continuous controller with states or reading another
-continuous controller) is refused with the key path.
+an actuator outside the list above, a continuous controller reading another continuous
+controller) is refused with the key path.
 """
 from __future__ import annotations
 
@@ -54,6 +56,9 @@ class Wiring:
     actuator_index: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     actuator_component: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     actuator_controller: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    #: ∂τ/∂y of an actuator inside an expression τ = a y + b (the law itself applies it, ramped with the
+    #: load factor like any load); 0 for the controller's name alone (its output applied, not ramped)
+    actuator_gain: np.ndarray = field(default_factory=lambda: np.zeros(0))
     coupling_actuator: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     coupling_slot: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     coupling_sensor: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
@@ -105,9 +110,10 @@ def _refuse(scene, key, what):
 def _sensor(scene, model, controller, probe):
     """(kind, index, origin, dof) of the probe a continuous controller reads."""
     key = f"controllers.{controller.name}.output"
-    if probe.kind == "hinge":
-        j = model.hinge_index(probe.beam, probe.end)
-        return (ANGLE if probe.quantity == "angle" else RATE), j, 0.0, int(model.hinge_dofs[j])
+    if probe.kind in ("hinge", "guide") and probe.quantity in ("angle", "position", "rate"):
+        # a guide's slide s and its rate ṡ are its coordinate as a hinge's θ and θ̇ are
+        j = model.hinge_index(probe.beam, probe.end) if probe.kind == "hinge" else model.hinge_index(probe.body, "guide")
+        return (RATE if probe.quantity == "rate" else ANGLE), j, 0.0, int(model.hinge_dofs[j])
     if probe.kind == "point" and probe.frame == "global" and probe.component in _AXIS:
         node, r = model.point(probe.point)
         if np.any(np.asarray(r) != 0.0):
@@ -118,8 +124,9 @@ def _sensor(scene, model, controller, probe):
         origin = float(model.nodes[node].position[c]) if probe.quantity == "displacement" else 0.0
         kind = VELOCITY if probe.quantity == "velocity" else POSITION
         return kind, 3 * node + c, origin, int(model.node_dofs[node, c])
-    _refuse(scene, key, f"a continuous controller reads hinge angles and rates and the global x, y or z component "
-                        f"of a point's position, displacement or velocity; the probe {probe.name!r} is not one "
+    _refuse(scene, key, f"a continuous controller reads hinge angles and rates, guide positions and rates and the "
+                        f"global x, y or z component of a point's position, displacement or velocity; the probe "
+                        f"{probe.name!r} is not one "
                         "(expected one of those, or a sampled controller: rate: HZ)")
 
 
@@ -144,6 +151,34 @@ def refuse_states_without_step(scene, method: str) -> None:
 
 def _named_alone(law, name: str) -> bool:
     return law is not None and isinstance(law.source, str) and law.source.strip() == name
+
+
+def _law_expression(law):
+    """The SymPy expression of a hinge torque (:class:`HingeLaw`) or a load component (:class:`TimeFunction`)."""
+    from latdyn.scene.expressions import HingeLaw
+
+    if isinstance(law, HingeLaw):
+        expressions = law.expressions
+        return expressions[1][0] if expressions is not None else None
+    return law.expr
+
+
+def actuator_gain(law, name: str) -> float | None:
+    """The constant ∂τ/∂y of a hinge torque or load component τ that names the continuous controller
+    ``name`` (its output y): 1 for the name alone, the SymPy derivative of an expression affine in y
+    (``"2*ctl + 0.1 - 0.5*theta_dot"``: 2); None when τ does not name it or ∂τ/∂y is not a constant."""
+    if law is None or name not in getattr(law, "input_names", ()):
+        return None
+    if _named_alone(law, name):
+        return 1.0
+    expression = _law_expression(law)
+    if expression is None:
+        return None
+    import sympy as sp
+
+    y = next((s for s in expression.free_symbols if s.name == name), None)
+    derivative = sp.diff(expression, y) if y is not None else sp.S.Zero
+    return float(derivative) if not derivative.free_symbols else None
 
 
 def wiring(model, assembler) -> Wiring:
@@ -186,15 +221,19 @@ def wiring(model, assembler) -> Wiring:
     out.sensor_origin, out.sensor_dof = np.array(origins, float), np.array(dofs, np.int64)
 
     def driven(law, key):
-        """The continuous controller a law names (alone), or -1; refused inside an expression."""
+        """(the continuous controller a law names, ∂τ/∂y, whether alone), or (-1, 0, False); refused when
+        τ names more than one or is not affine in y with a constant coefficient."""
         names = [n for n in getattr(law, "input_names", ()) if n in index]
         if not names:
-            return -1
-        if not _named_alone(law, names[0]) or len(names) > 1:
-            _refuse(scene, key, f"a continuous controller ({names[0]!r}) drives a hinge torque or a load component "
-                                "that names it alone; expected the controller's name alone (write the expression "
-                                "into its output), or a sampled controller")
-        return index[names[0]]
+            return -1, 0.0, False
+        gain = actuator_gain(law, names[0]) if len(names) == 1 else None
+        if gain is None:
+            _refuse(scene, key, f"a continuous controller ({names[0]!r}) drives a hinge torque, a guide force or a "
+                                "load component that names one continuous controller y, alone or in an expression "
+                                "a*y + b with a constant a (b may depend on t, theta, theta_dot, inputs); expected "
+                                "such an expression (write the rest into the controller's output), or a sampled "
+                                "controller")
+        return index[names[0]], gain, _named_alone(law, names[0])
 
     def not_driven(law, key):
         names = [n for n in getattr(law, "input_names", ()) if n in index]
@@ -205,25 +244,30 @@ def wiring(model, assembler) -> Wiring:
     for name, body in scene.bodies.items():
         for law in [*(body.translation or ()), body.rotation_angle]:
             not_driven(law, f"bodies.{name}.motion")
-    actuators = []  # (kind, index, component, controller)
+    actuators, gains = [], []  # (kind, index, component, controller), ∂τ/∂y (0: the name alone)
     for j, h in enumerate(model.hinges):
-        path = f"beams.{h.beam}.{h.end}.hinge"
+        path = f"bodies.{h.beam}.guide" if h.kind == "guide" else f"beams.{h.beam}.{h.end}.hinge"
         for what in ("stiffness", "damping", "angle"):
-            not_driven(getattr(h, what, None), f"{path}.{what}")
-        k = driven(h.torque, f"{path}.torque")
+            not_driven(getattr(h, what, None), f"{path}.{'position' if what == 'angle' and h.kind == 'guide' else what}")
+        k, gain, alone = driven(h.torque, f"{path}.{'force' if h.kind == 'guide' else 'torque'}")
         if k >= 0:
-            out.hinge_controller[j] = k
+            if alone:
+                out.hinge_controller[j] = k
             actuators.append((0, j, 0, k))
+            gains.append(0.0 if alone else gain)
     for l, load in enumerate(assembler.loads):
         for offset, components in ((0, load.force), (3, load.moment)):
             for p, law in enumerate(components or ()):
-                k = driven(law, f"loads[{l}]")
+                k, gain, alone = driven(law, f"loads[{l}]")
                 if k >= 0:
-                    out.load_controller[l, offset + p] = k
+                    if alone:
+                        out.load_controller[l, offset + p] = k
                     actuators.append((1, l, offset + p, k))
+                    gains.append(0.0 if alone else gain)
     if actuators:
         out.actuator_kind, out.actuator_index, out.actuator_component, out.actuator_controller = (
             np.array(column, np.int64) for column in zip(*actuators))
+        out.actuator_gain = np.array(gains, float)
     entries = []  # (actuator, slot, sensor, row, col)
     for a, (kind, i, p, k) in enumerate(actuators):
         rows = [int(model.hinge_dofs[i])] if kind == 0 else \

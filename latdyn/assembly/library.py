@@ -76,6 +76,7 @@ class ModelData(ctypes.Structure):
         ("gravity_load_D_q", P),
         ("n_controller_states", I64), ("controller_state_start", P), ("controller_state_slot", P),
         ("controller_states", P), ("controller_state_rate", P),
+        ("actuator_gain", P), ("n_law_actuators", I64),
     ]
 
 

@@ -342,6 +342,7 @@ class NativeModel:
             n_cables=CE, cable_force=kernel["cable_force"], gravity_load_D_q=kernel["beam_gravity_D_q"],
             n_controller_states=len(wired.state_slot), controller_state_start=ints(wired.state_start),
             controller_state_slot=ints(wired.state_slot),
+            actuator_gain=arr(wired.actuator_gain), n_law_actuators=int(np.count_nonzero(wired.actuator_gain)),
         )
         if len(wired.state_slot):  # the runtime's arrays, read and written in place (latdyn.assembly.control)
             states, rates = wired.states.values, wired.state_rates

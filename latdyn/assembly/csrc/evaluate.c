@@ -178,6 +178,12 @@ typedef struct {
     int64_t n_controller_states;
     const int64_t *controller_state_start, *controller_state_slot;
     double *controller_states, *controller_state_rate;
+    /* actuators inside an expression τ = a y + b of a hinge torque, guide force or load component
+     * (latdyn/assembly/control.py): actuator_gain[a] = a (0 for the controller's name alone, applied
+     * by the hinge_controller / load_controller above); such a law reads the controllers' outputs
+     * itself, so with n_law_actuators > 0 the laws of time are taken again after the outputs */
+    const double *actuator_gain;
+    int64_t n_law_actuators;
 } Model;
 
 /* Scratch buffers, allocated once by the caller. */
@@ -629,7 +635,7 @@ void latdyn_controller_states_accept(const Model *m, Work *w, const Configuratio
  * (−1 on a hinge's coordinate; the point-load kernel's force for a unit component), times ∂y/∂s of
  * its controller's sensors. A controller's output is feedback: the load factor λ of a static path
  * does not scale it. */
-static void controller_couplings(const Model *m, const Configuration *c, Work *w)
+static void controller_couplings(const Model *m, const Configuration *c, Work *w, double load_factor)
 {
     static const double identity[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
     double gains[6];
@@ -640,13 +646,15 @@ static void controller_couplings(const Model *m, const Configuration *c, Work *w
             done = a;
             int64_t i = m->actuator_index[a];
             memset(gains, 0, sizeof gains);
+            /* a law a y + b applies λ(a y + b), ramped like any load; the name alone applies y */
+            const double gain = m->actuator_gain[a] != 0.0 ? load_factor * m->actuator_gain[a] : 1.0;
             if (m->actuator_kind[a] == 0) {
-                gains[0] = -1.0;
+                gains[0] = -gain;
             } else {
                 int64_t node = m->load_node[i], frame = m->load_frame_node[i];
                 double values[6] = {0, 0, 0, 0, 0, 0}, velocity[6] = {0, 0, 0, 0, 0, 0};
                 double power, by_node[18], by_frame[18];
-                values[m->actuator_component[a]] = 1.0;
+                values[m->actuator_component[a]] = gain;
                 m->point_load(1, c->T + 9 * node, m->load_r + 3 * i, values,
                               frame >= 0 ? c->T + 9 * frame : identity, velocity, gains, &power, by_node, by_frame);
             }
@@ -750,7 +758,11 @@ static double evaluate(const Model *m, const Configuration *c, Work *w, const do
     joint_bodies(m, c, w, inertia, load_factor);
     if (m->n_controllers) {
         controller_outputs(m, c, w, t);
-        if (matrices) controller_couplings(m, c, w);
+        if (matrices) controller_couplings(m, c, w, load_factor);
+        if (m->n_law_actuators) {  /* laws a y + b of time read the outputs just computed */
+            m->time_laws(t, w->laws);
+            laws = w->laws;
+        }
     }
     for (int64_t b = 0; b < m->n_bodies; ++b) {
         const int64_t *d = m->node_dofs + 6 * m->body_nodes[b];
