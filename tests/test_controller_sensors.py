@@ -14,6 +14,7 @@ import math
 from pathlib import Path
 
 import numpy as np
+import pytest
 import yaml
 
 import latdyn
@@ -152,3 +153,75 @@ def test_static_equilibrium_through_an_expression_is_ramped_with_the_loads():
                                                                      solve="{analysis: static, steps: 4}"))))
         assert np.max(np.abs(static.probes["x"][1:] - (1 + 0.1 / 80))) < 1e-13
         assert static.summary["newton_iterations"] <= 5
+
+
+# ----------------------------------------------------------------------------- a controller reading another
+CHAIN = """
+inputs: {{kd: 8.0, ref: 1.0}}
+controllers:
+{controllers}
+sections:
+  s: {{EA: 1, EIy: 1, EIz: 1, GJ: 1, rhoA: 0}}
+bodies:
+  hub: {{at: [0, 0, 0], fixed: true}}
+  tip: {{at: [0.5, 0, 0], mass: 4.0}}
+beams:
+  arm: {{from: hub, to: tip, section: s, rigid: true, start: {{hinge: {{axis: {axis}, torque: "{torque}"}}}}}}
+solve: {solve}
+output:
+  probes:
+    th: {{hinge: arm.start, quantity: angle}}
+    om: {{hinge: arm.start, quantity: rate}}
+    y: {{controller: ctl}}
+"""
+HINGE_PLANAR, HINGE_SPATIAL = "[0, 0, 1]", "[0, 0.7071067811865476, 0.7071067811865476]"
+TWO_LEVELS = """  a: {output: "-20*(th - ref)"}
+  b: {output: "0.5*a"}
+  ctl: {output: "4*b - kd*om"}"""
+
+
+def chain(controllers=TWO_LEVELS, *, torque="ctl", axis=HINGE_PLANAR, solve="{t_end: 1.5, dt: 0.004}") -> str:
+    return CHAIN.format(controllers=controllers, torque=torque, axis=axis, solve=solve)
+
+
+def test_a_controller_reading_earlier_ones_cli_planar(tmp_path):
+    """ctl = 4 b − kd θ̇, b = 0.5 a, a = −20 (θ − 1): the PD θ̈ = −40 (θ − 1) − 8 θ̇ (J = 1) against the
+    closed form (measured 3.4e-5 at dt = 0.004, as the PD written in one output); the chain rule's
+    coupling entries exact: at most two Newton iterations a step."""
+    completed, out = latdyn_run(tmp_path, chain())
+    assert completed.returncode == 0, completed.stderr
+    p = probe_columns(out)
+    assert np.max(np.abs(p["th"] - oscillator(p["t"], 40.0, 8.0, 1.0, 1.0))) < 4e-5
+    assert np.max(np.abs(p["y"] - (-40 * (p["th"] - 1) - 8 * p["om"]))) < 1e-9
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["newton_iterations"] <= 2 * summary["steps"]
+
+
+def test_a_nonlinear_chain_closed_loop_is_open_loop_plus_bkc_3d():
+    """A nonlinear chain a = −20 sin(θ − ref), ctl = 2 a + a²/100 − kd θ̇ inside the torque 0.5 ctl + u,
+    linearised at rest (θ = 0): K = 0.5 [(2 + 2a/100)(−20 cos 1), −kd] with a = 20 sin 1, and B of the input
+    ref through the chain, 0.5 (2 + 2a/100)(20 cos 1) × B of u: A = A_ol + B K C to round-off, planar and 3D."""
+    controllers = '  a: {output: "-20*sin(th - ref)"}\n  ctl: {output: "2*a + a*a/100 - kd*om"}'
+    modes = "{analysis: modes, count: 1, linear_model: {inputs: [u, ref], outputs: [th, om]}}"
+    a = 20 * math.sin(1.0)
+    slope = 2 + 2 * a / 100
+    for axis in (HINGE_PLANAR, HINGE_SPATIAL):
+        closed = linear_model_of(chain(controllers, torque="0.5*ctl + u", axis=axis, solve=modes).replace(
+            "inputs: {kd", "inputs: {u: 0.0, kd"))
+        opened = linear_model_of(chain('  ctl: {output: "0"}', torque="u", axis=axis, solve=modes).replace(
+            "inputs: {kd", "inputs: {u: 0.0, kd"))
+        K = 0.5 * np.array([[slope * -20 * math.cos(1.0), -8.0]])
+        expected = opened["A"] + opened["B"][:, :1] @ K @ opened["C"]
+        assert np.max(np.abs(closed["A"] - expected)) <= 1e-10 * np.max(np.abs(expected))
+        B_ref = 0.5 * slope * 20 * math.cos(1.0) * opened["B"][:, 0]
+        assert np.max(np.abs(closed["B"][:, 1] - B_ref)) <= 1e-12 * np.max(np.abs(B_ref))
+
+
+def test_a_chain_with_states_is_refused():
+    """States in a chain of continuous controllers are not built: refused at the reader's output key."""
+    from latdyn.errors import SceneError
+
+    controllers = '  a: {output: "-20*th - S", states: {S: "th"}}\n  ctl: {output: "a - kd*om"}'
+    with pytest.raises(SceneError) as refused:
+        latdyn.run(latdyn.load_scene(yaml.safe_load(chain(controllers))))
+    assert "controllers.ctl.output" in str(refused.value) and "with states" in str(refused.value)

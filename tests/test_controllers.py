@@ -150,7 +150,7 @@ def test_sampled_controller_resumes_bit_for_bit(tmp_path, monkeypatch):
     ("  ctl: {output: 1, gain: 2}", "controllers.ctl.gain", "unknown key"),
     ("  th: {output: 1}", "output.probes.th", "share one namespace"),
     # what this version does not run continuously (sampled, each runs)
-    ("  a: {output: \"th\"}\n  ctl: {output: \"a\"}", "controllers.ctl.output", "reads another continuous"),
+    ("  a: {output: \"th\", states: {S: \"th\"}}\n  ctl: {output: \"a\"}", "controllers.ctl.output", "reads one with states"),
     ("  ctl: {output: \"E\", rate: 2}\n  c2: {output: \"th\"}", "beams.arm.start.hinge.torque", "a*y + b with a constant a"),
 ])
 def test_refusals_name_the_key(controllers, key, says):

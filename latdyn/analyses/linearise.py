@@ -404,18 +404,25 @@ def _controller_input_gains(model, assembler, state, u, values) -> dict:
     from latdyn.results.probes import ProbeSet
 
     scene = model.scene
-    continuous = [c for c in scene.controllers.values() if not c.sampled and u.name in c.reads]
-    if not continuous:
+    continuous = [c for c in scene.controllers.values() if not c.sampled]
+    if not any(u.name in c.reads for c in continuous):
         return {}
     probes = ProbeSet(assembler, assembler.initial_state())
     at = dict(values)
     at.update({sp.Symbol(n, real=True): v for n, v in zip(probes.names, probes.values(state.copy()))})
-    gains = {}
-    for c in continuous:
+    gains, total = {}, {}  # total: dy/du of each continuous controller, through the earlier ones it reads
+    for c in continuous:  # file order: the chain rule through the outputs of earlier continuous ones
         y = float(c.output_expr.evalf(subs=at))
+        at[sp.Symbol(c.name, real=True)] = min(max(y, c.limits[0]), c.limits[1]) if c.limits is not None else y
         if c.limits is not None and not c.limits[0] <= y <= c.limits[1]:
+            total[c.name] = 0.0
             continue
         dy = float(sp.diff(c.output_expr, u).evalf(subs=at))
+        dy += sum(float(sp.diff(c.output_expr, x).evalf(subs=at)) * total[x.name]
+                  for x in c.output_expr.free_symbols if x.name in total)
+        total[c.name] = dy
+        if dy == 0.0:
+            continue
         for k, h in enumerate(model.hinges):
             a = actuator_gain(h.torque, c.name)  # ∂τ/∂y: 1 for the name alone
             if a is not None:

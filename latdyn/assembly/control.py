@@ -11,7 +11,8 @@ coordinate enters K (a sensor of position) or C (a sensor of rate):
 
     ∂r_row/∂q_sensor = g_row · ∂y/∂s,
 
-g_row the actuator's generalized force per unit output (−1 on a hinge's coordinate: f = … − y; the
+(a controller that reads earlier continuous ones: ∂y/∂s the total derivative through them, the
+chain rule, on every coordinate sensor it reaches), g_row the actuator's generalized force per unit output (−1 on a hinge's coordinate: f = … − y; the
 point-load kernel's force for a unit component on a load's node), times λ a for an expression (the
 law applies λ τ, ramped like any load). A controller's output is
 feedback, not a load: the load factor λ of a static path does not scale it (it acts at full
@@ -22,8 +23,8 @@ matrix's factorization, the linearisation (the closed loop) and the reduction on
 coordinates with rigid links take them. Saturated (output at a limit), ∂y/∂s = 0.
 
 :func:`wiring` lays this out for one numbering of the coordinates; what it cannot wire (a sensor or
-an actuator outside the list above, a continuous controller reading another continuous
-controller) is refused with the key path.
+an actuator outside the list above, states in a chain of continuous controllers) is refused with
+the key path.
 """
 from __future__ import annotations
 
@@ -33,8 +34,9 @@ import numpy as np
 
 from latdyn.errors import SceneError
 
-#: sensor kinds (csrc/evaluate.c): hinge angle, hinge rate, node position component, node velocity component
-ANGLE, RATE, POSITION, VELOCITY = 0, 1, 2, 3
+#: sensor kinds (csrc/evaluate.c): hinge (or guide) angle, its rate, node position component, node velocity
+#: component, the output of an earlier continuous controller (index: its position among them; no coordinate)
+ANGLE, RATE, POSITION, VELOCITY, CONTROLLER = 0, 1, 2, 3, 4
 _AXIS = {"x": 0, "y": 1, "z": 2}
 
 
@@ -96,9 +98,10 @@ class Wiring:
         return len(self.controllers)
 
     def sensor_names(self, k: int) -> tuple:
-        """The probes controller k reads, in the order of its sensors."""
+        """The probes and earlier continuous controllers controller k reads, in the order of its sensors."""
         c = self.controllers[k]
-        return tuple(n for n in c.reads if n in self._probe_names)
+        earlier = {d.name for d in self.controllers[:k]}
+        return tuple(n for n in c.reads if n in earlier or n in self._probe_names)
 
     _probe_names: tuple = ()
 
@@ -197,11 +200,18 @@ def wiring(model, assembler) -> Wiring:
     for c in continuous:
         key = f"controllers.{c.name}"
         for name in c.reads:
-            if name in index:
-                _refuse(scene, f"{key}.output", f"a continuous controller that reads another continuous one ({name!r}) "
-                                                "is not run by this version of the package; expected the sensors "
-                                                "written into its own output")
-            if name in probes:
+            if name in index:  # an earlier continuous controller (the loader refuses a later one)
+                if c.states or continuous[index[name]].states:
+                    _refuse(scene, f"{key}.output", f"a continuous controller with states that reads another "
+                                                    f"continuous one, or reads one with states ({name!r}), is not "
+                                                    "run by this version of the package; expected controllers "
+                                                    "without states in such a chain, or the other's expression "
+                                                    "written into this output")
+                kinds.append(CONTROLLER)
+                indices.append(index[name])
+                origins.append(0.0)
+                dofs.append(-1)
+            elif name in probes:
                 kind, i, origin, dof = _sensor(scene, model, c, probes[name])
                 kinds.append(kind)
                 indices.append(i)
@@ -268,12 +278,19 @@ def wiring(model, assembler) -> Wiring:
         out.actuator_kind, out.actuator_index, out.actuator_component, out.actuator_controller = (
             np.array(column, np.int64) for column in zip(*actuators))
         out.actuator_gain = np.array(gains, float)
+    # the coordinate sensors each controller reaches: its own and, through the outputs it reads, those
+    # of the earlier controllers (the chain rule's columns; csrc/evaluate.c controller_total)
+    reached = []
+    for k in range(len(continuous)):
+        own = [m for m in range(start[k], start[k + 1]) if kinds[m] != CONTROLLER]
+        through = [m for i in range(start[k], start[k + 1]) if kinds[i] == CONTROLLER for m in reached[indices[i]]]
+        reached.append(sorted(set(own + through)))
     entries = []  # (actuator, slot, sensor, row, col)
     for a, (kind, i, p, k) in enumerate(actuators):
         rows = [int(model.hinge_dofs[i])] if kind == 0 else \
             [int(d) for d in model.node_dofs[assembler._load_nodes[i]]]
         for slot, row in enumerate(rows):
-            for m in range(start[k], start[k + 1]):
+            for m in reached[k]:
                 entries.append((a, slot, m, row, dofs[m]))
     if entries:
         (out.coupling_actuator, out.coupling_slot, out.coupling_sensor, out.coupling_rows,

@@ -184,6 +184,11 @@ typedef struct {
      * itself, so with n_law_actuators > 0 the laws of time are taken again after the outputs */
     const double *actuator_gain;
     int64_t n_law_actuators;
+    /* sensors of kind 4: the output of an earlier continuous controller (sensor_index its position k;
+     * latdyn/assembly/control.py), read after that one is computed; with n_chained > 0 the coupling
+     * entries take the total derivative of each controller by the coordinate sensors it reaches
+     * (Work controller_total, the chain rule through the outputs it reads) */
+    int64_t n_chained;
 } Model;
 
 /* Scratch buffers, allocated once by the caller. */
@@ -233,6 +238,9 @@ typedef struct {
      * law's arguments (s, S) of one controller, the scratch of its states' local solve, and the
      * step's h/2 of the trapezoidal rule (1; 0 outside a step: the states held at S_n) */
     double *controller_state_trial, *controller_arguments, *controller_solve, *controller_half_step;
+    /* with chained controllers (Model n_chained): dy_k/ds_i of controller k by every sensor i,
+     * (n_controllers, n_sensors), the chain rule dy_k/ds = Σ ∂y_k/∂y_j dy_j/ds + ∂y_k/∂s */
+    double *controller_total;
 } Work;
 
 /* ------------------------------------------------------------------------- small algebra */
@@ -579,7 +587,8 @@ static void controller_outputs(const Model *m, const Configuration *c, Work *w, 
         case 0: value = c->theta[index]; break;
         case 1: value = c->theta_dot[index]; break;
         case 2: value = c->x[index]; break;
-        default: value = c->v[index]; break;
+        case 3: value = c->v[index]; break;
+        default: value = 0.0; break;  /* 4: an earlier controller's output, read in the loop below */
         }
         w->sensor_values[i] = value - m->sensor_origin[i];
     }
@@ -587,6 +596,9 @@ static void controller_outputs(const Model *m, const Configuration *c, Work *w, 
         int64_t first = m->sensor_start[k], count = m->sensor_start[k + 1] - first;
         int64_t p = m->n_controller_states ? m->controller_state_start[k + 1] - m->controller_state_start[k] : 0;
         double *dS = w->controller_solve + (p * p > p ? p * p : p);
+        for (int64_t i = first; i < first + count; ++i)  /* an earlier controller's output, just computed */
+            if (m->sensor_kind[i] == 4)
+                w->sensor_values[i] = m->controller_outputs[m->controller_slot[m->sensor_index[i]]];
         if (p) {
             double *args = w->controller_arguments;
             for (int64_t i = 0; i < count; ++i) args[i] = w->sensor_values[first + i];
@@ -601,6 +613,19 @@ static void controller_outputs(const Model *m, const Configuration *c, Work *w, 
             double gradient = w->controller_scratch[1 + i];
             for (int64_t j = 0; j < p; ++j) gradient += w->controller_scratch[1 + count + j] * dS[count * j + i];
             w->controller_gradient[first + i] = saturated ? 0.0 : gradient;
+        }
+        if (m->n_chained) {  /* the chain rule: dy_k/ds = ∂y_k/∂s + Σ ∂y_k/∂y_j dy_j/ds */
+            double *total = w->controller_total + k * m->n_sensors;
+            memset(total, 0, sizeof(double) * m->n_sensors);
+            for (int64_t i = first; i < first + count; ++i) {
+                const double g = w->controller_gradient[i];
+                if (m->sensor_kind[i] != 4) {
+                    total[i] += g;
+                } else if (g != 0.0) {
+                    const double *earlier = w->controller_total + m->sensor_index[i] * m->n_sensors;
+                    for (int64_t j = 0; j < m->n_sensors; ++j) total[j] += g * earlier[j];
+                }
+            }
         }
     }
 }
@@ -660,7 +685,9 @@ static void controller_couplings(const Model *m, const Configuration *c, Work *w
             }
         }
         int64_t sensor = m->coupling_sensor[e], kind = m->sensor_kind[sensor];
-        double value = gains[m->coupling_slot[e]] * w->controller_gradient[sensor];
+        double value = gains[m->coupling_slot[e]] * (m->n_chained ? w->controller_total[m->actuator_controller[a]
+                                                                                           * m->n_sensors + sensor]
+                                                                    : w->controller_gradient[sensor]);
         w->coupling_stiffness[e] = kind == 0 || kind == 2 ? value : 0.0;
         w->coupling_damping[e] = kind == 1 || kind == 3 ? value : 0.0;
     }
