@@ -1,7 +1,8 @@
 """Continuous controllers wired into the equations of motion (SCENE.md ``controllers`` without ``rate``).
 
 A continuous controller k reads sensors s (probes: hinge angles and rates, guide slides and rates,
-global components of the position, displacement or velocity of a point without offset) and drives
+global components of the position, displacement or velocity of a point without offset, of the
+position or displacement of a point offset from its node, the outputs of earlier continuous controllers) and drives
 actuators (a hinge torque, a guide force, a load component, each naming the controller alone or in
 an expression τ = a y + b with a constant a = ∂τ/∂y, :func:`actuator_gain`). In the one evaluation
 (``csrc/evaluate.c``, ``controllers``) its output y_k = clip(f_k(t, s)) is computed from the
@@ -35,8 +36,10 @@ import numpy as np
 from latdyn.errors import SceneError
 
 #: sensor kinds (csrc/evaluate.c): hinge (or guide) angle, its rate, node position component, node velocity
-#: component, the output of an earlier continuous controller (index: its position among them; no coordinate)
-ANGLE, RATE, POSITION, VELOCITY, CONTROLLER = 0, 1, 2, 3, 4
+#: component, the output of an earlier continuous controller (index: its position among them; no coordinate),
+#: a global position component of a point offset from its node (the node's six coordinates)
+ANGLE, RATE, POSITION, VELOCITY, CONTROLLER, OFFSET_POSITION = 0, 1, 2, 3, 4, 5
+_NO_OFFSET = np.zeros(3)
 _AXIS = {"x": 0, "y": 1, "z": 2}
 
 
@@ -51,7 +54,7 @@ class Wiring:
     sensor_kind: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     sensor_index: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     sensor_origin: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    sensor_dof: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    sensor_offset: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))  # kind 5: r in node axes
     hinge_controller: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     load_controller: np.ndarray = field(default_factory=lambda: np.zeros((0, 6), np.int64))
     actuator_kind: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))  # 0 hinge, 1 load
@@ -66,6 +69,8 @@ class Wiring:
     coupling_sensor: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     coupling_rows: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     coupling_cols: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    #: each entry's column among its sensor's coordinates (a kind-5 sensor's node's six; else 0)
+    coupling_column: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     #: the controllers' states (controller k: state_start[k] … state_start[k+1]−1), each one's index in
     #: the scene's controller_states (``states``, whose values are S at the last accepted state) and
     #: ``state_rates`` (dS/dt there, what the trapezoidal rule starts each step from)
@@ -111,22 +116,27 @@ def _refuse(scene, key, what):
 
 
 def _sensor(scene, model, controller, probe):
-    """(kind, index, origin, dof) of the probe a continuous controller reads."""
+    """(kind, index, origin, the coordinates it depends on, offset) of the probe a continuous controller reads."""
     key = f"controllers.{controller.name}.output"
     if probe.kind in ("hinge", "guide") and probe.quantity in ("angle", "position", "rate"):
         # a guide's slide s and its rate ṡ are its coordinate as a hinge's θ and θ̇ are
         j = model.hinge_index(probe.beam, probe.end) if probe.kind == "hinge" else model.hinge_index(probe.body, "guide")
-        return (RATE if probe.quantity == "rate" else ANGLE), j, 0.0, int(model.hinge_dofs[j])
+        return (RATE if probe.quantity == "rate" else ANGLE), j, 0.0, [int(model.hinge_dofs[j])], _NO_OFFSET
     if probe.kind == "point" and probe.frame == "global" and probe.component in _AXIS:
         node, r = model.point(probe.point)
-        if np.any(np.asarray(r) != 0.0):
-            _refuse(scene, key, f"the probe {probe.name!r} is at a grid point offset from its node: a continuous "
-                                "controller reads a point without offset (a body's reference point, a beam node); "
-                                "expected such a point, or a sampled controller (rate: HZ)")
         c = _AXIS[probe.component]
+        if np.any(np.asarray(r) != 0.0):
+            if probe.quantity == "velocity":
+                _refuse(scene, key, f"the probe {probe.name!r} is the velocity of a grid point offset from its node: a "
+                                    "continuous controller reads the velocity of a point without offset (a body's "
+                                    "reference point, a beam node) and the position or displacement of any point; "
+                                    "expected such a probe, or a sampled controller (rate: HZ)")
+            # at t = 0 the node axes are the global ones (Assembler.initial_state): the point is at x0 + r
+            origin = float(model.nodes[node].position[c] + r[c]) if probe.quantity == "displacement" else 0.0
+            return OFFSET_POSITION, 3 * node + c, origin, [int(d) for d in model.node_dofs[node]], np.asarray(r, float)
         origin = float(model.nodes[node].position[c]) if probe.quantity == "displacement" else 0.0
         kind = VELOCITY if probe.quantity == "velocity" else POSITION
-        return kind, 3 * node + c, origin, int(model.node_dofs[node, c])
+        return kind, 3 * node + c, origin, [int(model.node_dofs[node, c])], _NO_OFFSET
     _refuse(scene, key, f"a continuous controller reads hinge angles and rates, guide positions and rates and the "
                         f"global x, y or z component of a point's position, displacement or velocity; the probe "
                         f"{probe.name!r} is not one "
@@ -196,7 +206,7 @@ def wiring(model, assembler) -> Wiring:
         return out
     probes = {p.name: p for p in scene.output.probes}
     index = {c.name: k for k, c in enumerate(continuous)}
-    kinds, indices, origins, dofs, start = [], [], [], [], [0]
+    kinds, indices, origins, dofs, offsets, start = [], [], [], [], [], [0]
     for c in continuous:
         key = f"controllers.{c.name}"
         for name in c.reads:
@@ -210,13 +220,15 @@ def wiring(model, assembler) -> Wiring:
                 kinds.append(CONTROLLER)
                 indices.append(index[name])
                 origins.append(0.0)
-                dofs.append(-1)
+                dofs.append([])
+                offsets.append(_NO_OFFSET)
             elif name in probes:
-                kind, i, origin, dof = _sensor(scene, model, c, probes[name])
+                kind, i, origin, columns, offset = _sensor(scene, model, c, probes[name])
                 kinds.append(kind)
                 indices.append(i)
                 origins.append(origin)
-                dofs.append(dof)
+                dofs.append(columns)
+                offsets.append(offset)
         start.append(len(kinds))
     out.controllers = continuous
     states = scene.controller_states
@@ -228,7 +240,8 @@ def wiring(model, assembler) -> Wiring:
     out.limits = np.array([c.limits if c.limits is not None else (-np.inf, np.inf) for c in continuous], float)
     out.sensor_start = np.array(start, np.int64)
     out.sensor_kind, out.sensor_index = np.array(kinds, np.int64), np.array(indices, np.int64)
-    out.sensor_origin, out.sensor_dof = np.array(origins, float), np.array(dofs, np.int64)
+    out.sensor_origin = np.array(origins, float)
+    out.sensor_offset = np.array(offsets, float).reshape(-1, 3)
 
     def driven(law, key):
         """(the continuous controller a law names, ∂τ/∂y, whether alone), or (-1, 0, False); refused when
@@ -291,8 +304,9 @@ def wiring(model, assembler) -> Wiring:
             [int(d) for d in model.node_dofs[assembler._load_nodes[i]]]
         for slot, row in enumerate(rows):
             for m in reached[k]:
-                entries.append((a, slot, m, row, dofs[m]))
+                for column, dof in enumerate(dofs[m]):
+                    entries.append((a, slot, m, row, dof, column))
     if entries:
         (out.coupling_actuator, out.coupling_slot, out.coupling_sensor, out.coupling_rows,
-         out.coupling_cols) = (np.array(column, np.int64) for column in zip(*entries))
+         out.coupling_cols, out.coupling_column) = (np.array(column, np.int64) for column in zip(*entries))
     return out

@@ -189,6 +189,13 @@ typedef struct {
      * entries take the total derivative of each controller by the coordinate sensors it reaches
      * (Work controller_total, the chain rule through the outputs it reads) */
     int64_t n_chained;
+    /* sensors of kind 5: a global component of the position of a point offset from its node by
+     * sensor_offset (n_sensors, 3; node axes), sensor_index 3 node + component: p_c = x_c + (T r)_c;
+     * its gradient by the node's six coordinates is the generalized force of a unit force along the
+     * component at the point (the generated point_load kernel: Jᵀ e_c), and each coupling entry e
+     * names its column among them (coupling_column, 0 for sensors of one coordinate) */
+    const double *sensor_offset;
+    const int64_t *coupling_column;
 } Model;
 
 /* Scratch buffers, allocated once by the caller. */
@@ -241,6 +248,8 @@ typedef struct {
     /* with chained controllers (Model n_chained): dy_k/ds_i of controller k by every sensor i,
      * (n_controllers, n_sensors), the chain rule dy_k/ds = Σ ∂y_k/∂y_j dy_j/ds + ∂y_k/∂s */
     double *controller_total;
+    /* ∂s_i/∂q of a sensor of kind 5 by its node's six coordinates (n_sensors, 6) */
+    double *sensor_jacobian;
 } Work;
 
 /* ------------------------------------------------------------------------- small algebra */
@@ -588,6 +597,16 @@ static void controller_outputs(const Model *m, const Configuration *c, Work *w, 
         case 1: value = c->theta_dot[index]; break;
         case 2: value = c->x[index]; break;
         case 3: value = c->v[index]; break;
+        case 5: {  /* a point offset from its node: x + T r, and Jᵀ e_c from the point-load kernel */
+            static const double identity[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+            const int64_t node = index / 3, component = index % 3;
+            const double *T = c->T + 9 * node, *r = m->sensor_offset + 3 * i;
+            double unit[6] = {0, 0, 0, 0, 0, 0}, velocity[6] = {0, 0, 0, 0, 0, 0}, power, by_node[18], by_frame[18];
+            unit[component] = 1.0;
+            m->point_load(1, T, r, unit, identity, velocity, w->sensor_jacobian + 6 * i, &power, by_node, by_frame);
+            value = c->x[index] + T[3 * component] * r[0] + T[3 * component + 1] * r[1] + T[3 * component + 2] * r[2];
+            break;
+        }
         default: value = 0.0; break;  /* 4: an earlier controller's output, read in the loop below */
         }
         w->sensor_values[i] = value - m->sensor_origin[i];
@@ -688,7 +707,8 @@ static void controller_couplings(const Model *m, const Configuration *c, Work *w
         double value = gains[m->coupling_slot[e]] * (m->n_chained ? w->controller_total[m->actuator_controller[a]
                                                                                            * m->n_sensors + sensor]
                                                                     : w->controller_gradient[sensor]);
-        w->coupling_stiffness[e] = kind == 0 || kind == 2 ? value : 0.0;
+        if (kind == 5) value *= w->sensor_jacobian[6 * sensor + m->coupling_column[e]];
+        w->coupling_stiffness[e] = kind == 0 || kind == 2 || kind == 5 ? value : 0.0;
         w->coupling_damping[e] = kind == 1 || kind == 3 ? value : 0.0;
     }
 }
