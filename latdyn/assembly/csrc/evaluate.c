@@ -602,7 +602,7 @@ static void controller_outputs(const Model *m, const Configuration *c, Work *w, 
             const int64_t node = index / 3, component = index % 3;
             const double *T = c->T + 9 * node, *r = m->sensor_offset + 3 * i;
             double unit[6] = {0, 0, 0, 0, 0, 0}, velocity[6] = {0, 0, 0, 0, 0, 0}, power, by_node[18], by_frame[18];
-            unit[component] = 1.0;
+            unit[component] = -1.0;  /* the kernel gives −Jᵀ values (the load's part of the residual): +Jᵀ e_c */
             m->point_load(1, T, r, unit, identity, velocity, w->sensor_jacobian + 6 * i, &power, by_node, by_frame);
             value = c->x[index] + T[3 * component] * r[0] + T[3 * component + 1] * r[1] + T[3 * component + 2] * r[2];
             break;
