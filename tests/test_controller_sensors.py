@@ -345,3 +345,18 @@ def test_coupling_entries_against_central_differences_3d():
     # ∂r/∂q of the residual, whose load part is −F = −(0.5 ctl + 1) on the row
     assert np.max(np.abs(exact + 0.5 * differences)) < 1e-8 * np.max(np.abs(exact))
     assert np.count_nonzero(exact) == 6  # the body's y, z and rotations (yp, zp) and the beam end's x (xq)
+
+
+def test_a_controller_reads_an_earlier_one_through_its_probe():
+    """A probe {controller: a} read by name is a's output: the chain a = −40 (θ − ref), ctl = ua − kd θ̇
+    (ua the probe) is the PD (measured 3.4e-5, as the chain by name), and B of ref through it is kp × B
+    of the torque (to 1e-12)."""
+    controllers = '  a: {output: "-40*(th - ref)"}\n  ctl: {output: "ua - kd*om"}'
+    text = chain(controllers).replace("    y: {controller: ctl}", "    y: {controller: ctl}\n    ua: {controller: a}")
+    result = latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
+    assert np.max(np.abs(result.probes["th"] - oscillator(result.t, 40.0, 8.0, 1.0, 1.0))) < 4e-5
+    assert np.max(np.abs(result.probes["ua"] - (-40 * (result.probes["th"] - 1)))) < 1e-12
+    modes = "{analysis: modes, count: 1, linear_model: {inputs: [arm.start, ref], outputs: [th]}}"
+    B = linear_model_of(chain(controllers, solve=modes).replace(
+        "    y: {controller: ctl}", "    y: {controller: ctl}\n    ua: {controller: a}"))["B"]
+    assert np.max(np.abs(B[:, 1] - 40.0 * B[:, 0])) <= 1e-12 * np.max(np.abs(B[:, 1]))

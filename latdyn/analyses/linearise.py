@@ -411,6 +411,7 @@ def _controller_input_gains(model, assembler, state, u, values) -> dict:
     at = dict(values)
     at.update({sp.Symbol(n, real=True): v for n, v in zip(probes.names, probes.values(state.copy()))})
     gains, total = {}, {}  # total: dy/du of each continuous controller, through the earlier ones it reads
+    recording = {p.name: p.controller for p in scene.output.probes if p.kind == "controller" and p.state is None}
     for c in continuous:  # file order: the chain rule through the outputs of earlier continuous ones
         y = float(c.output_expr.evalf(subs=at))
         at[sp.Symbol(c.name, real=True)] = min(max(y, c.limits[0]), c.limits[1]) if c.limits is not None else y
@@ -418,8 +419,8 @@ def _controller_input_gains(model, assembler, state, u, values) -> dict:
             total[c.name] = 0.0
             continue
         dy = float(sp.diff(c.output_expr, u).evalf(subs=at))
-        dy += sum(float(sp.diff(c.output_expr, x).evalf(subs=at)) * total[x.name]
-                  for x in c.output_expr.free_symbols if x.name in total)
+        dy += sum(float(sp.diff(c.output_expr, x).evalf(subs=at)) * total[recording.get(x.name, x.name)]
+                  for x in c.output_expr.free_symbols if recording.get(x.name, x.name) in total)
         total[c.name] = dy
         if dy == 0.0:
             continue

@@ -210,6 +210,10 @@ def wiring(model, assembler) -> Wiring:
     for c in continuous:
         key = f"controllers.{c.name}"
         for name in c.reads:
+            recorded = probes.get(name)  # a probe {controller: NAME} of an earlier continuous one reads it
+            if recorded is not None and recorded.kind == "controller" and recorded.state is None \
+                    and recorded.controller in index:
+                name = recorded.controller
             if name in index:  # an earlier continuous controller (the loader refuses a later one)
                 if c.states or continuous[index[name]].states:
                     _refuse(scene, f"{key}.output", f"a continuous controller with states that reads another "
