@@ -676,9 +676,11 @@ void latdyn_controller_states_accept(const Model *m, Work *w, const Configuratio
 }
 
 /* The coupling entries of K and C (see Model): each actuator's generalized force per unit output
- * (−1 on a hinge's coordinate; the point-load kernel's force for a unit component), times ∂y/∂s of
- * its controller's sensors. A controller's output is feedback: the load factor λ of a static path
- * does not scale it. */
+ * (−1 on a hinge's coordinate; the point-load kernel's force for a unit component; times λ a for an
+ * actuator inside an expression a y + b), times dy/ds of its controller's sensors (the total
+ * derivative through earlier controllers with chained ones) and, for a sensor of an offset point,
+ * ∂s/∂q of the entry's column. A controller's output named alone is feedback: the load factor λ of a
+ * static path does not scale it. */
 static void controller_couplings(const Model *m, const Configuration *c, Work *w, double load_factor)
 {
     static const double identity[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
