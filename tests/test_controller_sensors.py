@@ -289,7 +289,7 @@ def test_a_point_offset_from_its_node_closed_loop_is_open_loop_plus_bkc():
 
 FREE_WITH_OFFSET = """
 controllers:
-  a: {output: "-20*sin(yp) + 3*zp"}
+  a: {output: "-20*sin(yp) + 3*zp - 2*wp*wp"}
   ctl: {output: "2*a + a*a/100 - 4*xq"}
 sections:
   s: {EA: 1.0e4, EIy: 50.0, EIz: 80.0, GJ: 40.0, rhoA: 0.5}
@@ -305,17 +305,20 @@ output:
     yp: {point: stub.start, quantity: displacement, component: y}
     zp: {point: stub.start, quantity: position, component: z}
     xq: {point: stub.end, quantity: position, component: x}
+    wp: {point: stub.start, quantity: velocity, component: z}
 """
 
 
 def test_coupling_entries_against_central_differences_3d():
-    """At a random moving 3D state (the body turned by a random rotation, displaced), the evaluation's
-    coupling entries of a load "0.5*ctl + 1" (row z of the body: ∂r/∂q, the load's part of the residual
-    −F) by every free coordinate against −0.5 × central differences of the controller's output: a chain ctl(a, xq), a(yp, zp) reading an offset
-    point's displacement and position (its gradient by the body's rotation from the point-load kernel)
-    and the free end of a beam (measured 8.2e-12 of the largest entry)."""
+    """At a random moving 3D state (the body turned by a random rotation, displaced, moving), the
+    evaluation's coupling entries of a load "0.5*ctl + 1" (row z of the body: ∂r/∂q and ∂r/∂v, the
+    load's part of the residual −F) by every free coordinate (K) and rate (C) against −0.5 × central
+    differences of the controller's output: a chain ctl(a, xq), a(yp, zp, wp) reading an offset point's
+    displacement, position and velocity (their gradients by the body's rotation and rates from the
+    point-load kernel) and the free end of a beam (measured 8.8e-12 of the largest entry of K, 8.3e-11 of C)."""
     from scipy.spatial.transform import Rotation
 
+    from latdyn.assembly.assembler import pack, unpack_free
     from latdyn.assembly.prepare import prepare
 
     prepared = prepare(latdyn.load_scene(yaml.safe_load(FREE_WITH_OFFSET)))
@@ -328,23 +331,33 @@ def test_coupling_entries_against_central_differences_3d():
     state.v[node], state.w[node] = random.normal(size=3), random.normal(size=3)
     slot = scene.controller_outputs.index("ctl")
 
-    def output(step):
-        assembler.evaluate(assembler.advance(state, step), matrices=False)
+    def output(step=None, rates=None):
+        moved = assembler.advance(state, step) if step is not None else state.copy()
+        if rates is not None:
+            unpack_free(model, pack(model, state.v, state.w, state.theta_dot)[:model.n_dofs] + rates,
+                        moved.v, moved.w, moved.theta_dot)
+        assembler.evaluate(moved, matrices=False)
         return scene.controller_outputs.values[slot]
 
     assembler.evaluate(state, matrices=True)
-    control = assembler.control
-    coupling = assembler.native().buffers["coupling_stiffness"]
+    control, buffers = assembler.control, assembler.native().buffers
     row = int(model.node_dofs[node, 2])
-    exact = np.zeros(model.n_dofs)
-    for value, r, c in zip(coupling, control.coupling_rows, control.coupling_cols):
-        if r == row and c < model.n_dofs:
-            exact[c] += value
+    exact = {}
+    for name in ("coupling_stiffness", "coupling_damping"):
+        exact[name] = np.zeros(model.n_dofs)
+        for value, r, c in zip(buffers[name], control.coupling_rows, control.coupling_cols):
+            if r == row and c < model.n_dofs:
+                exact[name][c] += value
     e = 1e-6
-    differences = np.array([(output(e * unit) - output(-e * unit)) / (2 * e) for unit in np.eye(model.n_dofs)])
-    # ∂r/∂q of the residual, whose load part is −F = −(0.5 ctl + 1) on the row
-    assert np.max(np.abs(exact + 0.5 * differences)) < 1e-8 * np.max(np.abs(exact))
-    assert np.count_nonzero(exact) == 6  # the body's y, z and rotations (yp, zp) and the beam end's x (xq)
+    units = np.eye(model.n_dofs)
+    by_coordinate = np.array([(output(e * u) - output(-e * u)) / (2 * e) for u in units])
+    by_rate = np.array([(output(rates=e * u) - output(rates=-e * u)) / (2 * e) for u in units])
+    # ∂r/∂q and ∂r/∂v of the residual, whose load part is −F = −(0.5 ctl + 1) on the row
+    K, C = exact["coupling_stiffness"], exact["coupling_damping"]
+    assert np.max(np.abs(K + 0.5 * by_coordinate)) < 1e-8 * np.max(np.abs(K))
+    assert np.max(np.abs(C + 0.5 * by_rate)) < 1e-8 * np.max(np.abs(C))
+    assert np.count_nonzero(K) == 6  # the body's y, z and rotations (yp, zp, wp) and the beam end's x (xq)
+    assert np.count_nonzero(C) == 3  # the body's z rate and the rates about x and y (wp)
 
 
 def test_a_controller_reads_an_earlier_one_through_its_probe():

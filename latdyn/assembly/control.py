@@ -1,8 +1,8 @@
 """Continuous controllers wired into the equations of motion (SCENE.md ``controllers`` without ``rate``).
 
 A continuous controller k reads sensors s (probes: hinge angles and rates, guide slides and rates,
-global components of the position, displacement or velocity of a point without offset, of the
-position or displacement of a point offset from its node, the outputs of earlier continuous controllers) and drives
+global components of the position, displacement or velocity of a point, with or without an offset
+from its node, the outputs of earlier continuous controllers) and drives
 actuators (a hinge torque, a guide force, a load component, each naming the controller alone or in
 an expression τ = a y + b with a constant a = ∂τ/∂y, :func:`actuator_gain`). In the one evaluation
 (``csrc/evaluate.c``, ``controllers``) its output y_k = clip(f_k(t, s)) is computed from the
@@ -37,8 +37,9 @@ from latdyn.errors import SceneError
 
 #: sensor kinds (csrc/evaluate.c): hinge (or guide) angle, its rate, node position component, node velocity
 #: component, the output of an earlier continuous controller (index: its position among them; no coordinate),
-#: a global position component of a point offset from its node (the node's six coordinates)
-ANGLE, RATE, POSITION, VELOCITY, CONTROLLER, OFFSET_POSITION = 0, 1, 2, 3, 4, 5
+#: a global position component of a point offset from its node (the node's six coordinates), and of its
+#: velocity (the node's six rates, then its three rotations)
+ANGLE, RATE, POSITION, VELOCITY, CONTROLLER, OFFSET_POSITION, OFFSET_VELOCITY = 0, 1, 2, 3, 4, 5, 6
 _NO_OFFSET = np.zeros(3)
 _AXIS = {"x": 0, "y": 1, "z": 2}
 
@@ -126,11 +127,9 @@ def _sensor(scene, model, controller, probe):
         node, r = model.point(probe.point)
         c = _AXIS[probe.component]
         if np.any(np.asarray(r) != 0.0):
-            if probe.quantity == "velocity":
-                _refuse(scene, key, f"the probe {probe.name!r} is the velocity of a grid point offset from its node: a "
-                                    "continuous controller reads the velocity of a point without offset (a body's "
-                                    "reference point, a beam node) and the position or displacement of any point; "
-                                    "expected such a probe, or a sampled controller (rate: HZ)")
+            if probe.quantity == "velocity":  # by the node's six rates, then its three rotations
+                columns = [int(d) for d in model.node_dofs[node]] + [int(d) for d in model.node_dofs[node, 3:]]
+                return OFFSET_VELOCITY, 3 * node + c, 0.0, columns, np.asarray(r, float)
             # at t = 0 the node axes are the global ones (Assembler.initial_state): the point is at x0 + r
             origin = float(model.nodes[node].position[c] + r[c]) if probe.quantity == "displacement" else 0.0
             return OFFSET_POSITION, 3 * node + c, origin, [int(d) for d in model.node_dofs[node]], np.asarray(r, float)

@@ -370,7 +370,7 @@ class NativeModel:
             "controller_scratch": (wired.law_values,), "controller_state_trial": (len(wired.state_slot),),
             "controller_arguments": (wired.law_arguments,), "controller_solve": (wired.solve_size,),
             "controller_half_step": (1,),
-            "sensor_jacobian": (len(wired.sensor_kind), 6),
+            "sensor_jacobian": (len(wired.sensor_kind), 9),
             "controller_total": (wired.n * len(wired.sensor_kind) if np.any(wired.sensor_kind == 4) else 0,),
             "coupling_stiffness": (len(wired.coupling_actuator),), "coupling_damping": (len(wired.coupling_actuator),),
             "cable_vector": (CE, 12), "cable_stiffness": (CE, 12, 12), "cable_damping": (CE, 12, 12),

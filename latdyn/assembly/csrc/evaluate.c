@@ -193,7 +193,8 @@ typedef struct {
      * sensor_offset (n_sensors, 3; node axes), sensor_index 3 node + component: p_c = x_c + (T r)_c;
      * its gradient by the node's six coordinates is the generalized force of a unit force along the
      * component at the point (the generated point_load kernel: Jᵀ e_c), and each coupling entry e
-     * names its column among them (coupling_column, 0 for sensors of one coordinate) */
+     * names its column among them (coupling_column, 0 for sensors of one coordinate); kind 6: the
+     * component of its velocity v + ω × T r, columns the node's six rates then its three rotations */
     const double *sensor_offset;
     const int64_t *coupling_column;
 } Model;
@@ -248,7 +249,8 @@ typedef struct {
     /* with chained controllers (Model n_chained): dy_k/ds_i of controller k by every sensor i,
      * (n_controllers, n_sensors), the chain rule dy_k/ds = Σ ∂y_k/∂y_j dy_j/ds + ∂y_k/∂s */
     double *controller_total;
-    /* ∂s_i/∂q of a sensor of kind 5 by its node's six coordinates (n_sensors, 6) */
+    /* ∂s_i/∂q of a sensor of kind 5 by its node's six coordinates, of kind 6 by its node's six rates
+     * and then by its three rotation coordinates (n_sensors, 9) */
     double *sensor_jacobian;
 } Work;
 
@@ -603,8 +605,29 @@ static void controller_outputs(const Model *m, const Configuration *c, Work *w, 
             const double *T = c->T + 9 * node, *r = m->sensor_offset + 3 * i;
             double unit[6] = {0, 0, 0, 0, 0, 0}, velocity[6] = {0, 0, 0, 0, 0, 0}, power, by_node[18], by_frame[18];
             unit[component] = -1.0;  /* the kernel gives −Jᵀ values (the load's part of the residual): +Jᵀ e_c */
-            m->point_load(1, T, r, unit, identity, velocity, w->sensor_jacobian + 6 * i, &power, by_node, by_frame);
+            m->point_load(1, T, r, unit, identity, velocity, w->sensor_jacobian + 9 * i, &power, by_node, by_frame);
             value = c->x[index] + T[3 * component] * r[0] + T[3 * component + 1] * r[1] + T[3 * component + 2] * r[2];
+            break;
+        }
+        case 6: {  /* the velocity of a point offset from its node: v + ω × T r. By the node's rates it is
+                    * Jᵀ e_c (as the position by the coordinates); by the node's rotation, at fixed rates,
+                    * e_c·(ω × p) = d·p with d = e_c × ω: the rotation part of Jᵀ d, both from point_load */
+            static const double identity[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+            const int64_t node = index / 3, component = index % 3;
+            const double *T = c->T + 9 * node, *r = m->sensor_offset + 3 * i, *omega = c->w + 3 * node;
+            double unit[6] = {0, 0, 0, 0, 0, 0}, velocity[6] = {0, 0, 0, 0, 0, 0}, power, by_node[18], by_frame[18];
+            double p[3], lever[6], *jacobian = w->sensor_jacobian + 9 * i;
+            for (int q = 0; q < 3; ++q) p[q] = T[3 * q] * r[0] + T[3 * q + 1] * r[1] + T[3 * q + 2] * r[2];
+            unit[component] = -1.0;
+            m->point_load(1, T, r, unit, identity, velocity, jacobian, &power, by_node, by_frame);
+            const int64_t a = (component + 1) % 3, b = (component + 2) % 3;  /* d = e_c × ω */
+            double d[6] = {0, 0, 0, 0, 0, 0};
+            d[a] = -omega[b];
+            d[b] = omega[a];
+            for (int q = 0; q < 3; ++q) d[q] = -d[q];
+            m->point_load(1, T, r, d, identity, velocity, lever, &power, by_node, by_frame);
+            for (int q = 0; q < 3; ++q) jacobian[6 + q] = lever[3 + q];
+            value = c->v[index] + omega[a] * p[b] - omega[b] * p[a];
             break;
         }
         default: value = 0.0; break;  /* 4: an earlier controller's output, read in the loop below */
@@ -709,9 +732,11 @@ static void controller_couplings(const Model *m, const Configuration *c, Work *w
         double value = gains[m->coupling_slot[e]] * (m->n_chained ? w->controller_total[m->actuator_controller[a]
                                                                                            * m->n_sensors + sensor]
                                                                     : w->controller_gradient[sensor]);
-        if (kind == 5) value *= w->sensor_jacobian[6 * sensor + m->coupling_column[e]];
-        w->coupling_stiffness[e] = kind == 0 || kind == 2 || kind == 5 ? value : 0.0;
-        w->coupling_damping[e] = kind == 1 || kind == 3 ? value : 0.0;
+        const int64_t column = m->coupling_column[e];
+        if (kind >= 5) value *= w->sensor_jacobian[9 * sensor + column];
+        const int by_rate = kind == 1 || kind == 3 || (kind == 6 && column < 6);  /* kind 6: rates, then rotation */
+        w->coupling_stiffness[e] = by_rate ? 0.0 : value;
+        w->coupling_damping[e] = by_rate ? value : 0.0;
     }
 }
 
