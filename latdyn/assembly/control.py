@@ -2,7 +2,8 @@
 
 A continuous controller k reads sensors s (probes: hinge angles and rates, guide slides and rates,
 global components of the position, displacement or velocity of a point, with or without an offset
-from its node, the outputs of earlier continuous controllers) and drives
+from its node, components of a point's position or displacement in a body's axes, the outputs of
+earlier continuous controllers) and drives
 actuators (a hinge torque, a guide force, a load component, each naming the controller alone or in
 an expression τ = a y + b with a constant a = ∂τ/∂y, :func:`actuator_gain`). In the one evaluation
 (``csrc/evaluate.c``, ``controllers``) its output y_k = clip(f_k(t, s)) is computed from the
@@ -39,7 +40,8 @@ from latdyn.errors import SceneError
 #: component, the output of an earlier continuous controller (index: its position among them; no coordinate),
 #: a global position component of a point offset from its node (the node's six coordinates), and of its
 #: velocity (the node's six rates, then its three rotations)
-ANGLE, RATE, POSITION, VELOCITY, CONTROLLER, OFFSET_POSITION, OFFSET_VELOCITY = 0, 1, 2, 3, 4, 5, 6
+#: a component of a point's position or displacement in a body's axes (the point's node's and the body's six)
+ANGLE, RATE, POSITION, VELOCITY, CONTROLLER, OFFSET_POSITION, OFFSET_VELOCITY, BODY_FRAME = 0, 1, 2, 3, 4, 5, 6, 7
 _NO_OFFSET = np.zeros(3)
 _AXIS = {"x": 0, "y": 1, "z": 2}
 
@@ -55,7 +57,8 @@ class Wiring:
     sensor_kind: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     sensor_index: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     sensor_origin: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    sensor_offset: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))  # kind 5: r in node axes
+    sensor_offset: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))  # kinds 5-7: r in node axes
+    sensor_frame_node: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))  # kind 7: the body's node
     hinge_controller: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     load_controller: np.ndarray = field(default_factory=lambda: np.zeros((0, 6), np.int64))
     actuator_kind: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))  # 0 hinge, 1 load
@@ -117,27 +120,38 @@ def _refuse(scene, key, what):
 
 
 def _sensor(scene, model, controller, probe):
-    """(kind, index, origin, the coordinates it depends on, offset) of the probe a continuous controller reads."""
+    """(kind, index, origin, the coordinates it depends on, offset, the node of the body whose axes it is
+    in or -1) of the probe a continuous controller reads."""
     key = f"controllers.{controller.name}.output"
     if probe.kind in ("hinge", "guide") and probe.quantity in ("angle", "position", "rate"):
         # a guide's slide s and its rate ṡ are its coordinate as a hinge's θ and θ̇ are
         j = model.hinge_index(probe.beam, probe.end) if probe.kind == "hinge" else model.hinge_index(probe.body, "guide")
-        return (RATE if probe.quantity == "rate" else ANGLE), j, 0.0, [int(model.hinge_dofs[j])], _NO_OFFSET
+        return (RATE if probe.quantity == "rate" else ANGLE), j, 0.0, [int(model.hinge_dofs[j])], _NO_OFFSET, -1
+    if probe.kind == "point" and probe.frame != "global" and probe.component in _AXIS \
+            and probe.quantity in ("position", "displacement"):
+        node, r = model.point(probe.point)
+        body, c = model.body_node[probe.frame], _AXIS[probe.component]
+        # at t = 0 the node axes are the global ones: the point's place in the body's axes is p0 − x_b0
+        start = model.nodes[node].position + np.asarray(r, float) - model.nodes[body].position
+        origin = float(start[c]) if probe.quantity == "displacement" else 0.0
+        columns = [int(d) for d in model.node_dofs[node]] + [int(d) for d in model.node_dofs[body]]
+        return BODY_FRAME, 3 * node + c, origin, columns, np.asarray(r, float), body
     if probe.kind == "point" and probe.frame == "global" and probe.component in _AXIS:
         node, r = model.point(probe.point)
         c = _AXIS[probe.component]
         if np.any(np.asarray(r) != 0.0):
             if probe.quantity == "velocity":  # by the node's six rates, then its three rotations
                 columns = [int(d) for d in model.node_dofs[node]] + [int(d) for d in model.node_dofs[node, 3:]]
-                return OFFSET_VELOCITY, 3 * node + c, 0.0, columns, np.asarray(r, float)
+                return OFFSET_VELOCITY, 3 * node + c, 0.0, columns, np.asarray(r, float), -1
             # at t = 0 the node axes are the global ones (Assembler.initial_state): the point is at x0 + r
             origin = float(model.nodes[node].position[c] + r[c]) if probe.quantity == "displacement" else 0.0
-            return OFFSET_POSITION, 3 * node + c, origin, [int(d) for d in model.node_dofs[node]], np.asarray(r, float)
+            return OFFSET_POSITION, 3 * node + c, origin, [int(d) for d in model.node_dofs[node]], np.asarray(r, float), -1
         origin = float(model.nodes[node].position[c]) if probe.quantity == "displacement" else 0.0
         kind = VELOCITY if probe.quantity == "velocity" else POSITION
-        return kind, 3 * node + c, origin, [int(model.node_dofs[node, c])], _NO_OFFSET
-    _refuse(scene, key, f"a continuous controller reads hinge angles and rates, guide positions and rates and the "
-                        f"global x, y or z component of a point's position, displacement or velocity; the probe "
+        return kind, 3 * node + c, origin, [int(model.node_dofs[node, c])], _NO_OFFSET, -1
+    _refuse(scene, key, f"a continuous controller reads hinge angles and rates, guide positions and rates, the "
+                        f"global x, y or z component of a point's position, displacement or velocity and the x, y or z "
+                        f"component of its position or displacement in a body's axes; the probe "
                         f"{probe.name!r} is not one "
                         "(expected one of those, or a sampled controller: rate: HZ)")
 
@@ -205,7 +219,7 @@ def wiring(model, assembler) -> Wiring:
         return out
     probes = {p.name: p for p in scene.output.probes}
     index = {c.name: k for k, c in enumerate(continuous)}
-    kinds, indices, origins, dofs, offsets, start = [], [], [], [], [], [0]
+    kinds, indices, origins, dofs, offsets, frames, start = [], [], [], [], [], [], [0]
     for c in continuous:
         key = f"controllers.{c.name}"
         for name in c.reads:
@@ -225,8 +239,10 @@ def wiring(model, assembler) -> Wiring:
                 origins.append(0.0)
                 dofs.append([])
                 offsets.append(_NO_OFFSET)
+                frames.append(-1)
             elif name in probes:
-                kind, i, origin, columns, offset = _sensor(scene, model, c, probes[name])
+                kind, i, origin, columns, offset, frame = _sensor(scene, model, c, probes[name])
+                frames.append(frame)
                 kinds.append(kind)
                 indices.append(i)
                 origins.append(origin)
@@ -245,6 +261,7 @@ def wiring(model, assembler) -> Wiring:
     out.sensor_kind, out.sensor_index = np.array(kinds, np.int64), np.array(indices, np.int64)
     out.sensor_origin = np.array(origins, float)
     out.sensor_offset = np.array(offsets, float).reshape(-1, 3)
+    out.sensor_frame_node = np.array(frames, np.int64)
 
     def driven(law, key):
         """(the continuous controller a law names, ∂τ/∂y, whether alone), or (-1, 0, False); refused when

@@ -77,7 +77,7 @@ class ModelData(ctypes.Structure):
         ("n_controller_states", I64), ("controller_state_start", P), ("controller_state_slot", P),
         ("controller_states", P), ("controller_state_rate", P),
         ("actuator_gain", P), ("n_law_actuators", I64), ("n_chained", I64),
-        ("sensor_offset", P), ("coupling_column", P),
+        ("sensor_offset", P), ("coupling_column", P), ("sensor_frame_node", P),
     ]
 
 

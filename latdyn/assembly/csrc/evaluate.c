@@ -197,6 +197,10 @@ typedef struct {
      * component of its velocity v + ω × T r, columns the node's six rates then its three rotations */
     const double *sensor_offset;
     const int64_t *coupling_column;
+    /* sensors of kind 7: a component of a point's position in the axes of a body: s = b_c · (p − x_b),
+     * b_c = T_b e_c the body's axis, p = x_n + T_n r (sensor_index 3 n + c, sensor_offset r, the body's
+     * node sensor_frame_node[i]); columns the point node's six coordinates, then the body node's six */
+    const int64_t *sensor_frame_node;
 } Model;
 
 /* Scratch buffers, allocated once by the caller. */
@@ -250,7 +254,8 @@ typedef struct {
      * (n_controllers, n_sensors), the chain rule dy_k/ds = Σ ∂y_k/∂y_j dy_j/ds + ∂y_k/∂s */
     double *controller_total;
     /* ∂s_i/∂q of a sensor of kind 5 by its node's six coordinates, of kind 6 by its node's six rates
-     * and then by its three rotation coordinates (n_sensors, 9) */
+     * and then by its three rotation coordinates, of kind 7 by its point's node's and its body's
+     * (n_sensors, 12) */
     double *sensor_jacobian;
 } Work;
 
@@ -605,7 +610,7 @@ static void controller_outputs(const Model *m, const Configuration *c, Work *w, 
             const double *T = c->T + 9 * node, *r = m->sensor_offset + 3 * i;
             double unit[6] = {0, 0, 0, 0, 0, 0}, velocity[6] = {0, 0, 0, 0, 0, 0}, power, by_node[18], by_frame[18];
             unit[component] = -1.0;  /* the kernel gives −Jᵀ values (the load's part of the residual): +Jᵀ e_c */
-            m->point_load(1, T, r, unit, identity, velocity, w->sensor_jacobian + 9 * i, &power, by_node, by_frame);
+            m->point_load(1, T, r, unit, identity, velocity, w->sensor_jacobian + 12 * i, &power, by_node, by_frame);
             value = c->x[index] + T[3 * component] * r[0] + T[3 * component + 1] * r[1] + T[3 * component + 2] * r[2];
             break;
         }
@@ -616,7 +621,7 @@ static void controller_outputs(const Model *m, const Configuration *c, Work *w, 
             const int64_t node = index / 3, component = index % 3;
             const double *T = c->T + 9 * node, *r = m->sensor_offset + 3 * i, *omega = c->w + 3 * node;
             double unit[6] = {0, 0, 0, 0, 0, 0}, velocity[6] = {0, 0, 0, 0, 0, 0}, power, by_node[18], by_frame[18];
-            double p[3], lever[6], *jacobian = w->sensor_jacobian + 9 * i;
+            double p[3], lever[6], *jacobian = w->sensor_jacobian + 12 * i;
             for (int q = 0; q < 3; ++q) p[q] = T[3 * q] * r[0] + T[3 * q + 1] * r[1] + T[3 * q + 2] * r[2];
             unit[component] = -1.0;
             m->point_load(1, T, r, unit, identity, velocity, jacobian, &power, by_node, by_frame);
@@ -628,6 +633,28 @@ static void controller_outputs(const Model *m, const Configuration *c, Work *w, 
             m->point_load(1, T, r, d, identity, velocity, lever, &power, by_node, by_frame);
             for (int q = 0; q < 3; ++q) jacobian[6 + q] = lever[3 + q];
             value = c->v[index] + omega[a] * p[b] - omega[b] * p[a];
+            break;
+        }
+        case 7: {  /* in a body's axes: by the point's node Jᵀ b_c; by the body's translation −b_c; by its
+                    * rotation the rotation part of Jᵀ u for the point T_b e_c (u = p − x_b): all from point_load */
+            static const double identity[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+            const int64_t node = index / 3, component = index % 3, body = m->sensor_frame_node[i];
+            const double *T = c->T + 9 * node, *r = m->sensor_offset + 3 * i, *Tb = c->T + 9 * body;
+            double velocity[6] = {0, 0, 0, 0, 0, 0}, power, by_node[18], by_frame[18], *jacobian = w->sensor_jacobian + 12 * i;
+            double axis[6] = {0, 0, 0, 0, 0, 0}, u[6] = {0, 0, 0, 0, 0, 0}, unit[3] = {0, 0, 0}, lever[6];
+            for (int q = 0; q < 3; ++q) {
+                axis[q] = -Tb[3 * q + component];  /* −b_c: the kernel gives −Jᵀ values */
+                u[q] = -(c->x[3 * node + q] + T[3 * q] * r[0] + T[3 * q + 1] * r[1] + T[3 * q + 2] * r[2] - c->x[3 * body + q]);
+            }
+            m->point_load(1, T, r, axis, identity, velocity, jacobian, &power, by_node, by_frame);
+            unit[component] = 1.0;
+            m->point_load(1, Tb, unit, u, identity, velocity, lever, &power, by_node, by_frame);
+            value = 0.0;
+            for (int q = 0; q < 3; ++q) {
+                jacobian[6 + q] = axis[q];  /* −b_c */
+                jacobian[9 + q] = lever[3 + q];
+                value -= axis[q] * -u[q];  /* b_c · (p − x_b) */
+            }
             break;
         }
         default: value = 0.0; break;  /* 4: an earlier controller's output, read in the loop below */
@@ -733,7 +760,7 @@ static void controller_couplings(const Model *m, const Configuration *c, Work *w
                                                                                            * m->n_sensors + sensor]
                                                                     : w->controller_gradient[sensor]);
         const int64_t column = m->coupling_column[e];
-        if (kind >= 5) value *= w->sensor_jacobian[9 * sensor + column];
+        if (kind >= 5) value *= w->sensor_jacobian[12 * sensor + column];
         const int by_rate = kind == 1 || kind == 3 || (kind == 6 && column < 6);  /* kind 6: rates, then rotation */
         w->coupling_stiffness[e] = by_rate ? 0.0 : value;
         w->coupling_damping[e] = by_rate ? value : 0.0;
