@@ -41,7 +41,10 @@ from latdyn.errors import SceneError
 #: a global position component of a point offset from its node (the node's six coordinates), and of its
 #: velocity (the node's six rates, then its three rotations)
 #: a component of a point's position or displacement in a body's axes (the point's node's and the body's six)
-ANGLE, RATE, POSITION, VELOCITY, CONTROLLER, OFFSET_POSITION, OFFSET_VELOCITY, BODY_FRAME = 0, 1, 2, 3, 4, 5, 6, 7
+#: a cable's length (its elements' end nodes)
+ANGLE, RATE, POSITION, VELOCITY, CONTROLLER, OFFSET_POSITION, OFFSET_VELOCITY, BODY_FRAME, CABLE_LENGTH = range(9)
+#: the columns of each kind's gradient in csrc/evaluate.c's sensor_jacobian (kind 8: 12 an element)
+_GRADIENT_COLUMNS = {OFFSET_POSITION: 6, OFFSET_VELOCITY: 9, BODY_FRAME: 12}
 _NO_OFFSET = np.zeros(3)
 _AXIS = {"x": 0, "y": 1, "z": 2}
 
@@ -59,6 +62,7 @@ class Wiring:
     sensor_origin: np.ndarray = field(default_factory=lambda: np.zeros(0))
     sensor_offset: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))  # kinds 5-7: r in node axes
     sensor_frame_node: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))  # kind 7: the body's node
+    sensor_column_start: np.ndarray = field(default_factory=lambda: np.zeros(1, np.int64))  # their gradients' columns
     hinge_controller: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     load_controller: np.ndarray = field(default_factory=lambda: np.zeros((0, 6), np.int64))
     actuator_kind: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))  # 0 hinge, 1 load
@@ -127,6 +131,12 @@ def _sensor(scene, model, controller, probe):
         # a guide's slide s and its rate ṡ are its coordinate as a hinge's θ and θ̇ are
         j = model.hinge_index(probe.beam, probe.end) if probe.kind == "hinge" else model.hinge_index(probe.body, "guide")
         return (RATE if probe.quantity == "rate" else ANGLE), j, 0.0, [int(model.hinge_dofs[j])], _NO_OFFSET, -1
+    if probe.kind == "cable" and probe.quantity == "length":
+        cables = model.cables
+        elements = np.flatnonzero(cables.cable == cables.names.index(probe.beam))
+        columns = [int(d) for e in elements for end in (0, 1) for d in model.node_dofs[cables.nodes[e, end]]]
+        assert np.all(np.diff(elements) == 1)  # a cable's elements are numbered one after the other
+        return CABLE_LENGTH, int(elements[0]), 0.0, columns, _NO_OFFSET, -1
     if probe.kind == "point" and probe.frame != "global" and probe.component in _AXIS \
             and probe.quantity in ("position", "displacement"):
         node, r = model.point(probe.point)
@@ -151,7 +161,7 @@ def _sensor(scene, model, controller, probe):
         return kind, 3 * node + c, origin, [int(model.node_dofs[node, c])], _NO_OFFSET, -1
     _refuse(scene, key, f"a continuous controller reads hinge angles and rates, guide positions and rates, the "
                         f"global x, y or z component of a point's position, displacement or velocity and the x, y or z "
-                        f"component of its position or displacement in a body's axes; the probe "
+                        f"component of its position or displacement in a body's axes, and a cable's length; the probe "
                         f"{probe.name!r} is not one "
                         "(expected one of those, or a sampled controller: rate: HZ)")
 
@@ -262,6 +272,8 @@ def wiring(model, assembler) -> Wiring:
     out.sensor_origin = np.array(origins, float)
     out.sensor_offset = np.array(offsets, float).reshape(-1, 3)
     out.sensor_frame_node = np.array(frames, np.int64)
+    out.sensor_column_start = np.cumsum([0] + [_GRADIENT_COLUMNS.get(kind, len(columns) if kind == CABLE_LENGTH else 0)
+                                               for kind, columns in zip(kinds, dofs)]).astype(np.int64)
 
     def driven(law, key):
         """(the continuous controller a law names, ∂τ/∂y, whether alone), or (-1, 0, False); refused when

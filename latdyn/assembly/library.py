@@ -78,6 +78,7 @@ class ModelData(ctypes.Structure):
         ("controller_states", P), ("controller_state_rate", P),
         ("actuator_gain", P), ("n_law_actuators", I64), ("n_chained", I64),
         ("sensor_offset", P), ("coupling_column", P), ("sensor_frame_node", P),
+        ("sensor_column_start", P),
     ]
 
 

@@ -201,6 +201,12 @@ typedef struct {
      * b_c = T_b e_c the body's axis, p = x_n + T_n r (sensor_index 3 n + c, sensor_offset r, the body's
      * node sensor_frame_node[i]); columns the point node's six coordinates, then the body node's six */
     const int64_t *sensor_frame_node;
+    /* sensors of kind 8: a cable's length Σ ℓ_e over its elements sensor_index … (consecutive), ℓ_e the
+     * distance of the element's end points (cable_nodes, cable_offsets), its gradient by the two end
+     * nodes' coordinates −Jᵀ_a e and Jᵀ_b e (e the unit vector from a to b; point_load); the columns of
+     * sensor i's gradient are sensor_column_start[i] … sensor_column_start[i+1]−1 of Work sensor_jacobian
+     * (kinds 5, 6, 7: 6, 9 and 12 columns; 12 an element for kind 8; none for the others) */
+    const int64_t *sensor_column_start;
 } Model;
 
 /* Scratch buffers, allocated once by the caller. */
@@ -254,8 +260,8 @@ typedef struct {
      * (n_controllers, n_sensors), the chain rule dy_k/ds = Σ ∂y_k/∂y_j dy_j/ds + ∂y_k/∂s */
     double *controller_total;
     /* ∂s_i/∂q of a sensor of kind 5 by its node's six coordinates, of kind 6 by its node's six rates
-     * and then by its three rotation coordinates, of kind 7 by its point's node's and its body's
-     * (n_sensors, 12) */
+     * and then by its three rotation coordinates, of kind 7 by its point's node's and its body's, of
+     * kind 8 by its elements' end nodes' (Model sensor_column_start) */
     double *sensor_jacobian;
 } Work;
 
@@ -610,7 +616,7 @@ static void controller_outputs(const Model *m, const Configuration *c, Work *w, 
             const double *T = c->T + 9 * node, *r = m->sensor_offset + 3 * i;
             double unit[6] = {0, 0, 0, 0, 0, 0}, velocity[6] = {0, 0, 0, 0, 0, 0}, power, by_node[18], by_frame[18];
             unit[component] = -1.0;  /* the kernel gives −Jᵀ values (the load's part of the residual): +Jᵀ e_c */
-            m->point_load(1, T, r, unit, identity, velocity, w->sensor_jacobian + 12 * i, &power, by_node, by_frame);
+            m->point_load(1, T, r, unit, identity, velocity, w->sensor_jacobian + m->sensor_column_start[i], &power, by_node, by_frame);
             value = c->x[index] + T[3 * component] * r[0] + T[3 * component + 1] * r[1] + T[3 * component + 2] * r[2];
             break;
         }
@@ -621,7 +627,7 @@ static void controller_outputs(const Model *m, const Configuration *c, Work *w, 
             const int64_t node = index / 3, component = index % 3;
             const double *T = c->T + 9 * node, *r = m->sensor_offset + 3 * i, *omega = c->w + 3 * node;
             double unit[6] = {0, 0, 0, 0, 0, 0}, velocity[6] = {0, 0, 0, 0, 0, 0}, power, by_node[18], by_frame[18];
-            double p[3], lever[6], *jacobian = w->sensor_jacobian + 12 * i;
+            double p[3], lever[6], *jacobian = w->sensor_jacobian + m->sensor_column_start[i];
             for (int q = 0; q < 3; ++q) p[q] = T[3 * q] * r[0] + T[3 * q + 1] * r[1] + T[3 * q + 2] * r[2];
             unit[component] = -1.0;
             m->point_load(1, T, r, unit, identity, velocity, jacobian, &power, by_node, by_frame);
@@ -640,7 +646,7 @@ static void controller_outputs(const Model *m, const Configuration *c, Work *w, 
             static const double identity[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
             const int64_t node = index / 3, component = index % 3, body = m->sensor_frame_node[i];
             const double *T = c->T + 9 * node, *r = m->sensor_offset + 3 * i, *Tb = c->T + 9 * body;
-            double velocity[6] = {0, 0, 0, 0, 0, 0}, power, by_node[18], by_frame[18], *jacobian = w->sensor_jacobian + 12 * i;
+            double velocity[6] = {0, 0, 0, 0, 0, 0}, power, by_node[18], by_frame[18], *jacobian = w->sensor_jacobian + m->sensor_column_start[i];
             double axis[6] = {0, 0, 0, 0, 0, 0}, u[6] = {0, 0, 0, 0, 0, 0}, unit[3] = {0, 0, 0}, lever[6];
             for (int q = 0; q < 3; ++q) {
                 axis[q] = -Tb[3 * q + component];  /* −b_c: the kernel gives −Jᵀ values */
@@ -654,6 +660,30 @@ static void controller_outputs(const Model *m, const Configuration *c, Work *w, 
                 jacobian[6 + q] = axis[q];  /* −b_c */
                 jacobian[9 + q] = lever[3 + q];
                 value -= axis[q] * -u[q];  /* b_c · (p − x_b) */
+            }
+            break;
+        }
+        case 8: {  /* a cable's length and its gradient, element by element */
+            static const double identity[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+            double velocity[6] = {0, 0, 0, 0, 0, 0}, power, by_node[18], by_frame[18];
+            double *jacobian = w->sensor_jacobian + m->sensor_column_start[i];
+            const int64_t elements = (m->sensor_column_start[i + 1] - m->sensor_column_start[i]) / 12;
+            for (int64_t j = 0; j < elements; ++j) {
+                const int64_t e = index + j, a = m->cable_nodes[2 * e], b = m->cable_nodes[2 * e + 1];
+                const double *ra = m->cable_offsets + 6 * e, *rb = ra + 3;
+                double pa[3], pb[3], d[3], toward_a[6] = {0, 0, 0, 0, 0, 0}, toward_b[6] = {0, 0, 0, 0, 0, 0};
+                matvec3(c->T + 9 * a, ra, pa);
+                matvec3(c->T + 9 * b, rb, pb);
+                for (int q = 0; q < 3; ++q) d[q] = c->x[3 * b + q] + pb[q] - c->x[3 * a + q] - pa[q];
+                const double length = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+                value += length;
+                for (int q = 0; q < 3 && length > 0.0; ++q) {
+                    toward_a[q] = d[q] / length;   /* the kernel gives −Jᵀ values: −Jᵀ_a e */
+                    toward_b[q] = -d[q] / length;  /* +Jᵀ_b e */
+                }
+                m->point_load(1, c->T + 9 * a, ra, toward_a, identity, velocity, jacobian + 12 * j, &power, by_node, by_frame);
+                m->point_load(1, c->T + 9 * b, rb, toward_b, identity, velocity, jacobian + 12 * j + 6, &power, by_node,
+                              by_frame);
             }
             break;
         }
@@ -760,7 +790,7 @@ static void controller_couplings(const Model *m, const Configuration *c, Work *w
                                                                                            * m->n_sensors + sensor]
                                                                     : w->controller_gradient[sensor]);
         const int64_t column = m->coupling_column[e];
-        if (kind >= 5) value *= w->sensor_jacobian[12 * sensor + column];
+        if (kind >= 5) value *= w->sensor_jacobian[m->sensor_column_start[sensor] + column];
         const int by_rate = kind == 1 || kind == 3 || (kind == 6 && column < 6);  /* kind 6: rates, then rotation */
         w->coupling_stiffness[e] = by_rate ? 0.0 : value;
         w->coupling_damping[e] = by_rate ? value : 0.0;
