@@ -534,3 +534,29 @@ def test_pd_on_a_cable_length_cli(tmp_path):
     assert np.max(np.abs(p["L"] - (1 + p["x"]))) < 1e-12
     summary = json.loads((out / "summary.json").read_text())
     assert summary["newton_iterations"] <= 2 * summary["steps"]
+
+
+@pytest.mark.parametrize("probe, says", [
+    ("{point: b, quantity: velocity, frame: a, component: x}", "in a body's axes"),
+    ("{cable: tether, quantity: tension}", "a cable's length"),
+    ("{element: 'post.element[0]', quantity: axial_force}", "is not one"),
+    ("{guide: b, quantity: force}", "is not one"),
+], ids=["body-frame velocity", "cable tension", "section force", "guide force"])
+def test_what_a_continuous_controller_may_not_read_is_refused(probe, says):
+    """Sensors not built (docs/control.md "Not built yet") are refused at the controller's output key."""
+    from latdyn.errors import SceneError
+
+    text = CABLED.replace("    L: {cable: tether, quantity: length}", f"    L: {probe}")
+    if "guide" in probe:
+        text = text.replace("b: {at: [1.5, 0.8, 0.2], mass: 1.0, inertia: [0.2, 0.1, 0.3]}",
+                            "b: {at: [1.5, 0.8, 0.2], mass: 1.0, inertia: [0.2, 0.1, 0.3], guide: {axis: [1, 0, 0]}}")
+    with pytest.raises(SceneError) as refused:
+        latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
+    assert "controllers.ctl.output" in str(refused.value) and says in str(refused.value), str(refused.value)
+
+
+def test_a_refused_sensor_through_the_cli(tmp_path):
+    completed, _ = latdyn_run(tmp_path, CABLED.replace("quantity: length", "quantity: tension"))
+    assert completed.returncode == 2
+    assert "controllers.ctl.output" in completed.stderr and "tension" in completed.stderr
+    assert "Traceback" not in completed.stderr

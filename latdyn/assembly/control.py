@@ -162,7 +162,8 @@ def _sensor(scene, model, controller, probe):
     _refuse(scene, key, f"a continuous controller reads hinge angles and rates, guide positions and rates, the "
                         f"global x, y or z component of a point's position, displacement or velocity and the x, y or z "
                         f"component of its position or displacement in a body's axes, and a cable's length; the probe "
-                        f"{probe.name!r} is not one "
+                        f"{probe.name!r} ({probe.kind} {probe.quantity}"
+                        f"{'' if probe.kind != 'point' else f', frame {probe.frame}'}) is not one "
                         "(expected one of those, or a sampled controller: rate: HZ)")
 
 
