@@ -560,3 +560,20 @@ def test_a_refused_sensor_through_the_cli(tmp_path):
     assert completed.returncode == 2
     assert "controllers.ctl.output" in completed.stderr and "tension" in completed.stderr
     assert "Traceback" not in completed.stderr
+
+
+def test_a_chain_through_a_saturated_controller_against_an_independent_integration():
+    """a = clip(−20 (θ − 1), ±3) read by ctl = a − 8 θ̇ on the hub (J = 1): θ against scipy's solve_ivp
+    (DOP853, rtol 1e-10) of θ̈ = clip(−20 (θ − 1), −3, 3) − 8 θ̇ (the chain's derivative through a at its
+    limit is 0: measured 4.2e-7 at dt = 0.002, 1.1 Newton iterations a step)."""
+    from scipy.integrate import solve_ivp
+
+    controllers = '  a: {output: "-20*(th - ref)", limits: [-3, 3]}\n  ctl: {output: "a - kd*om"}'
+    result = latdyn.run(latdyn.load_scene(yaml.safe_load(chain(controllers, solve="{t_end: 2.0, dt: 0.002}"))))
+
+    def rhs(t, x):
+        return [x[1], min(max(-20 * (x[0] - 1), -3.0), 3.0) - 8 * x[1]]
+
+    reference = solve_ivp(rhs, (0, 2), [0.0, 0.0], t_eval=result.t, rtol=1e-10, atol=1e-12, method="DOP853")
+    assert np.max(np.abs(result.probes["th"] - reference.y[0])) < 2e-6
+    assert np.any(-20 * (result.probes["th"] - 1) > 3)  # a was at its limit (until θ = 0.85)
