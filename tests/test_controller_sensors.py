@@ -577,3 +577,21 @@ def test_a_chain_through_a_saturated_controller_against_an_independent_integrati
     reference = solve_ivp(rhs, (0, 2), [0.0, 0.0], t_eval=result.t, rtol=1e-10, atol=1e-12, method="DOP853")
     assert np.max(np.abs(result.probes["th"] - reference.y[0])) < 2e-6
     assert np.any(-20 * (result.probes["th"] - 1) > 3)  # a was at its limit (until θ = 0.85)
+
+
+def test_cable_length_closed_loop_is_open_loop_plus_bkc():
+    """The guided mass tied by the slack cable, force "ctl + u" with ctl = −kp (L − 1 − ref) − kd ṡ:
+    A = A_ol + B K C on the outputs [L, v] with K = [−kp, −kd] (C of L by central differences of the
+    probe, independent of the sensor's gradient; measured 7.8e-11 of the largest entry)."""
+    modes = "{analysis: modes, count: 1, linear_model: {inputs: [u], outputs: [L, v]}}"
+
+    def scene(force, controllers):
+        return guided(force, controllers=controllers, solve=modes).replace(
+            "bodies:", "cables:\n  tie: {from: anchor, to: cart, EA: 50.0, rest_length: 5.0}\n"
+            "bodies:\n  anchor: {at: [0, 0, 0], fixed: true}").replace(
+            "at: [0.3, -0.2, 0.1]", "at: [1, 0, 0]") + "    L: {cable: tie, quantity: length}\n"
+
+    closed = linear_model_of(scene("ctl + u", '  ctl: {output: "-kp*(L - 1 - ref) - kd*v"}'))
+    opened = linear_model_of(scene("u", '  ctl: {output: "0"}'))
+    expected = opened["A"] + opened["B"] @ np.array([[-40.0, -8.0]]) @ opened["C"]
+    assert np.max(np.abs(closed["A"] - expected)) <= 1e-9 * np.max(np.abs(expected))
