@@ -150,15 +150,15 @@ def test_sampled_controller_resumes_bit_for_bit(tmp_path, monkeypatch):
     ("  ctl: {output: 1, gain: 2}", "controllers.ctl.gain", "unknown key"),
     ("  th: {output: 1}", "output.probes.th", "share one namespace"),
     # what this version does not run continuously (sampled, each runs)
-    ("  a: {output: \"th\"}\n  ctl: {output: \"a\"}", "controllers.ctl.output", "reads another continuous"),
-    ("  ctl: {output: \"E\", rate: 2}\n  c2: {output: \"th\"}", "beams.arm.start.hinge.torque", "name alone"),
+    ("  a: {output: \"th\", states: {S: \"th\"}}\n  ctl: {output: \"a\"}", "controllers.ctl.output", "reads one with states"),
+    ("  ctl: {output: \"E\", rate: 2}\n  c2: {output: \"th\"}", "beams.arm.start.hinge.torque", "a*y + b with a constant a"),
 ])
 def test_refusals_name_the_key(controllers, key, says):
     """Each refusal in Python (the loader's, or the model's wiring for what is not built); the CLI's
     exit status 2 and message without a traceback: test_a_refusal_through_the_cli."""
     from latdyn.errors import SceneError
 
-    torque = "2*c2" if "c2:" in controllers else "ctl" if "continuous" in says or "states" in says else "0"
+    torque = "c2*theta" if "c2:" in controllers else "ctl" if "continuous" in says or "states" in says else "0"
     text = hub(controllers, torque=torque, probes="    u: {controller: ctl}\n    E: {energy: kinetic}"
                if "ctl:" in controllers else "    E: {energy: kinetic}")
     with pytest.raises(SceneError) as refused:

@@ -24,6 +24,7 @@ from latdyn.analyses.linearisation import (
     modes, reduce, tangent_q,
 )
 from latdyn.assembly.assembler import pack, unpack_free
+from latdyn.assembly.control import actuator_gain
 from latdyn.assembly.prepare import length_scale
 from latdyn.errors import SceneError, SolverError
 from latdyn.results.writer import ResultWriter
@@ -403,26 +404,36 @@ def _controller_input_gains(model, assembler, state, u, values) -> dict:
     from latdyn.results.probes import ProbeSet
 
     scene = model.scene
-    continuous = [c for c in scene.controllers.values() if not c.sampled and u.name in c.reads]
-    if not continuous:
+    continuous = [c for c in scene.controllers.values() if not c.sampled]
+    if not any(u.name in c.reads for c in continuous):
         return {}
     probes = ProbeSet(assembler, assembler.initial_state())
     at = dict(values)
     at.update({sp.Symbol(n, real=True): v for n, v in zip(probes.names, probes.values(state.copy()))})
-    gains = {}
-    for c in continuous:
+    gains, total = {}, {}  # total: dy/du of each continuous controller, through the earlier ones it reads
+    recording = {p.name: p.controller for p in scene.output.probes if p.kind == "controller" and p.state is None}
+    for c in continuous:  # file order: the chain rule through the outputs of earlier continuous ones
         y = float(c.output_expr.evalf(subs=at))
+        at[sp.Symbol(c.name, real=True)] = min(max(y, c.limits[0]), c.limits[1]) if c.limits is not None else y
         if c.limits is not None and not c.limits[0] <= y <= c.limits[1]:
+            total[c.name] = 0.0
             continue
         dy = float(sp.diff(c.output_expr, u).evalf(subs=at))
+        dy += sum(float(sp.diff(c.output_expr, x).evalf(subs=at)) * total[recording.get(x.name, x.name)]
+                  for x in c.output_expr.free_symbols if recording.get(x.name, x.name) in total)
+        total[c.name] = dy
+        if dy == 0.0:
+            continue
         for k, h in enumerate(model.hinges):
-            if str(getattr(h.torque, "source", "")).strip() == c.name:
-                gains[("hinge", k, 0)] = gains.get(("hinge", k, 0), 0.0) + dy
+            a = actuator_gain(h.torque, c.name)  # ∂τ/∂y: 1 for the name alone
+            if a is not None:
+                gains[("hinge", k, 0)] = gains.get(("hinge", k, 0), 0.0) + a * dy
         for l, load in enumerate(scene.loads):
             for offset, laws in ((0, load.force), (3, load.moment)):
                 for p, law in enumerate(laws or ()):
-                    if str(getattr(law, "source", "")).strip() == c.name:
-                        gains[("load", l, offset + p)] = gains.get(("load", l, offset + p), 0.0) + dy
+                    a = actuator_gain(law, c.name)
+                    if a is not None:
+                        gains[("load", l, offset + p)] = gains.get(("load", l, offset + p), 0.0) + a * dy
     return gains
 
 
@@ -432,15 +443,17 @@ def _actuator_force(model, state, name: str, gain: float) -> np.ndarray:
     scene = model.scene
     F = np.zeros(model.n_total + 1)
     for k, h in enumerate(model.hinges):
-        if str(getattr(h.torque, "source", "")).strip() == name:
-            F[model.hinge_dofs[k]] += gain
+        a = actuator_gain(h.torque, name)  # ∂τ/∂y: 1 for the name alone
+        if a is not None:
+            F[model.hinge_dofs[k]] += a * gain
     for load in scene.loads:
         for offset, laws in ((0, load.force), (3, load.moment)):
             for p, law in enumerate(laws or ()):
-                if str(getattr(law, "source", "")).strip() != name:
+                a = actuator_gain(law, name)
+                if a is None:
                     continue
                 f, mo = np.zeros(3), np.zeros(3)
-                (f if offset == 0 else mo)[p] = gain
+                (f if offset == 0 else mo)[p] = a * gain
                 if load.frame != "global":
                     R = state.T[model.body_node[load.frame]]
                     f, mo = R @ f, R @ mo

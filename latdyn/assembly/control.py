@@ -1,8 +1,11 @@
 """Continuous controllers wired into the equations of motion (SCENE.md ``controllers`` without ``rate``).
 
-A continuous controller k reads sensors s (probes: hinge angles and rates, global components of
-the position, displacement or velocity of a point without offset) and drives actuators (a hinge
-torque, a load component, each naming the controller alone). In the one evaluation
+A continuous controller k reads sensors s (probes: hinge angles and rates, guide slides and rates,
+global components of the position, displacement or velocity of a point, with or without an offset
+from its node, components of a point's position or displacement in a body's axes, the outputs of
+earlier continuous controllers) and drives
+actuators (a hinge torque, a guide force, a load component, each naming the controller alone or in
+an expression τ = a y + b with a constant a = ∂τ/∂y, :func:`actuator_gain`). In the one evaluation
 (``csrc/evaluate.c``, ``controllers``) its output y_k = clip(f_k(t, s)) is computed from the
 configuration with the generated law (codegen/laws.py ``latdyn_controller_laws``: y and ∂y/∂s,
 exact), the actuators apply it, and the coupling of each actuator's rows to each sensor's
@@ -10,8 +13,10 @@ coordinate enters K (a sensor of position) or C (a sensor of rate):
 
     ∂r_row/∂q_sensor = g_row · ∂y/∂s,
 
-g_row the actuator's generalized force per unit output (−1 on a hinge's coordinate: f = … − y; the
-point-load kernel's force for a unit component on a load's node). A controller's output is
+(a controller that reads earlier continuous ones: ∂y/∂s the total derivative through them, the
+chain rule, on every coordinate sensor it reaches), g_row the actuator's generalized force per unit output (−1 on a hinge's coordinate: f = … − y; the
+point-load kernel's force for a unit component on a load's node), times λ a for an expression (the
+law applies λ τ, ramped like any load). A controller's output is
 feedback, not a load: the load factor λ of a static path does not scale it (it acts at full
 strength while loads and gravity are ramped). A non-collocated
 controller thus couples the actuator's equation to the sensor's coordinates: the entries are in
@@ -20,8 +25,8 @@ matrix's factorization, the linearisation (the closed loop) and the reduction on
 coordinates with rigid links take them. Saturated (output at a limit), ∂y/∂s = 0.
 
 :func:`wiring` lays this out for one numbering of the coordinates; what it cannot wire (a sensor or
-an actuator outside the list above, a continuous controller with states or reading another
-continuous controller) is refused with the key path.
+an actuator outside the list above, states in a chain of continuous controllers) is refused with
+the key path.
 """
 from __future__ import annotations
 
@@ -31,8 +36,16 @@ import numpy as np
 
 from latdyn.errors import SceneError
 
-#: sensor kinds (csrc/evaluate.c): hinge angle, hinge rate, node position component, node velocity component
-ANGLE, RATE, POSITION, VELOCITY = 0, 1, 2, 3
+#: sensor kinds (csrc/evaluate.c): hinge (or guide) angle, its rate, node position component, node velocity
+#: component, the output of an earlier continuous controller (index: its position among them; no coordinate),
+#: a global position component of a point offset from its node (the node's six coordinates), and of its
+#: velocity (the node's six rates, then its three rotations)
+#: a component of a point's position or displacement in a body's axes (the point's node's and the body's six)
+#: a cable's length (its elements' end nodes)
+ANGLE, RATE, POSITION, VELOCITY, CONTROLLER, OFFSET_POSITION, OFFSET_VELOCITY, BODY_FRAME, CABLE_LENGTH = range(9)
+#: the columns of each kind's gradient in csrc/evaluate.c's sensor_jacobian (kind 8: 12 an element)
+_GRADIENT_COLUMNS = {OFFSET_POSITION: 6, OFFSET_VELOCITY: 9, BODY_FRAME: 12}
+_NO_OFFSET = np.zeros(3)
 _AXIS = {"x": 0, "y": 1, "z": 2}
 
 
@@ -47,18 +60,25 @@ class Wiring:
     sensor_kind: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     sensor_index: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     sensor_origin: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    sensor_dof: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    sensor_offset: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))  # kinds 5-7: r in node axes
+    sensor_frame_node: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))  # kind 7: the body's node
+    sensor_column_start: np.ndarray = field(default_factory=lambda: np.zeros(1, np.int64))  # their gradients' columns
     hinge_controller: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     load_controller: np.ndarray = field(default_factory=lambda: np.zeros((0, 6), np.int64))
     actuator_kind: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))  # 0 hinge, 1 load
     actuator_index: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     actuator_component: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     actuator_controller: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    #: ∂τ/∂y of an actuator inside an expression τ = a y + b (the law itself applies it, ramped with the
+    #: load factor like any load); 0 for the controller's name alone (its output applied, not ramped)
+    actuator_gain: np.ndarray = field(default_factory=lambda: np.zeros(0))
     coupling_actuator: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     coupling_slot: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     coupling_sensor: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     coupling_rows: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     coupling_cols: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    #: each entry's column among its sensor's coordinates (a kind-5 sensor's node's six; else 0)
+    coupling_column: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     #: the controllers' states (controller k: state_start[k] … state_start[k+1]−1), each one's index in
     #: the scene's controller_states (``states``, whose values are S at the last accepted state) and
     #: ``state_rates`` (dS/dt there, what the trapezoidal rule starts each step from)
@@ -91,9 +111,10 @@ class Wiring:
         return len(self.controllers)
 
     def sensor_names(self, k: int) -> tuple:
-        """The probes controller k reads, in the order of its sensors."""
+        """The probes and earlier continuous controllers controller k reads, in the order of its sensors."""
         c = self.controllers[k]
-        return tuple(n for n in c.reads if n in self._probe_names)
+        earlier = {d.name for d in self.controllers[:k]}
+        return tuple(n for n in c.reads if n in earlier or n in self._probe_names)
 
     _probe_names: tuple = ()
 
@@ -103,23 +124,46 @@ def _refuse(scene, key, what):
 
 
 def _sensor(scene, model, controller, probe):
-    """(kind, index, origin, dof) of the probe a continuous controller reads."""
+    """(kind, index, origin, the coordinates it depends on, offset, the node of the body whose axes it is
+    in or -1) of the probe a continuous controller reads."""
     key = f"controllers.{controller.name}.output"
-    if probe.kind == "hinge":
-        j = model.hinge_index(probe.beam, probe.end)
-        return (ANGLE if probe.quantity == "angle" else RATE), j, 0.0, int(model.hinge_dofs[j])
+    if probe.kind in ("hinge", "guide") and probe.quantity in ("angle", "position", "rate"):
+        # a guide's slide s and its rate ṡ are its coordinate as a hinge's θ and θ̇ are
+        j = model.hinge_index(probe.beam, probe.end) if probe.kind == "hinge" else model.hinge_index(probe.body, "guide")
+        return (RATE if probe.quantity == "rate" else ANGLE), j, 0.0, [int(model.hinge_dofs[j])], _NO_OFFSET, -1
+    if probe.kind == "cable" and probe.quantity == "length":
+        cables = model.cables
+        elements = np.flatnonzero(cables.cable == cables.names.index(probe.beam))
+        columns = [int(d) for e in elements for end in (0, 1) for d in model.node_dofs[cables.nodes[e, end]]]
+        assert np.all(np.diff(elements) == 1)  # a cable's elements are numbered one after the other
+        return CABLE_LENGTH, int(elements[0]), 0.0, columns, _NO_OFFSET, -1
+    if probe.kind == "point" and probe.frame != "global" and probe.component in _AXIS \
+            and probe.quantity in ("position", "displacement"):
+        node, r = model.point(probe.point)
+        body, c = model.body_node[probe.frame], _AXIS[probe.component]
+        # at t = 0 the node axes are the global ones: the point's place in the body's axes is p0 − x_b0
+        start = model.nodes[node].position + np.asarray(r, float) - model.nodes[body].position
+        origin = float(start[c]) if probe.quantity == "displacement" else 0.0
+        columns = [int(d) for d in model.node_dofs[node]] + [int(d) for d in model.node_dofs[body]]
+        return BODY_FRAME, 3 * node + c, origin, columns, np.asarray(r, float), body
     if probe.kind == "point" and probe.frame == "global" and probe.component in _AXIS:
         node, r = model.point(probe.point)
-        if np.any(np.asarray(r) != 0.0):
-            _refuse(scene, key, f"the probe {probe.name!r} is at a grid point offset from its node: a continuous "
-                                "controller reads a point without offset (a body's reference point, a beam node); "
-                                "expected such a point, or a sampled controller (rate: HZ)")
         c = _AXIS[probe.component]
+        if np.any(np.asarray(r) != 0.0):
+            if probe.quantity == "velocity":  # by the node's six rates, then its three rotations
+                columns = [int(d) for d in model.node_dofs[node]] + [int(d) for d in model.node_dofs[node, 3:]]
+                return OFFSET_VELOCITY, 3 * node + c, 0.0, columns, np.asarray(r, float), -1
+            # at t = 0 the node axes are the global ones (Assembler.initial_state): the point is at x0 + r
+            origin = float(model.nodes[node].position[c] + r[c]) if probe.quantity == "displacement" else 0.0
+            return OFFSET_POSITION, 3 * node + c, origin, [int(d) for d in model.node_dofs[node]], np.asarray(r, float), -1
         origin = float(model.nodes[node].position[c]) if probe.quantity == "displacement" else 0.0
         kind = VELOCITY if probe.quantity == "velocity" else POSITION
-        return kind, 3 * node + c, origin, int(model.node_dofs[node, c])
-    _refuse(scene, key, f"a continuous controller reads hinge angles and rates and the global x, y or z component "
-                        f"of a point's position, displacement or velocity; the probe {probe.name!r} is not one "
+        return kind, 3 * node + c, origin, [int(model.node_dofs[node, c])], _NO_OFFSET, -1
+    _refuse(scene, key, f"a continuous controller reads hinge angles and rates, guide positions and rates, the "
+                        f"global x, y or z component of a point's position, displacement or velocity and the x, y or z "
+                        f"component of its position or displacement in a body's axes, and a cable's length; the probe "
+                        f"{probe.name!r} ({probe.kind} {probe.quantity}"
+                        f"{'' if probe.kind != 'point' else f', frame {probe.frame}'}) is not one "
                         "(expected one of those, or a sampled controller: rate: HZ)")
 
 
@@ -146,6 +190,34 @@ def _named_alone(law, name: str) -> bool:
     return law is not None and isinstance(law.source, str) and law.source.strip() == name
 
 
+def _law_expression(law):
+    """The SymPy expression of a hinge torque (:class:`HingeLaw`) or a load component (:class:`TimeFunction`)."""
+    from latdyn.scene.expressions import HingeLaw
+
+    if isinstance(law, HingeLaw):
+        expressions = law.expressions
+        return expressions[1][0] if expressions is not None else None
+    return law.expr
+
+
+def actuator_gain(law, name: str) -> float | None:
+    """The constant ∂τ/∂y of a hinge torque or load component τ that names the continuous controller
+    ``name`` (its output y): 1 for the name alone, the SymPy derivative of an expression affine in y
+    (``"2*ctl + 0.1 - 0.5*theta_dot"``: 2); None when τ does not name it or ∂τ/∂y is not a constant."""
+    if law is None or name not in getattr(law, "input_names", ()):
+        return None
+    if _named_alone(law, name):
+        return 1.0
+    expression = _law_expression(law)
+    if expression is None:
+        return None
+    import sympy as sp
+
+    y = next((s for s in expression.free_symbols if s.name == name), None)
+    derivative = sp.diff(expression, y) if y is not None else sp.S.Zero
+    return float(derivative) if not derivative.free_symbols else None
+
+
 def wiring(model, assembler) -> Wiring:
     """The continuous controllers of ``model`` wired for its current numbering (module docstring)."""
     scene = model.scene
@@ -158,20 +230,35 @@ def wiring(model, assembler) -> Wiring:
         return out
     probes = {p.name: p for p in scene.output.probes}
     index = {c.name: k for k, c in enumerate(continuous)}
-    kinds, indices, origins, dofs, start = [], [], [], [], [0]
+    kinds, indices, origins, dofs, offsets, frames, start = [], [], [], [], [], [], [0]
     for c in continuous:
         key = f"controllers.{c.name}"
         for name in c.reads:
-            if name in index:
-                _refuse(scene, f"{key}.output", f"a continuous controller that reads another continuous one ({name!r}) "
-                                                "is not run by this version of the package; expected the sensors "
-                                                "written into its own output")
-            if name in probes:
-                kind, i, origin, dof = _sensor(scene, model, c, probes[name])
+            recorded = probes.get(name)  # a probe {controller: NAME} of an earlier continuous one reads it
+            if recorded is not None and recorded.kind == "controller" and recorded.state is None \
+                    and recorded.controller in index:
+                name = recorded.controller
+            if name in index:  # an earlier continuous controller (the loader refuses a later one)
+                if c.states or continuous[index[name]].states:
+                    _refuse(scene, f"{key}.output", f"a continuous controller with states that reads another "
+                                                    f"continuous one, or reads one with states ({name!r}), is not "
+                                                    "run by this version of the package; expected controllers "
+                                                    "without states in such a chain, or the other's expression "
+                                                    "written into this output")
+                kinds.append(CONTROLLER)
+                indices.append(index[name])
+                origins.append(0.0)
+                dofs.append([])
+                offsets.append(_NO_OFFSET)
+                frames.append(-1)
+            elif name in probes:
+                kind, i, origin, columns, offset, frame = _sensor(scene, model, c, probes[name])
+                frames.append(frame)
                 kinds.append(kind)
                 indices.append(i)
                 origins.append(origin)
-                dofs.append(dof)
+                dofs.append(columns)
+                offsets.append(offset)
         start.append(len(kinds))
     out.controllers = continuous
     states = scene.controller_states
@@ -183,18 +270,26 @@ def wiring(model, assembler) -> Wiring:
     out.limits = np.array([c.limits if c.limits is not None else (-np.inf, np.inf) for c in continuous], float)
     out.sensor_start = np.array(start, np.int64)
     out.sensor_kind, out.sensor_index = np.array(kinds, np.int64), np.array(indices, np.int64)
-    out.sensor_origin, out.sensor_dof = np.array(origins, float), np.array(dofs, np.int64)
+    out.sensor_origin = np.array(origins, float)
+    out.sensor_offset = np.array(offsets, float).reshape(-1, 3)
+    out.sensor_frame_node = np.array(frames, np.int64)
+    out.sensor_column_start = np.cumsum([0] + [_GRADIENT_COLUMNS.get(kind, len(columns) if kind == CABLE_LENGTH else 0)
+                                               for kind, columns in zip(kinds, dofs)]).astype(np.int64)
 
     def driven(law, key):
-        """The continuous controller a law names (alone), or -1; refused inside an expression."""
+        """(the continuous controller a law names, ∂τ/∂y, whether alone), or (-1, 0, False); refused when
+        τ names more than one or is not affine in y with a constant coefficient."""
         names = [n for n in getattr(law, "input_names", ()) if n in index]
         if not names:
-            return -1
-        if not _named_alone(law, names[0]) or len(names) > 1:
-            _refuse(scene, key, f"a continuous controller ({names[0]!r}) drives a hinge torque or a load component "
-                                "that names it alone; expected the controller's name alone (write the expression "
-                                "into its output), or a sampled controller")
-        return index[names[0]]
+            return -1, 0.0, False
+        gain = actuator_gain(law, names[0]) if len(names) == 1 else None
+        if gain is None:
+            _refuse(scene, key, f"a continuous controller ({names[0]!r}) drives a hinge torque, a guide force or a "
+                                "load component that names one continuous controller y, alone or in an expression "
+                                "a*y + b with a constant a (b may depend on t, theta, theta_dot, inputs); expected "
+                                "such an expression (write the rest into the controller's output), or a sampled "
+                                "controller")
+        return index[names[0]], gain, _named_alone(law, names[0])
 
     def not_driven(law, key):
         names = [n for n in getattr(law, "input_names", ()) if n in index]
@@ -205,33 +300,46 @@ def wiring(model, assembler) -> Wiring:
     for name, body in scene.bodies.items():
         for law in [*(body.translation or ()), body.rotation_angle]:
             not_driven(law, f"bodies.{name}.motion")
-    actuators = []  # (kind, index, component, controller)
+    actuators, gains = [], []  # (kind, index, component, controller), ∂τ/∂y (0: the name alone)
     for j, h in enumerate(model.hinges):
-        path = f"beams.{h.beam}.{h.end}.hinge"
+        path = f"bodies.{h.beam}.guide" if h.kind == "guide" else f"beams.{h.beam}.{h.end}.hinge"
         for what in ("stiffness", "damping", "angle"):
-            not_driven(getattr(h, what, None), f"{path}.{what}")
-        k = driven(h.torque, f"{path}.torque")
+            not_driven(getattr(h, what, None), f"{path}.{'position' if what == 'angle' and h.kind == 'guide' else what}")
+        k, gain, alone = driven(h.torque, f"{path}.{'force' if h.kind == 'guide' else 'torque'}")
         if k >= 0:
-            out.hinge_controller[j] = k
+            if alone:
+                out.hinge_controller[j] = k
             actuators.append((0, j, 0, k))
+            gains.append(0.0 if alone else gain)
     for l, load in enumerate(assembler.loads):
         for offset, components in ((0, load.force), (3, load.moment)):
             for p, law in enumerate(components or ()):
-                k = driven(law, f"loads[{l}]")
+                k, gain, alone = driven(law, f"loads[{l}]")
                 if k >= 0:
-                    out.load_controller[l, offset + p] = k
+                    if alone:
+                        out.load_controller[l, offset + p] = k
                     actuators.append((1, l, offset + p, k))
+                    gains.append(0.0 if alone else gain)
     if actuators:
         out.actuator_kind, out.actuator_index, out.actuator_component, out.actuator_controller = (
             np.array(column, np.int64) for column in zip(*actuators))
+        out.actuator_gain = np.array(gains, float)
+    # the coordinate sensors each controller reaches: its own and, through the outputs it reads, those
+    # of the earlier controllers (the chain rule's columns; csrc/evaluate.c controller_total)
+    reached = []
+    for k in range(len(continuous)):
+        own = [m for m in range(start[k], start[k + 1]) if kinds[m] != CONTROLLER]
+        through = [m for i in range(start[k], start[k + 1]) if kinds[i] == CONTROLLER for m in reached[indices[i]]]
+        reached.append(sorted(set(own + through)))
     entries = []  # (actuator, slot, sensor, row, col)
     for a, (kind, i, p, k) in enumerate(actuators):
         rows = [int(model.hinge_dofs[i])] if kind == 0 else \
             [int(d) for d in model.node_dofs[assembler._load_nodes[i]]]
         for slot, row in enumerate(rows):
-            for m in range(start[k], start[k + 1]):
-                entries.append((a, slot, m, row, dofs[m]))
+            for m in reached[k]:
+                for column, dof in enumerate(dofs[m]):
+                    entries.append((a, slot, m, row, dof, column))
     if entries:
         (out.coupling_actuator, out.coupling_slot, out.coupling_sensor, out.coupling_rows,
-         out.coupling_cols) = (np.array(column, np.int64) for column in zip(*entries))
+         out.coupling_cols, out.coupling_column) = (np.array(column, np.int64) for column in zip(*entries))
     return out

@@ -76,6 +76,9 @@ class ModelData(ctypes.Structure):
         ("gravity_load_D_q", P),
         ("n_controller_states", I64), ("controller_state_start", P), ("controller_state_slot", P),
         ("controller_states", P), ("controller_state_rate", P),
+        ("actuator_gain", P), ("n_law_actuators", I64), ("n_chained", I64),
+        ("sensor_offset", P), ("coupling_column", P), ("sensor_frame_node", P),
+        ("sensor_column_start", P),
     ]
 
 
@@ -109,7 +112,8 @@ class WorkData(ctypes.Structure):
         "sensor_values", "controller_gradient", "controller_scratch", "coupling_stiffness", "coupling_damping",
         "cable_vector", "cable_stiffness", "cable_damping", "cable_state", "cable_strain", "cable_gap",
         "hinge_work_torque", "hinge_damper_torque", "gravity_tangent", "gravity_force_D_q",
-        "controller_state_trial", "controller_arguments", "controller_solve", "controller_half_step")]
+        "controller_state_trial", "controller_arguments", "controller_solve", "controller_half_step",
+        "controller_total", "sensor_jacobian")]
 
 
 class ConfigurationData(ctypes.Structure):

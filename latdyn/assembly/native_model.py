@@ -342,6 +342,10 @@ class NativeModel:
             n_cables=CE, cable_force=kernel["cable_force"], gravity_load_D_q=kernel["beam_gravity_D_q"],
             n_controller_states=len(wired.state_slot), controller_state_start=ints(wired.state_start),
             controller_state_slot=ints(wired.state_slot),
+            actuator_gain=arr(wired.actuator_gain), n_law_actuators=int(np.count_nonzero(wired.actuator_gain)),
+            n_chained=int(np.count_nonzero(wired.sensor_kind == 4)),
+            sensor_offset=arr(wired.sensor_offset.reshape(-1, 3)), coupling_column=ints(wired.coupling_column),
+            sensor_frame_node=ints(wired.sensor_frame_node), sensor_column_start=ints(wired.sensor_column_start),
         )
         if len(wired.state_slot):  # the runtime's arrays, read and written in place (latdyn.assembly.control)
             states, rates = wired.states.values, wired.state_rates
@@ -367,6 +371,8 @@ class NativeModel:
             "controller_scratch": (wired.law_values,), "controller_state_trial": (len(wired.state_slot),),
             "controller_arguments": (wired.law_arguments,), "controller_solve": (wired.solve_size,),
             "controller_half_step": (1,),
+            "sensor_jacobian": (int(wired.sensor_column_start[-1]),),
+            "controller_total": (wired.n * len(wired.sensor_kind) if np.any(wired.sensor_kind == 4) else 0,),
             "coupling_stiffness": (len(wired.coupling_actuator),), "coupling_damping": (len(wired.coupling_actuator),),
             "cable_vector": (CE, 12), "cable_stiffness": (CE, 12, 12), "cable_damping": (CE, 12, 12),
             "cable_state": (CE, 5), "cable_strain": (CE,), "cable_gap": (CE,),

@@ -223,14 +223,20 @@ class ProbeSet:
         (the expression the compiled evaluation uses, here in Python; clipped to its limits)."""
         scene = self.model.scene
         values = dict(zip(self.names, out))
-        for i, p in enumerate(self.probes):
-            c = scene.controllers.get(p.controller) if p.kind == "controller" and p.state is None else None
-            if c is None or c.sampled:
+        computed = {}  # in file order: a controller reads the continuous ones before it at this state
+        recording = {p.name: p.controller for p in self.probes if p.kind == "controller" and p.state is None
+                     and not scene.controllers[p.controller].sampled}  # a probe of one: its output
+        for c in scene.controllers.values():
+            if c.sampled:
                 continue
-            read = [values[n] if n in values else scene.inputs[n] if n in scene.inputs
+            read = [computed[n] if n in computed else computed[recording[n]] if n in recording
+                    else values[n] if n in values else scene.inputs[n] if n in scene.inputs
                     else scene.controller_outputs[n] for n in c.reads]
             own = [scene.controller_states[f"{c.name}.{s}"] for s in c.states]  # S at the accepted state
-            out[i] = c.clip(float(c.functions()[0](float(state.t), *read, *own)))
+            computed[c.name] = c.clip(float(c.functions()[0](float(state.t), *read, *own)))
+        for i, p in enumerate(self.probes):
+            if p.kind == "controller" and p.state is None and p.controller in computed:
+                out[i] = computed[p.controller]
 
 
 def _turned(T: np.ndarray, r: np.ndarray) -> np.ndarray:

@@ -178,6 +178,35 @@ typedef struct {
     int64_t n_controller_states;
     const int64_t *controller_state_start, *controller_state_slot;
     double *controller_states, *controller_state_rate;
+    /* actuators inside an expression τ = a y + b of a hinge torque, guide force or load component
+     * (latdyn/assembly/control.py): actuator_gain[a] = a (0 for the controller's name alone, applied
+     * by the hinge_controller / load_controller above); such a law reads the controllers' outputs
+     * itself, so with n_law_actuators > 0 the laws of time are taken again after the outputs */
+    const double *actuator_gain;
+    int64_t n_law_actuators;
+    /* sensors of kind 4: the output of an earlier continuous controller (sensor_index its position k;
+     * latdyn/assembly/control.py), read after that one is computed; with n_chained > 0 the coupling
+     * entries take the total derivative of each controller by the coordinate sensors it reaches
+     * (Work controller_total, the chain rule through the outputs it reads) */
+    int64_t n_chained;
+    /* sensors of kind 5: a global component of the position of a point offset from its node by
+     * sensor_offset (n_sensors, 3; node axes), sensor_index 3 node + component: p_c = x_c + (T r)_c;
+     * its gradient by the node's six coordinates is the generalized force of a unit force along the
+     * component at the point (the generated point_load kernel: Jᵀ e_c), and each coupling entry e
+     * names its column among them (coupling_column, 0 for sensors of one coordinate); kind 6: the
+     * component of its velocity v + ω × T r, columns the node's six rates then its three rotations */
+    const double *sensor_offset;
+    const int64_t *coupling_column;
+    /* sensors of kind 7: a component of a point's position in the axes of a body: s = b_c · (p − x_b),
+     * b_c = T_b e_c the body's axis, p = x_n + T_n r (sensor_index 3 n + c, sensor_offset r, the body's
+     * node sensor_frame_node[i]); columns the point node's six coordinates, then the body node's six */
+    const int64_t *sensor_frame_node;
+    /* sensors of kind 8: a cable's length Σ ℓ_e over its elements sensor_index … (consecutive), ℓ_e the
+     * distance of the element's end points (cable_nodes, cable_offsets), its gradient by the two end
+     * nodes' coordinates −Jᵀ_a e and Jᵀ_b e (e the unit vector from a to b; point_load); the columns of
+     * sensor i's gradient are sensor_column_start[i] … sensor_column_start[i+1]−1 of Work sensor_jacobian
+     * (kinds 5, 6, 7: 6, 9 and 12 columns; 12 an element for kind 8; none for the others) */
+    const int64_t *sensor_column_start;
 } Model;
 
 /* Scratch buffers, allocated once by the caller. */
@@ -229,6 +258,13 @@ typedef struct {
      * law's arguments (s, S) of one controller, the scratch of its states' local solve, and the
      * step's h/2 of the trapezoidal rule (1; 0 outside a step: the states held at S_n) */
     double *controller_state_trial, *controller_arguments, *controller_solve, *controller_half_step;
+    /* with chained controllers (Model n_chained): dy_k/ds_i of controller k by every sensor i,
+     * (n_controllers, n_sensors), the chain rule dy_k/ds = Σ ∂y_k/∂y_j dy_j/ds + ∂y_k/∂s */
+    double *controller_total;
+    /* ∂s_i/∂q of a sensor of kind 5 by its node's six coordinates, of kind 6 by its node's six rates
+     * and then by its three rotation coordinates, of kind 7 by its point's node's and its body's, of
+     * kind 8 by its elements' end nodes' (Model sensor_column_start) */
+    double *sensor_jacobian;
 } Work;
 
 /* ------------------------------------------------------------------------- small algebra */
@@ -575,7 +611,85 @@ static void controller_outputs(const Model *m, const Configuration *c, Work *w, 
         case 0: value = c->theta[index]; break;
         case 1: value = c->theta_dot[index]; break;
         case 2: value = c->x[index]; break;
-        default: value = c->v[index]; break;
+        case 3: value = c->v[index]; break;
+        case 5: {  /* a point offset from its node: x + T r, and Jᵀ e_c from the point-load kernel */
+            static const double identity[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+            const int64_t node = index / 3, component = index % 3;
+            const double *T = c->T + 9 * node, *r = m->sensor_offset + 3 * i;
+            double unit[6] = {0, 0, 0, 0, 0, 0}, velocity[6] = {0, 0, 0, 0, 0, 0}, power, by_node[18], by_frame[18];
+            unit[component] = -1.0;  /* the kernel gives −Jᵀ values (the load's part of the residual): +Jᵀ e_c */
+            m->point_load(1, T, r, unit, identity, velocity, w->sensor_jacobian + m->sensor_column_start[i], &power, by_node, by_frame);
+            value = c->x[index] + T[3 * component] * r[0] + T[3 * component + 1] * r[1] + T[3 * component + 2] * r[2];
+            break;
+        }
+        case 6: {  /* the velocity of a point offset from its node: v + ω × T r. By the node's rates it is
+                    * Jᵀ e_c (as the position by the coordinates); by the node's rotation, at fixed rates,
+                    * e_c·(ω × p) = d·p with d = e_c × ω: the rotation part of Jᵀ d, both from point_load */
+            static const double identity[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+            const int64_t node = index / 3, component = index % 3;
+            const double *T = c->T + 9 * node, *r = m->sensor_offset + 3 * i, *omega = c->w + 3 * node;
+            double unit[6] = {0, 0, 0, 0, 0, 0}, velocity[6] = {0, 0, 0, 0, 0, 0}, power, by_node[18], by_frame[18];
+            double p[3], lever[6], *jacobian = w->sensor_jacobian + m->sensor_column_start[i];
+            for (int q = 0; q < 3; ++q) p[q] = T[3 * q] * r[0] + T[3 * q + 1] * r[1] + T[3 * q + 2] * r[2];
+            unit[component] = -1.0;
+            m->point_load(1, T, r, unit, identity, velocity, jacobian, &power, by_node, by_frame);
+            const int64_t a = (component + 1) % 3, b = (component + 2) % 3;  /* d = e_c × ω */
+            double d[6] = {0, 0, 0, 0, 0, 0};
+            d[a] = -omega[b];
+            d[b] = omega[a];
+            for (int q = 0; q < 3; ++q) d[q] = -d[q];
+            m->point_load(1, T, r, d, identity, velocity, lever, &power, by_node, by_frame);
+            for (int q = 0; q < 3; ++q) jacobian[6 + q] = lever[3 + q];
+            value = c->v[index] + omega[a] * p[b] - omega[b] * p[a];
+            break;
+        }
+        case 7: {  /* in a body's axes: by the point's node Jᵀ b_c; by the body's translation −b_c; by its
+                    * rotation the rotation part of Jᵀ u for the point T_b e_c (u = p − x_b): all from point_load */
+            static const double identity[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+            const int64_t node = index / 3, component = index % 3, body = m->sensor_frame_node[i];
+            const double *T = c->T + 9 * node, *r = m->sensor_offset + 3 * i, *Tb = c->T + 9 * body;
+            double velocity[6] = {0, 0, 0, 0, 0, 0}, power, by_node[18], by_frame[18], *jacobian = w->sensor_jacobian + m->sensor_column_start[i];
+            double axis[6] = {0, 0, 0, 0, 0, 0}, u[6] = {0, 0, 0, 0, 0, 0}, unit[3] = {0, 0, 0}, lever[6];
+            for (int q = 0; q < 3; ++q) {
+                axis[q] = -Tb[3 * q + component];  /* −b_c: the kernel gives −Jᵀ values */
+                u[q] = -(c->x[3 * node + q] + T[3 * q] * r[0] + T[3 * q + 1] * r[1] + T[3 * q + 2] * r[2] - c->x[3 * body + q]);
+            }
+            m->point_load(1, T, r, axis, identity, velocity, jacobian, &power, by_node, by_frame);
+            unit[component] = 1.0;
+            m->point_load(1, Tb, unit, u, identity, velocity, lever, &power, by_node, by_frame);
+            value = 0.0;
+            for (int q = 0; q < 3; ++q) {
+                jacobian[6 + q] = axis[q];  /* −b_c */
+                jacobian[9 + q] = lever[3 + q];
+                value -= axis[q] * -u[q];  /* b_c · (p − x_b) */
+            }
+            break;
+        }
+        case 8: {  /* a cable's length and its gradient, element by element */
+            static const double identity[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+            double velocity[6] = {0, 0, 0, 0, 0, 0}, power, by_node[18], by_frame[18];
+            double *jacobian = w->sensor_jacobian + m->sensor_column_start[i];
+            const int64_t elements = (m->sensor_column_start[i + 1] - m->sensor_column_start[i]) / 12;
+            for (int64_t j = 0; j < elements; ++j) {
+                const int64_t e = index + j, a = m->cable_nodes[2 * e], b = m->cable_nodes[2 * e + 1];
+                const double *ra = m->cable_offsets + 6 * e, *rb = ra + 3;
+                double pa[3], pb[3], d[3], toward_a[6] = {0, 0, 0, 0, 0, 0}, toward_b[6] = {0, 0, 0, 0, 0, 0};
+                matvec3(c->T + 9 * a, ra, pa);
+                matvec3(c->T + 9 * b, rb, pb);
+                for (int q = 0; q < 3; ++q) d[q] = c->x[3 * b + q] + pb[q] - c->x[3 * a + q] - pa[q];
+                const double length = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+                value += length;
+                for (int q = 0; q < 3 && length > 0.0; ++q) {
+                    toward_a[q] = d[q] / length;   /* the kernel gives −Jᵀ values: −Jᵀ_a e */
+                    toward_b[q] = -d[q] / length;  /* +Jᵀ_b e */
+                }
+                m->point_load(1, c->T + 9 * a, ra, toward_a, identity, velocity, jacobian + 12 * j, &power, by_node, by_frame);
+                m->point_load(1, c->T + 9 * b, rb, toward_b, identity, velocity, jacobian + 12 * j + 6, &power, by_node,
+                              by_frame);
+            }
+            break;
+        }
+        default: value = 0.0; break;  /* 4: an earlier controller's output, read in the loop below */
         }
         w->sensor_values[i] = value - m->sensor_origin[i];
     }
@@ -583,6 +697,9 @@ static void controller_outputs(const Model *m, const Configuration *c, Work *w, 
         int64_t first = m->sensor_start[k], count = m->sensor_start[k + 1] - first;
         int64_t p = m->n_controller_states ? m->controller_state_start[k + 1] - m->controller_state_start[k] : 0;
         double *dS = w->controller_solve + (p * p > p ? p * p : p);
+        for (int64_t i = first; i < first + count; ++i)  /* an earlier controller's output, just computed */
+            if (m->sensor_kind[i] == 4)
+                w->sensor_values[i] = m->controller_outputs[m->controller_slot[m->sensor_index[i]]];
         if (p) {
             double *args = w->controller_arguments;
             for (int64_t i = 0; i < count; ++i) args[i] = w->sensor_values[first + i];
@@ -597,6 +714,19 @@ static void controller_outputs(const Model *m, const Configuration *c, Work *w, 
             double gradient = w->controller_scratch[1 + i];
             for (int64_t j = 0; j < p; ++j) gradient += w->controller_scratch[1 + count + j] * dS[count * j + i];
             w->controller_gradient[first + i] = saturated ? 0.0 : gradient;
+        }
+        if (m->n_chained) {  /* the chain rule: dy_k/ds = ∂y_k/∂s + Σ ∂y_k/∂y_j dy_j/ds */
+            double *total = w->controller_total + k * m->n_sensors;
+            memset(total, 0, sizeof(double) * m->n_sensors);
+            for (int64_t i = first; i < first + count; ++i) {
+                const double g = w->controller_gradient[i];
+                if (m->sensor_kind[i] != 4) {
+                    total[i] += g;
+                } else if (g != 0.0) {
+                    const double *earlier = w->controller_total + m->sensor_index[i] * m->n_sensors;
+                    for (int64_t j = 0; j < m->n_sensors; ++j) total[j] += g * earlier[j];
+                }
+            }
         }
     }
 }
@@ -628,10 +758,12 @@ void latdyn_controller_states_accept(const Model *m, Work *w, const Configuratio
 }
 
 /* The coupling entries of K and C (see Model): each actuator's generalized force per unit output
- * (−1 on a hinge's coordinate; the point-load kernel's force for a unit component), times ∂y/∂s of
- * its controller's sensors. A controller's output is feedback: the load factor λ of a static path
- * does not scale it. */
-static void controller_couplings(const Model *m, const Configuration *c, Work *w)
+ * (−1 on a hinge's coordinate; the point-load kernel's force for a unit component; times λ a for an
+ * actuator inside an expression a y + b), times dy/ds of its controller's sensors (the total
+ * derivative through earlier controllers with chained ones) and, for a sensor of an offset point,
+ * ∂s/∂q of the entry's column. A controller's output named alone is feedback: the load factor λ of a
+ * static path does not scale it. */
+static void controller_couplings(const Model *m, const Configuration *c, Work *w, double load_factor)
 {
     static const double identity[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
     double gains[6];
@@ -642,21 +774,28 @@ static void controller_couplings(const Model *m, const Configuration *c, Work *w
             done = a;
             int64_t i = m->actuator_index[a];
             memset(gains, 0, sizeof gains);
+            /* a law a y + b applies λ(a y + b), ramped like any load; the name alone applies y */
+            const double gain = m->actuator_gain[a] != 0.0 ? load_factor * m->actuator_gain[a] : 1.0;
             if (m->actuator_kind[a] == 0) {
-                gains[0] = -1.0;
+                gains[0] = -gain;
             } else {
                 int64_t node = m->load_node[i], frame = m->load_frame_node[i];
                 double values[6] = {0, 0, 0, 0, 0, 0}, velocity[6] = {0, 0, 0, 0, 0, 0};
                 double power, by_node[18], by_frame[18];
-                values[m->actuator_component[a]] = 1.0;
+                values[m->actuator_component[a]] = gain;
                 m->point_load(1, c->T + 9 * node, m->load_r + 3 * i, values,
                               frame >= 0 ? c->T + 9 * frame : identity, velocity, gains, &power, by_node, by_frame);
             }
         }
         int64_t sensor = m->coupling_sensor[e], kind = m->sensor_kind[sensor];
-        double value = gains[m->coupling_slot[e]] * w->controller_gradient[sensor];
-        w->coupling_stiffness[e] = kind == 0 || kind == 2 ? value : 0.0;
-        w->coupling_damping[e] = kind == 1 || kind == 3 ? value : 0.0;
+        double value = gains[m->coupling_slot[e]] * (m->n_chained ? w->controller_total[m->actuator_controller[a]
+                                                                                           * m->n_sensors + sensor]
+                                                                    : w->controller_gradient[sensor]);
+        const int64_t column = m->coupling_column[e];
+        if (kind >= 5) value *= w->sensor_jacobian[m->sensor_column_start[sensor] + column];
+        const int by_rate = kind == 1 || kind == 3 || (kind == 6 && column < 6);  /* kind 6: rates, then rotation */
+        w->coupling_stiffness[e] = by_rate ? 0.0 : value;
+        w->coupling_damping[e] = by_rate ? value : 0.0;
     }
 }
 
@@ -754,7 +893,11 @@ static double evaluate(const Model *m, const Configuration *c, Work *w, const do
     joint_bodies(m, c, w, inertia, load_factor);
     if (m->n_controllers) {
         controller_outputs(m, c, w, t);
-        if (matrices) controller_couplings(m, c, w);
+        if (matrices) controller_couplings(m, c, w, load_factor);
+        if (m->n_law_actuators) {  /* laws a y + b of time read the outputs just computed */
+            m->time_laws(t, w->laws);
+            laws = w->laws;
+        }
     }
     for (int64_t b = 0; b < m->n_bodies; ++b) {
         const int64_t *d = m->node_dofs + 6 * m->body_nodes[b];
