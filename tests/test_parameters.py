@@ -273,14 +273,17 @@ def test_a_name_of_a_part_is_never_read_as_a_parameter():
     assert scene.beams["arm"].start.body == "L" and scene.beams["arm"].end.point[0] == 1.2
 
 
-def test_sensitivities_name_parameters_and_a_transient_run_refuses_them():
-    """Names are checked by the loader; a transient run's sensitivities are not built yet and are
-    refused rather than approximated (tests/test_sensitivities.py: the static ones, and exit 2)."""
+def test_sensitivities_name_parameters_and_the_explicit_method_refuses_them():
+    """Names are checked by the loader; the implicit transient methods differentiate their steps
+    (tests/test_sensitivities_transient.py), the explicit one does not and is refused rather than
+    approximated."""
     data = yaml.safe_load(PLANAR)
     data["solve"]["sensitivities"] = ["k"]
+    assert ("tip_y", "k") in latdyn.run(load_scene(data)).sensitivities
+    data["solve"]["method"] = "explicit"
     with pytest.raises(SceneError) as info:
         latdyn.run(load_scene(data))
-    assert info.value.key == "solve.sensitivities" and "static load control and displacement control only" in info.value.expected
+    assert info.value.key == "solve.sensitivities" and "explicit" in info.value.expected
     error = _refused(lambda d: d["solve"].update(sensitivities=["kk"]))
     assert error.key == "solve.sensitivities[0]" and "L, k, c, P" in error.expected
     error = _refused(lambda d: d["solve"].update(sensitivities=["k", "k"]))
