@@ -503,6 +503,19 @@ class NativeModel:
                                      out.ctypes.data)
         return out
 
+    def joint_forces(self, state) -> np.ndarray:
+        """The force each joint (hinge or guide, in model order) applies on its coordinate at ``state``
+        (``latdyn_joint_forces``, csrc/rows.c: the rules of
+        :meth:`latdyn.results.probes.ProbeSet.joint_forces`), evaluated on a copy of ``state``; the
+        evaluation's outputs are left in Work."""
+        out = np.zeros(self.model.n_hinges)
+        if len(out):
+            held = state.copy()
+            self.laws.bind_inputs()
+            self.library.latdyn_joint_forces(self.model_ref, self.work_ref, ctypes.byref(self.configuration(held)),
+                                             float(state.t), out.ctypes.data)
+        return out
+
     def energies(self, state) -> tuple[float, float, float]:
         """Kinetic energy, strain energy (hinge springs with a constant stiffness included; those with
         a law are the caller's) and gravity potential at ``state`` (``latdyn_energies``)."""
