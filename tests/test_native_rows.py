@@ -7,8 +7,13 @@ moves with v0 + g t, which generalized-α integrates exactly from consistent acc
 velocities, momenta, energies to round-off; section forces zero); and the same run with a row at a
 time (``latdyn.timeloop.loop.NATIVE_ROWS = False``, rows recorded from Python after each call into C),
 which the rows recorded in C must equal byte for byte (probes.csv, state.h5, summary.json but its
-timings), on a 3D and a planar beam driven by a hub, a hinge hitting a stop, blocks cut by a small
-buffer and by the wall-time budget, and a run whose energy balance breaks.
+timings), on a 3D and a planar beam driven by a hub, a hinge hitting a stop, a joint's torque
+through a latch and resting on a stop (latdyn_joint_forces, the one evaluation of the joint probes and
+joint_peaks, in the row and in Python alike), a mass dropped on a slack cable (its tension and length
+in the row), blocks cut by a small buffer and by the wall-time budget, and a run whose energy
+balance breaks. Before their events the joint probes give their laws exactly (a free joint applies its
+law: the constant torque, the spring's k (θ_r − θ)) and the cable its closed-form drop
+(tests/test_cables.py check_drop).
 """
 from __future__ import annotations
 
@@ -30,7 +35,9 @@ from latdyn.scene.loader import _yaml_loader
 from latdyn.timeloop.loop import TimeLoop
 
 from cli_runs import latdyn_run, probe_columns, summary_of
+from test_cables import check_drop, drop_scene
 from test_hinges import stop_scene
+from test_runtime import hinged_flap
 from test_planar import chain_scene, rotated
 
 try:
@@ -308,3 +315,84 @@ def test_a_balance_that_breaks_inside_a_block_ends_the_run_at_that_row(tmp_path,
     assert blocks == [59]  # the block held the rows up to t_end; those after the break were dropped
     _same_files(tmp_path / "True", tmp_path / "False")
     assert probe_columns(tmp_path / "True")["t"][-1] == pytest.approx(0.12)
+
+
+@pytest.mark.parametrize("event", ["latch", "stop"])
+def test_a_joints_torque_through_a_latch_and_resting_on_a_stop_is_recorded_in_c(event, tmp_path, monkeypatch,
+                                                                                  blocks):
+    """tests/test_runtime.py's flap under a constant torque 2 that latches at 0.6 rad, and
+    tests/test_hinges.py's pendulum driven by a spring (k = 10, θ_r = 1) into a stop at 0.5 that it
+    stays on (restitution 0): the torque probe and joint_peaks in rows recorded in C equal the rows
+    one by one, byte for byte, after the event too (the latch's reaction; the stop's when the joint
+    rests on it); before the event a free joint applies its law: 2 exactly, k (θ_r − θ) to round-off."""
+    if event == "latch":
+        scene, hinge, angle_at = hinged_flap(), "flap.start", 0.6
+    else:
+        scene, hinge, angle_at = stop_scene(0.0), "arm.start", 0.5
+        scene["solve"]["t_end"] = 0.7  # on the stop from t ≈ 0.33 s
+    scene["output"]["probes"]["torque"] = {"hinge": hinge, "quantity": "torque"}
+    for native in (True, False):
+        _rows_one_by_one(monkeypatch, native)
+        latdyn.run(latdyn.load_scene(scene), tmp_path / str(native))
+    assert len(blocks) >= 2 and sum(blocks) > 100
+    _same_files(tmp_path / "True", tmp_path / "False")
+    probes, summary = probe_columns(tmp_path / "True"), summary_of(tmp_path / "True")
+    angle, torque = probes["angle"], probes["torque"]
+    hit = int(np.argmax(angle >= angle_at - 1e-6))
+    assert 10 < hit < len(angle) - 10 and summary["events"]
+    law = np.full(hit, 2.0) if event == "latch" else 10.0 * (1.0 - angle[:hit])
+    if event == "latch":
+        assert np.array_equal(torque[:hit], law)
+    else:
+        np.testing.assert_allclose(torque[:hit], law, rtol=1e-12, atol=0.0)
+    assert not np.allclose(torque[hit + 1:], torque[hit - 1])  # past the event: the latch's or stop's reaction
+    (peak,) = summary["joint_peaks"].values()
+    assert abs(peak["peak"]) == pytest.approx(np.abs(torque).max(), rel=1e-12)
+
+
+def test_a_mass_dropped_on_a_slack_cable_gives_its_tension_and_length_in_rows_recorded_in_c(tmp_path, monkeypatch,
+                                                                                           blocks):
+    """tests/test_cables.py's drop along a direction out of every coordinate plane (taut, then slack
+    again): the cable's tension and length recorded in the row equal the rows one by one, byte for
+    byte, and give the closed-form drop (check_drop: taut and slack times, the peak tension and
+    stretch)."""
+    scene = yaml.safe_load(drop_scene([1, -2, 2], 0.1, 0.8))
+    for native in (True, False):
+        _rows_one_by_one(monkeypatch, native)
+        latdyn.run(latdyn.load_scene(scene), tmp_path / str(native))
+    assert len(blocks) >= 2 and sum(blocks) > 300
+    _same_files(tmp_path / "True", tmp_path / "False")
+    check_drop(summary_of(tmp_path / "True"), probe_columns(tmp_path / "True"), 0.8, 0.1)
+
+
+def test_a_loop_call_ending_on_a_row_with_joint_forces_hands_back_its_last_newton_evaluation():
+    """The row's joint forces are one more evaluation in Work; a loop call that ends on that row (its
+    wall-time budget spent after one step) still hands back the last Newton evaluation (the reaction of
+    the slider-crank's driven crank, the hinges' torques, the dissipation: what the time loop reads of
+    it), as the same call without rows does."""
+    from latdyn.assembly.prepare import prepare
+    from latdyn.step.compiled import CompiledGeneralizedAlpha
+    from latdyn.step.integrators import AlphaParameters
+
+    text = (Path(__file__).resolve().parents[1] / "examples" / "slider_crank.yaml").read_text()
+    scene = yaml.load(text, Loader=_yaml_loader())
+    handed_back = []
+    for rows in ([1], None):
+        prepared = prepare(latdyn.load_scene(scene))
+        step = CompiledGeneralizedAlpha(prepared.assembler, AlphaParameters.for_method("generalized-alpha", 0.8),
+                                        1e-8, 25, 1.0)
+        state = prepared.state
+        step.start(state)
+        hinges = len(prepared.model.hinges)
+        done = step.advance(state, grid_index=0, stop_index=10, dt=0.002, t_end=1.5, n_grid=750, power=0.0,
+                            external_work=0.0, hinge_work_torque=np.zeros(hinges), hinge_damper_torque=np.zeros(hinges),
+                            budget_s=1e-12, rows=rows, joints=True)
+        assert done.steps == 1 and done.status == 3
+        if rows:
+            assert len(done.rows) == 1 and np.any(done.rows.joint_forces[0] != 0.0)
+        last = step.last_evaluation
+        handed_back.append((last.reaction, last.hinge_work_torque, last.hinge_damper_torque, last.dissipation_power))
+    recorded, plain = handed_back
+    assert np.any(recorded[0] != 0.0)
+    for a, b in zip(recorded, plain):
+        assert np.array_equal(a, b)
