@@ -517,8 +517,8 @@ class NativeModel:
         return out
 
     def energies(self, state) -> tuple[float, float, float]:
-        """Kinetic energy, strain energy (hinge springs with a constant stiffness included; those with
-        a law are the caller's) and gravity potential at ``state`` (``latdyn_energies``)."""
+        """Kinetic energy, strain energy (hinge springs included, those with a stiffness law by
+        quadrature of the compiled law) and gravity potential at ``state`` (``latdyn_energies``)."""
         out = np.zeros(3)
         self.library.latdyn_energies(self.model_ref, self.work_ref, ctypes.byref(self.configuration(state)),
                                      float(state.t), out.ctypes.data)

@@ -125,10 +125,9 @@ class TimeLoop:
                          and (self.sampler is None or self.control.instants_on_nominal_grid)
                          and self.sensitivities is None)
         self.writer.summary["time_loop"] = "compiled" if self.compiled else "python"
-        # rows where the step runs: not for the probes of a controller (probes.rows_in_loop) nor for hinge
-        # springs with a law, whose potential Python integrates (Assembler.energies)
+        # rows where the step runs: not for the probes of a controller (probes.rows_in_loop)
         self.native_rows = (self.compiled and NATIVE_ROWS and hasattr(self.integrator, "row_capacity")
-                            and self.probes.rows_in_loop and not self.assembler.native().law_hinges)
+                            and self.probes.rows_in_loop)
         if resume_from is None:
             self._record(self.progress.state, energy0)
         self.last = self._accepted()
