@@ -429,3 +429,36 @@ def test_a_hinge_spring_with_a_stiffness_law_gives_its_potential_in_rows_recorde
     reference = _law_spring_potential(angle)
     error = np.abs(probes["strain"] - reference).max() / reference.max()
     assert error < 5e-8, error  # 1.45e-8 measured: the arm's own strain (the same with the quadrature in Python)
+
+
+def test_controller_probes_held_by_a_sampled_controller_or_a_continuous_state_are_recorded_in_c(
+        tmp_path, monkeypatch, blocks):
+    """tests/test_controllers.py's hub under a sampled PI (10 Hz, dt = 0.01: its output and state probes
+    held between the samples, where the loop of steps stops) and, in 3D, tests/test_controller_states.py's
+    low-pass filter state F of θ = c t² (continuous: its state recorded in the row as accepted): the rows
+    recorded in C equal the rows one by one, byte for byte; the PI's state at each instant is the exact
+    discrete-time solution's to 1e-12, F its closed form c (t² − 2τt + 2τ²(1 − e^{−t/τ})) to the
+    trapezoidal rule's 2.5e-6."""
+    from test_controller_states import D, FILTER, disturbed
+    from test_controllers import J, SAMPLED_PI, SPATIAL, discrete_pi, hub
+
+    pi = hub(SAMPLED_PI, solve="{t_end: 1.0, dt: 0.01}", inputs="inputs: {kp: 6.0, kd: 2.0, ki: 1.0, ref: 1.0}",
+             probes="    u: {controller: ctl}\n    Sp: {controller: ctl, state: S}")
+    low_pass = disturbed(hub(FILTER, torque="0", inputs="inputs: {tau: 0.25}", axis=SPATIAL,
+                             solve="{t_end: 1.0, dt: 0.01}", probes="    Fp: {controller: lp, state: F}\n"), SPATIAL)
+    for name, text in (("pi", pi), ("low_pass", low_pass)):
+        for native in (True, False):
+            _rows_one_by_one(monkeypatch, native)
+            latdyn.run(latdyn.load_scene(yaml.safe_load(text)), tmp_path / f"{name}{native}")
+        _same_files(tmp_path / f"{name}True", tmp_path / f"{name}False")
+    assert sum(blocks) > 150  # both runs' rows but those at the sample instants, t = 0 and t_end
+    p = probe_columns(tmp_path / "piTrue")
+    exact = discrete_pi(6.0, 2.0, 1.0, 1.0, 10, 10)
+    for k in range(10):
+        row = int(np.argmin(np.abs(p["t"] - k / 10)))
+        assert abs(p["Sp"][row] - exact[k + 1, 2]) < 1e-12  # recorded at the instant, after its sample
+        assert np.all(p["u"][row:row + 10] == p["u"][row])  # held to the next instant
+    p = probe_columns(tmp_path / "low_passTrue")
+    t, tau, c = p["t"], 0.25, D / (2 * J)
+    exact = c * (t ** 2 - 2 * tau * t + 2 * tau ** 2 * (1 - np.exp(-t / tau)))
+    assert np.max(np.abs(p["Fp"] - exact)) < 3e-6

@@ -155,7 +155,8 @@ class RowsData(ctypes.Structure):
 
     _fields_ = [("capacity", I64), ("planned", I64), ("grid_point", P), ("momentum", I64), ("sections", I64),
                 ("recorded", I64), ("scalars", P), ("section_forces", P), ("states", P),
-                ("joints", I64), ("joint_forces", P), ("held", P), ("saved", P), ("cables", I64), ("cable_states", P)]
+                ("joints", I64), ("joint_forces", P), ("held", P), ("saved", P), ("cables", I64), ("cable_states", P),
+                ("controller_values", I64), ("controller_states", P)]
 
 
 #: Element count from which the element part of an evaluation (geometry and kernels) runs on

@@ -61,8 +61,8 @@ class ProbeSet:
         self._need_momentum = "momentum" in kinds
         self._need_sections = "element" in kinds
         self._joint_forces = None  # (key of the state, forces) of the last call of joint_forces
-        self._continuous = any(p.kind == "controller" and not self.model.scene.controllers[p.controller].sampled
-                               for p in self.probes)
+        self._continuous = any(p.kind == "controller" and p.state is None  # a continuous controller's output
+                               and not self.model.scene.controllers[p.controller].sampled for p in self.probes)
         self._need_cables = "cable" in kinds
         self._need_joint_forces = any(p.kind in ("hinge", "guide") and p.quantity in ("torque", "force")
                                       for p in self.probes)
@@ -125,9 +125,16 @@ class ProbeSet:
     @property
     def rows_in_loop(self) -> bool:
         """Whether the loop of steps may record this scene's rows where it runs (:meth:`rows`): every
-        probe but a controller's (whose values are those of the laws at the row, which only the
-        evaluation of that row's step holds)."""
-        return not any(p.kind == "controller" for p in self.probes)
+        probe but a continuous controller's output (the law at the row, :meth:`_continuous_outputs`). A
+        sampled controller's output and states are held between its samples, where the loop of steps
+        stops; a continuous controller's states are recorded in the row."""
+        return not self._continuous
+
+    @property
+    def needs_controller_states(self) -> bool:
+        """Whether the probes read a controller's state (recorded in the row where they change: a
+        continuous controller's)."""
+        return any(p.kind == "controller" and p.state is not None for p in self.probes)
 
     @property
     def needs(self) -> tuple[bool, bool]:
@@ -159,14 +166,15 @@ class ProbeSet:
 
     def rows(self, states: State, energies: np.ndarray, external_work: np.ndarray, dissipated: np.ndarray,
              momentum: np.ndarray | None, sections: np.ndarray | None, joint_forces: np.ndarray | None,
-             cable_states: np.ndarray | None) -> np.ndarray:
+             cable_states: np.ndarray | None, controller_states: np.ndarray | None = None) -> np.ndarray:
         """Probe values of k rows, (k, probes) in file order: ``states`` the rows' state arrays with a
         leading row axis (:meth:`_point`), ``energies`` (k, 3) kinetic, strain, potential, the external
         work and dissipated energy (k,), ``momentum`` (k, 6) [P, H] and ``sections`` (k, n_elements, 4)
         as the strain-energy kernel gives them, ``joint_forces`` (k, joints) as :meth:`joint_forces`
         gives them and ``cable_states`` (k, cable elements, 5) as
         :meth:`latdyn.assembly.native_model.NativeModel.cable_state` gives them, where the probes read
-        them. A continuous controller's output is :meth:`values`'s."""
+        them, and ``controller_states`` (k, the scene's controller states) where recorded in the row (else
+        the scene's as they are now). A continuous controller's output is :meth:`values`'s."""
         m = self.model
         k = len(states.t)
         out = np.empty((k, len(self.probes)))
@@ -200,8 +208,12 @@ class ProbeSet:
                 out[:, i] = sections[:, e, SECTION_QUANTITIES.index(p.quantity)]
             elif p.kind == "controller":  # a sampled one's held output or a state; a continuous one's: values
                 scene = m.scene
-                out[:, i] = (scene.controller_outputs[p.controller] if p.state is None
-                             else scene.controller_states[f"{p.controller}.{p.state}"])
+                if p.state is None:
+                    out[:, i] = scene.controller_outputs[p.controller]
+                else:
+                    name = f"{p.controller}.{p.state}"
+                    out[:, i] = (scene.controller_states[name] if controller_states is None
+                                 else controller_states[:, scene.controller_states.index(name)])
             elif p.kind == "cable":
                 out[:, i] = [cable_value(m.cables, cable_states[r], p.beam, p.quantity) for r in range(k)]
             else:  # pragma: no cover - the scene validator refuses other kinds

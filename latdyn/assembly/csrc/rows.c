@@ -155,6 +155,10 @@ typedef struct {
     /* with cables: each row's cable elements [ℓ, ℓ̇, ℓ − L0, N_el, N] (capacity, n_cables, 5) */
     int64_t cables;
     double *cable_states;
+    /* with a probe of a continuous controller's state: each row's copy of the controllers' states
+     * (capacity, controller_values), the runtime's array m->controller_states as accepted at the row */
+    int64_t controller_values;
+    double *controller_states;
 } Rows;
 
 /* Record the row of the accepted state c at time t (the loop's counters and accounts in `counters`:
@@ -178,6 +182,9 @@ static void record_row(const Model *m, Work *w, Rows *rows, const Configuration 
         cables(m, c, w, w->laws, &power, &dissipation, NULL); /* latdyn_cables */
         memcpy(rows->cable_states + 5 * m->n_cables * r, w->cable_state, sizeof(double) * 5 * (size_t)m->n_cables);
     }
+    if (rows->controller_values > 0)
+        memcpy(rows->controller_states + rows->controller_values * r, m->controller_states,
+               sizeof(double) * (size_t)rows->controller_values);
     if (rows->joints) {
         const size_t T = (size_t)m->n_total + 1, H = (size_t)m->n_hinges;
         double *saved = rows->saved;
