@@ -306,7 +306,8 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         energy accounts, the energies, and with ``momentum`` / ``sections`` / ``joints`` / ``cables`` the
         momenta, the section forces, the forces the joints apply (``latdyn_joint_forces``) and the cable
         elements' states, and with ``controller_states`` the continuous controllers' states (the scene's
-        array of controller states as accepted at the row); :attr:`Advanced.rows` holds those it recorded (a :class:`RowBlock`, valid until the next call).
+        array of controller states as accepted at the row); :attr:`Advanced.rows` holds those it recorded
+        (a :class:`RowBlock`, valid until the next call).
         """
         self._setup()
         model = self.assembler.model

@@ -5,7 +5,8 @@ From a grid point at the nominal step, the loop of steps in C (step.compiled.Com
 takes and accepts the steps up to the next row in one call, or, with rows recorded where the step runs
 (:data:`NATIVE_ROWS`), through the rows up to the next multiple of 256 steps (t_end, a pause), recording
 each row on the way into buffers (csrc/rows.c: the state, the energies, the momenta and section forces the
-probes read, the joints' forces, the cable elements' states); this loop then takes that block of rows in order as it takes one (:meth:`TimeLoop._record_rows`:
+probes read, the joints' forces, the cable elements' and continuous controllers' states); this loop then
+takes that block of rows in order as it takes one (:meth:`TimeLoop._record_rows`:
 probes, writer, joint peaks, the energy balance judged row by row). A step it cannot accept as it comes
 (Newton fails, a hinge event) comes back to this loop, which takes every other step from Python:
 

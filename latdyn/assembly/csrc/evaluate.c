@@ -993,7 +993,8 @@ void latdyn_energies(const Model *m, Work *w, const Configuration *c, double t, 
     for (int64_t j = 0; j < m->n_hinges; ++j) {
         double s = c->theta[j] - m->hinge_rest_angle[j];
         strain += 0.5 * m->hinge_stiffness[j] * s * s;
-        if (m->hinge_stiffness_law[j] >= 0 && m->hinge_conservative[j]) strain += law_spring_potential(m, j, c->theta[j]);
+        if (m->hinge_stiffness_law[j] >= 0 && m->hinge_conservative[j])
+            strain += law_spring_potential(m, j, c->theta[j]);
         /* a compliant stop's potential, from the generated hinge_force (its other outputs unused) */
         double state[4] = {c->theta[j], c->theta_dot[j], m->hinge_rest_angle[j], 0.0}, values[9] = {0};
         double f, d_theta, d_rate, spring_torque, applied_torque, damper_torque, contact_energy;

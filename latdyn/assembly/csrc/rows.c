@@ -10,7 +10,8 @@
  * calls it too), the force each joint applies on its coordinate (latdyn_joint_forces below, the one
  * evaluation of the joint torque and force probes and of summary.json joint_peaks: ProbeSet.joint_forces
  * calls it too) and the cable elements' [ℓ, ℓ̇, ℓ − L0, N_el, N] (latdyn_cables of evaluate.c, which
- * NativeModel.cable_state calls for the cable probes of a row recorded in Python).
+ * NativeModel.cable_state calls for the cable probes of a row recorded in Python) and, where a probe reads
+ * one, the continuous controllers' states as accepted at the row.
  */
 
 static double lock_tolerance(double at); /* newton_step.c: latdyn/model/model.py lock_tolerance */
