@@ -431,27 +431,32 @@ def test_a_hinge_spring_with_a_stiffness_law_gives_its_potential_in_rows_recorde
     assert error < 5e-8, error  # 1.45e-8 measured: the arm's own strain (the same with the quadrature in Python)
 
 
-def test_controller_probes_held_by_a_sampled_controller_or_a_continuous_state_are_recorded_in_c(
-        tmp_path, monkeypatch, blocks):
+def test_controller_probes_are_recorded_in_c(tmp_path, monkeypatch, blocks):
     """tests/test_controllers.py's hub under a sampled PI (10 Hz, dt = 0.01: its output and state probes
-    held between the samples, where the loop of steps stops) and, in 3D, tests/test_controller_states.py's
-    low-pass filter state F of θ = c t² (continuous: its state recorded in the row as accepted): the rows
-    recorded in C equal the rows one by one, byte for byte; the PI's state at each instant is the exact
-    discrete-time solution's to 1e-12, F its closed form c (t² − 2τt + 2τ²(1 − e^{−t/τ})) to the
-    trapezoidal rule's 2.5e-6."""
+    held between the samples, where the loop of steps stops), in 3D under a continuous PD (its output
+    evaluated in the row, latdyn_controller_outputs_at) and tests/test_controller_states.py's low-pass
+    filter state F and output of θ = c t² (continuous: the state recorded in the row as accepted): the
+    rows recorded in C equal the rows one by one, byte for byte; the PI's state at each instant is the
+    exact discrete-time solution's to 1e-12, the PD's output its law −40 (θ − 1) − 8 θ̇ at the row's
+    angle and rate to 1e-12 of its scale, θ the exact slew to generalized-α's 3.4e-5 at h = 0.004, F its
+    closed form c (t² − 2τt + 2τ²(1 − e^{−t/τ})) to the trapezoidal rule's 2.5e-6 and the filter's
+    output F itself exactly."""
     from test_controller_states import D, FILTER, disturbed
-    from test_controllers import J, SAMPLED_PI, SPATIAL, discrete_pi, hub
+    from test_controllers import CONTINUOUS_PD, GAINS, J, SAMPLED_PI, SPATIAL, discrete_pi, hub, pd_exact
 
     pi = hub(SAMPLED_PI, solve="{t_end: 1.0, dt: 0.01}", inputs="inputs: {kp: 6.0, kd: 2.0, ki: 1.0, ref: 1.0}",
              probes="    u: {controller: ctl}\n    Sp: {controller: ctl, state: S}")
     low_pass = disturbed(hub(FILTER, torque="0", inputs="inputs: {tau: 0.25}", axis=SPATIAL,
-                             solve="{t_end: 1.0, dt: 0.01}", probes="    Fp: {controller: lp, state: F}\n"), SPATIAL)
-    for name, text in (("pi", pi), ("low_pass", low_pass)):
+                             solve="{t_end: 1.0, dt: 0.01}", probes="    Fp: {controller: lp, state: F}\n"
+                                                                    "    y: {controller: lp}"), SPATIAL)
+    pd = hub(CONTINUOUS_PD, inputs=GAINS, axis=SPATIAL, solve="{t_end: 1.0, dt: 0.004}",
+             probes="    u: {controller: ctl}")
+    for name, text in (("pi", pi), ("low_pass", low_pass), ("pd", pd)):
         for native in (True, False):
             _rows_one_by_one(monkeypatch, native)
             latdyn.run(latdyn.load_scene(yaml.safe_load(text)), tmp_path / f"{name}{native}")
         _same_files(tmp_path / f"{name}True", tmp_path / f"{name}False")
-    assert sum(blocks) > 150  # both runs' rows but those at the sample instants, t = 0 and t_end
+    assert sum(blocks) > 400  # the runs' rows but those at the sample instants, t = 0 and t_end
     p = probe_columns(tmp_path / "piTrue")
     exact = discrete_pi(6.0, 2.0, 1.0, 1.0, 10, 10)
     for k in range(10):
@@ -462,3 +467,7 @@ def test_controller_probes_held_by_a_sampled_controller_or_a_continuous_state_ar
     t, tau, c = p["t"], 0.25, D / (2 * J)
     exact = c * (t ** 2 - 2 * tau * t + 2 * tau ** 2 * (1 - np.exp(-t / tau)))
     assert np.max(np.abs(p["Fp"] - exact)) < 3e-6
+    assert np.array_equal(p["y"], p["Fp"])
+    p = probe_columns(tmp_path / "pdTrue")
+    assert np.max(np.abs(p["u"] - (-40.0 * (p["th"] - 1.0) - 8.0 * p["om"]))) < 1e-12 * 40.0
+    assert np.max(np.abs(p["th"] - pd_exact(p["t"]))) < 4e-5

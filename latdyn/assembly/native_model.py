@@ -503,6 +503,14 @@ class NativeModel:
                                      out.ctypes.data)
         return out
 
+    def controller_outputs_at(self, state) -> None:
+        """The continuous controllers' outputs at the accepted ``state`` into the scene's array of
+        controller outputs (``latdyn_controller_outputs_at``, csrc/rows.c: their laws, clipped, at the
+        state's sensors and the states as accepted), as the rows recorded in the loop of steps hold them."""
+        self.laws.bind_inputs()
+        self.library.latdyn_controller_outputs_at(self.model_ref, self.work_ref, ctypes.byref(self.configuration(state)),
+                                                  float(state.t))
+
     def joint_forces(self, state) -> np.ndarray:
         """The force each joint (hinge or guide, in model order) applies on its coordinate at ``state``
         (``latdyn_joint_forces``, csrc/rows.c: the rules of

@@ -123,12 +123,11 @@ class ProbeSet:
         return out
 
     @property
-    def rows_in_loop(self) -> bool:
-        """Whether the loop of steps may record this scene's rows where it runs (:meth:`rows`): every
-        probe but a continuous controller's output (the law at the row, :meth:`_continuous_outputs`). A
-        sampled controller's output and states are held between its samples, where the loop of steps
-        stops; a continuous controller's states are recorded in the row."""
-        return not self._continuous
+    def needs_controller_outputs(self) -> bool:
+        """Whether the probes read a continuous controller's output (evaluated in the row at its state,
+        ``latdyn_controller_outputs_at``; a sampled controller's is held between its samples, where the
+        loop of steps stops)."""
+        return self._continuous
 
     @property
     def needs_controller_states(self) -> bool:
@@ -156,25 +155,27 @@ class ProbeSet:
         sections = kernel_section_forces(self.assembler, state)[None] if self._need_sections else None
         joint_forces = self.joint_forces(state)[None] if self._need_joint_forces else None
         cable_states = self.assembler.native().cable_state(state)[None] if self._need_cables else None
+        if self._continuous:  # the continuous controllers' outputs at this state, as a row in C has them
+            self.assembler.native().controller_outputs_at(state)
         one = State(np.array([state.t]), *(np.asarray(getattr(state, name))[None] for name in STATE_FIELDS))
         out = self.rows(one, np.array([[energies["kinetic"], energies["strain"], energies["potential"]]]),
                         np.array([self.external_work]), np.array([self.dissipated]), momentum, sections,
                         joint_forces, cable_states)[0].tolist()
-        if self._continuous:
-            self._continuous_outputs(state, out)
         return out
 
     def rows(self, states: State, energies: np.ndarray, external_work: np.ndarray, dissipated: np.ndarray,
              momentum: np.ndarray | None, sections: np.ndarray | None, joint_forces: np.ndarray | None,
-             cable_states: np.ndarray | None, controller_states: np.ndarray | None = None) -> np.ndarray:
+             cable_states: np.ndarray | None, controller_states: np.ndarray | None = None,
+             controller_outputs: np.ndarray | None = None) -> np.ndarray:
         """Probe values of k rows, (k, probes) in file order: ``states`` the rows' state arrays with a
         leading row axis (:meth:`_point`), ``energies`` (k, 3) kinetic, strain, potential, the external
         work and dissipated energy (k,), ``momentum`` (k, 6) [P, H] and ``sections`` (k, n_elements, 4)
         as the strain-energy kernel gives them, ``joint_forces`` (k, joints) as :meth:`joint_forces`
         gives them and ``cable_states`` (k, cable elements, 5) as
         :meth:`latdyn.assembly.native_model.NativeModel.cable_state` gives them, where the probes read
-        them, and ``controller_states`` (k, the scene's controller states) where recorded in the row (else
-        the scene's as they are now). A continuous controller's output is :meth:`values`'s."""
+        them, and ``controller_states`` (k, the scene's controller states) and ``controller_outputs`` (k,
+        the scene's controller outputs) where recorded in the row (else the scene's as they are now:
+        :meth:`values` evaluates the continuous controllers' outputs at its state first)."""
         m = self.model
         k = len(states.t)
         out = np.empty((k, len(self.probes)))
@@ -206,10 +207,11 @@ class ProbeSet:
             elif p.kind == "element":
                 e = int(m.beam_elements[p.beam][p.element])
                 out[:, i] = sections[:, e, SECTION_QUANTITIES.index(p.quantity)]
-            elif p.kind == "controller":  # a sampled one's held output or a state; a continuous one's: values
+            elif p.kind == "controller":
                 scene = m.scene
                 if p.state is None:
-                    out[:, i] = scene.controller_outputs[p.controller]
+                    out[:, i] = (scene.controller_outputs[p.controller] if controller_outputs is None
+                                 else controller_outputs[:, scene.controller_outputs.index(p.controller)])
                 else:
                     name = f"{p.controller}.{p.state}"
                     out[:, i] = (scene.controller_states[name] if controller_states is None
@@ -219,20 +221,6 @@ class ProbeSet:
             else:  # pragma: no cover - the scene validator refuses other kinds
                 raise ValueError(p.kind)
         return out
-
-    def _continuous_outputs(self, state: State, out: list) -> None:
-        """The outputs of continuous controllers at ``state``, from the values of the probes they read
-        (the expression the compiled evaluation uses, here in Python; clipped to its limits)."""
-        scene = self.model.scene
-        values = dict(zip(self.names, out))
-        for i, p in enumerate(self.probes):
-            c = scene.controllers.get(p.controller) if p.kind == "controller" and p.state is None else None
-            if c is None or c.sampled:
-                continue
-            read = [values[n] if n in values else scene.inputs[n] if n in scene.inputs
-                    else scene.controller_outputs[n] for n in c.reads]
-            own = [scene.controller_states[f"{c.name}.{s}"] for s in c.states]  # S at the accepted state
-            out[i] = c.clip(float(c.functions()[0](float(state.t), *read, *own)))
 
 
 def _turned(T: np.ndarray, r: np.ndarray) -> np.ndarray:

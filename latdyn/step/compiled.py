@@ -288,7 +288,8 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
                 power: float, external_work: float, hinge_work_torque: np.ndarray, hinge_damper_torque: np.ndarray,
                 dissipation_power: float = 0.0, dissipated: float = 0.0, budget_s: float = 0.25,
                 rows: list[int] | None = None, momentum: bool = False, sections: bool = False,
-                joints: bool = False, cables: bool = False, controller_states: bool = False) -> "Advanced":
+                joints: bool = False, cables: bool = False, controller_states: bool = False,
+                controller_outputs: bool = False) -> "Advanced":
         """Steps on the time grid in one call into C (``latdyn_advance``), from ``state`` on grid
         point ``grid_index`` through ``stop_index``, each as :meth:`step` takes it with
         h = t_{k+1} − t_k and accepted as the time loop accepts it (algorithmic acceleration
@@ -305,8 +306,9 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         whose steps the loop records a row where it runs (csrc/rows.c): the state, the counters and
         energy accounts, the energies, and with ``momentum`` / ``sections`` / ``joints`` / ``cables`` the
         momenta, the section forces, the forces the joints apply (``latdyn_joint_forces``) and the cable
-        elements' states, and with ``controller_states`` the continuous controllers' states (the scene's
-        array of controller states as accepted at the row); :attr:`Advanced.rows` holds those it recorded
+        elements' states, and with ``controller_states`` / ``controller_outputs`` the scene's arrays of
+        controller states as accepted at the row and of controller outputs (the continuous ones evaluated
+        there, ``latdyn_controller_outputs_at``); :attr:`Advanced.rows` holds those it recorded
         (a :class:`RowBlock`, valid until the next call).
         """
         self._setup()
@@ -325,7 +327,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         buffers = None
         if rows:
             buffers = self._row_buffers()
-            buffers.plan(rows, momentum, sections, joints, cables, controller_states)
+            buffers.plan(rows, momentum, sections, joints, cables, controller_states, controller_outputs)
         run.rows = buffers.reference if buffers is not None else None
         self._factor_version += 1
         self._native.laws.bind_inputs()  # this scene's input values (SceneLaws.bind_inputs)
@@ -483,8 +485,9 @@ class RowBlock:
     (the state arrays of every row with a leading row axis: ``states.x`` (k, n, 3), ``states.T``
     (k, n, 3, 3), …, ``states.t`` (k,)), ``section_forces`` (k, n_elements, 4, as the strain-energy
     kernel gives them), ``joint_forces`` (k, joints, as ``latdyn_joint_forces`` gives them) and
-    ``cable_states`` (k, cable elements, 5: [ℓ, ℓ̇, ℓ − L0, N_el, N]) and ``controller_states`` (k, the
-    scene's controller states, in the order of ``scene.controller_states``) or None where not recorded.
+    ``cable_states`` (k, cable elements, 5: [ℓ, ℓ̇, ℓ − L0, N_el, N]), ``controller_states`` (k, the
+    scene's controller states, in the order of ``scene.controller_states``) and ``controller_outputs``
+    (k, in the order of ``scene.controller_outputs``) or None where not recorded.
     Views of the buffers: valid until the next loop call."""
 
     scalars: np.ndarray
@@ -493,6 +496,7 @@ class RowBlock:
     joint_forces: np.ndarray | None = None
     cable_states: np.ndarray | None = None
     controller_states: np.ndarray | None = None
+    controller_outputs: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.scalars)
@@ -530,7 +534,7 @@ class RowBlock:
         return RowBlock(self.scalars[:rows].copy(),
                         State(s.t[:rows].copy(), *(getattr(s, name)[:rows].copy() for name in STATE_FIELDS)),
                         first(self.section_forces), first(self.joint_forces), first(self.cable_states),
-                        first(self.controller_states))
+                        first(self.controller_states), first(self.controller_outputs))
 
 
 class RowBuffers:
@@ -552,6 +556,8 @@ class RowBuffers:
         # the continuous controllers' states: the scene's array that the runtime writes in place
         self.n_controller_values = len(model.scene.controller_states.values) if native.model.n_controller_states else 0
         self.controller_states = np.zeros((self.capacity, max(self.n_controller_values, 1)))
+        self.n_output_values = len(model.scene.controller_outputs.values) if len(model.scene.controllers) else 0
+        self.controller_outputs = np.zeros((self.capacity, max(self.n_output_values, 1)))
         self.scalars = np.zeros((self.capacity, len(ROW_SCALARS)))
         self.section_forces = np.zeros((self.capacity, max(self.n_elements, 1), 4))
         self.grid_point = np.zeros(self.capacity, np.int64)
@@ -566,12 +572,13 @@ class RowBuffers:
                              joint_forces=self.joint_forces.ctypes.data,
                              held=ctypes.addressof(self.configurations[self.capacity]), saved=self.saved.ctypes.data,
                              cable_states=self.cable_states.ctypes.data,
-                             controller_states=self.controller_states.ctypes.data)
+                             controller_states=self.controller_states.ctypes.data,
+                             controller_outputs=self.controller_outputs.ctypes.data)
         self.reference = ctypes.addressof(self.data)
-        self.sections = self.joints = self.cables = self.controllers = False
+        self.sections = self.joints = self.cables = self.controllers = self.outputs = False
 
     def plan(self, rows: list[int], momentum: bool, sections: bool, joints: bool = False,
-             cables: bool = False, controller_states: bool = False) -> None:
+             cables: bool = False, controller_states: bool = False, controller_outputs: bool = False) -> None:
         if len(rows) > self.capacity:
             raise ValueError(f"{len(rows)} rows planned, the buffers hold {self.capacity}")
         self.grid_point[:len(rows)] = rows
@@ -581,6 +588,8 @@ class RowBuffers:
         self.data.joints, self.data.cables = int(self.joints), int(self.cables)
         self.controllers = controller_states and self.n_controller_values > 0
         self.data.controller_values = self.n_controller_values if self.controllers else 0
+        self.outputs = controller_outputs and self.n_output_values > 0
+        self.data.output_values = self.n_output_values if self.outputs else 0
         self.sections = sections
 
     def block(self) -> RowBlock:
@@ -591,7 +600,8 @@ class RowBuffers:
                         self.section_forces[:k, :self.n_elements] if self.sections else None,
                         self.joint_forces[:k] if self.joints else None,
                         self.cable_states[:k] if self.cables else None,
-                        self.controller_states[:k] if self.controllers else None)
+                        self.controller_states[:k] if self.controllers else None,
+                        self.controller_outputs[:k] if self.outputs else None)
 
 
 class _LastEvaluation:

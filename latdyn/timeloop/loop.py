@@ -126,9 +126,8 @@ class TimeLoop:
                          and (self.sampler is None or self.control.instants_on_nominal_grid)
                          and self.sensitivities is None)
         self.writer.summary["time_loop"] = "compiled" if self.compiled else "python"
-        # rows where the step runs: not for the probes of a continuous controller's output (probes.rows_in_loop)
-        self.native_rows = (self.compiled and NATIVE_ROWS and hasattr(self.integrator, "row_capacity")
-                            and self.probes.rows_in_loop)
+        # rows where the step runs
+        self.native_rows = self.compiled and NATIVE_ROWS and hasattr(self.integrator, "row_capacity")
         if resume_from is None:
             self._record(self.progress.state, energy0)
         self.last = self._accepted()
@@ -295,7 +294,8 @@ class TimeLoop:
             hinge_damper_torque=progress.hinge_damper_torque, dissipation_power=progress.dissipation_power,
             dissipated=progress.dissipated, budget_s=budget, rows=rows, momentum=momentum, sections=sections,
             joints=bool(self.model.hinges), cables=self.probes.needs_cables,
-            controller_states=self.probes.needs_controller_states)
+            controller_states=self.probes.needs_controller_states,
+            controller_outputs=self.probes.needs_controller_outputs)
         progress.solver_s += time.perf_counter() - started
         ended_on_a_row = False
         if done.rows is not None and len(done.rows):
@@ -372,7 +372,7 @@ class TimeLoop:
         values = probes.rows(block.states, block.energies, block.column("external_work"),
                              block.column("dissipated"), block.momenta if probes.needs[0] else None,
                              block.section_forces if probes.needs[1] else None, block.joint_forces,
-                             block.cable_states, block.controller_states)
+                             block.cable_states, block.controller_states, block.controller_outputs)
         kept = block.kept(end)  # the states the frames and the checkpoint read later
         s = kept.states
         history = {name: array.reshape(end, -1) for name, array in

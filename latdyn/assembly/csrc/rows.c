@@ -16,6 +16,22 @@
 
 static double lock_tolerance(double at); /* newton_step.c: latdyn/model/model.py lock_tolerance */
 
+/* The continuous controllers' outputs at the accepted state c, time t: their laws (clipped) at its
+ * sensors and their states as accepted (controller_outputs of evaluate.c outside a step), into the
+ * scene's array of controller outputs m->controller_outputs, which the next evaluation writes again.
+ * The row records them; ProbeSet.values calls it for a row recorded in Python. */
+void latdyn_controller_outputs_at(const Model *m, Work *w, const Configuration *c, double t)
+{
+    if (!m->n_controllers) return;
+    double held = 0.0;
+    if (m->n_controller_states) {
+        held = w->controller_half_step[0];
+        w->controller_half_step[0] = 0.0; /* outside a step: S as accepted */
+    }
+    controller_outputs(m, c, w, t);
+    if (m->n_controller_states) w->controller_half_step[0] = held;
+}
+
 /* +1 (−1) when hinge j rests on its upper (lower) rigid stop: on it within the events' tolerance and not
  * moving away; 0 otherwise (latdyn/results/probes.py _on_stop). */
 static int resting_on_stop(const Model *m, const Configuration *c, int64_t j)
@@ -160,6 +176,10 @@ typedef struct {
      * (capacity, controller_values), the runtime's array m->controller_states as accepted at the row */
     int64_t controller_values;
     double *controller_states;
+    /* with a probe of a controller's output: each row's copy of the scene's array of controller outputs
+     * (capacity, output_values), the continuous ones evaluated at the row (latdyn_controller_outputs_at) */
+    int64_t output_values;
+    double *controller_outputs;
 } Rows;
 
 /* Record the row of the accepted state c at time t (the loop's counters and accounts in `counters`:
@@ -182,6 +202,11 @@ static void record_row(const Model *m, Work *w, Rows *rows, const Configuration 
         m->time_laws(t, w->laws);
         cables(m, c, w, w->laws, &power, &dissipation, NULL); /* latdyn_cables */
         memcpy(rows->cable_states + 5 * m->n_cables * r, w->cable_state, sizeof(double) * 5 * (size_t)m->n_cables);
+    }
+    if (rows->output_values > 0) {
+        latdyn_controller_outputs_at(m, w, c, t);
+        memcpy(rows->controller_outputs + rows->output_values * r, m->controller_outputs,
+               sizeof(double) * (size_t)rows->output_values);
     }
     if (rows->controller_values > 0)
         memcpy(rows->controller_states + rows->controller_values * r, m->controller_states,
