@@ -1,8 +1,8 @@
 """What a recorded row costs for the scenes whose rows used to need Python per row: joint forces
-(probes and ``summary.json`` ``joint_peaks``), law springs' potential (docs/performance.md, "Joints,
-cables and law springs in the row").
+(probes and ``summary.json`` ``joint_peaks``), law springs' potential, a continuous controller's output
+probe (docs/performance.md, "Joints, cables and law springs in the row").
 
-    PYTHONPATH=TREE python benchmarks/rows_joints.py crank|law|stop [--repeats 5]
+    PYTHONPATH=TREE python benchmarks/rows_joints.py crank|law|stop|pd [--repeats 5]
 
 In process, after one warm-up of each: ``latdyn.run`` with a row every step and with rows at t = 0
 and t_end only, the CPU time of the process (``time.process_time``: a loaded machine's other work
@@ -43,7 +43,29 @@ output:
 """
 
 
+#: a rigid link to a tip mass on a hinge slewed by a continuous PD (tests/test_controllers.py's hub)
+HUB_PD = """\
+inputs: {kp: 40.0, kd: 8.0, ref: 1.0}
+controllers:
+  ctl: {output: "-kp*(th - ref) - kd*om"}
+sections: {s: {EA: 1, EIy: 1, EIz: 1, GJ: 1, rhoA: 0}}
+bodies:
+  hub: {at: [0, 0, 0], fixed: true}
+  tip: {at: [0.5, 0, 0], mass: 4.0}
+beams:
+  arm: {from: hub, to: tip, section: s, rigid: true, start: {hinge: {axis: [0, 0, 1], torque: ctl}}}
+solve: {t_end: 1.5, dt: 0.004}
+output:
+  probes:
+    th: {hinge: arm.start, quantity: angle}
+    om: {hinge: arm.start, quantity: rate}
+    u: {controller: ctl}
+"""
+
+
 def scene(kind: str) -> dict:
+    if kind == "pd":
+        return yaml.safe_load(HUB_PD)
     if kind == "crank":  # the shipped slider-crank: a rigid link, a guide, a prescribed crank
         raw = yaml.load((ROOT / "examples" / "slider_crank.yaml").read_text(), Loader=_yaml_loader())
         raw["output"].pop("every", None)
@@ -68,7 +90,7 @@ def once(raw: dict) -> tuple[float, int]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("kind", choices=("crank", "law", "stop"))
+    parser.add_argument("kind", choices=("crank", "law", "stop", "pd"))
     parser.add_argument("--repeats", type=int, default=5)
     args = parser.parse_args()
     every = scene(args.kind)
