@@ -527,10 +527,10 @@ class RowBlock:
 
     def kept(self, rows: int) -> "RowBlock":
         """The first ``rows`` rows, copied out of the buffers (valid after the next loop call)."""
-        s = self.states
         def first(array):
             return None if array is None else array[:rows].copy()
 
+        s = self.states
         return RowBlock(self.scalars[:rows].copy(),
                         State(s.t[:rows].copy(), *(getattr(s, name)[:rows].copy() for name in STATE_FIELDS)),
                         first(self.section_forces), first(self.joint_forces), first(self.cable_states),
@@ -540,8 +540,8 @@ class RowBlock:
 class RowBuffers:
     """The preallocated buffers of the rows the loop of steps records (``Rows`` of csrc/rows.c): the
     states in the step's own layout, one row after the other, the scalars, the section forces, the
-    joints' forces and the cable elements' states (with one more state, the scratch of
-    ``latdyn_joint_forces``)."""
+    joints' forces, the cable elements' states and the scene's controller states and outputs (with one
+    more state, the scratch of ``latdyn_joint_forces``)."""
 
     def __init__(self, native, state_size: int, slices, model):
         self.native = native
@@ -556,7 +556,8 @@ class RowBuffers:
         # the continuous controllers' states: the scene's array that the runtime writes in place
         self.n_controller_values = len(model.scene.controller_states.values) if native.model.n_controller_states else 0
         self.controller_states = np.zeros((self.capacity, max(self.n_controller_values, 1)))
-        self.n_output_values = len(model.scene.controller_outputs.values) if len(model.scene.controllers) else 0
+        self.n_output_values = (len(model.scene.controller_outputs.values) if getattr(model.scene, "controllers", None)
+                                else 0)
         self.controller_outputs = np.zeros((self.capacity, max(self.n_output_values, 1)))
         self.scalars = np.zeros((self.capacity, len(ROW_SCALARS)))
         self.section_forces = np.zeros((self.capacity, max(self.n_elements, 1), 4))
