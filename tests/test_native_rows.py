@@ -7,8 +7,13 @@ moves with v0 + g t, which generalized-α integrates exactly from consistent acc
 velocities, momenta, energies to round-off; section forces zero); and the same run with a row at a
 time (``latdyn.timeloop.loop.NATIVE_ROWS = False``, rows recorded from Python after each call into C),
 which the rows recorded in C must equal byte for byte (probes.csv, state.h5, summary.json but its
-timings), on a 3D and a planar beam driven by a hub, a hinge hitting a stop, blocks cut by a small
-buffer and by the wall-time budget, and a run whose energy balance breaks.
+timings), on a 3D and a planar beam driven by a hub, a hinge hitting a stop, a joint's torque
+through a latch and resting on a stop (latdyn_joint_forces, the one evaluation of the joint probes and
+joint_peaks, in the row and in Python alike), a mass dropped on a slack cable (its tension and length
+in the row), blocks cut by a small buffer and by the wall-time budget, and a run whose energy
+balance breaks. Before their events the joint probes give their laws exactly (a free joint applies its
+law: the constant torque, the spring's k (θ_r − θ)) and the cable its closed-form drop
+(tests/test_cables.py check_drop).
 """
 from __future__ import annotations
 
@@ -30,7 +35,9 @@ from latdyn.scene.loader import _yaml_loader
 from latdyn.timeloop.loop import TimeLoop
 
 from cli_runs import latdyn_run, probe_columns, summary_of
+from test_cables import check_drop, drop_scene
 from test_hinges import stop_scene
+from test_runtime import hinged_flap
 from test_planar import chain_scene, rotated
 
 try:
@@ -308,3 +315,159 @@ def test_a_balance_that_breaks_inside_a_block_ends_the_run_at_that_row(tmp_path,
     assert blocks == [59]  # the block held the rows up to t_end; those after the break were dropped
     _same_files(tmp_path / "True", tmp_path / "False")
     assert probe_columns(tmp_path / "True")["t"][-1] == pytest.approx(0.12)
+
+
+@pytest.mark.parametrize("event", ["latch", "stop"])
+def test_a_joints_torque_through_a_latch_and_resting_on_a_stop_is_recorded_in_c(event, tmp_path, monkeypatch,
+                                                                                  blocks):
+    """tests/test_runtime.py's flap under a constant torque 2 that latches at 0.6 rad, and
+    tests/test_hinges.py's pendulum driven by a spring (k = 10, θ_r = 1) into a stop at 0.5 that it
+    stays on (restitution 0): the torque probe and joint_peaks in rows recorded in C equal the rows
+    one by one, byte for byte, after the event too (the latch's reaction; the stop's when the joint
+    rests on it); before the event a free joint applies its law: 2 exactly, k (θ_r − θ) to round-off."""
+    if event == "latch":
+        scene, hinge, angle_at = hinged_flap(), "flap.start", 0.6
+    else:
+        scene, hinge, angle_at = stop_scene(0.0), "arm.start", 0.5
+        scene["solve"]["t_end"] = 0.7  # on the stop from t ≈ 0.33 s
+    scene["output"]["probes"]["torque"] = {"hinge": hinge, "quantity": "torque"}
+    for native in (True, False):
+        _rows_one_by_one(monkeypatch, native)
+        latdyn.run(latdyn.load_scene(scene), tmp_path / str(native))
+    assert len(blocks) >= 2 and sum(blocks) > 100
+    _same_files(tmp_path / "True", tmp_path / "False")
+    probes, summary = probe_columns(tmp_path / "True"), summary_of(tmp_path / "True")
+    angle, torque = probes["angle"], probes["torque"]
+    hit = int(np.argmax(angle >= angle_at - 1e-6))
+    assert 10 < hit < len(angle) - 10 and summary["events"]
+    law = np.full(hit, 2.0) if event == "latch" else 10.0 * (1.0 - angle[:hit])
+    if event == "latch":
+        assert np.array_equal(torque[:hit], law)
+    else:
+        np.testing.assert_allclose(torque[:hit], law, rtol=1e-12, atol=0.0)
+    assert not np.allclose(torque[hit + 1:], torque[hit - 1])  # past the event: the latch's or stop's reaction
+    (peak,) = summary["joint_peaks"].values()
+    assert abs(peak["peak"]) == pytest.approx(np.abs(torque).max(), rel=1e-12)
+
+
+def test_a_mass_dropped_on_a_slack_cable_gives_its_tension_and_length_in_rows_recorded_in_c(tmp_path, monkeypatch,
+                                                                                           blocks):
+    """tests/test_cables.py's drop along a direction out of every coordinate plane (taut, then slack
+    again): the cable's tension and length recorded in the row equal the rows one by one, byte for
+    byte, and give the closed-form drop (check_drop: taut and slack times, the peak tension and
+    stretch)."""
+    scene = yaml.safe_load(drop_scene([1, -2, 2], 0.1, 0.8))
+    for native in (True, False):
+        _rows_one_by_one(monkeypatch, native)
+        latdyn.run(latdyn.load_scene(scene), tmp_path / str(native))
+    assert len(blocks) >= 2 and sum(blocks) > 300
+    _same_files(tmp_path / "True", tmp_path / "False")
+    check_drop(summary_of(tmp_path / "True"), probe_columns(tmp_path / "True"), 0.8, 0.1)
+
+
+def test_a_loop_call_ending_on_a_row_with_joint_forces_hands_back_its_last_newton_evaluation():
+    """The row's joint forces are one more evaluation in Work; a loop call that ends on that row (its
+    wall-time budget spent after one step) still hands back the last Newton evaluation (the reaction of
+    the slider-crank's driven crank, the hinges' torques, the dissipation: what the time loop reads of
+    it), as the same call without rows does."""
+    from latdyn.assembly.prepare import prepare
+    from latdyn.step.compiled import CompiledGeneralizedAlpha
+    from latdyn.step.integrators import AlphaParameters
+
+    text = (Path(__file__).resolve().parents[1] / "examples" / "slider_crank.yaml").read_text()
+    scene = yaml.load(text, Loader=_yaml_loader())
+    handed_back = []
+    for rows in ([1], None):
+        prepared = prepare(latdyn.load_scene(scene))
+        step = CompiledGeneralizedAlpha(prepared.assembler, AlphaParameters.for_method("generalized-alpha", 0.8),
+                                        1e-8, 25, 1.0)
+        state = prepared.state
+        step.start(state)
+        hinges = len(prepared.model.hinges)
+        done = step.advance(state, grid_index=0, stop_index=10, dt=0.002, t_end=1.5, n_grid=750, power=0.0,
+                            external_work=0.0, hinge_work_torque=np.zeros(hinges), hinge_damper_torque=np.zeros(hinges),
+                            budget_s=1e-12, rows=rows, joints=True)
+        assert done.steps == 1 and done.status == 3
+        if rows:
+            assert len(done.rows) == 1 and np.any(done.rows.joint_forces[0] != 0.0)
+        last = step.last_evaluation
+        handed_back.append((last.reaction, last.hinge_work_torque, last.hinge_damper_torque, last.dissipation_power))
+    recorded, plain = handed_back
+    assert np.any(recorded[0] != 0.0)
+    for a, b in zip(recorded, plain):
+        assert np.array_equal(a, b)
+
+
+def _law_spring_potential(theta):
+    """∫_1^θ k(s)(s − 1) ds of the spring k(s) = 10 (1 + s²) with rest angle 1, in closed form."""
+    def primitive(s):
+        return 10.0 * (s**4 / 4 - s**3 / 3 + s**2 / 2 - s)
+
+    return primitive(theta) - primitive(1.0)
+
+
+def test_a_hinge_spring_with_a_stiffness_law_gives_its_potential_in_rows_recorded_in_c(tmp_path, monkeypatch,
+                                                                                     blocks):
+    """tests/test_hinges.py's pendulum swung by a spring k(θ) = 10 (1 + θ²) with rest angle 1 from θ = 0
+    (through 2 and back): its potential integrated in C (latdyn_energies, the compiled law by Gauss–
+    Legendre quadrature on pieces of 0.25 rad) equals the closed form 10 (θ⁴/4 − θ³/3 + θ²/2 − θ) from 1
+    to θ (to the near-rigid arm's own strain energy, 1.5e-8 of the peak), and the rows recorded in C equal
+    the rows one by one, byte for byte."""
+    from test_hinges import pendulum
+
+    scene = pendulum({"stiffness": "10*(1 + theta**2)", "rest_angle": 1.0},
+                     solve={"analysis": "transient", "t_end": 1.5, "dt": 5e-3})
+    scene["output"]["probes"]["strain"] = {"energy": "strain"}
+    for native in (True, False):
+        _rows_one_by_one(monkeypatch, native)
+        latdyn.run(latdyn.load_scene(scene), tmp_path / str(native))
+    assert len(blocks) >= 2 and sum(blocks) > 200
+    _same_files(tmp_path / "True", tmp_path / "False")
+    probes = probe_columns(tmp_path / "True")
+    angle = probes["angle"]
+    assert angle.max() > 1.5  # past 0.25 rad from the rest angle on both sides: several pieces
+    reference = _law_spring_potential(angle)
+    error = np.abs(probes["strain"] - reference).max() / reference.max()
+    assert error < 5e-8, error  # 1.45e-8 measured: the arm's own strain (the same with the quadrature in Python)
+
+
+def test_controller_probes_are_recorded_in_c(tmp_path, monkeypatch, blocks):
+    """tests/test_controllers.py's hub under a sampled PI (10 Hz, dt = 0.01: its output and state probes
+    held between the samples, where the loop of steps stops), in 3D under a continuous PD (its output
+    evaluated in the row, latdyn_controller_outputs_at) and tests/test_controller_states.py's low-pass
+    filter state F and output of θ = c t² (continuous: the state recorded in the row as accepted): the
+    rows recorded in C equal the rows one by one, byte for byte; the PI's state at each instant is the
+    exact discrete-time solution's to 1e-12, the PD's output its law −40 (θ − 1) − 8 θ̇ at the row's
+    angle and rate to 1e-12 of its scale, θ the exact slew to generalized-α's 3.4e-5 at h = 0.004, F its
+    closed form c (t² − 2τt + 2τ²(1 − e^{−t/τ})) to the trapezoidal rule's 2.5e-6 and the filter's
+    output F itself exactly."""
+    from test_controller_states import D, FILTER, disturbed
+    from test_controllers import CONTINUOUS_PD, GAINS, J, SAMPLED_PI, SPATIAL, discrete_pi, hub, pd_exact
+
+    pi = hub(SAMPLED_PI, solve="{t_end: 1.0, dt: 0.01}", inputs="inputs: {kp: 6.0, kd: 2.0, ki: 1.0, ref: 1.0}",
+             probes="    u: {controller: ctl}\n    Sp: {controller: ctl, state: S}")
+    low_pass = disturbed(hub(FILTER, torque="0", inputs="inputs: {tau: 0.25}", axis=SPATIAL,
+                             solve="{t_end: 1.0, dt: 0.01}", probes="    Fp: {controller: lp, state: F}\n"
+                                                                    "    y: {controller: lp}"), SPATIAL)
+    pd = hub(CONTINUOUS_PD, inputs=GAINS, axis=SPATIAL, solve="{t_end: 1.0, dt: 0.004}",
+             probes="    u: {controller: ctl}")
+    for name, text in (("pi", pi), ("low_pass", low_pass), ("pd", pd)):
+        for native in (True, False):
+            _rows_one_by_one(monkeypatch, native)
+            latdyn.run(latdyn.load_scene(yaml.safe_load(text)), tmp_path / f"{name}{native}")
+        _same_files(tmp_path / f"{name}True", tmp_path / f"{name}False")
+    assert sum(blocks) > 400  # the runs' rows but those at the sample instants, t = 0 and t_end
+    p = probe_columns(tmp_path / "piTrue")
+    exact = discrete_pi(6.0, 2.0, 1.0, 1.0, 10, 10)
+    for k in range(10):
+        row = int(np.argmin(np.abs(p["t"] - k / 10)))
+        assert abs(p["Sp"][row] - exact[k + 1, 2]) < 1e-12  # recorded at the instant, after its sample
+        assert np.all(p["u"][row:row + 10] == p["u"][row])  # held to the next instant
+    p = probe_columns(tmp_path / "low_passTrue")
+    t, tau, c = p["t"], 0.25, D / (2 * J)
+    exact = c * (t ** 2 - 2 * tau * t + 2 * tau ** 2 * (1 - np.exp(-t / tau)))
+    assert np.max(np.abs(p["Fp"] - exact)) < 3e-6
+    assert np.array_equal(p["y"], p["Fp"])
+    p = probe_columns(tmp_path / "pdTrue")
+    assert np.max(np.abs(p["u"] - (-40.0 * (p["th"] - 1.0) - 8.0 * p["om"]))) < 1e-12 * 40.0
+    assert np.max(np.abs(p["th"] - pd_exact(p["t"]))) < 4e-5

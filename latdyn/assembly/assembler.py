@@ -23,9 +23,6 @@ from latdyn.assembly.native_model import NativeModel
 from latdyn.model.model import Model
 from latdyn.numerics.linalg import DENSE_LIMIT
 
-#: 16-point Gauss–Legendre nodes and weights on [−1, 1] (hinge spring potentials).
-_GAUSS_16 = np.polynomial.legendre.leggauss(16)
-
 # ----------------------------------------------------------------------------- state
 
 
@@ -338,39 +335,11 @@ class Assembler:
             }
         return result
 
-    def hinge_potential(self, state: State, hinges=None) -> float:
-        """Potential of the conservative hinge springs, Σ ∫_{θ_r}^{θ} k(s)(s − θ_r) ds, over all
-        hinges or the indices ``hinges``.
-
-        Constant k: ½k(θ − θ_r)². A law k(θ): Gauss–Legendre quadrature, 16 points on each
-        piece of at most 0.25 rad (exact for polynomials of degree 31 on a piece)."""
-        total = 0.0
-        every = self.model.hinges
-        for k in range(len(every)) if hinges is None else hinges:
-            hinge = every[k]
-            if not hinge.conservative_spring:
-                continue
-            s = float(state.theta[k]) - hinge.rest_angle
-            if hinge.stiffness.is_constant:
-                total += 0.5 * hinge.stiffness.constant * s * s
-                continue
-            pieces = max(1, int(np.ceil(abs(s) / 0.25)))
-            nodes, weights = _GAUSS_16
-            edges = hinge.rest_angle + s * np.arange(pieces + 1) / pieces
-            for a, b in zip(edges[:-1], edges[1:]):
-                points = 0.5 * (a + b) + 0.5 * (b - a) * nodes
-                values = [hinge.stiffness.value(p, 0.0, 0.0) * (p - hinge.rest_angle) for p in points]
-                total += 0.5 * (b - a) * float(np.dot(weights, values))
-        return total
-
     def energies(self, state: State) -> dict[str, float]:
-        """Kinetic, strain and gravity potential energy of the whole model (``latdyn_energies``; the
-        potential of hinge springs with a stiffness law integrated here, :meth:`hinge_potential`)."""
+        """Kinetic, strain and gravity potential energy of the whole model (``latdyn_energies``, the
+        potential of hinge springs with a stiffness law included: csrc/evaluate.c law_spring_potential)."""
         self.complete_links(state)
-        native = self.native()
-        kinetic, strain, potential = native.energies(state)
-        if native.law_hinges:
-            strain += self.hinge_potential(state, native.law_hinges)
+        kinetic, strain, potential = self.native().energies(state)
         return {"kinetic": kinetic, "strain": strain, "potential": potential}
 
     def momentum(self, state: State) -> tuple[np.ndarray, np.ndarray]:

@@ -167,7 +167,10 @@ class RowsData(ctypes.Structure):
     """``Rows`` of csrc/rows.c: the rows one loop of steps records on the way (latdyn.step.compiled.RowBuffers)."""
 
     _fields_ = [("capacity", I64), ("planned", I64), ("grid_point", P), ("momentum", I64), ("sections", I64),
-                ("recorded", I64), ("scalars", P), ("section_forces", P), ("states", P)]
+                ("recorded", I64), ("scalars", P), ("section_forces", P), ("states", P),
+                ("joints", I64), ("joint_forces", P), ("held", P), ("saved", P), ("cables", I64), ("cable_states", P),
+                ("controller_values", I64), ("controller_states", P), ("output_values", I64),
+                ("controller_outputs", P)]
 
 
 #: Element count from which the element part of an evaluation (geometry and kernels) runs on
@@ -227,6 +230,10 @@ def native_library() -> ctypes.CDLL:
                                       ctypes.POINTER(ConfigurationData))
         library.latdyn_momentum.restype = None
         library.latdyn_momentum.argtypes = [model, work, configuration, P]
+        library.latdyn_joint_forces.restype = None
+        library.latdyn_controller_outputs_at.restype = None
+        library.latdyn_controller_outputs_at.argtypes = [model, work, configuration, ctypes.c_double]
+        library.latdyn_joint_forces.argtypes = [model, work, configuration, ctypes.c_double, P]
         library.latdyn_evaluate.restype = None
         library.latdyn_evaluate.argtypes = [model, work, configuration, ctypes.POINTER(EvaluationData)]
         library.latdyn_element_inputs.restype = None

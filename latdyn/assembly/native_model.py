@@ -509,9 +509,30 @@ class NativeModel:
                                      out.ctypes.data)
         return out
 
+    def controller_outputs_at(self, state) -> None:
+        """The continuous controllers' outputs at the accepted ``state`` into the scene's array of
+        controller outputs (``latdyn_controller_outputs_at``, csrc/rows.c: their laws, clipped, at the
+        state's sensors and the states as accepted), as the rows recorded in the loop of steps hold them."""
+        self.laws.bind_inputs()
+        self.library.latdyn_controller_outputs_at(self.model_ref, self.work_ref, ctypes.byref(self.configuration(state)),
+                                                  float(state.t))
+
+    def joint_forces(self, state) -> np.ndarray:
+        """The force each joint (hinge or guide, in model order) applies on its coordinate at ``state``
+        (``latdyn_joint_forces``, csrc/rows.c: the rules of
+        :meth:`latdyn.results.probes.ProbeSet.joint_forces`), evaluated on a copy of ``state``; the
+        evaluation's outputs are left in Work."""
+        out = np.zeros(self.model.n_hinges)
+        if len(out):
+            held = state.copy()
+            self.laws.bind_inputs()
+            self.library.latdyn_joint_forces(self.model_ref, self.work_ref, ctypes.byref(self.configuration(held)),
+                                             float(state.t), out.ctypes.data)
+        return out
+
     def energies(self, state) -> tuple[float, float, float]:
-        """Kinetic energy, strain energy (hinge springs with a constant stiffness included; those with
-        a law are the caller's) and gravity potential at ``state`` (``latdyn_energies``)."""
+        """Kinetic energy, strain energy (hinge springs included, those with a stiffness law by
+        quadrature of the compiled law) and gravity potential at ``state`` (``latdyn_energies``)."""
         out = np.zeros(3)
         self.library.latdyn_energies(self.model_ref, self.work_ref, ctypes.byref(self.configuration(state)),
                                      float(state.t), out.ctypes.data)

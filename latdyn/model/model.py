@@ -49,7 +49,7 @@ class Node:
 
 def lock_tolerance(at: float) -> float:
     """How near a joint's coordinate must be to a latch or stop position ``at`` to be on it (the events of
-    latdyn/timeloop/events.py, the joint probes of latdyn/results/probes.py; csrc/newton_step.c has its twin)."""
+    latdyn/timeloop/events.py, csrc/newton_step.c has its twin, which the joint probes of csrc/rows.c use)."""
     return 1e-7 * max(1.0, abs(at))
 
 

@@ -5,7 +5,6 @@ import numpy as np
 
 from latdyn.assembly.assembler import Assembler, State
 from latdyn.assembly.native_model import STATE_FIELDS
-from latdyn.model.model import lock_tolerance
 from latdyn.model.planar import section_moments_back
 
 _COMPONENT = {"x": 0, "y": 1, "z": 2}
@@ -62,9 +61,11 @@ class ProbeSet:
         self._need_momentum = "momentum" in kinds
         self._need_sections = "element" in kinds
         self._joint_forces = None  # (key of the state, forces) of the last call of joint_forces
-        self._continuous = any(p.kind == "controller" and not self.model.scene.controllers[p.controller].sampled
-                               for p in self.probes)
+        self._continuous = any(p.kind == "controller" and p.state is None  # a continuous controller's output
+                               and not self.model.scene.controllers[p.controller].sampled for p in self.probes)
         self._need_cables = "cable" in kinds
+        self._need_joint_forces = any(p.kind in ("hinge", "guide") and p.quantity in ("torque", "force")
+                                      for p in self.probes)
 
     def _point(self, probe, states: State) -> np.ndarray:
         """A point probe at every row of ``states`` (state arrays with a leading row axis: x (k, n, 3),
@@ -99,10 +100,11 @@ class ProbeSet:
         """The generalized force each joint (hinge or guide, in model order) applies on its coordinate,
         positive when it drives θ or s up (SCENE.md, the joint probes ``torque``/``force``).
 
-        One evaluation of the equations of motion at ``state``: the residual of the joint's
-        coordinate is r = G + f, with f its law (spring, damper, applied torque or force: the
-        generated ``hinge_force``, as the evaluation summed it, ``joint_forces`` of
-        csrc/evaluate.c) and G all the rest (inertia, the structure, loads).
+        One evaluation of the equations of motion at ``state`` (``latdyn_joint_forces`` of
+        csrc/rows.c, the same C that records them in a row of the loop of steps): the residual of the
+        joint's coordinate is r = G + f, with f its law (spring, damper, applied torque or force: the
+        generated ``hinge_force``, as the evaluation summed it, ``joint_forces`` of csrc/evaluate.c)
+        and G all the rest (inertia, the structure, loads).
 
         - A free joint applies its law: −f.
         - A joint without a coordinate (prescribed, latched) applies, besides its law, the reaction
@@ -116,40 +118,32 @@ class ProbeSet:
         key = (id(state), float(state.t), state.theta.tobytes(), state.theta_dot.tobytes())
         if self._joint_forces is not None and self._joint_forces[0] == key:  # the same row's state
             return self._joint_forces[1]
-        m, assembler = self.model, self.assembler
-        out = np.zeros(len(m.hinges))
-        if not len(out):
-            return out
-        resting = [k for k in m.free_hinges if _on_stop(m.hinges[k], state, int(k))]
-        held = state
-        if resting:
-            held = state.copy()
-            held.theta_ddot[resting] = 0.0
-        ev = assembler.evaluate(held, matrices=False)
-        f = assembler.native().buffers["joint_forces"].copy()
-        n = m.n_dofs
-        for k in range(len(out)):
-            d = int(m.hinge_dofs[k])
-            out[k] = 0.0 - f[k] if d < n else float(ev.reaction[d - n])  # 0.0 − f: no −0.0
-        for k in resting:
-            side = _on_stop(m.hinges[k], state, int(k))
-            held_by_stop = float(ev.residual[m.hinge_dofs[k]])  # r at θ̈ = 0
-            if side * held_by_stop < 0.0:  # unheld it would accelerate into the stop: the stop holds it
-                out[k] = held_by_stop
+        out = self.assembler.native().joint_forces(state) if len(self.model.hinges) else np.zeros(0)
         self._joint_forces = (key, out)
         return out
 
     @property
-    def rows_in_loop(self) -> bool:
-        """Whether the loop of steps may record this scene's rows where it runs (:meth:`rows`): every
-        probe but a controller's (whose values are those of the laws at the row, which only the
-        evaluation of that row's step holds)."""
-        return not any(p.kind == "controller" for p in self.probes)
+    def needs_controller_outputs(self) -> bool:
+        """Whether the probes read a continuous controller's output (evaluated in the row at its state,
+        ``latdyn_controller_outputs_at``; a sampled controller's is held between its samples, where the
+        loop of steps stops)."""
+        return self._continuous
+
+    @property
+    def needs_controller_states(self) -> bool:
+        """Whether the probes read a controller's state (recorded in the row where they change: a
+        continuous controller's)."""
+        return any(p.kind == "controller" and p.state is not None for p in self.probes)
 
     @property
     def needs(self) -> tuple[bool, bool]:
         """Whether the probes read the momenta, and the section forces."""
         return self._need_momentum, self._need_sections
+
+    @property
+    def needs_cables(self) -> bool:
+        """Whether the probes read the cable elements' states."""
+        return self._need_cables
 
     def values(self, state: State, energies: dict | None = None) -> list[float]:
         """Probe values in file order; ``energies`` may be passed when already computed."""
@@ -159,22 +153,29 @@ class ProbeSet:
         energies = energies or {"kinetic": 0.0, "strain": 0.0, "potential": 0.0}
         momentum = np.concatenate(self.assembler.momentum(state))[None] if self._need_momentum else None
         sections = kernel_section_forces(self.assembler, state)[None] if self._need_sections else None
+        joint_forces = self.joint_forces(state)[None] if self._need_joint_forces else None
+        cable_states = self.assembler.native().cable_state(state)[None] if self._need_cables else None
+        if self._continuous:  # the continuous controllers' outputs at this state, as a row in C has them
+            self.assembler.native().controller_outputs_at(state)
         one = State(np.array([state.t]), *(np.asarray(getattr(state, name))[None] for name in STATE_FIELDS))
         out = self.rows(one, np.array([[energies["kinetic"], energies["strain"], energies["potential"]]]),
                         np.array([self.external_work]), np.array([self.dissipated]), momentum, sections,
-                        lambda r: state)[0].tolist()
-        if self._continuous:
-            self._continuous_outputs(state, out)
+                        joint_forces, cable_states)[0].tolist()
         return out
 
     def rows(self, states: State, energies: np.ndarray, external_work: np.ndarray, dissipated: np.ndarray,
-             momentum: np.ndarray | None, sections: np.ndarray | None, state_of) -> np.ndarray:
+             momentum: np.ndarray | None, sections: np.ndarray | None, joint_forces: np.ndarray | None,
+             cable_states: np.ndarray | None, controller_states: np.ndarray | None = None,
+             controller_outputs: np.ndarray | None = None) -> np.ndarray:
         """Probe values of k rows, (k, probes) in file order: ``states`` the rows' state arrays with a
         leading row axis (:meth:`_point`), ``energies`` (k, 3) kinetic, strain, potential, the external
         work and dissipated energy (k,), ``momentum`` (k, 6) [P, H] and ``sections`` (k, n_elements, 4)
-        as the strain-energy kernel gives them, where the probes read them; ``state_of(r)`` row r's
-        :class:`State`, for the probes evaluated at one state (joint forces, cables). A continuous
-        controller's output is :meth:`values`'s."""
+        as the strain-energy kernel gives them, ``joint_forces`` (k, joints) as :meth:`joint_forces`
+        gives them and ``cable_states`` (k, cable elements, 5) as
+        :meth:`latdyn.assembly.native_model.NativeModel.cable_state` gives them, where the probes read
+        them, and ``controller_states`` (k, the scene's controller states) and ``controller_outputs`` (k,
+        the scene's controller outputs) where recorded in the row (else the scene's as they are now:
+        :meth:`values` evaluates the continuous controllers' outputs at its state first)."""
         m = self.model
         k = len(states.t)
         out = np.empty((k, len(self.probes)))
@@ -190,7 +191,7 @@ class ProbeSet:
                 elif p.quantity == "rate":
                     out[:, i] = states.theta_dot[:, j]
                 else:  # torque | force
-                    out[:, i] = [self.joint_forces(state_of(r))[j] for r in range(k)]
+                    out[:, i] = joint_forces[:, j]
             elif p.kind == "energy":
                 kind = p.quantity
                 if kind == "external_work":
@@ -206,37 +207,20 @@ class ProbeSet:
             elif p.kind == "element":
                 e = int(m.beam_elements[p.beam][p.element])
                 out[:, i] = sections[:, e, SECTION_QUANTITIES.index(p.quantity)]
-            elif p.kind == "controller":  # a sampled one's held output or a state; a continuous one's: values
+            elif p.kind == "controller":
                 scene = m.scene
-                out[:, i] = (scene.controller_outputs[p.controller] if p.state is None
-                             else scene.controller_states[f"{p.controller}.{p.state}"])
+                if p.state is None:
+                    out[:, i] = (scene.controller_outputs[p.controller] if controller_outputs is None
+                                 else controller_outputs[:, scene.controller_outputs.index(p.controller)])
+                else:
+                    name = f"{p.controller}.{p.state}"
+                    out[:, i] = (scene.controller_states[name] if controller_states is None
+                                 else controller_states[:, scene.controller_states.index(name)])
             elif p.kind == "cable":
-                native = self.assembler.native()
-                out[:, i] = [cable_value(m.cables, native.cable_state(state_of(r)), p.beam, p.quantity)
-                             for r in range(k)]
+                out[:, i] = [cable_value(m.cables, cable_states[r], p.beam, p.quantity) for r in range(k)]
             else:  # pragma: no cover - the scene validator refuses other kinds
                 raise ValueError(p.kind)
         return out
-
-    def _continuous_outputs(self, state: State, out: list) -> None:
-        """The outputs of continuous controllers at ``state``, from the values of the probes they read
-        (the expression the compiled evaluation uses, here in Python; clipped to its limits)."""
-        scene = self.model.scene
-        values = dict(zip(self.names, out))
-        computed = {}  # in file order: a controller reads the continuous ones before it at this state
-        recording = {p.name: p.controller for p in self.probes if p.kind == "controller" and p.state is None
-                     and not scene.controllers[p.controller].sampled}  # a probe of one: its output
-        for c in scene.controllers.values():
-            if c.sampled:
-                continue
-            read = [computed[n] if n in computed else computed[recording[n]] if n in recording
-                    else values[n] if n in values else scene.inputs[n] if n in scene.inputs
-                    else scene.controller_outputs[n] for n in c.reads]
-            own = [scene.controller_states[f"{c.name}.{s}"] for s in c.states]  # S at the accepted state
-            computed[c.name] = c.clip(float(c.functions()[0](float(state.t), *read, *own)))
-        for i, p in enumerate(self.probes):
-            if p.kind == "controller" and p.state is None and p.controller in computed:
-                out[i] = computed[p.controller]
 
 
 def _turned(T: np.ndarray, r: np.ndarray) -> np.ndarray:
@@ -248,15 +232,3 @@ def _turned(T: np.ndarray, r: np.ndarray) -> np.ndarray:
 def _turned_back(T: np.ndarray, v: np.ndarray) -> np.ndarray:
     """Tᵀ v over the last two axes of T (any leading axes)."""
     return (T * v[..., :, None]).sum(axis=-2)
-
-
-def _on_stop(joint, state: State, k: int) -> int:
-    """+1 (−1) when joint ``k`` rests on its upper (lower) rigid stop: on it within the events'
-    tolerance and not moving away; 0 otherwise."""
-    if joint.limits is None:
-        return 0
-    for side, stop in ((-1, joint.limits[0]), (1, joint.limits[1])):
-        tolerance = lock_tolerance(stop)
-        if abs(state.theta[k] - stop) <= tolerance and side * state.theta_dot[k] >= -tolerance:
-            return side
-    return 0

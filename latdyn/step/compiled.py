@@ -302,7 +302,9 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
     def advance(self, state: State, *, grid_index: int, stop_index: int, dt: float, t_end: float, n_grid: int,
                 power: float, external_work: float, hinge_work_torque: np.ndarray, hinge_damper_torque: np.ndarray,
                 cable_work: np.ndarray | None = None, dissipated: float = 0.0, budget_s: float = 0.25,
-                rows: list[int] | None = None, momentum: bool = False, sections: bool = False) -> "Advanced":
+                rows: list[int] | None = None, momentum: bool = False, sections: bool = False,
+                joints: bool = False, cables: bool = False, controller_states: bool = False,
+                controller_outputs: bool = False) -> "Advanced":
         """Steps on the time grid in one call into C (``latdyn_advance``), from ``state`` on grid
         point ``grid_index`` through ``stop_index``, each as :meth:`step` takes it with
         h = t_{k+1} − t_k and accepted as the time loop accepts it (algorithmic acceleration
@@ -318,8 +320,12 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
 
         ``rows``: grid points (rising, each before ``stop_index``, at most :meth:`row_capacity`) after
         whose steps the loop records a row where it runs (csrc/rows.c): the state, the counters and
-        energy accounts, the energies, and with ``momentum`` / ``sections`` the momenta and the section
-        forces; :attr:`Advanced.rows` holds those it recorded (a :class:`RowBlock`, valid until the next call).
+        energy accounts, the energies, and with ``momentum`` / ``sections`` / ``joints`` / ``cables`` the
+        momenta, the section forces, the forces the joints apply (``latdyn_joint_forces``) and the cable
+        elements' states, and with ``controller_states`` / ``controller_outputs`` the scene's arrays of
+        controller states as accepted at the row and of controller outputs (the continuous ones evaluated
+        there, ``latdyn_controller_outputs_at``); :attr:`Advanced.rows` holds those it recorded
+        (a :class:`RowBlock`, valid until the next call).
         """
         self._setup()
         model = self.assembler.model
@@ -338,7 +344,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         buffers = None
         if rows:
             buffers = self._row_buffers()
-            buffers.plan(rows, momentum, sections)
+            buffers.plan(rows, momentum, sections, joints, cables, controller_states, controller_outputs)
         run.rows = buffers.reference if buffers is not None else None
         run.cable_work = cables.ctypes.data
         self._factor_version += 1
@@ -496,11 +502,19 @@ class RowBlock:
     """Rows recorded in one loop call, in order: ``scalars`` (k, :data:`ROW_SCALARS`), ``states``
     (the state arrays of every row with a leading row axis: ``states.x`` (k, n, 3), ``states.T``
     (k, n, 3, 3), …, ``states.t`` (k,)), ``section_forces`` (k, n_elements, 4, as the strain-energy
-    kernel gives them) or None. Views of the buffers: valid until the next loop call."""
+    kernel gives them), ``joint_forces`` (k, joints, as ``latdyn_joint_forces`` gives them) and
+    ``cable_states`` (k, cable elements, 5: [ℓ, ℓ̇, ℓ − L0, N_el, N]), ``controller_states`` (k, the
+    scene's controller states, in the order of ``scene.controller_states``) and ``controller_outputs``
+    (k, in the order of ``scene.controller_outputs``) or None where not recorded.
+    Views of the buffers: valid until the next loop call."""
 
     scalars: np.ndarray
     states: State
     section_forces: np.ndarray | None
+    joint_forces: np.ndarray | None = None
+    cable_states: np.ndarray | None = None
+    controller_states: np.ndarray | None = None
+    controller_outputs: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.scalars)
@@ -531,41 +545,70 @@ class RowBlock:
 
     def kept(self, rows: int) -> "RowBlock":
         """The first ``rows`` rows, copied out of the buffers (valid after the next loop call)."""
+        def first(array):
+            return None if array is None else array[:rows].copy()
+
         s = self.states
         return RowBlock(self.scalars[:rows].copy(),
                         State(s.t[:rows].copy(), *(getattr(s, name)[:rows].copy() for name in STATE_FIELDS)),
-                        None if self.section_forces is None else self.section_forces[:rows].copy())
+                        first(self.section_forces), first(self.joint_forces), first(self.cable_states),
+                        first(self.controller_states), first(self.controller_outputs))
 
 
 class RowBuffers:
     """The preallocated buffers of the rows the loop of steps records (``Rows`` of csrc/rows.c): the
-    states in the step's own layout, one row after the other, the scalars and the section forces."""
+    states in the step's own layout, one row after the other, the scalars, the section forces, the
+    joints' forces, the cable elements' states and the scene's controller states and outputs (with one
+    more state, the scratch of ``latdyn_joint_forces``)."""
 
     def __init__(self, native, state_size: int, slices, model):
         self.native = native
         self.n_elements = len(model.element_nodes)
-        row_bytes = 8 * (state_size + len(ROW_SCALARS) + 4 * self.n_elements)
+        self.n_joints, self.n_cables = len(model.hinges), len(native.buffers["cable_state"])
+        row_bytes = 8 * (state_size + len(ROW_SCALARS) + 4 * self.n_elements + self.n_joints + 5 * self.n_cables)
         self.capacity = max(1, min(MAX_ROWS, ROW_BUFFER_BYTES // row_bytes))
-        self.state_buffer = np.zeros((self.capacity, state_size))
+        self.state_buffer = np.zeros((self.capacity + 1, state_size))  # the last: latdyn_joint_forces' scratch
+        self.joint_forces = np.zeros((self.capacity, max(self.n_joints, 1)))
+        self.cable_states = np.zeros((self.capacity, max(self.n_cables, 1), 5))
+        self.saved = np.zeros(model.n_total + 2 + 2 * self.n_joints)
+        # the continuous controllers' states: the scene's array that the runtime writes in place
+        self.n_controller_values = len(model.scene.controller_states.values) if native.model.n_controller_states else 0
+        self.controller_states = np.zeros((self.capacity, max(self.n_controller_values, 1)))
+        self.n_output_values = (len(model.scene.controller_outputs.values) if getattr(model.scene, "controllers", None)
+                                else 0)
+        self.controller_outputs = np.zeros((self.capacity, max(self.n_output_values, 1)))
         self.scalars = np.zeros((self.capacity, len(ROW_SCALARS)))
         self.section_forces = np.zeros((self.capacity, max(self.n_elements, 1), 4))
         self.grid_point = np.zeros(self.capacity, np.int64)
         base, stride = self.state_buffer.ctypes.data, 8 * state_size
-        self.configurations = (ConfigurationData * self.capacity)(
-            *(ConfigurationData(*(base + r * stride + 8 * start for start, _, _ in slices)) for r in range(self.capacity)))
+        self.configurations = (ConfigurationData * (self.capacity + 1))(
+            *(ConfigurationData(*(base + r * stride + 8 * start for start, _, _ in slices))
+              for r in range(self.capacity + 1)))
         self.slices = slices
         self.data = RowsData(capacity=self.capacity, grid_point=self.grid_point.ctypes.data,
                              scalars=self.scalars.ctypes.data, section_forces=self.section_forces.ctypes.data,
-                             states=ctypes.cast(self.configurations, ctypes.c_void_p))
+                             states=ctypes.cast(self.configurations, ctypes.c_void_p),
+                             joint_forces=self.joint_forces.ctypes.data,
+                             held=ctypes.addressof(self.configurations[self.capacity]), saved=self.saved.ctypes.data,
+                             cable_states=self.cable_states.ctypes.data,
+                             controller_states=self.controller_states.ctypes.data,
+                             controller_outputs=self.controller_outputs.ctypes.data)
         self.reference = ctypes.addressof(self.data)
-        self.sections = False
+        self.sections = self.joints = self.cables = self.controllers = self.outputs = False
 
-    def plan(self, rows: list[int], momentum: bool, sections: bool) -> None:
+    def plan(self, rows: list[int], momentum: bool, sections: bool, joints: bool = False,
+             cables: bool = False, controller_states: bool = False, controller_outputs: bool = False) -> None:
         if len(rows) > self.capacity:
             raise ValueError(f"{len(rows)} rows planned, the buffers hold {self.capacity}")
         self.grid_point[:len(rows)] = rows
         self.data.planned, self.data.recorded = len(rows), 0
+        self.joints, self.cables = joints and self.n_joints > 0, cables and self.n_cables > 0
         self.data.momentum, self.data.sections = int(momentum), int(sections)
+        self.data.joints, self.data.cables = int(self.joints), int(self.cables)
+        self.controllers = controller_states and self.n_controller_values > 0
+        self.data.controller_values = self.n_controller_values if self.controllers else 0
+        self.outputs = controller_outputs and self.n_output_values > 0
+        self.data.output_values = self.n_output_values if self.outputs else 0
         self.sections = sections
 
     def block(self) -> RowBlock:
@@ -573,7 +616,11 @@ class RowBuffers:
         states = self.state_buffer[:k]
         arrays = [states[:, start:stop].reshape(k, *shape) for start, stop, shape in self.slices]
         return RowBlock(self.scalars[:k], State(self.scalars[:k, 0], *arrays),
-                        self.section_forces[:k, :self.n_elements] if self.sections else None)
+                        self.section_forces[:k, :self.n_elements] if self.sections else None,
+                        self.joint_forces[:k] if self.joints else None,
+                        self.cable_states[:k] if self.cables else None,
+                        self.controller_states[:k] if self.controllers else None,
+                        self.controller_outputs[:k] if self.outputs else None)
 
 
 class _LastEvaluation:

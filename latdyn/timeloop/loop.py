@@ -5,7 +5,8 @@ From a grid point at the nominal step, the loop of steps in C (step.compiled.Com
 takes and accepts the steps up to the next row in one call, or, with rows recorded where the step runs
 (:data:`NATIVE_ROWS`), through the rows up to the next multiple of 256 steps (t_end, a pause), recording
 each row on the way into buffers (csrc/rows.c: the state, the energies, the momenta and section forces the
-probes read); this loop then takes that block of rows in order as it takes one (:meth:`TimeLoop._record_rows`:
+probes read, the joints' forces, the cable elements' and continuous controllers' states); this loop then
+takes that block of rows in order as it takes one (:meth:`TimeLoop._record_rows`:
 probes, writer, joint peaks, the energy balance judged row by row). A step it cannot accept as it comes
 (Newton fails, a hinge event) comes back to this loop, which takes every other step from Python:
 
@@ -127,10 +128,8 @@ class TimeLoop:
                          and (self.sampler is None or self.control.instants_on_nominal_grid)
                          and self.sensitivities is None)
         self.writer.summary["time_loop"] = "compiled" if self.compiled else "python"
-        # rows where the step runs: not for the probes of a controller (probes.rows_in_loop) nor for hinge
-        # springs with a law, whose potential Python integrates (Assembler.energies)
-        self.native_rows = (self.compiled and NATIVE_ROWS and hasattr(self.integrator, "row_capacity")
-                            and self.probes.rows_in_loop and not self.assembler.native().law_hinges)
+        # rows where the step runs
+        self.native_rows = self.compiled and NATIVE_ROWS and hasattr(self.integrator, "row_capacity")
         if resume_from is None:
             self._record(self.progress.state, energy0)
         self.last = self._accepted()
@@ -295,7 +294,10 @@ class TimeLoop:
             t_end=control.t_end, n_grid=control.n_grid, power=progress.power,
             external_work=progress.external_work, hinge_work_torque=progress.hinge_work_torque,
             hinge_damper_torque=progress.hinge_damper_torque, cable_work=progress.cable_work,
-            dissipated=progress.dissipated, budget_s=budget, rows=rows, momentum=momentum, sections=sections)
+            dissipated=progress.dissipated, budget_s=budget, rows=rows, momentum=momentum, sections=sections,
+            joints=bool(self.model.hinges), cables=self.probes.needs_cables,
+            controller_states=self.probes.needs_controller_states,
+            controller_outputs=self.probes.needs_controller_outputs)
         progress.solver_s += time.perf_counter() - started
         ended_on_a_row = False
         if done.rows is not None and len(done.rows):
@@ -352,13 +354,6 @@ class TimeLoop:
         progress, probes, began, model = self.progress, self.probes, self._loop_began, self.model
         k = len(block)
         times, counters, energies = block.column("t").tolist(), block.counters.tolist(), block.energies.tolist()
-        states: dict[int, State] = {}
-
-        def state_of(r: int) -> State:  # one State per row (ProbeSet.joint_forces caches by it)
-            if r not in states:
-                states[r] = block.state(r)
-            return states[r]
-
         names = [h.name for h in model.hinges] if model.hinges else None
         end, gain = k, 0.0
         for r in range(k):
@@ -371,14 +366,15 @@ class TimeLoop:
             gain = progress.balance(times[r], {"kinetic": kinetic, "strain": strain, "potential": potential},
                                     external_work)
             if names:  # summary.json joint_peaks, over the recorded rows
-                progress.note_joint_forces(names, probes.joint_forces(state_of(r)), times[r])
+                progress.note_joint_forces(names, block.joint_forces[r], times[r])
             self.control.row_recorded(progress, times[r])
             if progress.unbounded:
                 end = r + 1
                 break
         values = probes.rows(block.states, block.energies, block.column("external_work"),
                              block.column("dissipated"), block.momenta if probes.needs[0] else None,
-                             block.section_forces if probes.needs[1] else None, state_of)
+                             block.section_forces if probes.needs[1] else None, block.joint_forces,
+                             block.cable_states, block.controller_states, block.controller_outputs)
         kept = block.kept(end)  # the states the frames and the checkpoint read later
         s = kept.states
         history = {name: array.reshape(end, -1) for name, array in

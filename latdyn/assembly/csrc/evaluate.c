@@ -1083,9 +1083,43 @@ static void inertia_tangent(const Model *m, const Configuration *c, Work *w, dou
     }
 }
 
+/* 16-point Gauss–Legendre nodes and weights on [−1, 1] (numpy.polynomial.legendre.leggauss(16)). */
+static const double GAUSS_16_NODES[16] = {
+    -0.9894009349916499, -0.9445750230732326, -0.8656312023878318, -0.755404408355003, -0.6178762444026438,
+    -0.45801677765722737, -0.2816035507792589, -0.09501250983763744, 0.09501250983763744, 0.2816035507792589,
+    0.45801677765722737, 0.6178762444026438, 0.755404408355003, 0.8656312023878318, 0.9445750230732326,
+    0.9894009349916499};
+static const double GAUSS_16_WEIGHTS[16] = {
+    0.027152459411754176, 0.062253523938647456, 0.0951585116824926, 0.12462897125553407, 0.1495959888165767,
+    0.16915651939500265, 0.18260341504492364, 0.18945061045506864, 0.18945061045506864, 0.18260341504492364,
+    0.16915651939500265, 0.1495959888165767, 0.12462897125553407, 0.0951585116824926, 0.062253523938647456,
+    0.027152459411754176};
+
+/* The potential of hinge j's spring whose stiffness is a law k(θ) (the scene's compiled hinge law), at
+ * angle θ: ∫_{θ_r}^{θ} k(s)(s − θ_r) ds by Gauss–Legendre quadrature, 16 points on each of the equal
+ * pieces of at most 0.25 rad (exact for polynomials of degree 31 on a piece); the law at θ̇ = 0, t = 0. */
+static double law_spring_potential(const Model *m, int64_t j, double theta)
+{
+    const double rest = m->hinge_rest_angle[j], s = theta - rest;
+    const int64_t pieces = fabs(s) > 0.25 ? (int64_t)ceil(fabs(s) / 0.25) : 1;
+    double total = 0.0;
+    for (int64_t p = 0; p < pieces; ++p) {
+        const double a = rest + s * (double)p / (double)pieces, b = rest + s * (double)(p + 1) / (double)pieces;
+        double sum = 0.0;
+        for (int i = 0; i < 16; ++i) {
+            const double x = 0.5 * (a + b) + 0.5 * (b - a) * GAUSS_16_NODES[i];
+            double values[3];
+            m->hinge_laws(m->hinge_stiffness_law[j], x, 0.0, 0.0, values);
+            sum += GAUSS_16_WEIGHTS[i] * values[0] * (x - rest);
+        }
+        total += 0.5 * (b - a) * sum;
+    }
+    return total;
+}
+
 /* Kinetic, strain and gravity potential energy of the whole model at c:
- * out = [kinetic, strain, potential]. Springs with a law have hinge_stiffness 0 here: the caller
- * adds their potential (Assembler.hinge_potential integrates the law). Joint bodies: ½m|v_c|² + ½ωᵀJω
+ * out = [kinetic, strain, potential]. Hinge springs: ½k(θ − θ_r)², or with a stiffness law (k 0 in
+ * hinge_stiffness) and conservative, law_spring_potential. Joint bodies: ½m|v_c|² + ½ωᵀJω
  * about the centre of mass r_c = T c, J = T I Tᵀ, and −m g·(x + r_c). */
 void latdyn_energies(const Model *m, Work *w, const Configuration *c, double t, double *out)
 {
@@ -1105,6 +1139,8 @@ void latdyn_energies(const Model *m, Work *w, const Configuration *c, double t, 
     for (int64_t j = 0; j < m->n_hinges; ++j) {
         double s = c->theta[j] - m->hinge_rest_angle[j];
         strain += 0.5 * m->hinge_stiffness[j] * s * s;
+        if (m->hinge_stiffness_law[j] >= 0 && m->hinge_conservative[j])
+            strain += law_spring_potential(m, j, c->theta[j]);
         /* a compliant stop's potential, from the generated hinge_force (its other outputs unused) */
         double state[4] = {c->theta[j], c->theta_dot[j], m->hinge_rest_angle[j], 0.0}, values[9] = {0};
         double f, d_theta, d_rate, spring_torque, applied_torque, damper_torque, contact_energy;

@@ -7,8 +7,80 @@
  * and energy accounts at it, the energies of latdyn_energies (evaluate.c), and where the probes ask for them
  * the mid-element section forces (the strain-energy kernel's second output, as latdyn_energies leaves them
  * in Work) and the momenta (latdyn_momentum below, the one evaluation of the momenta: Assembler.momentum
- * calls it too).
+ * calls it too), the force each joint applies on its coordinate (latdyn_joint_forces below, the one
+ * evaluation of the joint torque and force probes and of summary.json joint_peaks: ProbeSet.joint_forces
+ * calls it too) and the cable elements' [ℓ, ℓ̇, ℓ − L0, N_el, N] (latdyn_cables of evaluate.c, which
+ * NativeModel.cable_state calls for the cable probes of a row recorded in Python) and, where a probe reads
+ * one, the continuous controllers' states as accepted at the row.
  */
+
+static double lock_tolerance(double at); /* newton_step.c: latdyn/model/model.py lock_tolerance */
+
+/* The continuous controllers' outputs at the accepted state c, time t: their laws (clipped) at its
+ * sensors and their states as accepted (controller_outputs of evaluate.c outside a step), into the
+ * scene's array of controller outputs m->controller_outputs, which the next evaluation writes again.
+ * The row records them; ProbeSet.values calls it for a row recorded in Python. */
+void latdyn_controller_outputs_at(const Model *m, Work *w, const Configuration *c, double t)
+{
+    if (!m->n_controllers) return;
+    double held = 0.0;
+    if (m->n_controller_states) {
+        held = w->controller_half_step[0];
+        w->controller_half_step[0] = 0.0; /* outside a step: S as accepted */
+    }
+    controller_outputs(m, c, w, t);
+    if (m->n_controller_states) w->controller_half_step[0] = held;
+}
+
+/* +1 (−1) when hinge j rests on its upper (lower) rigid stop: on it within the events' tolerance and not
+ * moving away; 0 otherwise (latdyn/results/probes.py _on_stop). */
+static int resting_on_stop(const Model *m, const Configuration *c, int64_t j)
+{
+    const double stops[2] = {m->hinge_lower_stop[j], m->hinge_upper_stop[j]};
+    for (int s = 0; s < 2; ++s) {
+        const double side = s ? 1.0 : -1.0;
+        if (isnan(stops[s])) continue;
+        const double tolerance = lock_tolerance(stops[s]);
+        if (fabs(c->theta[j] - stops[s]) <= tolerance && side * c->theta_dot[j] >= -tolerance) return (int)side;
+    }
+    return 0;
+}
+
+/* The generalized force each joint (hinge or guide, in model order) applies on its coordinate at the
+ * state `held` and time t, positive when it drives θ or s up (SCENE.md, the joint probes torque/force;
+ * latdyn/results/probes.py ProbeSet.joint_forces has the rules). One evaluation of the equations of
+ * motion (reduced onto the minimum coordinates with rigid links): the residual of a joint's coordinate
+ * is r = G + f, f its law (spring, damper, compliant stop, friction, applied torque or force, a
+ * continuous controller's output: Work.joint_forces) and G all the rest.
+ * - A free joint applies its law: −f.
+ * - A joint without a coordinate (prescribed, latched) applies the reaction that holds it: r.
+ * - A free joint resting on a rigid stop is held by the stop when, unheld, it would accelerate into it:
+ *   then r with its own acceleration zero (the others as they are); otherwise −f.
+ * `held` is the caller's copy of the state: the resting joints' accelerations are zeroed in it and, with
+ * rigid links, its dependent nodes completed. Work is left as that evaluation leaves it. */
+void latdyn_joint_forces(const Model *m, Work *w, Configuration *held, double t, double *out)
+{
+    const int64_t n = m->n_dofs;
+    if (m->n_hinges == 0) return;
+    for (int64_t k = 0; k < m->n_free_hinges; ++k) {
+        const int64_t j = m->free_hinges[k];
+        if (resting_on_stop(m, held, j)) held->theta_ddot[j] = 0.0;
+    }
+    m->time_laws(t, w->laws);
+    if (m->links) complete_links(m, held);
+    evaluate(m, held, w, w->laws, t, 0, 1, 1.0);
+    if (m->links) reduce_links(m, w, held, 0.0, 0.0, 0, 0);
+    for (int64_t j = 0; j < m->n_hinges; ++j) {
+        const int64_t d = m->hinge_dofs[j];
+        out[j] = d < n ? 0.0 - w->joint_forces[j] : w->total[d]; /* 0.0 − f: no −0.0 */
+    }
+    for (int64_t k = 0; k < m->n_free_hinges; ++k) {
+        const int64_t j = m->free_hinges[k];
+        const int side = resting_on_stop(m, held, j);
+        const double held_by_stop = w->total[m->hinge_dofs[j]]; /* r at its θ̈ = 0 */
+        if (side && side * held_by_stop < 0.0) out[j] = held_by_stop; /* the stop holds it */
+    }
+}
 
 /* Linear momentum P and angular momentum H about the global origin of the model at c, out = [P, H].
  * An element: P·e_k = q̇ᵀ M q̇_t and H·e_k = q̇ᵀ M q̇_r with M the generated mass matrix (Eq. 45's
@@ -90,6 +162,24 @@ typedef struct {
     double *scalars;           /* (capacity, ROW_SCALARS) */
     double *section_forces;    /* (capacity, n_elements, 4) with sections */
     Configuration *states;     /* (capacity): each row's state, copied */
+    /* with joints: each row's latdyn_joint_forces (capacity, n_hinges), evaluated on the scratch
+     * configuration `held`; the last evaluation's outputs the loop hands back (Work.total, the hinges'
+     * work and damper torques, the dissipation: n_total + 1 + 2 n_hinges + 1) kept in `saved` meanwhile */
+    int64_t joints;
+    double *joint_forces;
+    Configuration *held;
+    double *saved;
+    /* with cables: each row's cable elements [ℓ, ℓ̇, ℓ − L0, N_el, N] (capacity, n_cables, 5) */
+    int64_t cables;
+    double *cable_states;
+    /* with a probe of a continuous controller's state: each row's copy of the controllers' states
+     * (capacity, controller_values), the runtime's array m->controller_states as accepted at the row */
+    int64_t controller_values;
+    double *controller_states;
+    /* with a probe of a controller's output: each row's copy of the scene's array of controller outputs
+     * (capacity, output_values), the continuous ones evaluated at the row (latdyn_controller_outputs_at) */
+    int64_t output_values;
+    double *controller_outputs;
 } Rows;
 
 /* Record the row of the accepted state c at time t (the loop's counters and accounts in `counters`:
@@ -107,5 +197,33 @@ static void record_row(const Model *m, Work *w, Rows *rows, const Configuration 
         memcpy(rows->section_forces + 4 * m->n_elements * r, w->section_forces, sizeof(double) * 4 * (size_t)m->n_elements);
     if (rows->momentum) momentum_of(m, w, c, 1, out + 9); /* the element inputs latdyn_energies left in Work */
     else for (int k = 0; k < 6; ++k) out[9 + k] = 0.0;
+    if (rows->cables) {
+        double power = 0.0, dissipation = 0.0;
+        m->time_laws(t, w->laws);
+        cables(m, c, w, w->laws, &power, &dissipation, NULL); /* latdyn_cables */
+        memcpy(rows->cable_states + 5 * m->n_cables * r, w->cable_state, sizeof(double) * 5 * (size_t)m->n_cables);
+    }
+    if (rows->output_values > 0) {
+        latdyn_controller_outputs_at(m, w, c, t);
+        memcpy(rows->controller_outputs + rows->output_values * r, m->controller_outputs,
+               sizeof(double) * (size_t)rows->output_values);
+    }
+    if (rows->controller_values > 0)
+        memcpy(rows->controller_states + rows->controller_values * r, m->controller_states,
+               sizeof(double) * (size_t)rows->controller_values);
+    if (rows->joints) {
+        const size_t T = (size_t)m->n_total + 1, H = (size_t)m->n_hinges;
+        double *saved = rows->saved;
+        memcpy(saved, w->total, sizeof(double) * T);
+        memcpy(saved + T, w->hinge_work_torque, sizeof(double) * H);
+        memcpy(saved + T + H, w->hinge_damper_torque, sizeof(double) * H);
+        saved[T + 2 * H] = w->dissipation[0];
+        copy_configuration(m, c, rows->held);
+        latdyn_joint_forces(m, w, rows->held, t, rows->joint_forces + H * r);
+        memcpy(w->total, saved, sizeof(double) * T);
+        memcpy(w->hinge_work_torque, saved + T, sizeof(double) * H);
+        memcpy(w->hinge_damper_torque, saved + T + H, sizeof(double) * H);
+        w->dissipation[0] = saved[T + 2 * H];
+    }
     rows->recorded = r + 1;
 }
