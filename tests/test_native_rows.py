@@ -368,8 +368,8 @@ def test_a_mass_dropped_on_a_slack_cable_gives_its_tension_and_length_in_rows_re
 def test_a_loop_call_ending_on_a_row_with_joint_forces_hands_back_its_last_newton_evaluation():
     """The row's joint forces are one more evaluation in Work; a loop call that ends on that row (its
     wall-time budget spent after one step) still hands back the last Newton evaluation (the reaction of
-    the slider-crank's driven crank, the hinges' torques, the dissipation: what the time loop reads of
-    it), as the same call without rows does."""
+    the slider-crank's driven crank, the hinges' torques, the cables' work rows: what the time loop reads
+    of it), as the same call without rows does."""
     from latdyn.assembly.prepare import prepare
     from latdyn.step.compiled import CompiledGeneralizedAlpha
     from latdyn.step.integrators import AlphaParameters
@@ -391,7 +391,7 @@ def test_a_loop_call_ending_on_a_row_with_joint_forces_hands_back_its_last_newto
         if rows:
             assert len(done.rows) == 1 and np.any(done.rows.joint_forces[0] != 0.0)
         last = step.last_evaluation
-        handed_back.append((last.reaction, last.hinge_work_torque, last.hinge_damper_torque, last.dissipation_power))
+        handed_back.append((last.reaction, last.hinge_work_torque, last.hinge_damper_torque, last.cable_work))
     recorded, plain = handed_back
     assert np.any(recorded[0] != 0.0)
     for a, b in zip(recorded, plain):

@@ -338,7 +338,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         run.t, run.budget_s, run.power, run.external_work = state.t, budget_s, power, external_work
         work_torque = np.array(hinge_work_torque, dtype=float)  # carried in place by the loop (in/out)
         damper_torque = np.array(hinge_damper_torque, dtype=float)
-        cables = np.array(np.zeros((0, 4)) if cable_work is None else cable_work, dtype=float)  # in/out
+        cable_accounts = np.array(np.zeros((0, 4)) if cable_work is None else cable_work, dtype=float)  # in/out
         run.dissipated = dissipated
         run.hinge_work_torque, run.hinge_damper_torque = work_torque.ctypes.data, damper_torque.ctypes.data
         buffers = None
@@ -346,7 +346,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
             buffers = self._row_buffers()
             buffers.plan(rows, momentum, sections, joints, cables, controller_states, controller_outputs)
         run.rows = buffers.reference if buffers is not None else None
-        run.cable_work = cables.ctypes.data
+        run.cable_work = cable_accounts.ctypes.data
         self._factor_version += 1
         self._native.laws.bind_inputs()  # this scene's input values (SceneLaws.bind_inputs)
         self._library.latdyn_advance(self._model_ref, self._work_ref, self._control_ref, ctypes.byref(base),
@@ -384,7 +384,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         return Advanced(state=last, steps=run.steps, iterations=run.iterations, factorizations=run.factorizations,
                         power=run.power, external_work=run.external_work, status=run.status, pending=pending,
                         factorization_kept=kept, hinge_work_torque=work_torque,
-                        hinge_damper_torque=damper_torque, cable_work=cables,
+                        hinge_damper_torque=damper_torque, cable_work=cable_accounts,
                         dissipated=run.dissipated, rows=buffers.block() if buffers is not None else None)
 
     def row_capacity(self) -> int:

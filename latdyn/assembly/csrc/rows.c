@@ -164,7 +164,8 @@ typedef struct {
     Configuration *states;     /* (capacity): each row's state, copied */
     /* with joints: each row's latdyn_joint_forces (capacity, n_hinges), evaluated on the scratch
      * configuration `held`; the last evaluation's outputs the loop hands back (Work.total, the hinges'
-     * work and damper torques, the dissipation: n_total + 1 + 2 n_hinges + 1) kept in `saved` meanwhile */
+     * work and damper torques: n_total + 1 + 2 n_hinges) kept in `saved` meanwhile; the cables' work rows
+     * are those of the same state) */
     int64_t joints;
     double *joint_forces;
     Configuration *held;
@@ -198,9 +199,7 @@ static void record_row(const Model *m, Work *w, Rows *rows, const Configuration 
     if (rows->momentum) momentum_of(m, w, c, 1, out + 9); /* the element inputs latdyn_energies left in Work */
     else for (int k = 0; k < 6; ++k) out[9 + k] = 0.0;
     if (rows->cables) {
-        double power = 0.0, dissipation = 0.0;
-        m->time_laws(t, w->laws);
-        cables(m, c, w, w->laws, &power, &dissipation, NULL); /* latdyn_cables */
+        latdyn_cables(m, w, c, t); /* their states at c (and w->cable_work at c, as the step left it) */
         memcpy(rows->cable_states + 5 * m->n_cables * r, w->cable_state, sizeof(double) * 5 * (size_t)m->n_cables);
     }
     if (rows->output_values > 0) {
@@ -217,13 +216,11 @@ static void record_row(const Model *m, Work *w, Rows *rows, const Configuration 
         memcpy(saved, w->total, sizeof(double) * T);
         memcpy(saved + T, w->hinge_work_torque, sizeof(double) * H);
         memcpy(saved + T + H, w->hinge_damper_torque, sizeof(double) * H);
-        saved[T + 2 * H] = w->dissipation[0];
         copy_configuration(m, c, rows->held);
         latdyn_joint_forces(m, w, rows->held, t, rows->joint_forces + H * r);
         memcpy(w->total, saved, sizeof(double) * T);
         memcpy(w->hinge_work_torque, saved + T, sizeof(double) * H);
         memcpy(w->hinge_damper_torque, saved + T + H, sizeof(double) * H);
-        w->dissipation[0] = saved[T + 2 * H];
     }
     rows->recorded = r + 1;
 }
