@@ -113,7 +113,11 @@ def test_scene_with_expressions_uses_the_caches_in_a_later_process(tmp_path):
 #: what only they or SciPy's packages pull in (NumPy's random, masked arrays, f2py and testing).
 NOT_FOR_A_SMALL_RUN = HEAVY + ("scipy.sparse", "scipy.linalg", "scipy.optimize", "scipy.integrate",
                                "numpy.random", "numpy.ma", "numpy.f2py", "numpy.testing", "unittest",
-                               "difflib", "latdyn.analyses", "latdyn.studies")
+                               "difflib", "latdyn.analyses", "latdyn.studies",
+                               # SciPy's OpenBLAS is found in /proc/self/maps to pin it to one thread
+                               # (latdyn.numerics.linalg.openblas_thread_functions); threadpoolctl
+                               # inspects every loaded library (8-10 ms) and is left where that fails
+                               *(("threadpoolctl",) if sys.platform.startswith("linux") else ()))
 
 #: Writes the modules a process imported, as JSON, to $LATDYN_TEST_MODULES when it exits
 #: (a sitecustomize on PYTHONPATH: the command itself runs unchanged).

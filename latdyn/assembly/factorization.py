@@ -68,12 +68,12 @@ class Factorization:
         self._pattern_positions = None
         self._band = self._pivoted = None  # the band LU that stands in where a sparse pivot fails
         self._permutation = self.new if n else np.zeros(1, np.int64)
-        blas_threads = openblas_thread_functions()
+        lapack = {name: lapack_address(name) for name in ("dgetrf", "dgetrs", "dgbtrf", "dgbtrs")}
+        blas_threads = openblas_thread_functions()  # after SciPy's LAPACK (and its OpenBLAS) is loaded
         self.structure = FactorizationStructure(
             n=n, kind=KINDS.index(kind), kl=self.kl, ku=self.ku, ldab=self.ldab, size=self.size,
             permutation=self._permutation.ctypes.data,
-            getrf=lapack_address("dgetrf"), getrs=lapack_address("dgetrs"),
-            gbtrf=lapack_address("dgbtrf"), gbtrs=lapack_address("dgbtrs"),
+            getrf=lapack["dgetrf"], getrs=lapack["dgetrs"], gbtrf=lapack["dgbtrf"], gbtrs=lapack["dgbtrs"],
             sparse_lu=ctypes.pointer(self.analysis.structure(*blas_kernels())) if kind == "sparse" else None,
             get_blas_threads=blas_threads[0] if blas_threads[1] else None, set_blas_threads=blas_threads[1])
         self._library = native_library()

@@ -213,13 +213,59 @@ def _in_scipy_folder(path) -> bool:
     return any(part == "scipy" or part.startswith("scipy.") for part in PurePath(str(path)).parent.parts)
 
 
+#: OpenBLAS's symbol affixes (threadpoolctl's ``OpenBLASController``: SciPy's wheels build it as
+#: ``scipy_openblas_get_num_threads``, ILP64 builds add ``64_``).
+_OPENBLAS_AFFIXES = tuple((prefix, suffix) for prefix in ("", "scipy_") for suffix in ("", "64_", "_64"))
+
+_thread_functions: tuple[int | None, int | None] | None = None  # found once per process
+
+
+def _scipy_openblas_from_maps() -> tuple[int | None, int | None] | None:
+    """Linux: the thread functions of the OpenBLAS that ``/proc/self/maps`` shows loaded from SciPy's
+    folder; None where that file is not there or shows no such library (then threadpoolctl looks,
+    which inspects every loaded library: 8–10 ms of a 5-step run's process, docs/performance.md,
+    "First run")."""
+    import ctypes
+    import os
+
+    try:
+        with open("/proc/self/maps", "rb") as maps:
+            paths = {line.split(maxsplit=5)[-1].strip().decode() for line in maps if b"openblas" in line}
+    except (OSError, UnicodeDecodeError):
+        return None
+    own = sorted(p for p in paths if p.startswith("/") and "openblas" in os.path.basename(p).lower()
+                 and _in_scipy_folder(p))
+    if len(own) != 1:
+        return None
+    try:
+        library = ctypes.CDLL(own[0], mode=getattr(os, "RTLD_NOLOAD", 0) | ctypes.RTLD_LOCAL)  # already loaded
+    except OSError:
+        return None
+    for prefix, suffix in _OPENBLAS_AFFIXES:
+        get = getattr(library, f"{prefix}openblas_get_num_threads{suffix}", None)
+        put = getattr(library, f"{prefix}openblas_set_num_threads{suffix}", None)
+        if get is not None and put is not None:
+            return ctypes.cast(get, ctypes.c_void_p).value, ctypes.cast(put, ctypes.c_void_p).value
+    return None
+
+
 def openblas_thread_functions() -> tuple[int | None, int | None]:
     """Addresses of ``openblas_get_num_threads`` and ``openblas_set_num_threads`` of the OpenBLAS
     behind SciPy's cython_blas / cython_lapack (the library under SciPy's folder, or the only
     OpenBLAS loaded), for the compiled step to pin its LAPACK and BLAS calls to one thread as
     :func:`single_thread_blas` does; (None, None) when there is no such library or no
-    threadpoolctl (then nothing is pinned)."""
+    threadpoolctl (then nothing is pinned). Ask after SciPy's LAPACK is loaded
+    (:func:`latdyn.assembly.library.lapack_address`): on Linux the library is then found in
+    ``/proc/self/maps``, without threadpoolctl, and the answer kept for the process."""
     import ctypes
+
+    global _thread_functions
+    if _thread_functions is not None:
+        return _thread_functions
+    found = _scipy_openblas_from_maps()
+    if found is not None:
+        _thread_functions = found
+        return found
 
     def openblas(controllers):
         found = [lib for lib in controllers if getattr(lib, "internal_api", "") == "openblas"]
@@ -238,6 +284,9 @@ def openblas_thread_functions() -> tuple[int | None, int | None]:
         put = getattr(lib.dynlib, f"{prefix}openblas_set_num_threads{suffix}")
     except Exception:  # noqa: BLE001 - another threadpoolctl or OpenBLAS: leave BLAS alone
         return None, None
+    if scipy_own:  # SciPy's own library does not change within the process
+        _thread_functions = ctypes.cast(get, ctypes.c_void_p).value, ctypes.cast(put, ctypes.c_void_p).value
+        return _thread_functions
     return ctypes.cast(get, ctypes.c_void_p).value, ctypes.cast(put, ctypes.c_void_p).value
 
 
