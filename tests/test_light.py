@@ -162,6 +162,21 @@ def test_a_small_transient_run_imports_only_what_it_needs(tmp_path):
     assert unneeded == [], f"a small transient run imported {unneeded}"
 
 
+def test_a_small_band_model_imports_no_sparse_package(tmp_path):
+    """The 3D model of a beam of 8 elements (48 coordinates, bandwidth 11 after RCM) takes the band
+    LU (latdyn.numerics.linalg.SMALL_BAND_FRACTION): its order comes from ``small_rcm_band``, not
+    from ``scipy.sparse.csgraph``."""
+    text = NO_EXPRESSIONS.replace("t_end: 0.2, dt: 0.01}", "t_end: 0.05, dt: 0.01, planar: off}").replace(
+        "elements: 4", "elements: 8")
+    modules = _imported_by_a_run(tmp_path, text)
+    assert {"latdyn.solve", "latdyn.timeloop.transient", "numpy"} <= modules  # the hook saw the run
+    summary = json.loads((tmp_path / "second" / "summary.json").read_text())
+    assert summary["coordinates"] == 48
+    unneeded = sorted(m for m in modules - {"scipy.linalg.cython_lapack"}
+                      if m in NOT_FOR_A_SMALL_RUN or m.startswith(tuple(n + "." for n in NOT_FOR_A_SMALL_RUN)))
+    assert unneeded == [], f"a small band model's run imported {unneeded}"
+
+
 def test_scipy_lapack_without_scipy_linalg_is_the_same_lapack(tmp_path):
     """:func:`latdyn.assembly.library.scipy_extension` loads SciPy's LAPACK capsules without
     ``scipy.linalg``: the same routines as the ordinary import, which still works after it."""

@@ -146,6 +146,15 @@ import numpy as np
 #: Models with at most this many free coordinates use dense matrices and LU.
 DENSE_LIMIT = 120
 
+#: A model of at most DENSE_LIMIT coordinates whose bandwidth after reverse Cuthill–McKee
+#: (:func:`small_rcm_band`) is at most this fraction of its size takes the band LU, not the dense
+#: one: a chain of beams has bandwidth 11 at any length. LAPACK's factorization, one core, C calls
+#: alone (2026-11-26, 2-core Intel Xeon, load 6–8): n = 48, bandwidth 11: dense 25 µs, band 7.4;
+#: n = 96, 11: 92 against 12.5 (the 16-element right-angle cantilever); 96, 17: 100 / 29;
+#: 120, 23: 167 / 52; 96, 24: 184 / 75; at a third of n they tie or the band loses (96, 32:
+#: 157 / 120; 120, 40: 166 / 224); n = 24–32 tie (5–7 µs). Solves cost alike (4–8 µs).
+SMALL_BAND_FRACTION = 0.25
+
 #: Sparse systems whose half-bandwidth after reverse Cuthill–McKee is at most
 #: this use LAPACK band LU; wider ones the supernodal sparse LU of csrc/sparse_lu.c
 #: (latdyn.assembly.factorization, for the compiled step and the analyses alike).
@@ -313,6 +322,36 @@ def rcm_band(rows: np.ndarray, cols: np.ndarray, n: int):
     return perm, new.astype(np.int64), int(np.max(i - j, initial=0)), int(np.max(j - i, initial=0))
 
 
+def small_rcm_band(rows: np.ndarray, cols: np.ndarray, n: int):
+    """:func:`rcm_band` for a pattern of at most DENSE_LIMIT coordinates, in NumPy and Python
+    (SciPy's sparse package is not imported for a model the dense or band LU serves: see the top
+    of the module): breadth-first from a node of least degree, neighbours by increasing degree,
+    component by component, the order reversed."""
+    adjacent = np.zeros((n, n), bool)
+    adjacent[rows, cols] = adjacent[cols, rows] = True
+    np.fill_diagonal(adjacent, False)
+    degree = adjacent.sum(axis=1)
+    visited = np.zeros(n, bool)
+    order = []
+    for seed in np.argsort(degree, kind="stable"):
+        if visited[seed]:
+            continue
+        visited[seed] = True
+        queue, head = [int(seed)], 0
+        while head < len(queue):
+            found = np.flatnonzero(adjacent[queue[head]] & ~visited)
+            head += 1
+            found = found[np.argsort(degree[found], kind="stable")]
+            visited[found] = True
+            queue += found.tolist()
+        order += queue
+    perm = np.array(order[::-1], dtype=np.int64)
+    new = np.empty(n, np.int64)
+    new[perm] = np.arange(n)
+    i, j = new[rows], new[cols]
+    return perm, new, int(np.max(i - j, initial=0)), int(np.max(j - i, initial=0))
+
+
 # ----------------------------------------------------------------------------- null directions
 
 
@@ -374,5 +413,6 @@ def psd_null_direction(A, tol: float = 1e-10, shift: float = 1e-9, iterations: i
     return rho, x / np.max(np.abs(x))
 
 
-__all__ = ["DENSE_LIMIT", "BAND_LIMIT", "SINGLE_THREAD_EIGH", "issparse", "use_dense", "rcm_band", "single_thread_blas",
+__all__ = ["DENSE_LIMIT", "SMALL_BAND_FRACTION", "BAND_LIMIT", "SINGLE_THREAD_EIGH", "issparse", "use_dense", "rcm_band",
+           "small_rcm_band", "single_thread_blas",
            "openblas_thread_functions", "psd_null_direction"]
