@@ -114,6 +114,7 @@ def test_scene_with_expressions_uses_the_caches_in_a_later_process(tmp_path):
 NOT_FOR_A_SMALL_RUN = HEAVY + ("scipy.sparse", "scipy.linalg", "scipy.optimize", "scipy.integrate",
                                "numpy.random", "numpy.ma", "numpy.f2py", "numpy.testing", "unittest",
                                "difflib", "latdyn.analyses", "latdyn.studies",
+                               "numpy.polynomial",  # the Gauss points of hinge-law potentials, on use
                                # SciPy's OpenBLAS is found in /proc/self/maps to pin it to one thread
                                # (latdyn.numerics.linalg.openblas_thread_functions); threadpoolctl
                                # inspects every loaded library (8-10 ms) and is left where that fails

@@ -23,8 +23,20 @@ from latdyn.assembly.native_model import NativeModel
 from latdyn.model.model import Model
 from latdyn.numerics.linalg import DENSE_LIMIT
 
-#: 16-point Gauss–Legendre nodes and weights on [−1, 1] (hinge spring potentials).
-_GAUSS_16 = np.polynomial.legendre.leggauss(16)
+#: 16-point Gauss–Legendre nodes and weights on [−1, 1] (hinge spring potentials), made on first use.
+_GAUSS_16: tuple | None = None
+
+
+def _gauss_16() -> tuple:
+    """16-point Gauss–Legendre nodes and weights on [-1, 1] (NumPy's polynomial package, imported
+    only by a run that integrates a hinge law's potential: 2-6 ms of a fresh process otherwise)."""
+    global _GAUSS_16
+    if _GAUSS_16 is None:
+        from numpy.polynomial.legendre import leggauss
+
+        _GAUSS_16 = leggauss(16)
+    return _GAUSS_16
+
 
 # ----------------------------------------------------------------------------- state
 
@@ -315,7 +327,7 @@ class Assembler:
                 total += 0.5 * hinge.stiffness.constant * s * s
                 continue
             pieces = max(1, int(np.ceil(abs(s) / 0.25)))
-            nodes, weights = _GAUSS_16
+            nodes, weights = _gauss_16()
             edges = hinge.rest_angle + s * np.arange(pieces + 1) / pieces
             for a, b in zip(edges[:-1], edges[1:]):
                 points = 0.5 * (a + b) + 0.5 * (b - a) * nodes
