@@ -629,21 +629,26 @@ def lattice_variants(quick):
 def lattice_once(code, cfg):
     """One lattice run of one code; the fields of a row (error against the timoshenko reference;
     OpenSeesPy's also against the euler_bernoulli one, in error_parts)."""
-    if code != "latdyn" and PEER_PYTHON is not None:
-        return peer_run("lattice", code, cfg)
     bays = cfg["bays"]
-    eq = lattice_problem.equivalent_beam(bays)
-    run_cfg = dict(cfg, dt=eq["T"] / cfg["steps_per_T"])
-    if "atol_F0" in run_cfg:
-        run_cfg["atol"] = run_cfg.pop("atol_F0") * eq["F0"]
-    if code == "latdyn":
-        res = lattice_problem.latdyn_run(latdyn, bays, run_cfg)
-        res.pop("summary", None)
-    elif code == "exudyn":
-        res = lattice_problem.exudyn_run(exu, eii, bays, run_cfg)
+    if code != "latdyn" and PEER_PYTHON is not None:  # its history scored here: the reference's spline needs SciPy
+        res = peer_run("lattice", code, dict(cfg, raw=True))
+        t, u = (None if res.get(k) is None else np.asarray(res.pop(k), float) for k in ("t", "u"))
     else:
-        res = lattice_problem.opensees_run(ops, bays, run_cfg)
-    t, u = res.pop("t", None), res.pop("u", None)
+        eq = lattice_problem.equivalent_beam(bays)
+        run_cfg = dict(cfg, dt=eq["T"] / cfg["steps_per_T"])
+        run_cfg.pop("raw", None)
+        if "atol_F0" in run_cfg:
+            run_cfg["atol"] = run_cfg.pop("atol_F0") * eq["F0"]
+        if code == "latdyn":
+            res = lattice_problem.latdyn_run(latdyn, bays, run_cfg)
+            res.pop("summary", None)
+        elif code == "exudyn":
+            res = lattice_problem.exudyn_run(exu, eii, bays, run_cfg)
+        else:
+            res = lattice_problem.opensees_run(ops, bays, run_cfg)
+        if cfg.get("raw"):  # a --peer-python run: the caller scores the history
+            return res
+        t, u = res.pop("t", None), res.pop("u", None)
     if res.get("status") == "ok":
         res["values"] = lattice_problem.values(bays, t, u)
         res["error"], res["error_parts"] = lattice_problem.error(bays, t, u)
