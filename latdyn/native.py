@@ -14,6 +14,11 @@ in parallel processes build it once), through a scratch folder and an atomic ren
 killed build leaves no half library). Compile seconds are added to :data:`COMPILE_SECONDS`,
 which runs report apart from solver time.
 
+Two small files in the cache spare a fresh process the compiler when everything it loads is
+built: the compiler's ``--version`` output (``compiler-<digest>.txt``, by the binary's path and
+file identity: :func:`_stored_version`) and the macros of its ``-march=`` (``isa-<digest>.txt``);
+the element kernels add an index per generated unit (:mod:`latdyn.model.kernels`).
+
 The compiler (:func:`compiler`): ``$CC`` when set (exactly that one); otherwise ``cc``,
 then Zig's C compiler from the ``ziglang`` wheel (``python -m ziglang cc``; ``pip install
 "latdyn[compiler]"``), so that a machine without a system compiler still gets the compiled
