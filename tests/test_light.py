@@ -161,6 +161,9 @@ def test_a_small_transient_run_imports_only_what_it_needs(tmp_path):
     unneeded = sorted(m for m in modules - {"scipy.linalg.cython_lapack"}
                       if m in NOT_FOR_A_SMALL_RUN or m.startswith(tuple(n + "." for n in NOT_FOR_A_SMALL_RUN)))
     assert unneeded == [], f"a small transient run imported {unneeded}"
+    # the kernels' metadata and libraries come from the unit index (latdyn.model.kernels._compiled_unit)
+    generated = sorted(m for m in modules if m.startswith("latdyn_generated."))
+    assert generated == [], f"a run with its kernels cached imported the generated modules {generated}"
 
 
 def test_a_small_band_model_imports_no_sparse_package(tmp_path):
