@@ -43,7 +43,6 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from latdyn.scene.builder import SceneBuilder
 
 ROOT = Path(__file__).resolve().parents[1]
 REFERENCE_FILE = ROOT / "benchmarks" / "references" / "lattice.json"
@@ -154,6 +153,8 @@ def latdyn_scene(bays: int, elements: int, dt: float, *, t_end: float | None = N
     """The scene mapping (as YAML holds it). ``load``: "pulse" (the benchmark) or "static" (the
     peak force held constant, for ``analysis: static``).  ``shear``/``rotary``: False leaves out
     the sections' GA (Euler–Bernoulli members) / rotary inertia (as OpenSeesPy's elements)."""
+    from latdyn.scene.builder import SceneBuilder  # here: an Exudyn-only process does not import latdyn
+
     eq = equivalent_beam(bays)
     b = SceneBuilder(f"clamped 3D truss beam, {bays} bays, rigid joints, tip pulse")
     for name, s in SECTIONS.items():
@@ -411,16 +412,10 @@ def _exudyn_finish(exu, eii, SC, mbs, bays, tips):
     return SC, mbs, sensors
 
 
-def exudyn_run(exu, eii, bays: int, cfg: dict) -> dict:
-    """Build and solve; the row fields of peers.py (solver_s: SolveSystem; run_s: build + solve)."""
-    import warnings
-
-    eq = equivalent_beam(bays)
-    t_end = cfg.get("t_end") or eq["t_end"]
-    t0 = time.perf_counter()
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", DeprecationWarning)
-        SC, mbs, sensors = exudyn_model(exu, eii, bays, cfg["elements"], cfg.get("model", "beam"))
+def exudyn_settings(exu, bays: int, cfg: dict):
+    """Exudyn's SimulationSettings of a lattice run (cfg: dt, t_end, rho_inf, modified, atol, rtol,
+    threads), no solution file (peers.py times the solver; peers_as_user.py turns it on)."""
+    t_end = cfg.get("t_end") or equivalent_beam(bays)["t_end"]
     ss = exu.SimulationSettings()
     ti = ss.timeIntegration
     ti.numberOfSteps = int(round(t_end / cfg["dt"]))
@@ -436,6 +431,18 @@ def exudyn_run(exu, eii, bays: int, cfg: dict) -> dict:
     ss.solution.sensors.writePeriod = cfg["dt"]
     ss.linearSolver.solverType = exu.LinearSolverType.EigenSparse
     ss.parallel.numberOfThreads = cfg.get("threads", 1)
+    return ss
+
+
+def exudyn_run(exu, eii, bays: int, cfg: dict) -> dict:
+    """Build and solve; the row fields of peers.py (solver_s: SolveSystem; run_s: build + solve)."""
+    import warnings
+
+    t0 = time.perf_counter()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)
+        SC, mbs, sensors = exudyn_model(exu, eii, bays, cfg["elements"], cfg.get("model", "beam"))
+    ss = exudyn_settings(exu, bays, cfg)
     solver = exu.MainSolverImplicitSecondOrder()
     t1 = time.perf_counter()
     try:

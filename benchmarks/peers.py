@@ -5,9 +5,14 @@ Run from the repository root::
     pip install -e ".[peers]"          # Exudyn and OpenSeesPy are an optional extra, never a requirement
     python benchmarks/peers.py          # full sweep (about half an hour on 2 cores, most of it the lattice)
     python benchmarks/peers.py --quick  # one or two settings per code, one repeat
+    python benchmarks/peers.py --peer-python /tmp/peers/bin/python   # the peers from a venv of their own
     python benchmarks/peers.py --problems lattice --bays 4,16,64   # the lattice alone (other rows kept)
     python benchmarks/peers.py --reference --problems lattice --bays 4,16,64   # its reference histories
 
+``--peer-python PYTHON`` runs Exudyn and OpenSeesPy with another interpreter (a venv of their
+own, PEERS.md: ``python -m venv /tmp/peers && /tmp/peers/bin/pip install exudyn openseespy numpy
+pyyaml``), so neither enters latdyn's environment: each peer run is that interpreter running this
+file once (``--one``), timed inside it as in process; latdyn runs in this interpreter.
 Without Exudyn (or OpenSeesPy) the script still runs and writes the other codes' rows, with a
 note saying how to install it.  Results: ``benchmarks/results/peers.json`` and ``peers.csv`` (``--out``
 changes the stem); ``docs/performance.md`` reads them.
@@ -169,7 +174,11 @@ def _import_latdyn():
     return latdyn
 
 
-latdyn = _import_latdyn()
+#: Set (to 1) in a process that runs Exudyn alone (peers_as_user.py times such processes as a user's
+#: script): neither latdyn nor OpenSeesPy is imported, so the process costs what Exudyn's does.
+EXUDYN_ONLY = os.environ.get("LATDYN_PEERS_EXUDYN_ONLY") == "1"
+
+latdyn = None if EXUDYN_ONLY else _import_latdyn()
 
 try:
     import exudyn as exu
@@ -182,8 +191,62 @@ except ImportError:  # optional
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import lattice as lattice_problem  # noqa: E402  (benchmarks/lattice.py: the lattice problem's models)
 
-ops = lattice_problem.import_opensees()  # OpenSeesPy (optional), after its libraries are preloaded
+ops = None if EXUDYN_ONLY else lattice_problem.import_opensees()  # optional; its libraries preloaded
 OPENSEES_VERSION = lattice_problem.opensees_version(ops) if ops is not None else None
+
+#: The interpreter that runs the peers (``--peer-python``: a venv of their own, as PEERS.md asks),
+#: None: in this process. Set by :func:`use_peer_python`.
+PEER_PYTHON = None
+
+
+class _InPeerPython:
+    """Stands for a peer's module (``exu``, ``ops``) that lives in the ``--peer-python`` interpreter:
+    truthy where the sweep asks whether the peer is there; its runs go through :func:`peer_run`."""
+
+    def __init__(self, name):
+        self.name = name
+
+    def __repr__(self):
+        return f"<{self.name} in {PEER_PYTHON}>"
+
+
+def use_peer_python(python: str) -> dict:
+    """Run the peers in ``python`` (a venv with exudyn, openseespy, numpy and pyyaml): their versions
+    are asked from it, and every peer run, in-process or fresh, is that interpreter running this
+    file with ``--one``. Returns the versions found ({"exudyn": str | None, "opensees": ...})."""
+    global PEER_PYTHON, exu, eii, ops, EXUDYN_VERSION, OPENSEES_VERSION
+    done = subprocess.run([python, str(Path(__file__).resolve()), "--peer-versions"], cwd=ROOT,
+                          capture_output=True, text=True)
+    if done.returncode != 0:
+        raise SystemExit(f"peers.py: --peer-python {python} could not run this script:\n{done.stderr[-2000:]}")
+    versions = json.loads(done.stdout.strip().splitlines()[-1])
+    PEER_PYTHON = python
+    EXUDYN_VERSION, OPENSEES_VERSION = versions["exudyn"], versions["opensees"]
+    exu = eii = _InPeerPython("exudyn") if EXUDYN_VERSION else None
+    ops = _InPeerPython("openseespy") if OPENSEES_VERSION else None
+    return versions
+
+
+def _json_safe(x):
+    if isinstance(x, np.ndarray):
+        return x.tolist()
+    if isinstance(x, (np.floating, np.integer)):
+        return x.item()
+    raise TypeError(type(x))
+
+
+def peer_run(problem, code, cfg):
+    """One in-process run of a peer in the ``--peer-python`` interpreter (timed inside it, as
+    :func:`exudyn_once` and :func:`lattice_once` time it); the result row's fields."""
+    job = json.dumps({"problem": problem, "code": code, "cfg": {k: v for k, v in cfg.items() if k != "headline"}},
+                     default=_json_safe)
+    done = subprocess.run([PEER_PYTHON, str(Path(__file__).resolve()), "--one", job, "--full"], cwd=ROOT,
+                          capture_output=True, text=True)
+    try:
+        return json.loads(done.stdout.strip().splitlines()[-1])
+    except (IndexError, json.JSONDecodeError):
+        return {"status": "error", "note": (done.stderr or done.stdout).strip()[-300:]}
+
 
 EXUDYN_MISSING = ("Exudyn is not installed: latdyn rows only.  Install the optional extra with "
                   "`pip install -e \".[peers]\"` (or `pip install exudyn`) and rerun.")
@@ -481,6 +544,8 @@ def exudyn_cantilever_rbs_model(n):
 
 
 def exudyn_once(problem, cfg):
+    if PEER_PYTHON is not None:
+        return peer_run(problem, "exudyn", cfg)
     t0 = time.perf_counter()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DeprecationWarning)
@@ -565,18 +630,25 @@ def lattice_once(code, cfg):
     """One lattice run of one code; the fields of a row (error against the timoshenko reference;
     OpenSeesPy's also against the euler_bernoulli one, in error_parts)."""
     bays = cfg["bays"]
-    eq = lattice_problem.equivalent_beam(bays)
-    run_cfg = dict(cfg, dt=eq["T"] / cfg["steps_per_T"])
-    if "atol_F0" in run_cfg:
-        run_cfg["atol"] = run_cfg.pop("atol_F0") * eq["F0"]
-    if code == "latdyn":
-        res = lattice_problem.latdyn_run(latdyn, bays, run_cfg)
-        res.pop("summary", None)
-    elif code == "exudyn":
-        res = lattice_problem.exudyn_run(exu, eii, bays, run_cfg)
+    if code != "latdyn" and PEER_PYTHON is not None:  # its history scored here: the reference's spline needs SciPy
+        res = peer_run("lattice", code, dict(cfg, raw=True))
+        t, u = (None if res.get(k) is None else np.asarray(res.pop(k), float) for k in ("t", "u"))
     else:
-        res = lattice_problem.opensees_run(ops, bays, run_cfg)
-    t, u = res.pop("t", None), res.pop("u", None)
+        eq = lattice_problem.equivalent_beam(bays)
+        run_cfg = dict(cfg, dt=eq["T"] / cfg["steps_per_T"])
+        run_cfg.pop("raw", None)
+        if "atol_F0" in run_cfg:
+            run_cfg["atol"] = run_cfg.pop("atol_F0") * eq["F0"]
+        if code == "latdyn":
+            res = lattice_problem.latdyn_run(latdyn, bays, run_cfg)
+            res.pop("summary", None)
+        elif code == "exudyn":
+            res = lattice_problem.exudyn_run(exu, eii, bays, run_cfg)
+        else:
+            res = lattice_problem.opensees_run(ops, bays, run_cfg)
+        if cfg.get("raw"):  # a --peer-python run: the caller scores the history
+            return res
+        t, u = res.pop("t", None), res.pop("u", None)
     if res.get("status") == "ok":
         res["values"] = lattice_problem.values(bays, t, u)
         res["error"], res["error_parts"] = lattice_problem.error(bays, t, u)
@@ -766,7 +838,8 @@ def lattice_process_times(rows, matched):
                     for _ in range(2):
                         t0 = time.perf_counter()
                         p = subprocess.run([sys.executable, "-m", "latdyn", "run", str(scene), "-o",
-                                            str(Path(tmp) / "out"), "-q"], capture_output=True, text=True, cwd=tmp)
+                                            str(Path(tmp) / "out"), "-q"], capture_output=True, text=True, cwd=tmp,
+                                           env=timed_environment())
                         wall = time.perf_counter() - t0
                         if "compiling" not in p.stderr:
                             break
@@ -846,6 +919,8 @@ def sweep(quick, engines):
 
 
 def _quiet_exudyn():
+    if isinstance(exu, _InPeerPython):
+        return
     if hasattr(exu, "config") and hasattr(exu.config, "printToConsole"):
         exu.config.printToConsole = False
     else:  # older Exudyn
@@ -923,6 +998,15 @@ def matched_pairs(rows):
     return matched
 
 
+def timed_environment() -> dict:
+    """The environment of a fresh process timed from outside: this checkout first on the path and
+    byte code cached as a user's installation has it (``PYTHONDONTWRITEBYTECODE`` dropped: with it
+    every module of the checkout is compiled again in every process)."""
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+    env["PYTHONPATH"] = os.pathsep.join([str(ROOT)] + [p for p in env.get("PYTHONPATH", "").split(os.pathsep) if p])
+    return env
+
+
 def process_time(problem, code, cfg):
     """One fresh interpreter: import, build, solve once; wall time from outside.
 
@@ -930,10 +1014,11 @@ def process_time(problem, code, cfg):
     the kernels meanwhile), the process is run again and that second time is returned.
     """
     arg = json.dumps({"problem": problem, "code": code, "cfg": {k: v for k, v in cfg.items() if k != "headline"}})
+    python = PEER_PYTHON if code != "latdyn" and PEER_PYTHON is not None else sys.executable
     for _ in range(2):
         t0 = time.perf_counter()
-        p = subprocess.run([sys.executable, str(Path(__file__).resolve()), "--one", arg], cwd=ROOT,
-                           capture_output=True, text=True)
+        p = subprocess.run([python, str(Path(__file__).resolve()), "--one", arg], cwd=ROOT,
+                           capture_output=True, text=True, env=timed_environment())
         dt = time.perf_counter() - t0
         if "compiling" not in p.stderr:
             break
@@ -960,14 +1045,27 @@ def main(argv=None):
                          "from the existing output file)")
     ap.add_argument("--bays", default=",".join(map(str, LATTICE_BAYS)),
                     help="lattice sizes (bays), comma-separated (default %(default)s)")
+    ap.add_argument("--peer-python", metavar="PYTHON",
+                    help="run Exudyn and OpenSeesPy with this interpreter (a venv of their own: "
+                         "python -m venv /tmp/peers && /tmp/peers/bin/pip install exudyn openseespy numpy pyyaml)")
     ap.add_argument("--one", help=argparse.SUPPRESS)
+    ap.add_argument("--full", action="store_true", help=argparse.SUPPRESS)
+    ap.add_argument("--peer-versions", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
+    if args.peer_versions:
+        print(json.dumps({"exudyn": EXUDYN_VERSION, "opensees": OPENSEES_VERSION}))
+        return 0
+    if args.peer_python:
+        print(f"peers from {args.peer_python}: {use_peer_python(args.peer_python)}", file=sys.stderr)
     problems = [p.strip() for p in args.problems.split(",") if p.strip()]
     bays_list = [int(b) for b in args.bays.split(",")]
     if args.one:
         job = json.loads(args.one)
+        if exu is not None and job["code"] == "exudyn":
+            _quiet_exudyn()
         res = run_one(job["problem"], job["code"], job["cfg"])
-        print(json.dumps({k: res.get(k) for k in ("status", "error", "solver_s")}))
+        print(json.dumps(res if args.full else {k: res.get(k) for k in ("status", "error", "solver_s")},
+                         default=_json_safe))
         return 0 if res.get("status") == "ok" else 1
     if args.reference:
         if "lattice" in problems:

@@ -14,6 +14,11 @@ in parallel processes build it once), through a scratch folder and an atomic ren
 killed build leaves no half library). Compile seconds are added to :data:`COMPILE_SECONDS`,
 which runs report apart from solver time.
 
+Two small files in the cache spare a fresh process the compiler when everything it loads is
+built: the compiler's ``--version`` output (``compiler-<digest>.txt``, by the binary's path and
+file identity: :func:`_stored_version`) and the macros of its ``-march=`` (``isa-<digest>.txt``);
+the element kernels add an index per generated unit (:mod:`latdyn.model.kernels`).
+
 The compiler (:func:`compiler`): ``$CC`` when set (exactly that one); otherwise ``cc``,
 then Zig's C compiler from the ``ziglang`` wheel (``python -m ziglang cc``; ``pip install
 "latdyn[compiler]"``), so that a machine without a system compiler still gets the compiled
@@ -116,6 +121,13 @@ def compiler() -> Compiler:
             if command[0] != sys.executable and shutil.which(command[0]) is None:
                 failures.append(f"{' '.join(command)}: not found")
                 continue
+            stored = _stored_version(command)
+            if stored is not None and stored.is_file():
+                try:
+                    _COMPILER[key] = Compiler(command, stored.read_bytes())
+                    break
+                except OSError:
+                    pass
             try:
                 result = subprocess.run([*command, "--version"], capture_output=True, timeout=120, check=False)
             except (OSError, subprocess.SubprocessError) as error:
@@ -123,6 +135,8 @@ def compiler() -> Compiler:
                 continue
             if result.returncode == 0:
                 _COMPILER[key] = Compiler(command, result.stdout)
+                if stored is not None:
+                    _store_bytes(stored, result.stdout)
                 break
             failures.append(f"{' '.join(command)} --version: exit status {result.returncode}")
         else:
@@ -131,6 +145,26 @@ def compiler() -> Compiler:
     if isinstance(found, NoCompiler):
         raise NoCompiler(str(found))
     return found
+
+
+def _stored_version(command: list[str]) -> Path | None:
+    """Where the kernel cache keeps the ``--version`` output of the compiler ``command`` runs: by
+    the command and the file its first word resolves to (path, size, modification time, inode), so
+    that a fresh process does not start the compiler (8-17 ms) only to name the libraries it loads,
+    and a compiler installed anew at that path is asked again. None for ``python -m ziglang cc``
+    (asked every time) or a command not on ``$PATH``."""
+    if command[0] == sys.executable:
+        return None
+    found = shutil.which(command[0])
+    if found is None:
+        return None
+    try:
+        binary = os.path.realpath(found)
+        status = os.stat(binary)
+    except OSError:
+        return None
+    digest = source_digest(*command, binary, status.st_size, status.st_mtime_ns, status.st_ino)
+    return cache_dir() / f"compiler-{digest}.txt"
 
 
 def march() -> str:
@@ -250,11 +284,16 @@ def _stored_macros(using: Compiler, chosen: str) -> Path | None:
 def _store(path: Path, text: str) -> None:
     """``text`` into ``path`` atomically (a scratch file renamed); a cache that cannot be written
     is left alone (the compiler is asked again next time)."""
+    _store_bytes(path, text.encode())
+
+
+def _store_bytes(path: Path, data: bytes) -> None:
+    """:func:`_store` of bytes."""
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        with tempfile.NamedTemporaryFile("w", dir=path.parent, prefix=path.name, suffix=".tmp",
+        with tempfile.NamedTemporaryFile("wb", dir=path.parent, prefix=path.name, suffix=".tmp",
                                          delete=False) as scratch:
-            scratch.write(text)
+            scratch.write(data)
         os.replace(scratch.name, path)
     except OSError:
         pass

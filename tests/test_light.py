@@ -113,7 +113,12 @@ def test_scene_with_expressions_uses_the_caches_in_a_later_process(tmp_path):
 #: what only they or SciPy's packages pull in (NumPy's random, masked arrays, f2py and testing).
 NOT_FOR_A_SMALL_RUN = HEAVY + ("scipy.sparse", "scipy.linalg", "scipy.optimize", "scipy.integrate",
                                "numpy.random", "numpy.ma", "numpy.f2py", "numpy.testing", "unittest",
-                               "difflib", "latdyn.analyses", "latdyn.studies")
+                               "difflib", "latdyn.analyses", "latdyn.studies",
+                               "numpy.polynomial",  # the Gauss points of hinge-law potentials, on use
+                               # SciPy's OpenBLAS is found in /proc/self/maps to pin it to one thread
+                               # (latdyn.numerics.linalg.openblas_thread_functions); threadpoolctl
+                               # inspects every loaded library (8-10 ms) and is left where that fails
+                               *(("threadpoolctl",) if sys.platform.startswith("linux") else ()))
 
 #: Writes the modules a process imported, as JSON, to $LATDYN_TEST_MODULES when it exits
 #: (a sitecustomize on PYTHONPATH: the command itself runs unchanged).
@@ -156,6 +161,24 @@ def test_a_small_transient_run_imports_only_what_it_needs(tmp_path):
     unneeded = sorted(m for m in modules - {"scipy.linalg.cython_lapack"}
                       if m in NOT_FOR_A_SMALL_RUN or m.startswith(tuple(n + "." for n in NOT_FOR_A_SMALL_RUN)))
     assert unneeded == [], f"a small transient run imported {unneeded}"
+    # the kernels' metadata and libraries come from the unit index (latdyn.model.kernels._compiled_unit)
+    generated = sorted(m for m in modules if m.startswith("latdyn_generated."))
+    assert generated == [], f"a run with its kernels cached imported the generated modules {generated}"
+
+
+def test_a_small_band_model_imports_no_sparse_package(tmp_path):
+    """The 3D model of a beam of 8 elements (48 coordinates, bandwidth 11 after RCM) takes the band
+    LU (latdyn.numerics.linalg.SMALL_BAND_FRACTION): its order comes from ``small_rcm_band``, not
+    from ``scipy.sparse.csgraph``."""
+    text = NO_EXPRESSIONS.replace("t_end: 0.2, dt: 0.01}", "t_end: 0.05, dt: 0.01, planar: off}").replace(
+        "elements: 4", "elements: 8")
+    modules = _imported_by_a_run(tmp_path, text)
+    assert {"latdyn.solve", "latdyn.timeloop.transient", "numpy"} <= modules  # the hook saw the run
+    summary = json.loads((tmp_path / "second" / "summary.json").read_text())
+    assert summary["coordinates"] == 48
+    unneeded = sorted(m for m in modules - {"scipy.linalg.cython_lapack"}
+                      if m in NOT_FOR_A_SMALL_RUN or m.startswith(tuple(n + "." for n in NOT_FOR_A_SMALL_RUN)))
+    assert unneeded == [], f"a small band model's run imported {unneeded}"
 
 
 def test_scipy_lapack_without_scipy_linalg_is_the_same_lapack(tmp_path):
@@ -333,3 +356,68 @@ def test_a_study_on_dask_without_dask_names_the_extra(monkeypatch, capsys, tmp_p
     err = capsys.readouterr().err
     assert status == 1
     assert err.count("\n") == 1 and 'pip install "latdyn[dask]"' in err, err
+
+
+# ----------------------------------------------------------------------------- caches of a fresh process
+def test_the_compiler_is_asked_its_version_once_per_binary(monkeypatch, tmp_path):
+    """The ``--version`` that names the compiler in every library digest is kept in the kernel
+    cache by the binary's path and file identity (latdyn.native._stored_version): a later process
+    starts no compiler to load cached libraries; another binary is asked again."""
+    import shutil
+
+    from latdyn import native
+
+    if os.environ.get("CC") or shutil.which("cc") is None:
+        pytest.skip("needs cc on PATH and no $CC")
+    monkeypatch.setenv("LATDYN_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.setattr(native, "_COMPILER", {})
+    asked = []
+    real_run = native.subprocess.run
+
+    def counting_run(command, *args, **kwargs):
+        if "--version" in command:
+            asked.append(command)
+        return real_run(command, *args, **kwargs)
+
+    monkeypatch.setattr(native.subprocess, "run", counting_run)
+    first = native.compiler()
+    assert len(asked) == 1 and len(list((tmp_path / "cache").glob("compiler-*.txt"))) == 1
+    monkeypatch.setattr(native, "_COMPILER", {})  # a fresh process
+    again = native.compiler()
+    assert len(asked) == 1 and again.identity() == first.identity()
+    real_stat = os.stat
+    monkeypatch.setattr(native.os, "stat", lambda path, *a, **k: os.stat_result(
+        tuple(real_stat(path, *a, **k))[:6] + (1,) + tuple(real_stat(path, *a, **k))[7:]))  # another size
+    monkeypatch.setattr(native, "_COMPILER", {})
+    assert native.compiler().identity() == first.identity() and len(asked) == 2
+
+
+def test_kernels_from_the_unit_index_are_the_ones_made_without_it(monkeypatch, tmp_path):
+    """A fresh process reads a generated unit's metadata and library files from its index in the
+    kernel cache (latdyn.model.kernels._compiled_unit), without importing the generated module:
+    the same metadata and libraries as made from the sources; an unreadable index is made again."""
+    from latdyn.model import kernels
+
+    index = tmp_path / "index-{}.marshal"
+    monkeypatch.setattr(kernels, "_index", lambda stem: Path(str(index).format(stem)))
+    monkeypatch.setattr(kernels, "_LOADED", {})
+    made = kernels.load_kernels("c", "default_xy")  # no index yet: from the generated module
+    assert Path(str(index).format("beam_default_xy")).is_file() and Path(str(index).format("joints")).is_file()
+    real_import = kernels.importlib.import_module
+
+    def no_generated_module(name, *args):
+        assert not name.startswith(kernels.PACKAGE + "."), f"imported {name}"
+        return real_import(name, *args)
+
+    monkeypatch.setattr(kernels.importlib, "import_module", no_generated_module)
+    monkeypatch.setattr(kernels, "_LOADED", {})
+    read = kernels.load_kernels("c", "default_xy")
+    assert read.info == made.info and read.names == made.names
+    assert {n: lib._name for n, lib in read.libraries.items()} == {n: lib._name for n, lib in made.libraries.items()}
+    frame = np.random.default_rng(1).standard_normal((3, read.info["so3_exp"]["inputs"][0][1]))
+    for a, b in zip(read.so3_exp(frame), made.so3_exp(frame)):
+        np.testing.assert_array_equal(a, b)
+    monkeypatch.setattr(kernels.importlib, "import_module", real_import)
+    Path(str(index).format("joints")).write_bytes(b"not an index")
+    monkeypatch.setattr(kernels, "_LOADED", {})
+    assert kernels.load_kernels("c", "default_xy").info == made.info

@@ -243,3 +243,48 @@ def test_large_models_are_checked():
     raw["beams"]["tail"] = {"from": "j0_0_1", "to": "loose", "section": "s", "elements": 2,
                             "end": {"hinge": {"axis": [1, 0, 0]}}}  # the tail's own axis: spin unheld
     refused(raw, "bodies.loose", "beams.tail.end.hinge")
+
+
+# ----------------------------------------------------------------------------- small band matrices
+def _chain(nodes: int, dofs: int = 6):
+    """The pattern of a chain of beams (node blocks of ``dofs`` coupled to their neighbours),
+    numbered out of order as a scene's two legs meeting at an elbow are."""
+    order = np.r_[np.arange(0, nodes, 2), np.arange(1, nodes, 2)]  # even nodes first: a wide natural band
+    place = np.empty(nodes, np.int64)
+    place[order] = np.arange(nodes)
+    rows, cols = [], []
+    for a in range(nodes):
+        for b in (a - 1, a, a + 1):
+            if 0 <= b < nodes:
+                i, j = np.meshgrid(place[a] * dofs + np.arange(dofs), place[b] * dofs + np.arange(dofs), indexing="ij")
+                rows.append(i.ravel())
+                cols.append(j.ravel())
+    return np.concatenate(rows), np.concatenate(cols), nodes * dofs
+
+
+@pytest.mark.parametrize("nodes", [4, 8, 16, 20])
+def test_small_rcm_band_is_a_permutation_as_narrow_as_scipys(nodes):
+    rows, cols, n = _chain(nodes)
+    perm, new, lower, upper = linalg.small_rcm_band(rows, cols, n)
+    assert sorted(perm.tolist()) == list(range(n)) and np.array_equal(new[perm], np.arange(n))
+    assert lower == int(np.max(new[rows] - new[cols])) and upper == int(np.max(new[cols] - new[rows]))
+    assert max(lower, upper) == 11  # the chain's band: a node's 6 coordinates and the next node's
+    assert max(lower, upper) <= max(linalg.rcm_band(rows, cols, n)[2:])  # SciPy's RCM, the large models'
+
+
+def test_a_narrow_band_of_few_coordinates_takes_the_band_lu_and_solves_exactly():
+    """Within DENSE_LIMIT, a pattern whose RCM band is at most SMALL_BAND_FRACTION of n takes
+    LAPACK's band LU (docs/performance.md, "Small models"); a wider one the dense LU; both solve
+    like NumPy's dense solve."""
+    rng = np.random.default_rng(7)
+    for nodes, kind in ((16, "band"), (8, "band"), (4, "dense")):  # n = 96 (band 11), 48 (11 <= 12), 24 (11 > 6)
+        rows, cols, n = _chain(nodes)
+        assert n <= DENSE_LIMIT
+        values = rng.standard_normal(len(rows)) + np.where(rows == cols, 40.0, 0.0)
+        A = np.zeros((n, n))
+        np.add.at(A, (rows, cols), values)
+        made = factorization.Factorization(rows, cols, n)
+        assert made.kind == kind
+        b = rng.standard_normal((n, 3))
+        x = made.factor(values).solve(b)
+        np.testing.assert_allclose(x, np.linalg.solve(A, b), rtol=0, atol=1e-12 * np.abs(np.linalg.solve(A, b)).max())

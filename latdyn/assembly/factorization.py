@@ -3,8 +3,9 @@ solve of the analyses driven from Python.
 
 :class:`Factorization` is made from a matrix's pattern (rows, cols, n) and chooses its storage as
 :mod:`latdyn.numerics.linalg` documents: dense up to ``DENSE_LIMIT`` coordinates (LAPACK
-getrf/getrs), else banded after a reverse Cuthill–McKee order while the bandwidth is at most
-``BAND_LIMIT`` (gbtrf/gbtrs), else the supernodal sparse LU of ``csrc/sparse_lu.c`` with its
+getrf/getrs) unless the bandwidth after a reverse Cuthill–McKee order is at most
+``SMALL_BAND_FRACTION`` of n (a chain of beams), else banded after that order while the
+bandwidth is at most ``BAND_LIMIT`` (gbtrf/gbtrs), else the supernodal sparse LU of ``csrc/sparse_lu.c`` with its
 analysis made once per pattern (:mod:`latdyn.assembly.sparse_lu`). It holds the storage, the
 permutation into the factor's order, the pivots and :meth:`Factorization.position` (where an
 entry (row, col) of the matrix lies in the storage). Factorization and solves are the C functions
@@ -26,7 +27,8 @@ import numpy as np
 
 from latdyn.assembly.library import FactorizationStructure, lapack_address, native_library
 from latdyn.assembly.sparse_lu import PivotError, SupernodalAnalysis, blas_kernels
-from latdyn.numerics.linalg import BAND_LIMIT, DENSE_LIMIT, issparse, openblas_thread_functions, rcm_band
+from latdyn.numerics.linalg import (BAND_LIMIT, DENSE_LIMIT, SMALL_BAND_FRACTION, issparse, openblas_thread_functions,
+                                    rcm_band, small_rcm_band)
 
 #: The storages, in the order of csrc/factorization.c's ``kind``.
 KINDS = ("dense", "band", "sparse")
@@ -45,10 +47,11 @@ class Factorization:
         self.n, self.rows, self.cols = n, rows, cols
         self.kl = self.ku = 0
         self.analysis = None
-        if kind is None and n <= DENSE_LIMIT:
-            kind = "dense"
-        if kind != "dense":
-            _, new, kl, ku = rcm_band(rows, cols, n)
+        if kind is None and n <= DENSE_LIMIT:  # dense, or band where the matrix is a narrow band
+            _, new, kl, ku = small_rcm_band(rows, cols, n)
+            kind = "band" if 0 < n and max(kl, ku) <= SMALL_BAND_FRACTION * n else "dense"
+        elif kind != "dense":
+            _, new, kl, ku = (small_rcm_band if n <= DENSE_LIMIT else rcm_band)(rows, cols, n)
             if kind is None:
                 kind = "band" if max(kl, ku) <= BAND_LIMIT else "sparse"
         if kind == "dense":

@@ -19,6 +19,7 @@ from __future__ import annotations
 import ctypes
 import importlib
 import importlib.resources
+import marshal
 import os
 import sys
 import time
@@ -105,13 +106,14 @@ def load_kernels(backend: str = "auto", variant: str = "default") -> KernelSet:
         info, functions, libraries = {}, {}, {}
         # the beam kernels of the variant, and the joint bodies and point loads every variant shares
         for stem in (f"beam_{variant}", JOINTS):
-            module = importlib.import_module(f"{PACKAGE}.{stem}")
-            unit = module.KERNELS  # the generated kernels
-            info.update(unit)
             if backend == "numpy":
+                module = importlib.import_module(f"{PACKAGE}.{stem}")
+                unit = module.KERNELS  # the generated kernels
+                info.update(unit)
                 functions.update({name: _checked(name, meta, getattr(module, name)) for name, meta in unit.items()})
             else:
-                built = _compile(stem, list(unit), {name: int(meta.get("op_count", 0)) for name, meta in unit.items()})
+                unit, built = _compiled_unit(stem)
+                info.update(unit)
                 libraries.update(built)
                 functions.update({name: _checked(name, meta, _c_function(built[name], name, meta))
                                   for name, meta in unit.items()})
@@ -258,9 +260,59 @@ def _kernel_sources(stem: str, names) -> dict[str, bytes]:
     return units
 
 
-def _compile(stem: str, names, ops: dict[str, int] | None = None) -> dict[str, ctypes.CDLL]:
+def _compiled_unit(stem: str) -> tuple[dict, dict[str, ctypes.CDLL]]:
+    """The metadata (``KERNELS``) of the generated unit ``stem`` and its kernels' libraries, compiled
+    into the cache if need be (:func:`_compile`).
+
+    A fresh process with everything cached reads both from the unit's index in the kernel cache
+    (:func:`_index`), without importing the generated NumPy module (a 0.1–2.4 MB source) nor
+    reading and splitting the C source to digest each kernel (together 40–70 ms of a 5-step run's
+    process; docs/performance.md, "First run"); where the index is missing, stale or names a
+    library that is not there, they are made as before and the index is written."""
+    from latdyn import native
+
+    index = _index(stem)
+    if index is not None and index.is_file():
+        try:
+            entry = marshal.loads(index.read_bytes())
+            paths = {name: native.cache_dir() / file for name, file in entry["targets"].items()}
+            if all(path.is_file() for path in paths.values()):
+                return entry["info"], {name: native.load(path) for name, path in paths.items()}
+        except (OSError, ValueError, EOFError, TypeError, KeyError, AttributeError):
+            pass  # made again below
+    unit = importlib.import_module(f"{PACKAGE}.{stem}").KERNELS  # the generated kernels
+    targets = _compile(stem, list(unit), {name: int(meta.get("op_count", 0)) for name, meta in unit.items()})
+    if index is not None:
+        native._store_bytes(index, marshal.dumps({"info": unit, "targets": {n: t.name for n, t in targets.items()}}))
+    return unit, {name: native.load(target) for name, target in targets.items()}
+
+
+def _index(stem: str):
+    """The path of the index of the generated unit ``stem`` in the kernel cache: its kernels'
+    metadata and library files, under a digest of all that names them without reading the sources:
+    the generated files' identity (path, size, modification time, inode of ``stem``.c and .py), this
+    module's and :mod:`latdyn.native`'s (the flags, the -O levels), the compiler's identity, the
+    instruction-set flags and the Python version (the index is a ``marshal`` dump). None without a
+    compiler or where the generated files are not plain files."""
+    from latdyn import native
+
+    try:
+        using = native.compiler()
+        simd = native.vector_flags(using)
+        folder = importlib.resources.files(PACKAGE)
+        identities = []
+        for path in (folder / f"{stem}.c", folder / f"{stem}.py", __file__, native.__file__):
+            status = os.stat(os.fspath(path))
+            identities += [os.path.realpath(os.fspath(path)), status.st_size, status.st_mtime_ns, status.st_ino]
+    except (RuntimeError, OSError, TypeError):
+        return None
+    digest = native.source_digest(stem, sys.version, using.identity(), *simd, *C_FLAGS, OPT_LIMIT_OPS, *identities)
+    return native.cache_dir() / f"index-{stem}-{digest}.marshal"
+
+
+def _compile(stem: str, names, ops: dict[str, int] | None = None) -> dict[str, os.PathLike]:
     """Compile each kernel of ``names`` into the cache (:mod:`latdyn.native`: once per source,
-    flags and compiler), in parallel, and load them; name -> library."""
+    flags and compiler), in parallel; name -> its library's path."""
     from latdyn import native
 
     units = _kernel_sources(stem, names)
@@ -289,4 +341,4 @@ def _compile(stem: str, names, ops: dict[str, int] | None = None) -> dict[str, c
         # the units' own seconds overlap (parallel builds): the wall time counts once
         native.COMPILE_SECONDS["total"] = before + elapsed
         print(f"latdyn: compiled in {elapsed:.1f} s", file=sys.stderr, flush=True)
-    return {name: native.load(target) for name, target in targets.items()}
+    return targets

@@ -146,6 +146,15 @@ import numpy as np
 #: Models with at most this many free coordinates use dense matrices and LU.
 DENSE_LIMIT = 120
 
+#: A model of at most DENSE_LIMIT coordinates whose bandwidth after reverse Cuthill–McKee
+#: (:func:`small_rcm_band`) is at most this fraction of its size takes the band LU, not the dense
+#: one: a chain of beams has bandwidth 11 at any length. LAPACK's factorization, one core, C calls
+#: alone (2026-11-26, 2-core Intel Xeon, load 6–8): n = 48, bandwidth 11: dense 25 µs, band 7.4;
+#: n = 96, 11: 92 against 12.5 (the 16-element right-angle cantilever); 96, 17: 100 / 29;
+#: 120, 23: 167 / 52; 96, 24: 184 / 75; at a third of n they tie or the band loses (96, 32:
+#: 157 / 120; 120, 40: 166 / 224); n = 24–32 tie (5–7 µs). Solves cost alike (4–8 µs).
+SMALL_BAND_FRACTION = 0.25
+
 #: Sparse systems whose half-bandwidth after reverse Cuthill–McKee is at most
 #: this use LAPACK band LU; wider ones the supernodal sparse LU of csrc/sparse_lu.c
 #: (latdyn.assembly.factorization, for the compiled step and the analyses alike).
@@ -213,13 +222,59 @@ def _in_scipy_folder(path) -> bool:
     return any(part == "scipy" or part.startswith("scipy.") for part in PurePath(str(path)).parent.parts)
 
 
+#: OpenBLAS's symbol affixes (threadpoolctl's ``OpenBLASController``: SciPy's wheels build it as
+#: ``scipy_openblas_get_num_threads``, ILP64 builds add ``64_``).
+_OPENBLAS_AFFIXES = tuple((prefix, suffix) for prefix in ("", "scipy_") for suffix in ("", "64_", "_64"))
+
+_thread_functions: tuple[int | None, int | None] | None = None  # found once per process
+
+
+def _scipy_openblas_from_maps() -> tuple[int | None, int | None] | None:
+    """Linux: the thread functions of the OpenBLAS that ``/proc/self/maps`` shows loaded from SciPy's
+    folder; None where that file is not there or shows no such library (then threadpoolctl looks,
+    which inspects every loaded library: 8–10 ms of a 5-step run's process, docs/performance.md,
+    "First run")."""
+    import ctypes
+    import os
+
+    try:
+        with open("/proc/self/maps", "rb") as maps:
+            paths = {line.split(maxsplit=5)[-1].strip().decode() for line in maps if b"openblas" in line}
+    except (OSError, UnicodeDecodeError):
+        return None
+    own = sorted(p for p in paths if p.startswith("/") and "openblas" in os.path.basename(p).lower()
+                 and _in_scipy_folder(p))
+    if len(own) != 1:
+        return None
+    try:
+        library = ctypes.CDLL(own[0], mode=getattr(os, "RTLD_NOLOAD", 0) | ctypes.RTLD_LOCAL)  # already loaded
+    except OSError:
+        return None
+    for prefix, suffix in _OPENBLAS_AFFIXES:
+        get = getattr(library, f"{prefix}openblas_get_num_threads{suffix}", None)
+        put = getattr(library, f"{prefix}openblas_set_num_threads{suffix}", None)
+        if get is not None and put is not None:
+            return ctypes.cast(get, ctypes.c_void_p).value, ctypes.cast(put, ctypes.c_void_p).value
+    return None
+
+
 def openblas_thread_functions() -> tuple[int | None, int | None]:
     """Addresses of ``openblas_get_num_threads`` and ``openblas_set_num_threads`` of the OpenBLAS
     behind SciPy's cython_blas / cython_lapack (the library under SciPy's folder, or the only
     OpenBLAS loaded), for the compiled step to pin its LAPACK and BLAS calls to one thread as
     :func:`single_thread_blas` does; (None, None) when there is no such library or no
-    threadpoolctl (then nothing is pinned)."""
+    threadpoolctl (then nothing is pinned). Ask after SciPy's LAPACK is loaded
+    (:func:`latdyn.assembly.library.lapack_address`): on Linux the library is then found in
+    ``/proc/self/maps``, without threadpoolctl, and the answer kept for the process."""
     import ctypes
+
+    global _thread_functions
+    if _thread_functions is not None:
+        return _thread_functions
+    found = _scipy_openblas_from_maps()
+    if found is not None:
+        _thread_functions = found
+        return found
 
     def openblas(controllers):
         found = [lib for lib in controllers if getattr(lib, "internal_api", "") == "openblas"]
@@ -238,6 +293,9 @@ def openblas_thread_functions() -> tuple[int | None, int | None]:
         put = getattr(lib.dynlib, f"{prefix}openblas_set_num_threads{suffix}")
     except Exception:  # noqa: BLE001 - another threadpoolctl or OpenBLAS: leave BLAS alone
         return None, None
+    if scipy_own:  # SciPy's own library does not change within the process
+        _thread_functions = ctypes.cast(get, ctypes.c_void_p).value, ctypes.cast(put, ctypes.c_void_p).value
+        return _thread_functions
     return ctypes.cast(get, ctypes.c_void_p).value, ctypes.cast(put, ctypes.c_void_p).value
 
 
@@ -262,6 +320,36 @@ def rcm_band(rows: np.ndarray, cols: np.ndarray, n: int):
     new[perm] = np.arange(n)
     i, j = new[rows], new[cols]
     return perm, new.astype(np.int64), int(np.max(i - j, initial=0)), int(np.max(j - i, initial=0))
+
+
+def small_rcm_band(rows: np.ndarray, cols: np.ndarray, n: int):
+    """:func:`rcm_band` for a pattern of at most DENSE_LIMIT coordinates, in NumPy and Python
+    (SciPy's sparse package is not imported for a model the dense or band LU serves: see the top
+    of the module): breadth-first from a node of least degree, neighbours by increasing degree,
+    component by component, the order reversed."""
+    adjacent = np.zeros((n, n), bool)
+    adjacent[rows, cols] = adjacent[cols, rows] = True
+    np.fill_diagonal(adjacent, False)
+    degree = adjacent.sum(axis=1)
+    visited = np.zeros(n, bool)
+    order = []
+    for seed in np.argsort(degree, kind="stable"):
+        if visited[seed]:
+            continue
+        visited[seed] = True
+        queue, head = [int(seed)], 0
+        while head < len(queue):
+            found = np.flatnonzero(adjacent[queue[head]] & ~visited)
+            head += 1
+            found = found[np.argsort(degree[found], kind="stable")]
+            visited[found] = True
+            queue += found.tolist()
+        order += queue
+    perm = np.array(order[::-1], dtype=np.int64)
+    new = np.empty(n, np.int64)
+    new[perm] = np.arange(n)
+    i, j = new[rows], new[cols]
+    return perm, new, int(np.max(i - j, initial=0)), int(np.max(j - i, initial=0))
 
 
 # ----------------------------------------------------------------------------- null directions
@@ -325,5 +413,6 @@ def psd_null_direction(A, tol: float = 1e-10, shift: float = 1e-9, iterations: i
     return rho, x / np.max(np.abs(x))
 
 
-__all__ = ["DENSE_LIMIT", "BAND_LIMIT", "SINGLE_THREAD_EIGH", "issparse", "use_dense", "rcm_band", "single_thread_blas",
+__all__ = ["DENSE_LIMIT", "SMALL_BAND_FRACTION", "BAND_LIMIT", "SINGLE_THREAD_EIGH", "issparse", "use_dense", "rcm_band",
+           "small_rcm_band", "single_thread_blas",
            "openblas_thread_functions", "psd_null_direction"]
