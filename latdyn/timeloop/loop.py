@@ -26,10 +26,13 @@ import sys
 import time
 from typing import NamedTuple
 
+import numpy as np
+
 from latdyn.assembly.assembler import State
 from latdyn.assembly.prepare import Prepared
 from latdyn.errors import SolverError, UnboundedError
 from latdyn.model.cables import slack_and_unheld
+from latdyn.model.model import lock_tolerance
 from latdyn.numerics.so3 import orthonormalize
 from latdyn.results import paraview
 from latdyn.results.probes import ProbeSet
@@ -371,6 +374,7 @@ class TimeLoop:
             if progress.unbounded:
                 end = r + 1
                 break
+        self._note_resting(times[:end], block.states.theta[:end], block.states.theta_dot[:end])
         values = probes.rows(block.states, block.energies, block.column("external_work"),
                              block.column("dissipated"), block.momenta if probes.needs[0] else None,
                              block.section_forces if probes.needs[1] else None, block.joint_forces,
@@ -583,6 +587,7 @@ class TimeLoop:
         then the balance judged (:meth:`_judge_balance`). ``values``: the probe values when computed
         already (a block of rows, :meth:`_record_rows`); ``last``: whether the writer's bookmark is
         kept (the last row of a block: only it can be a checkpoint's)."""
+        self._note_resting([state.t], state.theta[None], state.theta_dot[None])
         gain = self.progress.balance(state.t, energies, self.probes.external_work)
         if self.model.hinges:  # summary.json joint_peaks, over the recorded rows
             self.progress.note_joint_forces([h.name for h in self.model.hinges], self.probes.joint_forces(state),
@@ -596,6 +601,33 @@ class TimeLoop:
         if last:
             self.bookmark = self.writer.bookmark()
         self._judge_balance(state.t, gain)
+
+    def _note_resting(self, times, theta, theta_dot) -> None:
+        """A warning in summary.json ``warnings``, once per joint, when a recorded row finds a joint resting
+        on a rigid stop (on it within the events' tolerance, not moving away: csrc/rows.c resting_on_stop):
+        its torque/force probe and ``joint_peaks`` there are the residual with the joint's own
+        acceleration zeroed while its neighbours keep the free step's accelerations — not the stop's
+        reaction (a near-rigid pendulum resting on its stop reports half the static value); exact only where
+        the joint's coordinate is the model's one coordinate. Flagged, not reported as the load: a compliant
+        stop (``contact``) computes it."""
+        model = self.model
+        if not model.hinges or len(times) == 0 or model.n_dofs <= 1:  # alone, its reaction is exact
+            return
+        flagged = self.__dict__.setdefault("_resting_flagged", set())
+        for k, hinge in enumerate(model.hinges):
+            if hinge.limits is None or hinge.contact is not None or k in flagged:
+                continue
+            for side, stop in ((-1.0, hinge.limits[0]), (1.0, hinge.limits[1])):
+                tolerance = lock_tolerance(stop)
+                on = (np.abs(theta[:, k] - stop) <= tolerance) & (side * theta_dot[:, k] >= -tolerance)
+                if on.any():
+                    flagged.add(k)
+                    t = float(times[int(np.argmax(on))])
+                    self.writer.summary.setdefault("warnings", []).append(
+                        f"{hinge.name} rests on its rigid stop from t = {t:.6g}: its torque/force probe and "
+                        "joint_peaks there are not the stop's reaction (the neighbours keep the free step's "
+                        "accelerations); give the stop `contact` to compute the load on it")
+                    break
 
     def _judge_balance(self, t: float, gain: float) -> None:
         """The energy balance at the row at ``t`` (docs/energy.md): an energy gain (``gain``: the
