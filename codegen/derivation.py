@@ -25,7 +25,7 @@ import sympy as sp
 
 from . import conventions as cv
 from . import formulation as fm
-from .ir import KernelSpec, Output
+from .ir import KernelSpec, Output, Tangent
 
 VARIANTS: dict[str, str] = {name: f.description for name, f in fm.FORMULATIONS.items()}
 
@@ -343,6 +343,23 @@ def geometry_first_variation(plane: fm.Plane | None = None) -> dict:
     return variation
 
 
+def configuration_tangent(of: str, name: str, plane: fm.Plane | None, doc: str) -> Tangent:
+    """The request for ∂(output ``of``)/∂q^e under the configuration update, as the output ``name``
+    (forward mode of the lowered kernel, codegen/forward.py): seeded with the first variation of the
+    geometry block (:func:`geometry_first_variation`), the log map's jet of θ/sin θ differentiated as
+    a jet, ∂f⁽ᵏ⁾ = f⁽ᵏ⁺¹⁾ ∂x (its branch-free definition's |x − x_s| has none at the switch)."""
+    seeds = {str(symbol): column for symbol, column in geometry_first_variation(plane).items()}
+    partials, definitions = {}, {}
+    for i, (row, argument) in enumerate(zip(LOG_JET, LOG_ARGUMENT)):
+        x = fm.to_sympy(argument)
+        orders = [str(f) for f in row] + [f"logmap_f{len(row)}_{i + 1}"]
+        for k in range(len(row)):
+            partials[orders[k]] = {str(argument): sp.Symbol(orders[k + 1], real=True)}
+        for k in range(1, len(orders)):
+            definitions[orders[k]] = fm.log_scale(x, k)
+    return Tangent(of=of, name=name, seeds=seeds, directions=N, doc=doc, partials=partials, definitions=definitions)
+
+
 def forward_derivative(b: Builder, expressions: list, seeds: dict, directions: int, name: str) -> list[list]:
     """∂(expressions)/∂q in ``directions`` directions, by the chain rule through ``b``'s named intermediates.
 
@@ -500,14 +517,14 @@ def build_kernels(variant: str = "default", gravity_tangent: bool = True) -> lis
     with_gravity = [cv.GEOMETRY, cv.SECTION, cv.GRAVITY]
     kernels: list[KernelSpec] = []
 
-    def add(name, doc, equations, inputs, outputs, builder):
+    def add(name, doc, equations, inputs, outputs, builder, tangent=None):
         if planar_values:  # inputs used directly (not through the kinematics) take their planar values too
             builder.intermediates = [(s, e.xreplace(planar_values)) for s, e in builder.intermediates]
             outputs = [Output(o.name, o.shape, [sp.sympify(e).xreplace(planar_values) for e in o.expressions], o.doc)
                        for o in outputs]
         kernels.append(
             KernelSpec(name=name, doc=doc, inputs=list(inputs), outputs=outputs, variant=variant,
-                       equations=equations, intermediates=builder.intermediates)
+                       equations=equations, intermediates=builder.intermediates, tangent=tangent)
         )
 
     # --- deformation ---
@@ -599,6 +616,29 @@ def build_kernels(variant: str = "default", gravity_tangent: bool = True) -> lis
         "Eqs. 47, 50, 58", with_gravity,
         [Output("gravity_force", (N,), Q), Output("gravity_potential", (), [potential]),
          Output("first_moment", (3,), centre)], b)
+
+    # --- the inertia tangent: ∂(M a + g − Q)/∂q under the configuration update q ∘ exp(Δ), at fixed spatial
+    # rates and accelerations: the term of Newton's matrix that K leaves out (latdyn/step/integrators.py).
+    # r = M a + g − Q = Jᵀ [M̂ (J a + J̇q̇) + ĝ − Sᵀ T_cᵀ g_grav] (Eqs. 56–58, 62) is lowered as any kernel, and its
+    # tangent is the forward-mode derivative of that program (codegen/forward.py), seeded with the first
+    # variation of the geometry block (geometry_first_variation).
+    b = Builder(kin.auxiliary + shear_definitions)
+    p = inertia(b, with_velocity=True)
+    acceleration = [0 if a in out_of_plane else symbol for a, symbol in enumerate(cv.ACCELERATION.symbols())]
+    Ja = b.vector("Ja", [sp.Add(*[p["J"][i][a] * acceleration[a] for a in range(N)]) for i in range(12)])
+    TcT = p["TcT"]
+    g_local = b.vector("gc", [sp.Add(*[TcT[i][k] * gravity[k] for k in range(3)]) for i in range(3)])
+    S = p["first_moment"]
+    local = b.vector("inertia_local", [
+        sp.Add(*[p["Mhat"][i][j] * (Ja[j] + p["Jdq"][j]) for j in range(12)]) + p["ghat"][i]
+        - sp.Add(*[S[k, i].xreplace(p["rename"]) * g_local[k] for k in range(3)]) for i in range(12)])
+    force = [sp.Add(*[p["J"][i][a] * local[i] for i in range(12)]) for a in range(N)]
+    add("beam_inertia_tangent", "Inertia force M a + g − Q of gravity and its exact tangent ∂(M a + g − Q)/∂q "
+        "at fixed spatial rates and accelerations (forward mode of the lowered force, codegen/forward.py)",
+        "Eqs. 50-58, 61-62", [cv.GEOMETRY, cv.VELOCITY, cv.ACCELERATION, cv.SECTION, cv.GRAVITY],
+        [Output("inertia_force", (N,), force)], b,
+        tangent=configuration_tangent("inertia_force", "inertia_tangent", plane,
+                                      "∂(M a + g − Q)/∂q, row-major: [r, d] = ∂r_r/∂q_d"))
 
     if not gravity_tangent:
         return kernels
