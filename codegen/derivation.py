@@ -360,74 +360,12 @@ def configuration_tangent(of: str, name: str, plane: fm.Plane | None, doc: str) 
     return Tangent(of=of, name=name, seeds=seeds, directions=N, doc=doc, partials=partials, definitions=definitions)
 
 
-def forward_derivative(b: Builder, expressions: list, seeds: dict, directions: int, name: str) -> list[list]:
-    """∂(expressions)/∂q in ``directions`` directions, by the chain rule through ``b``'s named intermediates.
-
-    ``seeds`` gives the derivative of each input symbol that moves ({symbol: [directions]}); every
-    intermediate s = e(…) that depends on a moving symbol gets its derivative as named intermediates
-    ``{s}_{name}_{a}`` = Σ_x (∂e/∂x) ∂x/∂q_a, the partials ∂e/∂x named once and shared by the
-    directions: exact, and as structured as the kernel it differentiates (the same chain of named
-    quantities, each step a small symbolic derivative), so CSE sees short expressions.  The jet of
-    θ/sin θ (:data:`LOG_JET`) is differentiated as a jet, ∂f⁽ᵏ⁾ = f⁽ᵏ⁺¹⁾ ∂x, not through its branch-free
-    definition (whose |x − x_s| has no derivative at the switch); f⁽³⁾ is defined where it is needed.
-    Returns the rows ∂expression/∂q (len(expressions) × directions).
-    """
-    # only what the expressions use: the kernel's other intermediates (e.g. ∂ϊ/∂q̇ of the rates) need no derivative
-    definition = {symbol: value for symbol, value in b.intermediates}
-    used, pending = set(), [x for e in expressions for x in sp.sympify(e).free_symbols]
-    while pending:
-        x = pending.pop()
-        if x in definition and x not in used:
-            used.add(x)
-            pending.extend(definition[x].free_symbols)
-    derivative = dict(seeds)
-    jet_order = {str(f): (i, k) for i, row in enumerate(LOG_JET) for k, f in enumerate(row)}
-    arguments = [fm.to_sympy(x) for x in LOG_ARGUMENT]
-    third = {}
-
-    def total(expr, label):
-        expr = sp.sympify(expr)
-        moving = sorted((x for x in expr.free_symbols if x in derivative), key=str)
-        if not moving:
-            return None
-        partials = []
-        for x in moving:
-            partial = sp.diff(expr, x)
-            if partial.has(sp.Derivative, sp.Subs, sp.sign, sp.Abs, sp.Heaviside):
-                raise ValueError(f"{label}: ∂/∂{x} is not a closed form ({partial.func.__name__})")
-            partials.append((b.define(f"{label}_by_{x}", partial) if len(moving) > 1 else partial, derivative[x]))
-        return [sp.Add(*[p * d[a] for p, d in partials if d[a] != 0]) for a in range(directions)]
-
-    for symbol, value in list(b.intermediates):
-        if symbol not in used:
-            continue
-        if str(symbol) in jet_order:
-            i, k = jet_order[str(symbol)]
-            x = arguments[i]
-            if x not in derivative:
-                continue
-            if k + 1 < len(LOG_JET[i]):
-                higher = fm.to_sympy(LOG_JET[i][k + 1])
-            else:
-                if i not in third:
-                    third[i] = b.define(f"logmap_f3_{i + 1}", fm.log_scale(x, 3))
-                higher = third[i]
-            rows = [higher * d for d in derivative[x]]
-        else:
-            rows = total(value, str(symbol))
-            if rows is None:
-                continue
-        derivative[symbol] = [b.define(f"{symbol}_{name}_{a}", r) for a, r in enumerate(rows)]
-    zero = [sp.Integer(0)] * directions
-    return [total(expr, f"{name}_out_{r}") or zero for r, expr in enumerate(expressions)]
-
-
-def build_kernels(variant: str = "default", gravity_tangent: bool = True) -> list[KernelSpec]:
+def build_kernels(variant: str = "default") -> list[KernelSpec]:
     """All kernels of one variant (see :data:`VARIANTS`).
 
-    ``gravity_tangent=False`` leaves out ``beam_gravity_D_q``, the one kernel whose derivation takes
-    minutes (tests that re-derive the others in SymPy; it is verified against central differences of
-    ``beam_gravity`` in tests/test_element.py and tests/test_planar.py).
+    ``beam_inertia_tangent`` and ``beam_gravity_D_q`` carry a tangent (``KernelSpec.tangent``): their
+    derivative output is the forward-mode derivative of the lowered kernel, added by codegen/emit.py
+    ``lower`` (codegen/forward.py), not an expression of the spec.
     """
     if variant not in fm.FORMULATIONS:
         raise ValueError(f"unknown variant {variant!r} (known: {', '.join(fm.FORMULATIONS)})")
@@ -640,11 +578,9 @@ def build_kernels(variant: str = "default", gravity_tangent: bool = True) -> lis
         tangent=configuration_tangent("inertia_force", "inertia_tangent", plane,
                                       "∂(M a + g − Q)/∂q, row-major: [r, d] = ∂r_r/∂q_d"))
 
-    if not gravity_tangent:
-        return kernels
     # --- the tangent of the gravity load: ∂Q/∂q under the configuration update q ∘ exp(Δ) ---
-    # Q = Jᵀ Sᵀ(Ψ) T_cᵀ g (Eqs. 47, 50, 58) differentiated through its own named intermediates
-    # (forward_derivative) from the first variation of the geometry block (geometry_first_variation):
+    # Q = Jᵀ Sᵀ(Ψ) T_cᵀ g (Eqs. 47, 50, 58) lowered as beam_gravity, its tangent the forward-mode derivative of
+    # that program (codegen/forward.py) from the first variation of the geometry block (geometry_first_variation):
     # the term the static Newton matrix K − λ ∂Q/∂q needs besides ∂F_i/∂q.
     b = Builder(kin.auxiliary + shear_definitions)
     p = inertia(b, with_velocity=False)
@@ -653,11 +589,9 @@ def build_kernels(variant: str = "default", gravity_tangent: bool = True) -> lis
     S = p["first_moment"]
     Q_local = b.vector("Qc", [sp.Add(*[S[k, i].xreplace(p["rename"]) * g_local[k] for k in range(3)]) for i in range(12)])
     Q = [sp.Add(*[p["J"][i][a] * Q_local[i] for i in range(12)]) for a in range(N)]
-    if planar_values:  # differentiate the planar element itself: its inputs take their planar values first
-        b.intermediates = [(s_, e.xreplace(planar_values)) for s_, e in b.intermediates]
-        Q = [sp.sympify(q).xreplace(planar_values) for q in Q]
-    tangent = forward_derivative(b, Q, geometry_first_variation(plane), N, "D_q")
-    add("beam_gravity_D_q", "Generalized load of uniform gravity Q and its exact tangent ∂Q/∂q",
-        "Eqs. 47, 50, 58", with_gravity,
-        [Output("gravity_force", (N,), Q), Output("gravity_force_D_q", (N, N), _flat(tangent))], b)
+    add("beam_gravity_D_q", "Generalized load of uniform gravity Q and its exact tangent ∂Q/∂q "
+        "(forward mode of the lowered load, codegen/forward.py)", "Eqs. 47, 50, 58", with_gravity,
+        [Output("gravity_force", (N,), Q)], b,
+        tangent=configuration_tangent("gravity_force", "gravity_force_D_q", plane,
+                                      "∂Q/∂q, row-major: [r, d] = ∂Q_r/∂q_d"))
     return kernels
