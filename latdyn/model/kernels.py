@@ -41,18 +41,40 @@ class KernelSet:
     """The kernels of one variant on one backend, as attributes; ``info`` is their metadata."""
 
     def __init__(self, backend: str, variant: str, info: dict, functions: dict[str, Callable],
-                 libraries: dict[str, ctypes.CDLL] | None = None):
+                 libraries: dict[str, ctypes.CDLL] | None = None,
+                 deferred: dict[str, Callable[[], tuple[ctypes.CDLL, Callable]]] | None = None):
         self.backend = backend
         self.libraries = libraries or {}  # C backend: kernel name -> its shared library
         self.variant = variant
         self.info = info
         self._functions = functions
+        #: C kernels compiled on first use (ON_DEMAND): name -> () -> (library, function)
+        self._deferred = dict(deferred or {})
         for name, function in functions.items():
             setattr(self, name, function)
 
+    def __getattr__(self, name: str):
+        """A kernel compiled on first use (ON_DEMAND) is built when it is first asked for."""
+        if name in self.__dict__.get("_deferred", {}):
+            self._build(name)
+            return getattr(self, name)
+        raise AttributeError(f"{type(self).__name__} of {self.__dict__.get('variant')!r} has no kernel {name!r}")
+
+    def library(self, name: str) -> ctypes.CDLL:
+        """The shared library of C kernel ``name``, compiled now if it is compiled on first use."""
+        if name in self._deferred:
+            self._build(name)
+        return self.libraries[name]
+
+    def _build(self, name: str) -> None:
+        library, function = self._deferred.pop(name)()
+        self.libraries[name] = library
+        self._functions[name] = function
+        setattr(self, name, function)
+
     @property
     def names(self) -> list[str]:
-        return list(self._functions)
+        return [*self._functions, *self._deferred]
 
     def __repr__(self) -> str:
         return f"KernelSet(backend={self.backend!r}, variant={self.variant!r}, kernels={len(self._functions)})"
@@ -102,7 +124,7 @@ def load_kernels(backend: str = "auto", variant: str = "default") -> KernelSet:
             raise MissingExtra(f"C kernels unavailable ({error}); {NO_COMPILER_ADVICE}") from None
     key = (backend, variant)
     if key not in _LOADED:
-        info, functions, libraries = {}, {}, {}
+        info, functions, libraries, deferred = {}, {}, {}, {}
         # the beam kernels of the variant, and the joint bodies and point loads every variant shares
         for stem in (f"beam_{variant}", JOINTS):
             module = importlib.import_module(f"{PACKAGE}.{stem}")
@@ -111,15 +133,26 @@ def load_kernels(backend: str = "auto", variant: str = "default") -> KernelSet:
             if backend == "numpy":
                 functions.update({name: _checked(name, meta, getattr(module, name)) for name, meta in unit.items()})
             else:
-                built = _compile(stem, list(unit), {name: int(meta.get("op_count", 0)) for name, meta in unit.items()})
+                ops = {name: int(meta.get("op_count", 0)) for name, meta in unit.items()}
+                built = _compile(stem, [name for name in unit if name not in ON_DEMAND], ops)
                 libraries.update(built)
                 functions.update({name: _checked(name, meta, _c_function(built[name], name, meta))
-                                  for name, meta in unit.items()})
+                                  for name, meta in unit.items() if name in built})
+                deferred.update({name: _on_demand(stem, name, meta, ops) for name, meta in unit.items()
+                                 if name in ON_DEMAND})
         for name, parts in COMPOSED.items():  # not generated: no entry in ``info``
             meta = _composed_meta(name, parts, info)
             functions[name] = _checked(name, meta, _composed(meta, parts, info, functions))
-        _LOADED[key] = KernelSet(backend, variant, info, functions, libraries or None)
+        _LOADED[key] = KernelSet(backend, variant, info, functions, libraries or None, deferred)
     return _LOADED[key]
+
+
+def _on_demand(stem: str, name: str, meta: dict, ops: dict[str, int]) -> Callable[[], tuple[ctypes.CDLL, Callable]]:
+    """The compilation of one ON_DEMAND kernel, for when it is first asked for."""
+    def build():
+        library = _compile(stem, [name], ops)[name]
+        return library, _checked(name, meta, _c_function(library, name, meta))
+    return build
 
 
 def _checked(name: str, meta: dict, function: Callable) -> Callable:
@@ -228,6 +261,12 @@ def optimisation(ops: int) -> str:
     """The -O level of a kernel unit of ``ops`` operations (see OPT_LIMIT_OPS)."""
     return "-O1" if ops <= OPT_LIMIT_OPS else "-O0"
 
+
+#: C kernels compiled when first asked for, not with the rest of their variant: the elements' inertia
+#: tangent (2.2e5 operations in `default`, the largest unit, at -O0) runs only with ``newton: exact`` or
+#: after a Newton failure (latdyn/step/integrators.py), so a run that never needs it does not compile it
+#: (docs/performance.md, "The inertia tangent generated by forward mode").
+ON_DEMAND = ("beam_inertia_tangent",)
 
 #: Kernels composed from their parts in the C backend (see above), name -> parts.
 COMPOSED = {
