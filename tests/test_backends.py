@@ -1,7 +1,9 @@
 """The real generated kernels: NumPy, C and a direct SymPy evaluation agree."""
 from __future__ import annotations
 
+import importlib
 import importlib.util
+import re
 
 import numpy as np
 import pytest
@@ -209,3 +211,18 @@ def test_auto_without_a_compiler_names_the_fix(monkeypatch, tmp_path):
         kernels.load_kernels("auto", "default")
     with pytest.raises(RuntimeError):
         kernels.load_kernels("c", "default")
+
+
+def test_each_compiled_unit_holds_its_kernel_alone():
+    """The C units compiled with a variant (latdyn.model.kernels._kernel_sources) hold one kernel each,
+    also when an ON_DEMAND kernel (compiled on first use) lies between them in the generated file."""
+    from latdyn.model.kernels import ON_DEMAND, PACKAGE, _kernel_sources
+
+    for variant in ("default", "default_xy"):
+        stem = f"beam_{variant}"
+        names = list(importlib.import_module(f"{PACKAGE}.{stem}").KERNELS)
+        assert set(ON_DEMAND) <= set(names)
+        for asked in ([n for n in names if n not in ON_DEMAND], list(ON_DEMAND)):
+            for name, unit in _kernel_sources(stem, asked).items():
+                defined = re.findall(rb"\nvoid (\w+)\(int64_t n", unit)
+                assert defined == [name.encode()], (variant, name, defined)

@@ -279,19 +279,22 @@ def _kernel_sources(stem: str, names) -> dict[str, bytes]:
     """The C source of each kernel as a translation unit of its own.
 
     ``codegen/templates/c_source.c.j2`` writes the includes, then every kernel after a comment
-    line ``/* NAME: ...``; the unit is the includes plus that kernel."""
+    line ``/* NAME: ...``; the unit is the includes plus that kernel, up to the next kernel of the
+    file (whether or not it is asked for: an ON_DEMAND kernel is not compiled with the others)."""
     try:
         source = (importlib.resources.files(PACKAGE) / f"{stem}.c").read_text()
     except (FileNotFoundError, OSError) as error:
         raise RuntimeError(f"no C source {stem}.c: {error}") from None
-    marks = {name: source.find(f"\n/* {name}: ") for name in names}
-    missing = [name for name, at in marks.items() if at < 0]
+    every = list(dict.fromkeys([*importlib.import_module(f"{PACKAGE}.{stem}").KERNELS, *names]))
+    marks = {name: source.find(f"\n/* {name}: ") for name in every}
+    missing = [name for name in names if marks[name] < 0]
     if missing:
         raise RuntimeError(f"{stem}.c has no kernel {', '.join(missing)}")
-    starts = sorted(marks.values())
+    starts = sorted(at for at in marks.values() if at >= 0)
     includes = source[: starts[0]].split("*/", 1)[-1]  # after the stamp comment
     units = {}
-    for name, at in marks.items():
+    for name in names:
+        at = marks[name]
         later = [s for s in starts if s > at]
         units[name] = (includes + source[at: later[0] if later else len(source)]).encode()
     return units
