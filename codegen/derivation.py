@@ -349,6 +349,13 @@ def configuration_tangent(of: str, name: str, plane: fm.Plane | None, doc: str) 
     geometry block (:func:`geometry_first_variation`), the log map's jet of θ/sin θ differentiated as
     a jet, ∂f⁽ᵏ⁾ = f⁽ᵏ⁺¹⁾ ∂x (its branch-free definition's |x − x_s| has none at the switch)."""
     seeds = {str(symbol): column for symbol, column in geometry_first_variation(plane).items()}
+    # directions 0-2 seed the rigid translation of both ends (d1 = d2), under which the element's forces are
+    # invariant: their tangents cancel line by line and are pruned, and ∂/∂d1 = (rigid) − ∂/∂d2
+    d1, d2 = range(cv.D1.start, cv.D1.stop), range(cv.D2.start, cv.D2.stop)
+    for column in seeds.values():
+        for a, b in zip(d1, d2):
+            column[a] = column[a] + column[b]
+    columns = [{a: 1, b: -1} if a in d1 else {a: 1} for a, b in zip(range(N), [*d2, *range(3, N)])]
     partials, definitions = {}, {}
     for i, (row, argument) in enumerate(zip(LOG_JET, LOG_ARGUMENT)):
         x = fm.to_sympy(argument)
@@ -357,7 +364,8 @@ def configuration_tangent(of: str, name: str, plane: fm.Plane | None, doc: str) 
             partials[orders[k]] = {str(argument): sp.Symbol(orders[k + 1], real=True)}
         for k in range(1, len(orders)):
             definitions[orders[k]] = fm.log_scale(x, k)
-    return Tangent(of=of, name=name, seeds=seeds, directions=N, doc=doc, partials=partials, definitions=definitions)
+    return Tangent(of=of, name=name, seeds=seeds, directions=N, doc=doc, partials=partials, definitions=definitions,
+                   columns=columns)
 
 
 def build_kernels(variant: str = "default") -> list[KernelSpec]:

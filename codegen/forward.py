@@ -15,6 +15,11 @@ every temporary that depends on none, has an identically zero tangent and emits 
 (sparsity: an end's quantities have no tangent in the other end's directions).  A partial used by
 more than one direction is a temporary of its own; what no output needs is dropped.
 
+The output's columns may be combinations of the directions seeded (``Tangent.columns``): the
+element's force is invariant under a rigid translation, so seeding that translation instead of
+one end's gives three directions whose tangents cancel line by line and are pruned, and
+∂/∂d₁ = (rigid) − ∂/∂d₂ costs a sign.
+
 A statement whose definition is not the function to differentiate (the branch-free jet of θ/sin θ,
 whose |x − x_s| has no derivative at the switch) carries its partials as a rule
 (``Tangent.partials``), with the definitions they use (``Tangent.definitions``).
@@ -121,7 +126,10 @@ def tangent_linear(temporaries: list, outputs: list[list], spec) -> tuple[list, 
     differentiated = flat_outputs[start:start + spec.outputs[names.index(request.of)].size]
     tangent = []
     for r, expr in enumerate(differentiated):
-        tangent.extend(total(f"{request.of}_{r}", expr, None))
+        rows = total(f"{request.of}_{r}", expr, None)
+        if request.columns is not None:  # the output's columns as combinations of the directions seeded
+            rows = [se.Add(*[se.sympify(c) * rows[d] for d, c in column.items()]) for column in request.columns]
+        tangent.extend(rows)
     ordered = _evaluation_order(statements, flat_outputs + tangent)
     for symbol, value in ordered:
         if value.atoms(se.Derivative, se.Subs):
@@ -133,7 +141,7 @@ def tangent_linear(temporaries: list, outputs: list[list], spec) -> tuple[list, 
     back.update({original: copy for original, copy in zip(values, (value for _, value in temporaries))})
     ordered = [(_to_sympy(symbol, back), _to_sympy(value, back)) for symbol, value in ordered]
     tangent = [_to_sympy(expr, back) for expr in tangent]
-    shape = (len(differentiated), D)
+    shape = (len(differentiated), D if request.columns is None else len(request.columns))
     extended = dataclasses.replace(spec, outputs=[*spec.outputs, Output(request.name, shape, tangent, request.doc)])
     return ordered, [*outputs, tangent], extended, int(op_count)
 

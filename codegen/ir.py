@@ -58,7 +58,8 @@ class Tangent:
     the inputs); an input not named does not move.  ``partials``: statement name → {argument name:
     ∂statement/∂argument}, for a statement whose definition is not the function to differentiate
     (the jet of θ/sin θ); ``definitions``: name → expression of what those partials use, added where
-    the kernel does not compute it.
+    the kernel does not compute it.  ``columns``: the output's columns as combinations of the seeded
+    directions (default: direction d is column d).
     """
 
     of: str
@@ -68,6 +69,9 @@ class Tangent:
     doc: str = ""
     partials: dict = field(default_factory=dict)
     definitions: dict = field(default_factory=dict)
+    #: the output's columns as combinations of the seeded directions ({direction: coefficient} each);
+    #: None: column d is direction d
+    columns: list | None = None
 
 
 @dataclass

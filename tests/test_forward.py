@@ -103,3 +103,24 @@ def test_a_statement_differentiated_by_its_rule():
                       tangent=Tangent("y", "y_D_x", {"x_0": [1]}, 1))
     with pytest.raises(emit.EmitError, match="not a closed form"):
         emit.lower(bare)
+
+
+def test_columns_combined_from_a_rigid_translation():
+    """An output invariant under moving x₀ and x₁ together: seeding that rigid motion (direction 0)
+    instead of x₀ alone, its tangent cancels line by line and nothing is emitted for it, and the
+    column ∂/∂x₀ = (rigid) − ∂/∂x₁ (Tangent.columns) is still the Jacobian's."""
+    x = X.symbols()
+    c = sp.Symbol("c", real=True)
+    seeds = {"x_0": [1, 0, 0], "x_1": [1, 1, 0], "x_2": [0, 0, 1]}
+    spec = KernelSpec("toy_chord", "", [X], [Output("y", (2,), [sp.sin(c) * x[2], c ** 3 / (1 + x[2] ** 2)])],
+                      intermediates=[(c, x[1] - x[0])],
+                      tangent=Tangent("y", "y_D_x", seeds, 3, "", columns=[{0: 1, 1: -1}, {1: 1}, {2: 1}]))
+    kernel = emit.lower(spec)
+    assert not any(symbol.name.endswith("_D0") for symbol, _ in kernel.temporaries)
+    xs = np.random.default_rng(7).normal(size=(3, 3))
+    _, tangent = _numpy(kernel)(xs)
+    (y,) = spec.eliminated_outputs()
+    for e in range(3):
+        values = dict(zip(x, xs[e]))
+        expected = np.array([[float(sp.diff(f, xi).subs(values)) for xi in x] for f in y])
+        np.testing.assert_allclose(tangent[e], expected, rtol=1e-13, atol=1e-14)
