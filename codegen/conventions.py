@@ -27,6 +27,12 @@ SECTION = Argument(
     "shear compliances cGAy = 1/GAy (deflection along local y, paired with EIz) and cGAz = 1/GAz "
     "(along local z, paired with EIy); 0 = shear-rigid (Euler-Bernoulli)",
 )
+ACCELERATION = Argument(
+    "acceleration",
+    14,
+    "[a1[3] alpha1[3] thetaddot1 a2[3] alpha2[3] thetaddot2]: accelerations of the reference points, spatial "
+    "angular accelerations of the joint bodies, hinge accelerations (order of q^e, Eq. 59)",
+)
 GRAVITY = Argument("gravity", 3, "uniform gravity acceleration, global")
 
 # Slices into the geometry block.

@@ -25,7 +25,7 @@ import sympy as sp
 
 from . import conventions as cv
 from . import formulation as fm
-from .ir import KernelSpec, Output
+from .ir import KernelSpec, Output, Tangent
 
 VARIANTS: dict[str, str] = {name: f.description for name, f in fm.FORMULATIONS.items()}
 
@@ -343,74 +343,37 @@ def geometry_first_variation(plane: fm.Plane | None = None) -> dict:
     return variation
 
 
-def forward_derivative(b: Builder, expressions: list, seeds: dict, directions: int, name: str) -> list[list]:
-    """∂(expressions)/∂q in ``directions`` directions, by the chain rule through ``b``'s named intermediates.
-
-    ``seeds`` gives the derivative of each input symbol that moves ({symbol: [directions]}); every
-    intermediate s = e(…) that depends on a moving symbol gets its derivative as named intermediates
-    ``{s}_{name}_{a}`` = Σ_x (∂e/∂x) ∂x/∂q_a, the partials ∂e/∂x named once and shared by the
-    directions: exact, and as structured as the kernel it differentiates (the same chain of named
-    quantities, each step a small symbolic derivative), so CSE sees short expressions.  The jet of
-    θ/sin θ (:data:`LOG_JET`) is differentiated as a jet, ∂f⁽ᵏ⁾ = f⁽ᵏ⁺¹⁾ ∂x, not through its branch-free
-    definition (whose |x − x_s| has no derivative at the switch); f⁽³⁾ is defined where it is needed.
-    Returns the rows ∂expression/∂q (len(expressions) × directions).
-    """
-    # only what the expressions use: the kernel's other intermediates (e.g. ∂ϊ/∂q̇ of the rates) need no derivative
-    definition = {symbol: value for symbol, value in b.intermediates}
-    used, pending = set(), [x for e in expressions for x in sp.sympify(e).free_symbols]
-    while pending:
-        x = pending.pop()
-        if x in definition and x not in used:
-            used.add(x)
-            pending.extend(definition[x].free_symbols)
-    derivative = dict(seeds)
-    jet_order = {str(f): (i, k) for i, row in enumerate(LOG_JET) for k, f in enumerate(row)}
-    arguments = [fm.to_sympy(x) for x in LOG_ARGUMENT]
-    third = {}
-
-    def total(expr, label):
-        expr = sp.sympify(expr)
-        moving = sorted((x for x in expr.free_symbols if x in derivative), key=str)
-        if not moving:
-            return None
-        partials = []
-        for x in moving:
-            partial = sp.diff(expr, x)
-            if partial.has(sp.Derivative, sp.Subs, sp.sign, sp.Abs, sp.Heaviside):
-                raise ValueError(f"{label}: ∂/∂{x} is not a closed form ({partial.func.__name__})")
-            partials.append((b.define(f"{label}_by_{x}", partial) if len(moving) > 1 else partial, derivative[x]))
-        return [sp.Add(*[p * d[a] for p, d in partials if d[a] != 0]) for a in range(directions)]
-
-    for symbol, value in list(b.intermediates):
-        if symbol not in used:
-            continue
-        if str(symbol) in jet_order:
-            i, k = jet_order[str(symbol)]
-            x = arguments[i]
-            if x not in derivative:
-                continue
-            if k + 1 < len(LOG_JET[i]):
-                higher = fm.to_sympy(LOG_JET[i][k + 1])
-            else:
-                if i not in third:
-                    third[i] = b.define(f"logmap_f3_{i + 1}", fm.log_scale(x, 3))
-                higher = third[i]
-            rows = [higher * d for d in derivative[x]]
-        else:
-            rows = total(value, str(symbol))
-            if rows is None:
-                continue
-        derivative[symbol] = [b.define(f"{symbol}_{name}_{a}", r) for a, r in enumerate(rows)]
-    zero = [sp.Integer(0)] * directions
-    return [total(expr, f"{name}_out_{r}") or zero for r, expr in enumerate(expressions)]
+def configuration_tangent(of: str, name: str, plane: fm.Plane | None, doc: str) -> Tangent:
+    """The request for ∂(output ``of``)/∂q^e under the configuration update, as the output ``name``
+    (forward mode of the lowered kernel, codegen/forward.py): seeded with the first variation of the
+    geometry block (:func:`geometry_first_variation`), the log map's jet of θ/sin θ differentiated as
+    a jet, ∂f⁽ᵏ⁾ = f⁽ᵏ⁺¹⁾ ∂x (its branch-free definition's |x − x_s| has none at the switch)."""
+    seeds = {str(symbol): column for symbol, column in geometry_first_variation(plane).items()}
+    # directions 0-2 seed the rigid translation of both ends (d1 = d2), under which the element's forces are
+    # invariant: their tangents cancel line by line and are pruned, and ∂/∂d1 = (rigid) − ∂/∂d2
+    d1, d2 = range(cv.D1.start, cv.D1.stop), range(cv.D2.start, cv.D2.stop)
+    for column in seeds.values():
+        for a, b in zip(d1, d2):
+            column[a] = column[a] + column[b]
+    columns = [{a: 1, b: -1} if a in d1 else {a: 1} for a, b in zip(range(N), [*d2, *range(3, N)])]
+    partials, definitions = {}, {}
+    for i, (row, argument) in enumerate(zip(LOG_JET, LOG_ARGUMENT)):
+        x = fm.to_sympy(argument)
+        orders = [str(f) for f in row] + [f"logmap_f{len(row)}_{i + 1}"]
+        for k in range(len(row)):
+            partials[orders[k]] = {str(argument): sp.Symbol(orders[k + 1], real=True)}
+        for k in range(1, len(orders)):
+            definitions[orders[k]] = fm.log_scale(x, k)
+    return Tangent(of=of, name=name, seeds=seeds, directions=N, doc=doc, partials=partials, definitions=definitions,
+                   columns=columns)
 
 
-def build_kernels(variant: str = "default", gravity_tangent: bool = True) -> list[KernelSpec]:
+def build_kernels(variant: str = "default") -> list[KernelSpec]:
     """All kernels of one variant (see :data:`VARIANTS`).
 
-    ``gravity_tangent=False`` leaves out ``beam_gravity_D_q``, the one kernel whose derivation takes
-    minutes (tests that re-derive the others in SymPy; it is verified against central differences of
-    ``beam_gravity`` in tests/test_element.py and tests/test_planar.py).
+    ``beam_inertia_tangent`` and ``beam_gravity_D_q`` carry a tangent (``KernelSpec.tangent``): their
+    derivative output is the forward-mode derivative of the lowered kernel, added by codegen/emit.py
+    ``lower`` (codegen/forward.py), not an expression of the spec.
     """
     if variant not in fm.FORMULATIONS:
         raise ValueError(f"unknown variant {variant!r} (known: {', '.join(fm.FORMULATIONS)})")
@@ -500,14 +463,14 @@ def build_kernels(variant: str = "default", gravity_tangent: bool = True) -> lis
     with_gravity = [cv.GEOMETRY, cv.SECTION, cv.GRAVITY]
     kernels: list[KernelSpec] = []
 
-    def add(name, doc, equations, inputs, outputs, builder):
+    def add(name, doc, equations, inputs, outputs, builder, tangent=None):
         if planar_values:  # inputs used directly (not through the kinematics) take their planar values too
             builder.intermediates = [(s, e.xreplace(planar_values)) for s, e in builder.intermediates]
             outputs = [Output(o.name, o.shape, [sp.sympify(e).xreplace(planar_values) for e in o.expressions], o.doc)
                        for o in outputs]
         kernels.append(
             KernelSpec(name=name, doc=doc, inputs=list(inputs), outputs=outputs, variant=variant,
-                       equations=equations, intermediates=builder.intermediates)
+                       equations=equations, intermediates=builder.intermediates, tangent=tangent)
         )
 
     # --- deformation ---
@@ -600,11 +563,32 @@ def build_kernels(variant: str = "default", gravity_tangent: bool = True) -> lis
         [Output("gravity_force", (N,), Q), Output("gravity_potential", (), [potential]),
          Output("first_moment", (3,), centre)], b)
 
-    if not gravity_tangent:
-        return kernels
+    # --- the inertia tangent: ∂(M a + g − Q)/∂q under the configuration update q ∘ exp(Δ), at fixed spatial
+    # rates and accelerations: the term of Newton's matrix that K leaves out (latdyn/step/integrators.py).
+    # r = M a + g − Q = Jᵀ [M̂ (J a + J̇q̇) + ĝ − Sᵀ T_cᵀ g_grav] (Eqs. 56–58, 62) is lowered as any kernel, and its
+    # tangent is the forward-mode derivative of that program (codegen/forward.py), seeded with the first
+    # variation of the geometry block (geometry_first_variation).
+    b = Builder(kin.auxiliary + shear_definitions)
+    p = inertia(b, with_velocity=True)
+    acceleration = [0 if a in out_of_plane else symbol for a, symbol in enumerate(cv.ACCELERATION.symbols())]
+    Ja = b.vector("Ja", [sp.Add(*[p["J"][i][a] * acceleration[a] for a in range(N)]) for i in range(12)])
+    TcT = p["TcT"]
+    g_local = b.vector("gc", [sp.Add(*[TcT[i][k] * gravity[k] for k in range(3)]) for i in range(3)])
+    S = p["first_moment"]
+    local = b.vector("inertia_local", [
+        sp.Add(*[p["Mhat"][i][j] * (Ja[j] + p["Jdq"][j]) for j in range(12)]) + p["ghat"][i]
+        - sp.Add(*[S[k, i].xreplace(p["rename"]) * g_local[k] for k in range(3)]) for i in range(12)])
+    force = [sp.Add(*[p["J"][i][a] * local[i] for i in range(12)]) for a in range(N)]
+    add("beam_inertia_tangent", "Inertia force M a + g − Q of gravity and its exact tangent ∂(M a + g − Q)/∂q "
+        "at fixed spatial rates and accelerations (forward mode of the lowered force, codegen/forward.py)",
+        "Eqs. 50-58, 61-62", [cv.GEOMETRY, cv.VELOCITY, cv.ACCELERATION, cv.SECTION, cv.GRAVITY],
+        [Output("inertia_force", (N,), force)], b,
+        tangent=configuration_tangent("inertia_force", "inertia_tangent", plane,
+                                      "∂(M a + g − Q)/∂q, row-major: [r, d] = ∂r_r/∂q_d"))
+
     # --- the tangent of the gravity load: ∂Q/∂q under the configuration update q ∘ exp(Δ) ---
-    # Q = Jᵀ Sᵀ(Ψ) T_cᵀ g (Eqs. 47, 50, 58) differentiated through its own named intermediates
-    # (forward_derivative) from the first variation of the geometry block (geometry_first_variation):
+    # Q = Jᵀ Sᵀ(Ψ) T_cᵀ g (Eqs. 47, 50, 58) lowered as beam_gravity, its tangent the forward-mode derivative of
+    # that program (codegen/forward.py) from the first variation of the geometry block (geometry_first_variation):
     # the term the static Newton matrix K − λ ∂Q/∂q needs besides ∂F_i/∂q.
     b = Builder(kin.auxiliary + shear_definitions)
     p = inertia(b, with_velocity=False)
@@ -613,11 +597,9 @@ def build_kernels(variant: str = "default", gravity_tangent: bool = True) -> lis
     S = p["first_moment"]
     Q_local = b.vector("Qc", [sp.Add(*[S[k, i].xreplace(p["rename"]) * g_local[k] for k in range(3)]) for i in range(12)])
     Q = [sp.Add(*[p["J"][i][a] * Q_local[i] for i in range(12)]) for a in range(N)]
-    if planar_values:  # differentiate the planar element itself: its inputs take their planar values first
-        b.intermediates = [(s_, e.xreplace(planar_values)) for s_, e in b.intermediates]
-        Q = [sp.sympify(q).xreplace(planar_values) for q in Q]
-    tangent = forward_derivative(b, Q, geometry_first_variation(plane), N, "D_q")
-    add("beam_gravity_D_q", "Generalized load of uniform gravity Q and its exact tangent ∂Q/∂q",
-        "Eqs. 47, 50, 58", with_gravity,
-        [Output("gravity_force", (N,), Q), Output("gravity_force_D_q", (N, N), _flat(tangent))], b)
+    add("beam_gravity_D_q", "Generalized load of uniform gravity Q and its exact tangent ∂Q/∂q "
+        "(forward mode of the lowered load, codegen/forward.py)", "Eqs. 47, 50, 58", with_gravity,
+        [Output("gravity_force", (N,), Q)], b,
+        tangent=configuration_tangent("gravity_force", "gravity_force_D_q", plane,
+                                      "∂Q/∂q, row-major: [r, d] = ∂Q_r/∂q_d"))
     return kernels

@@ -222,8 +222,16 @@ def lower(spec: KernelSpec) -> LoweredKernel:
     for out in spec.outputs:
         outputs.append(outputs_sympy[start:start + out.size])
         start += out.size
+    if getattr(spec, "tangent", None) is not None:  # the tangent-linear program of what was just lowered (codegen/forward.py)
+        from .forward import TangentError, tangent_linear
+
+        try:
+            temporaries, outputs, spec, op_count = tangent_linear(temporaries, outputs, spec)
+        except TangentError as error:
+            raise EmitError(str(error)) from None
+        return LoweredKernel(spec, temporaries, outputs, op_count)
     op_count = sum(sp.count_ops(value) for _, value in temporaries)
-    op_count += sum(sp.count_ops(expr) for expr in outputs_sympy)
+    op_count += sum(sp.count_ops(expr) for exprs in outputs for expr in exprs)
     return LoweredKernel(spec, temporaries, outputs, int(op_count))
 
 

@@ -48,6 +48,32 @@ class Output:
         return prod(self.shape)
 
 
+@dataclass(frozen=True)
+class Tangent:
+    """The derivative of one output, emitted as the tangent-linear program of the lowered kernel
+    (:mod:`codegen.forward`): a new output ``name`` of shape (size of ``of``, ``directions``),
+    entry [r, d] = ∂of_r/∂q_d.
+
+    ``seeds``: input scalar name (``geometry_7``) → its derivative in each direction (expressions of
+    the inputs); an input not named does not move.  ``partials``: statement name → {argument name:
+    ∂statement/∂argument}, for a statement whose definition is not the function to differentiate
+    (the jet of θ/sin θ); ``definitions``: name → expression of what those partials use, added where
+    the kernel does not compute it.  ``columns``: the output's columns as combinations of the seeded
+    directions (default: direction d is column d).
+    """
+
+    of: str
+    name: str
+    seeds: dict
+    directions: int
+    doc: str = ""
+    partials: dict = field(default_factory=dict)
+    definitions: dict = field(default_factory=dict)
+    #: the output's columns as combinations of the seeded directions ({direction: coefficient} each);
+    #: None: column d is direction d
+    columns: list | None = None
+
+
 @dataclass
 class KernelSpec:
     """A batched kernel ``name(inputs…) -> outputs…``."""
@@ -62,6 +88,8 @@ class KernelSpec:
     # intermediates and the outputs may refer to earlier ones by their symbol.
     intermediates: list[tuple[sp.Symbol, sp.Expr]] = field(default_factory=list)  # the CR-4402 equations this kernel implements, for the file header
     extra: dict = field(default_factory=dict)
+    #: an output differentiated by forward mode after CSE (codegen/forward.py); its output is added by emit.lower
+    tangent: Tangent | None = None
 
     def eliminated_outputs(self) -> list[list[sp.Expr]]:
         """The outputs with every intermediate substituted (for direct evaluation in tests)."""

@@ -53,8 +53,7 @@ class ReferenceGeneralizedAlpha(GeneralizedAlpha):
         previous = np.inf
         for iteration in range(1, self.max_iterations + 1):
             trial = configured()
-            ev = self.assembler.evaluate(trial, matrices=True, inertia_tangent=self.inertia_tangent and n > 0,
-                                         length=self.length_scale)
+            ev = self.assembler.evaluate(trial, matrices=True, inertia_tangent=self.inertia_tangent and n > 0)
             self.last_evaluation = ev
             if n == 0:
                 stats.converged = True

@@ -93,6 +93,7 @@ def test_planar_kernels_equal_the_3d_element_in_the_plane(pair):
         s = planar_state(rng, normal, hinges=hinges)
         geometry, section = s.geometry(), s.section[None]
         qdot = planar_velocity(rng, normal)[None]
+        acceleration = planar_velocity(rng, normal)[None]
         gravity = np.zeros((1, 3))
         gravity[0, (normal + 1) % 3], gravity[0, (normal + 2) % 3] = rng.normal(size=2)
         pairs = [
@@ -109,6 +110,8 @@ def test_planar_kernels_equal_the_3d_element_in_the_plane(pair):
              None),
             (full.beam_gravity(geometry, section, gravity), planar.beam_gravity(geometry, section, gravity),
              "vector"),
+            (full.beam_inertia_tangent(geometry, qdot, acceleration, section, gravity),
+             planar.beam_inertia_tangent(geometry, qdot, acceleration, section, gravity), "vector-matrix"),
         ]
         for expected_outputs, actual_outputs, kind in pairs:
             for k, (expected, actual) in enumerate(zip(expected_outputs, actual_outputs)):
@@ -155,6 +158,15 @@ def test_planar_derivatives_against_finite_differences(pair):
         (_, exact) = planar.beam_quadratic_velocity_D_qdot(s.geometry(), qdot[None], section)
         unit = np.eye(14)
         numeric = np.column_stack([(g(qdot + H * unit[k]) - g(qdot - H * unit[k])) / (2 * H) for k in keep])
+        np.testing.assert_allclose(exact[0][:, keep], numeric, rtol=0, atol=1e-6 * np.abs(exact).max())
+        # the inertia tangent ∂(M a + g − Q)/∂q at fixed in-plane rates and accelerations
+        acceleration = planar_velocity(rng, normal)
+        gravity = np.zeros((1, 3))
+        gravity[0, (normal + 1) % 3], gravity[0, (normal + 2) % 3] = rng.normal(size=2)
+        inertia = lambda g: planar.beam_inertia_tangent(g, qdot[None], acceleration[None], section,  # noqa: E731
+                                                        gravity)[0][0]
+        (_, exact) = planar.beam_inertia_tangent(s.geometry(), qdot[None], acceleration[None], section, gravity)
+        numeric = np.column_stack([(inertia(moved(k, H)) - inertia(moved(k, -H))) / (2 * H) for k in keep])
         np.testing.assert_allclose(exact[0][:, keep], numeric, rtol=0, atol=1e-6 * np.abs(exact).max())
 
 

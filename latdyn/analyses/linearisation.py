@@ -169,8 +169,7 @@ def tangent_q(assembler, state, load_factor: float = 1.0, inertia: bool = True) 
     :func:`column_groups` group from one pair of perturbations."""
     model = assembler.model
     if model.links is None:
-        return np.asarray(assembler.exact_matrices(state, load_factor, inertia, length_scale(model), dense=True)[2],
-                          dtype=float)
+        return np.asarray(assembler.exact_matrices(state, load_factor, inertia, dense=True)[2], dtype=float)
     return tangent_q_by_differences(assembler, state, load_factor, inertia)
 
 

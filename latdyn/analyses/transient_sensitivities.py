@@ -437,7 +437,7 @@ class TransientSensitivities(ParameterDerivatives):
         """M, C and the exact K at ``state`` (:meth:`latdyn.assembly.assembler.Assembler.exact_matrices`:
         the elements' inertia tangent and the joint bodies' ``joint_body_inertia_stiffness``, which the
         step's Newton matrix leaves out)."""
-        return self.assembler.exact_matrices(state, length=self.length)
+        return self.assembler.exact_matrices(state)
 
     def _rotation_operators(self, increment: np.ndarray):
         """(R·, J·) on free-coordinate columns for the step's increment hΔq: on each free node's

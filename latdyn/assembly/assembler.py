@@ -242,19 +242,19 @@ class Assembler:
 
     # -- the equations of motion ------------------------------------------------
     def evaluate(self, state: State, matrices: bool = True, load_factor: float = 1.0,
-                 inertia: bool = True, inertia_tangent: bool = False, length: float = 1.0) -> Evaluation:
+                 inertia: bool = True, inertia_tangent: bool = False) -> Evaluation:
         """Residual r(q, v, v̇, t) on the free coordinates (and, with ``matrices``, the blocks of M, C, K);
         ``inertia=False``: the static residual; ``load_factor`` scales loads, gravity and hinge torques;
-        ``inertia_tangent``: K includes the elements' ∂(M v̇ + g − f_gravity)/∂q by central differences
-        (steps of ``length`` for translations; latdyn/step/integrators.py says when).
+        ``inertia_tangent``: K includes the elements' exact ∂(M v̇ + g − f_gravity)/∂q (the generated
+        kernel beam_inertia_tangent; latdyn/step/integrators.py says when).
         With rigid links the dependent nodes are completed first and the result is reduced to the
         minimum coordinates (:func:`latdyn.assembly.linked.evaluate_linked`)."""
         if self.model.links is not None:
             return evaluate_linked(self.model.links, self, state, matrices, load_factor, inertia,
-                                   inertia_tangent, length)
-        return self.evaluate_assembled(state, matrices, load_factor, inertia, inertia_tangent, length)
+                                   inertia_tangent)
+        return self.evaluate_assembled(state, matrices, load_factor, inertia, inertia_tangent)
 
-    def exact_matrices(self, state: State, load_factor: float = 1.0, inertia: bool = True, length: float = 1.0,
+    def exact_matrices(self, state: State, load_factor: float = 1.0, inertia: bool = True,
                        dense: bool | None = None):
         """(M, C, K) on the free coordinates at ``state``, K the EXACT ∂r/∂q at fixed velocities and
         accelerations, for the analyses that need the derivative itself rather than a Newton matrix
@@ -267,8 +267,7 @@ class Assembler:
         if model.links is not None:
             raise ValueError("exact_matrices: the reduction onto minimum coordinates of rigid links and guides "
                              "has no exact tangent here")
-        ev = self.evaluate(state, matrices=True, load_factor=load_factor, inertia=inertia, inertia_tangent=inertia,
-                           length=length)
+        ev = self.evaluate(state, matrices=True, load_factor=load_factor, inertia=inertia, inertia_tangent=inertia)
         M, C, K = (ev.combined(*c, dense=dense) for c in ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)))
         if not (inertia and len(model.body_nodes)):
             return M, C, K
@@ -295,11 +294,11 @@ class Assembler:
         return M, C, K
 
     def evaluate_assembled(self, state: State, matrices: bool, load_factor: float, inertia: bool,
-                           inertia_tangent: bool = False, length: float = 1.0) -> Evaluation:
+                           inertia_tangent: bool = False) -> Evaluation:
         """The equations of motion on the first ``n_assembled`` coordinates (free, then dependent):
         one native evaluation (``latdyn_evaluate``, csrc/evaluate.c), its blocks copied out."""
         native = self.native(inertia_tangent)
-        total, power = native.evaluate(state, matrices, load_factor, inertia, inertia_tangent, length)
+        total, power = native.evaluate(state, matrices, load_factor, inertia, inertia_tangent)
         return self.evaluation_in(native, total, power, matrices, inertia, inertia_tangent)
 
     def evaluation_in(self, native: NativeModel, total: np.ndarray, power: float, matrices: bool, inertia: bool,

@@ -57,9 +57,9 @@ class ModelData(ctypes.Structure):
         ("factorization", ctypes.POINTER(FactorizationStructure)),
         ("internal_force", P), ("internal_force_D_q", P), ("mass_matrix", P), ("quadratic_velocity", P),
         ("quadratic_velocity_D_qdot", P), ("gravity_load", P), ("strain_energy", P), ("kinetic_energy", P),
+        ("inertia_force_D_q", P),
         ("joint_body", P), ("point_load", P), ("body_section", P), ("hinged_end", P), ("element_ends", P), ("hinge_force", P), ("so3_exp", P),
         ("parallel_elements", I64), ("threads", I64),
-        ("node_colour", P), ("hinge_node", P), ("n_colours", I64),
         ("time_laws", P), ("hinge_laws", P),
         ("hinge_stiffness_law", P), ("hinge_damping_law", P), ("hinge_torque_hinge_law", P), ("hinge_conservative", P),
         ("hinge_lock_at", P), ("hinge_lower_stop", P), ("hinge_upper_stop", P), ("has_events", I64),
@@ -105,9 +105,7 @@ class WorkData(ctypes.Structure):
         "body_damping", "body_stiffness", "load_blocks", "strain",
         "section_forces", "kinetic", "total",
         "matrix", "pivots", "rhs",
-        "inertia_tangent", "forces_plus", "forces_minus", "perturbed_x", "perturbed_T", "perturbed_theta",
-        "p_geometry", "p_rates", "p_accelerations", "p_mass", "p_quadratic", "p_gravity_force",
-        "p_gravity_potential", "p_first_moment", "laws", "hinge_d_theta", "hinge_d_rate", "cable_work",
+        "inertia_tangent", "inertia_force", "laws", "hinge_d_theta", "hinge_d_rate", "cable_work",
         "joint_forces",
         "sensor_values", "controller_gradient", "controller_scratch", "coupling_stiffness", "coupling_damping",
         "cable_vector", "cable_stiffness", "cable_damping", "cable_state", "cable_strain", "cable_gap",
@@ -131,7 +129,7 @@ class VectorsData(ctypes.Structure):
 class ControlData(ctypes.Structure):
     _fields_ = [(name, ctypes.c_double) for name in ("h", "alpha_m", "alpha_f", "gamma", "beta", "tol",
                                                       "length")] + [
-        ("max_iterations", I64), ("modified", I64), ("inertia_tangent", I64), ("tangent_step", ctypes.c_double),
+        ("max_iterations", I64), ("modified", I64), ("inertia_tangent", I64),
         ("contraction", ctypes.c_double),
         ("factored_h", ctypes.c_double), ("iterations", I64), ("converged", I64), ("factorizations", I64),
         ("power", ctypes.c_double), ("contraction_seen", ctypes.c_double), ("t_new", ctypes.c_double)]
@@ -141,8 +139,7 @@ class EvaluationData(ctypes.Structure):
     """``EvaluationControl`` of csrc/evaluate.c."""
 
     _fields_ = [("t", ctypes.c_double), ("load_factor", ctypes.c_double), ("inertia", I64), ("matrices", I64),
-                ("inertia_tangent", I64), ("tangent_step", ctypes.c_double), ("length", ctypes.c_double),
-                ("power", ctypes.c_double)]
+                ("inertia_tangent", I64), ("power", ctypes.c_double)]
 
 
 class StaticControlData(ctypes.Structure):

@@ -56,10 +56,10 @@ class LinkedEvaluation(SeparateMatrices):
 
 
 def evaluate_linked(links, assembler, state, matrices: bool, load_factor: float, inertia: bool,
-                    inertia_tangent: bool = False, length: float = 1.0):
+                    inertia_tangent: bool = False):
     """The equations of motion on the minimum coordinates (module docstring)."""
     assembler.complete_links(state)
-    full = assembler.evaluate_assembled(state, matrices, load_factor, inertia, inertia_tangent, length)
+    full = assembler.evaluate_assembled(state, matrices, load_factor, inertia, inertia_tangent)
     return reduce_linked(links, assembler, state, full, matrices, inertia)
 
 

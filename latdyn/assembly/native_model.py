@@ -32,10 +32,6 @@ from latdyn.assembly.library import (
 from latdyn.assembly.native_links import native_links
 from latdyn.model.model import PRESCRIBED
 
-#: Central-difference step of the elements' inertia tangent (radians for rotations and hinges,
-#: the scene's length times it for translations): latdyn/step/integrators.py says when it is used.
-INERTIA_TANGENT_STEP = 1e-6
-
 #: The arrays of a state, in the order of the C ``Configuration``.
 STATE_FIELDS = ("x", "T", "v", "w", "a", "alpha", "theta", "theta_dot", "theta_ddot")
 
@@ -86,26 +82,6 @@ def joint_contact_rows(hinges) -> np.ndarray:
             row[5:11] = (f.coulomb, f.static, 1.0 / f.stribeck_rate if smooth else 0.0, float(smooth), f.viscous,
                          f.stick_rate)
     return rows
-
-
-def node_colouring(model) -> np.ndarray:
-    """A colour per node such that the two ends of every element differ (greedy, in node
-    order: a beam's chain of nodes gets two colours). Nodes of one colour are perturbed
-    together by the inertia tangent: each element then sees the perturbation of one end only."""
-    n_nodes = len(model.nodes)
-    neighbours: list[set] = [set() for _ in range(n_nodes)]
-    for a, b in np.asarray(model.element_nodes).reshape(-1, 2):
-        if a != b:
-            neighbours[int(a)].add(int(b))
-            neighbours[int(b)].add(int(a))
-    colour = np.zeros(n_nodes, dtype=np.int64)
-    for i in range(n_nodes):
-        used = {int(colour[k]) for k in neighbours[i] if k < i}
-        c = 0
-        while c in used:
-            c += 1
-        colour[i] = c
-    return colour
 
 
 class SceneLaws:
@@ -218,7 +194,7 @@ def has_gravity_tangent(kernels) -> bool:
 
 
 def _kernel_address(kernels, name: str) -> int:
-    return ctypes.cast(getattr(kernels.libraries[name], name), ctypes.c_void_p).value
+    return ctypes.cast(getattr(kernels.library(name), name), ctypes.c_void_p).value
 
 
 class NativeModel:
@@ -272,7 +248,6 @@ class NativeModel:
         lock_at = [np.nan if h.lock_at is None else float(h.lock_at) for h in m.hinges]
         lower = [np.nan if h.limits is None else float(h.limits[0]) for h in m.hinges]
         upper = [np.nan if h.limits is None else float(h.limits[1]) for h in m.hinges]
-        colour = node_colouring(m)
         # the hinged_end kernel's input of each element end (e, 2, 16): hinge axis, grid point,
         # element axes at t = 0 (node axes), and the hinge angle, filled in by the C code
         element_ends = np.concatenate([m.element_axes, m.element_offsets, m.element_frames0.reshape(-1, 2, 9),
@@ -286,6 +261,8 @@ class NativeModel:
             "beam_internal_force", "beam_internal_force_D_q", "beam_mass_matrix", "beam_quadratic_velocity",
             "beam_quadratic_velocity_D_qdot", "beam_gravity", "beam_strain_energy", "beam_kinetic_energy",
             "joint_body", "point_load", "hinged_end", "hinge_force", "so3_exp", "cable_force")})
+        # compiled on first use (latdyn.model.kernels.ON_DEMAND): only for a model that evaluates the inertia tangent
+        kernel["beam_inertia_tangent"] = _kernel_address(kernels, "beam_inertia_tangent") if inertia_tangent else None
         CE = len(cables) if cables is not None else 0
         self.model = ModelData(
             n_nodes=N, n_hinges=H, n_elements=E, n_bodies=B, n_loads=L, n_dofs=m.n_dofs, n_total=m.n_total,
@@ -313,12 +290,11 @@ class NativeModel:
             mass_matrix=kernel["beam_mass_matrix"], quadratic_velocity=kernel["beam_quadratic_velocity"],
             quadratic_velocity_D_qdot=kernel["beam_quadratic_velocity_D_qdot"], gravity_load=kernel["beam_gravity"],
             strain_energy=kernel["beam_strain_energy"], kinetic_energy=kernel["beam_kinetic_energy"],
+            inertia_force_D_q=kernel["beam_inertia_tangent"],
             joint_body=kernel["joint_body"], point_load=kernel["point_load"], body_section=arr(body_section),
             hinged_end=kernel["hinged_end"], element_ends=arr(element_ends), hinge_force=kernel["hinge_force"],
             so3_exp=kernel["so3_exp"],
             parallel_elements=parallel_threshold(), threads=0,
-            node_colour=ints(colour), hinge_node=ints([h.node for h in m.hinges]),
-            n_colours=int(colour.max(initial=-1)) + 1,
             time_laws=time_laws, hinge_laws=hinge_laws,
             hinge_stiffness_law=ints(stiffness_law), hinge_damping_law=ints(damping_law),
             hinge_torque_hinge_law=ints(torque_hinge_law),
@@ -379,11 +355,7 @@ class NativeModel:
             "hinge_work_torque": (H,), "hinge_damper_torque": (H,),
             "gravity_tangent": (E, 14, 14) if a.has_gravity else (0,),
             "gravity_force_D_q": (E, 14) if a.has_gravity else (0,)}
-        tangent = {"inertia_tangent": (E, 14, 14), "forces_plus": (E, 14), "forces_minus": (E, 14),
-                   "perturbed_x": (N, 3), "perturbed_T": (N, 3, 3), "perturbed_theta": (H,),
-                   "p_geometry": (E, 36), "p_rates": (E, 14), "p_accelerations": (E, 14), "p_mass": (E, 14, 14),
-                   "p_quadratic": (E, 14), "p_gravity_force": (E, 14), "p_gravity_potential": (E,),
-                   "p_first_moment": (E, 3)}
+        tangent = {"inertia_tangent": (E, 14, 14), "inertia_force": (E, 14)}
         work.update({name: shape if inertia_tangent else (0,) for name, shape in tangent.items()})
         #: the rigid links as csrc/links.c reads them (None without): their kinematics, until the
         #: compiled step holds its matrix (hold_links)
@@ -397,7 +369,7 @@ class NativeModel:
         for name, buffer in self.buffers.items():
             self.set_buffer(name, buffer)
         self.model_ref, self.work_ref = ctypes.byref(self.model), ctypes.byref(self.work)
-        self._control = EvaluationData(tangent_step=INERTIA_TANGENT_STEP)
+        self._control = EvaluationData()
         self._copies = None
         #: what the compiled step's iteration matrix storage keeps alive (latdyn.step.compiled)
         self.matrix_storage = None
@@ -466,8 +438,8 @@ class NativeModel:
         self.library.latdyn_prescribe(self.model_ref, self.work_ref, ctypes.byref(configuration), float(t))
         self._written_back(state)
 
-    def evaluate(self, state, matrices: bool, load_factor: float, inertia: bool, inertia_tangent: bool,
-                 length: float = 1.0) -> tuple[np.ndarray, float]:
+    def evaluate(self, state, matrices: bool, load_factor: float, inertia: bool,
+                 inertia_tangent: bool) -> tuple[np.ndarray, float]:
         """``latdyn_evaluate`` at ``state``: a copy of the vector of all coordinates (n_total + 1)
         and the power of loads and hinge torques; the blocks are left in :attr:`buffers`."""
         if inertia_tangent and not self.has_inertia_tangent:
@@ -475,7 +447,7 @@ class NativeModel:
         control = self._control
         control.t, control.load_factor = float(state.t), float(load_factor)
         control.inertia, control.matrices = int(inertia), int(matrices)
-        control.inertia_tangent, control.length = int(inertia_tangent), float(length)
+        control.inertia_tangent = int(inertia_tangent)
         self.laws.bind_inputs()
         self.library.latdyn_evaluate(self.model_ref, self.work_ref, ctypes.byref(self.configuration(state)),
                                      ctypes.byref(control))

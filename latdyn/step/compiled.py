@@ -74,7 +74,7 @@ from latdyn.assembly.library import (
     native_library,
     parallel_threshold,
 )
-from latdyn.assembly.native_model import INERTIA_TANGENT_STEP, STATE_FIELDS, state_shapes
+from latdyn.assembly.native_model import STATE_FIELDS, state_shapes
 from latdyn.step.integrators import GeneralizedAlpha, StepStats
 
 
@@ -192,7 +192,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         native.model.parallel_elements, native.model.threads = self.parallel_elements, self.threads
         n = self.assembler.model.n_dofs
         self._control = ControlData(max_iterations=self.max_iterations, modified=int(self.modified),
-                                    inertia_tangent=int(self.inertia_tangent), tangent_step=INERTIA_TANGENT_STEP,
+                                    inertia_tangent=int(self.inertia_tangent),
                                     contraction=self.contraction, factored_h=0.0, tol=self.tol,
                                     length=self.length_scale)
         for name in ("alpha_m", "alpha_f", "gamma", "beta"):

@@ -21,9 +21,9 @@ with the nodal twist (a twist inertia ~ φ², :mod:`latdyn.numerics.inertia`), s
 and gravity forces change with the twist as much as the internal force does, in
 opposite sense, and K alone makes Newton diverge on the twist at any step size
 (D4, docs/verification.md).  When Newton fails, the time loop switches the run to
-``inertia_tangent`` (the omitted term by central differences, element by element, in the
-native evaluation: ``inertia_tangent`` of latdyn/assembly/csrc/evaluate.c, its perturbations
-colour by colour so that every element sees one end move at a time) before it cuts the step.
+``inertia_tangent`` (the omitted term, exact: the generated kernel beam_inertia_tangent,
+codegen/derivation.py, called element by element by ``inertia_tangent`` of
+latdyn/assembly/csrc/evaluate.c) before it cuts the step.
 
 The same scheme gives, by its parameters:
   ``generalized-alpha``: α_m = (2ρ∞ − 1)/(ρ∞ + 1), α_f = ρ∞/(ρ∞ + 1)

@@ -12,8 +12,8 @@
  * latdyn/assembly/linked.py) reads the same numbers: latdyn_evaluate, called from Python by
  * latdyn/assembly/native_model.py. Also here: the configuration update q ∘ exp(Δ) and the
  * prescribed motion, the only ones (latdyn_advance_free and latdyn_prescribe for the analyses driven
- * from Python, configure for the step), the elements' inertia tangent by central differences, and
- * the energies.
+ * from Python, configure for the step), the elements' inertia tangent (the generated kernel
+ * beam_inertia_tangent, codegen/derivation.py), and the energies.
  *
  * Storage: node arrays row-major (x: n_nodes×3, T: n_nodes×3×3), coordinate vectors of
  * length n_total + 1 (index n_total is the dummy of clamped ends). The Model and Work structs
@@ -39,6 +39,8 @@ typedef void (*kernel_2_1)(int64_t, const double *, const double *, double *);
 typedef void (*kernel_2_2)(int64_t, const double *, const double *, double *, double *);
 typedef void (*kernel_3_1)(int64_t, const double *, const double *, const double *, double *);
 typedef void (*kernel_3_2)(int64_t, const double *, const double *, const double *, double *, double *);
+typedef void (*kernel_5_2)(int64_t, const double *, const double *, const double *, const double *, const double *,
+                           double *, double *);
 typedef void (*kernel_gravity)(int64_t, const double *, const double *, const double *, double *, double *,
                                double *);
 /* the generated unit generated/joints.c (codegen/joints.py) */
@@ -100,6 +102,7 @@ typedef struct {
     kernel_gravity gravity_load;
     kernel_2_2 strain_energy;
     kernel_3_1 kinetic_energy;
+    kernel_5_2 inertia_force_D_q; /* M a + g − Q and its exact ∂/∂q (beam_inertia_tangent) */
     kernel_joint_body joint_body;
     kernel_point_load point_load;
     const double *body_section; /* (n_bodies, 13): m c[3] I[9], the joint_body kernel's input */
@@ -110,10 +113,6 @@ typedef struct {
     /* threads (see the header): element count from which the element part runs in parallel
      * (0: never), and the number of threads (0: OpenMP's default) */
     int64_t parallel_elements, threads;
-    /* the inertia tangent (inertia_tangent below): node colours (the ends of an element
-     * differ), the node of each hinge, the number of colours */
-    const int64_t *node_colour, *hinge_node;
-    int64_t n_colours;
     /* the scene's laws, compiled by the code generator (codegen/laws.py, latdyn/assembly/compiled_laws.py),
      * or Python callbacks where a law does not print in C: every function of time at t (3 values
      * each: f, f', f'') into the buffer given, and hinge law k at (θ, θ̇, t) (f, ∂f/∂θ, ∂f/∂θ̇). */
@@ -221,12 +220,8 @@ typedef struct {
     double *matrix;                                            /* factorization->size */
     int *pivots;                                               /* n_dofs */
     double *rhs;                                               /* n_dofs */
-    /* the inertia tangent: its blocks (e,14,14), the element forces at ± a perturbation (e,14)
-     * ×2, the perturbed nodes and hinges (n,3) (n,9) (h), and the element buffers of an
-     * evaluation there (geometry, rates, accelerations, mass, quadratic, gravity) */
-    double *inertia_tangent, *forces_plus, *forces_minus, *perturbed_x, *perturbed_T, *perturbed_theta;
-    double *p_geometry, *p_rates, *p_accelerations, *p_mass, *p_quadratic, *p_gravity_force,
-           *p_gravity_potential, *p_first_moment;
+    /* the inertia tangent: its blocks (e,14,14) and the kernel's M a + g − Q (e,14) */
+    double *inertia_tangent, *inertia_force;
     /* the law values at the step's time (n_laws, 3), and the hinge forces' derivatives ∂f/∂θ
      * and ∂f/∂θ̇ of the last evaluation (n_hinges each: diagonal entries of K and C) */
     double *laws, *hinge_d_theta, *hinge_d_rate;
@@ -967,120 +962,38 @@ static double evaluate(const Model *m, const Configuration *c, Work *w, const do
     return power;
 }
 
-/* M a + g − gravity of elements [begin, end) at the perturbed configuration c, into `out` (e,14). */
-static void perturbed_range(const Model *m, const Configuration *c, Work *w, double *out, int64_t begin,
-                            int64_t end, double load_factor)
+/* ∂(M v̇ + g − λ f_gravity)/∂q of every element at c, at fixed spatial rates and accelerations, into
+ * w->inertia_tangent: the term K leaves out (latdyn/step/integrators.py). The generated kernel
+ * beam_inertia_tangent (codegen/derivation.py: the exact derivative through the kernels' own
+ * intermediates), on the element inputs of the evaluation at c (w->geometry, w->rates,
+ * w->accelerations), range by range as the evaluation. Joint bodies are left out: their kernel
+ * carries its own inertia. */
+static void inertia_tangent_range(const Model *m, Work *w, const double *gravity, int64_t begin, int64_t end)
 {
     const int64_t n = end - begin;
     if (n <= 0) return;
-    element_inputs_to(m, c, w->p_geometry, w->p_rates, w->p_accelerations, begin, end);
-    const double *geometry = w->p_geometry + 36 * begin, *rates = w->p_rates + 14 * begin;
-    const double *section = m->element_sections + m->section_width * begin;
-    m->mass_matrix(n, geometry, section, w->p_mass + 196 * begin);
-    m->quadratic_velocity(n, geometry, rates, section, w->p_quadratic + 14 * begin);
-    if (m->has_gravity)
-        m->gravity_load(n, geometry, section, w->gravity_rows + 3 * begin, w->p_gravity_force + 14 * begin,
-                        w->p_gravity_potential + begin, w->p_first_moment + 3 * begin);
-    for (int64_t e = begin; e < end; ++e) {
-        const double *M = w->p_mass + 196 * e, *acc = w->p_accelerations + 14 * e;
-        for (int p = 0; p < 14; ++p) {
-            double f = 0.0;
-            for (int q = 0; q < 14; ++q) f += M[14 * p + q] * acc[q];
-            f += w->p_quadratic[14 * e + p];
-            if (m->has_gravity) f -= load_factor * w->p_gravity_force[14 * e + p];
-            out[14 * e + p] = f;
-        }
-    }
+    m->inertia_force_D_q(n, w->geometry + 36 * begin, w->rates + 14 * begin, w->accelerations + 14 * begin,
+                         m->element_sections + m->section_width * begin, gravity + 3 * begin,
+                         w->inertia_force + 14 * begin, w->inertia_tangent + 196 * begin);
 }
 
-/* Whether coordinate k (0-5 of the node, 6 the hinge) of element end (e, end) is perturbed in the
- * round of `colour`, and its step. */
-static double column_step(const Model *m, int64_t e, int end, int k, int64_t colour, double eps, double length)
-{
-    int64_t i = m->element_nodes[2 * e + end];
-    if (k < 6) {
-        if (m->node_dofs[6 * i + k] >= m->n_dofs || m->node_colour[i] != colour) return 0.0;
-        return k < 3 ? eps * length : eps;
-    }
-    int64_t j = m->element_hinges[2 * e + end];
-    if (j < 0 || m->hinge_dofs[j] >= m->n_dofs || m->node_colour[m->hinge_node[j]] != colour) return 0.0;
-    return eps;
-}
-
-/* The perturbed configuration of one round: c with coordinate k of every free node (hinge) of
- * `colour` moved by `sign` × its step (left update, as latdyn_advance_free). Returns how many moved. */
-static int64_t perturb(const Model *m, const Configuration *c, Work *w, Configuration *p, int64_t colour, int k,
-                       double sign, double eps, double length)
-{
-    int64_t moved = 0;
-    *p = *c;
-    p->x = w->perturbed_x;
-    p->T = w->perturbed_T;
-    p->theta = w->perturbed_theta;
-    memcpy(p->x, c->x, sizeof(double) * 3 * m->n_nodes);
-    memcpy(p->T, c->T, sizeof(double) * 9 * m->n_nodes);
-    memcpy(p->theta, c->theta, sizeof(double) * m->n_hinges);
-    if (k < 6) {
-        for (int64_t a = 0; a < m->n_free_nodes; ++a) {
-            int64_t i = m->free_nodes[a];
-            if (m->node_colour[i] != colour || m->node_dofs[6 * i + k] >= m->n_dofs) continue;
-            moved += 1;
-            if (k < 3) {
-                p->x[3 * i + k] = c->x[3 * i + k] + sign * eps * length;
-            } else {
-                double rotation[3] = {0.0, 0.0, 0.0}, R[9];
-                rotation[k - 3] = sign * eps;
-                m->so3_exp(1, rotation, R);
-                matmul3(R, c->T + 9 * i, p->T + 9 * i);
-            }
-        }
-    } else {
-        for (int64_t a = 0; a < m->n_free_hinges; ++a) {
-            int64_t j = m->free_hinges[a];
-            if (m->node_colour[m->hinge_node[j]] != colour || m->hinge_dofs[j] >= m->n_dofs) continue;
-            moved += 1;
-            p->theta[j] = c->theta[j] + sign * eps;
-        }
-    }
-    return moved;
-}
-
-/* ∂(M v̇ + g − λ f_gravity)/∂q of every element at c, by central differences, colour by colour and
- * coordinate by coordinate, into w->inertia_tangent: the term K leaves out (latdyn/step/integrators.py).
- * Each round moves one coordinate of every free node (or hinge) of one colour; no element has both
- * ends of one colour, so each element's change comes from one column: 7 × colours rounds, whatever
- * the model's size. Joint bodies are left out: their kernel carries its own inertia. */
-static void inertia_tangent(const Model *m, const Configuration *c, Work *w, double eps, double length,
-                            double load_factor)
+static void inertia_tangent(const Model *m, Work *w, double load_factor)
 {
     const int64_t E = m->n_elements;
     const int ranges = element_ranges(m);
-    memset(w->inertia_tangent, 0, sizeof(double) * 196 * E);
-    for (int64_t colour = 0; colour < m->n_colours; ++colour) {
-        for (int k = 0; k < 7; ++k) {
-            Configuration p;
-            for (int side = 0; side < 2; ++side) {
-                double *out = side == 0 ? w->forces_plus : w->forces_minus;
-                if (perturb(m, c, w, &p, colour, k, side == 0 ? 1.0 : -1.0, eps, length) == 0) break;
+    double *gravity = w->gravity_rows; /* λ g per element (the rows hold g: scaled here, restored below) */
+    if (m->has_gravity && load_factor != 1.0)
+        for (int64_t e = 0; e < E; ++e)
+            for (int k = 0; k < 3; ++k) gravity[3 * e + k] = load_factor * m->gravity[k];
+    if (!m->has_gravity) memset(gravity, 0, sizeof(double) * 3 * E);
 #ifdef _OPENMP
 #pragma omp parallel for schedule(static) num_threads(ranges) if (ranges > 1)
 #endif
-                for (int r = 0; r < ranges; ++r)
-                    perturbed_range(m, &p, w, out, E * r / ranges, E * (r + 1) / ranges, load_factor);
-                if (side == 0) continue;
-                for (int64_t e = 0; e < E; ++e) {
-                    for (int end = 0; end < 2; ++end) {
-                        double step = column_step(m, e, end, k, colour, eps, length);
-                        if (step == 0.0) continue;
-                        int column = 7 * end + k;
-                        for (int q = 0; q < 14; ++q)
-                            w->inertia_tangent[196 * e + 14 * q + column] =
-                                (w->forces_plus[14 * e + q] - w->forces_minus[14 * e + q]) / (2.0 * step);
-                    }
-                }
-            }
-        }
-    }
+    for (int r = 0; r < ranges; ++r)
+        inertia_tangent_range(m, w, gravity, E * r / ranges, E * (r + 1) / ranges);
+    if (m->has_gravity && load_factor != 1.0)
+        for (int64_t e = 0; e < E; ++e)
+            for (int k = 0; k < 3; ++k) gravity[3 * e + k] = m->gravity[k];
 }
 
 /* 16-point Gauss–Legendre nodes and weights on [−1, 1] (numpy.polynomial.legendre.leggauss(16)). */
@@ -1181,8 +1094,7 @@ typedef struct {
     int64_t inertia;         /* 0: the static residual, without inertia forces or M and C blocks */
     int64_t matrices;        /* also the element, body, hinge and load blocks of K (and M, C) */
     int64_t inertia_tangent; /* with matrices and inertia: the elements' inertia tangent too */
-    double tangent_step, length; /* its central-difference step, and the scene's length */
-    double power;            /* out: the power of the point loads (external work) */
+    double power;            /* out: the power of the point loads and cable reels (external work) */
 } EvaluationControl;
 
 /* One evaluation at c (latdyn/assembly/native_model.py): w->total holds the vector of all
@@ -1195,7 +1107,7 @@ void latdyn_evaluate(const Model *m, Work *w, const Configuration *c, Evaluation
     m->time_laws(e->t, w->laws);
     e->power = evaluate(m, c, w, w->laws, e->t, (int)e->matrices, (int)e->inertia, e->load_factor);
     if (e->matrices && e->inertia && e->inertia_tangent)
-        inertia_tangent(m, c, w, e->tangent_step, e->length, e->load_factor);
+        inertia_tangent(m, w, e->load_factor);
 }
 
 /* The cable elements at c and time t into w->cable_state, w->cable_strain and their blocks, and nothing

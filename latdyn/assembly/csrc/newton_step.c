@@ -123,7 +123,6 @@ typedef struct {
     int64_t max_iterations;
     int64_t modified;          /* keep the factorization while Newton contracts */
     int64_t inertia_tangent;   /* add the elements' inertia tangent to the matrix (integrators.py) */
-    double tangent_step;       /* its central-difference step (INERTIA_TANGENT_STEP) */
     double contraction;        /* rebuild when |Δx_k| > contraction |Δx_{k−1}| */
     /* in/out: the factorization held in Work belongs to this step size (0: none) */
     double factored_h;
@@ -210,7 +209,7 @@ static int64_t newton_iterations(const Model *m, Work *w, StepControl *s, const 
             s->converged = 1;
             return 0;
         }
-        if (matrices && s->inertia_tangent) inertia_tangent(m, trial, w, s->tangent_step, s->length, 1.0);
+        if (matrices && s->inertia_tangent) inertia_tangent(m, w, 1.0);
         if (m->links) reduce_links(m, w, trial, beta_p, gamma_p, matrices, (int)s->inertia_tangent);
         if (matrices) {
             if (!m->links) assemble(m, w, beta_p, gamma_p, (int)s->inertia_tangent);
