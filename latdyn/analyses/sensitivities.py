@@ -125,6 +125,25 @@ def refusal(scene) -> SceneError | None:
     return None
 
 
+def depends_on_time(scene) -> bool:
+    """Whether a load component, hinge law or prescribed motion of ``scene`` depends on t."""
+    def timed(law):
+        if law is None or isinstance(law, (int, float)):
+            return False
+        depends = getattr(law, "depends_on", None)
+        if depends is not None:
+            return "t" in (depends() if callable(depends) else depends)
+        return not getattr(law, "is_constant", True)
+
+    for load in scene.loads:
+        if any(timed(c) for c in (load.force or []) + (load.moment or [])):
+            return True
+    for _, _, hinge in scene.hinges:
+        if hinge.angle is not None or any(timed(getattr(hinge, key, None)) for key in ("stiffness", "damping", "torque")):
+            return True
+    return any(getattr(body, "motion", None) for body in scene.bodies.values())
+
+
 def _transient_refusal(scene) -> str | None:
     """Why ``solve.sensitivities`` of a transient ``scene`` is not exact here, or None
     (latdyn/analyses/transient_sensitivities.py; docs/parameters.md, "Transient sensitivities")."""
@@ -149,8 +168,6 @@ def _transient_refusal(scene) -> str | None:
     events = [f"{beam}.{which}" for beam, which, hinge in scene.hinges
               if hinge.lock_at is not None or hinge.limits is not None]
     if events:
-        from latdyn.analyses.transient_sensitivities import depends_on_time
-
         if depends_on_time(scene):
             return (f"sensitivities through the events of {events[0]} (lock_at, limits) with a load, hinge law or "
                     "motion that depends on t are not computed yet: an event moves the ends of the steps after it "

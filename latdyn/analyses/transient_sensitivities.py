@@ -80,24 +80,6 @@ from latdyn.timeloop.impulse import hinge_directions, massless_element_stiffness
 __all__ = ["TransientSensitivities"]
 
 
-def depends_on_time(scene) -> bool:
-    """Whether a load component, hinge law or prescribed motion of ``scene`` depends on t."""
-    def timed(law):
-        if law is None or isinstance(law, (int, float)):
-            return False
-        depends = getattr(law, "depends_on", None)
-        if depends is not None:
-            return "t" in (depends() if callable(depends) else depends)
-        return not getattr(law, "is_constant", True)
-
-    for load in scene.loads:
-        if any(timed(c) for c in (load.force or []) + (load.moment or [])):
-            return True
-    for _, _, hinge in scene.hinges:
-        if hinge.angle is not None or any(timed(getattr(hinge, key, None)) for key in ("stiffness", "damping", "torque")):
-            return True
-    return any(getattr(body, "motion", None) for body in scene.bodies.values())
-
 #: |v̇_0| and |Q_cᵀ r| below which a start counts as at rest in equilibrium (SI units; module docstring)
 AT_REST = 1e-9
 #: |θ − θ_event| (rad, times max(1, |θ_event|)) to which a step lands on a latch or a stop when
