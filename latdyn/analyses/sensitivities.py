@@ -54,7 +54,6 @@ from pathlib import Path
 
 import numpy as np
 
-from latdyn.assembly.assembler import unpack_free
 from latdyn.assembly.factorization import solve_linear
 from latdyn.assembly.native_model import NO_CONTACT
 from latdyn.errors import SceneError, SolverError
@@ -379,22 +378,41 @@ class ParameterDerivatives:
         at = np.array([[theta, rate, hinge.rest_angle, load_factor]])
         return float(np.asarray(self.kernels.hinge_force(at, laws, contact)[0]).reshape(-1)[0])
 
-    def _probe_derivative(self, probe, state, dx, dpi, dtheta) -> float:
+    def _by_parameter(self, tangent: np.ndarray):
+        """(δx, δπ, δθ) of every node and hinge, (n_nodes, 3, k) (n_nodes, 3, k) (n_hinges, k), from the
+        free-coordinate sensitivities ``tangent`` (n_dofs, k), one column a parameter (the update's
+        coordinates: :func:`latdyn.assembly.assembler.unpack_free`, a column at a time)."""
+        model, k = self.model, tangent.shape[1]
+        n_nodes = model.node_dofs.shape[0]
+        dx, dpi = np.zeros((n_nodes, 3, k)), np.zeros((n_nodes, 3, k))
+        dtheta = np.zeros((len(model.hinges), k))
+        if model.n_dofs and k:
+            full = np.vstack([tangent, np.zeros((model.n_total + 1 - model.n_dofs, k))])
+            free, hinges = model.free_nodes, model.free_hinges
+            dx[free] = full[model.node_dofs[free, 0:3]]
+            dpi[free] = full[model.node_dofs[free, 3:6]]
+            dtheta[hinges] = full[model.hinge_dofs[hinges]]
+        return dx, dpi, dtheta
+
+    def _probe_derivatives(self, probe, state, dx, dpi, dtheta) -> list:
+        """The derivatives of ``probe`` at ``state`` by every parameter along (δx, δπ, δθ) of
+        :meth:`_by_parameter`: a point x + T r moves by δx + δπ × T r, a hinge angle by δθ."""
         model = self.model
         if probe.kind == "hinge":
-            return float(dtheta[model.hinge_index(probe.beam, probe.end)])
+            return [float(v) for v in dtheta[model.hinge_index(probe.beam, probe.end)]]
         node, offset = model.point(probe.point)
         arm = state.T[node] @ offset
-        moved = dx[node] + np.cross(dpi[node], arm)                  # δ(x + T r)
+        moved = dx[node] + np.cross(dpi[node], arm, axisa=0, axisc=0)    # δ(x + T r), (3, k)
         if probe.component in (None, "norm"):
             value = state.x[node] + arm
             if probe.quantity == "displacement":
                 value = value - self.initial_points[probe.name]
             size = float(np.linalg.norm(value))
             if size > 0:
-                return float(value @ moved) / size
-            return 0.0 if not np.any(moved) else float("nan")   # |·| at 0: differentiable only along 0
-        return float(moved["xyz".index(probe.component)])
+                return [float(v) for v in value @ moved / size]
+            # |·| at 0: differentiable only along 0
+            return [0.0 if not np.any(moved[:, c]) else float("nan") for c in range(moved.shape[1])]
+        return [float(v) for v in moved["xyz".index(probe.component)]]
 
 
 class StaticSensitivities(ParameterDerivatives):
@@ -439,14 +457,9 @@ class StaticSensitivities(ParameterDerivatives):
             moved = -(g @ tangent) / float(g @ along_load)          # δλ
             tangent = tangent + np.outer(along_load, moved)
         self.load_factor_rows.append([float(x) for x in moved])
-        by_parameter = []
-        for column in range(k):
-            dx, dpi = np.zeros_like(state.x), np.zeros_like(state.x)
-            dtheta = np.zeros_like(state.theta)
-            unpack_free(model, tangent[:, column], dx, dpi, dtheta)
-            by_parameter.append((dx, dpi, dtheta))
-        self.rows.append((load_factor, [self._probe_derivative(p, state, *by_parameter[c])
-                                        for p in self.probes for c in range(k)]))
+        moved_by = self._by_parameter(tangent)
+        self.rows.append((load_factor, [value for p in self.probes
+                                        for value in self._probe_derivatives(p, state, *moved_by)]))
 
     # ------------------------------------------------------------------ results
     def table(self) -> dict:

@@ -481,38 +481,11 @@ class TransientSensitivities(ParameterDerivatives):
     def record(self, carried: dict, state) -> dict:
         """``carried`` with the row of every probe's sensitivity at ``state`` (a new list of rows), all
         parameters at once: a point x + T r moves by δx + δπ × T r, a hinge angle by δθ."""
-        model, k = self.model, len(self.names)
-        n_nodes = model.node_dofs.shape[0]
-        dx, dpi = np.zeros((n_nodes, 3, k)), np.zeros((n_nodes, 3, k))
-        dtheta = np.zeros((len(state.theta), k))
-        if model.n_dofs and k:
-            full = np.vstack([carried["dq"], np.zeros((model.n_total + 1 - model.n_dofs, k))])
-            free, hinges = model.free_nodes, model.free_hinges
-            dx[free] = full[model.node_dofs[free, 0:3]]
-            dpi[free] = full[model.node_dofs[free, 3:6]]
-            dtheta[hinges] = full[model.hinge_dofs[hinges]]
+        dx, dpi, dtheta = self._by_parameter(carried["dq"])
         row = [float(state.t)]
         for probe in self.probes:
             row.extend(self._probe_derivatives(probe, state, dx, dpi, dtheta))
         return {**carried, "rows": carried["rows"] + [row]}
-
-    def _probe_derivatives(self, probe, state, dx, dpi, dtheta) -> list:
-        """The derivatives of ``probe`` by every parameter (as :meth:`_probe_derivative`, one per column)."""
-        model = self.model
-        if probe.kind == "hinge":
-            return [float(v) for v in dtheta[model.hinge_index(probe.beam, probe.end)]]
-        node, offset = model.point(probe.point)
-        arm = state.T[node] @ offset
-        moved = dx[node] + np.cross(dpi[node], arm, axisa=0, axisc=0)    # δ(x + T r), (3, k)
-        if probe.component in (None, "norm"):
-            value = state.x[node] + arm
-            if probe.quantity == "displacement":
-                value = value - self.initial_points[probe.name]
-            size = float(np.linalg.norm(value))
-            if size > 0:
-                return [float(v) for v in value @ moved / size]
-            return [0.0 if not np.any(moved[:, c]) else float("nan") for c in range(moved.shape[1])]
-        return [float(v) for v in moved["xyz".index(probe.component)]]
 
     def table(self, carried: dict) -> dict:
         """``{(probe, name): array over the rows}`` (``Result.sensitivities``)."""
