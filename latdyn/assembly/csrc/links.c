@@ -179,6 +179,16 @@ static void reduce_block(const Links *L, Work *w, int64_t b, const double *S, co
         }
 }
 
+/* A block's β′M + γ′C + (K + D) added into the matrix storage at its positions `pos` (−1: not a free
+ * coordinate's entry); M, C, D may be NULL (assemble and assemble_linked scatter every block by it). */
+static void scatter_block(double *matrix, const int64_t *pos, const double *M, const double *C, const double *K,
+                          const double *D, int64_t size, double beta_p, double gamma_p)
+{
+    for (int64_t p = 0; p < size; ++p)
+        if (pos[p] >= 0)
+            matrix[pos[p]] += (M ? beta_p * M[p] : 0.0) + (C ? gamma_p * C[p] : 0.0) + (K[p] + (D ? D[p] : 0.0));
+}
+
 /* A block's S = β′M + γ′C + K (+ D, the inertia tangent), row-major, into `out`; M, C, D may be NULL. */
 static void combined_block(const double *M, const double *C, const double *K, const double *D, int64_t size,
                            double beta_p, double gamma_p, double *out)
@@ -206,9 +216,7 @@ static void assemble_linked(const Model *m, Work *w, const Configuration *c, dou
             reduce_block(L, w, L->element_block[e], S, M, gamma_p);
             continue;
         }
-        const int64_t *pos = m->element_position + 196 * e;
-        for (int p = 0; p < 196; ++p)
-            if (pos[p] >= 0) w->matrix[pos[p]] += beta_p * M[p] + gamma_p * C[p] + K[p] + (D ? D[p] : 0.0);
+        scatter_block(w->matrix, m->element_position + 196 * e, M, C, K, D, 196, beta_p, gamma_p);
     }
     for (int64_t b = 0; b < m->n_bodies; ++b) {
         const double *M = w->body_mass + 36 * b, *C = w->body_damping + 36 * b, *K = w->body_stiffness + 36 * b;
@@ -217,9 +225,7 @@ static void assemble_linked(const Model *m, Work *w, const Configuration *c, dou
             reduce_block(L, w, L->body_block[b], S, M, gamma_p);
             continue;
         }
-        const int64_t *pos = m->body_position + 36 * b;
-        for (int p = 0; p < 36; ++p)
-            if (pos[p] >= 0) w->matrix[pos[p]] += beta_p * M[p] + gamma_p * C[p] + K[p];
+        scatter_block(w->matrix, m->body_position + 36 * b, M, C, K, NULL, 36, beta_p, gamma_p);
     }
     for (int64_t j = 0; j < m->n_hinges; ++j)
         if (m->hinge_position[j] >= 0)
@@ -230,9 +236,7 @@ static void assemble_linked(const Model *m, Work *w, const Configuration *c, dou
             reduce_block(L, w, L->load_block[l], K, NULL, gamma_p);
             continue;
         }
-        const int64_t *pos = m->load_position + 36 * l;
-        for (int p = 0; p < 36; ++p)
-            if (pos[p] >= 0) w->matrix[pos[p]] += K[p];
+        scatter_block(w->matrix, m->load_position + 36 * l, NULL, NULL, K, NULL, 36, beta_p, gamma_p);
     }
     /* continuous controllers: the actuators' rows by the sensors' coordinates (evaluate.c), an entry
      * at a dependent coordinate through its expansions */

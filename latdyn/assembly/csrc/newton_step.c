@@ -27,42 +27,26 @@
 static void assemble(const Model *m, Work *w, double beta_p, double gamma_p, int with_inertia_tangent)
 {
     memset(w->matrix, 0, sizeof(double) * m->factorization->size);
-    for (int64_t e = 0; e < m->n_elements; ++e) {
-        const int64_t *pos = m->element_position + 196 * e;
-        const double *K = w->tangent + 196 * e, *M = w->mass + 196 * e, *C = w->quadratic_D + 196 * e;
-        const double *D = w->inertia_tangent + 196 * e;
-        if (with_inertia_tangent) {
-            for (int p = 0; p < 196; ++p)
-                if (pos[p] >= 0) w->matrix[pos[p]] += beta_p * M[p] + gamma_p * C[p] + (K[p] + D[p]);
-        } else {
-            for (int p = 0; p < 196; ++p)
-                if (pos[p] >= 0) w->matrix[pos[p]] += beta_p * M[p] + gamma_p * C[p] + K[p];
-        }
-    }
-    for (int64_t b = 0; b < m->n_bodies; ++b) {
-        const int64_t *pos = m->body_position + 36 * b;
-        const double *M = w->body_mass + 36 * b, *C = w->body_damping + 36 * b, *K = w->body_stiffness + 36 * b;
-        for (int p = 0; p < 36; ++p)
-            if (pos[p] >= 0) w->matrix[pos[p]] += beta_p * M[p] + gamma_p * C[p] + K[p];
-    }
+    for (int64_t e = 0; e < m->n_elements; ++e)
+        scatter_block(w->matrix, m->element_position + 196 * e, w->mass + 196 * e, w->quadratic_D + 196 * e,
+                      w->tangent + 196 * e, with_inertia_tangent ? w->inertia_tangent + 196 * e : NULL, 196, beta_p,
+                      gamma_p);
+    for (int64_t b = 0; b < m->n_bodies; ++b)
+        scatter_block(w->matrix, m->body_position + 36 * b, w->body_mass + 36 * b, w->body_damping + 36 * b,
+                      w->body_stiffness + 36 * b, NULL, 36, beta_p, gamma_p);
     for (int64_t j = 0; j < m->n_hinges; ++j)
         if (m->hinge_position[j] >= 0)
             w->matrix[m->hinge_position[j]] += gamma_p * w->hinge_d_rate[j] + w->hinge_d_theta[j];
-    for (int64_t l = 0; l < m->n_loads; ++l) {
-        const int64_t *pos = m->load_position + 36 * l;
-        for (int p = 0; p < 36; ++p)
-            if (pos[p] >= 0) w->matrix[pos[p]] += w->load_blocks[36 * l + p];
-    }
+    for (int64_t l = 0; l < m->n_loads; ++l)
+        scatter_block(w->matrix, m->load_position + 36 * l, NULL, NULL, w->load_blocks + 36 * l, NULL, 36, beta_p,
+                      gamma_p);
     /* continuous controllers: the actuators' rows by the sensors' coordinates (evaluate.c) */
     for (int64_t e = 0; e < m->n_couplings; ++e)
         if (m->coupling_position[e] >= 0)
             w->matrix[m->coupling_position[e]] += gamma_p * w->coupling_damping[e] + w->coupling_stiffness[e];
-    for (int64_t e = 0; e < m->n_cables; ++e) {
-        const int64_t *pos = m->cable_position + 144 * e;
-        const double *K = w->cable_stiffness + 144 * e, *C = w->cable_damping + 144 * e;
-        for (int p = 0; p < 144; ++p)
-            if (pos[p] >= 0) w->matrix[pos[p]] += gamma_p * C[p] + K[p];
-    }
+    for (int64_t e = 0; e < m->n_cables; ++e)
+        scatter_block(w->matrix, m->cable_position + 144 * e, NULL, w->cable_damping + 144 * e,
+                      w->cable_stiffness + 144 * e, NULL, 144, beta_p, gamma_p);
 }
 
 /* The iteration matrix S = β′M + γ′C + K of the evaluation left in w (latdyn_evaluate at c, with
