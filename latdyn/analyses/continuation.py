@@ -168,7 +168,7 @@ class Path:
         return self.newton.tangent(state, load_factor)
 
     def increment_size(self, dq) -> float:
-        """The time step's convergence measure of a Newton increment (csrc/newton_step.c increment_size)."""
+        """The time step's convergence measure of a Newton increment (latdyn.step.integrators.increment_size)."""
         return self.newton.increment_size(dq)
 
     def norm(self, dq) -> float:

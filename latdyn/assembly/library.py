@@ -265,8 +265,6 @@ def native_library() -> ctypes.CDLL:
         library.latdyn_static_iteration.argtypes = [model, work, static, configuration, P]
         library.latdyn_static_newton.restype = I64
         library.latdyn_static_newton.argtypes = [model, work, static, configuration, P]
-        library.latdyn_increment_size.restype = ctypes.c_double
-        library.latdyn_increment_size.argtypes = [model, P, ctypes.c_double]
         _LIBRARY = library
     return _LIBRARY
 

@@ -75,7 +75,7 @@ from latdyn.assembly.library import (
     parallel_threshold,
 )
 from latdyn.assembly.native_model import STATE_FIELDS, state_shapes
-from latdyn.step.integrators import GeneralizedAlpha, StepStats
+from latdyn.step.integrators import GeneralizedAlpha, StepStats, increment_size
 
 
 def matrix_pattern(assembler) -> tuple[np.ndarray, np.ndarray]:
@@ -765,10 +765,5 @@ class StaticNewton:
         return trial, residual, int(self.control.max_iterations), False
 
     def increment_size(self, dx: np.ndarray) -> float:
-        """The time step's convergence measure of an increment (``latdyn_increment_size``)."""
-        native = self._setup()
-        dx = np.ascontiguousarray(dx, dtype=np.float64)
-        if not dx.size:
-            return 0.0
-        return float(self._library.latdyn_increment_size(native.model_ref, dx.ctypes.data,
-                                                         float(self.control.length)))
+        """The time step's convergence measure of an increment (:func:`latdyn.step.integrators.increment_size`)."""
+        return increment_size(self.assembler.model, np.asarray(dx, dtype=float), float(self.control.length))

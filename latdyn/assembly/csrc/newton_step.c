@@ -541,8 +541,3 @@ int64_t latdyn_static_newton(const Model *m, Work *w, StaticControl *s, Configur
     return 0;
 }
 
-/* increment_size for the iterations driven from Python (arc length, displacement control). */
-double latdyn_increment_size(const Model *m, const double *dx, double length)
-{
-    return increment_size(m, dx, length);
-}
