@@ -133,8 +133,9 @@ def _command_check(args) -> int:
     if scene.solve.sensitivities:   # what run would refuse (SceneError -> 2)
         from .analyses.sensitivities import refusal
 
-        if refusal(scene) is not None:
-            raise refusal(scene)
+        refused = refusal(scene)
+        if refused is not None:
+            raise refused
     print(describe(scene))
     # the model, its held check (SceneError -> 2) and the initial state
     print(check_report(prepare(scene)))

@@ -64,8 +64,9 @@ def run(scene, out_dir=None, backend: str = "auto", progress: bool = False, *, r
     if scene.solve.sensitivities:   # refused before anything is compiled or written
         from latdyn.analyses.sensitivities import refusal
 
-        if refusal(scene) is not None:
-            raise refusal(scene)
+        refused = refusal(scene)
+        if refused is not None:
+            raise refused
     analysis = scene.solve.analysis
     resume_from = _checkpoint_to_resume(scene, out_dir) if resume else None
     prepared, probes, writer = open_run(scene, out_dir, backend, resume_from)

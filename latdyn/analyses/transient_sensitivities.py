@@ -164,8 +164,6 @@ class TransientSensitivities(ParameterDerivatives):
                   or (_LOAD_KEY.match(key) and self.scene.loads[int(_LOAD_KEY.match(key)["load"])].frame != "global")]
         if not moving:
             return
-        from latdyn.assembly.assembler import free_acceleration
-
         accelerations = np.max(np.abs(free_acceleration(self.model, state)), initial=0.0)
         unbalanced = np.max(np.abs(split.massless.T @ ev.residual), initial=0.0)
         if accelerations > AT_REST or unbalanced > AT_REST:

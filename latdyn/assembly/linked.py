@@ -65,13 +65,12 @@ def evaluate_linked(links, assembler, state, matrices: bool, load_factor: float,
 
 def reduce_linked(links, assembler, state, full, matrices: bool, inertia: bool) -> LinkedEvaluation:
     """``full``, the evaluation on the independent and dependent coordinates at ``state`` (its
-    dependent nodes completed), reduced onto the minimum coordinates (module docstring). J and ∂c/∂v
+    dependent nodes completed by the caller, J and ∂c/∂v of this state in the native links' buffers), reduced onto the minimum coordinates (module docstring). J and ∂c/∂v
     are those of the compiled step (the generated edge kernels composed along the tree in C,
     :meth:`latdyn.assembly.native_model.NativeModel.complete_links`), the geometric stiffness the
     generated wrench kernels' (:func:`geometric_stiffness`)."""
     model = assembler.model
     n, n_asm, n_total = model.n_dofs, model.n_assembled, model.n_total
-    assembler.complete_links(state)  # J and ∂c/∂v of this state in the native links' buffers
     native = assembler.native().links
     columns = links.columns(model)
     where = {int(c): k for k, c in enumerate(columns)}

@@ -92,7 +92,6 @@ class Parameters:
         symbols = {n: sp.Symbol(n, real=True) for n in names}
         extra = tuple(names) + tuple(v for v in HINGE_VARIABLES + ("s", "s_dot") if v != "t")
         _, expr = expressions.parse_symbolic(text, None, key, extra)
-        expr = expr.subs({sp.Symbol(n, real=True): symbols[n] for n in names})
         derivative = expressions._drop_deltas(  # noqa: SLF001 (the package's one rule for deltas)
             sp.diff(expr, symbols[name]))
         derivative = derivative.subs({symbols[n]: self.values[n] for n in names})

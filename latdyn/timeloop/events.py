@@ -395,9 +395,9 @@ class HingeEvents(NamedTuple):
     loss: float
     #: the only event: joints that rest on their stops, put back where they started the step (so the
     #: step moved nothing there: its work and dissipation are those of the state after the projection)
-    resting: bool = False
+    resting: bool
     #: (joint, kind) of each event: latch, stop (an impact)
-    log: list = []
+    log: list
 
 
 def hinge_events(prepared: Prepared, integrator, old: State, new: State, h: float) -> HingeEvents:

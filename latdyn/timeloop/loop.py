@@ -112,6 +112,7 @@ class TimeLoop:
         self.last_recorded: State | None = None
         self.last: LastAccepted | None = None
         self.compiled = False
+        self._resting_flagged: set[int] = set()  # joints flagged resting on a rigid stop (_note_resting)
         self.unbounded = False  # the energy balance broke (_judge_balance)
         self.bar = None
 
@@ -582,11 +583,10 @@ class TimeLoop:
         self.bar.update(state.t)
 
     # ------------------------------------------------------------------------- rows, summary
-    def _record(self, state: State, energies: dict, values: list | None = None, last: bool = True) -> None:
+    def _record(self, state: State, energies: dict) -> None:
         """A row at ``state`` (probes, state, ParaView frame when due), its energies in the balance;
-        then the balance judged (:meth:`_judge_balance`). ``values``: the probe values when computed
-        already (a block of rows, :meth:`_record_rows`); ``last``: whether the writer's bookmark is
-        kept (the last row of a block: only it can be a checkpoint's)."""
+        then the balance judged (:meth:`_judge_balance`). A block of rows recorded in C:
+        :meth:`_record_rows`."""
         self._note_resting([state.t], state.theta[None], state.theta_dot[None])
         gain = self.progress.balance(state.t, energies, self.probes.external_work)
         if self.model.hinges:  # summary.json joint_peaks, over the recorded rows
@@ -595,11 +595,9 @@ class TimeLoop:
         snapshot = state.copy()
         if self.sensitivities is not None:
             self.progress.sensitivities = self.sensitivities.record(self.progress.sensitivities, state)
-        self.writer.record(state.t, self.probes.values(state, energies) if values is None else values,
-                           state=state.as_dict(), frame=lambda: paraview.frame(self.assembler, self.writer.mesh, snapshot))
-        self.last_recorded = snapshot
-        if last:
-            self.bookmark = self.writer.bookmark()
+        self.writer.record(state.t, self.probes.values(state, energies), state=state.as_dict(),
+                           frame=lambda: paraview.frame(self.assembler, self.writer.mesh, snapshot))
+        self.bookmark, self.last_recorded = self.writer.bookmark(), snapshot
         self._judge_balance(state.t, gain)
 
     def _note_resting(self, times, theta, theta_dot) -> None:
@@ -613,7 +611,7 @@ class TimeLoop:
         model = self.model
         if not model.hinges or len(times) == 0 or model.n_dofs <= 1:  # alone, its reaction is exact
             return
-        flagged = self.__dict__.setdefault("_resting_flagged", set())
+        flagged = self._resting_flagged
         for k, hinge in enumerate(model.hinges):
             if hinge.limits is None or hinge.contact is not None or k in flagged:
                 continue

@@ -33,7 +33,7 @@ void latdyn_controller_outputs_at(const Model *m, Work *w, const Configuration *
 }
 
 /* +1 (−1) when hinge j rests on its upper (lower) rigid stop: on it within the events' tolerance and not
- * moving away; 0 otherwise (latdyn/results/probes.py _on_stop). */
+ * moving away; 0 otherwise (latdyn/timeloop/loop.py _note_resting flags such rows). */
 static int resting_on_stop(const Model *m, const Configuration *c, int64_t j)
 {
     const double stops[2] = {m->hinge_lower_stop[j], m->hinge_upper_stop[j]};
