@@ -378,6 +378,20 @@ class ParameterDerivatives:
         at = np.array([[theta, rate, hinge.rest_angle, load_factor]])
         return float(np.asarray(self.kernels.hinge_force(at, laws, contact)[0]).reshape(-1)[0])
 
+    def _at_extremes(self, table: dict, series: dict) -> dict:
+        """``probe_sensitivities``: for each recorded series (name → values over the rows) the
+        derivatives of ``table`` at its last row and at the rows of its largest and smallest value
+        (the first where several tie); an empty series is left out."""
+        out = {}
+        for name_of, values in series.items():
+            values = np.asarray(values)
+            if len(values) == 0:
+                continue
+            last, high, low = len(values) - 1, int(np.argmax(values)), int(np.argmin(values))
+            out[name_of] = {which: {name: float(table[(name_of, name)][row]) for name in self.names}
+                            for which, row in (("end", last), ("max", high), ("min", low))}
+        return out
+
     def _by_parameter(self, tangent: np.ndarray):
         """(δx, δπ, δθ) of every node and hinge, (n_nodes, 3, k) (n_nodes, 3, k) (n_hinges, k), from the
         free-coordinate sensitivities ``tangent`` (n_dofs, k), one column a parameter (the update's
@@ -477,16 +491,10 @@ class StaticSensitivities(ParameterDerivatives):
         """``probe_sensitivities``: each probe's derivative at the last row, and at the rows of its
         largest and smallest value (the first where several tie); with ``load_factors`` (displacement
         control) the same for the load factor, under the name ``load_factor``."""
-        table, out = self.table(), {}
         series = {p.name: probe_values[p.name] for p in self.probes}
         if load_factors is not None and self.controlled:
             series["load_factor"] = load_factors
-        for name_of, values in series.items():
-            values = np.asarray(values)
-            last, high, low = len(values) - 1, int(np.argmax(values)), int(np.argmin(values))
-            out[name_of] = {which: {name: float(table[(name_of, name)][row]) for name in self.names}
-                            for which, row in (("end", last), ("max", high), ("min", low))}
-        return out
+        return self._at_extremes(self.table(), series)
 
     def write(self, folder) -> None:
         """``sensitivities.csv``: ``load_factor,<probe>/<NAME>,…``, one row per recorded row."""

@@ -501,15 +501,8 @@ class TransientSensitivities(ParameterDerivatives):
         table = self.table(carried)
         writer.sensitivities = table
         recorded = writer.result()
-        out = {}
-        for p in self.probes:
-            values = np.asarray(recorded.probes[p.name])[:len(carried["rows"])]
-            if len(values) == 0:
-                continue
-            last, high, low = len(values) - 1, int(np.argmax(values)), int(np.argmin(values))
-            out[p.name] = {which: {name: float(table[(p.name, name)][row]) for name in self.names}
-                           for which, row in (("end", last), ("max", high), ("min", low))}
-        writer.summary["probe_sensitivities"] = out
+        writer.summary["probe_sensitivities"] = self._at_extremes(
+            table, {p.name: np.asarray(recorded.probes[p.name])[:len(carried["rows"])] for p in self.probes})
         writer.summary["event_sensitivities"] = list(carried.get("events", []))
         for joint, t, miss in carried.get("missed", []):
             warning = (f"the step landed {miss:.2g} (relative) off the event of {joint} at t = {t:.9g} (secant "
