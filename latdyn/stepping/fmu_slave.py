@@ -51,8 +51,7 @@ class LatdynSlave(Fmi2Slave):
         self.description = f"latdyn scene {scene.title or self.scene_file.name}"
         self.default_experiment = DefaultExperiment(start_time=0.0, stop_time=float(solve.t_end),
                                                     step_size=float(scene.output.every or solve.dt))
-        inputs = getattr(scene, "inputs", None)  # latdyn.scene.inputs.Inputs
-        self.inputs = inputs.current() if inputs is not None else {}
+        self.inputs = scene.inputs.current()  # latdyn.scene.inputs.Inputs
         self.probe_names = [p.name for p in scene.output.probes]
         self.simulation: Simulation | None = None
         self.outputs: dict[str, float] = {}

@@ -70,8 +70,8 @@ class Simulation:
         self._prepared, self._probes, self._writer = open_run(scene, out_dir, backend)
         self._result: Result | None = None
         self._ended: str | None = None  # why the run can take no more steps
-        #: the scene's inputs (latdyn.scene.inputs.Inputs: the values the laws read), None without any
-        self._inputs = getattr(self._prepared.scene, "inputs", None)
+        #: the scene's inputs (latdyn.scene.inputs.Inputs: the values the laws read; empty without any)
+        self._inputs = self._prepared.scene.inputs
         self._jumped = False  # an input changed since the last advance: the laws jumped at sim.t
         try:
             write_linear_model_first(self._prepared, self._writer, out_dir)
@@ -94,7 +94,7 @@ class Simulation:
     @property
     def input_names(self) -> list[str]:
         """The scene's ``inputs``, in file order."""
-        return list(self._inputs.names) if self._inputs is not None else []
+        return list(self._inputs.names)
 
     @property
     def probe_names(self) -> list[str]:
@@ -108,7 +108,7 @@ class Simulation:
 
     def inputs(self) -> dict[str, float]:
         """The inputs' current values (the scene's until set), by name in file order."""
-        return self._inputs.current() if self._inputs is not None else {}
+        return self._inputs.current()
 
     # ------------------------------------------------------------------------- driving
     def set_input(self, name: str, value: float) -> None:
