@@ -331,7 +331,7 @@ def geometry_first_variation(plane: fm.Plane | None = None) -> dict:
     for end, (X, O, F, H) in enumerate(((cv.X1, cv.OFFSET1, cv.FRAME1, cv.AXIS1),
                                         (cv.X2, cv.OFFSET2, cv.FRAME2, cv.AXIS2))):
         d, pi, theta = delta[7 * end:7 * end + 3], sp.Matrix(delta[7 * end + 3:7 * end + 6]), delta[7 * end + 6]
-        x, o, T, h = sp.Matrix(g[X]), sp.Matrix(g[O]), sp.Matrix(3, 3, g[F]), sp.Matrix(g[H])
+        o, T, h = sp.Matrix(g[O]), sp.Matrix(3, 3, g[F]), sp.Matrix(g[H])
         spin = pi + theta * h
         W = sp.Matrix([[0, -spin[2], spin[1]], [spin[2], 0, -spin[0]], [-spin[1], spin[0], 0]])
         moved = list(sp.Matrix(d)) + list(pi.cross(o)) + list(W * T) + list(pi.cross(h))

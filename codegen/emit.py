@@ -282,10 +282,15 @@ def _evaluation_order(statements: list, roots: list) -> list:
     return ordered
 
 
-def to_sympy(expr, cache: dict):
+def to_sympy(expr, cache: dict, evaluate: bool = True, refuse=None):
     """Convert a SymEngine expression back to SymPy, memoised in ``cache``.
 
     Symbols come back with ``real=True``, as the inputs' symbols are made (codegen/ir.py).
+    ``evaluate=False`` builds sums, products and powers unevaluated: the expressions are SymEngine's
+    canonical forms already, and SymPy's evaluation of every Add and Mul (flatten, sort) is what makes a
+    conversion of the ~10⁴ short lines of a tangent take minutes (codegen/forward.py); the printers
+    print an unevaluated sum or product as an evaluated one. ``refuse(node)``, where given, is called
+    (and must raise) for a node of no SymPy counterpart, which is otherwise converted by ``sympify``.
     """
     import symengine as se
 
@@ -307,13 +312,15 @@ def to_sympy(expr, cache: dict):
                 continue
             converted = [cache[arg] for arg in args]
             if isinstance(node, se.Add):
-                cache[node] = sp.Add(*converted)
+                cache[node] = sp.Add(*converted, evaluate=evaluate)
             elif isinstance(node, se.Mul):
-                cache[node] = sp.Mul(*converted)
+                cache[node] = sp.Mul(*converted, evaluate=evaluate)
             elif isinstance(node, se.Pow):
-                cache[node] = sp.Pow(*converted)
+                cache[node] = sp.Pow(*converted, evaluate=evaluate)
             elif isinstance(node, se.Function) and hasattr(sp, type(node).__name__):
                 cache[node] = getattr(sp, type(node).__name__)(*converted)
+            elif refuse is not None:
+                refuse(node)
             else:
                 cache[node] = sp.sympify(node).xreplace(
                     {s: sp.Symbol(s.name, real=True) for s in sp.sympify(node).free_symbols}

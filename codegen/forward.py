@@ -146,42 +146,13 @@ def tangent_linear(temporaries: list, outputs: list[list], spec) -> tuple[list, 
     return ordered, [*outputs, tangent], extended, int(op_count)
 
 
+def _refuse(node):
+    raise TangentError(f"cannot convert {node} ({type(node).__name__}) of a tangent program to SymPy")
+
+
 def _to_sympy(expr, cache: dict):
-    """A SymEngine expression of the tangent program in SymPy, built unevaluated (memoised in ``cache``).
+    """A SymEngine expression of the tangent program in SymPy, built unevaluated (memoised in ``cache``):
+    codegen/emit.py's ``to_sympy`` with ``evaluate=False``, a node it cannot convert refused."""
+    from .emit import to_sympy
 
-    The expressions are SymEngine's canonical forms already; SymPy's evaluation of every Add and Mul
-    (flatten, sort) is what makes a conversion of the ~10⁴ short lines of a tangent take minutes
-    (codegen/emit.py's ``to_sympy``).  The printers print an unevaluated sum or product as an evaluated one.
-    """
-    import symengine as se
-    import sympy as sp
-
-    stack = [expr]
-    while stack:
-        node = stack[-1]
-        if node in cache:
-            stack.pop()
-            continue
-        args = node.args
-        if isinstance(node, se.Symbol):
-            cache[node] = sp.Symbol(node.name, real=True)
-        elif not args:
-            cache[node] = sp.sympify(node)
-        else:
-            pending = [arg for arg in args if arg not in cache]
-            if pending:
-                stack.extend(pending)
-                continue
-            converted = [cache[arg] for arg in args]
-            if isinstance(node, se.Add):
-                cache[node] = sp.Add(*converted, evaluate=False)
-            elif isinstance(node, se.Mul):
-                cache[node] = sp.Mul(*converted, evaluate=False)
-            elif isinstance(node, se.Pow):
-                cache[node] = sp.Pow(*converted, evaluate=False)
-            elif isinstance(node, se.Function) and hasattr(sp, type(node).__name__):
-                cache[node] = getattr(sp, type(node).__name__)(*converted)
-            else:
-                raise TangentError(f"cannot convert {node} ({type(node).__name__}) of a tangent program to SymPy")
-        stack.pop()
-    return cache[expr]
+    return to_sympy(expr, cache, evaluate=False, refuse=_refuse)
