@@ -21,6 +21,12 @@ The unit's two functions (the ABI :mod:`latdyn.assembly.compiled_laws` and ``lat
     the m probes it reads, then of its p states: ``out[0]`` its output y (before saturation),
     ``out[1 + i]`` = ∂y/∂s_i (i < m + p), then for each state j at ``(1 + j)(1 + m + p)`` its rate
     f_j = dS_j/dt and ∂f_j/∂s_i, all exact ((1 + p)(1 + m + p) values; without states, y and ∂y/∂s).
+``void latdyn_sampled_laws(int64_t k, double t, const double *s, double *out)``
+    sampled controller k (SCENE.md ``controllers.NAME.rate``; :mod:`latdyn.timeloop.sampling`) at its
+    sample instant t with the arguments ``s`` = the values of the m probes it reads, then of its p
+    states: ``out[0]`` its output y (before saturation), ``out[1 + j]`` the rate EXPR_j of state j
+    (the sample advances S_j by EXPR_j / rate); 1 + p values, no derivatives (a held output enters
+    no matrix).
 ``void latdyn_bind_inputs(const double *inputs, const double *controllers)``
     the scene's inputs (SCENE.md ``inputs``; :mod:`latdyn.scene.inputs`) and its controllers'
     outputs: a law that names input i reads ``inputs[i]`` at each call, one that names controller k
@@ -74,6 +80,16 @@ class ControllerLawC:
     """A continuous controller: ``variables`` = (t, s_0, s_1, …) its time and its arguments (the
     probes it reads, then its states), ``expressions`` = y, ∂y/∂s_0, ∂y/∂s_1, …, then each state's
     rate and its derivatives in the same order (the module docstring's layout)."""
+
+    text: str
+    variables: tuple = ()
+    expressions: tuple = ()
+
+
+@dataclass(frozen=True)
+class SampledLawC:
+    """A sampled controller: ``variables`` = (t, s_0, s_1, …) its sample instant and its arguments
+    (the probes it reads, then its states), ``expressions`` = y, then each state's rate EXPR_j."""
 
     text: str
     variables: tuple = ()
@@ -153,14 +169,14 @@ def _hinge_block(law: HingeLawC, inputs: dict | None = None) -> dict:
             "lines": _block(_c_names(law.variables), law.expressions, "out", 0, inputs)}
 
 
-def _controller_block(law: ControllerLawC, inputs: dict) -> dict:
+def _controller_block(law: ControllerLawC | SampledLawC, inputs: dict) -> dict:
     t, *sensors = law.variables
     variables = {t: sp.Symbol("t"), **{v: sp.Symbol(f"s[{m}]") for m, v in enumerate(sensors)}}
     return {"text": _comment_text(law.text), "lines": _block(variables, law.expressions, "out", 0, inputs)}
 
 
 def laws_source(time_laws: list[TimeLaw], hinge_laws: list[HingeLawC], inputs: tuple = (),
-                controllers: tuple = (), controller_laws: tuple = ()) -> str:
+                controllers: tuple = (), controller_laws: tuple = (), sampled_laws: tuple = ()) -> str:
     """The C unit of a scene's laws (see the module docstring); ``inputs``, ``controllers``: the
     names of the scene's inputs and controllers in order. :class:`EmitError` when a law cannot be
     printed in C (the caller then evaluates the laws in Python)."""
@@ -172,4 +188,5 @@ def laws_source(time_laws: list[TimeLaw], hinge_laws: list[HingeLawC], inputs: t
         time_laws=[_time_block(law, "out", 3 * k, inputs) for k, law in enumerate(time_laws)],
         hinge_laws=[_hinge_block(law, inputs) for law in hinge_laws],
         controller_laws=[_controller_block(law, inputs) for law in controller_laws],
+        sampled_laws=[_controller_block(law, inputs) for law in sampled_laws],
     )

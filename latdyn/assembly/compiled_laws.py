@@ -79,6 +79,19 @@ def controller_law(controller, sensors: tuple):
                           expressions=tuple(expressions))
 
 
+def sampled_law(controller, sensors: tuple):
+    """The plain description of a sampled controller that :mod:`codegen.laws` prints, the arguments
+    a = (s_0 … s_{m−1}, S_0 … S_{p−1}) being the probes ``sensors`` it reads and its states: its
+    output y, then each state's rate EXPR_j (the sample's S_j ← S_j + EXPR_j / rate); 1 + p values.
+    The inputs and controllers it names are read from the bound arrays (``latdyn_bind_inputs``)."""
+    from codegen.laws import SampledLawC
+
+    by_name = {s.name: s for s in controller.symbols}
+    arguments = [by_name[n] for n in (*sensors, *controller.states)]
+    return SampledLawC(f"{controller.name}: {controller.output_text}", variables=(by_name["t"], *arguments),
+                       expressions=(controller.output_expr, *controller.state_exprs))
+
+
 class CompiledLaws:
     """The loaded library of one scene's laws and its two functions' addresses."""
 
@@ -87,6 +100,7 @@ class CompiledLaws:
         self.time_laws = ctypes.cast(library.latdyn_time_laws, ctypes.c_void_p).value
         self.hinge_laws = ctypes.cast(library.latdyn_hinge_laws, ctypes.c_void_p).value
         self.controller_laws = ctypes.cast(library.latdyn_controller_laws, ctypes.c_void_p).value
+        self.sampled_laws = ctypes.cast(library.latdyn_sampled_laws, ctypes.c_void_p).value
         self._bind = library.latdyn_bind_inputs
         self._bind.argtypes, self._bind.restype = [ctypes.c_void_p, ctypes.c_void_p], None
 
@@ -120,34 +134,39 @@ def generator_version() -> str:
     return _VERSION[0]
 
 
-def _text_key(time_functions, hinge_laws, signals=((), ()), controllers=()) -> str:
+def _text_key(time_functions, hinge_laws, signals=((), ()), controllers=(), sampled=()) -> str:
     return repr([(type(f).__name__, f.source) for f in time_functions]
                 + [(type(h).__name__, h.source) for h in hinge_laws] + [("signals", tuple(map(tuple, signals)))]
                 + [("controller", c.name, str(c.output_text), tuple(sensors), c.states, tuple(map(str, c.state_texts)))
-                   for c, sensors in controllers])
+                   for c, sensors in controllers]
+                + [("sampled", c.name, str(c.output_text), tuple(sensors), c.states, tuple(map(str, c.state_texts)))
+                   for c, sensors in sampled])
 
 
-def _print(time_functions, hinge_laws, signals=((), ()), controllers=()) -> bytes:
+def _print(time_functions, hinge_laws, signals=((), ()), controllers=(), sampled=()) -> bytes:
     """The C unit of the laws (SymPy and the C printer); LawsUnavailable when a law does not print."""
     from codegen.emit import EmitError
     from codegen.laws import laws_source
 
     try:
         return laws_source([time_law(f) for f in time_functions], [hinge_law(h) for h in hinge_laws],
-                           *map(tuple, signals), [controller_law(c, sensors) for c, sensors in controllers]).encode()
+                           *map(tuple, signals), [controller_law(c, sensors) for c, sensors in controllers],
+                           [sampled_law(c, sensors) for c, sensors in sampled]).encode()
     except EmitError as error:
         raise LawsUnavailable(str(error)) from None
 
 
-def compile_laws(time_functions: list, hinge_laws: list[HingeLaw], signals=((), ()), controllers=()) -> CompiledLaws:
+def compile_laws(time_functions: list, hinge_laws: list[HingeLaw], signals=((), ()), controllers=(),
+                 sampled=()) -> CompiledLaws:
     """The compiled laws (``time_functions``: :class:`TimeFunction` in the step's numbering;
     ``hinge_laws``: :class:`HingeLaw`; ``signals``: the names of the scene's inputs and of its
-    controllers, in order; ``controllers``: (continuous controller, the probes it reads) pairs), from
-    the cache when these laws were built before."""
+    controllers, in order; ``controllers``: (continuous controller, the probes it reads) pairs;
+    ``sampled``: (sampled controller, the probes it reads) pairs), from the cache when these laws
+    were built before."""
     from latdyn import native
 
     # the same laws again (a study's runs, a renumbering after a latch): no lookup
-    key = _text_key(time_functions, hinge_laws, signals, controllers)
+    key = _text_key(time_functions, hinge_laws, signals, controllers, sampled)
     if key in _LOADED:
         return _LOADED[key]
     try:
@@ -157,7 +176,8 @@ def compile_laws(time_functions: list, hinge_laws: list[HingeLaw], signals=((), 
         if not target.exists():  # print the unit only now
             announce = (f"latdyn: compiling the scene's laws ({len(time_functions)} of time, {len(hinge_laws)} "
                         f"hinge laws) with {using.name} into {target.parent}")
-            target = native.build("laws", _print(time_functions, hinge_laws, signals, controllers), native.C_FLAGS, using=using,
+            target = native.build("laws", _print(time_functions, hinge_laws, signals, controllers, sampled),
+                                  native.C_FLAGS, using=using,
                                   key=text, announce=announce)
         loaded = CompiledLaws(native.load(target), target)
     except RuntimeError as error:  # no compiler, a failed build, a library that does not load

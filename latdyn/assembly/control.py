@@ -43,6 +43,11 @@ from latdyn.errors import SceneError
 #: a component of a point's position or displacement in a body's axes (the point's node's and the body's six)
 #: a cable's length (its elements' end nodes)
 ANGLE, RATE, POSITION, VELOCITY, CONTROLLER, OFFSET_POSITION, OFFSET_VELOCITY, BODY_FRAME, CABLE_LENGTH = range(9)
+#: sensors of sampled controllers only (csrc/sampling.c): a probe whose value the time loop hands in
+#: (energy, momentum, section and joint forces, cable tension: latdyn.timeloop.sampling), and a
+#: controller's state (index: its entry in the scene's controller_states); kind 4 of a sampled
+#: controller is any controller's output (index: its entry in the scene's controller_outputs)
+PROVIDED, CONTROLLER_STATE = 9, 10
 #: the columns of each kind's gradient in csrc/evaluate.c's sensor_jacobian (kind 8: 12 an element)
 _GRADIENT_COLUMNS = {OFFSET_POSITION: 6, OFFSET_VELOCITY: 9, BODY_FRAME: 12}
 _NO_OFFSET = np.zeros(3)
@@ -86,6 +91,22 @@ class Wiring:
     state_slot: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     states: object = None
     state_rates: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    #: the continuous controllers' sensors are the first ``n_sensors`` entries of the sensor arrays;
+    #: the sampled controllers' follow (sampled controller k: sampled_sensor_start[k] … [k+1]−1)
+    n_sensors: int = 0
+    sampled: list = field(default_factory=list)  # the sampled controllers, in file order
+    sampled_sensor_start: np.ndarray = field(default_factory=lambda: np.zeros(1, np.int64))
+    sampled_slot: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    sampled_limits: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    sampled_rate: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    sampled_state_start: np.ndarray = field(default_factory=lambda: np.zeros(1, np.int64))
+    sampled_state_slot: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    #: (sensor index, probe name) of the sensors of kind PROVIDED, whose values the caller hands in
+    provided: list = field(default_factory=list)
+
+    def sampled_sensor_names(self, k: int) -> tuple:
+        """The probes sampled controller k reads, in the order of its sensors (its law's arguments)."""
+        return tuple(n for n in self.sampled[k].reads if n in self._probe_names)
 
     @property
     def law_values(self) -> int:
@@ -227,7 +248,7 @@ def wiring(model, assembler) -> Wiring:
     out.hinge_controller = np.full(H, -1, np.int64)
     out.load_controller = np.full((L, 6), -1, np.int64)
     if not continuous:
-        return out
+        return _wire_sampled(scene, model, out)
     probes = {p.name: p for p in scene.output.probes}
     index = {c.name: k for k, c in enumerate(continuous)}
     kinds, indices, origins, dofs, offsets, frames, start = [], [], [], [], [], [], [0]
@@ -342,4 +363,56 @@ def wiring(model, assembler) -> Wiring:
     if entries:
         (out.coupling_actuator, out.coupling_slot, out.coupling_sensor, out.coupling_rows,
          out.coupling_cols, out.coupling_column) = (np.array(column, np.int64) for column in zip(*entries))
+    return _wire_sampled(scene, model, out)
+
+
+def _wire_sampled(scene, model, out: Wiring) -> Wiring:
+    """The sampled controllers' sensors appended to the continuous ones' (:class:`Wiring`): a probe the
+    C sensors read (as a continuous controller's, :func:`_sensor`), a controller's output or state, or
+    else (energy, momentum, forces: no C sensor) a value handed in by the time loop (``PROVIDED``)."""
+    out.n_sensors = len(out.sensor_kind)
+    sampled = [c for c in getattr(scene, "controllers", {}).values() if c.sampled]
+    if not sampled:
+        return out
+    probes = {p.name: p for p in scene.output.probes}
+    outputs, states = scene.controller_outputs, scene.controller_states
+    kinds, indices, origins, offsets, frames, columns, start = [], [], [], [], [], [], [out.n_sensors]
+    for c in sampled:
+        for name in c.reads:
+            probe = probes.get(name)
+            if probe is None:  # an input or a controller named in the law: read from the bound arrays
+                continue
+            kind, index, origin, offset, frame, width = PROVIDED, 0, 0.0, _NO_OFFSET, -1, 0
+            if probe.kind == "controller":
+                kind, index = ((CONTROLLER, outputs.index(probe.controller)) if probe.state is None else
+                               (CONTROLLER_STATE, states.index(f"{probe.controller}.{probe.state}")))
+            else:
+                try:
+                    kind, index, origin, dofs, offset, frame = _sensor(scene, model, c, probe)
+                    width = _GRADIENT_COLUMNS.get(kind, len(dofs) if kind == CABLE_LENGTH else 0)
+                except SceneError:  # no C sensor: the time loop hands its value in
+                    kind = PROVIDED
+            if kind == PROVIDED:
+                out.provided.append((out.n_sensors + len(kinds), name))
+            kinds.append(kind)
+            indices.append(index)
+            origins.append(origin)
+            offsets.append(offset)
+            frames.append(frame)
+            columns.append(width)
+        start.append(out.n_sensors + len(kinds))
+    out.sampled = sampled
+    out.sensor_kind = np.concatenate([out.sensor_kind, np.array(kinds, np.int64)])
+    out.sensor_index = np.concatenate([out.sensor_index, np.array(indices, np.int64)])
+    out.sensor_origin = np.concatenate([out.sensor_origin, np.array(origins, float)])
+    out.sensor_offset = np.concatenate([out.sensor_offset.reshape(-1, 3), np.array(offsets, float).reshape(-1, 3)])
+    out.sensor_frame_node = np.concatenate([out.sensor_frame_node, np.array(frames, np.int64)])
+    out.sensor_column_start = np.concatenate([out.sensor_column_start,
+                                              out.sensor_column_start[-1] + np.cumsum(columns, dtype=np.int64)])
+    out.sampled_sensor_start = np.array(start, np.int64)
+    out.sampled_slot = np.array([outputs.index(c.name) for c in sampled], np.int64)
+    out.sampled_limits = np.array([c.limits if c.limits is not None else (-np.inf, np.inf) for c in sampled], float)
+    out.sampled_rate = np.array([c.rate for c in sampled], float)
+    out.sampled_state_start = np.cumsum([0] + [len(c.states) for c in sampled]).astype(np.int64)
+    out.sampled_state_slot = np.array([states.index(f"{c.name}.{s}") for c in sampled for s in c.states], np.int64)
     return out

@@ -79,6 +79,8 @@ class ModelData(ctypes.Structure):
         ("actuator_gain", P), ("n_law_actuators", I64), ("n_chained", I64),
         ("sensor_offset", P), ("coupling_column", P), ("sensor_frame_node", P),
         ("sensor_column_start", P),
+        ("n_sampled", I64), ("sampled_laws", P), ("sampled_sensor_start", P), ("sampled_slot", P),
+        ("sampled_state_start", P), ("sampled_state_slot", P), ("sampled_limits", P), ("sampled_rate", P),
     ]
 
 
@@ -111,7 +113,8 @@ class WorkData(ctypes.Structure):
         "cable_vector", "cable_stiffness", "cable_damping", "cable_state", "cable_strain", "cable_gap",
         "hinge_work_torque", "hinge_damper_torque", "gravity_tangent", "gravity_force_D_q",
         "controller_state_trial", "controller_arguments", "controller_solve", "controller_half_step",
-        "controller_total", "sensor_jacobian")]
+        "controller_total", "sensor_jacobian",
+        "sampled_values", "sampled_arguments", "sampled_out", "restart_matrix", "restart_pivots")]
 
 
 class ConfigurationData(ctypes.Structure):
@@ -157,7 +160,8 @@ class AdvanceData(ctypes.Structure):
                 ("steps", I64), ("iterations", I64), ("factorizations", I64), ("status", I64), ("last", I64),
                 ("pending", I64), ("t_last", ctypes.c_double), ("h_pending", ctypes.c_double),
                 ("dissipated", ctypes.c_double), ("hinge_work_torque", P), ("hinge_damper_torque", P),
-                ("rows", P), ("cable_work", P)]
+                ("rows", P), ("cable_work", P),
+                ("sample_tolerance", ctypes.c_double), ("native_restart", I64), ("samples", I64)]
 
 
 class RowsData(ctypes.Structure):
@@ -231,6 +235,8 @@ def native_library() -> ctypes.CDLL:
         library.latdyn_controller_outputs_at.restype = None
         library.latdyn_controller_outputs_at.argtypes = [model, work, configuration, ctypes.c_double]
         library.latdyn_joint_forces.argtypes = [model, work, configuration, ctypes.c_double, P]
+        library.latdyn_sample_controllers.restype = I64
+        library.latdyn_sample_controllers.argtypes = [model, work, configuration, ctypes.c_double, ctypes.c_double]
         library.latdyn_evaluate.restype = None
         library.latdyn_evaluate.argtypes = [model, work, configuration, ctypes.POINTER(EvaluationData)]
         library.latdyn_element_inputs.restype = None

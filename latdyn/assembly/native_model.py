@@ -98,6 +98,8 @@ class SceneLaws:
         self.functions, self.hinge_laws = [], []
         #: continuous controllers and the probes each reads (latdyn.assembly.control.Wiring)
         self.controller_laws: list[tuple] = []
+        #: sampled controllers and the probes each reads (Wiring.sampled, sampled_sensor_names)
+        self.sampled_laws: list[tuple] = []
         self.inputs = inputs if inputs is not None else Signals()
         self.controllers = controllers if controllers is not None else Signals()
         self.reason = None  # why the laws are Python callbacks, or None when compiled
@@ -135,16 +137,17 @@ class SceneLaws:
                 out[k, 0] = f.value(0.0, 0.0, t)
         return out
 
-    def addresses(self) -> tuple[int, int, int]:
-        """The addresses of ``time_laws(t, out)``, ``hinge_laws(k, θ, θ̇, t, out)`` and
-        ``controller_laws(k, t, s, out)``."""
+    def addresses(self) -> tuple[int, int, int, int]:
+        """The addresses of ``time_laws(t, out)``, ``hinge_laws(k, θ, θ̇, t, out)``,
+        ``controller_laws(k, t, s, out)`` and ``sampled_laws(k, t, s, out)``."""
         why = unprintable(self.hinge_laws, self.signal_names) if self.hinge_laws else None
         if why is None:
             try:
-                compiled = compile_laws(self.functions, self.hinge_laws, self.signal_names, self.controller_laws)
+                compiled = compile_laws(self.functions, self.hinge_laws, self.signal_names, self.controller_laws,
+                                        self.sampled_laws)
                 self._keep = self._compiled = compiled
                 self.bind_inputs()
-                return compiled.time_laws, compiled.hinge_laws, compiled.controller_laws
+                return compiled.time_laws, compiled.hinge_laws, compiled.controller_laws, compiled.sampled_laws
             except LawsUnavailable as error:
                 why = str(error)
         self.reason = why
@@ -158,24 +161,29 @@ class SceneLaws:
             out[0], out[1], out[2] = law.value(theta, rate, t), law.d_theta(theta, rate, t), law.d_rate(theta, rate, t)
 
         controllers = [self._python_controller(c, sensors) for c, sensors in self.controller_laws]
+        sampled = [self._python_controller(c, sensors, sampled=True) for c, sensors in self.sampled_laws]
 
-        def controller_laws(k, t, s, out):
-            function, n = controllers[k]
-            values = function(t, *(s[i] for i in range(n)))
-            for i, value in enumerate(values):
-                out[i] = value
+        def laws_of(functions):
+            def laws(k, t, s, out):
+                function, n = functions[k]
+                values = function(t, *(s[i] for i in range(n)))
+                for i, value in enumerate(values):
+                    out[i] = value
+            return laws
 
-        callbacks = (_TIME_LAWS(time_laws), _HINGE_LAWS(hinge_laws), _CONTROLLER_LAWS(controller_laws))
+        callbacks = (_TIME_LAWS(time_laws), _HINGE_LAWS(hinge_laws), _CONTROLLER_LAWS(laws_of(controllers)),
+                     _CONTROLLER_LAWS(laws_of(sampled)))
         self._keep = callbacks
         return tuple(ctypes.cast(c, ctypes.c_void_p).value for c in callbacks)
 
-    def _python_controller(self, controller, sensors):
-        """Controller law in Python (where the laws do not print in C): (f(t, *s) -> [y, ∂y/∂s…], len(s))."""
+    def _python_controller(self, controller, sensors, sampled: bool = False):
+        """Controller law in Python (where the laws do not print in C): (f(t, *s) -> [y, ∂y/∂s…] of a
+        continuous one, [y, rates…] of a sampled one, len(s))."""
         import sympy as sp
 
-        from latdyn.assembly.compiled_laws import controller_law
+        from latdyn.assembly.compiled_laws import controller_law, sampled_law
 
-        law = controller_law(controller, sensors)
+        law = (sampled_law if sampled else controller_law)(controller, sensors)
         signals = sorted({s for e in law.expressions for s in sp.sympify(e).free_symbols} - set(law.variables),
                          key=lambda s: s.name)
         functions = [sp.lambdify([*law.variables, *signals], e, modules="math") for e in law.expressions]
@@ -241,7 +249,10 @@ class NativeModel:
         rest_law = [laws.add(f) for f in cables.rest_length] if cables is not None else []
         wired = a.control
         laws.controller_laws = [(c, wired.sensor_names(k)) for k, c in enumerate(wired.controllers)]
-        time_laws, hinge_laws, controller_laws = laws.addresses()
+        laws.sampled_laws = [(c, wired.sampled_sensor_names(k)) for k, c in enumerate(wired.sampled)]
+        time_laws, hinge_laws, controller_laws, sampled_laws = laws.addresses()
+        #: the sampled controllers' sensors whose values the caller hands in (sample), (sensor, probe)
+        self.provided = wired.provided
         self.laws, self.law_hinges = laws, list(with_law)
         outputs = laws.controllers.values  # the array the compiled laws read, written by the C evaluation
 
@@ -303,7 +314,7 @@ class NativeModel:
             has_events=int(CE > 0 or any(m.hinges[k].lock_at is not None or m.hinges[k].limits is not None
                                          or m.hinges[k].friction is not None for k in m.free_hinges)),
             section_width=m.element_sections.shape[1],
-            n_controllers=wired.n, n_sensors=len(wired.sensor_kind), n_actuators=len(wired.actuator_kind),
+            n_controllers=wired.n, n_sensors=wired.n_sensors, n_actuators=len(wired.actuator_kind),
             n_couplings=len(wired.coupling_actuator), controller_laws=controller_laws,
             controller_outputs=outputs.ctypes.data, controller_slot=ints(wired.slots),
             controller_limits=arr(wired.limits.reshape(-1, 2)), sensor_start=ints(wired.sensor_start),
@@ -319,14 +330,22 @@ class NativeModel:
             n_controller_states=len(wired.state_slot), controller_state_start=ints(wired.state_start),
             controller_state_slot=ints(wired.state_slot),
             actuator_gain=arr(wired.actuator_gain), n_law_actuators=int(np.count_nonzero(wired.actuator_gain)),
-            n_chained=int(np.count_nonzero(wired.sensor_kind == 4)),
+            n_chained=int(np.count_nonzero(wired.sensor_kind[:wired.n_sensors] == 4)),
             sensor_offset=arr(wired.sensor_offset.reshape(-1, 3)), coupling_column=ints(wired.coupling_column),
             sensor_frame_node=ints(wired.sensor_frame_node), sensor_column_start=ints(wired.sensor_column_start),
+            n_sampled=len(wired.sampled), sampled_laws=sampled_laws,
+            sampled_sensor_start=ints(wired.sampled_sensor_start), sampled_slot=ints(wired.sampled_slot),
+            sampled_state_start=ints(wired.sampled_state_start), sampled_state_slot=ints(wired.sampled_state_slot),
+            sampled_limits=arr(wired.sampled_limits.reshape(-1, 2)), sampled_rate=arr(wired.sampled_rate),
         )
         if len(wired.state_slot):  # the runtime's arrays, read and written in place (latdyn.assembly.control)
             states, rates = wired.states.values, wired.state_rates
             self._keep += [states, rates]
             self.model.controller_states, self.model.controller_state_rate = states.ctypes.data, rates.ctypes.data
+        elif len(wired.sampled):  # the sampled controllers' states and the states their probes read
+            states = m.scene.controller_states.values
+            self._keep.append(states)
+            self.model.controller_states = states.ctypes.data
         self._keep.append(outputs)
         if CE:
             self.model.cable_nodes, self.model.cable_offsets = ints(cables.nodes), arr(cables.offsets)
@@ -348,7 +367,12 @@ class NativeModel:
             "controller_arguments": (wired.law_arguments,), "controller_solve": (wired.solve_size,),
             "controller_half_step": (1,),
             "sensor_jacobian": (int(wired.sensor_column_start[-1]),),
-            "controller_total": (wired.n * len(wired.sensor_kind) if np.any(wired.sensor_kind == 4) else 0,),
+            "controller_total": (wired.n * wired.n_sensors if np.any(wired.sensor_kind[:wired.n_sensors] == 4) else 0,),
+            "sampled_values": (len(wired.sensor_kind),),
+            "sampled_arguments": (max([1] + [len(wired.sampled_sensor_names(k)) + len(c.states)
+                                             for k, c in enumerate(wired.sampled)]),),
+            "sampled_out": (max([1] + [1 + len(c.states) for c in wired.sampled]),),
+            "restart_matrix": (0,),
             "coupling_stiffness": (len(wired.coupling_actuator),), "coupling_damping": (len(wired.coupling_actuator),),
             "cable_vector": (CE, 12), "cable_stiffness": (CE, 12, 12), "cable_damping": (CE, 12, 12),
             "cable_state": (CE, 5), "cable_strain": (CE,), "cable_gap": (CE,),
@@ -364,7 +388,7 @@ class NativeModel:
             self.hold_links(assembler, None)
         self.buffers = {name: np.zeros(shape) for name, shape in work.items()}
         self.buffers["gravity_rows"][:] = a.gravity
-        self.buffers["pivots"] = np.zeros(0, np.int32)
+        self.buffers["pivots"] = self.buffers["restart_pivots"] = np.zeros(0, np.int32)
         self.work = WorkData()
         for name, buffer in self.buffers.items():
             self.set_buffer(name, buffer)
@@ -472,6 +496,22 @@ class NativeModel:
         if self.model.n_controller_states:
             self.library.latdyn_controller_states_accept(self.model_ref, self.work_ref,
                                                          ctypes.byref(self.configuration(state)), float(state.t), h)
+
+    def sample(self, state, t: float, tolerance: float, provided: dict | None = None) -> int:
+        """The sampled controllers' sample at the accepted ``state`` (``latdyn_sample_controllers``,
+        csrc/sampling.c): those whose instant ``t`` is, within ``tolerance``; ``provided``: the
+        values of the probes they read that no C sensor evaluates (:attr:`provided`), by name. How many
+        sampled."""
+        if not self.model.n_sampled:
+            return 0
+        values = self.buffers["sampled_values"]
+        for sensor, name in self.provided:
+            values[sensor] = provided[name]
+        self.laws.bind_inputs()
+        return int(self.library.latdyn_sample_controllers(self.model_ref, self.work_ref,
+                                                          ctypes.byref(self.configuration(state)),
+                                                          ctypes.c_double(float(t)),
+                                                          ctypes.c_double(float(tolerance))))
 
     def momentum(self, state) -> np.ndarray:
         """[P, H] at ``state``: the linear momentum and the angular momentum about the global origin

@@ -124,15 +124,15 @@ class ProbeSet:
 
     @property
     def needs_controller_outputs(self) -> bool:
-        """Whether the probes read a continuous controller's output (evaluated in the row at its state,
-        ``latdyn_controller_outputs_at``; a sampled controller's is held between its samples, where the
-        loop of steps stops)."""
-        return self._continuous
+        """Whether the probes read a controller's output, recorded in each row of a loop of steps: a
+        continuous one's evaluated at the row's state (``latdyn_controller_outputs_at``), a sampled one's
+        as held there (the loop of steps samples on the way: latdyn.timeloop.sampling)."""
+        return any(p.kind == "controller" and p.state is None for p in self.probes)
 
     @property
     def needs_controller_states(self) -> bool:
-        """Whether the probes read a controller's state (recorded in the row where they change: a
-        continuous controller's)."""
+        """Whether the probes read a controller's state (recorded in each row: a continuous one's changes
+        every step, a sampled one's at its samples on the way)."""
         return any(p.kind == "controller" and p.state is not None for p in self.probes)
 
     @property

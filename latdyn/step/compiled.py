@@ -144,6 +144,9 @@ def hold_matrix(assembler, native) -> Factorization:
     native.set_buffer("matrix", factorization.values)
     native.set_buffer("rhs", np.zeros(n))
     native.set_buffer("pivots", factorization.pivots)
+    if native.model.n_sampled:  # the restart after a sample factorizes M in a storage of its own (sampling.c)
+        native.set_buffer("restart_matrix", np.zeros_like(factorization.values))
+        native.set_buffer("restart_pivots", np.zeros_like(factorization.pivots))
     if m.links is not None:
         native.hold_links(a, factorization)
     native.matrix_storage = keep
@@ -304,7 +307,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
                 cable_work: np.ndarray | None = None, dissipated: float = 0.0, budget_s: float = 0.25,
                 rows: list[int] | None = None, momentum: bool = False, sections: bool = False,
                 joints: bool = False, cables: bool = False, controller_states: bool = False,
-                controller_outputs: bool = False) -> "Advanced":
+                controller_outputs: bool = False, sample_tolerance: float = 0.0) -> "Advanced":
         """Steps on the time grid in one call into C (``latdyn_advance``), from ``state`` on grid
         point ``grid_index`` through ``stop_index``, each as :meth:`step` takes it with
         h = t_{k+1} − t_k and accepted as the time loop accepts it (algorithmic acceleration
@@ -326,6 +329,11 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         controller states as accepted at the row and of controller outputs (the continuous ones evaluated
         there, ``latdyn_controller_outputs_at``); :attr:`Advanced.rows` holds those it recorded
         (a :class:`RowBlock`, valid until the next call).
+
+        ``sample_tolerance`` > 0: the sampled controllers sample at the end of every accepted step that
+        lands within it of one of their instants (csrc/sampling.c), and the accelerations restart there
+        (:meth:`restarts_natively`); a model that does not restart natively ends the call after the
+        sample (status 4) for the time loop to restart it (latdyn.timeloop.sampling).
         """
         self._setup()
         model = self.assembler.model
@@ -347,6 +355,8 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
             buffers.plan(rows, momentum, sections, joints, cables, controller_states, controller_outputs)
         run.rows = buffers.reference if buffers is not None else None
         run.cable_work = cable_accounts.ctypes.data
+        run.sample_tolerance = sample_tolerance
+        run.native_restart = int(sample_tolerance > 0.0 and self.restarts_natively(state))
         self._factor_version += 1
         self._native.laws.bind_inputs()  # this scene's input values (SceneLaws.bind_inputs)
         self._library.latdyn_advance(self._model_ref, self._work_ref, self._control_ref, ctypes.byref(base),
@@ -385,7 +395,24 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
                         power=run.power, external_work=run.external_work, status=run.status, pending=pending,
                         factorization_kept=kept, hinge_work_torque=work_torque,
                         hinge_damper_torque=damper_torque, cable_work=cable_accounts,
-                        dissipated=run.dissipated, rows=buffers.block() if buffers is not None else None)
+                        dissipated=run.dissipated, rows=buffers.block() if buffers is not None else None,
+                        samples=run.samples)
+
+    def restarts_natively(self, state: State) -> bool:
+        """Whether the loop of steps restarts the accelerations after a sample itself (csrc/sampling.c
+        restart_after_sample: v̇ ← v̇ − M⁻¹ r): for a numbering without rigid links whose every direction
+        has inertia (:func:`latdyn.numerics.inertia.split_inertia` of M at ``state``, once per numbering),
+        where that is :func:`latdyn.step.integrators.consistent_acceleration`; else the time loop restarts."""
+        if getattr(self, "_restart_for", None) is not self._native:
+            model = self.assembler.model
+            natively = model.links is None and model.n_dofs > 0
+            if natively:
+                from latdyn.numerics.inertia import split_inertia
+
+                mass = self.assembler.evaluate(state, matrices=True).combined(1.0, 0.0, 0.0)
+                natively = split_inertia(model, mass).n_massless == 0
+            self._restart_for, self._restarts_natively = self._native, natively
+        return self._restarts_natively
 
     def row_capacity(self) -> int:
         """The most rows one :meth:`advance` records (its buffers, :class:`RowBuffers`)."""
@@ -462,8 +489,9 @@ class Advanced:
     """What :meth:`CompiledGeneralizedAlpha.advance` did: the last accepted state, the steps
     accepted with their Newton iterations and factorizations, the power at that state and the
     external work since the start of the run, why it returned (0 at the stop, 1 a step did not
-    converge, 2 a step holds a hinge event, 3 the wall-time budget) and, for 1 and 2, the step
-    not accepted as ``(state, StepStats, h)``."""
+    converge, 2 a step holds a hinge event, 3 the wall-time budget, 4 the last accepted step ended
+    on a sample whose restart the time loop takes) and, for 1 and 2, the step not accepted as
+    ``(state, StepStats, h)``."""
 
     state: State
     steps: int
@@ -483,6 +511,7 @@ class Advanced:
     dissipated: float = 0.0  # the energy the dampers dissipated since the start of the run
     #: the rows recorded on the way (``advance``'s ``rows``), None without
     rows: "RowBlock | None" = None
+    samples: int = 0  # the sampled controllers' samples taken on the way (``sample_tolerance``)
 
 
 #: The columns of a row's scalars (csrc/rows.c ROW_SCALARS): its time, the loop call's steps, Newton
@@ -571,8 +600,10 @@ class RowBuffers:
         self.joint_forces = np.zeros((self.capacity, max(self.n_joints, 1)))
         self.cable_states = np.zeros((self.capacity, max(self.n_cables, 1), 5))
         self.saved = np.zeros(model.n_total + 2 + 2 * self.n_joints)
-        # the continuous controllers' states: the scene's array that the runtime writes in place
-        self.n_controller_values = len(model.scene.controller_states.values) if native.model.n_controller_states else 0
+        # the controllers' states: the scene's array that the runtime writes in place (a continuous
+        # controller's states every step, a sampled one's at its samples on the way)
+        self.n_controller_values = (len(model.scene.controller_states.values)
+                                    if native.model.n_controller_states or native.model.n_sampled else 0)
         self.controller_states = np.zeros((self.capacity, max(self.n_controller_values, 1)))
         self.n_output_values = (len(model.scene.controller_outputs.values) if getattr(model.scene, "controllers", None)
                                 else 0)

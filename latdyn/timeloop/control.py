@@ -46,6 +46,9 @@ class StepControl:
         #: the grid indices of the instants, sorted (the loop of steps in C stops on each: next_row), and
         #: whether every instant is a point k·dt of the nominal grid (the loop of steps in C walks only that)
         self.instant_indices, self.instants_on_nominal_grid = np.zeros(0, np.int64), True
+        #: whether the loop of steps in C samples the sampled controllers itself (the time loop sets it):
+        #: then it does not stop on their instants (loop_end)
+        self.samples_in_loop = False
         if instants is not None and len(instants):
             self.tolerance = 1e-9 * self.dt
             nominal = [self.grid_time(k) for k in range(self.n_grid + 1)]
@@ -151,13 +154,13 @@ class StepControl:
     def loop_end(self, run: TransientProgress) -> int:
         """The grid point a loop of steps in C ends at, rows or none on the way: t_end, the pause, the
         step that ends on a multiple of 256 steps (where the loop puts rotations back on SO(3)), or the
-        next sample instant of a sampled controller (the sample is taken in Python:
-        latdyn.timeloop.sampling)."""
+        next sample instant of a sampled controller unless the loop samples itself
+        (:attr:`samples_in_loop`; latdyn.timeloop.sampling)."""
         k = min(self.n_grid, run.grid_index + 256 - run.steps % 256)
         if self.pause_index is not None and self.pause_index > run.grid_index:
             k = min(k, self.pause_index)
         following = self.instant_indices[self.instant_indices > run.grid_index]
-        if len(following):
+        if len(following) and not self.samples_in_loop:
             k = min(k, int(following[0]))
         return k
 

@@ -126,11 +126,13 @@ class TimeLoop:
         if self.last_recorded is not None:
             self.writer.reattach_last_frame(
                 lambda snapshot=self.last_recorded: paraview.frame(self.assembler, self.writer.mesh, snapshot))
-        # sampled controllers: the loop of steps in C stops on each sample instant (control.next_row), the
-        # sample taken in Python (_after_accepted); instants off the grid k·dt: one step at a time
+        # sampled controllers: the loop of steps in C samples on each instant itself, or (a probe read
+        # without a C sensor) stops there and the sample is taken from here (_after_accepted); instants
+        # off the grid k·dt: one step at a time
         self.compiled = (self.compiled_loop and hasattr(self.integrator, "advance") and not self.control.adaptive
                          and (self.sampler is None or self.control.instants_on_nominal_grid)
                          and self.sensitivities is None)
+        self.control.samples_in_loop = self.compiled and self.sampler is not None and self.sampler.in_loop
         self.writer.summary["time_loop"] = "compiled" if self.compiled else "python"
         # rows where the step runs
         self.native_rows = self.compiled and NATIVE_ROWS and hasattr(self.integrator, "row_capacity")
@@ -301,7 +303,8 @@ class TimeLoop:
             dissipated=progress.dissipated, budget_s=budget, rows=rows, momentum=momentum, sections=sections,
             joints=bool(self.model.hinges), cables=self.probes.needs_cables,
             controller_states=self.probes.needs_controller_states,
-            controller_outputs=self.probes.needs_controller_outputs)
+            controller_outputs=self.probes.needs_controller_outputs,
+            sample_tolerance=1e-9 * control.dt if control.samples_in_loop else 0.0)
         progress.solver_s += time.perf_counter() - started
         ended_on_a_row = False
         if done.rows is not None and len(done.rows):
@@ -319,7 +322,11 @@ class TimeLoop:
             self._track_cables(progress.state, done.state)
             progress.state = done.state
             progress.algorithmic_acceleration = self.integrator.a
-            self._after_accepted(done.state, recorded=ended_on_a_row)
+            if done.samples:  # the sampled controllers sampled on the way (restarted there, or status 4)
+                progress.controller_memory = self.sampler.memory()
+                if done.status == 4:
+                    self._restart_after_sample(done.state)
+            self._after_accepted(done.state, recorded=ended_on_a_row, sampled=control.samples_in_loop)
             self._keep_accepted(done.factorization_kept)
         if done.pending is None:
             return None
@@ -559,28 +566,34 @@ class TimeLoop:
                 "a body with mass ({body: NAME}), or keep it taut (a load that keeps pulling its end, a "
                 "shorter rest_length).")
 
-    def _after_accepted(self, state: State, recorded: bool = False) -> None:
-        """After the accepted step(s) that ended at ``state``: rotations back on SO(3) every 256
+    def _after_accepted(self, state: State, recorded: bool = False, sampled: bool = False) -> None:
+        """After the accepted step(s) that ended at ``state``: the sampled controllers' sample if one
+        is due (``sampled``: the loop of steps took it already), rotations back on SO(3) every 256
         steps, the row if one is due (``recorded``: the loop of steps recorded it already) and the
         progress bar (the summary: once, when the loop ends, :meth:`run`; nothing reads it before the
         writer closes)."""
         progress, model = self.progress, self.model
-        if self.sampler is not None and self.sampler.sample(state, state.t, 1e-9 * self.control.dt):
-            # the held outputs jumped (an event of the laws): the accelerations go on from those
-            # consistent with the new outputs, as after a latch, and the power of the loads after
-            # the jump starts the next step
+        if not sampled and self.sampler is not None and self.sampler.sample(state, state.t, 1e-9 * self.control.dt):
             progress.controller_memory = self.sampler.memory()
-            self.integrator.start(state)
-            progress.algorithmic_acceleration = self.integrator.a
-            evaluation = self.assembler.evaluate(state, matrices=False)
-            progress.power = load_power(model, state, evaluation)
-            self._torques_from(evaluation)
+            self._restart_after_sample(state)
         if progress.steps % 256 == 0:  # exp updates keep T on SO(3) to round-off; remove the drift of long runs
             state.T[model.free_nodes] = orthonormalize(state.T[model.free_nodes])
         if not recorded and self.control.row_due(progress, state.t):
             self._record(state, self.energies_of(state))
             self.control.row_recorded(progress, state.t)
         self.bar.update(state.t)
+
+    def _restart_after_sample(self, state: State) -> None:
+        """The held outputs jumped (an event of the laws): the accelerations go on from those consistent
+        with the new outputs, as after a latch (the integrator's start; the loop of steps in C takes the
+        same restart itself where it can: latdyn.timeloop.sampling), and the power of the loads after
+        the jump starts the next step."""
+        progress = self.progress
+        self.integrator.start(state)
+        progress.algorithmic_acceleration = self.integrator.a
+        evaluation = self.assembler.evaluate(state, matrices=False)
+        progress.power = load_power(self.model, state, evaluation)
+        self._torques_from(evaluation)
 
     # ------------------------------------------------------------------------- rows, summary
     def _record(self, state: State, energies: dict) -> None:

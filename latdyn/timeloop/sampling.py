@@ -8,13 +8,24 @@ the probes at the accepted state and, controller by controller in file order,
 
 then holds y_k (zero-order hold) until the next instant: the laws that name the controller read the
 held value (:class:`latdyn.scene.inputs.ControllerOutputs`). A controller that reads an earlier
-one sampled at the same instant reads its new value. The sample is a jump of the law between two
-steps, like an event; the power of the loads is taken again after it, for the energy balance.
+one sampled at the same instant (by its name, or through a probe of its output) reads its new value.
+The sample is a jump of the law between two steps, like an event: the accelerations restart from
+those consistent with the new outputs and the power of the loads is taken again after it, for the
+energy balance.
+
+The sample is compiled like the laws: each controller's output and state rates are a generated
+kernel of the scene's laws unit (codegen/laws.py ``latdyn_sampled_laws``), its sensors the C probe
+evaluation of the continuous controllers (csrc/evaluate.c ``sensor_value``), the cycle
+``latdyn_sample_controllers`` (csrc/sampling.c). The compiled loop of steps takes it at every
+instant without returning to Python, and the restart after it too (a model without rigid links whose
+every direction has inertia: v̇ ← v̇ − M⁻¹r, :func:`latdyn.step.integrators.consistent_acceleration`
+with an all-massive split); otherwise it returns after the sample and the time loop restarts from
+Python. A probe no C sensor evaluates (energy, momentum, section, joint and cable forces) is handed
+in from Python (:meth:`latdyn.assembly.native_model.NativeModel.sample`): the loop of steps then stops
+on the instants and the time loop calls the same cycle there.
 
 The outputs and states after each sample are what the progress carries
 (:attr:`latdyn.timeloop.progress.TransientProgress.controller_memory`): a resumed run restores them.
-The expressions are evaluated here, in Python, once per sample (``math`` lambdas: microseconds),
-not inside the step.
 """
 from __future__ import annotations
 
@@ -24,7 +35,8 @@ from latdyn.assembly.control import state_rates
 
 
 class SampledControllers:
-    """The scene's sampled controllers and the instants they sample at."""
+    """The scene's sampled controllers and the instants they sample at; the sample is the compiled
+    cycle of the native model (``probes.assembler``'s, module docstring)."""
 
     def __init__(self, scene, probes):
         self.scene, self.probes = scene, probes
@@ -49,29 +61,22 @@ class SampledControllers:
         """The controllers whose sample instant ``t`` is (within ``tolerance``)."""
         return [c for c in self.controllers if abs(round(t * c.rate) / c.rate - t) <= tolerance]
 
-    def sample(self, state, t: float, tolerance: float) -> bool:
-        """The sample at ``t`` of the controllers due then, from the probes at ``state``; whether any was."""
-        due = self.due(t, tolerance)
-        if not due:
-            return False
-        values = dict(zip(self.probes.names, self.probes.values(state)))
-        inputs = self.scene.inputs
-        for c in due:
-            def signal(name):
-                if name in values:
-                    return values[name]
-                return inputs[name] if name in inputs else self.outputs[name]
+    @property
+    def in_loop(self) -> bool:
+        """Whether the loop of steps in C can sample (every probe read has a C sensor)."""
+        return not self.probes.assembler.native().provided
 
-            tk = round(t * c.rate) / c.rate
-            own = [self.states[f"{c.name}.{s}"] for s in c.states]
-            arguments = [tk, *(signal(n) for n in c.reads), *own]
-            output, rates = c.functions()
-            held = c.clip(float(output(*arguments)))
-            steps = [float(f(*arguments)) / c.rate for f in rates]
-            self.outputs.values[self.outputs.index(c.name)] = held
-            for s, value, step in zip(c.states, own, steps):
-                self.states.values[self.states.index(f"{c.name}.{s}")] = value + step
-        return True
+    def sample(self, state, t: float, tolerance: float) -> bool:
+        """The sample at ``t`` of the controllers due then, from the probes at ``state``
+        (``latdyn_sample_controllers``); whether any was."""
+        if not self.due(t, tolerance):
+            return False
+        native = self.probes.assembler.native()
+        provided = None
+        if native.provided:  # probes without a C sensor: their values from the probe set
+            values = dict(zip(self.probes.names, self.probes.values(state)))
+            provided = {name: values[name] for _, name in native.provided}
+        return native.sample(state, t, tolerance, provided) > 0
 
     def memory(self) -> np.ndarray:
         """A copy of every controller's output and state (what a checkpoint keeps: :func:`controller_memory`)."""

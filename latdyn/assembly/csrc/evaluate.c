@@ -206,6 +206,18 @@ typedef struct {
      * sensor i's gradient are sensor_column_start[i] … sensor_column_start[i+1]−1 of Work sensor_jacobian
      * (kinds 5, 6, 7: 6, 9 and 12 columns; 12 an element for kind 8; none for the others) */
     const int64_t *sensor_column_start;
+    /* sampled controllers (latdyn/assembly/control.py _wire_sampled, csrc/sampling.c; n_sampled 0: none), in
+     * file order: controller k samples at the instants j / sampled_rate[k], reads the sensors
+     * sampled_sensor_start[k] … [k+1]−1 (after the continuous controllers' n_sensors; kind 4 any controller's
+     * output, sensor_index its entry in controller_outputs; 9 a value handed in, Work sampled_values; 10 a
+     * controller's state, sensor_index its entry in controller_states) and its states sampled_state_slot[
+     * sampled_state_start[k] …] of controller_states, clips its output to sampled_limits (k, 2) into
+     * controller_outputs[sampled_slot[k]]; its generated law (codegen/laws.py latdyn_sampled_laws) gives y
+     * and each state's rate */
+    int64_t n_sampled;
+    void (*sampled_laws)(int64_t, double, const double *, double *);
+    const int64_t *sampled_sensor_start, *sampled_slot, *sampled_state_start, *sampled_state_slot;
+    const double *sampled_limits, *sampled_rate;
 } Model;
 
 /* Scratch buffers, allocated once by the caller. */
@@ -260,6 +272,11 @@ typedef struct {
      * and then by its three rotation coordinates, of kind 7 by its point's node's and its body's, of
      * kind 8 by its elements' end nodes' (Model sensor_column_start) */
     double *sensor_jacobian;
+    /* sampled controllers (csrc/sampling.c): the values handed in for sensors of kind 9 (all sensors), a
+     * law's arguments (s, S) and its values (y, rates); the restart's mass matrix in the iteration
+     * matrix's storage and its pivots (apart from `matrix`, which holds modified Newton's factorization) */
+    double *sampled_values, *sampled_arguments, *sampled_out, *restart_matrix;
+    int *restart_pivots;
 } Work;
 
 /* ------------------------------------------------------------------------- small algebra */
@@ -594,100 +611,106 @@ static void controller_states_at(const Model *m, Work *w, int64_t k, double t, i
     for (int64_t i = 0; i < p; ++i) w->controller_state_trial[first + i] = args[count + i];
 }
 
+/* The value of sensor i at c, less its origin (see Model: the kinds 0-3 and 5-8; 0 for the others, which
+ * the caller reads), with its gradient's columns into w->sensor_jacobian for kinds 5-8: the probe
+ * evaluation of the controllers, continuous (controller_outputs) and sampled (sampling.c). */
+static double sensor_value(const Model *m, const Configuration *c, Work *w, int64_t i)
+{
+    int64_t index = m->sensor_index[i];
+    double value = 0.0;
+    switch (m->sensor_kind[i]) {
+    case 0: value = c->theta[index]; break;
+    case 1: value = c->theta_dot[index]; break;
+    case 2: value = c->x[index]; break;
+    case 3: value = c->v[index]; break;
+    case 5: {  /* a point offset from its node: x + T r, and Jᵀ e_c from the point-load kernel */
+        static const double identity[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+        const int64_t node = index / 3, component = index % 3;
+        const double *T = c->T + 9 * node, *r = m->sensor_offset + 3 * i;
+        double unit[6] = {0, 0, 0, 0, 0, 0}, velocity[6] = {0, 0, 0, 0, 0, 0}, power, by_node[18], by_frame[18];
+        unit[component] = -1.0;  /* the kernel gives −Jᵀ values (the load's part of the residual): +Jᵀ e_c */
+        m->point_load(1, T, r, unit, identity, velocity, w->sensor_jacobian + m->sensor_column_start[i], &power, by_node, by_frame);
+        value = c->x[index] + T[3 * component] * r[0] + T[3 * component + 1] * r[1] + T[3 * component + 2] * r[2];
+        break;
+    }
+    case 6: {  /* the velocity of a point offset from its node: v + ω × T r. By the node's rates it is
+                * Jᵀ e_c (as the position by the coordinates); by the node's rotation, at fixed rates,
+                * e_c·(ω × p) = d·p with d = e_c × ω: the rotation part of Jᵀ d, both from point_load */
+        static const double identity[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+        const int64_t node = index / 3, component = index % 3;
+        const double *T = c->T + 9 * node, *r = m->sensor_offset + 3 * i, *omega = c->w + 3 * node;
+        double unit[6] = {0, 0, 0, 0, 0, 0}, velocity[6] = {0, 0, 0, 0, 0, 0}, power, by_node[18], by_frame[18];
+        double p[3], lever[6], *jacobian = w->sensor_jacobian + m->sensor_column_start[i];
+        for (int q = 0; q < 3; ++q) p[q] = T[3 * q] * r[0] + T[3 * q + 1] * r[1] + T[3 * q + 2] * r[2];
+        unit[component] = -1.0;
+        m->point_load(1, T, r, unit, identity, velocity, jacobian, &power, by_node, by_frame);
+        const int64_t a = (component + 1) % 3, b = (component + 2) % 3;  /* d = e_c × ω */
+        double d[6] = {0, 0, 0, 0, 0, 0};
+        d[a] = -omega[b];
+        d[b] = omega[a];
+        for (int q = 0; q < 3; ++q) d[q] = -d[q];
+        m->point_load(1, T, r, d, identity, velocity, lever, &power, by_node, by_frame);
+        for (int q = 0; q < 3; ++q) jacobian[6 + q] = lever[3 + q];
+        value = c->v[index] + omega[a] * p[b] - omega[b] * p[a];
+        break;
+    }
+    case 7: {  /* in a body's axes: by the point's node Jᵀ b_c; by the body's translation −b_c; by its
+                * rotation the rotation part of Jᵀ u for the point T_b e_c (u = p − x_b): all from point_load */
+        static const double identity[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+        const int64_t node = index / 3, component = index % 3, body = m->sensor_frame_node[i];
+        const double *T = c->T + 9 * node, *r = m->sensor_offset + 3 * i, *Tb = c->T + 9 * body;
+        double velocity[6] = {0, 0, 0, 0, 0, 0}, power, by_node[18], by_frame[18], *jacobian = w->sensor_jacobian + m->sensor_column_start[i];
+        double axis[6] = {0, 0, 0, 0, 0, 0}, u[6] = {0, 0, 0, 0, 0, 0}, unit[3] = {0, 0, 0}, lever[6];
+        for (int q = 0; q < 3; ++q) {
+            axis[q] = -Tb[3 * q + component];  /* −b_c: the kernel gives −Jᵀ values */
+            u[q] = -(c->x[3 * node + q] + T[3 * q] * r[0] + T[3 * q + 1] * r[1] + T[3 * q + 2] * r[2] - c->x[3 * body + q]);
+        }
+        m->point_load(1, T, r, axis, identity, velocity, jacobian, &power, by_node, by_frame);
+        unit[component] = 1.0;
+        m->point_load(1, Tb, unit, u, identity, velocity, lever, &power, by_node, by_frame);
+        value = 0.0;
+        for (int q = 0; q < 3; ++q) {
+            jacobian[6 + q] = axis[q];  /* −b_c */
+            jacobian[9 + q] = lever[3 + q];
+            value -= axis[q] * -u[q];  /* b_c · (p − x_b) */
+        }
+        break;
+    }
+    case 8: {  /* a cable's length and its gradient, element by element */
+        static const double identity[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+        double velocity[6] = {0, 0, 0, 0, 0, 0}, power, by_node[18], by_frame[18];
+        double *jacobian = w->sensor_jacobian + m->sensor_column_start[i];
+        const int64_t elements = (m->sensor_column_start[i + 1] - m->sensor_column_start[i]) / 12;
+        for (int64_t j = 0; j < elements; ++j) {
+            const int64_t e = index + j, a = m->cable_nodes[2 * e], b = m->cable_nodes[2 * e + 1];
+            const double *ra = m->cable_offsets + 6 * e, *rb = ra + 3;
+            double pa[3], pb[3], d[3], toward_a[6] = {0, 0, 0, 0, 0, 0}, toward_b[6] = {0, 0, 0, 0, 0, 0};
+            matvec3(c->T + 9 * a, ra, pa);
+            matvec3(c->T + 9 * b, rb, pb);
+            for (int q = 0; q < 3; ++q) d[q] = c->x[3 * b + q] + pb[q] - c->x[3 * a + q] - pa[q];
+            const double length = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+            value += length;
+            for (int q = 0; q < 3 && length > 0.0; ++q) {
+                toward_a[q] = d[q] / length;   /* the kernel gives −Jᵀ values: −Jᵀ_a e */
+                toward_b[q] = -d[q] / length;  /* +Jᵀ_b e */
+            }
+            m->point_load(1, c->T + 9 * a, ra, toward_a, identity, velocity, jacobian + 12 * j, &power, by_node, by_frame);
+            m->point_load(1, c->T + 9 * b, rb, toward_b, identity, velocity, jacobian + 12 * j + 6, &power, by_node,
+                          by_frame);
+        }
+        break;
+    }
+    default: value = 0.0; break;  /* 4: an earlier controller's output, read by the caller */
+    }
+    return value - m->sensor_origin[i];
+}
+
 /* Continuous controllers at c (see Model): outputs (clipped) into m->controller_outputs, ∂y/∂s into
  * w->controller_gradient (0 when saturated); with states, S at the step's end (controller_states_at)
  * and ∂y/∂s + ∂y/∂S dS/ds. */
 static void controller_outputs(const Model *m, const Configuration *c, Work *w, double t)
 {
-    for (int64_t i = 0; i < m->n_sensors; ++i) {
-        int64_t index = m->sensor_index[i];
-        double value = 0.0;
-        switch (m->sensor_kind[i]) {
-        case 0: value = c->theta[index]; break;
-        case 1: value = c->theta_dot[index]; break;
-        case 2: value = c->x[index]; break;
-        case 3: value = c->v[index]; break;
-        case 5: {  /* a point offset from its node: x + T r, and Jᵀ e_c from the point-load kernel */
-            static const double identity[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
-            const int64_t node = index / 3, component = index % 3;
-            const double *T = c->T + 9 * node, *r = m->sensor_offset + 3 * i;
-            double unit[6] = {0, 0, 0, 0, 0, 0}, velocity[6] = {0, 0, 0, 0, 0, 0}, power, by_node[18], by_frame[18];
-            unit[component] = -1.0;  /* the kernel gives −Jᵀ values (the load's part of the residual): +Jᵀ e_c */
-            m->point_load(1, T, r, unit, identity, velocity, w->sensor_jacobian + m->sensor_column_start[i], &power, by_node, by_frame);
-            value = c->x[index] + T[3 * component] * r[0] + T[3 * component + 1] * r[1] + T[3 * component + 2] * r[2];
-            break;
-        }
-        case 6: {  /* the velocity of a point offset from its node: v + ω × T r. By the node's rates it is
-                    * Jᵀ e_c (as the position by the coordinates); by the node's rotation, at fixed rates,
-                    * e_c·(ω × p) = d·p with d = e_c × ω: the rotation part of Jᵀ d, both from point_load */
-            static const double identity[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
-            const int64_t node = index / 3, component = index % 3;
-            const double *T = c->T + 9 * node, *r = m->sensor_offset + 3 * i, *omega = c->w + 3 * node;
-            double unit[6] = {0, 0, 0, 0, 0, 0}, velocity[6] = {0, 0, 0, 0, 0, 0}, power, by_node[18], by_frame[18];
-            double p[3], lever[6], *jacobian = w->sensor_jacobian + m->sensor_column_start[i];
-            for (int q = 0; q < 3; ++q) p[q] = T[3 * q] * r[0] + T[3 * q + 1] * r[1] + T[3 * q + 2] * r[2];
-            unit[component] = -1.0;
-            m->point_load(1, T, r, unit, identity, velocity, jacobian, &power, by_node, by_frame);
-            const int64_t a = (component + 1) % 3, b = (component + 2) % 3;  /* d = e_c × ω */
-            double d[6] = {0, 0, 0, 0, 0, 0};
-            d[a] = -omega[b];
-            d[b] = omega[a];
-            for (int q = 0; q < 3; ++q) d[q] = -d[q];
-            m->point_load(1, T, r, d, identity, velocity, lever, &power, by_node, by_frame);
-            for (int q = 0; q < 3; ++q) jacobian[6 + q] = lever[3 + q];
-            value = c->v[index] + omega[a] * p[b] - omega[b] * p[a];
-            break;
-        }
-        case 7: {  /* in a body's axes: by the point's node Jᵀ b_c; by the body's translation −b_c; by its
-                    * rotation the rotation part of Jᵀ u for the point T_b e_c (u = p − x_b): all from point_load */
-            static const double identity[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
-            const int64_t node = index / 3, component = index % 3, body = m->sensor_frame_node[i];
-            const double *T = c->T + 9 * node, *r = m->sensor_offset + 3 * i, *Tb = c->T + 9 * body;
-            double velocity[6] = {0, 0, 0, 0, 0, 0}, power, by_node[18], by_frame[18], *jacobian = w->sensor_jacobian + m->sensor_column_start[i];
-            double axis[6] = {0, 0, 0, 0, 0, 0}, u[6] = {0, 0, 0, 0, 0, 0}, unit[3] = {0, 0, 0}, lever[6];
-            for (int q = 0; q < 3; ++q) {
-                axis[q] = -Tb[3 * q + component];  /* −b_c: the kernel gives −Jᵀ values */
-                u[q] = -(c->x[3 * node + q] + T[3 * q] * r[0] + T[3 * q + 1] * r[1] + T[3 * q + 2] * r[2] - c->x[3 * body + q]);
-            }
-            m->point_load(1, T, r, axis, identity, velocity, jacobian, &power, by_node, by_frame);
-            unit[component] = 1.0;
-            m->point_load(1, Tb, unit, u, identity, velocity, lever, &power, by_node, by_frame);
-            value = 0.0;
-            for (int q = 0; q < 3; ++q) {
-                jacobian[6 + q] = axis[q];  /* −b_c */
-                jacobian[9 + q] = lever[3 + q];
-                value -= axis[q] * -u[q];  /* b_c · (p − x_b) */
-            }
-            break;
-        }
-        case 8: {  /* a cable's length and its gradient, element by element */
-            static const double identity[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
-            double velocity[6] = {0, 0, 0, 0, 0, 0}, power, by_node[18], by_frame[18];
-            double *jacobian = w->sensor_jacobian + m->sensor_column_start[i];
-            const int64_t elements = (m->sensor_column_start[i + 1] - m->sensor_column_start[i]) / 12;
-            for (int64_t j = 0; j < elements; ++j) {
-                const int64_t e = index + j, a = m->cable_nodes[2 * e], b = m->cable_nodes[2 * e + 1];
-                const double *ra = m->cable_offsets + 6 * e, *rb = ra + 3;
-                double pa[3], pb[3], d[3], toward_a[6] = {0, 0, 0, 0, 0, 0}, toward_b[6] = {0, 0, 0, 0, 0, 0};
-                matvec3(c->T + 9 * a, ra, pa);
-                matvec3(c->T + 9 * b, rb, pb);
-                for (int q = 0; q < 3; ++q) d[q] = c->x[3 * b + q] + pb[q] - c->x[3 * a + q] - pa[q];
-                const double length = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-                value += length;
-                for (int q = 0; q < 3 && length > 0.0; ++q) {
-                    toward_a[q] = d[q] / length;   /* the kernel gives −Jᵀ values: −Jᵀ_a e */
-                    toward_b[q] = -d[q] / length;  /* +Jᵀ_b e */
-                }
-                m->point_load(1, c->T + 9 * a, ra, toward_a, identity, velocity, jacobian + 12 * j, &power, by_node, by_frame);
-                m->point_load(1, c->T + 9 * b, rb, toward_b, identity, velocity, jacobian + 12 * j + 6, &power, by_node,
-                              by_frame);
-            }
-            break;
-        }
-        default: value = 0.0; break;  /* 4: an earlier controller's output, read in the loop below */
-        }
-        w->sensor_values[i] = value - m->sensor_origin[i];
-    }
+    for (int64_t i = 0; i < m->n_sensors; ++i) w->sensor_values[i] = sensor_value(m, c, w, i);
     for (int64_t k = 0; k < m->n_controllers; ++k) {
         int64_t first = m->sensor_start[k], count = m->sensor_start[k + 1] - first;
         int64_t p = m->n_controller_states ? m->controller_state_start[k + 1] - m->controller_state_start[k] : 0;

@@ -316,7 +316,8 @@ typedef struct {
      * hinges' by hinge_work) */
     double power, external_work;
     /* out: steps accepted, their Newton iterations and factorizations; why the loop returned
-     * (0 at stop_index, 1 a step did not converge, 2 a step holds an event, 3 the budget);
+     * (0 at stop_index, 1 a step did not converge, 2 a step holds an event, 3 the budget, 4 a sample
+     * whose restart the caller takes: the accepted state that sampled is the last);
      * the last accepted state's time (the state itself is copied to `last`); with status 1 or
      * 2, the scratch configuration that holds the step not accepted (its counters stay in the
      * StepControl) and that step's size */
@@ -333,6 +334,12 @@ typedef struct {
     /* in/out (n_cables, 4): each cable element's [ℓ, L0, ∂U/∂L0, f] at the last accepted state
      * (Work.cable_work) */
     double *cable_work;
+    /* in: the sampled controllers sampled in the loop (sampling.c) at each accepted step's end within
+     * this tolerance of an instant (0: not, the caller stops the loop on the instants), and whether the
+     * restart after a sample is taken here too (restart_after_sample), else the loop returns after the
+     * sample (status 4) for the caller to restart; out: the samples taken */
+    double sample_tolerance;
+    int64_t native_restart, samples;
 } Advance;
 
 /* The work of the hinges' torques over the accepted step old → new (latdyn/timeloop/progress.py
@@ -375,6 +382,8 @@ static double seconds_now(void)
     return (double)now.tv_sec + 1e-9 * (double)now.tv_nsec;
 }
 
+#include "sampling.c" /* the sampled controllers' sample and the restart after it */
+
 /* Steps from `start` (at adv->t, on grid point grid_index) through grid point stop_index,
  * each landing on the grid (h = t_{k+1} − t_k) as timeloop.loop takes them at the nominal
  * step: latdyn_newton_step with the compiled laws, then acceptance (the algorithmic
@@ -392,7 +401,7 @@ int64_t latdyn_advance(const Model *m, Work *w, StepControl *s, const Configurat
     const double started = adv->budget_s > 0.0 ? seconds_now() : 0.0;
     const Configuration *base = start;
     double t = adv->t;
-    adv->steps = adv->iterations = adv->factorizations = 0;
+    adv->steps = adv->iterations = adv->factorizations = adv->samples = 0;
     adv->last = -1;
     adv->pending = -1;
     adv->status = 0;
@@ -424,6 +433,18 @@ int64_t latdyn_advance(const Model *m, Work *w, StepControl *s, const Configurat
         adv->steps += 1;
         adv->iterations += s->iterations;
         adv->factorizations += s->factorizations;
+        /* a sample instant: the sample, then the restart here (or, status 4, by the caller before the row) */
+        if (adv->sample_tolerance > 0.0 && m->n_sampled
+            && latdyn_sample_controllers(m, w, trial, target, adv->sample_tolerance)) {
+            adv->samples += 1;
+            if (!adv->native_restart || restart_after_sample(m, w, trial, target, x->a_n, adv)) {
+                adv->status = 4;
+                adv->last = next;
+                base = trial;
+                t = target;
+                break;
+            }
+        }
         Rows *rows = adv->rows;
         if (rows && rows->recorded < rows->planned && k + 1 == rows->grid_point[rows->recorded]) {
             const double counters[5] = {(double)adv->steps, (double)adv->iterations, (double)adv->factorizations,
