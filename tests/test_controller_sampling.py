@@ -255,3 +255,52 @@ def test_a_sampled_pi_restarted_in_the_loop_equals_the_exact_discrete_time_solut
         th, om = th + T * om + u * T * T / (2 * m), om + u * T / m
     across = np.column_stack([p["x"], p["y"], p["z"]]) - np.outer(s, d)
     assert np.max(np.abs(across)) < 1e-12
+
+
+def test_modified_newton_and_laws_called_back_in_python_sample_as_the_compiled_run(monkeypatch):
+    """``solve.newton: modified`` (the restart factorizes M in a storage of its own: the held
+    factorization of the iteration matrix stays) against its run stepped from Python; and without the
+    laws' library (the sampled laws called back in Python, native_model.SceneLaws) against the
+    compiled laws: the same rows to round-off."""
+    from latdyn.assembly import compiled_laws, native_model
+
+    scene = arm(SPATIAL, t_end=0.3)
+    scene["solve"]["newton"] = "modified"
+    native, summary, calls = run_probes(scene, True, monkeypatch)
+    python, reference, _ = run_probes(scene, False, monkeypatch)
+    assert calls == 1 and summary["factorizations"] == reference["factorizations"] < summary["steps"]
+    for name in python:
+        assert np.max(np.abs(native[name] - python[name])) <= 1e-11 * max(1.0, np.max(np.abs(python[name]))), name
+
+    def unavailable(*args, **kwargs):
+        raise compiled_laws.LawsUnavailable("no compiler for the laws (test)")
+
+    scene["solve"].pop("newton")
+    compiled, _, _ = run_probes(scene, True, monkeypatch)
+    monkeypatch.setattr(native_model, "compile_laws", unavailable)
+    called_back, summary, _ = run_probes(scene, True, monkeypatch)
+    assert summary["time_loop"] == "compiled"
+    for name in compiled:
+        assert np.max(np.abs(called_back[name] - compiled[name])) <= 1e-10 * max(1.0, np.max(np.abs(compiled[name]))), name
+
+
+@pytest.mark.parametrize("where", ["arm", "puck"])
+def test_sampled_in_the_loop_resumes_bit_for_bit(where, tmp_path, monkeypatch):
+    """Interrupted between two samples and resumed (the loop of steps sampling and restarting in C):
+    probes.csv equals an uninterrupted run's, byte for byte."""
+    from test_checkpoint import interrupt_at
+
+    if where == "arm":
+        scene = arm(PLANAR, t_end=0.5)
+    else:
+        scene = yaml.safe_load(PUCK.format(d0=1 / 3, d1=2 / 3, d2=2 / 3))
+        scene["controllers"]["ctl"]["output"] = "-kp*(x - ref) - kd*vx - ki*S"
+        scene["controllers"]["ctl"]["states"] = {"S": "x - ref"}
+    full, out = tmp_path / "full", tmp_path / "out"
+    latdyn.run(scene, full)
+    with monkeypatch.context() as m:
+        interrupt_at(m, 0.337)
+        with pytest.raises(KeyboardInterrupt):
+            latdyn.run(scene, out)
+    latdyn.run(scene, out, resume=True)
+    assert (out / "probes.csv").read_text() == (full / "probes.csv").read_text()
