@@ -7,7 +7,9 @@ the hinge angle, a continuous PI (its state integrated with the step: docs/contr
 P at 100 Hz or 500 Hz (every step). Through ``latdyn.run`` in process, kernels and laws cached (a
 first run of each case, not timed, compiles them); per case the best of ``--repeat`` of
 ``summary.json`` ``solver_s`` per step and the wall time of ``latdyn.run``, with the Newton
-iterations and ``time_loop``. Run from another checkout (``PYTHONPATH``) for the before; a case the
+iterations and ``time_loop``. The sampled cases' ``solver_s`` holds their samples and the restarts
+after them where the loop of steps takes them (csrc/sampling.c); a checkout that takes them in
+Python between calls leaves them out of it: compare the wall times. Run from another checkout (``PYTHONPATH``) for the before; a case the
 checkout cannot run is reported as such. The 1-minute load average is printed: read the times with it.
 """
 from __future__ import annotations
