@@ -17,10 +17,11 @@ The sample is compiled like the laws: each controller's output and state rates a
 kernel of the scene's laws unit (codegen/laws.py ``latdyn_sampled_laws``), its sensors the C probe
 evaluation of the continuous controllers (csrc/evaluate.c ``sensor_value``), the cycle
 ``latdyn_sample_controllers`` (csrc/sampling.c). The compiled loop of steps takes it at every
-instant without returning to Python, and the restart after it too (a model without rigid links whose
-every direction has inertia: v̇ ← v̇ − M⁻¹r, :func:`latdyn.step.integrators.consistent_acceleration`
-with an all-massive split); otherwise it returns after the sample and the time loop restarts from
-Python. A probe no C sensor evaluates (energy, momentum, section, joint and cable forces) is handed
+instant without returning to Python, and the restart after it too where every direction has an
+inertia that does not depend on the state and there are no rigid links (v̇ ← v̇ − M⁻¹r,
+:func:`latdyn.step.integrators.consistent_acceleration` with an all-massive split:
+:meth:`latdyn.step.compiled.CompiledGeneralizedAlpha.restarts_natively`); otherwise it returns after
+the sample and the time loop restarts from Python. A probe no C sensor evaluates (energy, momentum, section, joint and cable forces) is handed
 in from Python (:meth:`latdyn.assembly.native_model.NativeModel.sample`): the loop of steps then stops
 on the instants and the time loop calls the same cycle there.
 
