@@ -26,7 +26,10 @@ coordinates with rigid links take them. Saturated (output at a limit), ∂y/∂s
 
 :func:`wiring` lays this out for one numbering of the coordinates; what it cannot wire (a sensor or
 an actuator outside the list above, states in a chain of continuous controllers) is refused with
-the key path.
+the key path. It lays out the sampled controllers' sensors too (:func:`_wire_sampled`), after the
+continuous ones' in the same arrays, for the compiled sample (csrc/sampling.c,
+latdyn.timeloop.sampling): the same probe kinds, any controller's output or state, and a probe
+without a C sensor handed in from Python; a held output enters no matrix.
 """
 from __future__ import annotations
 
