@@ -397,8 +397,8 @@ def test_a_step_that_fails_raises_finishes_the_folder_as_failed_and_ends_the_sim
 def test_a_python_pd_at_100_hz_equals_the_scenes_sampled_controller_at_rate_100(tmp_path, planar):
     """The same PD written as a sampled controller of the scene (``rate: 100``, read by the hinge
     torque) and run by ``latdyn run`` (CLI), against the Python loop through ``set_input``: every
-    row (every 0.01 s, at the sample instants) equal to round-off, measured: angle 3.5e-18 rad (3D)
-    and 6.9e-18 (planar), rate 2.2e-16 rad/s in both."""
+    row (every 0.01 s, at the sample instants) equal to round-off, measured (the sample compiled,
+    csrc/sampling.c): angle 2.2e-16 rad (3D) and 6.9e-18 (planar), rate 4.4e-16 and 2.2e-16 rad/s."""
     inertia = 1.0 if planar else 8.0 / 9.0
     kp, kd = inertia * 16.0, 2 * 0.7 * 4.0 * inertia
     text = hub_scene(planar, 0.01)
