@@ -50,6 +50,7 @@ beams with mass are differentiated exactly there too. docs/parameters.md.
 from __future__ import annotations
 
 import re
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -90,10 +91,10 @@ def refusal(scene) -> SceneError | None:
     if why is not None:
         return refuse(why)
     if solve.analysis not in ("static", "transient") or (
-            solve.analysis == "static" and solve.method not in ("load-control", "displacement-control")):
+            solve.analysis == "static" and solve.method not in ("load-control", "displacement-control", "arc-length")):
         method = f"{solve.analysis}" + (f" ({solve.method})" if solve.analysis == "static" else "")
-        return refuse(f"sensitivities are computed for static load control and displacement control and for "
-                      f"transient runs with an implicit method only, not yet for a {method} analysis")
+        return refuse(f"sensitivities are computed for static load control, arc length and displacement control "
+                      f"and for transient runs with an implicit method only, not yet for a {method} analysis")
     if any(beam.rigid for beam in scene.beams.values()):
         return refuse("sensitivities of scenes with rigid links are not computed yet")
     for beam, which, hinge in scene.hinges:
@@ -248,6 +249,30 @@ class ParameterDerivatives:
         ``beam_quadratic_velocity``, linear in ρA, ρIy, ρIz), as evaluate.c sums them."""
         model = self.model
         gravity = load_factor * np.asarray(self.assembler.gravity, float)
+        blocks = self._section_derivative_blocks(state)
+        if blocks is None:
+            return
+        elements, column, rows = blocks
+        geometry, rates, accelerations = self.assembler.native().element_inputs(state)
+        at = np.ascontiguousarray(geometry[elements])
+        m = len(elements)
+        forces = np.asarray(self.kernels.beam_internal_force(at, rows)[0]).reshape(m, 14)
+        if np.any(gravity):   # evaluate.c: the static residual F − λ gravity load
+            rows_g = np.repeat(gravity[None], m, axis=0)
+            forces = forces - np.asarray(self.kernels.beam_gravity(at, rows, rows_g)[0]).reshape(m, 14)
+        if inertia:   # evaluate.c: F + M a + g − gravity
+            rate = np.ascontiguousarray(rates[elements])
+            mass = np.asarray(self.kernels.beam_mass_matrix(at, rows)[0]).reshape(m, 14, 14)
+            forces = forces + np.einsum("epq,eq->ep", mass, accelerations[elements]) \
+                + np.asarray(self.kernels.beam_quadratic_velocity(at, rate, rows)[0]).reshape(m, 14)
+        np.add.at(total, (model.element_dofs[elements], column[:, None]), forces)
+
+    def _section_derivative_blocks(self, state):
+        """(elements (m,), parameter columns (m,), section rows (m, 10)): for every use of a parameter
+        by a section value, that section's elements with the section block replaced by the value's
+        derivative (L0 kept, the rest 0; the planar model's quarter turns applied as
+        latdyn.model.planar.restrict_to_plane applies them); None where no parameter is a section's."""
+        model = self.model
         chosen, columns, blocks = [], [], []   # every (parameter's use, column): its elements and section rows
         for key, laws in self.derivatives.items():
             section = _SECTION_KEY.match(key)
@@ -268,22 +293,9 @@ class ParameterDerivatives:
                 columns.append(np.full(len(elements), column))
                 blocks.append(rows)
         if not chosen:
-            return
+            return None
         # the kernels once for all of them (each row its element's geometry and a section derivative)
-        elements, column, rows = np.concatenate(chosen), np.concatenate(columns), np.ascontiguousarray(np.vstack(blocks))
-        geometry, rates, accelerations = self.assembler.native().element_inputs(state)
-        at = np.ascontiguousarray(geometry[elements])
-        m = len(elements)
-        forces = np.asarray(self.kernels.beam_internal_force(at, rows)[0]).reshape(m, 14)
-        if np.any(gravity):   # evaluate.c: the static residual F − λ gravity load
-            rows_g = np.repeat(gravity[None], m, axis=0)
-            forces = forces - np.asarray(self.kernels.beam_gravity(at, rows, rows_g)[0]).reshape(m, 14)
-        if inertia:   # evaluate.c: F + M a + g − gravity
-            rate = np.ascontiguousarray(rates[elements])
-            mass = np.asarray(self.kernels.beam_mass_matrix(at, rows)[0]).reshape(m, 14, 14)
-            forces = forces + np.einsum("epq,eq->ep", mass, accelerations[elements]) \
-                + np.asarray(self.kernels.beam_quadratic_velocity(at, rate, rows)[0]).reshape(m, 14)
-        np.add.at(total, (model.element_dofs[elements], column[:, None]), forces)
+        return np.concatenate(chosen), np.concatenate(columns), np.ascontiguousarray(np.vstack(blocks))
 
     def _section_elements(self, name: str) -> np.ndarray:
         """The elements of the beams of section ``name`` (found once)."""
@@ -439,9 +451,9 @@ class StaticSensitivities(ParameterDerivatives):
         _refuse_without_gravity_tangent(self.scene, self.model, self.kernels)
         self.rows: list[tuple[float, list[float]]] = []
         #: δλ/δp per row and parameter: zero under load control (λ is the grid's), moving under
-        #: displacement control
+        #: displacement control and arc length
         self.load_factor_rows: list[list[float]] = []
-        self.controlled = self.scene.solve.method == "displacement-control"
+        self.controlled = self.scene.solve.method in ("displacement-control", "arc-length")
 
     # ------------------------------------------------------------------ rows
     def record(self, state, load_factor: float, constraint_gradient=None) -> None:
@@ -477,7 +489,7 @@ class StaticSensitivities(ParameterDerivatives):
 
     # ------------------------------------------------------------------ results
     def table(self) -> dict:
-        """``{(probe, name): array over the rows}``; under displacement control also
+        """``{(probe, name): array over the rows}``; under displacement control and arc length also
         ``("load_factor", name)``, the load factor's own sensitivity."""
         data = np.array([values for _, values in self.rows]).reshape(len(self.rows), len(self.columns))
         out = {(p.name, name): data[:, i * len(self.names) + c]
@@ -490,7 +502,7 @@ class StaticSensitivities(ParameterDerivatives):
     def summary(self, probe_values: dict, load_factors=None) -> dict:
         """``probe_sensitivities``: each probe's derivative at the last row, and at the rows of its
         largest and smallest value (the first where several tie); with ``load_factors`` (displacement
-        control) the same for the load factor, under the name ``load_factor``."""
+        control, arc length) the same for the load factor, under the name ``load_factor``."""
         series = {p.name: probe_values[p.name] for p in self.probes}
         if load_factors is not None and self.controlled:
             series["load_factor"] = load_factors
@@ -502,3 +514,216 @@ class StaticSensitivities(ParameterDerivatives):
 
         text = csv_line(["load_factor", *self.columns]) + "".join(csv_line([lam, *values]) for lam, values in self.rows)
         atomic_write_bytes(Path(folder) / SENSITIVITIES_FILE, text.encode("utf-8"))
+
+
+@dataclass
+class ArcStep:
+    """What an arc-length step hands its row's sensitivities (latdyn/analyses/continuation.py
+    ``arc_length``): the step's increment Δq from the row before (the sum of its Newton increments in
+    the tangent space, ‖Δq‖_W = Δs), its arc length Δs and the first step's Δs₀ (every Δs is Δs₀ times
+    factors the path chose: halvings and the adaptation to the Newton iterations), and whether its
+    end was solved at λ = 1 exactly (the last row)."""
+    increment: np.ndarray
+    length: float
+    first: float
+    at_full_load: bool = False
+
+
+class ArcLengthSensitivities(StaticSensitivities):
+    """The sensitivities of an arc-length path (docs/parameters.md, "Arc length"): each row's point
+    (q_{n+1}, λ_{n+1}) solves r(q, λ; p) = 0 and ‖q ⊖ q_n‖_W = Δs_n from the row before, so it depends
+    on p through the residual, through the row before and through Δs_n = c_n Δs₀(p). Differentiated,
+    with D = q_{n+1} ⊖ q_n (the step's increment) and the bordered matrix that stays regular at a limit
+    point (where K alone is singular):
+
+        [ K      −q_ref ] [δq_{n+1}]   [ −∂r/∂p                     ]
+        [ DᵀW     0     ] [δλ_{n+1}] = [ DᵀW δq_n + Δs_n δΔs_n       ],   δΔs_n = (Δs_n/Δs₀) δΔs₀,
+
+    δΔs₀ from Δs₀ = ‖K₀⁻¹q_ref‖_W / steps at the start: δ(K₀⁻¹q_ref) = K₀⁻¹(δq_ref − δK₀ K₀⁻¹q_ref), δK₀
+    from the generated kernels (the element tangent ``beam_internal_force_D_q`` with the section block
+    replaced by its derivative, linear in it; ``hinge_force``'s ∂f/∂θ with the laws replaced by their
+    derivatives). The last row, solved at λ = 1, is load control's: δq = −K⁻¹∂r/∂p, δλ = 0. The limit
+    points the rows pass are located on the path (:meth:`limit_points`) and the limit load's derivative
+    taken there."""
+
+    def __init__(self, prepared, weight: np.ndarray):
+        super().__init__(prepared)
+        self.weight = weight
+        self.previous = np.zeros((self.model.n_dofs, len(self.names)))   # δq of the row before
+        self.first_step = np.zeros(len(self.names))                      # δΔs₀/Δs₀
+        #: (state, λ, the step into it) of every row, for :meth:`limit_points`
+        self.states: list[tuple[object, float, ArcStep | None]] = []
+
+    def record(self, state, load_factor: float, constraint_gradient=None, step: ArcStep | None = None) -> None:
+        """The row's sensitivities: at λ = 0 zeros (and δΔs₀ found), after a step the bordered solve
+        of the class docstring, at λ = 1 load control's."""
+        model, k = self.model, len(self.names)
+        self.states.append((state.copy(), load_factor, step))
+        if step is None or model.n_dofs == 0:
+            if load_factor == 0.0 and model.n_dofs:
+                self.first_step = self._first_step_derivative(state)
+            super().record(state, load_factor)
+            return
+        ev = self.assembler.evaluate(state, matrices=True, load_factor=load_factor, inertia=False)
+        rhs = -self.residual_derivatives(state, load_factor)
+        if step.at_full_load:
+            tangent, moved = self._solve(ev.stiffness, rhs, load_factor), np.zeros(k)
+        else:
+            along = self.weight * step.increment                       # DᵀW
+            shifted = self.assembler.evaluate(state, matrices=False, load_factor=load_factor + 1.0, inertia=False)
+            load = ev.residual - shifted.residual                     # q_ref = −∂r/∂λ
+            held = along @ self.previous + step.length * step.length * self.first_step
+            solved = bordered_solve(ev.stiffness, -load, along, np.vstack([rhs, held[None]]), load_factor)
+            tangent, moved = solved[:-1], solved[-1]
+        self.previous = tangent
+        self.load_factor_rows.append([float(x) for x in moved])
+        moved_by = self._by_parameter(tangent)
+        self.rows.append((load_factor, [value for p in self.probes
+                                        for value in self._probe_derivatives(p, state, *moved_by)]))
+
+    def _solve(self, stiffness, rhs, load_factor):
+        try:
+            return np.asarray(solve_linear(stiffness, rhs)).reshape(self.model.n_dofs, -1)
+        except np.linalg.LinAlgError:
+            raise SolverError(f"the sensitivities at load factor {load_factor:.6g} need the static stiffness, "
+                              "which is singular there (a limit or bifurcation point)") from None
+
+    def _first_step_derivative(self, state) -> np.ndarray:
+        """δΔs₀/Δs₀ per parameter: Δs₀ = ‖t₀‖_W/steps, t₀ = K₀⁻¹q_ref at the start (λ = 0), so
+        δΔs₀/Δs₀ = t₀ᵀW δt₀ / t₀ᵀW t₀ with δt₀ = K₀⁻¹(δq_ref − δK₀ t₀), δq_ref = ∂r/∂p(λ=0) − ∂r/∂p(λ=1)."""
+        ev = self.assembler.evaluate(state, matrices=True, load_factor=0.0, inertia=False)
+        shifted = self.assembler.evaluate(state, matrices=False, load_factor=1.0, inertia=False)
+        start = self._solve(ev.stiffness, ev.residual - shifted.residual, 0.0)[:, 0]
+        load = self.residual_derivatives(state, 0.0) - self.residual_derivatives(state, 1.0)
+        moved = self._solve(ev.stiffness, load - self.stiffness_derivative_along(state, start), 0.0)
+        size = float(start @ (self.weight * start))
+        return (start * self.weight) @ moved / size
+
+    def stiffness_derivative_along(self, state, direction: np.ndarray) -> np.ndarray:
+        """(∂K/∂p) v at a state of load factor 0 (the start), one column per parameter (n_dofs, k): the
+        elements' tangent by their section values and the hinges' by their stiffness laws and rest
+        angles; loads, gravity, masses and applied torques enter K only times λ, and damping times θ̇ = 0."""
+        model, k = self.model, len(self.names)
+        total = np.zeros((model.n_total + 1, k))
+        full = np.concatenate([direction, np.zeros(model.n_total + 1 - model.n_dofs)])
+        blocks = self._section_derivative_blocks(state)
+        if blocks is not None:
+            elements, column, rows = blocks
+            geometry, _, _ = self.assembler.native().element_inputs(state)
+            m = len(elements)
+            tangent = np.asarray(self.kernels.beam_internal_force_D_q(np.ascontiguousarray(geometry[elements]),
+                                                                      rows)[1]).reshape(m, 14, 14)
+            np.add.at(total, (model.element_dofs[elements], column[:, None]),
+                      np.einsum("epq,eq->ep", tangent, full[model.element_dofs[elements]]))
+        for key, laws in self.derivatives.items():
+            hinge = _HINGE_KEY.match(key)
+            if not hinge or hinge["law"] not in ("stiffness", "rest_angle"):
+                continue
+            j = model.hinge_index(hinge["beam"], hinge["end"])
+            theta, rate, t = float(state.theta[j]), float(state.theta_dot[j]), state.t
+            for column, law in laws.items():
+                values = np.zeros((1, 9))
+                if hinge["law"] == "stiffness":   # ∂f/∂θ = k + s ∂k/∂θ + …, with k replaced by ∂k/∂p
+                    values[0, 0:3] = law.value(theta, rate, t), law.d_theta(theta, rate, t), law.d_rate(theta, rate, t)
+                    at = np.array([[theta, rate, model.hinges[j].rest_angle, 0.0]])
+                else:   # ∂/∂θ_r (k + (θ − θ_r) ∂k/∂θ) = −∂k/∂θ: s = −1, laws (0, ∂k/∂θ, ∂k/∂θ̇)
+                    stiffness = model.hinges[j].stiffness
+                    values[0, 1:3] = law.value(theta, rate, t) * np.array(
+                        [stiffness.d_theta(theta, rate, t), stiffness.d_rate(theta, rate, t)])
+                    at = np.array([[0.0, 0.0, 1.0, 0.0]])
+                d_theta = float(np.asarray(self.kernels.hinge_force(at, values, NO_CONTACT[None])[1]).reshape(-1)[0])
+                total[model.hinge_dofs[j], column] += d_theta * full[model.hinge_dofs[j]]
+        return total[:model.n_dofs]
+
+    # ------------------------------------------------------------------ limit points
+    def limit_points(self, path) -> list[dict]:
+        """``limit_point_sensitivities``: for each turn of λ among the rows (a row whose λ is above or
+        below both neighbours'), the limit point located on the path between its neighbours and
+        dλ_c/dp there. Located: on the hyperplane family cᵀW (q ⊖ q_m) = σ through the turning row m
+        (c the chord of the two steps about it), the σ where dλ/dσ = 0 (regula falsi, each point by
+        Newton on the bordered system); there K φ = 0 has a left null vector φ, and the bordered
+        derivative δλ = φᵀ∂r/∂p / φᵀq_ref does not depend on c: the limit load's derivative
+        (``path``: latdyn.analyses.continuation.Path, its evaluate, step_to and increment_size)."""
+        out = []
+        lams = [lam for _, lam, _ in self.states]
+        for m in range(1, len(self.states) - 1):
+            before, after = lams[m] - lams[m - 1], lams[m + 1] - lams[m]
+            if before * after >= 0.0 or self.states[m + 1][2] is None or self.states[m][2] is None:
+                continue
+            if self.states[m + 1][2].at_full_load:
+                continue
+            located = self._locate_limit(path, m)
+            if located is None:
+                path.writer.summary.setdefault("warnings", []).append(
+                    f"the limit point near load factor {lams[m]:.6g} could not be located on the path: its "
+                    "load factor's sensitivity is left out of limit_point_sensitivities")
+                continue
+            state, lam, chord = located
+            ev = self.assembler.evaluate(state, matrices=True, load_factor=lam, inertia=False)
+            shifted = self.assembler.evaluate(state, matrices=False, load_factor=lam + 1.0, inertia=False)
+            rhs = np.vstack([-self.residual_derivatives(state, lam), np.zeros((1, len(self.names)))])
+            solved = bordered_solve(ev.stiffness, shifted.residual - ev.residual, chord, rhs, lam)
+            out.append({"kind": "maximum" if before > 0 else "minimum", "load_factor": float(lam),
+                        "dload_factor": {name: float(solved[-1, c]) for c, name in enumerate(self.names)}})
+        return out
+
+    def _locate_limit(self, path, m: int):
+        """(state, λ, cᵀW) of the limit point about row m, or None (:meth:`limit_points`)."""
+        start, lam0, into = self.states[m]
+        chord = self.weight * (into.increment + self.states[m + 1][2].increment)
+        ends = (-float(chord @ into.increment), float(chord @ self.states[m + 1][2].increment))
+
+        def on_path(sigma):   # Newton from row m onto the hyperplane cᵀW Δ = σ: (state, λ, dλ/dσ)
+            state, lam, moved = start, lam0, np.zeros(self.model.n_dofs)
+            for _ in range(path.max_iter):
+                residual, stiffness, load = path.evaluate(state, lam)
+                rhs = np.concatenate([-residual, [sigma - float(chord @ moved)]])[:, None]
+                step = bordered_solve(stiffness, -load, chord, rhs, lam)[:, 0]
+                state, lam, moved = path.step_to(state, step[:-1]), lam + step[-1], moved + step[:-1]
+                if path.increment_size(step[:-1]) <= path.tol and abs(step[-1]) <= path.tol * max(1.0, abs(lam)):
+                    residual, stiffness, load = path.evaluate(state, lam)
+                    unit = np.zeros((len(residual) + 1, 1))
+                    unit[-1] = 1.0
+                    slope = float(bordered_solve(stiffness, -load, chord, unit, lam)[-1, 0])
+                    return state, lam, slope
+            return None
+
+        # regula falsi (Illinois) on dλ/dσ between the neighbours, where its sign differs
+        (a, fa), (b, fb) = ((sigma, (on_path(sigma) or (None, None, None))[2]) for sigma in ends)
+        if fa is None or fb is None or fa * fb > 0.0:
+            return None
+        scale = max(abs(fa), abs(fb))
+        for _ in range(60):
+            c = (a * fb - b * fa) / (fb - fa)
+            got = on_path(c)
+            if got is None:
+                return None
+            fc = got[2]
+            if abs(fc) <= 1e-11 * scale:
+                return got[0], got[1], chord
+            if fc * fb < 0.0:
+                a, fa = b, fb
+            else:
+                fa /= 2
+            b, fb = c, fc
+        return None
+
+
+def bordered_solve(stiffness, column: np.ndarray, row: np.ndarray, rhs: np.ndarray, load_factor: float) -> np.ndarray:
+    """Solve [[K, column], [rowᵀ, 0]] x = rhs ((n + 1, k) → (n + 1, k)), the bordered system of a path
+    that stays regular where K is singular (a limit point), through the package's LU."""
+    import scipy.sparse as sp
+
+    from latdyn.numerics.linalg import use_dense
+
+    if isinstance(stiffness, np.ndarray) or use_dense(len(column) + 1):
+        dense = stiffness if isinstance(stiffness, np.ndarray) else stiffness.toarray()
+        matrix = np.block([[dense, column[:, None]], [row[None, :], np.zeros((1, 1))]])
+    else:
+        matrix = sp.bmat([[stiffness, sp.csr_matrix(column[:, None])], [sp.csr_matrix(row[None, :]), None]],
+                         format="csr")
+    try:
+        return np.asarray(solve_linear(matrix, rhs)).reshape(len(column) + 1, -1)
+    except np.linalg.LinAlgError:
+        raise SolverError(f"the sensitivities at load factor {load_factor:.6g} need the path's bordered "
+                          "matrix, which is singular there (a bifurcation point)") from None
