@@ -55,6 +55,12 @@ def _arch(half: float, tilt: float, load: float, EIz: str) -> dict:
 
 PLANAR = _arch(0.5, 0.0, 120.0, "1.2*EI")
 SPATIAL = _arch(0.6, TILT, 200.0, "3*EI")
+#: the planar arch hinged at its crown, a spring whose stiffness law and rest angle are parameters
+#: (they enter the start's K₀, so the first step's length moves with them)
+HINGED = copy.deepcopy(PLANAR)
+HINGED["parameters"].update(k=2.0, th0=0.02)
+HINGED["beams"]["s2"]["start"] = {"hinge": {"axis": [0, 0, 1], "stiffness": "k*(1 + 3*(theta - th0)**2)",
+                                            "rest_angle": "th0"}}
 
 
 def _run(scene: dict, names, **parameters):
@@ -130,6 +136,14 @@ def test_planar_arc_length_sensitivities_through_a_snap_through_agree_with_richa
     result, summary = planar
     _snaps_through(result, summary)
     _check(result, summary, _richardson(PLANAR, name), name)
+
+
+@pytest.mark.parametrize("name", ["k", "th0"])
+def test_arc_length_sensitivities_by_a_hinge_spring_agree_with_richardson_differences(name):
+    """Measured: k 8.0e-11, th0 2.7e-9 of each quantity's largest (rows and limit loads)."""
+    result, summary = _run(HINGED, [name])
+    _snaps_through(result, summary)
+    _check(result, summary, _richardson(HINGED, name), name)
 
 
 def test_3d_arc_length_sensitivities_through_a_snap_through_agree_with_richardson_differences(spatial):

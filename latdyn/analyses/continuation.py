@@ -24,6 +24,9 @@ and differs only in the equation that fixes δλ (``solve.method``, SCENE.md):
   Δλ = ±Δs/‖δq_λ‖_W takes its sign from the previous step's direction, sign(Δq_{n−1}ᵀ W δq_λ)
   (Feng, Perić & Owen 1996), which passes limit points and snap-backs alike, where the sign of
   det K fails at a snap-back (Crisfield 1981 §3; Riks 1979 uses the same constraint linearised).
+  With ``solve.sensitivities`` in 3D, Δq composes the rotation increments exactly
+  (:meth:`Path.compose`), so that it is the tangent-space difference of the step's ends, a function of
+  the parameters (docs/parameters.md, "Arc length").
   Δs adapts to the Newton iterations of the last step, Δs ← Δs·√(6/N), within [Δs₀/1024, Δs₀],
   Δs₀ being the arc length of a first step Δλ = 1/steps.  The run ends when λ reaches 1 (the
   last point is solved at λ = 1 exactly) or after ``max_steps`` path steps (a warning).

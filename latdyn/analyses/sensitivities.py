@@ -1,5 +1,5 @@
-"""Exact sensitivities of static paths, load and displacement control (SCENE.md, "Parameters and
-sensitivities").
+"""Exact sensitivities of static paths, load control, arc length and displacement control (SCENE.md,
+"Parameters and sensitivities").
 
 The computed static solution at a recorded load factor λ > 0 is the configuration q at which
 Newton made the residual r(q; λ, p) vanish. Its derivative by a parameter p is the tangent vector
@@ -34,11 +34,15 @@ a hinge angle by δθ.
 Under displacement control the controlled displacement c(q) is held and λ moves instead: with
 g = ∂c/∂q and q_ref = −∂r/∂λ, δq = δq_r + δλ K⁻¹q_ref, δq_r = −K⁻¹ ∂r/∂p, δλ = −g·δq_r / g·K⁻¹q_ref.
 
+Under arc length each row lies at the arc length Δs_n from the row before: :class:`ArcLengthSensitivities`
+differentiates that chain with the bordered matrix [K, −q_ref; DᵀW, 0] (regular at limit points) and
+locates the limit points the rows pass, for the limit load's derivative (docs/parameters.md, "Arc length").
+
 Transient runs: :mod:`latdyn.analyses.transient_sensitivities` (the step differentiated), on
 :class:`ParameterDerivatives` (∂r/∂p with the inertia forces).
 
 What is refused (:func:`refusal`, exit 2 naming ``solve.sensitivities``): any analysis but static
-load and displacement control and transient runs of an implicit method at fixed steps without
+load control, arc length and displacement control and transient runs of an implicit method at fixed steps without
 events, cables, guides, controllers and inputs (:func:`_transient_refusal`); a parameter used anywhere but in load components, hinge stiffness, damping,
 torque and rest angle, section values of shear-rigid sections (formulation default) and body
 masses, centres of mass and inertias; probes other than point positions and displacements in the global frame
