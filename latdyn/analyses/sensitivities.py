@@ -60,7 +60,7 @@ from pathlib import Path
 import numpy as np
 
 from latdyn.assembly.factorization import solve_linear
-from latdyn.assembly.native_model import NO_CONTACT
+from latdyn.assembly.native_model import NO_CONTACT, joint_contact_rows
 from latdyn.errors import SceneError, SolverError
 from latdyn.results.result import SENSITIVITIES_FILE
 from latdyn.scene.expressions import parse_hinge_law
@@ -77,6 +77,10 @@ _BODY_KEY = re.compile(r"^bodies\.(?P<body>[^.]+)\.(?:(?P<mass>mass)|com\[(?P<co
 #: a component of the rigid motion at t = 0 (transient runs: the velocities are affine in it at a fixed ``about``)
 _INITIAL_VELOCITY_KEY = re.compile(r"^initial_velocity\.(?P<kind>linear|angular)\[(?P<axis>[0-2])\]$")
 _HINGE_KEY = re.compile(r"^beams\.(?P<beam>.+)\.(?P<end>start|end)\.hinge\.(?P<law>stiffness|damping|torque|rest_angle)$")
+#: a compliant stop's law (transient runs: ∂f/∂(k, n, c) from the generated ``contact_force_D_law``)
+_CONTACT_KEY = re.compile(r"^beams\.(?P<beam>.+)\.(?P<end>start|end)\.hinge\.contact\.(?P<law>stiffness|exponent|damping)$")
+#: the slots of the law in the generated kernel's output
+_CONTACT_SLOT = {"stiffness": 0, "exponent": 1, "damping": 2}
 
 
 def refusal(scene) -> SceneError | None:
@@ -108,12 +112,13 @@ def refusal(scene) -> SceneError | None:
     for name in names:
         for used in scene.parameters.depending_on(name):
             section = _SECTION_KEY.match(used)
-            initial = solve.analysis == "transient" and _INITIAL_VELOCITY_KEY.match(used)
+            initial = solve.analysis == "transient" and (_INITIAL_VELOCITY_KEY.match(used) or _CONTACT_KEY.match(used))
             if not (_LOAD_KEY.match(used) or _HINGE_KEY.match(used) or section or _BODY_KEY.match(used) or initial):
                 return refuse(f"parameter {name!r} is used at {used}: sensitivities are computed for parameters "
                               "of load components, of hinge stiffness, damping, torque and rest_angle, of section "
                               "stiffnesses and masses (shear-rigid), of body masses, centres of mass and "
-                              "inertias and, in transient runs, of initial_velocity.linear and .angular only")
+                              "inertias and, in transient runs, of initial_velocity.linear and .angular and of a "
+                              "hinge's compliant stops (contact.stiffness, .exponent, .damping) only")
             if section and solve.formulation != "default":
                 return refuse(f"parameter {name!r} is used at {used}: sensitivities by section values are computed "
                               f"for formulation: default only, not {solve.formulation}")
@@ -166,9 +171,9 @@ def _transient_refusal(scene) -> str | None:
     if any(body.guide is not None for body in scene.bodies.values()):
         return "sensitivities of runs with guides (prismatic joints) are not computed yet"
     for beam, which, hinge in scene.hinges:
-        if hinge.contact is not None or hinge.friction is not None:
-            return (f"sensitivities through compliant stops and friction ({beam}.{which}: sticking and the "
-                    "stops' contact are events) are not computed yet")
+        if hinge.friction is not None:
+            return (f"sensitivities through friction ({beam}.{which}: sticking and slipping are events of a "
+                    "law that changes there) are not computed yet; compliant stops (contact) are")
     events = [f"{beam}.{which}" for beam, which, hinge in scene.hinges
               if hinge.lock_at is not None or hinge.limits is not None]
     if events:
@@ -238,6 +243,7 @@ class ParameterDerivatives:
                     total[model.hinge_dofs[j], column] += self._hinge_force(state, j, hinge["law"], law, load_factor)
         self._section_forces(state, total, load_factor, inertia)
         self._body_forces(state, total, load_factor, inertia)
+        self._contact_forces(state, total)
         if load_values:   # the kernel is linear in the values: one call for every (load, column)
             pairs = list(load_values)
             nodes, forces = self._load_forces(state, [index for index, _ in pairs], np.array(list(load_values.values())))
@@ -356,6 +362,25 @@ class ParameterDerivatives:
                     block[0, 1:4] = model.body_com[b] - along
                     force = 0.5 * (ahead - force_of(block))
                 total[model.node_dofs[node], column] += force
+
+    def _contact_forces(self, state, total: np.ndarray) -> None:
+        """Add ∂f/∂p of the hinges whose compliant stops' stiffness, exponent or damping name a
+        parameter into ``total``: the generated ``contact_force_D_law`` (∂f_contact/∂(k, n, c) at the
+        hinge's θ, θ̇; zero outside contact) times the law's derivative by the parameter."""
+        model = self.model
+        for key, laws in self.derivatives.items():
+            contact = _CONTACT_KEY.match(key)
+            if not contact:
+                continue
+            j = model.hinge_index(contact["beam"], contact["end"])
+            rows = self.__dict__.setdefault("_contact_rows", {})
+            if j not in rows:
+                rows[j] = np.ascontiguousarray(joint_contact_rows([model.hinges[j]]))
+            at = np.array([[float(state.theta[j]), float(state.theta_dot[j]), model.hinges[j].rest_angle, 1.0]])
+            slope = float(np.asarray(self.kernels.contact_force_D_law(at, rows[j])[0]).reshape(3)[
+                _CONTACT_SLOT[contact["law"]]])
+            for column, law in laws.items():
+                total[model.hinge_dofs[j], column] += law.value(0.0, 0.0, state.t) * slope
 
     def _key_kinds(self, key: str):
         """(the load key's match, the hinge key's match) of a parameter's use, matched once."""
