@@ -41,13 +41,20 @@ locates the limit points the rows pass, for the limit load's derivative (docs/pa
 Transient runs: :mod:`latdyn.analyses.transient_sensitivities` (the step differentiated), on
 :class:`ParameterDerivatives` (∂r/∂p with the inertia forces).
 
+Compliant stops (their law's stiffness, exponent and damping: :meth:`ParameterDerivatives._contact_forces`,
+the generated ``contact_force_D_law``) and continuous controllers without states that drive hinge
+torques (:class:`ControllerTerms`: parameters inside their outputs) enter ∂r/∂p of transient runs.
+
 What is refused (:func:`refusal`, exit 2 naming ``solve.sensitivities``): any analysis but static
-load control, arc length and displacement control and transient runs of an implicit method at fixed steps without
-events, cables, guides, controllers and inputs (:func:`_transient_refusal`); a parameter used anywhere but in load components, hinge stiffness, damping,
-torque and rest angle, section values of shear-rigid sections (formulation default) and body
-masses, centres of mass and inertias; probes other than point positions and displacements in the global frame
-and hinge angles; rigid links; in static paths hinges with limits or ``lock_at`` (events; transient runs
-differentiate latches and rigid stops: latdyn/analyses/transient_sensitivities.py). Under gravity the static
+load control, arc length and displacement control and transient runs of an implicit method at fixed
+steps without cables, guides, friction, sampled controllers, controllers with states or driving
+loads, and inputs (:func:`_transient_refusal`, :meth:`ControllerTerms.refusal`); a parameter used
+anywhere but in load components, hinge stiffness, damping, torque and rest angle, section values of
+shear-rigid sections (formulation default), body masses, centres of mass and inertias and, in
+transient runs, initial velocities, compliant stops' laws and continuous controllers' outputs;
+probes other than point positions and displacements in the global frame and hinge angles; rigid
+links; in static paths hinges with limits or ``lock_at`` (events; transient runs differentiate
+latches and stops: latdyn/analyses/transient_sensitivities.py). Under gravity the static
 Newton matrix K − λ ∂Q/∂q holds the beams' gravity tangent (the generated ``beam_gravity_D_q``), so
 beams with mass are differentiated exactly there too. docs/parameters.md.
 """
@@ -78,9 +85,12 @@ _BODY_KEY = re.compile(r"^bodies\.(?P<body>[^.]+)\.(?:(?P<mass>mass)|com\[(?P<co
 _INITIAL_VELOCITY_KEY = re.compile(r"^initial_velocity\.(?P<kind>linear|angular)\[(?P<axis>[0-2])\]$")
 _HINGE_KEY = re.compile(r"^beams\.(?P<beam>.+)\.(?P<end>start|end)\.hinge\.(?P<law>stiffness|damping|torque|rest_angle)$")
 #: a compliant stop's law (transient runs: ∂f/∂(k, n, c) from the generated ``contact_force_D_law``)
-_CONTACT_KEY = re.compile(r"^beams\.(?P<beam>.+)\.(?P<end>start|end)\.hinge\.contact\.(?P<law>stiffness|exponent|damping)$")
+_CONTACT_KEY = re.compile(r"^beams\.(?P<beam>.+)\.(?P<end>start|end)\.hinge\.contact\."
+                          r"(?P<law>stiffness|exponent|damping)$")
 #: the slots of the law in the generated kernel's output
 _CONTACT_SLOT = {"stiffness": 0, "exponent": 1, "damping": 2}
+#: a continuous controller's output law (transient runs: ∂y/∂p through the sensors' values, ControllerTerms)
+_CONTROLLER_KEY = re.compile(r"^controllers\.(?P<name>[^.]+)\.output$")
 
 
 def refusal(scene) -> SceneError | None:
@@ -112,13 +122,15 @@ def refusal(scene) -> SceneError | None:
     for name in names:
         for used in scene.parameters.depending_on(name):
             section = _SECTION_KEY.match(used)
-            initial = solve.analysis == "transient" and (_INITIAL_VELOCITY_KEY.match(used) or _CONTACT_KEY.match(used))
+            initial = solve.analysis == "transient" and (_INITIAL_VELOCITY_KEY.match(used) or _CONTACT_KEY.match(used)
+                                                         or _CONTROLLER_KEY.match(used))
             if not (_LOAD_KEY.match(used) or _HINGE_KEY.match(used) or section or _BODY_KEY.match(used) or initial):
                 return refuse(f"parameter {name!r} is used at {used}: sensitivities are computed for parameters "
                               "of load components, of hinge stiffness, damping, torque and rest_angle, of section "
                               "stiffnesses and masses (shear-rigid), of body masses, centres of mass and "
-                              "inertias and, in transient runs, of initial_velocity.linear and .angular and of a "
-                              "hinge's compliant stops (contact.stiffness, .exponent, .damping) only")
+                              "inertias and, in transient runs, of initial_velocity.linear and .angular, of a "
+                              "hinge's compliant stops (contact.stiffness, .exponent, .damping) and of continuous "
+                              "controllers' outputs (controllers.NAME.output) only")
             if section and solve.formulation != "default":
                 return refuse(f"parameter {name!r} is used at {used}: sensitivities by section values are computed "
                               f"for formulation: default only, not {solve.formulation}")
@@ -163,9 +175,11 @@ def _transient_refusal(scene) -> str | None:
     if solve.adaptive:
         return "with adaptive step control the accepted step sizes depend on the parameters, which the " \
                "derivative does not follow yet; expected a fixed step (adaptive: false)"
-    if scene.controllers or len(scene.inputs):
-        return "sensitivities of runs with controllers or inputs (sampled outputs, laws that jump) are not " \
-               "computed yet"
+    if len(scene.inputs):
+        return "sensitivities of runs with inputs (set from outside between steps) are not computed yet"
+    why = ControllerTerms.refusal(scene)
+    if why is not None:
+        return why
     if scene.cables:
         return "sensitivities of runs with cables (slack and taut events) are not computed yet"
     if any(body.guide is not None for body in scene.bodies.values()):
@@ -216,8 +230,11 @@ class ParameterDerivatives:
         self.derivatives: dict[str, dict[int, object]] = {}
         for column, name in enumerate(self.names):
             for key in params.depending_on(name):
+                if _CONTROLLER_KEY.match(key):   # a law in the controller's sensors: ControllerTerms
+                    continue
                 law = parse_hinge_law(params.derivative(key, name), self.scene.file, key)
                 self.derivatives.setdefault(key, {})[column] = law
+        self.controllers = ControllerTerms(self) if self.scene.controllers else None
         initial = self.assembler.initial_state()
         self.initial_points = {p.name: initial.x[node] + initial.T[node] @ offset
                                for p in self.probes if p.kind == "point"
@@ -244,6 +261,8 @@ class ParameterDerivatives:
         self._section_forces(state, total, load_factor, inertia)
         self._body_forces(state, total, load_factor, inertia)
         self._contact_forces(state, total)
+        if self.controllers is not None:
+            self.controllers.add(state, total)
         if load_values:   # the kernel is linear in the values: one call for every (load, column)
             pairs = list(load_values)
             nodes, forces = self._load_forces(state, [index for index, _ in pairs], np.array(list(load_values.values())))
@@ -756,3 +775,97 @@ def bordered_solve(stiffness, column: np.ndarray, row: np.ndarray, rhs: np.ndarr
     except np.linalg.LinAlgError:
         raise SolverError(f"the sensitivities at load factor {load_factor:.6g} need the path's bordered "
                           "matrix, which is singular there (a bifurcation point)") from None
+
+
+class ControllerTerms:
+    """∂r/∂p through continuous controllers (SCENE.md ``controllers`` without ``rate``) for transient
+    sensitivities. A controller's output y = clip(f(t, s; p)) is a law of its sensors s (probes read at
+    the state, earlier controllers' outputs); its exact derivatives by s are in the step's matrix
+    already (latdyn/assembly/control.py: the actuators' rows × the sensors' coordinates in K and C), so
+    what p adds is the explicit part, through the chain of controllers in file order,
+
+        dy_k/dp = ∂f_k/∂p + Σ_j ∂f_k/∂y_j dy_j/dp          (0 while y_k is clipped at a limit),
+
+    ∂f_k/∂p the derivative of the output's text by the parameter (Parameters.derivative, SymPy), and
+    the residual's rows of each actuator take it times their force per unit output: −a on a hinge's
+    coordinate (f = … − τ, τ = a y + b; a = 1 for the controller's name alone). Controllers with
+    states (their states are integrated inside the step, condensed: not differentiated yet), sampled
+    ones (their held outputs jump at the samples), inputs and controllers that drive loads are refused
+    (:meth:`refusal`)."""
+
+    def __init__(self, owner: ParameterDerivatives):
+        import sympy as sp
+
+        from latdyn.results.probes import ProbeSet
+        from latdyn.scene.expressions import parse_named_expression
+
+        scene, assembler = owner.scene, owner.assembler
+        self.model, self.k = owner.model, len(owner.names)
+        self.continuous = [c for c in scene.controllers.values() if not c.sampled]
+        names = {c.name for c in self.continuous}
+        #: controller name -> {column: ∂f/∂p as a function of (t, reads)}
+        self.partials: dict[str, dict[int, object]] = {}
+        for column, name in enumerate(owner.names):
+            for key in scene.parameters.depending_on(name):
+                match = _CONTROLLER_KEY.match(key)
+                if not match:
+                    continue
+                c = scene.controllers[match["name"]]
+                text = scene.parameters.derivative(key, name, c.reads)
+                _, expr = parse_named_expression(text, c.reads, scene.file, key, "the controller's sensors")
+                self.partials.setdefault(c.name, {})[column] = sp.lambdify(c.symbols, expr, modules=["math", "numpy"])
+        #: controller name -> {an earlier controller it reads: ∂f/∂y_j as a function of (t, reads)}
+        self.chained = {c.name: {r: sp.lambdify(c.symbols, sp.diff(c.output_expr, sp.Symbol(r, real=True)),
+                                                modules=["math", "numpy"])
+                                 for r in c.reads if r in names}
+                        for c in self.continuous}
+        self.sensors = ProbeSet(assembler, assembler.initial_state())
+        self.assembler = assembler
+
+    @staticmethod
+    def refusal(scene) -> str | None:
+        """Why the controllers of ``scene`` keep its transient sensitivities from being exact, or None."""
+        for c in scene.controllers.values():
+            if c.sampled:
+                return (f"sensitivities of runs with sampled controllers ({c.name}: rate, its held output jumps at "
+                        "each sample) are not computed yet; continuous controllers without states are")
+            if c.states:
+                return (f"sensitivities of runs with controllers with states ({c.name}: states, integrated inside "
+                        "the step) are not computed yet; continuous controllers without states are")
+        names = set(scene.controllers)
+        for index, load in enumerate(scene.loads):
+            for law in (load.force or []) + (load.moment or []):
+                if names & set(getattr(law, "input_names", ())):
+                    return (f"sensitivities of runs whose controllers drive a load (loads[{index}]) are not computed "
+                            "yet; controllers that drive hinge torques are")
+        driven = {f"beams.{beam}.{which}.hinge.torque" for beam, which, hinge in scene.hinges
+                  if names & set(getattr(hinge.torque, "input_names", ()))}
+        for name in scene.solve.sensitivities:
+            for used in scene.parameters.depending_on(name):
+                if used in driven:
+                    return (f"parameter {name!r} is used at {used}, a torque that names a controller: "
+                            "expected the parameter inside the controller's output instead")
+        return None
+
+    def add(self, state, total: np.ndarray) -> None:
+        """Add the controllers' ∂r/∂p at ``state`` into ``total`` (class docstring)."""
+        w = self.assembler.control   # the wiring of the current numbering
+        if not self.partials or not len(w.actuator_kind):
+            return
+        values = dict(zip(self.sensors.names, self.sensors.values(state)))
+        outputs, slopes = {}, {}
+        for c in self.continuous:
+            arguments = [state.t, *[values[r] if r in values else outputs[r] for r in c.reads]]
+            raw = float(c.functions()[0](*arguments))
+            outputs[c.name] = c.clip(raw)
+            slope = np.zeros(self.k)
+            if c.limits is None or c.limits[0] < raw < c.limits[1]:
+                for column, partial in self.partials.get(c.name, {}).items():
+                    slope[column] += float(partial(*arguments))
+                for read, through in self.chained[c.name].items():
+                    slope += float(through(*arguments)) * slopes[read]
+            slopes[c.name] = slope
+        for kind, index, controller, gain in zip(w.actuator_kind, w.actuator_index, w.actuator_controller,
+                                                 w.actuator_gain):
+            if kind == 0:   # a hinge torque τ = a y (+ b): its row f = … − τ
+                total[self.model.hinge_dofs[index]] -= (gain if gain else 1.0) * slopes[w.controllers[controller].name]
