@@ -11,6 +11,8 @@ and p ± h/2, Richardson-extrapolated, the time step fixed; each reference run a
 sensitivities too (then its steps land on the onset to 1e-12)."""
 from __future__ import annotations
 
+import csv
+
 import numpy as np
 import pytest
 import yaml
@@ -18,6 +20,7 @@ import yaml
 import latdyn
 from latdyn.errors import SceneError
 from latdyn.model.kernels import load_kernels
+from tests.cli_runs import latdyn_run
 
 #: a wheel (centre of mass off the hinge) on a hinge at the end of a stiff arm with rotary inertia, out
 #: of the coordinate planes (arm along (2, 1, 2)/3, hinge axis (1, −2, 0)/√5); its spring (rest angle 1)
@@ -119,3 +122,22 @@ def test_friction_stays_refused():
     with pytest.raises(SceneError) as info:
         latdyn.run(latdyn.load_scene(data))
     assert info.value.key == "solve.sensitivities" and "friction" in info.value.expected
+
+
+def test_the_cli_writes_the_same_sensitivities_and_refuses_friction_with_exit_2(tmp_path, wheel):
+    """``python -m latdyn run`` on the scene as typed: sensitivities.csv (t first) holds what the API
+    gives; with friction added, exit 2 naming solve.sensitivities, no traceback, no rows."""
+    run, out = latdyn_run(tmp_path, WHEEL)
+    assert run.returncode == 0, run.stderr
+    with open(out / "sensitivities.csv") as f:
+        rows = list(csv.reader(f))
+    assert rows[0][:2] == ["t", "angle/kc"]
+    for column in ("angle/kc", "tip_x/nc", "tip_z/k"):
+        values = np.array([float(r[rows[0].index(column)]) for r in rows[1:]])
+        probe, name = column.split("/")
+        assert np.allclose(values, wheel.sensitivities[(probe, name)], rtol=1e-12, atol=0), column
+    friction = WHEEL.replace("contact: {stiffness", "friction: {coulomb: 0.01}, contact: {stiffness")
+    (tmp_path / "friction").mkdir()
+    run, out = latdyn_run(tmp_path / "friction", friction)
+    assert run.returncode == 2 and "solve.sensitivities" in run.stderr and "friction" in run.stderr
+    assert "Traceback" not in run.stderr and not (out / "probes.csv").exists()
