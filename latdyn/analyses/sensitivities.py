@@ -116,20 +116,21 @@ def refusal(scene) -> SceneError | None:
     if any(beam.rigid for beam in scene.beams.values()):
         return refuse("sensitivities of scenes with rigid links are not computed yet")
     for beam, which, hinge in scene.hinges:
-        if solve.analysis != "transient" and (hinge.limits is not None or hinge.lock_at is not None):
-            return refuse(f"static sensitivities through hinge events (limits, lock_at of {beam}.{which}) are not "
-                          "computed yet")
+        rigid_stop = hinge.limits is not None and hinge.contact is None
+        if solve.analysis != "transient" and (rigid_stop or hinge.lock_at is not None):
+            return refuse(f"static sensitivities through hinge events (rigid limits, lock_at of {beam}.{which}) are "
+                          "not computed yet; compliant stops (contact) are")
     for name in names:
         for used in scene.parameters.depending_on(name):
             section = _SECTION_KEY.match(used)
-            initial = solve.analysis == "transient" and (_INITIAL_VELOCITY_KEY.match(used) or _CONTACT_KEY.match(used)
-                                                         or _CONTROLLER_KEY.match(used))
-            if not (_LOAD_KEY.match(used) or _HINGE_KEY.match(used) or section or _BODY_KEY.match(used) or initial):
+            initial = solve.analysis == "transient" and (_INITIAL_VELOCITY_KEY.match(used) or _CONTROLLER_KEY.match(used))
+            if not (_LOAD_KEY.match(used) or _HINGE_KEY.match(used) or section or _BODY_KEY.match(used) or initial
+                    or _CONTACT_KEY.match(used)):
                 return refuse(f"parameter {name!r} is used at {used}: sensitivities are computed for parameters "
                               "of load components, of hinge stiffness, damping, torque and rest_angle, of section "
                               "stiffnesses and masses (shear-rigid), of body masses, centres of mass and "
-                              "inertias and, in transient runs, of initial_velocity.linear and .angular, of a "
-                              "hinge's compliant stops (contact.stiffness, .exponent, .damping) and of continuous "
+                              "inertias, of a hinge's compliant stops (contact.stiffness, .exponent, .damping) "
+                              "and, in transient runs, of initial_velocity.linear and .angular and of continuous "
                               "controllers' outputs (controllers.NAME.output) only")
             if section and solve.formulation != "default":
                 return refuse(f"parameter {name!r} is used at {used}: sensitivities by section values are computed "
@@ -663,6 +664,14 @@ class ArcLengthSensitivities(StaticSensitivities):
                                                                       rows)[1]).reshape(m, 14, 14)
             np.add.at(total, (model.element_dofs[elements], column[:, None]),
                       np.einsum("epq,eq->ep", tangent, full[model.element_dofs[elements]]))
+        for key in self.derivatives:
+            contact = _CONTACT_KEY.match(key)
+            if contact and self._in_contact(state, model.hinge_index(contact["beam"], contact["end"])):
+                raise SceneError(self.scene.file, "solve.sensitivities",
+                                 f"the arc-length path starts with {contact['beam']}.{contact['end']} on its "
+                                 f"compliant stop, whose law ({key}) then moves the start's stiffness and so the "
+                                 "first step's length: not differentiated (it needs the contact law's second "
+                                 "derivative); expected a start inside the limits")
         for key, laws in self.derivatives.items():
             hinge = _HINGE_KEY.match(key)
             if not hinge or hinge["law"] not in ("stiffness", "rest_angle"):
@@ -682,6 +691,11 @@ class ArcLengthSensitivities(StaticSensitivities):
                 d_theta = float(np.asarray(self.kernels.hinge_force(at, values, NO_CONTACT[None])[1]).reshape(-1)[0])
                 total[model.hinge_dofs[j], column] += d_theta * full[model.hinge_dofs[j]]
         return total[:model.n_dofs]
+
+    def _in_contact(self, state, j: int) -> bool:
+        """Whether hinge ``j`` is at or past one of its compliant stops at ``state``."""
+        limits = self.model.hinges[j].limits
+        return limits is not None and not limits[0] < float(state.theta[j]) < limits[1]
 
     # ------------------------------------------------------------------ limit points
     def limit_points(self, path) -> list[dict]:
