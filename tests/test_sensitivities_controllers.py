@@ -16,10 +16,11 @@ from latdyn.errors import SceneError
 
 #: a wheel (centre of mass off the hinge) on a hinge at the end of an arm, out of the coordinate planes;
 #: ``lead`` sets a moving target, ``pd`` (reading it, the hinge angle and the wheel's x) turns the wheel
-#: towards it through the hinge torque 2 pd + 0.1; pd is clipped at 2.32 from 0.15 s to 0.20 s
+#: towards it through the hinge torque 2 pd + 0.1 (pd is clipped at 2.32 from 0.15 s to 0.20 s); ``push``
+#: (reading the wheel's x and pd) drives a force and a moment turning with the wheel
 WHEEL = """
 title: a wheel on a hinge at the end of a stiff arm, turned by two chained controllers
-parameters: {Kp: 4.0, a0: 0.5, g: 0.3, k: 1.0}
+parameters: {Kp: 4.0, a0: 0.5, g: 0.3, k: 1.0, Kl: 30.0}
 sections: {s: {EA: 1.0e6, EIy: 1.0e4, EIz: 1.0e4, GJ: 8.0e3, rhoA: 1.0, rhoIy: 0.01, rhoIz: 0.01}}
 bodies:
   base: {at: [0, 0, 0], fixed: true}
@@ -31,7 +32,10 @@ beams:
 controllers:
   lead: {output: "a0 + g*sin(3*t)"}
   pd: {output: "Kp*(lead - angle) - 0.5*(tip_x - 0.66)", limits: [-5, 2.32]}
-solve: {analysis: transient, t_end: 0.5, dt: 0.01, sensitivities: [Kp, a0, g, k]}
+  push: {output: "Kl*(0.7 - tip_x) + 0.2*pd"}
+loads:
+  - {at: wheel, force: [0, "2*push", 0], moment: ["0.5*push", 0, 0], frame: wheel}
+solve: {analysis: transient, t_end: 0.5, dt: 0.01, sensitivities: [Kp, a0, g, k, Kl]}
 output:
   every: 0.01
   probes:
@@ -52,7 +56,7 @@ def _run(names, **parameters):
 
 @pytest.fixture(scope="module")
 def wheel():
-    return _run(["Kp", "a0", "g", "k"])
+    return _run(["Kp", "a0", "g", "k", "Kl"])
 
 
 def test_another_gain_runs_another_controller():
@@ -63,13 +67,13 @@ def test_another_gain_runs_another_controller():
     assert np.abs(high - low).max() > 1e-2
 
 
-@pytest.mark.parametrize("name, relative", [("Kp", 1e-4), ("g", 1e-4), ("k", 1e-3)])
+@pytest.mark.parametrize("name, relative", [("Kp", 1e-4), ("g", 1e-4), ("k", 1e-3), ("Kl", 1e-3)])
 def test_sensitivities_through_continuous_controllers_agree_with_richardson_differences(wheel, name, relative):
     """Kp: a gain of pd (no derivative while it is clipped: without that rule the check is off by 0.2 of
     the angle's, 1.0 of the wheel's x); g: a gain of lead, which pd reads (the chain rule); k: the hinge
-    spring, beside the controllers. Measured, of each probe's largest sensitivity: Kp 3.8e-8, a0
-    3.1e-8, g 7.0e-8, k 4.8e-8 (8.9e-7 at 1e-4 relative: the differences' noise on its small tip
-    derivatives, 1.2e-5)."""
+    spring, beside the controllers; Kl: push's gain, a load's. Measured, of each probe's largest
+    sensitivity: Kp 2.6e-8, a0 2.6e-8, g 6.8e-8, k 5.4e-8, Kl 5.4e-8 (at 1e-4 relative k's and Kl's
+    small tip derivatives, 1e-5 and 1e-6, see the differences' noise: Kl 2.8e-7)."""
     p0 = yaml.safe_load(WHEEL)["parameters"][name]
     h = relative * abs(p0)
     central = []
@@ -88,7 +92,6 @@ def test_sensitivities_through_continuous_controllers_agree_with_richardson_diff
     (lambda d: d["controllers"]["pd"].update(rate=100.0), "sampled controllers"),
     (lambda d: d["controllers"]["pd"].update(states={"i": "angle"}), "controllers with states"),
     (lambda d: d.update(inputs={"u": 0.0}), "inputs"),
-    (lambda d: d.update(loads=[{"at": "wheel", "force": [0, 0, "pd"]}]), "drive a load"),
     (lambda d: d["beams"]["arm"]["end"]["hinge"].update(torque="Kp*pd"), "a torque that names a controller"),
 ])
 def test_what_controllers_cannot_be_differentiated_through_is_refused(change, expected):

@@ -42,13 +42,13 @@ Transient runs: :mod:`latdyn.analyses.transient_sensitivities` (the step differe
 :class:`ParameterDerivatives` (∂r/∂p with the inertia forces).
 
 Compliant stops (their law's stiffness, exponent and damping: :meth:`ParameterDerivatives._contact_forces`,
-the generated ``contact_force_D_law``) and continuous controllers without states that drive hinge
-torques (:class:`ControllerTerms`: parameters inside their outputs) enter ∂r/∂p of transient runs.
+the generated ``contact_force_D_law``) and continuous controllers without states
+(:class:`ControllerTerms`: parameters inside their outputs) enter ∂r/∂p of transient runs.
 
 What is refused (:func:`refusal`, exit 2 naming ``solve.sensitivities``): any analysis but static
 load control, arc length and displacement control and transient runs of an implicit method at fixed
-steps without cables, guides, friction, sampled controllers, controllers with states or driving
-loads, and inputs (:func:`_transient_refusal`, :meth:`ControllerTerms.refusal`); a parameter used
+steps without cables, guides, friction, sampled controllers, controllers with states and
+inputs (:func:`_transient_refusal`, :meth:`ControllerTerms.refusal`); a parameter used
 anywhere but in load components, hinge stiffness, damping, torque and rest angle, section values of
 shear-rigid sections (formulation default), body masses, centres of mass and inertias and, in
 transient runs, initial velocities, compliant stops' laws and continuous controllers' outputs;
@@ -802,10 +802,10 @@ class ControllerTerms:
 
     ∂f_k/∂p the derivative of the output's text by the parameter (Parameters.derivative, SymPy), and
     the residual's rows of each actuator take it times their force per unit output: −a on a hinge's
-    coordinate (f = … − τ, τ = a y + b; a = 1 for the controller's name alone). Controllers with
-    states (their states are integrated inside the step, condensed: not differentiated yet), sampled
-    ones (their held outputs jump at the samples), inputs and controllers that drive loads are refused
-    (:meth:`refusal`)."""
+    coordinate (f = … − τ, τ = a y + b; a = 1 for the controller's name alone), the point-load
+    kernel's force for a unit value on a load's component (global or turning with a body). Controllers
+    with states (their states are integrated inside the step, condensed: not differentiated yet),
+    sampled ones (their held outputs jump at the samples) and inputs are refused (:meth:`refusal`)."""
 
     def __init__(self, owner: ParameterDerivatives):
         import sympy as sp
@@ -834,7 +834,7 @@ class ControllerTerms:
                                  for r in c.reads if r in names}
                         for c in self.continuous}
         self.sensors = ProbeSet(assembler, assembler.initial_state())
-        self.assembler = assembler
+        self.assembler, self.owner = assembler, owner
 
     @staticmethod
     def refusal(scene) -> str | None:
@@ -847,11 +847,6 @@ class ControllerTerms:
                 return (f"sensitivities of runs with controllers with states ({c.name}: states, integrated inside "
                         "the step) are not computed yet; continuous controllers without states are")
         names = set(scene.controllers)
-        for index, load in enumerate(scene.loads):
-            for law in (load.force or []) + (load.moment or []):
-                if names & set(getattr(law, "input_names", ())):
-                    return (f"sensitivities of runs whose controllers drive a load (loads[{index}]) are not computed "
-                            "yet; controllers that drive hinge torques are")
         driven = {f"beams.{beam}.{which}.hinge.torque" for beam, which, hinge in scene.hinges
                   if names & set(getattr(hinge.torque, "input_names", ()))}
         for name in scene.solve.sensitivities:
@@ -879,7 +874,16 @@ class ControllerTerms:
                 for read, through in self.chained[c.name].items():
                     slope += float(through(*arguments)) * slopes[read]
             slopes[c.name] = slope
-        for kind, index, controller, gain in zip(w.actuator_kind, w.actuator_index, w.actuator_controller,
-                                                 w.actuator_gain):
+        loads: dict[int, np.ndarray] = {}   # load -> its six values' derivatives (6, k)
+        for kind, index, component, controller, gain in zip(w.actuator_kind, w.actuator_index, w.actuator_component,
+                                                            w.actuator_controller, w.actuator_gain):
+            moved = (gain if gain else 1.0) * slopes[w.controllers[controller].name]
             if kind == 0:   # a hinge torque τ = a y (+ b): its row f = … − τ
-                total[self.model.hinge_dofs[index]] -= (gain if gain else 1.0) * slopes[w.controllers[controller].name]
+                total[self.model.hinge_dofs[index]] -= moved
+            else:           # a load component a y (+ b): the point-load kernel, linear in its values
+                loads.setdefault(int(index), np.zeros((6, self.k)))[component] += moved
+        for index, values in loads.items():
+            columns = [c for c in range(self.k) if np.any(values[:, c])]
+            if columns:
+                nodes, forces = self.owner._load_forces(state, [index] * len(columns), values[:, columns].T)
+                total[self.model.node_dofs[nodes[0]][:, None], np.array(columns)[None, :]] += forces.T
