@@ -124,9 +124,10 @@ def test_friction_stays_refused():
     assert info.value.key == "solve.sensitivities" and "friction" in info.value.expected
 
 
-def test_the_cli_writes_the_same_sensitivities_and_refuses_friction_with_exit_2(tmp_path, wheel):
+def test_the_cli_writes_the_same_sensitivities(tmp_path, wheel):
     """``python -m latdyn run`` on the scene as typed: sensitivities.csv (t first) holds what the API
-    gives; with friction added, exit 2 naming solve.sensitivities, no traceback, no rows."""
+    gives (friction's refusal: test_friction_stays_refused; the CLI's exit 2 for a refusal:
+    tests/test_sensitivities.py)."""
     run, out = latdyn_run(tmp_path, WHEEL)
     assert run.returncode == 0, run.stderr
     with open(out / "sensitivities.csv") as f:
@@ -136,11 +137,6 @@ def test_the_cli_writes_the_same_sensitivities_and_refuses_friction_with_exit_2(
         values = np.array([float(r[rows[0].index(column)]) for r in rows[1:]])
         probe, name = column.split("/")
         assert np.allclose(values, wheel.sensitivities[(probe, name)], rtol=1e-12, atol=0), column
-    friction = WHEEL.replace("contact: {stiffness", "friction: {coulomb: 0.01}, contact: {stiffness")
-    (tmp_path / "friction").mkdir()
-    run, out = latdyn_run(tmp_path / "friction", friction)
-    assert run.returncode == 2 and "solve.sensitivities" in run.stderr and "friction" in run.stderr
-    assert "Traceback" not in run.stderr and not (out / "probes.csv").exists()
 
 
 #: a 3D arm hinged at its knee (axis in no coordinate plane), its tip load pressing the hinge into a
