@@ -273,9 +273,17 @@ class _PositivePower(sp.Function):
 
     def fdiff(self, argindex=1):
         x, n = self.args
+        if argindex == 2:   # by the exponent: ⟨x⟩ⁿ ln⟨x⟩ (0 for x ≤ 0)
+            return _PositivePowerLog(x, n)
         if argindex != 1:
             raise sp.ArgumentIndexError(self, argindex)
         return n * _PositivePower(x, n - 1) * _Step(x)
+
+
+class _PositivePowerLog(sp.Function):
+    """⟨x⟩ⁿ ln⟨x⟩, the derivative of ⟨x⟩ⁿ by n: 0 for x ≤ 0 (the limit), printed branch-free by
+    :class:`_BranchFree` as ⟨x⟩ⁿ ln(⟨x⟩ + KINK) (ln x itself for x > 1e-284, a finite ln at 0 times
+    ⟨x⟩ⁿ = 0 exactly). Not differentiated further."""
 
 
 def _positive(x):
@@ -327,13 +335,19 @@ class _BranchFree:
             g = self._name(x)
             return (1 + g / (sp.Abs(g) + KINK)) / 2
 
+        def power_log(x, n):
+            g = self._name(x)
+            positive = (g + sp.Abs(g)) / 2
+            return positive ** n * sp.log(positive + KINK)
+
+        kinks = (_PositivePower, _Step, _PositivePowerLog)
+        printed = {_PositivePower: power, _Step: step, _PositivePowerLog: power_log}
         # innermost first: an argument that holds a kink is named after its own kinks are
         for _ in range(8):
-            if not expr.has(_PositivePower, _Step):
+            if not expr.has(*kinks):
                 return expr
-            expr = expr.replace(lambda e: isinstance(e, (_PositivePower, _Step)) and
-                                not e.args[0].has(_PositivePower, _Step),
-                                lambda e: power(*e.args) if isinstance(e, _PositivePower) else step(*e.args))
+            expr = expr.replace(lambda e: isinstance(e, kinks) and not e.args[0].has(*kinks),
+                                lambda e: printed[type(e)](*e.args))
         raise ValueError("kinks nested too deep")
 
     @property
@@ -423,6 +437,24 @@ def _hinge_force_kernel() -> KernelSpec:
                       equations="hinge springs, dampers and torques (Eqs. 4, 9: the hinge coordinate); "
                                 "Hunt-Crossley contact, Coulomb-Stribeck-viscous friction",
                       intermediates=branch_free.intermediates)
+
+
+def _contact_law_derivative_kernel() -> KernelSpec:
+    """∂f/∂(k, n, c) of a compliant stop's force (:func:`joint_contact`) at a joint's (θ, θ̇): the
+    right-hand sides of sensitivities by the stop's stiffness, exponent and damping
+    (latdyn/analyses/transient_sensitivities.py), differentiated from the same expression as the
+    force the residual holds."""
+    state, contact = HINGE_STATE.symbols(), JOINT_CONTACT.symbols()
+    branch_free = _BranchFree()
+    force, _, _ = joint_contact(state[0], state[1], contact)
+    law = [contact[2], contact[3], contact[4]]   # stiffness exponent damping
+    outputs = [Output("contact_force_D_law", (3,), [branch_free(sp.diff(force, symbol)) for symbol in law],
+                      "∂f_contact/∂(k, n, c): the compliant stops' force F_u − F_l by their stiffness, exponent "
+                      "and damping (the friction depends on none of them)")]
+    return KernelSpec(name="contact_force_D_law", doc="The derivatives of a joint's compliant-stop force "
+                      "(Hunt-Crossley) by its law's stiffness, exponent and damping",
+                      inputs=[HINGE_STATE, JOINT_CONTACT], outputs=outputs, variant="joints",
+                      equations="Hunt-Crossley contact", intermediates=branch_free.intermediates)
 
 
 CABLE_GEOMETRY = Argument("cable_geometry", 12, "x1[3] x2[3] o1[3] o2[3]: the reference points of the nodes at the "
@@ -779,7 +811,7 @@ def _closure_wrench_kernel(rod: bool) -> KernelSpec:
 def build_kernels() -> list[KernelSpec]:
     """The kernels of the ``joints`` unit."""
     return [*_joint_body_kernels(), _point_load_kernel(), _hinged_end_kernel(), _hinge_force_kernel(),
-            _so3_exp_kernel(), _link_edge_kernel(), _hinge_wrench_kernel(), _root_wrench_kernel(),
+            _contact_law_derivative_kernel(), _so3_exp_kernel(), _link_edge_kernel(), _hinge_wrench_kernel(), _root_wrench_kernel(),
             _link_edge_kernel(prismatic=True), _slide_wrench_kernel(), _cable_force_kernel(),
             _closure_edge_kernel(rod=False), _closure_edge_kernel(rod=True), _closure_wrench_kernel(rod=False),
             _closure_wrench_kernel(rod=True)]

@@ -282,15 +282,16 @@ def _warn_moving(scene: Scene, writer) -> None:
 
 
 def stops_passed(model, state) -> list[str]:
-    """What a static state that lies past a joint's stop (``limits`` of a hinge or a guide) says:
-    stops are events of the time loop, which a static analysis does not apply (docs/static_paths.md),
-    so such a state is not the equilibrium the structure reaches; one warning for each joint."""
+    """What a static state that lies past a joint's rigid stop (``limits`` of a hinge or a guide without
+    ``contact``) says: rigid stops are events of the time loop, which a static analysis does not apply
+    (docs/static_paths.md), so such a state is not the equilibrium the structure reaches; one warning
+    for each joint. A compliant stop's force is part of the static residual: past it is its equilibrium."""
     found = []
     for k, joint in enumerate(model.hinges):
         value = float(state.theta[k])
         what = f"guide {joint.name} at s = {value:.6g}" if joint.kind == "guide" else \
             f"hinge {joint.name} at {value:.6g} rad"
-        if joint.limits is not None:
+        if joint.limits is not None and getattr(joint, "contact", None) is None:
             lo, hi = joint.limits
             margin = 1e-9 * max(1.0, abs(lo), abs(hi))
             if value < lo - margin or value > hi + margin:

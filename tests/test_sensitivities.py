@@ -363,7 +363,7 @@ def test_the_cli_writes_sensitivities_csv_and_the_summary(tmp_path, arm_3d):
     (lambda d: d["solve"].update(analysis="transient", adaptive=True, t_end=0.1, dt=0.05, steps=None),
      "adaptive step control"),
     (lambda d: d["solve"].update(analysis="modes", steps=None), "not yet for a modes analysis"),
-    (lambda d: d["solve"].update(method="arc-length"), "not yet for a static (arc-length)"),
+    (lambda d: d["solve"].update(analysis="buckling", steps=None), "not yet for a buckling analysis"),
     (lambda d: d.update(gravity=[0, 0, "-k"]), "used at gravity[2]"),
     (lambda d: d["sections"]["s"].update(GAy=1.0e4), "shear-flexible"),
     (lambda d: d["solve"].update(formulation="cr4402"), "formulation: default only"),

@@ -24,6 +24,9 @@ and differs only in the equation that fixes δλ (``solve.method``, SCENE.md):
   Δλ = ±Δs/‖δq_λ‖_W takes its sign from the previous step's direction, sign(Δq_{n−1}ᵀ W δq_λ)
   (Feng, Perić & Owen 1996), which passes limit points and snap-backs alike, where the sign of
   det K fails at a snap-back (Crisfield 1981 §3; Riks 1979 uses the same constraint linearised).
+  With ``solve.sensitivities`` in 3D, Δq composes the rotation increments exactly
+  (:meth:`Path.compose`), so that it is the tangent-space difference of the step's ends, a function of
+  the parameters (docs/parameters.md, "Arc length").
   Δs adapts to the Newton iterations of the last step, Δs ← Δs·√(6/N), within [Δs₀/1024, Δs₀],
   Δs₀ being the arc length of a first step Δλ = 1/steps.  The run ends when λ reaches 1 (the
   last point is solved at λ = 1 exactly) or after ``max_steps`` path steps (a warning).
@@ -82,7 +85,7 @@ import numpy as np
 
 from latdyn.analyses.followers import REAL_TOL, follower_loads
 from latdyn.analyses.mechanism import mechanism_message
-from latdyn.analyses.sensitivities import StaticSensitivities
+from latdyn.analyses.sensitivities import ArcLengthSensitivities, ArcStep, StaticSensitivities
 from latdyn.errors import SceneError, SolverError
 from latdyn.numerics.linalg import single_thread_blas
 from latdyn.step.compiled import StaticNewton
@@ -135,6 +138,9 @@ class Path:
     constraint_gradient: object = None
     #: the static mode of the native Newton iteration (latdyn.step.compiled.StaticNewton)
     newton: object = None
+    #: arc length with sensitivities in 3D: a step's Δq composed exactly in the tangent space
+    #: (:meth:`compose`), so that its arc length is the distance of its ends, a function of p
+    exact_increments: bool = False
 
     def __post_init__(self):
         scene = self.prepared.scene
@@ -174,6 +180,21 @@ class Path:
     def norm(self, dq) -> float:
         """‖Δq‖_W (translations over ℓ, rotations and hinge angles in radians)."""
         return math.sqrt(float(dq @ (self.weight * dq)))
+
+    def compose(self, dq, increment):
+        """The step's increment after one more Newton increment: the sum, and with
+        :attr:`exact_increments` the rotations composed, log(exp(skew δπ) exp(skew Δπ)) at every free
+        node (the update turns T ← exp(skew δπ) T), so that Δq is the tangent-space difference of the
+        step's ends, which the sum of rotation increments about different axes is not."""
+        total = dq + increment
+        if self.exact_increments:
+            from scipy.spatial.transform import Rotation
+
+            dofs = self.model.node_dofs[self.model.free_nodes, 3:6]
+            dofs = dofs[np.all(dofs < self.model.n_dofs, axis=1)]
+            if len(dofs):
+                total[dofs] = (Rotation.from_rotvec(increment[dofs]) * Rotation.from_rotvec(dq[dofs])).as_rotvec()
+        return total
 
     def step_to(self, state, dq):
         new = self.assembler.advance(state, dq)
@@ -221,11 +242,13 @@ class Path:
         return int(np.sum(eigenvalues < -1e-12 * scale))
 
     # ------------------------------------------------------------------ rows and summary
-    def record(self, state, load_factor: float) -> None:
+    def record(self, state, load_factor: float, step: ArcStep | None = None) -> None:
+        """A row; ``step``: the arc-length step that led to it, for its sensitivities."""
         self.writer.record(load_factor, self.probes.values(state), state=state.as_dict(),
                            frame=load_step_frame(self.assembler, self.writer, state))
         if self.sensitivities is not None:
-            self.sensitivities.record(state, load_factor, self.constraint_gradient)
+            extra = {"step": step} if step is not None else {}
+            self.sensitivities.record(state, load_factor, self.constraint_gradient, **extra)
         self.recorded_at, self.recorded = load_factor, state
 
     def accept(self, state, load_factor: float, arc: float) -> None:
@@ -366,7 +389,7 @@ def arc_length(path: Path, state) -> object:
             if result is not None:
                 new, new_lam, step_dq, n = result
                 path.accept(new, new_lam, arc + ds)
-                path.record(new, new_lam)
+                path.record(new, new_lam, ArcStep(step_dq, ds, ds0, at_full_load=True))
                 return new
         if result is None:
             path.rejected += 1
@@ -381,7 +404,7 @@ def arc_length(path: Path, state) -> object:
         state, lam = new, new_lam
         previous = step_dq / max(path.norm(step_dq), 1e-300)
         path.accept(state, lam, arc)
-        path.record(state, lam)
+        path.record(state, lam, ArcStep(step_dq, ds, ds0))
         ds = min(ds0, ds * min(2.0, math.sqrt(TARGET_ITERATIONS / max(n, 1))))
     message = (f"arc-length continuation stopped after max_steps = {max_steps} path steps at load factor "
                f"{lam:.6g}, before the load factor reached 1")
@@ -420,7 +443,7 @@ def arc_length_step(path: Path, state, lam: float, ds: float, previous):
         # the root whose step turns least from the step so far (Crisfield 1981, Eq. 23)
         dl = max(roots, key=lambda root: float(dq @ (W * (a + root * dq_l))))
         increment = dq_r + dl * dq_l
-        trial, trial_lam, dq = path.step_to(trial, increment), trial_lam + dl, dq + increment
+        trial, trial_lam, dq = path.step_to(trial, increment), trial_lam + dl, path.compose(dq, increment)
         path.iterations += 1
         if path.increment_size(increment) <= path.tol:
             return trial, trial_lam, dq, n
@@ -572,7 +595,9 @@ def static_path(prepared, probes, writer, length_scale: float) -> None:
     """Solve the static analysis of ``prepared`` by its ``solve.method``; rows into ``writer``."""
     path = Path(prepared, probes, writer, length_scale)
     if prepared.scene.solve.sensitivities and prepared.scene.solve.analysis == "static":
-        path.sensitivities = StaticSensitivities(prepared)
+        arc = prepared.scene.solve.method == "arc-length"
+        path.sensitivities = ArcLengthSensitivities(prepared, path.weight) if arc else StaticSensitivities(prepared)
+        path.exact_increments = arc and prepared.model.plane is None
     state = prepared.state
     state.v[:] = state.w[:] = 0.0
     state.theta_dot[:] = 0.0
@@ -584,6 +609,8 @@ def static_path(prepared, probes, writer, length_scale: float) -> None:
     prepared.state = METHODS[method](path, state)
     path.summarize()
     if path.sensitivities is not None:
+        if isinstance(path.sensitivities, ArcLengthSensitivities):
+            writer.summary["limit_point_sensitivities"] = path.sensitivities.limit_points(path)
         _write_sensitivities(path.sensitivities, writer)
 
 
@@ -594,7 +621,7 @@ def _write_sensitivities(sensitivities, writer) -> None:
     recorded = writer.result()
     summary = sensitivities.summary(recorded.probes, recorded.t)
     writer.summary["probe_sensitivities"] = {k: v for k, v in summary.items() if k != "load_factor"}
-    if "load_factor" in summary:   # displacement control: the load factor's own (the limit load's at max)
+    if "load_factor" in summary:   # displacement control, arc length: the load factor's own (the limit load's at max)
         writer.summary["load_factor_sensitivities"] = summary["load_factor"]
     writer.summary["event_sensitivities"] = []
     if writer.out_dir is not None:

@@ -1,5 +1,5 @@
-"""Exact sensitivities of static paths, load and displacement control (SCENE.md, "Parameters and
-sensitivities").
+"""Exact sensitivities of static paths, load control, arc length and displacement control (SCENE.md,
+"Parameters and sensitivities").
 
 The computed static solution at a recorded load factor λ > 0 is the configuration q at which
 Newton made the residual r(q; λ, p) vanish. Its derivative by a parameter p is the tangent vector
@@ -34,28 +34,40 @@ a hinge angle by δθ.
 Under displacement control the controlled displacement c(q) is held and λ moves instead: with
 g = ∂c/∂q and q_ref = −∂r/∂λ, δq = δq_r + δλ K⁻¹q_ref, δq_r = −K⁻¹ ∂r/∂p, δλ = −g·δq_r / g·K⁻¹q_ref.
 
+Under arc length each row lies at the arc length Δs_n from the row before: :class:`ArcLengthSensitivities`
+differentiates that chain with the bordered matrix [K, −q_ref; DᵀW, 0] (regular at limit points) and
+locates the limit points the rows pass, for the limit load's derivative (docs/parameters.md, "Arc length").
+
 Transient runs: :mod:`latdyn.analyses.transient_sensitivities` (the step differentiated), on
 :class:`ParameterDerivatives` (∂r/∂p with the inertia forces).
 
+Compliant stops (their law's stiffness, exponent and damping: :meth:`ParameterDerivatives._contact_forces`,
+the generated ``contact_force_D_law``) and continuous controllers without states
+(:class:`ControllerTerms`: parameters inside their outputs) enter ∂r/∂p of transient runs.
+
 What is refused (:func:`refusal`, exit 2 naming ``solve.sensitivities``): any analysis but static
-load and displacement control and transient runs of an implicit method at fixed steps without
-events, cables, guides, controllers and inputs (:func:`_transient_refusal`); a parameter used anywhere but in load components, hinge stiffness, damping,
-torque and rest angle, section values of shear-rigid sections (formulation default) and body
-masses, centres of mass and inertias; probes other than point positions and displacements in the global frame
-and hinge angles; rigid links; in static paths hinges with limits or ``lock_at`` (events; transient runs
-differentiate latches and rigid stops: latdyn/analyses/transient_sensitivities.py). Under gravity the static
+load control, arc length and displacement control and transient runs of an implicit method at fixed
+steps without cables, guides, friction, sampled controllers, controllers with states and
+inputs (:func:`_transient_refusal`, :meth:`ControllerTerms.refusal`); a parameter used
+anywhere but in load components, hinge stiffness, damping, torque and rest angle, section values of
+shear-rigid sections (formulation default), body masses, centres of mass and inertias and, in
+transient runs, initial velocities, compliant stops' laws and continuous controllers' outputs;
+probes other than point positions and displacements in the global frame and hinge angles; rigid
+links; in static paths hinges with limits or ``lock_at`` (events; transient runs differentiate
+latches and stops: latdyn/analyses/transient_sensitivities.py). Under gravity the static
 Newton matrix K − λ ∂Q/∂q holds the beams' gravity tangent (the generated ``beam_gravity_D_q``), so
 beams with mass are differentiated exactly there too. docs/parameters.md.
 """
 from __future__ import annotations
 
 import re
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from latdyn.assembly.factorization import solve_linear
-from latdyn.assembly.native_model import NO_CONTACT
+from latdyn.assembly.native_model import NO_CONTACT, joint_contact_rows
 from latdyn.errors import SceneError, SolverError
 from latdyn.results.result import SENSITIVITIES_FILE
 from latdyn.scene.expressions import parse_hinge_law
@@ -72,6 +84,13 @@ _BODY_KEY = re.compile(r"^bodies\.(?P<body>[^.]+)\.(?:(?P<mass>mass)|com\[(?P<co
 #: a component of the rigid motion at t = 0 (transient runs: the velocities are affine in it at a fixed ``about``)
 _INITIAL_VELOCITY_KEY = re.compile(r"^initial_velocity\.(?P<kind>linear|angular)\[(?P<axis>[0-2])\]$")
 _HINGE_KEY = re.compile(r"^beams\.(?P<beam>.+)\.(?P<end>start|end)\.hinge\.(?P<law>stiffness|damping|torque|rest_angle)$")
+#: a compliant stop's law (transient runs: ∂f/∂(k, n, c) from the generated ``contact_force_D_law``)
+_CONTACT_KEY = re.compile(r"^beams\.(?P<beam>.+)\.(?P<end>start|end)\.hinge\.contact\."
+                          r"(?P<law>stiffness|exponent|damping)$")
+#: the slots of the law in the generated kernel's output
+_CONTACT_SLOT = {"stiffness": 0, "exponent": 1, "damping": 2}
+#: a continuous controller's output law (transient runs: ∂y/∂p through the sensors' values, ControllerTerms)
+_CONTROLLER_KEY = re.compile(r"^controllers\.(?P<name>[^.]+)\.output$")
 
 
 def refusal(scene) -> SceneError | None:
@@ -90,25 +109,29 @@ def refusal(scene) -> SceneError | None:
     if why is not None:
         return refuse(why)
     if solve.analysis not in ("static", "transient") or (
-            solve.analysis == "static" and solve.method not in ("load-control", "displacement-control")):
+            solve.analysis == "static" and solve.method not in ("load-control", "displacement-control", "arc-length")):
         method = f"{solve.analysis}" + (f" ({solve.method})" if solve.analysis == "static" else "")
-        return refuse(f"sensitivities are computed for static load control and displacement control and for "
-                      f"transient runs with an implicit method only, not yet for a {method} analysis")
+        return refuse(f"sensitivities are computed for static load control, arc length and displacement control "
+                      f"and for transient runs with an implicit method only, not yet for a {method} analysis")
     if any(beam.rigid for beam in scene.beams.values()):
         return refuse("sensitivities of scenes with rigid links are not computed yet")
     for beam, which, hinge in scene.hinges:
-        if solve.analysis != "transient" and (hinge.limits is not None or hinge.lock_at is not None):
-            return refuse(f"static sensitivities through hinge events (limits, lock_at of {beam}.{which}) are not "
-                          "computed yet")
+        rigid_stop = hinge.limits is not None and hinge.contact is None
+        if solve.analysis != "transient" and (rigid_stop or hinge.lock_at is not None):
+            return refuse(f"static sensitivities through hinge events (rigid limits, lock_at of {beam}.{which}) are "
+                          "not computed yet; compliant stops (contact) are")
     for name in names:
         for used in scene.parameters.depending_on(name):
             section = _SECTION_KEY.match(used)
-            initial = solve.analysis == "transient" and _INITIAL_VELOCITY_KEY.match(used)
-            if not (_LOAD_KEY.match(used) or _HINGE_KEY.match(used) or section or _BODY_KEY.match(used) or initial):
+            initial = solve.analysis == "transient" and (_INITIAL_VELOCITY_KEY.match(used) or _CONTROLLER_KEY.match(used))
+            if not (_LOAD_KEY.match(used) or _HINGE_KEY.match(used) or section or _BODY_KEY.match(used) or initial
+                    or _CONTACT_KEY.match(used)):
                 return refuse(f"parameter {name!r} is used at {used}: sensitivities are computed for parameters "
                               "of load components, of hinge stiffness, damping, torque and rest_angle, of section "
                               "stiffnesses and masses (shear-rigid), of body masses, centres of mass and "
-                              "inertias and, in transient runs, of initial_velocity.linear and .angular only")
+                              "inertias, of a hinge's compliant stops (contact.stiffness, .exponent, .damping) "
+                              "and, in transient runs, of initial_velocity.linear and .angular and of continuous "
+                              "controllers' outputs (controllers.NAME.output) only")
             if section and solve.formulation != "default":
                 return refuse(f"parameter {name!r} is used at {used}: sensitivities by section values are computed "
                               f"for formulation: default only, not {solve.formulation}")
@@ -153,17 +176,19 @@ def _transient_refusal(scene) -> str | None:
     if solve.adaptive:
         return "with adaptive step control the accepted step sizes depend on the parameters, which the " \
                "derivative does not follow yet; expected a fixed step (adaptive: false)"
-    if scene.controllers or len(scene.inputs):
-        return "sensitivities of runs with controllers or inputs (sampled outputs, laws that jump) are not " \
-               "computed yet"
+    if len(scene.inputs):
+        return "sensitivities of runs with inputs (set from outside between steps) are not computed yet"
+    why = ControllerTerms.refusal(scene)
+    if why is not None:
+        return why
     if scene.cables:
         return "sensitivities of runs with cables (slack and taut events) are not computed yet"
     if any(body.guide is not None for body in scene.bodies.values()):
         return "sensitivities of runs with guides (prismatic joints) are not computed yet"
     for beam, which, hinge in scene.hinges:
-        if hinge.contact is not None or hinge.friction is not None:
-            return (f"sensitivities through compliant stops and friction ({beam}.{which}: sticking and the "
-                    "stops' contact are events) are not computed yet")
+        if hinge.friction is not None:
+            return (f"sensitivities through friction ({beam}.{which}: sticking and slipping are events of a "
+                    "law that changes there) are not computed yet; compliant stops (contact) are")
     events = [f"{beam}.{which}" for beam, which, hinge in scene.hinges
               if hinge.lock_at is not None or hinge.limits is not None]
     if events:
@@ -206,8 +231,11 @@ class ParameterDerivatives:
         self.derivatives: dict[str, dict[int, object]] = {}
         for column, name in enumerate(self.names):
             for key in params.depending_on(name):
+                if _CONTROLLER_KEY.match(key):   # a law in the controller's sensors: ControllerTerms
+                    continue
                 law = parse_hinge_law(params.derivative(key, name), self.scene.file, key)
                 self.derivatives.setdefault(key, {})[column] = law
+        self.controllers = ControllerTerms(self) if self.scene.controllers else None
         initial = self.assembler.initial_state()
         self.initial_points = {p.name: initial.x[node] + initial.T[node] @ offset
                                for p in self.probes if p.kind == "point"
@@ -233,6 +261,9 @@ class ParameterDerivatives:
                     total[model.hinge_dofs[j], column] += self._hinge_force(state, j, hinge["law"], law, load_factor)
         self._section_forces(state, total, load_factor, inertia)
         self._body_forces(state, total, load_factor, inertia)
+        self._contact_forces(state, total)
+        if self.controllers is not None:
+            self.controllers.add(state, total)
         if load_values:   # the kernel is linear in the values: one call for every (load, column)
             pairs = list(load_values)
             nodes, forces = self._load_forces(state, [index for index, _ in pairs], np.array(list(load_values.values())))
@@ -248,6 +279,30 @@ class ParameterDerivatives:
         ``beam_quadratic_velocity``, linear in ρA, ρIy, ρIz), as evaluate.c sums them."""
         model = self.model
         gravity = load_factor * np.asarray(self.assembler.gravity, float)
+        blocks = self._section_derivative_blocks(state)
+        if blocks is None:
+            return
+        elements, column, rows = blocks
+        geometry, rates, accelerations = self.assembler.native().element_inputs(state)
+        at = np.ascontiguousarray(geometry[elements])
+        m = len(elements)
+        forces = np.asarray(self.kernels.beam_internal_force(at, rows)[0]).reshape(m, 14)
+        if np.any(gravity):   # evaluate.c: the static residual F − λ gravity load
+            rows_g = np.repeat(gravity[None], m, axis=0)
+            forces = forces - np.asarray(self.kernels.beam_gravity(at, rows, rows_g)[0]).reshape(m, 14)
+        if inertia:   # evaluate.c: F + M a + g − gravity
+            rate = np.ascontiguousarray(rates[elements])
+            mass = np.asarray(self.kernels.beam_mass_matrix(at, rows)[0]).reshape(m, 14, 14)
+            forces = forces + np.einsum("epq,eq->ep", mass, accelerations[elements]) \
+                + np.asarray(self.kernels.beam_quadratic_velocity(at, rate, rows)[0]).reshape(m, 14)
+        np.add.at(total, (model.element_dofs[elements], column[:, None]), forces)
+
+    def _section_derivative_blocks(self, state):
+        """(elements (m,), parameter columns (m,), section rows (m, 10)): for every use of a parameter
+        by a section value, that section's elements with the section block replaced by the value's
+        derivative (L0 kept, the rest 0; the planar model's quarter turns applied as
+        latdyn.model.planar.restrict_to_plane applies them); None where no parameter is a section's."""
+        model = self.model
         chosen, columns, blocks = [], [], []   # every (parameter's use, column): its elements and section rows
         for key, laws in self.derivatives.items():
             section = _SECTION_KEY.match(key)
@@ -268,22 +323,9 @@ class ParameterDerivatives:
                 columns.append(np.full(len(elements), column))
                 blocks.append(rows)
         if not chosen:
-            return
+            return None
         # the kernels once for all of them (each row its element's geometry and a section derivative)
-        elements, column, rows = np.concatenate(chosen), np.concatenate(columns), np.ascontiguousarray(np.vstack(blocks))
-        geometry, rates, accelerations = self.assembler.native().element_inputs(state)
-        at = np.ascontiguousarray(geometry[elements])
-        m = len(elements)
-        forces = np.asarray(self.kernels.beam_internal_force(at, rows)[0]).reshape(m, 14)
-        if np.any(gravity):   # evaluate.c: the static residual F − λ gravity load
-            rows_g = np.repeat(gravity[None], m, axis=0)
-            forces = forces - np.asarray(self.kernels.beam_gravity(at, rows, rows_g)[0]).reshape(m, 14)
-        if inertia:   # evaluate.c: F + M a + g − gravity
-            rate = np.ascontiguousarray(rates[elements])
-            mass = np.asarray(self.kernels.beam_mass_matrix(at, rows)[0]).reshape(m, 14, 14)
-            forces = forces + np.einsum("epq,eq->ep", mass, accelerations[elements]) \
-                + np.asarray(self.kernels.beam_quadratic_velocity(at, rate, rows)[0]).reshape(m, 14)
-        np.add.at(total, (model.element_dofs[elements], column[:, None]), forces)
+        return np.concatenate(chosen), np.concatenate(columns), np.ascontiguousarray(np.vstack(blocks))
 
     def _section_elements(self, name: str) -> np.ndarray:
         """The elements of the beams of section ``name`` (found once)."""
@@ -340,6 +382,25 @@ class ParameterDerivatives:
                     block[0, 1:4] = model.body_com[b] - along
                     force = 0.5 * (ahead - force_of(block))
                 total[model.node_dofs[node], column] += force
+
+    def _contact_forces(self, state, total: np.ndarray) -> None:
+        """Add ∂f/∂p of the hinges whose compliant stops' stiffness, exponent or damping name a
+        parameter into ``total``: the generated ``contact_force_D_law`` (∂f_contact/∂(k, n, c) at the
+        hinge's θ, θ̇; zero outside contact) times the law's derivative by the parameter."""
+        model = self.model
+        for key, laws in self.derivatives.items():
+            contact = _CONTACT_KEY.match(key)
+            if not contact:
+                continue
+            j = model.hinge_index(contact["beam"], contact["end"])
+            rows = self.__dict__.setdefault("_contact_rows", {})
+            if j not in rows:
+                rows[j] = np.ascontiguousarray(joint_contact_rows([model.hinges[j]]))
+            at = np.array([[float(state.theta[j]), float(state.theta_dot[j]), model.hinges[j].rest_angle, 1.0]])
+            slope = float(np.asarray(self.kernels.contact_force_D_law(at, rows[j])[0]).reshape(3)[
+                _CONTACT_SLOT[contact["law"]]])
+            for column, law in laws.items():
+                total[model.hinge_dofs[j], column] += law.value(0.0, 0.0, state.t) * slope
 
     def _key_kinds(self, key: str):
         """(the load key's match, the hinge key's match) of a parameter's use, matched once."""
@@ -439,9 +500,9 @@ class StaticSensitivities(ParameterDerivatives):
         _refuse_without_gravity_tangent(self.scene, self.model, self.kernels)
         self.rows: list[tuple[float, list[float]]] = []
         #: δλ/δp per row and parameter: zero under load control (λ is the grid's), moving under
-        #: displacement control
+        #: displacement control and arc length
         self.load_factor_rows: list[list[float]] = []
-        self.controlled = self.scene.solve.method == "displacement-control"
+        self.controlled = self.scene.solve.method in ("displacement-control", "arc-length")
 
     # ------------------------------------------------------------------ rows
     def record(self, state, load_factor: float, constraint_gradient=None) -> None:
@@ -477,7 +538,7 @@ class StaticSensitivities(ParameterDerivatives):
 
     # ------------------------------------------------------------------ results
     def table(self) -> dict:
-        """``{(probe, name): array over the rows}``; under displacement control also
+        """``{(probe, name): array over the rows}``; under displacement control and arc length also
         ``("load_factor", name)``, the load factor's own sensitivity."""
         data = np.array([values for _, values in self.rows]).reshape(len(self.rows), len(self.columns))
         out = {(p.name, name): data[:, i * len(self.names) + c]
@@ -490,7 +551,7 @@ class StaticSensitivities(ParameterDerivatives):
     def summary(self, probe_values: dict, load_factors=None) -> dict:
         """``probe_sensitivities``: each probe's derivative at the last row, and at the rows of its
         largest and smallest value (the first where several tie); with ``load_factors`` (displacement
-        control) the same for the load factor, under the name ``load_factor``."""
+        control, arc length) the same for the load factor, under the name ``load_factor``."""
         series = {p.name: probe_values[p.name] for p in self.probes}
         if load_factors is not None and self.controlled:
             series["load_factor"] = load_factors
@@ -502,3 +563,327 @@ class StaticSensitivities(ParameterDerivatives):
 
         text = csv_line(["load_factor", *self.columns]) + "".join(csv_line([lam, *values]) for lam, values in self.rows)
         atomic_write_bytes(Path(folder) / SENSITIVITIES_FILE, text.encode("utf-8"))
+
+
+@dataclass
+class ArcStep:
+    """What an arc-length step hands its row's sensitivities (latdyn/analyses/continuation.py
+    ``arc_length``): the step's increment Δq from the row before (the sum of its Newton increments in
+    the tangent space, ‖Δq‖_W = Δs), its arc length Δs and the first step's Δs₀ (every Δs is Δs₀ times
+    factors the path chose: halvings and the adaptation to the Newton iterations), and whether its
+    end was solved at λ = 1 exactly (the last row)."""
+    increment: np.ndarray
+    length: float
+    first: float
+    at_full_load: bool = False
+
+
+class ArcLengthSensitivities(StaticSensitivities):
+    """The sensitivities of an arc-length path (docs/parameters.md, "Arc length"): each row's point
+    (q_{n+1}, λ_{n+1}) solves r(q, λ; p) = 0 and ‖q ⊖ q_n‖_W = Δs_n from the row before, so it depends
+    on p through the residual, through the row before and through Δs_n = c_n Δs₀(p). Differentiated,
+    with D = q_{n+1} ⊖ q_n (the step's increment) and the bordered matrix that stays regular at a limit
+    point (where K alone is singular):
+
+        [ K      −q_ref ] [δq_{n+1}]   [ −∂r/∂p                     ]
+        [ DᵀW     0     ] [δλ_{n+1}] = [ DᵀW δq_n + Δs_n δΔs_n       ],   δΔs_n = (Δs_n/Δs₀) δΔs₀,
+
+    δΔs₀ from Δs₀ = ‖K₀⁻¹q_ref‖_W / steps at the start: δ(K₀⁻¹q_ref) = K₀⁻¹(δq_ref − δK₀ K₀⁻¹q_ref), δK₀
+    from the generated kernels (the element tangent ``beam_internal_force_D_q`` with the section block
+    replaced by its derivative, linear in it; ``hinge_force``'s ∂f/∂θ with the laws replaced by their
+    derivatives). The last row, solved at λ = 1, is load control's: δq = −K⁻¹∂r/∂p, δλ = 0. The limit
+    points the rows pass are located on the path (:meth:`limit_points`) and the limit load's derivative
+    taken there."""
+
+    def __init__(self, prepared, weight: np.ndarray):
+        super().__init__(prepared)
+        self.weight = weight
+        self.previous = np.zeros((self.model.n_dofs, len(self.names)))   # δq of the row before
+        self.first_step = np.zeros(len(self.names))                      # δΔs₀/Δs₀
+        #: (state, λ, the step into it) of every row, for :meth:`limit_points`
+        self.states: list[tuple[object, float, ArcStep | None]] = []
+
+    def record(self, state, load_factor: float, constraint_gradient=None, step: ArcStep | None = None) -> None:
+        """The row's sensitivities: at λ = 0 zeros (and δΔs₀ found), after a step the bordered solve
+        of the class docstring, at λ = 1 load control's."""
+        model, k = self.model, len(self.names)
+        self.states.append((state.copy(), load_factor, step))
+        if step is None or model.n_dofs == 0:
+            if load_factor == 0.0 and model.n_dofs:
+                self.first_step = self._first_step_derivative(state)
+            super().record(state, load_factor)
+            return
+        ev = self.assembler.evaluate(state, matrices=True, load_factor=load_factor, inertia=False)
+        rhs = -self.residual_derivatives(state, load_factor)
+        if step.at_full_load:
+            tangent, moved = self._solve(ev.stiffness, rhs, load_factor), np.zeros(k)
+        else:
+            along = self.weight * step.increment                       # DᵀW
+            shifted = self.assembler.evaluate(state, matrices=False, load_factor=load_factor + 1.0, inertia=False)
+            load = ev.residual - shifted.residual                     # q_ref = −∂r/∂λ
+            held = along @ self.previous + step.length * step.length * self.first_step
+            solved = bordered_solve(ev.stiffness, -load, along, np.vstack([rhs, held[None]]), load_factor)
+            tangent, moved = solved[:-1], solved[-1]
+        self.previous = tangent
+        self.load_factor_rows.append([float(x) for x in moved])
+        moved_by = self._by_parameter(tangent)
+        self.rows.append((load_factor, [value for p in self.probes
+                                        for value in self._probe_derivatives(p, state, *moved_by)]))
+
+    def _solve(self, stiffness, rhs, load_factor):
+        try:
+            return np.asarray(solve_linear(stiffness, rhs)).reshape(self.model.n_dofs, -1)
+        except np.linalg.LinAlgError:
+            raise SolverError(f"the sensitivities at load factor {load_factor:.6g} need the static stiffness, "
+                              "which is singular there (a limit or bifurcation point)") from None
+
+    def _first_step_derivative(self, state) -> np.ndarray:
+        """δΔs₀/Δs₀ per parameter: Δs₀ = ‖t₀‖_W/steps, t₀ = K₀⁻¹q_ref at the start (λ = 0), so
+        δΔs₀/Δs₀ = t₀ᵀW δt₀ / t₀ᵀW t₀ with δt₀ = K₀⁻¹(δq_ref − δK₀ t₀), δq_ref = ∂r/∂p(λ=0) − ∂r/∂p(λ=1)."""
+        ev = self.assembler.evaluate(state, matrices=True, load_factor=0.0, inertia=False)
+        shifted = self.assembler.evaluate(state, matrices=False, load_factor=1.0, inertia=False)
+        start = self._solve(ev.stiffness, ev.residual - shifted.residual, 0.0)[:, 0]
+        load = self.residual_derivatives(state, 0.0) - self.residual_derivatives(state, 1.0)
+        moved = self._solve(ev.stiffness, load - self.stiffness_derivative_along(state, start), 0.0)
+        size = float(start @ (self.weight * start))
+        return (start * self.weight) @ moved / size
+
+    def stiffness_derivative_along(self, state, direction: np.ndarray) -> np.ndarray:
+        """(∂K/∂p) v at a state of load factor 0 (the start), one column per parameter (n_dofs, k): the
+        elements' tangent by their section values and the hinges' by their stiffness laws and rest
+        angles; loads, gravity, masses and applied torques enter K only times λ, and damping times θ̇ = 0."""
+        model, k = self.model, len(self.names)
+        total = np.zeros((model.n_total + 1, k))
+        full = np.concatenate([direction, np.zeros(model.n_total + 1 - model.n_dofs)])
+        blocks = self._section_derivative_blocks(state)
+        if blocks is not None:
+            elements, column, rows = blocks
+            geometry, _, _ = self.assembler.native().element_inputs(state)
+            m = len(elements)
+            tangent = np.asarray(self.kernels.beam_internal_force_D_q(np.ascontiguousarray(geometry[elements]),
+                                                                      rows)[1]).reshape(m, 14, 14)
+            np.add.at(total, (model.element_dofs[elements], column[:, None]),
+                      np.einsum("epq,eq->ep", tangent, full[model.element_dofs[elements]]))
+        for key in self.derivatives:
+            contact = _CONTACT_KEY.match(key)
+            if contact and self._in_contact(state, model.hinge_index(contact["beam"], contact["end"])):
+                raise SceneError(self.scene.file, "solve.sensitivities",
+                                 f"the arc-length path starts with {contact['beam']}.{contact['end']} on its "
+                                 f"compliant stop, whose law ({key}) then moves the start's stiffness and so the "
+                                 "first step's length: not differentiated (it needs the contact law's second "
+                                 "derivative); expected a start inside the limits")
+        for key, laws in self.derivatives.items():
+            hinge = _HINGE_KEY.match(key)
+            if not hinge or hinge["law"] not in ("stiffness", "rest_angle"):
+                continue
+            j = model.hinge_index(hinge["beam"], hinge["end"])
+            theta, rate, t = float(state.theta[j]), float(state.theta_dot[j]), state.t
+            for column, law in laws.items():
+                values = np.zeros((1, 9))
+                if hinge["law"] == "stiffness":   # ∂f/∂θ = k + s ∂k/∂θ + …, with k replaced by ∂k/∂p
+                    values[0, 0:3] = law.value(theta, rate, t), law.d_theta(theta, rate, t), law.d_rate(theta, rate, t)
+                    at = np.array([[theta, rate, model.hinges[j].rest_angle, 0.0]])
+                else:   # ∂/∂θ_r (k + (θ − θ_r) ∂k/∂θ) = −∂k/∂θ: s = −1, laws (0, ∂k/∂θ, ∂k/∂θ̇)
+                    stiffness = model.hinges[j].stiffness
+                    values[0, 1:3] = law.value(theta, rate, t) * np.array(
+                        [stiffness.d_theta(theta, rate, t), stiffness.d_rate(theta, rate, t)])
+                    at = np.array([[0.0, 0.0, 1.0, 0.0]])
+                d_theta = float(np.asarray(self.kernels.hinge_force(at, values, NO_CONTACT[None])[1]).reshape(-1)[0])
+                total[model.hinge_dofs[j], column] += d_theta * full[model.hinge_dofs[j]]
+        return total[:model.n_dofs]
+
+    def _in_contact(self, state, j: int) -> bool:
+        """Whether hinge ``j`` is at or past one of its compliant stops at ``state``."""
+        limits = self.model.hinges[j].limits
+        return limits is not None and not limits[0] < float(state.theta[j]) < limits[1]
+
+    # ------------------------------------------------------------------ limit points
+    def limit_points(self, path) -> list[dict]:
+        """``limit_point_sensitivities``: for each turn of λ among the rows (a row whose λ is above or
+        below both neighbours'), the limit point located on the path between its neighbours and
+        dλ_c/dp there. Located: on the hyperplane family cᵀW (q ⊖ q_m) = σ through the turning row m
+        (c the chord of the two steps about it), the σ where dλ/dσ = 0 (regula falsi, each point by
+        Newton on the bordered system); there K φ = 0 has a left null vector φ, and the bordered
+        derivative δλ = φᵀ∂r/∂p / φᵀq_ref does not depend on c: the limit load's derivative
+        (``path``: latdyn.analyses.continuation.Path, its evaluate, step_to and increment_size)."""
+        out = []
+        lams = [lam for _, lam, _ in self.states]
+        for m in range(1, len(self.states) - 1):
+            before, after = lams[m] - lams[m - 1], lams[m + 1] - lams[m]
+            if before * after >= 0.0 or self.states[m + 1][2] is None or self.states[m][2] is None:
+                continue
+            if self.states[m + 1][2].at_full_load:
+                continue
+            located = self._locate_limit(path, m)
+            if located is None:
+                path.writer.summary.setdefault("warnings", []).append(
+                    f"the limit point near load factor {lams[m]:.6g} could not be located on the path: its "
+                    "load factor's sensitivity is left out of limit_point_sensitivities")
+                continue
+            state, lam, chord = located
+            ev = self.assembler.evaluate(state, matrices=True, load_factor=lam, inertia=False)
+            shifted = self.assembler.evaluate(state, matrices=False, load_factor=lam + 1.0, inertia=False)
+            rhs = np.vstack([-self.residual_derivatives(state, lam), np.zeros((1, len(self.names)))])
+            solved = bordered_solve(ev.stiffness, shifted.residual - ev.residual, chord, rhs, lam)
+            out.append({"kind": "maximum" if before > 0 else "minimum", "load_factor": float(lam),
+                        "dload_factor": {name: float(solved[-1, c]) for c, name in enumerate(self.names)}})
+        return out
+
+    def _locate_limit(self, path, m: int):
+        """(state, λ, cᵀW) of the limit point about row m, or None (:meth:`limit_points`)."""
+        start, lam0, into = self.states[m]
+        chord = self.weight * (into.increment + self.states[m + 1][2].increment)
+        ends = (-float(chord @ into.increment), float(chord @ self.states[m + 1][2].increment))
+
+        def on_path(sigma):   # Newton from row m onto the hyperplane cᵀW Δ = σ: (state, λ, dλ/dσ)
+            state, lam, moved = start, lam0, np.zeros(self.model.n_dofs)
+            for _ in range(path.max_iter):
+                residual, stiffness, load = path.evaluate(state, lam)
+                rhs = np.concatenate([-residual, [sigma - float(chord @ moved)]])[:, None]
+                step = bordered_solve(stiffness, -load, chord, rhs, lam)[:, 0]
+                state, lam, moved = path.step_to(state, step[:-1]), lam + step[-1], moved + step[:-1]
+                if path.increment_size(step[:-1]) <= path.tol and abs(step[-1]) <= path.tol * max(1.0, abs(lam)):
+                    residual, stiffness, load = path.evaluate(state, lam)
+                    unit = np.zeros((len(residual) + 1, 1))
+                    unit[-1] = 1.0
+                    slope = float(bordered_solve(stiffness, -load, chord, unit, lam)[-1, 0])
+                    return state, lam, slope
+            return None
+
+        # regula falsi (Illinois) on dλ/dσ between the neighbours, where its sign differs
+        (a, fa), (b, fb) = ((sigma, (on_path(sigma) or (None, None, None))[2]) for sigma in ends)
+        if fa is None or fb is None or fa * fb > 0.0:
+            return None
+        scale = max(abs(fa), abs(fb))
+        for _ in range(60):
+            c = (a * fb - b * fa) / (fb - fa)
+            got = on_path(c)
+            if got is None:
+                return None
+            fc = got[2]
+            if abs(fc) <= 1e-11 * scale:
+                return got[0], got[1], chord
+            if fc * fb < 0.0:
+                a, fa = b, fb
+            else:
+                fa /= 2
+            b, fb = c, fc
+        return None
+
+
+def bordered_solve(stiffness, column: np.ndarray, row: np.ndarray, rhs: np.ndarray, load_factor: float) -> np.ndarray:
+    """Solve [[K, column], [rowᵀ, 0]] x = rhs ((n + 1, k) → (n + 1, k)), the bordered system of a path
+    that stays regular where K is singular (a limit point), through the package's LU."""
+    import scipy.sparse as sp
+
+    from latdyn.numerics.linalg import use_dense
+
+    if isinstance(stiffness, np.ndarray) or use_dense(len(column) + 1):
+        dense = stiffness if isinstance(stiffness, np.ndarray) else stiffness.toarray()
+        matrix = np.block([[dense, column[:, None]], [row[None, :], np.zeros((1, 1))]])
+    else:
+        matrix = sp.bmat([[stiffness, sp.csr_matrix(column[:, None])], [sp.csr_matrix(row[None, :]), None]],
+                         format="csr")
+    try:
+        return np.asarray(solve_linear(matrix, rhs)).reshape(len(column) + 1, -1)
+    except np.linalg.LinAlgError:
+        raise SolverError(f"the sensitivities at load factor {load_factor:.6g} need the path's bordered "
+                          "matrix, which is singular there (a bifurcation point)") from None
+
+
+class ControllerTerms:
+    """∂r/∂p through continuous controllers (SCENE.md ``controllers`` without ``rate``) for transient
+    sensitivities. A controller's output y = clip(f(t, s; p)) is a law of its sensors s (probes read at
+    the state, earlier controllers' outputs); its exact derivatives by s are in the step's matrix
+    already (latdyn/assembly/control.py: the actuators' rows × the sensors' coordinates in K and C), so
+    what p adds is the explicit part, through the chain of controllers in file order,
+
+        dy_k/dp = ∂f_k/∂p + Σ_j ∂f_k/∂y_j dy_j/dp          (0 while y_k is clipped at a limit),
+
+    ∂f_k/∂p the derivative of the output's text by the parameter (Parameters.derivative, SymPy), and
+    the residual's rows of each actuator take it times their force per unit output: −a on a hinge's
+    coordinate (f = … − τ, τ = a y + b; a = 1 for the controller's name alone), the point-load
+    kernel's force for a unit value on a load's component (global or turning with a body). Controllers
+    with states (their states are integrated inside the step, condensed: not differentiated yet),
+    sampled ones (their held outputs jump at the samples) and inputs are refused (:meth:`refusal`)."""
+
+    def __init__(self, owner: ParameterDerivatives):
+        import sympy as sp
+
+        from latdyn.results.probes import ProbeSet
+        from latdyn.scene.expressions import parse_named_expression
+
+        scene, assembler = owner.scene, owner.assembler
+        self.model, self.k = owner.model, len(owner.names)
+        self.continuous = [c for c in scene.controllers.values() if not c.sampled]
+        names = {c.name for c in self.continuous}
+        #: controller name -> {column: ∂f/∂p as a function of (t, reads)}
+        self.partials: dict[str, dict[int, object]] = {}
+        for column, name in enumerate(owner.names):
+            for key in scene.parameters.depending_on(name):
+                match = _CONTROLLER_KEY.match(key)
+                if not match:
+                    continue
+                c = scene.controllers[match["name"]]
+                text = scene.parameters.derivative(key, name, c.reads)
+                _, expr = parse_named_expression(text, c.reads, scene.file, key, "the controller's sensors")
+                self.partials.setdefault(c.name, {})[column] = sp.lambdify(c.symbols, expr, modules=["math", "numpy"])
+        #: controller name -> {an earlier controller it reads: ∂f/∂y_j as a function of (t, reads)}
+        self.chained = {c.name: {r: sp.lambdify(c.symbols, sp.diff(c.output_expr, sp.Symbol(r, real=True)),
+                                                modules=["math", "numpy"])
+                                 for r in c.reads if r in names}
+                        for c in self.continuous}
+        self.sensors = ProbeSet(assembler, assembler.initial_state())
+        self.assembler, self.owner = assembler, owner
+
+    @staticmethod
+    def refusal(scene) -> str | None:
+        """Why the controllers of ``scene`` keep its transient sensitivities from being exact, or None."""
+        for c in scene.controllers.values():
+            if c.sampled:
+                return (f"sensitivities of runs with sampled controllers ({c.name}: rate, its held output jumps at "
+                        "each sample) are not computed yet; continuous controllers without states are")
+            if c.states:
+                return (f"sensitivities of runs with controllers with states ({c.name}: states, integrated inside "
+                        "the step) are not computed yet; continuous controllers without states are")
+        names = set(scene.controllers)
+        driven = {f"beams.{beam}.{which}.hinge.torque" for beam, which, hinge in scene.hinges
+                  if names & set(getattr(hinge.torque, "input_names", ()))}
+        for name in scene.solve.sensitivities:
+            for used in scene.parameters.depending_on(name):
+                if used in driven:
+                    return (f"parameter {name!r} is used at {used}, a torque that names a controller: "
+                            "expected the parameter inside the controller's output instead")
+        return None
+
+    def add(self, state, total: np.ndarray) -> None:
+        """Add the controllers' ∂r/∂p at ``state`` into ``total`` (class docstring)."""
+        w = self.assembler.control   # the wiring of the current numbering
+        if not self.partials or not len(w.actuator_kind):
+            return
+        values = dict(zip(self.sensors.names, self.sensors.values(state)))
+        outputs, slopes = {}, {}
+        for c in self.continuous:
+            arguments = [state.t, *[values[r] if r in values else outputs[r] for r in c.reads]]
+            raw = float(c.functions()[0](*arguments))
+            outputs[c.name] = c.clip(raw)
+            slope = np.zeros(self.k)
+            if c.limits is None or c.limits[0] < raw < c.limits[1]:
+                for column, partial in self.partials.get(c.name, {}).items():
+                    slope[column] += float(partial(*arguments))
+                for read, through in self.chained[c.name].items():
+                    slope += float(through(*arguments)) * slopes[read]
+            slopes[c.name] = slope
+        loads: dict[int, np.ndarray] = {}   # load -> its six values' derivatives (6, k)
+        for kind, index, component, controller, gain in zip(w.actuator_kind, w.actuator_index, w.actuator_component,
+                                                            w.actuator_controller, w.actuator_gain):
+            moved = (gain if gain else 1.0) * slopes[w.controllers[controller].name]
+            if kind == 0:   # a hinge torque τ = a y (+ b): its row f = … − τ
+                total[self.model.hinge_dofs[index]] -= moved
+            else:           # a load component a y (+ b): the point-load kernel, linear in its values
+                loads.setdefault(int(index), np.zeros((6, self.k)))[component] += moved
+        for index, values in loads.items():
+            columns = [c for c in range(self.k) if np.any(values[:, c])]
+            if columns:
+                nodes, forces = self.owner._load_forces(state, [index] * len(columns), values[:, columns].T)
+                total[self.model.node_dofs[nodes[0]][:, None], np.array(columns)[None, :]] += forces.T

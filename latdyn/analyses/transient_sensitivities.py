@@ -52,6 +52,10 @@ total derivative vanish; the jump of δv through the impulse and the restarted a
 differentiated (:meth:`TransientSensitivities._jump`, :meth:`TransientSensitivities.after_events`); the
 derivative of the impulse weight M + dt²K along δq (a third derivative of the element, not generated)
 is taken by a central difference (:meth:`TransientSensitivities._weight_derivative`).
+A compliant stop's onset (``contact``) is landed on too, and its time enters through the landing
+step's size as a latch's does (:meth:`TransientSensitivities._contact_onset`); its force being continuous
+there, nothing jumps; its law's stiffness, exponent and damping enter ∂r/∂p through the generated
+``contact_force_D_law`` (docs/parameters.md, "Compliant stops").
 
 This round runs one step at a time from Python (the time loop's per-step path; the native loop is
 later); it carries (δq, δv, δv̇, δa) on the free coordinates, (n, k), in
@@ -70,6 +74,7 @@ from latdyn.analyses.sensitivities import (_BODY_KEY, _HINGE_KEY, _INITIAL_VELOC
 from latdyn.assembly.assembler import free_acceleration, free_velocity, pack, unpack_free
 from latdyn.assembly.factorization import solve_linear
 from latdyn.errors import SceneError, SolverError
+from latdyn.model.model import lock_tolerance
 from latdyn.numerics.inertia import split_inertia
 from latdyn.numerics.linalg import issparse
 from latdyn.numerics.so3 import dexp_so3, expm_so3
@@ -260,7 +265,7 @@ class TransientSensitivities(ParameterDerivatives):
         columns = {"dq": dq0 + tangent(z), "dv": dv0 + gamma_p * z, "dvdot": dvdot_new,
                    "da": da0 + (1 - af) / (1 - am) * dvdot_new}
         event = self._event(old, new)
-        dh = self._step_size_derivative(carried, h, lands, event, columns["dq"])
+        dh = self._step_size_derivative(carried, h, lands, event or self._contact_onset(old, new), columns["dq"])
         total = {key: value[:, :k] + np.outer(value[:, k], dh) for key, value in columns.items()}
         carried = {**carried, **total, "dt": carried["dt"] + dh, "dh": dh, "h": h, "pending": None}
         if event is None:
@@ -284,6 +289,22 @@ class TransientSensitivities(ParameterDerivatives):
         if latched:
             return int(latched[0]), "latch", 0.0
         return int(hits[0]), "stop", float(restitution[0])
+
+    def _contact_onset(self, old, new):
+        """(hinge, "contact", 0.0) when the step old → new landed on a compliant stop from inside (its
+        onset, δ = 0: the Hunt–Crossley force is continuous there, so the state's sensitivities do not
+        jump, but the landing step's size is the onset's time, a function of p), else None
+        (docs/parameters.md, "Compliant stops")."""
+        model = self.model
+        for k in model.free_hinges:
+            hinge = model.hinges[k]
+            if hinge.contact is None or hinge.limits is None:
+                continue
+            for side, stop in zip((-1, 1), hinge.limits):
+                inside = side * (old.theta[k] - stop) < -lock_tolerance(stop)
+                if inside and abs(new.theta[k] - stop) <= lock_tolerance(stop):
+                    return int(k), "contact", 0.0
+        return None
 
     def _step_size_derivative(self, carried: dict, h: float, lands: bool, event, dq: np.ndarray) -> np.ndarray:
         """δh (k,) of the accepted step: the event's time makes the hinge's angle its lock_at or stop

@@ -135,12 +135,19 @@ def generator_version() -> str:
 
 
 def _text_key(time_functions, hinge_laws, signals=((), ()), controllers=(), sampled=()) -> str:
+    """What the laws' C unit is a function of. A controller enters by its expressions as read (exactly,
+    ``srepr``), not by the text as written: that text names the scene's parameters, whose values the
+    loader substituted, so two scenes with other values of a gain share it (and shared one library:
+    a run with Kp = 40 stepped with the law compiled for Kp = 4)."""
+    from sympy import srepr
+
+    def read(kind, c, sensors):
+        return (kind, c.name, srepr(c.output_expr), tuple(sensors), c.states, tuple(map(srepr, c.state_exprs)))
+
     return repr([(type(f).__name__, f.source) for f in time_functions]
                 + [(type(h).__name__, h.source) for h in hinge_laws] + [("signals", tuple(map(tuple, signals)))]
-                + [("controller", c.name, str(c.output_text), tuple(sensors), c.states, tuple(map(str, c.state_texts)))
-                   for c, sensors in controllers]
-                + [("sampled", c.name, str(c.output_text), tuple(sensors), c.states, tuple(map(str, c.state_texts)))
-                   for c, sensors in sampled])
+                + [read("controller", c, sensors) for c, sensors in controllers]
+                + [read("sampled", c, sensors) for c, sensors in sampled])
 
 
 def _print(time_functions, hinge_laws, signals=((), ()), controllers=(), sampled=()) -> bytes:

@@ -80,21 +80,22 @@ class Parameters:
         """The key paths whose number or law uses the parameter ``name``, in reading order."""
         return [key for key, (_, names) in self.uses.items() if name in names]
 
-    def derivative(self, key: str, name: str) -> str:
+    def derivative(self, key: str, name: str, names: tuple = ()) -> str:
         """∂(the expression at ``key``)/∂``name`` at the parameters' values, as expression text
-        (in ``t``, ``theta``, ``theta_dot``, ``s``, ``s_dot`` where the law uses them; ``"0"`` where
-        ``key`` does not depend on ``name``). Symbolic: SymPy differentiates the text as written."""
+        (in ``t``, ``theta``, ``theta_dot``, ``s``, ``s_dot`` where the law uses them, and ``names``: a
+        controller's sensors; ``"0"`` where ``key`` does not depend on ``name``). Symbolic: SymPy
+        differentiates the text as written."""
         if key not in self.uses or name not in self.uses[key][1]:
             return "0"
         import sympy as sp
 
-        text, names = self.uses[key]
-        symbols = {n: sp.Symbol(n, real=True) for n in names}
-        extra = tuple(names) + tuple(v for v in HINGE_VARIABLES + ("s", "s_dot") if v != "t")
+        text, used = self.uses[key]
+        symbols = {n: sp.Symbol(n, real=True) for n in used}
+        extra = tuple(used) + tuple(names) + tuple(v for v in HINGE_VARIABLES + ("s", "s_dot") if v != "t")
         _, expr = expressions.parse_symbolic(text, None, key, extra)
         derivative = expressions._drop_deltas(  # noqa: SLF001 (the package's one rule for deltas)
             sp.diff(expr, symbols[name]))
-        derivative = derivative.subs({symbols[n]: self.values[n] for n in names})
+        derivative = derivative.subs({symbols[n]: self.values[n] for n in used})
         return re.sub(r"\bAbs\(", "abs(", str(derivative))
 
     def describe(self) -> list[str]:
