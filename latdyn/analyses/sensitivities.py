@@ -71,6 +71,8 @@ _BODY_KEY = re.compile(r"^bodies\.(?P<body>[^.]+)\.(?:(?P<mass>mass)|com\[(?P<co
                        r"(?P<inertia>inertia)\[(?P<row>[0-2])\](?:\[(?P<col>[0-2])\])?)$")
 #: a component of the rigid motion at t = 0 (transient runs: the velocities are affine in it at a fixed ``about``)
 _INITIAL_VELOCITY_KEY = re.compile(r"^initial_velocity\.(?P<kind>linear|angular)\[(?P<axis>[0-2])\]$")
+#: a cable's axial stiffness, damping and rest length (transient runs: latdyn/analyses/transient_sensitivities.py)
+_CABLE_KEY = re.compile(r"^cables\.(?P<cable>[^.]+)\.(?P<value>EA|damping|rest_length)$")
 _HINGE_KEY = re.compile(r"^beams\.(?P<beam>.+)\.(?P<end>start|end)\.hinge\.(?P<law>stiffness|damping|torque|rest_angle)$")
 
 
@@ -103,12 +105,13 @@ def refusal(scene) -> SceneError | None:
     for name in names:
         for used in scene.parameters.depending_on(name):
             section = _SECTION_KEY.match(used)
-            initial = solve.analysis == "transient" and _INITIAL_VELOCITY_KEY.match(used)
+            initial = solve.analysis == "transient" and (_INITIAL_VELOCITY_KEY.match(used) or _cable_use(scene, used))
             if not (_LOAD_KEY.match(used) or _HINGE_KEY.match(used) or section or _BODY_KEY.match(used) or initial):
                 return refuse(f"parameter {name!r} is used at {used}: sensitivities are computed for parameters "
                               "of load components, of hinge stiffness, damping, torque and rest_angle, of section "
                               "stiffnesses and masses (shear-rigid), of body masses, centres of mass and "
-                              "inertias and, in transient runs, of initial_velocity.linear and .angular only")
+                              "inertias and, in transient runs, of initial_velocity.linear and .angular and of "
+                              "cables' EA, damping and rest_length (of a massless cable) only")
             if section and solve.formulation != "default":
                 return refuse(f"parameter {name!r} is used at {used}: sensitivities by section values are computed "
                               f"for formulation: default only, not {solve.formulation}")
@@ -156,8 +159,11 @@ def _transient_refusal(scene) -> str | None:
     if scene.controllers or len(scene.inputs):
         return "sensitivities of runs with controllers or inputs (sampled outputs, laws that jump) are not " \
                "computed yet"
-    if scene.cables:
-        return "sensitivities of runs with cables (slack and taut events) are not computed yet"
+    if scene.cables and (depends_on_time(scene) or any(not c.rest_length.is_constant for c in scene.cables.values())):
+        return ("sensitivities through cables' slack and taut events with a rest length (a reel), load, hinge law "
+                "or motion that depends on t are not computed yet: an event moves the ends of the steps after it "
+                "in time, and the time derivative of the equations is not differentiated; expected laws constant "
+                "in time (docs/parameters.md, \"Cables\")")
     if any(body.guide is not None for body in scene.bodies.values()):
         return "sensitivities of runs with guides (prismatic joints) are not computed yet"
     for beam, which, hinge in scene.hinges:
@@ -173,6 +179,14 @@ def _transient_refusal(scene) -> str | None:
                     "in time, and the time derivative of the equations is not differentiated; expected laws "
                     "constant in time (docs/parameters.md, \"Sensitivities through events\")")
     return None
+
+
+def _cable_use(scene, used: str) -> bool:
+    """Whether ``used`` is a cable value differentiated in transient runs: EA, damping, and the rest length
+    of a cable without mass (a cable's lumped mass is rhoA times its rest length at t = 0, which is not
+    differentiated yet)."""
+    cable = _CABLE_KEY.match(used)
+    return bool(cable) and (cable["value"] != "rest_length" or scene.cables[cable["cable"]].rhoA == 0.0)
 
 
 def _refuse_without_gravity_tangent(scene, model, kernels) -> None:

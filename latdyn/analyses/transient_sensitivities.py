@@ -65,7 +65,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from latdyn.analyses.sensitivities import (_BODY_KEY, _HINGE_KEY, _INITIAL_VELOCITY_KEY, _LOAD_KEY, _SECTION_KEY,
+from latdyn.analyses.sensitivities import (_BODY_KEY, _CABLE_KEY, _HINGE_KEY, _INITIAL_VELOCITY_KEY, _LOAD_KEY, _SECTION_KEY,
                                            SENSITIVITIES_FILE, ParameterDerivatives)
 from latdyn.assembly.assembler import free_acceleration, free_velocity, pack, unpack_free
 from latdyn.assembly.factorization import solve_linear
@@ -74,7 +74,7 @@ from latdyn.numerics.inertia import split_inertia
 from latdyn.numerics.linalg import issparse
 from latdyn.numerics.so3 import dexp_so3, expm_so3
 from latdyn.step.integrators import consistent_acceleration
-from latdyn.timeloop.events import first_crossing, lock_events, stop_hits
+from latdyn.timeloop.events import cable_crossings, cable_events, cable_gaps, first_crossing, lock_events, stop_hits
 from latdyn.timeloop.impulse import hinge_directions, massless_element_stiffness
 
 __all__ = ["TransientSensitivities"]
@@ -103,10 +103,22 @@ class TransientSensitivities(ParameterDerivatives):
     def __init__(self, prepared):
         super().__init__(prepared)
         self.params = self.length = None
+        #: the cables' parameters and events (:class:`CableSensitivities`), None without cables
+        self.cables = CableSensitivities(self) if self.model.cables is not None else None
 
     def bind(self, integrator) -> None:
         """The integrator's parameters (α_m, α_f, γ, β) and length scale (the inertia tangent's steps)."""
         self.params, self.length = integrator.p, integrator.length_scale
+
+    def residual_derivatives(self, state, load_factor: float, inertia: bool = False) -> np.ndarray:
+        """∂r/∂p (n_dofs, k) of :class:`latdyn.analyses.sensitivities.ParameterDerivatives`, with the
+        cables' (:meth:`CableSensitivities.residual_derivatives`)."""
+        out = super().residual_derivatives(state, load_factor, inertia)
+        if self.cables is None or not self.cables.uses:
+            return out
+        total = np.zeros((self.model.n_total + 1, len(self.names)))
+        self.cables.residual_derivatives(state, total)
+        return out + total[:self.model.n_dofs]
 
     # ------------------------------------------------------------------ t = 0
     def start(self, state) -> dict:
@@ -196,17 +208,22 @@ class TransientSensitivities(ParameterDerivatives):
     # ------------------------------------------------------------------ landing on an event
     def land(self, step, old, attempt):
         """The step from ``old`` landed on the first latch or stop it crosses or reaches to
-        |θ − θ_event| ≤ :data:`LANDING` (secant on the step size from 0 and the step tried), where the
+        |θ − θ_event| ≤ :data:`LANDING` (secant on the step size from 0 and the step tried), or else on the
+        first cable element's change of side to a gap |g| ≤ :data:`LANDING` · EA
+        (:meth:`CableSensitivities.landing`), where the
         derivative of the event time assumes it exactly; ``step(h)`` takes a step of size h from
         ``old``. Returns (state, stats, h, lands) of the last converged step."""
         new, stats, h, lands = attempt
         event = first_crossing(self.model, old, new)
-        if event is None:
+        if event is not None:
+            k, at = event
+            gap, tight = (lambda state: float(state.theta[k] - at)), LANDING * max(1.0, abs(at))
+        elif self.cables is not None and self.cables.landing(old, new) is not None:
+            gap, tight = self.cables.landing(old, new)
+        else:
             return attempt
-        k, at = event
-        tight = LANDING * max(1.0, abs(at))
-        a, ga = 0.0, float(old.theta[k] - at)
-        b, gb = h, float(new.theta[k] - at)
+        a, ga = 0.0, gap(old)
+        b, gb = h, gap(new)
         best = attempt
         for _ in range(LANDING_PASSES):
             if abs(gb) <= tight or gb == ga:
@@ -218,7 +235,7 @@ class TransientSensitivities(ParameterDerivatives):
             if not retry_stats.converged:
                 break
             best = (retry, retry_stats, c, False)
-            a, ga, b, gb = b, gb, c, float(retry.theta[k] - at)
+            a, ga, b, gb = b, gb, c, gap(retry)
         return best
 
     # ------------------------------------------------------------------ a step
@@ -260,9 +277,15 @@ class TransientSensitivities(ParameterDerivatives):
         columns = {"dq": dq0 + tangent(z), "dv": dv0 + gamma_p * z, "dvdot": dvdot_new,
                    "da": da0 + (1 - af) / (1 - am) * dvdot_new}
         event = self._event(old, new)
-        dh = self._step_size_derivative(carried, h, lands, event, columns["dq"])
+        cable = self._cable_event(old, new, event)
+        if cable is None:
+            dh = self._step_size_derivative(carried, h, lands, event, columns["dq"])
+        else:
+            dh = self.cables.step_size_derivative(new, cable[0], columns["dq"], columns["dv"], k)
         total = {key: value[:, :k] + np.outer(value[:, k], dh) for key, value in columns.items()}
         carried = {**carried, **total, "dt": carried["dt"] + dh, "dh": dh, "h": h, "pending": None}
+        if cable is not None:
+            return self._after_cable_event(carried, new, *cable)
         if event is None:
             return carried
         return self._jump(carried, new, *event)
@@ -284,6 +307,32 @@ class TransientSensitivities(ParameterDerivatives):
         if latched:
             return int(latched[0]), "latch", 0.0
         return int(hits[0]), "stop", float(restitution[0])
+
+    def _cable_event(self, old, new, hinge_event):
+        """(element, the whole cable's change or None) of the cable element that turns over at the end of the
+        step old → new (:meth:`CableSensitivities.event`), or None; with a hinge event in the same step,
+        refused (SolverError)."""
+        if self.cables is None:
+            return None
+        cable = self.cables.event(old, new)
+        if cable is not None and hinge_event is not None:
+            raise SolverError(f"the sensitivities at t = {new.t:.6g} meet a cable's change and a hinge event at one "
+                              "instant, whose derivative is not that of one event (docs/parameters.md, \"Cables\")")
+        return cable
+
+    def _after_cable_event(self, carried: dict, new, e: int, change) -> dict:
+        """``carried`` after a step that ended on cable element ``e``'s change: the event recorded when the
+        whole cable changed, and the steps that follow of sizes fixed by the nominal step (the time loop
+        restarts at dt, or at a fraction of it after a damped cable's jump of tension), not by this one's
+        (δh of the next step 0 unless it lands on the grid)."""
+        record = self.cables.record(new, e, change, carried["dt"], self.names)
+        events = carried["events"] + ([record] if record is not None else [])
+        carried = {**carried, "events": events, "dh": np.zeros(len(self.names))}
+        miss = abs(float(cable_gaps(self.assembler, new)[0][e])) / float(self.model.cables.EA[e])
+        if miss > LANDING_MISSED:   # the derivative assumes the step on the change: flagged (finish)
+            name = self.model.cables.names[self.model.cables.cable[e]]
+            carried = {**carried, "missed": carried.get("missed", []) + [(f"cables.{name}", float(new.t), miss)]}
+        return carried
 
     def _step_size_derivative(self, carried: dict, h: float, lands: bool, event, dq: np.ndarray) -> np.ndarray:
         """δh (k,) of the accepted step: the event's time makes the hinge's angle its lock_at or stop
@@ -512,3 +561,180 @@ class TransientSensitivities(ParameterDerivatives):
         if writer.out_dir is not None:
             text = csv_line(["t", *self.columns]) + "".join(csv_line(row) for row in carried["rows"])
             atomic_write_bytes(Path(writer.out_dir) / SENSITIVITIES_FILE, text.encode("utf-8"))
+
+
+# ---------------------------------------------------------------------------------------------- cables
+
+
+class CableSensitivities:
+    """The cables' part of the transient sensitivities (docs/parameters.md, "Cables"), from the generated
+    taut law ``cable_force`` (codegen/joints.py) alone:
+
+    - ∂r/∂p of the elements held taut: the force is linear in (EA, c) at a fixed rest length — the kernel
+      with (∂EA/∂p, ∂c/∂p) —, and affine in ρ = 1/L0 at fixed (EA, c) (N = EA(ℓρ − 1) + c ℓ̇), so
+      ∂F/∂L0 = −ρ² ∂F/∂ρ with ∂F/∂ρ the exact two-point difference of an affine function,
+      (F(ρ + ρ/2) − F(ρ − ρ/2))/ρ (no truncation; round-off only);
+    - the slack/taut change is an event: the step lands on the element's gap g = min(N_el, N) = 0
+      (:data:`LANDING` · EA, :meth:`TransientSensitivities.land`), and the step's size follows the
+      parameters so that g stays zero: ∂g/∂q δq + ∂g/∂v δv + ∂g/∂p + (∂g/∂q q_h + ∂g/∂v v_h) δh = 0,
+      with q_h, v_h the step's derivative by its size. The gap's gradients are the kernel's own blocks:
+      N = −e·F_1 (F_1 the first end's rows), and e·∂e = 0, so ∂N/∂q = −eᵀ K_1, ∂N/∂v = −eᵀ C_1 (with
+      c = 0 for N_el).
+    - nothing jumps at the change in the discrete run (the time loop neither restarts the
+      accelerations nor jumps the velocities there: latdyn/timeloop/events.py), so the step's
+      derivative with δh is the whole derivative; the jump of the continuous solution's sensitivity
+      (Hiskens & Pai 2000: δv⁺ − δv⁻ = M⁻¹(F⁻ − F⁺) δt_e for a damped cable's jump of tension c ℓ̇ at
+      taut) is what that step and the next, on the other law, carry to first order in h.
+    """
+
+    def __init__(self, owner):
+        self.owner = owner
+        self.model, self.kernels = owner.model, owner.kernels
+        self.cables = owner.model.cables
+        #: (cable index, its value, column, derivative law) of every cable parameter
+        self.uses = []
+        for key, laws in owner.derivatives.items():
+            match = _CABLE_KEY.match(key)
+            if match:
+                k = self.cables.names.index(match["cable"])
+                self.uses += [(k, match["value"], column, law) for column, law in laws.items()]
+
+    # ------------------------------------------------------------------ the taut law of one element
+    def law(self, state, e: int, EA: float | None = None, c: float | None = None, L0: float | None = None):
+        """The generated ``cable_force`` outputs (force (12,), K (12, 12), C (12, 12), [ℓ, ℓ̇, ℓ − L0, N_el, N])
+        of element ``e`` at ``state``, with its EA, c and rest length share L0 replaced where given."""
+        cables = self.cables
+        nodes = cables.nodes[e]
+        geometry = np.concatenate([state.x[nodes[0]], state.x[nodes[1]],
+                                   state.T[nodes[0]] @ cables.offsets[e, 0], state.T[nodes[1]] @ cables.offsets[e, 1]])
+        velocity = np.concatenate([state.v[nodes[0]], state.w[nodes[0]], state.v[nodes[1]], state.w[nodes[1]]])
+        rest = cables.rest_length[cables.cable[e]]
+        share = cables.share[e]
+        section = np.array([share * rest.value(state.t) if L0 is None else L0, share * rest.rate(state.t),
+                            cables.EA[e] if EA is None else EA, cables.damping[e] if c is None else c])
+        out = self.kernels.cable_force(*(np.ascontiguousarray(a[None]) for a in (geometry, velocity, section)))
+        return (np.asarray(out[0]).reshape(12), np.asarray(out[1]).reshape(12, 12),
+                np.asarray(out[2]).reshape(12, 12), np.asarray(out[3]).reshape(5))
+
+    def taut(self, state) -> np.ndarray:
+        """(ce,) bool: the elements whose force the evaluation applies at ``state`` (csrc/evaluate.c
+        ``cables``: held taut, or, on no side, a positive gap)."""
+        sides = self.cables.sides
+        out = np.zeros(len(self.cables), bool)
+        for e in range(len(self.cables)):
+            if sides[e] > 0:
+                out[e] = True
+            elif sides[e] == 0:
+                _, _, _, s = self.law(state, e)
+                out[e] = min(s[3], s[4]) > 0.0
+        return out
+
+    def _rows(self, e: int) -> np.ndarray:
+        """(12,) the coordinates of element ``e``'s end nodes' rows [d1, π1, d2, π2] (n_total: none)."""
+        dofs = self.model.node_dofs[self.cables.nodes[e]].reshape(12)
+        return np.where(dofs < 0, self.model.n_total, dofs)
+
+    def _rest_length_derivative(self, state, e: int, which: int):
+        """∂(output ``which``: 0 the force, 3 the state [ℓ, ℓ̇, ℓ − L0, N_el, N])/∂L0 of element ``e`` (class
+        docstring: affine in ρ = 1/L0, differenced exactly)."""
+        rho = 1.0 / (self.cables.share[e] * self.cables.rest_length[self.cables.cable[e]].value(state.t))
+        ahead = self.law(state, e, L0=1.0 / (1.5 * rho))[which]
+        behind = self.law(state, e, L0=1.0 / (0.5 * rho))[which]
+        return -rho * rho * (ahead - behind) / rho
+
+    # ------------------------------------------------------------------ ∂r/∂p
+    def residual_derivatives(self, state, total: np.ndarray) -> None:
+        """Add ∂(the taut elements' forces)/∂p into ``total`` (n_total + 1, k) (class docstring)."""
+        if not self.uses:
+            return
+        taut = self.taut(state)
+        for k, value, column, law in self.uses:
+            derivative = law.value(0.0, 0.0, state.t)
+            if derivative == 0.0:
+                continue
+            for e in np.flatnonzero((self.cables.cable == k) & taut):
+                if value == "EA":
+                    force = self.law(state, e, EA=derivative, c=0.0)[0]
+                elif value == "damping":
+                    force = self.law(state, e, EA=0.0, c=derivative)[0]
+                else:
+                    force = self._rest_length_derivative(state, e, 0) * self.cables.share[e] * derivative
+                np.add.at(total[:, column], self._rows(e), force)
+
+    # ------------------------------------------------------------------ the event
+    def landing(self, old, new):
+        """(gap(state) of the element to land on, the tolerance LANDING · EA) for the step old → new: the
+        element whose gap crosses zero first (linear interpolation) from the side it is held on, or one the
+        events would turn over (its gap within the loop's tolerance) farther than that from zero; None."""
+        cables, assembler = self.cables, self.owner.assembler
+        crossed = cable_crossings(assembler, old, new)
+        if crossed:
+            e = min(crossed, key=lambda c: c[1])[0]
+        else:
+            turned, _ = cable_events(assembler, list(cables.sides), old, new)
+            after, _ = cable_gaps(assembler, new)
+            near = [e for e, (a, b) in enumerate(zip(cables.sides, turned))
+                    if a != b and abs(after[e]) > LANDING * cables.EA[e]]
+            if not near:
+                return None
+            e = near[0]
+
+        def gap(state):
+            return float(cable_gaps(assembler, state)[0][e])
+        return gap, LANDING * float(cables.EA[e])
+
+    def event(self, old, new):
+        """(element, the cable's change or None) of the cable element the events turn over at the end
+        of the step old → new (latdyn.timeloop.events.cable_events), or None; several at once are
+        refused (SolverError)."""
+        sides = list(self.cables.sides)
+        turned, changes = cable_events(self.owner.assembler, sides, old, new)
+        flipped = [e for e, (a, b) in enumerate(zip(sides, turned)) if a != b]
+        if not flipped:
+            return None
+        if len(flipped) > 1:
+            raise SolverError(f"the sensitivities at t = {new.t:.6g} meet several cable elements changing between "
+                              "slack and taut at one instant, whose derivative is not that of one event "
+                              "(docs/parameters.md, \"Cables\")")
+        e = flipped[0]
+        change = [kind for name, kind in changes if name == self.cables.names[self.cables.cable[e]]]
+        return e, (change[0] if change else None)
+
+    def step_size_derivative(self, new, e: int, dq: np.ndarray, dv: np.ndarray, k: int) -> np.ndarray:
+        """δh (k,) of a step that ends on element ``e``'s change: its gap stays zero (class docstring);
+        ``dq``, ``dv`` the step's columns, the k parameters' and the step size's (column k)."""
+        model, cables = self.model, self.cables
+        _, _, _, s = self.law(new, e)
+        damped = s[4] < s[3]                       # the gap is the tension N (with its damper), else N_el
+        c = cables.damping[e] if damped else 0.0
+        force, K, C, s = self.law(new, e, c=c)
+        # e, the unit vector from the first end point to the second (F_1 = N e)
+        nodes = cables.nodes[e]
+        points = [new.x[nodes[i]] + new.T[nodes[i]] @ cables.offsets[e, i] for i in range(2)]
+        unit = (points[1] - points[0]) / np.linalg.norm(points[1] - points[0])
+        g_q, g_v = np.zeros(model.n_total + 1), np.zeros(model.n_total + 1)
+        rows = self._rows(e)
+        np.add.at(g_q, rows, -unit @ K[0:3])
+        np.add.at(g_v, rows, -unit @ C[0:3])
+        g_q, g_v = g_q[:model.n_dofs], g_v[:model.n_dofs]
+        g_p = np.zeros(k)
+        for cable, value, column, law in self.uses:
+            if cable != cables.cable[e]:
+                continue
+            derivative = law.value(0.0, 0.0, new.t)
+            if value == "EA":
+                g_p[column] += self.law(new, e, EA=derivative, c=0.0)[3][4]
+            elif value == "damping":
+                g_p[column] += self.law(new, e, EA=0.0, c=derivative)[3][4] if damped else 0.0
+            else:
+                g_p[column] += self._rest_length_derivative(new, e, 3)[3] * cables.share[e] * derivative
+        along = g_q @ dq + g_v @ dv
+        return -(along[:k] + g_p) / along[k]
+
+    def record(self, new, e: int, change, dt_event: np.ndarray, names: list) -> dict | None:
+        """The ``event_sensitivities`` entry of a whole cable's change (None: an element of a cable that
+        stays taut or slack as a whole)."""
+        if change is None:
+            return None
+        return {"joint": self.cables.names[self.cables.cable[e]], "kind": change, "t": float(new.t),
+                "dt": {name: float(dt_event[c]) for c, name in enumerate(names)}}
