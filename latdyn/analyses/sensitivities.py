@@ -71,6 +71,9 @@ _BODY_KEY = re.compile(r"^bodies\.(?P<body>[^.]+)\.(?:(?P<mass>mass)|com\[(?P<co
                        r"(?P<inertia>inertia)\[(?P<row>[0-2])\](?:\[(?P<col>[0-2])\])?)$")
 #: a component of the rigid motion at t = 0 (transient runs: the velocities are affine in it at a fixed ``about``)
 _INITIAL_VELOCITY_KEY = re.compile(r"^initial_velocity\.(?P<kind>linear|angular)\[(?P<axis>[0-2])\]$")
+#: a guide's laws (transient runs), read as the hinge laws they are on the slide s (force: the torque's place)
+_GUIDE_KEY = re.compile(r"^bodies\.(?P<body>[^.]+)\.guide\.(?P<law>stiffness|damping|force|rest)$")
+_GUIDE_LAW = {"force": "torque", "rest": "rest_angle"}
 #: a cable's axial stiffness, damping and rest length (transient runs: latdyn/analyses/transient_sensitivities.py)
 _CABLE_KEY = re.compile(r"^cables\.(?P<cable>[^.]+)\.(?P<value>EA|damping|rest_length)$")
 _HINGE_KEY = re.compile(r"^beams\.(?P<beam>.+)\.(?P<end>start|end)\.hinge\.(?P<law>stiffness|damping|torque|rest_angle)$")
@@ -105,13 +108,15 @@ def refusal(scene) -> SceneError | None:
     for name in names:
         for used in scene.parameters.depending_on(name):
             section = _SECTION_KEY.match(used)
-            initial = solve.analysis == "transient" and (_INITIAL_VELOCITY_KEY.match(used) or _cable_use(scene, used))
+            initial = solve.analysis == "transient" and (_INITIAL_VELOCITY_KEY.match(used) or _cable_use(scene, used)
+                                                         or _GUIDE_KEY.match(used))
             if not (_LOAD_KEY.match(used) or _HINGE_KEY.match(used) or section or _BODY_KEY.match(used) or initial):
                 return refuse(f"parameter {name!r} is used at {used}: sensitivities are computed for parameters "
                               "of load components, of hinge stiffness, damping, torque and rest_angle, of section "
                               "stiffnesses and masses (shear-rigid), of body masses, centres of mass and "
-                              "inertias and, in transient runs, of initial_velocity.linear and .angular and of "
-                              "cables' EA, damping and rest_length (of a massless cable) only")
+                              "inertias and, in transient runs, of initial_velocity.linear and .angular, of "
+                              "guides' stiffness, damping, force and rest, and of cables' EA, damping and "
+                              "rest_length (of a massless cable) only")
             if section and solve.formulation != "default":
                 return refuse(f"parameter {name!r} is used at {used}: sensitivities by section values are computed "
                               f"for formulation: default only, not {solve.formulation}")
@@ -120,10 +125,12 @@ def refusal(scene) -> SceneError | None:
                               "and its element is not linear in its section values")
     for probe in scene.output.probes:
         point = probe.kind == "point" and probe.quantity in ("position", "displacement") and probe.frame == "global"
-        if not (point or (probe.kind == "hinge" and probe.quantity == "angle")):
+        slide = probe.kind == "guide" and probe.quantity == "position" and solve.analysis == "transient"
+        if not (point or slide or (probe.kind == "hinge" and probe.quantity == "angle")):
             return refuse(f"probe {probe.name!r} ({probe.kind} {probe.quantity}"
                           f"{'' if probe.kind != 'point' else ', frame ' + probe.frame}) is not differentiated yet: "
-                          "point positions and displacements in the global frame and hinge angles are")
+                          "point positions and displacements in the global frame, hinge angles and (transient runs) "
+                          "guide positions are")
     return None
 
 
@@ -164,8 +171,16 @@ def _transient_refusal(scene) -> str | None:
                 "or motion that depends on t are not computed yet: an event moves the ends of the steps after it "
                 "in time, and the time derivative of the equations is not differentiated; expected laws constant "
                 "in time (docs/parameters.md, \"Cables\")")
-    if any(body.guide is not None for body in scene.bodies.values()):
-        return "sensitivities of runs with guides (prismatic joints) are not computed yet"
+    guides = [name for name, body in scene.bodies.items() if body.guide is not None]
+    if guides and any(beam.rigid for beam in scene.beams.values()):
+        return "sensitivities of runs with guides and rigid links (a slider-crank) are not computed yet"
+    for name in guides:
+        guide = scene.bodies[name].guide
+        if guide.position is not None:
+            return f"sensitivities of a prescribed slide (bodies.{name}.guide.position) are not computed yet"
+        if (guide.lock_at is not None or guide.limits is not None) and depends_on_time(scene):
+            return (f"sensitivities through the events of the guide of {name} (lock_at, limits) with a load, law or "
+                    "motion that depends on t are not computed yet (docs/parameters.md, \"Guides\")")
     for beam, which, hinge in scene.hinges:
         if hinge.contact is not None or hinge.friction is not None:
             return (f"sensitivities through compliant stops and friction ({beam}.{which}: sticking and the "
@@ -251,7 +266,17 @@ class ParameterDerivatives:
             pairs = list(load_values)
             nodes, forces = self._load_forces(state, [index for index, _ in pairs], np.array(list(load_values.values())))
             np.add.at(total, (model.node_dofs[nodes], np.array([column for _, column in pairs])[:, None]), forces)
-        return total[:model.n_dofs]
+        return self._on_free_coordinates(state, total)
+
+    def _on_free_coordinates(self, state, total: np.ndarray) -> np.ndarray:
+        """``total`` (all coordinates) on the free ones: its first n_dofs rows, or with rigid links and guides
+        reduced by the projection Pᵀ (latdyn/assembly/linked.py: the dependent nodes' rows carried onto the
+        coordinates they move with)."""
+        model = self.model
+        if model.links is None:
+            return total[:model.n_dofs]
+        P = self.assembler.evaluate(state, matrices=True).projection
+        return np.asarray(P.T @ total[:model.n_assembled])
 
     def _section_forces(self, state, total: np.ndarray, load_factor: float, inertia: bool = False) -> None:
         """Add ∂(element internal force − λ gravity load)/∂p into ``total`` for the section values that
@@ -359,7 +384,9 @@ class ParameterDerivatives:
         """(the load key's match, the hinge key's match) of a parameter's use, matched once."""
         cache = self.__dict__.setdefault("_kinds", {})
         if key not in cache:
-            cache[key] = (_LOAD_KEY.match(key), _HINGE_KEY.match(key))
+            guide = _GUIDE_KEY.match(key)   # a guide's laws are a hinge's, on its slide (latdyn/model/model.py)
+            cache[key] = (_LOAD_KEY.match(key), _HINGE_KEY.match(key) or guide and {
+                "beam": guide["body"], "end": "guide", "law": _GUIDE_LAW.get(guide["law"], guide["law"])})
         return cache[key]
 
     def _load_forces(self, state, indices: list, values: np.ndarray):
@@ -426,8 +453,9 @@ class ParameterDerivatives:
         """The derivatives of ``probe`` at ``state`` by every parameter along (δx, δπ, δθ) of
         :meth:`_by_parameter`: a point x + T r moves by δx + δπ × T r, a hinge angle by δθ."""
         model = self.model
-        if probe.kind == "hinge":
-            return [float(v) for v in dtheta[model.hinge_index(probe.beam, probe.end)]]
+        if probe.kind in ("hinge", "guide"):
+            joint = (probe.beam, probe.end) if probe.kind == "hinge" else (probe.body, "guide")
+            return [float(v) for v in dtheta[model.hinge_index(*joint)]]
         node, offset = model.point(probe.point)
         arm = state.T[node] @ offset
         moved = dx[node] + np.cross(dpi[node], arm, axisa=0, axisc=0)    # δ(x + T r), (3, k)

@@ -465,8 +465,33 @@ class TransientSensitivities(ParameterDerivatives):
     def _matrices(self, state):
         """M, C and the exact K at ``state`` (:meth:`latdyn.assembly.assembler.Assembler.exact_matrices`:
         the elements' inertia tangent and the joint bodies' ``joint_body_inertia_stiffness``, which the
-        step's Newton matrix leaves out)."""
+        step's Newton matrix leaves out); with guides (:meth:`_guided_matrices`) the reduction's."""
+        if self.model.links is not None:
+            return self._guided_matrices(state)
         return self.assembler.exact_matrices(state)
+
+    def _guided_matrices(self, state):
+        """M, C, K on the minimum coordinates of a model with guides (latdyn/assembly/linked.py): M = PᵀMP and
+        C = Pᵀ(CP + M_·dep ∂c/∂v) of the reduction are exact; its K is not (it leaves out the derivatives of
+        the guided bodies' velocities and accelerations — Coriolis, centrifugal — by the coordinates, and the
+        inertia tangents), so K is r_q of :func:`latdyn.analyses.linearisation.tangent_q_by_differences`:
+        the material tangent exact, the rest of the residual by central differences (docs/parameters.md,
+        "Guides": the one difference of a guided run's sensitivities, not generated yet)."""
+        from latdyn.analyses.linearisation import tangent_q_by_differences
+
+        ev = self.assembler.evaluate(state, matrices=True)
+        M, C = ev.combined(1.0, 0.0, 0.0, dense=True), ev.combined(0.0, 1.0, 0.0, dense=True)
+        return M, C, tangent_q_by_differences(self.assembler, state)
+
+    def _dependent_motion(self, state, dq: np.ndarray, dx: np.ndarray, dpi: np.ndarray) -> None:
+        """(δx, δπ) of the dependent nodes (guided bodies) into ``dx``, ``dpi``: P δq on their rows (the
+        projection of latdyn/assembly/linked.py, J of the generated edge kernels)."""
+        model = self.model
+        P = self.assembler.evaluate(state, matrices=True).projection
+        full = np.asarray(P @ dq)
+        for node in model.links.dependent:
+            dofs = model.node_dofs[node]
+            dx[node], dpi[node] = full[dofs[0:3]], full[dofs[3:6]]
 
     def _rotation_operators(self, increment: np.ndarray):
         """(R·, J·) on free-coordinate columns for the step's increment hΔq: on each free node's
@@ -529,6 +554,8 @@ class TransientSensitivities(ParameterDerivatives):
         """``carried`` with the row of every probe's sensitivity at ``state`` (a new list of rows), all
         parameters at once: a point x + T r moves by δx + δπ × T r, a hinge angle by δθ."""
         dx, dpi, dtheta = self._by_parameter(carried["dq"])
+        if self.model.links is not None and len(self.names):
+            self._dependent_motion(state, carried["dq"], dx, dpi)
         row = [float(state.t)]
         for probe in self.probes:
             row.extend(self._probe_derivatives(probe, state, dx, dpi, dtheta))
