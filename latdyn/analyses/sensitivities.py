@@ -39,7 +39,7 @@ Transient runs: :mod:`latdyn.analyses.transient_sensitivities` (the step differe
 
 What is refused (:func:`refusal`, exit 2 naming ``solve.sensitivities``): any analysis but static
 load and displacement control and transient runs of an implicit method at fixed steps without
-events, cables, guides, controllers and inputs (:func:`_transient_refusal`); a parameter used anywhere but in load components, hinge stiffness, damping,
+controllers and inputs (cables through their slack/taut events, guides without theirs: :func:`_transient_refusal`); a parameter used anywhere but in load components, hinge stiffness, damping,
 torque and rest angle, section values of shear-rigid sections (formulation default) and body
 masses, centres of mass and inertias; probes other than point positions and displacements in the global frame
 and hinge angles; rigid links; in static paths hinges with limits or ``lock_at`` (events; transient runs

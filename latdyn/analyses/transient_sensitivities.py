@@ -53,6 +53,13 @@ differentiated (:meth:`TransientSensitivities._jump`, :meth:`TransientSensitivit
 derivative of the impulse weight M + dt²K along δq (a third derivative of the element, not generated)
 is taken by a central difference (:meth:`TransientSensitivities._weight_derivative`).
 
+Cables (:class:`CableSensitivities`): their EA, damping and rest length from the generated taut law, and
+their slack/taut changes as events landed on exactly, the event time differentiated from the gap's
+gradients (no jump: the discrete run neither jumps nor restarts there). Guides: a guide's laws as a
+hinge's on its slide, ∂r/∂p reduced by the projection Pᵀ, the step's K by differences of the residual
+(:meth:`TransientSensitivities._guided_matrices`: the reduction's own K is not exact).
+docs/parameters.md, "Cables" and "Guides".
+
 This round runs one step at a time from Python (the time loop's per-step path; the native loop is
 later); it carries (δq, δv, δv̇, δa) on the free coordinates, (n, k), in
 :attr:`latdyn.timeloop.progress.TransientProgress.sensitivities`, checkpointed with the run.
