@@ -150,7 +150,8 @@ def depends_on_time(scene) -> bool:
     for _, _, hinge in scene.hinges:
         if hinge.angle is not None or any(timed(getattr(hinge, key, None)) for key in ("stiffness", "damping", "torque")):
             return True
-    return any(getattr(body, "motion", None) for body in scene.bodies.values())
+    return any(body.prescribed or (body.guide is not None and body.guide.position is not None)
+               for body in scene.bodies.values())
 
 
 def _transient_refusal(scene) -> str | None:
@@ -181,11 +182,11 @@ def _transient_refusal(scene) -> str | None:
         if guide.contact is not None or guide.friction is not None:
             return (f"sensitivities through a guide's compliant stops and friction (bodies.{name}.guide: sticking and "
                     "the stops' contact are events) are not computed yet")
-        if guide.lock_at is not None or guide.limits is not None:
-            return (f"sensitivities through the events of the guide of {name} (lock_at, limits: a latch or a rigid "
-                    "stop on a slide) are not computed yet: through a guide's latch they came out 1e-3 off "
-                    "central differences (docs/parameters.md, \"Guides\"); expected a guide without lock_at and "
-                    "rigid limits")
+        if (guide.lock_at is not None or guide.limits is not None) and depends_on_time(scene):
+            return (f"sensitivities through the events of the guide of {name} (lock_at, limits) with a load, law or "
+                    "motion that depends on t are not computed yet: an event moves the ends of the steps after it "
+                    "in time, and the time derivative of the equations is not differentiated; expected laws "
+                    "constant in time (docs/parameters.md, \"Guides\")")
     for beam, which, hinge in scene.hinges:
         if hinge.contact is not None or hinge.friction is not None:
             return (f"sensitivities through compliant stops and friction ({beam}.{which}: sticking and the "
@@ -248,10 +249,12 @@ class ParameterDerivatives:
                                for node, offset in [self.model.point(p.point)]}
 
     # ------------------------------------------------------------------ ∂r/∂p
-    def residual_derivatives(self, state, load_factor: float, inertia: bool = False) -> np.ndarray:
+    def residual_derivatives(self, state, load_factor: float, inertia: bool = False,
+                             on_all: bool = False) -> np.ndarray:
         """∂r/∂p on the free coordinates, one column per parameter (n_dofs, k): of the static residual,
         or with ``inertia`` of the equations of motion r(q, v, v̇, t) at ``state`` (its velocities and
-        accelerations)."""
+        accelerations); ``on_all``: on all coordinates (n_total + 1, k), before the rigid links' and
+        guides' reduction."""
         model, k = self.model, len(self.names)
         total = np.zeros((model.n_total + 1, k))
         load_values: dict[tuple[int, int], np.ndarray] = {}   # (load, column) -> λ ∂(its six values)/∂p
@@ -271,7 +274,7 @@ class ParameterDerivatives:
             pairs = list(load_values)
             nodes, forces = self._load_forces(state, [index for index, _ in pairs], np.array(list(load_values.values())))
             np.add.at(total, (model.node_dofs[nodes], np.array([column for _, column in pairs])[:, None]), forces)
-        return self._on_free_coordinates(state, total)
+        return total if on_all else self._on_free_coordinates(state, total)
 
     def _on_free_coordinates(self, state, total: np.ndarray) -> np.ndarray:
         """``total`` (all coordinates) on the free ones: its first n_dofs rows, or with rigid links and guides

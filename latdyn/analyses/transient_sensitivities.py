@@ -117,15 +117,14 @@ class TransientSensitivities(ParameterDerivatives):
         """The integrator's parameters (α_m, α_f, γ, β) and length scale (the inertia tangent's steps)."""
         self.params, self.length = integrator.p, integrator.length_scale
 
-    def residual_derivatives(self, state, load_factor: float, inertia: bool = False) -> np.ndarray:
-        """∂r/∂p (n_dofs, k) of :class:`latdyn.analyses.sensitivities.ParameterDerivatives`, with the
-        cables' (:meth:`CableSensitivities.residual_derivatives`)."""
-        out = super().residual_derivatives(state, load_factor, inertia)
-        if self.cables is None or not self.cables.uses:
-            return out
-        total = np.zeros((self.model.n_total + 1, len(self.names)))
-        self.cables.residual_derivatives(state, total)
-        return out + total[:self.model.n_dofs]
+    def residual_derivatives(self, state, load_factor: float, inertia: bool = False,
+                             on_all: bool = False) -> np.ndarray:
+        """∂r/∂p of :class:`latdyn.analyses.sensitivities.ParameterDerivatives`, with the cables'
+        (:meth:`CableSensitivities.residual_derivatives`)."""
+        total = super().residual_derivatives(state, load_factor, inertia, on_all=True)
+        if self.cables is not None and self.cables.uses:
+            self.cables.residual_derivatives(state, total)
+        return total if on_all else self._on_free_coordinates(state, total)
 
     # ------------------------------------------------------------------ t = 0
     def start(self, state) -> dict:
@@ -376,7 +375,8 @@ class TransientSensitivities(ParameterDerivatives):
         NtX = N.T @ X
         change = X @ np.linalg.solve(NtX, -(1.0 + restitution) * (N.T @ v_minus))
         dv_minus = carried["dv"]
-        w = dv_minus - np.asarray(solve_linear(W, self._weight_derivative(new, change, carried["dq"], scale)))
+        weight = self._weight_derivative(new, change, carried["dq"], scale, rates=(carried["dv"], carried["dvdot"]))
+        w = dv_minus - np.asarray(solve_linear(W, weight))
         w = w.reshape(dv_minus.shape)
         dv_plus = w + X @ np.linalg.solve(NtX, -restitution * (N.T @ dv_minus) - N.T @ w)
         dt_event = carried["dt"]
@@ -387,8 +387,10 @@ class TransientSensitivities(ParameterDerivatives):
         miss = abs(float(new.theta[hinge]) - at) / max(1.0, abs(at))
         if miss > LANDING_MISSED:   # the derivative assumes the step on the event: flagged (finish)
             carried = {**carried, "missed": carried.get("missed", []) + [(record["joint"], record["t"], miss)]}
+        # the accelerations before the events and their derivative: the stop's restart weighs with W at them
         return {**carried, "events": carried["events"] + [record],
-                "pending": {"kind": kind, "dq": self._on_nodes(carried["dq"]), "dv": self._on_nodes(dv_plus)}}
+                "pending": {"kind": kind, "dq": self._on_nodes(carried["dq"]), "dv": self._on_nodes(dv_plus),
+                            "vdot": free_acceleration(model, new), "dvdot": carried["dvdot"]}}
 
     def _on_nodes(self, columns: np.ndarray) -> list:
         """Free-coordinate columns as (node translations, node rotations, hinge angles), one per column."""
@@ -402,42 +404,76 @@ class TransientSensitivities(ParameterDerivatives):
         return out
 
     def _weight_derivative(self, state, w: np.ndarray, dq: np.ndarray, scale: float,
-                           mass: bool = True) -> np.ndarray:
+                           mass: bool = True, rates=None) -> np.ndarray:
         """δ(W w) (n, k) for W = M + scale·K (``mass``) or scale·K at ``state`` (K the evaluation's, without
         the inertia tangent, as the impulse uses it), along each column's (δq, δp): ∂(W w)/∂q δq by a
         central difference of W w along δq (the derivative of K is a third derivative of the element,
         not generated: the one difference of the sensitivities, module docstring), ∂M/∂p w exactly (the
         inertia forces are linear in the accelerations: ∂r/∂p at accelerations w less at none, at rest),
-        scale ∂K/∂p w by a central difference of ∂r/∂p (static) along w."""
+        scale ∂K/∂p w by a central difference of ∂r/∂p (static) along w.
+
+        With guides (rigid links' reduction, latdyn/assembly/linked.py) K also holds the geometric term
+        ∂Pᵀ/∂q · r_all, with r_all at the state's rates: the difference then moves the free rates along
+        ``rates`` = (δv, δv̇) too (the dependent ones completed), and ∂K/∂p adds that term of the
+        inertia forces' ∂r_all/∂p (:meth:`_geometric_derivative`)."""
         model, assembler, k = self.model, self.assembler, len(self.names)
         length = self.length or 1.0
         out = np.zeros((model.n_dofs, k))
+        linked = model.links is not None
 
         def product(moved):
             return np.asarray(assembler.evaluate(moved, matrices=True).combined(1.0 if mass else 0.0, 0.0, scale) @ w)
 
+        def moved(eta, c):
+            ahead = assembler.advance(state, eta * dq[:, c])
+            if linked and rates is not None:
+                unpack_free(model, free_velocity(model, state) + eta * rates[0][:, c], ahead.v, ahead.w, ahead.theta_dot)
+                unpack_free(model, free_acceleration(model, state) + eta * rates[1][:, c], ahead.a, ahead.alpha,
+                            ahead.theta_ddot)
+                assembler.complete_links(ahead)
+            return ahead
+
         for c in range(k):
-            size = float(np.max(np.abs(dq[:, c]), initial=0.0))
+            moves = [dq[:, c]] + ([rates[0][:, c], rates[1][:, c]] if linked and rates is not None else [])
+            size = float(max(np.max(np.abs(m), initial=0.0) for m in moves))
             if size == 0.0:
                 continue
             eta = WEIGHT_STEP * length / size
-            out[:, c] = (product(assembler.advance(state, eta * dq[:, c]))
-                         - product(assembler.advance(state, -eta * dq[:, c]))) / (2 * eta)
+            out[:, c] = (product(moved(eta, c)) - product(moved(-eta, c))) / (2 * eta)
         size = float(np.max(np.abs(w), initial=0.0))
         if size == 0.0:
             return out
         eta = WEIGHT_STEP * length / size
         out += scale * (self.residual_derivatives(assembler.advance(state, eta * w), 1.0)
                         - self.residual_derivatives(assembler.advance(state, -eta * w), 1.0)) / (2 * eta)
+        if linked:
+            out += scale * self._geometric_derivative(state, w, eta)
         if mass:
             at_rest = state.copy()
             for name in ("v", "w", "theta_dot", "a", "alpha", "theta_ddot"):
                 getattr(at_rest, name)[...] = 0.0
             accelerated = at_rest.copy()
             unpack_free(model, w, accelerated.a, accelerated.alpha, accelerated.theta_ddot)
+            assembler.complete_links(at_rest)
+            assembler.complete_links(accelerated)
             out += (self.residual_derivatives(accelerated, 1.0, inertia=True)
                     - self.residual_derivatives(at_rest, 1.0, inertia=True))
         return out
+
+    def _geometric_derivative(self, state, w: np.ndarray, eta: float) -> np.ndarray:
+        """∂Pᵀ/∂q[w] · (∂r_all/∂p with the inertia forces less without) (n, k): the part of ∂K/∂p w of a
+        reduction's geometric term ∂Pᵀ/∂q · r_all (latdyn/assembly/linked.py; r_all with the inertia
+        forces) that the static ∂r/∂p differenced along w leaves out; ∂Pᵀ/∂q[w] by a central difference
+        of the projection P along w."""
+        model, assembler = self.model, self.assembler
+        n_asm = model.n_assembled
+        inertial = (self.residual_derivatives(state, 1.0, inertia=True, on_all=True)
+                    - self.residual_derivatives(state, 1.0, on_all=True))[:n_asm]
+        if not np.any(inertial):
+            return np.zeros((model.n_dofs, len(self.names)))
+        ahead = assembler.evaluate(assembler.advance(state, eta * w), matrices=True).projection
+        behind = assembler.evaluate(assembler.advance(state, -eta * w), matrices=True).projection
+        return np.asarray((ahead - behind).T @ inertial) / (2 * eta)
 
     def after_events(self, carried: dict, new) -> dict:
         """``carried`` after the events of the step ended at ``new`` (its coordinates renumbered, its
@@ -462,10 +498,14 @@ class TransientSensitivities(ParameterDerivatives):
         rhs = self.residual_derivatives(new, 1.0, inertia=True) + K @ dq + C @ dv
         if pending["kind"] == "latch":
             matrix = M
-        else:
+        else:   # the restart's W is evaluated at the accelerations before it (the same without guides)
             scale = self.scene.solve.dt ** 2
-            matrix = self.assembler.evaluate(new, matrices=True).combined(1.0, 0.0, scale)
-            rhs = rhs + self._weight_derivative(new, free_acceleration(model, new), dq, scale, mass=False)
+            before = new.copy()
+            unpack_free(model, pending["vdot"], before.a, before.alpha, before.theta_ddot)
+            self.assembler.complete_links(before)
+            matrix = self.assembler.evaluate(before, matrices=True).combined(1.0, 0.0, scale)
+            rhs = rhs + self._weight_derivative(before, free_acceleration(model, new), dq, scale, mass=False,
+                                                rates=(dv, pending["dvdot"]))
         dvdot = np.asarray(solve_linear(matrix, rhs)).reshape(n, k) * -1.0
         return {**out, "dvdot": dvdot, "da": dvdot.copy()}
 
