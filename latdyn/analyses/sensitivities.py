@@ -75,7 +75,7 @@ _INITIAL_VELOCITY_KEY = re.compile(r"^initial_velocity\.(?P<kind>linear|angular)
 _GUIDE_KEY = re.compile(r"^bodies\.(?P<body>[^.]+)\.guide\.(?P<law>stiffness|damping|force|rest)$")
 _GUIDE_LAW = {"force": "torque", "rest": "rest_angle"}
 #: a cable's axial stiffness, damping and rest length (transient runs: latdyn/analyses/transient_sensitivities.py)
-_CABLE_KEY = re.compile(r"^cables\.(?P<cable>[^.]+)\.(?P<value>EA|damping|rest_length)$")
+_CABLE_KEY = re.compile(r"^cables\.(?P<cable>[^.]+)\.(?P<value>EA|damping|rest_length|rhoA)$")
 _HINGE_KEY = re.compile(r"^beams\.(?P<beam>.+)\.(?P<end>start|end)\.hinge\.(?P<law>stiffness|damping|torque|rest_angle)$")
 
 
@@ -115,8 +115,8 @@ def refusal(scene) -> SceneError | None:
                               "of load components, of hinge stiffness, damping, torque and rest_angle, of section "
                               "stiffnesses and masses (shear-rigid), of body masses, centres of mass and "
                               "inertias and, in transient runs, of initial_velocity.linear and .angular, of "
-                              "guides' stiffness, damping, force and rest, and of cables' EA, damping and "
-                              "rest_length (of a massless cable) only")
+                              "guides' stiffness, damping, force and rest, and of cables' EA, damping, "
+                              "rest_length and rhoA (> 0) only")
             if section and solve.formulation != "default":
                 return refuse(f"parameter {name!r} is used at {used}: sensitivities by section values are computed "
                               f"for formulation: default only, not {solve.formulation}")
@@ -203,11 +203,10 @@ def _transient_refusal(scene) -> str | None:
 
 
 def _cable_use(scene, used: str) -> bool:
-    """Whether ``used`` is a cable value differentiated in transient runs: EA, damping, and the rest length
-    of a cable without mass (a cable's lumped mass is rhoA times its rest length at t = 0, which is not
-    differentiated yet)."""
+    """Whether ``used`` is a cable value differentiated in transient runs: EA, damping, rest length and rhoA
+    (the lumped mass, rhoA times the rest length at t = 0; not where rhoA is 0: no mass to move)."""
     cable = _CABLE_KEY.match(used)
-    return bool(cable) and (cable["value"] != "rest_length" or scene.cables[cable["cable"]].rhoA == 0.0)
+    return bool(cable) and (cable["value"] != "rhoA" or scene.cables[cable["cable"]].rhoA > 0.0)
 
 
 def _refuse_without_gravity_tangent(scene, model, kernels) -> None:

@@ -123,7 +123,7 @@ class TransientSensitivities(ParameterDerivatives):
         (:meth:`CableSensitivities.residual_derivatives`)."""
         total = super().residual_derivatives(state, load_factor, inertia, on_all=True)
         if self.cables is not None and self.cables.uses:
-            self.cables.residual_derivatives(state, total)
+            self.cables.residual_derivatives(state, total, inertia)
         return total if on_all else self._on_free_coordinates(state, total)
 
     # ------------------------------------------------------------------ t = 0
@@ -179,6 +179,7 @@ class TransientSensitivities(ParameterDerivatives):
         moving = [key for key in self.derivatives
                   if _SECTION_KEY.match(key) or _BODY_KEY.match(key) or _INITIAL_VELOCITY_KEY.match(key)
                   or (_HINGE_KEY.match(key) and _HINGE_KEY.match(key)["law"] == "stiffness")
+                  or _CABLE_KEY.match(key) or key.endswith(".guide.stiffness")
                   or (_LOAD_KEY.match(key) and self.scene.loads[int(_LOAD_KEY.match(key)["load"])].frame != "global")]
         if not moving:
             return
@@ -672,6 +673,14 @@ class CableSensitivities:
             if match:
                 k = self.cables.names.index(match["cable"])
                 self.uses += [(k, match["value"], column, law) for column, law in laws.items()]
+        #: each cable's rows of the model's joint bodies: its lumped point masses, the last rows, in the order
+        #: latdyn/model/cables.py add_cables appends them (two per element, cables with mass in scene order)
+        self.mass_rows, row = {}, len(self.model.body_nodes)
+        massive = [(k, c) for k, c in enumerate(owner.scene.cables.values()) if c.rhoA * c.rest_length.value(0.0) > 0]
+        row -= sum(2 * c.elements for _, c in massive)
+        for k, cable in massive:
+            self.mass_rows[k] = np.arange(row, row + 2 * cable.elements)
+            row += 2 * cable.elements
 
     # ------------------------------------------------------------------ the taut law of one element
     def law(self, state, e: int, EA: float | None = None, c: float | None = None, L0: float | None = None):
@@ -717,14 +726,17 @@ class CableSensitivities:
         return -rho * rho * (ahead - behind) / rho
 
     # ------------------------------------------------------------------ ∂r/∂p
-    def residual_derivatives(self, state, total: np.ndarray) -> None:
-        """Add ∂(the taut elements' forces)/∂p into ``total`` (n_total + 1, k) (class docstring)."""
+    def residual_derivatives(self, state, total: np.ndarray, inertia: bool = False) -> None:
+        """Add ∂(the taut elements' forces)/∂p into ``total`` (n_total + 1, k) (class docstring), and with
+        ``inertia`` that of the lumped masses (:meth:`_mass_forces`)."""
         if not self.uses:
             return
         taut = self.taut(state)
         for k, value, column, law in self.uses:
             derivative = law.value(0.0, 0.0, state.t)
-            if derivative == 0.0:
+            if value in ("rhoA", "rest_length") and k in self.mass_rows and inertia:
+                self._mass_forces(state, total, k, value, column, law)
+            if derivative == 0.0 or value == "rhoA":
                 continue
             for e in np.flatnonzero((self.cables.cable == k) & taut):
                 if value == "EA":
@@ -734,6 +746,25 @@ class CableSensitivities:
                 else:
                     force = self._rest_length_derivative(state, e, 0) * self.cables.share[e] * derivative
                 np.add.at(total[:, column], self._rows(e), force)
+
+    def _mass_forces(self, state, total: np.ndarray, k: int, value: str, column: int, law) -> None:
+        """Add ∂(the inertia and gravity forces of cable ``k``'s lumped masses)/∂p into ``total``: each point
+        mass is ½ ρA L(0)/elements (latdyn/model/cables.py), so ∂m = ½ (∂ρA L(0) + ρA ∂L(0))/elements, and the
+        generated ``joint_body`` (a point mass at its offset, no rotary inertia) is linear in m."""
+        model, cable = self.model, list(self.owner.scene.cables.values())[k]
+        derivative = law.value(0.0, 0.0, 0.0)   # ρA and the rest length at t = 0 (refused in t with events)
+        share = 0.5 / cable.elements
+        mass = share * (derivative * cable.rest_length.value(0.0) if value == "rhoA" else cable.rhoA * derivative)
+        rows = self.mass_rows[k]
+        nodes = model.body_nodes[rows]
+        frames = np.ascontiguousarray(state.T[nodes].reshape(-1, 9))
+        motion = np.ascontiguousarray(np.concatenate([state.w[nodes], state.a[nodes], state.alpha[nodes]], axis=1))
+        block = np.zeros((len(rows), 13))
+        block[:, 0], block[:, 1:4] = mass, model.body_com[rows]
+        gravity = np.repeat(np.asarray(self.owner.assembler.gravity, float)[None], len(rows), axis=0)
+        forces = np.asarray(self.kernels.joint_body(frames, motion, block, gravity)[0]).reshape(len(rows), 6)
+        dofs = model.node_dofs[nodes]
+        np.add.at(total[:, column], np.where(dofs < 0, model.n_total, dofs), forces)
 
     # ------------------------------------------------------------------ the event
     def landing(self, old, new):
@@ -800,7 +831,7 @@ class CableSensitivities:
                 g_p[column] += self.law(new, e, EA=derivative, c=0.0)[3][4]
             elif value == "damping":
                 g_p[column] += self.law(new, e, EA=0.0, c=derivative)[3][4] if damped else 0.0
-            else:
+            elif value == "rest_length":   # (rhoA moves no force of the element)
                 g_p[column] += self._rest_length_derivative(new, e, 3)[3] * cables.share[e] * derivative
         along = g_q @ dq + g_v @ dv
         return -(along[:k] + g_p) / along[k]
