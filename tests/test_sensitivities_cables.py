@@ -184,3 +184,32 @@ def test_a_reel_and_the_mass_of_a_massless_cable_are_refused_naming_the_key(tmp_
         _run(heavy, "m")
     run, _ = latdyn_run(tmp_path, reel)
     assert run.returncode == 2 and "solve.sensitivities" in run.stderr and "Traceback" not in run.stderr
+
+
+def test_a_run_interrupted_between_the_cable_changes_resumes_to_the_same_sensitivities(tmp_path, monkeypatch):
+    """The cable's events and their sensitivities ride in the checkpoint: interrupted after the taut change
+    (0.319 s) and before the slack one (0.394 s), resumed, sensitivities.csv and event_sensitivities are the
+    uninterrupted run's, byte for byte."""
+    import json
+
+    from latdyn.step.compiled import CompiledGeneralizedAlpha
+
+    scene = yaml.safe_load(DAMPED)
+    whole = tmp_path / "whole"
+    latdyn.run(scene, whole)
+    original = CompiledGeneralizedAlpha.step
+
+    def step(self, state, *args, **kwargs):
+        if state.t >= 0.35:
+            raise KeyboardInterrupt
+        return original(self, state, *args, **kwargs)
+
+    out = tmp_path / "out"
+    with monkeypatch.context() as m:
+        m.setattr(CompiledGeneralizedAlpha, "step", step)
+        with pytest.raises(KeyboardInterrupt):
+            latdyn.run(scene, out)
+    latdyn.run(scene, out, resume=True)
+    assert (out / "sensitivities.csv").read_bytes() == (whole / "sensitivities.csv").read_bytes()
+    events = [json.loads((folder / "summary.json").read_text())["event_sensitivities"] for folder in (out, whole)]
+    assert events[0] == events[1] and [e["kind"] for e in events[0]] == ["taut", "slack"]
