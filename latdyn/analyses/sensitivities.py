@@ -135,7 +135,8 @@ def refusal(scene) -> SceneError | None:
 
 
 def depends_on_time(scene) -> bool:
-    """Whether a load component, hinge law or prescribed motion of ``scene`` depends on t."""
+    """Whether a load component, hinge or guide law or prescribed motion (a body's, a hinge's, a slide's) of
+    ``scene`` depends on t."""
     def timed(law):
         if law is None or isinstance(law, (int, float)):
             return False
@@ -150,8 +151,11 @@ def depends_on_time(scene) -> bool:
     for _, _, hinge in scene.hinges:
         if hinge.angle is not None or any(timed(getattr(hinge, key, None)) for key in ("stiffness", "damping", "torque")):
             return True
-    return any(body.prescribed or (body.guide is not None and body.guide.position is not None)
-               for body in scene.bodies.values())
+    guides = [body.guide for body in scene.bodies.values() if body.guide is not None]
+    if any(guide.position is not None or any(timed(getattr(guide, key, None)) for key in ("stiffness", "damping", "force"))
+           for guide in guides):
+        return True
+    return any(body.prescribed for body in scene.bodies.values())
 
 
 def _transient_refusal(scene) -> str | None:
