@@ -112,8 +112,8 @@ def test_a_3d_guide_latching_or_hitting_its_stop_on_a_flexible_arm_agrees_with_r
         text, kind, name):
     """The hinges' event machinery on the slide, on a guide whose body moves (the tip of the flexible arm):
     the impulse weight M + dt²K of the reduction depends on the rates through its geometric term, which the
-    jump's derivative follows. Measured: latch k 2.4e-8, m 5.8e-9, EI 5.7e-9, rest 1.3e-8; stop k 3.9e-8,
-    m 1.0e-8; the event times to 1e-9; without the latch and the stop k 5.7e-9, m 3.3e-10, EI 3.7e-10,
+    jump's derivative follows. Measured: latch k 2.4e-8, m 5.0e-9, EI 5.2e-9, rest 1.3e-8; stop k 3.9e-8,
+    m 1.1e-8; the event times to 1e-9; without the latch and the stop k 5.7e-9, m 3.3e-10, EI 3.7e-10,
     rest 1.3e-8 (the run before the event is each test's first 0.24 s)."""
     result = _run(text, name)
     assert [(e["joint"], e["kind"]) for e in result.summary["events"]] == [("slider", kind)]

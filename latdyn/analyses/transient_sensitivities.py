@@ -56,8 +56,9 @@ is taken by a central difference (:meth:`TransientSensitivities._weight_derivati
 Cables (:class:`CableSensitivities`): their EA, damping and rest length from the generated taut law, and
 their slack/taut changes as events landed on exactly, the event time differentiated from the gap's
 gradients (no jump: the discrete run neither jumps nor restarts there). Guides: a guide's laws as a
-hinge's on its slide, ∂r/∂p reduced by the projection Pᵀ, the step's K by differences of the residual
-(:meth:`TransientSensitivities._guided_matrices`: the reduction's own K is not exact).
+hinge's on its slide, ∂r/∂p reduced by the projection Pᵀ, the step's K exact with the guided bodies' rates'
+derivatives (:meth:`TransientSensitivities._guided_matrices`: the reduction's own K is not exact); their
+latches and stops as the hinges', the impulse weight's dependence on the rates followed.
 docs/parameters.md, "Cables" and "Guides".
 
 This round runs one step at a time from Python (the time loop's per-step path; the native loop is
