@@ -73,8 +73,8 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from latdyn.analyses.sensitivities import (_BODY_KEY, _CABLE_KEY, _HINGE_KEY, _INITIAL_VELOCITY_KEY, _LOAD_KEY, _SECTION_KEY,
-                                           SENSITIVITIES_FILE, ParameterDerivatives)
+from latdyn.analyses.sensitivities import (_BODY_KEY, _CABLE_KEY, _GUIDE_KEY, _HINGE_KEY, _INITIAL_VELOCITY_KEY,
+                                           _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE, ParameterDerivatives)
 from latdyn.assembly.assembler import free_acceleration, free_velocity, pack, unpack_free
 from latdyn.assembly.factorization import solve_linear
 from latdyn.errors import SceneError, SolverError
@@ -180,7 +180,7 @@ class TransientSensitivities(ParameterDerivatives):
         moving = [key for key in self.derivatives
                   if _SECTION_KEY.match(key) or _BODY_KEY.match(key) or _INITIAL_VELOCITY_KEY.match(key)
                   or (_HINGE_KEY.match(key) and _HINGE_KEY.match(key)["law"] == "stiffness")
-                  or _CABLE_KEY.match(key) or key.endswith(".guide.stiffness")
+                  or _CABLE_KEY.match(key) or (_GUIDE_KEY.match(key) and _GUIDE_KEY.match(key)["law"] == "stiffness")
                   or (_LOAD_KEY.match(key) and self.scene.loads[int(_LOAD_KEY.match(key)["load"])].frame != "global")]
         if not moving:
             return
@@ -223,11 +223,12 @@ class TransientSensitivities(ParameterDerivatives):
         ``old``. Returns (state, stats, h, lands) of the last converged step."""
         new, stats, h, lands = attempt
         event = first_crossing(self.model, old, new)
+        cable = None if event is not None or self.cables is None else self.cables.landing(old, new)
         if event is not None:
             k, at = event
             gap, tight = (lambda state: float(state.theta[k] - at)), LANDING * max(1.0, abs(at))
-        elif self.cables is not None and self.cables.landing(old, new) is not None:
-            gap, tight = self.cables.landing(old, new)
+        elif cable is not None:
+            gap, tight = cable
         else:
             return attempt
         a, ga = 0.0, gap(old)
