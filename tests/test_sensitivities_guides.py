@@ -210,3 +210,22 @@ def test_guide_events_with_laws_in_time_and_friction_are_refused_naming_the_key(
         _run(rubbing)
     run, _ = latdyn_run(tmp_path, latch.replace("'on'", "on"))
     assert run.returncode == 2 and "solve.sensitivities" in run.stderr and "Traceback" not in run.stderr
+
+
+def test_the_cli_writes_a_guided_runs_sensitivities_and_the_api_gives_the_same(tmp_path, bead):
+    """``python -m latdyn run`` on the bead as typed: sensitivities.csv (a guide position probe among the
+    columns) and summary.json probe_sensitivities equal to the API's run."""
+    import json
+
+    from latdyn.results.result import Result
+    from tests.cli_runs import latdyn_run
+
+    run, out = latdyn_run(tmp_path, BEAD.replace("'on'", "on"))
+    assert run.returncode == 0, run.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["probe_sensitivities"] == bead.summary["probe_sensitivities"]
+    assert summary["probe_sensitivities"]["s"]["end"]["k"] < 0 < summary["probe_sensitivities"]["s"]["end"]["rest"]
+    result = Result.load(out)
+    assert ("s", "m") in result.sensitivities
+    for key, values in bead.sensitivities.items():
+        np.testing.assert_array_equal(values, result.sensitivities[key])
