@@ -107,7 +107,8 @@ STOP_3D = GUIDE_3D.replace('rest: "rest"}}', 'rest: "rest", limits: [-0.05, 1.0]
     "t_end: 0.4", "t_end: 0.3")
 
 
-@pytest.mark.parametrize("text, kind, name", [(LATCH_3D, "latch", "EI"), (STOP_3D, "stop", "m")])
+@pytest.mark.parametrize("text, kind, name", [(LATCH_3D, "latch", "EI"), (STOP_3D, "stop", "m")],
+                         ids=["latch-EI", "stop-m"])
 def test_a_3d_guide_latching_or_hitting_its_stop_on_a_flexible_arm_agrees_with_richardson_central_differences(
         text, kind, name):
     """The hinges' event machinery on the slide, on a guide whose body moves (the tip of the flexible arm):
