@@ -643,6 +643,28 @@ def _link_edge_kernel(prismatic: bool = False) -> KernelSpec:
                       equations="Eqs. 2, 4, 17 (a rigid link's motion through its hinges)")
 
 
+def _slide_rates_kernel() -> KernelSpec:
+    """∂(v_c, ω_c, a_c, ω̇_c)/∂(δx_p, δπ_p, δs) of a guided body at fixed parent rates (v_p, ω_p, a_p, ω̇_p: the
+    parent node's coordinate rates) and slide rates (ṡ, s̈): the derivatives by the coordinates of the
+    dependent node's velocities and accelerations (Coriolis, centrifugal, the parent's rates carried to the
+    moved point), which the reduction's K leaves out and the exact matrix of the transient sensitivities adds
+    (latdyn/analyses/transient_sensitivities.py ``_guided_matrices``)."""
+    parent, edge = LINK_PARENT.symbols(), LINK_EDGE.symbols()
+    delta = sp.Matrix(sp.symbols("delta_0:7"))  # δx_p, δπ_p, δs
+    zero = {d: 0 for d in delta}
+    moved_parent = (list(_vector(parent[0:3]) + delta[0:3, :]) + list(_turned(_matrix(parent[3:12]), delta[3:6, :]))
+                    + list(parent[12:24]))
+    moved_edge = list(edge[0:10]) + [edge[10] + delta[6]] + list(edge[11:13])
+    _, _, v_c, w_c, a_c, alpha_c = link_edge(moved_parent, moved_edge, prismatic=True)
+    rates = sp.Matrix.vstack(v_c, w_c, a_c, alpha_c)
+    outputs = [Output("slide_rates_D_q", (12, 7), _rows(_jacobian(rates, delta, zero)),
+                      "∂(v_c, w_c, a_c, alpha_c)/∂(δx_p, δπ_p, δs) at fixed parent and slide rates (spatial update)")]
+    return KernelSpec(name="prismatic_link_rates_D_q", doc="The derivatives of a guided body's velocities and "
+                      "accelerations by its parent's configuration and its slide, at fixed rates (the exact tangent "
+                      "of the reduction onto a guide's slide)", inputs=[LINK_PARENT, LINK_EDGE], outputs=outputs,
+                      variant="joints", equations="Eq. 2 (a point of the parent), the slide along an axis fixed in it")
+
+
 WRENCH_PARENT = Argument("parent", 12, "x[3] T[9]: the position and frame (row-major) of the node the hinge's "
                          "edge leaves from")
 WRENCH_EDGE = Argument("edge", 7, "a[3] o[3] s: the hinge axis and point in that node's axes, the sign of the "
@@ -814,4 +836,4 @@ def build_kernels() -> list[KernelSpec]:
             _contact_law_derivative_kernel(), _so3_exp_kernel(), _link_edge_kernel(), _hinge_wrench_kernel(), _root_wrench_kernel(),
             _link_edge_kernel(prismatic=True), _slide_wrench_kernel(), _cable_force_kernel(),
             _closure_edge_kernel(rod=False), _closure_edge_kernel(rod=True), _closure_wrench_kernel(rod=False),
-            _closure_wrench_kernel(rod=True)]
+            _closure_wrench_kernel(rod=True), _slide_rates_kernel()]

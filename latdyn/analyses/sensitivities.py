@@ -47,14 +47,14 @@ the generated ``contact_force_D_law``) and continuous controllers without states
 
 What is refused (:func:`refusal`, exit 2 naming ``solve.sensitivities``): any analysis but static
 load control, arc length and displacement control and transient runs of an implicit method at fixed
-steps without cables, guides, friction, sampled controllers, controllers with states and
-inputs (:func:`_transient_refusal`, :meth:`ControllerTerms.refusal`); a parameter used
-anywhere but in load components, hinge stiffness, damping, torque and rest angle, section values of
-shear-rigid sections (formulation default), body masses, centres of mass and inertias and, in
-transient runs, initial velocities, compliant stops' laws and continuous controllers' outputs;
-probes other than point positions and displacements in the global frame and hinge angles; rigid
-links; in static paths hinges with limits or ``lock_at`` (events; transient runs differentiate
-latches and stops: latdyn/analyses/transient_sensitivities.py). Under gravity the static
+steps without friction, sampled controllers, controllers with states and inputs (cables through their
+slack/taut events, guides with theirs: :func:`_transient_refusal`, :meth:`ControllerTerms.refusal`); a
+parameter used anywhere but in load components, hinge stiffness, damping, torque and rest angle, section
+values of shear-rigid sections (formulation default), body masses, centres of mass and inertias and, in
+transient runs, initial velocities, compliant stops' laws, continuous controllers' outputs, guides' laws
+and cables' EA, damping, rest length and rhoA; probes other than point positions and displacements in the
+global frame, hinge angles and guide positions; rigid links; in static paths hinges with limits or
+``lock_at`` (events; transient runs differentiate latches and stops: latdyn/analyses/transient_sensitivities.py). Under gravity the static
 Newton matrix K − λ ∂Q/∂q holds the beams' gravity tangent (the generated ``beam_gravity_D_q``), so
 beams with mass are differentiated exactly there too. docs/parameters.md.
 """
@@ -83,6 +83,11 @@ _BODY_KEY = re.compile(r"^bodies\.(?P<body>[^.]+)\.(?:(?P<mass>mass)|com\[(?P<co
                        r"(?P<inertia>inertia)\[(?P<row>[0-2])\](?:\[(?P<col>[0-2])\])?)$")
 #: a component of the rigid motion at t = 0 (transient runs: the velocities are affine in it at a fixed ``about``)
 _INITIAL_VELOCITY_KEY = re.compile(r"^initial_velocity\.(?P<kind>linear|angular)\[(?P<axis>[0-2])\]$")
+#: a guide's laws (transient runs), read as the hinge laws they are on the slide s (force: the torque's place)
+_GUIDE_KEY = re.compile(r"^bodies\.(?P<body>[^.]+)\.guide\.(?P<law>stiffness|damping|force|rest)$")
+_GUIDE_LAW = {"force": "torque", "rest": "rest_angle"}
+#: a cable's axial stiffness, damping and rest length (transient runs: latdyn/analyses/transient_sensitivities.py)
+_CABLE_KEY = re.compile(r"^cables\.(?P<cable>[^.]+)\.(?P<value>EA|damping|rest_length|rhoA)$")
 _HINGE_KEY = re.compile(r"^beams\.(?P<beam>.+)\.(?P<end>start|end)\.hinge\.(?P<law>stiffness|damping|torque|rest_angle)$")
 #: a compliant stop's law (transient runs: ∂f/∂(k, n, c) from the generated ``contact_force_D_law``)
 _CONTACT_KEY = re.compile(r"^beams\.(?P<beam>.+)\.(?P<end>start|end)\.hinge\.contact\."
@@ -123,15 +128,17 @@ def refusal(scene) -> SceneError | None:
     for name in names:
         for used in scene.parameters.depending_on(name):
             section = _SECTION_KEY.match(used)
-            initial = solve.analysis == "transient" and (_INITIAL_VELOCITY_KEY.match(used) or _CONTROLLER_KEY.match(used))
+            initial = solve.analysis == "transient" and (_INITIAL_VELOCITY_KEY.match(used) or _CONTROLLER_KEY.match(used)
+                                                         or _cable_use(scene, used) or _GUIDE_KEY.match(used))
             if not (_LOAD_KEY.match(used) or _HINGE_KEY.match(used) or section or _BODY_KEY.match(used) or initial
                     or _CONTACT_KEY.match(used)):
                 return refuse(f"parameter {name!r} is used at {used}: sensitivities are computed for parameters "
                               "of load components, of hinge stiffness, damping, torque and rest_angle, of section "
                               "stiffnesses and masses (shear-rigid), of body masses, centres of mass and "
                               "inertias, of a hinge's compliant stops (contact.stiffness, .exponent, .damping) "
-                              "and, in transient runs, of initial_velocity.linear and .angular and of continuous "
-                              "controllers' outputs (controllers.NAME.output) only")
+                              "and, in transient runs, of initial_velocity.linear and .angular, of continuous "
+                              "controllers' outputs (controllers.NAME.output), of guides' stiffness, damping, "
+                              "force and rest, and of cables' EA, damping, rest_length and rhoA (> 0) only")
             if section and solve.formulation != "default":
                 return refuse(f"parameter {name!r} is used at {used}: sensitivities by section values are computed "
                               f"for formulation: default only, not {solve.formulation}")
@@ -140,15 +147,18 @@ def refusal(scene) -> SceneError | None:
                               "and its element is not linear in its section values")
     for probe in scene.output.probes:
         point = probe.kind == "point" and probe.quantity in ("position", "displacement") and probe.frame == "global"
-        if not (point or (probe.kind == "hinge" and probe.quantity == "angle")):
+        slide = probe.kind == "guide" and probe.quantity == "position" and solve.analysis == "transient"
+        if not (point or slide or (probe.kind == "hinge" and probe.quantity == "angle")):
             return refuse(f"probe {probe.name!r} ({probe.kind} {probe.quantity}"
                           f"{'' if probe.kind != 'point' else ', frame ' + probe.frame}) is not differentiated yet: "
-                          "point positions and displacements in the global frame and hinge angles are")
+                          "point positions and displacements in the global frame, hinge angles and (transient runs) "
+                          "guide positions are")
     return None
 
 
 def depends_on_time(scene) -> bool:
-    """Whether a load component, hinge law or prescribed motion of ``scene`` depends on t."""
+    """Whether a load component, hinge or guide law or prescribed motion (a body's, a hinge's, a slide's) of
+    ``scene`` depends on t."""
     def timed(law):
         if law is None or isinstance(law, (int, float)):
             return False
@@ -163,7 +173,11 @@ def depends_on_time(scene) -> bool:
     for _, _, hinge in scene.hinges:
         if hinge.angle is not None or any(timed(getattr(hinge, key, None)) for key in ("stiffness", "damping", "torque")):
             return True
-    return any(getattr(body, "motion", None) for body in scene.bodies.values())
+    guides = [body.guide for body in scene.bodies.values() if body.guide is not None]
+    if any(guide.position is not None or any(timed(getattr(guide, key, None)) for key in ("stiffness", "damping", "force"))
+           for guide in guides):
+        return True
+    return any(body.prescribed for body in scene.bodies.values())
 
 
 def _transient_refusal(scene) -> str | None:
@@ -181,10 +195,26 @@ def _transient_refusal(scene) -> str | None:
     why = ControllerTerms.refusal(scene)
     if why is not None:
         return why
-    if scene.cables:
-        return "sensitivities of runs with cables (slack and taut events) are not computed yet"
-    if any(body.guide is not None for body in scene.bodies.values()):
-        return "sensitivities of runs with guides (prismatic joints) are not computed yet"
+    if scene.cables and (depends_on_time(scene) or any(not c.rest_length.is_constant for c in scene.cables.values())):
+        return ("sensitivities through cables' slack and taut events with a rest length (a reel), load, hinge law "
+                "or motion that depends on t are not computed yet: an event moves the ends of the steps after it "
+                "in time, and the time derivative of the equations is not differentiated; expected laws constant "
+                "in time (docs/parameters.md, \"Cables\")")
+    guides = [name for name, body in scene.bodies.items() if body.guide is not None]
+    if guides and any(beam.rigid for beam in scene.beams.values()):
+        return "sensitivities of runs with guides and rigid links (a slider-crank) are not computed yet"
+    for name in guides:
+        guide = scene.bodies[name].guide
+        if guide.position is not None:
+            return f"sensitivities of a prescribed slide (bodies.{name}.guide.position) are not computed yet"
+        if guide.contact is not None or guide.friction is not None:
+            return (f"sensitivities through a guide's compliant stops and friction (bodies.{name}.guide: sticking and "
+                    "the stops' contact are events) are not computed yet")
+        if (guide.lock_at is not None or guide.limits is not None) and depends_on_time(scene):
+            return (f"sensitivities through the events of the guide of {name} (lock_at, limits) with a load, law or "
+                    "motion that depends on t are not computed yet: an event moves the ends of the steps after it "
+                    "in time, and the time derivative of the equations is not differentiated; expected laws "
+                    "constant in time (docs/parameters.md, \"Guides\")")
     for beam, which, hinge in scene.hinges:
         if hinge.friction is not None:
             return (f"sensitivities through friction ({beam}.{which}: sticking and slipping are events of a "
@@ -198,6 +228,13 @@ def _transient_refusal(scene) -> str | None:
                     "in time, and the time derivative of the equations is not differentiated; expected laws "
                     "constant in time (docs/parameters.md, \"Sensitivities through events\")")
     return None
+
+
+def _cable_use(scene, used: str) -> bool:
+    """Whether ``used`` is a cable value differentiated in transient runs: EA, damping, rest length and rhoA
+    (the lumped mass, rhoA times the rest length at t = 0; not where rhoA is 0: no mass to move)."""
+    cable = _CABLE_KEY.match(used)
+    return bool(cable) and (cable["value"] != "rhoA" or scene.cables[cable["cable"]].rhoA > 0.0)
 
 
 def _refuse_without_gravity_tangent(scene, model, kernels) -> None:
@@ -242,10 +279,12 @@ class ParameterDerivatives:
                                for node, offset in [self.model.point(p.point)]}
 
     # ------------------------------------------------------------------ ∂r/∂p
-    def residual_derivatives(self, state, load_factor: float, inertia: bool = False) -> np.ndarray:
+    def residual_derivatives(self, state, load_factor: float, inertia: bool = False,
+                             on_all: bool = False) -> np.ndarray:
         """∂r/∂p on the free coordinates, one column per parameter (n_dofs, k): of the static residual,
         or with ``inertia`` of the equations of motion r(q, v, v̇, t) at ``state`` (its velocities and
-        accelerations)."""
+        accelerations); ``on_all``: on all coordinates (n_total + 1, k), before the rigid links' and
+        guides' reduction."""
         model, k = self.model, len(self.names)
         total = np.zeros((model.n_total + 1, k))
         load_values: dict[tuple[int, int], np.ndarray] = {}   # (load, column) -> λ ∂(its six values)/∂p
@@ -268,7 +307,17 @@ class ParameterDerivatives:
             pairs = list(load_values)
             nodes, forces = self._load_forces(state, [index for index, _ in pairs], np.array(list(load_values.values())))
             np.add.at(total, (model.node_dofs[nodes], np.array([column for _, column in pairs])[:, None]), forces)
-        return total[:model.n_dofs]
+        return total if on_all else self._on_free_coordinates(state, total)
+
+    def _on_free_coordinates(self, state, total: np.ndarray) -> np.ndarray:
+        """``total`` (all coordinates) on the free ones: its first n_dofs rows, or with rigid links and guides
+        reduced by the projection Pᵀ (latdyn/assembly/linked.py: the dependent nodes' rows carried onto the
+        coordinates they move with)."""
+        model = self.model
+        if model.links is None:
+            return total[:model.n_dofs]
+        P = self.assembler.evaluate(state, matrices=True).projection
+        return np.asarray(P.T @ total[:model.n_assembled])
 
     def _section_forces(self, state, total: np.ndarray, load_factor: float, inertia: bool = False) -> None:
         """Add ∂(element internal force − λ gravity load)/∂p into ``total`` for the section values that
@@ -406,7 +455,9 @@ class ParameterDerivatives:
         """(the load key's match, the hinge key's match) of a parameter's use, matched once."""
         cache = self.__dict__.setdefault("_kinds", {})
         if key not in cache:
-            cache[key] = (_LOAD_KEY.match(key), _HINGE_KEY.match(key))
+            guide = _GUIDE_KEY.match(key)   # a guide's laws are a hinge's, on its slide (latdyn/model/model.py)
+            cache[key] = (_LOAD_KEY.match(key), _HINGE_KEY.match(key) or guide and {
+                "beam": guide["body"], "end": "guide", "law": _GUIDE_LAW.get(guide["law"], guide["law"])})
         return cache[key]
 
     def _load_forces(self, state, indices: list, values: np.ndarray):
@@ -473,8 +524,9 @@ class ParameterDerivatives:
         """The derivatives of ``probe`` at ``state`` by every parameter along (δx, δπ, δθ) of
         :meth:`_by_parameter`: a point x + T r moves by δx + δπ × T r, a hinge angle by δθ."""
         model = self.model
-        if probe.kind == "hinge":
-            return [float(v) for v in dtheta[model.hinge_index(probe.beam, probe.end)]]
+        if probe.kind in ("hinge", "guide"):
+            joint = (probe.beam, probe.end) if probe.kind == "hinge" else (probe.body, "guide")
+            return [float(v) for v in dtheta[model.hinge_index(*joint)]]
         node, offset = model.point(probe.point)
         arm = state.T[node] @ offset
         moved = dx[node] + np.cross(dpi[node], arm, axisa=0, axisc=0)    # δ(x + T r), (3, k)

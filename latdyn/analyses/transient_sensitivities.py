@@ -57,6 +57,14 @@ step's size as a latch's does (:meth:`TransientSensitivities._contact_onset`); i
 there, nothing jumps; its law's stiffness, exponent and damping enter ∂r/∂p through the generated
 ``contact_force_D_law`` (docs/parameters.md, "Compliant stops").
 
+Cables (:class:`CableSensitivities`): their EA, damping and rest length from the generated taut law, and
+their slack/taut changes as events landed on exactly, the event time differentiated from the gap's
+gradients (no jump: the discrete run neither jumps nor restarts there). Guides: a guide's laws as a
+hinge's on its slide, ∂r/∂p reduced by the projection Pᵀ, the step's K exact with the guided bodies' rates'
+derivatives (:meth:`TransientSensitivities._guided_matrices`: the reduction's own K is not exact); their
+latches and stops as the hinges', the impulse weight's dependence on the rates followed.
+docs/parameters.md, "Cables" and "Guides".
+
 This round runs one step at a time from Python (the time loop's per-step path; the native loop is
 later); it carries (δq, δv, δv̇, δa) on the free coordinates, (n, k), in
 :attr:`latdyn.timeloop.progress.TransientProgress.sensitivities`, checkpointed with the run.
@@ -69,8 +77,8 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from latdyn.analyses.sensitivities import (_BODY_KEY, _HINGE_KEY, _INITIAL_VELOCITY_KEY, _LOAD_KEY, _SECTION_KEY,
-                                           SENSITIVITIES_FILE, ParameterDerivatives)
+from latdyn.analyses.sensitivities import (_BODY_KEY, _CABLE_KEY, _GUIDE_KEY, _HINGE_KEY, _INITIAL_VELOCITY_KEY,
+                                           _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE, ParameterDerivatives)
 from latdyn.assembly.assembler import free_acceleration, free_velocity, pack, unpack_free
 from latdyn.assembly.factorization import solve_linear
 from latdyn.errors import SceneError, SolverError
@@ -79,7 +87,7 @@ from latdyn.numerics.inertia import split_inertia
 from latdyn.numerics.linalg import issparse
 from latdyn.numerics.so3 import dexp_so3, expm_so3
 from latdyn.step.integrators import consistent_acceleration
-from latdyn.timeloop.events import first_crossing, lock_events, stop_hits
+from latdyn.timeloop.events import cable_crossings, cable_events, cable_gaps, first_crossing, lock_events, stop_hits
 from latdyn.timeloop.impulse import hinge_directions, massless_element_stiffness
 
 __all__ = ["TransientSensitivities"]
@@ -108,10 +116,21 @@ class TransientSensitivities(ParameterDerivatives):
     def __init__(self, prepared):
         super().__init__(prepared)
         self.params = self.length = None
+        #: the cables' parameters and events (:class:`CableSensitivities`), None without cables
+        self.cables = CableSensitivities(self) if self.model.cables is not None else None
 
     def bind(self, integrator) -> None:
         """The integrator's parameters (α_m, α_f, γ, β) and length scale (the inertia tangent's steps)."""
         self.params, self.length = integrator.p, integrator.length_scale
+
+    def residual_derivatives(self, state, load_factor: float, inertia: bool = False,
+                             on_all: bool = False) -> np.ndarray:
+        """∂r/∂p of :class:`latdyn.analyses.sensitivities.ParameterDerivatives`, with the cables'
+        (:meth:`CableSensitivities.residual_derivatives`)."""
+        total = super().residual_derivatives(state, load_factor, inertia, on_all=True)
+        if self.cables is not None and self.cables.uses:
+            self.cables.residual_derivatives(state, total, inertia)
+        return total if on_all else self._on_free_coordinates(state, total)
 
     # ------------------------------------------------------------------ t = 0
     def start(self, state) -> dict:
@@ -166,6 +185,7 @@ class TransientSensitivities(ParameterDerivatives):
         moving = [key for key in self.derivatives
                   if _SECTION_KEY.match(key) or _BODY_KEY.match(key) or _INITIAL_VELOCITY_KEY.match(key)
                   or (_HINGE_KEY.match(key) and _HINGE_KEY.match(key)["law"] == "stiffness")
+                  or _CABLE_KEY.match(key) or (_GUIDE_KEY.match(key) and _GUIDE_KEY.match(key)["law"] == "stiffness")
                   or (_LOAD_KEY.match(key) and self.scene.loads[int(_LOAD_KEY.match(key)["load"])].frame != "global")]
         if not moving:
             return
@@ -201,17 +221,23 @@ class TransientSensitivities(ParameterDerivatives):
     # ------------------------------------------------------------------ landing on an event
     def land(self, step, old, attempt):
         """The step from ``old`` landed on the first latch or stop it crosses or reaches to
-        |θ − θ_event| ≤ :data:`LANDING` (secant on the step size from 0 and the step tried), where the
+        |θ − θ_event| ≤ :data:`LANDING` (secant on the step size from 0 and the step tried), or else on the
+        first cable element's change of side to a gap |g| ≤ :data:`LANDING` · EA
+        (:meth:`CableSensitivities.landing`), where the
         derivative of the event time assumes it exactly; ``step(h)`` takes a step of size h from
         ``old``. Returns (state, stats, h, lands) of the last converged step."""
         new, stats, h, lands = attempt
         event = first_crossing(self.model, old, new)
-        if event is None:
+        cable = None if event is not None or self.cables is None else self.cables.landing(old, new)
+        if event is not None:
+            k, at = event
+            gap, tight = (lambda state: float(state.theta[k] - at)), LANDING * max(1.0, abs(at))
+        elif cable is not None:
+            gap, tight = cable
+        else:
             return attempt
-        k, at = event
-        tight = LANDING * max(1.0, abs(at))
-        a, ga = 0.0, float(old.theta[k] - at)
-        b, gb = h, float(new.theta[k] - at)
+        a, ga = 0.0, gap(old)
+        b, gb = h, gap(new)
         best = attempt
         for _ in range(LANDING_PASSES):
             if abs(gb) <= tight or gb == ga:
@@ -223,7 +249,7 @@ class TransientSensitivities(ParameterDerivatives):
             if not retry_stats.converged:
                 break
             best = (retry, retry_stats, c, False)
-            a, ga, b, gb = b, gb, c, float(retry.theta[k] - at)
+            a, ga, b, gb = b, gb, c, gap(retry)
         return best
 
     # ------------------------------------------------------------------ a step
@@ -265,9 +291,15 @@ class TransientSensitivities(ParameterDerivatives):
         columns = {"dq": dq0 + tangent(z), "dv": dv0 + gamma_p * z, "dvdot": dvdot_new,
                    "da": da0 + (1 - af) / (1 - am) * dvdot_new}
         event = self._event(old, new)
-        dh = self._step_size_derivative(carried, h, lands, event or self._contact_onset(old, new), columns["dq"])
+        cable = self._cable_event(old, new, event)
+        if cable is None:
+            dh = self._step_size_derivative(carried, h, lands, event or self._contact_onset(old, new), columns["dq"])
+        else:
+            dh = self.cables.step_size_derivative(new, cable[0], columns["dq"], columns["dv"], k)
         total = {key: value[:, :k] + np.outer(value[:, k], dh) for key, value in columns.items()}
         carried = {**carried, **total, "dt": carried["dt"] + dh, "dh": dh, "h": h, "pending": None}
+        if cable is not None:
+            return self._after_cable_event(carried, new, *cable)
         if event is None:
             return carried
         return self._jump(carried, new, *event)
@@ -306,6 +338,32 @@ class TransientSensitivities(ParameterDerivatives):
                     return int(k), "contact", 0.0
         return None
 
+    def _cable_event(self, old, new, hinge_event):
+        """(element, the whole cable's change or None) of the cable element that turns over at the end of the
+        step old → new (:meth:`CableSensitivities.event`), or None; with a hinge event in the same step,
+        refused (SolverError)."""
+        if self.cables is None:
+            return None
+        cable = self.cables.event(old, new)
+        if cable is not None and hinge_event is not None:
+            raise SolverError(f"the sensitivities at t = {new.t:.6g} meet a cable's change and a hinge event at one "
+                              "instant, whose derivative is not that of one event (docs/parameters.md, \"Cables\")")
+        return cable
+
+    def _after_cable_event(self, carried: dict, new, e: int, change) -> dict:
+        """``carried`` after a step that ended on cable element ``e``'s change: the event recorded when the
+        whole cable changed, and the steps that follow of sizes fixed by the nominal step (the time loop
+        restarts at dt, or at a fraction of it after a damped cable's jump of tension), not by this one's
+        (δh of the next step 0 unless it lands on the grid)."""
+        record = self.cables.record(new, e, change, carried["dt"], self.names)
+        events = carried["events"] + ([record] if record is not None else [])
+        carried = {**carried, "events": events, "dh": np.zeros(len(self.names))}
+        miss = abs(float(cable_gaps(self.assembler, new)[0][e])) / float(self.model.cables.EA[e])
+        if miss > LANDING_MISSED:   # the derivative assumes the step on the change: flagged (finish)
+            name = self.model.cables.names[self.model.cables.cable[e]]
+            carried = {**carried, "missed": carried.get("missed", []) + [(f"cables.{name}", float(new.t), miss)]}
+        return carried
+
     def _step_size_derivative(self, carried: dict, h: float, lands: bool, event, dq: np.ndarray) -> np.ndarray:
         """δh (k,) of the accepted step: the event's time makes the hinge's angle its lock_at or stop
         exactly, δθ_p + δθ_h δh = 0 (δθ_h = ∂θ_{n+1}/∂h); a step landing on the time grid ends at a fixed
@@ -341,7 +399,8 @@ class TransientSensitivities(ParameterDerivatives):
         NtX = N.T @ X
         change = X @ np.linalg.solve(NtX, -(1.0 + restitution) * (N.T @ v_minus))
         dv_minus = carried["dv"]
-        w = dv_minus - np.asarray(solve_linear(W, self._weight_derivative(new, change, carried["dq"], scale)))
+        weight = self._weight_derivative(new, change, carried["dq"], scale, rates=(carried["dv"], carried["dvdot"]))
+        w = dv_minus - np.asarray(solve_linear(W, weight))
         w = w.reshape(dv_minus.shape)
         dv_plus = w + X @ np.linalg.solve(NtX, -restitution * (N.T @ dv_minus) - N.T @ w)
         dt_event = carried["dt"]
@@ -352,8 +411,10 @@ class TransientSensitivities(ParameterDerivatives):
         miss = abs(float(new.theta[hinge]) - at) / max(1.0, abs(at))
         if miss > LANDING_MISSED:   # the derivative assumes the step on the event: flagged (finish)
             carried = {**carried, "missed": carried.get("missed", []) + [(record["joint"], record["t"], miss)]}
+        # the accelerations before the events and their derivative: the stop's restart weighs with W at them
         return {**carried, "events": carried["events"] + [record],
-                "pending": {"kind": kind, "dq": self._on_nodes(carried["dq"]), "dv": self._on_nodes(dv_plus)}}
+                "pending": {"kind": kind, "dq": self._on_nodes(carried["dq"]), "dv": self._on_nodes(dv_plus),
+                            "vdot": free_acceleration(model, new), "dvdot": carried["dvdot"]}}
 
     def _on_nodes(self, columns: np.ndarray) -> list:
         """Free-coordinate columns as (node translations, node rotations, hinge angles), one per column."""
@@ -367,42 +428,76 @@ class TransientSensitivities(ParameterDerivatives):
         return out
 
     def _weight_derivative(self, state, w: np.ndarray, dq: np.ndarray, scale: float,
-                           mass: bool = True) -> np.ndarray:
+                           mass: bool = True, rates=None) -> np.ndarray:
         """δ(W w) (n, k) for W = M + scale·K (``mass``) or scale·K at ``state`` (K the evaluation's, without
         the inertia tangent, as the impulse uses it), along each column's (δq, δp): ∂(W w)/∂q δq by a
         central difference of W w along δq (the derivative of K is a third derivative of the element,
         not generated: the one difference of the sensitivities, module docstring), ∂M/∂p w exactly (the
         inertia forces are linear in the accelerations: ∂r/∂p at accelerations w less at none, at rest),
-        scale ∂K/∂p w by a central difference of ∂r/∂p (static) along w."""
+        scale ∂K/∂p w by a central difference of ∂r/∂p (static) along w.
+
+        With guides (rigid links' reduction, latdyn/assembly/linked.py) K also holds the geometric term
+        ∂Pᵀ/∂q · r_all, with r_all at the state's rates: the difference then moves the free rates along
+        ``rates`` = (δv, δv̇) too (the dependent ones completed), and ∂K/∂p adds that term of the
+        inertia forces' ∂r_all/∂p (:meth:`_geometric_derivative`)."""
         model, assembler, k = self.model, self.assembler, len(self.names)
         length = self.length or 1.0
         out = np.zeros((model.n_dofs, k))
+        linked = model.links is not None
 
         def product(moved):
             return np.asarray(assembler.evaluate(moved, matrices=True).combined(1.0 if mass else 0.0, 0.0, scale) @ w)
 
+        def moved(eta, c):
+            ahead = assembler.advance(state, eta * dq[:, c])
+            if linked and rates is not None:
+                unpack_free(model, free_velocity(model, state) + eta * rates[0][:, c], ahead.v, ahead.w, ahead.theta_dot)
+                unpack_free(model, free_acceleration(model, state) + eta * rates[1][:, c], ahead.a, ahead.alpha,
+                            ahead.theta_ddot)
+                assembler.complete_links(ahead)
+            return ahead
+
         for c in range(k):
-            size = float(np.max(np.abs(dq[:, c]), initial=0.0))
+            moves = [dq[:, c]] + ([rates[0][:, c], rates[1][:, c]] if linked and rates is not None else [])
+            size = float(max(np.max(np.abs(m), initial=0.0) for m in moves))
             if size == 0.0:
                 continue
             eta = WEIGHT_STEP * length / size
-            out[:, c] = (product(assembler.advance(state, eta * dq[:, c]))
-                         - product(assembler.advance(state, -eta * dq[:, c]))) / (2 * eta)
+            out[:, c] = (product(moved(eta, c)) - product(moved(-eta, c))) / (2 * eta)
         size = float(np.max(np.abs(w), initial=0.0))
         if size == 0.0:
             return out
         eta = WEIGHT_STEP * length / size
         out += scale * (self.residual_derivatives(assembler.advance(state, eta * w), 1.0)
                         - self.residual_derivatives(assembler.advance(state, -eta * w), 1.0)) / (2 * eta)
+        if linked:
+            out += scale * self._geometric_derivative(state, w, eta)
         if mass:
             at_rest = state.copy()
             for name in ("v", "w", "theta_dot", "a", "alpha", "theta_ddot"):
                 getattr(at_rest, name)[...] = 0.0
             accelerated = at_rest.copy()
             unpack_free(model, w, accelerated.a, accelerated.alpha, accelerated.theta_ddot)
+            assembler.complete_links(at_rest)
+            assembler.complete_links(accelerated)
             out += (self.residual_derivatives(accelerated, 1.0, inertia=True)
                     - self.residual_derivatives(at_rest, 1.0, inertia=True))
         return out
+
+    def _geometric_derivative(self, state, w: np.ndarray, eta: float) -> np.ndarray:
+        """∂Pᵀ/∂q[w] · (∂r_all/∂p with the inertia forces less without) (n, k): the part of ∂K/∂p w of a
+        reduction's geometric term ∂Pᵀ/∂q · r_all (latdyn/assembly/linked.py; r_all with the inertia
+        forces) that the static ∂r/∂p differenced along w leaves out; ∂Pᵀ/∂q[w] by a central difference
+        of the projection P along w."""
+        model, assembler = self.model, self.assembler
+        n_asm = model.n_assembled
+        inertial = (self.residual_derivatives(state, 1.0, inertia=True, on_all=True)
+                    - self.residual_derivatives(state, 1.0, on_all=True))[:n_asm]
+        if not np.any(inertial):
+            return np.zeros((model.n_dofs, len(self.names)))
+        ahead = assembler.evaluate(assembler.advance(state, eta * w), matrices=True).projection
+        behind = assembler.evaluate(assembler.advance(state, -eta * w), matrices=True).projection
+        return np.asarray((ahead - behind).T @ inertial) / (2 * eta)
 
     def after_events(self, carried: dict, new) -> dict:
         """``carried`` after the events of the step ended at ``new`` (its coordinates renumbered, its
@@ -427,18 +522,92 @@ class TransientSensitivities(ParameterDerivatives):
         rhs = self.residual_derivatives(new, 1.0, inertia=True) + K @ dq + C @ dv
         if pending["kind"] == "latch":
             matrix = M
-        else:
+        else:   # the restart's W is evaluated at the accelerations before it (the same without guides)
             scale = self.scene.solve.dt ** 2
-            matrix = self.assembler.evaluate(new, matrices=True).combined(1.0, 0.0, scale)
-            rhs = rhs + self._weight_derivative(new, free_acceleration(model, new), dq, scale, mass=False)
+            before = new.copy()
+            unpack_free(model, pending["vdot"], before.a, before.alpha, before.theta_ddot)
+            self.assembler.complete_links(before)
+            matrix = self.assembler.evaluate(before, matrices=True).combined(1.0, 0.0, scale)
+            rhs = rhs + self._weight_derivative(before, free_acceleration(model, new), dq, scale, mass=False,
+                                                rates=(dv, pending["dvdot"]))
         dvdot = np.asarray(solve_linear(matrix, rhs)).reshape(n, k) * -1.0
         return {**out, "dvdot": dvdot, "da": dvdot.copy()}
 
     def _matrices(self, state):
         """M, C and the exact K at ``state`` (:meth:`latdyn.assembly.assembler.Assembler.exact_matrices`:
         the elements' inertia tangent and the joint bodies' ``joint_body_inertia_stiffness``, which the
-        step's Newton matrix leaves out)."""
+        step's Newton matrix leaves out); with guides (:meth:`_guided_matrices`) the reduction's."""
+        if self.model.links is not None:
+            return self._guided_matrices(state)
         return self.assembler.exact_matrices(state)
+
+    def _guided_matrices(self, state):
+        """M, C, K on the minimum coordinates of a model with guides (latdyn/assembly/linked.py): M = PᵀMP and
+        C = Pᵀ(CP + M_·dep ∂c/∂v) of the reduction are exact; its K = PᵀKP + ∂Pᵀ/∂q·r_all leaves out the
+        inertia tangents and the derivatives by the coordinates of the guided bodies' velocities and
+        accelerations (Coriolis, centrifugal), which :meth:`_guided_tangent` adds from generated kernels.
+        A guide on a body that is itself dependent (on another guide) takes K as r_q of
+        :func:`latdyn.analyses.linearisation.tangent_q_by_differences` instead (the material tangent exact,
+        the rest of the residual by central differences; docs/parameters.md, "Guides")."""
+        links = self.model.links
+        ev = self.assembler.evaluate(state, matrices=True, inertia_tangent=True)
+        M, C = ev.combined(1.0, 0.0, 0.0, dense=True), ev.combined(0.0, 1.0, 0.0, dense=True)
+        if all(e.prismatic and e.parent not in links.edge_of for e in links.edges):
+            return M, C, self._guided_tangent(state, ev)
+        from latdyn.analyses.linearisation import tangent_q_by_differences
+
+        return M, C, tangent_q_by_differences(self.assembler, state)
+
+    def _guided_tangent(self, state, ev) -> np.ndarray:
+        """The exact r_q (n, n) of a model whose dependent nodes are guided bodies on independent parents:
+
+            K = Pᵀ(K_all + B)P + ∂Pᵀ/∂q·r_all + Pᵀ(C_all,·dep D_v + M_all,·dep D_a)
+
+        with K_all the evaluation's tangent with the elements' inertia tangent (``ev``), B the joint bodies'
+        ``joint_body_inertia_stiffness`` on all coordinates (the guided bodies' among them), and D_v, D_a the
+        derivatives of each guided body's velocities and accelerations by its parent's configuration and its
+        slide at fixed rates (the generated ``prismatic_link_rates_D_q``)."""
+        model, kernels = self.model, self.kernels
+        n, n_asm = model.n_dofs, model.n_assembled
+        P = np.asarray(ev.projection.toarray() if hasattr(ev.projection, "toarray") else ev.projection)
+        dense = lambda a: np.asarray(a.toarray() if hasattr(a, "toarray") else a)  # noqa: E731
+        K = dense(ev.combined(0.0, 0.0, 1.0, dense=True))
+        M_all, C_all = dense(ev._assembled(1.0, 0.0, 0.0, True)), dense(ev._assembled(0.0, 1.0, 0.0, True))
+        B = np.zeros((n_asm + 1, n_asm + 1))
+        if len(model.body_nodes):
+            nodes = model.body_nodes
+            frames = np.ascontiguousarray(state.T[nodes].reshape(-1, 9))
+            motion = np.ascontiguousarray(np.concatenate([state.w[nodes], state.a[nodes], state.alpha[nodes]], axis=1))
+            section = np.ascontiguousarray(np.concatenate([model.body_mass[:, None], model.body_com,
+                                                           model.body_inertia.reshape(-1, 9)], axis=1))
+            gravity = np.repeat(np.asarray(self.assembler.gravity, float)[None], len(nodes), axis=0)
+            blocks = np.asarray(kernels.joint_body_inertia_stiffness(frames, motion, section, gravity)[0])
+            dofs = np.where((model.node_dofs[nodes] >= 0) & (model.node_dofs[nodes] < n_asm), model.node_dofs[nodes], n_asm)
+            np.add.at(B, (dofs[:, :, None], dofs[:, None, :]), blocks.reshape(len(nodes), 6, 6))
+        K = K + P.T @ B[:n_asm, :n_asm] @ P
+        moved = np.zeros((n_asm, n))     # C_all,·dep D_v + M_all,·dep D_a
+        for e in model.links.edges:
+            parent = np.concatenate([state.x[e.parent], state.T[e.parent].ravel(), state.v[e.parent], state.w[e.parent],
+                                     state.a[e.parent], state.alpha[e.parent]])
+            h = e.hinge
+            edge = np.concatenate([e.axis if h >= 0 else np.zeros(3), e.point, e.arm, [e.sign if h >= 0 else 0.0],
+                                   [state.theta[h], state.theta_dot[h], state.theta_ddot[h]] if h >= 0 else np.zeros(3)])
+            D = np.asarray(kernels.prismatic_link_rates_D_q(parent[None], edge[None])[0]).reshape(12, 7)
+            columns = np.concatenate([model.node_dofs[e.parent], [model.hinge_dofs[h] if h >= 0 else -1]])
+            free = (columns >= 0) & (columns < n)
+            rows = model.node_dofs[e.child]
+            moved[:, columns[free]] += C_all[:, rows] @ D[:6, free] + M_all[:, rows] @ D[6:, free]
+        return K + P.T @ moved
+
+    def _dependent_motion(self, state, dq: np.ndarray, dx: np.ndarray, dpi: np.ndarray) -> None:
+        """(δx, δπ) of the dependent nodes (guided bodies) into ``dx``, ``dpi``: P δq on their rows (the
+        projection of latdyn/assembly/linked.py, J of the generated edge kernels)."""
+        model = self.model
+        P = self.assembler.evaluate(state, matrices=True).projection
+        full = np.asarray(P @ dq)
+        for node in model.links.dependent:
+            dofs = model.node_dofs[node]
+            dx[node], dpi[node] = full[dofs[0:3]], full[dofs[3:6]]
 
     def _rotation_operators(self, increment: np.ndarray):
         """(R·, J·) on free-coordinate columns for the step's increment hΔq: on each free node's
@@ -501,6 +670,8 @@ class TransientSensitivities(ParameterDerivatives):
         """``carried`` with the row of every probe's sensitivity at ``state`` (a new list of rows), all
         parameters at once: a point x + T r moves by δx + δπ × T r, a hinge angle by δθ."""
         dx, dpi, dtheta = self._by_parameter(carried["dq"])
+        if self.model.links is not None and len(self.names):
+            self._dependent_motion(state, carried["dq"], dx, dpi)
         row = [float(state.t)]
         for probe in self.probes:
             row.extend(self._probe_derivatives(probe, state, dx, dpi, dtheta))
@@ -533,3 +704,210 @@ class TransientSensitivities(ParameterDerivatives):
         if writer.out_dir is not None:
             text = csv_line(["t", *self.columns]) + "".join(csv_line(row) for row in carried["rows"])
             atomic_write_bytes(Path(writer.out_dir) / SENSITIVITIES_FILE, text.encode("utf-8"))
+
+
+# ---------------------------------------------------------------------------------------------- cables
+
+
+class CableSensitivities:
+    """The cables' part of the transient sensitivities (docs/parameters.md, "Cables"), from the generated
+    taut law ``cable_force`` (codegen/joints.py) alone:
+
+    - ∂r/∂p of the elements held taut: the force is linear in (EA, c) at a fixed rest length — the kernel
+      with (∂EA/∂p, ∂c/∂p) —, and affine in ρ = 1/L0 at fixed (EA, c) (N = EA(ℓρ − 1) + c ℓ̇), so
+      ∂F/∂L0 = −ρ² ∂F/∂ρ with ∂F/∂ρ the exact two-point difference of an affine function,
+      (F(ρ + ρ/2) − F(ρ − ρ/2))/ρ (no truncation; round-off only);
+    - the slack/taut change is an event: the step lands on the element's gap g = min(N_el, N) = 0
+      (:data:`LANDING` · EA, :meth:`TransientSensitivities.land`), and the step's size follows the
+      parameters so that g stays zero: ∂g/∂q δq + ∂g/∂v δv + ∂g/∂p + (∂g/∂q q_h + ∂g/∂v v_h) δh = 0,
+      with q_h, v_h the step's derivative by its size. The gap's gradients are the kernel's own blocks:
+      N = −e·F_1 (F_1 the first end's rows), and e·∂e = 0, so ∂N/∂q = −eᵀ K_1, ∂N/∂v = −eᵀ C_1 (with
+      c = 0 for N_el).
+    - nothing jumps at the change in the discrete run (the time loop neither restarts the
+      accelerations nor jumps the velocities there: latdyn/timeloop/events.py), so the step's
+      derivative with δh is the whole derivative; the jump of the continuous solution's sensitivity
+      (Hiskens & Pai 2000: δv⁺ − δv⁻ = M⁻¹(F⁻ − F⁺) δt_e for a damped cable's jump of tension c ℓ̇ at
+      taut) is what that step and the next, on the other law, carry to first order in h.
+    """
+
+    def __init__(self, owner):
+        self.owner = owner
+        self.model, self.kernels = owner.model, owner.kernels
+        self.cables = owner.model.cables
+        #: (cable index, its value, column, derivative law) of every cable parameter
+        self.uses = []
+        for key, laws in owner.derivatives.items():
+            match = _CABLE_KEY.match(key)
+            if match:
+                k = self.cables.names.index(match["cable"])
+                self.uses += [(k, match["value"], column, law) for column, law in laws.items()]
+        #: each cable's rows of the model's joint bodies: its lumped point masses, the last rows, in the order
+        #: latdyn/model/cables.py add_cables appends them (two per element, cables with mass in scene order)
+        self.mass_rows, row = {}, len(self.model.body_nodes)
+        massive = [(k, c) for k, c in enumerate(owner.scene.cables.values()) if c.rhoA * c.rest_length.value(0.0) > 0]
+        row -= sum(2 * c.elements for _, c in massive)
+        for k, cable in massive:
+            self.mass_rows[k] = np.arange(row, row + 2 * cable.elements)
+            row += 2 * cable.elements
+
+    # ------------------------------------------------------------------ the taut law of one element
+    def law(self, state, e: int, EA: float | None = None, c: float | None = None, L0: float | None = None):
+        """The generated ``cable_force`` outputs (force (12,), K (12, 12), C (12, 12), [ℓ, ℓ̇, ℓ − L0, N_el, N])
+        of element ``e`` at ``state``, with its EA, c and rest length share L0 replaced where given."""
+        cables = self.cables
+        nodes = cables.nodes[e]
+        geometry = np.concatenate([state.x[nodes[0]], state.x[nodes[1]],
+                                   state.T[nodes[0]] @ cables.offsets[e, 0], state.T[nodes[1]] @ cables.offsets[e, 1]])
+        velocity = np.concatenate([state.v[nodes[0]], state.w[nodes[0]], state.v[nodes[1]], state.w[nodes[1]]])
+        rest = cables.rest_length[cables.cable[e]]
+        share = cables.share[e]
+        section = np.array([share * rest.value(state.t) if L0 is None else L0, share * rest.rate(state.t),
+                            cables.EA[e] if EA is None else EA, cables.damping[e] if c is None else c])
+        out = self.kernels.cable_force(*(np.ascontiguousarray(a[None]) for a in (geometry, velocity, section)))
+        return (np.asarray(out[0]).reshape(12), np.asarray(out[1]).reshape(12, 12),
+                np.asarray(out[2]).reshape(12, 12), np.asarray(out[3]).reshape(5))
+
+    def taut(self, state) -> np.ndarray:
+        """(ce,) bool: the elements whose force the evaluation applies at ``state`` (csrc/evaluate.c
+        ``cables``: held taut, or, on no side, a positive gap)."""
+        sides = self.cables.sides
+        out = np.zeros(len(self.cables), bool)
+        for e in range(len(self.cables)):
+            if sides[e] > 0:
+                out[e] = True
+            elif sides[e] == 0:
+                _, _, _, s = self.law(state, e)
+                out[e] = min(s[3], s[4]) > 0.0
+        return out
+
+    def _rows(self, e: int) -> np.ndarray:
+        """(12,) the coordinates of element ``e``'s end nodes' rows [d1, π1, d2, π2] (n_total: none)."""
+        dofs = self.model.node_dofs[self.cables.nodes[e]].reshape(12)
+        return np.where(dofs < 0, self.model.n_total, dofs)
+
+    def _rest_length_derivative(self, state, e: int, which: int):
+        """∂(output ``which``: 0 the force, 3 the state [ℓ, ℓ̇, ℓ − L0, N_el, N])/∂L0 of element ``e`` (class
+        docstring: affine in ρ = 1/L0, differenced exactly)."""
+        rho = 1.0 / (self.cables.share[e] * self.cables.rest_length[self.cables.cable[e]].value(state.t))
+        ahead = self.law(state, e, L0=1.0 / (1.5 * rho))[which]
+        behind = self.law(state, e, L0=1.0 / (0.5 * rho))[which]
+        return -rho * rho * (ahead - behind) / rho
+
+    # ------------------------------------------------------------------ ∂r/∂p
+    def residual_derivatives(self, state, total: np.ndarray, inertia: bool = False) -> None:
+        """Add ∂(the taut elements' forces)/∂p into ``total`` (n_total + 1, k) (class docstring), and with
+        ``inertia`` that of the lumped masses (:meth:`_mass_forces`)."""
+        if not self.uses:
+            return
+        taut = self.taut(state)
+        for k, value, column, law in self.uses:
+            derivative = law.value(0.0, 0.0, state.t)
+            if value in ("rhoA", "rest_length") and k in self.mass_rows and inertia:
+                self._mass_forces(state, total, k, value, column, law)
+            if derivative == 0.0 or value == "rhoA":
+                continue
+            for e in np.flatnonzero((self.cables.cable == k) & taut):
+                if value == "EA":
+                    force = self.law(state, e, EA=derivative, c=0.0)[0]
+                elif value == "damping":
+                    force = self.law(state, e, EA=0.0, c=derivative)[0]
+                else:
+                    force = self._rest_length_derivative(state, e, 0) * self.cables.share[e] * derivative
+                np.add.at(total[:, column], self._rows(e), force)
+
+    def _mass_forces(self, state, total: np.ndarray, k: int, value: str, column: int, law) -> None:
+        """Add ∂(the inertia and gravity forces of cable ``k``'s lumped masses)/∂p into ``total``: each point
+        mass is ½ ρA L(0)/elements (latdyn/model/cables.py), so ∂m = ½ (∂ρA L(0) + ρA ∂L(0))/elements, and the
+        generated ``joint_body`` (a point mass at its offset, no rotary inertia) is linear in m."""
+        model, cable = self.model, list(self.owner.scene.cables.values())[k]
+        derivative = law.value(0.0, 0.0, 0.0)   # ρA and the rest length at t = 0 (refused in t with events)
+        share = 0.5 / cable.elements
+        mass = share * (derivative * cable.rest_length.value(0.0) if value == "rhoA" else cable.rhoA * derivative)
+        rows = self.mass_rows[k]
+        nodes = model.body_nodes[rows]
+        frames = np.ascontiguousarray(state.T[nodes].reshape(-1, 9))
+        motion = np.ascontiguousarray(np.concatenate([state.w[nodes], state.a[nodes], state.alpha[nodes]], axis=1))
+        block = np.zeros((len(rows), 13))
+        block[:, 0], block[:, 1:4] = mass, model.body_com[rows]
+        gravity = np.repeat(np.asarray(self.owner.assembler.gravity, float)[None], len(rows), axis=0)
+        forces = np.asarray(self.kernels.joint_body(frames, motion, block, gravity)[0]).reshape(len(rows), 6)
+        dofs = model.node_dofs[nodes]
+        np.add.at(total[:, column], np.where(dofs < 0, model.n_total, dofs), forces)
+
+    # ------------------------------------------------------------------ the event
+    def landing(self, old, new):
+        """(gap(state) of the element to land on, the tolerance LANDING · EA) for the step old → new: the
+        element whose gap crosses zero first (linear interpolation) from the side it is held on, or one the
+        events would turn over (its gap within the loop's tolerance) farther than that from zero; None."""
+        cables, assembler = self.cables, self.owner.assembler
+        crossed = cable_crossings(assembler, old, new)
+        if crossed:
+            e = min(crossed, key=lambda c: c[1])[0]
+        else:
+            turned, _ = cable_events(assembler, list(cables.sides), old, new)
+            after, _ = cable_gaps(assembler, new)
+            near = [e for e, (a, b) in enumerate(zip(cables.sides, turned))
+                    if a != b and abs(after[e]) > LANDING * cables.EA[e]]
+            if not near:
+                return None
+            e = near[0]
+
+        def gap(state):
+            return float(cable_gaps(assembler, state)[0][e])
+        return gap, LANDING * float(cables.EA[e])
+
+    def event(self, old, new):
+        """(element, the cable's change or None) of the cable element the events turn over at the end
+        of the step old → new (latdyn.timeloop.events.cable_events), or None; several at once are
+        refused (SolverError)."""
+        sides = list(self.cables.sides)
+        turned, changes = cable_events(self.owner.assembler, sides, old, new)
+        flipped = [e for e, (a, b) in enumerate(zip(sides, turned)) if a != b]
+        if not flipped:
+            return None
+        if len(flipped) > 1:
+            raise SolverError(f"the sensitivities at t = {new.t:.6g} meet several cable elements changing between "
+                              "slack and taut at one instant, whose derivative is not that of one event "
+                              "(docs/parameters.md, \"Cables\")")
+        e = flipped[0]
+        change = [kind for name, kind in changes if name == self.cables.names[self.cables.cable[e]]]
+        return e, (change[0] if change else None)
+
+    def step_size_derivative(self, new, e: int, dq: np.ndarray, dv: np.ndarray, k: int) -> np.ndarray:
+        """δh (k,) of a step that ends on element ``e``'s change: its gap stays zero (class docstring);
+        ``dq``, ``dv`` the step's columns, the k parameters' and the step size's (column k)."""
+        model, cables = self.model, self.cables
+        _, _, _, s = self.law(new, e)
+        damped = s[4] < s[3]                       # the gap is the tension N (with its damper), else N_el
+        c = cables.damping[e] if damped else 0.0
+        force, K, C, s = self.law(new, e, c=c)
+        # e, the unit vector from the first end point to the second (F_1 = N e)
+        nodes = cables.nodes[e]
+        points = [new.x[nodes[i]] + new.T[nodes[i]] @ cables.offsets[e, i] for i in range(2)]
+        unit = (points[1] - points[0]) / np.linalg.norm(points[1] - points[0])
+        g_q, g_v = np.zeros(model.n_total + 1), np.zeros(model.n_total + 1)
+        rows = self._rows(e)
+        np.add.at(g_q, rows, -unit @ K[0:3])
+        np.add.at(g_v, rows, -unit @ C[0:3])
+        g_q, g_v = g_q[:model.n_dofs], g_v[:model.n_dofs]
+        g_p = np.zeros(k)
+        for cable, value, column, law in self.uses:
+            if cable != cables.cable[e]:
+                continue
+            derivative = law.value(0.0, 0.0, new.t)
+            if value == "EA":
+                g_p[column] += self.law(new, e, EA=derivative, c=0.0)[3][4]
+            elif value == "damping":
+                g_p[column] += self.law(new, e, EA=0.0, c=derivative)[3][4] if damped else 0.0
+            elif value == "rest_length":   # (rhoA moves no force of the element)
+                g_p[column] += self._rest_length_derivative(new, e, 3)[3] * cables.share[e] * derivative
+        along = g_q @ dq + g_v @ dv
+        return -(along[:k] + g_p) / along[k]
+
+    def record(self, new, e: int, change, dt_event: np.ndarray, names: list) -> dict | None:
+        """The ``event_sensitivities`` entry of a whole cable's change (None: an element of a cable that
+        stays taut or slack as a whole)."""
+        if change is None:
+            return None
+        return {"joint": self.cables.names[self.cables.cable[e]], "kind": change, "t": float(new.t),
+                "dt": {name: float(dt_event[c]) for c, name in enumerate(names)}}

@@ -58,6 +58,9 @@ class LinkedEvaluation(SeparateMatrices):
 def evaluate_linked(links, assembler, state, matrices: bool, load_factor: float, inertia: bool,
                     inertia_tangent: bool = False):
     """The equations of motion on the minimum coordinates (module docstring)."""
+    # the native model with the inertia tangent's buffers first (asking for them rebuilds it, and a rebuilt
+    # one holds no J until it completes the links)
+    assembler.native(inertia_tangent)
     assembler.complete_links(state)
     full = assembler.evaluate_assembled(state, matrices, load_factor, inertia, inertia_tangent)
     return reduce_linked(links, assembler, state, full, matrices, inertia)

@@ -467,7 +467,9 @@ class TimeLoop:
         if events.log:
             progress.events = progress.events + [{"joint": joint, "kind": kind, "t": float(new.t)}
                                                  for joint, kind in events.log]
+        held_sides = progress.cable_sides
         tension_jumped = self._track_cables(progress.state, new)
+        turned = held_sides is not None and list(held_sides) != list(progress.cable_sides)
         # power of point loads and prescribed motion: from the last Newton evaluation
         # (within the Newton tolerance of the converged state) when there is one
         evaluation = getattr(integrator, "last_evaluation", None)
@@ -508,10 +510,11 @@ class TimeLoop:
         if attempt.lands:
             progress.grid_index += 1
         self._after_accepted(new)
-        # with sensitivities an event, and a step onto the grid, restart at the nominal step as a stop does:
+        # with sensitivities an event (a cable's change too), and a step onto the grid, restart at the nominal
+        # step as a stop does:
         # the step after an event lands on the grid and the next ones are nominal, their sizes smooth in the
         # parameters (latdyn/analyses/transient_sensitivities.py)
-        restarted = events.stopped or (self.sensitivities is not None and (events.any or attempt.lands))
+        restarted = events.stopped or (self.sensitivities is not None and (events.any or attempt.lands or turned))
         self.control.after_accepted(progress, integrator, h, events.any, restarted)
         if tension_jumped:  # the steps after a damped cable's jump of tension grow from TAUT_JUMP_STEP · dt
             progress.h = min(progress.h, TAUT_JUMP_STEP * self.control.dt)
