@@ -65,31 +65,12 @@ def crossing_fraction(model: Model, old: State, new: State, assembler=None, cabl
 #: 5.5 s with it, the regula falsi landing (latdyn/timeloop/loop.py ``_land_on_event``) and
 #: :data:`TAUT_JUMP_STEP` (docs/cables.md).
 CABLE_LANDING = 1e-3
-#: The step after a damped cable element's tension jumped (:func:`tension_jumps`), as a fraction of the
-#: nominal step dt (the steps after it grow from there as after any shortened step): it jumps from 0 to
-#: c ℓ̇ where the element goes taut, and from c ℓ̇ to 0 where a reel pays it out faster than it lengthens
-#: and it goes slack at zero stretch; the generalized-α step that follows a jump of the force carries an
-#: error of the order of its size (on tests/test_cables.py's light drop with c = 2 N·s/m at dt = 1e-4, the
-#: next changes came 3.7e-5 s late with a full step after the jump, 4.8e-6 s with this one).
+#: The step after a damped cable element went taut, as a fraction of the nominal step dt (the steps after
+#: it grow from there as after any shortened step): its tension jumps from 0 to c ℓ̇ there, and the
+#: generalized-α step that follows a jump of the force carries an error of the order of its size (on
+#: tests/test_cables.py's light drop with c = 2 N·s/m at dt = 1e-4, the next changes came 3.7e-5 s late
+#: with a full step after the jump, 4.8e-6 s with this one).
 TAUT_JUMP_STEP = 1e-2
-
-
-def tension_jumps(assembler, held: list, sides: list, new: State) -> bool:
-    """Whether a damped cable element's tension jumped where the accepted step ended at ``new``, the
-    elements' sides ``held`` through the step and ``sides`` after it: going taut at zero stretch (from 0 to
-    c ℓ̇), or going slack at zero stretch while its damper still pulls (from c ℓ̇ to 0: a cable paid out by a
-    reel faster than it lengthens; the tension N on the side held, evaluated at ``new`` before the model's
-    sides change, beyond the gap's tolerance). Going slack where N itself reaches zero is no jump. The steps
-    after a jump grow from :data:`TAUT_JUMP_STEP`."""
-    cables = assembler.model.cables
-    damped = [e for e, (a, b) in enumerate(zip(held, sides)) if a != b and cables.damping[e] > 0]
-    if any(held[e] < 0 for e in damped):
-        return True
-    if not damped:
-        return False
-    tension = assembler.native().cable_state(new)[:, 4]
-    tol = cable_tolerance(cables.EA)
-    return any(tension[e] > tol[e] for e in damped)
 
 
 def cable_tolerance(EA: np.ndarray) -> np.ndarray:

@@ -42,7 +42,7 @@ from latdyn.step.integrators import newton_diagnosis
 from latdyn.timeloop import checkpoint as checkpoints
 from latdyn.timeloop.control import StepControl
 from latdyn.timeloop.events import (CABLE_LANDING, TAUT_JUMP_STEP, cable_events, cable_sides, crossing_fraction, hinge_events,
-                                   restart_accelerations, tension_jumps)
+                                   restart_accelerations)
 from latdyn.timeloop.progress import (DRIFT_WARNING, UNBOUNDED, UNBOUNDED_ROWS, TransientProgress, factorizations,
                                       cable_work, hinge_work, load_power)
 from latdyn.timeloop.sampling import controller_memory, restore_controller_memory
@@ -531,15 +531,16 @@ class TimeLoop:
 
     def _track_cables(self, old: State, new: State) -> bool:
         """The cables' slack and taut changes over the accepted step(s) old → new, into the events
-        (latdyn.timeloop.events.cable_events: the step landed on each); whether a damped element's
-        tension jumped there (latdyn.timeloop.events.tension_jumps)."""
+        (latdyn.timeloop.events.cable_events: the step landed on each); whether a damped element went
+        taut (its tension jumped from 0 to c ℓ̇)."""
         if self.model.cables is None:
             return False
         progress = self.progress
         held = progress.cable_sides
         progress.cable_sides, changes = cable_events(self.assembler, progress.cable_sides, old, new)
-        jumped = tension_jumps(self.assembler, held, progress.cable_sides, new)  # on the sides the step held
         self.model.cables.sides[:] = progress.cable_sides
+        damping = self.model.cables.damping
+        jumped = any(a < 0 < b and damping[e] > 0 for e, (a, b) in enumerate(zip(held, progress.cable_sides)))
         if changes:
             progress.events = progress.events + [{"joint": name, "kind": kind, "t": float(new.t)}
                                                  for name, kind in changes]
