@@ -5,6 +5,7 @@ Run from the repository root::
     python benchmarks/issue32_checks.py            # the check table (about a minute)
     python benchmarks/issue32_checks.py --peak     # a Hertz stop's peak load against the step size
     python benchmarks/issue32_checks.py --costs    # with and without cables, friction, a compliant stop
+    python benchmarks/issue32_checks.py --chatter  # the damped cable truss's changes against dt and c (minutes)
 
 Each check runs the scene its test runs (the scene texts and references are imported from the test
 modules, so that the table and the suite measure one thing) through ``latdyn.run(latdyn.load_scene(...))``
@@ -392,6 +393,38 @@ def costs(repeats: int):
     return out
 
 
+# -- the damped cable truss's slack and taut changes ----------------------------------------------------
+
+def damped_truss(dt: float, damping: float, t_end: float = 4.0) -> dict:
+    """``examples/cable_deploying_truss.yaml`` with ``damping`` on both cables, run at ``dt``: the count of
+    slack and taut changes, the run's counts and energies, and each change (for the JSON)."""
+    scene = yaml.safe_load((ROOT / "examples" / "cable_deploying_truss.yaml").read_text())
+    for cable in scene["cables"].values():
+        cable["damping"] = damping
+    scene["solve"].update(dt=dt, t_end=t_end)
+    scene["output"] = {"every": 0.01, "probes": {"pull": {"cable": "tie_a", "quantity": "tension"}}}
+    c0 = time.process_time()
+    s = latdyn.run(latdyn.load_scene(scene)).summary
+    changes = s["cable_events"]
+    return {"dt": dt, "damping": damping, "changes": len(changes), "steps": s["steps"],
+            "newton_iterations": s["newton_iterations"], "rejected_steps": s["rejected_steps"],
+            "energy_balance_error": s["energy_balance_error"], "dissipated_energy": s["dissipated_energy"],
+            "cpu_s": time.process_time() - c0, "latches": [e["t"] for e in s["events"] if e["kind"] == "latch"],
+            "cable_events": changes}
+
+
+def chatter():
+    runs = [damped_truss(dt, 50.0) for dt in (2e-3, 1e-3, 5e-4, 2.5e-4, 1.25e-4)]
+    runs += [damped_truss(1e-3, c) for c in (0.0, 5.0, 20.0)]
+    print("| c (N·s/m) | dt (s) | slack and taut changes | steps | Newton iterations | rejected | dissipated (J) "
+          "| energy balance | CPU (s) |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for r in runs:
+        print(f"| {r['damping']:g} | {r['dt']:g} | {r['changes']} | {r['steps']} | {r['newton_iterations']} "
+              f"| {r['rejected_steps']} | {r['dissipated_energy']:.3f} | {r['energy_balance_error']:.1e} | {r['cpu_s']:.1f} |")
+    return runs
+
+
 def machine():
     cpu = "unknown"
     try:
@@ -408,6 +441,7 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--peak", action="store_true", help="a Hertz stop's peak load against the step")
     parser.add_argument("--costs", action="store_true", help="with and without cables, friction, contact")
+    parser.add_argument("--chatter", action="store_true", help="the damped cable truss against dt and damping")
     parser.add_argument("--repeats", type=int, default=5)
     args = parser.parse_args()
     RESULTS.mkdir(exist_ok=True)
@@ -423,6 +457,10 @@ def main():
                       f"| {m['joint_peaks']:+.1e} | {m['peak_load_between_rows']:+.1e} | {m['contact_time']:+.1e} "
                       f"| {m['rebound']:.7f} |")
             (RESULTS / "issue32_peak.json").write_text(json.dumps({"machine": machine(), "rows": rows}, indent=1))
+            return
+        if args.chatter:
+            runs = chatter()
+            (RESULTS / "issue32_chatter.json").write_text(json.dumps({"machine": machine(), "runs": runs}, indent=1))
             return
         if args.costs:
             rows = costs(args.repeats)
