@@ -415,7 +415,7 @@ def damped_truss(dt: float, damping: float, t_end: float = 4.0) -> dict:
             "newton_iterations": s["newton_iterations"], "rejected_steps": s["rejected_steps"],
             "energy_balance_error": s["energy_balance_error"], "dissipated_energy": s["dissipated_energy"],
             "cpu_s": time.process_time() - c0, "latches": [e["t"] for e in s["events"] if e["kind"] == "latch"],
-            "cable_events": changes}
+            "cable_events": [[e["t"], e["cable"], e["state"]] for e in changes]}
 
 
 def chatter():
@@ -465,7 +465,8 @@ def main():
             return
         if args.chatter:
             runs = chatter()
-            (RESULTS / "issue32_chatter.json").write_text(json.dumps({"machine": machine(), "runs": runs}, indent=1))
+            (RESULTS / "issue32_chatter.json").write_text(json.dumps({"machine": machine(), "runs": runs},
+                                                                     separators=(",", ":")))
             return
         if args.costs:
             rows = costs(args.repeats)
