@@ -170,14 +170,12 @@ def check_flexible_slider_crank(test):
 # -- contact and friction -------------------------------------------------------------------------------
 
 def hertz_panel(dt, axis=(0, 0, 1), damping=0.0):
-    """The hinged panel of tests/test_contact.py on a Hertz stop (n = 3/2, k = 1000, I = 2, v = 1)."""
-    from test_contact import panel
+    """The hinged panel of tests/test_contact.py (inertia 2 about ``axis``) on a Hertz stop (n = 3/2,
+    k = 1000) at 0.1 rad, turning at v = 1 rad/s."""
+    from test_contact import panel_about
 
-    a = np.asarray(axis, float) / np.linalg.norm(axis)
-    J = 2.0 * np.outer(a, a) + 1.0 * (np.eye(3) - np.outer(a, a))  # 2 about the axis
-    contact = f"stiffness: 1000.0, exponent: 1.5" + (f", damping: {damping}" if damping else "")
-    return panel(f"limits: [-1, 0.1], contact: {{{contact}}}", axis=list(axis), inertia=json.dumps(J.tolist()),
-                 dt=dt)
+    contact = "stiffness: 1000.0, exponent: 1.5" + (f", damping: {damping}" if damping else "")
+    return panel_about(axis, f"limits: [-1, 0.1], contact: {{{contact}}}", dt=dt)
 
 
 def hertz_reference(I=2.0, k=1000.0, n=1.5, v=1.0):
@@ -240,9 +238,11 @@ def check_hunt_crossley(axis, label, test):
     lost = 0.5 * I * (v * v - rebound * rebound)
     dissipated = float(r.probes["dissipated"][-1])
     return [
-        row(label, "rebound rate vs solve_ivp (rel.)", rebound, got_rebound, abs(got_rebound / rebound - 1), 2e-4, test),
+        row(label, "rebound rate vs solve_ivp (rel.)", rebound, got_rebound, abs(got_rebound / rebound - 1), 2e-4,
+            test),
         row(label, "peak penetration vs solve_ivp (rel.)", peak, got_peak, abs(got_peak / peak - 1), 2e-4, test),
-        row(label, "dissipated vs kinetic energy lost (rel.)", lost, dissipated, abs(dissipated / lost - 1), 1e-3, test),
+        row(label, "dissipated vs kinetic energy lost (rel.)", lost, dissipated, abs(dissipated / lost - 1), 1e-3,
+            test),
     ]
 
 
@@ -259,11 +259,12 @@ def check_coulomb(axis, label, test):
     return [
         row(label, "first half cycle's amplitude A0 − 2F/k (rad)", A0 - 2 * F / k, abs(values[0]),
             abs(abs(values[0]) - (A0 - 2 * F / k)), 5e-4, test),
-        row(label, "after a cycle A0 − 4F/k (rad)", A0 - 4 * F / k, abs(values[1]), abs(abs(values[1]) - (A0 - 4 * F / k)),
-            5e-4, test),
+        row(label, "after a cycle A0 − 4F/k (rad)", A0 - 4 * F / k, abs(values[1]),
+            abs(abs(values[1]) - (A0 - 4 * F / k)), 5e-4, test),
         row(label, "half period π√(I/k) (rel., worst of two)", half, periods[np.argmax(np.abs(periods / half - 1))],
             np.abs(periods / half - 1).max(), 3e-3, test),
-        row(label, "rest angle, |θ| ≤ F/k (rad)", -(A0 - 4 * F / k), x[-1], abs(x[-1] + (A0 - 4 * F / k)), 5e-4, test),
+        row(label, "rest angle, |θ| ≤ F/k (rad)", -(A0 - 4 * F / k), x[-1], abs(x[-1] + (A0 - 4 * F / k)), 5e-4,
+            test),
     ]
 
 
@@ -272,6 +273,7 @@ def checks():
 
     planar_bead = BEAD.replace("axis: [1, 1, 1]", "axis: [0, 0, 1]")
     rows = []
+    contact = "tests/test_contact.py::"
     runs = [
         lambda: check_drop([0, -1, 0], 0.0, 0.8, "mass dropped on a slack cable, planar",
                            "tests/test_cables.py::test_mass_dropped_on_a_slack_cable_planar_through_the_cli"),
@@ -289,17 +291,17 @@ def checks():
         lambda: check_string([1, 2, -2], "tests/test_cables.py::test_taut_string_modes_about_the_pretensioned_state"),
         lambda: check_catenary([10.0, 0.0, 0.0], "tests/test_cables.py::test_elastic_catenary_static"),
         lambda: check_catenary([6.0, 0.0, 8.0], "tests/test_cables.py::test_elastic_catenary_static"),
-        lambda: check_hertz((0, 0, 1), "Hertz stop, planar", "tests/test_contact.py::test_a_panel_on_a_hertz_stop_through_the_cli"),
+        lambda: check_hertz((0, 0, 1), "Hertz stop, planar", contact + "test_a_panel_on_a_hertz_stop_through_the_cli"),
         lambda: check_hertz((2, -1, 2), "Hertz stop, 3D",
                             "tests/test_contact.py::test_a_panel_on_a_hertz_stop_about_a_skew_axis_through_the_api"),
         lambda: check_hunt_crossley((0, 0, 1), "Hunt–Crossley rebound, planar",
-                                    "tests/test_contact.py::test_hunt_crossley_rebound_against_an_independent_integration"),
+                                    contact + "test_hunt_crossley_rebound_against_an_independent_integration"),
         lambda: check_hunt_crossley((2, -1, 2), "Hunt–Crossley rebound, 3D",
-                                    "tests/test_contact.py::test_hunt_crossley_rebound_against_an_independent_integration"),
+                                    contact + "test_hunt_crossley_rebound_against_an_independent_integration"),
         lambda: check_coulomb((0, 0, 1), "Coulomb torsional oscillator, planar",
-                              "tests/test_contact.py::test_a_torsional_oscillator_with_coulomb_friction_through_the_cli"),
+                              contact + "test_a_torsional_oscillator_with_coulomb_friction_through_the_cli"),
         lambda: check_coulomb((2, -1, 2), "Coulomb torsional oscillator, 3D",
-                              "tests/test_contact.py::test_a_torsional_oscillator_with_coulomb_friction_on_a_skew_axis_through_the_api"),
+                              contact + "test_a_torsional_oscillator_with_coulomb_friction_on_a_skew_axis_through_the_api"),
     ]
     for one in runs:
         rows.extend(one())
@@ -426,7 +428,8 @@ def chatter():
     print("|---|---|---|---|---|---|---|---|---|")
     for r in runs:
         print(f"| {r['damping']:g} | {r['dt']:g} | {r['changes']} | {r['steps']} | {r['newton_iterations']} "
-              f"| {r['rejected_steps']} | {r['dissipated_energy']:.3f} | {r['energy_balance_error']:.1e} | {r['cpu_s']:.1f} |")
+              f"| {r['rejected_steps']} | {r['dissipated_energy']:.3f} | {r['energy_balance_error']:.1e} "
+              f"| {r['cpu_s']:.1f} |")
     return runs
 
 
@@ -454,8 +457,8 @@ def main():
         os.chdir(scratch)
         if args.peak:
             rows = peak_against_step()
-            print("| dt | steps in contact | peak penetration | peak load k δⁿ | `joint_peaks` | peak load between the rows "
-                  "| contact time | rebound rate |")
+            print("| dt | steps in contact | peak penetration | peak load k δⁿ | `joint_peaks` "
+                  "| peak load between the rows | contact time | rebound rate |")
             print("|---|---|---|---|---|---|---|---|")
             for m in rows:
                 print(f"| {m['dt']:g} | {m['steps_in_contact']} | {m['peak_penetration']:+.1e} | {m['peak_load']:+.1e} "
