@@ -119,6 +119,24 @@ def test_a_panel_on_a_hertz_stop_about_a_skew_axis_through_the_api():
     assert result.summary["energy_balance_error"] < 5e-4
 
 
+def test_peak_load_of_a_hertz_stop_against_the_step():
+    """docs/contact.md's table of the peak load against the step: the Hertz stop above (planar) at
+    dt = 0.001 and 0.0005, the peak load k δⁿ of the rows against the closed form (measured −2.0e-5 and
+    −5.1e-6: second order, ratio 3.9) and ``summary.json`` ``joint_peaks`` of the hinge, the stop's load,
+    equal to it (the torque probe's largest magnitude over the rows)."""
+    I, k, n, v, stop = 2.0, 1000.0, 1.5, 1.0, 0.1
+    load = k * ((n + 1) * I * v * v / (2 * k)) ** (n / (n + 1))
+    errors = []
+    for dt in (0.001, 0.0005):
+        result = latdyn.run(latdyn.load_scene(yaml.safe_load(
+            panel(f"limits: [-1, {stop}], contact: {{stiffness: {k}, exponent: {n}}}", dt=dt))))
+        peak = k * (result.probes["angle"].max() - stop) ** n
+        errors.append(peak / load - 1)
+        assert abs(result.summary["joint_peaks"]["arm.start"]["peak"]) == pytest.approx(peak, rel=1e-9)
+    assert -3e-5 < errors[0] < 0 and -8e-6 < errors[1] < 0
+    assert 3.0 < errors[0] / errors[1] < 5.0
+
+
 def test_a_linear_stop_on_a_skew_axis_through_the_api():
     """n = 1 about the axis [1, 2, 2]/3 (3D coordinates), an offset mass 0.5 at |a × r| from the
     axis and a full inertia tensor: I = aᵀJa + m|a × r|²; contact time π√(I/k) and peak
