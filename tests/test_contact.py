@@ -91,6 +91,52 @@ def test_a_panel_on_a_hertz_stop_through_the_cli(tmp_path):
     assert summary["energy_balance_error"] < 5e-4
 
 
+def panel_about(axis, hinge: str, **options) -> str:
+    """The panel of inertia 2 about ``axis`` (1 across it), without the offset mass."""
+    a = np.asarray(axis, float) / np.linalg.norm(axis)
+    J = 2.0 * np.outer(a, a) + 1.0 * (np.eye(3) - np.outer(a, a))
+    return panel(hinge, axis=list(axis), inertia=json.dumps(J.tolist()), **options)
+
+
+def test_a_panel_on_a_hertz_stop_about_a_skew_axis_through_the_api():
+    """The Hertz stop of the planar test about the axis [2, −1, 2]/3 (3D coordinates), the panel's
+    inertia 2 about it: the same closed forms, the same errors (measured at dt = 0.002: peak
+    penetration −5.1e-5, peak load −7.7e-5, contact time +6.0e-5, rebound −1.0000008, onset 1.4e-17 s:
+    benchmarks/issue32_checks.py)."""
+    I, k, n, v, stop = 2.0, 1000.0, 1.5, 1.0, 0.1
+    result = latdyn.run(latdyn.load_scene(yaml.safe_load(
+        panel_about([2, -1, 2], f"limits: [-1, {stop}], contact: {{stiffness: {k}, exponent: {n}}}"))))
+    assert result.summary["coordinates"] == 1
+    depth = result.probes["angle"] - stop
+    peak = ((n + 1) * I * v * v / (2 * k)) ** (1 / (n + 1))
+    contact_time = 2 * peak / v * beta(1 / (n + 1), 0.5) / (n + 1)
+    assert depth.max() / peak - 1 == pytest.approx(0.0, abs=2e-4)
+    assert k * depth.max() ** n / (k * peak**n) - 1 == pytest.approx(0.0, abs=3e-4)  # peak load
+    on, off = contact_interval(result.t, depth)
+    assert on == pytest.approx(stop / v, abs=1e-7)  # the events' tolerance (1e-7 rad) over v
+    assert (off - on) / contact_time - 1 == pytest.approx(0.0, abs=2e-4)
+    assert result.probes["rate"][-1] == pytest.approx(-v, abs=1e-5)
+    assert result.summary["energy_balance_error"] < 5e-4
+
+
+def test_peak_load_of_a_hertz_stop_against_the_step():
+    """docs/contact.md's table of the peak load against the step: the Hertz stop above (planar) at
+    dt = 0.001 and 0.0005, the peak load k δⁿ of the rows against the closed form (measured −2.0e-5 and
+    −5.1e-6: second order, ratio 3.9) and ``summary.json`` ``joint_peaks`` of the hinge, the stop's load,
+    equal to it (the torque probe's largest magnitude over the rows)."""
+    I, k, n, v, stop = 2.0, 1000.0, 1.5, 1.0, 0.1
+    load = k * ((n + 1) * I * v * v / (2 * k)) ** (n / (n + 1))
+    errors = []
+    for dt in (0.001, 0.0005):
+        result = latdyn.run(latdyn.load_scene(yaml.safe_load(
+            panel(f"limits: [-1, {stop}], contact: {{stiffness: {k}, exponent: {n}}}", dt=dt))))
+        peak = k * (result.probes["angle"].max() - stop) ** n
+        errors.append(peak / load - 1)
+        assert abs(result.summary["joint_peaks"]["arm.start"]["peak"]) == pytest.approx(peak, rel=1e-9)
+    assert -3e-5 < errors[0] < 0 and -8e-6 < errors[1] < 0
+    assert 3.0 < errors[0] / errors[1] < 5.0
+
+
 def test_a_linear_stop_on_a_skew_axis_through_the_api():
     """n = 1 about the axis [1, 2, 2]/3 (3D coordinates), an offset mass 0.5 at |a × r| from the
     axis and a full inertia tensor: I = aᵀJa + m|a × r|²; contact time π√(I/k) and peak
@@ -111,15 +157,18 @@ def test_a_linear_stop_on_a_skew_axis_through_the_api():
     assert result.probes["rate"][-1] == pytest.approx(v, abs=1e-4)
 
 
-def test_hunt_crossley_rebound_against_an_independent_integration():
+@pytest.mark.parametrize("axis", [[0, 0, 1], [2, -1, 2]])
+def test_hunt_crossley_rebound_against_an_independent_integration(axis):
     """Hertz with damping c = 300 (Hunt–Crossley): the rebound rate and the peak penetration
     against solve_ivp of the 1-DOF equation (rtol 1e-11), to 2e-4; the dissipated energy equals
     the kinetic energy lost, ½I(v² − v_out²), to 1e-3 of it (measured at dt = 0.002: rebound
     −0.83287, +3.3e-5; peak −4.1e-5; dissipation −2.5e-4 with the stop's dissipative force integrated
-    as ½(f_n + f_{n+1}) Δθ, −7.3e-5 with the trapezoid of its power in time it replaced)."""
+    as ½(f_n + f_{n+1}) Δθ, −7.3e-5 with the trapezoid of its power in time it replaced). Planar (axis
+    z) and about the skew axis [2, −1, 2]/3 in 3D coordinates: the same numbers."""
     I, k, n, c, v, stop = 2.0, 1000.0, 1.5, 300.0, 1.0, 0.1
-    text = panel(f"limits: [-1, {stop}], contact: {{stiffness: {k}, exponent: {n}, damping: {c}}}")
+    text = panel_about(axis, f"limits: [-1, {stop}], contact: {{stiffness: {k}, exponent: {n}, damping: {c}}}")
     result = latdyn.run(yaml.safe_load(text))
+    assert result.summary["coordinates"] == 1
 
     def motion(_, y):
         d, rate = y

@@ -63,6 +63,20 @@ def test_bead_on_a_turning_rod_follows_cosh(tmp_path):
     np.testing.assert_allclose(result.probes["along"], result.probes["r"] / np.sqrt(2), atol=1e-12)
 
 
+def test_bead_on_a_rod_turning_in_its_plane_through_the_cli(tmp_path):
+    """Planar: the rod along [1, −1, 0] turning about z at Ω = 2, the scene typed as YAML and run by
+    ``latdyn run``: r = r₀ cosh Ωt (measured 8.3e-6 of r at dt = 0.004, as in 3D), on the rod."""
+    completed, out = latdyn_run(tmp_path, BEAD.replace("axis: [1, 1, 1]", "axis: [0, 0, 1]"), quiet=True)
+    assert completed.returncode == 0, completed.stderr
+    p = probe_columns(out)
+    omega, r0 = 2.0, 0.1 * np.sqrt(2)
+    exact = r0 * np.cosh(omega * p["t"])
+    assert np.abs(p["r"] - exact).max() < 1.5e-5 * exact.max()
+    rate = r0 * omega * np.sinh(omega * p["t"])
+    assert np.abs(p["rate"] - rate).max() < 1e-5 * rate.max()
+    np.testing.assert_allclose(p["along"], p["r"] / np.sqrt(2), atol=1e-12)
+
+
 SPRING = """
 title: spring mass on an oblique guide, started by the scene's rigid motion
 initial_velocity: {linear: [0.3, -0.1, 0.5]}
