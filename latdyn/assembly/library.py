@@ -90,7 +90,7 @@ class LinksData(ctypes.Structure):
         (name, P) for name in (
             "edge_parent", "edge_child", "edge_hinge", "edge_kind", "edge_parent_slot", "edge_slot", "edge_data",
             "slot_node", "slot_root", "slot_edge", "slot_count", "slot_columns", "slot_position",
-            "element_block", "body_block", "load_block", "coupling_block", "block_rows", "block_columns", "block_position",
+            "element_block", "body_block", "load_block", "coupling_block", "cable_block", "block_rows", "block_columns", "block_position",
             "positions", "expansion_size", "expansion_reduced", "expansion_start", "dof_slot", "dof_component",
             "dof_map", "rigid_link_edge", "hinge_wrench", "root_wrench", "prismatic_link_edge", "slide_wrench",
             "slider_closure_edge", "rod_closure_edge", "slider_closure_wrench", "rod_closure_wrench",

@@ -36,7 +36,11 @@ class LinkedEvaluation(SeparateMatrices):
         raw = Evaluation(residual=None, reaction=None, blocks=self.blocks, assembler=self.assembler)
         return raw.combined(cm, cc, ck, dense=dense)
 
-    def combined(self, cm: float, cc: float, ck: float, dense: bool | None = None):
+    def combined(self, cm: float, cc: float, ck: float, dense: bool | None = None, geometric_term: bool = True):
+        """cm M + cc C + ck K on the minimum coordinates; ``geometric_term`` False: K without
+        ∂(Pᵀ)/∂q · r_all, the part of the forces at the dependent nodes (a load term: the material
+        stiffness that :meth:`latdyn.model.model.Model.check_held` asks for, which a pretensioned
+        cable's pull through a link would make indefinite)."""
         P, geometric, velocity_derivative = self.projection, self.geometric, self.velocity_derivative
         n_asm, n = P.shape
         small = n_asm <= DENSE_LIMIT  # small models: dense products (sparse overhead dominates), arrays
@@ -46,7 +50,7 @@ class LinkedEvaluation(SeparateMatrices):
                 self._mass_all = self._assembled(1.0, 0.0, 0.0, small)
             coupling = self._mass_all[:, self.dependent_rows] @ velocity_derivative  # M_·dep ∂c/∂v
             out = out + cc * (P.T @ coupling)
-        if ck != 0.0:
+        if ck != 0.0 and geometric_term:
             out = out + ck * geometric
         if _is_dense(dense, n):
             return out if small else out.toarray()

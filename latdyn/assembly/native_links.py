@@ -9,7 +9,7 @@ Python runs inside an iteration. :func:`native_links` lays out what it needs for
 the coordinates and one storage of the iteration matrix: the edges of :mod:`latdyn.model.links` in
 tree order, a *slot* per root and dependent node with its columns (the coordinates it moves with:
 a root's six, a dependent node's parent's columns and then its edge's hinge), and the *expansion*
-of every element, body and load block that touches a dependent coordinate (its coordinates mapped
+of every element, body, load, controller coupling and cable element block that touches a dependent coordinate (its coordinates mapped
 through P = [I; J] onto the reduced coordinates), with the matrix position of every entry the
 reduction writes. ``csrc/links.c``'s header says how the C code reads them.
 """
@@ -167,6 +167,7 @@ def native_links(assembler, factorization, kernel_address) -> NativeLinks:
     load_block = [block(d, c) for d, c in zip(m.node_dofs[assembler._load_nodes], assembler._load_columns())]
     control = assembler.control  # continuous controllers: an actuator's row by a sensor's coordinate
     coupling_block = [block(np.array([r]), np.array([c])) for r, c in zip(control.coupling_rows, control.coupling_cols)]
+    cable_block = [block(d, d) for d in assembler.cable_dofs()]  # cable elements: [d, π] of both ends
     biggest = max([(x.size[b_r] + x.size[b_c]) for b_r, b_c in zip(block_rows, block_columns)] + [1])
     most = max(x.reduced + [1])
     scratch = np.zeros(4 * biggest * most + most * most)
@@ -182,7 +183,7 @@ def native_links(assembler, factorization, kernel_address) -> NativeLinks:
         slot_node=ints(slot_node), slot_root=ints(slot_root), slot_edge=ints(slot_edge), slot_count=ints(count),
         slot_columns=ints(columns), slot_position=ints(pairs),
         element_block=ints(element_block), body_block=ints(body_block), load_block=ints(load_block),
-        coupling_block=ints(coupling_block),
+        coupling_block=ints(coupling_block), cable_block=ints(cable_block),
         block_rows=ints(block_rows), block_columns=ints(block_columns), block_position=ints(block_position),
         positions=ints(np.concatenate(positions) if positions else []),
         expansion_size=ints(x.size), expansion_reduced=ints(x.reduced), expansion_start=ints(x.start),

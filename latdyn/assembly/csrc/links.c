@@ -18,7 +18,8 @@
  * coordinates its configuration moves with (a root's six; a dependent node's parent's columns, then
  * its edge's hinge), so that a slot's columns begin with its parent's. Per slot, J (6 × width,
  * row-major: the slot node's [δd, δπ] per unit of each column; a root's is the identity) and ∂c/∂v
- * (6 × width: ∂(a, α)/∂ of the columns' rates). Blocks (element, body, load) that touch a dependent
+ * (6 × width: ∂(a, α)/∂ of the columns' rates). Blocks (element, body, load, controller coupling,
+ * cable element) that touch a dependent
  * coordinate are reduced through their expansions: per block coordinate, its slot and component (a
  * dependent coordinate) or its column among the block's reduced coordinates (a free one; -1 for a
  * constrained one), and, for a dependent coordinate, the reduced column of each of its slot's
@@ -46,10 +47,10 @@ typedef struct Links {
     /* slots: node, root slot, the edge into it (-1: a root), column count and columns (n_slots, width),
      * the matrix positions of (column, column) pairs (n_slots, width, width; -1: constrained) */
     const int64_t *slot_node, *slot_root, *slot_edge, *slot_count, *slot_columns, *slot_position;
-    /* blocks that touch a dependent coordinate: the linked block of each element, body, load and
-     * continuous controller's coupling entry (-1: none), its row and column expansion and where its
-     * positions (reduced rows × reduced columns, row-major) begin in `positions` */
-    const int64_t *element_block, *body_block, *load_block, *coupling_block;
+    /* blocks that touch a dependent coordinate: the linked block of each element, body, load,
+     * continuous controller's coupling entry and cable element (-1: none), its row and column expansion
+     * and where its positions (reduced rows × reduced columns, row-major) begin in `positions` */
+    const int64_t *element_block, *body_block, *load_block, *coupling_block, *cable_block;
     const int64_t *block_rows, *block_columns, *block_position, *positions;
     /* expansions: coordinates, reduced columns, where their coordinates begin; per coordinate
      * (all expansions one after the other) the slot (-1: not dependent), the component, and the
@@ -246,6 +247,16 @@ static void assemble_linked(const Model *m, Work *w, const Configuration *c, dou
             reduce_block(L, w, L->coupling_block[e], &value, NULL, gamma_p);
         else if (m->coupling_position[e] >= 0)
             w->matrix[m->coupling_position[e]] += value;
+    }
+    /* cable elements: γ′C + K of the generated cable_force (no mass), 12 × 12 on both ends' [d, π] */
+    for (int64_t e = 0; e < m->n_cables; ++e) {
+        const double *K = w->cable_stiffness + 144 * e, *C = w->cable_damping + 144 * e;
+        if (L->cable_block[e] >= 0) {
+            combined_block(NULL, C, K, NULL, 144, beta_p, gamma_p, S);
+            reduce_block(L, w, L->cable_block[e], S, NULL, gamma_p);
+            continue;
+        }
+        scatter_block(w->matrix, m->cable_position + 144 * e, NULL, C, K, NULL, 144, beta_p, gamma_p);
     }
     /* ∂(Pᵀ)/∂q · r_all: each dependent node's wrench (f, m) at x_c, on its root (root_wrench, by δx_r
      * and δx_c) and on every hinge or slide of its path (hinge_wrench or slide_wrench, by the edge
