@@ -61,7 +61,10 @@ class LinkedEvaluation(SeparateMatrices):
 
 def evaluate_linked(links, assembler, state, matrices: bool, load_factor: float, inertia: bool,
                     inertia_tangent: bool = False):
-    """The equations of motion on the minimum coordinates (module docstring)."""
+    """The equations of motion on the minimum coordinates (module docstring). The native model that
+    evaluates (with the inertia tangent's buffers where asked: building it replaces the one before) is
+    the one whose links :func:`reduce_linked` reads, so it is built before the links are completed."""
+    assembler.native(inertia_tangent)
     assembler.complete_links(state)
     full = assembler.evaluate_assembled(state, matrices, load_factor, inertia, inertia_tangent)
     return reduce_linked(links, assembler, state, full, matrices, inertia)
