@@ -203,8 +203,7 @@ def test_condensed_state_derivative_against_central_differences(h):
     finally:
         native.buffers["controller_half_step"][0] = 0.0
     # the evaluation's matrices carry the coupling on the hinge's row: K and C there are the static
-    # residual's derivatives by θ and θ̇ (the controller's torque −y alone; with the inertia forces the
-    # reduced K of this rigid link would miss m θ̇² r², tests/test_linked_tangent_terms.py)
+    # residual's derivatives by θ and θ̇ (the controller's torque −y alone)
     assert abs(K[d, d] - r_theta) < 1e-8 * abs(r_theta) and abs(r_theta) > 1.0
     assert abs(C[d, d] - r_rate) < 1e-8 * abs(r_rate) and abs(r_rate) > 1.0
     assert abs(exact[0] - by_angle) < 1e-8 * abs(by_angle)

@@ -65,21 +65,23 @@ def random_moving_state(prepared, seed):
     return state
 
 
-def compiled_iteration_matrix(assembler, state, beta_p, gamma_p):
-    """latdyn_iteration_matrix at ``state`` (csrc/links.c assemble_linked), dense, and the pattern."""
+def compiled_iteration_matrix(assembler, state, beta_p, gamma_p, exact: bool = False):
+    """latdyn_iteration_matrix at ``state`` (csrc/links.c assemble_linked), dense, and the pattern; ``exact``:
+    with the inertia tangent (the elements' and the dependent rates' terms)."""
     from latdyn.step.compiled import CompiledGeneralizedAlpha, matrix_pattern
     from latdyn.step.integrators import AlphaParameters
 
     n = assembler.model.n_dofs
     step = CompiledGeneralizedAlpha(assembler, AlphaParameters.for_method("generalized-alpha", 0.8), 1e-10, 25, 1.0)
+    step.inertia_tangent = exact
     step._setup()
     native, factorization = step._native, step.factorization
     rows, cols = matrix_pattern(assembler)
     native.complete_links(state)
-    native.evaluate(state, matrices=True, load_factor=1.0, inertia=True, inertia_tangent=False)
+    native.evaluate(state, matrices=True, load_factor=1.0, inertia=True, inertia_tangent=exact)
     factorization.values[:] = np.nan  # every entry of the pattern is written
     native.library.latdyn_iteration_matrix(native.model_ref, native.work_ref, ctypes.byref(native.configuration(state)),
-                                           beta_p, gamma_p, 0)
+                                           beta_p, gamma_p, int(exact))
     matrix = np.zeros((n, n))
     matrix[rows, cols] = factorization.values[factorization.position(rows, cols)]
     in_pattern = np.zeros((n, n), dtype=bool)
@@ -112,6 +114,19 @@ def test_compiled_iteration_matrix_of_cables_on_guided_and_linked_bodies(seed):
         matrix, in_pattern = compiled_iteration_matrix(assembler, state, beta_p, gamma_p)
         assert np.abs(expected[~in_pattern]).max(initial=0.0) == 0.0
         assert np.abs(matrix - expected).max() <= 1e-12 * np.abs(expected).max(), (beta_p, gamma_p)
+    # with the inertia tangent (solve.newton: exact, or after a Newton failure) the compiled matrix holds the
+    # dependent rates' term too, as the Python reduction with rates_term (the joint bodies' inertia
+    # stiffness, which only the Python exact K adds, left out of both here)
+    from latdyn.assembly.linked import reduce_linked
+
+    assembler.native(True)
+    assembler.complete_links(state)
+    full = assembler.evaluate_assembled(state, True, 1.0, True, True)
+    exact = reduce_linked(model.links, assembler, state, full, True, True, rates_term=True)
+    for beta_p, gamma_p in ((0.0, 0.0), (400.0, 20.0)):
+        expected = np.asarray(exact.combined(beta_p, gamma_p, 1.0, dense=True))
+        matrix, _ = compiled_iteration_matrix(assembler, state, beta_p, gamma_p, exact=True)
+        assert np.abs(matrix - expected).max() <= 1e-12 * np.abs(expected).max(), ("exact", beta_p, gamma_p)
     # the Python reduction against central differences of the reduced residual: C and M at the moving
     # state, K at rest in the same configuration (in motion the dependent nodes' rates J v and
     # accelerations J a + c(v) move with q too: tests/test_linked_rates.py)

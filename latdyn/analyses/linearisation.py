@@ -21,13 +21,13 @@ C = r_v + M B₁ holds the Coriolis (gyroscopic) terms of the frame, K the centr
 load stiffening and the inertia tangent.  r_q is the exact tangent of the generated kernels
 (:meth:`latdyn.assembly.assembler.Assembler.exact_matrices`: the elements' material, geometric,
 load, gravity and inertia tangents, the joint bodies' inertia tangent, the hinges' laws); with
-rigid links or guides, whose reduction onto the minimum coordinates has no exact tangent yet (it
-lacks the elements' and joint bodies' inertia tangents, and where a dependent node's frame moves with
-the coordinates the change of J v and J a + c(v) with q at fixed rates: a step-size study,
-tests/test_linked_tangent_terms.py), it is the material tangent (load factor 0, analytic) plus central differences of everything else
-(inertia, gravity, loads, hinge torques): the difference of two residuals at the same q leaves
-the elastic forces out exactly, so rigid-body modes stay at round-off; columns that no row of the
-block pattern shares are perturbed together (:func:`column_groups`).
+rigid links or guides (whose reduction is exact with ``inertia_tangent``,
+:func:`latdyn.assembly.linked.evaluate_linked`, the dependent rates' term included:
+tests/test_linked_tangent_terms.py; not used here yet), it is the material tangent (load factor 0,
+analytic) plus central differences of everything else (inertia, gravity, loads, hinge torques):
+the difference of two residuals at the same q leaves the elastic forces out exactly, so rigid-body
+modes stay at round-off; columns that no row of the block pattern shares are perturbed together
+(:func:`column_groups`).
 
 Directions without inertia are condensed statically as in the modal analysis about the
 initial configuration (Guyan, exact for them): with the joint-by-joint basis Q = [Q_m Q_c]

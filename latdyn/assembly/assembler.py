@@ -272,13 +272,7 @@ class Assembler:
         if not (inertia and len(model.body_nodes)):
             return M, C, K
         nodes = model.body_nodes
-        frames = np.ascontiguousarray(state.T[nodes].reshape(-1, 9))
-        motion = np.ascontiguousarray(np.concatenate([state.w[nodes], state.a[nodes], state.alpha[nodes]], axis=1))
-        section = np.ascontiguousarray(np.concatenate([model.body_mass[:, None], model.body_com,
-                                                       model.body_inertia.reshape(-1, 9)], axis=1))
-        gravity = np.repeat(load_factor * self.gravity[None], len(nodes), axis=0)
-        blocks = np.asarray(self.kernels.joint_body_inertia_stiffness(frames, motion, section, gravity)[0])
-        blocks = blocks.reshape(len(nodes), 6, 6)
+        blocks = self.joint_body_inertia_stiffness(state, load_factor)
         dofs = model.node_dofs[nodes]
         rows = np.broadcast_to(dofs[:, :, None], blocks.shape)
         cols = np.broadcast_to(dofs[:, None, :], blocks.shape)
@@ -292,6 +286,20 @@ class Assembler:
         else:
             np.add.at(K, (rows[free], cols[free]), blocks[free])
         return M, C, K
+
+    def joint_body_inertia_stiffness(self, state: State, load_factor: float = 1.0) -> np.ndarray:
+        """(bodies, 6, 6): each joint body's inertia stiffness at ``state`` (the generated
+        ``joint_body_inertia_stiffness``: its inertia forces' and weight's derivative by its node's
+        configuration, under gravity times ``load_factor``), which the time step's matrix leaves out."""
+        model = self.model
+        nodes = model.body_nodes
+        frames = np.ascontiguousarray(state.T[nodes].reshape(-1, 9))
+        motion = np.ascontiguousarray(np.concatenate([state.w[nodes], state.a[nodes], state.alpha[nodes]], axis=1))
+        section = np.ascontiguousarray(np.concatenate([model.body_mass[:, None], model.body_com,
+                                                       model.body_inertia.reshape(-1, 9)], axis=1))
+        gravity = np.repeat(load_factor * self.gravity[None], len(nodes), axis=0)
+        blocks = np.asarray(self.kernels.joint_body_inertia_stiffness(frames, motion, section, gravity)[0])
+        return blocks.reshape(len(nodes), 6, 6)
 
     def evaluate_assembled(self, state: State, matrices: bool, load_factor: float, inertia: bool,
                            inertia_tangent: bool = False) -> Evaluation:
