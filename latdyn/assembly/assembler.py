@@ -261,12 +261,13 @@ class Assembler:
         (linearisation, transient sensitivities): the evaluation with the elements' inertia tangent
         (``inertia_tangent``) plus the joint bodies' (the generated ``joint_body_inertia_stiffness``,
         under gravity times ``load_factor``), both of which the time step's Newton matrix leaves out.
-        Models without rigid links or guides only: their reduction's matrix is not exact (the
-        linearisation keeps differences there, :func:`latdyn.analyses.linearisation.tangent_q`)."""
+        With rigid links or guides, the reduction with them and the dependent rates' q-dependence
+        (:func:`latdyn.assembly.linked.evaluate_linked` with ``inertia_tangent``)."""
         model = self.model
-        if model.links is not None:
-            raise ValueError("exact_matrices: the reduction onto minimum coordinates of rigid links and guides "
-                             "has no exact tangent here")
+        if model.links is not None:  # the static residual's dampers move with the dependent rates too
+            ev = evaluate_linked(model.links, self, state, True, load_factor, inertia, inertia_tangent=inertia,
+                                 rates_term=True)
+            return tuple(ev.combined(*c, dense=dense) for c in ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)))
         ev = self.evaluate(state, matrices=True, load_factor=load_factor, inertia=inertia, inertia_tangent=inertia)
         M, C, K = (ev.combined(*c, dense=dense) for c in ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)))
         if not (inertia and len(model.body_nodes)):

@@ -75,10 +75,12 @@ class LinkedEvaluation(SeparateMatrices):
 
 
 def evaluate_linked(links, assembler, state, matrices: bool, load_factor: float, inertia: bool,
-                    inertia_tangent: bool = False):
+                    inertia_tangent: bool = False, rates_term: bool | None = None):
     """The equations of motion on the minimum coordinates (module docstring); ``inertia_tangent``: K with
     the elements' inertia tangent and the joint bodies' inertia stiffness (the exact ∂r/∂q with the
-    dependent rates' term). The native model that evaluates (with the inertia tangent's buffers where
+    dependent rates' term; ``rates_term`` that term alone, default with ``inertia_tangent``: without
+    inertia its velocity part, the velocity-dependent forces at the dependent nodes, a cable's damper).
+    The native model that evaluates (with the inertia tangent's buffers where
     asked: building it replaces the one before) is the one whose links :func:`reduce_linked` reads, so
     it is built before the links are completed."""
     assembler.native(inertia_tangent)
@@ -90,7 +92,8 @@ def evaluate_linked(links, assembler, state, matrices: bool, load_factor: float,
         stiffness = list(full.blocks["stiffness"])
         stiffness[1] = stiffness[1] + assembler.joint_body_inertia_stiffness(state, load_factor)
         full.blocks = {**full.blocks, "stiffness": tuple(stiffness)}
-    return reduce_linked(links, assembler, state, full, matrices, inertia, rates_term=inertia_tangent)
+    rates_term = inertia_tangent if rates_term is None else rates_term
+    return reduce_linked(links, assembler, state, full, matrices, inertia, rates_term=rates_term)
 
 
 def reduce_linked(links, assembler, state, full, matrices: bool, inertia: bool,
@@ -99,9 +102,9 @@ def reduce_linked(links, assembler, state, full, matrices: bool, inertia: bool,
     dependent nodes completed by the caller, J and ∂c/∂v of this state in the native links' buffers), reduced onto the minimum coordinates (module docstring). J and ∂c/∂v
     are those of the compiled step (the generated edge kernels composed along the tree in C,
     :meth:`latdyn.assembly.native_model.NativeModel.complete_links`), the geometric stiffness the
-    generated wrench kernels' (:func:`geometric_stiffness`); with ``rates_term`` (and inertia) K also holds
-    the dependent rates' q-dependence, Pᵀ(C_·dep ∂(J v)/∂q + M_·dep ∂(J a + c)/∂q) (module docstring),
-    which, like the inertia tangent, the time step's Newton matrix holds only with it."""
+    generated wrench kernels' (:func:`geometric_stiffness`); with ``rates_term`` K also holds the
+    dependent rates' q-dependence, Pᵀ(C_·dep ∂(J v)/∂q + M_·dep ∂(J a + c)/∂q) (module docstring; without
+    inertia M is zero), which, like the inertia tangent, the time step's Newton matrix holds only with it."""
     model = assembler.model
     n, n_asm, n_total = model.n_dofs, model.n_assembled, model.n_total
     native = assembler.native().links
@@ -150,7 +153,7 @@ def reduce_linked(links, assembler, state, full, matrices: bool, inertia: bool,
                 shape=(6 * n_dep, n))
         out.projection = P
         out.geometric = geometric_stiffness(links, assembler, state, native, r_dep, small)
-        if inertia and rates_term:
+        if rates_term:
             out.rates_tangent = _rates_tangent(assembler, state, native, links, columns, free_cols, small)
         out.velocity_derivative = velocity_derivative
         out.dependent_rows = dep_rows
