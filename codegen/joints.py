@@ -643,26 +643,43 @@ def _link_edge_kernel(prismatic: bool = False) -> KernelSpec:
                       equations="Eqs. 2, 4, 17 (a rigid link's motion through its hinges)")
 
 
-def _slide_rates_kernel() -> KernelSpec:
-    """∂(v_c, ω_c, a_c, ω̇_c)/∂(δx_p, δπ_p, δs) of a guided body at fixed parent rates (v_p, ω_p, a_p, ω̇_p: the
-    parent node's coordinate rates) and slide rates (ṡ, s̈): the derivatives by the coordinates of the
-    dependent node's velocities and accelerations (Coriolis, centrifugal, the parent's rates carried to the
-    moved point), which the reduction's K leaves out and the exact matrix of the transient sensitivities adds
-    (latdyn/analyses/transient_sensitivities.py ``_guided_matrices``)."""
-    parent, edge = LINK_PARENT.symbols(), LINK_EDGE.symbols()
-    delta = sp.Matrix(sp.symbols("delta_0:7"))  # δx_p, δπ_p, δs
+def _rates_D_q(rates: sp.Matrix, parent, theta) -> sp.Matrix:
+    """∂(v_c, w_c, a_c, alpha_c)/∂(δx_p, δπ_p, δθ) (12 × 7) at fixed parent rates and hinge rates: the
+    child's rates moved with the parent's configuration (δπ_p a spatial turn of T_p) and the edge's
+    coordinate θ (None: a closure edge, no coordinate; its column zero)."""
+    delta = sp.Matrix(sp.symbols("delta_0:7"))
     zero = {d: 0 for d in delta}
-    moved_parent = (list(_vector(parent[0:3]) + delta[0:3, :]) + list(_turned(_matrix(parent[3:12]), delta[3:6, :]))
-                    + list(parent[12:24]))
-    moved_edge = list(edge[0:10]) + [edge[10] + delta[6]] + list(edge[11:13])
-    _, _, v_c, w_c, a_c, alpha_c = link_edge(moved_parent, moved_edge, prismatic=True)
+    moved = {**{parent[k]: parent[k] + delta[k] for k in range(3)},
+             **dict(zip(parent[3:12], _turned(_matrix(parent[3:12]), delta[3:6, :])))}
+    if theta is not None:
+        moved[theta] = theta + delta[6]
+    return _jacobian(rates.xreplace(moved), delta, zero)
+
+
+def _rates_D_q_kernel(kind: str) -> KernelSpec:
+    """``{kind}_rates_D_q``: the q-dependence of a dependent node's rates at fixed independent rates, the
+    edge's factor of it (csrc/links.c composes it along the tree into ∂(rates)/∂q of every slot, whose
+    products with the damping and mass blocks at the dependent coordinates are a part of the reduced K)."""
+    parent = LINK_PARENT.symbols()
+    if kind in ("rigid_link_edge", "prismatic_link_edge"):
+        edge = LINK_EDGE.symbols()
+        _, _, v_c, w_c, a_c, alpha_c = link_edge(parent, edge, prismatic=kind == "prismatic_link_edge")
+        theta = edge[10]
+        inputs = [LINK_PARENT, LINK_EDGE]
+    else:
+        edge = CLOSURE_EDGE.symbols()
+        _, _, v_c, w_c, a_c, alpha_c = closure_edge(parent, edge, rod=kind == "rod_closure_edge")
+        theta = None
+        inputs = [LINK_PARENT, CLOSURE_EDGE]
     rates = sp.Matrix.vstack(v_c, w_c, a_c, alpha_c)
-    outputs = [Output("slide_rates_D_q", (12, 7), _rows(_jacobian(rates, delta, zero)),
-                      "∂(v_c, w_c, a_c, alpha_c)/∂(δx_p, δπ_p, δs) at fixed parent and slide rates (spatial update)")]
-    return KernelSpec(name="prismatic_link_rates_D_q", doc="The derivatives of a guided body's velocities and "
-                      "accelerations by its parent's configuration and its slide, at fixed rates (the exact tangent "
-                      "of the reduction onto a guide's slide)", inputs=[LINK_PARENT, LINK_EDGE], outputs=outputs,
-                      variant="joints", equations="Eq. 2 (a point of the parent), the slide along an axis fixed in it")
+    outputs = [Output("child_rates_D_q", (12, 7), _rows(_rates_D_q(rates, parent, theta)),
+                      "∂(v_c, w_c, a_c, alpha_c)/∂(δx_p, δπ_p, δθ) at fixed parent rates and θ̇, θ̈ (δπ_p spatial; "
+                      "the δθ column zero on a closure edge)")]
+    return KernelSpec(name=f"{kind}_rates_D_q", doc=f"The rates of {kind}'s child moved with the parent's "
+                      "configuration and the edge's coordinate at fixed rates: the edge's factor of the dependent "
+                      "rates' q-dependence in the reduced stiffness", inputs=inputs, outputs=outputs,
+                      variant="joints", equations="the reduction onto minimum coordinates: K_min holds "
+                      "Pᵀ(C ∂(J v)/∂q + M ∂(J a + c)/∂q) at the dependent coordinates")
 
 
 WRENCH_PARENT = Argument("parent", 12, "x[3] T[9]: the position and frame (row-major) of the node the hinge's "
@@ -836,4 +853,6 @@ def build_kernels() -> list[KernelSpec]:
             _contact_law_derivative_kernel(), _so3_exp_kernel(), _link_edge_kernel(), _hinge_wrench_kernel(), _root_wrench_kernel(),
             _link_edge_kernel(prismatic=True), _slide_wrench_kernel(), _cable_force_kernel(),
             _closure_edge_kernel(rod=False), _closure_edge_kernel(rod=True), _closure_wrench_kernel(rod=False),
-            _closure_wrench_kernel(rod=True), _slide_rates_kernel()]
+            _closure_wrench_kernel(rod=True),
+            *(_rates_D_q_kernel(kind) for kind in ("rigid_link_edge", "prismatic_link_edge", "slider_closure_edge",
+                                                   "rod_closure_edge"))]

@@ -350,9 +350,9 @@ output:
     completed, out = latdyn_run(tmp_path, text, quiet=True)
     assert completed.returncode == 0, completed.stderr
     summary, probes = summary_of(out), probe_columns(out)
-    assert summary["energy_balance_error"] < 1e-5  # measured 8.9e-8
+    assert summary["energy_balance_error"] < 1e-6  # measured 8.9e-8
     gained = probes["E"][-1] - probes["E"][0]
-    assert gained == pytest.approx(probes["W"][-1] - probes["D"][-1], rel=1e-5)
+    assert gained == pytest.approx(probes["W"][-1] - probes["D"][-1], rel=7e-8)  # measured 6.6e-9
     assert gained > 6.0 and probes["D"][-1] > 0.1
     assert probes["y"][-1] == pytest.approx(-0.7 * (1 + 2.0 * (9.81 + 0.6) / 2000.0), abs=3e-3)
     assert summary["events"] == [] and summary["cable_events"] == []

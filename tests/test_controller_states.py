@@ -182,17 +182,30 @@ def test_condensed_state_derivative_against_central_differences(h):
         assembler.evaluate(s, matrices=False)
         return scene.controller_outputs.values[slot]
 
+    d = int(prepared.model.hinge_dofs[0])
+
+    def residual(theta, rate):  # the hinge's row of the static residual: the controller's torque −y
+        s = state.copy()
+        s.theta[0], s.theta_dot[0] = theta, rate
+        return assembler.evaluate(s, matrices=False, inertia=False).residual[d]
+
     try:
-        ev = assembler.evaluate(state, matrices=True)
+        ev = assembler.evaluate(state, matrices=True, inertia=False)
+        K, C = (np.asarray(ev.combined(*c, dense=True)) for c in ((0.0, 0.0, 1.0), (0.0, 1.0, 0.0)))
         kinds = assembler.control.sensor_kind[assembler.control.coupling_sensor]
         coupling = native.buffers["coupling_stiffness"] + native.buffers["coupling_damping"]
         exact = {int(kind): -float(value) for kind, value in zip(kinds, coupling)}  # g = −1 on a hinge
         e = 1e-6
         by_angle = (output(0.4 + e, -0.7) - output(0.4 - e, -0.7)) / (2 * e)
         by_rate = (output(0.4, -0.7 + e) - output(0.4, -0.7 - e)) / (2 * e)
+        r_theta = (residual(0.4 + e, -0.7) - residual(0.4 - e, -0.7)) / (2 * e)
+        r_rate = (residual(0.4, -0.7 + e) - residual(0.4, -0.7 - e)) / (2 * e)
     finally:
         native.buffers["controller_half_step"][0] = 0.0
-    assert ev is not None
+    # the evaluation's matrices carry the coupling on the hinge's row: K and C there are the static
+    # residual's derivatives by θ and θ̇ (the controller's torque −y alone)
+    assert abs(K[d, d] - r_theta) < 1e-8 * abs(r_theta) and abs(r_theta) > 1.0
+    assert abs(C[d, d] - r_rate) < 1e-8 * abs(r_rate) and abs(r_rate) > 1.0
     assert abs(exact[0] - by_angle) < 1e-8 * abs(by_angle)
     assert abs(exact[1] - by_rate) < 1e-8 * abs(by_rate)
     if h == 0.0:  # the partials of the generated law at S = 0.3

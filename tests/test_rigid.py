@@ -446,9 +446,10 @@ def test_prescribed_root_energy_balance_and_latch():
 
 
 def test_linked_tangent_from_coloured_columns_equals_column_by_column(monkeypatch):
-    """r_q of a model with a rigid link (linearisation.tangent_q: the analytic material tangent plus
-    central differences of the rest) from columns perturbed together, coloured on the reduced
-    pattern Pᵀ A P, equals the one taken column by column: the pattern bounds the dependence."""
+    """r_q of a model with a rigid link by differences (linearisation.tangent_q_by_differences: the
+    analytic material tangent plus central differences of the rest) from columns perturbed together,
+    coloured on the reduced pattern Pᵀ A P, equals the one taken column by column: the pattern bounds
+    the dependence; and the exact r_q (tangent_q) equals them to the differences' error."""
     from latdyn.analyses import linearisation
     from latdyn.assembly.prepare import prepare
 
@@ -460,7 +461,9 @@ def test_linked_tangent_from_coloured_columns_equals_column_by_column(monkeypatc
     state.alpha[:] = [1.0, 0.2, -0.4]
     groups = linearisation.column_groups(a)
     assert groups is not None and len(groups) < a.model.n_dofs / 2
-    coloured = linearisation.tangent_q(a, state)
+    coloured = linearisation.tangent_q_by_differences(a, state)
+    exact = linearisation.tangent_q(a, state)
+    assert np.max(np.abs(coloured - exact)) <= 1e-8 * np.max(np.abs(exact))
     monkeypatch.setattr(linearisation, "column_groups", lambda assembler: None)
-    alone = linearisation.tangent_q(a, state)
+    alone = linearisation.tangent_q_by_differences(a, state)
     assert np.max(np.abs(coloured - alone)) <= 1e-8 * np.max(np.abs(alone))

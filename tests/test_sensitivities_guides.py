@@ -123,7 +123,7 @@ def test_a_3d_guide_latching_or_hitting_its_stop_on_a_flexible_arm_agrees_with_r
 
 @pytest.mark.parametrize("backend", ["numpy", "c"])
 def test_the_guided_bodys_rates_derivative_kernel_against_central_differences(backend):
-    """prismatic_link_rates_D_q: ∂(v_c, ω_c, a_c, ω̇_c)/∂(δx_p, δπ_p, δs) of prismatic_link_edge's child_rates at
+    """prismatic_link_edge_rates_D_q: ∂(v_c, ω_c, a_c, ω̇_c)/∂(δx_p, δπ_p, δs) of prismatic_link_edge's child_rates at
     fixed parent and slide rates, the parent's frame turned as the configuration update turns it
     (T ← exp(skew δπ) T), against central differences, random parents and edges (1e-7)."""
     from latdyn.model.kernels import load_kernels
@@ -137,7 +137,7 @@ def test_the_guided_bodys_rates_derivative_kernel_against_central_differences(ba
         axis = rng.normal(size=3)
         edge = np.concatenate([axis / np.linalg.norm(axis), rng.normal(size=3), rng.normal(size=3), [1.0],
                                rng.normal(size=3)])
-        D = np.asarray(kernels.prismatic_link_rates_D_q(parent[None], edge[None])[0]).reshape(12, 7)
+        D = np.asarray(kernels.prismatic_link_edge_rates_D_q(parent[None], edge[None])[0]).reshape(12, 7)
 
         def rates(k, h):
             p, e = parent.copy(), edge.copy()
@@ -156,8 +156,9 @@ def test_the_guided_bodys_rates_derivative_kernel_against_central_differences(ba
 @pytest.mark.parametrize("text", [BEAD, GUIDE_3D], ids=["bead", "guide_3d"])
 def test_the_step_matrix_of_guided_bodies_is_the_exact_derivative_of_the_residual(text):
     """At random moving states (configuration, rates and accelerations drawn at random) the sensitivities'
-    M, C and K of a guided model (TransientSensitivities._guided_matrices: the reduction's M and C, K with
-    the inertia tangents and the guided bodies' rates' derivatives of prismatic_link_rates_D_q) against
+    M, C and K of a guided model (TransientSensitivities._matrices, i.e. Assembler.exact_matrices: the reduction's
+    M and C, K with the inertia tangents and the dependent rates' q-dependence composed from the generated
+    *_rates_D_q kernels) against
     central differences of the residual by the accelerations, the rates and the configuration (measured:
     K 2.0e-12 bead, 4.8e-12 3D, of max|K|; M, C ≤ 1e-9: the residual is linear in v̇ and quadratic in v, so the
     differences take a step of 0.1). The reduction's own K misses the centrifugal
@@ -174,7 +175,7 @@ def test_the_step_matrix_of_guided_bodies_is_the_exact_derivative_of_the_residua
     unpack_free(model, rng.standard_normal(n), state.v, state.w, state.theta_dot)
     unpack_free(model, rng.standard_normal(n), state.a, state.alpha, state.theta_ddot)
     assembler.complete_links(state)
-    M, C, K = TransientSensitivities(prepared)._guided_matrices(state)
+    M, C, K = TransientSensitivities(prepared)._matrices(state)
     reduction = np.asarray(assembler.evaluate(state, matrices=True).combined(0.0, 0.0, 1.0, dense=True))
 
     def residual(rates, accelerations):

@@ -20,12 +20,14 @@ gyroscopic ∂g/∂q̇ of the kernels) and M = ∂r/∂v̇,
 C = r_v + M B₁ holds the Coriolis (gyroscopic) terms of the frame, K the centrifugal and
 load stiffening and the inertia tangent.  r_q is the exact tangent of the generated kernels
 (:meth:`latdyn.assembly.assembler.Assembler.exact_matrices`: the elements' material, geometric,
-load, gravity and inertia tangents, the joint bodies' inertia tangent, the hinges' laws); with
-rigid links or guides, whose reduction onto the minimum coordinates has no exact tangent yet, it is
-the material tangent (load factor 0, analytic) plus central differences of everything else
-(inertia, gravity, loads, hinge torques): the difference of two residuals at the same q leaves
-the elastic forces out exactly, so rigid-body modes stay at round-off; columns that no row of the
-block pattern shares are perturbed together (:func:`column_groups`).
+load, gravity and inertia tangents, the joint bodies' inertia tangent, the hinges' laws; with
+rigid links or guides their reduction with the dependent rates' q-dependence,
+:func:`latdyn.assembly.linked.evaluate_linked`, tests/test_linked_tangent_terms.py). Its check,
+:func:`tangent_q_by_differences`, is the material tangent (load factor 0, analytic) plus central
+differences of everything else (inertia, gravity, loads, hinge torques): the difference of two
+residuals at the same q leaves the elastic forces out exactly, so rigid-body modes stay at
+round-off; columns that no row of the block pattern shares are perturbed together
+(:func:`column_groups`).
 
 Directions without inertia are condensed statically as in the modal analysis about the
 initial configuration (Guyan, exact for them): with the joint-by-joint basis Q = [Q_m Q_c]
@@ -163,19 +165,15 @@ def column_groups(assembler) -> list[np.ndarray] | None:
 def tangent_q(assembler, state, load_factor: float = 1.0, inertia: bool = True) -> np.ndarray:
     """r_q = ∂r/∂q at fixed velocities and accelerations (dense): the exact matrix of the generated
     kernels (:meth:`latdyn.assembly.assembler.Assembler.exact_matrices`: the tangent with the
-    elements' and the joint bodies' inertia tangents) — with rigid links or guides, whose reduction
-    has no exact tangent yet, the analytic material tangent at load factor 0 plus central
-    differences of the rest of the residual (module docstring), the columns of one
-    :func:`column_groups` group from one pair of perturbations."""
-    model = assembler.model
-    if model.links is None:
-        return np.asarray(assembler.exact_matrices(state, load_factor, inertia, dense=True)[2], dtype=float)
-    return tangent_q_by_differences(assembler, state, load_factor, inertia)
+    elements' and the joint bodies' inertia tangents; with rigid links or guides, reduced with the
+    dependent rates' q-dependence)."""
+    return np.asarray(assembler.exact_matrices(state, load_factor, inertia, dense=True)[2], dtype=float)
 
 
 def tangent_q_by_differences(assembler, state, load_factor: float = 1.0, inertia: bool = True) -> np.ndarray:
-    """r_q as the material tangent at load factor 0 plus central differences of the rest of the residual
-    (module docstring): the models with rigid links or guides, and the check of the exact one."""
+    """r_q as the material tangent at load factor 0 plus central differences of the rest of the residual,
+    the columns of one :func:`column_groups` group from one pair of perturbations: the check of the
+    exact one (:func:`tangent_q`)."""
     model = assembler.model
     n = model.n_dofs
     material = assembler.evaluate(state, matrices=True, load_factor=0.0, inertia=False).combined(

@@ -285,23 +285,38 @@ def _input_forces(model, state, inputs, assembler=None) -> np.ndarray:
             point = load.at
             f = np.array([g.value(state.t) for g in load.force]) if load.force else np.zeros(3)
             mo = np.array([g.value(state.t) for g in load.moment]) if load.moment else np.zeros(3)
-            if load.frame != "global":
-                R = state.T[model.body_node[load.frame]]
-                f, mo = R @ f, R @ mo
+            f, mo = _load_axes(model, state, load, f, mo)
         else:
             point, axis = ref
             f, mo = np.zeros(3), np.zeros(3)
             (f if kind == "force" else mo)[axis] = 1.0
-        node, r = model.point(point)
-        if model.links is not None and node in set(model.links.dependent):
-            F[:model.n_dofs, j] += _dependent_input_force(model, assembler, state, node, r, f, mo)
-        elif node in set(model.free_nodes.tolist()):
-            F[model.node_dofs[node], j] += _node_wrench(assembler, state, node, r, f, mo)
-        else:
-            raise SceneError(scene.file, "solve.linear_model.inputs",
-                             f"expected an input at a point that moves; {model.nodes[node].name} "
-                             "is fixed or prescribed")
+        F[:, j] += _point_force(model, assembler, state, point, f, mo, "solve.linear_model.inputs",
+                                "expected an input at a point that moves")
     return F[:model.n_dofs]
+
+
+def _load_axes(model, state, load, f, mo):
+    """A load's force and moment components in global axes (``frame``: a body's axes at the state)."""
+    if load.frame == "global":
+        return f, mo
+    R = state.T[model.body_node[load.frame]]
+    return R @ f, R @ mo
+
+
+def _point_force(model, assembler, state, point, f, mo, key: str, expected: str) -> np.ndarray:
+    """The generalized force (n_total + 1) of a force ``f`` (global) at the scene point ``point`` and a
+    moment ``mo``: the generated point_load kernel's wrench on the point's node, through Jᵀ of the
+    links' map where the node follows rigid links or a guide; refused (``key``, ``expected``) at a
+    fixed or prescribed point."""
+    F = np.zeros(model.n_total + 1)
+    node, r = model.point(point)
+    if model.links is not None and node in set(model.links.dependent):
+        F[:model.n_dofs] += _dependent_input_force(model, assembler, state, node, r, f, mo)
+    elif node in set(model.free_nodes.tolist()):
+        F[model.node_dofs[node]] += _node_wrench(assembler, state, node, r, f, mo)
+    else:
+        raise SceneError(model.scene.file, key, f"{expected}; {model.nodes[node].name} is fixed or prescribed")
+    return F
 
 
 def _node_wrench(assembler, state, node, r, f, mo) -> np.ndarray:
@@ -379,17 +394,8 @@ def _scene_input_force(model, assembler, state, name: str, j: int) -> np.ndarray
             continue
         f, mo = np.zeros(3), np.zeros(3)
         (f if c < 3 else mo)[c % 3] = derivative
-        if load.frame != "global":
-            R = state.T[model.body_node[load.frame]]
-            f, mo = R @ f, R @ mo
-        node, r = model.point(load.at)
-        if model.links is not None and node in set(model.links.dependent):
-            F[:model.n_dofs] += _dependent_input_force(model, assembler, state, node, r, f, mo)
-        elif node in set(model.free_nodes.tolist()):
-            F[model.node_dofs[node]] += _node_wrench(assembler, state, node, r, f, mo)
-        else:
-            raise SceneError(scene.file, key, f"expected an input of loads at points that move; "
-                                              f"{model.nodes[node].name} is fixed or prescribed")
+        f, mo = _load_axes(model, state, load, f, mo)
+        F += _point_force(model, assembler, state, load.at, f, mo, key, "expected an input of loads at points that move")
     for k in range(len(model.hinges)):
         F[model.hinge_dofs[k]] += gains.get(("hinge", k, 0), 0.0)
     F[model.n_total] = 0.0  # the dummy of constrained coordinates
@@ -437,30 +443,31 @@ def _controller_input_gains(model, assembler, state, u, values) -> dict:
     return gains
 
 
-def _actuator_force(model, state, name: str, gain: float) -> np.ndarray:
-    """The generalized force (n_total + 1) of the actuators of the continuous controller ``name`` (hinge
-    torques and load components that name it alone: latdyn.assembly.control) at the output ``gain``."""
-    scene = model.scene
+def _actuator_force(model, assembler, state, name: str, gain: float) -> np.ndarray:
+    """The generalized force (n_total + 1) of the actuators of the continuous controller ``name`` at the
+    output ``gain``: the hinge torques, guide forces and load components that the model's wiring
+    (:func:`latdyn.assembly.control.wiring`, ``assembler.control``) drives by it, each ∂τ/∂y times the
+    output (1 for the name alone); a load through :func:`_point_force`, the inputs' point path (the
+    generated point_load kernel; Jᵀ of the links' map at a node that follows rigid links or a guide)."""
+    control = assembler.control
+    k = [c.name for c in control.controllers].index(name)
     F = np.zeros(model.n_total + 1)
-    for k, h in enumerate(model.hinges):
-        a = actuator_gain(h.torque, name)  # ∂τ/∂y: 1 for the name alone
-        if a is not None:
-            F[model.hinge_dofs[k]] += a * gain
-    for load in scene.loads:
-        for offset, laws in ((0, load.force), (3, load.moment)):
-            for p, law in enumerate(laws or ()):
-                a = actuator_gain(law, name)
-                if a is None:
-                    continue
-                f, mo = np.zeros(3), np.zeros(3)
-                (f if offset == 0 else mo)[p] = a * gain
-                if load.frame != "global":
-                    R = state.T[model.body_node[load.frame]]
-                    f, mo = R @ f, R @ mo
-                node, r = model.point(load.at)
-                d = model.node_dofs[node]
-                F[d[:3]] += f
-                F[d[3:]] += np.cross(state.T[node] @ r, f) + mo
+    for kind, index, component, controller, a in zip(control.actuator_kind, control.actuator_index,
+                                                      control.actuator_component, control.actuator_controller,
+                                                      control.actuator_gain):
+        if controller != k:
+            continue
+        alone = (control.hinge_controller[index] if kind == 0 else control.load_controller[index, component]) == k
+        value = (1.0 if alone else float(a)) * gain  # ∂τ/∂y (the wiring's 0 marks the name alone) times y
+        if kind == 0:
+            F[model.hinge_dofs[index]] += value
+            continue
+        load = assembler.loads[index]
+        f, mo = np.zeros(3), np.zeros(3)
+        (f if component < 3 else mo)[component % 3] = value
+        f, mo = _load_axes(model, state, load, f, mo)
+        F += _point_force(model, assembler, state, load.at, f, mo, f"controllers.{name}",
+                          "expected a controller's load at a point that moves")
     F[model.n_total] = 0.0
     return F
 
@@ -511,7 +518,7 @@ def controller_states(lin: Linearisation, input_names=()) -> ControllerStates | 
         for j, (s, f) in enumerate(zip(c.states, c.state_exprs)):
             dy = float(sp.diff(c.output_expr, symbol[s]).evalf(subs=at)) if held else 0.0
             gains[c.name][first + j] = dy
-            force[:, first + j] = _actuator_force(model, state, c.name, dy)[:model.n_dofs]
+            force[:, first + j] = _actuator_force(model, lin.assembler, state, c.name, dy)[:model.n_dofs]
             for i, sensor in enumerate(sensors):
                 if sensor in symbol:
                     by_sensor[first + j, i] = float(sp.diff(f, symbol[sensor]).evalf(subs=at))

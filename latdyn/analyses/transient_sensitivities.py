@@ -61,7 +61,7 @@ Cables (:class:`CableSensitivities`): their EA, damping and rest length from the
 their slack/taut changes as events landed on exactly, the event time differentiated from the gap's
 gradients (no jump: the discrete run neither jumps nor restarts there). Guides: a guide's laws as a
 hinge's on its slide, ∂r/∂p reduced by the projection Pᵀ, the step's K exact with the guided bodies' rates'
-derivatives (:meth:`TransientSensitivities._guided_matrices`: the reduction's own K is not exact); their
+derivatives (:meth:`latdyn.assembly.assembler.Assembler.exact_matrices`: the reduction's own K is not exact); their
 latches and stops as the hinges', the impulse weight's dependence on the rates followed.
 docs/parameters.md, "Cables" and "Guides".
 
@@ -536,68 +536,9 @@ class TransientSensitivities(ParameterDerivatives):
     def _matrices(self, state):
         """M, C and the exact K at ``state`` (:meth:`latdyn.assembly.assembler.Assembler.exact_matrices`:
         the elements' inertia tangent and the joint bodies' ``joint_body_inertia_stiffness``, which the
-        step's Newton matrix leaves out); with guides (:meth:`_guided_matrices`) the reduction's."""
-        if self.model.links is not None:
-            return self._guided_matrices(state)
+        step's Newton matrix leaves out; with guides the reduction's, with the dependent rates'
+        q-dependence composed along the tree from the generated ``*_rates_D_q`` kernels)."""
         return self.assembler.exact_matrices(state)
-
-    def _guided_matrices(self, state):
-        """M, C, K on the minimum coordinates of a model with guides (latdyn/assembly/linked.py): M = PᵀMP and
-        C = Pᵀ(CP + M_·dep ∂c/∂v) of the reduction are exact; its K = PᵀKP + ∂Pᵀ/∂q·r_all leaves out the
-        inertia tangents and the derivatives by the coordinates of the guided bodies' velocities and
-        accelerations (Coriolis, centrifugal), which :meth:`_guided_tangent` adds from generated kernels.
-        A guide on a body that is itself dependent (on another guide) takes K as r_q of
-        :func:`latdyn.analyses.linearisation.tangent_q_by_differences` instead (the material tangent exact,
-        the rest of the residual by central differences; docs/parameters.md, "Guides")."""
-        links = self.model.links
-        ev = self.assembler.evaluate(state, matrices=True, inertia_tangent=True)
-        M, C = ev.combined(1.0, 0.0, 0.0, dense=True), ev.combined(0.0, 1.0, 0.0, dense=True)
-        if all(e.prismatic and e.parent not in links.edge_of for e in links.edges):
-            return M, C, self._guided_tangent(state, ev)
-        from latdyn.analyses.linearisation import tangent_q_by_differences
-
-        return M, C, tangent_q_by_differences(self.assembler, state)
-
-    def _guided_tangent(self, state, ev) -> np.ndarray:
-        """The exact r_q (n, n) of a model whose dependent nodes are guided bodies on independent parents:
-
-            K = Pᵀ(K_all + B)P + ∂Pᵀ/∂q·r_all + Pᵀ(C_all,·dep D_v + M_all,·dep D_a)
-
-        with K_all the evaluation's tangent with the elements' inertia tangent (``ev``), B the joint bodies'
-        ``joint_body_inertia_stiffness`` on all coordinates (the guided bodies' among them), and D_v, D_a the
-        derivatives of each guided body's velocities and accelerations by its parent's configuration and its
-        slide at fixed rates (the generated ``prismatic_link_rates_D_q``)."""
-        model, kernels = self.model, self.kernels
-        n, n_asm = model.n_dofs, model.n_assembled
-        P = np.asarray(ev.projection.toarray() if hasattr(ev.projection, "toarray") else ev.projection)
-        dense = lambda a: np.asarray(a.toarray() if hasattr(a, "toarray") else a)  # noqa: E731
-        K = dense(ev.combined(0.0, 0.0, 1.0, dense=True))
-        M_all, C_all = dense(ev._assembled(1.0, 0.0, 0.0, True)), dense(ev._assembled(0.0, 1.0, 0.0, True))
-        B = np.zeros((n_asm + 1, n_asm + 1))
-        if len(model.body_nodes):
-            nodes = model.body_nodes
-            frames = np.ascontiguousarray(state.T[nodes].reshape(-1, 9))
-            motion = np.ascontiguousarray(np.concatenate([state.w[nodes], state.a[nodes], state.alpha[nodes]], axis=1))
-            section = np.ascontiguousarray(np.concatenate([model.body_mass[:, None], model.body_com,
-                                                           model.body_inertia.reshape(-1, 9)], axis=1))
-            gravity = np.repeat(np.asarray(self.assembler.gravity, float)[None], len(nodes), axis=0)
-            blocks = np.asarray(kernels.joint_body_inertia_stiffness(frames, motion, section, gravity)[0])
-            dofs = np.where((model.node_dofs[nodes] >= 0) & (model.node_dofs[nodes] < n_asm), model.node_dofs[nodes], n_asm)
-            np.add.at(B, (dofs[:, :, None], dofs[:, None, :]), blocks.reshape(len(nodes), 6, 6))
-        K = K + P.T @ B[:n_asm, :n_asm] @ P
-        moved = np.zeros((n_asm, n))     # C_all,·dep D_v + M_all,·dep D_a
-        for e in model.links.edges:
-            parent = np.concatenate([state.x[e.parent], state.T[e.parent].ravel(), state.v[e.parent], state.w[e.parent],
-                                     state.a[e.parent], state.alpha[e.parent]])
-            h = e.hinge
-            edge = np.concatenate([e.axis if h >= 0 else np.zeros(3), e.point, e.arm, [e.sign if h >= 0 else 0.0],
-                                   [state.theta[h], state.theta_dot[h], state.theta_ddot[h]] if h >= 0 else np.zeros(3)])
-            D = np.asarray(kernels.prismatic_link_rates_D_q(parent[None], edge[None])[0]).reshape(12, 7)
-            columns = np.concatenate([model.node_dofs[e.parent], [model.hinge_dofs[h] if h >= 0 else -1]])
-            free = (columns >= 0) & (columns < n)
-            rows = model.node_dofs[e.child]
-            moved[:, columns[free]] += C_all[:, rows] @ D[:6, free] + M_all[:, rows] @ D[6:, free]
-        return K + P.T @ moved
 
     def _dependent_motion(self, state, dq: np.ndarray, dx: np.ndarray, dpi: np.ndarray) -> None:
         """(δx, δπ) of the dependent nodes (guided bodies) into ``dx``, ``dpi``: P δq on their rows (the

@@ -261,24 +261,19 @@ class Assembler:
         (linearisation, transient sensitivities): the evaluation with the elements' inertia tangent
         (``inertia_tangent``) plus the joint bodies' (the generated ``joint_body_inertia_stiffness``,
         under gravity times ``load_factor``), both of which the time step's Newton matrix leaves out.
-        Models without rigid links or guides only: their reduction's matrix is not exact (the
-        linearisation keeps differences there, :func:`latdyn.analyses.linearisation.tangent_q`)."""
+        With rigid links or guides, the reduction with them and the dependent rates' q-dependence
+        (:func:`latdyn.assembly.linked.evaluate_linked` with ``inertia_tangent``)."""
         model = self.model
-        if model.links is not None:
-            raise ValueError("exact_matrices: the reduction onto minimum coordinates of rigid links and guides "
-                             "has no exact tangent here")
+        if model.links is not None:  # the static residual's dampers move with the dependent rates too
+            ev = evaluate_linked(model.links, self, state, True, load_factor, inertia, inertia_tangent=inertia,
+                                 rates_term=True)
+            return tuple(ev.combined(*c, dense=dense) for c in ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)))
         ev = self.evaluate(state, matrices=True, load_factor=load_factor, inertia=inertia, inertia_tangent=inertia)
         M, C, K = (ev.combined(*c, dense=dense) for c in ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)))
         if not (inertia and len(model.body_nodes)):
             return M, C, K
         nodes = model.body_nodes
-        frames = np.ascontiguousarray(state.T[nodes].reshape(-1, 9))
-        motion = np.ascontiguousarray(np.concatenate([state.w[nodes], state.a[nodes], state.alpha[nodes]], axis=1))
-        section = np.ascontiguousarray(np.concatenate([model.body_mass[:, None], model.body_com,
-                                                       model.body_inertia.reshape(-1, 9)], axis=1))
-        gravity = np.repeat(load_factor * self.gravity[None], len(nodes), axis=0)
-        blocks = np.asarray(self.kernels.joint_body_inertia_stiffness(frames, motion, section, gravity)[0])
-        blocks = blocks.reshape(len(nodes), 6, 6)
+        blocks = self.joint_body_inertia_stiffness(state, load_factor)
         dofs = model.node_dofs[nodes]
         rows = np.broadcast_to(dofs[:, :, None], blocks.shape)
         cols = np.broadcast_to(dofs[:, None, :], blocks.shape)
@@ -292,6 +287,20 @@ class Assembler:
         else:
             np.add.at(K, (rows[free], cols[free]), blocks[free])
         return M, C, K
+
+    def joint_body_inertia_stiffness(self, state: State, load_factor: float = 1.0) -> np.ndarray:
+        """(bodies, 6, 6): each joint body's inertia stiffness at ``state`` (the generated
+        ``joint_body_inertia_stiffness``: its inertia forces' and weight's derivative by its node's
+        configuration, under gravity times ``load_factor``), which the time step's matrix leaves out."""
+        model = self.model
+        nodes = model.body_nodes
+        frames = np.ascontiguousarray(state.T[nodes].reshape(-1, 9))
+        motion = np.ascontiguousarray(np.concatenate([state.w[nodes], state.a[nodes], state.alpha[nodes]], axis=1))
+        section = np.ascontiguousarray(np.concatenate([model.body_mass[:, None], model.body_com,
+                                                       model.body_inertia.reshape(-1, 9)], axis=1))
+        gravity = np.repeat(load_factor * self.gravity[None], len(nodes), axis=0)
+        blocks = np.asarray(self.kernels.joint_body_inertia_stiffness(frames, motion, section, gravity)[0])
+        return blocks.reshape(len(nodes), 6, 6)
 
     def evaluate_assembled(self, state: State, matrices: bool, load_factor: float, inertia: bool,
                            inertia_tangent: bool = False) -> Evaluation:

@@ -92,12 +92,12 @@ class LinksData(ctypes.Structure):
         (name, P) for name in (
             "edge_parent", "edge_child", "edge_hinge", "edge_kind", "edge_parent_slot", "edge_slot", "edge_data",
             "slot_node", "slot_root", "slot_edge", "slot_count", "slot_columns", "slot_position",
-            "element_block", "body_block", "load_block", "coupling_block", "block_rows", "block_columns", "block_position",
+            "element_block", "body_block", "load_block", "coupling_block", "cable_block", "block_rows", "block_columns", "block_position",
             "positions", "expansion_size", "expansion_reduced", "expansion_start", "dof_slot", "dof_component",
             "dof_map", "rigid_link_edge", "hinge_wrench", "root_wrench", "prismatic_link_edge", "slide_wrench",
             "slider_closure_edge", "rod_closure_edge", "slider_closure_wrench", "rod_closure_wrench",
             "jacobian", "convective", "wrench",
-            "scratch")]
+            "scratch")] + [("rates_D_q", P * 4), ("rates_tangent", P)]
 
 
 class WorkData(ctypes.Structure):
@@ -247,6 +247,8 @@ def native_library() -> ctypes.CDLL:
         library.latdyn_prescribe.argtypes = [model, work, configuration, ctypes.c_double]
         library.latdyn_complete_links.restype = None
         library.latdyn_complete_links.argtypes = [model, configuration]
+        library.latdyn_dependent_rates_tangent.restype = None
+        library.latdyn_dependent_rates_tangent.argtypes = [model, configuration]
         library.latdyn_iteration_matrix.restype = None
         library.latdyn_iteration_matrix.argtypes = [model, ctypes.POINTER(WorkData), configuration, ctypes.c_double,
                                                     ctypes.c_double, I64]

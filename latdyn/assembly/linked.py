@@ -3,7 +3,12 @@
 The blocks are assembled on the independent *and* the dependent nodes' coordinates, then
 reduced by the projection P = [I; J] of :mod:`latdyn.model.links` (its module docstring has
 the equations): r_min = Pᵀ r_all, M_min = Pᵀ M P, C_min = Pᵀ (C P + M_·dep ∂c/∂v),
-K_min = Pᵀ K P + ∂(Pᵀ)/∂q · r_all.
+K_min = Pᵀ K P + ∂(Pᵀ)/∂q · r_all, and with the inertia tangent (the exact K: ``inertia_tangent``,
+the elements' inertia tangent and the joint bodies' inertia stiffness) also
+Pᵀ (C_·dep ∂(J v)/∂q + M_·dep ∂(J a + c)/∂q): the dependent nodes' rates move with the coordinates at
+fixed independent rates (csrc/links.c composes the generated edge factors ``*_rates_D_q`` along the
+tree, ``dependent_rates_tangent``). The time step's Newton matrix, like the events' impulse weights
+(M + dt²K), leaves these inertial terms out unless the run asks for the inertia tangent.
 """
 from __future__ import annotations
 
@@ -30,13 +35,19 @@ class LinkedEvaluation(SeparateMatrices):
         self.cable_work = np.zeros((0, 4)) if cable_work is None else cable_work
         self.blocks, self.assembler = blocks, assembler
         self.projection = self.geometric = self.velocity_derivative = self.dependent_rows = None
-        self._mass_all = None
+        #: ∂(v, w)/∂q and ∂(a, alpha)/∂q of the dependent rows at fixed independent rates (6 n_dep × n), or None
+        self.rates_tangent = None
+        self._mass_all = self._damping_all = None
 
     def _assembled(self, cm, cc, ck, dense):
         raw = Evaluation(residual=None, reaction=None, blocks=self.blocks, assembler=self.assembler)
         return raw.combined(cm, cc, ck, dense=dense)
 
-    def combined(self, cm: float, cc: float, ck: float, dense: bool | None = None):
+    def combined(self, cm: float, cc: float, ck: float, dense: bool | None = None, geometric_term: bool = True):
+        """cm M + cc C + ck K on the minimum coordinates; ``geometric_term`` False: K without
+        ∂(Pᵀ)/∂q · r_all, the part of the forces at the dependent nodes (a load term: the material
+        stiffness that :meth:`latdyn.model.model.Model.check_held` asks for, which a pretensioned
+        cable's pull through a link would make indefinite)."""
         P, geometric, velocity_derivative = self.projection, self.geometric, self.velocity_derivative
         n_asm, n = P.shape
         small = n_asm <= DENSE_LIMIT  # small models: dense products (sparse overhead dominates), arrays
@@ -46,8 +57,16 @@ class LinkedEvaluation(SeparateMatrices):
                 self._mass_all = self._assembled(1.0, 0.0, 0.0, small)
             coupling = self._mass_all[:, self.dependent_rows] @ velocity_derivative  # M_·dep ∂c/∂v
             out = out + cc * (P.T @ coupling)
-        if ck != 0.0:
+        if ck != 0.0 and geometric_term:
             out = out + ck * geometric
+        if ck != 0.0 and self.rates_tangent is not None:  # the dependent rates move with q at fixed rates
+            if self._mass_all is None:
+                self._mass_all = self._assembled(1.0, 0.0, 0.0, small)
+            if self._damping_all is None:
+                self._damping_all = self._assembled(0.0, 1.0, 0.0, small)
+            by_velocity, by_acceleration = self.rates_tangent
+            rows = self.dependent_rows
+            out = out + ck * (P.T @ (self._damping_all[:, rows] @ by_velocity + self._mass_all[:, rows] @ by_acceleration))
         if _is_dense(dense, n):
             return out if small else out.toarray()
         import scipy.sparse as sps  # on use: a sparse matrix asked for
@@ -56,22 +75,36 @@ class LinkedEvaluation(SeparateMatrices):
 
 
 def evaluate_linked(links, assembler, state, matrices: bool, load_factor: float, inertia: bool,
-                    inertia_tangent: bool = False):
-    """The equations of motion on the minimum coordinates (module docstring)."""
-    # the native model with the inertia tangent's buffers first (asking for them rebuilds it, and a rebuilt
-    # one holds no J until it completes the links)
+                    inertia_tangent: bool = False, rates_term: bool | None = None):
+    """The equations of motion on the minimum coordinates (module docstring); ``inertia_tangent``: K with
+    the elements' inertia tangent and the joint bodies' inertia stiffness (the exact ∂r/∂q with the
+    dependent rates' term; ``rates_term`` that term alone, default with ``inertia_tangent``: without
+    inertia its velocity part, the velocity-dependent forces at the dependent nodes, a cable's damper).
+    The native model that evaluates (with the inertia tangent's buffers where
+    asked: building it replaces the one before) is the one whose links :func:`reduce_linked` reads, so
+    it is built before the links are completed."""
     assembler.native(inertia_tangent)
     assembler.complete_links(state)
     full = assembler.evaluate_assembled(state, matrices, load_factor, inertia, inertia_tangent)
-    return reduce_linked(links, assembler, state, full, matrices, inertia)
+    if matrices and inertia and inertia_tangent and len(assembler.model.body_nodes):
+        # the joint bodies' inertia stiffness with the elements' inertia tangent: K on the assembled
+        # coordinates exact before the reduction
+        stiffness = list(full.blocks["stiffness"])
+        stiffness[1] = stiffness[1] + assembler.joint_body_inertia_stiffness(state, load_factor)
+        full.blocks = {**full.blocks, "stiffness": tuple(stiffness)}
+    rates_term = inertia_tangent if rates_term is None else rates_term
+    return reduce_linked(links, assembler, state, full, matrices, inertia, rates_term=rates_term)
 
 
-def reduce_linked(links, assembler, state, full, matrices: bool, inertia: bool) -> LinkedEvaluation:
+def reduce_linked(links, assembler, state, full, matrices: bool, inertia: bool,
+                  rates_term: bool = False) -> LinkedEvaluation:
     """``full``, the evaluation on the independent and dependent coordinates at ``state`` (its
     dependent nodes completed by the caller, J and ∂c/∂v of this state in the native links' buffers), reduced onto the minimum coordinates (module docstring). J and ∂c/∂v
     are those of the compiled step (the generated edge kernels composed along the tree in C,
     :meth:`latdyn.assembly.native_model.NativeModel.complete_links`), the geometric stiffness the
-    generated wrench kernels' (:func:`geometric_stiffness`)."""
+    generated wrench kernels' (:func:`geometric_stiffness`); with ``rates_term`` K also holds the
+    dependent rates' q-dependence, Pᵀ(C_·dep ∂(J v)/∂q + M_·dep ∂(J a + c)/∂q) (module docstring; without
+    inertia M is zero), which, like the inertia tangent, the time step's Newton matrix holds only with it."""
     model = assembler.model
     n, n_asm, n_total = model.n_dofs, model.n_assembled, model.n_total
     native = assembler.native().links
@@ -120,9 +153,35 @@ def reduce_linked(links, assembler, state, full, matrices: bool, inertia: bool) 
                 shape=(6 * n_dep, n))
         out.projection = P
         out.geometric = geometric_stiffness(links, assembler, state, native, r_dep, small)
+        if rates_term:
+            out.rates_tangent = _rates_tangent(assembler, state, native, links, columns, free_cols, small)
         out.velocity_derivative = velocity_derivative
         out.dependent_rows = dep_rows
     return out
+
+
+def _rates_tangent(assembler, state, native, links, columns, free_cols, dense: bool):
+    """(∂(v, w)/∂q, ∂(a, alpha)/∂q) of the dependent rows in tree order (6 n_dep × n each) at fixed
+    independent rates, as the compiled step composes them (``latdyn_dependent_rates_tangent``)."""
+    assembler.native().dependent_rates_tangent(state)
+    where = {int(c): k for k, c in enumerate(columns)}
+    n, n_dep = assembler.model.n_dofs, len(links.dependent)
+    by_velocity, by_acceleration = np.zeros((6 * n_dep, len(columns))), np.zeros((6 * n_dep, len(columns)))
+    for k, c in enumerate(links.dependent):
+        s = native.slot_of_node[int(c)]
+        at = [where[int(col)] for col in native.columns[s, :native.count[s]]]
+        by_velocity[6 * k:6 * k + 6, at] = native.rates_tangent[s, :6, :len(at)]
+        by_acceleration[6 * k:6 * k + 6, at] = native.rates_tangent[s, 6:, :len(at)]
+    out = []
+    for R in (by_velocity, by_acceleration):
+        full = np.zeros((6 * n_dep, n))
+        full[:, columns[free_cols]] = R[:, free_cols]
+        if not dense:
+            import scipy.sparse as sps  # on use: large models with rigid links
+
+            full = sps.csr_matrix(full)
+        out.append(full)
+    return tuple(out)
 
 
 def geometric_stiffness(links, assembler, state, native, r_dep, dense: bool):

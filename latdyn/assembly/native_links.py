@@ -9,7 +9,7 @@ Python runs inside an iteration. :func:`native_links` lays out what it needs for
 the coordinates and one storage of the iteration matrix: the edges of :mod:`latdyn.model.links` in
 tree order, a *slot* per root and dependent node with its columns (the coordinates it moves with:
 a root's six, a dependent node's parent's columns and then its edge's hinge), and the *expansion*
-of every element, body and load block that touches a dependent coordinate (its coordinates mapped
+of every element, body, load, controller coupling and cable element block that touches a dependent coordinate (its coordinates mapped
 through P = [I; J] onto the reduced coordinates), with the matrix position of every entry the
 reduction writes. ``csrc/links.c``'s header says how the C code reads them.
 """
@@ -71,12 +71,15 @@ class NativeLinks:
     """The ``Links`` struct (:attr:`data`) with the arrays it points into, and what Python reads of it:
     per slot its node, columns (:attr:`columns`, :attr:`count`), and J and ∂c/∂v as the last
     ``latdyn_complete_links`` or Newton iteration left them (:attr:`jacobian`, :attr:`convective`,
-    (n_slots, 6, width)); :attr:`slot_of_node` maps a node to its slot."""
+    (n_slots, 6, width)), ∂(v, w, a, alpha)/∂q at fixed independent rates as the last reduced matrix
+    of an evaluation with inertia left it (:attr:`rates_tangent`, (n_slots, 12, width));
+    :attr:`slot_of_node` maps a node to its slot."""
 
     def __init__(self, data, keep, slot_node, columns, count, buffers):
         self.data, self.keep = data, keep
         self.slot_node, self.columns, self.count = np.asarray(slot_node), columns, count
         self.jacobian, self.convective = buffers["jacobian"], buffers["convective"]
+        self.rates_tangent = buffers["rates_tangent"]
         self.slot_of_node = {int(node): s for s, node in enumerate(slot_node)}
 
     @property
@@ -167,11 +170,12 @@ def native_links(assembler, factorization, kernel_address) -> NativeLinks:
     load_block = [block(d, c) for d, c in zip(m.node_dofs[assembler._load_nodes], assembler._load_columns())]
     control = assembler.control  # continuous controllers: an actuator's row by a sensor's coordinate
     coupling_block = [block(np.array([r]), np.array([c])) for r, c in zip(control.coupling_rows, control.coupling_cols)]
+    cable_block = [block(d, d) for d in assembler.cable_dofs()]  # cable elements: [d, π] of both ends
     biggest = max([(x.size[b_r] + x.size[b_c]) for b_r, b_c in zip(block_rows, block_columns)] + [1])
     most = max(x.reduced + [1])
-    scratch = np.zeros(4 * biggest * most + most * most)
+    scratch = np.zeros(6 * biggest * most + most * most)
     buffers = {"jacobian": jacobian, "convective": np.zeros((n_slots, 6, width)), "wrench": np.zeros((n_slots, 6)),
-               "scratch": scratch}
+               "scratch": scratch, "rates_tangent": np.zeros((n_slots, 12, width))}
     keep.append(buffers)
     data = LinksData(
         n_edges=len(links.edges), n_slots=n_slots, width=width, n_assembled=m.n_assembled,
@@ -182,7 +186,7 @@ def native_links(assembler, factorization, kernel_address) -> NativeLinks:
         slot_node=ints(slot_node), slot_root=ints(slot_root), slot_edge=ints(slot_edge), slot_count=ints(count),
         slot_columns=ints(columns), slot_position=ints(pairs),
         element_block=ints(element_block), body_block=ints(body_block), load_block=ints(load_block),
-        coupling_block=ints(coupling_block),
+        coupling_block=ints(coupling_block), cable_block=ints(cable_block),
         block_rows=ints(block_rows), block_columns=ints(block_columns), block_position=ints(block_position),
         positions=ints(np.concatenate(positions) if positions else []),
         expansion_size=ints(x.size), expansion_reduced=ints(x.reduced), expansion_start=ints(x.start),
@@ -193,5 +197,7 @@ def native_links(assembler, factorization, kernel_address) -> NativeLinks:
         rod_closure_edge=kernel_address("rod_closure_edge"),
         slider_closure_wrench=kernel_address("slider_closure_wrench"),
         rod_closure_wrench=kernel_address("rod_closure_wrench"),
+        rates_D_q=(ctypes.c_void_p * 4)(*(kernel_address(f"{kind}_rates_D_q") for kind in (
+            "rigid_link_edge", "prismatic_link_edge", "slider_closure_edge", "rod_closure_edge"))),
         **{name: buffer.ctypes.data for name, buffer in buffers.items()})
     return NativeLinks(data, keep, slot_node, columns, count, buffers)

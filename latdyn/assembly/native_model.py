@@ -454,6 +454,11 @@ class NativeModel:
         self.library.latdyn_complete_links(self.model_ref, ctypes.byref(configuration))
         self._written_back(state)
 
+    def dependent_rates_tangent(self, state) -> None:
+        """∂(v, w, a, alpha)/∂q at fixed independent rates of every slot of the links at ``state`` (its
+        dependent nodes completed) into the native links' ``rates_tangent`` (``latdyn_dependent_rates_tangent``)."""
+        self.library.latdyn_dependent_rates_tangent(self.model_ref, ctypes.byref(self.configuration(state)))
+
     def prescribe(self, state, t: float) -> None:
         """The prescribed motion at time ``t`` in ``state``, in place (``latdyn_prescribe``); the
         state's time is the caller's."""

@@ -35,10 +35,12 @@ def prepare(scene, backend: str = "auto") -> Prepared:
         # term ∂Jᵀ/∂q · r would carry the inertia forces of prescribed accelerations)
         at_rest.a[:] = at_rest.alpha[:] = 0.0
         at_rest.theta_ddot[:] = 0.0
-        # material stiffness only: load terms (gravity, follower moments) hold nothing
+        # material stiffness only: load terms (gravity, follower moments; with rigid links the forces at
+        # the dependent nodes through ∂(Pᵀ)/∂q, which a pretensioned cable makes indefinite) hold nothing
         ev = assembler.evaluate(at_rest, matrices=True, load_factor=0.0)
+        material = {"geometric_term": False} if model.links is not None else {}
         # dense where the dense LU serves the model (as the step assembles it), else sparse
-        model.check_held(ev.combined(1.0, 0.0, 0.0), ev.combined(0.0, 0.0, 1.0), scene.file)
+        model.check_held(ev.combined(1.0, 0.0, 0.0), ev.combined(0.0, 0.0, 1.0, **material), scene.file)
     return Prepared(scene, model, assembler, state)
 
 

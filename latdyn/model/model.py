@@ -121,6 +121,9 @@ class Model:
     #: (n_hinge,) bool: the locked hinges that stick by friction (latdyn.timeloop.events.stick_and_slip);
     #: they are released when their reaction exceeds the breakaway level, a latch never is
     stuck: np.ndarray = field(default=None)
+    #: (n_hinge,) int8: the side (−1 lower, +1 upper) of the rigid stop a locked hinge rests on
+    #: (latdyn.timeloop.events.settle_on_stops), 0 otherwise; released when its reaction would pull
+    resting: np.ndarray = field(default=None)
     # coordinate numbering (rebuilt when a hinge latches)
     node_dofs: np.ndarray = field(default=None)  # (n_nodes, 6) index or -1
     hinge_dofs: np.ndarray = field(default=None)  # (n_hinge,) index or -1
@@ -249,6 +252,7 @@ class Model:
         model.translation_only[cable_nodes] = True
         model.locked = np.zeros(len(hinges), dtype=bool)
         model.stuck = np.zeros(len(hinges), dtype=bool)
+        model.resting = np.zeros(len(hinges), dtype=np.int8)
         model.section_turns = np.zeros(len(model.element_nodes))
         normal, model.plane_reason = find_plane(scene)
         if normal is not None:

@@ -107,14 +107,11 @@ class ProbeSet:
         and G all the rest (inertia, the structure, loads).
 
         - A free joint applies its law: −f.
-        - A joint without a coordinate (prescribed, latched) applies, besides its law, the reaction
-          that holds it, the multiplier of its constraint: r (the residual of that coordinate's
-          equation, the law in it). That is the value reported: the drive torque a prescribed angle
-          needs, the load a latch carries.
-        - A free joint resting on a rigid stop (on it within the events' tolerance and not moving
-          away) is held by the stop when, unheld, it would accelerate into it: then the stop's
-          reaction is reported, r with the joint's own acceleration zero (the other accelerations as
-          the step left them); otherwise −f."""
+        - A joint without a coordinate (prescribed, latched, stuck by friction, resting on its rigid
+          stop: latdyn.timeloop.events.settle_on_stops) applies, besides its law, the reaction that
+          holds it, the multiplier of its constraint: r (the residual of that coordinate's equation,
+          the law in it). That is the value reported: the drive torque a prescribed angle needs, the
+          load a latch carries, the load a stop holds."""
         key = (id(state), float(state.t), state.theta.tobytes(), state.theta_dot.tobytes())
         if self._joint_forces is not None and self._joint_forces[0] == key:  # the same row's state
             return self._joint_forces[1]

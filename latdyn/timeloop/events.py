@@ -1,5 +1,6 @@
-"""Events of the time loop: hinges that latch at ``lock_at``, impacts on hinge stops, and joints
-that stick and slip by friction; the fraction of a step at which the first one happens (the loop
+"""Events of the time loop: hinges that latch at ``lock_at``, impacts on hinge stops, joints that
+come to rest on their stops (locked there until the load pulls them off), and joints that stick and
+slip by friction; the fraction of a step at which the first one happens (the loop
 shortens the step onto it)."""
 from __future__ import annotations
 
@@ -146,9 +147,9 @@ def cable_events(assembler, sides: list, old: State, new: State) -> tuple[list, 
 # directions without inertia in their statics, the massive ones weighted by M + dt²K, with which
 # modes faster than the nominal step dt take the impact quasi-statically); the accelerations
 # restart from the equations of motion after the impact, with the same quasi-static treatment
-# (:func:`restart_accelerations`). A hinge pushed against its stop (e = 0, or a load that holds it there) ends
-# each step slightly beyond it and is put back with θ̇ = 0: a unilateral constraint enforced
-# by projection at the end of every step, released by itself as soon as the load pulls away.
+# (:func:`restart_accelerations`). A hinge that an impact leaves on its stop without rate (e = 0, or
+# a load that holds it there: it started the step on the stop) is locked there while the stop holds
+# it, and released when the load would pull it off ("resting on a stop" below).
 # Events rather than a penalty: exact landing on the stop and no contact stiffness that the
 # step would have to resolve; rather than a complementarity solve inside Newton: the time
 # step (shared with the compiled step of solve.py) stays as it is.
@@ -382,6 +383,73 @@ def stick_and_slip(prepared: Prepared, integrator, old: State, new: State) -> fl
     return loss if changed else None
 
 
+# ----------------------------------------------------------------------------- resting on a stop
+# A joint that comes to rest on its rigid stop is locked there, as a latch or a sticking joint is: an
+# impact that leaves it on the stop without rate (restitution 0, or a joint that started the step on
+# the stop: a bounce shorter than the step, the Zeno limit of a chattering stop is rest; hinge_stops)
+# locks it on trial (``model.resting``: the stop's side), the accelerations restarted as after an impact;
+# it stays locked while the reaction that holds it pushes it away from the stop (side · R < 0: the stop
+# can only push) and the trial is undone otherwise. A resting joint is released after the first step at
+# whose end its reaction would pull it onto the stop's other side (the load reversed), then it moves
+# away freely. While locked its coordinate is no unknown: its probe torque/force and ``joint_peaks`` are
+# the reaction R of the locked model (exact: static, the load's moment). The steps of a run with a
+# resting joint are taken from Python, to check it for release (latdyn/timeloop/loop.py).
+def stops_left_at_rest(model: Model, new: State, old: State) -> list[tuple[int, int]]:
+    """(hinge, side) of the free hinges whose impact at the end of the step old → new leaves them on their
+    rigid stop without rate (:func:`stop_hits` with restitution 0): to be tried for resting there."""
+    hits, stops, restitution, _ = stop_hits(model, new, old)
+    return [(int(k), -1 if stop == model.hinges[k].limits[0] else 1)
+            for k, stop, e in zip(hits, stops, restitution) if e == 0.0]
+
+
+def _holds(prepared: Prepared, state: State, k: int) -> bool:
+    """Whether the rigid stop that locked hinge k rests on holds it at ``state``: its reaction pushes the
+    joint away from the stop (or is zero)."""
+    return float(prepared.model.resting[k]) * holding_reaction(prepared, state, k) <= 0.0
+
+
+def settle_on_stops(prepared: Prepared, integrator, candidates: list[tuple[int, int]], new: State) -> float | None:
+    """Lock each candidate (hinge, side) (:func:`stops_left_at_rest`) on its stop where the stop holds it,
+    the trial undone where it would pull (see above). Returns the kinetic energy the locking removed (its
+    rate is already zero: round-off), or None when no hinge settled."""
+    model, assembler = prepared.model, prepared.assembler
+    settled, loss = False, 0.0
+    for k, side in candidates:
+        if model.locked[k]:
+            continue
+        saved = {name: getattr(new, name).copy() for name in ("v", "w", "theta_dot", "a", "alpha", "theta_ddot")}
+        saved_a = None if getattr(integrator, "a", None) is None else integrator.a.copy()
+        before = kinetic_energy(assembler, new)
+        model.locked[k], model.resting[k] = True, side
+        new.theta_dot[k] = new.theta_ddot[k] = 0.0
+        _renumber(prepared, integrator, new)
+        if _holds(prepared, new, k):
+            loss += before - kinetic_energy(assembler, new)
+            settled = True
+            continue
+        model.locked[k], model.resting[k] = False, 0  # the load pulls it off the stop: the trial undone
+        model.number_coordinates()
+        assembler.reindex()
+        for name, value in saved.items():
+            np.copyto(getattr(new, name), value)
+        if saved_a is not None:
+            integrator.a = saved_a
+    return loss if settled else None
+
+
+def release_from_stops(prepared: Prepared, integrator, new: State) -> bool:
+    """Release every hinge resting on its stop whose reaction at ``new`` would pull it off (see above);
+    whether any was."""
+    model = prepared.model
+    released = False
+    for k in np.flatnonzero(model.resting):
+        if not _holds(prepared, new, int(k)):
+            model.locked[k], model.resting[k] = False, 0
+            _renumber(prepared, integrator, new)
+            released = True
+    return released
+
+
 def kinetic_energy(assembler, state: State) -> float:
     return assembler.energies(state)["kinetic"]
 
@@ -393,16 +461,17 @@ class HingeEvents(NamedTuple):
     stopped: bool  # a hinge hit a stop
     #: the energy the events removed (:func:`hinge_events`): declared dissipation
     loss: float
-    #: the only event: joints that rest on their stops, put back where they started the step (so the
-    #: step moved nothing there: its work and dissipation are those of the state after the projection)
+    #: the only event: joints that come to rest on their stops, put back where they started the step (so
+    #: the step moved nothing there: its work and dissipation are those of the state after the projection)
     resting: bool
     #: (joint, kind) of each event: latch, stop (an impact)
     log: list
 
 
 def hinge_events(prepared: Prepared, integrator, old: State, new: State, h: float) -> HingeEvents:
-    """The events at the end of the accepted step old → new of size ``h``: latches, then impacts on
-    stops, and the energy they removed.
+    """The events at the end of the accepted step old → new of size ``h``: latches, releases of joints
+    resting on their stops, impacts on stops (and the joints they leave at rest there locked), sticking
+    and slipping, and the energy they removed.
 
     Event loss: an impact with restitution e and a latch (e = 0) are declared losses of energy,
     the kinetic energy lost in the velocity jump — for a rigid impact on a hinge stop (1 − e²)
@@ -417,15 +486,19 @@ def hinge_events(prepared: Prepared, integrator, old: State, new: State, h: floa
     energy is not declared and stays in the balance. ``log``: the latches and stop impacts, (joint, kind)."""
     log = []
     latched = latch_hinges(prepared, integrator, old, new, h, log)
+    released = release_from_stops(prepared, integrator, new)
+    at_rest = stops_left_at_rest(prepared.model, new, old)
     stopped = hinge_stops(prepared, integrator, new, old, log)
+    settled = settle_on_stops(prepared, integrator, at_rest, new) if stopped is not None else None
     stuck = stick_and_slip(prepared, integrator, old, new)
     resting = stopped is not None and stopped[1] and latched is None and stuck is None
     # resting: the kinetic energy the step gave the joint past its stop came from the work of a motion the
     # projection undid; neither is counted (the time loop takes the step's power after the projection)
-    loss = (latched or 0.0) + (stopped[0] if stopped is not None and not resting else 0.0) + (stuck or 0.0)
+    loss = (latched or 0.0) + (stopped[0] if stopped is not None and not resting else 0.0) + (stuck or 0.0) \
+        + (settled or 0.0)
     # a jump that raised the kinetic energy (a latch, an impact with e <= 1 or a sticking joint cannot,
     # exactly) created it: not a negative dissipation that would hide it from the balance, but energy
     # the balance keeps as created (tests/test_reported_defects.py: -93 J "dissipated" by one impact)
     loss = max(loss, 0.0)
-    return HingeEvents(stopped is not None or latched is not None or stuck is not None, stopped is not None, loss,
-                       resting, log)
+    return HingeEvents(stopped is not None or latched is not None or stuck is not None or released, stopped is not None,
+                       loss, resting, log)

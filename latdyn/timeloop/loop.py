@@ -32,7 +32,6 @@ from latdyn.assembly.assembler import State
 from latdyn.assembly.prepare import Prepared
 from latdyn.errors import SolverError, UnboundedError
 from latdyn.model.cables import slack_and_unheld
-from latdyn.model.model import lock_tolerance
 from latdyn.numerics.so3 import orthonormalize
 from latdyn.results import paraview
 from latdyn.results.probes import ProbeSet
@@ -112,7 +111,6 @@ class TimeLoop:
         self.last_recorded: State | None = None
         self.last: LastAccepted | None = None
         self.compiled = False
-        self._resting_flagged: set[int] = set()  # joints flagged resting on a rigid stop (_note_resting)
         self.unbounded = False  # the energy balance broke (_judge_balance)
         self.bar = None
 
@@ -151,7 +149,7 @@ class TimeLoop:
         energy0 = self.energies_of(state)
         self.progress = TransientProgress(
             state=state, algorithmic_acceleration=self.integrator.a, locked=self.model.locked.copy(),
-            stuck=self.model.stuck.copy(),
+            stuck=self.model.stuck.copy(), resting=self.model.resting.copy(),
             h=self.control.dt, power=load_power(self.model, state, evaluation),
             cable_work=evaluation.cable_work.copy(),
             hinge_work_torque=evaluation.hinge_work_torque.copy(),
@@ -172,6 +170,8 @@ class TimeLoop:
         self.model.locked[:] = self.progress.locked
         if self.progress.stuck is not None:
             self.model.stuck[:] = self.progress.stuck
+        if self.progress.resting is not None:
+            self.model.resting[:] = self.progress.resting
         self.model.number_coordinates()
         self.assembler.reindex()
         self.integrator.a = self.progress.algorithmic_acceleration
@@ -264,9 +264,10 @@ class TimeLoop:
         rejected (error estimate), tried again (Newton failed) or accepted."""
         progress, control = self.progress, self.control
         self._hold_cable_sides()
-        # a hinge stuck by friction is checked for release after every step: those steps from Python
+        # a hinge stuck by friction or resting on its stop is checked for release after every step: those
+        # steps from Python
         compiled = self.compiled and control.on_grid(progress) and not control.before_pause(progress) \
-            and not self.model.stuck.any()
+            and not self.model.stuck.any() and not self.model.resting.any()
         attempt = self._compiled_steps() if compiled else self._python_step()
         if attempt is None:
             return
@@ -382,7 +383,6 @@ class TimeLoop:
             if progress.unbounded:
                 end = r + 1
                 break
-        self._note_resting(times[:end], block.states.theta[:end], block.states.theta_dot[:end])
         values = probes.rows(block.states, block.energies, block.column("external_work"),
                              block.column("dissipated"), block.momenta if probes.needs[0] else None,
                              block.section_forces if probes.needs[1] else None, block.joint_forces,
@@ -464,6 +464,10 @@ class TimeLoop:
             carried = self.sensitivities.step(progress.sensitivities, progress.state, new, h,
                                               progress.algorithmic_acceleration, integrator.a, attempt.lands)
         events = hinge_events(self.prepared, integrator, progress.state, new, h)
+        if self.sensitivities is not None and model.resting.any():  # locked on its stop until released
+            raise SolverError(f"the sensitivities at t = {new.t:.6g} meet a hinge resting on its stop, whose "
+                              "derivative is not that of one event (docs/parameters.md, \"Sensitivities through "
+                              "events\")")
         if events.log:
             progress.events = progress.events + [{"joint": joint, "kind": kind, "t": float(new.t)}
                                                  for joint, kind in events.log]
@@ -505,7 +509,7 @@ class TimeLoop:
             progress.sensitivities = self.sensitivities.after_events(carried, new)
         progress.state = new
         progress.algorithmic_acceleration = integrator.a
-        progress.locked, progress.stuck = model.locked.copy(), model.stuck.copy()
+        progress.locked, progress.stuck, progress.resting = model.locked.copy(), model.stuck.copy(), model.resting.copy()
         progress.steps += 1
         if attempt.lands:
             progress.grid_index += 1
@@ -603,7 +607,6 @@ class TimeLoop:
         """A row at ``state`` (probes, state, ParaView frame when due), its energies in the balance;
         then the balance judged (:meth:`_judge_balance`). A block of rows recorded in C:
         :meth:`_record_rows`."""
-        self._note_resting([state.t], state.theta[None], state.theta_dot[None])
         gain = self.progress.balance(state.t, energies, self.probes.external_work)
         if self.model.hinges:  # summary.json joint_peaks, over the recorded rows
             self.progress.note_joint_forces([h.name for h in self.model.hinges], self.probes.joint_forces(state),
@@ -615,33 +618,6 @@ class TimeLoop:
                            frame=lambda: paraview.frame(self.assembler, self.writer.mesh, snapshot))
         self.bookmark, self.last_recorded = self.writer.bookmark(), snapshot
         self._judge_balance(state.t, gain)
-
-    def _note_resting(self, times, theta, theta_dot) -> None:
-        """A warning in summary.json ``warnings``, once per joint, when a recorded row finds a joint resting
-        on a rigid stop (on it within the events' tolerance, not moving away: csrc/rows.c resting_on_stop):
-        its torque/force probe and ``joint_peaks`` there are the residual with the joint's own
-        acceleration zeroed while its neighbours keep the free step's accelerations — not the stop's
-        reaction (a near-rigid pendulum resting on its stop reports half the static value); exact only where
-        the joint's coordinate is the model's one coordinate. Flagged, not reported as the load: a compliant
-        stop (``contact``) computes it."""
-        model = self.model
-        if not model.hinges or len(times) == 0 or model.n_dofs <= 1:  # alone, its reaction is exact
-            return
-        flagged = self._resting_flagged
-        for k, hinge in enumerate(model.hinges):
-            if hinge.limits is None or hinge.contact is not None or k in flagged:
-                continue
-            for side, stop in ((-1.0, hinge.limits[0]), (1.0, hinge.limits[1])):
-                tolerance = lock_tolerance(stop)
-                on = (np.abs(theta[:, k] - stop) <= tolerance) & (side * theta_dot[:, k] >= -tolerance)
-                if on.any():
-                    flagged.add(k)
-                    t = float(times[int(np.argmax(on))])
-                    self.writer.summary.setdefault("warnings", []).append(
-                        f"{hinge.name} rests on its rigid stop from t = {t:.6g}: its torque/force probe and "
-                        "joint_peaks there are not the stop's reaction (the neighbours keep the free step's "
-                        "accelerations); give the stop `contact` to compute the load on it")
-                    break
 
     def _judge_balance(self, t: float, gain: float) -> None:
         """The energy balance at the row at ``t`` (docs/energy.md): an energy gain (``gain``: the

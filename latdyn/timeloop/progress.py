@@ -72,6 +72,7 @@ class TransientProgress:
     #: replaced, never changed in place, so that a kept copy of the progress keeps its own)
     controller_memory: np.ndarray | None = None
     stuck: np.ndarray | None = None  # the locked hinges that stick by friction (None: none)
+    resting: np.ndarray | None = None  # the side of the rigid stop each locked hinge rests on (0: none)
     #: the events so far, summary.json ``events``: {joint, kind: latch|stop|slack|taut, t}, in time order
     #: (a new list on each event: checkpoints keep shallow copies)
     events: list = field(default_factory=list)

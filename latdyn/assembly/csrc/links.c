@@ -11,6 +11,11 @@
  * along the tree and applies the projection P = [I; J] of latdyn/model/links.py:
  *
  *     r_min = Pᵀ r_all,   S_min = Pᵀ (β′M + γ′C + K) P + γ′ Pᵀ M_·dep ∂c/∂v + ∂(Pᵀ)/∂q · r_all
+ *                              + Pᵀ (C_·dep ∂(J v)/∂q + M_·dep ∂(J a + c)/∂q)
+ *
+ * (the last with the inertia tangent, the exact matrix: the dependent nodes' rates move with the
+ * coordinates at fixed independent rates, through the edge kernels' rates_D_q factors composed along the
+ * tree, dependent_rates_tangent)
  *
  * (latdyn/assembly/linked.py holds the same reduction for the analyses driven from Python).
  *
@@ -18,7 +23,8 @@
  * coordinates its configuration moves with (a root's six; a dependent node's parent's columns, then
  * its edge's hinge), so that a slot's columns begin with its parent's. Per slot, J (6 × width,
  * row-major: the slot node's [δd, δπ] per unit of each column; a root's is the identity) and ∂c/∂v
- * (6 × width: ∂(a, α)/∂ of the columns' rates). Blocks (element, body, load) that touch a dependent
+ * (6 × width: ∂(a, α)/∂ of the columns' rates). Blocks (element, body, load, controller coupling,
+ * cable element) that touch a dependent
  * coordinate are reduced through their expansions: per block coordinate, its slot and component (a
  * dependent coordinate) or its column among the block's reduced coordinates (a free one; -1 for a
  * constrained one), and, for a dependent coordinate, the reduced column of each of its slot's
@@ -31,6 +37,7 @@ typedef void (*kernel_rigid_link_edge)(int64_t, const double *, const double *, 
 typedef void (*kernel_hinge_wrench)(int64_t, const double *, const double *, const double *, double *, double *);
 typedef void (*kernel_root_wrench)(int64_t, const double *, double *, double *);
 typedef void (*kernel_closure_wrench)(int64_t, const double *, const double *, const double *, double *, double *);
+typedef void (*kernel_rates_D_q)(int64_t, const double *, const double *, double *);
 
 /* The rigid links of a model, as the C step reads them (mirrored in latdyn/assembly/library.py). */
 typedef struct Links {
@@ -46,10 +53,10 @@ typedef struct Links {
     /* slots: node, root slot, the edge into it (-1: a root), column count and columns (n_slots, width),
      * the matrix positions of (column, column) pairs (n_slots, width, width; -1: constrained) */
     const int64_t *slot_node, *slot_root, *slot_edge, *slot_count, *slot_columns, *slot_position;
-    /* blocks that touch a dependent coordinate: the linked block of each element, body, load and
-     * continuous controller's coupling entry (-1: none), its row and column expansion and where its
-     * positions (reduced rows × reduced columns, row-major) begin in `positions` */
-    const int64_t *element_block, *body_block, *load_block, *coupling_block;
+    /* blocks that touch a dependent coordinate: the linked block of each element, body, load,
+     * continuous controller's coupling entry and cable element (-1: none), its row and column expansion
+     * and where its positions (reduced rows × reduced columns, row-major) begin in `positions` */
+    const int64_t *element_block, *body_block, *load_block, *coupling_block, *cable_block;
     const int64_t *block_rows, *block_columns, *block_position, *positions;
     /* expansions: coordinates, reduced columns, where their coordinates begin; per coordinate
      * (all expansions one after the other) the slot (-1: not dependent), the component, and the
@@ -64,8 +71,13 @@ typedef struct Links {
     kernel_rigid_link_edge slider_closure_edge, rod_closure_edge; /* the same signature: closure edges */
     kernel_closure_wrench slider_closure_wrench, rod_closure_wrench;
     /* buffers: J and ∂c/∂v of every slot (n_slots, 6, width); the dependent nodes' residual rows
-     * (n_slots, 6); scratch of the block reduction (4 × max coordinates × max reduced + max reduced²) */
+     * (n_slots, 6); scratch of the block reduction (6 × max coordinates × max reduced + max reduced²) */
     double *jacobian, *convective, *wrench, *scratch;
+    /* each edge kind's factor of the dependent rates' q-dependence (rigid_link_edge_rates_D_q, …:
+     * ∂(v, w, a, alpha)_c/∂(δx_p, δπ_p, δθ) at fixed rates), in the order of the edge kinds 0-3 */
+    kernel_rates_D_q rates_D_q[4];
+    /* ∂(v, w, a, alpha)/∂q of every slot at fixed independent rates (n_slots, 12, width; roots zero) */
+    double *rates_tangent;
 } Links;
 
 /* The dependent nodes of c from their parents, edge by edge in tree order (frames, positions and
@@ -120,6 +132,54 @@ static void complete_links(const Model *m, Configuration *c)
     }
 }
 
+/* ∂(v, w, a, alpha)/∂q at fixed independent rates of every slot at c (L->rates_tangent; c's dependent nodes
+ * completed, J and ∂c/∂v of c in the buffers), edge by edge in tree order:
+ *     R_c = D [J_p; e_θ] + [[transfer, 0], [∂(a, alpha)_c/∂(v, w)_p, transfer]] R_p,   R_root = 0,
+ * D the edge kind's rates_D_q (12 × 7), transfer and ∂(a, alpha)_c/∂(v, w)_p the edge kernel's. */
+static void dependent_rates_tangent(const Model *m, const Configuration *c)
+{
+    const Links *L = m->links;
+    const int64_t W = L->width;
+    for (int64_t k = 0; k < L->n_edges; ++k) {
+        const int64_t p = L->edge_parent[k], h = L->edge_hinge[k], kind = L->edge_kind[k];
+        double parent[24], edge[13], x[3], T[9], rates[12], transfer[36], joint[6], conv[42], D[84];
+        memcpy(parent, c->x + 3 * p, 3 * sizeof(double));
+        memcpy(parent + 3, c->T + 9 * p, 9 * sizeof(double));
+        memcpy(parent + 12, c->v + 3 * p, 3 * sizeof(double));
+        memcpy(parent + 15, c->w + 3 * p, 3 * sizeof(double));
+        memcpy(parent + 18, c->a + 3 * p, 3 * sizeof(double));
+        memcpy(parent + 21, c->alpha + 3 * p, 3 * sizeof(double));
+        memcpy(edge, L->edge_data + 13 * k, 13 * sizeof(double));
+        if (kind < 2) {
+            edge[10] = h >= 0 ? c->theta[h] : 0.0;
+            edge[11] = h >= 0 ? c->theta_dot[h] : 0.0;
+            edge[12] = h >= 0 ? c->theta_ddot[h] : 0.0;
+        }
+        const kernel_rigid_link_edge kernel = kind == 1 ? L->prismatic_link_edge : kind == 2 ? L->slider_closure_edge
+                                            : kind == 3 ? L->rod_closure_edge : L->rigid_link_edge;
+        kernel(1, parent, edge, x, T, rates, transfer, joint, conv);
+        L->rates_D_q[kind](1, parent, edge, D);
+        const int64_t sp = L->edge_parent_slot[k], sc = L->edge_slot[k];
+        const int64_t np = L->slot_count[sp], nc = L->slot_count[sc];
+        const double *Jp = L->jacobian + 6 * W * sp, *Rp = L->rates_tangent + 12 * W * sp;
+        double *Rc = L->rates_tangent + 12 * W * sc;
+        for (int i = 0; i < 12; ++i) {
+            for (int64_t j = 0; j < nc; ++j) {
+                double s = j == np ? D[7 * i + 6] : 0.0; /* the edge's coordinate: the last column */
+                if (j < np) {
+                    for (int q = 0; q < 6; ++q) s += D[7 * i + q] * Jp[W * q + j];
+                    for (int q = 0; q < 6; ++q) { /* the parent's rates' own dependence */
+                        const double by_rate = i < 6 ? transfer[6 * i + q] : conv[7 * (i - 6) + q];
+                        s += by_rate * Rp[W * q + j];
+                        if (i >= 6) s += transfer[6 * (i - 6) + q] * Rp[W * (6 + q) + j];
+                    }
+                }
+                Rc[W * i + j] = s;
+            }
+        }
+    }
+}
+
 /* The dependent nodes of c completed from the independent ones, in place (NativeModel.complete_links:
  * probes, energies and the analyses driven from Python); nothing without rigid links. */
 void latdyn_complete_links(const Model *m, Configuration *c)
@@ -127,13 +187,23 @@ void latdyn_complete_links(const Model *m, Configuration *c)
     if (m->links) complete_links(m, c);
 }
 
-/* P_e (size × reduced) of expansion x from the slots' J, and its ∂c/∂v rows (NULL: not wanted). */
-static void expand(const Links *L, int64_t x, double *P, double *C)
+/* L->rates_tangent at c (dependent_rates_tangent; c's dependent nodes completed by latdyn_complete_links):
+ * the analyses driven from Python read it (latdyn/assembly/linked.py); nothing without rigid links. */
+void latdyn_dependent_rates_tangent(const Model *m, const Configuration *c)
+{
+    if (m->links) dependent_rates_tangent(m, c);
+}
+
+/* P_e (size × reduced) of expansion x from the slots' J, its ∂c/∂v rows and its rows of ∂(v, w)/∂q and
+ * ∂(a, alpha)/∂q at fixed rates (L->rates_tangent) (each NULL: not wanted). */
+static void expand(const Links *L, int64_t x, double *P, double *C, double *Rv, double *Ra)
 {
     const int64_t W = L->width, size = L->expansion_size[x], reduced = L->expansion_reduced[x];
     const int64_t start = L->expansion_start[x];
     memset(P, 0, sizeof(double) * size * reduced);
     if (C) memset(C, 0, sizeof(double) * size * reduced);
+    if (Rv) memset(Rv, 0, sizeof(double) * size * reduced);
+    if (Ra) memset(Ra, 0, sizeof(double) * size * reduced);
     for (int64_t d = 0; d < size; ++d) {
         const int64_t slot = L->dof_slot[start + d], *map = L->dof_map + W * (start + d);
         if (slot < 0) {
@@ -142,30 +212,40 @@ static void expand(const Links *L, int64_t x, double *P, double *C)
         }
         const int64_t k = L->dof_component[start + d];
         const double *J = L->jacobian + 6 * W * slot + W * k, *Cv = L->convective + 6 * W * slot + W * k;
+        const double *R = L->rates_tangent + 12 * W * slot + W * k;
         for (int64_t j = 0; j < L->slot_count[slot]; ++j) {
             if (map[j] < 0) continue;
             P[reduced * d + map[j]] = J[j];
             if (C) C[reduced * d + map[j]] = Cv[j];
+            if (Rv) Rv[reduced * d + map[j]] = R[j];
+            if (Ra) Ra[reduced * d + map[j]] = R[6 * W + j];
         }
     }
 }
 
-/* Pᵀ_rows (S P_cols + γ′ M ∂c/∂v_cols) of linked block b into the matrix: S the block's β′M + γ′C + K
- * (rows × columns, row-major), M its mass block or NULL. */
-static void reduce_block(const Links *L, Work *w, int64_t b, const double *S, const double *M, double gamma_p)
+/* Pᵀ_rows (S P_cols + γ′ M ∂c/∂v_cols + Cd ∂(v, w)/∂q_cols + M ∂(a, alpha)/∂q_cols) of linked block b into
+ * the matrix: S the block's β′M + γ′C + K (rows × columns, row-major), M its mass block or NULL; with
+ * `rates` (an evaluation with inertia) the dependent rates' q-dependence at fixed independent rates through
+ * the block's damping Cd (or NULL) and mass. */
+static void reduce_block(const Links *L, Work *w, int64_t b, const double *S, const double *M, const double *Cd,
+                         double gamma_p, int rates)
 {
     const int64_t xr = L->block_rows[b], xc = L->block_columns[b];
     const int64_t nr = L->expansion_size[xr], nc = L->expansion_size[xc];
     const int64_t ur = L->expansion_reduced[xr], uc = L->expansion_reduced[xc];
-    double *Pr = L->scratch, *Pc = Pr + nr * ur, *Cc = Pc + nc * uc, *B = Cc + nc * uc;
-    expand(L, xr, Pr, NULL);
-    expand(L, xc, Pc, M ? Cc : NULL);
+    double *Pr = L->scratch, *Pc = Pr + nr * ur, *Cc = Pc + nc * uc, *Rv = Cc + nc * uc, *Ra = Rv + nc * uc;
+    double *B = Ra + nc * uc;
+    const int by_velocity = rates && Cd, by_acceleration = rates && M;
+    expand(L, xr, Pr, NULL, NULL, NULL);
+    expand(L, xc, Pc, M ? Cc : NULL, by_velocity ? Rv : NULL, by_acceleration ? Ra : NULL);
     for (int64_t i = 0; i < nr; ++i)
         for (int64_t j = 0; j < uc; ++j) {
             double s = 0.0;
             for (int64_t q = 0; q < nc; ++q) {
                 s += S[nc * i + q] * Pc[uc * q + j];
                 if (M) s += gamma_p * M[nc * i + q] * Cc[uc * q + j];
+                if (by_velocity) s += Cd[nc * i + q] * Rv[uc * q + j];
+                if (by_acceleration) s += M[nc * i + q] * Ra[uc * q + j];
             }
             B[uc * i + j] = s;
         }
@@ -202,18 +282,19 @@ static void combined_block(const double *M, const double *C, const double *K, co
  * dependent coordinate as assemble scatters them, the others through their expansions, then the
  * geometric stiffness from the dependent nodes' residual rows (L->wrench). */
 static void assemble_linked(const Model *m, Work *w, const Configuration *c, double beta_p, double gamma_p,
-                            int with_inertia_tangent)
+                            int with_inertia_tangent, int rates)
 {
     const Links *L = m->links;
     const int64_t W = L->width;
     double S[196];
     memset(w->matrix, 0, sizeof(double) * m->factorization->size);
+    if (rates) dependent_rates_tangent(m, c);
     for (int64_t e = 0; e < m->n_elements; ++e) {
         const double *K = w->tangent + 196 * e, *M = w->mass + 196 * e, *C = w->quadratic_D + 196 * e;
         const double *D = with_inertia_tangent ? w->inertia_tangent + 196 * e : NULL;
         if (L->element_block[e] >= 0) {
             combined_block(M, C, K, D, 196, beta_p, gamma_p, S);
-            reduce_block(L, w, L->element_block[e], S, M, gamma_p);
+            reduce_block(L, w, L->element_block[e], S, M, C, gamma_p, rates);
             continue;
         }
         scatter_block(w->matrix, m->element_position + 196 * e, M, C, K, D, 196, beta_p, gamma_p);
@@ -222,7 +303,7 @@ static void assemble_linked(const Model *m, Work *w, const Configuration *c, dou
         const double *M = w->body_mass + 36 * b, *C = w->body_damping + 36 * b, *K = w->body_stiffness + 36 * b;
         if (L->body_block[b] >= 0) {
             combined_block(M, C, K, NULL, 36, beta_p, gamma_p, S);
-            reduce_block(L, w, L->body_block[b], S, M, gamma_p);
+            reduce_block(L, w, L->body_block[b], S, M, C, gamma_p, rates);
             continue;
         }
         scatter_block(w->matrix, m->body_position + 36 * b, M, C, K, NULL, 36, beta_p, gamma_p);
@@ -233,7 +314,7 @@ static void assemble_linked(const Model *m, Work *w, const Configuration *c, dou
     for (int64_t l = 0; l < m->n_loads; ++l) {
         const double *K = w->load_blocks + 36 * l;
         if (L->load_block[l] >= 0) {
-            reduce_block(L, w, L->load_block[l], K, NULL, gamma_p);
+            reduce_block(L, w, L->load_block[l], K, NULL, NULL, gamma_p, rates);
             continue;
         }
         scatter_block(w->matrix, m->load_position + 36 * l, NULL, NULL, K, NULL, 36, beta_p, gamma_p);
@@ -243,9 +324,19 @@ static void assemble_linked(const Model *m, Work *w, const Configuration *c, dou
     for (int64_t e = 0; e < m->n_couplings; ++e) {
         const double value = gamma_p * w->coupling_damping[e] + w->coupling_stiffness[e];
         if (L->coupling_block[e] >= 0)
-            reduce_block(L, w, L->coupling_block[e], &value, NULL, gamma_p);
+            reduce_block(L, w, L->coupling_block[e], &value, NULL, w->coupling_damping + e, gamma_p, rates);
         else if (m->coupling_position[e] >= 0)
             w->matrix[m->coupling_position[e]] += value;
+    }
+    /* cable elements: γ′C + K of the generated cable_force (no mass), 12 × 12 on both ends' [d, π] */
+    for (int64_t e = 0; e < m->n_cables; ++e) {
+        const double *K = w->cable_stiffness + 144 * e, *C = w->cable_damping + 144 * e;
+        if (L->cable_block[e] >= 0) {
+            combined_block(NULL, C, K, NULL, 144, beta_p, gamma_p, S);
+            reduce_block(L, w, L->cable_block[e], S, NULL, C, gamma_p, rates);
+            continue;
+        }
+        scatter_block(w->matrix, m->cable_position + 144 * e, NULL, C, K, NULL, 144, beta_p, gamma_p);
     }
     /* ∂(Pᵀ)/∂q · r_all: each dependent node's wrench (f, m) at x_c, on its root (root_wrench, by δx_r
      * and δx_c) and on every hinge or slide of its path (hinge_wrench or slide_wrench, by the edge
@@ -324,8 +415,10 @@ static void assemble_linked(const Model *m, Work *w, const Configuration *c, dou
 
 /* The evaluation in w->total reduced onto the minimum coordinates, in place: r_min = Pᵀ r_all on the
  * free coordinates, Jᵀ r_dep added to the reactions of the constrained ones, the dependent rows
- * cleared (kept in L->wrench for the geometric stiffness); with matrices, the reduced iteration
- * matrix (assemble_linked). The configuration's dependent nodes are those complete_links made. */
+ * cleared (kept in L->wrench for the geometric stiffness); with matrices (1: of a static evaluation,
+ * 2: of one with inertia), the reduced iteration matrix (assemble_linked; with the inertia tangent and
+ * inertia, the dependent rates' term too, as latdyn/assembly/linked.py's with inertia_tangent). The
+ * configuration's dependent nodes are those complete_links made. */
 static void reduce_links(const Model *m, Work *w, const Configuration *c, double beta_p, double gamma_p,
                          int matrices, int with_inertia_tangent)
 {
@@ -347,5 +440,5 @@ static void reduce_links(const Model *m, Work *w, const Configuration *c, double
             w->total[columns[j]] += f;
         }
     }
-    if (matrices) assemble_linked(m, w, c, beta_p, gamma_p, with_inertia_tangent);
+    if (matrices) assemble_linked(m, w, c, beta_p, gamma_p, with_inertia_tangent, matrices == 2 && with_inertia_tangent);
 }

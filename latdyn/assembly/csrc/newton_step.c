@@ -57,7 +57,7 @@ static void assemble(const Model *m, Work *w, double beta_p, double gamma_p, int
 void latdyn_iteration_matrix(const Model *m, Work *w, const Configuration *c, double beta_p, double gamma_p,
                              int64_t with_inertia_tangent)
 {
-    if (m->links) reduce_links(m, w, c, beta_p, gamma_p, 1, (int)with_inertia_tangent);
+    if (m->links) reduce_links(m, w, c, beta_p, gamma_p, 2, (int)with_inertia_tangent);
     else assemble(m, w, beta_p, gamma_p, (int)with_inertia_tangent);
 }
 
@@ -194,7 +194,7 @@ static int64_t newton_iterations(const Model *m, Work *w, StepControl *s, const 
             return 0;
         }
         if (matrices && s->inertia_tangent) inertia_tangent(m, w, 1.0);
-        if (m->links) reduce_links(m, w, trial, beta_p, gamma_p, matrices, (int)s->inertia_tangent);
+        if (m->links) reduce_links(m, w, trial, beta_p, gamma_p, matrices ? 2 : 0, (int)s->inertia_tangent);
         if (matrices) {
             if (!m->links) assemble(m, w, beta_p, gamma_p, (int)s->inertia_tangent);
             s->factorizations += 1;

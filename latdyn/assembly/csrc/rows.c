@@ -32,20 +32,6 @@ void latdyn_controller_outputs_at(const Model *m, Work *w, const Configuration *
     if (m->n_controller_states) w->controller_half_step[0] = held;
 }
 
-/* +1 (−1) when hinge j rests on its upper (lower) rigid stop: on it within the events' tolerance and not
- * moving away; 0 otherwise (latdyn/timeloop/loop.py _note_resting flags such rows). */
-static int resting_on_stop(const Model *m, const Configuration *c, int64_t j)
-{
-    const double stops[2] = {m->hinge_lower_stop[j], m->hinge_upper_stop[j]};
-    for (int s = 0; s < 2; ++s) {
-        const double side = s ? 1.0 : -1.0;
-        if (isnan(stops[s])) continue;
-        const double tolerance = lock_tolerance(stops[s]);
-        if (fabs(c->theta[j] - stops[s]) <= tolerance && side * c->theta_dot[j] >= -tolerance) return (int)side;
-    }
-    return 0;
-}
-
 /* The generalized force each joint (hinge or guide, in model order) applies on its coordinate at the
  * state `held` and time t, positive when it drives θ or s up (SCENE.md, the joint probes torque/force;
  * latdyn/results/probes.py ProbeSet.joint_forces has the rules). One evaluation of the equations of
@@ -53,19 +39,14 @@ static int resting_on_stop(const Model *m, const Configuration *c, int64_t j)
  * is r = G + f, f its law (spring, damper, compliant stop, friction, applied torque or force, a
  * continuous controller's output: Work.joint_forces) and G all the rest.
  * - A free joint applies its law: −f.
- * - A joint without a coordinate (prescribed, latched) applies the reaction that holds it: r.
- * - A free joint resting on a rigid stop is held by the stop when, unheld, it would accelerate into it:
- *   then r with its own acceleration zero (the others as they are); otherwise −f.
- * `held` is the caller's copy of the state: the resting joints' accelerations are zeroed in it and, with
- * rigid links, its dependent nodes completed. Work is left as that evaluation leaves it. */
+ * - A joint without a coordinate (prescribed, latched, stuck by friction, resting on its rigid stop:
+ *   latdyn/timeloop/events.py locks it there) applies the reaction that holds it: r.
+ * `held` is the caller's copy of the state: with rigid links its dependent nodes are completed in it.
+ * Work is left as that evaluation leaves it. */
 void latdyn_joint_forces(const Model *m, Work *w, Configuration *held, double t, double *out)
 {
     const int64_t n = m->n_dofs;
     if (m->n_hinges == 0) return;
-    for (int64_t k = 0; k < m->n_free_hinges; ++k) {
-        const int64_t j = m->free_hinges[k];
-        if (resting_on_stop(m, held, j)) held->theta_ddot[j] = 0.0;
-    }
     m->time_laws(t, w->laws);
     if (m->links) complete_links(m, held);
     evaluate(m, held, w, w->laws, t, 0, 1, 1.0);
@@ -73,12 +54,6 @@ void latdyn_joint_forces(const Model *m, Work *w, Configuration *held, double t,
     for (int64_t j = 0; j < m->n_hinges; ++j) {
         const int64_t d = m->hinge_dofs[j];
         out[j] = d < n ? 0.0 - w->joint_forces[j] : w->total[d]; /* 0.0 − f: no −0.0 */
-    }
-    for (int64_t k = 0; k < m->n_free_hinges; ++k) {
-        const int64_t j = m->free_hinges[k];
-        const int side = resting_on_stop(m, held, j);
-        const double held_by_stop = w->total[m->hinge_dofs[j]]; /* r at its θ̈ = 0 */
-        if (side && side * held_by_stop < 0.0) out[j] = held_by_stop; /* the stop holds it */
     }
 }
 
