@@ -504,10 +504,11 @@ class ParameterDerivatives:
                             for which, row in (("end", last), ("max", high), ("min", low))}
         return out
 
-    def _by_parameter(self, tangent: np.ndarray):
+    def _by_parameter(self, tangent: np.ndarray, state):
         """(δx, δπ, δθ) of every node and hinge, (n_nodes, 3, k) (n_nodes, 3, k) (n_hinges, k), from the
         free-coordinate sensitivities ``tangent`` (n_dofs, k), one column a parameter (the update's
-        coordinates: :func:`latdyn.assembly.assembler.unpack_free`, a column at a time)."""
+        coordinates: :func:`latdyn.assembly.assembler.unpack_free`, a column at a time); the dependent
+        nodes of a model with guides moved by the reduction at ``state`` (:meth:`_dependent_motion`)."""
         model, k = self.model, tangent.shape[1]
         n_nodes = model.node_dofs.shape[0]
         dx, dpi = np.zeros((n_nodes, 3, k)), np.zeros((n_nodes, 3, k))
@@ -518,7 +519,19 @@ class ParameterDerivatives:
             dx[free] = full[model.node_dofs[free, 0:3]]
             dpi[free] = full[model.node_dofs[free, 3:6]]
             dtheta[hinges] = full[model.hinge_dofs[hinges]]
+            if model.links is not None:
+                self._dependent_motion(state, tangent, dx, dpi)
         return dx, dpi, dtheta
+
+    def _dependent_motion(self, state, dq: np.ndarray, dx: np.ndarray, dpi: np.ndarray) -> None:
+        """(δx, δπ) of the dependent nodes (guided bodies) into ``dx``, ``dpi``: P δq on their rows (the
+        projection of latdyn/assembly/linked.py, J of the generated edge kernels)."""
+        model = self.model
+        P = self.assembler.evaluate(state, matrices=True).projection
+        full = np.asarray(P @ dq)
+        for node in model.links.dependent:
+            dofs = model.node_dofs[node]
+            dx[node], dpi[node] = full[dofs[0:3]], full[dofs[3:6]]
 
     def _probe_derivatives(self, probe, state, dx, dpi, dtheta) -> list:
         """The derivatives of ``probe`` at ``state`` by every parameter along (δx, δπ, δθ) of
@@ -584,7 +597,7 @@ class StaticSensitivities(ParameterDerivatives):
             moved = -(g @ tangent) / float(g @ along_load)          # δλ
             tangent = tangent + np.outer(along_load, moved)
         self.load_factor_rows.append([float(x) for x in moved])
-        moved_by = self._by_parameter(tangent)
+        moved_by = self._by_parameter(tangent, state)
         self.rows.append((load_factor, [value for p in self.probes
                                         for value in self._probe_derivatives(p, state, *moved_by)]))
 
@@ -678,7 +691,7 @@ class ArcLengthSensitivities(StaticSensitivities):
             tangent, moved = solved[:-1], solved[-1]
         self.previous = tangent
         self.load_factor_rows.append([float(x) for x in moved])
-        moved_by = self._by_parameter(tangent)
+        moved_by = self._by_parameter(tangent, state)
         self.rows.append((load_factor, [value for p in self.probes
                                         for value in self._probe_derivatives(p, state, *moved_by)]))
 

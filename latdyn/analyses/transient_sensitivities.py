@@ -540,16 +540,6 @@ class TransientSensitivities(ParameterDerivatives):
         q-dependence composed along the tree from the generated ``*_rates_D_q`` kernels)."""
         return self.assembler.exact_matrices(state)
 
-    def _dependent_motion(self, state, dq: np.ndarray, dx: np.ndarray, dpi: np.ndarray) -> None:
-        """(δx, δπ) of the dependent nodes (guided bodies) into ``dx``, ``dpi``: P δq on their rows (the
-        projection of latdyn/assembly/linked.py, J of the generated edge kernels)."""
-        model = self.model
-        P = self.assembler.evaluate(state, matrices=True).projection
-        full = np.asarray(P @ dq)
-        for node in model.links.dependent:
-            dofs = model.node_dofs[node]
-            dx[node], dpi[node] = full[dofs[0:3]], full[dofs[3:6]]
-
     def _rotation_operators(self, increment: np.ndarray):
         """(R·, J·) on free-coordinate columns for the step's increment hΔq: on each free node's
         rotation coordinates R = exp(skew hΔq) and J = dexp(hΔq), the identity elsewhere; J also as a
@@ -610,9 +600,7 @@ class TransientSensitivities(ParameterDerivatives):
     def record(self, carried: dict, state) -> dict:
         """``carried`` with the row of every probe's sensitivity at ``state`` (a new list of rows), all
         parameters at once: a point x + T r moves by δx + δπ × T r, a hinge angle by δθ."""
-        dx, dpi, dtheta = self._by_parameter(carried["dq"])
-        if self.model.links is not None and len(self.names):
-            self._dependent_motion(state, carried["dq"], dx, dpi)
+        dx, dpi, dtheta = self._by_parameter(carried["dq"], state)
         row = [float(state.t)]
         for probe in self.probes:
             row.extend(self._probe_derivatives(probe, state, dx, dpi, dtheta))
