@@ -117,14 +117,14 @@ def test_the_taut_time_of_a_dropped_mass_has_its_closed_form_derivatives(drop):
 def test_a_dropped_mass_caught_by_a_cable_agrees_with_richardson_central_differences(drop, name):
     """Through the taut change and the slack one after the bounce (measured: L 3.9e-11, EA 2.1e-10 of the
     probe's largest sensitivity; the event times to 1e-9)."""
-    _agree(drop, DROP, name)
+    _agree(drop, DROP, name, tolerance=1e-8)   # measured 3.9e-11, 2.1e-10
 
 
 @pytest.mark.parametrize("name, relative", [("c", 1e-4), ("L", 1e-5), ("m", 1e-4)])
 def test_a_damped_cable_whose_tension_jumps_at_taut_agrees_with_richardson_central_differences(name, relative):
     """c = 5 N·s/m: the tension jumps by c ℓ̇ at taut, the slack change is where N = N_el + c ℓ̇ falls to zero
     (the gap depends on the rates). Measured: c 3.0e-11, L 6.0e-10, m 6.7e-10."""
-    _agree(_run(DAMPED, name), DAMPED, name, relative)
+    _agree(_run(DAMPED, name), DAMPED, name, relative, tolerance=1e-8)   # measured ≤ 6.7e-10
 
 
 #: DROP with a cable of mass (ρA = 0.2 kg/m, lumped half at each end: latdyn/model/cables.py): its rest
@@ -138,7 +138,7 @@ def test_the_mass_of_a_cable_agrees_with_richardson_central_differences(name):
     """ρA and the rest length through the cable's lumped masses (joint_body, linear in the mass), through
     the taut and slack changes (measured: rho 3.7e-9, L 4.9e-11; a three-element heavy cable that goes
     slack and taut, 3D: rho 9.2e-10, EA 1.8e-9, L 1.3e-7, not run here: 11 s a run)."""
-    _agree(_run(HEAVY, name), HEAVY, name)
+    _agree(_run(HEAVY, name), HEAVY, name, tolerance=3e-8)   # measured ≤ 3.7e-9
 
 
 @pytest.mark.parametrize("name", ["L", "EI"])

@@ -97,7 +97,7 @@ def test_a_bead_on_a_turning_rod_agrees_with_richardson_central_differences(bead
     """Measured: k 8.5e-10 of each probe's largest sensitivity (and m 3.7e-10, c 2.1e-10, rest 1.1e-10, not
     run here to keep the file fast)."""
     assert bead.probes["s"][-1] > 0.4   # the centrifugal pull drives it out along the rod
-    _agree(bead, BEAD, name)
+    _agree(bead, BEAD, name, tolerance=1e-8)   # measured 8.5e-10
 
 
 #: GUIDE_3D's slider latching at s = −0.05 (t = 0.240 s), and bouncing off a rigid stop there with
@@ -118,7 +118,7 @@ def test_a_3d_guide_latching_or_hitting_its_stop_on_a_flexible_arm_agrees_with_r
     rest 1.3e-8 (the run before the event is each test's first 0.24 s)."""
     result = _run(text, name)
     assert [(e["joint"], e["kind"]) for e in result.summary["events"]] == [("slider", kind)]
-    _agree(result, text, name)
+    _agree(result, text, name, tolerance=3e-7)   # measured ≤ 3.9e-8
 
 
 @pytest.mark.parametrize("backend", ["numpy", "c"])
