@@ -50,9 +50,9 @@ load control, arc length and displacement control and transient runs of an impli
 steps without friction, sampled controllers, controllers with states and inputs (cables through their
 slack/taut events, guides with theirs: :func:`_transient_refusal`, :meth:`ControllerTerms.refusal`); a
 parameter used anywhere but in load components, hinge stiffness, damping, torque and rest angle, section
-values of shear-rigid sections (formulation default), body masses, centres of mass and inertias and, in
-transient runs, initial velocities, compliant stops' laws, continuous controllers' outputs, guides' laws
-and cables' EA, damping, rest length and rhoA; probes other than point positions and displacements in the
+values of shear-rigid sections (formulation default), body masses, centres of mass and inertias,
+compliant stops' laws and, in transient runs, initial velocities, continuous controllers' outputs,
+guides' laws and cables' EA, damping, rest length and rhoA; probes other than point positions and displacements in the
 global frame, hinge angles and guide positions; rigid links; in static paths hinges with limits or
 ``lock_at`` (events; transient runs differentiate latches and stops: latdyn/analyses/transient_sensitivities.py). Under gravity the static
 Newton matrix K − λ ∂Q/∂q holds the beams' gravity tangent (the generated ``beam_gravity_D_q``), so
