@@ -95,7 +95,7 @@ _CONTACT_KEY = re.compile(r"^beams\.(?P<beam>.+)\.(?P<end>start|end)\.hinge\.con
 #: the slots of the law in the generated kernel's output
 _CONTACT_SLOT = {"stiffness": 0, "exponent": 1, "damping": 2}
 #: a continuous controller's output law (transient runs: ∂y/∂p through the sensors' values, ControllerTerms)
-_CONTROLLER_KEY = re.compile(r"^controllers\.(?P<name>[^.]+)\.output$")
+_CONTROLLER_KEY = re.compile(r"^controllers\.(?P<name>[^.]+)\.(?:output|states\.(?P<state>[^.]+))$")
 
 
 def refusal(scene) -> SceneError | None:
@@ -843,6 +843,15 @@ def bordered_solve(stiffness, column: np.ndarray, row: np.ndarray, rhs: np.ndarr
                           "matrix, which is singular there (a bifurcation point)") from None
 
 
+def _has_events(scene) -> bool:
+    """Whether ``scene`` has events whose time the transient sensitivities follow (hinges' latches and
+    stops, rigid or compliant; guides' latches and stops; cables' slack and taut changes)."""
+    hinges = any(h.lock_at is not None or h.limits is not None for _, _, h in scene.hinges)
+    guides = any(b.guide is not None and (b.guide.lock_at is not None or b.guide.limits is not None)
+                 for b in scene.bodies.values())
+    return hinges or guides or bool(scene.cables)
+
+
 class ControllerTerms:
     """∂r/∂p through continuous controllers (SCENE.md ``controllers`` without ``rate``) for transient
     sensitivities. A controller's output y = clip(f(t, s; p)) is a law of its sensors s (probes read at
@@ -869,17 +878,24 @@ class ControllerTerms:
         self.model, self.k = owner.model, len(owner.names)
         self.continuous = [c for c in scene.controllers.values() if not c.sampled]
         names = {c.name for c in self.continuous}
-        #: controller name -> {column: ∂f/∂p as a function of (t, reads)}
+        #: controller name -> {column: ∂f/∂p as a function of (t, reads, states)}
         self.partials: dict[str, dict[int, object]] = {}
+        #: controllers with states: name -> {column: {state: ∂(dS/dt)/∂p as a function of (t, reads, states)}}
+        self.rate_partials: dict[str, dict[int, dict[str, object]]] = {}
         for column, name in enumerate(owner.names):
             for key in scene.parameters.depending_on(name):
                 match = _CONTROLLER_KEY.match(key)
                 if not match:
                     continue
                 c = scene.controllers[match["name"]]
-                text = scene.parameters.derivative(key, name, c.reads)
-                _, expr = parse_named_expression(text, c.reads, scene.file, key, "the controller's sensors")
-                self.partials.setdefault(c.name, {})[column] = sp.lambdify(c.symbols, expr, modules=["math", "numpy"])
+                text = scene.parameters.derivative(key, name, c.reads + c.states)
+                _, expr = parse_named_expression(text, c.reads + c.states, scene.file, key,
+                                                 "the controller's sensors and states")
+                law = sp.lambdify(c.symbols, expr, modules=["math", "numpy"])
+                if match["state"] is None:
+                    self.partials.setdefault(c.name, {})[column] = law
+                else:              # ∂(dS/dt)/∂p of one state
+                    self.rate_partials.setdefault(c.name, {}).setdefault(column, {})[match["state"]] = law
         #: controller name -> {an earlier controller it reads: ∂f/∂y_j as a function of (t, reads)}
         self.chained = {c.name: {r: sp.lambdify(c.symbols, sp.diff(c.output_expr, sp.Symbol(r, real=True)),
                                                 modules=["math", "numpy"])
@@ -887,6 +903,11 @@ class ControllerTerms:
                         for c in self.continuous}
         self.sensors = ProbeSet(assembler, assembler.initial_state())
         self.assembler, self.owner = assembler, owner
+        #: controller name -> dS_{n+1}/dp at the step's end configuration held fixed (p_c, k), set by
+        #: :class:`ControllerStates` before ∂r/∂p is taken at a step's end (or δS_0 at the start)
+        self.held: dict[str, np.ndarray] = {}
+        #: the controllers with states, differentiated (None without)
+        self.states = ControllerStates(self) if any(c.states for c in self.continuous) else None
 
     @staticmethod
     def refusal(scene) -> str | None:
@@ -895,9 +916,10 @@ class ControllerTerms:
             if c.sampled:
                 return (f"sensitivities of runs with sampled controllers ({c.name}: rate, its held output jumps at "
                         "each sample) are not computed yet; continuous controllers without states are")
-            if c.states:
-                return (f"sensitivities of runs with controllers with states ({c.name}: states, integrated inside "
-                        "the step) are not computed yet; continuous controllers without states are")
+            if c.states and _has_events(scene):
+                return (f"sensitivities of runs with controllers with states ({c.name}: states) and events (a latch, "
+                        "a stop, a compliant stop's onset, a cable's change: the event time moves the states' "
+                        "trapezoidal step) are not computed yet; continuous controllers with states are without them")
         names = set(scene.controllers)
         driven = {f"beams.{beam}.{which}.hinge.torque" for beam, which, hinge in scene.hinges
                   if names & set(getattr(hinge.torque, "input_names", ()))}
@@ -908,15 +930,21 @@ class ControllerTerms:
                             "expected the parameter inside the controller's output instead")
         return None
 
+    def state_values(self, c) -> list:
+        """The accepted states S of controller ``c`` (their values in ``scene.controller_states``)."""
+        states = self.owner.scene.controller_states
+        return [states[f"{c.name}.{s}"] for s in c.states]
+
     def add(self, state, total: np.ndarray) -> None:
         """Add the controllers' ∂r/∂p at ``state`` into ``total`` (class docstring)."""
         w = self.assembler.control   # the wiring of the current numbering
-        if not self.partials or not len(w.actuator_kind):
+        if not (self.partials or self.held) or not len(w.actuator_kind):
             return
         values = dict(zip(self.sensors.names, self.sensors.values(state)))
         outputs, slopes = {}, {}
         for c in self.continuous:
-            arguments = [state.t, *[values[r] if r in values else outputs[r] for r in c.reads]]
+            arguments = [state.t, *[values[r] if r in values else outputs[r] for r in c.reads],
+                         *self.state_values(c)]
             raw = float(c.functions()[0](*arguments))
             outputs[c.name] = c.clip(raw)
             slope = np.zeros(self.k)
@@ -925,6 +953,8 @@ class ControllerTerms:
                     slope[column] += float(partial(*arguments))
                 for read, through in self.chained[c.name].items():
                     slope += float(through(*arguments)) * slopes[read]
+                if c.name in self.held:   # ∂y/∂S dS/dp (the states at the configuration held)
+                    slope += self.states.output_slopes(c, arguments) @ self.held[c.name]
             slopes[c.name] = slope
         loads: dict[int, np.ndarray] = {}   # load -> its six values' derivatives (6, k)
         for kind, index, component, controller, gain in zip(w.actuator_kind, w.actuator_index, w.actuator_component,
@@ -939,3 +969,143 @@ class ControllerTerms:
             if columns:
                 nodes, forces = self.owner._load_forces(state, [index] * len(columns), values[:, columns].T)
                 total[self.model.node_dofs[nodes[0]][:, None], np.array(columns)[None, :]] += forces.T
+
+
+class ControllerStates:
+    """The states of continuous controllers (``controllers.NAME.states`` without ``rate``) carried
+    through the step's derivative (docs/parameters.md, "Controllers"). The step integrates
+    dS/dt = f(t, s, S; p) by the trapezoidal rule condensed into the output (docs/control.md),
+
+        S_{n+1} = S_n + h/2 (f_n + f(t_{n+1}, s_{n+1}, S_{n+1})),
+
+    so its derivative, with A = I − h/2 ∂f/∂S at the step's end,
+
+        δS_{n+1} = A⁻¹ (δS_n + h/2 δf_n + h/2 ∂f/∂p)  +  A⁻¹ h/2 ∂f/∂s δs_{n+1}
+                 = (held: the configuration fixed)    +  (through the sensors),
+        δf_{n+1} = ∂f/∂s δs_{n+1} + ∂f/∂S δS_{n+1} + ∂f/∂p.
+
+    The held part enters ∂r/∂p as ∂y/∂S times it (:meth:`ControllerTerms.add`); the part through the
+    sensors is the condensed total derivative dy/ds = ∂y/∂s + ∂y/∂S A⁻¹ h/2 ∂f/∂s that the step's
+    matrix holds when the evaluation condenses the states from (S_n, f_n) (:meth:`condensed`). δs is
+    the sensors' derivative along δq (probes: hinge angles, point positions and displacements),
+    ∂y/∂S, ∂f/∂s, ∂f/∂S and ∂f/∂p the symbolic derivatives of the controller's expressions, those the
+    code generator prints for Newton (codegen/laws.py). At the start (and a restart) the states are
+    held: δS_0 = 0 (``initial`` is a number), δf_0 = ∂f/∂p (δq_0 = 0)."""
+
+    def __init__(self, terms: ControllerTerms):
+        import sympy as sp
+
+        from latdyn.assembly.control import state_rates
+
+        self.terms, scene = terms, terms.owner.scene
+        self.controllers = [c for c in terms.continuous if c.states]
+        self.values, self.rates = scene.controller_states.values, state_rates(scene)
+        #: S of the stateful controllers in scene.controller_states, and their rates' entries (the continuous
+        #: controllers' states in file order, as latdyn.assembly.control.wiring lays them out)
+        self.slots = np.array([scene.controller_states.index(f"{c.name}.{s}") for c in self.controllers
+                               for s in c.states], np.int64)
+        first, index = 0, []
+        for c in terms.continuous:
+            index.extend(range(first, first + len(c.states)) if c.states else [])
+            first += len(c.states)
+        self.rate_index = np.array(index, np.int64)
+        self.first = dict(zip((c.name for c in self.controllers),
+                              np.cumsum([0] + [len(c.states) for c in self.controllers]).tolist()))
+        probes = {p.name: p for p in scene.output.probes}
+        self.sensors, self.gradients = {}, {}
+        for c in self.controllers:
+            reads, S = c.symbols[1:1 + len(c.reads)], c.symbols[1 + len(c.reads):]
+            sensed = [i for i, r in enumerate(c.reads) if r in probes]
+            self.sensors[c.name] = [probes[c.reads[i]] for i in sensed]
+            self.gradients[c.name] = sp.lambdify(c.symbols, [
+                [sp.diff(c.output_expr, x) for x in S],
+                [[sp.diff(f, reads[i]) for i in sensed] for f in c.state_exprs],
+                [[sp.diff(f, x) for x in S] for f in c.state_exprs]], modules=["math", "numpy"])
+
+    def output_slopes(self, c, arguments) -> np.ndarray:
+        """∂y/∂S of controller ``c`` at ``arguments`` (t, reads, S), (p,)."""
+        return np.array(self.gradients[c.name](*arguments)[0], float).reshape(len(c.states))
+
+    def _at(self, c, state, values=None):
+        """(arguments, ∂f/∂s (p, m), ∂f/∂S (p, p), ∂f/∂p (p, k)) of ``c`` at ``state`` and its accepted S."""
+        if values is None:
+            values = dict(zip(self.terms.sensors.names, self.terms.sensors.values(state)))
+        arguments = [state.t, *[values[r] for r in c.reads], *self.terms.state_values(c)]
+        _, f_s, f_S = self.gradients[c.name](*arguments)
+        p = len(c.states)
+        f_p = np.zeros((p, self.terms.k))
+        for column, laws in self.terms.rate_partials.get(c.name, {}).items():
+            for j, s in enumerate(c.states):
+                if s in laws:
+                    f_p[j, column] = float(laws[s](*arguments))
+        return (arguments, np.array(f_s, float).reshape(p, len(self.sensors[c.name])),
+                np.array(f_S, float).reshape(p, p), f_p)
+
+    def _sensed(self, c, state, dq: np.ndarray) -> np.ndarray:
+        """δs (m, k): the derivatives of ``c``'s sensors along δq (probe derivatives)."""
+        owner = self.terms.owner
+        dx, dpi, dtheta = owner._by_parameter(dq)
+        return np.array([owner._probe_derivatives(probe, state, dx, dpi, dtheta) for probe in self.sensors[c.name]],
+                        float).reshape(len(self.sensors[c.name]), dq.shape[1])
+
+    def _accepted(self) -> dict:
+        return {"S": self.values[self.slots].copy(), "f": self.rates[self.rate_index].copy()}
+
+    def start(self, state) -> dict:
+        """δS_0, δf_0 at the (re)start ``state`` (the states held, δq = 0), held for ∂r/∂p there."""
+        k = self.terms.k
+        dS, df = np.zeros((len(self.slots), k)), np.zeros((len(self.slots), k))
+        for c in self.controllers:
+            rows = slice(self.first[c.name], self.first[c.name] + len(c.states))
+            _, _, f_S, f_p = self._at(c, state)
+            df[rows] = f_S @ dS[rows] + f_p
+            self.terms.held[c.name] = dS[rows]
+        return {"controller_dS": dS, "controller_df": df, **self._prefixed(self._accepted())}
+
+    @staticmethod
+    def _prefixed(values: dict) -> dict:
+        return {f"controller_{key}": value for key, value in values.items()}
+
+    def begin_step(self, carried: dict, state, h: float) -> None:
+        """The held part of δS_{n+1} (class docstring) at the step's end ``state``, for ∂r/∂p there."""
+        hh = 0.5 * h
+        self._step = {}
+        for c in self.controllers:
+            rows = slice(self.first[c.name], self.first[c.name] + len(c.states))
+            _, f_s, f_S, f_p = self._at(c, state)
+            A = np.eye(len(c.states)) - hh * f_S
+            held = np.linalg.solve(A, carried["controller_dS"][rows] + hh * (carried["controller_df"][rows] + f_p))
+            self.terms.held[c.name] = held
+            self._step[c.name] = (rows, A, f_s, f_S, f_p, hh)
+
+    def condensed(self, carried: dict, h: float):
+        """A context in which the evaluation condenses the states from the step's start (S_n, f_n) with
+        h/2, as inside the step: its K and C hold the total dy/ds (class docstring)."""
+        from contextlib import contextmanager
+
+        @contextmanager
+        def context():
+            native = self.terms.assembler.native(inertia_tangent=True)
+            half = native.buffers["controller_half_step"]
+            kept = (half.copy(), self.values[self.slots].copy(), self.rates[self.rate_index].copy())
+            half[0] = 0.5 * h
+            self.values[self.slots], self.rates[self.rate_index] = carried["controller_S"], carried["controller_f"]
+            try:
+                yield
+            finally:
+                half[:] = kept[0]
+                self.values[self.slots], self.rates[self.rate_index] = kept[1], kept[2]
+        return context()
+
+    def after_step(self, state, dq: np.ndarray) -> dict:
+        """δS_{n+1}, δf_{n+1} and the accepted (S, f) after the step ending at ``state``, δq its
+        configuration's derivative (class docstring)."""
+        k = self.terms.k
+        dS, df = np.zeros((len(self.slots), k)), np.zeros((len(self.slots), k))
+        for c in self.controllers:
+            rows, A, f_s, f_S, f_p, hh = self._step[c.name]
+            ds = self._sensed(c, state, dq)
+            dS[rows] = self.terms.held[c.name] + np.linalg.solve(A, hh * (f_s @ ds))
+            df[rows] = f_s @ ds + f_S @ dS[rows] + f_p
+        self.terms.held = {}
+        return {"controller_dS": dS, "controller_df": df, **self._prefixed(self._accepted())}

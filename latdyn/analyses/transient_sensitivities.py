@@ -149,7 +149,12 @@ class TransientSensitivities(ParameterDerivatives):
         if split.n_massless:
             self._refuse_start(state, ev, split)
         dv = self._initial_velocities()
+        states = self._controller_states()
+        if states is not None:   # δS_0 held for ∂r/∂p at the start (ControllerStates.start)
+            carried = {**carried, **states.start(state)}
         rhs = self.residual_derivatives(state, 1.0, inertia=True) + ev.combined(0.0, 1.0, 0.0) @ dv
+        if states is not None:
+            self.controllers.held = {}
         if split.n_massless == 0:   # Δ = −M⁻¹r: one factorization for every column
             dvdot = -np.asarray(solve_linear(ev.combined(1.0, 0.0, 0.0), rhs)).reshape(n, k)
         else:
@@ -277,7 +282,13 @@ class TransientSensitivities(ParameterDerivatives):
         dq0 = turn(dq) + tangent(du0)
         dv0 = dv + h * (1 - gamma) * da + h * gamma * da0
         dv0[:, k] += (1 - gamma) * a_old + gamma * a_new                               # ∂v_{n+1}/∂h
-        M, C, K = self._matrices(new)
+        states = self._controller_states()
+        if states is None:
+            M, C, K = self._matrices(new)
+        else:   # the states' held part for ∂r/∂p, the matrix with the states condensed as in the step
+            states.begin_step(carried, new, h)
+            with states.condensed(carried, h):
+                M, C, K = self._matrices(new)
         rhs = -(np.hstack([self.residual_derivatives(new, 1.0, inertia=True), np.zeros((n, 1))])
                 + K @ dq0 + C @ dv0)
         J = tangent.matrix if issparse(K) else tangent.matrix.toarray()
@@ -298,11 +309,18 @@ class TransientSensitivities(ParameterDerivatives):
             dh = self.cables.step_size_derivative(new, cable[0], columns["dq"], columns["dv"], k)
         total = {key: value[:, :k] + np.outer(value[:, k], dh) for key, value in columns.items()}
         carried = {**carried, **total, "dt": carried["dt"] + dh, "dh": dh, "h": h, "pending": None}
+        if states is not None:   # no events with states (ControllerTerms.refusal): δh = 0
+            carried = {**carried, **states.after_step(new, carried["dq"])}
         if cable is not None:
             return self._after_cable_event(carried, new, *cable)
         if event is None:
             return carried
         return self._jump(carried, new, *event)
+
+    def _controller_states(self):
+        """The continuous controllers' states differentiated
+        (:class:`latdyn.analyses.sensitivities.ControllerStates`), or None without."""
+        return None if self.controllers is None else self.controllers.states
 
     def _event(self, old, new):
         """(hinge, kind, restitution) of the latch or stop impact the events will apply at the end of
