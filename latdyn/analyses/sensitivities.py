@@ -908,14 +908,16 @@ class ControllerTerms:
         self.held: dict[str, np.ndarray] = {}
         #: the controllers with states, differentiated (None without)
         self.states = ControllerStates(self) if any(c.states for c in self.continuous) else None
+        #: the sampled controllers' held outputs and states, differentiated (None without)
+        self.sampled = SampledTerms(self) if any(c.sampled for c in scene.controllers.values()) else None
 
     @staticmethod
     def refusal(scene) -> str | None:
         """Why the controllers of ``scene`` keep its transient sensitivities from being exact, or None."""
+        why = SampledTerms.refusal(scene)
+        if why is not None:
+            return why
         for c in scene.controllers.values():
-            if c.sampled:
-                return (f"sensitivities of runs with sampled controllers ({c.name}: rate, its held output jumps at "
-                        "each sample) are not computed yet; continuous controllers without states are")
             if c.states and _has_events(scene):
                 return (f"sensitivities of runs with controllers with states ({c.name}: states) and events (a latch, "
                         "a stop, a compliant stop's onset, a cable's change: the event time moves the states' "
@@ -937,6 +939,8 @@ class ControllerTerms:
 
     def add(self, state, total: np.ndarray) -> None:
         """Add the controllers' ∂r/∂p at ``state`` into ``total`` (class docstring)."""
+        if self.sampled is not None:   # the held outputs' δy (SampledTerms)
+            self.sampled.add(state, total)
         w = self.assembler.control   # the wiring of the current numbering
         if not (self.partials or self.held) or not len(w.actuator_kind):
             return
@@ -1043,10 +1047,7 @@ class ControllerStates:
 
     def _sensed(self, c, state, dq: np.ndarray) -> np.ndarray:
         """δs (m, k): the derivatives of ``c``'s sensors along δq (probe derivatives)."""
-        owner = self.terms.owner
-        dx, dpi, dtheta = owner._by_parameter(dq)
-        return np.array([owner._probe_derivatives(probe, state, dx, dpi, dtheta) for probe in self.sensors[c.name]],
-                        float).reshape(len(self.sensors[c.name]), dq.shape[1])
+        return _sensor_derivatives(self.terms.owner, self.sensors[c.name], state, dq)
 
     def _accepted(self) -> dict:
         return {"S": self.values[self.slots].copy(), "f": self.rates[self.rate_index].copy()}
@@ -1109,3 +1110,165 @@ class ControllerStates:
             df[rows] = f_s @ ds + f_S @ dS[rows] + f_p
         self.terms.held = {}
         return {"controller_dS": dS, "controller_df": df, **self._prefixed(self._accepted())}
+
+
+def _sensor_derivatives(owner: ParameterDerivatives, probes: list, state, dq: np.ndarray) -> np.ndarray:
+    """δs (m, k): the derivatives of the sensors ``probes`` (hinge angles, guide slides, point positions
+    and displacements) at ``state`` along δq (n, k) (:meth:`ParameterDerivatives._probe_derivatives`)."""
+    dx, dpi, dtheta = owner._by_parameter(dq)
+    return np.array([owner._probe_derivatives(probe, state, dx, dpi, dtheta) for probe in probes],
+                    float).reshape(len(probes), dq.shape[1])
+
+
+class SampledTerms:
+    """Sampled controllers (``controllers.NAME.rate``) differentiated (docs/parameters.md, "Controllers").
+    At each instant t_k = k/rate (fixed: no event time), from the accepted state's sensors s and the
+    states S_k (latdyn.timeloop.sampling),
+
+        y_k = clip(f(t_k, s, S_k; p)),            S_{k+1} = S_k + g(t_k, s, S_k; p)/rate,
+        δy_k = ∂f/∂s δs + ∂f/∂S δS_k + ∂f/∂p      (0 while y_k is clipped),
+        δS_{k+1} = δS_k + (∂g/∂s δs + ∂g/∂S δS_k + ∂g/∂p)/rate,
+
+    δs the sensors' derivative along δq at t_k, the partial derivatives those of the controller's
+    expressions (SymPy, as the code generator's). The held δy_k enters ∂r/∂p of every step until the
+    next sample through the actuators that name the controller (τ = a y + b: −a δy on a hinge's or a
+    guide's row, the point-load kernel's force for a δy of a load's component: :meth:`add`). The
+    restart after the sample (the accelerations made consistent with the new outputs,
+    M v̇ + r(q, v, t) = 0) is differentiated by the time loop's
+    :meth:`latdyn.analyses.transient_sensitivities.TransientSensitivities.after_sample`.
+    What this does not cover is refused (:meth:`refusal`)."""
+
+    def __init__(self, terms: ControllerTerms):
+        import sympy as sp
+
+        from latdyn.assembly.control import actuator_gain
+
+        self.terms, owner = terms, terms.owner
+        scene, model = owner.scene, owner.model
+        self.controllers = [c for c in scene.controllers.values() if c.sampled]
+        self.index = {c.name: i for i, c in enumerate(self.controllers)}
+        self.first = dict(zip(self.index, np.cumsum([0] + [len(c.states) for c in self.controllers]).tolist()))
+        probes = {p.name: p for p in scene.output.probes}
+        self.sensors = {c.name: [probes[r] for r in c.reads] for c in self.controllers}
+        self.gradients = {}
+        for c in self.controllers:
+            reads, S = c.symbols[1:1 + len(c.reads)], c.symbols[1 + len(c.reads):]
+            self.gradients[c.name] = sp.lambdify(c.symbols, [
+                [sp.diff(c.output_expr, x) for x in reads], [sp.diff(c.output_expr, x) for x in S],
+                [[sp.diff(g, x) for x in reads] for g in c.state_exprs],
+                [[sp.diff(g, x) for x in S] for g in c.state_exprs]], modules=["math", "numpy"])
+        #: (kind 0 a hinge or guide / 1 a load, its index, the load's component, controller index, ∂τ/∂y)
+        self.actuators = []
+        for j, hinge in enumerate(model.hinges):
+            for c in self.controllers:
+                gain = actuator_gain(hinge.torque, c.name)
+                if gain is not None:
+                    self.actuators.append((0, j, 0, self.index[c.name], gain))
+        for l, load in enumerate(owner.assembler.loads):
+            for offset, components in ((0, load.force), (3, load.moment)):
+                for p, law in enumerate(components or ()):
+                    for c in self.controllers:
+                        gain = actuator_gain(law, c.name)
+                        if gain is not None:
+                            self.actuators.append((1, l, offset + p, self.index[c.name], gain))
+        #: the held δy (controllers, k) that :meth:`add` applies, set from what the run carries
+        self.held = np.zeros((len(self.controllers), terms.k))
+
+    @staticmethod
+    def refusal(scene) -> str | None:
+        """Why the sampled controllers of ``scene`` keep its transient sensitivities from being exact, or None."""
+        from latdyn.assembly.control import actuator_gain
+
+        sampled = [c for c in scene.controllers.values() if c.sampled]
+        if not sampled:
+            return None
+        names = {c.name for c in sampled}
+        probes = {p.name for p in scene.output.probes}
+        if _has_events(scene):
+            return (f"sensitivities of runs with sampled controllers ({sampled[0].name}) and events (a latch, a "
+                    "stop, a compliant stop's onset, a cable's change) are not computed yet")
+        for c in scene.controllers.values():
+            if not c.sampled and (c.states or names & set(c.reads)):
+                return (f"sensitivities of runs with sampled controllers beside a continuous controller with states "
+                        f"or one that reads a sampled one ({c.name}) are not computed yet")
+            if c.sampled and not set(c.reads) <= probes:
+                return (f"sensitivities through the sampled controller {c.name}, which reads another controller or "
+                        "an input, are not computed yet; expected sampled controllers that read probes and their "
+                        "own states")
+        laws = [(f"beams.{beam}.{which}.hinge.{what}", getattr(hinge, what, None)) for beam, which, hinge in scene.hinges
+                for what in ("stiffness", "damping", "angle")]
+        laws += [(f"bodies.{name}.guide.{what}", getattr(body.guide, what, None)) for name, body in scene.bodies.items()
+                 if body.guide is not None for what in ("stiffness", "damping", "position")]
+        laws += [(f"bodies.{name}.motion", law) for name, body in scene.bodies.items()
+                 for law in [*(getattr(body, "translation", None) or ()), getattr(body, "rotation_angle", None)]]
+        actuated = [(f"beams.{beam}.{which}.hinge.torque", hinge.torque) for beam, which, hinge in scene.hinges]
+        actuated += [(f"bodies.{name}.guide.force", body.guide.force) for name, body in scene.bodies.items()
+                     if body.guide is not None]
+        actuated += [(f"loads[{i}]", law) for i, load in enumerate(scene.loads)
+                     for law in [*(load.force or ()), *(load.moment or ())]]
+        for key, law in laws + actuated:
+            named = names & set(getattr(law, "input_names", ()))
+            if named and ((key, law) in laws or len(named) > 1 or actuator_gain(law, next(iter(named))) is None):
+                return (f"a sampled controller ({sorted(named)[0]}) named at {key}: sensitivities are computed where "
+                        "one sampled controller y drives a hinge torque, a guide force or a load component a*y + b "
+                        "(a constant)")
+        return None
+
+    def _rows(self, c) -> slice:
+        return slice(self.first[c.name], self.first[c.name] + len(c.states))
+
+    def start(self, state, k: int) -> dict:
+        """What the run carries from the sample at t = 0 (the states from ``initial``, δq = 0)."""
+        initial = np.array([c.initial[s] for c in self.controllers for s in c.states], float)
+        carried = {"sampled_dy": np.zeros((len(self.controllers), k)), "sampled_dS": np.zeros((len(initial), k)),
+                   "sampled_S": initial}
+        return self.sample(carried, state, np.zeros((self.terms.owner.model.n_dofs, k)),
+                           [c.name for c in self.controllers])
+
+    def sample(self, carried: dict, state, dq: np.ndarray, due: list) -> dict:
+        """δy_k, δS_{k+1} of the controllers ``due`` at ``state`` (class docstring), their S_{k+1} as the
+        sample left them, and the held δy set for ∂r/∂p."""
+        dy, dS, S = carried["sampled_dy"].copy(), carried["sampled_dS"].copy(), carried["sampled_S"].copy()
+        values = dict(zip(self.terms.sensors.names, self.terms.sensors.values(state)))
+        states = self.terms.owner.scene.controller_states
+        for c in self.controllers:
+            if c.name not in due:
+                continue
+            rows, i = self._rows(c), self.index[c.name]
+            arguments = [state.t, *[values[r] for r in c.reads], *S[rows]]
+            raw = float(c.functions()[0](*arguments))
+            y_s, y_S, g_s, g_S = self.gradients[c.name](*arguments)
+            p, m = len(c.states), len(c.reads)
+            y_s, y_S = np.array(y_s, float).reshape(m), np.array(y_S, float).reshape(p)
+            g_s, g_S = np.array(g_s, float).reshape(p, m), np.array(g_S, float).reshape(p, p)
+            y_p, g_p = np.zeros(self.terms.k), np.zeros((p, self.terms.k))
+            for column, law in self.terms.partials.get(c.name, {}).items():
+                y_p[column] = float(law(*arguments))
+            for column, laws in self.terms.rate_partials.get(c.name, {}).items():
+                for j, name in enumerate(c.states):
+                    if name in laws:
+                        g_p[j, column] = float(laws[name](*arguments))
+            ds = _sensor_derivatives(self.terms.owner, self.sensors[c.name], state, dq)
+            inside = c.limits is None or c.limits[0] < raw < c.limits[1]
+            dy[i] = y_s @ ds + y_S @ dS[rows] + y_p if inside else 0.0
+            dS[rows] = dS[rows] + (g_s @ ds + g_S @ dS[rows] + g_p) / c.rate
+            S[rows] = [states[f"{c.name}.{name}"] for name in c.states]
+        self.held = dy
+        return {"sampled_dy": dy, "sampled_dS": dS, "sampled_S": S}
+
+    def add(self, state, total: np.ndarray) -> None:
+        """Add the held outputs' ∂r/∂p (class docstring) into ``total`` (all coordinates, k columns)."""
+        model, owner = self.terms.model, self.terms.owner
+        loads: dict[int, np.ndarray] = {}
+        for kind, index, component, i, gain in self.actuators:
+            moved = gain * self.held[i]
+            if not np.any(moved):
+                continue
+            if kind == 0:   # a hinge torque or guide force τ = a y + b: its row f = … − τ
+                total[model.hinge_dofs[index]] -= moved
+            else:
+                loads.setdefault(index, np.zeros((6, self.terms.k)))[component] += moved
+        for index, values in loads.items():
+            columns = [c for c in range(self.terms.k) if np.any(values[:, c])]
+            nodes, forces = owner._load_forces(state, [index] * len(columns), values[:, columns].T)
+            total[model.node_dofs[nodes[0]][:, None], np.array(columns)[None, :]] += forces.T

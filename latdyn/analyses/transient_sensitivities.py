@@ -152,6 +152,9 @@ class TransientSensitivities(ParameterDerivatives):
         states = self._controller_states()
         if states is not None:   # δS_0 held for ∂r/∂p at the start (ControllerStates.start)
             carried = {**carried, **states.start(state)}
+        sampled = self._sampled_controllers()
+        if sampled is not None:  # the sample at t = 0 (before the start): its held δy for ∂r/∂p
+            carried = {**carried, **sampled.start(state, k)}
         rhs = self.residual_derivatives(state, 1.0, inertia=True) + ev.combined(0.0, 1.0, 0.0) @ dv
         if states is not None:
             self.controllers.held = {}
@@ -282,6 +285,8 @@ class TransientSensitivities(ParameterDerivatives):
         dq0 = turn(dq) + tangent(du0)
         dv0 = dv + h * (1 - gamma) * da + h * gamma * da0
         dv0[:, k] += (1 - gamma) * a_old + gamma * a_new                               # ∂v_{n+1}/∂h
+        if self._sampled_controllers() is not None:   # the held δy of the last sample (checkpoints carry it)
+            self._sampled_controllers().held = carried["sampled_dy"]
         states = self._controller_states()
         if states is None:
             M, C, K = self._matrices(new)
@@ -321,6 +326,35 @@ class TransientSensitivities(ParameterDerivatives):
         """The continuous controllers' states differentiated
         (:class:`latdyn.analyses.sensitivities.ControllerStates`), or None without."""
         return None if self.controllers is None else self.controllers.states
+
+    def _sampled_controllers(self):
+        """The sampled controllers differentiated (:class:`latdyn.analyses.sensitivities.SampledTerms`), or
+        None without."""
+        return None if self.controllers is None else self.controllers.sampled
+
+    def after_sample(self, carried: dict, state, due: list) -> dict:
+        """``carried`` after the sample at ``state`` of the sampled controllers named in ``due`` and the
+        restart after it (the time loop's ``_restart_after_sample``: v̇ made consistent with the new held
+        outputs, M v̇ + r(q, v, t) = 0, a = v̇), differentiated: δy_k and δS_{k+1}
+        (:meth:`latdyn.analyses.sensitivities.SampledTerms.sample`), then
+        δv̇ = δa = −M⁻¹ (K δq + C δv + ∂r/∂p) at the restarted state, M, C and the exact K of
+        :meth:`_matrices`. A model with directions without inertia is refused there (its restart splits
+        them off: not differentiated yet)."""
+        model, k = self.model, len(self.names)
+        if model.n_dofs == 0 or k == 0:
+            return carried
+        carried = {**carried, **self._sampled_controllers().sample(carried, state, carried["dq"], due)}
+        M, C, K = self._matrices(state)
+        split = split_inertia(model, M)
+        if split.n_massless:
+            raise SceneError(self.scene.file, "solve.sensitivities",
+                             f"the restart after a sampled controller's sample at t = {state.t:.6g} splits off "
+                             f"{split.n_massless} direction(s) without inertia, which is not differentiated yet; "
+                             "expected beams with rotary inertia (rhoIy, rhoIz) and bodies with mass and inertia "
+                             "(docs/parameters.md, \"Controllers\")")
+        rhs = self.residual_derivatives(state, 1.0, inertia=True) + K @ carried["dq"] + C @ carried["dv"]
+        dvdot = -np.asarray(solve_linear(M, rhs)).reshape(model.n_dofs, k)
+        return {**carried, "dvdot": dvdot, "da": dvdot.copy()}
 
     def _event(self, old, new):
         """(hinge, kind, restitution) of the latch or stop impact the events will apply at the end of
