@@ -232,3 +232,28 @@ def test_what_sampled_controllers_cannot_be_differentiated_through_is_refused(ch
     with pytest.raises(SceneError) as info:
         latdyn.run(latdyn.load_scene(data))
     assert info.value.key == "solve.sensitivities" and expected in info.value.expected, info.value.expected
+
+
+@pytest.mark.parametrize("text", [PI_HUB, DIGITAL_PD_HUB], ids=["states", "sampled"])
+def test_an_interrupted_and_resumed_run_has_the_same_sensitivities(tmp_path, monkeypatch, text):
+    """δS, δf and the held δy ride in the checkpoint with the rest of the carried sensitivities: the
+    resumed sensitivities.csv is the uninterrupted one, byte for byte (interrupted between samples)."""
+    from latdyn.step.compiled import CompiledGeneralizedAlpha
+
+    scene = yaml.safe_load(text)
+    whole = tmp_path / "whole"
+    latdyn.run(scene, whole)
+    original = CompiledGeneralizedAlpha.step
+
+    def step(self, state, *args, **kwargs):
+        if state.t >= 0.37:
+            raise KeyboardInterrupt
+        return original(self, state, *args, **kwargs)
+
+    out = tmp_path / "out"
+    with monkeypatch.context() as m:
+        m.setattr(CompiledGeneralizedAlpha, "step", step)
+        with pytest.raises(KeyboardInterrupt):
+            latdyn.run(scene, out)
+    latdyn.run(scene, out, resume=True)
+    assert (out / "sensitivities.csv").read_bytes() == (whole / "sensitivities.csv").read_bytes()

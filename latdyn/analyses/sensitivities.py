@@ -42,16 +42,17 @@ Transient runs: :mod:`latdyn.analyses.transient_sensitivities` (the step differe
 :class:`ParameterDerivatives` (∂r/∂p with the inertia forces).
 
 Compliant stops (their law's stiffness, exponent and damping: :meth:`ParameterDerivatives._contact_forces`,
-the generated ``contact_force_D_law``) and continuous controllers without states
-(:class:`ControllerTerms`: parameters inside their outputs) enter ∂r/∂p of transient runs.
+the generated ``contact_force_D_law``) and controllers (:class:`ControllerTerms`: parameters inside their
+outputs; :class:`ControllerStates`: continuous controllers' states carried through the step;
+:class:`SampledTerms`: sampled controllers' held outputs and states) enter ∂r/∂p of transient runs.
 
 What is refused (:func:`refusal`, exit 2 naming ``solve.sensitivities``): any analysis but static
 load control, arc length and displacement control and transient runs of an implicit method at fixed
-steps without friction, sampled controllers, controllers with states and inputs (cables through their
+steps without friction and inputs, controllers with states or sampled ones beside events (cables through their
 slack/taut events, guides with theirs: :func:`_transient_refusal`, :meth:`ControllerTerms.refusal`); a
 parameter used anywhere but in load components, hinge stiffness, damping, torque and rest angle, section
 values of shear-rigid sections (formulation default), body masses, centres of mass and inertias and, in
-transient runs, initial velocities, compliant stops' laws, continuous controllers' outputs, guides' laws
+transient runs, initial velocities, compliant stops' laws, controllers' outputs and states' rates, guides' laws
 and cables' EA, damping, rest length and rhoA; probes other than point positions and displacements in the
 global frame, hinge angles and guide positions; rigid links; in static paths hinges with limits or
 ``lock_at`` (events; transient runs differentiate latches and stops: latdyn/analyses/transient_sensitivities.py). Under gravity the static
@@ -136,8 +137,9 @@ def refusal(scene) -> SceneError | None:
                               "of load components, of hinge stiffness, damping, torque and rest_angle, of section "
                               "stiffnesses and masses (shear-rigid), of body masses, centres of mass and "
                               "inertias, of a hinge's compliant stops (contact.stiffness, .exponent, .damping) "
-                              "and, in transient runs, of initial_velocity.linear and .angular, of continuous "
-                              "controllers' outputs (controllers.NAME.output), of guides' stiffness, damping, "
+                              "and, in transient runs, of initial_velocity.linear and .angular, of controllers' "
+                              "outputs and states' rates (controllers.NAME.output, .states.S), of guides' "
+                              "stiffness, damping, "
                               "force and rest, and of cables' EA, damping, rest_length and rhoA (> 0) only")
             if section and solve.formulation != "default":
                 return refuse(f"parameter {name!r} is used at {used}: sensitivities by section values are computed "
@@ -864,9 +866,9 @@ class ControllerTerms:
     ∂f_k/∂p the derivative of the output's text by the parameter (Parameters.derivative, SymPy), and
     the residual's rows of each actuator take it times their force per unit output: −a on a hinge's
     coordinate (f = … − τ, τ = a y + b; a = 1 for the controller's name alone), the point-load
-    kernel's force for a unit value on a load's component (global or turning with a body). Controllers
-    with states (their states are integrated inside the step, condensed: not differentiated yet),
-    sampled ones (their held outputs jump at the samples) and inputs are refused (:meth:`refusal`)."""
+    kernel's force for a unit value on a load's component (global or turning with a body). The states
+    of continuous controllers: :class:`ControllerStates`; sampled controllers: :class:`SampledTerms`;
+    what neither covers, and inputs, are refused (:meth:`refusal`)."""
 
     def __init__(self, owner: ParameterDerivatives):
         import sympy as sp
@@ -1031,7 +1033,7 @@ class ControllerStates:
         return np.array(self.gradients[c.name](*arguments)[0], float).reshape(len(c.states))
 
     def _at(self, c, state, values=None):
-        """(arguments, ∂f/∂s (p, m), ∂f/∂S (p, p), ∂f/∂p (p, k)) of ``c`` at ``state`` and its accepted S."""
+        """(arguments, ∂f/∂s (p, m), ∂f/∂S (p, p), ∂f/∂p (p, k)) of ``c`` at ``state``, its accepted S."""
         if values is None:
             values = dict(zip(self.terms.sensors.names, self.terms.sensors.values(state)))
         arguments = [state.t, *[values[r] for r in c.reads], *self.terms.state_values(c)]
@@ -1195,8 +1197,8 @@ class SampledTerms:
                 return (f"sensitivities through the sampled controller {c.name}, which reads another controller or "
                         "an input, are not computed yet; expected sampled controllers that read probes and their "
                         "own states")
-        laws = [(f"beams.{beam}.{which}.hinge.{what}", getattr(hinge, what, None)) for beam, which, hinge in scene.hinges
-                for what in ("stiffness", "damping", "angle")]
+        laws = [(f"beams.{beam}.{which}.hinge.{what}", getattr(hinge, what, None))
+                for beam, which, hinge in scene.hinges for what in ("stiffness", "damping", "angle")]
         laws += [(f"bodies.{name}.guide.{what}", getattr(body.guide, what, None)) for name, body in scene.bodies.items()
                  if body.guide is not None for what in ("stiffness", "damping", "position")]
         laws += [(f"bodies.{name}.motion", law) for name, body in scene.bodies.items()

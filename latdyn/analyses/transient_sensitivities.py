@@ -65,6 +65,13 @@ derivatives (:meth:`latdyn.assembly.assembler.Assembler.exact_matrices`: the red
 latches and stops as the hinges', the impulse weight's dependence on the rates followed.
 docs/parameters.md, "Cables" and "Guides".
 
+Controllers: parameters inside their outputs enter ∂r/∂p (:class:`latdyn.analyses.sensitivities.ControllerTerms`);
+the states of continuous controllers are carried as (δS, δf) beside the step's derivative, the step's matrix
+taken with the states condensed from the step's start as inside the step
+(:class:`latdyn.analyses.sensitivities.ControllerStates`); a sampled controller's held output and states jump
+at the fixed instants k/rate, and the restart after each sample is differentiated
+(:meth:`TransientSensitivities.after_sample`, :class:`latdyn.analyses.sensitivities.SampledTerms`). docs/parameters.md, "Controllers".
+
 This round runs one step at a time from Python (the time loop's per-step path; the native loop is
 later); it carries (δq, δv, δv̇, δa) on the free coordinates, (n, k), in
 :attr:`latdyn.timeloop.progress.TransientProgress.sensitivities`, checkpointed with the run.

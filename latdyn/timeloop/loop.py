@@ -580,8 +580,9 @@ class TimeLoop:
         progress bar (the summary: once, when the loop ends, :meth:`run`; nothing reads it before the
         writer closes)."""
         progress, model = self.progress, self.model
-        due = [] if sampled or self.sampler is None else [c.name for c in self.sampler.due(state.t, 1e-9 * self.control.dt)]
-        if due and self.sampler.sample(state, state.t, 1e-9 * self.control.dt):
+        tolerance = 1e-9 * self.control.dt
+        due = [] if sampled or self.sampler is None else [c.name for c in self.sampler.due(state.t, tolerance)]
+        if due and self.sampler.sample(state, state.t, tolerance):
             progress.controller_memory = self.sampler.memory()
             self._restart_after_sample(state)
             if self.sensitivities is not None:  # the sample and its restart differentiated
