@@ -212,6 +212,24 @@ def test_sampled_pi_on_a_3d_flexible_arm_agrees_with_richardson_differences(samp
         assert error <= 1e-6, (probe, name, error)
 
 
+#: the PI hub with a sampled feedforward beside it (20 Hz, reading the tip's y, a sine in t): the
+#: continuous state is kept through each sample's restart
+PI_AND_SAMPLED_HUB = PI_HUB.replace('torque: "ctl"', 'torque: "ctl + ff"').replace(
+    "parameters: {Kp: 6.0, Ki: 3.0}", "parameters: {Kp: 6.0, Ki: 3.0, Kf: 0.7}").replace(
+    'initial: {S: 0.2}}', 'initial: {S: 0.2}}\n  ff: {output: "Kf*(0.3 - ty) + 0.5*sin(7*t)", rate: 20}').replace(
+    "sensitivities: [Kp, Ki]", "sensitivities: [Kp, Ki, Kf]")
+
+
+def test_a_continuous_state_beside_a_sampled_controller_agrees_with_richardson_differences():
+    """The restart after each sample holds the states (δS enters its ∂r/∂p through ∂y/∂S). Measured:
+    Kp 3.3e-9, Ki 3.6e-9, Kf 1.1e-8; without δS held at the restart Ki's is 2.4e-3."""
+    assert "ff:" in PI_AND_SAMPLED_HUB and "Kf" in PI_AND_SAMPLED_HUB
+    result = _run(PI_AND_SAMPLED_HUB, ["Kp", "Ki", "Kf"])
+    for name in ("Ki", "Kf"):
+        for probe, error in _richardson_errors(PI_AND_SAMPLED_HUB, result, name, 1e-4).items():
+            assert error <= 1e-6, (probe, name, error)
+
+
 def test_states_with_events_are_refused():
     """A latch moves the states' trapezoidal step in time: refused, naming solve.sensitivities."""
     data = yaml.safe_load(PI_HUB)

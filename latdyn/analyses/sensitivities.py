@@ -1069,6 +1069,11 @@ class ControllerStates:
     def _prefixed(values: dict) -> dict:
         return {f"controller_{key}": value for key, value in values.items()}
 
+    def hold(self, carried: dict) -> None:
+        """δS as carried held for ∂r/∂p at an accepted state (a restart: the states kept, δq given)."""
+        for c in self.controllers:
+            self.terms.held[c.name] = carried["controller_dS"][self.first[c.name]:self.first[c.name] + len(c.states)]
+
     def begin_step(self, carried: dict, state, h: float) -> None:
         """The held part of δS_{n+1} (class docstring) at the step's end ``state``, for ∂r/∂p there."""
         hh = 0.5 * h
@@ -1190,9 +1195,9 @@ class SampledTerms:
             return (f"sensitivities of runs with sampled controllers ({sampled[0].name}) and events (a latch, a "
                     "stop, a compliant stop's onset, a cable's change) are not computed yet")
         for c in scene.controllers.values():
-            if not c.sampled and (c.states or names & set(c.reads)):
-                return (f"sensitivities of runs with sampled controllers beside a continuous controller with states "
-                        f"or one that reads a sampled one ({c.name}) are not computed yet")
+            if not c.sampled and names & set(c.reads):
+                return (f"sensitivities of runs with a continuous controller that reads a sampled one ({c.name}) are "
+                        "not computed yet")
             if c.sampled and not set(c.reads) <= probes:
                 return (f"sensitivities through the sampled controller {c.name}, which reads another controller or "
                         "an input, are not computed yet; expected sampled controllers that read probes and their "

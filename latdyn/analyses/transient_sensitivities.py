@@ -359,7 +359,12 @@ class TransientSensitivities(ParameterDerivatives):
                              f"{split.n_massless} direction(s) without inertia, which is not differentiated yet; "
                              "expected beams with rotary inertia (rhoIy, rhoIz) and bodies with mass and inertia "
                              "(docs/parameters.md, \"Controllers\")")
+        states = self._controller_states()
+        if states is not None:   # the continuous controllers' states kept through the restart: δS held
+            states.hold(carried)
         rhs = self.residual_derivatives(state, 1.0, inertia=True) + K @ carried["dq"] + C @ carried["dv"]
+        if states is not None:
+            self.controllers.held = {}
         dvdot = -np.asarray(solve_linear(M, rhs)).reshape(model.n_dofs, k)
         return {**carried, "dvdot": dvdot, "da": dvdot.copy()}
 
