@@ -225,7 +225,7 @@ def test_a_continuous_state_beside_a_sampled_controller_agrees_with_richardson_d
     Kp 3.3e-9, Ki 3.6e-9, Kf 1.1e-8; without δS held at the restart Ki's is 2.4e-3."""
     assert "ff:" in PI_AND_SAMPLED_HUB and "Kf" in PI_AND_SAMPLED_HUB
     result = _run(PI_AND_SAMPLED_HUB, ["Kp", "Ki", "Kf"])
-    for name in ("Ki", "Kf"):
+    for name in ("Kp", "Ki", "Kf"):
         for probe, error in _richardson_errors(PI_AND_SAMPLED_HUB, result, name, 1e-4).items():
             assert error <= 1e-6, (probe, name, error)
 
