@@ -89,8 +89,9 @@ def test_sensitivities_through_continuous_controllers_agree_with_richardson_diff
 
 
 @pytest.mark.parametrize("change, expected", [
-    (lambda d: d["controllers"]["pd"].update(rate=100.0), "sampled controllers"),
-    (lambda d: d["controllers"]["pd"].update(states={"i": "angle"}), "controllers with states"),
+    (lambda d: d["controllers"]["pd"].update(rate=100.0), "the sampled controller pd, which reads another"),
+    (lambda d: (d["controllers"].update(integral={"output": "i", "states": {"i": "angle"}}),
+                d["beams"]["arm"]["end"]["hinge"].update(lock_at=1.0, torque="2*pd + integral")), "controllers with states"),
     (lambda d: d.update(inputs={"u": 0.0}), "inputs"),
     (lambda d: d["beams"]["arm"]["end"]["hinge"].update(torque="Kp*pd"), "a torque that names a controller"),
 ])

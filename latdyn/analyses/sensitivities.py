@@ -42,16 +42,17 @@ Transient runs: :mod:`latdyn.analyses.transient_sensitivities` (the step differe
 :class:`ParameterDerivatives` (∂r/∂p with the inertia forces).
 
 Compliant stops (their law's stiffness, exponent and damping: :meth:`ParameterDerivatives._contact_forces`,
-the generated ``contact_force_D_law``) and continuous controllers without states
-(:class:`ControllerTerms`: parameters inside their outputs) enter ∂r/∂p of transient runs.
+the generated ``contact_force_D_law``) and controllers (:class:`ControllerTerms`: parameters inside their
+outputs; :class:`ControllerStates`: continuous controllers' states carried through the step;
+:class:`SampledTerms`: sampled controllers' held outputs and states) enter ∂r/∂p of transient runs.
 
 What is refused (:func:`refusal`, exit 2 naming ``solve.sensitivities``): any analysis but static
 load control, arc length and displacement control and transient runs of an implicit method at fixed
-steps without friction, sampled controllers, controllers with states and inputs (cables through their
+steps without friction and inputs, controllers with states or sampled ones beside events (cables through their
 slack/taut events, guides with theirs: :func:`_transient_refusal`, :meth:`ControllerTerms.refusal`); a
 parameter used anywhere but in load components, hinge stiffness, damping, torque and rest angle, section
 values of shear-rigid sections (formulation default), body masses, centres of mass and inertias,
-compliant stops' laws and, in transient runs, initial velocities, continuous controllers' outputs,
+compliant stops' laws and, in transient runs, initial velocities, controllers' outputs and states' rates,
 guides' laws and cables' EA, damping, rest length and rhoA; probes other than point positions and displacements in the
 global frame, hinge angles and guide positions; rigid links; in static paths hinges with limits or
 ``lock_at`` (events; transient runs differentiate latches and stops: latdyn/analyses/transient_sensitivities.py). Under gravity the static
@@ -95,7 +96,7 @@ _CONTACT_KEY = re.compile(r"^beams\.(?P<beam>.+)\.(?P<end>start|end)\.hinge\.con
 #: the slots of the law in the generated kernel's output
 _CONTACT_SLOT = {"stiffness": 0, "exponent": 1, "damping": 2}
 #: a continuous controller's output law (transient runs: ∂y/∂p through the sensors' values, ControllerTerms)
-_CONTROLLER_KEY = re.compile(r"^controllers\.(?P<name>[^.]+)\.output$")
+_CONTROLLER_KEY = re.compile(r"^controllers\.(?P<name>[^.]+)\.(?:output|states\.(?P<state>[^.]+))$")
 
 
 def refusal(scene) -> SceneError | None:
@@ -136,8 +137,9 @@ def refusal(scene) -> SceneError | None:
                               "of load components, of hinge stiffness, damping, torque and rest_angle, of section "
                               "stiffnesses and masses (shear-rigid), of body masses, centres of mass and "
                               "inertias, of a hinge's compliant stops (contact.stiffness, .exponent, .damping) "
-                              "and, in transient runs, of initial_velocity.linear and .angular, of continuous "
-                              "controllers' outputs (controllers.NAME.output), of guides' stiffness, damping, "
+                              "and, in transient runs, of initial_velocity.linear and .angular, of controllers' "
+                              "outputs and states' rates (controllers.NAME.output, .states.S), of guides' "
+                              "stiffness, damping, "
                               "force and rest, and of cables' EA, damping, rest_length and rhoA (> 0) only")
             if section and solve.formulation != "default":
                 return refuse(f"parameter {name!r} is used at {used}: sensitivities by section values are computed "
@@ -856,6 +858,15 @@ def bordered_solve(stiffness, column: np.ndarray, row: np.ndarray, rhs: np.ndarr
                           "matrix, which is singular there (a bifurcation point)") from None
 
 
+def _has_events(scene) -> bool:
+    """Whether ``scene`` has events whose time the transient sensitivities follow (hinges' latches and
+    stops, rigid or compliant; guides' latches and stops; cables' slack and taut changes)."""
+    hinges = any(h.lock_at is not None or h.limits is not None for _, _, h in scene.hinges)
+    guides = any(b.guide is not None and (b.guide.lock_at is not None or b.guide.limits is not None)
+                 for b in scene.bodies.values())
+    return hinges or guides or bool(scene.cables)
+
+
 class ControllerTerms:
     """∂r/∂p through continuous controllers (SCENE.md ``controllers`` without ``rate``) for transient
     sensitivities. A controller's output y = clip(f(t, s; p)) is a law of its sensors s (probes read at
@@ -868,9 +879,9 @@ class ControllerTerms:
     ∂f_k/∂p the derivative of the output's text by the parameter (Parameters.derivative, SymPy), and
     the residual's rows of each actuator take it times their force per unit output: −a on a hinge's
     coordinate (f = … − τ, τ = a y + b; a = 1 for the controller's name alone), the point-load
-    kernel's force for a unit value on a load's component (global or turning with a body). Controllers
-    with states (their states are integrated inside the step, condensed: not differentiated yet),
-    sampled ones (their held outputs jump at the samples) and inputs are refused (:meth:`refusal`)."""
+    kernel's force for a unit value on a load's component (global or turning with a body). The states
+    of continuous controllers: :class:`ControllerStates`; sampled controllers: :class:`SampledTerms`;
+    what neither covers, and inputs, are refused (:meth:`refusal`)."""
 
     def __init__(self, owner: ParameterDerivatives):
         import sympy as sp
@@ -882,17 +893,24 @@ class ControllerTerms:
         self.model, self.k = owner.model, len(owner.names)
         self.continuous = [c for c in scene.controllers.values() if not c.sampled]
         names = {c.name for c in self.continuous}
-        #: controller name -> {column: ∂f/∂p as a function of (t, reads)}
+        #: controller name -> {column: ∂f/∂p as a function of (t, reads, states)}
         self.partials: dict[str, dict[int, object]] = {}
+        #: controllers with states: name -> {column: {state: ∂(dS/dt)/∂p as a function of (t, reads, states)}}
+        self.rate_partials: dict[str, dict[int, dict[str, object]]] = {}
         for column, name in enumerate(owner.names):
             for key in scene.parameters.depending_on(name):
                 match = _CONTROLLER_KEY.match(key)
                 if not match:
                     continue
                 c = scene.controllers[match["name"]]
-                text = scene.parameters.derivative(key, name, c.reads)
-                _, expr = parse_named_expression(text, c.reads, scene.file, key, "the controller's sensors")
-                self.partials.setdefault(c.name, {})[column] = sp.lambdify(c.symbols, expr, modules=["math", "numpy"])
+                text = scene.parameters.derivative(key, name, c.reads + c.states)
+                _, expr = parse_named_expression(text, c.reads + c.states, scene.file, key,
+                                                 "the controller's sensors and states")
+                law = sp.lambdify(c.symbols, expr, modules=["math", "numpy"])
+                if match["state"] is None:
+                    self.partials.setdefault(c.name, {})[column] = law
+                else:              # ∂(dS/dt)/∂p of one state
+                    self.rate_partials.setdefault(c.name, {}).setdefault(column, {})[match["state"]] = law
         #: controller name -> {an earlier controller it reads: ∂f/∂y_j as a function of (t, reads)}
         self.chained = {c.name: {r: sp.lambdify(c.symbols, sp.diff(c.output_expr, sp.Symbol(r, real=True)),
                                                 modules=["math", "numpy"])
@@ -900,17 +918,25 @@ class ControllerTerms:
                         for c in self.continuous}
         self.sensors = ProbeSet(assembler, assembler.initial_state())
         self.assembler, self.owner = assembler, owner
+        #: controller name -> dS_{n+1}/dp at the step's end configuration held fixed (p_c, k), set by
+        #: :class:`ControllerStates` before ∂r/∂p is taken at a step's end (or δS_0 at the start)
+        self.held: dict[str, np.ndarray] = {}
+        #: the controllers with states, differentiated (None without)
+        self.states = ControllerStates(self) if any(c.states for c in self.continuous) else None
+        #: the sampled controllers' held outputs and states, differentiated (None without)
+        self.sampled = SampledTerms(self) if any(c.sampled for c in scene.controllers.values()) else None
 
     @staticmethod
     def refusal(scene) -> str | None:
         """Why the controllers of ``scene`` keep its transient sensitivities from being exact, or None."""
+        why = SampledTerms.refusal(scene)
+        if why is not None:
+            return why
         for c in scene.controllers.values():
-            if c.sampled:
-                return (f"sensitivities of runs with sampled controllers ({c.name}: rate, its held output jumps at "
-                        "each sample) are not computed yet; continuous controllers without states are")
-            if c.states:
-                return (f"sensitivities of runs with controllers with states ({c.name}: states, integrated inside "
-                        "the step) are not computed yet; continuous controllers without states are")
+            if c.states and _has_events(scene):
+                return (f"sensitivities of runs with controllers with states ({c.name}: states) and events (a latch, "
+                        "a stop, a compliant stop's onset, a cable's change: the event time moves the states' "
+                        "trapezoidal step) are not computed yet; continuous controllers with states are without them")
         names = set(scene.controllers)
         driven = {f"beams.{beam}.{which}.hinge.torque" for beam, which, hinge in scene.hinges
                   if names & set(getattr(hinge.torque, "input_names", ()))}
@@ -921,15 +947,23 @@ class ControllerTerms:
                             "expected the parameter inside the controller's output instead")
         return None
 
+    def state_values(self, c) -> list:
+        """The accepted states S of controller ``c`` (their values in ``scene.controller_states``)."""
+        states = self.owner.scene.controller_states
+        return [states[f"{c.name}.{s}"] for s in c.states]
+
     def add(self, state, total: np.ndarray) -> None:
         """Add the controllers' ∂r/∂p at ``state`` into ``total`` (class docstring)."""
+        if self.sampled is not None:   # the held outputs' δy (SampledTerms)
+            self.sampled.add(state, total)
         w = self.assembler.control   # the wiring of the current numbering
-        if not self.partials or not len(w.actuator_kind):
+        if not (self.partials or self.held) or not len(w.actuator_kind):
             return
         values = dict(zip(self.sensors.names, self.sensors.values(state)))
         outputs, slopes = {}, {}
         for c in self.continuous:
-            arguments = [state.t, *[values[r] if r in values else outputs[r] for r in c.reads]]
+            arguments = [state.t, *[values[r] if r in values else outputs[r] for r in c.reads],
+                         *self.state_values(c)]
             raw = float(c.functions()[0](*arguments))
             outputs[c.name] = c.clip(raw)
             slope = np.zeros(self.k)
@@ -938,6 +972,8 @@ class ControllerTerms:
                     slope[column] += float(partial(*arguments))
                 for read, through in self.chained[c.name].items():
                     slope += float(through(*arguments)) * slopes[read]
+                if c.name in self.held:   # ∂y/∂S dS/dp (the states at the configuration held)
+                    slope += self.states.output_slopes(c, arguments) @ self.held[c.name]
             slopes[c.name] = slope
         loads: dict[int, np.ndarray] = {}   # load -> its six values' derivatives (6, k)
         for kind, index, component, controller, gain in zip(w.actuator_kind, w.actuator_index, w.actuator_component,
@@ -952,3 +988,307 @@ class ControllerTerms:
             if columns:
                 nodes, forces = self.owner._load_forces(state, [index] * len(columns), values[:, columns].T)
                 total[self.model.node_dofs[nodes[0]][:, None], np.array(columns)[None, :]] += forces.T
+
+
+class ControllerStates:
+    """The states of continuous controllers (``controllers.NAME.states`` without ``rate``) carried
+    through the step's derivative (docs/parameters.md, "Controllers"). The step integrates
+    dS/dt = f(t, s, S; p) by the trapezoidal rule condensed into the output (docs/control.md),
+
+        S_{n+1} = S_n + h/2 (f_n + f(t_{n+1}, s_{n+1}, S_{n+1})),
+
+    so its derivative, with A = I − h/2 ∂f/∂S at the step's end,
+
+        δS_{n+1} = A⁻¹ (δS_n + h/2 δf_n + h/2 ∂f/∂p)  +  A⁻¹ h/2 ∂f/∂s δs_{n+1}
+                 = (held: the configuration fixed)    +  (through the sensors),
+        δf_{n+1} = ∂f/∂s δs_{n+1} + ∂f/∂S δS_{n+1} + ∂f/∂p.
+
+    The held part enters ∂r/∂p as ∂y/∂S times it (:meth:`ControllerTerms.add`); the part through the
+    sensors is the condensed total derivative dy/ds = ∂y/∂s + ∂y/∂S A⁻¹ h/2 ∂f/∂s that the step's
+    matrix holds when the evaluation condenses the states from (S_n, f_n) (:meth:`condensed`). δs is
+    the sensors' derivative along δq (probes: hinge angles, point positions and displacements),
+    ∂y/∂S, ∂f/∂s, ∂f/∂S and ∂f/∂p the symbolic derivatives of the controller's expressions, those the
+    code generator prints for Newton (codegen/laws.py). At the start (and a restart) the states are
+    held: δS_0 = 0 (``initial`` is a number), δf_0 = ∂f/∂p (δq_0 = 0)."""
+
+    def __init__(self, terms: ControllerTerms):
+        import sympy as sp
+
+        from latdyn.assembly.control import state_rates
+
+        self.terms, scene = terms, terms.owner.scene
+        self.controllers = [c for c in terms.continuous if c.states]
+        self.values, self.rates = scene.controller_states.values, state_rates(scene)
+        #: S of the stateful controllers in scene.controller_states, and their rates' entries (the continuous
+        #: controllers' states in file order, as latdyn.assembly.control.wiring lays them out)
+        self.slots = np.array([scene.controller_states.index(f"{c.name}.{s}") for c in self.controllers
+                               for s in c.states], np.int64)
+        first, index = 0, []
+        for c in terms.continuous:
+            index.extend(range(first, first + len(c.states)) if c.states else [])
+            first += len(c.states)
+        self.rate_index = np.array(index, np.int64)
+        self.first = dict(zip((c.name for c in self.controllers),
+                              np.cumsum([0] + [len(c.states) for c in self.controllers]).tolist()))
+        probes = {p.name: p for p in scene.output.probes}
+        self.sensors, self.gradients = {}, {}
+        for c in self.controllers:
+            reads, S = c.symbols[1:1 + len(c.reads)], c.symbols[1 + len(c.reads):]
+            sensed = [i for i, r in enumerate(c.reads) if r in probes]
+            self.sensors[c.name] = [probes[c.reads[i]] for i in sensed]
+            self.gradients[c.name] = sp.lambdify(c.symbols, [
+                [sp.diff(c.output_expr, x) for x in S],
+                [[sp.diff(f, reads[i]) for i in sensed] for f in c.state_exprs],
+                [[sp.diff(f, x) for x in S] for f in c.state_exprs]], modules=["math", "numpy"])
+
+    def output_slopes(self, c, arguments) -> np.ndarray:
+        """∂y/∂S of controller ``c`` at ``arguments`` (t, reads, S), (p,)."""
+        return np.array(self.gradients[c.name](*arguments)[0], float).reshape(len(c.states))
+
+    def _at(self, c, state, values=None):
+        """(arguments, ∂f/∂s (p, m), ∂f/∂S (p, p), ∂f/∂p (p, k)) of ``c`` at ``state``, its accepted S."""
+        if values is None:
+            values = dict(zip(self.terms.sensors.names, self.terms.sensors.values(state)))
+        arguments = [state.t, *[values[r] for r in c.reads], *self.terms.state_values(c)]
+        _, f_s, f_S = self.gradients[c.name](*arguments)
+        p = len(c.states)
+        f_p = np.zeros((p, self.terms.k))
+        for column, laws in self.terms.rate_partials.get(c.name, {}).items():
+            for j, s in enumerate(c.states):
+                if s in laws:
+                    f_p[j, column] = float(laws[s](*arguments))
+        return (arguments, np.array(f_s, float).reshape(p, len(self.sensors[c.name])),
+                np.array(f_S, float).reshape(p, p), f_p)
+
+    def _sensed(self, c, state, dq: np.ndarray) -> np.ndarray:
+        """δs (m, k): the derivatives of ``c``'s sensors along δq (probe derivatives)."""
+        return _sensor_derivatives(self.terms.owner, self.sensors[c.name], state, dq)
+
+    def _accepted(self) -> dict:
+        return {"S": self.values[self.slots].copy(), "f": self.rates[self.rate_index].copy()}
+
+    def start(self, state) -> dict:
+        """δS_0, δf_0 at the (re)start ``state`` (the states held, δq = 0), held for ∂r/∂p there."""
+        k = self.terms.k
+        dS, df = np.zeros((len(self.slots), k)), np.zeros((len(self.slots), k))
+        for c in self.controllers:
+            rows = slice(self.first[c.name], self.first[c.name] + len(c.states))
+            _, _, f_S, f_p = self._at(c, state)
+            df[rows] = f_S @ dS[rows] + f_p
+            self.terms.held[c.name] = dS[rows]
+        return {"controller_dS": dS, "controller_df": df, **self._prefixed(self._accepted())}
+
+    @staticmethod
+    def _prefixed(values: dict) -> dict:
+        return {f"controller_{key}": value for key, value in values.items()}
+
+    def hold(self, carried: dict) -> None:
+        """δS as carried held for ∂r/∂p at an accepted state (a restart: the states kept, δq given)."""
+        for c in self.controllers:
+            self.terms.held[c.name] = carried["controller_dS"][self.first[c.name]:self.first[c.name] + len(c.states)]
+
+    def begin_step(self, carried: dict, state, h: float) -> None:
+        """The held part of δS_{n+1} (class docstring) at the step's end ``state``, for ∂r/∂p there."""
+        hh = 0.5 * h
+        self._step = {}
+        for c in self.controllers:
+            rows = slice(self.first[c.name], self.first[c.name] + len(c.states))
+            _, f_s, f_S, f_p = self._at(c, state)
+            A = np.eye(len(c.states)) - hh * f_S
+            held = np.linalg.solve(A, carried["controller_dS"][rows] + hh * (carried["controller_df"][rows] + f_p))
+            self.terms.held[c.name] = held
+            self._step[c.name] = (rows, A, f_s, f_S, f_p, hh)
+
+    def condensed(self, carried: dict, h: float):
+        """A context in which the evaluation condenses the states from the step's start (S_n, f_n) with
+        h/2, as inside the step: its K and C hold the total dy/ds (class docstring)."""
+        from contextlib import contextmanager
+
+        @contextmanager
+        def context():
+            native = self.terms.assembler.native(inertia_tangent=True)
+            half = native.buffers["controller_half_step"]
+            kept = (half.copy(), self.values[self.slots].copy(), self.rates[self.rate_index].copy())
+            half[0] = 0.5 * h
+            self.values[self.slots], self.rates[self.rate_index] = carried["controller_S"], carried["controller_f"]
+            try:
+                yield
+            finally:
+                half[:] = kept[0]
+                self.values[self.slots], self.rates[self.rate_index] = kept[1], kept[2]
+        return context()
+
+    def after_step(self, state, dq: np.ndarray) -> dict:
+        """δS_{n+1}, δf_{n+1} and the accepted (S, f) after the step ending at ``state``, δq its
+        configuration's derivative (class docstring)."""
+        k = self.terms.k
+        dS, df = np.zeros((len(self.slots), k)), np.zeros((len(self.slots), k))
+        for c in self.controllers:
+            rows, A, f_s, f_S, f_p, hh = self._step[c.name]
+            ds = self._sensed(c, state, dq)
+            dS[rows] = self.terms.held[c.name] + np.linalg.solve(A, hh * (f_s @ ds))
+            df[rows] = f_s @ ds + f_S @ dS[rows] + f_p
+        self.terms.held = {}
+        return {"controller_dS": dS, "controller_df": df, **self._prefixed(self._accepted())}
+
+
+def _sensor_derivatives(owner: ParameterDerivatives, probes: list, state, dq: np.ndarray) -> np.ndarray:
+    """δs (m, k): the derivatives of the sensors ``probes`` (hinge angles, guide slides, point positions
+    and displacements) at ``state`` along δq (n, k) (:meth:`ParameterDerivatives._probe_derivatives`)."""
+    dx, dpi, dtheta = owner._by_parameter(dq)
+    return np.array([owner._probe_derivatives(probe, state, dx, dpi, dtheta) for probe in probes],
+                    float).reshape(len(probes), dq.shape[1])
+
+
+class SampledTerms:
+    """Sampled controllers (``controllers.NAME.rate``) differentiated (docs/parameters.md, "Controllers").
+    At each instant t_k = k/rate (fixed: no event time), from the accepted state's sensors s and the
+    states S_k (latdyn.timeloop.sampling),
+
+        y_k = clip(f(t_k, s, S_k; p)),            S_{k+1} = S_k + g(t_k, s, S_k; p)/rate,
+        δy_k = ∂f/∂s δs + ∂f/∂S δS_k + ∂f/∂p      (0 while y_k is clipped),
+        δS_{k+1} = δS_k + (∂g/∂s δs + ∂g/∂S δS_k + ∂g/∂p)/rate,
+
+    δs the sensors' derivative along δq at t_k, the partial derivatives those of the controller's
+    expressions (SymPy, as the code generator's). The held δy_k enters ∂r/∂p of every step until the
+    next sample through the actuators that name the controller (τ = a y + b: −a δy on a hinge's or a
+    guide's row, the point-load kernel's force for a δy of a load's component: :meth:`add`). The
+    restart after the sample (the accelerations made consistent with the new outputs,
+    M v̇ + r(q, v, t) = 0) is differentiated by the time loop's
+    :meth:`latdyn.analyses.transient_sensitivities.TransientSensitivities.after_sample`.
+    What this does not cover is refused (:meth:`refusal`)."""
+
+    def __init__(self, terms: ControllerTerms):
+        import sympy as sp
+
+        from latdyn.assembly.control import actuator_gain
+
+        self.terms, owner = terms, terms.owner
+        scene, model = owner.scene, owner.model
+        self.controllers = [c for c in scene.controllers.values() if c.sampled]
+        self.index = {c.name: i for i, c in enumerate(self.controllers)}
+        self.first = dict(zip(self.index, np.cumsum([0] + [len(c.states) for c in self.controllers]).tolist()))
+        probes = {p.name: p for p in scene.output.probes}
+        self.sensors = {c.name: [probes[r] for r in c.reads] for c in self.controllers}
+        self.gradients = {}
+        for c in self.controllers:
+            reads, S = c.symbols[1:1 + len(c.reads)], c.symbols[1 + len(c.reads):]
+            self.gradients[c.name] = sp.lambdify(c.symbols, [
+                [sp.diff(c.output_expr, x) for x in reads], [sp.diff(c.output_expr, x) for x in S],
+                [[sp.diff(g, x) for x in reads] for g in c.state_exprs],
+                [[sp.diff(g, x) for x in S] for g in c.state_exprs]], modules=["math", "numpy"])
+        #: (kind 0 a hinge or guide / 1 a load, its index, the load's component, controller index, ∂τ/∂y)
+        self.actuators = []
+        for j, hinge in enumerate(model.hinges):
+            for c in self.controllers:
+                gain = actuator_gain(hinge.torque, c.name)
+                if gain is not None:
+                    self.actuators.append((0, j, 0, self.index[c.name], gain))
+        for l, load in enumerate(owner.assembler.loads):
+            for offset, components in ((0, load.force), (3, load.moment)):
+                for p, law in enumerate(components or ()):
+                    for c in self.controllers:
+                        gain = actuator_gain(law, c.name)
+                        if gain is not None:
+                            self.actuators.append((1, l, offset + p, self.index[c.name], gain))
+        #: the held δy (controllers, k) that :meth:`add` applies, set from what the run carries
+        self.held = np.zeros((len(self.controllers), terms.k))
+
+    @staticmethod
+    def refusal(scene) -> str | None:
+        """Why the sampled controllers of ``scene`` keep its transient sensitivities from being exact, or None."""
+        from latdyn.assembly.control import actuator_gain
+
+        sampled = [c for c in scene.controllers.values() if c.sampled]
+        if not sampled:
+            return None
+        names = {c.name for c in sampled}
+        probes = {p.name for p in scene.output.probes}
+        if _has_events(scene):
+            return (f"sensitivities of runs with sampled controllers ({sampled[0].name}) and events (a latch, a "
+                    "stop, a compliant stop's onset, a cable's change) are not computed yet")
+        for c in scene.controllers.values():
+            if not c.sampled and names & set(c.reads):
+                return (f"sensitivities of runs with a continuous controller that reads a sampled one ({c.name}) are "
+                        "not computed yet")
+            if c.sampled and not set(c.reads) <= probes:
+                return (f"sensitivities through the sampled controller {c.name}, which reads another controller or "
+                        "an input, are not computed yet; expected sampled controllers that read probes and their "
+                        "own states")
+        laws = [(f"beams.{beam}.{which}.hinge.{what}", getattr(hinge, what, None))
+                for beam, which, hinge in scene.hinges for what in ("stiffness", "damping", "angle")]
+        laws += [(f"bodies.{name}.guide.{what}", getattr(body.guide, what, None)) for name, body in scene.bodies.items()
+                 if body.guide is not None for what in ("stiffness", "damping", "position")]
+        laws += [(f"bodies.{name}.motion", law) for name, body in scene.bodies.items()
+                 for law in [*(getattr(body, "translation", None) or ()), getattr(body, "rotation_angle", None)]]
+        actuated = [(f"beams.{beam}.{which}.hinge.torque", hinge.torque) for beam, which, hinge in scene.hinges]
+        actuated += [(f"bodies.{name}.guide.force", body.guide.force) for name, body in scene.bodies.items()
+                     if body.guide is not None]
+        actuated += [(f"loads[{i}]", law) for i, load in enumerate(scene.loads)
+                     for law in [*(load.force or ()), *(load.moment or ())]]
+        for key, law in laws + actuated:
+            named = names & set(getattr(law, "input_names", ()))
+            if named and ((key, law) in laws or len(named) > 1 or actuator_gain(law, next(iter(named))) is None):
+                return (f"a sampled controller ({sorted(named)[0]}) named at {key}: sensitivities are computed where "
+                        "one sampled controller y drives a hinge torque, a guide force or a load component a*y + b "
+                        "(a constant)")
+        return None
+
+    def _rows(self, c) -> slice:
+        return slice(self.first[c.name], self.first[c.name] + len(c.states))
+
+    def start(self, state, k: int) -> dict:
+        """What the run carries from the sample at t = 0 (the states from ``initial``, δq = 0)."""
+        initial = np.array([c.initial[s] for c in self.controllers for s in c.states], float)
+        carried = {"sampled_dy": np.zeros((len(self.controllers), k)), "sampled_dS": np.zeros((len(initial), k)),
+                   "sampled_S": initial}
+        return self.sample(carried, state, np.zeros((self.terms.owner.model.n_dofs, k)),
+                           [c.name for c in self.controllers])
+
+    def sample(self, carried: dict, state, dq: np.ndarray, due: list) -> dict:
+        """δy_k, δS_{k+1} of the controllers ``due`` at ``state`` (class docstring), their S_{k+1} as the
+        sample left them, and the held δy set for ∂r/∂p."""
+        dy, dS, S = carried["sampled_dy"].copy(), carried["sampled_dS"].copy(), carried["sampled_S"].copy()
+        values = dict(zip(self.terms.sensors.names, self.terms.sensors.values(state)))
+        states = self.terms.owner.scene.controller_states
+        for c in self.controllers:
+            if c.name not in due:
+                continue
+            rows, i = self._rows(c), self.index[c.name]
+            arguments = [state.t, *[values[r] for r in c.reads], *S[rows]]
+            raw = float(c.functions()[0](*arguments))
+            y_s, y_S, g_s, g_S = self.gradients[c.name](*arguments)
+            p, m = len(c.states), len(c.reads)
+            y_s, y_S = np.array(y_s, float).reshape(m), np.array(y_S, float).reshape(p)
+            g_s, g_S = np.array(g_s, float).reshape(p, m), np.array(g_S, float).reshape(p, p)
+            y_p, g_p = np.zeros(self.terms.k), np.zeros((p, self.terms.k))
+            for column, law in self.terms.partials.get(c.name, {}).items():
+                y_p[column] = float(law(*arguments))
+            for column, laws in self.terms.rate_partials.get(c.name, {}).items():
+                for j, name in enumerate(c.states):
+                    if name in laws:
+                        g_p[j, column] = float(laws[name](*arguments))
+            ds = _sensor_derivatives(self.terms.owner, self.sensors[c.name], state, dq)
+            inside = c.limits is None or c.limits[0] < raw < c.limits[1]
+            dy[i] = y_s @ ds + y_S @ dS[rows] + y_p if inside else 0.0
+            dS[rows] = dS[rows] + (g_s @ ds + g_S @ dS[rows] + g_p) / c.rate
+            S[rows] = [states[f"{c.name}.{name}"] for name in c.states]
+        self.held = dy
+        return {"sampled_dy": dy, "sampled_dS": dS, "sampled_S": S}
+
+    def add(self, state, total: np.ndarray) -> None:
+        """Add the held outputs' ∂r/∂p (class docstring) into ``total`` (all coordinates, k columns)."""
+        model, owner = self.terms.model, self.terms.owner
+        loads: dict[int, np.ndarray] = {}
+        for kind, index, component, i, gain in self.actuators:
+            moved = gain * self.held[i]
+            if not np.any(moved):
+                continue
+            if kind == 0:   # a hinge torque or guide force τ = a y + b: its row f = … − τ
+                total[model.hinge_dofs[index]] -= moved
+            else:
+                loads.setdefault(index, np.zeros((6, self.terms.k)))[component] += moved
+        for index, values in loads.items():
+            columns = [c for c in range(self.terms.k) if np.any(values[:, c])]
+            nodes, forces = owner._load_forces(state, [index] * len(columns), values[:, columns].T)
+            total[model.node_dofs[nodes[0]][:, None], np.array(columns)[None, :]] += forces.T

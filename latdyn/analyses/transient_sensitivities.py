@@ -65,6 +65,13 @@ derivatives (:meth:`latdyn.assembly.assembler.Assembler.exact_matrices`: the red
 latches and stops as the hinges', the impulse weight's dependence on the rates followed.
 docs/parameters.md, "Cables" and "Guides".
 
+Controllers: parameters inside their outputs enter ∂r/∂p (:class:`latdyn.analyses.sensitivities.ControllerTerms`);
+the states of continuous controllers are carried as (δS, δf) beside the step's derivative, the step's matrix
+taken with the states condensed from the step's start as inside the step
+(:class:`latdyn.analyses.sensitivities.ControllerStates`); a sampled controller's held output and states jump
+at the fixed instants k/rate, and the restart after each sample is differentiated
+(:meth:`TransientSensitivities.after_sample`, :class:`latdyn.analyses.sensitivities.SampledTerms`). docs/parameters.md, "Controllers".
+
 This round runs one step at a time from Python (the time loop's per-step path; the native loop is
 later); it carries (δq, δv, δv̇, δa) on the free coordinates, (n, k), in
 :attr:`latdyn.timeloop.progress.TransientProgress.sensitivities`, checkpointed with the run.
@@ -149,7 +156,15 @@ class TransientSensitivities(ParameterDerivatives):
         if split.n_massless:
             self._refuse_start(state, ev, split)
         dv = self._initial_velocities()
+        states = self._controller_states()
+        if states is not None:   # δS_0 held for ∂r/∂p at the start (ControllerStates.start)
+            carried = {**carried, **states.start(state)}
+        sampled = self._sampled_controllers()
+        if sampled is not None:  # the sample at t = 0 (before the start): its held δy for ∂r/∂p
+            carried = {**carried, **sampled.start(state, k)}
         rhs = self.residual_derivatives(state, 1.0, inertia=True) + ev.combined(0.0, 1.0, 0.0) @ dv
+        if states is not None:
+            self.controllers.held = {}
         if split.n_massless == 0:   # Δ = −M⁻¹r: one factorization for every column
             dvdot = -np.asarray(solve_linear(ev.combined(1.0, 0.0, 0.0), rhs)).reshape(n, k)
         else:
@@ -277,7 +292,15 @@ class TransientSensitivities(ParameterDerivatives):
         dq0 = turn(dq) + tangent(du0)
         dv0 = dv + h * (1 - gamma) * da + h * gamma * da0
         dv0[:, k] += (1 - gamma) * a_old + gamma * a_new                               # ∂v_{n+1}/∂h
-        M, C, K = self._matrices(new)
+        if self._sampled_controllers() is not None:   # the held δy of the last sample (checkpoints carry it)
+            self._sampled_controllers().held = carried["sampled_dy"]
+        states = self._controller_states()
+        if states is None:
+            M, C, K = self._matrices(new)
+        else:   # the states' held part for ∂r/∂p, the matrix with the states condensed as in the step
+            states.begin_step(carried, new, h)
+            with states.condensed(carried, h):
+                M, C, K = self._matrices(new)
         rhs = -(np.hstack([self.residual_derivatives(new, 1.0, inertia=True), np.zeros((n, 1))])
                 + K @ dq0 + C @ dv0)
         J = tangent.matrix if issparse(K) else tangent.matrix.toarray()
@@ -298,11 +321,52 @@ class TransientSensitivities(ParameterDerivatives):
             dh = self.cables.step_size_derivative(new, cable[0], columns["dq"], columns["dv"], k)
         total = {key: value[:, :k] + np.outer(value[:, k], dh) for key, value in columns.items()}
         carried = {**carried, **total, "dt": carried["dt"] + dh, "dh": dh, "h": h, "pending": None}
+        if states is not None:   # no events with states (ControllerTerms.refusal): δh = 0
+            carried = {**carried, **states.after_step(new, carried["dq"])}
         if cable is not None:
             return self._after_cable_event(carried, new, *cable)
         if event is None:
             return carried
         return self._jump(carried, new, *event)
+
+    def _controller_states(self):
+        """The continuous controllers' states differentiated
+        (:class:`latdyn.analyses.sensitivities.ControllerStates`), or None without."""
+        return None if self.controllers is None else self.controllers.states
+
+    def _sampled_controllers(self):
+        """The sampled controllers differentiated (:class:`latdyn.analyses.sensitivities.SampledTerms`), or
+        None without."""
+        return None if self.controllers is None else self.controllers.sampled
+
+    def after_sample(self, carried: dict, state, due: list) -> dict:
+        """``carried`` after the sample at ``state`` of the sampled controllers named in ``due`` and the
+        restart after it (the time loop's ``_restart_after_sample``: v̇ made consistent with the new held
+        outputs, M v̇ + r(q, v, t) = 0, a = v̇), differentiated: δy_k and δS_{k+1}
+        (:meth:`latdyn.analyses.sensitivities.SampledTerms.sample`), then
+        δv̇ = δa = −M⁻¹ (K δq + C δv + ∂r/∂p) at the restarted state, M, C and the exact K of
+        :meth:`_matrices`. A model with directions without inertia is refused there (its restart splits
+        them off: not differentiated yet)."""
+        model, k = self.model, len(self.names)
+        if model.n_dofs == 0 or k == 0:
+            return carried
+        carried = {**carried, **self._sampled_controllers().sample(carried, state, carried["dq"], due)}
+        M, C, K = self._matrices(state)
+        split = split_inertia(model, M)
+        if split.n_massless:
+            raise SceneError(self.scene.file, "solve.sensitivities",
+                             f"the restart after a sampled controller's sample at t = {state.t:.6g} splits off "
+                             f"{split.n_massless} direction(s) without inertia, which is not differentiated yet; "
+                             "expected beams with rotary inertia (rhoIy, rhoIz) and bodies with mass and inertia "
+                             "(docs/parameters.md, \"Controllers\")")
+        states = self._controller_states()
+        if states is not None:   # the continuous controllers' states kept through the restart: δS held
+            states.hold(carried)
+        rhs = self.residual_derivatives(state, 1.0, inertia=True) + K @ carried["dq"] + C @ carried["dv"]
+        if states is not None:
+            self.controllers.held = {}
+        dvdot = -np.asarray(solve_linear(M, rhs)).reshape(model.n_dofs, k)
+        return {**carried, "dvdot": dvdot, "da": dvdot.copy()}
 
     def _event(self, old, new):
         """(hinge, kind, restitution) of the latch or stop impact the events will apply at the end of

@@ -580,9 +580,13 @@ class TimeLoop:
         progress bar (the summary: once, when the loop ends, :meth:`run`; nothing reads it before the
         writer closes)."""
         progress, model = self.progress, self.model
-        if not sampled and self.sampler is not None and self.sampler.sample(state, state.t, 1e-9 * self.control.dt):
+        tolerance = 1e-9 * self.control.dt
+        due = [] if sampled or self.sampler is None else [c.name for c in self.sampler.due(state.t, tolerance)]
+        if due and self.sampler.sample(state, state.t, tolerance):
             progress.controller_memory = self.sampler.memory()
             self._restart_after_sample(state)
+            if self.sensitivities is not None:  # the sample and its restart differentiated
+                progress.sensitivities = self.sensitivities.after_sample(progress.sensitivities, state, due)
         if progress.steps % 256 == 0:  # exp updates keep T on SO(3) to round-off; remove the drift of long runs
             state.T[model.free_nodes] = orthonormalize(state.T[model.free_nodes])
         if not recorded and self.control.row_due(progress, state.t):
