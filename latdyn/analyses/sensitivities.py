@@ -1135,7 +1135,7 @@ class ControllerStates:
 def _sensor_derivatives(owner: ParameterDerivatives, probes: list, state, dq: np.ndarray) -> np.ndarray:
     """δs (m, k): the derivatives of the sensors ``probes`` (hinge angles, guide slides, point positions
     and displacements) at ``state`` along δq (n, k) (:meth:`ParameterDerivatives._probe_derivatives`)."""
-    dx, dpi, dtheta = owner._by_parameter(dq)
+    dx, dpi, dtheta = owner._by_parameter(dq, state)
     return np.array([owner._probe_derivatives(probe, state, dx, dpi, dtheta) for probe in probes],
                     float).reshape(len(probes), dq.shape[1])
 
