@@ -57,6 +57,14 @@ step's size as a latch's does (:meth:`TransientSensitivities._contact_onset`); i
 there, nothing jumps; its law's stiffness, exponent and damping enter ∂r/∂p through the generated
 ``contact_force_D_law`` (docs/parameters.md, "Compliant stops").
 
+Laws in time (:class:`ExplicitTime`): where loads, hinge or guide laws, prescribed motions or a reel depend on
+t, a step's end t_{n+1} = t_n + h moves with δt_{n+1} = δt_n + δh (δt_e after an event, until a step lands on
+the grid), and the step's derivative adds ∂r/∂t δt_{n+1}: ∂r/∂t δt_n in the parameters' columns and ∂r/∂t in
+the step size's (:meth:`TransientSensitivities._add_time_columns`); the impulse and the restart at the event
+are taken at t_e + δt_e (:attr:`TransientSensitivities.time_shift`). ∂r/∂t is exact for the laws and a reel,
+a five-point difference in t for prescribed motions (docs/parameters.md, "Sensitivities through events",
+"Laws in time").
+
 Cables (:class:`CableSensitivities`): their EA, damping and rest length from the generated taut law, and
 their slack/taut changes as events landed on exactly, the event time differentiated from the gap's
 gradients (no jump: the discrete run neither jumps nor restarts there). Guides: a guide's laws as a
@@ -220,7 +228,7 @@ class TransientSensitivities(ParameterDerivatives):
     def _refuse_events(self, ev, split) -> None:
         """Events (a latch, a rigid stop) are differentiated where the impulse's weight is M + dt²K
         alone (no directions or elements without inertia: latdyn/timeloop/impulse.py); else refused
-        (laws in time with events are refused before the run: latdyn.analyses.sensitivities.refusal)."""
+        (laws in time with events: :class:`ExplicitTime`)."""
         model, scene = self.model, self.scene
         events = [h.name for h in model.hinges if h.lock_at is not None or (h.limits is not None and h.contact is None)]
         if not events:
