@@ -150,11 +150,11 @@ class TransientSensitivities(ParameterDerivatives):
         shifted = self.time_shift is not None and self.explicit_time is not None and np.any(self.time_shift)
         if on_all:
             if shifted:
-                total += np.outer(self.explicit_time.of_laws(state, on_all=True), self.time_shift)
+                total += np.outer(self.explicit_time.of_laws(state, inertia, on_all=True), self.time_shift)
             return total
         free = self._on_free_coordinates(state, total)
         if shifted:   # the state moved in time by δt: ∂r/∂t δt (the events' derivatives, module docstring)
-            free = free + np.outer(self.explicit_time(state), self.time_shift)
+            free = free + np.outer(self.explicit_time(state, inertia), self.time_shift)
         return free
 
     # ------------------------------------------------------------------ t = 0
@@ -781,24 +781,26 @@ class ExplicitTime:
             hinge.angle is not None for _, _, hinge in scene.hinges)
         return cls(owner, laws, prescribed, reels)
 
-    def of_laws(self, state, on_all: bool = False) -> np.ndarray:
+    def of_laws(self, state, inertia: bool = True, on_all: bool = False) -> np.ndarray:
         """∂r/∂t of the laws and reels (not the prescribed motions): (n_total + 1,) with ``on_all``, else on
-        the free coordinates."""
-        total = ParameterDerivatives.residual_derivatives(self.laws, state, 1.0, inertia=True, on_all=True)[:, 0]
+        the free coordinates (``inertia``: as the parameters' ∂r/∂p; no law in t moves an inertia force)."""
+        total = ParameterDerivatives.residual_derivatives(self.laws, state, 1.0, inertia=inertia, on_all=True)[:, 0]
         if self.reels and self.owner.cables is not None:
             self.owner.cables.reel_forces(state, total)
         if on_all:
             return total
         return self.owner._on_free_coordinates(state, total[:, None])[:, 0]
 
-    def __call__(self, state) -> np.ndarray:
-        """∂r/∂t (n,) on the free coordinates at ``state``."""
-        out = self.of_laws(state)
+    def __call__(self, state, inertia: bool = True) -> np.ndarray:
+        """∂r/∂t (n,) on the free coordinates at ``state``: of the equations of motion, or without
+        ``inertia`` of the static residual (the impulse weight's K is the static one's derivative:
+        :meth:`TransientSensitivities._weight_derivative` differences the static ∂r/∂p)."""
+        out = self.of_laws(state, inertia)
         if self.prescribed:
-            out = out + self.through_prescribed(state)
+            out = out + self.through_prescribed(state, inertia)
         return out
 
-    def through_prescribed(self, state) -> np.ndarray:
+    def through_prescribed(self, state, inertia: bool = True) -> np.ndarray:
         """∂r/∂t (n,) through the prescribed motions alone (class docstring): the loads, laws and rest
         lengths read the state's own time, the prescribed nodes and angles move to t ± η, ± 2η."""
         assembler = self.owner.assembler
@@ -808,7 +810,7 @@ class ExplicitTime:
             moved = state.copy()
             assembler.apply_prescribed(moved, state.t + shift)
             moved.t = state.t
-            return np.asarray(assembler.evaluate(moved, matrices=False).residual, float)
+            return np.asarray(assembler.evaluate(moved, matrices=False, inertia=inertia).residual, float)
 
         return (8.0 * (residual(eta) - residual(-eta)) - (residual(2 * eta) - residual(-2 * eta))) / (12.0 * eta)
 
