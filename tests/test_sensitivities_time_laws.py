@@ -126,3 +126,19 @@ def test_what_stays_refused_is_named(tmp_path):
     assert refused.value.key == "solve.sensitivities"
     run, _ = latdyn_run(tmp_path, moving)
     assert run.returncode == 2 and "solve.sensitivities" in run.stderr and "Traceback" not in run.stderr
+
+
+def test_the_laws_time_derivatives_are_exact():
+    """∂f/∂t at fixed θ, θ̇ (transient_sensitivities._TimeRate) against the derivatives written out: a load
+    expression, a table's slope, a hinge law in θ, θ̇ and t (SymPy's derivative, to round-off)."""
+    from latdyn.analyses.transient_sensitivities import _TimeRate
+    from latdyn.scene.expressions import HingeLaw, TimeFunction
+
+    theta, rate, t = 0.3, -0.7, 0.45
+    assert _TimeRate(TimeFunction("2*sin(5*t) + t**3")).value(0, 0, t) == pytest.approx(
+        10 * math.cos(5 * t) + 3 * t * t, rel=1e-14)
+    assert _TimeRate(TimeFunction({"table": [[0, 0], [1, 2], [2, 0]]})).value(0, 0, t) == 2.0
+    law = HingeLaw("2*theta*t**2 + sin(3*t)*theta_dot")
+    assert _TimeRate(law).value(theta, rate, t) == pytest.approx(4 * theta * t + 3 * math.cos(3 * t) * rate,
+                                                                 rel=1e-14)
+    assert _TimeRate(HingeLaw("3*theta + theta_dot")).value(theta, rate, t) == 0.0

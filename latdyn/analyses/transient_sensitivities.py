@@ -714,10 +714,10 @@ class _TimeRate:
             return
         import sympy as sp
 
-        symbols, (expr, *_) = law.expressions
+        symbols, (expr, *_) = law.expressions    # (θ, θ̇, t, the inputs and controllers it names)
         derivative = _drop_deltas(sp.diff(expr, symbols[2]))
-        compiled = sp.lambdify(symbols[:3], derivative, modules="numpy")
-        self.function = lambda theta, rate, t: compiled(float(theta), float(rate), float(t))
+        compiled = sp.lambdify(symbols, derivative, modules="numpy")
+        self.function = lambda theta, rate, t: compiled(float(theta), float(rate), float(t), *law._input_values())
 
     def value(self, theta: float, rate: float, t: float) -> float:
         with np.errstate(all="ignore"):
