@@ -170,19 +170,16 @@ def test_the_cli_writes_the_cable_events_sensitivities_and_the_api_gives_the_sam
         np.testing.assert_array_equal(values, result.sensitivities[key])
 
 
-def test_a_reel_and_the_mass_of_a_massless_cable_are_refused_naming_the_key(tmp_path):
-    """A rest length in t (a reel) moves the steps after an event in time: refused; so is a parameter of a
-    cable's rhoA where it is 0 (no lumped mass to move). Exit 2 from the CLI, no traceback."""
+def test_the_mass_of_a_massless_cable_is_refused_naming_the_key(tmp_path):
+    """A parameter of a cable's rhoA where it is 0 (no lumped mass to move) is refused. Exit 2 from the CLI,
+    no traceback. (A reel, rest_length in t, is differentiated: tests/test_sensitivities_time_laws.py.)"""
     from tests.cli_runs import latdyn_run
 
-    reel = DROP.replace('rest_length: "L"', 'rest_length: "L + 0.1*t"')
-    with pytest.raises(SceneError, match="depends on t") as refused:
-        _run(reel)
-    assert refused.value.key == "solve.sensitivities"
     heavy = DROP.replace('damping: "c"}', 'damping: "c", rhoA: "0*m"}')
     with pytest.raises(SceneError, match="cables.rope.rhoA") as refused:
         _run(heavy, "m")
-    run, _ = latdyn_run(tmp_path, reel)
+    assert refused.value.key == "solve.sensitivities"
+    run, _ = latdyn_run(tmp_path, heavy.replace("sensitivities: [L, EA]", "sensitivities: [m]"))
     assert run.returncode == 2 and "solve.sensitivities" in run.stderr and "Traceback" not in run.stderr
 
 

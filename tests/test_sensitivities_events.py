@@ -212,21 +212,6 @@ def test_a_run_interrupted_after_the_latch_resumes_to_the_same_sensitivities(tmp
             == json.loads((whole / "summary.json").read_text())["event_sensitivities"])
 
 
-def test_events_with_laws_in_time_are_refused(tmp_path):
-    """A torque growing in time: after an event the steps' ends move in time, and ∂r/∂t is not
-    differentiated, so the run is refused naming solve.sensitivities and the hinge, before anything is
-    compiled (the CLI exits 2)."""
-    from tests.cli_runs import latdyn_run
-
-    text = LATCH_PLANAR.replace('damping: "c",', 'damping: "c", torque: "0.1*t",')
-    with pytest.raises(SceneError, match="depends on t") as refused:
-        _run(text)
-    assert refused.value.key == "solve.sensitivities"
-    run, out = latdyn_run(tmp_path, text)
-    assert run.returncode == 2 and "solve.sensitivities" in run.stderr and "arm.start" in run.stderr
-    assert "Traceback" not in run.stderr
-
-
 def test_a_landing_that_misses_the_event_is_flagged(latch_planar, monkeypatch):
     """The event-time derivative assumes the step ends on the event: one secant pass leaves it 2e-8 off,
     which summary.json ``warnings`` says; the default landing (to 1e-12) says nothing."""

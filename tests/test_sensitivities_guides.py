@@ -198,8 +198,9 @@ def test_the_step_matrix_of_guided_bodies_is_the_exact_derivative_of_the_residua
 
 
 def test_guide_events_with_laws_in_time_and_friction_are_refused_naming_the_key(tmp_path):
-    """A latch on a guide whose rod turns by a prescribed motion (a law in t: the event moves the later steps
-    in time), and friction on a guide, are refused before the run (exit 2 from the CLI, naming
+    """A latch on a guide whose rod turns by a prescribed motion (the reduction's geometric term at the event
+    would need the motion's time derivative on all coordinates; a guide's laws in t are differentiated:
+    tests/test_sensitivities_time_laws.py), and friction on a guide, are refused before the run (exit 2 from the CLI, naming
     solve.sensitivities and the guided body, no traceback)."""
     from tests.cli_runs import latdyn_run
 

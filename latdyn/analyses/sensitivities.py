@@ -197,11 +197,11 @@ def _transient_refusal(scene) -> str | None:
     why = ControllerTerms.refusal(scene)
     if why is not None:
         return why
-    if scene.cables and (depends_on_time(scene) or any(not c.rest_length.is_constant for c in scene.cables.values())):
-        return ("sensitivities through cables' slack and taut events with a rest length (a reel), load, hinge law "
-                "or motion that depends on t are not computed yet: an event moves the ends of the steps after it "
-                "in time, and the time derivative of the equations is not differentiated; expected laws constant "
-                "in time (docs/parameters.md, \"Cables\")")
+    if scene.cables and _prescribed_motion(scene):
+        return ("sensitivities through cables' slack and taut events with a prescribed motion (a body's translation "
+                "or rotation, a hinge's angle) are not computed yet: the cable's gap moves in time through the "
+                "prescribed ends, which the event time's derivative does not follow; loads, laws and a reel "
+                "(rest_length in t) are (docs/parameters.md, \"Cables\")")
     guides = [name for name, body in scene.bodies.items() if body.guide is not None]
     if guides and any(beam.rigid for beam in scene.beams.values()):
         return "sensitivities of runs with guides and rigid links (a slider-crank) are not computed yet"
@@ -212,23 +212,49 @@ def _transient_refusal(scene) -> str | None:
         if guide.contact is not None or guide.friction is not None:
             return (f"sensitivities through a guide's compliant stops and friction (bodies.{name}.guide: sticking and "
                     "the stops' contact are events) are not computed yet")
-        if (guide.lock_at is not None or guide.limits is not None) and depends_on_time(scene):
-            return (f"sensitivities through the events of the guide of {name} (lock_at, limits) with a load, law or "
-                    "motion that depends on t are not computed yet: an event moves the ends of the steps after it "
-                    "in time, and the time derivative of the equations is not differentiated; expected laws "
-                    "constant in time (docs/parameters.md, \"Guides\")")
+        if (guide.lock_at is not None or guide.limits is not None) and _prescribed_motion(scene):
+            return (f"sensitivities through the events of the guide of {name} (lock_at, limits) with a prescribed "
+                    "motion are not computed yet (the reduction's geometric term at the event would need the "
+                    "prescribed motion's time derivative on all coordinates); loads and laws in t are "
+                    "(docs/parameters.md, \"Guides\")")
     for beam, which, hinge in scene.hinges:
         if hinge.friction is not None:
             return (f"sensitivities through friction ({beam}.{which}: sticking and slipping are events of a "
                     "law that changes there) are not computed yet; compliant stops (contact) are")
+    return _events_with_controllers_in_time(scene)
+
+
+def has_events(scene) -> bool:
+    """Whether ``scene`` has anything whose time the sensitivities land on: a hinge's or guide's latch or
+    stops (rigid or compliant: the onset), a cable (its slack/taut changes)."""
+    joints = [hinge for _, _, hinge in scene.hinges] + [b.guide for b in scene.bodies.values() if b.guide is not None]
+    return bool(scene.cables) or any(j.lock_at is not None or j.limits is not None for j in joints)
+
+
+def _prescribed_motion(scene) -> bool:
+    """Whether a body's translation or rotation or a hinge's angle is prescribed in ``scene``."""
+    return any(body.prescribed for body in scene.bodies.values()) or any(
+        hinge.angle is not None for _, _, hinge in scene.hinges)
+
+
+def _events_with_controllers_in_time(scene) -> str | None:
+    """Why events (latches, stops, cables' changes, guides' events) with a controller whose output names t
+    are refused, or None: ∂r/∂t (latdyn/analyses/transient_sensitivities.py ExplicitTime) holds the
+    scene's loads, laws, reels and prescribed motions, not a controller's explicit time."""
+    timed = [c.name for c in getattr(scene, "controllers", {}).values()
+             if c.output_expr is not None and c.symbols and c.symbols[0] in getattr(c.output_expr, "free_symbols", ())]
+    if not timed:
+        return None
     events = [f"{beam}.{which}" for beam, which, hinge in scene.hinges
               if hinge.lock_at is not None or hinge.limits is not None]
+    events += [f"bodies.{n}.guide" for n, b in scene.bodies.items()
+               if b.guide is not None and (b.guide.lock_at is not None or b.guide.limits is not None)]
+    events += [f"cables.{n}" for n in (scene.cables or {})]
     if events:
-        if depends_on_time(scene):
-            return (f"sensitivities through the events of {events[0]} (lock_at, limits) with a load, hinge law or "
-                    "motion that depends on t are not computed yet: an event moves the ends of the steps after it "
-                    "in time, and the time derivative of the equations is not differentiated; expected laws "
-                    "constant in time (docs/parameters.md, \"Sensitivities through events\")")
+        return (f"sensitivities through the events of {events[0]} with controller {timed[0]!r} whose output names t "
+                "are not computed yet: an event moves the ends of the steps after it in time, and the controller's "
+                "explicit time derivative is not differentiated (docs/parameters.md, \"Sensitivities through "
+                "events\")")
     return None
 
 

@@ -57,6 +57,14 @@ step's size as a latch's does (:meth:`TransientSensitivities._contact_onset`); i
 there, nothing jumps; its law's stiffness, exponent and damping enter ∂r/∂p through the generated
 ``contact_force_D_law`` (docs/parameters.md, "Compliant stops").
 
+Laws in time (:class:`ExplicitTime`): where loads, hinge or guide laws, prescribed motions or a reel depend on
+t, a step's end t_{n+1} = t_n + h moves with δt_{n+1} = δt_n + δh (δt_e after an event, until a step lands on
+the grid), and the step's derivative adds ∂r/∂t δt_{n+1}: ∂r/∂t δt_n in the parameters' columns and ∂r/∂t in
+the step size's (:meth:`TransientSensitivities._add_time_columns`); the impulse and the restart at the event
+are taken at t_e + δt_e (:attr:`TransientSensitivities.time_shift`). ∂r/∂t is exact for the laws and a reel,
+a five-point difference in t for prescribed motions (docs/parameters.md, "Sensitivities through events",
+"Laws in time").
+
 Cables (:class:`CableSensitivities`): their EA, damping and rest length from the generated taut law, and
 their slack/taut changes as events landed on exactly, the event time differentiated from the gap's
 gradients (no jump: the discrete run neither jumps nor restarts there). Guides: a guide's laws as a
@@ -93,6 +101,7 @@ from latdyn.model.model import lock_tolerance
 from latdyn.numerics.inertia import split_inertia
 from latdyn.numerics.linalg import issparse
 from latdyn.numerics.so3 import dexp_so3, expm_so3
+from latdyn.scene.expressions import TimeFunction, _drop_deltas
 from latdyn.step.integrators import consistent_acceleration
 from latdyn.timeloop.events import cable_crossings, cable_events, cable_gaps, first_crossing, lock_events, stop_hits
 from latdyn.timeloop.impulse import hinge_directions, massless_element_stiffness
@@ -113,6 +122,9 @@ LANDING_MISSED = 1e-10
 #: the configuration step (times the length scale) of the central differences of the impulse weight
 #: M + dt²K along δq (module docstring, "Events": the one derivative not generated)
 WEIGHT_STEP = 1e-5
+#: the time step (times dt) of the five-point central difference in t of the residual through prescribed
+#: motions (:meth:`ExplicitTime.prescribed`: the coupling to the prescribed coordinates is not assembled)
+PRESCRIBED_TIME_STEP = 1e-2
 
 
 class TransientSensitivities(ParameterDerivatives):
@@ -125,6 +137,11 @@ class TransientSensitivities(ParameterDerivatives):
         self.params = self.length = None
         #: the cables' parameters and events (:class:`CableSensitivities`), None without cables
         self.cables = CableSensitivities(self) if self.model.cables is not None else None
+        #: ∂r/∂t at fixed coordinates (:class:`ExplicitTime`), None where nothing depends on t
+        self.explicit_time = ExplicitTime.of(self)
+        #: δt (k,) of the state the events' derivatives are taken at (:meth:`residual_derivatives` adds
+        #: ∂r/∂t δt there), None elsewhere
+        self.time_shift = None
 
     def bind(self, integrator) -> None:
         """The integrator's parameters (α_m, α_f, γ, β) and length scale (the inertia tangent's steps)."""
@@ -137,7 +154,15 @@ class TransientSensitivities(ParameterDerivatives):
         total = super().residual_derivatives(state, load_factor, inertia, on_all=True)
         if self.cables is not None and self.cables.uses:
             self.cables.residual_derivatives(state, total, inertia)
-        return total if on_all else self._on_free_coordinates(state, total)
+        shifted = self.time_shift is not None and self.explicit_time is not None and np.any(self.time_shift)
+        if on_all:
+            if shifted:
+                total += np.outer(self.explicit_time.of_laws(state, inertia, on_all=True), self.time_shift)
+            return total
+        free = self._on_free_coordinates(state, total)
+        if shifted:   # the state moved in time by δt: ∂r/∂t δt (the events' derivatives, module docstring)
+            free = free + np.outer(self.explicit_time(state, inertia), self.time_shift)
+        return free
 
     # ------------------------------------------------------------------ t = 0
     def start(self, state) -> dict:
@@ -218,7 +243,7 @@ class TransientSensitivities(ParameterDerivatives):
     def _refuse_events(self, ev, split) -> None:
         """Events (a latch, a rigid stop) are differentiated where the impulse's weight is M + dt²K
         alone (no directions or elements without inertia: latdyn/timeloop/impulse.py); else refused
-        (laws in time with events are refused before the run: latdyn.analyses.sensitivities.refusal)."""
+        (laws in time with events: :class:`ExplicitTime`)."""
         model, scene = self.model, self.scene
         events = [h.name for h in model.hinges if h.lock_at is not None or (h.limits is not None and h.contact is None)]
         if not events:
@@ -301,8 +326,9 @@ class TransientSensitivities(ParameterDerivatives):
             states.begin_step(carried, new, h)
             with states.condensed(carried, h):
                 M, C, K = self._matrices(new)
-        rhs = -(np.hstack([self.residual_derivatives(new, 1.0, inertia=True), np.zeros((n, 1))])
-                + K @ dq0 + C @ dv0)
+        explicit = np.hstack([self.residual_derivatives(new, 1.0, inertia=True), np.zeros((n, 1))])
+        self._add_time_columns(explicit, new, carried["dt"])
+        rhs = -(explicit + K @ dq0 + C @ dv0)
         J = tangent.matrix if issparse(K) else tangent.matrix.toarray()
         matrix = beta_p * M + gamma_p * C + K @ J
         try:
@@ -318,7 +344,8 @@ class TransientSensitivities(ParameterDerivatives):
         if cable is None:
             dh = self._step_size_derivative(carried, h, lands, event or self._contact_onset(old, new), columns["dq"])
         else:
-            dh = self.cables.step_size_derivative(new, cable[0], columns["dq"], columns["dv"], k)
+            dh = self.cables.step_size_derivative(new, cable[0], columns["dq"], columns["dv"], k,
+                                                  started=carried["dt"])
         total = {key: value[:, :k] + np.outer(value[:, k], dh) for key, value in columns.items()}
         carried = {**carried, **total, "dt": carried["dt"] + dh, "dh": dh, "h": h, "pending": None}
         if states is not None:   # no events with states (ControllerTerms.refusal): δh = 0
@@ -327,7 +354,22 @@ class TransientSensitivities(ParameterDerivatives):
             return self._after_cable_event(carried, new, *cable)
         if event is None:
             return carried
-        return self._jump(carried, new, *event)
+        self.time_shift = carried["dt"]   # the impulse's weight at the event, moved in time by δt_e
+        try:
+            return self._jump(carried, new, *event)
+        finally:
+            self.time_shift = None
+
+    def _add_time_columns(self, explicit: np.ndarray, new, started: np.ndarray) -> None:
+        """Add to the step's ∂r/∂p columns ``explicit`` (n, k + 1) the explicit time dependence at its end
+        t_{n+1} = t_n + h (module docstring, "Laws in time"): ∂r/∂t δt_n in the parameters' columns
+        (``started`` = δt_n: the step starts where the events before it put it) and ∂r/∂t in the step
+        size's, so that the total carries ∂r/∂t δt_{n+1} (δt_{n+1} = δt_n + δh)."""
+        if self.explicit_time is None:
+            return
+        rate = self.explicit_time(new)
+        explicit[:, :-1] += np.outer(rate, started)
+        explicit[:, -1] += rate
 
     def _controller_states(self):
         """The continuous controllers' states differentiated
@@ -572,6 +614,14 @@ class TransientSensitivities(ParameterDerivatives):
         pending = carried.get("pending")
         if pending is None:
             return carried
+        self.time_shift = carried["dt"]   # the restart at the event's time, moved by δt_e
+        try:
+            return self._restart(carried, new, pending)
+        finally:
+            self.time_shift = None
+
+    def _restart(self, carried: dict, new, pending: dict) -> dict:
+        """:meth:`after_events` at the event's time (``time_shift`` set: ∂r/∂t δt_e in ∂r/∂p)."""
         model, k = self.model, len(self.names)
         n = model.n_dofs
 
@@ -697,6 +747,131 @@ class TransientSensitivities(ParameterDerivatives):
         if writer.out_dir is not None:
             text = csv_line(["t", *self.columns]) + "".join(csv_line(row) for row in carried["rows"])
             atomic_write_bytes(Path(writer.out_dir) / SENSITIVITIES_FILE, text.encode("utf-8"))
+
+
+# ---------------------------------------------------------------------------------------------- time
+
+
+class _TimeRate:
+    """∂f/∂t of a scene law at fixed θ, θ̇ (``value(θ, θ̇, t)``, as the parameters' derivative laws): of a
+    :class:`latdyn.scene.expressions.TimeFunction` (a load component, a torque of t) its exact ``rate``
+    (SymPy's derivative; a table's slope), of a :class:`latdyn.scene.expressions.HingeLaw` in θ, θ̇ and t
+    the SymPy derivative of its expression by t (deltas dropped as for its other derivatives)."""
+
+    def __init__(self, law):
+        self.function = None
+        time = law if isinstance(law, TimeFunction) else law.time_function
+        if time is not None:
+            self.function = lambda theta, rate, t: time.rate(t)
+            return
+        import sympy as sp
+
+        symbols, (expr, *_) = law.expressions    # (θ, θ̇, t, the inputs and controllers it names)
+        derivative = _drop_deltas(sp.diff(expr, symbols[2]))
+        compiled = sp.lambdify(symbols, derivative, modules="numpy")
+        self.function = lambda theta, rate, t: compiled(float(theta), float(rate), float(t), *law._input_values())
+
+    def value(self, theta: float, rate: float, t: float) -> float:
+        with np.errstate(all="ignore"):
+            return float(self.function(theta, rate, t))
+
+
+class ExplicitTime:
+    """∂r/∂t of the equations of motion at fixed free coordinates, rates and accelerations (module
+    docstring, "Laws in time"): what moves the residual when a step's end moves in time.
+
+    - load components f(t), hinge and guide laws k, c, τ in (θ, θ̇, t): their exact time derivatives
+      (:class:`_TimeRate`) through the same generated kernels as the parameters' derivatives
+      (:meth:`latdyn.analyses.sensitivities.ParameterDerivatives.residual_derivatives`: point_load,
+      hinge_force, linear in those values), one column;
+    - a reel (a cable's rest length L0(t)): :meth:`CableSensitivities.reel_forces`;
+    - prescribed motions (a body's translation and rotation, a hinge's angle): the free coordinates'
+      residual through the prescribed nodes' positions, rates and accelerations at t, by a five-point
+      central difference in t with step :data:`PRESCRIBED_TIME_STEP` · dt of the residual evaluated with
+      the motion applied at t ± η (the evaluation assembles no coupling block to prescribed coordinates:
+      the one difference of this part; its truncation (ηω)⁴/30 and round-off ε|r|/η are both below 1e-9
+      of ∂r/∂t for a motion the step resolves)."""
+
+    def __init__(self, owner, laws: dict, prescribed: bool, reels: bool):
+        import copy
+
+        self.owner = owner
+        self.prescribed, self.reels = prescribed, reels
+        # the parameters' machinery, with one column: t
+        self.laws = copy.copy(owner)
+        self.laws.names, self.laws.derivatives, self.laws.controllers = ["t"], laws, None
+        self.laws.__dict__.pop("_kinds", None)
+
+    @classmethod
+    def of(cls, owner) -> "ExplicitTime | None":
+        """The scene's explicit time dependence, or None where nothing depends on t or no event can move a
+        step's end in time (then every δt is 0: :func:`latdyn.analyses.sensitivities.has_events`)."""
+        from latdyn.analyses.sensitivities import depends_on_time, has_events
+
+        scene = owner.scene
+        reels = any(not c.rest_length.is_constant for c in scene.cables.values()) if scene.cables else False
+        if (not depends_on_time(scene) and not reels) or not has_events(scene):
+            return None
+        laws: dict[str, dict[int, _TimeRate]] = {}
+
+        def add(key, law):
+            if law is not None and not isinstance(law, (int, float)) and "t" in _depends(law):
+                laws[key] = {0: _TimeRate(law)}
+
+        for i, load in enumerate(scene.loads):
+            for kind in ("force", "moment"):
+                for axis, component in enumerate(getattr(load, kind) or []):
+                    add(f"loads[{i}].{kind}[{axis}]", component)
+        for beam, which, hinge in scene.hinges:
+            for law in ("stiffness", "damping", "torque"):
+                add(f"beams.{beam}.{which}.hinge.{law}", getattr(hinge, law))
+        for name, body in scene.bodies.items():
+            if body.guide is not None:
+                for law in ("stiffness", "damping", "force"):
+                    add(f"bodies.{name}.guide.{law}", getattr(body.guide, law))
+        prescribed = any(body.prescribed for body in scene.bodies.values()) or any(
+            hinge.angle is not None for _, _, hinge in scene.hinges)
+        return cls(owner, laws, prescribed, reels)
+
+    def of_laws(self, state, inertia: bool = True, on_all: bool = False) -> np.ndarray:
+        """∂r/∂t of the laws and reels (not the prescribed motions): (n_total + 1,) with ``on_all``, else on
+        the free coordinates (``inertia``: as the parameters' ∂r/∂p; no law in t moves an inertia force)."""
+        total = ParameterDerivatives.residual_derivatives(self.laws, state, 1.0, inertia=inertia, on_all=True)[:, 0]
+        if self.reels and self.owner.cables is not None:
+            self.owner.cables.reel_forces(state, total)
+        if on_all:
+            return total
+        return self.owner._on_free_coordinates(state, total[:, None])[:, 0]
+
+    def __call__(self, state, inertia: bool = True) -> np.ndarray:
+        """∂r/∂t (n,) on the free coordinates at ``state``: of the equations of motion, or without
+        ``inertia`` of the static residual (the impulse weight's K is the static one's derivative:
+        :meth:`TransientSensitivities._weight_derivative` differences the static ∂r/∂p)."""
+        out = self.of_laws(state, inertia)
+        if self.prescribed:
+            out = out + self.through_prescribed(state, inertia)
+        return out
+
+    def through_prescribed(self, state, inertia: bool = True) -> np.ndarray:
+        """∂r/∂t (n,) through the prescribed motions alone (class docstring): the loads, laws and rest
+        lengths read the state's own time, the prescribed nodes and angles move to t ± η, ± 2η."""
+        assembler = self.owner.assembler
+        eta = PRESCRIBED_TIME_STEP * float(self.owner.scene.solve.dt)
+
+        def residual(shift):
+            moved = state.copy()
+            assembler.apply_prescribed(moved, state.t + shift)
+            moved.t = state.t
+            return np.asarray(assembler.evaluate(moved, matrices=False, inertia=inertia).residual, float)
+
+        return (8.0 * (residual(eta) - residual(-eta)) - (residual(2 * eta) - residual(-2 * eta))) / (12.0 * eta)
+
+
+def _depends(law) -> tuple:
+    """The variables among θ, θ̇, t a scene law uses (a TimeFunction: t unless constant)."""
+    if isinstance(law, TimeFunction):
+        return () if law.is_constant else ("t",)
+    return law.depends_on
 
 
 # ---------------------------------------------------------------------------------------------- cables
@@ -866,9 +1041,12 @@ class CableSensitivities:
         change = [kind for name, kind in changes if name == self.cables.names[self.cables.cable[e]]]
         return e, (change[0] if change else None)
 
-    def step_size_derivative(self, new, e: int, dq: np.ndarray, dv: np.ndarray, k: int) -> np.ndarray:
+    def step_size_derivative(self, new, e: int, dq: np.ndarray, dv: np.ndarray, k: int,
+                             started: np.ndarray | None = None) -> np.ndarray:
         """δh (k,) of a step that ends on element ``e``'s change: its gap stays zero (class docstring);
-        ``dq``, ``dv`` the step's columns, the k parameters' and the step size's (column k)."""
+        ``dq``, ``dv`` the step's columns, the k parameters' and the step size's (column k); ``started``
+        δt_n (k,) of the step's start: a reel's rest length L0(t) moves the gap by ∂g/∂L0 L0′(t) δt_{n+1}
+        (:meth:`gap_rate`)."""
         model, cables = self.model, self.cables
         _, _, _, s = self.law(new, e)
         damped = s[4] < s[3]                       # the gap is the tension N (with its damper), else N_el
@@ -895,7 +1073,37 @@ class CableSensitivities:
             elif value == "rest_length":   # (rhoA moves no force of the element)
                 g_p[column] += self._rest_length_derivative(new, e, 3)[3] * cables.share[e] * derivative
         along = g_q @ dq + g_v @ dv
-        return -(along[:k] + g_p) / along[k]
+        g_t = self.gap_rate(new, e)
+        if g_t and started is not None:
+            g_p = g_p + g_t * started
+        return -(along[:k] + g_p) / (along[k] + g_t)
+
+    def gap_rate(self, state, e: int) -> float:
+        """∂g/∂t of element ``e``'s gap at fixed coordinates: through its cable's rest length alone (a reel,
+        ∂g/∂L0 · share · L0′(t); the law reads L0 and the gap never L̇0), 0 for a constant one."""
+        rest = self.cables.rest_length[self.cables.cable[e]]
+        if rest.is_constant:
+            return 0.0
+        return float(self._rest_length_derivative(state, e, 3)[4 if self._damped(state, e) else 3]
+                     * self.cables.share[e] * rest.rate(state.t))
+
+    def _damped(self, state, e: int) -> bool:
+        """Whether element ``e``'s gap is its tension N with the damper (N < N_el), else N_el."""
+        s = self.law(state, e)[3]
+        return bool(s[4] < s[3])
+
+    def reel_forces(self, state, total: np.ndarray) -> None:
+        """Add ∂(the taut elements' forces)/∂t at fixed coordinates into ``total`` (n_total + 1,): a reel's
+        rest length L0(t) moves them by ∂F/∂L0 · share · L0′(t) (the law reads no L̇0)."""
+        taut = None
+        for k, rest in enumerate(self.cables.rest_length):
+            if rest.is_constant:
+                continue
+            taut = self.taut(state) if taut is None else taut
+            rate = rest.rate(state.t)
+            for e in np.flatnonzero((self.cables.cable == k) & taut):
+                force = self._rest_length_derivative(state, e, 0) * self.cables.share[e] * rate
+                np.add.at(total, self._rows(e), force)
 
     def record(self, new, e: int, change, dt_event: np.ndarray, names: list) -> dict | None:
         """The ``event_sensitivities`` entry of a whole cable's change (None: an element of a cable that
