@@ -166,7 +166,8 @@ BAND_LIMIT = 100
 #: 0.9 ms; n = 24–96 took 0.05–0.85 ms.
 SINGLE_THREAD_EIGH = 64
 
-#: SuperLU options (psd_null_direction): minimum degree on AᵀA + A, diagonal pivots preferred.
+#: SuperLU options of the comparisons with SciPy (tests/test_sparse_lu.py, benchmarks/sparse_lu.py): minimum
+#: degree on AᵀA + A, diagonal pivots preferred.
 SUPERLU_OPTIONS = {"diag_pivot_thresh": 0.1, "options": {"SymmetricMode": True}}
 
 
@@ -307,15 +308,59 @@ def use_dense(n: int) -> bool:
     return n <= DENSE_LIMIT
 
 
+#: Patterns of at most this many coordinates are put in reverse Cuthill–McKee order by
+#: :func:`reverse_cuthill_mckee` (Python, ~2 ms at 400 coordinates), larger ones by SciPy's csgraph,
+#: whose import (with scipy.sparse.linalg and scipy.linalg, which it loads: ≈0.1 s of CPU) costs more
+#: than the whole short run of a mid-size lattice; both give the same order.
+RCM_IN_PYTHON = 5000
+
+
+def reverse_cuthill_mckee(rows: np.ndarray, cols: np.ndarray, n: int) -> np.ndarray:
+    """SciPy's ``csgraph.reverse_cuthill_mckee`` of the pattern (rows, cols) with
+    ``symmetric_mode=False``, the same order to the last index (tests/test_light_run.py checks it
+    against SciPy): on the pattern of A + Aᵀ, the degree of a node is its row's entries, its
+    diagonal counted twice; each connected part is searched breadth first from its first node in
+    NumPy's ``argsort`` of the degrees, the unvisited neighbours of each node (by index) appended
+    in a stable order of increasing degree; the order is reversed."""
+    rows, cols = np.asarray(rows, np.int64), np.asarray(cols, np.int64)
+    keys = np.unique(np.concatenate([rows * n + cols, cols * n + rows]))
+    row, col = keys // max(n, 1), keys % max(n, 1)
+    indptr = np.concatenate([[0], np.cumsum(np.bincount(row, minlength=n))])
+    degree = (np.diff(indptr) + np.bincount(row[row == col], minlength=n)).astype(np.int32)
+    neighbours = [part.tolist() for part in np.split(col, indptr[1:-1])] if n else []
+    degrees = degree.tolist()
+    visited = [False] * n
+    order: list[int] = []
+    for seed in np.argsort(degree).tolist():  # SciPy's own call: the same ties on the same NumPy
+        if visited[seed]:
+            continue
+        visited[seed] = True
+        order.append(seed)
+        head = len(order) - 1
+        while head < len(order):
+            found = [j for j in neighbours[order[head]] if not visited[j]]
+            head += 1
+            for j in found:
+                visited[j] = True
+            found.sort(key=degrees.__getitem__)
+            order += found
+        if len(order) == n:
+            break
+    return np.array(order[::-1], dtype=np.int64)
+
+
 def rcm_band(rows: np.ndarray, cols: np.ndarray, n: int):
     """Reverse Cuthill–McKee order of the pattern (rows, cols) of an n × n matrix:
     (perm, new, lower, upper) with ``perm`` the old index at each new place, ``new`` its
     inverse, and the lower and upper bandwidths in the new order."""
-    import scipy.sparse as sps  # only for band and sparse storage (see the top of the module)
-    import scipy.sparse.csgraph as csgraph
+    if n <= RCM_IN_PYTHON:
+        perm = reverse_cuthill_mckee(rows, cols, n)
+    else:
+        import scipy.sparse as sps  # only for large band and sparse storage (see the top of the module)
+        import scipy.sparse.csgraph as csgraph
 
-    pattern = sps.csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n))
-    perm = csgraph.reverse_cuthill_mckee(pattern, symmetric_mode=False)
+        pattern = sps.csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n))
+        perm = csgraph.reverse_cuthill_mckee(pattern, symmetric_mode=False)
     new = np.empty_like(perm)
     new[perm] = np.arange(n)
     i, j = new[rows], new[cols]
@@ -360,7 +405,7 @@ def psd_null_direction(A, tol: float = 1e-10, shift: float = 1e-9, iterations: i
     """The smallest Rayleigh quotient found for a sparse symmetric PSD matrix with
     unit diagonal, and its vector (max-norm 1).
 
-    Inverse iteration with one sparse LU of A + δI (δ = ``shift``; positive
+    Inverse iteration with one LU of A + δI (δ = ``shift``; positive
     definite, so the factorization exists however singular A is): each step
     multiplies a null component by 1/δ and a held one, of eigenvalue λ, by
     1/(λ + δ).  The Rayleigh quotient xᵀAx/xᵀx is never below λ_min(A), so a
@@ -388,11 +433,13 @@ def psd_null_direction(A, tol: float = 1e-10, shift: float = 1e-9, iterations: i
         x = vectors[:, 0]
         return float(eigenvalues[0]), x / np.max(np.abs(x))
     import scipy.sparse as sps  # only for sparse matrices (see the top of the module)
-    import scipy.sparse.linalg as spla
 
-    A = sps.csc_matrix(A)
-    shifted = (A + shift * sps.identity(n, format="csc")).tocsc()
-    solve = spla.splu(shifted, permc_spec="MMD_AT_PLUS_A", **SUPERLU_OPTIONS).solve
+    from latdyn.assembly.factorization import Factorization  # the package's LU: no scipy.sparse.linalg
+
+    A = sps.csr_matrix(A)
+    shifted = (A + shift * sps.identity(n, format="csr")).tocsr()
+    shifted.sum_duplicates()
+    solve = Factorization(np.repeat(np.arange(n), np.diff(shifted.indptr)), shifted.indices, n).factor(shifted).solve
     rng = np.random.default_rng(seed)
     x = rng.standard_normal(n)
     x /= np.linalg.norm(x)
@@ -414,5 +461,5 @@ def psd_null_direction(A, tol: float = 1e-10, shift: float = 1e-9, iterations: i
 
 
 __all__ = ["DENSE_LIMIT", "SMALL_BAND_FRACTION", "BAND_LIMIT", "SINGLE_THREAD_EIGH", "issparse", "use_dense", "rcm_band",
-           "small_rcm_band", "single_thread_blas",
+           "small_rcm_band", "reverse_cuthill_mckee", "RCM_IN_PYTHON", "single_thread_blas",
            "openblas_thread_functions", "psd_null_direction"]

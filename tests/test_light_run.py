@@ -1,0 +1,147 @@
+"""A run pays only for what it uses (issue 31): the scene's YAML read by libyaml where that reads it as
+the Python scanner does, the reverse Cuthill–McKee order of mid-size models without SciPy's csgraph
+(the same order), the held check on the package's own LU, and a band model's run that never loads
+scipy.sparse.linalg, csgraph or scipy.linalg (docs/performance.md, "Where a run's time goes")."""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import latdyn
+from latdyn.errors import SceneError
+from latdyn.numerics.linalg import reverse_cuthill_mckee
+from latdyn.scene import loader
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+# ----------------------------------------------------------------------------- reverse Cuthill–McKee
+def _patterns():
+    rng = np.random.default_rng(7)
+    for trial in range(120):
+        n = int(rng.integers(1, 160))
+        m = int(rng.integers(0, 4 * n))
+        rows, cols = rng.integers(0, n, m), rng.integers(0, n, m)
+        if trial % 3 == 0:  # a band with its diagonal, duplicates and one-sided entries
+            rows = np.concatenate([rows, np.arange(n)])
+            cols = np.concatenate([(rows[:m] + rng.integers(-4, 5, m)) % n, np.arange(n)])
+        yield rows, cols, n
+
+
+def test_reverse_cuthill_mckee_is_scipys_order_to_the_last_index():
+    sps = pytest.importorskip("scipy.sparse")
+    csgraph = pytest.importorskip("scipy.sparse.csgraph")
+    for rows, cols, n in _patterns():  # several components, isolated nodes, unsymmetric patterns
+        pattern = sps.csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n))
+        expected = csgraph.reverse_cuthill_mckee(pattern, symmetric_mode=False)
+        assert np.array_equal(reverse_cuthill_mckee(rows, cols, n), expected)
+
+
+# ----------------------------------------------------------------------------- YAML in C
+SCENE = """\
+title: a skew arm on a hub, as typed
+sections:
+  arm: {EA: 2.8e7, EIy: 1.4e4, EIz: 1.4e4, GJ: 1.0e4, rhoA: 1.2}
+bodies:
+  hub:
+    at: [0, 0, 0]
+    motion:
+      rotation: {axis: [0, 0, 1], angle: "0.5*t**2"}
+  off:                       # a body named with a YAML 1.1 word
+    at: [1, 2, 0.5]
+beams:
+  arm: {from: hub, to: [2, 1, 0.5], section: arm, elements: 3}
+solve: {analysis: transient, t_end: 0.02, dt: 0.01}
+output:
+  every: 0.01
+  probes:
+    tip: {point: arm.end, quantity: position, frame: hub, component: y}
+"""
+
+
+def _read_in_python(text: str):
+    parse = loader._yaml_loader()(text)
+    try:
+        node = parse.get_single_node()
+        return None if node is None else parse.construct_document(node)
+    finally:
+        parse.dispose()
+
+
+def test_yaml_read_in_c_gives_the_python_parsers_values():
+    pytest.importorskip("yaml.cyaml")
+    data = loader._read_yaml_in_c(SCENE, "scene.yaml")
+    assert data is not loader._MISSING
+    assert data == _read_in_python(SCENE)
+    assert data["bodies"]["off"]["at"] == [1, 2, 0.5] and data["sections"]["arm"]["EA"] == 2.8e7
+    assert "off" in data["bodies"]  # YAML 1.2 words: not the boolean False
+
+
+def test_a_flow_index_and_a_yaml_error_go_to_the_python_parser():
+    flow = SCENE + "  loads_at: {element: arm.element[0], quantity: torque}\n"
+    assert loader._read_yaml_in_c(flow, "scene.yaml") is loader._MISSING  # `[` inside a plain scalar
+    assert _read_in_python(flow)["output"]["loads_at"]["element"] == "arm.element[0]"
+    broken = SCENE.replace("  every: 0.01", "  every: [0.01")
+    assert loader._read_yaml_in_c(broken, "scene.yaml") is loader._MISSING
+    with pytest.raises(SceneError, match=r"line \d+, column \d+.*invalid YAML"):
+        latdyn.load_scene(_written(broken))
+    duplicate = SCENE.replace("title: a skew", "title: one\ntitle: a skew")
+    with pytest.raises(SceneError, match="duplicated key .first on line 1, again on line 2"):
+        latdyn.load_scene(_written(duplicate))
+
+
+def _written(text: str) -> str:
+    import tempfile
+
+    folder = tempfile.mkdtemp()
+    path = Path(folder) / "scene.yaml"
+    path.write_text(text)
+    return str(path)
+
+
+# ----------------------------------------------------------------------------- a band model, light
+BEAM = """\
+title: clamped 3D cantilever, 22 elements (132 coordinates, band LU)
+sections:
+  s: {EA: 1.0e7, EIy: 2.0e4, EIz: 1.0e4, GJ: 8.0e3, rhoA: 2.0, rhoIy: 1.0e-3, rhoIz: 1.0e-3}
+bodies:
+  wall: {at: [0, 0, 0], fixed: true}
+beams:
+  arm: {from: wall, to: [2.0, 0.5, 0.3], section: s, elements: 22}
+loads:
+  - {at: arm.end, force: [0, 0, -10.0]}
+solve: {analysis: transient, t_end: 0.01, dt: 0.002}
+output:
+  every: 0.002
+  probes:
+    w: {point: arm.end, quantity: displacement, frame: global, component: z}
+"""
+
+
+def test_a_band_model_runs_without_scipys_linalg_and_csgraph(tmp_path):
+    """A model above the dense LU's size whose band the step factorizes: its held check runs on the
+    package's LU and its order is computed here, so a run imports neither scipy.sparse.linalg,
+    csgraph nor scipy.linalg (≈0.1 s of CPU at the start of every such run)."""
+    scene = tmp_path / "beam.yaml"
+    scene.write_text(BEAM)
+    code = textwrap.dedent(f"""
+        import json, sys
+        import latdyn
+        result = latdyn.run(latdyn.load_scene({str(scene)!r}), out_dir={str(tmp_path / 'out')!r})
+        print(json.dumps({{"coordinates": result.summary["coordinates"], "status": result.summary["status"],
+                          "loaded": sorted(m for m in ("scipy.sparse.linalg", "scipy.sparse.csgraph", "scipy.linalg")
+                                           if m in sys.modules)}}))
+        """)
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=300)
+    assert done.returncode == 0, done.stderr[-2000:]
+    found = json.loads(done.stdout.strip().splitlines()[-1])
+    assert found["status"] == "solved" and found["coordinates"] == 132
+    assert found["loaded"] == []
