@@ -35,11 +35,13 @@ PHASES = [
     ("assembler + initial state", "latdyn.assembly.assembler", "Assembler.initial_state"),
     ("held check (evaluation + eigen/LU)", "latdyn.model.model", "Model.check_held"),
     ("held check (evaluation + eigen/LU)", "latdyn.assembly.assembler", "Assembler.evaluate"),
+    ("held check (evaluation + eigen/LU)", "latdyn.assembly.evaluation", "Evaluation.combined"),
     ("probes set up", "latdyn.results.probes", "ProbeSet.__init__"),
     ("ParaView mesh", "latdyn.results.paraview", "parts"),
     ("result files created", "latdyn.results.writer", "ResultWriter.__init__"),
     ("step set up (integrator, native library)", "latdyn.timeloop.transient", "integrator_for"),
     ("loop start (first row, accelerations)", "latdyn.timeloop.loop", "TimeLoop.begin"),
+    ("loop start: consistent accelerations", "latdyn.step.integrators", "consistent_acceleration"),
     ("C steps (advance)", "latdyn.step.compiled", "CompiledGeneralizedAlpha.advance"),
     ("rows (Python side of a block)", "latdyn.timeloop.loop", "TimeLoop._record_rows"),
     ("writers: probes.csv", "latdyn.results.probes_csv", "ProbesCsv.add_rows"),
@@ -120,7 +122,8 @@ def _child(scene: str, out: str) -> int:
                     and len(parts) == 1 and getattr(other, "__name__", "").startswith("latdyn"):
                 setattr(other, parts[0], getattr(owner, parts[-1]))
     w0, c0 = time.perf_counter(), time.process_time()
-    code = cli.main(["run", scene, "-o", out, "-q"])
+    sys.argv = ["latdyn", "run", scene, "-o", out, "-q"]
+    code = cli.main()  # as python -m latdyn calls it (argv None: the end of the process too)
     total_wall, total_cpu = time.perf_counter() - w0, time.process_time() - c0
     named_wall = sum(v[0] for k, v in exclusive.items() if not k.startswith("import"))
     named_cpu = sum(v[1] for k, v in exclusive.items() if not k.startswith("import"))

@@ -145,3 +145,31 @@ def test_a_band_model_runs_without_scipys_linalg_and_csgraph(tmp_path):
     found = json.loads(done.stdout.strip().splitlines()[-1])
     assert found["status"] == "solved" and found["coordinates"] == 132
     assert found["loaded"] == []
+
+
+# ----------------------------------------------------------------------------- the end of the process
+def test_the_command_leaves_complete_files_and_a_call_in_process_keeps_the_collector(tmp_path):
+    """``python -m latdyn run`` freezes the garbage collector as it ends (cli._end_of_the_process):
+    the results it leaves are complete (summary.json solved, the rows of every step, state.h5 and
+    the ParaView files readable); ``cli.main([...])`` called in a process that goes on (a test, a
+    notebook) leaves its collector as it was."""
+    import gc
+
+    import h5py
+
+    from cli_runs import latdyn_run, probe_columns, summary_of
+    from latdyn import cli
+
+    done, out = latdyn_run(tmp_path, BEAM, quiet=True)
+    assert done.returncode == 0, done.stderr
+    summary = summary_of(out)
+    assert summary["status"] == "solved" and summary["rows"] == 6
+    assert len(probe_columns(out)["w"]) == 6
+    with h5py.File(out / "state.h5") as f:
+        assert f["t"].shape == (6,)
+    for name in summary["paraview_files"]:
+        with h5py.File(out / name) as f:
+            assert len(f["VTKHDF"]["Steps"]["Values"]) == summary["paraview_frames"]
+    frozen = gc.get_freeze_count()
+    assert cli.main(["check", str(tmp_path / "scene.yaml")]) == 0
+    assert gc.get_freeze_count() == frozen
