@@ -185,7 +185,7 @@ class ResultWriter:
                 stale.unlink(missing_ok=True)
         self._open_paraview()
         self._probes.create()
-        write_summary(folder, {"status": "running"})
+        write_summary(folder, {"status": "running"}, durable=False)
 
     def bookmark(self) -> dict:
         """What was recorded so far, for resuming into the same folder (``resume=``).
@@ -222,7 +222,7 @@ class ResultWriter:
             self._state.reopen(state_rows)
         # ParaView: the bookmark's frames; later ones go
         self._open_paraview(mark.get("paraview"))
-        write_summary(folder, {"status": "running"})
+        write_summary(folder, {"status": "running"}, durable=False)
 
     # -- recording
     def record(self, t, values, state: dict | None = None, node_positions=None, node_data: dict | None = None,
@@ -252,7 +252,7 @@ class ResultWriter:
             due = self._state.unwritten() >= self.checkpoint_rows or now - self._last_checkpoint >= self.checkpoint_seconds
             # keep checkpoints below ~10 % of the wall time
             if self.out_dir is not None and due and now - self._last_checkpoint >= 9.0 * self._last_checkpoint_cost:
-                self.checkpoint()
+                self.checkpoint(durable=False)
         if frame is None and node_positions is not None:
             frame = {"beams": {"points": node_positions, "point_data": node_data or {}}}
         if frame is not None and self.out_dir is not None:
@@ -270,18 +270,21 @@ class ResultWriter:
         now = time.perf_counter()
         due = self._state.unwritten() >= self.checkpoint_rows or now - self._last_checkpoint >= self.checkpoint_seconds
         if self.out_dir is not None and due and now - self._last_checkpoint >= 9.0 * self._last_checkpoint_cost:
-            self.checkpoint()
+            self.checkpoint(durable=False)
         if frames is not None and self.out_dir is not None:
             self._paraview.record_rows(times, frames)
 
-    def checkpoint(self) -> None:
+    def checkpoint(self, durable: bool = True) -> None:
         """Rewrite the state history on disk now (atomically), with every row so far; the probe
-        rows not yet in probes.csv and the ParaView frames not yet in their files go there first."""
+        rows not yet in probes.csv and the ParaView frames not yet in their files go there first.
+        ``durable``: the new file synced to the disk before it replaces the old one (at the close and
+        for a resume checkpoint; the writer's periodic checkpoints need only the atomic replacement:
+        :mod:`latdyn.results.state_history`, "Crash safety")."""
         self._probes.flush()
         if self._paraview is not None:
             self._paraview.write_pending()
         began = time.perf_counter()
-        if self._state.write():
+        if self._state.write(durable):
             end = time.perf_counter()
             self._last_checkpoint = end
             self._last_checkpoint_cost = end - began
