@@ -173,3 +173,21 @@ def test_the_command_leaves_complete_files_and_a_call_in_process_keeps_the_colle
     frozen = gc.get_freeze_count()
     assert cli.main(["check", str(tmp_path / "scene.yaml")]) == 0
     assert gc.get_freeze_count() == frozen
+
+
+def test_a_short_run_writes_its_state_history_once_and_a_kill_keeps_the_last_checkpoint(tmp_path):
+    """``checkpoint_min_seconds`` (a run's writer: 1 s): rows due by count are not rewritten before it;
+    the close writes every row; a checkpoint asked for (a resume checkpoint's) is written at once."""
+    from latdyn.results.state_history import STATE_H5_FILE
+    from latdyn.results.writer import RUN_CHECKPOINT_MIN_SECONDS, ResultWriter, load_state_history
+
+    assert RUN_CHECKPOINT_MIN_SECONDS == 1.0
+    with ResultWriter(tmp_path, ["x"], checkpoint_rows=2, checkpoint_min_seconds=1e9) as writer:
+        for i in range(10):
+            writer.record(0.1 * i, [float(i)], state={"q": np.full(3, float(i))})
+        assert not (tmp_path / STATE_H5_FILE).exists()  # due by count, held back by the minimum
+        writer.checkpoint()
+        np.testing.assert_array_equal(load_state_history(tmp_path)["q"][:, 0], np.arange(10.0))
+        for i in range(10, 13):
+            writer.record(0.1 * i, [float(i)], state={"q": np.full(3, float(i))})
+    np.testing.assert_array_equal(load_state_history(tmp_path)["q"][:, 0], np.arange(13.0))

@@ -47,9 +47,10 @@ read natively by ParaView >= 5.12 and VTK's ``vtkHDFReader``), written with h5py
 Frames are written in blocks: the first creates the file, later ones gather in memory and
 are appended and flushed (``h5py.File.flush``) every :data:`FRAME_BLOCK` frames or
 :data:`FRAME_BLOCK_SECONDS`, at every checkpoint and at close (one write a dataset per block:
-~0.2 ms a frame less than one at a time), so a Ctrl-C or a solver failure (which close the
+~0.2 ms a frame less than one at a time; a block's append costs ~1.5 ms a file, so the default
+~200 frames of a short run go in one), so a Ctrl-C or a solver failure (which close the
 file) leave every recorded frame, and a kill between two blocks a complete, readable file of
-the frames up to the last block; a kill during a flush may not (HDF5 rewrites its metadata in
+the frames up to the last block (at most the last second's frames lost); a kill during a flush may not (HDF5 rewrites its metadata in
 place; the state history, copied and replaced atomically, is the safe record). The files are
 opened without HDF5's file lock, so ParaView can open them while a run goes on.
 
@@ -80,8 +81,10 @@ PARAVIEW_DIR = "paraview"
 VTKHDF_VERSION = (2, 0)
 #: About this many frames per run by default (:func:`default_every`).
 DEFAULT_FRAMES = 200
-#: frames gathered before they are appended to the files in one write (module docstring)
-FRAME_BLOCK = 32
+#: frames gathered before they are appended to the files in one write (module docstring): at most
+#: this many, or the frames of this many seconds (a run's writer also appends them at its
+#: checkpoints of the state history, at most once a second: results.writer.RUN_CHECKPOINT_MIN_SECONDS)
+FRAME_BLOCK = 256
 FRAME_BLOCK_SECONDS = 1.0
 #: VTK cell type numbers (vtkCellType.h) of the cell blocks a mesh may name.
 CELL_TYPES = {"vertex": 1, "line": 3, "triangle": 5, "quad": 9, "tetra": 10, "hexahedron": 12}
