@@ -149,7 +149,8 @@ def test_a_band_model_runs_without_scipys_linalg_and_csgraph(tmp_path):
 
 # ----------------------------------------------------------------------------- the end of the process
 def test_the_command_leaves_complete_files_and_a_call_in_process_keeps_the_collector(tmp_path):
-    """``python -m latdyn run`` freezes the garbage collector as it ends (cli._end_of_the_process):
+    """``python -m latdyn run`` freezes the garbage collector at its start and end (cli._start_of_the_process,
+    cli._end_of_the_process):
     the results it leaves are complete (summary.json solved, the rows of every step, state.h5 and
     the ParaView files readable); ``cli.main([...])`` called in a process that goes on (a test, a
     notebook) leaves its collector as it was."""
