@@ -16,6 +16,7 @@ import pytest
 
 import latdyn
 from latdyn.errors import SceneError
+from latdyn.numerics.csr import CSR, transposed, transposed_product
 from latdyn.numerics.linalg import reverse_cuthill_mckee
 from latdyn.scene import loader
 
@@ -125,10 +126,11 @@ output:
 """
 
 
-def test_a_band_model_runs_without_scipys_linalg_and_csgraph(tmp_path):
-    """A model above the dense LU's size whose band the step factorizes: its held check runs on the
-    package's LU and its order is computed here, so a run imports neither scipy.sparse.linalg,
-    csgraph nor scipy.linalg (≈0.1 s of CPU at the start of every such run)."""
+def test_a_band_model_runs_without_scipy_sparse(tmp_path):
+    """A model above the dense LU's size whose band the step factorizes: its held check and its
+    consistent start are computed in NumPy (latdyn.numerics.csr) on the package's LU, its order here,
+    so a run imports neither scipy.sparse nor its linalg, csgraph or scipy.linalg (≈0.2 s of CPU at
+    the start of every such run)."""
     scene = tmp_path / "beam.yaml"
     scene.write_text(BEAM)
     code = textwrap.dedent(f"""
@@ -136,8 +138,8 @@ def test_a_band_model_runs_without_scipys_linalg_and_csgraph(tmp_path):
         import latdyn
         result = latdyn.run(latdyn.load_scene({str(scene)!r}), out_dir={str(tmp_path / 'out')!r})
         print(json.dumps({{"coordinates": result.summary["coordinates"], "status": result.summary["status"],
-                          "loaded": sorted(m for m in ("scipy.sparse.linalg", "scipy.sparse.csgraph", "scipy.linalg")
-                                           if m in sys.modules)}}))
+                          "loaded": sorted(m for m in ("scipy.sparse", "scipy.sparse.linalg", "scipy.sparse.csgraph",
+                                                       "scipy.linalg") if m in sys.modules)}}))
         """)
     env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=300)
@@ -192,3 +194,83 @@ def test_a_short_run_writes_its_state_history_once_and_a_kill_keeps_the_last_che
         for i in range(10, 13):
             writer.record(0.1 * i, [float(i)], state={"q": np.full(3, float(i))})
     np.testing.assert_array_equal(load_state_history(tmp_path)["q"][:, 0], np.arange(13.0))
+
+
+# ----------------------------------------------------------------------------- sparse products in NumPy
+def _random_csr(rng, n_rows, n_cols, density):
+    sps = pytest.importorskip("scipy.sparse")
+    m = int(density * n_rows * n_cols)
+    rows, cols = rng.integers(0, n_rows, m), rng.integers(0, n_cols, m)
+    values = rng.standard_normal(m) * 10.0 ** rng.integers(-8, 8, m)
+    values[::7] = 0.0  # structural zeros, kept
+    values[3::11] = -0.0
+    ours = CSR.from_coo(values, rows, cols, (n_rows, n_cols))
+    theirs = sps.csr_matrix((values, (rows, cols)), shape=(n_rows, n_cols))
+    return ours, theirs
+
+
+def _same_bits(a, b) -> bool:
+    a, b = np.asarray(a), np.asarray(b)
+    return a.shape == b.shape and a.tobytes() == b.tobytes()
+
+
+def test_csr_products_are_scipys_to_the_last_bit():
+    """SciPy's A.T @ B (CSR A and B), A @ x and A.T @ x, and A.T.tocsr(): the same entries, the same
+    bits (each sum's terms in SciPy's order, exact zeros dropped from the products)."""
+    rng = np.random.default_rng(11)
+    for trial in range(40):
+        n, p, q = (int(rng.integers(1, 60)) for _ in range(3))
+        a, a_ref = _random_csr(rng, n, p, 0.15)
+        b, b_ref = _random_csr(rng, n, q, 0.15)
+        product = (a_ref.T @ b_ref).tocsr()
+        product.sort_indices()
+        ours = transposed_product(a, b)
+        assert _same_bits(ours.indptr, product.indptr.astype(np.int64))
+        assert _same_bits(ours.indices, product.indices.astype(np.int64)) and _same_bits(ours.data, product.data)
+        x, y = rng.standard_normal(p), rng.standard_normal(n)
+        assert _same_bits(a.matvec(x), a_ref @ x) and _same_bits(a.rmatvec(y), a_ref.T @ y)
+        t = a_ref.T.tocsr()
+        t.sort_indices()
+        assert _same_bits(transposed(a).data, t.data) and _same_bits(transposed(a).indices, t.indices.astype(np.int64))
+
+
+def test_the_consistent_start_without_scipy_is_the_same_to_the_bit():
+    """The start's Δv̇ = Q_m (Q_mᵀ M Q_m)⁻¹ (−Q_mᵀ r) of a 3D frame of 324 coordinates at a random
+    moving state: in NumPy (numerics.csr) and through SciPy's sparse matrices, bit for bit."""
+    from test_linalg import lattice
+
+    import latdyn.step.integrators as integrators
+    from latdyn.assembly.prepare import prepare
+
+    prepared = prepare(lattice(4, 4))
+    assert integrators._start_without_scipy(prepared.model)
+    rng = np.random.default_rng(5)
+    state = prepared.state.copy()
+    state.x[:] += 1e-3 * rng.standard_normal(state.x.shape)
+    state.v[:] += 0.1 * rng.standard_normal(state.v.shape)
+    state.w[:] += 0.1 * rng.standard_normal(state.w.shape)
+    evaluation = prepared.assembler.evaluate(state, matrices=True)
+    ours = integrators.consistent_acceleration(prepared.model, evaluation)
+    try:
+        integrators._start_without_scipy = lambda model: False
+        theirs = integrators.consistent_acceleration(prepared.model, evaluation)
+    finally:
+        del integrators._start_without_scipy  # the module's own function again
+    assert np.max(np.abs(ours)) > 1.0 and _same_bits(ours, theirs)
+
+
+def test_a_mid_size_model_with_a_coordinate_nothing_holds_is_refused_by_the_numpy_check():
+    """The held check in NumPy (numerics.csr, the package's LU) of a 3D frame above the dense LU's
+    size: a tail beam free to spin about its own axis on a hinge is refused, naming it."""
+    from test_linalg import lattice
+
+    raw = lattice(4, 4)
+    latdyn.load_scene(raw)
+    raw["bodies"]["loose"] = {"at": [10.0, 0.0, 0.0]}
+    raw["beams"]["tail"] = {"from": "j0_0_1", "to": "loose", "section": "s", "elements": 2,
+                            "end": {"hinge": {"axis": [1, 0, 0]}}}  # the tail's own axis: spin unheld
+    with pytest.raises(SceneError, match="nothing holds") as info:
+        from latdyn.assembly.prepare import prepare
+
+        prepare(raw)
+    assert "bodies.loose" in str(info.value) or "beams.tail.end.hinge" in str(info.value)

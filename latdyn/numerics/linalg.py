@@ -403,7 +403,7 @@ def small_rcm_band(rows: np.ndarray, cols: np.ndarray, n: int):
 def psd_null_direction(A, tol: float = 1e-10, shift: float = 1e-9, iterations: int = 12,
                        seed: int = 0) -> tuple[float, np.ndarray]:
     """The smallest Rayleigh quotient found for a sparse symmetric PSD matrix with
-    unit diagonal, and its vector (max-norm 1).
+    unit diagonal (SciPy's, or a :class:`latdyn.numerics.csr.CSR`), and its vector (max-norm 1).
 
     Inverse iteration with one LU of A + δI (δ = ``shift``; positive
     definite, so the factorization exists however singular A is): each step
@@ -420,10 +420,12 @@ def psd_null_direction(A, tol: float = 1e-10, shift: float = 1e-9, iterations: i
     NumPy's random generator, whose import alone costs more than that (docs/performance.md,
     "First run").
     """
+    from latdyn.numerics.csr import CSR
+
     n = A.shape[0]
     if n == 0:
         return np.inf, np.zeros(0)
-    if not issparse(A):
+    if not issparse(A) and not isinstance(A, CSR):
         A = np.asarray(A, float)
         if n > SINGLE_THREAD_EIGH:  # OpenBLAS may thread here; on a busy core that costs ×30
             with single_thread_blas():
@@ -432,14 +434,22 @@ def psd_null_direction(A, tol: float = 1e-10, shift: float = 1e-9, iterations: i
             eigenvalues, vectors = np.linalg.eigh(A)
         x = vectors[:, 0]
         return float(eigenvalues[0]), x / np.max(np.abs(x))
-    import scipy.sparse as sps  # only for sparse matrices (see the top of the module)
-
     from latdyn.assembly.factorization import Factorization  # the package's LU: no scipy.sparse.linalg
 
-    A = sps.csr_matrix(A)
-    shifted = (A + shift * sps.identity(n, format="csr")).tocsr()
-    shifted.sum_duplicates()
-    solve = Factorization(np.repeat(np.arange(n), np.diff(shifted.indptr)), shifted.indices, n).factor(shifted).solve
+    if isinstance(A, CSR):  # without SciPy (numerics.csr)
+        diagonal = np.arange(n)
+        shifted = CSR.from_coo(np.concatenate([A.data, np.full(n, shift)]), np.concatenate([A.rows, diagonal]),
+                               np.concatenate([A.indices, diagonal]), A.shape)
+        solve = Factorization(shifted.rows, shifted.indices, n).factor(shifted.data).solve
+        multiply = A.matvec
+    else:
+        import scipy.sparse as sps  # only for SciPy's sparse matrices (see the top of the module)
+
+        A = sps.csr_matrix(A)
+        shifted = (A + shift * sps.identity(n, format="csr")).tocsr()
+        shifted.sum_duplicates()
+        solve = Factorization(np.repeat(np.arange(n), np.diff(shifted.indptr)), shifted.indices, n).factor(shifted).solve
+        multiply = A.__matmul__
     rng = np.random.default_rng(seed)
     x = rng.standard_normal(n)
     x /= np.linalg.norm(x)
@@ -450,7 +460,7 @@ def psd_null_direction(A, tol: float = 1e-10, shift: float = 1e-9, iterations: i
         if not np.isfinite(norm) or norm == 0.0:
             break
         x = y / norm
-        rho = float(x @ (A @ x))
+        rho = float(x @ multiply(x))
         previous = best[0]
         if rho < previous:
             best = (rho, x)
