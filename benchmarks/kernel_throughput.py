@@ -39,6 +39,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's latdyn (and latdyn_generated)
 from test_backends import realistic_inputs  # noqa: E402
 
 from latdyn import native  # noqa: E402
