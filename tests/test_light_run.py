@@ -214,9 +214,15 @@ def _same_bits(a, b) -> bool:
     return a.shape == b.shape and a.tobytes() == b.tobytes()
 
 
-def test_csr_products_are_scipys_to_the_last_bit():
+@pytest.mark.parametrize("direct_keys", [None, 0])
+def test_csr_products_are_scipys_to_the_last_bit(direct_keys, monkeypatch):
     """SciPy's A.T @ B (CSR A and B), A @ x and A.T @ x, and A.T.tocsr(): the same entries, the same
-    bits (each sum's terms in SciPy's order, exact zeros dropped from the products)."""
+    bits (each sum's terms in SciPy's order, exact zeros dropped from the products); the products'
+    sums in a dense array (small products) and by sorted keys (``DIRECT_KEYS`` 0) alike."""
+    if direct_keys is not None:
+        import latdyn.numerics.csr as csr
+
+        monkeypatch.setattr(csr, "DIRECT_KEYS", direct_keys)
     rng = np.random.default_rng(11)
     for trial in range(40):
         n, p, q = (int(rng.integers(1, 60)) for _ in range(3))

@@ -20,6 +20,11 @@ from dataclasses import dataclass
 import numpy as np
 
 
+#: Products of at most this many entries (p × q) add their terms into a dense array of sums (8 bytes an
+#: entry) instead of sorting the terms' keys first: 0.4 ms instead of 5 ms for the 16-bay lattice's start.
+DIRECT_KEYS = 4_000_000
+
+
 @dataclass
 class CSR:
     """An n_rows × n_cols matrix in canonical compressed sparse rows (columns ascending in each row,
@@ -100,6 +105,11 @@ def transposed_product(a: CSR, b: CSR) -> CSR:
     kk = first + np.arange(int(counts.sum())) - np.repeat(np.cumsum(counts) - counts, counts)
     keys = i_of[entry] * q + b.indices[kk]
     products = v_of[entry] * b.data[kk]
+    if p * q <= DIRECT_KEYS:  # every entry's sum in one pass (no sort); the same additions in the same order
+        sums = np.bincount(keys, weights=products, minlength=p * q)
+        touched = np.bincount(keys, minlength=p * q) > 0
+        unique = np.flatnonzero(touched & (sums != 0))
+        return CSR._of_keys(unique, sums[unique], (p, q))
     unique, inverse = np.unique(keys, return_inverse=True)
     sums = np.bincount(inverse.ravel(), weights=products, minlength=len(unique))
     kept = sums != 0
@@ -111,4 +121,4 @@ def transposed(a: CSR) -> CSR:
     return CSR.from_coo(a.data, a.indices, a.rows, (a.shape[1], a.shape[0]))
 
 
-__all__ = ["CSR", "transposed", "transposed_product"]
+__all__ = ["CSR", "DIRECT_KEYS", "transposed", "transposed_product"]
