@@ -322,8 +322,10 @@ def reverse_cuthill_mckee(rows: np.ndarray, cols: np.ndarray, n: int) -> np.ndar
     diagonal counted twice; each connected part is searched breadth first from its first node in
     NumPy's ``argsort`` of the degrees, the unvisited neighbours of each node (by index) appended
     in a stable order of increasing degree; the order is reversed."""
+    from latdyn.numerics.csr import unique_keys  # np.unique would import numpy.ma
+
     rows, cols = np.asarray(rows, np.int64), np.asarray(cols, np.int64)
-    keys = np.unique(np.concatenate([rows * n + cols, cols * n + rows]))
+    keys = unique_keys(np.concatenate([rows * n + cols, cols * n + rows]))[0]
     row, col = keys // max(n, 1), keys % max(n, 1)
     indptr = np.concatenate([[0], np.cumsum(np.bincount(row, minlength=n))])
     degree = (np.diff(indptr) + np.bincount(row[row == col], minlength=n)).astype(np.int32)
@@ -442,6 +444,9 @@ def psd_null_direction(A, tol: float = 1e-10, shift: float = 1e-9, iterations: i
                                np.concatenate([A.indices, diagonal]), A.shape)
         solve = Factorization(shifted.rows, shifted.indices, n).factor(shifted.data).solve
         multiply = A.matvec
+        # a fixed start without NumPy's random generator (its import costs more than this check):
+        # the fractional parts of k·φ, centred, miss a direction no more than a random vector would
+        x = (np.arange(1, n + 1) * 0.6180339887498949) % 1.0 - 0.5
     else:
         import scipy.sparse as sps  # only for SciPy's sparse matrices (see the top of the module)
 
@@ -450,8 +455,7 @@ def psd_null_direction(A, tol: float = 1e-10, shift: float = 1e-9, iterations: i
         shifted.sum_duplicates()
         solve = Factorization(np.repeat(np.arange(n), np.diff(shifted.indptr)), shifted.indices, n).factor(shifted).solve
         multiply = A.__matmul__
-    rng = np.random.default_rng(seed)
-    x = rng.standard_normal(n)
+        x = np.random.default_rng(seed).standard_normal(n)
     x /= np.linalg.norm(x)
     best = (np.inf, x)
     for _ in range(iterations):
