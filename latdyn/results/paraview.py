@@ -73,7 +73,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["ParaviewWriter", "normalise_mesh", "parts", "frame", "default_every", "part_file",
+__all__ = ["ParaviewWriter", "normalise_mesh", "parts", "frame", "frames", "default_every", "part_file",
            "PARAVIEW_DIR", "VTKHDF_VERSION", "DEFAULT_FRAMES"]
 
 PARAVIEW_DIR = "paraview"
