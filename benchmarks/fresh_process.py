@@ -12,6 +12,8 @@ Medians, minima and the 1-minute load average are printed (docs/performance.md, 
     python benchmarks/fresh_process.py --repeat 10 --importtime   # and where the imports go
     python benchmarks/fresh_process.py --against /tmp/base  # and another checkout's latdyn, same rounds
                                                             # (e.g. git worktree add /tmp/base <commit>)
+    python benchmarks/fresh_process.py --scene S.yaml --against /tmp/base   # a whole scene of one's own
+                                                            # (e.g. the ones peers_as_user.py writes)
 
 Byte-compiled modules are assumed (a user's case after the first import): run it without
 ``PYTHONDONTWRITEBYTECODE``, once, before timing.
@@ -68,19 +70,28 @@ def main(argv=None) -> int:
     parser.add_argument("--steps", type=int, default=5, help="steps of the spin-up (default 5)")
     parser.add_argument("--importtime", action="store_true", help="also list where the imports go")
     parser.add_argument("--against", type=Path, help="a checkout whose latdyn is timed too, in the same rounds")
+    parser.add_argument("--scene", type=Path, help="run this scene file as it is instead of the spin-up's steps")
     args = parser.parse_args(argv)
 
-    scene = yaml.safe_load((ROOT / "examples" / "spinup.yaml").read_text())
-    dt = float(scene["solve"]["dt"])
-    scene["solve"]["t_end"] = args.steps * dt
-    scene["output"]["every"] = dt
-    def environment_of(root: Path) -> dict:
-        return {**os.environ, "PYTHONPATH": os.pathsep.join([str(root), os.environ.get("PYTHONPATH", "")])}
+    if args.scene is None:
+        scene = yaml.safe_load((ROOT / "examples" / "spinup.yaml").read_text())
+        dt = float(scene["solve"]["dt"])
+        scene["solve"]["t_end"] = args.steps * dt
+        scene["output"]["every"] = dt
+        what = f"spin-up of {args.steps} steps"
+    else:
+        what = str(args.scene)
+    def environment_of(root: Path) -> dict:  # byte code cached, as a user's installation has it
+        return {**{k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"},
+                "PYTHONPATH": os.pathsep.join([str(root), os.environ.get("PYTHONPATH", "")])}
 
     environment = environment_of(ROOT)
     with tempfile.TemporaryDirectory() as folder:
         path = Path(folder) / "spinup_steps.yaml"
-        path.write_text(yaml.safe_dump(scene))
+        if args.scene is None:
+            path.write_text(yaml.safe_dump(scene))
+        else:
+            path.write_bytes(args.scene.read_bytes())
         run = [sys.executable, "-m", "latdyn", "run", str(path), "-o", str(Path(folder) / "out"), "-q"]
         commands = {"latdyn run": (run, environment), "python -c pass": ([sys.executable, "-c", "pass"], environment),
                     "python -c 'import numpy'": ([sys.executable, "-c", "import numpy"], environment)}
@@ -95,7 +106,7 @@ def main(argv=None) -> int:
             for name, (command, env) in commands.items():
                 times[name].append(_timed(command, env, folder))
         loads.append(os.getloadavg()[0])
-        print(f"{args.repeat} fresh processes each, spin-up of {args.steps} steps, load {loads[0]:.1f} -> "
+        print(f"{args.repeat} fresh processes each, {what}, load {loads[0]:.1f} -> "
               f"{loads[1]:.1f}, {os.cpu_count()} CPUs")
         for name, rows in times.items():
             walls, cpus = [w for w, _ in rows], [c for _, c in rows]

@@ -1,6 +1,7 @@
 """Throughput of the generated element kernels against this machine's limit.
 
     python benchmarks/kernel_throughput.py [n_elements] [--variant default] [--json PATH]
+    python benchmarks/kernel_throughput.py --whole-solver [--repeat 5] [--against CHECKOUT]
 
 For every element kernel of a variant: operations after CSE (the generator's count: each
 add, multiply, divide, square root or call counts one), µs per element on the NumPy and C
@@ -10,6 +11,16 @@ iteration of a 3D element as the compiled step calls them (internal force and ta
 matrix, quadratic-velocity vector and its q̇-derivative: ``beam_internal_force_D_q`` +
 ``beam_mass_matrix`` + ``beam_quadratic_velocity_D_qdot``), summed. The step's own cost per
 element-iteration (geometry, scatter, factorisation too) is ``benchmarks/step_scaling.py``.
+
+``--whole-solver``: the whole solver time per element-iteration of two runs, issue 31's measure
+against the turn-4 build: ``solver_s / (newton_iterations × elements)`` from summary.json (the
+steps' wall time: assembly, kernels, factorizations, rows; not preparing the model) of the
+260-member truss (``benchmarks/linear_solvers.py``'s ``lattice_for(260)``: 5×5×5 joints with mass,
+one element a member, Newmark, dt 0.01 to 1 s) and the 16-element right-angle cantilever
+(``examples/benchmarks/D2_right_angle_cantilever.yaml`` with 8 elements a leg, 30 s at dt 0.01, as
+``peers_as_user.py`` runs it), each ``latdyn.run`` in process without a results folder after one
+warm-up run, medians of ``--repeat``, in a fresh process per checkout (``--against``: another
+checkout's latdyn, in the same rounds).
 
 Peak: SIMD lanes × 2 FMA pipes × 2 operations × the clock /proc/cpuinfo reports now (an
 assumption stated in the output: AMD Zen 2-4 and Intel since Haswell have two FMA pipes; a
@@ -28,6 +39,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's latdyn (and latdyn_generated)
 from test_backends import realistic_inputs  # noqa: E402
 
 from latdyn import native  # noqa: E402
@@ -61,12 +73,78 @@ def machine_peak() -> dict:
             "assumes": f"{pipe_width} doubles per FMA pipe, 2 FMA pipes, 2 operations per FMA, {clock:.2f} GHz"}
 
 
+def whole_solver_scenes() -> dict:
+    """The two scenes of ``--whole-solver`` (see the module docstring), as dictionaries."""
+    import yaml
+
+    root = Path(__file__).resolve().parents[1]
+    sys.path.insert(0, str(root / "benchmarks"))
+    from linear_solvers import lattice_for
+
+    cantilever = yaml.safe_load((root / "examples" / "benchmarks" / "D2_right_angle_cantilever.yaml").read_text())
+    cantilever["beams"]["leg1"]["elements"] = cantilever["beams"]["leg2"]["elements"] = 8
+    cantilever["solve"].update(t_end=30.0, dt=0.01)
+    return {"truss_260": lattice_for(260), "cantilever_16": cantilever}
+
+
+def whole_solver_child(repeat: int) -> None:
+    """In a fresh process: each scene run ``repeat`` times after a warm-up; JSON on stdout."""
+    import latdyn
+
+    out = {}
+    for name, raw in whole_solver_scenes().items():
+        rows = []
+        for k in range(repeat + 1):
+            summary = latdyn.run(latdyn.load_scene(raw)).summary
+            if k:
+                rows.append(summary)
+        per = [1e6 * r["solver_s"] / (r["newton_iterations"] * r["elements"]) for r in rows]
+        out[name] = {"elements": rows[0]["elements"], "newton_iterations": rows[0]["newton_iterations"],
+                     "steps": rows[0]["steps"], "solver_s": float(np.median([r["solver_s"] for r in rows])),
+                     "us_per_element_iteration": float(np.median(per)), "all": per}
+    print(json.dumps(out))
+
+
+def whole_solver(repeat: int, against: Path | None) -> dict:
+    import subprocess
+
+    roots = {"this checkout": Path(__file__).resolve().parents[1]}
+    if against is not None:
+        roots[str(against)] = against.resolve()
+    load = [os.getloadavg()[0]]
+    results = {}
+    for label, root in roots.items():
+        env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(root), os.environ.get("PYTHONPATH", "")])}
+        done = subprocess.run([sys.executable, str(Path(__file__).resolve()), "--whole-solver-child", str(repeat)],
+                              capture_output=True, text=True, env=env, check=True, cwd=root)
+        results[label] = json.loads(done.stdout.strip().splitlines()[-1])
+    load.append(os.getloadavg()[0])
+    cpu = machine_peak()["cpu"]
+    print(f"whole solver time per element-iteration (µs), medians of {repeat}; {cpu}; load {load[0]:.1f} -> {load[1]:.1f}")
+    for label, rows in results.items():
+        for name, row in rows.items():
+            print(f"  {label:>20s} {name:14s} {row['elements']:4d} elements, {row['newton_iterations']:6d} iterations, "
+                  f"solver_s {row['solver_s']:.3f}: {row['us_per_element_iteration']:.2f} µs")
+    return {"load_average": load, "cpu": cpu, "results": results}
+
+
 def main(argv=None) -> dict:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("n", nargs="?", type=int, default=10_000)
     parser.add_argument("--variant", default="default")
     parser.add_argument("--json", type=Path, default=None)
+    parser.add_argument("--whole-solver", action="store_true", help="issue 31's whole solver time per element-iteration")
+    parser.add_argument("--repeat", type=int, default=5)
+    parser.add_argument("--against", type=Path, help="--whole-solver: another checkout, timed in the same run")
+    parser.add_argument("--whole-solver-child", type=int, help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
+    if args.whole_solver_child:
+        return whole_solver_child(args.whole_solver_child)
+    if args.whole_solver:
+        result = whole_solver(args.repeat, args.against)
+        if args.json:
+            args.json.write_text(json.dumps(result, indent=1) + "\n")
+        return result
     n = args.n
     inputs = realistic_inputs(n, seed=1)
     sets = {"numpy": load_kernels("numpy", args.variant), "c": load_kernels("c", args.variant)}

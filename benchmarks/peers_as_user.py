@@ -42,6 +42,10 @@ Problems and settings (matched accuracy as ``peers.py`` measures it, each code's
   member, dt T/70, modified Newton, absolute tolerance 1e-2 F0, relative 1e-5. Goal: in process
   ≤ 0.3 ×, ``latdyn run`` ≤ 0.4 × the best peer.
 
+Every process is also timed in CPU (user + system of the child and what it started, ``getrusage``):
+``process_cpu_s``, and latdyn ÷ the peer of least CPU (``ratio_process_cpu``, no goal of its own:
+on a machine shared with other jobs CPU time is the steadier measure).
+
 The error of each run is computed from what it wrote (probes.csv; Exudyn's sensor data) as
 ``peers.py`` does. Results: ``benchmarks/results/peers_as_user.json`` and a table on stdout.
 The 1-minute load average is recorded with every round.
@@ -51,6 +55,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import statistics
 import subprocess
 import sys
@@ -137,15 +142,16 @@ def latdyn_process(problem: str, folder: Path) -> dict:
     scene = folder / f"{problem}.yaml"
     scene.write_text(yaml.safe_dump(latdyn_scene(problem, cfg), sort_keys=False))
     out = folder / f"{problem}_results"
-    t0 = time.perf_counter()
+    before, t0 = resource.getrusage(resource.RUSAGE_CHILDREN), time.perf_counter()
     done = subprocess.run([sys.executable, "-m", "latdyn", "run", str(scene), "-o", str(out), "-q"],
                           capture_output=True, text=True, cwd=folder, env=child_environment())
-    wall = time.perf_counter() - t0
+    wall, cpu = time.perf_counter() - t0, _cpu_since(before)
     if done.returncode != 0:
         return {"status": "failed", "note": done.stderr.strip().splitlines()[-1:], "process_s": wall}
     summary = json.loads((out / "summary.json").read_text())
     table = np.genfromtxt(out / "probes.csv", delimiter=",", names=True)
-    row = {"status": "ok", "process_s": wall, "wall_time_s": summary["wall_time_s"], "solver_s": summary["solver_s"],
+    row = {"status": "ok", "process_s": wall, "process_cpu_s": cpu, "wall_time_s": summary["wall_time_s"],
+           "solver_s": summary["solver_s"],
            "compile_s": summary.get("compile_s"), "rows": summary["rows"],
            "paraview_frames": summary.get("paraview_frames"), "newton": summary.get("newton"),
            "steps": summary["steps"], "newton_iterations": summary["newton_iterations"],
@@ -160,6 +166,12 @@ def latdyn_process(problem: str, folder: Path) -> dict:
     else:
         row["inprocess_note"] = inner.stderr.strip().splitlines()[-1:]
     return row
+
+
+def _cpu_since(before) -> float:
+    """CPU seconds (user + system) of the child processes that ended since ``before`` (getrusage)."""
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 
 
 def latdyn_inprocess(scene: str, out: str) -> int:
@@ -245,16 +257,16 @@ def exudyn_one(problem: str, code: str, folder: str) -> int:
 
 
 def exudyn_process(problem: str, code: str, folder: Path, python: str) -> dict:
-    t0 = time.perf_counter()
+    before, t0 = resource.getrusage(resource.RUSAGE_CHILDREN), time.perf_counter()
     done = subprocess.run([python, str(Path(__file__).resolve()), "--exudyn-one", problem, code, str(folder)],
                           capture_output=True, text=True, env=child_environment(LATDYN_PEERS_EXUDYN_ONLY="1"))
-    wall = time.perf_counter() - t0
+    wall, cpu = time.perf_counter() - t0, _cpu_since(before)
     if done.returncode != 0:
         return {"status": "failed", "note": (done.stderr or done.stdout).strip().splitlines()[-1:], "process_s": wall}
     info = json.loads(done.stdout.strip().splitlines()[-1])
     table = {k: np.asarray(v) for k, v in json.loads((folder / "peer_table.json").read_text()).items()}
     info["error"] = error(problem, table["t"], table)
-    return {"status": "ok", "process_s": wall, **{k: info[k] for k in ("error", "inprocess_s", "steps", "newton_iterations",
+    return {"status": "ok", "process_s": wall, "process_cpu_s": cpu, **{k: info[k] for k in ("error", "inprocess_s", "steps", "newton_iterations",
                                                                        "jacobian_updates", "coordinates", "files_bytes")}}
 
 
@@ -326,7 +338,7 @@ def summarize(problem: str, runs: dict) -> dict:
             row[code] = results[-1]
             continue
         row[code] = dict(done[-1], settings=SETTINGS[problem][code], engine=ENGINES[code])
-        for key in ("process_s", "inprocess_s", "inprocess_first_s", "wall_time_s", "solver_s"):
+        for key in ("process_s", "process_cpu_s", "inprocess_s", "inprocess_first_s", "wall_time_s", "solver_s"):
             values = [r[key] for r in done if r.get(key) is not None]
             if values:
                 row[code][key] = statistics.median(values)
@@ -334,7 +346,12 @@ def summarize(problem: str, runs: dict) -> dict:
     latdyn = row.get("latdyn", {})
     peers_ok = [c for c in SETTINGS[problem] if c != "latdyn" and row.get(c, {}).get("status") == "ok"]
     if latdyn.get("status") == "ok" and peers_ok:
-        for measure, key in (("process", "process_s"), ("inprocess", "inprocess_s")):
+        for measure, key in (("process", "process_s"), ("inprocess", "inprocess_s"), ("process_cpu", "process_cpu_s")):
+            if measure not in GOALS[problem]:  # CPU: the ratio against the peer fastest in CPU, no goal of its own
+                best = min(peers_ok, key=lambda c: row[c][key])
+                row[f"ratio_{measure}"] = latdyn[key] / row[best][key]
+                row[f"best_peer_{measure}"] = best
+                continue
             best = min(peers_ok, key=lambda c: row[c][key])
             row[f"ratio_{measure}"] = latdyn[key] / row[best][key]
             row[f"best_peer_{measure}"] = best
@@ -344,8 +361,8 @@ def summarize(problem: str, runs: dict) -> dict:
 
 
 def markdown(doc: dict) -> str:
-    lines = ["| problem | code | model | process s | in process s | error | latdyn ÷ best peer, process (goal) | "
-             "in process (goal) |", "|---|---|---|---|---|---|---|---|"]
+    lines = ["| problem | code | model | process s | process CPU s | in process s | error | latdyn ÷ best peer, "
+             "process (goal) | in process (goal) | process CPU |", "|---|---|---|---|---|---|---|---|---|---|"]
     for r in doc["rows"]:
         for code in SETTINGS[r["problem"]]:
             x = r.get(code)
@@ -353,15 +370,18 @@ def markdown(doc: dict) -> str:
                 continue
             ok = x.get("status") == "ok"
             proc = f"{x['process_s']:.2f}" if ok else x.get("status", "-")
+            cpu = f"{x['process_cpu_s']:.2f}" if ok and x.get("process_cpu_s") is not None else "-"
             inner = f"{x['inprocess_s']:.2f}" if ok and x.get("inprocess_s") is not None else "-"
-            extra = ["", ""]
+            extra = ["", "", ""]
             if code == "latdyn":
+                if "ratio_process_cpu" in r:
+                    extra[2] = f"{r['ratio_process_cpu']:.2f} vs {r['best_peer_process_cpu']}"
                 for k, measure in enumerate(("process", "inprocess")):
                     if f"ratio_{measure}" in r:
                         extra[k] = (f"**{r[f'ratio_{measure}']:.2f}** vs {r[f'best_peer_{measure}']} "
                                     f"(≤ {r[f'goal_{measure}']}: {'met' if r[f'met_{measure}'] else 'not met'})")
-            lines.append(f"| {r['problem']} | {code} | {ENGINES[code]} | {proc} | {inner} | "
-                         f"{x.get('error', float('nan')):.2g} | {extra[0]} | {extra[1]} |")
+            lines.append(f"| {r['problem']} | {code} | {ENGINES[code]} | {proc} | {cpu} | {inner} | "
+                         f"{x.get('error', float('nan')):.2g} | {extra[0]} | {extra[1]} | {extra[2]} |")
     lines.append("")
     lines.append(f"fresh processes, medians of {doc['repeats']}; peers with {doc.get('peer_python')} "
                  f"(Exudyn {doc.get('exudyn')}); 1-min load average "

@@ -14,7 +14,7 @@ from latdyn.results import paraview as paraview
 from latdyn.results.probe_labels import probe_labels
 from latdyn.results.probes import ProbeSet
 from latdyn.results.state_history import state_labels
-from latdyn.results.writer import ResultWriter
+from latdyn.results.writer import RUN_CHECKPOINT_MIN_SECONDS, ResultWriter
 from latdyn.scene.loader import Scene, load_scene
 from latdyn.timeloop import checkpoint as checkpoints
 from latdyn.timeloop.transient import transient
@@ -172,7 +172,7 @@ def _result_writer(prepared, probes: ProbeSet, out_dir, analysis: str,
                             attributes={"nodes": [n.name for n in model.nodes],
                                         "hinges": [f"{h.beam}.{h.end}" for h in model.hinges],
                                         "coordinates": model.dof_names()},
-                            paraview_every=_paraview_every(scene),
+                            paraview_every=_paraview_every(scene), checkpoint_min_seconds=RUN_CHECKPOINT_MIN_SECONDS,
                             resume=None if resume_from is None else resume_from.writer)
     except ResultsError as exc:  # resuming: files that do not hold what the checkpoint recorded
         raise checkpoints.CheckpointError(f"{exc}") from exc

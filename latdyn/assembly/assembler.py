@@ -21,6 +21,7 @@ from latdyn.assembly.linked import evaluate_linked
 from latdyn.assembly.control import wiring
 from latdyn.assembly.native_model import NativeModel
 from latdyn.model.model import Model
+from latdyn.numerics.csr import CSR
 from latdyn.numerics.linalg import DENSE_LIMIT
 
 # ----------------------------------------------------------------------------- state
@@ -223,8 +224,7 @@ class Assembler:
         """Scatter masked block data (in the order of :meth:`reindex`) into a matrix on
         the free coordinates: a dense array for small models, CSR otherwise."""
         n = self.model.n_assembled
-        data = np.concatenate([np.ravel(p) for p in parts]) if parts else np.zeros(0)
-        values = np.bincount(self._position, weights=data, minlength=self._nnz)
+        values = self.assemble_csr(parts).data
         if dense is None:
             dense = n <= DENSE_LIMIT
         if dense:
@@ -234,6 +234,14 @@ class Assembler:
         import scipy.sparse as sps  # on use: the dense LU's models run without it
 
         return sps.csr_matrix((values, self._indices, self._indptr), shape=(n, n))
+
+    def assemble_csr(self, parts: list) -> CSR:
+        """:meth:`assemble`'s sparse matrix as :class:`latdyn.numerics.csr.CSR` (the same entries,
+        the structural zeros kept), without SciPy."""
+        n = self.model.n_assembled
+        data = np.concatenate([np.ravel(p) for p in parts]) if parts else np.zeros(0)
+        values = np.bincount(self._position, weights=data, minlength=self._nnz)
+        return CSR((n, n), self._indptr, self._indices, values)
 
     def element_geometry(self, state: State) -> np.ndarray:
         """The element kernels' geometry block (codegen/conventions.py GEOMETRY) at ``state``: reference

@@ -53,6 +53,13 @@ class Evaluation(SeparateMatrices):
     assembler: object = None  # the Assembler that made it: its scatter maps assemble the blocks
 
     def combined(self, cm: float, cc: float, ck: float, dense: bool | None = None):
+        return self.assembler.assemble(self._combined_parts(cm, cc, ck), dense)
+
+    def combined_csr(self, cm: float, cc: float, ck: float):
+        """:meth:`combined` as a :class:`latdyn.numerics.csr.CSR` (no SciPy; no rigid links)."""
+        return self.assembler.assemble_csr(self._combined_parts(cm, cc, ck))
+
+    def _combined_parts(self, cm: float, cc: float, ck: float) -> list:
         parts = None
         for coefficient, kind in ((cm, "mass"), (cc, "damping"), (ck, "stiffness")):
             if coefficient == 0.0:
@@ -61,7 +68,7 @@ class Evaluation(SeparateMatrices):
             parts = scaled if parts is None else [a + b for a, b in zip(parts, scaled)]
         if parts is None:
             parts = [0.0 * np.asarray(b) for b in self._flat("stiffness")]
-        return self.assembler.assemble(parts, dense)
+        return parts
 
     def _flat(self, kind):
         element, body, hinge, loads, couplings = self.blocks[kind]

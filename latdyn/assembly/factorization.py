@@ -27,6 +27,7 @@ import numpy as np
 
 from latdyn.assembly.library import FactorizationStructure, lapack_address, native_library
 from latdyn.assembly.sparse_lu import PivotError, SupernodalAnalysis, blas_kernels
+from latdyn.numerics.csr import CSR
 from latdyn.numerics.linalg import (BAND_LIMIT, DENSE_LIMIT, SMALL_BAND_FRACTION, issparse, openblas_thread_functions,
                                     rcm_band, small_rcm_band)
 
@@ -177,6 +178,15 @@ def solve_linear(matrix, rhs) -> np.ndarray:
     return factorization_for(matrix).factor(matrix).solve(rhs)
 
 
+def solve_linear_csr(matrix: CSR, rhs) -> np.ndarray:
+    """:func:`solve_linear` of a :class:`latdyn.numerics.csr.CSR` (no SciPy): the same storage, order
+    and factors as for the SciPy CSR matrix of the same entries, so the same solution to the bit."""
+    n = matrix.shape[0]
+    rows = matrix.rows
+    held = _held_for((n, len(matrix.indices)), (rows, matrix.indices), lambda: Factorization(rows, matrix.indices, n))
+    return held.factor(matrix.data).solve(rhs)
+
+
 def factorization_for(matrix) -> Factorization:
     """A factorization for ``matrix``'s pattern (compared exactly; dense for a NumPy array), the
     one held for that pattern or a new one, not yet factorized."""
@@ -205,4 +215,4 @@ def _held_for(key, pattern, make) -> Factorization:
     return made
 
 
-__all__ = ["KINDS", "Factorization", "factorization_for", "solve_linear"]
+__all__ = ["KINDS", "Factorization", "factorization_for", "solve_linear", "solve_linear_csr"]

@@ -9,6 +9,7 @@ import numpy as np
 from latdyn.assembly.assembler import Assembler, State
 from latdyn.model.kernels import load_kernels
 from latdyn.model.model import Model
+from latdyn.numerics.linalg import DENSE_LIMIT, RCM_IN_PYTHON
 from latdyn.scene.loader import Scene, load_scene
 
 
@@ -38,9 +39,13 @@ def prepare(scene, backend: str = "auto") -> Prepared:
         # material stiffness only: load terms (gravity, follower moments; with rigid links the forces at
         # the dependent nodes through ∂(Pᵀ)/∂q, which a pretensioned cable makes indefinite) hold nothing
         ev = assembler.evaluate(at_rest, matrices=True, load_factor=0.0)
-        material = {"geometric_term": False} if model.links is not None else {}
-        # dense where the dense LU serves the model (as the step assembles it), else sparse
-        model.check_held(ev.combined(1.0, 0.0, 0.0), ev.combined(0.0, 0.0, 1.0, **material), scene.file)
+        # dense where the dense LU serves the model (as the step assembles it), else sparse: without
+        # SciPy (numerics.csr) where the step needs none (a band LU ordered in Python, no rigid links)
+        if model.links is None and DENSE_LIMIT < model.n_assembled <= RCM_IN_PYTHON:
+            model.check_held(ev.combined_csr(1.0, 0.0, 0.0), ev.combined_csr(0.0, 0.0, 1.0), scene.file)
+        else:
+            material = {"geometric_term": False} if model.links is not None else {}
+            model.check_held(ev.combined(1.0, 0.0, 0.0), ev.combined(0.0, 0.0, 1.0, **material), scene.file)
     return Prepared(scene, model, assembler, state)
 
 

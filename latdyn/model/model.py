@@ -27,6 +27,7 @@ from latdyn.errors import SceneError
 from latdyn.model.cables import add_cables
 from latdyn.model.kernels import planar_variant
 from latdyn.model.planar import find_plane, restrict_to_plane
+from latdyn.numerics.csr import CSR
 from latdyn.numerics.linalg import issparse, psd_null_direction
 from latdyn.scene.expressions import HingeLaw, TimeFunction
 from latdyn.scene.loader import JointFriction, Scene, StopContact
@@ -456,6 +457,18 @@ class Model:
         if n == 0:
             return
         names = self.dof_names()
+        if isinstance(mass, CSR):  # both (the prepared run's check without SciPy: numerics.csr)
+            A = _csr_sum(_normalised_csr(mass), _normalised_csr(stiffness))
+            d = A.diagonal()
+            empty = np.flatnonzero(d <= 1e-14)
+            if len(empty):
+                raise SceneError(file, self._key_of(names[empty[0]]),
+                                 "a coordinate that nothing holds (neither inertia nor stiffness): "
+                                 + ", ".join(names[i] for i in empty[:3]))
+            scale = 1.0 / np.sqrt(d)
+            scaled = CSR(A.shape, A.indptr, A.indices, A.data * scale[A.rows] * scale[A.indices])
+            self._refuse_a_null_direction(scaled, names, file)
+            return
         if issparse(mass) or issparse(stiffness):  # one kind for both (dense + sparse is np.matrix)
             import scipy.sparse as sps  # a model the dense LU serves runs without scipy.sparse
 
@@ -474,6 +487,9 @@ class Model:
             scaled = (sps.diags(scale) @ A @ sps.diags(scale)).tocsc()
         else:
             scaled = scale[:, None] * A * scale[None, :]
+        self._refuse_a_null_direction(scaled, names, file)
+
+    def _refuse_a_null_direction(self, scaled, names, file: str) -> None:
         rho, mode = psd_null_direction(scaled, tol=HELD_TOLERANCE)
         if rho <= HELD_TOLERANCE:
             worst = [names[i] for i in np.argsort(-np.abs(mode))[:3] if abs(mode[i]) > 0.1]
@@ -786,6 +802,20 @@ def _law(value) -> HingeLaw:
 #: λ_min = 1.1e-7 with 1666 elements, 1.2e-8 with 5000 (∝ 1/N², so 1e-10 only
 #: past ~50 000 elements in one chain); the example scenes have λ_min ≥ 5e-4.
 HELD_TOLERANCE = 1e-10
+
+
+def _normalised_csr(matrix: CSR) -> CSR:
+    """:func:`_normalised` of a :class:`latdyn.numerics.csr.CSR`."""
+    rows = matrix.rows
+    A = CSR.from_coo(np.concatenate([0.5 * matrix.data, 0.5 * matrix.data]), np.concatenate([rows, matrix.indices]),
+                     np.concatenate([matrix.indices, rows]), matrix.shape)
+    top = float(np.abs(A.diagonal()).max(initial=0.0))
+    return CSR(A.shape, A.indptr, A.indices, A.data / top) if top > 0 else A
+
+
+def _csr_sum(a: CSR, b: CSR) -> CSR:
+    return CSR.from_coo(np.concatenate([a.data, b.data]), np.concatenate([a.rows, b.rows]),
+                        np.concatenate([a.indices, b.indices]), a.shape)
 
 
 def _normalised(matrix):

@@ -58,6 +58,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from latdyn.numerics.csr import CSR
 from latdyn.numerics.linalg import issparse
 
 #: Relative eigenvalue of a scaled joint block below which a direction has no inertia.
@@ -126,7 +127,9 @@ def diagonal_blocks(matrix, groups: np.ndarray) -> np.ndarray:
     safe = np.where(valid, groups, 0)
     rows = np.broadcast_to(safe[:, :, None], safe.shape + safe.shape[1:])
     cols = np.broadcast_to(safe[:, None, :], safe.shape + safe.shape[1:])
-    if issparse(matrix):
+    if isinstance(matrix, CSR):
+        values = matrix.at(rows, cols).reshape(rows.shape)
+    elif issparse(matrix):
         values = np.asarray(matrix.tocsr()[rows.ravel(), cols.ravel()]).reshape(rows.shape)
     else:
         values = np.asarray(matrix)[rows, cols]
@@ -199,7 +202,7 @@ def split_inertia(model, mass, groups: np.ndarray | None = None, stiffness=None,
     light directions that an explicit step of size h cannot integrate (module
     docstring: λ ≤ ``LIGHT_TOL``·λ_top and ω h ≥ ``LIGHT_OMEGA_H``).  Without them the
     split is the exact null space and does not depend on K.  Q is dense when
-    ``mass`` is, CSR otherwise.
+    ``mass`` is, a :class:`latdyn.numerics.csr.CSR` when it is one, SciPy's CSR otherwise.
     """
     joint = joint_blocks(model, mass, groups)
     groups = joint.groups
@@ -231,7 +234,9 @@ def split_inertia(model, mass, groups: np.ndarray | None = None, stiffness=None,
     values = (vectors * root[:, :, None])[g, i, j]  # columns D^{-1/2} u
     n = model.n_dofs
     rows, cols = groups[g, i], column[g, j]
-    if issparse(mass):
+    if isinstance(mass, CSR):  # the same entries in NumPy (latdyn.numerics.csr)
+        Q = CSR.from_coo(values, rows, cols, (n, n))
+    elif issparse(mass):
         import scipy.sparse as sps  # on use: the dense LU's models run without it
 
         Q = sps.csr_matrix((values, (rows, cols)), shape=(n, n))

@@ -166,7 +166,8 @@ BAND_LIMIT = 100
 #: 0.9 ms; n = 24–96 took 0.05–0.85 ms.
 SINGLE_THREAD_EIGH = 64
 
-#: SuperLU options (psd_null_direction): minimum degree on AᵀA + A, diagonal pivots preferred.
+#: SuperLU options of the comparisons with SciPy (tests/test_sparse_lu.py, benchmarks/sparse_lu.py): minimum
+#: degree on AᵀA + A, diagonal pivots preferred.
 SUPERLU_OPTIONS = {"diag_pivot_thresh": 0.1, "options": {"SymmetricMode": True}}
 
 
@@ -307,15 +308,61 @@ def use_dense(n: int) -> bool:
     return n <= DENSE_LIMIT
 
 
+#: Patterns of at most this many coordinates are put in reverse Cuthill–McKee order by
+#: :func:`reverse_cuthill_mckee` (Python, ~2 ms at 400 coordinates), larger ones by SciPy's csgraph,
+#: whose import (with scipy.sparse.linalg and scipy.linalg, which it loads: ≈0.1 s of CPU) costs more
+#: than the whole short run of a mid-size lattice; both give the same order.
+RCM_IN_PYTHON = 5000
+
+
+def reverse_cuthill_mckee(rows: np.ndarray, cols: np.ndarray, n: int) -> np.ndarray:
+    """SciPy's ``csgraph.reverse_cuthill_mckee`` of the pattern (rows, cols) with
+    ``symmetric_mode=False``, the same order to the last index (tests/test_light_run.py checks it
+    against SciPy): on the pattern of A + Aᵀ, the degree of a node is its row's entries, its
+    diagonal counted twice; each connected part is searched breadth first from its first node in
+    NumPy's ``argsort`` of the degrees, the unvisited neighbours of each node (by index) appended
+    in a stable order of increasing degree; the order is reversed."""
+    from latdyn.numerics.csr import unique_keys  # np.unique would import numpy.ma
+
+    rows, cols = np.asarray(rows, np.int64), np.asarray(cols, np.int64)
+    keys = unique_keys(np.concatenate([rows * n + cols, cols * n + rows]))[0]
+    row, col = keys // max(n, 1), keys % max(n, 1)
+    indptr = np.concatenate([[0], np.cumsum(np.bincount(row, minlength=n))])
+    degree = (np.diff(indptr) + np.bincount(row[row == col], minlength=n)).astype(np.int32)
+    neighbours = [part.tolist() for part in np.split(col, indptr[1:-1])] if n else []
+    degrees = degree.tolist()
+    visited = [False] * n
+    order: list[int] = []
+    for seed in np.argsort(degree).tolist():  # SciPy's own call: the same ties on the same NumPy
+        if visited[seed]:
+            continue
+        visited[seed] = True
+        order.append(seed)
+        head = len(order) - 1
+        while head < len(order):
+            found = [j for j in neighbours[order[head]] if not visited[j]]
+            head += 1
+            for j in found:
+                visited[j] = True
+            found.sort(key=degrees.__getitem__)
+            order += found
+        if len(order) == n:
+            break
+    return np.array(order[::-1], dtype=np.int64)
+
+
 def rcm_band(rows: np.ndarray, cols: np.ndarray, n: int):
     """Reverse Cuthill–McKee order of the pattern (rows, cols) of an n × n matrix:
     (perm, new, lower, upper) with ``perm`` the old index at each new place, ``new`` its
     inverse, and the lower and upper bandwidths in the new order."""
-    import scipy.sparse as sps  # only for band and sparse storage (see the top of the module)
-    import scipy.sparse.csgraph as csgraph
+    if n <= RCM_IN_PYTHON:
+        perm = reverse_cuthill_mckee(rows, cols, n)
+    else:
+        import scipy.sparse as sps  # only for large band and sparse storage (see the top of the module)
+        import scipy.sparse.csgraph as csgraph
 
-    pattern = sps.csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n))
-    perm = csgraph.reverse_cuthill_mckee(pattern, symmetric_mode=False)
+        pattern = sps.csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n))
+        perm = csgraph.reverse_cuthill_mckee(pattern, symmetric_mode=False)
     new = np.empty_like(perm)
     new[perm] = np.arange(n)
     i, j = new[rows], new[cols]
@@ -358,9 +405,9 @@ def small_rcm_band(rows: np.ndarray, cols: np.ndarray, n: int):
 def psd_null_direction(A, tol: float = 1e-10, shift: float = 1e-9, iterations: int = 12,
                        seed: int = 0) -> tuple[float, np.ndarray]:
     """The smallest Rayleigh quotient found for a sparse symmetric PSD matrix with
-    unit diagonal, and its vector (max-norm 1).
+    unit diagonal (SciPy's, or a :class:`latdyn.numerics.csr.CSR`), and its vector (max-norm 1).
 
-    Inverse iteration with one sparse LU of A + δI (δ = ``shift``; positive
+    Inverse iteration with one LU of A + δI (δ = ``shift``; positive
     definite, so the factorization exists however singular A is): each step
     multiplies a null component by 1/δ and a held one, of eigenvalue λ, by
     1/(λ + δ).  The Rayleigh quotient xᵀAx/xᵀx is never below λ_min(A), so a
@@ -375,10 +422,12 @@ def psd_null_direction(A, tol: float = 1e-10, shift: float = 1e-9, iterations: i
     NumPy's random generator, whose import alone costs more than that (docs/performance.md,
     "First run").
     """
+    from latdyn.numerics.csr import CSR
+
     n = A.shape[0]
     if n == 0:
         return np.inf, np.zeros(0)
-    if not issparse(A):
+    if not issparse(A) and not isinstance(A, CSR):
         A = np.asarray(A, float)
         if n > SINGLE_THREAD_EIGH:  # OpenBLAS may thread here; on a busy core that costs ×30
             with single_thread_blas():
@@ -387,14 +436,26 @@ def psd_null_direction(A, tol: float = 1e-10, shift: float = 1e-9, iterations: i
             eigenvalues, vectors = np.linalg.eigh(A)
         x = vectors[:, 0]
         return float(eigenvalues[0]), x / np.max(np.abs(x))
-    import scipy.sparse as sps  # only for sparse matrices (see the top of the module)
-    import scipy.sparse.linalg as spla
+    from latdyn.assembly.factorization import Factorization  # the package's LU: no scipy.sparse.linalg
 
-    A = sps.csc_matrix(A)
-    shifted = (A + shift * sps.identity(n, format="csc")).tocsc()
-    solve = spla.splu(shifted, permc_spec="MMD_AT_PLUS_A", **SUPERLU_OPTIONS).solve
-    rng = np.random.default_rng(seed)
-    x = rng.standard_normal(n)
+    if isinstance(A, CSR):  # without SciPy (numerics.csr)
+        diagonal = np.arange(n)
+        shifted = CSR.from_coo(np.concatenate([A.data, np.full(n, shift)]), np.concatenate([A.rows, diagonal]),
+                               np.concatenate([A.indices, diagonal]), A.shape)
+        solve = Factorization(shifted.rows, shifted.indices, n).factor(shifted.data).solve
+        multiply = A.matvec
+        # a fixed start without NumPy's random generator (its import costs more than this check):
+        # the fractional parts of k·φ, centred, miss a direction no more than a random vector would
+        x = (np.arange(1, n + 1) * 0.6180339887498949) % 1.0 - 0.5
+    else:
+        import scipy.sparse as sps  # only for SciPy's sparse matrices (see the top of the module)
+
+        A = sps.csr_matrix(A)
+        shifted = (A + shift * sps.identity(n, format="csr")).tocsr()
+        shifted.sum_duplicates()
+        solve = Factorization(np.repeat(np.arange(n), np.diff(shifted.indptr)), shifted.indices, n).factor(shifted).solve
+        multiply = A.__matmul__
+        x = np.random.default_rng(seed).standard_normal(n)
     x /= np.linalg.norm(x)
     best = (np.inf, x)
     for _ in range(iterations):
@@ -403,7 +464,7 @@ def psd_null_direction(A, tol: float = 1e-10, shift: float = 1e-9, iterations: i
         if not np.isfinite(norm) or norm == 0.0:
             break
         x = y / norm
-        rho = float(x @ (A @ x))
+        rho = float(x @ multiply(x))
         previous = best[0]
         if rho < previous:
             best = (rho, x)
@@ -414,5 +475,5 @@ def psd_null_direction(A, tol: float = 1e-10, shift: float = 1e-9, iterations: i
 
 
 __all__ = ["DENSE_LIMIT", "SMALL_BAND_FRACTION", "BAND_LIMIT", "SINGLE_THREAD_EIGH", "issparse", "use_dense", "rcm_band",
-           "small_rcm_band", "single_thread_blas",
+           "small_rcm_band", "reverse_cuthill_mckee", "RCM_IN_PYTHON", "single_thread_blas",
            "openblas_thread_functions", "psd_null_direction"]

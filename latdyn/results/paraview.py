@@ -47,9 +47,10 @@ read natively by ParaView >= 5.12 and VTK's ``vtkHDFReader``), written with h5py
 Frames are written in blocks: the first creates the file, later ones gather in memory and
 are appended and flushed (``h5py.File.flush``) every :data:`FRAME_BLOCK` frames or
 :data:`FRAME_BLOCK_SECONDS`, at every checkpoint and at close (one write a dataset per block:
-~0.2 ms a frame less than one at a time), so a Ctrl-C or a solver failure (which close the
+~0.2 ms a frame less than one at a time; a block's append costs ~1.5 ms a file, so the default
+~200 frames of a short run go in one), so a Ctrl-C or a solver failure (which close the
 file) leave every recorded frame, and a kill between two blocks a complete, readable file of
-the frames up to the last block; a kill during a flush may not (HDF5 rewrites its metadata in
+the frames up to the last block (at most the last second's frames lost); a kill during a flush may not (HDF5 rewrites its metadata in
 place; the state history, copied and replaced atomically, is the safe record). The files are
 opened without HDF5's file lock, so ParaView can open them while a run goes on.
 
@@ -72,7 +73,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["ParaviewWriter", "normalise_mesh", "parts", "frame", "default_every", "part_file",
+__all__ = ["ParaviewWriter", "normalise_mesh", "parts", "frame", "frames", "default_every", "part_file",
            "PARAVIEW_DIR", "VTKHDF_VERSION", "DEFAULT_FRAMES"]
 
 PARAVIEW_DIR = "paraview"
@@ -80,8 +81,10 @@ PARAVIEW_DIR = "paraview"
 VTKHDF_VERSION = (2, 0)
 #: About this many frames per run by default (:func:`default_every`).
 DEFAULT_FRAMES = 200
-#: frames gathered before they are appended to the files in one write (module docstring)
-FRAME_BLOCK = 32
+#: frames gathered before they are appended to the files in one write (module docstring): at most
+#: this many, or the frames of this many seconds (a run's writer also appends them at its
+#: checkpoints of the state history, at most once a second: results.writer.RUN_CHECKPOINT_MIN_SECONDS)
+FRAME_BLOCK = 256
 FRAME_BLOCK_SECONDS = 1.0
 #: VTK cell type numbers (vtkCellType.h) of the cell blocks a mesh may name.
 CELL_TYPES = {"vertex": 1, "line": 3, "triangle": 5, "quad": 9, "tetra": 10, "hexahedron": 12}
@@ -215,6 +218,49 @@ def frame(assembler, mesh: dict, state, kernel_sections=None) -> dict:
             point_data.update(angular_velocity=state.w[nodes], axis_x=R[:, :, 0], axis_y=R[:, :, 1], axis_z=R[:, :, 2])
         out[name] = {"points": points, "point_data": point_data, "cell_data": cell_data}
     return out
+
+
+def frames(assembler, mesh: dict, states, kernel_sections=None) -> list[dict] | None:
+    """:func:`frame` of several states at once: ``states`` a State whose arrays have a leading row
+    axis (a block of rows recorded where the step runs), ``kernel_sections`` their strain-energy
+    kernel's section forces (rows, elements, 4) or None. The same arrays to the last bit (the same
+    operations, row by row along the leading axis) without one pass of Python a frame. None for a
+    model whose frames need a state at a time (rigid links completed, cables' tensions)."""
+    from latdyn.results.probes import SECTION_QUANTITIES, section_forces
+
+    model = assembler.model
+    if model.links is not None or "cables" in mesh:
+        return None
+    m = len(states.t)
+    parts = {}
+    for name, part in mesh.items():
+        nodes = part["node"]
+        R = states.T[:, nodes]
+        r = np.einsum("mnij,nj->mni", R, part["offset"])  # T r_g, as frame() row by row
+        points = states.x[:, nodes] + r
+        point_data = {"displacement": points - part["p0"], "velocity": states.v[:, nodes] + np.cross(states.w[:, nodes], r)}
+        cell_data = {}
+        if name == "beams":
+            forces = np.full((m, len(part["cells"][0][1]), len(SECTION_QUANTITIES)), np.nan)
+            if part["elements"]:
+                forces[:, : part["elements"]] = section_forces(assembler, None, kernel_sections=kernel_sections) \
+                    if kernel_sections is not None else \
+                    [section_forces(assembler, _row(states, j)) for j in range(m)]
+            cell_data = {q: forces[:, :, k] for k, q in enumerate(SECTION_QUANTITIES)}
+        else:
+            point_data.update(angular_velocity=states.w[:, nodes], axis_x=R[..., 0], axis_y=R[..., 1], axis_z=R[..., 2])
+        parts[name] = (points, point_data, cell_data)
+    return [{name: {"points": points[j], "point_data": {k: a[j] for k, a in point_data.items()},
+                    "cell_data": {k: a[j] for k, a in cell_data.items()}}
+             for name, (points, point_data, cell_data) in parts.items()} for j in range(m)]
+
+
+def _row(states, j: int):
+    """Row ``j`` of a State with a leading row axis."""
+    from latdyn.assembly.assembler import State
+    from latdyn.assembly.native_model import STATE_FIELDS
+
+    return State(float(states.t[j]), *(getattr(states, name)[j] for name in STATE_FIELDS))
 
 
 def normalise_mesh(mesh: dict) -> dict:
@@ -505,19 +551,23 @@ class ParaviewWriter:
 
     def record_rows(self, times, frame_of) -> None:
         """The frames of rows at ``times``, as :meth:`record` of each: ``frame_of(r)`` gives row r's
-        frame (or a callable), asked for the rows whose frame is written now and for the last row."""
+        frame (or a callable), asked for the rows whose frame is written now and for the last row;
+        where ``frame_of`` also has ``many(rows)`` (the frames of a list of rows, or None), the
+        frames written are asked for together."""
         if self.every == 0 or not len(times):
             return
+        due = []
         for r, t in enumerate(times):
             if self.every is None or t >= self._next * self.every - 1e-9 * self.every:
-                self._unwritten = None
-                self._write(t, frame_of(r))
+                due.append(r)
                 if self.every:
                     self._next = math.floor(t / self.every + 1e-9) + 1
-            else:
-                self._unwritten = (t, None)
-        if self._unwritten is not None:
-            self._unwritten = (self._unwritten[0], frame_of(len(times) - 1))
+        many = getattr(frame_of, "many", None)
+        given = many(due) if many is not None and due else None
+        for k, r in enumerate(due):
+            self._write(times[r], frame_of(r) if given is None else given[k])
+        last = len(times) - 1
+        self._unwritten = None if due and due[-1] == last else (times[last], frame_of(last))
 
     def reattach_last_frame(self, data) -> None:
         """Resumed: the frame (or a callable) of the bookmark's ``unwritten`` record."""

@@ -19,10 +19,17 @@ global), ``v`` (its velocity) and ``w`` (spatial angular velocity), labelled ``"
 ``theta_dot`` (labelled ``"arm.start"``). Datasets of empty arrays (no hinges) are absent.
 *Crash safety, the choice made:* the file on disk is always a complete, closed HDF5 file. New
 rows are held in memory and appended at a checkpoint by copying the current file to
-``state.h5.tmp``, appending to the copy (datasets are resizable and chunked), closing it,
-fsync-ing it and ``os.replace``-ing it over ``state.h5``. A SIGKILL therefore loses at most the
-rows since the last checkpoint and never leaves a half-written file (an HDF5 file kept open and
-flushed can be left unreadable by a kill during a metadata update). The writer checkpoints every
+``state.h5.tmp``, appending to the copy (datasets are resizable and chunked), closing it and
+``os.replace``-ing it over ``state.h5``. A killed process (SIGKILL, a crash of Python) therefore
+loses at most the rows since the last checkpoint and never leaves a half-written file (an HDF5 file
+kept open and flushed can be left unreadable by a kill during a metadata update): what a process
+wrote is the kernel's once written, whatever becomes of the process. Syncing to the disk
+(``fsync``) guards against the operating system's crash or a power loss instead, and is paid where
+a result is complete: the file of the writer's close and of a resume checkpoint
+(:mod:`latdyn.timeloop.checkpoint`) is synced before it replaces the old one, the writer's periodic
+checkpoints are not (a power loss during a run may then leave an older state.h5, or on some file
+systems an empty one, where a killed process leaves the last checkpoint's; 1-3 ms a checkpoint on
+this machine's disk, more on a network one). The writer checkpoints every
 ``checkpoint_rows`` rows or ``checkpoint_seconds`` seconds, whichever comes first, but never more
 often than keeps checkpoint time below about 10 % of the run's wall time, and at its close. The
 NPZ fallback keeps the whole history in memory and rewrites ``state.npz`` the same way (temp +
@@ -144,14 +151,15 @@ class StateHistory:
             self._pending[k].extend(arrays[k][1:])
         self._pending_t.extend(float(t) for t in times[1:])
 
-    def write(self) -> bool:
-        """Every row so far into the file (atomically); False when there was nothing to write."""
+    def write(self, durable: bool = True) -> bool:
+        """Every row so far into the file (atomically; ``durable``: synced to the disk before it
+        replaces the old one); False when there was nothing to write."""
         if self.folder is None or self.keys is None or self.unwritten() == 0:
             return False
         if self.use_h5:
-            self._write_h5()
+            self._write_h5(durable)
         else:
-            self._write_npz()
+            self._write_npz(durable)
         return True
 
     def summary(self) -> dict:
@@ -160,7 +168,7 @@ class StateHistory:
             return {}
         return {"state_file": self.path.name, "state_rows": self.rows_on_disk}
 
-    def _write_h5(self) -> None:
+    def _write_h5(self, durable: bool) -> None:
         path = self.path
         tmp = path.with_name(path.name + ".tmp")
         n_new = len(self._pending_t)
@@ -192,14 +200,15 @@ class StateHistory:
             for k in self.keys:
                 f[k].resize((n_old + n_new, self.widths[k]))
                 f[k][n_old:] = np.stack(self._pending[k]).reshape(n_new, self.widths[k])
-        fsync_path(tmp)
+        if durable:
+            fsync_path(tmp)
         os.replace(tmp, path)
         self.rows_on_disk += n_new
         self._pending_t.clear()
         for k in self.keys:
             self._pending[k].clear()
 
-    def _write_npz(self) -> None:
+    def _write_npz(self, durable: bool) -> None:
         # no appending to an NPZ: the whole history stays in memory and is rewritten
         arrays = {"t": np.asarray(self._pending_t, dtype=float)}
         for k in self.keys:
@@ -211,7 +220,7 @@ class StateHistory:
             arrays[LABELS_KEY] = np.array(json.dumps(labels))
         buffer = io.BytesIO()
         np.savez(buffer, **arrays)
-        atomic_write_bytes(self.path, buffer.getvalue())
+        atomic_write_bytes(self.path, buffer.getvalue(), fsync=durable)
         self.rows_on_disk = len(self._pending_t)
 
     def reopen(self, rows: int) -> None:
@@ -252,4 +261,4 @@ class StateHistory:
             self._pending = {k: [row.copy() for row in history[k][:rows]] for k in self.keys}
             self.rows_on_disk = on_disk
             if on_disk > rows:
-                self._write_npz()
+                self._write_npz(durable=True)

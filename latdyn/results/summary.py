@@ -55,7 +55,9 @@ def compose_summary(given: dict, status: str | None, started: float, recorded: d
     return json_safe(merged)
 
 
-def write_summary(folder: Path, summary: dict) -> None:
-    """Replace ``folder/summary.json`` atomically by ``summary`` (indented, strict JSON)."""
+def write_summary(folder: Path, summary: dict, durable: bool = True) -> None:
+    """Replace ``folder/summary.json`` atomically by ``summary`` (indented, strict JSON); ``durable``:
+    synced to the disk before it replaces the old one (the final summary; the ``running`` one of a
+    run's start needs only the atomic replacement: results.state_history, "Crash safety")."""
     text = json.dumps(json_safe(summary), indent=2, sort_keys=False, allow_nan=False) + "\n"
-    atomic_write_bytes(folder / SUMMARY_FILE, text.encode())
+    atomic_write_bytes(folder / SUMMARY_FILE, text.encode(), fsync=durable)

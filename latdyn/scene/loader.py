@@ -719,6 +719,9 @@ def _read_text(path: Path, file: str) -> Any:
         raise SceneError(file, "<file>", f"cannot be read ({exc.strerror or exc})") from None
     if path.suffix.lower() == ".json":
         return _read_json(text, file)
+    data = _read_yaml_in_c(text, file)
+    if data is not _MISSING:
+        return data
     loader = _yaml_loader()(text)
     try:
         node = loader.get_single_node()
@@ -733,6 +736,46 @@ def _read_text(path: Path, file: str) -> Any:
         raise SceneError(file, where, f"invalid YAML/JSON: {what}") from None
     except yaml.YAMLError as exc:
         raise SceneError(file, "<file>", f"invalid YAML/JSON: {exc}") from None
+    finally:
+        loader.dispose()
+
+
+#: Where libyaml (C) parses a scene: text it reads as the Python scanner of :func:`_yaml_loader` does (no
+#: ``[`` right after a character of a plain scalar, which that scanner keeps whole in flow context:
+#: ``{element: arm.element[0]}``), nested shallowly enough for its recursive composer (≤ 2 000
+#: brackets, ≤ 4 MB: a few thousand levels at most; 50 000 crash it).
+_C_YAML_LIMITS = {"brackets": 2_000, "characters": 4_000_000}
+_INDEX_IN_FLOW = re.compile(r"[^\s\[{,]\[")
+
+
+def _read_yaml_in_c(text: str, file: str) -> Any:
+    """The data of a YAML scene parsed by libyaml, with the constructor and resolvers of
+    :func:`_yaml_loader` (the same values; the same duplicate-key check): about 5× faster than the
+    Python parser on a large scene (a 16-bay lattice of 1 400 lines: 60 ms). ``_MISSING`` where the
+    Python parser must read it: no libyaml, text outside :data:`_C_YAML_LIMITS`, or any YAML error
+    (whose message and line then come from the Python parser, as always)."""
+    import yaml
+
+    if not getattr(yaml, "__with_libyaml__", False) or len(text) > _C_YAML_LIMITS["characters"] \
+            or text.count("[") + text.count("{") > _C_YAML_LIMITS["brackets"] or _INDEX_IN_FLOW.search(text):
+        return _MISSING
+    base = _yaml_loader()
+
+    class Loader(yaml.cyaml.CParser, base):
+        def __init__(self, stream):
+            yaml.cyaml.CParser.__init__(self, stream)
+            yaml.constructor.SafeConstructor.__init__(self)
+            yaml.resolver.Resolver.__init__(self)
+
+    loader = Loader(text)
+    try:
+        node = loader.get_single_node()
+        if node is None:
+            return None
+        _check_duplicate_keys(node, "", file, set())
+        return loader.construct_document(node)
+    except yaml.YAMLError:
+        return _MISSING
     finally:
         loader.dispose()
 

@@ -68,8 +68,9 @@ from latdyn.numerics.inertia import (
     joint_norms,
     split_inertia,
 )
-from latdyn.assembly.factorization import solve_linear
-from latdyn.numerics.linalg import issparse
+from latdyn.assembly.factorization import solve_linear, solve_linear_csr
+from latdyn.numerics.csr import transposed, transposed_product
+from latdyn.numerics.linalg import DENSE_LIMIT, RCM_IN_PYTHON, issparse
 
 
 @dataclass(frozen=True)
@@ -139,6 +140,15 @@ def consistent_acceleration(model, ev) -> np.ndarray:
     equilibrium prescribes to first order, Q_cᵀ K Q_c y_c = −Q_cᵀ K Q_m y_m.  No artificial
     inertia is added anywhere.
     """
+    if _start_without_scipy(model):
+        M = ev.combined_csr(1.0, 0.0, 0.0)
+        split = split_inertia(model, M)
+        if not split.n_massless:  # every direction has inertia: SciPy's products, in NumPy (numerics.csr)
+            Qm = split.basis
+            system = transposed(transposed_product(Qm, transposed_product(M, Qm)))  # (Qmᵀ M) Qm
+            delta = np.zeros(model.n_dofs)
+            delta += Qm.matvec(solve_linear_csr(system, -Qm.rmatvec(ev.residual)))
+            return delta
     M = ev.combined(1.0, 0.0, 0.0)  # dense where the dense LU serves the model, else CSR
     split = split_inertia(model, M)
     Qm, Qc = split.massive, split.massless
@@ -157,6 +167,13 @@ def consistent_acceleration(model, ev) -> np.ndarray:
     if split.n_massless:
         delta += Qc @ solve_held(Kcc, -(Qc.T @ (K @ delta)))
     return delta
+
+
+def _start_without_scipy(model) -> bool:
+    """Whether the start's sparse products go without SciPy (latdyn.numerics.csr, the same numbers):
+    a model above the dense LU's size, without rigid links, whose step's band LU orders its pattern
+    without SciPy too (numerics.linalg.RCM_IN_PYTHON); importing scipy.sparse costs ≈0.1 s of CPU."""
+    return model.links is None and DENSE_LIMIT < model.n_dofs <= RCM_IN_PYTHON
 
 
 def _csr(A):

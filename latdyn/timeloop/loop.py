@@ -20,7 +20,6 @@ last converged state as a row."""
 from __future__ import annotations
 
 import copy
-import functools
 import math
 import sys
 import time
@@ -29,6 +28,7 @@ from typing import NamedTuple
 import numpy as np
 
 from latdyn.assembly.assembler import State
+from latdyn.assembly.native_model import STATE_FIELDS
 from latdyn.assembly.prepare import Prepared
 from latdyn.errors import SolverError, UnboundedError
 from latdyn.model.cables import slack_and_unheld
@@ -79,6 +79,20 @@ class LastAccepted(NamedTuple):
     #: the mark of the factorization the engine holds for this step (None: not this step's; a
     #: checkpoint then carries none)
     factorization_mark: int | None
+
+
+class _BlockFrames:
+    """The ParaView frames of a block of rows for the writer: one row's (``frame_of(r)``), or those of
+    the rows it writes together (``many(rows)``: :func:`latdyn.results.paraview.frames`)."""
+
+    def __init__(self, loop: "TimeLoop", block):
+        self.loop, self.block = loop, block
+
+    def __call__(self, r: int) -> dict:
+        return self.loop._frame_of(self.block, r)
+
+    def many(self, rows: list[int]) -> list[dict] | None:
+        return self.loop._frames_of(self.block, rows)
 
 
 class TimeLoop:
@@ -392,10 +406,17 @@ class TimeLoop:
         history = {name: array.reshape(end, -1) for name, array in
                    (("x", s.x), ("T", s.T), ("v", s.v), ("w", s.w), ("theta", s.theta), ("theta_dot", s.theta_dot))
                    if array[0].size}  # State.as_dict of each row
-        self.writer.record_rows(times[:end], values[:end], history, functools.partial(self._frame_of, kept))
+        self.writer.record_rows(times[:end], values[:end], history, _BlockFrames(self, kept))
         self.last_recorded = kept.state(end - 1)
         self.bookmark = self.writer.bookmark()
         self._judge_balance(times[end - 1], gain)
+
+    def _frames_of(self, block, rows: list[int]) -> list[dict] | None:
+        """The ParaView frames of several rows of a block, computed together (None: one by one)."""
+        s = block.states
+        states = State(s.t[rows], *(getattr(s, name)[rows] for name in STATE_FIELDS))
+        sections = None if block.section_forces is None else block.section_forces[rows]
+        return paraview.frames(self.assembler, self.writer.mesh, states, kernel_sections=sections)
 
     def _frame_of(self, block, r: int) -> dict:
         """The ParaView frame of row ``r`` of a block of rows (its section forces the rows')."""

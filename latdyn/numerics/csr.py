@@ -1,0 +1,137 @@
+"""Compressed sparse rows in NumPy, for what a run does with sparse matrices before its first step
+(the held check, the consistent accelerations at t = 0) on a model whose step needs no SciPy sparse
+matrix (a band LU up to :data:`latdyn.numerics.linalg.RCM_IN_PYTHON` coordinates): importing
+``scipy.sparse`` alone costs ≈0.1 s of CPU, more than the 16-bay lattice's whole step
+(docs/performance.md, "Where a run's time goes").
+
+The products are SciPy's to the last bit, so that a run's results do not depend on which of the
+two computed them: :meth:`CSR.matvec` and :meth:`CSR.rmatvec` add the products of a row (a column)
+in the stored order from 0, as ``csr_matvec`` and ``csc_matvec`` of SciPy's sparsetools do, and
+:func:`transposed_product` computes Aᵀ B as SciPy computes ``A.T @ B`` for CSR A and B (``A.T`` is
+CSC: B is converted to CSC and ``csr_matmat`` forms Bᵀ A, each entry the sum of its products in
+the order of the rows of A and B, from 0, exact zeros dropped). np.bincount adds its weights in
+their order, one after another, from 0: the same additions. tests/test_light_run.py compares them
+with SciPy bit for bit.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+#: Products of at most this many entries (p × q) add their terms into a dense array of sums (8 bytes an
+#: entry) instead of sorting the terms' keys first: 0.4 ms instead of 5 ms for the 16-bay lattice's start.
+DIRECT_KEYS = 4_000_000
+
+
+def unique_keys(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``np.unique(keys, return_inverse=True)`` by a stable sort: np.unique imports numpy.ma
+    (≈18 ms on first use), which nothing else of such a run needs."""
+    keys = np.asarray(keys, np.int64)
+    order = np.argsort(keys, kind="stable")
+    ordered = keys[order]
+    first = np.ones(len(keys), bool)
+    first[1:] = ordered[1:] != ordered[:-1]
+    inverse = np.empty(len(keys), np.int64)
+    inverse[order] = np.cumsum(first) - 1
+    return ordered[first], inverse
+
+
+@dataclass
+class CSR:
+    """An n_rows × n_cols matrix in canonical compressed sparse rows (columns ascending in each row,
+    no duplicates; explicit zeros kept where given)."""
+
+    shape: tuple[int, int]
+    indptr: np.ndarray
+    indices: np.ndarray
+    data: np.ndarray
+
+    @classmethod
+    def from_coo(cls, values, rows, cols, shape) -> "CSR":
+        """Entries (rows, cols, values), duplicates added in their order (SciPy's ``tocsr``)."""
+        rows, cols = np.asarray(rows, np.int64), np.asarray(cols, np.int64)
+        keys = rows * shape[1] + cols
+        values = np.asarray(values, float)
+        unique, inverse = unique_keys(keys)
+        if len(unique) == len(keys):  # no duplicates: the values as they are (a −0.0 stays, as in SciPy)
+            data = np.empty(len(keys))
+            data[inverse.ravel()] = values
+        else:  # SciPy adds a key's values to its first one: a sum of −0.0 alone is −0.0, not 0 + −0.0
+            inverse = inverse.ravel()
+            data = np.bincount(inverse, weights=values, minlength=len(unique))
+            negative_zero = (values == 0.0) & np.signbit(values)
+            all_negative_zero = np.bincount(inverse, weights=negative_zero, minlength=len(unique)) == \
+                np.bincount(inverse, minlength=len(unique))
+            data[all_negative_zero] = -0.0
+        return cls._of_keys(unique, data, shape)
+
+    @classmethod
+    def _of_keys(cls, keys: np.ndarray, data: np.ndarray, shape) -> "CSR":
+        rows = keys // max(shape[1], 1)
+        indptr = np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=shape[0]))]).astype(np.int64)
+        return cls(tuple(shape), indptr, (keys % max(shape[1], 1)).astype(np.int64), data)
+
+    @property
+    def rows(self) -> np.ndarray:
+        """The row of every stored entry."""
+        return np.repeat(np.arange(self.shape[0], dtype=np.int64), np.diff(self.indptr))
+
+    def at(self, rows, cols) -> np.ndarray:
+        """The entries (rows, cols) (broadcast shapes flattened), 0 where none is stored."""
+        rows, cols = np.asarray(rows, np.int64).ravel(), np.asarray(cols, np.int64).ravel()
+        keys = self.rows * self.shape[1] + self.indices
+        wanted = rows * self.shape[1] + cols
+        place = np.minimum(np.searchsorted(keys, wanted), max(len(keys) - 1, 0))
+        found = (keys[place] == wanted) if len(keys) else np.zeros(len(wanted), bool)
+        return np.where(found, self.data[place] if len(keys) else 0.0, 0.0)
+
+    def diagonal(self) -> np.ndarray:
+        n = min(self.shape)
+        return self.at(np.arange(n), np.arange(n))
+
+    def matvec(self, x: np.ndarray) -> np.ndarray:
+        """A x (SciPy's ``csr_matvec``: each row's products added in the stored order from 0)."""
+        x = np.asarray(x, float)
+        return np.bincount(self.rows, weights=self.data * x[self.indices], minlength=self.shape[0])
+
+    def rmatvec(self, x: np.ndarray) -> np.ndarray:
+        """Aᵀ x (SciPy's ``A.T @ x``, ``csc_matvec`` on A's arrays: row by row of A, from 0)."""
+        x = np.asarray(x, float)
+        return np.bincount(self.indices, weights=self.data * x[self.rows], minlength=self.shape[1])
+
+
+def transposed_product(a: CSR, b: CSR) -> CSR:
+    """Aᵀ B for CSR A (n × p) and B (n × q), as SciPy's ``A.T @ B`` computes it (module docstring):
+    entry (i, k) is the sum over the rows j of A's column i, ascending, of A[j, i] B[j, k] — the
+    terms in that order, from 0 — and exact zeros are not stored."""
+    n, p = a.shape
+    q = b.shape[1]
+    # the entries of A column by column (rows ascending: SciPy's conversion of A to CSC)
+    a_rows = a.rows
+    order = np.lexsort((a_rows, a.indices))
+    i_of, j_of, v_of = a.indices[order], a_rows[order], a.data[order]
+    counts = (b.indptr[1:] - b.indptr[:-1])[j_of]
+    entry = np.repeat(np.arange(len(order)), counts)
+    first = np.repeat(b.indptr[j_of], counts)
+    kk = first + np.arange(int(counts.sum())) - np.repeat(np.cumsum(counts) - counts, counts)
+    keys = i_of[entry] * q + b.indices[kk]
+    products = v_of[entry] * b.data[kk]
+    if p * q <= DIRECT_KEYS:  # every entry's sum in one pass (no sort); the same additions in the same order
+        sums = np.bincount(keys, weights=products, minlength=p * q)
+        touched = np.bincount(keys, minlength=p * q) > 0
+        unique = np.flatnonzero(touched & (sums != 0))
+        return CSR._of_keys(unique, sums[unique], (p, q))
+    unique, inverse = unique_keys(keys)
+    sums = np.bincount(inverse.ravel(), weights=products, minlength=len(unique))
+    kept = sums != 0
+    return CSR._of_keys(unique[kept], sums[kept], (p, q))
+
+
+def transposed(a: CSR) -> CSR:
+    """Aᵀ, canonical (SciPy's ``A.T.tocsr()``: the same entries)."""
+    return CSR.from_coo(a.data, a.indices, a.rows, (a.shape[1], a.shape[0]))
+
+
+__all__ = ["CSR", "DIRECT_KEYS", "transposed", "transposed_product", "unique_keys"]

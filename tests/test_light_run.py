@@ -1,0 +1,282 @@
+"""A run pays only for what it uses (issue 31): the scene's YAML read by libyaml where that reads it as
+the Python scanner does, the reverse Cuthill–McKee order of mid-size models without SciPy's csgraph
+(the same order), the held check on the package's own LU, and a band model's run that never loads
+scipy.sparse.linalg, csgraph or scipy.linalg (docs/performance.md, "Where a run's time goes")."""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import latdyn
+from latdyn.errors import SceneError
+from latdyn.numerics.csr import CSR, transposed, transposed_product
+from latdyn.numerics.linalg import reverse_cuthill_mckee
+from latdyn.scene import loader
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+# ----------------------------------------------------------------------------- reverse Cuthill–McKee
+def _patterns():
+    rng = np.random.default_rng(7)
+    for trial in range(120):
+        n = int(rng.integers(1, 160))
+        m = int(rng.integers(0, 4 * n))
+        rows, cols = rng.integers(0, n, m), rng.integers(0, n, m)
+        if trial % 3 == 0:  # a band with its diagonal, duplicates and one-sided entries
+            rows = np.concatenate([rows, np.arange(n)])
+            cols = np.concatenate([(rows[:m] + rng.integers(-4, 5, m)) % n, np.arange(n)])
+        yield rows, cols, n
+
+
+def test_reverse_cuthill_mckee_is_scipys_order_to_the_last_index():
+    sps = pytest.importorskip("scipy.sparse")
+    csgraph = pytest.importorskip("scipy.sparse.csgraph")
+    for rows, cols, n in _patterns():  # several components, isolated nodes, unsymmetric patterns
+        pattern = sps.csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n))
+        expected = csgraph.reverse_cuthill_mckee(pattern, symmetric_mode=False)
+        assert np.array_equal(reverse_cuthill_mckee(rows, cols, n), expected)
+
+
+# ----------------------------------------------------------------------------- YAML in C
+SCENE = """\
+title: a skew arm on a hub, as typed
+sections:
+  arm: {EA: 2.8e7, EIy: 1.4e4, EIz: 1.4e4, GJ: 1.0e4, rhoA: 1.2}
+bodies:
+  hub:
+    at: [0, 0, 0]
+    motion:
+      rotation: {axis: [0, 0, 1], angle: "0.5*t**2"}
+  off:                       # a body named with a YAML 1.1 word
+    at: [1, 2, 0.5]
+beams:
+  arm: {from: hub, to: [2, 1, 0.5], section: arm, elements: 3}
+solve: {analysis: transient, t_end: 0.02, dt: 0.01}
+output:
+  every: 0.01
+  probes:
+    tip: {point: arm.end, quantity: position, frame: hub, component: y}
+"""
+
+
+def _read_in_python(text: str):
+    parse = loader._yaml_loader()(text)
+    try:
+        node = parse.get_single_node()
+        return None if node is None else parse.construct_document(node)
+    finally:
+        parse.dispose()
+
+
+def test_yaml_read_in_c_gives_the_python_parsers_values():
+    pytest.importorskip("yaml.cyaml")
+    data = loader._read_yaml_in_c(SCENE, "scene.yaml")
+    assert data is not loader._MISSING
+    assert data == _read_in_python(SCENE)
+    assert data["bodies"]["off"]["at"] == [1, 2, 0.5] and data["sections"]["arm"]["EA"] == 2.8e7
+    assert "off" in data["bodies"]  # YAML 1.2 words: not the boolean False
+
+
+def test_a_flow_index_and_a_yaml_error_go_to_the_python_parser():
+    flow = SCENE + "  loads_at: {element: arm.element[0], quantity: torque}\n"
+    assert loader._read_yaml_in_c(flow, "scene.yaml") is loader._MISSING  # `[` inside a plain scalar
+    assert _read_in_python(flow)["output"]["loads_at"]["element"] == "arm.element[0]"
+    broken = SCENE.replace("  every: 0.01", "  every: [0.01")
+    assert loader._read_yaml_in_c(broken, "scene.yaml") is loader._MISSING
+    with pytest.raises(SceneError, match=r"line \d+, column \d+.*invalid YAML"):
+        latdyn.load_scene(_written(broken))
+    duplicate = SCENE.replace("title: a skew", "title: one\ntitle: a skew")
+    with pytest.raises(SceneError, match="duplicated key .first on line 1, again on line 2"):
+        latdyn.load_scene(_written(duplicate))
+
+
+def _written(text: str) -> str:
+    import tempfile
+
+    folder = tempfile.mkdtemp()
+    path = Path(folder) / "scene.yaml"
+    path.write_text(text)
+    return str(path)
+
+
+# ----------------------------------------------------------------------------- a band model, light
+BEAM = """\
+title: clamped 3D cantilever, 22 elements (132 coordinates, band LU)
+sections:
+  s: {EA: 1.0e7, EIy: 2.0e4, EIz: 1.0e4, GJ: 8.0e3, rhoA: 2.0, rhoIy: 1.0e-3, rhoIz: 1.0e-3}
+bodies:
+  wall: {at: [0, 0, 0], fixed: true}
+beams:
+  arm: {from: wall, to: [2.0, 0.5, 0.3], section: s, elements: 22}
+loads:
+  - {at: arm.end, force: [0, 0, -10.0]}
+solve: {analysis: transient, t_end: 0.01, dt: 0.002}
+output:
+  every: 0.002
+  probes:
+    w: {point: arm.end, quantity: displacement, frame: global, component: z}
+"""
+
+
+def test_a_band_model_runs_without_scipy_sparse(tmp_path):
+    """A model above the dense LU's size whose band the step factorizes: its held check and its
+    consistent start are computed in NumPy (latdyn.numerics.csr) on the package's LU, its order here,
+    so a run imports neither scipy.sparse nor its linalg, csgraph or scipy.linalg (≈0.2 s of CPU at
+    the start of every such run)."""
+    scene = tmp_path / "beam.yaml"
+    scene.write_text(BEAM)
+    code = textwrap.dedent(f"""
+        import json, sys
+        import latdyn
+        result = latdyn.run(latdyn.load_scene({str(scene)!r}), out_dir={str(tmp_path / 'out')!r})
+        print(json.dumps({{"coordinates": result.summary["coordinates"], "status": result.summary["status"],
+                          "loaded": sorted(m for m in ("scipy.sparse", "scipy.sparse.linalg", "scipy.sparse.csgraph",
+                                                       "scipy.linalg") if m in sys.modules)}}))
+        """)
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=300)
+    assert done.returncode == 0, done.stderr[-2000:]
+    found = json.loads(done.stdout.strip().splitlines()[-1])
+    assert found["status"] == "solved" and found["coordinates"] == 132
+    assert found["loaded"] == []
+
+
+# ----------------------------------------------------------------------------- the end of the process
+def test_the_command_leaves_complete_files_and_a_call_in_process_keeps_the_collector(tmp_path):
+    """``python -m latdyn run`` freezes the garbage collector at its start and end (cli._start_of_the_process,
+    cli._end_of_the_process):
+    the results it leaves are complete (summary.json solved, the rows of every step, state.h5 and
+    the ParaView files readable); ``cli.main([...])`` called in a process that goes on (a test, a
+    notebook) leaves its collector as it was."""
+    import gc
+
+    import h5py
+
+    from cli_runs import latdyn_run, probe_columns, summary_of
+    from latdyn import cli
+
+    done, out = latdyn_run(tmp_path, BEAM, quiet=True)
+    assert done.returncode == 0, done.stderr
+    summary = summary_of(out)
+    assert summary["status"] == "solved" and summary["rows"] == 6
+    assert len(probe_columns(out)["w"]) == 6
+    with h5py.File(out / "state.h5") as f:
+        assert f["t"].shape == (6,)
+    for name in summary["paraview_files"]:
+        with h5py.File(out / name) as f:
+            assert len(f["VTKHDF"]["Steps"]["Values"]) == summary["paraview_frames"]
+    frozen = gc.get_freeze_count()
+    assert cli.main(["check", str(tmp_path / "scene.yaml")]) == 0
+    assert gc.get_freeze_count() == frozen
+
+
+def test_a_short_run_writes_its_state_history_once_and_a_kill_keeps_the_last_checkpoint(tmp_path):
+    """``checkpoint_min_seconds`` (a run's writer: 1 s): rows due by count are not rewritten before it;
+    the close writes every row; a checkpoint asked for (a resume checkpoint's) is written at once."""
+    from latdyn.results.state_history import STATE_H5_FILE
+    from latdyn.results.writer import RUN_CHECKPOINT_MIN_SECONDS, ResultWriter, load_state_history
+
+    assert RUN_CHECKPOINT_MIN_SECONDS == 1.0
+    with ResultWriter(tmp_path, ["x"], checkpoint_rows=2, checkpoint_min_seconds=1e9) as writer:
+        for i in range(10):
+            writer.record(0.1 * i, [float(i)], state={"q": np.full(3, float(i))})
+        assert not (tmp_path / STATE_H5_FILE).exists()  # due by count, held back by the minimum
+        writer.checkpoint()
+        np.testing.assert_array_equal(load_state_history(tmp_path)["q"][:, 0], np.arange(10.0))
+        for i in range(10, 13):
+            writer.record(0.1 * i, [float(i)], state={"q": np.full(3, float(i))})
+    np.testing.assert_array_equal(load_state_history(tmp_path)["q"][:, 0], np.arange(13.0))
+
+
+# ----------------------------------------------------------------------------- sparse products in NumPy
+def _random_csr(rng, n_rows, n_cols, density):
+    sps = pytest.importorskip("scipy.sparse")
+    m = int(density * n_rows * n_cols)
+    rows, cols = rng.integers(0, n_rows, m), rng.integers(0, n_cols, m)
+    values = rng.standard_normal(m) * 10.0 ** rng.integers(-8, 8, m)
+    values[::7] = 0.0  # structural zeros, kept
+    values[3::11] = -0.0
+    ours = CSR.from_coo(values, rows, cols, (n_rows, n_cols))
+    theirs = sps.csr_matrix((values, (rows, cols)), shape=(n_rows, n_cols))
+    return ours, theirs
+
+
+def _same_bits(a, b) -> bool:
+    a, b = np.asarray(a), np.asarray(b)
+    return a.shape == b.shape and a.tobytes() == b.tobytes()
+
+
+@pytest.mark.parametrize("direct_keys", [None, 0])
+def test_csr_products_are_scipys_to_the_last_bit(direct_keys, monkeypatch):
+    """SciPy's A.T @ B (CSR A and B), A @ x and A.T @ x, and A.T.tocsr(): the same entries, the same
+    bits (each sum's terms in SciPy's order, exact zeros dropped from the products); the products'
+    sums in a dense array (small products) and by sorted keys (``DIRECT_KEYS`` 0) alike."""
+    if direct_keys is not None:
+        import latdyn.numerics.csr as csr
+
+        monkeypatch.setattr(csr, "DIRECT_KEYS", direct_keys)
+    rng = np.random.default_rng(11)
+    for trial in range(40):
+        n, p, q = (int(rng.integers(1, 60)) for _ in range(3))
+        a, a_ref = _random_csr(rng, n, p, 0.15)
+        b, b_ref = _random_csr(rng, n, q, 0.15)
+        product = (a_ref.T @ b_ref).tocsr()
+        product.sort_indices()
+        ours = transposed_product(a, b)
+        assert _same_bits(ours.indptr, product.indptr.astype(np.int64))
+        assert _same_bits(ours.indices, product.indices.astype(np.int64)) and _same_bits(ours.data, product.data)
+        x, y = rng.standard_normal(p), rng.standard_normal(n)
+        assert _same_bits(a.matvec(x), a_ref @ x) and _same_bits(a.rmatvec(y), a_ref.T @ y)
+        t = a_ref.T.tocsr()
+        t.sort_indices()
+        assert _same_bits(transposed(a).data, t.data) and _same_bits(transposed(a).indices, t.indices.astype(np.int64))
+
+
+def test_the_consistent_start_without_scipy_is_the_same_to_the_bit():
+    """The start's Δv̇ = Q_m (Q_mᵀ M Q_m)⁻¹ (−Q_mᵀ r) of a 3D frame of 324 coordinates at a random
+    moving state: in NumPy (numerics.csr) and through SciPy's sparse matrices, bit for bit."""
+    from test_linalg import lattice
+
+    import latdyn.step.integrators as integrators
+    from latdyn.assembly.prepare import prepare
+
+    prepared = prepare(lattice(4, 4))
+    assert integrators._start_without_scipy(prepared.model)
+    rng = np.random.default_rng(5)
+    state = prepared.state.copy()
+    state.x[:] += 1e-3 * rng.standard_normal(state.x.shape)
+    state.v[:] += 0.1 * rng.standard_normal(state.v.shape)
+    state.w[:] += 0.1 * rng.standard_normal(state.w.shape)
+    evaluation = prepared.assembler.evaluate(state, matrices=True)
+    ours = integrators.consistent_acceleration(prepared.model, evaluation)
+    try:
+        integrators._start_without_scipy = lambda model: False
+        theirs = integrators.consistent_acceleration(prepared.model, evaluation)
+    finally:
+        del integrators._start_without_scipy  # the module's own function again
+    assert np.max(np.abs(ours)) > 1.0 and _same_bits(ours, theirs)
+
+
+def test_a_mid_size_model_with_a_coordinate_nothing_holds_is_refused_by_the_numpy_check():
+    """The held check in NumPy (numerics.csr, the package's LU) of a 3D frame above the dense LU's
+    size: a tail beam free to spin about its own axis on a hinge is refused, naming it."""
+    from test_linalg import lattice
+
+    raw = lattice(4, 4)
+    latdyn.load_scene(raw)
+    raw["bodies"]["loose"] = {"at": [10.0, 0.0, 0.0]}
+    raw["beams"]["tail"] = {"from": "j0_0_1", "to": "loose", "section": "s", "elements": 2,
+                            "end": {"hinge": {"axis": [1, 0, 0]}}}  # the tail's own axis: spin unheld
+    with pytest.raises(SceneError, match="nothing holds") as info:
+        from latdyn.assembly.prepare import prepare
+
+        prepare(raw)
+    assert "bodies.loose" in str(info.value) or "beams.tail.end.hinge" in str(info.value)
