@@ -9,6 +9,7 @@ import scipy.sparse as sps
 
 import latdyn
 from latdyn.assembly import factorization
+from latdyn.assembly.factorization import Factorization
 from latdyn.numerics import linalg as linalg
 from latdyn.assembly.assembler import Assembler, unpack_free
 from latdyn.model.kernels import load_kernels
@@ -126,7 +127,7 @@ def test_psd_null_direction_finds_an_oblique_null_vector():
     n = 500
     Q = sps.random(n, n, density=0.01, random_state=2) + sps.identity(n)
     A = (Q @ Q.T).tocsc()
-    rho, _ = psd_null_direction(A / A.diagonal().max())
+    rho, _ = psd_null_direction(A / A.diagonal().max(), Factorization)
     assert rho > 1e-6  # positive definite: nothing found
     v = rng.standard_normal(4)  # a null vector spread over 4 coordinates
     P = sps.identity(n).tolil()
@@ -134,7 +135,7 @@ def test_psd_null_direction_finds_an_oblique_null_vector():
     B = (P @ A @ P.T).tocsc()
     d = 1.0 / np.sqrt(B.diagonal())
     B = sps.diags(d) @ B @ sps.diags(d)
-    rho, x = psd_null_direction(B.tocsc())
+    rho, x = psd_null_direction(B.tocsc(), Factorization)
     assert rho < 1e-13
     expected = v / d[:4]
     expected = expected / np.max(np.abs(expected))
@@ -150,14 +151,14 @@ def test_psd_null_direction_of_a_dense_matrix_is_its_smallest_eigenpair():
     n = 40
     Q = rng.standard_normal((n, n)) / np.sqrt(n) + np.eye(n)
     A = Q @ Q.T
-    rho, _ = psd_null_direction(A / A.diagonal().max())
+    rho, _ = psd_null_direction(A / A.diagonal().max(), Factorization)
     assert rho == pytest.approx(np.linalg.eigvalsh(A / A.diagonal().max())[0], rel=1e-12) and rho > 1e-6
     v = rng.standard_normal(4)
     P = np.eye(n)
     P[:4, :4] -= np.outer(v, v) / (v @ v)
     B = P @ A @ P.T
     d = 1.0 / np.sqrt(B.diagonal())
-    rho, x = psd_null_direction(d[:, None] * B * d[None, :])
+    rho, x = psd_null_direction(d[:, None] * B * d[None, :], Factorization)
     assert abs(rho) < 1e-13
     expected = v / d[:4]
     np.testing.assert_allclose(np.abs(x[:4]), np.abs(expected / np.max(np.abs(expected))), atol=1e-8)

@@ -139,9 +139,9 @@ def _text_key(time_functions, hinge_laws, signals=((), ()), controllers=(), samp
     ``srepr``), not by the text as written: that text names the scene's parameters, whose values the
     loader substituted, so two scenes with other values of a gain share it (and shared one library:
     a run with Kp = 40 stepped with the law compiled for Kp = 4)."""
-    from sympy import srepr
-
     def read(kind, c, sensors):
+        from sympy import srepr  # on use: a scene without controllers imports no SymPy
+
         return (kind, c.name, srepr(c.output_expr), tuple(sensors), c.states, tuple(map(srepr, c.state_exprs)))
 
     return repr([(type(f).__name__, f.source) for f in time_functions]

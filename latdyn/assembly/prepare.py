@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from latdyn.assembly.assembler import Assembler, State
+from latdyn.assembly.factorization import Factorization
 from latdyn.model.kernels import load_kernels
 from latdyn.model.model import Model
 from latdyn.numerics.linalg import DENSE_LIMIT, RCM_IN_PYTHON
@@ -42,10 +43,11 @@ def prepare(scene, backend: str = "auto") -> Prepared:
         # dense where the dense LU serves the model (as the step assembles it), else sparse: without
         # SciPy (numerics.csr) where the step needs none (a band LU ordered in Python, no rigid links)
         if model.links is None and DENSE_LIMIT < model.n_assembled <= RCM_IN_PYTHON:
-            model.check_held(ev.combined_csr(1.0, 0.0, 0.0), ev.combined_csr(0.0, 0.0, 1.0), scene.file)
+            model.check_held(ev.combined_csr(1.0, 0.0, 0.0), ev.combined_csr(0.0, 0.0, 1.0), scene.file, Factorization)
         else:
             material = {"geometric_term": False} if model.links is not None else {}
-            model.check_held(ev.combined(1.0, 0.0, 0.0), ev.combined(0.0, 0.0, 1.0, **material), scene.file)
+            model.check_held(ev.combined(1.0, 0.0, 0.0), ev.combined(0.0, 0.0, 1.0, **material), scene.file,
+                             Factorization)
     return Prepared(scene, model, assembler, state)
 
 

@@ -433,7 +433,7 @@ class Model:
             return int(nodes[-1]), offsets[1]
         return int(nodes[ref.node]), np.zeros(3)
 
-    def check_held(self, mass, stiffness, file: str) -> None:
+    def check_held(self, mass, stiffness, file: str, factorization) -> None:
         """Refuse a coordinate that neither inertia nor stiffness holds (SCENE.md).
 
         A direction x of the free coordinates is unheld when it lies in both null
@@ -467,7 +467,7 @@ class Model:
                                  + ", ".join(names[i] for i in empty[:3]))
             scale = 1.0 / np.sqrt(d)
             scaled = CSR(A.shape, A.indptr, A.indices, A.data * scale[A.rows] * scale[A.indices])
-            self._refuse_a_null_direction(scaled, names, file)
+            self._refuse_a_null_direction(scaled, names, file, factorization)
             return
         if issparse(mass) or issparse(stiffness):  # one kind for both (dense + sparse is np.matrix)
             import scipy.sparse as sps  # a model the dense LU serves runs without scipy.sparse
@@ -487,10 +487,10 @@ class Model:
             scaled = (sps.diags(scale) @ A @ sps.diags(scale)).tocsc()
         else:
             scaled = scale[:, None] * A * scale[None, :]
-        self._refuse_a_null_direction(scaled, names, file)
+        self._refuse_a_null_direction(scaled, names, file, factorization)
 
-    def _refuse_a_null_direction(self, scaled, names, file: str) -> None:
-        rho, mode = psd_null_direction(scaled, tol=HELD_TOLERANCE)
+    def _refuse_a_null_direction(self, scaled, names, file: str, factorization) -> None:
+        rho, mode = psd_null_direction(scaled, factorization, tol=HELD_TOLERANCE)
         if rho <= HELD_TOLERANCE:
             worst = [names[i] for i in np.argsort(-np.abs(mode))[:3] if abs(mode[i]) > 0.1]
             raise SceneError(file, self._key_of(worst[0]),

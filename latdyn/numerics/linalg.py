@@ -402,7 +402,7 @@ def small_rcm_band(rows: np.ndarray, cols: np.ndarray, n: int):
 # ----------------------------------------------------------------------------- null directions
 
 
-def psd_null_direction(A, tol: float = 1e-10, shift: float = 1e-9, iterations: int = 12,
+def psd_null_direction(A, factorization, tol: float = 1e-10, shift: float = 1e-9, iterations: int = 12,
                        seed: int = 0) -> tuple[float, np.ndarray]:
     """The smallest Rayleigh quotient found for a sparse symmetric PSD matrix with
     unit diagonal (SciPy's, or a :class:`latdyn.numerics.csr.CSR`), and its vector (max-norm 1).
@@ -421,6 +421,11 @@ def psd_null_direction(A, tol: float = 1e-10, shift: float = 1e-9, iterations: i
     (LAPACK ``syevd``; ≤ 120 coordinates: ~1 ms), λ_min to round-off, without SciPy and without
     NumPy's random generator, whose import alone costs more than that (docs/performance.md,
     "First run").
+
+    ``factorization``: the sparse LU to solve with, a class built as ``factorization(rows, columns, n)``
+    whose ``factor(values)`` returns an object with ``solve`` (the package's
+    :class:`latdyn.assembly.factorization.Factorization`, handed down by the layer that owns it:
+    no scipy.sparse.linalg).
     """
     from latdyn.numerics.csr import CSR
 
@@ -436,13 +441,11 @@ def psd_null_direction(A, tol: float = 1e-10, shift: float = 1e-9, iterations: i
             eigenvalues, vectors = np.linalg.eigh(A)
         x = vectors[:, 0]
         return float(eigenvalues[0]), x / np.max(np.abs(x))
-    from latdyn.assembly.factorization import Factorization  # the package's LU: no scipy.sparse.linalg
-
     if isinstance(A, CSR):  # without SciPy (numerics.csr)
         diagonal = np.arange(n)
         shifted = CSR.from_coo(np.concatenate([A.data, np.full(n, shift)]), np.concatenate([A.rows, diagonal]),
                                np.concatenate([A.indices, diagonal]), A.shape)
-        solve = Factorization(shifted.rows, shifted.indices, n).factor(shifted.data).solve
+        solve = factorization(shifted.rows, shifted.indices, n).factor(shifted.data).solve
         multiply = A.matvec
         # a fixed start without NumPy's random generator (its import costs more than this check):
         # the fractional parts of k·φ, centred, miss a direction no more than a random vector would
@@ -453,7 +456,7 @@ def psd_null_direction(A, tol: float = 1e-10, shift: float = 1e-9, iterations: i
         A = sps.csr_matrix(A)
         shifted = (A + shift * sps.identity(n, format="csr")).tocsr()
         shifted.sum_duplicates()
-        solve = Factorization(np.repeat(np.arange(n), np.diff(shifted.indptr)), shifted.indices, n).factor(shifted).solve
+        solve = factorization(np.repeat(np.arange(n), np.diff(shifted.indptr)), shifted.indices, n).factor(shifted).solve
         multiply = A.__matmul__
         x = np.random.default_rng(seed).standard_normal(n)
     x /= np.linalg.norm(x)
