@@ -98,6 +98,38 @@ def test_a_flow_index_and_a_yaml_error_go_to_the_python_parser():
         latdyn.load_scene(_written(duplicate))
 
 
+def test_tabs_and_byte_order_marks_go_to_the_python_parser():
+    """libyaml reads a tab after a key's colon, and drops a byte-order mark inside a value, where the
+    Python scanner refuses the first and keeps the second: such text is read by the Python parser, so a
+    scene loads (or is refused) the same with and without libyaml."""
+    tabbed = SCENE.replace("title: a skew", "title:\ta skew")
+    assert loader._read_yaml_in_c(tabbed, "scene.yaml") is loader._MISSING
+    with pytest.raises(SceneError, match="invalid YAML"):
+        latdyn.load_scene(_written(tabbed))
+    marked = SCENE.replace("title: a skew", "title: \ufeffa skew")
+    assert loader._read_yaml_in_c(marked, "scene.yaml") is loader._MISSING
+    assert loader._read_yaml_in_c(SCENE.replace("\n", "\r\n"), "scene.yaml") is loader._MISSING
+
+
+def test_a_close_syncs_the_state_file_a_periodic_rewrite_left_unsynced(tmp_path, monkeypatch):
+    """A periodic rewrite that already holds every row leaves nothing new for the close: the close still
+    syncs the file on the disk (docs/usage.md: a finished run's state.h5 is synced)."""
+    import numpy as np
+
+    from latdyn.results import state_history
+    from latdyn.results.writer import ResultWriter
+
+    synced = []
+    original = state_history.fsync_path
+    monkeypatch.setattr(state_history, "fsync_path", lambda path: (synced.append(Path(path).name), original(path)))
+    writer = ResultWriter(tmp_path, ["x"], checkpoint_rows=3, checkpoint_min_seconds=0.0)
+    for i in range(3):
+        writer.record(0.1 * i, [float(i)], state={"q": np.full(2, float(i))})
+    assert synced == []          # the periodic rewrite: not synced
+    writer.close()
+    assert any(name.startswith("state.") for name in synced)
+
+
 def _written(text: str) -> str:
     import tempfile
 

@@ -100,6 +100,7 @@ class StateHistory:
         self._pending: dict[str, list[np.ndarray]] = {}
         self.use_h5 = h5py is not None
         self.rows_on_disk = 0
+        self._unsynced = False  # the file on disk was last written without a sync
 
     @property
     def path(self) -> Path:
@@ -153,13 +154,20 @@ class StateHistory:
 
     def write(self, durable: bool = True) -> bool:
         """Every row so far into the file (atomically; ``durable``: synced to the disk before it
-        replaces the old one); False when there was nothing to write."""
-        if self.folder is None or self.keys is None or self.unwritten() == 0:
+        replaces the old one); False when there was nothing to write. A durable call with nothing new
+        to write still syncs the file a periodic (not durable) rewrite left on the disk."""
+        if self.folder is None or self.keys is None:
+            return False
+        if self.unwritten() == 0:
+            if durable and self._unsynced and self.path.is_file():
+                fsync_path(self.path)
+                self._unsynced = False
             return False
         if self.use_h5:
             self._write_h5(durable)
         else:
             self._write_npz(durable)
+        self._unsynced = not durable
         return True
 
     def summary(self) -> dict:

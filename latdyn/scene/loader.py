@@ -752,12 +752,15 @@ def _read_yaml_in_c(text: str, file: str) -> Any:
     """The data of a YAML scene parsed by libyaml, with the constructor and resolvers of
     :func:`_yaml_loader` (the same values; the same duplicate-key check): about 5× faster than the
     Python parser on a large scene (a 16-bay lattice of 1 400 lines: 60 ms). ``_MISSING`` where the
-    Python parser must read it: no libyaml, text outside :data:`_C_YAML_LIMITS`, or any YAML error
-    (whose message and line then come from the Python parser, as always)."""
+    Python parser must read it: no libyaml, text outside :data:`_C_YAML_LIMITS`, text with a tab, a
+    carriage return or a byte-order mark after its start (which libyaml accepts or drops where the
+    Python scanner refuses or keeps them: a scene must not load on one installation and not another),
+    or any YAML error (whose message and line then come from the Python parser, as always)."""
     import yaml
 
     if not getattr(yaml, "__with_libyaml__", False) or len(text) > _C_YAML_LIMITS["characters"] \
-            or text.count("[") + text.count("{") > _C_YAML_LIMITS["brackets"] or _INDEX_IN_FLOW.search(text):
+            or text.count("[") + text.count("{") > _C_YAML_LIMITS["brackets"] or _INDEX_IN_FLOW.search(text) \
+            or "\t" in text or "\r" in text or "\ufeff" in text[1:]:
         return _MISSING
     base = _yaml_loader()
 
