@@ -93,7 +93,8 @@ def test_sensitivities_through_continuous_controllers_agree_with_richardson_diff
     (lambda d: (d["controllers"].update(integral={"output": "i", "states": {"i": "angle"}}),
                 d["beams"]["arm"]["end"]["hinge"].update(lock_at=1.0, torque="2*pd + integral")), "controllers with states"),
     (lambda d: d.update(inputs={"u": 0.0}), "inputs"),
-    (lambda d: d["beams"]["arm"]["end"]["hinge"].update(torque="Kp*pd"), "a torque that names a controller"),
+    (lambda d: d["beams"]["arm"]["end"]["hinge"].update(torque="Kp*pd"), "a law that names a controller"),
+    (lambda d: d["loads"][0].update(moment=["0.5*push + Kl", 0, 0]), "a law that names a controller"),
 ])
 def test_what_controllers_cannot_be_differentiated_through_is_refused(change, expected):
     data = yaml.safe_load(WHEEL)

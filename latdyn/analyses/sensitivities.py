@@ -964,13 +964,13 @@ class ControllerTerms:
                         "a stop, a compliant stop's onset, a cable's change: the event time moves the states' "
                         "trapezoidal step) are not computed yet; continuous controllers with states are without them")
         names = set(scene.controllers)
-        driven = {f"beams.{beam}.{which}.hinge.torque" for beam, which, hinge in scene.hinges
-                  if names & set(getattr(hinge.torque, "input_names", ()))}
         for name in scene.solve.sensitivities:
             for used in scene.parameters.depending_on(name):
-                if used in driven:
-                    return (f"parameter {name!r} is used at {used}, a torque that names a controller: "
-                            "expected the parameter inside the controller's output instead")
+                written = str(scene.parameters.uses[used][0])
+                if not used.startswith("controllers.") and names & set(re.findall(r"[A-Za-z_][A-Za-z_0-9]*", written)):
+                    return (f"parameter {name!r} is used at {used}, a law that names a controller ({written!r}: "
+                            "a hinge torque, guide force or load component): expected the parameter inside the "
+                            "controller's output instead")
         return None
 
     def state_values(self, c) -> list:
