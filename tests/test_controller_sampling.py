@@ -6,7 +6,8 @@ lambdas, :meth:`latdyn.scene.controllers.Controller.functions`: the implementati
 replaced, kept here only as the reference) at random states; and the same runs with every step and
 every sample taken from Python (``latdyn.timeloop.transient.COMPILED_LOOP = False``: the time loop
 samples through the same compiled cycle and restarts with ``consistent_acceleration``'s inertia split),
-on genuinely 3D and planar flexible arms; the exact discrete-time solutions of sampled loops on a
+on genuinely 3D and planar flexible arms and on models with rigid links and guides (the restart on the
+minimum coordinates); the exact discrete-time solutions (a guided cart here) of sampled loops on a
 rigid hub are tests/test_controllers.py's and tests/test_stepping.py's. Scenes are YAML text."""
 from __future__ import annotations
 
