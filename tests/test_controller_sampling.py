@@ -6,7 +6,8 @@ lambdas, :meth:`latdyn.scene.controllers.Controller.functions`: the implementati
 replaced, kept here only as the reference) at random states; and the same runs with every step and
 every sample taken from Python (``latdyn.timeloop.transient.COMPILED_LOOP = False``: the time loop
 samples through the same compiled cycle and restarts with ``consistent_acceleration``'s inertia split),
-on genuinely 3D and planar flexible arms; the exact discrete-time solutions of sampled loops on a
+on genuinely 3D and planar flexible arms and on models with rigid links and guides (the restart on the
+minimum coordinates); the exact discrete-time solutions (a guided cart here) of sampled loops on a
 rigid hub are tests/test_controllers.py's and tests/test_stepping.py's. Scenes are YAML text."""
 from __future__ import annotations
 
@@ -284,7 +285,7 @@ def test_modified_newton_and_laws_called_back_in_python_sample_as_the_compiled_r
         assert np.max(np.abs(called_back[name] - compiled[name])) <= 1e-10 * max(1.0, np.max(np.abs(compiled[name]))), name
 
 
-@pytest.mark.parametrize("where", ["arm", "puck"])
+@pytest.mark.parametrize("where", ["arm", "puck", "linked"])
 def test_sampled_in_the_loop_resumes_bit_for_bit(where, tmp_path, monkeypatch):
     """Interrupted between two samples and resumed (the loop of steps sampling and restarting in C):
     probes.csv equals an uninterrupted run's, byte for byte."""
@@ -292,6 +293,8 @@ def test_sampled_in_the_loop_resumes_bit_for_bit(where, tmp_path, monkeypatch):
 
     if where == "arm":
         scene = arm(PLANAR, t_end=0.5)
+    elif where == "linked":  # the restart on the minimum coordinates (defined below)
+        scene = yaml.safe_load(LINKED.format(**LINKED_SPATIAL))
     else:
         scene = yaml.safe_load(PUCK.format(d0=1 / 3, d1=2 / 3, d2=2 / 3))
         scene["controllers"]["ctl"]["output"] = "-kp*(x - ref) - kd*vx - ki*S"
@@ -345,3 +348,166 @@ def test_a_twist_without_rotary_inertia_restarts_from_python_as_the_python_loop(
     assert summary["steps"] == reference["steps"] and calls >= 30
     for name in python:
         assert np.array_equal(native[name], python[name]), name
+
+
+#: A body B guided along a skew axis (spring, damper, the sampled PI's force) carrying a rigid link to a
+#: body D on a skew hinge (spring, a share of the PI's torque), a flexible beam D-E with rotary inertia
+#: beyond it: B and D are dependent nodes, the restart after each sample is on the minimum coordinates
+#: with Pᵀ M P (csrc/links.c assemble_linked_mass). The PI (50 Hz, saturated) reads the slide, its rate
+#: and the hinge angle.
+LINKED = """
+gravity: {gravity}
+controllers:
+  ctl:
+    output: "-30*(sB - 0.1) - 4*sBd - 12*S - 2*th"
+    states: {{S: "sB - 0.1"}}
+    rate: 50
+    limits: [-12, 12]
+sections:
+  s: {{EA: 1.0, EIy: 1.0, EIz: 1.0, GJ: 1.0, rhoA: 0.5}}
+  f: {{EA: 1.0e5, EIy: 20.0, EIz: 30.0, GJ: 15.0, rhoA: 0.8, rhoIy: 0.002, rhoIz: 0.002}}
+bodies:
+  B: {{at: [0.3, 0.1, {zb}], mass: 0.7, inertia: [0.01, 0.02, 0.03], com: [0, 0.05, 0],
+      guide: {{axis: {guide_axis}, stiffness: 40.0, damping: 0.5, force: ctl}}}}
+  D: {{at: [0.8, -0.3, {zd}], mass: 0.4, inertia: [0.01, 0.01, 0.02]}}
+  E: {{at: [1.3, -0.1, {ze}], mass: 0.1, inertia: [0.001, 0.001, 0.001]}}
+beams:
+  l: {{from: B, to: D, section: s, rigid: true,
+      start: {{hinge: {{axis: {hinge_axis}, stiffness: 9.0, torque: "0.3*ctl"}}}}}}
+  fl: {{from: D, to: E, section: f, elements: 2}}
+solve: {{t_end: 0.4, dt: 0.005}}
+output:
+  probes:
+    sB: {{guide: B, quantity: position}}
+    sBd: {{guide: B, quantity: rate}}
+    th: {{hinge: l.start, quantity: angle}}
+    om: {{hinge: l.start, quantity: rate}}
+    Dz: {{point: D, quantity: displacement, component: {across}}}
+    Dv: {{point: D, quantity: velocity, component: {across}}}
+    Ey: {{point: E, quantity: displacement, component: y}}
+    u: {{controller: ctl}}
+    Sp: {{controller: ctl, state: S}}
+"""
+LINKED_SPATIAL = dict(gravity="[0, 0, -9.81]", zb=0.2, zd=0.6, ze=0.5, guide_axis="[1, 2, 2]",
+                      hinge_axis="[0.2, -1, 0.4]", across="z")
+LINKED_PLANAR = dict(gravity="[0, -9.81, 0]", zb=0, zd=0, ze=0, guide_axis="[1, 2, 0]", hinge_axis="[0, 0, 1]",
+                     across="x")
+
+
+def counting_restarts(monkeypatch) -> list:
+    """What :meth:`CompiledGeneralizedAlpha.restarts_natively` answered, call by call."""
+    from latdyn.step.compiled import CompiledGeneralizedAlpha
+
+    seen = []
+    natively = CompiledGeneralizedAlpha.restarts_natively
+    monkeypatch.setattr(CompiledGeneralizedAlpha, "restarts_natively",
+                        lambda self, state: seen.append(natively(self, state)) or seen[-1])
+    return seen
+
+
+@pytest.mark.parametrize("kind", [LINKED_SPATIAL, LINKED_PLANAR], ids=["3d", "planar"])
+def test_a_linked_and_guided_model_restarts_in_the_loop_as_the_python_loop(kind, monkeypatch):
+    """A guide, a rigid link and a flexible beam under a sampled PI at 50 Hz for 0.4 s (80 steps,
+    20 samples): the loop of steps in C samples and restarts on the minimum coordinates without returning
+    (one call), and every probe of every row equals the run stepped from Python (its restart
+    ``consistent_acceleration`` with the reduced Pᵀ M P of latdyn.assembly.linked): measured, relative to
+    each probe's largest value (at least 1), 3D θ̇ 1.8e-13, ṡ 7.9e-14, D's velocity 9.8e-14, u 2.4e-14,
+    positions ≤ 7.8e-16; planar θ̇ 2.2e-13, D's velocity 1.7e-13, positions ≤ 1.0e-15 — round-off (the
+    restart's LU of Pᵀ M P against the split's solve) grown through the closed loop."""
+    seen = counting_restarts(monkeypatch)
+    scene = yaml.safe_load(LINKED.format(**kind))
+    native, summary, calls = run_probes(scene, True, monkeypatch)
+    python, reference, _ = run_probes(scene, False, monkeypatch)
+    assert seen and all(seen) and summary["time_loop"] == "compiled" and reference["time_loop"] == "python"
+    assert calls == 1 and summary["steps"] == reference["steps"] == 80
+    assert summary["newton_iterations"] == reference["newton_iterations"]
+    for name in python:
+        scale = max(1.0, float(np.max(np.abs(python[name]))))
+        assert np.max(np.abs(native[name] - python[name])) <= 1e-11 * scale, name
+    assert np.ptp(python["sB"]) > 0.05 and np.ptp(python["th"]) > 0.05 and len(np.unique(python["u"])) == 21
+
+
+#: A cart of mass 2 on a guide along the skew axis [1, 2, 2] (its com off the body's point: the guide
+#: keeps its orientation, m s̈ = u exactly), pushed along it by a sampled PI on its slide and rate.
+SLIDE = """
+inputs: {kp: 6.0, kd: 2.0, ki: 1.0, ref: 1.0}
+controllers:
+  ctl:
+    output: "-kp*(s1 - ref) - kd*s1d - ki*S"
+    states: {S: "s1 - ref"}
+    initial: {S: 0.5}
+    rate: 10
+bodies:
+  cart: {at: [0.2, 0.4, -0.3], mass: 2.0, inertia: [0.2, 0.3, 0.4], com: [0.1, 0.05, 0],
+         guide: {axis: [1, 2, 2], force: ctl}}
+solve: {t_end: 3.0, dt: 0.025}
+output:
+  probes:
+    s1: {guide: cart, quantity: position}
+    s1d: {guide: cart, quantity: rate}
+    u: {controller: ctl}
+"""
+
+
+def test_a_sampled_pi_on_a_guide_restarted_in_the_loop_equals_the_exact_discrete_time_solution(tmp_path,
+                                                                                                monkeypatch):
+    """The PI at 10 Hz on the guided cart, dt = 0.025, through ``python -m latdyn run`` (the loop of steps
+    samples and restarts on the guide's coordinate in C): at each of the 31 instants s and ṡ equal the
+    exact solution s_{k+1} = s_k + T ṡ_k + u_k T²/2m, ṡ_{k+1} = ṡ_k + u_k T/m (measured 1.2e-15 m and
+    1.2e-15 m/s), u_k the PI's."""
+    from cli_runs import latdyn_run, probe_columns
+
+    seen = counting_restarts(monkeypatch)
+    result = latdyn.run(latdyn.load_scene(yaml.safe_load(SLIDE)))
+    assert result.summary["time_loop"] == "compiled" and seen and all(seen)
+    T, m, s, sd, S = 0.1, 2.0, 0.0, 0.0, 0.5
+    p = result.probes
+    for k in range(31):
+        row = int(np.argmin(np.abs(result.t - k * T)))
+        assert abs(result.t[row] - k * T) < 1e-12
+        assert abs(p["s1"][row] - s) < 1e-13 and abs(p["s1d"][row] - sd) < 1e-13, (k, p["s1"][row] - s)
+        u = -6.0 * (s - 1.0) - 2.0 * sd - 1.0 * S
+        if k < 30:
+            assert abs(p["u"][row] - u) < 1e-11
+        S = S + (s - 1.0) / 10
+        s, sd = s + T * sd + u * T * T / (2 * m), sd + u * T / m
+    completed, out = latdyn_run(tmp_path, SLIDE, quiet=True)
+    assert completed.returncode == 0, completed.stderr
+    cli = probe_columns(out)
+    for name in ("s1", "s1d", "u"):
+        assert np.max(np.abs(cli[name] - p[name])) <= 1e-15 * max(1.0, np.max(np.abs(p[name]))), name
+
+
+def test_a_linked_model_under_modified_newton_keeps_its_held_factorization_through_the_restarts(monkeypatch):
+    """``solve.newton: modified`` on the guided and linked model: the restart's Pᵀ M P is assembled and
+    factorized in a storage of its own, so the iteration matrix's held factorization survives the 20
+    samples: the same factorizations as the run stepped from Python (fewer than the steps) and the same
+    rows to round-off."""
+    scene = yaml.safe_load(LINKED.format(**LINKED_SPATIAL))
+    scene["solve"]["newton"] = "modified"
+    native, summary, calls = run_probes(scene, True, monkeypatch)
+    python, reference, _ = run_probes(scene, False, monkeypatch)
+    assert calls == 1 and summary["factorizations"] == reference["factorizations"] < summary["steps"]
+    for name in python:
+        assert np.max(np.abs(native[name] - python[name])) <= 1e-11 * max(1.0, np.max(np.abs(python[name]))), name
+
+
+def test_a_rigid_slider_crank_restarts_in_the_loop_as_the_python_loop(monkeypatch):
+    """The rigid slider-crank of tests/test_slider_crank.py (closure edges: the rod and the slider are
+    functions of the pin) in the plane turned in space, its crank driven by a sampled PD at 50 Hz with
+    limits: restarted in C on its one coordinate (Pᵀ M P through the closure's expansions), one call of
+    the loop of steps for 25 samples, every row equal to the run stepped from Python (measured θ 1.4e-17
+    rad, θ̇ 7.6e-17 rad/s, the slider's position and the output exactly)."""
+    from test_slider_crank import TURN, rigid_slider_crank
+
+    probes = ("    crank: {hinge: crank.start, quantity: angle}\n    om: {hinge: crank.start, quantity: rate}\n"
+              "    u: {controller: ctl}\n")
+    scene = yaml.safe_load(rigid_slider_crank(TURN, "torque: ctl", "t_end: 0.5, dt: 0.005", probes, pin_mass=5.0))
+    scene["controllers"] = {"ctl": {"output": "-20*(crank - 1.0) - 3*om", "rate": 50, "limits": [-4, 4]}}
+    seen = counting_restarts(monkeypatch)
+    native, summary, calls = run_probes(scene, True, monkeypatch)
+    python, reference, _ = run_probes(scene, False, monkeypatch)
+    assert seen and all(seen) and calls == 1 and summary["newton_iterations"] == reference["newton_iterations"]
+    for name in python:
+        assert np.max(np.abs(native[name] - python[name])) <= 1e-13 * max(1.0, np.max(np.abs(python[name]))), name
+    assert np.ptp(python["crank"]) > 0.9 and np.max(np.abs(python["u"])) == 4.0

@@ -400,18 +400,17 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
 
     def restarts_natively(self, state: State) -> bool:
         """Whether the loop of steps restarts the accelerations after a sample itself (csrc/sampling.c
-        restart_after_sample: v̇ ← v̇ − M⁻¹ r): for a numbering without rigid links whose every direction
-        has an inertia that does not depend on the state (planar, or 3D beams with rotary inertia ρI_y,
-        ρI_z > 0: a 3D element's twist without it has an inertia ~ φ² of its bending, massless or not
-        as the state goes, latdyn.numerics.inertia) and none without inertia
-        (:func:`latdyn.numerics.inertia.split_inertia` of M at ``state``, once per numbering): there
-        that restart is :func:`latdyn.step.integrators.consistent_acceleration`; else the time loop
-        restarts with the split at each sample."""
+        restart_after_sample: v̇ ← v̇ − M⁻¹ r, with rigid links and guides on the minimum coordinates with
+        Pᵀ M P): for a numbering whose every direction has an inertia that does not depend on the state
+        (planar, or 3D beams with rotary inertia ρI_y, ρI_z > 0: a 3D element's twist without it has an
+        inertia ~ φ² of its bending, massless or not as the state goes, latdyn.numerics.inertia) and none
+        without inertia (:func:`latdyn.numerics.inertia.split_inertia` of the (reduced) M at ``state``,
+        once per numbering): there that restart is :func:`latdyn.step.integrators.consistent_acceleration`;
+        else the time loop restarts with the split at each sample."""
         if getattr(self, "_restart_for", None) is not self._native:
             model = self.assembler.model
             rotary = model.element_sections[:, 6:8]  # rhoIy, rhoIz (latdyn.model.model)
-            natively = (model.links is None and model.n_dofs > 0
-                        and (model.plane is not None or bool(np.all(rotary > 0.0))))
+            natively = model.n_dofs > 0 and (model.plane is not None or bool(np.all(rotary > 0.0)))
             if natively:
                 from latdyn.numerics.inertia import split_inertia
 

@@ -18,10 +18,11 @@ kernel of the scene's laws unit (codegen/laws.py ``latdyn_sampled_laws``), its s
 evaluation of the continuous controllers (csrc/evaluate.c ``sensor_value``), the cycle
 ``latdyn_sample_controllers`` (csrc/sampling.c). The compiled loop of steps takes it at every
 instant without returning to Python, and the restart after it too where every direction has an
-inertia that does not depend on the state and there are no rigid links (v̇ ← v̇ − M⁻¹r,
-:func:`latdyn.step.integrators.consistent_acceleration` with an all-massive split:
-:meth:`latdyn.step.compiled.CompiledGeneralizedAlpha.restarts_natively`); otherwise it returns after
-the sample and the time loop restarts from Python. A probe no C sensor evaluates (energy, momentum, section, joint and cable forces) is handed
+inertia that does not depend on the state (v̇ ← v̇ − M⁻¹r, with rigid links and guides on the minimum
+coordinates with Pᵀ M P: :func:`latdyn.step.integrators.consistent_acceleration` with an all-massive
+split, :meth:`latdyn.step.compiled.CompiledGeneralizedAlpha.restarts_natively`); otherwise (directions
+without inertia: 3D beams without rotary inertia) it returns after the sample and the time loop
+restarts from Python with the inertia split. A probe no C sensor evaluates (energy, momentum, section, joint and cable forces) is handed
 in from Python (:meth:`latdyn.assembly.native_model.NativeModel.sample`): the loop of steps then stops
 on the instants and the time loop calls the same cycle there.
 

@@ -224,11 +224,11 @@ static void expand(const Links *L, int64_t x, double *P, double *C, double *Rv, 
 }
 
 /* Pᵀ_rows (S P_cols + γ′ M ∂c/∂v_cols + Cd ∂(v, w)/∂q_cols + M ∂(a, alpha)/∂q_cols) of linked block b into
- * the matrix: S the block's β′M + γ′C + K (rows × columns, row-major), M its mass block or NULL; with
- * `rates` (an evaluation with inertia) the dependent rates' q-dependence at fixed independent rates through
- * the block's damping Cd (or NULL) and mass. */
-static void reduce_block(const Links *L, Work *w, int64_t b, const double *S, const double *M, const double *Cd,
-                         double gamma_p, int rates)
+ * `matrix` (the matrix storage's layout): S the block's β′M + γ′C + K (rows × columns, row-major), M its
+ * mass block or NULL; with `rates` (an evaluation with inertia) the dependent rates' q-dependence at fixed
+ * independent rates through the block's damping Cd (or NULL) and mass. */
+static void reduce_block(const Links *L, double *matrix, int64_t b, const double *S, const double *M,
+                         const double *Cd, double gamma_p, int rates)
 {
     const int64_t xr = L->block_rows[b], xc = L->block_columns[b];
     const int64_t nr = L->expansion_size[xr], nc = L->expansion_size[xc];
@@ -255,7 +255,7 @@ static void reduce_block(const Links *L, Work *w, int64_t b, const double *S, co
             if (position[uc * i + j] < 0) continue;
             double s = 0.0;
             for (int64_t q = 0; q < nr; ++q) s += Pr[ur * q + i] * B[uc * q + j];
-            w->matrix[position[uc * i + j]] += s;
+            matrix[position[uc * i + j]] += s;
         }
 }
 
@@ -294,7 +294,7 @@ static void assemble_linked(const Model *m, Work *w, const Configuration *c, dou
         const double *D = with_inertia_tangent ? w->inertia_tangent + 196 * e : NULL;
         if (L->element_block[e] >= 0) {
             combined_block(M, C, K, D, 196, beta_p, gamma_p, S);
-            reduce_block(L, w, L->element_block[e], S, M, C, gamma_p, rates);
+            reduce_block(L, w->matrix, L->element_block[e], S, M, C, gamma_p, rates);
             continue;
         }
         scatter_block(w->matrix, m->element_position + 196 * e, M, C, K, D, 196, beta_p, gamma_p);
@@ -303,7 +303,7 @@ static void assemble_linked(const Model *m, Work *w, const Configuration *c, dou
         const double *M = w->body_mass + 36 * b, *C = w->body_damping + 36 * b, *K = w->body_stiffness + 36 * b;
         if (L->body_block[b] >= 0) {
             combined_block(M, C, K, NULL, 36, beta_p, gamma_p, S);
-            reduce_block(L, w, L->body_block[b], S, M, C, gamma_p, rates);
+            reduce_block(L, w->matrix, L->body_block[b], S, M, C, gamma_p, rates);
             continue;
         }
         scatter_block(w->matrix, m->body_position + 36 * b, M, C, K, NULL, 36, beta_p, gamma_p);
@@ -314,7 +314,7 @@ static void assemble_linked(const Model *m, Work *w, const Configuration *c, dou
     for (int64_t l = 0; l < m->n_loads; ++l) {
         const double *K = w->load_blocks + 36 * l;
         if (L->load_block[l] >= 0) {
-            reduce_block(L, w, L->load_block[l], K, NULL, NULL, gamma_p, rates);
+            reduce_block(L, w->matrix, L->load_block[l], K, NULL, NULL, gamma_p, rates);
             continue;
         }
         scatter_block(w->matrix, m->load_position + 36 * l, NULL, NULL, K, NULL, 36, beta_p, gamma_p);
@@ -324,7 +324,7 @@ static void assemble_linked(const Model *m, Work *w, const Configuration *c, dou
     for (int64_t e = 0; e < m->n_couplings; ++e) {
         const double value = gamma_p * w->coupling_damping[e] + w->coupling_stiffness[e];
         if (L->coupling_block[e] >= 0)
-            reduce_block(L, w, L->coupling_block[e], &value, NULL, w->coupling_damping + e, gamma_p, rates);
+            reduce_block(L, w->matrix, L->coupling_block[e], &value, NULL, w->coupling_damping + e, gamma_p, rates);
         else if (m->coupling_position[e] >= 0)
             w->matrix[m->coupling_position[e]] += value;
     }
@@ -333,7 +333,7 @@ static void assemble_linked(const Model *m, Work *w, const Configuration *c, dou
         const double *K = w->cable_stiffness + 144 * e, *C = w->cable_damping + 144 * e;
         if (L->cable_block[e] >= 0) {
             combined_block(NULL, C, K, NULL, 144, beta_p, gamma_p, S);
-            reduce_block(L, w, L->cable_block[e], S, NULL, C, gamma_p, rates);
+            reduce_block(L, w->matrix, L->cable_block[e], S, NULL, C, gamma_p, rates);
             continue;
         }
         scatter_block(w->matrix, m->cable_position + 144 * e, NULL, C, K, NULL, 144, beta_p, gamma_p);
@@ -410,6 +410,33 @@ static void assemble_linked(const Model *m, Work *w, const Configuration *c, dou
                 if (position[W * column + j] >= 0) w->matrix[position[W * column + j]] += g;
             }
         }
+    }
+}
+
+/* The reduced mass matrix Pᵀ M P of the evaluation left in w (with inertia, at c, its dependent nodes
+ * completed) into `matrix`, a storage of the iteration matrix's layout other than w->matrix (which holds
+ * modified Newton's factorization): assemble_linked's blocks with (α_M, α_C, α_K) = (1, 0, 0), the
+ * elements' and joint bodies' mass blocks (scattered, or reduced through their expansions), nothing of
+ * the hinges, loads, controllers, cables or the geometric term (stiffness and damping alone). The slope of
+ * the reduced residual Pᵀ r(q, v, P v̇ + c) in v̇ (latdyn.assembly.linked LinkedEvaluation.combined(1, 0, 0)):
+ * the restart after a sample solves with it (sampling.c). */
+static void assemble_linked_mass(const Model *m, const Work *w, double *matrix)
+{
+    const Links *L = m->links;
+    memset(matrix, 0, sizeof(double) * m->factorization->size);
+    for (int64_t e = 0; e < m->n_elements; ++e) {
+        const double *M = w->mass + 196 * e;
+        if (L->element_block[e] >= 0) reduce_block(L, matrix, L->element_block[e], M, NULL, NULL, 0.0, 0);
+        else
+            for (int p = 0; p < 196; ++p)
+                if (m->element_position[196 * e + p] >= 0) matrix[m->element_position[196 * e + p]] += M[p];
+    }
+    for (int64_t b = 0; b < m->n_bodies; ++b) {
+        const double *M = w->body_mass + 36 * b;
+        if (L->body_block[b] >= 0) reduce_block(L, matrix, L->body_block[b], M, NULL, NULL, 0.0, 0);
+        else
+            for (int p = 0; p < 36; ++p)
+                if (m->body_position[36 * b + p] >= 0) matrix[m->body_position[36 * b + p]] += M[p];
     }
 }
 

@@ -7,7 +7,8 @@
  * Runtime code: the controllers' laws are generated (codegen/laws.py latdyn_sampled_laws, compiled with
  * the scene's other laws), their sensors are the probe evaluation of the continuous controllers
  * (evaluate.c sensor_value), the restart's mass matrix is the evaluation's blocks in the iteration
- * matrix's storage, factorized and solved by factorization.c.
+ * matrix's storage (reduced onto the minimum coordinates with rigid links and guides, links.c),
+ * factorized and solved by factorization.c.
  */
 
 /* Whether t is a sample instant j / rate (within `tolerance`); the instant itself in *instant. */
@@ -54,14 +55,17 @@ int64_t latdyn_sample_controllers(const Model *m, Work *w, const Configuration *
 }
 
 /* The restart after a sample at the accepted state c, time t, for a model whose every direction has
- * inertia and without rigid links (the caller knows: latdyn/step/compiled.py): the held outputs jumped,
- * and the accelerations go on from those consistent with the equations of motion under the new ones,
- * as GeneralizedAlpha.start makes them (latdyn/step/integrators.py consistent_acceleration, whose split
- * is then all massive): r is affine in v̇ with slope M, so
+ * inertia (the caller knows: latdyn/step/compiled.py restarts_natively): the held outputs jumped, and the
+ * accelerations go on from those consistent with the equations of motion under the new ones, as
+ * GeneralizedAlpha.start makes them (latdyn/step/integrators.py consistent_acceleration, whose split is
+ * then all massive): r is affine in v̇ with slope M, so
  *     v̇ ← v̇ − M⁻¹ r(q, v, v̇),
  * M the evaluation's mass blocks scattered into the iteration matrix's storage (Work restart_matrix,
  * apart from the matrix that holds modified Newton's factorization), factorized and solved with
- * factorization.c; into c and as the algorithmic acceleration a_n. Then the continuous controllers'
+ * factorization.c; into c and as the algorithmic acceleration a_n. With rigid links and guides the same on
+ * the minimum coordinates: the dependent nodes' accelerations P v̇ + c(q, v) (complete_links), so the
+ * reduced residual Pᵀ r is affine in the minimum v̇ with slope Pᵀ M P (links.c assemble_linked_mass),
+ * the dependent nodes completed again with the new v̇. Then the continuous controllers'
  * state rates at c (latdyn_controller_states_accept with h = 0, as the start takes them) and, from an
  * evaluation at the restarted state, the power of the point loads and prescribed motion, the hinges'
  * work and damper torques and the cables' accounts that start the next step (the time loop's
@@ -72,14 +76,20 @@ static int64_t restart_after_sample(const Model *m, Work *w, Configuration *c, d
     const Factorization *f = m->factorization;
     double *M = w->restart_matrix, *vdot = w->rhs;
     m->time_laws(t, w->laws);
+    if (m->links) complete_links(m, c);
     evaluate(m, c, w, w->laws, t, 1, 1, 1.0);
-    memset(M, 0, sizeof(double) * (size_t)f->size);
-    for (int64_t e = 0; e < m->n_elements; ++e)
-        for (int p = 0; p < 196; ++p)
-            if (m->element_position[196 * e + p] >= 0) M[m->element_position[196 * e + p]] += w->mass[196 * e + p];
-    for (int64_t b = 0; b < m->n_bodies; ++b)
-        for (int p = 0; p < 36; ++p)
-            if (m->body_position[36 * b + p] >= 0) M[m->body_position[36 * b + p]] += w->body_mass[36 * b + p];
+    if (m->links) {
+        reduce_links(m, w, c, 0.0, 0.0, 0, 0); /* Pᵀ r into w->total; w->matrix (the held factors) untouched */
+        assemble_linked_mass(m, w, M);
+    } else {
+        memset(M, 0, sizeof(double) * (size_t)f->size);
+        for (int64_t e = 0; e < m->n_elements; ++e)
+            for (int p = 0; p < 196; ++p)
+                if (m->element_position[196 * e + p] >= 0) M[m->element_position[196 * e + p]] += w->mass[196 * e + p];
+        for (int64_t b = 0; b < m->n_bodies; ++b)
+            for (int p = 0; p < 36; ++p)
+                if (m->body_position[36 * b + p] >= 0) M[m->body_position[36 * b + p]] += w->body_mass[36 * b + p];
+    }
     int64_t failed = latdyn_factor(f, M, w->restart_pivots);
     if (failed) return failed;
     for (int64_t i = 0; i < n; ++i) vdot[f->permutation[i]] = -w->total[i];
@@ -100,9 +110,11 @@ static int64_t restart_after_sample(const Model *m, Work *w, Configuration *c, d
         const int64_t j = m->free_hinges[k];
         c->theta_ddot[j] = a_n[m->hinge_dofs[j]];
     }
+    if (m->links) complete_links(m, c);  /* the dependent nodes' accelerations from the new v̇ */
     latdyn_controller_states_accept(m, w, c, t, 0.0);
     m->time_laws(t, w->laws);
     const double power = evaluate(m, c, w, w->laws, t, 0, 1, 1.0);
+    if (m->links) reduce_links(m, w, c, 0.0, 0.0, 0, 0);  /* the constrained coordinates' reactions */
     adv->power = power + drive_power(m, c, w->total);
     for (int64_t j = 0; j < m->n_hinges; ++j) {
         adv->hinge_work_torque[j] = w->hinge_work_torque[j];
