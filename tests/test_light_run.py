@@ -194,6 +194,41 @@ def test_a_run_whose_laws_are_compiled_does_not_import_sympy(tmp_path):
     assert (tmp_path / "out0" / "probes.csv").read_bytes() == (tmp_path / "out1" / "probes.csv").read_bytes()
 
 
+def test_latdyn_run_starts_one_blas_thread_unless_the_user_chose_and_the_files_are_the_same(tmp_path):
+    """``latdyn run`` as its process's command starts NumPy's and SciPy's OpenBLAS with one thread (their
+    pools' start and spinning: ~80 ms of CPU of a lattice's run), a thread count the user set is kept,
+    ``main([...])`` called in a process leaves its threads alone, and the probes are the API's, run in a
+    process with the default threads, to the byte."""
+    scene = tmp_path / "beam.yaml"
+    scene.write_text(BEAM)
+    code = textwrap.dedent("""
+        import json, os, sys
+        from latdyn.cli import main
+        out, called = sys.argv[1], sys.argv[2] == "argv"
+        sys.argv = ["latdyn", "run", os.environ["SCENE"], "-o", out, "-q"]
+        code = main(sys.argv[1:]) if called else main()
+        import threadpoolctl
+        threads = sorted({lib["num_threads"] for lib in threadpoolctl.threadpool_info() if lib["internal_api"] == "openblas"})
+        print(json.dumps({"code": code, "threads": threads, "variable": os.environ.get("OPENBLAS_NUM_THREADS")}))
+        """)
+    env = {k: v for k, v in os.environ.items() if k not in ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS", "OMP_NUM_THREADS")}
+    env.update(PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""), SCENE=str(scene))
+    found = {}
+    for name, how, extra in (("command", "main", {}), ("chosen", "main", {"OPENBLAS_NUM_THREADS": "2"}),
+                             ("called", "argv", {})):
+        done = subprocess.run([sys.executable, "-c", code, str(tmp_path / name), how], capture_output=True,
+                              text=True, env={**env, **extra}, timeout=300)
+        assert done.returncode == 0, done.stderr[-2000:]
+        found[name] = json.loads(done.stdout.strip().splitlines()[-1])
+    assert found["command"] == {"code": 0, "threads": [1], "variable": "1"}
+    assert found["chosen"] == {"code": 0, "threads": [2], "variable": "2"}
+    assert found["called"]["code"] == 0 and found["called"]["variable"] is None
+    assert found["called"]["threads"] != [1] or (os.cpu_count() or 1) == 1  # OpenBLAS's default: a thread a core
+    latdyn.run(latdyn.load_scene(str(scene)), out_dir=str(tmp_path / "api"))
+    for name in ("command", "chosen", "called"):
+        assert (tmp_path / name / "probes.csv").read_bytes() == (tmp_path / "api" / "probes.csv").read_bytes()
+
+
 # ----------------------------------------------------------------------------- the end of the process
 def test_the_command_leaves_complete_files_and_a_call_in_process_keeps_the_collector(tmp_path):
     """``python -m latdyn run`` freezes the garbage collector at its start and end (cli._start_of_the_process,
