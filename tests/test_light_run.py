@@ -320,7 +320,7 @@ def test_csr_products_are_scipys_to_the_last_bit(direct_keys, monkeypatch):
         assert _same_bits(transposed(a).data, t.data) and _same_bits(transposed(a).indices, t.indices.astype(np.int64))
 
 
-def test_the_consistent_start_without_scipy_is_the_same_to_the_bit():
+def test_the_consistent_start_without_scipy_is_the_same_to_the_bit(monkeypatch):
     """The start's Δv̇ = Q_m (Q_mᵀ M Q_m)⁻¹ (−Q_mᵀ r) of a 3D frame of 324 coordinates at a random
     moving state: in NumPy (numerics.csr) and through SciPy's sparse matrices, bit for bit."""
     from test_linalg import lattice
@@ -337,11 +337,8 @@ def test_the_consistent_start_without_scipy_is_the_same_to_the_bit():
     state.w[:] += 0.1 * rng.standard_normal(state.w.shape)
     evaluation = prepared.assembler.evaluate(state, matrices=True)
     ours = integrators.consistent_acceleration(prepared.model, evaluation)
-    try:
-        integrators._start_without_scipy = lambda model: False
-        theirs = integrators.consistent_acceleration(prepared.model, evaluation)
-    finally:
-        del integrators._start_without_scipy  # the module's own function again
+    monkeypatch.setattr(integrators, "_start_without_scipy", lambda model: False)  # restored after the test
+    theirs = integrators.consistent_acceleration(prepared.model, evaluation)
     assert np.max(np.abs(ours)) > 1.0 and _same_bits(ours, theirs)
 
 
