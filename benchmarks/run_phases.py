@@ -96,6 +96,8 @@ def _child(scene: str, out: str) -> int:
     started = (time.perf_counter(), time.process_time())
     import latdyn.cli as cli  # noqa: E402
 
+    # as the command does for ``run`` before anything imports NumPy (one OpenBLAS thread; a tree without it: nothing)
+    getattr(cli, "one_blas_thread", lambda: False)()
     phase("import latdyn.cli", started)
     started = (time.perf_counter(), time.process_time())
     modules = {}

@@ -30,7 +30,6 @@ import warnings
 from pathlib import Path
 
 from latdyn.errors import MissingExtra, SceneError, SolverError, UnboundedError
-from latdyn.timeloop.checkpoint import CHECKPOINT_FILE, CheckpointError
 from latdyn.version import __version__
 
 __all__ = ["main", "build_parser", "default_out_dir"]
@@ -68,6 +67,8 @@ def _load_scene(path: str):
 
 # ----------------------------------------------------------------------------- commands
 def _command_run(args) -> int:
+    from latdyn.timeloop.checkpoint import CheckpointError  # NumPy on use: see one_blas_thread
+
     scene = _load_scene(args.scene)  # SceneError -> 2 before anything is written
     out_dir = Path(args.out) if args.out else default_out_dir(args.scene)
     existed = out_dir.exists()
@@ -119,6 +120,8 @@ def _command_run(args) -> int:
 
 
 def _resume_hint(args, out_dir: Path) -> None:
+    from latdyn.timeloop.checkpoint import CHECKPOINT_FILE
+
     if (out_dir / CHECKPOINT_FILE).is_file():
         print(f"{PROG}: a checkpoint of the last accepted step is in {out_dir}; continue with "
               f"`{PROG} run {args.scene} -o {out_dir} --resume`", file=sys.stderr)
@@ -324,7 +327,7 @@ def main(argv=None) -> int:
     if argv is None:
         _start_of_the_process()
     try:
-        return _main(argv)
+        return _main(argv, command=argv is None)
     finally:
         if argv is None:
             _end_of_the_process()
@@ -340,6 +343,31 @@ def _start_of_the_process() -> None:
     gc.freeze()
 
 
+#: The variables by which a user chooses OpenBLAS's threads (OpenBLAS reads them in this order).
+BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS", "OMP_NUM_THREADS")
+
+
+def one_blas_thread() -> bool:
+    """``latdyn run`` as the process's own command: NumPy's and SciPy's OpenBLAS start with one
+    thread (``OPENBLAS_NUM_THREADS=1`` set before NumPy is imported), unless the user chose their
+    threads with one of :data:`BLAS_THREAD_VARIABLES` or NumPy is loaded already. Returns whether it set it.
+
+    The time step is one thread of C whose LAPACK and BLAS calls are pinned to one thread already
+    (:func:`latdyn.numerics.linalg.openblas_thread_functions`); what the thread pools of the two
+    OpenBLAS libraries still cost is their start and their workers' spinning after a threaded call:
+    ≈ 80 ms of CPU of the 16-bay lattice's 0.57 s (docs/performance.md, "Where a run's time goes"),
+    no wall time on an idle second core, all of it on a busy one. The results are the same: the
+    step does not use the pools, and the files of the runs compared were equal to the byte with and
+    without (tests/test_light_run.py; docs/performance.md). The API (:func:`latdyn.run`) leaves the
+    calling process's threads as they are."""
+    import os
+
+    if "numpy" in sys.modules or any(os.environ.get(name) for name in BLAS_THREAD_VARIABLES):
+        return False
+    os.environ["OPENBLAS_NUM_THREADS"] = "1"
+    return True
+
+
 def _end_of_the_process() -> None:
     """Freeze the garbage collector before the interpreter exits (``gc.freeze``): its passes at exit
     traced every object of the run (70–100 ms of CPU after a 16-bay lattice's run, more than its
@@ -353,12 +381,14 @@ def _end_of_the_process() -> None:
     gc.freeze()
 
 
-def _main(argv=None) -> int:
+def _main(argv=None, command: bool = False) -> int:
     parser = build_parser()
     try:
         args = parser.parse_args(argv)
     except SystemExit as exc:  # argparse: 2 on bad arguments, 0 for --help/--version
         return int(exc.code or 0)
+    if command and args.command == "run":
+        one_blas_thread()
     debug = getattr(args, "debug", False)
     try:
         with warnings.catch_warnings():

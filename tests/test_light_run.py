@@ -181,6 +181,86 @@ def test_a_band_model_runs_without_scipy_sparse(tmp_path):
     assert found["loaded"] == []
 
 
+SPIN = """
+sections:
+  arm: {EA: 2.8e7, EIy: 1.4e4, EIz: 1.4e4, GJ: 1.0e4, rhoA: 1.2}
+bodies:
+  hub:
+    at: [0, 0, 0]
+    motion:
+      rotation:
+        axis: [0, 0, 1]
+        angle: "Piecewise((6/15*(t**2/2 + (15/(2*pi))**2*(cos(2*pi*t/15) - 1)), t < 15), (6*(t - 7.5), True))"
+beams:
+  arm: {from: hub, to: [10, 0, 0], section: arm, elements: 2}
+loads:
+  - {at: arm.end, force: [0, 0, "-0.1*sin(3*t)"]}
+solve: {analysis: transient, t_end: 0.02, dt: 0.01}
+output:
+  every: 0.01
+  probes:
+    tip_v: {point: arm.end, quantity: position, frame: hub, component: y}
+"""
+
+
+def test_a_run_whose_laws_are_compiled_does_not_import_sympy(tmp_path):
+    """The compiled laws are found in the cache by their text: a run of a prescribed hub angle and a load
+    in t whose laws were compiled before (the first run) neither imports SymPy (0.3 s of a run's start)
+    nor prints C, and its probes are the first run's to the byte."""
+    scene = tmp_path / "spin.yaml"
+    scene.write_text(SPIN)
+    code = textwrap.dedent("""
+        import json, sys
+        from latdyn.cli import main
+        code = main(["run", sys.argv[1], "-o", sys.argv[2], "-q"])
+        print(json.dumps({"code": code, "sympy": "sympy" in sys.modules}))
+        """)
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    found = []
+    for k in range(2):
+        done = subprocess.run([sys.executable, "-c", code, str(scene), str(tmp_path / f"out{k}")],
+                              capture_output=True, text=True, env=env, timeout=300)
+        assert done.returncode == 0, done.stderr[-2000:]
+        found.append(json.loads(done.stdout.strip().splitlines()[-1]))
+    assert found[1] == {"code": 0, "sympy": False}
+    assert (tmp_path / "out0" / "probes.csv").read_bytes() == (tmp_path / "out1" / "probes.csv").read_bytes()
+
+
+def test_latdyn_run_starts_one_blas_thread_unless_the_user_chose_and_the_files_are_the_same(tmp_path):
+    """``latdyn run`` as its process's command starts NumPy's and SciPy's OpenBLAS with one thread (their
+    pools' start and spinning: ~80 ms of CPU of a lattice's run), a thread count the user set is kept,
+    ``main([...])`` called in a process leaves its threads alone, and the probes are the API's, run in a
+    process with the default threads, to the byte."""
+    scene = tmp_path / "beam.yaml"
+    scene.write_text(BEAM)
+    code = textwrap.dedent("""
+        import json, os, sys
+        from latdyn.cli import main
+        out, called = sys.argv[1], sys.argv[2] == "argv"
+        sys.argv = ["latdyn", "run", os.environ["SCENE"], "-o", out, "-q"]
+        code = main(sys.argv[1:]) if called else main()
+        import threadpoolctl
+        threads = sorted({lib["num_threads"] for lib in threadpoolctl.threadpool_info() if lib["internal_api"] == "openblas"})
+        print(json.dumps({"code": code, "threads": threads, "variable": os.environ.get("OPENBLAS_NUM_THREADS")}))
+        """)
+    env = {k: v for k, v in os.environ.items() if k not in ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS", "OMP_NUM_THREADS")}
+    env.update(PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""), SCENE=str(scene))
+    found = {}
+    for name, how, extra in (("command", "main", {}), ("chosen", "main", {"OPENBLAS_NUM_THREADS": "2"}),
+                             ("called", "argv", {})):
+        done = subprocess.run([sys.executable, "-c", code, str(tmp_path / name), how], capture_output=True,
+                              text=True, env={**env, **extra}, timeout=300)
+        assert done.returncode == 0, done.stderr[-2000:]
+        found[name] = json.loads(done.stdout.strip().splitlines()[-1])
+    assert found["command"] == {"code": 0, "threads": [1], "variable": "1"}
+    assert found["chosen"] == {"code": 0, "threads": [2], "variable": "2"}
+    assert found["called"]["code"] == 0 and found["called"]["variable"] is None
+    assert found["called"]["threads"] != [1] or (os.cpu_count() or 1) == 1  # OpenBLAS's default: a thread a core
+    latdyn.run(latdyn.load_scene(str(scene)), out_dir=str(tmp_path / "api"))
+    for name in ("command", "chosen", "called"):
+        assert (tmp_path / name / "probes.csv").read_bytes() == (tmp_path / "api" / "probes.csv").read_bytes()
+
+
 # ----------------------------------------------------------------------------- the end of the process
 def test_the_command_leaves_complete_files_and_a_call_in_process_keeps_the_collector(tmp_path):
     """``python -m latdyn run`` freezes the garbage collector at its start and end (cli._start_of_the_process,

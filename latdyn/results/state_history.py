@@ -97,7 +97,7 @@ class StateHistory:
         self.keys: list[str] | None = None  # fixed by the first state
         self.widths: dict[str, int] = {}
         self._pending_t: list[float] = []
-        self._pending: dict[str, list[np.ndarray]] = {}
+        self._pending: dict[str, list[np.ndarray]] = {}  # per key, blocks of rows (n_i, width) in order
         self.use_h5 = h5py is not None
         self.rows_on_disk = 0
         self._unsynced = False  # the file on disk was last written without a sync
@@ -136,7 +136,7 @@ class StateHistory:
         if self.folder is None:
             return
         for k in self.keys:
-            self._pending[k].append(arrays[k])
+            self._pending[k].append(arrays[k].reshape(1, -1))
         self._pending_t.append(t)
 
     def add_rows(self, times, states: dict) -> None:
@@ -148,8 +148,9 @@ class StateHistory:
         self.add(times[0], {k: a[0] for k, a in arrays.items()})
         if self.folder is None:
             return
-        for k in self.keys:
-            self._pending[k].extend(arrays[k][1:])
+        if len(times) > 1:
+            for k in self.keys:  # one block, not a view a row (2001 rows: np.stack of 2000 views a key)
+                self._pending[k].append(arrays[k][1:])
         self._pending_t.extend(float(t) for t in times[1:])
 
     def write(self, durable: bool = True) -> bool:
@@ -175,6 +176,11 @@ class StateHistory:
         if self.keys is None or self.folder is None:
             return {}
         return {"state_file": self.path.name, "state_rows": self.rows_on_disk}
+
+    def _rows(self, k: str) -> np.ndarray:
+        """The pending rows of ``k`` as one (rows, width) array (its blocks joined, values unchanged)."""
+        blocks = self._pending[k]
+        return np.concatenate(blocks) if blocks else np.zeros((0, self.widths[k]))
 
     def _write_h5(self, durable: bool) -> None:
         path = self.path
@@ -207,7 +213,7 @@ class StateHistory:
             f["t"][n_old:] = np.asarray(self._pending_t)
             for k in self.keys:
                 f[k].resize((n_old + n_new, self.widths[k]))
-                f[k][n_old:] = np.stack(self._pending[k]).reshape(n_new, self.widths[k])
+                f[k][n_old:] = self._rows(k)
         if durable:
             fsync_path(tmp)
         os.replace(tmp, path)
@@ -221,7 +227,7 @@ class StateHistory:
         arrays = {"t": np.asarray(self._pending_t, dtype=float)}
         for k in self.keys:
             width = self.widths[k]
-            arrays[k] = np.stack(self._pending[k]).reshape(-1, width) if self._pending[k] else np.zeros((0, width))
+            arrays[k] = self._rows(k)
         if self.labels or self.attributes:
             labels = dict(self.attributes)
             labels["columns"] = {k: v for k, v in self.labels.items() if k in self.widths}
@@ -266,7 +272,7 @@ class StateHistory:
             self.rows_on_disk = rows
         else:  # the whole history in memory, as the writer keeps it
             self._pending_t = [float(x) for x in history["t"][:rows]]
-            self._pending = {k: [row.copy() for row in history[k][:rows]] for k in self.keys}
+            self._pending = {k: [np.array(history[k][:rows], dtype=float).reshape(-1, widths[k])] for k in self.keys}
             self.rows_on_disk = on_disk
             if on_disk > rows:
                 self._write_npz(durable=True)
