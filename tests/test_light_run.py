@@ -290,7 +290,7 @@ def test_the_command_leaves_complete_files_and_a_call_in_process_keeps_the_colle
     assert gc.get_freeze_count() == frozen
 
 
-def test_a_short_run_writes_its_state_history_once_and_a_kill_keeps_the_last_checkpoint(tmp_path):
+def test_a_short_run_writes_its_state_history_once_and_an_asked_checkpoint_at_once(tmp_path):
     """``checkpoint_min_seconds`` (a run's writer: 1 s): rows due by count are not rewritten before it;
     the close writes every row; a checkpoint asked for (a resume checkpoint's) is written at once."""
     from latdyn.results.state_history import STATE_H5_FILE

@@ -50,7 +50,10 @@ class CSR:
 
     @classmethod
     def from_coo(cls, values, rows, cols, shape) -> "CSR":
-        """Entries (rows, cols, values), duplicates added in their order (SciPy's ``tocsr``)."""
+        """Entries (rows, cols, values), duplicates added in their order: SciPy's ``tocsr`` to the bit where
+        an entry has at most two duplicates, as every caller's has (SciPy sorts a row of more than 16
+        entries with an unstable sort, so three or more duplicates of one entry may be added in another
+        order there and differ in the last bit)."""
         rows, cols = np.asarray(rows, np.int64), np.asarray(cols, np.int64)
         keys = rows * shape[1] + cols
         values = np.asarray(values, float)
