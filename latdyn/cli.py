@@ -322,22 +322,28 @@ def _one_line_warning(message, category, filename, lineno, file=None, line=None)
 def main(argv=None) -> int:
     """Run the command line; returns the exit status. Called as the process's own command
     (``argv`` None: ``python -m latdyn``, the ``latdyn`` script), the garbage collector leaves
-    alone what the process imported before it (:func:`_start_of_the_process`) and, as the process
-    ends next, what the command made (:func:`_end_of_the_process`)."""
+    alone what the process imported before it and, as the process ends next, what the command made
+    (:func:`_freeze_collector`)."""
     if argv is None:
-        _start_of_the_process()
+        _freeze_collector()
     try:
         return _main(argv, command=argv is None)
     finally:
         if argv is None:
-            _end_of_the_process()
+            _freeze_collector()
 
 
-def _start_of_the_process() -> None:
-    """Freeze what the process holds before the command (``gc.freeze``: the modules imported, their
-    functions and classes, which live as long as the process): the collector's passes during the run
-    no longer trace them again and again (the 16-bay lattice's ``latdyn run``: 0.84 → 0.76 s of CPU,
-    medians of 8 at load 5-6, docs/performance.md). What the command makes is collected as before."""
+def _freeze_collector() -> None:
+    """``gc.freeze``, at the command's start and again as the process ends. At the start: what the
+    process holds before the command (the modules imported, their functions and classes, which live as
+    long as the process) is no longer traced by the collector's passes during the run (the 16-bay
+    lattice's ``latdyn run``: 0.84 → 0.76 s of CPU, medians of 8 at load 5-6, docs/performance.md);
+    what the command makes is collected as before. At the end: the passes at exit traced every object
+    of the run (70–100 ms of CPU after a 16-bay lattice's run; docs/performance.md, "Where a run's time
+    goes") only to free memory the operating system takes back anyway. Nothing is skipped that a result
+    needs: every file of the run was closed and synced by its writer before (ResultWriter.close), the
+    atexit functions and the flush of stdout and stderr still run, and objects still go when their last
+    reference does; only cycles of unreachable objects are left to the operating system."""
     import gc
 
     gc.freeze()
@@ -366,19 +372,6 @@ def one_blas_thread() -> bool:
         return False
     os.environ["OPENBLAS_NUM_THREADS"] = "1"
     return True
-
-
-def _end_of_the_process() -> None:
-    """Freeze the garbage collector before the interpreter exits (``gc.freeze``): its passes at exit
-    traced every object of the run (70–100 ms of CPU after a 16-bay lattice's run, more than its
-    ParaView frames; docs/performance.md, "Where a run's time goes") only to free memory the
-    operating system takes back anyway. Nothing is skipped that a result needs: every file of the
-    run was closed and synced by its writer before (ResultWriter.close), the atexit functions and
-    the flush of stdout and stderr still run, and objects still go when their last reference does;
-    only cycles of unreachable objects are left to the operating system with the process."""
-    import gc
-
-    gc.freeze()
 
 
 def _main(argv=None, command: bool = False) -> int:

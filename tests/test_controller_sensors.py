@@ -19,6 +19,7 @@ import yaml
 
 import latdyn
 from cli_runs import latdyn_run, probe_columns
+from test_controllers import linear_model_of
 
 GUIDED = """
 inputs: {{kp: 40.0, kd: 8.0, ref: 1.0, u: 0.0}}
@@ -67,15 +68,6 @@ def test_pd_on_a_guided_mass_api_3d():
     """The same loop on a skew guide (axis [0, 1, 1]/√2) through the API, the force the name alone."""
     result = latdyn.run(latdyn.load_scene(yaml.safe_load(guided("ctl", axis=SPATIAL))))
     assert np.max(np.abs(result.probes["x"] - oscillator(result.t, 40.0, 8.0, 2.0, 1.0))) < 4e-5
-
-
-def linear_model_of(text: str) -> dict:
-    import tempfile
-
-    with tempfile.TemporaryDirectory() as folder:
-        latdyn.run(latdyn.load_scene(yaml.safe_load(text)), Path(folder))
-        with np.load(Path(folder) / "linear_model.npz") as data:
-            return {k: data[k] for k in data.files}
 
 
 def test_guide_sensor_closed_loop_is_open_loop_plus_bkc():

@@ -263,8 +263,7 @@ def test_latdyn_run_starts_one_blas_thread_unless_the_user_chose_and_the_files_a
 
 # ----------------------------------------------------------------------------- the end of the process
 def test_the_command_leaves_complete_files_and_a_call_in_process_keeps_the_collector(tmp_path):
-    """``python -m latdyn run`` freezes the garbage collector at its start and end (cli._start_of_the_process,
-    cli._end_of_the_process):
+    """``python -m latdyn run`` freezes the garbage collector at its start and end (cli._freeze_collector):
     the results it leaves are complete (summary.json solved, the rows of every step, state.h5 and
     the ParaView files readable); ``cli.main([...])`` called in a process that goes on (a test, a
     notebook) leaves its collector as it was."""

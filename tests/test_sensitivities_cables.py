@@ -17,6 +17,7 @@ import yaml
 
 import latdyn
 from latdyn.errors import SceneError
+from tests.test_sensitivities_events import _run
 
 DROP = """
 title: a mass dropped on a slack massless cable
@@ -60,14 +61,6 @@ output:
     tip_x: {point: tip, quantity: position, component: x}
     mid_y: {point: "arm.node[1]", quantity: displacement, component: y}
 """
-
-
-def _run(text: str, only: str | None = None, **parameters):
-    data = yaml.safe_load(text)
-    data["parameters"].update(parameters)
-    if only is not None:
-        data["solve"]["sensitivities"] = [only]
-    return latdyn.run(latdyn.load_scene(data))
 
 
 def _agree(result, text: str, name: str, relative: float = 1e-4, tolerance: float = 1e-6) -> float:

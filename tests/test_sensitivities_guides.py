@@ -11,6 +11,7 @@ import yaml
 
 import latdyn
 from latdyn.errors import SceneError
+from tests.test_sensitivities_events import _run
 
 #: a bead on a rod that a prescribed motion turns at Ω = 2 rad/s, on a spring along the rod: the centrifugal
 #: pull mΩ² s against k — the Coriolis and centrifugal terms of a guide on a moving body
@@ -54,14 +55,6 @@ output:
     slider_y: {point: slider, quantity: position, component: y}
     mid_x: {point: "arm.node[1]", quantity: displacement, component: x}
 """
-
-
-def _run(text: str, only: str | None = None, **parameters):
-    data = yaml.safe_load(text)
-    data["parameters"].update(parameters)
-    if only is not None:
-        data["solve"]["sensitivities"] = [only]
-    return latdyn.run(latdyn.load_scene(data))
 
 
 def _agree(result, text: str, name: str, tolerance: float = 1e-6) -> float:

@@ -614,16 +614,24 @@ class StaticSensitivities(ParameterDerivatives):
         if constraint_gradient is not None:   # the residual is affine in λ: q_ref = r(λ) − r(λ + 1)
             shifted = self.assembler.evaluate(state, matrices=False, load_factor=load_factor + 1.0, inertia=False)
             rhs = np.column_stack([rhs, ev.residual - shifted.residual])
-        try:
-            solved = np.asarray(solve_linear(ev.stiffness, rhs)).reshape(model.n_dofs, -1)
-        except np.linalg.LinAlgError:
-            raise SolverError(f"the sensitivities at load factor {load_factor:.6g} need the static stiffness, "
-                              "which is singular there (a limit or bifurcation point)") from None
+        solved = self._solve(ev.stiffness, rhs, load_factor)
         tangent, moved = solved[:, :k], np.zeros(k)
         if constraint_gradient is not None:
             g, along_load = constraint_gradient(state), solved[:, k]
             moved = -(g @ tangent) / float(g @ along_load)          # δλ
             tangent = tangent + np.outer(along_load, moved)
+        self._append_row(state, load_factor, tangent, moved)
+
+    def _solve(self, stiffness, rhs, load_factor):
+        """K⁻¹ rhs (n, columns); a singular K refused (SolverError)."""
+        try:
+            return np.asarray(solve_linear(stiffness, rhs)).reshape(self.model.n_dofs, -1)
+        except np.linalg.LinAlgError:
+            raise SolverError(f"the sensitivities at load factor {load_factor:.6g} need the static stiffness, "
+                              "which is singular there (a limit or bifurcation point)") from None
+
+    def _append_row(self, state, load_factor, tangent: np.ndarray, moved) -> None:
+        """The row at ``state``: the load factor's sensitivities ``moved`` and the probes' along ``tangent``."""
         self.load_factor_rows.append([float(x) for x in moved])
         moved_by = self._by_parameter(tangent, state)
         self.rows.append((load_factor, [value for p in self.probes
@@ -718,17 +726,7 @@ class ArcLengthSensitivities(StaticSensitivities):
             solved = bordered_solve(ev.stiffness, -load, along, np.vstack([rhs, held[None]]), load_factor)
             tangent, moved = solved[:-1], solved[-1]
         self.previous = tangent
-        self.load_factor_rows.append([float(x) for x in moved])
-        moved_by = self._by_parameter(tangent, state)
-        self.rows.append((load_factor, [value for p in self.probes
-                                        for value in self._probe_derivatives(p, state, *moved_by)]))
-
-    def _solve(self, stiffness, rhs, load_factor):
-        try:
-            return np.asarray(solve_linear(stiffness, rhs)).reshape(self.model.n_dofs, -1)
-        except np.linalg.LinAlgError:
-            raise SolverError(f"the sensitivities at load factor {load_factor:.6g} need the static stiffness, "
-                              "which is singular there (a limit or bifurcation point)") from None
+        self._append_row(state, load_factor, tangent, moved)
 
     def _first_step_derivative(self, state) -> np.ndarray:
         """δΔs₀/Δs₀ per parameter: Δs₀ = ‖t₀‖_W/steps, t₀ = K₀⁻¹q_ref at the start (λ = 0), so
@@ -884,15 +882,6 @@ def bordered_solve(stiffness, column: np.ndarray, row: np.ndarray, rhs: np.ndarr
                           "matrix, which is singular there (a bifurcation point)") from None
 
 
-def _has_events(scene) -> bool:
-    """Whether ``scene`` has events whose time the transient sensitivities follow (hinges' latches and
-    stops, rigid or compliant; guides' latches and stops; cables' slack and taut changes)."""
-    hinges = any(h.lock_at is not None or h.limits is not None for _, _, h in scene.hinges)
-    guides = any(b.guide is not None and (b.guide.lock_at is not None or b.guide.limits is not None)
-                 for b in scene.bodies.values())
-    return hinges or guides or bool(scene.cables)
-
-
 class ControllerTerms:
     """∂r/∂p through continuous controllers (SCENE.md ``controllers`` without ``rate``) for transient
     sensitivities. A controller's output y = clip(f(t, s; p)) is a law of its sensors s (probes read at
@@ -959,7 +948,7 @@ class ControllerTerms:
         if why is not None:
             return why
         for c in scene.controllers.values():
-            if c.states and _has_events(scene):
+            if c.states and has_events(scene):
                 return (f"sensitivities of runs with controllers with states ({c.name}: states) and events (a latch, "
                         "a stop, a compliant stop's onset, a cable's change: the event time moves the states' "
                         "trapezoidal step) are not computed yet; continuous controllers with states are without them")
@@ -1230,7 +1219,7 @@ class SampledTerms:
             return None
         names = {c.name for c in sampled}
         probes = {p.name for p in scene.output.probes}
-        if _has_events(scene):
+        if has_events(scene):
             return (f"sensitivities of runs with sampled controllers ({sampled[0].name}) and events (a latch, a "
                     "stop, a compliant stop's onset, a cable's change) are not computed yet")
         for c in scene.controllers.values():

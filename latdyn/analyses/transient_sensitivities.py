@@ -806,7 +806,7 @@ class ExplicitTime:
     def of(cls, owner) -> "ExplicitTime | None":
         """The scene's explicit time dependence, or None where nothing depends on t or no event can move a
         step's end in time (then every δt is 0: :func:`latdyn.analyses.sensitivities.has_events`)."""
-        from latdyn.analyses.sensitivities import depends_on_time, has_events
+        from latdyn.analyses.sensitivities import _prescribed_motion, depends_on_time, has_events
 
         scene = owner.scene
         reels = any(not c.rest_length.is_constant for c in scene.cables.values()) if scene.cables else False
@@ -829,9 +829,7 @@ class ExplicitTime:
             if body.guide is not None:
                 for law in ("stiffness", "damping", "force"):
                     add(f"bodies.{name}.guide.{law}", getattr(body.guide, law))
-        prescribed = any(body.prescribed for body in scene.bodies.values()) or any(
-            hinge.angle is not None for _, _, hinge in scene.hinges)
-        return cls(owner, laws, prescribed, reels)
+        return cls(owner, laws, _prescribed_motion(scene), reels)
 
     def of_laws(self, state, inertia: bool = True, on_all: bool = False) -> np.ndarray:
         """∂r/∂t of the laws and reels (not the prescribed motions): (n_total + 1,) with ``on_all``, else on
@@ -1048,8 +1046,7 @@ class CableSensitivities:
         δt_n (k,) of the step's start: a reel's rest length L0(t) moves the gap by ∂g/∂L0 L0′(t) δt_{n+1}
         (:meth:`gap_rate`)."""
         model, cables = self.model, self.cables
-        _, _, _, s = self.law(new, e)
-        damped = s[4] < s[3]                       # the gap is the tension N (with its damper), else N_el
+        damped = self._damped(new, e)              # the gap is the tension N (with its damper), else N_el
         c = cables.damping[e] if damped else 0.0
         force, K, C, s = self.law(new, e, c=c)
         # e, the unit vector from the first end point to the second (F_1 = N e)

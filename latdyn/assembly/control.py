@@ -143,6 +143,12 @@ class Wiring:
     _probe_names: tuple = ()
 
 
+
+def _gradient_width(kind: int, columns) -> int:
+    """How many gradient columns a sensor of ``kind`` carries (a cable's length: one per coordinate of its
+    ends, ``columns``)."""
+    return _GRADIENT_COLUMNS.get(kind, len(columns) if kind == CABLE_LENGTH else 0)
+
 def _refuse(scene, key, what):
     raise SceneError(scene.file, key, what)
 
@@ -297,7 +303,7 @@ def wiring(model, assembler) -> Wiring:
     out.sensor_origin = np.array(origins, float)
     out.sensor_offset = np.array(offsets, float).reshape(-1, 3)
     out.sensor_frame_node = np.array(frames, np.int64)
-    out.sensor_column_start = np.cumsum([0] + [_GRADIENT_COLUMNS.get(kind, len(columns) if kind == CABLE_LENGTH else 0)
+    out.sensor_column_start = np.cumsum([0] + [_gradient_width(kind, columns)
                                                for kind, columns in zip(kinds, dofs)]).astype(np.int64)
 
     def driven(law, key):
@@ -392,7 +398,7 @@ def _wire_sampled(scene, model, out: Wiring) -> Wiring:
             else:
                 try:
                     kind, index, origin, dofs, offset, frame = _sensor(scene, model, c, probe)
-                    width = _GRADIENT_COLUMNS.get(kind, len(dofs) if kind == CABLE_LENGTH else 0)
+                    width = _gradient_width(kind, dofs)
                 except SceneError:  # no C sensor: the time loop hands its value in
                     kind = PROVIDED
             if kind == PROVIDED:

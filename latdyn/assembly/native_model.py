@@ -253,7 +253,7 @@ class NativeModel:
         time_laws, hinge_laws, controller_laws, sampled_laws = laws.addresses()
         #: the sampled controllers' sensors whose values the caller hands in (sample), (sensor, probe)
         self.provided = wired.provided
-        self.laws, self.law_hinges = laws, list(with_law)
+        self.laws = laws
         outputs = laws.controllers.values  # the array the compiled laws read, written by the C evaluation
 
         lock_at = [np.nan if h.lock_at is None else float(h.lock_at) for h in m.hinges]

@@ -294,10 +294,10 @@ def openblas_thread_functions() -> tuple[int | None, int | None]:
         put = getattr(lib.dynlib, f"{prefix}openblas_set_num_threads{suffix}")
     except Exception:  # noqa: BLE001 - another threadpoolctl or OpenBLAS: leave BLAS alone
         return None, None
+    found = ctypes.cast(get, ctypes.c_void_p).value, ctypes.cast(put, ctypes.c_void_p).value
     if scipy_own:  # SciPy's own library does not change within the process
-        _thread_functions = ctypes.cast(get, ctypes.c_void_p).value, ctypes.cast(put, ctypes.c_void_p).value
-        return _thread_functions
-    return ctypes.cast(get, ctypes.c_void_p).value, ctypes.cast(put, ctypes.c_void_p).value
+        _thread_functions = found
+    return found
 
 
 # ----------------------------------------------------------------------------- solves

@@ -1008,7 +1008,6 @@ static void inertia_tangent(const Model *m, Work *w, double load_factor)
     if (m->has_gravity && load_factor != 1.0)
         for (int64_t e = 0; e < E; ++e)
             for (int k = 0; k < 3; ++k) gravity[3 * e + k] = load_factor * m->gravity[k];
-    if (!m->has_gravity) memset(gravity, 0, sizeof(double) * 3 * E);
 #ifdef _OPENMP
 #pragma omp parallel for schedule(static) num_threads(ranges) if (ranges > 1)
 #endif
