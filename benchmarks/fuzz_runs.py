@@ -143,8 +143,11 @@ def _hinge(rng, *, prescribed_ok: bool) -> dict:
     return hinge
 
 
-def random_scene(rng: np.random.Generator) -> dict:
-    """A random scene of the contract, small enough to run in a few seconds."""
+def random_scene(rng: np.random.Generator, joints: bool = False) -> dict:
+    """A random scene of the contract, small enough to run in a few seconds; ``joints``: with the keys
+    added with the issues of 2026-11-26 as well (:func:`_joint_additions`: cables, guides, contact and
+    friction, inputs, controllers, named parameters and sensitivities), drawn after the rest so that
+    the scene without them is the one ``joints=False`` draws."""
     scene: dict = {"title": "fuzz"}
     sections = {f"s{i}": _section(rng) for i in range(int(rng.integers(1, 3)))}
     scene["sections"] = sections
@@ -234,7 +237,174 @@ def random_scene(rng: np.random.Generator) -> dict:
 
     scene["solve"] = _solve(rng, scene, points)
     scene["output"] = _output(rng, scene, points)
+    if joints:
+        _joint_additions(rng, scene, points)
     return scene
+
+
+def _contact_friction(rng, joint: dict, scale: float) -> None:
+    """Maybe a compliant stop (``contact`` on ``limits``) and ``friction`` on a hinge or guide law
+    ``joint``; ``scale``: 1 for a hinge (rad), the slide's for a guide (m)."""
+    if "limits" in joint and rng.random() < 0.5:
+        joint["contact"] = {"stiffness": _r(rng, 1e2, 1e5, 0)}
+        if rng.random() < 0.5:
+            joint["contact"]["exponent"] = _choice(rng, [1, 1.5, 2])
+        if rng.random() < 0.5:
+            joint["contact"]["damping"] = _r(rng, 0.1, 50, 2)
+        joint.pop("restitution", None)
+    if "angle" not in joint and "position" not in joint and rng.random() < 0.25:
+        friction = {"coulomb": _r(rng, 0.01, 2, 3) * scale}
+        if rng.random() < 0.3:
+            friction["static"] = round(friction["coulomb"] * _r(rng, 1, 1.5, 2), 4)
+        if rng.random() < 0.3:
+            friction["stribeck_rate"] = _r(rng, 0.01, 0.5, 3)
+        if rng.random() < 0.3:
+            friction["viscous"] = _r(rng, 0.01, 1, 3)
+        joint["friction"] = friction
+
+
+def _joint_additions(rng, scene: dict, points: list) -> None:
+    """Add to ``scene`` what issues 32–34 brought: guides (a guided body on the ground or on a body,
+    with a law, stops, a latch or a prescribed slide, maybe joined to the tree by a flexible member),
+    cables (between points or to a free end, taut, slack or pretensioned, a reel in t, with mass
+    and elements), contact and friction at hinges and guides, inputs, controllers (continuous,
+    with states, sampled, saturated) driving a hinge torque, a guide force or a load, and named
+    parameters in section values, masses and hinge laws with ``solve.sensitivities``; and their
+    probes."""
+    bodies, beams, probes = scene["bodies"], scene["beams"], scene["output"]["probes"]
+    solve = scene["solve"]
+    sensors: list[str] = []          # probes a controller may read (hinge, guide, point, cable)
+    actuated: list[tuple[dict, str]] = []   # (a law's mapping, its key) a controller may drive
+    for beam, spec in beams.items():
+        for end in ("start", "end"):
+            hinge = spec.get(end, {}).get("hinge")
+            if hinge is None:
+                continue
+            _contact_friction(rng, hinge, 1.0)
+            if "angle" not in hinge:
+                actuated.append((hinge, "torque"))
+                if rng.random() < 0.5:
+                    name = f"h_{beam}_{end}"
+                    probes[name] = {"hinge": f"{beam}.{end}", "quantity": _choice(rng, ["angle", "rate", "torque"])}
+                    if probes[name]["quantity"] != "torque":
+                        sensors.append(name)
+    if rng.random() < 0.45:      # a guided body
+        anchors = [b for b, spec in bodies.items() if "guide" not in spec]
+        on = _choice(rng, [None] + anchors)
+        at = [_r(rng, -1, 1, 2), _r(rng, -1, 1, 2), _r(rng, -0.5, 0.5, 2)]
+        guide: dict = {"axis": _unit(rng)}
+        if on is not None:
+            guide["on"] = on
+        kind = rng.random()
+        if kind < 0.15:
+            guide["position"] = _choice(rng, [f"{_r(rng, 0.05, 0.5, 2)}*t", f"{_r(rng, 0.05, 0.2, 2)}*sin(4*t)"])
+        else:
+            if rng.random() < 0.6:
+                guide["stiffness"] = _r(rng, 1, 500, 2)
+                if rng.random() < 0.3:
+                    guide["rest"] = _r(rng, -0.1, 0.1, 3)
+            if rng.random() < 0.4:
+                guide["damping"] = _r(rng, 0.01, 5, 3)
+            if rng.random() < 0.5:
+                guide["force"] = _choice(rng, [_r(rng, -20, 20, 2), f"{_r(rng, -20, 20, 2)}*sin(5*t)",
+                                               f"{_r(rng, 1, 20, 2)}*t - {_r(rng, 1, 50, 2)}*s_dot"])
+            if rng.random() < 0.35:
+                lo, hi = -_r(rng, 0.005, 0.2, 3), _r(rng, 0.005, 0.2, 3)
+                guide["limits"] = [lo, hi]
+                if rng.random() < 0.6:
+                    guide["restitution"] = _choice(rng, [0, 0.5, 1])
+            elif rng.random() < 0.15:
+                guide["lock_at"] = _choice(rng, [-1, 1]) * _r(rng, 0.005, 0.1, 3)
+            _contact_friction(rng, guide, 1.0)
+            actuated.append((guide, "force"))
+        bodies["gd"] = {"at": at, "mass": _r(rng, 0.1, 3, 3), "guide": guide}
+        if rng.random() < 0.5:
+            bodies["gd"]["inertia"] = [_r(rng, 0.001, 0.1, 4)] * 3
+        if rng.random() < 0.3:   # joined to the tree by a flexible member
+            beams["gm"] = {"from": _choice(rng, anchors), "to": "gd", "section": _choice(rng, list(scene["sections"])),
+                           "elements": 1}
+            if rng.random() < 0.5:
+                beams["gm"]["end"] = {"hinge": {"axis": _unit(rng)}}
+        points.append("gd")
+        name = "g_slide"
+        probes[name] = {"guide": "gd", "quantity": _choice(rng, ["position", "rate", "force"])}
+        if probes[name]["quantity"] != "force":
+            sensors.append(name)
+    cables = {}
+    for i in range(int(rng.integers(0, 3)) if rng.random() < 0.4 else 0):
+        ends = list(bodies)    # a cable's ends: bodies, a body with an offset, or a free end [x, y, z]
+        a = _choice(rng, ends)
+        b = _choice(rng, [e for e in ends if bodies[e]["at"] != bodies[a]["at"]] or [None])
+        if b is None or rng.random() < 0.3:
+            b = [_r(rng, -1, 1, 2), _r(rng, 0.2, 1.5, 2), _r(rng, -0.3, 0.3, 2)]
+        elif rng.random() < 0.2:
+            b = {"body": b, "offset": [_r(rng, -0.1, 0.1, 3), 0, 0]}
+        cable: dict = {"from": a, "to": b, "EA": _r(rng, 1e2, 1e5, 0)}
+        if rng.random() < 0.4:
+            cable["rhoA"] = _r(rng, 0.01, 0.5, 3)
+            if rng.random() < 0.5:
+                cable["elements"] = int(rng.integers(2, 5))
+        if rng.random() < 0.3:
+            cable["damping"] = _r(rng, 0.1, 20, 2)
+        rest = rng.random()
+        if rest < 0.2:
+            cable["rest_length"] = _r(rng, 0.1, 2, 3)
+        elif rest < 0.35:
+            cable["rest_length"] = _choice(rng, [f"{_r(rng, 0.3, 2, 2)} - {_r(rng, 0.05, 0.5, 2)}*t",
+                                                 f"{_r(rng, 0.3, 2, 2)}*(1 + 0.1*sin(6*t))"])
+        cables[f"c{i}"] = cable
+        probes[f"c{i}_n"] = {"cable": f"c{i}", "quantity": _choice(rng, ["tension", "length"])}
+        sensors.append(f"c{i}_n")
+    if cables:
+        scene["cables"] = cables
+    if rng.random() < 0.25:
+        scene["inputs"] = {"u": _r(rng, -1, 1, 2)}
+        if actuated and rng.random() < 0.6:
+            law, key = _choice(rng, actuated)
+            law[key] = f"{_r(rng, 0.5, 10, 2)}*u"
+    if sensors and actuated and rng.random() < 0.4:
+        sensor = _choice(rng, sensors)
+        controller: dict = {"output": f"-{_r(rng, 1, 50, 2)}*({sensor} - {_r(rng, -0.2, 0.2, 3)})"}
+        if rng.random() < 0.3:
+            controller["states"] = {"I": sensor}
+            controller["output"] += f" - {_r(rng, 0.1, 10, 2)}*I"
+            if rng.random() < 0.4:
+                controller["initial"] = {"I": _r(rng, -0.1, 0.1, 3)}
+        if rng.random() < 0.3:
+            controller["rate"] = _choice(rng, [20, 50, 100, 1000])
+        if rng.random() < 0.3:
+            limit = _r(rng, 0.5, 20, 2)
+            controller["limits"] = [-limit, limit]
+        scene["controllers"] = {"ctl": controller}
+        law, key = _choice(rng, actuated)
+        law[key] = _choice(rng, ["ctl", f"2*ctl + {_r(rng, -1, 1, 2)}"])
+        probes["ctl_out"] = {"controller": "ctl"}
+    if rng.random() < 0.3 and solve["analysis"] in ("transient", "static"):
+        parameters, names = {}, []
+        section = scene["sections"][_choice(rng, list(scene["sections"]))]
+        if rng.random() < 0.7:
+            parameters["EI"] = section["EIy"]
+            section["EIy"] = "EI"
+            names.append("EI")
+        if rng.random() < 0.5:
+            parameters["rho"] = section["rhoA"]
+            section["rhoA"] = "rho"
+            names.append("rho")
+        massive = [b for b, spec in bodies.items() if "mass" in spec and not spec.get("fixed")]
+        if massive and rng.random() < 0.5:
+            body = _choice(rng, massive)
+            parameters["m"] = bodies[body]["mass"]
+            bodies[body]["mass"] = "m"
+            names.append("m")
+        stiff = [(h, k) for h, k in actuated if isinstance(h.get("stiffness"), float)]
+        if stiff and rng.random() < 0.5:
+            law, _ = _choice(rng, stiff)
+            parameters["k"] = law["stiffness"]
+            law["stiffness"] = "k"
+            names.append("k")
+        if parameters:
+            scene["parameters"] = parameters
+            solve["sensitivities"] = names or list(parameters)
 
 
 def _solve(rng, scene, points) -> dict:
@@ -449,6 +619,16 @@ def check_folder(out: Path, scene: dict, status: int) -> list[tuple[str, str]]:
                         bad(f"linear_model.npz {key} not finite", "nan_solved")
         except (OSError, KeyError, ValueError) as exc:
             bad(f"linear_model.npz: {exc}")
+    if status == 0 and solve.get("sensitivities") and analysis in ("transient", "static"):
+        try:
+            with open(out / "sensitivities.csv", newline="", encoding="utf-8") as f:
+                table = list(csv.reader(f))
+            if len(table) - 1 != len(result.t):
+                bad(f"sensitivities.csv has {len(table) - 1} rows, probes.csv {len(result.t)}")
+            elif not _finite([[float(x) for x in row] for row in table[1:]]):
+                bad("NaN or infinity in sensitivities.csv", "nan_solved")
+        except (OSError, ValueError) as exc:
+            bad(f"sensitivities.csv: {exc}")
     if status == 0 and (out / "checkpoint.npz").exists():
         bad("a solved run left checkpoint.npz")
     return problems
@@ -517,11 +697,13 @@ def judge(status, stderr: str, scene_path: Path, out: Path, scene: dict) -> tupl
     return "solved", ""
 
 
-def run_case(seed: int, index: int, workdir: Path, *, timeout: float = TIMEOUT_S, resume_every: int = 8) -> dict:
-    """Generate case ``index`` of ``seed``, run it (and, for every ``resume_every``-th transient case,
-    interrupt and resume it) and judge it. Returns a record: index, outcome, detail, wall seconds, scene."""
+def run_case(seed: int, index: int, workdir: Path, *, timeout: float = TIMEOUT_S, resume_every: int = 8,
+             joints: bool = False) -> dict:
+    """Generate case ``index`` of ``seed`` (``joints``: with :func:`_joint_additions`), run it (and, for
+    every ``resume_every``-th transient case, interrupt and resume it) and judge it. Returns a record:
+    index, outcome, detail, wall seconds, scene."""
     rng = np.random.default_rng([seed, index])
-    scene = random_scene(rng)
+    scene = random_scene(rng, joints=joints)
     case_dir = workdir / f"case{index:04d}"
     case_dir.mkdir(parents=True, exist_ok=True)
     scene_path = case_dir / "scene.yaml"
@@ -575,13 +757,14 @@ def _resume_check(scene_path, scene, uninterrupted, status, case_dir, timeout) -
 
 # =========================================================================== the campaign
 def campaign(runs: int, seed: int, *, jobs: int = 1, timeout: float = TIMEOUT_S, keep: Path | None = None,
-             workdir: Path | None = None, progress=None, start: int = 0) -> list[dict]:
-    """Run cases ``start`` … ``start + runs - 1`` of ``seed``, ``jobs`` at a time; the records in order."""
+             workdir: Path | None = None, progress=None, start: int = 0, joints: bool = False) -> list[dict]:
+    """Run cases ``start`` … ``start + runs - 1`` of ``seed``, ``jobs`` at a time (``joints``: scenes with
+    the keys of 2026-11-26 too); the records in order."""
     own = workdir is None
     base = Path(tempfile.mkdtemp(prefix="latdyn_fuzz_")) if own else Path(workdir)
     records = []
     with ThreadPoolExecutor(max_workers=jobs) as pool:
-        futures = [pool.submit(run_case, seed, i, base, timeout=timeout) for i in range(start, start + runs)]
+        futures = [pool.submit(run_case, seed, i, base, timeout=timeout, joints=joints) for i in range(start, start + runs)]
         for future in futures:
             record = future.result()
             records.append(record)
@@ -630,10 +813,12 @@ def main(argv=None) -> int:
                         help="run the cases in this folder and leave it (default: a temporary folder, removed)")
     parser.add_argument("--keep", type=Path, default=None, help="save each defect's scene and stderr here")
     parser.add_argument("--json", type=Path, default=None, help="write the counts and every record's outcome here")
+    parser.add_argument("--joints", action="store_true",
+                        help="scenes with cables, guides, contact, friction, inputs, controllers and sensitivities too")
     parser.add_argument("--show", type=int, default=None, metavar="N", help="print the scene of case N and exit")
     args = parser.parse_args(argv)
     if args.show is not None:
-        print(_scene_text(random_scene(np.random.default_rng([args.seed, args.show]))), end="")
+        print(_scene_text(random_scene(np.random.default_rng([args.seed, args.show]), joints=args.joints)), end="")
         return 0
 
     def progress(record):
@@ -642,7 +827,7 @@ def main(argv=None) -> int:
               f"{record['detail'][:110]}{mark}", flush=True)
 
     records = campaign(args.runs, args.seed, jobs=args.jobs, timeout=args.timeout, keep=args.keep,
-                       progress=progress, start=args.start, workdir=args.workdir)
+                       progress=progress, start=args.start, workdir=args.workdir, joints=args.joints)
     summary = counts(records)
     print(json.dumps(summary, indent=1))
     if args.json:

@@ -42,8 +42,8 @@ from latdyn.timeloop import checkpoint as checkpoints
 from latdyn.timeloop.control import StepControl
 from latdyn.timeloop.events import (CABLE_LANDING, TAUT_JUMP_STEP, cable_events, cable_sides, crossing_fraction, hinge_events,
                                    restart_accelerations)
-from latdyn.timeloop.progress import (DRIFT_WARNING, UNBOUNDED, UNBOUNDED_ROWS, TransientProgress, factorizations,
-                                      cable_work, hinge_work, load_power)
+from latdyn.timeloop.progress import (DRIFT_WARNING, UNBOUNDED, UNBOUNDED_ROWS, TransientProgress, cable_work,
+                                      energy_round_off, factorizations, hinge_work, load_power)
 from latdyn.timeloop.sampling import controller_memory, restore_controller_memory
 
 
@@ -170,6 +170,7 @@ class TimeLoop:
             hinge_damper_torque=evaluation.hinge_damper_torque.copy(),
             total0=sum(energy0.values()), potential0=energy0["potential"],
             received0=energy0["kinetic"] + energy0["strain"] + 1e-8 * abs(energy0["potential"]),
+            round_off=energy_round_off(self.model),
             inertia_tangent_from=0.0 if getattr(self.integrator, "inertia_tangent", False) else None,
             controller_memory=controller_memory(self.model.scene))
         if self.sensitivities is not None:

@@ -12,6 +12,22 @@ from latdyn.assembly.assembler import State, pack
 from latdyn.model.model import Model
 
 
+#: strains of this many ulps: the round-off of a beam's configuration (:func:`energy_round_off`)
+ROUND_OFF_ULPS = 8.0
+
+
+def energy_round_off(model) -> float:
+    """The strain energy of strains of :data:`ROUND_OFF_ULPS` ulps in every element, ½ Σ EA L (8 ε)²:
+    what a structure at rest holds by round-off alone (a beam in its reference configuration computes
+    strain energies of 1e-29 J and axial forces of 1e-10 N, not 0). Energies received up to it are
+    none to the energy balance's unbounded test (docs/energy.md)."""
+    sections = getattr(model, "element_sections", None)
+    if sections is None or len(sections) == 0:
+        return 0.0
+    strain = ROUND_OFF_ULPS * np.finfo(float).eps
+    return float(0.5 * np.sum(np.abs(sections[:, 0] * sections[:, 1])) * strain * strain)
+
+
 @dataclass
 class TransientProgress:
     """Everything the time loop carries from one step to the next, besides the model.
@@ -48,6 +64,9 @@ class TransientProgress:
     #: of 1e-8 |potential| at t = 0, the round-off of the energies), the largest |external work| and
     #: the largest |potential change| seen
     received0: float = 0.0
+    #: the round-off of the energies of a structure at rest (:func:`energy_round_off`): received energy
+    #: up to it is none (a beam's strain energy of 1e-29 J in its reference configuration)
+    round_off: float = 0.0
     work_seen: float = 0.0
     potential_seen: float = 0.0
     balance_error: float = 0.0  # max |total − total0 − external_work + dissipated| over the rows
@@ -95,7 +114,8 @@ class TransientProgress:
         of the energy the integrator created, total − total0 − external_work + dissipated, and the
         energy the structure gained, total − total0 + dissipated (so that noise in the work of a
         structure that holds no energy is not taken for a gain); NaN when an energy is not finite,
-        0 when the structure received nothing (it is then judged on finite energies alone). Counts
+        0 when the structure received nothing, or no more than :attr:`round_off` (it is then judged
+        on finite energies alone). Counts
         :attr:`gain_rows`: a gain past :data:`UNBOUNDED` with the created energy grown since the
         row before extends the streak, any other row ends it."""
         gained = sum(energies.values()) - self.total0 + self.dissipated
@@ -111,7 +131,7 @@ class TransientProgress:
         if not np.isfinite(created):
             self.created = math.nan
             return math.nan
-        gain = min(created, gained) / received if received > 0 else 0.0
+        gain = min(created, gained) / received if received > self.round_off else 0.0
         self.gain_rows = self.gain_rows + 1 if gain > UNBOUNDED and created > self.created else 0
         self.created = created
         return gain
@@ -126,8 +146,9 @@ class TransientProgress:
     def relative_balance_error(self) -> float:
         """``energy_balance_error`` of summary.json: max |total − total0 − external_work + dissipated|
         over the rows, divided by the largest of kinetic, strain, |potential change|, |external work|
-        and dissipated energy seen."""
-        return self.balance_error / self.energy_scale if self.energy_scale > 0 else 0.0
+        and dissipated energy seen; 0 where those stayed within the round-off of a structure at rest
+        (:attr:`round_off`), whose balance is round-off over round-off."""
+        return self.balance_error / self.energy_scale if self.energy_scale > self.round_off else 0.0
 
     def note_joint_forces(self, names, forces, t: float) -> None:
         """Keep each joint's peak force (:attr:`joint_peaks`) with the forces at the row at ``t``.
