@@ -407,3 +407,23 @@ def test_checkpoints_follow_the_interval(tmp_path, monkeypatch):
     latdyn.run(arm3d(t_end=0.05), tmp_path)
     assert saves == [] and not (tmp_path / checkpoint.CHECKPOINT_FILE).exists()
     assert cli.main(["run", "x.yaml", "--checkpoint-every", "-1"]) == 2  # argparse refuses it
+
+
+def test_a_failed_run_whose_last_step_is_a_row_resumes_without_a_second_row(tmp_path, capsys):
+    """The same failing run with a row every step (dt = 0.005): its last accepted state (t = 0.095) is a row
+    of the grid already, in the checkpoint's rows. Resumed, it fails at the same place; the row at 0.095
+    is not recorded a second time (it was, when the checkpoint's rows reached that state: the loop
+    asked only whether it had recorded the row itself — found by benchmarks/fuzz_runs.py --joints)."""
+    scene = failing_scene()
+    scene["output"].update(every=0.005, paraview_every=0)
+    scene_file = write_scene(tmp_path / "fails.yaml", scene)
+    out = tmp_path / "out"
+    assert cli.main(["run", str(scene_file), "-o", str(out), "-q"]) == 1
+    first = Result.load(out).t
+    assert first[-1] == pytest.approx(0.095) and np.all(np.diff(first) > 0)
+    before = (out / "probes.csv").read_bytes()
+    assert cli.main(["run", str(scene_file), "-o", str(out), "-q", "--resume"]) == 1
+    capsys.readouterr()
+    assert (out / "probes.csv").read_bytes() == before
+    history = load_state_history(out)
+    assert np.all(np.diff(history["t"]) > 0)

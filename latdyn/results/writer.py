@@ -212,6 +212,11 @@ class ResultWriter:
         return {"rows": len(self._probes.times), "state_rows": self._state.rows(),
                 "paraview": None if self._paraview is None else self._paraview.bookmark()}
 
+    @property
+    def last_time(self) -> float | None:
+        """The first column of the last probe row (a resumed run's included), None before any."""
+        return self._probes.times[-1] if self._probes.times else None
+
     def reattach_last_frame(self, frame) -> None:
         """Resumed: the frame (or a callable giving it) of the bookmark's ``unwritten``
         record, written at :meth:`close` should it stay the last one."""

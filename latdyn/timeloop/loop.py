@@ -231,8 +231,13 @@ class TimeLoop:
     def record_last(self) -> None:
         """The state the loop stands at as a row, unless it is one already (a run ended at a pause)."""
         state = self.progress.state
-        if self.last_recorded is None or self.last_recorded.t != state.t:
+        if not self._row_at(state):
             self._record(state, self.energies_of(state))
+
+    def _row_at(self, state: State) -> bool:
+        """Whether the last row is at ``state``'s time: recorded by this loop, or by the run a resumed
+        one goes on from (whose rows the writer took back)."""
+        return (self.last_recorded is not None and self.last_recorded.t == state.t) or self.writer.last_time == state.t
 
     def restart(self) -> None:
         """The laws jumped at the state the loop stands at (an input set from outside at a pause):
@@ -722,6 +727,5 @@ class TimeLoop:
             except Exception as exc:  # noqa: BLE001 - the original error matters more
                 print(f"latdyn: could not write a checkpoint: {type(exc).__name__}: {exc}", file=sys.stderr)
         state = self.progress.state
-        if isinstance(failure, SolverError) and not self.writer.closed and state is not None \
-                and (self.last_recorded is None or self.last_recorded.t != state.t):
+        if isinstance(failure, SolverError) and not self.writer.closed and state is not None and not self._row_at(state):
             self._record(state, self.energies_of(state))
