@@ -485,6 +485,33 @@ solve: {analysis: transient, t_end: 0.5, dt: 0.01}
     assert summary["cable_events"][0]["t"] == pytest.approx(0.25, abs=1e-9)  # the load's zero, a grid time
 
 
+def test_a_slack_refusal_inside_the_loop_of_steps_keeps_its_rows_in_time(tmp_path):
+    """A massless cable pretensioned to a free end (rest length 0.88 against 3.28 m: the end snaps in the
+    first step, its tension 2e5 N → 3e-11 N) and reeled in, stepped by the loop of steps in C with its
+    rows: it is found slack at t = 0.04, which ends the run (exit 1) with the rows 0, 0.02, 0.04 — not a
+    fourth row of the state at the loop's start (t = 0, recorded after the loop's rows when the refusal
+    came before the loop's end state was taken: found by benchmarks/fuzz_runs.py --joints)."""
+    text = """
+sections:
+  s: {EA: 3.0e6, EIy: 1600.0, EIz: 1400.0, GJ: 1100.0, rhoA: 1.8}
+bodies:
+  g: {at: [0, 0, 0], fixed: true}
+  b: {at: [0, -1.8, 0], mass: 1.3}
+beams:
+  arm: {from: g, to: b, section: s, elements: 2}
+cables:
+  c: {from: b, to: [-0.86, 1.35, -0.28], EA: 7.5e4, damping: 12.0, rest_length: "0.88 - 0.25*t"}
+solve: {analysis: transient, t_end: 0.1, dt: 0.02}
+output:
+  probes:
+    tension: {cable: c, quantity: tension}
+"""
+    completed, out = latdyn_run(tmp_path, text, quiet=True)
+    assert completed.returncode == 1 and "cables.c went slack at t = 0.04" in completed.stderr
+    t = probe_columns(out)["t"]
+    assert np.allclose(t, [0.0, 0.02, 0.04], rtol=0, atol=1e-15)
+
+
 def test_massive_free_end_goes_slack_and_on(tmp_path):
     """The same with mass on the cable (rhoA > 0: half its mass lumped at the free end): the end is held
     by its inertia while slack, and the run goes on past the slack change."""

@@ -340,8 +340,8 @@ class TimeLoop:
             progress.hinge_work_torque, progress.hinge_damper_torque = done.hinge_work_torque, done.hinge_damper_torque
             progress.cable_work = done.cable_work
             progress.dissipated = self.probes.dissipated = done.dissipated
-            self._track_cables(progress.state, done.state)
-            progress.state = done.state
+            before, progress.state = progress.state, done.state   # a refusal in _track_cables ends at done's rows
+            self._track_cables(before, done.state)
             progress.algorithmic_acceleration = self.integrator.a
             if done.samples:  # the sampled controllers sampled on the way (restarted there, or status 4)
                 progress.controller_memory = self.sampler.memory()
