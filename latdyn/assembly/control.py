@@ -212,8 +212,9 @@ def refuse_states_without_step(scene, method: str) -> None:
     for c in getattr(scene, "controllers", {}).values():
         if not c.sampled and c.states and method == "explicit":
             _refuse(scene, f"controllers.{c.name}.states",
-                    "the states of a continuous controller are integrated with the implicit step; expected "
-                    "solve.method generalized-alpha or newmark, or a sampled controller (rate: HZ)")
+                    "the states of a continuous controller are integrated with the implicit step; expected an "
+                    "implicit solve.method (generalized-alpha, hht-alpha or newmark), or a sampled controller "
+                    "(rate: HZ)")
 
 
 def _named_alone(law, name: str) -> bool:
