@@ -147,14 +147,29 @@ def refusal(scene) -> SceneError | None:
             if section and {"GAy", "GAz"} & set(scene.raw["sections"][section["section"]]):
                 return refuse(f"parameter {name!r} is used at {used}: the section is shear-flexible (GAy, GAz), "
                               "and its element is not linear in its section values")
+    transient = solve.analysis == "transient"
+    guided = any(getattr(body, "guide", None) is not None for body in scene.bodies.values())
     for probe in scene.output.probes:
         point = probe.kind == "point" and probe.quantity in ("position", "displacement") and probe.frame == "global"
-        slide = probe.kind == "guide" and probe.quantity == "position" and solve.analysis == "transient"
-        if not (point or slide or (probe.kind == "hinge" and probe.quantity == "angle")):
+        # a point's velocity v + ω × T r: δv, δω carried by the transient step (a guided body's
+        # dependent nodes' velocities would need the projection's rate derivative: not yet)
+        velocity = (transient and not guided and probe.kind == "point" and probe.quantity == "velocity"
+                    and probe.frame == "global")
+        slide = probe.kind == "guide" and probe.quantity in ("position", "rate") and transient
+        joint = probe.kind == "hinge" and (probe.quantity == "angle" or (transient and probe.quantity == "rate"))
+        if not (point or velocity or slide or joint):
             return refuse(f"probe {probe.name!r} ({probe.kind} {probe.quantity}"
                           f"{'' if probe.kind != 'point' else ', frame ' + probe.frame}) is not differentiated yet: "
-                          "point positions and displacements in the global frame, hinge angles and (transient runs) "
-                          "guide positions are")
+                          "point positions and displacements in the global frame, hinge angles and, in transient "
+                          "runs, hinge rates, guide positions and rates and point velocities in the global frame "
+                          "(without guides) are")
+    rates = {p.name for p in scene.output.probes if p.quantity in ("rate", "velocity")}
+    for c in scene.controllers.values():
+        read = sorted(rates & set(c.reads))
+        if read and (c.states or c.sampled):
+            return refuse(f"controller {c.name!r} reads the rate probe {read[0]!r} and has states or is sampled: its "
+                          "states' and samples' derivatives by a rate sensor are not computed yet (a continuous "
+                          "controller without states may read rates)")
     return None
 
 
@@ -561,20 +576,45 @@ class ParameterDerivatives:
             dofs = model.node_dofs[node]
             dx[node], dpi[node] = full[dofs[0:3]], full[dofs[3:6]]
 
-    def _probe_derivatives(self, probe, state, dx, dpi, dtheta) -> list:
+    def _rates_by_parameter(self, dv: np.ndarray) -> tuple:
+        """(δv, δω, δθ̇) of every node and hinge, (n_nodes, 3, k) (n_nodes, 3, k) (n_hinges, k), from the
+        free-coordinate sensitivities of the rates ``dv`` (n_dofs, k) — the transient step's carried δv:
+        the rates are vectors (ω spatial), so δω is the derivative of ω's components. Free nodes and
+        hinges; a guided model's dependent nodes are not moved (their probes' rates are refused)."""
+        model, k = self.model, dv.shape[1]
+        n_nodes = model.node_dofs.shape[0]
+        dvel, domega = np.zeros((n_nodes, 3, k)), np.zeros((n_nodes, 3, k))
+        drate = np.zeros((len(model.hinges), k))
+        if model.n_dofs and k:
+            full = np.vstack([dv, np.zeros((model.n_total + 1 - model.n_dofs, k))])
+            free, hinges = model.free_nodes, model.free_hinges
+            dvel[free], domega[free] = full[model.node_dofs[free, 0:3]], full[model.node_dofs[free, 3:6]]
+            drate[hinges] = full[model.hinge_dofs[hinges]]
+        return dvel, domega, drate
+
+    def _probe_derivatives(self, probe, state, dx, dpi, dtheta, rates=None) -> list:
         """The derivatives of ``probe`` at ``state`` by every parameter along (δx, δπ, δθ) of
-        :meth:`_by_parameter`: a point x + T r moves by δx + δπ × T r, a hinge angle by δθ."""
+        :meth:`_by_parameter` (and, for rate probes, (δv, δω, δθ̇) of :meth:`_rates_by_parameter`): a
+        point x + T r moves by δx + δπ × T r, a hinge angle by δθ, a hinge rate by δθ̇, a point's velocity
+        v + ω × T r by δv + δω × T r + ω × (δπ × T r)."""
         model = self.model
         if probe.kind in ("hinge", "guide"):
             joint = (probe.beam, probe.end) if probe.kind == "hinge" else (probe.body, "guide")
-            return [float(v) for v in dtheta[model.hinge_index(*joint)]]
+            which = rates[2] if probe.quantity == "rate" else dtheta
+            return [float(v) for v in which[model.hinge_index(*joint)]]
         node, offset = model.point(probe.point)
         arm = state.T[node] @ offset
         moved = dx[node] + np.cross(dpi[node], arm, axisa=0, axisc=0)    # δ(x + T r), (3, k)
+        if probe.quantity == "velocity":   # δ(v + ω × T r)
+            dvel, domega, _ = rates
+            moved = dvel[node] + np.cross(domega[node], arm, axisa=0, axisc=0) \
+                + np.cross(state.w[node], moved - dx[node], axisb=0, axisc=0)
         if probe.component in (None, "norm"):
             value = state.x[node] + arm
             if probe.quantity == "displacement":
                 value = value - self.initial_points[probe.name]
+            elif probe.quantity == "velocity":
+                value = state.v[node] + np.cross(state.w[node], arm)
             size = float(np.linalg.norm(value))
             if size > 0:
                 return [float(v) for v in value @ moved / size]
@@ -1150,7 +1190,7 @@ class ControllerStates:
 def _sensor_derivatives(owner: ParameterDerivatives, probes: list, state, dq: np.ndarray) -> np.ndarray:
     """δs (m, k): the derivatives of the sensors ``probes`` (hinge angles, guide slides, point positions
     and displacements) at ``state`` along δq (n, k) (:meth:`ParameterDerivatives._probe_derivatives`)."""
-    dx, dpi, dtheta = owner._by_parameter(dq, state)
+    dx, dpi, dtheta = owner._by_parameter(dq, state)   # rate sensors are refused here (refusal)
     return np.array([owner._probe_derivatives(probe, state, dx, dpi, dtheta) for probe in probes],
                     float).reshape(len(probes), dq.shape[1])
 

@@ -713,11 +713,13 @@ class TransientSensitivities(ParameterDerivatives):
     # ------------------------------------------------------------------ rows
     def record(self, carried: dict, state) -> dict:
         """``carried`` with the row of every probe's sensitivity at ``state`` (a new list of rows), all
-        parameters at once: a point x + T r moves by δx + δπ × T r, a hinge angle by δθ."""
+        parameters at once: a point x + T r moves by δx + δπ × T r, a hinge angle by δθ, rates by the
+        carried δv (:meth:`_probe_derivatives`)."""
         dx, dpi, dtheta = self._by_parameter(carried["dq"], state)
+        rates = self._rates_by_parameter(carried["dv"])
         row = [float(state.t)]
         for probe in self.probes:
-            row.extend(self._probe_derivatives(probe, state, dx, dpi, dtheta))
+            row.extend(self._probe_derivatives(probe, state, dx, dpi, dtheta, rates))
         return {**carried, "rows": carried["rows"] + [row]}
 
     def table(self, carried: dict) -> dict:
