@@ -51,6 +51,7 @@ output:
   every: 0.01
   probes:
     s: {guide: slider, quantity: position}
+    s_rate: {guide: slider, quantity: rate}
     slider_z: {point: slider, quantity: position, component: z}
     slider_y: {point: slider, quantity: position, component: y}
     mid_x: {point: "arm.node[1]", quantity: displacement, component: x}
@@ -108,7 +109,7 @@ def test_a_3d_guide_latching_or_hitting_its_stop_on_a_flexible_arm_agrees_with_r
     the impulse weight M + dt²K of the reduction depends on the rates through its geometric term, which the
     jump's derivative follows. Measured: latch k 2.4e-8, m 5.0e-9, EI 5.2e-9, rest 1.3e-8; stop k 3.9e-8,
     m 1.1e-8; the event times to 1e-9; without the latch and the stop k 5.7e-9, m 3.3e-10, EI 3.7e-10,
-    rest 1.3e-8 (the run before the event is each test's first 0.24 s)."""
+    rest 1.3e-8 (the run before the event is each test's first 0.24 s); the slide's rate probe s_rate with them."""
     result = _run(text, name)
     assert [(e["joint"], e["kind"]) for e in result.summary["events"]] == [("slider", kind)]
     _agree(result, text, name, tolerance=3e-7)   # measured ≤ 3.9e-8
