@@ -436,21 +436,43 @@ static void configure(const Model *m, const Configuration *base, Configuration *
 
 /* ------------------------------------------------------------------------- evaluation */
 
+/* Element ends per call of the hinged_end kernel: a multiple of every SIMD width the generated
+ * kernels are compiled for (2, 4 or 8 lanes), so that each lane of a batch holds its own end (a call
+ * for one end computes it, and its sin and cos, in every lane). */
+#define ENDS_PER_BATCH 16
+
 /* Element inputs: x1, x2, offsets T r_g (Eq. 2),
- * nodal frames T_j exp(θ h) E0 (Eq. 17), hinge axes T_j h (Eq. 9); rates and accelerations. */
+ * nodal frames T_j exp(θ h) E0 (Eq. 17), hinge axes T_j h (Eq. 9); rates and accelerations.
+ * The ends go through the generated kernel ENDS_PER_BATCH at a time, gathered into and scattered
+ * from the stack: each end's arithmetic is the kernel's, lane by lane, whatever the batch. */
 static void element_inputs_to(const Model *m, const Configuration *c, double *geometry, double *rates,
                               double *accelerations, int64_t begin, int64_t end_element)
 {
+    double frames[9 * ENDS_PER_BATCH], data[16 * ENDS_PER_BATCH];
+    double end_frame[9 * ENDS_PER_BATCH], end_offset[3 * ENDS_PER_BATCH], end_axis[3 * ENDS_PER_BATCH];
+    for (int64_t first = 2 * begin; first < 2 * end_element; first += ENDS_PER_BATCH) {
+        const int64_t ends = 2 * end_element - first < ENDS_PER_BATCH ? 2 * end_element - first : ENDS_PER_BATCH;
+        for (int64_t k = 0; k < ends; ++k) {  /* end k of the batch: end (first + k) % 2 of element (first + k) / 2 */
+            int64_t i = m->element_nodes[first + k], hinge = m->element_hinges[first + k];
+            memcpy(frames + 9 * k, c->T + 9 * i, 9 * sizeof(double));
+            memcpy(data + 16 * k, m->element_ends + 16 * (first + k), 15 * sizeof(double));
+            data[16 * k + 15] = hinge >= 0 ? c->theta[hinge] : 0.0;
+        }
+        /* Eqs. 2, 9, 17: the generated kernel (codegen/joints.py hinged_end) */
+        m->hinged_end(ends, frames, data, end_frame, end_offset, end_axis);
+        for (int64_t k = 0; k < ends; ++k) {
+            const int64_t e = (first + k) / 2, end = (first + k) % 2;
+            double *g = geometry + 36 * e;
+            memcpy(g + 12 + 9 * end, end_frame + 9 * k, 9 * sizeof(double));
+            memcpy(g + 6 + 3 * end, end_offset + 3 * k, 3 * sizeof(double));
+            memcpy(g + 30 + 3 * end, end_axis + 3 * k, 3 * sizeof(double));
+        }
+    }
     for (int64_t e = begin; e < end_element; ++e) {
         double *g = geometry + 36 * e;
         double *r = rates + 14 * e, *acc = accelerations + 14 * e;
         for (int end = 0; end < 2; ++end) {
             int64_t i = m->element_nodes[2 * e + end], hinge = m->element_hinges[2 * e + end];
-            /* Eqs. 2, 9, 17: the generated kernel (codegen/joints.py hinged_end) */
-            double data[16];
-            memcpy(data, m->element_ends + 32 * e + 16 * end, 15 * sizeof(double));
-            data[15] = hinge >= 0 ? c->theta[hinge] : 0.0;
-            m->hinged_end(1, c->T + 9 * i, data, g + 12 + 9 * end, g + 6 + 3 * end, g + 30 + 3 * end);
             for (int j = 0; j < 3; ++j) {
                 g[3 * end + j] = c->x[3 * i + j];
                 r[7 * end + j] = c->v[3 * i + j];
