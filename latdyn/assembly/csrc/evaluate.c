@@ -1129,17 +1129,29 @@ void latdyn_energies(const Model *m, Work *w, const Configuration *c, double t, 
         strain += w->strain[e];
         if (m->has_gravity) potential += w->gravity_potential[e];
     }
-    for (int64_t j = 0; j < m->n_hinges; ++j) {
-        double s = c->theta[j] - m->hinge_rest_angle[j];
-        strain += 0.5 * m->hinge_stiffness[j] * s * s;
-        if (m->hinge_stiffness_law[j] >= 0 && m->hinge_conservative[j])
-            strain += law_spring_potential(m, j, c->theta[j]);
-        /* a compliant stop's potential, from the generated hinge_force (its other outputs unused) */
-        double state[4] = {c->theta[j], c->theta_dot[j], m->hinge_rest_angle[j], 0.0}, values[9] = {0};
-        double f, d_theta, d_rate, spring_torque, applied_torque, damper_torque, contact_energy;
-        m->hinge_force(1, state, values, m->hinge_contact + 11 * j, &f, &d_theta, &d_rate, &spring_torque,
-                       &applied_torque, &damper_torque, &contact_energy);
-        strain += contact_energy;
+    for (int64_t first = 0; first < m->n_hinges; first += ITEMS_PER_BATCH) {
+        /* a compliant stop's potential, from the generated hinge_force, a batch a call (its other outputs unused) */
+        const int64_t count = batch_size(first, m->n_hinges);
+        double state[4 * ITEMS_PER_BATCH], values[9 * ITEMS_PER_BATCH] = {0}, contact_energy[ITEMS_PER_BATCH];
+        double f[ITEMS_PER_BATCH], d_theta[ITEMS_PER_BATCH], d_rate[ITEMS_PER_BATCH], spring_torque[ITEMS_PER_BATCH];
+        double applied_torque[ITEMS_PER_BATCH], damper_torque[ITEMS_PER_BATCH];
+        for (int64_t k = 0; k < count; ++k) {
+            const int64_t j = first + k;
+            state[4 * k] = c->theta[j];
+            state[4 * k + 1] = c->theta_dot[j];
+            state[4 * k + 2] = m->hinge_rest_angle[j];
+            state[4 * k + 3] = 0.0;
+        }
+        m->hinge_force(count, state, values, m->hinge_contact + 11 * first, f, d_theta, d_rate, spring_torque,
+                       applied_torque, damper_torque, contact_energy);
+        for (int64_t k = 0; k < count; ++k) {
+            const int64_t j = first + k;
+            double s = c->theta[j] - m->hinge_rest_angle[j];
+            strain += 0.5 * m->hinge_stiffness[j] * s * s;
+            if (m->hinge_stiffness_law[j] >= 0 && m->hinge_conservative[j])
+                strain += law_spring_potential(m, j, c->theta[j]);
+            strain += contact_energy[k];
+        }
     }
     for (int64_t b = 0; b < m->n_bodies; ++b) {
         int64_t i = m->body_nodes[b];
