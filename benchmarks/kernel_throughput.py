@@ -20,7 +20,10 @@ one element a member, Newmark, dt 0.01 to 1 s) and the 16-element right-angle ca
 (``examples/benchmarks/D2_right_angle_cantilever.yaml`` with 8 elements a leg, 30 s at dt 0.01, as
 ``peers_as_user.py`` runs it), each ``latdyn.run`` in process without a results folder after one
 warm-up run, medians of ``--repeat``, in a fresh process per checkout (``--against``: another
-checkout's latdyn, in the same rounds).
+checkout's latdyn, in the same rounds; its child imports that checkout's latdyn first, and says
+which it imported). Also the 16-bay lattice of ``peers_as_user.py`` (modified Newton, a row every
+step), and for each run the CPU time of the whole ``latdyn.run`` (``run_cpu_s``: scene preparation
+included; on a shared machine less disturbed by the other jobs than the wall time).
 
 Peak: SIMD lanes × 2 FMA pipes × 2 operations × the clock /proc/cpuinfo reports now (an
 assumption stated in the output: AMD Zen 2-4 and Intel since Haswell have two FMA pipes; a
@@ -38,8 +41,11 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's latdyn (and latdyn_generated)
+#: the checkout whose latdyn is measured: this one, or ``--against``'s in its child process (CHECKOUT_VARIABLE)
+CHECKOUT_VARIABLE = "LATDYN_THROUGHPUT_CHECKOUT"
+CHECKOUT = Path(os.environ.get(CHECKOUT_VARIABLE) or Path(__file__).resolve().parents[1])
+sys.path.insert(0, str(CHECKOUT / "tests"))
+sys.path.insert(0, str(CHECKOUT))  # that checkout's latdyn (and latdyn_generated), before PYTHONPATH
 from test_backends import realistic_inputs  # noqa: E402
 
 from latdyn import native  # noqa: E402
@@ -80,28 +86,35 @@ def whole_solver_scenes() -> dict:
     root = Path(__file__).resolve().parents[1]
     sys.path.insert(0, str(root / "benchmarks"))
     from linear_solvers import lattice_for
+    from peers_as_user import SETTINGS, latdyn_scene
 
     cantilever = yaml.safe_load((root / "examples" / "benchmarks" / "D2_right_angle_cantilever.yaml").read_text())
     cantilever["beams"]["leg1"]["elements"] = cantilever["beams"]["leg2"]["elements"] = 8
     cantilever["solve"].update(t_end=30.0, dt=0.01)
-    return {"truss_260": lattice_for(260), "cantilever_16": cantilever}
+    return {"truss_260": lattice_for(260), "cantilever_16": cantilever,
+            "lattice_16": latdyn_scene("lattice", SETTINGS["lattice"]["latdyn"])}
 
 
 def whole_solver_child(repeat: int) -> None:
     """In a fresh process: each scene run ``repeat`` times after a warm-up; JSON on stdout."""
+    import copy
+
     import latdyn
 
-    out = {}
+    out = {"latdyn": str(Path(latdyn.__file__).resolve().parents[1])}
     for name, raw in whole_solver_scenes().items():
-        rows = []
+        rows, cpu = [], []
         for k in range(repeat + 1):
-            summary = latdyn.run(latdyn.load_scene(raw)).summary
+            start = time.process_time()
+            summary = latdyn.run(latdyn.load_scene(copy.deepcopy(raw))).summary
             if k:
                 rows.append(summary)
+                cpu.append(time.process_time() - start)
         per = [1e6 * r["solver_s"] / (r["newton_iterations"] * r["elements"]) for r in rows]
         out[name] = {"elements": rows[0]["elements"], "newton_iterations": rows[0]["newton_iterations"],
                      "steps": rows[0]["steps"], "solver_s": float(np.median([r["solver_s"] for r in rows])),
-                     "us_per_element_iteration": float(np.median(per)), "all": per}
+                     "us_per_element_iteration": float(np.median(per)), "all": per,
+                     "run_cpu_s": float(np.median(cpu))}
     print(json.dumps(out))
 
 
@@ -114,7 +127,8 @@ def whole_solver(repeat: int, against: Path | None) -> dict:
     load = [os.getloadavg()[0]]
     results = {}
     for label, root in roots.items():
-        env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(root), os.environ.get("PYTHONPATH", "")])}
+        env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(root), os.environ.get("PYTHONPATH", "")]),
+               CHECKOUT_VARIABLE: str(root)}
         done = subprocess.run([sys.executable, str(Path(__file__).resolve()), "--whole-solver-child", str(repeat)],
                               capture_output=True, text=True, env=env, check=True, cwd=root)
         results[label] = json.loads(done.stdout.strip().splitlines()[-1])
@@ -122,9 +136,13 @@ def whole_solver(repeat: int, against: Path | None) -> dict:
     cpu = machine_peak()["cpu"]
     print(f"whole solver time per element-iteration (µs), medians of {repeat}; {cpu}; load {load[0]:.1f} -> {load[1]:.1f}")
     for label, rows in results.items():
+        print(f"  {label}: latdyn from {rows['latdyn']}")
         for name, row in rows.items():
+            if name == "latdyn":
+                continue
             print(f"  {label:>20s} {name:14s} {row['elements']:4d} elements, {row['newton_iterations']:6d} iterations, "
-                  f"solver_s {row['solver_s']:.3f}: {row['us_per_element_iteration']:.2f} µs")
+                  f"solver_s {row['solver_s']:.3f}: {row['us_per_element_iteration']:.2f} µs; "
+                  f"the whole run {row['run_cpu_s']:.3f} s of CPU")
     return {"load_average": load, "cpu": cpu, "results": results}
 
 

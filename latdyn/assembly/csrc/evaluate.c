@@ -331,21 +331,43 @@ static void copy_configuration(const Model *m, const Configuration *src, Configu
     memcpy(dst->theta_ddot, src->theta_ddot, sizeof(double) * H);
 }
 
+/* Items (element ends, nodes, bodies) per call of a generated kernel: a multiple of every SIMD width
+ * the kernels are compiled for (2, 4 or 8 lanes, codegen/templates/c_source.c.j2), so that each lane
+ * of a batch holds its own item. A call for one item computes it in every lane (its sin, cos and
+ * sqrt included); a batch gathered on the stack does the kernel's arithmetic once per item, lane by
+ * lane the same operations, so the results are the same to the bit. */
+#define ITEMS_PER_BATCH 16
+
+/* The items of the batch that starts at `first` of `count` items. */
+static inline int64_t batch_size(int64_t first, int64_t count)
+{
+    return count - first < ITEMS_PER_BATCH ? count - first : ITEMS_PER_BATCH;
+}
+
 /* q ∘ exp(Δ) on the free coordinates of c, in place: x += Δd, T ← exp(skew Δπ) T, θ += Δθ, with Δ
  * the free-coordinate vector `increment` (node slots that are not coordinates read 0). Nothing else
  * changes: time, prescribed bodies and rates are the caller's (Assembler.advance, configure). */
 void latdyn_advance_free(const Model *m, Configuration *c, const double *increment)
 {
     const int64_t n = m->n_dofs;
-    for (int64_t k = 0; k < m->n_free_nodes; ++k) {
-        int64_t i = m->free_nodes[k];
-        const int64_t *d = m->node_dofs + 6 * i;
-        double R[9], T[9];
-        for (int j = 0; j < 3; ++j) c->x[3 * i + j] += free_entry(increment, d[j], n);
-        m->so3_exp(1, (double[3]){free_entry(increment, d[3], n), free_entry(increment, d[4], n),
-                                  free_entry(increment, d[5], n)}, R);
-        memcpy(T, c->T + 9 * i, sizeof T);
-        matmul3(R, T, c->T + 9 * i);
+    double vectors[3 * ITEMS_PER_BATCH], R[9 * ITEMS_PER_BATCH];
+    for (int64_t first = 0; first < m->n_free_nodes; first += ITEMS_PER_BATCH) {
+        const int64_t count = batch_size(first, m->n_free_nodes);
+        for (int64_t k = 0; k < count; ++k) {
+            const int64_t i = m->free_nodes[first + k];
+            const int64_t *d = m->node_dofs + 6 * i;
+            for (int j = 0; j < 3; ++j) {
+                c->x[3 * i + j] += free_entry(increment, d[j], n);
+                vectors[3 * k + j] = free_entry(increment, d[3 + j], n);
+            }
+        }
+        m->so3_exp(count, vectors, R);
+        for (int64_t k = 0; k < count; ++k) {
+            const int64_t i = m->free_nodes[first + k];
+            double T[9];
+            memcpy(T, c->T + 9 * i, sizeof T);
+            matmul3(R + 9 * k, T, c->T + 9 * i);
+        }
     }
     for (int64_t k = 0; k < m->n_free_hinges; ++k) {
         int64_t j = m->free_hinges[k];
@@ -437,20 +459,37 @@ static void configure(const Model *m, const Configuration *base, Configuration *
 /* ------------------------------------------------------------------------- evaluation */
 
 /* Element inputs: x1, x2, offsets T r_g (Eq. 2),
- * nodal frames T_j exp(θ h) E0 (Eq. 17), hinge axes T_j h (Eq. 9); rates and accelerations. */
+ * nodal frames T_j exp(θ h) E0 (Eq. 17), hinge axes T_j h (Eq. 9); rates and accelerations.
+ * The ends go through the generated kernel ITEMS_PER_BATCH at a time, gathered into and scattered
+ * from the stack. */
 static void element_inputs_to(const Model *m, const Configuration *c, double *geometry, double *rates,
                               double *accelerations, int64_t begin, int64_t end_element)
 {
+    double frames[9 * ITEMS_PER_BATCH], data[16 * ITEMS_PER_BATCH];
+    double end_frame[9 * ITEMS_PER_BATCH], end_offset[3 * ITEMS_PER_BATCH], end_axis[3 * ITEMS_PER_BATCH];
+    for (int64_t first = 2 * begin; first < 2 * end_element; first += ITEMS_PER_BATCH) {
+        const int64_t ends = batch_size(first, 2 * end_element);
+        for (int64_t k = 0; k < ends; ++k) {  /* end k of the batch: end (first + k) % 2 of element (first + k) / 2 */
+            int64_t i = m->element_nodes[first + k], hinge = m->element_hinges[first + k];
+            memcpy(frames + 9 * k, c->T + 9 * i, 9 * sizeof(double));
+            memcpy(data + 16 * k, m->element_ends + 16 * (first + k), 15 * sizeof(double));
+            data[16 * k + 15] = hinge >= 0 ? c->theta[hinge] : 0.0;
+        }
+        /* Eqs. 2, 9, 17: the generated kernel (codegen/joints.py hinged_end) */
+        m->hinged_end(ends, frames, data, end_frame, end_offset, end_axis);
+        for (int64_t k = 0; k < ends; ++k) {
+            const int64_t e = (first + k) / 2, end = (first + k) % 2;
+            double *g = geometry + 36 * e;
+            memcpy(g + 12 + 9 * end, end_frame + 9 * k, 9 * sizeof(double));
+            memcpy(g + 6 + 3 * end, end_offset + 3 * k, 3 * sizeof(double));
+            memcpy(g + 30 + 3 * end, end_axis + 3 * k, 3 * sizeof(double));
+        }
+    }
     for (int64_t e = begin; e < end_element; ++e) {
         double *g = geometry + 36 * e;
         double *r = rates + 14 * e, *acc = accelerations + 14 * e;
         for (int end = 0; end < 2; ++end) {
             int64_t i = m->element_nodes[2 * e + end], hinge = m->element_hinges[2 * e + end];
-            /* Eqs. 2, 9, 17: the generated kernel (codegen/joints.py hinged_end) */
-            double data[16];
-            memcpy(data, m->element_ends + 32 * e + 16 * end, 15 * sizeof(double));
-            data[15] = hinge >= 0 ? c->theta[hinge] : 0.0;
-            m->hinged_end(1, c->T + 9 * i, data, g + 12 + 9 * end, g + 6 + 3 * end, g + 30 + 3 * end);
             for (int j = 0; j < 3; ++j) {
                 g[3 * end + j] = c->x[3 * i + j];
                 r[7 * end + j] = c->v[3 * i + j];
@@ -469,22 +508,27 @@ static void element_inputs(const Model *m, const Configuration *c, Work *w, int6
     element_inputs_to(m, c, w->geometry, w->rates, w->accelerations, begin, end_element);
 }
 
-/* Joint bodies: the generated kernel codegen/joints.py, body by body, under gravity λg; without
+/* Joint bodies: the generated kernel codegen/joints.py, a batch of bodies a call, under gravity λg; without
  * inertia (a static residual) at rest, so that only the weight remains. */
 static void joint_bodies(const Model *m, const Configuration *c, Work *w, int inertia, double load_factor)
 {
-    double motion[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
-    const double gravity[3] = {load_factor * m->gravity[0], load_factor * m->gravity[1],
-                               load_factor * m->gravity[2]};
-    for (int64_t b = 0; b < m->n_bodies; ++b) {
-        int64_t i = m->body_nodes[b];
-        if (inertia) {
-            memcpy(motion, c->w + 3 * i, 3 * sizeof(double));
-            memcpy(motion + 3, c->a + 3 * i, 3 * sizeof(double));
-            memcpy(motion + 6, c->alpha + 3 * i, 3 * sizeof(double));
+    double frames[9 * ITEMS_PER_BATCH], motion[9 * ITEMS_PER_BATCH], gravity[3 * ITEMS_PER_BATCH];
+    for (int k = 0; k < ITEMS_PER_BATCH; ++k)
+        for (int p = 0; p < 3; ++p) gravity[3 * k + p] = load_factor * m->gravity[p];
+    if (!inertia) memset(motion, 0, sizeof motion);
+    for (int64_t first = 0; first < m->n_bodies; first += ITEMS_PER_BATCH) {
+        const int64_t count = batch_size(first, m->n_bodies);
+        for (int64_t k = 0; k < count; ++k) {
+            const int64_t i = m->body_nodes[first + k];
+            memcpy(frames + 9 * k, c->T + 9 * i, 9 * sizeof(double));
+            if (inertia) {
+                memcpy(motion + 9 * k, c->w + 3 * i, 3 * sizeof(double));
+                memcpy(motion + 9 * k + 3, c->a + 3 * i, 3 * sizeof(double));
+                memcpy(motion + 9 * k + 6, c->alpha + 3 * i, 3 * sizeof(double));
+            }
         }
-        m->joint_body(1, c->T + 9 * i, motion, m->body_section + 13 * b, gravity, w->body_vector + 6 * b,
-                      w->body_mass + 36 * b, w->body_damping + 36 * b, w->body_stiffness + 36 * b);
+        m->joint_body(count, frames, motion, m->body_section + 13 * first, gravity, w->body_vector + 6 * first,
+                      w->body_mass + 36 * first, w->body_damping + 36 * first, w->body_stiffness + 36 * first);
     }
 }
 
@@ -922,33 +966,47 @@ static double evaluate(const Model *m, const Configuration *c, Work *w, const do
         for (int p = 0; p < 6; ++p) w->total[d[p]] += w->body_vector[6 * b + p];
     }
     /* hinges: the laws' values and derivatives at (θ, θ̇, t), constants or
-     * the scene's compiled laws, into the generated kernel codegen/joints.py hinge_force */
-    for (int64_t j = 0; j < m->n_hinges; ++j) {
-        double state[4] = {c->theta[j], c->theta_dot[j], m->hinge_rest_angle[j], load_factor};
-        double values[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
-        if (m->hinge_stiffness_law[j] < 0) {  /* constant spring and damper, a torque of t alone */
-            values[0] = m->hinge_stiffness[j];
-            values[3] = m->hinge_damping[j];
-            if (m->hinge_torque_law[j] >= 0) values[6] = laws[3 * m->hinge_torque_law[j]];
-        } else {
-            m->hinge_laws(m->hinge_stiffness_law[j], state[0], state[1], t, values);
-            m->hinge_laws(m->hinge_damping_law[j], state[0], state[1], t, values + 3);
-            if (m->hinge_torque_hinge_law[j] >= 0)
-                m->hinge_laws(m->hinge_torque_hinge_law[j], state[0], state[1], t, values + 6);
+     * the scene's compiled laws, into the generated kernel codegen/joints.py hinge_force, a batch a call */
+    for (int64_t first = 0; first < m->n_hinges; first += ITEMS_PER_BATCH) {
+        const int64_t count = batch_size(first, m->n_hinges);
+        double state[4 * ITEMS_PER_BATCH], values[9 * ITEMS_PER_BATCH], control[ITEMS_PER_BATCH];
+        double f[ITEMS_PER_BATCH], spring_torque[ITEMS_PER_BATCH], applied_torque[ITEMS_PER_BATCH];
+        double contact_energy[ITEMS_PER_BATCH];
+        for (int64_t k = 0; k < count; ++k) {
+            const int64_t j = first + k;
+            double *st = state + 4 * k, *v = values + 9 * k;
+            st[0] = c->theta[j];
+            st[1] = c->theta_dot[j];
+            st[2] = m->hinge_rest_angle[j];
+            st[3] = load_factor;
+            for (int p = 0; p < 9; ++p) v[p] = 0.0;
+            if (m->hinge_stiffness_law[j] < 0) {  /* constant spring and damper, a torque of t alone */
+                v[0] = m->hinge_stiffness[j];
+                v[3] = m->hinge_damping[j];
+                if (m->hinge_torque_law[j] >= 0) v[6] = laws[3 * m->hinge_torque_law[j]];
+            } else {
+                m->hinge_laws(m->hinge_stiffness_law[j], st[0], st[1], t, v);
+                m->hinge_laws(m->hinge_damping_law[j], st[0], st[1], t, v + 3);
+                if (m->hinge_torque_hinge_law[j] >= 0)
+                    m->hinge_laws(m->hinge_torque_hinge_law[j], st[0], st[1], t, v + 6);
+            }
+            control[k] = 0.0;  /* a continuous controller's output: feedback, not ramped with the loads (λ) */
+            if (m->n_controllers && m->hinge_controller[j] >= 0) {
+                control[k] = m->controller_outputs[m->controller_slot[m->hinge_controller[j]]];
+                v[6] = v[7] = v[8] = 0.0;
+            }
         }
-        double control = 0.0;  /* a continuous controller's output: feedback, not ramped with the loads (λ) */
-        if (m->n_controllers && m->hinge_controller[j] >= 0) {
-            control = m->controller_outputs[m->controller_slot[m->hinge_controller[j]]];
-            values[6] = values[7] = values[8] = 0.0;
+        m->hinge_force(count, state, values, m->hinge_contact + 11 * first, f, w->hinge_d_theta + first,
+                       w->hinge_d_rate + first, spring_torque, applied_torque, w->hinge_damper_torque + first,
+                       contact_energy);
+        for (int64_t k = 0; k < count; ++k) {
+            const int64_t j = first + k;
+            const double force = f[k] - control[k];
+            const double applied = applied_torque[k] + control[k];  /* the controller's output is an applied torque: its work is counted alike */
+            w->hinge_work_torque[j] = m->hinge_conservative[j] ? applied : applied - spring_torque[k];
+            w->joint_forces[j] = force;
+            w->total[m->hinge_dofs[j]] += force;
         }
-        double f, spring_torque, applied_torque, contact_energy;
-        m->hinge_force(1, state, values, m->hinge_contact + 11 * j, &f, w->hinge_d_theta + j, w->hinge_d_rate + j,
-                       &spring_torque, &applied_torque, w->hinge_damper_torque + j, &contact_energy);
-        f -= control;
-        applied_torque += control;  /* the controller's output is an applied torque: its work is counted alike */
-        w->hinge_work_torque[j] = m->hinge_conservative[j] ? applied_torque : applied_torque - spring_torque;
-        w->joint_forces[j] = f;
-        w->total[m->hinge_dofs[j]] += f;
     }
     /* point loads: the generated kernel codegen/joints.py, load by load */
     static const double identity[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
@@ -1071,17 +1129,29 @@ void latdyn_energies(const Model *m, Work *w, const Configuration *c, double t, 
         strain += w->strain[e];
         if (m->has_gravity) potential += w->gravity_potential[e];
     }
-    for (int64_t j = 0; j < m->n_hinges; ++j) {
-        double s = c->theta[j] - m->hinge_rest_angle[j];
-        strain += 0.5 * m->hinge_stiffness[j] * s * s;
-        if (m->hinge_stiffness_law[j] >= 0 && m->hinge_conservative[j])
-            strain += law_spring_potential(m, j, c->theta[j]);
-        /* a compliant stop's potential, from the generated hinge_force (its other outputs unused) */
-        double state[4] = {c->theta[j], c->theta_dot[j], m->hinge_rest_angle[j], 0.0}, values[9] = {0};
-        double f, d_theta, d_rate, spring_torque, applied_torque, damper_torque, contact_energy;
-        m->hinge_force(1, state, values, m->hinge_contact + 11 * j, &f, &d_theta, &d_rate, &spring_torque,
-                       &applied_torque, &damper_torque, &contact_energy);
-        strain += contact_energy;
+    for (int64_t first = 0; first < m->n_hinges; first += ITEMS_PER_BATCH) {
+        /* a compliant stop's potential, from the generated hinge_force, a batch a call (its other outputs unused) */
+        const int64_t count = batch_size(first, m->n_hinges);
+        double state[4 * ITEMS_PER_BATCH], values[9 * ITEMS_PER_BATCH] = {0}, contact_energy[ITEMS_PER_BATCH];
+        double f[ITEMS_PER_BATCH], d_theta[ITEMS_PER_BATCH], d_rate[ITEMS_PER_BATCH], spring_torque[ITEMS_PER_BATCH];
+        double applied_torque[ITEMS_PER_BATCH], damper_torque[ITEMS_PER_BATCH];
+        for (int64_t k = 0; k < count; ++k) {
+            const int64_t j = first + k;
+            state[4 * k] = c->theta[j];
+            state[4 * k + 1] = c->theta_dot[j];
+            state[4 * k + 2] = m->hinge_rest_angle[j];
+            state[4 * k + 3] = 0.0;
+        }
+        m->hinge_force(count, state, values, m->hinge_contact + 11 * first, f, d_theta, d_rate, spring_torque,
+                       applied_torque, damper_torque, contact_energy);
+        for (int64_t k = 0; k < count; ++k) {
+            const int64_t j = first + k;
+            double s = c->theta[j] - m->hinge_rest_angle[j];
+            strain += 0.5 * m->hinge_stiffness[j] * s * s;
+            if (m->hinge_stiffness_law[j] >= 0 && m->hinge_conservative[j])
+                strain += law_spring_potential(m, j, c->theta[j]);
+            strain += contact_energy[k];
+        }
     }
     for (int64_t b = 0; b < m->n_bodies; ++b) {
         int64_t i = m->body_nodes[b];
