@@ -294,12 +294,16 @@ class ParameterDerivatives:
         # the derivative laws, parsed once: key -> {column: HingeLaw in theta, theta_dot, t}, only
         # where the key uses the parameter
         self.derivatives: dict[str, dict[int, object]] = {}
+        parsed: dict[str, object] = {}   # one law per derivative text (many parameters' derivatives read alike)
         for column, name in enumerate(self.names):
             for key in params.depending_on(name):
                 if _CONTROLLER_KEY.match(key):   # a law in the controller's sensors: ControllerTerms
                     continue
-                law = parse_hinge_law(params.derivative(key, name), self.scene.file, key)
-                self.derivatives.setdefault(key, {})[column] = law
+                text = params.derivative(key, name)
+                if text not in parsed:
+                    parsed[text] = parse_hinge_law(text, self.scene.file, key)
+                self.derivatives.setdefault(key, {})[column] = parsed[text]
+        self._values_at: tuple[float, dict] = (float("nan"), {})
         self.controllers = ControllerTerms(self) if self.scene.controllers else None
         initial = self.assembler.initial_state()
         self.initial_points = {p.name: initial.x[node] + initial.T[node] @ offset
@@ -322,7 +326,7 @@ class ParameterDerivatives:
                 if load:
                     slot = int(load["axis"]) + (3 if load["kind"] == "moment" else 0)
                     values = load_values.setdefault((int(load["load"]), column), np.zeros(6))
-                    values[slot] += load_factor * law.value(0.0, 0.0, state.t)
+                    values[slot] += load_factor * self._of_time(law, state.t)
                 elif hinge:
                     j = model.hinge_index(hinge["beam"], hinge["end"])
                     total[model.hinge_dofs[j], column] += self._hinge_force(state, j, hinge["law"], law, load_factor)
@@ -378,31 +382,62 @@ class ParameterDerivatives:
         """(elements (m,), parameter columns (m,), section rows (m, 10)): for every use of a parameter
         by a section value, that section's elements with the section block replaced by the value's
         derivative (L0 kept, the rest 0; the planar model's quarter turns applied as
-        latdyn.model.planar.restrict_to_plane applies them); None where no parameter is a section's."""
+        latdyn.model.planar.restrict_to_plane applies them); None where no parameter is a section's.
+        The rows' layout is made once (:meth:`_section_layout`); per call only the laws' values."""
+        layout = self._section_layout()
+        if layout is None:
+            return None
+        elements, columns, rows, slot, laws = layout
+        rows = rows.copy()
+        rows[np.arange(len(rows)), slot] = np.array([self._of_time(law, state.t) for law in laws])[self._section_use]
+        return elements, columns, rows
+
+    def _section_layout(self):
+        """The layout of :meth:`_section_derivative_blocks`, made once: (elements, columns, rows with L0,
+        the column of each row's derivative value (after the quarter turns), the laws of the uses)."""
+        if "_section_layout_made" in self.__dict__:
+            return self._section_layout_made
         model = self.model
-        chosen, columns, blocks = [], [], []   # every (parameter's use, column): its elements and section rows
-        for key, laws in self.derivatives.items():
+        chosen, columns, slots, laws, uses = [], [], [], [], []
+        for key, by_column in self.derivatives.items():
             section = _SECTION_KEY.match(key)
             if not section:
                 continue
             elements = self._section_elements(section["section"])
             if len(elements) == 0:
                 continue
-            for column, law in laws.items():
-                rows = np.zeros((len(elements), model.element_sections.shape[1]))
-                rows[:, 0] = model.element_sections[elements, 0]                       # L0
-                rows[:, _SECTION_COLUMN[section["value"]]] = law.value(0.0, 0.0, state.t)
+            for column, law in by_column.items():
+                slot = np.full(len(elements), _SECTION_COLUMN[section["value"]])
                 if model.plane is not None:   # latdyn.model.planar.restrict_to_plane: a quarter turn swaps y, z
                     quarter = np.abs(np.sin(model.section_turns[elements])) > 0.5
-                    for a, b in ((2, 3), (6, 7)):
-                        rows[quarter, a], rows[quarter, b] = rows[quarter, b].copy(), rows[quarter, a].copy()
+                    swap = {2: 3, 3: 2, 6: 7, 7: 6}
+                    slot = np.where(quarter, swap.get(int(slot[0]), int(slot[0])), slot)
                 chosen.append(elements)
                 columns.append(np.full(len(elements), column))
-                blocks.append(rows)
+                slots.append(slot)
+                laws.append(law)
+                uses.append(np.full(len(elements), len(laws) - 1))
         if not chosen:
+            self._section_layout_made = None
             return None
-        # the kernels once for all of them (each row its element's geometry and a section derivative)
-        return np.concatenate(chosen), np.concatenate(columns), np.ascontiguousarray(np.vstack(blocks))
+        elements = np.concatenate(chosen)
+        rows = np.zeros((len(elements), model.element_sections.shape[1]))
+        rows[:, 0] = model.element_sections[elements, 0]                       # L0
+        self._section_use = np.concatenate(uses)
+        self._section_layout_made = (elements, np.concatenate(columns), rows, np.concatenate(slots), laws)
+        return self._section_layout_made
+
+    def _of_time(self, law, t: float) -> float:
+        """``law.value(0, 0, t)`` (a derivative law of a load or a section value, in t alone), each law once
+        at a time t (the laws of one text are one object: ``__init__``)."""
+        at, values = self._values_at
+        if at != t:
+            values = {}
+            self._values_at = (t, values)
+        key = id(law)
+        if key not in values:
+            values[key] = law.value(0.0, 0.0, t)
+        return values[key]
 
     def _section_elements(self, name: str) -> np.ndarray:
         """The elements of the beams of section ``name`` (found once)."""

@@ -68,16 +68,21 @@ class ExactStepMatrix:
         self.damping, self.stiffness = (sps.csr_matrix((np.zeros(nnz), cols, np.asarray(indptr, np.int64)), shape=(n, n))
                                         for _ in range(2))
 
-    def factor(self, values: np.ndarray, blocks: np.ndarray, beta_p: float, gamma_p: float) -> Factorization:
-        """Factorize S from ``values`` (3, nnz: M, C, K on K's pattern) and the rotation blocks J_f
-        (f, 3, 3); returns the factorization (``solve`` its columns). Raises ``np.linalg.LinAlgError``
-        for a singular S."""
+    def values(self, values: np.ndarray, blocks: np.ndarray, beta_p: float, gamma_p: float) -> np.ndarray:
+        """S's values on its pattern (``rows``, ``cols``) from ``values`` (3, nnz: M, C, K on K's pattern)
+        and the rotation blocks J_f (f, 3, 3)."""
         M, C, K = values
-        self.damping.data[:], self.stiffness.data[:] = C, K
         S = np.zeros(self.size)
         S[self._into] = beta_p * M + gamma_p * C
         products = np.bincount(self._term_place, weights=K[self._term_entry] * blocks.reshape(-1)[self._term_block],
                                minlength=self.size)
         products[self._into[self._plain]] += K[self._plain]
         S += products
-        return self.factorization.factor(S)
+        return S
+
+    def factor(self, values: np.ndarray, blocks: np.ndarray, beta_p: float, gamma_p: float) -> Factorization:
+        """Factorize S (:meth:`values`) and keep C and K for the right-hand sides (``damping``,
+        ``stiffness``); returns the factorization (``solve`` its columns). Raises
+        ``np.linalg.LinAlgError`` for a singular S."""
+        self.damping.data[:], self.stiffness.data[:] = values[1], values[2]
+        return self.factorization.factor(self.values(values, blocks, beta_p, gamma_p))
