@@ -365,17 +365,20 @@ class ParameterDerivatives:
             return
         elements, column, rows = blocks
         geometry, rates, accelerations = self.assembler.native().element_inputs(state)
-        at = np.ascontiguousarray(geometry[elements])
+        at = geometry[elements]
         m = len(elements)
-        forces = np.asarray(self.kernels.beam_internal_force(at, rows)[0]).reshape(m, 14)
+        # each kernel on the rows where its values are not all zero (linear in them: zero there, exactly)
+        elastic, massive = np.any(rows[:, 1:5] != 0, axis=1), np.any(rows[:, 5:8] != 0, axis=1)
+        forces = np.zeros((m, 14))
+        forces[elastic] = np.asarray(self.kernels.beam_internal_force(at[elastic], rows[elastic])[0]).reshape(-1, 14)
         if np.any(gravity):   # evaluate.c: the static residual F − λ gravity load
-            rows_g = np.repeat(gravity[None], m, axis=0)
-            forces = forces - np.asarray(self.kernels.beam_gravity(at, rows, rows_g)[0]).reshape(m, 14)
+            rows_g = np.repeat(gravity[None], int(massive.sum()), axis=0)
+            forces[massive] -= np.asarray(self.kernels.beam_gravity(at[massive], rows[massive], rows_g)[0]).reshape(-1, 14)
         if inertia:   # evaluate.c: F + M a + g − gravity
-            rate = np.ascontiguousarray(rates[elements])
-            mass = np.asarray(self.kernels.beam_mass_matrix(at, rows)[0]).reshape(m, 14, 14)
-            forces = forces + np.einsum("epq,eq->ep", mass, accelerations[elements]) \
-                + np.asarray(self.kernels.beam_quadratic_velocity(at, rate, rows)[0]).reshape(m, 14)
+            on, rate = elements[massive], rates[elements[massive]]
+            mass = np.asarray(self.kernels.beam_mass_matrix(at[massive], rows[massive])[0]).reshape(-1, 14, 14)
+            forces[massive] += np.einsum("epq,eq->ep", mass, accelerations[on]) \
+                + np.asarray(self.kernels.beam_quadratic_velocity(at[massive], rate, rows[massive])[0]).reshape(-1, 14)
         np.add.at(total, (model.element_dofs[elements], column[:, None]), forces)
 
     def _section_derivative_blocks(self, state):
