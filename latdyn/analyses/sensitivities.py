@@ -319,26 +319,23 @@ class ParameterDerivatives:
         guides' reduction."""
         model, k = self.model, len(self.names)
         total = np.zeros((model.n_total + 1, k))
-        load_values: dict[tuple[int, int], np.ndarray] = {}   # (load, column) -> λ ∂(its six values)/∂p
         for key, laws in self.derivatives.items():
             load, hinge = self._key_kinds(key)
-            for column, law in laws.items():
-                if load:
-                    slot = int(load["axis"]) + (3 if load["kind"] == "moment" else 0)
-                    values = load_values.setdefault((int(load["load"]), column), np.zeros(6))
-                    values[slot] += load_factor * self._of_time(law, state.t)
-                elif hinge:
-                    j = model.hinge_index(hinge["beam"], hinge["end"])
+            if hinge and not load:
+                j = model.hinge_index(hinge["beam"], hinge["end"])
+                for column, law in laws.items():
                     total[model.hinge_dofs[j], column] += self._hinge_force(state, j, hinge["law"], law, load_factor)
         self._section_forces(state, total, load_factor, inertia)
         self._body_forces(state, total, load_factor, inertia)
         self._contact_forces(state, total)
         if self.controllers is not None:
             self.controllers.add(state, total)
-        if load_values:   # the kernel is linear in the values: one call for every (load, column)
-            pairs = list(load_values)
-            nodes, forces = self._load_forces(state, [index for index, _ in pairs], np.array(list(load_values.values())))
-            np.add.at(total, (model.node_dofs[nodes], np.array([column for _, column in pairs])[:, None]), forces)
+        pairs, columns, place, laws = self._load_layout()
+        if len(pairs):   # the kernel is linear in the values: one call for every (load, column)
+            values = np.zeros((len(pairs), 6))   # λ ∂(the load's six values)/∂p of each (load, column)
+            values[place] = load_factor * np.array([self._of_time(law, state.t) for law in laws])
+            nodes, forces = self._load_forces(state, pairs, values)
+            np.add.at(total, (model.node_dofs[nodes], columns[:, None]), forces)
         return total if on_all else self._on_free_coordinates(state, total)
 
     def _on_free_coordinates(self, state, total: np.ndarray) -> np.ndarray:
@@ -526,19 +523,50 @@ class ParameterDerivatives:
                 "beam": guide["body"], "end": "guide", "law": _GUIDE_LAW.get(guide["law"], guide["law"])})
         return cache[key]
 
-    def _load_forces(self, state, indices: list, values: np.ndarray):
+    def _load_layout(self):
+        """The loads' parameter uses, laid out once: (the load of each (load, column) pair (m,), its column
+        (m,), the (pair, slot) of each use, the uses' laws), pairs in the order of their first use."""
+        if "_load_layout_made" not in self.__dict__:
+            pair_of: dict[tuple[int, int], int] = {}
+            rows, slots, laws = [], [], []
+            for key, by_column in self.derivatives.items():
+                load, _ = self._key_kinds(key)
+                if not load:
+                    continue
+                for column, law in by_column.items():
+                    rows.append(pair_of.setdefault((int(load["load"]), column), len(pair_of)))
+                    slots.append(int(load["axis"]) + (3 if load["kind"] == "moment" else 0))
+                    laws.append(law)
+            pairs = np.array([index for index, _ in pair_of], np.int64)
+            columns = np.array([column for _, column in pair_of], np.int64)
+            self._load_layout_made = (pairs, columns, (np.array(rows, np.int64), np.array(slots, np.int64)), laws)
+        return self._load_layout_made
+
+    def _load_forces(self, state, indices, values: np.ndarray):
         """(nodes (m,), generalized forces (m, 6)) of loads ``indices`` with these values (m, 6): one call of
         the point_load kernel for them all."""
-        model = self.model
-        points = [model.point(self.scene.loads[index].at) for index in indices]
-        nodes = np.array([node for node, _ in points], dtype=int)
-        frames = np.array([state.T[model.body_node[self.scene.loads[index].frame]]
-                           if self.scene.loads[index].frame != "global" else np.eye(3) for index in indices])
+        node, offset, frame = self._load_points()
+        indices = np.asarray(indices, np.int64)
+        nodes = node[indices]
+        frames = np.where((frame[indices] >= 0)[:, None, None], state.T[np.maximum(frame[indices], 0)], np.eye(3))
         rows = lambda a: np.ascontiguousarray(np.reshape(a, (len(indices), -1)), dtype=float)  # noqa: E731
         velocity = np.concatenate([state.v[nodes], state.w[nodes]], axis=1)
-        force = self.kernels.point_load(rows(state.T[nodes]), rows([offset for _, offset in points]), rows(values),
+        force = self.kernels.point_load(rows(state.T[nodes]), rows(offset[indices]), rows(values),
                                         rows(frames), rows(velocity))[0]
         return nodes, np.asarray(force).reshape(len(indices), 6)
+
+    def _load_points(self):
+        """(node (loads,), offset (loads, 3), the node of its frame body or −1 for global (loads,)) of every
+        scene load (found once)."""
+        if "_load_points_made" not in self.__dict__:
+            model, loads = self.model, self.scene.loads
+            points = [model.point(load.at) for load in loads]
+            self._load_points_made = (
+                np.array([node for node, _ in points], np.int64).reshape(-1),
+                np.array([offset for _, offset in points], float).reshape(-1, 3),
+                np.array([model.body_node[load.frame] if load.frame != "global" else -1 for load in loads],
+                         np.int64).reshape(-1))
+        return self._load_points_made
 
     def _hinge_force(self, state, j: int, which: str, law, load_factor: float) -> float:
         """∂f/∂p of hinge ``j`` through its ``which`` law (the hinge_force kernel, linear in the laws;

@@ -760,12 +760,16 @@ class _NodeRotations:
 
     def __init__(self, owner: TransientSensitivities, blocks: np.ndarray, slots: np.ndarray, n: int):
         self.owner, self.blocks, self.slots, self.n = owner, blocks, slots, n
+        self.complete = bool(np.all(slots < n))
         self._matrix = None
 
     def __call__(self, columns: np.ndarray) -> np.ndarray:
         slots, n = self.slots, self.n
-        on = slots < n
         out = np.array(columns, dtype=float, copy=True)
+        if self.complete:   # every free node's three rotations are coordinates (3D)
+            out[slots] = np.einsum("fij,fjk->fik", self.blocks, columns[slots])
+            return out
+        on = slots < n
         full = np.vstack([columns, np.zeros((1, columns.shape[1]))])
         pieces = full[np.where(on, slots, n)]                                 # (f, 3, k)
         turned = np.einsum("fij,fjk->fik", self.blocks, pieces)
