@@ -12,7 +12,9 @@ cases interleaved ``--repeats`` times (the machine may be shared). Per accepted 
 sensitivities add one evaluation of M, C and the exact K (the elements' inertia tangent by
 ``newton: exact``'s evaluation), one factorization and k back-substitutions, and the kernels of
 ∂r/∂p (latdyn/analyses/transient_sensitivities.py). Printed: the minimum and median wall time of
-``latdyn.run`` and the ratio of the minima to the run without; the 1-minute load average with them.
+``latdyn.run`` and the ratio of the minima to the run without, the minimum CPU time of the process and its
+ratio (steadier than wall time on a shared machine), and the minimum wall time of the sensitivities' setup
+(the parameters' derivative laws, SymPy: once a run, not a step); the 1-minute load average with them.
 """
 from __future__ import annotations
 
@@ -22,6 +24,7 @@ import statistics
 import time
 
 import latdyn
+from latdyn.analyses.transient_sensitivities import TransientSensitivities
 from latdyn.timeloop import transient
 
 
@@ -63,14 +66,25 @@ def lattice(names: list[str]) -> dict:
                                                            "component": "y"}}}}
 
 
-def run(loaded, per_step: bool) -> float:
+def run(loaded, per_step: bool) -> tuple[float, float, float]:
+    """(wall time, CPU time of the process, wall time of the sensitivities' setup) of one ``latdyn.run``."""
     transient.COMPILED_LOOP = not per_step
+    setup = [0.0]
+    made = TransientSensitivities.__init__
+
+    def timed(self, prepared):
+        began = time.perf_counter()
+        made(self, prepared)
+        setup[0] += time.perf_counter() - began
+
+    TransientSensitivities.__init__ = timed
     try:
-        start = time.perf_counter()
+        start, cpu = time.perf_counter(), time.process_time()
         latdyn.run(loaded)
-        return time.perf_counter() - start
+        return time.perf_counter() - start, time.process_time() - cpu, setup[0]
     finally:
         transient.COMPILED_LOOP = True
+        TransientSensitivities.__init__ = made
 
 
 def main() -> None:
@@ -85,15 +99,17 @@ def main() -> None:
     loaded = {name: latdyn.load_scene(make([f"F{i}" for i in range(k)])) for name, (k, _) in cases.items()}
     for name, (_, per_step) in cases.items():
         run(loaded[name], per_step)   # compile the kernels and laws once
-    times: dict[str, list[float]] = {name: [] for name in cases}
+    times: dict[str, list[tuple[float, float, float]]] = {name: [] for name in cases}
     for _ in range(args.repeats):
         for name, (_, per_step) in cases.items():
             times[name].append(run(loaded[name], per_step))
     print(f"load average (1 min): {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
-    base = min(times["0 (loop in C)"])
+    base = [min(t[i] for t in times["0 (loop in C)"]) for i in range(2)]
     for name, measured in times.items():
-        print(f"{name:14s} parameters: min {min(measured) * 1e3:8.1f} ms, "
-              f"median {statistics.median(measured) * 1e3:8.1f} ms, {min(measured) / base:.2f}x the run without (minima)")
+        wall, cpu, setup = ([t[i] for t in measured] for i in range(3))
+        print(f"{name:14s} parameters: min {min(wall) * 1e3:8.1f} ms, "
+              f"median {statistics.median(wall) * 1e3:8.1f} ms, {min(wall) / base[0]:.2f}x the run without (minima); "
+              f"CPU min {min(cpu) * 1e3:8.1f} ms, {min(cpu) / base[1]:.2f}x; setup min {min(setup) * 1e3:6.1f} ms")
 
 
 if __name__ == "__main__":

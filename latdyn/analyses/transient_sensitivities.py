@@ -80,9 +80,14 @@ taken with the states condensed from the step's start as inside the step
 at the fixed instants k/rate, and the restart after each sample is differentiated
 (:meth:`TransientSensitivities.after_sample`, :class:`latdyn.analyses.sensitivities.SampledTerms`). docs/parameters.md, "Controllers".
 
-This round runs one step at a time from Python (the time loop's per-step path; the native loop is
-later); it carries (δq, δv, δv̇, δa) on the free coordinates, (n, k), in
-:attr:`latdyn.timeloop.progress.TransientProgress.sensitivities`, checkpointed with the run.
+The step's matrix (without rigid links and guides): M, C and the exact K as the values of the
+assembler's pattern from one native evaluation and one scatter
+(:meth:`latdyn.assembly.assembler.Assembler.exact_matrix_values`), β′M + γ′C + K J summed on a pattern built
+once per numbering and factorised in its held storage (:class:`latdyn.analyses.step_matrix.ExactStepMatrix`);
+with them, the reduction's matrices (:meth:`_matrices`) summed by SciPy. The run takes one step at a time
+from Python (the time loop's per-step path; the loop of steps in C is later); it carries (δq, δv, δv̇, δa)
+on the free coordinates, (n, k), in :attr:`latdyn.timeloop.progress.TransientProgress.sensitivities`,
+checkpointed with the run.
 """
 from __future__ import annotations
 
