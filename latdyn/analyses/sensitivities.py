@@ -370,7 +370,8 @@ class ParameterDerivatives:
         forces[elastic] = np.asarray(self.kernels.beam_internal_force(at[elastic], rows[elastic])[0]).reshape(-1, 14)
         if np.any(gravity):   # evaluate.c: the static residual F − λ gravity load
             rows_g = np.repeat(gravity[None], int(massive.sum()), axis=0)
-            forces[massive] -= np.asarray(self.kernels.beam_gravity(at[massive], rows[massive], rows_g)[0]).reshape(-1, 14)
+            weight = self.kernels.beam_gravity(at[massive], rows[massive], rows_g)[0]
+            forces[massive] -= np.asarray(weight).reshape(-1, 14)
         if inertia:   # evaluate.c: F + M a + g − gravity
             on, rate = elements[massive], rates[elements[massive]]
             mass = np.asarray(self.kernels.beam_mass_matrix(at[massive], rows[massive])[0]).reshape(-1, 14, 14)

@@ -64,9 +64,9 @@ class ExactStepMatrix:
         self.factorization = Factorization(self.rows, self.cols, n)
         import scipy.sparse as sps   # on use, as in latdyn.assembly.assembler
 
+        indptr = np.asarray(indptr, np.int64)
         #: C and K of the last :meth:`factor` (SciPy CSR on K's pattern: their values replaced each step)
-        self.damping, self.stiffness = (sps.csr_matrix((np.zeros(nnz), cols, np.asarray(indptr, np.int64)), shape=(n, n))
-                                        for _ in range(2))
+        self.damping, self.stiffness = (sps.csr_matrix((np.zeros(nnz), cols, indptr), shape=(n, n)) for _ in range(2))
 
     def values(self, values: np.ndarray, blocks: np.ndarray, beta_p: float, gamma_p: float) -> np.ndarray:
         """S's values on its pattern (``rows``, ``cols``) from ``values`` (3, nnz: M, C, K on K's pattern)

@@ -327,7 +327,7 @@ class TransientSensitivities(ParameterDerivatives):
         if self._sampled_controllers() is not None:   # the held δy of the last sample (checkpoints carry it)
             self._sampled_controllers().held = carried["sampled_dy"]
         states = self._controller_states()
-        if states is not None:   # the states' held part for ∂r/∂p, the matrix with the states condensed as in the step
+        if states is not None:   # the states' held part for ∂r/∂p; the matrix with the states condensed as in the step
             states.begin_step(carried, new, h)
         with states.condensed(carried, h) if states is not None else nullcontext():
             C, K, solve = self._step_system(new, tangent, beta_p, gamma_p)
