@@ -2,7 +2,8 @@
 (latdyn/analyses/step_matrix.py) against the same sum made by SciPy from Assembler.exact_matrices and
 J's SciPy form: the values to the last bits, the solves to round-off; 3D (a skew hinge, a joint body
 with mass, inertia and an offset centre of mass, beams with rotary inertia) and planar (rotation
-coordinates off the plane are not coordinates), at a moved state with velocities and accelerations."""
+coordinates off the plane are not coordinates), at a moved state with velocities and accelerations; and
+the derivative laws of Parameters.derivative, which renames a text's parameters to share their parse."""
 from __future__ import annotations
 
 import numpy as np
@@ -94,3 +95,40 @@ def test_the_step_matrix_on_its_held_pattern_is_scipys_sum(text):
     # C and K kept for the right-hand sides: exact_matrices' own
     assert np.max(np.abs((step.stiffness - K).toarray())) <= 1e-13 * np.max(np.abs(K.toarray()))
     assert np.max(np.abs((step.damping - C).toarray())) == 0.0
+
+
+RENAMED = """
+parameters: {F0: 5.0, F1: 7.0, k: 30.0, th0: 0.2, p__1: 2.0, q: 3.0}
+sections:
+  s: {EA: 1.0e4, EIy: 20.0, EIz: 20.0, GJ: 15.0, rhoA: 1.0}
+bodies:
+  base: {at: [0, 0, 0], fixed: true}
+beams:
+  arm: {from: base, to: [1, 0, 0], section: s, elements: 2,
+        start: {hinge: {axis: [0, 0, 1], stiffness: "k*(1 + (theta - th0)**2)", rest_angle: th0}}}
+loads:
+  - {at: arm.end, force: ["0.1*F0*t", "0.1*F1*t", "p__1*q*t"]}
+solve: {analysis: static, sensitivities: [F0]}
+"""
+
+
+@pytest.mark.parametrize("key, name, expected", [
+    ("loads[0].force[0]", "F0", "0.1*t"),
+    ("loads[0].force[1]", "F1", "0.1*t"),                      # the same text but for its parameter: one parse
+    ("beams.arm.start.hinge.stiffness", "th0", "-30.0*(2*theta - 0.4)"),
+    ("beams.arm.start.hinge.stiffness", "k", "(theta - 0.2)**2 + 1"),
+    ("loads[0].force[2]", "q", "2.0*t"),                       # a parameter named like a placeholder
+    ("loads[0].force[2]", "p__1", "3.0*t"),
+])
+def test_derivative_laws_of_renamed_texts_are_those_of_the_texts(key, name, expected):
+    """Parameters.derivative renames a text's parameters by their order to share the parse and the
+    derivative between texts alike (latdyn/scene/parameters.py): each derivative is still its own text's at
+    its parameters' values, a parameter named ``p__1`` (renamed ``p__0``, ``q`` renamed ``p__1``) included
+    (SymPy's difference of the two is 0)."""
+    import sympy as sp
+
+    from latdyn.scene.loader import load_scene
+
+    parameters = load_scene(yaml.safe_load(RENAMED)).parameters
+    got = sp.sympify(parameters.derivative(key, name))
+    assert sp.simplify(got - sp.sympify(expected)) == 0
