@@ -1,6 +1,6 @@
 """What exact transient sensitivities cost: 0, 1, 10 and 100 parameters.
 
-    python benchmarks/transient_sensitivities_cost.py [--repeats 3] [--scene cantilever|lattice]
+    python benchmarks/transient_sensitivities_cost.py [--repeats 3] [--scene cantilever|lattice] [--parts]
 
 A 3D cantilever of 30 elements (EIy != EIz, rotary inertia, tilted out of every coordinate plane)
 carries fifty point loads at its nodes, the i-th with two components of amplitudes ``F<2i>`` and
@@ -12,7 +12,9 @@ cases interleaved ``--repeats`` times (the machine may be shared). Per accepted 
 sensitivities add one evaluation of M, C and the exact K (the elements' inertia tangent by
 ``newton: exact``'s evaluation), one factorization and k back-substitutions, and the kernels of
 ∂r/∂p (latdyn/analyses/transient_sensitivities.py). Printed: the minimum and median wall time of
-``latdyn.run`` and the ratio of the minima to the run without; the 1-minute load average with them.
+``latdyn.run`` and the ratio of the minima to the run without, the minimum CPU time of the process and its
+ratio (steadier than wall time on a shared machine), and the minimum wall time of the sensitivities' setup
+(the parameters' derivative laws, SymPy: once a run, not a step); the 1-minute load average with them.
 """
 from __future__ import annotations
 
@@ -22,6 +24,7 @@ import statistics
 import time
 
 import latdyn
+from latdyn.analyses.transient_sensitivities import TransientSensitivities
 from latdyn.timeloop import transient
 
 
@@ -63,14 +66,83 @@ def lattice(names: list[str]) -> dict:
                                                            "component": "y"}}}}
 
 
-def run(loaded, per_step: bool) -> float:
+def run(loaded, per_step: bool) -> tuple[float, float, float]:
+    """(wall time, CPU time of the process, wall time of the sensitivities' setup) of one ``latdyn.run``."""
     transient.COMPILED_LOOP = not per_step
+    setup = [0.0]
+    made = TransientSensitivities.__init__
+
+    def timed(self, prepared):
+        began = time.perf_counter()
+        made(self, prepared)
+        setup[0] += time.perf_counter() - began
+
+    TransientSensitivities.__init__ = timed
     try:
-        start = time.perf_counter()
+        start, cpu = time.perf_counter(), time.process_time()
         latdyn.run(loaded)
-        return time.perf_counter() - start
+        return time.perf_counter() - start, time.process_time() - cpu, setup[0]
     finally:
         transient.COMPILED_LOOP = True
+        TransientSensitivities.__init__ = made
+
+
+def parts(make, repeats: int) -> None:
+    """``--parts``: the fixed part F of a sensitivity step at the last step's end of a one-parameter run,
+    its pieces timed in turn (minima over ``10 * repeats`` interleaved calls): the native evaluation with
+    the elements' inertia tangent and without it, the step's matrix assembled and factorised and one or
+    101 columns solved — on its held pattern (``Assembler.exact_matrix_values``, ``ExactStepMatrix``) and by
+    the path models with rigid links or guides take (``exact_matrices``, SciPy's sum, ``solve_linear``) —,
+    and the exponential's operators."""
+    import numpy as np
+
+    from latdyn.assembly.factorization import solve_linear
+
+    taken = {}
+    step = TransientSensitivities.step
+
+    def kept(self, carried, old, new, *args, **kwargs):
+        taken["owner"], taken["state"] = self, new
+        return step(self, carried, old, new, *args, **kwargs)
+
+    TransientSensitivities.step = kept
+    try:
+        run(latdyn.load_scene(make(["F0"])), False)
+    finally:
+        TransientSensitivities.step = step
+    owner, state = taken["owner"], taken["state"]
+    assembler, n = owner.assembler, owner.model.n_dofs
+    increment = 1e-3 * np.random.default_rng(0).standard_normal(n)
+    _, tangent = owner._rotation_operators(increment)
+    beta_p, gamma_p = 1e5, 1e2
+
+    def held(k):
+        values = assembler.exact_matrix_values(state)
+        return owner._step_matrix(tangent.slots).factor(values, tangent.blocks, beta_p, gamma_p).solve(np.ones((n, k)))
+
+    def summed(k):
+        M, C, K = owner._matrices(state)
+        J = tangent.matrix if hasattr(K, "tocsr") else tangent.matrix.toarray()
+        return solve_linear(beta_p * M + gamma_p * C + K @ J, np.ones((n, k)))
+
+    native = assembler.native(True)
+    pieces = {"native evaluation with the elements' inertia tangent":
+              lambda k: native.evaluate(state, True, 1.0, True, True),
+              "native evaluation of M, C, K without it": lambda k: native.evaluate(state, True, 1.0, True, False),
+              "step matrix on its held pattern, factorised, solved": held,
+              "step matrix by exact_matrices + SciPy sum + solve_linear": summed,
+              "the exponential's operators R, J": lambda k: owner._rotation_operators(increment)}
+    best = {name: {1: np.inf, 101: np.inf} for name in pieces}
+    for _ in range(10 * repeats):
+        for name, piece in pieces.items():
+            for k in (1, 101):
+                began = time.perf_counter()
+                piece(k)
+                best[name][k] = min(best[name][k], time.perf_counter() - began)
+    print(f"F's pieces, n = {n} coordinates; load average (1 min): {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+    for name, measured in best.items():
+        print(f"  {name:58s} 1 column {measured[1] * 1e3:6.3f} ms, 101 columns {measured[101] * 1e3:6.3f} ms")
+    print(f"  the two step matrices' solutions differ by {np.max(np.abs(held(101) - summed(101))):.1e}")
 
 
 def main() -> None:
@@ -78,22 +150,28 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--scene", choices=("cantilever", "lattice"), default="cantilever",
                         help="the cantilever with 100 load parameters, or the lattice with 100 section parameters")
+    parser.add_argument("--parts", action="store_true", help="time the pieces of the fixed part F of a step instead")
     args = parser.parse_args()
     make = scene if args.scene == "cantilever" else lattice
+    if args.parts:
+        parts(make, args.repeats)
+        return
     cases = {"0 (loop in C)": (0, False), "0 (per step)": (0, True), "1": (1, False), "10": (10, False),
              "100": (100, False)}
     loaded = {name: latdyn.load_scene(make([f"F{i}" for i in range(k)])) for name, (k, _) in cases.items()}
     for name, (_, per_step) in cases.items():
         run(loaded[name], per_step)   # compile the kernels and laws once
-    times: dict[str, list[float]] = {name: [] for name in cases}
+    times: dict[str, list[tuple[float, float, float]]] = {name: [] for name in cases}
     for _ in range(args.repeats):
         for name, (_, per_step) in cases.items():
             times[name].append(run(loaded[name], per_step))
     print(f"load average (1 min): {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
-    base = min(times["0 (loop in C)"])
+    base = [min(t[i] for t in times["0 (loop in C)"]) for i in range(2)]
     for name, measured in times.items():
-        print(f"{name:14s} parameters: min {min(measured) * 1e3:8.1f} ms, "
-              f"median {statistics.median(measured) * 1e3:8.1f} ms, {min(measured) / base:.2f}x the run without (minima)")
+        wall, cpu, setup = ([t[i] for t in measured] for i in range(3))
+        print(f"{name:14s} parameters: min {min(wall) * 1e3:8.1f} ms, "
+              f"median {statistics.median(wall) * 1e3:8.1f} ms, {min(wall) / base[0]:.2f}x the run without (minima); "
+              f"CPU min {min(cpu) * 1e3:8.1f} ms, {min(cpu) / base[1]:.2f}x; setup min {min(setup) * 1e3:6.1f} ms")
 
 
 if __name__ == "__main__":

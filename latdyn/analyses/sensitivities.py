@@ -309,12 +309,16 @@ class ParameterDerivatives:
         # the derivative laws, parsed once: key -> {column: HingeLaw in theta, theta_dot, t}, only
         # where the key uses the parameter
         self.derivatives: dict[str, dict[int, object]] = {}
+        parsed: dict[str, object] = {}   # one law per derivative text (many parameters' derivatives read alike)
         for column, name in enumerate(self.names):
             for key in params.depending_on(name):
                 if _CONTROLLER_KEY.match(key):   # a law in the controller's sensors: ControllerTerms
                     continue
-                law = parse_hinge_law(params.derivative(key, name), self.scene.file, key)
-                self.derivatives.setdefault(key, {})[column] = law
+                text = params.derivative(key, name)
+                if text not in parsed:
+                    parsed[text] = parse_hinge_law(text, self.scene.file, key)
+                self.derivatives.setdefault(key, {})[column] = parsed[text]
+        self._values_at: tuple[float, dict] = (float("nan"), {})
         self.controllers = ControllerTerms(self) if self.scene.controllers else None
         initial = self.assembler.initial_state()
         self.initial_points = {p.name: initial.x[node] + initial.T[node] @ offset
@@ -330,26 +334,23 @@ class ParameterDerivatives:
         guides' reduction."""
         model, k = self.model, len(self.names)
         total = np.zeros((model.n_total + 1, k))
-        load_values: dict[tuple[int, int], np.ndarray] = {}   # (load, column) -> λ ∂(its six values)/∂p
         for key, laws in self.derivatives.items():
             load, hinge = self._key_kinds(key)
-            for column, law in laws.items():
-                if load:
-                    slot = int(load["axis"]) + (3 if load["kind"] == "moment" else 0)
-                    values = load_values.setdefault((int(load["load"]), column), np.zeros(6))
-                    values[slot] += load_factor * law.value(0.0, 0.0, state.t)
-                elif hinge:
-                    j = model.hinge_index(hinge["beam"], hinge["end"])
+            if hinge and not load:
+                j = model.hinge_index(hinge["beam"], hinge["end"])
+                for column, law in laws.items():
                     total[model.hinge_dofs[j], column] += self._hinge_force(state, j, hinge["law"], law, load_factor)
         self._section_forces(state, total, load_factor, inertia)
         self._body_forces(state, total, load_factor, inertia)
         self._contact_forces(state, total)
         if self.controllers is not None:
             self.controllers.add(state, total)
-        if load_values:   # the kernel is linear in the values: one call for every (load, column)
-            pairs = list(load_values)
-            nodes, forces = self._load_forces(state, [index for index, _ in pairs], np.array(list(load_values.values())))
-            np.add.at(total, (model.node_dofs[nodes], np.array([column for _, column in pairs])[:, None]), forces)
+        pairs, columns, place, laws = self._load_layout()
+        if len(pairs):   # the kernel is linear in the values: one call for every (load, column)
+            values = np.zeros((len(pairs), 6))   # λ ∂(the load's six values)/∂p of each (load, column)
+            values[place] = load_factor * np.array([self._of_time(law, state.t) for law in laws])
+            nodes, forces = self._load_forces(state, pairs, values)
+            np.add.at(total, (model.node_dofs[nodes], columns[:, None]), forces)
         return total if on_all else self._on_free_coordinates(state, total)
 
     def _on_free_coordinates(self, state, total: np.ndarray) -> np.ndarray:
@@ -376,48 +377,83 @@ class ParameterDerivatives:
             return
         elements, column, rows = blocks
         geometry, rates, accelerations = self.assembler.native().element_inputs(state)
-        at = np.ascontiguousarray(geometry[elements])
+        at = geometry[elements]
         m = len(elements)
-        forces = np.asarray(self.kernels.beam_internal_force(at, rows)[0]).reshape(m, 14)
+        # each kernel on the rows where its values are not all zero (linear in them: zero there, exactly)
+        elastic, massive = np.any(rows[:, 1:5] != 0, axis=1), np.any(rows[:, 5:8] != 0, axis=1)
+        forces = np.zeros((m, 14))
+        forces[elastic] = np.asarray(self.kernels.beam_internal_force(at[elastic], rows[elastic])[0]).reshape(-1, 14)
         if np.any(gravity):   # evaluate.c: the static residual F − λ gravity load
-            rows_g = np.repeat(gravity[None], m, axis=0)
-            forces = forces - np.asarray(self.kernels.beam_gravity(at, rows, rows_g)[0]).reshape(m, 14)
+            rows_g = np.repeat(gravity[None], int(massive.sum()), axis=0)
+            weight = self.kernels.beam_gravity(at[massive], rows[massive], rows_g)[0]
+            forces[massive] -= np.asarray(weight).reshape(-1, 14)
         if inertia:   # evaluate.c: F + M a + g − gravity
-            rate = np.ascontiguousarray(rates[elements])
-            mass = np.asarray(self.kernels.beam_mass_matrix(at, rows)[0]).reshape(m, 14, 14)
-            forces = forces + np.einsum("epq,eq->ep", mass, accelerations[elements]) \
-                + np.asarray(self.kernels.beam_quadratic_velocity(at, rate, rows)[0]).reshape(m, 14)
+            on, rate = elements[massive], rates[elements[massive]]
+            mass = np.asarray(self.kernels.beam_mass_matrix(at[massive], rows[massive])[0]).reshape(-1, 14, 14)
+            forces[massive] += np.einsum("epq,eq->ep", mass, accelerations[on]) \
+                + np.asarray(self.kernels.beam_quadratic_velocity(at[massive], rate, rows[massive])[0]).reshape(-1, 14)
         np.add.at(total, (model.element_dofs[elements], column[:, None]), forces)
 
     def _section_derivative_blocks(self, state):
         """(elements (m,), parameter columns (m,), section rows (m, 10)): for every use of a parameter
         by a section value, that section's elements with the section block replaced by the value's
         derivative (L0 kept, the rest 0; the planar model's quarter turns applied as
-        latdyn.model.planar.restrict_to_plane applies them); None where no parameter is a section's."""
+        latdyn.model.planar.restrict_to_plane applies them); None where no parameter is a section's.
+        The rows' layout is made once (:meth:`_section_layout`); per call only the laws' values."""
+        layout = self._section_layout()
+        if layout is None:
+            return None
+        elements, columns, rows, slot, laws = layout
+        rows = rows.copy()
+        rows[np.arange(len(rows)), slot] = np.array([self._of_time(law, state.t) for law in laws])[self._section_use]
+        return elements, columns, rows
+
+    def _section_layout(self):
+        """The layout of :meth:`_section_derivative_blocks`, made once: (elements, columns, rows with L0,
+        the column of each row's derivative value (after the quarter turns), the laws of the uses)."""
+        if "_section_layout_made" in self.__dict__:
+            return self._section_layout_made
         model = self.model
-        chosen, columns, blocks = [], [], []   # every (parameter's use, column): its elements and section rows
-        for key, laws in self.derivatives.items():
+        chosen, columns, slots, laws, uses = [], [], [], [], []
+        for key, by_column in self.derivatives.items():
             section = _SECTION_KEY.match(key)
             if not section:
                 continue
             elements = self._section_elements(section["section"])
             if len(elements) == 0:
                 continue
-            for column, law in laws.items():
-                rows = np.zeros((len(elements), model.element_sections.shape[1]))
-                rows[:, 0] = model.element_sections[elements, 0]                       # L0
-                rows[:, _SECTION_COLUMN[section["value"]]] = law.value(0.0, 0.0, state.t)
+            for column, law in by_column.items():
+                slot = np.full(len(elements), _SECTION_COLUMN[section["value"]])
                 if model.plane is not None:   # latdyn.model.planar.restrict_to_plane: a quarter turn swaps y, z
                     quarter = np.abs(np.sin(model.section_turns[elements])) > 0.5
-                    for a, b in ((2, 3), (6, 7)):
-                        rows[quarter, a], rows[quarter, b] = rows[quarter, b].copy(), rows[quarter, a].copy()
+                    swap = {2: 3, 3: 2, 6: 7, 7: 6}
+                    slot = np.where(quarter, swap.get(int(slot[0]), int(slot[0])), slot)
                 chosen.append(elements)
                 columns.append(np.full(len(elements), column))
-                blocks.append(rows)
+                slots.append(slot)
+                laws.append(law)
+                uses.append(np.full(len(elements), len(laws) - 1))
         if not chosen:
+            self._section_layout_made = None
             return None
-        # the kernels once for all of them (each row its element's geometry and a section derivative)
-        return np.concatenate(chosen), np.concatenate(columns), np.ascontiguousarray(np.vstack(blocks))
+        elements = np.concatenate(chosen)
+        rows = np.zeros((len(elements), model.element_sections.shape[1]))
+        rows[:, 0] = model.element_sections[elements, 0]                       # L0
+        self._section_use = np.concatenate(uses)
+        self._section_layout_made = (elements, np.concatenate(columns), rows, np.concatenate(slots), laws)
+        return self._section_layout_made
+
+    def _of_time(self, law, t: float) -> float:
+        """``law.value(0, 0, t)`` (a derivative law of a load or a section value, in t alone), each law once
+        at a time t (the laws of one text are one object: ``__init__``)."""
+        at, values = self._values_at
+        if at != t:
+            values = {}
+            self._values_at = (t, values)
+        key = id(law)
+        if key not in values:
+            values[key] = law.value(0.0, 0.0, t)
+        return values[key]
 
     def _section_elements(self, name: str) -> np.ndarray:
         """The elements of the beams of section ``name`` (found once)."""
@@ -503,19 +539,50 @@ class ParameterDerivatives:
                 "beam": guide["body"], "end": "guide", "law": _GUIDE_LAW.get(guide["law"], guide["law"])})
         return cache[key]
 
-    def _load_forces(self, state, indices: list, values: np.ndarray):
+    def _load_layout(self):
+        """The loads' parameter uses, laid out once: (the load of each (load, column) pair (m,), its column
+        (m,), the (pair, slot) of each use, the uses' laws), pairs in the order of their first use."""
+        if "_load_layout_made" not in self.__dict__:
+            pair_of: dict[tuple[int, int], int] = {}
+            rows, slots, laws = [], [], []
+            for key, by_column in self.derivatives.items():
+                load, _ = self._key_kinds(key)
+                if not load:
+                    continue
+                for column, law in by_column.items():
+                    rows.append(pair_of.setdefault((int(load["load"]), column), len(pair_of)))
+                    slots.append(int(load["axis"]) + (3 if load["kind"] == "moment" else 0))
+                    laws.append(law)
+            pairs = np.array([index for index, _ in pair_of], np.int64)
+            columns = np.array([column for _, column in pair_of], np.int64)
+            self._load_layout_made = (pairs, columns, (np.array(rows, np.int64), np.array(slots, np.int64)), laws)
+        return self._load_layout_made
+
+    def _load_forces(self, state, indices, values: np.ndarray):
         """(nodes (m,), generalized forces (m, 6)) of loads ``indices`` with these values (m, 6): one call of
         the point_load kernel for them all."""
-        model = self.model
-        points = [model.point(self.scene.loads[index].at) for index in indices]
-        nodes = np.array([node for node, _ in points], dtype=int)
-        frames = np.array([state.T[model.body_node[self.scene.loads[index].frame]]
-                           if self.scene.loads[index].frame != "global" else np.eye(3) for index in indices])
+        node, offset, frame = self._load_points()
+        indices = np.asarray(indices, np.int64)
+        nodes = node[indices]
+        frames = np.where((frame[indices] >= 0)[:, None, None], state.T[np.maximum(frame[indices], 0)], np.eye(3))
         rows = lambda a: np.ascontiguousarray(np.reshape(a, (len(indices), -1)), dtype=float)  # noqa: E731
         velocity = np.concatenate([state.v[nodes], state.w[nodes]], axis=1)
-        force = self.kernels.point_load(rows(state.T[nodes]), rows([offset for _, offset in points]), rows(values),
+        force = self.kernels.point_load(rows(state.T[nodes]), rows(offset[indices]), rows(values),
                                         rows(frames), rows(velocity))[0]
         return nodes, np.asarray(force).reshape(len(indices), 6)
+
+    def _load_points(self):
+        """(node (loads,), offset (loads, 3), the node of its frame body or −1 for global (loads,)) of every
+        scene load (found once)."""
+        if "_load_points_made" not in self.__dict__:
+            model, loads = self.model, self.scene.loads
+            points = [model.point(load.at) for load in loads]
+            self._load_points_made = (
+                np.array([node for node, _ in points], np.int64).reshape(-1),
+                np.array([offset for _, offset in points], float).reshape(-1, 3),
+                np.array([model.body_node[load.frame] if load.frame != "global" else -1 for load in loads],
+                         np.int64).reshape(-1))
+        return self._load_points_made
 
     def _hinge_force(self, state, j: int, which: str, law, load_factor: float) -> float:
         """∂f/∂p of hinge ``j`` through its ``which`` law (the hinge_force kernel, linear in the laws;

@@ -80,13 +80,19 @@ taken with the states condensed from the step's start as inside the step
 at the fixed instants k/rate, and the restart after each sample is differentiated
 (:meth:`TransientSensitivities.after_sample`, :class:`latdyn.analyses.sensitivities.SampledTerms`). docs/parameters.md, "Controllers".
 
-This round runs one step at a time from Python (the time loop's per-step path; the native loop is
-later); it carries (δq, δv, δv̇, δa) on the free coordinates, (n, k), in
-:attr:`latdyn.timeloop.progress.TransientProgress.sensitivities`, checkpointed with the run.
+The step's matrix (without rigid links and guides): M, C and the exact K as the values of the
+assembler's pattern from one native evaluation and one scatter
+(:meth:`latdyn.assembly.assembler.Assembler.exact_matrix_values`), β′M + γ′C + K J summed on a pattern built
+once per numbering and factorised in its held storage (:class:`latdyn.analyses.step_matrix.ExactStepMatrix`);
+with them, the reduction's matrices (:meth:`_matrices`) summed by SciPy. The run takes one step at a time
+from Python (the time loop's per-step path; the loop of steps in C is later); it carries (δq, δv, δv̇, δa)
+on the free coordinates, (n, k), in :attr:`latdyn.timeloop.progress.TransientProgress.sensitivities`,
+checkpointed with the run.
 """
 from __future__ import annotations
 
 import sys
+from contextlib import nullcontext
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -94,8 +100,9 @@ import numpy as np
 
 from latdyn.analyses.sensitivities import (_BODY_KEY, _CABLE_KEY, _GUIDE_KEY, _HINGE_KEY, _INITIAL_VELOCITY_KEY,
                                            _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE, ParameterDerivatives)
+from latdyn.analyses.step_matrix import ExactStepMatrix
 from latdyn.assembly.assembler import free_acceleration, free_velocity, pack, unpack_free
-from latdyn.assembly.factorization import solve_linear
+from latdyn.assembly.factorization import factorization_for, solve_linear
 from latdyn.errors import SceneError, SolverError
 from latdyn.model.model import lock_tolerance
 from latdyn.numerics.inertia import split_inertia
@@ -320,22 +327,14 @@ class TransientSensitivities(ParameterDerivatives):
         if self._sampled_controllers() is not None:   # the held δy of the last sample (checkpoints carry it)
             self._sampled_controllers().held = carried["sampled_dy"]
         states = self._controller_states()
-        if states is None:
-            M, C, K = self._matrices(new)
-        else:   # the states' held part for ∂r/∂p, the matrix with the states condensed as in the step
+        if states is not None:   # the states' held part for ∂r/∂p; the matrix with the states condensed as in the step
             states.begin_step(carried, new, h)
-            with states.condensed(carried, h):
-                M, C, K = self._matrices(new)
+        with states.condensed(carried, h) if states is not None else nullcontext():
+            C, K, solve = self._step_system(new, tangent, beta_p, gamma_p)
         explicit = np.hstack([self.residual_derivatives(new, 1.0, inertia=True), np.zeros((n, 1))])
         self._add_time_columns(explicit, new, carried["dt"])
         rhs = -(explicit + K @ dq0 + C @ dv0)
-        J = tangent.matrix if issparse(K) else tangent.matrix.toarray()
-        matrix = beta_p * M + gamma_p * C + K @ J
-        try:
-            z = np.asarray(solve_linear(matrix, rhs)).reshape(n, k + 1)
-        except np.linalg.LinAlgError:
-            raise SolverError(f"the sensitivities at t = {new.t:.6g} need the step's exact iteration matrix, "
-                              "which is singular there") from None
+        z = np.asarray(solve(rhs)).reshape(n, k + 1)
         dvdot_new = beta_p * z
         columns = {"dq": dq0 + tangent(z), "dv": dv0 + gamma_p * z, "dvdot": dvdot_new,
                    "da": da0 + (1 - af) / (1 - am) * dvdot_new}
@@ -359,6 +358,27 @@ class TransientSensitivities(ParameterDerivatives):
             return self._jump(carried, new, *event)
         finally:
             self.time_shift = None
+
+    def _step_system(self, new, tangent, beta_p: float, gamma_p: float):
+        """(C, K, solve) at the step's end ``new``: the exact C and K (for the predicted parts' K δq⁰ + C δv⁰)
+        and the solve with the factorised exact iteration matrix β′M + γ′C + K J (module docstring).
+        Without rigid links and guides M, C and K are the values of the assembler's pattern and the
+        matrix is assembled and factorised on its held pattern (:meth:`_step_matrix`); with them, the
+        reduction's matrices (:meth:`_matrices`) summed by SciPy. A singular matrix raises SolverError."""
+        n = self.model.n_dofs
+        try:
+            if self.model.links is None:
+                step_matrix = self._step_matrix(tangent.slots)
+                solver = step_matrix.factor(self.assembler.exact_matrix_values(new), tangent.blocks, beta_p, gamma_p)
+                return step_matrix.damping, step_matrix.stiffness, solver.solve
+            M, C, K = self._matrices(new)
+            J = tangent.matrix if issparse(K) else tangent.matrix.toarray()
+            matrix = beta_p * M + gamma_p * C + K @ J
+            solver = factorization_for(matrix).factor(matrix)
+            return C, K, solver.solve
+        except np.linalg.LinAlgError:
+            raise SolverError(f"the sensitivities at t = {new.t:.6g} need the step's exact iteration matrix, "
+                              "which is singular there") from None
 
     def _add_time_columns(self, explicit: np.ndarray, new, started: np.ndarray) -> None:
         """Add to the step's ∂r/∂p columns ``explicit`` (n, k + 1) the explicit time dependence at its end
@@ -656,38 +676,26 @@ class TransientSensitivities(ParameterDerivatives):
 
     def _rotation_operators(self, increment: np.ndarray):
         """(R·, J·) on free-coordinate columns for the step's increment hΔq: on each free node's
-        rotation coordinates R = exp(skew hΔq) and J = dexp(hΔq), the identity elsewhere; J also as a
-        matrix (``.matrix``, the form of the iteration matrix's storage)."""
+        rotation coordinates R = exp(skew hΔq) and J = dexp(hΔq), the identity elsewhere
+        (:class:`_NodeRotations`: ``.blocks`` the (f, 3, 3) blocks; J also as a SciPy matrix, ``.matrix``,
+        made on first use)."""
         model = self.model
         n = model.n_dofs
-        nodes = model.free_nodes
-        slots = model.node_dofs[nodes, 3:6]                               # (f, 3), ≥ n: not a coordinate
+        slots = model.node_dofs[model.free_nodes, 3:6]                   # (f, 3), ≥ n: not a coordinate
         padded = np.append(increment, 0.0)
         psi = padded[np.where(slots < n, slots, n)]
-        R, J = expm_so3(psi), dexp_so3(psi)
-        on = slots < n
+        return _NodeRotations(self, expm_so3(psi), slots, n), _NodeRotations(self, dexp_so3(psi), slots, n)
 
-        def operator(blocks):
-            def apply(columns):
-                out = np.array(columns, dtype=float, copy=True)
-                full = np.vstack([columns, np.zeros((1, columns.shape[1]))])
-                pieces = full[np.where(on, slots, n)]                     # (f, 3, k)
-                turned = np.einsum("fij,fjk->fik", blocks, pieces)
-                out[slots[on]] = turned[on]
-                return out
-            return apply
-
-        turn, tangent = operator(R), operator(J)
-        if n <= 0:
-            matrix = np.zeros((0, 0))
-        else:
-            import scipy.sparse as sps
-
-            keep, fixed, indices, indptr, order = self._tangent_pattern(slots, n)
-            values = np.concatenate([np.ones(fixed), J[keep]])
-            matrix = sps.csr_matrix((values[order], indices, indptr), shape=(n, n))
-        tangent.matrix = matrix
-        return turn, tangent
+    def _step_matrix(self, slots: np.ndarray) -> "ExactStepMatrix":
+        """The step's exact iteration matrix β′M + γ′C + K J on the assembler's pattern
+        (:class:`latdyn.analyses.step_matrix.ExactStepMatrix`), built once per numbering."""
+        n = self.model.n_dofs
+        indptr, indices = self.assembler.pattern()   # new arrays at every renumbering (Assembler.reindex)
+        held = self.__dict__.get("_held_step_matrix")
+        if held is None or held[0] is not indices or held[1] != n or not np.array_equal(held[2], slots):
+            held = (indices, n, slots.copy(), ExactStepMatrix(indptr, indices, n, slots))
+            self._held_step_matrix = held
+        return held[3]
 
     def _tangent_pattern(self, slots: np.ndarray, n: int):
         """The CSR pattern of J (the identity off the rotation coordinates, 3 × 3 blocks on them) for this
@@ -749,6 +757,45 @@ class TransientSensitivities(ParameterDerivatives):
         if writer.out_dir is not None:
             text = csv_line(["t", *self.columns]) + "".join(csv_line(row) for row in carried["rows"])
             atomic_write_bytes(Path(writer.out_dir) / SENSITIVITIES_FILE, text.encode("utf-8"))
+
+
+class _NodeRotations:
+    """A 3 × 3 block per free node on its rotation coordinates (``slots`` (f, 3), ≥ n: not a
+    coordinate), the identity on the other coordinates: applied to free-coordinate columns by calling
+    it; ``blocks`` (f, 3, 3); ``matrix`` the n × n SciPy CSR form (the iteration matrix's storage),
+    made on first use."""
+
+    def __init__(self, owner: TransientSensitivities, blocks: np.ndarray, slots: np.ndarray, n: int):
+        self.owner, self.blocks, self.slots, self.n = owner, blocks, slots, n
+        self.complete = bool(np.all(slots < n))
+        self._matrix = None
+
+    def __call__(self, columns: np.ndarray) -> np.ndarray:
+        slots, n = self.slots, self.n
+        out = np.array(columns, dtype=float, copy=True)
+        if self.complete:   # every free node's three rotations are coordinates (3D)
+            out[slots] = np.einsum("fij,fjk->fik", self.blocks, columns[slots])
+            return out
+        on = slots < n
+        full = np.vstack([columns, np.zeros((1, columns.shape[1]))])
+        pieces = full[np.where(on, slots, n)]                                 # (f, 3, k)
+        turned = np.einsum("fij,fjk->fik", self.blocks, pieces)
+        out[slots[on]] = turned[on]
+        return out
+
+    @property
+    def matrix(self):
+        if self._matrix is None:
+            n = self.n
+            if n <= 0:
+                self._matrix = np.zeros((0, 0))
+            else:
+                import scipy.sparse as sps
+
+                keep, fixed, indices, indptr, order = self.owner._tangent_pattern(self.slots, n)  # noqa: SLF001
+                values = np.concatenate([np.ones(fixed), self.blocks[keep]])
+                self._matrix = sps.csr_matrix((values[order], indices, indptr), shape=(n, n))
+        return self._matrix
 
 
 # ---------------------------------------------------------------------------------------------- time

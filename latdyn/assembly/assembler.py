@@ -214,6 +214,7 @@ class Assembler:
         cols = np.concatenate(cols) if cols else np.zeros(0, np.int64)
         key = rows * max(n, 1) + cols
         unique, self._position = np.unique(key, return_inverse=True)
+        self._positions3 = None  # exact_matrix_values' scatter of M, C and K at once (made on use)
         self._csr_rows, self._csr_cols = unique // max(n, 1), unique % max(n, 1)
         self._nnz = len(unique)
         counts = np.bincount(self._csr_rows, minlength=n)
@@ -295,6 +296,28 @@ class Assembler:
         else:
             np.add.at(K, (rows[free], cols[free]), blocks[free])
         return M, C, K
+
+    def exact_matrix_values(self, state: State) -> np.ndarray:
+        """(3, nnz): :meth:`exact_matrices`' M, C and K of the equations of motion (load factor 1) as the
+        values of this assembler's pattern (``pattern()``: CSR indptr and indices, structural zeros
+        kept), the joint bodies' inertia stiffness added to K's body blocks before the scatter: one
+        native evaluation, one scatter, no SciPy (the transient sensitivities' step,
+        :class:`latdyn.analyses.step_matrix.ExactStepMatrix`). Without rigid links and guides only."""
+        if self.model.links is not None:
+            raise ValueError("exact_matrix_values: a model with rigid links or guides (use exact_matrices)")
+        ev = self.evaluate(state, matrices=True, inertia=True, inertia_tangent=True)
+        parts = [ev._flat(kind) for kind in ("mass", "damping", "stiffness")]  # noqa: SLF001 (its blocks)
+        if len(self.model.body_nodes):
+            blocks = self.joint_body_inertia_stiffness(state)
+            parts[2][1] = parts[2][1] + blocks[self._body_mask]
+        data = np.concatenate([np.ravel(p) for kind in parts for p in kind])
+        if self._positions3 is None:
+            self._positions3 = np.concatenate([self._position + i * self._nnz for i in range(3)])
+        return np.bincount(self._positions3, weights=data, minlength=3 * self._nnz).reshape(3, self._nnz)
+
+    def pattern(self) -> tuple[np.ndarray, np.ndarray]:
+        """(indptr, indices) of the matrices :meth:`assemble` makes for the current numbering."""
+        return self._indptr, self._indices
 
     def joint_body_inertia_stiffness(self, state: State, load_factor: float = 1.0) -> np.ndarray:
         """(bodies, 6, 6): each joint body's inertia stiffness at ``state`` (the generated

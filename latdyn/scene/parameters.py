@@ -27,6 +27,7 @@ finite number or a constant expression without names of parameters (``"pi/2"``).
 from __future__ import annotations
 
 import contextlib
+import functools
 import keyword
 import math
 import re
@@ -90,12 +91,15 @@ class Parameters:
         import sympy as sp
 
         text, used = self.uses[key]
-        symbols = {n: sp.Symbol(n, real=True) for n in used}
-        extra = tuple(used) + tuple(names) + tuple(v for v in HINGE_VARIABLES + ("s", "s_dot") if v != "t")
-        _, expr = expressions.parse_symbolic(text, None, key, extra)
-        derivative = expressions._drop_deltas(  # noqa: SLF001 (the package's one rule for deltas)
-            sp.diff(expr, symbols[name]))
-        derivative = derivative.subs({symbols[n]: self.values[n] for n in used})
+        # the parameters renamed by their order in the text: texts that differ only in the parameters
+        # they name (fifty loads "F<i>*t") are parsed and differentiated once (_renamed_derivative)
+        renamed = tuple(f"{_PLACEHOLDER}{i}" for i in range(len(used)))
+        if set(renamed) & (set(_names_in(text)) | set(names)):   # a name of the text's own: as written
+            renamed = used
+        rename = dict(zip(used, renamed))
+        template = _TOKEN.sub(lambda m: rename.get(m["name"], m.group(0)) if m["name"] else m.group(0), text)
+        derivative = _renamed_derivative(template, renamed, rename[name], tuple(names))
+        derivative = derivative.subs({sp.Symbol(r, real=True): self.values[n] for n, r in rename.items()})
         return re.sub(r"\bAbs\(", "abs(", str(derivative))
 
     def describe(self) -> list[str]:
@@ -110,6 +114,23 @@ class Parameters:
 
 #: A number (so that ``2e5`` is not read as a name ``e5``) or a name, left to right.
 _TOKEN = re.compile(r"(?P<number>(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)|(?P<name>[A-Za-z_][A-Za-z0-9_]*)")
+
+
+#: the names :meth:`Parameters.derivative` gives a text's parameters (``p__0``, ``p__1``, … in order)
+_PLACEHOLDER = "p__"
+
+
+@functools.lru_cache(maxsize=1024)
+def _renamed_derivative(text: str, used: tuple, name: str, names: tuple):
+    """∂(``text``)/∂``name`` as SymPy, the names ``used`` (and ``names``, the hinge and guide variables)
+    symbols: what :meth:`Parameters.derivative` evaluates at the parameters' values (the text as written
+    was checked when the scene was read)."""
+    import sympy as sp
+
+    extra = tuple(used) + names + tuple(v for v in HINGE_VARIABLES + ("s", "s_dot") if v != "t")
+    _, expr = expressions.parse_symbolic(text, None, "parameters", extra)
+    return expressions._drop_deltas(  # noqa: SLF001 (the package's one rule for deltas)
+        sp.diff(expr, sp.Symbol(name, real=True)))
 
 
 def _names_in(text: str) -> list[str]:

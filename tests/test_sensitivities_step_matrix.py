@@ -1,0 +1,134 @@
+"""The transient sensitivities' step matrix S = β′M + γ′C + K J assembled on its held pattern
+(latdyn/analyses/step_matrix.py) against the same sum made by SciPy from Assembler.exact_matrices and
+J's SciPy form: the values to the last bits, the solves to round-off; 3D (a skew hinge, a joint body
+with mass, inertia and an offset centre of mass, beams with rotary inertia) and planar (rotation
+coordinates off the plane are not coordinates), at a moved state with velocities and accelerations; and
+the derivative laws of Parameters.derivative, which renames a text's parameters to share their parse."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import yaml
+
+from latdyn.analyses.step_matrix import ExactStepMatrix
+from latdyn.analyses.transient_sensitivities import TransientSensitivities
+from latdyn.assembly.assembler import unpack_free
+from latdyn.assembly.factorization import solve_linear
+from latdyn.assembly.prepare import prepare
+
+SCENE_3D = """
+parameters: {k: 40.0}
+sections:
+  s: {EA: 2.0e5, EIy: 30.0, EIz: 45.0, GJ: 25.0, rhoA: 1.2, rhoIy: 0.01, rhoIz: 0.015}
+bodies:
+  base: {at: [0, 0, 0], fixed: true}
+  knee: {at: [1.0, 0.4, 0.2], mass: 0.7, com: [0.05, -0.02, 0.03], inertia: [[0.02, 0.001, 0], [0.001, 0.03, 0], [0, 0, 0.025]]}
+beams:
+  upper: {from: base, to: knee, section: s, elements: 4}
+  lower: {from: knee, to: [1.8, 1.1, -0.3], section: s, elements: 5,
+         start: {hinge: {axis: [0.3, 0.5, 0.8], stiffness: k}}}
+loads:
+  - {at: lower.end, force: [0, 0, "-2*t"]}
+solve: {analysis: transient, dt: 0.01, t_end: 0.02, sensitivities: [k]}
+output: {probes: {tip: {point: lower.end, quantity: position, component: z}}}
+"""
+
+SCENE_PLANAR = """
+parameters: {E: 40.0}
+sections:
+  s: {EA: 1.0e5, EIy: E, EIz: E, GJ: 20.0, rhoA: 0.9, rhoIy: 0.002, rhoIz: 0.002}
+bodies:
+  base: {at: [0, 0, 0], fixed: true}
+  tip: {at: [1.5, 0.5, 0], mass: 0.3, inertia: [[0.01, 0, 0], [0, 0.01, 0], [0, 0, 0.01]]}
+beams:
+  arm: {from: base, to: tip, section: s, elements: 6}
+loads:
+  - {at: tip, force: [0, "-3*t", 0]}
+solve: {analysis: transient, dt: 0.01, t_end: 0.02, sensitivities: [E]}
+output: {probes: {tip: {point: tip, quantity: position, component: y}}}
+"""
+
+
+def _moved_state(prepared, seed: int):
+    """The initial state moved by a random free increment (large rotations), with random free
+    velocities and accelerations."""
+    model, assembler = prepared.model, prepared.assembler
+    rng = np.random.default_rng(seed)
+    n = model.n_dofs
+    state = assembler.advance(assembler.initial_state(), 0.3 * rng.standard_normal(n))
+    unpack_free(model, rng.standard_normal(n), state.v, state.w, state.theta_dot)
+    unpack_free(model, rng.standard_normal(n), state.a, state.alpha, state.theta_ddot)
+    return state
+
+
+@pytest.mark.parametrize("text", [SCENE_3D, SCENE_PLANAR], ids=["3d", "planar"])
+def test_the_step_matrix_on_its_held_pattern_is_scipys_sum(text):
+    prepared = prepare(yaml.safe_load(text))
+    sensitivities = TransientSensitivities(prepared)
+    model, assembler = prepared.model, prepared.assembler
+    n = model.n_dofs
+    state = _moved_state(prepared, 3)
+    increment = 0.2 * np.random.default_rng(4).standard_normal(n)
+    _, tangent = sensitivities._rotation_operators(increment)
+    beta_p, gamma_p = 1.7e4, 1.3e2
+    # the reference: SciPy's sum of Assembler.exact_matrices and J as a sparse matrix
+    M, C, K = assembler.exact_matrices(state, dense=False)
+    reference = (beta_p * M + gamma_p * C + K @ tangent.matrix).toarray()
+    values = assembler.exact_matrix_values(state)
+    for made, ref in zip(values, (M, C, K)):
+        indptr, indices = assembler.pattern()
+        rows = np.repeat(np.arange(n), np.diff(indptr))
+        dense = np.zeros((n, n))
+        dense[rows, indices] = made
+        assert np.max(np.abs(dense - ref.toarray())) <= 1e-13 * np.max(np.abs(ref.toarray()))
+    step = ExactStepMatrix(*assembler.pattern(), n, tangent.slots)
+    assembled = np.zeros((n, n))
+    assembled[step.rows, step.cols] = step.values(values, tangent.blocks, beta_p, gamma_p)
+    scale = np.max(np.abs(reference))
+    assert np.max(np.abs(assembled - reference)) <= 1e-14 * scale
+    factorization = step.factor(values, tangent.blocks, beta_p, gamma_p)
+    rhs = np.random.default_rng(5).standard_normal((n, 3))
+    solved = factorization.solve(rhs)
+    expected = solve_linear(reference, rhs)
+    assert np.max(np.abs(solved - expected)) <= 1e-10 * np.max(np.abs(expected))
+    assert np.max(np.abs(reference @ solved - rhs)) <= 1e-10 * scale * np.max(np.abs(solved))
+    # C and K kept for the right-hand sides: exact_matrices' own
+    assert np.max(np.abs((step.stiffness - K).toarray())) <= 1e-13 * np.max(np.abs(K.toarray()))
+    assert np.max(np.abs((step.damping - C).toarray())) == 0.0
+
+
+RENAMED = """
+parameters: {F0: 5.0, F1: 7.0, k: 30.0, th0: 0.2, p__1: 2.0, q: 3.0}
+sections:
+  s: {EA: 1.0e4, EIy: 20.0, EIz: 20.0, GJ: 15.0, rhoA: 1.0}
+bodies:
+  base: {at: [0, 0, 0], fixed: true}
+beams:
+  arm: {from: base, to: [1, 0, 0], section: s, elements: 2,
+        start: {hinge: {axis: [0, 0, 1], stiffness: "k*(1 + (theta - th0)**2)", rest_angle: th0}}}
+loads:
+  - {at: arm.end, force: ["0.1*F0*t", "0.1*F1*t", "p__1*q*t"]}
+solve: {analysis: static, sensitivities: [F0]}
+"""
+
+
+@pytest.mark.parametrize("key, name, expected", [
+    ("loads[0].force[0]", "F0", "0.1*t"),
+    ("loads[0].force[1]", "F1", "0.1*t"),                      # the same text but for its parameter: one parse
+    ("beams.arm.start.hinge.stiffness", "th0", "-30.0*(2*theta - 0.4)"),
+    ("beams.arm.start.hinge.stiffness", "k", "(theta - 0.2)**2 + 1"),
+    ("loads[0].force[2]", "q", "2.0*t"),                       # a parameter named like a placeholder
+    ("loads[0].force[2]", "p__1", "3.0*t"),
+])
+def test_derivative_laws_of_renamed_texts_are_those_of_the_texts(key, name, expected):
+    """Parameters.derivative renames a text's parameters by their order to share the parse and the
+    derivative between texts alike (latdyn/scene/parameters.py): each derivative is still its own text's at
+    its parameters' values, a parameter named ``p__1`` (renamed ``p__0``, ``q`` renamed ``p__1``) included
+    (SymPy's difference of the two is 0)."""
+    import sympy as sp
+
+    from latdyn.scene.loader import load_scene
+
+    parameters = load_scene(yaml.safe_load(RENAMED)).parameters
+    got = sp.sympify(parameters.derivative(key, name))
+    assert sp.simplify(got - sp.sympify(expected)) == 0
