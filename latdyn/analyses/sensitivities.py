@@ -147,6 +147,12 @@ def refusal(scene) -> SceneError | None:
             if section and {"GAy", "GAz"} & set(scene.raw["sections"][section["section"]]):
                 return refuse(f"parameter {name!r} is used at {used}: the section is shear-flexible (GAy, GAz), "
                               "and its element is not linear in its section values")
+    if solve.sensitivity_method == "adjoint":   # what the discrete adjoint leaves to the forward method
+        from latdyn.analyses.adjoint_sensitivities import adjoint_refusal
+
+        refused = adjoint_refusal(scene)
+        if refused is not None:
+            return refused
     for probe in scene.output.probes:
         point = probe.kind == "point" and probe.quantity in ("position", "displacement") and probe.frame == "global"
         slide = probe.kind == "guide" and probe.quantity == "position" and solve.analysis == "transient"
