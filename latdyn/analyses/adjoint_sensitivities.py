@@ -118,6 +118,18 @@ class AdjointSensitivities(TransientSensitivities):
         return carried
 
     # ------------------------------------------------------------------ the reverse pass
+    def _section_derivative_blocks(self, state):
+        """The forward method's section blocks (:meth:`ParameterDerivatives._section_derivative_blocks`),
+        built once where no section value's derivative depends on t (each block depends on the state only
+        through t): the reverse pass asks for them at every step, and at 10³ sections building them took
+        most of its time (benchmarks/transient_sensitivities_cost.py --scene lattice1000)."""
+        if "_held_section_blocks" not in self.__dict__:
+            timed = any("t" in law.depends_on for key, laws in self.derivatives.items()
+                        if key.startswith("sections.") for law in laws.values())
+            self._held_section_blocks = None if timed else (super()._section_derivative_blocks(state),)
+        held = self._held_section_blocks
+        return super()._section_derivative_blocks(state) if held is None else held[0]
+
     def outputs(self, carried: dict, series: dict) -> list:
         """(probe, which, row index) of every output: each probe's last row and the rows of its largest
         and smallest recorded value (the first where several tie), as the forward method's summary."""
