@@ -197,8 +197,8 @@ class AdjointSensitivities(TransientSensitivities):
                 raise SolverError(f"the adjoint sensitivities at t = {new.t:.6g} need the step's exact iteration "
                                   "matrix, which is singular there") from None
             gradient -= self.residual_derivatives(new, 1.0, inertia=True).T @ w
-            dq0_bar = q_bar - _transposed(K) @ w
-            dv0_bar = v_bar - _transposed(C) @ w
+            dq0_bar = q_bar - K.T @ w
+            dv0_bar = v_bar - C.T @ w
             du0_bar = tangent_t(dq0_bar)
             da0_bar = a_bar + h * gamma * dv0_bar + h * h * beta * du0_bar
             q_bar = turn_t(dq0_bar)
@@ -222,7 +222,7 @@ class AdjointSensitivities(TransientSensitivities):
                                      for c in range(s_bar.shape[1])])
         C = ev.combined(0.0, 1.0, 0.0)
         dv = self._initial_velocities()
-        return self.residual_derivatives(state, 1.0, inertia=True).T @ r_bar + dv.T @ (v_bar + _transposed(C) @ r_bar)
+        return self.residual_derivatives(state, 1.0, inertia=True).T @ r_bar + dv.T @ (v_bar + C.T @ r_bar)
 
     def _transposed_rotation_operators(self, increment: np.ndarray):
         """(Rᵀ·, Jᵀ·, J) for the step's increment hΔq: Rᵀ = exp(−skew hΔq) and Jᵀ = dexp(−hΔq) on each free
@@ -246,17 +246,31 @@ class AdjointSensitivities(TransientSensitivities):
                 return out
             return apply
 
-        rows = np.broadcast_to(slots[:, :, None], slots.shape + (3,))
-        cols = np.broadcast_to(slots[:, None, :], slots.shape + (3,))
-        keep = (rows < n) & (cols < n)
-        plain = np.ones(n, bool)
-        plain[slots[on]] = False
-        J = np.transpose(J_t, (0, 2, 1))
-        identity = np.flatnonzero(plain)
-        matrix = sps.csr_matrix((np.concatenate([np.ones(len(identity)), J[keep]]),
-                                 (np.concatenate([identity, rows[keep]]), np.concatenate([identity, cols[keep]]))),
-                                shape=(n, n))
+        keep, plain, indices, indptr, order = self._exponential_pattern(slots, n)
+        values = np.concatenate([np.ones(plain), np.transpose(J_t, (0, 2, 1))[keep]])
+        matrix = sps.csr_matrix((values[order], indices, indptr), shape=(n, n))
         return operator(R_t), operator(J_t), matrix
+
+    def _exponential_pattern(self, slots: np.ndarray, n: int):
+        """J's CSR pattern for this numbering (the identity off the rotation coordinates, 3 × 3 blocks on
+        them), built once: (the blocks' entries kept, how many identity rows, indices, indptr, the order of
+        [identity entries, kept block entries] in the CSR data)."""
+        import scipy.sparse as sps
+
+        key = (n, slots.tobytes())
+        held = self.__dict__.setdefault("_exponential_patterns", {})
+        if key not in held:
+            rows = np.broadcast_to(slots[:, :, None], slots.shape + (3,))
+            cols = np.broadcast_to(slots[:, None, :], slots.shape + (3,))
+            keep = (rows < n) & (cols < n)
+            plain = np.ones(n, bool)
+            plain[slots[slots < n]] = False
+            r = np.concatenate([np.flatnonzero(plain), rows[keep]])
+            c = np.concatenate([np.flatnonzero(plain), cols[keep]])
+            pattern = sps.csr_matrix((np.arange(1.0, len(r) + 1.0), (r, c)), shape=(n, n))
+            held[key] = (keep, int(plain.sum()), pattern.indices.copy(), pattern.indptr.copy(),
+                         pattern.data.astype(int) - 1)
+        return held[key]
 
     # ------------------------------------------------------------------ the end
     def finish(self, carried: dict, writer) -> None:
