@@ -107,7 +107,8 @@ def main() -> None:
     base = min(times.get("0 (loop in C)", [float("nan")]))
     for name, measured in times.items():
         print(f"{name:16s} parameters: min {min(measured) * 1e3:8.1f} ms, "
-              f"median {statistics.median(measured) * 1e3:8.1f} ms, {min(measured) / base:.2f}x the run without (minima)")
+              f"median {statistics.median(measured) * 1e3:8.1f} ms, "
+              f"{min(measured) / base:.2f}x the run without (minima)")
 
 
 if __name__ == "__main__":

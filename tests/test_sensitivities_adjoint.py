@@ -53,7 +53,8 @@ def _disagreement(forward: dict, adjoint: dict) -> float:
 
 
 @pytest.mark.parametrize("text", [SWING_3D, FROM_REST_3D, BY_INITIAL_VELOCITY],
-                         ids=["3d-rotary-inertia-spinning", "3d-without-rotary-inertia-from-rest", "3d-initial-velocity"])
+                         ids=["3d-rotary-inertia-spinning", "3d-without-rotary-inertia-from-rest",
+                              "3d-initial-velocity"])
 def test_the_adjoint_equals_the_forward_method_in_3d(text):
     """Every parameter kind (load, hinge stiffness law, damping, rest angle, section EI, GJ, ρ, body mass,
     centre of mass, inertia; the initial velocity): measured 1.1e-15 (spinning), 3.8e-14 (from rest: the

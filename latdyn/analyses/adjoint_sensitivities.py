@@ -46,44 +46,17 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from latdyn.analyses.sensitivities import SENSITIVITIES_FILE, has_events
+from latdyn.analyses.sensitivities import SENSITIVITIES_FILE
 from latdyn.analyses.transient_sensitivities import TransientSensitivities
 from latdyn.assembly.assembler import free_velocity
 from latdyn.assembly.factorization import solve_linear
-from latdyn.errors import SceneError, SolverError
+from latdyn.errors import SolverError
 from latdyn.numerics.inertia import split_inertia
 from latdyn.numerics.linalg import issparse
 from latdyn.numerics.so3 import dexp_so3, expm_so3
 from latdyn.step.integrators import consistent_acceleration
 
-__all__ = ["AdjointSensitivities", "adjoint_refusal", "METHODS"]
-
-#: ``solve.sensitivity_method``: the forward method (every row) or the discrete adjoint (end, max, min)
-METHODS = ("forward", "adjoint")
-
-
-def adjoint_refusal(scene) -> SceneError | None:
-    """The SceneError naming ``solve.sensitivity_method`` that refuses the adjoint for ``scene``, or None
-    (module docstring: the forward method's refusals come first, :func:`latdyn.analyses.sensitivities.refusal`)."""
-    key = "solve.sensitivity_method"
-    why = None
-    if scene.solve.analysis != "transient":
-        why = f"the adjoint differentiates transient runs only, not a {scene.solve.analysis} analysis"
-    elif has_events(scene):
-        joints = [f"beams.{beam}.{which}.hinge" for beam, which, hinge in scene.hinges
-                  if hinge.lock_at is not None or hinge.limits is not None]
-        where = joints[0] if joints else ("cables" if scene.cables else "a guide's lock_at or limits")
-        why = (f"the adjoint differentiates runs without events, and {where} (lock_at, limits, a cable's slack "
-               "and taut changes) makes events")
-    elif any(body.guide is not None for body in scene.bodies.values()):
-        name = next(n for n, body in scene.bodies.items() if body.guide is not None)
-        why = f"the adjoint does not differentiate guides yet (bodies.{name}.guide)"
-    elif getattr(scene, "controllers", None):
-        why = f"the adjoint does not differentiate controllers yet (controllers.{next(iter(scene.controllers))})"
-    if why is None:
-        return None
-    return SceneError(scene.file, key, f"{why}; expected sensitivity_method: forward (the default) here "
-                                       "(docs/parameters.md, \"The discrete adjoint\")")
+__all__ = ["AdjointSensitivities"]
 
 
 class AdjointSensitivities(TransientSensitivities):

@@ -148,8 +148,6 @@ def refusal(scene) -> SceneError | None:
                 return refuse(f"parameter {name!r} is used at {used}: the section is shear-flexible (GAy, GAz), "
                               "and its element is not linear in its section values")
     if solve.sensitivity_method == "adjoint":   # what the discrete adjoint leaves to the forward method
-        from latdyn.analyses.adjoint_sensitivities import adjoint_refusal
-
         refused = adjoint_refusal(scene)
         if refused is not None:
             return refused
@@ -162,6 +160,31 @@ def refusal(scene) -> SceneError | None:
                           "point positions and displacements in the global frame, hinge angles and (transient runs) "
                           "guide positions are")
     return None
+
+
+def adjoint_refusal(scene) -> SceneError | None:
+    """The SceneError naming ``solve.sensitivity_method`` that refuses the adjoint for ``scene``, or None
+    (latdyn/analyses/adjoint_sensitivities.py: runs without events, guides and controllers; the forward
+    method's refusals come first, :func:`refusal`)."""
+    key = "solve.sensitivity_method"
+    why = None
+    if scene.solve.analysis != "transient":
+        why = f"the adjoint differentiates transient runs only, not a {scene.solve.analysis} analysis"
+    elif has_events(scene):
+        joints = [f"beams.{beam}.{which}.hinge" for beam, which, hinge in scene.hinges
+                  if hinge.lock_at is not None or hinge.limits is not None]
+        where = joints[0] if joints else ("cables" if scene.cables else "a guide's lock_at or limits")
+        why = (f"the adjoint differentiates runs without events, and {where} (lock_at, limits, a cable's slack "
+               "and taut changes) makes events")
+    elif any(body.guide is not None for body in scene.bodies.values()):
+        name = next(n for n, body in scene.bodies.items() if body.guide is not None)
+        why = f"the adjoint does not differentiate guides yet (bodies.{name}.guide)"
+    elif getattr(scene, "controllers", None):
+        why = f"the adjoint does not differentiate controllers yet (controllers.{next(iter(scene.controllers))})"
+    if why is None:
+        return None
+    return SceneError(scene.file, key, f"{why}; expected sensitivity_method: forward (the default) here "
+                                       "(docs/parameters.md, \"The discrete adjoint\")")
 
 
 def depends_on_time(scene) -> bool:
