@@ -37,7 +37,8 @@ accepted step's end state (a copy: 24 numbers a node and 3 a hinge) and size and
 accelerations before and after it (2n numbers). What is refused (:func:`adjoint_refusal`, exit 2 naming
 ``solve.sensitivity_method``): everything the forward method refuses, and anything whose derivative
 leaves the smooth recurrence above: events (hinge or guide ``lock_at`` and ``limits``, cables), guides,
-controllers.
+controllers with states and sampled ones (continuous controllers without states enter E and the matrices
+as in the forward method).
 """
 from __future__ import annotations
 

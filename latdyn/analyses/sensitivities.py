@@ -179,8 +179,10 @@ def adjoint_refusal(scene) -> SceneError | None:
     elif any(body.guide is not None for body in scene.bodies.values()):
         name = next(n for n, body in scene.bodies.items() if body.guide is not None)
         why = f"the adjoint does not differentiate guides yet (bodies.{name}.guide)"
-    elif getattr(scene, "controllers", None):
-        why = f"the adjoint does not differentiate controllers yet (controllers.{next(iter(scene.controllers))})"
+    elif any(c.states or c.sampled for c in (getattr(scene, "controllers", None) or {}).values()):
+        name = next(c.name for c in scene.controllers.values() if c.states or c.sampled)
+        why = (f"the adjoint does not differentiate controllers with states or sampled ones yet (controllers.{name}); "
+               "continuous controllers without states it does")
     if why is None:
         return None
     return SceneError(scene.file, key, f"{why}; expected sensitivity_method: forward (the default) here "
