@@ -436,12 +436,15 @@ class ParameterDerivatives:
         return np.concatenate(chosen), np.concatenate(columns), np.ascontiguousarray(np.vstack(blocks))
 
     def _section_elements(self, name: str) -> np.ndarray:
-        """The elements of the beams of section ``name`` (found once)."""
-        cache = self.__dict__.setdefault("_elements_of_section", {})
-        if name not in cache:
-            cache[name] = np.array([e for e, beam in enumerate(self.model.element_beam)
-                                    if self.scene.beams[beam].section.name == name], dtype=np.int64)
-        return cache[name]
+        """The elements of the beams of section ``name`` (every section's found in one pass over the
+        elements: one pass per section cost 0.7 s at a lattice's 10³ sections)."""
+        if "_elements_of_section" not in self.__dict__:
+            found: dict[str, list] = {}
+            for e, beam in enumerate(self.model.element_beam):
+                found.setdefault(self.scene.beams[beam].section.name, []).append(e)
+            self._elements_of_section = {section: np.array(elements, dtype=np.int64)
+                                         for section, elements in found.items()}
+        return self._elements_of_section.get(name, np.zeros(0, dtype=np.int64))
 
     def _body_forces(self, state, total: np.ndarray, load_factor: float, inertia: bool = False) -> None:
         """Add ∂(joint body force)/∂p into ``total`` for body masses, centres of mass and inertias that
