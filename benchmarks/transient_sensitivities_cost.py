@@ -1,20 +1,21 @@
-"""What exact transient sensitivities cost: 0, 1, 10 and 100 parameters.
+"""What exact transient sensitivities cost: 0, 1, 10 and 100 (1000) parameters, forward and adjoint.
 
-    python benchmarks/transient_sensitivities_cost.py [--repeats 3] [--scene cantilever|lattice] [--parts]
+    python benchmarks/transient_sensitivities_cost.py [--repeats 3] [--scene cantilever|lattice|lattice1000] [--parts]
 
 A 3D cantilever of 30 elements (EIy != EIz, rotary inertia, tilted out of every coordinate plane)
 carries fifty point loads at its nodes, the i-th with two components of amplitudes ``F<2i>`` and
 ``F<2i+1>`` (named parameters, 100 in all) growing linearly in time, and is stepped 40 steps of generalized-α (dt = 0.002); two probes at the tip, a row every 5
 steps. The same scene is run in process without sensitivities (the loop of steps in C), without
 them on the per-step path a sensitivity run takes (every step from Python, ``COMPILED_LOOP`` off),
-with ``solve.sensitivities: [F0]``, ``[F0, …, F9]`` and ``[F0, …, F99]``, kernels and laws compiled before, the
-cases interleaved ``--repeats`` times (the machine may be shared). Per accepted step the
+with ``solve.sensitivities: [F0]``, ``[F0, …, F9]`` and ``[F0, …, F99]`` by the forward method and by the discrete
+adjoint (``solve.sensitivity_method: adjoint``: each probe's end, max and min only), kernels and laws compiled
+before, the cases interleaved ``--repeats`` times (the machine may be shared). ``--scene lattice1000``: the
+lattice of 250 bays, 1000 member sections, with 1, 10, 100 and 1000 parameters. Per accepted step the
 sensitivities add one evaluation of M, C and the exact K (the elements' inertia tangent by
 ``newton: exact``'s evaluation), one factorization and k back-substitutions, and the kernels of
 ∂r/∂p (latdyn/analyses/transient_sensitivities.py). Printed: the minimum and median wall time of
-``latdyn.run`` and the ratio of the minima to the run without, the minimum CPU time of the process and its
-ratio (steadier than wall time on a shared machine), and the minimum wall time of the sensitivities' setup
-(the parameters' derivative laws, SymPy: once a run, not a step); the 1-minute load average with them.
+``latdyn.run``, and of the CPU time of the process (steadier on a shared machine), each with the ratio of
+the minima to the run without; the 1-minute load average with them.
 """
 from __future__ import annotations
 
@@ -43,11 +44,11 @@ def scene(names: list[str]) -> dict:
                                   "tip_y": {"point": "arm.end", "quantity": "displacement", "component": "y"}}}}
 
 
-def lattice(names: list[str]) -> dict:
+def lattice(names: list[str], bays: int = 25) -> dict:
     """``--scene lattice``: a planar lattice cantilever of 25 bays (100 tubes of 1 element, each its own
     section whose EA is the parameter ``F<i>``: a lattice's member sections), a tip load growing in time,
-    40 steps."""
-    bays, nodes, members = 25, {}, {}
+    40 steps; ``--scene lattice1000``: 250 bays, 1000 tubes."""
+    nodes, members = {}, {}
     for i in range(bays + 1):
         nodes[f"b{i}"], nodes[f"t{i}"] = [0.2 * i, 0.0, 0.0], [0.2 * i, 0.2, 0.0]
     for i in range(bays):
@@ -66,25 +67,21 @@ def lattice(names: list[str]) -> dict:
                                                            "component": "y"}}}}
 
 
-def run(loaded, per_step: bool) -> tuple[float, float, float]:
-    """(wall time, CPU time of the process, wall time of the sensitivities' setup) of one ``latdyn.run``."""
+def adjoint(data: dict) -> dict:
+    """The scene with ``solve.sensitivity_method: adjoint``."""
+    return {**data, "solve": {**data["solve"], "sensitivity_method": "adjoint"}}
+
+
+def run(loaded, per_step: bool) -> tuple[float, float]:
+    """(wall time, CPU time of this process) of ``latdyn.run``: on a shared machine the CPU time moves
+    less with the other work than the wall time does."""
     transient.COMPILED_LOOP = not per_step
-    setup = [0.0]
-    made = TransientSensitivities.__init__
-
-    def timed(self, prepared):
-        began = time.perf_counter()
-        made(self, prepared)
-        setup[0] += time.perf_counter() - began
-
-    TransientSensitivities.__init__ = timed
     try:
         start, cpu = time.perf_counter(), time.process_time()
         latdyn.run(loaded)
-        return time.perf_counter() - start, time.process_time() - cpu, setup[0]
+        return time.perf_counter() - start, time.process_time() - cpu
     finally:
         transient.COMPILED_LOOP = True
-        TransientSensitivities.__init__ = made
 
 
 def parts(make, repeats: int) -> None:
@@ -148,30 +145,41 @@ def parts(make, repeats: int) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--scene", choices=("cantilever", "lattice"), default="cantilever",
-                        help="the cantilever with 100 load parameters, or the lattice with 100 section parameters")
+    parser.add_argument("--scene", choices=("cantilever", "lattice", "lattice1000"), default="cantilever",
+                        help="the cantilever with 100 load parameters, the lattice with 100 section parameters, "
+                             "or the lattice of 1000 members with 1000")
+    parser.add_argument("--cases", default=None, help="comma-separated case names to run (default: all)")
     parser.add_argument("--parts", action="store_true", help="time the pieces of the fixed part F of a step instead")
     args = parser.parse_args()
-    make = scene if args.scene == "cantilever" else lattice
+    make = {"cantilever": scene, "lattice": lattice, "lattice1000": lambda names: lattice(names, bays=250)}[args.scene]
     if args.parts:
         parts(make, args.repeats)
         return
-    cases = {"0 (loop in C)": (0, False), "0 (per step)": (0, True), "1": (1, False), "10": (10, False),
-             "100": (100, False)}
-    loaded = {name: latdyn.load_scene(make([f"F{i}" for i in range(k)])) for name, (k, _) in cases.items()}
-    for name, (_, per_step) in cases.items():
+    counts = (1, 10, 100, 1000) if args.scene == "lattice1000" else (1, 10, 100)
+    cases = {"0 (loop in C)": (0, False, False), "0 (per step)": (0, True, False)}
+    cases.update({f"{k} forward": (k, False, False) for k in counts})
+    cases.update({f"{k} adjoint": (k, False, True) for k in counts})
+    if args.cases:
+        cases = {name: case for name, case in cases.items() if name in args.cases.split(",")}
+    loaded = {name: latdyn.load_scene((adjoint if by_adjoint else dict)(make([f"F{i}" for i in range(k)])))
+              for name, (k, _, by_adjoint) in cases.items()}
+    for name, (_, per_step, _) in cases.items():
         run(loaded[name], per_step)   # compile the kernels and laws once
-    times: dict[str, list[tuple[float, float, float]]] = {name: [] for name in cases}
+    times: dict[str, list[float]] = {name: [] for name in cases}
+    cpu: dict[str, list[float]] = {name: [] for name in cases}
     for _ in range(args.repeats):
-        for name, (_, per_step) in cases.items():
-            times[name].append(run(loaded[name], per_step))
+        for name, (_, per_step, _) in cases.items():
+            wall, used = run(loaded[name], per_step)
+            times[name].append(wall)
+            cpu[name].append(used)
     print(f"load average (1 min): {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
-    base = [min(t[i] for t in times["0 (loop in C)"]) for i in range(2)]
+    base = min(times.get("0 (loop in C)", [float("nan")]))
+    base_cpu = min(cpu.get("0 (loop in C)", [float("nan")]))
     for name, measured in times.items():
-        wall, cpu, setup = ([t[i] for t in measured] for i in range(3))
-        print(f"{name:14s} parameters: min {min(wall) * 1e3:8.1f} ms, "
-              f"median {statistics.median(wall) * 1e3:8.1f} ms, {min(wall) / base[0]:.2f}x the run without (minima); "
-              f"CPU min {min(cpu) * 1e3:8.1f} ms, {min(cpu) / base[1]:.2f}x; setup min {min(setup) * 1e3:6.1f} ms")
+        print(f"{name:16s} parameters: wall min {min(measured) * 1e3:8.1f} ms, "
+              f"median {statistics.median(measured) * 1e3:8.1f} ms, {min(measured) / base:5.2f}x; "
+              f"CPU min {min(cpu[name]) * 1e3:8.1f} ms, median {statistics.median(cpu[name]) * 1e3:8.1f} ms, "
+              f"{min(cpu[name]) / base_cpu:5.2f}x the run without (minima)")
 
 
 if __name__ == "__main__":

@@ -194,8 +194,10 @@ def _analyse(prepared, probes: ProbeSet, writer: ResultWriter, out_dir, analysis
     if analysis == "transient":
         sensitivities = None
         if scene.solve.sensitivities:   # exact sensitivities of the run (docs/parameters.md)
-            from latdyn.analyses.transient_sensitivities import TransientSensitivities
-
+            if scene.solve.sensitivity_method == "adjoint":   # end, max, min by the discrete adjoint
+                from latdyn.analyses.adjoint_sensitivities import AdjointSensitivities as TransientSensitivities
+            else:
+                from latdyn.analyses.transient_sensitivities import TransientSensitivities
             sensitivities = TransientSensitivities(prepared)
         transient(prepared, probes, writer, progress, checkpointer, resume_from, sensitivities)
         return

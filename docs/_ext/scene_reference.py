@@ -247,6 +247,8 @@ DESCRIPTIONS: dict[str, tuple[str, str, str | None]] = {
     "solve.mode_shapes": ("modes: also write the mode shapes as ParaView animations", "—", None),
     "solve.sensitivities": ("parameters whose exact derivatives of the recorded probes are written to "
                             "sensitivities.csv (static load and displacement control; others are refused)", "—", "none"),
+    "solve.sensitivity_method": ("forward (every row) or adjoint (transient runs without events: each probe's "
+                                 "end, max and min derivatives only; docs/parameters.md)", "—", "forward"),
     "solve.flutter": ("buckling: search the flutter load along the path", "—", "where loads are follower loads"),
     # output
     "output.every": ("time between recorded rows", "T", "every step"),

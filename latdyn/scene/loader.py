@@ -138,7 +138,8 @@ _LOAD_KEYS = ("at", "force", "moment", "frame")
 _CABLE_KEYS = ("from", "to", "EA", "rhoA", "damping", "elements", "rest_length")
 _SOLVE_KEYS = ("analysis", "t_end", "dt", "method", "rho_inf", "tol", "steps", "count",
                "adaptive", "error_tol", "dt_min", "max_iterations", "formulation", "engine", "newton", "planar",
-               "control", "max_steps", "about", "linear_model", "mode_shapes", "flutter", "sensitivities")
+               "control", "max_steps", "about", "linear_model", "mode_shapes", "flutter", "sensitivities",
+               "sensitivity_method")
 _CONTROL_KEYS = ("point", "direction", "to")
 #: ``solve.engine``: ``auto`` or ``compiled``, the same: the implicit step's Newton iteration runs in C
 #: (latdyn/step/compiled.py), its one implementation (the Python step it once chose is gone, issue 17);
@@ -458,6 +459,8 @@ class Solve:
     flutter: bool | None = None
     #: names of parameters whose derivatives of the probes are asked for (latdyn/scene/parameters.py)
     sensitivities: list[str] = field(default_factory=list)
+    #: how they are computed: "forward" (every row) or "adjoint" (end, max, min; docs/parameters.md)
+    sensitivity_method: str = "forward"
 
 
 @dataclass
@@ -1670,6 +1673,7 @@ def _build(raw: Any, file: str) -> Scene:
         scene = _build_controlled_parts(r, raw, file)
     scene.parameters = params
     scene.solve.sensitivities = _sensitivities(r, raw.get("solve"), params)
+    scene.solve.sensitivity_method = _sensitivity_method(r, raw.get("solve"))
     return scene
 
 
@@ -1699,6 +1703,20 @@ def _sensitivities(r: _Reader, solve, params: Parameters) -> list[str]:
             r.fail(f"{key}[{i}]", "duplicated parameter name; expected each name once", name)
         names.append(name)
     return names
+
+
+def _sensitivity_method(r: _Reader, solve) -> str:
+    """``solve.sensitivity_method``: ``forward`` (default) or ``adjoint``, the latter with
+    ``solve.sensitivities`` (latdyn/analyses/adjoint_sensitivities.py decides where it applies)."""
+    if not isinstance(solve, dict) or "sensitivity_method" not in solve:
+        return "forward"
+    key, value = "solve.sensitivity_method", solve["sensitivity_method"]
+    if value not in ("forward", "adjoint"):
+        r.fail(key, "expected forward or adjoint", value)
+    if value == "adjoint" and not solve.get("sensitivities"):
+        r.fail(key, "the adjoint computes solve.sensitivities; expected it with solve.sensitivities: [NAME, ...]",
+               value)
+    return value
 
 
 def _build_controlled_parts(r: "_Reader", raw: dict, file: str) -> Scene:
