@@ -51,8 +51,11 @@ ANGLE, RATE, POSITION, VELOCITY, CONTROLLER, OFFSET_POSITION, OFFSET_VELOCITY, B
 #: controller's state (index: its entry in the scene's controller_states); kind 4 of a sampled
 #: controller is any controller's output (index: its entry in the scene's controller_outputs)
 PROVIDED, CONTROLLER_STATE = 9, 10
+#: a cable's tension: its first element's N (0 slack), by its end nodes' six coordinates (K), then their
+#: six rates (C): the generated cable_tension (codegen/joints.py)
+CABLE_TENSION = 11
 #: the columns of each kind's gradient in csrc/evaluate.c's sensor_jacobian (kind 8: 12 an element)
-_GRADIENT_COLUMNS = {OFFSET_POSITION: 6, OFFSET_VELOCITY: 9, BODY_FRAME: 12}
+_GRADIENT_COLUMNS = {OFFSET_POSITION: 6, OFFSET_VELOCITY: 9, BODY_FRAME: 12, CABLE_TENSION: 24}
 _NO_OFFSET = np.zeros(3)
 _AXIS = {"x": 0, "y": 1, "z": 2}
 
@@ -167,6 +170,8 @@ def _sensor(scene, model, controller, probe):
         columns = [int(d) for e in elements for end in (0, 1) for d in model.node_dofs[cables.nodes[e, end]]]
         assert np.all(np.diff(elements) == 1)  # a cable's elements are numbered one after the other
         return CABLE_LENGTH, int(elements[0]), 0.0, columns, _NO_OFFSET, -1
+    if probe.kind == "cable" and probe.quantity == "tension":
+        return _tension_sensor(model, probe)
     if probe.kind == "point" and probe.frame != "global" and probe.component in _AXIS \
             and probe.quantity in ("position", "displacement"):
         node, r = model.point(probe.point)
@@ -191,10 +196,19 @@ def _sensor(scene, model, controller, probe):
         return kind, 3 * node + c, origin, [int(model.node_dofs[node, c])], _NO_OFFSET, -1
     _refuse(scene, key, f"a continuous controller reads hinge angles and rates, guide positions and rates, the "
                         f"global x, y or z component of a point's position, displacement or velocity and the x, y or z "
-                        f"component of its position or displacement in a body's axes, and a cable's length; the probe "
+                        f"component of its position or displacement in a body's axes, and a cable's length or tension; the probe "
                         f"{probe.name!r} ({probe.kind} {probe.quantity}"
                         f"{'' if probe.kind != 'point' else f', frame {probe.frame}'}) is not one "
                         "(expected one of those, or a sampled controller: rate: HZ)")
+
+
+def _tension_sensor(model, probe):
+    """A cable's tension as :func:`_sensor` gives it: its first element (the probe's,
+    latdyn.results.probes.cable_value), by the two end nodes' coordinates and then their rates."""
+    cables = model.cables
+    element = int(cables.first[cables.names.index(probe.beam)])
+    ends = [int(d) for end in (0, 1) for d in model.node_dofs[cables.nodes[element, end]]]
+    return CABLE_TENSION, element, 0.0, ends + ends, _NO_OFFSET, -1
 
 
 def state_rates(scene) -> np.ndarray:

@@ -204,7 +204,7 @@ typedef struct {
      * distance of the element's end points (cable_nodes, cable_offsets), its gradient by the two end
      * nodes' coordinates −Jᵀ_a e and Jᵀ_b e (e the unit vector from a to b; point_load); the columns of
      * sensor i's gradient are sensor_column_start[i] … sensor_column_start[i+1]−1 of Work sensor_jacobian
-     * (kinds 5, 6, 7: 6, 9 and 12 columns; 12 an element for kind 8; none for the others) */
+     * (kinds 5, 6, 7: 6, 9 and 12 columns; 12 an element for kind 8; 24 for kind 11; none for the others) */
     const int64_t *sensor_column_start;
     /* sampled controllers (latdyn/assembly/control.py _wire_sampled, csrc/sampling.c; n_sampled 0: none), in
      * file order: controller k samples at the instants j / sampled_rate[k], reads the sensors
@@ -218,6 +218,11 @@ typedef struct {
     void (*sampled_laws)(int64_t, double, const double *, double *);
     const int64_t *sampled_sensor_start, *sampled_slot, *sampled_state_start, *sampled_state_slot;
     const double *sampled_limits, *sampled_rate;
+    /* sensors of kind 11: the tension of a cable's first element sensor_index (the probe's), the
+     * generated cable_tension (codegen/joints.py: N_el, N and N's exact derivatives by the end nodes'
+     * coordinates and rates, 24 columns of sensor_jacobian); 0 while the element is slack (its side
+     * cable_side, or side 0 and min(N_el, N) ≤ 0, as cables() decides) */
+    void (*cable_tension)(int64_t, const double *, const double *, const double *, double *, double *, double *);
 } Model;
 
 /* Scratch buffers, allocated once by the caller. */
@@ -611,8 +616,8 @@ static void controller_states_at(const Model *m, Work *w, int64_t k, double t, i
     for (int64_t i = 0; i < p; ++i) w->controller_state_trial[first + i] = args[count + i];
 }
 
-/* The value of sensor i at c, less its origin (see Model: the kinds 0-3 and 5-8; 0 for the others, which
- * the caller reads), with its gradient's columns into w->sensor_jacobian for kinds 5-8: the probe
+/* The value of sensor i at c, less its origin (see Model: the kinds 0-3, 5-8 and 11; 0 for the others, which
+ * the caller reads), with its gradient's columns into w->sensor_jacobian for kinds 5-8 and 11: the probe
  * evaluation of the controllers, continuous (controller_outputs) and sampled (sampling.c). */
 static double sensor_value(const Model *m, const Configuration *c, Work *w, int64_t i)
 {
@@ -697,6 +702,29 @@ static double sensor_value(const Model *m, const Configuration *c, Work *w, int6
             m->point_load(1, c->T + 9 * a, ra, toward_a, identity, velocity, jacobian + 12 * j, &power, by_node, by_frame);
             m->point_load(1, c->T + 9 * b, rb, toward_b, identity, velocity, jacobian + 12 * j + 6, &power, by_node,
                           by_frame);
+        }
+        break;
+    }
+    case 11: {  /* a cable's tension: its first element's N (0 slack, as cables() decides), the generated law */
+        const double *data = m->cable_section + 3 * index, *rest = w->laws + 3 * m->cable_rest_law[index];
+        double geometry[12], velocity[12], section[4], tension[2], *jacobian = w->sensor_jacobian + m->sensor_column_start[i];
+        for (int end = 0; end < 2; ++end) {
+            const int64_t node = m->cable_nodes[2 * index + end];
+            matvec3(c->T + 9 * node, m->cable_offsets + 6 * index + 3 * end, geometry + 6 + 3 * end);
+            memcpy(geometry + 3 * end, c->x + 3 * node, 3 * sizeof(double));
+            memcpy(velocity + 6 * end, c->v + 3 * node, 3 * sizeof(double));
+            memcpy(velocity + 6 * end + 3, c->w + 3 * node, 3 * sizeof(double));
+        }
+        section[0] = data[0] * rest[0];
+        section[1] = data[0] * rest[1];
+        section[2] = data[1];
+        section[3] = data[2];
+        m->cable_tension(1, geometry, velocity, section, tension, jacobian, jacobian + 12);
+        const double side = m->cable_side[index], gap = fmin(tension[0], tension[1]);
+        if (side > 0.0 || (side == 0.0 && gap > 0.0)) {
+            value = tension[1];
+        } else {  /* slack, or the damper cancels the elastic tension: N clipped at 0 */
+            memset(jacobian, 0, 24 * sizeof(double));
         }
         break;
     }
@@ -811,7 +839,8 @@ static void controller_couplings(const Model *m, const Configuration *c, Work *w
                                                                     : w->controller_gradient[sensor]);
         const int64_t column = m->coupling_column[e];
         if (kind >= 5) value *= w->sensor_jacobian[m->sensor_column_start[sensor] + column];
-        const int by_rate = kind == 1 || kind == 3 || (kind == 6 && column < 6);  /* kind 6: rates, then rotation */
+        /* kind 6: rates, then rotation; kind 11: coordinates, then rates */
+        const int by_rate = kind == 1 || kind == 3 || (kind == 6 && column < 6) || (kind == 11 && column >= 12);
         w->coupling_stiffness[e] = by_rate ? 0.0 : value;
         w->coupling_damping[e] = by_rate ? value : 0.0;
     }

@@ -23,6 +23,7 @@ static double lock_tolerance(double at); /* newton_step.c: latdyn/model/model.py
 void latdyn_controller_outputs_at(const Model *m, Work *w, const Configuration *c, double t)
 {
     if (!m->n_controllers) return;
+    if (m->cable_tension) m->time_laws(t, w->laws); /* a tension sensor reads the rest length's law at t */
     double held = 0.0;
     if (m->n_controller_states) {
         held = w->controller_half_step[0];
