@@ -48,7 +48,8 @@ outputs; :class:`ControllerStates`: continuous controllers' states carried throu
 
 What is refused (:func:`refusal`, exit 2 naming ``solve.sensitivities``): any analysis but static
 load control, arc length and displacement control and transient runs of an implicit method at fixed
-steps without friction and inputs, controllers with states or sampled ones beside events (cables through their
+steps without friction and inputs, continuous controllers that read a cable's tension, controllers with states or
+sampled ones beside events (cables through their
 slack/taut events, guides with theirs: :func:`_transient_refusal`, :meth:`ControllerTerms.refusal`); a
 parameter used anywhere but in load components, hinge stiffness, damping, torque and rest angle, section
 values of shear-rigid sections (formulation default), body masses, centres of mass and inertias,
@@ -882,6 +883,19 @@ def bordered_solve(stiffness, column: np.ndarray, row: np.ndarray, rhs: np.ndarr
                           "matrix, which is singular there (a bifurcation point)") from None
 
 
+def _tension_sensor_refusal(scene) -> str | None:
+    """A continuous controller that reads a cable's tension (latdyn/assembly/control.py ``CABLE_TENSION``):
+    the tension's explicit dependence on the cable's EA, damping and rest length is not differentiated
+    here, so such runs are refused."""
+    tensions = {p.name for p in scene.output.probes if p.kind == "cable" and p.quantity == "tension"}
+    for c in scene.controllers.values():
+        read = sorted(tensions & set(c.reads))
+        if read and not c.sampled:
+            return (f"sensitivities of runs with a continuous controller that reads a cable's tension ({c.name} reads "
+                    f"{read[0]!r}) are not computed yet; expected its length, or no sensitivities")
+    return None
+
+
 class ControllerTerms:
     """∂r/∂p through continuous controllers (SCENE.md ``controllers`` without ``rate``) for transient
     sensitivities. A controller's output y = clip(f(t, s; p)) is a law of its sensors s (probes read at
@@ -944,7 +958,7 @@ class ControllerTerms:
     @staticmethod
     def refusal(scene) -> str | None:
         """Why the controllers of ``scene`` keep its transient sensitivities from being exact, or None."""
-        why = SampledTerms.refusal(scene)
+        why = SampledTerms.refusal(scene) or _tension_sensor_refusal(scene)
         if why is not None:
             return why
         for c in scene.controllers.values():

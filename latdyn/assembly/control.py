@@ -2,8 +2,8 @@
 
 A continuous controller k reads sensors s (probes: hinge angles and rates, guide slides and rates,
 global components of the position, displacement or velocity of a point, with or without an offset
-from its node, components of a point's position or displacement in a body's axes, the outputs of
-earlier continuous controllers) and drives
+from its node, components of a point's position or displacement in a body's axes, a cable's length
+and tension, the outputs of earlier continuous controllers) and drives
 actuators (a hinge torque, a guide force, a load component, each naming the controller alone or in
 an expression τ = a y + b with a constant a = ∂τ/∂y, :func:`actuator_gain`). In the one evaluation
 (``csrc/evaluate.c``, ``controllers``) its output y_k = clip(f_k(t, s)) is computed from the
@@ -47,7 +47,7 @@ from latdyn.errors import SceneError
 #: a cable's length (its elements' end nodes)
 ANGLE, RATE, POSITION, VELOCITY, CONTROLLER, OFFSET_POSITION, OFFSET_VELOCITY, BODY_FRAME, CABLE_LENGTH = range(9)
 #: sensors of sampled controllers only (csrc/sampling.c): a probe whose value the time loop hands in
-#: (energy, momentum, section and joint forces, cable tension: latdyn.timeloop.sampling), and a
+#: (energy, momentum, section and joint forces: latdyn.timeloop.sampling), and a
 #: controller's state (index: its entry in the scene's controller_states); kind 4 of a sampled
 #: controller is any controller's output (index: its entry in the scene's controller_outputs)
 PROVIDED, CONTROLLER_STATE = 9, 10
