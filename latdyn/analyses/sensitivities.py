@@ -48,7 +48,7 @@ outputs; :class:`ControllerStates`: continuous controllers' states carried throu
 
 What is refused (:func:`refusal`, exit 2 naming ``solve.sensitivities``): any analysis but static
 load control, arc length and displacement control and transient runs of an implicit method at fixed
-steps without friction and inputs, continuous controllers that read a cable's tension, controllers with states or
+steps without friction and inputs, continuous controllers that read a cable's tension or a section force, controllers with states or
 sampled ones beside events (cables through their
 slack/taut events, guides with theirs: :func:`_transient_refusal`, :meth:`ControllerTerms.refusal`); a
 parameter used anywhere but in load components, hinge stiffness, damping, torque and rest angle, section
@@ -884,15 +884,18 @@ def bordered_solve(stiffness, column: np.ndarray, row: np.ndarray, rhs: np.ndarr
 
 
 def _tension_sensor_refusal(scene) -> str | None:
-    """A continuous controller that reads a cable's tension (latdyn/assembly/control.py ``CABLE_TENSION``):
-    the tension's explicit dependence on the cable's EA, damping and rest length is not differentiated
-    here, so such runs are refused."""
-    tensions = {p.name for p in scene.output.probes if p.kind == "cable" and p.quantity == "tension"}
+    """A continuous controller that reads a cable's tension or an element's section force
+    (latdyn/assembly/control.py ``CABLE_TENSION``, ``SECTION_FORCE``): the force's explicit dependence on
+    the cable's or the section's law (EA, damping, rest length; EA, EI, GJ) is not differentiated here,
+    so such runs are refused."""
+    forces = {p.name for p in scene.output.probes
+              if (p.kind == "cable" and p.quantity == "tension") or p.kind == "element"}
     for c in scene.controllers.values():
-        read = sorted(tensions & set(c.reads))
+        read = sorted(forces & set(c.reads))
         if read and not c.sampled:
-            return (f"sensitivities of runs with a continuous controller that reads a cable's tension ({c.name} reads "
-                    f"{read[0]!r}) are not computed yet; expected its length, or no sensitivities")
+            return (f"sensitivities of runs with a continuous controller that reads a cable's tension or a section "
+                    f"force ({c.name} reads {read[0]!r}) are not computed yet; expected coordinates (a cable's "
+                    "length, an angle, a point), or no sensitivities")
     return None
 
 

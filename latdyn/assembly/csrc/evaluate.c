@@ -204,7 +204,7 @@ typedef struct {
      * distance of the element's end points (cable_nodes, cable_offsets), its gradient by the two end
      * nodes' coordinates −Jᵀ_a e and Jᵀ_b e (e the unit vector from a to b; point_load); the columns of
      * sensor i's gradient are sensor_column_start[i] … sensor_column_start[i+1]−1 of Work sensor_jacobian
-     * (kinds 5, 6, 7: 6, 9 and 12 columns; 12 an element for kind 8; 24 for kind 11; none for the others) */
+     * (kinds 5, 6, 7: 6, 9 and 12 columns; 12 an element for kind 8; 24 for kind 11, 14 for 12; none for the others) */
     const int64_t *sensor_column_start;
     /* sampled controllers (latdyn/assembly/control.py _wire_sampled, csrc/sampling.c; n_sampled 0: none), in
      * file order: controller k samples at the instants j / sampled_rate[k], reads the sensors
@@ -223,6 +223,10 @@ typedef struct {
      * coordinates and rates, 24 columns of sensor_jacobian); 0 while the element is slack (its side
      * cable_side, or side 0 and min(N_el, N) ≤ 0, as cables() decides) */
     void (*cable_tension)(int64_t, const double *, const double *, const double *, double *, double *, double *);
+    /* sensors of kind 12: an element's section force w0 S_k + w1 S_(k+1) of its mid-element section forces
+     * S = [N, T, M_y', M_z'] (sensor_index 4 e + k, sensor_offset [w0, w1, 0]), by the element's fourteen
+     * coordinates (element_dofs), the generated beam_section_forces_D_q (codegen/derivation.py) */
+    kernel_2_2 section_forces_D_q;
 } Model;
 
 /* Scratch buffers, allocated once by the caller. */
@@ -616,8 +620,8 @@ static void controller_states_at(const Model *m, Work *w, int64_t k, double t, i
     for (int64_t i = 0; i < p; ++i) w->controller_state_trial[first + i] = args[count + i];
 }
 
-/* The value of sensor i at c, less its origin (see Model: the kinds 0-3, 5-8 and 11; 0 for the others, which
- * the caller reads), with its gradient's columns into w->sensor_jacobian for kinds 5-8 and 11: the probe
+/* The value of sensor i at c, less its origin (see Model: the kinds 0-3, 5-8, 11 and 12; 0 for the others,
+ * which the caller reads), with its gradient's columns into w->sensor_jacobian for kinds 5-8, 11, 12: the probe
  * evaluation of the controllers, continuous (controller_outputs) and sampled (sampling.c). */
 static double sensor_value(const Model *m, const Configuration *c, Work *w, int64_t i)
 {
@@ -726,6 +730,25 @@ static double sensor_value(const Model *m, const Configuration *c, Work *w, int6
         } else {  /* slack, or the damper cancels the elastic tension: N clipped at 0 */
             memset(jacobian, 0, 24 * sizeof(double));
         }
+        break;
+    }
+    case 12: {  /* an element's section force: the generated section forces and ∂S/∂q at the element's geometry */
+        const int64_t e = index / 4, k = index % 4;
+        const double *weight = m->sensor_offset + 3 * i;
+        double geometry[36], S[4], by_q[56], *jacobian = w->sensor_jacobian + m->sensor_column_start[i];
+        for (int end = 0; end < 2; ++end) {  /* the element's inputs as element_inputs_to gives them (Eqs. 2, 9, 17) */
+            const int64_t node = m->element_nodes[2 * e + end], hinge = m->element_hinges[2 * e + end];
+            double data[16];
+            memcpy(data, m->element_ends + 32 * e + 16 * end, 15 * sizeof(double));
+            data[15] = hinge >= 0 ? c->theta[hinge] : 0.0;
+            m->hinged_end(1, c->T + 9 * node, data, geometry + 12 + 9 * end, geometry + 6 + 3 * end,
+                          geometry + 30 + 3 * end);
+            memcpy(geometry + 3 * end, c->x + 3 * node, 3 * sizeof(double));
+        }
+        m->section_forces_D_q(1, geometry, m->element_sections + m->section_width * e, S, by_q);
+        /* k ≤ 2; w1 = 0 but for k = 2 (M_y', M_z' of a planar model's turned section) */
+        value = weight[0] * S[k] + weight[1] * S[k + 1];
+        for (int q = 0; q < 14; ++q) jacobian[q] = weight[0] * by_q[14 * k + q] + weight[1] * by_q[14 * (k + 1) + q];
         break;
     }
     default: value = 0.0; break;  /* 4: an earlier controller's output, read by the caller */
