@@ -278,5 +278,19 @@ def test_sensitivities_through_a_section_force_sensor_are_refused(tmp_path):
         "inputs: {g: 2.0, F0: 30.0}", "parameters: {g: 2.0, F0: 30.0}")
     completed, _ = latdyn_run(tmp_path, text)
     assert completed.returncode == 2, completed.stderr
-    assert "solve.sensitivities" in completed.stderr and "section force" in completed.stderr
+    assert "solve.sensitivities" in completed.stderr and "reads a cable's tension or a section force" in completed.stderr
     assert "Traceback" not in completed.stderr
+
+
+def test_a_sampled_controller_holds_the_section_force_the_probe_records(tmp_path):
+    """A sampled controller y = N at 50 Hz beside the continuous feedback on the bar: at each sample instant
+    its held output is the probe N's value there (the same C sensor)."""
+    text = BAR.format(solve="{t_end: 0.2, dt: 0.002}").replace(
+        '  ctl: {output: "F0 - g*N"}', '  ctl: {output: "F0 - g*N"}\n  hold: {output: "N", rate: 50}') \
+        + "    held: {controller: hold}\n"
+    completed, out = latdyn_run(tmp_path, text)
+    assert completed.returncode == 0, completed.stderr
+    p = probe_columns(out)
+    at_samples = np.isclose(np.round(p["t"] * 50), p["t"] * 50, atol=1e-9)
+    assert np.count_nonzero(at_samples) >= 10
+    assert np.max(np.abs(p["held"][at_samples] - p["N"][at_samples])) <= 1e-12 * np.max(np.abs(p["N"]))

@@ -529,9 +529,8 @@ def test_pd_on_a_cable_length_cli(tmp_path):
 
 
 @pytest.mark.parametrize("probe, says", [
-    ("{point: b, quantity: velocity, frame: a, component: x}", "in a body's axes"),
     ("{guide: b, quantity: force}", "is not one"),
-], ids=["body-frame velocity", "guide force"])
+], ids=["guide force"])
 def test_what_a_continuous_controller_may_not_read_is_refused(probe, says):
     """Sensors not built (docs/control.md "Not built yet") are refused at the controller's output key."""
     from latdyn.errors import SceneError
@@ -546,10 +545,10 @@ def test_what_a_continuous_controller_may_not_read_is_refused(probe, says):
 
 
 def test_a_refused_sensor_through_the_cli(tmp_path):
-    completed, _ = latdyn_run(tmp_path, CABLED.replace("{cable: tether, quantity: length}",
-                                                       "{point: b, quantity: velocity, frame: a, component: x}"))
+    completed, _ = latdyn_run(tmp_path, CABLED.replace("{cable: tether, quantity: length}", "{guide: b, quantity: force}")
+                              .replace("inertia: [0.2, 0.1, 0.3]}", "inertia: [0.2, 0.1, 0.3], guide: {axis: [1, 0, 0]}}"))
     assert completed.returncode == 2
-    assert "controllers.ctl.output" in completed.stderr and "velocity, frame a" in completed.stderr
+    assert "controllers.ctl.output" in completed.stderr and "guide force" in completed.stderr
     assert "Traceback" not in completed.stderr
 
 

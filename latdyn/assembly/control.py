@@ -2,7 +2,7 @@
 
 A continuous controller k reads sensors s (probes: hinge angles and rates, guide slides and rates,
 global components of the position, displacement or velocity of a point, with or without an offset
-from its node, components of a point's position or displacement in a body's axes, a cable's length
+from its node, components of a point's position, displacement or velocity in a body's axes, a cable's length
 and tension, an element's section forces, the outputs of earlier continuous controllers) and drives
 actuators (a hinge torque, a guide force, a load component, each naming the controller alone or in
 an expression τ = a y + b with a constant a = ∂τ/∂y, :func:`actuator_gain`). In the one evaluation
@@ -59,8 +59,11 @@ CABLE_TENSION = 11
 #: (index 4 e + k, sensor_offset [w0, w1, 0]: a planar model's turned sections back in the beam's axes),
 #: by the element's fourteen coordinates: the generated beam_section_forces_D_q (codegen/derivation.py)
 SECTION_FORCE = 12
+#: a component of a point's velocity relative to a body, in its axes (index 3 n + c, the point's offset, the
+#: body's node): by the point's node's and the body's six coordinates (K), then their six rates (C)
+BODY_VELOCITY = 13
 #: the columns of each kind's gradient in csrc/evaluate.c's sensor_jacobian (kind 8: 12 an element)
-_GRADIENT_COLUMNS = {OFFSET_POSITION: 6, OFFSET_VELOCITY: 9, BODY_FRAME: 12, CABLE_TENSION: 24, SECTION_FORCE: 14}
+_GRADIENT_COLUMNS = {OFFSET_POSITION: 6, OFFSET_VELOCITY: 9, BODY_FRAME: 12, CABLE_TENSION: 24, SECTION_FORCE: 14, BODY_VELOCITY: 24}
 _NO_OFFSET = np.zeros(3)
 _AXIS = {"x": 0, "y": 1, "z": 2}
 
@@ -179,6 +182,11 @@ def _sensor(scene, model, controller, probe):
         return _tension_sensor(model, probe)
     if probe.kind == "element":
         return _section_sensor(model, probe)
+    if probe.kind == "point" and probe.frame != "global" and probe.component in _AXIS and probe.quantity == "velocity":
+        node, r = model.point(probe.point)
+        ends = [int(d) for d in model.node_dofs[node]] + [int(d) for d in model.node_dofs[model.body_node[probe.frame]]]
+        return BODY_VELOCITY, 3 * node + _AXIS[probe.component], 0.0, ends + ends, np.asarray(r, float), \
+            model.body_node[probe.frame]
     if probe.kind == "point" and probe.frame != "global" and probe.component in _AXIS \
             and probe.quantity in ("position", "displacement"):
         node, r = model.point(probe.point)
@@ -203,8 +211,8 @@ def _sensor(scene, model, controller, probe):
         return kind, 3 * node + c, origin, [int(model.node_dofs[node, c])], _NO_OFFSET, -1
     _refuse(scene, key, f"a continuous controller reads hinge angles and rates, guide positions and rates, the "
                         f"global x, y or z component of a point's position, displacement or velocity and the x, y or z "
-                        f"component of its position or displacement in a body's axes, a cable's length or tension and an "
-                        f"element's section force; the probe "
+                        f"component of its position, displacement or velocity in a body's axes, a cable's length or tension and "
+                        f"an element's section force; the probe "
                         f"{probe.name!r} ({probe.kind} {probe.quantity}"
                         f"{'' if probe.kind != 'point' else f', frame {probe.frame}'}) is not one "
                         "(expected one of those, or a sampled controller: rate: HZ)")

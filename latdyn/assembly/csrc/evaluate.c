@@ -227,6 +227,9 @@ typedef struct {
      * S = [N, T, M_y', M_z'] (sensor_index 4 e + k, sensor_offset [w0, w1, 0]), by the element's fourteen
      * coordinates (element_dofs), the generated beam_section_forces_D_q (codegen/derivation.py) */
     kernel_2_2 section_forces_D_q;
+    /* sensors of kind 13: a component of a point's velocity relative to a body, in its axes (sensor_index
+     * 3 n + c, sensor_offset r, the body's node sensor_frame_node[i]): 24 columns, the point node's and the
+     * body's coordinates (K), then their rates (C) (sensor_value) */
 } Model;
 
 /* Scratch buffers, allocated once by the caller. */
@@ -620,8 +623,8 @@ static void controller_states_at(const Model *m, Work *w, int64_t k, double t, i
     for (int64_t i = 0; i < p; ++i) w->controller_state_trial[first + i] = args[count + i];
 }
 
-/* The value of sensor i at c, less its origin (see Model: the kinds 0-3, 5-8, 11 and 12; 0 for the others,
- * which the caller reads), with its gradient's columns into w->sensor_jacobian for kinds 5-8, 11, 12: the probe
+/* The value of sensor i at c, less its origin (see Model: the kinds 0-3, 5-8 and 11-13; 0 for the others,
+ * which the caller reads), with its gradient's columns into w->sensor_jacobian for kinds 5-8, 11-13: the probe
  * evaluation of the controllers, continuous (controller_outputs) and sampled (sampling.c). */
 static double sensor_value(const Model *m, const Configuration *c, Work *w, int64_t i)
 {
@@ -751,6 +754,36 @@ static double sensor_value(const Model *m, const Configuration *c, Work *w, int6
         for (int q = 0; q < 14; ++q) jacobian[q] = weight[0] * by_q[14 * k + q] + weight[1] * by_q[14 * (k + 1) + q];
         break;
     }
+    case 13: {  /* a point's velocity relative to a body, in its axes: s = b_c · V, V = ṗ − v_b − ω_b × u,
+                 * ṗ = v_n + ω_n × o, o = T_n r, u = x_n + o − x_b, b_c = T_b e_c. Columns: the point node's
+                 * [x, π] (K): ω_b × b_c, o × (b_c × (ω_n − ω_b)); the body's [x, π] (K): b_c × ω_b, b_c × V;
+                 * the point node's [v, ω] (C): b_c, o × b_c; the body's [v, ω] (C): −b_c, b_c × u */
+        const int64_t node = index / 3, component = index % 3, body = m->sensor_frame_node[i];
+        const double *r = m->sensor_offset + 3 * i, *Tb = c->T + 9 * body;
+        const double *wn = c->w + 3 * node, *wb = c->w + 3 * body;
+        double *jacobian = w->sensor_jacobian + m->sensor_column_start[i];
+        double o[3], u[3], b[3], V[3], spin[3], relative[3], t1[3], t2[3];
+        matvec3(c->T + 9 * node, r, o);
+        for (int q = 0; q < 3; ++q) {
+            u[q] = c->x[3 * node + q] + o[q] - c->x[3 * body + q];
+            b[q] = Tb[3 * q + component];
+            relative[q] = wn[q] - wb[q];
+        }
+        cross(wn, o, spin);
+        cross(wb, u, t1);
+        for (int q = 0; q < 3; ++q) V[q] = c->v[3 * node + q] + spin[q] - c->v[3 * body + q] - t1[q];
+        value = b[0] * V[0] + b[1] * V[1] + b[2] * V[2];
+        cross(wb, b, jacobian);          /* ∂s/∂x_n */
+        cross(b, relative, t2);
+        cross(o, t2, jacobian + 3);      /* ∂s/∂π_n */
+        cross(b, wb, jacobian + 6);      /* ∂s/∂x_b */
+        cross(b, V, jacobian + 9);       /* ∂s/∂π_b */
+        memcpy(jacobian + 12, b, 3 * sizeof(double));  /* ∂s/∂v_n */
+        cross(o, b, jacobian + 15);      /* ∂s/∂ω_n */
+        for (int q = 0; q < 3; ++q) jacobian[18 + q] = -b[q];  /* ∂s/∂v_b */
+        cross(b, u, jacobian + 21);      /* ∂s/∂ω_b */
+        break;
+    }
     default: value = 0.0; break;  /* 4: an earlier controller's output, read by the caller */
     }
     return value - m->sensor_origin[i];
@@ -862,8 +895,8 @@ static void controller_couplings(const Model *m, const Configuration *c, Work *w
                                                                     : w->controller_gradient[sensor]);
         const int64_t column = m->coupling_column[e];
         if (kind >= 5) value *= w->sensor_jacobian[m->sensor_column_start[sensor] + column];
-        /* kind 6: rates, then rotation; kind 11: coordinates, then rates */
-        const int by_rate = kind == 1 || kind == 3 || (kind == 6 && column < 6) || (kind == 11 && column >= 12);
+        /* kind 6: rates, then rotation; kinds 11, 13: coordinates, then rates */
+        const int by_rate = kind == 1 || kind == 3 || (kind == 6 && column < 6) || ((kind == 11 || kind == 13) && column >= 12);
         w->coupling_stiffness[e] = by_rate ? 0.0 : value;
         w->coupling_damping[e] = by_rate ? value : 0.0;
     }
