@@ -221,5 +221,5 @@ def test_sensitivities_through_a_tension_sensor_are_refused(tmp_path):
         "solve: {t_end: 1.0, dt: 0.002}", "solve: {t_end: 0.1, dt: 0.002, sensitivities: [kp]}")
     completed, _ = latdyn_run(tmp_path, text)
     assert completed.returncode == 2, completed.stderr
-    assert "solve.sensitivities" in completed.stderr and "reads a cable's tension or a section force" in completed.stderr
+    assert "solve.sensitivities" in completed.stderr and "reads a force (a cable's tension" in completed.stderr
     assert "Traceback" not in completed.stderr

@@ -3,7 +3,8 @@
 A continuous controller k reads sensors s (probes: hinge angles and rates, guide slides and rates,
 global components of the position, displacement or velocity of a point, with or without an offset
 from its node, components of a point's position, displacement or velocity in a body's axes, a cable's length
-and tension, an element's section forces, the outputs of earlier continuous controllers) and drives
+and tension, an element's section forces, a free joint's torque or force, the outputs of earlier continuous
+controllers) and drives
 actuators (a hinge torque, a guide force, a load component, each naming the controller alone or in
 an expression τ = a y + b with a constant a = ∂τ/∂y, :func:`actuator_gain`). In the one evaluation
 (``csrc/evaluate.c``, ``controllers``) its output y_k = clip(f_k(t, s)) is computed from the
@@ -48,7 +49,7 @@ from latdyn.errors import SceneError
 #: a cable's length (its elements' end nodes)
 ANGLE, RATE, POSITION, VELOCITY, CONTROLLER, OFFSET_POSITION, OFFSET_VELOCITY, BODY_FRAME, CABLE_LENGTH = range(9)
 #: sensors of sampled controllers only (csrc/sampling.c): a probe whose value the time loop hands in
-#: (energy, momentum, joint forces: latdyn.timeloop.sampling), and a
+#: (energy, momentum, a joint's reaction: latdyn.timeloop.sampling), and a
 #: controller's state (index: its entry in the scene's controller_states); kind 4 of a sampled
 #: controller is any controller's output (index: its entry in the scene's controller_outputs)
 PROVIDED, CONTROLLER_STATE = 9, 10
@@ -62,8 +63,12 @@ SECTION_FORCE = 12
 #: a component of a point's velocity relative to a body, in its axes (index 3 n + c, the point's offset, the
 #: body's node): by the point's node's and the body's six coordinates (K), then their six rates (C)
 BODY_VELOCITY = 13
+#: a free joint's force (its law: spring, damper, applied torque or force, compliant stops; index the joint),
+#: by its coordinate (K) and rate (C)
+JOINT_FORCE = 14
 #: the columns of each kind's gradient in csrc/evaluate.c's sensor_jacobian (kind 8: 12 an element)
-_GRADIENT_COLUMNS = {OFFSET_POSITION: 6, OFFSET_VELOCITY: 9, BODY_FRAME: 12, CABLE_TENSION: 24, SECTION_FORCE: 14, BODY_VELOCITY: 24}
+_GRADIENT_COLUMNS = {OFFSET_POSITION: 6, OFFSET_VELOCITY: 9, BODY_FRAME: 12, CABLE_TENSION: 24, SECTION_FORCE: 14, BODY_VELOCITY: 24,
+                     JOINT_FORCE: 2}
 _NO_OFFSET = np.zeros(3)
 _AXIS = {"x": 0, "y": 1, "z": 2}
 
@@ -182,6 +187,8 @@ def _sensor(scene, model, controller, probe):
         return _tension_sensor(model, probe)
     if probe.kind == "element":
         return _section_sensor(model, probe)
+    if probe.kind in ("hinge", "guide") and probe.quantity in ("torque", "force"):
+        return _joint_force_sensor(scene, model, controller, probe)
     if probe.kind == "point" and probe.frame != "global" and probe.component in _AXIS and probe.quantity == "velocity":
         node, r = model.point(probe.point)
         ends = [int(d) for d in model.node_dofs[node]] + [int(d) for d in model.node_dofs[model.body_node[probe.frame]]]
@@ -211,8 +218,8 @@ def _sensor(scene, model, controller, probe):
         return kind, 3 * node + c, origin, [int(model.node_dofs[node, c])], _NO_OFFSET, -1
     _refuse(scene, key, f"a continuous controller reads hinge angles and rates, guide positions and rates, the "
                         f"global x, y or z component of a point's position, displacement or velocity and the x, y or z "
-                        f"component of its position, displacement or velocity in a body's axes, a cable's length or tension and "
-                        f"an element's section force; the probe "
+                        f"component of its position, displacement or velocity in a body's axes, a cable's length or tension, "
+                        f"an element's section force and a free joint's torque or force; the probe "
                         f"{probe.name!r} ({probe.kind} {probe.quantity}"
                         f"{'' if probe.kind != 'point' else f', frame {probe.frame}'}) is not one "
                         "(expected one of those, or a sampled controller: rate: HZ)")
@@ -240,6 +247,33 @@ def _section_sensor(model, probe):
                                         3: (math.sin(beta), math.cos(beta))}[quantity]
     columns = [int(d) for d in model.element_dofs[e]]
     return SECTION_FORCE, 4 * e + first, 0.0, columns, np.array([*weights, 0.0]), -1
+
+
+def _joint_force_sensor(scene, model, controller, probe):
+    """A joint's force as :func:`_sensor` gives it, where it is the joint's own law of its coordinate and rate
+    (latdyn.results.probes.ProbeSet.joint_forces: a free joint applies its law); refused where the probe is
+    a reaction (a prescribed joint, one that latches, rests on a rigid stop or sticks by friction), where
+    the law names a continuous controller (its output would read itself) and on a static path (the load
+    factor ramps the applied torque)."""
+    j = model.hinge_index(probe.beam, probe.end) if probe.kind == "hinge" else model.hinge_index(probe.body, "guide")
+    h = model.hinges[j]
+    continuous = {c.name for c in scene.controllers.values() if not c.sampled}
+    why = ("it is prescribed" if h.angle is not None else
+           "it latches (lock_at)" if h.lock_at is not None else
+           "it has rigid stops (limits without contact), on which it comes to rest" if h.limits is not None
+           and h.contact is None else
+           "it has friction, by which it sticks" if h.friction is not None else
+           f"its {'force' if h.kind == 'guide' else 'torque'} names the continuous controller "
+           f"{sorted(continuous & set(h.torque.input_names))[0]!r}"
+           if h.torque is not None and continuous & set(getattr(h.torque, "input_names", ())) else
+           "a static path ramps its applied torque with the load factor" if scene.solve.analysis == "static" else None)
+    if why is not None:
+        _refuse(scene, f"controllers.{controller.name}.output",
+                f"a continuous controller reads a joint's torque or force where it is the joint's own law (a "
+                f"spring, a damper, an applied torque or force, compliant stops) outside a static path; the probe "
+                f"{probe.name!r} ({probe.kind} {probe.quantity}) is not, {why}: there it is a reaction, whose "
+                "exact derivative is not built (expected a sampled controller: rate: HZ)")
+    return JOINT_FORCE, j, 0.0, [int(model.hinge_dofs[j])] * 2, _NO_OFFSET, -1
 
 
 def state_rates(scene) -> np.ndarray:

@@ -229,7 +229,8 @@ typedef struct {
     kernel_2_2 section_forces_D_q;
     /* sensors of kind 13: a component of a point's velocity relative to a body, in its axes (sensor_index
      * 3 n + c, sensor_offset r, the body's node sensor_frame_node[i]): 24 columns, the point node's and the
-     * body's coordinates (K), then their rates (C) (sensor_value) */
+     * body's coordinates (K), then their rates (C) (sensor_value); kind 14: a free joint's force, sensor_index
+     * the joint, its law's value and ∂/∂θ (K), ∂/∂θ̇ (C) (2 columns) */
 } Model;
 
 /* Scratch buffers, allocated once by the caller. */
@@ -623,10 +624,11 @@ static void controller_states_at(const Model *m, Work *w, int64_t k, double t, i
     for (int64_t i = 0; i < p; ++i) w->controller_state_trial[first + i] = args[count + i];
 }
 
-/* The value of sensor i at c, less its origin (see Model: the kinds 0-3, 5-8 and 11-13; 0 for the others,
- * which the caller reads), with its gradient's columns into w->sensor_jacobian for kinds 5-8, 11-13: the probe
- * evaluation of the controllers, continuous (controller_outputs) and sampled (sampling.c). */
-static double sensor_value(const Model *m, const Configuration *c, Work *w, int64_t i)
+/* The value of sensor i at c and time t (a joint's laws; w->laws at t: a reel's rest length, a joint's applied
+ * torque), less its origin (see Model: the kinds 0-3, 5-8 and 11-14; 0 for the others, which the caller
+ * reads), with its gradient's columns into w->sensor_jacobian for kinds 5-8, 11-14: the probe evaluation of
+ * the controllers, continuous (controller_outputs) and sampled (sampling.c). */
+static double sensor_value(const Model *m, const Configuration *c, Work *w, int64_t i, double t)
 {
     int64_t index = m->sensor_index[i];
     double value = 0.0;
@@ -784,6 +786,32 @@ static double sensor_value(const Model *m, const Configuration *c, Work *w, int6
         cross(b, u, jacobian + 21);      /* ∂s/∂ω_b */
         break;
     }
+    case 14: {  /* a free joint's force (the probe's, positive when it drives θ or s up): −f of its law (spring,
+                 * damper, applied torque or force of t, θ, θ̇, compliant stops; latdyn/assembly/control.py
+                 * refuses the joints where it is a reaction), with −∂f/∂θ (K) and −∂f/∂θ̇ (C) from the
+                 * generated hinge_force and the compiled laws, as the hinge loop of evaluate() takes them */
+        const int64_t j = index;
+        double *jacobian = w->sensor_jacobian + m->sensor_column_start[i];
+        double state[4] = {c->theta[j], c->theta_dot[j], m->hinge_rest_angle[j], 1.0};
+        double values[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
+        if (m->hinge_stiffness_law[j] < 0) {
+            values[0] = m->hinge_stiffness[j];
+            values[3] = m->hinge_damping[j];
+            if (m->hinge_torque_law[j] >= 0) values[6] = w->laws[3 * m->hinge_torque_law[j]];
+        } else {
+            m->hinge_laws(m->hinge_stiffness_law[j], state[0], state[1], t, values);
+            m->hinge_laws(m->hinge_damping_law[j], state[0], state[1], t, values + 3);
+            if (m->hinge_torque_hinge_law[j] >= 0)
+                m->hinge_laws(m->hinge_torque_hinge_law[j], state[0], state[1], t, values + 6);
+        }
+        double f, by_angle, by_rate, spring, applied, damper, energy;
+        m->hinge_force(1, state, values, m->hinge_contact + 11 * j, &f, &by_angle, &by_rate, &spring, &applied, &damper,
+                       &energy);
+        value = -f;
+        jacobian[0] = -by_angle;
+        jacobian[1] = -by_rate;
+        break;
+    }
     default: value = 0.0; break;  /* 4: an earlier controller's output, read by the caller */
     }
     return value - m->sensor_origin[i];
@@ -794,7 +822,7 @@ static double sensor_value(const Model *m, const Configuration *c, Work *w, int6
  * and ∂y/∂s + ∂y/∂S dS/ds. */
 static void controller_outputs(const Model *m, const Configuration *c, Work *w, double t)
 {
-    for (int64_t i = 0; i < m->n_sensors; ++i) w->sensor_values[i] = sensor_value(m, c, w, i);
+    for (int64_t i = 0; i < m->n_sensors; ++i) w->sensor_values[i] = sensor_value(m, c, w, i, t);
     for (int64_t k = 0; k < m->n_controllers; ++k) {
         int64_t first = m->sensor_start[k], count = m->sensor_start[k + 1] - first;
         int64_t p = m->n_controller_states ? m->controller_state_start[k + 1] - m->controller_state_start[k] : 0;
@@ -895,8 +923,9 @@ static void controller_couplings(const Model *m, const Configuration *c, Work *w
                                                                     : w->controller_gradient[sensor]);
         const int64_t column = m->coupling_column[e];
         if (kind >= 5) value *= w->sensor_jacobian[m->sensor_column_start[sensor] + column];
-        /* kind 6: rates, then rotation; kinds 11, 13: coordinates, then rates */
-        const int by_rate = kind == 1 || kind == 3 || (kind == 6 && column < 6) || ((kind == 11 || kind == 13) && column >= 12);
+        /* kind 6: rates, then rotation; kinds 11, 13: coordinates, then rates; kind 14: angle, rate */
+        const int by_rate = kind == 1 || kind == 3 || (kind == 6 && column < 6) || ((kind == 11 || kind == 13) && column >= 12)
+                            || (kind == 14 && column == 1);
         w->coupling_stiffness[e] = by_rate ? 0.0 : value;
         w->coupling_damping[e] = by_rate ? value : 0.0;
     }
