@@ -153,3 +153,47 @@ def test_sensitivities_through_a_joint_force_sensor_are_refused(tmp_path):
     assert completed.returncode == 2, completed.stderr
     assert "solve.sensitivities" in completed.stderr and "reads a force (a cable's tension" in completed.stderr
     assert "Traceback" not in completed.stderr
+
+
+def test_joint_force_coupling_against_central_differences_in_a_compliant_stop():
+    """A guide with a nonlinear spring 30 (1 + s²) s, a damper 0.8 + 0.5 ṡ² and a compliant stop at 0.1
+    (Hunt–Crossley, k 500, n 1.5, c 2) pressed 0.03 into it and moving at 0.4: the coupling entries of a load
+    "ctl" with y = 0.2 F + 0.01 F² on the cart, by s (K) and ṡ (C), against central differences of the
+    output (measured 1.9e-10 and 3.0e-11 relative), and the probe against the law by hand (measured 0.0)."""
+    from latdyn.assembly.prepare import prepare
+    from latdyn.results.probes import ProbeSet
+
+    text = guided(output="0.2*F + 0.01*F**2", guide=", limits: [-0.1, 0.1], contact: {stiffness: 500.0, "
+                  "exponent: 1.5, damping: 2.0}").replace("stiffness: 30.0, damping: 0.8",
+                                                         'stiffness: "30*(1 + s**2)", damping: "0.8 + 0.5*s_dot**2"')
+    prepared = prepare(latdyn.load_scene(yaml.safe_load(text)))
+    assembler, state, scene = prepared.assembler, prepared.state.copy(), prepared.scene
+    model = assembler.model
+    j = model.hinge_index("cart", "guide")
+    dof, row = int(model.hinge_dofs[j]), int(model.node_dofs[model.body_node["cart"], 0])
+    state = assembler.advance(state, 0.13 * np.eye(model.n_dofs)[dof])
+    state.theta_dot[j] = 0.4
+    state.t = 0.3
+    slot = scene.controller_outputs.index("ctl")
+
+    def output(slide=0.0, rate=0.0):
+        moved = assembler.advance(state, slide * np.eye(model.n_dofs)[dof])
+        moved.theta_dot[j] += rate
+        assembler.evaluate(moved, matrices=False)
+        return scene.controller_outputs.values[slot]
+
+    assembler.evaluate(state, matrices=True)
+    control, buffers = assembler.control, assembler.native().buffers
+    entries = [(k, c) for k, c, r, col in zip(buffers["coupling_stiffness"], buffers["coupling_damping"],
+                                              control.coupling_rows, control.coupling_cols) if r == row and col == dof]
+    K, C = sum(k for k, _ in entries), sum(c for _, c in entries)
+    e = 1e-6
+    by_slide = (output(slide=e) - output(slide=-e)) / (2 * e)
+    by_rate = (output(rate=e) - output(rate=-e)) / (2 * e)
+    assert abs(K + by_slide) < 1e-8 * abs(K) and abs(C + by_rate) < 1e-8 * abs(C), (K, by_slide, C, by_rate)
+    force = ProbeSet(assembler, assembler.initial_state()).values(state.copy())[2]
+    s, rate, depth = 0.13, 0.4, 0.03  # the law by hand: applied, spring, damper, Hunt–Crossley stop
+    law = 5 * math.sin(0.9) - 30 * (1 + s ** 2) * s - (0.8 + 0.5 * rate ** 2) * rate \
+        - (500.0 * depth ** 1.5 + 2.0 * depth ** 1.5 * rate)
+    assert abs(force - law) < 1e-12 * abs(law)
+    assert abs(output() - (0.2 * force + 0.01 * force ** 2)) < 1e-12 * force ** 2
