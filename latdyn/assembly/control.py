@@ -67,8 +67,8 @@ BODY_VELOCITY = 13
 #: by its coordinate (K) and rate (C)
 JOINT_FORCE = 14
 #: the columns of each kind's gradient in csrc/evaluate.c's sensor_jacobian (kind 8: 12 an element)
-_GRADIENT_COLUMNS = {OFFSET_POSITION: 6, OFFSET_VELOCITY: 9, BODY_FRAME: 12, CABLE_TENSION: 24, SECTION_FORCE: 14, BODY_VELOCITY: 24,
-                     JOINT_FORCE: 2}
+_GRADIENT_COLUMNS = {OFFSET_POSITION: 6, OFFSET_VELOCITY: 9, BODY_FRAME: 12, CABLE_TENSION: 24, SECTION_FORCE: 14,
+                     BODY_VELOCITY: 24, JOINT_FORCE: 2}
 _NO_OFFSET = np.zeros(3)
 _AXIS = {"x": 0, "y": 1, "z": 2}
 
@@ -218,7 +218,8 @@ def _sensor(scene, model, controller, probe):
         return kind, 3 * node + c, origin, [int(model.node_dofs[node, c])], _NO_OFFSET, -1
     _refuse(scene, key, f"a continuous controller reads hinge angles and rates, guide positions and rates, the "
                         f"global x, y or z component of a point's position, displacement or velocity and the x, y or z "
-                        f"component of its position, displacement or velocity in a body's axes, a cable's length or tension, "
+                        f"component of its position, displacement or velocity in a body's axes, a cable's length or "
+                        f"tension, "
                         f"an element's section force and a free joint's torque or force; the probe "
                         f"{probe.name!r} ({probe.kind} {probe.quantity}"
                         f"{'' if probe.kind != 'point' else f', frame {probe.frame}'}) is not one "

@@ -716,7 +716,8 @@ static double sensor_value(const Model *m, const Configuration *c, Work *w, int6
     }
     case 11: {  /* a cable's tension: its first element's N (0 slack, as cables() decides), the generated law */
         const double *data = m->cable_section + 3 * index, *rest = w->laws + 3 * m->cable_rest_law[index];
-        double geometry[12], velocity[12], section[4], tension[2], *jacobian = w->sensor_jacobian + m->sensor_column_start[i];
+        double geometry[12], velocity[12], section[4], tension[2];
+        double *jacobian = w->sensor_jacobian + m->sensor_column_start[i];
         for (int end = 0; end < 2; ++end) {
             const int64_t node = m->cable_nodes[2 * index + end];
             matvec3(c->T + 9 * node, m->cable_offsets + 6 * index + 3 * end, geometry + 6 + 3 * end);
@@ -924,8 +925,8 @@ static void controller_couplings(const Model *m, const Configuration *c, Work *w
         const int64_t column = m->coupling_column[e];
         if (kind >= 5) value *= w->sensor_jacobian[m->sensor_column_start[sensor] + column];
         /* kind 6: rates, then rotation; kinds 11, 13: coordinates, then rates; kind 14: angle, rate */
-        const int by_rate = kind == 1 || kind == 3 || (kind == 6 && column < 6) || ((kind == 11 || kind == 13) && column >= 12)
-                            || (kind == 14 && column == 1);
+        const int by_rate = kind == 1 || kind == 3 || (kind == 6 && column < 6)
+                            || ((kind == 11 || kind == 13) && column >= 12) || (kind == 14 && column == 1);
         w->coupling_stiffness[e] = by_rate ? 0.0 : value;
         w->coupling_damping[e] = by_rate ? value : 0.0;
     }
