@@ -488,6 +488,19 @@ def build_kernels(variant: str = "default") -> list[KernelSpec]:
         [Output("strain_energy", (), [U.xreplace(rename)]),
          Output("section_forces", (4,), [f.xreplace(rename) for f in fm.section_forces(psi_symbols, section, formulation, shear)])], b)
 
+    # the section forces' exact derivative by the element's coordinates, ∂S/∂q = (∂S/∂Ψ) B (B = ∂Ψ/∂q, the
+    # matrix of Eq. 43's F_i = Bᵀ ∂U/∂Ψ): a continuous controller's sensor (csrc/evaluate.c sensor_value)
+    b = Builder(kin.auxiliary + shear_definitions)
+    psi = b.vector("psi", kin.psi)
+    Bm = b.matrix("B", kin.B)
+    rename = dict(zip(psi_symbols, psi))
+    sections = fm.section_forces(psi_symbols, section, formulation, shear)
+    by_psi = b.matrix("dS_dpsi", [[sp.diff(f, p).xreplace(rename) for p in psi_symbols] for f in sections])
+    add("beam_section_forces_D_q", "Mid-element section forces [N, T, M_y, M_z] and their exact derivative "
+        "∂S/∂q = (∂S/∂Ψ) B by the element's coordinates", "Eqs. 22-43", geometry_section,
+        [Output("section_forces", (4,), [f.xreplace(rename) for f in sections]),
+         Output("section_forces_D_q", (4, N), _flat(_matmul(by_psi, Bm)))], b)
+
     # --- internal force ---
     b = Builder(kin.auxiliary + shear_definitions)
     _, force, _ = elastic(b, with_tangent=False)

@@ -525,6 +525,36 @@ def _cable_force_kernel() -> KernelSpec:
                       outputs=outputs, variant="joints", equations="Eq. 2 (the end points); cables, issue 32")
 
 
+def _cable_tension_kernel() -> KernelSpec:
+    """The tension of a taut cable element as a controller's sensor reads it (SCENE.md ``controllers``: a
+    ``{cable: NAME, quantity: tension}`` probe; csrc/evaluate.c ``sensor_value``): N_el and N of
+    :func:`cable_terms`, the law the residual holds, with N's exact derivatives by the end coordinates
+    (the spatial update of :func:`_cable_force_kernel`, at fixed velocities: K's entries of the coupling)
+    and by the end rates (the damper: C's entries)."""
+    geometry, velocity, section = CABLE_GEOMETRY.symbols(), CABLE_VELOCITY.symbols(), CABLE_SECTION.symbols()
+    _, _, _, elastic, tension = cable_terms(geometry, velocity, section)
+    delta = sp.Matrix(sp.symbols("delta_0:12"))
+    zero = {d: 0 for d in delta}
+    moved = list(geometry)
+    for k in range(2):
+        d, pi = delta[6 * k:6 * k + 3, 0], delta[6 * k + 3:6 * k + 6, 0]
+        moved[3 * k:3 * k + 3] = list(_vector(geometry[3 * k:3 * k + 3]) + d)
+        o = _vector(geometry[6 + 3 * k:9 + 3 * k])
+        moved[6 + 3 * k:9 + 3 * k] = list(o + pi.cross(o))
+    tension_moved = sp.Matrix([cable_terms(moved, velocity, section)[4]])
+    outputs = [
+        Output("cable_tension", (2,), [elastic, tension], "N_el = EA (ℓ − L0)/L0, N = N_el + c ℓ̇ (taut)"),
+        Output("cable_tension_D_q", (12,), _rows(_jacobian(tension_moved, delta, zero)),
+               "∂N/∂[d1, π1, d2, π2] at fixed velocities (spatial update)"),
+        Output("cable_tension_D_rate", (12,), _rows(sp.Matrix([tension]).jacobian(_vector(velocity))),
+               "∂N/∂[v1, ω1, v2, ω2]: the damper's"),
+    ]
+    return KernelSpec(name="cable_tension", doc="The tension of a taut cable element and its exact derivatives by "
+                      "the end coordinates and rates (a controller's sensor)",
+                      inputs=[CABLE_GEOMETRY, CABLE_VELOCITY, CABLE_SECTION], outputs=outputs, variant="joints",
+                      equations="Eq. 2 (the end points); cables, issue 32")
+
+
 ROTATION_VECTOR = Argument("rotation_vector", 3, "w: a rotation vector (axis times angle), global")
 
 #: Below θ² = SO3_SWITCH the exponential's scalars are their Taylor polynomials in θ² (through θ⁸:
@@ -851,7 +881,7 @@ def build_kernels() -> list[KernelSpec]:
     """The kernels of the ``joints`` unit."""
     return [*_joint_body_kernels(), _point_load_kernel(), _hinged_end_kernel(), _hinge_force_kernel(),
             _contact_law_derivative_kernel(), _so3_exp_kernel(), _link_edge_kernel(), _hinge_wrench_kernel(), _root_wrench_kernel(),
-            _link_edge_kernel(prismatic=True), _slide_wrench_kernel(), _cable_force_kernel(),
+            _link_edge_kernel(prismatic=True), _slide_wrench_kernel(), _cable_force_kernel(), _cable_tension_kernel(),
             _closure_edge_kernel(rod=False), _closure_edge_kernel(rod=True), _closure_wrench_kernel(rod=False),
             _closure_wrench_kernel(rod=True),
             *(_rates_D_q_kernel(kind) for kind in ("rigid_link_edge", "prismatic_link_edge", "slider_closure_edge",

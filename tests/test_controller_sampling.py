@@ -179,9 +179,9 @@ def test_sampled_in_the_loop_of_steps_equals_the_python_loop(kind, monkeypatch):
 
 
 def test_a_probe_without_a_c_sensor_is_handed_in_and_the_loop_stops_on_the_instants(monkeypatch):
-    """A sampled controller that reads the kinetic energy and a section moment (no C sensor): the loop
-    of steps in C stops on each of its instants and the time loop hands their values to the same
-    compiled cycle; the run equals the one stepped from Python to round-off."""
+    """A sampled controller that reads the kinetic energy (no C sensor) and a section moment (its C sensor):
+    the loop of steps in C stops on each of its instants and the time loop hands the energy's value to the
+    same compiled cycle; the run equals the one stepped from Python to round-off."""
     scene = arm(SPATIAL, t_end=0.3)
     scene["output"]["probes"]["kin"] = {"energy": "kinetic"}
     scene["output"]["probes"]["bend"] = {"element": "arm.element[0]", "quantity": "moment_y"}

@@ -529,11 +529,11 @@ def test_pd_on_a_cable_length_cli(tmp_path):
 
 
 @pytest.mark.parametrize("probe, says", [
-    ("{point: b, quantity: velocity, frame: a, component: x}", "in a body's axes"),
-    ("{cable: tether, quantity: tension}", "a cable's length"),
-    ("{element: 'post.element[0]', quantity: axial_force}", "is not one"),
-    ("{guide: b, quantity: force}", "is not one"),
-], ids=["body-frame velocity", "cable tension", "section force", "guide force"])
+    ("{guide: b, quantity: force}", "it latches"),
+    ("{energy: kinetic}", "energy probe"),
+    ("{momentum: linear, component: x}", "momentum probe"),
+    ("{point: b, quantity: position, component: norm}", "is not one"),
+], ids=["guide reaction", "energy", "momentum", "a norm"])
 def test_what_a_continuous_controller_may_not_read_is_refused(probe, says):
     """Sensors not built (docs/control.md "Not built yet") are refused at the controller's output key."""
     from latdyn.errors import SceneError
@@ -541,16 +541,17 @@ def test_what_a_continuous_controller_may_not_read_is_refused(probe, says):
     text = CABLED.replace("    L: {cable: tether, quantity: length}", f"    L: {probe}")
     if "guide" in probe:
         text = text.replace("b: {at: [1.5, 0.8, 0.2], mass: 1.0, inertia: [0.2, 0.1, 0.3]}",
-                            "b: {at: [1.5, 0.8, 0.2], mass: 1.0, inertia: [0.2, 0.1, 0.3], guide: {axis: [1, 0, 0]}}")
+                            "b: {at: [1.5, 0.8, 0.2], mass: 1.0, inertia: [0.2, 0.1, 0.3], "
+                            "guide: {axis: [1, 0, 0], lock_at: 0.1}}")
     with pytest.raises(SceneError) as refused:
         latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
     assert "controllers.ctl.output" in str(refused.value) and says in str(refused.value), str(refused.value)
 
 
 def test_a_refused_sensor_through_the_cli(tmp_path):
-    completed, _ = latdyn_run(tmp_path, CABLED.replace("quantity: length", "quantity: tension"))
+    completed, _ = latdyn_run(tmp_path, CABLED.replace("{cable: tether, quantity: length}", "{energy: kinetic}"))
     assert completed.returncode == 2
-    assert "controllers.ctl.output" in completed.stderr and "tension" in completed.stderr
+    assert "controllers.ctl.output" in completed.stderr and "energy" in completed.stderr
     assert "Traceback" not in completed.stderr
 
 

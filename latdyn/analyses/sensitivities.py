@@ -48,7 +48,8 @@ outputs; :class:`ControllerStates`: continuous controllers' states carried throu
 
 What is refused (:func:`refusal`, exit 2 naming ``solve.sensitivities``): any analysis but static
 load control, arc length and displacement control and transient runs of an implicit method at fixed
-steps without friction and inputs, controllers with states or sampled ones beside events (cables through their
+steps without friction and inputs, continuous controllers that read a force (a tension, a section or joint
+force), controllers with states or sampled ones beside events (cables through their
 slack/taut events, guides with theirs: :func:`_transient_refusal`, :meth:`ControllerTerms.refusal`); a
 parameter used anywhere but in load components, hinge stiffness, damping, torque and rest angle, section
 values of shear-rigid sections (formulation default), body masses, centres of mass and inertias,
@@ -1023,6 +1024,22 @@ def bordered_solve(stiffness, column: np.ndarray, row: np.ndarray, rhs: np.ndarr
                           "matrix, which is singular there (a bifurcation point)") from None
 
 
+def _force_sensor_refusal(scene) -> str | None:
+    """A continuous controller that reads a cable's tension, an element's section force or a joint's force
+    (latdyn/assembly/control.py ``CABLE_TENSION``, ``SECTION_FORCE``, ``JOINT_FORCE``): the force's explicit
+    dependence on its law's parameters (a cable's EA, damping, rest length; a section's EA, EI, GJ; a
+    joint's stiffness, damping, torque) is not differentiated here, so such runs are refused."""
+    forces = {p.name for p in scene.output.probes if (p.kind == "cable" and p.quantity == "tension")
+              or p.kind == "element" or (p.kind in ("hinge", "guide") and p.quantity in ("torque", "force"))}
+    for c in scene.controllers.values():
+        read = sorted(forces & set(c.reads))
+        if read and not c.sampled:
+            return (f"sensitivities of runs with a continuous controller that reads a force (a cable's tension, a "
+                    f"section or joint force: {c.name} reads {read[0]!r}) are not computed yet; expected "
+                    "coordinates (a cable's length, an angle, a point), or no sensitivities")
+    return None
+
+
 class ControllerTerms:
     """∂r/∂p through continuous controllers (SCENE.md ``controllers`` without ``rate``) for transient
     sensitivities. A controller's output y = clip(f(t, s; p)) is a law of its sensors s (probes read at
@@ -1085,7 +1102,7 @@ class ControllerTerms:
     @staticmethod
     def refusal(scene) -> str | None:
         """Why the controllers of ``scene`` keep its transient sensitivities from being exact, or None."""
-        why = SampledTerms.refusal(scene)
+        why = SampledTerms.refusal(scene) or _force_sensor_refusal(scene)
         if why is not None:
             return why
         for c in scene.controllers.values():

@@ -2,8 +2,9 @@
 
 A continuous controller k reads sensors s (probes: hinge angles and rates, guide slides and rates,
 global components of the position, displacement or velocity of a point, with or without an offset
-from its node, components of a point's position or displacement in a body's axes, the outputs of
-earlier continuous controllers) and drives
+from its node, components of a point's position, displacement or velocity in a body's axes, a cable's length
+and tension, an element's section forces, a free joint's torque or force, the outputs of earlier continuous
+controllers) and drives
 actuators (a hinge torque, a guide force, a load component, each naming the controller alone or in
 an expression τ = a y + b with a constant a = ∂τ/∂y, :func:`actuator_gain`). In the one evaluation
 (``csrc/evaluate.c``, ``controllers``) its output y_k = clip(f_k(t, s)) is computed from the
@@ -33,6 +34,7 @@ without a C sensor handed in from Python; a held output enters no matrix.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -47,12 +49,26 @@ from latdyn.errors import SceneError
 #: a cable's length (its elements' end nodes)
 ANGLE, RATE, POSITION, VELOCITY, CONTROLLER, OFFSET_POSITION, OFFSET_VELOCITY, BODY_FRAME, CABLE_LENGTH = range(9)
 #: sensors of sampled controllers only (csrc/sampling.c): a probe whose value the time loop hands in
-#: (energy, momentum, section and joint forces, cable tension: latdyn.timeloop.sampling), and a
+#: (energy, momentum, a joint's reaction: latdyn.timeloop.sampling), and a
 #: controller's state (index: its entry in the scene's controller_states); kind 4 of a sampled
 #: controller is any controller's output (index: its entry in the scene's controller_outputs)
 PROVIDED, CONTROLLER_STATE = 9, 10
+#: a cable's tension: its first element's N (0 slack), by its end nodes' six coordinates (K), then their
+#: six rates (C): the generated cable_tension (codegen/joints.py)
+CABLE_TENSION = 11
+#: a section force of an element, w0 S_k + w1 S_k+1 of the mid-element section forces S = [N, T, M_y', M_z']
+#: (index 4 e + k, sensor_offset [w0, w1, 0]: a planar model's turned sections back in the beam's axes),
+#: by the element's fourteen coordinates: the generated beam_section_forces_D_q (codegen/derivation.py)
+SECTION_FORCE = 12
+#: a component of a point's velocity relative to a body, in its axes (index 3 n + c, the point's offset, the
+#: body's node): by the point's node's and the body's six coordinates (K), then their six rates (C)
+BODY_VELOCITY = 13
+#: a free joint's force (its law: spring, damper, applied torque or force, compliant stops; index the joint),
+#: by its coordinate (K) and rate (C)
+JOINT_FORCE = 14
 #: the columns of each kind's gradient in csrc/evaluate.c's sensor_jacobian (kind 8: 12 an element)
-_GRADIENT_COLUMNS = {OFFSET_POSITION: 6, OFFSET_VELOCITY: 9, BODY_FRAME: 12}
+_GRADIENT_COLUMNS = {OFFSET_POSITION: 6, OFFSET_VELOCITY: 9, BODY_FRAME: 12, CABLE_TENSION: 24, SECTION_FORCE: 14,
+                     BODY_VELOCITY: 24, JOINT_FORCE: 2}
 _NO_OFFSET = np.zeros(3)
 _AXIS = {"x": 0, "y": 1, "z": 2}
 
@@ -167,6 +183,17 @@ def _sensor(scene, model, controller, probe):
         columns = [int(d) for e in elements for end in (0, 1) for d in model.node_dofs[cables.nodes[e, end]]]
         assert np.all(np.diff(elements) == 1)  # a cable's elements are numbered one after the other
         return CABLE_LENGTH, int(elements[0]), 0.0, columns, _NO_OFFSET, -1
+    if probe.kind == "cable" and probe.quantity == "tension":
+        return _tension_sensor(model, probe)
+    if probe.kind == "element":
+        return _section_sensor(model, probe)
+    if probe.kind in ("hinge", "guide") and probe.quantity in ("torque", "force"):
+        return _joint_force_sensor(scene, model, controller, probe)
+    if probe.kind == "point" and probe.frame != "global" and probe.component in _AXIS and probe.quantity == "velocity":
+        node, r = model.point(probe.point)
+        ends = [int(d) for d in model.node_dofs[node]] + [int(d) for d in model.node_dofs[model.body_node[probe.frame]]]
+        return BODY_VELOCITY, 3 * node + _AXIS[probe.component], 0.0, ends + ends, np.asarray(r, float), \
+            model.body_node[probe.frame]
     if probe.kind == "point" and probe.frame != "global" and probe.component in _AXIS \
             and probe.quantity in ("position", "displacement"):
         node, r = model.point(probe.point)
@@ -191,10 +218,63 @@ def _sensor(scene, model, controller, probe):
         return kind, 3 * node + c, origin, [int(model.node_dofs[node, c])], _NO_OFFSET, -1
     _refuse(scene, key, f"a continuous controller reads hinge angles and rates, guide positions and rates, the "
                         f"global x, y or z component of a point's position, displacement or velocity and the x, y or z "
-                        f"component of its position or displacement in a body's axes, and a cable's length; the probe "
+                        f"component of its position, displacement or velocity in a body's axes, a cable's length or "
+                        f"tension, "
+                        f"an element's section force and a free joint's torque or force; the probe "
                         f"{probe.name!r} ({probe.kind} {probe.quantity}"
                         f"{'' if probe.kind != 'point' else f', frame {probe.frame}'}) is not one "
                         "(expected one of those, or a sampled controller: rate: HZ)")
+
+
+def _tension_sensor(model, probe):
+    """A cable's tension as :func:`_sensor` gives it: its first element (the probe's,
+    latdyn.results.probes.cable_value), by the two end nodes' coordinates and then their rates."""
+    cables = model.cables
+    element = int(cables.first[cables.names.index(probe.beam)])
+    ends = [int(d) for end in (0, 1) for d in model.node_dofs[cables.nodes[element, end]]]
+    return CABLE_TENSION, element, 0.0, ends + ends, _NO_OFFSET, -1
+
+
+def _section_sensor(model, probe):
+    """An element's section force as :func:`_sensor` gives it (latdyn.results.probes.section_forces: the
+    kernel's [N, T, M_y', M_z'], a planar model's turned moments back in the beam's axes by β,
+    M_y = cos β M_y' − sin β M_z', M_z = sin β M_y' + cos β M_z'), by the element's fourteen coordinates."""
+    from latdyn.results.probes import SECTION_QUANTITIES
+
+    e = int(model.beam_elements[probe.beam][probe.element])
+    quantity = SECTION_QUANTITIES.index(probe.quantity)
+    beta = float(model.section_turns[e])
+    first, weights = min(quantity, 2), {0: (1.0, 0.0), 1: (1.0, 0.0), 2: (math.cos(beta), -math.sin(beta)),
+                                        3: (math.sin(beta), math.cos(beta))}[quantity]
+    columns = [int(d) for d in model.element_dofs[e]]
+    return SECTION_FORCE, 4 * e + first, 0.0, columns, np.array([*weights, 0.0]), -1
+
+
+def _joint_force_sensor(scene, model, controller, probe):
+    """A joint's force as :func:`_sensor` gives it, where it is the joint's own law of its coordinate and rate
+    (latdyn.results.probes.ProbeSet.joint_forces: a free joint applies its law); refused where the probe is
+    a reaction (a prescribed joint, one that latches, rests on a rigid stop or sticks by friction), where
+    the law names a continuous controller (its output would read itself) and on a static path (the load
+    factor ramps the applied torque)."""
+    j = model.hinge_index(probe.beam, probe.end) if probe.kind == "hinge" else model.hinge_index(probe.body, "guide")
+    h = model.hinges[j]
+    continuous = {c.name for c in scene.controllers.values() if not c.sampled}
+    why = ("it is prescribed" if h.angle is not None else
+           "it latches (lock_at)" if h.lock_at is not None else
+           "it has rigid stops (limits without contact), on which it comes to rest" if h.limits is not None
+           and h.contact is None else
+           "it has friction, by which it sticks" if h.friction is not None else
+           f"its {'force' if h.kind == 'guide' else 'torque'} names the continuous controller "
+           f"{sorted(continuous & set(h.torque.input_names))[0]!r}"
+           if h.torque is not None and continuous & set(getattr(h.torque, "input_names", ())) else
+           "a static path ramps its applied torque with the load factor" if scene.solve.analysis == "static" else None)
+    if why is not None:
+        _refuse(scene, f"controllers.{controller.name}.output",
+                f"a continuous controller reads a joint's torque or force where it is the joint's own law (a "
+                f"spring, a damper, an applied torque or force, compliant stops) outside a static path; the probe "
+                f"{probe.name!r} ({probe.kind} {probe.quantity}) is not, {why}: there it is a reaction, whose "
+                "exact derivative is not built (expected a sampled controller: rate: HZ)")
+    return JOINT_FORCE, j, 0.0, [int(model.hinge_dofs[j])] * 2, _NO_OFFSET, -1
 
 
 def state_rates(scene) -> np.ndarray:

@@ -21,6 +21,7 @@ import ctypes
 import numpy as np
 
 from latdyn.assembly.compiled_laws import LawsUnavailable, compile_laws, unprintable
+from latdyn.assembly.control import CABLE_TENSION, SECTION_FORCE
 from latdyn.assembly.library import (
     ConfigurationData,
     EvaluationData,
@@ -337,6 +338,9 @@ class NativeModel:
             sampled_sensor_start=ints(wired.sampled_sensor_start), sampled_slot=ints(wired.sampled_slot),
             sampled_state_start=ints(wired.sampled_state_start), sampled_state_slot=ints(wired.sampled_state_slot),
             sampled_limits=arr(wired.sampled_limits.reshape(-1, 2)), sampled_rate=arr(wired.sampled_rate),
+            cable_tension=_kernel_address(kernels, "cable_tension") if CABLE_TENSION in wired.sensor_kind else None,
+            section_forces_D_q=_kernel_address(kernels, "beam_section_forces_D_q") if SECTION_FORCE in wired.sensor_kind
+            else None,
         )
         if len(wired.state_slot):  # the runtime's arrays, read and written in place (latdyn.assembly.control)
             states, rates = wired.states.values, wired.state_rates

@@ -22,8 +22,8 @@ inertia that does not depend on the state (v̇ ← v̇ − M⁻¹r, with rigid l
 coordinates with Pᵀ M P: :func:`latdyn.step.integrators.consistent_acceleration` with an all-massive
 split, :meth:`latdyn.step.compiled.CompiledGeneralizedAlpha.restarts_natively`); otherwise (directions
 without inertia: 3D beams without rotary inertia) it returns after the sample and the time loop
-restarts from Python with the inertia split. A probe no C sensor evaluates (energy, momentum, section, joint and cable forces) is handed
-in from Python (:meth:`latdyn.assembly.native_model.NativeModel.sample`): the loop of steps then stops
+restarts from Python with the inertia split. A probe no C sensor evaluates (energy, momentum, a joint's reaction) is
+handed in from Python (:meth:`latdyn.assembly.native_model.NativeModel.sample`): the loop of steps then stops
 on the instants and the time loop calls the same cycle there.
 
 The outputs and states after each sample are what the progress carries

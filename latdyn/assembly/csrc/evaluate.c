@@ -204,7 +204,7 @@ typedef struct {
      * distance of the element's end points (cable_nodes, cable_offsets), its gradient by the two end
      * nodes' coordinates −Jᵀ_a e and Jᵀ_b e (e the unit vector from a to b; point_load); the columns of
      * sensor i's gradient are sensor_column_start[i] … sensor_column_start[i+1]−1 of Work sensor_jacobian
-     * (kinds 5, 6, 7: 6, 9 and 12 columns; 12 an element for kind 8; none for the others) */
+     * (kinds 5, 6, 7: 6, 9 and 12 columns; 12 an element for kind 8; 24 for kind 11, 14 for 12; none for the others) */
     const int64_t *sensor_column_start;
     /* sampled controllers (latdyn/assembly/control.py _wire_sampled, csrc/sampling.c; n_sampled 0: none), in
      * file order: controller k samples at the instants j / sampled_rate[k], reads the sensors
@@ -218,6 +218,19 @@ typedef struct {
     void (*sampled_laws)(int64_t, double, const double *, double *);
     const int64_t *sampled_sensor_start, *sampled_slot, *sampled_state_start, *sampled_state_slot;
     const double *sampled_limits, *sampled_rate;
+    /* sensors of kind 11: the tension of a cable's first element sensor_index (the probe's), the
+     * generated cable_tension (codegen/joints.py: N_el, N and N's exact derivatives by the end nodes'
+     * coordinates and rates, 24 columns of sensor_jacobian); 0 while the element is slack (its side
+     * cable_side, or side 0 and min(N_el, N) ≤ 0, as cables() decides) */
+    void (*cable_tension)(int64_t, const double *, const double *, const double *, double *, double *, double *);
+    /* sensors of kind 12: an element's section force w0 S_k + w1 S_(k+1) of its mid-element section forces
+     * S = [N, T, M_y', M_z'] (sensor_index 4 e + k, sensor_offset [w0, w1, 0]), by the element's fourteen
+     * coordinates (element_dofs), the generated beam_section_forces_D_q (codegen/derivation.py) */
+    kernel_2_2 section_forces_D_q;
+    /* sensors of kind 13: a component of a point's velocity relative to a body, in its axes (sensor_index
+     * 3 n + c, sensor_offset r, the body's node sensor_frame_node[i]): 24 columns, the point node's and the
+     * body's coordinates (K), then their rates (C) (sensor_value); kind 14: a free joint's force, sensor_index
+     * the joint, its law's value and ∂/∂θ (K), ∂/∂θ̇ (C) (2 columns) */
 } Model;
 
 /* Scratch buffers, allocated once by the caller. */
@@ -655,10 +668,11 @@ static void controller_states_at(const Model *m, Work *w, int64_t k, double t, i
     for (int64_t i = 0; i < p; ++i) w->controller_state_trial[first + i] = args[count + i];
 }
 
-/* The value of sensor i at c, less its origin (see Model: the kinds 0-3 and 5-8; 0 for the others, which
- * the caller reads), with its gradient's columns into w->sensor_jacobian for kinds 5-8: the probe
- * evaluation of the controllers, continuous (controller_outputs) and sampled (sampling.c). */
-static double sensor_value(const Model *m, const Configuration *c, Work *w, int64_t i)
+/* The value of sensor i at c and time t (a joint's laws; w->laws at t: a reel's rest length, a joint's applied
+ * torque), less its origin (see Model: the kinds 0-3, 5-8 and 11-14; 0 for the others, which the caller
+ * reads), with its gradient's columns into w->sensor_jacobian for kinds 5-8, 11-14: the probe evaluation of
+ * the controllers, continuous (controller_outputs) and sampled (sampling.c). */
+static double sensor_value(const Model *m, const Configuration *c, Work *w, int64_t i, double t)
 {
     int64_t index = m->sensor_index[i];
     double value = 0.0;
@@ -744,6 +758,105 @@ static double sensor_value(const Model *m, const Configuration *c, Work *w, int6
         }
         break;
     }
+    case 11: {  /* a cable's tension: its first element's N (0 slack, as cables() decides), the generated law */
+        const double *data = m->cable_section + 3 * index, *rest = w->laws + 3 * m->cable_rest_law[index];
+        double geometry[12], velocity[12], section[4], tension[2];
+        double *jacobian = w->sensor_jacobian + m->sensor_column_start[i];
+        for (int end = 0; end < 2; ++end) {
+            const int64_t node = m->cable_nodes[2 * index + end];
+            matvec3(c->T + 9 * node, m->cable_offsets + 6 * index + 3 * end, geometry + 6 + 3 * end);
+            memcpy(geometry + 3 * end, c->x + 3 * node, 3 * sizeof(double));
+            memcpy(velocity + 6 * end, c->v + 3 * node, 3 * sizeof(double));
+            memcpy(velocity + 6 * end + 3, c->w + 3 * node, 3 * sizeof(double));
+        }
+        section[0] = data[0] * rest[0];
+        section[1] = data[0] * rest[1];
+        section[2] = data[1];
+        section[3] = data[2];
+        m->cable_tension(1, geometry, velocity, section, tension, jacobian, jacobian + 12);
+        const double side = m->cable_side[index], gap = fmin(tension[0], tension[1]);
+        if (side > 0.0 || (side == 0.0 && gap > 0.0)) {
+            value = tension[1];
+        } else {  /* slack, or the damper cancels the elastic tension: N clipped at 0 */
+            memset(jacobian, 0, 24 * sizeof(double));
+        }
+        break;
+    }
+    case 12: {  /* an element's section force: the generated section forces and ∂S/∂q at the element's geometry */
+        const int64_t e = index / 4, k = index % 4;
+        const double *weight = m->sensor_offset + 3 * i;
+        double geometry[36], S[4], by_q[56], *jacobian = w->sensor_jacobian + m->sensor_column_start[i];
+        for (int end = 0; end < 2; ++end) {  /* the element's inputs as element_inputs_to gives them (Eqs. 2, 9, 17) */
+            const int64_t node = m->element_nodes[2 * e + end], hinge = m->element_hinges[2 * e + end];
+            double data[16];
+            memcpy(data, m->element_ends + 32 * e + 16 * end, 15 * sizeof(double));
+            data[15] = hinge >= 0 ? c->theta[hinge] : 0.0;
+            m->hinged_end(1, c->T + 9 * node, data, geometry + 12 + 9 * end, geometry + 6 + 3 * end,
+                          geometry + 30 + 3 * end);
+            memcpy(geometry + 3 * end, c->x + 3 * node, 3 * sizeof(double));
+        }
+        m->section_forces_D_q(1, geometry, m->element_sections + m->section_width * e, S, by_q);
+        /* k ≤ 2; w1 = 0 but for k = 2 (M_y', M_z' of a planar model's turned section) */
+        value = weight[0] * S[k] + weight[1] * S[k + 1];
+        for (int q = 0; q < 14; ++q) jacobian[q] = weight[0] * by_q[14 * k + q] + weight[1] * by_q[14 * (k + 1) + q];
+        break;
+    }
+    case 13: {  /* a point's velocity relative to a body, in its axes: s = b_c · V, V = ṗ − v_b − ω_b × u,
+                 * ṗ = v_n + ω_n × o, o = T_n r, u = x_n + o − x_b, b_c = T_b e_c. Columns: the point node's
+                 * [x, π] (K): ω_b × b_c, o × (b_c × (ω_n − ω_b)); the body's [x, π] (K): b_c × ω_b, b_c × V;
+                 * the point node's [v, ω] (C): b_c, o × b_c; the body's [v, ω] (C): −b_c, b_c × u */
+        const int64_t node = index / 3, component = index % 3, body = m->sensor_frame_node[i];
+        const double *r = m->sensor_offset + 3 * i, *Tb = c->T + 9 * body;
+        const double *wn = c->w + 3 * node, *wb = c->w + 3 * body;
+        double *jacobian = w->sensor_jacobian + m->sensor_column_start[i];
+        double o[3], u[3], b[3], V[3], spin[3], relative[3], t1[3], t2[3];
+        matvec3(c->T + 9 * node, r, o);
+        for (int q = 0; q < 3; ++q) {
+            u[q] = c->x[3 * node + q] + o[q] - c->x[3 * body + q];
+            b[q] = Tb[3 * q + component];
+            relative[q] = wn[q] - wb[q];
+        }
+        cross(wn, o, spin);
+        cross(wb, u, t1);
+        for (int q = 0; q < 3; ++q) V[q] = c->v[3 * node + q] + spin[q] - c->v[3 * body + q] - t1[q];
+        value = b[0] * V[0] + b[1] * V[1] + b[2] * V[2];
+        cross(wb, b, jacobian);          /* ∂s/∂x_n */
+        cross(b, relative, t2);
+        cross(o, t2, jacobian + 3);      /* ∂s/∂π_n */
+        cross(b, wb, jacobian + 6);      /* ∂s/∂x_b */
+        cross(b, V, jacobian + 9);       /* ∂s/∂π_b */
+        memcpy(jacobian + 12, b, 3 * sizeof(double));  /* ∂s/∂v_n */
+        cross(o, b, jacobian + 15);      /* ∂s/∂ω_n */
+        for (int q = 0; q < 3; ++q) jacobian[18 + q] = -b[q];  /* ∂s/∂v_b */
+        cross(b, u, jacobian + 21);      /* ∂s/∂ω_b */
+        break;
+    }
+    case 14: {  /* a free joint's force (the probe's, positive when it drives θ or s up): −f of its law (spring,
+                 * damper, applied torque or force of t, θ, θ̇, compliant stops; latdyn/assembly/control.py
+                 * refuses the joints where it is a reaction), with −∂f/∂θ (K) and −∂f/∂θ̇ (C) from the
+                 * generated hinge_force and the compiled laws, as the hinge loop of evaluate() takes them */
+        const int64_t j = index;
+        double *jacobian = w->sensor_jacobian + m->sensor_column_start[i];
+        double state[4] = {c->theta[j], c->theta_dot[j], m->hinge_rest_angle[j], 1.0};
+        double values[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
+        if (m->hinge_stiffness_law[j] < 0) {
+            values[0] = m->hinge_stiffness[j];
+            values[3] = m->hinge_damping[j];
+            if (m->hinge_torque_law[j] >= 0) values[6] = w->laws[3 * m->hinge_torque_law[j]];
+        } else {
+            m->hinge_laws(m->hinge_stiffness_law[j], state[0], state[1], t, values);
+            m->hinge_laws(m->hinge_damping_law[j], state[0], state[1], t, values + 3);
+            if (m->hinge_torque_hinge_law[j] >= 0)
+                m->hinge_laws(m->hinge_torque_hinge_law[j], state[0], state[1], t, values + 6);
+        }
+        double f, by_angle, by_rate, spring, applied, damper, energy;
+        m->hinge_force(1, state, values, m->hinge_contact + 11 * j, &f, &by_angle, &by_rate, &spring, &applied, &damper,
+                       &energy);
+        value = -f;
+        jacobian[0] = -by_angle;
+        jacobian[1] = -by_rate;
+        break;
+    }
     default: value = 0.0; break;  /* 4: an earlier controller's output, read by the caller */
     }
     return value - m->sensor_origin[i];
@@ -754,7 +867,7 @@ static double sensor_value(const Model *m, const Configuration *c, Work *w, int6
  * and ∂y/∂s + ∂y/∂S dS/ds. */
 static void controller_outputs(const Model *m, const Configuration *c, Work *w, double t)
 {
-    for (int64_t i = 0; i < m->n_sensors; ++i) w->sensor_values[i] = sensor_value(m, c, w, i);
+    for (int64_t i = 0; i < m->n_sensors; ++i) w->sensor_values[i] = sensor_value(m, c, w, i, t);
     for (int64_t k = 0; k < m->n_controllers; ++k) {
         int64_t first = m->sensor_start[k], count = m->sensor_start[k + 1] - first;
         int64_t p = m->n_controller_states ? m->controller_state_start[k + 1] - m->controller_state_start[k] : 0;
@@ -855,7 +968,9 @@ static void controller_couplings(const Model *m, const Configuration *c, Work *w
                                                                     : w->controller_gradient[sensor]);
         const int64_t column = m->coupling_column[e];
         if (kind >= 5) value *= w->sensor_jacobian[m->sensor_column_start[sensor] + column];
-        const int by_rate = kind == 1 || kind == 3 || (kind == 6 && column < 6);  /* kind 6: rates, then rotation */
+        /* kind 6: rates, then rotation; kinds 11, 13: coordinates, then rates; kind 14: angle, rate */
+        const int by_rate = kind == 1 || kind == 3 || (kind == 6 && column < 6)
+                            || ((kind == 11 || kind == 13) && column >= 12) || (kind == 14 && column == 1);
         w->coupling_stiffness[e] = by_rate ? 0.0 : value;
         w->coupling_damping[e] = by_rate ? value : 0.0;
     }

@@ -23,6 +23,11 @@ static double lock_tolerance(double at); /* newton_step.c: latdyn/model/model.py
 void latdyn_controller_outputs_at(const Model *m, Work *w, const Configuration *c, double t)
 {
     if (!m->n_controllers) return;
+    for (int64_t i = 0; i < m->n_sensors; ++i)  /* a tension or joint-force sensor reads the laws at t */
+        if (m->sensor_kind[i] == 11 || m->sensor_kind[i] == 14) {
+            m->time_laws(t, w->laws);
+            break;
+        }
     double held = 0.0;
     if (m->n_controller_states) {
         held = w->controller_half_step[0];

@@ -41,7 +41,7 @@ int64_t latdyn_sample_controllers(const Model *m, Work *w, const Configuration *
             args[i] = kind == 4 ? m->controller_outputs[m->sensor_index[sensor]]
                     : kind == 9 ? w->sampled_values[sensor]
                     : kind == 10 ? m->controller_states[m->sensor_index[sensor]]
-                    : sensor_value(m, c, w, sensor);
+                    : sensor_value(m, c, w, sensor, t);
         }
         for (int64_t j = 0; j < p; ++j) args[count + j] = m->controller_states[m->sampled_state_slot[states + j]];
         m->sampled_laws(k, instant, args, out);
