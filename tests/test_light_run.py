@@ -85,6 +85,20 @@ def test_yaml_read_in_c_gives_the_python_parsers_values():
     assert "off" in data["bodies"]  # YAML 1.2 words: not the boolean False
 
 
+def test_a_text_read_again_keeps_the_tag_its_quotes_give():
+    """The resolver matches each plain text once a file (``_yaml_loader``'s ``resolve``): the same text
+    quoted stays a string and plain is read again as a number, a boolean, null or a word, in either
+    order and in both parsers."""
+    text = ("a: [1, '1', 1, \"1\", 2.8e7, '2.8e7', 2.8e7, true, 'true', true, off, 'off', null, 'null', ~, '']\n"
+            "b: ['7', 7, 'false', false, '0.5', 0.5, '~', ~]\n")
+    expected = {"a": [1, "1", 1, "1", 2.8e7, "2.8e7", 2.8e7, True, "true", True, "off", "off", None, "null",
+                      None, ""],
+                "b": ["7", 7, "false", False, "0.5", 0.5, "~", None]}
+    for data in (loader._read_yaml_in_c(text, "scene.yaml"), _read_in_python(text)):
+        assert data == expected
+        assert {k: [type(v) for v in data[k]] for k in data} == {k: [type(v) for v in expected[k]] for k in expected}
+
+
 def test_a_flow_index_and_a_yaml_error_go_to_the_python_parser():
     flow = SCENE + "  loads_at: {element: arm.element[0], quantity: torque}\n"
     assert loader._read_yaml_in_c(flow, "scene.yaml") is loader._MISSING  # `[` inside a plain scalar
