@@ -99,6 +99,22 @@ def test_a_text_read_again_keeps_the_tag_its_quotes_give():
         assert {k: [type(v) for v in data[k]] for k in data} == {k: [type(v) for v in expected[k]] for k in expected}
 
 
+def test_the_cross_product_of_two_3_vectors_is_numpys_to_the_bit():
+    """``latdyn.numerics.so3.cross`` (the model's element frames, the initial velocities) gives
+    ``np.cross``'s bits: magnitudes from 1e-12 to 1e12, zeros of both signs, Python floats and
+    tuples as the scene gives them."""
+    from latdyn.numerics.so3 import cross
+
+    rng = np.random.default_rng(31)
+    pairs = [rng.standard_normal((2, 3)) * 10.0 ** rng.uniform(-12, 12, (2, 3)) for _ in range(20_000)]
+    pairs += [np.array([[0.0, -0.0, 1.0], [-0.0, 0.0, 2.0]]), np.array([[1.0, 2.0, 3.0], [1.0, 2.0, 3.0]])]
+    for a, b in pairs:
+        assert cross(a, b).tobytes() == np.cross(a, b).tobytes()
+    a, b = (0.1, 0.2, 0.7), [0.3, -0.9, 0.5]
+    assert cross(np.array(a), b).tobytes() == np.cross(np.array(a), b).tobytes()
+    assert cross(a, b).dtype == np.float64
+
+
 def test_a_flow_index_and_a_yaml_error_go_to_the_python_parser():
     flow = SCENE + "  loads_at: {element: arm.element[0], quantity: torque}\n"
     assert loader._read_yaml_in_c(flow, "scene.yaml") is loader._MISSING  # `[` inside a plain scalar
