@@ -322,7 +322,7 @@ def test_the_command_leaves_complete_files_and_a_call_in_process_keeps_the_colle
 def test_a_short_run_writes_its_state_history_once_and_an_asked_checkpoint_at_once(tmp_path):
     """``checkpoint_min_seconds`` (a run's writer: 1 s): rows due by count are not rewritten before it;
     the close writes every row; a checkpoint asked for (a resume checkpoint's) is written at once."""
-    from latdyn.results.state_history import STATE_H5_FILE
+    from latdyn.results.state_history import FIRST_CHUNK_ROWS, STATE_H5_FILE
     from latdyn.results.writer import RUN_CHECKPOINT_MIN_SECONDS, ResultWriter, load_state_history
 
     assert RUN_CHECKPOINT_MIN_SECONDS == 1.0
@@ -335,6 +335,31 @@ def test_a_short_run_writes_its_state_history_once_and_an_asked_checkpoint_at_on
         for i in range(10, 13):
             writer.record(0.1 * i, [float(i)], state={"q": np.full(3, float(i))})
     np.testing.assert_array_equal(load_state_history(tmp_path)["q"][:, 0], np.arange(13.0))
+
+
+def test_a_short_runs_state_file_holds_its_rows_not_empty_chunks(tmp_path):
+    """state.h5's chunks hold no more rows than the file's first write brings (at least
+    ``FIRST_CHUNK_ROWS``; at most 1024 rows and 2 MiB, as before): a run written once, at its close,
+    makes a file of about the size of its rows (the 16-bay lattice's 141 rows: 7.2 MB in chunks of
+    1024 rows, 1.5 MB now); rows appended later fill further chunks and read back equal."""
+    import h5py
+
+    from latdyn.results.state_history import FIRST_CHUNK_ROWS, STATE_H5_FILE
+    from latdyn.results.writer import ResultWriter, load_state_history
+
+    width = 600  # 2 MiB / 8 bytes / 600 = 436 rows a chunk before
+    for first, later in ((141, 0), (10, 0), (141, 300)):
+        out = tmp_path / f"rows_{first}_{later}"
+        with ResultWriter(out, ["x"], checkpoint_min_seconds=1e9) as writer:
+            for i in range(first + later):
+                if i == first:
+                    writer.checkpoint()
+                writer.record(0.1 * i, [float(i)], state={"T": np.full(width, float(i))})
+        with h5py.File(out / STATE_H5_FILE) as f:
+            assert f["T"].chunks == (max(FIRST_CHUNK_ROWS, first), width)
+        np.testing.assert_array_equal(load_state_history(out)["T"][:, -1], np.arange(first + later, dtype=float))
+        chunks = -(-(first + later) // max(FIRST_CHUNK_ROWS, first))
+        assert (out / STATE_H5_FILE).stat().st_size < 8 * width * max(FIRST_CHUNK_ROWS, first) * chunks + 64_000
 
 
 # ----------------------------------------------------------------------------- sparse products in NumPy
