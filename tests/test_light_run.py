@@ -85,6 +85,36 @@ def test_yaml_read_in_c_gives_the_python_parsers_values():
     assert "off" in data["bodies"]  # YAML 1.2 words: not the boolean False
 
 
+def test_a_text_read_again_keeps_the_tag_its_quotes_give():
+    """The resolver matches each plain text once a file (``_yaml_loader``'s ``resolve``): the same text
+    quoted stays a string and plain is read again as a number, a boolean, null or a word, in either
+    order and in both parsers."""
+    text = ("a: [1, '1', 1, \"1\", 2.8e7, '2.8e7', 2.8e7, true, 'true', true, off, 'off', null, 'null', ~, '']\n"
+            "b: ['7', 7, 'false', false, '0.5', 0.5, '~', ~]\n")
+    expected = {"a": [1, "1", 1, "1", 2.8e7, "2.8e7", 2.8e7, True, "true", True, "off", "off", None, "null",
+                      None, ""],
+                "b": ["7", 7, "false", False, "0.5", 0.5, "~", None]}
+    for data in (loader._read_yaml_in_c(text, "scene.yaml"), _read_in_python(text)):
+        assert data == expected
+        assert {k: [type(v) for v in data[k]] for k in data} == {k: [type(v) for v in expected[k]] for k in expected}
+
+
+def test_the_cross_product_of_two_3_vectors_is_numpys_to_the_bit():
+    """``latdyn.numerics.so3.cross`` (the model's element frames, the initial velocities) gives
+    ``np.cross``'s bits: magnitudes from 1e-12 to 1e12, zeros of both signs, Python floats and
+    tuples as the scene gives them."""
+    from latdyn.numerics.so3 import cross
+
+    rng = np.random.default_rng(31)
+    pairs = [rng.standard_normal((2, 3)) * 10.0 ** rng.uniform(-12, 12, (2, 3)) for _ in range(20_000)]
+    pairs += [np.array([[0.0, -0.0, 1.0], [-0.0, 0.0, 2.0]]), np.array([[1.0, 2.0, 3.0], [1.0, 2.0, 3.0]])]
+    for a, b in pairs:
+        assert cross(a, b).tobytes() == np.cross(a, b).tobytes()
+    a, b = (0.1, 0.2, 0.7), [0.3, -0.9, 0.5]
+    assert cross(np.array(a), b).tobytes() == np.cross(np.array(a), b).tobytes()
+    assert cross(a, b).dtype == np.float64
+
+
 def test_a_flow_index_and_a_yaml_error_go_to_the_python_parser():
     flow = SCENE + "  loads_at: {element: arm.element[0], quantity: torque}\n"
     assert loader._read_yaml_in_c(flow, "scene.yaml") is loader._MISSING  # `[` inside a plain scalar
@@ -292,7 +322,7 @@ def test_the_command_leaves_complete_files_and_a_call_in_process_keeps_the_colle
 def test_a_short_run_writes_its_state_history_once_and_an_asked_checkpoint_at_once(tmp_path):
     """``checkpoint_min_seconds`` (a run's writer: 1 s): rows due by count are not rewritten before it;
     the close writes every row; a checkpoint asked for (a resume checkpoint's) is written at once."""
-    from latdyn.results.state_history import STATE_H5_FILE
+    from latdyn.results.state_history import FIRST_CHUNK_ROWS, STATE_H5_FILE
     from latdyn.results.writer import RUN_CHECKPOINT_MIN_SECONDS, ResultWriter, load_state_history
 
     assert RUN_CHECKPOINT_MIN_SECONDS == 1.0
@@ -305,6 +335,31 @@ def test_a_short_run_writes_its_state_history_once_and_an_asked_checkpoint_at_on
         for i in range(10, 13):
             writer.record(0.1 * i, [float(i)], state={"q": np.full(3, float(i))})
     np.testing.assert_array_equal(load_state_history(tmp_path)["q"][:, 0], np.arange(13.0))
+
+
+def test_a_short_runs_state_file_holds_its_rows_not_empty_chunks(tmp_path):
+    """state.h5's chunks hold no more rows than the file's first write brings (at least
+    ``FIRST_CHUNK_ROWS``; at most 1024 rows and 2 MiB, as before): a run written once, at its close,
+    makes a file of about the size of its rows (the 16-bay lattice's 141 rows: 7.2 MB in chunks of
+    1024 rows, 1.5 MB now); rows appended later fill further chunks and read back equal."""
+    import h5py
+
+    from latdyn.results.state_history import FIRST_CHUNK_ROWS, STATE_H5_FILE
+    from latdyn.results.writer import ResultWriter, load_state_history
+
+    width = 600  # 2 MiB / 8 bytes / 600 = 436 rows a chunk before
+    for first, later in ((141, 0), (10, 0), (141, 300)):
+        out = tmp_path / f"rows_{first}_{later}"
+        with ResultWriter(out, ["x"], checkpoint_min_seconds=1e9) as writer:
+            for i in range(first + later):
+                if i == first:
+                    writer.checkpoint()
+                writer.record(0.1 * i, [float(i)], state={"T": np.full(width, float(i))})
+        with h5py.File(out / STATE_H5_FILE) as f:
+            assert f["T"].chunks == (max(FIRST_CHUNK_ROWS, first), width)
+        np.testing.assert_array_equal(load_state_history(out)["T"][:, -1], np.arange(first + later, dtype=float))
+        chunks = -(-(first + later) // max(FIRST_CHUNK_ROWS, first))
+        assert (out / STATE_H5_FILE).stat().st_size < 8 * width * max(FIRST_CHUNK_ROWS, first) * chunks + 64_000
 
 
 # ----------------------------------------------------------------------------- sparse products in NumPy

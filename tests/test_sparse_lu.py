@@ -10,6 +10,7 @@ orientation; modified Newton, which keeps the factor over steps, reaches the New
 from __future__ import annotations
 
 import copy
+import ctypes
 import json
 
 import numpy as np
@@ -94,6 +95,26 @@ def test_solve_equals_numpy_on_random_diagonally_dominant_matrices(n, per_row, b
     B.data *= np.where(rows == A.indices, 1.0, rng.uniform(0.5, 1.0, A.nnz))
     reference = np.linalg.solve(B.toarray(), b)
     assert np.max(np.abs(lu.factor(B).solve(b) - reference)) <= 1e-12 * np.max(np.abs(reference))
+
+
+@needs_c
+@pytest.mark.parametrize("seed", [5, 6])
+def test_the_pivot_scales_are_the_largest_entry_of_each_row_and_column(seed):
+    """The scale pass (csrc/sparse_lu.c ``matrix_scales``: a column's largest entry kept in a register)
+    gives each pivot the largest |A(i, :)|, |A(:, i)| of its coordinate, a NaN passed over, on a
+    matrix of wide supernodes with rows below them."""
+    A = random_symmetric_pattern(200, 4, seed, blocks=6).tolil()
+    rng = np.random.default_rng(seed)
+    rows, cols = A.nonzero()
+    for k in rng.choice(len(rows), 3, replace=False):
+        A[rows[k], cols[k]] = np.nan if k % 2 else 1e6 * (1 + k)  # a NaN, and entries far above the rest
+    A = A.tocsr()
+    lu = Factorization(np.repeat(np.arange(A.shape[0]), np.diff(A.indptr)), A.indices, A.shape[0], kind="sparse")
+    lu.load(A)
+    lu._library.latdyn_factor(ctypes.byref(lu.structure), lu.values.ctypes.data, lu.pivots.ctypes.data)
+    dense = np.abs(A.toarray())
+    expected = np.maximum(np.nanmax(dense, axis=1), np.nanmax(dense, axis=0))
+    np.testing.assert_array_equal(lu.analysis._scratch["scale"][lu.new], expected)
 
 
 def test_positions_cover_every_entry_once():

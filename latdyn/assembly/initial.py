@@ -45,6 +45,7 @@ from collections import deque
 import numpy as np
 
 from latdyn.model.model import FIXED, PRESCRIBED
+from latdyn.numerics.so3 import cross
 
 
 def _hinge_of(model) -> dict:
@@ -66,7 +67,7 @@ def _joints(model, state, hinge_of: dict) -> list:
             if h >= 0:
                 g = state.T[node] @ model.hinges[h].axis
                 o = state.x[node] + state.T[node] @ np.asarray(spec.offset, float)
-                xi = np.concatenate([np.cross(o, g), g])
+                xi = np.concatenate([cross(o, g), g])
             beam_part = ("beam", name)
             if end == "start":
                 out.append((spec.body, beam_part, h, 1.0, xi))
@@ -82,12 +83,12 @@ def _joints(model, state, hinge_of: dict) -> list:
 
 def _node_twist(state, node: int) -> np.ndarray:
     """The spatial twist (v_O, ω) of a node's frame."""
-    return np.concatenate([state.v[node] - np.cross(state.w[node], state.x[node]), state.w[node]])
+    return np.concatenate([state.v[node] - cross(state.w[node], state.x[node]), state.w[node]])
 
 
 def _point_velocity(twist: np.ndarray, y: np.ndarray) -> np.ndarray:
     """The velocity of the point y of a body moving with the spatial twist (v_O, ω)."""
-    return twist[:3] + np.cross(twist[3:], y)
+    return twist[:3] + cross(twist[3:], y)
 
 
 def initial_velocities(model, state, complete_links) -> None:
@@ -143,11 +144,11 @@ def initial_velocities(model, state, complete_links) -> None:
         if model.translation_only is not None and model.translation_only[node]:
             # a cable's own node (translations only): the scene's rigid motion at its point
             state.w[node] = 0.0
-            state.v[node] = rigid_motion[:3] + np.cross(rigid_motion[3:], state.x[node])
+            state.v[node] = rigid_motion[:3] + cross(rigid_motion[3:], state.x[node])
             continue
         twist = target(node_part[int(node)])
         state.w[node] = twist[3:]
-        state.v[node] = twist[:3] + np.cross(twist[3:], state.x[node])
+        state.v[node] = twist[:3] + cross(twist[3:], state.x[node])
     free = np.zeros(len(model.hinges), dtype=bool)
     free[model.free_hinges] = True
     # rigid links in tree order: a free hinge turns its child towards the child's target

@@ -29,7 +29,7 @@ class SparseLUStructure(ctypes.Structure):
     _fields_ = [("n", I64), ("n_supernodes", I64), ("first", P), ("rows_start", P), ("rows", P), ("lower", P),
                 ("upper", P), ("supernode", P), ("pivot_tolerance", ctypes.c_double), ("gemm", P), ("trsm", P),
                 ("map", P), ("head", P), ("next", P), ("cursor", P), ("update", P), ("scale", P),
-                ("failed_column", I64), ("failed_ratio", ctypes.c_double)]
+                ("failed_column", I64), ("failed_ratio", ctypes.c_double), ("relative", P)]
 
 
 class FactorizationStructure(ctypes.Structure):

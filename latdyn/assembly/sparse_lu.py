@@ -249,7 +249,8 @@ class SupernodalAnalysis:
                              "head": np.zeros(max(self.n_supernodes, 1), np.int64),
                              "next": np.zeros(max(self.n_supernodes, 1), np.int64),
                              "cursor": np.zeros(max(self.n_supernodes, 1), np.int64),
-                             "update": np.zeros(self.update_size), "scale": np.zeros(max(self.n, 1))}
+                             "update": np.zeros(self.update_size), "scale": np.zeros(max(self.n, 1)),
+                             "relative": np.zeros(max(self.n, 1), np.int64)}
             pointers = {name: a.ctypes.data for name, a in {**self._arrays, **self._scratch}.items()}
             self._structure = SparseLUStructure(n=self.n, n_supernodes=self.n_supernodes,
                                                 pivot_tolerance=PIVOT_TOLERANCE, gemm=gemm, trsm=trsm,

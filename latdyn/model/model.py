@@ -29,6 +29,7 @@ from latdyn.model.kernels import planar_variant
 from latdyn.model.planar import find_plane, restrict_to_plane
 from latdyn.numerics.csr import CSR
 from latdyn.numerics.linalg import issparse, psd_null_direction
+from latdyn.numerics.so3 import cross
 from latdyn.scene.expressions import HingeLaw, TimeFunction
 from latdyn.scene.loader import JointFriction, Scene, StopContact
 
@@ -176,7 +177,7 @@ class Model:
             length = float(np.linalg.norm(end - start))
             x_axis = (end - start) / length
             y_axis = np.array(beam.y_axis, float)
-            frame = np.column_stack([x_axis, y_axis, np.cross(x_axis, y_axis)])
+            frame = np.column_stack([x_axis, y_axis, cross(x_axis, y_axis)])
             n = beam.elements
             ends = []
             for which, spec in (("start", beam.start), ("end", beam.end)):
@@ -576,7 +577,7 @@ def _rigid_link(scene, beam, nodes, body_node, hinges, edges, link_bodies, beam_
     vector = end.point - start.point
     length = float(np.linalg.norm(vector))
     x_axis = vector / length
-    frame = np.column_stack([x_axis, beam.y_axis, np.cross(x_axis, beam.y_axis)])
+    frame = np.column_stack([x_axis, beam.y_axis, cross(x_axis, beam.y_axis)])
     s = beam.section
     rod = s.rhoA * length ** 3 / 12.0
     inertia = frame @ np.diag([(s.rhoIy + s.rhoIz) * length, rod + s.rhoIy * length,

@@ -1,8 +1,17 @@
-"""The maps of SO(3) the runtime uses: the skew matrix of a vector, the exponential map
-(Rodrigues), and the projection of a nearly orthogonal matrix back onto SO(3)."""
+"""The maps of SO(3) the runtime uses: the cross product and the skew matrix of a vector, the
+exponential map (Rodrigues), and the projection of a nearly orthogonal matrix back onto SO(3)."""
 from __future__ import annotations
 
 import numpy as np
+
+
+def cross(a, b) -> np.ndarray:
+    """a × b of two 3-vectors, as ``np.cross`` computes it (each component one difference of two
+    products, in its order: the same bits) without its general path for any shape and axis, which
+    costs 15–30 µs a call where this costs 2–5: building a model calls it for every element and node."""
+    a0, a1, a2 = a
+    b0, b1, b2 = b
+    return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
 
 
 def skew(w: np.ndarray) -> np.ndarray:

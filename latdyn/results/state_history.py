@@ -58,6 +58,9 @@ STATE_H5_FILE = "state.h5"
 
 STATE_NPZ_FILE = "state.npz"
 
+#: the fewest rows of a state dataset's chunk (its size is fixed at the file's first write)
+FIRST_CHUNK_ROWS = 64
+
 
 LABELS_KEY = "_labels"  # NPZ only: the labels as one JSON string
 
@@ -201,7 +204,9 @@ class StateHistory:
                 f.create_dataset("t", shape=(0,), maxshape=(None,), dtype="f8", chunks=(1024,))
                 for k in self.keys:
                     width = self.widths[k]
-                    rows_per_chunk = max(1, min(1024, (1 << 18) // max(1, width)))
+                    # a chunk of up to 1024 rows and 2 MiB, but no more rows than the first write
+                    # brings (at least 64): a short run's file is its rows, not chunks mostly empty
+                    rows_per_chunk = max(1, min(1024, (1 << 18) // max(1, width), max(FIRST_CHUNK_ROWS, n_new)))
                     dataset = f.create_dataset(k, shape=(0, width), maxshape=(None, width), dtype="f8",
                                                chunks=(rows_per_chunk, max(1, width)))
                     if k in self.labels:

@@ -56,6 +56,8 @@ typedef struct {
     /* out, after a failed factorization: the column (factor order) and |pivot| / its scale */
     int64_t failed_column;
     double failed_ratio;
+    /* scratch (n): the places in the updated supernode's panel of an update's rows */
+    int64_t *relative;
 } SparseLU;
 
 /* Largest |entry| of each row and column of the matrix as assembled into the factor storage. */
@@ -67,19 +69,24 @@ static void matrix_scales(SparseLU *s, const double *factor)
         const int64_t *R = s->rows + s->rows_start[J];
         const int64_t nr = s->rows_start[J + 1] - s->rows_start[J], ld = nc + nr;
         const double *L = factor + s->lower[J], *Ut = factor + s->upper[J];
-        for (int64_t k = 0; k < nc; ++k) {
+        double *scale = s->scale;
+        for (int64_t k = 0; k < nc; ++k) {  /* the column's largest in a register: the same maximum */
             const int64_t column = c0 + k;
-            for (int64_t i = 0; i < ld; ++i) {  /* A(row, column), row in c0.. or R_J */
-                const int64_t row = i < nc ? c0 + i : R[i - nc];
-                const double a = fabs(L[i + k * ld]);
-                if (a > s->scale[column]) s->scale[column] = a;
-                if (a > s->scale[row]) s->scale[row] = a;
+            const double *Lk = L + k * ld, *Uk = Ut + k * nr;
+            double largest = 0.0;
+            for (int64_t i = 0; i < nc; ++i) {  /* A(c0 + i, column) */
+                const double a = fabs(Lk[i]);
+                if (a > largest) largest = a;
+                if (a > scale[c0 + i]) scale[c0 + i] = a;
             }
-            for (int64_t t = 0; t < nr; ++t) {  /* U12ᵀ(t, k) = A(column, R[t]) */
-                const double a = fabs(Ut[t + k * nr]);
-                if (a > s->scale[column]) s->scale[column] = a;
-                if (a > s->scale[R[t]]) s->scale[R[t]] = a;
+            for (int64_t t = 0; t < nr; ++t) {  /* A(R[t], column) and U12ᵀ(t, k) = A(column, R[t]) */
+                const double a = fabs(Lk[nc + t]), b = fabs(Uk[t]);
+                if (a > largest) largest = a;
+                if (b > largest) largest = b;
+                if (a > scale[R[t]]) scale[R[t]] = a;
+                if (b > scale[R[t]]) scale[R[t]] = b;
             }
+            if (largest > scale[column]) scale[column] = largest;
         }
     }
 }
@@ -121,6 +128,26 @@ static int panel_lu(SparseLU *s, double *A, int m, int n, int ld, int64_t j0)
     s->trsm("L", "L", "N", "U", &n1, &n2, &one, A, &ld, A12, &ld);
     s->gemm("N", "N", &m2, &n2, &n1, &minus_one, A21, &ld, A12, &ld, &one, A22, &ld);
     return panel_lu(s, A22, m2, n2, ld, j0 + n1);
+}
+
+/* The places (map) in the panel of the supernode being updated of the m rows R (ascending), into
+ * relative, found once for all the update's columns; returns whether they are consecutive. */
+static int relative_places(const SparseLU *s, const int64_t *R, int m, int64_t *relative)
+{
+    for (int i = 0; i < m; ++i) relative[i] = s->map[R[i]];
+    return m > 0 && relative[m - 1] - relative[0] == m - 1;
+}
+
+/* column[relative[i]] -= u[i], i < m: the same subtractions, a plain loop where the places are
+ * consecutive (a supernode's rows often are). */
+static void subtract_at(double *column, const double *u, int m, const int64_t *relative, int consecutive)
+{
+    if (consecutive) {
+        double *c = column + relative[0];
+        for (int i = 0; i < m; ++i) c[i] -= u[i];
+    } else {
+        for (int i = 0; i < m; ++i) column[relative[i]] -= u[i];
+    }
 }
 
 /* Put supernode K on the list of the supernode that holds its next row to update. */
@@ -166,18 +193,18 @@ int latdyn_sparse_lu_factor(SparseLU *s, double *factor)
             int ldK = (int)(ncK + nrK), ldU = (int)nrK;
             double *LK = factor + s->lower[K] + ncK + p1, *UK = factor + s->upper[K];
             s->gemm("N", "T", &nb, &na, &k, &one, LK, &ldK, UK + p1, &ldU, &zero, s->update, &nb);
-            for (int jj = 0; jj < na; ++jj) {
-                double *column = L + (RK[p1 + jj] - c0) * ld;
-                const double *u = s->update + (int64_t)jj * nb;
-                for (int ii = 0; ii < nb; ++ii) column[s->map[RK[p1 + ii]]] -= u[ii];
-            }
+            /* rows b = RK[p1:], of which c = RK[p2:] are the last nrest: their places once */
+            const int b_consecutive = relative_places(s, RK + p1, nb, s->relative);
+            for (int jj = 0; jj < na; ++jj)
+                subtract_at(L + (RK[p1 + jj] - c0) * ld, s->update + (int64_t)jj * nb, nb, s->relative,
+                            b_consecutive);
             if (nrest > 0) {
+                const int64_t *relative = s->relative + na;
+                const int c_consecutive = relative[nrest - 1] - relative[0] == nrest - 1;
                 s->gemm("N", "T", &nrest, &na, &k, &one, UK + p2, &ldU, LK, &ldK, &zero, s->update, &nrest);
-                for (int jj = 0; jj < na; ++jj) {
-                    double *column = Ut + (RK[p1 + jj] - c0) * nr - nc;
-                    const double *u = s->update + (int64_t)jj * nrest;
-                    for (int ii = 0; ii < nrest; ++ii) column[s->map[RK[p2 + ii]]] -= u[ii];
-                }
+                for (int jj = 0; jj < na; ++jj)
+                    subtract_at(Ut + (RK[p1 + jj] - c0) * nr - nc, s->update + (int64_t)jj * nrest, nrest,
+                                relative, c_consecutive);
             }
             s->cursor[K] = p2;
             link_supernode(s, K);
