@@ -81,8 +81,6 @@ def joint_force_derivatives(owner, state, dq: np.ndarray, dv: np.ndarray | None,
     ``owner`` (a :class:`latdyn.analyses.sensitivities.ParameterDerivatives`) read at ``state``, along the
     free-coordinate sensitivities ``dq``, ``dv``, ``dvdot`` (n, k) of the transient step (module docstring);
     ``dv``, ``dvdot`` None and ``inertia`` False: a state at rest, of the residual at ``load_factor``."""
-    from latdyn.analyses.sensitivities import _CONTACT_KEY
-
     model, assembler, k = owner.model, owner.assembler, len(owner.names)
     n = model.n_dofs
     joints = sorted({joint_of(model, p) for p in owner.probes if is_joint_force(p)})
@@ -99,8 +97,8 @@ def joint_force_derivatives(owner, state, dq: np.ndarray, dv: np.ndarray | None,
         slope, damping = native.buffers["hinge_d_theta"].copy(), native.buffers["hinge_d_rate"].copy()
         laws = np.zeros((model.n_total + 1, k))
         for key, by_column in owner.derivatives.items():
-            _, hinge = owner._key_kinds(key)
-            if hinge and not _CONTACT_KEY.match(key):
+            _, hinge = owner._key_kinds(key)   # a hinge's or guide's law (its compliant stops': below)
+            if hinge:
                 j = model.hinge_index(hinge["beam"], hinge["end"])
                 if j in free:
                     for column, law in by_column.items():
