@@ -54,15 +54,6 @@ def refusal(scene, probe) -> str | None:
     else:
         joint = scene.bodies[probe.body].guide
         law, where = joint.force, f"bodies.{probe.body}.guide.force"
-        if joint.lock_at is not None or joint.limits is not None:
-            return (f"the force probe {probe.name!r} of the guide of {probe.body} with lock_at or limits: the "
-                    "reaction of a guide's latch or rigid stop is not differentiated yet (a free guide's law is)")
-    guides = [name for name, body in scene.bodies.items() if body.guide is not None]
-    if probe.kind == "hinge" and guides and (joint.lock_at is not None or joint.angle is not None
-                                             or (joint.limits is not None and joint.contact is None)):
-        return (f"the torque probe {probe.name!r} of a hinge that a latch, a rigid stop or a prescribed angle holds, "
-                f"in a model with guides (bodies.{guides[0]}.guide): its reaction is a row of the guides' reduction, "
-                "not assembled on constrained coordinates yet")
     controllers = set(getattr(scene, "controllers", None) or {})
     named = sorted(controllers & set(getattr(law, "input_names", ()) or ()))
     if named:
@@ -109,7 +100,9 @@ def joint_force_derivatives(owner, state, dq: np.ndarray, dv: np.ndarray | None,
             d = model.hinge_dofs[j]
             moved = slope[j] * dq[d] + (damping[j] * dv[d] if dv is not None else 0.0)
             out[j] = -(moved + laws[d])
-    if held:   # the reaction: the exact rows of its coordinate along (δq, δv, δv̇), and ∂r_d/∂p
+    if held and model.links is not None:   # the reaction through the guides' reduction
+        out.update(_held_through_links(owner, state, held, dq, dv, dvdot))
+    elif held:   # the reaction: the exact rows of its coordinate along (δq, δv, δv̇), and ∂r_d/∂p
         rows = model.hinge_dofs[held]
         M, C, K = assembler.exact_rows(state, rows, load_factor, inertia)
         explicit = owner.residual_derivatives(state, load_factor, inertia=inertia, on_all=True)[rows]
@@ -120,3 +113,77 @@ def joint_force_derivatives(owner, state, dq: np.ndarray, dv: np.ndarray | None,
             total = total + M @ dvdot
         out.update({j: total[i] for i, j in enumerate(held)})
     return {j: np.asarray(value, float).reshape(k) for j, value in out.items()}
+
+
+def _held_through_links(owner, state, held: list, dq: np.ndarray, dv: np.ndarray, dvdot: np.ndarray) -> dict:
+    """{joint: (k,)} the reactions' derivatives of the held joints ``held`` of a model with guides (rigid links'
+    reduction, latdyn/assembly/linked.py): the reaction on the constrained coordinate d is
+
+        r_d = r_all,d + Σ_c J_c,dᵀ r_c,
+
+    r_all the residual on all coordinates before the reduction, r_c the wrench at each dependent node c whose
+    motion the coordinate moves (J_c,d its column of the dependent node's J: a guide's slide moves its body,
+    and the nodes below it, along the slide's axis). Its derivative along (δq, δv, δv̇):
+
+        δr_d = δr_all,d + Σ_c (J_c,dᵀ δr_c + δ(J_c,d)ᵀ r_c),
+
+    δr_all on rows d and c from the exact rows before the reduction (:meth:`Assembler.exact_rows`) along the
+    assembled coordinates' δq_all = P δq, δv_all = P δv + ∂(J v)/∂q δq and δv̇_all = P δv̇ + ∂(J a + c)/∂q δq +
+    ∂c/∂v δv (the dependent rates' derivatives, as the exact reduced K and C hold them) plus ∂r_all/∂p there;
+    δ(J_c,d)ᵀ r_c from the generated ``slide_wrench`` (the slide's generalized force a·f and its derivative by
+    the edge parent's δx, δπ and the node's δx, chained with their J), as the reduction's geometric stiffness
+    takes it on the free coordinates' rows."""
+    from latdyn.assembly.linked import evaluate_linked
+
+    model, assembler, links = owner.model, owner.assembler, owner.model.links
+    k, n = len(owner.names), model.n_dofs
+    ev = evaluate_linked(links, assembler, state, True, 1.0, True, inertia_tangent=True, rates_term=True)
+    P, dep = ev.projection, ev.dependent_rows
+    by_velocity, by_acceleration = ev.rates_tangent
+    dq_all, dv_all, dvdot_all = (np.asarray(P @ x) for x in (dq, dv, dvdot))
+    dv_all[dep] += np.asarray(by_velocity @ dq)
+    dvdot_all[dep] += np.asarray(by_acceleration @ dq + ev.velocity_derivative @ dv)
+    rows = model.hinge_dofs[held]
+    M, C, K = assembler.exact_rows(state, np.concatenate([rows, dep]))
+    explicit = owner.residual_derivatives(state, 1.0, inertia=True, on_all=True)[np.concatenate([rows, dep])]
+    moved = K @ dq_all + C @ dv_all + M @ dvdot_all + explicit
+    on_rows, on_dependent = moved[:len(rows)], moved[len(rows):]
+    J, columns = ev.jacobian, ev.jacobian_columns
+    r_dep = assembler.evaluate_assembled(state, False, 1.0, True).residual[dep]   # the wrenches r_c
+    out = {}
+    for i, j in enumerate(held):
+        total = on_rows[i].copy()
+        at = np.flatnonzero(columns == int(model.hinge_dofs[j]))
+        if len(at):
+            total += J[:, at[0]] @ on_dependent + _edge_wrench_derivative(owner, state, j, dq, r_dep)
+        out[j] = total
+    return out
+
+
+def _edge_wrench_derivative(owner, state, j: int, dq: np.ndarray, r_dep: np.ndarray) -> np.ndarray:
+    """Σ_c δ(J_c,d)ᵀ r_c along δq (k,) for the joint ``j`` of an edge of the links' tree: the generated
+    ``slide_wrench`` (``hinge_wrench`` for a revolute edge) at each dependent node c below it, its derivative by
+    the edge parent's δx, δπ and c's δx chained with their J (as :func:`latdyn.assembly.linked.geometric_stiffness`
+    takes it for the free coordinates' rows)."""
+    model, links, kernels = owner.model, owner.model.links, owner.kernels
+    native, n = owner.assembler.native().links, model.n_dofs
+    out = np.zeros(dq.shape[1])
+    for c_index, c in enumerate(links.dependent):
+        r = r_dep[6 * c_index:6 * c_index + 6]
+        for e in links.path(int(c)):
+            edge = links.edges[e]
+            if edge.hinge != j or not np.any(r):
+                continue
+            parent = np.concatenate([state.x[edge.parent], state.T[edge.parent].reshape(9)])[None]
+            data = np.concatenate([edge.axis, edge.point, [edge.sign]])[None]
+            wrench = np.concatenate([state.x[int(c)], r])[None]
+            kernel = kernels.slide_wrench if edge.prismatic else kernels.hinge_wrench
+            D = np.asarray(kernel(parent, data, wrench)[1]).reshape(9)
+            s, p = native.slot_of_node[int(c)], native.slot_of_node[int(edge.parent)]
+            Jc, Jp = native.jacobian[s, :, :native.count[s]], native.jacobian[p, :, :native.count[p]]
+            row = D[6:] @ Jc[:3]
+            row[:Jp.shape[1]] += D[:6] @ Jp
+            slot_columns = native.columns[s, :native.count[s]]
+            keep = slot_columns < n
+            out += row[keep] @ dq[slot_columns[keep]]
+    return out

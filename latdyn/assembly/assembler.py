@@ -316,23 +316,22 @@ class Assembler:
         return np.bincount(self._positions3, weights=data, minlength=3 * self._nnz).reshape(3, self._nnz)
 
     def exact_rows(self, state: State, coordinates, load_factor: float = 1.0, inertia: bool = True):
-        """(M, C, K), each (len(coordinates), n_dofs) dense: the rows of :meth:`exact_matrices`' matrices on
-        any ``coordinates`` (free or not: a latched or prescribed joint's, whose residual is its reaction),
+        """(M, C, K), each (len(coordinates), n_assembled) dense: the rows of :meth:`exact_matrices`' matrices
+        on any ``coordinates`` (free or not: a latched or prescribed joint's, whose residual is its reaction),
         their columns the free coordinates; the blocks of one native evaluation scattered without the free
         rows' mask (the joint-force probes' sensitivities, latdyn/analyses/joint_force_sensitivities.py).
-        Without rigid links and guides only."""
+        With rigid links or guides: before their reduction, the columns the n_assembled coordinates (free, then
+        the dependent nodes'), the joint bodies' inertia stiffness in K as :func:`evaluate_linked` adds it."""
         m = self.model
-        if m.links is not None:
-            raise ValueError("exact_rows: a model with rigid links or guides (its reduction's rows on constrained "
-                             "coordinates are not assembled)")
         coordinates = np.asarray(coordinates, np.int64).reshape(-1)
-        n = m.n_dofs
+        n = m.n_assembled
         native = self.native(inertia)
+        self.complete_links(state)
         native.evaluate(state, True, load_factor, inertia, inertia)
         b = native.buffers
         where = np.full(m.n_total + 1, -1, np.int64)
         where[coordinates] = np.arange(len(coordinates))
-        out = np.zeros((3, len(coordinates), n))   # M, C, K
+        out = np.zeros((3, len(coordinates), n))   # M, C, K on the assembled columns
 
         def scatter(which, blocks, rows, cols=None):
             cols = rows if cols is None else cols
