@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["is_joint_force", "joint_of", "refusal", "joint_force_derivatives"]
+__all__ = ["is_joint_force", "joint_of", "refusal", "joint_force_derivatives", "joint_force_forms"]
 
 
 def is_joint_force(probe) -> bool:
@@ -66,15 +66,24 @@ def refusal(scene, probe) -> str | None:
     return None
 
 
-def joint_force_derivatives(owner, state, dq: np.ndarray, dv: np.ndarray | None, dvdot: np.ndarray | None,
-                            load_factor: float = 1.0, inertia: bool = True) -> dict:
+def joint_force_derivatives(owner, state, dq: np.ndarray, dv: np.ndarray, dvdot: np.ndarray) -> dict:
     """{joint index: (k,) derivatives of its force by every parameter} for the joints the probes of
     ``owner`` (a :class:`latdyn.analyses.sensitivities.ParameterDerivatives`) read at ``state``, along the
-    free-coordinate sensitivities ``dq``, ``dv``, ``dvdot`` (n, k) of the transient step (module docstring);
-    ``dv``, ``dvdot`` None and ``inertia`` False: a state at rest, of the residual at ``load_factor``."""
+    free-coordinate sensitivities ``dq``, ``dv``, ``dvdot`` (n, k) of the transient step: each joint's
+    :func:`joint_force_forms` applied to them."""
+    return {j: c_q @ dq + c_v @ dv + c_vdot @ dvdot + explicit
+            for j, (c_q, c_v, c_vdot, explicit) in joint_force_forms(owner, state).items()}
+
+
+def joint_force_forms(owner, state, joints=None) -> dict:
+    """{joint index: (c_q, c_v, c_v̇ (n,) each, explicit (k,))}: the derivative of the force of each joint the
+    probes of ``owner`` read (or of ``joints``) at ``state`` is c_q·δq + c_v·δv + c_v̇·δv̇ + explicit, linear in
+    the free coordinates' sensitivities (module docstring); the forward method applies it to its columns
+    (:func:`joint_force_derivatives`), the adjoint seeds its reverse pass with it."""
     model, assembler, k = owner.model, owner.assembler, len(owner.names)
     n = model.n_dofs
-    joints = sorted({joint_of(model, p) for p in owner.probes if is_joint_force(p)})
+    if joints is None:
+        joints = sorted({joint_of(model, p) for p in owner.probes if is_joint_force(p)})
     if not joints:
         return {}
     dofs = model.hinge_dofs[joints]
@@ -84,7 +93,7 @@ def joint_force_derivatives(owner, state, dq: np.ndarray, dv: np.ndarray | None,
     if free:   # −f: the law's slopes at the state (the evaluation's hinge entries) and its ∂f/∂p
         assembler.complete_links(state)
         native = assembler.native()
-        native.evaluate(state, True, load_factor, inertia, False)
+        native.evaluate(state, True, 1.0, True, False)
         slope, damping = native.buffers["hinge_d_theta"].copy(), native.buffers["hinge_d_rate"].copy()
         laws = np.zeros((model.n_total + 1, k))
         for key, by_column in owner.derivatives.items():
@@ -93,31 +102,26 @@ def joint_force_derivatives(owner, state, dq: np.ndarray, dv: np.ndarray | None,
                 j = model.hinge_index(hinge["beam"], hinge["end"])
                 if j in free:
                     for column, law in by_column.items():
-                        laws[model.hinge_dofs[j], column] += owner._hinge_force(state, j, hinge["law"], law,
-                                                                              load_factor)
+                        laws[model.hinge_dofs[j], column] += owner._hinge_force(state, j, hinge["law"], law, 1.0)
         owner._contact_forces(state, laws)
         for j in free:
             d = model.hinge_dofs[j]
-            moved = slope[j] * dq[d] + (damping[j] * dv[d] if dv is not None else 0.0)
-            out[j] = -(moved + laws[d])
+            c_q, c_v = np.zeros(n), np.zeros(n)
+            c_q[d], c_v[d] = -slope[j], -damping[j]
+            out[j] = (c_q, c_v, np.zeros(n), -laws[d])
     if held and model.links is not None:   # the reaction through the guides' reduction
-        out.update(_held_through_links(owner, state, held, dq, dv, dvdot))
+        out.update(_held_through_links(owner, state, held))
     elif held:   # the reaction: the exact rows of its coordinate along (δq, δv, δv̇), and ∂r_d/∂p
         rows = model.hinge_dofs[held]
-        M, C, K = assembler.exact_rows(state, rows, load_factor, inertia)
-        explicit = owner.residual_derivatives(state, load_factor, inertia=inertia, on_all=True)[rows]
-        total = K @ dq + explicit
-        if dv is not None:
-            total = total + C @ dv
-        if dvdot is not None and inertia:
-            total = total + M @ dvdot
-        out.update({j: total[i] for i, j in enumerate(held)})
-    return {j: np.asarray(value, float).reshape(k) for j, value in out.items()}
+        M, C, K = assembler.exact_rows(state, rows)
+        explicit = owner.residual_derivatives(state, 1.0, inertia=True, on_all=True)[rows]
+        out.update({j: (K[i], C[i], M[i], explicit[i]) for i, j in enumerate(held)})
+    return out
 
 
-def _held_through_links(owner, state, held: list, dq: np.ndarray, dv: np.ndarray, dvdot: np.ndarray) -> dict:
-    """{joint: (k,)} the reactions' derivatives of the held joints ``held`` of a model with guides (rigid links'
-    reduction, latdyn/assembly/linked.py): the reaction on the constrained coordinate d is
+def _held_through_links(owner, state, held: list) -> dict:
+    """:func:`joint_force_forms` of the held joints ``held`` of a model with guides (rigid links' reduction,
+    latdyn/assembly/linked.py): the reaction on the constrained coordinate d is
 
         r_d = r_all,d + Σ_c J_c,dᵀ r_c,
 
@@ -136,38 +140,46 @@ def _held_through_links(owner, state, held: list, dq: np.ndarray, dv: np.ndarray
     from latdyn.assembly.linked import evaluate_linked
 
     model, assembler, links = owner.model, owner.assembler, owner.model.links
-    k, n = len(owner.names), model.n_dofs
     ev = evaluate_linked(links, assembler, state, True, 1.0, True, inertia_tangent=True, rates_term=True)
     P, dep = ev.projection, ev.dependent_rows
     by_velocity, by_acceleration = ev.rates_tangent
-    dq_all, dv_all, dvdot_all = (np.asarray(P @ x) for x in (dq, dv, dvdot))
-    dv_all[dep] += np.asarray(by_velocity @ dq)
-    dvdot_all[dep] += np.asarray(by_acceleration @ dq + ev.velocity_derivative @ dv)
     rows = model.hinge_dofs[held]
-    M, C, K = assembler.exact_rows(state, np.concatenate([rows, dep]))
-    explicit = owner.residual_derivatives(state, 1.0, inertia=True, on_all=True)[np.concatenate([rows, dep])]
-    moved = K @ dq_all + C @ dv_all + M @ dvdot_all + explicit
-    on_rows, on_dependent = moved[:len(rows)], moved[len(rows):]
+    every = np.concatenate([rows, dep])
+    M, C, K = assembler.exact_rows(state, every)
+    explicit = owner.residual_derivatives(state, 1.0, inertia=True, on_all=True)[every]
+    # the forms of rows d and c on the free coordinates, through δq_all, δv_all, δv̇_all
+    c_q = _dense(K @ P) + _dense(C[:, dep] @ by_velocity) + _dense(M[:, dep] @ by_acceleration)
+    c_v = _dense(C @ P) + _dense(M[:, dep] @ ev.velocity_derivative)
+    c_vdot = _dense(M @ P)
     J, columns = ev.jacobian, ev.jacobian_columns
     r_dep = assembler.evaluate_assembled(state, False, 1.0, True).residual[dep]   # the wrenches r_c
     out = {}
+    m = len(rows)
     for i, j in enumerate(held):
-        total = on_rows[i].copy()
+        form = [c_q[i].copy(), c_v[i].copy(), c_vdot[i].copy(), explicit[i].copy()]
         at = np.flatnonzero(columns == int(model.hinge_dofs[j]))
         if len(at):
-            total += J[:, at[0]] @ on_dependent + _edge_wrench_derivative(owner, state, j, dq, r_dep)
-        out[j] = total
+            through = J[:, at[0]]
+            for part, values in zip(form, (c_q, c_v, c_vdot, explicit)):
+                part += through @ values[m:]
+            form[0] += _edge_wrench_derivative(owner, state, j, r_dep)
+        out[j] = tuple(form)
     return out
 
 
-def _edge_wrench_derivative(owner, state, j: int, dq: np.ndarray, r_dep: np.ndarray) -> np.ndarray:
-    """Σ_c δ(J_c,d)ᵀ r_c along δq (k,) for the joint ``j`` of an edge of the links' tree: the generated
+def _dense(product) -> np.ndarray:
+    """A product of a dense array and a (possibly SciPy sparse) matrix, as a dense array."""
+    return product.toarray() if hasattr(product, "toarray") else np.asarray(product)
+
+
+def _edge_wrench_derivative(owner, state, j: int, r_dep: np.ndarray) -> np.ndarray:
+    """Σ_c ∂(J_c,dᵀ r_c)/∂q at fixed r_c (n,) for the joint ``j`` of an edge of the links' tree: the generated
     ``slide_wrench`` (``hinge_wrench`` for a revolute edge) at each dependent node c below it, its derivative by
     the edge parent's δx, δπ and c's δx chained with their J (as :func:`latdyn.assembly.linked.geometric_stiffness`
     takes it for the free coordinates' rows)."""
     model, links, kernels = owner.model, owner.model.links, owner.kernels
     native, n = owner.assembler.native().links, model.n_dofs
-    out = np.zeros(dq.shape[1])
+    out = np.zeros(n)
     for c_index, c in enumerate(links.dependent):
         r = r_dep[6 * c_index:6 * c_index + 6]
         for e in links.path(int(c)):
@@ -185,5 +197,5 @@ def _edge_wrench_derivative(owner, state, j: int, dq: np.ndarray, r_dep: np.ndar
             row[:Jp.shape[1]] += D[:6] @ Jp
             slot_columns = native.columns[s, :native.count[s]]
             keep = slot_columns < n
-            out += row[keep] @ dq[slot_columns[keep]]
+            np.add.at(out, slot_columns[keep], row[keep])
     return out
