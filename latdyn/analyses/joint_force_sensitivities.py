@@ -23,10 +23,12 @@ The probe is one of two things, and so is its derivative by a parameter p along 
 After a latch the reaction is differentiable in p at the rows after the event time (whose derivative the
 step's size carries); at the event it jumps from −f to the reaction.
 
+With guides the reaction is a row of their reduction (:func:`_held_through_links`). The derivative is
+linear in (δq, δv, δv̇): :func:`joint_force_forms` gives its forms, which the forward method applies to its
+columns and the discrete adjoint seeds (latdyn/analyses/adjoint_sensitivities.py).
+
 Not differentiated (refused by :func:`refusal`, naming ``solve.sensitivities``): a joint whose torque or
-force a controller drives or whose force probe a controller reads, and the reaction of a guide's latch or
-rigid stop, or of a held hinge in a model with guides (the reduction's row on a constrained coordinate: not
-assembled yet); static paths (a static row's joint force is the one evaluation of csrc/rows.c
+force a controller drives or whose force probe a controller reads; static paths (a static row's joint force is the one evaluation of csrc/rows.c
 ``latdyn_joint_forces``, whose applied torques and loads are at load factor 1, not the row's λ).
 """
 from __future__ import annotations

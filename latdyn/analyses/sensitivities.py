@@ -204,11 +204,6 @@ def adjoint_refusal(scene) -> SceneError | None:
         name = next(c.name for c in scene.controllers.values() if c.states or c.sampled)
         why = (f"the adjoint does not differentiate controllers with states or sampled ones yet (controllers.{name}); "
                "continuous controllers without states it does")
-    elif any(is_joint_force(p) for p in scene.output.probes):
-        name = next(p.name for p in scene.output.probes if is_joint_force(p))
-        why = (f"the adjoint does not differentiate joint-force probes yet (output.probes.{name}: a hinge's torque or "
-               "a guide's force, whose derivative has a part explicit in the parameters and, for a prescribed "
-               "joint's reaction, one in the accelerations)")
     if why is None:
         return None
     return SceneError(scene.file, key, f"{why}; expected sensitivity_method: forward (the default) here "
