@@ -247,19 +247,31 @@ def test_reactions_through_the_guides_reduction_agree(text, probe, name):
     assert worst <= 1e-7 and after <= 1e-7, (worst, after)
 
 
-def test_the_exact_rows_on_free_coordinates_are_those_of_the_exact_matrices():
+@pytest.mark.parametrize("scene", ["swing", "pd", "cable", "guide"])
+def test_the_exact_rows_on_free_coordinates_are_those_of_the_exact_matrices(scene):
     """Assembler.exact_rows scatters the blocks the exact matrices are made of onto any rows: on the free
-    coordinates it gives their rows (to round-off), on a latched hinge's the row the reaction moves with."""
+    coordinates it gives their rows (to the last bit here), on a latched hinge's the row the reaction moves with;
+    the 3D arm with joint bodies (their inertia stiffness), a PD controller (its couplings), a 3D cable, and
+    with guides the assembled coordinates' rows before the reduction."""
+    from latdyn.assembly.linked import evaluate_linked
     from latdyn.assembly.prepare import prepare
+    from tests.test_sensitivities_cables import CABLE_3D
+    from tests.test_sensitivities_rates import PD_PLANAR
 
-    prepared = prepare(latdyn.load_scene(yaml.safe_load(SWING_3D)))
+    text = {"swing": SWING_3D, "pd": PD_PLANAR, "cable": CABLE_3D, "guide": GUIDE_3D}[scene]
+    prepared = prepare(latdyn.load_scene(yaml.safe_load(text)))
     assembler, model = prepared.assembler, prepared.model
     state = assembler.initial_state()
-    state.a[:] = 0.3
-    state.alpha[:] = -0.2
-    rows = np.arange(model.n_dofs)
-    for exact, row in zip(assembler.exact_matrices(state, dense=True), assembler.exact_rows(state, rows)):
-        np.testing.assert_allclose(row, exact, rtol=0, atol=1e-12 * np.abs(exact).max())
+    state.v[:], state.w[:], state.a[:], state.alpha[:] = 0.1, 0.2, 0.3, -0.2
+    assembler.complete_links(state)
+    if model.links is None:
+        exact = assembler.exact_matrices(state, dense=True)
+    else:
+        ev = evaluate_linked(model.links, assembler, state, True, 1.0, True, inertia_tangent=True, rates_term=True)
+        exact = [np.asarray(ev._assembled(*c, True)) for c in ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))]
+    for matrix, rows in zip(exact, assembler.exact_rows(state, np.arange(model.n_assembled))):
+        assert np.any(matrix)
+        np.testing.assert_allclose(rows, matrix, rtol=0, atol=1e-12 * np.abs(matrix).max())
 
 
 def test_the_cli_writes_the_torques_sensitivities_and_the_api_gives_the_same(tmp_path, latch_planar):
