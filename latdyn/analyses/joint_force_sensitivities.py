@@ -95,7 +95,7 @@ def joint_force_forms(owner, state, joints=None) -> dict:
     if free:   # −f: the law's slopes at the state (the evaluation's hinge entries) and its ∂f/∂p
         assembler.complete_links(state)
         native = assembler.native()
-        native.evaluate(state, True, 1.0, True, False)
+        native.evaluate(state, False, 1.0, True, False)   # the hinge loop writes the slopes either way
         slope, damping = native.buffers["hinge_d_theta"].copy(), native.buffers["hinge_d_rate"].copy()
         laws = np.zeros((model.n_total + 1, k))
         for key, by_column in owner.derivatives.items():
