@@ -9,7 +9,9 @@ The probe is one of two things, and so is its derivative by a parameter p along 
   stops): δ(−f) = −(∂f/∂θ δθ + ∂f/∂θ̇ δθ̇ + ∂f/∂p), ∂f/∂θ and ∂f/∂θ̇ as the generated ``hinge_force``
   gives them to the evaluation (its Newton matrix's hinge entries), ∂f/∂p from the parameters' derivative
   laws through the same kernel (:meth:`ParameterDerivatives._hinge_force`, the compliant stops'
-  ``contact_force_D_law``);
+  ``contact_force_D_law``); a continuous controller's output a·y on the joint adds its sensors' derivatives
+  (the coupling entries of the joint's row in K and C, latdyn/assembly/control.py) and its explicit ∂y/∂p
+  (:meth:`latdyn.analyses.sensitivities.ControllerTerms.add`);
 - a joint without a coordinate (latched, prescribed) applies the reaction that holds it, the residual
   r_d of its coordinate d (its law included):
 
@@ -28,7 +30,8 @@ linear in (δq, δv, δv̇): :func:`joint_force_forms` gives its forms, which th
 columns and the discrete adjoint seeds (latdyn/analyses/adjoint_sensitivities.py).
 
 Not differentiated (refused by :func:`refusal`, naming ``solve.sensitivities``): a joint whose torque or
-force a controller drives or whose force probe a controller reads; static paths (a static row's joint force is the one evaluation of csrc/rows.c
+force a controller drives beside a controller with states or a sampled one, a joint force a controller reads;
+static paths (a static row's joint force is the one evaluation of csrc/rows.c
 ``latdyn_joint_forces``, whose applied torques and loads are at load factor 1, not the row's λ).
 """
 from __future__ import annotations
@@ -56,11 +59,13 @@ def refusal(scene, probe) -> str | None:
     else:
         joint = scene.bodies[probe.body].guide
         law, where = joint.force, f"bodies.{probe.body}.guide.force"
-    controllers = set(getattr(scene, "controllers", None) or {})
-    named = sorted(controllers & set(getattr(law, "input_names", ()) or ()))
-    if named:
-        return (f"the joint-force probe {probe.name!r}: controller {named[0]!r} drives {where}, whose output's "
-                "derivative is not part of the joint's force derivative yet")
+    controllers = getattr(scene, "controllers", None) or {}
+    named = sorted(set(controllers) & set(getattr(law, "input_names", ()) or ()))
+    remembering = sorted(c.name for c in controllers.values() if c.states or c.sampled)
+    if named and remembering:
+        return (f"the joint-force probe {probe.name!r}: controller {named[0]!r} drives {where}, and controller "
+                f"{remembering[0]!r} has states or is sampled: the output's dependence on states and samples is not "
+                "part of the joint's force derivative yet (continuous controllers without states are)")
     readers = sorted(c.name for c in (getattr(scene, "controllers", None) or {}).values() if probe.name in c.reads)
     if readers:
         return (f"controller {readers[0]!r} reads the joint-force probe {probe.name!r}: a sensor's derivative by a "
@@ -95,8 +100,12 @@ def joint_force_forms(owner, state, joints=None) -> dict:
     if free:   # −f: the law's slopes at the state (the evaluation's hinge entries) and its ∂f/∂p
         assembler.complete_links(state)
         native = assembler.native()
-        native.evaluate(state, False, 1.0, True, False)   # the hinge loop writes the slopes either way
+        wiring = assembler.control
+        driven = len(wiring.coupling_rows) > 0   # a continuous controller's output on a joint or load
+        native.evaluate(state, driven, 1.0, True, False)   # the hinge loop writes the slopes either way
         slope, damping = native.buffers["hinge_d_theta"].copy(), native.buffers["hinge_d_rate"].copy()
+        if driven:
+            couplings = (native.buffers["coupling_stiffness"].copy(), native.buffers["coupling_damping"].copy())
         laws = np.zeros((model.n_total + 1, k))
         for key, by_column in owner.derivatives.items():
             _, hinge = owner._key_kinds(key)   # a hinge's or guide's law (its compliant stops': below)
@@ -106,10 +115,16 @@ def joint_force_forms(owner, state, joints=None) -> dict:
                     for column, law in by_column.items():
                         laws[model.hinge_dofs[j], column] += owner._hinge_force(state, j, hinge["law"], law, 1.0)
         owner._contact_forces(state, laws)
+        if owner.controllers is not None:   # a continuous controller's output on the joint: its explicit ∂/∂p
+            owner.controllers.add(state, laws)
         for j in free:
             d = model.hinge_dofs[j]
             c_q, c_v = np.zeros(n), np.zeros(n)
             c_q[d], c_v[d] = -slope[j], -damping[j]
+            if driven:   # and its sensors: the coupling entries of the joint's row (∂(−a y)/∂q, ∂(−a y)/∂v)
+                on = (wiring.coupling_rows == d) & (wiring.coupling_cols < n)
+                np.subtract.at(c_q, wiring.coupling_cols[on], couplings[0][on])
+                np.subtract.at(c_v, wiring.coupling_cols[on], couplings[1][on])
             out[j] = (c_q, c_v, np.zeros(n), -laws[d])
     if held and model.links is not None:   # the reaction through the guides' reduction
         out.update(_held_through_links(owner, state, held))
