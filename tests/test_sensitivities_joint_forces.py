@@ -14,7 +14,7 @@ Checked: the deploying boom's latch load (planar, examples/deploying_boom_sensit
 planar arm latching, by the hinge spring and the masses; a 3D arm on a skew hinge whose stiffness law,
 damping and rest angle name parameters (free joint), a 3D wheel latching on a skew hinge (the reaction out
 of the coordinate planes), a 3D arm swung by a prescribed hinge angle under gravity (its drive torque), a 3D
-compliant stop's torque (its law's parameters), a guide's force law, a guide latching on a flexible arm's tip
+compliant stop's torque (its law's parameters), a hinge a PD drives, a guide's force law, a guide latching on a flexible arm's tip
 and a hinge latching beside a guide (reactions through the guides' reduction); the exact rows on constrained
 coordinates against the exact matrices; the CLI's sensitivities.csv; what stays refused."""
 from __future__ import annotations
@@ -209,6 +209,19 @@ def test_the_torque_of_a_compliant_stop_by_its_laws_stiffness_agrees():
     assert worst <= 1e-7, worst
 
 
+def test_the_torque_of_a_hinge_a_pd_drives_agrees():
+    """PD_PLANAR: a continuous PD y = −6(θ − 0.1) − k_d θ̇ drives the hinge's torque; the probe −(2θ − y) moves
+    through the controller's sensors (the coupling entries of the hinge's row) and explicitly with k_d (measured:
+    kd 1.7e-9, P 2.8e-10; without the coupling entries 0.31 and 0.27)."""
+    from tests.test_sensitivities_rates import PD_PLANAR
+
+    text = _with_probe(PD_PLANAR, "om:", "torque: {hinge: arm.start, quantity: torque}")
+    result = _run(text)
+    for name in ("kd", "P"):
+        worst, _ = _agree(result, text, name, "torque", relative=1e-3)
+        assert worst <= 1e-7, (name, worst)
+
+
 def test_a_guides_force_law_agrees():
     """The bead on the turning rod (BEAD) pushed by a force law F sin(10 t) on its slide besides its spring:
     the guide's force by F (measured 2.4e-8 of the largest; by the spring's k 3.4e-8, not run here)."""
@@ -287,29 +300,35 @@ def test_the_cli_writes_the_torques_sensitivities_and_the_api_gives_the_same(tmp
 
 
 @pytest.mark.parametrize("change, expected", [
-    (lambda t: t.replace("solve: {", "controllers: {pd: {output: \"-2*slider_z\"}}\nsolve: {").replace(
-        'rest: "rest"}}', 'rest: "rest", force: "pd"}}'), "controller 'pd' drives"),
+    (lambda t: t.replace("solve: {", "controllers: {pid: {output: \"-2*slider_z - I\", states: {I: \"slider_z\"}}}"
+                                     "\nsolve: {").replace('rest: "rest"}}', 'rest: "rest", force: "pid"}}'),
+     "controller 'pid' drives bodies.slider.guide.force, and controller 'pid' has states"),
     (lambda t: t.replace("solve: {", "controllers: {watch: {output: \"0.1*force\", rate: 100}}\nsolve: {"),
      "controller 'watch' reads the joint-force probe 'force'"),
 ])
 def test_what_is_not_differentiated_is_refused_naming_the_key(tmp_path, change, expected):
-    """A joint a controller drives, a joint force a controller reads: exit 2 naming solve.sensitivities."""
+    """A joint a controller with states drives, a joint force a controller reads: exit 2 naming
+    solve.sensitivities."""
     text = _with_probe(GUIDE_3D, "s: {guide", "force: {guide: slider, quantity: force}")
     run, _ = latdyn_run(tmp_path, change(text))
     assert run.returncode == 2 and "solve.sensitivities" in run.stderr and expected in run.stderr, run.stderr
     assert "Traceback" not in run.stderr
 
 
-@pytest.mark.parametrize("text", ["swing", DRIVEN_3D], ids=["3d-free-hinge-laws", "3d-prescribed-drive-torque"])
+@pytest.mark.parametrize("text", ["swing", DRIVEN_3D, "pd"], ids=["3d-free-hinge-laws", "3d-prescribed-drive-torque",
+                                                                 "planar-pd-driven"])
 def test_the_adjoint_of_joint_forces_equals_the_forward_method(text):
     """The adjoint seeds a joint force's forms at its rows (c_q into q̄, c_v into v̄, c_v̇ into v̇̄, the explicit
     ∂/∂p into the gradient): its end, max and min equal the forward method's (measured 3.0e-15 for the free
     hinge's torque by k, c, th0, EI, m; 4.2e-15 for the prescribed hinge's drive torque by EI, rho, m, which
-    without the c_v̇ seed differed by 6.4e-3)."""
+    without the c_v̇ seed differed by 6.4e-3; 2.4e-14 for the PD-driven hinge by kd, P)."""
     from tests.test_sensitivities_adjoint import _adjoint, _disagreement
+    from tests.test_sensitivities_rates import PD_PLANAR
 
     if text == "swing":
         text = _with_probe(SWING_3D, "hinge:", "torque: {hinge: b.start, quantity: torque}").replace(
             "[F, k, c, th0, EI, G, rho, m, cx, J]", "[k, c, th0, EI, m]")
+    elif text == "pd":
+        text = _with_probe(PD_PLANAR, "om:", "torque: {hinge: arm.start, quantity: torque}")
     forward, adjoint = _run(text), _run(_adjoint(text))
     assert _disagreement(forward.summary["probe_sensitivities"], adjoint.summary["probe_sensitivities"]) <= 1e-10
