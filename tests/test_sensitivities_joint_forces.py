@@ -147,6 +147,9 @@ def test_the_deploying_booms_latch_load_by_its_hinge_spring_agrees_with_richards
     assert np.all(result.probes["latch"][~latched] > 0) and result.probes["latch"][latched].min() < -25
     worst, after = _agree(result, BOOM, "k", "latch")
     assert worst <= 1e-7 and after <= 1e-7, (worst, after)
+    # the peak latch load's derivative in summary.json probe_sensitivities: the row of the torque's minimum
+    peak = int(np.argmin(result.probes["latch"]))
+    assert result.summary["probe_sensitivities"]["latch"]["min"]["k"] == result.sensitivities[("latch", "k")][peak]
 
 
 @pytest.fixture(scope="module")
