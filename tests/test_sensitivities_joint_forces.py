@@ -306,12 +306,15 @@ def test_the_cli_writes_the_torques_sensitivities_and_the_api_gives_the_same(tmp
     (lambda t: t.replace("solve: {", "controllers: {pid: {output: \"-2*slider_z - I\", states: {I: \"slider_z\"}}}"
                                      "\nsolve: {").replace('rest: "rest"}}', 'rest: "rest", force: "pid"}}'),
      "controller 'pid' drives bodies.slider.guide.force, and controller 'pid' has states"),
+    (lambda t: t.replace("solve: {", "controllers: {pd: {output: \"-2*slider_z\"}}\nsolve: {").replace(
+        'rest: "rest"}}', 'rest: "rest", force: "pd"}}'), "controller 'pd' drives bodies.slider.guide.force in a model "
+                                                          "with guides"),
     (lambda t: t.replace("solve: {", "controllers: {watch: {output: \"0.1*force\", rate: 100}}\nsolve: {"),
      "controller 'watch' reads the joint-force probe 'force'"),
 ])
 def test_what_is_not_differentiated_is_refused_naming_the_key(tmp_path, change, expected):
-    """A joint a controller with states drives, a joint force a controller reads: exit 2 naming
-    solve.sensitivities."""
+    """A joint a controller with states drives, one a controller drives beside guides, a joint force a controller
+    reads: exit 2 naming solve.sensitivities."""
     text = _with_probe(GUIDE_3D, "s: {guide", "force: {guide: slider, quantity: force}")
     run, _ = latdyn_run(tmp_path, change(text))
     assert run.returncode == 2 and "solve.sensitivities" in run.stderr and expected in run.stderr, run.stderr

@@ -30,8 +30,8 @@ linear in (δq, δv, δv̇): :func:`joint_force_forms` gives its forms, which th
 columns and the discrete adjoint seeds (latdyn/analyses/adjoint_sensitivities.py).
 
 Not differentiated (refused by :func:`refusal`, naming ``solve.sensitivities``): a joint whose torque or
-force a controller drives beside a controller with states or a sampled one, a joint force a controller reads;
-static paths (a static row's joint force is the one evaluation of csrc/rows.c
+force a controller drives beside a controller with states or a sampled one, or in a model with guides; a joint
+force a controller reads; static paths (a static row's joint force is the one evaluation of csrc/rows.c
 ``latdyn_joint_forces``, whose applied torques and loads are at load factor 1, not the row's λ).
 """
 from __future__ import annotations
@@ -66,6 +66,11 @@ def refusal(scene, probe) -> str | None:
         return (f"the joint-force probe {probe.name!r}: controller {named[0]!r} drives {where}, and controller "
                 f"{remembering[0]!r} has states or is sampled: the output's dependence on states and samples is not "
                 "part of the joint's force derivative yet (continuous controllers without states are)")
+    guides = sorted(name for name, body in scene.bodies.items() if body.guide is not None)
+    if named and guides:
+        return (f"the joint-force probe {probe.name!r}: controller {named[0]!r} drives {where} in a model with guides "
+                f"(bodies.{guides[0]}.guide): its sensors' derivatives through the guides' reduction are not part of "
+                "the joint's force derivative yet")
     readers = sorted(c.name for c in (getattr(scene, "controllers", None) or {}).values() if probe.name in c.reads)
     if readers:
         return (f"controller {readers[0]!r} reads the joint-force probe {probe.name!r}: a sensor's derivative by a "
