@@ -225,6 +225,21 @@ def test_the_torque_of_a_hinge_a_pd_drives_agrees():
         assert worst <= 1e-7, (name, worst)
 
 
+def test_the_reaction_of_a_latched_hinge_a_pd_drives_agrees():
+    """PD_PLANAR's hinge latching at 0.02 rad (0.066 s; rotary inertia on the arm): after the latch the reaction
+    holds the PD's torque with the rest, its row's coupling entries and the controller's ∂y/∂p in ∂r_d/∂p
+    (measured: kd 5.8e-8, at the first row after the latch 8.5e-10; P 2.1e-9 not run here)."""
+    from tests.test_sensitivities_rates import PD_PLANAR
+
+    text = _with_probe(PD_PLANAR, "om:", "torque: {hinge: arm.start, quantity: torque}").replace(
+        'torque: "pd"}', 'torque: "pd", lock_at: 0.02}').replace(
+        "rhoA: 0.5}", "rhoA: 0.5, rhoIy: 0.001, rhoIz: 0.001}").replace("every: 0.05", "every: 0.01")
+    result = _run(text, "kd")
+    assert [e["kind"] for e in result.summary["events"]] == ["latch"]
+    worst, after = _agree(result, text, "kd", "torque")
+    assert worst <= 1e-7 and after <= 1e-7, (worst, after)
+
+
 def test_a_guides_force_law_agrees():
     """The bead on the turning rod (BEAD) pushed by a force law F sin(10 t) on its slide besides its spring:
     the guide's force by F (measured 2.4e-8 of the largest; by the spring's k 3.4e-8, not run here)."""
