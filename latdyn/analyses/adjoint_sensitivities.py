@@ -11,7 +11,9 @@ X_n = (δq, δv, δv̇, δa) of every parameter through each accepted step,
 
 with E = ∂r/∂p at the step's end, M, C and the exact K there, R = exp(skew hΔq) and J = dexp(hΔq) on the
 rotation coordinates. The recurrence is linear in X and in E, and an output is linear in one row's δq
-(a point x + T r moves by δx + δπ × T r, a hinge angle by δθ): dy/dp = cᵀ δq_row. So the derivative of m
+(a point x + T r moves by δx + δπ × T r, a hinge angle by δθ): dy/dp = cᵀ δq_row (a rate's and a joint
+force's also c_vᵀδv_row, a joint force's c_v̇ᵀδv̇_row and its explicit ∂/∂p: seeded into v̄, v̇̄ and the
+gradient at its row). So the derivative of m
 outputs by k parameters is the transposed recurrence run backwards over the stored trajectory with m
 columns (X̄ = (q̄, v̄, v̇̄, ā), each (n, m)): per step, from the bars at the step's end,
 
@@ -47,6 +49,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_force_forms, joint_of
 from latdyn.analyses.sensitivities import SENSITIVITIES_FILE
 from latdyn.analyses.transient_sensitivities import TransientSensitivities, _NodeRotations
 from latdyn.assembly.assembler import free_velocity
@@ -116,6 +119,17 @@ class AdjointSensitivities(TransientSensitivities):
                 out.append((probe, which, row))
         return out
 
+    def output_forms(self, probe, state) -> tuple:
+        """(c_q, c_v, c_v̇ (n,) each, explicit (k,)): the probe's derivative at ``state`` is
+        c_qᵀδq + c_vᵀδv + c_v̇ᵀδv̇ + explicit — a joint force's the forms of
+        :func:`latdyn.analyses.joint_force_sensitivities.joint_force_forms` (its law's slopes and ∂f/∂p while
+        free, a prescribed joint's exact rows and ∂r_d/∂p), any other probe's :meth:`output_gradient`."""
+        if is_joint_force(probe):
+            j = joint_of(self.model, probe)
+            return joint_force_forms(self, state, [j])[j]
+        c_q, c_v = self.output_gradient(probe, state)
+        return c_q, c_v, np.zeros_like(c_q), np.zeros(len(self.names))
+
     def output_gradient(self, probe, state) -> tuple:
         """(c_q, c_v) (n,) each: the probe's derivative at ``state`` is c_qᵀδq + c_vᵀδv
         (:meth:`_probe_derivatives` on the unit columns of the coordinates it reads, its node's or its
@@ -150,16 +164,18 @@ class AdjointSensitivities(TransientSensitivities):
             return gradient
         trajectory, rows = carried["trajectory"], carried["rows"]
         states = [carried["start"]] + [entry["state"] for entry in trajectory]
-        seeds: dict[int, list] = {}   # stored state index -> [(output column, (c_q, c_v))]
+        seeds: dict[int, list] = {}   # stored state index -> [(output column, (c_q, c_v, c_v̇, explicit))]
         for column, (probe, _, row) in enumerate(outputs):
-            index = rows[row]   # at the start δq_0 = 0: a row there moves only through δv_0 (a rate's)
-            seeds.setdefault(index, []).append((column, self.output_gradient(probe, states[index])))
+            index = rows[row]   # at the start δq_0 = 0: a row there moves only through δv_0, δv̇_0 and explicitly
+            seeds.setdefault(index, []).append((column, self.output_forms(probe, states[index])))
         am, af, gamma, beta = p.alpha_m, p.alpha_f, p.gamma, p.beta
         q_bar, v_bar, vdot_bar, a_bar = (np.zeros((n, m)) for _ in range(4))
         for i in range(len(trajectory) - 1, -1, -1):
-            for column, (c_q, c_v) in seeds.get(i + 1, []):
+            for column, (c_q, c_v, c_vdot, explicit) in seeds.get(i + 1, []):
                 q_bar[:, column] += c_q
                 v_bar[:, column] += c_v
+                vdot_bar[:, column] += c_vdot
+                gradient[:, column] += explicit
             entry = trajectory[i]
             h, new = entry["h"], entry["state"]
             beta_p, gamma_p = (1 - am) / (h * h * beta * (1 - af)), gamma / (h * beta)
@@ -187,8 +203,10 @@ class AdjointSensitivities(TransientSensitivities):
             v_bar = dv0_bar + h * du0_bar
             a_bar = h * (1 - gamma) * dv0_bar + h * h * (0.5 - beta) * du0_bar - am / (1 - am) * da0_bar
             vdot_bar = af / (1 - am) * da0_bar
-        for column, (_, c_v) in seeds.get(0, []):
+        for column, (_, c_v, c_vdot, explicit) in seeds.get(0, []):
             v_bar[:, column] += c_v
+            vdot_bar[:, column] += c_vdot   # δv̇_0 = δa_0: the start's consistent accelerations' derivative
+            gradient[:, column] += explicit
         return gradient + self._through_the_start(carried["start"], v_bar, vdot_bar + a_bar)
 
     def _through_the_start(self, state, v_bar: np.ndarray, s_bar: np.ndarray) -> np.ndarray:

@@ -55,7 +55,8 @@ parameter used anywhere but in load components, hinge stiffness, damping, torque
 values of shear-rigid sections (formulation default), body masses, centres of mass and inertias,
 compliant stops' laws and, in transient runs, initial velocities, controllers' outputs and states' rates,
 guides' laws and cables' EA, damping, rest length and rhoA; probes other than point positions and displacements in the
-global frame, hinge angles and guide positions; rigid links; in static paths hinges with limits or
+global frame, hinge angles and guide positions and, in transient runs, rates, point velocities and joint forces
+(latdyn/analyses/joint_force_sensitivities.py); rigid links; in static paths hinges with limits or
 ``lock_at`` (events; transient runs differentiate latches and stops: latdyn/analyses/transient_sensitivities.py). Under gravity the static
 Newton matrix K − λ ∂Q/∂q holds the beams' gravity tangent (the generated ``beam_gravity_D_q``), so
 beams with mass are differentiated exactly there too. docs/parameters.md.
@@ -68,6 +69,8 @@ from pathlib import Path
 
 import numpy as np
 
+from latdyn.analyses.joint_force_sensitivities import is_joint_force
+from latdyn.analyses.joint_force_sensitivities import refusal as joint_force_refusal
 from latdyn.assembly.factorization import solve_linear
 from latdyn.assembly.native_model import NO_CONTACT, joint_contact_rows
 from latdyn.errors import SceneError, SolverError
@@ -162,12 +165,15 @@ def refusal(scene) -> SceneError | None:
                     and probe.frame == "global")
         slide = probe.kind == "guide" and probe.quantity in ("position", "rate") and transient
         joint = probe.kind == "hinge" and (probe.quantity == "angle" or (transient and probe.quantity == "rate"))
-        if not (point or velocity or slide or joint):
+        force = transient and is_joint_force(probe)   # latdyn/analyses/joint_force_sensitivities.py
+        if force and joint_force_refusal(scene, probe) is not None:
+            return refuse(joint_force_refusal(scene, probe))
+        if not (point or velocity or slide or joint or force):
             return refuse(f"probe {probe.name!r} ({probe.kind} {probe.quantity}"
                           f"{'' if probe.kind != 'point' else ', frame ' + probe.frame}) is not differentiated yet: "
                           "point positions and displacements in the global frame, hinge angles and, in transient "
-                          "runs, hinge rates, guide positions and rates and point velocities in the global frame "
-                          "(without guides) are")
+                          "runs, hinge rates and torques, guide positions, rates and forces and point velocities in "
+                          "the global frame (without guides) are")
     rates = {p.name for p in scene.output.probes if p.quantity in ("rate", "velocity")}
     for c in scene.controllers.values():
         read = sorted(rates & set(c.reads))

@@ -100,6 +100,7 @@ import numpy as np
 
 from latdyn.analyses.sensitivities import (_BODY_KEY, _CABLE_KEY, _GUIDE_KEY, _HINGE_KEY, _INITIAL_VELOCITY_KEY,
                                            _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE, ParameterDerivatives)
+from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_force_derivatives, joint_of
 from latdyn.analyses.step_matrix import ExactStepMatrix
 from latdyn.assembly.assembler import free_acceleration, free_velocity, pack, unpack_free
 from latdyn.assembly.factorization import factorization_for, solve_linear
@@ -722,11 +723,16 @@ class TransientSensitivities(ParameterDerivatives):
     def record(self, carried: dict, state) -> dict:
         """``carried`` with the row of every probe's sensitivity at ``state`` (a new list of rows), all
         parameters at once: a point x + T r moves by δx + δπ × T r, a hinge angle by δθ, rates by the
-        carried δv (:meth:`_probe_derivatives`)."""
+        carried δv (:meth:`_probe_derivatives`), a joint's force by its law's or its reaction's derivative
+        along (δq, δv, δv̇) (latdyn/analyses/joint_force_sensitivities.py)."""
         dx, dpi, dtheta = self._by_parameter(carried["dq"], state)
         rates = self._rates_by_parameter(carried["dv"])
+        forces = joint_force_derivatives(self, state, carried["dq"], carried["dv"], carried["dvdot"])
         row = [float(state.t)]
         for probe in self.probes:
+            if is_joint_force(probe):   # a hinge's torque, a guide's force: its law or its reaction
+                row.extend(float(v) for v in forces[joint_of(self.model, probe)])
+                continue
             row.extend(self._probe_derivatives(probe, state, dx, dpi, dtheta, rates))
         return {**carried, "rows": carried["rows"] + [row]}
 

@@ -315,6 +315,56 @@ class Assembler:
             self._positions3 = np.concatenate([self._position + i * self._nnz for i in range(3)])
         return np.bincount(self._positions3, weights=data, minlength=3 * self._nnz).reshape(3, self._nnz)
 
+    def exact_rows(self, state: State, coordinates, load_factor: float = 1.0, inertia: bool = True):
+        """(M, C, K), each (len(coordinates), n_assembled) dense: the rows of :meth:`exact_matrices`' matrices
+        on any ``coordinates`` (free or not: a latched or prescribed joint's, whose residual is its reaction),
+        their columns the free coordinates; the blocks of one native evaluation scattered without the free
+        rows' mask (the joint-force probes' sensitivities, latdyn/analyses/joint_force_sensitivities.py).
+        With rigid links or guides: before their reduction, the columns the n_assembled coordinates (free, then
+        the dependent nodes'), the joint bodies' inertia stiffness in K as :func:`evaluate_linked` adds it."""
+        m = self.model
+        coordinates = np.asarray(coordinates, np.int64).reshape(-1)
+        n = m.n_assembled
+        native = self.native(inertia)
+        self.complete_links(state)
+        native.evaluate(state, True, load_factor, inertia, inertia)
+        b = native.buffers
+        where = np.full(m.n_total + 1, -1, np.int64)
+        where[coordinates] = np.arange(len(coordinates))
+        out = np.zeros((3, len(coordinates), n))   # M, C, K on the assembled columns
+
+        def scatter(which, blocks, rows, cols=None):
+            cols = rows if cols is None else cols
+            r = np.broadcast_to(rows[:, :, None], blocks.shape)
+            c = np.broadcast_to(cols[:, None, :], blocks.shape)
+            keep = (where[r] >= 0) & (c < n)
+            np.add.at(out[which], (where[r[keep]], c[keep]), blocks[keep])
+
+        elements = m.element_dofs
+        scatter(2, b["tangent"] + b["inertia_tangent"] if inertia else b["tangent"], elements)
+        bodies = m.node_dofs[m.body_nodes].reshape(-1, 6)
+        body_stiffness = b["body_stiffness"]
+        if inertia and len(m.body_nodes):
+            body_stiffness = body_stiffness + self.joint_body_inertia_stiffness(state, load_factor)
+        scatter(2, body_stiffness, bodies)
+        if inertia:
+            scatter(0, b["mass"], elements)
+            scatter(1, b["quadratic_D"], elements)
+            scatter(0, b["body_mass"], bodies)
+            scatter(1, b["body_damping"], bodies)
+        scatter(2, b["load_blocks"], m.node_dofs[self._load_nodes].reshape(-1, 6), self._load_columns())
+        cables = self.cable_dofs()
+        scatter(2, b["cable_stiffness"], cables)
+        scatter(1, b["cable_damping"], cables)
+        couplings = (self.control.coupling_rows[:, None], self.control.coupling_cols[:, None])
+        scatter(2, b["coupling_stiffness"][:, None, None], *couplings)
+        scatter(1, b["coupling_damping"][:, None, None], *couplings)
+        hinges = m.free_hinges   # a free joint's law on its own coordinate's diagonal
+        diagonal = m.hinge_dofs[hinges][:, None]
+        scatter(2, b["hinge_d_theta"][hinges][:, None, None], diagonal)
+        scatter(1, b["hinge_d_rate"][hinges][:, None, None], diagonal)
+        return out[0], out[1], out[2]
+
     def pattern(self) -> tuple[np.ndarray, np.ndarray]:
         """(indptr, indices) of the matrices :meth:`assemble` makes for the current numbering."""
         return self._indptr, self._indices

@@ -157,6 +157,9 @@ def reduce_linked(links, assembler, state, full, matrices: bool, inertia: bool,
             out.rates_tangent = _rates_tangent(assembler, state, native, links, columns, free_cols, small)
         out.velocity_derivative = velocity_derivative
         out.dependent_rows = dep_rows
+        #: J on every column of the dependent nodes' slots (constrained ones too), and those columns: a held
+        #: joint's reaction row (latdyn/analyses/joint_force_sensitivities.py)
+        out.jacobian, out.jacobian_columns = J, columns
     return out
 
 
