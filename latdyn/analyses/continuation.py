@@ -244,6 +244,7 @@ class Path:
     # ------------------------------------------------------------------ rows and summary
     def record(self, state, load_factor: float, step: ArcStep | None = None) -> None:
         """A row; ``step``: the arc-length step that led to it, for its sensitivities."""
+        self.probes.load_factor = load_factor   # the joint forces' reactions at the row's λ
         self.writer.record(load_factor, self.probes.values(state), state=state.as_dict(),
                            frame=load_step_frame(self.assembler, self.writer, state))
         if self.sensitivities is not None:

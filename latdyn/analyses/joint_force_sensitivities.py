@@ -31,8 +31,8 @@ columns and the discrete adjoint seeds (latdyn/analyses/adjoint_sensitivities.py
 
 Not differentiated (refused by :func:`refusal`, naming ``solve.sensitivities``): a joint whose torque or
 force a controller drives beside a controller with states or a sampled one, or in a model with guides; a joint
-force a controller reads; static paths (a static row's joint force is the one evaluation of csrc/rows.c
-``latdyn_joint_forces``, whose applied torques and loads are at load factor 1, not the row's λ).
+force a controller reads; static paths (their rows' joint forces are evaluated at the row's λ,
+``ProbeSet.load_factor``, but their derivatives through λ along the path are not built).
 """
 from __future__ import annotations
 

@@ -538,17 +538,17 @@ class NativeModel:
         self.library.latdyn_controller_outputs_at(self.model_ref, self.work_ref, ctypes.byref(self.configuration(state)),
                                                   float(state.t))
 
-    def joint_forces(self, state) -> np.ndarray:
+    def joint_forces(self, state, load_factor: float = 1.0) -> np.ndarray:
         """The force each joint (hinge or guide, in model order) applies on its coordinate at ``state``
         (``latdyn_joint_forces``, csrc/rows.c: the rules of
-        :meth:`latdyn.results.probes.ProbeSet.joint_forces`), evaluated on a copy of ``state``; the
-        evaluation's outputs are left in Work."""
+        :meth:`latdyn.results.probes.ProbeSet.joint_forces`), evaluated on a copy of ``state`` at the
+        static path's ``load_factor`` (1 in a transient); the evaluation's outputs are left in Work."""
         out = np.zeros(self.model.n_hinges)
         if len(out):
             held = state.copy()
             self.laws.bind_inputs()
             self.library.latdyn_joint_forces(self.model_ref, self.work_ref, ctypes.byref(self.configuration(held)),
-                                             float(state.t), out.ctypes.data)
+                                             float(state.t), float(load_factor), out.ctypes.data)
         return out
 
     def energies(self, state) -> tuple[float, float, float]:

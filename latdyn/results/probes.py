@@ -61,6 +61,9 @@ class ProbeSet:
         self._need_momentum = "momentum" in kinds
         self._need_sections = "element" in kinds
         self._joint_forces = None  # (key of the state, forces) of the last call of joint_forces
+        #: the static path's load factor of the row being recorded (its loads, gravity and applied torques
+        #: ramped: the joint forces' reactions at that λ); 1 in a transient
+        self.load_factor = 1.0
         self._continuous = any(p.kind == "controller" and p.state is None  # a continuous controller's output
                                and not self.model.scene.controllers[p.controller].sampled for p in self.probes)
         self._need_cables = "cable" in kinds
@@ -112,10 +115,11 @@ class ProbeSet:
           holds it, the multiplier of its constraint: r (the residual of that coordinate's equation,
           the law in it). That is the value reported: the drive torque a prescribed angle needs, the
           load a latch carries, the load a stop holds."""
-        key = (id(state), float(state.t), state.theta.tobytes(), state.theta_dot.tobytes())
+        key = (id(state), float(state.t), state.theta.tobytes(), state.theta_dot.tobytes(), self.load_factor)
         if self._joint_forces is not None and self._joint_forces[0] == key:  # the same row's state
             return self._joint_forces[1]
-        out = self.assembler.native().joint_forces(state) if len(self.model.hinges) else np.zeros(0)
+        out = (self.assembler.native().joint_forces(state, self.load_factor) if len(self.model.hinges)
+               else np.zeros(0))
         self._joint_forces = (key, out)
         return out
 

@@ -47,14 +47,15 @@ void latdyn_controller_outputs_at(const Model *m, Work *w, const Configuration *
  * - A joint without a coordinate (prescribed, latched, stuck by friction, resting on its rigid stop:
  *   latdyn/timeloop/events.py locks it there) applies the reaction that holds it: r.
  * `held` is the caller's copy of the state: with rigid links its dependent nodes are completed in it.
+ * `load_factor`: the static path's λ (the loads, gravity and applied torques it ramps), 1 in a transient.
  * Work is left as that evaluation leaves it. */
-void latdyn_joint_forces(const Model *m, Work *w, Configuration *held, double t, double *out)
+void latdyn_joint_forces(const Model *m, Work *w, Configuration *held, double t, double load_factor, double *out)
 {
     const int64_t n = m->n_dofs;
     if (m->n_hinges == 0) return;
     m->time_laws(t, w->laws);
     if (m->links) complete_links(m, held);
-    evaluate(m, held, w, w->laws, t, 0, 1, 1.0);
+    evaluate(m, held, w, w->laws, t, 0, 1, load_factor);
     if (m->links) reduce_links(m, w, held, 0.0, 0.0, 0, 0);
     for (int64_t j = 0; j < m->n_hinges; ++j) {
         const int64_t d = m->hinge_dofs[j];
@@ -197,7 +198,7 @@ static void record_row(const Model *m, Work *w, Rows *rows, const Configuration 
         memcpy(saved + T, w->hinge_work_torque, sizeof(double) * H);
         memcpy(saved + T + H, w->hinge_damper_torque, sizeof(double) * H);
         copy_configuration(m, c, rows->held);
-        latdyn_joint_forces(m, w, rows->held, t, rows->joint_forces + H * r);
+        latdyn_joint_forces(m, w, rows->held, t, 1.0, rows->joint_forces + H * r);
         memcpy(w->total, saved, sizeof(double) * T);
         memcpy(w->hinge_work_torque, saved + T, sizeof(double) * H);
         memcpy(w->hinge_damper_torque, saved + T + H, sizeof(double) * H);
