@@ -68,9 +68,10 @@ def _run(scene: dict, names, **parameters):
     data = copy.deepcopy(scene)
     data["parameters"].update(parameters)
     data["solve"]["sensitivities"] = list(names)
-    out = Path(tempfile.mkdtemp(prefix="arc-"))
-    result = latdyn.run(latdyn.load_scene(data), out)
-    return result, json.loads((out / "summary.json").read_text())
+    with tempfile.TemporaryDirectory(prefix="arc-") as folder:   # removed after the summary is read
+        out = Path(folder)
+        result = latdyn.run(latdyn.load_scene(data), out)
+        return result, json.loads((out / "summary.json").read_text())
 
 
 def _richardson(scene: dict, name: str) -> dict:
