@@ -239,7 +239,7 @@ def _section_sensor(model, probe):
     """An element's section force as :func:`_sensor` gives it (latdyn.results.probes.section_forces: the
     kernel's [N, T, M_y', M_z'], a planar model's turned moments back in the beam's axes by β,
     M_y = cos β M_y' − sin β M_z', M_z = sin β M_y' + cos β M_z'), by the element's fourteen coordinates."""
-    from latdyn.results.probes import SECTION_QUANTITIES
+    from latdyn.scene.loader import ELEMENT_QUANTITIES as SECTION_QUANTITIES   # the probe's order
 
     e = int(model.beam_elements[probe.beam][probe.element])
     quantity = SECTION_QUANTITIES.index(probe.quantity)

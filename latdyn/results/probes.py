@@ -6,6 +6,7 @@ import numpy as np
 from latdyn.assembly.assembler import Assembler, State
 from latdyn.assembly.native_model import STATE_FIELDS
 from latdyn.model.planar import section_moments_back
+from latdyn.scene.loader import ELEMENT_QUANTITIES
 
 _COMPONENT = {"x": 0, "y": 1, "z": 2}
 
@@ -13,7 +14,8 @@ _COMPONENT = {"x": 0, "y": 1, "z": 2}
 ENERGIES = ("kinetic", "strain", "potential")
 
 #: the columns of :func:`section_forces`, as spelled by ``{element: ..., quantity: ...}`` probes
-SECTION_QUANTITIES = ("axial_force", "torque", "moment_y", "moment_z")
+#: the section forces a probe records, in the kernel's order (the scene's element probe quantities)
+SECTION_QUANTITIES = ELEMENT_QUANTITIES
 
 
 def cable_value(cables, state: np.ndarray, name: str, quantity: str) -> float:
