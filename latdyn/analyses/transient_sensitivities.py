@@ -98,6 +98,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
 from latdyn.analyses.sensitivities import (_BODY_KEY, _CABLE_KEY, _GUIDE_KEY, _HINGE_KEY, _INITIAL_VELOCITY_KEY,
                                            _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE, ParameterDerivatives)
 from latdyn.analyses.step_matrix import ExactStepMatrix
@@ -195,6 +196,10 @@ class TransientSensitivities(ParameterDerivatives):
         if sampled is not None:  # the sample at t = 0 (before the start): its held δy for ∂r/∂p
             carried = {**carried, **sampled.start(state, k)}
         rhs = self.residual_derivatives(state, 1.0, inertia=True) + ev.combined(0.0, 1.0, 0.0) @ dv
+        dq = zero
+        if self.geometry is not None:   # geometry parameters move the start: δq_0 = δX, through the exact K
+            dq = self.geometry.initial_tangent()
+            rhs = rhs + self._matrices(state)[2] @ dq
         if states is not None:
             self.controllers.held = {}
         if split.n_massless == 0:   # Δ = −M⁻¹r: one factorization for every column
@@ -203,7 +208,7 @@ class TransientSensitivities(ParameterDerivatives):
             dvdot = np.column_stack([consistent_acceleration(model, SimpleNamespace(residual=rhs[:, c],
                                                                                     combined=ev.combined))
                                      for c in range(k)])
-        return {**carried, "dv": dv, "dvdot": dvdot, "da": dvdot.copy()}
+        return {**carried, "dq": dq, "dv": dv, "dvdot": dvdot, "da": dvdot.copy()}
 
     def _initial_velocities(self) -> np.ndarray:
         """δv_0 (n, k): the initial state's free velocities with the rigid motion's components moved by
@@ -231,6 +236,7 @@ class TransientSensitivities(ParameterDerivatives):
         neither M nor K, or at rest in equilibrium (module docstring)."""
         moving = [key for key in self.derivatives
                   if _SECTION_KEY.match(key) or _BODY_KEY.match(key) or _INITIAL_VELOCITY_KEY.match(key)
+                  or GEOMETRY_KEY.match(key)
                   or (_HINGE_KEY.match(key) and _HINGE_KEY.match(key)["law"] == "stiffness")
                   or _CABLE_KEY.match(key) or (_GUIDE_KEY.match(key) and _GUIDE_KEY.match(key)["law"] == "stiffness")
                   or (_LOAD_KEY.match(key) and self.scene.loads[int(_LOAD_KEY.match(key)["load"])].frame != "global")]

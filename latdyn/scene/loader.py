@@ -327,6 +327,9 @@ class Beam:
     elements: int
     y_axis: np.ndarray      # (3,) unit, normal to x = start -> end
     rigid: bool = False     # one rigid link (elements is then 1 and no elements are meshed)
+    #: the ``y_axis`` as given (unit, before its x part is taken off), None where global z × x is taken: the
+    #: frame's derivative by a geometry parameter (latdyn/analyses/geometry_sensitivities.py) follows the rule
+    y_given: np.ndarray | None = None
 
     @property
     def length(self) -> float:
@@ -1240,12 +1243,13 @@ class _Reader:
         x = d / length
         if "y_axis" in spec:
             y_key = _join(key, "y_axis")
-            y = _direction(self.vector(spec["y_axis"], y_key, nonzero=True))
+            y = y_given = _direction(self.vector(spec["y_axis"], y_key, nonzero=True))
             y = y - np.dot(y, x) * x                       # Gram-Schmidt
             if np.linalg.norm(y) < 1e-8:
                 self.fail(y_key, f"expected a direction not parallel to the beam (x = {x.round(12).tolist()})",
                           spec["y_axis"])
         else:
+            y_given = None
             y = np.array([-x[1], x[0], 0.0])               # global Z × x, written out (np.cross is slow)
             if math.hypot(x[0], x[1]) < 1e-9:
                 y = np.array([0.0, 1.0, 0.0])
@@ -1253,7 +1257,7 @@ class _Reader:
         if not rigid:
             self.n_elements += elements
         return Beam(name=name, start=start, end=end, section=section, elements=elements,
-                    y_axis=y / math.sqrt(float(np.dot(y, y))), rigid=rigid)
+                    y_axis=y / math.sqrt(float(np.dot(y, y))), rigid=rigid, y_given=y_given)
 
     # indices of up to 18 digits: int() refuses more than 4300, and any index that long is out of range
     _POINT = re.compile(r"^(?P<name>[^.\[\]]+)\.(?:(?P<end>start|end)|node\[(?P<node>[+-]?\d{1,18})\])$")

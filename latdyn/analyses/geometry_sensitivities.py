@@ -1,0 +1,239 @@
+"""Sensitivities by geometry parameters: a parameter that places the structure (docs/parameters.md,
+"Geometry parameters").
+
+A parameter used in a body's ``at``, a beam's free end ``from``/``to`` or an end's ``offset`` moves the
+reference configuration X(p): every node's position at t = 0 (a beam's inner nodes interpolate its
+grid points), each element's undeformed length L0 and its nodal frame at θ = 0 in node axes E0 (from
+the beam's direction and ``y_axis``), and the grid-point offsets r_g. The model's state holds absolute
+positions and frames (State.x, State.T; every node starts with T = I), so the solution depends on p
+
+(a) through the start: δq_0 = (δX of the free nodes, δπ = 0, δθ = 0), and
+(b) through the residual at a fixed state: ∂r/∂p = Σ_e (∂F^e/∂(reference data)) · δ(reference data)_e,
+    the element's internal force, and with inertia or gravity M a + g − Q, differentiated along one
+    variation of its reference data by the generated ``beam_internal_force_D_reference`` and
+    ``beam_inertia_force_D_reference`` (codegen/derivation.py ``reference_first_variation``):
+
+        δx_i  = δX of end i's node where that node is fixed (a free node's position is the state's),
+        δo_i  = T_j δr_g (the offset's global form moved),
+        ψ_i   = T_j R(a, θ) φ = T_e E0ᵀ φ,  δE0 = skew(φ) E0 (the frame turned, spatial at the end),
+        δL0   = x̂ · (δB − δA) / n   (A, B the beam's grid points, n its elements).
+
+φ is the turn of the beam's frame [x̂, ŷ, x̂ × ŷ]: x̂ = (B − A)/|B − A| and ŷ the loader's rule (``y_axis``
+less its x̂ part, or global z × x̂), so φ = ½ Σ e_k × δe_k with δx̂ = (I − x̂x̂ᵀ)(δB − δA)/|B − A| and δŷ from
+that rule; in a planar model the frame is [x̂, n × x̂, n] and φ = x̂ × δx̂. A point probe at a beam's end
+moves with its offset (δ(x + T r) gains T δr), and its displacement's reference with δX + δr.
+
+Refused (:func:`geometry_refusal`): hinge axes and ``y_axis`` as parameters, a moved prescribed body,
+rigid links, guides, cables, events (latches, stops), controllers, an initial angular velocity, a point
+leaving a planar model's plane, loads at a moved offset, static analyses other than load control; the
+discrete adjoint refuses geometry parameters (latdyn/analyses/sensitivities.py ``adjoint_refusal``).
+"""
+from __future__ import annotations
+
+import re
+
+import numpy as np
+
+from latdyn.model.model import FIXED, FREE
+
+__all__ = ["GEOMETRY_KEY", "geometry_refusal", "ReferenceGeometry"]
+
+#: a number that places the structure: a body's reference point, a beam's free end point, an end's offset
+GEOMETRY_KEY = re.compile(r"^(?:bodies\.(?P<body>[^.]+)\.at|beams\.(?P<beam>.+)\.(?P<side>from|to)"
+                          r"(?P<offset>\.offset)?)\[(?P<axis>[0-2])\]$")
+
+
+def geometry_refusal(scene, name: str, used: str) -> str | None:
+    """Why the sensitivity by ``name``, used at the geometry key ``used``, is not computed exactly here, or
+    None (module docstring)."""
+    match = GEOMETRY_KEY.match(used)
+    solve = scene.solve
+    where = f"parameter {name!r} is used at {used}, a point of the reference configuration"
+    if solve.analysis == "static" and solve.method != "load-control":
+        return f"{where}: geometry sensitivities of static paths are computed under load control only, not {solve.method}"
+    if match["body"] is not None and scene.bodies[match["body"]].prescribed:
+        return f"{where}: the body's motion is prescribed, and a moved prescribed body is not differentiated yet"
+    if any(beam.rigid for beam in scene.beams.values()) or any(b.guide is not None for b in scene.bodies.values()):
+        return f"{where}: geometry sensitivities with rigid links or guides are not computed yet"
+    if scene.cables:
+        return f"{where}: geometry sensitivities with cables (their attachment points move) are not computed yet"
+    if any(h.lock_at is not None or h.limits is not None for _, _, h in scene.hinges):
+        return f"{where}: geometry sensitivities through events (lock_at, limits) are not computed yet"
+    if getattr(scene, "controllers", None):
+        return f"{where}: geometry sensitivities with controllers are not computed yet"
+    if np.any(np.asarray(scene.initial_velocity.angular, float) != 0.0):
+        return (f"{where}: with an initial angular velocity the initial velocities move with the points "
+                "(ω × δX), which is not differentiated yet")
+    if match["offset"] is not None:
+        side = "start" if match["side"] == "from" else "end"
+        for k, load in enumerate(scene.loads):
+            at = load.at
+            ends_at = {"start": 0, "end": scene.beams[match["beam"]].elements}[side]
+            if getattr(at, "beam", None) == match["beam"] and getattr(at, "node", None) == ends_at:
+                return f"{where}: loads[{k}] acts at the moved offset, which is not differentiated yet"
+    return None
+
+
+class ReferenceGeometry:
+    """The reference configuration's derivative by the geometry parameters of a run (module docstring):
+    :meth:`initial_tangent` (δq_0), :meth:`add` (∂r/∂p at a state) and :meth:`point_moves` (a probe
+    point's offset and reference moved)."""
+
+    def __init__(self, owner):
+        self.owner = owner
+        self.scene, self.model, self.kernels = owner.scene, owner.model, owner.kernels
+        model, k = self.model, len(owner.names)
+        self.k = k
+        #: column -> {key: dvalue/dp} of the geometry uses
+        uses: dict[int, dict[str, float]] = {}
+        for key, laws in owner.derivatives.items():
+            if GEOMETRY_KEY.match(key):
+                for column, law in laws.items():
+                    uses.setdefault(column, {})[key] = float(law.value(0.0, 0.0, 0.0))
+        self.active = bool(uses)
+        n_nodes, n_elements = len(model.nodes), len(model.element_nodes)
+        #: δX of every node (n_nodes, 3, k), the elements' reference variations (n_elements, 19, k) less the
+        #: parts that depend on the state (ψ and δo are in node axes here: φ and δr_g), δr_g of the beams' ends
+        self.node_moves = np.zeros((n_nodes, 3, k))
+        self.variations = np.zeros((n_elements, 19, k))
+        self.end_offsets: dict[tuple[str, int], np.ndarray] = {}
+        for column, by_key in uses.items():
+            self._column(column, by_key)
+        if model.plane is not None and np.any(self.node_moves[:, model.plane] != 0.0):
+            from latdyn.errors import SceneError
+            raise SceneError(self.scene.file, "solve.sensitivities",
+                             "a geometry parameter moves a point off the plane of the planar model; expected "
+                             "solve.planar: off for such a parameter (docs/parameters.md, \"Geometry parameters\")")
+        self.elements = np.flatnonzero(np.any(self.variations != 0.0, axis=(1, 2)))
+
+    # ------------------------------------------------------------------ the reference data moved
+    def _column(self, column: int, by_key: dict) -> None:
+        scene, model = self.scene, self.model
+        body_at: dict[str, np.ndarray] = {}
+        end_point: dict[tuple[str, str], np.ndarray] = {}
+        end_offset: dict[tuple[str, str], np.ndarray] = {}
+        for key, slope in by_key.items():
+            m = GEOMETRY_KEY.match(key)
+            axis = int(m["axis"])
+            if m["body"] is not None:
+                body_at.setdefault(m["body"], np.zeros(3))[axis] += slope
+            else:
+                target = end_offset if m["offset"] else end_point
+                target.setdefault((m["beam"], m["side"]), np.zeros(3))[axis] += slope
+        for body, moved in body_at.items():
+            self.node_moves[model.body_node[body], :, column] += moved
+        for beam in scene.beams.values():
+            grid = []
+            for side, end in (("from", beam.start), ("to", beam.end)):
+                offset = end_offset.get((beam.name, side), np.zeros(3))
+                point = (body_at.get(end.body, np.zeros(3)) + offset) if end.body is not None \
+                    else end_point.get((beam.name, side), np.zeros(3))
+                grid.append(point)
+                if np.any(offset):
+                    self.end_offsets.setdefault((beam.name, 0 if side == "from" else 1), np.zeros((3, self.k)))[
+                        :, column] += offset
+            nodes, elements = model.beam_nodes[beam.name], model.beam_elements[beam.name]
+            n = len(elements)
+            for i, node in enumerate(nodes[1:-1], start=1):   # inner nodes interpolate the grid points
+                self.node_moves[node, :, column] = grid[0] + (grid[1] - grid[0]) * i / n
+            for which, end in ((0, beam.start), (1, beam.end)):
+                if end.body is None:
+                    self.node_moves[nodes[-1 if which else 0], :, column] = grid[which]
+            if not (np.any(grid[0]) or np.any(grid[1])):
+                continue
+            chord = beam.end.point - beam.start.point
+            length = float(np.linalg.norm(chord))
+            x = chord / length
+            moved = grid[1] - grid[0]
+            dx = (moved - x * (x @ moved)) / length
+            phi = np.cross(x, dx) if model.plane is not None else _frame_turn(beam, x, dx)
+            v = self.variations[elements, :, column]
+            v[:, 12:15] = v[:, 15:18] = phi
+            v[:, 18] = x @ moved / n
+            v[0, 6:9] = end_offset.get((beam.name, "from"), np.zeros(3))
+            v[-1, 9:12] = end_offset.get((beam.name, "to"), np.zeros(3))
+            self.variations[elements, :, column] = v
+        # the fixed ends' reference points (a free node's position is the state's)
+        fixed = np.array([node.kind == FIXED for node in model.nodes], bool)
+        for end in (0, 1):
+            ends = model.element_nodes[:, end]
+            self.variations[:, 3 * end:3 * end + 3, column] = np.where(
+                fixed[ends][:, None], self.node_moves[ends, :, column], 0.0)
+
+    # ------------------------------------------------------------------ what the analyses use
+    def initial_tangent(self) -> np.ndarray:
+        """δq_0 on the free coordinates (n_dofs, k): the free nodes' reference points moved."""
+        model = self.model
+        full = np.zeros((model.n_total + 1, self.k))
+        free = np.array([node.kind == FREE for node in model.nodes], bool)
+        slots = model.node_dofs[:, 0:3]
+        keep = free[:, None] & (slots < model.n_dofs)
+        full[slots[keep]] = self.node_moves[keep]
+        return full[:model.n_dofs]
+
+    def point_moves(self, probe, state) -> tuple[np.ndarray, np.ndarray]:
+        """(δ of the point's current position at a fixed state, δ of its position at t = 0), (3, k) each, for a
+        point probe: its offset r (node axes) moved at a beam's end (T δr), its reference by δX + δr."""
+        node, _ = self.model.point(probe.point)
+        ref = probe.point
+        offset = np.zeros((3, self.k))
+        if getattr(ref, "beam", None) is not None:
+            last = len(self.model.beam_nodes[ref.beam]) - 1
+            which = 0 if ref.node == 0 else 1 if ref.node == last else None
+            if which is not None:
+                offset = self.end_offsets.get((ref.beam, which), offset)
+        return state.T[node] @ offset, self.node_moves[node] + offset
+
+    def add(self, state, total: np.ndarray, load_factor: float, inertia: bool) -> None:
+        """Add ∂r/∂p of the geometry parameters at ``state`` into ``total`` (all coordinates, k columns): the
+        generated derivatives of F and, with inertia or gravity, of M a + g − Q along each element's variation."""
+        elements = self.elements
+        if not len(elements):
+            return
+        model, k = self.model, self.k
+        geometry, rates, accelerations = self.owner.assembler.native().element_inputs(state)
+        at = geometry[elements]
+        m = len(elements)
+        variation = self.variations[elements].copy()                        # (m, 19, k)
+        frames = (at[:, 12:21].reshape(m, 3, 3), at[:, 21:30].reshape(m, 3, 3))
+        for end in (0, 1):
+            turn = frames[end] @ np.swapaxes(model.element_frames0[elements, end], 1, 2)   # T_j R(a, θ)
+            psi = slice(12 + 3 * end, 15 + 3 * end)
+            variation[:, psi] = turn @ variation[:, psi]
+            body = state.T[model.element_nodes[elements, end]]
+            off = slice(6 + 3 * end, 9 + 3 * end)
+            variation[:, off] = body @ variation[:, off]
+        rows = np.ascontiguousarray(variation.transpose(2, 0, 1).reshape(k * m, 19))
+        repeat = lambda a: np.ascontiguousarray(np.tile(a, (k, 1)))  # noqa: E731
+        sections = model.element_sections[elements]
+        forces = np.asarray(self.kernels.beam_internal_force_D_reference(repeat(at), repeat(sections), rows)[1])
+        forces = forces.reshape(k, m, 14)
+        gravity = load_factor * np.asarray(self.owner.assembler.gravity, float)
+        massive = np.any(sections[:, 5:8] != 0.0, axis=1)
+        if (inertia or np.any(gravity)) and np.any(massive):
+            on = np.flatnonzero(massive)
+            rate = rates[elements[on]] if inertia else np.zeros((len(on), 14))
+            acceleration = accelerations[elements[on]] if inertia else np.zeros((len(on), 14))
+            picked = np.ascontiguousarray(variation[on].transpose(2, 0, 1).reshape(k * len(on), 19))
+            moved = self.kernels.beam_inertia_force_D_reference(
+                repeat(at[on]), repeat(rate), repeat(acceleration), repeat(sections[on]),
+                np.ascontiguousarray(np.tile(gravity[None], (k * len(on), 1))), picked)[1]
+            forces[:, on] += np.asarray(moved).reshape(k, len(on), 14)
+        for column in range(k):
+            np.add.at(total[:, column], model.element_dofs[elements], forces[column])
+
+
+def _frame_turn(beam, x: np.ndarray, dx: np.ndarray) -> np.ndarray:
+    """φ with δE = skew(φ) E for the beam's frame E = [x̂, ŷ, x̂ × ŷ] (the loader's rule for ŷ,
+    latdyn/scene/loader.py ``beam``) when x̂ moves by δx̂ (module docstring)."""
+    given = getattr(beam, "y_given", None)
+    if given is None and np.hypot(x[0], x[1]) >= 1e-9:
+        raw, draw = np.array([-x[1], x[0], 0.0]), np.array([-dx[1], dx[0], 0.0])
+    else:
+        y0 = np.array([0.0, 1.0, 0.0]) if given is None else np.asarray(given, float)
+        raw, draw = y0 - (y0 @ x) * x, -(y0 @ dx) * x - (y0 @ x) * dx
+    size = float(np.linalg.norm(raw))
+    y = raw / size
+    dy = (draw - y * (y @ draw)) / size
+    z, dz = np.cross(x, y), np.cross(dx, y) + np.cross(x, dy)
+    return 0.5 * (np.cross(x, dx) + np.cross(y, dy) + np.cross(z, dz))
