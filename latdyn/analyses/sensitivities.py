@@ -9,7 +9,9 @@ Newton made the residual r(q; λ, p) vanish. Its derivative by a parameter p is 
 in the coordinates of the configuration update (translations added, rotations T ← exp(skew δπ) T,
 hinge angles added): rotation sensitivities live in the tangent space, as the step's own
 increments do. The row at λ = 0 is the initial configuration, which Newton does not solve for and
-which no supported parameter moves: its sensitivities are zero.
+which only geometry parameters move (δq_0 = δX, :mod:`latdyn.analyses.geometry_sensitivities`); for
+the rest its sensitivities are zero. Geometry parameters' ∂r/∂p: the generated derivatives of the
+element forces along the reference data's variation (the same module).
 
 ∂r/∂p comes from the generated kernels the residual itself is made of, by their linearity:
 

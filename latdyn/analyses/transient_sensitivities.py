@@ -31,7 +31,8 @@ factorised afresh. ∂r/∂p comes from the generated kernels by their linearity
 accepted step sizes are held: a fixed-step run (its cuts after a Newton failure included) is
 differentiated exactly; adaptive step control is refused (its step sizes depend on p).
 
-At t = 0 the configuration depends on no supported parameter (δq_0 = 0); the velocities do through
+At t = 0 the configuration depends on geometry parameters only (δq_0 = δX, K δq_0 added to the start's ∂r/∂p
+with the exact K: latdyn/analyses/geometry_sensitivities.py); the velocities do through
 ``initial_velocity.linear`` and ``.angular`` only, in which they are affine at a fixed ``about``
 (:func:`latdyn.assembly.initial.initial_velocities`): δv_0 = v_0(its values + their derivatives) −
 v_0(its values), exactly. The start's consistent accelerations
@@ -175,7 +176,8 @@ class TransientSensitivities(ParameterDerivatives):
     # ------------------------------------------------------------------ t = 0
     def start(self, state) -> dict:
         """The carried sensitivities at t = 0 (after the integrator's start made ``state``'s
-        accelerations consistent): δq = δv = 0, δv̇ = δa = the start's derivative."""
+        accelerations consistent): δq = δX of geometry parameters (else 0), δv = δv_0, δv̇ = δa = the start's
+        derivative."""
         model, k = self.model, len(self.names)
         n = model.n_dofs
         zero = np.zeros((n, k))
