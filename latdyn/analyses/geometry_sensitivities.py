@@ -99,7 +99,8 @@ class ReferenceGeometry:
         self.end_offsets: dict[tuple[str, int], np.ndarray] = {}
         for column, by_key in uses.items():
             self._column(column, by_key)
-        if model.plane is not None and np.any(self.node_moves[:, model.plane] != 0.0):
+        if model.plane is not None and (np.any(self.node_moves[:, model.plane] != 0.0) or any(
+                np.any(offset[model.plane] != 0.0) for offset in self.end_offsets.values())):
             from latdyn.errors import SceneError
             raise SceneError(self.scene.file, "solve.sensitivities",
                              "a geometry parameter moves a point off the plane of the planar model; expected "
