@@ -208,12 +208,17 @@ output:
     hinge: {hinge: arm.start, quantity: angle}
 """
 
-def _richardson(text: str, name: str, relative_step: float) -> dict:
+def _richardson(text: str, name: str, relative_step: float, landed: bool = False) -> dict:
     """d(probe)/d(name) over the rows by Richardson-extrapolated central differences of whole runs (the
     perturbation varied, the step fixed), as tests/test_sensitivities_transient.py's ``_richardson`` but with
-    the step ``relative_step`` |p| (its 1e-2 leaves a truncation of 8e-7 on the knee's position here)."""
+    the step ``relative_step`` |p| (its 1e-2 leaves a truncation of 8e-7 on the knee's position here);
+    ``landed``: the runs ask for the sensitivity by ``name`` too, so that their steps land on an event to 1e-12
+    (without, to 1e-7: the differences' error through a compliant stop's onset was 0.15)."""
     data = yaml.safe_load(text)
-    del data["solve"]["sensitivities"]
+    if landed:
+        data["solve"]["sensitivities"] = [name]
+    else:
+        del data["solve"]["sensitivities"]
     plain = yaml.safe_dump(data)
     p0 = data["parameters"][name]
     h = relative_step * abs(p0)
@@ -224,11 +229,11 @@ def _richardson(text: str, name: str, relative_step: float) -> dict:
     return {k: (4 * central[1][k] - central[0][k]) / 3 for k in central[0]}
 
 
-def _agree(result, text: str, name: str, tolerance: float, relative_step: float = 3e-3) -> float:
+def _agree(result, text: str, name: str, tolerance: float, relative_step: float = 3e-3, landed: bool = False) -> float:
     """The largest error of ``result``'s sensitivities by ``name`` against :func:`_richardson`, relative to
     each probe's largest sensitivity; asserted ≤ ``tolerance``."""
     worst = 0.0
-    for probe, expected in _richardson(text, name, relative_step).items():
+    for probe, expected in _richardson(text, name, relative_step, landed).items():
         scale = np.abs(expected).max()
         if scale < 1e-12:   # a probe the parameter does not move (a displacement's start)
             assert np.abs(result.sensitivities[(probe, name)]).max() < 1e-12, (probe, name)
@@ -331,3 +336,44 @@ def test_adjoint_refuses_geometry_parameters():
     with pytest.raises(SceneError) as raised:
         latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
     assert raised.value.key == "solve.sensitivity_method" and "geometry" in str(raised.value)
+
+
+# ---------------------------------------------------------------------------------------------- through events
+import test_sensitivities_contact as contact  # noqa: E402
+import test_sensitivities_events as events  # noqa: E402
+
+#: tests/test_sensitivities_events.py's planar latch with its tip body's position the parameter L
+LATCH_BY_LENGTH = (events.LATCH_PLANAR.replace("parameters: {k: 2.0,", "parameters: {L: 1.0, k: 2.0,")
+                   .replace("tip: {at: [1.0, 0, 0]", 'tip: {at: ["L", 0, 0]')
+                   .replace("sensitivities: [k, c, EI, rho, m]", "sensitivities: [L]"))
+#: its 3D wheel bouncing off a stop with restitution 0.5, the wheel's position moved out along the arm
+STOP_BY_PLACE = (events.STOP_3D.replace("parameters: {k: 1.0,", "parameters: {sc: 1.0, k: 1.0,")
+                 .replace("wheel: {at: [0.6666666666666666, 0.3333333333333333, 0.6666666666666666]",
+                          'wheel: {at: ["0.6666666666666666*sc", 0.3333333333333333, "0.6666666666666666*sc"]')
+                 .replace("sensitivities: [k, c, J, m, EI, rho]", "sensitivities: [sc]"))
+
+
+@pytest.mark.parametrize("text, name", [(LATCH_BY_LENGTH, "L"), (STOP_BY_PLACE, "sc")], ids=["planar_latch", "3d_stop"])
+def test_through_a_latch_and_a_stop(text, name):
+    """"How does the latch shock change if I move this joint": a planar arm latching, its tip body's position
+    moved (measured 2.5e-9; the event time to 1e-7: δt_latch = 0.509 per unit L), and a 3D wheel bouncing off its
+    stop with restitution 0.5, moved along the arm (measured 1.4e-8), against tests/test_sensitivities_events.py's
+    Richardson differences (their perturbation 1e-4 relative keeps the event in its step), event times included."""
+    result = events._run(text)
+    assert len(result.summary["event_sensitivities"]) == 1
+    assert events._agree(result, text, name) <= 1e-6
+
+
+#: tests/test_sensitivities_contact.py's wheel driven into a compliant stop (Hunt–Crossley), moved along its arm
+CONTACT_BY_PLACE = (contact.WHEEL.replace("parameters: {kc: 300.0,", "parameters: {sc: 1.0, kc: 300.0,")
+                    .replace("wheel: {at: [0.6666666666666666, 0.3333333333333333, 0.6666666666666666]",
+                             'wheel: {at: ["0.6666666666666666*sc", 0.3333333333333333, "0.6666666666666666*sc"]')
+                    .replace("sensitivities: [kc, nc, cc, k]", "sensitivities: [sc]"))
+
+
+def test_through_a_compliant_stop():
+    """The wheel through its compliant stop's onset (landed on) and release, moved along the arm (measured
+    3.0e-9 of each probe's largest sensitivity, the reference runs landing as this one does)."""
+    result = latdyn.run(latdyn.load_scene(yaml.safe_load(CONTACT_BY_PLACE)))
+    assert result.probes["angle"].max() > 0.06   # into the stop, past its limit 0.02
+    assert _agree(result, CONTACT_BY_PLACE, "sc", 1e-6, relative_step=1e-4, landed=True) <= 1e-6

@@ -23,8 +23,10 @@ less its x̂ part, or global z × x̂), so φ = ½ Σ e_k × δe_k with δx̂ = 
 that rule; in a planar model the frame is [x̂, n × x̂, n] and φ = x̂ × δx̂. A point probe at a beam's end
 moves with its offset (δ(x + T r) gains T δr), and its displacement's reference with δX + δr.
 
+Through latches, rigid stops and compliant stops the event machinery of
+latdyn/analyses/transient_sensitivities.py takes them as any parameter (its impulse weight's ∂/∂p from ∂r/∂p).
 Refused (:func:`geometry_refusal`): hinge axes and ``y_axis`` as parameters, a moved prescribed body,
-rigid links, guides, cables, events (latches, stops), controllers, an initial angular velocity, a point
+rigid links, guides, cables, controllers, an initial angular velocity, a point
 leaving a planar model's plane, loads at a moved offset, static analyses other than load control; the
 discrete adjoint refuses geometry parameters (latdyn/analyses/sensitivities.py ``adjoint_refusal``).
 """
@@ -57,8 +59,6 @@ def geometry_refusal(scene, name: str, used: str) -> str | None:
         return f"{where}: geometry sensitivities with rigid links or guides are not computed yet"
     if scene.cables:
         return f"{where}: geometry sensitivities with cables (their attachment points move) are not computed yet"
-    if any(h.lock_at is not None or h.limits is not None for _, _, h in scene.hinges):
-        return f"{where}: geometry sensitivities through events (lock_at, limits) are not computed yet"
     if getattr(scene, "controllers", None):
         return f"{where}: geometry sensitivities with controllers are not computed yet"
     if np.any(np.asarray(scene.initial_velocity.angular, float) != 0.0):
