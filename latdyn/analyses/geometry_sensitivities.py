@@ -27,7 +27,9 @@ Through latches, rigid stops and compliant stops the event machinery of
 latdyn/analyses/transient_sensitivities.py takes them as any parameter (its impulse weight's ∂/∂p from ∂r/∂p).
 Refused (:func:`geometry_refusal`): hinge axes and ``y_axis`` as parameters, a moved prescribed body,
 rigid links, guides, cables, controllers, an initial angular velocity, a point
-leaving a planar model's plane, loads at a moved offset, static analyses other than load control; the
+leaving a planar model's plane, loads at a moved offset, arc length (its first step's length moves with
+∂K/∂p, not generated); under displacement control the controlled displacement's start moves too
+(:meth:`ReferenceGeometry.control_moves`); the
 discrete adjoint refuses geometry parameters (latdyn/analyses/sensitivities.py ``adjoint_refusal``).
 """
 from __future__ import annotations
@@ -51,8 +53,9 @@ def geometry_refusal(scene, name: str, used: str) -> str | None:
     match = GEOMETRY_KEY.match(used)
     solve = scene.solve
     where = f"parameter {name!r} is used at {used}, a point of the reference configuration"
-    if solve.analysis == "static" and solve.method != "load-control":
-        return f"{where}: geometry sensitivities of static paths are computed under load control only, not {solve.method}"
+    if solve.analysis == "static" and solve.method not in ("load-control", "displacement-control"):
+        return (f"{where}: geometry sensitivities of static paths are computed under load control and displacement "
+                f"control only, not {solve.method} (its first step's length moves with ∂K/∂p, not generated)")
     if match["body"] is not None and scene.bodies[match["body"]].prescribed:
         return f"{where}: the body's motion is prescribed, and a moved prescribed body is not differentiated yet"
     if any(beam.rigid for beam in scene.beams.values()) or any(b.guide is not None for b in scene.bodies.values()):
@@ -184,6 +187,16 @@ class ReferenceGeometry:
             if which is not None:
                 offset = self.end_offsets.get((ref.beam, which), offset)
         return state.T[node] @ offset, self.node_moves[node] + offset
+
+    def control_moves(self, state) -> np.ndarray:
+        """∂c/∂p (k,) at a fixed state of displacement control's controlled displacement
+        c = d·(x + T r − x_0 − r_0) (latdyn/analyses/continuation.py ``displacement_control``): its point's offset
+        moved less its start moved, along the direction d."""
+        from types import SimpleNamespace
+
+        control = self.scene.solve.control
+        offset_moved, reference_moved = self.point_moves(SimpleNamespace(point=control.point), state)
+        return np.asarray(control.direction, float) @ (offset_moved - reference_moved)
 
     def add(self, state, total: np.ndarray, load_factor: float, inertia: bool) -> None:
         """Add ∂r/∂p of the geometry parameters at ``state`` into ``total`` (all coordinates, k columns): the

@@ -784,7 +784,10 @@ class StaticSensitivities(ParameterDerivatives):
         tangent, moved = solved[:, :k], np.zeros(k)
         if constraint_gradient is not None:
             g, along_load = constraint_gradient(state), solved[:, k]
-            moved = -(g @ tangent) / float(g @ along_load)          # δλ
+            held = g @ tangent
+            if self.geometry is not None:   # the controlled displacement's start and offset move too
+                held = held + self.geometry.control_moves(state)
+            moved = -held / float(g @ along_load)          # δλ
             tangent = tangent + np.outer(along_load, moved)
         self._append_row(state, load_factor, tangent, moved)
 
