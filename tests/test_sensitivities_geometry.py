@@ -274,6 +274,18 @@ def test_3d_transient_by_the_knee_the_free_end_and_the_offset(knee_3d, name):
     assert _agree(knee_3d, KNEE_3D, name, 1e-6) <= 1e-6
 
 
+#: KNEE_3D spinning at t = 0 about a skew axis: the start's velocities move with the points, δv_0 = ω × δX
+KNEE_SPINNING = KNEE_3D.replace("solve: {analysis: transient",
+                                "initial_velocity: {angular: [0.5, -0.3, 2.0]}\nsolve: {analysis: transient")
+
+
+@pytest.mark.parametrize("name", ["X", "tz", "dy"])
+def test_3d_transient_spinning_at_the_start(name):
+    """The knee scene with an initial rigid spin (measured 2.0e-8, 1.0e-8, 3.5e-9)."""
+    result = latdyn.run(latdyn.load_scene(yaml.safe_load(KNEE_SPINNING)))
+    assert _agree(result, KNEE_SPINNING, name, 1e-6) <= 1e-6
+
+
 def test_3d_static_free_end():
     """A 3D cantilever to the free end [0.4, L, 0.3], its section axes oblique (y_axis [1, 0, 1]: the frame's
     turn through Gram–Schmidt), loaded by a force and a moment at the end."""

@@ -26,7 +26,8 @@ moves with its offset (δ(x + T r) gains T δr), and its displacement's referenc
 Through latches, rigid stops and compliant stops the event machinery of
 latdyn/analyses/transient_sensitivities.py takes them as any parameter (its impulse weight's ∂/∂p from ∂r/∂p).
 Refused (:func:`geometry_refusal`): hinge axes and ``y_axis`` as parameters, a moved prescribed body,
-rigid links, guides, cables, controllers, an initial angular velocity, a point
+rigid links, guides, cables, controllers, an initial angular velocity with prescribed motion (without, the
+start's velocities move by ω × δX: :meth:`ReferenceGeometry.initial_velocity_tangent`), a point
 leaving a planar model's plane, loads at a moved offset, arc length (its first step's length moves with
 ∂K/∂p, not generated); under displacement control the controlled displacement's start moves too
 (:meth:`ReferenceGeometry.control_moves`); the
@@ -64,9 +65,13 @@ def geometry_refusal(scene, name: str, used: str) -> str | None:
         return f"{where}: geometry sensitivities with cables (their attachment points move) are not computed yet"
     if getattr(scene, "controllers", None):
         return f"{where}: geometry sensitivities with controllers are not computed yet"
-    if np.any(np.asarray(scene.initial_velocity.angular, float) != 0.0):
-        return (f"{where}: with an initial angular velocity the initial velocities move with the points "
-                "(ω × δX), which is not differentiated yet")
+    spinning = np.any(np.asarray(scene.initial_velocity.angular, float) != 0.0)
+    prescribed = any(body.prescribed for body in scene.bodies.values()) or any(
+        hinge.angle is not None for _, _, hinge in scene.hinges)
+    if spinning and prescribed:
+        return (f"{where}: with an initial angular velocity and prescribed motion the initial velocities carried "
+                "through the joints move with the points, which is not differentiated yet (without prescribed "
+                "motion they are: δv_0 = ω × δX)")
     if match["offset"] is not None:
         side = "start" if match["side"] == "from" else "end"
         for k, load in enumerate(scene.loads):
@@ -173,6 +178,20 @@ class ReferenceGeometry:
         slots = model.node_dofs[:, 0:3]
         keep = free[:, None] & (slots < model.n_dofs)
         full[slots[keep]] = self.node_moves[keep]
+        return full[:model.n_dofs]
+
+    def initial_velocity_tangent(self) -> np.ndarray:
+        """δv_0 on the free coordinates (n_dofs, k): a free node's velocity v_O + ω × x at t = 0
+        (latdyn/assembly/initial.py, without prescribed motion: :func:`geometry_refusal`) moves by ω × δX;
+        its ω and the hinges' rates g·(ω − ω) = 0 do not."""
+        model = self.model
+        omega = np.asarray(self.scene.initial_velocity.angular, float)
+        full = np.zeros((model.n_total + 1, self.k))
+        free = np.array([node.kind == FREE for node in model.nodes], bool)
+        slots = model.node_dofs[:, 0:3]
+        keep = free[:, None] & (slots < model.n_dofs)
+        spun = np.cross(omega[None, :, None], self.node_moves, axisa=1, axisb=1, axisc=1)   # (n_nodes, 3, k)
+        full[slots[keep]] = spun[keep]
         return full[:model.n_dofs]
 
     def point_moves(self, probe, state) -> tuple[np.ndarray, np.ndarray]:

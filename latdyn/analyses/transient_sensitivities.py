@@ -199,9 +199,11 @@ class TransientSensitivities(ParameterDerivatives):
             carried = {**carried, **sampled.start(state, k)}
         rhs = self.residual_derivatives(state, 1.0, inertia=True) + ev.combined(0.0, 1.0, 0.0) @ dv
         dq = zero
-        if self.geometry is not None:   # geometry parameters move the start: δq_0 = δX, through the exact K
-            dq = self.geometry.initial_tangent()
-            rhs = rhs + self._matrices(state)[2] @ dq
+        if self.geometry is not None:   # geometry parameters move the start: δq_0 = δX, through the exact K,
+            dq = self.geometry.initial_tangent()   # and the rigid spin's velocities δv_0 = ω × δX, through C
+            moved = self.geometry.initial_velocity_tangent()
+            dv = dv + moved
+            rhs = rhs + self._matrices(state)[2] @ dq + ev.combined(0.0, 1.0, 0.0) @ moved
         if states is not None:
             self.controllers.held = {}
         if split.n_massless == 0:   # Δ = −M⁻¹r: one factorization for every column
