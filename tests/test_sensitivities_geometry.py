@@ -309,6 +309,28 @@ FREE_END_CONTROLLED = FREE_END_3D.replace(
     "method: displacement-control, steps: 3, control: {point: arm.end, direction: [0.6, 0, -0.8], to: 0.05},")
 
 
+#: FREE_END_3D with its y_axis [1, w, 1] the parameter: the section's axes turn about the beam
+FREE_END_TURNED = FREE_END_3D.replace("parameters: {L: 1.5}", "parameters: {L: 1.5, w: 0.2}").replace(
+    "y_axis: [1, 0, 1]", 'y_axis: [1, "w", 1]').replace("sensitivities: [L]", "sensitivities: [w, L]")
+
+
+#: KNEE_3D with the hinged beam's y_axis [w, 0, 1] the parameter (its section axes turn behind the hinge)
+KNEE_TURNED = (KNEE_3D.replace("y_axis: [0, 0, 1]", 'y_axis: ["w", 0, 1]')
+               .replace("parameters: {X: 1.0,", "parameters: {w: 0.3, X: 1.0,")
+               .replace("sensitivities: [X, Y, tz, dy]", "sensitivities: [w]"))
+
+
+@pytest.mark.parametrize("text, names", [(FREE_END_TURNED, ("w", "L")), (KNEE_TURNED, ("w",))],
+                         ids=["static_free_end", "transient_knee"])
+def test_3d_y_axis(text, names):
+    """A beam's ``y_axis`` as a parameter (through the loader's normalisation and Gram–Schmidt): the free-end
+    cantilever's ``[1, w, 1]`` and its end with it (measured 6.3e-10, 1.0e-11), the knee's hinged beam's
+    ``[w, 0, 1]`` in the transient (2.9e-9)."""
+    result = latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
+    for name in names:
+        assert _agree(result, text, name, 1e-6) <= 1e-6
+
+
 def test_3d_displacement_control_moves_the_load_factor():
     """Under displacement control the controlled displacement d·(x + T r − x_0 − r_0) is held, its start moved by
     L too: the end's sensitivities and the load factor's against Richardson differences (measured 2.8e-10)."""
@@ -347,13 +369,13 @@ def test_cli_writes_the_geometry_sensitivities(tmp_path):
 
 
 @pytest.mark.parametrize("change, key, words", [
-    (("elements: 4}", 'elements: 4, y_axis: [0, 1, "L"]}'), "solve.sensitivities", "beams.arm.y_axis[2]"),
+    (("elements: 4}", 'elements: 4, y_axis: [0, 1, "L"]}'), "solve.sensitivities", "beams.arm.y_axis in a planar model"),
     (("method: load-control", "method: arc-length"), "solve.sensitivities", "not arc-length"),
     (('tip: {at: ["L", 0, 0]}', 'tip: {at: ["L", 0, "L - 2"]}'), "solve.sensitivities", "off the plane"),
 ])
 def test_refusals(change, key, words):
-    """What is not differentiated is refused, naming the key and why: a y_axis parameter, arc length, a
-    planar model's point moved off its plane."""
+    """What is not differentiated is refused, naming the key and why: a y_axis parameter in a planar model, arc
+    length, a planar model's point moved off its plane."""
     text = CANTILEVER.replace(*change)
     with pytest.raises(SceneError) as raised:
         latdyn.run(latdyn.load_scene(yaml.safe_load(text)))

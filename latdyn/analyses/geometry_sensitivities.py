@@ -1,7 +1,8 @@
 """Sensitivities by geometry parameters: a parameter that places the structure (docs/parameters.md,
 "Geometry parameters").
 
-A parameter used in a body's ``at``, a beam's free end ``from``/``to`` or an end's ``offset`` moves the
+A parameter used in a body's ``at``, a beam's free end ``from``/``to``, an end's ``offset`` or a beam's
+``y_axis`` (3D models) moves the
 reference configuration X(p): every node's position at t = 0 (a beam's inner nodes interpolate its
 grid points), each element's undeformed length L0 and its nodal frame at θ = 0 in node axes E0 (from
 the beam's direction and ``y_axis``), and the grid-point offsets r_g. The model's state holds absolute
@@ -20,12 +21,13 @@ positions and frames (State.x, State.T; every node starts with T = I), so the so
 
 φ is the turn of the beam's frame [x̂, ŷ, x̂ × ŷ]: x̂ = (B − A)/|B − A| and ŷ the loader's rule (``y_axis``
 less its x̂ part, or global z × x̂), so φ = ½ Σ e_k × δe_k with δx̂ = (I − x̂x̂ᵀ)(δB − δA)/|B − A| and δŷ from
-that rule; in a planar model the frame is [x̂, n × x̂, n] and φ = x̂ × δx̂. A point probe at a beam's end
+that rule (with δy_0 = (I − y_0 y_0ᵀ)δv/|v| of a ``y_axis`` v given); in a planar model the frame is
+[x̂, n × x̂, n] and φ = x̂ × δx̂. A point probe at a beam's end
 moves with its offset (δ(x + T r) gains T δr), and its displacement's reference with δX + δr.
 
 Through latches, rigid stops and compliant stops the event machinery of
 latdyn/analyses/transient_sensitivities.py takes them as any parameter (its impulse weight's ∂/∂p from ∂r/∂p).
-Refused (:func:`geometry_refusal`): hinge axes and ``y_axis`` as parameters, a moved prescribed body,
+Refused (:func:`geometry_refusal`): hinge axes as parameters (and ``y_axis`` in a planar model), a moved prescribed body,
 rigid links, guides, cables, controllers, an initial angular velocity with prescribed motion (without, the
 start's velocities move by ω × δX: :meth:`ReferenceGeometry.initial_velocity_tangent`), a point
 leaving a planar model's plane, loads at a moved offset, arc length (its first step's length moves with
@@ -44,8 +46,8 @@ from latdyn.model.model import FIXED, FREE
 __all__ = ["GEOMETRY_KEY", "geometry_refusal", "ReferenceGeometry"]
 
 #: a number that places the structure: a body's reference point, a beam's free end point, an end's offset
-GEOMETRY_KEY = re.compile(r"^(?:bodies\.(?P<body>[^.]+)\.at|beams\.(?P<beam>.+)\.(?P<side>from|to)"
-                          r"(?P<offset>\.offset)?)\[(?P<axis>[0-2])\]$")
+GEOMETRY_KEY = re.compile(r"^(?:bodies\.(?P<body>[^.]+)\.at|beams\.(?P<beam>.+)\.(?:(?P<side>from|to)"
+                          r"(?P<offset>\.offset)?|(?P<y>y_axis)))\[(?P<axis>[0-2])\]$")
 
 
 def geometry_refusal(scene, name: str, used: str) -> str | None:
@@ -121,11 +123,14 @@ class ReferenceGeometry:
         body_at: dict[str, np.ndarray] = {}
         end_point: dict[tuple[str, str], np.ndarray] = {}
         end_offset: dict[tuple[str, str], np.ndarray] = {}
+        y_given: dict[str, np.ndarray] = {}
         for key, slope in by_key.items():
             m = GEOMETRY_KEY.match(key)
             axis = int(m["axis"])
             if m["body"] is not None:
                 body_at.setdefault(m["body"], np.zeros(3))[axis] += slope
+            elif m["y"] is not None:
+                y_given.setdefault(m["beam"], np.zeros(3))[axis] += slope
             else:
                 target = end_offset if m["offset"] else end_point
                 target.setdefault((m["beam"], m["side"]), np.zeros(3))[axis] += slope
@@ -148,14 +153,21 @@ class ReferenceGeometry:
             for which, end in ((0, beam.start), (1, beam.end)):
                 if end.body is None:
                     self.node_moves[nodes[-1 if which else 0], :, column] = grid[which]
-            if not (np.any(grid[0]) or np.any(grid[1])):
+            turned = y_given.get(beam.name, np.zeros(3))
+            if not (np.any(grid[0]) or np.any(grid[1]) or np.any(turned)):
                 continue
+            if np.any(turned) and model.plane is not None:
+                from latdyn.errors import SceneError
+                raise SceneError(scene.file, "solve.sensitivities",
+                                 f"a parameter of beams.{beam.name}.y_axis in a planar model (whose section axes the "
+                                 "plane sets); expected solve.planar: off for it (docs/parameters.md, \"Geometry "
+                                 "parameters\")")
             chord = beam.end.point - beam.start.point
             length = float(np.linalg.norm(chord))
             x = chord / length
             moved = grid[1] - grid[0]
             dx = (moved - x * (x @ moved)) / length
-            phi = np.cross(x, dx) if model.plane is not None else _frame_turn(beam, x, dx)
+            phi = np.cross(x, dx) if model.plane is not None else _frame_turn(beam, x, dx, turned)
             v = self.variations[elements, :, column]
             v[:, 12:15] = v[:, 15:18] = phi
             v[:, 18] = x @ moved / n
@@ -256,15 +268,18 @@ class ReferenceGeometry:
             np.add.at(total[:, column], model.element_dofs[elements], forces[column])
 
 
-def _frame_turn(beam, x: np.ndarray, dx: np.ndarray) -> np.ndarray:
+def _frame_turn(beam, x: np.ndarray, dx: np.ndarray, dv: np.ndarray) -> np.ndarray:
     """φ with δE = skew(φ) E for the beam's frame E = [x̂, ŷ, x̂ × ŷ] (the loader's rule for ŷ,
-    latdyn/scene/loader.py ``beam``) when x̂ moves by δx̂ (module docstring)."""
+    latdyn/scene/loader.py ``beam``) when x̂ moves by δx̂ and the ``y_axis`` v as given by δv (module
+    docstring): y_0 = v/|v|, ŷ = (y_0 − (y_0·x̂)x̂)/|…|."""
     given = getattr(beam, "y_given", None)
     if given is None and np.hypot(x[0], x[1]) >= 1e-9:
         raw, draw = np.array([-x[1], x[0], 0.0]), np.array([-dx[1], dx[0], 0.0])
     else:
-        y0 = np.array([0.0, 1.0, 0.0]) if given is None else np.asarray(given, float)
-        raw, draw = y0 - (y0 @ x) * x, -(y0 @ dx) * x - (y0 @ x) * dx
+        v = np.array([0.0, 1.0, 0.0]) if given is None else np.asarray(given, float)
+        y0 = v / np.linalg.norm(v)
+        dy0 = (dv - y0 * (y0 @ dv)) / np.linalg.norm(v)
+        raw, draw = y0 - (y0 @ x) * x, dy0 - (dy0 @ x) * x - (y0 @ dx) * x - (y0 @ x) * dx
     size = float(np.linalg.norm(raw))
     y = raw / size
     dy = (draw - y * (y @ draw)) / size

@@ -327,7 +327,7 @@ class Beam:
     elements: int
     y_axis: np.ndarray      # (3,) unit, normal to x = start -> end
     rigid: bool = False     # one rigid link (elements is then 1 and no elements are meshed)
-    #: the ``y_axis`` as given (unit, before its x part is taken off), None where global z × x is taken: the
+    #: the ``y_axis`` as given (before it is made unit and its x part taken off), None where global z × x is taken: the
     #: frame's derivative by a geometry parameter (latdyn/analyses/geometry_sensitivities.py) follows the rule
     y_given: np.ndarray | None = None
 
@@ -1243,7 +1243,8 @@ class _Reader:
         x = d / length
         if "y_axis" in spec:
             y_key = _join(key, "y_axis")
-            y = y_given = _direction(self.vector(spec["y_axis"], y_key, nonzero=True))
+            y_given = self.vector(spec["y_axis"], y_key, nonzero=True)
+            y = _direction(y_given)
             y = y - np.dot(y, x) * x                       # Gram-Schmidt
             if np.linalg.norm(y) < 1e-8:
                 self.fail(y_key, f"expected a direction not parallel to the beam (x = {x.round(12).tolist()})",
