@@ -36,11 +36,12 @@ ACCELERATION = Argument(
 GRAVITY = Argument("gravity", 3, "uniform gravity acceleration, global")
 REFERENCE = Argument(
     "reference",
-    19,
-    "[dx1[3] dx2[3] doffset1[3] doffset2[3] psi1[3] psi2[3] dL0]: one variation of the element's reference "
-    "data at a fixed configuration: the reference points moved (ends whose node is no coordinate), the global "
-    "offsets to the grid points moved, the nodal frames turned by exp(skew psi_i) (spatial), the undeformed "
-    "length changed (geometry parameters, docs/parameters.md)",
+    25,
+    "[dx1[3] dx2[3] doffset1[3] doffset2[3] psi1[3] psi2[3] dL0 daxis1[3] daxis2[3]]: one variation of the "
+    "element's reference data at a fixed configuration: the reference points moved (ends whose node is no "
+    "coordinate), the global offsets to the grid points moved, the nodal frames turned by exp(skew psi_i) "
+    "(spatial), the undeformed length changed, the global hinge axes moved (geometry parameters, "
+    "docs/parameters.md)",
 )
 
 # Slices into the geometry block.
@@ -54,6 +55,7 @@ REF_X1, REF_X2 = slice(0, 3), slice(3, 6)
 REF_OFFSET1, REF_OFFSET2 = slice(6, 9), slice(9, 12)
 REF_PSI1, REF_PSI2 = slice(12, 15), slice(15, 18)
 REF_L0 = 18
+REF_AXIS1, REF_AXIS2 = slice(19, 22), slice(22, 25)
 
 # Slices into the element coordinate vector q^e (and velocity block).
 D1, PI1, THETA1 = slice(0, 3), slice(3, 6), 6

@@ -385,10 +385,12 @@ def reference_first_variation(plane: fm.Plane | None = None) -> dict:
     E0 ← exp(skew φ) E0 (so T_e = T_j exp(θ skew a) E0 turns by exp(skew ψ), ψ = T_j exp(θ skew a) φ,
     spatial), and the undeformed length L0; the hinge axis h = T_j a does not move. Hence
 
-        δx = δx_i,   δo = δo_i,   δT_e = skew(ψ_i) T_e,   δh = 0,   δL0 = δL0.
+        δx = δx_i,   δo = δo_i,   δT_e = skew(ψ_i) T_e,   δh = δh_i,   δL0 = δL0,
 
-    Returns {symbol name: [expression]} (one direction) for the inputs that stay free in a configuration
-    of ``plane`` (there the reference variation's out-of-plane parts are zero: δx_n, δo_n, ψ_i, ψ_j)."""
+    a hinge axis a in node axes moved by δa giving δh = T_j δa (and its frame's turn through exp(θ skew a),
+    which the caller adds to ψ_i). Returns {symbol name: [expression]} (one direction) for the inputs that stay
+    free in a configuration of ``plane`` (there the reference variation's out-of-plane parts are zero: δx_n,
+    δo_n, ψ_i, ψ_j, and the axes, ±n, do not move)."""
     g = cv.GEOMETRY.symbols()
     r = cv.REFERENCE.symbols()
     zero = set()
@@ -396,17 +398,19 @@ def reference_first_variation(plane: fm.Plane | None = None) -> dict:
         i, j = plane.in_plane
         zero = {cv.REF_X1.start + plane.normal, cv.REF_X2.start + plane.normal,
                 cv.REF_OFFSET1.start + plane.normal, cv.REF_OFFSET2.start + plane.normal,
-                cv.REF_PSI1.start + i, cv.REF_PSI1.start + j, cv.REF_PSI2.start + i, cv.REF_PSI2.start + j}
+                cv.REF_PSI1.start + i, cv.REF_PSI1.start + j, cv.REF_PSI2.start + i, cv.REF_PSI2.start + j,
+                *range(cv.REF_AXIS1.start, cv.REF_AXIS2.stop)}
     r = [sp.Integer(0) if k in zero else symbol for k, symbol in enumerate(r)]
     values = plane.geometry_values(g) if plane is not None else {}
     seeds = {}
-    for X, O, F, RX, RO, RP in ((cv.X1, cv.OFFSET1, cv.FRAME1, cv.REF_X1, cv.REF_OFFSET1, cv.REF_PSI1),
-                                (cv.X2, cv.OFFSET2, cv.FRAME2, cv.REF_X2, cv.REF_OFFSET2, cv.REF_PSI2)):
+    for X, O, F, H, RX, RO, RP, RH in (
+            (cv.X1, cv.OFFSET1, cv.FRAME1, cv.AXIS1, cv.REF_X1, cv.REF_OFFSET1, cv.REF_PSI1, cv.REF_AXIS1),
+            (cv.X2, cv.OFFSET2, cv.FRAME2, cv.AXIS2, cv.REF_X2, cv.REF_OFFSET2, cv.REF_PSI2, cv.REF_AXIS2)):
         psi = r[RP]
         W = sp.Matrix([[0, -psi[2], psi[1]], [psi[2], 0, -psi[0]], [-psi[1], psi[0], 0]])
         T = sp.Matrix(3, 3, g[F])
-        moved = list(r[RX]) + list(r[RO]) + list(W * T)
-        for symbol, change in zip(g[X] + g[O] + g[F], moved):
+        moved = list(r[RX]) + list(r[RO]) + list(W * T) + list(r[RH])
+        for symbol, change in zip(g[X] + g[O] + g[F] + g[H], moved):
             if symbol in values:
                 continue  # not an input of the planar element (its value is put in)
             change = sp.expand(sp.sympify(change).xreplace(values))

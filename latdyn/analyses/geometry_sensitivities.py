@@ -27,7 +27,10 @@ moves with its offset (δ(x + T r) gains T δr), and its displacement's referenc
 
 Through latches, rigid stops and compliant stops the event machinery of
 latdyn/analyses/transient_sensitivities.py takes them as any parameter (its impulse weight's ∂/∂p from ∂r/∂p).
-Refused (:func:`geometry_refusal`): hinge axes as parameters (and ``y_axis`` in a planar model), a moved prescribed body,
+A hinge ``axis`` v (unit a = v/|v| in node axes) moves by δa = (I − a aᵀ)δv/|v|: the element's global axis
+T_j a by T_j δa, its nodal frame T_j exp(θ skew a) E0 by the turn T_j J(θ a) θ δa (J the left Jacobian of
+exp, :func:`latdyn.numerics.so3.dexp_so3`).
+Refused (:func:`geometry_refusal`): ``y_axis`` and hinge axes in a planar model, a moved prescribed body,
 rigid links, guides, cables, controllers, an initial angular velocity with prescribed motion (without, the
 start's velocities move by ω × δX: :meth:`ReferenceGeometry.initial_velocity_tangent`), a point
 leaving a planar model's plane, loads at a moved offset, arc length (its first step's length moves with
@@ -42,12 +45,18 @@ import re
 import numpy as np
 
 from latdyn.model.model import FIXED, FREE
+from latdyn.numerics.so3 import dexp_so3
 
 __all__ = ["GEOMETRY_KEY", "geometry_refusal", "ReferenceGeometry"]
 
+#: the generated kernels' reference block (codegen/conventions.py REFERENCE): dx1 dx2 doffset1 doffset2 psi1 psi2
+#: dL0 daxis1 daxis2
+WIDTH = 25
+
 #: a number that places the structure: a body's reference point, a beam's free end point, an end's offset
 GEOMETRY_KEY = re.compile(r"^(?:bodies\.(?P<body>[^.]+)\.at|beams\.(?P<beam>.+)\.(?:(?P<side>from|to)"
-                          r"(?P<offset>\.offset)?|(?P<y>y_axis)))\[(?P<axis>[0-2])\]$")
+                          r"(?P<offset>\.offset)?|(?P<y>y_axis)|(?P<hinge>start|end)\.hinge\.axis))"
+                          r"\[(?P<axis>[0-2])\]$")
 
 
 def geometry_refusal(scene, name: str, used: str) -> str | None:
@@ -105,7 +114,7 @@ class ReferenceGeometry:
         #: δX of every node (n_nodes, 3, k), the elements' reference variations (n_elements, 19, k) less the
         #: parts that depend on the state (ψ and δo are in node axes here: φ and δr_g), δr_g of the beams' ends
         self.node_moves = np.zeros((n_nodes, 3, k))
-        self.variations = np.zeros((n_elements, 19, k))
+        self.variations = np.zeros((n_elements, WIDTH, k))
         self.end_offsets: dict[tuple[str, int], np.ndarray] = {}
         for column, by_key in uses.items():
             self._column(column, by_key)
@@ -131,6 +140,8 @@ class ReferenceGeometry:
                 body_at.setdefault(m["body"], np.zeros(3))[axis] += slope
             elif m["y"] is not None:
                 y_given.setdefault(m["beam"], np.zeros(3))[axis] += slope
+            elif m["hinge"] is not None:
+                self._hinge_axis(m["beam"], m["hinge"], axis, slope, column)
             else:
                 target = end_offset if m["offset"] else end_point
                 target.setdefault((m["beam"], m["side"]), np.zeros(3))[axis] += slope
@@ -180,6 +191,27 @@ class ReferenceGeometry:
             ends = model.element_nodes[:, end]
             self.variations[:, 3 * end:3 * end + 3, column] = np.where(
                 fixed[ends][:, None], self.node_moves[ends, :, column], 0.0)
+
+    def _hinge_axis(self, beam: str, end: str, component: int, slope: float, column: int) -> None:
+        """A hinge axis's component moved: a = v/|v| (the loader's unit axis, node axes = global at t = 0) by
+        δa = (I − a aᵀ) δv/|v|, into its element end's daxis (node axes; :meth:`add` turns it and adds the
+        frame's turn through exp(θ skew a))."""
+        model = self.model
+        if model.plane is not None:
+            from latdyn.errors import SceneError
+            raise SceneError(self.scene.file, "solve.sensitivities",
+                             f"a parameter of beams.{beam}.{end}.hinge.axis in a planar model (whose hinge axes are "
+                             "its normal); expected solve.planar: off for it (docs/parameters.md, \"Geometry "
+                             "parameters\")")
+        spec = getattr(self.scene.beams[beam], end).hinge
+        v = np.asarray(spec.axis_given, float)
+        a = v / np.linalg.norm(v)
+        dv = np.zeros(3)
+        dv[component] = slope
+        da = (dv - a * (a @ dv)) / np.linalg.norm(v)
+        elements = model.beam_elements[beam]
+        element, which = (elements[0], 0) if end == "start" else (elements[-1], 1)
+        self.variations[element, 19 + 3 * which:22 + 3 * which, column] += da
 
     # ------------------------------------------------------------------ what the analyses use
     def initial_tangent(self) -> np.ndarray:
@@ -248,7 +280,15 @@ class ReferenceGeometry:
             body = state.T[model.element_nodes[elements, end]]
             off = slice(6 + 3 * end, 9 + 3 * end)
             variation[:, off] = body @ variation[:, off]
-        rows = np.ascontiguousarray(variation.transpose(2, 0, 1).reshape(k * m, 19))
+            axis = slice(19 + 3 * end, 22 + 3 * end)
+            moved = np.flatnonzero(np.any(variation[:, axis] != 0.0, axis=(1, 2)))
+            if len(moved):   # h = T_j a moves by T_j δa; T_e = T_j exp(θ skew a) E0 turns by T_j J(θa) θ δa
+                hinge = model.element_hinges[elements[moved], end]
+                theta = state.theta[hinge]
+                jacobian = dexp_so3(theta[:, None] * model.element_axes[elements[moved], end])
+                variation[moved, psi] += body[moved] @ (theta[:, None, None] * (jacobian @ variation[moved, axis]))
+                variation[moved, axis] = body[moved] @ variation[moved, axis]
+        rows = np.ascontiguousarray(variation.transpose(2, 0, 1).reshape(k * m, WIDTH))
         repeat = lambda a: np.ascontiguousarray(np.tile(a, (k, 1)))  # noqa: E731
         sections = model.element_sections[elements]
         forces = np.asarray(self.kernels.beam_internal_force_D_reference(repeat(at), repeat(sections), rows)[1])
@@ -259,7 +299,7 @@ class ReferenceGeometry:
             on = np.flatnonzero(massive)
             rate = rates[elements[on]] if inertia else np.zeros((len(on), 14))
             acceleration = accelerations[elements[on]] if inertia else np.zeros((len(on), 14))
-            picked = np.ascontiguousarray(variation[on].transpose(2, 0, 1).reshape(k * len(on), 19))
+            picked = np.ascontiguousarray(variation[on].transpose(2, 0, 1).reshape(k * len(on), WIDTH))
             moved = self.kernels.beam_inertia_force_D_reference(
                 repeat(at[on]), repeat(rate), repeat(acceleration), repeat(sections[on]),
                 np.ascontiguousarray(np.tile(gravity[None], (k * len(on), 1))), picked)[1]

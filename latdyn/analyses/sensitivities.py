@@ -143,7 +143,8 @@ def refusal(scene) -> SceneError | None:
                     or _CONTACT_KEY.match(used)):
                 return refuse(f"parameter {name!r} is used at {used}: sensitivities are computed for parameters "
                               "of load components, of points of the reference configuration (bodies.NAME.at, a "
-                              "beam's free end from/to, an end's offset), of hinge stiffness, damping, torque and "
+                              "beam's free end from/to, an end's offset, a beam's y_axis, a hinge's axis), of hinge "
+                              "stiffness, damping, torque and "
                               "rest_angle, of section "
                               "stiffnesses and masses (shear-rigid), of body masses, centres of mass and "
                               "inertias, of a hinge's compliant stops (contact.stiffness, .exponent, .damping) "

@@ -237,6 +237,8 @@ class Hinge:
     restitution: float = 0.0                # of an impact on a stop, in [0, 1]
     contact: StopContact | None = None      # the stops made compliant (Hunt–Crossley)
     friction: JointFriction | None = None
+    #: the axis as given, before it is made unit (a geometry parameter's derivative: latdyn/analyses/geometry_sensitivities.py)
+    axis_given: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -1037,7 +1039,8 @@ class _Reader:
 
     def hinge(self, spec, key) -> Hinge:
         self.mapping(spec, key, _HINGE_KEYS, required=("axis",))
-        h = Hinge(axis=self.unit(spec["axis"], _join(key, "axis")))
+        given = self.vector(spec["axis"], _join(key, "axis"), nonzero=True, what="[ax, ay, az]")
+        h = Hinge(axis=_direction(given), axis_given=given)
         for name in ("stiffness", "damping"):
             if name in spec:
                 setattr(h, name, self.hinge_coefficient(spec[name], _join(key, name)))
