@@ -110,6 +110,7 @@ class ReferenceGeometry:
                 for column, law in laws.items():
                     uses.setdefault(column, {})[key] = float(law.value(0.0, 0.0, 0.0))
         self.active = bool(uses)
+        self._refuse_without_kernels()
         n_nodes, n_elements = len(model.nodes), len(model.element_nodes)
         #: δX of every node (n_nodes, 3, k), the elements' reference variations (n_elements, 19, k) less the
         #: parts that depend on the state (ψ and δo are in node axes here: φ and δr_g), δr_g of the beams' ends
@@ -125,6 +126,21 @@ class ReferenceGeometry:
                              "a geometry parameter moves a point off the plane of the planar model; expected "
                              "solve.planar: off for such a parameter (docs/parameters.md, \"Geometry parameters\")")
         self.elements = np.flatnonzero(np.any(self.variations != 0.0, axis=(1, 2)))
+
+    def _refuse_without_kernels(self) -> None:
+        """Refuse (SceneError naming ``solve.sensitivities``) a kernel variant generated before the reference
+        derivatives (or with another reference block): they are what ∂r/∂p is made of here."""
+        from latdyn.errors import SceneError
+
+        names = ("beam_internal_force_D_reference", "beam_inertia_force_D_reference")
+        info = getattr(self.kernels, "info", {}) or {}
+        if all(name in info and dict(info[name]["inputs"]).get("reference") == WIDTH for name in names):
+            return
+        variant = self.kernels.variant
+        raise SceneError(self.scene.file, "solve.sensitivities",
+                         f"geometry parameters need the kernels {names[0]} and {names[1]} (reference block of "
+                         f"{WIDTH}), which the generated variant {variant!r} does not hold yet (python -m codegen "
+                         f"--variant {variant})")
 
     # ------------------------------------------------------------------ the reference data moved
     def _column(self, column: int, by_key: dict) -> None:
