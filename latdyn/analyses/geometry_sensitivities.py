@@ -33,7 +33,7 @@ exp, :func:`latdyn.numerics.so3.dexp_so3`).
 Refused (:func:`geometry_refusal`): ``y_axis`` and hinge axes in a planar model, a moved prescribed body,
 rigid links, guides, cables, controllers, an initial angular velocity with prescribed motion (without, the
 start's velocities move by ω × δX: :meth:`ReferenceGeometry.initial_velocity_tangent`), a point
-leaving a planar model's plane, loads at a moved offset, arc length (its first step's length moves with
+leaving a planar model's plane, arc length (its first step's length moves with
 ∂K/∂p, not generated); under displacement control the controlled displacement's start moves too
 (:meth:`ReferenceGeometry.control_moves`); the
 discrete adjoint refuses geometry parameters (latdyn/analyses/sensitivities.py ``adjoint_refusal``).
@@ -53,7 +53,8 @@ __all__ = ["GEOMETRY_KEY", "geometry_refusal", "ReferenceGeometry"]
 #: dL0 daxis1 daxis2
 WIDTH = 25
 
-#: a number that places the structure: a body's reference point, a beam's free end point, an end's offset
+#: a number that places the structure: a body's reference point, a beam's free end point, an end's offset, a
+#: beam's y_axis, a hinge's axis
 GEOMETRY_KEY = re.compile(r"^(?:bodies\.(?P<body>[^.]+)\.at|beams\.(?P<beam>.+)\.(?:(?P<side>from|to)"
                           r"(?P<offset>\.offset)?|(?P<y>y_axis)|(?P<hinge>start|end)\.hinge\.axis))"
                           r"\[(?P<axis>[0-2])\]$")
@@ -64,7 +65,7 @@ def geometry_refusal(scene, name: str, used: str) -> str | None:
     None (module docstring)."""
     match = GEOMETRY_KEY.match(used)
     solve = scene.solve
-    where = f"parameter {name!r} is used at {used}, a point of the reference configuration"
+    where = f"parameter {name!r} is used at {used}, a number that places the structure"
     if solve.analysis == "static" and solve.method not in ("load-control", "displacement-control"):
         return (f"{where}: geometry sensitivities of static paths are computed under load control and displacement "
                 f"control only, not {solve.method} (its first step's length moves with ∂K/∂p, not generated)")
@@ -83,13 +84,6 @@ def geometry_refusal(scene, name: str, used: str) -> str | None:
         return (f"{where}: with an initial angular velocity and prescribed motion the initial velocities carried "
                 "through the joints move with the points, which is not differentiated yet (without prescribed "
                 "motion they are: δv_0 = ω × δX)")
-    if match["offset"] is not None:
-        side = "start" if match["side"] == "from" else "end"
-        for k, load in enumerate(scene.loads):
-            at = load.at
-            ends_at = {"start": 0, "end": scene.beams[match["beam"]].elements}[side]
-            if getattr(at, "beam", None) == match["beam"] and getattr(at, "node", None) == ends_at:
-                return f"{where}: loads[{k}] acts at the moved offset, which is not differentiated yet"
     return None
 
 
@@ -112,13 +106,22 @@ class ReferenceGeometry:
         self.active = bool(uses)
         self._refuse_without_kernels()
         n_nodes, n_elements = len(model.nodes), len(model.element_nodes)
-        #: δX of every node (n_nodes, 3, k), the elements' reference variations (n_elements, 19, k) less the
-        #: parts that depend on the state (ψ and δo are in node axes here: φ and δr_g), δr_g of the beams' ends
+        #: δX of every node (n_nodes, 3, k), the elements' reference variations (n_elements, WIDTH, k) less the
+        #: parts that depend on the state (ψ, δo and δh are in node axes here: φ, δr_g and δa), δr_g of the beams'
+        #: ends
         self.node_moves = np.zeros((n_nodes, 3, k))
         self.variations = np.zeros((n_elements, WIDTH, k))
         self.end_offsets: dict[tuple[str, int], np.ndarray] = {}
         for column, by_key in uses.items():
             self._column(column, by_key)
+        #: (load, node, the moved offset (3, k)) of the loads at a beam end whose offset moves
+        self.moved_loads = []
+        for index, load in enumerate(self.scene.loads):
+            ref = load.at
+            if getattr(ref, "beam", None) is not None and ref.node in (0, self.scene.beams[ref.beam].elements):
+                moved = self.end_offsets.get((ref.beam, 0 if ref.node == 0 else 1))
+                if moved is not None:
+                    self.moved_loads.append((index, model.point(ref)[0], moved))
         if model.plane is not None and (np.any(self.node_moves[:, model.plane] != 0.0) or any(
                 np.any(offset[model.plane] != 0.0) for offset in self.end_offsets.values())):
             from latdyn.errors import SceneError
@@ -322,6 +325,28 @@ class ReferenceGeometry:
             forces[:, on] += np.asarray(moved).reshape(k, len(on), 14)
         for column in range(k):
             np.add.at(total[:, column], model.element_dofs[elements], forces[column])
+        self._load_arms(state, total, load_factor)
+
+    def _load_arms(self, state, total: np.ndarray, load_factor: float) -> None:
+        """Add ∂r/∂p of the loads at a moved offset: the generated ``point_load`` is linear in its offset r
+        (−[F; T r × F + M]), so its derivative along δr is point_load(δr) − point_load(0), exactly."""
+        model, k = self.model, self.k
+        for index, node, moved in self.moved_loads:
+            load = self.scene.loads[index]
+            values = np.zeros(6)
+            for offset, components in ((0, load.force), (3, load.moment)):
+                for c, law in enumerate(components or ()):
+                    values[offset + c] = load_factor * law.value(state.t)
+            frame = np.eye(3) if load.frame == "global" else state.T[model.body_node[load.frame]]
+            rows = lambda a: np.ascontiguousarray(np.tile(np.reshape(a, (1, -1)), (k, 1)), dtype=float)  # noqa: E731
+            velocity = np.concatenate([state.v[node], state.w[node]])
+            arguments = (rows(state.T[node]), rows(values), rows(frame), rows(velocity))
+
+            def force(offsets):
+                return np.asarray(self.kernels.point_load(arguments[0], np.ascontiguousarray(offsets), *arguments[1:])[0])
+
+            difference = force(moved.T) - force(np.zeros((k, 3)))                      # (k, 6)
+            total[model.node_dofs[node]] += difference.reshape(k, 6).T
 
 
 def _frame_turn(beam, x: np.ndarray, dx: np.ndarray, dv: np.ndarray) -> np.ndarray:
