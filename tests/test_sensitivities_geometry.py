@@ -288,6 +288,18 @@ def test_3d_transient_spinning_at_the_start(name):
     assert _agree(result, KNEE_SPINNING, name, 1e-6) <= 1e-6
 
 
+def test_3d_transient_from_rest_without_rotary_inertia():
+    """tests/test_sensitivities_transient.py's arm from rest without rotary inertia (the beams' twist has none:
+    the start's accelerations from the directions with and without inertia), its knee moved (measured 3.3e-9)."""
+    from test_sensitivities_transient import FROM_REST_3D
+
+    text = (FROM_REST_3D.replace("knee: {at: [1, 0, 0]", 'knee: {at: ["X", 0, 0]')
+            .replace("parameters: {F: 2.0,", "parameters: {X: 1.0, F: 2.0,")
+            .replace("sensitivities: [F, k, c, th0, EI, G, rho, m, cx, J]", "sensitivities: [X]"))
+    result = latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
+    assert _agree(result, text, "X", 1e-6) <= 1e-6
+
+
 def test_3d_static_free_end():
     """A 3D cantilever to the free end [0.4, L, 0.3], its section axes oblique (y_axis [1, 0, 1]: the frame's
     turn through Gram–Schmidt), loaded by a force and a moment at the end."""
