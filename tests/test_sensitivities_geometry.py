@@ -288,6 +288,21 @@ def test_3d_transient_spinning_at_the_start(name):
     assert _agree(result, KNEE_SPINNING, name, 1e-6) <= 1e-6
 
 
+#: KNEE_3D with its base's motion prescribed (a translation: x = at + translation(t)) and its at moved
+KNEE_SHAKEN = (KNEE_3D.replace("base: {at: [0, 0, 0], fixed: true}",
+                               'base: {at: [0, "yb", 0], motion: {translation: [0, "0.05*sin(20*t)", "0.02*t*t"]}}')
+               .replace("parameters: {X: 1.0,", "parameters: {yb: 0.1, X: 1.0,")
+               .replace("sensitivities: [X, Y, tz, dy]", "sensitivities: [yb, X]"))
+
+
+def test_3d_transient_with_a_prescribed_translation():
+    """The knee scene shaken at its base (a prescribed translation), the base's ``at`` and the knee's moved
+    (measured 2.1e-9, 1.4e-8)."""
+    result = latdyn.run(latdyn.load_scene(yaml.safe_load(KNEE_SHAKEN)))
+    for name in ("yb", "X"):
+        assert _agree(result, KNEE_SHAKEN, name, 1e-6) <= 1e-6
+
+
 def test_3d_transient_from_rest_without_rotary_inertia():
     """tests/test_sensitivities_transient.py's arm from rest without rotary inertia (the beams' twist has none:
     the start's accelerations from the directions with and without inertia), its knee moved (measured 3.3e-9)."""
@@ -429,6 +444,15 @@ def test_refusals(change, key, words):
     with pytest.raises(SceneError) as raised:
         latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
     assert raised.value.key == key and words in str(raised.value)
+
+
+def test_a_prescribed_rotation_refuses_geometry_parameters():
+    """A prescribed rotation carries velocities into the structure that move with its points: refused."""
+    text = KNEE_3D.replace("base: {at: [0, 0, 0], fixed: true}",
+                           'base: {at: [0, 0, 0], motion: {rotation: {axis: [0, 0, 1], angle: "0.5*t*t"}}}')
+    with pytest.raises(SceneError) as raised:
+        latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
+    assert raised.value.key == "solve.sensitivities" and "bodies.base.motion.rotation" in str(raised.value)
 
 
 def test_adjoint_refuses_geometry_parameters():

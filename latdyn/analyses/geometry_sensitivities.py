@@ -30,9 +30,11 @@ latdyn/analyses/transient_sensitivities.py takes them as any parameter (its impu
 A hinge ``axis`` v (unit a = v/|v| in node axes) moves by δa = (I − a aᵀ)δv/|v|: the element's global axis
 T_j a by T_j δa, its nodal frame T_j exp(θ skew a) E0 by the turn T_j J(θ a) θ δa (J the left Jacobian of
 exp, :func:`latdyn.numerics.so3.dexp_so3`).
-Refused (:func:`geometry_refusal`): ``y_axis`` and hinge axes in a planar model, a moved prescribed body,
-rigid links, guides, cables, controllers, an initial angular velocity with prescribed motion (without, the
-start's velocities move by ω × δX: :meth:`ReferenceGeometry.initial_velocity_tangent`), a point
+A prescribed body's reference point x = ``at`` + translation(t) moves as a fixed one's (its rates do not).
+Refused (:func:`geometry_refusal`): ``y_axis`` and hinge axes in a planar model, prescribed rotations (a body's,
+a hinge angle: the initial velocities carried through the joints then move with the points; without them the
+start's velocities are the given rigid motion's, moved by ω × δX: :meth:`ReferenceGeometry.initial_velocity_tangent`),
+rigid links, guides, cables, controllers, a point
 leaving a planar model's plane, arc length (its first step's length moves with
 ∂K/∂p, not generated); under displacement control the controlled displacement's start moves too
 (:meth:`ReferenceGeometry.control_moves`); the
@@ -44,7 +46,7 @@ import re
 
 import numpy as np
 
-from latdyn.model.model import FIXED, FREE
+from latdyn.model.model import FIXED, FREE, PRESCRIBED
 from latdyn.numerics.so3 import dexp_so3
 
 __all__ = ["GEOMETRY_KEY", "geometry_refusal", "ReferenceGeometry"]
@@ -69,21 +71,19 @@ def geometry_refusal(scene, name: str, used: str) -> str | None:
     if solve.analysis == "static" and solve.method not in ("load-control", "displacement-control"):
         return (f"{where}: geometry sensitivities of static paths are computed under load control and displacement "
                 f"control only, not {solve.method} (its first step's length moves with ∂K/∂p, not generated)")
-    if match["body"] is not None and scene.bodies[match["body"]].prescribed:
-        return f"{where}: the body's motion is prescribed, and a moved prescribed body is not differentiated yet"
+    turning = [f"bodies.{name}.motion.rotation" for name, body in scene.bodies.items()
+               if body.prescribed and getattr(body, "rotation_angle", None) is not None]
+    turning += [f"beams.{beam}.{which}.hinge.angle" for beam, which, hinge in scene.hinges if hinge.angle is not None]
+    if turning:
+        return (f"{where}: with a prescribed rotation ({turning[0]}) the initial velocities carried through the "
+                "joints move with the points, which is not differentiated yet (prescribed translations are: "
+                "x = at + translation(t))")
     if any(beam.rigid for beam in scene.beams.values()) or any(b.guide is not None for b in scene.bodies.values()):
         return f"{where}: geometry sensitivities with rigid links or guides are not computed yet"
     if scene.cables:
         return f"{where}: geometry sensitivities with cables (their attachment points move) are not computed yet"
     if getattr(scene, "controllers", None):
         return f"{where}: geometry sensitivities with controllers are not computed yet"
-    spinning = np.any(np.asarray(scene.initial_velocity.angular, float) != 0.0)
-    prescribed = any(body.prescribed for body in scene.bodies.values()) or any(
-        hinge.angle is not None for _, _, hinge in scene.hinges)
-    if spinning and prescribed:
-        return (f"{where}: with an initial angular velocity and prescribed motion the initial velocities carried "
-                "through the joints move with the points, which is not differentiated yet (without prescribed "
-                "motion they are: δv_0 = ω × δX)")
     return None
 
 
@@ -204,8 +204,8 @@ class ReferenceGeometry:
             v[0, 6:9] = end_offset.get((beam.name, "from"), np.zeros(3))
             v[-1, 9:12] = end_offset.get((beam.name, "to"), np.zeros(3))
             self.variations[elements, :, column] = v
-        # the fixed ends' reference points (a free node's position is the state's)
-        fixed = np.array([node.kind == FIXED for node in model.nodes], bool)
+        # the fixed and prescribed ends' reference points (x = at + translation(t)); a free node's is the state's
+        fixed = np.array([node.kind in (FIXED, PRESCRIBED) for node in model.nodes], bool)
         for end in (0, 1):
             ends = model.element_nodes[:, end]
             self.variations[:, 3 * end:3 * end + 3, column] = np.where(
@@ -245,8 +245,9 @@ class ReferenceGeometry:
 
     def initial_velocity_tangent(self) -> np.ndarray:
         """δv_0 on the free coordinates (n_dofs, k): a free node's velocity v_O + ω × x at t = 0
-        (latdyn/assembly/initial.py, without prescribed motion: :func:`geometry_refusal`) moves by ω × δX;
-        its ω and the hinges' rates g·(ω − ω) = 0 do not."""
+        (latdyn/assembly/initial.py; without prescribed rotations, :func:`geometry_refusal`, the twist of every
+        part is the given rigid motion's or a prescribed translation's) moves by ω × δX; its ω and the hinges'
+        rates g·(ω − ω) = 0 do not."""
         model = self.model
         omega = np.asarray(self.scene.initial_velocity.angular, float)
         full = np.zeros((model.n_total + 1, self.k))
