@@ -362,7 +362,8 @@ def test_3d_y_axis(text, names):
 
 def _loaded_at_the_offset(text: str) -> str:
     """``text`` (the knee scene) with a global load and one turning with the knee at b.start, the moved offset."""
-    return (text.replace("loads:\n", "loads:\n  - {at: b.start, force: [\"0.5*F\", 0, \"-F\"], moment: [0, \"0.2*F\", 0]}\n"
+    return (text.replace("loads:\n", "loads:\n"
+                                      "  - {at: b.start, force: [\"0.5*F\", 0, \"-F\"], moment: [0, \"0.2*F\", 0]}\n"
                                       "  - {at: b.start, force: [0, 0, 1.5], frame: knee}\n")
             .replace("sensitivities: [X, Y, tz, dy]", "sensitivities: [dy]"))
 
@@ -433,7 +434,8 @@ def test_cli_writes_the_geometry_sensitivities(tmp_path):
 
 
 @pytest.mark.parametrize("change, key, words", [
-    (("elements: 4}", 'elements: 4, y_axis: [0, 1, "L"]}'), "solve.sensitivities", "beams.arm.y_axis in a planar model"),
+    (("elements: 4}", 'elements: 4, y_axis: [0, 1, "L"]}'), "solve.sensitivities",
+     "beams.arm.y_axis in a planar model"),
     (("method: load-control", "method: arc-length"), "solve.sensitivities", "not arc-length"),
     (('tip: {at: ["L", 0, 0]}', 'tip: {at: ["L", 0, "L - 2"]}'), "solve.sensitivities", "off the plane"),
 ])

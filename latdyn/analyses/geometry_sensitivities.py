@@ -1,44 +1,45 @@
 """Sensitivities by geometry parameters: a parameter that places the structure (docs/parameters.md,
 "Geometry parameters").
 
-A parameter used in a body's ``at``, a beam's free end ``from``/``to``, an end's ``offset`` or a beam's
-``y_axis`` (3D models) moves the
-reference configuration X(p): every node's position at t = 0 (a beam's inner nodes interpolate its
-grid points), each element's undeformed length L0 and its nodal frame at θ = 0 in node axes E0 (from
-the beam's direction and ``y_axis``), and the grid-point offsets r_g. The model's state holds absolute
-positions and frames (State.x, State.T; every node starts with T = I), so the solution depends on p
+A parameter used in a body's ``at``, a beam's free end ``from``/``to``, an end's ``offset``, a beam's
+``y_axis`` or a hinge's ``axis`` (the last two in 3D models) moves the reference configuration X(p): every
+node's position at t = 0 (a beam's inner nodes interpolate its grid points), each element's undeformed
+length L0 and its nodal frame at θ = 0 in node axes E0 (from the beam's direction and ``y_axis``), the
+grid-point offsets r_g and the hinge axes a. The model's state holds absolute positions and frames
+(State.x, State.T; every node starts with T = I), so the solution depends on p
 
-(a) through the start: δq_0 = (δX of the free nodes, δπ = 0, δθ = 0), and
+(a) through the start: δq_0 = (δX of the free nodes, δπ = 0, δθ = 0), and with the given rigid spin ω the
+    velocities v_O + ω × x by δv_0 = ω × δX (:meth:`ReferenceGeometry.initial_velocity_tangent`), and
 (b) through the residual at a fixed state: ∂r/∂p = Σ_e (∂F^e/∂(reference data)) · δ(reference data)_e,
     the element's internal force, and with inertia or gravity M a + g − Q, differentiated along one
     variation of its reference data by the generated ``beam_internal_force_D_reference`` and
     ``beam_inertia_force_D_reference`` (codegen/derivation.py ``reference_first_variation``):
 
-        δx_i  = δX of end i's node where that node is fixed (a free node's position is the state's),
+        δx_i  = δX of end i's node where it is fixed or prescribed (x = at + translation(t); a free
+                node's position is the state's),
         δo_i  = T_j δr_g (the offset's global form moved),
         ψ_i   = T_j R(a, θ) φ = T_e E0ᵀ φ,  δE0 = skew(φ) E0 (the frame turned, spatial at the end),
+                plus T_j J(θa) θ δa where the hinge axis moves (R(a, θ) = exp(θ skew a), J the left
+                Jacobian of exp, :func:`latdyn.numerics.so3.dexp_so3`),
+        δh_i  = T_j δa,  δa = (I − a aᵀ) δv/|v| of the axis v as given,
         δL0   = x̂ · (δB − δA) / n   (A, B the beam's grid points, n its elements).
 
-φ is the turn of the beam's frame [x̂, ŷ, x̂ × ŷ]: x̂ = (B − A)/|B − A| and ŷ the loader's rule (``y_axis``
-less its x̂ part, or global z × x̂), so φ = ½ Σ e_k × δe_k with δx̂ = (I − x̂x̂ᵀ)(δB − δA)/|B − A| and δŷ from
-that rule (with δy_0 = (I − y_0 y_0ᵀ)δv/|v| of a ``y_axis`` v given); in a planar model the frame is
-[x̂, n × x̂, n] and φ = x̂ × δx̂. A point probe at a beam's end
-moves with its offset (δ(x + T r) gains T δr), and its displacement's reference with δX + δr.
+φ is the turn of the beam's frame [x̂, ŷ, x̂ × ŷ]: x̂ = (B − A)/|B − A| and ŷ the loader's rule (``y_axis`` v
+made unit, y_0 = v/|v|, less its x̂ part, or global z × x̂), so φ = ½ Σ e_k × δe_k with
+δx̂ = (I − x̂x̂ᵀ)(δB − δA)/|B − A|, δy_0 = (I − y_0 y_0ᵀ)δv/|v| and δŷ from that rule; in a planar model the
+frame is [x̂, n × x̂, n] and φ = x̂ × δx̂. A point probe at a beam's end moves with its offset (δ(x + T r)
+gains T δr), a displacement's reference with δX + δr; a load there by point_load(δr) − point_load(0) (the
+kernel is linear in its offset); displacement control's held displacement by the same
+(:meth:`ReferenceGeometry.control_moves`). Through latches, rigid stops and compliant stops the event
+machinery of latdyn/analyses/transient_sensitivities.py takes them as any parameter (its impulse weight's
+∂/∂p from ∂r/∂p).
 
-Through latches, rigid stops and compliant stops the event machinery of
-latdyn/analyses/transient_sensitivities.py takes them as any parameter (its impulse weight's ∂/∂p from ∂r/∂p).
-A hinge ``axis`` v (unit a = v/|v| in node axes) moves by δa = (I − a aᵀ)δv/|v|: the element's global axis
-T_j a by T_j δa, its nodal frame T_j exp(θ skew a) E0 by the turn T_j J(θ a) θ δa (J the left Jacobian of
-exp, :func:`latdyn.numerics.so3.dexp_so3`).
-A prescribed body's reference point x = ``at`` + translation(t) moves as a fixed one's (its rates do not).
-Refused (:func:`geometry_refusal`): ``y_axis`` and hinge axes in a planar model, prescribed rotations (a body's,
-a hinge angle: the initial velocities carried through the joints then move with the points; without them the
-start's velocities are the given rigid motion's, moved by ω × δX: :meth:`ReferenceGeometry.initial_velocity_tangent`),
-rigid links, guides, cables, controllers, a point
-leaving a planar model's plane, arc length (its first step's length moves with
-∂K/∂p, not generated); under displacement control the controlled displacement's start moves too
-(:meth:`ReferenceGeometry.control_moves`); the
-discrete adjoint refuses geometry parameters (latdyn/analyses/sensitivities.py ``adjoint_refusal``).
+Refused (:func:`geometry_refusal`, and :class:`ReferenceGeometry` where the model decides): ``y_axis`` and
+hinge axes in a planar model, a point leaving a planar model's plane, prescribed rotations (a body's, a
+hinge angle: the velocities they carry into the structure at t = 0 move with its points), rigid links,
+guides, cables, controllers, arc length (its first step's length moves with ∂K/∂p, not generated), a
+kernel variant generated without the reference derivatives; the discrete adjoint refuses geometry
+parameters (latdyn/analyses/sensitivities.py ``adjoint_refusal``).
 """
 from __future__ import annotations
 
@@ -107,8 +108,8 @@ class ReferenceGeometry:
         self._refuse_without_kernels()
         n_nodes, n_elements = len(model.nodes), len(model.element_nodes)
         #: δX of every node (n_nodes, 3, k), the elements' reference variations (n_elements, WIDTH, k) less the
-        #: parts that depend on the state (ψ, δo and δh are in node axes here: φ, δr_g and δa), δr_g of the beams'
-        #: ends
+        #: parts that depend on the state (ψ, δo and δh are in node axes here: φ, δr_g and δa), δr_g of the
+        #: beams' ends
         self.node_moves = np.zeros((n_nodes, 3, k))
         self.variations = np.zeros((n_elements, WIDTH, k))
         self.end_offsets: dict[tuple[str, int], np.ndarray] = {}
@@ -344,7 +345,8 @@ class ReferenceGeometry:
             arguments = (rows(state.T[node]), rows(values), rows(frame), rows(velocity))
 
             def force(offsets):
-                return np.asarray(self.kernels.point_load(arguments[0], np.ascontiguousarray(offsets), *arguments[1:])[0])
+                offsets = np.ascontiguousarray(offsets)
+                return np.asarray(self.kernels.point_load(arguments[0], offsets, *arguments[1:])[0])
 
             difference = force(moved.T) - force(np.zeros((k, 3)))                      # (k, 6)
             total[model.node_dofs[node]] += difference.reshape(k, 6).T

@@ -237,7 +237,8 @@ class Hinge:
     restitution: float = 0.0                # of an impact on a stop, in [0, 1]
     contact: StopContact | None = None      # the stops made compliant (Hunt–Crossley)
     friction: JointFriction | None = None
-    #: the axis as given, before it is made unit (a geometry parameter's derivative: latdyn/analyses/geometry_sensitivities.py)
+    #: the axis as given, before it is made unit (a geometry parameter's derivative:
+    #: latdyn/analyses/geometry_sensitivities.py)
     axis_given: np.ndarray | None = None
 
 
