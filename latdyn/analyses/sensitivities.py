@@ -52,7 +52,9 @@ What is refused (:func:`refusal`, exit 2 naming ``solve.sensitivities``): any an
 load control, arc length and displacement control and transient runs of an implicit method at fixed
 steps without friction and inputs, controllers with states or sampled ones beside events (cables through their
 slack/taut events, guides with theirs: :func:`_transient_refusal`, :meth:`ControllerTerms.refusal`); a
-parameter used anywhere but in load components, hinge stiffness, damping, torque and rest angle, section
+parameter used anywhere but in load components, numbers that place the structure (geometry parameters,
+where :func:`latdyn.analyses.geometry_sensitivities.geometry_refusal` allows them), hinge stiffness, damping,
+torque and rest angle, section
 values of shear-rigid sections (formulation default), body masses, centres of mass and inertias,
 compliant stops' laws and, in transient runs, initial velocities, controllers' outputs and states' rates,
 guides' laws and cables' EA, damping, rest length and rhoA; probes other than point positions and displacements in the
@@ -134,7 +136,7 @@ def refusal(scene) -> SceneError | None:
             section = _SECTION_KEY.match(used)
             initial = solve.analysis == "transient" and (_INITIAL_VELOCITY_KEY.match(used) or _CONTROLLER_KEY.match(used)
                                                          or _cable_use(scene, used) or _GUIDE_KEY.match(used))
-            if GEOMETRY_KEY.match(used):   # a point of the reference configuration (geometry_sensitivities.py)
+            if GEOMETRY_KEY.match(used):   # a number that places the structure (geometry_sensitivities.py)
                 why = geometry_refusal(scene, name, used)
                 if why is not None:
                     return refuse(why)
@@ -142,10 +144,9 @@ def refusal(scene) -> SceneError | None:
             if not (_LOAD_KEY.match(used) or _HINGE_KEY.match(used) or section or _BODY_KEY.match(used) or initial
                     or _CONTACT_KEY.match(used)):
                 return refuse(f"parameter {name!r} is used at {used}: sensitivities are computed for parameters "
-                              "of load components, of points of the reference configuration (bodies.NAME.at, a "
+                              "of load components, of numbers that place the structure (bodies.NAME.at, a "
                               "beam's free end from/to, an end's offset, a beam's y_axis, a hinge's axis), of hinge "
-                              "stiffness, damping, torque and "
-                              "rest_angle, of section "
+                              "stiffness, damping, torque and rest_angle, of section "
                               "stiffnesses and masses (shear-rigid), of body masses, centres of mass and "
                               "inertias, of a hinge's compliant stops (contact.stiffness, .exponent, .damping) "
                               "and, in transient runs, of initial_velocity.linear and .angular, of controllers' "

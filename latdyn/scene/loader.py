@@ -330,8 +330,8 @@ class Beam:
     elements: int
     y_axis: np.ndarray      # (3,) unit, normal to x = start -> end
     rigid: bool = False     # one rigid link (elements is then 1 and no elements are meshed)
-    #: the ``y_axis`` as given (before it is made unit and its x part taken off), None where global z × x is taken: the
-    #: frame's derivative by a geometry parameter (latdyn/analyses/geometry_sensitivities.py) follows the rule
+    #: the ``y_axis`` as given (before it is made unit and its x part taken off), None where global z × x is
+    #: taken: the frame's derivative by a geometry parameter (latdyn/analyses/geometry_sensitivities.py) follows it
     y_given: np.ndarray | None = None
 
     @property
