@@ -34,12 +34,28 @@ ACCELERATION = Argument(
     "angular accelerations of the joint bodies, hinge accelerations (order of q^e, Eq. 59)",
 )
 GRAVITY = Argument("gravity", 3, "uniform gravity acceleration, global")
+REFERENCE = Argument(
+    "reference",
+    25,
+    "[dx1[3] dx2[3] doffset1[3] doffset2[3] psi1[3] psi2[3] dL0 daxis1[3] daxis2[3]]: one variation of the "
+    "element's reference data at a fixed configuration: the reference points moved (ends whose node is no "
+    "coordinate), the global offsets to the grid points moved, the nodal frames turned by exp(skew psi_i) "
+    "(spatial), the undeformed length changed, the global hinge axes moved (geometry parameters, "
+    "docs/parameters.md)",
+)
 
 # Slices into the geometry block.
 X1, X2 = slice(0, 3), slice(3, 6)
 OFFSET1, OFFSET2 = slice(6, 9), slice(9, 12)
 FRAME1, FRAME2 = slice(12, 21), slice(21, 30)
 AXIS1, AXIS2 = slice(30, 33), slice(33, 36)
+
+# Slices into the reference-variation block.
+REF_X1, REF_X2 = slice(0, 3), slice(3, 6)
+REF_OFFSET1, REF_OFFSET2 = slice(6, 9), slice(9, 12)
+REF_PSI1, REF_PSI2 = slice(12, 15), slice(15, 18)
+REF_L0 = 18
+REF_AXIS1, REF_AXIS2 = slice(19, 22), slice(22, 25)
 
 # Slices into the element coordinate vector q^e (and velocity block).
 D1, PI1, THETA1 = slice(0, 3), slice(3, 6), 6

@@ -356,6 +356,14 @@ def configuration_tangent(of: str, name: str, plane: fm.Plane | None, doc: str) 
         for a, b in zip(d1, d2):
             column[a] = column[a] + column[b]
     columns = [{a: 1, b: -1} if a in d1 else {a: 1} for a, b in zip(range(N), [*d2, *range(3, N)])]
+    partials, definitions = _log_jet_rules()
+    return Tangent(of=of, name=name, seeds=seeds, directions=N, doc=doc, partials=partials, definitions=definitions,
+                   columns=columns)
+
+
+def _log_jet_rules() -> tuple[dict, dict]:
+    """(partials, definitions) of a tangent through the log map's jet of θ/sin θ, differentiated as a jet,
+    ∂f⁽ᵏ⁾ = f⁽ᵏ⁺¹⁾ ∂x (its branch-free definition's |x − x_s| has none at the switch)."""
     partials, definitions = {}, {}
     for i, (row, argument) in enumerate(zip(LOG_JET, LOG_ARGUMENT)):
         x = fm.to_sympy(argument)
@@ -364,8 +372,61 @@ def configuration_tangent(of: str, name: str, plane: fm.Plane | None, doc: str) 
             partials[orders[k]] = {str(argument): sp.Symbol(orders[k + 1], real=True)}
         for k in range(1, len(orders)):
             definitions[orders[k]] = fm.log_scale(x, k)
-    return Tangent(of=of, name=name, seeds=seeds, directions=N, doc=doc, partials=partials, definitions=definitions,
-                   columns=columns)
+    return partials, definitions
+
+
+def reference_first_variation(plane: fm.Plane | None = None) -> dict:
+    """The geometry block's and the undeformed length's first variation along one variation of the
+    element's reference data (the block ``reference``, codegen/conventions.py), at a fixed configuration.
+
+    A geometry parameter (docs/parameters.md, "Geometry parameters") moves the reference configuration:
+    the reference point of an end whose node is no coordinate (fixed, prescribed) by δx, the grid-point
+    offset r_g in node axes (so o = T_j r_g by δo = T_j δr_g), the nodal frame at θ = 0 in node axes
+    E0 ← exp(skew φ) E0 (so T_e = T_j exp(θ skew a) E0 turns by exp(skew ψ), ψ = T_j exp(θ skew a) φ,
+    spatial), and the undeformed length L0; the hinge axis h = T_j a does not move. Hence
+
+        δx = δx_i,   δo = δo_i,   δT_e = skew(ψ_i) T_e,   δh = δh_i,   δL0 = δL0,
+
+    a hinge axis a in node axes moved by δa giving δh = T_j δa (and its frame's turn through exp(θ skew a),
+    which the caller adds to ψ_i). Returns {symbol name: [expression]} (one direction) for the inputs that stay
+    free in a configuration of ``plane`` (there the reference variation's out-of-plane parts are zero: δx_n,
+    δo_n, ψ_i, ψ_j, and the axes, ±n, do not move)."""
+    g = cv.GEOMETRY.symbols()
+    r = cv.REFERENCE.symbols()
+    zero = set()
+    if plane is not None:
+        i, j = plane.in_plane
+        zero = {cv.REF_X1.start + plane.normal, cv.REF_X2.start + plane.normal,
+                cv.REF_OFFSET1.start + plane.normal, cv.REF_OFFSET2.start + plane.normal,
+                cv.REF_PSI1.start + i, cv.REF_PSI1.start + j, cv.REF_PSI2.start + i, cv.REF_PSI2.start + j,
+                *range(cv.REF_AXIS1.start, cv.REF_AXIS2.stop)}
+    r = [sp.Integer(0) if k in zero else symbol for k, symbol in enumerate(r)]
+    values = plane.geometry_values(g) if plane is not None else {}
+    seeds = {}
+    for X, O, F, H, RX, RO, RP, RH in (
+            (cv.X1, cv.OFFSET1, cv.FRAME1, cv.AXIS1, cv.REF_X1, cv.REF_OFFSET1, cv.REF_PSI1, cv.REF_AXIS1),
+            (cv.X2, cv.OFFSET2, cv.FRAME2, cv.AXIS2, cv.REF_X2, cv.REF_OFFSET2, cv.REF_PSI2, cv.REF_AXIS2)):
+        psi = r[RP]
+        W = sp.Matrix([[0, -psi[2], psi[1]], [psi[2], 0, -psi[0]], [-psi[1], psi[0], 0]])
+        T = sp.Matrix(3, 3, g[F])
+        moved = list(r[RX]) + list(r[RO]) + list(W * T) + list(r[RH])
+        for symbol, change in zip(g[X] + g[O] + g[F] + g[H], moved):
+            if symbol in values:
+                continue  # not an input of the planar element (its value is put in)
+            change = sp.expand(sp.sympify(change).xreplace(values))
+            if change != 0:
+                seeds[str(symbol)] = [change]
+    seeds[str(cv.SECTION.symbols()[0])] = [r[cv.REF_L0]]
+    return seeds
+
+
+def reference_tangent(of: str, name: str, plane: fm.Plane | None, doc: str) -> Tangent:
+    """The request for the derivative of output ``of`` along one variation of the reference data
+    (:func:`reference_first_variation`), as the output ``name`` of shape (size of ``of``, 1): forward mode of
+    the lowered kernel (codegen/forward.py), with the log map's jet rules (:func:`_log_jet_rules`)."""
+    partials, definitions = _log_jet_rules()
+    return Tangent(of=of, name=name, seeds=reference_first_variation(plane), directions=1, doc=doc,
+                   partials=partials, definitions=definitions)
 
 
 def build_kernels(variant: str = "default") -> list[KernelSpec]:
@@ -615,4 +676,34 @@ def build_kernels(variant: str = "default") -> list[KernelSpec]:
         [Output("gravity_force", (N,), Q)], b,
         tangent=configuration_tangent("gravity_force", "gravity_force_D_q", plane,
                                       "∂Q/∂q, row-major: [r, d] = ∂Q_r/∂q_d"))
+
+    # --- the forces' derivative by the reference configuration (geometry parameters, docs/parameters.md):
+    # the internal force F and the inertia force M a + g − Q lowered as above, their derivatives along one
+    # variation of the reference data (reference_first_variation: the ends' fixed reference points, the
+    # grid-point offsets, the nodal frames' E0, L0) the forward-mode program of the lowered force.
+    b = Builder(kin.auxiliary + shear_definitions)
+    _, force, _ = elastic(b, with_tangent=False)
+    add("beam_internal_force_D_reference", "Internal force F_i^e = Bᵀ ∂U/∂Ψ and its derivative along a "
+        "variation of the reference data (forward mode of the lowered force, codegen/forward.py)", "Eqs. 29-43",
+        [cv.GEOMETRY, cv.SECTION, cv.REFERENCE], [Output("internal_force", (N,), force)], b,
+        tangent=reference_tangent("internal_force", "internal_force_D_reference", plane,
+                                  "∂F_i/∂(reference data) along the variation given, (14, 1)"))
+
+    b = Builder(kin.auxiliary + shear_definitions)
+    p = inertia(b, with_velocity=True)
+    Ja = b.vector("Ja", [sp.Add(*[p["J"][i][a] * acceleration[a] for a in range(N)]) for i in range(12)])
+    TcT = p["TcT"]
+    g_local = b.vector("gc", [sp.Add(*[TcT[i][k] * gravity[k] for k in range(3)]) for i in range(3)])
+    S = p["first_moment"]
+    local = b.vector("inertia_local", [
+        sp.Add(*[p["Mhat"][i][j] * (Ja[j] + p["Jdq"][j]) for j in range(12)]) + p["ghat"][i]
+        - sp.Add(*[S[k, i].xreplace(p["rename"]) * g_local[k] for k in range(3)]) for i in range(12)])
+    force = [sp.Add(*[p["J"][i][a] * local[i] for i in range(12)]) for a in range(N)]
+    add("beam_inertia_force_D_reference", "Inertia force M a + g − Q of gravity and its derivative along a "
+        "variation of the reference data at fixed spatial rates and accelerations (forward mode of the lowered "
+        "force, codegen/forward.py)", "Eqs. 50-58, 61-62",
+        [cv.GEOMETRY, cv.VELOCITY, cv.ACCELERATION, cv.SECTION, cv.GRAVITY, cv.REFERENCE],
+        [Output("inertia_force", (N,), force)], b,
+        tangent=reference_tangent("inertia_force", "inertia_force_D_reference", plane,
+                                  "∂(M a + g − Q)/∂(reference data) along the variation given, (14, 1)"))
     return kernels

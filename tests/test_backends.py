@@ -56,8 +56,9 @@ def realistic_inputs(n: int, seed: int = 0) -> dict[str, np.ndarray]:
     velocity = rng.normal(size=(n, 14))
     acceleration = rng.normal(size=(n, 14))
     gravity = np.tile([0.0, 0.0, -9.81], (n, 1)) + 0.1 * rng.normal(size=(n, 3))
+    reference = rng.normal(size=(n, 25))   # a variation of the reference data (geometry parameters)
     return {"geometry": geometry, "section": section, "velocity": velocity, "acceleration": acceleration,
-            "gravity": gravity}
+            "gravity": gravity, "reference": reference}
 
 
 def _variants():

@@ -367,7 +367,7 @@ def test_the_cli_writes_sensitivities_csv_and_the_summary(tmp_path, arm_3d):
     (lambda d: d.update(gravity=[0, 0, "-k"]), "used at gravity[2]"),
     (lambda d: d["sections"]["s"].update(GAy=1.0e4), "shear-flexible"),
     (lambda d: d["solve"].update(formulation="cr4402"), "formulation: default only"),
-    (lambda d: d["bodies"]["knee"].update(at=["F/2", 0, 0]), "used at bodies.knee.at[0]"),
+    (lambda d: d["sections"]["s"].update(GAy="1e4*F"), "used at sections.s.GAy"),
     (lambda d: d["output"]["probes"].update(e={"energy": "strain"}), "probe 'e'"),
     (lambda d: d["output"]["probes"].update(v={"point": "b.end", "quantity": "position", "frame": "knee"}),
      "probe 'v'"),

@@ -9,7 +9,9 @@ Newton made the residual r(q; λ, p) vanish. Its derivative by a parameter p is 
 in the coordinates of the configuration update (translations added, rotations T ← exp(skew δπ) T,
 hinge angles added): rotation sensitivities live in the tangent space, as the step's own
 increments do. The row at λ = 0 is the initial configuration, which Newton does not solve for and
-which no supported parameter moves: its sensitivities are zero.
+which only geometry parameters move (δq_0 = δX, :mod:`latdyn.analyses.geometry_sensitivities`); for
+the rest its sensitivities are zero. Geometry parameters' ∂r/∂p: the generated derivatives of the
+element forces along the reference data's variation (the same module).
 
 ∂r/∂p comes from the generated kernels the residual itself is made of, by their linearity:
 
@@ -51,7 +53,9 @@ load control, arc length and displacement control and transient runs of an impli
 steps without friction and inputs, continuous controllers that read a force (a tension, a section or joint
 force), controllers with states or sampled ones beside events (cables through their
 slack/taut events, guides with theirs: :func:`_transient_refusal`, :meth:`ControllerTerms.refusal`); a
-parameter used anywhere but in load components, hinge stiffness, damping, torque and rest angle, section
+parameter used anywhere but in load components, numbers that place the structure (geometry parameters,
+where :func:`latdyn.analyses.geometry_sensitivities.geometry_refusal` allows them), hinge stiffness, damping,
+torque and rest angle, section
 values of shear-rigid sections (formulation default), body masses, centres of mass and inertias,
 compliant stops' laws and, in transient runs, initial velocities, controllers' outputs and states' rates,
 guides' laws and cables' EA, damping, rest length and rhoA; probes other than point positions and displacements in the
@@ -71,6 +75,7 @@ import numpy as np
 
 from latdyn.analyses.joint_force_sensitivities import is_joint_force
 from latdyn.analyses.joint_force_sensitivities import refusal as joint_force_refusal
+from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY, ReferenceGeometry, geometry_refusal
 from latdyn.assembly.factorization import solve_linear
 from latdyn.assembly.native_model import NO_CONTACT, joint_contact_rows
 from latdyn.errors import SceneError, SolverError
@@ -135,10 +140,17 @@ def refusal(scene) -> SceneError | None:
             section = _SECTION_KEY.match(used)
             initial = solve.analysis == "transient" and (_INITIAL_VELOCITY_KEY.match(used) or _CONTROLLER_KEY.match(used)
                                                          or _cable_use(scene, used) or _GUIDE_KEY.match(used))
+            if GEOMETRY_KEY.match(used):   # a number that places the structure (geometry_sensitivities.py)
+                why = geometry_refusal(scene, name, used)
+                if why is not None:
+                    return refuse(why)
+                continue
             if not (_LOAD_KEY.match(used) or _HINGE_KEY.match(used) or section or _BODY_KEY.match(used) or initial
                     or _CONTACT_KEY.match(used)):
                 return refuse(f"parameter {name!r} is used at {used}: sensitivities are computed for parameters "
-                              "of load components, of hinge stiffness, damping, torque and rest_angle, of section "
+                              "of load components, of numbers that place the structure (bodies.NAME.at, a "
+                              "beam's free end from/to, an end's offset, a beam's y_axis, a hinge's axis), of hinge "
+                              "stiffness, damping, torque and rest_angle, of section "
                               "stiffnesses and masses (shear-rigid), of body masses, centres of mass and "
                               "inertias, of a hinge's compliant stops (contact.stiffness, .exponent, .damping) "
                               "and, in transient runs, of initial_velocity.linear and .angular, of controllers' "
@@ -198,6 +210,11 @@ def adjoint_refusal(scene) -> SceneError | None:
         where = joints[0] if joints else ("cables" if scene.cables else "a guide's lock_at or limits")
         why = (f"the adjoint differentiates runs without events, and {where} (lock_at, limits, a cable's slack "
                "and taut changes) makes events")
+    elif any(GEOMETRY_KEY.match(used) for name in scene.solve.sensitivities
+             for used in scene.parameters.depending_on(name)):
+        used = next(used for name in scene.solve.sensitivities for used in scene.parameters.depending_on(name)
+                    if GEOMETRY_KEY.match(used))
+        why = f"the adjoint does not take geometry parameters yet ({used}: the start moves with them)"
     elif any(body.guide is not None for body in scene.bodies.values()):
         name = next(n for n, body in scene.bodies.items() if body.guide is not None)
         why = f"the adjoint does not differentiate guides yet (bodies.{name}.guide)"
@@ -357,6 +374,8 @@ class ParameterDerivatives:
                     parsed[text] = parse_hinge_law(text, self.scene.file, key)
                 self.derivatives.setdefault(key, {})[column] = parsed[text]
         self._values_at: tuple[float, dict] = (float("nan"), {})
+        #: the reference configuration's derivative by geometry parameters (None without them)
+        self.geometry = ReferenceGeometry(self) if any(map(GEOMETRY_KEY.match, self.derivatives)) else None
         self.controllers = ControllerTerms(self) if self.scene.controllers else None
         initial = self.assembler.initial_state()
         self.initial_points = {p.name: initial.x[node] + initial.T[node] @ offset
@@ -379,6 +398,8 @@ class ParameterDerivatives:
                 for column, law in laws.items():
                     total[model.hinge_dofs[j], column] += self._hinge_force(state, j, hinge["law"], law, load_factor)
         self._section_forces(state, total, load_factor, inertia)
+        if self.geometry is not None:
+            self.geometry.add(state, total, load_factor, inertia)
         self._body_forces(state, total, load_factor, inertia)
         self._contact_forces(state, total)
         if self.controllers is not None:
@@ -713,6 +734,9 @@ class ParameterDerivatives:
         node, offset = model.point(probe.point)
         arm = state.T[node] @ offset
         moved = dx[node] + np.cross(dpi[node], arm, axisa=0, axisc=0)    # δ(x + T r), (3, k)
+        if self.geometry is not None:   # a geometry parameter moves the point's offset and its reference
+            offset_moved, reference_moved = self.geometry.point_moves(probe, state)
+            moved = moved + offset_moved - (reference_moved if probe.quantity == "displacement" else 0.0)
         if probe.quantity == "velocity":   # δ(v + ω × T r)
             dvel, domega, _ = rates
             moved = dvel[node] + np.cross(domega[node], arm, axisa=0, axisc=0) \
@@ -753,7 +777,10 @@ class StaticSensitivities(ParameterDerivatives):
         δq = δq_r + δλ δq_λ with δq_r = −K⁻¹ ∂r/∂p, δq_λ = K⁻¹ q_ref (∂r/∂λ = −q_ref) and
         δλ = −g·δq_r / g·δq_λ."""
         model, k = self.model, len(self.names)
-        if load_factor == 0.0 or model.n_dofs == 0:
+        if load_factor == 0.0 or model.n_dofs == 0:   # the initial configuration: moved by geometry parameters only
+            if self.geometry is not None:
+                self._append_row(state, load_factor, self.geometry.initial_tangent(), np.zeros(k))
+                return
             self.rows.append((load_factor, [0.0] * len(self.columns)))
             self.load_factor_rows.append([0.0] * k)
             return
@@ -766,7 +793,10 @@ class StaticSensitivities(ParameterDerivatives):
         tangent, moved = solved[:, :k], np.zeros(k)
         if constraint_gradient is not None:
             g, along_load = constraint_gradient(state), solved[:, k]
-            moved = -(g @ tangent) / float(g @ along_load)          # δλ
+            held = g @ tangent
+            if self.geometry is not None:   # the controlled displacement's start and offset move too
+                held = held + self.geometry.control_moves(state)
+            moved = -held / float(g @ along_load)          # δλ
             tangent = tangent + np.outer(along_load, moved)
         self._append_row(state, load_factor, tangent, moved)
 

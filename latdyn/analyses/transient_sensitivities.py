@@ -31,7 +31,8 @@ factorised afresh. ∂r/∂p comes from the generated kernels by their linearity
 accepted step sizes are held: a fixed-step run (its cuts after a Newton failure included) is
 differentiated exactly; adaptive step control is refused (its step sizes depend on p).
 
-At t = 0 the configuration depends on no supported parameter (δq_0 = 0); the velocities do through
+At t = 0 the configuration depends on geometry parameters only (δq_0 = δX, K δq_0 added to the start's ∂r/∂p
+with the exact K: latdyn/analyses/geometry_sensitivities.py); the velocities do through
 ``initial_velocity.linear`` and ``.angular`` only, in which they are affine at a fixed ``about``
 (:func:`latdyn.assembly.initial.initial_velocities`): δv_0 = v_0(its values + their derivatives) −
 v_0(its values), exactly. The start's consistent accelerations
@@ -98,6 +99,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
 from latdyn.analyses.sensitivities import (_BODY_KEY, _CABLE_KEY, _GUIDE_KEY, _HINGE_KEY, _INITIAL_VELOCITY_KEY,
                                            _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE, ParameterDerivatives)
 from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_force_derivatives, joint_of
@@ -175,7 +177,8 @@ class TransientSensitivities(ParameterDerivatives):
     # ------------------------------------------------------------------ t = 0
     def start(self, state) -> dict:
         """The carried sensitivities at t = 0 (after the integrator's start made ``state``'s
-        accelerations consistent): δq = δv = 0, δv̇ = δa = the start's derivative."""
+        accelerations consistent): δq = δX of geometry parameters (else 0), δv = δv_0, δv̇ = δa = the start's
+        derivative."""
         model, k = self.model, len(self.names)
         n = model.n_dofs
         zero = np.zeros((n, k))
@@ -196,6 +199,12 @@ class TransientSensitivities(ParameterDerivatives):
         if sampled is not None:  # the sample at t = 0 (before the start): its held δy for ∂r/∂p
             carried = {**carried, **sampled.start(state, k)}
         rhs = self.residual_derivatives(state, 1.0, inertia=True) + ev.combined(0.0, 1.0, 0.0) @ dv
+        dq = zero
+        if self.geometry is not None:   # geometry parameters move the start: δq_0 = δX, through the exact K,
+            dq = self.geometry.initial_tangent()   # and the rigid spin's velocities δv_0 = ω × δX, through C
+            moved = self.geometry.initial_velocity_tangent()
+            dv = dv + moved
+            rhs = rhs + self._matrices(state)[2] @ dq + ev.combined(0.0, 1.0, 0.0) @ moved
         if states is not None:
             self.controllers.held = {}
         if split.n_massless == 0:   # Δ = −M⁻¹r: one factorization for every column
@@ -204,7 +213,7 @@ class TransientSensitivities(ParameterDerivatives):
             dvdot = np.column_stack([consistent_acceleration(model, SimpleNamespace(residual=rhs[:, c],
                                                                                     combined=ev.combined))
                                      for c in range(k)])
-        return {**carried, "dv": dv, "dvdot": dvdot, "da": dvdot.copy()}
+        return {**carried, "dq": dq, "dv": dv, "dvdot": dvdot, "da": dvdot.copy()}
 
     def _initial_velocities(self) -> np.ndarray:
         """δv_0 (n, k): the initial state's free velocities with the rigid motion's components moved by
@@ -232,6 +241,7 @@ class TransientSensitivities(ParameterDerivatives):
         neither M nor K, or at rest in equilibrium (module docstring)."""
         moving = [key for key in self.derivatives
                   if _SECTION_KEY.match(key) or _BODY_KEY.match(key) or _INITIAL_VELOCITY_KEY.match(key)
+                  or GEOMETRY_KEY.match(key)
                   or (_HINGE_KEY.match(key) and _HINGE_KEY.match(key)["law"] == "stiffness")
                   or _CABLE_KEY.match(key) or (_GUIDE_KEY.match(key) and _GUIDE_KEY.match(key)["law"] == "stiffness")
                   or (_LOAD_KEY.match(key) and self.scene.loads[int(_LOAD_KEY.match(key)["load"])].frame != "global")]

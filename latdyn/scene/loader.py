@@ -237,6 +237,9 @@ class Hinge:
     restitution: float = 0.0                # of an impact on a stop, in [0, 1]
     contact: StopContact | None = None      # the stops made compliant (Hunt–Crossley)
     friction: JointFriction | None = None
+    #: the axis as given, before it is made unit (a geometry parameter's derivative:
+    #: latdyn/analyses/geometry_sensitivities.py)
+    axis_given: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -327,6 +330,9 @@ class Beam:
     elements: int
     y_axis: np.ndarray      # (3,) unit, normal to x = start -> end
     rigid: bool = False     # one rigid link (elements is then 1 and no elements are meshed)
+    #: the ``y_axis`` as given (before it is made unit and its x part taken off), None where global z × x is
+    #: taken: the frame's derivative by a geometry parameter (latdyn/analyses/geometry_sensitivities.py) follows it
+    y_given: np.ndarray | None = None
 
     @property
     def length(self) -> float:
@@ -1046,7 +1052,8 @@ class _Reader:
 
     def hinge(self, spec, key) -> Hinge:
         self.mapping(spec, key, _HINGE_KEYS, required=("axis",))
-        h = Hinge(axis=self.unit(spec["axis"], _join(key, "axis")))
+        given = self.vector(spec["axis"], _join(key, "axis"), nonzero=True, what="[ax, ay, az]")
+        h = Hinge(axis=_direction(given), axis_given=given)
         for name in ("stiffness", "damping"):
             if name in spec:
                 setattr(h, name, self.hinge_coefficient(spec[name], _join(key, name)))
@@ -1252,12 +1259,14 @@ class _Reader:
         x = d / length
         if "y_axis" in spec:
             y_key = _join(key, "y_axis")
-            y = _direction(self.vector(spec["y_axis"], y_key, nonzero=True))
+            y_given = self.vector(spec["y_axis"], y_key, nonzero=True)
+            y = _direction(y_given)
             y = y - np.dot(y, x) * x                       # Gram-Schmidt
             if np.linalg.norm(y) < 1e-8:
                 self.fail(y_key, f"expected a direction not parallel to the beam (x = {x.round(12).tolist()})",
                           spec["y_axis"])
         else:
+            y_given = None
             y = np.array([-x[1], x[0], 0.0])               # global Z × x, written out (np.cross is slow)
             if math.hypot(x[0], x[1]) < 1e-9:
                 y = np.array([0.0, 1.0, 0.0])
@@ -1265,7 +1274,7 @@ class _Reader:
         if not rigid:
             self.n_elements += elements
         return Beam(name=name, start=start, end=end, section=section, elements=elements,
-                    y_axis=y / math.sqrt(float(np.dot(y, y))), rigid=rigid)
+                    y_axis=y / math.sqrt(float(np.dot(y, y))), rigid=rigid, y_given=y_given)
 
     # indices of up to 18 digits: int() refuses more than 4300, and any index that long is out of range
     _POINT = re.compile(r"^(?P<name>[^.\[\]]+)\.(?:(?P<end>start|end)|node\[(?P<node>[+-]?\d{1,18})\])$")

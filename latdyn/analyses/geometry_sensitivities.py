@@ -1,0 +1,371 @@
+"""Sensitivities by geometry parameters: a parameter that places the structure (docs/parameters.md,
+"Geometry parameters").
+
+A parameter used in a body's ``at``, a beam's free end ``from``/``to``, an end's ``offset``, a beam's
+``y_axis`` or a hinge's ``axis`` (the last two in 3D models) moves the reference configuration X(p): every
+node's position at t = 0 (a beam's inner nodes interpolate its grid points), each element's undeformed
+length L0 and its nodal frame at θ = 0 in node axes E0 (from the beam's direction and ``y_axis``), the
+grid-point offsets r_g and the hinge axes a. The model's state holds absolute positions and frames
+(State.x, State.T; every node starts with T = I), so the solution depends on p
+
+(a) through the start: δq_0 = (δX of the free nodes, δπ = 0, δθ = 0), and with the given rigid spin ω the
+    velocities v_O + ω × x by δv_0 = ω × δX (:meth:`ReferenceGeometry.initial_velocity_tangent`), and
+(b) through the residual at a fixed state: ∂r/∂p = Σ_e (∂F^e/∂(reference data)) · δ(reference data)_e,
+    the element's internal force, and with inertia or gravity M a + g − Q, differentiated along one
+    variation of its reference data by the generated ``beam_internal_force_D_reference`` and
+    ``beam_inertia_force_D_reference`` (codegen/derivation.py ``reference_first_variation``):
+
+        δx_i  = δX of end i's node where it is fixed or prescribed (x = at + translation(t); a free
+                node's position is the state's),
+        δo_i  = T_j δr_g (the offset's global form moved),
+        ψ_i   = T_j R(a, θ) φ = T_e E0ᵀ φ,  δE0 = skew(φ) E0 (the frame turned, spatial at the end),
+                plus T_j J(θa) θ δa where the hinge axis moves (R(a, θ) = exp(θ skew a), J the left
+                Jacobian of exp, :func:`latdyn.numerics.so3.dexp_so3`),
+        δh_i  = T_j δa,  δa = (I − a aᵀ) δv/|v| of the axis v as given,
+        δL0   = x̂ · (δB − δA) / n   (A, B the beam's grid points, n its elements).
+
+φ is the turn of the beam's frame [x̂, ŷ, x̂ × ŷ]: x̂ = (B − A)/|B − A| and ŷ the loader's rule (``y_axis`` v
+made unit, y_0 = v/|v|, less its x̂ part, or global z × x̂), so φ = ½ Σ e_k × δe_k with
+δx̂ = (I − x̂x̂ᵀ)(δB − δA)/|B − A|, δy_0 = (I − y_0 y_0ᵀ)δv/|v| and δŷ from that rule; in a planar model the
+frame is [x̂, n × x̂, n] and φ = x̂ × δx̂. A point probe at a beam's end moves with its offset (δ(x + T r)
+gains T δr), a displacement's reference with δX + δr; a load there by point_load(δr) − point_load(0) (the
+kernel is linear in its offset); displacement control's held displacement by the same
+(:meth:`ReferenceGeometry.control_moves`). Through latches, rigid stops and compliant stops the event
+machinery of latdyn/analyses/transient_sensitivities.py takes them as any parameter (its impulse weight's
+∂/∂p from ∂r/∂p).
+
+Refused (:func:`geometry_refusal`, and :class:`ReferenceGeometry` where the model decides): ``y_axis`` and
+hinge axes in a planar model, a point leaving a planar model's plane, prescribed rotations (a body's, a
+hinge angle: the velocities they carry into the structure at t = 0 move with its points), rigid links,
+guides, cables, controllers, arc length (its first step's length moves with ∂K/∂p, not generated), a
+kernel variant generated without the reference derivatives; the discrete adjoint refuses geometry
+parameters (latdyn/analyses/sensitivities.py ``adjoint_refusal``).
+"""
+from __future__ import annotations
+
+import re
+
+import numpy as np
+
+from latdyn.model.model import FIXED, FREE, PRESCRIBED
+from latdyn.numerics.so3 import dexp_so3
+
+__all__ = ["GEOMETRY_KEY", "geometry_refusal", "ReferenceGeometry"]
+
+#: the generated kernels' reference block (codegen/conventions.py REFERENCE): dx1 dx2 doffset1 doffset2 psi1 psi2
+#: dL0 daxis1 daxis2
+WIDTH = 25
+
+#: a number that places the structure: a body's reference point, a beam's free end point, an end's offset, a
+#: beam's y_axis, a hinge's axis
+GEOMETRY_KEY = re.compile(r"^(?:bodies\.(?P<body>[^.]+)\.at|beams\.(?P<beam>.+)\.(?:(?P<side>from|to)"
+                          r"(?P<offset>\.offset)?|(?P<y>y_axis)|(?P<hinge>start|end)\.hinge\.axis))"
+                          r"\[(?P<axis>[0-2])\]$")
+
+
+def geometry_refusal(scene, name: str, used: str) -> str | None:
+    """Why the sensitivity by ``name``, used at the geometry key ``used``, is not computed exactly here, or
+    None (module docstring)."""
+    match = GEOMETRY_KEY.match(used)
+    solve = scene.solve
+    where = f"parameter {name!r} is used at {used}, a number that places the structure"
+    if solve.analysis == "static" and solve.method not in ("load-control", "displacement-control"):
+        return (f"{where}: geometry sensitivities of static paths are computed under load control and displacement "
+                f"control only, not {solve.method} (its first step's length moves with ∂K/∂p, not generated)")
+    turning = [f"bodies.{name}.motion.rotation" for name, body in scene.bodies.items()
+               if body.prescribed and getattr(body, "rotation_angle", None) is not None]
+    turning += [f"beams.{beam}.{which}.hinge.angle" for beam, which, hinge in scene.hinges if hinge.angle is not None]
+    if turning:
+        return (f"{where}: with a prescribed rotation ({turning[0]}) the initial velocities carried through the "
+                "joints move with the points, which is not differentiated yet (prescribed translations are: "
+                "x = at + translation(t))")
+    if any(beam.rigid for beam in scene.beams.values()) or any(b.guide is not None for b in scene.bodies.values()):
+        return f"{where}: geometry sensitivities with rigid links or guides are not computed yet"
+    if scene.cables:
+        return f"{where}: geometry sensitivities with cables (their attachment points move) are not computed yet"
+    if getattr(scene, "controllers", None):
+        return f"{where}: geometry sensitivities with controllers are not computed yet"
+    return None
+
+
+class ReferenceGeometry:
+    """The reference configuration's derivative by the geometry parameters of a run (module docstring):
+    :meth:`initial_tangent` (δq_0), :meth:`add` (∂r/∂p at a state) and :meth:`point_moves` (a probe
+    point's offset and reference moved)."""
+
+    def __init__(self, owner):
+        self.owner = owner
+        self.scene, self.model, self.kernels = owner.scene, owner.model, owner.kernels
+        model, k = self.model, len(owner.names)
+        self.k = k
+        #: column -> {key: dvalue/dp} of the geometry uses
+        uses: dict[int, dict[str, float]] = {}
+        for key, laws in owner.derivatives.items():
+            if GEOMETRY_KEY.match(key):
+                for column, law in laws.items():
+                    uses.setdefault(column, {})[key] = float(law.value(0.0, 0.0, 0.0))
+        self.active = bool(uses)
+        self._refuse_without_kernels()
+        n_nodes, n_elements = len(model.nodes), len(model.element_nodes)
+        #: δX of every node (n_nodes, 3, k), the elements' reference variations (n_elements, WIDTH, k) less the
+        #: parts that depend on the state (ψ, δo and δh are in node axes here: φ, δr_g and δa), δr_g of the
+        #: beams' ends
+        self.node_moves = np.zeros((n_nodes, 3, k))
+        self.variations = np.zeros((n_elements, WIDTH, k))
+        self.end_offsets: dict[tuple[str, int], np.ndarray] = {}
+        for column, by_key in uses.items():
+            self._column(column, by_key)
+        #: (load, node, the moved offset (3, k)) of the loads at a beam end whose offset moves
+        self.moved_loads = []
+        for index, load in enumerate(self.scene.loads):
+            ref = load.at
+            if getattr(ref, "beam", None) is not None and ref.node in (0, self.scene.beams[ref.beam].elements):
+                moved = self.end_offsets.get((ref.beam, 0 if ref.node == 0 else 1))
+                if moved is not None:
+                    self.moved_loads.append((index, model.point(ref)[0], moved))
+        if model.plane is not None and (np.any(self.node_moves[:, model.plane] != 0.0) or any(
+                np.any(offset[model.plane] != 0.0) for offset in self.end_offsets.values())):
+            from latdyn.errors import SceneError
+            raise SceneError(self.scene.file, "solve.sensitivities",
+                             "a geometry parameter moves a point off the plane of the planar model; expected "
+                             "solve.planar: off for such a parameter (docs/parameters.md, \"Geometry parameters\")")
+        self.elements = np.flatnonzero(np.any(self.variations != 0.0, axis=(1, 2)))
+
+    def _refuse_without_kernels(self) -> None:
+        """Refuse (SceneError naming ``solve.sensitivities``) a kernel variant generated before the reference
+        derivatives (or with another reference block): they are what ∂r/∂p is made of here."""
+        from latdyn.errors import SceneError
+
+        names = ("beam_internal_force_D_reference", "beam_inertia_force_D_reference")
+        info = getattr(self.kernels, "info", {}) or {}
+        if all(name in info and dict(info[name]["inputs"]).get("reference") == WIDTH for name in names):
+            return
+        variant = self.kernels.variant
+        raise SceneError(self.scene.file, "solve.sensitivities",
+                         f"geometry parameters need the kernels {names[0]} and {names[1]} (reference block of "
+                         f"{WIDTH}), which the generated variant {variant!r} does not hold yet (python -m codegen "
+                         f"--variant {variant})")
+
+    # ------------------------------------------------------------------ the reference data moved
+    def _column(self, column: int, by_key: dict) -> None:
+        scene, model = self.scene, self.model
+        body_at: dict[str, np.ndarray] = {}
+        end_point: dict[tuple[str, str], np.ndarray] = {}
+        end_offset: dict[tuple[str, str], np.ndarray] = {}
+        y_given: dict[str, np.ndarray] = {}
+        for key, slope in by_key.items():
+            m = GEOMETRY_KEY.match(key)
+            axis = int(m["axis"])
+            if m["body"] is not None:
+                body_at.setdefault(m["body"], np.zeros(3))[axis] += slope
+            elif m["y"] is not None:
+                y_given.setdefault(m["beam"], np.zeros(3))[axis] += slope
+            elif m["hinge"] is not None:
+                self._hinge_axis(m["beam"], m["hinge"], axis, slope, column)
+            else:
+                target = end_offset if m["offset"] else end_point
+                target.setdefault((m["beam"], m["side"]), np.zeros(3))[axis] += slope
+        for body, moved in body_at.items():
+            self.node_moves[model.body_node[body], :, column] += moved
+        for beam in scene.beams.values():
+            grid = []
+            for side, end in (("from", beam.start), ("to", beam.end)):
+                offset = end_offset.get((beam.name, side), np.zeros(3))
+                point = (body_at.get(end.body, np.zeros(3)) + offset) if end.body is not None \
+                    else end_point.get((beam.name, side), np.zeros(3))
+                grid.append(point)
+                if np.any(offset):
+                    self.end_offsets.setdefault((beam.name, 0 if side == "from" else 1), np.zeros((3, self.k)))[
+                        :, column] += offset
+            nodes, elements = model.beam_nodes[beam.name], model.beam_elements[beam.name]
+            n = len(elements)
+            for i, node in enumerate(nodes[1:-1], start=1):   # inner nodes interpolate the grid points
+                self.node_moves[node, :, column] = grid[0] + (grid[1] - grid[0]) * i / n
+            for which, end in ((0, beam.start), (1, beam.end)):
+                if end.body is None:
+                    self.node_moves[nodes[-1 if which else 0], :, column] = grid[which]
+            turned = y_given.get(beam.name, np.zeros(3))
+            if not (np.any(grid[0]) or np.any(grid[1]) or np.any(turned)):
+                continue
+            if np.any(turned) and model.plane is not None:
+                from latdyn.errors import SceneError
+                raise SceneError(scene.file, "solve.sensitivities",
+                                 f"a parameter of beams.{beam.name}.y_axis in a planar model (whose section axes the "
+                                 "plane sets); expected solve.planar: off for it (docs/parameters.md, \"Geometry "
+                                 "parameters\")")
+            chord = beam.end.point - beam.start.point
+            length = float(np.linalg.norm(chord))
+            x = chord / length
+            moved = grid[1] - grid[0]
+            dx = (moved - x * (x @ moved)) / length
+            phi = np.cross(x, dx) if model.plane is not None else _frame_turn(beam, x, dx, turned)
+            v = self.variations[elements, :, column]
+            v[:, 12:15] = v[:, 15:18] = phi
+            v[:, 18] = x @ moved / n
+            v[0, 6:9] = end_offset.get((beam.name, "from"), np.zeros(3))
+            v[-1, 9:12] = end_offset.get((beam.name, "to"), np.zeros(3))
+            self.variations[elements, :, column] = v
+        # the fixed and prescribed ends' reference points (x = at + translation(t)); a free node's is the state's
+        fixed = np.array([node.kind in (FIXED, PRESCRIBED) for node in model.nodes], bool)
+        for end in (0, 1):
+            ends = model.element_nodes[:, end]
+            self.variations[:, 3 * end:3 * end + 3, column] = np.where(
+                fixed[ends][:, None], self.node_moves[ends, :, column], 0.0)
+
+    def _hinge_axis(self, beam: str, end: str, component: int, slope: float, column: int) -> None:
+        """A hinge axis's component moved: a = v/|v| (the loader's unit axis, node axes = global at t = 0) by
+        δa = (I − a aᵀ) δv/|v|, into its element end's daxis (node axes; :meth:`add` turns it and adds the
+        frame's turn through exp(θ skew a))."""
+        model = self.model
+        if model.plane is not None:
+            from latdyn.errors import SceneError
+            raise SceneError(self.scene.file, "solve.sensitivities",
+                             f"a parameter of beams.{beam}.{end}.hinge.axis in a planar model (whose hinge axes are "
+                             "its normal); expected solve.planar: off for it (docs/parameters.md, \"Geometry "
+                             "parameters\")")
+        spec = getattr(self.scene.beams[beam], end).hinge
+        v = np.asarray(spec.axis_given, float)
+        a = v / np.linalg.norm(v)
+        dv = np.zeros(3)
+        dv[component] = slope
+        da = (dv - a * (a @ dv)) / np.linalg.norm(v)
+        elements = model.beam_elements[beam]
+        element, which = (elements[0], 0) if end == "start" else (elements[-1], 1)
+        self.variations[element, 19 + 3 * which:22 + 3 * which, column] += da
+
+    # ------------------------------------------------------------------ what the analyses use
+    def initial_tangent(self) -> np.ndarray:
+        """δq_0 on the free coordinates (n_dofs, k): the free nodes' reference points moved."""
+        model = self.model
+        full = np.zeros((model.n_total + 1, self.k))
+        free = np.array([node.kind == FREE for node in model.nodes], bool)
+        slots = model.node_dofs[:, 0:3]
+        keep = free[:, None] & (slots < model.n_dofs)
+        full[slots[keep]] = self.node_moves[keep]
+        return full[:model.n_dofs]
+
+    def initial_velocity_tangent(self) -> np.ndarray:
+        """δv_0 on the free coordinates (n_dofs, k): a free node's velocity v_O + ω × x at t = 0
+        (latdyn/assembly/initial.py; without prescribed rotations, :func:`geometry_refusal`, the twist of every
+        part is the given rigid motion's or a prescribed translation's) moves by ω × δX; its ω and the hinges'
+        rates g·(ω − ω) = 0 do not."""
+        model = self.model
+        omega = np.asarray(self.scene.initial_velocity.angular, float)
+        full = np.zeros((model.n_total + 1, self.k))
+        free = np.array([node.kind == FREE for node in model.nodes], bool)
+        slots = model.node_dofs[:, 0:3]
+        keep = free[:, None] & (slots < model.n_dofs)
+        spun = np.cross(omega[None, :, None], self.node_moves, axisa=1, axisb=1, axisc=1)   # (n_nodes, 3, k)
+        full[slots[keep]] = spun[keep]
+        return full[:model.n_dofs]
+
+    def point_moves(self, probe, state) -> tuple[np.ndarray, np.ndarray]:
+        """(δ of the point's current position at a fixed state, δ of its position at t = 0), (3, k) each, for a
+        point probe: its offset r (node axes) moved at a beam's end (T δr), its reference by δX + δr."""
+        node, _ = self.model.point(probe.point)
+        ref = probe.point
+        offset = np.zeros((3, self.k))
+        if getattr(ref, "beam", None) is not None:
+            last = len(self.model.beam_nodes[ref.beam]) - 1
+            which = 0 if ref.node == 0 else 1 if ref.node == last else None
+            if which is not None:
+                offset = self.end_offsets.get((ref.beam, which), offset)
+        return state.T[node] @ offset, self.node_moves[node] + offset
+
+    def control_moves(self, state) -> np.ndarray:
+        """∂c/∂p (k,) at a fixed state of displacement control's controlled displacement
+        c = d·(x + T r − x_0 − r_0) (latdyn/analyses/continuation.py ``displacement_control``): its point's offset
+        moved less its start moved, along the direction d."""
+        from types import SimpleNamespace
+
+        control = self.scene.solve.control
+        offset_moved, reference_moved = self.point_moves(SimpleNamespace(point=control.point), state)
+        return np.asarray(control.direction, float) @ (offset_moved - reference_moved)
+
+    def add(self, state, total: np.ndarray, load_factor: float, inertia: bool) -> None:
+        """Add ∂r/∂p of the geometry parameters at ``state`` into ``total`` (all coordinates, k columns): the
+        generated derivatives of F and, with inertia or gravity, of M a + g − Q along each element's variation."""
+        elements = self.elements
+        if not len(elements):
+            return
+        model, k = self.model, self.k
+        geometry, rates, accelerations = self.owner.assembler.native().element_inputs(state)
+        at = geometry[elements]
+        m = len(elements)
+        variation = self.variations[elements].copy()                        # (m, 19, k)
+        frames = (at[:, 12:21].reshape(m, 3, 3), at[:, 21:30].reshape(m, 3, 3))
+        for end in (0, 1):
+            turn = frames[end] @ np.swapaxes(model.element_frames0[elements, end], 1, 2)   # T_j R(a, θ)
+            psi = slice(12 + 3 * end, 15 + 3 * end)
+            variation[:, psi] = turn @ variation[:, psi]
+            body = state.T[model.element_nodes[elements, end]]
+            off = slice(6 + 3 * end, 9 + 3 * end)
+            variation[:, off] = body @ variation[:, off]
+            axis = slice(19 + 3 * end, 22 + 3 * end)
+            moved = np.flatnonzero(np.any(variation[:, axis] != 0.0, axis=(1, 2)))
+            if len(moved):   # h = T_j a moves by T_j δa; T_e = T_j exp(θ skew a) E0 turns by T_j J(θa) θ δa
+                hinge = model.element_hinges[elements[moved], end]
+                theta = state.theta[hinge]
+                jacobian = dexp_so3(theta[:, None] * model.element_axes[elements[moved], end])
+                variation[moved, psi] += body[moved] @ (theta[:, None, None] * (jacobian @ variation[moved, axis]))
+                variation[moved, axis] = body[moved] @ variation[moved, axis]
+        rows = np.ascontiguousarray(variation.transpose(2, 0, 1).reshape(k * m, WIDTH))
+        repeat = lambda a: np.ascontiguousarray(np.tile(a, (k, 1)))  # noqa: E731
+        sections = model.element_sections[elements]
+        forces = np.asarray(self.kernels.beam_internal_force_D_reference(repeat(at), repeat(sections), rows)[1])
+        forces = forces.reshape(k, m, 14)
+        gravity = load_factor * np.asarray(self.owner.assembler.gravity, float)
+        massive = np.any(sections[:, 5:8] != 0.0, axis=1)
+        if (inertia or np.any(gravity)) and np.any(massive):
+            on = np.flatnonzero(massive)
+            rate = rates[elements[on]] if inertia else np.zeros((len(on), 14))
+            acceleration = accelerations[elements[on]] if inertia else np.zeros((len(on), 14))
+            picked = np.ascontiguousarray(variation[on].transpose(2, 0, 1).reshape(k * len(on), WIDTH))
+            moved = self.kernels.beam_inertia_force_D_reference(
+                repeat(at[on]), repeat(rate), repeat(acceleration), repeat(sections[on]),
+                np.ascontiguousarray(np.tile(gravity[None], (k * len(on), 1))), picked)[1]
+            forces[:, on] += np.asarray(moved).reshape(k, len(on), 14)
+        for column in range(k):
+            np.add.at(total[:, column], model.element_dofs[elements], forces[column])
+        self._load_arms(state, total, load_factor)
+
+    def _load_arms(self, state, total: np.ndarray, load_factor: float) -> None:
+        """Add ∂r/∂p of the loads at a moved offset: the generated ``point_load`` is linear in its offset r
+        (−[F; T r × F + M]), so its derivative along δr is point_load(δr) − point_load(0), exactly."""
+        model, k = self.model, self.k
+        for index, node, moved in self.moved_loads:
+            load = self.scene.loads[index]
+            values = np.zeros(6)
+            for offset, components in ((0, load.force), (3, load.moment)):
+                for c, law in enumerate(components or ()):
+                    values[offset + c] = load_factor * law.value(state.t)
+            frame = np.eye(3) if load.frame == "global" else state.T[model.body_node[load.frame]]
+            rows = lambda a: np.ascontiguousarray(np.tile(np.reshape(a, (1, -1)), (k, 1)), dtype=float)  # noqa: E731
+            velocity = np.concatenate([state.v[node], state.w[node]])
+            arguments = (rows(state.T[node]), rows(values), rows(frame), rows(velocity))
+
+            def force(offsets):
+                offsets = np.ascontiguousarray(offsets)
+                return np.asarray(self.kernels.point_load(arguments[0], offsets, *arguments[1:])[0])
+
+            difference = force(moved.T) - force(np.zeros((k, 3)))                      # (k, 6)
+            total[model.node_dofs[node]] += difference.reshape(k, 6).T
+
+
+def _frame_turn(beam, x: np.ndarray, dx: np.ndarray, dv: np.ndarray) -> np.ndarray:
+    """φ with δE = skew(φ) E for the beam's frame E = [x̂, ŷ, x̂ × ŷ] (the loader's rule for ŷ,
+    latdyn/scene/loader.py ``beam``) when x̂ moves by δx̂ and the ``y_axis`` v as given by δv (module
+    docstring): y_0 = v/|v|, ŷ = (y_0 − (y_0·x̂)x̂)/|…|."""
+    given = getattr(beam, "y_given", None)
+    if given is None and np.hypot(x[0], x[1]) >= 1e-9:
+        raw, draw = np.array([-x[1], x[0], 0.0]), np.array([-dx[1], dx[0], 0.0])
+    else:
+        v = np.array([0.0, 1.0, 0.0]) if given is None else np.asarray(given, float)
+        y0 = v / np.linalg.norm(v)
+        dy0 = (dv - y0 * (y0 @ dv)) / np.linalg.norm(v)
+        raw, draw = y0 - (y0 @ x) * x, dy0 - (dy0 @ x) * x - (y0 @ dx) * x - (y0 @ x) * dx
+    size = float(np.linalg.norm(raw))
+    y = raw / size
+    dy = (draw - y * (y @ draw)) / size
+    z, dz = np.cross(x, y), np.cross(dx, y) + np.cross(x, dy)
+    return 0.5 * (np.cross(x, dx) + np.cross(y, dy) + np.cross(z, dz))
