@@ -55,6 +55,7 @@ import subprocess
 import sys
 import tempfile
 import time
+import threading
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
@@ -70,6 +71,10 @@ DEFECTS = ("traceback", "hang", "exit_status", "nan_solved", "unreadable", "refu
 TIMEOUT_S = 60.0
 #: a run past its timeout runs again with this many times the time before it counts as a hang
 RETRY = 4
+#: the results folders are read back one at a time: h5py's and VTK's HDF5 libraries, called from two of
+#: the campaign's threads at once, crashed the judging process (a segmentation fault in 2 of 3 campaigns
+#: of six cases, two at a time); the runs themselves are separate processes and stay parallel
+READING = threading.Lock()
 
 # =========================================================================== the scene generator
 AXES = ([0, 0, 1], [0, 1, 0], [1, 0, 0])
@@ -718,7 +723,8 @@ def run_case(seed: int, index: int, workdir: Path, *, timeout: float = TIMEOUT_S
         # and RETRY times the time. A run that ends then was slow, not hung; one that does not hangs.
         status, stdout, stderr, wall = _run(command, timeout=RETRY * timeout, cwd=case_dir)
         retried = f" (the first run passed the {timeout:g} s timeout; the second took {wall:.1f} s)"
-    outcome, detail = judge(status, stderr, scene_path, out, scene)
+    with READING:
+        outcome, detail = judge(status, stderr, scene_path, out, scene)
     detail += retried
     record = {"index": index, "outcome": outcome, "detail": detail, "wall_s": round(wall, 2), "status": status,
               "analysis": scene["solve"]["analysis"], "stderr": stderr[-4000:], "scene": scene}
@@ -744,7 +750,8 @@ def _resume_check(scene_path, scene, uninterrupted, status, case_dir, timeout) -
                 "detail": f"resumed run exited {second}, uninterrupted {status}: {err2.strip()[-300:]}"}
     from latdyn.results.result import Result
 
-    a, b = Result.load(uninterrupted), Result.load(out)
+    with READING:
+        a, b = Result.load(uninterrupted), Result.load(out)
     if len(a.t) != len(b.t) or not np.allclose(a.t, b.t, rtol=0, atol=1e-12):
         return {"outcome": "resume_mismatch", "detail": f"rows {len(a.t)} uninterrupted, {len(b.t)} resumed"}
     for name, values in a.probes.items():
