@@ -247,9 +247,9 @@ def random_scene(rng: np.random.Generator, joints: bool = False) -> dict:
     return scene
 
 
-def _contact_friction(rng, joint: dict, scale: float) -> None:
+def _contact_friction(rng, joint: dict) -> None:
     """Maybe a compliant stop (``contact`` on ``limits``) and ``friction`` on a hinge or guide law
-    ``joint``; ``scale``: 1 for a hinge (rad), the slide's for a guide (m)."""
+    ``joint`` (the same values for a hinge, in rad, and a guide, in m)."""
     if "limits" in joint and rng.random() < 0.5:
         joint["contact"] = {"stiffness": _r(rng, 1e2, 1e5, 0)}
         if rng.random() < 0.5:
@@ -258,7 +258,7 @@ def _contact_friction(rng, joint: dict, scale: float) -> None:
             joint["contact"]["damping"] = _r(rng, 0.1, 50, 2)
         joint.pop("restitution", None)
     if "angle" not in joint and "position" not in joint and rng.random() < 0.25:
-        friction = {"coulomb": _r(rng, 0.01, 2, 3) * scale}
+        friction = {"coulomb": _r(rng, 0.01, 2, 3)}
         if rng.random() < 0.3:
             friction["static"] = round(friction["coulomb"] * _r(rng, 1, 1.5, 2), 4)
         if rng.random() < 0.3:
@@ -285,7 +285,7 @@ def _joint_additions(rng, scene: dict, points: list) -> None:
             hinge = spec.get(end, {}).get("hinge")
             if hinge is None:
                 continue
-            _contact_friction(rng, hinge, 1.0)
+            _contact_friction(rng, hinge)
             if "angle" not in hinge:
                 actuated.append((hinge, "torque"))
                 if rng.random() < 0.5:
@@ -320,7 +320,7 @@ def _joint_additions(rng, scene: dict, points: list) -> None:
                     guide["restitution"] = _choice(rng, [0, 0.5, 1])
             elif rng.random() < 0.15:
                 guide["lock_at"] = _choice(rng, [-1, 1]) * _r(rng, 0.005, 0.1, 3)
-            _contact_friction(rng, guide, 1.0)
+            _contact_friction(rng, guide)
             actuated.append((guide, "force"))
         bodies["gd"] = {"at": at, "mass": _r(rng, 0.1, 3, 3), "guide": guide}
         if rng.random() < 0.5:
@@ -409,7 +409,7 @@ def _joint_additions(rng, scene: dict, points: list) -> None:
             names.append("k")
         if parameters:
             scene["parameters"] = parameters
-            solve["sensitivities"] = names or list(parameters)
+            solve["sensitivities"] = names
 
 
 def _solve(rng, scene, points) -> dict:

@@ -27,7 +27,7 @@ import latdyn
 from latdyn.errors import SceneError
 from tests.cli_runs import latdyn_run
 from tests.test_sensitivities_contact import WHEEL
-from tests.test_sensitivities_events import LATCH_3D, LATCH_PLANAR
+from tests.test_sensitivities_events import LATCH_3D, LATCH_PLANAR, _run
 from tests.test_sensitivities_guides import BEAD, GUIDE_3D
 from tests.test_sensitivities_transient import SWING_3D
 
@@ -95,14 +95,6 @@ output:
     drive: {hinge: arm.start, quantity: torque}
     tip_z: {point: tip, quantity: position, component: z}
 """
-
-
-def _run(text: str, only: str | None = None, **parameters):
-    data = yaml.safe_load(text)
-    data["parameters"].update(parameters)
-    if only is not None:
-        data["solve"]["sensitivities"] = [only]
-    return latdyn.run(latdyn.load_scene(data))
 
 
 def _richardson(text: str, name: str, probe: str, relative: float) -> tuple[np.ndarray, list]:

@@ -104,7 +104,6 @@ class ReferenceGeometry:
             if GEOMETRY_KEY.match(key):
                 for column, law in laws.items():
                     uses.setdefault(column, {})[key] = float(law.value(0.0, 0.0, 0.0))
-        self.active = bool(uses)
         self._refuse_without_kernels()
         n_nodes, n_elements = len(model.nodes), len(model.element_nodes)
         #: δX of every node (n_nodes, 3, k), the elements' reference variations (n_elements, WIDTH, k) less the

@@ -178,8 +178,9 @@ def refusal(scene) -> SceneError | None:
         slide = probe.kind == "guide" and probe.quantity in ("position", "rate") and transient
         joint = probe.kind == "hinge" and (probe.quantity == "angle" or (transient and probe.quantity == "rate"))
         force = transient and is_joint_force(probe)   # latdyn/analyses/joint_force_sensitivities.py
-        if force and joint_force_refusal(scene, probe) is not None:
-            return refuse(joint_force_refusal(scene, probe))
+        why_not = joint_force_refusal(scene, probe) if force else None
+        if why_not is not None:
+            return refuse(why_not)
         if not (point or velocity or slide or joint or force):
             return refuse(f"probe {probe.name!r} ({probe.kind} {probe.quantity}"
                           f"{'' if probe.kind != 'point' else ', frame ' + probe.frame}) is not differentiated yet: "
@@ -681,19 +682,24 @@ class ParameterDerivatives:
         free-coordinate sensitivities ``tangent`` (n_dofs, k), one column a parameter (the update's
         coordinates: :func:`latdyn.assembly.assembler.unpack_free`, a column at a time); the dependent
         nodes of a model with guides moved by the reduction at ``state`` (:meth:`_dependent_motion`)."""
-        model, k = self.model, tangent.shape[1]
-        n_nodes = model.node_dofs.shape[0]
-        dx, dpi = np.zeros((n_nodes, 3, k)), np.zeros((n_nodes, 3, k))
-        dtheta = np.zeros((len(model.hinges), k))
-        if model.n_dofs and k:
-            full = np.vstack([tangent, np.zeros((model.n_total + 1 - model.n_dofs, k))])
-            free, hinges = model.free_nodes, model.free_hinges
-            dx[free] = full[model.node_dofs[free, 0:3]]
-            dpi[free] = full[model.node_dofs[free, 3:6]]
-            dtheta[hinges] = full[model.hinge_dofs[hinges]]
-            if model.links is not None:
-                self._dependent_motion(state, tangent, dx, dpi)
+        dx, dpi, dtheta = self._on_free_nodes_and_hinges(tangent)
+        if self.model.n_dofs and tangent.shape[1] and self.model.links is not None:
+            self._dependent_motion(state, tangent, dx, dpi)
         return dx, dpi, dtheta
+
+    def _on_free_nodes_and_hinges(self, columns: np.ndarray) -> tuple:
+        """``columns`` (n_dofs, k) on the free nodes' six slots and the free hinges, as (n_nodes, 3, k),
+        (n_nodes, 3, k), (n_hinges, k); zero elsewhere."""
+        model, k = self.model, columns.shape[1]
+        n_nodes = model.node_dofs.shape[0]
+        linear, angular = np.zeros((n_nodes, 3, k)), np.zeros((n_nodes, 3, k))
+        joint = np.zeros((len(model.hinges), k))
+        if model.n_dofs and k:
+            full = np.vstack([columns, np.zeros((model.n_total + 1 - model.n_dofs, k))])
+            free, hinges = model.free_nodes, model.free_hinges
+            linear[free], angular[free] = full[model.node_dofs[free, 0:3]], full[model.node_dofs[free, 3:6]]
+            joint[hinges] = full[model.hinge_dofs[hinges]]
+        return linear, angular, joint
 
     def _dependent_motion(self, state, dq: np.ndarray, dx: np.ndarray, dpi: np.ndarray) -> None:
         """(δx, δπ) of the dependent nodes (guided bodies) into ``dx``, ``dpi``: P δq on their rows (the
@@ -706,20 +712,11 @@ class ParameterDerivatives:
             dx[node], dpi[node] = full[dofs[0:3]], full[dofs[3:6]]
 
     def _rates_by_parameter(self, dv: np.ndarray) -> tuple:
-        """(δv, δω, δθ̇) of every node and hinge, (n_nodes, 3, k) (n_nodes, 3, k) (n_hinges, k), from the
-        free-coordinate sensitivities of the rates ``dv`` (n_dofs, k) — the transient step's carried δv:
-        the rates are vectors (ω spatial), so δω is the derivative of ω's components. Free nodes and
-        hinges; a guided model's dependent nodes are not moved (their probes' rates are refused)."""
-        model, k = self.model, dv.shape[1]
-        n_nodes = model.node_dofs.shape[0]
-        dvel, domega = np.zeros((n_nodes, 3, k)), np.zeros((n_nodes, 3, k))
-        drate = np.zeros((len(model.hinges), k))
-        if model.n_dofs and k:
-            full = np.vstack([dv, np.zeros((model.n_total + 1 - model.n_dofs, k))])
-            free, hinges = model.free_nodes, model.free_hinges
-            dvel[free], domega[free] = full[model.node_dofs[free, 0:3]], full[model.node_dofs[free, 3:6]]
-            drate[hinges] = full[model.hinge_dofs[hinges]]
-        return dvel, domega, drate
+        """(δv, δω, δθ̇) of every node and hinge from the free-coordinate sensitivities of the rates ``dv``
+        (n_dofs, k) — the transient step's carried δv: the rates are vectors (ω spatial), so δω is the
+        derivative of ω's components. Free nodes and hinges; a guided model's dependent nodes are not moved
+        (their probes' rates are refused)."""
+        return self._on_free_nodes_and_hinges(dv)
 
     def _probe_derivatives(self, probe, state, dx, dpi, dtheta, rates=None) -> list:
         """The derivatives of ``probe`` at ``state`` by every parameter along (δx, δπ, δθ) of

@@ -235,9 +235,9 @@ class TimeLoop:
             self._record(state, self.energies_of(state))
 
     def _row_at(self, state: State) -> bool:
-        """Whether the last row is at ``state``'s time: recorded by this loop, or by the run a resumed
-        one goes on from (whose rows the writer took back)."""
-        return (self.last_recorded is not None and self.last_recorded.t == state.t) or self.writer.last_time == state.t
+        """Whether the last row is at ``state``'s time: the writer's rows, this loop's and those of the run
+        a resumed one goes on from (which the writer took back)."""
+        return self.writer.last_time == state.t
 
     def restart(self) -> None:
         """The laws jumped at the state the loop stands at (an input set from outside at a pause):

@@ -21,10 +21,7 @@ def energy_round_off(model) -> float:
     what a structure at rest holds by round-off alone (a beam in its reference configuration computes
     strain energies of 1e-29 J and axial forces of 1e-10 N, not 0). Energies received up to it are
     none to the energy balance's unbounded test (docs/energy.md)."""
-    sections = getattr(model, "element_sections", None)
-    if sections is None or len(sections) == 0:
-        return 0.0
-    strain = ROUND_OFF_ULPS * np.finfo(float).eps
+    sections, strain = model.element_sections, ROUND_OFF_ULPS * np.finfo(float).eps
     return float(0.5 * np.sum(np.abs(sections[:, 0] * sections[:, 1])) * strain * strain)
 
 
