@@ -87,3 +87,22 @@ def test_velocities_in_a_body_frame_stay_refused():
     data["output"]["probes"]["rel"] = {"point": "tip", "quantity": "velocity", "component": "x", "frame": "tip"}
     with pytest.raises(SceneError, match=r"probe 'rel' \(point velocity, frame tip\) is not differentiated"):
         latdyn.run(latdyn.load_scene(data))
+
+
+def test_the_cli_writes_the_rate_probes_sensitivities_as_the_api_gives_them(tmp_path):
+    """`latdyn run` of the PD scene: sensitivities.csv's hinge-rate and velocity columns are the API's."""
+    import csv
+
+    import numpy as np
+
+    from tests.cli_runs import latdyn_run
+
+    completed, out = latdyn_run(tmp_path, PD_PLANAR)
+    assert completed.returncode == 0, completed.stderr
+    with open(out / "sensitivities.csv", newline="") as f:
+        table = list(csv.reader(f))
+    header, rows = table[0], np.array(table[1:], float)
+    api = latdyn.run(latdyn.load_scene(yaml.safe_load(PD_PLANAR)))
+    for column in ("om/kd", "tip_vy/kd", "om/P", "tip_vy/P"):
+        probe, name = column.split("/")
+        assert np.array_equal(rows[:, header.index(column)], api.sensitivities[(probe, name)]), column
