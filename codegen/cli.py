@@ -77,7 +77,10 @@ def main(argv: list[str] | None = None) -> int:
     timer = emit.StageTimer()
     started = time.perf_counter()
     try:
-        files, results = emit.generate(derivation.build_kernels, variants, selected, timer, log)
+        # a derivation module may bring its own ``joints`` unit (tests/toy_kernels.py: a small one)
+        files, results = emit.generate(derivation.build_kernels, variants, selected, timer, log,
+                                       joint_kernels=getattr(derivation, "build_joint_kernels", None),
+                                       joint_description=getattr(derivation, "JOINT_DESCRIPTION", None))
     except emit.EmitError as error:
         return _fail(str(error))
     complete = set(selected) == set(variants)

@@ -783,8 +783,12 @@ def generate(
     timer: StageTimer | None = None,
     log: Callable[[str], None] | None = None,
     jobs: int | None = None,
+    joint_kernels: Callable[[str], list[KernelSpec]] | None = None,
+    joint_description: str | None = None,
 ) -> tuple[dict[str, str], list[VariantResult]]:
-    """Run derivation → CSE → print → render for ``selected`` variants (default: all).
+    """Run derivation → CSE → print → render for ``selected`` variants (default: all), and the
+    ``joints`` unit from ``joint_kernels`` (default :mod:`codegen.joints`'s; a test derivation may
+    give a small unit of its own, with its ``joint_description``).
 
     Variants are independent: with ``jobs`` > 1 (default: the cores) they are generated in
     that many processes (a variant's files do not depend on where it was made). The timer
@@ -816,9 +820,11 @@ def generate(
             timer.seconds[stage] = timer.seconds.get(stage, 0.0) + value
         files.update(variant_files)
         results.append(result)
-    from . import joints
+    if joint_kernels is None:
+        from . import joints
 
-    unit_files, unit, seconds, lines = _generate_variant(_joint_kernels, JOINTS, joints.DESCRIPTION, digest,
+        joint_kernels, joint_description = _joint_kernels, joints.DESCRIPTION
+    unit_files, unit, seconds, lines = _generate_variant(joint_kernels, JOINTS, joint_description or "", digest,
                                                          stem=JOINTS)
     for line in lines:
         log(line)

@@ -31,7 +31,8 @@ needs_cc = pytest.mark.skipif(shutil.which(CC.split()[0]) is None, reason=f"no C
 @pytest.fixture(scope="module")
 def toy_dir(tmp_path_factory):
     out = tmp_path_factory.mktemp("toy_generated")
-    files, _ = emit.generate(toy_kernels.build_kernels, toy_kernels.VARIANTS)
+    files, _ = emit.generate(toy_kernels.build_kernels, toy_kernels.VARIANTS,
+                             joint_kernels=toy_kernels.build_joint_kernels)
     emit.write_files(files, out)
     return out
 
@@ -181,7 +182,8 @@ sys.path.insert(0, {tests!r})
 import toy_kernels
 from codegen import emit
 specs = toy_kernels.build_kernels("default") + toy_kernels.big_kernels()[:0]
-files, _ = emit.generate(toy_kernels.build_kernels, toy_kernels.VARIANTS)
+files, _ = emit.generate(toy_kernels.build_kernels, toy_kernels.VARIANTS,
+                         joint_kernels=toy_kernels.build_joint_kernels)
 big = emit.print_kernel(emit.lower(toy_kernels.medium_kernel()))
 digest = hashlib.sha256()
 for name in sorted(files):

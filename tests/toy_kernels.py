@@ -100,6 +100,25 @@ def build_kernels(variant: str) -> list[KernelSpec]:
     return kernels
 
 
+JOINT_DESCRIPTION = "toy joints unit: one point-load-like kernel"
+
+
+def build_joint_kernels(unit: str) -> list[KernelSpec]:
+    """A small ``joints`` unit in place of :mod:`codegen.joints`'s (whose derivation takes ~10 s):
+    the emission of a unit shared by every variant, exercised without the real joints."""
+    g, s, _ = _symbols()
+    arm = sp.Matrix(g[0:3])
+    force = sp.Matrix(g[3:6])
+    return [KernelSpec(
+        name="toy_point_load",
+        doc="A force and its moment about the origin (toy).",
+        inputs=[GEOMETRY, SECTION],
+        outputs=[Output("wrench", (6,), list(force) + list(arm.cross(force) * s[0]), "force and moment")],
+        variant=unit,
+        equations="Eq. 45 (toy)",
+    )]
+
+
 def _rotation(phi: sp.Matrix) -> sp.Matrix:
     """Rodrigues' formula exp(skew(phi)), with sqrt and division."""
     angle = sp.sqrt(phi.dot(phi))
