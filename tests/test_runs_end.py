@@ -340,3 +340,35 @@ def test_a_hinge_that_comes_to_rest_on_its_stop_rests_there(tmp_path):
     resting = t > 1.0
     np.testing.assert_allclose(angle[resting], -0.3, atol=1e-9)
     np.testing.assert_allclose(rate[resting], 0.0, atol=1e-12)
+
+
+GUIDED_SLIDER = """\
+    title: a slider on a guide that nothing holds, loaded along and across it
+    sections:
+      s: {EA: 1.0e6, EIy: 100, EIz: 100, GJ: 80, rhoA: 1}
+    bodies:
+      base: {at: [0, 0, 0], fixed: true}
+      slider:
+        at: [1, 0, 0]
+        mass: 2.0
+        guide: {axis: [1, 0, 0]}
+    beams:
+      arm: {from: base, to: [0, 1, 0], section: s, elements: 2}
+    loads:
+      - {at: slider, force: [10, -10, 0]}
+    solve: {analysis: static, steps: 2}
+    """
+
+
+@pytest.mark.parametrize("force, said", [("[10, -10, 0]", "the loads move guide slider, which nothing holds"),
+                                         ("[0, -10, 0]", "guide slider is free at load factor 0"),
+                                         ("[10, -10, 0]", "nothing holds guide slider: no stiffness")])
+def test_a_guide_that_nothing_holds_is_named_whole(tmp_path, capsys, force, said):
+    """A guide's slide is one coordinate, named as a joint ("guide slider"), not as a node's
+    component ("guide slider: " with nothing after the colon, found by benchmarks/fuzz_runs.py)."""
+    text = GUIDED_SLIDER.replace("[10, -10, 0]", force)
+    if "no stiffness" in said:
+        text = text.replace("{analysis: static, steps: 2}", "{analysis: buckling}")
+    status, err, _ = main_cli(tmp_path, text, capsys)
+    assert status == 1, err
+    assert said in err and "slider: :" not in err and "slider:  " not in err

@@ -43,17 +43,18 @@ def free_directions(K0, weight: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def coordinate_names(model, directions: np.ndarray) -> list[str]:
-    """The coordinates that the free ``directions`` (scaled columns) move: the hinges among them
-    first (a hinge that nothing holds is the usual mechanism), then the nodes with their components
+    """The coordinates that the free ``directions`` (scaled columns) move: the hinges and guides among
+    them first (a joint that nothing holds is the usual mechanism: ``hinge arm.start``, ``guide
+    slider``), then the nodes with their components
     (``arm.end: dy, rz``)."""
     if directions.shape[1] == 0:
         return []
     share = np.sqrt(np.sum(directions ** 2, axis=1))
     named = np.flatnonzero(share >= NAMED_SHARE * share.max())
     names = model.dof_names()
-    hinges = [names[i] for i in named if names[i].startswith("hinge ")]
-    if hinges:
-        return hinges
+    joints = [names[i] for i in named if ":" not in names[i]]   # a hinge's angle, a guide's slide
+    if joints:
+        return joints
     by_node: dict[str, list[str]] = {}
     for i in named:
         node, _, component = names[i].partition(":")
