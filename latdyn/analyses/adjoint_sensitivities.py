@@ -50,6 +50,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_force_forms, joint_of
+from latdyn.analyses.probe_derivatives import is_probe_here, probe_forms
 from latdyn.analyses.sensitivities import SENSITIVITIES_FILE
 from latdyn.analyses.transient_sensitivities import TransientSensitivities, _NodeRotations
 from latdyn.assembly.assembler import free_velocity
@@ -127,6 +128,8 @@ class AdjointSensitivities(TransientSensitivities):
         if is_joint_force(probe):
             j = joint_of(self.model, probe)
             return joint_force_forms(self, state, [j])[j]
+        if is_probe_here(probe):   # section forces, points in a body frame: latdyn/analyses/probe_derivatives.py
+            return probe_forms(self, probe, state)
         c_q, c_v = self.output_gradient(probe, state)
         return c_q, c_v, np.zeros_like(c_q), np.zeros(len(self.names))
 

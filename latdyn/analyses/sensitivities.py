@@ -76,6 +76,8 @@ import numpy as np
 from latdyn.analyses.joint_force_sensitivities import is_joint_force
 from latdyn.analyses.joint_force_sensitivities import refusal as joint_force_refusal
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY, ReferenceGeometry, geometry_refusal
+from latdyn.analyses.probe_derivatives import is_probe_here, probe_derivatives
+from latdyn.analyses.probe_derivatives import refusal as probe_refusal
 from latdyn.assembly.factorization import solve_linear
 from latdyn.assembly.native_model import NO_CONTACT, joint_contact_rows
 from latdyn.errors import SceneError, SolverError
@@ -179,9 +181,11 @@ def refusal(scene) -> SceneError | None:
         joint = probe.kind == "hinge" and (probe.quantity == "angle" or (transient and probe.quantity == "rate"))
         force = transient and is_joint_force(probe)   # latdyn/analyses/joint_force_sensitivities.py
         why_not = joint_force_refusal(scene, probe) if force else None
+        here = is_probe_here(probe)   # section forces, cables, body frames: latdyn/analyses/probe_derivatives.py
+        why_not = why_not or (probe_refusal(scene, probe, _geometry_named(scene)) if here else None)
         if why_not is not None:
             return refuse(why_not)
-        if not (point or velocity or slide or joint or force):
+        if not (point or velocity or slide or joint or force or here):
             return refuse(f"probe {probe.name!r} ({probe.kind} {probe.quantity}"
                           f"{'' if probe.kind != 'point' else ', frame ' + probe.frame}) is not differentiated yet: "
                           "point positions and displacements in the global frame, hinge angles and, in transient "
@@ -195,6 +199,12 @@ def refusal(scene) -> SceneError | None:
                           "states' and samples' derivatives by a rate sensor are not computed yet (a continuous "
                           "controller without states may read rates)")
     return None
+
+
+def _geometry_named(scene) -> bool:
+    """Whether a named parameter places the structure (a geometry key: geometry_sensitivities.py)."""
+    return any(GEOMETRY_KEY.match(used) for name in scene.solve.sensitivities
+               for used in scene.parameters.depending_on(name))
 
 
 def adjoint_refusal(scene) -> SceneError | None:
@@ -724,6 +734,8 @@ class ParameterDerivatives:
         point x + T r moves by δx + δπ × T r, a hinge angle by δθ, a hinge rate by δθ̇, a point's velocity
         v + ω × T r by δv + δω × T r + ω × (δπ × T r)."""
         model = self.model
+        if is_probe_here(probe):   # section forces, cables, points in a body frame
+            return probe_derivatives(self, probe, state, dx, dpi, dtheta, rates)
         if probe.kind in ("hinge", "guide"):
             joint = (probe.beam, probe.end) if probe.kind == "hinge" else (probe.body, "guide")
             which = rates[2] if probe.quantity == "rate" else dtheta

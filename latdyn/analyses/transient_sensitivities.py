@@ -737,7 +737,7 @@ class TransientSensitivities(ParameterDerivatives):
         along (δq, δv, δv̇) (latdyn/analyses/joint_force_sensitivities.py)."""
         dx, dpi, dtheta = self._by_parameter(carried["dq"], state)
         rates = (self._rates_by_parameter(carried["dv"])
-                 if any(p.quantity in ("rate", "velocity") for p in self.probes) else None)
+                 if any(p.quantity in ("rate", "velocity", "tension") for p in self.probes) else None)
         forces = joint_force_derivatives(self, state, carried["dq"], carried["dv"], carried["dvdot"])
         row = [float(state.t)]
         for probe in self.probes:
