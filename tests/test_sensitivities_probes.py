@@ -1,0 +1,236 @@
+"""Sensitivities of element section forces, cable tensions and lengths and points in a body frame
+(latdyn/analyses/probe_derivatives.py; docs/parameters.md, "Section forces, cables and body frames").
+
+References: Richardson-extrapolated central differences of whole runs (the perturbation varied, the step
+fixed), with the helpers of the other sensitivity tests (imported): smooth transient runs and static paths
+(tests/test_sensitivities_transient.py, h = 10⁻² p; the static scenes of tests/test_sensitivities.py),
+runs through a latch (tests/test_sensitivities_events.py) and through a cable's slack and taut changes
+(tests/test_sensitivities_cables.py), whose reference runs land on the events as the run does. Each check
+holds every probe's largest error over the rows to 1e-6 of its largest sensitivity. The scenes are the
+other tests' with these probes in place of theirs: genuinely 3D (a spinning arm with a hinge axis in no
+coordinate plane, a wheel latching on a skew arm, a skew cable catching a flexible arm), planar (a frame
+whose sections the planar model turns a quarter, a latching arm, a mass dropped on a cable)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import yaml
+
+import latdyn
+from latdyn.errors import SceneError
+from latdyn.results.result import Result
+from tests import test_sensitivities as static
+from tests import test_sensitivities_cables as cables
+from tests import test_sensitivities_events as events
+from tests import test_sensitivities_transient as transient
+from tests.cli_runs import latdyn_run
+
+
+def _with_probes(text: str, probes: dict, **solve) -> str:
+    """``text`` with these probes in place of its own (and ``solve`` keys set)."""
+    data = yaml.safe_load(text)
+    data["output"]["probes"] = probes
+    data["solve"].update(solve)
+    return yaml.safe_dump(data, sort_keys=False)
+
+
+def _element(beam: str, i: int, quantity: str) -> dict:
+    return {"element": f"{beam}.element[{i}]", "quantity": quantity}
+
+
+def _in_frame(point: str, quantity: str, frame: str, component: str) -> dict:
+    return {"point": point, "quantity": quantity, "frame": frame, "component": component}
+
+
+#: the spinning 3D arm (hinge axis in no coordinate plane, a joint body off its node, gravity, rotary
+#: inertia) with section forces of both beams and the tip in the knee's frame
+SWING_3D = _with_probes(transient.SWING_3D, {
+    "N_a1": _element("a", 1, "axial_force"), "My_a0": _element("a", 0, "moment_y"),
+    "T_b0": _element("b", 0, "torque"), "Mz_b1": _element("b", 1, "moment_z"),
+    "tip_in_knee": _in_frame("b.end", "position", "knee", "x"),
+    "tip_moved_in_knee": _in_frame("b.end", "displacement", "knee", "norm"),
+    "tip_speed_in_knee": _in_frame("b.end", "velocity", "knee", "y"),
+    "mid_speed_in_knee": _in_frame("b.node[1]", "velocity", "knee", "z")},
+    sensitivities=["F", "k", "EI", "G", "rho", "m"])
+
+
+@pytest.fixture(scope="module")
+def swing_3d():
+    return transient._run(SWING_3D)
+
+
+@pytest.mark.parametrize("name", ["F", "k", "EI", "G", "rho", "m"])
+def test_3d_transient_probe_sensitivities_agree_with_richardson_central_differences(swing_3d, name):
+    """A load, a hinge law, a section stiffness (EIy, EIz), the torsion GJ, the mass per length (ρA, ρIy, ρIz)
+    and a body's mass (measured over the eight probes: F 7.5e-10, k 1.7e-8, EI 2.7e-8, G 6.1e-9, rho 3.1e-8,
+    m 5.1e-9)."""
+    transient._agree(swing_3d, SWING_3D, name, tolerance=1e-6)
+
+
+#: the static 3D arm (transient.SWING_3D's shape, a follower load at the knee) with an axial stiffness whose
+#: strains the central differences resolve: the axial force's round-off is EA times 1e-16 of a strain, and at
+#: EA = 1e5 with h = 10⁻³ p (static._richardson) it was 1.3e-3 of the axial force's smallest derivative (by k),
+#: at EA = 2000 7e-6; with h = 10⁻² p (transient._richardson, used for the static paths here too) 3.7e-7
+ARM_3D = _with_probes(static.ARM_3D.replace("EA: 1.0e5", "EA: 2000.0"), {
+    "N_a1": _element("a", 1, "axial_force"), "My_a0": _element("a", 0, "moment_y"),
+    "T_b0": _element("b", 0, "torque"), "Mz_b2": _element("b", 2, "moment_z"),
+    "tip_in_knee": _in_frame("b.end", "position", "knee", "y"),
+    "tip_moved_in_knee": _in_frame("b.end", "displacement", "knee", "norm")})
+
+
+@pytest.fixture(scope="module")
+def arm_3d():
+    return static._run(ARM_3D)
+
+
+@pytest.mark.parametrize("name", ["F", "th0", "EI", "G"])
+def test_3d_static_probe_sensitivities_agree_with_richardson_central_differences(arm_3d, name):
+    """Load control, 4 steps: a load, the rest angle in the hinge's law, EIy and EIz, GJ (measured ≤ 3e-9)."""
+    transient._agree(arm_3d, ARM_3D, name, tolerance=1e-6)
+
+
+#: the planar frame whose sections' local z lies in the plane: the planar model turns them a quarter, and the
+#: section forces are turned back (its in-plane moment is M_y)
+PLANAR_TURNED = _with_probes(static.PLANAR_TURNED, {
+    "My_a0": _element("a", 0, "moment_y"), "N_b1": _element("b", 1, "axial_force"),
+    "My_b2": _element("b", 2, "moment_y"), "tip_in_knee": _in_frame("b.end", "displacement", "knee", "x")},
+    sensitivities=["P", "EI"])
+
+
+@pytest.mark.parametrize("name", ["P", "EI"])
+def test_planar_static_section_forces_of_turned_sections_agree(name):
+    """(measured: P 2.3e-8, EI 9.6e-8, the axial force's; the moments ≤ 6e-11)"""
+    transient._agree(static._run(PLANAR_TURNED), PLANAR_TURNED, name, tolerance=1e-6)
+
+
+def test_displacement_control_of_a_tilted_arch_gives_section_force_sensitivities():
+    """The shallow 3D arch through its plateau under displacement control: the load factor moves with EI,
+    and so do the crown's moments and a member's axial force (measured ≤ 1.6e-9)."""
+    text = _with_probes(static.ARCH, {
+        "N_s2": _element("s2", 1, "axial_force"), "Mz_s3": _element("s3", 0, "moment_z"),
+        "My_s3": _element("s3", 0, "moment_y"), "n2_in_n3": _in_frame("n2", "position", "n3", "x")},
+        sensitivities=["EI"])
+    transient._agree(static._run(text), text, "EI", tolerance=1e-6)
+
+
+def test_the_section_forces_are_linear_in_the_section_values_and_read_no_mass():
+    """What ∂S/∂p of a section value rests on: beam_strain_energy's section forces at a deformed state are
+    the sums over EA, EIy, EIz, GJ one by one (shear-rigid), and ρA, ρIy, ρIz give zero (random
+    large-rotation states of tests/element_states.py, each regime; measured 0 and ≤ 2e-16)."""
+    from latdyn.model.kernels import load_kernels
+    from tests.element_states import REGIMES, random_state
+
+    kernels = load_kernels("c", "default")
+    rng = np.random.default_rng(341)
+    for deformation in REGIMES.values():
+        state = random_state(rng, deformation=deformation)
+        section = state.section.copy()
+        section[8:] = 0.0
+
+        def forces(block):
+            return np.asarray(kernels.beam_strain_energy(state.geometry(), block[None])[1]).reshape(4)
+
+        whole, parts = forces(section), np.zeros(4)
+        for column in range(1, 8):
+            one = np.zeros_like(section)
+            one[0], one[column] = section[0], section[column]
+            parts += forces(one)
+            if column >= 5:
+                assert np.all(forces(one) == 0.0)
+        assert np.abs(whole).max() > 0
+        assert np.abs(parts - whole).max() <= 1e-12 * np.abs(whole).max(), deformation
+
+
+#: the planar arm that latches (lock_at 0.8 at t = 0.4575): the root moment, an axial force and a node in
+#: the tip body's frame, through the latch and the rows after it
+LATCH_PLANAR = _with_probes(events.LATCH_PLANAR, {
+    "Mz_root": _element("arm", 0, "moment_z"), "N_1": _element("arm", 1, "axial_force"),
+    "mid_in_tip": _in_frame("arm.node[1]", "position", "tip", "y"),
+    "mid_speed_in_tip": _in_frame("arm.node[1]", "velocity", "tip", "x")})
+
+
+@pytest.mark.parametrize("name", ["k", "EI", "m"])
+def test_section_forces_through_a_latch_agree_with_richardson_central_differences(name):
+    """(measured: k 1.4e-8, EI 1.1e-8, m 2.1e-8; the latch time's derivative to 1e-7)"""
+    result = events._run(LATCH_PLANAR, name)
+    assert [e["kind"] for e in result.summary["events"]] == ["latch"]
+    assert np.sum(result.t > result.summary["events"][0]["t"]) >= 3   # rows after the latch
+    events._agree(result, LATCH_PLANAR, name)
+
+
+def test_section_forces_of_a_3d_wheel_latching_agree():
+    """The wheel on a hinge at the end of a skew arm latches at t = 1.058; the arm's moment, torque and axial
+    force and a node's velocity in the wheel's frame by the wheel's inertia (measured 1.8e-7)."""
+    text = _with_probes(events.LATCH_3D, {
+        "My_0": _element("arm", 0, "moment_y"), "T_1": _element("arm", 1, "torque"),
+        "N_1": _element("arm", 1, "axial_force"), "mid_speed_in_wheel": _in_frame("arm.node[1]", "velocity",
+                                                                                 "wheel", "z")})
+    events._agree(events._run(text, "J"), text, "J")
+
+
+CABLE_PROBES = {"N": {"cable": "rope", "quantity": "tension"}, "length": {"cable": "rope", "quantity": "length"}}
+
+
+@pytest.mark.parametrize("text, name, relative", [
+    (_with_probes(cables.DROP, CABLE_PROBES), "L", 1e-4), (_with_probes(cables.DROP, CABLE_PROBES), "EA", 1e-4),
+    (_with_probes(cables.DAMPED, CABLE_PROBES), "c", 1e-4), (_with_probes(cables.DAMPED, CABLE_PROBES), "L", 1e-5)],
+    ids=["rest_length", "EA", "damped_c", "damped_rest_length"])
+def test_a_cables_tension_and_length_through_taut_and_slack_agree(text, name, relative):
+    """A mass dropped on a slack cable: taut at 0.319 s, slack after the bounce; the tension is 0 while slack
+    (its derivative too), EA(ℓ − L)/L (+ c ℓ̇, damped) while taut (measured: L 3.9e-11, EA 2.1e-10,
+    damped c 3.1e-10, L 8.6e-10)."""
+    result = events._run(text, name)
+    assert [e["kind"] for e in result.summary["events"]] == ["taut", "slack"]
+    slack = result.probes["N"] == 0.0
+    assert slack.any() and (~slack).any()
+    assert np.all(result.sensitivities[("N", name)][slack] == 0.0)
+    cables._agree(result, text, name, relative=relative, tolerance=1e-6)
+
+
+def test_a_skew_cable_catching_a_3d_arm_has_exact_tension_and_length_sensitivities():
+    """CABLE_3D (taut, slack, taut, slack in 0.25 s; the cable from an anchor off the arm's plane to a point off
+    the tip body's centre): its tension and length by the rest length (measured 1.0e-7)."""
+    probes = {"N": {"cable": "stay", "quantity": "tension"}, "length": {"cable": "stay", "quantity": "length"}}
+    text = _with_probes(cables.CABLE_3D, probes)
+    cables._agree(events._run(text, "L"), text, "L", relative=1e-5)
+
+
+def test_the_adjoint_of_section_forces_and_body_frames_equals_the_forward_method(swing_3d):
+    """The adjoint seeds the same forms (probe_forms: ∂y/∂q, ∂y/∂v and the explicit ∂S/∂p of a section value):
+    each probe's end, max and min by every parameter equal the forward method's (measured 9.6e-15 of each
+    output's largest)."""
+    data = yaml.safe_load(SWING_3D)
+    data["solve"]["sensitivity_method"] = "adjoint"
+    adjoint = latdyn.run(latdyn.load_scene(data))
+    for probe, by_which in swing_3d.summary["probe_sensitivities"].items():
+        for which, forward in by_which.items():
+            got = adjoint.summary["probe_sensitivities"][probe][which]
+            scale = max(abs(v) for v in forward.values()) or 1.0
+            assert max(abs(got[n] - forward[n]) for n in forward) <= 1e-12 * scale, (probe, which)
+
+
+def test_the_cli_writes_the_probes_sensitivities_and_the_api_gives_the_same(tmp_path, swing_3d):
+    """``python -m latdyn run``: sensitivities.csv holds a column per probe and parameter, read back equal to
+    the API's."""
+    run, out = latdyn_run(tmp_path, SWING_3D)
+    assert run.returncode == 0, run.stderr
+    header = (out / "sensitivities.csv").read_text().splitlines()[0].split(",")
+    assert header[:3] == ["t", "N_a1/F", "N_a1/k"] and "mid_speed_in_knee/m" in header
+    written = Result.load(out)
+    assert set(written.sensitivities) == set(swing_3d.sensitivities)
+    for key, values in swing_3d.sensitivities.items():
+        np.testing.assert_array_equal(written.sensitivities[key], values)
+
+
+@pytest.mark.parametrize("text, probe, expected", [
+    (transient.SWING_3D.replace("knee: {at: [1, 0, 0]", 'knee: {at: ["X", 0, 0]').replace(
+        "parameters: {", "parameters: {X: 1.0, ").replace("sensitivities: [", "sensitivities: [X, "),
+     _element("a", 0, "axial_force"), "not differentiated by geometry parameters"),
+    (static.ARM_3D, _in_frame("b.end", "velocity", "knee", "x"), "transient runs only")],
+    ids=["geometry", "static_velocity"])
+def test_what_is_not_differentiated_is_refused_naming_the_key(text, probe, expected):
+    data = yaml.safe_load(text)
+    data["output"]["probes"] = {"p": probe}
+    with pytest.raises(SceneError) as refused:
+        latdyn.run(latdyn.load_scene(data))
+    assert refused.value.key == "solve.sensitivities" and expected in str(refused.value)
