@@ -13,7 +13,8 @@ with E = ∂r/∂p at the step's end, M, C and the exact K there, R = exp(skew h
 rotation coordinates. The recurrence is linear in X and in E, and an output is linear in one row's δq
 (a point x + T r moves by δx + δπ × T r, a hinge angle by δθ): dy/dp = cᵀ δq_row (a rate's and a joint
 force's also c_vᵀδv_row, a joint force's c_v̇ᵀδv̇_row and its explicit ∂/∂p: seeded into v̄, v̇̄ and the
-gradient at its row). So the derivative of m
+gradient at its row; a section force's explicit ∂S/∂p and a body frame's forms likewise:
+latdyn/analyses/probe_derivatives.py ``probe_forms``). So the derivative of m
 outputs by k parameters is the transposed recurrence run backwards over the stored trajectory with m
 columns (X̄ = (q̄, v̄, v̇̄, ā), each (n, m)): per step, from the bars at the step's end,
 
