@@ -234,3 +234,40 @@ def test_what_is_not_differentiated_is_refused_naming_the_key(text, probe, expec
     with pytest.raises(SceneError) as refused:
         latdyn.run(latdyn.load_scene(data))
     assert refused.value.key == "solve.sensitivities" and expected in str(refused.value)
+
+
+def _controller_reading(text: str, replace: tuple, probes: str) -> str:
+    """tests/test_sensitivities_controller_states.py's scene ``text`` with EIy = EI, EIz = 1.2 EI named, its
+    controller's law changed (``replace``) to read the added ``probes``."""
+    return (text.replace("parameters: {Kf: 3.0,", "parameters: {EI: 40.0, Kf: 3.0,")
+            .replace("EIy: 40.0, EIz: 40.0", 'EIy: "EI", EIz: "1.2*EI"').replace(*replace) + probes)
+
+
+def test_a_sampled_controller_reading_a_section_force_and_a_body_frame_agrees():
+    """The 3D flexible arm's PI sampled at 50 Hz (clipped) reads the root moment too, whose explicit ∂M/∂EI enters
+    its held output, and a node in the tip body's axes (measured: EI 6.2e-10, Kf 2.2e-9, with h = 10⁻³ p: at 10⁻² p the differences' truncation
+    was 2e-6)."""
+    import test_sensitivities_controller_states as states
+
+    text = _controller_reading(states.SAMPLED_ARM, ('"-Kf*(tip_z - 0.66) - 0.2*I"', '"-Kf*(tip_z - 0.66) - 0.2*I '
+                                                    '+ 0.03*Mr + 0.05*(rel + 0.444)"'),
+                               '    Mr: {element: "arm.element[0]", quantity: moment_y}\n'
+                               '    rel: {point: "arm.node[1]", quantity: position, frame: tip, component: x}\n')
+    result = states._run(text, ["EI", "Kf"])
+    for name in ("EI", "Kf"):
+        errors = states._richardson_errors(text, result, name, 1e-3)
+        assert max(errors.values()) <= 1e-6, (name, errors)
+
+
+def test_a_controller_with_states_reading_a_point_in_a_body_frame_agrees():
+    """The 3D arm's low-pass filter state reads a node's position in the tip body's axes (measured: EI 9.4e-10,
+    Kf 1.2e-8)."""
+    import test_sensitivities_controller_states as states
+
+    text = _controller_reading(states.FILTERED_ARM, ('states: {F: "(tip_z - 0.66 - F)/tau"}',
+                                                     'states: {F: "(tip_z - 0.66 + 0.5*(rel + 0.444) - F)/tau"}'),
+                               '    rel: {point: "arm.node[1]", quantity: position, frame: tip, component: x}\n')
+    result = states._run(text, ["EI", "Kf"])
+    for name in ("EI", "Kf"):
+        errors = states._richardson_errors(text, result, name, 1e-3)
+        assert max(errors.values()) <= 1e-6, (name, errors)
