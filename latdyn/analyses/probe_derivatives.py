@@ -37,10 +37,15 @@ with ∂y/∂q and ∂y/∂v from the generated kernels, never differenced:
 (the forward method's rows, static and transient); :func:`probe_forms` gives the same as the forms
 (c_q, c_v, explicit ∂y/∂p) the discrete adjoint seeds (latdyn/analyses/adjoint_sensitivities.py).
 
-Refused (:func:`refusal`, exit 2 naming ``solve.sensitivities``): geometry parameters beside these probes
-(an element's section forces read its reference data, a body frame's displacement its start, whose
-derivatives by them are not generated yet); a point's velocity in a body frame in a static path or with
-guides (as in the global frame).
+Geometry parameters (latdyn/analyses/geometry_sensitivities.py) move an element's reference data — its
+section forces gain the generated ``beam_section_forces_D_reference`` along each parameter's variation
+(:meth:`ReferenceGeometry.at_state`) — and a body frame's point: its offset at a beam's end (T δr), a fixed or
+prescribed node (:meth:`ReferenceGeometry.held_moves`) and a displacement's start (δp_0 − δx_b,0: a body's axes
+are the global ones at t = 0).
+
+Refused (:func:`refusal`, exit 2 naming ``solve.sensitivities``): a point's velocity in a body frame in a
+static path or with guides (as in the global frame); by geometry parameters, a variant generated without
+``beam_section_forces_D_reference`` (at run time, naming the variant to regenerate).
 """
 from __future__ import annotations
 
@@ -57,15 +62,10 @@ def is_probe_here(probe) -> bool:
     return probe.kind in ("element", "cable") or (probe.kind == "point" and probe.frame != "global")
 
 
-def refusal(scene, probe, geometry: bool) -> str | None:
-    """Why ``probe``'s sensitivities are not exact here, or None (module docstring); ``geometry``: whether a
-    named parameter places the structure (latdyn/analyses/geometry_sensitivities.py)."""
+def refusal(scene, probe) -> str | None:
+    """Why ``probe``'s sensitivities are not exact here, or None (module docstring)."""
     what = (f"probe {probe.name!r} ({probe.kind} {probe.quantity}"
             f"{', frame ' + probe.frame if probe.kind == 'point' else ''})")
-    if geometry and probe.kind != "cable":
-        return (f"{what} is not differentiated by geometry parameters yet (the section forces' and a body frame's "
-                "derivatives by the reference data are not generated); expected parameters of loads, laws, sections "
-                "and masses beside it")
     if probe.kind == "point" and probe.quantity == "velocity":
         if scene.solve.analysis != "transient":
             return f"{what}: a velocity is differentiated in transient runs only"
@@ -144,7 +144,31 @@ def _section_force(owner, probe, state, dx, dpi, dtheta, explicit: bool) -> np.n
     moved = by_q @ np.vstack(columns)                                                   # (k,)
     if explicit:
         moved = moved + _section_values(owner, state, e, which, at)
+        if owner.geometry is not None:
+            moved = moved + _section_reference(owner, state, e, which, at)
     return moved
+
+
+def _section_reference(owner, state, e: int, which: int, at: np.ndarray) -> np.ndarray:
+    """∂S/∂p (k,) of element ``e``'s section force ``which`` by the geometry parameters: the generated
+    ``beam_section_forces_D_reference`` along each parameter's variation of the element's reference data
+    (:meth:`latdyn.analyses.geometry_sensitivities.ReferenceGeometry.at_state`)."""
+    from latdyn.analyses.geometry_sensitivities import WIDTH
+
+    kernels, k = owner.kernels, len(owner.names)
+    info = getattr(kernels, "info", {}) or {}
+    name = "beam_section_forces_D_reference"
+    if name not in info or dict(info[name]["inputs"]).get("reference") != WIDTH:
+        from latdyn.errors import SceneError
+        raise SceneError(owner.scene.file, "solve.sensitivities",
+                         f"section-force probes by geometry parameters need the kernel {name} (reference block of "
+                         f"{WIDTH}), which the generated variant {kernels.variant!r} does not hold yet (python -m "
+                         f"codegen --variant {kernels.variant})")
+    variation = owner.geometry.at_state(state, np.array([e]), at)                      # (1, WIDTH, k)
+    rows = np.ascontiguousarray(variation[0].T)                                         # (k, WIDTH)
+    tile = lambda a: np.ascontiguousarray(np.repeat(a, k, axis=0))  # noqa: E731
+    out = kernels.beam_section_forces_D_reference(tile(at), tile(owner.model.element_sections[e:e + 1]), rows)
+    return _turned_back(owner.model, e, np.asarray(out[1]).reshape(k, 4).T)[which]
 
 
 def _element_geometry(owner, state) -> np.ndarray:
@@ -278,20 +302,29 @@ def _in_body_frame(owner, probe, state, dx, dpi, rates) -> list:
     b = model.body_node[probe.frame]
     R, arm = state.T[b], state.T[node] @ offset
     u = state.x[node] + arm - state.x[b]
-    dp = dx[node] + np.cross(dpi[node], arm, axisa=0, axisc=0)                    # δp (3, k)
-    du = dp - dx[b]
+    turned = np.cross(dpi[node], arm, axisa=0, axisc=0)                         # δ(T r) at a fixed r, (3, k)
+    dx_n, dx_b, start = dx[node], dx[b], 0.0   # start: δ of a displacement's value at t = 0 (R_b = I there)
+    if owner.geometry is not None:   # a geometry parameter moves the offset r, a fixed node and the start
+        offset_moved, reference_moved = owner.geometry.point_moves(probe, state)
+        held_n, held_b = owner.geometry.held_moves(node), owner.geometry.held_moves(b)
+        turned = turned + offset_moved - held_n                                    # + T δr
+        dx_n, dx_b = dx_n + held_n, dx_b + held_b
+        start = reference_moved - owner.geometry.node_moves[b]
+    dp = dx_n + turned                                                              # δp (3, k)
+    du = dp - dx_b
     if probe.quantity == "velocity":
         dvel, domega, _ = rates
         w_n, w_b = state.w[node], state.w[b]
         V = state.v[node] + np.cross(w_n, arm) - state.v[b] - np.cross(w_b, u)
         dpdot = dvel[node] + np.cross(domega[node], arm, axisa=0, axisc=0) \
-            + np.cross(w_n, dp - dx[node], axisb=0, axisc=0)
+            + np.cross(w_n, turned, axisb=0, axisc=0)
         dV = dpdot - dvel[b] - np.cross(domega[b], u, axisa=0, axisc=0) - np.cross(w_b, du, axisb=0, axisc=0)
         value, moved = R.T @ V, R.T @ (dV - np.cross(dpi[b], V, axisa=0, axisc=0))
     else:
         value, moved = R.T @ u, R.T @ (du - np.cross(dpi[b], u, axisa=0, axisc=0))
-        if probe.quantity == "displacement":   # less its value at t = 0, which moves with no parameter here
+        if probe.quantity == "displacement":   # less its value at t = 0 (R_bᵀ = I there)
             value = value - _initial_in_body(owner, probe)
+            moved = moved - start
     if probe.component in (None, "norm"):
         size = float(np.linalg.norm(value))
         if size > 0:

@@ -62,8 +62,8 @@ compliant stops' laws and, in transient runs, initial velocities, controllers' o
 guides' laws and cables' EA, damping, rest length and rhoA; probes other than point positions and displacements in the
 global frame, hinge angles and guide positions and, in transient runs, rates, point velocities and joint forces
 (latdyn/analyses/joint_force_sensitivities.py), element section forces, cable tensions and lengths and points in a
-body's frame (latdyn/analyses/probe_derivatives.py: static and transient; section forces and body frames not by
-geometry parameters, a body frame's velocity in transient runs without guides) — that is, energies and momenta;
+body's frame (latdyn/analyses/probe_derivatives.py: static and transient; a body frame's velocity in transient
+runs without guides) — that is, energies and momenta;
 rigid links; in static paths hinges with limits or
 ``lock_at`` (events; transient runs differentiate latches and stops: latdyn/analyses/transient_sensitivities.py). Under gravity the static
 Newton matrix K − λ ∂Q/∂q holds the beams' gravity tangent (the generated ``beam_gravity_D_q``), so
@@ -186,7 +186,7 @@ def refusal(scene) -> SceneError | None:
         force = transient and is_joint_force(probe)   # latdyn/analyses/joint_force_sensitivities.py
         why_not = joint_force_refusal(scene, probe) if force else None
         here = is_probe_here(probe)   # section forces, cables, body frames: latdyn/analyses/probe_derivatives.py
-        why_not = why_not or (probe_refusal(scene, probe, _geometry_named(scene)) if here else None)
+        why_not = why_not or (probe_refusal(scene, probe) if here else None)
         if why_not is not None:
             return refuse(why_not)
         if not (point or velocity or slide or joint or force or here):
@@ -204,12 +204,6 @@ def refusal(scene) -> SceneError | None:
                           "states' and samples' derivatives by a rate sensor are not computed yet (a continuous "
                           "controller without states may read rates)")
     return None
-
-
-def _geometry_named(scene) -> bool:
-    """Whether a named parameter places the structure (a geometry key: geometry_sensitivities.py)."""
-    return any(GEOMETRY_KEY.match(used) for name in scene.solve.sensitivities
-               for used in scene.parameters.depending_on(name))
 
 
 def adjoint_refusal(scene) -> SceneError | None:
