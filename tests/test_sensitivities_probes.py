@@ -360,3 +360,20 @@ def test_a_controller_with_states_reading_a_point_in_a_body_frame_agrees():
     for name in ("EI", "Kf"):
         errors = states._richardson_errors(text, result, name, 1e-3)
         assert max(errors.values()) <= 1e-6, (name, errors)
+
+
+def test_section_forces_of_a_3d_arch_snapping_through_under_arc_length_agree():
+    """The tilted 3D arch of tests/test_sensitivities_static_arc.py through its snap-through (a maximum and a
+    minimum of λ), each row at its arc length from the one before: the crown members' moments and axial force
+    and a node in the crown body's frame by EI (measured ≤ 8.5e-11; that file's reference and tolerance)."""
+    import copy
+
+    import test_sensitivities_static_arc as arc
+
+    scene = copy.deepcopy(arc.SPATIAL)
+    scene["output"]["probes"] = {"Mz_s1": _element("s1", 1, "moment_z"), "My_s2": _element("s2", 0, "moment_y"),
+                                 "N_s1": _element("s1", 0, "axial_force"),
+                                 "n1_in_n2": _in_frame("n1", "displacement", "n2", "norm")}
+    result, summary = arc._run(scene, ["EI"])
+    arc._snaps_through(result, summary)
+    arc._check(result, summary, arc._richardson(scene, "EI"), "EI")
