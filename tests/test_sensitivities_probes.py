@@ -377,3 +377,48 @@ def test_section_forces_of_a_3d_arch_snapping_through_under_arc_length_agree():
     result, summary = arc._run(scene, ["EI"])
     arc._snaps_through(result, summary)
     arc._check(result, summary, arc._richardson(scene, "EI"), "EI")
+
+
+def test_section_forces_and_body_frames_with_a_guided_slider_agree():
+    """The mass sliding on a skew guide at the tip of a flexible 3D arm (tests/test_sensitivities_guides.py's):
+    the arm's section forces, the slider (a dependent node, moved by the guides' reduction) in the tip's frame
+    and a node in the slider's frame, by EI (measured 3.4e-8; m 6.4e-8, not run here), with that file's
+    reference (h = 10⁻⁴ p: at 10⁻² p the differences' truncation was 8e-6)."""
+    import test_sensitivities_guides as guides
+
+    text = _with_probes(guides.GUIDE_3D, {
+        "My_0": _element("arm", 0, "moment_y"), "N_2": _element("arm", 2, "axial_force"),
+        "slider_in_tip": _in_frame("slider", "position", "tip", "x"),
+        "mid_moved_in_slider": _in_frame("arm.node[1]", "displacement", "slider", "norm")})
+    guides._agree(guides._run(text, "EI"), text, "EI")
+
+
+#: a 3D cantilever whose tip a pretensioned skew stay holds, loaded statically
+STAYED = """
+title: a 3D cantilever whose tip a pretensioned skew stay holds, static
+parameters: {F: 3.0, EI: 40.0}
+sections: {s: {EA: 1.0e5, EIy: "EI", EIz: "1.3*EI", GJ: "0.8*EI", rhoA: 0.5}}
+bodies:
+  base: {at: [0, 0, 0], fixed: true}
+  anchor: {at: [0.3, 0.6, 0.9], fixed: true}
+  tip: {at: [0.6666666666666666, 0.3333333333333333, 0.0]}
+beams:
+  arm: {from: base, to: tip, section: s, elements: 3}
+cables:
+  stay: {from: anchor, to: {body: tip, offset: [0.05, -0.02, 0.03]}, EA: 5000.0, rest_length: 1.0}
+loads:
+  - {at: tip, force: [0.2, "0.3*F", "-F"]}
+solve: {analysis: static, method: load-control, steps: 4, sensitivities: [F, EI]}
+output:
+  probes:
+    N: {cable: stay, quantity: tension}
+    length: {cable: stay, quantity: length}
+    M_0: {element: "arm.element[0]", quantity: moment_z}
+"""
+
+
+@pytest.mark.parametrize("name", ["F", "EI"])
+def test_a_stays_tension_and_length_on_a_static_path_agree(name):
+    """Load control of the stayed cantilever (the stay taut throughout): its tension and length and the root
+    moment by the load and the arm's EI (measured: F 4.1e-11, EI 7.8e-11)."""
+    transient._agree(static._run(STAYED), STAYED, name, tolerance=1e-6)
