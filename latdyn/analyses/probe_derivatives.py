@@ -87,7 +87,7 @@ def probe_derivatives(owner, probe, state, dx, dpi, dtheta, rates=None, explicit
     elif probe.kind == "cable":
         values = _cable(owner, probe, state, dx, dpi, rates, explicit)
     else:
-        return _in_body_frame(owner, probe, state, dx, dpi, rates)
+        return _in_body_frame(owner, probe, state, dx, dpi, rates, explicit)
     return [float(v) for v in values]
 
 
@@ -295,8 +295,10 @@ def _tension_by_parameters(owner, terms, state, e: int) -> np.ndarray:
 
 
 # ---------------------------------------------------------------------------------------------- body frames
-def _in_body_frame(owner, probe, state, dx, dpi, rates) -> list:
-    """δ of a point's position, displacement or velocity in a body's axes (module docstring), (k,)."""
+def _in_body_frame(owner, probe, state, dx, dpi, rates, explicit: bool = True) -> list:
+    """δ of a point's position, displacement or velocity in a body's axes (module docstring), (k,); with
+    ``explicit`` (the columns the parameters') the geometry parameters' moves of its offset, fixed nodes and
+    start too."""
     model = owner.model
     node, offset = model.point(probe.point)
     b = model.body_node[probe.frame]
@@ -304,7 +306,7 @@ def _in_body_frame(owner, probe, state, dx, dpi, rates) -> list:
     u = state.x[node] + arm - state.x[b]
     turned = np.cross(dpi[node], arm, axisa=0, axisc=0)                         # δ(T r) at a fixed r, (3, k)
     dx_n, dx_b, start = dx[node], dx[b], 0.0   # start: δ of a displacement's value at t = 0 (R_b = I there)
-    if owner.geometry is not None:   # a geometry parameter moves the offset r, a fixed node and the start
+    if explicit and owner.geometry is not None:   # a geometry parameter moves the offset r, a fixed node, the start
         offset_moved, reference_moved = owner.geometry.point_moves(probe, state)
         held_n, held_b = owner.geometry.held_moves(node), owner.geometry.held_moves(b)
         turned = turned + offset_moved - held_n                                    # + T δr
