@@ -429,3 +429,29 @@ def test_a_stays_tension_and_length_on_a_static_path_agree(text, name):
     moment by the load and the arm's EI (measured: F 4.1e-11, EI 7.8e-11; the heavy stay of three elements
     under gravity F 9.6e-11, EI 1.3e-10)."""
     transient._agree(static._run(text), text, name, tolerance=1e-6)
+
+
+def test_a_rigidly_turned_scene_has_the_same_section_force_sensitivities_and_turned_body_frame_ones():
+    """Objectivity (tests/test_sensitivities_transient.py's turned scene: points, hinge axis, section axes, the
+    body's centre of mass and inertia, load, gravity and spin turned by R, 0.7 rad about a skew axis): the section
+    forces, in the turned section axes, keep their sensitivities; a point in the knee's frame, whose axes are
+    the global ones at t = 0 (so T_b turns to R T_b Rᵀ), has its sensitivities turned by R (measured ≤ 4.7e-13
+    of each's largest)."""
+    angle, axis = 0.7, np.array([1.0, -2.0, 0.5]) / np.linalg.norm([1.0, -2.0, 0.5])
+    skew = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    rotation = np.eye(3) + np.sin(angle) * skew + (1 - np.cos(angle)) * skew @ skew
+    probes = {"N_a1": _element("a", 1, "axial_force"), "My_a0": _element("a", 0, "moment_y"),
+              "T_b0": _element("b", 0, "torque"), "Mz_b1": _element("b", 1, "moment_z"),
+              **{f"tip_{c}": _in_frame("b.end", "position", "knee", c) for c in "xyz"},
+              **{f"speed_{c}": _in_frame("b.node[1]", "velocity", "knee", c) for c in "xyz"}}
+    text = _with_probes(transient.SWING_3D, probes)
+    base = transient._run(transient._turned(text, np.eye(3)))
+    turned = transient._run(transient._turned(text, rotation))
+    for name in ("k", "EI", "rho", "m", "cx", "J"):
+        for probe in ("N_a1", "My_a0", "T_b0", "Mz_b1"):
+            expected = base.sensitivities[(probe, name)]
+            assert np.abs(turned.sensitivities[(probe, name)] - expected).max() <= 1e-8 * np.abs(expected).max()
+        for point in ("tip", "speed"):
+            moved = rotation @ np.array([base.sensitivities[(f"{point}_{c}", name)] for c in "xyz"])
+            got = np.array([turned.sensitivities[(f"{point}_{c}", name)] for c in "xyz"])
+            assert np.abs(got - moved).max() <= 1e-8 * np.abs(moved).max(), (point, name)
