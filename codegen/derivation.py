@@ -689,6 +689,19 @@ def build_kernels(variant: str = "default") -> list[KernelSpec]:
         tangent=reference_tangent("internal_force", "internal_force_D_reference", plane,
                                   "∂F_i/∂(reference data) along the variation given, (14, 1)"))
 
+    # the section forces' derivative along the same variation of the reference data: a section-force probe's
+    # sensitivity by a geometry parameter (latdyn/analyses/probe_derivatives.py)
+    b = Builder(kin.auxiliary + shear_definitions)
+    psi = b.vector("psi", kin.psi)
+    rename = dict(zip(psi_symbols, psi))
+    add("beam_section_forces_D_reference", "Mid-element section forces [N, T, M_y, M_z] and their derivative along "
+        "a variation of the reference data (forward mode of the lowered forces, codegen/forward.py)", "Eqs. 22-41",
+        [cv.GEOMETRY, cv.SECTION, cv.REFERENCE],
+        [Output("section_forces", (4,), [f.xreplace(rename) for f in fm.section_forces(psi_symbols, section,
+                                                                                       formulation, shear)])], b,
+        tangent=reference_tangent("section_forces", "section_forces_D_reference", plane,
+                                  "∂S/∂(reference data) along the variation given, (4, 1)"))
+
     b = Builder(kin.auxiliary + shear_definitions)
     p = inertia(b, with_velocity=True)
     Ja = b.vector("Ja", [sp.Add(*[p["J"][i][a] * acceleration[a] for a in range(N)]) for i in range(12)])

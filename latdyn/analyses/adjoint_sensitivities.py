@@ -13,7 +13,8 @@ with E = ∂r/∂p at the step's end, M, C and the exact K there, R = exp(skew h
 rotation coordinates. The recurrence is linear in X and in E, and an output is linear in one row's δq
 (a point x + T r moves by δx + δπ × T r, a hinge angle by δθ): dy/dp = cᵀ δq_row (a rate's and a joint
 force's also c_vᵀδv_row, a joint force's c_v̇ᵀδv̇_row and its explicit ∂/∂p: seeded into v̄, v̇̄ and the
-gradient at its row). So the derivative of m
+gradient at its row; a section force's explicit ∂S/∂p and a body frame's forms likewise:
+latdyn/analyses/probe_derivatives.py ``probe_forms``). So the derivative of m
 outputs by k parameters is the transposed recurrence run backwards over the stored trajectory with m
 columns (X̄ = (q̄, v̄, v̇̄, ā), each (n, m)): per step, from the bars at the step's end,
 
@@ -50,6 +51,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_force_forms, joint_of
+from latdyn.analyses.probe_derivatives import is_probe_here, probe_forms
 from latdyn.analyses.sensitivities import SENSITIVITIES_FILE
 from latdyn.analyses.transient_sensitivities import TransientSensitivities, _NodeRotations
 from latdyn.assembly.assembler import free_velocity
@@ -127,6 +129,8 @@ class AdjointSensitivities(TransientSensitivities):
         if is_joint_force(probe):
             j = joint_of(self.model, probe)
             return joint_force_forms(self, state, [j])[j]
+        if is_probe_here(probe):   # section forces, points in a body frame: latdyn/analyses/probe_derivatives.py
+            return probe_forms(self, probe, state)
         c_q, c_v = self.output_gradient(probe, state)
         return c_q, c_v, np.zeros_like(c_q), np.zeros(len(self.names))
 

@@ -258,9 +258,17 @@ class ReferenceGeometry:
         full[slots[keep]] = spun[keep]
         return full[:model.n_dofs]
 
+    def held_moves(self, node: int) -> np.ndarray:
+        """(3, k): δX of ``node`` where no coordinate carries it — a fixed or prescribed node (x = at +
+        translation(t)) moves with its ``at`` at a fixed state —, zero for a node whose position is the state's."""
+        if self.model.nodes[node].kind in (FIXED, PRESCRIBED):
+            return self.node_moves[node]
+        return np.zeros((3, self.k))
+
     def point_moves(self, probe, state) -> tuple[np.ndarray, np.ndarray]:
         """(δ of the point's current position at a fixed state, δ of its position at t = 0), (3, k) each, for a
-        point probe: its offset r (node axes) moved at a beam's end (T δr), its reference by δX + δr."""
+        point probe: its offset r (node axes) moved at a beam's end (T δr) and a fixed or prescribed node's δX
+        (:meth:`held_moves`), its reference by δX + δr."""
         node, _ = self.model.point(probe.point)
         ref = probe.point
         offset = np.zeros((3, self.k))
@@ -269,7 +277,7 @@ class ReferenceGeometry:
             which = 0 if ref.node == 0 else 1 if ref.node == last else None
             if which is not None:
                 offset = self.end_offsets.get((ref.beam, which), offset)
-        return state.T[node] @ offset, self.node_moves[node] + offset
+        return state.T[node] @ offset + self.held_moves(node), self.node_moves[node] + offset
 
     def control_moves(self, state) -> np.ndarray:
         """∂c/∂p (k,) at a fixed state of displacement control's controlled displacement
@@ -291,23 +299,7 @@ class ReferenceGeometry:
         geometry, rates, accelerations = self.owner.assembler.native().element_inputs(state)
         at = geometry[elements]
         m = len(elements)
-        variation = self.variations[elements].copy()                        # (m, 19, k)
-        frames = (at[:, 12:21].reshape(m, 3, 3), at[:, 21:30].reshape(m, 3, 3))
-        for end in (0, 1):
-            turn = frames[end] @ np.swapaxes(model.element_frames0[elements, end], 1, 2)   # T_j R(a, θ)
-            psi = slice(12 + 3 * end, 15 + 3 * end)
-            variation[:, psi] = turn @ variation[:, psi]
-            body = state.T[model.element_nodes[elements, end]]
-            off = slice(6 + 3 * end, 9 + 3 * end)
-            variation[:, off] = body @ variation[:, off]
-            axis = slice(19 + 3 * end, 22 + 3 * end)
-            moved = np.flatnonzero(np.any(variation[:, axis] != 0.0, axis=(1, 2)))
-            if len(moved):   # h = T_j a moves by T_j δa; T_e = T_j exp(θ skew a) E0 turns by T_j J(θa) θ δa
-                hinge = model.element_hinges[elements[moved], end]
-                theta = state.theta[hinge]
-                jacobian = dexp_so3(theta[:, None] * model.element_axes[elements[moved], end])
-                variation[moved, psi] += body[moved] @ (theta[:, None, None] * (jacobian @ variation[moved, axis]))
-                variation[moved, axis] = body[moved] @ variation[moved, axis]
+        variation = self.at_state(state, elements, at)
         rows = np.ascontiguousarray(variation.transpose(2, 0, 1).reshape(k * m, WIDTH))
         repeat = lambda a: np.ascontiguousarray(np.tile(a, (k, 1)))  # noqa: E731
         sections = model.element_sections[elements]
@@ -327,6 +319,30 @@ class ReferenceGeometry:
         for column in range(k):
             np.add.at(total[:, column], model.element_dofs[elements], forces[column])
         self._load_arms(state, total, load_factor)
+
+    def at_state(self, state, elements: np.ndarray, at: np.ndarray) -> np.ndarray:
+        """The reference variations of ``elements`` (m, WIDTH, k) at ``state``, whose element geometry blocks are
+        ``at`` (m, G): the held parts with the state's frames applied (module docstring: ψ, δo and δh turned
+        into global axes, a moved hinge axis's turn of the nodal frame)."""
+        model, m = self.model, len(elements)
+        variation = self.variations[elements].copy()                        # (m, WIDTH, k)
+        frames = (at[:, 12:21].reshape(m, 3, 3), at[:, 21:30].reshape(m, 3, 3))
+        for end in (0, 1):
+            turn = frames[end] @ np.swapaxes(model.element_frames0[elements, end], 1, 2)   # T_j R(a, θ)
+            psi = slice(12 + 3 * end, 15 + 3 * end)
+            variation[:, psi] = turn @ variation[:, psi]
+            body = state.T[model.element_nodes[elements, end]]
+            off = slice(6 + 3 * end, 9 + 3 * end)
+            variation[:, off] = body @ variation[:, off]
+            axis = slice(19 + 3 * end, 22 + 3 * end)
+            moved = np.flatnonzero(np.any(variation[:, axis] != 0.0, axis=(1, 2)))
+            if len(moved):   # h = T_j a moves by T_j δa; T_e = T_j exp(θ skew a) E0 turns by T_j J(θa) θ δa
+                hinge = model.element_hinges[elements[moved], end]
+                theta = state.theta[hinge]
+                jacobian = dexp_so3(theta[:, None] * model.element_axes[elements[moved], end])
+                variation[moved, psi] += body[moved] @ (theta[:, None, None] * (jacobian @ variation[moved, axis]))
+                variation[moved, axis] = body[moved] @ variation[moved, axis]
+        return variation
 
     def _load_arms(self, state, total: np.ndarray, load_factor: float) -> None:
         """Add ∂r/∂p of the loads at a moved offset: the generated ``point_load`` is linear in its offset r

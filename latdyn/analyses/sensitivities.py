@@ -23,7 +23,8 @@ element forces along the reference data's variation (the same module).
   enters affinely: ∂f/∂θ_r = hinge_force(θ = θ̇ = 0, θ_r = 1, laws = (k, 0, 0)).
 
 A probe's derivative is its value's derivative along δq: a point x + T r moves by δx + δπ × T r;
-a hinge angle by δθ.
+a hinge angle by δθ; an element's section forces, a cable's tension and length and a point in a body's
+frame by the generated kernels' derivatives (:mod:`latdyn.analyses.probe_derivatives`).
 
 - a section's values enter through ``beam_internal_force`` and ``beam_gravity`` (F − λ G), linear in
   EA, EIy, EIz, GJ, ρA, ρIy, ρIz for a shear-rigid section: the same kernels with the section block
@@ -60,7 +61,10 @@ values of shear-rigid sections (formulation default), body masses, centres of ma
 compliant stops' laws and, in transient runs, initial velocities, controllers' outputs and states' rates,
 guides' laws and cables' EA, damping, rest length and rhoA; probes other than point positions and displacements in the
 global frame, hinge angles and guide positions and, in transient runs, rates, point velocities and joint forces
-(latdyn/analyses/joint_force_sensitivities.py); rigid links; in static paths hinges with limits or
+(latdyn/analyses/joint_force_sensitivities.py), element section forces, cable tensions and lengths and points in a
+body's frame (latdyn/analyses/probe_derivatives.py: static and transient; a body frame's velocity in transient
+runs without guides) — that is, energies and momenta;
+rigid links; in static paths hinges with limits or
 ``lock_at`` (events; transient runs differentiate latches and stops: latdyn/analyses/transient_sensitivities.py). Under gravity the static
 Newton matrix K − λ ∂Q/∂q holds the beams' gravity tangent (the generated ``beam_gravity_D_q``), so
 beams with mass are differentiated exactly there too. docs/parameters.md.
@@ -76,6 +80,8 @@ import numpy as np
 from latdyn.analyses.joint_force_sensitivities import is_joint_force
 from latdyn.analyses.joint_force_sensitivities import refusal as joint_force_refusal
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY, ReferenceGeometry, geometry_refusal
+from latdyn.analyses.probe_derivatives import is_probe_here, probe_derivatives
+from latdyn.analyses.probe_derivatives import refusal as probe_refusal
 from latdyn.assembly.factorization import solve_linear
 from latdyn.assembly.native_model import NO_CONTACT, joint_contact_rows
 from latdyn.errors import SceneError, SolverError
@@ -179,14 +185,17 @@ def refusal(scene) -> SceneError | None:
         joint = probe.kind == "hinge" and (probe.quantity == "angle" or (transient and probe.quantity == "rate"))
         force = transient and is_joint_force(probe)   # latdyn/analyses/joint_force_sensitivities.py
         why_not = joint_force_refusal(scene, probe) if force else None
+        here = is_probe_here(probe)   # section forces, cables, body frames: latdyn/analyses/probe_derivatives.py
+        why_not = why_not or (probe_refusal(scene, probe) if here else None)
         if why_not is not None:
             return refuse(why_not)
-        if not (point or velocity or slide or joint or force):
+        if not (point or velocity or slide or joint or force or here):
             return refuse(f"probe {probe.name!r} ({probe.kind} {probe.quantity}"
                           f"{'' if probe.kind != 'point' else ', frame ' + probe.frame}) is not differentiated yet: "
-                          "point positions and displacements in the global frame, hinge angles and, in transient "
-                          "runs, hinge rates and torques, guide positions, rates and forces and point velocities in "
-                          "the global frame (without guides) are")
+                          "point positions and displacements in the global frame, hinge angles, element section "
+                          "forces, cable tensions and lengths, points in a body's frame and, in transient runs, hinge "
+                          "rates and torques, guide positions, rates and forces and point velocities (without guides) "
+                          "are")
     rates = {p.name for p in scene.output.probes if p.quantity in ("rate", "velocity")}
     for c in scene.controllers.values():
         read = sorted(rates & set(c.reads))
@@ -724,6 +733,8 @@ class ParameterDerivatives:
         point x + T r moves by δx + δπ × T r, a hinge angle by δθ, a hinge rate by δθ̇, a point's velocity
         v + ω × T r by δv + δω × T r + ω × (δπ × T r)."""
         model = self.model
+        if is_probe_here(probe):   # section forces, cables, points in a body frame
+            return probe_derivatives(self, probe, state, dx, dpi, dtheta, rates)
         if probe.kind in ("hinge", "guide"):
             joint = (probe.beam, probe.end) if probe.kind == "hinge" else (probe.body, "guide")
             which = rates[2] if probe.quantity == "rate" else dtheta

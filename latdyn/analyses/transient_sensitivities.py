@@ -734,10 +734,11 @@ class TransientSensitivities(ParameterDerivatives):
         """``carried`` with the row of every probe's sensitivity at ``state`` (a new list of rows), all
         parameters at once: a point x + T r moves by δx + δπ × T r, a hinge angle by δθ, rates by the
         carried δv (:meth:`_probe_derivatives`), a joint's force by its law's or its reaction's derivative
-        along (δq, δv, δv̇) (latdyn/analyses/joint_force_sensitivities.py)."""
+        along (δq, δv, δv̇) (latdyn/analyses/joint_force_sensitivities.py), section forces, cables' tensions
+        (with δv: the damper) and lengths and points in a body's frame (latdyn/analyses/probe_derivatives.py)."""
         dx, dpi, dtheta = self._by_parameter(carried["dq"], state)
         rates = (self._rates_by_parameter(carried["dv"])
-                 if any(p.quantity in ("rate", "velocity") for p in self.probes) else None)
+                 if any(p.quantity in ("rate", "velocity", "tension") for p in self.probes) else None)
         forces = joint_force_derivatives(self, state, carried["dq"], carried["dv"], carried["dvdot"])
         row = [float(state.t)]
         for probe in self.probes:
