@@ -154,8 +154,13 @@ class TransientSensitivities(ParameterDerivatives):
         self.time_shift = None
 
     def bind(self, integrator) -> None:
-        """The integrator's parameters (α_m, α_f, γ, β) and length scale (the inertia tangent's steps)."""
+        """The integrator's parameters (α_m, α_f, γ, β) and length scale (the inertia tangent's steps); the
+        assembler's native models built with the inertia tangent's buffers before the run's first step
+        (``Assembler.inertia_tangent_buffers``): the step's evaluation of the exact matrices then leaves the
+        run's model, and modified Newton's held factorization, as they are — the run's states are those
+        without sensitivities, to the bit."""
         self.params, self.length = integrator.p, integrator.length_scale
+        self.assembler.inertia_tangent_buffers = True
 
     def residual_derivatives(self, state, load_factor: float, inertia: bool = False,
                              on_all: bool = False) -> np.ndarray:

@@ -113,13 +113,19 @@ class Assembler:
         self._load_frames = np.array([model.body_node[load.frame] if load.frame != "global" else node
                                       for load, (node, _) in zip(self.loads, points)], np.int64)
         self._native = None
+        #: every native model built with the inertia tangent's buffers from the start: the transient
+        #: sensitivities (latdyn/analyses/transient_sensitivities.py) evaluate the tangent between the run's
+        #: steps, and a model rebuilt then would drop the factorization modified Newton holds
+        self.inertia_tangent_buffers = False
         self.reindex()
 
     def native(self, inertia_tangent: bool = False) -> NativeModel:
         """The model as the C library reads it, for the current numbering (rebuilt after a latch,
-        or when the inertia tangent's buffers are first needed; once there, they stay)."""
+        or when the inertia tangent's buffers are first needed; once there, they stay; with
+        ``inertia_tangent_buffers``, there from the first)."""
         native = self._native
-        with_tangent = inertia_tangent or (native is not None and native.has_inertia_tangent)
+        with_tangent = (inertia_tangent or self.inertia_tangent_buffers
+                        or (native is not None and native.has_inertia_tangent))
         if self.current_native() is None or with_tangent != native.has_inertia_tangent:
             self._native = native = NativeModel(self, with_tangent)
         return native
