@@ -694,10 +694,17 @@ class TransientSensitivities(ParameterDerivatives):
         """(R·, J·) on free-coordinate columns for the step's increment hΔq: on each free node's
         rotation coordinates R = exp(skew hΔq) and J = dexp(hΔq), the identity elsewhere
         (:class:`_NodeRotations`: ``.blocks`` the (f, 3, 3) blocks; J also as a SciPy matrix, ``.matrix``,
-        made on first use)."""
+        made on first use). Where no free node has more than one rotation coordinate (a planar model: its
+        nodes turn about the plane's normal alone), both are the identity on the coordinates — rotations
+        about one fixed axis add, exp(skew ψ)_zz = dexp(ψ)_zz = 1 and the couplings to the other two
+        (not coordinates) vanish, exactly, as the maps computed give them — and are taken as such
+        (:meth:`_NodeRotations.identity`), without the maps."""
         model = self.model
         n = model.n_dofs
         slots = model.node_dofs[model.free_nodes, 3:6]                   # (f, 3), ≥ n: not a coordinate
+        if np.all(np.sum(slots < n, axis=1) <= 1):
+            identity = _NodeRotations.identity(self, slots, n)
+            return identity, identity
         padded = np.append(increment, 0.0)
         psi = padded[np.where(slots < n, slots, n)]
         return _NodeRotations(self, expm_so3(psi), slots, n), _NodeRotations(self, dexp_so3(psi), slots, n)
@@ -787,14 +794,25 @@ class _NodeRotations:
     it; ``blocks`` (f, 3, 3); ``matrix`` the n × n SciPy CSR form (the iteration matrix's storage),
     made on first use."""
 
-    def __init__(self, owner: TransientSensitivities, blocks: np.ndarray, slots: np.ndarray, n: int):
+    def __init__(self, owner: TransientSensitivities, blocks: np.ndarray, slots: np.ndarray, n: int,
+                 is_identity: bool = False):
         self.owner, self.blocks, self.slots, self.n = owner, blocks, slots, n
         self.complete = bool(np.all(slots < n))
+        #: the identity on the coordinates (:meth:`identity`): applied as a copy
+        self.is_identity = is_identity
         self._matrix = None
+
+    @classmethod
+    def identity(cls, owner: TransientSensitivities, slots: np.ndarray, n: int) -> "_NodeRotations":
+        """The identity blocks on ``slots`` (R and J where each node has at most one rotation coordinate:
+        :meth:`TransientSensitivities._rotation_operators`)."""
+        return cls(owner, np.tile(np.eye(3), (len(slots), 1, 1)), slots, n, is_identity=True)
 
     def __call__(self, columns: np.ndarray) -> np.ndarray:
         slots, n = self.slots, self.n
         out = np.array(columns, dtype=float, copy=True)
+        if self.is_identity:
+            return out
         if self.complete:   # every free node's three rotations are coordinates (3D)
             out[slots] = np.einsum("fij,fjk->fik", self.blocks, columns[slots])
             return out

@@ -311,12 +311,22 @@ class Assembler:
         :class:`latdyn.analyses.step_matrix.ExactStepMatrix`). Without rigid links and guides only."""
         if self.model.links is not None:
             raise ValueError("exact_matrix_values: a model with rigid links or guides (use exact_matrices)")
-        ev = self.evaluate(state, matrices=True, inertia=True, inertia_tangent=True)
-        parts = [ev._flat(kind) for kind in ("mass", "damping", "stiffness")]  # noqa: SLF001 (its blocks)
-        if len(self.model.body_nodes):
-            blocks = self.joint_body_inertia_stiffness(state)
-            parts[2][1] = parts[2][1] + blocks[self._body_mask]
-        data = np.concatenate([np.ravel(p) for kind in parts for p in kind])
+        native = self.native(True)
+        native.evaluate(state, True, 1.0, True, True)
+        b, m = native.buffers, self.model
+        free, elements, bodies = m.free_hinges, self._elem_mask, self._body_mask
+        body_stiffness = b["body_stiffness"][bodies]
+        if len(m.body_nodes):
+            body_stiffness = body_stiffness + self.joint_body_inertia_stiffness(state)[bodies]
+        loads, cables, couplings = self._load_mask, self._cable_mask, self._coupling_mask
+        # the blocks in the order of reindex's pattern, M, C, K in turn, as evaluation_in and _flat give them
+        data = np.concatenate([
+            b["mass"][elements], b["body_mass"][bodies], np.zeros(len(free)),
+            np.zeros(int(loads.sum()) + int(cables.sum())), np.zeros(int(couplings.sum())),
+            b["quadratic_D"][elements], b["body_damping"][bodies], b["hinge_d_rate"][free],
+            np.zeros(int(loads.sum())), b["cable_damping"][cables], b["coupling_damping"][couplings],
+            (b["tangent"] + b["inertia_tangent"])[elements], body_stiffness, b["hinge_d_theta"][free],
+            b["load_blocks"][loads], b["cable_stiffness"][cables], b["coupling_stiffness"][couplings]])
         if self._positions3 is None:
             self._positions3 = np.concatenate([self._position + i * self._nnz for i in range(3)])
         return np.bincount(self._positions3, weights=data, minlength=3 * self._nnz).reshape(3, self._nnz)
