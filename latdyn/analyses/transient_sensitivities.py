@@ -702,9 +702,13 @@ class TransientSensitivities(ParameterDerivatives):
         model = self.model
         n = model.n_dofs
         slots = model.node_dofs[model.free_nodes, 3:6]                   # (f, 3), ≥ n: not a coordinate
-        if np.all(np.sum(slots < n, axis=1) <= 1):
-            identity = _NodeRotations.identity(self, slots, n)
-            return identity, identity
+        held = self.__dict__.get("_identity_rotations")                  # (n, slots, the identity or None)
+        if held is None or held[0] != n or not np.array_equal(held[1], slots):
+            about_one_axis = bool(np.all(np.sum(slots < n, axis=1) <= 1))
+            held = (n, slots.copy(), _NodeRotations.identity(self, slots, n) if about_one_axis else None)
+            self._identity_rotations = held
+        if held[2] is not None:
+            return held[2], held[2]
         padded = np.append(increment, 0.0)
         psi = padded[np.where(slots < n, slots, n)]
         return _NodeRotations(self, expm_so3(psi), slots, n), _NodeRotations(self, dexp_so3(psi), slots, n)
