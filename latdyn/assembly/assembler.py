@@ -220,7 +220,7 @@ class Assembler:
         cols = np.concatenate(cols) if cols else np.zeros(0, np.int64)
         key = rows * max(n, 1) + cols
         unique, self._position = np.unique(key, return_inverse=True)
-        self._positions3 = None  # exact_matrix_values' scatter of M, C and K at once (made on use)
+        self._positions3 = None  # exact_matrix_values' scatter of M, C and K at once, and its layout (made on use)
         self._csr_rows, self._csr_cols = unique // max(n, 1), unique % max(n, 1)
         self._nnz = len(unique)
         counts = np.bincount(self._csr_rows, minlength=n)
@@ -314,21 +314,26 @@ class Assembler:
         native = self.native(True)
         native.evaluate(state, True, 1.0, True, True)
         b, m = native.buffers, self.model
-        free, elements, bodies = m.free_hinges, self._elem_mask, self._body_mask
-        body_stiffness = b["body_stiffness"][bodies]
+        if self._positions3 is None:   # where the blocks' kept entries lie (reindex's masks, flat) and M's zeros
+            flat = [np.flatnonzero(mask) for mask in (self._elem_mask, self._body_mask, self._load_mask,
+                                                      self._cable_mask, self._coupling_mask)]
+            hinges, loads, cables, couplings = len(m.free_hinges), len(flat[2]), len(flat[3]), len(flat[4])
+            self._exact_layout = (*flat, np.zeros(hinges), np.zeros(loads + cables), np.zeros(couplings),
+                                  np.zeros(loads))
+            self._positions3 = np.concatenate([self._position + i * self._nnz for i in range(3)])
+        elements, bodies, loads, cables, couplings, no_hinges, no_loads, no_couplings, no_forces = self._exact_layout
+        free = m.free_hinges
+        body_stiffness = b["body_stiffness"].take(bodies)
         if len(m.body_nodes):
-            body_stiffness = body_stiffness + self.joint_body_inertia_stiffness(state)[bodies]
-        loads, cables, couplings = self._load_mask, self._cable_mask, self._coupling_mask
+            body_stiffness = body_stiffness + self.joint_body_inertia_stiffness(state).take(bodies)
         # the blocks in the order of reindex's pattern, M, C, K in turn, as evaluation_in and _flat give them
         data = np.concatenate([
-            b["mass"][elements], b["body_mass"][bodies], np.zeros(len(free)),
-            np.zeros(int(loads.sum()) + int(cables.sum())), np.zeros(int(couplings.sum())),
-            b["quadratic_D"][elements], b["body_damping"][bodies], b["hinge_d_rate"][free],
-            np.zeros(int(loads.sum())), b["cable_damping"][cables], b["coupling_damping"][couplings],
-            (b["tangent"] + b["inertia_tangent"])[elements], body_stiffness, b["hinge_d_theta"][free],
-            b["load_blocks"][loads], b["cable_stiffness"][cables], b["coupling_stiffness"][couplings]])
-        if self._positions3 is None:
-            self._positions3 = np.concatenate([self._position + i * self._nnz for i in range(3)])
+            b["mass"].take(elements), b["body_mass"].take(bodies), no_hinges, no_loads, no_couplings,
+            b["quadratic_D"].take(elements), b["body_damping"].take(bodies), b["hinge_d_rate"][free],
+            no_forces, b["cable_damping"].take(cables), b["coupling_damping"].take(couplings),
+            b["tangent"].take(elements) + b["inertia_tangent"].take(elements), body_stiffness,
+            b["hinge_d_theta"][free], b["load_blocks"].take(loads), b["cable_stiffness"].take(cables),
+            b["coupling_stiffness"].take(couplings)])
         return np.bincount(self._positions3, weights=data, minlength=3 * self._nnz).reshape(3, self._nnz)
 
     def exact_rows(self, state: State, coordinates, load_factor: float = 1.0, inertia: bool = True):
