@@ -18,10 +18,11 @@ sensitivities add one evaluation of M, C and the exact K (the elements' inertia 
 the minima to the run without; the 1-minute load average with them. ``--parts`` times those pieces one by
 one (:func:`parts`).
 
-Measured (docs/parameters.md, "Transient sensitivities", cost; CPU minima at load 6–9 on the 2-core
-machine): 1, 10, 100 parameters 4.5×, 4.7×, 8.1× the run without on the cantilever and 2.8×, 2.9×, 4.1×
-on the lattice. The step's matrix S is factorised in the storage the run's own iteration matrix has (band,
-the same order and bandwidth: 0.040 against 0.031 ms on the cantilever); the piece that sets the floor is
+Measured (docs/parameters.md, "Transient sensitivities", cost; CPU minima at load 4.6–5.9 on the 2-core
+machine): 1, 10, 100 parameters 3.7×, 4.0×, 6.6× the run without on the cantilever (main: 4.2×, 4.4×,
+7.5×) and 2.6×, 2.8×, 3.6× on the lattice (main: 3.3×, 3.6×, 5.0×). The step's matrix S is factorised in
+the storage the run's own iteration matrix has (band, the same order and bandwidth: 0.039 against 0.031 ms
+on the cantilever); the piece that sets the floor is
 the native evaluation with the elements' inertia tangent (0.55 ms on the cantilever, ≈ 0.9× a step of the
 run without), which the run's Newton iteration cannot share (it never evaluates at the converged state).
 """
