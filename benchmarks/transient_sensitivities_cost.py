@@ -15,11 +15,21 @@ sensitivities add one evaluation of M, C and the exact K (the elements' inertia 
 ``newton: exact``'s evaluation), one factorization and k back-substitutions, and the kernels of
 ∂r/∂p (latdyn/analyses/transient_sensitivities.py). Printed: the minimum and median wall time of
 ``latdyn.run``, and of the CPU time of the process (steadier on a shared machine), each with the ratio of
-the minima to the run without; the 1-minute load average with them.
+the minima to the run without; the 1-minute load average with them. ``--parts`` times those pieces one by
+one (:func:`parts`).
+
+Measured (docs/parameters.md, "Transient sensitivities", cost; CPU minima at load 4.6–5.9 on the 2-core
+machine): 1, 10, 100 parameters 3.7×, 4.0×, 6.6× the run without on the cantilever (main: 4.2×, 4.4×,
+7.5×) and 2.6×, 2.8×, 3.6× on the lattice (main: 3.3×, 3.6×, 5.0×). The step's matrix S is factorised in
+the storage the run's own iteration matrix has (band, the same order and bandwidth: 0.039 against 0.031 ms
+on the cantilever); the piece that sets the floor is
+the native evaluation with the elements' inertia tangent (0.55 ms on the cantilever, ≈ 0.9× a step of the
+run without), which the run's Newton iteration cannot share (it never evaluates at the converged state).
 """
 from __future__ import annotations
 
 import argparse
+import ctypes
 import os
 import statistics
 import time
@@ -86,20 +96,24 @@ def run(loaded, per_step: bool) -> tuple[float, float]:
 
 def parts(make, repeats: int) -> None:
     """``--parts``: the fixed part F of a sensitivity step at the last step's end of a one-parameter run,
-    its pieces timed in turn (minima over ``10 * repeats`` interleaved calls): the native evaluation with
-    the elements' inertia tangent and without it, the step's matrix assembled and factorised and one or
-    101 columns solved — on its held pattern (``Assembler.exact_matrix_values``, ``ExactStepMatrix``) and by
-    the path models with rigid links or guides take (``exact_matrices``, SciPy's sum, ``solve_linear``) —,
-    and the exponential's operators."""
+    its pieces timed in turn (CPU time of the process, minima over ``10 * repeats`` interleaved calls): the
+    whole sensitivity step (``TransientSensitivities.step``, 1 and 101 columns the same call: the run's own
+    k); the native evaluation with the elements' inertia tangent and without it; M, C and K scattered on the
+    assembler's pattern (``Assembler.exact_matrix_values``: that evaluation included); the step matrix S
+    summed on its held pattern (``ExactStepMatrix.values``), loaded and factorised in the storage chosen for
+    its pattern — printed with the run's own iteration matrix's, and the run's matrix factorised in that
+    storage for comparison —, one or 101 columns solved; the path models with rigid links or guides take
+    (``exact_matrices``, SciPy's sum, ``solve_linear``); the exponential's operators R, J; ∂r/∂p."""
     import numpy as np
 
-    from latdyn.assembly.factorization import solve_linear
+    from latdyn.assembly.factorization import Factorization, solve_linear
+    from latdyn.step.compiled import matrix_pattern
 
     taken = {}
     step = TransientSensitivities.step
 
     def kept(self, carried, old, new, *args, **kwargs):
-        taken["owner"], taken["state"] = self, new
+        taken.update(owner=self, call=(carried, old, new, *args), keywords=kwargs)
         return step(self, carried, old, new, *args, **kwargs)
 
     TransientSensitivities.step = kept
@@ -107,39 +121,60 @@ def parts(make, repeats: int) -> None:
         run(latdyn.load_scene(make(["F0"])), False)
     finally:
         TransientSensitivities.step = step
-    owner, state = taken["owner"], taken["state"]
+    owner, call, keywords = taken["owner"], taken["call"], taken["keywords"]
+    state = call[2]
     assembler, n = owner.assembler, owner.model.n_dofs
     increment = 1e-3 * np.random.default_rng(0).standard_normal(n)
     _, tangent = owner._rotation_operators(increment)
     beta_p, gamma_p = 1e5, 1e2
+    step_matrix = owner._step_matrix(tangent.slots)
+    values = assembler.exact_matrix_values(state)
+    summed = step_matrix.values(values, tangent.blocks, beta_p, gamma_p)
+    factorization = step_matrix.factorization
+    own = Factorization(*matrix_pattern(assembler), n)   # the run's iteration matrix's storage (latdyn/step/compiled.py)
+    own_values = np.bincount(own.position(step_matrix.rows, step_matrix.cols), weights=summed, minlength=own.size)
 
-    def held(k):
-        values = assembler.exact_matrix_values(state)
-        return owner._step_matrix(tangent.slots).factor(values, tangent.blocks, beta_p, gamma_p).solve(np.ones((n, k)))
+    def solved(k):
+        return factorization.solve(np.ones((n, k)))
 
-    def summed(k):
+    def scipy_path(k):
         M, C, K = owner._matrices(state)
         J = tangent.matrix if hasattr(K, "tocsr") else tangent.matrix.toarray()
         return solve_linear(beta_p * M + gamma_p * C + K @ J, np.ones((n, k)))
 
+    def run_matrix_factorised(k):
+        own.values[:] = own_values
+        own._library.latdyn_factor(ctypes.byref(own.structure), own.values.ctypes.data, own.pivots.ctypes.data)
+
     native = assembler.native(True)
-    pieces = {"native evaluation with the elements' inertia tangent":
+    pieces = {"the whole sensitivity step (TransientSensitivities.step)": lambda k: step(owner, *call, **keywords),
+              "native evaluation with the elements' inertia tangent":
               lambda k: native.evaluate(state, True, 1.0, True, True),
               "native evaluation of M, C, K without it": lambda k: native.evaluate(state, True, 1.0, True, False),
-              "step matrix on its held pattern, factorised, solved": held,
-              "step matrix by exact_matrices + SciPy sum + solve_linear": summed,
-              "the exponential's operators R, J": lambda k: owner._rotation_operators(increment)}
+              "M, C, K on the pattern (exact_matrix_values, evaluation incl.)":
+              lambda k: assembler.exact_matrix_values(state),
+              "S summed on its held pattern (ExactStepMatrix.values)":
+              lambda k: step_matrix.values(values, tangent.blocks, beta_p, gamma_p),
+              "S loaded and factorised (Factorization.factor)": lambda k: factorization.factor(summed),
+              "the run's matrix factorised in its storage (latdyn_factor)": run_matrix_factorised,
+              "S's columns solved": solved,
+              "the path with links: exact_matrices + SciPy sum + solve": scipy_path,
+              "the exponential's operators R, J": lambda k: owner._rotation_operators(increment),
+              "dr/dp (residual_derivatives, 1 parameter)": lambda k: owner.residual_derivatives(state, 1.0, True)}
     best = {name: {1: np.inf, 101: np.inf} for name in pieces}
     for _ in range(10 * repeats):
         for name, piece in pieces.items():
             for k in (1, 101):
-                began = time.perf_counter()
+                began = time.process_time()
                 piece(k)
-                best[name][k] = min(best[name][k], time.perf_counter() - began)
+                best[name][k] = min(best[name][k], time.process_time() - began)
+    factorization.factor(summed)
     print(f"F's pieces, n = {n} coordinates; load average (1 min): {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+    print(f"  S: {factorization.kind} storage, kl = ku = {factorization.kl}/{factorization.ku}, {len(summed)} entries; "
+          f"the run's iteration matrix: {own.kind}, {own.kl}/{own.ku}, {len(own.rows)} entries")
     for name, measured in best.items():
-        print(f"  {name:58s} 1 column {measured[1] * 1e3:6.3f} ms, 101 columns {measured[101] * 1e3:6.3f} ms")
-    print(f"  the two step matrices' solutions differ by {np.max(np.abs(held(101) - summed(101))):.1e}")
+        print(f"  {name:62s} 1 column {measured[1] * 1e3:6.3f} ms, 101 columns {measured[101] * 1e3:6.3f} ms")
+    print(f"  the two step matrices' solutions differ by {np.max(np.abs(solved(101) - scipy_path(101))):.1e}")
 
 
 def main() -> None:

@@ -97,6 +97,52 @@ def test_the_step_matrix_on_its_held_pattern_is_scipys_sum(text):
     assert np.max(np.abs((step.damping - C).toarray())) == 0.0
 
 
+def test_a_planar_models_rotation_operators_are_the_maps_identity_on_its_coordinates():
+    """Where each free node has one rotation coordinate (the planar model's, about the normal),
+    _rotation_operators takes R = exp(skew hΔq) and J = dexp(hΔq) as the identity without computing them:
+    the maps computed are that on the coordinates bit for bit (small, moderate and many-turn increments),
+    and the 3D model's are not the identity."""
+    from latdyn.numerics.so3 import dexp_so3, expm_so3
+
+    for text, planar in ((SCENE_PLANAR, True), (SCENE_3D, False)):
+        prepared = prepare(yaml.safe_load(text))
+        sensitivities = TransientSensitivities(prepared)
+        model = prepared.model
+        n = model.n_dofs
+        slots = model.node_dofs[model.free_nodes, 3:6]
+        on = slots < n
+        both = on[:, :, None] & on[:, None, :]
+        for scale in (1e-4, 0.3, 40.0):
+            increment = scale * np.random.default_rng(6).standard_normal(n)
+            psi = np.append(increment, 0.0)[np.where(on, slots, n)]
+            turn, tangent = sensitivities._rotation_operators(increment)
+            exponential = np.asarray(sensitivities.kernels.so3_exp(np.ascontiguousarray(psi))[0]).reshape(-1, 3, 3)
+            assert np.max(np.abs(exponential - expm_so3(psi))) <= 1e-15   # the kernel's backends alike
+            for taken, computed in ((turn, exponential), (tangent, dexp_so3(psi))):
+                assert taken.is_identity == planar
+                assert np.array_equal(taken.blocks[both], computed[both])
+                assert np.array_equal(computed[both], np.broadcast_to(np.eye(3), computed.shape)[both]) == planar
+                assert np.array_equal(np.asarray(taken(np.eye(n))), np.eye(n)) == planar
+
+
+@pytest.mark.parametrize("text", [SCENE_3D, SCENE_PLANAR], ids=["3d", "planar"])
+def test_exact_matrix_values_are_the_evaluations_blocks_scattered(text):
+    """Assembler.exact_matrix_values reads the native Work buffers straight (no Evaluation): M, C and K
+    equal, bit for bit, the scatter of the Evaluation's blocks (Evaluation._flat, as the step's own matrix
+    assembles them) with the joint bodies' inertia stiffness added."""
+    prepared = prepare(yaml.safe_load(text))
+    assembler, model = prepared.assembler, prepared.model
+    state = _moved_state(prepared, 7)
+    values = assembler.exact_matrix_values(state)
+    evaluation = assembler.evaluate(state, matrices=True, inertia=True, inertia_tangent=True)
+    parts = [evaluation._flat(kind) for kind in ("mass", "damping", "stiffness")]
+    parts[2][1] = parts[2][1] + assembler.joint_body_inertia_stiffness(state)[assembler._body_mask]
+    for made, kind in zip(values, parts):
+        assert np.array_equal(made, assembler.assemble_csr(kind).data)
+    assert len(model.body_nodes) and np.any(values[2] != assembler.evaluate(state, matrices=True).combined(
+        0.0, 0.0, 1.0, dense=False).tocsr().data)
+
+
 RENAMED = """
 parameters: {F0: 5.0, F1: 7.0, k: 30.0, th0: 0.2, p__1: 2.0, q: 3.0}
 sections:

@@ -113,13 +113,19 @@ class Assembler:
         self._load_frames = np.array([model.body_node[load.frame] if load.frame != "global" else node
                                       for load, (node, _) in zip(self.loads, points)], np.int64)
         self._native = None
+        #: every native model built with the inertia tangent's buffers from the start: the transient
+        #: sensitivities (latdyn/analyses/transient_sensitivities.py) evaluate the tangent between the run's
+        #: steps, and a model rebuilt then would drop the factorization modified Newton holds
+        self.inertia_tangent_buffers = False
         self.reindex()
 
     def native(self, inertia_tangent: bool = False) -> NativeModel:
         """The model as the C library reads it, for the current numbering (rebuilt after a latch,
-        or when the inertia tangent's buffers are first needed; once there, they stay)."""
+        or when the inertia tangent's buffers are first needed; once there, they stay; with
+        ``inertia_tangent_buffers``, there from the first)."""
         native = self._native
-        with_tangent = inertia_tangent or (native is not None and native.has_inertia_tangent)
+        with_tangent = (inertia_tangent or self.inertia_tangent_buffers
+                        or (native is not None and native.has_inertia_tangent))
         if self.current_native() is None or with_tangent != native.has_inertia_tangent:
             self._native = native = NativeModel(self, with_tangent)
         return native
@@ -214,7 +220,7 @@ class Assembler:
         cols = np.concatenate(cols) if cols else np.zeros(0, np.int64)
         key = rows * max(n, 1) + cols
         unique, self._position = np.unique(key, return_inverse=True)
-        self._positions3 = None  # exact_matrix_values' scatter of M, C and K at once (made on use)
+        self._positions3 = None  # exact_matrix_values' scatter of M, C and K at once, and its layout (made on use)
         self._csr_rows, self._csr_cols = unique // max(n, 1), unique % max(n, 1)
         self._nnz = len(unique)
         counts = np.bincount(self._csr_rows, minlength=n)
@@ -305,14 +311,29 @@ class Assembler:
         :class:`latdyn.analyses.step_matrix.ExactStepMatrix`). Without rigid links and guides only."""
         if self.model.links is not None:
             raise ValueError("exact_matrix_values: a model with rigid links or guides (use exact_matrices)")
-        ev = self.evaluate(state, matrices=True, inertia=True, inertia_tangent=True)
-        parts = [ev._flat(kind) for kind in ("mass", "damping", "stiffness")]  # noqa: SLF001 (its blocks)
-        if len(self.model.body_nodes):
-            blocks = self.joint_body_inertia_stiffness(state)
-            parts[2][1] = parts[2][1] + blocks[self._body_mask]
-        data = np.concatenate([np.ravel(p) for kind in parts for p in kind])
-        if self._positions3 is None:
+        native = self.native(True)
+        native.evaluate(state, True, 1.0, True, True)
+        b, m = native.buffers, self.model
+        if self._positions3 is None:   # where the blocks' kept entries lie (reindex's masks, flat) and M's zeros
+            flat = [np.flatnonzero(mask) for mask in (self._elem_mask, self._body_mask, self._load_mask,
+                                                      self._cable_mask, self._coupling_mask)]
+            hinges, loads, cables, couplings = len(m.free_hinges), len(flat[2]), len(flat[3]), len(flat[4])
+            self._exact_layout = (*flat, np.zeros(hinges), np.zeros(loads + cables), np.zeros(couplings),
+                                  np.zeros(loads))
             self._positions3 = np.concatenate([self._position + i * self._nnz for i in range(3)])
+        elements, bodies, loads, cables, couplings, no_hinges, no_loads, no_couplings, no_forces = self._exact_layout
+        free = m.free_hinges
+        body_stiffness = b["body_stiffness"].take(bodies)
+        if len(m.body_nodes):
+            body_stiffness = body_stiffness + self.joint_body_inertia_stiffness(state).take(bodies)
+        # the blocks in the order of reindex's pattern, M, C, K in turn, as evaluation_in and _flat give them
+        data = np.concatenate([
+            b["mass"].take(elements), b["body_mass"].take(bodies), no_hinges, no_loads, no_couplings,
+            b["quadratic_D"].take(elements), b["body_damping"].take(bodies), b["hinge_d_rate"][free],
+            no_forces, b["cable_damping"].take(cables), b["coupling_damping"].take(couplings),
+            b["tangent"].take(elements) + b["inertia_tangent"].take(elements), body_stiffness,
+            b["hinge_d_theta"][free], b["load_blocks"].take(loads), b["cable_stiffness"].take(cables),
+            b["coupling_stiffness"].take(couplings)])
         return np.bincount(self._positions3, weights=data, minlength=3 * self._nnz).reshape(3, self._nnz)
 
     def exact_rows(self, state: State, coordinates, load_factor: float = 1.0, inertia: bool = True):
