@@ -50,10 +50,10 @@ from types import SimpleNamespace
 import numpy as np
 
 from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_force_forms, joint_of
-from latdyn.analyses.sensitivities import SENSITIVITIES_FILE
+from latdyn.analyses.sensitivities import _SECTION_KEY, SENSITIVITIES_FILE
 from latdyn.analyses.transient_sensitivities import TransientSensitivities, _NodeRotations
 from latdyn.assembly.assembler import free_velocity
-from latdyn.assembly.factorization import solve_linear
+from latdyn.assembly.factorization import factorization_for, solve_linear
 from latdyn.errors import SolverError
 from latdyn.numerics.inertia import split_inertia
 from latdyn.numerics.linalg import issparse
@@ -105,6 +105,46 @@ class AdjointSensitivities(TransientSensitivities):
             self._held_section_blocks = None if timed else (super()._section_derivative_blocks(state),)
         held = self._held_section_blocks
         return super()._section_derivative_blocks(state) if held is None else held[0]
+
+    def residual_transposed_product(self, state, w: np.ndarray) -> np.ndarray:
+        """(k, m): (∂r/∂p)ᵀ w at ``state`` for the m columns of ``w`` (n, m) on the free coordinates, ∂r/∂p
+        of the equations of motion (:meth:`residual_derivatives`) without forming it: the section values'
+        uses as one batched product of each use's element forces (:meth:`_section_element_forces`) with w
+        at the element's coordinates, summed into their parameters' rows (10³ sections of a lattice: no
+        (n, k) array, no per-parameter Python); the other parameters' columns (loads, hinges, bodies,
+        controllers) by :meth:`residual_derivatives` on all coordinates, transposed onto w there (with
+        rigid links and guides w carried to the dependent nodes by the projection P: (Pᵀf)ᵀw = fᵀ(Pw))."""
+        model, k = self.model, len(self.names)
+        weights = np.zeros((model.n_total + 1, w.shape[1]))
+        if model.links is None:
+            weights[:model.n_dofs] = w
+        else:
+            weights[:model.n_assembled] = self.assembler.evaluate(state, matrices=True).projection @ w
+        product = np.zeros((k, w.shape[1]))
+        sections = self._section_element_forces(state, 1.0, inertia=True)
+        if sections is not None:
+            elements, columns, forces = sections
+            np.add.at(product, columns, np.einsum("ep,epm->em", forces, weights[model.element_dofs[elements]]))
+        if self._other_than_sections():
+            self._sections_apart = True
+            try:
+                product += self.residual_derivatives(state, 1.0, inertia=True, on_all=True).T @ weights
+            finally:
+                self._sections_apart = False
+        return product
+
+    def _other_than_sections(self) -> bool:
+        """Whether a parameter enters ∂r/∂p otherwise than through a section value (a load, hinge, body, …
+        key, or a controller's output)."""
+        if "_others" not in self.__dict__:
+            self._others = self.controllers is not None or any(not _SECTION_KEY.match(key) for key in self.derivatives)
+        return self._others
+
+    def _section_forces(self, state, total: np.ndarray, load_factor: float, inertia: bool = False) -> None:
+        """:meth:`ParameterDerivatives._section_forces`, left out while :meth:`residual_transposed_product`
+        takes the sections' product apart."""
+        if not self.__dict__.get("_sections_apart", False):
+            super()._section_forces(state, total, load_factor, inertia)
 
     def outputs(self, carried: dict, series: dict) -> list:
         """(probe, which, row index) of every output: each probe's last row and the rows of its largest
@@ -181,20 +221,12 @@ class AdjointSensitivities(TransientSensitivities):
             beta_p, gamma_p = (1 - am) / (h * h * beta * (1 - af)), gamma / (h * beta)
             increment = h * (free_velocity(model, states[i]) + h * (0.5 - beta) * entry["a_old"]
                              + h * beta * entry["a_new"])
-            # Rᵀ = exp(−skew hΔq) and Jᵀ = dexp(−hΔq) are the forward operators at −hΔq; J for the matrix K J
-            turn_t, tangent_t = self._rotation_operators(-increment)
-            J = _NodeRotations(self, np.transpose(tangent_t.blocks, (0, 2, 1)), tangent_t.slots, n).matrix
-            M, C, K = self._matrices(new)
-            if not issparse(K):
-                J = J.toarray()
-            matrix = beta_p * M + gamma_p * C + K @ J
+            turn, tangent = self._rotation_operators(increment)
+            turn_t, tangent_t = _transposed_rotations(self, turn), _transposed_rotations(self, tangent)
+            C, K, solve_transposed = self._transposed_step_system(new, tangent, beta_p, gamma_p)
             z_bar = tangent_t(q_bar) + gamma_p * v_bar + beta_p * vdot_bar + (1 - af) / (1 - am) * beta_p * a_bar
-            try:
-                w = np.asarray(solve_linear(_transposed(matrix), z_bar)).reshape(n, m)
-            except np.linalg.LinAlgError:
-                raise SolverError(f"the adjoint sensitivities at t = {new.t:.6g} need the step's exact iteration "
-                                  "matrix, which is singular there") from None
-            gradient -= self.residual_derivatives(new, 1.0, inertia=True).T @ w
+            w = np.asarray(solve_transposed(z_bar)).reshape(n, m)
+            gradient -= self.residual_transposed_product(new, w)
             dq0_bar = q_bar - K.T @ w
             dv0_bar = v_bar - C.T @ w
             du0_bar = tangent_t(dq0_bar)
@@ -208,6 +240,26 @@ class AdjointSensitivities(TransientSensitivities):
             vdot_bar[:, column] += c_vdot   # δv̇_0 = δa_0: the start's consistent accelerations' derivative
             gradient[:, column] += explicit
         return gradient + self._through_the_start(carried["start"], v_bar, vdot_bar + a_bar)
+
+    def _transposed_step_system(self, new, tangent, beta_p: float, gamma_p: float):
+        """(C, K, solve_transposed) at the stored state ``new``: the forward method's step matrix
+        S = β′M + γ′C + K J (:meth:`TransientSensitivities._step_system`: on its held pattern and storage
+        without rigid links, else the reduction's matrices summed by SciPy), factorised as the forward
+        method factorises it, and solved with Sᵀ from those factors
+        (:meth:`latdyn.assembly.factorization.Factorization.solve_transposed`). A singular S raises
+        SolverError."""
+        try:
+            if self.model.links is None:
+                step_matrix = self._step_matrix(tangent.slots)
+                factors = step_matrix.factor(self.assembler.exact_matrix_values(new), tangent.blocks, beta_p, gamma_p)
+                return step_matrix.damping, step_matrix.stiffness, factors.solve_transposed
+            M, C, K = self._matrices(new)
+            J = tangent.matrix if issparse(K) else tangent.matrix.toarray()
+            matrix = beta_p * M + gamma_p * C + K @ J
+            return C, K, factorization_for(matrix).factor(matrix).solve_transposed
+        except np.linalg.LinAlgError:
+            raise SolverError(f"the adjoint sensitivities at t = {new.t:.6g} need the step's exact iteration "
+                              "matrix, which is singular there") from None
 
     def _through_the_start(self, state, v_bar: np.ndarray, s_bar: np.ndarray) -> np.ndarray:
         """(k, m) what t = 0 adds (module docstring): E_0ᵀ r̄ + D_vᵀ(v̄_0 + C_0ᵀ r̄), r̄ = Δᵀ s̄."""
@@ -224,7 +276,7 @@ class AdjointSensitivities(TransientSensitivities):
                                      for c in range(s_bar.shape[1])])
         C = ev.combined(0.0, 1.0, 0.0)
         dv = self._initial_velocities()
-        return self.residual_derivatives(state, 1.0, inertia=True).T @ r_bar + dv.T @ (v_bar + C.T @ r_bar)
+        return self.residual_transposed_product(state, r_bar) + dv.T @ (v_bar + C.T @ r_bar)
 
     # ------------------------------------------------------------------ the end
     def finish(self, carried: dict, writer) -> None:
@@ -252,6 +304,13 @@ class AdjointSensitivities(TransientSensitivities):
                              for p in self.probes for name in self.names]
             text = csv_line(["t", *self.columns]) + csv_line(row)
             atomic_write_bytes(Path(writer.out_dir) / SENSITIVITIES_FILE, text.encode("utf-8"))
+
+
+def _transposed_rotations(owner, rotations: _NodeRotations) -> _NodeRotations:
+    """The transposed operator of ``rotations`` (each node's 3 × 3 block transposed): Rᵀ = exp(−skew hΔq),
+    Jᵀ = dexp(−hΔq)."""
+    return _NodeRotations(owner, np.ascontiguousarray(np.transpose(rotations.blocks, (0, 2, 1))), rotations.slots,
+                          rotations.n)
 
 
 def _transposed(matrix):

@@ -430,11 +430,19 @@ class ParameterDerivatives:
         tests/test_sensitivities.py checks the kernels for it); with ``inertia`` also the inertia
         force M a + g (``beam_mass_matrix`` times the element's accelerations and
         ``beam_quadratic_velocity``, linear in ρA, ρIy, ρIz), as evaluate.c sums them."""
-        model = self.model
+        forces = self._section_element_forces(state, load_factor, inertia)
+        if forces is not None:
+            elements, column, by_element = forces
+            np.add.at(total, (self.model.element_dofs[elements], column[:, None]), by_element)
+
+    def _section_element_forces(self, state, load_factor: float, inertia: bool = False):
+        """(elements (m,), parameter columns (m,), forces (m, 14)) of :meth:`_section_forces` before their
+        scatter: each use's element's ∂(force)/∂(the section value) on the element's coordinates
+        (``model.element_dofs``); None where no parameter is a section's."""
         gravity = load_factor * np.asarray(self.assembler.gravity, float)
         blocks = self._section_derivative_blocks(state)
         if blocks is None:
-            return
+            return None
         elements, column, rows = blocks
         geometry, rates, accelerations = self.assembler.native().element_inputs(state)
         at = geometry[elements]
@@ -452,7 +460,7 @@ class ParameterDerivatives:
             mass = np.asarray(self.kernels.beam_mass_matrix(at[massive], rows[massive])[0]).reshape(-1, 14, 14)
             forces[massive] += np.einsum("epq,eq->ep", mass, accelerations[on]) \
                 + np.asarray(self.kernels.beam_quadratic_velocity(at[massive], rate, rows[massive])[0]).reshape(-1, 14)
-        np.add.at(total, (model.element_dofs[elements], column[:, None]), forces)
+        return elements, column, forces
 
     def _section_derivative_blocks(self, state):
         """(elements (m,), parameter columns (m,), section rows (m, 10)): for every use of a parameter
