@@ -35,7 +35,12 @@ SKEW_AXIS = SWING_3D.replace("axis: [0, 0.6, 0.8]", "axis: [0.36, 0.48, 0.8]")
 
 
 def _adjoint(text: str) -> str:
-    return text.replace("analysis: transient,", "analysis: transient, sensitivity_method: adjoint,")
+    """``text`` with ``solve.sensitivity_method: adjoint``; a scene spelt otherwise (no ``analysis:
+    transient,`` in a flow mapping) fails here rather than compare the forward method with itself."""
+    switched = text.replace("analysis: transient,", "analysis: transient, sensitivity_method: adjoint,")
+    assert switched != text and yaml.safe_load(switched)["solve"]["sensitivity_method"] == "adjoint", \
+        "the scene's solve is not spelt '{analysis: transient, ...}': the adjoint was not switched on"
+    return switched
 
 
 def _disagreement(forward: dict, adjoint: dict) -> float:
@@ -232,3 +237,53 @@ def test_the_adjoint_of_rate_probes_equals_the_forward_method():
         forward = _run(text)
         adjoint = _run(_adjoint(text))
         assert _disagreement(forward.summary["probe_sensitivities"], adjoint.summary["probe_sensitivities"]) <= 1e-10
+
+
+#: a loaded arm beside an idle one whose tip never moves (its displacement and speed exactly 0 at every
+#: row); Q = 0 loads the idle tip: Q moves it, P, EI and rho do not
+IDLE_BESIDE = """
+title: a loaded arm beside an idle one, whose tip stays at rest
+parameters: {P: 3.0, Q: 0.0, EI: 5.0, rho: 0.5}
+sections:
+  s: {EA: 1.0e4, EIy: "EI", EIz: "EI", GJ: 4.0, rhoA: "rho", rhoIy: 0.001, rhoIz: 0.001}
+bodies:
+  base: {at: [0, 0, 0], fixed: true}
+  base2: {at: [0, 1, 0], fixed: true}
+beams:
+  arm: {from: base, to: [1.0, 0.2, 0.3], section: s, elements: 3}
+  idle: {from: base2, to: [1.0, 1.0, 0.0], section: s, elements: 2}
+loads:
+  - {at: arm.end, force: ["0.2*P*t", "-P*t", "0.1*P*t"]}
+  - {at: idle.end, force: [0, 0, "Q*t"]}
+solve: {analysis: transient, dt: 0.01, t_end: 0.1, sensitivities: [P, Q, EI, rho]}
+output:
+  every: 0.05
+  probes:
+    arm_tip: {point: arm.end, quantity: displacement}
+    idle_tip: {point: idle.end, quantity: displacement}
+    idle_speed: {point: idle.end, quantity: velocity, component: norm}
+"""
+
+
+def test_a_norm_at_zero_takes_the_forward_methods_rule_through_the_cli(tmp_path):
+    """A norm probe exactly 0 at its end row (|·| not differentiable there): the adjoint seeds its three
+    components and takes the forward method's rule — 0 for a parameter that does not move the point (P, EI,
+    rho), NaN (null in summary.json) for one that does (Q) — where it gave NaN for every parameter; the
+    norm away from 0 (arm_tip) as the forward method, measured 1.0e-16. Both through ``python -m latdyn run``."""
+    (tmp_path / "forward").mkdir()
+    (tmp_path / "adjoint").mkdir()
+    forward_run, forward_out = latdyn_run(tmp_path / "forward", IDLE_BESIDE)
+    adjoint_run, adjoint_out = latdyn_run(tmp_path / "adjoint", _adjoint(IDLE_BESIDE))
+    assert forward_run.returncode == 0 and adjoint_run.returncode == 0, forward_run.stderr + adjoint_run.stderr
+    probes = np.loadtxt(adjoint_out / "probes.csv", delimiter=",", skiprows=1)
+    assert np.all(probes[:, 2:] == 0.0) and np.all(probes[1:, 1] > 0.0)   # idle_tip, idle_speed: 0 at every row
+    forward = json.loads((forward_out / "summary.json").read_text())["probe_sensitivities"]
+    adjoint = json.loads((adjoint_out / "summary.json").read_text())["probe_sensitivities"]
+    for probe in ("idle_tip", "idle_speed"):
+        assert adjoint[probe] == forward[probe]
+        assert adjoint[probe]["end"] == {"P": 0.0, "Q": None, "EI": 0.0, "rho": 0.0}
+    for which, by_name in forward["arm_tip"].items():
+        scale = max(abs(v) for v in by_name.values())
+        assert scale > 0.0 or which == "min"
+        for name, value in by_name.items():
+            assert abs(adjoint["arm_tip"][which][name] - value) <= 1e-10 * max(scale, 1e-300)

@@ -44,6 +44,7 @@ as in the forward method).
 """
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -197,17 +198,44 @@ class AdjointSensitivities(TransientSensitivities):
     def reverse(self, carried: dict, outputs: list) -> np.ndarray:
         """(k, m): the derivatives of the m ``outputs`` (:meth:`outputs`) by the k parameters, the
         transposed recurrence run backwards over the stored trajectory (module docstring)."""
-        model, p = self.model, self.params
-        n, k, m = model.n_dofs, len(self.names), len(outputs)
-        gradient = np.zeros((k, m))
-        if n == 0 or k == 0 or m == 0:
-            return gradient
+        n, k = self.model.n_dofs, len(self.names)
+        if n == 0 or k == 0 or not outputs:
+            return np.zeros((k, len(outputs)))
         trajectory, rows = carried["trajectory"], carried["rows"]
         states = [carried["start"]] + [entry["state"] for entry in trajectory]
-        seeds: dict[int, list] = {}   # stored state index -> [(output column, (c_q, c_v, c_v̇, explicit))]
-        for column, (probe, _, row) in enumerate(outputs):
+        seeds: dict[int, list] = {}   # stored state index -> [(column, (c_q, c_v, c_v̇, explicit))]
+        taken: list[list[int]] = []   # each output's columns: one, or a norm at 0's three components
+        for probe, _, row in outputs:
             index = rows[row]   # at the start δq_0 = 0: a row there moves only through δv_0, δv̇_0 and explicitly
-            seeds.setdefault(index, []).append((column, self.output_forms(probe, states[index])))
+            forms = [self.output_forms(probe, states[index])]
+            if _undefined(forms[0]):   # |·| at 0 (:meth:`_at_a_zero_norm`)
+                forms = [self.output_forms(replace(probe, component=axis), states[index]) for axis in "xyz"]
+            taken.append(list(range(sum(map(len, taken)), sum(map(len, taken)) + len(forms))))
+            for column, form in zip(taken[-1], forms):
+                seeds.setdefault(index, []).append((column, form))
+        return self._at_a_zero_norm(self._reverse_columns(carried, states, seeds, sum(map(len, taken))), taken)
+
+    @staticmethod
+    def _at_a_zero_norm(gradient: np.ndarray, taken: list) -> np.ndarray:
+        """(k, m): each output's column of ``gradient``; a norm probe whose value is 0 at its row (|·| is not
+        differentiable there: its gradient's entries are NaN along the coordinates that move the point) by the
+        forward method's rule on its components' derivatives D (k, 3): 0 where D's row is 0 (the parameter
+        does not move the point), NaN where it is not (:meth:`ParameterDerivatives._probe_derivatives`)."""
+        out = np.zeros((gradient.shape[0], len(taken)))
+        for output, columns in enumerate(taken):
+            if len(columns) == 1:
+                out[:, output] = gradient[:, columns[0]]
+            else:
+                out[:, output] = np.where(np.any(gradient[:, columns] != 0.0, axis=1), np.nan, 0.0)
+        return out
+
+    def _reverse_columns(self, carried: dict, states: list, seeds: dict, m: int) -> np.ndarray:
+        """(k, m): the transposed recurrence (module docstring) with the m columns that ``seeds`` seeds
+        ({stored state index: [(column, (c_q, c_v, c_v̇, explicit))]}) at their states."""
+        model, p = self.model, self.params
+        n, k = model.n_dofs, len(self.names)
+        trajectory = carried["trajectory"]
+        gradient = np.zeros((k, m))
         am, af, gamma, beta = p.alpha_m, p.alpha_f, p.gamma, p.beta
         q_bar, v_bar, vdot_bar, a_bar = (np.zeros((n, m)) for _ in range(4))
         for i in range(len(trajectory) - 1, -1, -1):
@@ -304,6 +332,11 @@ class AdjointSensitivities(TransientSensitivities):
                              for p in self.probes for name in self.names]
             text = csv_line(["t", *self.columns]) + csv_line(row)
             atomic_write_bytes(Path(writer.out_dir) / SENSITIVITIES_FILE, text.encode("utf-8"))
+
+
+def _undefined(forms: tuple) -> bool:
+    """Whether an output's forms (c_q, c_v, c_v̇, explicit) hold a NaN: a norm's gradient at 0."""
+    return any(np.isnan(form).any() for form in forms)
 
 
 def _transposed_rotations(owner, rotations: _NodeRotations) -> _NodeRotations:
