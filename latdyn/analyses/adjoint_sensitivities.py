@@ -51,7 +51,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_force_forms, joint_of
-from latdyn.analyses.sensitivities import _SECTION_KEY, SENSITIVITIES_FILE
+from latdyn.analyses.sensitivities import _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE
 from latdyn.analyses.transient_sensitivities import TransientSensitivities, _NodeRotations
 from latdyn.assembly.assembler import free_velocity
 from latdyn.assembly.factorization import factorization_for, solve_linear
@@ -109,12 +109,13 @@ class AdjointSensitivities(TransientSensitivities):
 
     def residual_transposed_product(self, state, w: np.ndarray) -> np.ndarray:
         """(k, m): (∂r/∂p)ᵀ w at ``state`` for the m columns of ``w`` (n, m) on the free coordinates, ∂r/∂p
-        of the equations of motion (:meth:`residual_derivatives`) without forming it: the section values'
-        uses as one batched product of each use's element forces (:meth:`_section_element_forces`) with w
-        at the element's coordinates, summed into their parameters' rows (10³ sections of a lattice: no
-        (n, k) array, no per-parameter Python); the other parameters' columns (loads, hinges, bodies,
-        controllers) by :meth:`residual_derivatives` on all coordinates, transposed onto w there (with
-        rigid links and guides w carried to the dependent nodes by the projection P: (Pᵀf)ᵀw = fᵀ(Pw))."""
+        of the equations of motion (:meth:`residual_derivatives`) without forming it: the uses of section
+        values and of load components each as one batched product of their element or load forces
+        (:meth:`_section_element_forces`, :meth:`_load_pair_forces`) with w at their coordinates, summed into
+        their parameters' rows (10³ sections of a lattice, 100 load amplitudes: no (n, k) array, no
+        per-parameter Python); the other parameters' (hinges, bodies, contact, controllers) by
+        :meth:`residual_derivatives` on all coordinates, transposed onto w there. With rigid links and guides
+        w is carried to the dependent nodes by the projection P: (Pᵀf)ᵀw = fᵀ(Pw)."""
         model, k = self.model, len(self.names)
         weights = np.zeros((model.n_total + 1, w.shape[1]))
         if model.links is None:
@@ -122,30 +123,38 @@ class AdjointSensitivities(TransientSensitivities):
         else:
             weights[:model.n_assembled] = self.assembler.evaluate(state, matrices=True).projection @ w
         product = np.zeros((k, w.shape[1]))
-        sections = self._section_element_forces(state, 1.0, inertia=True)
-        if sections is not None:
-            elements, columns, forces = sections
-            np.add.at(product, columns, np.einsum("ep,epm->em", forces, weights[model.element_dofs[elements]]))
-        if self._other_than_sections():
-            self._sections_apart = True
+        for forces, dofs in ((self._section_element_forces(state, 1.0, inertia=True), model.element_dofs),
+                             (self._load_pair_forces(state, 1.0), model.node_dofs)):
+            if forces is not None:
+                at, columns, by_use = forces
+                np.add.at(product, columns, np.einsum("ep,epm->em", by_use, weights[dofs[at]]))
+        if self._other_than_batched():
+            self._batched_apart = True
             try:
                 product += self.residual_derivatives(state, 1.0, inertia=True, on_all=True).T @ weights
             finally:
-                self._sections_apart = False
+                self._batched_apart = False
         return product
 
-    def _other_than_sections(self) -> bool:
-        """Whether a parameter enters ∂r/∂p otherwise than through a section value (a load, hinge, body, …
-        key, or a controller's output)."""
+    def _other_than_batched(self) -> bool:
+        """Whether a parameter enters ∂r/∂p otherwise than through a section value or a load component
+        (a hinge, body, contact, … key, or a controller's output)."""
         if "_others" not in self.__dict__:
-            self._others = self.controllers is not None or any(not _SECTION_KEY.match(key) for key in self.derivatives)
+            self._others = self.controllers is not None or any(
+                not (_SECTION_KEY.match(key) or _LOAD_KEY.match(key)) for key in self.derivatives)
         return self._others
 
     def _section_forces(self, state, total: np.ndarray, load_factor: float, inertia: bool = False) -> None:
         """:meth:`ParameterDerivatives._section_forces`, left out while :meth:`residual_transposed_product`
         takes the sections' product apart."""
-        if not self.__dict__.get("_sections_apart", False):
+        if not self.__dict__.get("_batched_apart", False):
             super()._section_forces(state, total, load_factor, inertia)
+
+    def _add_load_forces(self, state, total: np.ndarray, load_factor: float) -> None:
+        """:meth:`ParameterDerivatives._add_load_forces`, left out while :meth:`residual_transposed_product`
+        takes the loads' product apart."""
+        if not self.__dict__.get("_batched_apart", False):
+            super()._add_load_forces(state, total, load_factor)
 
     def outputs(self, carried: dict, series: dict) -> list:
         """(probe, which, row index) of every output: each probe's last row and the rows of its largest
@@ -251,12 +260,12 @@ class AdjointSensitivities(TransientSensitivities):
                              + h * beta * entry["a_new"])
             turn, tangent = self._rotation_operators(increment)
             turn_t, tangent_t = _transposed_rotations(self, turn), _transposed_rotations(self, tangent)
-            C, K, solve_transposed = self._transposed_step_system(new, tangent, beta_p, gamma_p)
+            C_t, K_t, solve_transposed = self._transposed_step_system(new, tangent, beta_p, gamma_p)
             z_bar = tangent_t(q_bar) + gamma_p * v_bar + beta_p * vdot_bar + (1 - af) / (1 - am) * beta_p * a_bar
             w = np.asarray(solve_transposed(z_bar)).reshape(n, m)
             gradient -= self.residual_transposed_product(new, w)
-            dq0_bar = q_bar - K.T @ w
-            dv0_bar = v_bar - C.T @ w
+            dq0_bar = q_bar - K_t @ w
+            dv0_bar = v_bar - C_t @ w
             du0_bar = tangent_t(dq0_bar)
             da0_bar = a_bar + h * gamma * dv0_bar + h * h * beta * du0_bar
             q_bar = turn_t(dq0_bar)
@@ -270,24 +279,39 @@ class AdjointSensitivities(TransientSensitivities):
         return gradient + self._through_the_start(carried["start"], v_bar, vdot_bar + a_bar)
 
     def _transposed_step_system(self, new, tangent, beta_p: float, gamma_p: float):
-        """(C, K, solve_transposed) at the stored state ``new``: the forward method's step matrix
+        """(Cᵀ, Kᵀ, solve_transposed) at the stored state ``new``: the forward method's step matrix
         S = β′M + γ′C + K J (:meth:`TransientSensitivities._step_system`: on its held pattern and storage
         without rigid links, else the reduction's matrices summed by SciPy), factorised as the forward
         method factorises it, and solved with Sᵀ from those factors
-        (:meth:`latdyn.assembly.factorization.Factorization.solve_transposed`). A singular S raises
-        SolverError."""
+        (:meth:`latdyn.assembly.factorization.Factorization.solve_transposed`); Cᵀ and Kᵀ views of the held
+        matrices' storage, made once per pattern. A singular S raises SolverError."""
         try:
             if self.model.links is None:
                 step_matrix = self._step_matrix(tangent.slots)
                 factors = step_matrix.factor(self.assembler.exact_matrix_values(new), tangent.blocks, beta_p, gamma_p)
-                return step_matrix.damping, step_matrix.stiffness, factors.solve_transposed
+                return (*self._held_transposes(step_matrix), factors.solve_transposed)
             M, C, K = self._matrices(new)
             J = tangent.matrix if issparse(K) else tangent.matrix.toarray()
             matrix = beta_p * M + gamma_p * C + K @ J
-            return C, K, factorization_for(matrix).factor(matrix).solve_transposed
+            return C.T, K.T, factorization_for(matrix).factor(matrix).solve_transposed
         except np.linalg.LinAlgError:
             raise SolverError(f"the adjoint sensitivities at t = {new.t:.6g} need the step's exact iteration "
                               "matrix, which is singular there") from None
+
+    def _held_transposes(self, step_matrix) -> tuple:
+        """(Cᵀ, Kᵀ) of ``step_matrix``'s held C and K: CSC views sharing their values, which each
+        :meth:`~latdyn.analyses.step_matrix.ExactStepMatrix.factor` replaces in place (made once per step
+        matrix; a copy each time where SciPy's transpose does not share them)."""
+        held = self.__dict__.get("_transposes")
+        if held is None or held[0] is not step_matrix:
+            views = tuple(matrix.transpose(copy=False) for matrix in (step_matrix.damping, step_matrix.stiffness))
+            shared = all(np.shares_memory(view.data, matrix.data)
+                         for view, matrix in zip(views, (step_matrix.damping, step_matrix.stiffness)))
+            held = (step_matrix, views if shared else None)
+            self._transposes = held
+        if held[1] is None:
+            return step_matrix.damping.T, step_matrix.stiffness.T
+        return held[1]
 
     def _through_the_start(self, state, v_bar: np.ndarray, s_bar: np.ndarray) -> np.ndarray:
         """(k, m) what t = 0 adds (module docstring): E_0ᵀ r̄ + D_vᵀ(v̄_0 + C_0ᵀ r̄), r̄ = Δᵀ s̄."""

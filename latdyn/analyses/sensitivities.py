@@ -405,13 +405,33 @@ class ParameterDerivatives:
         self._contact_forces(state, total)
         if self.controllers is not None:
             self.controllers.add(state, total)
-        pairs, columns, place, laws = self._load_layout()
-        if len(pairs):   # the kernel is linear in the values: one call for every (load, column)
-            values = np.zeros((len(pairs), 6))   # λ ∂(the load's six values)/∂p of each (load, column)
-            values[place] = load_factor * np.array([self._of_time(law, state.t) for law in laws])
-            nodes, forces = self._load_forces(state, pairs, values)
-            np.add.at(total, (model.node_dofs[nodes], columns[:, None]), forces)
+        self._add_load_forces(state, total, load_factor)
         return total if on_all else self._on_free_coordinates(state, total)
+
+    def _add_load_forces(self, state, total: np.ndarray, load_factor: float) -> None:
+        """Add ∂(load)/∂p into ``total`` for the load components that name a parameter
+        (:meth:`_load_pair_forces`)."""
+        pairs = self._load_pair_forces(state, load_factor)
+        if pairs is not None:
+            nodes, columns, forces = pairs
+            np.add.at(total, (self.model.node_dofs[nodes], columns[:, None]), forces)
+
+    def _load_pair_forces(self, state, load_factor: float):
+        """(nodes (m,), parameter columns (m,), generalized forces (m, 6)) of every (load, parameter) pair
+        (:meth:`_load_layout`): the point_load kernel, linear in the values, called once for them all with
+        λ ∂(the load's six values)/∂p of each pair; None where no load names a parameter."""
+        pairs, columns, place, laws = self._load_layout()
+        if not len(pairs):
+            return None
+        if "_load_laws_distinct" not in self.__dict__:   # the uses' laws as distinct objects and an index
+            distinct = list({id(law): law for law in laws}.values())
+            order = {id(law): position for position, law in enumerate(distinct)}
+            self._load_laws_distinct = (distinct, np.array([order[id(law)] for law in laws], np.int64))
+        distinct, use = self._load_laws_distinct
+        values = np.zeros((len(pairs), 6))
+        values[place] = load_factor * np.array([self._of_time(law, state.t) for law in distinct])[use]
+        nodes, forces = self._load_forces(state, pairs, values)
+        return nodes, columns, forces
 
     def _on_free_coordinates(self, state, total: np.ndarray) -> np.ndarray:
         """``total`` (all coordinates) on the free ones: its first n_dofs rows, or with rigid links and guides
