@@ -54,7 +54,7 @@ from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_forc
 from latdyn.analyses.sensitivities import _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE
 from latdyn.analyses.transient_sensitivities import TransientSensitivities, _NodeRotations
 from latdyn.assembly.assembler import free_velocity
-from latdyn.assembly.factorization import factorization_for, solve_linear
+from latdyn.assembly.factorization import solve_linear
 from latdyn.errors import SolverError
 from latdyn.numerics.inertia import split_inertia
 from latdyn.numerics.linalg import issparse
@@ -114,14 +114,11 @@ class AdjointSensitivities(TransientSensitivities):
         (:meth:`_section_element_forces`, :meth:`_load_pair_forces`) with w at their coordinates, summed into
         their parameters' rows (10³ sections of a lattice, 100 load amplitudes: no (n, k) array, no
         per-parameter Python); the other parameters' (hinges, bodies, contact, controllers) by
-        :meth:`residual_derivatives` on all coordinates, transposed onto w there. With rigid links and guides
-        w is carried to the dependent nodes by the projection P: (Pᵀf)ᵀw = fᵀ(Pw)."""
+        :meth:`residual_derivatives` on all coordinates, transposed onto w there (the free coordinates are
+        the first n: rigid links and guides, which reduce them, are refused)."""
         model, k = self.model, len(self.names)
         weights = np.zeros((model.n_total + 1, w.shape[1]))
-        if model.links is None:
-            weights[:model.n_dofs] = w
-        else:
-            weights[:model.n_assembled] = self.assembler.evaluate(state, matrices=True).projection @ w
+        weights[:model.n_dofs] = w
         product = np.zeros((k, w.shape[1]))
         for forces, dofs in ((self._section_element_forces(state, 1.0, inertia=True), model.element_dofs),
                              (self._load_pair_forces(state, 1.0), model.node_dofs)):
@@ -280,20 +277,15 @@ class AdjointSensitivities(TransientSensitivities):
 
     def _transposed_step_system(self, new, tangent, beta_p: float, gamma_p: float):
         """(Cᵀ, Kᵀ, solve_transposed) at the stored state ``new``: the forward method's step matrix
-        S = β′M + γ′C + K J (:meth:`TransientSensitivities._step_system`: on its held pattern and storage
-        without rigid links, else the reduction's matrices summed by SciPy), factorised as the forward
-        method factorises it, and solved with Sᵀ from those factors
+        S = β′M + γ′C + K J on its held pattern and storage (:meth:`TransientSensitivities._step_system`; the
+        path with the reduction's matrices is not needed: rigid links and guides are refused), factorised as
+        the forward method factorises it, and solved with Sᵀ from those factors
         (:meth:`latdyn.assembly.factorization.Factorization.solve_transposed`); Cᵀ and Kᵀ views of the held
         matrices' storage, made once per pattern. A singular S raises SolverError."""
         try:
-            if self.model.links is None:
-                step_matrix = self._step_matrix(tangent.slots)
-                factors = step_matrix.factor(self.assembler.exact_matrix_values(new), tangent.blocks, beta_p, gamma_p)
-                return (*self._held_transposes(step_matrix), factors.solve_transposed)
-            M, C, K = self._matrices(new)
-            J = tangent.matrix if issparse(K) else tangent.matrix.toarray()
-            matrix = beta_p * M + gamma_p * C + K @ J
-            return C.T, K.T, factorization_for(matrix).factor(matrix).solve_transposed
+            step_matrix = self._step_matrix(tangent.slots)
+            factors = step_matrix.factor(self.assembler.exact_matrix_values(new), tangent.blocks, beta_p, gamma_p)
+            return (*self._held_transposes(step_matrix), factors.solve_transposed)
         except np.linalg.LinAlgError:
             raise SolverError(f"the adjoint sensitivities at t = {new.t:.6g} need the step's exact iteration "
                               "matrix, which is singular there") from None
