@@ -502,7 +502,7 @@ class ParameterDerivatives:
         if "_section_layout_made" in self.__dict__:
             return self._section_layout_made
         model = self.model
-        chosen, columns, slots, laws, uses = [], [], [], [], []
+        chosen, columns, slots, laws = [], [], [], []   # per use: its elements, column, value's slot, law
         for key, by_column in self.derivatives.items():
             section = _SECTION_KEY.match(key)
             if not section:
@@ -511,24 +511,25 @@ class ParameterDerivatives:
             if len(elements) == 0:
                 continue
             for column, law in by_column.items():
-                slot = np.full(len(elements), _SECTION_COLUMN[section["value"]])
-                if model.plane is not None:   # latdyn.model.planar.restrict_to_plane: a quarter turn swaps y, z
-                    quarter = np.abs(np.sin(model.section_turns[elements])) > 0.5
-                    swap = {2: 3, 3: 2, 6: 7, 7: 6}
-                    slot = np.where(quarter, swap.get(int(slot[0]), int(slot[0])), slot)
                 chosen.append(elements)
-                columns.append(np.full(len(elements), column))
-                slots.append(slot)
+                columns.append(column)
+                slots.append(_SECTION_COLUMN[section["value"]])
                 laws.append(law)
-                uses.append(np.full(len(elements), len(laws) - 1))
         if not chosen:
             self._section_layout_made = None
             return None
+        counts = np.array([len(elements) for elements in chosen], np.int64)   # the uses spread on their elements
         elements = np.concatenate(chosen)
+        slot = np.repeat(np.array(slots, np.int64), counts)
+        if model.plane is not None:   # latdyn.model.planar.restrict_to_plane: a quarter turn swaps y, z
+            quarter = np.abs(np.sin(model.section_turns[elements])) > 0.5
+            swap = np.arange(model.element_sections.shape[1])
+            swap[[2, 3, 6, 7]] = [3, 2, 7, 6]
+            slot = np.where(quarter, swap[slot], slot)
         rows = np.zeros((len(elements), model.element_sections.shape[1]))
         rows[:, 0] = model.element_sections[elements, 0]                       # L0
-        self._section_use = np.concatenate(uses)
-        self._section_layout_made = (elements, np.concatenate(columns), rows, np.concatenate(slots), laws)
+        self._section_use = np.repeat(np.arange(len(laws), dtype=np.int64), counts)
+        self._section_layout_made = (elements, np.repeat(np.array(columns, np.int64), counts), rows, slot, laws)
         return self._section_layout_made
 
     def _of_time(self, law, t: float) -> float:
