@@ -14,9 +14,15 @@ before, the cases interleaved ``--repeats`` times (the machine may be shared). `
 lattice of 250 bays, 1000 member sections, with 1, 10, 100 and 1000 parameters. Per accepted step the
 sensitivities add one evaluation of M, C and the exact K (the elements' inertia tangent by
 ``newton: exact``'s evaluation), one factorization and k back-substitutions, and the kernels of
-∂r/∂p (latdyn/analyses/transient_sensitivities.py). Printed: the minimum and median wall time of
-``latdyn.run``, and of the CPU time of the process (steadier on a shared machine), each with the ratio of
-the minima to the run without; the 1-minute load average with them.
+∂r/∂p (latdyn/analyses/transient_sensitivities.py). The adjoint's forward pass only stores each step (the
+per-step path); its reverse pass adds per stored step the same evaluation of M, C and the exact K, the
+forward method's factorization of the step's matrix solved transposed for the outputs' columns, and one
+batched (∂r/∂p)ᵀw of every parameter (latdyn/analyses/adjoint_sensitivities.py). Printed: the minimum and
+median wall time of ``latdyn.run``, and of the CPU time of the process (steadier on a shared machine; the
+native evaluation's OpenMP threads count in it above the parallel threshold — the lattice of 1000 members —,
+and on a loaded machine their waits inflate it: ``OMP_NUM_THREADS=1`` measures without them), each with the
+ratio of the minima to the run without; the 1-minute load average with them. ``--reverse-parts K`` times
+a reverse step's pieces instead (docs/parameters.md, "The discrete adjoint", has the figures).
 """
 from __future__ import annotations
 

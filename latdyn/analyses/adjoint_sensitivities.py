@@ -225,15 +225,17 @@ class AdjointSensitivities(TransientSensitivities):
         states = [carried["start"]] + [entry["state"] for entry in trajectory]
         seeds: dict[int, list] = {}   # stored state index -> [(column, (c_q, c_v, c_v̇, explicit))]
         taken: list[list[int]] = []   # each output's columns: one, or a norm at 0's three components
+        columns = 0
         for probe, _, row in outputs:
             index = rows[row]   # at the start δq_0 = 0: a row there moves only through δv_0, δv̇_0 and explicitly
             forms = [self.output_forms(probe, states[index])]
-            if _undefined(forms[0]):   # |·| at 0 (:meth:`_at_a_zero_norm`)
+            if _norm_at_zero(probe, forms[0]):   # |·| at 0 (:meth:`_at_a_zero_norm`)
                 forms = [self.output_forms(replace(probe, component=axis), states[index]) for axis in "xyz"]
-            taken.append(list(range(sum(map(len, taken)), sum(map(len, taken)) + len(forms))))
+            taken.append(list(range(columns, columns + len(forms))))
+            columns += len(forms)
             for column, form in zip(taken[-1], forms):
                 seeds.setdefault(index, []).append((column, form))
-        return self._at_a_zero_norm(self._reverse_columns(carried, states, seeds, sum(map(len, taken))), taken)
+        return self._at_a_zero_norm(self._reverse_columns(carried, states, seeds, columns), taken)
 
     @staticmethod
     def _at_a_zero_norm(gradient: np.ndarray, taken: list) -> np.ndarray:
@@ -364,9 +366,11 @@ class AdjointSensitivities(TransientSensitivities):
             atomic_write_bytes(Path(writer.out_dir) / SENSITIVITIES_FILE, text.encode("utf-8"))
 
 
-def _undefined(forms: tuple) -> bool:
-    """Whether an output's forms (c_q, c_v, c_v̇, explicit) hold a NaN: a norm's gradient at 0."""
-    return any(np.isnan(form).any() for form in forms)
+def _norm_at_zero(probe, forms: tuple) -> bool:
+    """Whether ``probe`` is a point's norm whose forms (c_q, c_v, c_v̇, explicit) hold a NaN: its value is 0
+    and a coordinate moves the point (:meth:`ParameterDerivatives._probe_derivatives`)."""
+    return (probe.kind == "point" and probe.component in (None, "norm")
+            and any(np.isnan(form).any() for form in forms))
 
 
 def _transposed_rotations(owner, rotations: _NodeRotations) -> _NodeRotations:
