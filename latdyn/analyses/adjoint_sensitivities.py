@@ -29,8 +29,8 @@ factors (I − Q_c K_cc⁻¹ Q_cᵀ K)(−Q_m (Q_mᵀ M Q_m)⁻¹ Q_mᵀ)(I − 
 of Mᵀ and Kᵀ (M symmetric: the same split), so Δᵀ is that function on the transposed matrices.
 
 Rᵀ = exp(−skew hΔq) and Jᵀ = dexp(−hΔq): the forward operators' 3 × 3 blocks transposed. Per reverse step
-the exact M, C, K are evaluated again at the stored state (:meth:`latdyn.assembly.assembler.Assembler.exact_matrix_values`)
-and A = β′M + γ′C + K J is assembled and factorised as the forward method's step does, on its held pattern
+the exact M, C, K are evaluated again at the stored state
+(:meth:`latdyn.assembly.assembler.Assembler.exact_matrix_values`) and A = β′M + γ′C + K J is assembled and factorised as the forward method's step does, on its held pattern
 and storage (:class:`latdyn.analyses.step_matrix.ExactStepMatrix`), w solved with Aᵀ from those factors
 (:meth:`latdyn.assembly.factorization.Factorization.solve_transposed`: no transposed matrix formed or
 factorised), Kᵀw and Cᵀw by views of the held C and K. Eᵀw is one batched product
