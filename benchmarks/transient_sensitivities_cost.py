@@ -1,6 +1,7 @@
 """What exact transient sensitivities cost: 0, 1, 10 and 100 (1000) parameters, forward and adjoint.
 
-    python benchmarks/transient_sensitivities_cost.py [--repeats 3] [--scene cantilever|lattice|lattice1000] [--parts]
+    python benchmarks/transient_sensitivities_cost.py [--repeats 3] [--scene cantilever|lattice|lattice1000]
+        [--parts | --reverse-parts K]
 
 A 3D cantilever of 30 elements (EIy != EIz, rotary inertia, tilted out of every coordinate plane)
 carries fifty point loads at its nodes, the i-th with two components of amplitudes ``F<2i>`` and
@@ -13,10 +14,15 @@ before, the cases interleaved ``--repeats`` times (the machine may be shared). `
 lattice of 250 bays, 1000 member sections, with 1, 10, 100 and 1000 parameters. Per accepted step the
 sensitivities add one evaluation of M, C and the exact K (the elements' inertia tangent by
 ``newton: exact``'s evaluation), one factorization and k back-substitutions, and the kernels of
-∂r/∂p (latdyn/analyses/transient_sensitivities.py). Printed: the minimum and median wall time of
-``latdyn.run``, and of the CPU time of the process (steadier on a shared machine), each with the ratio of
-the minima to the run without; the 1-minute load average with them. ``--parts`` times those pieces one by
-one (:func:`parts`).
+∂r/∂p (latdyn/analyses/transient_sensitivities.py). The adjoint's forward pass only stores each step (the
+per-step path); its reverse pass adds per stored step the same evaluation of M, C and the exact K, the
+forward method's factorization of the step's matrix solved transposed for the outputs' columns, and one
+batched (∂r/∂p)ᵀw of every parameter (latdyn/analyses/adjoint_sensitivities.py). Printed: the minimum and
+median wall time of ``latdyn.run``, and of the CPU time of the process (steadier on a shared machine; the
+native evaluation's OpenMP threads count in it above the parallel threshold — the lattice of 1000 members —,
+and on a loaded machine their waits inflate it: ``OMP_NUM_THREADS=1`` measures without them), each with the
+ratio of the minima to the run without; the 1-minute load average with them. ``--parts`` times the forward step's
+pieces one by one (:func:`parts`), ``--reverse-parts K`` a reverse step's pieces (docs/parameters.md, "The discrete adjoint", has the figures).
 
 Measured (docs/parameters.md, "Transient sensitivities", cost; CPU minima at load 4.6–5.9 on the 2-core
 machine): 1, 10, 100 parameters 3.7×, 4.0×, 6.6× the run without on the cantilever (main: 4.2×, 4.4×,
@@ -177,6 +183,68 @@ def parts(make, repeats: int) -> None:
     print(f"  the two step matrices' solutions differ by {np.max(np.abs(solved(101) - scipy_path(101))):.1e}")
 
 
+def reverse_parts(make, k: int, repeats: int) -> None:
+    """``--reverse-parts K``: the pieces of one step of the adjoint's reverse pass
+    (latdyn/analyses/adjoint_sensitivities.py ``AdjointSensitivities.reverse``) at the last stored state of
+    a run with K parameters, timed in turn (minima over ``10 * repeats`` interleaved calls, process CPU
+    time): the exact M, C, K (the native evaluation with the elements' inertia tangent, scattered), the
+    step matrix summed and factorised on its held pattern, the transposed solve of the output columns,
+    −(∂r/∂p)ᵀw for the K parameters (:meth:`~AdjointSensitivities.residual_transposed_product`), Kᵀw and
+    Cᵀw, and the exponential's operators R, J with their transposes applied."""
+    import numpy as np
+
+    from latdyn.analyses.adjoint_sensitivities import AdjointSensitivities, _transposed_rotations
+
+    taken = {}
+    reverse = AdjointSensitivities.reverse
+
+    def kept(self, carried, outputs):
+        taken["owner"], taken["carried"], taken["m"] = self, carried, len(outputs)
+        return reverse(self, carried, outputs)
+
+    AdjointSensitivities.reverse = kept
+    try:
+        run(latdyn.load_scene(adjoint(make([f"F{i}" for i in range(k)]))), False)
+    finally:
+        AdjointSensitivities.reverse = reverse
+    owner, carried, m = taken["owner"], taken["carried"], taken["m"]
+    entry = carried["trajectory"][-1]
+    state, h = entry["state"], entry["h"]
+    assembler, n = owner.assembler, owner.model.n_dofs
+    p = owner.params
+    beta_p, gamma_p = (1 - p.alpha_m) / (h * h * p.beta * (1 - p.alpha_f)), p.gamma / (h * p.beta)
+    increment = 1e-3 * np.random.default_rng(0).standard_normal(n)
+    turn, tangent = owner._rotation_operators(increment)
+    w = np.random.default_rng(1).standard_normal((n, m))
+    values = assembler.exact_matrix_values(state)
+    step_matrix = owner._step_matrix(tangent.slots)
+    factors = step_matrix.factor(values, tangent.blocks, beta_p, gamma_p)
+
+    def rotations():
+        turn, tangent = owner._rotation_operators(increment)
+        tangent_t = _transposed_rotations(owner, tangent)
+        return _transposed_rotations(owner, turn)(tangent_t(tangent_t(w)))
+
+    pieces = {"exact M, C, K (evaluation with the inertia tangent, scattered)":
+              lambda: assembler.exact_matrix_values(state),
+              "step matrix summed and factorised on its held pattern":
+              lambda: step_matrix.factor(values, tangent.blocks, beta_p, gamma_p),
+              f"transposed solve of the {m} output columns": lambda: factors.solve_transposed(w),
+              f"-(dr/dp)^T w for {k} parameters": lambda: owner.residual_transposed_product(state, w),
+              "K^T w and C^T w": lambda: (step_matrix.stiffness.T @ w, step_matrix.damping.T @ w),
+              "R, J and their transposes applied": rotations}
+    best = {name: np.inf for name in pieces}
+    for _ in range(10 * repeats):
+        for name, piece in pieces.items():
+            began = time.process_time()
+            piece()
+            best[name] = min(best[name], time.process_time() - began)
+    print(f"a reverse step's pieces, n = {n} coordinates, {m} output columns, {k} parameters; "
+          f"load average (1 min): {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+    for name, measured in best.items():
+        print(f"  {name:66s} {measured * 1e3:7.3f} ms")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=3)
@@ -185,10 +253,15 @@ def main() -> None:
                              "or the lattice of 1000 members with 1000")
     parser.add_argument("--cases", default=None, help="comma-separated case names to run (default: all)")
     parser.add_argument("--parts", action="store_true", help="time the pieces of the fixed part F of a step instead")
+    parser.add_argument("--reverse-parts", type=int, default=None, metavar="K",
+                        help="time the pieces of a step of the adjoint's reverse pass with K parameters instead")
     args = parser.parse_args()
     make = {"cantilever": scene, "lattice": lattice, "lattice1000": lambda names: lattice(names, bays=250)}[args.scene]
     if args.parts:
         parts(make, args.repeats)
+        return
+    if args.reverse_parts is not None:
+        reverse_parts(make, args.reverse_parts, args.repeats)
         return
     counts = (1, 10, 100, 1000) if args.scene == "lattice1000" else (1, 10, 100)
     cases = {"0 (loop in C)": (0, False, False), "0 (per step)": (0, True, False)}

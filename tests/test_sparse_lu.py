@@ -98,6 +98,37 @@ def test_solve_equals_numpy_on_random_diagonally_dominant_matrices(n, per_row, b
 
 
 @needs_c
+@pytest.mark.parametrize("kind", KINDS)
+@pytest.mark.parametrize("n, per_row, blocks, seed", [(1, 1, 1, 0), (9, 2, 1, 1), (150, 3, 6, 4), (600, 3, 6, 8)])
+def test_the_transposed_solve_equals_numpy_in_each_storage(kind, n, per_row, blocks, seed):
+    """``Factorization.solve_transposed``: Aᵀx = b from A's factors (the discrete adjoint's solves), in
+    the dense, band and sparse storage, one right-hand side and several, against NumPy's solve of the
+    transposed dense matrix (measured ≤ 4.4e-16 of the solution's largest entry); A is unsymmetric."""
+    A = random_symmetric_pattern(n, per_row, seed, blocks)
+    rng = np.random.default_rng(seed)
+    B = rng.standard_normal((A.shape[0], 3))
+    lu = factorized(A, kind)
+    assert lu.kind == kind
+    reference = np.linalg.solve(A.toarray().T, B)
+    assert n == 1 or np.max(np.abs(reference - np.linalg.solve(A.toarray(), B))) > 1e-3   # Aᵀ is not A
+    X = lu.solve_transposed(B)
+    assert X.shape == B.shape
+    assert np.max(np.abs(X - reference)) <= 1e-12 * np.max(np.abs(reference))
+    x = lu.solve_transposed(B[:, 1])
+    assert x.shape == (A.shape[0],)
+    assert np.max(np.abs(x - reference[:, 1])) <= 1e-12 * np.max(np.abs(reference))
+
+
+@needs_c
+def test_the_transposed_solve_where_a_sparse_pivot_failed_is_the_pivoted_band_lus():
+    """A tiny pivot the sparse LU refuses: the band LU with row exchanges stands in, transposed too."""
+    B = sps.csr_matrix(np.array([[1e-14, 1.0], [3.0, 1.0]]))
+    lu = factorized(B)
+    b = np.array([1.0, 2.0])
+    np.testing.assert_allclose(lu.solve_transposed(b), np.linalg.solve(B.toarray().T, b), rtol=1e-14)
+
+
+@needs_c
 @pytest.mark.parametrize("seed", [5, 6])
 def test_the_pivot_scales_are_the_largest_entry_of_each_row_and_column(seed):
     """The scale pass (csrc/sparse_lu.c ``matrix_scales``: a column's largest entry kept in a register)

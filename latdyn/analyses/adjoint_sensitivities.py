@@ -29,11 +29,25 @@ with directions without inertia it is :func:`latdyn.step.integrators.consistent_
 factors (I − Q_c K_cc⁻¹ Q_cᵀ K)(−Q_m (Q_mᵀ M Q_m)⁻¹ Q_mᵀ)(I − K Q_c K_cc⁻¹ Q_cᵀ) transposed are the same map
 of Mᵀ and Kᵀ (M symmetric: the same split), so Δᵀ is that function on the transposed matrices.
 
-Rᵀ = exp(−skew hΔq) and Jᵀ = dexp(−hΔq) (the odd terms of both series change sign). The exact
-matrices are evaluated again at each stored state on the reverse pass (:meth:`TransientSensitivities._matrices`),
-E by the same batched kernels as the forward method (:meth:`TransientSensitivities.residual_derivatives`),
-so the adjoint's derivatives are the forward method's to round-off, at a cost independent of k but for
-the kernels of E.
+Rᵀ = exp(−skew hΔq) and Jᵀ = dexp(−hΔq): the forward operators' 3 × 3 blocks transposed. Per reverse step
+the exact M, C, K are evaluated again at the stored state
+(:meth:`latdyn.assembly.assembler.Assembler.exact_matrix_values`) and A = β′M + γ′C + K J is assembled and factorised as the forward method's step does, on its held pattern
+and storage (:class:`latdyn.analyses.step_matrix.ExactStepMatrix`), w solved with Aᵀ from those factors
+(:meth:`latdyn.assembly.factorization.Factorization.solve_transposed`: no transposed matrix formed or
+factorised), Kᵀw and Cᵀw by views of the held C and K. Eᵀw is one batched product
+(:meth:`AdjointSensitivities.residual_transposed_product`): each use of a section value or load component
+by a parameter contributes its element's or load's forces (the forward method's kernels, one call for all)
+dotted with w at their coordinates, without forming E (n × k); the other kinds through E's columns. So the
+adjoint's derivatives are the forward method's to round-off, at a cost independent of k but for the
+kernels of E. A norm probe exactly 0 at its row (|·| not differentiable there) is seeded as its three
+components and given the forward method's value: 0 for a parameter that does not move the point, NaN for
+one that does.
+
+The matrices are evaluated again rather than stored: the forward pass steps as the run without
+sensitivities does and never evaluates them (its Newton matrix lacks the inertia tangent and is taken at
+the iterates, not at the converged state), so storing them would move the same evaluation to the forward
+pass and keep 3 × nnz numbers a step (76 kB for the 30-element cantilever, 539 kB for a 1000-member
+lattice, against 8.8 kB and 120 kB of stored state).
 
 What the forward pass stores, in memory (``carried["trajectory"]``, checkpointed with the run): each
 accepted step's end state (a copy: 24 numbers a node and 3 a hinge) and size and the algorithmic
@@ -45,6 +59,7 @@ as in the forward method).
 """
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -52,7 +67,7 @@ import numpy as np
 
 from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_force_forms, joint_of
 from latdyn.analyses.probe_derivatives import is_probe_here, probe_forms
-from latdyn.analyses.sensitivities import SENSITIVITIES_FILE
+from latdyn.analyses.sensitivities import _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE
 from latdyn.analyses.transient_sensitivities import TransientSensitivities, _NodeRotations
 from latdyn.assembly.assembler import free_velocity
 from latdyn.assembly.factorization import solve_linear
@@ -108,6 +123,52 @@ class AdjointSensitivities(TransientSensitivities):
         held = self._held_section_blocks
         return super()._section_derivative_blocks(state) if held is None else held[0]
 
+    def residual_transposed_product(self, state, w: np.ndarray) -> np.ndarray:
+        """(k, m): (∂r/∂p)ᵀ w at ``state`` for the m columns of ``w`` (n, m) on the free coordinates, ∂r/∂p
+        of the equations of motion (:meth:`residual_derivatives`) without forming it: the uses of section
+        values and of load components each as one batched product of their element or load forces
+        (:meth:`_section_element_forces`, :meth:`_load_pair_forces`) with w at their coordinates, summed into
+        their parameters' rows (10³ sections of a lattice, 100 load amplitudes: no (n, k) array, no
+        per-parameter Python); the other parameters' (hinges, bodies, contact, controllers) by
+        :meth:`residual_derivatives` on all coordinates, transposed onto w there (the free coordinates are
+        the first n: rigid links and guides, which reduce them, are refused)."""
+        model, k = self.model, len(self.names)
+        weights = np.zeros((model.n_total + 1, w.shape[1]))
+        weights[:model.n_dofs] = w
+        product = np.zeros((k, w.shape[1]))
+        for forces, dofs in ((self._section_element_forces(state, 1.0, inertia=True), model.element_dofs),
+                             (self._load_pair_forces(state, 1.0), model.node_dofs)):
+            if forces is not None:
+                at, columns, by_use = forces
+                np.add.at(product, columns, np.einsum("ep,epm->em", by_use, weights[dofs[at]]))
+        if self._other_than_batched():
+            self._batched_apart = True
+            try:
+                product += self.residual_derivatives(state, 1.0, inertia=True, on_all=True).T @ weights
+            finally:
+                self._batched_apart = False
+        return product
+
+    def _other_than_batched(self) -> bool:
+        """Whether a parameter enters ∂r/∂p otherwise than through a section value or a load component
+        (a hinge, body, contact, … key, or a controller's output)."""
+        if "_others" not in self.__dict__:
+            self._others = self.controllers is not None or any(
+                not (_SECTION_KEY.match(key) or _LOAD_KEY.match(key)) for key in self.derivatives)
+        return self._others
+
+    def _section_forces(self, state, total: np.ndarray, load_factor: float, inertia: bool = False) -> None:
+        """:meth:`ParameterDerivatives._section_forces`, left out while :meth:`residual_transposed_product`
+        takes the sections' product apart."""
+        if not self.__dict__.get("_batched_apart", False):
+            super()._section_forces(state, total, load_factor, inertia)
+
+    def _add_load_forces(self, state, total: np.ndarray, load_factor: float) -> None:
+        """:meth:`ParameterDerivatives._add_load_forces`, left out while :meth:`residual_transposed_product`
+        takes the loads' product apart."""
+        if not self.__dict__.get("_batched_apart", False):
+            super()._add_load_forces(state, total, load_factor)
+
     def outputs(self, carried: dict, series: dict) -> list:
         """(probe, which, row index) of every output: each probe's last row and the rows of its largest
         and smallest recorded value (the first where several tie), as the forward method's summary."""
@@ -161,17 +222,46 @@ class AdjointSensitivities(TransientSensitivities):
     def reverse(self, carried: dict, outputs: list) -> np.ndarray:
         """(k, m): the derivatives of the m ``outputs`` (:meth:`outputs`) by the k parameters, the
         transposed recurrence run backwards over the stored trajectory (module docstring)."""
-        model, p = self.model, self.params
-        n, k, m = model.n_dofs, len(self.names), len(outputs)
-        gradient = np.zeros((k, m))
-        if n == 0 or k == 0 or m == 0:
-            return gradient
+        n, k = self.model.n_dofs, len(self.names)
+        if n == 0 or k == 0 or not outputs:
+            return np.zeros((k, len(outputs)))
         trajectory, rows = carried["trajectory"], carried["rows"]
         states = [carried["start"]] + [entry["state"] for entry in trajectory]
-        seeds: dict[int, list] = {}   # stored state index -> [(output column, (c_q, c_v, c_v̇, explicit))]
-        for column, (probe, _, row) in enumerate(outputs):
+        seeds: dict[int, list] = {}   # stored state index -> [(column, (c_q, c_v, c_v̇, explicit))]
+        taken: list[list[int]] = []   # each output's columns: one, or a norm at 0's three components
+        columns = 0
+        for probe, _, row in outputs:
             index = rows[row]   # at the start δq_0 = 0: a row there moves only through δv_0, δv̇_0 and explicitly
-            seeds.setdefault(index, []).append((column, self.output_forms(probe, states[index])))
+            forms = [self.output_forms(probe, states[index])]
+            if _norm_at_zero(probe, forms[0]):   # |·| at 0 (:meth:`_at_a_zero_norm`)
+                forms = [self.output_forms(replace(probe, component=axis), states[index]) for axis in "xyz"]
+            taken.append(list(range(columns, columns + len(forms))))
+            columns += len(forms)
+            for column, form in zip(taken[-1], forms):
+                seeds.setdefault(index, []).append((column, form))
+        return self._at_a_zero_norm(self._reverse_columns(carried, states, seeds, columns), taken)
+
+    @staticmethod
+    def _at_a_zero_norm(gradient: np.ndarray, taken: list) -> np.ndarray:
+        """(k, m): each output's column of ``gradient``; a norm probe whose value is 0 at its row (|·| is not
+        differentiable there: its gradient's entries are NaN along the coordinates that move the point) by the
+        forward method's rule on its components' derivatives D (k, 3): 0 where D's row is 0 (the parameter
+        does not move the point), NaN where it is not (:meth:`ParameterDerivatives._probe_derivatives`)."""
+        out = np.zeros((gradient.shape[0], len(taken)))
+        for output, columns in enumerate(taken):
+            if len(columns) == 1:
+                out[:, output] = gradient[:, columns[0]]
+            else:
+                out[:, output] = np.where(np.any(gradient[:, columns] != 0.0, axis=1), np.nan, 0.0)
+        return out
+
+    def _reverse_columns(self, carried: dict, states: list, seeds: dict, m: int) -> np.ndarray:
+        """(k, m): the transposed recurrence (module docstring) with the m columns that ``seeds`` seeds
+        ({stored state index: [(column, (c_q, c_v, c_v̇, explicit))]}) at their states."""
+        model, p = self.model, self.params
+        n, k = model.n_dofs, len(self.names)
+        trajectory = carried["trajectory"]
+        gradient = np.zeros((k, m))
         am, af, gamma, beta = p.alpha_m, p.alpha_f, p.gamma, p.beta
         q_bar, v_bar, vdot_bar, a_bar = (np.zeros((n, m)) for _ in range(4))
         for i in range(len(trajectory) - 1, -1, -1):
@@ -185,22 +275,14 @@ class AdjointSensitivities(TransientSensitivities):
             beta_p, gamma_p = (1 - am) / (h * h * beta * (1 - af)), gamma / (h * beta)
             increment = h * (free_velocity(model, states[i]) + h * (0.5 - beta) * entry["a_old"]
                              + h * beta * entry["a_new"])
-            # Rᵀ = exp(−skew hΔq) and Jᵀ = dexp(−hΔq) are the forward operators at −hΔq; J for the matrix K J
-            turn_t, tangent_t = self._rotation_operators(-increment)
-            J = _NodeRotations(self, np.transpose(tangent_t.blocks, (0, 2, 1)), tangent_t.slots, n).matrix
-            M, C, K = self._matrices(new)
-            if not issparse(K):
-                J = J.toarray()
-            matrix = beta_p * M + gamma_p * C + K @ J
+            turn, tangent = self._rotation_operators(increment)
+            turn_t, tangent_t = _transposed_rotations(self, turn), _transposed_rotations(self, tangent)
+            C_t, K_t, solve_transposed = self._transposed_step_system(new, tangent, beta_p, gamma_p)
             z_bar = tangent_t(q_bar) + gamma_p * v_bar + beta_p * vdot_bar + (1 - af) / (1 - am) * beta_p * a_bar
-            try:
-                w = np.asarray(solve_linear(_transposed(matrix), z_bar)).reshape(n, m)
-            except np.linalg.LinAlgError:
-                raise SolverError(f"the adjoint sensitivities at t = {new.t:.6g} need the step's exact iteration "
-                                  "matrix, which is singular there") from None
-            gradient -= self.residual_derivatives(new, 1.0, inertia=True).T @ w
-            dq0_bar = q_bar - K.T @ w
-            dv0_bar = v_bar - C.T @ w
+            w = np.asarray(solve_transposed(z_bar)).reshape(n, m)
+            gradient -= self.residual_transposed_product(new, w)
+            dq0_bar = q_bar - K_t @ w
+            dv0_bar = v_bar - C_t @ w
             du0_bar = tangent_t(dq0_bar)
             da0_bar = a_bar + h * gamma * dv0_bar + h * h * beta * du0_bar
             q_bar = turn_t(dq0_bar)
@@ -212,6 +294,36 @@ class AdjointSensitivities(TransientSensitivities):
             vdot_bar[:, column] += c_vdot   # δv̇_0 = δa_0: the start's consistent accelerations' derivative
             gradient[:, column] += explicit
         return gradient + self._through_the_start(carried["start"], v_bar, vdot_bar + a_bar)
+
+    def _transposed_step_system(self, new, tangent, beta_p: float, gamma_p: float):
+        """(Cᵀ, Kᵀ, solve_transposed) at the stored state ``new``: the forward method's step matrix
+        S = β′M + γ′C + K J on its held pattern and storage (:meth:`TransientSensitivities._step_system`; the
+        path with the reduction's matrices is not needed: rigid links and guides are refused), factorised as
+        the forward method factorises it, and solved with Sᵀ from those factors
+        (:meth:`latdyn.assembly.factorization.Factorization.solve_transposed`); Cᵀ and Kᵀ views of the held
+        matrices' storage, made once per pattern. A singular S raises SolverError."""
+        try:
+            step_matrix = self._step_matrix(tangent.slots)
+            factors = step_matrix.factor(self.assembler.exact_matrix_values(new), tangent.blocks, beta_p, gamma_p)
+            return (*self._held_transposes(step_matrix), factors.solve_transposed)
+        except np.linalg.LinAlgError:
+            raise SolverError(f"the adjoint sensitivities at t = {new.t:.6g} need the step's exact iteration "
+                              "matrix, which is singular there") from None
+
+    def _held_transposes(self, step_matrix) -> tuple:
+        """(Cᵀ, Kᵀ) of ``step_matrix``'s held C and K: CSC views sharing their values, which each
+        :meth:`~latdyn.analyses.step_matrix.ExactStepMatrix.factor` replaces in place (made once per step
+        matrix; a copy each time where SciPy's transpose does not share them)."""
+        held = self.__dict__.get("_transposes")
+        if held is None or held[0] is not step_matrix:
+            views = tuple(matrix.transpose(copy=False) for matrix in (step_matrix.damping, step_matrix.stiffness))
+            shared = all(np.shares_memory(view.data, matrix.data)
+                         for view, matrix in zip(views, (step_matrix.damping, step_matrix.stiffness)))
+            held = (step_matrix, views if shared else None)
+            self._transposes = held
+        if held[1] is None:
+            return step_matrix.damping.T, step_matrix.stiffness.T
+        return held[1]
 
     def _through_the_start(self, state, v_bar: np.ndarray, s_bar: np.ndarray) -> np.ndarray:
         """(k, m) what t = 0 adds (module docstring): E_0ᵀ r̄ + D_vᵀ(v̄_0 + C_0ᵀ r̄), r̄ = Δᵀ s̄."""
@@ -228,7 +340,7 @@ class AdjointSensitivities(TransientSensitivities):
                                      for c in range(s_bar.shape[1])])
         C = ev.combined(0.0, 1.0, 0.0)
         dv = self._initial_velocities()
-        return self.residual_derivatives(state, 1.0, inertia=True).T @ r_bar + dv.T @ (v_bar + C.T @ r_bar)
+        return self.residual_transposed_product(state, r_bar) + dv.T @ (v_bar + C.T @ r_bar)
 
     # ------------------------------------------------------------------ the end
     def finish(self, carried: dict, writer) -> None:
@@ -256,6 +368,23 @@ class AdjointSensitivities(TransientSensitivities):
                              for p in self.probes for name in self.names]
             text = csv_line(["t", *self.columns]) + csv_line(row)
             atomic_write_bytes(Path(writer.out_dir) / SENSITIVITIES_FILE, text.encode("utf-8"))
+
+
+def _norm_at_zero(probe, forms: tuple) -> bool:
+    """Whether ``probe`` is a point's norm whose forms (c_q, c_v, c_v̇, explicit) hold a NaN: its value is 0
+    and a coordinate moves the point (:meth:`ParameterDerivatives._probe_derivatives`)."""
+    return (probe.kind == "point" and probe.component in (None, "norm")
+            and any(np.isnan(form).any() for form in forms))
+
+
+def _transposed_rotations(owner, rotations: _NodeRotations) -> _NodeRotations:
+    """The transposed operator of ``rotations`` (each node's 3 × 3 block transposed): Rᵀ = exp(−skew hΔq),
+    Jᵀ = dexp(−hΔq); an operator marked as the identity (``is_identity``, where the step's maps are: a
+    planar model's) is its own transpose."""
+    if getattr(rotations, "is_identity", False):
+        return rotations
+    return _NodeRotations(owner, np.ascontiguousarray(np.transpose(rotations.blocks, (0, 2, 1))), rotations.slots,
+                          rotations.n)
 
 
 def _transposed(matrix):

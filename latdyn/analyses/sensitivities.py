@@ -414,13 +414,33 @@ class ParameterDerivatives:
         self._contact_forces(state, total)
         if self.controllers is not None:
             self.controllers.add(state, total)
-        pairs, columns, place, laws = self._load_layout()
-        if len(pairs):   # the kernel is linear in the values: one call for every (load, column)
-            values = np.zeros((len(pairs), 6))   # λ ∂(the load's six values)/∂p of each (load, column)
-            values[place] = load_factor * np.array([self._of_time(law, state.t) for law in laws])
-            nodes, forces = self._load_forces(state, pairs, values)
-            np.add.at(total, (model.node_dofs[nodes], columns[:, None]), forces)
+        self._add_load_forces(state, total, load_factor)
         return total if on_all else self._on_free_coordinates(state, total)
+
+    def _add_load_forces(self, state, total: np.ndarray, load_factor: float) -> None:
+        """Add ∂(load)/∂p into ``total`` for the load components that name a parameter
+        (:meth:`_load_pair_forces`)."""
+        pairs = self._load_pair_forces(state, load_factor)
+        if pairs is not None:
+            nodes, columns, forces = pairs
+            np.add.at(total, (self.model.node_dofs[nodes], columns[:, None]), forces)
+
+    def _load_pair_forces(self, state, load_factor: float):
+        """(nodes (m,), parameter columns (m,), generalized forces (m, 6)) of every (load, parameter) pair
+        (:meth:`_load_layout`): the point_load kernel, linear in the values, called once for them all with
+        λ ∂(the load's six values)/∂p of each pair; None where no load names a parameter."""
+        pairs, columns, place, laws = self._load_layout()
+        if not len(pairs):
+            return None
+        if "_load_laws_distinct" not in self.__dict__:   # the uses' laws as distinct objects and an index
+            distinct = list({id(law): law for law in laws}.values())
+            order = {id(law): position for position, law in enumerate(distinct)}
+            self._load_laws_distinct = (distinct, np.array([order[id(law)] for law in laws], np.int64))
+        distinct, use = self._load_laws_distinct
+        values = np.zeros((len(pairs), 6))
+        values[place] = load_factor * np.array([self._of_time(law, state.t) for law in distinct])[use]
+        nodes, forces = self._load_forces(state, pairs, values)
+        return nodes, columns, forces
 
     def _on_free_coordinates(self, state, total: np.ndarray) -> np.ndarray:
         """``total`` (all coordinates) on the free ones: its first n_dofs rows, or with rigid links and guides
@@ -439,11 +459,19 @@ class ParameterDerivatives:
         tests/test_sensitivities.py checks the kernels for it); with ``inertia`` also the inertia
         force M a + g (``beam_mass_matrix`` times the element's accelerations and
         ``beam_quadratic_velocity``, linear in ρA, ρIy, ρIz), as evaluate.c sums them."""
-        model = self.model
+        forces = self._section_element_forces(state, load_factor, inertia)
+        if forces is not None:
+            elements, column, by_element = forces
+            np.add.at(total, (self.model.element_dofs[elements], column[:, None]), by_element)
+
+    def _section_element_forces(self, state, load_factor: float, inertia: bool = False):
+        """(elements (m,), parameter columns (m,), forces (m, 14)) of :meth:`_section_forces` before their
+        scatter: each use's element's ∂(force)/∂(the section value) on the element's coordinates
+        (``model.element_dofs``); None where no parameter is a section's."""
         gravity = load_factor * np.asarray(self.assembler.gravity, float)
         blocks = self._section_derivative_blocks(state)
         if blocks is None:
-            return
+            return None
         elements, column, rows = blocks
         geometry, rates, accelerations = self.assembler.native().element_inputs(state)
         at = geometry[elements]
@@ -461,7 +489,7 @@ class ParameterDerivatives:
             mass = np.asarray(self.kernels.beam_mass_matrix(at[massive], rows[massive])[0]).reshape(-1, 14, 14)
             forces[massive] += np.einsum("epq,eq->ep", mass, accelerations[on]) \
                 + np.asarray(self.kernels.beam_quadratic_velocity(at[massive], rate, rows[massive])[0]).reshape(-1, 14)
-        np.add.at(total, (model.element_dofs[elements], column[:, None]), forces)
+        return elements, column, forces
 
     def _section_derivative_blocks(self, state):
         """(elements (m,), parameter columns (m,), section rows (m, 10)): for every use of a parameter
@@ -483,7 +511,7 @@ class ParameterDerivatives:
         if "_section_layout_made" in self.__dict__:
             return self._section_layout_made
         model = self.model
-        chosen, columns, slots, laws, uses = [], [], [], [], []
+        chosen, columns, slots, laws = [], [], [], []   # per use: its elements, column, value's slot, law
         for key, by_column in self.derivatives.items():
             section = _SECTION_KEY.match(key)
             if not section:
@@ -492,24 +520,25 @@ class ParameterDerivatives:
             if len(elements) == 0:
                 continue
             for column, law in by_column.items():
-                slot = np.full(len(elements), _SECTION_COLUMN[section["value"]])
-                if model.plane is not None:   # latdyn.model.planar.restrict_to_plane: a quarter turn swaps y, z
-                    quarter = np.abs(np.sin(model.section_turns[elements])) > 0.5
-                    swap = {2: 3, 3: 2, 6: 7, 7: 6}
-                    slot = np.where(quarter, swap.get(int(slot[0]), int(slot[0])), slot)
                 chosen.append(elements)
-                columns.append(np.full(len(elements), column))
-                slots.append(slot)
+                columns.append(column)
+                slots.append(_SECTION_COLUMN[section["value"]])
                 laws.append(law)
-                uses.append(np.full(len(elements), len(laws) - 1))
         if not chosen:
             self._section_layout_made = None
             return None
+        counts = np.array([len(elements) for elements in chosen], np.int64)   # the uses spread on their elements
         elements = np.concatenate(chosen)
+        slot = np.repeat(np.array(slots, np.int64), counts)
+        if model.plane is not None:   # latdyn.model.planar.restrict_to_plane: a quarter turn swaps y, z
+            quarter = np.abs(np.sin(model.section_turns[elements])) > 0.5
+            swap = np.arange(model.element_sections.shape[1])
+            swap[[2, 3, 6, 7]] = [3, 2, 7, 6]
+            slot = np.where(quarter, swap[slot], slot)
         rows = np.zeros((len(elements), model.element_sections.shape[1]))
         rows[:, 0] = model.element_sections[elements, 0]                       # L0
-        self._section_use = np.concatenate(uses)
-        self._section_layout_made = (elements, np.concatenate(columns), rows, np.concatenate(slots), laws)
+        self._section_use = np.repeat(np.arange(len(laws), dtype=np.int64), counts)
+        self._section_layout_made = (elements, np.repeat(np.array(columns, np.int64), counts), rows, slot, laws)
         return self._section_layout_made
 
     def _of_time(self, law, t: float) -> float:

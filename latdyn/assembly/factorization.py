@@ -157,6 +157,21 @@ class Factorization:
                                        columns.shape[1], x.ctypes.data)
         return x[:, self.new].T.reshape(b.shape)
 
+    def solve_transposed(self, rhs) -> np.ndarray:
+        """x with Aᵀ x = rhs for the matrix A last factorized, from A's factors (``latdyn_solve_transposed``:
+        LAPACK's getrs and gbtrs with 'T', the sparse LU's factors read the other way; the pivoted band
+        LU where a sparse pivot failed): the discrete adjoint's solves without factorizing Aᵀ."""
+        if self._pivoted is not None:
+            return self._pivoted.solve_transposed(rhs)
+        b = np.asarray(rhs, float)
+        columns = b.reshape(self.n, -1)
+        x = np.empty((columns.shape[1], self.n))
+        x[:, self.new] = columns.T
+        if self.n:
+            self._library.latdyn_solve_transposed(ctypes.byref(self.structure), self.values.ctypes.data,
+                                                  self.pivots.ctypes.data, columns.shape[1], x.ctypes.data)
+        return x[:, self.new].T.reshape(b.shape)
+
     def _positions(self) -> np.ndarray:
         """The positions of the pattern's entries (made on first use)."""
         if self._pattern_positions is None:

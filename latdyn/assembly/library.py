@@ -3,7 +3,7 @@ evaluation of ``csrc/evaluate.c`` and the one LU factorization of ``csrc/factori
 sparse LU of ``csrc/sparse_lu.c``), built once into the kernel cache by :mod:`latdyn.native`, the
 ctypes mirrors of its C structs (``Model``, ``Links``, ``Work``, ``Configuration``, ``EvaluationControl``,
 ``Vectors``, ``StepControl``, ``Advance``, ``Rows``, ``Factorization``, ``SparseLU``) and the signatures of
-its exported functions (``latdyn_factor`` and ``latdyn_solve`` among them).
+its exported functions (``latdyn_factor``, ``latdyn_solve`` and ``latdyn_solve_transposed`` among them).
 
 Every struct the C side reads is declared here and nowhere else on the Python side;
 ``tests/test_engine.py`` checks their sizes and offsets against the compiler's.
@@ -258,6 +258,8 @@ def native_library() -> ctypes.CDLL:
         library.latdyn_factor.argtypes = [factorization, P, P]
         library.latdyn_solve.restype = I64
         library.latdyn_solve.argtypes = [factorization, P, P, I64, P]
+        library.latdyn_solve_transposed.restype = I64
+        library.latdyn_solve_transposed.argtypes = [factorization, P, P, I64, P]
         library.latdyn_newton_step.restype = I64
         library.latdyn_newton_step.argtypes = [model, work, ctypes.POINTER(ControlData), configuration,
                                                configuration, ctypes.POINTER(VectorsData)]

@@ -85,3 +85,24 @@ int64_t latdyn_solve(const Factorization *f, const double *factor, const int *pi
     release_threads(f, threads);
     return info;
 }
+
+/* x <- A⁻ᵀ x: latdyn_solve with the transposed matrix, from the same factors (getrs / gbtrs with
+ * 'T'; the sparse LU's factors read the other way). The order is a symmetric permutation, so Aᵀ's
+ * is A's. Returns LAPACK's info (0). */
+int64_t latdyn_solve_transposed(const Factorization *f, const double *factor, const int *pivots, int64_t n_rhs,
+                                double *x)
+{
+    int n = (int)f->n, nrhs = (int)n_rhs, info = 0;
+    char trans = 'T';
+    int threads = hold_one_thread(f);
+    if (f->kind == FACTOR_SPARSE) {
+        for (int64_t k = 0; k < n_rhs; ++k) latdyn_sparse_lu_solve_transposed(f->sparse_lu, factor, x + k * f->n);
+    } else if (f->kind == FACTOR_BAND) {
+        int kl = (int)f->kl, ku = (int)f->ku, ldab = (int)f->ldab;
+        f->gbtrs(&trans, &n, &kl, &ku, &nrhs, (double *)factor, &ldab, (int *)pivots, x, &n, &info);
+    } else {
+        f->getrs(&trans, &n, &nrhs, (double *)factor, &n, (int *)pivots, x, &n, &info);
+    }
+    release_threads(f, threads);
+    return info;
+}

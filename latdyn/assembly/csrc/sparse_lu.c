@@ -256,3 +256,44 @@ void latdyn_sparse_lu_solve(const SparseLU *s, const double *factor, double *x)
         }
     }
 }
+
+/* x <- (LU)⁻ᵀ x = U⁻ᵀ L⁻ᵀ x, x in the factor's order: the same factors read the other way
+ * (the adjoint's solves, latdyn/analyses/adjoint_sensitivities.py). */
+void latdyn_sparse_lu_solve_transposed(const SparseLU *s, const double *factor, double *x)
+{
+    for (int64_t J = 0; J < s->n_supernodes; ++J) {  /* Uᵀ y = x: U11ᵀ, then U12ᵀ's rows scattered */
+        const int64_t c0 = s->first[J], nc = s->first[J + 1] - c0;
+        const int64_t *R = s->rows + s->rows_start[J];
+        const int64_t nr = s->rows_start[J + 1] - s->rows_start[J], ld = nc + nr;
+        const double *U = factor + s->lower[J], *Ut = factor + s->upper[J];
+        for (int64_t k = 0; k < nc; ++k) {
+            const double *column = U + k * ld;
+            double sum = 0.0;
+            for (int64_t i = 0; i < k; ++i) sum += column[i] * x[c0 + i];
+            x[c0 + k] = (x[c0 + k] - sum) / column[k];
+        }
+        for (int64_t k = 0; k < nc; ++k) {
+            const double *column = Ut + k * nr, xk = x[c0 + k];
+            if (xk == 0.0) continue;
+            for (int64_t t = 0; t < nr; ++t) x[R[t]] -= column[t] * xk;
+        }
+    }
+    for (int64_t J = s->n_supernodes - 1; J >= 0; --J) {  /* Lᵀ x = y: L21ᵀ gathered, then L11ᵀ (unit) */
+        const int64_t c0 = s->first[J], nc = s->first[J + 1] - c0;
+        const int64_t *R = s->rows + s->rows_start[J];
+        const int64_t nr = s->rows_start[J + 1] - s->rows_start[J], ld = nc + nr;
+        const double *L = factor + s->lower[J];
+        for (int64_t k = 0; k < nc; ++k) {
+            const double *column = L + k * ld + nc;
+            double sum = 0.0;
+            for (int64_t t = 0; t < nr; ++t) sum += column[t] * x[R[t]];
+            x[c0 + k] -= sum;
+        }
+        for (int64_t k = nc - 1; k >= 0; --k) {
+            const double *column = L + k * ld;
+            double sum = 0.0;
+            for (int64_t i = k + 1; i < nc; ++i) sum += column[i] * x[c0 + i];
+            x[c0 + k] -= sum;
+        }
+    }
+}
