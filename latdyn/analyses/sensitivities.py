@@ -76,6 +76,7 @@ import numpy as np
 from latdyn.analyses.joint_force_sensitivities import is_joint_force
 from latdyn.analyses.joint_force_sensitivities import refusal as joint_force_refusal
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY, ReferenceGeometry, geometry_refusal
+from latdyn.analyses.link_sensitivities import add_link_section_forces, rigid_link_refusal
 from latdyn.assembly.factorization import solve_linear
 from latdyn.assembly.native_model import NO_CONTACT, joint_contact_rows
 from latdyn.errors import SceneError, SolverError
@@ -128,8 +129,9 @@ def refusal(scene) -> SceneError | None:
         method = f"{solve.analysis}" + (f" ({solve.method})" if solve.analysis == "static" else "")
         return refuse(f"sensitivities are computed for static load control, arc length and displacement control "
                       f"and for transient runs with an implicit method only, not yet for a {method} analysis")
-    if any(beam.rigid for beam in scene.beams.values()):
-        return refuse("sensitivities of scenes with rigid links are not computed yet")
+    why = rigid_link_refusal(scene)
+    if why is not None:
+        return refuse(why)
     for beam, which, hinge in scene.hinges:
         rigid_stop = hinge.limits is not None and hinge.contact is None
         if solve.analysis != "transient" and (rigid_stop or hinge.lock_at is not None):
@@ -219,6 +221,9 @@ def adjoint_refusal(scene) -> SceneError | None:
     elif any(body.guide is not None for body in scene.bodies.values()):
         name = next(n for n, body in scene.bodies.items() if body.guide is not None)
         why = f"the adjoint does not differentiate guides yet (bodies.{name}.guide)"
+    elif any(beam.rigid for beam in scene.beams.values()):
+        name = next(n for n, beam in scene.beams.items() if beam.rigid)
+        why = f"the adjoint does not differentiate rigid links yet (beams.{name}.rigid)"
     elif any(c.states or c.sampled for c in (getattr(scene, "controllers", None) or {}).values()):
         name = next(c.name for c in scene.controllers.values() if c.states or c.sampled)
         why = (f"the adjoint does not differentiate controllers with states or sampled ones yet (controllers.{name}); "
@@ -402,6 +407,7 @@ class ParameterDerivatives:
         if self.geometry is not None:
             self.geometry.add(state, total, load_factor, inertia)
         self._body_forces(state, total, load_factor, inertia)
+        add_link_section_forces(self, state, total, load_factor, inertia)
         self._contact_forces(state, total)
         if self.controllers is not None:
             self.controllers.add(state, total)

@@ -1,0 +1,102 @@
+"""Sensitivities of models with rigid links (``beams.NAME.rigid``; docs/parameters.md, "Rigid links").
+
+A rigid link is one rigid body on minimum coordinates (latdyn/model/links.py): its dependent nodes follow
+their parents through the generated edge kernels, q_all = φ(z) (positions), v_all = B(z) ż (rates, B = P =
+[I; J]), and the equations of motion are the projected residual Bᵀ r_all (latdyn/assembly/linked.py). The
+sensitivities take the path that the guides' already take, with nothing added to it:
+
+- ∂r/∂p is assembled on all coordinates (the dependent nodes' loads, masses and inertias included) and
+  projected, Bᵀ ∂r_all/∂p (:meth:`latdyn.analyses.sensitivities.ParameterDerivatives._on_free_coordinates`);
+- the step's matrix is the exact one of the reduced system, β′M + γ′C + K J with
+  K = Bᵀ K_all B + ∂(Bᵀ r_all)/∂z at fixed r_all (the geometric term, from the generated wrench kernels) +
+  Bᵀ(C_·dep ∂(J v)/∂z + M_·dep ∂(J a + c)/∂z) (the dependent rates' z-dependence at fixed ż, z̈, from the
+  generated ``rigid_link_edge_rates_D_q`` composed along the tree in C):
+  :meth:`latdyn.assembly.assembler.Assembler.exact_matrices`;
+- a probe on a dependent node moves by B δz (:meth:`ParameterDerivatives._dependent_motion`);
+- the static paths solve with the reduced K (its geometric term included) the same way.
+
+What this module adds is a rigid link's own mass and inertia by its section's values: the link is a joint
+body on its link node with mass ρA L at mid-length and the slender rod's inertia
+(:func:`latdyn.model.model.rigid_link_inertia`), linear in (ρA, ρIy, ρIz) at its fixed centre of mass, so
+its ∂(inertia and gravity forces)/∂p is the generated ``joint_body`` with the block (L ∂ρA/∂p, c,
+∂I/∂p) (:func:`add_link_section_forces`); a rigid link's EA, EIy, EIz and GJ move nothing (derivative 0).
+
+What is refused (:func:`rigid_link_refusal`, exit 2 naming ``solve.sensitivities``): rigid links with guides
+(a slider-crank, or a link on a guided body); the velocity of a point probe in a model with rigid links (a
+dependent node's rate moves with the coordinates through ∂(J ż)/∂z, not carried to the probes yet); geometry
+parameters (latdyn/analyses/geometry_sensitivities.py refuses them: they move the links' edges); and the
+discrete adjoint (:func:`latdyn.analyses.sensitivities.adjoint_refusal`, naming ``solve.sensitivity_method``).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["rigid_link_refusal", "add_link_section_forces"]
+
+
+def rigid_link_refusal(scene) -> str | None:
+    """Why the rigid links of ``scene`` keep its sensitivities from being exact, or None (module docstring)."""
+    rigid = [name for name, beam in scene.beams.items() if beam.rigid]
+    if not rigid:
+        return None
+    guided = [name for name, body in scene.bodies.items() if body.guide is not None]
+    if guided:
+        return (f"sensitivities of scenes with rigid links ({rigid[0]}) and guides (bodies.{guided[0]}.guide: a "
+                "slider-crank, or a link on a guided body) are not computed yet; rigid links with hinges are")
+    for probe in scene.output.probes:
+        if probe.kind == "point" and probe.quantity == "velocity":
+            return (f"probe {probe.name!r} (a point's velocity) in a model with rigid links ({rigid[0]}) is not "
+                    "differentiated yet: the rates of the nodes that follow the links move with the coordinates; "
+                    "positions, displacements, hinge angles and rates are")
+    return None
+
+
+def link_section_uses(owner) -> list:
+    """(link body index, link node, the section's value, {column: law}) of every use of a parameter by the
+    ρA, ρIy or ρIz of a rigid link's section in ``owner`` (a ParameterDerivatives), found once."""
+    if "_link_section_uses" in owner.__dict__:
+        return owner._link_section_uses
+    from latdyn.analyses.sensitivities import _SECTION_KEY
+
+    model, scene = owner.model, owner.scene
+    uses = []
+    links = [beam for beam in scene.beams.values() if beam.rigid]
+    for key, laws in owner.derivatives.items():
+        section = _SECTION_KEY.match(key)
+        if not section or section["value"] not in ("rhoA", "rhoIy", "rhoIz"):
+            continue
+        for beam in links:
+            if beam.section.name != section["section"]:
+                continue
+            node = model.nodes.index(next(n for n in model.nodes if n.name == f"{beam.name}.link"))
+            b = int(np.flatnonzero(model.body_nodes == node)[0])
+            uses.append((beam, b, node, section["value"], laws))
+    owner._link_section_uses = uses
+    return uses
+
+
+def add_link_section_forces(owner, state, total: np.ndarray, load_factor: float, inertia: bool) -> None:
+    """Add ∂(a rigid link's joint-body force)/∂p into ``total`` (all coordinates) for the ρA, ρIy, ρIz of its
+    section that name a parameter (module docstring): the generated ``joint_body`` with the block
+    (L ∂ρA/∂p, c, ∂I/∂p), linear in (m, I) at the link's fixed centre of mass c; static (at rest) its
+    λ-gravity alone."""
+    from latdyn.model.model import rigid_link_inertia
+
+    uses = link_section_uses(owner)
+    gravity = load_factor * np.asarray(owner.assembler.gravity, float)
+    if not uses or (not inertia and not np.any(gravity)):
+        return
+    model = owner.model
+    for beam, b, node, value, laws in uses:
+        frame = np.ascontiguousarray(state.T[node].reshape(1, 9))
+        motion = np.zeros((1, 9))
+        if inertia:
+            motion[0] = np.concatenate([state.w[node], state.a[node], state.alpha[node]])
+        for column, law in laws.items():
+            moved = {"rhoA": 0.0, "rhoIy": 0.0, "rhoIz": 0.0}
+            moved[value] = law.value(0.0, 0.0, state.t)
+            mass, com, turning = rigid_link_inertia(beam, **moved)
+            block = np.zeros((1, 13))
+            block[0, 0], block[0, 1:4], block[0, 4:13] = mass, model.body_com[b], turning.reshape(9)
+            force = np.asarray(owner.kernels.joint_body(frame, motion, block, gravity[None])[0]).reshape(6)
+            total[model.node_dofs[node], column] += force
