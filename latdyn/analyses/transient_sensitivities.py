@@ -594,8 +594,12 @@ class TransientSensitivities(ParameterDerivatives):
                 assembler.complete_links(ahead)
             return ahead
 
+        # each move in its own units (a configuration, a rate and an acceleration over the nominal step):
+        # the rates' derivatives, large in a rate's units, must not shrink the configuration's step to
+        # where the difference of W w (of the stiffness's size) is round-off (a latch of rigid links)
+        dt = self.scene.solve.dt
         for c in range(k):
-            moves = [dq[:, c]] + ([rates[0][:, c], rates[1][:, c]] if linked and rates is not None else [])
+            moves = [dq[:, c]] + ([rates[0][:, c] * dt, rates[1][:, c] * dt * dt] if linked and rates is not None else [])
             size = float(max(np.max(np.abs(m), initial=0.0) for m in moves))
             if size == 0.0:
                 continue
