@@ -81,7 +81,7 @@ from latdyn.assembly.factorization import solve_linear
 from latdyn.assembly.native_model import NO_CONTACT, joint_contact_rows
 from latdyn.errors import SceneError, SolverError
 from latdyn.results.result import SENSITIVITIES_FILE
-from latdyn.scene.expressions import parse_hinge_law
+from latdyn.scene.expressions import parse_hinge_law, reading_inputs
 
 __all__ = ["refusal", "StaticSensitivities", "SENSITIVITIES_FILE"]
 
@@ -268,8 +268,6 @@ def _transient_refusal(scene) -> str | None:
     if solve.adaptive:
         return "with adaptive step control the accepted step sizes depend on the parameters, which the " \
                "derivative does not follow yet; expected a fixed step (adaptive: false)"
-    if len(scene.inputs):
-        return "sensitivities of runs with inputs (set from outside between steps) are not computed yet"
     why = ControllerTerms.refusal(scene)
     if why is not None:
         return why
@@ -371,13 +369,15 @@ class ParameterDerivatives:
         # where the key uses the parameter
         self.derivatives: dict[str, dict[int, object]] = {}
         parsed: dict[str, object] = {}   # one law per derivative text (many parameters' derivatives read alike)
+        inputs = tuple(self.scene.inputs.names)   # held: a derivative law reads their current values
         for column, name in enumerate(self.names):
             for key in params.depending_on(name):
                 if _CONTROLLER_KEY.match(key):   # a law in the controller's sensors: ControllerTerms
                     continue
-                text = params.derivative(key, name)
+                text = params.derivative(key, name, inputs)
                 if text not in parsed:
-                    parsed[text] = parse_hinge_law(text, self.scene.file, key)
+                    with reading_inputs(self.scene.inputs):
+                        parsed[text] = parse_hinge_law(text, self.scene.file, key)
                 self.derivatives.setdefault(key, {})[column] = parsed[text]
         self._values_at: tuple[float, dict] = (float("nan"), {})
         #: the reference configuration's derivative by geometry parameters (None without them)
@@ -1159,6 +1159,11 @@ class ControllerTerms:
                             "controller's output instead")
         return None
 
+    def signal_values(self, state) -> dict:
+        """The values the controllers read at ``state``: the probes' and the inputs' (held: their current
+        values, which do not depend on the parameters)."""
+        return {**dict(zip(self.sensors.names, self.sensors.values(state))), **self.owner.scene.inputs.current()}
+
     def state_values(self, c) -> list:
         """The accepted states S of controller ``c`` (their values in ``scene.controller_states``)."""
         states = self.owner.scene.controller_states
@@ -1171,7 +1176,7 @@ class ControllerTerms:
         w = self.assembler.control   # the wiring of the current numbering
         if not (self.partials or self.held) or not len(w.actuator_kind):
             return
-        values = dict(zip(self.sensors.names, self.sensors.values(state)))
+        values = self.signal_values(state)
         outputs, slopes = {}, {}
         for c in self.continuous:
             arguments = [state.t, *[values[r] if r in values else outputs[r] for r in c.reads],
@@ -1260,7 +1265,7 @@ class ControllerStates:
     def _at(self, c, state, values=None):
         """(arguments, ∂f/∂s (p, m), ∂f/∂S (p, p), ∂f/∂p (p, k)) of ``c`` at ``state``, its accepted S."""
         if values is None:
-            values = dict(zip(self.terms.sensors.names, self.terms.sensors.values(state)))
+            values = self.terms.signal_values(state)
         arguments = [state.t, *[values[r] for r in c.reads], *self.terms.state_values(c)]
         _, f_s, f_S = self.gradients[c.name](*arguments)
         p = len(c.states)
