@@ -50,7 +50,7 @@ outputs; :class:`ControllerStates`: continuous controllers' states carried throu
 
 What is refused (:func:`refusal`, exit 2 naming ``solve.sensitivities``): any analysis but static
 load control, arc length and displacement control and transient runs of an implicit method at fixed
-steps without friction and inputs, continuous controllers that read a force (a tension, a section or joint
+steps without friction (inputs are held at their values: the derivative is the one at fixed inputs), continuous controllers that read a force (a tension, a section or joint
 force), controllers with states or sampled ones beside events (cables through their
 slack/taut events, guides with theirs: :func:`_transient_refusal`, :meth:`ControllerTerms.refusal`); a
 parameter used anywhere but in load components, numbers that place the structure (geometry parameters,
@@ -60,7 +60,8 @@ values of shear-rigid sections (formulation default), body masses, centres of ma
 compliant stops' laws and, in transient runs, initial velocities, controllers' outputs and states' rates,
 guides' laws and cables' EA, damping, rest length and rhoA; probes other than point positions and displacements in the
 global frame, hinge angles and guide positions and, in transient runs, rates, point velocities and joint forces
-(latdyn/analyses/joint_force_sensitivities.py); rigid links; in static paths hinges with limits or
+(latdyn/analyses/joint_force_sensitivities.py); rigid links with guides, with point-velocity probes or
+the adjoint (rigid links otherwise through the reduction: latdyn/analyses/link_sensitivities.py); in static paths hinges with limits or
 ``lock_at`` (events; transient runs differentiate latches and stops: latdyn/analyses/transient_sensitivities.py). Under gravity the static
 Newton matrix K − λ ∂Q/∂q holds the beams' gravity tangent (the generated ``beam_gravity_D_q``), so
 beams with mass are differentiated exactly there too. docs/parameters.md.
@@ -1093,7 +1094,8 @@ class ControllerTerms:
     coordinate (f = … − τ, τ = a y + b; a = 1 for the controller's name alone), the point-load
     kernel's force for a unit value on a load's component (global or turning with a body). The states
     of continuous controllers: :class:`ControllerStates`; sampled controllers: :class:`SampledTerms`;
-    what neither covers, and inputs, are refused (:meth:`refusal`)."""
+    what neither covers is refused (:meth:`refusal`). Inputs a controller reads are held at their
+    current values (:meth:`signal_values`): no parameter moves them."""
 
     def __init__(self, owner: ParameterDerivatives):
         import sympy as sp

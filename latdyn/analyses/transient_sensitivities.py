@@ -71,8 +71,9 @@ their slack/taut changes as events landed on exactly, the event time differentia
 gradients (no jump: the discrete run neither jumps nor restarts there). Guides: a guide's laws as a
 hinge's on its slide, ∂r/∂p reduced by the projection Pᵀ, the step's K exact with the guided bodies' rates'
 derivatives (:meth:`latdyn.assembly.assembler.Assembler.exact_matrices`: the reduction's own K is not exact); their
-latches and stops as the hinges', the impulse weight's dependence on the rates followed.
-docs/parameters.md, "Cables" and "Guides".
+latches and stops as the hinges', the impulse weight's dependence on the rates followed. Rigid links take the
+same reduction (latdyn/analyses/link_sensitivities.py). Inputs are held at their values (the derivative at fixed
+inputs). docs/parameters.md, "Cables", "Guides", "Rigid links" and "Inputs".
 
 Controllers: parameters inside their outputs enter ∂r/∂p (:class:`latdyn.analyses.sensitivities.ControllerTerms`);
 the states of continuous controllers are carried as (δS, δf) beside the step's derivative, the step's matrix
@@ -599,7 +600,8 @@ class TransientSensitivities(ParameterDerivatives):
         # where the difference of W w (of the stiffness's size) is round-off (a latch of rigid links)
         dt = self.scene.solve.dt
         for c in range(k):
-            moves = [dq[:, c]] + ([rates[0][:, c] * dt, rates[1][:, c] * dt * dt] if linked and rates is not None else [])
+            moves = [dq[:, c]] + ([rates[0][:, c] * dt, rates[1][:, c] * dt * dt]
+                                  if linked and rates is not None else [])
             size = float(max(np.max(np.abs(m), initial=0.0) for m in moves))
             if size == 0.0:
                 continue
