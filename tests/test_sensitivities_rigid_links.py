@@ -226,7 +226,9 @@ def test_the_derivative_reads_the_inputs_current_values():
      "solve.sensitivities", "guides"),
     (lambda d: (d["parameters"].update(X=0.3), d["bodies"]["outer"].update(at=["X", 0.1, 0.2]),
                 d["solve"]["sensitivities"].append("X")), "solve.sensitivities", "rigid links"),
-], ids=["adjoint", "velocity-probe", "guide", "geometry"])
+    (lambda d: d["solve"].update(analysis="static", method="arc-length", steps=4), "solve.sensitivities",
+     "arc-length sensitivities of scenes with rigid links"),
+], ids=["adjoint", "velocity-probe", "guide", "geometry", "arc-length"])
 def test_what_rigid_links_do_not_differentiate_yet_is_refused_naming_the_key(change, key, expected):
     data = yaml.safe_load(GIMBAL)
     change(data)

@@ -77,7 +77,7 @@ import numpy as np
 from latdyn.analyses.joint_force_sensitivities import is_joint_force
 from latdyn.analyses.joint_force_sensitivities import refusal as joint_force_refusal
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY, ReferenceGeometry, geometry_refusal
-from latdyn.analyses.link_sensitivities import add_link_section_forces, rigid_link_refusal
+from latdyn.analyses.link_sensitivities import add_link_section_forces, linked_refusal
 from latdyn.assembly.factorization import solve_linear
 from latdyn.assembly.native_model import NO_CONTACT, joint_contact_rows
 from latdyn.errors import SceneError, SolverError
@@ -130,7 +130,7 @@ def refusal(scene) -> SceneError | None:
         method = f"{solve.analysis}" + (f" ({solve.method})" if solve.analysis == "static" else "")
         return refuse(f"sensitivities are computed for static load control, arc length and displacement control "
                       f"and for transient runs with an implicit method only, not yet for a {method} analysis")
-    why = rigid_link_refusal(scene)
+    why = linked_refusal(scene)
     if why is not None:
         return refuse(why)
     for beam, which, hinge in scene.hinges:
@@ -924,10 +924,14 @@ class ArcLengthSensitivities(StaticSensitivities):
     def stiffness_derivative_along(self, state, direction: np.ndarray) -> np.ndarray:
         """(∂K/∂p) v at a state of load factor 0 (the start), one column per parameter (n_dofs, k): the
         elements' tangent by their section values and the hinges' by their stiffness laws and rest
-        angles; loads, gravity, masses and applied torques enter K only times λ, and damping times θ̇ = 0."""
+        angles; loads, gravity, masses and applied torques enter K only times λ, and damping times θ̇ = 0.
+        With rigid links or guides the dependent nodes move by P v and the sum is reduced by Pᵀ (arc length
+        with them is refused: latdyn/analyses/link_sensitivities.py)."""
         model, k = self.model, len(self.names)
         total = np.zeros((model.n_total + 1, k))
         full = np.concatenate([direction, np.zeros(model.n_total + 1 - model.n_dofs)])
+        if model.links is not None:   # the dependent nodes move with it: P v (latdyn/assembly/linked.py)
+            full[:model.n_assembled] = np.asarray(self.assembler.evaluate(state, matrices=True).projection @ direction)
         blocks = self._section_derivative_blocks(state)
         if blocks is not None:
             elements, column, rows = blocks
@@ -963,7 +967,7 @@ class ArcLengthSensitivities(StaticSensitivities):
                     at = np.array([[0.0, 0.0, 1.0, 0.0]])
                 d_theta = float(np.asarray(self.kernels.hinge_force(at, values, NO_CONTACT[None])[1]).reshape(-1)[0])
                 total[model.hinge_dofs[j], column] += d_theta * full[model.hinge_dofs[j]]
-        return total[:model.n_dofs]
+        return self._on_free_coordinates(state, total)
 
     def _in_contact(self, state, j: int) -> bool:
         """Whether hinge ``j`` is at or past one of its compliant stops at ``state``."""
