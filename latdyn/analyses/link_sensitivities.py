@@ -25,16 +25,18 @@ What is refused (:func:`linked_refusal`, exit 2 naming ``solve.sensitivities``):
 (a slider-crank, or a link on a guided body); arc length with rigid links or guides (its chain of rows through
 the reduction is not exact yet: 2.5e-2 off on the gimbal of tests/test_sensitivities_rigid_links.py, 2.4e-4
 with a beam hanging from a guided body; :meth:`ArcLengthSensitivities.stiffness_derivative_along` moves the
-dependent nodes by P v now, without which that beam's EI was 6e6 off); the velocity of a point probe in a model with rigid links (a
-dependent node's rate moves with the coordinates through ∂(J ż)/∂z, not carried to the probes yet); geometry
-parameters (latdyn/analyses/geometry_sensitivities.py refuses them: they move the links' edges); and the
-discrete adjoint (:func:`latdyn.analyses.sensitivities.adjoint_refusal`, naming ``solve.sensitivity_method``).
+dependent nodes by P v now, without which that beam's EI was 6e6 off); the velocity of a point probe in a
+model with rigid links (a dependent node's rate moves with the coordinates through ∂(J ż)/∂z, not carried to
+the probes yet); and geometry parameters (latdyn/analyses/geometry_sensitivities.py refuses them: they move
+the links' edges). The discrete adjoint (latdyn/analyses/adjoint_sensitivities.py) takes rigid links in the
+runs it takes: its reverse pass transposes the reduced step, and a probe on a dependent node reads its output
+gradient on the coordinates the node moves with (:func:`columns_moving`).
 """
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["linked_refusal", "add_link_section_forces"]
+__all__ = ["linked_refusal", "add_link_section_forces", "columns_moving"]
 
 
 def linked_refusal(scene) -> str | None:
@@ -110,3 +112,19 @@ def add_link_section_forces(owner, state, total: np.ndarray, load_factor: float,
             block[0, 0], block[0, 1:4], block[0, 4:13] = mass, model.body_com[b], turning.reshape(9)
             force = np.asarray(owner.kernels.joint_body(frame, motion, block, gravity[None])[0]).reshape(6)
             total[model.node_dofs[node], column] += force
+
+
+def columns_moving(model, node: int) -> np.ndarray:
+    """The free coordinates node ``node`` moves with: its own where it is free; for a dependent node (it
+    follows rigid links), its root's and the joints' on its path down the link tree (the columns of its
+    rows of B), the ones below ``model.n_dofs`` (the discrete adjoint's output gradient reads a probe's
+    derivative on them: latdyn/analyses/adjoint_sensitivities.py)."""
+    links = model.links
+    if links is None or node not in links.edge_of:
+        columns = model.node_dofs[node]
+    else:
+        joints = [links.edges[k].hinge for k in links.path(node) if links.edges[k].hinge >= 0]
+        columns = np.concatenate([model.node_dofs[links.root[node]], model.hinge_dofs[joints]]) if joints \
+            else model.node_dofs[links.root[node]]
+    columns = np.asarray(columns, np.int64)
+    return np.unique(columns[columns < model.n_dofs])

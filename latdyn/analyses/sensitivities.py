@@ -61,7 +61,8 @@ compliant stops' laws and, in transient runs, initial velocities, controllers' o
 guides' laws and cables' EA, damping, rest length and rhoA; probes other than point positions and displacements in the
 global frame, hinge angles and guide positions and, in transient runs, rates, point velocities and joint forces
 (latdyn/analyses/joint_force_sensitivities.py); rigid links with guides, with point-velocity probes or
-the adjoint (rigid links otherwise through the reduction: latdyn/analyses/link_sensitivities.py); in static paths hinges with limits or
+under arc length (rigid links otherwise through the reduction: latdyn/analyses/link_sensitivities.py); in static
+paths hinges with limits or
 ``lock_at`` (events; transient runs differentiate latches and stops: latdyn/analyses/transient_sensitivities.py). Under gravity the static
 Newton matrix K − λ ∂Q/∂q holds the beams' gravity tangent (the generated ``beam_gravity_D_q``), so
 beams with mass are differentiated exactly there too. docs/parameters.md.
@@ -222,9 +223,6 @@ def adjoint_refusal(scene) -> SceneError | None:
     elif any(body.guide is not None for body in scene.bodies.values()):
         name = next(n for n, body in scene.bodies.items() if body.guide is not None)
         why = f"the adjoint does not differentiate guides yet (bodies.{name}.guide)"
-    elif any(beam.rigid for beam in scene.beams.values()):
-        name = next(n for n, beam in scene.beams.items() if beam.rigid)
-        why = f"the adjoint does not differentiate rigid links yet (beams.{name}.rigid)"
     elif any(c.states or c.sampled for c in (getattr(scene, "controllers", None) or {}).values()):
         name = next(c.name for c in scene.controllers.values() if c.states or c.sampled)
         why = (f"the adjoint does not differentiate controllers with states or sampled ones yet (controllers.{name}); "
