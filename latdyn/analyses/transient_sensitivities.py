@@ -1129,7 +1129,7 @@ class CableSensitivities:
         rows = self._rows(e)
         np.add.at(g_q, rows, -unit @ K[0:3])
         np.add.at(g_v, rows, -unit @ C[0:3])
-        g_q, g_v = g_q[:model.n_dofs], g_v[:model.n_dofs]
+        g_q, g_v = self._on_free_coordinates(new, g_q, g_v)
         g_p = np.zeros(k)
         for cable, value, column, law in self.uses:
             if cable != cables.cable[e]:
@@ -1146,6 +1146,24 @@ class CableSensitivities:
         if g_t and started is not None:
             g_p = g_p + g_t * started
         return -(along[:k] + g_p) / (along[k] + g_t)
+
+    def _on_free_coordinates(self, state, g_q: np.ndarray, g_v: np.ndarray) -> tuple:
+        """The gap's gradients by all coordinates' configuration and rates (n_total + 1,) on the free ones: their
+        first n_dofs entries, or with rigid links or guides (an end on a node that follows them) through the
+        reduction, δq_all = P δq and δv_all = P δv + ∂(J v)/∂q δq (the dependent rates at fixed free rates,
+        latdyn/assembly/linked.py): g_q ← Pᵀ g_q + (∂(J v)/∂q)ᵀ g_v(dependent rows), g_v ← Pᵀ g_v."""
+        model = self.model
+        if model.links is None:
+            return g_q[:model.n_dofs], g_v[:model.n_dofs]
+        from latdyn.assembly.linked import evaluate_linked
+
+        assembler = self.owner.assembler
+        ev = evaluate_linked(model.links, assembler, state, True, 1.0, True, inertia_tangent=True, rates_term=True)
+        P, n_asm = ev.projection, model.n_assembled
+        by_velocity = np.asarray(ev.rates_tangent[0].toarray() if hasattr(ev.rates_tangent[0], "toarray")
+                                 else ev.rates_tangent[0])
+        free_q = np.asarray(P.T @ g_q[:n_asm]).reshape(-1) + by_velocity.T @ g_v[ev.dependent_rows]
+        return free_q, np.asarray(P.T @ g_v[:n_asm]).reshape(-1)
 
     def gap_rate(self, state, e: int) -> float:
         """∂g/∂t of element ``e``'s gap at fixed coordinates: through its cable's rest length alone (a reel,
