@@ -21,8 +21,11 @@ body on its link node with mass ρA L at mid-length and the slender rod's inerti
 its ∂(inertia and gravity forces)/∂p is the generated ``joint_body`` with the block (L ∂ρA/∂p, c,
 ∂I/∂p) (:func:`add_link_section_forces`); a rigid link's EA, EIy, EIz and GJ move nothing (derivative 0).
 
-What is refused (:func:`linked_refusal`, exit 2 naming ``solve.sensitivities``): rigid links with guides
-(a slider-crank, or a link on a guided body); arc length with rigid links or guides (its chain of rows through
+Rigid links with guides (a slider-crank: a flexible rod on a guided slider, or the rigid rod that closes the
+loop onto it, latdyn/model/links.py "Closure") take the same reduction and are differentiated alike, through
+the guide's stops and latches too.
+
+What is refused (:func:`linked_refusal`, exit 2 naming ``solve.sensitivities``): arc length with rigid links or guides (its chain of rows through
 the reduction is not exact yet: 2.5e-2 off on the gimbal of tests/test_sensitivities_rigid_links.py, 2.4e-4
 with a beam hanging from a guided body; :meth:`ArcLengthSensitivities.stiffness_derivative_along` moves the
 dependent nodes by P v now, without which that beam's EI was 6e6 off); the velocity of a point probe in a
@@ -52,9 +55,6 @@ def linked_refusal(scene) -> str | None:
                 "displacement control are")
     if not rigid:
         return None
-    if guided:
-        return (f"sensitivities of scenes with rigid links ({rigid[0]}) and guides (bodies.{guided[0]}.guide: a "
-                "slider-crank, or a link on a guided body) are not computed yet; rigid links with hinges are")
     for probe in scene.output.probes:
         if probe.kind == "point" and probe.quantity == "velocity":
             return (f"probe {probe.name!r} (a point's velocity) in a model with rigid links ({rigid[0]}) is not "

@@ -60,7 +60,7 @@ values of shear-rigid sections (formulation default), body masses, centres of ma
 compliant stops' laws and, in transient runs, initial velocities, controllers' outputs and states' rates,
 guides' laws and cables' EA, damping, rest length and rhoA; probes other than point positions and displacements in the
 global frame, hinge angles and guide positions and, in transient runs, rates, point velocities and joint forces
-(latdyn/analyses/joint_force_sensitivities.py); rigid links with guides, with point-velocity probes or
+(latdyn/analyses/joint_force_sensitivities.py); rigid links with point-velocity probes or
 under arc length (rigid links otherwise through the reduction: latdyn/analyses/link_sensitivities.py); in static
 paths hinges with limits or
 ``lock_at`` (events; transient runs differentiate latches and stops: latdyn/analyses/transient_sensitivities.py). Under gravity the static
@@ -276,8 +276,6 @@ def _transient_refusal(scene) -> str | None:
                 "prescribed ends, which the event time's derivative does not follow; loads, laws and a reel "
                 "(rest_length in t) are (docs/parameters.md, \"Cables\")")
     guides = [name for name, body in scene.bodies.items() if body.guide is not None]
-    if guides and any(beam.rigid for beam in scene.beams.values()):
-        return "sensitivities of runs with guides and rigid links (a slider-crank) are not computed yet"
     for name in guides:
         guide = scene.bodies[name].guide
         if guide.position is not None:
