@@ -99,7 +99,7 @@ output:
 """
 
 #: a slider-crank: a rigid crank driven by a torque, a flexible rod hinged to it and to a slider on a guide along
-#: x held by a spring, the slider bouncing four times between its stops (e = 0.5)
+#: x held by a spring, the slider bouncing twice between its stops (e = 0.5)
 SLIDER_CRANK = """
 title: a slider-crank, rigid crank, flexible rod, a slider on a guide between stops, driven by a torque
 parameters: {tau: 2.0, m: 1.0, k: 30.0}
@@ -115,7 +115,7 @@ beams:
   crank: {from: hub, to: pin, section: crank, rigid: true, start: {hinge: {axis: [0, 0, 1], torque: "tau"}}}
   rod: {from: pin, to: slider, section: rod, elements: 3,
         start: {hinge: {axis: [0, 0, 1]}}, end: {hinge: {axis: [0, 0, 1]}}}
-solve: {analysis: transient, t_end: 0.3, dt: 0.005, sensitivities: [tau, m]}
+solve: {analysis: transient, t_end: 0.22, dt: 0.005, sensitivities: [tau, m]}
 output:
   every: 0.05
   probes:
@@ -228,24 +228,24 @@ def four_bar():
     return _run(FOUR_BAR)
 
 
-@pytest.mark.parametrize("name", ["tau", "rho"])
+@pytest.mark.parametrize("name", ["tau"])
 def test_a_planar_four_bar_of_rigid_links_agrees_with_richardson_central_differences(four_bar, name):
-    """Measured tau 3.7e-10, rho 4.4e-9 (and EI 5.6e-8 at dt = 0.01, not run here)."""
+    """Measured tau 3.7e-10 (and rho 4.4e-9, EI 5.6e-8, not run here)."""
     assert four_bar.probes["crank"][-1] > 0.4 and four_bar.probes["rocker"][-1] > 0.25   # the linkage turns
     _agree(four_bar, FOUR_BAR, name, tolerance=1e-6)
 
 
-@pytest.mark.parametrize("text, name", [(SLIDER_CRANK, "tau"), (SLIDER_CRANK, "m"), (CLOSED_SLIDER_CRANK, "tau"),
-                                        (CLOSED_SLIDER_CRANK, "m")],
-                         ids=["guide-stops-tau", "guide-stops-m", "closed-tau", "closed-m"])
+@pytest.mark.parametrize("text, name", [(SLIDER_CRANK, "m"), (CLOSED_SLIDER_CRANK, "tau")],
+                         ids=["guide-stops-m", "closed-tau"])
 def test_slider_cranks_of_rigid_links_and_guides_agree_with_richardson_central_differences(text, name):
     """Rigid links with guides: the rigid crank and the slider's guide in one reduction, through the slider's
-    four bounces on its stops; and the loop closed by a rigid rod (closure edges). Measured: with stops tau
-    8.9e-10, m 2.3e-9 (the event times to 1e-7 relative); closed tau 1.3e-8, m 8.5e-9."""
+    two bounces on its stops; and the loop closed by a rigid rod (closure edges). Measured: with stops m
+    2.3e-9 (and tau 8.9e-10, not run here; the event times to 1e-7 relative); closed tau 3.4e-9 (and m
+    3.1e-9; over 0.3 s, 1.3e-8 and 8.5e-9)."""
     result = _run(text, name)
-    assert result.probes["crank"][-1] > 0.5   # the crank turns (most of a revolution when the loop is closed)
+    assert result.probes["crank"][-1] > 0.5   # the crank turns (2.9 rad when the loop is closed)
     if text is SLIDER_CRANK:
-        assert [e["kind"] for e in result.summary["events"]] == ["stop"] * 4
+        assert [e["kind"] for e in result.summary["events"]] == ["stop"] * 2
     _agree(result, text, name, tolerance=1e-6)
 
 
@@ -282,11 +282,11 @@ def driven():
     return _run(INPUTS)
 
 
-@pytest.mark.parametrize("name", ["P", "g", "k"])
+@pytest.mark.parametrize("name", ["P", "g"])
 def test_a_run_driven_by_inputs_agrees_with_richardson_central_differences_at_the_inputs_held(driven, name):
     """The inputs keep their values (latdyn run), which do not depend on the parameters: a load P·u and a
     controller g·(target − angle) + 0.5 u g differentiated with u and target held. Measured P 9.6e-10,
-    g 1.3e-9, k 1.0e-9."""
+    g 1.3e-9 (and k 1.0e-9, not run here)."""
     _agree(driven, INPUTS, name, tolerance=1e-6)
 
 
