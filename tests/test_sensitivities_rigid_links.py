@@ -3,9 +3,12 @@
 Richardson-extrapolated central differences of whole runs (the helpers of tests/test_sensitivities_events.py
 and tests/test_sensitivities.py): a 3D gimbal of two rigid links on skew hinges carrying a flexible boom,
 spinning, by a hinge spring, a body's mass, a load, the boom's section and the rigid links' own section
-(their mass); through a latch and a stop with restitution on a link's hinge; a planar four-bar of two rigid
-links and a flexible coupler; the gimbal at rest under gravity and a load (load control); a planar arm
-driven by inputs through a load and a controller. And what stays refused, naming the key."""
+(their mass); through a latch and a stop with restitution on a link's hinge and a cable going taut on a
+node that follows the links (and one going slack on a guided body); a planar four-bar of two rigid links and
+a flexible coupler; slider-cranks (rigid links with a guide, and the loop closed by a rigid rod); the gimbal
+at rest under gravity and a load (load control); the CLI against the API; the discrete adjoint against the
+forward method; a planar arm driven by inputs through a load and a controller. And what stays refused,
+naming the key."""
 from __future__ import annotations
 
 import json
