@@ -151,10 +151,10 @@ class AdjointSensitivities(TransientSensitivities):
             units[dofs, np.arange(len(dofs))] = 1.0
             still = np.zeros_like(units)
             c_q[dofs] = self._probe_derivatives(probe, state, *self._by_parameter(units, state),
-                                                self._rates_by_parameter(still))
+                                                self._rates_by_parameter(still, units, state))
             if probe.quantity in ("rate", "velocity"):
                 c_v[dofs] = self._probe_derivatives(probe, state, *self._by_parameter(still, state),
-                                                    self._rates_by_parameter(units))
+                                                    self._rates_by_parameter(units, still, state))
         return c_q, c_v
 
     def reverse(self, carried: dict, outputs: list) -> np.ndarray:

@@ -12,7 +12,8 @@ sensitivities take the path that the guides' already take, with nothing added to
   Bᵀ(C_·dep ∂(J v)/∂z + M_·dep ∂(J a + c)/∂z) (the dependent rates' z-dependence at fixed ż, z̈, from the
   generated ``rigid_link_edge_rates_D_q`` composed along the tree in C):
   :meth:`latdyn.assembly.assembler.Assembler.exact_matrices`;
-- a probe on a dependent node moves by B δz (:meth:`ParameterDerivatives._dependent_motion`);
+- a probe on a dependent node moves by B δz (:meth:`ParameterDerivatives._dependent_motion`), its rates by
+  B δż + ∂(J ż)/∂z δz (:func:`dependent_rates`: a point's velocity);
 - the static paths solve with the reduced K (its geometric term included) the same way.
 
 What this module adds is a rigid link's own mass and inertia by its section's values: the link is a joint
@@ -28,9 +29,7 @@ the guide's stops and latches too.
 What is refused (:func:`linked_refusal`, exit 2 naming ``solve.sensitivities``): arc length with rigid links or guides (its chain of rows through
 the reduction is not exact yet: 2.5e-2 off on the gimbal of tests/test_sensitivities_rigid_links.py, 2.4e-4
 with a beam hanging from a guided body; :meth:`ArcLengthSensitivities.stiffness_derivative_along` moves the
-dependent nodes by P v now, without which that beam's EI was 6e6 off); the velocity of a point probe in a
-model with rigid links (a dependent node's rate moves with the coordinates through ∂(J ż)/∂z, not carried to
-the probes yet); and geometry parameters (latdyn/analyses/geometry_sensitivities.py refuses them: they move
+dependent nodes by P v now, without which that beam's EI was 6e6 off); and geometry parameters (latdyn/analyses/geometry_sensitivities.py refuses them: they move
 the links' edges). The discrete adjoint (latdyn/analyses/adjoint_sensitivities.py) takes rigid links in the
 runs it takes: its reverse pass transposes the reduced step, and a probe on a dependent node reads its output
 gradient on the coordinates the node moves with (:func:`columns_moving`).
@@ -39,7 +38,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["linked_refusal", "add_link_section_forces", "columns_moving"]
+__all__ = ["linked_refusal", "add_link_section_forces", "columns_moving", "dependent_rates"]
 
 
 def linked_refusal(scene) -> str | None:
@@ -55,11 +54,6 @@ def linked_refusal(scene) -> str | None:
                 "displacement control are")
     if not rigid:
         return None
-    for probe in scene.output.probes:
-        if probe.kind == "point" and probe.quantity == "velocity":
-            return (f"probe {probe.name!r} (a point's velocity) in a model with rigid links ({rigid[0]}) is not "
-                    "differentiated yet: the rates of the nodes that follow the links move with the coordinates; "
-                    "positions, displacements, hinge angles and rates are")
     return None
 
 
@@ -128,3 +122,21 @@ def columns_moving(model, node: int) -> np.ndarray:
             else model.node_dofs[links.root[node]]
     columns = np.asarray(columns, np.int64)
     return np.unique(columns[columns < model.n_dofs])
+
+
+def dependent_rates(owner, state, dq: np.ndarray, dv: np.ndarray, dvel: np.ndarray, domega: np.ndarray) -> None:
+    """(δv, δω) of the nodes that follow rigid links or guides into ``dvel``, ``domega`` (n_nodes, 3, k): their
+    rates v_dep = J(q) v are moved by the free rates and by the configuration, δv_dep = J δv + ∂(J v)/∂q δq
+    (``dq``, ``dv``: (n_dofs, k)), ∂(J v)/∂q at fixed free rates from the generated ``*_rates_D_q`` kernels
+    composed along the link tree (latdyn/assembly/linked.py, ``rates_tangent``)."""
+    from latdyn.assembly.linked import evaluate_linked
+
+    model = owner.model
+    ev = evaluate_linked(model.links, owner.assembler, state, True, 1.0, True, inertia_tangent=True, rates_term=True)
+    by_velocity = ev.rates_tangent[0]
+    moved = np.asarray(ev.projection @ dv)
+    turned = np.asarray(by_velocity @ dq).reshape(-1, 6, dq.shape[1])   # one (v, ω) block per dependent node
+    for i, node in enumerate(model.links.dependent):
+        dofs = model.node_dofs[node]
+        dvel[node] = moved[dofs[0:3]] + turned[i, 0:3]
+        domega[node] = moved[dofs[3:6]] + turned[i, 3:6]

@@ -60,9 +60,8 @@ values of shear-rigid sections (formulation default), body masses, centres of ma
 compliant stops' laws and, in transient runs, initial velocities, controllers' outputs and states' rates,
 guides' laws and cables' EA, damping, rest length and rhoA; probes other than point positions and displacements in the
 global frame, hinge angles and guide positions and, in transient runs, rates, point velocities and joint forces
-(latdyn/analyses/joint_force_sensitivities.py); rigid links with point-velocity probes or
-under arc length (rigid links otherwise through the reduction: latdyn/analyses/link_sensitivities.py); in static
-paths hinges with limits or
+(latdyn/analyses/joint_force_sensitivities.py); rigid links under arc length (rigid links otherwise
+through the reduction: latdyn/analyses/link_sensitivities.py); in static paths hinges with limits or
 ``lock_at`` (events; transient runs differentiate latches and stops: latdyn/analyses/transient_sensitivities.py). Under gravity the static
 Newton matrix K − λ ∂Q/∂q holds the beams' gravity tangent (the generated ``beam_gravity_D_q``), so
 beams with mass are differentiated exactly there too. docs/parameters.md.
@@ -78,7 +77,7 @@ import numpy as np
 from latdyn.analyses.joint_force_sensitivities import is_joint_force
 from latdyn.analyses.joint_force_sensitivities import refusal as joint_force_refusal
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY, ReferenceGeometry, geometry_refusal
-from latdyn.analyses.link_sensitivities import add_link_section_forces, linked_refusal
+from latdyn.analyses.link_sensitivities import add_link_section_forces, dependent_rates, linked_refusal
 from latdyn.assembly.factorization import solve_linear
 from latdyn.assembly.native_model import NO_CONTACT, joint_contact_rows
 from latdyn.errors import SceneError, SolverError
@@ -714,12 +713,16 @@ class ParameterDerivatives:
             dofs = model.node_dofs[node]
             dx[node], dpi[node] = full[dofs[0:3]], full[dofs[3:6]]
 
-    def _rates_by_parameter(self, dv: np.ndarray) -> tuple:
+    def _rates_by_parameter(self, dv: np.ndarray, dq: np.ndarray | None = None, state=None) -> tuple:
         """(δv, δω, δθ̇) of every node and hinge from the free-coordinate sensitivities of the rates ``dv``
         (n_dofs, k) — the transient step's carried δv: the rates are vectors (ω spatial), so δω is the
-        derivative of ω's components. Free nodes and hinges; a guided model's dependent nodes are not moved
-        (their probes' rates are refused)."""
-        return self._on_free_nodes_and_hinges(dv)
+        derivative of ω's components. Free nodes and hinges; with ``dq`` and ``state`` the nodes that follow
+        rigid links too, P δv + ∂(J v)/∂q δq (:func:`latdyn.analyses.link_sensitivities.dependent_rates`;
+        a guided model's dependent nodes' rate probes are refused)."""
+        rates = self._on_free_nodes_and_hinges(dv)
+        if self.model.links is not None and dq is not None and dv.shape[1]:
+            dependent_rates(self, state, dq, dv, rates[0], rates[1])
+        return rates
 
     def _probe_derivatives(self, probe, state, dx, dpi, dtheta, rates=None) -> list:
         """The derivatives of ``probe`` at ``state`` by every parameter along (δx, δπ, δθ) of

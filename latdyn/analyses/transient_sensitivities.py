@@ -742,7 +742,7 @@ class TransientSensitivities(ParameterDerivatives):
         carried δv (:meth:`_probe_derivatives`), a joint's force by its law's or its reaction's derivative
         along (δq, δv, δv̇) (latdyn/analyses/joint_force_sensitivities.py)."""
         dx, dpi, dtheta = self._by_parameter(carried["dq"], state)
-        rates = (self._rates_by_parameter(carried["dv"])
+        rates = (self._rates_by_parameter(carried["dv"], carried["dq"], state)
                  if any(p.quantity in ("rate", "velocity") for p in self.probes) else None)
         forces = joint_force_derivatives(self, state, carried["dq"], carried["dv"], carried["dvdot"])
         row = [float(state.t)]
