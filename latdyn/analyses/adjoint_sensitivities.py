@@ -55,7 +55,9 @@ accelerations before and after it (2n numbers). What is refused (:func:`adjoint_
 ``solve.sensitivity_method``): everything the forward method refuses, and anything whose derivative
 leaves the smooth recurrence above: events (hinge or guide ``lock_at`` and ``limits``, cables), guides,
 controllers with states and sampled ones (continuous controllers without states enter E and the matrices
-as in the forward method).
+as in the forward method). Rigid links are taken: the matrices are the reduced step's, and a probe on a node
+that follows the links has its output gradient on the coordinates it moves with
+(:func:`latdyn.analyses.link_sensitivities.columns_moving`).
 """
 from __future__ import annotations
 
@@ -66,6 +68,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_force_forms, joint_of
+from latdyn.analyses.link_sensitivities import columns_moving
 from latdyn.analyses.probe_derivatives import is_probe_here, probe_forms
 from latdyn.analyses.sensitivities import _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE
 from latdyn.analyses.transient_sensitivities import TransientSensitivities, _NodeRotations
@@ -204,8 +207,8 @@ class AdjointSensitivities(TransientSensitivities):
         if probe.kind in ("hinge", "guide"):
             joint = (probe.beam, probe.end) if probe.kind == "hinge" else (probe.body, "guide")
             dofs = np.array([model.hinge_dofs[model.hinge_index(*joint)]])
-        else:
-            dofs = model.node_dofs[model.point(probe.point)[0]]
+        else:   # a node that follows rigid links moves with its root's and its joints' coordinates
+            dofs = columns_moving(model, model.point(probe.point)[0])
         dofs = dofs[dofs < n]
         c_q, c_v = np.zeros(n), np.zeros(n)
         if len(dofs):
@@ -213,10 +216,10 @@ class AdjointSensitivities(TransientSensitivities):
             units[dofs, np.arange(len(dofs))] = 1.0
             still = np.zeros_like(units)
             c_q[dofs] = self._probe_derivatives(probe, state, *self._by_parameter(units, state),
-                                                self._rates_by_parameter(still))
+                                                self._rates_by_parameter(still, units, state))
             if probe.quantity in ("rate", "velocity"):
                 c_v[dofs] = self._probe_derivatives(probe, state, *self._by_parameter(still, state),
-                                                    self._rates_by_parameter(units))
+                                                    self._rates_by_parameter(units, still, state))
         return c_q, c_v
 
     def reverse(self, carried: dict, outputs: list) -> np.ndarray:

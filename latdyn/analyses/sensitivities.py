@@ -51,7 +51,7 @@ outputs; :class:`ControllerStates`: continuous controllers' states carried throu
 
 What is refused (:func:`refusal`, exit 2 naming ``solve.sensitivities``): any analysis but static
 load control, arc length and displacement control and transient runs of an implicit method at fixed
-steps without friction and inputs, continuous controllers that read a force (a tension, a section or joint
+steps without friction (inputs are held at their values: the derivative is the one at fixed inputs), continuous controllers that read a force (a tension, a section or joint
 force), controllers with states or sampled ones beside events (cables through their
 slack/taut events, guides with theirs: :func:`_transient_refusal`, :meth:`ControllerTerms.refusal`); a
 parameter used anywhere but in load components, numbers that place the structure (geometry parameters,
@@ -64,7 +64,8 @@ global frame, hinge angles and guide positions and, in transient runs, rates, po
 (latdyn/analyses/joint_force_sensitivities.py), element section forces, cable tensions and lengths and points in a
 body's frame (latdyn/analyses/probe_derivatives.py: static and transient; a body frame's velocity in transient
 runs without guides) — that is, energies and momenta;
-rigid links; in static paths hinges with limits or
+rigid links under arc length (rigid links otherwise
+through the reduction: latdyn/analyses/link_sensitivities.py); in static paths hinges with limits or
 ``lock_at`` (events; transient runs differentiate latches and stops: latdyn/analyses/transient_sensitivities.py). Under gravity the static
 Newton matrix K − λ ∂Q/∂q holds the beams' gravity tangent (the generated ``beam_gravity_D_q``), so
 beams with mass are differentiated exactly there too. docs/parameters.md.
@@ -80,13 +81,14 @@ import numpy as np
 from latdyn.analyses.joint_force_sensitivities import is_joint_force
 from latdyn.analyses.joint_force_sensitivities import refusal as joint_force_refusal
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY, ReferenceGeometry, geometry_refusal
+from latdyn.analyses.link_sensitivities import add_link_section_forces, dependent_rates, linked_refusal
 from latdyn.analyses.probe_derivatives import is_probe_here, probe_derivatives
 from latdyn.analyses.probe_derivatives import refusal as probe_refusal
 from latdyn.assembly.factorization import solve_linear
 from latdyn.assembly.native_model import NO_CONTACT, joint_contact_rows
 from latdyn.errors import SceneError, SolverError
 from latdyn.results.result import SENSITIVITIES_FILE
-from latdyn.scene.expressions import parse_hinge_law
+from latdyn.scene.expressions import parse_hinge_law, reading_inputs
 
 __all__ = ["refusal", "StaticSensitivities", "SENSITIVITIES_FILE"]
 
@@ -134,8 +136,9 @@ def refusal(scene) -> SceneError | None:
         method = f"{solve.analysis}" + (f" ({solve.method})" if solve.analysis == "static" else "")
         return refuse(f"sensitivities are computed for static load control, arc length and displacement control "
                       f"and for transient runs with an implicit method only, not yet for a {method} analysis")
-    if any(beam.rigid for beam in scene.beams.values()):
-        return refuse("sensitivities of scenes with rigid links are not computed yet")
+    why = linked_refusal(scene)
+    if why is not None:
+        return refuse(why)
     for beam, which, hinge in scene.hinges:
         rigid_stop = hinge.limits is not None and hinge.contact is None
         if solve.analysis != "transient" and (rigid_stop or hinge.lock_at is not None):
@@ -272,8 +275,6 @@ def _transient_refusal(scene) -> str | None:
     if solve.adaptive:
         return "with adaptive step control the accepted step sizes depend on the parameters, which the " \
                "derivative does not follow yet; expected a fixed step (adaptive: false)"
-    if len(scene.inputs):
-        return "sensitivities of runs with inputs (set from outside between steps) are not computed yet"
     why = ControllerTerms.refusal(scene)
     if why is not None:
         return why
@@ -283,8 +284,6 @@ def _transient_refusal(scene) -> str | None:
                 "prescribed ends, which the event time's derivative does not follow; loads, laws and a reel "
                 "(rest_length in t) are (docs/parameters.md, \"Cables\")")
     guides = [name for name, body in scene.bodies.items() if body.guide is not None]
-    if guides and any(beam.rigid for beam in scene.beams.values()):
-        return "sensitivities of runs with guides and rigid links (a slider-crank) are not computed yet"
     for name in guides:
         guide = scene.bodies[name].guide
         if guide.position is not None:
@@ -375,13 +374,15 @@ class ParameterDerivatives:
         # where the key uses the parameter
         self.derivatives: dict[str, dict[int, object]] = {}
         parsed: dict[str, object] = {}   # one law per derivative text (many parameters' derivatives read alike)
+        inputs = tuple(self.scene.inputs.names)   # held: a derivative law reads their current values
         for column, name in enumerate(self.names):
             for key in params.depending_on(name):
                 if _CONTROLLER_KEY.match(key):   # a law in the controller's sensors: ControllerTerms
                     continue
-                text = params.derivative(key, name)
+                text = params.derivative(key, name, inputs)
                 if text not in parsed:
-                    parsed[text] = parse_hinge_law(text, self.scene.file, key)
+                    with reading_inputs(self.scene.inputs):
+                        parsed[text] = parse_hinge_law(text, self.scene.file, key)
                 self.derivatives.setdefault(key, {})[column] = parsed[text]
         self._values_at: tuple[float, dict] = (float("nan"), {})
         #: the reference configuration's derivative by geometry parameters (None without them)
@@ -411,6 +412,7 @@ class ParameterDerivatives:
         if self.geometry is not None:
             self.geometry.add(state, total, load_factor, inertia)
         self._body_forces(state, total, load_factor, inertia)
+        add_link_section_forces(self, state, total, load_factor, inertia)
         self._contact_forces(state, total)
         if self.controllers is not None:
             self.controllers.add(state, total)
@@ -749,12 +751,16 @@ class ParameterDerivatives:
             dofs = model.node_dofs[node]
             dx[node], dpi[node] = full[dofs[0:3]], full[dofs[3:6]]
 
-    def _rates_by_parameter(self, dv: np.ndarray) -> tuple:
+    def _rates_by_parameter(self, dv: np.ndarray, dq: np.ndarray | None = None, state=None) -> tuple:
         """(δv, δω, δθ̇) of every node and hinge from the free-coordinate sensitivities of the rates ``dv``
         (n_dofs, k) — the transient step's carried δv: the rates are vectors (ω spatial), so δω is the
-        derivative of ω's components. Free nodes and hinges; a guided model's dependent nodes are not moved
-        (their probes' rates are refused)."""
-        return self._on_free_nodes_and_hinges(dv)
+        derivative of ω's components. Free nodes and hinges; with ``dq`` and ``state`` the nodes that follow
+        rigid links too, P δv + ∂(J v)/∂q δq (:func:`latdyn.analyses.link_sensitivities.dependent_rates`;
+        a guided model's dependent nodes' rate probes are refused)."""
+        rates = self._on_free_nodes_and_hinges(dv)
+        if self.model.links is not None and dq is not None and dv.shape[1]:
+            dependent_rates(self, state, dq, dv, rates[0], rates[1])
+        return rates
 
     def _probe_derivatives(self, probe, state, dx, dpi, dtheta, rates=None) -> list:
         """The derivatives of ``probe`` at ``state`` by every parameter along (δx, δπ, δθ) of
@@ -957,10 +963,14 @@ class ArcLengthSensitivities(StaticSensitivities):
     def stiffness_derivative_along(self, state, direction: np.ndarray) -> np.ndarray:
         """(∂K/∂p) v at a state of load factor 0 (the start), one column per parameter (n_dofs, k): the
         elements' tangent by their section values and the hinges' by their stiffness laws and rest
-        angles; loads, gravity, masses and applied torques enter K only times λ, and damping times θ̇ = 0."""
+        angles; loads, gravity, masses and applied torques enter K only times λ, and damping times θ̇ = 0.
+        With rigid links or guides the dependent nodes move by P v and the sum is reduced by Pᵀ (arc length
+        with them is refused: latdyn/analyses/link_sensitivities.py)."""
         model, k = self.model, len(self.names)
         total = np.zeros((model.n_total + 1, k))
         full = np.concatenate([direction, np.zeros(model.n_total + 1 - model.n_dofs)])
+        if model.links is not None:   # the dependent nodes move with it: P v (latdyn/assembly/linked.py)
+            full[:model.n_assembled] = np.asarray(self.assembler.evaluate(state, matrices=True).projection @ direction)
         blocks = self._section_derivative_blocks(state)
         if blocks is not None:
             elements, column, rows = blocks
@@ -996,7 +1006,7 @@ class ArcLengthSensitivities(StaticSensitivities):
                     at = np.array([[0.0, 0.0, 1.0, 0.0]])
                 d_theta = float(np.asarray(self.kernels.hinge_force(at, values, NO_CONTACT[None])[1]).reshape(-1)[0])
                 total[model.hinge_dofs[j], column] += d_theta * full[model.hinge_dofs[j]]
-        return total[:model.n_dofs]
+        return self._on_free_coordinates(state, total)
 
     def _in_contact(self, state, j: int) -> bool:
         """Whether hinge ``j`` is at or past one of its compliant stops at ``state``."""
@@ -1127,7 +1137,8 @@ class ControllerTerms:
     coordinate (f = … − τ, τ = a y + b; a = 1 for the controller's name alone), the point-load
     kernel's force for a unit value on a load's component (global or turning with a body). The states
     of continuous controllers: :class:`ControllerStates`; sampled controllers: :class:`SampledTerms`;
-    what neither covers, and inputs, are refused (:meth:`refusal`)."""
+    what neither covers is refused (:meth:`refusal`). Inputs a controller reads are held at their
+    current values (:meth:`signal_values`): no parameter moves them."""
 
     def __init__(self, owner: ParameterDerivatives):
         import sympy as sp
@@ -1193,6 +1204,11 @@ class ControllerTerms:
                             "controller's output instead")
         return None
 
+    def signal_values(self, state) -> dict:
+        """The values the controllers read at ``state``: the probes' and the inputs' (held: their current
+        values, which do not depend on the parameters)."""
+        return {**dict(zip(self.sensors.names, self.sensors.values(state))), **self.owner.scene.inputs.current()}
+
     def state_values(self, c) -> list:
         """The accepted states S of controller ``c`` (their values in ``scene.controller_states``)."""
         states = self.owner.scene.controller_states
@@ -1205,7 +1221,7 @@ class ControllerTerms:
         w = self.assembler.control   # the wiring of the current numbering
         if not (self.partials or self.held) or not len(w.actuator_kind):
             return
-        values = dict(zip(self.sensors.names, self.sensors.values(state)))
+        values = self.signal_values(state)
         outputs, slopes = {}, {}
         for c in self.continuous:
             arguments = [state.t, *[values[r] if r in values else outputs[r] for r in c.reads],
@@ -1294,7 +1310,7 @@ class ControllerStates:
     def _at(self, c, state, values=None):
         """(arguments, ∂f/∂s (p, m), ∂f/∂S (p, p), ∂f/∂p (p, k)) of ``c`` at ``state``, its accepted S."""
         if values is None:
-            values = dict(zip(self.terms.sensors.names, self.terms.sensors.values(state)))
+            values = self.terms.signal_values(state)
         arguments = [state.t, *[values[r] for r in c.reads], *self.terms.state_values(c)]
         _, f_s, f_S = self.gradients[c.name](*arguments)
         p = len(c.states)

@@ -71,8 +71,9 @@ their slack/taut changes as events landed on exactly, the event time differentia
 gradients (no jump: the discrete run neither jumps nor restarts there). Guides: a guide's laws as a
 hinge's on its slide, ∂r/∂p reduced by the projection Pᵀ, the step's K exact with the guided bodies' rates'
 derivatives (:meth:`latdyn.assembly.assembler.Assembler.exact_matrices`: the reduction's own K is not exact); their
-latches and stops as the hinges', the impulse weight's dependence on the rates followed.
-docs/parameters.md, "Cables" and "Guides".
+latches and stops as the hinges', the impulse weight's dependence on the rates followed. Rigid links take the
+same reduction (latdyn/analyses/link_sensitivities.py). Inputs are held at their values (the derivative at fixed
+inputs). docs/parameters.md, "Cables", "Guides", "Rigid links" and "Inputs".
 
 Controllers: parameters inside their outputs enter ∂r/∂p (:class:`latdyn.analyses.sensitivities.ControllerTerms`);
 the states of continuous controllers are carried as (δS, δf) beside the step's derivative, the step's matrix
@@ -599,8 +600,13 @@ class TransientSensitivities(ParameterDerivatives):
                 assembler.complete_links(ahead)
             return ahead
 
+        # each move in its own units (a configuration, a rate and an acceleration over the nominal step):
+        # the rates' derivatives, large in a rate's units, must not shrink the configuration's step to
+        # where the difference of W w (of the stiffness's size) is round-off (a latch of rigid links)
+        dt = self.scene.solve.dt
         for c in range(k):
-            moves = [dq[:, c]] + ([rates[0][:, c], rates[1][:, c]] if linked and rates is not None else [])
+            moves = [dq[:, c]] + ([rates[0][:, c] * dt, rates[1][:, c] * dt * dt]
+                                  if linked and rates is not None else [])
             size = float(max(np.max(np.abs(m), initial=0.0) for m in moves))
             if size == 0.0:
                 continue
@@ -756,7 +762,7 @@ class TransientSensitivities(ParameterDerivatives):
         along (δq, δv, δv̇) (latdyn/analyses/joint_force_sensitivities.py), section forces, cables' tensions
         (with δv: the damper) and lengths and points in a body's frame (latdyn/analyses/probe_derivatives.py)."""
         dx, dpi, dtheta = self._by_parameter(carried["dq"], state)
-        rates = (self._rates_by_parameter(carried["dv"])
+        rates = (self._rates_by_parameter(carried["dv"], carried["dq"], state)
                  if any(p.quantity in ("rate", "velocity", "tension") for p in self.probes) else None)
         forces = joint_force_derivatives(self, state, carried["dq"], carried["dv"], carried["dvdot"])
         row = [float(state.t)]
@@ -1154,7 +1160,7 @@ class CableSensitivities:
         rows = self._rows(e)
         np.add.at(g_q, rows, -unit @ K[0:3])
         np.add.at(g_v, rows, -unit @ C[0:3])
-        g_q, g_v = g_q[:model.n_dofs], g_v[:model.n_dofs]
+        g_q, g_v = self._on_free_coordinates(new, g_q, g_v)
         g_p = np.zeros(k)
         for cable, value, column, law in self.uses:
             if cable != cables.cable[e]:
@@ -1171,6 +1177,24 @@ class CableSensitivities:
         if g_t and started is not None:
             g_p = g_p + g_t * started
         return -(along[:k] + g_p) / (along[k] + g_t)
+
+    def _on_free_coordinates(self, state, g_q: np.ndarray, g_v: np.ndarray) -> tuple:
+        """The gap's gradients by all coordinates' configuration and rates (n_total + 1,) on the free ones: their
+        first n_dofs entries, or with rigid links or guides (an end on a node that follows them) through the
+        reduction, δq_all = P δq and δv_all = P δv + ∂(J v)/∂q δq (the dependent rates at fixed free rates,
+        latdyn/assembly/linked.py): g_q ← Pᵀ g_q + (∂(J v)/∂q)ᵀ g_v(dependent rows), g_v ← Pᵀ g_v."""
+        model = self.model
+        if model.links is None:
+            return g_q[:model.n_dofs], g_v[:model.n_dofs]
+        from latdyn.assembly.linked import evaluate_linked
+
+        assembler = self.owner.assembler
+        ev = evaluate_linked(model.links, assembler, state, True, 1.0, True, inertia_tangent=True, rates_term=True)
+        P, n_asm = ev.projection, model.n_assembled
+        by_velocity = np.asarray(ev.rates_tangent[0].toarray() if hasattr(ev.rates_tangent[0], "toarray")
+                                 else ev.rates_tangent[0])
+        free_q = np.asarray(P.T @ g_q[:n_asm]).reshape(-1) + by_velocity.T @ g_v[ev.dependent_rows]
+        return free_q, np.asarray(P.T @ g_v[:n_asm]).reshape(-1)
 
     def gap_rate(self, state, e: int) -> float:
         """∂g/∂t of element ``e``'s gap at fixed coordinates: through its cable's rest length alone (a reel,

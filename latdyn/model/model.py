@@ -562,6 +562,19 @@ def _rigid_names(scene) -> set:
     return {b.name for b in scene.beams.values() if b.rigid}
 
 
+def rigid_link_inertia(beam, rhoA: float, rhoIy: float, rhoIz: float):
+    """(mass, centre of mass from the start grid point, inertia about it in global axes at t = 0) of the rigid
+    link ``beam`` with these section values: the slender rod of :func:`_rigid_link`, linear in them (its
+    sensitivities by them: latdyn/analyses/link_sensitivities.py)."""
+    vector = beam.end.point - beam.start.point
+    length = float(np.linalg.norm(vector))
+    x_axis = vector / length
+    frame = np.column_stack([x_axis, beam.y_axis, cross(x_axis, beam.y_axis)])
+    rod = rhoA * length ** 3 / 12.0
+    inertia = frame @ np.diag([(rhoIy + rhoIz) * length, rod + rhoIy * length, rod + rhoIz * length]) @ frame.T
+    return rhoA * length, 0.5 * vector, inertia
+
+
 def _rigid_link(scene, beam, nodes, body_node, hinges, edges, link_bodies, beam_elements, beam_nodes,
                 beam_grid_offsets) -> None:
     """Add a rigid link (:mod:`latdyn.model.links`): its link node L at the start grid point (dependent on
@@ -575,13 +588,8 @@ def _rigid_link(scene, beam, nodes, body_node, hinges, edges, link_bodies, beam_
     key = f"beams.{beam.name}.rigid"
     start, end = beam.start, beam.end
     vector = end.point - start.point
-    length = float(np.linalg.norm(vector))
-    x_axis = vector / length
-    frame = np.column_stack([x_axis, beam.y_axis, cross(x_axis, beam.y_axis)])
     s = beam.section
-    rod = s.rhoA * length ** 3 / 12.0
-    inertia = frame @ np.diag([(s.rhoIy + s.rhoIz) * length, rod + s.rhoIy * length,
-                               rod + s.rhoIz * length]) @ frame.T
+    mass, centre, inertia = rigid_link_inertia(beam, s.rhoA, s.rhoIy, s.rhoIz)
     link = len(nodes)
     closes = end.body is not None and end.body in _closing_sliders(scene)
     if closes:  # the rod of a slider-crank closing its loop: its node and the slider follow the pin (_closure)
@@ -597,7 +605,7 @@ def _rigid_link(scene, beam, nodes, body_node, hinges, edges, link_bodies, beam_
                           np.array(start.offset, float), np.zeros(3), beam.name))
     else:
         nodes.append(Node(f"{beam.name}.link", np.array(start.point, float), FREE, beam=beam.name))
-    link_bodies.append((link, s.rhoA * length, 0.5 * vector, inertia))
+    link_bodies.append((link, mass, centre, inertia))
     if end.body is not None:
         child = body_node[end.body]
         node = nodes[child]
