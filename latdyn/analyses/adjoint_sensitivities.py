@@ -73,7 +73,7 @@ from latdyn.analyses.probe_derivatives import is_probe_here, probe_forms
 from latdyn.analyses.sensitivities import _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE
 from latdyn.analyses.transient_sensitivities import TransientSensitivities, _NodeRotations
 from latdyn.assembly.assembler import free_velocity
-from latdyn.assembly.factorization import solve_linear
+from latdyn.assembly.factorization import factorization_for, solve_linear
 from latdyn.errors import SolverError
 from latdyn.numerics.inertia import split_inertia
 from latdyn.numerics.linalg import issparse
@@ -134,8 +134,11 @@ class AdjointSensitivities(TransientSensitivities):
         their parameters' rows (10³ sections of a lattice, 100 load amplitudes: no (n, k) array, no
         per-parameter Python); the other parameters' (hinges, bodies, contact, controllers) by
         :meth:`residual_derivatives` on all coordinates, transposed onto w there (the free coordinates are
-        the first n: rigid links and guides, which reduce them, are refused)."""
+        the first n). With rigid links (the reduction onto minimum coordinates, latdyn/assembly/linked.py)
+        ∂r/∂p is the reduced one, formed by :meth:`residual_derivatives` and transposed onto w."""
         model, k = self.model, len(self.names)
+        if model.links is not None:
+            return self.residual_derivatives(state, 1.0, inertia=True).T @ w
         weights = np.zeros((model.n_total + 1, w.shape[1]))
         weights[:model.n_dofs] = w
         product = np.zeros((k, w.shape[1]))
@@ -300,11 +303,22 @@ class AdjointSensitivities(TransientSensitivities):
 
     def _transposed_step_system(self, new, tangent, beta_p: float, gamma_p: float):
         """(Cᵀ, Kᵀ, solve_transposed) at the stored state ``new``: the forward method's step matrix
-        S = β′M + γ′C + K J on its held pattern and storage (:meth:`TransientSensitivities._step_system`; the
-        path with the reduction's matrices is not needed: rigid links and guides are refused), factorised as
-        the forward method factorises it, and solved with Sᵀ from those factors
+        S = β′M + γ′C + K J on its held pattern and storage (:meth:`TransientSensitivities._step_system`),
+        factorised as the forward method factorises it, and solved with Sᵀ from those factors
         (:meth:`latdyn.assembly.factorization.Factorization.solve_transposed`); Cᵀ and Kᵀ views of the held
-        matrices' storage, made once per pattern. A singular S raises SolverError."""
+        matrices' storage, made once per pattern. With rigid links, the reduction's matrices
+        (:meth:`_matrices`) summed as the forward method sums them and Sᵀ factorised. A singular S raises
+        SolverError."""
+        if self.model.links is not None:
+            M, C, K = self._matrices(new)
+            J = tangent.matrix if issparse(K) else tangent.matrix.toarray()
+            matrix = _transposed(beta_p * M + gamma_p * C + K @ J)
+            try:
+                solver = factorization_for(matrix).factor(matrix)
+            except np.linalg.LinAlgError:
+                raise SolverError(f"the adjoint sensitivities at t = {new.t:.6g} need the step's exact iteration "
+                                  "matrix, which is singular there") from None
+            return C.T, K.T, solver.solve
         try:
             step_matrix = self._step_matrix(tangent.slots)
             factors = step_matrix.factor(self.assembler.exact_matrix_values(new), tangent.blocks, beta_p, gamma_p)
