@@ -73,6 +73,9 @@ from pathlib import Path
 
 import numpy as np
 
+from latdyn.analyses.energy_sensitivities import is_energy_or_momentum
+from latdyn.analyses.energy_sensitivities import probe_derivatives as energy_probe_derivatives
+from latdyn.analyses.energy_sensitivities import refusal as energy_refusal
 from latdyn.analyses.joint_force_sensitivities import is_joint_force
 from latdyn.analyses.joint_force_sensitivities import refusal as joint_force_refusal
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY, ReferenceGeometry, geometry_refusal
@@ -170,6 +173,10 @@ def refusal(scene) -> SceneError | None:
         if refused is not None:
             return refused
     for probe in scene.output.probes:
+        if is_energy_or_momentum(probe):   # latdyn/analyses/energy_sensitivities.py
+            if energy_refusal(scene, probe) is not None:
+                return energy_refusal(scene, probe)
+            continue
         point = probe.kind == "point" and probe.quantity in ("position", "displacement") and probe.frame == "global"
         # a point's velocity v + ω × T r: δv, δω carried by the transient step (a guided body's
         # dependent nodes' velocities would need the projection's rate derivative: not yet)
@@ -724,6 +731,8 @@ class ParameterDerivatives:
         point x + T r moves by δx + δπ × T r, a hinge angle by δθ, a hinge rate by δθ̇, a point's velocity
         v + ω × T r by δv + δω × T r + ω × (δπ × T r)."""
         model = self.model
+        if is_energy_or_momentum(probe):   # latdyn/analyses/energy_sensitivities.py
+            return energy_probe_derivatives(self, probe, state, dx, dpi, dtheta, rates, _BODY_KEY)
         if probe.kind in ("hinge", "guide"):
             joint = (probe.beam, probe.end) if probe.kind == "hinge" else (probe.body, "guide")
             which = rates[2] if probe.quantity == "rate" else dtheta

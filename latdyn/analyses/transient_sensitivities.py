@@ -99,6 +99,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from latdyn.analyses.energy_sensitivities import external_work_step, is_energy_or_momentum
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
 from latdyn.analyses.sensitivities import (_BODY_KEY, _CABLE_KEY, _GUIDE_KEY, _HINGE_KEY, _INITIAL_VELOCITY_KEY,
                                            _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE, ParameterDerivatives)
@@ -357,7 +358,8 @@ class TransientSensitivities(ParameterDerivatives):
             dh = self.cables.step_size_derivative(new, cable[0], columns["dq"], columns["dv"], k,
                                                   started=carried["dt"])
         total = {key: value[:, :k] + np.outer(value[:, k], dh) for key, value in columns.items()}
-        carried = {**carried, **total, "dt": carried["dt"] + dh, "dh": dh, "h": h, "pending": None}
+        before, carried = carried, {**carried, **total, "dt": carried["dt"] + dh, "dh": dh, "h": h, "pending": None}
+        carried = external_work_step(self, before, carried, old, new, h)   # latdyn/analyses/energy_sensitivities.py
         if states is not None:   # no events with states (ControllerTerms.refusal): δh = 0
             carried = {**carried, **states.after_step(new, carried["dq"])}
         if cable is not None:
@@ -737,7 +739,8 @@ class TransientSensitivities(ParameterDerivatives):
         along (δq, δv, δv̇) (latdyn/analyses/joint_force_sensitivities.py)."""
         dx, dpi, dtheta = self._by_parameter(carried["dq"], state)
         rates = (self._rates_by_parameter(carried["dv"])
-                 if any(p.quantity in ("rate", "velocity") for p in self.probes) else None)
+                 if any(p.quantity in ("rate", "velocity") or is_energy_or_momentum(p) for p in self.probes) else None)
+        self.carried_work = carried.get("external_work_sensitivity")   # latdyn/analyses/energy_sensitivities.py
         forces = joint_force_derivatives(self, state, carried["dq"], carried["dv"], carried["dvdot"])
         row = [float(state.t)]
         for probe in self.probes:

@@ -1,0 +1,414 @@
+"""Sensitivities of the energy and momentum probes (SCENE.md, "Parameters and sensitivities";
+docs/parameters.md, "Energies and momenta").
+
+A recorded energy or momentum is a function of the row's state and the parameters; its derivative
+by a parameter p is taken along the carried sensitivities of the state (δq in the coordinates of the
+configuration update, δq̇ = (δv, δω, δθ̇) the rates' components) plus its explicit derivative, every
+term from the generated kernels the recorded value itself is made of (latdyn_energies, csrc/evaluate.c;
+latdyn_momentum, csrc/rows.c), never from differences:
+
+- strain energy of the elements U = Σ beam_strain_energy: ∂U/∂q^e = F^e, the internal force
+  ``beam_internal_force`` (Eq. 43 makes F^e = Bᵀ ∂U/∂Ψ the exact gradient of the kernel's U:
+  tests/test_sensitivities_energies.py checks it), and ∂U/∂p the kernel with the section block
+  replaced by its derivative (U is linear in EA, EIy, EIz, GJ of a shear-rigid section);
+  of a hinge's spring with a constant stiffness k, ½ k s² (s = θ − θ_r): δ = τ_s (δθ − δθ_r) + ½ (∂k/∂p) s²
+  with τ_s = k s the ``hinge_force`` kernel's spring torque;
+- kinetic energy T = ½ q̇ᵀ M(q) q̇ of an element (``beam_kinetic_energy``): ∂T/∂q̇ = M q̇
+  (``beam_mass_matrix``), ∂T/∂q δq = ½ q̇ᵀ [∂(M a)/∂q]_{a = q̇} δq (``beam_inertia_tangent`` at zero
+  velocity and the acceleration a = q̇), ∂T/∂p the kernel with the section block's derivative (linear in
+  ρA, ρIy, ρIz); of a joint body ½ uᵀ M_b u, u = (v, ω) of its reference point, alike from ``joint_body``
+  (its mass block M_b = ∂[f; τ]/∂[a; α]) and ``joint_body_inertia_stiffness`` at (ω, a, α) = (0, v, ω);
+  linear in (m, I) at a fixed centre of mass c and quadratic in c, whose derivative along ∂c/∂p is exactly
+  ½ (T(c + ∂c/∂p) − T(c − ∂c/∂p)) (a polynomial identity, as for the body's forces);
+- gravity potential V: of an element ``beam_gravity``'s potential, ∂V/∂q^e = −G^e (its gravity force),
+  ∂V/∂p the kernel with ρA's derivative; of a joint body −W·(x + T c), ∂V/∂[x; π] = the ``joint_body``
+  gravity row Q = −[W; T c × W], ∂V/∂m = Q(∂m)·(x + T c), ∂V/∂c = Q·T ∂c;
+- momentum: the generalized momentum f = M q̇ of an element (of a joint body M_b u) gives
+  P = Σ f_translation and H = Σ (x × f_translation + f_rotation) over its ends (about the global origin,
+  as latdyn_momentum); δf = M δq̇ + [∂(M a)/∂q]_{a = q̇} δq + (∂M/∂p) q̇, δH adds δx × f_translation;
+- total = kinetic + strain + potential;
+- external work W of a transient run, integrated by the loop as Σ ½ h (P_n + P_{n+1}) of the point
+  loads' power P = −Q·u (Q the ``point_load`` kernel's generalized force, u the node's rates) and
+  Σ ½ (τ_n + τ_{n+1}) Δθ of the hinges' applied torques: its sensitivity is carried through the steps
+  with the same quadrature (:func:`external_work_step`), δP = −(∂Q/∂π δπ + ∂Q/∂p)·u − Q·δu, δτ =
+  ∂τ/∂θ δθ + ∂τ/∂θ̇ δθ̇ + ∂τ/∂p; so it is exact for the computed solution. Static paths record no
+  external work (0): its derivative is 0.
+
+What is refused (:func:`refusal`, exit 2 naming ``solve.sensitivities``; under ``sensitivity_method:
+adjoint`` naming that key): energy and momentum probes with cables, guides, geometry parameters; the
+strain energy (and the total) with a hinge whose stiffness is a law (not a constant) or with
+compliant stops; the dissipated energy; the external work of a transient run with events, prescribed
+motion, controllers or a spring that is a law; all of them under the discrete adjoint.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from latdyn.assembly.native_model import NO_CONTACT
+from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
+from latdyn.errors import SceneError
+
+__all__ = ["is_energy_or_momentum", "refusal", "probe_derivatives", "external_work_step"]
+
+#: the recorded energies this module differentiates (the dissipated energy is not)
+_ENERGIES = ("kinetic", "strain", "potential", "external_work", "total")
+#: the energies each probe sums (SCENE.md: total = kinetic + strain + potential)
+_PARTS = {"kinetic": ("kinetic",), "strain": ("strain",), "potential": ("potential",),
+          "total": ("kinetic", "strain", "potential")}
+
+
+def is_energy_or_momentum(probe) -> bool:
+    """Whether ``probe`` is an energy or a momentum probe (this module's)."""
+    return probe.kind in ("energy", "momentum")
+
+
+def _constant(law) -> bool:
+    """Whether a hinge's stiffness (a number or a law) is a constant."""
+    return law is None or isinstance(law, (int, float)) or bool(getattr(law, "is_constant", False))
+
+
+def refusal(scene, probe) -> SceneError | None:
+    """The SceneError that refuses the sensitivities of the energy or momentum ``probe`` of ``scene``, or
+    None where they are exact here (module docstring: naming ``solve.sensitivity_method`` under the
+    adjoint, else ``solve.sensitivities``)."""
+    solve = scene.solve
+    what = f"probe {probe.name!r} ({probe.kind} {probe.quantity})"
+    if solve.sensitivity_method == "adjoint":
+        return SceneError(scene.file, "solve.sensitivity_method",
+                          f"{what}: the discrete adjoint is not seeded by energy and momentum probes yet; expected "
+                          "sensitivity_method: forward (the default) here (docs/parameters.md, \"Energies and momenta\")")
+    why = _why_not(scene, probe)
+    if why is None:
+        return None
+    return SceneError(scene.file, "solve.sensitivities",
+                      f"{what}: {why}; expected sensitivities only where they are exact (docs/parameters.md, "
+                      "\"Energies and momenta\")")
+
+
+def _why_not(scene, probe) -> str | None:
+    """Why the energy or momentum ``probe``'s sensitivities are not exact here, or None."""
+    quantity = probe.quantity
+    if probe.kind == "energy" and quantity not in _ENERGIES:
+        return f"the {quantity} energy is not differentiated yet (kinetic, strain, potential, external_work, total are)"
+    if scene.cables:
+        return "energy and momentum sensitivities with cables are not computed yet"
+    guided = [name for name, body in scene.bodies.items() if getattr(body, "guide", None) is not None]
+    if guided:
+        return f"energy and momentum sensitivities with guides (bodies.{guided[0]}.guide) are not computed yet"
+    for name in solve_names(scene):
+        used = next((u for u in scene.parameters.depending_on(name) if GEOMETRY_KEY.match(u)), None)
+        if used is not None:
+            return (f"parameter {name!r} places the structure ({used}): energy and momentum sensitivities by "
+                    "geometry parameters are not computed yet")
+    if probe.kind == "energy" and quantity in ("strain", "total"):
+        for beam, which, hinge in scene.hinges:
+            if not _constant(hinge.stiffness):
+                return (f"the spring of {beam}.{which} has a stiffness law: its potential's sensitivity is computed "
+                        "for a constant stiffness only")
+            if hinge.contact is not None:
+                return f"the compliant stops of {beam}.{which}: their potential's sensitivity is not computed yet"
+    if probe.kind == "energy" and quantity == "external_work" and scene.solve.analysis == "transient":
+        for beam, which, hinge in scene.hinges:
+            if hinge.lock_at is not None or hinge.limits is not None:
+                return (f"the external work through the events of {beam}.{which} (lock_at, limits) is not "
+                        "differentiated yet")
+            if hinge.angle is not None:
+                return f"the external work of a prescribed hinge angle ({beam}.{which}) is not differentiated yet"
+            if not _constant(hinge.stiffness):
+                return (f"the spring of {beam}.{which} has a stiffness law (its work counts as external work where "
+                        "it is not conservative): not differentiated yet")
+        if any(body.prescribed for body in scene.bodies.values()):
+            return "the external work of a prescribed motion (its drive's power) is not differentiated yet"
+        if getattr(scene, "controllers", None):
+            return "the external work with controllers is not differentiated yet"
+    return None
+
+
+def solve_names(scene) -> list:
+    """The parameters named by ``solve.sensitivities``."""
+    return list(scene.solve.sensitivities or ())
+
+
+# ---------------------------------------------------------------------- at a row
+def probe_derivatives(owner, probe, state, dx, dpi, dtheta, rates, body_key) -> list:
+    """The derivatives of the energy or momentum ``probe`` at ``state`` by every parameter of ``owner``
+    (a :class:`latdyn.analyses.sensitivities.ParameterDerivatives`), along (δx, δπ, δθ) of its
+    ``_by_parameter`` and the rates' (δv, δω, δθ̇) of ``_rates_by_parameter`` (``rates``; None on a static
+    path, whose states are at rest); ``body_key`` the pattern of a body's parameter keys. The external
+    work of a transient run is carried (:func:`external_work_step`): here only its value at the row,
+    ``owner.carried_work`` (0 on a static path, which records no external work)."""
+    k = len(owner.names)
+    if probe.kind == "energy" and probe.quantity == "external_work":
+        carried = getattr(owner, "carried_work", None)
+        return [float(v) for v in (np.zeros(k) if carried is None else carried)]
+    derivatives = _StateDerivatives.of(owner, body_key)(state, dx, dpi, dtheta, rates)
+    if probe.kind == "energy":
+        return [float(v) for v in sum(derivatives[part] for part in _PARTS[probe.quantity])]
+    which = derivatives["linear" if probe.quantity == "linear" else "angular"]
+    return [float(v) for v in which["xyz".index(probe.component)]]
+
+
+class _StateDerivatives:
+    """δT, δU, δV, δP, δH at a row (module docstring), all parameters at once; the last row's kept, so that
+    several energy and momentum probes of one row cost one evaluation."""
+
+    @classmethod
+    def of(cls, owner, body_key) -> "_StateDerivatives":
+        held = owner.__dict__.get("_energy_derivatives")
+        if held is None:
+            held = owner._energy_derivatives = cls(owner, body_key)
+        return held
+
+    def __init__(self, owner, body_key):
+        self.owner, self.body_key = owner, body_key
+        self.model, self.kernels = owner.model, owner.kernels
+        self._last = None
+
+    def __call__(self, state, dx, dpi, dtheta, rates) -> dict:
+        key = (id(state), id(dx), id(rates), float(state.t))
+        if self._last is not None and self._last[0] == key:
+            return self._last[1]
+        k = len(self.owner.names)
+        if rates is None:   # a static path: at rest, its rates' derivatives zero
+            rates = (np.zeros_like(dx), np.zeros_like(dpi), np.zeros_like(dtheta))
+        out = {"kinetic": np.zeros(k), "strain": np.zeros(k), "potential": np.zeros(k),
+               "linear": np.zeros((3, k)), "angular": np.zeros((3, k))}
+        if len(self.model.element_dofs):
+            self._elements(state, dx, dpi, dtheta, rates, out)
+        if len(self.model.body_nodes):
+            self._bodies(state, dx, dpi, rates, out)
+        if len(self.model.hinges):
+            self._hinges(state, dtheta, out)
+        self._last = (key, out)
+        return out
+
+    def _on_all(self, linear, angular, joint) -> np.ndarray:
+        """Node and hinge arrays (n_nodes, 3, k), (n_nodes, 3, k), (n_hinges, k) as columns on all
+        coordinates (n_total + 1, k), the dummy row (clamped ends) zero."""
+        model = self.model
+        full = np.zeros((model.n_total + 1, joint.shape[1] if joint.ndim == 2 else linear.shape[2]))
+        full[model.node_dofs[:, 0:3]] = linear
+        full[model.node_dofs[:, 3:6]] = angular
+        if len(model.hinges):
+            full[model.hinge_dofs] = joint
+        full[model.n_total] = 0.0
+        return full
+
+    def _elements(self, state, dx, dpi, dtheta, rates, out) -> None:
+        """The elements' terms (module docstring)."""
+        model, kernels, owner = self.model, self.kernels, self.owner
+        geometry, velocity, _ = owner.assembler.native().element_inputs(state)
+        sections = np.ascontiguousarray(model.element_sections)
+        E = len(geometry)
+        dq = self._on_all(dx, dpi, dtheta)[model.element_dofs]            # (E, 14, k)
+        dqdot = self._on_all(*rates)[model.element_dofs]                  # (E, 14, k)
+        zero = np.zeros((E, 14))
+        gravity = np.ascontiguousarray(np.repeat(np.asarray(owner.assembler.gravity, float)[None], E, axis=0))
+        # the generalized momentum f = M q̇ and its derivative by q at a = q̇: beam_inertia_tangent at zero velocity
+        momentum, tangent = (np.asarray(a) for a in kernels.beam_inertia_tangent(
+            geometry, zero, np.ascontiguousarray(velocity), sections, np.zeros((E, 3))))
+        momentum, tangent = momentum.reshape(E, 14), tangent.reshape(E, 14, 14)
+        mass = np.asarray(kernels.beam_mass_matrix(geometry, sections)[0]).reshape(E, 14, 14)
+        elastic = np.asarray(kernels.beam_internal_force(geometry, sections)[0]).reshape(E, 14)
+        weight = np.asarray(kernels.beam_gravity(geometry, sections, gravity)[0]).reshape(E, 14)
+        out["strain"] += np.einsum("ei,eik->k", elastic, dq)
+        out["potential"] -= np.einsum("ei,eik->k", weight, dq)
+        moved = np.einsum("eij,ejk->eik", tangent, dq)                   # [∂(M a)/∂q]_{a = q̇} δq
+        out["kinetic"] += np.einsum("ei,eik->k", momentum, dqdot) + 0.5 * np.einsum("ei,eik->k", velocity, moved)
+        dmomentum = np.einsum("eij,ejk->eik", mass, dqdot) + moved        # δf without ∂M/∂p
+        blocks = owner._section_derivative_blocks(state)
+        explicit = np.zeros((E, 14, dq.shape[2]))
+        if blocks is not None:   # the kernels with the section block replaced by its derivative (linear in it)
+            elements, column, rows = blocks
+            at, rate = geometry[elements], np.ascontiguousarray(velocity[elements])
+            np.add.at(out["strain"], column, np.asarray(kernels.beam_strain_energy(at, rows)[0]).reshape(-1))
+            np.add.at(out["kinetic"], column, np.asarray(kernels.beam_kinetic_energy(at, rate, rows)[0]).reshape(-1))
+            np.add.at(out["potential"], column,
+                      np.asarray(kernels.beam_gravity(at, rows, gravity[elements])[1]).reshape(-1))
+            by_mass = np.asarray(kernels.beam_mass_matrix(at, rows)[0]).reshape(-1, 14, 14)
+            np.add.at(explicit, (elements, slice(None), column), np.einsum("eij,ej->ei", by_mass, rate))
+        dmomentum += explicit
+        ends = (geometry[:, 0:3], geometry[:, 3:6])
+        for end, (x, first) in enumerate(zip(ends, (0, 7))):
+            f, df = momentum[:, first:first + 3], dmomentum[:, first:first + 3]
+            out["linear"] += df.sum(axis=0)
+            out["angular"] += (np.cross(x[:, :, None], df, axisa=1, axisb=1, axisc=1)
+                               - np.cross(f[:, :, None], dq[:, first:first + 3], axisa=1, axisb=1, axisc=1)
+                               + dmomentum[:, first + 3:first + 6]).sum(axis=0)
+
+    def _bodies(self, state, dx, dpi, rates, out) -> None:
+        """The joint bodies' terms (module docstring)."""
+        model, kernels, owner = self.model, self.kernels, self.owner
+        nodes = model.body_nodes
+        B = len(nodes)
+        frames = np.ascontiguousarray(state.T[nodes].reshape(B, 9))
+        u = np.concatenate([state.v[nodes], state.w[nodes]], axis=1)                       # (B, 6)
+        moving = np.ascontiguousarray(np.concatenate([np.zeros((B, 3)), u], axis=1))       # (ω, a, α) = (0, v, ω)
+        block = np.ascontiguousarray(np.concatenate([model.body_mass[:, None], model.body_com,
+                                                     model.body_inertia.reshape(B, 9)], axis=1))
+        gravity = np.ascontiguousarray(np.repeat(np.asarray(owner.assembler.gravity, float)[None], B, axis=0))
+        still, free_fall = np.zeros((B, 9)), np.zeros((B, 3))
+
+        def momentum_of(body_block):   # f = M_b u (B, 6), M_b the kernel's mass block
+            return np.asarray(kernels.joint_body(frames, moving, np.ascontiguousarray(body_block), free_fall)[0]
+                              ).reshape(B, 6)
+
+        def weight_of(body_block):     # Q = −[W; T c × W] (B, 6)
+            return np.asarray(kernels.joint_body(frames, still, np.ascontiguousarray(body_block), gravity)[0]
+                              ).reshape(B, 6)
+
+        f = momentum_of(block)
+        mass = np.asarray(kernels.joint_body(frames, moving, block, free_fall)[1]).reshape(B, 6, 6)
+        stiffness = np.asarray(kernels.joint_body_inertia_stiffness(frames, moving, block, free_fall)[0]).reshape(B, 6, 6)
+        weight = weight_of(block)
+        dpose = np.concatenate([dx[nodes], dpi[nodes]], axis=1)                            # (B, 6, k)
+        du = np.concatenate([rates[0][nodes], rates[1][nodes]], axis=1)                    # (B, 6, k)
+        moved = np.einsum("bij,bjk->bik", stiffness, dpose)
+        out["kinetic"] += np.einsum("bi,bik->k", f, du) + 0.5 * np.einsum("bi,bik->k", u, moved)
+        out["potential"] += np.einsum("bi,bik->k", weight, dpose)
+        df = np.einsum("bij,bjk->bik", mass, du) + moved
+        k = dpose.shape[2]
+        explicit, potential = np.zeros((B, 6, k)), np.zeros(k)
+        for key, laws in owner.derivatives.items():
+            body = self.body_key.match(key)
+            if not body:
+                continue
+            b = int(np.flatnonzero(nodes == model.body_node[body["body"]])[0])
+            for column, law in laws.items():
+                value = law.value(0.0, 0.0, state.t)
+                changed = np.zeros_like(block)
+                if body["mass"]:              # linear in m at a fixed c
+                    changed[b, 0], changed[b, 1:4] = value, model.body_com[b]
+                    explicit[:, :, column] += momentum_of(changed)
+                    point = state.x[nodes[b]] + state.T[nodes[b]] @ model.body_com[b]
+                    potential[column] += weight_of(changed)[b, 0:3] @ point
+                elif body["inertia"]:         # inertia[i] (the diagonal) or inertia[i][j] (symmetrised)
+                    i, j = int(body["row"]), int(body["col"] if body["col"] is not None else body["row"])
+                    step = np.zeros((3, 3))
+                    step[i, j] += 0.5 * value
+                    step[j, i] += 0.5 * value
+                    changed[b, 1:4], changed[b, 4:13] = model.body_com[b], step.reshape(9)
+                    explicit[:, :, column] += momentum_of(changed)
+                else:                         # quadratic in c: the central difference is exact
+                    along = np.zeros(3)
+                    along[int(body["com"])] = value
+                    ahead, behind = block.copy(), block.copy()
+                    ahead[b, 1:4] += along
+                    behind[b, 1:4] -= along
+                    explicit[:, :, column] += 0.5 * (momentum_of(ahead) - momentum_of(behind))
+                    potential[column] += weight[b, 0:3] @ (state.T[nodes[b]] @ along)
+        out["kinetic"] += 0.5 * np.einsum("bi,bik->k", u, explicit)
+        out["potential"] += potential
+        df += explicit
+        x = state.x[nodes]
+        out["linear"] += df[:, 0:3].sum(axis=0)
+        out["angular"] += (np.cross(x[:, :, None], df[:, 0:3], axisa=1, axisb=1, axisc=1)
+                           - np.cross(f[:, 0:3, None], dpose[:, 0:3], axisa=1, axisb=1, axisc=1)
+                           + df[:, 3:6]).sum(axis=0)
+
+    def _hinges(self, state, dtheta, out) -> None:
+        """The hinge springs' potential ½ k s² (constant k: :func:`refusal`), from ``hinge_force``'s spring torque."""
+        model, owner = self.model, self.owner
+        H = len(model.hinges)
+        rest = np.array([h.rest_angle for h in model.hinges], float)
+        stiffness = np.array([h.stiffness.value(float(state.theta[j]), 0.0, state.t)
+                              for j, h in enumerate(model.hinges)], float)
+        spring = self._spring_torques(state.theta, rest, stiffness)                         # k s
+        out["strain"] += spring @ dtheta
+        s = np.asarray(state.theta, float) - rest
+        for key, laws in owner.derivatives.items():
+            _, hinge = owner._key_kinds(key)
+            if not hinge or hinge["law"] not in ("stiffness", "rest_angle") or hinge["end"] == "guide":
+                continue
+            j = model.hinge_index(hinge["beam"], hinge["end"])
+            for column, law in laws.items():
+                value = law.value(float(state.theta[j]), float(state.theta_dot[j]), state.t)
+                if hinge["law"] == "stiffness":   # ½ (∂k/∂p) s²: the spring torque of ∂k/∂p, times ½ s
+                    by = np.zeros(H)
+                    by[j] = value
+                    out["strain"][column] += 0.5 * s[j] * self._spring_torques(state.theta, rest, by)[j]
+                else:                              # ∂(½ k s²)/∂θ_r = −k s
+                    out["strain"][column] -= spring[j] * value
+
+    def _spring_torques(self, theta, rest, stiffness) -> np.ndarray:
+        """k s of every hinge (the generated ``hinge_force``'s spring torque, without contact)."""
+        H = len(rest)
+        at = np.column_stack([np.asarray(theta, float), np.zeros(H), rest, np.zeros(H)])
+        laws = np.zeros((H, 9))
+        laws[:, 0] = stiffness
+        return np.asarray(self.kernels.hinge_force(np.ascontiguousarray(at), laws,
+                                                   np.ascontiguousarray(np.tile(NO_CONTACT, (H, 1))))[3]).reshape(H)
+
+
+# ---------------------------------------------------------------------- the external work, carried
+def external_work_step(owner, before: dict, after: dict, old, new, h: float) -> dict:
+    """``after`` (the carried sensitivities at the end of the accepted step ``old`` → ``new`` of size ``h``)
+    with the external work's sensitivity carried on by the loop's own quadrature (module docstring):
+    δW_{n+1} = δW_n + ½ h (δP_n + δP_{n+1}) + ½ δh (P_n + P_{n+1}) + Σ_j ½ (δτ_n + δτ_{n+1}) Δθ
+    + ½ (τ_n + τ_{n+1}) (δθ_{n+1} − δθ_n), ``before`` the carried sensitivities at ``old``. Nothing without
+    an external-work probe."""
+    if not any(p.kind == "energy" and p.quantity == "external_work" for p in owner.probes):
+        return after
+    k = len(owner.names)
+    work = before.get("external_work_sensitivity", np.zeros(k))
+    power_old, dpower_old, torque_old, dtorque_old, dtheta_old = _power(owner, old, before)
+    power_new, dpower_new, torque_new, dtorque_new, dtheta_new = _power(owner, new, after)
+    turned = np.asarray(new.theta, float) - np.asarray(old.theta, float)
+    work = (work + 0.5 * h * (dpower_old + dpower_new) + 0.5 * np.asarray(after["dh"]) * (power_old + power_new)
+            + 0.5 * turned @ (dtorque_old + dtorque_new) + 0.5 * (torque_old + torque_new) @ (dtheta_new - dtheta_old))
+    return {**after, "external_work_sensitivity": work}
+
+
+def _power(owner, state, carried: dict):
+    """(P, δP (k,), τ (hinges,), δτ (hinges, k), δθ (hinges, k)) at ``state`` along ``carried``'s δq, δv:
+    the point loads' power P = −Q·u and its derivative, the hinges' applied torques and theirs."""
+    model, kernels = owner.model, owner.kernels
+    k = len(owner.names)
+    dx, dpi, dtheta = owner._by_parameter(carried["dq"], state)
+    dv, dw, dtheta_dot = owner._rates_by_parameter(carried["dv"])
+    power, dpower = 0.0, np.zeros(k)
+    loads = owner.scene.loads
+    if len(loads):
+        node, offset, frame = owner._load_points()
+        L = len(loads)
+
+        def value(law):
+            return float(law.value(state.t)) if hasattr(law, "value") else float(law)
+
+        values = np.array([[value(c) for c in (load.force or [0.0] * 3)] + [value(c) for c in (load.moment or [0.0] * 3)]
+                           for load in loads], float)
+        follower = frame >= 0
+        frames = np.where(follower[:, None, None], state.T[np.maximum(frame, 0)], np.eye(3))
+        u = np.concatenate([state.v[node], state.w[node]], axis=1)                          # (L, 6)
+        force, load_power, by_node, by_frame = (np.asarray(a) for a in kernels.point_load(
+            np.ascontiguousarray(state.T[node].reshape(L, 9)), np.ascontiguousarray(offset), values,
+            np.ascontiguousarray(frames.reshape(L, 9)), np.ascontiguousarray(u)))
+        force, by_node, by_frame = force.reshape(L, 6), by_node.reshape(L, 6, 3), by_frame.reshape(L, 6, 3)
+        power = float(np.sum(load_power))
+        dforce = np.einsum("lij,ljk->lik", by_node, dpi[node])
+        dforce += np.where(follower[:, None, None], np.einsum("lij,ljk->lik", by_frame, dpi[np.maximum(frame, 0)]), 0.0)
+        du = np.concatenate([dv[node], dw[node]], axis=1)                                   # (L, 6, k)
+        dpower -= np.einsum("lik,li->k", dforce, u) + np.einsum("li,lik->k", force, du)
+        pairs, columns, place, laws = owner._load_layout()
+        if len(pairs):   # ∂Q/∂p: the kernel with the values' derivatives (linear in them)
+            moved = np.zeros((len(pairs), 6))
+            moved[place] = np.array([owner._of_time(law, state.t) for law in laws])
+            nodes, forces = owner._load_forces(state, pairs, moved)
+            np.add.at(dpower, columns, -np.einsum("li,li->l", forces, u[pairs]))
+    H = len(model.hinges)
+    torque, dtorque = np.zeros(H), np.zeros((H, k))
+    for j, hinge in enumerate(model.hinges):
+        if hinge.torque is None:
+            continue
+        theta, rate = float(state.theta[j]), float(state.theta_dot[j])
+        torque[j] = hinge.torque.value(theta, rate, state.t)
+        dtorque[j] = hinge.torque.d_theta(theta, rate, state.t) * dtheta[j] \
+            + hinge.torque.d_rate(theta, rate, state.t) * dtheta_dot[j]
+    for key, laws in owner.derivatives.items():
+        _, hinge = owner._key_kinds(key)
+        if not hinge or hinge["law"] != "torque" or hinge["end"] == "guide":
+            continue
+        j = model.hinge_index(hinge["beam"], hinge["end"])
+        for column, law in laws.items():
+            dtorque[j, column] += law.value(float(state.theta[j]), float(state.theta_dot[j]), state.t)
+    return power, dpower, torque, dtorque, dtheta
