@@ -787,8 +787,8 @@ class StaticSensitivities(ParameterDerivatives):
             if self.geometry is not None:
                 self._append_row(state, load_factor, self.geometry.initial_tangent(), np.zeros(k))
                 return
-            self.rows.append((load_factor, [0.0] * len(self.columns)))
-            self.load_factor_rows.append([0.0] * k)
+            # positions and angles do not move; energies may, explicitly (latdyn/analyses/energy_sensitivities.py)
+            self._append_row(state, load_factor, np.zeros((model.n_dofs, k)), np.zeros(k))
             return
         ev = self.assembler.evaluate(state, matrices=True, load_factor=load_factor, inertia=False)
         rhs = -self.residual_derivatives(state, load_factor)
