@@ -18,6 +18,9 @@ import latdyn
 from latdyn.errors import SceneError
 from latdyn.results.result import Result
 from tests.cli_runs import latdyn_run
+from tests.test_sensitivities_events import LATCH_PLANAR
+from tests.test_sensitivities_events import _agree as latch_agree
+from tests.test_sensitivities_events import _run as latch_run
 from tests.test_sensitivities_transient import _agree, _run
 
 ENERGY_PROBES = """
@@ -120,6 +123,24 @@ def test_3d_energy_and_momentum_sensitivities_without_rotary_inertia_from_rest_a
     """Directions without inertia (the beams' twist), from rest."""
     _agree(_run(FROM_REST_3D.replace("sensitivities: [F, k, c, th0, tau, EI, G, rho, m, cx, J]",
                                      "sensitivities: [F, G, rho, J]")), FROM_REST_3D, name, 1e-6)
+
+
+@pytest.mark.parametrize("name", ["k", "m"])
+def test_energy_and_momentum_sensitivities_through_a_latch_agree(name):
+    """The planar arm swung open by its spring until its hinge latches (the kinetic energy and the
+    momenta jump there): measured ≤ 6.8e-8 of each probe's largest sensitivity for k, c, EI, rho, m; the
+    3D wheel's latch and stop with restitution (tests/test_sensitivities_events.py) ≤ 1e-6 alike, in the
+    closing note's measurements."""
+    text = LATCH_PLANAR + """    kinetic: {energy: kinetic}
+    strain: {energy: strain}
+    total: {energy: total}
+    hz: {momentum: angular, component: z}
+    px: {momentum: linear, component: x}
+    py: {momentum: linear, component: y}
+"""
+    result = latch_run(text)
+    assert [e["kind"] for e in result.summary["events"]] == ["latch"]
+    latch_agree(result, text, name)
 
 
 @pytest.mark.parametrize("name", ["F", "k", "th0", "EI", "rho", "m", "cx"])
