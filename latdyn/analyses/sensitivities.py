@@ -60,7 +60,8 @@ values of shear-rigid sections (formulation default), body masses, centres of ma
 compliant stops' laws and, in transient runs, initial velocities, controllers' outputs and states' rates,
 guides' laws and cables' EA, damping, rest length and rhoA; probes other than point positions and displacements in the
 global frame, hinge angles and guide positions and, in transient runs, rates, point velocities and joint forces
-(latdyn/analyses/joint_force_sensitivities.py); rigid links; in static paths hinges with limits or
+(latdyn/analyses/joint_force_sensitivities.py), and energies and momenta where
+latdyn/analyses/energy_sensitivities.py refuses them; rigid links; in static paths hinges with limits or
 ``lock_at`` (events; transient runs differentiate latches and stops: latdyn/analyses/transient_sensitivities.py). Under gravity the static
 Newton matrix K − λ ∂Q/∂q holds the beams' gravity tangent (the generated ``beam_gravity_D_q``), so
 beams with mass are differentiated exactly there too. docs/parameters.md.

@@ -735,7 +735,8 @@ class TransientSensitivities(ParameterDerivatives):
     def record(self, carried: dict, state) -> dict:
         """``carried`` with the row of every probe's sensitivity at ``state`` (a new list of rows), all
         parameters at once: a point x + T r moves by δx + δπ × T r, a hinge angle by δθ, rates by the
-        carried δv (:meth:`_probe_derivatives`), a joint's force by its law's or its reaction's derivative
+        carried δv (:meth:`_probe_derivatives`), energies and momenta along δq, δv and the external work as
+        :meth:`step` carried it (latdyn/analyses/energy_sensitivities.py), a joint's force by its law's or its reaction's derivative
         along (δq, δv, δv̇) (latdyn/analyses/joint_force_sensitivities.py)."""
         dx, dpi, dtheta = self._by_parameter(carried["dq"], state)
         rates = (self._rates_by_parameter(carried["dv"])
