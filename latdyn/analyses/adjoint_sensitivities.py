@@ -49,8 +49,10 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from latdyn.analyses.energy_sensitivities import is_energy_or_momentum
+from latdyn.analyses.energy_sensitivities import probe_forms as energy_probe_forms
 from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_force_forms, joint_of
-from latdyn.analyses.sensitivities import SENSITIVITIES_FILE
+from latdyn.analyses.sensitivities import _BODY_KEY, SENSITIVITIES_FILE
 from latdyn.analyses.transient_sensitivities import TransientSensitivities, _NodeRotations
 from latdyn.assembly.assembler import free_velocity
 from latdyn.assembly.factorization import solve_linear
@@ -127,6 +129,9 @@ class AdjointSensitivities(TransientSensitivities):
         if is_joint_force(probe):
             j = joint_of(self.model, probe)
             return joint_force_forms(self, state, [j])[j]
+        if is_energy_or_momentum(probe):   # latdyn/analyses/energy_sensitivities.py
+            c_q, c_v, explicit = energy_probe_forms(self, probe, state, _BODY_KEY)
+            return c_q, c_v, np.zeros_like(c_q), explicit
         c_q, c_v = self.output_gradient(probe, state)
         return c_q, c_v, np.zeros_like(c_q), np.zeros(len(self.names))
 

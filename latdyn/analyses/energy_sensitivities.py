@@ -34,11 +34,16 @@ latdyn_momentum, csrc/rows.c), never from differences:
   ∂τ/∂θ δθ + ∂τ/∂θ̇ δθ̇ + ∂τ/∂p; so it is exact for the computed solution. Static paths record no
   external work (0): its derivative is 0.
 
+Each energy and momentum of a row is held as its forms (:class:`_StateForms`): the gradient rows c_q, c_v on
+all coordinates and the explicit derivative, the scatter of the kernels' element and body blocks (δx × f
+as −skew(f) δx), so that the forward method contracts them with δq, δq̇ (:func:`probe_derivatives`) and the
+discrete adjoint seeds its rows with them (:func:`probe_forms`).
+
 What is refused (:func:`refusal`, exit 2 naming ``solve.sensitivities``; under ``sensitivity_method:
 adjoint`` naming that key): energy and momentum probes with cables, guides, geometry parameters; the
 strain energy (and the total) with a hinge whose stiffness is a law (not a constant) or with
 compliant stops; the dissipated energy; the external work of a transient run with events, prescribed
-motion, controllers or a spring that is a law; all of them under the discrete adjoint.
+motion, controllers or a spring that is a law, and under the discrete adjoint.
 """
 from __future__ import annotations
 
@@ -48,7 +53,7 @@ from latdyn.assembly.native_model import NO_CONTACT
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
 from latdyn.errors import SceneError
 
-__all__ = ["is_energy_or_momentum", "refusal", "probe_derivatives", "external_work_step"]
+__all__ = ["is_energy_or_momentum", "refusal", "probe_derivatives", "probe_forms", "external_work_step"]
 
 #: the recorded energies this module differentiates (the dissipated energy is not)
 _ENERGIES = ("kinetic", "strain", "potential", "external_work", "total")
@@ -73,10 +78,11 @@ def refusal(scene, probe) -> SceneError | None:
     adjoint, else ``solve.sensitivities``)."""
     solve = scene.solve
     what = f"probe {probe.name!r} ({probe.kind} {probe.quantity})"
-    if solve.sensitivity_method == "adjoint":
+    if solve.sensitivity_method == "adjoint" and probe.quantity in ("external_work", "dissipated"):
         return SceneError(scene.file, "solve.sensitivity_method",
-                          f"{what}: the discrete adjoint is not seeded by energy and momentum probes yet; expected "
-                          "sensitivity_method: forward (the default) here (docs/parameters.md, \"Energies and momenta\")")
+                          f"{what}: the discrete adjoint is seeded by a row's energies and momenta, not by the "
+                          "external work (a sum over the steps) yet; expected sensitivity_method: forward (the "
+                          "default) here (docs/parameters.md, \"Energies and momenta\")")
     why = _why_not(scene, probe)
     if why is None:
         return None
@@ -134,29 +140,65 @@ def probe_derivatives(owner, probe, state, dx, dpi, dtheta, rates, body_key) -> 
     """The derivatives of the energy or momentum ``probe`` at ``state`` by every parameter of ``owner``
     (a :class:`latdyn.analyses.sensitivities.ParameterDerivatives`), along (δx, δπ, δθ) of its
     ``_by_parameter`` and the rates' (δv, δω, δθ̇) of ``_rates_by_parameter`` (``rates``; None on a static
-    path, whose states are at rest); ``body_key`` the pattern of a body's parameter keys. The external
-    work of a transient run is carried (:func:`external_work_step`): here only its value at the row,
-    ``owner.carried_work`` (0 on a static path, which records no external work)."""
+    path, whose states are at rest): c_q·δq + c_v·δq̇ + ∂/∂p (:func:`probe_forms`); ``body_key`` the pattern of
+    a body's parameter keys. The external work of a transient run is carried (:func:`external_work_step`):
+    here only its value at the row, ``owner.carried_work`` (0 on a static path, which records no external work)."""
     k = len(owner.names)
     if probe.kind == "energy" and probe.quantity == "external_work":
         carried = getattr(owner, "carried_work", None)
         return [float(v) for v in (np.zeros(k) if carried is None else carried)]
-    derivatives = _StateDerivatives.of(owner, body_key)(state, dx, dpi, dtheta, rates)
-    if probe.kind == "energy":
-        return [float(v) for v in sum(derivatives[part] for part in _PARTS[probe.quantity])]
-    which = derivatives["linear" if probe.quantity == "linear" else "angular"]
-    return [float(v) for v in which["xyz".index(probe.component)]]
+    forms = _StateForms.of(owner, body_key)
+    by_q, by_rates, explicit = forms(state)
+    row = _QUANTITIES.index(_quantity(probe)) if probe.kind == "momentum" else None
+    rows = [row] if row is not None else [_QUANTITIES.index(part) for part in _PARTS[probe.quantity]]
+    moved = explicit[rows].sum(axis=0) + by_q[rows].sum(axis=0) @ forms.on_all(dx, dpi, dtheta)
+    if rates is not None:
+        moved = moved + by_rates[rows].sum(axis=0) @ forms.on_all(*rates)
+    return [float(v) for v in moved]
 
 
-class _StateDerivatives:
-    """δT, δU, δV, δP, δH at a row (module docstring), all parameters at once; the last row's kept, so that
-    several energy and momentum probes of one row cost one evaluation."""
+def probe_forms(owner, probe, state, body_key) -> tuple:
+    """(c_q, c_v (n,) on the free coordinates, explicit (k,)): the energy or momentum ``probe``'s derivative at
+    ``state`` is c_qᵀδq + c_vᵀδv + explicit — what the discrete adjoint seeds at its row
+    (latdyn/analyses/adjoint_sensitivities.py ``output_forms``; the external work, a sum over the steps, is
+    refused there: :func:`refusal`)."""
+    forms = _StateForms.of(owner, body_key)
+    by_q, by_rates, explicit = forms(state)
+    rows = ([_QUANTITIES.index(_quantity(probe))] if probe.kind == "momentum"
+            else [_QUANTITIES.index(part) for part in _PARTS[probe.quantity]])
+    n = owner.model.n_dofs
+    return by_q[rows].sum(axis=0)[:n], by_rates[rows].sum(axis=0)[:n], explicit[rows].sum(axis=0)
+
+
+#: the rows of :class:`_StateForms`: the three energies and the momenta's components
+_QUANTITIES = ("kinetic", "strain", "potential", "linear_x", "linear_y", "linear_z",
+               "angular_x", "angular_y", "angular_z")
+
+
+def _quantity(probe) -> str:
+    """A momentum probe's row of :data:`_QUANTITIES`."""
+    return f"{probe.quantity}_{probe.component}"
+
+
+def _skew(x: np.ndarray) -> np.ndarray:
+    """skew(x) (…, 3, 3), skew(x) y = x × y, of vectors x (…, 3)."""
+    out = np.zeros(x.shape[:-1] + (3, 3))
+    out[..., 0, 1], out[..., 0, 2], out[..., 1, 2] = -x[..., 2], x[..., 1], -x[..., 0]
+    out[..., 1, 0], out[..., 2, 0], out[..., 2, 1] = x[..., 2], -x[..., 1], x[..., 0]
+    return out
+
+
+class _StateForms:
+    """The energies' and momenta's derivative forms at a row (module docstring): for each of
+    :data:`_QUANTITIES` its gradient by the coordinates c_q and by the rates c_v, on all coordinates
+    (n_total + 1; a clamped end's dummy row and the constrained rows multiply zeros), and its explicit
+    derivative by every parameter; the last row's kept, so that several probes of one row cost one evaluation."""
 
     @classmethod
-    def of(cls, owner, body_key) -> "_StateDerivatives":
-        held = owner.__dict__.get("_energy_derivatives")
+    def of(cls, owner, body_key) -> "_StateForms":
+        held = owner.__dict__.get("_energy_forms")
         if held is None:
-            held = owner._energy_derivatives = cls(owner, body_key)
+            held = owner._energy_forms = cls(owner, body_key)
         return held
 
     def __init__(self, owner, body_key):
@@ -164,29 +206,11 @@ class _StateDerivatives:
         self.model, self.kernels = owner.model, owner.kernels
         self._last = None
 
-    def __call__(self, state, dx, dpi, dtheta, rates) -> dict:
-        key = (id(state), id(dx), id(rates), float(state.t))
-        if self._last is not None and self._last[0] == key:
-            return self._last[1]
-        k = len(self.owner.names)
-        if rates is None:   # a static path: at rest, its rates' derivatives zero
-            rates = (np.zeros_like(dx), np.zeros_like(dpi), np.zeros_like(dtheta))
-        out = {"kinetic": np.zeros(k), "strain": np.zeros(k), "potential": np.zeros(k),
-               "linear": np.zeros((3, k)), "angular": np.zeros((3, k))}
-        if len(self.model.element_dofs):
-            self._elements(state, dx, dpi, dtheta, rates, out)
-        if len(self.model.body_nodes):
-            self._bodies(state, dx, dpi, rates, out)
-        if len(self.model.hinges):
-            self._hinges(state, dtheta, out)
-        self._last = (key, out)
-        return out
-
-    def _on_all(self, linear, angular, joint) -> np.ndarray:
-        """Node and hinge arrays (n_nodes, 3, k), (n_nodes, 3, k), (n_hinges, k) as columns on all
-        coordinates (n_total + 1, k), the dummy row (clamped ends) zero."""
+    def on_all(self, linear, angular, joint) -> np.ndarray:
+        """Node and hinge arrays (n_nodes, 3, k), (n_nodes, 3, k), (n_hinges, k) as columns on all coordinates
+        (n_total + 1, k), the dummy row zero."""
         model = self.model
-        full = np.zeros((model.n_total + 1, joint.shape[1] if joint.ndim == 2 else linear.shape[2]))
+        full = np.zeros((model.n_total + 1, linear.shape[2]))
         full[model.node_dofs[:, 0:3]] = linear
         full[model.node_dofs[:, 3:6]] = angular
         if len(model.hinges):
@@ -194,53 +218,81 @@ class _StateDerivatives:
         full[model.n_total] = 0.0
         return full
 
-    def _elements(self, state, dx, dpi, dtheta, rates, out) -> None:
-        """The elements' terms (module docstring)."""
+    def __call__(self, state) -> tuple:
+        """(c_q (9, n_total + 1), c_v (9, n_total + 1), explicit (9, k)) at ``state``."""
+        key = (state.t, state.x.tobytes(), state.T.tobytes(), state.theta.tobytes(), state.v.tobytes(),
+               state.w.tobytes(), state.theta_dot.tobytes())
+        if self._last is not None and self._last[0] == key:
+            return self._last[1]
+        model = self.model
+        size = (len(_QUANTITIES), model.n_total + 1)
+        forms = (np.zeros(size), np.zeros(size), np.zeros((len(_QUANTITIES), len(self.owner.names))))
+        if len(model.element_dofs):
+            self._elements(state, *forms)
+        if len(model.body_nodes):
+            self._bodies(state, *forms)
+        if len(model.hinges):
+            self._hinges(state, *forms)
+        self._last = (key, forms)
+        return forms
+
+    @staticmethod
+    def _momenta(by_q, by_rates, dofs, f, moved_by_q, moved_by_rates, ends) -> None:
+        """Add P and H's forms of items whose generalized momentum is f (m, w) with δf = (moved_by_rates)
+        δq̇ + (moved_by_q) δq (m, w, w) into ``by_q``, ``by_rates`` on ``dofs`` (m, w): at each end
+        (first slot, x (m, 3)) of ``ends``, P += f[first:first+3], H += x × f[first:first+3] + f[first+3:first+6],
+        δH adds δx × f_translation = −skew(f_translation) δx."""
+        for first, at in ends:
+            turn = _skew(at)                                                               # (m, 3, 3)
+            for c in range(3):
+                lin, ang = 3 + c, 6 + c
+                for target, moved in ((by_rates, moved_by_rates), (by_q, moved_by_q)):
+                    np.add.at(target[lin], dofs, moved[:, first + c])
+                    np.add.at(target[ang], dofs, np.einsum("mj,mjw->mw", turn[:, c], moved[:, first:first + 3])
+                              + moved[:, first + 3 + c])
+                np.add.at(by_q[ang], dofs[:, first:first + 3], -_skew(f[:, first:first + 3])[:, c])
+
+    def _elements(self, state, by_q, by_rates, explicit) -> None:
+        """The elements' forms (module docstring)."""
         model, kernels, owner = self.model, self.kernels, self.owner
         geometry, velocity, _ = owner.assembler.native().element_inputs(state)
+        velocity = np.ascontiguousarray(velocity)
         sections = np.ascontiguousarray(model.element_sections)
-        E = len(geometry)
-        dq = self._on_all(dx, dpi, dtheta)[model.element_dofs]            # (E, 14, k)
-        dqdot = self._on_all(*rates)[model.element_dofs]                  # (E, 14, k)
-        zero = np.zeros((E, 14))
+        E, dofs = len(geometry), model.element_dofs
         gravity = np.ascontiguousarray(np.repeat(np.asarray(owner.assembler.gravity, float)[None], E, axis=0))
         # the generalized momentum f = M q̇ and its derivative by q at a = q̇: beam_inertia_tangent at zero velocity
         momentum, tangent = (np.asarray(a) for a in kernels.beam_inertia_tangent(
-            geometry, zero, np.ascontiguousarray(velocity), sections, np.zeros((E, 3))))
+            geometry, np.zeros((E, 14)), velocity, sections, np.zeros((E, 3))))
         momentum, tangent = momentum.reshape(E, 14), tangent.reshape(E, 14, 14)
         mass = np.asarray(kernels.beam_mass_matrix(geometry, sections)[0]).reshape(E, 14, 14)
-        elastic = np.asarray(kernels.beam_internal_force(geometry, sections)[0]).reshape(E, 14)
-        weight = np.asarray(kernels.beam_gravity(geometry, sections, gravity)[0]).reshape(E, 14)
-        out["strain"] += np.einsum("ei,eik->k", elastic, dq)
-        out["potential"] -= np.einsum("ei,eik->k", weight, dq)
-        moved = np.einsum("eij,ejk->eik", tangent, dq)                   # [∂(M a)/∂q]_{a = q̇} δq
-        out["kinetic"] += np.einsum("ei,eik->k", momentum, dqdot) + 0.5 * np.einsum("ei,eik->k", velocity, moved)
-        dmomentum = np.einsum("eij,ejk->eik", mass, dqdot) + moved        # δf without ∂M/∂p
+        np.add.at(by_q[1], dofs, np.asarray(kernels.beam_internal_force(geometry, sections)[0]).reshape(E, 14))
+        np.add.at(by_q[2], dofs, -np.asarray(kernels.beam_gravity(geometry, sections, gravity)[0]).reshape(E, 14))
+        np.add.at(by_rates[0], dofs, momentum)
+        np.add.at(by_q[0], dofs, 0.5 * np.einsum("ei,eij->ej", velocity, tangent))
+        self._momenta(by_q, by_rates, dofs, momentum, tangent, mass,
+                      ((0, geometry[:, 0:3]), (7, geometry[:, 3:6])))
         blocks = owner._section_derivative_blocks(state)
-        explicit = np.zeros((E, 14, dq.shape[2]))
-        if blocks is not None:   # the kernels with the section block replaced by its derivative (linear in it)
-            elements, column, rows = blocks
-            at, rate = geometry[elements], np.ascontiguousarray(velocity[elements])
-            np.add.at(out["strain"], column, np.asarray(kernels.beam_strain_energy(at, rows)[0]).reshape(-1))
-            np.add.at(out["kinetic"], column, np.asarray(kernels.beam_kinetic_energy(at, rate, rows)[0]).reshape(-1))
-            np.add.at(out["potential"], column,
-                      np.asarray(kernels.beam_gravity(at, rows, gravity[elements])[1]).reshape(-1))
-            by_mass = np.asarray(kernels.beam_mass_matrix(at, rows)[0]).reshape(-1, 14, 14)
-            np.add.at(explicit, (elements, slice(None), column), np.einsum("eij,ej->ei", by_mass, rate))
-        dmomentum += explicit
-        ends = (geometry[:, 0:3], geometry[:, 3:6])
-        for end, (x, first) in enumerate(zip(ends, (0, 7))):
-            f, df = momentum[:, first:first + 3], dmomentum[:, first:first + 3]
-            out["linear"] += df.sum(axis=0)
-            out["angular"] += (np.cross(x[:, :, None], df, axisa=1, axisb=1, axisc=1)
-                               - np.cross(f[:, :, None], dq[:, first:first + 3], axisa=1, axisb=1, axisc=1)
-                               + dmomentum[:, first + 3:first + 6]).sum(axis=0)
+        if blocks is None:
+            return
+        # the kernels with the section block replaced by its derivative (linear in it)
+        elements, column, rows = blocks
+        at, rate = geometry[elements], velocity[elements]
+        np.add.at(explicit[1], column, np.asarray(kernels.beam_strain_energy(at, rows)[0]).reshape(-1))
+        np.add.at(explicit[0], column, np.asarray(kernels.beam_kinetic_energy(at, rate, rows)[0]).reshape(-1))
+        np.add.at(explicit[2], column, np.asarray(kernels.beam_gravity(at, rows, gravity[elements])[1]).reshape(-1))
+        moved = np.einsum("eij,ej->ei", np.asarray(kernels.beam_mass_matrix(at, rows)[0]).reshape(-1, 14, 14), rate)
+        for first, x in ((0, at[:, 0:3]), (7, at[:, 3:6])):
+            lin = moved[:, first:first + 3]
+            turned = np.cross(x, lin) + moved[:, first + 3:first + 6]
+            for c in range(3):
+                np.add.at(explicit[3 + c], column, lin[:, c])
+                np.add.at(explicit[6 + c], column, turned[:, c])
 
-    def _bodies(self, state, dx, dpi, rates, out) -> None:
-        """The joint bodies' terms (module docstring)."""
+    def _bodies(self, state, by_q, by_rates, explicit) -> None:
+        """The joint bodies' forms (module docstring)."""
         model, kernels, owner = self.model, self.kernels, self.owner
         nodes = model.body_nodes
-        B = len(nodes)
+        B, dofs = len(nodes), model.node_dofs[nodes]
         frames = np.ascontiguousarray(state.T[nodes].reshape(B, 9))
         u = np.concatenate([state.v[nodes], state.w[nodes]], axis=1)                       # (B, 6)
         moving = np.ascontiguousarray(np.concatenate([np.zeros((B, 3)), u], axis=1))       # (ω, a, α) = (0, v, ω)
@@ -261,52 +313,43 @@ class _StateDerivatives:
         mass = np.asarray(kernels.joint_body(frames, moving, block, free_fall)[1]).reshape(B, 6, 6)
         stiffness = np.asarray(kernels.joint_body_inertia_stiffness(frames, moving, block, free_fall)[0]).reshape(B, 6, 6)
         weight = weight_of(block)
-        dpose = np.concatenate([dx[nodes], dpi[nodes]], axis=1)                            # (B, 6, k)
-        du = np.concatenate([rates[0][nodes], rates[1][nodes]], axis=1)                    # (B, 6, k)
-        moved = np.einsum("bij,bjk->bik", stiffness, dpose)
-        out["kinetic"] += np.einsum("bi,bik->k", f, du) + 0.5 * np.einsum("bi,bik->k", u, moved)
-        out["potential"] += np.einsum("bi,bik->k", weight, dpose)
-        df = np.einsum("bij,bjk->bik", mass, du) + moved
-        k = dpose.shape[2]
-        explicit, potential = np.zeros((B, 6, k)), np.zeros(k)
+        np.add.at(by_rates[0], dofs, f)
+        np.add.at(by_q[0], dofs, 0.5 * np.einsum("bi,bij->bj", u, stiffness))
+        np.add.at(by_q[2], dofs, weight)
+        self._momenta(by_q, by_rates, dofs, f, stiffness, mass, ((0, state.x[nodes]),))
         for key, laws in owner.derivatives.items():
             body = self.body_key.match(key)
             if not body:
                 continue
             b = int(np.flatnonzero(nodes == model.body_node[body["body"]])[0])
+            node = nodes[b]
             for column, law in laws.items():
                 value = law.value(0.0, 0.0, state.t)
                 changed = np.zeros_like(block)
                 if body["mass"]:              # linear in m at a fixed c
                     changed[b, 0], changed[b, 1:4] = value, model.body_com[b]
-                    explicit[:, :, column] += momentum_of(changed)
-                    point = state.x[nodes[b]] + state.T[nodes[b]] @ model.body_com[b]
-                    potential[column] += weight_of(changed)[b, 0:3] @ point
+                    moved = momentum_of(changed)[b]
+                    explicit[2, column] += weight_of(changed)[b, 0:3] @ (state.x[node] + state.T[node] @ model.body_com[b])
                 elif body["inertia"]:         # inertia[i] (the diagonal) or inertia[i][j] (symmetrised)
                     i, j = int(body["row"]), int(body["col"] if body["col"] is not None else body["row"])
                     step = np.zeros((3, 3))
                     step[i, j] += 0.5 * value
                     step[j, i] += 0.5 * value
                     changed[b, 1:4], changed[b, 4:13] = model.body_com[b], step.reshape(9)
-                    explicit[:, :, column] += momentum_of(changed)
+                    moved = momentum_of(changed)[b]
                 else:                         # quadratic in c: the central difference is exact
                     along = np.zeros(3)
                     along[int(body["com"])] = value
                     ahead, behind = block.copy(), block.copy()
                     ahead[b, 1:4] += along
                     behind[b, 1:4] -= along
-                    explicit[:, :, column] += 0.5 * (momentum_of(ahead) - momentum_of(behind))
-                    potential[column] += weight[b, 0:3] @ (state.T[nodes[b]] @ along)
-        out["kinetic"] += 0.5 * np.einsum("bi,bik->k", u, explicit)
-        out["potential"] += potential
-        df += explicit
-        x = state.x[nodes]
-        out["linear"] += df[:, 0:3].sum(axis=0)
-        out["angular"] += (np.cross(x[:, :, None], df[:, 0:3], axisa=1, axisb=1, axisc=1)
-                           - np.cross(f[:, 0:3, None], dpose[:, 0:3], axisa=1, axisb=1, axisc=1)
-                           + df[:, 3:6]).sum(axis=0)
+                    moved = 0.5 * (momentum_of(ahead) - momentum_of(behind))[b]
+                    explicit[2, column] += weight[b, 0:3] @ (state.T[node] @ along)
+                explicit[0, column] += 0.5 * u[b] @ moved
+                explicit[3:6, column] += moved[0:3]
+                explicit[6:9, column] += np.cross(state.x[node], moved[0:3]) + moved[3:6]
 
-    def _hinges(self, state, dtheta, out) -> None:
+    def _hinges(self, state, by_q, by_rates, explicit) -> None:
         """The hinge springs' potential ½ k s² (constant k: :func:`refusal`), from ``hinge_force``'s spring torque."""
         model, owner = self.model, self.owner
         H = len(model.hinges)
@@ -314,7 +357,7 @@ class _StateDerivatives:
         stiffness = np.array([h.stiffness.value(float(state.theta[j]), 0.0, state.t)
                               for j, h in enumerate(model.hinges)], float)
         spring = self._spring_torques(state.theta, rest, stiffness)                         # k s
-        out["strain"] += spring @ dtheta
+        np.add.at(by_q[1], model.hinge_dofs, spring)
         s = np.asarray(state.theta, float) - rest
         for key, laws in owner.derivatives.items():
             _, hinge = owner._key_kinds(key)
@@ -326,9 +369,9 @@ class _StateDerivatives:
                 if hinge["law"] == "stiffness":   # ½ (∂k/∂p) s²: the spring torque of ∂k/∂p, times ½ s
                     by = np.zeros(H)
                     by[j] = value
-                    out["strain"][column] += 0.5 * s[j] * self._spring_torques(state.theta, rest, by)[j]
+                    explicit[1, column] += 0.5 * s[j] * self._spring_torques(state.theta, rest, by)[j]
                 else:                              # ∂(½ k s²)/∂θ_r = −k s
-                    out["strain"][column] -= spring[j] * value
+                    explicit[1, column] -= spring[j] * value
 
     def _spring_torques(self, theta, rest, stiffness) -> np.ndarray:
         """k s of every hinge (the generated ``hinge_force``'s spring torque, without contact)."""
