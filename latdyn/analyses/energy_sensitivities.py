@@ -12,7 +12,9 @@ latdyn_momentum, csrc/rows.c), never from differences:
   tests/test_sensitivities_energies.py checks it), and ∂U/∂p the kernel with the section block
   replaced by its derivative (U is linear in EA, EIy, EIz, GJ of a shear-rigid section);
   of a hinge's spring with a constant stiffness k, ½ k s² (s = θ − θ_r): δ = τ_s (δθ − δθ_r) + ½ (∂k/∂p) s²
-  with τ_s = k s the ``hinge_force`` kernel's spring torque;
+  with τ_s = k s the ``hinge_force`` kernel's spring torque; of a conservative law k(θ), ∫_{θ_r}^{θ} k(x)(x − θ_r) dx:
+  δ = τ_s δθ + ∫ (∂k/∂p)(x)(x − θ_r) dx − ∫ k(x) dx δθ_r on latdyn_energies' own quadrature (a law in θ̇ or t
+  is not strain energy: its torque −k s does external work, below);
 - kinetic energy T = ½ q̇ᵀ M(q) q̇ of an element (``beam_kinetic_energy``): ∂T/∂q̇ = M q̇
   (``beam_mass_matrix``), ∂T/∂q δq = ½ q̇ᵀ [∂(M a)/∂q]_{a = q̇} δq (``beam_inertia_tangent`` at zero
   velocity and the acceleration a = q̇), ∂T/∂p the kernel with the section block's derivative (linear in
@@ -29,7 +31,7 @@ latdyn_momentum, csrc/rows.c), never from differences:
 - total = kinetic + strain + potential;
 - external work W of a transient run, integrated by the loop as Σ ½ h (P_n + P_{n+1}) of the point
   loads' power P = −Q·u (Q the ``point_load`` kernel's generalized force, u the node's rates) and
-  Σ ½ (τ_n + τ_{n+1}) Δθ of the hinges' applied torques: its sensitivity is carried through the steps
+  Σ ½ (τ_n + τ_{n+1}) Δθ of the hinges' applied torques (less k s of a spring that is a law in θ̇ or t): its sensitivity is carried through the steps
   with the same quadrature (:func:`external_work_step`), δP = −(∂Q/∂π δπ + ∂Q/∂p)·u − Q·δu, δτ =
   ∂τ/∂θ δθ + ∂τ/∂θ̇ δθ̇ + ∂τ/∂p; so it is exact for the computed solution. Static paths record no
   external work (0): its derivative is 0.
@@ -41,9 +43,8 @@ discrete adjoint seeds its rows with them (:func:`probe_forms`).
 
 What is refused (:func:`refusal`, exit 2 naming ``solve.sensitivities``; under ``sensitivity_method:
 adjoint`` naming that key): energy and momentum probes with cables, guides, geometry parameters; the
-strain energy (and the total) with a hinge whose stiffness is a law (not a constant) or with
-compliant stops; the dissipated energy; the external work of a transient run with events, prescribed
-motion, controllers or a spring that is a law, and under the discrete adjoint.
+strain energy (and the total) with compliant stops; the dissipated energy; the external work of a
+transient run with events, prescribed motion or controllers, and under the discrete adjoint.
 """
 from __future__ import annotations
 
@@ -65,11 +66,6 @@ _PARTS = {"kinetic": ("kinetic",), "strain": ("strain",), "potential": ("potenti
 def is_energy_or_momentum(probe) -> bool:
     """Whether ``probe`` is an energy or a momentum probe (this module's)."""
     return probe.kind in ("energy", "momentum")
-
-
-def _constant(law) -> bool:
-    """Whether a hinge's stiffness (a number or a law) is a constant."""
-    return law is None or isinstance(law, (int, float)) or bool(getattr(law, "is_constant", False))
 
 
 def refusal(scene, probe) -> SceneError | None:
@@ -108,9 +104,6 @@ def _why_not(scene, probe) -> str | None:
                     "geometry parameters are not computed yet")
     if probe.kind == "energy" and quantity in ("strain", "total"):
         for beam, which, hinge in scene.hinges:
-            if not _constant(hinge.stiffness):
-                return (f"the spring of {beam}.{which} has a stiffness law: its potential's sensitivity is computed "
-                        "for a constant stiffness only")
             if hinge.contact is not None:
                 return f"the compliant stops of {beam}.{which}: their potential's sensitivity is not computed yet"
     if probe.kind == "energy" and quantity == "external_work" and scene.solve.analysis == "transient":
@@ -120,9 +113,6 @@ def _why_not(scene, probe) -> str | None:
                         "differentiated yet")
             if hinge.angle is not None:
                 return f"the external work of a prescribed hinge angle ({beam}.{which}) is not differentiated yet"
-            if not _constant(hinge.stiffness):
-                return (f"the spring of {beam}.{which} has a stiffness law (its work counts as external work where "
-                        "it is not conservative): not differentiated yet")
         if any(body.prescribed for body in scene.bodies.values()):
             return "the external work of a prescribed motion (its drive's power) is not differentiated yet"
         if getattr(scene, "controllers", None):
@@ -186,6 +176,24 @@ def _skew(x: np.ndarray) -> np.ndarray:
     out[..., 0, 1], out[..., 0, 2], out[..., 1, 2] = -x[..., 2], x[..., 1], -x[..., 0]
     out[..., 1, 0], out[..., 2, 0], out[..., 2, 1] = x[..., 2], -x[..., 1], x[..., 0]
     return out
+
+
+#: Gauss–Legendre nodes and weights, 16 points: latdyn_energies' quadrature of a law spring's potential
+_GAUSS_NODES, _GAUSS_WEIGHTS = np.polynomial.legendre.leggauss(16)
+
+
+def _law_integral(integrand, rest: float, theta: float) -> float:
+    """∫_{θ_r}^{θ} integrand(x) dx on the quadrature latdyn_energies takes a law spring's potential with
+    (csrc/evaluate.c law_spring_potential: 16 Gauss points on each of the equal pieces of at most 0.25 rad),
+    so that its derivatives by the law's parameters are those of the recorded value."""
+    s = theta - rest
+    pieces = int(np.ceil(abs(s) / 0.25)) if abs(s) > 0.25 else 1
+    total = 0.0
+    for p in range(pieces):
+        a, b = rest + s * p / pieces, rest + s * (p + 1) / pieces
+        total += 0.5 * (b - a) * sum(w * integrand(0.5 * (a + b) + 0.5 * (b - a) * x)
+                                     for x, w in zip(_GAUSS_NODES, _GAUSS_WEIGHTS))
+    return total
 
 
 class _StateForms:
@@ -350,11 +358,16 @@ class _StateForms:
                 explicit[6:9, column] += np.cross(state.x[node], moved[0:3]) + moved[3:6]
 
     def _hinges(self, state, by_q, by_rates, explicit) -> None:
-        """The hinge springs' potential ½ k s² (constant k: :func:`refusal`), from ``hinge_force``'s spring torque."""
+        """The hinge springs' potential, as latdyn_energies counts it: ½ k s² of a constant k, and
+        ∫_{θ_r}^{θ} k(x)(x − θ_r) dx of a conservative law k(θ) (a law in θ̇ or t is not in the strain energy:
+        its work is external). ∂/∂θ = k s, the ``hinge_force`` kernel's spring torque; by the parameter, ½ (∂k/∂p) s²
+        and −k s ∂θ_r/∂p, or of a law ∫ (∂k/∂p)(x)(x − θ_r) dx and −∫ k(x) dx ∂θ_r/∂p on the quadrature of
+        latdyn_energies (:func:`_law_integral`)."""
         model, owner = self.model, self.owner
         H = len(model.hinges)
         rest = np.array([h.rest_angle for h in model.hinges], float)
-        stiffness = np.array([h.stiffness.value(float(state.theta[j]), 0.0, state.t)
+        counted = np.array([h.conservative_spring for h in model.hinges], bool)
+        stiffness = np.array([h.stiffness.value(float(state.theta[j]), 0.0, 0.0) if counted[j] else 0.0
                               for j, h in enumerate(model.hinges)], float)
         spring = self._spring_torques(state.theta, rest, stiffness)                         # k s
         np.add.at(by_q[1], model.hinge_dofs, spring)
@@ -364,14 +377,23 @@ class _StateForms:
             if not hinge or hinge["law"] not in ("stiffness", "rest_angle") or hinge["end"] == "guide":
                 continue
             j = model.hinge_index(hinge["beam"], hinge["end"])
+            if not counted[j]:
+                continue
+            law_k, theta = model.hinges[j].stiffness, float(state.theta[j])
             for column, law in laws.items():
-                value = law.value(float(state.theta[j]), float(state.theta_dot[j]), state.t)
-                if hinge["law"] == "stiffness":   # ½ (∂k/∂p) s²: the spring torque of ∂k/∂p, times ½ s
-                    by = np.zeros(H)
-                    by[j] = value
-                    explicit[1, column] += 0.5 * s[j] * self._spring_torques(state.theta, rest, by)[j]
-                else:                              # ∂(½ k s²)/∂θ_r = −k s
-                    explicit[1, column] -= spring[j] * value
+                if law_k.is_constant:
+                    value = law.value(theta, 0.0, 0.0)
+                    if hinge["law"] == "stiffness":   # ½ (∂k/∂p) s²: the spring torque of ∂k/∂p, times ½ s
+                        by = np.zeros(H)
+                        by[j] = value
+                        explicit[1, column] += 0.5 * s[j] * self._spring_torques(state.theta, rest, by)[j]
+                    else:                              # ∂(½ k s²)/∂θ_r = −k s
+                        explicit[1, column] -= spring[j] * value
+                elif hinge["law"] == "stiffness":      # ∫ (∂k/∂p)(x)(x − θ_r) dx
+                    explicit[1, column] += _law_integral(lambda x: law.value(x, 0.0, 0.0) * (x - rest[j]), rest[j], theta)
+                else:                                  # −∫ k(x) dx ∂θ_r/∂p (the integrand vanishes at x = θ_r)
+                    explicit[1, column] -= law.value(theta, 0.0, 0.0) * _law_integral(
+                        lambda x: law_k.value(x, 0.0, 0.0), rest[j], theta)
 
     def _spring_torques(self, theta, rest, stiffness) -> np.ndarray:
         """k s of every hinge (the generated ``hinge_force``'s spring torque, without contact)."""
@@ -441,17 +463,31 @@ def _power(owner, state, carried: dict):
     H = len(model.hinges)
     torque, dtorque = np.zeros(H), np.zeros((H, k))
     for j, hinge in enumerate(model.hinges):
-        if hinge.torque is None:
-            continue
-        theta, rate = float(state.theta[j]), float(state.theta_dot[j])
-        torque[j] = hinge.torque.value(theta, rate, state.t)
-        dtorque[j] = hinge.torque.d_theta(theta, rate, state.t) * dtheta[j] \
-            + hinge.torque.d_rate(theta, rate, state.t) * dtheta_dot[j]
+        theta, rate, t = float(state.theta[j]), float(state.theta_dot[j]), state.t
+        if hinge.torque is not None:
+            law = hinge.torque
+            torque[j] = law.value(theta, rate, t)
+            dtorque[j] = law.d_theta(theta, rate, t) * dtheta[j] + law.d_rate(theta, rate, t) * dtheta_dot[j]
+        if not hinge.conservative_spring:   # its spring's work is external: the torque τ − k s (evaluate.c)
+            law, spring = hinge.stiffness, theta - hinge.rest_angle
+            torque[j] -= law.value(theta, rate, t) * spring
+            dtorque[j] -= (law.d_theta(theta, rate, t) * spring + law.value(theta, rate, t)) * dtheta[j] \
+                + law.d_rate(theta, rate, t) * spring * dtheta_dot[j]
     for key, laws in owner.derivatives.items():
         _, hinge = owner._key_kinds(key)
-        if not hinge or hinge["law"] != "torque" or hinge["end"] == "guide":
+        if not hinge or hinge["law"] not in ("torque", "stiffness", "rest_angle") or hinge["end"] == "guide":
             continue
         j = model.hinge_index(hinge["beam"], hinge["end"])
+        joint = model.hinges[j]
+        theta, rate, t = float(state.theta[j]), float(state.theta_dot[j]), state.t
+        if hinge["law"] != "torque" and joint.conservative_spring:
+            continue
         for column, law in laws.items():
-            dtorque[j, column] += law.value(float(state.theta[j]), float(state.theta_dot[j]), state.t)
+            value = law.value(theta, rate, t)
+            if hinge["law"] == "torque":
+                dtorque[j, column] += value
+            elif hinge["law"] == "stiffness":      # −(∂k/∂p) s
+                dtorque[j, column] -= value * (theta - joint.rest_angle)
+            else:                                  # −k ∂s/∂θ_r ∂θ_r/∂p = k ∂θ_r/∂p
+                dtorque[j, column] += joint.stiffness.value(theta, rate, t) * value
     return power, dpower, torque, dtorque, dtheta
