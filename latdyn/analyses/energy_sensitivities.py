@@ -416,12 +416,14 @@ def external_work_step(owner, before: dict, after: dict, old, new, h: float) -> 
         return after
     k = len(owner.names)
     work = before.get("external_work_sensitivity", np.zeros(k))
-    power_old, dpower_old, torque_old, dtorque_old, dtheta_old = _power(owner, old, before)
-    power_new, dpower_new, torque_new, dtorque_new, dtheta_new = _power(owner, new, after)
+    held = before.get("external_work_terms")   # the last step's end: this step's start
+    power_old, dpower_old, torque_old, dtorque_old, dtheta_old = held if held is not None else _power(owner, old, before)
+    terms = _power(owner, new, after)
+    power_new, dpower_new, torque_new, dtorque_new, dtheta_new = terms
     turned = np.asarray(new.theta, float) - np.asarray(old.theta, float)
     work = (work + 0.5 * h * (dpower_old + dpower_new) + 0.5 * np.asarray(after["dh"]) * (power_old + power_new)
             + 0.5 * turned @ (dtorque_old + dtorque_new) + 0.5 * (torque_old + torque_new) @ (dtheta_new - dtheta_old))
-    return {**after, "external_work_sensitivity": work}
+    return {**after, "external_work_sensitivity": work, "external_work_terms": terms}
 
 
 def _power(owner, state, carried: dict):
