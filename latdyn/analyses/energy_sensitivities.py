@@ -14,7 +14,8 @@ latdyn_momentum, csrc/rows.c), never from differences:
   of a hinge's spring with a constant stiffness k, ½ k s² (s = θ − θ_r): δ = τ_s (δθ − δθ_r) + ½ (∂k/∂p) s²
   with τ_s = k s the ``hinge_force`` kernel's spring torque; of a conservative law k(θ), ∫_{θ_r}^{θ} k(x)(x − θ_r) dx:
   δ = τ_s δθ + ∫ (∂k/∂p)(x)(x − θ_r) dx − ∫ k(x) dx δθ_r on latdyn_energies' own quadrature (a law in θ̇ or t
-  is not strain energy: its torque −k s does external work, below);
+  is not strain energy: its torque −k s does external work, below); of a compliant stop, the kernel's contact
+  energy k(⟨δ_u⟩ⁿ⁺¹ + ⟨δ_l⟩ⁿ⁺¹)/(n + 1): ∂/∂θ its contact force at θ̇ = 0, ∂/∂p linear in the stop's stiffness;
 - kinetic energy T = ½ q̇ᵀ M(q) q̇ of an element (``beam_kinetic_energy``): ∂T/∂q̇ = M q̇
   (``beam_mass_matrix``), ∂T/∂q δq = ½ q̇ᵀ [∂(M a)/∂q]_{a = q̇} δq (``beam_inertia_tangent`` at zero
   velocity and the acceleration a = q̇), ∂T/∂p the kernel with the section block's derivative (linear in
@@ -43,19 +44,24 @@ discrete adjoint seeds its rows with them (:func:`probe_forms`).
 
 What is refused (:func:`refusal`, exit 2 naming ``solve.sensitivities``; under ``sensitivity_method:
 adjoint`` naming that key): energy and momentum probes with cables, guides, geometry parameters; the
-strain energy (and the total) with compliant stops; the dissipated energy; the external work of a
+strain energy (and the total) by a compliant stop's exponent; the dissipated energy; the external work of a
 transient run with events, prescribed motion or controllers, and under the discrete adjoint.
 """
 from __future__ import annotations
 
+import re
+
 import numpy as np
 
-from latdyn.assembly.native_model import NO_CONTACT
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
+from latdyn.assembly.native_model import NO_CONTACT, joint_contact_rows
 from latdyn.errors import SceneError
 
 __all__ = ["is_energy_or_momentum", "refusal", "probe_derivatives", "probe_forms", "external_work_step"]
 
+#: a hinge's compliant stops' stiffness (the potential is linear in it) and exponent (refused)
+_STOP_STIFFNESS = re.compile(r"^beams\.(?P<beam>.+)\.(?P<end>start|end)\.hinge\.contact\.stiffness$")
+_STOP_EXPONENT = re.compile(r"^beams\.(?P<beam>.+)\.(?P<end>start|end)\.hinge\.contact\.exponent$")
 #: the recorded energies this module differentiates (the dissipated energy is not)
 _ENERGIES = ("kinetic", "strain", "potential", "external_work", "total")
 #: the energies each probe sums (SCENE.md: total = kinetic + strain + potential)
@@ -103,9 +109,11 @@ def _why_not(scene, probe) -> str | None:
             return (f"parameter {name!r} places the structure ({used}): energy and momentum sensitivities by "
                     "geometry parameters are not computed yet")
     if probe.kind == "energy" and quantity in ("strain", "total"):
-        for beam, which, hinge in scene.hinges:
-            if hinge.contact is not None:
-                return f"the compliant stops of {beam}.{which}: their potential's sensitivity is not computed yet"
+        for name in solve_names(scene):
+            used = next((u for u in scene.parameters.depending_on(name) if _STOP_EXPONENT.match(u)), None)
+            if used is not None:
+                return (f"parameter {name!r} is the exponent of compliant stops ({used}): the stops' potential's "
+                        "derivative by it is not computed yet (by their stiffness it is)")
     if probe.kind == "energy" and quantity == "external_work" and scene.solve.analysis == "transient":
         for beam, which, hinge in scene.hinges:
             if hinge.lock_at is not None or hinge.limits is not None:
@@ -372,6 +380,7 @@ class _StateForms:
         spring = self._spring_torques(state.theta, rest, stiffness)                         # k s
         np.add.at(by_q[1], model.hinge_dofs, spring)
         s = np.asarray(state.theta, float) - rest
+        self._stops(state, by_q, explicit)
         for key, laws in owner.derivatives.items():
             _, hinge = owner._key_kinds(key)
             if not hinge or hinge["law"] not in ("stiffness", "rest_angle") or hinge["end"] == "guide":
@@ -394,6 +403,33 @@ class _StateForms:
                 else:                                  # −∫ k(x) dx ∂θ_r/∂p (the integrand vanishes at x = θ_r)
                     explicit[1, column] -= law.value(theta, 0.0, 0.0) * _law_integral(
                         lambda x: law_k.value(x, 0.0, 0.0), rest[j], theta)
+
+    def _stops(self, state, by_q, explicit) -> None:
+        """The compliant stops' potential k (⟨δ_u⟩ⁿ⁺¹ + ⟨δ_l⟩ⁿ⁺¹)/(n + 1) (``hinge_force``'s contact energy):
+        ∂/∂θ = k (⟨δ_u⟩ⁿ − ⟨δ_l⟩ⁿ), the kernel's contact force at θ̇ = 0 (its damping then vanishes); linear in
+        the stops' stiffness k: ∂/∂p the kernel's contact energy with k replaced by ∂k/∂p (the exponent is
+        refused, :func:`refusal`; the damping does not enter)."""
+        model = self.model
+        stops = [j for j, h in enumerate(model.hinges) if h.contact is not None]
+        if not stops:
+            return
+        rows = np.ascontiguousarray(joint_contact_rows([model.hinges[j] for j in stops]))
+        rows[:, 5:11] = NO_CONTACT[5:11]   # no friction (refused with sensitivities)
+        at = np.column_stack([np.asarray(state.theta, float)[stops], np.zeros(len(stops)),
+                              [model.hinges[j].rest_angle for j in stops], np.zeros(len(stops))])
+        nothing = np.zeros((len(stops), 9))
+        force = np.asarray(self.kernels.hinge_force(np.ascontiguousarray(at), nothing, rows)[0]).reshape(-1)
+        np.add.at(by_q[1], model.hinge_dofs[stops], force)
+        for key, laws in self.owner.derivatives.items():
+            stop = _STOP_STIFFNESS.match(key)
+            if not stop:
+                continue
+            i = stops.index(model.hinge_index(stop["beam"], stop["end"]))
+            for column, law in laws.items():
+                changed = rows[i:i + 1].copy()
+                changed[0, 2] = law.value(0.0, 0.0, state.t)
+                explicit[1, column] += float(np.asarray(self.kernels.hinge_force(
+                    np.ascontiguousarray(at[i:i + 1]), nothing[:1], changed)[6]).reshape(-1)[0])
 
     def _spring_torques(self, theta, rest, stiffness) -> np.ndarray:
         """k s of every hinge (the generated ``hinge_force``'s spring torque, without contact)."""
