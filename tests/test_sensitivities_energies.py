@@ -22,6 +22,7 @@ from tests.test_sensitivities_adjoint import _adjoint as adjoint_text
 from tests.test_sensitivities_adjoint import _disagreement
 from tests.test_sensitivities_contact import WHEEL
 from tests.test_sensitivities_events import LATCH_PLANAR
+from tests.test_sensitivities_guides import GUIDE_3D, STATIC_GUIDE
 from tests.test_sensitivities_events import _agree as latch_agree
 from tests.test_sensitivities_events import _run as latch_run
 from tests.test_sensitivities_transient import _agree, _run
@@ -174,6 +175,24 @@ def test_the_strain_energy_through_a_compliant_stop_agrees():
     latch_agree(latch_run(text), text, "kc")
     with pytest.raises(SceneError, match="exponent of compliant stops"):
         latdyn.run(latdyn.load_scene(yaml.safe_load(text.replace("[kc]", "[kc, nc]"))))
+
+
+def test_strain_and_potential_energies_with_a_guide_agree():
+    """A slider on a skew guide at the tip of a flexible 3D arm under gravity (tests/test_sensitivities_guides.py's
+    scenes): its spring's potential ½ k (s − rest)², the guided body's weight moved by the reduction's projection.
+    Measured: transient (GUIDE_3D to 0.4 s) by k, m, EI, rest: 5.7e-9, 1.1e-9, 3.0e-9, 1.3e-8; static (STATIC_GUIDE
+    under gravity, rest 0.01) by F, EI, m: 4.2e-12, 3.3e-9, 1.8e-12 — CI runs the static one by m (each value
+    of a guide's law compiles anew: the transient runs by k and rest cost seconds each). Its kinetic energy and
+    momenta are refused (the dependent rates' derivatives)."""
+    text = (STATIC_GUIDE.replace("solve:", "gravity: [0, 0, -9.81]\nsolve:").replace("[F, EI]", "[m]")
+            .replace("rest: 0.0", "rest: 0.01") + """    strain: {energy: strain}
+    potential: {energy: potential}
+""")
+    result = _run(text)
+    _agree(result, text, "m", 1e-6)
+    moving = GUIDE_3D + "    kinetic: {energy: kinetic}\n"
+    with pytest.raises(SceneError, match="not yet those of the kinetic energy"):
+        latdyn.run(latdyn.load_scene(yaml.safe_load(moving)))
 
 
 @pytest.mark.parametrize("name", ["F", "k", "th0", "EI", "rho", "m", "cx"])

@@ -43,7 +43,8 @@ as −skew(f) δx), so that the forward method contracts them with δq, δq̇ (:
 discrete adjoint seeds its rows with them (:func:`probe_forms`).
 
 What is refused (:func:`refusal`, exit 2 naming ``solve.sensitivities``; under ``sensitivity_method:
-adjoint`` naming that key): energy and momentum probes with cables, guides, geometry parameters; the
+adjoint`` naming that key): energy and momentum probes with cables, geometry parameters; with guides all
+but the strain and potential energies (whose δq the reduction's projection carries to the guided bodies); the
 strain energy (and the total) by a compliant stop's exponent; the dissipated energy; the external work of a
 transient run with events, prescribed motion or controllers, and under the discrete adjoint.
 """
@@ -101,8 +102,10 @@ def _why_not(scene, probe) -> str | None:
     if scene.cables:
         return "energy and momentum sensitivities with cables are not computed yet"
     guided = [name for name, body in scene.bodies.items() if getattr(body, "guide", None) is not None]
-    if guided:
-        return f"energy and momentum sensitivities with guides (bodies.{guided[0]}.guide) are not computed yet"
+    if guided and not (probe.kind == "energy" and quantity in ("strain", "potential")):
+        return (f"with guides (bodies.{guided[0]}.guide) the sensitivities of the strain and potential energies "
+                "are computed, not yet those of the kinetic energy, the total, the external work and the momenta "
+                "(the guided bodies' rates' derivatives)")
     for name in solve_names(scene):
         used = next((u for u in scene.parameters.depending_on(name) if GEOMETRY_KEY.match(u)), None)
         if used is not None:
@@ -383,7 +386,7 @@ class _StateForms:
         self._stops(state, by_q, explicit)
         for key, laws in owner.derivatives.items():
             _, hinge = owner._key_kinds(key)
-            if not hinge or hinge["law"] not in ("stiffness", "rest_angle") or hinge["end"] == "guide":
+            if not hinge or hinge["law"] not in ("stiffness", "rest_angle"):   # a guide's: its slide's spring
                 continue
             j = model.hinge_index(hinge["beam"], hinge["end"])
             if not counted[j]:
