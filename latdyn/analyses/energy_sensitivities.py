@@ -79,13 +79,13 @@ def refusal(scene, probe) -> SceneError | None:
     """The SceneError that refuses the sensitivities of the energy or momentum ``probe`` of ``scene``, or
     None where they are exact here (module docstring: naming ``solve.sensitivity_method`` under the
     adjoint, else ``solve.sensitivities``)."""
-    solve = scene.solve
-    what = f"probe {probe.name!r} ({probe.kind} {probe.quantity})"
-    if solve.sensitivity_method == "adjoint" and probe.quantity in ("external_work", "dissipated"):
+    quantity = probe.quantity
+    what = f"probe {probe.name!r} ({probe.kind} {quantity})"
+    if scene.solve.sensitivity_method == "adjoint" and quantity in ("external_work", "dissipated"):
         return SceneError(scene.file, "solve.sensitivity_method",
                           f"{what}: the discrete adjoint is seeded by a row's energies and momenta, not by the "
-                          "external work (a sum over the steps) yet; expected sensitivity_method: forward (the "
-                          "default) here (docs/parameters.md, \"Energies and momenta\")")
+                          f"{quantity.replace('_', ' ')} (a sum over the steps) yet; expected sensitivity_method: forward "
+                          "(the default) here (docs/parameters.md, \"Energies and momenta\")")
     why = _why_not(scene, probe)
     if why is None:
         return None
@@ -106,13 +106,13 @@ def _why_not(scene, probe) -> str | None:
         return (f"with guides (bodies.{guided[0]}.guide) the sensitivities of the strain and potential energies "
                 "are computed, not yet those of the kinetic energy, the total, the external work and the momenta "
                 "(the guided bodies' rates' derivatives)")
-    for name in solve_names(scene):
+    for name in _solve_names(scene):
         used = next((u for u in scene.parameters.depending_on(name) if GEOMETRY_KEY.match(u)), None)
         if used is not None:
             return (f"parameter {name!r} places the structure ({used}): energy and momentum sensitivities by "
                     "geometry parameters are not computed yet")
     if probe.kind == "energy" and quantity in ("strain", "total"):
-        for name in solve_names(scene):
+        for name in _solve_names(scene):
             used = next((u for u in scene.parameters.depending_on(name) if _STOP_EXPONENT.match(u)), None)
             if used is not None:
                 return (f"parameter {name!r} is the exponent of compliant stops ({used}): the stops' potential's "
@@ -131,7 +131,7 @@ def _why_not(scene, probe) -> str | None:
     return None
 
 
-def solve_names(scene) -> list:
+def _solve_names(scene) -> list:
     """The parameters named by ``solve.sensitivities``."""
     return list(scene.solve.sensitivities or ())
 
