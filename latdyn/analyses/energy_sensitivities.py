@@ -34,8 +34,10 @@ latdyn_momentum, csrc/rows.c), never from differences:
   loads' power P = −Q·u (Q the ``point_load`` kernel's generalized force, u the node's rates) and
   Σ ½ (τ_n + τ_{n+1}) Δθ of the hinges' applied torques (less k s of a spring that is a law in θ̇ or t): its sensitivity is carried through the steps
   with the same quadrature (:func:`external_work_step`), δP = −(∂Q/∂π δπ + ∂Q/∂p)·u − Q·δu, δτ =
-  ∂τ/∂θ δθ + ∂τ/∂θ̇ δθ̇ + ∂τ/∂p; so it is exact for the computed solution. Static paths record no
-  external work (0): its derivative is 0.
+  ∂τ/∂θ δθ + ∂τ/∂θ̇ δθ̇ + ∂τ/∂p, and through an event as the loop takes it (:func:`external_work_after_event`);
+  so it is exact for the computed solution up to the Newton tolerance (the loop takes each step's power from its
+  last Newton evaluation, within that tolerance of the converged state). Static paths record no external work
+  (0): its derivative is 0.
 
 Each energy and momentum of a row is held as its forms (:class:`_StateForms`): the gradient rows c_q, c_v on
 all coordinates and the explicit derivative, the scatter of the kernels' element and body blocks (δx × f
@@ -46,7 +48,8 @@ What is refused (:func:`refusal`, exit 2 naming ``solve.sensitivities``; under `
 adjoint`` naming that key): energy and momentum probes with cables, geometry parameters; with guides all
 but the strain and potential energies (whose δq the reduction's projection carries to the guided bodies); the
 strain energy (and the total) by a compliant stop's exponent; the dissipated energy; the external work of a
-transient run with events, prescribed motion or controllers, and under the discrete adjoint.
+transient run with events where a load, a torque or a spring depends on t, with prescribed motion or
+controllers, and under the discrete adjoint.
 """
 from __future__ import annotations
 
@@ -58,7 +61,8 @@ from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
 from latdyn.assembly.native_model import NO_CONTACT, joint_contact_rows
 from latdyn.errors import SceneError
 
-__all__ = ["is_energy_or_momentum", "refusal", "probe_derivatives", "probe_forms", "external_work_step"]
+__all__ = ["is_energy_or_momentum", "refusal", "probe_derivatives", "probe_forms", "external_work_step",
+           "external_work_after_event"]
 
 #: a hinge's compliant stops' stiffness (the potential is linear in it) and exponent (refused)
 _STOP_STIFFNESS = re.compile(r"^beams\.(?P<beam>.+)\.(?P<end>start|end)\.hinge\.contact\.stiffness$")
@@ -118,16 +122,35 @@ def _why_not(scene, probe) -> str | None:
                 return (f"parameter {name!r} is the exponent of compliant stops ({used}): the stops' potential's "
                         "derivative by it is not computed yet (by their stiffness it is)")
     if probe.kind == "energy" and quantity == "external_work" and scene.solve.analysis == "transient":
+        timed = _work_in_time(scene)
         for beam, which, hinge in scene.hinges:
-            if hinge.lock_at is not None or hinge.limits is not None:
-                return (f"the external work through the events of {beam}.{which} (lock_at, limits) is not "
-                        "differentiated yet")
+            if (hinge.lock_at is not None or hinge.limits is not None) and timed is not None:
+                return (f"the external work through the events of {beam}.{which} (lock_at, limits) with {timed}, "
+                        "which depends on t (the event's time moves the power there), is not differentiated yet")
             if hinge.angle is not None:
                 return f"the external work of a prescribed hinge angle ({beam}.{which}) is not differentiated yet"
         if any(body.prescribed for body in scene.bodies.values()):
             return "the external work of a prescribed motion (its drive's power) is not differentiated yet"
         if getattr(scene, "controllers", None):
             return "the external work with controllers is not differentiated yet"
+    return None
+
+
+def _work_in_time(scene) -> str | None:
+    """What of ``scene``'s external work depends on t explicitly — a load component, a hinge's torque or a
+    spring that is not conservative, named — or None."""
+    def timed(law):   # a HingeLaw names its variables; a TimeFunction is constant or not
+        if law is None or isinstance(law, (int, float)):
+            return False
+        depends = getattr(law, "depends_on", None)
+        return "t" in depends if depends is not None else not getattr(law, "is_constant", True)
+
+    for i, load in enumerate(scene.loads):
+        if any(timed(c) for c in (load.force or []) + (load.moment or [])):
+            return f"loads[{i}]"
+    for beam, which, hinge in scene.hinges:
+        if timed(hinge.torque) or timed(hinge.stiffness):
+            return f"the torque or spring of {beam}.{which}"
     return None
 
 
@@ -462,6 +485,24 @@ def external_work_step(owner, before: dict, after: dict, old, new, h: float) -> 
     turned = np.asarray(new.theta, float) - np.asarray(old.theta, float)
     work = (work + 0.5 * h * (dpower_old + dpower_new) + 0.5 * np.asarray(after["dh"]) * (power_old + power_new)
             + 0.5 * turned @ (dtorque_old + dtorque_new) + 0.5 * (torque_old + torque_new) @ (dtheta_new - dtheta_old))
+    return {**after, "external_work_sensitivity": work, "external_work_terms": terms}
+
+
+def external_work_after_event(owner, before: dict, after: dict, new, kind: str) -> dict:
+    """``after`` (the carried sensitivities restarted after the event of kind ``kind`` that ended the last
+    step at ``new``; ``before``: those of that step's end, before the jump) with the external work's terms
+    taken after the jump, as the loop takes them (latdyn/timeloop/loop.py ``_accept``): the next step starts
+    from the power and torques after the jump; a latch (the coordinates renumbered) has the loop evaluate the
+    step's end again after the jump, so that the step's own trapezoid took the power after it,
+    ½ h (P_n + P⁺_{n+1}): its sensitivity moves by ½ h (δP⁺ − δP⁻) + ½ δh (P⁺ − P⁻). Nothing without an
+    external-work probe."""
+    if "external_work_terms" not in before:
+        return after
+    terms = _power(owner, new, after)
+    work = before["external_work_sensitivity"]
+    if kind == "latch":
+        held = before["external_work_terms"]
+        work = work + 0.5 * before["h"] * (terms[1] - held[1]) + 0.5 * np.asarray(before["dh"]) * (terms[0] - held[0])
     return {**after, "external_work_sensitivity": work, "external_work_terms": terms}
 
 

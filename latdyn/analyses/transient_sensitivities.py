@@ -99,7 +99,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from latdyn.analyses.energy_sensitivities import external_work_step, is_energy_or_momentum
+from latdyn.analyses.energy_sensitivities import external_work_after_event, external_work_step, is_energy_or_momentum
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
 from latdyn.analyses.sensitivities import (_BODY_KEY, _CABLE_KEY, _GUIDE_KEY, _HINGE_KEY, _INITIAL_VELOCITY_KEY,
                                            _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE, ParameterDerivatives)
@@ -649,7 +649,7 @@ class TransientSensitivities(ParameterDerivatives):
             return carried
         self.time_shift = carried["dt"]   # the restart at the event's time, moved by δt_e
         try:
-            return self._restart(carried, new, pending)
+            return external_work_after_event(self, carried, self._restart(carried, new, pending), new, pending["kind"])
         finally:
             self.time_shift = None
 
