@@ -32,7 +32,8 @@ latdyn_momentum, csrc/rows.c), never from differences:
 - total = kinetic + strain + potential;
 - external work W of a transient run, integrated by the loop as Σ ½ h (P_n + P_{n+1}) of the point
   loads' power P = −Q·u (Q the ``point_load`` kernel's generalized force, u the node's rates) and
-  Σ ½ (τ_n + τ_{n+1}) Δθ of the hinges' applied torques (less k s of a spring that is a law in θ̇ or t): its sensitivity is carried through the steps
+  Σ ½ (τ_n + τ_{n+1}) Δθ of the hinges' applied torques (less k s of a spring that is a law in θ̇ or t), the
+  prescribed motion's drive power Σ_d r_d q̇_d among P (:func:`_drive_power`): its sensitivity is carried through the steps
   with the same quadrature (:func:`external_work_step`), δP = −(∂Q/∂π δπ + ∂Q/∂p)·u − Q·δu, δτ =
   ∂τ/∂θ δθ + ∂τ/∂θ̇ δθ̇ + ∂τ/∂p, and through an event as the loop takes it (:func:`external_work_after_event`);
   so it is exact for the computed solution up to the Newton tolerance (the loop takes each step's power from its
@@ -48,7 +49,7 @@ What is refused (:func:`refusal`, exit 2 naming ``solve.sensitivities``; under `
 adjoint`` naming that key): energy and momentum probes with cables, geometry parameters; with guides all
 but the strain and potential energies (whose δq the reduction's projection carries to the guided bodies); the
 strain energy (and the total) by a compliant stop's exponent; the dissipated energy; the external work of a
-transient run with events where a load, a torque or a spring depends on t, with prescribed motion or
+transient run with events where a load, a torque, a spring or a prescribed motion depends on t, with
 controllers, and under the discrete adjoint.
 """
 from __future__ import annotations
@@ -58,6 +59,7 @@ import re
 import numpy as np
 
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
+from latdyn.assembly.assembler import pack
 from latdyn.assembly.native_model import NO_CONTACT, joint_contact_rows
 from latdyn.errors import SceneError
 
@@ -127,10 +129,6 @@ def _why_not(scene, probe) -> str | None:
             if (hinge.lock_at is not None or hinge.limits is not None) and timed is not None:
                 return (f"the external work through the events of {beam}.{which} (lock_at, limits) with {timed}, "
                         "which depends on t (the event's time moves the power there), is not differentiated yet")
-            if hinge.angle is not None:
-                return f"the external work of a prescribed hinge angle ({beam}.{which}) is not differentiated yet"
-        if any(body.prescribed for body in scene.bodies.values()):
-            return "the external work of a prescribed motion (its drive's power) is not differentiated yet"
         if getattr(scene, "controllers", None):
             return "the external work with controllers is not differentiated yet"
     return None
@@ -151,7 +149,10 @@ def _work_in_time(scene) -> str | None:
     for beam, which, hinge in scene.hinges:
         if timed(hinge.torque) or timed(hinge.stiffness):
             return f"the torque or spring of {beam}.{which}"
-    return None
+        if hinge.angle is not None:
+            return f"the prescribed angle of {beam}.{which}"
+    moving = next((name for name, body in scene.bodies.items() if body.prescribed), None)
+    return None if moving is None else f"the prescribed motion of bodies.{moving}"
 
 
 def _solve_names(scene) -> list:
@@ -506,6 +507,26 @@ def external_work_after_event(owner, before: dict, after: dict, new, kind: str) 
     return {**after, "external_work_sensitivity": work, "external_work_terms": terms}
 
 
+def _drive_power(owner, state, carried: dict) -> tuple:
+    """(P_d, δP_d (k,)): the power of the reactions that impose the prescribed motion, Σ_d r_d q̇_d over the
+    constrained coordinates d that move (a prescribed body's, a prescribed hinge angle's; csrc/newton_step.c
+    drive_power), and its derivative Σ_d q̇_d δr_d with δr_d = K_d δq + C_d δv + M_d δv̇ + ∂r_d/∂p, the exact rows on
+    d (:meth:`latdyn.assembly.assembler.Assembler.exact_rows`, as the held joints' forces take them:
+    latdyn/analyses/joint_force_sensitivities.py); q̇_d is the prescribed law's, no parameter's."""
+    model, assembler = owner.model, owner.assembler
+    n, k = model.n_dofs, len(owner.names)
+    rates = pack(model, state.v, state.w, state.theta_dot)[n:model.n_total]
+    moving = np.flatnonzero(rates)
+    if len(moving) == 0:
+        return 0.0, np.zeros(k)
+    rows, weights = moving + n, rates[moving]
+    M, C, K = assembler.exact_rows(state, rows)
+    explicit = owner.residual_derivatives(state, 1.0, inertia=True, on_all=True)[rows]
+    reaction = assembler.evaluate(state, matrices=False).reaction[moving]
+    moved = weights @ (K[:, :n] @ carried["dq"] + C[:, :n] @ carried["dv"] + M[:, :n] @ carried["dvdot"] + explicit)
+    return float(weights @ reaction), moved
+
+
 def _power(owner, state, carried: dict):
     """(P, δP (k,), τ (hinges,), δτ (hinges, k), δθ (hinges, k)) at ``state`` along ``carried``'s δq, δv:
     the point loads' power P = −Q·u and its derivative, the hinges' applied torques and theirs."""
@@ -542,6 +563,8 @@ def _power(owner, state, carried: dict):
             moved[place] = np.array([owner._of_time(law, state.t) for law in laws])
             nodes, forces = owner._load_forces(state, pairs, moved)
             np.add.at(dpower, columns, -np.einsum("li,li->l", forces, u[pairs]))
+    drive, ddrive = _drive_power(owner, state, carried)
+    power, dpower = power + drive, dpower + ddrive
     H = len(model.hinges)
     torque, dtorque = np.zeros(H), np.zeros((H, k))
     for j, hinge in enumerate(model.hinges):
