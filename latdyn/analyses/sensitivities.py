@@ -175,8 +175,9 @@ def refusal(scene) -> SceneError | None:
             return refused
     for probe in scene.output.probes:
         if is_energy_or_momentum(probe):   # latdyn/analyses/energy_sensitivities.py
-            if energy_refusal(scene, probe) is not None:
-                return energy_refusal(scene, probe)
+            refused = energy_refusal(scene, probe)
+            if refused is not None:
+                return refused
             continue
         point = probe.kind == "point" and probe.quantity in ("position", "displacement") and probe.frame == "global"
         # a point's velocity v + ω × T r: δv, δω carried by the transient step (a guided body's
