@@ -263,11 +263,11 @@ class _StateForms:
 
     def __call__(self, state) -> tuple:
         """(c_q (9, n_total + 1), c_v (9, n_total + 1), explicit (9, k)) at ``state``."""
-        key = (state.t, state.x.tobytes(), state.T.tobytes(), state.theta.tobytes(), state.v.tobytes(),
-               state.w.tobytes(), state.theta_dot.tobytes())
+        model = self.model   # the forms are on the coordinates of the current numbering (a latch renumbers)
+        key = (model.n_dofs, model.locked.tobytes(), state.t, state.x.tobytes(), state.T.tobytes(),
+               state.theta.tobytes(), state.v.tobytes(), state.w.tobytes(), state.theta_dot.tobytes())
         if self._last is not None and self._last[0] == key:
             return self._last[1]
-        model = self.model
         size = (len(_QUANTITIES), model.n_total + 1)
         forms = (np.zeros(size), np.zeros(size), np.zeros((len(_QUANTITIES), len(self.owner.names))))
         if len(model.element_dofs):
