@@ -30,6 +30,8 @@ latdyn_momentum, csrc/rows.c), never from differences:
   P = Σ f_translation and H = Σ (x × f_translation + f_rotation) over its ends (about the global origin,
   as latdyn_momentum); δf = M δq̇ + [∂(M a)/∂q]_{a = q̇} δq + (∂M/∂p) q̇, δH adds δx × f_translation;
 - total = kinetic + strain + potential;
+- dissipated energy D of a transient run, Σ ½ (f_n + f_{n+1}) Δθ of the dampers' torques f = c θ̇, carried alike
+  (:func:`_dissipated_step`);
 - external work W of a transient run, integrated by the loop as Σ ½ h (P_n + P_{n+1}) of the point
   loads' power P = −Q·u (Q the ``point_load`` kernel's generalized force, u the node's rates) and
   Σ ½ (τ_n + τ_{n+1}) Δθ of the hinges' applied torques (less k s of a spring that is a law in θ̇ or t), the
@@ -48,9 +50,9 @@ discrete adjoint seeds its rows with them (:func:`probe_forms`).
 What is refused (:func:`refusal`, exit 2 naming ``solve.sensitivities``; under ``sensitivity_method:
 adjoint`` naming that key): energy and momentum probes with cables, geometry parameters; with guides all
 but the strain and potential energies (whose δq the reduction's projection carries to the guided bodies); the
-strain energy (and the total) by a compliant stop's exponent; the dissipated energy; the external work of a
+strain energy (and the total) by a compliant stop's exponent; the dissipated energy through events; the external work of a
 transient run with events where a load, a torque, a spring or a prescribed motion depends on t, with
-controllers, and under the discrete adjoint.
+controllers; both sums over the steps under the discrete adjoint.
 """
 from __future__ import annotations
 
@@ -69,8 +71,10 @@ __all__ = ["is_energy_or_momentum", "refusal", "probe_derivatives", "probe_forms
 #: a hinge's compliant stops' stiffness (the potential is linear in it) and exponent (refused)
 _STOP_STIFFNESS = re.compile(r"^beams\.(?P<beam>.+)\.(?P<end>start|end)\.hinge\.contact\.stiffness$")
 _STOP_EXPONENT = re.compile(r"^beams\.(?P<beam>.+)\.(?P<end>start|end)\.hinge\.contact\.exponent$")
-#: the recorded energies this module differentiates (the dissipated energy is not)
-_ENERGIES = ("kinetic", "strain", "potential", "external_work", "total")
+#: the recorded energies this module differentiates
+_ENERGIES = ("kinetic", "strain", "potential", "external_work", "dissipated", "total")
+#: the energies summed over the steps, and the carried key of their sensitivities
+_ACCOUNTS = {"external_work": "external_work_sensitivity", "dissipated": "dissipated_sensitivity"}
 #: the energies each probe sums (SCENE.md: total = kinetic + strain + potential)
 _PARTS = {"kinetic": ("kinetic",), "strain": ("strain",), "potential": ("potential",),
           "total": ("kinetic", "strain", "potential")}
@@ -90,7 +94,8 @@ def refusal(scene, probe) -> SceneError | None:
     if scene.solve.sensitivity_method == "adjoint" and quantity in ("external_work", "dissipated"):
         return SceneError(scene.file, "solve.sensitivity_method",
                           f"{what}: the discrete adjoint is seeded by a row's energies and momenta, not by the "
-                          f"{quantity.replace('_', ' ')} (a sum over the steps) yet; expected sensitivity_method: forward "
+                          f"{'external work' if quantity == 'external_work' else 'dissipated energy'} (a sum over the "
+                          "steps) yet; expected sensitivity_method: forward "
                           "(the default) here (docs/parameters.md, \"Energies and momenta\")")
     why = _why_not(scene, probe)
     if why is None:
@@ -104,7 +109,7 @@ def _why_not(scene, probe) -> str | None:
     """Why the energy or momentum ``probe``'s sensitivities are not exact here, or None."""
     quantity = probe.quantity
     if probe.kind == "energy" and quantity not in _ENERGIES:
-        return f"the {quantity} energy is not differentiated yet (kinetic, strain, potential, external_work, total are)"
+        return f"the {quantity} energy is not differentiated (kinetic, strain, potential, external_work, dissipated, total are)"
     if scene.cables:
         return "energy and momentum sensitivities with cables are not computed yet"
     guided = [name for name, body in scene.bodies.items() if getattr(body, "guide", None) is not None]
@@ -123,6 +128,11 @@ def _why_not(scene, probe) -> str | None:
             if used is not None:
                 return (f"parameter {name!r} is the exponent of compliant stops ({used}): the stops' potential's "
                         "derivative by it is not computed yet (by their stiffness it is)")
+    if probe.kind == "energy" and quantity == "dissipated" and scene.solve.analysis == "transient":
+        for beam, which, hinge in scene.hinges:
+            if hinge.lock_at is not None or hinge.limits is not None:
+                return (f"the dissipated energy through the events of {beam}.{which} (lock_at, limits: a latch's or "
+                        "an impact's loss, a compliant stop's damping) is not differentiated yet")
     if probe.kind == "energy" and quantity == "external_work" and scene.solve.analysis == "transient":
         timed = _work_in_time(scene)
         for beam, which, hinge in scene.hinges:
@@ -166,12 +176,13 @@ def probe_derivatives(owner, probe, state, dx, dpi, dtheta, rates, body_key) -> 
     (a :class:`latdyn.analyses.sensitivities.ParameterDerivatives`), along (δx, δπ, δθ) of its
     ``_by_parameter`` and the rates' (δv, δω, δθ̇) of ``_rates_by_parameter`` (``rates``; None on a static
     path, whose states are at rest): c_q·δq + c_v·δq̇ + ∂/∂p (:func:`probe_forms`); ``body_key`` the pattern of
-    a body's parameter keys. The external work of a transient run is carried (:func:`external_work_step`):
-    here only its value at the row, ``owner.carried_work`` (0 on a static path, which records no external work)."""
+    a body's parameter keys. The external work and the dissipated energy of a transient run are carried
+    (:func:`external_work_step`): here only their values at the row, in ``owner.carried_accounts`` (0 on a static
+    path, which records neither)."""
     k = len(owner.names)
-    if probe.kind == "energy" and probe.quantity == "external_work":
-        carried = getattr(owner, "carried_work", None)
-        return [float(v) for v in (np.zeros(k) if carried is None else carried)]
+    if probe.kind == "energy" and probe.quantity in _ACCOUNTS:   # sums over the steps, carried
+        carried = getattr(owner, "carried_accounts", None) or {}
+        return [float(v) for v in carried.get(_ACCOUNTS[probe.quantity], np.zeros(k))]
     forms = _StateForms.of(owner, body_key)
     by_q, by_rates, explicit = forms(state)
     row = _QUANTITIES.index(_quantity(probe)) if probe.kind == "momentum" else None
@@ -475,6 +486,7 @@ def external_work_step(owner, before: dict, after: dict, old, new, h: float) -> 
     δW_{n+1} = δW_n + ½ h (δP_n + δP_{n+1}) + ½ δh (P_n + P_{n+1}) + Σ_j ½ (δτ_n + δτ_{n+1}) Δθ
     + ½ (τ_n + τ_{n+1}) (δθ_{n+1} − δθ_n), ``before`` the carried sensitivities at ``old``. Nothing without
     an external-work probe."""
+    after = _dissipated_step(owner, before, after, old, new)
     if not any(p.kind == "energy" and p.quantity == "external_work" for p in owner.probes):
         return after
     k = len(owner.names)
@@ -487,6 +499,49 @@ def external_work_step(owner, before: dict, after: dict, old, new, h: float) -> 
     work = (work + 0.5 * h * (dpower_old + dpower_new) + 0.5 * np.asarray(after["dh"]) * (power_old + power_new)
             + 0.5 * turned @ (dtorque_old + dtorque_new) + 0.5 * (torque_old + torque_new) @ (dtheta_new - dtheta_old))
     return {**after, "external_work_sensitivity": work, "external_work_terms": terms}
+
+
+def _dissipated_step(owner, before: dict, after: dict, old, new) -> dict:
+    """``after`` with the dissipated energy's sensitivity carried on by the loop's quadrature
+    (latdyn/timeloop/progress.py hinge_work): D_{n+1} = D_n + Σ_j ½ (f_n + f_{n+1}) Δθ of the dampers' torques
+    f = c(θ, θ̇, t) θ̇ (``hinge_force``'s damper torque without compliant stops and friction, which are refused), so
+    δD_{n+1} = δD_n + Σ_j ½ (δf_n + δf_{n+1}) Δθ + ½ (f_n + f_{n+1}) (δθ_{n+1} − δθ_n) with
+    δf = θ̇ ∂c/∂θ δθ + (c + θ̇ ∂c/∂θ̇) δθ̇ + θ̇ ∂c/∂p. Nothing without a dissipated-energy probe."""
+    if not any(p.kind == "energy" and p.quantity == "dissipated" for p in owner.probes):
+        return after
+    k = len(owner.names)
+    held = before.get("dissipated_terms")
+    torque_old, dtorque_old, dtheta_old = held if held is not None else _damper_torques(owner, old, before)
+    terms = _damper_torques(owner, new, after)
+    torque_new, dtorque_new, dtheta_new = terms
+    turned = np.asarray(new.theta, float) - np.asarray(old.theta, float)
+    dissipated = (before.get("dissipated_sensitivity", np.zeros(k)) + 0.5 * turned @ (dtorque_old + dtorque_new)
+                  + 0.5 * (torque_old + torque_new) @ (dtheta_new - dtheta_old))
+    return {**after, "dissipated_sensitivity": dissipated, "dissipated_terms": terms}
+
+
+def _damper_torques(owner, state, carried: dict) -> tuple:
+    """(f (hinges,), δf (hinges, k), δθ (hinges, k)): the dampers' torques c θ̇ at ``state`` and their derivatives
+    along ``carried``'s δq, δv (:func:`_dissipated_step`)."""
+    model, k = owner.model, len(owner.names)
+    _, _, dtheta = owner._by_parameter(carried["dq"], state)
+    _, _, dtheta_dot = owner._rates_by_parameter(carried["dv"])
+    H = len(model.hinges)
+    torque, dtorque = np.zeros(H), np.zeros((H, k))
+    for j, hinge in enumerate(model.hinges):
+        theta, rate, t, law = float(state.theta[j]), float(state.theta_dot[j]), state.t, hinge.damping
+        torque[j] = law.value(theta, rate, t) * rate
+        dtorque[j] = law.d_theta(theta, rate, t) * rate * dtheta[j] \
+            + (law.value(theta, rate, t) + law.d_rate(theta, rate, t) * rate) * dtheta_dot[j]
+    for key, laws in owner.derivatives.items():
+        _, hinge = owner._key_kinds(key)
+        if not hinge or hinge["law"] != "damping":
+            continue
+        j = model.hinge_index(hinge["beam"], hinge["end"])
+        theta, rate = float(state.theta[j]), float(state.theta_dot[j])
+        for column, law in laws.items():
+            dtorque[j, column] += law.value(theta, rate, state.t) * rate
+    return torque, dtorque, dtheta
 
 
 def external_work_after_event(owner, before: dict, after: dict, new, kind: str) -> dict:

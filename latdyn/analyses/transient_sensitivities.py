@@ -741,7 +741,7 @@ class TransientSensitivities(ParameterDerivatives):
         dx, dpi, dtheta = self._by_parameter(carried["dq"], state)
         rates = (self._rates_by_parameter(carried["dv"])
                  if any(p.quantity in ("rate", "velocity") or is_energy_or_momentum(p) for p in self.probes) else None)
-        self.carried_work = carried.get("external_work_sensitivity")   # latdyn/analyses/energy_sensitivities.py
+        self.carried_accounts = carried   # the work's and dissipation's (latdyn/analyses/energy_sensitivities.py)
         forces = joint_force_derivatives(self, state, carried["dq"], carried["dv"], carried["dvdot"])
         row = [float(state.t)]
         for probe in self.probes:
