@@ -368,7 +368,6 @@ def test_the_cli_writes_sensitivities_csv_and_the_summary(tmp_path, arm_3d):
     (lambda d: d["sections"]["s"].update(GAy=1.0e4), "shear-flexible"),
     (lambda d: d["solve"].update(formulation="cr4402"), "formulation: default only"),
     (lambda d: d["sections"]["s"].update(GAy="1e4*F"), "used at sections.s.GAy"),
-    (lambda d: d["output"]["probes"].update(e={"energy": "strain"}), "probe 'e'"),
     (lambda d: d["output"]["probes"].update(v={"point": "b.end", "quantity": "velocity", "frame": "knee"}),
      "probe 'v'"),
     (lambda d: d["beams"]["b"]["start"]["hinge"].update(limits=[-1, 1]), "hinge events"),

@@ -67,10 +67,12 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from latdyn.analyses.energy_sensitivities import is_energy_or_momentum
+from latdyn.analyses.energy_sensitivities import probe_forms as energy_probe_forms
 from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_force_forms, joint_of
 from latdyn.analyses.link_sensitivities import columns_moving
 from latdyn.analyses.probe_derivatives import is_probe_here, probe_forms
-from latdyn.analyses.sensitivities import _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE
+from latdyn.analyses.sensitivities import _BODY_KEY, _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE
 from latdyn.analyses.transient_sensitivities import TransientSensitivities, _NodeRotations
 from latdyn.assembly.assembler import free_velocity
 from latdyn.assembly.factorization import factorization_for, solve_linear
@@ -198,6 +200,9 @@ class AdjointSensitivities(TransientSensitivities):
             return joint_force_forms(self, state, [j])[j]
         if is_probe_here(probe):   # section forces, points in a body frame: latdyn/analyses/probe_derivatives.py
             return probe_forms(self, probe, state)
+        if is_energy_or_momentum(probe):   # latdyn/analyses/energy_sensitivities.py
+            c_q, c_v, explicit = energy_probe_forms(self, probe, state, _BODY_KEY)
+            return c_q, c_v, np.zeros_like(c_q), explicit
         c_q, c_v = self.output_gradient(probe, state)
         return c_q, c_v, np.zeros_like(c_q), np.zeros(len(self.names))
 

@@ -63,7 +63,7 @@ guides' laws and cables' EA, damping, rest length and rhoA; probes other than po
 global frame, hinge angles and guide positions and, in transient runs, rates, point velocities and joint forces
 (latdyn/analyses/joint_force_sensitivities.py), element section forces, cable tensions and lengths and points in a
 body's frame (latdyn/analyses/probe_derivatives.py: static and transient; a body frame's velocity in transient
-runs without guides) — that is, energies and momenta;
+runs without guides), and energies and momenta where latdyn/analyses/energy_sensitivities.py refuses them;
 rigid links under arc length (rigid links otherwise
 through the reduction: latdyn/analyses/link_sensitivities.py); in static paths hinges with limits or
 ``lock_at`` (events; transient runs differentiate latches and stops: latdyn/analyses/transient_sensitivities.py). Under gravity the static
@@ -78,6 +78,9 @@ from pathlib import Path
 
 import numpy as np
 
+from latdyn.analyses.energy_sensitivities import is_energy_or_momentum
+from latdyn.analyses.energy_sensitivities import probe_derivatives as energy_probe_derivatives
+from latdyn.analyses.energy_sensitivities import refusal as energy_refusal
 from latdyn.analyses.joint_force_sensitivities import is_joint_force
 from latdyn.analyses.joint_force_sensitivities import refusal as joint_force_refusal
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY, ReferenceGeometry, geometry_refusal
@@ -179,6 +182,11 @@ def refusal(scene) -> SceneError | None:
         if refused is not None:
             return refused
     for probe in scene.output.probes:
+        if is_energy_or_momentum(probe):   # latdyn/analyses/energy_sensitivities.py
+            refused = energy_refusal(scene, probe)
+            if refused is not None:
+                return refused
+            continue
         point = probe.kind == "point" and probe.quantity in ("position", "displacement") and probe.frame == "global"
         # a point's velocity v + ω × T r: δv, δω carried by the transient step (a guided body's
         # dependent nodes' velocities would need the projection's rate derivative: not yet)
@@ -196,7 +204,8 @@ def refusal(scene) -> SceneError | None:
             return refuse(f"probe {probe.name!r} ({probe.kind} {probe.quantity}"
                           f"{'' if probe.kind != 'point' else ', frame ' + probe.frame}) is not differentiated yet: "
                           "point positions and displacements in the global frame, hinge angles, element section "
-                          "forces, cable tensions and lengths, points in a body's frame and, in transient runs, hinge "
+                          "forces, cable tensions and lengths, points in a body's frame, energies and momenta and, in "
+                          "transient runs, hinge "
                           "rates and torques, guide positions, rates and forces and point velocities (without guides) "
                           "are")
     rates = {p.name for p in scene.output.probes if p.quantity in ("rate", "velocity")}
@@ -770,6 +779,8 @@ class ParameterDerivatives:
         model = self.model
         if is_probe_here(probe):   # section forces, cables, points in a body frame
             return probe_derivatives(self, probe, state, dx, dpi, dtheta, rates)
+        if is_energy_or_momentum(probe):   # latdyn/analyses/energy_sensitivities.py
+            return energy_probe_derivatives(self, probe, state, dx, dpi, dtheta, rates, _BODY_KEY)
         if probe.kind in ("hinge", "guide"):
             joint = (probe.beam, probe.end) if probe.kind == "hinge" else (probe.body, "guide")
             which = rates[2] if probe.quantity == "rate" else dtheta
@@ -824,8 +835,8 @@ class StaticSensitivities(ParameterDerivatives):
             if self.geometry is not None:
                 self._append_row(state, load_factor, self.geometry.initial_tangent(), np.zeros(k))
                 return
-            self.rows.append((load_factor, [0.0] * len(self.columns)))
-            self.load_factor_rows.append([0.0] * k)
+            # positions and angles do not move; energies may, explicitly (latdyn/analyses/energy_sensitivities.py)
+            self._append_row(state, load_factor, np.zeros((model.n_dofs, k)), np.zeros(k))
             return
         ev = self.assembler.evaluate(state, matrices=True, load_factor=load_factor, inertia=False)
         rhs = -self.residual_derivatives(state, load_factor)

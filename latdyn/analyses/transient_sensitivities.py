@@ -100,6 +100,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from latdyn.analyses.energy_sensitivities import external_work_after_event, external_work_step, is_energy_or_momentum
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
 from latdyn.analyses.sensitivities import (_BODY_KEY, _CABLE_KEY, _GUIDE_KEY, _HINGE_KEY, _INITIAL_VELOCITY_KEY,
                                            _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE, ParameterDerivatives)
@@ -363,7 +364,8 @@ class TransientSensitivities(ParameterDerivatives):
             dh = self.cables.step_size_derivative(new, cable[0], columns["dq"], columns["dv"], k,
                                                   started=carried["dt"])
         total = {key: value[:, :k] + np.outer(value[:, k], dh) for key, value in columns.items()}
-        carried = {**carried, **total, "dt": carried["dt"] + dh, "dh": dh, "h": h, "pending": None}
+        before, carried = carried, {**carried, **total, "dt": carried["dt"] + dh, "dh": dh, "h": h, "pending": None}
+        carried = external_work_step(self, before, carried, old, new, h)   # latdyn/analyses/energy_sensitivities.py
         if states is not None:   # no events with states (ControllerTerms.refusal): δh = 0
             carried = {**carried, **states.after_step(new, carried["dq"])}
         if cable is not None:
@@ -658,7 +660,7 @@ class TransientSensitivities(ParameterDerivatives):
             return carried
         self.time_shift = carried["dt"]   # the restart at the event's time, moved by δt_e
         try:
-            return self._restart(carried, new, pending)
+            return external_work_after_event(self, carried, self._restart(carried, new, pending), new, pending["kind"])
         finally:
             self.time_shift = None
 
@@ -758,12 +760,15 @@ class TransientSensitivities(ParameterDerivatives):
     def record(self, carried: dict, state) -> dict:
         """``carried`` with the row of every probe's sensitivity at ``state`` (a new list of rows), all
         parameters at once: a point x + T r moves by δx + δπ × T r, a hinge angle by δθ, rates by the
-        carried δv (:meth:`_probe_derivatives`), a joint's force by its law's or its reaction's derivative
+        carried δv (:meth:`_probe_derivatives`), energies and momenta along δq, δv and the external work as
+        :meth:`step` carried it (latdyn/analyses/energy_sensitivities.py), a joint's force by its law's or its reaction's derivative
         along (δq, δv, δv̇) (latdyn/analyses/joint_force_sensitivities.py), section forces, cables' tensions
         (with δv: the damper) and lengths and points in a body's frame (latdyn/analyses/probe_derivatives.py)."""
         dx, dpi, dtheta = self._by_parameter(carried["dq"], state)
         rates = (self._rates_by_parameter(carried["dv"], carried["dq"], state)
-                 if any(p.quantity in ("rate", "velocity", "tension") for p in self.probes) else None)
+                 if any(p.quantity in ("rate", "velocity", "tension") or is_energy_or_momentum(p) for p in self.probes)
+                 else None)
+        self.carried_accounts = carried   # the work's and dissipation's (latdyn/analyses/energy_sensitivities.py)
         forces = joint_force_derivatives(self, state, carried["dq"], carried["dv"], carried["dvdot"])
         row = [float(state.t)]
         for probe in self.probes:

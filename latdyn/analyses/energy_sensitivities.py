@@ -1,0 +1,653 @@
+"""Sensitivities of the energy and momentum probes (SCENE.md, "Parameters and sensitivities";
+docs/parameters.md, "Energies and momenta").
+
+A recorded energy or momentum is a function of the row's state and the parameters; its derivative
+by a parameter p is taken along the carried sensitivities of the state (δq in the coordinates of the
+configuration update, δq̇ = (δv, δω, δθ̇) the rates' components) plus its explicit derivative, every
+term from the generated kernels the recorded value itself is made of (latdyn_energies, csrc/evaluate.c;
+latdyn_momentum, csrc/rows.c), never from differences:
+
+- strain energy of the elements U = Σ beam_strain_energy: ∂U/∂q^e = F^e, the internal force
+  ``beam_internal_force`` (Eq. 43 makes F^e = Bᵀ ∂U/∂Ψ the exact gradient of the kernel's U:
+  tests/test_sensitivities_energies.py checks it), and ∂U/∂p the kernel with the section block
+  replaced by its derivative (U is linear in EA, EIy, EIz, GJ of a shear-rigid section);
+  of a hinge's spring with a constant stiffness k, ½ k s² (s = θ − θ_r): δ = τ_s (δθ − δθ_r) + ½ (∂k/∂p) s²
+  with τ_s = k s the ``hinge_force`` kernel's spring torque; of a conservative law k(θ), ∫_{θ_r}^{θ} k(x)(x − θ_r) dx:
+  δ = τ_s δθ + ∫ (∂k/∂p)(x)(x − θ_r) dx − ∫ k(x) dx δθ_r on latdyn_energies' own quadrature (a law in θ̇ or t
+  is not strain energy: its torque −k s does external work, below); of a compliant stop, the kernel's contact
+  energy k(⟨δ_u⟩ⁿ⁺¹ + ⟨δ_l⟩ⁿ⁺¹)/(n + 1): ∂/∂θ its contact force at θ̇ = 0, ∂/∂p linear in the stop's stiffness;
+- kinetic energy T = ½ q̇ᵀ M(q) q̇ of an element (``beam_kinetic_energy``): ∂T/∂q̇ = M q̇
+  (``beam_mass_matrix``), ∂T/∂q δq = ½ q̇ᵀ [∂(M a)/∂q]_{a = q̇} δq (``beam_inertia_tangent`` at zero
+  velocity and the acceleration a = q̇), ∂T/∂p the kernel with the section block's derivative (linear in
+  ρA, ρIy, ρIz); of a joint body ½ uᵀ M_b u, u = (v, ω) of its reference point, alike from ``joint_body``
+  (its mass block M_b = ∂[f; τ]/∂[a; α]) and ``joint_body_inertia_stiffness`` at (ω, a, α) = (0, v, ω);
+  linear in (m, I) at a fixed centre of mass c and quadratic in c, whose derivative along ∂c/∂p is exactly
+  ½ (T(c + ∂c/∂p) − T(c − ∂c/∂p)) (a polynomial identity, as for the body's forces);
+- gravity potential V: of an element ``beam_gravity``'s potential, ∂V/∂q^e = −G^e (its gravity force),
+  ∂V/∂p the kernel with ρA's derivative; of a joint body −W·(x + T c), ∂V/∂[x; π] = the ``joint_body``
+  gravity row Q = −[W; T c × W], ∂V/∂m = Q(∂m)·(x + T c), ∂V/∂c = Q·T ∂c;
+- momentum: the generalized momentum f = M q̇ of an element (of a joint body M_b u) gives
+  P = Σ f_translation and H = Σ (x × f_translation + f_rotation) over its ends (about the global origin,
+  as latdyn_momentum); δf = M δq̇ + [∂(M a)/∂q]_{a = q̇} δq + (∂M/∂p) q̇, δH adds δx × f_translation;
+- total = kinetic + strain + potential;
+- dissipated energy D of a transient run, Σ ½ (f_n + f_{n+1}) Δθ of the dampers' torques f = c θ̇, carried alike
+  (:func:`_dissipated_step`);
+- external work W of a transient run, integrated by the loop as Σ ½ h (P_n + P_{n+1}) of the point
+  loads' power P = −Q·u (Q the ``point_load`` kernel's generalized force, u the node's rates) and
+  Σ ½ (τ_n + τ_{n+1}) Δθ of the hinges' applied torques (less k s of a spring that is a law in θ̇ or t), the
+  prescribed motion's drive power Σ_d r_d q̇_d among P (:func:`_drive_power`): its sensitivity is carried through the steps
+  with the same quadrature (:func:`external_work_step`), δP = −(∂Q/∂π δπ + ∂Q/∂p)·u − Q·δu, δτ =
+  ∂τ/∂θ δθ + ∂τ/∂θ̇ δθ̇ + ∂τ/∂p, and through an event as the loop takes it (:func:`external_work_after_event`);
+  so it is exact for the computed solution up to the Newton tolerance (the loop takes each step's power from its
+  last Newton evaluation, within that tolerance of the converged state). Static paths record no external work
+  (0): its derivative is 0.
+
+Each energy and momentum of a row is held as its forms (:class:`_StateForms`): the gradient rows c_q, c_v on
+all coordinates and the explicit derivative, the scatter of the kernels' element and body blocks (δx × f
+as −skew(f) δx), so that the forward method contracts them with δq, δq̇ (:func:`probe_derivatives`) and the
+discrete adjoint seeds its rows with them (:func:`probe_forms`).
+
+What is refused (:func:`refusal`, exit 2 naming ``solve.sensitivities``; under ``sensitivity_method:
+adjoint`` naming that key): energy and momentum probes with cables, geometry parameters; with guides all
+but the strain and potential energies (whose δq the reduction's projection carries to the guided bodies); the
+strain energy (and the total) by a compliant stop's exponent; the dissipated energy through events; the external work of a
+transient run with events where a load, a torque, a spring or a prescribed motion depends on t, with
+controllers; both sums over the steps under the discrete adjoint.
+"""
+from __future__ import annotations
+
+import re
+
+import numpy as np
+
+from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
+from latdyn.assembly.assembler import pack
+from latdyn.assembly.native_model import NO_CONTACT, joint_contact_rows
+from latdyn.errors import SceneError
+
+__all__ = ["is_energy_or_momentum", "refusal", "probe_derivatives", "probe_forms", "external_work_step",
+           "external_work_after_event"]
+
+#: a hinge's compliant stops' stiffness (the potential is linear in it) and exponent (refused)
+_STOP_STIFFNESS = re.compile(r"^beams\.(?P<beam>.+)\.(?P<end>start|end)\.hinge\.contact\.stiffness$")
+_STOP_EXPONENT = re.compile(r"^beams\.(?P<beam>.+)\.(?P<end>start|end)\.hinge\.contact\.exponent$")
+#: the recorded energies this module differentiates
+_ENERGIES = ("kinetic", "strain", "potential", "external_work", "dissipated", "total")
+#: the energies summed over the steps, and the carried key of their sensitivities
+_ACCOUNTS = {"external_work": "external_work_sensitivity", "dissipated": "dissipated_sensitivity"}
+#: the energies each probe sums (SCENE.md: total = kinetic + strain + potential)
+_PARTS = {"kinetic": ("kinetic",), "strain": ("strain",), "potential": ("potential",),
+          "total": ("kinetic", "strain", "potential")}
+
+
+def is_energy_or_momentum(probe) -> bool:
+    """Whether ``probe`` is an energy or a momentum probe (this module's)."""
+    return probe.kind in ("energy", "momentum")
+
+
+def refusal(scene, probe) -> SceneError | None:
+    """The SceneError that refuses the sensitivities of the energy or momentum ``probe`` of ``scene``, or
+    None where they are exact here (module docstring: naming ``solve.sensitivity_method`` under the
+    adjoint, else ``solve.sensitivities``)."""
+    quantity = probe.quantity
+    what = f"probe {probe.name!r} ({probe.kind} {quantity})"
+    if scene.solve.sensitivity_method == "adjoint" and quantity in ("external_work", "dissipated"):
+        return SceneError(scene.file, "solve.sensitivity_method",
+                          f"{what}: the discrete adjoint is seeded by a row's energies and momenta, not by the "
+                          f"{'external work' if quantity == 'external_work' else 'dissipated energy'} (a sum over the "
+                          "steps) yet; expected sensitivity_method: forward "
+                          "(the default) here (docs/parameters.md, \"Energies and momenta\")")
+    why = _why_not(scene, probe)
+    if why is None:
+        return None
+    return SceneError(scene.file, "solve.sensitivities",
+                      f"{what}: {why}; expected sensitivities only where they are exact (docs/parameters.md, "
+                      "\"Energies and momenta\")")
+
+
+def _why_not(scene, probe) -> str | None:
+    """Why the energy or momentum ``probe``'s sensitivities are not exact here, or None."""
+    quantity = probe.quantity
+    if probe.kind == "energy" and quantity not in _ENERGIES:
+        return f"the {quantity} energy is not differentiated (kinetic, strain, potential, external_work, dissipated, total are)"
+    if scene.cables:
+        return "energy and momentum sensitivities with cables are not computed yet"
+    guided = [name for name, body in scene.bodies.items() if getattr(body, "guide", None) is not None]
+    if guided and not (probe.kind == "energy" and quantity in ("strain", "potential")):
+        return (f"with guides (bodies.{guided[0]}.guide) the sensitivities of the strain and potential energies "
+                "are computed, not yet those of the kinetic energy, the total, the external work and the momenta "
+                "(the guided bodies' rates' derivatives)")
+    for name in _solve_names(scene):
+        used = next((u for u in scene.parameters.depending_on(name) if GEOMETRY_KEY.match(u)), None)
+        if used is not None:
+            return (f"parameter {name!r} places the structure ({used}): energy and momentum sensitivities by "
+                    "geometry parameters are not computed yet")
+    if probe.kind == "energy" and quantity in ("strain", "total"):
+        for name in _solve_names(scene):
+            used = next((u for u in scene.parameters.depending_on(name) if _STOP_EXPONENT.match(u)), None)
+            if used is not None:
+                return (f"parameter {name!r} is the exponent of compliant stops ({used}): the stops' potential's "
+                        "derivative by it is not computed yet (by their stiffness it is)")
+    if probe.kind == "energy" and quantity == "dissipated" and scene.solve.analysis == "transient":
+        for beam, which, hinge in scene.hinges:
+            if hinge.lock_at is not None or hinge.limits is not None:
+                return (f"the dissipated energy through the events of {beam}.{which} (lock_at, limits: a latch's or "
+                        "an impact's loss, a compliant stop's damping) is not differentiated yet")
+    if probe.kind == "energy" and quantity == "external_work" and scene.solve.analysis == "transient":
+        timed = _work_in_time(scene)
+        for beam, which, hinge in scene.hinges:
+            if (hinge.lock_at is not None or hinge.limits is not None) and timed is not None:
+                return (f"the external work through the events of {beam}.{which} (lock_at, limits) with {timed}, "
+                        "which depends on t (the event's time moves the power there), is not differentiated yet")
+        if getattr(scene, "controllers", None):
+            return "the external work with controllers is not differentiated yet"
+    return None
+
+
+def _work_in_time(scene) -> str | None:
+    """What of ``scene``'s external work depends on t explicitly — a load component, a hinge's torque or a
+    spring that is not conservative, named — or None."""
+    def timed(law):   # a HingeLaw names its variables; a TimeFunction is constant or not
+        if law is None or isinstance(law, (int, float)):
+            return False
+        depends = getattr(law, "depends_on", None)
+        return "t" in depends if depends is not None else not getattr(law, "is_constant", True)
+
+    for i, load in enumerate(scene.loads):
+        if any(timed(c) for c in (load.force or []) + (load.moment or [])):
+            return f"loads[{i}]"
+    for beam, which, hinge in scene.hinges:
+        if timed(hinge.torque) or timed(hinge.stiffness):
+            return f"the torque or spring of {beam}.{which}"
+        if hinge.angle is not None:
+            return f"the prescribed angle of {beam}.{which}"
+    moving = next((name for name, body in scene.bodies.items() if body.prescribed), None)
+    return None if moving is None else f"the prescribed motion of bodies.{moving}"
+
+
+def _solve_names(scene) -> list:
+    """The parameters named by ``solve.sensitivities``."""
+    return list(scene.solve.sensitivities or ())
+
+
+# ---------------------------------------------------------------------- at a row
+def probe_derivatives(owner, probe, state, dx, dpi, dtheta, rates, body_key) -> list:
+    """The derivatives of the energy or momentum ``probe`` at ``state`` by every parameter of ``owner``
+    (a :class:`latdyn.analyses.sensitivities.ParameterDerivatives`), along (δx, δπ, δθ) of its
+    ``_by_parameter`` and the rates' (δv, δω, δθ̇) of ``_rates_by_parameter`` (``rates``; None on a static
+    path, whose states are at rest): c_q·δq + c_v·δq̇ + ∂/∂p (:func:`probe_forms`); ``body_key`` the pattern of
+    a body's parameter keys. The external work and the dissipated energy of a transient run are carried
+    (:func:`external_work_step`): here only their values at the row, in ``owner.carried_accounts`` (0 on a static
+    path, which records neither)."""
+    k = len(owner.names)
+    if probe.kind == "energy" and probe.quantity in _ACCOUNTS:   # sums over the steps, carried
+        carried = getattr(owner, "carried_accounts", None) or {}
+        return [float(v) for v in carried.get(_ACCOUNTS[probe.quantity], np.zeros(k))]
+    forms = _StateForms.of(owner, body_key)
+    by_q, by_rates, explicit = forms(state)
+    row = _QUANTITIES.index(_quantity(probe)) if probe.kind == "momentum" else None
+    rows = [row] if row is not None else [_QUANTITIES.index(part) for part in _PARTS[probe.quantity]]
+    moved = explicit[rows].sum(axis=0) + by_q[rows].sum(axis=0) @ forms.on_all(dx, dpi, dtheta)
+    if rates is not None:
+        moved = moved + by_rates[rows].sum(axis=0) @ forms.on_all(*rates)
+    return [float(v) for v in moved]
+
+
+def probe_forms(owner, probe, state, body_key) -> tuple:
+    """(c_q, c_v (n,) on the free coordinates, explicit (k,)): the energy or momentum ``probe``'s derivative at
+    ``state`` is c_qᵀδq + c_vᵀδv + explicit — what the discrete adjoint seeds at its row
+    (latdyn/analyses/adjoint_sensitivities.py ``output_forms``; the external work, a sum over the steps, is
+    refused there: :func:`refusal`)."""
+    forms = _StateForms.of(owner, body_key)
+    by_q, by_rates, explicit = forms(state)
+    rows = ([_QUANTITIES.index(_quantity(probe))] if probe.kind == "momentum"
+            else [_QUANTITIES.index(part) for part in _PARTS[probe.quantity]])
+    n = owner.model.n_dofs
+    return by_q[rows].sum(axis=0)[:n], by_rates[rows].sum(axis=0)[:n], explicit[rows].sum(axis=0)
+
+
+#: the rows of :class:`_StateForms`: the three energies and the momenta's components
+_QUANTITIES = ("kinetic", "strain", "potential", "linear_x", "linear_y", "linear_z",
+               "angular_x", "angular_y", "angular_z")
+
+
+def _quantity(probe) -> str:
+    """A momentum probe's row of :data:`_QUANTITIES`."""
+    return f"{probe.quantity}_{probe.component}"
+
+
+def _skew(x: np.ndarray) -> np.ndarray:
+    """skew(x) (…, 3, 3), skew(x) y = x × y, of vectors x (…, 3)."""
+    out = np.zeros(x.shape[:-1] + (3, 3))
+    out[..., 0, 1], out[..., 0, 2], out[..., 1, 2] = -x[..., 2], x[..., 1], -x[..., 0]
+    out[..., 1, 0], out[..., 2, 0], out[..., 2, 1] = x[..., 2], -x[..., 1], x[..., 0]
+    return out
+
+
+#: Gauss–Legendre nodes and weights, 16 points: latdyn_energies' quadrature of a law spring's potential
+_GAUSS_NODES, _GAUSS_WEIGHTS = np.polynomial.legendre.leggauss(16)
+
+
+def _law_integral(integrand, rest: float, theta: float) -> float:
+    """∫_{θ_r}^{θ} integrand(x) dx on the quadrature latdyn_energies takes a law spring's potential with
+    (csrc/evaluate.c law_spring_potential: 16 Gauss points on each of the equal pieces of at most 0.25 rad),
+    so that its derivatives by the law's parameters are those of the recorded value."""
+    s = theta - rest
+    pieces = int(np.ceil(abs(s) / 0.25)) if abs(s) > 0.25 else 1
+    total = 0.0
+    for p in range(pieces):
+        a, b = rest + s * p / pieces, rest + s * (p + 1) / pieces
+        total += 0.5 * (b - a) * sum(w * integrand(0.5 * (a + b) + 0.5 * (b - a) * x)
+                                     for x, w in zip(_GAUSS_NODES, _GAUSS_WEIGHTS))
+    return total
+
+
+class _StateForms:
+    """The energies' and momenta's derivative forms at a row (module docstring): for each of
+    :data:`_QUANTITIES` its gradient by the coordinates c_q and by the rates c_v, on all coordinates
+    (n_total + 1; a clamped end's dummy row and the constrained rows multiply zeros), and its explicit
+    derivative by every parameter; the last row's kept, so that several probes of one row cost one evaluation."""
+
+    @classmethod
+    def of(cls, owner, body_key) -> "_StateForms":
+        held = owner.__dict__.get("_energy_forms")
+        if held is None:
+            held = owner._energy_forms = cls(owner, body_key)
+        return held
+
+    def __init__(self, owner, body_key):
+        self.owner, self.body_key = owner, body_key
+        self.model, self.kernels = owner.model, owner.kernels
+        self._last = None
+
+    def on_all(self, linear, angular, joint) -> np.ndarray:
+        """Node and hinge arrays (n_nodes, 3, k), (n_nodes, 3, k), (n_hinges, k) as columns on all coordinates
+        (n_total + 1, k), the dummy row zero."""
+        model = self.model
+        full = np.zeros((model.n_total + 1, linear.shape[2]))
+        full[model.node_dofs[:, 0:3]] = linear
+        full[model.node_dofs[:, 3:6]] = angular
+        if len(model.hinges):
+            full[model.hinge_dofs] = joint
+        full[model.n_total] = 0.0
+        return full
+
+    def __call__(self, state) -> tuple:
+        """(c_q (9, n_total + 1), c_v (9, n_total + 1), explicit (9, k)) at ``state``."""
+        model = self.model   # the forms are on the coordinates of the current numbering (a latch renumbers)
+        key = (model.n_dofs, model.locked.tobytes(), state.t, state.x.tobytes(), state.T.tobytes(),
+               state.theta.tobytes(), state.v.tobytes(), state.w.tobytes(), state.theta_dot.tobytes())
+        if self._last is not None and self._last[0] == key:
+            return self._last[1]
+        size = (len(_QUANTITIES), model.n_total + 1)
+        forms = (np.zeros(size), np.zeros(size), np.zeros((len(_QUANTITIES), len(self.owner.names))))
+        if len(model.element_dofs):
+            self._elements(state, *forms)
+        if len(model.body_nodes):
+            self._bodies(state, *forms)
+        if len(model.hinges):
+            self._hinges(state, *forms)
+        self._last = (key, forms)
+        return forms
+
+    @staticmethod
+    def _momenta(by_q, by_rates, dofs, f, moved_by_q, moved_by_rates, ends) -> None:
+        """Add P and H's forms of items whose generalized momentum is f (m, w) with δf = (moved_by_rates)
+        δq̇ + (moved_by_q) δq (m, w, w) into ``by_q``, ``by_rates`` on ``dofs`` (m, w): at each end
+        (first slot, x (m, 3)) of ``ends``, P += f[first:first+3], H += x × f[first:first+3] + f[first+3:first+6],
+        δH adds δx × f_translation = −skew(f_translation) δx."""
+        for first, at in ends:
+            turn = _skew(at)                                                               # (m, 3, 3)
+            for c in range(3):
+                lin, ang = 3 + c, 6 + c
+                for target, moved in ((by_rates, moved_by_rates), (by_q, moved_by_q)):
+                    np.add.at(target[lin], dofs, moved[:, first + c])
+                    np.add.at(target[ang], dofs, np.einsum("mj,mjw->mw", turn[:, c], moved[:, first:first + 3])
+                              + moved[:, first + 3 + c])
+                np.add.at(by_q[ang], dofs[:, first:first + 3], -_skew(f[:, first:first + 3])[:, c])
+
+    def _elements(self, state, by_q, by_rates, explicit) -> None:
+        """The elements' forms (module docstring)."""
+        model, kernels, owner = self.model, self.kernels, self.owner
+        geometry, velocity, _ = owner.assembler.native().element_inputs(state)
+        velocity = np.ascontiguousarray(velocity)
+        sections = np.ascontiguousarray(model.element_sections)
+        E, dofs = len(geometry), model.element_dofs
+        gravity = np.ascontiguousarray(np.repeat(np.asarray(owner.assembler.gravity, float)[None], E, axis=0))
+        # the generalized momentum f = M q̇ and its derivative by q at a = q̇: beam_inertia_tangent at zero velocity
+        momentum, tangent = (np.asarray(a) for a in kernels.beam_inertia_tangent(
+            geometry, np.zeros((E, 14)), velocity, sections, np.zeros((E, 3))))
+        momentum, tangent = momentum.reshape(E, 14), tangent.reshape(E, 14, 14)
+        mass = np.asarray(kernels.beam_mass_matrix(geometry, sections)[0]).reshape(E, 14, 14)
+        np.add.at(by_q[1], dofs, np.asarray(kernels.beam_internal_force(geometry, sections)[0]).reshape(E, 14))
+        np.add.at(by_q[2], dofs, -np.asarray(kernels.beam_gravity(geometry, sections, gravity)[0]).reshape(E, 14))
+        np.add.at(by_rates[0], dofs, momentum)
+        np.add.at(by_q[0], dofs, 0.5 * np.einsum("ei,eij->ej", velocity, tangent))
+        self._momenta(by_q, by_rates, dofs, momentum, tangent, mass,
+                      ((0, geometry[:, 0:3]), (7, geometry[:, 3:6])))
+        blocks = owner._section_derivative_blocks(state)
+        if blocks is None:
+            return
+        # the kernels with the section block replaced by its derivative (linear in it)
+        elements, column, rows = blocks
+        at, rate = geometry[elements], velocity[elements]
+        np.add.at(explicit[1], column, np.asarray(kernels.beam_strain_energy(at, rows)[0]).reshape(-1))
+        np.add.at(explicit[0], column, np.asarray(kernels.beam_kinetic_energy(at, rate, rows)[0]).reshape(-1))
+        np.add.at(explicit[2], column, np.asarray(kernels.beam_gravity(at, rows, gravity[elements])[1]).reshape(-1))
+        moved = np.einsum("eij,ej->ei", np.asarray(kernels.beam_mass_matrix(at, rows)[0]).reshape(-1, 14, 14), rate)
+        for first, x in ((0, at[:, 0:3]), (7, at[:, 3:6])):
+            lin = moved[:, first:first + 3]
+            turned = np.cross(x, lin) + moved[:, first + 3:first + 6]
+            for c in range(3):
+                np.add.at(explicit[3 + c], column, lin[:, c])
+                np.add.at(explicit[6 + c], column, turned[:, c])
+
+    def _bodies(self, state, by_q, by_rates, explicit) -> None:
+        """The joint bodies' forms (module docstring)."""
+        model, kernels, owner = self.model, self.kernels, self.owner
+        nodes = model.body_nodes
+        B, dofs = len(nodes), model.node_dofs[nodes]
+        frames = np.ascontiguousarray(state.T[nodes].reshape(B, 9))
+        u = np.concatenate([state.v[nodes], state.w[nodes]], axis=1)                       # (B, 6)
+        moving = np.ascontiguousarray(np.concatenate([np.zeros((B, 3)), u], axis=1))       # (ω, a, α) = (0, v, ω)
+        block = np.ascontiguousarray(np.concatenate([model.body_mass[:, None], model.body_com,
+                                                     model.body_inertia.reshape(B, 9)], axis=1))
+        gravity = np.ascontiguousarray(np.repeat(np.asarray(owner.assembler.gravity, float)[None], B, axis=0))
+        still, free_fall = np.zeros((B, 9)), np.zeros((B, 3))
+
+        def momentum_of(body_block):   # f = M_b u (B, 6), M_b the kernel's mass block
+            return np.asarray(kernels.joint_body(frames, moving, np.ascontiguousarray(body_block), free_fall)[0]
+                              ).reshape(B, 6)
+
+        def weight_of(body_block):     # Q = −[W; T c × W] (B, 6)
+            return np.asarray(kernels.joint_body(frames, still, np.ascontiguousarray(body_block), gravity)[0]
+                              ).reshape(B, 6)
+
+        f = momentum_of(block)
+        mass = np.asarray(kernels.joint_body(frames, moving, block, free_fall)[1]).reshape(B, 6, 6)
+        stiffness = np.asarray(kernels.joint_body_inertia_stiffness(frames, moving, block, free_fall)[0]).reshape(B, 6, 6)
+        weight = weight_of(block)
+        np.add.at(by_rates[0], dofs, f)
+        np.add.at(by_q[0], dofs, 0.5 * np.einsum("bi,bij->bj", u, stiffness))
+        np.add.at(by_q[2], dofs, weight)
+        self._momenta(by_q, by_rates, dofs, f, stiffness, mass, ((0, state.x[nodes]),))
+        for key, laws in owner.derivatives.items():
+            body = self.body_key.match(key)
+            if not body:
+                continue
+            b = int(np.flatnonzero(nodes == model.body_node[body["body"]])[0])
+            node = nodes[b]
+            for column, law in laws.items():
+                value = law.value(0.0, 0.0, state.t)
+                changed = np.zeros_like(block)
+                if body["mass"]:              # linear in m at a fixed c
+                    changed[b, 0], changed[b, 1:4] = value, model.body_com[b]
+                    moved = momentum_of(changed)[b]
+                    explicit[2, column] += weight_of(changed)[b, 0:3] @ (state.x[node] + state.T[node] @ model.body_com[b])
+                elif body["inertia"]:         # inertia[i] (the diagonal) or inertia[i][j] (symmetrised)
+                    i, j = int(body["row"]), int(body["col"] if body["col"] is not None else body["row"])
+                    step = np.zeros((3, 3))
+                    step[i, j] += 0.5 * value
+                    step[j, i] += 0.5 * value
+                    changed[b, 1:4], changed[b, 4:13] = model.body_com[b], step.reshape(9)
+                    moved = momentum_of(changed)[b]
+                else:                         # quadratic in c: the central difference is exact
+                    along = np.zeros(3)
+                    along[int(body["com"])] = value
+                    ahead, behind = block.copy(), block.copy()
+                    ahead[b, 1:4] += along
+                    behind[b, 1:4] -= along
+                    moved = 0.5 * (momentum_of(ahead) - momentum_of(behind))[b]
+                    explicit[2, column] += weight[b, 0:3] @ (state.T[node] @ along)
+                explicit[0, column] += 0.5 * u[b] @ moved
+                explicit[3:6, column] += moved[0:3]
+                explicit[6:9, column] += np.cross(state.x[node], moved[0:3]) + moved[3:6]
+
+    def _hinges(self, state, by_q, by_rates, explicit) -> None:
+        """The hinge springs' potential, as latdyn_energies counts it: ½ k s² of a constant k, and
+        ∫_{θ_r}^{θ} k(x)(x − θ_r) dx of a conservative law k(θ) (a law in θ̇ or t is not in the strain energy:
+        its work is external). ∂/∂θ = k s, the ``hinge_force`` kernel's spring torque; by the parameter, ½ (∂k/∂p) s²
+        and −k s ∂θ_r/∂p, or of a law ∫ (∂k/∂p)(x)(x − θ_r) dx and −∫ k(x) dx ∂θ_r/∂p on the quadrature of
+        latdyn_energies (:func:`_law_integral`)."""
+        model, owner = self.model, self.owner
+        H = len(model.hinges)
+        rest = np.array([h.rest_angle for h in model.hinges], float)
+        counted = np.array([h.conservative_spring for h in model.hinges], bool)
+        stiffness = np.array([h.stiffness.value(float(state.theta[j]), 0.0, 0.0) if counted[j] else 0.0
+                              for j, h in enumerate(model.hinges)], float)
+        spring = self._spring_torques(state.theta, rest, stiffness)                         # k s
+        np.add.at(by_q[1], model.hinge_dofs, spring)
+        s = np.asarray(state.theta, float) - rest
+        self._stops(state, by_q, explicit)
+        for key, laws in owner.derivatives.items():
+            _, hinge = owner._key_kinds(key)
+            if not hinge or hinge["law"] not in ("stiffness", "rest_angle"):   # a guide's: its slide's spring
+                continue
+            j = model.hinge_index(hinge["beam"], hinge["end"])
+            if not counted[j]:
+                continue
+            law_k, theta = model.hinges[j].stiffness, float(state.theta[j])
+            for column, law in laws.items():
+                if law_k.is_constant:
+                    value = law.value(theta, 0.0, 0.0)
+                    if hinge["law"] == "stiffness":   # ½ (∂k/∂p) s²: the spring torque of ∂k/∂p, times ½ s
+                        by = np.zeros(H)
+                        by[j] = value
+                        explicit[1, column] += 0.5 * s[j] * self._spring_torques(state.theta, rest, by)[j]
+                    else:                              # ∂(½ k s²)/∂θ_r = −k s
+                        explicit[1, column] -= spring[j] * value
+                elif hinge["law"] == "stiffness":      # ∫ (∂k/∂p)(x)(x − θ_r) dx
+                    explicit[1, column] += _law_integral(lambda x: law.value(x, 0.0, 0.0) * (x - rest[j]), rest[j], theta)
+                else:                                  # −∫ k(x) dx ∂θ_r/∂p (the integrand vanishes at x = θ_r)
+                    explicit[1, column] -= law.value(theta, 0.0, 0.0) * _law_integral(
+                        lambda x: law_k.value(x, 0.0, 0.0), rest[j], theta)
+
+    def _stops(self, state, by_q, explicit) -> None:
+        """The compliant stops' potential k (⟨δ_u⟩ⁿ⁺¹ + ⟨δ_l⟩ⁿ⁺¹)/(n + 1) (``hinge_force``'s contact energy):
+        ∂/∂θ = k (⟨δ_u⟩ⁿ − ⟨δ_l⟩ⁿ), the kernel's contact force at θ̇ = 0 (its damping then vanishes); linear in
+        the stops' stiffness k: ∂/∂p the kernel's contact energy with k replaced by ∂k/∂p (the exponent is
+        refused, :func:`refusal`; the damping does not enter)."""
+        model = self.model
+        stops = [j for j, h in enumerate(model.hinges) if h.contact is not None]
+        if not stops:
+            return
+        rows = np.ascontiguousarray(joint_contact_rows([model.hinges[j] for j in stops]))
+        rows[:, 5:11] = NO_CONTACT[5:11]   # no friction (refused with sensitivities)
+        at = np.column_stack([np.asarray(state.theta, float)[stops], np.zeros(len(stops)),
+                              [model.hinges[j].rest_angle for j in stops], np.zeros(len(stops))])
+        nothing = np.zeros((len(stops), 9))
+        force = np.asarray(self.kernels.hinge_force(np.ascontiguousarray(at), nothing, rows)[0]).reshape(-1)
+        np.add.at(by_q[1], model.hinge_dofs[stops], force)
+        for key, laws in self.owner.derivatives.items():
+            stop = _STOP_STIFFNESS.match(key)
+            if not stop:
+                continue
+            i = stops.index(model.hinge_index(stop["beam"], stop["end"]))
+            for column, law in laws.items():
+                changed = rows[i:i + 1].copy()
+                changed[0, 2] = law.value(0.0, 0.0, state.t)
+                explicit[1, column] += float(np.asarray(self.kernels.hinge_force(
+                    np.ascontiguousarray(at[i:i + 1]), nothing[:1], changed)[6]).reshape(-1)[0])
+
+    def _spring_torques(self, theta, rest, stiffness) -> np.ndarray:
+        """k s of every hinge (the generated ``hinge_force``'s spring torque, without contact)."""
+        H = len(rest)
+        at = np.column_stack([np.asarray(theta, float), np.zeros(H), rest, np.zeros(H)])
+        laws = np.zeros((H, 9))
+        laws[:, 0] = stiffness
+        return np.asarray(self.kernels.hinge_force(np.ascontiguousarray(at), laws,
+                                                   np.ascontiguousarray(np.tile(NO_CONTACT, (H, 1))))[3]).reshape(H)
+
+
+# ---------------------------------------------------------------------- the external work, carried
+def external_work_step(owner, before: dict, after: dict, old, new, h: float) -> dict:
+    """``after`` (the carried sensitivities at the end of the accepted step ``old`` → ``new`` of size ``h``)
+    with the external work's sensitivity carried on by the loop's own quadrature (module docstring):
+    δW_{n+1} = δW_n + ½ h (δP_n + δP_{n+1}) + ½ δh (P_n + P_{n+1}) + Σ_j ½ (δτ_n + δτ_{n+1}) Δθ
+    + ½ (τ_n + τ_{n+1}) (δθ_{n+1} − δθ_n), ``before`` the carried sensitivities at ``old``. Nothing without
+    an external-work probe."""
+    after = _dissipated_step(owner, before, after, old, new)
+    if not any(p.kind == "energy" and p.quantity == "external_work" for p in owner.probes):
+        return after
+    k = len(owner.names)
+    work = before.get("external_work_sensitivity", np.zeros(k))
+    held = before.get("external_work_terms")   # the last step's end: this step's start
+    power_old, dpower_old, torque_old, dtorque_old, dtheta_old = held if held is not None else _power(owner, old, before)
+    terms = _power(owner, new, after)
+    power_new, dpower_new, torque_new, dtorque_new, dtheta_new = terms
+    turned = np.asarray(new.theta, float) - np.asarray(old.theta, float)
+    work = (work + 0.5 * h * (dpower_old + dpower_new) + 0.5 * np.asarray(after["dh"]) * (power_old + power_new)
+            + 0.5 * turned @ (dtorque_old + dtorque_new) + 0.5 * (torque_old + torque_new) @ (dtheta_new - dtheta_old))
+    return {**after, "external_work_sensitivity": work, "external_work_terms": terms}
+
+
+def _dissipated_step(owner, before: dict, after: dict, old, new) -> dict:
+    """``after`` with the dissipated energy's sensitivity carried on by the loop's quadrature
+    (latdyn/timeloop/progress.py hinge_work): D_{n+1} = D_n + Σ_j ½ (f_n + f_{n+1}) Δθ of the dampers' torques
+    f = c(θ, θ̇, t) θ̇ (``hinge_force``'s damper torque without compliant stops and friction, which are refused), so
+    δD_{n+1} = δD_n + Σ_j ½ (δf_n + δf_{n+1}) Δθ + ½ (f_n + f_{n+1}) (δθ_{n+1} − δθ_n) with
+    δf = θ̇ ∂c/∂θ δθ + (c + θ̇ ∂c/∂θ̇) δθ̇ + θ̇ ∂c/∂p. Nothing without a dissipated-energy probe."""
+    if not any(p.kind == "energy" and p.quantity == "dissipated" for p in owner.probes):
+        return after
+    k = len(owner.names)
+    held = before.get("dissipated_terms")
+    torque_old, dtorque_old, dtheta_old = held if held is not None else _damper_torques(owner, old, before)
+    terms = _damper_torques(owner, new, after)
+    torque_new, dtorque_new, dtheta_new = terms
+    turned = np.asarray(new.theta, float) - np.asarray(old.theta, float)
+    dissipated = (before.get("dissipated_sensitivity", np.zeros(k)) + 0.5 * turned @ (dtorque_old + dtorque_new)
+                  + 0.5 * (torque_old + torque_new) @ (dtheta_new - dtheta_old))
+    return {**after, "dissipated_sensitivity": dissipated, "dissipated_terms": terms}
+
+
+def _damper_torques(owner, state, carried: dict) -> tuple:
+    """(f (hinges,), δf (hinges, k), δθ (hinges, k)): the dampers' torques c θ̇ at ``state`` and their derivatives
+    along ``carried``'s δq, δv (:func:`_dissipated_step`)."""
+    model, k = owner.model, len(owner.names)
+    _, _, dtheta = owner._by_parameter(carried["dq"], state)
+    _, _, dtheta_dot = owner._rates_by_parameter(carried["dv"])
+    H = len(model.hinges)
+    torque, dtorque = np.zeros(H), np.zeros((H, k))
+    for j, hinge in enumerate(model.hinges):
+        theta, rate, t, law = float(state.theta[j]), float(state.theta_dot[j]), state.t, hinge.damping
+        torque[j] = law.value(theta, rate, t) * rate
+        dtorque[j] = law.d_theta(theta, rate, t) * rate * dtheta[j] \
+            + (law.value(theta, rate, t) + law.d_rate(theta, rate, t) * rate) * dtheta_dot[j]
+    for key, laws in owner.derivatives.items():
+        _, hinge = owner._key_kinds(key)
+        if not hinge or hinge["law"] != "damping":
+            continue
+        j = model.hinge_index(hinge["beam"], hinge["end"])
+        theta, rate = float(state.theta[j]), float(state.theta_dot[j])
+        for column, law in laws.items():
+            dtorque[j, column] += law.value(theta, rate, state.t) * rate
+    return torque, dtorque, dtheta
+
+
+def external_work_after_event(owner, before: dict, after: dict, new, kind: str) -> dict:
+    """``after`` (the carried sensitivities restarted after the event of kind ``kind`` that ended the last
+    step at ``new``; ``before``: those of that step's end, before the jump) with the external work's terms
+    taken after the jump, as the loop takes them (latdyn/timeloop/loop.py ``_accept``): the next step starts
+    from the power and torques after the jump; a latch (the coordinates renumbered) has the loop evaluate the
+    step's end again after the jump, so that the step's own trapezoid took the power after it,
+    ½ h (P_n + P⁺_{n+1}): its sensitivity moves by ½ h (δP⁺ − δP⁻) + ½ δh (P⁺ − P⁻). Nothing without an
+    external-work probe."""
+    if "external_work_terms" not in before:
+        return after
+    terms = _power(owner, new, after)
+    work = before["external_work_sensitivity"]
+    if kind == "latch":
+        held = before["external_work_terms"]
+        work = work + 0.5 * before["h"] * (terms[1] - held[1]) + 0.5 * np.asarray(before["dh"]) * (terms[0] - held[0])
+    return {**after, "external_work_sensitivity": work, "external_work_terms": terms}
+
+
+def _drive_power(owner, state, carried: dict) -> tuple:
+    """(P_d, δP_d (k,)): the power of the reactions that impose the prescribed motion, Σ_d r_d q̇_d over the
+    constrained coordinates d that move (a prescribed body's, a prescribed hinge angle's; csrc/newton_step.c
+    drive_power), and its derivative Σ_d q̇_d δr_d with δr_d = K_d δq + C_d δv + M_d δv̇ + ∂r_d/∂p, the exact rows on
+    d (:meth:`latdyn.assembly.assembler.Assembler.exact_rows`, as the held joints' forces take them:
+    latdyn/analyses/joint_force_sensitivities.py); q̇_d is the prescribed law's, no parameter's."""
+    model, assembler = owner.model, owner.assembler
+    n, k = model.n_dofs, len(owner.names)
+    rates = pack(model, state.v, state.w, state.theta_dot)[n:model.n_total]
+    moving = np.flatnonzero(rates)
+    if len(moving) == 0:
+        return 0.0, np.zeros(k)
+    rows, weights = moving + n, rates[moving]
+    M, C, K = assembler.exact_rows(state, rows)
+    explicit = owner.residual_derivatives(state, 1.0, inertia=True, on_all=True)[rows]
+    reaction = assembler.evaluate(state, matrices=False).reaction[moving]
+    moved = weights @ (K[:, :n] @ carried["dq"] + C[:, :n] @ carried["dv"] + M[:, :n] @ carried["dvdot"] + explicit)
+    return float(weights @ reaction), moved
+
+
+def _power(owner, state, carried: dict):
+    """(P, δP (k,), τ (hinges,), δτ (hinges, k), δθ (hinges, k)) at ``state`` along ``carried``'s δq, δv:
+    the point loads' power P = −Q·u and its derivative, the hinges' applied torques and theirs."""
+    model, kernels = owner.model, owner.kernels
+    k = len(owner.names)
+    dx, dpi, dtheta = owner._by_parameter(carried["dq"], state)
+    dv, dw, dtheta_dot = owner._rates_by_parameter(carried["dv"])
+    power, dpower = 0.0, np.zeros(k)
+    loads = owner.scene.loads
+    if len(loads):
+        node, offset, frame = owner._load_points()
+        L = len(loads)
+
+        def value(law):
+            return float(law.value(state.t)) if hasattr(law, "value") else float(law)
+
+        values = np.array([[value(c) for c in (load.force or [0.0] * 3)] + [value(c) for c in (load.moment or [0.0] * 3)]
+                           for load in loads], float)
+        follower = frame >= 0
+        frames = np.where(follower[:, None, None], state.T[np.maximum(frame, 0)], np.eye(3))
+        u = np.concatenate([state.v[node], state.w[node]], axis=1)                          # (L, 6)
+        force, load_power, by_node, by_frame = (np.asarray(a) for a in kernels.point_load(
+            np.ascontiguousarray(state.T[node].reshape(L, 9)), np.ascontiguousarray(offset), values,
+            np.ascontiguousarray(frames.reshape(L, 9)), np.ascontiguousarray(u)))
+        force, by_node, by_frame = force.reshape(L, 6), by_node.reshape(L, 6, 3), by_frame.reshape(L, 6, 3)
+        power = float(np.sum(load_power))
+        dforce = np.einsum("lij,ljk->lik", by_node, dpi[node])
+        dforce += np.where(follower[:, None, None], np.einsum("lij,ljk->lik", by_frame, dpi[np.maximum(frame, 0)]), 0.0)
+        du = np.concatenate([dv[node], dw[node]], axis=1)                                   # (L, 6, k)
+        dpower -= np.einsum("lik,li->k", dforce, u) + np.einsum("li,lik->k", force, du)
+        pairs, columns, place, laws = owner._load_layout()
+        if len(pairs):   # ∂Q/∂p: the kernel with the values' derivatives (linear in them)
+            moved = np.zeros((len(pairs), 6))
+            moved[place] = np.array([owner._of_time(law, state.t) for law in laws])
+            nodes, forces = owner._load_forces(state, pairs, moved)
+            np.add.at(dpower, columns, -np.einsum("li,li->l", forces, u[pairs]))
+    drive, ddrive = _drive_power(owner, state, carried)
+    power, dpower = power + drive, dpower + ddrive
+    H = len(model.hinges)
+    torque, dtorque = np.zeros(H), np.zeros((H, k))
+    for j, hinge in enumerate(model.hinges):
+        theta, rate, t = float(state.theta[j]), float(state.theta_dot[j]), state.t
+        if hinge.torque is not None:
+            law = hinge.torque
+            torque[j] = law.value(theta, rate, t)
+            dtorque[j] = law.d_theta(theta, rate, t) * dtheta[j] + law.d_rate(theta, rate, t) * dtheta_dot[j]
+        if not hinge.conservative_spring:   # its spring's work is external: the torque τ − k s (evaluate.c)
+            law, spring = hinge.stiffness, theta - hinge.rest_angle
+            torque[j] -= law.value(theta, rate, t) * spring
+            dtorque[j] -= (law.d_theta(theta, rate, t) * spring + law.value(theta, rate, t)) * dtheta[j] \
+                + law.d_rate(theta, rate, t) * spring * dtheta_dot[j]
+    for key, laws in owner.derivatives.items():
+        _, hinge = owner._key_kinds(key)
+        if not hinge or hinge["law"] not in ("torque", "stiffness", "rest_angle") or hinge["end"] == "guide":
+            continue
+        j = model.hinge_index(hinge["beam"], hinge["end"])
+        joint = model.hinges[j]
+        theta, rate, t = float(state.theta[j]), float(state.theta_dot[j]), state.t
+        if hinge["law"] != "torque" and joint.conservative_spring:
+            continue
+        for column, law in laws.items():
+            value = law.value(theta, rate, t)
+            if hinge["law"] == "torque":
+                dtorque[j, column] += value
+            elif hinge["law"] == "stiffness":      # −(∂k/∂p) s
+                dtorque[j, column] -= value * (theta - joint.rest_angle)
+            else:                                  # −k ∂s/∂θ_r ∂θ_r/∂p = k ∂θ_r/∂p
+                dtorque[j, column] += joint.stiffness.value(theta, rate, t) * value
+    return power, dpower, torque, dtorque, dtheta
