@@ -62,7 +62,7 @@ def link_section_uses(owner) -> list:
     ρA, ρIy or ρIz of a rigid link's section in ``owner`` (a ParameterDerivatives), found once."""
     if "_link_section_uses" in owner.__dict__:
         return owner._link_section_uses
-    from latdyn.analyses.sensitivities import _SECTION_KEY
+    from latdyn.analyses.parameter_keys import SECTION_KEY as _SECTION_KEY
 
     model, scene = owner.model, owner.scene
     uses = []

@@ -20,7 +20,7 @@ with ∂y/∂q and ∂y/∂v from the generated kernels, never differenced:
 - a cable's tension N (its first element's; ``{cable: NAME, quantity: tension}``): while the element is
   taut (as the evaluation decides it: held taut, or on no side its gap positive) the generated
   ``cable_tension`` gives ∂N/∂[d1, π1, d2, π2] and ∂N/∂[v1, ω1, v2, ω2] (the damper c ℓ̇), and ∂N/∂p comes
-  from the generated ``cable_force`` as :class:`latdyn.analyses.transient_sensitivities.CableSensitivities`
+  from the generated ``cable_force`` as :class:`latdyn.analyses.cable_sensitivities.CableSensitivities`
   takes it: linear in (EA, c), affine in 1/L0; while slack N = 0 and so is its derivative.
   Its length Σ ℓ (``quantity: length``): ∂ℓ/∂q is ``cable_tension``'s ∂N/∂q at EA = L0 = 1, c = 0
   (N = ℓ − 1 there); it reads no parameter but through q.
@@ -220,7 +220,7 @@ def _cable_terms(owner):
     if terms is None:
         terms = owner.__dict__.get("_probe_cables")
         if terms is None:
-            from latdyn.analyses.transient_sensitivities import CableSensitivities
+            from latdyn.analyses.cable_sensitivities import CableSensitivities
             terms = CableSensitivities(owner)
             owner.__dict__["_probe_cables"] = terms
     return terms

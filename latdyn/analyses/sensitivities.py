@@ -96,27 +96,12 @@ from latdyn.scene.expressions import parse_hinge_law, reading_inputs
 __all__ = ["refusal", "StaticSensitivities", "SENSITIVITIES_FILE"]
 
 
-_LOAD_KEY = re.compile(r"^loads\[(?P<load>\d+)\]\.(?P<kind>force|moment)\[(?P<axis>[0-2])\]$")
-_SECTION_KEY = re.compile(r"^sections\.(?P<section>[^.]+)\.(?P<value>EA|EIy|EIz|GJ|rhoA|rhoIy|rhoIz)$")
-#: the section block's columns (codegen/conventions.py: L0 EA EIy EIz GJ rhoA rhoIy rhoIz 1/GAy 1/GAz)
-_SECTION_COLUMN = {"EA": 1, "EIy": 2, "EIz": 3, "GJ": 4, "rhoA": 5, "rhoIy": 6, "rhoIz": 7}
-_BODY_KEY = re.compile(r"^bodies\.(?P<body>[^.]+)\.(?:(?P<mass>mass)|com\[(?P<com>[0-2])\]|"
-                       r"(?P<inertia>inertia)\[(?P<row>[0-2])\](?:\[(?P<col>[0-2])\])?)$")
-#: a component of the rigid motion at t = 0 (transient runs: the velocities are affine in it at a fixed ``about``)
-_INITIAL_VELOCITY_KEY = re.compile(r"^initial_velocity\.(?P<kind>linear|angular)\[(?P<axis>[0-2])\]$")
-#: a guide's laws (transient runs), read as the hinge laws they are on the slide s (force: the torque's place)
-_GUIDE_KEY = re.compile(r"^bodies\.(?P<body>[^.]+)\.guide\.(?P<law>stiffness|damping|force|rest)$")
-_GUIDE_LAW = {"force": "torque", "rest": "rest_angle"}
-#: a cable's axial stiffness, damping and rest length (transient runs: latdyn/analyses/transient_sensitivities.py)
-_CABLE_KEY = re.compile(r"^cables\.(?P<cable>[^.]+)\.(?P<value>EA|damping|rest_length|rhoA)$")
-_HINGE_KEY = re.compile(r"^beams\.(?P<beam>.+)\.(?P<end>start|end)\.hinge\.(?P<law>stiffness|damping|torque|rest_angle)$")
-#: a compliant stop's law (transient runs: ∂f/∂(k, n, c) from the generated ``contact_force_D_law``)
-_CONTACT_KEY = re.compile(r"^beams\.(?P<beam>.+)\.(?P<end>start|end)\.hinge\.contact\."
-                          r"(?P<law>stiffness|exponent|damping)$")
-#: the slots of the law in the generated kernel's output
-_CONTACT_SLOT = {"stiffness": 0, "exponent": 1, "damping": 2}
-#: a continuous controller's output law (transient runs: ∂y/∂p through the sensors' values, ControllerTerms)
-_CONTROLLER_KEY = re.compile(r"^controllers\.(?P<name>[^.]+)\.(?:output|states\.(?P<state>[^.]+))$")
+# the keys of a parameter's uses (latdyn/analyses/parameter_keys.py), by their names here
+from latdyn.analyses.parameter_keys import (  # noqa: F401  re-exported under these names
+    LOAD_KEY as _LOAD_KEY, SECTION_KEY as _SECTION_KEY, SECTION_COLUMN as _SECTION_COLUMN, BODY_KEY as
+    _BODY_KEY, INITIAL_VELOCITY_KEY as _INITIAL_VELOCITY_KEY, GUIDE_KEY as _GUIDE_KEY, GUIDE_LAW as
+    _GUIDE_LAW, CABLE_KEY as _CABLE_KEY, HINGE_KEY as _HINGE_KEY, CONTACT_KEY as _CONTACT_KEY, CONTACT_SLOT as
+    _CONTACT_SLOT, CONTROLLER_KEY as _CONTROLLER_KEY)
 
 
 def refusal(scene) -> SceneError | None:
