@@ -443,3 +443,95 @@ def test_a_mid_size_model_with_a_coordinate_nothing_holds_is_refused_by_the_nump
 
         prepare(raw)
     assert "bodies.loose" in str(info.value) or "beams.tail.end.hinge" in str(info.value)
+
+
+# ----------------------------------------------------------------------------- ParaView frames in blocks
+def _h5_datasets(path: Path) -> dict:
+    import h5py
+
+    out = {}
+    with h5py.File(path, "r") as f:
+        f.visititems(lambda name, item: out.__setitem__(name, (item[()], item.maxshape, dict(item.attrs)))
+                     if isinstance(item, h5py.Dataset) else out.__setitem__(name, dict(item.attrs)))
+    return out
+
+
+def _same_datasets(a: dict, b: dict) -> bool:
+    if a.keys() != b.keys():
+        return False
+    for name, x in a.items():
+        y = b[name]
+        if isinstance(x, dict):
+            if x.keys() != y.keys() or any(not np.array_equal(x[k], y[k]) for k in x):
+                return False
+        elif (x[0].dtype, x[0].shape, x[1]) != (y[0].dtype, y[0].shape, y[1]) \
+                or x[0].tobytes() != y[0].tobytes():
+            return False
+    return True
+
+
+@pytest.mark.parametrize("frame_block", [256, 3])
+def test_frames_written_as_a_block_are_the_files_of_frames_written_one_at_a_time(tmp_path, monkeypatch, frame_block):
+    """A block of rows' frames (paraview.FrameBlock, as the loop of steps records them) goes to the files
+    in one write a dataset; the files equal those of the same frames recorded one by one, with a block
+    larger than FRAME_BLOCK split (frame_block 3) and a last frame the schedule skipped."""
+    from latdyn.results import paraview
+
+    monkeypatch.setattr(paraview, "FRAME_BLOCK", frame_block)
+    rng = np.random.default_rng(3)
+    m, n_points, n_cells = 11, 5, 4
+    mesh = {"beams": {"n_points": n_points, "cells": [("line", np.array([[0, 1], [1, 2], [2, 3], [3, 4]]))],
+                      "cell_data": {"beam": np.arange(n_cells, dtype=float)}},
+            "bodies": {"n_points": 2, "cells": [("vertex", np.array([[0], [1]]))], "cell_data": {}}}
+    block = paraview.FrameBlock(m, {
+        "beams": {"points": rng.normal(size=(m, n_points, 3)),
+                  "point_data": {"velocity": rng.normal(size=(m, n_points, 3)), "u": rng.normal(size=(m, n_points))},
+                  "cell_data": {"N": rng.normal(size=(m, n_cells)), "M": rng.normal(size=(m, n_cells, 2))}},
+        "bodies": {"points": rng.normal(size=(m, 2, 3)), "point_data": {"axis_x": rng.normal(size=(m, 2, 3))},
+                   "cell_data": {}}})
+    times = [0.1 * k for k in range(m + 1)]
+
+    class Frames:
+        def __call__(self, r):
+            return block[min(r, m - 1)]
+
+        def many(self, rows):
+            return block if rows == list(range(m)) else None
+
+    together = paraview.ParaviewWriter(tmp_path / "a", mesh, every=None)
+    together.record_rows(times[:m], Frames())
+    assert together._files["beams"].steps == (9 if frame_block == 3 else 0)  # whole blocks of ≤ FRAME_BLOCK written
+    together.close()
+    one_by_one = paraview.ParaviewWriter(tmp_path / "b", mesh, every=None)
+    for r in range(m):
+        one_by_one.record(times[r], block[r])
+    one_by_one.close()
+    assert together.frames == one_by_one.frames == m
+    for name in ("beams.vtkhdf", "bodies.vtkhdf"):
+        a, b = _h5_datasets(tmp_path / "a" / name), _h5_datasets(tmp_path / "b" / name)
+        assert _same_datasets(a, b), name
+        assert len(a["VTKHDF/Steps/Values"][0]) == m and a["VTKHDF/Steps"]["NSteps"] == m
+    assert sorted(p.name for p in (tmp_path / "a").iterdir()) == ["beams.vtkhdf", "bodies.vtkhdf"]  # no .tmp left
+    # a frame of the wrong size in a block is refused as one recorded alone is
+    bad = paraview.FrameBlock(2, {"beams": {**block.parts["beams"], "points": np.zeros((2, n_points + 1, 3))},
+                                  "bodies": block.parts["bodies"]})
+    writer = paraview.ParaviewWriter(tmp_path / "c", mesh, every=None)
+    with pytest.raises(ValueError, match="has 6 points, the mesh has 5"):
+        writer.record_rows(times[:2], type("F", (), {"__call__": lambda self, r: bad[r], "many": lambda self, rows: bad})())
+
+
+def test_a_new_paraview_file_is_readable_under_its_name_while_the_run_goes_on(tmp_path):
+    """The first frame creates the file under a temporary name, complete on disk before it takes its own
+    name, and kept open for appending without a lock: another reader opens it at once."""
+    import h5py
+
+    from latdyn.results import paraview
+
+    mesh = {"beams": {"n_points": 2, "cells": [("line", np.array([[0, 1]]))], "cell_data": {}}}
+    writer = paraview.ParaviewWriter(tmp_path, mesh, every=None)
+    writer.record(0.0, {"beams": {"points": np.eye(3)[:2], "point_data": {"u": np.ones(2)}, "cell_data": {}}})
+    writer.write_pending()
+    with h5py.File(tmp_path / "beams.vtkhdf", "r", locking=False) as f:
+        assert int(f["VTKHDF/Steps"].attrs["NSteps"]) == 1 and f["VTKHDF/Points"].shape == (2, 3)
+    assert not (tmp_path / "beams.vtkhdf.tmp").exists()
+    writer.close()
