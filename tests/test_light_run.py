@@ -445,6 +445,21 @@ def test_a_mid_size_model_with_a_coordinate_nothing_holds_is_refused_by_the_nump
     assert "bodies.loose" in str(info.value) or "beams.tail.end.hinge" in str(info.value)
 
 
+def test_the_order_of_a_pattern_ordered_again_is_the_same_and_a_copy():
+    """A run orders the same pattern twice (the held check, the step's matrix): the second call gives the
+    first's order without searching again, as a copy the caller may change; another pattern its own."""
+    from latdyn.numerics import linalg
+
+    (rows, cols, n), (other_rows, other_cols, _) = [p for p in _patterns() if p[2] > 20][:2]
+    first = reverse_cuthill_mckee(rows, cols, n)
+    first[:] = -1  # the caller's copy
+    again = reverse_cuthill_mckee(rows.copy(), cols.copy(), n)
+    assert np.array_equal(again, linalg._reverse_cuthill_mckee(rows, cols, n))
+    shifted = (other_cols[: len(other_rows)] + 1) % n
+    assert np.array_equal(reverse_cuthill_mckee(other_rows, shifted, n),
+                          linalg._reverse_cuthill_mckee(other_rows, shifted, n))
+
+
 # ----------------------------------------------------------------------------- ParaView frames in blocks
 def _h5_datasets(path: Path) -> dict:
     import h5py
@@ -535,3 +550,23 @@ def test_a_new_paraview_file_is_readable_under_its_name_while_the_run_goes_on(tm
         assert int(f["VTKHDF/Steps"].attrs["NSteps"]) == 1 and f["VTKHDF/Points"].shape == (2, 3)
     assert not (tmp_path / "beams.vtkhdf.tmp").exists()
     writer.close()
+
+
+def test_a_list_of_labels_is_stored_as_h5py_stores_it(tmp_path):
+    """state.h5's labels (lists of str) are written with their type named: the same attribute (type,
+    character set, shape, values) as h5py's own guess; an empty list and numbers as h5py writes them."""
+    import h5py
+
+    from latdyn.results.state_history import _set_attribute
+
+    values = {"labels": ["x:0", "ü:1", ""], "empty": [], "numbers": [1.0, 2.0], "text": "a", "mixed": ["a", 1]}
+    with h5py.File(tmp_path / "a.h5", "w") as ours, h5py.File(tmp_path / "b.h5", "w") as theirs:
+        for name, value in values.items():
+            if name != "mixed":
+                _set_attribute(ours.attrs, name, value)
+                theirs.attrs[name] = value
+    with h5py.File(tmp_path / "a.h5", "r") as ours, h5py.File(tmp_path / "b.h5", "r") as theirs:
+        for name in set(values) - {"mixed"}:
+            a, b = ours.attrs.get_id(name), theirs.attrs.get_id(name)
+            assert a.get_type().equal(b.get_type()) and a.shape == b.shape, name
+            assert np.array_equal(np.asarray(ours.attrs[name]), np.asarray(theirs.attrs[name])), name
