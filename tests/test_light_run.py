@@ -570,3 +570,28 @@ def test_a_list_of_labels_is_stored_as_h5py_stores_it(tmp_path):
             a, b = ours.attrs.get_id(name), theirs.attrs.get_id(name)
             assert a.get_type().equal(b.get_type()) and a.shape == b.shape, name
             assert np.array_equal(np.asarray(ours.attrs[name]), np.asarray(theirs.attrs[name])), name
+
+
+@pytest.mark.parametrize("width, dtype, chunks, fillvalue",
+                         [((3,), "f8", (4000, 3), None), ((), "f8", (1024,), None), ((), "i8", (1024,), 1),
+                          ((), "i8", (1024,), 0), ((1,), "i8", (1024, 1), None), ((6,), "f8", (12, 6), None)])
+def test_a_paraview_files_growing_dataset_is_the_one_h5py_creates(tmp_path, width, dtype, chunks, fillvalue):
+    """The ParaView files' growing datasets, created through h5py's low-level interface, have the
+    creation properties (chunks, fill value and its time, allocation, no times tracked, no filters),
+    type and space of h5py's ``create_dataset`` with the same options."""
+    import h5py
+
+    from latdyn.results.paraview import _growing_dataset
+
+    with h5py.File(tmp_path / "f.h5", "w") as f:
+        ours = _growing_dataset(f, "ours", width, dtype, chunks, fillvalue=fillvalue)
+        theirs = f.create_dataset("theirs", shape=(0, *width), maxshape=(None, *width), dtype=dtype, chunks=chunks,
+                                  **({} if fillvalue is None else {"fillvalue": fillvalue}))
+        a, b = ours.id.get_create_plist(), theirs.id.get_create_plist()
+        assert a.equal(b)
+        assert (ours.dtype, ours.shape, ours.maxshape, ours.chunks, ours.fillvalue) == \
+               (theirs.dtype, theirs.shape, theirs.maxshape, theirs.chunks, theirs.fillvalue)
+        assert ours.id.get_type().equal(theirs.id.get_type())
+        ours.resize((5, *width))
+        theirs.resize((5, *width))
+        assert np.array_equal(ours[()], theirs[()])  # the fill value where nothing was written

@@ -44,11 +44,13 @@ read natively by ParaView >= 5.12 and VTK's ``vtkHDFReader``), written with h5py
     k · n_cells, or 0 for the arrays stored once. Offset datasets with equal contents are one
     dataset under several names (HDF5 hard links), so a frame resizes few datasets.
 
-Frames are written in blocks: the first creates the file, later ones gather in memory and
+Frames are written in blocks: the first creates the file (under a temporary name, flushed, then
+renamed and kept open for appending), later ones gather in memory and
 are appended and flushed (``h5py.File.flush``) every :data:`FRAME_BLOCK` frames or
 :data:`FRAME_BLOCK_SECONDS`, at every checkpoint and at close (one write a dataset per block:
 ~0.2 ms a frame less than one at a time; a block's append costs ~1.5 ms a file, so the default
-~200 frames of a short run go in one), so a Ctrl-C or a solver failure (which close the
+~200 frames of a short run go in one; the frames of a block of rows recorded where the step runs
+come as one :class:`FrameBlock` and are gathered as one piece), so a Ctrl-C or a solver failure (which close the
 file) leave every recorded frame, and a kill between two blocks a complete, readable file of
 the frames up to the last block (at most the last second's frames lost); a kill during a flush may not (HDF5 rewrites its metadata in
 place; the state history, copied and replaced atomically, is the safe record). The files are
@@ -432,8 +434,7 @@ class _PartFile:
         def growing(group, name, rows, sample):
             sample = np.asarray(sample, dtype=float)
             width = sample.shape[1:]
-            return group.create_dataset(name, shape=(0, *width), maxshape=(None, *width), dtype="f8",
-                                        chunks=(max(1, rows) * frames_per_chunk, *width))
+            return _growing_dataset(group, name, width, "f8", (max(1, rows) * frames_per_chunk, *width))
 
         made["Points"] = growing(root, "Points", self.n_points, np.zeros((1, 3)))
         point_data = root.create_group("PointData")
@@ -449,12 +450,10 @@ class _PartFile:
             made["CellData"].append(name)
         steps = root.create_group("Steps")
         steps.attrs["NSteps"] = np.int64(0)
-        made["Steps/Values"] = steps.create_dataset("Values", shape=(0,), maxshape=(None,), dtype="f8", chunks=(1024,))
+        made["Steps/Values"] = _growing_dataset(steps, "Values", (), "f8", (1024,))
         for name, fill in (("PartOffsets", 0), ("NumberOfParts", 1), ("PointOffsets", 0)):
-            made[f"Steps/{name}"] = steps.create_dataset(name, shape=(0,), maxshape=(None,), dtype="i8",
-                                                         chunks=(1024,), fillvalue=fill)
-        made["Steps/CellOffsets"] = steps.create_dataset("CellOffsets", shape=(0, 1), maxshape=(None, 1), dtype="i8",
-                                                         chunks=(1024, 1))
+            made[f"Steps/{name}"] = _growing_dataset(steps, name, (), "i8", (1024,), fillvalue=fill)
+        made["Steps/CellOffsets"] = _growing_dataset(steps, "CellOffsets", (1,), "i8", (1024, 1))
         steps["ConnectivityIdOffsets"] = made["Steps/CellOffsets"]  # both 0: hard links to one dataset
         offsets = steps.create_group("PointDataOffsets")
         for name in sorted(made["PointData"]):
@@ -465,7 +464,7 @@ class _PartFile:
             if name in self.static:
                 offsets[name] = made["Steps/PartOffsets"]  # stored once: offset 0 at every step
             elif changing is None:
-                changing = offsets.create_dataset(name, shape=(0,), maxshape=(None,), dtype="i8", chunks=(1024,))
+                changing = _growing_dataset(offsets, name, (), "i8", (1024,))
                 made[f"Steps/CellDataOffsets/{name}"] = changing
             else:
                 offsets[name] = changing
@@ -552,6 +551,25 @@ class _PartFile:
             finally:
                 self.file.close()
                 self.file = None
+
+
+def _growing_dataset(group, name: str, width: tuple, dtype: str, chunks: tuple, fillvalue=None):
+    """``group.create_dataset(name, shape=(0, *width), maxshape=(None, *width), dtype=dtype,
+    chunks=chunks, fillvalue=fillvalue)`` through h5py's low-level interface: the same dataset (type,
+    space, chunks, fill value, no times tracked; tests/test_light_run.py compares their creation
+    properties) without h5py's checks and guesses of options this file does not use (~50 µs a
+    dataset; a file has ~20)."""
+    import h5py
+    from h5py import h5d, h5p, h5s, h5t
+
+    dcpl = h5p.create(h5p.DATASET_CREATE)
+    dcpl.set_chunk(tuple(chunks))
+    if fillvalue is not None:
+        dcpl.set_fill_value(np.array(fillvalue))
+    dcpl.set_obj_track_times(False)
+    space = h5s.create_simple((0, *width), (h5s.UNLIMITED, *width))
+    return h5py.Dataset(h5d.create(group.id, name.encode(), h5t.py_create(np.dtype(dtype), logical=1), space,
+                                   dcpl=dcpl))
 
 
 def _resume_error(path: Path, why: str):
