@@ -581,10 +581,10 @@ def test_a_paraview_files_growing_dataset_is_the_one_h5py_creates(tmp_path, widt
     type and space of h5py's ``create_dataset`` with the same options."""
     import h5py
 
-    from latdyn.results.paraview import _growing_dataset
+    from latdyn.results.paraview import _growing_dataset, _link
 
     with h5py.File(tmp_path / "f.h5", "w") as f:
-        ours = _growing_dataset(f, "ours", width, dtype, chunks, fillvalue=fillvalue)
+        ours = h5py.Dataset(_growing_dataset(f, "ours", width, dtype, chunks, fillvalue=fillvalue))
         theirs = f.create_dataset("theirs", shape=(0, *width), maxshape=(None, *width), dtype=dtype, chunks=chunks,
                                   **({} if fillvalue is None else {"fillvalue": fillvalue}))
         a, b = ours.id.get_create_plist(), theirs.id.get_create_plist()
@@ -595,3 +595,7 @@ def test_a_paraview_files_growing_dataset_is_the_one_h5py_creates(tmp_path, widt
         ours.resize((5, *width))
         theirs.resize((5, *width))
         assert np.array_equal(ours[()], theirs[()])  # the fill value where nothing was written
+        _link(f.require_group("offsets"), "also ours", ours.id)  # a hard link, as h5py's f[name] = dataset
+        f["offsets/also theirs"] = theirs
+        assert f["offsets/also ours"] == ours and f["offsets/also theirs"] == theirs
+        assert f["offsets"].get("also ours", getlink=True).__class__ is h5py.HardLink

@@ -401,7 +401,9 @@ class _PartFile:
             growing.append((made[f"Steps/CellDataOffsets/{self._cell_data[0]}"], 1,
                             lambda d, t, k: np.arange(k, k + len(t), dtype=np.int64) * c))
         growing += [(made[f"Steps/{name}"], 1, None) for name in ("PartOffsets", "NumberOfParts", "CellOffsets")]
-        self._growing = [(d.id, rows, d.shape[1:], d.dtype, value) for d, rows, value in growing]
+        ids = [(d if isinstance(d, h5py.h5d.DatasetID) else d.id, rows, value)  # h5py's datasets or their ids
+               for d, rows, value in growing]
+        self._growing = [(d, rows, d.shape[1:], d.dtype, value) for d, rows, value in ids]
         self._n_steps = h5py.h5a.open(steps.id, b"NSteps")
 
     def _create(self, first: dict) -> None:
@@ -454,20 +456,20 @@ class _PartFile:
         for name, fill in (("PartOffsets", 0), ("NumberOfParts", 1), ("PointOffsets", 0)):
             made[f"Steps/{name}"] = _growing_dataset(steps, name, (), "i8", (1024,), fillvalue=fill)
         made["Steps/CellOffsets"] = _growing_dataset(steps, "CellOffsets", (1,), "i8", (1024, 1))
-        steps["ConnectivityIdOffsets"] = made["Steps/CellOffsets"]  # both 0: hard links to one dataset
+        _link(steps, "ConnectivityIdOffsets", made["Steps/CellOffsets"])  # both 0: hard links to one dataset
         offsets = steps.create_group("PointDataOffsets")
         for name in sorted(made["PointData"]):
-            offsets[name] = made["Steps/PointOffsets"]
+            _link(offsets, name, made["Steps/PointOffsets"])
         offsets = steps.create_group("CellDataOffsets")
         changing = None
         for name in sorted(made["CellData"]):
             if name in self.static:
-                offsets[name] = made["Steps/PartOffsets"]  # stored once: offset 0 at every step
+                _link(offsets, name, made["Steps/PartOffsets"])  # stored once: offset 0 at every step
             elif changing is None:
                 changing = _growing_dataset(offsets, name, (), "i8", (1024,))
                 made[f"Steps/CellDataOffsets/{name}"] = changing
             else:
-                offsets[name] = changing
+                _link(offsets, name, changing)
         f.flush()  # complete on disk before it takes the file's name
         try:
             tmp.replace(self.path)  # kept open: nothing looked up again
@@ -555,11 +557,10 @@ class _PartFile:
 
 def _growing_dataset(group, name: str, width: tuple, dtype: str, chunks: tuple, fillvalue=None):
     """``group.create_dataset(name, shape=(0, *width), maxshape=(None, *width), dtype=dtype,
-    chunks=chunks, fillvalue=fillvalue)`` through h5py's low-level interface: the same dataset (type,
-    space, chunks, fill value, no times tracked; tests/test_light_run.py compares their creation
-    properties) without h5py's checks and guesses of options this file does not use (~50 µs a
-    dataset; a file has ~20)."""
-    import h5py
+    chunks=chunks, fillvalue=fillvalue).id`` through h5py's low-level interface: the same dataset
+    (type, space, chunks, fill value, no times tracked; tests/test_light_run.py compares their
+    creation properties) without h5py's checks and guesses of options this file does not use, nor
+    its high-level Dataset object (~0.1 ms a dataset together; a file has ~20). Returns its id."""
     from h5py import h5d, h5p, h5s, h5t
 
     dcpl = h5p.create(h5p.DATASET_CREATE)
@@ -568,8 +569,22 @@ def _growing_dataset(group, name: str, width: tuple, dtype: str, chunks: tuple, 
         dcpl.set_fill_value(np.array(fillvalue))
     dcpl.set_obj_track_times(False)
     space = h5s.create_simple((0, *width), (h5s.UNLIMITED, *width))
-    return h5py.Dataset(h5d.create(group.id, name.encode(), h5t.py_create(np.dtype(dtype), logical=1), space,
-                                   dcpl=dcpl))
+    return h5d.create(group.id, name.encode(), h5t.py_create(np.dtype(dtype), logical=1), space, dcpl=dcpl)
+
+
+def _link(group, name: str, dataset_id) -> None:
+    """``group[name] = dataset``: a hard link to a dataset given by its low-level id (as h5py links
+    one: intermediate groups created, the name's character set ASCII for an ASCII name)."""
+    from h5py import h5o, h5p, h5t
+
+    lcpl = h5p.create(h5p.LINK_CREATE)
+    lcpl.set_create_intermediate_group(True)
+    try:
+        encoded, charset = name.encode("ascii"), h5t.CSET_ASCII
+    except UnicodeEncodeError:
+        encoded, charset = name.encode("utf-8"), h5t.CSET_UTF8
+    lcpl.set_char_encoding(charset)
+    h5o.link(dataset_id, group.id, encoded, lcpl=lcpl)
 
 
 def _resume_error(path: Path, why: str):
