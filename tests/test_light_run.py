@@ -552,6 +552,37 @@ def test_a_new_paraview_file_is_readable_under_its_name_while_the_run_goes_on(tm
     writer.close()
 
 
+def test_where_an_open_file_cannot_be_renamed_the_new_paraview_file_is_closed_renamed_and_reopened(
+        tmp_path, monkeypatch):
+    """A platform that renames no open file (Windows): the new file is closed, renamed and opened again,
+    and the files are those of the ordinary path."""
+    from latdyn.results import paraview
+
+    mesh = {"beams": {"n_points": 2, "cells": [("line", np.array([[0, 1]]))], "cell_data": {"beam": np.zeros(1)}}}
+    frames = [{"beams": {"points": np.eye(3)[:2] * (k + 1), "point_data": {"u": np.full(2, k)},
+                         "cell_data": {"N": np.full(1, -k)}}} for k in range(3)]
+
+    def write(folder):
+        writer = paraview.ParaviewWriter(folder, mesh, every=None)
+        for k, frame in enumerate(frames):
+            writer.record(0.5 * k, frame)
+        writer.close()
+
+    write(tmp_path / "a")
+    replace, refused = Path.replace, []
+
+    def no_open_rename(self, target):
+        if self.name.endswith(".tmp") and not refused:
+            refused.append(self.name)
+            raise PermissionError("the file is open")
+        return replace(self, target)
+
+    monkeypatch.setattr(Path, "replace", no_open_rename)
+    write(tmp_path / "b")
+    assert refused == ["beams.vtkhdf.tmp"]
+    assert _same_datasets(_h5_datasets(tmp_path / "a" / "beams.vtkhdf"), _h5_datasets(tmp_path / "b" / "beams.vtkhdf"))
+
+
 def test_a_list_of_labels_is_stored_as_h5py_stores_it(tmp_path):
     """state.h5's labels (lists of str) are written with their type named: the same attribute (type,
     character set, shape, values) as h5py's own guess; an empty list and numbers as h5py writes them."""
