@@ -443,3 +443,237 @@ def test_a_mid_size_model_with_a_coordinate_nothing_holds_is_refused_by_the_nump
 
         prepare(raw)
     assert "bodies.loose" in str(info.value) or "beams.tail.end.hinge" in str(info.value)
+
+
+def test_the_order_of_a_pattern_ordered_again_is_the_same_and_a_copy():
+    """A run orders the same pattern twice (the held check, the step's matrix): the second call gives the
+    first's order without searching again, as a copy the caller may change; another pattern its own."""
+    from latdyn.numerics import linalg
+
+    (rows, cols, n), (other_rows, other_cols, _) = [p for p in _patterns() if p[2] > 20][:2]
+    first = reverse_cuthill_mckee(rows, cols, n)
+    first[:] = -1  # the caller's copy
+    again = reverse_cuthill_mckee(rows.copy(), cols.copy(), n)
+    assert np.array_equal(again, linalg._reverse_cuthill_mckee(rows, cols, n))
+    shifted = (other_cols[: len(other_rows)] + 1) % n
+    assert np.array_equal(reverse_cuthill_mckee(other_rows, shifted, n),
+                          linalg._reverse_cuthill_mckee(other_rows, shifted, n))
+
+
+# ----------------------------------------------------------------------------- ParaView frames in blocks
+def _h5_datasets(path: Path) -> dict:
+    import h5py
+
+    out = {}
+    with h5py.File(path, "r") as f:
+        f.visititems(lambda name, item: out.__setitem__(name, (item[()], item.maxshape, dict(item.attrs)))
+                     if isinstance(item, h5py.Dataset) else out.__setitem__(name, dict(item.attrs)))
+    return out
+
+
+def _same_datasets(a: dict, b: dict) -> bool:
+    if a.keys() != b.keys():
+        return False
+    for name, x in a.items():
+        y = b[name]
+        if isinstance(x, dict):
+            if x.keys() != y.keys() or any(not np.array_equal(x[k], y[k]) for k in x):
+                return False
+        elif (x[0].dtype, x[0].shape, x[1]) != (y[0].dtype, y[0].shape, y[1]) \
+                or x[0].tobytes() != y[0].tobytes():
+            return False
+    return True
+
+
+@pytest.mark.parametrize("frame_block", [256, 3])
+def test_frames_written_as_a_block_are_the_files_of_frames_written_one_at_a_time(tmp_path, monkeypatch, frame_block):
+    """A block of rows' frames (paraview.FrameBlock, as the loop of steps records them) goes to the files
+    in one write a dataset; the files equal those of the same frames recorded one by one, with a block
+    larger than FRAME_BLOCK split (frame_block 3) and a last frame the schedule skipped."""
+    from latdyn.results import paraview
+
+    monkeypatch.setattr(paraview, "FRAME_BLOCK", frame_block)
+    rng = np.random.default_rng(3)
+    m, n_points, n_cells = 11, 5, 4
+    mesh = {"beams": {"n_points": n_points, "cells": [("line", np.array([[0, 1], [1, 2], [2, 3], [3, 4]]))],
+                      "cell_data": {"beam": np.arange(n_cells, dtype=float)}},
+            "bodies": {"n_points": 2, "cells": [("vertex", np.array([[0], [1]]))], "cell_data": {}}}
+    block = paraview.FrameBlock(m, {
+        "beams": {"points": rng.normal(size=(m, n_points, 3)),
+                  "point_data": {"velocity": rng.normal(size=(m, n_points, 3)), "u": rng.normal(size=(m, n_points))},
+                  "cell_data": {"N": rng.normal(size=(m, n_cells)), "M": rng.normal(size=(m, n_cells, 2))}},
+        "bodies": {"points": rng.normal(size=(m, 2, 3)), "point_data": {"axis_x": rng.normal(size=(m, 2, 3))},
+                   "cell_data": {}}})
+    times = [0.1 * k for k in range(m + 1)]
+
+    class Frames:
+        def __call__(self, r):
+            return block[min(r, m - 1)]
+
+        def many(self, rows):
+            return block if rows == list(range(m)) else None
+
+    together = paraview.ParaviewWriter(tmp_path / "a", mesh, every=None)
+    together.record_rows(times[:m], Frames())
+    assert together._files["beams"].steps == (9 if frame_block == 3 else 0)  # whole blocks of ≤ FRAME_BLOCK written
+    together.close()
+    one_by_one = paraview.ParaviewWriter(tmp_path / "b", mesh, every=None)
+    for r in range(m):
+        one_by_one.record(times[r], block[r])
+    one_by_one.close()
+    assert together.frames == one_by_one.frames == m
+    for name in ("beams.vtkhdf", "bodies.vtkhdf"):
+        a, b = _h5_datasets(tmp_path / "a" / name), _h5_datasets(tmp_path / "b" / name)
+        assert _same_datasets(a, b), name
+        assert len(a["VTKHDF/Steps/Values"][0]) == m and a["VTKHDF/Steps"]["NSteps"] == m
+    assert sorted(p.name for p in (tmp_path / "a").iterdir()) == ["beams.vtkhdf", "bodies.vtkhdf"]  # no .tmp left
+    # a frame of the wrong size in a block is refused as one recorded alone is
+    bad = paraview.FrameBlock(2, {"beams": {**block.parts["beams"], "points": np.zeros((2, n_points + 1, 3))},
+                                  "bodies": block.parts["bodies"]})
+    writer = paraview.ParaviewWriter(tmp_path / "c", mesh, every=None)
+    with pytest.raises(ValueError, match="has 6 points, the mesh has 5"):
+        writer.record_rows(times[:2], type("F", (), {"__call__": lambda self, r: bad[r], "many": lambda self, rows: bad})())
+
+
+def test_a_new_paraview_file_is_readable_under_its_name_while_the_run_goes_on(tmp_path):
+    """The first frame creates the file under a temporary name, complete on disk before it takes its own
+    name, and kept open for appending without a lock: another reader opens it at once."""
+    import h5py
+
+    from latdyn.results import paraview
+
+    mesh = {"beams": {"n_points": 2, "cells": [("line", np.array([[0, 1]]))], "cell_data": {}}}
+    writer = paraview.ParaviewWriter(tmp_path, mesh, every=None)
+    writer.record(0.0, {"beams": {"points": np.eye(3)[:2], "point_data": {"u": np.ones(2)}, "cell_data": {}}})
+    writer.write_pending()
+    with h5py.File(tmp_path / "beams.vtkhdf", "r", locking=False) as f:
+        assert int(f["VTKHDF/Steps"].attrs["NSteps"]) == 1 and f["VTKHDF/Points"].shape == (2, 3)
+    assert not (tmp_path / "beams.vtkhdf.tmp").exists()
+    writer.close()
+
+
+def test_where_an_open_file_cannot_be_renamed_the_new_paraview_file_is_closed_renamed_and_reopened(
+        tmp_path, monkeypatch):
+    """A platform that renames no open file (Windows): the new file is closed, renamed and opened again,
+    and the files are those of the ordinary path."""
+    from latdyn.results import paraview
+
+    mesh = {"beams": {"n_points": 2, "cells": [("line", np.array([[0, 1]]))], "cell_data": {"beam": np.zeros(1)}}}
+    frames = [{"beams": {"points": np.eye(3)[:2] * (k + 1), "point_data": {"u": np.full(2, k)},
+                         "cell_data": {"N": np.full(1, -k)}}} for k in range(3)]
+
+    def write(folder):
+        writer = paraview.ParaviewWriter(folder, mesh, every=None)
+        for k, frame in enumerate(frames):
+            writer.record(0.5 * k, frame)
+        writer.close()
+
+    write(tmp_path / "a")
+    replace, refused = Path.replace, []
+
+    def no_open_rename(self, target):
+        if self.name.endswith(".tmp") and not refused:
+            refused.append(self.name)
+            raise PermissionError("the file is open")
+        return replace(self, target)
+
+    monkeypatch.setattr(Path, "replace", no_open_rename)
+    write(tmp_path / "b")
+    assert refused == ["beams.vtkhdf.tmp"]
+    assert _same_datasets(_h5_datasets(tmp_path / "a" / "beams.vtkhdf"), _h5_datasets(tmp_path / "b" / "beams.vtkhdf"))
+
+
+def test_a_list_of_labels_is_stored_as_h5py_stores_it(tmp_path):
+    """state.h5's labels (lists of str) are written with their type named: the same attribute (type,
+    character set, shape, values) as h5py's own guess; an empty list and numbers as h5py writes them."""
+    import h5py
+
+    from latdyn.results.state_history import _set_attribute
+
+    values = {"labels": ["x:0", "ü:1", ""], "empty": [], "numbers": [1.0, 2.0], "text": "a", "mixed": ["a", 1]}
+    with h5py.File(tmp_path / "a.h5", "w") as ours, h5py.File(tmp_path / "b.h5", "w") as theirs:
+        for name, value in values.items():
+            if name != "mixed":
+                _set_attribute(ours.attrs, name, value)
+                theirs.attrs[name] = value
+    with h5py.File(tmp_path / "a.h5", "r") as ours, h5py.File(tmp_path / "b.h5", "r") as theirs:
+        for name in set(values) - {"mixed"}:
+            a, b = ours.attrs.get_id(name), theirs.attrs.get_id(name)
+            assert a.get_type().equal(b.get_type()) and a.shape == b.shape, name
+            assert np.array_equal(np.asarray(ours.attrs[name]), np.asarray(theirs.attrs[name])), name
+
+
+@pytest.mark.parametrize("width, dtype, chunks, fillvalue",
+                         [((3,), "f8", (4000, 3), None), ((), "f8", (1024,), None), ((), "i8", (1024,), 1),
+                          ((), "i8", (1024,), 0), ((1,), "i8", (1024, 1), None), ((6,), "f8", (12, 6), None)])
+def test_a_paraview_files_growing_dataset_is_the_one_h5py_creates(tmp_path, width, dtype, chunks, fillvalue):
+    """The ParaView files' growing datasets, created through h5py's low-level interface, have the
+    creation properties (chunks, fill value and its time, allocation, no times tracked, no filters),
+    type and space of h5py's ``create_dataset`` with the same options."""
+    import h5py
+
+    from latdyn.results.paraview import _growing_dataset, _link
+
+    with h5py.File(tmp_path / "f.h5", "w") as f:
+        ours = h5py.Dataset(_growing_dataset(f, "ours", width, dtype, chunks, fillvalue=fillvalue))
+        theirs = f.create_dataset("theirs", shape=(0, *width), maxshape=(None, *width), dtype=dtype, chunks=chunks,
+                                  **({} if fillvalue is None else {"fillvalue": fillvalue}))
+        a, b = ours.id.get_create_plist(), theirs.id.get_create_plist()
+        assert a.equal(b)
+        assert (ours.dtype, ours.shape, ours.maxshape, ours.chunks, ours.fillvalue) == \
+               (theirs.dtype, theirs.shape, theirs.maxshape, theirs.chunks, theirs.fillvalue)
+        assert ours.id.get_type().equal(theirs.id.get_type())
+        ours.resize((5, *width))
+        theirs.resize((5, *width))
+        assert np.array_equal(ours[()], theirs[()])  # the fill value where nothing was written
+        _link(f.require_group("offsets"), "also ours", ours.id)  # a hard link, as h5py's f[name] = dataset
+        f["offsets/also theirs"] = theirs
+        assert f["offsets/also ours"] == ours and f["offsets/also theirs"] == theirs
+        assert f["offsets"].get("also ours", getlink=True).__class__ is h5py.HardLink
+
+
+BLOCK_FRAMES_SCENE = """\
+    title: a 3D arm of two flexible beams with a joint body, a hinge and a tip load
+    gravity: [0, -2.0, -9.81]
+    sections:
+      s: {EA: 1.0e6, EIy: 300, EIz: 500, GJ: 400, rhoA: 1.0, rhoIy: 1.0e-3, rhoIz: 1.0e-3}
+    bodies:
+      base: {at: [0, 0, 0], fixed: true}
+      elbow: {at: [1, 0, 0], mass: 0.5, inertia: [1.0e-3, 2.0e-3, 3.0e-3]}
+      tip: {at: [1.5, 0.5, 0.2], mass: 0.2}
+    beams:
+      a: {from: base, to: {body: elbow, offset: [-0.1, 0, 0]}, section: s, elements: 3,
+          start: {hinge: {axis: [0, 0, 1], torque: "1.0"}}}
+      b: {from: elbow, to: tip, section: s, elements: 3, y_axis: [0, 0, 1]}
+    loads:
+      - {at: tip, force: [0, 0, "-2*sin(20*t)"]}
+    solve: {analysis: transient, t_end: 0.06, dt: 0.002}
+    output:
+      paraview_every: 0.004
+      probes:
+        tip_z: {point: tip, quantity: position, component: z}
+        my: {element: b.element[1], quantity: moment_y}
+    """
+
+
+def test_a_runs_frames_in_blocks_are_its_frames_row_by_row(tmp_path, monkeypatch):
+    """A 3D run's ParaView files through the CLI (the rows' frames computed and written a block at a time)
+    equal, dataset for dataset and bit for bit, those of the same scene through the API with every
+    frame computed and written row by row (paraview.frame), and so do its probes."""
+    from latdyn.timeloop.loop import TimeLoop
+
+    scene = tmp_path / "arm.yaml"
+    scene.write_text(textwrap.dedent(BLOCK_FRAMES_SCENE))
+    done = subprocess.run([sys.executable, "-m", "latdyn", "run", str(scene), "-o", str(tmp_path / "blocks"), "-q"],
+                          capture_output=True, text=True, timeout=300, env={**os.environ, "PYTHONPATH": str(ROOT)})
+    assert done.returncode == 0, done.stderr
+    asked = []
+    monkeypatch.setattr(TimeLoop, "_frames_of", lambda self, block, rows: asked.append(len(rows)))  # None: row by row
+    latdyn.run(latdyn.load_scene(scene), out_dir=tmp_path / "rows")
+    assert asked and max(asked) > 1  # the blocks' frames were asked for, and given row by row
+    for name in ("beams.vtkhdf", "bodies.vtkhdf"):
+        blocks, rows = (_h5_datasets(tmp_path / k / "paraview" / name) for k in ("blocks", "rows"))
+        assert _same_datasets(blocks, rows), name
+        assert len(blocks["VTKHDF/Steps/Values"][0]) == 16  # t = 0, 0.004, …, 0.06
+    assert (tmp_path / "blocks" / "probes.csv").read_bytes() == (tmp_path / "rows" / "probes.csv").read_bytes()
+    assert abs(float((tmp_path / "rows" / "probes.csv").read_text().splitlines()[-1].split(",")[2])) > 0  # it moved

@@ -315,16 +315,33 @@ def use_dense(n: int) -> bool:
 RCM_IN_PYTHON = 5000
 
 
+#: The last pattern :func:`reverse_cuthill_mckee` ordered and its order: a run orders the same
+#: pattern twice (the held check's M + K and the step's iteration matrix, ~2 ms each at 400 coordinates).
+_LAST_ORDER: tuple | None = None
+
+
 def reverse_cuthill_mckee(rows: np.ndarray, cols: np.ndarray, n: int) -> np.ndarray:
     """SciPy's ``csgraph.reverse_cuthill_mckee`` of the pattern (rows, cols) with
     ``symmetric_mode=False``, the same order to the last index (tests/test_light_run.py checks it
     against SciPy): on the pattern of A + Aᵀ, the degree of a node is its row's entries, its
     diagonal counted twice; each connected part is searched breadth first from its first node in
     NumPy's ``argsort`` of the degrees, the unvisited neighbours of each node (by index) appended
-    in a stable order of increasing degree; the order is reversed."""
+    in a stable order of increasing degree; the order is reversed. The same (rows, cols, n) as the
+    last call's, entry for entry, gives a copy of its order without searching again."""
+    global _LAST_ORDER
+    rows, cols = np.asarray(rows, np.int64), np.asarray(cols, np.int64)
+    key = (n, rows.tobytes(), cols.tobytes())
+    if _LAST_ORDER is not None and _LAST_ORDER[0] == key:
+        return _LAST_ORDER[1].copy()
+    order = _reverse_cuthill_mckee(rows, cols, n)
+    _LAST_ORDER = (key, order.copy())
+    return order
+
+
+def _reverse_cuthill_mckee(rows: np.ndarray, cols: np.ndarray, n: int) -> np.ndarray:
+    """:func:`reverse_cuthill_mckee`, searched."""
     from latdyn.numerics.csr import unique_keys  # np.unique would import numpy.ma
 
-    rows, cols = np.asarray(rows, np.int64), np.asarray(cols, np.int64)
     keys = unique_keys(np.concatenate([rows * n + cols, cols * n + rows]))[0]
     row, col = keys // max(n, 1), keys % max(n, 1)
     indptr = np.concatenate([[0], np.cumsum(np.bincount(row, minlength=n))])

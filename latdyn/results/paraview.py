@@ -44,11 +44,13 @@ read natively by ParaView >= 5.12 and VTK's ``vtkHDFReader``), written with h5py
     k · n_cells, or 0 for the arrays stored once. Offset datasets with equal contents are one
     dataset under several names (HDF5 hard links), so a frame resizes few datasets.
 
-Frames are written in blocks: the first creates the file, later ones gather in memory and
+Frames are written in blocks: the first creates the file (under a temporary name, flushed, then
+renamed and kept open for appending), later ones gather in memory and
 are appended and flushed (``h5py.File.flush``) every :data:`FRAME_BLOCK` frames or
 :data:`FRAME_BLOCK_SECONDS`, at every checkpoint and at close (one write a dataset per block:
 ~0.2 ms a frame less than one at a time; a block's append costs ~1.5 ms a file, so the default
-~200 frames of a short run go in one), so a Ctrl-C or a solver failure (which close the
+~200 frames of a short run go in one; the frames of a block of rows recorded where the step runs
+come as one :class:`FrameBlock` and are gathered as one piece), so a Ctrl-C or a solver failure (which close the
 file) leave every recorded frame, and a kill between two blocks a complete, readable file of
 the frames up to the last block (at most the last second's frames lost); a kill during a flush may not (HDF5 rewrites its metadata in
 place; the state history, copied and replaced atomically, is the safe record). The files are
@@ -220,7 +222,7 @@ def frame(assembler, mesh: dict, state, kernel_sections=None) -> dict:
     return out
 
 
-def frames(assembler, mesh: dict, states, kernel_sections=None) -> list[dict] | None:
+def frames(assembler, mesh: dict, states, kernel_sections=None) -> "FrameBlock | None":
     """:func:`frame` of several states at once: ``states`` a State whose arrays have a leading row
     axis (a block of rows recorded where the step runs), ``kernel_sections`` their strain-energy
     kernel's section forces (rows, elements, 4) or None. The same arrays to the last bit (the same
@@ -249,10 +251,34 @@ def frames(assembler, mesh: dict, states, kernel_sections=None) -> list[dict] | 
             cell_data = {q: forces[:, :, k] for k, q in enumerate(SECTION_QUANTITIES)}
         else:
             point_data.update(angular_velocity=states.w[:, nodes], axis_x=R[..., 0], axis_y=R[..., 1], axis_z=R[..., 2])
-        parts[name] = (points, point_data, cell_data)
-    return [{name: {"points": points[j], "point_data": {k: a[j] for k, a in point_data.items()},
-                    "cell_data": {k: a[j] for k, a in cell_data.items()}}
-             for name, (points, point_data, cell_data) in parts.items()} for j in range(m)]
+        parts[name] = {"points": points, "point_data": point_data, "cell_data": cell_data}
+    return FrameBlock(m, parts)
+
+
+class FrameBlock:
+    """The frames of :func:`frames`: ``parts`` ``{part: {"points", "point_data", "cell_data"}}`` whose
+    arrays have a leading frame axis, written by :meth:`ParaviewWriter.record_rows` as one block; a
+    sequence of frames too (``block[j]``: frame j as :func:`frame` gives it, views of the arrays)."""
+
+    def __init__(self, count: int, parts: dict):
+        self.count, self.parts = count, parts
+
+    def __len__(self) -> int:
+        return self.count
+
+    def __getitem__(self, j: int) -> dict:
+        if not -self.count <= j < self.count:
+            raise IndexError(j)
+        return {name: {"points": part["points"][j], "point_data": {k: a[j] for k, a in part["point_data"].items()},
+                       "cell_data": {k: a[j] for k, a in part["cell_data"].items()}}
+                for name, part in self.parts.items()}
+
+
+def _frames_slice(block: dict, start: int, stop: int) -> dict:
+    """A part's frames ``start`` to ``stop`` of a block (arrays with a leading frame axis; views)."""
+    return {"points": block["points"][start:stop],
+            "point_data": {k: a[start:stop] for k, a in block["point_data"].items()},
+            "cell_data": {k: a[start:stop] for k, a in block["cell_data"].items()}}
 
 
 def _row(states, j: int):
@@ -321,7 +347,8 @@ class _PartFile:
         self.path = path
         self.n_points, self.n_cells = part["n_points"], part["n_cells"]
         self.static = dict(part["cell_data"])
-        self._pending: list = []  # frames appended, not yet in the file (append)
+        self._pending: list = []  # blocks of frames appended, not yet in the file (append_block)
+        self._pending_frames = 0  # the frames they hold
         self._written_at = time.perf_counter()
         if keep is None:
             self.file = None  # created at the first frame, when the arrays' names and shapes are known
@@ -348,24 +375,35 @@ class _PartFile:
         self._n_steps.write(np.array(keep, dtype=np.int64))
         self.file.flush()
 
-    def _datasets(self, root) -> None:
+    def _datasets(self, root, made: dict | None = None) -> None:
         """What grows with the frames: ``(dataset id, rows per frame, value of a frame or None)``,
         None for the offsets that are their fill value (0, or 1 parts) at every step. Appending
-        goes through h5py's low-level interface (a few µs a dataset instead of ~100 µs)."""
+        goes through h5py's low-level interface (a few µs a dataset instead of ~100 µs).
+        ``made``: the datasets just created, by path under ``root`` (not looked up again, ~70 µs each)."""
         import h5py
 
         steps = root["Steps"]
-        self._point_data = list(root["PointData"])
-        self._cell_data = [name for name in root["CellData"] if name not in self.static]
+        if made is None:
+            made = root  # a group looks datasets up by path
+            self._point_data = list(root["PointData"])
+            self._cell_data = [name for name in root["CellData"] if name not in self.static]
+        else:  # in the group's order (by name), as listing it gives
+            self._point_data = sorted(name for name in made["PointData"])
+            self._cell_data = sorted(name for name in made["CellData"] if name not in self.static)
         p, c = self.n_points, self.n_cells
-        growing = [(root["Points"], p, lambda d, t, k: d["points"])]
-        growing += [(root["PointData"][n], p, lambda d, t, k, n=n: d["point_data"][n]) for n in self._point_data]
-        growing += [(root["CellData"][n], c, lambda d, t, k, n=n: d["cell_data"][n]) for n in self._cell_data]
-        growing += [(steps["Values"], 1, lambda d, t, k: [t]), (steps["PointOffsets"], 1, lambda d, t, k: [k * p])]
+        # a value of frames k, k + 1, … of a block (arrays with a leading frame axis; t the frames' times)
+        growing = [(made["Points"], p, lambda d, t, k: d["points"])]
+        growing += [(made[f"PointData/{n}"], p, lambda d, t, k, n=n: d["point_data"][n]) for n in self._point_data]
+        growing += [(made[f"CellData/{n}"], c, lambda d, t, k, n=n: d["cell_data"][n]) for n in self._cell_data]
+        growing += [(made["Steps/Values"], 1, lambda d, t, k: t),
+                    (made["Steps/PointOffsets"], 1, lambda d, t, k: np.arange(k, k + len(t), dtype=np.int64) * p)]
         if self._cell_data:  # the offsets of every changing cell array (hard links to one dataset)
-            growing.append((steps["CellDataOffsets"][self._cell_data[0]], 1, lambda d, t, k: [k * c]))
-        growing += [(steps[name], 1, None) for name in ("PartOffsets", "NumberOfParts", "CellOffsets")]
-        self._growing = [(d.id, rows, d.shape[1:], d.dtype, value) for d, rows, value in growing]
+            growing.append((made[f"Steps/CellDataOffsets/{self._cell_data[0]}"], 1,
+                            lambda d, t, k: np.arange(k, k + len(t), dtype=np.int64) * c))
+        growing += [(made[f"Steps/{name}"], 1, None) for name in ("PartOffsets", "NumberOfParts", "CellOffsets")]
+        ids = [(d if isinstance(d, h5py.h5d.DatasetID) else d.id, rows, value)  # h5py's datasets or their ids
+               for d, rows, value in growing]
+        self._growing = [(d, rows, d.shape[1:], d.dtype, value) for d, rows, value in ids]
         self._n_steps = h5py.h5a.open(steps.id, b"NSteps")
 
     def _create(self, first: dict) -> None:
@@ -374,8 +412,10 @@ class _PartFile:
         part = self._part
         self.path.parent.mkdir(parents=True, exist_ok=True)
         tmp = self.path.with_name(self.path.name + ".tmp")
-        # the default (earliest) file format: a file left open by a killed process stays readable
-        f = h5py.File(tmp, "w")
+        # the default (earliest) file format: a file left open by a killed process stays readable;
+        # no lock: readable while the run goes on
+        f = h5py.File(tmp, "w", locking=False)
+        made = {"PointData": [], "CellData": []}  # what _datasets reads, by path under VTKHDF
         root = f.create_group("VTKHDF")
         root.attrs["Version"] = np.array(VTKHDF_VERSION, dtype=np.int64)
         root.attrs.create("Type", np.bytes_("UnstructuredGrid"))  # fixed-length ASCII, as VTK writes it
@@ -396,41 +436,51 @@ class _PartFile:
         def growing(group, name, rows, sample):
             sample = np.asarray(sample, dtype=float)
             width = sample.shape[1:]
-            return group.create_dataset(name, shape=(0, *width), maxshape=(None, *width), dtype="f8",
-                                        chunks=(max(1, rows) * frames_per_chunk, *width))
+            return _growing_dataset(group, name, width, "f8", (max(1, rows) * frames_per_chunk, *width))
 
-        growing(root, "Points", self.n_points, np.zeros((1, 3)))
+        made["Points"] = growing(root, "Points", self.n_points, np.zeros((1, 3)))
         point_data = root.create_group("PointData")
         for name, value in first["point_data"].items():
-            growing(point_data, name, self.n_points, value)
+            made[f"PointData/{name}"] = growing(point_data, name, self.n_points, value)
+            made["PointData"].append(name)
         cell_data = root.create_group("CellData")
         for name, value in self.static.items():
             cell_data[name] = value
+            made["CellData"].append(name)
         for name, value in first["cell_data"].items():
-            growing(cell_data, name, self.n_cells, value)
+            made[f"CellData/{name}"] = growing(cell_data, name, self.n_cells, value)
+            made["CellData"].append(name)
         steps = root.create_group("Steps")
         steps.attrs["NSteps"] = np.int64(0)
-        steps.create_dataset("Values", shape=(0,), maxshape=(None,), dtype="f8", chunks=(1024,))
+        made["Steps/Values"] = _growing_dataset(steps, "Values", (), "f8", (1024,))
         for name, fill in (("PartOffsets", 0), ("NumberOfParts", 1), ("PointOffsets", 0)):
-            steps.create_dataset(name, shape=(0,), maxshape=(None,), dtype="i8", chunks=(1024,), fillvalue=fill)
-        steps.create_dataset("CellOffsets", shape=(0, 1), maxshape=(None, 1), dtype="i8", chunks=(1024, 1))
-        steps["ConnectivityIdOffsets"] = steps["CellOffsets"]  # both 0: hard links to one dataset
+            made[f"Steps/{name}"] = _growing_dataset(steps, name, (), "i8", (1024,), fillvalue=fill)
+        made["Steps/CellOffsets"] = _growing_dataset(steps, "CellOffsets", (1,), "i8", (1024, 1))
+        _link(steps, "ConnectivityIdOffsets", made["Steps/CellOffsets"])  # both 0: hard links to one dataset
         offsets = steps.create_group("PointDataOffsets")
-        for name in point_data:
-            offsets[name] = steps["PointOffsets"]
+        for name in sorted(made["PointData"]):
+            _link(offsets, name, made["Steps/PointOffsets"])
         offsets = steps.create_group("CellDataOffsets")
         changing = None
-        for name in cell_data:
+        for name in sorted(made["CellData"]):
             if name in self.static:
-                offsets[name] = steps["PartOffsets"]  # stored once: offset 0 at every step
+                _link(offsets, name, made["Steps/PartOffsets"])  # stored once: offset 0 at every step
             elif changing is None:
-                changing = offsets.create_dataset(name, shape=(0,), maxshape=(None,), dtype="i8", chunks=(1024,))
+                changing = _growing_dataset(offsets, name, (), "i8", (1024,))
+                made[f"Steps/CellDataOffsets/{name}"] = changing
             else:
-                offsets[name] = changing
-        f.close()
-        tmp.replace(self.path)
-        self.file = h5py.File(self.path, "r+", locking=False)  # no lock: readable while the run goes on
-        self._datasets(self.file["VTKHDF"])
+                _link(offsets, name, changing)
+        f.flush()  # complete on disk before it takes the file's name
+        try:
+            tmp.replace(self.path)  # kept open: nothing looked up again
+        except OSError:  # a platform that renames no open file: closed, renamed, opened again
+            f.close()
+            tmp.replace(self.path)
+            self.file = h5py.File(self.path, "r+", locking=False)
+            self._datasets(self.file["VTKHDF"])
+        else:
+            self.file = f
+            self._datasets(root, made)
         del self._part
 
     def _resize(self, steps: int) -> None:
@@ -441,15 +491,29 @@ class _PartFile:
         """Append one frame (``{"points", "point_data", "cell_data"}``, checked by the caller): the
         first creates the file; later ones gather and go to the file in blocks (:data:`FRAME_BLOCK`
         frames or :data:`FRAME_BLOCK_SECONDS`; :meth:`write_pending` at checkpoints and close)."""
+        self.append_block([t], {"points": data["points"][None],
+                                "point_data": {k: v[None] for k, v in data["point_data"].items()},
+                                "cell_data": {k: v[None] for k, v in data["cell_data"].items()}})
+
+    def append_block(self, times: list, block: dict) -> None:
+        """Append the frames at ``times`` at once: ``block`` as a frame of :meth:`append` whose arrays
+        have a leading frame axis (a block of rows' frames, :class:`FrameBlock`); the same file as
+        appending them one at a time (blocks of at most :data:`FRAME_BLOCK` frames go to the file)."""
         if self.file is None:
-            self._create(data)
-            self._pending, self._written_at = [], time.perf_counter()
-        elif set(data["point_data"]) != set(self._point_data) or set(data["cell_data"]) != set(self._cell_data):
-            raise ValueError(f"{self.path.name}: a frame with arrays {sorted(data['point_data'])} + "
-                             f"{sorted(data['cell_data'])}, the file has {self._point_data} + {self._cell_data}")
-        self._pending.append((t, data))
-        if len(self._pending) >= FRAME_BLOCK or time.perf_counter() - self._written_at >= FRAME_BLOCK_SECONDS:
-            self.write_pending()
+            self._create({kind: {k: v[0] for k, v in block[kind].items()} for kind in ("point_data", "cell_data")})
+            self._pending, self._pending_frames, self._written_at = [], 0, time.perf_counter()
+        elif set(block["point_data"]) != set(self._point_data) or set(block["cell_data"]) != set(self._cell_data):
+            raise ValueError(f"{self.path.name}: a frame with arrays {sorted(block['point_data'])} + "
+                             f"{sorted(block['cell_data'])}, the file has {self._point_data} + {self._cell_data}")
+        start = 0
+        while start < len(times):
+            stop = min(len(times), start + FRAME_BLOCK - self._pending_frames)
+            part = block if start == 0 and stop == len(times) else _frames_slice(block, start, stop)
+            self._pending.append((list(times[start:stop]), part))
+            self._pending_frames += stop - start
+            start = stop
+            if self._pending_frames >= FRAME_BLOCK or time.perf_counter() - self._written_at >= FRAME_BLOCK_SECONDS:
+                self.write_pending()
 
     def write_pending(self) -> None:
         """The frames gathered since the last write, appended in one write a dataset, then flushed."""
@@ -458,25 +522,29 @@ class _PartFile:
         self._written_at = time.perf_counter()
         if self.file is None or not self._pending:
             return
-        k, m = self.steps, len(self._pending)
+        k, m = self.steps, self._pending_frames
         for dataset, rows, width, dtype, value in self._growing:
             dataset.set_extent(((k + m) * rows, *width))
             if value is None:  # the fill value
                 continue
-            array = np.concatenate([np.ascontiguousarray(value(data, t, k + j), dtype=dtype).reshape(rows, *width)
-                                    for j, (t, data) in enumerate(self._pending)])
+            pieces, first = [], k
+            for times, data in self._pending:
+                pieces.append(np.ascontiguousarray(value(data, times, first), dtype=dtype).reshape(len(times) * rows, *width))
+                first += len(times)
+            array = pieces[0] if len(pieces) == 1 else np.concatenate(pieces)
             space = dataset.get_space()
             space.select_hyperslab((k * rows, *(0 for _ in width)), array.shape)
             dataset.write(h5py.h5s.create_simple(array.shape), space, array)
         self._n_steps.write(np.array(k + m, dtype=np.int64))  # last: a step is complete when counted
         self.steps = k + m
         self._pending.clear()
+        self._pending_frames = 0
         self.file.flush()
 
     @property
     def frames(self) -> int:
         """Frames appended: on disk and gathered."""
-        return self.steps + len(self._pending)
+        return self.steps + self._pending_frames
 
     def close(self) -> None:
         if self.file is not None:
@@ -485,6 +553,38 @@ class _PartFile:
             finally:
                 self.file.close()
                 self.file = None
+
+
+def _growing_dataset(group, name: str, width: tuple, dtype: str, chunks: tuple, fillvalue=None):
+    """``group.create_dataset(name, shape=(0, *width), maxshape=(None, *width), dtype=dtype,
+    chunks=chunks, fillvalue=fillvalue).id`` through h5py's low-level interface: the same dataset
+    (type, space, chunks, fill value, no times tracked; tests/test_light_run.py compares their
+    creation properties) without h5py's checks and guesses of options this file does not use, nor
+    its high-level Dataset object (~0.1 ms a dataset together; a file has ~20). Returns its id."""
+    from h5py import h5d, h5p, h5s, h5t
+
+    dcpl = h5p.create(h5p.DATASET_CREATE)
+    dcpl.set_chunk(tuple(chunks))
+    if fillvalue is not None:
+        dcpl.set_fill_value(np.array(fillvalue))
+    dcpl.set_obj_track_times(False)
+    space = h5s.create_simple((0, *width), (h5s.UNLIMITED, *width))
+    return h5d.create(group.id, name.encode(), h5t.py_create(np.dtype(dtype), logical=1), space, dcpl=dcpl)
+
+
+def _link(group, name: str, dataset_id) -> None:
+    """``group[name] = dataset``: a hard link to a dataset given by its low-level id (as h5py links
+    one: intermediate groups created, the name's character set ASCII for an ASCII name)."""
+    from h5py import h5o, h5p, h5t
+
+    lcpl = h5p.create(h5p.LINK_CREATE)
+    lcpl.set_create_intermediate_group(True)
+    try:
+        encoded, charset = name.encode("ascii"), h5t.CSET_ASCII
+    except UnicodeEncodeError:
+        encoded, charset = name.encode("utf-8"), h5t.CSET_UTF8
+    lcpl.set_char_encoding(charset)
+    h5o.link(dataset_id, group.id, encoded, lcpl=lcpl)
 
 
 def _resume_error(path: Path, why: str):
@@ -535,6 +635,15 @@ class ParaviewWriter:
             file.append(t, checked[name])
         self.frames += 1
 
+    def _write_block(self, times: list, block: "FrameBlock") -> None:
+        """The frames of a :class:`FrameBlock` at ``times``, as :meth:`_write` of each (the same files)."""
+        checked = {}
+        for name in self._part_files(block[0]):
+            checked[name] = _checked_block(name, block, self._parts[name])
+        for name, file in self._files.items():
+            file.append_block(times, checked[name])
+        self.frames += len(times)
+
     # -- recording
     def record(self, t: float, data) -> None:
         """A recorded row's frame (or a callable giving it, called only if written)."""
@@ -564,8 +673,11 @@ class ParaviewWriter:
                     self._next = math.floor(t / self.every + 1e-9) + 1
         many = getattr(frame_of, "many", None)
         given = many(due) if many is not None and due else None
-        for k, r in enumerate(due):
-            self._write(times[r], frame_of(r) if given is None else given[k])
+        if isinstance(given, FrameBlock):
+            self._write_block([times[r] for r in due], given)
+        else:
+            for k, r in enumerate(due):
+                self._write(times[r], frame_of(r) if given is None else given[k])
         last = len(times) - 1
         self._unwritten = None if due and due[-1] == last else (times[last], frame_of(last))
 
@@ -620,6 +732,28 @@ class ParaviewWriter:
             if not path.is_file():
                 raise _resume_error(path, "the file is missing")
             self._files[name] = _PartFile(path, self._parts[name], keep=self.frames)
+
+
+def _checked_block(name: str, block: "FrameBlock", part: dict) -> dict:
+    """A block's part as :func:`_checked` gives each of its frames, with the leading frame axis."""
+    m = len(block)
+    if name not in block.parts:
+        raise ValueError(f"frame has parts {sorted(block.parts)}, the mesh has {name!r}")
+    data = block.parts[name]
+    points = np.asarray(data["points"], dtype=float).reshape(m, -1, 3)
+    if points.shape[1] != part["n_points"]:
+        raise ValueError(f"frame part {name!r} has {points.shape[1]} points, the mesh has {part['n_points']}")
+    out = {"points": points, "point_data": {}, "cell_data": {}}
+    for kind, count in (("point_data", part["n_points"]), ("cell_data", part["n_cells"])):
+        for key, value in (data.get(kind) or {}).items():
+            array = np.asarray(value, dtype=float)
+            if array.ndim not in (2, 3) or array.shape[:2] != (m, count):
+                raise ValueError(f"{kind.replace('_', ' ')} {key!r} of {name!r} has shape {array.shape[1:]}, "
+                                 f"expected ({count},) or ({count}, k)")
+            if kind == "cell_data" and key in part["cell_data"]:
+                raise ValueError(f"cell data {key!r} of {name!r} is constant (the mesh's); a frame may not repeat it")
+            out[kind][str(key)] = array
+    return out
 
 
 def _checked(name: str, data: dict, part: dict) -> dict:

@@ -91,7 +91,7 @@ class _BlockFrames:
     def __call__(self, r: int) -> dict:
         return self.loop._frame_of(self.block, r)
 
-    def many(self, rows: list[int]) -> list[dict] | None:
+    def many(self, rows: list[int]) -> "paraview.FrameBlock | None":
         return self.loop._frames_of(self.block, rows)
 
 
@@ -417,9 +417,11 @@ class TimeLoop:
         self.bookmark = self.writer.bookmark()
         self._judge_balance(times[end - 1], gain)
 
-    def _frames_of(self, block, rows: list[int]) -> list[dict] | None:
+    def _frames_of(self, block, rows: list[int]) -> "paraview.FrameBlock | None":
         """The ParaView frames of several rows of a block, computed together (None: one by one)."""
         s = block.states
+        if rows == list(range(rows[0], rows[-1] + 1)):  # consecutive (every row's frame): views, not copies
+            rows = slice(rows[0], rows[-1] + 1)
         states = State(s.t[rows], *(getattr(s, name)[rows] for name in STATE_FIELDS))
         sections = None if block.section_forces is None else block.section_forces[rows]
         return paraview.frames(self.assembler, self.writer.mesh, states, kernel_sections=sections)
