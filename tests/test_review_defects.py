@@ -2,7 +2,13 @@
 through the CLI, or a mapping through the API) and checked against what the package must do.
 
 1. A study judged a structure at rest unbounded on round-off: its energy rule had no floor, where the
-   run's rule has one (``progress.energy_round_off``). The study uses the same floor now."""
+   run's rule has one (``progress.energy_round_off``). The study uses the same floor now.
+2. A law's signals were found as words of its text: "1e2*k" read a controller (or input) named ``e2``,
+   so a plain run was refused and sensitivities too. The names are the parser's tokens now, and
+   ``ControllerTerms.refusal`` takes each law's parsed names by the key it was read at.
+3. A massless cable pretensioned to a free end snapped in the first step (its pretension's energy
+   lost): refused now unless the loads at the end balance the pull. Found on the way: a cable's end
+   off a coordinate plane left the model planar (the end moved in the plane only)."""
 from __future__ import annotations
 
 import os
@@ -18,7 +24,7 @@ from latdyn.model.model import Model
 from latdyn.studies.case import _energy_status
 from latdyn.timeloop.progress import energy_round_off
 from latdyn.errors import SceneError
-from tests.cli_runs import ROOT, latdyn_run
+from tests.cli_runs import ROOT, latdyn_run, probe_columns, summary_of
 from tests.test_energy_balance import AT_REST
 
 
@@ -146,5 +152,96 @@ def test_a_law_that_reads_a_controller_with_a_parameter_is_still_refused(tmp_pat
     with pytest.raises(SceneError) as info:
         latdyn.run(latdyn.load_scene(data))
     assert info.value.key == "solve.sensitivities" and f"used at {key}, a law that names a controller" in str(info.value)
-    completed, _ = latdyn_run(tmp_path, yaml.safe_dump(data, sort_keys=False))
-    assert completed.returncode == 2 and f"used at {key}" in completed.stderr and "Traceback" not in completed.stderr
+    if key.startswith("beams"):   # and through the CLI
+        completed, _ = latdyn_run(tmp_path, yaml.safe_dump(data, sort_keys=False))
+        assert completed.returncode == 2 and f"used at {key}" in completed.stderr and "Traceback" not in completed.stderr
+
+
+# ----------------------------------------------------------------------------- 3. a massless cable's free end
+#: a massless cable from a fixed anchor to a free end [0.6, 0.48, 0.64] (length 1), rest length 0.9:
+#: pretensioned, N = EA (1 − 0.9)/0.9 = 2.2e5 N, and the end has no mass
+PRETENSIONED_FREE_END = """\
+title: a massless cable pretensioned to a free end
+bodies:
+  anchor: {at: [0, 0, 0], fixed: true}
+cables:
+  rope: {from: anchor, to: [0.6, 0.48, 0.64], EA: 2.0e6, rest_length: 0.9}
+solve: {analysis: transient, t_end: 0.05, dt: 0.01}
+output:
+  probes:
+    tension: {cable: rope, quantity: tension}
+    z: {point: rope.end, quantity: position, component: z}
+"""
+PULL = 2.0e6 * (1.0 - 0.9) / 0.9
+
+
+def _balanced(fraction: float) -> str:
+    """The scene with a load at the free end pulling it away from the anchor with ``fraction`` of the pull."""
+    force = [f'"{fraction * PULL!r}*{c}"' for c in ("0.6", "0.48", "0.64")]
+    return PRETENSIONED_FREE_END.replace("solve:", f"loads:\n  - {{at: rope.end, force: [{', '.join(force)}]}}\nsolve:")
+
+
+def test_a_pretensioned_massless_cable_whose_free_end_is_not_in_equilibrium_is_refused(tmp_path):
+    """The end has no mass: before, the first step snapped it to the rest length (tension 2.2e5 N -> 0,
+    the pretension's 1.1e4 J gone: an energy balance error of 1, then "went slack", exit 1). Now ``latdyn
+    run`` (no load) and ``latdyn check`` (a load that balances half the pull) refuse it before any step
+    (exit 2), naming cables.rope.rest_length, the pull and what to give instead; the API raises the same
+    SceneError for both."""
+    completed, out = latdyn_run(tmp_path, PRETENSIONED_FREE_END)
+    assert completed.returncode == 2, completed.stderr
+    assert "cables.rope.rest_length: expected the free end rope.end of the massless cable in equilibrium at t = 0" \
+        in completed.stderr and "Traceback" not in completed.stderr
+    assert f"pulls it with {PULL:.6g} N" in completed.stderr and f"{PULL:.6g} N of that is not balanced" in completed.stderr
+    assert not (out / "probes.csv").exists()
+    (tmp_path / "half.yaml").write_text(_balanced(0.5))
+    check = subprocess.run([sys.executable, "-m", "latdyn", "check", "half.yaml"], cwd=tmp_path, capture_output=True,
+                           text=True, timeout=300, env={**os.environ, "PYTHONPATH": str(ROOT)})
+    assert check.returncode == 2 and f"{0.5 * PULL:.6g} N of that is not balanced" in check.stderr, check.stderr
+    for text in (PRETENSIONED_FREE_END, _balanced(0.5)):
+        with pytest.raises(SceneError) as info:
+            latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
+        assert info.value.key == "cables.rope.rest_length"
+
+
+def test_a_pretensioned_massless_cable_whose_pull_a_load_balances_holds_still(tmp_path):
+    """The same cable with a load at its end equal and opposite to the pull: in equilibrium at t = 0, it
+    runs and stays there (the tension and the end's z exactly as at t = 0 at every row; balance error 0)."""
+    completed, out = latdyn_run(tmp_path, _balanced(1.0))
+    assert completed.returncode == 0, completed.stderr
+    probes = probe_columns(out)
+    assert np.abs(probes["tension"] / PULL - 1.0).max() < 1e-12
+    assert np.abs(probes["z"] - 0.64).max() < 1e-15
+    assert summary_of(out)["energy_balance_error"] < 1e-12
+
+
+#: the same pretension with mass (rhoA 2 kg/m: 0.9 kg lumped at the free end) and EA 2000 N, off the xy plane
+MASSIVE_FREE_END = """\
+title: a pretensioned cable with mass, from an anchor to a free end off the xy plane
+bodies:
+  anchor: {at: [0, 0, 0], fixed: true}
+cables:
+  rope: {from: anchor, to: [0.6, 0.48, 0.64], EA: 2000.0, rhoA: 2.0, rest_length: 0.9}
+solve: {analysis: transient, t_end: 0.03, dt: 0.0001}
+output:
+  every: 0.001
+  probes:
+    z: {point: rope.end, quantity: position, component: z}
+    length: {cable: rope, quantity: length}
+"""
+
+
+def test_a_cable_off_the_plane_keeps_the_model_3d(tmp_path):
+    """A cable's end off the xy plane kept the model planar (its ends were not among the points the plane
+    is checked against): the end then moved in the xy plane only, its z frozen at 0.64 (an error of 0.059
+    against the exact motion, a length off by 0.035). Now the model is 3D and the end (0.9 kg, pulled
+    along the cable, ℓ(t) = L0 + 0.1 cos ω t, ω² = EA/(L0 m), taut to t = 0.03) follows
+    z = 0.64 ℓ(t): measured 2.1e-7 (z) and 3.2e-7 (length), generalized-α at ω dt = 0.005."""
+    completed, out = latdyn_run(tmp_path, MASSIVE_FREE_END)
+    assert completed.returncode == 0, completed.stderr
+    probes = probe_columns(out)
+    omega = np.sqrt(2000.0 / (0.9 * 0.9))
+    length = 0.9 + 0.1 * np.cos(omega * probes["t"])
+    assert np.abs(probes["length"] - length).max() < 1e-6
+    assert np.abs(probes["z"] - 0.64 * length).max() < 1e-6
+    model = Model.from_scene(latdyn.load_scene(yaml.safe_load(MASSIVE_FREE_END)))
+    assert model.plane is None and "cables.rope.to is off the plane" in model.plane_reason
