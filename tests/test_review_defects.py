@@ -8,7 +8,9 @@ through the CLI, or a mapping through the API) and checked against what the pack
    ``ControllerTerms.refusal`` takes each law's parsed names by the key it was read at.
 3. A massless cable pretensioned to a free end snapped in the first step (its pretension's energy
    lost): refused now unless the loads at the end balance the pull. Found on the way: a cable's end
-   off a coordinate plane left the model planar (the end moved in the plane only)."""
+   off a coordinate plane left the model planar (the end moved in the plane only).
+4. Geometry parameters a planar model cannot take, and a kernel variant without the reference
+   derivatives, were refused only after compiling (``latdyn check`` passed them): refused up front now."""
 from __future__ import annotations
 
 import os
@@ -245,3 +247,75 @@ def test_a_cable_off_the_plane_keeps_the_model_3d(tmp_path):
     assert np.abs(probes["z"] - 0.64 * length).max() < 1e-6
     model = Model.from_scene(latdyn.load_scene(yaml.safe_load(MASSIVE_FREE_END)))
     assert model.plane is None and "cables.rope.to is off the plane" in model.plane_reason
+
+
+# ----------------------------------------------------------------------------- 4. geometry refusals up front
+#: a planar cantilever in the xy plane whose free end's z is a parameter (0): z0 lifts it off the plane
+OFF_PLANE = """\
+title: a planar cantilever whose end a parameter lifts off the plane
+parameters: {L: 1.2, z0: 0.0, c: 0.0, ax: 0.0}
+sections: {s: {EA: 1.0e6, EIy: 100.0, EIz: 100.0, GJ: 80.0, rhoA: 1.0}}
+bodies:
+  base: {at: [0, 0, 0], fixed: true}
+beams:
+  arm: {from: base, to: ["L", 0, "z0"], section: s, elements: 2, y_axis: [0, 1, "c"],
+        start: {hinge: {axis: ["ax", 0, 1], stiffness: 50.0}}}
+loads:
+  - {at: arm.end, force: [0, -1, 0]}
+solve: {analysis: transient, t_end: 0.02, dt: 0.01, sensitivities: [NAME]}
+output:
+  probes:
+    tip: {point: arm.end, quantity: position, component: y}
+"""
+
+
+def _nothing_compiled(monkeypatch):
+    """Make loading (compiling) the kernels an error: a refusal must come first."""
+    import latdyn.assembly.prepare as prepare
+
+    def compiled(*args, **kwargs):
+        raise AssertionError("the kernels were loaded before the refusal")
+    monkeypatch.setattr(prepare, "load_kernels", compiled)
+
+
+@pytest.mark.parametrize("name, expected", [
+    ("z0", "a geometry parameter moves a point off the plane of the planar model; expected solve.planar: off"),
+    ("c", "a parameter of beams.arm.y_axis in a planar model"),
+    ("ax", "a parameter of beams.arm.start.hinge.axis in a planar model"),
+])
+def test_geometry_parameters_a_planar_model_cannot_take_are_refused_before_compiling(tmp_path, monkeypatch, name,
+                                                                                    expected):
+    """Before, these were refused only when the run built the sensitivities (after compiling the kernels) and
+    ``latdyn check`` passed them (exit 0). Now ``latdyn check`` refuses them (exit 2, naming
+    solve.sensitivities, the message the run gave) and so does the run, before any kernel is loaded."""
+    text = OFF_PLANE.replace("NAME", name)
+    (tmp_path / "scene.yaml").write_text(text)
+    if name == "z0":   # one through the CLI
+        check = subprocess.run([sys.executable, "-m", "latdyn", "check", "scene.yaml"], cwd=tmp_path,
+                               capture_output=True, text=True, timeout=300, env={**os.environ, "PYTHONPATH": str(ROOT)})
+        assert check.returncode == 2 and f"solve.sensitivities: {expected}" in check.stderr, check.stderr
+    _nothing_compiled(monkeypatch)
+    with pytest.raises(SceneError) as info:
+        latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
+    assert info.value.key == "solve.sensitivities" and expected in info.value.expected
+
+
+def test_an_in_plane_geometry_parameter_is_not_refused():
+    """The other side: L moves the end along x, in the plane: nothing refuses it."""
+    from latdyn.analyses.sensitivities import refusal
+
+    assert refusal(latdyn.load_scene(yaml.safe_load(OFF_PLANE.replace("NAME", "L")))) is None
+
+
+def test_a_variant_without_the_reference_derivatives_is_refused_before_compiling(monkeypatch):
+    """A kernel variant generated before the reference derivatives (none is committed: its generated metadata
+    stands in) is refused from the generated metadata alone, with the message the run gave after compiling."""
+    import latdyn.model.kernels as kernels
+
+    monkeypatch.setattr(kernels, "generated_info", lambda variant: {})
+    _nothing_compiled(monkeypatch)
+    with pytest.raises(SceneError) as info:
+        latdyn.run(latdyn.load_scene(yaml.safe_load(OFF_PLANE.replace("NAME", "L"))))
+    assert info.value.expected.startswith("geometry parameters need the kernels beam_internal_force_D_reference and "
+                                          "beam_inertia_force_D_reference (reference block of 25), which the "
+                                          "generated variant 'default_xy' does not hold yet")

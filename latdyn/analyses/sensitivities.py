@@ -75,7 +75,7 @@ import numpy as np
 
 from latdyn.analyses.joint_force_sensitivities import is_joint_force
 from latdyn.analyses.joint_force_sensitivities import refusal as joint_force_refusal
-from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY, ReferenceGeometry, geometry_refusal
+from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY, ReferenceGeometry, geometry_refusal, model_refusal
 from latdyn.assembly.factorization import solve_linear
 from latdyn.assembly.native_model import NO_CONTACT, joint_contact_rows
 from latdyn.errors import SceneError, SolverError
@@ -144,6 +144,9 @@ def refusal(scene) -> SceneError | None:
                 why = geometry_refusal(scene, name, used)
                 if why is not None:
                     return refuse(why)
+                refused = model_refusal(scene, name, used)   # what the model would refuse, before compiling
+                if refused is not None:
+                    return refused
                 continue
             if not (_LOAD_KEY.match(used) or _HINGE_KEY.match(used) or section or _BODY_KEY.match(used) or initial
                     or _CONTACT_KEY.match(used)):
