@@ -464,12 +464,14 @@ def test_massless_free_end_going_slack_ends_the_run_naming_the_cable(tmp_path):
     that falls to zero at t = 0.25 and then pushes: the end is held by the tension alone (no mass,
     nothing else attached), so when the cable goes slack nothing holds it. The run ends there
     (exit 1) with the slack change recorded and a message that names the cable and what to add,
-    not Newton's diagnosis naming the end's coordinates."""
+    not Newton's diagnosis naming the end's coordinates. The rest length 100/101 makes the pull at
+    t = 0, EA (1 − L0)/L0 = 1 N, the load's: the end starts in equilibrium (a massless end that does
+    not is refused, tests/test_review_defects.py)."""
     text = """
 bodies:
   anchor: {at: [0, 0, 0], fixed: true}
 cables:
-  rope: {from: anchor, to: [1, 0, 0], EA: 100.0, rest_length: 0.99}
+  rope: {from: anchor, to: [1, 0, 0], EA: 100.0, rest_length: "100/101"}
 loads:
   - {at: rope.end, force: ["1 - 4*t", 0, 0]}
 solve: {analysis: transient, t_end: 0.5, dt: 0.01}
@@ -486,11 +488,17 @@ solve: {analysis: transient, t_end: 0.5, dt: 0.01}
 
 
 def test_a_slack_refusal_inside_the_loop_of_steps_keeps_its_rows_in_time(tmp_path):
-    """A massless cable pretensioned to a free end (rest length 0.88 against 3.28 m: the end snaps in the
-    first step, its tension 2e5 N → 3e-11 N) and reeled in, stepped by the loop of steps in C with its
-    rows: it is found slack at t = 0.04, which ends the run (exit 1) with the rows 0, 0.02, 0.04 — not a
-    fourth row of the state at the loop's start (t = 0, recorded after the loop's rows when the refusal
-    came before the loop's end state was taken: found by benchmarks/fuzz_runs.py --joints)."""
+    """A massless cable pretensioned to a free end (rest length 3.27 against 3.2773 m: 166.7 N) and
+    reeled in, its pull balanced at t = 0 by a load at the end that falls to zero at t = 0.04, stepped
+    by the loop of steps in C with its rows: it is found slack at t = 0.04, which ends the run (exit 1)
+    with the rows 0, 0.02, 0.04 — not a fourth row of the state at the loop's start (t = 0, recorded
+    after the loop's rows when the refusal came before the loop's end state was taken: found by
+    benchmarks/fuzz_runs.py --joints, with a pretension nothing balanced, which is refused now: the
+    end snapped in the first step, its tension 2e5 N → 3e-11 N)."""
+    b, end = np.array([0.0, -1.8, 0.0]), np.array([-0.86, 1.35, -0.28])
+    length = np.linalg.norm(end - b)
+    pull = 7.5e4 * (length - 3.27) / 3.27 * (end - b) / length
+    force = ", ".join(f'"{float(f)!r}*(1 - 25*t)"' for f in pull)
     text = """
 sections:
   s: {EA: 3.0e6, EIy: 1600.0, EIz: 1400.0, GJ: 1100.0, rhoA: 1.8}
@@ -500,12 +508,14 @@ bodies:
 beams:
   arm: {from: g, to: b, section: s, elements: 2}
 cables:
-  c: {from: b, to: [-0.86, 1.35, -0.28], EA: 7.5e4, damping: 12.0, rest_length: "0.88 - 0.25*t"}
+  c: {from: b, to: [-0.86, 1.35, -0.28], EA: 7.5e4, damping: 12.0, rest_length: "3.27 - 0.25*t"}
+loads:
+  - {at: c.end, force: [FORCE]}
 solve: {analysis: transient, t_end: 0.1, dt: 0.02}
 output:
   probes:
     tension: {cable: c, quantity: tension}
-"""
+""".replace("FORCE", force)
     completed, out = latdyn_run(tmp_path, text, quiet=True)
     assert completed.returncode == 1 and "cables.c went slack at t = 0.04" in completed.stderr
     t = probe_columns(out)["t"]

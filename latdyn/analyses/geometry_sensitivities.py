@@ -34,7 +34,8 @@ kernel is linear in its offset); displacement control's held displacement by the
 machinery of latdyn/analyses/transient_sensitivities.py takes them as any parameter (its impulse weight's
 ∂/∂p from ∂r/∂p).
 
-Refused (:func:`geometry_refusal`, and :class:`ReferenceGeometry` where the model decides): ``y_axis`` and
+Refused (:func:`geometry_refusal`, and :class:`ReferenceGeometry` where the model decides, which
+:func:`model_refusal` finds from the scene before anything is compiled): ``y_axis`` and
 hinge axes in a planar model, a point leaving a planar model's plane, prescribed rotations (a body's, a
 hinge angle: the velocities they carry into the structure at t = 0 move with its points), rigid links,
 guides, cables, controllers, arc length (its first step's length moves with ∂K/∂p, not generated), a
@@ -50,11 +51,14 @@ import numpy as np
 from latdyn.model.model import FIXED, FREE, PRESCRIBED
 from latdyn.numerics.so3 import dexp_so3
 
-__all__ = ["GEOMETRY_KEY", "geometry_refusal", "ReferenceGeometry"]
+__all__ = ["GEOMETRY_KEY", "geometry_refusal", "model_refusal", "ReferenceGeometry"]
 
 #: the generated kernels' reference block (codegen/conventions.py REFERENCE): dx1 dx2 doffset1 doffset2 psi1 psi2
 #: dL0 daxis1 daxis2
 WIDTH = 25
+
+#: the generated kernels ∂r/∂p of a geometry parameter is made of (with a reference block of :data:`WIDTH`)
+REFERENCE_KERNELS = ("beam_internal_force_D_reference", "beam_inertia_force_D_reference")
 
 #: a number that places the structure: a body's reference point, a beam's free end point, an end's offset, a
 #: beam's y_axis, a hinge's axis
@@ -86,6 +90,76 @@ def geometry_refusal(scene, name: str, used: str) -> str | None:
     if getattr(scene, "controllers", None):
         return f"{where}: geometry sensitivities with controllers are not computed yet"
     return None
+
+
+def model_refusal(scene, name: str, used: str):
+    """The SceneError that :class:`ReferenceGeometry` raises where the model decides — the kernel variant
+    without the reference derivatives, a ``y_axis`` or hinge ``axis`` in a planar model, a point moved
+    off a planar model's plane — found from the scene alone (the plane of ``solve.planar: auto``, the
+    generated kernels' metadata), so that ``latdyn check`` and a run refuse it before anything is
+    compiled; None otherwise. ``used``: a geometry key of parameter ``name``."""
+    from latdyn.model.kernels import generated_info, planar_variant
+    from latdyn.model.planar import find_plane
+
+    plane = find_plane(scene)[0]
+    formulation = scene.solve.formulation
+    variant = formulation if plane is None else planar_variant(formulation, plane)
+    if not _holds_reference_derivatives(generated_info(variant)):
+        return _without_kernels(scene, variant)
+    match = GEOMETRY_KEY.match(used)
+    if plane is None:
+        return None
+    if match["y"] is not None:
+        return _planar_y_axis(scene, match["beam"])
+    if match["hinge"] is not None:
+        return _planar_hinge_axis(scene, match["beam"], match["hinge"])
+    if int(match["axis"]) == plane and _slope(scene, used, name) != 0.0:
+        return _off_the_plane(scene)
+    return None
+
+
+def _slope(scene, key: str, name: str) -> float:
+    """∂(the number at ``key``)/∂``name`` at the parameters' values."""
+    import sympy as sp
+
+    return float(sp.sympify(scene.parameters.derivative(key, name)))
+
+
+def _holds_reference_derivatives(info: dict) -> bool:
+    return all(name in info and dict(info[name]["inputs"]).get("reference") == WIDTH for name in REFERENCE_KERNELS)
+
+
+def _without_kernels(scene, variant: str):
+    from latdyn.errors import SceneError
+
+    return SceneError(scene.file, "solve.sensitivities",
+                      f"geometry parameters need the kernels {REFERENCE_KERNELS[0]} and {REFERENCE_KERNELS[1]} "
+                      f"(reference block of {WIDTH}), which the generated variant {variant!r} does not hold yet "
+                      f"(python -m codegen --variant {variant})")
+
+
+def _planar_y_axis(scene, beam: str):
+    from latdyn.errors import SceneError
+
+    return SceneError(scene.file, "solve.sensitivities",
+                      f"a parameter of beams.{beam}.y_axis in a planar model (whose section axes the plane sets); "
+                      "expected solve.planar: off for it (docs/parameters.md, \"Geometry parameters\")")
+
+
+def _planar_hinge_axis(scene, beam: str, end: str):
+    from latdyn.errors import SceneError
+
+    return SceneError(scene.file, "solve.sensitivities",
+                      f"a parameter of beams.{beam}.{end}.hinge.axis in a planar model (whose hinge axes are its "
+                      "normal); expected solve.planar: off for it (docs/parameters.md, \"Geometry parameters\")")
+
+
+def _off_the_plane(scene):
+    from latdyn.errors import SceneError
+
+    return SceneError(scene.file, "solve.sensitivities",
+                      "a geometry parameter moves a point off the plane of the planar model; expected "
+                      "solve.planar: off for such a parameter (docs/parameters.md, \"Geometry parameters\")")
 
 
 class ReferenceGeometry:
@@ -124,26 +198,14 @@ class ReferenceGeometry:
                     self.moved_loads.append((index, model.point(ref)[0], moved))
         if model.plane is not None and (np.any(self.node_moves[:, model.plane] != 0.0) or any(
                 np.any(offset[model.plane] != 0.0) for offset in self.end_offsets.values())):
-            from latdyn.errors import SceneError
-            raise SceneError(self.scene.file, "solve.sensitivities",
-                             "a geometry parameter moves a point off the plane of the planar model; expected "
-                             "solve.planar: off for such a parameter (docs/parameters.md, \"Geometry parameters\")")
+            raise _off_the_plane(self.scene)
         self.elements = np.flatnonzero(np.any(self.variations != 0.0, axis=(1, 2)))
 
     def _refuse_without_kernels(self) -> None:
         """Refuse (SceneError naming ``solve.sensitivities``) a kernel variant generated before the reference
         derivatives (or with another reference block): they are what ∂r/∂p is made of here."""
-        from latdyn.errors import SceneError
-
-        names = ("beam_internal_force_D_reference", "beam_inertia_force_D_reference")
-        info = getattr(self.kernels, "info", {}) or {}
-        if all(name in info and dict(info[name]["inputs"]).get("reference") == WIDTH for name in names):
-            return
-        variant = self.kernels.variant
-        raise SceneError(self.scene.file, "solve.sensitivities",
-                         f"geometry parameters need the kernels {names[0]} and {names[1]} (reference block of "
-                         f"{WIDTH}), which the generated variant {variant!r} does not hold yet (python -m codegen "
-                         f"--variant {variant})")
+        if not _holds_reference_derivatives(getattr(self.kernels, "info", {}) or {}):
+            raise _without_kernels(self.scene, self.kernels.variant)
 
     # ------------------------------------------------------------------ the reference data moved
     def _column(self, column: int, by_key: dict) -> None:
@@ -187,11 +249,7 @@ class ReferenceGeometry:
             if not (np.any(grid[0]) or np.any(grid[1]) or np.any(turned)):
                 continue
             if np.any(turned) and model.plane is not None:
-                from latdyn.errors import SceneError
-                raise SceneError(scene.file, "solve.sensitivities",
-                                 f"a parameter of beams.{beam.name}.y_axis in a planar model (whose section axes the "
-                                 "plane sets); expected solve.planar: off for it (docs/parameters.md, \"Geometry "
-                                 "parameters\")")
+                raise _planar_y_axis(scene, beam.name)
             chord = beam.end.point - beam.start.point
             length = float(np.linalg.norm(chord))
             x = chord / length
@@ -217,11 +275,7 @@ class ReferenceGeometry:
         frame's turn through exp(θ skew a))."""
         model = self.model
         if model.plane is not None:
-            from latdyn.errors import SceneError
-            raise SceneError(self.scene.file, "solve.sensitivities",
-                             f"a parameter of beams.{beam}.{end}.hinge.axis in a planar model (whose hinge axes are "
-                             "its normal); expected solve.planar: off for it (docs/parameters.md, \"Geometry "
-                             "parameters\")")
+            raise _planar_hinge_axis(self.scene, beam, end)
         spec = getattr(self.scene.beams[beam], end).hinge
         v = np.asarray(spec.axis_given, float)
         a = v / np.linalg.norm(v)

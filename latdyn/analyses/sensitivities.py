@@ -73,7 +73,7 @@ beams with mass are differentiated exactly there too. docs/parameters.md.
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, fields, is_dataclass
 from pathlib import Path
 
 import numpy as np
@@ -83,7 +83,7 @@ from latdyn.analyses.energy_sensitivities import probe_derivatives as energy_pro
 from latdyn.analyses.energy_sensitivities import refusal as energy_refusal
 from latdyn.analyses.joint_force_sensitivities import is_joint_force
 from latdyn.analyses.joint_force_sensitivities import refusal as joint_force_refusal
-from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY, ReferenceGeometry, geometry_refusal
+from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY, ReferenceGeometry, geometry_refusal, model_refusal
 from latdyn.analyses.link_sensitivities import add_link_section_forces, dependent_rates, linked_refusal
 from latdyn.analyses.probe_derivatives import is_probe_here, probe_derivatives
 from latdyn.analyses.probe_derivatives import refusal as probe_refusal
@@ -141,6 +141,9 @@ def refusal(scene) -> SceneError | None:
                 why = geometry_refusal(scene, name, used)
                 if why is not None:
                     return refuse(why)
+                refused = model_refusal(scene, name, used)   # what the model would refuse, before compiling
+                if refused is not None:
+                    return refused
                 continue
             if not (_LOAD_KEY.match(used) or _HINGE_KEY.match(used) or section or _BODY_KEY.match(used) or initial
                     or _CONTACT_KEY.match(used)):
@@ -1190,11 +1193,11 @@ class ControllerTerms:
                 return (f"sensitivities of runs with controllers with states ({c.name}: states) and events (a latch, "
                         "a stop, a compliant stop's onset, a cable's change: the event time moves the states' "
                         "trapezoidal step) are not computed yet; continuous controllers with states are without them")
-        names = set(scene.controllers)
+        readers = ControllerTerms._laws_naming(scene, set(scene.controllers))
         for name in scene.solve.sensitivities:
             for used in scene.parameters.depending_on(name):
-                written = str(scene.parameters.uses[used][0])
-                if not used.startswith("controllers.") and names & set(re.findall(r"[A-Za-z_][A-Za-z_0-9]*", written)):
+                if used in readers:
+                    written = scene.parameters.uses[used][0]
                     return (f"parameter {name!r} is used at {used}, a law that names a controller ({written!r}: "
                             "a hinge torque, guide force or load component): expected the parameter inside the "
                             "controller's output instead")
@@ -1204,6 +1207,30 @@ class ControllerTerms:
         """The values the controllers read at ``state``: the probes' and the inputs' (held: their current
         values, which do not depend on the parameters)."""
         return {**dict(zip(self.sensors.names, self.sensors.values(state))), **self.owner.scene.inputs.current()}
+
+    @staticmethod
+    def _laws_naming(scene, controllers: set) -> dict[str, list]:
+        """The scene's parsed laws (hinge, guide and cable laws, load components, prescribed motions:
+        latdyn.scene.expressions laws, each carrying the key path it was read at) that name one of
+        ``controllers``, by key path -> the controllers named: the names the parser found
+        (``input_names``), never the text's words (a controller ``e5`` is not read by ``"2e5*k"``)."""
+        found, seen, pending = {}, set(), [scene]
+        while pending:
+            item = pending.pop()
+            if id(item) in seen:
+                continue
+            seen.add(id(item))
+            if hasattr(item, "input_names") and hasattr(item, "key"):
+                named = [n for n in item.input_names if n in controllers]
+                if named and not item.key.startswith("controllers."):
+                    found[item.key] = named
+            elif is_dataclass(item) and not isinstance(item, type):
+                pending.extend(getattr(item, f.name) for f in fields(item))
+            elif isinstance(item, (list, tuple)):
+                pending.extend(item)
+            elif isinstance(item, dict):
+                pending.extend(item.values())
+        return found
 
     def state_values(self, c) -> list:
         """The accepted states S of controller ``c`` (their values in ``scene.controller_states``)."""

@@ -48,7 +48,29 @@ def prepare(scene, backend: str = "auto") -> Prepared:
             material = {"geometric_term": False} if model.links is not None else {}
             model.check_held(ev.combined(1.0, 0.0, 0.0), ev.combined(0.0, 0.0, 1.0, **material), scene.file,
                              Factorization)
+    if scene.solve.analysis == "transient" and model.cables is not None:
+        _refuse_unbalanced_free_ends(scene, model, assembler, state)
     return Prepared(scene, model, assembler, state)
+
+
+def _refuse_unbalanced_free_ends(scene, model: Model, assembler: Assembler, state: State) -> None:
+    """A transient run whose massless cable pulls its free end at t = 0 with nothing to balance it is
+    refused (exit 2 naming the cable's ``rest_length``): the end has no inertia, so the first step would
+    snap it to the rest length and lose the pretension's energy (:func:`latdyn.model.cables.unbalanced_free_ends`;
+    docs/cables.md)."""
+    from latdyn.errors import SceneError
+    from latdyn.model.cables import BALANCE, unbalanced_free_ends
+
+    pulled = assembler.evaluate(state, matrices=False, inertia=False, load_factor=0.0).residual
+    total = assembler.evaluate(state, matrices=False, inertia=False, load_factor=1.0).residual
+    for name, point, pull, left in unbalanced_free_ends(model, pulled, total):
+        raise SceneError(scene.file, f"cables.{name}.rest_length",
+                         f"expected the free end {point} of the massless cable in equilibrium at t = 0 (it has no "
+                         "mass: a force left on it snaps it within the first step, and the pretension's energy is "
+                         f"lost); the cable pulls it with {pull:.6g} N (a rest length shorter than its length) and "
+                         f"{left:.6g} N of that is not balanced by loads there (more than {BALANCE:g} of it): give a "
+                         f"rest length equal to the initial distance of its ends, a load at {point} that balances "
+                         "the pull, a mass per length (rhoA > 0), or end it at a body ({body: NAME}) (docs/cables.md)")
 
 
 def length_scale(model: Model) -> float:

@@ -31,7 +31,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["CableElements", "add_cables", "slack_and_unheld"]
+__all__ = ["CableElements", "add_cables", "slack_and_unheld", "unbalanced_free_ends", "BALANCE"]
+
+#: A massless cable's free end is in equilibrium at t = 0 when the force left on it is at most this
+#: fraction of the cable's pull there (:func:`unbalanced_free_ends`): the snap of the rest releases
+#: (1e-6)² of the pretension's strain energy
+BALANCE = 1e-6
 
 
 @dataclass
@@ -118,3 +123,27 @@ def slack_and_unheld(cables: CableElements, sides) -> list[tuple[str, list]]:
     sides = np.asarray(sides, float)
     return [(name, cables.held_by_tension[k]) for k, name in enumerate(cables.names)
             if cables.held_by_tension[k] and not np.any(sides[cables.cable == k] > 0)]
+
+
+def unbalanced_free_ends(model, pulled: np.ndarray, total: np.ndarray) -> list[tuple[str, str, float, float]]:
+    """(cable name, free end point, the cable's pull on it, the force left on it) of each free end that
+    only a massless cable's tension holds (:attr:`CableElements.held_by_tension`) and that is not in
+    equilibrium: ``pulled`` and ``total`` are the static residual at the state (t = 0) without loads and
+    with them (the cable's force on the end, and that force with the loads at the end). Such an end has
+    no inertia: a force left on it moves it within the first step, whatever the step, and the strain
+    energy it releases (a pretensioned cable's) goes nowhere (SCENE.md: the end is *at* ``[x, y, z]`` at
+    t = 0). Unbalanced: the force left exceeds :data:`BALANCE` of the pull (an end the cable pulls;
+    an end it does not pull, slack or at its rest length, is another check's: :func:`slack_and_unheld`)."""
+    cables = model.cables
+    out = []
+    if cables is None:
+        return out
+    names = {node.name: i for i, node in enumerate(model.nodes)}
+    for k, name in enumerate(cables.names):
+        for point in cables.held_by_tension[k]:
+            rows = model.node_dofs[names[point]]   # its translations (the only coordinates it has)
+            rows = rows[(rows >= 0) & (rows < model.n_dofs)]
+            pull, left = float(np.linalg.norm(pulled[rows])), float(np.linalg.norm(total[rows]))
+            if pull > 0.0 and left > BALANCE * pull:
+                out.append((name, point, pull, left))
+    return out

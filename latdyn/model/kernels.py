@@ -86,6 +86,12 @@ def known_variants() -> dict[str, str]:
     return dict(importlib.import_module(PACKAGE).VARIANTS)
 
 
+def generated_info(variant: str) -> dict:
+    """The metadata of ``variant``'s beam kernels as generated (name -> inputs, outputs, …), read from the
+    generated package without compiling anything: what a refusal before a run needs to know."""
+    return dict(importlib.import_module(f"{PACKAGE}.beam_{variant}").KERNELS)
+
+
 #: Suffix of the planar variants (codegen/formulation.py PLANES) by the index of the plane's normal.
 PLANE_SUFFIXES = {0: "yz", 1: "zx", 2: "xy"}
 

@@ -80,6 +80,10 @@ def _blocker(scene, normal: int) -> str | None:
         if PLANE_TOLERANCE < along < 1.0 - PLANE_TOLERANCE and not (
                 s.EIy == s.EIz and s.rhoIy == s.rhoIz and s.GAy == s.GAz):
             return f"beams.{beam.name}.y_axis: the section's principal axes are oblique to the plane"
+    for cable in getattr(scene, "cables", {}).values():
+        for key, end in (("from", cable.start), ("to", cable.end)):
+            if abs(end.point[normal] - level) > PLANE_TOLERANCE * size:
+                return f"cables.{cable.name}.{key} is off the plane"
     for k, load in enumerate(scene.loads):
         if load.force is not None and not _zero(load.force[normal]):
             return f"loads[{k}].force has an out-of-plane component"

@@ -128,9 +128,20 @@ def _inputs_named(source) -> tuple:
     holders = _READING_INPUTS.get()
     if holders is None or not isinstance(source, str):
         return (), ()
-    words = set(re.findall(r"[A-Za-z_][A-Za-z_0-9]*", source))
+    words = _names_read(source)
     used = [(h, name) for h in holders for name in h.names if name in words]
     return tuple(h for h, _ in used), tuple(n for _, n in used)
+
+
+def _names_read(text: str) -> set:
+    """The names the parser reads in ``text``: its NAME tokens, by the tokenizer :func:`_check_tokens` and
+    the parser use (``1e2`` is a number, not a signal ``e2``); none when the text cannot be read
+    (:func:`_check_tokens` refuses it)."""
+    try:
+        tokens = list(tokenize.generate_tokens(io.StringIO(" ".join(text.split())).readline))
+    except (tokenize.TokenError, IndentationError, SyntaxError):
+        return set()
+    return {tok.string for tok in tokens if tok.type == tokenize.NAME}
 
 
 def _allowed_with(allowed_text: str, names: tuple) -> str:
@@ -594,6 +605,12 @@ class _BySource:
     def _input_values(self) -> list[float]:
         """The current values of the inputs the law uses (the order of :attr:`input_names`)."""
         return [float(h.values[h.index(n)]) for h, n in zip(self._inputs, self._input_names)]
+
+    @property
+    def key(self) -> str:
+        """The key path the law was read at (``beams.arm.end.hinge.torque``, ``loads[0].force[1]``): the key
+        its parameters are recorded under (:attr:`latdyn.scene.parameters.Parameters.uses`)."""
+        return self._key
 
     @property
     def input_names(self) -> tuple:

@@ -48,11 +48,13 @@ at its default (``solve.rho_inf``), and the scene loader decides whether it is a
   the external work W (the work of loads and of the prescribed motions, SCENE.md) probed
   at every recorded time, ``created(t) = (K+S+P)(t) − (K+S+P)(0) − W(t)`` and
   ``received(t) = K(0) + S(0) + max_{s≤t}|W(s)| + max_{s≤t}|P(s) − P(0)|``, the run is
-  unbounded when ``created(t) > received(t)`` at some recorded t. A stable run keeps
+  unbounded when ``created(t) > received(t)`` at some recorded t whose ``received(t)`` passed the
+  round-off of the structure at rest (the run's floor, :func:`latdyn.timeloop.progress.energy_round_off`).
+  A stable run keeps
   ``created`` at its energy-balance error (10⁻³ of ``received`` and less) or below zero
   (numerical dissipation); an instability grows it exponentially past any such bound.
   The rule holds whether or not the solver later failed (an instability is what made
-  Newton fail). A structure that never receives energy (``received`` ≡ 0) is judged on
+  Newton fail). A structure that never receives energy (``received`` ≡ 0, or within that round-off) is judged on
   non-finite values alone;
 - ``solved`` — otherwise. ``t_reached`` is the last recorded time.
 
