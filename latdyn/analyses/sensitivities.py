@@ -72,7 +72,6 @@ beams with mass are differentiated exactly there too. docs/parameters.md.
 """
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass, fields, is_dataclass
 from pathlib import Path
 
