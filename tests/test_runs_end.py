@@ -372,3 +372,78 @@ def test_a_guide_that_nothing_holds_is_named_whole(tmp_path, capsys, force, said
     status, err, _ = main_cli(tmp_path, text, capsys)
     assert status == 1, err
     assert said in err and "slider: :" not in err and "slider:  " not in err
+
+
+DIVERGING_LAW_SPRING = """\
+    title: an explicit run past its stability limit, with a law spring whose angle runs away
+    sections:
+      s0: {EA: 2422299.0, EIy: 1757.9, EIz: 1757.9, GJ: 834.7, rhoA: 0.659}
+      s1: {EA: 4654948.0, EIy: 825.8, EIz: 825.8, GJ: 360.1, rhoA: 1.486, rhoIy: 0.00043, rhoIz: 0.00043, GAy: 4628845.0, GAz: 4628845.0}
+    bodies:
+      g:
+        at: [0, 0, 0]
+        fixed: true
+      b1:
+        at: [0.0, -1.4, 0.0]
+        mass: 2.419
+    beams:
+      m0:
+        from: g
+        section: s0
+        to: [0.0, -0.46, 0.0]
+        elements: 3
+        start:
+          hinge:
+            axis: [0.0, 0.0, 1.0]
+            stiffness: 237.04
+            damping: 4.097*(1 + abs(theta_dot))
+            friction: {coulomb: 1.137}
+      m1:
+        from: g
+        section: s1
+        to: b1
+        elements: 2
+        y_axis: [0, 0, 1]
+        start:
+          hinge:
+            axis: [1.0, 0.0, -0.0]
+            stiffness: 100.45*(1 + theta**2)
+            limits: [-0.365, 0.73]
+            contact: {stiffness: 4583.0, exponent: 1.5}
+      m2:
+        from: b1
+        section: s0
+        to: [0.0, -2.56, 0.0]
+        elements: 2
+    gravity: [0, 0, -9.81]
+    initial_velocity:
+      linear: [0.91, 0.46, 0]
+      angular: [0, 0, -0.61]
+    loads:
+    - at: m1.node[1]
+      force: [0, 0, 0]
+    - at: m2.node[1]
+      force: [0, 0, -7.45*sin(3*t)]
+      frame: g
+    solve: {analysis: transient, t_end: 0.02, dt: 0.0002, method: explicit}
+    output:
+      probes:
+        p0: {point: 'm1.node[1]', quantity: velocity, component: y}
+        p1: {energy: potential}
+        h_m0_start: {hinge: m0.start, quantity: angle}
+        h_m1_start: {hinge: m1.start, quantity: torque}
+      every: 0.0004
+    inputs: {u: 0.19}
+    """
+
+
+def test_a_run_whose_law_springs_angle_diverges_ends(tmp_path):
+    """An explicit run far past its stability limit drove a law spring's angle to ~1e15 rad, and the
+    spring's potential (csrc/evaluate.c law_spring_potential: 16 Gauss points a 0.25 rad piece) then
+    looped over ~4e15 pieces: the run never ended, and as the loop is in C, not even SIGTERM stopped it
+    (found by benchmarks/fuzz_runs.py --joints, seed 7, case 21). The pieces are now at most 4096: the
+    run ends, refused as unstable or unbounded, in seconds."""
+    completed, out = latdyn_run(tmp_path, textwrap.dedent(DIVERGING_LAW_SPRING), quiet=True, timeout=120)
+    assert completed.returncode == 1, completed.stderr
+    assert "unstable" in completed.stderr or "unbounded" in completed.stderr, completed.stderr
+    assert json.loads((out / "summary.json").read_text())["status"] in ("failed", "unbounded")

@@ -233,7 +233,7 @@ def _law_integral(integrand, rest: float, theta: float) -> float:
     (csrc/evaluate.c law_spring_potential: 16 Gauss points on each of the equal pieces of at most 0.25 rad),
     so that its derivatives by the law's parameters are those of the recorded value."""
     s = theta - rest
-    pieces = int(np.ceil(abs(s) / 0.25)) if abs(s) > 0.25 else 1
+    pieces = int(min(np.ceil(abs(s) / 0.25), 4096)) if abs(s) > 0.25 else 1   # LAW_SPRING_PIECES
     total = 0.0
     for p in range(pieces):
         a, b = rest + s * p / pieces, rest + s * (p + 1) / pieces

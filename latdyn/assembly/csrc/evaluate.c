@@ -1203,13 +1203,22 @@ static const double GAUSS_16_WEIGHTS[16] = {
     0.16915651939500265, 0.1495959888165767, 0.12462897125553407, 0.0951585116824926, 0.062253523938647456,
     0.027152459411754176};
 
+/* Pieces of the spring potential's quadrature at most: beyond |θ − θ_r| = LAW_SPRING_PIECES / 4 rad (1024 rad)
+ * the pieces grow longer than 0.25 rad rather than more numerous, so that the potential of a run whose angle
+ * has diverged (an unstable explicit run reaching 1e15 rad) costs at most this many pieces instead of
+ * looping for hours before the run's own checks can end it. */
+#define LAW_SPRING_PIECES 4096
+
 /* The potential of hinge j's spring whose stiffness is a law k(θ) (the scene's compiled hinge law), at
  * angle θ: ∫_{θ_r}^{θ} k(s)(s − θ_r) ds by Gauss–Legendre quadrature, 16 points on each of the equal
- * pieces of at most 0.25 rad (exact for polynomials of degree 31 on a piece); the law at θ̇ = 0, t = 0. */
+ * pieces of at most 0.25 rad (exact for polynomials of degree 31 on a piece; at most LAW_SPRING_PIECES
+ * pieces); the law at θ̇ = 0, t = 0. A non-finite angle has a non-finite potential. */
 static double law_spring_potential(const Model *m, int64_t j, double theta)
 {
     const double rest = m->hinge_rest_angle[j], s = theta - rest;
-    const int64_t pieces = fabs(s) > 0.25 ? (int64_t)ceil(fabs(s) / 0.25) : 1;
+    if (!isfinite(s))
+        return s * s;
+    const int64_t pieces = fabs(s) > 0.25 ? (int64_t)fmin(ceil(fabs(s) / 0.25), (double)LAW_SPRING_PIECES) : 1;
     double total = 0.0;
     for (int64_t p = 0; p < pieces; ++p) {
         const double a = rest + s * (double)p / (double)pieces, b = rest + s * (double)(p + 1) / (double)pieces;
