@@ -122,6 +122,19 @@ def _why_not(scene, probe) -> str | None:
         if used is not None:
             return (f"parameter {name!r} places the structure ({used}): energy and momentum sensitivities by "
                     "geometry parameters are not computed yet")
+    links = [name for name, beam in scene.beams.items() if getattr(beam, "rigid", False)]
+    if links:
+        for name in _solve_names(scene):
+            used = next((u for u in scene.parameters.depending_on(name)
+                         if any(u.startswith(f"sections.{scene.beams[b].section.name}.") for b in links)), None)
+            if used is not None:
+                return (f"parameter {name!r} is a value of a rigid link's section ({used}): energy and momentum "
+                        "sensitivities by a rigid link's own mass and inertia are not computed yet")
+        if probe.kind == "energy" and quantity == "external_work" and scene.solve.analysis == "transient" and (
+                any(body.prescribed for body in scene.bodies.values())
+                or any(hinge.angle is not None for _, _, hinge in scene.hinges)):
+            return (f"the external work of a prescribed motion with rigid links ({links[0]}) is not differentiated "
+                    "yet (the drive's reaction moves through the links' reduction)")
     if probe.kind == "energy" and quantity in ("strain", "total"):
         for name in _solve_names(scene):
             used = next((u for u in scene.parameters.depending_on(name) if _STOP_EXPONENT.match(u)), None)
@@ -525,7 +538,7 @@ def _damper_torques(owner, state, carried: dict) -> tuple:
     along ``carried``'s δq, δv (:func:`_dissipated_step`)."""
     model, k = owner.model, len(owner.names)
     _, _, dtheta = owner._by_parameter(carried["dq"], state)
-    _, _, dtheta_dot = owner._rates_by_parameter(carried["dv"])
+    _, _, dtheta_dot = owner._rates_by_parameter(carried["dv"], carried["dq"], state)
     H = len(model.hinges)
     torque, dtorque = np.zeros(H), np.zeros((H, k))
     for j, hinge in enumerate(model.hinges):
@@ -570,11 +583,14 @@ def _drive_power(owner, state, carried: dict) -> tuple:
     latdyn/analyses/joint_force_sensitivities.py); q̇_d is the prescribed law's, no parameter's."""
     model, assembler = owner.model, owner.assembler
     n, k = model.n_dofs, len(owner.names)
-    rates = pack(model, state.v, state.w, state.theta_dot)[n:model.n_total]
+    # the constrained coordinates follow the assembled ones (with rigid links the nodes that follow the links,
+    # n_dofs … n_assembled, move too, but no reaction drives them: refusal() keeps prescribed motion from links)
+    first = model.n_assembled
+    rates = pack(model, state.v, state.w, state.theta_dot)[first:model.n_total]
     moving = np.flatnonzero(rates)
     if len(moving) == 0:
         return 0.0, np.zeros(k)
-    rows, weights = moving + n, rates[moving]
+    rows, weights = moving + first, rates[moving]
     M, C, K = assembler.exact_rows(state, rows)
     explicit = owner.residual_derivatives(state, 1.0, inertia=True, on_all=True)[rows]
     reaction = assembler.evaluate(state, matrices=False).reaction[moving]
@@ -588,7 +604,7 @@ def _power(owner, state, carried: dict):
     model, kernels = owner.model, owner.kernels
     k = len(owner.names)
     dx, dpi, dtheta = owner._by_parameter(carried["dq"], state)
-    dv, dw, dtheta_dot = owner._rates_by_parameter(carried["dv"])
+    dv, dw, dtheta_dot = owner._rates_by_parameter(carried["dv"], carried["dq"], state)
     power, dpower = 0.0, np.zeros(k)
     loads = owner.scene.loads
     if len(loads):

@@ -52,8 +52,6 @@ def linked_refusal(scene) -> str | None:
                 "the reduction is not exact (measured 2.5e-2 off the differences on a gimbal of rigid links whose "
                 "boom starts at a link, 2.4e-4 with a beam hanging from a guided body); load control and "
                 "displacement control are")
-    if not rigid:
-        return None
     return None
 
 

@@ -174,7 +174,8 @@ def _section_reference(owner, state, e: int, which: int, at: np.ndarray) -> np.n
 def _element_geometry(owner, state) -> np.ndarray:
     """The element kernels' geometry block at ``state`` (one native call per state, held for the row)."""
     held = owner.__dict__.get("_probe_geometry")
-    key = (id(state), float(state.t))
+    # keyed on the configuration itself (a static path's rows all have t = 0, and a freed state's id is reused)
+    key = (float(state.t), state.x.tobytes(), state.T.tobytes(), state.theta.tobytes())
     if held is None or held[0] != key:
         held = (key, owner.assembler.native().element_inputs(state)[0])
         owner.__dict__["_probe_geometry"] = held

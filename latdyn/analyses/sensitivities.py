@@ -227,6 +227,15 @@ def adjoint_refusal(scene) -> SceneError | None:
     elif any(body.guide is not None for body in scene.bodies.values()):
         name = next(n for n, body in scene.bodies.items() if body.guide is not None)
         why = f"the adjoint does not differentiate guides yet (bodies.{name}.guide)"
+    elif any(beam.rigid for beam in scene.beams.values()) and any(
+            not ((p.kind == "point" and p.frame == "global") or p.kind in ("hinge", "guide"))
+            for p in scene.output.probes):
+        link = next(name for name, beam in scene.beams.items() if beam.rigid)
+        probe = next(p for p in scene.output.probes
+                     if not ((p.kind == "point" and p.frame == "global") or p.kind in ("hinge", "guide")))
+        why = (f"with rigid links (beams.{link}.rigid) the adjoint is seeded by points in the global frame and "
+               f"joints' probes, not yet by probe {probe.name!r} ({probe.kind} {probe.quantity}: its gradient "
+               "through the links' reduction)")
     elif any(c.states or c.sampled for c in (getattr(scene, "controllers", None) or {}).values()):
         name = next(c.name for c in scene.controllers.values() if c.states or c.sampled)
         why = (f"the adjoint does not differentiate controllers with states or sampled ones yet (controllers.{name}); "
