@@ -656,14 +656,16 @@ BLOCK_FRAMES_SCENE = """\
     """
 
 
-def test_a_runs_frames_in_blocks_are_its_frames_row_by_row(tmp_path, monkeypatch):
+@pytest.mark.parametrize("every, frames", [(0.004, 16), (0.002, 31)], ids=["every-other-row", "every-row"])
+def test_a_runs_frames_in_blocks_are_its_frames_row_by_row(tmp_path, monkeypatch, every, frames):
     """A 3D run's ParaView files through the CLI (the rows' frames computed and written a block at a time)
     equal, dataset for dataset and bit for bit, those of the same scene through the API with every
-    frame computed and written row by row (paraview.frame), and so do its probes."""
+    frame computed and written row by row (paraview.frame), and so do its probes; a frame every row
+    takes the block's states as slices (TimeLoop._frames_of), every other row as copies."""
     from latdyn.timeloop.loop import TimeLoop
 
     scene = tmp_path / "arm.yaml"
-    scene.write_text(textwrap.dedent(BLOCK_FRAMES_SCENE))
+    scene.write_text(textwrap.dedent(BLOCK_FRAMES_SCENE).replace("paraview_every: 0.004", f"paraview_every: {every}"))
     done = subprocess.run([sys.executable, "-m", "latdyn", "run", str(scene), "-o", str(tmp_path / "blocks"), "-q"],
                           capture_output=True, text=True, timeout=300, env={**os.environ, "PYTHONPATH": str(ROOT)})
     assert done.returncode == 0, done.stderr
@@ -674,6 +676,6 @@ def test_a_runs_frames_in_blocks_are_its_frames_row_by_row(tmp_path, monkeypatch
     for name in ("beams.vtkhdf", "bodies.vtkhdf"):
         blocks, rows = (_h5_datasets(tmp_path / k / "paraview" / name) for k in ("blocks", "rows"))
         assert _same_datasets(blocks, rows), name
-        assert len(blocks["VTKHDF/Steps/Values"][0]) == 16  # t = 0, 0.004, …, 0.06
+        assert len(blocks["VTKHDF/Steps/Values"][0]) == frames  # t = 0, every, …, 0.06
     assert (tmp_path / "blocks" / "probes.csv").read_bytes() == (tmp_path / "rows" / "probes.csv").read_bytes()
     assert abs(float((tmp_path / "rows" / "probes.csv").read_text().splitlines()[-1].split(",")[2])) > 0  # it moved

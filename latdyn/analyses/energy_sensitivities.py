@@ -243,9 +243,12 @@ _GAUSS_NODES, _GAUSS_WEIGHTS = np.polynomial.legendre.leggauss(16)
 
 def _law_integral(integrand, rest: float, theta: float) -> float:
     """∫_{θ_r}^{θ} integrand(x) dx on the quadrature latdyn_energies takes a law spring's potential with
-    (csrc/evaluate.c law_spring_potential: 16 Gauss points on each of the equal pieces of at most 0.25 rad),
+    (csrc/evaluate.c law_spring_potential: 16 Gauss points on each of the equal pieces of at most 0.25 rad,
+    at most 4096 pieces: beyond 1024 rad they grow longer),
     so that its derivatives by the law's parameters are those of the recorded value."""
     s = theta - rest
+    if not np.isfinite(s):
+        return s * s
     pieces = int(min(np.ceil(abs(s) / 0.25), 4096)) if abs(s) > 0.25 else 1   # LAW_SPRING_PIECES
     total = 0.0
     for p in range(pieces):

@@ -35,7 +35,8 @@ __all__ = ["CableElements", "add_cables", "slack_and_unheld", "unbalanced_free_e
 
 #: A massless cable's free end is in equilibrium at t = 0 when the force left on it is at most this
 #: fraction of the cable's pull there (:func:`unbalanced_free_ends`): the snap of the rest releases
-#: (1e-6)² of the pretension's strain energy
+#: (1e-6)² of the pretension's strain energy along the cable, about (1e-6)²/ε sideways (ε the pretension's
+#: strain: sideways only T/ℓ holds the end)
 BALANCE = 1e-6
 
 

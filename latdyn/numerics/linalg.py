@@ -331,8 +331,9 @@ def reverse_cuthill_mckee(rows: np.ndarray, cols: np.ndarray, n: int) -> np.ndar
     global _LAST_ORDER
     rows, cols = np.asarray(rows, np.int64), np.asarray(cols, np.int64)
     key = (n, rows.tobytes(), cols.tobytes())
-    if _LAST_ORDER is not None and _LAST_ORDER[0] == key:
-        return _LAST_ORDER[1].copy()
+    last = _LAST_ORDER   # read once: another thread may replace it
+    if last is not None and last[0] == key:
+        return last[1].copy()
     order = _reverse_cuthill_mckee(rows, cols, n)
     _LAST_ORDER = (key, order.copy())
     return order
