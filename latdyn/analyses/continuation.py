@@ -90,6 +90,7 @@ from latdyn.analyses.mechanism import mechanism_message
 from latdyn.analyses.sensitivities import ArcLengthSensitivities, ArcStep, StaticSensitivities
 from latdyn.errors import SceneError, SolverError
 from latdyn.numerics.linalg import single_thread_blas
+from latdyn.numerics.so3 import compose_rotation_vectors
 from latdyn.step.compiled import StaticNewton
 from latdyn.step.integrators import newton_diagnosis
 
@@ -190,12 +191,10 @@ class Path:
         step's ends, which the sum of rotation increments about different axes is not."""
         total = dq + increment
         if self.exact_increments:
-            from scipy.spatial.transform import Rotation
-
             dofs = self.model.node_dofs[self.model.free_nodes, 3:6]
             dofs = dofs[np.all(dofs < self.model.n_dofs, axis=1)]
             if len(dofs):
-                total[dofs] = (Rotation.from_rotvec(increment[dofs]) * Rotation.from_rotvec(dq[dofs])).as_rotvec()
+                total[dofs] = compose_rotation_vectors(increment[dofs], dq[dofs])
         return total
 
     def step_to(self, state, dq):
