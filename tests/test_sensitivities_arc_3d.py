@@ -1,4 +1,4 @@
-"""3D arc-length sensitivities against the runs a user makes (latdyn/analyses/sensitivities.py,
+"""Arc-length sensitivities, 3D and planar, against the runs a user makes (latdyn/analyses/sensitivities.py,
 ArcLengthSensitivities; docs/parameters.md, "Arc length").
 
 The reference is what a designer would check against: central differences of whole runs *without*
@@ -15,7 +15,8 @@ the 2.5e-2 measured on the rigid gimbal was the same two paths).
 Scenes: the static gimbal of tests/test_sensitivities_rigid_links.py (two links on skew hinges carrying a
 flexible boom, under gravity and a tip load) with its links flexible and with them rigid, and a slider on
 a skew guide at the tip of a 3D arm with a beam hanging from it (tests/test_sensitivities_guides.py's),
-each under arc length."""
+each under arc length; and planar, a four-bar of rigid links (whose rotations commute: there the
+two paths were the same, and only the rigid links' refusal is lifted)."""
 from __future__ import annotations
 
 import csv
@@ -28,7 +29,7 @@ import latdyn
 from latdyn.numerics.so3 import compose_rotation_vectors, expm_so3
 from tests.cli_runs import latdyn_run, probe_columns
 from tests.test_sensitivities_guides import STATIC_GUIDE
-from tests.test_sensitivities_rigid_links import STATIC
+from tests.test_sensitivities_rigid_links import FOUR_BAR, STATIC
 
 #: the static gimbal under arc length, its spring unloaded at the start (a preloaded spring is no
 #: equilibrium at λ = 0, where arc length starts), its links rigid
@@ -46,7 +47,11 @@ GUIDED = STATIC_GUIDE.replace("method: load-control", "method: arc-length").repl
     "  hang: {from: slider, to: [0.9, 0.35, 0.7], section: s, elements: 2}\n").replace(
     "loads:\n", "gravity: [0, 0, -9.81]\nloads:\n  - {at: hang.end, force: [0, 0, \"-0.3*F\"]}\n")
 
-SCENES = {"gimbal": GIMBAL, "rigid_gimbal": RIGID_GIMBAL, "guided": GUIDED}
+#: planar: the four-bar of two rigid links and a flexible coupler, its crank's torque against its spring
+PLANAR_FOUR_BAR = FOUR_BAR.replace("solve: {analysis: transient, dt: 0.01, t_end: 0.5, sensitivities: [tau, rho]}",
+                                   "solve: {analysis: static, method: arc-length, steps: 4, sensitivities: [tau]}")
+
+SCENES = {"gimbal": GIMBAL, "rigid_gimbal": RIGID_GIMBAL, "guided": GUIDED, "four_bar": PLANAR_FOUR_BAR}
 
 
 def _run(text: str, sensitivities: bool = True, **parameters):
@@ -98,14 +103,16 @@ def test_a_3d_arc_length_run_takes_the_same_path_with_and_without_sensitivities(
 @pytest.mark.parametrize("scene, name", [
     ("gimbal", "k1"), ("gimbal", "m"), ("gimbal", "P"), ("gimbal", "EI"),
     ("rigid_gimbal", "k1"), ("rigid_gimbal", "EI"), ("rigid_gimbal", "rho"),
-    ("guided", "F"), ("guided", "EI"), ("guided", "m"),
+    ("guided", "F"), ("guided", "EI"), ("guided", "m"), ("four_bar", "tau"),
 ])
-def test_3d_arc_length_sensitivities_agree_with_richardson_differences_of_runs_without_them(runs, scene, name):
+def test_arc_length_sensitivities_agree_with_richardson_differences_of_runs_without_them(runs, scene, name):
     """Every probe's and the load factor's sensitivity over the rows, within 1e-6 of the largest of each
     (measured: the flexible gimbal k1 5.8e-9, m 2.7e-11, P 1.3e-10, EI 1.4e-7; the rigid one k1 5.9e-9,
     EI 2.3e-8, rho 9.1e-12 (m 1.2e-11, P 4.7e-11, not run here); the guided slider F 3.8e-11, EI 8.4e-9,
-    m 2.4e-11). Before: the flexible gimbal's k1 6.4e-5, m 4.3e-5, P 6.5e-5 and EI 1.5e-3 off, the rigid
-    gimbal and the guided slider refused (exit 2)."""
+    m 2.4e-11; the planar four-bar tau 9.3e-9, and by its spring k 5.4e-7, not run here: the load factor's
+    derivative, 1e-3 of the crank's, is at the differences' round-off). Before: the flexible gimbal's k1
+    6.4e-5, m 4.3e-5, P 6.5e-5 and EI 1.5e-3 off, the rigid gimbal, the guided slider and the four-bar
+    refused (exit 2)."""
     result = _computed(runs, scene)
     assert len(result.t) >= 4 and result.t[-1] == 1.0
     for key, expected in _richardson(SCENES[scene], name).items():

@@ -31,9 +31,10 @@ and :meth:`ArcLengthSensitivities.stiffness_derivative_along` moves the dependen
 without which a beam hanging from a guided body was 6e6 off by its EI). It was refused while a 3D arc-length
 run without sensitivities took another path than the one differentiated (summed rotation increments: 2.5e-2
 off on the static gimbal, docs/parameters.md "Arc length"). Geometry parameters are refused
-(latdyn/analyses/geometry_sensitivities.py: they move the links' edges). The discrete adjoint (latdyn/analyses/adjoint_sensitivities.py) takes rigid links in the
-runs it takes: its reverse pass transposes the reduced step, and a probe on a dependent node reads its output
-gradient on the coordinates the node moves with (:func:`columns_moving`).
+(latdyn/analyses/geometry_sensitivities.py: they move the links' edges). The discrete adjoint
+(latdyn/analyses/adjoint_sensitivities.py) takes rigid links in the runs it takes: its reverse pass transposes
+the reduced step, and a probe on a dependent node reads its output gradient on the coordinates the node moves
+with (:func:`columns_moving`).
 """
 from __future__ import annotations
 
