@@ -16,17 +16,19 @@ and differs only in the equation that fixes δλ (``solve.method``, SCENE.md):
   cut in halves towards the *next grid point*, and the sub-steps climb back to it, so every
   requested row λ = k/steps is written (the rows are never shifted off the grid).
 - ``arc-length``: Crisfield's cylindrical arc length (Crisfield 1981, Eq. 13):
-  ΔqᵀWΔq = Δs², with Δq the increment of the step (the sum of the Newton increments, in the
-  tangent space of the start state) and W weighting translations by 1/ℓ² (ℓ the size of the
-  scene) and rotations and hinge angles by 1, the norm of :func:`latdyn.step.integrators.increment_size`.
+  ΔqᵀWΔq = Δs², with Δq the increment of the step (the tangent-space difference of its ends: the
+  Newton increments summed, their rotations composed in 3D, :meth:`Path.compose`) and W weighting
+  translations by 1/ℓ² (ℓ the size of the scene) and rotations and hinge angles by 1, the norm of
+  :func:`latdyn.step.integrators.increment_size`.
   Each iteration solves the quadratic a₁δλ² + a₂δλ + a₃ = 0 (Crisfield 1981, Eqs. 20–22) and
   takes the root whose increment turns least from the step so far.  The predictor
   Δλ = ±Δs/‖δq_λ‖_W takes its sign from the previous step's direction, sign(Δq_{n−1}ᵀ W δq_λ)
   (Feng, Perić & Owen 1996), which passes limit points and snap-backs alike, where the sign of
   det K fails at a snap-back (Crisfield 1981 §3; Riks 1979 uses the same constraint linearised).
-  With ``solve.sensitivities`` in 3D, Δq composes the rotation increments exactly
-  (:meth:`Path.compose`), so that it is the tangent-space difference of the step's ends, a function of
-  the parameters (docs/parameters.md, "Arc length").
+  In 3D, Δq composes the rotation increments exactly (:meth:`Path.compose`): the constraint then
+  measures the distance of the step's ends, a function of the ends alone and so of the parameters,
+  not of the Newton iterates (the sum of rotation increments about different axes is not); with or
+  without ``solve.sensitivities`` the same (docs/parameters.md, "Arc length").
   Δs adapts to the Newton iterations of the last step, Δs ← Δs·√(6/N), within [Δs₀/1024, Δs₀],
   Δs₀ being the arc length of a first step Δλ = 1/steps.  The run ends when λ reaches 1 (the
   last point is solved at λ = 1 exactly) or after ``max_steps`` path steps (a warning).
@@ -88,6 +90,7 @@ from latdyn.analyses.mechanism import mechanism_message
 from latdyn.analyses.sensitivities import ArcLengthSensitivities, ArcStep, StaticSensitivities
 from latdyn.errors import SceneError, SolverError
 from latdyn.numerics.linalg import single_thread_blas
+from latdyn.numerics.so3 import compose_rotation_vectors
 from latdyn.step.compiled import StaticNewton
 from latdyn.step.integrators import newton_diagnosis
 
@@ -138,8 +141,8 @@ class Path:
     constraint_gradient: object = None
     #: the static mode of the native Newton iteration (latdyn.step.compiled.StaticNewton)
     newton: object = None
-    #: arc length with sensitivities in 3D: a step's Δq composed exactly in the tangent space
-    #: (:meth:`compose`), so that its arc length is the distance of its ends, a function of p
+    #: arc length in 3D: a step's Δq composed exactly in the tangent space (:meth:`compose`), so
+    #: that its arc length is the distance of its ends (set by :func:`static_path`)
     exact_increments: bool = False
 
     def __post_init__(self):
@@ -188,12 +191,10 @@ class Path:
         step's ends, which the sum of rotation increments about different axes is not."""
         total = dq + increment
         if self.exact_increments:
-            from scipy.spatial.transform import Rotation
-
             dofs = self.model.node_dofs[self.model.free_nodes, 3:6]
             dofs = dofs[np.all(dofs < self.model.n_dofs, axis=1)]
             if len(dofs):
-                total[dofs] = (Rotation.from_rotvec(increment[dofs]) * Rotation.from_rotvec(dq[dofs])).as_rotvec()
+                total[dofs] = compose_rotation_vectors(increment[dofs], dq[dofs])
         return total
 
     def step_to(self, state, dq):
@@ -598,7 +599,8 @@ def static_path(prepared, probes, writer, length_scale: float) -> None:
     if prepared.scene.solve.sensitivities and prepared.scene.solve.analysis == "static":
         arc = prepared.scene.solve.method == "arc-length"
         path.sensitivities = ArcLengthSensitivities(prepared, path.weight) if arc else StaticSensitivities(prepared)
-        path.exact_increments = arc and prepared.model.plane is None
+    # 3D arc length composes its steps' rotations, with or without sensitivities (Path.exact_increments)
+    path.exact_increments = prepared.scene.solve.method == "arc-length" and prepared.model.plane is None
     state = prepared.state
     state.v[:] = state.w[:] = 0.0
     state.theta_dot[:] = 0.0

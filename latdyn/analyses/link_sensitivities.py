@@ -26,33 +26,21 @@ Rigid links with guides (a slider-crank: a flexible rod on a guided slider, or t
 loop onto it, latdyn/model/links.py "Closure") take the same reduction and are differentiated alike, through
 the guide's stops and latches too.
 
-What is refused (:func:`linked_refusal`, exit 2 naming ``solve.sensitivities``): arc length with rigid links or guides (its chain of rows through
-the reduction is not exact yet: 2.5e-2 off on the gimbal of tests/test_sensitivities_rigid_links.py, 2.4e-4
-with a beam hanging from a guided body; :meth:`ArcLengthSensitivities.stiffness_derivative_along` moves the
-dependent nodes by P v now, without which that beam's EI was 6e6 off); and geometry parameters (latdyn/analyses/geometry_sensitivities.py refuses them: they move
-the links' edges). The discrete adjoint (latdyn/analyses/adjoint_sensitivities.py) takes rigid links in the
-runs it takes: its reverse pass transposes the reduced step, and a probe on a dependent node reads its output
-gradient on the coordinates the node moves with (:func:`columns_moving`).
+Arc length takes them too: its chain of rows is the reduced system's (the bordered matrix of the reduced K,
+and :meth:`ArcLengthSensitivities.stiffness_derivative_along` moves the dependent nodes by P v at the start,
+without which a beam hanging from a guided body was 6e6 off by its EI). It was refused while a 3D arc-length
+run without sensitivities took another path than the one differentiated (summed rotation increments: 2.5e-2
+off on the static gimbal, docs/parameters.md "Arc length"). Geometry parameters are refused
+(latdyn/analyses/geometry_sensitivities.py: they move the links' edges). The discrete adjoint
+(latdyn/analyses/adjoint_sensitivities.py) takes rigid links in the runs it takes: its reverse pass transposes
+the reduced step, and a probe on a dependent node reads its output gradient on the coordinates the node moves
+with (:func:`columns_moving`).
 """
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["linked_refusal", "add_link_section_forces", "columns_moving", "dependent_rates"]
-
-
-def linked_refusal(scene) -> str | None:
-    """Why the rigid links (or guides: the same reduction) of ``scene`` keep its sensitivities from being
-    exact, or None (module docstring)."""
-    rigid = [name for name, beam in scene.beams.items() if beam.rigid]
-    guided = [name for name, body in scene.bodies.items() if body.guide is not None]
-    if (rigid or guided) and scene.solve.analysis == "static" and scene.solve.method == "arc-length":
-        where = f"rigid links ({rigid[0]})" if rigid else f"guides (bodies.{guided[0]}.guide)"
-        return (f"arc-length sensitivities of scenes with {where} are not computed yet: the chain of rows through "
-                "the reduction is not exact (measured 2.5e-2 off the differences on a gimbal of rigid links whose "
-                "boom starts at a link, 2.4e-4 with a beam hanging from a guided body); load control and "
-                "displacement control are")
-    return None
+__all__ = ["add_link_section_forces", "columns_moving", "dependent_rates"]
 
 
 def link_section_uses(owner) -> list:

@@ -64,7 +64,7 @@ global frame, hinge angles and guide positions and, in transient runs, rates, po
 (latdyn/analyses/joint_force_sensitivities.py), element section forces, cable tensions and lengths and points in a
 body's frame (latdyn/analyses/probe_derivatives.py: static and transient; a body frame's velocity in transient
 runs without guides), and energies and momenta where latdyn/analyses/energy_sensitivities.py refuses them;
-rigid links under arc length (rigid links otherwise
+(rigid links and guides are differentiated
 through the reduction: latdyn/analyses/link_sensitivities.py); in static paths hinges with limits or
 ``lock_at`` (events; transient runs differentiate latches and stops: latdyn/analyses/transient_sensitivities.py). Under gravity the static
 Newton matrix K − λ ∂Q/∂q holds the beams' gravity tangent (the generated ``beam_gravity_D_q``), so
@@ -83,7 +83,7 @@ from latdyn.analyses.energy_sensitivities import refusal as energy_refusal
 from latdyn.analyses.joint_force_sensitivities import is_joint_force
 from latdyn.analyses.joint_force_sensitivities import refusal as joint_force_refusal
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY, ReferenceGeometry, geometry_refusal, model_refusal
-from latdyn.analyses.link_sensitivities import add_link_section_forces, dependent_rates, linked_refusal
+from latdyn.analyses.link_sensitivities import add_link_section_forces, dependent_rates
 from latdyn.analyses.probe_derivatives import is_probe_here, probe_derivatives
 from latdyn.analyses.probe_derivatives import refusal as probe_refusal
 from latdyn.assembly.factorization import solve_linear
@@ -123,9 +123,6 @@ def refusal(scene) -> SceneError | None:
         method = f"{solve.analysis}" + (f" ({solve.method})" if solve.analysis == "static" else "")
         return refuse(f"sensitivities are computed for static load control, arc length and displacement control "
                       f"and for transient runs with an implicit method only, not yet for a {method} analysis")
-    why = linked_refusal(scene)
-    if why is not None:
-        return refuse(why)
     for beam, which, hinge in scene.hinges:
         rigid_stop = hinge.limits is not None and hinge.contact is None
         if solve.analysis != "transient" and (rigid_stop or hinge.lock_at is not None):
@@ -897,8 +894,8 @@ class StaticSensitivities(ParameterDerivatives):
 @dataclass
 class ArcStep:
     """What an arc-length step hands its row's sensitivities (latdyn/analyses/continuation.py
-    ``arc_length``): the step's increment Δq from the row before (the sum of its Newton increments in
-    the tangent space, ‖Δq‖_W = Δs), its arc length Δs and the first step's Δs₀ (every Δs is Δs₀ times
+    ``arc_length``): the step's increment Δq from the row before (the tangent-space difference of its
+    ends, :meth:`latdyn.analyses.continuation.Path.compose`; ‖Δq‖_W = Δs), its arc length Δs and the first step's Δs₀ (every Δs is Δs₀ times
     factors the path chose: halvings and the adaptation to the Newton iterations), and whether its
     end was solved at λ = 1 exactly (the last row)."""
     increment: np.ndarray
@@ -922,7 +919,16 @@ class ArcLengthSensitivities(StaticSensitivities):
     replaced by its derivative, linear in it; ``hinge_force``'s ∂f/∂θ with the laws replaced by their
     derivatives). The last row, solved at λ = 1, is load control's: δq = −K⁻¹∂r/∂p, δλ = 0. The limit
     points the rows pass are located on the path (:meth:`limit_points`) and the limit load's derivative
-    taken there."""
+    taken there.
+
+    The row DᵀW needs no transport between the rows' tangent spaces: a node's rotation part of D is the
+    rotation vector d of T_{n+1} T_nᵀ = exp(skew d), whose variation is δd = dexp(d)⁻¹(δπ_{n+1} −
+    exp(skew d) δπ_n); W weighs a node's three rotations alike, and dᵀ dexp(d)⁻¹ = dᵀ exp(skew d) = dᵀ
+    (both fix their axis d), so dᵀ δd = dᵀ(δπ_{n+1} − δπ_n) exactly, however far the node turns in a
+    step. That holds because the path's D is that difference of the ends, its rotations composed
+    (:meth:`latdyn.analyses.continuation.Path.compose`), in every 3D arc-length run: the sum of the
+    increments differs from it by their commutators, and a run that summed them (without sensitivities,
+    before) took another path than the one differentiated (docs/parameters.md, "Arc length")."""
 
     def __init__(self, prepared, weight: np.ndarray):
         super().__init__(prepared)
@@ -971,8 +977,8 @@ class ArcLengthSensitivities(StaticSensitivities):
         """(∂K/∂p) v at a state of load factor 0 (the start), one column per parameter (n_dofs, k): the
         elements' tangent by their section values and the hinges' by their stiffness laws and rest
         angles; loads, gravity, masses and applied torques enter K only times λ, and damping times θ̇ = 0.
-        With rigid links or guides the dependent nodes move by P v and the sum is reduced by Pᵀ (arc length
-        with them is refused: latdyn/analyses/link_sensitivities.py)."""
+        With rigid links or guides the dependent nodes move by P v and the sum is reduced by Pᵀ
+        (latdyn/analyses/link_sensitivities.py)."""
         model, k = self.model, len(self.names)
         total = np.zeros((model.n_total + 1, k))
         full = np.concatenate([direction, np.zeros(model.n_total + 1 - model.n_dofs)])
