@@ -77,6 +77,7 @@ from pathlib import Path
 
 import numpy as np
 
+from latdyn.analyses import controller_probe_sensitivities as controller_probes
 from latdyn.analyses.energy_sensitivities import is_energy_or_momentum
 from latdyn.analyses.energy_sensitivities import probe_derivatives as energy_probe_derivatives
 from latdyn.analyses.energy_sensitivities import refusal as energy_refusal
@@ -182,15 +183,19 @@ def refusal(scene) -> SceneError | None:
         why_not = joint_force_refusal(scene, probe) if force else None
         here = is_probe_here(probe)   # section forces, cables, body frames: latdyn/analyses/probe_derivatives.py
         why_not = why_not or (probe_refusal(scene, probe) if here else None)
+        control = controller_probes.is_controller_probe(probe)   # latdyn/analyses/controller_probe_sensitivities.py
+        why_not = why_not or (controller_probes.refusal(scene, probe) if control else None)
         if why_not is not None:
             return refuse(why_not)
-        if not (point or velocity or slide or joint or force or here):
-            return refuse(f"probe {probe.name!r} ({probe.kind} {probe.quantity}"
-                          f"{'' if probe.kind != 'point' else ', frame ' + probe.frame}) is not differentiated yet: "
+        if not (point or velocity or slide or joint or force or here or control):
+            what = (controller_probes.describe(probe) if control else f"{probe.kind} {probe.quantity}"
+                    f"{'' if probe.kind != 'point' else ', frame ' + probe.frame}")
+            return refuse(f"probe {probe.name!r} ({what}) is not differentiated yet: "
                           "point positions and displacements in the global frame, hinge angles, element section "
                           "forces, cable tensions and lengths, points in a body's frame, energies and momenta and, in "
                           "transient runs, hinge "
-                          "rates and torques, guide positions, rates and forces and point velocities (without guides) "
+                          "rates and torques, guide positions, rates and forces, point velocities (without guides) and "
+                          "controllers' outputs and states "
                           "are")
     rates = {p.name for p in scene.output.probes if p.quantity in ("rate", "velocity")}
     for c in scene.controllers.values():
@@ -233,6 +238,8 @@ def adjoint_refusal(scene) -> SceneError | None:
         why = (f"with rigid links (beams.{link}.rigid) the adjoint is seeded by points in the global frame and "
                f"joints' probes, not yet by probe {probe.name!r} ({probe.kind} {probe.quantity}: its gradient "
                "through the links' reduction)")
+    elif controller_probes.adjoint_refusal(scene) is not None:
+        why = controller_probes.adjoint_refusal(scene)
     elif any(c.states or c.sampled for c in (getattr(scene, "controllers", None) or {}).values()):
         name = next(c.name for c in scene.controllers.values() if c.states or c.sampled)
         why = (f"the adjoint does not differentiate controllers with states or sampled ones yet (controllers.{name}); "
@@ -772,6 +779,8 @@ class ParameterDerivatives:
         model = self.model
         if is_probe_here(probe):   # section forces, cables, points in a body frame
             return probe_derivatives(self, probe, state, dx, dpi, dtheta, rates)
+        if controller_probes.is_controller_probe(probe):   # latdyn/analyses/controller_probe_sensitivities.py
+            return controller_probes.probe_derivatives(self, probe, state, dx, dpi, dtheta, rates)
         if is_energy_or_momentum(probe):   # latdyn/analyses/energy_sensitivities.py
             return energy_probe_derivatives(self, probe, state, dx, dpi, dtheta, rates, _BODY_KEY)
         if probe.kind in ("hinge", "guide"):

@@ -1,0 +1,128 @@
+"""Exact sensitivities of controller probes (SCENE.md ``controllers``: probe ``{controller: NAME}``
+records the output after saturation, ``{controller: NAME, state: S}`` a state; "Parameters and
+sensitivities": the derivative of each recorded probe; docs/parameters.md, "Controllers").
+
+Transient runs, forward method, from what the step already carries for the residual
+(latdyn/analyses/sensitivities.py):
+
+- a continuous controller's state S: its carried δS (:class:`ControllerStates`, ``controller_dS``);
+- a continuous controller's output y = clip(f(t, s, S; p)) at the row's state:
+
+      δy = Σ_s ∂f/∂s δs + Σ_j ∂f/∂y_j δy_j + Σ_S ∂f/∂S δS + ∂f/∂p     (t fixed: no event moves it),
+
+  δs the sensors' derivatives (the probes' own, along the carried δq, δv), δy_j those of earlier
+  controllers it reads (the same, in file order), inputs held (no parameter moves them), the partial
+  derivatives SymPy's of the output's text (as the code generator's), ∂f/∂p :class:`ControllerTerms`'
+  ``partials``. While the output is clipped — at a limit too: the one-sided value of the clipped side,
+  as the step's own ∂r/∂p takes it (:meth:`ControllerTerms.add`), so the probe's derivative is the
+  derivative of the trajectory computed — δy = 0;
+- a sampled controller's output and state: the held δy_k and δS_{k+1} of the last sample
+  (:class:`SampledTerms`, ``sampled_dy``, ``sampled_dS``), the values the probe records.
+
+Refused (:func:`refusal`, exit 2 naming ``solve.sensitivities``): controller probes of static paths.
+The discrete adjoint is not seeded by them (:func:`adjoint_refusal`, naming ``solve.sensitivity_method``).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["is_controller_probe", "describe", "refusal", "adjoint_refusal", "probe_derivatives"]
+
+
+def is_controller_probe(probe) -> bool:
+    """Whether ``probe`` records a controller's output or state."""
+    return probe.kind == "controller"
+
+
+def describe(probe) -> str:
+    """``controller NAME output`` or ``controller NAME state S``, as refusals name the probe."""
+    return f"controller {probe.controller} " + ("output" if probe.state is None else f"state {probe.state}")
+
+
+def refusal(scene, probe) -> str | None:
+    """Why the derivative of the controller probe ``probe`` is not computed for ``scene``, or None."""
+    if scene.solve.analysis != "transient":
+        return (f"probe {probe.name!r} ({describe(probe)}) is differentiated in transient runs only, not in a "
+                f"{scene.solve.analysis} analysis")
+    return None
+
+
+def adjoint_refusal(scene) -> str | None:
+    """Why the discrete adjoint is not seeded by the scene's controller probes, or None without them."""
+    probe = next((p for p in scene.output.probes if is_controller_probe(p)), None)
+    if probe is None:
+        return None
+    return (f"the adjoint is not seeded by controller probes yet (probe {probe.name!r}: {describe(probe)}); the "
+            "forward method differentiates them")
+
+
+def _output_gradient(owner, c):
+    """∂f/∂(reads, S) of controller ``c``'s output as a function of (t, reads, S), cached on ``owner``."""
+    import sympy as sp
+
+    cache = owner.__dict__.setdefault("_controller_output_gradients", {})
+    if c.name not in cache:
+        cache[c.name] = sp.lambdify(c.symbols, [sp.diff(c.output_expr, x) for x in c.symbols[1:]],
+                                    modules=["math", "numpy"])
+    return cache[c.name]
+
+
+def _continuous_output(owner, name: str, state, carried: dict, sensed, done: dict) -> np.ndarray:
+    """δy (k,) of the continuous controller ``name`` at ``state`` (module docstring), ``done`` the
+    earlier controllers' (value, δy) by name."""
+    if name in done:
+        return done[name][1]
+    terms = owner.controllers
+    scene = owner.scene
+    c = scene.controllers[name]
+    values = terms.signal_values(state)
+    reads = []
+    for r in c.reads:
+        if r in values:
+            reads.append(values[r])
+        else:   # an earlier controller
+            _continuous_output(owner, r, state, carried, sensed, done)
+            reads.append(done[r][0])
+    S = terms.state_values(c)
+    arguments = [state.t, *reads, *S]
+    raw = float(c.functions()[0](*arguments))
+    slope = np.zeros(terms.k)
+    if c.limits is None or c.limits[0] < raw < c.limits[1]:
+        gradient = np.array(_output_gradient(owner, c)(*arguments), float).reshape(len(c.reads) + len(S))
+        probes = {p.name: p for p in scene.output.probes}
+        for i, r in enumerate(c.reads):
+            if r in probes:
+                slope += gradient[i] * sensed(probes[r])
+            elif r in scene.controllers:
+                slope += gradient[i] * done[r][1]
+            # an input: held, no parameter moves it
+        if c.states:
+            first = terms.states.first[c.name]
+            slope += gradient[len(c.reads):] @ carried["controller_dS"][first:first + len(c.states)]
+        for column, partial in terms.partials.get(c.name, {}).items():
+            slope[column] += float(partial(*arguments))
+    done[name] = (c.clip(raw), slope)
+    return slope
+
+
+def probe_derivatives(owner, probe, state, dx, dpi, dtheta, rates) -> list:
+    """The derivatives of the controller probe ``probe`` at ``state`` by every parameter, from what the
+    transient step carried (``owner.carried_accounts``, set by ``record``) and the sensors' derivatives
+    along (δx, δπ, δθ) and the rates' (module docstring)."""
+    carried, terms = owner.carried_accounts, owner.controllers
+    c = owner.scene.controllers[probe.controller]
+    if c.sampled:
+        sampled = terms.sampled
+        i = sampled.index[c.name]
+        if probe.state is None:
+            return [float(v) for v in carried["sampled_dy"][i]]
+        row = sampled.first[c.name] + c.states.index(probe.state)
+        return [float(v) for v in carried["sampled_dS"][row]]
+    if probe.state is not None:
+        row = terms.states.first[c.name] + c.states.index(probe.state)
+        return [float(v) for v in carried["controller_dS"][row]]
+
+    def sensed(sensor):
+        return np.array(owner._probe_derivatives(sensor, state, dx, dpi, dtheta, rates), float)
+
+    return [float(v) for v in _continuous_output(owner, c.name, state, carried, sensed, {})]
