@@ -8,7 +8,7 @@ Transient runs, forward method, from what the step already carries for the resid
 - a continuous controller's state S: its carried δS (:class:`ControllerStates`, ``controller_dS``);
 - a continuous controller's output y = clip(f(t, s, S; p)) at the row's state:
 
-      δy = Σ_s ∂f/∂s δs + Σ_j ∂f/∂y_j δy_j + Σ_S ∂f/∂S δS + ∂f/∂p     (t fixed: no event moves it),
+      δy = Σ_s ∂f/∂s δs + Σ_j ∂f/∂y_j δy_j + Σ_S ∂f/∂S δS + ∂f/∂p      (t fixed: no event moves it),
 
   δs the sensors' derivatives (the probes' own, along the carried δq, δv), δy_j those of earlier
   controllers it reads (the same, in file order), inputs held (no parameter moves them), the partial
