@@ -188,9 +188,8 @@ def refusal(scene) -> SceneError | None:
         if why_not is not None:
             return refuse(why_not)
         if not (point or velocity or slide or joint or force or here or control):
-            what = (controller_probes.describe(probe) if control else f"{probe.kind} {probe.quantity}"
-                    f"{'' if probe.kind != 'point' else ', frame ' + probe.frame}")
-            return refuse(f"probe {probe.name!r} ({what}) is not differentiated yet: "
+            return refuse(f"probe {probe.name!r} ({probe.kind} {probe.quantity}"
+                          f"{'' if probe.kind != 'point' else ', frame ' + probe.frame}) is not differentiated yet: "
                           "point positions and displacements in the global frame, hinge angles, element section "
                           "forces, cable tensions and lengths, points in a body's frame, energies and momenta and, in "
                           "transient runs, hinge "
