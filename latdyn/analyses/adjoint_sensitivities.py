@@ -315,9 +315,8 @@ class AdjointSensitivities(TransientSensitivities):
         (:meth:`_matrices`) summed as the forward method sums them and Sᵀ factorised. A singular S raises
         SolverError."""
         if self.model.links is not None:
-            M, C, K = self._matrices(new)
-            J = tangent.matrix if issparse(K) else tangent.matrix.toarray()
-            matrix = _transposed(beta_p * M + gamma_p * C + K @ J)
+            summed, C, K = self._reduced_step_matrix(new, tangent, beta_p, gamma_p)
+            matrix = _transposed(summed)
             try:
                 solver = factorization_for(matrix).factor(matrix)
             except np.linalg.LinAlgError:

@@ -382,20 +382,24 @@ class TransientSensitivities(ParameterDerivatives):
         Without rigid links and guides M, C and K are the values of the assembler's pattern and the
         matrix is assembled and factorised on its held pattern (:meth:`_step_matrix`); with them, the
         reduction's matrices (:meth:`_matrices`) summed by SciPy. A singular matrix raises SolverError."""
-        n = self.model.n_dofs
         try:
             if self.model.links is None:
                 step_matrix = self._step_matrix(tangent.slots)
                 solver = step_matrix.factor(self.assembler.exact_matrix_values(new), tangent.blocks, beta_p, gamma_p)
                 return step_matrix.damping, step_matrix.stiffness, solver.solve
-            M, C, K = self._matrices(new)
-            J = tangent.matrix if issparse(K) else tangent.matrix.toarray()
-            matrix = beta_p * M + gamma_p * C + K @ J
+            matrix, C, K = self._reduced_step_matrix(new, tangent, beta_p, gamma_p)
             solver = factorization_for(matrix).factor(matrix)
             return C, K, solver.solve
         except np.linalg.LinAlgError:
             raise SolverError(f"the sensitivities at t = {new.t:.6g} need the step's exact iteration matrix, "
                               "which is singular there") from None
+
+    def _reduced_step_matrix(self, new, tangent, beta_p: float, gamma_p: float) -> tuple:
+        """(β′M + γ′C + K J, C, K) with the reduction's matrices (:meth:`_matrices`: rigid links, guides), summed
+        by SciPy or NumPy as K is stored; the forward step factorises it, the adjoint its transpose."""
+        M, C, K = self._matrices(new)
+        J = tangent.matrix if issparse(K) else tangent.matrix.toarray()
+        return beta_p * M + gamma_p * C + K @ J, C, K
 
     def _add_time_columns(self, explicit: np.ndarray, new, started: np.ndarray) -> None:
         """Add to the step's ∂r/∂p columns ``explicit`` (n, k + 1) the explicit time dependence at its end

@@ -736,10 +736,24 @@ class ParaviewWriter:
 
 def _checked_block(name: str, block: "FrameBlock", part: dict) -> dict:
     """A block's part as :func:`_checked` gives each of its frames, with the leading frame axis."""
-    m = len(block)
     if name not in block.parts:
         raise ValueError(f"frame has parts {sorted(block.parts)}, the mesh has {name!r}")
-    data = block.parts[name]
+    return _checked_frames(name, block.parts[name], part, len(block))
+
+
+def _checked(name: str, data: dict, part: dict) -> dict:
+    """A frame's part as float arrays of the part's sizes."""
+    framed = {"points": np.asarray(data["points"], dtype=float)[None],
+              **{kind: {key: np.asarray(value, dtype=float)[None] for key, value in (data.get(kind) or {}).items()}
+                 for kind in ("point_data", "cell_data")}}
+    out = _checked_frames(name, framed, part, 1)
+    return {"points": out["points"][0], **{kind: {key: array[0] for key, array in out[kind].items()}
+                                           for kind in ("point_data", "cell_data")}}
+
+
+def _checked_frames(name: str, data: dict, part: dict, m: int) -> dict:
+    """``m`` frames of a part (arrays with a leading frame axis) as float arrays of the part's sizes; the
+    messages name one frame's shapes."""
     points = np.asarray(data["points"], dtype=float).reshape(m, -1, 3)
     if points.shape[1] != part["n_points"]:
         raise ValueError(f"frame part {name!r} has {points.shape[1]} points, the mesh has {part['n_points']}")
@@ -749,24 +763,6 @@ def _checked_block(name: str, block: "FrameBlock", part: dict) -> dict:
             array = np.asarray(value, dtype=float)
             if array.ndim not in (2, 3) or array.shape[:2] != (m, count):
                 raise ValueError(f"{kind.replace('_', ' ')} {key!r} of {name!r} has shape {array.shape[1:]}, "
-                                 f"expected ({count},) or ({count}, k)")
-            if kind == "cell_data" and key in part["cell_data"]:
-                raise ValueError(f"cell data {key!r} of {name!r} is constant (the mesh's); a frame may not repeat it")
-            out[kind][str(key)] = array
-    return out
-
-
-def _checked(name: str, data: dict, part: dict) -> dict:
-    """A frame's part as float arrays of the part's sizes."""
-    points = np.asarray(data["points"], dtype=float).reshape(-1, 3)
-    if points.shape[0] != part["n_points"]:
-        raise ValueError(f"frame part {name!r} has {points.shape[0]} points, the mesh has {part['n_points']}")
-    out = {"points": points, "point_data": {}, "cell_data": {}}
-    for kind, count in (("point_data", part["n_points"]), ("cell_data", part["n_cells"])):
-        for key, value in (data.get(kind) or {}).items():
-            array = np.asarray(value, dtype=float)
-            if array.ndim not in (1, 2) or array.shape[0] != count:
-                raise ValueError(f"{kind.replace('_', ' ')} {key!r} of {name!r} has shape {array.shape}, "
                                  f"expected ({count},) or ({count}, k)")
             if kind == "cell_data" and key in part["cell_data"]:
                 raise ValueError(f"cell data {key!r} of {name!r} is constant (the mesh's); a frame may not repeat it")

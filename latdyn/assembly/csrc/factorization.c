@@ -67,15 +67,22 @@ int64_t latdyn_factor(const Factorization *f, double *factor, int *pivots)
     return info;
 }
 
-/* x <- A⁻¹ x for n_rhs right-hand sides (columns of x, leading dimension n), in place, in the
- * factor's order, with the factors of latdyn_factor. Returns LAPACK's info (0). */
-int64_t latdyn_solve(const Factorization *f, const double *factor, const int *pivots, int64_t n_rhs, double *x)
+/* x <- A⁻¹ x (trans 'N') or A⁻ᵀ x (trans 'T') for n_rhs right-hand sides (columns of x, leading
+ * dimension n), in place, in the factor's order, with the factors of latdyn_factor: getrs / gbtrs with
+ * trans, the sparse LU's factors read forwards or the other way. The order is a symmetric permutation,
+ * so Aᵀ's is A's. Returns LAPACK's info (0). */
+static int64_t solve_with_factors(const Factorization *f, const double *factor, const int *pivots, int64_t n_rhs,
+                                  double *x, char trans)
 {
     int n = (int)f->n, nrhs = (int)n_rhs, info = 0;
-    char trans = 'N';
     int threads = hold_one_thread(f);
     if (f->kind == FACTOR_SPARSE) {
-        for (int64_t k = 0; k < n_rhs; ++k) latdyn_sparse_lu_solve(f->sparse_lu, factor, x + k * f->n);
+        for (int64_t k = 0; k < n_rhs; ++k) {
+            if (trans == 'T')
+                latdyn_sparse_lu_solve_transposed(f->sparse_lu, factor, x + k * f->n);
+            else
+                latdyn_sparse_lu_solve(f->sparse_lu, factor, x + k * f->n);
+        }
     } else if (f->kind == FACTOR_BAND) {
         int kl = (int)f->kl, ku = (int)f->ku, ldab = (int)f->ldab;
         f->gbtrs(&trans, &n, &kl, &ku, &nrhs, (double *)factor, &ldab, (int *)pivots, x, &n, &info);
@@ -86,23 +93,15 @@ int64_t latdyn_solve(const Factorization *f, const double *factor, const int *pi
     return info;
 }
 
-/* x <- A⁻ᵀ x: latdyn_solve with the transposed matrix, from the same factors (getrs / gbtrs with
- * 'T'; the sparse LU's factors read the other way). The order is a symmetric permutation, so Aᵀ's
- * is A's. Returns LAPACK's info (0). */
+/* x <- A⁻¹ x: solve_with_factors, 'N'. */
+int64_t latdyn_solve(const Factorization *f, const double *factor, const int *pivots, int64_t n_rhs, double *x)
+{
+    return solve_with_factors(f, factor, pivots, n_rhs, x, 'N');
+}
+
+/* x <- A⁻ᵀ x from the same factors: solve_with_factors, 'T'. */
 int64_t latdyn_solve_transposed(const Factorization *f, const double *factor, const int *pivots, int64_t n_rhs,
                                 double *x)
 {
-    int n = (int)f->n, nrhs = (int)n_rhs, info = 0;
-    char trans = 'T';
-    int threads = hold_one_thread(f);
-    if (f->kind == FACTOR_SPARSE) {
-        for (int64_t k = 0; k < n_rhs; ++k) latdyn_sparse_lu_solve_transposed(f->sparse_lu, factor, x + k * f->n);
-    } else if (f->kind == FACTOR_BAND) {
-        int kl = (int)f->kl, ku = (int)f->ku, ldab = (int)f->ldab;
-        f->gbtrs(&trans, &n, &kl, &ku, &nrhs, (double *)factor, &ldab, (int *)pivots, x, &n, &info);
-    } else {
-        f->getrs(&trans, &n, &nrhs, (double *)factor, &n, (int *)pivots, x, &n, &info);
-    }
-    release_threads(f, threads);
-    return info;
+    return solve_with_factors(f, factor, pivots, n_rhs, x, 'T');
 }
