@@ -215,6 +215,33 @@ def test_failed_case_is_a_row(tmp_path):
     assert csv_rows[0]["status"] == "failed" and csv_rows[0]["error"] == ""
 
 
+SENSITIVE_ARM = """\
+parameters: {P: 1.0}
+sections: {s: {EA: 1.0e6, EIy: 100.0, EIz: 100.0, GJ: 80.0, rhoA: 1.0}}
+bodies: {base: {at: [0, 0, 0], fixed: true}}
+beams: {arm: {from: base, to: [1, 0.3, 0.2], section: s, elements: 4}}
+loads: [{at: arm.end, force: [0, "-P", 0]}]
+solve: {analysis: transient, dt: 0.001, t_end: 0.004, sensitivities: [P]}
+output: {probes: {tip: {point: arm.end, quantity: displacement, component: y}}}
+"""
+
+
+def test_a_case_the_run_refuses_is_a_failed_row_naming_the_scene_and_key(tmp_path):
+    """A varied value the model or an analysis refuses only when the case is prepared (here the explicit
+    method with sensitivities) is a failed row whose message names the scene's file and key, not an
+    "internal error" of a "<dict>"."""
+    scene = tmp_path / "arm.yaml"
+    scene.write_text(SENSITIVE_ARM)
+    study = _write(tmp_path, {"scene": str(scene), "vary": {"solve.method": ["newmark", "explicit"]},
+                              "reference": {"overrides": {"solve.dt": 0.0005}}, "error": {"probe": "tip", "norm": "max"}})
+    assert cli.main(["study", str(study), "-o", str(tmp_path / "out")]) == 0
+    solved, refused = _rows(tmp_path / "out" / "study.csv")
+    assert solved["status"] == "solved"
+    assert refused["status"] == "failed"
+    assert refused["message"].startswith(f"refused: {scene}: solve.sensitivities: ")
+    assert "internal error" not in refused["message"] and "<dict>" not in refused["message"]
+
+
 def test_local_cluster_gives_the_same_rows_as_serial(serial_study, tmp_path):
     pytest.importorskip("distributed")
     path, serial_out = serial_study

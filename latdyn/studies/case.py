@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from latdyn.errors import SolverError, UnboundedError
+from latdyn.errors import SceneError, SolverError, UnboundedError
 
 __all__ = ["run_case", "cached_record", "failed_record", "STATUSES", "ENERGY_PROBES", "CASE_FILE"]
 
@@ -174,13 +174,24 @@ def run_case(task: dict) -> dict:
         unstable = isinstance(error, UnboundedError) or (isinstance(error, SolverError)
                                                           and "became unstable" in str(error))
         record["status"] = "unbounded" if unstable else "failed"
-        prefix = "" if isinstance(error, SolverError) else "internal error: "
-        record["message"] = f"{prefix}{type(error).__name__}: {_first_line(error)}"
+        record["message"] = _error_message(error, task.get("scene_file"))
     else:
         record["status"] = "solved"
     record["wall_s"] = statistics.median(record["wall_times"])
     _write_json(folder / CASE_FILE, record)
     return record
+
+
+def _error_message(error: BaseException, scene_file: str | None) -> str:
+    """A failed case's message: a scene the run refused (a value the study varied that the model or an
+    analysis does not take, found when the case is prepared) as ``refused: FILE: KEY: expected …`` with
+    the scene's file for the ``<dict>`` the case ran from; a solver's failure by its class; anything else
+    as an internal error."""
+    if isinstance(error, SceneError):
+        file = scene_file if error.file in ("<dict>", "<scene>") and scene_file else error.file
+        return f"refused: {file}: {error.key}: {error.expected}"
+    prefix = "" if isinstance(error, SolverError) else "internal error: "
+    return f"{prefix}{type(error).__name__}: {_first_line(error)}"
 
 
 def _first_line(error: BaseException) -> str:

@@ -722,6 +722,7 @@ def study(source, scheduler: str | None = None, out=None, *, client=None, progre
         else:
             todo.append({"raw": case.raw, "dir": os.path.abspath(out / "cases" / digest), "repeats": repeats,
                          "hash": digest, "overrides": case.overrides, "backend": backend,
+                         "scene_file": spec.scene_file,
                          "label": "reference" if case is ref else _label(case.overrides)})
     bar = _Progress(len(unique), len(records), progress)
     if progress and records:
