@@ -77,6 +77,7 @@ from pathlib import Path
 
 import numpy as np
 
+from latdyn.analyses import adaptive_sensitivities
 from latdyn.analyses import controller_probe_sensitivities as controller_probes
 from latdyn.analyses.energy_sensitivities import is_energy_or_momentum
 from latdyn.analyses.energy_sensitivities import probe_derivatives as energy_probe_derivatives
@@ -280,9 +281,8 @@ def _transient_refusal(scene) -> str | None:
     if solve.method == "explicit":
         return "sensitivities of a transient run are computed for the implicit methods (generalized-alpha, " \
                "hht-alpha, newmark), not for method explicit"
-    if solve.adaptive:
-        return "with adaptive step control the accepted step sizes depend on the parameters, which the " \
-               "derivative does not follow yet; expected a fixed step (adaptive: false)"
+    if solve.adaptive and adaptive_sensitivities.refusal(scene) is not None:   # the step control differentiated
+        return adaptive_sensitivities.refusal(scene)
     why = ControllerTerms.refusal(scene)
     if why is not None:
         return why

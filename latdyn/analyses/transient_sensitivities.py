@@ -100,6 +100,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from latdyn.analyses import adaptive_sensitivities
 from latdyn.analyses.cable_sensitivities import LANDING, CableSensitivities
 from latdyn.analyses.energy_sensitivities import external_work_after_event, external_work_step, is_energy_or_momentum
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
@@ -322,10 +323,40 @@ class TransientSensitivities(ParameterDerivatives):
         ``a_new``: the algorithmic accelerations before and after it; ``lands``: it ended on the time
         grid), with the derivative of its size (module docstring, "Events") and the jump of the event it
         ends on, if any, taken before the events renumber the coordinates (:meth:`after_events`)."""
-        model, p = self.model, self.params
+        model = self.model
         n, k = model.n_dofs, len(self.names)
         if n == 0 or k == 0:
             return {**carried, "h": h}
+        columns, states = self._columns(carried, old, new, h, a_old, a_new)
+        event = self._event(old, new)
+        cable = self._cable_event(old, new, event)
+        if cable is None:
+            dh = self._step_size_derivative(carried, h, lands, event or self._contact_onset(old, new), columns["dq"])
+        else:
+            dh = self.cables.step_size_derivative(new, cable[0], columns["dq"], columns["dv"], k,
+                                                  started=carried["dt"])
+        total = {key: value[:, :k] + np.outer(value[:, k], dh) for key, value in columns.items()}
+        before, carried = carried, {**carried, **total, "dt": carried["dt"] + dh, "dh": dh, "dh_step": dh, "h": h,
+                                   "pending": None}
+        carried = external_work_step(self, before, carried, old, new, h)   # latdyn/analyses/energy_sensitivities.py
+        if states is not None:   # no events with states (ControllerTerms.refusal): δh = 0
+            carried = {**carried, **states.after_step(new, carried["dq"])}
+        if cable is not None:
+            return self._after_cable_event(carried, new, *cable)
+        if event is None:
+            return carried
+        self.time_shift = carried["dt"]   # the impulse's weight at the event, moved in time by δt_e
+        try:
+            return self._jump(carried, new, *event)
+        finally:
+            self.time_shift = None
+
+    def _columns(self, carried: dict, old, new, h: float, a_old: np.ndarray, a_new: np.ndarray):
+        """The derivative of the converged step ``old`` → ``new`` of size ``h`` before its size's derivative
+        is known: ({dq, dv, dvdot, da} (n, k + 1), the continuous controllers' states or None), k parameter
+        columns and one of a unit change of h (module docstring); one solve with the step's exact matrix."""
+        model, p = self.model, self.params
+        n, k = model.n_dofs, len(self.names)
         am, af, gamma, beta = p.alpha_m, p.alpha_f, p.gamma, p.beta
         beta_p, gamma_p = (1 - am) / (h * h * beta * (1 - af)), gamma / (h * beta)
         # k parameter columns and one of a unit change of the step size (its derivative, δh = 1)
@@ -354,27 +385,18 @@ class TransientSensitivities(ParameterDerivatives):
         dvdot_new = beta_p * z
         columns = {"dq": dq0 + tangent(z), "dv": dv0 + gamma_p * z, "dvdot": dvdot_new,
                    "da": da0 + (1 - af) / (1 - am) * dvdot_new}
-        event = self._event(old, new)
-        cable = self._cable_event(old, new, event)
-        if cable is None:
-            dh = self._step_size_derivative(carried, h, lands, event or self._contact_onset(old, new), columns["dq"])
-        else:
-            dh = self.cables.step_size_derivative(new, cable[0], columns["dq"], columns["dv"], k,
-                                                  started=carried["dt"])
-        total = {key: value[:, :k] + np.outer(value[:, k], dh) for key, value in columns.items()}
-        before, carried = carried, {**carried, **total, "dt": carried["dt"] + dh, "dh": dh, "h": h, "pending": None}
-        carried = external_work_step(self, before, carried, old, new, h)   # latdyn/analyses/energy_sensitivities.py
-        if states is not None:   # no events with states (ControllerTerms.refusal): δh = 0
-            carried = {**carried, **states.after_step(new, carried["dq"])}
-        if cable is not None:
-            return self._after_cable_event(carried, new, *cable)
-        if event is None:
-            return carried
-        self.time_shift = carried["dt"]   # the impulse's weight at the event, moved in time by δt_e
-        try:
-            return self._jump(carried, new, *event)
-        finally:
-            self.time_shift = None
+        return columns, states
+
+    def rejected(self, carried: dict, progress, attempt, integrator, control) -> dict:
+        """``carried`` with the derivative of the next trial's size after the error estimate rejected the
+        trial ``attempt`` (latdyn/analyses/adaptive_sensitivities.py)."""
+        return adaptive_sensitivities.rejected(self, carried, progress, attempt, integrator, control)
+
+    def resized(self, carried: dict, control, lands: bool | None = None) -> dict:
+        """``carried`` with the derivative of the next step's size after an accepted step (``lands`` None) or a
+        trial Newton did not converge (``lands``: whether it landed on the grid)
+        (latdyn/analyses/adaptive_sensitivities.py)."""
+        return adaptive_sensitivities.resized(self, carried, control, lands)
 
     def _step_system(self, new, tangent, beta_p: float, gamma_p: float):
         """(C, K, solve) at the step's end ``new``: the exact C and K (for the predicted parts' K δq⁰ + C δv⁰)
@@ -522,6 +544,8 @@ class TransientSensitivities(ParameterDerivatives):
             return -dq[dof, :k] / dq[dof, k]
         if lands:
             return -carried["dt"]
+        if self.scene.solve.adaptive:   # the size the step control chose, differentiated (adaptive_sensitivities)
+            return carried.get("dh_next", np.zeros(k))
         if carried["h"] is None or abs(h - self.scene.solve.dt) <= 1e-12 * self.scene.solve.dt:
             return np.zeros(k)
         return (h / carried["h"]) * carried["dh"]
@@ -914,13 +938,14 @@ class ExplicitTime:
 
     @classmethod
     def of(cls, owner) -> "ExplicitTime | None":
-        """The scene's explicit time dependence, or None where nothing depends on t or no event can move a
-        step's end in time (then every δt is 0: :func:`latdyn.analyses.sensitivities.has_events`)."""
+        """The scene's explicit time dependence, or None where nothing depends on t or neither an event nor
+        adaptive steps can move a step's end in time (then every δt is 0:
+        :func:`latdyn.analyses.sensitivities.has_events`)."""
         from latdyn.analyses.sensitivities import _prescribed_motion, depends_on_time, has_events
 
         scene = owner.scene
         reels = any(not c.rest_length.is_constant for c in scene.cables.values()) if scene.cables else False
-        if (not depends_on_time(scene) and not reels) or not has_events(scene):
+        if (not depends_on_time(scene) and not reels) or not (has_events(scene) or scene.solve.adaptive):
             return None
         laws: dict[str, dict[int, _TimeRate]] = {}
 
