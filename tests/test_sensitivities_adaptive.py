@@ -191,3 +191,18 @@ def test_the_largest_joint_norm_is_joint_norms_largest_and_its_reference_the_wei
     assert largest.energy == pytest.approx(x[d] @ dense[np.ix_(d, d)] @ x[d], rel=1e-13)
     assert largest.reference == pytest.approx(sum(c * dense[i, i] for i, c in largest.weights.items()), rel=1e-13)
     assert largest.norm == pytest.approx(largest.scale * np.sqrt(largest.energy / largest.reference), rel=1e-13)
+
+
+def test_the_adjoint_and_the_external_work_in_t_of_an_adaptive_run_are_refused():
+    """The discrete adjoint differentiates fixed steps (refused naming solve.sensitivity_method); the external work
+    of an adaptive run whose load depends on t (the power moves with the steps' ends) naming solve.sensitivities."""
+    data = yaml.safe_load(PLANAR)
+    data["solve"]["sensitivity_method"] = "adjoint"
+    with pytest.raises(SceneError, match="fixed-step runs") as refused:
+        latdyn.run(latdyn.load_scene(data))
+    assert refused.value.key == "solve.sensitivity_method"
+    data = yaml.safe_load(PLANAR)
+    data["output"]["probes"]["work"] = {"energy": "external_work"}
+    with pytest.raises(SceneError, match="external work of an adaptive run") as refused:
+        latdyn.run(latdyn.load_scene(data))
+    assert refused.value.key == "solve.sensitivities"

@@ -215,6 +215,8 @@ def adjoint_refusal(scene) -> SceneError | None:
     why = None
     if scene.solve.analysis != "transient":
         why = f"the adjoint differentiates transient runs only, not a {scene.solve.analysis} analysis"
+    elif scene.solve.adaptive:
+        why = "the adjoint differentiates fixed-step runs, not the step sizes of adaptive steps (adaptive: true)"
     elif has_events(scene):
         joints = [f"beams.{beam}.{which}.hinge" for beam, which, hinge in scene.hinges
                   if hinge.lock_at is not None or hinge.limits is not None]
