@@ -29,7 +29,8 @@ own factorization is not that matrix (modified Newton may hold an older one), so
 factorised afresh. ∂r/∂p comes from the generated kernels by their linearity in the parameters
 (:class:`latdyn.analyses.sensitivities.ParameterDerivatives`, with the inertia forces). The
 accepted step sizes are held: a fixed-step run (its cuts after a Newton failure included) is
-differentiated exactly; adaptive step control is refused (its step sizes depend on p).
+differentiated exactly; adaptive step control chooses sizes that depend on p, and the control's rules are
+differentiated (latdyn/analyses/adaptive_sensitivities.py: ``carried["dh_next"]``, the next trial's δh).
 
 At t = 0 the configuration depends on geometry parameters only (δq_0 = δX, K δq_0 added to the start's ∂r/∂p
 with the exact K: latdyn/analyses/geometry_sensitivities.py); the velocities do through
