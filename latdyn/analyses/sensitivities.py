@@ -288,11 +288,6 @@ def _transient_refusal(scene) -> str | None:
     why = ControllerTerms.refusal(scene)
     if why is not None:
         return why
-    if scene.cables and _prescribed_motion(scene):
-        return ("sensitivities through cables' slack and taut events with a prescribed motion (a body's translation "
-                "or rotation, a hinge's angle) are not computed yet: the cable's gap moves in time through the "
-                "prescribed ends, which the event time's derivative does not follow; loads, laws and a reel "
-                "(rest_length in t) are (docs/parameters.md, \"Cables\")")
     guides = [name for name, body in scene.bodies.items() if body.guide is not None]
     for name in guides:
         guide = scene.bodies[name].guide
@@ -301,11 +296,6 @@ def _transient_refusal(scene) -> str | None:
         if guide.contact is not None or guide.friction is not None:
             return (f"sensitivities through a guide's compliant stops and friction (bodies.{name}.guide: sticking and "
                     "the stops' contact are events) are not computed yet")
-        if (guide.lock_at is not None or guide.limits is not None) and _prescribed_motion(scene):
-            return (f"sensitivities through the events of the guide of {name} (lock_at, limits) with a prescribed "
-                    "motion are not computed yet (the reduction's geometric term at the event would need the "
-                    "prescribed motion's time derivative on all coordinates); loads and laws in t are "
-                    "(docs/parameters.md, \"Guides\")")
     for beam, which, hinge in scene.hinges:
         if hinge.friction is not None:
             return (f"sensitivities through friction ({beam}.{which}: sticking and slipping are events of a "

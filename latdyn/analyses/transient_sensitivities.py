@@ -174,7 +174,7 @@ class TransientSensitivities(ParameterDerivatives):
         shifted = self.time_shift is not None and self.explicit_time is not None and np.any(self.time_shift)
         if on_all:
             if shifted:
-                total += np.outer(self.explicit_time.of_laws(state, inertia, on_all=True), self.time_shift)
+                total += np.outer(self.explicit_time(state, inertia, on_all=True), self.time_shift)
             return total
         free = self._on_free_coordinates(state, total)
         if shifted:   # the state moved in time by δt: ∂r/∂t δt (the events' derivatives, module docstring)
@@ -977,18 +977,21 @@ class ExplicitTime:
             return total
         return self.owner._on_free_coordinates(state, total[:, None])[:, 0]
 
-    def __call__(self, state, inertia: bool = True) -> np.ndarray:
+    def __call__(self, state, inertia: bool = True, on_all: bool = False) -> np.ndarray:
         """∂r/∂t (n,) on the free coordinates at ``state``: of the equations of motion, or without
         ``inertia`` of the static residual (the impulse weight's K is the static one's derivative:
-        :meth:`TransientSensitivities._weight_derivative` differences the static ∂r/∂p)."""
-        out = self.of_laws(state, inertia)
+        :meth:`TransientSensitivities._weight_derivative` differences the static ∂r/∂p); ``on_all``: on all
+        coordinates (n_total + 1,), before the rigid links' and guides' reduction (their geometric term at an
+        event, :meth:`TransientSensitivities._geometric_derivative`, reads it)."""
+        out = self.of_laws(state, inertia, on_all=on_all)
         if self.prescribed:
-            out = out + self.through_prescribed(state, inertia)
+            out = out + self.through_prescribed(state, inertia, on_all=on_all)
         return out
 
-    def through_prescribed(self, state, inertia: bool = True) -> np.ndarray:
+    def through_prescribed(self, state, inertia: bool = True, on_all: bool = False) -> np.ndarray:
         """∂r/∂t (n,) through the prescribed motions alone (class docstring): the loads, laws and rest
-        lengths read the state's own time, the prescribed nodes and angles move to t ± η, ± 2η."""
+        lengths read the state's own time, the prescribed nodes and angles move to t ± η, ± 2η; ``on_all``:
+        of the assembled residual and the reactions (n_total + 1,), before the reduction."""
         assembler = self.owner.assembler
         eta = PRESCRIBED_TIME_STEP * float(self.owner.scene.solve.dt)
 
@@ -996,6 +999,9 @@ class ExplicitTime:
             moved = state.copy()
             assembler.apply_prescribed(moved, state.t + shift)
             moved.t = state.t
+            if on_all:
+                ev = assembler.evaluate_assembled(moved, False, 1.0, inertia)
+                return np.concatenate([ev.residual, ev.reaction, [0.0]])
             return np.asarray(assembler.evaluate(moved, matrices=False, inertia=inertia).residual, float)
 
         return (8.0 * (residual(eta) - residual(-eta)) - (residual(2 * eta) - residual(-2 * eta))) / (12.0 * eta)
