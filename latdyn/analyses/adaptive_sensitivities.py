@@ -35,8 +35,9 @@ less at rest (linear in the accelerations), so nothing here is a difference. Its
 step solve and (2 + the reference's entries) evaluations with matrices and of ∂r/∂p.
 
 Not differentiated (refused, :func:`refusal`): prescribed motions (M moves in time through the prescribed
-ends, ∂M/∂t is not computed), controllers with states, sampled or whose output names t, and a step size
-restored after a pause of a :class:`latdyn.Simulation` (SolverError)."""
+ends, ∂M/∂t is not computed), controllers with states or sampled ones, and a step size restored after a pause
+of a :class:`latdyn.Simulation` (SolverError). A continuous controller whose output names t moves the residual
+in t as a load in t does (ExplicitTime)."""
 from __future__ import annotations
 
 import numpy as np
@@ -60,12 +61,11 @@ def refusal(scene) -> str | None:
                 "sizes' derivative does not follow yet; expected a fixed step (adaptive: false) or no prescribed "
                 "motion (docs/parameters.md, \"Adaptive steps\")")
     for c in (getattr(scene, "controllers", None) or {}).values():
-        timed = c.output_expr is not None and c.symbols and c.symbols[0] in getattr(c.output_expr, "free_symbols", ())
-        if c.states or c.sampled or timed:
-            what = "has states" if c.states else "is sampled" if c.sampled else "has an output that names t"
+        if c.states or c.sampled:
+            what = "has states" if c.states else "is sampled"
             return (f"with adaptive step control, controller {c.name!r} {what}, which the step sizes' derivative does "
-                    "not follow yet; expected a fixed step (adaptive: false) or continuous controllers without states "
-                    "whose outputs do not name t (docs/parameters.md, \"Adaptive steps\")")
+                    "not follow yet (its states' step and its samples' restarts); expected a fixed step (adaptive: "
+                    "false) or continuous controllers without states (docs/parameters.md, \"Adaptive steps\")")
     return None
 
 

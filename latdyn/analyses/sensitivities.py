@@ -319,9 +319,11 @@ def _prescribed_motion(scene) -> bool:
 def _events_with_controllers_in_time(scene) -> str | None:
     """Why events (latches, stops, cables' changes, guides' events) with a controller whose output names t
     are refused, or None: ∂r/∂t (latdyn/analyses/transient_sensitivities.py ExplicitTime) holds the
-    scene's loads, laws, reels and prescribed motions, not a controller's explicit time."""
-    timed = [c.name for c in getattr(scene, "controllers", {}).values()
-             if c.output_expr is not None and c.symbols and c.symbols[0] in getattr(c.output_expr, "free_symbols", ())]
+    scene's loads, laws, reels and prescribed motions and the continuous controllers' explicit ∂y/∂t, not a
+    sampled controller's (whose held output does not move in t between samples, but whose samples' instants
+    are fixed: not differentiated beside events yet)."""
+    timed = [c.name for c in getattr(scene, "controllers", {}).values() if c.sampled
+             and c.output_expr is not None and c.symbols and c.symbols[0] in getattr(c.output_expr, "free_symbols", ())]
     if not timed:
         return None
     events = [f"{beam}.{which}" for beam, which, hinge in scene.hinges

@@ -932,9 +932,11 @@ class ExplicitTime:
 
         self.owner = owner
         self.prescribed, self.reels = prescribed, reels
-        # the parameters' machinery, with one column: t
+        # the parameters' machinery, with one column: t (the controllers' outputs' explicit ∂y/∂t through
+        # their actuators, as ∂y/∂p: :func:`_controller_time_rates`)
         self.laws = copy.copy(owner)
-        self.laws.names, self.laws.derivatives, self.laws.controllers = ["t"], laws, None
+        self.laws.names, self.laws.derivatives = ["t"], laws
+        self.laws.controllers = _controller_time_rates(owner)
         self.laws.__dict__.pop("_kinds", None)
 
     @classmethod
@@ -946,7 +948,8 @@ class ExplicitTime:
 
         scene = owner.scene
         reels = any(not c.rest_length.is_constant for c in scene.cables.values()) if scene.cables else False
-        if (not depends_on_time(scene) and not reels) or not (has_events(scene) or scene.solve.adaptive):
+        timed = _controller_time_rates(owner) is not None
+        if (not depends_on_time(scene) and not reels and not timed) or not (has_events(scene) or scene.solve.adaptive):
             return None
         laws: dict[str, dict[int, _TimeRate]] = {}
 
@@ -1005,6 +1008,34 @@ class ExplicitTime:
             return np.asarray(assembler.evaluate(moved, matrices=False, inertia=inertia).residual, float)
 
         return (8.0 * (residual(eta) - residual(-eta)) - (residual(2 * eta) - residual(-2 * eta))) / (12.0 * eta)
+
+
+def _names_t(c) -> bool:
+    """Whether controller ``c``'s output names t."""
+    return c.output_expr is not None and bool(c.symbols) and c.symbols[0] in getattr(c.output_expr, "free_symbols", ())
+
+
+def _controller_time_rates(owner):
+    """The continuous controllers' explicit time derivative as a one-column
+    :class:`latdyn.analyses.sensitivities.ControllerTerms` (its column t): ∂y/∂t at fixed sensors, SymPy's derivative
+    of the output by t (deltas dropped), chained through the controllers that read a timed one and applied through
+    the actuators as ∂y/∂p is; None where no continuous controller's output names t. Controllers with states or
+    sampled ones beside events or adaptive steps are refused before (their states and samples are not moved in t)."""
+    import copy
+
+    import sympy as sp
+
+    terms = owner.controllers
+    if terms is None:
+        return None
+    timed = [c for c in terms.continuous if _names_t(c)]
+    if not timed:
+        return None
+    rates = copy.copy(terms)
+    rates.k, rates.held, rates.sampled, rates.states = 1, {}, None, None
+    rates.partials = {c.name: {0: sp.lambdify(c.symbols, _drop_deltas(sp.diff(c.output_expr, c.symbols[0])),
+                                              modules=["math", "numpy"])} for c in timed}
+    return rates
 
 
 def _depends(law) -> tuple:
