@@ -123,28 +123,32 @@ def error_derivative(owner, trial, x: np.ndarray, dq: np.ndarray, dx: np.ndarray
     n = model.n_dofs
     restricted = np.zeros(n)
     restricted[largest.dofs] = x[largest.dofs]
+    units = list(largest.weights)
+    vectors = [restricted] + [np.eye(1, n, i).ravel() for i in units]
+    moved = _mass_derivatives(owner, trial, vectors, dq)
     block_x = np.asarray(mass @ restricted).ravel()[largest.dofs]   # M_gg x_g: the group's rows only
-    d_energy = 2.0 * block_x @ dx[largest.dofs] + restricted @ _mass_derivative(owner, trial, restricted, dq)
-    d_reference = np.zeros(len(owner.names))
-    for i, weight in largest.weights.items():
-        unit = np.zeros(n)
-        unit[i] = 1.0
-        d_reference += weight * _mass_derivative(owner, trial, unit, dq)[i]
+    d_energy = 2.0 * block_x @ dx[largest.dofs] + restricted @ moved[0]
+    d_reference = sum(largest.weights[i] * moved[1 + j][i] for j, i in enumerate(units))
     d_norm = 0.5 * (d_energy / largest.energy - d_reference / largest.reference)
     return error * (2.0 * dh / h + d_norm)
 
 
-def _mass_derivative(owner, state, w: np.ndarray, dq: np.ndarray) -> np.ndarray:
-    """δ(M w) (n, k) at ``state`` along each column's (δq, δp), exactly (module docstring)."""
+def _mass_derivatives(owner, state, vectors: list, dq: np.ndarray) -> list:
+    """δ(M w) (n, k) at ``state`` along each column's (δq, δp), exactly, for each w of ``vectors`` (module
+    docstring): the state at rest evaluated once, then once with the accelerations w for each."""
     model, assembler = owner.model, owner.assembler
     at_rest = state.copy()
     for name in ("v", "w", "theta_dot", "a", "alpha", "theta_ddot"):
         getattr(at_rest, name)[...] = 0.0
-    accelerated = at_rest.copy()
-    unpack_free(model, w, accelerated.a, accelerated.alpha, accelerated.theta_ddot)
     assembler.complete_links(at_rest)
-    assembler.complete_links(accelerated)
-    tangent = owner._matrices(accelerated)[2] - owner._matrices(at_rest)[2]   # noqa: SLF001
-    return (np.asarray(tangent @ dq).reshape(dq.shape)
-            + owner.residual_derivatives(accelerated, 1.0, inertia=True)
-            - owner.residual_derivatives(at_rest, 1.0, inertia=True))
+    resting_K = owner._matrices(at_rest)[2]   # noqa: SLF001
+    resting_p = owner.residual_derivatives(at_rest, 1.0, inertia=True)
+    out = []
+    for w in vectors:
+        accelerated = at_rest.copy()
+        unpack_free(model, w, accelerated.a, accelerated.alpha, accelerated.theta_ddot)
+        assembler.complete_links(accelerated)
+        tangent = owner._matrices(accelerated)[2] - resting_K   # noqa: SLF001
+        out.append(np.asarray(tangent @ dq).reshape(dq.shape)
+                   + owner.residual_derivatives(accelerated, 1.0, inertia=True) - resting_p)
+    return out
