@@ -206,8 +206,10 @@ def test_a_run_interrupted_between_the_cable_changes_resumes_to_the_same_sensiti
 
 
 #: DROP with the cable's top end on a body lifted by the prescribed motion 0.4 t: taut when
-#: 0.4 t + 0.5 + g t²/2 = L, t_e = (√(0.16 + 2 g (L − 0.5)) − 0.4)/g, dt_e/dL = 1/(g t_e + 0.4); slack again later
-LIFTED = DROP.replace("top: {at: [0, 0, 0], fixed: true}", 'top: {at: [0, 0, 0], motion: {translation: [0, 0, "0.4*t"]}}')
+#: 0.4 t + 0.5 + g t²/2 = L, t_e = (√(0.16 + 2 g (L − 0.5)) − 0.4)/g, dt_e/dL = 1/(g t_e + 0.4); slack again
+#: later
+LIFTED = DROP.replace("top: {at: [0, 0, 0], fixed: true}",
+                      'top: {at: [0, 0, 0], motion: {translation: [0, 0, "0.4*t"]}}')
 #: CABLE_3D with the anchor moved and turned by a prescribed motion, the cable fixed off its centre: taut, slack,
 #: taut, slack, taut in 0.25 s
 MOVING_ANCHOR_3D = CABLE_3D.replace(

@@ -279,8 +279,9 @@ BEAD_STOP = SPUN_BEAD.replace('rest: "rest"}}', 'rest: "rest", limits: [-1.0, 0.
     "t_end: 1.0", "t_end: 0.6")
 #: LATCH_3D with the arm's base turned by the prescribed angle 0.5 t² about the skew axis (0.3, −0.2, 1): the
 #: slider latches at 0.2563 s
-HUB_LATCH_3D = LATCH_3D.replace("base: {at: [0, 0, 0], fixed: true}",
-                                'base: {at: [0, 0, 0], motion: {rotation: {axis: [0.3, -0.2, 1.0], angle: "0.5*t**2"}}}')
+HUB_LATCH_3D = LATCH_3D.replace(
+    "base: {at: [0, 0, 0], fixed: true}",
+    'base: {at: [0, 0, 0], motion: {rotation: {axis: [0.3, -0.2, 1.0], angle: "0.5*t**2"}}}')
 
 
 @pytest.mark.parametrize("text, events, name", [(BEAD_LATCH, ["latch"], "k"), (BEAD_STOP, ["stop"], "m"),

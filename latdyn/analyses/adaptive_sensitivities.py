@@ -28,7 +28,8 @@ is taken (one more solve with its exact matrix) only to differentiate its error 
     δe / e = 2 δh / h + δN / N,   δN / N = ½ (δE / E − δm / m),
     δE = 2 x_gᵀ M δx + x_gᵀ δM x_g,   δm = Σ_i c_i δM_ii,
 
-δx = δa_{n+1} − δa_n, and δM w along a column (δq, δp) = [K(v = 0, v̇ = w) − K(v = 0, v̇ = 0)] δq + ∂(M w)/∂p:
+δx = δa_{n+1} − δa_n, and δM w along a column (δq, δp) = [K(v = 0, v̇ = w) − K(v = 0, v̇ = 0)] δq
++ ∂(M w)/∂p:
 the exact K's inertia tangent is ∂(M(q) v̇)/∂q (the generated ``beam_inertia_tangent`` and
 ``joint_body_inertia_stiffness``), ∂(M w)/∂p the inertia forces' parameter derivative at accelerations w
 less at rest (linear in the accelerations), so nothing here is a difference. Its cost: per rejected trial one

@@ -50,8 +50,8 @@ outputs; :class:`ControllerStates`: continuous controllers' states carried throu
 :class:`SampledTerms`: sampled controllers' held outputs and states) enter ∂r/∂p of transient runs.
 
 What is refused (:func:`refusal`, exit 2 naming ``solve.sensitivities``): any analysis but static
-load control, arc length and displacement control and transient runs of an implicit method (fixed steps, or
-adaptive ones where :func:`latdyn.analyses.adaptive_sensitivities.refusal` allows them) without friction (inputs are held at their values: the derivative is the one at fixed inputs), continuous controllers that read a force (a tension, a section or joint
+load control, arc length and displacement control and transient runs of an implicit method (fixed steps,
+or adaptive ones where :func:`latdyn.analyses.adaptive_sensitivities.refusal` allows them) without friction (inputs are held at their values: the derivative is the one at fixed inputs), continuous controllers that read a force (a tension, a section or joint
 force), controllers with states or sampled ones beside events (cables through their
 slack/taut events, guides with theirs: :func:`_transient_refusal`, :meth:`ControllerTerms.refusal`); a
 parameter used anywhere but in load components, numbers that place the structure (geometry parameters,

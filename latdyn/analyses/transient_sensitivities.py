@@ -1017,10 +1017,11 @@ def _names_t(c) -> bool:
 
 def _controller_time_rates(owner):
     """The continuous controllers' explicit time derivative as a one-column
-    :class:`latdyn.analyses.sensitivities.ControllerTerms` (its column t): ∂y/∂t at fixed sensors, SymPy's derivative
-    of the output by t (deltas dropped), chained through the controllers that read a timed one and applied through
-    the actuators as ∂y/∂p is; None where no continuous controller's output names t. Controllers with states or
-    sampled ones beside events or adaptive steps are refused before (their states and samples are not moved in t)."""
+    :class:`latdyn.analyses.sensitivities.ControllerTerms` (its column t): ∂y/∂t at fixed sensors, SymPy's
+    derivative of the output by t (deltas dropped), chained through the controllers that read a timed one and
+    applied through the actuators as ∂y/∂p is; None where no continuous controller's output names t. Controllers
+    with states or sampled ones beside events or adaptive steps are refused before (their states and samples are
+    not moved in t)."""
     import copy
 
     import sympy as sp
