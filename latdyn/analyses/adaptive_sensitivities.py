@@ -33,7 +33,7 @@ is taken (one more solve with its exact matrix) only to differentiate its error 
 the exact K's inertia tangent is ∂(M(q) v̇)/∂q (the generated ``beam_inertia_tangent`` and
 ``joint_body_inertia_stiffness``), ∂(M w)/∂p the inertia forces' parameter derivative at accelerations w
 less at rest (linear in the accelerations), so nothing here is a difference. Its cost: per rejected trial one
-step solve and (2 + the reference's entries) evaluations with matrices and of ∂r/∂p.
+step solve and (2 + the reference's entries) evaluations with matrices and of ∂r/∂p (one at rest, one per w).
 
 Not differentiated (refused, :func:`refusal`): prescribed motions (M moves in time through the prescribed
 ends, ∂M/∂t is not computed), controllers with states or sampled ones, and a step size restored after a pause
