@@ -252,3 +252,17 @@ def test_a_3d_cable_from_a_moving_turning_anchor_agrees_with_richardson_central_
     result = _run(MOVING_ANCHOR_3D, name)
     assert [e["kind"] for e in result.summary["events"]] == ["taut", "slack", "taut", "slack", "taut"]
     _agree(result, MOVING_ANCHOR_3D, name, relative=1e-5)
+
+
+def test_rows_whose_time_moves_carry_the_prescribed_motion_into_the_probes():
+    """With a row every step, the rows after the taut and slack events (until a step lands on the grid) are at
+    times that move with p: the lifted body (its position), the cable's length and tension through it move by
+    the motion's velocity times δt (TransientSensitivities._prescribed_in_time). Measured 1.3e-11, 2.6e-12,
+    9.8e-12 against Richardson differences (without that motion 0.066, 0.12, 1.0)."""
+    data = yaml.safe_load(LIFTED)
+    data["output"].pop("every")
+    data["output"]["probes"].update({"length": {"cable": "rope", "quantity": "length"},
+                                     "tension": {"cable": "rope", "quantity": "tension"},
+                                     "top_z": {"point": "top", "quantity": "position", "component": "z"}})
+    text = yaml.safe_dump(data)
+    assert _agree(_run(text, "L"), text, "L") <= 1e-8

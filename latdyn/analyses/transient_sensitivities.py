@@ -795,6 +795,7 @@ class TransientSensitivities(ParameterDerivatives):
         rates = (self._rates_by_parameter(carried["dv"], carried["dq"], state)
                  if any(p.quantity in ("rate", "velocity", "tension") or is_energy_or_momentum(p) for p in self.probes)
                  else None)
+        self._prescribed_in_time(state, np.asarray(carried["dt"]), dx, dpi, dtheta, rates)
         self.carried_accounts = carried   # the work's and dissipation's (latdyn/analyses/energy_sensitivities.py)
         forces = joint_force_derivatives(self, state, carried["dq"], carried["dv"], carried["dvdot"])
         row = [float(state.t)]
@@ -804,6 +805,28 @@ class TransientSensitivities(ParameterDerivatives):
                 continue
             row.extend(self._probe_derivatives(probe, state, dx, dpi, dtheta, rates))
         return {**carried, "rows": carried["rows"] + [row]}
+
+    def _prescribed_in_time(self, state, moved: np.ndarray, dx, dpi, dtheta, rates) -> None:
+        """A row whose time moves with p (δt ≠ 0: after an event until a step lands on the grid, adaptive steps)
+        moves the prescribed bodies and hinge angles along their motion: δx += v δt, δπ += ω δt, δθ += θ̇ δt on
+        them, and their rates by their accelerations (the motion's own, at the row's time), into the
+        (δx, δπ, δθ) and rates a probe's derivative reads."""
+        from latdyn.model.model import PRESCRIBED
+
+        if not np.any(moved):
+            return
+        nodes = [i for i, node in enumerate(self.model.nodes) if node.kind == PRESCRIBED]
+        hinges = [j for j, hinge in enumerate(self.model.hinges) if hinge.angle is not None]
+        for i in nodes:
+            dx[i] += np.outer(state.v[i], moved)
+            dpi[i] += np.outer(state.w[i], moved)
+            if rates is not None:
+                rates[0][i] += np.outer(state.a[i], moved)
+                rates[1][i] += np.outer(state.alpha[i], moved)
+        for j in hinges:
+            dtheta[j] += state.theta_dot[j] * moved
+            if rates is not None:
+                rates[2][j] += state.theta_ddot[j] * moved
 
     def table(self, carried: dict) -> dict:
         """``{(probe, name): array over the rows}`` (``Result.sensitivities``)."""
