@@ -52,7 +52,7 @@ outputs; :class:`ControllerStates`: continuous controllers' states carried throu
 What is refused (:func:`refusal`, exit 2 naming ``solve.sensitivities``): any analysis but static
 load control, arc length and displacement control and transient runs of an implicit method (fixed steps,
 or adaptive ones where :func:`latdyn.analyses.adaptive_sensitivities.refusal` allows them) without friction (inputs are held at their values: the derivative is the one at fixed inputs), continuous controllers that read a force (a tension, a section or joint
-force), controllers with states or sampled ones beside events (cables through their
+force), sampled controllers and states whose rates name t beside events (cables through their
 slack/taut events, guides with theirs: :func:`_transient_refusal`, :meth:`ControllerTerms.refusal`); a
 parameter used anywhere but in load components, numbers that place the structure (geometry parameters,
 where :func:`latdyn.analyses.geometry_sensitivities.geometry_refusal` allows them), hinge stiffness, damping,
@@ -1205,10 +1205,11 @@ class ControllerTerms:
         if why is not None:
             return why
         for c in scene.controllers.values():
-            if c.states and has_events(scene):
-                return (f"sensitivities of runs with controllers with states ({c.name}: states) and events (a latch, "
-                        "a stop, a compliant stop's onset, a cable's change: the event time moves the states' "
-                        "trapezoidal step) are not computed yet; continuous controllers with states are without them")
+            timed = any(c.symbols[0] in getattr(f, "free_symbols", ()) for f in (c.state_exprs or []))
+            if c.states and timed and has_events(scene):
+                return (f"sensitivities of runs with controllers whose states' rates name t ({c.name}) and events (a "
+                        "latch, a stop, a compliant stop's onset, a cable's change: the event time moves the states' "
+                        "rates in t) are not computed yet; states whose rates do not name t are")
         readers = ControllerTerms._laws_naming(scene, set(scene.controllers))
         for name in scene.solve.sensitivities:
             for used in scene.parameters.depending_on(name):
@@ -1310,7 +1311,9 @@ class ControllerStates:
     the sensors' derivative along δq (probes: hinge angles, point positions and displacements),
     ∂y/∂S, ∂f/∂s, ∂f/∂S and ∂f/∂p the symbolic derivatives of the controller's expressions, those the
     code generator prints for Newton (codegen/laws.py). At the start (and a restart) the states are
-    held: δS_0 = 0 (``initial`` is a number), δf_0 = ∂f/∂p (δq_0 = 0)."""
+    held: δS_0 = 0 (``initial`` is a number), δf_0 = ∂f/∂p (δq_0 = 0). A step whose size moves with p (an
+    event's, the steps after it) adds A⁻¹ ½ (f_n + f_{n+1}) δh to δS_{n+1} (:meth:`by_step_size`: its ∂r/∂h in
+    the step size's column), and through an event's jump and restart δS is held (:meth:`hold`)."""
 
     def __init__(self, terms: ControllerTerms):
         import sympy as sp
@@ -1389,7 +1392,9 @@ class ControllerStates:
             self.terms.held[c.name] = carried["controller_dS"][self.first[c.name]:self.first[c.name] + len(c.states)]
 
     def begin_step(self, carried: dict, state, h: float) -> None:
-        """The held part of δS_{n+1} (class docstring) at the step's end ``state``, for ∂r/∂p there."""
+        """The held part of δS_{n+1} (class docstring) at the step's end ``state``, for ∂r/∂p there, and the
+        states' derivative by the step's size at that configuration, A⁻¹ ½ (f_n + f_{n+1}) (:meth:`by_step_size`;
+        the accepted f_{n+1}: the integrator accepted the step before it is differentiated)."""
         hh = 0.5 * h
         self._step = {}
         for c in self.controllers:
@@ -1397,8 +1402,22 @@ class ControllerStates:
             _, f_s, f_S, f_p = self._at(c, state)
             A = np.eye(len(c.states)) - hh * f_S
             held = np.linalg.solve(A, carried["controller_dS"][rows] + hh * (carried["controller_df"][rows] + f_p))
+            by_h = np.linalg.solve(A, 0.5 * (carried["controller_f"][rows] + self.rates[self.rate_index][rows]))
             self.terms.held[c.name] = held
-            self._step[c.name] = (rows, A, f_s, f_S, f_p, hh)
+            self._step[c.name] = (rows, A, f_s, f_S, f_p, hh, by_h)
+
+    def by_step_size(self, state) -> np.ndarray:
+        """∂r/∂h (n_total + 1,) at the step's end ``state`` through the states' derivative by the step size at a
+        fixed configuration (:meth:`begin_step`): ∂y/∂S A⁻¹ ½ (f_n + f_{n+1}) through the actuators, as
+        :meth:`ControllerTerms.add` applies a held δS (its step-size column: an event's or an adaptive step's δh)."""
+        import copy
+
+        one = copy.copy(self.terms)
+        one.k, one.partials, one.sampled = 1, {}, None
+        one.held = {c.name: self._step[c.name][6][:, None] for c in self.controllers}
+        total = np.zeros((self.terms.model.n_total + 1, 1))
+        one.add(state, total)
+        return total[:, 0]
 
     def condensed(self, carried: dict, h: float):
         """A context in which the evaluation condenses the states from the step's start (S_n, f_n) with
@@ -1419,15 +1438,17 @@ class ControllerStates:
                 self.values[self.slots], self.rates[self.rate_index] = kept[1], kept[2]
         return context()
 
-    def after_step(self, state, dq: np.ndarray) -> dict:
+    def after_step(self, state, dq: np.ndarray, dh: np.ndarray | None = None) -> dict:
         """δS_{n+1}, δf_{n+1} and the accepted (S, f) after the step ending at ``state``, δq its
-        configuration's derivative (class docstring)."""
+        configuration's derivative, ``dh`` its size's (class docstring; None: 0)."""
         k = self.terms.k
         dS, df = np.zeros((len(self.slots), k)), np.zeros((len(self.slots), k))
         for c in self.controllers:
-            rows, A, f_s, f_S, f_p, hh = self._step[c.name]
+            rows, A, f_s, f_S, f_p, hh, by_h = self._step[c.name]
             ds = self._sensed(c, state, dq)
             dS[rows] = self.terms.held[c.name] + np.linalg.solve(A, hh * (f_s @ ds))
+            if dh is not None:
+                dS[rows] += np.outer(by_h, dh)
             df[rows] = f_s @ ds + f_S @ dS[rows] + f_p
         self.terms.held = {}
         return {"controller_dS": dS, "controller_df": df, **self._prefixed(self._accepted())}

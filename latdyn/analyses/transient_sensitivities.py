@@ -340,17 +340,21 @@ class TransientSensitivities(ParameterDerivatives):
         before, carried = carried, {**carried, **total, "dt": carried["dt"] + dh, "dh": dh, "dh_step": dh, "h": h,
                                    "pending": None}
         carried = external_work_step(self, before, carried, old, new, h)   # latdyn/analyses/energy_sensitivities.py
-        if states is not None:   # no events with states (ControllerTerms.refusal): δh = 0
-            carried = {**carried, **states.after_step(new, carried["dq"])}
+        if states is not None:   # δS with the step size's part (an event's δh)
+            carried = {**carried, **states.after_step(new, carried["dq"], dh)}
         if cable is not None:
             return self._after_cable_event(carried, new, *cable)
         if event is None:
             return carried
         self.time_shift = carried["dt"]   # the impulse's weight at the event, moved in time by δt_e
+        if states is not None:   # the states kept through the jump: δS held in ∂r/∂p there
+            states.hold(carried)
         try:
             return self._jump(carried, new, *event)
         finally:
             self.time_shift = None
+            if states is not None:
+                self.controllers.held = {}
 
     def _columns(self, carried: dict, old, new, h: float, a_old: np.ndarray, a_new: np.ndarray):
         """The derivative of the converged step ``old`` → ``new`` of size ``h`` before its size's derivative
@@ -380,6 +384,8 @@ class TransientSensitivities(ParameterDerivatives):
         with states.condensed(carried, h) if states is not None else nullcontext():
             C, K, solve = self._step_system(new, tangent, beta_p, gamma_p)
         explicit = np.hstack([self.residual_derivatives(new, 1.0, inertia=True), np.zeros((n, 1))])
+        if states is not None:   # the states' derivative by the step's size moves the outputs (an event's δh)
+            explicit[:, k] += self._on_free_coordinates(new, states.by_step_size(new)[:, None])[:, 0]
         self._add_time_columns(explicit, new, carried["dt"])
         rhs = -(explicit + K @ dq0 + C @ dv0)
         z = np.asarray(solve(rhs)).reshape(n, k + 1)
@@ -686,10 +692,15 @@ class TransientSensitivities(ParameterDerivatives):
         if pending is None:
             return carried
         self.time_shift = carried["dt"]   # the restart at the event's time, moved by δt_e
+        states = self._controller_states()
+        if states is not None:   # the states kept through the restart: δS held in ∂r/∂p there
+            states.hold(carried)
         try:
             return external_work_after_event(self, carried, self._restart(carried, new, pending), new, pending["kind"])
         finally:
             self.time_shift = None
+            if states is not None:
+                self.controllers.held = {}
 
     def _restart(self, carried: dict, new, pending: dict) -> dict:
         """:meth:`after_events` at the event's time (``time_shift`` set: ∂r/∂t δt_e in ∂r/∂p)."""
