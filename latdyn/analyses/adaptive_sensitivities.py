@@ -26,11 +26,10 @@ for events. A rejected trial enters the solution only through the next trial's s
 is taken (one more solve with its exact matrix) only to differentiate its error estimate:
 
     δe / e = 2 δh / h + δN / N,   δN / N = ½ (δE / E − δm / m),
-    δE = 2 x_gᵀ M δx + x_gᵀ δM x_g,   δm = Σ_i c_i δM_ii,
+    δE = 2 (M_gg x_g)ᵀ δx_g + x_gᵀ δM x_g,   δm = Σ_i c_i δM_ii,
+    δM w = [K(v = 0, v̇ = w) − K(v = 0, v̇ = 0)] δq + ∂(M w)/∂p   along a column (δq, δp),
 
-δx = δa_{n+1} − δa_n, and δM w along a column (δq, δp) = [K(v = 0, v̇ = w) − K(v = 0, v̇ = 0)] δq
-+ ∂(M w)/∂p:
-the exact K's inertia tangent is ∂(M(q) v̇)/∂q (the generated ``beam_inertia_tangent`` and
+δx = δa_{n+1} − δa_n (x_g: x on the largest group's coordinates, zero elsewhere): the exact K's inertia tangent is ∂(M(q) v̇)/∂q (the generated ``beam_inertia_tangent`` and
 ``joint_body_inertia_stiffness``), ∂(M w)/∂p the inertia forces' parameter derivative at accelerations w
 less at rest (linear in the accelerations), so nothing here is a difference. Its cost: per rejected trial one
 step solve and (2 + the reference's entries) evaluations with matrices and of ∂r/∂p (one at rest, one per w).
