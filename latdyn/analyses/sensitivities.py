@@ -52,7 +52,7 @@ outputs; :class:`ControllerStates`: continuous controllers' states carried throu
 What is refused (:func:`refusal`, exit 2 naming ``solve.sensitivities``): any analysis but static
 load control, arc length and displacement control and transient runs of an implicit method (fixed steps,
 or adaptive ones where :func:`latdyn.analyses.adaptive_sensitivities.refusal` allows them) without friction (inputs are held at their values: the derivative is the one at fixed inputs), continuous controllers that read a force (a tension, a section or joint
-force), sampled controllers and states whose rates name t beside events (cables through their
+force), controllers whose states' rates name t beside events (cables through their
 slack/taut events, guides with theirs: :func:`_transient_refusal`, :meth:`ControllerTerms.refusal`); a
 parameter used anywhere but in load components, numbers that place the structure (geometry parameters,
 where :func:`latdyn.analyses.geometry_sensitivities.geometry_refusal` allows them), hinge stiffness, damping,
@@ -300,7 +300,7 @@ def _transient_refusal(scene) -> str | None:
         if hinge.friction is not None:
             return (f"sensitivities through friction ({beam}.{which}: sticking and slipping are events of a "
                     "law that changes there) are not computed yet; compliant stops (contact) are")
-    return _events_with_controllers_in_time(scene)
+    return None
 
 
 def has_events(scene) -> bool:
@@ -314,29 +314,6 @@ def _prescribed_motion(scene) -> bool:
     """Whether a body's translation or rotation or a hinge's angle is prescribed in ``scene``."""
     return any(body.prescribed for body in scene.bodies.values()) or any(
         hinge.angle is not None for _, _, hinge in scene.hinges)
-
-
-def _events_with_controllers_in_time(scene) -> str | None:
-    """Why events (latches, stops, cables' changes, guides' events) with a controller whose output names t
-    are refused, or None: ∂r/∂t (latdyn/analyses/transient_sensitivities.py ExplicitTime) holds the
-    scene's loads, laws, reels and prescribed motions and the continuous controllers' explicit ∂y/∂t, not a
-    sampled controller's (whose held output does not move in t between samples, but whose samples' instants
-    are fixed: not differentiated beside events yet)."""
-    timed = [c.name for c in getattr(scene, "controllers", {}).values() if c.sampled
-             and c.output_expr is not None and c.symbols and c.symbols[0] in getattr(c.output_expr, "free_symbols", ())]
-    if not timed:
-        return None
-    events = [f"{beam}.{which}" for beam, which, hinge in scene.hinges
-              if hinge.lock_at is not None or hinge.limits is not None]
-    events += [f"bodies.{n}.guide" for n, b in scene.bodies.items()
-               if b.guide is not None and (b.guide.lock_at is not None or b.guide.limits is not None)]
-    events += [f"cables.{n}" for n in (scene.cables or {})]
-    if events:
-        return (f"sensitivities through the events of {events[0]} with controller {timed[0]!r} whose output names t "
-                "are not computed yet: an event moves the ends of the steps after it in time, and the controller's "
-                "explicit time derivative is not differentiated (docs/parameters.md, \"Sensitivities through "
-                "events\")")
-    return None
 
 
 def _cable_use(scene, used: str) -> bool:
@@ -1464,7 +1441,8 @@ def _sensor_derivatives(owner: ParameterDerivatives, probes: list, state, dq: np
 
 class SampledTerms:
     """Sampled controllers (``controllers.NAME.rate``) differentiated (docs/parameters.md, "Controllers").
-    At each instant t_k = k/rate (fixed: no event time), from the accepted state's sensors s and the
+    At each instant t_k = k/rate (fixed: a grid point, where the steps after an event land, δt = 0 there, so
+    the samples are differentiated beside events as without), from the accepted state's sensors s and the
     states S_k (latdyn.timeloop.sampling),
 
         y_k = clip(f(t_k, s, S_k; p)),            S_{k+1} = S_k + g(t_k, s, S_k; p)/rate,
@@ -1526,9 +1504,6 @@ class SampledTerms:
             return None
         names = {c.name for c in sampled}
         probes = {p.name for p in scene.output.probes}
-        if has_events(scene):
-            return (f"sensitivities of runs with sampled controllers ({sampled[0].name}) and events (a latch, a "
-                    "stop, a compliant stop's onset, a cable's change) are not computed yet")
         for c in scene.controllers.values():
             if not c.sampled and names & set(c.reads):
                 return (f"sensitivities of runs with a continuous controller that reads a sampled one ({c.name}) are "
