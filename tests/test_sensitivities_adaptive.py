@@ -9,8 +9,8 @@ the run differentiated, which is asserted), for parameters of the section (EI, r
 (F) and a body's mass (m), planar and genuinely 3D (a flexible arm on a skew hinge with a law spring in θ,
 a load in t). Measured: planar ≤ 2.9e-8 (EI; k 4.4e-9, rho 5.0e-9, m 3.2e-10, F 1.2e-9), 3D ≤ 5.5e-8 (EI; k
 7.4e-9, rho 1.4e-8, m 6.6e-9, F 5.3e-9) of each probe's largest sensitivity; with the step sizes' derivative
-left out (δh = 0 off the grid) the same comparison is 0.15 off for k, 0.36 for EI. Together 8.5 s of CPU
-(33 to 50 s wall at a load of 9 to 11 on the shared 2 cores)."""
+left out (δh = 0 off the grid) the same comparison is 0.15 off for k, 0.36 for EI. Together 12 s (8 s of CPU) at a
+load of 4 on the shared 2 cores, 33 to 50 s at a load of 9 to 11."""
 from __future__ import annotations
 
 import json
