@@ -360,8 +360,6 @@ def test_the_cli_writes_sensitivities_csv_and_the_summary(tmp_path, arm_3d):
 @pytest.mark.parametrize("change, expected", [
     (lambda d: d["solve"].update(analysis="transient", method="explicit", t_end=0.1, dt=0.05, steps=None),
      "not for method explicit"),
-    (lambda d: d["solve"].update(analysis="transient", adaptive=True, t_end=0.1, dt=0.05, steps=None),
-     "adaptive step control"),
     (lambda d: d["solve"].update(analysis="modes", steps=None), "not yet for a modes analysis"),
     (lambda d: d["solve"].update(analysis="buckling", steps=None), "not yet for a buckling analysis"),
     (lambda d: d.update(gravity=[0, 0, "-k"]), "used at gravity[2]"),

@@ -90,8 +90,8 @@ def test_sensitivities_through_continuous_controllers_agree_with_richardson_diff
 
 @pytest.mark.parametrize("change, expected", [
     (lambda d: d["controllers"]["pd"].update(rate=100.0), "the sampled controller pd, which reads another"),
-    (lambda d: (d["controllers"].update(integral={"output": "i", "states": {"i": "angle"}}),
-                d["beams"]["arm"]["end"]["hinge"].update(lock_at=1.0, torque="2*pd + integral")), "controllers with states"),
+    (lambda d: (d["controllers"].update(integral={"output": "i", "states": {"i": "angle*t"}}),
+                d["beams"]["arm"]["end"]["hinge"].update(lock_at=1.0, torque="integral")), "states' rates name t"),
     (lambda d: (d.update(inputs={"u": 0.0}), d["controllers"].update(digital={"output": "u", "rate": 100.0})),
      "the sampled controller digital, which reads another controller or an input"),
     (lambda d: d["beams"]["arm"]["end"]["hinge"].update(torque="Kp*pd"), "a law that names a controller"),

@@ -331,7 +331,6 @@ def test_a_modified_newton_run_with_sensitivities_has_the_states_of_the_run_with
 
 @pytest.mark.parametrize("change, expected", [
     ({"method": "explicit"}, "not for method explicit"),
-    ({"adaptive": True}, "adaptive step control"),
 ])
 def test_what_is_not_differentiated_is_refused(change, expected):
     data = yaml.safe_load(PLANAR)

@@ -237,13 +237,38 @@ class CableSensitivities:
         return free_q, np.asarray(P.T @ g_v[:n_asm]).reshape(-1)
 
     def gap_rate(self, state, e: int) -> float:
-        """∂g/∂t of element ``e``'s gap at fixed coordinates: through its cable's rest length alone (a reel,
-        ∂g/∂L0 · share · L0′(t); the law reads L0 and the gap never L̇0), 0 for a constant one."""
+        """∂g/∂t of element ``e``'s gap at fixed free coordinates: through its cable's rest length (a reel,
+        ∂g/∂L0 · share · L0′(t); the law reads L0 and the gap never L̇0) and through an end on a prescribed
+        body (:meth:`prescribed_rate`); 0 for a constant rest length between free ends."""
         rest = self.cables.rest_length[self.cables.cable[e]]
+        rate = self.prescribed_rate(state, e)
         if rest.is_constant:
+            return rate
+        return rate + float(self._rest_length_derivative(state, e, 3)[4 if self._damped(state, e) else 3]
+                            * self.cables.share[e] * rest.rate(state.t))
+
+    def prescribed_rate(self, state, e: int) -> float:
+        """∂g/∂t of element ``e``'s gap through its ends on prescribed bodies: the gap's gradients by that end's
+        configuration and rates (the kernel's blocks, as :meth:`step_size_derivative` takes them) along the
+        prescribed motion's own velocity and acceleration at ``state``'s time (v, ω, v̇, ω̇ of the motion's laws and
+        their exact time derivatives, ``latdyn_prescribe``); 0 without such an end."""
+        from latdyn.model.model import PRESCRIBED
+
+        nodes = self.cables.nodes[e]
+        ends = [i for i in range(2) if self.model.nodes[nodes[i]].kind == PRESCRIBED]
+        if not ends:
             return 0.0
-        return float(self._rest_length_derivative(state, e, 3)[4 if self._damped(state, e) else 3]
-                     * self.cables.share[e] * rest.rate(state.t))
+        damped = self._damped(state, e)
+        _, K, C, _ = self.law(state, e, c=self.cables.damping[e] if damped else 0.0)
+        points = [state.x[nodes[i]] + state.T[nodes[i]] @ self.cables.offsets[e, i] for i in range(2)]
+        unit = (points[1] - points[0]) / np.linalg.norm(points[1] - points[0])
+        g_q, g_v = -unit @ K[0:3], -unit @ C[0:3]
+        rate = 0.0
+        for i in ends:
+            node, block = nodes[i], slice(6 * i, 6 * i + 6)
+            rate += g_q[block] @ np.concatenate([state.v[node], state.w[node]])
+            rate += g_v[block] @ np.concatenate([state.a[node], state.alpha[node]])
+        return float(rate)
 
     def _damped(self, state, e: int) -> bool:
         """Whether element ``e``'s gap is its tension N with the damper (N < N_el), else N_el."""

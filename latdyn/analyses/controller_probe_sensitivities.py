@@ -67,6 +67,18 @@ def _output_gradient(owner, c):
     return cache[c.name]
 
 
+def _time_partial(owner, c):
+    """∂f/∂t of controller ``c``'s output as a function of (t, reads, S), cached on ``owner``: a row whose time
+    moves with p (δt after an event, adaptive steps) moves the output by ∂f/∂t δt."""
+    import sympy as sp
+
+    cache = owner.__dict__.setdefault("_controller_time_partials", {})
+    if c.name not in cache:
+        derivative = sp.lambdify(c.symbols, sp.diff(c.output_expr, c.symbols[0]), modules=["math", "numpy"])
+        cache[c.name] = lambda *arguments: float(derivative(*arguments))
+    return cache[c.name]
+
+
 def _continuous_output(owner, name: str, state, carried: dict, sensed, done: dict) -> np.ndarray:
     """δy (k,) of the continuous controller ``name`` at ``state`` (module docstring), ``done`` the
     earlier controllers' (value, δy) by name."""
@@ -101,6 +113,9 @@ def _continuous_output(owner, name: str, state, carried: dict, sensed, done: dic
             slope += gradient[len(c.reads):] @ carried["controller_dS"][first:first + len(c.states)]
         for column, partial in terms.partials.get(c.name, {}).items():
             slope[column] += float(partial(*arguments))
+        moved = np.asarray(carried.get("dt", 0.0))
+        if np.any(moved) and c.symbols[0] in c.output_expr.free_symbols:   # the row's time moved (events, adaptive)
+            slope += _time_partial(owner, c)(*arguments) * moved
     done[name] = (c.clip(raw), slope)
     return slope
 

@@ -148,6 +148,9 @@ def _why_not(scene, probe) -> str | None:
                         "an impact's loss, a compliant stop's damping) is not differentiated yet")
     if probe.kind == "energy" and quantity == "external_work" and scene.solve.analysis == "transient":
         timed = _work_in_time(scene)
+        if scene.solve.adaptive and timed is not None:
+            return (f"the external work of an adaptive run with {timed}, which depends on t (the steps' ends move in "
+                    "time with the parameters, and the power with them), is not differentiated yet")
         for beam, which, hinge in scene.hinges:
             if (hinge.lock_at is not None or hinge.limits is not None) and timed is not None:
                 return (f"the external work through the events of {beam}.{which} (lock_at, limits) with {timed}, "

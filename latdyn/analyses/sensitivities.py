@@ -50,9 +50,9 @@ outputs; :class:`ControllerStates`: continuous controllers' states carried throu
 :class:`SampledTerms`: sampled controllers' held outputs and states) enter ∂r/∂p of transient runs.
 
 What is refused (:func:`refusal`, exit 2 naming ``solve.sensitivities``): any analysis but static
-load control, arc length and displacement control and transient runs of an implicit method at fixed
-steps without friction (inputs are held at their values: the derivative is the one at fixed inputs), continuous controllers that read a force (a tension, a section or joint
-force), controllers with states or sampled ones beside events (cables through their
+load control, arc length and displacement control and transient runs of an implicit method (fixed steps,
+or adaptive ones where :func:`latdyn.analyses.adaptive_sensitivities.refusal` allows them) without friction (inputs are held at their values: the derivative is the one at fixed inputs), continuous controllers that read a force (a tension, a section or joint
+force), controllers whose states' rates name t beside events (cables through their
 slack/taut events, guides with theirs: :func:`_transient_refusal`, :meth:`ControllerTerms.refusal`); a
 parameter used anywhere but in load components, numbers that place the structure (geometry parameters,
 where :func:`latdyn.analyses.geometry_sensitivities.geometry_refusal` allows them), hinge stiffness, damping,
@@ -77,6 +77,7 @@ from pathlib import Path
 
 import numpy as np
 
+from latdyn.analyses import adaptive_sensitivities
 from latdyn.analyses import controller_probe_sensitivities as controller_probes
 from latdyn.analyses.energy_sensitivities import is_energy_or_momentum
 from latdyn.analyses.energy_sensitivities import probe_derivatives as energy_probe_derivatives
@@ -214,6 +215,8 @@ def adjoint_refusal(scene) -> SceneError | None:
     why = None
     if scene.solve.analysis != "transient":
         why = f"the adjoint differentiates transient runs only, not a {scene.solve.analysis} analysis"
+    elif scene.solve.adaptive:
+        why = "the adjoint differentiates fixed-step runs, not the step sizes of adaptive steps (adaptive: true)"
     elif has_events(scene):
         joints = [f"beams.{beam}.{which}.hinge" for beam, which, hinge in scene.hinges
                   if hinge.lock_at is not None or hinge.limits is not None]
@@ -280,17 +283,11 @@ def _transient_refusal(scene) -> str | None:
     if solve.method == "explicit":
         return "sensitivities of a transient run are computed for the implicit methods (generalized-alpha, " \
                "hht-alpha, newmark), not for method explicit"
-    if solve.adaptive:
-        return "with adaptive step control the accepted step sizes depend on the parameters, which the " \
-               "derivative does not follow yet; expected a fixed step (adaptive: false)"
+    if solve.adaptive and adaptive_sensitivities.refusal(scene) is not None:   # the step control differentiated
+        return adaptive_sensitivities.refusal(scene)
     why = ControllerTerms.refusal(scene)
     if why is not None:
         return why
-    if scene.cables and _prescribed_motion(scene):
-        return ("sensitivities through cables' slack and taut events with a prescribed motion (a body's translation "
-                "or rotation, a hinge's angle) are not computed yet: the cable's gap moves in time through the "
-                "prescribed ends, which the event time's derivative does not follow; loads, laws and a reel "
-                "(rest_length in t) are (docs/parameters.md, \"Cables\")")
     guides = [name for name, body in scene.bodies.items() if body.guide is not None]
     for name in guides:
         guide = scene.bodies[name].guide
@@ -299,16 +296,11 @@ def _transient_refusal(scene) -> str | None:
         if guide.contact is not None or guide.friction is not None:
             return (f"sensitivities through a guide's compliant stops and friction (bodies.{name}.guide: sticking and "
                     "the stops' contact are events) are not computed yet")
-        if (guide.lock_at is not None or guide.limits is not None) and _prescribed_motion(scene):
-            return (f"sensitivities through the events of the guide of {name} (lock_at, limits) with a prescribed "
-                    "motion are not computed yet (the reduction's geometric term at the event would need the "
-                    "prescribed motion's time derivative on all coordinates); loads and laws in t are "
-                    "(docs/parameters.md, \"Guides\")")
     for beam, which, hinge in scene.hinges:
         if hinge.friction is not None:
             return (f"sensitivities through friction ({beam}.{which}: sticking and slipping are events of a "
                     "law that changes there) are not computed yet; compliant stops (contact) are")
-    return _events_with_controllers_in_time(scene)
+    return None
 
 
 def has_events(scene) -> bool:
@@ -322,27 +314,6 @@ def _prescribed_motion(scene) -> bool:
     """Whether a body's translation or rotation or a hinge's angle is prescribed in ``scene``."""
     return any(body.prescribed for body in scene.bodies.values()) or any(
         hinge.angle is not None for _, _, hinge in scene.hinges)
-
-
-def _events_with_controllers_in_time(scene) -> str | None:
-    """Why events (latches, stops, cables' changes, guides' events) with a controller whose output names t
-    are refused, or None: ∂r/∂t (latdyn/analyses/transient_sensitivities.py ExplicitTime) holds the
-    scene's loads, laws, reels and prescribed motions, not a controller's explicit time."""
-    timed = [c.name for c in getattr(scene, "controllers", {}).values()
-             if c.output_expr is not None and c.symbols and c.symbols[0] in getattr(c.output_expr, "free_symbols", ())]
-    if not timed:
-        return None
-    events = [f"{beam}.{which}" for beam, which, hinge in scene.hinges
-              if hinge.lock_at is not None or hinge.limits is not None]
-    events += [f"bodies.{n}.guide" for n, b in scene.bodies.items()
-               if b.guide is not None and (b.guide.lock_at is not None or b.guide.limits is not None)]
-    events += [f"cables.{n}" for n in (scene.cables or {})]
-    if events:
-        return (f"sensitivities through the events of {events[0]} with controller {timed[0]!r} whose output names t "
-                "are not computed yet: an event moves the ends of the steps after it in time, and the controller's "
-                "explicit time derivative is not differentiated (docs/parameters.md, \"Sensitivities through "
-                "events\")")
-    return None
 
 
 def _cable_use(scene, used: str) -> bool:
@@ -1211,10 +1182,11 @@ class ControllerTerms:
         if why is not None:
             return why
         for c in scene.controllers.values():
-            if c.states and has_events(scene):
-                return (f"sensitivities of runs with controllers with states ({c.name}: states) and events (a latch, "
-                        "a stop, a compliant stop's onset, a cable's change: the event time moves the states' "
-                        "trapezoidal step) are not computed yet; continuous controllers with states are without them")
+            timed = any(c.symbols[0] in getattr(f, "free_symbols", ()) for f in (c.state_exprs or []))
+            if c.states and timed and has_events(scene):
+                return (f"sensitivities of runs with controllers whose states' rates name t ({c.name}) and events (a "
+                        "latch, a stop, a compliant stop's onset, a cable's change: the event time moves the states' "
+                        "rates in t) are not computed yet; states whose rates do not name t are")
         readers = ControllerTerms._laws_naming(scene, set(scene.controllers))
         for name in scene.solve.sensitivities:
             for used in scene.parameters.depending_on(name):
@@ -1316,7 +1288,9 @@ class ControllerStates:
     the sensors' derivative along δq (probes: hinge angles, point positions and displacements),
     ∂y/∂S, ∂f/∂s, ∂f/∂S and ∂f/∂p the symbolic derivatives of the controller's expressions, those the
     code generator prints for Newton (codegen/laws.py). At the start (and a restart) the states are
-    held: δS_0 = 0 (``initial`` is a number), δf_0 = ∂f/∂p (δq_0 = 0)."""
+    held: δS_0 = 0 (``initial`` is a number), δf_0 = ∂f/∂p (δq_0 = 0). A step whose size moves with p (an
+    event's, the steps after it) adds A⁻¹ ½ (f_n + f_{n+1}) δh to δS_{n+1} (:meth:`by_step_size`: its ∂r/∂h in
+    the step size's column), and through an event's jump and restart δS is held (:meth:`hold`)."""
 
     def __init__(self, terms: ControllerTerms):
         import sympy as sp
@@ -1395,7 +1369,9 @@ class ControllerStates:
             self.terms.held[c.name] = carried["controller_dS"][self.first[c.name]:self.first[c.name] + len(c.states)]
 
     def begin_step(self, carried: dict, state, h: float) -> None:
-        """The held part of δS_{n+1} (class docstring) at the step's end ``state``, for ∂r/∂p there."""
+        """The held part of δS_{n+1} (class docstring) at the step's end ``state``, for ∂r/∂p there, and the
+        states' derivative by the step's size at that configuration, A⁻¹ ½ (f_n + f_{n+1}) (:meth:`by_step_size`;
+        the accepted f_{n+1}: the integrator accepted the step before it is differentiated)."""
         hh = 0.5 * h
         self._step = {}
         for c in self.controllers:
@@ -1403,8 +1379,22 @@ class ControllerStates:
             _, f_s, f_S, f_p = self._at(c, state)
             A = np.eye(len(c.states)) - hh * f_S
             held = np.linalg.solve(A, carried["controller_dS"][rows] + hh * (carried["controller_df"][rows] + f_p))
+            by_h = np.linalg.solve(A, 0.5 * (carried["controller_f"][rows] + self.rates[self.rate_index][rows]))
             self.terms.held[c.name] = held
-            self._step[c.name] = (rows, A, f_s, f_S, f_p, hh)
+            self._step[c.name] = (rows, A, f_s, f_S, f_p, hh, by_h)
+
+    def by_step_size(self, state) -> np.ndarray:
+        """∂r/∂h (n_total + 1,) at the step's end ``state`` through the states' derivative by the step size at a
+        fixed configuration (:meth:`begin_step`): ∂y/∂S A⁻¹ ½ (f_n + f_{n+1}) through the actuators, as
+        :meth:`ControllerTerms.add` applies a held δS (its step-size column: an event's or an adaptive step's δh)."""
+        import copy
+
+        one = copy.copy(self.terms)
+        one.k, one.partials, one.sampled = 1, {}, None
+        one.held = {c.name: self._step[c.name][6][:, None] for c in self.controllers}
+        total = np.zeros((self.terms.model.n_total + 1, 1))
+        one.add(state, total)
+        return total[:, 0]
 
     def condensed(self, carried: dict, h: float):
         """A context in which the evaluation condenses the states from the step's start (S_n, f_n) with
@@ -1425,15 +1415,17 @@ class ControllerStates:
                 self.values[self.slots], self.rates[self.rate_index] = kept[1], kept[2]
         return context()
 
-    def after_step(self, state, dq: np.ndarray) -> dict:
+    def after_step(self, state, dq: np.ndarray, dh: np.ndarray | None = None) -> dict:
         """δS_{n+1}, δf_{n+1} and the accepted (S, f) after the step ending at ``state``, δq its
-        configuration's derivative (class docstring)."""
+        configuration's derivative, ``dh`` its size's (class docstring; None: 0)."""
         k = self.terms.k
         dS, df = np.zeros((len(self.slots), k)), np.zeros((len(self.slots), k))
         for c in self.controllers:
-            rows, A, f_s, f_S, f_p, hh = self._step[c.name]
+            rows, A, f_s, f_S, f_p, hh, by_h = self._step[c.name]
             ds = self._sensed(c, state, dq)
             dS[rows] = self.terms.held[c.name] + np.linalg.solve(A, hh * (f_s @ ds))
+            if dh is not None:
+                dS[rows] += np.outer(by_h, dh)
             df[rows] = f_s @ ds + f_S @ dS[rows] + f_p
         self.terms.held = {}
         return {"controller_dS": dS, "controller_df": df, **self._prefixed(self._accepted())}
@@ -1449,7 +1441,8 @@ def _sensor_derivatives(owner: ParameterDerivatives, probes: list, state, dq: np
 
 class SampledTerms:
     """Sampled controllers (``controllers.NAME.rate``) differentiated (docs/parameters.md, "Controllers").
-    At each instant t_k = k/rate (fixed: no event time), from the accepted state's sensors s and the
+    At each instant t_k = k/rate (fixed: a grid point, where the steps after an event land, δt = 0 there, so
+    the samples are differentiated beside events as without), from the accepted state's sensors s and the
     states S_k (latdyn.timeloop.sampling),
 
         y_k = clip(f(t_k, s, S_k; p)),            S_{k+1} = S_k + g(t_k, s, S_k; p)/rate,
@@ -1511,9 +1504,6 @@ class SampledTerms:
             return None
         names = {c.name for c in sampled}
         probes = {p.name for p in scene.output.probes}
-        if has_events(scene):
-            return (f"sensitivities of runs with sampled controllers ({sampled[0].name}) and events (a latch, a "
-                    "stop, a compliant stop's onset, a cable's change) are not computed yet")
         for c in scene.controllers.values():
             if not c.sampled and names & set(c.reads):
                 return (f"sensitivities of runs with a continuous controller that reads a sampled one ({c.name}) are "

@@ -29,7 +29,8 @@ own factorization is not that matrix (modified Newton may hold an older one), so
 factorised afresh. ∂r/∂p comes from the generated kernels by their linearity in the parameters
 (:class:`latdyn.analyses.sensitivities.ParameterDerivatives`, with the inertia forces). The
 accepted step sizes are held: a fixed-step run (its cuts after a Newton failure included) is
-differentiated exactly; adaptive step control is refused (its step sizes depend on p).
+differentiated exactly; adaptive step control chooses sizes that depend on p, and the control's rules are
+differentiated (latdyn/analyses/adaptive_sensitivities.py: ``carried["dh_next"]``, the next trial's δh).
 
 At t = 0 the configuration depends on geometry parameters only (δq_0 = δX, K δq_0 added to the start's ∂r/∂p
 with the exact K: latdyn/analyses/geometry_sensitivities.py); the velocities do through
@@ -100,6 +101,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from latdyn.analyses import adaptive_sensitivities
 from latdyn.analyses.cable_sensitivities import LANDING, CableSensitivities
 from latdyn.analyses.energy_sensitivities import external_work_after_event, external_work_step, is_energy_or_momentum
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
@@ -172,7 +174,7 @@ class TransientSensitivities(ParameterDerivatives):
         shifted = self.time_shift is not None and self.explicit_time is not None and np.any(self.time_shift)
         if on_all:
             if shifted:
-                total += np.outer(self.explicit_time.of_laws(state, inertia, on_all=True), self.time_shift)
+                total += np.outer(self.explicit_time(state, inertia, on_all=True), self.time_shift)
             return total
         free = self._on_free_coordinates(state, total)
         if shifted:   # the state moved in time by δt: ∂r/∂t δt (the events' derivatives, module docstring)
@@ -322,10 +324,44 @@ class TransientSensitivities(ParameterDerivatives):
         ``a_new``: the algorithmic accelerations before and after it; ``lands``: it ended on the time
         grid), with the derivative of its size (module docstring, "Events") and the jump of the event it
         ends on, if any, taken before the events renumber the coordinates (:meth:`after_events`)."""
-        model, p = self.model, self.params
+        model = self.model
         n, k = model.n_dofs, len(self.names)
         if n == 0 or k == 0:
             return {**carried, "h": h}
+        columns, states = self._columns(carried, old, new, h, a_old, a_new)
+        event = self._event(old, new)
+        cable = self._cable_event(old, new, event)
+        if cable is None:
+            dh = self._step_size_derivative(carried, h, lands, event or self._contact_onset(old, new), columns["dq"])
+        else:
+            dh = self.cables.step_size_derivative(new, cable[0], columns["dq"], columns["dv"], k,
+                                                  started=carried["dt"])
+        total = {key: value[:, :k] + np.outer(value[:, k], dh) for key, value in columns.items()}
+        before, carried = carried, {**carried, **total, "dt": carried["dt"] + dh, "dh": dh, "dh_step": dh, "h": h,
+                                   "pending": None}
+        carried = external_work_step(self, before, carried, old, new, h)   # latdyn/analyses/energy_sensitivities.py
+        if states is not None:   # δS with the step size's part (an event's δh)
+            carried = {**carried, **states.after_step(new, carried["dq"], dh)}
+        if cable is not None:
+            return self._after_cable_event(carried, new, *cable)
+        if event is None:
+            return carried
+        self.time_shift = carried["dt"]   # the impulse's weight at the event, moved in time by δt_e
+        if states is not None:   # the states kept through the jump: δS held in ∂r/∂p there
+            states.hold(carried)
+        try:
+            return self._jump(carried, new, *event)
+        finally:
+            self.time_shift = None
+            if states is not None:
+                self.controllers.held = {}
+
+    def _columns(self, carried: dict, old, new, h: float, a_old: np.ndarray, a_new: np.ndarray):
+        """The derivative of the converged step ``old`` → ``new`` of size ``h`` before its size's derivative
+        is known: ({dq, dv, dvdot, da} (n, k + 1), the continuous controllers' states or None), k parameter
+        columns and one of a unit change of h (module docstring); one solve with the step's exact matrix."""
+        model, p = self.model, self.params
+        n, k = model.n_dofs, len(self.names)
         am, af, gamma, beta = p.alpha_m, p.alpha_f, p.gamma, p.beta
         beta_p, gamma_p = (1 - am) / (h * h * beta * (1 - af)), gamma / (h * beta)
         # k parameter columns and one of a unit change of the step size (its derivative, δh = 1)
@@ -348,33 +384,26 @@ class TransientSensitivities(ParameterDerivatives):
         with states.condensed(carried, h) if states is not None else nullcontext():
             C, K, solve = self._step_system(new, tangent, beta_p, gamma_p)
         explicit = np.hstack([self.residual_derivatives(new, 1.0, inertia=True), np.zeros((n, 1))])
+        if states is not None:   # the states' derivative by the step's size moves the outputs (an event's δh)
+            explicit[:, k] += self._on_free_coordinates(new, states.by_step_size(new)[:, None])[:, 0]
         self._add_time_columns(explicit, new, carried["dt"])
         rhs = -(explicit + K @ dq0 + C @ dv0)
         z = np.asarray(solve(rhs)).reshape(n, k + 1)
         dvdot_new = beta_p * z
         columns = {"dq": dq0 + tangent(z), "dv": dv0 + gamma_p * z, "dvdot": dvdot_new,
                    "da": da0 + (1 - af) / (1 - am) * dvdot_new}
-        event = self._event(old, new)
-        cable = self._cable_event(old, new, event)
-        if cable is None:
-            dh = self._step_size_derivative(carried, h, lands, event or self._contact_onset(old, new), columns["dq"])
-        else:
-            dh = self.cables.step_size_derivative(new, cable[0], columns["dq"], columns["dv"], k,
-                                                  started=carried["dt"])
-        total = {key: value[:, :k] + np.outer(value[:, k], dh) for key, value in columns.items()}
-        before, carried = carried, {**carried, **total, "dt": carried["dt"] + dh, "dh": dh, "h": h, "pending": None}
-        carried = external_work_step(self, before, carried, old, new, h)   # latdyn/analyses/energy_sensitivities.py
-        if states is not None:   # no events with states (ControllerTerms.refusal): δh = 0
-            carried = {**carried, **states.after_step(new, carried["dq"])}
-        if cable is not None:
-            return self._after_cable_event(carried, new, *cable)
-        if event is None:
-            return carried
-        self.time_shift = carried["dt"]   # the impulse's weight at the event, moved in time by δt_e
-        try:
-            return self._jump(carried, new, *event)
-        finally:
-            self.time_shift = None
+        return columns, states
+
+    def rejected(self, carried: dict, progress, attempt, integrator, control) -> dict:
+        """``carried`` with the derivative of the next trial's size after the error estimate rejected the
+        trial ``attempt`` (latdyn/analyses/adaptive_sensitivities.py)."""
+        return adaptive_sensitivities.rejected(self, carried, progress, attempt, integrator, control)
+
+    def resized(self, carried: dict, control, lands: bool | None = None) -> dict:
+        """``carried`` with the derivative of the next step's size after an accepted step (``lands`` None) or a
+        trial Newton did not converge (``lands``: whether it landed on the grid)
+        (latdyn/analyses/adaptive_sensitivities.py)."""
+        return adaptive_sensitivities.resized(self, carried, control, lands)
 
     def _step_system(self, new, tangent, beta_p: float, gamma_p: float):
         """(C, K, solve) at the step's end ``new``: the exact C and K (for the predicted parts' K δq⁰ + C δv⁰)
@@ -522,6 +551,8 @@ class TransientSensitivities(ParameterDerivatives):
             return -dq[dof, :k] / dq[dof, k]
         if lands:
             return -carried["dt"]
+        if self.scene.solve.adaptive:   # the size the step control chose, differentiated (adaptive_sensitivities)
+            return carried.get("dh_next", np.zeros(k))
         if carried["h"] is None or abs(h - self.scene.solve.dt) <= 1e-12 * self.scene.solve.dt:
             return np.zeros(k)
         return (h / carried["h"]) * carried["dh"]
@@ -661,10 +692,15 @@ class TransientSensitivities(ParameterDerivatives):
         if pending is None:
             return carried
         self.time_shift = carried["dt"]   # the restart at the event's time, moved by δt_e
+        states = self._controller_states()
+        if states is not None:   # the states kept through the restart: δS held in ∂r/∂p there
+            states.hold(carried)
         try:
             return external_work_after_event(self, carried, self._restart(carried, new, pending), new, pending["kind"])
         finally:
             self.time_shift = None
+            if states is not None:
+                self.controllers.held = {}
 
     def _restart(self, carried: dict, new, pending: dict) -> dict:
         """:meth:`after_events` at the event's time (``time_shift`` set: ∂r/∂t δt_e in ∂r/∂p)."""
@@ -770,6 +806,7 @@ class TransientSensitivities(ParameterDerivatives):
         rates = (self._rates_by_parameter(carried["dv"], carried["dq"], state)
                  if any(p.quantity in ("rate", "velocity", "tension") or is_energy_or_momentum(p) for p in self.probes)
                  else None)
+        self._prescribed_in_time(state, np.asarray(carried["dt"]), dx, dpi, dtheta, rates)
         self.carried_accounts = carried   # the work's and dissipation's (latdyn/analyses/energy_sensitivities.py)
         forces = joint_force_derivatives(self, state, carried["dq"], carried["dv"], carried["dvdot"])
         row = [float(state.t)]
@@ -779,6 +816,28 @@ class TransientSensitivities(ParameterDerivatives):
                 continue
             row.extend(self._probe_derivatives(probe, state, dx, dpi, dtheta, rates))
         return {**carried, "rows": carried["rows"] + [row]}
+
+    def _prescribed_in_time(self, state, moved: np.ndarray, dx, dpi, dtheta, rates) -> None:
+        """A row whose time moves with p (δt ≠ 0: after an event until a step lands on the grid, adaptive steps)
+        moves the prescribed bodies and hinge angles along their motion: δx += v δt, δπ += ω δt, δθ += θ̇ δt on
+        them, and their rates by their accelerations (the motion's own, at the row's time), into the
+        (δx, δπ, δθ) and rates a probe's derivative reads."""
+        from latdyn.model.model import PRESCRIBED
+
+        if not np.any(moved):
+            return
+        nodes = [i for i, node in enumerate(self.model.nodes) if node.kind == PRESCRIBED]
+        hinges = [j for j, hinge in enumerate(self.model.hinges) if hinge.angle is not None]
+        for i in nodes:
+            dx[i] += np.outer(state.v[i], moved)
+            dpi[i] += np.outer(state.w[i], moved)
+            if rates is not None:
+                rates[0][i] += np.outer(state.a[i], moved)
+                rates[1][i] += np.outer(state.alpha[i], moved)
+        for j in hinges:
+            dtheta[j] += state.theta_dot[j] * moved
+            if rates is not None:
+                rates[2][j] += state.theta_ddot[j] * moved
 
     def table(self, carried: dict) -> dict:
         """``{(probe, name): array over the rows}`` (``Result.sensitivities``)."""
@@ -907,20 +966,24 @@ class ExplicitTime:
 
         self.owner = owner
         self.prescribed, self.reels = prescribed, reels
-        # the parameters' machinery, with one column: t
+        # the parameters' machinery, with one column: t (the controllers' outputs' explicit ∂y/∂t through
+        # their actuators, as ∂y/∂p: :func:`_controller_time_rates`)
         self.laws = copy.copy(owner)
-        self.laws.names, self.laws.derivatives, self.laws.controllers = ["t"], laws, None
+        self.laws.names, self.laws.derivatives = ["t"], laws
+        self.laws.controllers = _controller_time_rates(owner)
         self.laws.__dict__.pop("_kinds", None)
 
     @classmethod
     def of(cls, owner) -> "ExplicitTime | None":
-        """The scene's explicit time dependence, or None where nothing depends on t or no event can move a
-        step's end in time (then every δt is 0: :func:`latdyn.analyses.sensitivities.has_events`)."""
+        """The scene's explicit time dependence, or None where nothing depends on t or neither an event nor
+        adaptive steps can move a step's end in time (then every δt is 0:
+        :func:`latdyn.analyses.sensitivities.has_events`)."""
         from latdyn.analyses.sensitivities import _prescribed_motion, depends_on_time, has_events
 
         scene = owner.scene
         reels = any(not c.rest_length.is_constant for c in scene.cables.values()) if scene.cables else False
-        if (not depends_on_time(scene) and not reels) or not has_events(scene):
+        timed = _controller_time_rates(owner) is not None
+        if (not depends_on_time(scene) and not reels and not timed) or not (has_events(scene) or scene.solve.adaptive):
             return None
         laws: dict[str, dict[int, _TimeRate]] = {}
 
@@ -951,18 +1014,21 @@ class ExplicitTime:
             return total
         return self.owner._on_free_coordinates(state, total[:, None])[:, 0]
 
-    def __call__(self, state, inertia: bool = True) -> np.ndarray:
+    def __call__(self, state, inertia: bool = True, on_all: bool = False) -> np.ndarray:
         """∂r/∂t (n,) on the free coordinates at ``state``: of the equations of motion, or without
         ``inertia`` of the static residual (the impulse weight's K is the static one's derivative:
-        :meth:`TransientSensitivities._weight_derivative` differences the static ∂r/∂p)."""
-        out = self.of_laws(state, inertia)
+        :meth:`TransientSensitivities._weight_derivative` differences the static ∂r/∂p); ``on_all``: on all
+        coordinates (n_total + 1,), before the rigid links' and guides' reduction (their geometric term at an
+        event, :meth:`TransientSensitivities._geometric_derivative`, reads it)."""
+        out = self.of_laws(state, inertia, on_all=on_all)
         if self.prescribed:
-            out = out + self.through_prescribed(state, inertia)
+            out = out + self.through_prescribed(state, inertia, on_all=on_all)
         return out
 
-    def through_prescribed(self, state, inertia: bool = True) -> np.ndarray:
+    def through_prescribed(self, state, inertia: bool = True, on_all: bool = False) -> np.ndarray:
         """∂r/∂t (n,) through the prescribed motions alone (class docstring): the loads, laws and rest
-        lengths read the state's own time, the prescribed nodes and angles move to t ± η, ± 2η."""
+        lengths read the state's own time, the prescribed nodes and angles move to t ± η, ± 2η; ``on_all``:
+        of the assembled residual and the reactions (n_total + 1,), before the reduction."""
         assembler = self.owner.assembler
         eta = PRESCRIBED_TIME_STEP * float(self.owner.scene.solve.dt)
 
@@ -970,9 +1036,41 @@ class ExplicitTime:
             moved = state.copy()
             assembler.apply_prescribed(moved, state.t + shift)
             moved.t = state.t
+            if on_all:
+                ev = assembler.evaluate_assembled(moved, False, 1.0, inertia)
+                return np.concatenate([ev.residual, ev.reaction, [0.0]])
             return np.asarray(assembler.evaluate(moved, matrices=False, inertia=inertia).residual, float)
 
         return (8.0 * (residual(eta) - residual(-eta)) - (residual(2 * eta) - residual(-2 * eta))) / (12.0 * eta)
+
+
+def _names_t(c) -> bool:
+    """Whether controller ``c``'s output names t."""
+    return c.output_expr is not None and bool(c.symbols) and c.symbols[0] in getattr(c.output_expr, "free_symbols", ())
+
+
+def _controller_time_rates(owner):
+    """The continuous controllers' explicit time derivative as a one-column
+    :class:`latdyn.analyses.sensitivities.ControllerTerms` (its column t): ∂y/∂t at fixed sensors, SymPy's
+    derivative of the output by t (deltas dropped), chained through the controllers that read a timed one and
+    applied through the actuators as ∂y/∂p is; None where no continuous controller's output names t. Controllers
+    with states or sampled ones beside events or adaptive steps are refused before (their states and samples are
+    not moved in t)."""
+    import copy
+
+    import sympy as sp
+
+    terms = owner.controllers
+    if terms is None:
+        return None
+    timed = [c for c in terms.continuous if _names_t(c)]
+    if not timed:
+        return None
+    rates = copy.copy(terms)
+    rates.k, rates.held, rates.sampled, rates.states = 1, {}, None, None
+    rates.partials = {c.name: {0: sp.lambdify(c.symbols, _drop_deltas(sp.diff(c.output_expr, c.symbols[0])),
+                                              modules=["math", "numpy"])} for c in timed}
+    return rates
 
 
 def _depends(law) -> tuple:

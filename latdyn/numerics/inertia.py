@@ -272,3 +272,48 @@ def joint_norms(joint: JointBlocks, vector: np.ndarray, length: float) -> np.nda
     diagonal = np.diagonal(joint.blocks, axis1=1, axis2=2)
     inertia = diagonal.sum(axis=1) / np.maximum((groups >= 0).sum(axis=1), 1)
     return np.where(inertia > 0, length * np.sqrt(energy / np.where(inertia > 0, inertia, 1.0)), 0.0)
+
+
+@dataclass
+class LargestNorm:
+    """The largest of :func:`joint_norms` as a function of M, for its derivative (the adaptive step's
+    error estimate differentiated, latdyn/analyses/adaptive_sensitivities.py): the norm is
+    ``scale`` · sqrt(E / m) with E = x_gᵀ M_gg x_g over the coordinates ``dofs`` of the largest group and
+    the reference m = Σ_i ``weights``[i] M_ii (the group's mean translational diagonal, the mean of the
+    groups that have one, or the group's mean diagonal, as :func:`joint_norms` takes it)."""
+
+    dofs: np.ndarray  # the coordinates of the largest group
+    norm: float
+    energy: float  # E
+    reference: float  # m
+    weights: dict  # coordinate -> its weight in m
+    scale: float  # 1, or the length where no joint has translational mass
+
+
+def largest_joint_norm(model, joint: JointBlocks, vector: np.ndarray, length: float) -> LargestNorm:
+    """The largest of :func:`joint_norms` (``joint`` from :func:`joint_blocks`) with the parts its
+    derivative needs (:class:`LargestNorm`); the norm equals ``joint_norms(...).max()``."""
+    norms = joint_norms(joint, vector, length)
+    g = int(np.argmax(norms))
+    groups, kind = joint.groups, _block_kind(model, joint.groups)
+    dofs = groups[g][groups[g] >= 0]
+    energy = float(np.clip(vector[dofs] @ joint.blocks[g][:len(dofs), :len(dofs)] @ vector[dofs], 0.0, None))
+    mass = joint.translation_mass
+
+    def translations(h):
+        slots = (kind[h] == 0)
+        return {int(i): 1.0 / slots.sum() for i in groups[h][slots]}
+
+    if np.any(mass > 0):
+        if mass[g] > 0:
+            weights = translations(g)
+        else:
+            massive = np.flatnonzero(mass > 0)
+            weights = {}
+            for h in massive:
+                weights.update({i: c / len(massive) for i, c in translations(h).items()})
+        reference, scale = float(mass[g] if mass[g] > 0 else np.mean(mass[mass > 0])), 1.0
+    else:
+        weights = {int(i): 1.0 / len(dofs) for i in dofs}
+        reference, scale = float(np.trace(joint.blocks[g]) / len(dofs)), float(length)
+    return LargestNorm(dofs, float(norms[g]), energy, reference, weights, scale)

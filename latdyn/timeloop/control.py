@@ -18,6 +18,7 @@ also bounds the attempts in a row."""
 from __future__ import annotations
 
 import sys
+from typing import NamedTuple
 
 import numpy as np
 
@@ -30,6 +31,18 @@ from latdyn.timeloop.progress import TransientProgress, report_cut
 CRAWL_STEPS = 1000
 CRAWL_FACTOR = 100.0
 CRAWL_FRACTION = 1e-3
+
+
+class Resize(NamedTuple):
+    """How the step size the control chose last depends on the step it came from (adaptive steps:
+    the derivative of the controller's formula, which the transient sensitivities follow, δh_new =
+    ``by_step`` δh + ``by_error`` δerror; latdyn/analyses/adaptive_sensitivities.py): ``by_step`` =
+    ∂h_new/∂h, ``by_error`` = ∂h_new/∂error (error: the relative error estimate it read). A clipped
+    size (dt, dt_min, a factor at its bound) has the clipping's derivative."""
+
+    by_step: float
+    by_error: float
+    error: float
 
 
 class StepControl:
@@ -69,6 +82,9 @@ class StepControl:
         # that was shortened to land on it, restored once the run is back on the grid
         self.pause, self.pause_index = None, None
         self.h_resume, self.leaving_pause = None, False
+        #: how the last size chosen (rejects, after_newton_failure, after_accepted) depends on the step it
+        #: came from (:class:`Resize`); None where it does not follow from it (a pause's restored step)
+        self.resize: Resize | None = None
 
     # ------------------------------------------------------------------------- the grid and its rows
     def grid_time(self, k: int) -> float:
@@ -190,7 +206,10 @@ class StepControl:
                 f"{error:.3g} times error_tol: the motion is not smooth at that scale there (a finite-time "
                 "blow-up, a law or load that jumps, events that re-trigger at the same instant), or "
                 "error_tol asks for steps below dt_min; the run ends here rather than retry it.")
-        run.h = max(h * max(0.2, 0.9 * error ** (-1 / 3)), self.dt_min)
+        factor = 0.9 * error ** (-1 / 3)
+        run.h = max(h * max(0.2, factor), self.dt_min)
+        self.resize = (Resize(0.0, 0.0, error) if run.h == self.dt_min else Resize(0.2, 0.0, error) if factor <= 0.2
+                       else Resize(factor, -h * factor / (3 * error), error))
         return True
 
     def after_newton_failure(self, run: TransientProgress, integrator, h: float, iterations: int) -> bool:
@@ -204,6 +223,7 @@ class StepControl:
             # β′M dominates it (latdyn.step.integrators); take it from here on, same step
             integrator.inertia_tangent = True
             run.inertia_tangent_from = float(t)
+            self.resize = Resize(1.0, 0.0, 0.0)
             print(f"latdyn: Newton did not converge in {iterations} iterations at t = {t + h:.9g}; "
                   "its matrix now includes the inertia tangent (directions with little inertia)",
                   file=sys.stderr)
@@ -212,6 +232,7 @@ class StepControl:
             return False
         report_cut(run, t + h, h, iterations)
         run.h = h / 2
+        self.resize = Resize(0.5, 0.0, 0.0)
         return True
 
     def after_accepted(self, run: TransientProgress, integrator, h: float, latched: bool, stopped: bool) -> None:
@@ -219,6 +240,7 @@ class StepControl:
         a hinge latched or hit a stop in it; ``stopped``: a stop). A run that crawls ends here
         (SolverError)."""
         self._watch_crawl(run, h, latched)
+        self.resize = None
         if self.h_resume is not None:  # shortened only to land on the pause, then back on the grid
             if not (latched or stopped) and run.state.t == self.pause:
                 run.h, self.leaving_pause = self.h_resume, True
@@ -232,7 +254,10 @@ class StepControl:
             # after a latch the last Newton evaluation has the old numbering (estimate taken as 0,
             # which is what error_estimate gives after accept() for a step without a latch)
             error = 0.0 if latched else self.relative_error(integrator, h)
-            run.h = min(self.dt, max(self.dt_min, h * min(2.0, 0.9 * max(error, 1e-10) ** (-1 / 3))))
+            factor = 0.9 * max(error, 1e-10) ** (-1 / 3)
+            run.h = min(self.dt, max(self.dt_min, h * min(2.0, factor)))
+            self.resize = (Resize(0.0, 0.0, error) if run.h in (self.dt, self.dt_min) else Resize(2.0, 0.0, error)
+                           if factor >= 2.0 else Resize(factor, -h * factor / (3 * error), error))
         elif stopped:
             run.h = self.dt  # after an impact on a stop the integrator restarted: the nominal step
         elif h < self.dt:

@@ -39,7 +39,7 @@ from latdyn.results.progress import progress_bar
 from latdyn.results.writer import ResultWriter
 from latdyn.step.integrators import newton_diagnosis
 from latdyn.timeloop import checkpoint as checkpoints
-from latdyn.timeloop.control import StepControl
+from latdyn.timeloop.control import Resize, StepControl
 from latdyn.timeloop.events import (CABLE_LANDING, TAUT_JUMP_STEP, cable_events, cable_sides, crossing_fraction, hinge_events,
                                    restart_accelerations)
 from latdyn.timeloop.progress import (DRIFT_WARNING, UNBOUNDED, UNBOUNDED_ROWS, TransientProgress, cable_work,
@@ -293,12 +293,17 @@ class TimeLoop:
             return
         progress.count(attempt.stats)
         if attempt.stats.converged and control.rejects(progress, self.integrator, attempt.h):
+            if self.sensitivities is not None:   # the next trial's size follows this one's error estimate
+                progress.sensitivities = self.sensitivities.rejected(progress.sensitivities, progress, attempt,
+                                                                     self.integrator, control)
             return
         if not attempt.stats.converged:
             if not control.after_newton_failure(progress, self.integrator, attempt.h, attempt.stats.iterations):
                 state, h = progress.state, attempt.h
                 raise SolverError("Newton failed below the minimum step", newton_diagnosis(
                     self.model, attempt.stats.residual, state.t + h, h, self.assembler, state))
+            if self.sensitivities is not None:
+                progress.sensitivities = self.sensitivities.resized(progress.sensitivities, control, attempt.lands)
             return
         self._accept(self._land_on_event(attempt))
 
@@ -549,8 +554,11 @@ class TimeLoop:
         # parameters (latdyn/analyses/transient_sensitivities.py)
         restarted = events.stopped or (self.sensitivities is not None and (events.any or attempt.lands or turned))
         self.control.after_accepted(progress, integrator, h, events.any, restarted)
-        if tension_jumped:  # the steps after a damped cable's jump of tension grow from TAUT_JUMP_STEP · dt
-            progress.h = min(progress.h, TAUT_JUMP_STEP * self.control.dt)
+        if tension_jumped and progress.h > TAUT_JUMP_STEP * self.control.dt:
+            # the steps after a damped cable's jump of tension grow from TAUT_JUMP_STEP · dt
+            progress.h, self.control.resize = TAUT_JUMP_STEP * self.control.dt, Resize(0.0, 0.0, 0.0)
+        if self.sensitivities is not None:   # the next step's size as the control chose it, differentiated
+            progress.sensitivities = self.sensitivities.resized(progress.sensitivities, self.control)
         self._keep_accepted()
 
     def _torques_from(self, evaluation) -> None:
