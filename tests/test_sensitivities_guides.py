@@ -191,20 +191,18 @@ def test_the_step_matrix_of_guided_bodies_is_the_exact_derivative_of_the_residua
     assert np.abs(dK - reduction).max() >= 1e-6 * np.abs(dK).max()   # what the exact K adds is not round-off
 
 
-def test_guide_events_with_laws_in_time_and_friction_are_refused_naming_the_key(tmp_path):
+def test_guide_events_with_laws_in_time_are_refused_naming_the_key(tmp_path):
     """A latch on a guide whose rod turns by a prescribed motion (the reduction's geometric term at the event
     would need the motion's time derivative on all coordinates; a guide's laws in t are differentiated:
-    tests/test_sensitivities_time_laws.py), and friction on a guide, are refused before the run (exit 2 from the CLI, naming
-    solve.sensitivities and the guided body, no traceback)."""
+    tests/test_sensitivities_time_laws.py) is refused before the run (exit 2 from the CLI, naming
+    solve.sensitivities and the guided body, no traceback); a guide's friction is differentiated while it slips
+    and refused when it sticks (tests/test_sensitivities_friction.py)."""
     from tests.cli_runs import latdyn_run
 
     latch = BEAD.replace('rest: "rest"}}', 'rest: "rest", lock_at: 0.3}}')
     with pytest.raises(SceneError, match="bead") as refused:
         _run(latch)
     assert refused.value.key == "solve.sensitivities"
-    rubbing = GUIDE_3D.replace('rest: "rest"}}', 'rest: "rest", friction: {coulomb: 0.1}}}')
-    with pytest.raises(SceneError, match="friction") as refused:
-        _run(rubbing)
     run, _ = latdyn_run(tmp_path, latch.replace("'on'", "on"))
     assert run.returncode == 2 and "solve.sensitivities" in run.stderr and "Traceback" not in run.stderr
 

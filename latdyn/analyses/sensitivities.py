@@ -101,7 +101,7 @@ from latdyn.analyses.parameter_keys import (  # noqa: F401  re-exported under th
     LOAD_KEY as _LOAD_KEY, SECTION_KEY as _SECTION_KEY, SECTION_COLUMN as _SECTION_COLUMN, BODY_KEY as
     _BODY_KEY, INITIAL_VELOCITY_KEY as _INITIAL_VELOCITY_KEY, GUIDE_KEY as _GUIDE_KEY, GUIDE_LAW as
     _GUIDE_LAW, CABLE_KEY as _CABLE_KEY, HINGE_KEY as _HINGE_KEY, CONTACT_KEY as _CONTACT_KEY, CONTACT_SLOT as
-    _CONTACT_SLOT, CONTROLLER_KEY as _CONTROLLER_KEY)
+    _CONTACT_SLOT, CONTROLLER_KEY as _CONTROLLER_KEY, FRICTION_SLOT, joint_law)
 
 
 def refusal(scene) -> SceneError | None:
@@ -133,7 +133,8 @@ def refusal(scene) -> SceneError | None:
         for used in scene.parameters.depending_on(name):
             section = _SECTION_KEY.match(used)
             initial = solve.analysis == "transient" and (_INITIAL_VELOCITY_KEY.match(used) or _CONTROLLER_KEY.match(used)
-                                                         or _cable_use(scene, used) or _GUIDE_KEY.match(used))
+                                                         or _cable_use(scene, used) or _GUIDE_KEY.match(used)
+                                                         or joint_law(used))
             if GEOMETRY_KEY.match(used):   # a number that places the structure (geometry_sensitivities.py)
                 why = geometry_refusal(scene, name, used)
                 if why is not None:
@@ -150,7 +151,9 @@ def refusal(scene) -> SceneError | None:
                               "stiffness, damping, torque and rest_angle, of section "
                               "stiffnesses and masses (shear-rigid), of body masses, centres of mass and "
                               "inertias, of a hinge's compliant stops (contact.stiffness, .exponent, .damping) "
-                              "and, in transient runs, of initial_velocity.linear and .angular, of controllers' "
+                              "and, in transient runs, of a guide's compliant stops, of a hinge's or guide's "
+                              "friction (coulomb, static, stribeck_rate, viscous, stick_rate), of "
+                              "initial_velocity.linear and .angular, of controllers' "
                               "outputs and states' rates (controllers.NAME.output, .states.S), of guides' "
                               "stiffness, damping, "
                               "force and rest, and of cables' EA, damping, rest_length and rhoA (> 0) only")
@@ -296,19 +299,12 @@ def _transient_refusal(scene) -> str | None:
         guide = scene.bodies[name].guide
         if guide.position is not None:
             return f"sensitivities of a prescribed slide (bodies.{name}.guide.position) are not computed yet"
-        if guide.contact is not None or guide.friction is not None:
-            return (f"sensitivities through a guide's compliant stops and friction (bodies.{name}.guide: sticking and "
-                    "the stops' contact are events) are not computed yet")
         if (guide.lock_at is not None or guide.limits is not None) and _prescribed_motion(scene):
             return (f"sensitivities through the events of the guide of {name} (lock_at, limits) with a prescribed "
                     "motion are not computed yet (the reduction's geometric term at the event would need the "
                     "prescribed motion's time derivative on all coordinates); loads and laws in t are "
                     "(docs/parameters.md, \"Guides\")")
-    for beam, which, hinge in scene.hinges:
-        if hinge.friction is not None:
-            return (f"sensitivities through friction ({beam}.{which}: sticking and slipping are events of a "
-                    "law that changes there) are not computed yet; compliant stops (contact) are")
-    return _events_with_controllers_in_time(scene)
+    return _events_with_controllers_in_time(scene)   # friction: a joint that sticks is refused when it does
 
 
 def has_events(scene) -> bool:
@@ -623,23 +619,28 @@ class ParameterDerivatives:
                 total[model.node_dofs[node], column] += force
 
     def _contact_forces(self, state, total: np.ndarray) -> None:
-        """Add ∂f/∂p of the hinges whose compliant stops' stiffness, exponent or damping name a
-        parameter into ``total``: the generated ``contact_force_D_law`` (∂f_contact/∂(k, n, c) at the
-        hinge's θ, θ̇; zero outside contact) times the law's derivative by the parameter."""
+        """Add ∂f/∂p of the hinges and guides whose compliant stops' stiffness, exponent or damping or whose
+        friction's coulomb, static, stribeck_rate, viscous or stick_rate name a parameter into ``total``: the
+        generated ``contact_force_D_law`` (∂f_contact/∂(k, n, c) at the joint's θ, θ̇; zero outside contact)
+        or ``friction_force_D_law`` (∂f_friction/∂(F_c, F_s, 1/v_s, c_v, v₀) of the slipping law; a stuck
+        joint's coordinate is no free one) times the law's derivative by the parameter."""
         model = self.model
         for key, laws in self.derivatives.items():
-            contact = _CONTACT_KEY.match(key)
-            if not contact:
+            law = joint_law(key)
+            if law is None:
                 continue
-            j = model.hinge_index(contact["beam"], contact["end"])
+            beam, end, kind, slot = law
+            j = model.hinge_index(beam, end)
             rows = self.__dict__.setdefault("_contact_rows", {})
             if j not in rows:
                 rows[j] = np.ascontiguousarray(joint_contact_rows([model.hinges[j]]))
             at = np.array([[float(state.theta[j]), float(state.theta_dot[j]), model.hinges[j].rest_angle, 1.0]])
-            slope = float(np.asarray(self.kernels.contact_force_D_law(at, rows[j])[0]).reshape(3)[
-                _CONTACT_SLOT[contact["law"]]])
-            for column, law in laws.items():
-                total[model.hinge_dofs[j], column] += law.value(0.0, 0.0, state.t) * slope
+            kernel = self.kernels.contact_force_D_law if kind == "contact" else self.kernels.friction_force_D_law
+            slope = float(np.asarray(kernel(at, rows[j])[0]).reshape(-1)[slot])
+            if kind == "friction" and slot == FRICTION_SLOT["stribeck_rate"]:   # through 1/v_s: −(1/v_s)² ∂f/∂(1/v_s)
+                slope *= -rows[j][0, 7] ** 2
+            for column, derivative in laws.items():
+                total[model.hinge_dofs[j], column] += derivative.value(0.0, 0.0, state.t) * slope
 
     def _key_kinds(self, key: str):
         """(the load key's match, the hinge key's match) of a parameter's use, matched once."""

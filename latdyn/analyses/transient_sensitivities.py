@@ -657,6 +657,7 @@ class TransientSensitivities(ParameterDerivatives):
         latch the consistent accelerations, M δv̇ = −(∂r/∂p + K δq + C δv); after a stop those of
         :func:`latdyn.timeloop.events.restart_accelerations`, W v̇ = −r(q, v, 0), so
         W δv̇ = −(∂r/∂p + K δq + C δv + dt² δ(K)v̇) (K exact, at the restarted v̇); δa = δv̇."""
+        self._refuse_sticking(new)
         pending = carried.get("pending")
         if pending is None:
             return carried
@@ -665,6 +666,25 @@ class TransientSensitivities(ParameterDerivatives):
             return external_work_after_event(self, carried, self._restart(carried, new, pending), new, pending["kind"])
         finally:
             self.time_shift = None
+
+    def _refuse_sticking(self, new) -> None:
+        """A joint whose friction held it at the end of the step (latdyn/timeloop/events.py stick_and_slip): its
+        slipping is differentiated (the law's rate derivative in the step's matrix, its values through the
+        generated ``friction_force_D_law``), sticking is not — refused (SceneError, exit 2) naming the joint's
+        friction (docs/parameters.md, "Friction")."""
+        stuck = np.flatnonzero(self.model.stuck)
+        if not len(stuck):
+            return
+        joint = self.model.hinges[int(stuck[0])]
+        key = (f"bodies.{joint.beam}.guide.friction" if joint.end == "guide"
+               else f"beams.{joint.beam}.{joint.end}.hinge.friction")
+        raise SceneError(self.scene.file, key,
+                         f"the joint stuck at t = {new.t:.6g} (its rate reversed or fell into the stick band and its "
+                         "holding reaction was within the static level): solve.sensitivities differentiates "
+                         "slipping friction exactly, not yet a stuck phase (the held angle's derivative carried "
+                         "beside the free coordinates) and its release; expected a run in which the joint slips "
+                         "throughout (a larger drive, a static level the reaction exceeds), or no "
+                         "solve.sensitivities (docs/parameters.md, \"Friction\")")
 
     def _restart(self, carried: dict, new, pending: dict) -> dict:
         """:meth:`after_events` at the event's time (``time_shift`` set: ∂r/∂t δt_e in ∂r/∂p)."""
