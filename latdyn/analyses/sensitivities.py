@@ -297,8 +297,6 @@ def _transient_refusal(scene) -> str | None:
     guides = [name for name, body in scene.bodies.items() if body.guide is not None]
     for name in guides:
         guide = scene.bodies[name].guide
-        if guide.position is not None:
-            return f"sensitivities of a prescribed slide (bodies.{name}.guide.position) are not computed yet"
         if (guide.lock_at is not None or guide.limits is not None) and _prescribed_motion(scene):
             return (f"sensitivities through the events of the guide of {name} (lock_at, limits) with a prescribed "
                     "motion are not computed yet (the reduction's geometric term at the event would need the "
@@ -315,9 +313,9 @@ def has_events(scene) -> bool:
 
 
 def _prescribed_motion(scene) -> bool:
-    """Whether a body's translation or rotation or a hinge's angle is prescribed in ``scene``."""
-    return any(body.prescribed for body in scene.bodies.values()) or any(
-        hinge.angle is not None for _, _, hinge in scene.hinges)
+    """Whether a body's translation or rotation, a hinge's angle or a guide's slide is prescribed in ``scene``."""
+    return any(body.prescribed or (body.guide is not None and body.guide.position is not None)
+               for body in scene.bodies.values()) or any(hinge.angle is not None for _, _, hinge in scene.hinges)
 
 
 def _events_with_controllers_in_time(scene) -> str | None:
