@@ -309,3 +309,26 @@ def test_a_joint_that_sticks_is_refused_naming_its_friction(tmp_path):
     run, out = latdyn_run(tmp_path, STUCK)
     assert run.returncode == 2, run.stderr
     assert "beams.arm.end.hinge.friction" in run.stderr and "Traceback" not in run.stderr
+    assert not out.exists()
+
+
+def test_the_dissipated_energy_of_friction_is_refused(tmp_path):
+    """The friction's work is declared dissipation (docs/contact.md); its derivative is not carried yet: an
+    ``energy: dissipated`` probe beside friction is refused before the run (exit 2 naming solve.sensitivities)."""
+    text = PLANAR.replace("    rate: {hinge: arm.end, quantity: rate}\n",
+                          "    rate: {hinge: arm.end, quantity: rate}\n    dissipated: {energy: dissipated}\n")
+    with pytest.raises(SceneError) as refused:
+        _run(text)
+    assert refused.value.key == "solve.sensitivities" and "arm.end.friction" in refused.value.expected
+    run, _ = latdyn_run(tmp_path, text)
+    assert run.returncode == 2 and "dissipated energy of friction" in run.stderr and "Traceback" not in run.stderr
+
+
+def test_the_adjoint_refuses_friction():
+    """The discrete adjoint differentiates runs without events; a joint with friction may stick (an event):
+    refused naming solve.sensitivity_method and the joint's friction."""
+    data = yaml.safe_load(PLANAR)
+    data["solve"]["sensitivity_method"] = "adjoint"
+    with pytest.raises(SceneError) as refused:
+        latdyn.run(latdyn.load_scene(data))
+    assert refused.value.key == "solve.sensitivity_method" and "arm.end.hinge.friction" in refused.value.expected

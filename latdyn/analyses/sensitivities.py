@@ -44,21 +44,24 @@ locates the limit points the rows pass, for the limit load's derivative (docs/pa
 Transient runs: :mod:`latdyn.analyses.transient_sensitivities` (the step differentiated), on
 :class:`ParameterDerivatives` (∂r/∂p with the inertia forces).
 
-Compliant stops (their law's stiffness, exponent and damping: :meth:`ParameterDerivatives._contact_forces`,
-the generated ``contact_force_D_law``) and controllers (:class:`ControllerTerms`: parameters inside their
-outputs; :class:`ControllerStates`: continuous controllers' states carried through the step;
+Compliant stops of hinges and guides (their law's stiffness, exponent and damping:
+:meth:`ParameterDerivatives._contact_forces`, the generated ``contact_force_D_law``), friction while the joint slips
+(coulomb, static, stribeck_rate, viscous, stick_rate: the generated ``friction_force_D_law``; a joint that sticks
+is refused when it does, latdyn/analyses/transient_sensitivities.py) and controllers (:class:`ControllerTerms`:
+parameters inside their outputs; :class:`ControllerStates`: continuous controllers' states carried through the step;
 :class:`SampledTerms`: sampled controllers' held outputs and states) enter ∂r/∂p of transient runs.
 
 What is refused (:func:`refusal`, exit 2 naming ``solve.sensitivities``): any analysis but static
 load control, arc length and displacement control and transient runs of an implicit method at fixed
-steps without friction (inputs are held at their values: the derivative is the one at fixed inputs), continuous controllers that read a force (a tension, a section or joint
+steps (a joint that sticks by friction refused when it does; inputs are held at their values: the derivative is the one at fixed inputs), continuous controllers that read a force (a tension, a section or joint
 force), controllers with states or sampled ones beside events (cables through their
 slack/taut events, guides with theirs: :func:`_transient_refusal`, :meth:`ControllerTerms.refusal`); a
 parameter used anywhere but in load components, numbers that place the structure (geometry parameters,
 where :func:`latdyn.analyses.geometry_sensitivities.geometry_refusal` allows them), hinge stiffness, damping,
 torque and rest angle, section
 values of shear-rigid sections (formulation default), body masses, centres of mass and inertias,
-compliant stops' laws and, in transient runs, initial velocities, controllers' outputs and states' rates,
+compliant stops' laws and, in transient runs, a guide's compliant stops' and a hinge's or guide's friction laws,
+initial velocities, controllers' outputs and states' rates,
 guides' laws and cables' EA, damping, rest length and rhoA; probes other than point positions and displacements in the
 global frame, hinge angles and guide positions and, in transient runs, rates, point velocities and joint forces
 (latdyn/analyses/joint_force_sensitivities.py), element section forces, cable tensions and lengths and points in a
@@ -223,6 +226,10 @@ def adjoint_refusal(scene) -> SceneError | None:
         where = joints[0] if joints else ("cables" if scene.cables else "a guide's lock_at or limits")
         why = (f"the adjoint differentiates runs without events, and {where} (lock_at, limits, a cable's slack "
                "and taut changes) makes events")
+    elif any(hinge.friction is not None for _, _, hinge in scene.hinges):
+        beam, which = next((beam, which) for beam, which, hinge in scene.hinges if hinge.friction is not None)
+        why = (f"the adjoint does not differentiate friction yet (beams.{beam}.{which}.hinge.friction: a joint that "
+               "sticks is an event)")
     elif any(GEOMETRY_KEY.match(used) for name in scene.solve.sensitivities
              for used in scene.parameters.depending_on(name)):
         used = next(used for name in scene.solve.sensitivities for used in scene.parameters.depending_on(name)

@@ -56,7 +56,10 @@ is taken by a central difference (:meth:`TransientSensitivities._weight_derivati
 A compliant stop's onset (``contact``) is landed on too, and its time enters through the landing
 step's size as a latch's does (:meth:`TransientSensitivities._contact_onset`); its force being continuous
 there, nothing jumps; its law's stiffness, exponent and damping enter ∂r/∂p through the generated
-``contact_force_D_law`` (docs/parameters.md, "Compliant stops").
+``contact_force_D_law`` (docs/parameters.md, "Compliant stops"); a guide's likewise, on its slide.
+Friction while a joint slips is a force of the residual like any other (its rate derivative in the exact
+matrix, its law's values through the generated ``friction_force_D_law``); a joint that sticks is refused when it
+does (:meth:`TransientSensitivities._refuse_sticking`; docs/parameters.md, "Friction").
 
 Laws in time (:class:`ExplicitTime`): where loads, hinge or guide laws, prescribed motions or a reel depend on
 t, a step's end t_{n+1} = t_n + h moves with δt_{n+1} = δt_n + δh (δt_e after an event, until a step lands on
@@ -69,7 +72,7 @@ a five-point difference in t for prescribed motions (docs/parameters.md, "Sensit
 Cables (:class:`CableSensitivities`): their EA, damping and rest length from the generated taut law, and
 their slack/taut changes as events landed on exactly, the event time differentiated from the gap's
 gradients (no jump: the discrete run neither jumps nor restarts there). Guides: a guide's laws as a
-hinge's on its slide, ∂r/∂p reduced by the projection Pᵀ, the step's K exact with the guided bodies' rates'
+hinge's on its slide (a prescribed slide as a prescribed hinge angle), ∂r/∂p reduced by the projection Pᵀ, the step's K exact with the guided bodies' rates'
 derivatives (:meth:`latdyn.assembly.assembler.Assembler.exact_matrices`: the reduction's own K is not exact); their
 latches and stops as the hinges', the impulse weight's dependence on the rates followed. Rigid links take the
 same reduction (latdyn/analyses/link_sensitivities.py). Inputs are held at their values (the derivative at fixed
