@@ -4,11 +4,13 @@
 While a joint slips its friction f = L(v) g(v/v₀) + c_v v (codegen/joints.py ``joint_contact``) is part of the
 step's residual: its derivative by the joint's rate is in the step's exact matrix (the generated ``hinge_force``'s
 ∂f/∂θ̇, as in the run's Newton matrix), its derivatives by the law's values F_c, F_s, 1/v_s, c_v, v₀ come from
-the generated ``friction_force_D_law`` (checked here against central differences of the generated force). A
-joint that sticks is refused when it does (exit 2, naming its friction). Reference: central differences of whole
-runs at p ± h and p ± h/2, Richardson-extrapolated, the time step fixed (h relative to p: 1e-2 for the values the
-force depends on weakly — F_s, v_s, v₀, whose tiny derivatives of the arm's points the differences' noise
-would swamp at 1e-4 — 1e-4 for the rest)."""
+the generated ``friction_force_D_law`` (checked here against central differences of the generated force). A stick
+and a release come at a step's end: the stick a stop's impulse with restitution 0, the held angle's δθ carried
+through K's column of it while stuck, the release a stop's restart; refused (exit 2, naming the friction) only where
+that is not followed (beside energy probes, here). A guide's compliant stops and friction, and a prescribed slide,
+too. Reference: central differences of whole runs at p ± h and p ± h/2, Richardson-extrapolated, the time step
+fixed (h relative to p: 1e-2 for the values the force depends on weakly — F_s, v_s, v₀, whose tiny derivatives of
+the arm's points the differences' noise would swamp at 1e-4 — 3e-2 for a stop's damping, 1e-4 for the rest)."""
 from __future__ import annotations
 
 import csv
@@ -105,7 +107,7 @@ bodies:
                    friction: {coulomb: "Fc", static: "Fs", stribeck_rate: "vs", viscous: "cv", stick_rate: "v0"}}}
 beams:
   arm: {from: base, to: tip, section: s, elements: 3}
-solve: {analysis: transient, dt: 0.005, t_end: 0.2, sensitivities: [kc, cc, Fc, v0]}
+solve: {analysis: transient, dt: 0.005, t_end: 0.2, sensitivities: [kc, Fc]}
 output:
   every: 0.01
   probes:
@@ -138,7 +140,7 @@ beams:
   flap: {from: slider, to: flap_tip, section: f, elements: 1,
          start: {hinge: {axis: [1, -2, 2], stiffness: "k", rest_angle: 1.0, damping: 0.01,
                          limits: [-1, 0.05], contact: {stiffness: "kc", exponent: 1.5, damping: 0.5}}}}
-solve: {analysis: transient, dt: 0.005, t_end: 0.12, sensitivities: [k, kc, EI]}
+solve: {analysis: transient, dt: 0.005, t_end: 0.12, sensitivities: [k, kc]}
 output:
   every: 0.01
   probes:
@@ -223,11 +225,11 @@ def test_the_friction_laws_derivative_kernel_agrees_with_differences_of_the_gene
         assert np.any(computed)
 
 
-@pytest.mark.parametrize("name", ["Fc", "Fs", "vs", "cv", "v0", "EI", "F"])
+@pytest.mark.parametrize("name", ["Fc", "Fs", "vs", "cv", "v0"])
 def test_planar_slipping_friction_agrees_with_richardson_differences(planar, name):
     """Planar (7 coordinates), slipping throughout (rate ≥ 0, tried for sticking and let slip). Measured, of
-    each probe's largest sensitivity: Fc 3.3e-7, Fs 3.1e-7, vs 3.6e-7, cv 2.3e-7, v0 2.9e-7, EI 3.8e-8,
-    F 6.2e-8 (the largest on the arm's midpoint's x, whose derivatives by the friction are 1e-4 to 1e-6 m).
+    each probe's largest sensitivity: Fc 3.3e-7, Fs 3.1e-7, vs 3.6e-7, cv 2.3e-7, v0 2.9e-7 (EI 3.8e-8, F 6.2e-8
+    when tried; the largest on the arm's midpoint's x, whose derivatives by the friction are 1e-4 to 1e-6 m).
     Without the friction's rate derivative in the step's matrix (tried once) Fc, cv and EI were off by 6.1e-2,
     5.0e-2 and 3.1e-2."""
     assert planar.summary["coordinates"] == 7 and planar.probes["rate"].min() >= 0.0
@@ -235,21 +237,22 @@ def test_planar_slipping_friction_agrees_with_richardson_differences(planar, nam
     assert max(errors.values()) <= 1e-6, errors
 
 
-@pytest.mark.parametrize("name", ["Fc", "Fs", "vs", "cv", "v0", "EI", "F"])
+@pytest.mark.parametrize("name", ["Fc", "cv", "EI", "F"])
 def test_skew_slipping_friction_agrees_with_richardson_differences(skew, name):
     """3D (13 coordinates): a skew hinge axis, a flexible arm out of the coordinate planes, gravity, the joint's
     torque (its law with the friction: latdyn/analyses/joint_force_sensitivities.py) among the probes. Measured:
-    Fc 6.7e-8, Fs 2.0e-8, vs 5.1e-8, cv 4.8e-8, v0 5.1e-8, EI 1.9e-9, F 2.6e-7."""
+    Fc 6.7e-8, cv 4.8e-8, EI 1.9e-9, F 2.6e-7 (Fs 2.0e-8, vs 5.1e-8, v0 5.1e-8 when tried)."""
     assert skew.summary["coordinates"] == 13
     errors = _errors(skew, SKEW, name)
     assert max(errors.values()) <= 1e-6, errors
 
 
-@pytest.mark.parametrize("name", ["kc", "cc", "Fc", "v0"])
+@pytest.mark.parametrize("name", ["kc", "Fc"])
 def test_a_guides_compliant_stop_and_friction_agree_with_richardson_differences(guided, name):
     """A guide's compliant stops as a hinge's (the onset landed on, the law through ``contact_force_D_law``)
     and its friction as a hinge's, on the slide, through the guides' reduction; the guide's force probed.
-    Measured: kc …, cc …, Fc …, v0 … (nc 3.6e-9, Fs 5.4e-7, vs 3.3e-7, EI 1.0e-8, P 1.2e-7 when tried)."""
+    Measured: kc 4.2e-9, Fc 1.0e-7 (cc 6.6e-9, v0 7.6e-7, nc 3.6e-9, Fs 5.4e-7, vs 3.3e-7, EI 1.0e-8, P 1.2e-7 when
+    tried)."""
     result = guided
     assert result.summary["coordinates"] == 19 and result.summary["steps"] > 40   # landed on the onset
     assert result.probes["s"].max() > 0.06 and result.probes["s_rate"].min() < -0.5   # into the stop and out
@@ -257,11 +260,11 @@ def test_a_guides_compliant_stop_and_friction_agree_with_richardson_differences(
     assert max(errors.values()) <= 1e-6, errors
 
 
-@pytest.mark.parametrize("name", ["k", "kc", "EI"])
+@pytest.mark.parametrize("name", ["k", "kc"])
 def test_a_prescribed_slide_agrees_with_richardson_differences(name):
     """A prescribed slide as a prescribed hinge angle: its coordinate's derivative 0, its reaction (the guide's
     force probe) differentiated as a held joint's, its motion's time derivative in ∂r/∂t where the flap's stop
-    onset moves a step's end. Measured: k 6.8e-8, kc 1.7e-7, EI 1.2e-7 (the guide's force the largest; m 6.0e-9
+    onset moves a step's end. Measured: k 6.8e-8, kc 1.7e-7 (the guide's force the largest; EI 1.2e-7, m 6.0e-9
     when tried). Left out of ∂r/∂t (the slide not counted a prescribed motion), k was off by 8.1."""
     result = _run(PRESCRIBED, name)
     angle = result.probes["angle"]
@@ -320,7 +323,7 @@ bodies:
 beams:
   arm: {from: base, to: panel, section: s, elements: 2,
         end: {hinge: {axis: [1, -2, 0], torque: "A*t", friction: {coulomb: "Fc", static: "Fs"}}}}
-solve: {analysis: transient, t_end: 0.4, dt: 0.01, tol: 1.0e-12, sensitivities: [Fc, A, EI, m]}
+solve: {analysis: transient, t_end: 0.4, dt: 0.01, tol: 1.0e-12, sensitivities: [Fc, EI]}
 output:
   probes:
     angle: {hinge: arm.end, quantity: angle}
@@ -341,21 +344,22 @@ def stuck_3d():
     return _run(STUCK_3D)
 
 
-@pytest.mark.parametrize("name", ["Fc", "A", "EI", "m"])
+@pytest.mark.parametrize("name", ["Fc", "A", "m"])
 def test_sticking_and_release_agree_with_richardson_differences(stuck, name):
     """Planar: stuck from the first step's end to t = 0.31, then slipping (the derivative of the stick's impulse, the
-    held angle's δθ through K's column of it while stuck, the release's restart). Measured: Fc 1.8e-9, A 1.2e-9,
-    EI 4.1e-10, m 2.3e-10."""
+    held angle's δθ through K's column of it while stuck, the release's restart). Measured: Fc 1.9e-9, A 1.2e-9,
+    m 2.3e-10 (EI 4.1e-10 when tried)."""
     rate = stuck.probes["rate"]
     assert np.all(rate[1:31] == 0.0) and np.all(rate[32:] > 0.0)
     errors = _errors(stuck, STUCK, name)
     assert max(errors.values()) <= 1e-6, errors
 
 
-@pytest.mark.parametrize("name", ["Fc", "A", "EI", "m"])
+@pytest.mark.parametrize("name", ["Fc", "EI"])
 def test_sticking_on_and_off_in_3d_agrees_with_richardson_differences(stuck_3d, name):
     """3D, flexible: two sticks and releases, the stuck joint's torque (its reaction, with its own law's and the held
-    angle's terms) among the probes. Measured: Fc …, A …, EI …, m …. At Newton's default tolerance (1e-8) Fc's
+    angle's terms) among the probes. Measured: Fc 9.6e-8, EI 6.0e-8 (A 3.9e-8, m 7.2e-8 when tried; with a spring
+    k = 0.5 on the hinge: k 7.6e-8, A 3.7e-8). At Newton's default tolerance (1e-8) Fc's
     were 4.3e-6 off (the slipping steps' iterates, not the derivative: 9e-8 at 1e-13; A, EI, m ≤ 3e-8 either way)."""
     t, rate = stuck_3d.t, stuck_3d.probes["rate"]
     held = np.round(t[(rate == 0.0) & (t > 0)], 6)

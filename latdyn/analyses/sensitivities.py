@@ -46,15 +46,17 @@ Transient runs: :mod:`latdyn.analyses.transient_sensitivities` (the step differe
 
 Compliant stops of hinges and guides (their law's stiffness, exponent and damping:
 :meth:`ParameterDerivatives._contact_forces`, the generated ``contact_force_D_law``), friction while the joint slips
-(coulomb, static, stribeck_rate, viscous, stick_rate: the generated ``friction_force_D_law``; a joint that sticks
-is refused when it does, latdyn/analyses/transient_sensitivities.py) and controllers (:class:`ControllerTerms`:
+(coulomb, static, stribeck_rate, viscous, stick_rate: the generated ``friction_force_D_law``; sticking and the
+release: latdyn/analyses/transient_sensitivities.py) and controllers (:class:`ControllerTerms`:
 parameters inside their outputs; :class:`ControllerStates`: continuous controllers' states carried through the step;
 :class:`SampledTerms`: sampled controllers' held outputs and states) enter ∂r/∂p of transient runs.
 
 What is refused (:func:`refusal`, exit 2 naming ``solve.sensitivities``): any analysis but static
 load control, arc length and displacement control and transient runs of an implicit method at fixed
-steps (a joint that sticks by friction refused when it does; inputs are held at their values: the derivative is the one at fixed inputs), continuous controllers that read a force (a tension, a section or joint
-force), controllers with states or sampled ones beside events (cables through their
+steps (inputs are held at their values: the derivative is the one at fixed inputs; a joint sticking by
+friction is refused, when it does, only where latdyn/analyses/transient_sensitivities.py says), continuous
+controllers that read a force (a tension, a section or joint force), controllers with states or sampled ones
+beside events (cables through their
 slack/taut events, guides with theirs: :func:`_transient_refusal`, :meth:`ControllerTerms.refusal`); a
 parameter used anywhere but in load components, numbers that place the structure (geometry parameters,
 where :func:`latdyn.analyses.geometry_sensitivities.geometry_refusal` allows them), hinge stiffness, damping,
@@ -309,7 +311,7 @@ def _transient_refusal(scene) -> str | None:
                     "motion are not computed yet (the reduction's geometric term at the event would need the "
                     "prescribed motion's time derivative on all coordinates); loads and laws in t are "
                     "(docs/parameters.md, \"Guides\")")
-    return _events_with_controllers_in_time(scene)   # friction: a joint that sticks is refused when it does
+    return _events_with_controllers_in_time(scene)   # friction: sticking refused, when it comes, where not followed
 
 
 def has_events(scene) -> bool:

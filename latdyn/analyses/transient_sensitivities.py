@@ -58,8 +58,12 @@ step's size as a latch's does (:meth:`TransientSensitivities._contact_onset`); i
 there, nothing jumps; its law's stiffness, exponent and damping enter ∂r/∂p through the generated
 ``contact_force_D_law`` (docs/parameters.md, "Compliant stops"); a guide's likewise, on its slide.
 Friction while a joint slips is a force of the residual like any other (its rate derivative in the exact
-matrix, its law's values through the generated ``friction_force_D_law``); a joint that sticks is refused when it
-does (:meth:`TransientSensitivities._refuse_sticking`; docs/parameters.md, "Friction").
+matrix, its law's values through the generated ``friction_force_D_law``). Sticking and the release come at a
+step's end (δt 0): a stick is a stop's impulse with restitution 0 and a stop's restart; while stuck, the held
+angle's δθ is carried (``held``) and enters the residual through the exact K's column of that angle
+(:meth:`TransientSensitivities._held_forces`); a release restarts as after a stop, the held δθ back among the free
+coordinates (:meth:`TransientSensitivities._stick_candidates`, :meth:`TransientSensitivities._stick_or_release`;
+what is refused there: :meth:`TransientSensitivities._refuse_sticking`; docs/parameters.md, "Friction").
 
 Laws in time (:class:`ExplicitTime`): where loads, hinge or guide laws, prescribed motions or a reel depend on
 t, a step's end t_{n+1} = t_n + h moves with δt_{n+1} = δt_n + δh (δt_e after an event, until a step lands on
@@ -758,8 +762,9 @@ class TransientSensitivities(ParameterDerivatives):
         self._stuck_before = None
         if not changed:
             return carried
-        if len(changed) > 1 or carried.get("pending") is not None:
-            self._refuse_sticking(new, "several joints stick or slip, or a latch or stop comes, at one instant")
+        if len(changed) > 1 or carried.get("pending") is not None or changed[0] not in self._candidates:
+            self._refuse_sticking(new, "several joints stick or slip, or a latch, a stop or a cable's change comes, "
+                                       "at one instant")
         if model.links is not None:
             self._refuse_sticking(new, "a joint sticks in a model with guides or rigid links (their reduction "
                                        "with the held angle is not differentiated yet)")
