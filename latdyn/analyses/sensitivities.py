@@ -644,7 +644,7 @@ class ParameterDerivatives:
             at = np.array([[float(state.theta[j]), float(state.theta_dot[j]), model.hinges[j].rest_angle, 1.0]])
             kernel = self.kernels.contact_force_D_law if kind == "contact" else self.kernels.friction_force_D_law
             slope = float(np.asarray(kernel(at, rows[j])[0]).reshape(-1)[slot])
-            if kind == "friction" and slot == FRICTION_SLOT["stribeck_rate"]:   # through 1/v_s: −(1/v_s)² ∂f/∂(1/v_s)
+            if kind == "friction" and slot == FRICTION_SLOT["stribeck_rate"]:   # −(1/v_s)² ∂f/∂(1/v_s)
                 slope *= -rows[j][0, 7] ** 2
             for column, derivative in laws.items():
                 total[model.hinge_dofs[j], column] += derivative.value(0.0, 0.0, state.t) * slope

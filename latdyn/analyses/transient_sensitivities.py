@@ -76,7 +76,8 @@ a five-point difference in t for prescribed motions (docs/parameters.md, "Sensit
 Cables (:class:`CableSensitivities`): their EA, damping and rest length from the generated taut law, and
 their slack/taut changes as events landed on exactly, the event time differentiated from the gap's
 gradients (no jump: the discrete run neither jumps nor restarts there). Guides: a guide's laws as a
-hinge's on its slide (a prescribed slide as a prescribed hinge angle), ∂r/∂p reduced by the projection Pᵀ, the step's K exact with the guided bodies' rates'
+hinge's on its slide (a prescribed slide as a prescribed hinge angle), ∂r/∂p reduced by the projection Pᵀ,
+the step's K exact with the guided bodies' rates'
 derivatives (:meth:`latdyn.assembly.assembler.Assembler.exact_matrices`: the reduction's own K is not exact); their
 latches and stops as the hinges', the impulse weight's dependence on the rates followed. Rigid links take the
 same reduction (latdyn/analyses/link_sensitivities.py). Inputs are held at their values (the derivative at fixed
