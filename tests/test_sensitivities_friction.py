@@ -368,6 +368,20 @@ def test_sticking_on_and_off_in_3d_agrees_with_richardson_differences(stuck_3d, 
     assert max(errors.values()) <= 1e-6, errors
 
 
+def test_the_cli_writes_a_stuck_runs_sensitivities(tmp_path, stuck):
+    """``python -m latdyn run`` on the stuck panel as typed: sensitivities.csv holds what the API gives, the held
+    angle's δθ in the angle's columns while stuck."""
+    run, out = latdyn_run(tmp_path, STUCK)
+    assert run.returncode == 0, run.stderr
+    with open(out / "sensitivities.csv") as f:
+        rows = list(csv.reader(f))
+    for column in ("angle/Fc", "angle/A", "rate/m", "py/EI"):
+        values = np.array([float(r[rows[0].index(column)]) for r in rows[1:]])
+        probe, name = column.split("/")
+        assert np.allclose(values, stuck.sensitivities[(probe, name)], rtol=1e-12, atol=0), column
+    assert np.any(stuck.sensitivities[("angle", "A")][1:31])   # the held angle moves with the drive
+
+
 def test_a_stuck_run_resumes_to_the_same_sensitivities(tmp_path, monkeypatch):
     """The held angles' δθ ride in the checkpoint with the rest: interrupted while the panel is stuck, resumed,
     sensitivities.csv is the uninterrupted one byte for byte."""
