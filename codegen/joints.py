@@ -457,6 +457,24 @@ def _contact_law_derivative_kernel() -> KernelSpec:
                       equations="Hunt-Crossley contact", intermediates=branch_free.intermediates)
 
 
+def _friction_law_derivative_kernel() -> KernelSpec:
+    """∂f/∂(F_c, F_s, 1/v_s, c_v, v₀) of a joint's friction force (:func:`joint_contact`) at its (θ, θ̇) while
+    it slips: the right-hand sides of sensitivities by the friction's coulomb, static, stribeck_rate (through
+    1/v_s: ∂f/∂v_s = −(1/v_s)² ∂f/∂(1/v_s)), viscous and stick_rate values
+    (latdyn/analyses/sensitivities.py), differentiated from the same expression as the force the residual holds."""
+    state, contact = HINGE_STATE.symbols(), JOINT_CONTACT.symbols()
+    branch_free = _BranchFree()
+    force, _, _ = joint_contact(state[0], state[1], contact)
+    law = [contact[5], contact[6], contact[7], contact[9], contact[10]]   # coulomb static inverse viscous stick
+    outputs = [Output("friction_force_D_law", (5,), [branch_free(sp.diff(force, symbol)) for symbol in law],
+                      "∂f_friction/∂(F_c, F_s, 1/v_s, c_v, v₀): the slipping friction's force L(v) g(v/v₀) + c_v v by "
+                      "its law's values (the compliant stop's force depends on none of them)")]
+    return KernelSpec(name="friction_force_D_law", doc="The derivatives of a joint's slipping friction force "
+                      "(Coulomb-Stribeck-viscous, regularised below the stick rate) by its law's values",
+                      inputs=[HINGE_STATE, JOINT_CONTACT], outputs=outputs, variant="joints",
+                      equations="Coulomb-Stribeck-viscous friction", intermediates=branch_free.intermediates)
+
+
 CABLE_GEOMETRY = Argument("cable_geometry", 12, "x1[3] x2[3] o1[3] o2[3]: the reference points of the nodes at the "
                           "element's ends and the offsets T_i r_i of its end points from them, global")
 CABLE_VELOCITY = Argument("cable_velocity", 12, "v1[3] w1[3] v2[3] w2[3]: velocities of the reference points and "
@@ -880,7 +898,8 @@ def _closure_wrench_kernel(rod: bool) -> KernelSpec:
 def build_kernels() -> list[KernelSpec]:
     """The kernels of the ``joints`` unit."""
     return [*_joint_body_kernels(), _point_load_kernel(), _hinged_end_kernel(), _hinge_force_kernel(),
-            _contact_law_derivative_kernel(), _so3_exp_kernel(), _link_edge_kernel(), _hinge_wrench_kernel(), _root_wrench_kernel(),
+            _contact_law_derivative_kernel(), _friction_law_derivative_kernel(), _so3_exp_kernel(), _link_edge_kernel(),
+            _hinge_wrench_kernel(), _root_wrench_kernel(),
             _link_edge_kernel(prismatic=True), _slide_wrench_kernel(), _cable_force_kernel(), _cable_tension_kernel(),
             _closure_edge_kernel(rod=False), _closure_edge_kernel(rod=True), _closure_wrench_kernel(rod=False),
             _closure_wrench_kernel(rod=True),

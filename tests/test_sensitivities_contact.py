@@ -116,18 +116,10 @@ def test_sensitivities_through_a_compliant_stop_agree_with_richardson_difference
         assert error <= 1e-6, (probe, name, error)
 
 
-def test_friction_stays_refused():
-    data = yaml.safe_load(WHEEL)
-    data["beams"]["arm"]["end"]["hinge"]["friction"] = {"coulomb": 0.01}
-    with pytest.raises(SceneError) as info:
-        latdyn.run(latdyn.load_scene(data))
-    assert info.value.key == "solve.sensitivities" and "friction" in info.value.expected
-
-
 def test_the_cli_writes_the_same_sensitivities(tmp_path, wheel):
     """``python -m latdyn run`` on the scene as typed: sensitivities.csv (t first) holds what the API
-    gives (friction's refusal: test_friction_stays_refused; the CLI's exit 2 for a refusal:
-    tests/test_sensitivities.py)."""
+    gives (the CLI's exit 2 for a refusal: tests/test_sensitivities.py; friction:
+    tests/test_sensitivities_friction.py)."""
     run, out = latdyn_run(tmp_path, WHEEL)
     assert run.returncode == 0, run.stderr
     with open(out / "sensitivities.csv") as f:

@@ -191,20 +191,6 @@ def test_the_step_matrix_of_guided_bodies_is_the_exact_derivative_of_the_residua
     assert np.abs(dK - reduction).max() >= 1e-6 * np.abs(dK).max()   # what the exact K adds is not round-off
 
 
-def test_guide_events_with_laws_in_time_and_friction_are_refused_naming_the_key(tmp_path):
-    """Friction on a guide is refused before the run (exit 2 from the CLI, naming solve.sensitivities and
-    the guided body, no traceback). (A latch on a guide whose rod turns by a prescribed motion is
-    differentiated now: test_a_guide_latching_or_bouncing_on_a_prescribed_motion_agrees_with_richardson_differences.)"""
-    from tests.cli_runs import latdyn_run
-
-    rubbing = GUIDE_3D.replace('rest: "rest"}}', 'rest: "rest", friction: {coulomb: 0.1}}}')
-    with pytest.raises(SceneError, match="friction") as refused:
-        _run(rubbing)
-    assert refused.value.key == "solve.sensitivities"
-    run, _ = latdyn_run(tmp_path, rubbing.replace("'on'", "on"))
-    assert run.returncode == 2 and "solve.sensitivities" in run.stderr and "Traceback" not in run.stderr
-
-
 def test_the_cli_writes_a_guided_runs_sensitivities_and_the_api_gives_the_same(tmp_path, bead):
     """``python -m latdyn run`` on the bead as typed: sensitivities.csv (a guide position probe among the
     columns) and summary.json probe_sensitivities equal to the API's run."""

@@ -143,6 +143,9 @@ def _why_not(scene, probe) -> str | None:
                         "derivative by it is not computed yet (by their stiffness it is)")
     if probe.kind == "energy" and quantity == "dissipated" and scene.solve.analysis == "transient":
         for beam, which, hinge in scene.hinges:
+            if hinge.friction is not None:   # its torque is not among _damper_torques' (a guide's: refused above)
+                return (f"the dissipated energy of friction ({beam}.{which}.friction: the work of its torque) is not "
+                        "differentiated yet")
             if hinge.lock_at is not None or hinge.limits is not None:
                 return (f"the dissipated energy through the events of {beam}.{which} (lock_at, limits: a latch's or "
                         "an impact's loss, a compliant stop's damping) is not differentiated yet")

@@ -27,5 +27,26 @@ CONTACT_KEY = re.compile(r"^beams\.(?P<beam>.+)\.(?P<end>start|end)\.hinge\.cont
                           r"(?P<law>stiffness|exponent|damping)$")
 #: the slots of the law in the generated kernel's output
 CONTACT_SLOT = {"stiffness": 0, "exponent": 1, "damping": 2}
+#: a guide's compliant stops' law (transient runs: as a hinge's, on its slide)
+GUIDE_CONTACT_KEY = re.compile(r"^bodies\.(?P<body>[^.]+)\.guide\.contact\.(?P<law>stiffness|exponent|damping)$")
+#: a hinge's or guide's friction law (transient runs: ∂f/∂(F_c, F_s, 1/v_s, c_v, v₀) from the generated
+#: ``friction_force_D_law`` while the joint slips)
+FRICTION_KEY = re.compile(r"^(?:beams\.(?P<beam>.+)\.(?P<end>start|end)\.hinge|bodies\.(?P<body>[^.]+)\.guide)"
+                          r"\.friction\.(?P<law>coulomb|static|stribeck_rate|viscous|stick_rate)$")
+#: the slots of the friction law in the generated kernel's output
+FRICTION_SLOT = {"coulomb": 0, "static": 1, "stribeck_rate": 2, "viscous": 3, "stick_rate": 4}
+
+
+def joint_law(key: str):
+    """(beam or guided body, end or "guide", "contact" or "friction", its slot in the generated kernel's output)
+    of a compliant stop's or friction's law at ``key`` (a hinge's or a guide's), or None."""
+    for pattern, kind, slots in ((CONTACT_KEY, "contact", CONTACT_SLOT), (GUIDE_CONTACT_KEY, "contact", CONTACT_SLOT),
+                                 (FRICTION_KEY, "friction", FRICTION_SLOT)):
+        match = pattern.match(key)
+        if match:
+            groups = match.groupdict()
+            beam, end = (groups["beam"], groups["end"]) if groups.get("beam") else (groups["body"], "guide")
+            return beam, end, kind, slots[groups["law"]]
+    return None
 #: a continuous controller's output law (transient runs: ∂y/∂p through the sensors' values, ControllerTerms)
 CONTROLLER_KEY = re.compile(r"^controllers\.(?P<name>[^.]+)\.(?:output|states\.(?P<state>[^.]+))$")

@@ -44,21 +44,26 @@ locates the limit points the rows pass, for the limit load's derivative (docs/pa
 Transient runs: :mod:`latdyn.analyses.transient_sensitivities` (the step differentiated), on
 :class:`ParameterDerivatives` (∂r/∂p with the inertia forces).
 
-Compliant stops (their law's stiffness, exponent and damping: :meth:`ParameterDerivatives._contact_forces`,
-the generated ``contact_force_D_law``) and controllers (:class:`ControllerTerms`: parameters inside their
-outputs; :class:`ControllerStates`: continuous controllers' states carried through the step;
+Compliant stops of hinges and guides (their law's stiffness, exponent and damping:
+:meth:`ParameterDerivatives._contact_forces`, the generated ``contact_force_D_law``), friction while the joint slips
+(coulomb, static, stribeck_rate, viscous, stick_rate: the generated ``friction_force_D_law``; sticking and the
+release: latdyn/analyses/transient_sensitivities.py) and controllers (:class:`ControllerTerms`:
+parameters inside their outputs; :class:`ControllerStates`: continuous controllers' states carried through the step;
 :class:`SampledTerms`: sampled controllers' held outputs and states) enter ∂r/∂p of transient runs.
 
 What is refused (:func:`refusal`, exit 2 naming ``solve.sensitivities``): any analysis but static
 load control, arc length and displacement control and transient runs of an implicit method (fixed steps,
-or adaptive ones where :func:`latdyn.analyses.adaptive_sensitivities.refusal` allows them) without friction (inputs are held at their values: the derivative is the one at fixed inputs), continuous controllers that read a force (a tension, a section or joint
-force), controllers whose states' rates name t beside events (cables through their
+or adaptive ones where :func:`latdyn.analyses.adaptive_sensitivities.refusal` allows them; inputs are held at
+their values: the derivative is the one at fixed inputs; a joint sticking by friction is refused, when it does,
+only where latdyn/analyses/transient_sensitivities.py says), continuous controllers that read a force (a
+tension, a section or joint force), controllers whose states' rates name t beside events (cables through their
 slack/taut events, guides with theirs: :func:`_transient_refusal`, :meth:`ControllerTerms.refusal`); a
 parameter used anywhere but in load components, numbers that place the structure (geometry parameters,
 where :func:`latdyn.analyses.geometry_sensitivities.geometry_refusal` allows them), hinge stiffness, damping,
 torque and rest angle, section
 values of shear-rigid sections (formulation default), body masses, centres of mass and inertias,
-compliant stops' laws and, in transient runs, initial velocities, controllers' outputs and states' rates,
+compliant stops' laws and, in transient runs, a guide's compliant stops' and a hinge's or guide's friction laws,
+initial velocities, controllers' outputs and states' rates,
 guides' laws and cables' EA, damping, rest length and rhoA; probes other than point positions and displacements in the
 global frame, hinge angles and guide positions and, in transient runs, rates, point velocities and joint forces
 (latdyn/analyses/joint_force_sensitivities.py), element section forces, cable tensions and lengths and points in a
@@ -102,7 +107,7 @@ from latdyn.analyses.parameter_keys import (  # noqa: F401  re-exported under th
     LOAD_KEY as _LOAD_KEY, SECTION_KEY as _SECTION_KEY, SECTION_COLUMN as _SECTION_COLUMN, BODY_KEY as
     _BODY_KEY, INITIAL_VELOCITY_KEY as _INITIAL_VELOCITY_KEY, GUIDE_KEY as _GUIDE_KEY, GUIDE_LAW as
     _GUIDE_LAW, CABLE_KEY as _CABLE_KEY, HINGE_KEY as _HINGE_KEY, CONTACT_KEY as _CONTACT_KEY, CONTACT_SLOT as
-    _CONTACT_SLOT, CONTROLLER_KEY as _CONTROLLER_KEY)
+    _CONTACT_SLOT, CONTROLLER_KEY as _CONTROLLER_KEY, FRICTION_SLOT, joint_law)
 
 
 def refusal(scene) -> SceneError | None:
@@ -134,7 +139,8 @@ def refusal(scene) -> SceneError | None:
         for used in scene.parameters.depending_on(name):
             section = _SECTION_KEY.match(used)
             initial = solve.analysis == "transient" and (_INITIAL_VELOCITY_KEY.match(used) or _CONTROLLER_KEY.match(used)
-                                                         or _cable_use(scene, used) or _GUIDE_KEY.match(used))
+                                                         or _cable_use(scene, used) or _GUIDE_KEY.match(used)
+                                                         or joint_law(used))
             if GEOMETRY_KEY.match(used):   # a number that places the structure (geometry_sensitivities.py)
                 why = geometry_refusal(scene, name, used)
                 if why is not None:
@@ -151,7 +157,9 @@ def refusal(scene) -> SceneError | None:
                               "stiffness, damping, torque and rest_angle, of section "
                               "stiffnesses and masses (shear-rigid), of body masses, centres of mass and "
                               "inertias, of a hinge's compliant stops (contact.stiffness, .exponent, .damping) "
-                              "and, in transient runs, of initial_velocity.linear and .angular, of controllers' "
+                              "and, in transient runs, of a guide's compliant stops, of a hinge's or guide's "
+                              "friction (coulomb, static, stribeck_rate, viscous, stick_rate), of "
+                              "initial_velocity.linear and .angular, of controllers' "
                               "outputs and states' rates (controllers.NAME.output, .states.S), of guides' "
                               "stiffness, damping, "
                               "force and rest, and of cables' EA, damping, rest_length and rhoA (> 0) only")
@@ -223,6 +231,10 @@ def adjoint_refusal(scene) -> SceneError | None:
         where = joints[0] if joints else ("cables" if scene.cables else "a guide's lock_at or limits")
         why = (f"the adjoint differentiates runs without events, and {where} (lock_at, limits, a cable's slack "
                "and taut changes) makes events")
+    elif any(hinge.friction is not None for _, _, hinge in scene.hinges):
+        beam, which = next((beam, which) for beam, which, hinge in scene.hinges if hinge.friction is not None)
+        why = (f"the adjoint does not differentiate friction yet (beams.{beam}.{which}.hinge.friction: a joint that "
+               "sticks is an event)")
     elif any(GEOMETRY_KEY.match(used) for name in scene.solve.sensitivities
              for used in scene.parameters.depending_on(name)):
         used = next(used for name in scene.solve.sensitivities for used in scene.parameters.depending_on(name)
@@ -288,19 +300,7 @@ def _transient_refusal(scene) -> str | None:
     why = ControllerTerms.refusal(scene)
     if why is not None:
         return why
-    guides = [name for name, body in scene.bodies.items() if body.guide is not None]
-    for name in guides:
-        guide = scene.bodies[name].guide
-        if guide.position is not None:
-            return f"sensitivities of a prescribed slide (bodies.{name}.guide.position) are not computed yet"
-        if guide.contact is not None or guide.friction is not None:
-            return (f"sensitivities through a guide's compliant stops and friction (bodies.{name}.guide: sticking and "
-                    "the stops' contact are events) are not computed yet")
-    for beam, which, hinge in scene.hinges:
-        if hinge.friction is not None:
-            return (f"sensitivities through friction ({beam}.{which}: sticking and slipping are events of a "
-                    "law that changes there) are not computed yet; compliant stops (contact) are")
-    return None
+    return None   # friction: sticking refused, when it comes, where not followed
 
 
 def has_events(scene) -> bool:
@@ -311,9 +311,9 @@ def has_events(scene) -> bool:
 
 
 def _prescribed_motion(scene) -> bool:
-    """Whether a body's translation or rotation or a hinge's angle is prescribed in ``scene``."""
-    return any(body.prescribed for body in scene.bodies.values()) or any(
-        hinge.angle is not None for _, _, hinge in scene.hinges)
+    """Whether a body's translation or rotation, a hinge's angle or a guide's slide is prescribed in ``scene``."""
+    return any(body.prescribed or (body.guide is not None and body.guide.position is not None)
+               for body in scene.bodies.values()) or any(hinge.angle is not None for _, _, hinge in scene.hinges)
 
 
 def _cable_use(scene, used: str) -> bool:
@@ -594,23 +594,28 @@ class ParameterDerivatives:
                 total[model.node_dofs[node], column] += force
 
     def _contact_forces(self, state, total: np.ndarray) -> None:
-        """Add ∂f/∂p of the hinges whose compliant stops' stiffness, exponent or damping name a
-        parameter into ``total``: the generated ``contact_force_D_law`` (∂f_contact/∂(k, n, c) at the
-        hinge's θ, θ̇; zero outside contact) times the law's derivative by the parameter."""
+        """Add ∂f/∂p of the hinges and guides whose compliant stops' stiffness, exponent or damping or whose
+        friction's coulomb, static, stribeck_rate, viscous or stick_rate name a parameter into ``total``: the
+        generated ``contact_force_D_law`` (∂f_contact/∂(k, n, c) at the joint's θ, θ̇; zero outside contact)
+        or ``friction_force_D_law`` (∂f_friction/∂(F_c, F_s, 1/v_s, c_v, v₀) of the slipping law; a stuck
+        joint's coordinate is no free one) times the law's derivative by the parameter."""
         model = self.model
         for key, laws in self.derivatives.items():
-            contact = _CONTACT_KEY.match(key)
-            if not contact:
+            law = joint_law(key)
+            if law is None:
                 continue
-            j = model.hinge_index(contact["beam"], contact["end"])
+            beam, end, kind, slot = law
+            j = model.hinge_index(beam, end)
             rows = self.__dict__.setdefault("_contact_rows", {})
             if j not in rows:
                 rows[j] = np.ascontiguousarray(joint_contact_rows([model.hinges[j]]))
             at = np.array([[float(state.theta[j]), float(state.theta_dot[j]), model.hinges[j].rest_angle, 1.0]])
-            slope = float(np.asarray(self.kernels.contact_force_D_law(at, rows[j])[0]).reshape(3)[
-                _CONTACT_SLOT[contact["law"]]])
-            for column, law in laws.items():
-                total[model.hinge_dofs[j], column] += law.value(0.0, 0.0, state.t) * slope
+            kernel = self.kernels.contact_force_D_law if kind == "contact" else self.kernels.friction_force_D_law
+            slope = float(np.asarray(kernel(at, rows[j])[0]).reshape(-1)[slot])
+            if kind == "friction" and slot == FRICTION_SLOT["stribeck_rate"]:   # −(1/v_s)² ∂f/∂(1/v_s)
+                slope *= -rows[j][0, 7] ** 2
+            for column, derivative in laws.items():
+                total[model.hinge_dofs[j], column] += derivative.value(0.0, 0.0, state.t) * slope
 
     def _key_kinds(self, key: str):
         """(the load key's match, the hinge key's match) of a parameter's use, matched once."""

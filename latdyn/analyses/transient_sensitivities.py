@@ -57,7 +57,14 @@ is taken by a central difference (:meth:`TransientSensitivities._weight_derivati
 A compliant stop's onset (``contact``) is landed on too, and its time enters through the landing
 step's size as a latch's does (:meth:`TransientSensitivities._contact_onset`); its force being continuous
 there, nothing jumps; its law's stiffness, exponent and damping enter ∂r/∂p through the generated
-``contact_force_D_law`` (docs/parameters.md, "Compliant stops").
+``contact_force_D_law`` (docs/parameters.md, "Compliant stops"); a guide's likewise, on its slide.
+Friction while a joint slips is a force of the residual like any other (its rate derivative in the exact
+matrix, its law's values through the generated ``friction_force_D_law``). Sticking and the release come at a
+step's end (δt 0): a stick is a stop's impulse with restitution 0 and a stop's restart; while stuck, the held
+angle's δθ is carried (``held``) and enters the residual through the exact K's column of that angle
+(:meth:`TransientSensitivities._held_forces`); a release restarts as after a stop, the held δθ back among the free
+coordinates (:meth:`TransientSensitivities._stick_candidates`, :meth:`TransientSensitivities._stick_or_release`;
+what is refused there: :meth:`TransientSensitivities._refuse_sticking`; docs/parameters.md, "Friction").
 
 Laws in time (:class:`ExplicitTime`): where loads, hinge or guide laws, prescribed motions or a reel depend on
 t, a step's end t_{n+1} = t_n + h moves with δt_{n+1} = δt_n + δh (δt_e after an event, until a step lands on
@@ -70,7 +77,8 @@ a five-point difference in t for prescribed motions (docs/parameters.md, "Sensit
 Cables (:class:`CableSensitivities`): their EA, damping and rest length from the generated taut law, and
 their slack/taut changes as events landed on exactly, the event time differentiated from the gap's
 gradients (no jump: the discrete run neither jumps nor restarts there). Guides: a guide's laws as a
-hinge's on its slide, ∂r/∂p reduced by the projection Pᵀ, the step's K exact with the guided bodies' rates'
+hinge's on its slide (a prescribed slide as a prescribed hinge angle), ∂r/∂p reduced by the projection Pᵀ,
+the step's K exact with the guided bodies' rates'
 derivatives (:meth:`latdyn.assembly.assembler.Assembler.exact_matrices`: the reduction's own K is not exact); their
 latches and stops as the hinges', the impulse weight's dependence on the rates followed. Rigid links take the
 same reduction (latdyn/analyses/link_sensitivities.py). Inputs are held at their values (the derivative at fixed
@@ -118,7 +126,7 @@ from latdyn.numerics.linalg import issparse
 from latdyn.numerics.so3 import dexp_so3
 from latdyn.scene.expressions import TimeFunction, _drop_deltas
 from latdyn.step.integrators import consistent_acceleration
-from latdyn.timeloop.events import cable_gaps, first_crossing, lock_events, stop_hits
+from latdyn.timeloop.events import _may_stick, cable_gaps, first_crossing, lock_events, sticking_hinges, stop_hits
 from latdyn.timeloop.impulse import hinge_directions, massless_element_stiffness
 
 __all__ = ["TransientSensitivities"]
@@ -154,6 +162,11 @@ class TransientSensitivities(ParameterDerivatives):
         #: δt (k,) of the state the events' derivatives are taken at (:meth:`residual_derivatives` adds
         #: ∂r/∂t δt there), None elsewhere
         self.time_shift = None
+        #: δθ (n_hinges, k) of the joints friction holds (carried as ``held``; :meth:`_held_forces`), None without
+        self.held = None
+        #: the stuck joints at the step's start, and the jumps of those that may stick or be released at its end
+        #: (:meth:`_stick_candidates`), for :meth:`after_events`
+        self._stuck_before, self._candidates = None, {}
 
     def bind(self, integrator) -> None:
         """The integrator's parameters (α_m, α_f, γ, β) and length scale (the inertia tangent's steps); the
@@ -171,6 +184,9 @@ class TransientSensitivities(ParameterDerivatives):
         total = super().residual_derivatives(state, load_factor, inertia, on_all=True)
         if self.cables is not None and self.cables.uses:
             self.cables.residual_derivatives(state, total, inertia)
+        held = self._held_forces(state, inertia)
+        if held is not None:   # the angles friction holds, moved by δθ: K's columns of them
+            total += held
         shifted = self.time_shift is not None and self.explicit_time is not None and np.any(self.time_shift)
         if on_all:
             if shifted:
@@ -196,6 +212,8 @@ class TransientSensitivities(ParameterDerivatives):
         ev = self.assembler.evaluate(state, matrices=True)
         split = split_inertia(model, ev.combined(1.0, 0.0, 0.0))
         self._refuse_events(ev, split)
+        #: whether an impulse's weight is M + dt²K alone (a stick's jump: :meth:`_stick_or_release`)
+        self._impulse_weighted = not (split.n_massless or massless_element_stiffness(ev) is not None)
         if split.n_massless:
             self._refuse_start(state, ev, split)
         dv = self._initial_velocities()
@@ -326,6 +344,8 @@ class TransientSensitivities(ParameterDerivatives):
         ends on, if any, taken before the events renumber the coordinates (:meth:`after_events`)."""
         model = self.model
         n, k = model.n_dofs, len(self.names)
+        self._stuck_before, self._candidates = model.stuck.copy(), {}
+        self.held = self._held(carried)
         if n == 0 or k == 0:
             return {**carried, "h": h}
         columns, states = self._columns(carried, old, new, h, a_old, a_new)
@@ -342,9 +362,12 @@ class TransientSensitivities(ParameterDerivatives):
         carried = external_work_step(self, before, carried, old, new, h)   # latdyn/analyses/energy_sensitivities.py
         if states is not None:   # δS with the step size's part (an event's δh)
             carried = {**carried, **states.after_step(new, carried["dq"], dh)}
+        if np.any(self.held) and (cable is not None or event is not None):
+            self._refuse_sticking(new, "another event (a latch, a stop, a cable's change) while a joint is stuck")
         if cable is not None:
             return self._after_cable_event(carried, new, *cable)
         if event is None:
+            self._stick_candidates(carried, old, new)
             return carried
         self.time_shift = carried["dt"]   # the impulse's weight at the event, moved in time by δt_e
         if states is not None:   # the states kept through the jump: δS held in ∂r/∂p there
@@ -567,6 +590,23 @@ class TransientSensitivities(ParameterDerivatives):
         δq unchanged (the event time made δθ = 0 on the stop, so projecting onto it moves nothing to first
         order). The free coordinates are about to be renumbered (a latch): δq and δv are kept on the nodes
         and hinges until :meth:`after_events`."""
+        model = self.model
+        dv_plus = self._impulse(carried, new, hinge, restitution)
+        dt_event = carried["dt"]
+        record = {"joint": model.hinges[hinge].name, "kind": kind, "t": float(new.t),
+                  "dt": {name: float(dt_event[c]) for c, name in enumerate(self.names)}}
+        at = model.hinges[hinge].lock_at if kind == "latch" else min(model.hinges[hinge].limits,
+                                                                   key=lambda stop: abs(new.theta[hinge] - stop))
+        miss = abs(float(new.theta[hinge]) - at) / max(1.0, abs(at))
+        if miss > LANDING_MISSED:   # the derivative assumes the step on the event: flagged (finish)
+            carried = {**carried, "missed": carried.get("missed", []) + [(record["joint"], record["t"], miss)]}
+        # the accelerations before the events and their derivative: the stop's restart weighs with W at them
+        return {**carried, "events": carried["events"] + [record],
+                "pending": {"kind": kind, "dq": self._on_nodes(carried["dq"]), "dv": self._on_nodes(dv_plus),
+                            "vdot": free_acceleration(model, new), "dvdot": carried["dvdot"]}}
+
+    def _impulse(self, carried: dict, new, hinge: int, restitution: float) -> np.ndarray:
+        """δv⁺ (n, k) through the impulse on ``hinge`` at ``new`` (before the jump; :meth:`_jump`'s formula)."""
         model, dt = self.model, self.scene.solve.dt
         scale = dt * dt
         N = hinge_directions(model, [hinge])
@@ -580,19 +620,7 @@ class TransientSensitivities(ParameterDerivatives):
         weight = self._weight_derivative(new, change, carried["dq"], scale, rates=(carried["dv"], carried["dvdot"]))
         w = dv_minus - np.asarray(solve_linear(W, weight))
         w = w.reshape(dv_minus.shape)
-        dv_plus = w + X @ np.linalg.solve(NtX, -restitution * (N.T @ dv_minus) - N.T @ w)
-        dt_event = carried["dt"]
-        record = {"joint": model.hinges[hinge].name, "kind": kind, "t": float(new.t),
-                  "dt": {name: float(dt_event[c]) for c, name in enumerate(self.names)}}
-        at = model.hinges[hinge].lock_at if kind == "latch" else min(model.hinges[hinge].limits,
-                                                                   key=lambda stop: abs(new.theta[hinge] - stop))
-        miss = abs(float(new.theta[hinge]) - at) / max(1.0, abs(at))
-        if miss > LANDING_MISSED:   # the derivative assumes the step on the event: flagged (finish)
-            carried = {**carried, "missed": carried.get("missed", []) + [(record["joint"], record["t"], miss)]}
-        # the accelerations before the events and their derivative: the stop's restart weighs with W at them
-        return {**carried, "events": carried["events"] + [record],
-                "pending": {"kind": kind, "dq": self._on_nodes(carried["dq"]), "dv": self._on_nodes(dv_plus),
-                            "vdot": free_acceleration(model, new), "dvdot": carried["dvdot"]}}
+        return w + X @ np.linalg.solve(NtX, -restitution * (N.T @ dv_minus) - N.T @ w)
 
     def _on_nodes(self, columns: np.ndarray) -> list:
         """Free-coordinate columns as (node translations, node rotations, hinge angles), one per column."""
@@ -688,6 +716,7 @@ class TransientSensitivities(ParameterDerivatives):
         latch the consistent accelerations, M δv̇ = −(∂r/∂p + K δq + C δv); after a stop those of
         :func:`latdyn.timeloop.events.restart_accelerations`, W v̇ = −r(q, v, 0), so
         W δv̇ = −(∂r/∂p + K δq + C δv + dt² δ(K)v̇) (K exact, at the restarted v̇); δa = δv̇."""
+        carried = self._stick_or_release(carried, new)
         pending = carried.get("pending")
         if pending is None:
             return carried
@@ -701,6 +730,109 @@ class TransientSensitivities(ParameterDerivatives):
             self.time_shift = None
             if states is not None:
                 self.controllers.held = {}
+
+    # ------------------------------------------------------------------ sticking by friction
+    def _held(self, carried: dict) -> np.ndarray:
+        """δθ (n_hinges, k) of the joints friction holds, as ``carried`` holds them (zero rows elsewhere)."""
+        held = carried.get("held")
+        return held if held is not None else np.zeros((len(self.model.hinges), len(self.names)))
+
+    def _held_forces(self, state, inertia: bool):
+        """Σ_j K[:, θ_j] δθ_j (n_total + 1, k) over the joints friction holds (:attr:`held`), or None: a stuck
+        joint's angle is no free coordinate, but it is where the run stuck it, a function of p, and every
+        residual moves with it through K's column of that angle — the elements' blocks (their tangent and, with
+        ``inertia``, inertia tangent, as in the exact K), a controller's coupling, and the joint's own law on its
+        (reaction's) row: one native evaluation at ``state``."""
+        held = self.held
+        if held is None or not np.any(held):
+            return None
+        model, native = self.model, self.assembler.native(True)
+        native.evaluate(state, True, 1.0, inertia, inertia)
+        b, control = native.buffers, self.assembler.control
+        stiffness = b["tangent"] + b["inertia_tangent"] if inertia else b["tangent"]
+        dofs, out = model.element_dofs, np.zeros((model.n_total + 1, held.shape[1]))
+        for j in np.flatnonzero(np.any(held, axis=1)):
+            d = model.hinge_dofs[j]
+            column = np.zeros(model.n_total + 1)
+            elements, slot = np.nonzero(dofs == d)
+            np.add.at(column, dofs[elements], stiffness[elements, :, slot])
+            coupled = control.coupling_cols == d
+            np.add.at(column, control.coupling_rows[coupled], b["coupling_stiffness"][coupled])
+            column[d] += b["hinge_d_theta"][j]
+            out += np.outer(column, held[j])
+        return out
+
+    def _stick_candidates(self, carried: dict, old, new) -> None:
+        """For each joint the time loop may stick at the end of the step old → new (its rate reversed or fell into
+        the stick band: latdyn/timeloop/events.py) or release (a stuck one), what :meth:`after_events` needs if it
+        does, on the nodes and hinges (the coordinates are renumbered then): the stick's jump of δv (a stop's
+        impulse with restitution 0, :meth:`_impulse`; δq unchanged, no landing: its time's derivative is 0),
+        the held δθ; a release's δq with the held δθ back on its angle, δv (its rate's 0); and the accelerations
+        before the restart (its weight is evaluated at them, as the run's)."""
+        model = self.model
+        for j in sticking_hinges(model) + [int(j) for j in np.flatnonzero(model.stuck)]:
+            if j in self._candidates or (not model.stuck[j] and not _may_stick(model, j, old, new)):
+                continue
+            dq = self._on_nodes(carried["dq"])
+            vdot = self._on_nodes(free_acceleration(model, new)[:, None])[0]
+            if model.stuck[j]:   # a release: the held angle's δθ back among the free coordinates
+                for c, (_, _, dtheta) in enumerate(dq):
+                    dtheta[j] = self.held[j, c]
+                self._candidates[j] = {"dq": dq, "dv": self._on_nodes(carried["dv"]), "vdot": vdot,
+                                       "held": np.zeros(len(self.names))}
+                continue
+            self.time_shift = carried["dt"]
+            try:
+                dv_plus = self._impulse(carried, new, j, 0.0)
+            finally:
+                self.time_shift = None
+            self._candidates[j] = {"dq": dq, "dv": self._on_nodes(dv_plus), "vdot": vdot,
+                                   "held": carried["dq"][model.hinge_dofs[j]].copy()}
+
+    def _stick_or_release(self, carried: dict, new) -> dict:
+        """``carried`` after the events of the step ended at ``new``: where a joint stuck or was released by
+        friction there, its held δθ and the restart pending as after a stop (:meth:`_restart`: the time loop
+        restarts the accelerations as after an impact); refused where that is not differentiated
+        (:meth:`_refuse_sticking`)."""
+        model, before = self.model, self._stuck_before
+        changed = [] if before is None else [int(j) for j in np.flatnonzero(before != model.stuck)]
+        self._stuck_before = None
+        if not changed:
+            return carried
+        if len(changed) > 1 or carried.get("pending") is not None or changed[0] not in self._candidates:
+            self._refuse_sticking(new, "several joints stick or slip, or a latch, a stop or a cable's change comes, "
+                                       "at one instant")
+        if model.links is not None:
+            self._refuse_sticking(new, "a joint sticks in a model with guides or rigid links (their reduction "
+                                       "with the held angle is not differentiated yet)")
+        if not getattr(self, "_impulse_weighted", True):
+            self._refuse_sticking(new, "a joint sticks in a model with directions or elements without inertia "
+                                       "(the impulse response's rigid and static parts are not differentiated)")
+        if any(is_energy_or_momentum(probe) for probe in self.probes) or self._controller_states() is not None \
+                or self._sampled_controllers() is not None:
+            self._refuse_sticking(new, "a joint sticks beside energy or momentum probes or controllers with "
+                                       "states or sampled ones (their terms of the held angle are not carried)")
+        j = changed[0]
+        candidate = self._candidates[j]
+        held = self._held(carried).copy()
+        held[j] = candidate["held"]
+        self.held = held
+        n, k = model.n_dofs, len(self.names)
+        pending = {"kind": "stop", "dq": candidate["dq"], "dv": candidate["dv"],
+                   "vdot": pack(model, *candidate["vdot"])[:n], "dvdot": np.zeros((n, k))}
+        return {**carried, "held": held, "pending": pending}
+
+    def _refuse_sticking(self, new, why: str) -> None:
+        """SceneError (exit 2) naming the friction of the first joint that sticks or is stuck at ``new``: ``why``
+        its stick or release is not differentiated here (docs/parameters.md, "Friction")."""
+        stuck = np.flatnonzero(self.model.stuck)
+        joint = self.model.hinges[int(stuck[0]) if len(stuck) else int(sticking_hinges(self.model)[0])]
+        key = (f"bodies.{joint.beam}.guide.friction" if joint.end == "guide"
+               else f"beams.{joint.beam}.{joint.end}.hinge.friction")
+        raise SceneError(self.scene.file, key,
+                         f"at t = {new.t:.6g} {why}: solve.sensitivities differentiates a joint's slipping, "
+                         "sticking and release by friction, not this; expected a run without it, or no "
+                         "solve.sensitivities (docs/parameters.md, \"Friction\")")
 
     def _restart(self, carried: dict, new, pending: dict) -> dict:
         """:meth:`after_events` at the event's time (``time_shift`` set: ∂r/∂t δt_e in ∂r/∂p)."""
@@ -802,7 +934,9 @@ class TransientSensitivities(ParameterDerivatives):
         :meth:`step` carried it (latdyn/analyses/energy_sensitivities.py), a joint's force by its law's or its reaction's derivative
         along (δq, δv, δv̇) (latdyn/analyses/joint_force_sensitivities.py), section forces, cables' tensions
         (with δv: the damper) and lengths and points in a body's frame (latdyn/analyses/probe_derivatives.py)."""
+        self.held = self._held(carried)
         dx, dpi, dtheta = self._by_parameter(carried["dq"], state)
+        dtheta = dtheta + self.held   # a stuck joint's angle: where the run stuck it
         rates = (self._rates_by_parameter(carried["dv"], carried["dq"], state)
                  if any(p.quantity in ("rate", "velocity", "tension") or is_energy_or_momentum(p) for p in self.probes)
                  else None)
