@@ -10,7 +10,6 @@ import pytest
 import yaml
 
 import latdyn
-from latdyn.errors import SceneError
 from tests.test_sensitivities_events import _run
 
 #: a bead on a rod that a prescribed motion turns at Ω = 2 rad/s, on a spring along the rod: the centrifugal
