@@ -1,0 +1,205 @@
+"""Held-out-style literature cases, as a user types them, against published or exact references.
+
+The references and the convergence studies are in benchmarks/literature_cases.py (the continuum rod
+solutions by shooting; ``python benchmarks/literature_cases.py``); docs/verification.md, "Literature
+cases", gives each case's measured error against its mesh and step. Here the fast versions: each
+mesh or step is one the studies show to be converged to well inside the tolerance asserted.
+"""
+from __future__ import annotations
+
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+import yaml
+from scipy.spatial.transform import Rotation
+
+import latdyn
+from cli_runs import latdyn_run, probe_columns, summary_of
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from benchmarks.literature_cases import (  # noqa: E402
+    ARCH_LIMIT, BEND_TIP, FOLLOWER_TIP, bent_cantilever, column_frequency_hz, deep_arch, follower_cantilever,
+    loaded_column, torque_free_period,
+)
+
+
+def run_api(text: str):
+    return latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
+
+
+def _vector(a) -> str:
+    return "[" + ", ".join(f"{x:.17g}" for x in a) + "]"
+
+
+# ----------------------------------------------------------------------------- arches past limit points
+def test_deep_arch_limit_load_by_arc_length_against_the_elastica(tmp_path):
+    """DaDeppo & Schmidt's 215° clamped–pinned arch under a crown load, traced by arc length through
+    its limit point (the straight segments' polygon errs by O(h²): 20 and 40 segments extrapolated)."""
+    completed, out = latdyn_run(tmp_path, deep_arch(40))
+    assert completed.returncode == 0, completed.stderr
+    summary = summary_of(out)
+    assert summary["status"] == "solved" and summary["load_factor_reached"] == 1.0
+    first = summary["limit_points"][0]
+    assert first["kind"] == "maximum"
+    fine = first["load_factor"] * 12.0
+    assert abs(fine / ARCH_LIMIT - 1) < 4e-3  # measured +2.8e-3 (40 segments)
+    coarse = run_api(deep_arch(20)).summary["limit_points"][0]["load_factor"] * 12.0
+    extrapolated = fine + (fine - coarse) / 3
+    assert abs(extrapolated / ARCH_LIMIT - 1) < 2e-4  # measured −4e-5
+    assert probe_columns(out)["crown_v"].min() < -1.1  # past the limit point (crown deflection 1.137 R there)
+
+
+# ----------------------------------------------------------------------------- 3D large deflection
+def test_45_degree_bend_tip_against_the_kirchhoff_rod():
+    """Bathe & Bolourchi's 45° bend under an out-of-plane tip force, P = 300, 450, 600: 8 and 16
+    segments extrapolated (second order) against the 3D rod (benchmarks/literature_cases.py)."""
+    coarse, fine = run_api(bent_cantilever(8)), run_api(bent_cantilever(16))
+    assert fine.summary["status"] == "solved"
+    for row, P in ((6, 300), (9, 450), (12, 600)):
+        a = np.array([coarse.probes[c][row] for c in "xyz"])
+        b = np.array([fine.probes[c][row] for c in "xyz"])
+        assert np.linalg.norm(b - BEND_TIP[P]) < 0.03  # measured 0.018 at P = 600 (16 segments; R = 100)
+        assert np.linalg.norm(b + (b - a) / 3 - BEND_TIP[P]) < 1e-3  # measured 2.4e-4
+
+
+# ----------------------------------------------------------------------------- follower loads
+def test_follower_tip_force_normal_to_the_tip_through_the_cli(tmp_path):
+    """A cantilever whose tip force turns with the tip (``frame: tip``), P L²/EI = 1 … 6."""
+    completed, out = latdyn_run(tmp_path, follower_cantilever(8))
+    assert completed.returncode == 0, completed.stderr
+    assert summary_of(out)["conservative"] is False
+    columns = probe_columns(out)
+    for k in range(1, 7):
+        assert math.hypot(columns["x"][k] - FOLLOWER_TIP[k][0], columns["y"][k] - FOLLOWER_TIP[k][1]) < 2e-5
+        # measured ≤ 5.2e-6 (8 elements; 3.1e-7 with 16)
+
+
+def test_follower_tip_force_of_the_scene_turned_out_of_every_plane():
+    """The same cantilever turned by a rotation out of every coordinate plane (a 3D model): the
+    tip seen in the turned axes is the planar one."""
+    Q = Rotation.from_rotvec([0.4, -0.7, 0.5]).as_matrix()
+    text = f"""\
+title: follower tip force, turned
+sections:
+  s: {{EA: 1.0e5, EIy: 1.0, EIz: 1.0, GJ: 1.0, rhoA: 1.0}}
+bodies:
+  base: {{at: [0, 0, 0], fixed: true}}
+  tip: {{at: {_vector(Q[:, 0])}}}
+beams:
+  arm: {{from: base, to: tip, section: s, elements: 8, y_axis: {_vector(Q[:, 1])}}}
+loads:
+  - {{at: tip, force: {_vector(6.0 * Q[:, 1])}, frame: tip}}
+solve: {{analysis: static, steps: 6}}
+output:
+  probes:
+    x: {{point: tip, quantity: position, component: x}}
+    y: {{point: tip, quantity: position, component: y}}
+    z: {{point: tip, quantity: position, component: z}}
+"""
+    result = run_api(text)
+    local = Q.T @ np.array([result.probes[c] for c in "xyz"])
+    for k in range(1, 7):
+        assert abs(local[2, k]) < 1e-12
+        assert math.hypot(local[0, k] - FOLLOWER_TIP[k][0], local[1, k] - FOLLOWER_TIP[k][1]) < 2e-5
+
+
+# ----------------------------------------------------------------------------- modes of loaded and spinning structures
+def test_frequencies_of_a_pinned_column_fall_with_its_compression():
+    """ω₁² = ω₀²(1 − P/P_cr) about the static state, P/P_cr = 0.51 and 0.993, and under tension."""
+    for P, tol in ((5.0, 5e-5), (9.8, 3e-3), (-20.0, 5e-5)):
+        f = np.asarray(run_api(loaded_column(8, P)).modes)
+        exact = column_frequency_hz(1, P)
+        nearest = f[np.argmin(np.abs(f - exact))]
+        assert abs(nearest / exact - 1) < tol, (P, nearest, exact)  # measured 3.3e-5, 2.3e-3, 1e-5
+        assert f.min() == nearest  # the in-plane bending mode is the lowest
+        second = f[np.argmin(np.abs(f - column_frequency_hz(2, P)))]
+        assert abs(second / column_frequency_hz(2, P) - 1) < 5e-4  # measured 3e-4 (P = 5)
+
+
+BLADES = """\
+title: rotor blades on a lag hinge and a flap hinge with offset
+sections:
+  blade: {EA: 1.0, EIy: 1.0, EIz: 1.0, GJ: 1.0, rhoA: 3.0}
+bodies:
+  hub: {at: [0, 0, 0], motion: {rotation: {axis: [0, 0, 1], angle: "10*t"}}}
+beams:
+  lag: {from: {body: hub, offset: [0.5, 0, 0]}, to: [2.5, 0, 0], section: blade, rigid: true, start: {hinge: {axis: [0, 0, 1]}}}
+  flap: {from: {body: hub, offset: [-0.5, 0, 0]}, to: [-2.5, 0, 0], section: blade, rigid: true, start: {hinge: {axis: [0, 1, 0]}}}
+solve: {analysis: modes, about: steady, count: 2}
+"""
+
+
+def test_lag_and_flap_frequencies_of_hinged_rotor_blades(tmp_path):
+    """Hinge offset e = 0.5, blade l = 2, Ω = 10: ω_lag = Ω√(3e/2l), ω_flap = Ω√(1 + 3e/2l)."""
+    completed, out = latdyn_run(tmp_path, BLADES)
+    assert completed.returncode == 0, completed.stderr
+    f = np.loadtxt(out / "modes.csv", delimiter=",", skiprows=1)[:, 1]
+    exact = 10 * np.sqrt([0.375, 1.375]) / (2 * np.pi)
+    assert np.allclose(f, exact, rtol=1e-9, atol=0)  # measured 1e-15 (rigid links: no mesh)
+    assert summary_of(out)["steady_state"]["stable"] is True
+
+
+def test_a_free_symmetric_gyroscope_precesses_at_c_omega_over_a():
+    """A free body (A, A, C) = (2, 2, 3) spinning at 4 rad/s about its axis, the axis turned out of
+    every coordinate plane: modes about ``{t: 0.37}`` give the precession C ω / A = 6 rad/s."""
+    Q = Rotation.from_rotvec([0.3, -0.5, 0.2]).as_matrix()
+    inertia = Q @ np.diag([2.0, 2.0, 3.0]) @ Q.T
+    text = f"""\
+title: free symmetric gyroscope
+bodies:
+  rotor: {{at: [0, 0, 0], mass: 1.5, inertia: [{', '.join(_vector(r) for r in inertia)}]}}
+initial_velocity: {{angular: {_vector(4.0 * Q[:, 2])}}}
+solve: {{analysis: modes, about: {{t: 0.37}}, count: 6, t_end: 1.0, dt: 0.001}}
+"""
+    f = np.asarray(run_api(text).modes)
+    assert abs(f.max() / (6.0 / (2 * np.pi)) - 1) < 1e-8  # measured 4e-10
+    assert np.sum(f > 1e-6) == 1
+
+
+# ----------------------------------------------------------------------------- rigid-body motion
+TUMBLING = """\
+title: torque-free rigid body
+sections:
+  none: {EA: 1.0, EIy: 1.0, EIz: 1.0, GJ: 1.0, rhoA: 0.0}
+bodies:
+  box: {at: [0, 0, 0], mass: 1.0, inertia: [1.0, 2.0, 3.0]}
+beams:
+  pointer: {from: box, to: [0, 1, 0], section: none, rigid: true}
+initial_velocity: {angular: [0.3, 0.1, 2.0]}
+solve: {t_end: 8.0, dt: DT}
+output:
+  probes:
+    x: {point: pointer.end, quantity: position, component: x}
+    y: {point: pointer.end, quantity: position, component: y}
+    z: {point: pointer.end, quantity: position, component: z}
+    kinetic: {energy: kinetic}
+    Lx: {momentum: angular, component: x}
+    Ly: {momentum: angular, component: y}
+    Lz: {momentum: angular, component: z}
+"""
+
+
+def _crossings(t, f):
+    i = np.nonzero(np.sign(f[:-1]) != np.sign(f[1:]))[0]
+    return t[i] - f[i] * (t[i + 1] - t[i]) / (f[i + 1] - f[i])
+
+
+def test_torque_free_body_tumbles_with_the_elliptic_period_at_order_two():
+    """Euler's equations of a free body (1, 2, 3): the pointer along body y gives L·x = I₂ ω₂(t), whose
+    period is 4K(k)/… (Jacobi); its error falls as dt², and the energy and momentum stay."""
+    inertia, omega = np.array([1.0, 2.0, 3.0]), np.array([0.3, 0.1, 2.0])
+    L, exact = inertia * omega, torque_free_period(inertia, omega)
+    errors = []
+    for dt in (0.01, 0.005):
+        r = run_api(TUMBLING.replace("DT", str(dt)))
+        omega2 = (L[0] * r.probes["x"] + L[1] * r.probes["y"] + L[2] * r.probes["z"]) / inertia[1]
+        periods = 2 * np.diff(_crossings(np.asarray(r.t), omega2))
+        assert len(periods) >= 4 and np.ptp(periods) < 1e-6 * exact
+        errors.append(periods.mean() / exact - 1)
+        drift = max(abs(r.probes[k][-1] - L[i]) for i, k in enumerate(("Lx", "Ly", "Lz")))
+        assert drift < 2.0 * dt ** 2 * np.linalg.norm(L)  # measured 1.01 dt² |L|, 1.01 dt² |L|
+        assert abs(r.probes["kinetic"][-1] / r.probes["kinetic"][0] - 1) < 3e-3 * dt ** 2  # measured 1.7e-3 dt²
+    assert 0 < errors[1] < 3e-4  # measured 1.86e-4 (dt = 0.01), 4.6e-5 (0.005)
+    assert 3.5 < errors[0] / errors[1] < 4.5  # second order
