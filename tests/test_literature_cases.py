@@ -203,3 +203,37 @@ def test_torque_free_body_tumbles_with_the_elliptic_period_at_order_two():
         assert abs(r.probes["kinetic"][-1] / r.probes["kinetic"][0] - 1) < 3e-3 * dt ** 2  # measured 1.7e-3 dt²
     assert 0 < errors[1] < 3e-4  # measured 1.86e-4 (dt = 0.01), 4.6e-5 (0.005)
     assert 3.5 < errors[0] / errors[1] < 4.5  # second order
+
+
+# ----------------------------------------------------------------------------- modes of a tumbling body: flagged
+def _spinning_box(axis: int) -> str:
+    omega = [0.0, 0.0, 0.0]
+    omega[axis] = 4.0
+    return f"""\
+title: a free box spinning about a principal axis
+bodies:
+  box: {{at: [0, 0, 0], mass: 1.5, inertia: [1.0, 2.0, 3.0]}}
+initial_velocity: {{angular: {omega}}}
+solve: {{analysis: modes, about: {{t: 0.37}}, count: 6, t_end: 1.0, dt: 0.001}}
+"""
+
+
+def test_frozen_modes_of_a_body_spinning_about_its_intermediate_axis_are_flagged(tmp_path):
+    """Spinning at ω = 4 about its intermediate axis (I = 1, 2, 3) the box diverges at
+    ω√((I₂ − I₁)(I₃ − I₂)/(I₁I₃)) = 2.31 1/s (Euler; the Dzhanibekov effect), yet the modes of its
+    equations frozen at T in the inertial frame are all zero: the run is solved (these are the frozen
+    modes) and says that they do not judge the motion.  It said nothing before."""
+    completed, out = latdyn_run(tmp_path, _spinning_box(1))
+    assert completed.returncode == 0, completed.stderr
+    summary = summary_of(out)
+    assert summary["status"] == "solved"
+    assert any("turns in the frame of the modes" in w and "box at 4 rad/s" in w for w in summary["warnings"])
+    assert "turns in the frame of the modes" in completed.stderr
+
+
+def test_modes_of_blades_turning_with_their_hub_are_not_flagged():
+    """The hinged blades about {t: 0.3} turn with the hub, whose rate is the frame's: no flag, and the
+    modes are those about steady."""
+    result = run_api(BLADES.replace("about: steady, count: 2", "about: {t: 0.3}, count: 2, t_end: 1.0, dt: 0.001"))
+    assert "warnings" not in result.summary
+    assert np.allclose(result.modes, 10 * np.sqrt([0.375, 1.375]) / (2 * np.pi), rtol=1e-9, atol=0)

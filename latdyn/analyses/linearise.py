@@ -115,6 +115,11 @@ def modal_analysis(prepared, count: int, about="initial"):
     if about == "steady":  # judged by all its roots, not only the listed ones
         report["steady_state"], report["warnings"] = steady_summary(search, found)
         found = found[:count]
+    elif isinstance(about, float):  # a frozen state: say so where it turns in the frame of the modes
+        from latdyn.analyses.moving import turning_warning
+
+        warning = turning_warning(other.model, state, frame, found, about)
+        report["warnings"] = [warning] if warning else []
     return found, dominant_directions(other.model, lin, found), lin, report
 
 
