@@ -237,3 +237,36 @@ def test_modes_of_blades_turning_with_their_hub_are_not_flagged():
     result = run_api(BLADES.replace("about: steady, count: 2", "about: {t: 0.3}, count: 2, t_end: 1.0, dt: 0.001"))
     assert "warnings" not in result.summary
     assert np.allclose(result.modes, 10 * np.sqrt([0.375, 1.375]) / (2 * np.pi), rtol=1e-9, atol=0)
+
+
+ROTOR = """\
+title: a spinning disc at the tip of a massless cantilever shaft
+sections:
+  shaft: {EA: 1.0e4, EIy: 1.0, EIz: 1.0, GJ: 1.0, rhoA: 0.0}
+  axle: {EA: 1.0, EIy: 1.0, EIz: 1.0, GJ: 1.0, rhoA: 0.0}
+bodies:
+  base: {at: [0, 0, 0], fixed: true}
+  tip: {at: [1, 0, 0]}
+  disc: {at: [1.05, 0, 0], com: [-0.05, 0, 0], mass: 2.0, inertia: [0.08, 0.05, 0.05]}
+beams:
+  shaft: {from: base, to: tip, section: shaft}
+  axle: {from: tip, to: disc, section: axle, rigid: true, start: {hinge: {axis: [1, 0, 0], angle: "20*t"}}}
+solve: {analysis: modes, about: {t: 0.5}, count: 8, t_end: 1.0, dt: 0.001}
+"""
+
+
+def test_forward_and_backward_whirl_of_a_spinning_disc_on_a_cantilever_shaft(tmp_path):
+    """A disc (m = 2, I_d = 0.05, I_p = 0.08) spinning at Ω = 20 on a bearing at the tip of a massless
+    cantilever shaft (EI = 1, L = 1): the gyroscopic moment splits each whirl into a forward and a
+    backward one, det [[k₁₁ − mω², k₁₂], [k₁₂, k₂₂ − I_d ω² ± I_p Ω ω]] = 0 with the shaft's exact
+    tip stiffness (12, −6, 4) EI/L^(3, 2, 1). The disc spins about its axis of symmetry: not flagged."""
+    completed, out = latdyn_run(tmp_path, ROTOR)
+    assert completed.returncode == 0, completed.stderr
+    assert "warnings" not in summary_of(out)
+    f = np.loadtxt(out / "modes.csv", delimiter=",", skiprows=1)[:, 1]
+    exact = []
+    for sign in (1, -1):
+        polynomial = np.poly1d([-2.0, 0, 12.0]) * np.poly1d([-0.05, sign * 0.08 * 20, 4.0]) - 36.0
+        exact += [r.real / (2 * np.pi) for r in polynomial.roots if abs(r.imag) < 1e-9 and r.real > 0]
+    for value in exact:  # 0.0837, 0.2907, 0.5792, 5.465 Hz (the shaft's axial and torsional modes besides)
+        assert np.min(np.abs(f - value)) < 1e-7 * value  # measured < 1e-9
