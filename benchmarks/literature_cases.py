@@ -51,6 +51,10 @@ ARCH_LIMIT = 8.972949
 BEND_TIP = {300: (58.541631, 22.115744, 40.472315),
             450: (51.976228, 18.372607, 48.698165),
             600: (46.898463, 15.560874, 53.601773)}
+#: Williams' toggle (clamped bars, rigid apex): the limit load [lb] and the apex deflection [in]
+#: there, the minimum load after it and its deflection (:func:`toggle_reference`).
+TOGGLE_LIMIT, TOGGLE_LIMIT_V = 33.870385, 0.232157
+TOGGLE_MINIMUM, TOGGLE_MINIMUM_V = 31.281774, 0.391594
 #: The tip (x, y) of the cantilever under a normal follower force P L²/EI = 1 … 6 (:func:`follower_reference`).
 FOLLOWER_TIP = {1: (0.93564420, 0.32064138), 2: (0.76735814, 0.57383522), 3: (0.55165976, 0.72667594),
                 4: (0.34274195, 0.78615463), 5: (0.17227584, 0.78067307), 6: (0.04950140, 0.74025520)}
@@ -96,6 +100,38 @@ def arch_limit_reference(R=1.0, EI=1.0, EA=1e6, opening=215.0) -> tuple[float, f
     r = minimize_scalar(lambda v: -fsolve(shoot, guess, args=(v,), xtol=1e-13)[3],
                         bracket=(best[1] - 0.01, best[1], best[1] + 0.01), tol=1e-10)
     return -r.fun * R ** 2 / EI, r.x / R
+
+
+def toggle_reference() -> tuple[tuple[float, float], tuple[float, float]]:
+    """((limit load, deflection), (minimum load, deflection)) of Williams' toggle on its symmetric path:
+    two bars (half-span a = 12.943 in, rise h = 0.386 in, E = 10.3e6 psi, b × d = 0.753 × 0.243 in)
+    clamped at the supports and rigidly joined at the apex, a dead load P down at the apex; shooting
+    from the left support (section force, moment, P) with the apex deflection v prescribed."""
+    from scipy.integrate import solve_ivp
+    from scipy.optimize import fsolve, minimize_scalar
+
+    a, h, E, b, d = 12.943, 0.386, 10.3e6, 0.753, 0.243
+    EA, EI = E * b * d, E * b * d ** 3 / 12
+    bar, slope = math.hypot(a, h), math.atan2(h, a)
+    rhs = _planar_rod(EI, EA)
+    kw = dict(rtol=1e-12, atol=1e-13, method="DOP853")
+
+    def shoot(u, v):
+        F0 = np.array(u[:2])
+        ya = solve_ivp(rhs, (0, bar), [-a, 0, slope, u[2]], args=(F0,), **kw).y[:, -1]
+        start = ya.copy()
+        start[2] -= 2 * slope  # the rigid apex turns the tangent by the bars' angle
+        yb = solve_ivp(rhs, (bar, 2 * bar), start, args=(F0 + np.array([0.0, u[3]]),), **kw).y[:, -1]
+        return [yb[0] - a, yb[1], yb[2] + slope, ya[1] - (h - v)]
+
+    u = np.zeros(4)
+    for v in np.linspace(0.005, 0.24, 48):
+        u = fsolve(shoot, u, args=(v,), xtol=1e-13)
+    top = minimize_scalar(lambda v: -fsolve(shoot, u, args=(v,), xtol=1e-13)[3], bracket=(0.2, 0.24, 0.29), tol=1e-10)
+    for v in np.linspace(0.24, 0.4, 33):
+        u = fsolve(shoot, u, args=(v,), xtol=1e-13)
+    low = minimize_scalar(lambda v: fsolve(shoot, u, args=(v,), xtol=1e-13)[3], bracket=(0.36, 0.4, 0.44), tol=1e-10)
+    return (-top.fun, top.x), (low.fun, low.x)
 
 
 def bend_reference(loads=(300.0, 450.0, 600.0)) -> dict:
@@ -248,6 +284,32 @@ solve: {{analysis: modes, about: static, steps: 4, count: 4}}
 """
 
 
+def williams_toggle(elements: int, analysis: str = "static", method: str = "arc-length", P: float = 40.0,
+                    steps: int = 20, out_of_plane: str = "EIy: 1.0e9, GJ: 1.0e9") -> str:
+    """Williams' toggle (kip-free units: lb, in), ``elements`` per bar; out of the plane stiff by
+    default (the clamped span 2ℓ buckles sideways at 32.5 lb with EIy = EIz, before the limit point)."""
+    solve = (f"{{analysis: buckling, steps: {steps}}}" if analysis == "buckling"
+             else f"{{analysis: static, method: {method}, steps: {steps}}}")
+    return f"""\
+title: Williams' toggle
+sections:
+  bar: {{EA: 1884683.7, EIz: 9274.057316775, {out_of_plane}, rhoA: 1.0}}
+bodies:
+  left: {{at: [-12.943, 0, 0], fixed: true}}
+  right: {{at: [12.943, 0, 0], fixed: true}}
+  apex: {{at: [0, 0.386, 0]}}
+beams:
+  a: {{from: left, to: apex, section: bar, elements: {elements}}}
+  b: {{from: apex, to: right, section: bar, elements: {elements}}}
+loads:
+  - {{at: apex, force: [0, {-P}, 0]}}
+solve: {solve}
+output:
+  probes:
+    v: {{point: apex, quantity: displacement, component: y}}
+"""
+
+
 def _run(text: str):
     import yaml
 
@@ -296,6 +358,7 @@ if __name__ == "__main__":
         print("arch", arch_limit_reference())
         print("bend", bend_reference())
         print("follower", follower_reference())
+        print("toggle", toggle_reference())
         sys.exit(0)
     results = study()
     print(json.dumps(results, indent=1))

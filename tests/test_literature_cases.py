@@ -20,8 +20,8 @@ from cli_runs import latdyn_run, probe_columns, summary_of
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from benchmarks.literature_cases import (  # noqa: E402
-    ARCH_LIMIT, BEND_TIP, FOLLOWER_TIP, bent_cantilever, column_frequency_hz, deep_arch, follower_cantilever,
-    loaded_column, torque_free_period,
+    ARCH_LIMIT, BEND_TIP, FOLLOWER_TIP, TOGGLE_LIMIT, TOGGLE_LIMIT_V, TOGGLE_MINIMUM, bent_cantilever,
+    column_frequency_hz, deep_arch, follower_cantilever, loaded_column, torque_free_period, williams_toggle,
 )
 
 
@@ -49,6 +49,47 @@ def test_deep_arch_limit_load_by_arc_length_against_the_elastica(tmp_path):
     extrapolated = fine + (fine - coarse) / 3
     assert abs(extrapolated / ARCH_LIMIT - 1) < 2e-4  # measured −4e-5
     assert probe_columns(out)["crown_v"].min() < -1.1  # past the limit point (crown deflection 1.137 R there)
+
+
+def test_williams_toggle_snaps_through_its_limit_load_by_arc_length(tmp_path):
+    """Williams' toggle (clamped bars, rigid apex) past its limit load 33.870 lb and the minimum
+    31.282 lb after it (the elastica by shooting, benchmarks/literature_cases.py), 8 elements a bar."""
+    completed, out = latdyn_run(tmp_path, williams_toggle(8))
+    assert completed.returncode == 0, completed.stderr
+    limits = summary_of(out)["limit_points"]
+    assert [p["kind"] for p in limits] == ["maximum", "minimum"]
+    assert abs(40 * limits[0]["load_factor"] / TOGGLE_LIMIT - 1) < 1e-4  # measured +3.7e-5
+    assert abs(40 * limits[1]["load_factor"] / TOGGLE_MINIMUM - 1) < 1e-4  # measured +1.6e-5
+
+
+def test_load_control_stops_at_the_toggles_limit_point_instead_of_snapping_onto_the_far_branch(tmp_path):
+    """Past 33.87 lb the toggle's near branch ends and Newton at the next load converged on the far,
+    stiffened branch (0.48 in instead of 0.16): load control said 'solved' with no limit point,
+    having jumped a snap-through. A step far from the tangent's prediction has left the path: it is
+    halved, and the run stops at the limit point as Lee's frame's does (exit 1)."""
+    completed, out = latdyn_run(tmp_path, williams_toggle(8, method="load-control"))
+    assert completed.returncode == 1
+    assert "another branch of the path: a snap-through" in completed.stderr
+    summary = summary_of(out)
+    assert summary["status"] == "failed"
+    assert abs(40 * summary["load_factor_reached"] / TOGGLE_LIMIT - 1) < 1e-4  # measured 2.6e-5
+    assert -probe_columns(out)["v"][-1] < 0.25  # the last row on the near branch (v = 0.232 at the limit)
+
+
+def test_buckling_of_the_toggle_is_its_limit_point_not_a_load_on_the_far_branch():
+    """`analysis: buckling` stepped along the path past the limit point onto the far branch, where
+    the tangent is positive definite again: it reported no instability (out of the plane stiff) or
+    a lateral buckling at 4137 × 40 lb (EIy = EIz). Now the limit point, and with EIy = EIz the
+    sideways buckling of the clamped span 2ℓ before it: π²EI/ℓ² axial, P = 2 N sin α = 32.53 lb."""
+    stiff = run_api(williams_toggle(8, analysis="buckling", steps=10)).summary
+    assert stiff["instability"] == "buckling" and stiff["buckling_kind"].startswith("limit point")
+    assert abs(40 * stiff["buckling_factor"] / TOGGLE_LIMIT - 1) < 1e-4  # measured +4.4e-5
+    sideways = run_api(williams_toggle(8, analysis="buckling", steps=10,
+                                       out_of_plane="EIy: 9274.057316775, GJ: 9274.0")).summary
+    bar, slope = math.hypot(12.943, 0.386), math.atan2(0.386, 12.943)
+    euler = 2 * math.pi ** 2 * 9274.057316775 / bar ** 2 * math.sin(slope)  # a lower bound: N grows less than P
+    assert sideways["buckling_kind"].startswith("bifurcation")
+    assert 0.99 * euler < 40 * sideways["buckling_factor"] < TOGGLE_LIMIT  # measured 32.533 (euler 32.48)
 
 
 # ----------------------------------------------------------------------------- 3D large deflection
@@ -270,3 +311,54 @@ def test_forward_and_backward_whirl_of_a_spinning_disc_on_a_cantilever_shaft(tmp
         exact += [r.real / (2 * np.pi) for r in polynomial.roots if abs(r.imag) < 1e-9 and r.real > 0]
     for value in exact:  # 0.0837, 0.2907, 0.5792, 5.465 Hz (the shaft's axial and torsional modes besides)
         assert np.min(np.abs(f - value)) < 1e-7 * value  # measured < 1e-9
+
+
+# ----------------------------------------------------------------------------- latches
+LATCHING_PANEL = """\
+title: a panel deploying from a free-floating bus latches
+sections:
+  panel: {EA: 1.0, EIy: 1.0, EIz: 1.0, GJ: 1.0, rhoA: 0.5}
+bodies:
+  bus: {at: [0, 0, 0], mass: 20.0, inertia: [[4.0, 0.3, 0.1], [0.3, 5.0, -0.2], [0.1, -0.2, 6.0]]}
+  tip: {at: [1.5, 0.2, 0.1], mass: 1.0, inertia: [0.1, 0.2, 0.2]}
+beams:
+  arm: {from: {body: bus, offset: [0.5, 0.2, 0.1]}, to: tip, section: panel, rigid: true,
+        start: {hinge: {axis: [0, 0.6, 0.8], stiffness: 2.0, rest_angle: 1.5, lock_at: 1.0}}}
+initial_velocity: {linear: [0.3, -0.2, 0.1]}
+solve: {t_end: 1.5, dt: 0.002}
+output:
+  probes:
+    angle: {hinge: arm.start, quantity: angle}
+    kinetic: {energy: kinetic}
+    px: {momentum: linear, component: x}
+    py: {momentum: linear, component: y}
+    pz: {momentum: linear, component: z}
+    Lx: {momentum: angular, component: x}
+    Ly: {momentum: angular, component: y}
+    Lz: {momentum: angular, component: z}
+"""
+
+
+def test_a_panel_latching_on_a_free_floating_bus_keeps_the_momentum_and_loses_what_the_spring_gave(tmp_path):
+    """A preloaded hinge spring (k = 2, rest 1.5 rad) swings a panel out from a drifting bus (3D: a
+    skew axis, a full inertia tensor) until it latches at 1 rad. Internal forces and the latch's
+    plastic impulse keep the linear and angular momentum; the rate about the hinge is all the relative
+    motion, so the latched assembly moves on as one body with the drift it started with: the kinetic
+    energy after is ½ M v₀² (M = 21.5), and the latch takes the spring's ½k(1.5² − 0.5²) = 2."""
+    completed, out = latdyn_run(tmp_path, LATCHING_PANEL)
+    assert completed.returncode == 0, completed.stderr
+    summary, c = summary_of(out), probe_columns(out)
+    assert [e["kind"] for e in summary["events"]] == ["latch"]
+    t_latch = summary["events"][0]["t"]
+    assert abs(t_latch - 0.8105) < 2e-4  # 0.810502, 0.810500, 0.810499 at dt = 0.004, 0.002, 0.001
+    before, after = c["t"] < t_latch - 1e-9, c["t"] > t_latch + 1e-9
+    drift = 0.5 * 21.5 * (0.3 ** 2 + 0.2 ** 2 + 0.1 ** 2)
+    assert abs(c["kinetic"][after][0] / drift - 1) < 2e-6  # measured 4.1e-7
+    assert np.ptp(c["kinetic"][after]) < 1e-12 * drift
+    assert abs(c["kinetic"][before][-1] - drift - 2.0) < 1e-5  # measured −8.1e-7 (that row 2.7e-7 rad short of 1)
+    p = np.array([c[k] for k in ("px", "py", "pz")])
+    L = np.array([c[k] for k in ("Lx", "Ly", "Lz")])
+    assert np.allclose(p[:, 0], [6.45, -4.3, 2.15], rtol=1e-12)
+    assert np.abs(p - p[:, :1]).max() < 1e-6 * np.linalg.norm(p[:, 0])  # measured 3.8e-7 (O(dt²) before the latch)
+    assert np.abs(L - L[:, :1]).max() < 3e-5  # measured 1.25e-5 (|L| = 0.517; O(dt²) through the latch)
+    assert np.allclose(c["angle"][after], 1.0, atol=1e-9)

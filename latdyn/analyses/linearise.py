@@ -221,6 +221,8 @@ def buckling_analysis(prepared, count: int = 6) -> dict:
             target = l0 + (l1 - l0) * f0 / (f0 - f1)
             target = min(max(target, l0 + 0.01 * (l1 - l0)), l1 - 0.01 * (l1 - l0))
         trial, _, _, converged = continuation.newton_fixed(path, below[2], target)
+        if converged and path.left_the_path(below[2], below[0], trial, target):
+            converged = False  # it snapped onto another branch past a limit point: as no equilibrium
         if not converged:
             if above is None and step > STABILITY_TOL * max(below[0], 1e-12):
                 step *= 0.5
