@@ -350,6 +350,13 @@ def study() -> dict:
             rows.append({"elements": n, "P": P, "f1_hz": in_plane,
                          "error": in_plane / column_frequency_hz(1, P) - 1, "wall_s": wall})
     out["loaded_column"] = rows
+    rows = []
+    for n in (4, 8, 16):
+        r, wall = _run(williams_toggle(n))
+        top, low = (40.0 * p["load_factor"] for p in r.summary["limit_points"][:2])
+        rows.append({"elements": n, "limit_lb": top, "limit_error": top / TOGGLE_LIMIT - 1, "minimum_lb": low,
+                     "minimum_error": low / TOGGLE_MINIMUM - 1, "wall_s": wall})
+    out["williams_toggle"] = rows
     return out
 
 

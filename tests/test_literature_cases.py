@@ -362,3 +362,45 @@ def test_a_panel_latching_on_a_free_floating_bus_keeps_the_momentum_and_loses_wh
     assert np.abs(p - p[:, :1]).max() < 1e-6 * np.linalg.norm(p[:, 0])  # measured 3.8e-7 (O(dt²) before the latch)
     assert np.abs(L - L[:, :1]).max() < 3e-5  # measured 1.25e-5 (|L| = 0.517; O(dt²) through the latch)
     assert np.allclose(c["angle"][after], 1.0, atol=1e-9)
+
+
+# ----------------------------------------------------------------------------- friction
+SLIDING_BLOCK = """\
+title: a block sliding down an oblique guide to rest under Coulomb friction
+gravity: [0, 0, -9.81]
+bodies:
+  block: {at: [0, 0, 0], mass: 2.0, guide: {axis: [1, 1, -1], friction: {coulomb: 20.0}}}
+initial_velocity: {linear: [1.7320508075688772, 1.7320508075688772, -1.7320508075688772]}
+solve: {t_end: 1.0, dt: 0.002}
+output:
+  probes:
+    s: {guide: block, quantity: position}
+    v: {guide: block, quantity: rate}
+    f: {guide: block, quantity: force}
+"""
+
+
+def test_a_block_slides_down_an_incline_to_rest_and_sticks(tmp_path):
+    """m = 2 at 3 m/s down a guide along (1, 1, −1), F_c = 20 against the weight's pull m g/√3 = 11.33:
+    it stops after v₀²/(2a), a = F_c/m − g/√3, at t = v₀/a, and stays, friction holding the pull."""
+    completed, out = latdyn_run(tmp_path, SLIDING_BLOCK, quiet=True)
+    assert completed.returncode == 0, completed.stderr
+    c = probe_columns(out)
+    a = 10.0 - 9.81 / math.sqrt(3)
+    assert abs(c["s"][-1] - 9.0 / (2 * a)) < 1e-8  # measured 9.7e-10 (dt = 0.004 … 0.001 alike)
+    stopped = c["t"][np.argmax(c["v"] == 0.0)]
+    assert abs(stopped - 3.0 / a) < 0.002  # measured −1.0e-4: the stick lands within a step
+    held = c["t"] > stopped
+    assert np.all(c["v"][held] == 0.0) and np.allclose(c["f"][held], -2 * 9.81 / math.sqrt(3), rtol=1e-12)
+
+
+def test_a_follower_load_on_the_toggle_diverges_at_its_limit_point():
+    """The apex load turning with the apex (``frame: apex``; on the symmetric path the apex does not
+    turn, so the path is the dead load's): the follower search stepped past the fold onto the far
+    branch and said `instability: none` up to λ = 1000. Its steps now stop short of the secant's zero
+    of the divergence measure, and a step onto another branch is no equilibrium: the limit point."""
+    text = williams_toggle(8, analysis="buckling", steps=10).replace(
+        "force: [0, -40.0, 0]}", "force: [0, -40.0, 0], frame: apex}")
+    summary = run_api(text).summary
+    assert summary["conservative"] is False and summary["instability"] == "divergence"
+    assert abs(40 * summary["divergence_factor"] / TOGGLE_LIMIT - 1) < 1e-4  # measured +4.4e-5
