@@ -361,7 +361,11 @@ def study() -> dict:
 
 
 if __name__ == "__main__":
-    if "--references" in sys.argv:
+    import argparse
+
+    parser = argparse.ArgumentParser(description="Literature cases: convergence studies, or the references.")
+    parser.add_argument("--references", action="store_true", help="recompute the continuum references")
+    if parser.parse_args().references:
         print("arch", arch_limit_reference())
         print("bend", bend_reference())
         print("follower", follower_reference())
