@@ -172,14 +172,12 @@ solve: {analysis: modes, about: steady, count: 2}
 """
 
 
-def test_lag_and_flap_frequencies_of_hinged_rotor_blades(tmp_path):
+def test_lag_and_flap_frequencies_of_hinged_rotor_blades():
     """Hinge offset e = 0.5, blade l = 2, Ω = 10: ω_lag = Ω√(3e/2l), ω_flap = Ω√(1 + 3e/2l)."""
-    completed, out = latdyn_run(tmp_path, BLADES)
-    assert completed.returncode == 0, completed.stderr
-    f = np.loadtxt(out / "modes.csv", delimiter=",", skiprows=1)[:, 1]
+    result = run_api(BLADES)
     exact = 10 * np.sqrt([0.375, 1.375]) / (2 * np.pi)
-    assert np.allclose(f, exact, rtol=1e-9, atol=0)  # measured 1e-15 (rigid links: no mesh)
-    assert summary_of(out)["steady_state"]["stable"] is True
+    assert np.allclose(result.modes, exact, rtol=1e-9, atol=0)  # measured 1e-15 (rigid links: no mesh)
+    assert result.summary["steady_state"]["stable"] is True
 
 
 def test_a_free_symmetric_gyroscope_precesses_at_c_omega_over_a():
@@ -296,15 +294,14 @@ solve: {analysis: modes, about: {t: 0.5}, count: 8, t_end: 1.0, dt: 0.001}
 """
 
 
-def test_forward_and_backward_whirl_of_a_spinning_disc_on_a_cantilever_shaft(tmp_path):
+def test_forward_and_backward_whirl_of_a_spinning_disc_on_a_cantilever_shaft():
     """A disc (m = 2, I_d = 0.05, I_p = 0.08) spinning at Ω = 20 on a bearing at the tip of a massless
     cantilever shaft (EI = 1, L = 1): the gyroscopic moment splits each whirl into a forward and a
     backward one, det [[k₁₁ − mω², k₁₂], [k₁₂, k₂₂ − I_d ω² ± I_p Ω ω]] = 0 with the shaft's exact
     tip stiffness (12, −6, 4) EI/L^(3, 2, 1). The disc spins about its axis of symmetry: not flagged."""
-    completed, out = latdyn_run(tmp_path, ROTOR)
-    assert completed.returncode == 0, completed.stderr
-    assert "warnings" not in summary_of(out)
-    f = np.loadtxt(out / "modes.csv", delimiter=",", skiprows=1)[:, 1]
+    result = run_api(ROTOR)
+    assert "warnings" not in result.summary
+    f = np.asarray(result.modes)
     exact = []
     for sign in (1, -1):
         polynomial = np.poly1d([-2.0, 0, 12.0]) * np.poly1d([-0.05, sign * 0.08 * 20, 4.0]) - 36.0
@@ -380,12 +377,11 @@ output:
 """
 
 
-def test_a_block_slides_down_an_incline_to_rest_and_sticks(tmp_path):
+def test_a_block_slides_down_an_incline_to_rest_and_sticks():
     """m = 2 at 3 m/s down a guide along (1, 1, −1), F_c = 20 against the weight's pull m g/√3 = 11.33:
     it stops after v₀²/(2a), a = F_c/m − g/√3, at t = v₀/a, and stays, friction holding the pull."""
-    completed, out = latdyn_run(tmp_path, SLIDING_BLOCK, quiet=True)
-    assert completed.returncode == 0, completed.stderr
-    c = probe_columns(out)
+    result = run_api(SLIDING_BLOCK)
+    c = {"t": np.asarray(result.t), **{k: np.asarray(v) for k, v in result.probes.items()}}
     a = 10.0 - 9.81 / math.sqrt(3)
     assert abs(c["s"][-1] - 9.0 / (2 * a)) < 1e-8  # measured 9.7e-10 (dt = 0.004 … 0.001 alike)
     stopped = c["t"][np.argmax(c["v"] == 0.0)]
@@ -476,15 +472,47 @@ def test_a_free_chain_of_bodies_hinges_and_beams_keeps_energy_and_momentum_to_or
         assert 3.0 < coarse / fine < 5.0  # second order
 
 
-def test_modes_about_a_static_state_past_the_euler_load_say_it_is_unstable(tmp_path):
+def test_modes_about_a_static_state_past_the_euler_load_say_it_is_unstable():
     """The perfect pinned column at P = 12 > π²: load control stays on the straight (unstable) branch;
     its modes hold the divergent root √(π⁴(P/π² − 1)) = 4.585 1/s (damping ratio −1), but the run said
     nothing. Now a warning names the growth rate, as about: steady does."""
-    completed, out = latdyn_run(tmp_path, loaded_column(8, 12.0))
-    assert completed.returncode == 0, completed.stderr
-    summary = summary_of(out)
+    summary = run_api(loaded_column(8, 12.0)).summary
     warning = [w for w in summary["warnings"] if w.startswith("modes about static: the static state is unstable")]
     growth = math.pi ** 2 * math.sqrt(12.0 / math.pi ** 2 - 1)
     assert len(warning) == 1 and f"{growth:.4g} 1/s" in warning[0]
     assert summary["damping_ratios"][0] == -1.0
     assert "warnings" not in run_api(loaded_column(8, 5.0)).summary  # below the Euler load: stable, no word
+
+
+# ----------------------------------------------------------------------------- cables
+DROPPED_ON_A_ROPE = """\
+title: a mass dropped on a slack rope
+gravity: [0, 0, -9.81]
+bodies:
+  anchor: {at: [0, 0, 0], fixed: true}
+  mass: {at: [0, 0, -1], mass: 2.0, inertia: [0.01, 0.01, 0.01]}
+cables:
+  rope: {from: anchor, to: mass, EA: 400.0, rest_length: 2.0}
+solve: {t_end: 1.2, dt: 0.001}
+output:
+  probes:
+    N: {cable: rope, quantity: tension}
+"""
+
+
+def test_a_mass_dropped_on_a_slack_rope_goes_taut_and_slack_at_the_closed_form_times(tmp_path):
+    """Free fall of 1 m onto a rope of k = EA/L₀ = 200: taut at √(2/g), then half a swing of
+    ω = √(k/m) about the static stretch mg/k with amplitude A = √((mg/k)² + 2g/ω²), slack again
+    (π + 2 asin(mg/kA))/ω later; the largest tension k (mg/k + A)."""
+    completed, out = latdyn_run(tmp_path, DROPPED_ON_A_ROPE)
+    assert completed.returncode == 0, completed.stderr
+    m, g, k = 2.0, 9.81, 200.0
+    omega, static = math.sqrt(k / m), m * g / k
+    amplitude = math.sqrt(static ** 2 + 2 * g / omega ** 2)
+    taut = math.sqrt(2 / g)
+    slack = taut + (math.pi + 2 * math.asin(static / amplitude)) / omega
+    events = summary_of(out)["cable_events"]
+    assert [e["state"] for e in events[:2]] == ["taut", "slack"]
+    assert abs(events[0]["t"] - taut) < 1e-9  # measured 2e-15 (free fall: exact)
+    assert abs(events[1]["t"] - slack) < 2e-5  # measured 3.2e-6 (1.3e-5, 7.9e-7 at dt = 0.002, 0.0005)
+    assert abs(probe_columns(out)["N"].max() / (k * (static + amplitude)) - 1) < 2e-5  # measured 8e-6 (rows)
