@@ -47,6 +47,9 @@ import latdyn  # noqa: E402
 # ----------------------------------------------------------------------------- references
 #: P R²/EI at the limit point of the 215° arch, EA R²/EI = 1e6 (:func:`arch_limit_reference`).
 ARCH_LIMIT = 8.972949
+#: The pinned–pinned 120° arch (R = 1, EI = 1, EA = 1e6) under a crown load: P R²/EI at its
+#: asymmetric bifurcation and at the symmetric path's limit point (:func:`pinned_arch_reference`).
+PINNED_ARCH_BIFURCATION, PINNED_ARCH_LIMIT = 11.435735, 13.700559
 #: The tip of the 45° bend (x, y, z) at P = 300, 450, 600 (:func:`bend_reference`).
 BEND_TIP = {300: (58.541631, 22.115744, 40.472315),
             450: (51.976228, 18.372607, 48.698165),
@@ -100,6 +103,53 @@ def arch_limit_reference(R=1.0, EI=1.0, EA=1e6, opening=215.0) -> tuple[float, f
     r = minimize_scalar(lambda v: -fsolve(shoot, guess, args=(v,), xtol=1e-13)[3],
                         bracket=(best[1] - 0.01, best[1], best[1] + 0.01), tol=1e-10)
     return -r.fun * R ** 2 / EI, r.x / R
+
+
+def pinned_arch_reference(R=1.0, EI=1.0, EA=1e6, opening=120.0) -> tuple[float, float]:
+    """(bifurcation, limit) P R²/EI of a pinned–pinned circular arch under a dead crown load: the
+    symmetric path by shooting from the left pin (section force, end angle; M = 0 at both ends) with
+    the crown's deflection prescribed; the bifurcation where the Jacobian of the end conditions in
+    the shooting unknowns is singular while P still rises, the limit point where P is largest."""
+    from scipy.integrate import solve_ivp
+    from scipy.optimize import brentq, fsolve, minimize_scalar
+
+    half = math.radians(opening / 2)
+    L = 2 * half * R
+    rhs = _planar_rod(EI, EA, -1.0 / R)
+    kw = dict(rtol=1e-12, atol=1e-13, method="DOP853")
+
+    def ends(u):
+        F0 = np.array(u[:2])
+        ya = solve_ivp(rhs, (0, L / 2), [R * math.sin(-half), R * math.cos(-half), u[2], 0.0], args=(F0,), **kw).y[:, -1]
+        return ya, solve_ivp(rhs, (L / 2, L), ya, args=(F0 + np.array([0.0, u[3]]),), **kw).y[:, -1]
+
+    def conditions(u):
+        yb = ends(u)[1]
+        return np.array([yb[0] - R * math.sin(half), yb[1] - R * math.cos(half), yb[3]])
+
+    def shoot(u, v):
+        return list(conditions(u)) + [ends(u)[0][1] - (R - v)]
+
+    def det(u, h=1e-6):
+        columns = []
+        for j in range(3):
+            e = np.zeros(4)
+            e[j] = h
+            columns.append((conditions(u + e) - conditions(u - e)) / (2 * h))
+        return np.linalg.det(np.array(columns).T)
+
+    u, rows = np.array([0.0, 0.0, half, 0.0]), []
+    for v in np.linspace(0.005, 0.6, 120):
+        u = fsolve(shoot, u, args=(v,), xtol=1e-13)
+        rows.append((v, u.copy(), det(u)))
+    first = next(i for i in range(1, len(rows)) if np.sign(rows[i][2]) != np.sign(rows[i - 1][2]))
+    start = rows[first - 1][1]
+    vb = brentq(lambda v: det(fsolve(shoot, start, args=(v,), xtol=1e-13)), rows[first - 1][0], rows[first][0], xtol=1e-10)
+    top = max(range(len(rows)), key=lambda i: rows[i][1][3])
+    guess = rows[top][1]
+    limit = minimize_scalar(lambda v: -fsolve(shoot, guess, args=(v,), xtol=1e-13)[3],
+                            bracket=(rows[top - 1][0], rows[top][0], rows[top + 1][0]), tol=1e-10)
+    return float(fsolve(shoot, start, args=(vb,), xtol=1e-13)[3]), float(-limit.fun)
 
 
 def toggle_reference() -> tuple[tuple[float, float], tuple[float, float]]:
@@ -206,11 +256,13 @@ def torque_free_period(inertia, omega0) -> float:
 
 
 # ----------------------------------------------------------------------------- scenes (YAML text)
-def deep_arch(segments: int, P: float = 12.0, steps: int = 20, EA: float = 1e6) -> str:
+def deep_arch(segments: int, P: float = 12.0, steps: int = 20, EA: float = 1e6, opening: float = 215.0,
+              pinned_start: bool = False, analysis: str = "static, method: arc-length") -> str:
     """The 215° arch (R = 1, EI = 1) as straight beams between massless joint bodies on the circle,
-    one element each; clamped at n0, pinned (hinge about z) at the last; arc length to P."""
-    half = math.radians(107.5)
-    lines = ["title: DaDeppo-Schmidt deep arch, 215 degrees, clamped-pinned", "sections:",
+    one element each; clamped at n0 (pinned with ``pinned_start``), pinned (hinge about z) at the
+    last; arc length to P (``analysis``: what follows ``analysis:`` in ``solve``)."""
+    half = math.radians(opening / 2)
+    lines = [f"title: circular arch, {opening:g} degrees, crown load", "sections:",
              f"  s: {{EA: {EA}, EIy: 1.0, EIz: 1.0, GJ: 1.0, rhoA: 1.0}}", "bodies:"]
     for i in range(segments + 1):
         a = -half + 2 * half * i / segments
@@ -219,10 +271,12 @@ def deep_arch(segments: int, P: float = 12.0, steps: int = 20, EA: float = 1e6) 
     lines.append("beams:")
     for i in range(segments):
         pin = ", end: {hinge: {axis: [0, 0, 1]}}" if i == segments - 1 else ""
+        if i == 0 and pinned_start:
+            pin += ", start: {hinge: {axis: [0, 0, 1]}}"
         lines.append(f"  b{i}: {{from: n{i}, to: n{i + 1}, section: s{pin}}}")
     crown = segments // 2
     lines += ["loads:", f"  - {{at: n{crown}, force: [0, {-P}, 0]}}",
-              f"solve: {{analysis: static, method: arc-length, steps: {steps}}}",
+              f"solve: {{analysis: {analysis}, steps: {steps}}}",
               "output:", "  probes:", f"    crown_v: {{point: n{crown}, quantity: displacement, component: y}}"]
     return "\n".join(lines) + "\n"
 
@@ -370,6 +424,7 @@ if __name__ == "__main__":
         print("bend", bend_reference())
         print("follower", follower_reference())
         print("toggle", toggle_reference())
+        print("pinned arch", pinned_arch_reference())
         sys.exit(0)
     results = study()
     print(json.dumps(results, indent=1))

@@ -20,7 +20,7 @@ from cli_runs import latdyn_run, probe_columns, summary_of
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from benchmarks.literature_cases import (  # noqa: E402
-    ARCH_LIMIT, BEND_TIP, FOLLOWER_TIP, TOGGLE_LIMIT, TOGGLE_LIMIT_V, TOGGLE_MINIMUM, bent_cantilever,
+    ARCH_LIMIT, BEND_TIP, FOLLOWER_TIP, PINNED_ARCH_BIFURCATION, PINNED_ARCH_LIMIT, TOGGLE_LIMIT, TOGGLE_LIMIT_V, TOGGLE_MINIMUM, bent_cantilever,
     column_frequency_hz, deep_arch, follower_cantilever, loaded_column, torque_free_period, williams_toggle,
 )
 
@@ -49,6 +49,24 @@ def test_deep_arch_limit_load_by_arc_length_against_the_elastica(tmp_path):
     extrapolated = fine + (fine - coarse) / 3
     assert abs(extrapolated / ARCH_LIMIT - 1) < 2e-4  # measured −4e-5
     assert probe_columns(out)["crown_v"].min() < -1.1  # past the limit point (crown deflection 1.137 R there)
+
+
+def test_a_pinned_arch_bifurcates_before_its_limit_point():
+    """A pinned–pinned 120° arch under a crown load leaves its symmetric path sideways (in its plane)
+    at P R²/EI = 11.4357, before the symmetric limit point 13.7006 (the elastica, benchmarks/
+    literature_cases.py). Arc length stays on the symmetric path (no branch switching) and reports
+    the bifurcation between two rows and the limit point; ``analysis: buckling`` (out of the plane
+    stiff: with GJ = EIy = EI the arch buckles out of its plane first, at 7.49) finds the bifurcation,
+    second order in the segments."""
+    path = run_api(deep_arch(20, P=15.0, opening=120.0, pinned_start=True)).summary
+    low, high = (15 * x for x in path["bifurcation_points"][0]["between_load_factors"])
+    assert low < PINNED_ARCH_BIFURCATION < high and path["bifurcation_points"][0]["negative_eigenvalues"] == [0, 1]
+    assert abs(15 * path["limit_points"][0]["load_factor"] / PINNED_ARCH_LIMIT - 1) < 3e-3  # measured +1.7e-3
+    stiff = "EIy: 1.0e4, EIz: 1.0, GJ: 1.0e4"
+    factors = [15 * run_api(deep_arch(n, P=15.0, opening=120.0, pinned_start=True, analysis="buckling").replace(
+        "EIy: 1.0, EIz: 1.0, GJ: 1.0", stiff)).summary["buckling_factor"] for n in (20, 40)]
+    assert abs(factors[1] / PINNED_ARCH_BIFURCATION - 1) < 5e-4  # measured −2.6e-4 (−1.0e-3 with 20)
+    assert abs((factors[1] + (factors[1] - factors[0]) / 3) / PINNED_ARCH_BIFURCATION - 1) < 5e-5  # measured 1e-6
 
 
 def test_williams_toggle_snaps_through_its_limit_load_by_arc_length(tmp_path):
