@@ -534,3 +534,32 @@ def test_a_mass_dropped_on_a_slack_rope_goes_taut_and_slack_at_the_closed_form_t
     assert abs(events[0]["t"] - taut) < 1e-9  # measured 2e-15 (free fall: exact)
     assert abs(events[1]["t"] - slack) < 2e-5  # measured 3.2e-6 (1.3e-5, 7.9e-7 at dt = 0.002, 0.0005)
     assert abs(probe_columns(out)["N"].max() / (k * (static + amplitude)) - 1) < 2e-5  # measured 8e-6 (rows)
+
+
+SLACK_TIE = """\
+title: a guided body on a spring pulled until a slack tie goes taut
+bodies:
+  anchor: {at: [0, 0, 0], fixed: true}
+  slider: {at: [1, 0, 0], mass: 1.0, guide: {axis: [1, 0, 0], stiffness: 100.0}}
+cables:
+  tie: {from: anchor, to: slider, EA: 1.0e5, rest_length: 1.05}
+loads:
+  - {at: slider, force: [10.0, 0, 0]}
+solve: {analysis: static, steps: 10}
+output:
+  probes:
+    s: {guide: slider, quantity: position}
+    N: {cable: tie, quantity: tension}
+"""
+
+
+def test_a_tie_going_taut_under_load_control_is_a_kink_of_the_path_not_a_snap_through():
+    """The tie goes taut at λ = 0.5 exactly (s = 0.05): from there the tangent (slack) predicts a move
+    the stiff path does not make at any step length. That is no jump onto another branch (the path
+    is continuous, the step stiffer than the tangent said): solved, at the spring-and-tie equilibrium
+    100 s + (EA/L₀)(s − 0.05) = 10."""
+    result = run_api(SLACK_TIE)
+    assert result.summary["status"] == "solved" and result.summary["rejected_steps"] == 0
+    k = 1.0e5 / 1.05
+    s = (10.0 + k * 0.05) / (100.0 + k)
+    assert abs(result.probes["s"][-1] - s) < 1e-12 and abs(result.probes["N"][-1] - k * (s - 0.05)) < 1e-7

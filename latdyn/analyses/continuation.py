@@ -144,6 +144,8 @@ class Path:
     #: arc length in 3D: a step's Δq composed exactly in the tangent space (:meth:`compose`), so
     #: that its arc length is the distance of its ends (set by :func:`static_path`)
     exact_increments: bool = False
+    #: the last step :meth:`left_the_path` judged a jump: (start, its load, the end's load, ‖Δq‖)
+    _departure: tuple | None = None
 
     def __post_init__(self):
         scene = self.prepared.scene
@@ -216,8 +218,11 @@ class Path:
     def left_the_path(self, start, start_load: float, end, end_load: float) -> bool:
         """Whether a Newton solution ``end`` at load factor ``end_load``, started from the path point
         ``start``, converged onto another branch: its Δq differs from the tangent's prediction
-        (end_load − start_load) K⁻¹q_ref by more than :data:`BRANCH_MISMATCH` of the larger (a step
-        past a limit point that lands on the far side of a snap-through, as a toggle's).  Not judged
+        (end_load − start_load) K⁻¹q_ref by more than :data:`BRANCH_MISMATCH` of the larger and is the
+        larger (a step past a limit point that lands on the far side of a snap-through, as a toggle's),
+        and does not shrink with the step (judged from the same start at a longer step before, it
+        would have shrunk at least halfway towards in proportion on a path that only softens: a
+        kink, as where a cable goes slack).  Not judged
         from a start that is no equilibrium (the initial configuration of a preloaded hinge spring or
         a pretensioned cable: the path begins where the first step lands)."""
         iteration = self.iterate(start, start_load)
@@ -226,10 +231,21 @@ class Path:
             return False
         predicted = (end_load - start_load) * tangent
         step = self.difference(start, end)
-        off = self.norm(step - predicted)
+        off, size = self.norm(step - predicted), self.norm(step)
         if off <= SAME_BRANCH_DISTANCE:  # round-off of a state that hardly moves (no load on it)
             return False
-        return off / max(self.norm(step), self.norm(predicted), 1e-300) > BRANCH_MISMATCH
+        if off / max(size, self.norm(predicted), 1e-300) <= BRANCH_MISMATCH or size <= self.norm(predicted):
+            return False  # on the path, or stiffer than the tangent said (a cable going taut): no jump
+        # moved further than the tangent said: a jump, unless the move shrinks with the step as on a
+        # continuous path that softens (a kink: a cable going slack), where the same start was judged
+        # before at a longer step
+        last = self._departure
+        self._departure = (start, start_load, end_load, size)
+        if last is not None and last[0] is start and last[1] == start_load:
+            ratio = abs(end_load - start_load) / max(abs(last[2] - start_load), 1e-300)
+            if ratio < 1.0 and size < 0.5 * (1.0 + ratio) * last[3]:
+                return False  # shrank at least halfway towards in proportion: a kink, not a jump
+        return True
 
     def step_to(self, state, dq):
         new = self.assembler.advance(state, dq)
