@@ -563,3 +563,34 @@ def test_a_tie_going_taut_under_load_control_is_a_kink_of_the_path_not_a_snap_th
     k = 1.0e5 / 1.05
     s = (10.0 + k * 0.05) / (100.0 + k)
     assert abs(result.probes["s"][-1] - s) < 1e-12 and abs(result.probes["N"][-1] - k * (s - 0.05)) < 1e-7
+
+
+ASYMMETRIC_SHAFT = """\
+title: a mass on an asymmetric shaft spinning about its axis
+sections:
+  shaft: {EA: 1.0e6, EIy: 1.0, EIz: 2.0, GJ: 1.0, rhoA: 0.0}
+bodies:
+  hub: {at: [0, 0, 0], motion: {rotation: {axis: [1, 0, 0], angle: "OMEGA*t"}}}
+  mass: {at: [1, 0, 0], mass: 1.0, inertia: [1.0e-6, 1.0e-6, 1.0e-6]}
+beams:
+  shaft: {from: hub, to: mass, section: shaft}
+solve: {analysis: modes, about: steady, count: 4}
+"""
+
+
+def test_a_mass_on_an_asymmetric_spinning_shaft_is_unstable_between_its_critical_speeds():
+    """A tip mass m = 1 on a massless cantilever shaft with tip stiffnesses 3EI/L³ = 3 and 6, spinning
+    about its axis: in the turning frame s⁴ + (ω₁² + ω₂² + 2Ω²)s² + (ω₁² − Ω²)(ω₂² − Ω²) = 0, stable
+    below √3 (Ω = 1: 1 and √10 rad/s) and divergent between √3 and √6 (Ω = 2: s = 0.34182 1/s)."""
+    def roots(omega):
+        return np.roots([1.0, 9.0 + 2 * omega ** 2, (3.0 - omega ** 2) * (6.0 - omega ** 2)])
+
+    slow = run_api(ASYMMETRIC_SHAFT.replace("OMEGA", "1.0"))
+    assert slow.summary["steady_state"]["stable"] is True
+    exact = np.sort(np.sqrt(-roots(1.0))) / (2 * np.pi)
+    assert np.allclose(slow.modes[:2], exact, rtol=1e-5)  # measured 1.1e-6 (the mass's 1e-6 inertia, EA)
+    fast = run_api(ASYMMETRIC_SHAFT.replace("OMEGA", "2.0")).summary
+    growth = math.sqrt(max(roots(2.0).real))
+    assert fast["steady_state"]["stable"] is False
+    assert abs(fast["steady_state"]["growth_rate"] / growth - 1) < 1e-5  # measured 1e-6
+    assert any("unstable" in w for w in fast["warnings"])
