@@ -144,6 +144,8 @@ class Path:
     #: arc length in 3D: a step's Δq composed exactly in the tangent space (:meth:`compose`), so
     #: that its arc length is the distance of its ends (set by :func:`static_path`)
     exact_increments: bool = False
+    #: the last step :meth:`left_the_path` judged a jump: (start, its load, the end's load, ‖Δq‖)
+    _departure: tuple | None = None
 
     def __post_init__(self):
         scene = self.prepared.scene
@@ -196,6 +198,54 @@ class Path:
             if len(dofs):
                 total[dofs] = compose_rotation_vectors(increment[dofs], dq[dofs])
         return total
+
+    def difference(self, start, end) -> np.ndarray:
+        """Δq from ``start`` to ``end`` on the free coordinates (the inverse of :meth:`step_to`):
+        x_end − x_start, log(T_end T_startᵀ) at every free node, θ_end − θ_start."""
+        from scipy.spatial.transform import Rotation
+
+        model, n = self.model, self.model.n_dofs
+        dq = np.zeros(n + 1)  # slot n takes what is not a coordinate (out of the plane, locked)
+        nodes = model.free_nodes
+        dofs = np.minimum(model.node_dofs[nodes], n)
+        dq[dofs[:, :3]] = end.x[nodes] - start.x[nodes]
+        turn = np.einsum("nij,nkj->nik", end.T[nodes], start.T[nodes])
+        dq[dofs[:, 3:]] = Rotation.from_matrix(turn).as_rotvec() if len(nodes) else 0.0
+        hinges = model.free_hinges
+        dq[np.minimum(model.hinge_dofs[hinges], n)] = end.theta[hinges] - start.theta[hinges]
+        return dq[:n]
+
+    def left_the_path(self, start, start_load: float, end, end_load: float) -> bool:
+        """Whether a Newton solution ``end`` at load factor ``end_load``, started from the path point
+        ``start``, converged onto another branch: its Δq differs from the tangent's prediction
+        (end_load − start_load) K⁻¹q_ref by more than :data:`BRANCH_MISMATCH` of the larger and is the
+        larger (a step past a limit point that lands on the far side of a snap-through, as a toggle's),
+        and does not shrink with the step (judged from the same start at a longer step before, it
+        would have shrunk at least halfway towards in proportion on a path that only softens: a
+        kink, as where a cable goes slack).  Not judged
+        from a start that is no equilibrium (the initial configuration of a preloaded hinge spring or
+        a pretensioned cable: the path begins where the first step lands)."""
+        iteration = self.iterate(start, start_load)
+        tangent = iteration.dq_lambda
+        if tangent is None or iteration.dq_r is None or self.increment_size(iteration.dq_r) > 10 * self.tol:
+            return False
+        predicted = (end_load - start_load) * tangent
+        step = self.difference(start, end)
+        off, size = self.norm(step - predicted), self.norm(step)
+        if off <= SAME_BRANCH_DISTANCE:  # round-off of a state that hardly moves (no load on it)
+            return False
+        if off / max(size, self.norm(predicted), 1e-300) <= BRANCH_MISMATCH or size <= self.norm(predicted):
+            return False  # on the path, or stiffer than the tangent said (a cable going taut): no jump
+        # moved further than the tangent said: a jump, unless the move shrinks with the step as on a
+        # continuous path that softens (a kink: a cable going slack), where the same start was judged
+        # before at a longer step
+        last = self._departure
+        self._departure = (start, start_load, end_load, size)
+        if last is not None and last[0] is start and last[1] == start_load:
+            ratio = abs(end_load - start_load) / max(abs(last[2] - start_load), 1e-300)
+            if ratio < 1.0 and size < 0.5 * (1.0 + ratio) * last[3]:
+                return False  # shrank at least halfway towards in proportion: a kink, not a jump
+        return True
 
     def step_to(self, state, dq):
         new = self.assembler.advance(state, dq)
@@ -328,16 +378,22 @@ def load_control(path: Path, state) -> object:
     """λ = k/steps, k = 1 … steps; a failed step is halved towards the next grid point."""
     steps = path.prepared.scene.solve.steps
     lam, k, h = 0.0, 0, 1.0 / steps
+    jumped = False  # a cut step of this row converged onto another branch (:meth:`Path.left_the_path`)
     while k < steps:
         grid = (k + 1) / steps
         target = grid if lam + h >= grid - 1e-12 / steps else lam + h
         trial, _, residual, converged = newton_fixed(path, state, target)
-        if not converged:
+        left = converged and path.left_the_path(state, lam, trial, target)  # snapped onto another branch
+        jumped = jumped or left
+        if not converged or left:
             path.rejected += 1
             h = min(h, target - lam) / 2
             if h < 1.0 / (steps * 2 ** MAX_CUTS):
+                how = "Newton converged only onto another branch of the path (a snap-through)" if left else (
+                    "Newton failed" + (" (at longer steps it converged only onto another branch of the path: "
+                                       "a snap-through)" if jumped else ""))
                 path.fail(state, lam, f"static analysis could not reach load factor {grid:.6g} (row {k + 1} of "
-                                      f"{steps}): Newton failed at load factor {target:.6g} after {MAX_CUTS} cuts "
+                                      f"{steps}): {how} at load factor {target:.6g} after {MAX_CUTS} cuts "
                                       f"of the step; the last converged load factor, {lam:.6g}, is the last row (past a limit point "
                                       "load control cannot go on: solve.method: arc-length follows the path)",
                           residual, target, target - lam)
@@ -347,6 +403,7 @@ def load_control(path: Path, state) -> object:
         h = min(2 * h, 1.0 / steps)
         if target == grid:
             k += 1
+            jumped = False
             path.record(state, lam)
     return state
 
@@ -515,6 +572,9 @@ def displacement_control(path: Path, state) -> object:
 #: A displacement-control step whose converged Δq differs from the tangent's prediction by more
 #: than this fraction of the larger of the two left the path (it is halved).
 BRANCH_MISMATCH = 0.5
+#: A step within this W-norm distance (translations over the scene's size, rotations in rad) of the
+#: tangent's prediction is on the path whatever the ratio (:meth:`Path.left_the_path`).
+SAME_BRANCH_DISTANCE = 1e-6
 #: What :func:`displacement_step` returns for a step that converged off the path.
 LEFT_THE_PATH = "left the path"
 

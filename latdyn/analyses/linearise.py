@@ -111,11 +111,35 @@ def modal_analysis(prepared, count: int, about="initial"):
     lin = linearise(other.assembler, state, frame, load_factor)
     states = controller_states(lin)  # continuous controllers' states: the closed loop's first-order modes
     first_order = None if states is None else (lambda red: closed_loop_matrix(lin, red, states)[0])
-    found = modes(lin, None if about == "steady" else count, first_order)
+    found = modes(lin, None if about in ("steady", "static") else count, first_order)
     if about == "steady":  # judged by all its roots, not only the listed ones
         report["steady_state"], report["warnings"] = steady_summary(search, found)
         found = found[:count]
+    elif about == "static":  # an equilibrium the path reached on an unstable branch: say so
+        growth = unstable_growth(found)
+        report["warnings"] = [STATIC_UNSTABLE.format(growth=growth)] if growth is not None else []
+        found = found[:count]
+    elif isinstance(about, float):  # a frozen state: say so where it turns in the frame of the modes
+        from latdyn.analyses.moving import turning_warning
+
+        warning = turning_warning(other.model, state, frame, found, about)
+        report["warnings"] = [warning] if warning else []
     return found, dominant_directions(other.model, lin, found), lin, report
+
+
+STATIC_UNSTABLE = ("modes about static: the static state is unstable, a root of its modes has real part "
+                   "{growth:.4g} 1/s (a divergent mode, damping ratio < 0): load control followed the path "
+                   "past a bifurcation (a perfect column stays straight past its Euler load) or onto an "
+                   "unstable branch, and the structure does not stay in this state")
+
+
+def unstable_growth(found: list[Mode]) -> float | None:
+    """The largest growth rate −ζ·|λ| (1/s) of the roots of ``found`` (all the modes about a state)
+    that grow by more than round-off (1e-6 of the largest natural angular frequency); None where none does."""
+    top = max((2 * np.pi * m.natural_frequency_hz for m in found), default=0.0)
+    growth = [-m.damping_ratio * 2 * np.pi * m.natural_frequency_hz for m in found if m.damping_ratio < 0.0]
+    growth = [g for g in growth if g > 1e-6 * top]
+    return max(growth) if growth else None
 
 
 def modes_table(found: list[Mode], directions: list[str]) -> dict:
@@ -216,6 +240,8 @@ def buckling_analysis(prepared, count: int = 6) -> dict:
             target = l0 + (l1 - l0) * f0 / (f0 - f1)
             target = min(max(target, l0 + 0.01 * (l1 - l0)), l1 - 0.01 * (l1 - l0))
         trial, _, _, converged = continuation.newton_fixed(path, below[2], target)
+        if converged and path.left_the_path(below[2], below[0], trial, target):
+            converged = False  # it snapped onto another branch past a limit point: as no equilibrium
         if not converged:
             if above is None and step > STABILITY_TOL * max(below[0], 1e-12):
                 step *= 0.5

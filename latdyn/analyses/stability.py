@@ -198,6 +198,8 @@ def search(prepared, path, reference, K0s, first_step: float, flutter: bool, tol
     while below.load_factor < SEARCH_LIMIT:
         target = min(below.load_factor + step, SEARCH_LIMIT)
         trial, _, _, converged = continuation.newton_fixed(path, below.state, target)
+        if converged and path.left_the_path(below.state, below.load_factor, trial, target):
+            converged = False  # only on another branch, past a fold (continuation.Path.left_the_path)
         if not converged:  # no equilibrium there: a limit point (the path folds, det K_T = 0) or a cut
             step *= 0.5
             if step <= tol * max(below.load_factor, 1e-12):
@@ -208,8 +210,13 @@ def search(prepared, path, reference, K0s, first_step: float, flutter: bool, tol
         if point.diverged or point.fluttered:
             above = point
             break
-        below = point
+        previous, below = below, point
         step = min(2.0 * step, max(first_step, 0.5 * below.load_factor))
+        falling = np.isfinite(previous.divergence) and below.divergence < previous.divergence
+        if falling:  # towards a fold or a divergence: not far past the secant's zero of d (a step
+            # beyond a fold may land on another branch; exactly on a divergence, K is singular)
+            guess = below.divergence * (below.load_factor - previous.load_factor) / (previous.divergence - below.divergence)
+            step = min(step, max(1.1 * guess, 0.05 * step))
     if above is not None:  # narrow the bracket: Illinois regula falsi on the measure that turned
         diverging = above.diverged
 
@@ -232,6 +239,8 @@ def search(prepared, path, reference, K0s, first_step: float, flutter: bool, tol
                 target += 0.25 * tol * lo * (-1.0 if moved < 0 else 1.0)
                 target = min(max(target, lo + 1e-3 * (hi - lo)), hi - 1e-3 * (hi - lo))
             trial, _, _, converged = continuation.newton_fixed(path, below.state, target)
+            if converged and path.left_the_path(below.state, below.load_factor, trial, target):
+                converged = False
             if not converged:
                 above = PathState(target, None, -np.inf, None)  # a fold inside
                 limit_point = True
