@@ -143,7 +143,10 @@ def main(argv=None) -> dict:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--problems", nargs="*", default=["truss", "cantilever"])
+    parser.add_argument("--out", type=Path, default=OUT)
     parser.add_argument("--sweep", action="store_true", help="the truss's iterations a step against the tolerance")
+    parser.add_argument("--newtons", nargs="*", default=list(NEWTONS), choices=NEWTONS,
+                        help="the variants run (full always, the others' reference)")
     args = parser.parse_args(argv)
     if args.sweep:
         return {"sweep": sweep()}
@@ -154,7 +157,8 @@ def main(argv=None) -> dict:
         raw = scenes[name]
         reference = run(raw, "full", 4, 1e-12)
         rows = {}
-        for newton in NEWTONS:
+        newtons = ["full"] + [v for v in args.newtons if v != "full"]
+        for newton in newtons:
             runs = [run(raw, newton) for _ in range(args.repeats + 1)][1:]
             first = runs[0]
             rows[newton] = {k: first[k] for k in ("steps", "newton_iterations", "factorizations", "elements")}
@@ -163,15 +167,15 @@ def main(argv=None) -> dict:
                                 us_per_element_iteration=1e6 * statistics.median(r["solver_s"] for r in runs)
                                 / (first["newton_iterations"] * first["elements"]),
                                 probe_error=difference(first, reference), _run=first)
-        for newton in NEWTONS:
+        for newton in newtons:
             rows[newton]["error"] = max(rows[newton]["probe_error"].values())
             rows[newton]["error_vs_full"] = max(difference(rows[newton]["_run"], rows["full"]["_run"]).values())
-        for newton in NEWTONS:
+        for newton in newtons:
             del rows[newton]["_run"]
         doc["problems"][name] = rows
     load.append(os.getloadavg()[0])
     doc["load_average"] = load
-    OUT.write_text(json.dumps(doc, indent=1) + "\n")
+    args.out.write_text(json.dumps(doc, indent=1) + "\n")
     print(markdown(doc))
     return doc
 
