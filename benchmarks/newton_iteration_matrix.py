@@ -18,18 +18,18 @@ Every run records a row every step (``output.every: dt``) of a few probes (displ
 points, a rotation where the scene has one, the total energy); the reference is the same scene at
 dt/4 with full Newton and ``tol`` 1e-12, its rows taken at the run's times. ``error``: the largest
 difference over the run of each probe from the reference, divided by the reference probe's range
-(max − min; an energy, nearly constant, by its largest size), the largest over the probes; ``error_vs_full``: the same against the ``full`` run (what
-the choice moves). Times: the medians of ``--repeats`` runs (after one untimed) of ``solver_s``
-(wall, inside the steps) and of the process CPU time of the whole ``latdyn.run``; the 1-minute load
-average before and after. Results: ``benchmarks/results/newton_iteration_matrix.json`` and a Markdown
-table on stdout (docs/performance.md, "Sixth pass").
+(max − min; an energy, nearly constant, by its largest size), the largest over the probes;
+``error_vs_full``: the same against the ``full`` run (what the choice moves). Times: the medians of
+``--repeats`` runs (after one untimed) of ``solver_s`` (wall, inside the steps) and of the process CPU
+time of the whole ``latdyn.run``; the 1-minute load average before and after. Results:
+``benchmarks/results/newton_iteration_matrix.json`` and a Markdown table on stdout (docs/performance.md,
+"Sixth pass").
 
-``--sweep``: how full Newton converges on the truss, 0.1 s of it: the iterations a step at ``tol``
-1e-6, 1e-8, 1e-10, 1e-12 with and without the elements' inertia tangent (``full``, ``exact``), at
-rest, with the joint bodies' rotary inertia or their mass taken away, and at other step sizes h and
-spin rates ω (the scene's ``initial_velocity.angular``). Iterations growing by one for every factor
-100 of the tolerance are linear convergence with a contraction ≈ 1e-2; quadratic convergence would
-add at most one iteration over the whole range.
+``--sweep``: how full Newton converges on the truss, 0.1 s of it: the iterations a step at ``tol`` 1e-6, 1e-8, 1e-10, 1e-12 with and without the elements' inertia tangent (``full``,
+``exact``), at rest, with the joint bodies' rotary inertia or their mass taken away, and at other step
+sizes h and spin rates ω (the scene's ``initial_velocity.angular``). Iterations growing by one for every
+factor 100 of the tolerance are linear convergence with a contraction ≈ 1e-2; quadratic convergence
+would add at most one iteration over the whole range.
 """
 from __future__ import annotations
 
@@ -186,9 +186,9 @@ def markdown(doc: dict) -> str:
              "| error against dt/4 | against full |", "|---|---|---|---|---|---|---|---|"]
     for name, rows in doc["problems"].items():
         for newton, r in rows.items():
-            lines.append(f"| {name} | {newton} | {r['newton_iterations']} / {r['factorizations']} | {r['solver_s']:.3f} "
-                         f"| {r['cpu_s']:.3f} | {r['us_per_element_iteration']:.2f} | {r['error']:.2e} "
-                         f"| {r['error_vs_full']:.1e} |")
+            lines.append(f"| {name} | {newton} | {r['newton_iterations']} / {r['factorizations']} "
+                         f"| {r['solver_s']:.3f} | {r['cpu_s']:.3f} | {r['us_per_element_iteration']:.2f} "
+                         f"| {r['error']:.2e} | {r['error_vs_full']:.1e} |")
     return "\n".join(lines)
 
 
