@@ -26,7 +26,8 @@ time of the whole ``latdyn.run``; the 1-minute load average before and after. Re
 "Sixth pass").
 
 ``--sweep``: how full Newton converges on the truss, 0.1 s of it: the iterations a step at ``tol``
-1e-6, 1e-8, 1e-10, 1e-12 with and without the elements' inertia tangent (``full``, ``exact``), at rest, with the joint bodies' rotary inertia or their mass taken away, and at other step
+1e-6, 1e-8, 1e-10, 1e-12 with and without the elements' inertia tangent (``full``, ``exact``), at rest,
+with the joint bodies' rotary inertia or their mass taken away, and at other step
 sizes h and spin rates ω (the scene's ``initial_velocity.angular``). Iterations growing by one for every
 factor 100 of the tolerance are linear convergence with a contraction ≈ 1e-2; quadratic convergence
 would add at most one iteration over the whole range.
