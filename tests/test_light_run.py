@@ -679,3 +679,51 @@ def test_a_runs_frames_in_blocks_are_its_frames_row_by_row(tmp_path, monkeypatch
         assert len(blocks["VTKHDF/Steps/Values"][0]) == frames  # t = 0, every, …, 0.06
     assert (tmp_path / "blocks" / "probes.csv").read_bytes() == (tmp_path / "rows" / "probes.csv").read_bytes()
     assert abs(float((tmp_path / "rows" / "probes.csv").read_text().splitlines()[-1].split(",")[2])) > 0  # it moved
+
+
+# ----------------------------------------------------------------------------- the progress bar
+def test_a_run_shorter_than_the_bars_delay_never_imports_tqdm(tmp_path):
+    """``latdyn run`` shows its bar (progress on: no ``-q``) only after its delay, so a short run never
+    imports tqdm (and its ``multiprocessing``: 30–60 ms of a fresh process); its files are those of the
+    same run with ``-q``."""
+    scene = tmp_path / "spin.yaml"
+    scene.write_text(SPIN)
+    code = textwrap.dedent("""
+        import json, sys
+        from latdyn.cli import main
+        code = main(["run", *sys.argv[1:]])
+        print(json.dumps({"code": code, "tqdm": "tqdm" in sys.modules}))
+        """)
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    found = []
+    for k, quiet in enumerate(([], ["-q"])):
+        done = subprocess.run([sys.executable, "-c", code, str(scene), "-o", str(tmp_path / f"out{k}"), *quiet],
+                              capture_output=True, text=True, env=env, timeout=300)
+        assert done.returncode == 0, done.stderr[-2000:]
+        found.append(json.loads(done.stdout.strip().splitlines()[-1]))
+    assert found == [{"code": 0, "tqdm": False}] * 2
+    assert (tmp_path / "out0" / "probes.csv").read_bytes() == (tmp_path / "out1" / "probes.csv").read_bytes()
+
+
+def test_the_bar_made_after_its_delay_is_dated_from_the_runs_start(monkeypatch, capsys):
+    """Past its delay the bar is tqdm's, dated from the start (its elapsed time the run's), and shows the
+    value and the postfix of the update that made it; a bar closed before its delay prints nothing."""
+    pytest.importorskip("tqdm")
+    from latdyn.results import progress
+
+    clock = [1000.0]
+    monkeypatch.setattr(progress.time, "time", lambda: clock[0])
+    quiet = progress.progress_bar(2.0)
+    quiet.update(1.0)
+    quiet.close()
+    assert quiet._bar is None and capsys.readouterr().err == ""
+    bar = progress.progress_bar(2.0)
+    bar.update(0.5, dt=1e-3)
+    assert bar._bar is None  # before its delay (5 s in a log): nothing made, nothing shown
+    clock[0] += 6.0
+    bar._bar = None
+    bar.update(1.5, dt=2e-3)
+    made = bar._bar
+    assert made is not None and made.start_t == 1000.0 and made.n == 1.5
+    assert made.postfix is not None and "dt=0.002" in made.postfix
+    bar.close()

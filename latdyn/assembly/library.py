@@ -187,6 +187,14 @@ PARALLEL_ELEMENTS = 1_000
 #: OpenMP flag tried first; a compiler without it builds the serial library (the same results).
 OPENMP_FLAGS = ("-fopenmp",)
 
+#: The runtime library's own flags beyond :data:`latdyn.native.C_FLAGS`: the loops of the sparse LU
+#: (the update scatter, the scale pass, the unblocked panel columns) and of the assembly vectorized,
+#: with the instruction set of the element kernels (:func:`latdyn.native.vector_flags`). Elementwise
+#: vector operations with ``-ffp-contract=off`` and no reassociation: the same arithmetic as the
+#: scalar loops, bit for bit (docs/performance.md, "Sixth pass": the sparse LU's own instructions
+#: −29 % on the 260-member truss).
+LIBRARY_FLAGS = ("-O3",)
+
 
 def parallel_threshold() -> int:
     """The threshold in force: ``LATDYN_PARALLEL_ELEMENTS`` or :data:`PARALLEL_ELEMENTS`."""
@@ -207,14 +215,15 @@ def native_library() -> ctypes.CDLL:
         source = library_source("newton_step.c")
         using = native.compiler()
         path = None
-        for flags in ((*native.C_FLAGS, *OPENMP_FLAGS), native.C_FLAGS):
+        serial = (*native.C_FLAGS, *LIBRARY_FLAGS, *native.vector_flags(using))
+        for flags in ((*serial, *OPENMP_FLAGS), serial):
             failed = native.target("newton_step", source, flags, using).with_suffix(".failed")
-            if flags != native.C_FLAGS and failed.exists():
+            if flags != serial and failed.exists():
                 continue
             try:
                 path = native.build("newton_step", source, flags, using=using)
             except RuntimeError:
-                if flags == native.C_FLAGS:
+                if flags == serial:
                     raise
                 failed.touch()  # this compiler has no OpenMP: remembered in the cache
                 continue

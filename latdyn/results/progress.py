@@ -3,6 +3,7 @@ when it is disabled or tqdm is missing (:func:`progress_bar`)."""
 from __future__ import annotations
 
 import sys
+import time
 
 __all__ = ["progress_bar"]
 
@@ -25,33 +26,61 @@ class _NoProgress:
 
 
 class _Progress(_NoProgress):
-    """A tqdm bar over simulated time (or load factor); ``update`` takes the absolute value."""
+    """A tqdm bar over simulated time (or load factor); ``update`` takes the absolute value.
+
+    tqdm itself (an import of 30–60 ms with its ``multiprocessing``) is imported only when the bar
+    would first show: at the first update after its delay (:func:`progress_bar`). The bar made then
+    is dated from this object's making, so it shows and times what a bar made at the start shows;
+    a run shorter than the delay never imports tqdm."""
 
     def __init__(self, total_time: float, unit: str, interactive: bool):
-        from tqdm import tqdm
-
         self._total = float(total_time)
-        self._bar = tqdm(
+        self._unit, self._interactive = unit, interactive
+        # on a terminal: after half a second; in a log: only runs longer than 5 s,
+        # and seldom, so a log is not flooded with carriage returns
+        self._delay = 0.5 if interactive else 5.0
+        self._started = time.time()  # tqdm's own clock (its default timer)
+        self._bar = None
+        self._postfix = None
+
+    def _made(self):
+        """The tqdm bar, made now and dated from the start (None: tqdm is missing)."""
+        try:
+            from tqdm import tqdm
+        except ImportError:
+            self._delay = float("inf")  # never again: a bar without tqdm is the no-op
+            return None
+        bar = tqdm(
             total=self._total,
-            unit=unit,
+            unit=self._unit,
             file=sys.stderr,
             leave=True,
             dynamic_ncols=True,
-            # on a terminal: after half a second; in a log: only runs longer than 5 s,
-            # and seldom, so a log is not flooded with carriage returns
-            delay=0.5 if interactive else 5.0,
-            mininterval=0.2 if interactive else 30.0,
+            delay=self._delay,
+            mininterval=0.2 if self._interactive else 30.0,
             bar_format="{l_bar}{bar}| {n:.4g}/{total:.4g} {unit} [{elapsed}<{remaining}{postfix}]",
         )
+        bar.start_t = bar.last_print_t = self._started
+        return bar
 
     def update(self, t, **postfix) -> None:
         value = min(max(float(t), 0.0), self._total)
         if postfix:
-            self._bar.set_postfix(postfix, refresh=False)
+            self._postfix = postfix
+        if self._bar is None:
+            if time.time() < self._started + self._delay:
+                return
+            self._bar = self._made()
+            if self._bar is None:
+                return
+        if self._postfix:
+            self._bar.set_postfix(self._postfix, refresh=False)
+            self._postfix = None
         self._bar.update(value - self._bar.n)
 
     def close(self) -> None:
-        self._bar.close()
+        if self._bar is not None:
+            self._bar.close()
 
 
 def progress_bar(total_time: float, enabled: bool = True, unit: str = "s"):
@@ -70,7 +99,4 @@ def progress_bar(total_time: float, enabled: bool = True, unit: str = "s"):
         interactive = sys.stderr.isatty()
     except (AttributeError, ValueError):
         interactive = False
-    try:
-        return _Progress(total_time, unit, interactive)
-    except ImportError:
-        return _NoProgress()
+    return _Progress(total_time, unit, interactive)
