@@ -236,8 +236,8 @@ def test_the_adjoint_and_the_external_work_in_t_of_an_adaptive_run_are_refused()
 def test_an_adaptive_run_driven_by_a_controller_in_t_agrees_with_richardson_differences():
     """A continuous controller whose output names t (and reads the hinge angle) drives the hinge: its explicit
     ∂y/∂t moves every step's end with δt, and its output probe at rows every step (their times move) by
-    ∂f/∂t δt (measured k ≤ 4.9e-9 over the probes and the output; 0.97 off without ∂f/∂t δt in the probe, measured with
-    the step control before the accepted steps' own estimate sized the next step)."""
+    ∂f/∂t δt (measured k ≤ 4.9e-9 over the probes and the output; 0.97 off without ∂f/∂t δt in the probe, measured
+    with the step control before the accepted steps' own estimate sized the next step)."""
     data = yaml.safe_load(PLANAR.replace('rest_angle: 2.0}', 'rest_angle: 2.0, torque: "drive"}'))
     data["controllers"] = {"drive": {"output": "0.2*sin(5*t)*(1 + 0.2*hinge)"}}
     data["output"].pop("every")
