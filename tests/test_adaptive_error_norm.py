@@ -57,7 +57,9 @@ def test_a_rigid_pendulum_adaptive_run_meets_its_tolerance(tmp_path):
     the pendulum's equation J θ̈ = −g (m_b L + m_r L/2) cos θ, J = m_b L² + m_r L²/3 (bob 1 kg, rod
     1 kg, L = 1 m), integrated to 1e-12 (it equals a fixed-step run at dt = 5e-4 to 2e-7: −0.297212).
     Before the fix: 20 steps of dt, none rejected, θ(2) = −0.335 (error 0.038); after it, 139 steps
-    and an error of 8.3e-4 rad (error_tol 1e-5; at 1e-6: 278 steps, 2e-4 rad)."""
+    and an error of 8.3e-4 rad (error_tol 1e-5; at 1e-6: 278 steps, 2e-4 rad), 106 (252) trials rejected;
+    since the accepted steps' own estimate sizes the next step (docs/stepping.md): 140 steps, 14
+    rejected, 8.0e-4 rad (at 1e-6: 289 steps, 16 rejected, 1.9e-4 rad)."""
     out = run_cli(tmp_path, RIGID_PENDULUM)
     k = 9.81 * 1.5 / (4.0 / 3.0)
     exact = solve_ivp(lambda t, y: [y[1], -k * np.cos(y[0])], (0.0, 2.0), [0.0, 0.0],
@@ -74,7 +76,10 @@ def test_a_body_with_rotary_inertia_only_on_a_hinge_meets_its_tolerance(tmp_path
     on a hinge spring k = 8 preloaded to rest_angle 0.5: θ = 0.5 (1 − cos ω t), ω = (k/J)^½ = 2.
     Before the fix both ran 6 steps of dt = 0.5 with no rejection (θ(3) off by 0.11 and 0.32);
     after it (error_tol 1e-5) the rigid one 110 steps, off by 2.8e-4 (at 1e-6: 231 steps, 7e-5; the
-    flexible one at 1e-6: 278 steps, 2.6e-4, it also starts a dt/2 late, issue 30 item 3)."""
+    flexible one at 1e-6: 278 steps, 2.6e-4, it also starts a dt/2 late, issue 30 item 3). Since the
+    accepted steps' own estimate sizes the next step (docs/stepping.md; measured with the flexible one's
+    start as it is now): rigid 110 steps, 7 rejected (100 before), 2.7e-4 (at 1e-6: 235, 6 rejected (219),
+    6.1e-5); flexible 132, 6 rejected (121), 2.0e-4 (at 1e-6: 282, 8 rejected (267), 5.0e-5 (5.1e-5))."""
     out = run_cli(tmp_path, f"""\
         title: a wheel with rotary inertia only on a hinge spring
         sections:

@@ -1,16 +1,17 @@
 """Exact sensitivities of adaptive-step runs (latdyn/analyses/adaptive_sensitivities.py; docs/parameters.md,
 "Adaptive steps"): the step control's choice of each step size differentiated — the size after a rejection
-from the rejected trial's error estimate, the doubling back to dt after an accepted step, the landing on the
-grid — and carried through the step's size column and the laws in t.
+from the rejected trial's error estimate, the size after an accepted step from its own error estimate, the
+landing on the grid and the proposed size after it — and carried through the step's size column and the laws in t.
 
 Each check is against Richardson-extrapolated central differences of whole adaptive runs (the perturbation
 varied, 1e-4 and 5e-5 relative; the reference runs take the same number of accepted and rejected steps as
 the run differentiated, which is asserted), for parameters of the section (EI, rho), the hinge (k), the load
 (F) and a body's mass (m), planar and genuinely 3D (a flexible arm on a skew hinge with a law spring in θ,
-a load in t). Measured: planar ≤ 2.9e-8 (EI; k 4.4e-9, rho 5.0e-9, m 3.2e-10, F 1.2e-9), 3D ≤ 5.5e-8 (EI; k
-7.4e-9, rho 1.4e-8, m 6.6e-9, F 5.3e-9) of each probe's largest sensitivity; with the step sizes' derivative
-left out (δh = 0 off the grid) the same comparison is 0.15 off for k, 0.36 for EI. Together 12 s (8 s of CPU) at a
-load of 4 on the shared 2 cores, 33 to 50 s at a load of 9 to 11."""
+a load in t). Measured: planar ≤ 6.2e-9 (EI; k 2.0e-9, rho 5.0e-9, m 7.2e-10, F 2.1e-9), 3D ≤ 4.0e-8 (EI; k
+7.5e-9, rho 1.7e-8, m 2.6e-9, F 1.3e-9) of each probe's largest sensitivity; with the step sizes' derivative
+left out (δh = 0 off the grid) the same comparison is 0.050 off for k, 0.24 for EI, with only the accepted steps'
+δe left out 0.015 for k. Through a latch: planar (k 5.6e-9) and the 3D wheel (k 1.0e-8). Together 13 s at a load
+of 4.5 on the shared 2 cores."""
 from __future__ import annotations
 
 import json
@@ -25,7 +26,7 @@ from latdyn.errors import SceneError
 from tests.cli_runs import latdyn_run
 
 #: a flexible arm on a hinge spring at a fixed base, its tip mass pushed by a load in t; error_tol 3e-3 makes
-#: the controller reject 28 trials in 40 accepted steps
+#: the controller reject 8 trials in 45 accepted steps
 PLANAR = """
 title: planar flexible arm on a hinge spring, pushed by a load in t, adaptive steps
 parameters: {k: 2.0, c: 0.05, EI: 20.0, rho: 0.5, m: 0.3, F: 0.4}
@@ -113,7 +114,7 @@ def _error(result, expected: dict, name: str) -> float:
 @pytest.fixture(scope="module")
 def planar():
     result = _run(PLANAR)
-    assert _counts(result) == (40, 28)
+    assert _counts(result) == (45, 8)
     return result, {name: _richardson(PLANAR, name, _counts(result)) for name in NAMES}
 
 
@@ -126,7 +127,7 @@ def test_a_planar_adaptive_run_agrees_with_richardson_differences(planar, name):
 @pytest.fixture(scope="module")
 def arm_3d():
     result = _run(ARM_3D)
-    assert _counts(result) == (30, 10)
+    assert _counts(result) == (35, 7)
     return result
 
 
@@ -137,12 +138,31 @@ def test_a_3d_adaptive_run_on_a_skew_law_spring_agrees_with_richardson_differenc
 
 def test_without_the_step_sizes_derivative_the_check_fails(planar, monkeypatch):
     """The check can fail: with the sizes the control chose held (δh = 0 but on the grid) the same run is far off
-    the differences (measured 0.15 for k)."""
+    the differences (measured 0.050 for k)."""
     _, expected = planar
     monkeypatch.setattr(TransientSensitivities, "rejected", lambda self, carried, *args: carried)
-    monkeypatch.setattr(TransientSensitivities, "resized", lambda self, carried, *args: carried)
+    monkeypatch.setattr(TransientSensitivities, "resized", lambda self, carried, *args, **kwargs: carried)
     held = _run(PLANAR.replace("sensitivities: [k, EI, rho, m, F]", "sensitivities: [k]"))
     assert _error(held, expected["k"], "k") > 1e-2
+
+
+def test_without_the_accepted_steps_error_estimate_derivative_the_check_fails(planar, monkeypatch):
+    """The next size after an accepted step follows that step's own error estimate: with its δe left out (the
+    rejected trials' kept) the planar run is 1.5e-2 off for k and 0.23 for EI (measured)."""
+    from latdyn.analyses import adaptive_sensitivities
+
+    _, expected = planar
+    original = adaptive_sensitivities.resized
+
+    def without_the_estimate(owner, carried, control, lands, integrator=None):
+        with monkeypatch.context() as m:
+            m.setattr(adaptive_sensitivities, "error_derivative", lambda *args: np.zeros(len(owner.names)))
+            return original(owner, carried, control, lands, integrator)
+
+    monkeypatch.setattr(adaptive_sensitivities, "resized", without_the_estimate)
+    held = _run(PLANAR.replace("sensitivities: [k, EI, rho, m, F]", "sensitivities: [k]"))
+    assert _counts(held) == (45, 8)
+    assert _error(held, expected["k"], "k") > 5e-3
 
 
 def test_the_cli_writes_the_api_s_sensitivities_of_an_adaptive_run(tmp_path, planar):
@@ -159,7 +179,7 @@ def test_the_cli_writes_the_api_s_sensitivities_of_an_adaptive_run(tmp_path, pla
     summary = json.loads((out / "summary.json").read_text())
     assert summary["probe_sensitivities"]["hinge"]["end"] == pytest.approx(
         {name: result.sensitivities[("hinge", name)][-1] for name in NAMES}, rel=1e-12)
-    assert (summary["steps"], summary["rejected_steps"]) == (40, 28)
+    assert (summary["steps"], summary["rejected_steps"]) == (45, 8)
 
 
 def test_what_stays_refused_with_adaptive_steps_is_named(tmp_path):
@@ -217,8 +237,8 @@ def test_the_adjoint_and_the_external_work_in_t_of_an_adaptive_run_are_refused()
 def test_an_adaptive_run_driven_by_a_controller_in_t_agrees_with_richardson_differences():
     """A continuous controller whose output names t (and reads the hinge angle) drives the hinge: its explicit
     ∂y/∂t moves every step's end with δt, and its output probe at rows every step (their times move) by
-    ∂f/∂t δt (measured k ≤ 1.7e-8 over the probes, the output 4.2e-9; 0.97 off without ∂f/∂t δt in the probe;
-    F 1.1e-8 not run here)."""
+    ∂f/∂t δt (measured k ≤ 4.9e-9 over the probes and the output; 0.97 off without ∂f/∂t δt in the probe, measured
+    with the step control before the accepted steps' own estimate sized the next step)."""
     data = yaml.safe_load(PLANAR.replace('rest_angle: 2.0}', 'rest_angle: 2.0, torque: "drive"}'))
     data["controllers"] = {"drive": {"output": "0.2*sin(5*t)*(1 + 0.2*hinge)"}}
     data["output"].pop("every")
@@ -226,14 +246,14 @@ def test_an_adaptive_run_driven_by_a_controller_in_t_agrees_with_richardson_diff
     data["solve"]["sensitivities"] = ["k"]
     text = yaml.safe_dump(data)
     result = _run(text)
-    assert _counts(result) == (40, 28)
+    assert _counts(result) == (45, 8)
     assert _error(result, _richardson(text, "k", _counts(result)), "k") <= 1e-6
 
 
 def test_an_adaptive_run_through_a_latch_agrees_with_richardson_differences():
-    """The planar hinged arm of tests/test_sensitivities_events.py latching at 0.448 s, with adaptive steps
-    (error_tol 1e-2: 39 steps, 11 rejected): the event's step size, the doubling after it and the rejections
-    (measured k 3.1e-9, the latch time's derivative 2e-9 relative; EI 1.9e-8, m 3.0e-10 not run here). The
+    """The planar hinged arm of tests/test_sensitivities_events.py latching at 0.449 s, with adaptive steps
+    (error_tol 1e-2: 48 steps, 6 rejected): the event's step size, the doubling after it and the rejections
+    (measured k 5.6e-9, the latch time's derivative 1.8e-9 relative). The
     reference runs ask for sensitivities too, so that they land on the latch as exactly."""
     import tests.test_sensitivities_events as events
 
@@ -241,11 +261,11 @@ def test_an_adaptive_run_through_a_latch_agrees_with_richardson_differences():
                                        "solve: {analysis: transient, dt: 0.02, t_end: 0.6, adaptive: true, "
                                        "error_tol: 1.0e-2,")
     result = events._run(text, "k")
-    assert _counts(result) == (39, 11) and [e["kind"] for e in result.summary["events"]] == ["latch"]
+    assert _counts(result) == (48, 6) and [e["kind"] for e in result.summary["events"]] == ["latch"]
     p0, central, times = 2.0, [], []
     for step in (2e-4, 1e-4):
         up, down = (events._run(text, "k", k=p0 + s) for s in (step, -step))
-        assert _counts(up) == _counts(down) == (39, 11)
+        assert _counts(up) == _counts(down) == (48, 6)
         central.append({k: (up.probes[k] - down.probes[k]) / (2 * step) for k in up.probes})
         times.append((up.summary["events"][0]["t"] - down.summary["events"][0]["t"]) / (2 * step))
     expected = {k: (4 * central[1][k] - central[0][k]) / 3 for k in central[0]}
@@ -280,3 +300,25 @@ def test_an_adaptive_run_interrupted_and_resumed_has_the_same_sensitivities(tmp_
     assert (out / "sensitivities.csv").read_bytes() == (whole / "sensitivities.csv").read_bytes()
     summaries = [json.loads((d / "summary.json").read_text()) for d in (out, whole)]
     assert summaries[0]["probe_sensitivities"] == summaries[1]["probe_sensitivities"]
+
+
+def test_a_3d_adaptive_run_through_a_latch_agrees_with_richardson_differences():
+    """The wheel of tests/test_sensitivities_events.py on a hinge out of the coordinate planes, latching at
+    1.058 s, with adaptive steps (dt 0.02, error_tol 1e-3: 59 steps, 2 rejected): the accepted steps' own
+    estimates sizing the next steps before the latch, 2h after it (measured k 1.0e-8, the latch time's
+    derivative 1.1e-10 relative; J 1.3e-8, 1.2e-10 not run here)."""
+    import tests.test_sensitivities_events as events
+
+    text = events.LATCH_3D.replace("dt: 0.01,", "dt: 0.02, adaptive: true, error_tol: 1.0e-3,")
+    result = events._run(text, "k")
+    assert _counts(result) == (59, 2) and [e["kind"] for e in result.summary["events"]] == ["latch"]
+    p0, central, times = 1.0, [], []
+    for step in (1e-4, 5e-5):
+        up, down = (events._run(text, "k", k=p0 + s) for s in (step, -step))
+        assert _counts(up) == _counts(down) == (59, 2)
+        central.append({k: (up.probes[k] - down.probes[k]) / (2 * step) for k in up.probes})
+        times.append((up.summary["events"][0]["t"] - down.summary["events"][0]["t"]) / (2 * step))
+    expected = {k: (4 * central[1][k] - central[0][k]) / 3 for k in central[0]}
+    assert _error(result, expected, "k") <= 1e-6
+    assert result.summary["event_sensitivities"][0]["dt"]["k"] == pytest.approx((4 * times[1] - times[0]) / 3,
+                                                                                rel=1e-7)

@@ -11,8 +11,10 @@ step control (:class:`latdyn.timeloop.control.StepControl`) chooses each size fr
 
   (:meth:`latdyn.step.integrators.GeneralizedAlpha.error_estimate`, :func:`latdyn.numerics.inertia.joint_norms`:
   M at the trial's end, m_g a mean of translational diagonal entries of M);
-- after an accepted step h' = min(dt, max(dt_min, h · min(2, 0.9 e^(−1/3)))), e read after the integrator
-  accepted the step — where it is 0, so the factor is 2 (the steps double back to dt);
+- after an accepted step h' = min(dt, max(dt_min, h · min(2, 0.9 e^(−1/3)))), e the accepted step's own
+  relative estimate, taken before the integrator accepts it (:meth:`StepControl.estimate_accepted`); after a
+  latch or a stop e is taken as 0 (h' = 2h); after a step shortened onto a grid point h' is the size proposed
+  before it was shortened, h' = h_proposed, δh' = δh_proposed (``Resize.by_proposed``);
 - a trial Newton does not converge is tried again at the same size (the inertia tangent switched on) or
   cut in half; a trial that would pass the next grid point is shortened onto it (h = t_k − t_n).
 
@@ -23,7 +25,9 @@ and δh' = ∂h'/∂h δh + ∂h'/∂e δe is carried to the next trial (``carri
 accepted step's δh (a trial shortened onto the grid: δh = −δt_n; onto an event: the event's). That δh
 enters the step's derivative through its step-size column and the laws in t (δt_{n+1} = δt_n + δh), as
 for events. A rejected trial enters the solution only through the next trial's size, so its derivative
-is taken (one more solve with its exact matrix) only to differentiate its error estimate:
+is taken (one more solve with its exact matrix) only to differentiate its error estimate. An accepted step's
+estimate is differentiated the same way from that step's own derivative (its δq, δa_{n+1} and δh, kept by
+:func:`accepted_trial` before its events; no extra solve), where the control read it (∂h'/∂e ≠ 0):
 
     δe / e = 2 δh / h + δN / N,   δN / N = ½ (δE / E − δm / m),
     δE = 2 (M_gg x_g)ᵀ δx_g + x_gᵀ δM x_g,   δm = Σ_i c_i δM_ii,
@@ -32,7 +36,8 @@ is taken (one more solve with its exact matrix) only to differentiate its error 
 δx = δa_{n+1} − δa_n (x_g: x on the largest group's coordinates, zero elsewhere): the exact K's inertia tangent is ∂(M(q) v̇)/∂q (the generated ``beam_inertia_tangent`` and
 ``joint_body_inertia_stiffness``), ∂(M w)/∂p the inertia forces' parameter derivative at accelerations w
 less at rest (linear in the accelerations), so nothing here is a difference. Its cost: per rejected trial one
-step solve and (2 + the reference's entries) evaluations with matrices and of ∂r/∂p (one at rest, one per w).
+step solve and (2 + the reference's entries) evaluations with matrices and of ∂r/∂p (one at rest, one per w);
+per accepted step whose estimate sized the next one, the evaluations without the solve.
 
 Not differentiated (refused, :func:`refusal`): prescribed motions (M moves in time through the prescribed
 ends, ∂M/∂t is not computed), controllers with states or sampled ones, and a step size restored after a pause
@@ -46,7 +51,7 @@ from latdyn.assembly.assembler import unpack_free
 from latdyn.errors import SolverError
 from latdyn.numerics.inertia import joint_blocks, largest_joint_norm
 
-__all__ = ["refusal", "rejected", "resized", "error_derivative"]
+__all__ = ["refusal", "rejected", "accepted_trial", "resized", "error_derivative"]
 
 
 def refusal(scene) -> str | None:
@@ -91,23 +96,44 @@ def rejected(owner, carried: dict, progress, attempt, integrator, control) -> di
         total = {key: value[:, :k] + np.outer(value[:, k], dh) for key, value in columns.items()}
         d_error = error_derivative(owner, attempt.new, integrator.a_candidate - progress.algorithmic_acceleration,
                                    total["dq"], total["da"] - carried["da"], dh, attempt.h, resize.error, integrator)
-    return {**carried, "dh_next": resize.by_step * dh + resize.by_error * d_error}
+    proposed = np.asarray(carried.get("dh_next", np.zeros(k)))   # the trial's proposed size's, before it landed
+    return {**carried, "dh_next": resize.by_step * dh + resize.by_error * d_error + resize.by_proposed * proposed}
 
 
-def resized(owner, carried: dict, control, lands: bool | None) -> dict:
-    """``carried`` with ``dh_next`` after an accepted step (``lands`` None: its δh is ``carried["dh_step"]``) or a
-    trial Newton did not converge (``lands``: whether it was shortened onto the grid), on adaptive runs."""
+def accepted_trial(new, x: np.ndarray, total: dict, before: dict, dh: np.ndarray, h: float) -> dict:
+    """What the accepted step's error estimate is differentiated from once the control has read it
+    (:func:`resized`), kept in the carried sensitivities by the step's derivative before its events: the step's
+    end ``new`` (a copy), x = a_{n+1} − a_n, its δq and δx = δa_{n+1} − δa_n (``total``'s and ``before``'s δa),
+    its size ``h`` and δh."""
+    return {"state": new.copy(), "x": x, "dq": total["dq"], "dx": total["da"] - before["da"], "dh": dh, "h": h}
+
+
+def resized(owner, carried: dict, control, lands: bool | None, integrator=None) -> dict:
+    """``carried`` with ``dh_next`` after an accepted step (``lands`` None: its δh is ``carried["dh_step"]``, its
+    error estimate differentiated from ``carried["accepted_trial"]``) or a trial Newton did not converge
+    (``lands``: whether it was shortened onto the grid), on adaptive runs."""
     k = len(owner.names)
+    trial = carried.get("accepted_trial")
+    if trial is not None:
+        carried = {**carried, "accepted_trial": None}
     if not control.adaptive or owner.model.n_dofs == 0 or k == 0:
         return carried
     resize = control.resize
-    if resize is None or (lands is None and resize.by_error != 0.0):
-        # a pause's restored step; or a controller that reads the accepted step's estimate (0 after accept())
+    if resize is None:
         raise SolverError("the sensitivities of an adaptive run meet a step size that does not follow from the step "
                           "before it as latdyn/analyses/adaptive_sensitivities.py differentiates it (a pause of "
                           "latdyn.Simulation between grid points); expected latdyn run or a fixed step")
-    dh = carried.get("dh_step", np.zeros(k)) if lands is None else _trial_size_derivative(owner, carried, lands)
-    return {**carried, "dh_next": resize.by_step * np.asarray(dh)}
+    dh = np.asarray(carried.get("dh_step", np.zeros(k)) if lands is None
+                    else _trial_size_derivative(owner, carried, lands))
+    d_error = np.zeros(k)
+    if lands is None and resize.by_error != 0.0:   # the accepted step's own estimate sized the next one
+        if trial is None:
+            raise SolverError("the sensitivities of an adaptive run meet a step sized by an estimate they did not "
+                              "follow (no accepted trial kept); expected a fixed step")
+        d_error = error_derivative(owner, trial["state"], trial["x"], trial["dq"], trial["dx"], trial["dh"],
+                                   trial["h"], resize.error, integrator)
+    proposed = np.asarray(carried.get("dh_next", np.zeros(k)))   # the trial's proposed size's, before it landed
+    return {**carried, "dh_next": resize.by_step * dh + resize.by_error * d_error + resize.by_proposed * proposed}
 
 
 def error_derivative(owner, trial, x: np.ndarray, dq: np.ndarray, dx: np.ndarray, dh: np.ndarray, h: float,

@@ -360,6 +360,8 @@ class TransientSensitivities(ParameterDerivatives):
         before, carried = carried, {**carried, **total, "dt": carried["dt"] + dh, "dh": dh, "dh_step": dh, "h": h,
                                    "pending": None}
         carried = external_work_step(self, before, carried, old, new, h)   # latdyn/analyses/energy_sensitivities.py
+        if self.scene.solve.adaptive:   # what the accepted step's error estimate is differentiated from (resized)
+            carried["accepted_trial"] = adaptive_sensitivities.accepted_trial(new, a_new - a_old, total, before, dh, h)
         if states is not None:   # δS with the step size's part (an event's δh)
             carried = {**carried, **states.after_step(new, carried["dq"], dh)}
         if np.any(self.held) and (cable is not None or event is not None):
@@ -422,11 +424,11 @@ class TransientSensitivities(ParameterDerivatives):
         trial ``attempt`` (latdyn/analyses/adaptive_sensitivities.py)."""
         return adaptive_sensitivities.rejected(self, carried, progress, attempt, integrator, control)
 
-    def resized(self, carried: dict, control, lands: bool | None = None) -> dict:
-        """``carried`` with the derivative of the next step's size after an accepted step (``lands`` None) or a
-        trial Newton did not converge (``lands``: whether it landed on the grid)
-        (latdyn/analyses/adaptive_sensitivities.py)."""
-        return adaptive_sensitivities.resized(self, carried, control, lands)
+    def resized(self, carried: dict, control, lands: bool | None = None, integrator=None) -> dict:
+        """``carried`` with the derivative of the next step's size after an accepted step (``lands`` None; its
+        error estimate's derivative from ``integrator``'s joint groups) or a trial Newton did not converge
+        (``lands``: whether it landed on the grid) (latdyn/analyses/adaptive_sensitivities.py)."""
+        return adaptive_sensitivities.resized(self, carried, control, lands, integrator)
 
     def _step_system(self, new, tangent, beta_p: float, gamma_p: float):
         """(C, K, solve) at the step's end ``new``: the exact C and K (for the predicted parts' K δq⁰ + C δv⁰)

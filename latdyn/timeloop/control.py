@@ -4,8 +4,10 @@
 Steps land on the time grid t_k = k·dt (the last one on t_end), computed from the grid index, never
 accumulated. A step Newton cannot converge is tried again with the inertia tangent in its iteration
 matrix, then cut in half, down to ``dt_min``. With ``adaptive`` steps the integrator's error estimate
-rejects a step and resizes the next one (never beyond dt). After a cut or a step shortened onto an
-event the step grows back to dt.
+e of each converged step rejects it (e > 1: tried again at h·max(0.2, 0.9 e^(−1/3))) or, accepted,
+sizes the next one, h·min(2, 0.9 e^(−1/3)) clipped to [dt_min, dt] (after a latch or a stop: 2h; after
+a step shortened onto a grid point: the size proposed before it was shortened).
+After a cut or a step shortened onto an event the step grows back to dt.
 
 Every run ends: no step is shorter than ``dt_min`` (default dt·10⁻⁶; the loader refuses one below
 10⁻¹² t_end, lost in the round-off of t) save the last one onto a grid point; a step that Newton
@@ -38,11 +40,13 @@ class Resize(NamedTuple):
     the derivative of the controller's formula, which the transient sensitivities follow, δh_new =
     ``by_step`` δh + ``by_error`` δerror; latdyn/analyses/adaptive_sensitivities.py): ``by_step`` =
     ∂h_new/∂h, ``by_error`` = ∂h_new/∂error (error: the relative error estimate it read). A clipped
-    size (dt, dt_min, a factor at its bound) has the clipping's derivative."""
+    size (dt, dt_min, a factor at its bound) has the clipping's derivative. ``by_proposed``: ∂h_new/∂h_proposed,
+    1 where a step shortened onto a grid point hands on the size proposed before it was shortened."""
 
     by_step: float
     by_error: float
     error: float
+    by_proposed: float = 0.0
 
 
 class StepControl:
@@ -82,6 +86,15 @@ class StepControl:
         # that was shortened to land on it, restored once the run is back on the grid
         self.pause, self.pause_index = None, None
         self.h_resume, self.leaving_pause = None, False
+        #: the relative error estimate of the last converged trial (rejects) and its size, which
+        #: :meth:`estimate_accepted` reuses for the step it accepts when it is that trial
+        self.estimated: tuple[float, float] | None = None
+        #: adaptive steps: the size the control proposed for the trial :meth:`next_step` shortened onto the next
+        #: grid point (None: not shortened), which the step after it takes again (after_accepted)
+        self.proposed: float | None = None
+        #: the accepted step's relative error estimate, taken before the integrator accepts it (after that
+        #: a_n = a_{n+1} and the estimate reads 0), which sizes the next step (after_accepted)
+        self.accepted_error = 0.0
         #: how the last size chosen (rejects, after_newton_failure, after_accepted) depends on the step it
         #: came from (:class:`Resize`); None where it does not follow from it (a pause's restored step)
         self.resize: Resize | None = None
@@ -114,6 +127,7 @@ class StepControl:
         lands = h >= (target - run.state.t) * (1 - 1e-9)
         if lands:
             h = target - run.state.t
+        self.proposed = run.h if lands and h < run.h else None
         return h, lands, target if lands else None
 
     # ------------------------------------------------------------------------- a pause (stepping from Python)
@@ -196,6 +210,7 @@ class StepControl:
         if not self.adaptive:
             return False
         error = self.relative_error(integrator, h)
+        self.estimated = (h, error)
         if error <= 1.0:
             return False
         run.rejected_steps += 1
@@ -211,6 +226,18 @@ class StepControl:
         self.resize = (Resize(0.0, 0.0, error) if run.h == self.dt_min else Resize(0.2, 0.0, error) if factor <= 0.2
                        else Resize(factor, -h * factor / (3 * error), error))
         return True
+
+    def estimate_accepted(self, integrator, h: float) -> None:
+        """Adaptive steps: keep the relative error estimate of the converged step of size ``h`` the loop is
+        about to accept, before ``integrator.accept()`` (:attr:`accepted_error`); :meth:`rejects` evaluated it
+        on that step unless the step was shortened since (onto an event), then it is evaluated here."""
+        if not self.adaptive:
+            return
+        if self.estimated is not None and self.estimated[0] == h:
+            self.accepted_error = self.estimated[1]
+        else:
+            self.accepted_error = self.relative_error(integrator, h)
+        self.estimated = None
 
     def after_newton_failure(self, run: TransientProgress, integrator, h: float, iterations: int) -> bool:
         """Newton did not converge in the step of size ``h`` from ``run.state``: the step is tried
@@ -235,10 +262,16 @@ class StepControl:
         self.resize = Resize(0.5, 0.0, 0.0)
         return True
 
-    def after_accepted(self, run: TransientProgress, integrator, h: float, latched: bool, stopped: bool) -> None:
+    def after_accepted(self, run: TransientProgress, integrator, h: float, latched: bool, stopped: bool,
+                       lands: bool = False) -> None:
         """The step to try after the accepted step of size ``h`` that ended at ``run.state`` (``latched``:
-        a hinge latched or hit a stop in it; ``stopped``: a stop). A run that crawls ends here
-        (SolverError)."""
+        a hinge latched or hit a stop in it; ``stopped``: a stop; ``lands``: it ended on the grid point
+        :meth:`next_step` aimed it at). A run that crawls ends here (SolverError).
+
+        Adaptive steps: h' = min(dt, max(dt_min, h · min(2, 0.9 e^(−1/3)))), e the step's own relative
+        error estimate (:meth:`estimate_accepted`); after a latch or a stop e is taken as 0 (2h); after a
+        step shortened onto a grid point, h' is the size proposed before it was shortened (a sliver left
+        before the grid point says nothing of the steps after it)."""
         self._watch_crawl(run, h, latched)
         self.resize = None
         if self.h_resume is not None:  # shortened only to land on the pause, then back on the grid
@@ -250,10 +283,12 @@ class StepControl:
                 self.h_resume, self.leaving_pause = None, False
                 return
             self.h_resume, self.leaving_pause = None, False
-        if self.adaptive:
-            # after a latch the last Newton evaluation has the old numbering (estimate taken as 0,
-            # which is what error_estimate gives after accept() for a step without a latch)
-            error = 0.0 if latched else self.relative_error(integrator, h)
+        if self.adaptive and lands and not latched and self.proposed is not None and h < self.proposed:
+            run.h, self.resize = self.proposed, Resize(0.0, 0.0, 0.0, 1.0)
+        elif self.adaptive:
+            # the accepted step's own estimate (estimate_accepted); after a latch or a stop the
+            # accelerations restart, so the step's estimate says nothing of the next one: taken as 0
+            error = 0.0 if latched else self.accepted_error
             factor = 0.9 * max(error, 1e-10) ** (-1 / 3)
             run.h = min(self.dt, max(self.dt_min, h * min(2.0, factor)))
             self.resize = (Resize(0.0, 0.0, error) if run.h in (self.dt, self.dt_min) else Resize(2.0, 0.0, error)

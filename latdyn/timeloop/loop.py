@@ -492,6 +492,7 @@ class TimeLoop:
         the size of the next step, a checkpoint if one is due."""
         progress, model, integrator = self.progress, self.model, self.integrator
         new, h = attempt.new, attempt.h
+        self.control.estimate_accepted(integrator, h)   # before accept(), after which the estimate reads 0
         integrator.accept()
         theta_end = new.theta.copy()  # the step's own end, before an event puts a hinge on its stop
         if self.sensitivities is not None:  # the step differentiated, with its events' jumps (before they renumber)
@@ -553,12 +554,13 @@ class TimeLoop:
         # the step after an event lands on the grid and the next ones are nominal, their sizes smooth in the
         # parameters (latdyn/analyses/transient_sensitivities.py)
         restarted = events.stopped or (self.sensitivities is not None and (events.any or attempt.lands or turned))
-        self.control.after_accepted(progress, integrator, h, events.any, restarted)
+        self.control.after_accepted(progress, integrator, h, events.any, restarted, attempt.lands)
         if tension_jumped and progress.h > TAUT_JUMP_STEP * self.control.dt:
             # the steps after a damped cable's jump of tension grow from TAUT_JUMP_STEP · dt
             progress.h, self.control.resize = TAUT_JUMP_STEP * self.control.dt, Resize(0.0, 0.0, 0.0)
         if self.sensitivities is not None:   # the next step's size as the control chose it, differentiated
-            progress.sensitivities = self.sensitivities.resized(progress.sensitivities, self.control)
+            progress.sensitivities = self.sensitivities.resized(progress.sensitivities, self.control,
+                                                                integrator=integrator)
         self._keep_accepted()
 
     def _torques_from(self, evaluation) -> None:
