@@ -47,6 +47,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from latdyn.analyses.parameter_keys import prescribed_motion
 from latdyn.assembly.assembler import unpack_free
 from latdyn.errors import SolverError
 from latdyn.numerics.inertia import joint_blocks, largest_joint_norm
@@ -56,11 +57,9 @@ __all__ = ["refusal", "rejected", "accepted_trial", "resized", "error_derivative
 
 def refusal(scene) -> str | None:
     """Why the sensitivities of ``scene``'s adaptive run are not computed, or None (module docstring)."""
-    from latdyn.analyses.sensitivities import _prescribed_motion
-
     if not scene.solve.adaptive:
         return None
-    if _prescribed_motion(scene):
+    if prescribed_motion(scene):
         return ("with adaptive step control and a prescribed motion (a body's translation or rotation, a hinge's "
                 "angle) the error estimate's mass matrix moves in time through the prescribed ends, which the step "
                 "sizes' derivative does not follow yet; expected a fixed step (adaptive: false) or no prescribed "

@@ -2,7 +2,7 @@
 a load component, a section value, a body's mass, centre of mass or inertia, the initial velocity, a
 guide's, cable's, hinge's or compliant stop's law, a controller's output or state rate. Each pattern's
 groups name the parts the derivative needs; the tables map a key's word to its slot in the generated
-kernels' blocks. Read by every sensitivity module (latdyn/analyses/sensitivities.py and those it
+kernels' blocks; and whether a scene prescribes a motion (:func:`prescribed_motion`). Read by every sensitivity module (latdyn/analyses/sensitivities.py and those it
 calls), so kept below them all."""
 from __future__ import annotations
 
@@ -50,3 +50,9 @@ def joint_law(key: str):
     return None
 #: a continuous controller's output law (transient runs: ∂y/∂p through the sensors' values, ControllerTerms)
 CONTROLLER_KEY = re.compile(r"^controllers\.(?P<name>[^.]+)\.(?:output|states\.(?P<state>[^.]+))$")
+
+
+def prescribed_motion(scene) -> bool:
+    """Whether a body's translation or rotation, a hinge's angle or a guide's slide is prescribed in ``scene``."""
+    return any(body.prescribed or (body.guide is not None and body.guide.position is not None)
+               for body in scene.bodies.values()) or any(hinge.angle is not None for _, _, hinge in scene.hinges)

@@ -310,12 +310,6 @@ def has_events(scene) -> bool:
     return bool(scene.cables) or any(j.lock_at is not None or j.limits is not None for j in joints)
 
 
-def _prescribed_motion(scene) -> bool:
-    """Whether a body's translation or rotation, a hinge's angle or a guide's slide is prescribed in ``scene``."""
-    return any(body.prescribed or (body.guide is not None and body.guide.position is not None)
-               for body in scene.bodies.values()) or any(hinge.angle is not None for _, _, hinge in scene.hinges)
-
-
 def _cable_use(scene, used: str) -> bool:
     """Whether ``used`` is a cable value differentiated in transient runs: EA, damping, rest length and rhoA
     (the lumped mass, rhoA times the rest length at t = 0; not where rhoA is 0: no mass to move)."""

@@ -1114,7 +1114,8 @@ class ExplicitTime:
         """The scene's explicit time dependence, or None where nothing depends on t or neither an event nor
         adaptive steps can move a step's end in time (then every δt is 0:
         :func:`latdyn.analyses.sensitivities.has_events`)."""
-        from latdyn.analyses.sensitivities import _prescribed_motion, depends_on_time, has_events
+        from latdyn.analyses.parameter_keys import prescribed_motion
+        from latdyn.analyses.sensitivities import depends_on_time, has_events
 
         scene = owner.scene
         reels = any(not c.rest_length.is_constant for c in scene.cables.values()) if scene.cables else False
@@ -1138,7 +1139,7 @@ class ExplicitTime:
             if body.guide is not None:
                 for law in ("stiffness", "damping", "force"):
                     add(f"bodies.{name}.guide.{law}", getattr(body.guide, law))
-        return cls(owner, laws, _prescribed_motion(scene), reels)
+        return cls(owner, laws, prescribed_motion(scene), reels)
 
     def of_laws(self, state, inertia: bool = True, on_all: bool = False) -> np.ndarray:
         """∂r/∂t of the laws and reels (not the prescribed motions): (n_total + 1,) with ``on_all``, else on
