@@ -272,9 +272,11 @@ def test_planar_static_sensitivities_agree_with_richardson_central_differences(t
 
 
 def test_the_element_force_and_gravity_load_are_linear_in_the_section_values():
-    """What the section sensitivities rest on: for a shear-rigid section, beam_internal_force and
-    beam_gravity at a deformed state are the sums over the section's values (EA … ρIz) one by one
-    (random large-rotation states of tests/element_states.py, each regime)."""
+    """What the energies' and the arc length's first step's derivatives by section values rest on (the element
+    forces' come from the generated ``…_D_section`` kernels, tests/test_sensitivities_sections.py): for a
+    shear-rigid section, beam_internal_force and beam_gravity at a deformed state are the sums over the
+    section's values (EA … ρIz) one by one (random large-rotation states of tests/element_states.py, each
+    regime)."""
     from latdyn.model.kernels import load_kernels
     from tests.element_states import REGIMES, random_state
 
@@ -365,9 +367,6 @@ def test_the_cli_writes_sensitivities_csv_and_the_summary(tmp_path, arm_3d):
     (lambda d: d["solve"].update(analysis="modes", steps=None), "not yet for a modes analysis"),
     (lambda d: d["solve"].update(analysis="buckling", steps=None), "not yet for a buckling analysis"),
     (lambda d: d.update(gravity=[0, 0, "-k"]), "used at gravity[2]"),
-    (lambda d: d["sections"]["s"].update(GAy=1.0e4), "shear-flexible"),
-    (lambda d: d["solve"].update(formulation="cr4402"), "formulation: default only"),
-    (lambda d: d["sections"]["s"].update(GAy="1e4*F"), "used at sections.s.GAy"),
     (lambda d: d["output"]["probes"].update(v={"point": "b.end", "quantity": "velocity", "frame": "knee"}),
      "probe 'v'"),
     (lambda d: d["beams"]["b"]["start"]["hinge"].update(limits=[-1, 1]), "hinge events"),

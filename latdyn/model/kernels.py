@@ -280,7 +280,8 @@ def optimisation(ops: int) -> str:
 #: probe's sensitivity; the forces' (and the section forces') derivatives along the reference data only with
 #: geometry parameters (docs/parameters.md, "Geometry parameters").
 ON_DEMAND = ("beam_inertia_tangent", "beam_section_forces_D_q", "beam_internal_force_D_reference",
-             "beam_inertia_force_D_reference", "beam_section_forces_D_reference")
+             "beam_inertia_force_D_reference", "beam_section_forces_D_reference", "beam_internal_force_D_section",
+             "beam_inertia_force_D_section", "beam_section_forces_D_section")
 
 #: Kernels composed from their parts in the C backend (see above), name -> parts.
 COMPOSED = {
