@@ -369,7 +369,6 @@ def test_the_cli_writes_sensitivities_csv_and_the_summary(tmp_path, arm_3d):
     (lambda d: d.update(gravity=[0, 0, "-k"]), "used at gravity[2]"),
     (lambda d: d["output"]["probes"].update(v={"point": "b.end", "quantity": "velocity", "frame": "knee"}),
      "probe 'v'"),
-    (lambda d: d["beams"]["b"]["start"]["hinge"].update(limits=[-1, 1]), "hinge events"),
 ])
 def test_what_is_not_differentiated_yet_is_refused(change, expected):
     data = yaml.safe_load(ARM_3D)

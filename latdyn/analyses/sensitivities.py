@@ -68,8 +68,12 @@ global frame, hinge angles and guide positions and, in transient runs, rates, po
 body's frame (latdyn/analyses/probe_derivatives.py: static and transient; a body frame's velocity in transient
 runs without guides), and energies and momenta where latdyn/analyses/energy_sensitivities.py refuses them;
 (rigid links and guides are differentiated
-through the reduction: latdyn/analyses/link_sensitivities.py); in static paths hinges with limits or
-``lock_at`` (events; transient runs differentiate latches and stops: latdyn/analyses/transient_sensitivities.py). Under gravity the static
+through the reduction: latdyn/analyses/link_sensitivities.py). A static path does not apply rigid stops
+and latches (``limits`` without ``contact``, ``lock_at``: events of the time loop, docs/static_paths.md): its rows
+are the path without them, and so are their sensitivities — exact, and the structure's own while every joint
+stays inside its limits and short of its ``lock_at``; a path that ends past one is flagged by the run's warning
+(latdyn/solve.py ``stops_passed``), its sensitivities with it (transient runs differentiate latches and stops:
+latdyn/analyses/transient_sensitivities.py). Under gravity the static
 Newton matrix K − λ ∂Q/∂q holds the beams' gravity tangent (the generated ``beam_gravity_D_q``), so
 beams with mass are differentiated exactly there too. docs/parameters.md.
 """
@@ -127,11 +131,6 @@ def refusal(scene) -> SceneError | None:
         method = f"{solve.analysis}" + (f" ({solve.method})" if solve.analysis == "static" else "")
         return refuse(f"sensitivities are computed for static load control, arc length and displacement control "
                       f"and for transient runs with an implicit method only, not yet for a {method} analysis")
-    for beam, which, hinge in scene.hinges:
-        rigid_stop = hinge.limits is not None and hinge.contact is None
-        if solve.analysis != "transient" and (rigid_stop or hinge.lock_at is not None):
-            return refuse(f"static sensitivities through hinge events (rigid limits, lock_at of {beam}.{which}) are "
-                          "not computed yet; compliant stops (contact) are")
     for name in names:
         for used in scene.parameters.depending_on(name):
             section = _SECTION_KEY.match(used)
