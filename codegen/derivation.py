@@ -784,4 +784,19 @@ def build_kernels(variant: str = "default") -> list[KernelSpec]:
         return [f.xreplace(rename) for f in fm.section_forces(psi_symbols, section, formulation, shear)]
 
     _section_value_kernels(add, elastic, inertia_force, forces_of_section, kin, shear_definitions)
+
+    # the element's energies [U, T, V] (strain, kinetic, gravity potential) and their derivatives by the section
+    # values: an energy probe's explicit ∂/∂p (latdyn/analyses/energy_sensitivities.py)
+    b = Builder(kin.auxiliary + shear_definitions)
+    p = inertia(b, with_velocity=True)
+    kinetic = sp.Add(*[p["u"][i] * p["Mhat"][i][j] * p["u"][j] for i in range(12) for j in range(12)]) / 2
+    P = [p["position_moment"][k].xreplace(p["rename"]) for k in range(3)]
+    centre = [section["rhoA"] * section["L0"] * kin.grid1[k] + sp.Add(*[p["Tc"][3 * k + j] * P[j] for j in range(3)])
+              for k in range(3)]
+    energies = [U.xreplace(p["rename"]), kinetic, -sp.Add(*[gravity[k] * centre[k] for k in range(3)])]
+    add("beam_energies_D_section", "Strain, kinetic and gravity potential energies [U, T, V] and their derivatives "
+        "by the section values EA … 1/GAz (forward mode of the lowered energies, codegen/forward.py)", "Eqs. 22-58",
+        [cv.GEOMETRY, cv.VELOCITY, cv.SECTION, cv.GRAVITY], [Output("energies", (3,), energies)], b,
+        tangent=section_tangent("energies", "energies_D_section",
+                                "∂[U, T, V]/∂(EA EIy EIz GJ rhoA rhoIy rhoIz cGAy cGAz), row-major (3, 9)"))
     return kernels

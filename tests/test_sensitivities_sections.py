@@ -1,11 +1,11 @@
 """Sensitivities by section values for every formulation and for shear-flexible sections (docs/parameters.md,
-"Sensitivities"): the generated derivatives of the element's forces by its section values
-(``beam_internal_force_D_section``, ``beam_inertia_force_D_section``, ``beam_section_forces_D_section``: forward
-mode of the lowered kernels, codegen/derivation.py ``section_tangent``) against central differences of the
-kernels, planar and 3D at large-rotation states with shear; then whole runs — a shear-flexible (Timoshenko) 3D
-arm, skew, spinning, with a hinge spring, by GAy, GAz, EIy, ρA, static and transient; the formulations cr4402 and
-no_stiffening by EA and EI — against Richardson central differences of whole runs
-(tests/test_sensitivities_transient.py's ``_richardson``), through the API and the CLI.
+"Section values"): the generated derivatives of the element's forces and energies by its section values
+(``beam_internal_force_D_section``, ``beam_inertia_force_D_section``, ``beam_section_forces_D_section``,
+``beam_energies_D_section``: forward mode of the lowered kernels, codegen/derivation.py ``section_tangent``) against
+central differences of the kernels, planar and 3D at large-rotation states with shear; then whole runs — a
+shear-flexible (Timoshenko) 3D arm, skew, spinning, with a hinge spring, by GAy, GAz, EIy, ρA, static and
+transient; the formulations cr4402 and no_stiffening by EA and EI — against Richardson central differences of
+whole runs (tests/test_sensitivities_transient.py's ``_richardson``), through the API and the CLI.
 
 A variant generated before the section derivatives refuses these parameters naming the command that makes them;
 a test of such a variant is skipped, saying which (the committed tree regenerates every variant at once).
@@ -25,7 +25,8 @@ from test_planar import planar_state, planar_velocity
 from test_sensitivities_transient import _agree, _run
 from tests.cli_runs import latdyn_run
 
-KERNELS = ("beam_internal_force_D_section", "beam_inertia_force_D_section", "beam_section_forces_D_section")
+KERNELS = ("beam_internal_force_D_section", "beam_inertia_force_D_section", "beam_section_forces_D_section",
+           "beam_energies_D_section")
 
 
 def _needs(variant: str) -> None:
@@ -36,19 +37,24 @@ def _needs(variant: str) -> None:
 
 # ---------------------------------------------------------------------------------------------- the kernels
 def _check_section_derivatives(kernels, state, qdot, acceleration, gravity) -> float:
-    """Each of the nine section values' columns (EA … 1/GAz) of the three kernels against central differences of
-    the force kernels in that value (h = 1e-6 of it); returns the largest relative error."""
+    """Each of the nine section values' columns (EA … 1/GAz) of the four kernels against central differences of
+    the force and energy kernels in that value (h = 1e-6 of it); returns the largest relative error."""
     geometry, section = state.geometry(), state.section
     by_force = np.asarray(kernels.beam_internal_force_D_section(geometry, section[None])[1]).reshape(14, 9)
     by_inertia = np.asarray(kernels.beam_inertia_force_D_section(geometry, qdot[None], acceleration[None],
                                                                  section[None], gravity[None])[1]).reshape(14, 9)
     by_sections = np.asarray(kernels.beam_section_forces_D_section(geometry, section[None])[1]).reshape(4, 9)
+    by_energies = np.asarray(kernels.beam_energies_D_section(geometry, qdot[None], section[None],
+                                                             gravity[None])[1]).reshape(3, 9)
 
     def outputs(block):
         return (np.asarray(kernels.beam_internal_force(geometry, block[None])[0]).reshape(14),
                 np.asarray(kernels.beam_inertia_tangent(geometry, qdot[None], acceleration[None], block[None],
                                                         gravity[None])[0]).reshape(14),
-                np.asarray(kernels.beam_strain_energy(geometry, block[None])[1]).reshape(4))
+                np.asarray(kernels.beam_strain_energy(geometry, block[None])[1]).reshape(4),
+                np.array([np.asarray(kernels.beam_strain_energy(geometry, block[None])[0]).reshape(()),
+                          np.asarray(kernels.beam_kinetic_energy(geometry, qdot[None], block[None])[0]).reshape(()),
+                          np.asarray(kernels.beam_gravity(geometry, block[None], gravity[None])[1]).reshape(())]))
 
     worst, moved = 0.0, 0
     for d in range(9):
@@ -56,7 +62,7 @@ def _check_section_derivatives(kernels, state, qdot, acceleration, gravity) -> f
         up, down = section.copy(), section.copy()
         up[d + 1] += h
         down[d + 1] -= h
-        for generated, plus, minus in zip((by_force[:, d], by_inertia[:, d], by_sections[:, d]),
+        for generated, plus, minus in zip((by_force[:, d], by_inertia[:, d], by_sections[:, d], by_energies[:, d]),
                                           outputs(up), outputs(down)):
             numeric = (plus - minus) / (2 * h)
             if np.linalg.norm(numeric) == 0.0:   # a value the output does not read: exactly zero
@@ -72,9 +78,9 @@ def _check_section_derivatives(kernels, state, qdot, acceleration, gravity) -> f
 
 
 def test_planar_section_derivatives_against_finite_differences():
-    """default_xy: at random planar states with hinges, offsets and shear (1/GA > 0), every column of the three
-    kernels (measured ≤ 3e-8 of the derivative's scale: the differences' own error); the inertia force reads EIz and 1/GAy through the
-    shear factor of its shape functions."""
+    """default_xy: at random planar states with hinges, offsets and shear (1/GA > 0), every column of the four
+    kernels (measured ≤ 3e-8 of the derivative's scale: the differences' own error); the inertia force reads EIz
+    and 1/GAy through the shear factor of its shape functions."""
     kernels = load_kernels(backend="auto", variant="default_xy")
     rng = np.random.default_rng(341)
     for _ in range(2):
@@ -286,3 +292,28 @@ def test_a_planar_shear_flexible_arm_transient_forward_and_adjoint_agree_with_ri
         assert _agree(result, SHEAR_PLANAR_TRANSIENT, name, 1e-6) <= 1e-6
     adjoint = _run(_adjoint(SHEAR_PLANAR_TRANSIENT))
     assert _disagreement(result.summary["probe_sensitivities"], adjoint.summary["probe_sensitivities"]) <= 1e-10
+
+
+def _with_energies(text: str) -> str:
+    """``text`` under gravity with its probes' energies and momenta besides (their explicit ∂/∂p from
+    ``beam_energies_D_section`` and ``beam_inertia_force_D_section``)."""
+    data = yaml.safe_load(text)
+    data.setdefault("gravity", [0.3, -9.81, 0.0] if "P" in data["parameters"] else [0.0, 0.0, -9.81])
+    data["output"]["probes"].update(kinetic={"energy": "kinetic"}, strain={"energy": "strain"},
+                                    potential={"energy": "potential"}, total={"energy": "total"},
+                                    px={"momentum": "linear", "component": "x"},
+                                    hz={"momentum": "angular", "component": "z"})
+    return yaml.safe_dump(data)
+
+
+@pytest.mark.parametrize("text, variant, names", [
+    (SHEAR_PLANAR_TRANSIENT, "default_xy", ("EI", "GAy")),
+    (SHEAR_SWING_3D, "default", ("GAz", "EI", "rho"))], ids=["planar", "3d"])
+def test_energies_and_momenta_of_shear_flexible_arms_agree_with_richardson_differences(text, variant, names):
+    """Kinetic, strain, potential and total energy and the linear and angular momentum of the shear-flexible
+    arms under gravity, transient, by EI, GA and ρA (measured ≤ 2e-8 planar, ≤ 5e-8 3D)."""
+    _needs(variant)
+    text = _with_energies(text)
+    result = _run(text)
+    for name in names:
+        assert _agree(result, text, name, 1e-6) <= 1e-6

@@ -59,8 +59,8 @@ slack/taut events, guides with theirs: :func:`_transient_refusal`, :meth:`Contro
 parameter used anywhere but in load components, numbers that place the structure (geometry parameters,
 where :func:`latdyn.analyses.geometry_sensitivities.geometry_refusal` allows them), hinge stiffness, damping,
 torque and rest angle, section
-values (every formulation; a shear-flexible section's EI and GA neither under arc length nor with energy or
-momentum probes, :func:`_section_refusal`), body masses, centres of mass and inertias,
+values (every formulation; a shear-flexible section's EI and GA not under arc length, :func:`_section_refusal`),
+body masses, centres of mass and inertias,
 compliant stops' laws and, in transient runs, initial velocities, controllers' outputs and states' rates,
 guides' laws and cables' EA, damping, rest length and rhoA; probes other than point positions and displacements in the
 global frame, hinge angles and guide positions and, in transient runs, rates, point velocities and joint forces
@@ -207,14 +207,16 @@ def refusal(scene) -> SceneError | None:
 
 #: the generated derivatives of the element's forces by its section values (codegen/derivation.py
 #: ``section_tangent``) that ∂r/∂p of a section value is made of
-SECTION_KERNELS = ("beam_internal_force_D_section", "beam_inertia_force_D_section", "beam_section_forces_D_section")
+SECTION_KERNELS = ("beam_internal_force_D_section", "beam_inertia_force_D_section", "beam_section_forces_D_section",
+                   "beam_energies_D_section")
 
 
 def _section_refusal(scene, name: str, used: str, section) -> str | None:
     """Why the sensitivity by ``name``, used at the section value ``used`` (``section``: its SECTION_KEY match),
     is not computed exactly here, or None: the scene's kernel variant generated before the section derivatives;
-    a shear-flexible section's EI or GA (the element is not linear in them) where the path puts the derivative
-    in place of the section block — the arc length's first step (its ∂K/∂p) and energies and momenta."""
+    a shear-flexible section's EI or GA (the element is not linear in them) under arc length, whose first step's
+    ∂K/∂p puts the derivative in place of the section block
+    (:meth:`ArcLengthSensitivities.stiffness_derivative_along`)."""
     from latdyn.model.kernels import generated_info, planar_variant
     from latdyn.model.planar import find_plane
 
@@ -232,9 +234,6 @@ def _section_refusal(scene, name: str, used: str, section) -> str | None:
              " its element is not linear in EI and GA")
     if scene.solve.analysis == "static" and scene.solve.method == "arc-length":
         return f"{where}, whose tangent's derivative the arc length's first step needs (not generated)"
-    energy = next((p.name for p in scene.output.probes if is_energy_or_momentum(p)), None)
-    if energy is not None:
-        return f"{where}, and probe {energy!r} (an energy or momentum) is differentiated by linearity in them"
     return None
 
 
@@ -536,9 +535,9 @@ class ParameterDerivatives:
         derivative (L0 kept, the rest 0; GAy, GAz as their compliances' −(1/GA)² ∂GA/∂p; the planar model's
         quarter turns applied as latdyn.model.planar.restrict_to_plane applies them); None where no parameter
         is a section's. The rows' layout is made once (:meth:`_section_layout`); per call only the laws' values.
-        The element forces contract them with the generated derivatives (:meth:`_section_element_forces`);
-        the energies and the arc length's ∂K/∂p put them in place of the section block, exact where the
-        element is linear in the values used (every value but a shear-flexible section's EI and GA:
+        The element forces, section forces and energies contract them with the generated derivatives
+        (:meth:`_section_element_forces`); the arc length's ∂K/∂p puts them in place of the section block, exact
+        where the element is linear in the values used (every value but a shear-flexible section's EI and GA:
         :func:`refusal`)."""
         layout = self._section_layout()
         if layout is None:
