@@ -263,15 +263,16 @@ def test_a_planar_shear_flexible_frame_through_the_cli_and_the_api_agrees_with_r
     assert "GAz" in summary["probe_sensitivities"]["tip_y"]["end"]
 
 
-def test_a_shear_flexible_sections_ei_is_refused_where_the_path_is_linear_in_it():
-    """Arc length (its first step's ∂K/∂p) and energies put the derivative in place of the section block: exact
-    only where the element is linear in the value; a shear-flexible section's EI or GA is refused there."""
-    _needs("default")
-    data = yaml.safe_load(SHEAR_STATIC_3D)
+def test_a_shear_flexible_sections_stiffness_is_refused_under_arc_length():
+    """The arc length's first step puts the derivative in place of the section block (its ∂K/∂p): exact only where
+    the block with the other values zeroed is the derivative; a shear-flexible section's EA, EI or GA (which its
+    factors μ couple) is refused there, naming the key and the section's shear values."""
+    data = yaml.safe_load(SHEAR_PLANAR)
     data["solve"]["method"] = "arc-length"
     with pytest.raises(latdyn.SceneError) as refused:
         latdyn.run(latdyn.load_scene(data))
-    assert refused.value.key == "solve.sensitivities" and "shear-flexible" in refused.value.expected
+    assert refused.value.key == "solve.sensitivities" and "shear-flexible (GAy, GAz)" in refused.value.expected
+    assert "arc length" in refused.value.expected
 
 
 #: FORMULATION_PLANAR in the default formulation with a shear-flexible section (Φ ≈ 2.6 on its elements), by GAy

@@ -59,7 +59,7 @@ slack/taut events, guides with theirs: :func:`_transient_refusal`, :meth:`Contro
 parameter used anywhere but in load components, numbers that place the structure (geometry parameters,
 where :func:`latdyn.analyses.geometry_sensitivities.geometry_refusal` allows them), hinge stiffness, damping,
 torque and rest angle, section
-values (every formulation; a shear-flexible section's EI and GA not under arc length, :func:`_section_refusal`),
+values (every formulation; a shear-flexible section's EA, EI, GA not under arc length, :func:`_section_refusal`),
 body masses, centres of mass and inertias,
 compliant stops' laws and, in transient runs, initial velocities, controllers' outputs and states' rates,
 guides' laws and cables' EA, damping, rest length and rhoA; probes other than point positions and displacements in the
@@ -214,7 +214,7 @@ SECTION_KERNELS = ("beam_internal_force_D_section", "beam_inertia_force_D_sectio
 def _section_refusal(scene, name: str, used: str, section) -> str | None:
     """Why the sensitivity by ``name``, used at the section value ``used`` (``section``: its SECTION_KEY match),
     is not computed exactly here, or None: the scene's kernel variant generated before the section derivatives;
-    a shear-flexible section's EI or GA (the element is not linear in them) under arc length, whose first step's
+    a shear-flexible section's EA, EI or GA (what its factors μ couple) under arc length, whose first step's
     ∂K/∂p puts the derivative in place of the section block
     (:meth:`ArcLengthSensitivities.stiffness_derivative_along`)."""
     from latdyn.model.kernels import generated_info, planar_variant
@@ -231,7 +231,7 @@ def _section_refusal(scene, name: str, used: str, section) -> str | None:
     if not shear or section["value"] not in _SHEAR_COUPLED:
         return None
     where = (f"parameter {name!r} is used at {used}, and the section is shear-flexible ({', '.join(sorted(shear))}):"
-             " its element is not linear in EI and GA")
+             " its stiffness couples EA, EI and GA through its shear factors")
     if scene.solve.analysis == "static" and scene.solve.method == "arc-length":
         return f"{where}, whose tangent's derivative the arc length's first step needs (not generated)"
     return None
@@ -537,7 +537,7 @@ class ParameterDerivatives:
         is a section's. The rows' layout is made once (:meth:`_section_layout`); per call only the laws' values.
         The element forces, section forces and energies contract them with the generated derivatives
         (:meth:`_section_element_forces`); the arc length's ∂K/∂p puts them in place of the section block, exact
-        where the element is linear in the values used (every value but a shear-flexible section's EI and GA:
+        where the element is linear in the values used (every value but a shear-flexible section's EA, EI and GA:
         :func:`refusal`)."""
         layout = self._section_layout()
         if layout is None:
