@@ -785,6 +785,18 @@ def build_kernels(variant: str = "default") -> list[KernelSpec]:
 
     _section_value_kernels(add, elastic, inertia_force, forces_of_section, kin, shear_definitions)
 
+    # the tangent stiffness along a direction v, K v (v read from the velocity block), and its derivative by the
+    # section values: the arc length's first step's ∂K/∂p v (latdyn/analyses/sensitivities.py)
+    b = Builder(kin.auxiliary + shear_definitions)
+    _, _, stiffness = elastic(b, with_tangent=True)
+    direction = [0 if a in out_of_plane else symbol for a, symbol in enumerate(cv.VELOCITY.symbols())]
+    along = [sp.Add(*[stiffness[a][c] * direction[c] for c in range(N)]) for a in range(N)]
+    add("beam_stiffness_D_section", "Tangent stiffness along a direction, (∂F_i/∂q) v (v in the velocity block), and "
+        "its derivative by the section values EA … 1/GAz (forward mode of the lowered product, codegen/forward.py)",
+        "Eqs. 29-43", [cv.GEOMETRY, cv.VELOCITY, cv.SECTION], [Output("stiffness_along", (N,), along)], b,
+        tangent=section_tangent("stiffness_along", "stiffness_along_D_section",
+                                "∂((∂F_i/∂q) v)/∂(EA EIy EIz GJ rhoA rhoIy rhoIz cGAy cGAz), row-major (14, 9)"))
+
     # the element's energies [U, T, V] (strain, kinetic, gravity potential) and their derivatives by the section
     # values: an energy probe's explicit ∂/∂p (latdyn/analyses/energy_sensitivities.py)
     b = Builder(kin.auxiliary + shear_definitions)

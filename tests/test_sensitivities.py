@@ -271,36 +271,6 @@ def test_planar_static_sensitivities_agree_with_richardson_central_differences(t
     assert all(np.all(values == 0.0) for (probe, name), values in result.sensitivities.items() if name == "G")
 
 
-def test_the_element_force_and_gravity_load_are_linear_in_the_section_values():
-    """What the energies' and the arc length's first step's derivatives by section values rest on (the element
-    forces' come from the generated ``…_D_section`` kernels, tests/test_sensitivities_sections.py): for a
-    shear-rigid section, beam_internal_force and beam_gravity at a deformed state are the sums over the
-    section's values (EA … ρIz) one by one (random large-rotation states of tests/element_states.py, each
-    regime)."""
-    from latdyn.model.kernels import load_kernels
-    from tests.element_states import REGIMES, random_state
-
-    kernels = load_kernels("c", "default")
-    rng = np.random.default_rng(34)
-    for deformation in REGIMES.values():
-        state = random_state(rng, deformation=deformation)
-        section = state.section.copy()
-        section[8:] = 0.0                                  # shear-rigid
-        gravity = np.array([[0.3, -9.81, 1.2]])
-
-        def forces(block):
-            return np.concatenate([kernels.beam_internal_force(state.geometry(), block[None])[0].reshape(14),
-                                   kernels.beam_gravity(state.geometry(), block[None], gravity)[0].reshape(14)])
-
-        whole, parts = forces(section), np.zeros(28)
-        for column in range(1, 8):                         # EA, EIy, EIz, GJ, rhoA, rhoIy, rhoIz
-            one = np.zeros_like(section)
-            one[0], one[column] = section[0], section[column]
-            parts += forces(one)
-        assert np.abs(whole[:14]).max() > 0 and np.abs(whole[14:]).max() > 0
-        assert np.abs(parts - whole).max() <= 1e-11 * np.abs(whole).max(), deformation
-
-
 def _turned(text: str, rotation: np.ndarray) -> str:
     """The scene moved rigidly by ``rotation`` about the origin: points, the hinge axis, the beams'
     section axes and the loads' components (all global), each turned component written as an

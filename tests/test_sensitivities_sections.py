@@ -1,11 +1,13 @@
 """Sensitivities by section values for every formulation and for shear-flexible sections (docs/parameters.md,
 "Section values"): the generated derivatives of the element's forces and energies by its section values
 (``beam_internal_force_D_section``, ``beam_inertia_force_D_section``, ``beam_section_forces_D_section``,
-``beam_energies_D_section``: forward mode of the lowered kernels, codegen/derivation.py ``section_tangent``) against
-central differences of the kernels, planar and 3D at large-rotation states with shear; then whole runs — a
-shear-flexible (Timoshenko) 3D arm, skew, spinning, with a hinge spring, by GAy, GAz, EIy, ρA, static and
-transient; the formulations cr4402 and no_stiffening by EA and EI — against Richardson central differences of
-whole runs (tests/test_sensitivities_transient.py's ``_richardson``), through the API and the CLI.
+``beam_energies_D_section``, ``beam_stiffness_D_section``: forward mode of the lowered kernels,
+codegen/derivation.py ``section_tangent``) against central differences of the kernels, planar and 3D at
+large-rotation states with shear; then whole runs — a shear-flexible (Timoshenko) 3D arm, skew, spinning, with a
+hinge spring, by GAy, GAz, EIy, ρA, static and transient, with its energies and momenta; a shear-flexible arch
+snapping through under arc length; the formulations cr4402 and no_stiffening by EA and EI — against Richardson
+central differences of whole runs (tests/test_sensitivities_transient.py's ``_richardson``), through the API and
+the CLI, and the adjoint against the forward method.
 
 A variant generated before the section derivatives refuses these parameters naming the command that makes them;
 a test of such a variant is skipped, saying which (the committed tree regenerates every variant at once).
@@ -26,7 +28,7 @@ from test_sensitivities_transient import _agree, _run
 from tests.cli_runs import latdyn_run
 
 KERNELS = ("beam_internal_force_D_section", "beam_inertia_force_D_section", "beam_section_forces_D_section",
-           "beam_energies_D_section")
+           "beam_energies_D_section", "beam_stiffness_D_section")
 
 
 def _needs(variant: str) -> None:
@@ -37,8 +39,9 @@ def _needs(variant: str) -> None:
 
 # ---------------------------------------------------------------------------------------------- the kernels
 def _check_section_derivatives(kernels, state, qdot, acceleration, gravity) -> float:
-    """Each of the nine section values' columns (EA … 1/GAz) of the four kernels against central differences of
-    the force and energy kernels in that value (h = 1e-6 of it); returns the largest relative error."""
+    """Each of the nine section values' columns (EA … 1/GAz) of the five kernels against central differences of
+    the force, energy and tangent kernels in that value (h = 1e-6 of it; the tangent along ``qdot``); returns the
+    largest relative error."""
     geometry, section = state.geometry(), state.section
     by_force = np.asarray(kernels.beam_internal_force_D_section(geometry, section[None])[1]).reshape(14, 9)
     by_inertia = np.asarray(kernels.beam_inertia_force_D_section(geometry, qdot[None], acceleration[None],
@@ -46,6 +49,7 @@ def _check_section_derivatives(kernels, state, qdot, acceleration, gravity) -> f
     by_sections = np.asarray(kernels.beam_section_forces_D_section(geometry, section[None])[1]).reshape(4, 9)
     by_energies = np.asarray(kernels.beam_energies_D_section(geometry, qdot[None], section[None],
                                                              gravity[None])[1]).reshape(3, 9)
+    by_stiffness = np.asarray(kernels.beam_stiffness_D_section(geometry, qdot[None], section[None])[1]).reshape(14, 9)
 
     def outputs(block):
         return (np.asarray(kernels.beam_internal_force(geometry, block[None])[0]).reshape(14),
@@ -54,7 +58,8 @@ def _check_section_derivatives(kernels, state, qdot, acceleration, gravity) -> f
                 np.asarray(kernels.beam_strain_energy(geometry, block[None])[1]).reshape(4),
                 np.array([np.asarray(kernels.beam_strain_energy(geometry, block[None])[0]).reshape(()),
                           np.asarray(kernels.beam_kinetic_energy(geometry, qdot[None], block[None])[0]).reshape(()),
-                          np.asarray(kernels.beam_gravity(geometry, block[None], gravity[None])[1]).reshape(())]))
+                          np.asarray(kernels.beam_gravity(geometry, block[None], gravity[None])[1]).reshape(())]),
+                np.asarray(kernels.beam_internal_force_D_q(geometry, block[None])[1]).reshape(14, 14) @ qdot)
 
     worst, moved = 0.0, 0
     for d in range(9):
@@ -62,7 +67,8 @@ def _check_section_derivatives(kernels, state, qdot, acceleration, gravity) -> f
         up, down = section.copy(), section.copy()
         up[d + 1] += h
         down[d + 1] -= h
-        for generated, plus, minus in zip((by_force[:, d], by_inertia[:, d], by_sections[:, d], by_energies[:, d]),
+        for generated, plus, minus in zip((by_force[:, d], by_inertia[:, d], by_sections[:, d], by_energies[:, d],
+                                           by_stiffness[:, d]),
                                           outputs(up), outputs(down)):
             numeric = (plus - minus) / (2 * h)
             # relative to the derivative or, where it is small (a twist near zero), to the output per unit
@@ -78,7 +84,7 @@ def _check_section_derivatives(kernels, state, qdot, acceleration, gravity) -> f
 
 
 def test_planar_section_derivatives_against_finite_differences():
-    """default_xy: at random planar states with hinges, offsets and shear (1/GA > 0), every column of the four
+    """default_xy: at random planar states with hinges, offsets and shear (1/GA > 0), every column of the five
     kernels (measured ≤ 3e-8 of the derivative's scale: the differences' own error); the inertia force reads EIz
     and 1/GAy through the shear factor of its shape functions."""
     kernels = load_kernels(backend="auto", variant="default_xy")
@@ -263,16 +269,28 @@ def test_a_planar_shear_flexible_frame_through_the_cli_and_the_api_agrees_with_r
     assert "GAz" in summary["probe_sensitivities"]["tip_y"]["end"]
 
 
-def test_a_shear_flexible_sections_stiffness_is_refused_under_arc_length():
-    """The arc length's first step puts the derivative in place of the section block (its ∂K/∂p): exact only where
-    the block with the other values zeroed is the derivative; a shear-flexible section's EA, EI or GA (which its
-    factors μ couple) is refused there, naming the key and the section's shear values."""
-    data = yaml.safe_load(SHEAR_PLANAR)
-    data["solve"]["method"] = "arc-length"
-    with pytest.raises(latdyn.SceneError) as refused:
-        latdyn.run(latdyn.load_scene(data))
-    assert refused.value.key == "solve.sensitivities" and "shear-flexible (GAy, GAz)" in refused.value.expected
-    assert "arc length" in refused.value.expected
+def _shear_arch() -> dict:
+    """tests/test_sensitivities_static_arc.py's planar arch snapping through under arc length, its section
+    shear-flexible (Φ = 12 EI/(GA L²) ≈ 0.4 on its elements), GA a parameter."""
+    from test_sensitivities_static_arc import PLANAR as ARCH
+
+    arch = yaml.safe_load(yaml.safe_dump(ARCH))
+    arch["parameters"]["GA"] = 2000.0
+    arch["sections"]["s"].update(GAy="GA", GAz="2*GA")
+    return arch
+
+
+@pytest.mark.parametrize("name", ["GA", "EI", "EA0"])
+def test_a_shear_flexible_arch_under_arc_length_agrees_with_richardson_differences(name):
+    """Arc length through a snap-through of a shear-flexible arch by GA, EI and EA: the first step's length moves
+    with the start's ∂K/∂p v (the generated ``beam_stiffness_D_section``), the rows and the limit loads with the
+    bordered solve (measured ≤ 1.6e-9 of each quantity's largest)."""
+    from test_sensitivities_static_arc import _check, _richardson, _run as arc_run, _snaps_through
+
+    arch = _shear_arch()
+    result, summary = arc_run(arch, [name])
+    _snaps_through(result, summary)
+    _check(result, summary, _richardson(arch, name), name)
 
 
 #: FORMULATION_PLANAR in the default formulation with a shear-flexible section (Φ ≈ 2.6 on its elements), by GAy

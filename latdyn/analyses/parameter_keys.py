@@ -13,10 +13,6 @@ SECTION_KEY = re.compile(r"^sections\.(?P<section>[^.]+)\.(?P<value>EA|EIy|EIz|G
 #: the section block's columns (codegen/conventions.py: L0 EA EIy EIz GJ rhoA rhoIy rhoIz 1/GAy 1/GAz); GAy and
 #: GAz enter through their compliances 1/GAy, 1/GAz (∂(1/GA)/∂p = −(1/GA)² ∂GA/∂p)
 SECTION_COLUMN = {"EA": 1, "EIy": 2, "EIz": 3, "GJ": 4, "rhoA": 5, "rhoIy": 6, "rhoIz": 7, "GAy": 8, "GAz": 9}
-#: the section values a shear-flexible section's stiffness reads with its factors μ = 1/(1 + 12 EI/(GA L²)): EI and
-#: GA inside μ, EA times the mean axial strain of the μ-shaped transverse fields; its element is not linear in EI
-#: and GA, nor is the block with one value kept and the rest zeroed (μ = 1 there) its derivative by EA
-SHEAR_COUPLED = ("EA", "EIy", "EIz", "GAy", "GAz")
 BODY_KEY = re.compile(r"^bodies\.(?P<body>[^.]+)\.(?:(?P<mass>mass)|com\[(?P<com>[0-2])\]|"
                        r"(?P<inertia>inertia)\[(?P<row>[0-2])\](?:\[(?P<col>[0-2])\])?)$")
 #: a component of the rigid motion at t = 0 (transient runs: the velocities are affine in it at a fixed ``about``)

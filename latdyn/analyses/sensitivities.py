@@ -59,8 +59,7 @@ slack/taut events, guides with theirs: :func:`_transient_refusal`, :meth:`Contro
 parameter used anywhere but in load components, numbers that place the structure (geometry parameters,
 where :func:`latdyn.analyses.geometry_sensitivities.geometry_refusal` allows them), hinge stiffness, damping,
 torque and rest angle, section
-values (every formulation; a shear-flexible section's EA, EI, GA not under arc length, :func:`_section_refusal`),
-body masses, centres of mass and inertias,
+values (every formulation, shear-flexible sections too), body masses, centres of mass and inertias,
 compliant stops' laws and, in transient runs, initial velocities, controllers' outputs and states' rates,
 guides' laws and cables' EA, damping, rest length and rhoA; probes other than point positions and displacements in the
 global frame, hinge angles and guide positions and, in transient runs, rates, point velocities and joint forces
@@ -108,7 +107,7 @@ from latdyn.analyses.parameter_keys import (  # noqa: F401  re-exported under th
     LOAD_KEY as _LOAD_KEY, SECTION_KEY as _SECTION_KEY, SECTION_COLUMN as _SECTION_COLUMN, BODY_KEY as
     _BODY_KEY, INITIAL_VELOCITY_KEY as _INITIAL_VELOCITY_KEY, GUIDE_KEY as _GUIDE_KEY, GUIDE_LAW as
     _GUIDE_LAW, CABLE_KEY as _CABLE_KEY, HINGE_KEY as _HINGE_KEY, CONTACT_KEY as _CONTACT_KEY, CONTACT_SLOT as
-    _CONTACT_SLOT, CONTROLLER_KEY as _CONTROLLER_KEY, SHEAR_COUPLED as _SHEAR_COUPLED)
+    _CONTACT_SLOT, CONTROLLER_KEY as _CONTROLLER_KEY)
 
 
 def refusal(scene) -> SceneError | None:
@@ -156,7 +155,7 @@ def refusal(scene) -> SceneError | None:
                               "outputs and states' rates (controllers.NAME.output, .states.S), of guides' "
                               "stiffness, damping, "
                               "force and rest, and of cables' EA, damping, rest_length and rhoA (> 0) only")
-            why = _section_refusal(scene, name, used, section) if section else None
+            why = _section_refusal(scene, name, used) if section else None
             if why is not None:
                 return refuse(why)
     transient = solve.analysis == "transient"
@@ -208,33 +207,23 @@ def refusal(scene) -> SceneError | None:
 #: the generated derivatives of the element's forces by its section values (codegen/derivation.py
 #: ``section_tangent``) that ∂r/∂p of a section value is made of
 SECTION_KERNELS = ("beam_internal_force_D_section", "beam_inertia_force_D_section", "beam_section_forces_D_section",
-                   "beam_energies_D_section")
+                   "beam_energies_D_section", "beam_stiffness_D_section")
 
 
-def _section_refusal(scene, name: str, used: str, section) -> str | None:
-    """Why the sensitivity by ``name``, used at the section value ``used`` (``section``: its SECTION_KEY match),
-    is not computed exactly here, or None: the scene's kernel variant generated before the section derivatives;
-    a shear-flexible section's EA, EI or GA (what its factors μ couple) under arc length, whose first step's
-    ∂K/∂p puts the derivative in place of the section block
-    (:meth:`ArcLengthSensitivities.stiffness_derivative_along`)."""
+def _section_refusal(scene, name: str, used: str) -> str | None:
+    """Why the sensitivity by ``name``, used at the section value ``used``, is not computed exactly here, or None:
+    the scene's kernel variant generated before the section derivatives (:data:`SECTION_KERNELS`)."""
     from latdyn.model.kernels import generated_info, planar_variant
     from latdyn.model.planar import find_plane
 
     plane = find_plane(scene)[0]
     variant = scene.solve.formulation if plane is None else planar_variant(scene.solve.formulation, plane)
     info = generated_info(variant)
-    if not all(kernel in info for kernel in SECTION_KERNELS):
-        return (f"parameter {name!r} is used at {used}: sensitivities by section values need the kernels "
-                f"{', '.join(SECTION_KERNELS)}, which the generated variant {variant!r} does not hold yet "
-                f"(python -m codegen --variant {variant})")
-    shear = {"GAy", "GAz"} & set(scene.raw["sections"][section["section"]])
-    if not shear or section["value"] not in _SHEAR_COUPLED:
+    if all(kernel in info for kernel in SECTION_KERNELS):
         return None
-    where = (f"parameter {name!r} is used at {used}, and the section is shear-flexible ({', '.join(sorted(shear))}):"
-             " its stiffness couples EA, EI and GA through its shear factors")
-    if scene.solve.analysis == "static" and scene.solve.method == "arc-length":
-        return f"{where}, whose tangent's derivative the arc length's first step needs (not generated)"
-    return None
+    return (f"parameter {name!r} is used at {used}: sensitivities by section values need the kernels "
+            f"{', '.join(SECTION_KERNELS)}, which the generated variant {variant!r} does not hold yet "
+            f"(python -m codegen --variant {variant})")
 
 
 def adjoint_refusal(scene) -> SceneError | None:
@@ -535,10 +524,8 @@ class ParameterDerivatives:
         derivative (L0 kept, the rest 0; GAy, GAz as their compliances' −(1/GA)² ∂GA/∂p; the planar model's
         quarter turns applied as latdyn.model.planar.restrict_to_plane applies them); None where no parameter
         is a section's. The rows' layout is made once (:meth:`_section_layout`); per call only the laws' values.
-        The element forces, section forces and energies contract them with the generated derivatives
-        (:meth:`_section_element_forces`); the arc length's ∂K/∂p puts them in place of the section block, exact
-        where the element is linear in the values used (every value but a shear-flexible section's EA, EI and GA:
-        :func:`refusal`)."""
+        The element forces, section forces, energies and the arc length's ∂K/∂p v contract them with the
+        generated derivatives by the section values (:meth:`_section_element_forces`)."""
         layout = self._section_layout()
         if layout is None:
             return None
@@ -959,9 +946,8 @@ class ArcLengthSensitivities(StaticSensitivities):
         [ DᵀW     0     ] [δλ_{n+1}] = [ DᵀW δq_n + Δs_n δΔs_n       ],   δΔs_n = (Δs_n/Δs₀) δΔs₀,
 
     δΔs₀ from Δs₀ = ‖K₀⁻¹q_ref‖_W / steps at the start: δ(K₀⁻¹q_ref) = K₀⁻¹(δq_ref − δK₀ K₀⁻¹q_ref), δK₀
-    from the generated kernels (the element tangent ``beam_internal_force_D_q`` with the section block
-    replaced by its derivative, linear in it; ``hinge_force``'s ∂f/∂θ with the laws replaced by their
-    derivatives). The last row, solved at λ = 1, is load control's: δq = −K⁻¹∂r/∂p, δλ = 0. The limit
+    from the generated kernels (the element tangent's derivative by the section values along v,
+    ``beam_stiffness_D_section``; ``hinge_force``'s ∂f/∂θ with the laws replaced by their derivatives). The last row, solved at λ = 1, is load control's: δq = −K⁻¹∂r/∂p, δλ = 0. The limit
     points the rows pass are located on the path (:meth:`limit_points`) and the limit load's derivative
     taken there.
 
@@ -1019,7 +1005,8 @@ class ArcLengthSensitivities(StaticSensitivities):
 
     def stiffness_derivative_along(self, state, direction: np.ndarray) -> np.ndarray:
         """(∂K/∂p) v at a state of load factor 0 (the start), one column per parameter (n_dofs, k): the
-        elements' tangent by their section values and the hinges' by their stiffness laws and rest
+        elements' tangent by their section values (the generated ``beam_stiffness_D_section``, (∂K/∂s) v exact
+        for every section, shear-flexible ones too) and the hinges' by their stiffness laws and rest
         angles; loads, gravity, masses and applied torques enter K only times λ, and damping times θ̇ = 0.
         With rigid links or guides the dependent nodes move by P v and the sum is reduced by Pᵀ
         (latdyn/analyses/link_sensitivities.py)."""
@@ -1029,14 +1016,15 @@ class ArcLengthSensitivities(StaticSensitivities):
         if model.links is not None:   # the dependent nodes move with it: P v (latdyn/assembly/linked.py)
             full[:model.n_assembled] = np.asarray(self.assembler.evaluate(state, matrices=True).projection @ direction)
         blocks = self._section_derivative_blocks(state)
-        if blocks is not None:
+        if blocks is not None:   # the generated (∂K/∂s) v of each element once, contracted with each use's ∂s/∂p
             elements, column, rows = blocks
+            on, use = np.unique(elements, return_inverse=True)
             geometry, _, _ = self.assembler.native().element_inputs(state)
-            m = len(elements)
-            tangent = np.asarray(self.kernels.beam_internal_force_D_q(np.ascontiguousarray(geometry[elements]),
-                                                                      rows)[1]).reshape(m, 14, 14)
+            by_section = np.asarray(self.kernels.beam_stiffness_D_section(
+                np.ascontiguousarray(geometry[on]), np.ascontiguousarray(full[model.element_dofs[on]]),
+                np.ascontiguousarray(model.element_sections[on]))[1]).reshape(len(on), 14, 9)
             np.add.at(total, (model.element_dofs[elements], column[:, None]),
-                      np.einsum("epq,eq->ep", tangent, full[model.element_dofs[elements]]))
+                      np.einsum("epd,ed->ep", by_section[use], rows[:, 1:]))
         for key in self.derivatives:
             contact = _CONTACT_KEY.match(key)
             if contact and self._in_contact(state, model.hinge_index(contact["beam"], contact["end"])):

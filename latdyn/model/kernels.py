@@ -282,7 +282,8 @@ def optimisation(ops: int) -> str:
 #: in a section value (docs/parameters.md, "Section values").
 ON_DEMAND = ("beam_inertia_tangent", "beam_section_forces_D_q", "beam_internal_force_D_reference",
              "beam_inertia_force_D_reference", "beam_section_forces_D_reference", "beam_internal_force_D_section",
-             "beam_inertia_force_D_section", "beam_section_forces_D_section")
+             "beam_inertia_force_D_section", "beam_section_forces_D_section", "beam_energies_D_section",
+             "beam_stiffness_D_section")
 
 #: Kernels composed from their parts in the C backend (see above), name -> parts.
 COMPOSED = {
