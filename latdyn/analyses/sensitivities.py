@@ -948,8 +948,8 @@ class ArcLengthSensitivities(StaticSensitivities):
     δΔs₀ from Δs₀ = ‖K₀⁻¹q_ref‖_W / steps at the start: δ(K₀⁻¹q_ref) = K₀⁻¹(δq_ref − δK₀ K₀⁻¹q_ref), δK₀
     from the generated kernels (the element tangent's derivative by the section values along v,
     ``beam_stiffness_D_section``; ``hinge_force``'s ∂f/∂θ with the laws replaced by their derivatives). The last
-    row, solved at λ = 1, is load control's: δq = −K⁻¹∂r/∂p, δλ = 0. The limit points the rows pass are located on the path (:meth:`limit_points`) and the limit load's derivative
-    taken there.
+    row, solved at λ = 1, is load control's: δq = −K⁻¹∂r/∂p, δλ = 0. The limit points the rows pass are located
+    on the path (:meth:`limit_points`) and the limit load's derivative taken there.
 
     The row DᵀW needs no transport between the rows' tangent spaces: a node's rotation part of D is the
     rotation vector d of T_{n+1} T_nᵀ = exp(skew d), whose variation is δd = dexp(d)⁻¹(δπ_{n+1} −
