@@ -429,6 +429,55 @@ def reference_tangent(of: str, name: str, plane: fm.Plane | None, doc: str) -> T
                    partials=partials, definitions=definitions)
 
 
+#: the section values a section tangent moves (codegen/conventions.py SECTION_NAMES without L0, a
+#: reference datum: :func:`reference_first_variation`), its directions in this order
+SECTION_VALUES = cv.SECTION_NAMES[1:]
+
+
+def section_tangent(of: str, name: str, doc: str) -> Tangent:
+    """The request for the derivative of output ``of`` by each section value of :data:`SECTION_VALUES` (EA,
+    EIy, EIz, GJ, ρA, ρIy, ρIz and the shear compliances 1/GAy, 1/GAz) at a fixed configuration, as the
+    output ``name`` of shape (size of ``of``, 9): forward mode of the lowered kernel (codegen/forward.py)
+    seeded with the unit vectors of the section values. Exact whether or not the output is linear in them
+    (a shear-flexible section's factors μ = 1/(1 + 12 EI/(GA L²)) are not; nor need a formulation's
+    stiffening be); a value the output does not read gives a zero column, pruned in the program."""
+    values = SECTION_VALUES
+    seeds = {str(symbol): [sp.Integer(int(d == k)) for d in range(len(values))]
+             for k, symbol in enumerate(cv.SECTION.symbols()[1:])}
+    partials, definitions = _log_jet_rules()
+    return Tangent(of=of, name=name, seeds=seeds, directions=len(values), doc=doc, partials=partials,
+                   definitions=definitions)
+
+
+def _section_value_kernels(add, elastic, inertia_force, section_forces, kin, shear_definitions) -> None:
+    """The element's internal force, inertia force M a + g − Q and mid-element section forces with their
+    derivatives by the section values (:func:`section_tangent`): ∂r/∂p of a parameter in a section value,
+    and a section-force probe's, for every formulation and for shear-flexible sections
+    (latdyn/analyses/sensitivities.py ``ParameterDerivatives._section_element_forces``)."""
+    b = Builder(kin.auxiliary + shear_definitions)
+    _, force, _ = elastic(b, with_tangent=False)
+    add("beam_internal_force_D_section", "Internal force F_i^e = Bᵀ ∂U/∂Ψ and its derivative by the section "
+        "values EA … 1/GAz (forward mode of the lowered force, codegen/forward.py)", "Eqs. 29-43",
+        [cv.GEOMETRY, cv.SECTION], [Output("internal_force", (N,), force)], b,
+        tangent=section_tangent("internal_force", "internal_force_D_section",
+                                "∂F_i/∂(EA EIy EIz GJ rhoA rhoIy rhoIz cGAy cGAz), row-major (14, 9)"))
+    b = Builder(kin.auxiliary + shear_definitions)
+    psi = b.vector("psi", kin.psi)
+    add("beam_section_forces_D_section", "Mid-element section forces [N, T, M_y, M_z] and their derivative by "
+        "the section values EA … 1/GAz (forward mode of the lowered forces, codegen/forward.py)", "Eqs. 22-41",
+        [cv.GEOMETRY, cv.SECTION], [Output("section_forces", (4,), section_forces(psi))], b,
+        tangent=section_tangent("section_forces", "section_forces_D_section",
+                                "∂S/∂(EA EIy EIz GJ rhoA rhoIy rhoIz cGAy cGAz), row-major (4, 9)"))
+    b = Builder(kin.auxiliary + shear_definitions)
+    force = inertia_force(b)
+    add("beam_inertia_force_D_section", "Inertia force M a + g − Q of gravity and its derivative by the section "
+        "values EA … 1/GAz at fixed rates and accelerations (forward mode of the lowered force, codegen/forward.py)",
+        "Eqs. 50-58, 61-62", [cv.GEOMETRY, cv.VELOCITY, cv.ACCELERATION, cv.SECTION, cv.GRAVITY],
+        [Output("inertia_force", (N,), force)], b,
+        tangent=section_tangent("inertia_force", "inertia_force_D_section",
+                                "∂(M a + g − Q)/∂(EA EIy EIz GJ rhoA rhoIy rhoIz cGAy cGAz), row-major (14, 9)"))
+
+
 def build_kernels(variant: str = "default") -> list[KernelSpec]:
     """All kernels of one variant (see :data:`VARIANTS`).
 
@@ -719,4 +768,47 @@ def build_kernels(variant: str = "default") -> list[KernelSpec]:
         [Output("inertia_force", (N,), force)], b,
         tangent=reference_tangent("inertia_force", "inertia_force_D_reference", plane,
                                   "∂(M a + g − Q)/∂(reference data) along the variation given, (14, 1)"))
+
+    def inertia_force(b):   # M a + g − Q lowered as above (beam_inertia_tangent)
+        p = inertia(b, with_velocity=True)
+        Ja = b.vector("Ja", [sp.Add(*[p["J"][i][a] * acceleration[a] for a in range(N)]) for i in range(12)])
+        TcT, S = p["TcT"], p["first_moment"]
+        g_local = b.vector("gc", [sp.Add(*[TcT[i][k] * gravity[k] for k in range(3)]) for i in range(3)])
+        local = b.vector("inertia_local", [
+            sp.Add(*[p["Mhat"][i][j] * (Ja[j] + p["Jdq"][j]) for j in range(12)]) + p["ghat"][i]
+            - sp.Add(*[S[k, i].xreplace(p["rename"]) * g_local[k] for k in range(3)]) for i in range(12)])
+        return [sp.Add(*[p["J"][i][a] * local[i] for i in range(12)]) for a in range(N)]
+
+    def forces_of_section(psi):
+        rename = dict(zip(psi_symbols, psi))
+        return [f.xreplace(rename) for f in fm.section_forces(psi_symbols, section, formulation, shear)]
+
+    _section_value_kernels(add, elastic, inertia_force, forces_of_section, kin, shear_definitions)
+
+    # the tangent stiffness along a direction v, K v (v read from the velocity block), and its derivative by the
+    # section values: the arc length's first step's ∂K/∂p v (latdyn/analyses/sensitivities.py)
+    b = Builder(kin.auxiliary + shear_definitions)
+    _, _, stiffness = elastic(b, with_tangent=True)
+    direction = [0 if a in out_of_plane else symbol for a, symbol in enumerate(cv.VELOCITY.symbols())]
+    along = [sp.Add(*[stiffness[a][c] * direction[c] for c in range(N)]) for a in range(N)]
+    add("beam_stiffness_D_section", "Tangent stiffness along a direction, (∂F_i/∂q) v (v in the velocity block), and "
+        "its derivative by the section values EA … 1/GAz (forward mode of the lowered product, codegen/forward.py)",
+        "Eqs. 29-43", [cv.GEOMETRY, cv.VELOCITY, cv.SECTION], [Output("stiffness_along", (N,), along)], b,
+        tangent=section_tangent("stiffness_along", "stiffness_along_D_section",
+                                "∂((∂F_i/∂q) v)/∂(EA EIy EIz GJ rhoA rhoIy rhoIz cGAy cGAz), row-major (14, 9)"))
+
+    # the element's energies [U, T, V] (strain, kinetic, gravity potential) and their derivatives by the section
+    # values: an energy probe's explicit ∂/∂p (latdyn/analyses/energy_sensitivities.py)
+    b = Builder(kin.auxiliary + shear_definitions)
+    p = inertia(b, with_velocity=True)
+    kinetic = sp.Add(*[p["u"][i] * p["Mhat"][i][j] * p["u"][j] for i in range(12) for j in range(12)]) / 2
+    P = [p["position_moment"][k].xreplace(p["rename"]) for k in range(3)]
+    centre = [section["rhoA"] * section["L0"] * kin.grid1[k] + sp.Add(*[p["Tc"][3 * k + j] * P[j] for j in range(3)])
+              for k in range(3)]
+    energies = [U.xreplace(p["rename"]), kinetic, -sp.Add(*[gravity[k] * centre[k] for k in range(3)])]
+    add("beam_energies_D_section", "Strain, kinetic and gravity potential energies [U, T, V] and their derivatives "
+        "by the section values EA … 1/GAz (forward mode of the lowered energies, codegen/forward.py)", "Eqs. 22-58",
+        [cv.GEOMETRY, cv.VELOCITY, cv.SECTION, cv.GRAVITY], [Output("energies", (3,), energies)], b,
+        tangent=section_tangent("energies", "energies_D_section",
+                                "∂[U, T, V]/∂(EA EIy EIz GJ rhoA rhoIy rhoIz cGAy cGAz), row-major (3, 9)"))
     return kernels

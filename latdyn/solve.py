@@ -217,7 +217,7 @@ def _analyse(prepared, probes: ProbeSet, writer: ResultWriter, out_dir, analysis
             from latdyn.analyses.continuation import static_path
 
             static_path(prepared, probes, writer, length_scale(prepared.model))
-            for warning in stops_passed(prepared.model, prepared.state):
+            for warning in stops_passed(prepared.model, prepared.state, bool(scene.solve.sensitivities)):
                 _warn(writer, warning)
     finally:
         writer.summary["solver_s"] = time.perf_counter() - started
@@ -283,11 +283,13 @@ def _warn_moving(scene: Scene, writer) -> None:
         _warn(writer, warning)
 
 
-def stops_passed(model, state) -> list[str]:
+def stops_passed(model, state, sensitivities: bool = False) -> list[str]:
     """What a static state that lies past a joint's rigid stop (``limits`` of a hinge or a guide without
     ``contact``) says: rigid stops are events of the time loop, which a static analysis does not apply
     (docs/static_paths.md), so such a state is not the equilibrium the structure reaches; one warning
-    for each joint. A compliant stop's force is part of the static residual: past it is its equilibrium."""
+    for each joint. A compliant stop's force is part of the static residual: past it is its equilibrium.
+    With ``sensitivities`` the warning says that the path's sensitivities are those of this path too
+    (docs/parameters.md, "Sensitivities")."""
     found = []
     for k, joint in enumerate(model.hinges):
         value = float(state.theta[k])
@@ -304,6 +306,9 @@ def stops_passed(model, state) -> list[str]:
             found.append(f"the static state puts {what}, past its lock_at {joint.lock_at:g}: a static analysis "
                          "does not latch (latches are events of the time loop), so this is not the equilibrium "
                          "the latch allows")
+    if sensitivities:
+        found = [f"{warning}; its sensitivities (solve.sensitivities) are those of this path, without the stop or "
+                 "latch, as its rows are" for warning in found]
     return found
 
 

@@ -271,34 +271,6 @@ def test_planar_static_sensitivities_agree_with_richardson_central_differences(t
     assert all(np.all(values == 0.0) for (probe, name), values in result.sensitivities.items() if name == "G")
 
 
-def test_the_element_force_and_gravity_load_are_linear_in_the_section_values():
-    """What the section sensitivities rest on: for a shear-rigid section, beam_internal_force and
-    beam_gravity at a deformed state are the sums over the section's values (EA … ρIz) one by one
-    (random large-rotation states of tests/element_states.py, each regime)."""
-    from latdyn.model.kernels import load_kernels
-    from tests.element_states import REGIMES, random_state
-
-    kernels = load_kernels("c", "default")
-    rng = np.random.default_rng(34)
-    for deformation in REGIMES.values():
-        state = random_state(rng, deformation=deformation)
-        section = state.section.copy()
-        section[8:] = 0.0                                  # shear-rigid
-        gravity = np.array([[0.3, -9.81, 1.2]])
-
-        def forces(block):
-            return np.concatenate([kernels.beam_internal_force(state.geometry(), block[None])[0].reshape(14),
-                                   kernels.beam_gravity(state.geometry(), block[None], gravity)[0].reshape(14)])
-
-        whole, parts = forces(section), np.zeros(28)
-        for column in range(1, 8):                         # EA, EIy, EIz, GJ, rhoA, rhoIy, rhoIz
-            one = np.zeros_like(section)
-            one[0], one[column] = section[0], section[column]
-            parts += forces(one)
-        assert np.abs(whole[:14]).max() > 0 and np.abs(whole[14:]).max() > 0
-        assert np.abs(parts - whole).max() <= 1e-11 * np.abs(whole).max(), deformation
-
-
 def _turned(text: str, rotation: np.ndarray) -> str:
     """The scene moved rigidly by ``rotation`` about the origin: points, the hinge axis, the beams'
     section axes and the loads' components (all global), each turned component written as an
@@ -363,12 +335,8 @@ def test_the_cli_writes_sensitivities_csv_and_the_summary(tmp_path, arm_3d):
     (lambda d: d["solve"].update(analysis="modes", steps=None), "not yet for a modes analysis"),
     (lambda d: d["solve"].update(analysis="buckling", steps=None), "not yet for a buckling analysis"),
     (lambda d: d.update(gravity=[0, 0, "-k"]), "used at gravity[2]"),
-    (lambda d: d["sections"]["s"].update(GAy=1.0e4), "shear-flexible"),
-    (lambda d: d["solve"].update(formulation="cr4402"), "formulation: default only"),
-    (lambda d: d["sections"]["s"].update(GAy="1e4*F"), "used at sections.s.GAy"),
     (lambda d: d["output"]["probes"].update(v={"point": "b.end", "quantity": "velocity", "frame": "knee"}),
      "probe 'v'"),
-    (lambda d: d["beams"]["b"]["start"]["hinge"].update(limits=[-1, 1]), "hinge events"),
 ])
 def test_what_is_not_differentiated_yet_is_refused(change, expected):
     data = yaml.safe_load(ARM_3D)

@@ -113,34 +113,6 @@ def test_displacement_control_of_a_tilted_arch_gives_section_force_sensitivities
     transient._agree(static._run(text), text, "EI", tolerance=1e-6)
 
 
-def test_the_section_forces_are_linear_in_the_section_values_and_read_no_mass():
-    """What ∂S/∂p of a section value rests on: beam_strain_energy's section forces at a deformed state are
-    the sums over EA, EIy, EIz, GJ one by one (shear-rigid), and ρA, ρIy, ρIz give zero (random
-    large-rotation states of tests/element_states.py, each regime; measured 0 and ≤ 2e-16)."""
-    from latdyn.model.kernels import load_kernels
-    from tests.element_states import REGIMES, random_state
-
-    kernels = load_kernels("c", "default")
-    rng = np.random.default_rng(341)
-    for deformation in REGIMES.values():
-        state = random_state(rng, deformation=deformation)
-        section = state.section.copy()
-        section[8:] = 0.0
-
-        def forces(block):
-            return np.asarray(kernels.beam_strain_energy(state.geometry(), block[None])[1]).reshape(4)
-
-        whole, parts = forces(section), np.zeros(4)
-        for column in range(1, 8):
-            one = np.zeros_like(section)
-            one[0], one[column] = section[0], section[column]
-            parts += forces(one)
-            if column >= 5:
-                assert np.all(forces(one) == 0.0)
-        assert np.abs(whole).max() > 0
-        assert np.abs(parts - whole).max() <= 1e-12 * np.abs(whole).max(), deformation
-
-
 #: the planar arm that latches (lock_at 0.8 at t = 0.4575): the root moment, an axial force and a node in
 #: the tip body's frame, through the latch and the rows after it
 LATCH_PLANAR = _with_probes(events.LATCH_PLANAR, {

@@ -236,33 +236,6 @@ def test_the_joint_body_is_linear_in_mass_and_inertia_and_quadratic_in_the_centr
     assert np.abs(third).max() <= 1e-12 * np.abs(force(body + 3 * along)).max()
 
 
-def test_the_inertia_forces_are_linear_in_the_section_values():
-    """beam_mass_matrix and beam_quadratic_velocity at a deformed, moving state are the sums over the
-    section's values one by one (tests/element_states.py), as the ρ sensitivities need."""
-    from latdyn.model.kernels import load_kernels
-    from tests.element_states import REGIMES, random_state
-
-    kernels = load_kernels("c", "default")
-    rng = np.random.default_rng(7)
-    for deformation in REGIMES.values():
-        state = random_state(rng, deformation=deformation)
-        section = state.section.copy()
-        section[8:] = 0.0
-        rates = rng.normal(size=(1, 14))
-
-        def forces(block):
-            return np.concatenate([np.ravel(kernels.beam_mass_matrix(state.geometry(), block[None])[0]),
-                                   np.ravel(kernels.beam_quadratic_velocity(state.geometry(), rates, block[None])[0])])
-
-        whole, parts = forces(section), 0.0
-        for column in range(1, 8):
-            one = np.zeros_like(section)
-            one[0], one[column] = section[0], section[column]
-            parts = parts + forces(one)
-        assert np.abs(whole).max() > 0
-        assert np.abs(parts - whole).max() <= 1e-11 * np.abs(whole).max(), deformation
-
-
 def test_the_cli_writes_sensitivities_csv_and_the_summary(tmp_path):
     text = PLANAR.replace("[P, k, c, tau, Mz, EI, rho, m, J]", "[P, rho]")
     run, out = latdyn_run(tmp_path, text)

@@ -9,8 +9,8 @@ latdyn_momentum, csrc/rows.c), never from differences:
 
 - strain energy of the elements U = Σ beam_strain_energy: ∂U/∂q^e = F^e, the internal force
   ``beam_internal_force`` (Eq. 43 makes F^e = Bᵀ ∂U/∂Ψ the exact gradient of the kernel's U:
-  tests/test_sensitivities_energies.py checks it), and ∂U/∂p the kernel with the section block
-  replaced by its derivative (U is linear in EA, EIy, EIz, GJ of a shear-rigid section);
+  tests/test_sensitivities_energies.py checks it), and ∂U/∂p from the generated ``beam_energies_D_section``
+  (∂[U, T, V] by the section values, exact in every formulation and for shear-flexible sections);
   of a hinge's spring with a constant stiffness k, ½ k s² (s = θ − θ_r): δ = τ_s (δθ − δθ_r) + ½ (∂k/∂p) s²
   with τ_s = k s the ``hinge_force`` kernel's spring torque; of a conservative law k(θ), ∫_{θ_r}^{θ} k(x)(x − θ_r) dx:
   δ = τ_s δθ + ∫ (∂k/∂p)(x)(x − θ_r) dx − ∫ k(x) dx δθ_r on latdyn_energies' own quadrature (a law in θ̇ or t
@@ -18,17 +18,17 @@ latdyn_momentum, csrc/rows.c), never from differences:
   energy k(⟨δ_u⟩ⁿ⁺¹ + ⟨δ_l⟩ⁿ⁺¹)/(n + 1): ∂/∂θ its contact force at θ̇ = 0, ∂/∂p linear in the stop's stiffness;
 - kinetic energy T = ½ q̇ᵀ M(q) q̇ of an element (``beam_kinetic_energy``): ∂T/∂q̇ = M q̇
   (``beam_mass_matrix``), ∂T/∂q δq = ½ q̇ᵀ [∂(M a)/∂q]_{a = q̇} δq (``beam_inertia_tangent`` at zero
-  velocity and the acceleration a = q̇), ∂T/∂p the kernel with the section block's derivative (linear in
-  ρA, ρIy, ρIz); of a joint body ½ uᵀ M_b u, u = (v, ω) of its reference point, alike from ``joint_body``
+  velocity and the acceleration a = q̇), ∂T/∂p from ``beam_energies_D_section``; of a joint body ½ uᵀ M_b u, u = (v, ω) of its reference point, alike from ``joint_body``
   (its mass block M_b = ∂[f; τ]/∂[a; α]) and ``joint_body_inertia_stiffness`` at (ω, a, α) = (0, v, ω);
   linear in (m, I) at a fixed centre of mass c and quadratic in c, whose derivative along ∂c/∂p is exactly
   ½ (T(c + ∂c/∂p) − T(c − ∂c/∂p)) (a polynomial identity, as for the body's forces);
 - gravity potential V: of an element ``beam_gravity``'s potential, ∂V/∂q^e = −G^e (its gravity force),
-  ∂V/∂p the kernel with ρA's derivative; of a joint body −W·(x + T c), ∂V/∂[x; π] = the ``joint_body``
+  ∂V/∂p from ``beam_energies_D_section``; of a joint body −W·(x + T c), ∂V/∂[x; π] = the ``joint_body``
   gravity row Q = −[W; T c × W], ∂V/∂m = Q(∂m)·(x + T c), ∂V/∂c = Q·T ∂c;
 - momentum: the generalized momentum f = M q̇ of an element (of a joint body M_b u) gives
   P = Σ f_translation and H = Σ (x × f_translation + f_rotation) over its ends (about the global origin,
-  as latdyn_momentum); δf = M δq̇ + [∂(M a)/∂q]_{a = q̇} δq + (∂M/∂p) q̇, δH adds δx × f_translation;
+  as latdyn_momentum); δf = M δq̇ + [∂(M a)/∂q]_{a = q̇} δq + (∂M/∂p) q̇ (the last from
+  ``beam_inertia_force_D_section`` at zero velocity and a = q̇), δH adds δx × f_translation;
 - total = kinetic + strain + potential;
 - dissipated energy D of a transient run, Σ ½ (f_n + f_{n+1}) Δθ of the dampers' torques f = c θ̇, carried alike
   (:func:`_dissipated_step`);
@@ -350,13 +350,20 @@ class _StateForms:
         blocks = owner._section_derivative_blocks(state)
         if blocks is None:
             return
-        # the kernels with the section block replaced by its derivative (linear in it)
+        # the generated derivatives by the section values (each element's once), contracted with each use's
+        # ∂(section block)/∂p: ∂[U, T, V]/∂s and ∂(M q̇)/∂s, the inertia force at zero velocity and a = q̇
         elements, column, rows = blocks
-        at, rate = geometry[elements], velocity[elements]
-        np.add.at(explicit[1], column, np.asarray(kernels.beam_strain_energy(at, rows)[0]).reshape(-1))
-        np.add.at(explicit[0], column, np.asarray(kernels.beam_kinetic_energy(at, rate, rows)[0]).reshape(-1))
-        np.add.at(explicit[2], column, np.asarray(kernels.beam_gravity(at, rows, gravity[elements])[1]).reshape(-1))
-        moved = np.einsum("eij,ej->ei", np.asarray(kernels.beam_mass_matrix(at, rows)[0]).reshape(-1, 14, 14), rate)
+        on, use = np.unique(elements, return_inverse=True)
+        at, rate, block = (np.ascontiguousarray(a[on]) for a in (geometry, velocity, sections))
+        by_section = np.asarray(kernels.beam_energies_D_section(at, rate, block, gravity[on])[1]).reshape(-1, 3, 9)
+        energies = np.einsum("eid,ed->ei", by_section[use], rows[:, 1:])
+        np.add.at(explicit[1], column, energies[:, 0])
+        np.add.at(explicit[0], column, energies[:, 1])
+        np.add.at(explicit[2], column, energies[:, 2])
+        by_section = np.asarray(kernels.beam_inertia_force_D_section(at, np.zeros_like(rate), rate, block,
+                                                                     np.zeros((len(on), 3)))[1]).reshape(-1, 14, 9)
+        moved = np.einsum("epd,ed->ep", by_section[use], rows[:, 1:])
+        at = geometry[elements]
         for first, x in ((0, at[:, 0:3]), (7, at[:, 3:6])):
             lin = moved[:, first:first + 3]
             turned = np.cross(x, lin) + moved[:, first + 3:first + 6]

@@ -13,10 +13,10 @@ with ∂y/∂q and ∂y/∂v from the generated kernels, never differenced:
 - an element's section force S = [N, T, M_y, M_z] at mid-element (``{element: BEAM.element[i], quantity:
   axial_force|torque|moment_y|moment_z}``, the strain-energy kernel's): ∂S/∂q = (∂S/∂Ψ) B from the
   generated ``beam_section_forces_D_q`` on the element's fourteen coordinates [x1, π1, θ1, x2, π2, θ2]; ∂S/∂p
-  of a section value from ``beam_strain_energy`` with the section block replaced by the value's derivative
-  (S is linear in EA, EIy, EIz, GJ of a shear-rigid section and does not read ρA, ρIy, ρIz:
-  tests/test_sensitivities_probes.py checks the kernel for it), the planar model's quarter turns of the
-  section axes undone as :func:`latdyn.model.planar.section_moments_back` undoes them. S reads no rate.
+  of a section value from the generated ``beam_section_forces_D_section`` (∂S by each section value, every
+  formulation, shear-flexible sections too) contracted with the value's derivative, the planar model's quarter
+  turns of the section axes undone as :func:`latdyn.model.planar.section_moments_back` undoes them. S reads no
+  rate.
 - a cable's tension N (its first element's; ``{cable: NAME, quantity: tension}``): while the element is
   taut (as the evaluation decides it: held taut, or on no side its gap positive) the generated
   ``cable_tension`` gives ∂N/∂[d1, π1, d2, π2] and ∂N/∂[v1, ω1, v2, ω2] (the damper c ℓ̇), and ∂N/∂p comes
@@ -184,7 +184,8 @@ def _element_geometry(owner, state) -> np.ndarray:
 
 def _section_values(owner, state, e: int, which: int, at: np.ndarray) -> np.ndarray:
     """∂S/∂p (k,) of element ``e``'s section force ``which`` by the parameters of its section's values: the
-    strain-energy kernel's section forces with the section block replaced by the values' derivatives."""
+    generated ``beam_section_forces_D_section`` (the forces' derivatives by the section values, exact for every
+    formulation and shear-flexible sections) contracted with each use's ∂(section block)/∂p."""
     k = len(owner.names)
     blocks = owner._section_derivative_blocks(state)   # noqa: SLF001
     out = np.zeros(k)
@@ -194,9 +195,9 @@ def _section_values(owner, state, e: int, which: int, at: np.ndarray) -> np.ndar
     on = np.flatnonzero(elements == e)
     if not len(on):
         return out
-    sections = np.asarray(owner.kernels.beam_strain_energy(np.repeat(at, len(on), axis=0),
-                                                           np.ascontiguousarray(rows[on]))[1]).reshape(len(on), 4)
-    turned = _turned_back(owner.model, e, sections.T)[which]
+    by_section = np.asarray(owner.kernels.beam_section_forces_D_section(
+        np.ascontiguousarray(at), np.ascontiguousarray(owner.model.element_sections[e:e + 1]))[1]).reshape(4, 9)
+    turned = _turned_back(owner.model, e, by_section @ rows[on, 1:].T)[which]
     np.add.at(out, columns[on], turned)
     return out
 

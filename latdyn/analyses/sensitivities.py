@@ -26,10 +26,12 @@ A probe's derivative is its value's derivative along δq: a point x + T r moves 
 a hinge angle by δθ; an element's section forces, a cable's tension and length and a point in a body's
 frame by the generated kernels' derivatives (:mod:`latdyn.analyses.probe_derivatives`).
 
-- a section's values enter through ``beam_internal_force`` and ``beam_gravity`` (F − λ G), linear in
-  EA, EIy, EIz, GJ, ρA, ρIy, ρIz for a shear-rigid section: the same kernels with the section block
-  (L0, ∂EA/∂p, …, ∂ρIz/∂p, 0, 0), the planar model's quarter turns of the section axes applied as
-  the model applies them;
+- a section's values (EA … ρIz, GAy, GAz as their compliances 1/GA) enter through the element's internal
+  force and gravity load (F − λ Q): the generated derivatives by the section values
+  (``beam_internal_force_D_section``, ``beam_inertia_force_D_section`` at rest; forward mode, exact in every
+  formulation and for shear-flexible sections, whose element is not linear in EI and 1/GA) contracted with
+  (∂EA/∂p, …, ∂(1/GAz)/∂p), the planar model's quarter turns of the section axes applied as the model applies
+  them (:meth:`ParameterDerivatives._section_element_forces`);
 - a joint body's mass m and centre of mass c enter a static residual through ``joint_body`` at
   rest, λ-gravity alone, linear in m at fixed c and affine in c at fixed m: the kernel with
   (∂m/∂p, c), and with (m, ∂c/∂p) less with (m, 0); inertias do not enter it.
@@ -61,7 +63,7 @@ slack/taut events, guides with theirs: :func:`_transient_refusal`, :meth:`Contro
 parameter used anywhere but in load components, numbers that place the structure (geometry parameters,
 where :func:`latdyn.analyses.geometry_sensitivities.geometry_refusal` allows them), hinge stiffness, damping,
 torque and rest angle, section
-values of shear-rigid sections (formulation default), body masses, centres of mass and inertias,
+values (every formulation, shear-flexible sections too), body masses, centres of mass and inertias,
 compliant stops' laws and, in transient runs, a guide's compliant stops' and a hinge's or guide's friction laws,
 initial velocities, controllers' outputs and states' rates,
 guides' laws and cables' EA, damping, rest length and rhoA; probes other than point positions and displacements in the
@@ -70,8 +72,12 @@ global frame, hinge angles and guide positions and, in transient runs, rates, po
 body's frame (latdyn/analyses/probe_derivatives.py: static and transient; a body frame's velocity in transient
 runs without guides), and energies and momenta where latdyn/analyses/energy_sensitivities.py refuses them;
 (rigid links and guides are differentiated
-through the reduction: latdyn/analyses/link_sensitivities.py); in static paths hinges with limits or
-``lock_at`` (events; transient runs differentiate latches and stops: latdyn/analyses/transient_sensitivities.py). Under gravity the static
+through the reduction: latdyn/analyses/link_sensitivities.py). A static path does not apply rigid stops
+and latches (``limits`` without ``contact``, ``lock_at``: events of the time loop, docs/static_paths.md): its rows
+are the path without them, and so are their sensitivities — exact, and the structure's own while every joint
+stays inside its limits and short of its ``lock_at``; a path that ends past one is flagged by the run's warning
+(latdyn/solve.py ``stops_passed``), its sensitivities with it (transient runs differentiate latches and stops:
+latdyn/analyses/transient_sensitivities.py). Under gravity the static
 Newton matrix K − λ ∂Q/∂q holds the beams' gravity tangent (the generated ``beam_gravity_D_q``), so
 beams with mass are differentiated exactly there too. docs/parameters.md.
 """
@@ -130,11 +136,6 @@ def refusal(scene) -> SceneError | None:
         method = f"{solve.analysis}" + (f" ({solve.method})" if solve.analysis == "static" else "")
         return refuse(f"sensitivities are computed for static load control, arc length and displacement control "
                       f"and for transient runs with an implicit method only, not yet for a {method} analysis")
-    for beam, which, hinge in scene.hinges:
-        rigid_stop = hinge.limits is not None and hinge.contact is None
-        if solve.analysis != "transient" and (rigid_stop or hinge.lock_at is not None):
-            return refuse(f"static sensitivities through hinge events (rigid limits, lock_at of {beam}.{which}) are "
-                          "not computed yet; compliant stops (contact) are")
     for name in names:
         for used in scene.parameters.depending_on(name):
             section = _SECTION_KEY.match(used)
@@ -154,21 +155,18 @@ def refusal(scene) -> SceneError | None:
                 return refuse(f"parameter {name!r} is used at {used}: sensitivities are computed for parameters "
                               "of load components, of numbers that place the structure (bodies.NAME.at, a "
                               "beam's free end from/to, an end's offset, a beam's y_axis, a hinge's axis), of hinge "
-                              "stiffness, damping, torque and rest_angle, of section "
-                              "stiffnesses and masses (shear-rigid), of body masses, centres of mass and "
-                              "inertias, of a hinge's compliant stops (contact.stiffness, .exponent, .damping) "
+                              "stiffness, damping, torque and rest_angle, of section values (EA, EIy, EIz, GJ, "
+                              "rhoA, rhoIy, rhoIz, GAy, GAz), of body masses, centres of mass and inertias, of a "
+                              "hinge's compliant stops (contact.stiffness, .exponent, .damping) "
                               "and, in transient runs, of a guide's compliant stops, of a hinge's or guide's "
                               "friction (coulomb, static, stribeck_rate, viscous, stick_rate), of "
                               "initial_velocity.linear and .angular, of controllers' "
                               "outputs and states' rates (controllers.NAME.output, .states.S), of guides' "
                               "stiffness, damping, "
                               "force and rest, and of cables' EA, damping, rest_length and rhoA (> 0) only")
-            if section and solve.formulation != "default":
-                return refuse(f"parameter {name!r} is used at {used}: sensitivities by section values are computed "
-                              f"for formulation: default only, not {solve.formulation}")
-            if section and {"GAy", "GAz"} & set(scene.raw["sections"][section["section"]]):
-                return refuse(f"parameter {name!r} is used at {used}: the section is shear-flexible (GAy, GAz), "
-                              "and its element is not linear in its section values")
+            why = _section_refusal(scene, name, used) if section else None
+            if why is not None:
+                return refuse(why)
     transient = solve.analysis == "transient"
     guided = any(getattr(body, "guide", None) is not None for body in scene.bodies.values())
     if solve.sensitivity_method == "adjoint":   # what the discrete adjoint leaves to the forward method
@@ -213,6 +211,28 @@ def refusal(scene) -> SceneError | None:
                           "states' and samples' derivatives by a rate sensor are not computed yet (a continuous "
                           "controller without states may read rates)")
     return None
+
+
+#: the generated derivatives of the element's forces by its section values (codegen/derivation.py
+#: ``section_tangent``) that ∂r/∂p of a section value is made of
+SECTION_KERNELS = ("beam_internal_force_D_section", "beam_inertia_force_D_section", "beam_section_forces_D_section",
+                   "beam_energies_D_section", "beam_stiffness_D_section")
+
+
+def _section_refusal(scene, name: str, used: str) -> str | None:
+    """Why the sensitivity by ``name``, used at the section value ``used``, is not computed exactly here, or None:
+    the scene's kernel variant generated before the section derivatives (:data:`SECTION_KERNELS`)."""
+    from latdyn.model.kernels import generated_info, planar_variant
+    from latdyn.model.planar import find_plane
+
+    plane = find_plane(scene)[0]
+    variant = scene.solve.formulation if plane is None else planar_variant(scene.solve.formulation, plane)
+    info = generated_info(variant)
+    if all(kernel in info for kernel in SECTION_KERNELS):
+        return None
+    return (f"parameter {name!r} is used at {used}: sensitivities by section values need the kernels "
+            f"{', '.join(SECTION_KERNELS)}, which the generated variant {variant!r} does not hold yet "
+            f"(python -m codegen --variant {variant})")
 
 
 def adjoint_refusal(scene) -> SceneError | None:
@@ -429,11 +449,8 @@ class ParameterDerivatives:
 
     def _section_forces(self, state, total: np.ndarray, load_factor: float, inertia: bool = False) -> None:
         """Add ∂(element internal force − λ gravity load)/∂p into ``total`` for the section values that
-        name a parameter: ``beam_internal_force`` and ``beam_gravity`` with the section block replaced
-        by its derivative (both linear in the section values EA … ρIz of a shear-rigid section:
-        tests/test_sensitivities.py checks the kernels for it); with ``inertia`` also the inertia
-        force M a + g (``beam_mass_matrix`` times the element's accelerations and
-        ``beam_quadratic_velocity``, linear in ρA, ρIy, ρIz), as evaluate.c sums them."""
+        name a parameter (with ``inertia``: ∂(internal force + M a + g − gravity load)/∂p, as evaluate.c sums
+        them): :meth:`_section_element_forces` scattered onto the elements' coordinates."""
         forces = self._section_element_forces(state, load_factor, inertia)
         if forces is not None:
             elements, column, by_element = forces
@@ -441,43 +458,46 @@ class ParameterDerivatives:
 
     def _section_element_forces(self, state, load_factor: float, inertia: bool = False):
         """(elements (m,), parameter columns (m,), forces (m, 14)) of :meth:`_section_forces` before their
-        scatter: each use's element's ∂(force)/∂(the section value) on the element's coordinates
-        (``model.element_dofs``); None where no parameter is a section's."""
-        gravity = load_factor * np.asarray(self.assembler.gravity, float)
+        scatter: each use's element's ∂(force)/∂p on the element's coordinates (``model.element_dofs``); None
+        where no parameter is a section's. The generated derivatives by the section values
+        (``beam_internal_force_D_section``, ``beam_inertia_force_D_section``: forward mode of the lowered
+        forces, exact for every formulation and for shear-flexible sections, whose factors μ = 1/(1 + Φ) make
+        the element nonlinear in EI and 1/GA), each element's once, contracted with the use's ∂(section block)/∂p
+        (:meth:`_section_derivative_blocks`); the inertia force at rest (static: its −λ Q alone) where gravity
+        is on or with ``inertia``."""
         blocks = self._section_derivative_blocks(state)
         if blocks is None:
             return None
         elements, column, rows = blocks
+        model = self.model
+        on, use = np.unique(elements, return_inverse=True)   # each element's derivatives once
         geometry, rates, accelerations = self.assembler.native().element_inputs(state)
-        at = geometry[elements]
-        m = len(elements)
-        # each kernel on the rows where its values are not all zero (linear in them: zero there, exactly)
-        elastic, massive = np.any(rows[:, 1:5] != 0, axis=1), np.any(rows[:, 5:8] != 0, axis=1)
-        forces = np.zeros((m, 14))
-        forces[elastic] = np.asarray(self.kernels.beam_internal_force(at[elastic], rows[elastic])[0]).reshape(-1, 14)
-        if np.any(gravity):   # evaluate.c: the static residual F − λ gravity load
-            rows_g = np.repeat(gravity[None], int(massive.sum()), axis=0)
-            weight = self.kernels.beam_gravity(at[massive], rows[massive], rows_g)[0]
-            forces[massive] -= np.asarray(weight).reshape(-1, 14)
-        if inertia:   # evaluate.c: F + M a + g − gravity
-            on, rate = elements[massive], rates[elements[massive]]
-            mass = np.asarray(self.kernels.beam_mass_matrix(at[massive], rows[massive])[0]).reshape(-1, 14, 14)
-            forces[massive] += np.einsum("epq,eq->ep", mass, accelerations[on]) \
-                + np.asarray(self.kernels.beam_quadratic_velocity(at[massive], rate, rows[massive])[0]).reshape(-1, 14)
-        return elements, column, forces
+        at, sections = np.ascontiguousarray(geometry[on]), np.ascontiguousarray(model.element_sections[on])
+        by_section = np.asarray(self.kernels.beam_internal_force_D_section(at, sections)[1]).reshape(len(on), 14, 9)
+        gravity = load_factor * np.asarray(self.assembler.gravity, float)
+        if inertia or np.any(gravity):
+            if not inertia:   # the static residual F − λ Q: the inertia force M a + g − Q at rest
+                rates, accelerations = np.zeros_like(rates), np.zeros_like(accelerations)
+            by_section = by_section + np.asarray(self.kernels.beam_inertia_force_D_section(
+                at, np.ascontiguousarray(rates[on]), np.ascontiguousarray(accelerations[on]), sections,
+                np.ascontiguousarray(np.repeat(gravity[None], len(on), axis=0)))[1]).reshape(len(on), 14, 9)
+        return elements, column, np.einsum("epd,ed->ep", by_section[use], rows[:, 1:])
 
     def _section_derivative_blocks(self, state):
         """(elements (m,), parameter columns (m,), section rows (m, 10)): for every use of a parameter
         by a section value, that section's elements with the section block replaced by the value's
-        derivative (L0 kept, the rest 0; the planar model's quarter turns applied as
-        latdyn.model.planar.restrict_to_plane applies them); None where no parameter is a section's.
-        The rows' layout is made once (:meth:`_section_layout`); per call only the laws' values."""
+        derivative (L0 kept, the rest 0; GAy, GAz as their compliances' −(1/GA)² ∂GA/∂p; the planar model's
+        quarter turns applied as latdyn.model.planar.restrict_to_plane applies them); None where no parameter
+        is a section's. The rows' layout is made once (:meth:`_section_layout`); per call only the laws' values.
+        The element forces, section forces, energies and the arc length's ∂K/∂p v contract them with the
+        generated derivatives by the section values (:meth:`_section_element_forces`)."""
         layout = self._section_layout()
         if layout is None:
             return None
         elements, columns, rows, slot, laws = layout
         rows = rows.copy()
-        rows[np.arange(len(rows)), slot] = np.array([self._of_time(law, state.t) for law in laws])[self._section_use]
+        values = np.array([self._of_time(law, state.t) for law in laws])[self._section_use]
+        rows[np.arange(len(rows)), slot] = values * self._section_scale
         return elements, columns, rows
 
     def _section_layout(self):
@@ -508,10 +528,13 @@ class ParameterDerivatives:
         if model.plane is not None:   # latdyn.model.planar.restrict_to_plane: a quarter turn swaps y, z
             quarter = np.abs(np.sin(model.section_turns[elements])) > 0.5
             swap = np.arange(model.element_sections.shape[1])
-            swap[[2, 3, 6, 7]] = [3, 2, 7, 6]
+            swap[[2, 3, 6, 7, 8, 9]] = [3, 2, 7, 6, 9, 8]
             slot = np.where(quarter, swap[slot], slot)
         rows = np.zeros((len(elements), model.element_sections.shape[1]))
         rows[:, 0] = model.element_sections[elements, 0]                       # L0
+        # a compliance c = 1/GA moves by −c² δGA; the other values by their own derivative
+        compliance = model.element_sections[elements, slot]
+        self._section_scale = np.where(slot >= 8, -compliance * compliance, 1.0)
         self._section_use = np.repeat(np.arange(len(laws), dtype=np.int64), counts)
         self._section_layout_made = (elements, np.repeat(np.array(columns, np.int64), counts), rows, slot, laws)
         return self._section_layout_made
@@ -893,11 +916,10 @@ class ArcLengthSensitivities(StaticSensitivities):
         [ DᵀW     0     ] [δλ_{n+1}] = [ DᵀW δq_n + Δs_n δΔs_n       ],   δΔs_n = (Δs_n/Δs₀) δΔs₀,
 
     δΔs₀ from Δs₀ = ‖K₀⁻¹q_ref‖_W / steps at the start: δ(K₀⁻¹q_ref) = K₀⁻¹(δq_ref − δK₀ K₀⁻¹q_ref), δK₀
-    from the generated kernels (the element tangent ``beam_internal_force_D_q`` with the section block
-    replaced by its derivative, linear in it; ``hinge_force``'s ∂f/∂θ with the laws replaced by their
-    derivatives). The last row, solved at λ = 1, is load control's: δq = −K⁻¹∂r/∂p, δλ = 0. The limit
-    points the rows pass are located on the path (:meth:`limit_points`) and the limit load's derivative
-    taken there.
+    from the generated kernels (the element tangent's derivative by the section values along v,
+    ``beam_stiffness_D_section``; ``hinge_force``'s ∂f/∂θ with the laws replaced by their derivatives). The last
+    row, solved at λ = 1, is load control's: δq = −K⁻¹∂r/∂p, δλ = 0. The limit points the rows pass are located
+    on the path (:meth:`limit_points`) and the limit load's derivative taken there.
 
     The row DᵀW needs no transport between the rows' tangent spaces: a node's rotation part of D is the
     rotation vector d of T_{n+1} T_nᵀ = exp(skew d), whose variation is δd = dexp(d)⁻¹(δπ_{n+1} −
@@ -953,7 +975,8 @@ class ArcLengthSensitivities(StaticSensitivities):
 
     def stiffness_derivative_along(self, state, direction: np.ndarray) -> np.ndarray:
         """(∂K/∂p) v at a state of load factor 0 (the start), one column per parameter (n_dofs, k): the
-        elements' tangent by their section values and the hinges' by their stiffness laws and rest
+        elements' tangent by their section values (the generated ``beam_stiffness_D_section``, (∂K/∂s) v exact
+        for every section, shear-flexible ones too) and the hinges' by their stiffness laws and rest
         angles; loads, gravity, masses and applied torques enter K only times λ, and damping times θ̇ = 0.
         With rigid links or guides the dependent nodes move by P v and the sum is reduced by Pᵀ
         (latdyn/analyses/link_sensitivities.py)."""
@@ -963,14 +986,15 @@ class ArcLengthSensitivities(StaticSensitivities):
         if model.links is not None:   # the dependent nodes move with it: P v (latdyn/assembly/linked.py)
             full[:model.n_assembled] = np.asarray(self.assembler.evaluate(state, matrices=True).projection @ direction)
         blocks = self._section_derivative_blocks(state)
-        if blocks is not None:
+        if blocks is not None:   # the generated (∂K/∂s) v of each element once, contracted with each use's ∂s/∂p
             elements, column, rows = blocks
+            on, use = np.unique(elements, return_inverse=True)
             geometry, _, _ = self.assembler.native().element_inputs(state)
-            m = len(elements)
-            tangent = np.asarray(self.kernels.beam_internal_force_D_q(np.ascontiguousarray(geometry[elements]),
-                                                                      rows)[1]).reshape(m, 14, 14)
+            by_section = np.asarray(self.kernels.beam_stiffness_D_section(
+                np.ascontiguousarray(geometry[on]), np.ascontiguousarray(full[model.element_dofs[on]]),
+                np.ascontiguousarray(model.element_sections[on]))[1]).reshape(len(on), 14, 9)
             np.add.at(total, (model.element_dofs[elements], column[:, None]),
-                      np.einsum("epq,eq->ep", tangent, full[model.element_dofs[elements]]))
+                      np.einsum("epd,ed->ep", by_section[use], rows[:, 1:]))
         for key in self.derivatives:
             contact = _CONTACT_KEY.match(key)
             if contact and self._in_contact(state, model.hinge_index(contact["beam"], contact["end"])):
