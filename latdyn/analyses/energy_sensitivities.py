@@ -237,25 +237,17 @@ def _skew(x: np.ndarray) -> np.ndarray:
     return out
 
 
-#: Gauss–Legendre nodes and weights, 16 points: latdyn_energies' quadrature of a law spring's potential
-_GAUSS_NODES, _GAUSS_WEIGHTS = np.polynomial.legendre.leggauss(16)
+def _law_integral(law, rest: float, theta: float, moment: bool) -> float:
+    """∫_{θ_r}^{θ} k(x) (x − θ_r)^moment dx of the hinge law ``law`` (its value at θ̇ = 0, t = 0) on the very
+    quadrature latdyn_energies takes a law spring's potential with (csrc/evaluate.c
+    ``latdyn_law_spring_integral``, the law called back from C), so that its derivatives by the law's
+    parameters are those of the recorded value."""
+    from latdyn.assembly.library import HINGE_LAW_VALUES, native_library
 
+    def values(_, x, rate, t, out):
+        out[0], out[1], out[2] = law.value(x, 0.0, 0.0), 0.0, 0.0
 
-def _law_integral(integrand, rest: float, theta: float) -> float:
-    """∫_{θ_r}^{θ} integrand(x) dx on the quadrature latdyn_energies takes a law spring's potential with
-    (csrc/evaluate.c law_spring_potential: 16 Gauss points on each of the equal pieces of at most 0.25 rad,
-    at most 4096 pieces: beyond 1024 rad they grow longer),
-    so that its derivatives by the law's parameters are those of the recorded value."""
-    s = theta - rest
-    if not np.isfinite(s):
-        return s * s
-    pieces = int(min(np.ceil(abs(s) / 0.25), 4096)) if abs(s) > 0.25 else 1   # LAW_SPRING_PIECES
-    total = 0.0
-    for p in range(pieces):
-        a, b = rest + s * p / pieces, rest + s * (p + 1) / pieces
-        total += 0.5 * (b - a) * sum(w * integrand(0.5 * (a + b) + 0.5 * (b - a) * x)
-                                     for x, w in zip(_GAUSS_NODES, _GAUSS_WEIGHTS))
-    return total
+    return float(native_library().latdyn_law_spring_integral(HINGE_LAW_VALUES(values), 0, rest, theta, int(moment)))
 
 
 class _StateForms:
@@ -453,10 +445,10 @@ class _StateForms:
                     else:                              # ∂(½ k s²)/∂θ_r = −k s
                         explicit[1, column] -= spring[j] * value
                 elif hinge["law"] == "stiffness":      # ∫ (∂k/∂p)(x)(x − θ_r) dx
-                    explicit[1, column] += _law_integral(lambda x: law.value(x, 0.0, 0.0) * (x - rest[j]), rest[j], theta)
+                    explicit[1, column] += _law_integral(law, rest[j], theta, moment=True)
                 else:                                  # −∫ k(x) dx ∂θ_r/∂p (the integrand vanishes at x = θ_r)
-                    explicit[1, column] -= law.value(theta, 0.0, 0.0) * _law_integral(
-                        lambda x: law_k.value(x, 0.0, 0.0), rest[j], theta)
+                    explicit[1, column] -= law.value(theta, 0.0, 0.0) * _law_integral(law_k, rest[j], theta,
+                                                                                       moment=False)
 
     def _stops(self, state, by_q, explicit) -> None:
         """The compliant stops' potential k (⟨δ_u⟩ⁿ⁺¹ + ⟨δ_l⟩ⁿ⁺¹)/(n + 1) (``hinge_force``'s contact energy):
