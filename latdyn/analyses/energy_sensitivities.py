@@ -21,8 +21,8 @@ latdyn_momentum, csrc/rows.c), never from differences:
   velocity and the acceleration a = q̇), ∂T/∂p the kernel with the section block's derivative (linear in
   ρA, ρIy, ρIz); of a joint body ½ uᵀ M_b u, u = (v, ω) of its reference point, alike from ``joint_body``
   (its mass block M_b = ∂[f; τ]/∂[a; α]) and ``joint_body_inertia_stiffness`` at (ω, a, α) = (0, v, ω);
-  linear in (m, I) at a fixed centre of mass c and quadratic in c, whose derivative along ∂c/∂p is exactly
-  ½ (T(c + ∂c/∂p) − T(c − ∂c/∂p)) (a polynomial identity, as for the body's forces);
+  linear in (m, I) at a fixed centre of mass c, and by c the generated ``joint_body_D_com`` (∂f/∂c of the
+  momentum f = M_b u, along ∂c/∂p);
 - gravity potential V: of an element ``beam_gravity``'s potential, ∂V/∂q^e = −G^e (its gravity force),
   ∂V/∂p the kernel with ρA's derivative; of a joint body −W·(x + T c), ∂V/∂[x; π] = the ``joint_body``
   gravity row Q = −[W; T c × W], ∂V/∂m = Q(∂m)·(x + T c), ∂V/∂c = Q·T ∂c;
@@ -361,11 +361,17 @@ class _StateForms:
         block = np.ascontiguousarray(np.concatenate([model.body_mass[:, None], model.body_com,
                                                      model.body_inertia.reshape(B, 9)], axis=1))
         gravity = np.ascontiguousarray(np.repeat(np.asarray(owner.assembler.gravity, float)[None], B, axis=0))
-        still, free_fall = np.zeros((B, 9)), np.zeros((B, 3))
+        still, free_fall, held = np.zeros((B, 9)), np.zeros((B, 3)), {}
 
         def momentum_of(body_block):   # f = M_b u (B, 6), M_b the kernel's mass block
             return np.asarray(kernels.joint_body(frames, moving, np.ascontiguousarray(body_block), free_fall)[0]
                               ).reshape(B, 6)
+
+        def by_com():                  # ∂f/∂c (B, 6, 3) of f = M_b u, computed once
+            if "by_com" not in held:
+                held["by_com"] = np.asarray(kernels.joint_body_D_com(frames, moving, block, free_fall)[0]
+                                            ).reshape(B, 6, 3)
+            return held["by_com"]
 
         def weight_of(body_block):     # Q = −[W; T c × W] (B, 6)
             return np.asarray(kernels.joint_body(frames, still, np.ascontiguousarray(body_block), gravity)[0]
@@ -399,13 +405,10 @@ class _StateForms:
                     step[j, i] += 0.5 * value
                     changed[b, 1:4], changed[b, 4:13] = model.body_com[b], step.reshape(9)
                     moved = momentum_of(changed)[b]
-                else:                         # quadratic in c: the central difference is exact
+                else:                         # by c: the generated ∂f/∂c along ∂c/∂p
                     along = np.zeros(3)
                     along[int(body["com"])] = value
-                    ahead, behind = block.copy(), block.copy()
-                    ahead[b, 1:4] += along
-                    behind[b, 1:4] -= along
-                    moved = 0.5 * (momentum_of(ahead) - momentum_of(behind))[b]
+                    moved = by_com()[b] @ along
                     explicit[2, column] += weight[b, 0:3] @ (state.T[node] @ along)
                 explicit[0, column] += 0.5 * u[b] @ moved
                 explicit[3:6, column] += moved[0:3]

@@ -579,9 +579,7 @@ class ParameterDerivatives:
         name a parameter, from the generated ``joint_body`` (codegen/joints.py ``joint_body_terms``).
         Static (at rest) it is λ-gravity alone; with ``inertia`` the Newton–Euler forces at the node's
         ω, a, α. It is linear in (m, I) at a fixed centre of mass c — the kernel with (∂m/∂p, c, ∂I/∂p)
-        —, and a polynomial of degree two in c at fixed (m, I), whose derivative along ∂c/∂p is
-        exactly ½ (f(c + ∂c/∂p) − f(c − ∂c/∂p)) (a polynomial identity, no truncation:
-        tests/test_sensitivities_transient.py checks the degree)."""
+        —, and by c the generated ``joint_body_D_com`` (∂f/∂c, 6 × 3) along ∂c/∂p."""
         model, gravity = self.model, load_factor * np.asarray(self.assembler.gravity, float)
         if not np.any(gravity) and not inertia:
             return
@@ -612,14 +610,13 @@ class ParameterDerivatives:
                     step[int(j), int(i)] += 0.5 * value
                     block[0, 1:4], block[0, 4:13] = model.body_com[b], step.reshape(9)
                     force = force_of(block)
-                else:
-                    block[0, 0], block[0, 4:13] = model.body_mass[b], model.body_inertia[b].reshape(9)
+                else:                   # ∂f/∂c along ∂c/∂p
+                    block[0, 0], block[0, 1:4] = model.body_mass[b], model.body_com[b]
+                    block[0, 4:13] = model.body_inertia[b].reshape(9)
                     along = np.zeros(3)
                     along[int(body["com"])] = value
-                    block[0, 1:4] = model.body_com[b] + along
-                    ahead = force_of(block)
-                    block[0, 1:4] = model.body_com[b] - along
-                    force = 0.5 * (ahead - force_of(block))
+                    force = np.asarray(self.kernels.joint_body_D_com(frame, motion, block, gravity[None])[0]
+                                       ).reshape(6, 3) @ along
                 total[model.node_dofs[node], column] += force
 
     def _contact_forces(self, state, total: np.ndarray) -> None:
