@@ -180,13 +180,21 @@ def _joint_body_kernels() -> list[KernelSpec]:
     tangent = [Output("body_inertia_stiffness", (6, 6),
                       _rows(sp.Matrix.hstack(sp.zeros(6, 3), _jacobian(inertia_turned, delta, zero))),
                       "∂[f; τ]/∂[d; π] at fixed a, α, ω: the inertia tangent of the body")]
+    com = _vector(body[1:4])
+    by_com = [Output("body_force_D_com", (6, 3), _rows((inertia + weight).jacobian(com)),
+                     "∂([f; τ] − [W; r_c × W])/∂c: by the centre of mass c in the body's frame (a polynomial of "
+                     "degree two in c: the parameter sensitivities' explicit part)")]
     inputs = [BODY_FRAME, BODY_MOTION, BODY_SECTION, GRAVITY]
     return [KernelSpec(name="joint_body", doc="Newton-Euler equations of a joint body about its reference point, "
                        "their mass, gyroscopic and gravity-stiffness blocks", inputs=inputs, outputs=outputs,
                        variant="joints", equations="Eqs. 2, 59 (joint bodies as rigid bodies)"),
             KernelSpec(name="joint_body_inertia_stiffness", doc="The inertia tangent of a joint body (not part of "
                        "the time step's matrix, which leaves out inertia derivatives by q)", inputs=inputs,
-                       outputs=tangent, variant="joints", equations="Eqs. 2, 59 (joint bodies as rigid bodies)")]
+                       outputs=tangent, variant="joints", equations="Eqs. 2, 59 (joint bodies as rigid bodies)"),
+            KernelSpec(name="joint_body_D_com", doc="The derivative of a joint body's Newton-Euler row by its centre of "
+                       "mass (the sensitivities by a parameter that places it: forces, kinetic energy, momenta)",
+                       inputs=inputs, outputs=by_com, variant="joints",
+                       equations="Eqs. 2, 59 (joint bodies as rigid bodies)")]
 
 
 def point_load_terms(T, r, values, R, velocity):

@@ -211,8 +211,9 @@ def test_sensitivities_of_a_rigidly_turned_scene_are_the_turned_sensitivities():
 
 def test_the_joint_body_is_linear_in_mass_and_inertia_and_quadratic_in_the_centre_of_mass():
     """What the body sensitivities rest on (latdyn.analyses.sensitivities._body_forces): joint_body's
-    force is additive in (m, I) at a fixed centre of mass, and its third differences in c vanish, so
-    ½(f(c + d) − f(c − d)) is its exact derivative along d."""
+    force is additive in (m, I) at a fixed centre of mass (the kernel with ∂m/∂p, ∂I/∂p is its derivative),
+    and its third differences in c vanish (of degree two in c, whose derivative the generated
+    joint_body_D_com gives: tests/test_joints.py)."""
     from latdyn.model.kernels import load_kernels
     from latdyn.numerics.so3 import expm_so3
 

@@ -56,17 +56,6 @@ def adjoint_refusal(scene) -> str | None:
             "forward method differentiates them")
 
 
-def _output_gradient(owner, c):
-    """∂f/∂(reads, S) of controller ``c``'s output as a function of (t, reads, S), cached on ``owner``."""
-    import sympy as sp
-
-    cache = owner.__dict__.setdefault("_controller_output_gradients", {})
-    if c.name not in cache:
-        cache[c.name] = sp.lambdify(c.symbols, [sp.diff(c.output_expr, x) for x in c.symbols[1:]],
-                                    modules=["math", "numpy"])
-    return cache[c.name]
-
-
 def _time_partial(owner, c):
     """∂f/∂t of controller ``c``'s output as a function of (t, reads, S), cached on ``owner``: a row whose time
     moves with p (δt after an event, adaptive steps) moves the output by ∂f/∂t δt."""
@@ -100,7 +89,7 @@ def _continuous_output(owner, name: str, state, carried: dict, sensed, done: dic
     raw = float(c.functions()[0](*arguments))
     slope = np.zeros(terms.k)
     if c.limits is None or c.limits[0] < raw < c.limits[1]:
-        gradient = np.array(_output_gradient(owner, c)(*arguments), float).reshape(len(c.reads) + len(S))
+        gradient = c.output_gradient(*arguments)   # ∂f/∂(reads, S): the controller's one cached gradient
         probes = {p.name: p for p in scene.output.probes}
         for i, r in enumerate(c.reads):
             if r in probes:

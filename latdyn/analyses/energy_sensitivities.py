@@ -20,8 +20,8 @@ latdyn_momentum, csrc/rows.c), never from differences:
   (``beam_mass_matrix``), ∂T/∂q δq = ½ q̇ᵀ [∂(M a)/∂q]_{a = q̇} δq (``beam_inertia_tangent`` at zero
   velocity and the acceleration a = q̇), ∂T/∂p from ``beam_energies_D_section``; of a joint body ½ uᵀ M_b u, u = (v, ω) of its reference point, alike from ``joint_body``
   (its mass block M_b = ∂[f; τ]/∂[a; α]) and ``joint_body_inertia_stiffness`` at (ω, a, α) = (0, v, ω);
-  linear in (m, I) at a fixed centre of mass c and quadratic in c, whose derivative along ∂c/∂p is exactly
-  ½ (T(c + ∂c/∂p) − T(c − ∂c/∂p)) (a polynomial identity, as for the body's forces);
+  linear in (m, I) at a fixed centre of mass c, and by c the generated ``joint_body_D_com`` (∂f/∂c of the
+  momentum f = M_b u, along ∂c/∂p);
 - gravity potential V: of an element ``beam_gravity``'s potential, ∂V/∂q^e = −G^e (its gravity force),
   ∂V/∂p from ``beam_energies_D_section``; of a joint body −W·(x + T c), ∂V/∂[x; π] = the ``joint_body``
   gravity row Q = −[W; T c × W], ∂V/∂m = Q(∂m)·(x + T c), ∂V/∂c = Q·T ∂c;
@@ -243,25 +243,17 @@ def _skew(x: np.ndarray) -> np.ndarray:
     return out
 
 
-#: Gauss–Legendre nodes and weights, 16 points: latdyn_energies' quadrature of a law spring's potential
-_GAUSS_NODES, _GAUSS_WEIGHTS = np.polynomial.legendre.leggauss(16)
+def _law_integral(law, rest: float, theta: float, moment: bool) -> float:
+    """∫_{θ_r}^{θ} k(x) (x − θ_r)^moment dx of the hinge law ``law`` (its value at θ̇ = 0, t = 0) on the very
+    quadrature latdyn_energies takes a law spring's potential with (csrc/evaluate.c
+    ``latdyn_law_spring_integral``, the law called back from C), so that its derivatives by the law's
+    parameters are those of the recorded value."""
+    from latdyn.assembly.library import HINGE_LAW_VALUES, native_library
 
+    def values(_, x, rate, t, out):
+        out[0], out[1], out[2] = law.value(x, 0.0, 0.0), 0.0, 0.0
 
-def _law_integral(integrand, rest: float, theta: float) -> float:
-    """∫_{θ_r}^{θ} integrand(x) dx on the quadrature latdyn_energies takes a law spring's potential with
-    (csrc/evaluate.c law_spring_potential: 16 Gauss points on each of the equal pieces of at most 0.25 rad,
-    at most 4096 pieces: beyond 1024 rad they grow longer),
-    so that its derivatives by the law's parameters are those of the recorded value."""
-    s = theta - rest
-    if not np.isfinite(s):
-        return s * s
-    pieces = int(min(np.ceil(abs(s) / 0.25), 4096)) if abs(s) > 0.25 else 1   # LAW_SPRING_PIECES
-    total = 0.0
-    for p in range(pieces):
-        a, b = rest + s * p / pieces, rest + s * (p + 1) / pieces
-        total += 0.5 * (b - a) * sum(w * integrand(0.5 * (a + b) + 0.5 * (b - a) * x)
-                                     for x, w in zip(_GAUSS_NODES, _GAUSS_WEIGHTS))
-    return total
+    return float(native_library().latdyn_law_spring_integral(HINGE_LAW_VALUES(values), 0, rest, theta, int(moment)))
 
 
 class _StateForms:
@@ -382,11 +374,17 @@ class _StateForms:
         block = np.ascontiguousarray(np.concatenate([model.body_mass[:, None], model.body_com,
                                                      model.body_inertia.reshape(B, 9)], axis=1))
         gravity = np.ascontiguousarray(np.repeat(np.asarray(owner.assembler.gravity, float)[None], B, axis=0))
-        still, free_fall = np.zeros((B, 9)), np.zeros((B, 3))
+        still, free_fall, held = np.zeros((B, 9)), np.zeros((B, 3)), {}
 
         def momentum_of(body_block):   # f = M_b u (B, 6), M_b the kernel's mass block
             return np.asarray(kernels.joint_body(frames, moving, np.ascontiguousarray(body_block), free_fall)[0]
                               ).reshape(B, 6)
+
+        def by_com():                  # ∂f/∂c (B, 6, 3) of f = M_b u, computed once
+            if "by_com" not in held:
+                held["by_com"] = np.asarray(kernels.joint_body_D_com(frames, moving, block, free_fall)[0]
+                                            ).reshape(B, 6, 3)
+            return held["by_com"]
 
         def weight_of(body_block):     # Q = −[W; T c × W] (B, 6)
             return np.asarray(kernels.joint_body(frames, still, np.ascontiguousarray(body_block), gravity)[0]
@@ -420,13 +418,10 @@ class _StateForms:
                     step[j, i] += 0.5 * value
                     changed[b, 1:4], changed[b, 4:13] = model.body_com[b], step.reshape(9)
                     moved = momentum_of(changed)[b]
-                else:                         # quadratic in c: the central difference is exact
+                else:                         # by c: the generated ∂f/∂c along ∂c/∂p
                     along = np.zeros(3)
                     along[int(body["com"])] = value
-                    ahead, behind = block.copy(), block.copy()
-                    ahead[b, 1:4] += along
-                    behind[b, 1:4] -= along
-                    moved = 0.5 * (momentum_of(ahead) - momentum_of(behind))[b]
+                    moved = by_com()[b] @ along
                     explicit[2, column] += weight[b, 0:3] @ (state.T[node] @ along)
                 explicit[0, column] += 0.5 * u[b] @ moved
                 explicit[3:6, column] += moved[0:3]
@@ -466,10 +461,10 @@ class _StateForms:
                     else:                              # ∂(½ k s²)/∂θ_r = −k s
                         explicit[1, column] -= spring[j] * value
                 elif hinge["law"] == "stiffness":      # ∫ (∂k/∂p)(x)(x − θ_r) dx
-                    explicit[1, column] += _law_integral(lambda x: law.value(x, 0.0, 0.0) * (x - rest[j]), rest[j], theta)
+                    explicit[1, column] += _law_integral(law, rest[j], theta, moment=True)
                 else:                                  # −∫ k(x) dx ∂θ_r/∂p (the integrand vanishes at x = θ_r)
-                    explicit[1, column] -= law.value(theta, 0.0, 0.0) * _law_integral(
-                        lambda x: law_k.value(x, 0.0, 0.0), rest[j], theta)
+                    explicit[1, column] -= law.value(theta, 0.0, 0.0) * _law_integral(law_k, rest[j], theta,
+                                                                                       moment=False)
 
     def _stops(self, state, by_q, explicit) -> None:
         """The compliant stops' potential k (⟨δ_u⟩ⁿ⁺¹ + ⟨δ_l⟩ⁿ⁺¹)/(n + 1) (``hinge_force``'s contact energy):

@@ -567,9 +567,7 @@ class ParameterDerivatives:
         name a parameter, from the generated ``joint_body`` (codegen/joints.py ``joint_body_terms``).
         Static (at rest) it is λ-gravity alone; with ``inertia`` the Newton–Euler forces at the node's
         ω, a, α. It is linear in (m, I) at a fixed centre of mass c — the kernel with (∂m/∂p, c, ∂I/∂p)
-        —, and a polynomial of degree two in c at fixed (m, I), whose derivative along ∂c/∂p is
-        exactly ½ (f(c + ∂c/∂p) − f(c − ∂c/∂p)) (a polynomial identity, no truncation:
-        tests/test_sensitivities_transient.py checks the degree)."""
+        —, and by c the generated ``joint_body_D_com`` (∂f/∂c, 6 × 3) along ∂c/∂p."""
         model, gravity = self.model, load_factor * np.asarray(self.assembler.gravity, float)
         if not np.any(gravity) and not inertia:
             return
@@ -600,14 +598,13 @@ class ParameterDerivatives:
                     step[int(j), int(i)] += 0.5 * value
                     block[0, 1:4], block[0, 4:13] = model.body_com[b], step.reshape(9)
                     force = force_of(block)
-                else:
-                    block[0, 0], block[0, 4:13] = model.body_mass[b], model.body_inertia[b].reshape(9)
+                else:                   # ∂f/∂c along ∂c/∂p
+                    block[0, 0], block[0, 1:4] = model.body_mass[b], model.body_com[b]
+                    block[0, 4:13] = model.body_inertia[b].reshape(9)
                     along = np.zeros(3)
                     along[int(body["com"])] = value
-                    block[0, 1:4] = model.body_com[b] + along
-                    ahead = force_of(block)
-                    block[0, 1:4] = model.body_com[b] - along
-                    force = 0.5 * (ahead - force_of(block))
+                    force = np.asarray(self.kernels.joint_body_D_com(frame, motion, block, gravity[None])[0]
+                                       ).reshape(6, 3) @ along
                 total[model.node_dofs[node], column] += force
 
     def _contact_forces(self, state, total: np.ndarray) -> None:
@@ -1183,11 +1180,9 @@ class ControllerTerms:
                     self.partials.setdefault(c.name, {})[column] = law
                 else:              # ∂(dS/dt)/∂p of one state
                     self.rate_partials.setdefault(c.name, {}).setdefault(column, {})[match["state"]] = law
-        #: controller name -> {an earlier controller it reads: ∂f/∂y_j as a function of (t, reads)}
-        self.chained = {c.name: {r: sp.lambdify(c.symbols, sp.diff(c.output_expr, sp.Symbol(r, real=True)),
-                                                modules=["math", "numpy"])
-                                 for r in c.reads if r in names}
-                        for c in self.continuous}
+        #: controller name -> {an earlier controller it reads: the index of ∂f/∂y_j in its
+        #: ``Controller.output_gradient``}
+        self.chained = {c.name: {r: i for i, r in enumerate(c.reads) if r in names} for c in self.continuous}
         self.sensors = ProbeSet(assembler, assembler.initial_state())
         self.assembler, self.owner = assembler, owner
         #: controller name -> dS_{n+1}/dp at the step's end configuration held fixed (p_c, k), set by
@@ -1272,10 +1267,12 @@ class ControllerTerms:
             if c.limits is None or c.limits[0] < raw < c.limits[1]:
                 for column, partial in self.partials.get(c.name, {}).items():
                     slope[column] += float(partial(*arguments))
-                for read, through in self.chained[c.name].items():
-                    slope += float(through(*arguments)) * slopes[read]
-                if c.name in self.held:   # ∂y/∂S dS/dp (the states at the configuration held)
-                    slope += self.states.output_slopes(c, arguments) @ self.held[c.name]
+                if self.chained[c.name] or c.name in self.held:
+                    gradient = c.output_gradient(*arguments)
+                    for read, i in self.chained[c.name].items():
+                        slope += gradient[i] * slopes[read]
+                    if c.name in self.held:   # ∂y/∂S dS/dp (the states at the configuration held)
+                        slope += gradient[len(c.reads):] @ self.held[c.name]
             slopes[c.name] = slope
         loads: dict[int, np.ndarray] = {}   # load -> its six values' derivatives (6, k)
         for kind, index, component, controller, gain in zip(w.actuator_kind, w.actuator_index, w.actuator_component,
@@ -1341,20 +1338,15 @@ class ControllerStates:
             sensed = [i for i, r in enumerate(c.reads) if r in probes]
             self.sensors[c.name] = [probes[c.reads[i]] for i in sensed]
             self.gradients[c.name] = sp.lambdify(c.symbols, [
-                [sp.diff(c.output_expr, x) for x in S],
                 [[sp.diff(f, reads[i]) for i in sensed] for f in c.state_exprs],
                 [[sp.diff(f, x) for x in S] for f in c.state_exprs]], modules=["math", "numpy"])
-
-    def output_slopes(self, c, arguments) -> np.ndarray:
-        """∂y/∂S of controller ``c`` at ``arguments`` (t, reads, S), (p,)."""
-        return np.array(self.gradients[c.name](*arguments)[0], float).reshape(len(c.states))
 
     def _at(self, c, state, values=None):
         """(arguments, ∂f/∂s (p, m), ∂f/∂S (p, p), ∂f/∂p (p, k)) of ``c`` at ``state``, its accepted S."""
         if values is None:
             values = self.terms.signal_values(state)
         arguments = [state.t, *[values[r] for r in c.reads], *self.terms.state_values(c)]
-        _, f_s, f_S = self.gradients[c.name](*arguments)
+        f_s, f_S = self.gradients[c.name](*arguments)
         p = len(c.states)
         f_p = np.zeros((p, self.terms.k))
         for column, laws in self.terms.rate_partials.get(c.name, {}).items():
@@ -1497,7 +1489,6 @@ class SampledTerms:
         for c in self.controllers:
             reads, S = c.symbols[1:1 + len(c.reads)], c.symbols[1 + len(c.reads):]
             self.gradients[c.name] = sp.lambdify(c.symbols, [
-                [sp.diff(c.output_expr, x) for x in reads], [sp.diff(c.output_expr, x) for x in S],
                 [[sp.diff(g, x) for x in reads] for g in c.state_exprs],
                 [[sp.diff(g, x) for x in S] for g in c.state_exprs]], modules=["math", "numpy"])
         #: (kind 0 a hinge or guide / 1 a load, its index, the load's component, controller index, ∂τ/∂y)
@@ -1577,9 +1568,10 @@ class SampledTerms:
             rows, i = self._rows(c), self.index[c.name]
             arguments = [state.t, *[values[r] for r in c.reads], *S[rows]]
             raw = float(c.functions()[0](*arguments))
-            y_s, y_S, g_s, g_S = self.gradients[c.name](*arguments)
+            g_s, g_S = self.gradients[c.name](*arguments)
             p, m = len(c.states), len(c.reads)
-            y_s, y_S = np.array(y_s, float).reshape(m), np.array(y_S, float).reshape(p)
+            gradient = c.output_gradient(*arguments)
+            y_s, y_S = gradient[:m], gradient[m:]
             g_s, g_S = np.array(g_s, float).reshape(p, m), np.array(g_S, float).reshape(p, p)
             y_p, g_p = np.zeros(self.terms.k), np.zeros((p, self.terms.k))
             for column, law in self.terms.partials.get(c.name, {}).items():

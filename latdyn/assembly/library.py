@@ -3,7 +3,9 @@ evaluation of ``csrc/evaluate.c`` and the one LU factorization of ``csrc/factori
 sparse LU of ``csrc/sparse_lu.c``), built once into the kernel cache by :mod:`latdyn.native`, the
 ctypes mirrors of its C structs (``Model``, ``Links``, ``Work``, ``Configuration``, ``EvaluationControl``,
 ``Vectors``, ``StepControl``, ``Advance``, ``Rows``, ``Factorization``, ``SparseLU``) and the signatures of
-its exported functions (``latdyn_factor``, ``latdyn_solve`` and ``latdyn_solve_transposed`` among them).
+its exported functions (``latdyn_factor``, ``latdyn_solve`` and ``latdyn_solve_transposed`` among them;
+``latdyn_law_spring_integral``, the quadrature of a law spring's potential, takes a hinge law's function of
+type :data:`HINGE_LAW_VALUES`).
 
 Every struct the C side reads is declared here and nowhere else on the Python side;
 ``tests/test_engine.py`` checks their sizes and offsets against the compiler's.
@@ -19,6 +21,10 @@ I64 = ctypes.c_int64
 
 P = ctypes.c_void_p
 
+#: ``hinge_laws(k, θ, θ̇, t, out)`` of csrc/evaluate.c's Model: hinge law k's (f, ∂f/∂θ, ∂f/∂θ̇) into out
+#: (a scene's compiled laws, or a Python callback of this type)
+HINGE_LAW_VALUES = ctypes.CFUNCTYPE(None, I64, ctypes.c_double, ctypes.c_double, ctypes.c_double,
+                                    ctypes.POINTER(ctypes.c_double))
 
 _LIBRARY = None
 
@@ -237,6 +243,8 @@ def native_library() -> ctypes.CDLL:
         library.latdyn_energies.restype = None
         library.latdyn_energies.argtypes = [ctypes.POINTER(ModelData), ctypes.POINTER(WorkData),
                                             ctypes.POINTER(ConfigurationData), ctypes.c_double, P]
+        library.latdyn_law_spring_integral.restype = ctypes.c_double
+        library.latdyn_law_spring_integral.argtypes = [HINGE_LAW_VALUES, I64, ctypes.c_double, ctypes.c_double, I64]
         model, work, configuration = (ctypes.POINTER(ModelData), ctypes.POINTER(WorkData),
                                       ctypes.POINTER(ConfigurationData))
         library.latdyn_momentum.restype = None

@@ -24,6 +24,7 @@ from latdyn.assembly.compiled_laws import LawsUnavailable, compile_laws, unprint
 from latdyn.assembly.control import CABLE_TENSION, SECTION_FORCE
 from latdyn.assembly.library import (
     ConfigurationData,
+    HINGE_LAW_VALUES,
     EvaluationData,
     ModelData,
     WorkData,
@@ -44,8 +45,7 @@ def state_shapes(model) -> dict[str, tuple]:
             "theta": (H,), "theta_dot": (H,), "theta_ddot": (H,)}
 
 _TIME_LAWS = ctypes.CFUNCTYPE(None, ctypes.c_double, ctypes.POINTER(ctypes.c_double))
-_HINGE_LAWS = ctypes.CFUNCTYPE(None, ctypes.c_int64, ctypes.c_double, ctypes.c_double, ctypes.c_double,
-                               ctypes.POINTER(ctypes.c_double))
+_HINGE_LAWS = HINGE_LAW_VALUES
 _CONTROLLER_LAWS = ctypes.CFUNCTYPE(None, ctypes.c_int64, ctypes.c_double, ctypes.POINTER(ctypes.c_double),
                                     ctypes.POINTER(ctypes.c_double))
 

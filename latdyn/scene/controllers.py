@@ -51,6 +51,7 @@ class Controller:
     output_expr: Any = None
     state_exprs: tuple = ()
     _functions: Any = field(default=None, repr=False, compare=False)
+    _output_gradient: Any = field(default=None, repr=False, compare=False)
 
     @property
     def sampled(self) -> bool:
@@ -58,7 +59,7 @@ class Controller:
 
     def __getstate__(self):
         state = dict(self.__dict__)
-        state["_functions"] = None  # lambdified functions do not pickle: made again on use
+        state["_functions"] = state["_output_gradient"] = None  # lambdified functions do not pickle: made again on use
         return state
 
     def functions(self):
@@ -70,6 +71,21 @@ class Controller:
             make = lambda e: sp.lambdify(self.symbols, e, modules=["math", "numpy"])  # noqa: E731
             self._functions = (make(self.output_expr), [make(e) for e in self.state_exprs])
         return self._functions
+
+    def output_gradient(self, *arguments):
+        """∂f/∂(reads, states) of the output f before saturation at ``arguments`` = (t, *reads values, *state
+        values): one value per read (probes, inputs, earlier controllers: ∂f/∂y_j) and per state, in the order
+        of ``symbols[1:]`` (float64 array). SymPy's derivatives of ``output_expr``, lambdified once and shared
+        by every sensitivity that needs them (latdyn/analyses/sensitivities.py ControllerTerms,
+        ControllerStates, SampledTerms; latdyn/analyses/controller_probe_sensitivities.py)."""
+        import numpy as np
+
+        if self._output_gradient is None:
+            import sympy as sp
+
+            self._output_gradient = sp.lambdify(self.symbols, [sp.diff(self.output_expr, x) for x in self.symbols[1:]],
+                                                modules=["math", "numpy"])
+        return np.array(self._output_gradient(*arguments), float).reshape(len(self.symbols) - 1)
 
     def clip(self, value: float) -> float:
         """The output after saturation (``limits``)."""

@@ -1209,13 +1209,19 @@ static const double GAUSS_16_WEIGHTS[16] = {
  * looping for hours before the run's own checks can end it. */
 #define LAW_SPRING_PIECES 4096
 
-/* The potential of hinge j's spring whose stiffness is a law k(θ) (the scene's compiled hinge law), at
- * angle θ: ∫_{θ_r}^{θ} k(s)(s − θ_r) ds by Gauss–Legendre quadrature, 16 points on each of the equal
- * pieces of at most 0.25 rad (exact for polynomials of degree 31 on a piece; at most LAW_SPRING_PIECES
- * pieces); the law at θ̇ = 0, t = 0. A non-finite angle has a non-finite potential. */
-static double law_spring_potential(const Model *m, int64_t j, double theta)
+/* A hinge law's function (Model.hinge_laws): law k at (θ, θ̇, t) into out = (f, ∂f/∂θ, ∂f/∂θ̇). */
+typedef void (*hinge_law_values)(int64_t, double, double, double, double *);
+
+/* ∫_{θ_r}^{θ} k(x) (x − θ_r)^moment dx (moment 0 or 1) of hinge law `law` of `laws` at θ̇ = 0, t = 0, by
+ * Gauss–Legendre quadrature, 16 points on each of the equal pieces of at most 0.25 rad (exact for
+ * polynomials of degree 31 on a piece; at most LAW_SPRING_PIECES pieces). With moment 1 and the spring's
+ * stiffness law it is the spring's potential (law_spring_potential); the energies' sensitivities take
+ * its derivatives by a parameter p on this same quadrature, ∫ (∂k/∂p)(x)(x − θ_r) dx and ∫ k(x) dx
+ * (latdyn/analyses/energy_sensitivities.py, through ctypes with the law as a callback), so that they are
+ * the exact derivatives of the recorded value. A non-finite angle gives a non-finite value. */
+double latdyn_law_spring_integral(hinge_law_values laws, int64_t law, double rest, double theta, int64_t moment)
 {
-    const double rest = m->hinge_rest_angle[j], s = theta - rest;
+    const double s = theta - rest;
     if (!isfinite(s))
         return s * s;
     const int64_t pieces = fabs(s) > 0.25 ? (int64_t)fmin(ceil(fabs(s) / 0.25), (double)LAW_SPRING_PIECES) : 1;
@@ -1226,12 +1232,19 @@ static double law_spring_potential(const Model *m, int64_t j, double theta)
         for (int i = 0; i < 16; ++i) {
             const double x = 0.5 * (a + b) + 0.5 * (b - a) * GAUSS_16_NODES[i];
             double values[3];
-            m->hinge_laws(m->hinge_stiffness_law[j], x, 0.0, 0.0, values);
-            sum += GAUSS_16_WEIGHTS[i] * values[0] * (x - rest);
+            laws(law, x, 0.0, 0.0, values);
+            sum += moment ? GAUSS_16_WEIGHTS[i] * values[0] * (x - rest) : GAUSS_16_WEIGHTS[i] * values[0];
         }
         total += 0.5 * (b - a) * sum;
     }
     return total;
+}
+
+/* The potential of hinge j's spring whose stiffness is a law k(θ) (the scene's compiled hinge law), at
+ * angle θ: ∫_{θ_r}^{θ} k(s)(s − θ_r) ds (latdyn_law_spring_integral, the law at θ̇ = 0, t = 0). */
+static double law_spring_potential(const Model *m, int64_t j, double theta)
+{
+    return latdyn_law_spring_integral(m->hinge_laws, m->hinge_stiffness_law[j], m->hinge_rest_angle[j], theta, 1);
 }
 
 /* Kinetic, strain and gravity potential energy of the whole model at c:
