@@ -60,11 +60,13 @@ def test_bays_repeat_a_bay_and_the_truss_example_builds_ten_thousand_elements_in
     assert len(small.beams) == 30 and len(small.hinges) == 12 and len(small.bodies) == 16
     best = float("inf")
     for _ in range(3):  # the best of three: the machine is shared
-        t0 = time.perf_counter()
+        # the process's CPU time, not the wall: the suite runs on every core (pytest-xdist), and what
+        # another worker or another job takes of the core is not the builder's time
+        t0 = time.process_time()
         scene = example.truss().build()
-        best = min(best, time.perf_counter() - t0)
+        best = min(best, time.process_time() - t0)
     assert scene.n_elements == 10_000
-    assert best < 2.0  # 0.9 s measured on a loaded 2-core machine; the limit leaves room for slower CI
+    assert best < 2.0  # 0.52 s of CPU (0.8 s wall) measured at load 4 on the 2-core machine; room for slower CI
 
 
 def test_rigid_link_built_and_run():
