@@ -71,6 +71,17 @@ def test_a_non_finite_angle_has_a_non_finite_integral():
     assert _law_integral(_Counted(), 0.0, np.inf, moment=False) == np.inf
 
 
+def test_a_law_undefined_at_a_point_of_the_rule_gives_nan_never_a_stale_value():
+    """A law that raises where it is undefined (a real power of a negative angle: ``theta**1.5`` is complex
+    there) cannot raise through the C frames; the integral is NaN — as the compiled law gives the recorded
+    energy — and not the value the rule's previous point left behind (found in review: finite, made up)."""
+    law = HingeLaw("3 + theta**1.5")
+    with pytest.raises((TypeError, ValueError, ArithmeticError)):
+        law.value(-0.3, 0.0, 0.0)
+    assert np.isnan(_law_integral(law, -0.5, 0.5, moment=True))
+    assert np.isfinite(_law_integral(law, 0.1, 0.5, moment=True))
+
+
 HINGED_PAIR = """
 title: a hinged arm whose spring's stiffness is a law, turned from its rest angle
 gravity: [0, 0, 0]

@@ -251,7 +251,11 @@ def _law_integral(law, rest: float, theta: float, moment: bool) -> float:
     from latdyn.assembly.library import HINGE_LAW_VALUES, native_library
 
     def values(_, x, rate, t, out):
-        out[0], out[1], out[2] = law.value(x, 0.0, 0.0), 0.0, 0.0
+        try:   # an exception cannot cross the C frames: a law undefined at x (a real power of a negative
+            # angle) is NaN there, as the compiled law the recorded energy takes gives NaN
+            out[0], out[1], out[2] = law.value(x, 0.0, 0.0), 0.0, 0.0
+        except (ArithmeticError, TypeError, ValueError):
+            out[0] = out[1] = out[2] = float("nan")
 
     return float(native_library().latdyn_law_spring_integral(HINGE_LAW_VALUES(values), 0, rest, theta, int(moment)))
 

@@ -128,7 +128,7 @@ def modal_analysis(prepared, count: int, about="initial"):
 
 
 STATIC_UNSTABLE = ("modes about static: the static state is unstable, a root of its modes has real part "
-                   "{growth:.4g} 1/s (a divergent mode, damping ratio < 0): load control followed the path "
+                   "{growth:.4g} 1/s (a divergent mode, damping ratio < 0): the static path (solve.method) was followed "
                    "past a bifurcation (a perfect column stays straight past its Euler load) or onto an "
                    "unstable branch, and the structure does not stay in this state")
 

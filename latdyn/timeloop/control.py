@@ -7,7 +7,7 @@ matrix, then cut in half, down to ``dt_min``. With ``adaptive`` steps the integr
 e of each converged step rejects it (e > 1: tried again at h·max(0.2, 0.9 e^(−1/3))) or, accepted,
 sizes the next one, h·min(2, 0.9 e^(−1/3)) clipped to [dt_min, dt] (after a latch or a stop: 2h; after
 a step shortened onto a grid point: the size proposed before it was shortened).
-After a cut or a step shortened onto an event the step grows back to dt.
+With fixed steps, after a cut or a step shortened onto an event the step grows back to dt.
 
 Every run ends: no step is shorter than ``dt_min`` (default dt·10⁻⁶; the loader refuses one below
 10⁻¹² t_end, lost in the round-off of t) save the last one onto a grid point; a step that Newton

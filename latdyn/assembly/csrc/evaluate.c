@@ -1231,7 +1231,7 @@ double latdyn_law_spring_integral(hinge_law_values laws, int64_t law, double res
         double sum = 0.0;
         for (int i = 0; i < 16; ++i) {
             const double x = 0.5 * (a + b) + 0.5 * (b - a) * GAUSS_16_NODES[i];
-            double values[3];
+            double values[3] = {NAN, NAN, NAN};   /* a callback that fails to write leaves NaN, never a stale value */
             laws(law, x, 0.0, 0.0, values);
             sum += moment ? GAUSS_16_WEIGHTS[i] * values[0] * (x - rest) : GAUSS_16_WEIGHTS[i] * values[0];
         }
