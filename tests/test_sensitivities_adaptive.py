@@ -199,6 +199,42 @@ def test_what_stays_refused_with_adaptive_steps_is_named(tmp_path):
     assert run.returncode == 2 and "solve.sensitivities" in run.stderr and "Traceback" not in run.stderr
 
 
+def test_a_geometry_parameter_with_adaptive_steps_is_refused_naming_it():
+    """A parameter that places the structure moves the error estimate's length scale (twice the largest distance
+    of a node from the centroid at t = 0), which the step sizes' derivative does not follow (found in review:
+    6.3e-2 off Richardson differences on this arm; 3.4e-7 with the length held): refused naming the key."""
+    data = yaml.safe_load(PLANAR)
+    data["parameters"]["L"] = 1.0
+    data["bodies"]["tip"]["at"] = ["L", 0, 0]
+    data["solve"]["sensitivities"] = ["L", "k"]
+    with pytest.raises(SceneError, match=r"bodies\.tip\.at\[0\] places the structure") as refused:
+        latdyn.run(latdyn.load_scene(data))
+    assert refused.value.key == "solve.sensitivities"
+
+
+def test_the_inertia_tangents_retry_keeps_the_next_trials_size_derivative():
+    """Newton fails on a trial shortened onto a grid point and is tried again with the inertia tangent: the run
+    keeps the size it proposed (run.h), so the carried derivative of the next trial's size stays as it was
+    (found in review: it became −δt_n, the shortened size's, and every later step size's derivative with it)."""
+    import contextlib
+    import io
+    from types import SimpleNamespace
+
+    from latdyn.analyses import adaptive_sensitivities
+    from latdyn.timeloop.control import StepControl
+
+    control = StepControl(SimpleNamespace(t_end=1.0, dt=0.1, dt_min=None, adaptive=True, error_tol=1e-3), None, 1.0)
+    run = SimpleNamespace(state=SimpleNamespace(t=0.09), h=0.06, rejected_steps=0, grid_index=0)
+    h, lands, _ = control.next_step(run)
+    assert lands and h < 0.06   # shortened onto t = 0.1
+    with contextlib.redirect_stderr(io.StringIO()):
+        assert control.after_newton_failure(run, SimpleNamespace(inertia_tangent=False), h, 25)
+    assert run.h == 0.06
+    owner = SimpleNamespace(names=["p"], model=SimpleNamespace(n_dofs=3))
+    carried = {"dt": np.array([0.7]), "dh_next": np.array([0.25])}
+    assert adaptive_sensitivities.resized(owner, carried, control, lands)["dh_next"][0] == 0.25
+
+
 def test_the_largest_joint_norm_is_joint_norms_largest_and_its_reference_the_weighted_diagonal():
     """latdyn.numerics.inertia.largest_joint_norm (the error estimate's norm as a function of M) against
     joint_norms on a model's mass matrix: the same norm, E and m rebuilt from M and the weights."""

@@ -47,6 +47,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
 from latdyn.analyses.parameter_keys import prescribed_motion
 from latdyn.assembly.assembler import unpack_free
 from latdyn.errors import SolverError
@@ -59,6 +60,13 @@ def refusal(scene) -> str | None:
     """Why the sensitivities of ``scene``'s adaptive run are not computed, or None (module docstring)."""
     if not scene.solve.adaptive:
         return None
+    placing = next((used for name in scene.solve.sensitivities for used in scene.parameters.depending_on(name)
+                    if GEOMETRY_KEY.match(used)), None)
+    if placing is not None:
+        return (f"with adaptive step control, a parameter used at {placing} places the structure and so moves the "
+                "error estimate's length scale (twice the largest distance of a node from the centroid at t = 0), "
+                "which the step sizes' derivative does not follow yet; expected a fixed step (adaptive: false) "
+                "(docs/parameters.md, \"Adaptive steps\")")
     if prescribed_motion(scene):
         return ("with adaptive step control and a prescribed motion (a body's translation or rotation, a hinge's "
                 "angle) the error estimate's mass matrix moves in time through the prescribed ends, which the step "

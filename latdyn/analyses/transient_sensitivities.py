@@ -1108,6 +1108,7 @@ class ExplicitTime:
         self.laws.names, self.laws.derivatives = ["t"], laws
         self.laws.controllers = _controller_time_rates(owner)
         self.laws.__dict__.pop("_kinds", None)
+        self.laws.geometry = None   # the one column is t: no start moved by geometry parameters (k columns)
 
     @classmethod
     def of(cls, owner) -> "ExplicitTime | None":

@@ -250,7 +250,9 @@ class StepControl:
             # β′M dominates it (latdyn.step.integrators); take it from here on, same step
             integrator.inertia_tangent = True
             run.inertia_tangent_from = float(t)
-            self.resize = Resize(1.0, 0.0, 0.0)
+            # run.h is unchanged (the size proposed, the trial shortened onto a grid point or not): the carried
+            # derivative of the next trial's size stays as it is (a by_step of 1 would take the shortened size's)
+            self.resize = Resize(0.0, 0.0, 0.0, 1.0)
             print(f"latdyn: Newton did not converge in {iterations} iterations at t = {t + h:.9g}; "
                   "its matrix now includes the inertia tangent (directions with little inertia)",
                   file=sys.stderr)
