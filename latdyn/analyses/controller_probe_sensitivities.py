@@ -103,7 +103,7 @@ def _continuous_output(owner, name: str, state, carried: dict, sensed, done: dic
         for column, partial in terms.partials.get(c.name, {}).items():
             slope[column] += float(partial(*arguments))
         moved = np.asarray(carried.get("dt", 0.0))
-        if np.any(moved) and c.symbols[0] in c.output_expr.free_symbols:   # the row's time moved (events, adaptive)
+        if np.any(moved) and c.output_names_t:   # the row's time moved (events, adaptive)
             slope += _time_partial(owner, c)(*arguments) * moved
     done[name] = (c.clip(raw), slope)
     return slope

@@ -1200,8 +1200,7 @@ class ControllerTerms:
         if why is not None:
             return why
         for c in scene.controllers.values():
-            timed = any(c.symbols[0] in getattr(f, "free_symbols", ()) for f in (c.state_exprs or []))
-            if c.states and timed and has_events(scene):
+            if c.states and c.states_name_t and has_events(scene):
                 return (f"sensitivities of runs with controllers whose states' rates name t ({c.name}) and events (a "
                         "latch, a stop, a compliant stop's onset, a cable's change: the event time moves the states' "
                         "rates in t) are not computed yet; states whose rates do not name t are")

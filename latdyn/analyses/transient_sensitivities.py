@@ -1182,11 +1182,6 @@ class ExplicitTime:
         return (8.0 * (residual(eta) - residual(-eta)) - (residual(2 * eta) - residual(-2 * eta))) / (12.0 * eta)
 
 
-def _names_t(c) -> bool:
-    """Whether controller ``c``'s output names t."""
-    return c.output_expr is not None and bool(c.symbols) and c.symbols[0] in getattr(c.output_expr, "free_symbols", ())
-
-
 def _controller_time_rates(owner):
     """The continuous controllers' explicit time derivative as a one-column
     :class:`latdyn.analyses.sensitivities.ControllerTerms` (its column t): ∂y/∂t at fixed sensors, SymPy's
@@ -1201,7 +1196,7 @@ def _controller_time_rates(owner):
     terms = owner.controllers
     if terms is None:
         return None
-    timed = [c for c in terms.continuous if _names_t(c)]
+    timed = [c for c in terms.continuous if c.output_names_t]
     if not timed:
         return None
     rates = copy.copy(terms)

@@ -57,6 +57,17 @@ class Controller:
     def sampled(self) -> bool:
         return self.rate is not None
 
+    @property
+    def output_names_t(self) -> bool:
+        """Whether the output's expression names t (its explicit ∂f/∂t enters where a row's or a step's time moves)."""
+        return self.output_expr is not None and bool(self.symbols) and self.symbols[0] in getattr(
+            self.output_expr, "free_symbols", ())
+
+    @property
+    def states_name_t(self) -> bool:
+        """Whether a state's rate expression names t."""
+        return bool(self.symbols) and any(self.symbols[0] in getattr(f, "free_symbols", ()) for f in self.state_exprs)
+
     def __getstate__(self):
         state = dict(self.__dict__)
         state["_functions"] = state["_output_gradient"] = None  # lambdified functions do not pickle: made again on use
