@@ -24,6 +24,7 @@ import latdyn
 from latdyn.analyses.transient_sensitivities import TransientSensitivities
 from latdyn.errors import SceneError
 from tests.cli_runs import latdyn_run
+from tests.resumed_runs import interrupted_and_whole
 
 #: a flexible arm on a hinge spring at a fixed base, its tip mass pushed by a load in t; error_tol 3e-3 makes
 #: the controller reject 8 trials in 45 accepted steps
@@ -314,25 +315,9 @@ def test_an_adaptive_run_interrupted_and_resumed_has_the_same_sensitivities(tmp_
     """The next trial's δh (``dh_next``) rides in the checkpoint with the rest of the carried sensitivities: the
     planar arm interrupted at t = 0.15 (between rejections) and resumed writes the uninterrupted run's
     sensitivities.csv byte for byte."""
-    from latdyn.step.compiled import CompiledGeneralizedAlpha
-
     scene = yaml.safe_load(PLANAR)
     scene["solve"]["sensitivities"] = ["k", "F"]
-    whole = tmp_path / "whole"
-    latdyn.run(scene, whole)
-    original = CompiledGeneralizedAlpha.step
-
-    def step(self, state, *args, **kwargs):
-        if state.t >= 0.15:
-            raise KeyboardInterrupt
-        return original(self, state, *args, **kwargs)
-
-    out = tmp_path / "out"
-    with monkeypatch.context() as m:
-        m.setattr(CompiledGeneralizedAlpha, "step", step)
-        with pytest.raises(KeyboardInterrupt):
-            latdyn.run(scene, out)
-    latdyn.run(scene, out, resume=True)
+    out, whole = interrupted_and_whole(scene, tmp_path, monkeypatch, 0.15)
     assert (out / "sensitivities.csv").read_bytes() == (whole / "sensitivities.csv").read_bytes()
     summaries = [json.loads((d / "summary.json").read_text()) for d in (out, whole)]
     assert summaries[0]["probe_sensitivities"] == summaries[1]["probe_sensitivities"]

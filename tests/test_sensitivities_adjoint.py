@@ -22,6 +22,7 @@ from latdyn.errors import SceneError
 from latdyn.results.result import Result
 from tests.cli_runs import latdyn_run
 from tests.test_sensitivities_transient import FROM_REST_3D, LONG_3D, PLANAR, SWING_3D, _richardson, _run
+from tests.resumed_runs import interrupted_and_whole
 
 #: SWING_3D whose rigid motion at t = 0 is a parameter's (linear and angular), with a load and a hinge law
 BY_INITIAL_VELOCITY = (SWING_3D.replace("parameters: {", "parameters: {W: 2.0, ")
@@ -156,24 +157,8 @@ def test_the_cli_writes_the_end_row_and_the_summary(tmp_path):
 
 def test_an_interrupted_and_resumed_adjoint_run_gives_the_same_derivatives(tmp_path, monkeypatch):
     """The stored trajectory rides in the checkpoint: the resumed run's files are the uninterrupted ones."""
-    from latdyn.step.compiled import CompiledGeneralizedAlpha
-
     scene = yaml.safe_load(_adjoint(PLANAR.replace("[P, k, c, tau, Mz, EI, rho, m, J]", "[P, k, rho]")))
-    whole = tmp_path / "whole"
-    latdyn.run(scene, whole)
-    original = CompiledGeneralizedAlpha.step
-
-    def step(self, state, *args, **kwargs):
-        if state.t >= 0.12:
-            raise KeyboardInterrupt
-        return original(self, state, *args, **kwargs)
-
-    out = tmp_path / "out"
-    with monkeypatch.context() as m:
-        m.setattr(CompiledGeneralizedAlpha, "step", step)
-        with pytest.raises(KeyboardInterrupt):
-            latdyn.run(scene, out)
-    latdyn.run(scene, out, resume=True)
+    out, whole = interrupted_and_whole(scene, tmp_path, monkeypatch, 0.12)
     assert (out / "sensitivities.csv").read_bytes() == (whole / "sensitivities.csv").read_bytes()
     assert (json.loads((out / "summary.json").read_text())["probe_sensitivities"]
             == json.loads((whole / "summary.json").read_text())["probe_sensitivities"])

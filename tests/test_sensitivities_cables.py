@@ -15,9 +15,9 @@ import numpy as np
 import pytest
 import yaml
 
-import latdyn
 from latdyn.errors import SceneError
 from tests.test_sensitivities_events import _run
+from tests.resumed_runs import interrupted_and_whole
 
 DROP = """
 title: a mass dropped on a slack massless cable
@@ -182,24 +182,8 @@ def test_a_run_interrupted_between_the_cable_changes_resumes_to_the_same_sensiti
     uninterrupted run's, byte for byte."""
     import json
 
-    from latdyn.step.compiled import CompiledGeneralizedAlpha
-
     scene = yaml.safe_load(DAMPED)
-    whole = tmp_path / "whole"
-    latdyn.run(scene, whole)
-    original = CompiledGeneralizedAlpha.step
-
-    def step(self, state, *args, **kwargs):
-        if state.t >= 0.35:
-            raise KeyboardInterrupt
-        return original(self, state, *args, **kwargs)
-
-    out = tmp_path / "out"
-    with monkeypatch.context() as m:
-        m.setattr(CompiledGeneralizedAlpha, "step", step)
-        with pytest.raises(KeyboardInterrupt):
-            latdyn.run(scene, out)
-    latdyn.run(scene, out, resume=True)
+    out, whole = interrupted_and_whole(scene, tmp_path, monkeypatch, 0.35)
     assert (out / "sensitivities.csv").read_bytes() == (whole / "sensitivities.csv").read_bytes()
     events = [json.loads((folder / "summary.json").read_text())["event_sensitivities"] for folder in (out, whole)]
     assert events[0] == events[1] and [e["kind"] for e in events[0]] == ["taut", "slack"]

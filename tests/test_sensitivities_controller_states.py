@@ -18,6 +18,7 @@ import yaml
 import latdyn
 from cli_runs import latdyn_run
 from latdyn.errors import SceneError
+from tests.resumed_runs import interrupted_and_whole
 
 #: a hub (a stiff one-element arm to a tip mass, on a hinge about z with damping as the rate feedback)
 #: under a constant disturbance moment, held by a PI loop u = −Kp θ − Ki S, dS/dt = θ (S from 0.2)
@@ -313,22 +314,6 @@ def test_what_sampled_controllers_cannot_be_differentiated_through_is_refused(ch
 def test_an_interrupted_and_resumed_run_has_the_same_sensitivities(tmp_path, monkeypatch, text):
     """δS, δf and the held δy ride in the checkpoint with the rest of the carried sensitivities: the
     resumed sensitivities.csv is the uninterrupted one, byte for byte (interrupted between samples)."""
-    from latdyn.step.compiled import CompiledGeneralizedAlpha
-
     scene = yaml.safe_load(text)
-    whole = tmp_path / "whole"
-    latdyn.run(scene, whole)
-    original = CompiledGeneralizedAlpha.step
-
-    def step(self, state, *args, **kwargs):
-        if state.t >= 0.37:
-            raise KeyboardInterrupt
-        return original(self, state, *args, **kwargs)
-
-    out = tmp_path / "out"
-    with monkeypatch.context() as m:
-        m.setattr(CompiledGeneralizedAlpha, "step", step)
-        with pytest.raises(KeyboardInterrupt):
-            latdyn.run(scene, out)
-    latdyn.run(scene, out, resume=True)
+    out, whole = interrupted_and_whole(scene, tmp_path, monkeypatch, 0.37)
     assert (out / "sensitivities.csv").read_bytes() == (whole / "sensitivities.csv").read_bytes()

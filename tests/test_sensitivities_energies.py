@@ -28,6 +28,7 @@ from tests.test_sensitivities_joint_forces import DRIVEN_3D
 from tests.test_sensitivities_events import _agree as latch_agree
 from tests.test_sensitivities_events import _run as latch_run
 from tests.test_sensitivities_transient import _agree, _run
+from tests.resumed_runs import interrupted_and_whole
 
 ENERGY_PROBES = """
     kinetic: {energy: kinetic}
@@ -390,25 +391,9 @@ def test_the_cli_writes_the_energy_and_momentum_columns(tmp_path):
 def test_an_interrupted_and_resumed_run_has_the_same_energy_sensitivities(tmp_path, monkeypatch):
     """The external work's carried sensitivity rides in the checkpoint with the rest: the resumed
     sensitivities.csv is the uninterrupted one, byte for byte."""
-    from latdyn.step.compiled import CompiledGeneralizedAlpha
-
     scene = yaml.safe_load(SPIN_3D.replace("sensitivities: [F, k, c, th0, tau, EI, G, rho, m, cx, J]",
                                            "sensitivities: [F, tau, m]"))
-    whole = tmp_path / "whole"
-    latdyn.run(scene, whole)
-    original = CompiledGeneralizedAlpha.step
-
-    def step(self, state, *args, **kwargs):
-        if state.t >= 0.022:
-            raise KeyboardInterrupt
-        return original(self, state, *args, **kwargs)
-
-    out = tmp_path / "out"
-    with monkeypatch.context() as m:
-        m.setattr(CompiledGeneralizedAlpha, "step", step)
-        with pytest.raises(KeyboardInterrupt):
-            latdyn.run(scene, out)
-    latdyn.run(scene, out, resume=True)
+    out, whole = interrupted_and_whole(scene, tmp_path, monkeypatch, 0.022)
     assert (out / "sensitivities.csv").read_bytes() == (whole / "sensitivities.csv").read_bytes()
     assert np.any(Result.load(out).sensitivities[("work", "tau")] != 0.0)
 

@@ -13,6 +13,7 @@ import yaml
 
 import latdyn
 from latdyn.errors import SceneError
+from tests.resumed_runs import interrupted_and_whole
 
 LATCH_PLANAR = """
 title: planar hinged arm swung open by its spring, latching
@@ -188,25 +189,9 @@ def test_a_run_interrupted_after_the_latch_resumes_to_the_same_sensitivities(tmp
     sensitivities.csv is the uninterrupted one byte for byte."""
     import json
 
-    from latdyn.step.compiled import CompiledGeneralizedAlpha
-
     scene = yaml.safe_load(LATCH_PLANAR)
     scene["solve"]["sensitivities"] = ["k", "m"]
-    whole = tmp_path / "whole"
-    latdyn.run(scene, whole)
-    original = CompiledGeneralizedAlpha.step
-
-    def step(self, state, *args, **kwargs):
-        if state.t >= 0.52:
-            raise KeyboardInterrupt
-        return original(self, state, *args, **kwargs)
-
-    out = tmp_path / "out"
-    with monkeypatch.context() as m:
-        m.setattr(CompiledGeneralizedAlpha, "step", step)
-        with pytest.raises(KeyboardInterrupt):
-            latdyn.run(scene, out)
-    latdyn.run(scene, out, resume=True)
+    out, whole = interrupted_and_whole(scene, tmp_path, monkeypatch, 0.52)
     assert (out / "sensitivities.csv").read_bytes() == (whole / "sensitivities.csv").read_bytes()
     assert (json.loads((out / "summary.json").read_text())["event_sensitivities"]
             == json.loads((whole / "summary.json").read_text())["event_sensitivities"])

@@ -23,6 +23,7 @@ import latdyn
 from latdyn.errors import SceneError
 from latdyn.model.kernels import load_kernels
 from tests.cli_runs import latdyn_run
+from tests.resumed_runs import interrupted_and_whole
 
 #: a wheel (centre of mass off the hinge) driven by a torque about a hinge at the tip of a flexible arm with
 #: rotary inertia, in the xy plane (planar: 7 coordinates), against Coulomb-Stribeck-viscous friction whose
@@ -385,24 +386,8 @@ def test_the_cli_writes_a_stuck_runs_sensitivities(tmp_path, stuck):
 def test_a_stuck_run_resumes_to_the_same_sensitivities(tmp_path, monkeypatch):
     """The held angles' δθ ride in the checkpoint with the rest: interrupted while the panel is stuck, resumed,
     sensitivities.csv is the uninterrupted one byte for byte."""
-    from latdyn.step.compiled import CompiledGeneralizedAlpha
-
     scene = yaml.safe_load(STUCK)
-    whole = tmp_path / "whole"
-    latdyn.run(scene, whole)
-    original = CompiledGeneralizedAlpha.step
-
-    def step(self, state, *args, **kwargs):
-        if state.t >= 0.15:
-            raise KeyboardInterrupt
-        return original(self, state, *args, **kwargs)
-
-    out = tmp_path / "out"
-    with monkeypatch.context() as m:
-        m.setattr(CompiledGeneralizedAlpha, "step", step)
-        with pytest.raises(KeyboardInterrupt):
-            latdyn.run(scene, out)
-    latdyn.run(scene, out, resume=True)
+    out, whole = interrupted_and_whole(scene, tmp_path, monkeypatch, 0.15)
     assert (out / "sensitivities.csv").read_bytes() == (whole / "sensitivities.csv").read_bytes()
 
 

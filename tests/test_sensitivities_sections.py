@@ -21,7 +21,6 @@ import pytest
 import yaml
 
 import element_states as es
-import latdyn
 from latdyn.model.kernels import generated_info, load_kernels
 from test_planar import planar_state, planar_velocity
 from test_sensitivities_transient import _agree, _run

@@ -20,6 +20,7 @@ import latdyn
 from latdyn.errors import SceneError
 from latdyn.results.result import Result
 from tests.cli_runs import latdyn_run
+from tests.resumed_runs import interrupted_and_whole
 
 SWING_3D = """
 title: 3D arm with a hinged second beam and a joint body, spinning at t = 0 under gravity
@@ -259,24 +260,8 @@ def test_the_cli_writes_sensitivities_csv_and_the_summary(tmp_path):
 def test_an_interrupted_and_resumed_run_has_the_same_sensitivities(tmp_path, monkeypatch):
     """The carried sensitivities ride in the checkpoint: the resumed sensitivities.csv is the
     uninterrupted one, byte for byte."""
-    from latdyn.step.compiled import CompiledGeneralizedAlpha
-
     scene = yaml.safe_load(PLANAR.replace("[P, k, c, tau, Mz, EI, rho, m, J]", "[P, k, rho]"))
-    whole = tmp_path / "whole"
-    latdyn.run(scene, whole)
-    original = CompiledGeneralizedAlpha.step
-
-    def step(self, state, *args, **kwargs):
-        if state.t >= 0.12:
-            raise KeyboardInterrupt
-        return original(self, state, *args, **kwargs)
-
-    out = tmp_path / "out"
-    with monkeypatch.context() as m:
-        m.setattr(CompiledGeneralizedAlpha, "step", step)
-        with pytest.raises(KeyboardInterrupt):
-            latdyn.run(scene, out)
-    latdyn.run(scene, out, resume=True)
+    out, whole = interrupted_and_whole(scene, tmp_path, monkeypatch, 0.12)
     assert (out / "sensitivities.csv").read_bytes() == (whole / "sensitivities.csv").read_bytes()
     assert (out / "probes.csv").read_bytes() == (whole / "probes.csv").read_bytes()
 
