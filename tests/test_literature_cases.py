@@ -20,7 +20,7 @@ from cli_runs import latdyn_run, probe_columns, summary_of
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from benchmarks.literature_cases import (  # noqa: E402
-    ARCH_LIMIT, BEND_TIP, FOLLOWER_TIP, PINNED_ARCH_BIFURCATION, PINNED_ARCH_LIMIT, TOGGLE_LIMIT, TOGGLE_LIMIT_V, TOGGLE_MINIMUM, bent_cantilever,
+    ARCH_LIMIT, BEND_TIP, FOLLOWER_TIP, PINNED_ARCH_BIFURCATION, PINNED_ARCH_LIMIT, TOGGLE_LIMIT, TOGGLE_MINIMUM, bent_cantilever,
     column_frequency_hz, deep_arch, follower_cantilever, loaded_column, torque_free_period, williams_toggle,
 )
 

@@ -103,7 +103,13 @@ def rejected(owner, carried: dict, progress, attempt, integrator, control) -> di
         total = {key: value[:, :k] + np.outer(value[:, k], dh) for key, value in columns.items()}
         d_error = error_derivative(owner, attempt.new, integrator.a_candidate - progress.algorithmic_acceleration,
                                    total["dq"], total["da"] - carried["da"], dh, attempt.h, resize.error, integrator)
-    proposed = np.asarray(carried.get("dh_next", np.zeros(k)))   # the trial's proposed size's, before it landed
+    return _next_size(carried, resize, dh, d_error)
+
+
+def _next_size(carried: dict, resize, dh: np.ndarray, d_error: np.ndarray) -> dict:
+    """``carried`` with ``dh_next`` = ∂h'/∂h δh + ∂h'/∂e δe + ∂h'/∂h_proposed δh_proposed (``resize``: the control's
+    :class:`latdyn.timeloop.control.Resize`; δh_proposed the carried ``dh_next``, the trial's size before it landed)."""
+    proposed = np.asarray(carried.get("dh_next", np.zeros(len(dh))))
     return {**carried, "dh_next": resize.by_step * dh + resize.by_error * d_error + resize.by_proposed * proposed}
 
 
@@ -139,8 +145,7 @@ def resized(owner, carried: dict, control, lands: bool | None, integrator=None) 
                               "follow (no accepted trial kept); expected a fixed step")
         d_error = error_derivative(owner, trial["state"], trial["x"], trial["dq"], trial["dx"], trial["dh"],
                                    trial["h"], resize.error, integrator)
-    proposed = np.asarray(carried.get("dh_next", np.zeros(k)))   # the trial's proposed size's, before it landed
-    return {**carried, "dh_next": resize.by_step * dh + resize.by_error * d_error + resize.by_proposed * proposed}
+    return _next_size(carried, resize, dh, d_error)
 
 
 def error_derivative(owner, trial, x: np.ndarray, dq: np.ndarray, dx: np.ndarray, dh: np.ndarray, h: float,

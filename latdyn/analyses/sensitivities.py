@@ -113,8 +113,8 @@ __all__ = ["refusal", "StaticSensitivities", "SENSITIVITIES_FILE"]
 from latdyn.analyses.parameter_keys import (  # noqa: F401  re-exported under these names
     LOAD_KEY as _LOAD_KEY, SECTION_KEY as _SECTION_KEY, SECTION_COLUMN as _SECTION_COLUMN, BODY_KEY as
     _BODY_KEY, INITIAL_VELOCITY_KEY as _INITIAL_VELOCITY_KEY, GUIDE_KEY as _GUIDE_KEY, GUIDE_LAW as
-    _GUIDE_LAW, CABLE_KEY as _CABLE_KEY, HINGE_KEY as _HINGE_KEY, CONTACT_KEY as _CONTACT_KEY, CONTACT_SLOT as
-    _CONTACT_SLOT, CONTROLLER_KEY as _CONTROLLER_KEY, FRICTION_SLOT, joint_law)
+    _GUIDE_LAW, CABLE_KEY as _CABLE_KEY, HINGE_KEY as _HINGE_KEY, CONTACT_KEY as _CONTACT_KEY,
+    CONTROLLER_KEY as _CONTROLLER_KEY, FRICTION_SLOT, joint_law)
 
 
 def refusal(scene) -> SceneError | None:

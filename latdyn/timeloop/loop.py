@@ -25,7 +25,6 @@ import sys
 import time
 from typing import NamedTuple
 
-import numpy as np
 
 from latdyn.assembly.assembler import State
 from latdyn.assembly.native_model import STATE_FIELDS
