@@ -221,11 +221,20 @@ class StepControl:
                 f"{error:.3g} times error_tol: the motion is not smooth at that scale there (a finite-time "
                 "blow-up, a law or load that jumps, events that re-trigger at the same instant), or "
                 "error_tol asks for steps below dt_min; the run ends here rather than retry it.")
-        factor = 0.9 * error ** (-1 / 3)
-        run.h = max(h * max(0.2, factor), self.dt_min)
-        self.resize = (Resize(0.0, 0.0, error) if run.h == self.dt_min else Resize(0.2, 0.0, error) if factor <= 0.2
-                       else Resize(factor, -h * factor / (3 * error), error))
+        run.h, self.resize = self._sized(h, error, 0.2, 0.9)   # e > 1: a factor below 0.9, never past dt
         return True
+
+    def _sized(self, h: float, error: float, least: float, most: float) -> tuple[float, Resize]:
+        """The next size h · clip(0.9 e^(−1/3), ``least``, ``most``) clipped to [dt_min, dt] after a step of size
+        ``h`` with relative error estimate ``error``, and its derivative (:class:`Resize`): 0 where the size is
+        clipped, the factor's bound where the factor is, else ∂h'/∂h = f, ∂h'/∂e = −h f / (3e)."""
+        factor = 0.9 * max(error, 1e-10) ** (-1 / 3)
+        size = min(self.dt, max(self.dt_min, h * min(most, max(least, factor))))
+        if size in (self.dt, self.dt_min):
+            return size, Resize(0.0, 0.0, error)
+        if factor <= least or factor >= most:
+            return size, Resize(least if factor <= least else most, 0.0, error)
+        return size, Resize(factor, -h * factor / (3 * error), error)
 
     def estimate_accepted(self, integrator, h: float) -> None:
         """Adaptive steps: keep the relative error estimate of the converged step of size ``h`` the loop is
@@ -291,10 +300,7 @@ class StepControl:
             # the accepted step's own estimate (estimate_accepted); after a latch or a stop the
             # accelerations restart, so the step's estimate says nothing of the next one: taken as 0
             error = 0.0 if latched else self.accepted_error
-            factor = 0.9 * max(error, 1e-10) ** (-1 / 3)
-            run.h = min(self.dt, max(self.dt_min, h * min(2.0, factor)))
-            self.resize = (Resize(0.0, 0.0, error) if run.h in (self.dt, self.dt_min) else Resize(2.0, 0.0, error)
-                           if factor >= 2.0 else Resize(factor, -h * factor / (3 * error), error))
+            run.h, self.resize = self._sized(h, error, 0.2, 2.0)
         elif stopped:
             run.h = self.dt  # after an impact on a stop the integrator restarted: the nominal step
         elif h < self.dt:
