@@ -234,7 +234,8 @@ def test_the_ctypes_mirrors_have_the_compilers_layout():
                "Configuration": library.ConfigurationData,
                "StepVectors": library.VectorsData, "StepControl": library.ControlData, "Advance": library.AdvanceData,
                "Rows": library.RowsData,
-               "SparseLU": library.SparseLUStructure, "EvaluationControl": library.EvaluationData}
+               "SparseLU": library.SparseLUStructure, "EvaluationControl": library.EvaluationData,
+               "SensitivityStep": library.SensitivityStepStructure}
     lines, expected = [], []
     for c_name, mirror in mirrors.items():
         lines.append(f"    out[{len(expected)}] = (int64_t)sizeof({c_name});")

@@ -97,6 +97,36 @@ def test_the_step_matrix_on_its_held_pattern_is_scipys_sum(text):
     assert np.max(np.abs((step.damping - C).toarray())) == 0.0
 
 
+@pytest.mark.parametrize("kind", [None, "dense", "sparse", "pivoted"])
+@pytest.mark.parametrize("text", [SCENE_3D, SCENE_PLANAR], ids=["3d", "planar"])
+def test_the_native_step_solves_the_columns_as_the_factors_and_scipy_do(text, kind):
+    """ExactStepMatrix.solve_step (csrc/sensitivity_step.c: S summed, factorised, −(∂r/∂p + K δq⁰ + C δv⁰)
+    formed and solved in one call) gives, bit for bit, what its factorization's solve gives for the right-hand
+    sides SciPy forms from the held C and K, and SciPy's solve of the same sum to round-off; in the storage the
+    pattern chooses, dense, the supernodal sparse LU, and the band LU with pivoting the sparse LU falls back to
+    where its pivot fails ("pivoted": every pivot refused)."""
+    prepared = prepare(yaml.safe_load(text))
+    sensitivities = TransientSensitivities(prepared)
+    assembler, n = prepared.assembler, prepared.model.n_dofs
+    state = _moved_state(prepared, 8)
+    _, tangent = sensitivities._rotation_operators(0.2 * np.random.default_rng(9).standard_normal(n))
+    beta_p, gamma_p = 2.1e4, 1.1e2
+    M, C, K = assembler.exact_matrices(state, dense=False)
+    reference = (beta_p * M + gamma_p * C + K @ tangent.matrix).toarray()
+    values = assembler.exact_matrix_values(state)
+    step = ExactStepMatrix(*assembler.pattern(), n, tangent.slots, kind="sparse" if kind == "pivoted" else kind)
+    if kind == "pivoted":
+        step.factorization.structure.sparse_lu.contents.pivot_tolerance = 1e300
+    rng = np.random.default_rng(10)
+    explicit, dq0, dv0 = (rng.standard_normal((n, 4)) for _ in range(3))
+    z = step.solve_step(values, tangent.blocks, beta_p, gamma_p, explicit, dq0, dv0)
+    assert (step.factorization._pivoted is not None) == (kind == "pivoted")
+    rhs = -(explicit + step.stiffness @ dq0 + step.damping @ dv0)
+    assert np.array_equal(z, step.factor(values, tangent.blocks, beta_p, gamma_p).solve(rhs))
+    expected = np.linalg.solve(reference, -(explicit + K @ dq0 + C @ dv0))
+    assert np.max(np.abs(z - expected)) <= 1e-10 * np.max(np.abs(expected))
+
+
 def test_a_planar_models_rotation_operators_are_the_maps_identity_on_its_coordinates():
     """Where each free node has one rotation coordinate (the planar model's, about the normal),
     _rotation_operators takes R = exp(skew hΔq) and J = dexp(hΔq) as the identity without computing them:

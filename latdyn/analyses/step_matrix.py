@@ -14,22 +14,30 @@ pattern but where a row meets a node's rotations in part, as a controller's coup
 S's values are β′M + γ′C + K off the rotation columns plus one gather–multiply–add of the products
 above, in the order SciPy's ``β′M + γ′C + K @ J`` adds them (so the same values, bit for bit where the
 patterns agree); then the factorization of that storage (dense, band or the supernodal LU, chosen for
-the pattern) and the solves of its columns.
+the pattern) and, for the forward step, its right-hand sides −(∂r/∂p + K δq⁰ + C δv⁰) and their solves:
+all of it one native call, ``latdyn_sensitivity_step`` of csrc/sensitivity_step.c (no NumPy or SciPy in
+between), the pattern's maps built here once per numbering.
 """
 from __future__ import annotations
+
+import ctypes
 
 import numpy as np
 
 from latdyn.assembly.factorization import Factorization
+from latdyn.assembly.library import SensitivityStepStructure, native_library
+from latdyn.assembly.sparse_lu import PivotError
 
 __all__ = ["ExactStepMatrix"]
 
 
 class ExactStepMatrix:
     """S = β′M + γ′C + K J on n free coordinates (module docstring), for K's pattern (``indptr``,
-    ``indices``) and the free nodes' rotation coordinates ``slots`` (f, 3; ≥ n: not a coordinate)."""
+    ``indices``) and the free nodes' rotation coordinates ``slots`` (f, 3; ≥ n: not a coordinate); ``kind``:
+    the factorization's storage (:class:`~latdyn.assembly.factorization.Factorization`; None: chosen for
+    the pattern, as the run's own)."""
 
-    def __init__(self, indptr: np.ndarray, indices: np.ndarray, n: int, slots: np.ndarray):
+    def __init__(self, indptr: np.ndarray, indices: np.ndarray, n: int, slots: np.ndarray, kind: str | None = None):
         self.n = n
         rows = np.repeat(np.arange(n, dtype=np.int64), np.diff(indptr))
         cols = np.asarray(indices, np.int64)
@@ -61,28 +69,79 @@ class ExactStepMatrix:
         self._term_entry = term_entry[keep][order]
         self._term_block = term_block.ravel()[keep][order]
         self._term_place = term_place[order]
-        self.factorization = Factorization(self.rows, self.cols, n)
+        self.factorization = Factorization(self.rows, self.cols, n, kind=kind)
         import scipy.sparse as sps   # on use, as in latdyn.assembly.assembler
 
         indptr = np.asarray(indptr, np.int64)
+        #: the native call's pattern (csrc/sensitivity_step.c ``SensitivityStep``), its arrays held here
+        self._held = [np.ascontiguousarray(a, np.int64) for a in (
+            indptr, cols, self._into, self._plain, self._term_entry, self._term_block, self._term_place,
+            self.factorization.position(self.rows, self.cols))]
+        self._summed, self._work = np.zeros(self.size), np.zeros(0)
+        self._structure = SensitivityStepStructure(
+            n, nnz, self.size, len(self._plain), len(self._term_place), *(a.ctypes.data for a in self._held),
+            ctypes.pointer(self.factorization.structure))
+        self._library = native_library()
         #: C and K of the last :meth:`factor` (SciPy CSR on K's pattern: their values replaced each step)
         self.damping, self.stiffness = (sps.csr_matrix((np.zeros(nnz), cols, indptr), shape=(n, n)) for _ in range(2))
 
     def values(self, values: np.ndarray, blocks: np.ndarray, beta_p: float, gamma_p: float) -> np.ndarray:
         """S's values on its pattern (``rows``, ``cols``) from ``values`` (3, nnz: M, C, K on K's pattern)
-        and the rotation blocks J_f (f, 3, 3)."""
-        M, C, K = values
-        S = np.zeros(self.size)
-        S[self._into] = beta_p * M + gamma_p * C
-        products = np.bincount(self._term_place, weights=K[self._term_entry] * blocks.reshape(-1)[self._term_block],
-                               minlength=self.size)
-        products[self._into[self._plain]] += K[self._plain]
-        S += products
-        return S
+        and the rotation blocks J_f (f, 3, 3), summed alone (``latdyn_sensitivity_step`` with k < 0)."""
+        self._native(values, blocks, beta_p, gamma_p, -1)
+        return self._summed.copy()
 
     def factor(self, values: np.ndarray, blocks: np.ndarray, beta_p: float, gamma_p: float) -> Factorization:
-        """Factorize S (:meth:`values`) and keep C and K for the right-hand sides (``damping``,
-        ``stiffness``); returns the factorization (``solve`` its columns). Raises
-        ``np.linalg.LinAlgError`` for a singular S."""
+        """Factorize S (:meth:`values`) in one native call and keep C and K for the right-hand sides
+        (``damping``, ``stiffness``); returns the factorization (``solve`` and ``solve_transposed`` its
+        columns: the adjoint's reverse step). Raises ``np.linalg.LinAlgError`` for a singular S."""
         self.damping.data[:], self.stiffness.data[:] = values[1], values[2]
-        return self.factorization.factor(self.values(values, blocks, beta_p, gamma_p))
+        self._factored(self._native(values, blocks, beta_p, gamma_p, 0))
+        return self.factorization
+
+    def solve_step(self, values: np.ndarray, blocks: np.ndarray, beta_p: float, gamma_p: float,
+                   explicit: np.ndarray, dq0: np.ndarray, dv0: np.ndarray) -> np.ndarray:
+        """z = S⁻¹(−(explicit + K dq0 + C dv0)) (n, k), each (n, k): S summed, factorised and the k columns
+        formed and solved in one native call (the forward step's fixed part; C and K kept as :meth:`factor`
+        keeps them). Where the sparse LU's pivot fails, the band LU with pivoting that
+        :class:`~latdyn.assembly.factorization.Factorization` falls back to solves the same right-hand sides
+        (formed by SciPy: the one path the native call does not cover). Raises ``np.linalg.LinAlgError``
+        for a singular S."""
+        self.damping.data[:], self.stiffness.data[:] = values[1], values[2]
+        k = explicit.shape[1]
+        z = np.empty((self.n, k))
+        info = self._native(values, blocks, beta_p, gamma_p, k, (explicit, dq0, dv0), z)
+        if info == 0:
+            return z
+        self._factored(info)
+        return self.factorization.solve(-(explicit + self.stiffness @ dq0 + self.damping @ dv0))
+
+    def _native(self, values, blocks, beta_p, gamma_p, k, columns=None, z=None) -> int:
+        """``latdyn_sensitivity_step`` (csrc/sensitivity_step.c): S summed into ``_summed``; k ≥ 0: loaded and
+        factorised in the factorization's storage; k > 0: the columns (explicit, dq0, dv0) solved into z.
+        Returns the factorization's info (0: factorised)."""
+        mck = np.ascontiguousarray(values, dtype=float)
+        blocks = np.ascontiguousarray(blocks, dtype=float)
+        f = self.factorization
+        pointers = [None] * 4
+        if k > 0:
+            columns = [np.ascontiguousarray(c, dtype=float) for c in columns]
+            if self._work.size < 3 * self.n * k:
+                self._work = np.empty(3 * self.n * k)
+            pointers = [c.ctypes.data for c in columns] + [self._work.ctypes.data]
+        return int(self._library.latdyn_sensitivity_step(
+            ctypes.byref(self._structure), mck.ctypes.data, blocks.ctypes.data, beta_p, gamma_p,
+            self._summed.ctypes.data, f.values.ctypes.data, f.pivots.ctypes.data, k, *pointers,
+            None if z is None else z.ctypes.data))
+
+    def _factored(self, info: int) -> None:
+        """After the native factorization: its info 0, or the band LU with pivoting where the sparse LU's
+        pivot failed (:meth:`Factorization._factor_pivoted`), or ``np.linalg.LinAlgError``."""
+        f = self.factorization
+        f._pivoted = None   # noqa: SLF001 - the factors are those just made in its storage
+        if info == 0:
+            return
+        if f.kind == "sparse":
+            f._factor_pivoted(self._summed.copy(), PivotError(f.analysis.pivot_failure()))   # noqa: SLF001
+            return
+        raise np.linalg.LinAlgError(f"{f.kind} LU: singular matrix (LAPACK info {info})")

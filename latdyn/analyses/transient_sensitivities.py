@@ -407,13 +407,12 @@ class TransientSensitivities(ParameterDerivatives):
         if states is not None:   # the states' held part for ∂r/∂p; the matrix with the states condensed as in the step
             states.begin_step(carried, new, h)
         with states.condensed(carried, h) if states is not None else nullcontext():
-            C, K, solve = self._step_system(new, tangent, beta_p, gamma_p)
+            solve = self._step_system(new, tangent, beta_p, gamma_p)
         explicit = np.hstack([self.residual_derivatives(new, 1.0, inertia=True), np.zeros((n, 1))])
         if states is not None:   # the states' derivative by the step's size moves the outputs (an event's δh)
             explicit[:, k] += self._on_free_coordinates(new, states.by_step_size(new)[:, None])[:, 0]
         self._add_time_columns(explicit, new, carried["dt"])
-        rhs = -(explicit + K @ dq0 + C @ dv0)
-        z = np.asarray(solve(rhs)).reshape(n, k + 1)
+        z = np.asarray(solve(explicit, dq0, dv0)).reshape(n, k + 1)
         dvdot_new = beta_p * z
         columns = {"dq": dq0 + tangent(z), "dv": dv0 + gamma_p * z, "dvdot": dvdot_new,
                    "da": da0 + (1 - af) / (1 - am) * dvdot_new}
@@ -431,22 +430,33 @@ class TransientSensitivities(ParameterDerivatives):
         return adaptive_sensitivities.resized(self, carried, control, lands, integrator)
 
     def _step_system(self, new, tangent, beta_p: float, gamma_p: float):
-        """(C, K, solve) at the step's end ``new``: the exact C and K (for the predicted parts' K δq⁰ + C δv⁰)
-        and the solve with the factorised exact iteration matrix β′M + γ′C + K J (module docstring).
-        Without rigid links and guides M, C and K are the values of the assembler's pattern and the
-        matrix is assembled and factorised on its held pattern (:meth:`_step_matrix`); with them, the
-        reduction's matrices (:meth:`_matrices`) summed by SciPy. A singular matrix raises SolverError."""
+        """``solve(explicit, dq0, dv0)`` at the step's end ``new``: z = S⁻¹(−(explicit + K δq⁰ + C δv⁰)) with the
+        exact iteration matrix S = β′M + γ′C + K J and the exact C and K (module docstring), M, C and K
+        evaluated here (inside the controllers' condensation, where the step has one), S factorised in the
+        call. Without rigid links and guides M, C and K are the values of the assembler's pattern and S is
+        summed, factorised and the columns formed and solved in one native call
+        (:meth:`latdyn.analyses.step_matrix.ExactStepMatrix.solve_step`, :meth:`_step_matrix`); with them,
+        the reduction's matrices (:meth:`_matrices`) summed by SciPy. A singular matrix raises SolverError."""
+        def singular():
+            return SolverError(f"the sensitivities at t = {new.t:.6g} need the step's exact iteration matrix, "
+                               "which is singular there")
+
+        if self.model.links is None:
+            step_matrix = self._step_matrix(tangent.slots)
+            values = self.assembler.exact_matrix_values(new)
+
+            def solve(explicit, dq0, dv0):
+                try:
+                    return step_matrix.solve_step(values, tangent.blocks, beta_p, gamma_p, explicit, dq0, dv0)
+                except np.linalg.LinAlgError:
+                    raise singular() from None
+            return solve
+        matrix, C, K = self._reduced_step_matrix(new, tangent, beta_p, gamma_p)
         try:
-            if self.model.links is None:
-                step_matrix = self._step_matrix(tangent.slots)
-                solver = step_matrix.factor(self.assembler.exact_matrix_values(new), tangent.blocks, beta_p, gamma_p)
-                return step_matrix.damping, step_matrix.stiffness, solver.solve
-            matrix, C, K = self._reduced_step_matrix(new, tangent, beta_p, gamma_p)
             solver = factorization_for(matrix).factor(matrix)
-            return C, K, solver.solve
         except np.linalg.LinAlgError:
-            raise SolverError(f"the sensitivities at t = {new.t:.6g} need the step's exact iteration matrix, "
-                              "which is singular there") from None
+            raise singular() from None
+        return lambda explicit, dq0, dv0: solver.solve(-(explicit + K @ dq0 + C @ dv0))
 
     def _reduced_step_matrix(self, new, tangent, beta_p: float, gamma_p: float) -> tuple:
         """(β′M + γ′C + K J, C, K) with the reduction's matrices (:meth:`_matrices`: rigid links, guides), summed

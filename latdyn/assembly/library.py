@@ -2,8 +2,9 @@
 evaluation of ``csrc/evaluate.c`` and the one LU factorization of ``csrc/factorization.c`` with the
 sparse LU of ``csrc/sparse_lu.c``), built once into the kernel cache by :mod:`latdyn.native`, the
 ctypes mirrors of its C structs (``Model``, ``Links``, ``Work``, ``Configuration``, ``EvaluationControl``,
-``Vectors``, ``StepControl``, ``Advance``, ``Rows``, ``Factorization``, ``SparseLU``) and the signatures of
-its exported functions (``latdyn_factor``, ``latdyn_solve`` and ``latdyn_solve_transposed`` among them;
+``Vectors``, ``StepControl``, ``Advance``, ``Rows``, ``Factorization``, ``SparseLU``, ``SensitivityStep``) and the
+signatures of its exported functions (``latdyn_factor``, ``latdyn_solve``, ``latdyn_solve_transposed`` and
+``latdyn_sensitivity_step`` among them;
 ``latdyn_law_spring_integral``, the quadrature of a law spring's potential, takes a hinge law's function of
 type :data:`HINGE_LAW_VALUES`).
 
@@ -44,6 +45,15 @@ class FactorizationStructure(ctypes.Structure):
     _fields_ = [("n", I64), ("kind", I64), ("kl", I64), ("ku", I64), ("ldab", I64), ("size", I64),
                 ("permutation", P), ("getrf", P), ("getrs", P), ("gbtrf", P), ("gbtrs", P),
                 ("sparse_lu", ctypes.POINTER(SparseLUStructure)), ("get_blas_threads", P), ("set_blas_threads", P)]
+
+
+class SensitivityStepStructure(ctypes.Structure):
+    """``SensitivityStep`` of csrc/sensitivity_step.c: the held pattern of the transient sensitivities'
+    step matrix (:class:`latdyn.analyses.step_matrix.ExactStepMatrix`)."""
+
+    _fields_ = [("n", I64), ("nnz", I64), ("size", I64), ("n_plain", I64), ("n_terms", I64), ("indptr", P),
+                ("indices", P), ("into", P), ("plain", P), ("term_entry", P), ("term_block", P), ("term_place", P),
+                ("storage", P), ("factorization", ctypes.POINTER(FactorizationStructure))]
 
 
 class ModelData(ctypes.Structure):
@@ -277,6 +287,9 @@ def native_library() -> ctypes.CDLL:
         library.latdyn_solve.argtypes = [factorization, P, P, I64, P]
         library.latdyn_solve_transposed.restype = I64
         library.latdyn_solve_transposed.argtypes = [factorization, P, P, I64, P]
+        library.latdyn_sensitivity_step.restype = I64
+        library.latdyn_sensitivity_step.argtypes = [ctypes.POINTER(SensitivityStepStructure), P, P, ctypes.c_double,
+                                                    ctypes.c_double, P, P, P, I64, P, P, P, P, P]
         library.latdyn_newton_step.restype = I64
         library.latdyn_newton_step.argtypes = [model, work, ctypes.POINTER(ControlData), configuration,
                                                configuration, ctypes.POINTER(VectorsData)]
