@@ -108,7 +108,9 @@ def parts(make, repeats: int) -> None:
     assembler's pattern (``Assembler.exact_matrix_values``: that evaluation included); the step matrix S
     summed on its held pattern (``ExactStepMatrix.values``), loaded and factorised in the storage chosen for
     its pattern — printed with the run's own iteration matrix's, and the run's matrix factorised in that
-    storage for comparison —, one or 101 columns solved; the path models with rigid links or guides take
+    storage for comparison —, one or 101 columns solved; the one native call of the step's matrix
+    (``ExactStepMatrix.solve_step``: S summed, factorised, the columns formed and solved) and the two of its
+    predicted parts and update (``_StepColumns``); the path models with rigid links or guides take
     (``exact_matrices``, SciPy's sum, ``solve_linear``); the exponential's operators R, J; ∂r/∂p."""
     import numpy as np
 
@@ -143,6 +145,19 @@ def parts(make, repeats: int) -> None:
     def solved(k):
         return factorization.solve(np.ones((n, k)))
 
+    def native_step(k):   # S summed, factorised, the k columns formed and solved: one call
+        columns = np.ones((n, k))
+        return step_matrix.solve_step(values, tangent.blocks, beta_p, gamma_p, columns, columns, columns)
+
+    def before_and_after(k):   # the predicted parts and the update: two calls
+        from latdyn.analyses.transient_sensitivities import _StepColumns
+
+        turn, tangent_now = owner._rotation_operators(increment)
+        columns = _StepColumns(owner, n, k - 1, (0.002, 0.1, 0.2, 0.6, 0.3), turn, tangent_now)
+        carried = np.ones((n, k - 1))
+        columns.predict(increment, increment, increment, carried, carried, carried, carried)
+        return columns.update(np.ones((n, k)), beta_p, gamma_p)
+
     def scipy_path(k):
         M, C, K = owner._matrices(state)
         J = tangent.matrix if hasattr(K, "tocsr") else tangent.matrix.toarray()
@@ -161,9 +176,12 @@ def parts(make, repeats: int) -> None:
               lambda k: assembler.exact_matrix_values(state),
               "S summed on its held pattern (ExactStepMatrix.values)":
               lambda k: step_matrix.values(values, tangent.blocks, beta_p, gamma_p),
-              "S loaded and factorised (Factorization.factor)": lambda k: factorization.factor(summed),
+              "S summed, loaded and factorised (ExactStepMatrix.factor)":
+              lambda k: step_matrix.factor(values, tangent.blocks, beta_p, gamma_p),
               "the run's matrix factorised in its storage (latdyn_factor)": run_matrix_factorised,
               "S's columns solved": solved,
+              "S summed, factorised, columns formed and solved (solve_step)": native_step,
+              "predicted parts and update (with R, J: _StepColumns)": before_and_after,
               "the path with links: exact_matrices + SciPy sum + solve": scipy_path,
               "the exponential's operators R, J": lambda k: owner._rotation_operators(increment),
               "dr/dp (residual_derivatives, 1 parameter)": lambda k: owner.residual_derivatives(state, 1.0, True)}

@@ -389,18 +389,14 @@ class TransientSensitivities(ParameterDerivatives):
         n, k = model.n_dofs, len(self.names)
         am, af, gamma, beta = p.alpha_m, p.alpha_f, p.gamma, p.beta
         beta_p, gamma_p = (1 - am) / (h * h * beta * (1 - af)), gamma / (h * beta)
-        # k parameter columns and one of a unit change of the step size (its derivative, δh = 1)
-        dq, dv, dvdot, da = (np.hstack([carried[key], np.zeros((n, 1))]) for key in ("dq", "dv", "dvdot", "da"))
         v_old = free_velocity(model, old)
         # the step's own increment hΔq, its rotations' exp and tangent operator
         increment = h * (v_old + h * (0.5 - beta) * a_old + h * beta * a_new)
         turn, tangent = self._rotation_operators(increment)
-        da0 = (af * dvdot - am * da) / (1 - am)
-        du0 = h * (dv + h * (0.5 - beta) * da + h * beta * da0)
-        du0[:, k] += v_old + 2 * h * (0.5 - beta) * a_old + 2 * h * beta * a_new     # ∂(hΔq)/∂h
-        dq0 = turn(dq) + tangent(du0)
-        dv0 = dv + h * (1 - gamma) * da + h * gamma * da0
-        dv0[:, k] += (1 - gamma) * a_old + gamma * a_new                               # ∂v_{n+1}/∂h
+        # k parameter columns and one of a unit change of the step size (its derivative, δh = 1): the
+        # predicted parts δa⁰, δq⁰, δv⁰ (module docstring) in one native call
+        step = _StepColumns(self, n, k, (h, am, af, gamma, beta), turn, tangent)
+        da0, dq0, dv0 = step.predict(v_old, a_old, a_new, *(carried[key] for key in ("dq", "dv", "dvdot", "da")))
         if self._sampled_controllers() is not None:   # the held δy of the last sample (checkpoints carry it)
             self._sampled_controllers().held = carried["sampled_dy"]
         states = self._controller_states()
@@ -413,10 +409,7 @@ class TransientSensitivities(ParameterDerivatives):
             explicit[:, k] += self._on_free_coordinates(new, states.by_step_size(new)[:, None])[:, 0]
         self._add_time_columns(explicit, new, carried["dt"])
         z = np.asarray(solve(explicit, dq0, dv0)).reshape(n, k + 1)
-        dvdot_new = beta_p * z
-        columns = {"dq": dq0 + tangent(z), "dv": dv0 + gamma_p * z, "dvdot": dvdot_new,
-                   "da": da0 + (1 - af) / (1 - am) * dvdot_new}
-        return columns, states
+        return step.update(z, beta_p, gamma_p), states
 
     def rejected(self, carried: dict, progress, attempt, integrator, control) -> dict:
         """``carried`` with the derivative of the next trial's size after the error estimate rejected the
@@ -1012,6 +1005,45 @@ class TransientSensitivities(ParameterDerivatives):
         if writer.out_dir is not None:
             text = csv_line(["t", *self.columns]) + "".join(csv_line(row) for row in carried["rows"])
             atomic_write_bytes(Path(writer.out_dir) / SENSITIVITIES_FILE, text.encode("utf-8"))
+
+
+class _StepColumns:
+    """The step's derivative before and after its solve (module docstring), k parameter columns and the
+    step size's, each (n, k + 1): :meth:`predict` the predicted parts δa⁰, δq⁰, δv⁰ from the carried
+    (δq, δv, δv̇, δa), :meth:`update` the step's end (δq, δv, δv̇, δa) from the solve z; each one native call
+    (``latdyn_sensitivity_predict``, ``latdyn_sensitivity_update`` of csrc/sensitivity_step.c) with the
+    exponential's R and J per free node (:class:`_NodeRotations`: none where they are the identity)."""
+
+    def __init__(self, owner: TransientSensitivities, n: int, k: int, step: tuple, turn, tangent):
+        from latdyn.assembly.library import native_library
+
+        self.n, self.k, self.step = n, k, np.array(step, float)
+        self.library = native_library()
+        identity = turn.is_identity and tangent.is_identity
+        self.f = 0 if identity else len(turn.slots)
+        self.slots = np.ascontiguousarray(turn.slots, np.int64)
+        self.turn, self.tangent = (np.ascontiguousarray(rotations.blocks, float) for rotations in (turn, tangent))
+        self.predicted = None
+
+    def predict(self, v_old, a_old, a_new, dq, dv, dvdot, da) -> tuple:
+        """(δa⁰, δq⁰, δv⁰), each (n, k + 1)."""
+        n, m = self.n, self.k + 1
+        out = np.empty((5, n, m))
+        inputs = [np.ascontiguousarray(a, float) for a in (v_old, a_old, a_new, dq, dv, dvdot, da)]
+        self.library.latdyn_sensitivity_predict(n, self.k, self.step.ctypes.data, self.f, self.slots.ctypes.data,
+                                                self.turn.ctypes.data, self.tangent.ctypes.data,
+                                                *(a.ctypes.data for a in inputs), out.ctypes.data)
+        self.predicted = out
+        return out[0], out[1], out[2]
+
+    def update(self, z: np.ndarray, beta_p: float, gamma_p: float) -> dict:
+        """{dq, dv, dvdot, da} at the step's end from the solve ``z`` (n, k + 1) after :meth:`predict`."""
+        out = np.empty((4, self.n, self.k + 1))
+        z = np.ascontiguousarray(z, float)
+        self.library.latdyn_sensitivity_update(self.n, self.k, self.step.ctypes.data, beta_p, gamma_p, self.f,
+                                               self.slots.ctypes.data, self.tangent.ctypes.data, z.ctypes.data,
+                                               self.predicted.ctypes.data, out.ctypes.data)
+        return dict(zip(("dq", "dv", "dvdot", "da"), out))
 
 
 class _NodeRotations:

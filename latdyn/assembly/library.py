@@ -3,8 +3,8 @@ evaluation of ``csrc/evaluate.c`` and the one LU factorization of ``csrc/factori
 sparse LU of ``csrc/sparse_lu.c``), built once into the kernel cache by :mod:`latdyn.native`, the
 ctypes mirrors of its C structs (``Model``, ``Links``, ``Work``, ``Configuration``, ``EvaluationControl``,
 ``Vectors``, ``StepControl``, ``Advance``, ``Rows``, ``Factorization``, ``SparseLU``, ``SensitivityStep``) and the
-signatures of its exported functions (``latdyn_factor``, ``latdyn_solve``, ``latdyn_solve_transposed`` and
-``latdyn_sensitivity_step`` among them;
+signatures of its exported functions (``latdyn_factor``, ``latdyn_solve``, ``latdyn_solve_transposed``,
+``latdyn_sensitivity_step``, ``latdyn_sensitivity_predict`` and ``latdyn_sensitivity_update`` among them;
 ``latdyn_law_spring_integral``, the quadrature of a law spring's potential, takes a hinge law's function of
 type :data:`HINGE_LAW_VALUES`).
 
@@ -290,6 +290,11 @@ def native_library() -> ctypes.CDLL:
         library.latdyn_sensitivity_step.restype = I64
         library.latdyn_sensitivity_step.argtypes = [ctypes.POINTER(SensitivityStepStructure), P, P, ctypes.c_double,
                                                     ctypes.c_double, P, P, P, I64, P, P, P, P, P]
+        library.latdyn_sensitivity_predict.restype = None
+        library.latdyn_sensitivity_predict.argtypes = [I64, I64, P, I64, P, P, P, P, P, P, P, P, P, P, P]
+        library.latdyn_sensitivity_update.restype = None
+        library.latdyn_sensitivity_update.argtypes = [I64, I64, P, ctypes.c_double, ctypes.c_double, I64, P, P, P, P,
+                                                      P]
         library.latdyn_newton_step.restype = I64
         library.latdyn_newton_step.argtypes = [model, work, ctypes.POINTER(ControlData), configuration,
                                                configuration, ctypes.POINTER(VectorsData)]

@@ -3,7 +3,9 @@
  * S = β′M + γ′C + K J summed on its held pattern, loaded into a factorization's storage and factorised
  * (factorization.c), then, for k + 1 columns, the right-hand sides −(∂r/∂p + K δq⁰ + C δv⁰) formed and
  * back-substituted (latdyn/analyses/transient_sensitivities.py, module docstring; the step matrix's
- * pattern and its products K J: latdyn/analyses/step_matrix.py).
+ * pattern and its products K J: latdyn/analyses/step_matrix.py); and the step's derivative before that solve
+ * (its predicted parts, latdyn_sensitivity_predict) and after it (latdyn_sensitivity_update), with the
+ * exponential's R and J per free node.
  *
  * Runtime code, written by hand: it holds no physics. M, C and the exact K come from the one evaluation
  * (evaluate.c, through latdyn.assembly.assembler.Assembler.exact_matrix_values) as the values of K's CSR
@@ -88,4 +90,93 @@ int64_t latdyn_sensitivity_step(const SensitivityStep *s, const double *mck, con
     for (int64_t i = 0; i < n; ++i)
         for (int64_t c = 0; c < k; ++c) z[i * k + c] = x[c * n + permutation[i]];
     return info;
+}
+
+/* ------------------------------------------------------------- the step's derivative before and after */
+
+/* out (n × m, row-major) = B x on the free nodes' rotation coordinates (B: R or J, f 3 × 3 blocks on
+ * slots f × 3, a slot ≥ n not a coordinate), x elsewhere; f = 0: the identity (a planar model's maps). */
+static void node_rotations(int64_t n, int64_t m, int64_t f, const int64_t *slots, const double *blocks,
+                           const double *x, double *out)
+{
+    memcpy(out, x, sizeof(double) * n * m);
+    for (int64_t node = 0; node < f; ++node) {
+        const int64_t *s = slots + 3 * node;
+        const double *B = blocks + 9 * node;
+        for (int i = 0; i < 3; ++i) {
+            if (s[i] >= n) continue;
+            double *to = out + s[i] * m;
+            for (int64_t c = 0; c < m; ++c) {
+                double sum = 0.0;
+                for (int j = 0; j < 3; ++j)
+                    if (s[j] < n) sum += B[3 * i + j] * x[s[j] * m + c];
+                to[c] = sum;
+            }
+        }
+    }
+}
+
+/* The predicted parts (those of y = δv̇_{n+1} = 0) of the generalized-α step's derivative
+ * (latdyn/analyses/transient_sensitivities.py, module docstring), k parameter columns and one of a unit
+ * change of the step size h (column k): from the carried dq, dv, dvdot, da (n × k, row-major) and
+ * step = (h, α_m, α_f, γ, β), with v_n, a_n, a_{n+1} (n) for the step size's column, R = exp(skew hΔq) and
+ * J = dexp(hΔq) (f blocks on slots; f = 0: the identity), into out: da0, dq0, dv0 (each n × (k + 1)),
+ * then 2 n (k + 1) doubles of scratch (δ(hΔq)⁰ and J δ(hΔq)⁰).
+ *   δa⁰ = (α_f δv̇ − α_m δa)/(1 − α_m),   δ(hΔq)⁰ = h(δv + h(½ − β)δa + hβ δa⁰),
+ *   δq⁰ = R δq + J δ(hΔq)⁰,             δv⁰ = δv + h(1 − γ)δa + hγ δa⁰,
+ * column k adding ∂(hΔq)/∂h = v_n + 2h(½ − β)a_n + 2hβ a_{n+1} and ∂v_{n+1}/∂h = (1 − γ)a_n + γ a_{n+1}. */
+void latdyn_sensitivity_predict(int64_t n, int64_t k, const double *step, int64_t f, const int64_t *slots,
+                                const double *turn, const double *tangent, const double *v_old, const double *a_old,
+                                const double *a_new, const double *dq, const double *dv, const double *dvdot,
+                                const double *da, double *out)
+{
+    const double h = step[0], am = step[1], af = step[2], gamma = step[3], beta = step[4];
+    const int64_t m = k + 1, size = n * m;
+    double *da0 = out, *dq0 = out + size, *dv0 = out + 2 * size, *du0 = out + 3 * size;
+    double *turned = dv0;   /* R δq, before δv⁰ is written there */
+    double *carried_q = du0;
+    for (int64_t i = 0; i < n; ++i) {   /* δq with the step size's column 0, for R */
+        for (int64_t c = 0; c < k; ++c) carried_q[i * m + c] = dq[i * k + c];
+        carried_q[i * m + k] = 0.0;
+    }
+    node_rotations(n, m, f, slots, turn, carried_q, turned);
+    memcpy(dq0, turned, sizeof(double) * size);
+    const double half = h * (0.5 - beta), hb = h * beta, hg = h * (1 - gamma), hgg = h * gamma;
+    for (int64_t i = 0; i < n; ++i)
+        for (int64_t c = 0; c < m; ++c) {
+            const int64_t at = i * m + c;
+            double vdot_c = 0.0, a_c = 0.0, v_c = 0.0;
+            if (c < k) vdot_c = dvdot[i * k + c], a_c = da[i * k + c], v_c = dv[i * k + c];
+            da0[at] = (af * vdot_c - am * a_c) / (1 - am);
+            du0[at] = h * (v_c + half * a_c + hb * da0[at]);
+            dv0[at] = v_c + hg * a_c + hgg * da0[at];
+        }
+    for (int64_t i = 0; i < n; ++i) {   /* the step size's column */
+        du0[i * m + k] += v_old[i] + 2 * h * (0.5 - beta) * a_old[i] + 2 * h * beta * a_new[i];
+        dv0[i * m + k] += (1 - gamma) * a_old[i] + gamma * a_new[i];
+    }
+    double *moved = out + 4 * size;   /* J δ(hΔq)⁰ */
+    node_rotations(n, m, f, slots, tangent, du0, moved);
+    for (int64_t at = 0; at < size; ++at) dq0[at] += moved[at];
+}
+
+/* The step's derivative after the solve z (n × (k + 1)) of the step matrix (latdyn_sensitivity_step):
+ * δq = δq⁰ + J z, δv = δv⁰ + γ′z, δv̇ = β′z, δa = δa⁰ + (1 − α_f)/(1 − α_m) δv̇, from predicted (da0, dq0,
+ * dv0 of latdyn_sensitivity_predict) into out (dq, dv, dvdot, da, each n × (k + 1)). */
+void latdyn_sensitivity_update(int64_t n, int64_t k, const double *step, double beta_p, double gamma_p, int64_t f,
+                               const int64_t *slots, const double *tangent, const double *z, const double *predicted,
+                               double *out)
+{
+    const double am = step[1], af = step[2];
+    const int64_t size = n * (k + 1);
+    const double *da0 = predicted, *dq0 = predicted + size, *dv0 = predicted + 2 * size;
+    double *dq = out, *dv = out + size, *dvdot = out + 2 * size, *da = out + 3 * size;
+    node_rotations(n, k + 1, f, slots, tangent, z, dq);
+    const double rate = (1 - af) / (1 - am);
+    for (int64_t at = 0; at < size; ++at) {
+        dq[at] = dq0[at] + dq[at];
+        dv[at] = dv0[at] + gamma_p * z[at];
+        dvdot[at] = beta_p * z[at];
+        da[at] = da0[at] + rate * dvdot[at];
+    }
 }
