@@ -127,6 +127,57 @@ def test_the_native_step_solves_the_columns_as_the_factors_and_scipy_do(text, ki
     assert np.max(np.abs(z - expected)) <= 1e-10 * np.max(np.abs(expected))
 
 
+@pytest.mark.parametrize("text", [SCENE_3D, SCENE_PLANAR], ids=["3d", "planar"])
+def test_the_native_predicted_parts_and_update_are_the_steps_formulas(text):
+    """_StepColumns (csrc/sensitivity_step.c latdyn_sensitivity_predict and _update) against the step's
+    derivative written out in NumPy (latdyn/analyses/transient_sensitivities.py, module docstring) with R and J
+    applied as 3 × 3 blocks on each free node's rotation coordinates: δa⁰ = (α_f δv̇ − α_m δa)/(1 − α_m),
+    δ(hΔq)⁰ = h(δv + h(½ − β)δa + hβ δa⁰) (+ ∂(hΔq)/∂h in the step size's column), δq⁰ = R δq + J δ(hΔq)⁰,
+    δv⁰ = δv + h(1 − γ)δa + hγ δa⁰ (+ ∂v/∂h), then δq⁰ + J z, δv⁰ + γ′z, β′z, δa⁰ + (1 − α_f)/(1 − α_m) β′z; 3D
+    (large rotations, a hinge) and planar (R = J = I)."""
+    from latdyn.analyses.transient_sensitivities import _StepColumns
+    from latdyn.numerics.so3 import dexp_so3, expm_so3
+
+    prepared = prepare(yaml.safe_load(text))
+    sensitivities = TransientSensitivities(prepared)
+    model, n, k = prepared.model, prepared.model.n_dofs, 3
+    rng = np.random.default_rng(11)
+    increment = 0.4 * rng.standard_normal(n)
+    turn, tangent = sensitivities._rotation_operators(increment)
+    h, am, af, gamma, beta = 0.003, 0.2, 0.3, 0.6, 0.3
+    v_old, a_old, a_new = (rng.standard_normal(n) for _ in range(3))
+    dq, dv, dvdot, da = (rng.standard_normal((n, k)) for _ in range(4))
+    z = rng.standard_normal((n, k + 1))
+    beta_p, gamma_p = 4.0e5, 6.0e2
+    step = _StepColumns(sensitivities, n, k, (h, am, af, gamma, beta), turn, tangent)
+    da0, dq0, dv0 = step.predict(v_old, a_old, a_new, dq, dv, dvdot, da)
+    out = step.update(z, beta_p, gamma_p)
+    # the reference, written out: R and J from the maps themselves, node by node
+    slots = model.node_dofs[model.free_nodes, 3:6]
+    psi = np.append(increment, 0.0)[np.where(slots < n, slots, n)]
+
+    def rotated(blocks, columns):
+        moved = columns.copy()
+        for f, s in enumerate(slots):
+            on = s < n
+            moved[s[on]] = blocks[f][np.ix_(on, on)] @ columns[s[on]]
+        return moved
+
+    pad = lambda a: np.hstack([a, np.zeros((n, 1))])  # noqa: E731
+    ref_da0 = (af * pad(dvdot) - am * pad(da)) / (1 - am)
+    du0 = h * (pad(dv) + h * (0.5 - beta) * pad(da) + h * beta * ref_da0)
+    du0[:, k] += v_old + 2 * h * (0.5 - beta) * a_old + 2 * h * beta * a_new
+    ref_dq0 = rotated(expm_so3(psi), pad(dq)) + rotated(dexp_so3(psi), du0)
+    ref_dv0 = pad(dv) + h * (1 - gamma) * pad(da) + h * gamma * ref_da0
+    ref_dv0[:, k] += (1 - gamma) * a_old + gamma * a_new
+    expected = {"dq": ref_dq0 + rotated(dexp_so3(psi), z), "dv": ref_dv0 + gamma_p * z, "dvdot": beta_p * z,
+                "da": ref_da0 + (1 - af) / (1 - am) * beta_p * z}
+    for got, ref in ((da0, ref_da0), (dq0, ref_dq0), (dv0, ref_dv0), *((out[key], expected[key]) for key in expected)):
+        assert np.max(np.abs(got - ref)) <= 1e-14 * np.max(np.abs(ref))
+    moved = np.max(np.abs(ref_dq0 - (pad(dq) + du0)))   # the rotations matter in 3D, not in the plane
+    assert (moved > 1e-3) == (text is SCENE_3D)
+
+
 def test_a_planar_models_rotation_operators_are_the_maps_identity_on_its_coordinates():
     """Where each free node has one rotation coordinate (the planar model's, about the normal),
     _rotation_operators takes R = exp(skew hΔq) and J = dexp(hΔq) as the identity without computing them:
