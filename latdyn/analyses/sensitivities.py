@@ -633,10 +633,12 @@ class ParameterDerivatives:
         or ``friction_force_D_law`` (∂f_friction/∂(F_c, F_s, 1/v_s, c_v, v₀) of the slipping law; a stuck
         joint's coordinate is no free one) times the law's derivative by the parameter."""
         model = self.model
-        for key, laws in self.derivatives.items():
-            law = joint_law(key)
-            if law is None:
-                continue
+        held = self.__dict__.get("_joint_laws")   # the uses that name a joint's law, parsed once per derivatives
+        if held is None or held[0] is not self.derivatives:
+            held = (self.derivatives, [(joint_law(key), laws) for key, laws in self.derivatives.items()
+                                       if joint_law(key) is not None])
+            self._joint_laws = held
+        for law, laws in held[1]:
             beam, end, kind, slot = law
             j = model.hinge_index(beam, end)
             rows = self.__dict__.setdefault("_contact_rows", {})
