@@ -24,13 +24,16 @@ and on a loaded machine their waits inflate it: ``OMP_NUM_THREADS=1`` measures w
 ratio of the minima to the run without; the 1-minute load average with them. ``--parts`` times the forward step's
 pieces one by one (:func:`parts`), ``--reverse-parts K`` a reverse step's pieces (docs/parameters.md, "The discrete adjoint", has the figures).
 
-Measured (docs/parameters.md, "Transient sensitivities", cost; CPU minima at load 4.6–5.9 on the 2-core
-machine): 1, 10, 100 parameters 3.7×, 4.0×, 6.6× the run without on the cantilever (main: 4.2×, 4.4×,
-7.5×) and 2.6×, 2.8×, 3.6× on the lattice (main: 3.3×, 3.6×, 5.0×). The step's matrix S is factorised in
-the storage the run's own iteration matrix has (band, the same order and bandwidth: 0.039 against 0.031 ms
-on the cantilever); the piece that sets the floor is
-the native evaluation with the elements' inertia tangent (0.55 ms on the cantilever, ≈ 0.9× a step of the
-run without), which the run's Newton iteration cannot share (it never evaluates at the converged state).
+Measured (docs/parameters.md, "Transient sensitivities", cost; CPU minima of 5 passes at load 5.2–8.0 on the
+2-core machine, main c7bcb6f in the same rounds): 1, 10, 100 parameters 4.3×, 4.5×, 6.5× the run without on
+the cantilever (main: 4.5×, 4.8×, 7.6×) and 2.8×, 3.0×, 4.1× on the lattice (main: 3.1×, 3.2×, 4.7×); the
+adjoint 4.2×, 3.9×, 4.1× and 2.6×, 2.7×, 3.0× (main: 4.1×, 4.0×, 4.1× and 2.8×, 2.9×, 3.0×). The step's
+matrix S is summed, factorised in the storage the run's own iteration matrix has (band, the same order and
+bandwidth) and its columns formed and solved in one native call (csrc/sensitivity_step.c; 0.082 ms with one
+column on the cantilever), the predicted parts and the update in one each; the piece that sets the floor is
+the native evaluation with the elements' inertia tangent (0.54–0.57 ms on the cantilever, ≈ 1.0× a step of
+the run without), which the run's Newton iteration cannot share (it never evaluates at the converged state),
+with the per-step path (1.1–1.2×): ≈ 2.2× before the rest of the step.
 """
 from __future__ import annotations
 

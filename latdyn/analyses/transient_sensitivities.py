@@ -93,12 +93,17 @@ at the fixed instants k/rate, and the restart after each sample is differentiate
 
 The step's matrix (without rigid links and guides): M, C and the exact K as the values of the
 assembler's pattern from one native evaluation and one scatter
-(:meth:`latdyn.assembly.assembler.Assembler.exact_matrix_values`), β′M + γ′C + K J summed on a pattern built
-once per numbering and factorised in its held storage (:class:`latdyn.analyses.step_matrix.ExactStepMatrix`);
-with them, the reduction's matrices (:meth:`_matrices`) summed by SciPy. The run takes one step at a time
-from Python (the time loop's per-step path; the loop of steps in C is later); it carries (δq, δv, δv̇, δa)
-on the free coordinates, (n, k), in :attr:`latdyn.timeloop.progress.TransientProgress.sensitivities`,
-checkpointed with the run.
+(:meth:`latdyn.assembly.assembler.Assembler.exact_matrix_values`), then one native call
+(latdyn/assembly/csrc/sensitivity_step.c ``latdyn_sensitivity_step``,
+:meth:`latdyn.analyses.step_matrix.ExactStepMatrix.solve_step`): β′M + γ′C + K J summed on a pattern built
+once per numbering, factorised in its held storage, and the k + 1 right-hand sides −(∂r/∂p + K δq⁰ + C δv⁰)
+formed and solved; with rigid links and guides, the reduction's matrices (:meth:`_matrices`) summed by SciPy.
+The predicted parts δa⁰, δq⁰, δv⁰ and the update after the solve are one native call each, with R and J per
+free node (:class:`_StepColumns`: ``latdyn_sensitivity_predict``, ``latdyn_sensitivity_update``), on both paths.
+∂r/∂p stays the generated kernels called from Python. The run takes one step at a time from Python (the
+time loop's per-step path; the loop of steps in C is later); it carries (δq, δv, δv̇, δa) on the free
+coordinates, (n, k), in :attr:`latdyn.timeloop.progress.TransientProgress.sensitivities`, checkpointed with
+the run.
 """
 from __future__ import annotations
 
