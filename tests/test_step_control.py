@@ -104,3 +104,80 @@ def test_the_rigid_pendulum_no_longer_sawtooths(tmp_path):
     result = latdyn.run(latdyn.load_scene(_pendulum()))
     assert (result.summary["steps"], result.summary["rejected_steps"]) == (summary["steps"], summary["rejected_steps"])
     assert abs(result.probes["a"][-1] - _exact_angle()) < 8.2e-4
+
+
+# ----------------------------------------------------------------------------- fixed steps after a grid landing
+FIXED = SimpleNamespace(t_end=1.0, dt=0.1, dt_min=None, adaptive=False, error_tol=1e-3)
+
+
+def test_fixed_steps_grow_on_from_the_size_proposed_before_a_grid_landing():
+    """Fixed steps recovering from a short step (an event's landing) double back to dt; a step shortened onto a grid
+    point hands on the doubling of the size proposed before it, 2 · 0.03, not of the sliver it took, 2 · 0.01 (the
+    sliver depends on where the event fell to the last digit, and doubling from it again and again made the steps,
+    and the results, follow Newton's last iterates)."""
+    control = StepControl(FIXED, None, 1.0)
+    run = SimpleNamespace(state=SimpleNamespace(t=0.09), h=0.03, grid_index=0, rejected_steps=0)
+    h, lands, t_new = control.next_step(run)
+    assert lands and h == pytest.approx(0.01) and t_new == pytest.approx(0.1)
+    run.state.t = t_new
+    control.after_accepted(run, None, h, latched=False, stopped=False, lands=True)
+    assert run.h == 0.06
+    run.state.t, run.h, run.grid_index = 0.13, 0.06, 1   # a step landing short of the grid point 0.2: plain doubling, up to dt
+    h, lands, _ = control.next_step(run)
+    assert not lands and h == 0.06
+    control.after_accepted(run, None, h, latched=False, stopped=False, lands=False)
+    assert run.h == 0.1
+
+
+PLANAR_TETHER = """\
+title: planar arm on a hinge spring, tethered by a cable that goes taut and slack
+sections: {arm: {EA: 1.0e6, EIy: 50.0, EIz: 50.0, GJ: 50.0, rhoA: 0.5}}
+bodies:
+  base: {at: [0, 0, 0], fixed: true}
+  anchor: {at: [1, -1, 0], fixed: true}
+  tip: {at: [1, 0, 0], mass: 0.2}
+beams:
+  arm: {from: base, to: tip, section: arm, elements: 3, start: {hinge: {axis: [0, 0, 1], stiffness: 5.0, rest_angle: 0.8}}}
+cables:
+  tether: {from: anchor, to: tip, EA: 500.0, rest_length: 1.2}
+solve: {t_end: 1.0, dt: 0.005}
+output:
+  every: 0.005
+  probes:
+    angle: {hinge: arm.start, quantity: angle}
+    tip_y: {point: tip, quantity: position, component: y}
+    pull: {cable: tether, quantity: tension}
+"""
+
+
+def _largest_difference(a: dict, b: dict) -> float:
+    """The largest difference of two runs' probes over their rows, relative to each probe's range in ``b``."""
+    return max(float(np.max(np.abs(np.asarray(a[k]) - np.asarray(b[k]))) / np.ptp(b[k])) for k in b if k != "t")
+
+
+def _at_tolerance(text: str, tol: float) -> dict:
+    scene = yaml.safe_load(text)
+    scene["solve"]["tol"] = tol
+    return latdyn.run(latdyn.load_scene(scene)).probes
+
+
+@pytest.mark.parametrize("scene", ["planar tether", "cable deploying truss"])
+def test_a_run_through_cable_events_does_not_follow_newton_s_last_iterates(tmp_path, scene):
+    """The steps after a cable's change land on grid points with slivers that depend on where the change fell to
+    the last digit; doubling from each sliver again (instead of from the size proposed before it) kept the run off
+    the nominal step, on a sequence of steps that jumps with Newton's last iterates. ``latdyn run`` at the default
+    tolerance (1e-8) against the API at 1e-12, each probe's largest difference relative to its range: the planar
+    tether (four changes in 1 s) 1.3e-2 before, 9.8e-11 now (its discretization error against dt/8: 1.4e-1 before
+    and after); examples/cable_deploying_truss.yaml cut to 0.3 s (3D; the cables' taut and slack changes at 0.158
+    and 0.274 s) 5.3e-3 before, 1.6e-8 now (against dt/2: 1.3e-2 before, 1.0e-2 now)."""
+    from tests.cli_runs import probe_columns
+    if scene == "planar tether":
+        text = PLANAR_TETHER
+    else:
+        from tests.cli_runs import ROOT
+        text = (ROOT / "examples" / "cable_deploying_truss.yaml").read_text().replace("t_end: 4.0", "t_end: 0.3")
+    run, out = latdyn_run(tmp_path, text, quiet=True)
+    assert run.returncode == 0, run.stderr
+    default = probe_columns(out)
+    assert json.loads((out / "summary.json").read_text())["cable_events"]
+    assert _largest_difference(default, _at_tolerance(text, 1e-12)) < 1e-6

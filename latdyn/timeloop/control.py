@@ -7,7 +7,8 @@ matrix, then cut in half, down to ``dt_min``. With ``adaptive`` steps the integr
 e of each converged step rejects it (e > 1: tried again at h·max(0.2, 0.9 e^(−1/3))) or, accepted,
 sizes the next one, h·min(2, 0.9 e^(−1/3)) clipped to [dt_min, dt] (after a latch or a stop: 2h; after
 a step shortened onto a grid point: the size proposed before it was shortened).
-With fixed steps, after a cut or a step shortened onto an event the step grows back to dt.
+With fixed steps, after a cut or a step shortened onto an event the step grows back to dt by doubling; a
+step shortened onto a grid point on the way hands on the doubling of the size proposed before it.
 
 Every run ends: no step is shorter than ``dt_min`` (default dt·10⁻⁶; the loader refuses one below
 10⁻¹² t_end, lost in the round-off of t) save the last one onto a grid point; a step that Newton
@@ -282,7 +283,8 @@ class StepControl:
         Adaptive steps: h' = min(dt, max(dt_min, h · min(2, 0.9 e^(−1/3)))), e the step's own relative
         error estimate (:meth:`estimate_accepted`); after a latch or a stop e is taken as 0 (2h); after a
         step shortened onto a grid point, h' is the size proposed before it was shortened (a sliver left
-        before the grid point says nothing of the steps after it)."""
+        before the grid point says nothing of the steps after it). Fixed steps: after a stop dt; after a
+        step shortened onto a grid point 2 h_proposed (the same reason), else 2h, up to dt."""
         self._watch_crawl(run, h, latched)
         self.resize = None
         if self.h_resume is not None:  # shortened only to land on the pause, then back on the grid
@@ -303,6 +305,11 @@ class StepControl:
             run.h, self.resize = self._sized(h, error, 0.2, 2.0)
         elif stopped:
             run.h = self.dt  # after an impact on a stop the integrator restarted: the nominal step
+        elif lands and self.proposed is not None and h < self.proposed:
+            # a step shortened onto a grid point: the steps grow on from the size proposed before the shortening
+            # (a sliver before a grid point says nothing of the steps after it; growing from the sliver made
+            # the sequence of steps, and the results with it, jump with Newton's last iterates)
+            run.h = min(self.dt, 2 * self.proposed)
         elif h < self.dt:
             run.h = min(self.dt, 2 * h)  # recover the nominal step after a cut or a shortened step
 
