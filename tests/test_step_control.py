@@ -181,3 +181,67 @@ def test_a_run_through_cable_events_does_not_follow_newton_s_last_iterates(tmp_p
     default = probe_columns(out)
     assert json.loads((out / "summary.json").read_text())["cable_events"]
     assert _largest_difference(default, _at_tolerance(text, 1e-12)) < 1e-6
+
+
+# ----------------------------------------------------------------------------- a landing whose retry fails
+PI_HUB_LATCHING = """\
+title: a PI loop on a hub that latches
+parameters: {Kp: 6.0, Ki: 3.0}
+sections: {s: {EA: 1.0e7, EIy: 1.0e5, EIz: 1.0e5, GJ: 1.0e5, rhoA: 0.1, rhoIy: 0.001, rhoIz: 0.001}}
+bodies:
+  hub: {at: [0, 0, 0], fixed: true}
+  tip: {at: [0.5, 0, 0], mass: 4.0, inertia: [0.01, 0.01, 0.01]}
+beams:
+  arm: {from: hub, to: tip, section: s, elements: 1,
+        start: {hinge: {axis: [0, 0, 1], damping: 2.0, torque: "ctl", lock_at: 0.005}}}
+controllers:
+  ctl: {output: "-Kp*th - Ki*S", states: {S: "th"}, initial: {S: 0.2}}
+loads:
+  - {at: tip, moment: [0, 0, 0.8]}
+solve: {t_end: 0.5, dt: 0.01}
+output:
+  every: 0.01
+  probes:
+    th: {hinge: arm.start, quantity: angle}
+    S_ctl: {controller: ctl, state: S}
+    u: {controller: ctl}
+"""
+
+
+def test_a_landing_whose_retry_fails_accepts_the_step_it_keeps(monkeypatch):
+    """A step that crosses an event is shortened onto it; where the shortened retry fails Newton the landing keeps
+    the step before it — and the accepted step must be that step whole: the integrator held the failed trial's
+    continuous controller states (accepted with the step), evaluation and accelerations. The PI hub's latch at
+    θ = 0.005 with its first retry made to fail must equal the run that takes the crossing step without landing
+    (bit for bit, now; before, the controller's state S was 1.3e-5 and its output 3.8e-5 off after the latch)."""
+    from latdyn.timeloop import loop
+
+    def run(*patches):
+        """The scene run with (object, attribute, replacement) patched in."""
+        with monkeypatch.context() as patch:
+            for target, name, value in patches:
+                patch.setattr(target, name, value)
+            return latdyn.run(latdyn.load_scene(yaml.safe_load(PI_HUB_LATCHING)))
+
+    land, step, failed = loop.TimeLoop._land_on_event, loop.TimeLoop._step, []
+
+    def landing(self, attempt):
+        self._landing_now = True
+        try:
+            return land(self, attempt)
+        finally:
+            self._landing_now = False
+
+    def failing_first_retry(self, h, t_new=None):
+        new, stats = step(self, h, t_new)
+        if getattr(self, "_landing_now", False) and not failed:
+            failed.append(h)
+            stats.converged = False
+        return new, stats
+
+    retry_failed = run((loop.TimeLoop, "_land_on_event", landing), (loop.TimeLoop, "_step", failing_first_retry))
+    assert failed and retry_failed.summary["events"][0]["kind"] == "latch"
+    not_landed = run((loop, "crossing_fraction", lambda *args, **kwargs: None))
+    assert retry_failed.summary["events"] == not_landed.summary["events"]
+    for name in ("th", "S_ctl", "u"):
+        assert np.array_equal(retry_failed.probes[name], not_landed.probes[name]), name
