@@ -98,7 +98,7 @@ def rejected(owner, carried: dict, progress, attempt, integrator, control) -> di
     resize = control.resize
     d_error = np.zeros(k)
     if resize.by_error != 0.0:
-        columns, _ = owner._columns(carried, progress.state, attempt.new, attempt.h,   # noqa: SLF001
+        columns, _ = owner.step_columns(carried, progress.state, attempt.new, attempt.h,
                                     progress.algorithmic_acceleration, integrator.a_candidate)
         total = {key: value[:, :k] + np.outer(value[:, k], dh) for key, value in columns.items()}
         d_error = error_derivative(owner, attempt.new, integrator.a_candidate - progress.algorithmic_acceleration,
@@ -179,14 +179,14 @@ def _mass_derivatives(owner, state, vectors: list, dq: np.ndarray) -> list:
     for name in ("v", "w", "theta_dot", "a", "alpha", "theta_ddot"):
         getattr(at_rest, name)[...] = 0.0
     assembler.complete_links(at_rest)
-    resting_K = owner._matrices(at_rest)[2]   # noqa: SLF001
+    resting_K = assembler.exact_matrices(at_rest)[2]
     resting_p = owner.residual_derivatives(at_rest, 1.0, inertia=True)
     out = []
     for w in vectors:
         accelerated = at_rest.copy()
         unpack_free(model, w, accelerated.a, accelerated.alpha, accelerated.theta_ddot)
         assembler.complete_links(accelerated)
-        tangent = owner._matrices(accelerated)[2] - resting_K   # noqa: SLF001
+        tangent = assembler.exact_matrices(accelerated)[2] - resting_K
         out.append(np.asarray(tangent @ dq).reshape(dq.shape)
                    + owner.residual_derivatives(accelerated, 1.0, inertia=True) - resting_p)
     return out
