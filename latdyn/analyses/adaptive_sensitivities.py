@@ -88,6 +88,15 @@ def _trial_size_derivative(owner, carried: dict, lands: bool) -> np.ndarray:
     return np.asarray(carried.get("dh_next", np.zeros(len(owner.names))))
 
 
+def halved(owner, carried: dict) -> dict:
+    """``carried`` with ``dh_next`` of a trial that takes half the way left to the next grid point
+    (:meth:`latdyn.timeloop.control.StepControl.next_step`: h = (t_k − t_n)/2, δh = −δt_n/2), the size the
+    control chose instead of the one it proposed."""
+    if owner.model.n_dofs == 0 or len(owner.names) == 0:
+        return carried
+    return {**carried, "dh_next": -0.5 * np.asarray(carried["dt"])}
+
+
 def rejected(owner, carried: dict, progress, attempt, integrator, control) -> dict:
     """``carried`` with ``dh_next``, the derivative of the size the control chose after rejecting the
     converged trial ``attempt`` from ``progress.state`` (module docstring)."""

@@ -424,6 +424,11 @@ class TransientSensitivities(ParameterDerivatives):
         trial ``attempt`` (latdyn/analyses/adaptive_sensitivities.py)."""
         return adaptive_sensitivities.rejected(self, carried, progress, attempt, integrator, control)
 
+    def halved(self, carried: dict) -> dict:
+        """``carried`` with the derivative of a trial that takes half the way to the next grid point (adaptive
+        steps; latdyn/analyses/adaptive_sensitivities.py)."""
+        return adaptive_sensitivities.halved(self, carried)
+
     def resized(self, carried: dict, control, lands: bool | None = None, integrator=None) -> dict:
         """``carried`` with the derivative of the next step's size after an accepted step (``lands`` None; its
         error estimate's derivative from ``integrator``'s joint groups) or a trial Newton did not converge

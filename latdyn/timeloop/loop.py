@@ -440,6 +440,8 @@ class TimeLoop:
     def _python_step(self) -> Attempt:
         """One step from Python, of the size the step control says, landing on the grid if it reaches it."""
         h, lands, t_new = self.control.next_step(self.progress)
+        if self.control.halved and self.sensitivities is not None:   # half the way to the grid point: its δh
+            self.progress.sensitivities = self.sensitivities.halved(self.progress.sensitivities)
         new, stats = self._step(h, t_new=t_new)
         return Attempt(new, stats, h, lands)
 
