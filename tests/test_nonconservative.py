@@ -192,3 +192,27 @@ def test_flutter_key_is_validated(tmp_path, solve, expected):
     completed, _ = run_cli(tmp_path, ziegler(solve=solve))
     assert completed.returncode == 2
     assert expected in completed.stderr and "Traceback" not in completed.stderr
+
+
+def test_a_stability_measure_that_falls_without_crossing_zero_ends_the_search_said(monkeypatch):
+    """The search along the path shrinks its step towards the secant's zero of a falling divergence measure. A
+    measure that falls by the same fraction at each point (here d_n = 0.4^n at the n-th point, patched in on
+    Ziegler's pendulum whose own divergence is at λ = 2) never crosses zero, yet the steps shrank geometrically
+    (0.73 each) towards λ = 0.375, where the search went on until d underflowed to 0 after 814 points and reported
+    a divergence at 0.375. It now stops after MAX_POINTS = 200 steps, says so in warnings and reports how far it
+    searched, no instability claimed. (No scene of the tests or examples comes near the cap: Beck's column and
+    Ziegler's pendulum take 8–14 points.)"""
+    from latdyn.analyses import stability
+
+    calls = []
+
+    def falling(K, cholesky):
+        calls.append(1)
+        return 0.4 ** len(calls)
+
+    monkeypatch.setattr(stability, "divergence_measure", falling)
+    summary = run_api(ziegler(P=0.5, frame="middle", solve="{analysis: buckling, flutter: false}"))
+    assert len(calls) == 200
+    assert summary["instability"] == "none" and summary["divergence_factor"] is None
+    assert summary["divergence_searched_to"] == pytest.approx(0.375)
+    assert any("stopped after 200 steps along the path" in w for w in summary["warnings"])

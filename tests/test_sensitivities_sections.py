@@ -335,3 +335,22 @@ def test_energies_and_momenta_of_shear_flexible_arms_agree_with_richardson_diffe
     result = _run(text)
     for name in names:
         assert _agree(result, text, name, 1e-6) <= 1e-6
+
+
+def test_every_generated_variant_holds_the_section_derivatives():
+    """The sensitivities by section values call the generated derivatives by the section values
+    (beam_*_D_section, latdyn.model.kernels.ON_DEMAND). A runtime refusal checked, at every parameter use, that the
+    scene's variant held them, for variants generated before them; every variant is generated with them
+    (``codegen --check`` holds the tree to the generators), so it never fired and was removed: this holds it here,
+    for every variant in the tree."""
+    import glob
+    import importlib
+    from pathlib import Path
+
+    from latdyn.model.kernels import ON_DEMAND, PACKAGE
+
+    stems = sorted(Path(p).stem for p in glob.glob(str(Path(__file__).resolve().parents[1] / "generated" / "beam_*.py")))
+    assert len(stems) == 12
+    for stem in stems:
+        held = set(importlib.import_module(f"{PACKAGE}.{stem}").KERNELS)
+        assert {name for name in ON_DEMAND if name.endswith("_D_section")} <= held, stem

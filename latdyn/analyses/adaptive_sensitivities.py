@@ -88,6 +88,15 @@ def _trial_size_derivative(owner, carried: dict, lands: bool) -> np.ndarray:
     return np.asarray(carried.get("dh_next", np.zeros(len(owner.names))))
 
 
+def halved(owner, carried: dict) -> dict:
+    """``carried`` with ``dh_next`` of a trial that takes half the way left to the next grid point
+    (:meth:`latdyn.timeloop.control.StepControl.next_step`: h = (t_k − t_n)/2, δh = −δt_n/2), the size the
+    control chose instead of the one it proposed."""
+    if owner.model.n_dofs == 0 or len(owner.names) == 0:
+        return carried
+    return {**carried, "dh_next": -0.5 * np.asarray(carried["dt"])}
+
+
 def rejected(owner, carried: dict, progress, attempt, integrator, control) -> dict:
     """``carried`` with ``dh_next``, the derivative of the size the control chose after rejecting the
     converged trial ``attempt`` from ``progress.state`` (module docstring)."""
@@ -98,7 +107,7 @@ def rejected(owner, carried: dict, progress, attempt, integrator, control) -> di
     resize = control.resize
     d_error = np.zeros(k)
     if resize.by_error != 0.0:
-        columns, _ = owner._columns(carried, progress.state, attempt.new, attempt.h,   # noqa: SLF001
+        columns, _ = owner.step_columns(carried, progress.state, attempt.new, attempt.h,
                                     progress.algorithmic_acceleration, integrator.a_candidate)
         total = {key: value[:, :k] + np.outer(value[:, k], dh) for key, value in columns.items()}
         d_error = error_derivative(owner, attempt.new, integrator.a_candidate - progress.algorithmic_acceleration,
@@ -179,14 +188,14 @@ def _mass_derivatives(owner, state, vectors: list, dq: np.ndarray) -> list:
     for name in ("v", "w", "theta_dot", "a", "alpha", "theta_ddot"):
         getattr(at_rest, name)[...] = 0.0
     assembler.complete_links(at_rest)
-    resting_K = owner._matrices(at_rest)[2]   # noqa: SLF001
+    resting_K = assembler.exact_matrices(at_rest)[2]
     resting_p = owner.residual_derivatives(at_rest, 1.0, inertia=True)
     out = []
     for w in vectors:
         accelerated = at_rest.copy()
         unpack_free(model, w, accelerated.a, accelerated.alpha, accelerated.theta_ddot)
         assembler.complete_links(accelerated)
-        tangent = owner._matrices(accelerated)[2] - resting_K   # noqa: SLF001
+        tangent = assembler.exact_matrices(accelerated)[2] - resting_K
         out.append(np.asarray(tangent @ dq).reshape(dq.shape)
                    + owner.residual_derivatives(accelerated, 1.0, inertia=True) - resting_p)
     return out

@@ -83,7 +83,6 @@ beams with mass are differentiated exactly there too. docs/parameters.md.
 """
 from __future__ import annotations
 
-import functools
 from dataclasses import dataclass, fields, is_dataclass
 from pathlib import Path
 
@@ -165,9 +164,6 @@ def refusal(scene) -> SceneError | None:
                               "outputs and states' rates (controllers.NAME.output, .states.S), of guides' "
                               "stiffness, damping, "
                               "force and rest, and of cables' EA, damping, rest_length and rhoA (> 0) only")
-            why = _section_refusal(scene, name, used) if section else None
-            if why is not None:
-                return refuse(why)
     transient = solve.analysis == "transient"
     guided = any(getattr(body, "guide", None) is not None for body in scene.bodies.values())
     if solve.sensitivity_method == "adjoint":   # what the discrete adjoint leaves to the forward method
@@ -212,46 +208,6 @@ def refusal(scene) -> SceneError | None:
                           "states' and samples' derivatives by a rate sensor are not computed yet (a continuous "
                           "controller without states may read rates)")
     return None
-
-
-#: the generated derivatives of the element's forces by its section values (codegen/derivation.py
-#: ``section_tangent``) that ∂r/∂p of a section value is made of
-SECTION_KERNELS = ("beam_internal_force_D_section", "beam_inertia_force_D_section", "beam_section_forces_D_section",
-                   "beam_energies_D_section", "beam_stiffness_D_section")
-
-
-def _section_refusal(scene, name: str, used: str) -> str | None:
-    """Why the sensitivity by ``name``, used at the section value ``used``, is not computed exactly here, or None:
-    the scene's kernel variant generated before the section derivatives (:data:`SECTION_KERNELS`)."""
-    variant = _scene_variant(scene)
-    if _holds_section_kernels(variant):
-        return None
-    return (f"parameter {name!r} is used at {used}: sensitivities by section values need the kernels "
-            f"{', '.join(SECTION_KERNELS)}, which the generated variant {variant!r} does not hold yet "
-            f"(python -m codegen --variant {variant})")
-
-
-def _scene_variant(scene) -> str:
-    """The generated kernel variant ``scene`` runs on (its formulation, restricted to its plane if it is planar),
-    found once a scene (finding the plane reads every body and beam: 0.5 ms, once per parameter use before)."""
-    variant = scene.__dict__.get("_kernel_variant")
-    if variant is None:
-        from latdyn.model.kernels import planar_variant
-        from latdyn.model.planar import find_plane
-
-        plane = find_plane(scene)[0]
-        variant = scene.solve.formulation if plane is None else planar_variant(scene.solve.formulation, plane)
-        scene.__dict__["_kernel_variant"] = variant
-    return variant
-
-
-@functools.lru_cache(maxsize=None)
-def _holds_section_kernels(variant: str) -> bool:
-    """Whether the generated ``variant`` holds every kernel of :data:`SECTION_KERNELS`."""
-    from latdyn.model.kernels import generated_info
-
-    info = generated_info(variant)
-    return all(kernel in info for kernel in SECTION_KERNELS)
 
 
 def adjoint_refusal(scene) -> SceneError | None:

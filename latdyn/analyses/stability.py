@@ -58,6 +58,11 @@ FLUTTER_TOL = 1e-6
 DAMPED_FLUTTER_TOL = 1e-10
 #: The search along the path stops at this load factor when nothing was found before.
 SEARCH_LIMIT = 1000.0
+#: The most steps the search takes along the path, and again points in narrowing a bracket: past
+#: either it stops, says so in ``warnings`` and reports what it searched (a measure that falls towards
+#: zero without crossing it shrinks the steps without end; Beck's column and Ziegler's pendulum take
+#: 8–14 evaluations in all).
+MAX_POINTS = 200
 def divergence_measure(K, K0_cholesky) -> float:
     """d = the smallest real eigenvalue of the pencil (K, K₀) (module docstring), from the
     standard eigenproblem L⁻¹ K L⁻ᵀ (K₀ = L Lᵀ); +inf when every eigenvalue is complex."""
@@ -172,6 +177,7 @@ def search(prepared, path, reference, K0s, first_step: float, flutter: bool, tol
     cholesky = np.linalg.cholesky(K0s)
     evaluations = 0
     warnings = []
+    asked = flutter  # searched, or said not to be (the structure has no mass)
     if flutter and not np.any(assembler.evaluate(reference, matrices=True, load_factor=0.0).combined(
             1.0, 0.0, 0.0, dense=True)):
         flutter = False  # no dynamic eigenproblem: said, never reported as "no flutter"
@@ -195,7 +201,14 @@ def search(prepared, path, reference, K0s, first_step: float, flutter: bool, tol
     below = PathState(0.0, reference, 1.0, Growth(0.0, 0.0) if flutter else None)
     above, limit_point = None, False
     step = first_step
+    walked = 0
     while below.load_factor < SEARCH_LIMIT:
+        if walked == MAX_POINTS:
+            warnings.append(f"buckling: the stability search stopped after {MAX_POINTS} steps along the path, at load "
+                            f"factor {below.load_factor:.6g}: nothing found below it (divergence_searched_to); "
+                            "the measures approach an instability without reaching it")
+            break
+        walked += 1
         target = min(below.load_factor + step, SEARCH_LIMIT)
         trial, _, _, converged = continuation.newton_fixed(path, below.state, target)
         if converged and path.left_the_path(below.state, below.load_factor, trial, target):
@@ -225,6 +238,11 @@ def search(prepared, path, reference, K0s, first_step: float, flutter: bool, tol
 
         scale, moved, widths = [1.0, 1.0], 0, []  # Illinois: the weights of the ends kept
         while above.load_factor - below.load_factor > tol * below.load_factor:
+            if len(widths) == MAX_POINTS:
+                warnings.append(f"buckling: the stability search stopped narrowing the instability after {MAX_POINTS} "
+                                f"points: it lies between load factors {below.load_factor:.9g} and "
+                                f"{above.load_factor:.9g}, not within the tolerance {tol:g}")
+                break
             lo, hi = below.load_factor, above.load_factor
             slow = len(widths) >= 2 and hi - lo > 0.5 * widths[-2]  # not halved in two tries: bisect
             widths.append(hi - lo)
@@ -275,6 +293,7 @@ def search(prepared, path, reference, K0s, first_step: float, flutter: bool, tol
                    buckling_kind=None)
     if warnings:
         out["warnings"] = warnings
+    if asked and not flutter:  # no mass: flutter said not to be searched
         out.update(flutter_factor=None, flutter_searched_to=None)
     if flutter:
         if above is not None and above.fluttered:

@@ -131,7 +131,7 @@ from latdyn.numerics.linalg import issparse
 from latdyn.numerics.so3 import dexp_so3
 from latdyn.scene.expressions import TimeFunction, _drop_deltas
 from latdyn.step.integrators import consistent_acceleration
-from latdyn.timeloop.events import _may_stick, cable_gaps, first_crossing, lock_events, sticking_hinges, stop_hits
+from latdyn.timeloop.events import cable_gaps, first_crossing, lock_events, may_stick, sticking_hinges, stop_hits
 from latdyn.timeloop.impulse import hinge_directions, massless_element_stiffness
 
 __all__ = ["TransientSensitivities"]
@@ -353,7 +353,7 @@ class TransientSensitivities(ParameterDerivatives):
         self.held = self._held(carried)
         if n == 0 or k == 0:
             return {**carried, "h": h}
-        columns, states = self._columns(carried, old, new, h, a_old, a_new)
+        columns, states = self.step_columns(carried, old, new, h, a_old, a_new)
         event = self._event(old, new)
         cable = self._cable_event(old, new, event)
         if cable is None:
@@ -386,7 +386,7 @@ class TransientSensitivities(ParameterDerivatives):
             if states is not None:
                 self.controllers.held = {}
 
-    def _columns(self, carried: dict, old, new, h: float, a_old: np.ndarray, a_new: np.ndarray):
+    def step_columns(self, carried: dict, old, new, h: float, a_old: np.ndarray, a_new: np.ndarray):
         """The derivative of the converged step ``old`` → ``new`` of size ``h`` before its size's derivative
         is known: ({dq, dv, dvdot, da} (n, k + 1), the continuous controllers' states or None), k parameter
         columns and one of a unit change of h (module docstring); one solve with the step's exact matrix."""
@@ -420,6 +420,11 @@ class TransientSensitivities(ParameterDerivatives):
         """``carried`` with the derivative of the next trial's size after the error estimate rejected the
         trial ``attempt`` (latdyn/analyses/adaptive_sensitivities.py)."""
         return adaptive_sensitivities.rejected(self, carried, progress, attempt, integrator, control)
+
+    def halved(self, carried: dict) -> dict:
+        """``carried`` with the derivative of a trial that takes half the way to the next grid point (adaptive
+        steps; latdyn/analyses/adaptive_sensitivities.py)."""
+        return adaptive_sensitivities.halved(self, carried)
 
     def resized(self, carried: dict, control, lands: bool | None = None, integrator=None) -> dict:
         """``carried`` with the derivative of the next step's size after an accepted step (``lands`` None; its
@@ -781,7 +786,7 @@ class TransientSensitivities(ParameterDerivatives):
         before the restart (its weight is evaluated at them, as the run's)."""
         model = self.model
         for j in sticking_hinges(model) + [int(j) for j in np.flatnonzero(model.stuck)]:
-            if j in self._candidates or (not model.stuck[j] and not _may_stick(model, j, old, new)):
+            if j in self._candidates or (not model.stuck[j] and not may_stick(model, j, old, new)):
                 continue
             dq = self._on_nodes(carried["dq"])
             vdot = self._on_nodes(free_acceleration(model, new)[:, None])[0]

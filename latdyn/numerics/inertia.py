@@ -265,13 +265,21 @@ def joint_norms(joint: JointBlocks, vector: np.ndarray, length: float) -> np.nda
     padded = np.append(vector, 0.0)
     x = padded[np.where(groups >= 0, groups, len(vector))]
     energy = np.clip(np.einsum("gi,gij,gj->g", x, joint.blocks, x), 0.0, None)
+    reference, scale = reference_masses(joint, length)
+    return np.where(reference > 0, scale * np.sqrt(energy / np.where(reference > 0, reference, 1.0)), 0.0)
+
+
+def reference_masses(joint: JointBlocks, length: float) -> tuple[np.ndarray, np.ndarray]:
+    """Per joint, the reference m_g that :func:`joint_norms` divides its energy by and the scale its norm is
+    multiplied by (the rule of :func:`joint_norms`' docstring, written once): the joint's translational mass, or
+    the mean of the joints that have one, scale 1; where no joint has translational mass, the mean diagonal of
+    its block, scale ``length``."""
     mass = joint.translation_mass
     if np.any(mass > 0):
-        reference = np.where(mass > 0, mass, np.mean(mass[mass > 0]))
-        return np.sqrt(energy / reference)
+        return np.where(mass > 0, mass, np.mean(mass[mass > 0])), np.ones(len(mass))
     diagonal = np.diagonal(joint.blocks, axis1=1, axis2=2)
-    inertia = diagonal.sum(axis=1) / np.maximum((groups >= 0).sum(axis=1), 1)
-    return np.where(inertia > 0, length * np.sqrt(energy / np.where(inertia > 0, inertia, 1.0)), 0.0)
+    inertia = diagonal.sum(axis=1) / np.maximum((joint.groups >= 0).sum(axis=1), 1)
+    return inertia, np.full(len(mass), float(length))
 
 
 @dataclass
@@ -304,6 +312,7 @@ def largest_joint_norm(model, joint: JointBlocks, vector: np.ndarray, length: fl
         slots = (kind[h] == 0)
         return {int(i): 1.0 / slots.sum() for i in groups[h][slots]}
 
+    # the derivative of reference_masses' rule by the diagonal of M: which diagonal entries m_g averages
     if np.any(mass > 0):
         if mass[g] > 0:
             weights = translations(g)
@@ -312,8 +321,7 @@ def largest_joint_norm(model, joint: JointBlocks, vector: np.ndarray, length: fl
             weights = {}
             for h in massive:
                 weights.update({i: c / len(massive) for i, c in translations(h).items()})
-        reference, scale = float(mass[g] if mass[g] > 0 else np.mean(mass[mass > 0])), 1.0
     else:
         weights = {int(i): 1.0 / len(dofs) for i in dofs}
-        reference, scale = float(np.trace(joint.blocks[g]) / len(dofs)), float(length)
+    reference, scale = (float(value[g]) for value in reference_masses(joint, length))
     return LargestNorm(dofs, float(norms[g]), energy, reference, weights, scale)

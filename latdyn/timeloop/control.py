@@ -6,8 +6,10 @@ accumulated. A step Newton cannot converge is tried again with the inertia tange
 matrix, then cut in half, down to ``dt_min``. With ``adaptive`` steps the integrator's error estimate
 e of each converged step rejects it (e > 1: tried again at h·max(0.2, 0.9 e^(−1/3))) or, accepted,
 sizes the next one, h·min(2, 0.9 e^(−1/3)) clipped to [dt_min, dt] (after a latch or a stop: 2h; after
-a step shortened onto a grid point: the size proposed before it was shortened).
-With fixed steps, after a cut or a step shortened onto an event the step grows back to dt.
+a step shortened onto a grid point: the size proposed before it was shortened); a size that would leave
+less than itself before the next grid point takes half the way there.
+With fixed steps, after a cut or a step shortened onto an event the step grows back to dt by doubling; a
+step shortened onto a grid point on the way hands on the doubling of the size proposed before it.
 
 Every run ends: no step is shorter than ``dt_min`` (default dt·10⁻⁶; the loader refuses one below
 10⁻¹² t_end, lost in the round-off of t) save the last one onto a grid point; a step that Newton
@@ -92,6 +94,9 @@ class StepControl:
         #: adaptive steps: the size the control proposed for the trial :meth:`next_step` shortened onto the next
         #: grid point (None: not shortened), which the step after it takes again (after_accepted)
         self.proposed: float | None = None
+        #: adaptive steps: whether :meth:`next_step` took half the way left to the next grid point (the proposed size
+        #: would have left less than itself before it): δh = −δt_n/2 (latdyn/analyses/adaptive_sensitivities.py)
+        self.halved = False
         #: the accepted step's relative error estimate, taken before the integrator accepts it (after that
         #: a_n = a_{n+1} and the estimate reads 0), which sizes the next step (after_accepted)
         self.accepted_error = 0.0
@@ -116,17 +121,24 @@ class StepControl:
     def next_step(self, run: TransientProgress) -> tuple[float, bool, float | None]:
         """The step to try from ``run.state``: its size, whether it lands on the next grid point
         (within 1e-9 of the step: then exactly), and the time it ends at exactly when it lands on
-        that grid point or on the pause (:meth:`pause_at`) before it, else None."""
+        that grid point or on the pause (:meth:`pause_at`) before it, else None. Adaptive steps: a
+        size that would leave less than itself before the grid point takes half the way there
+        (:attr:`halved`), so that no sliver is left."""
         target = self.grid_time(run.grid_index + 1)
-        h = run.h
+        h, self.halved = run.h, False
         if self.pause is not None and self.pause < target:  # the pause comes first (off the grid)
             if h < (self.pause - run.state.t) * (1 - 1e-9):
                 return h, False, None
             self.h_resume = h
             return self.pause - run.state.t, False, self.pause
-        lands = h >= (target - run.state.t) * (1 - 1e-9)
+        left = target - run.state.t
+        lands = h >= left * (1 - 1e-9)
         if lands:
-            h = target - run.state.t
+            h = left
+        elif self.adaptive and 2 * h > left and 0.5 * left >= self.dt_min:
+            # the step would leave a sliver before the grid point, whose tiny step threw the next one's
+            # estimate off: the way left in two equal halves
+            h, self.halved = 0.5 * left, True
         self.proposed = run.h if lands and h < run.h else None
         return h, lands, target if lands else None
 
@@ -282,7 +294,8 @@ class StepControl:
         Adaptive steps: h' = min(dt, max(dt_min, h · min(2, 0.9 e^(−1/3)))), e the step's own relative
         error estimate (:meth:`estimate_accepted`); after a latch or a stop e is taken as 0 (2h); after a
         step shortened onto a grid point, h' is the size proposed before it was shortened (a sliver left
-        before the grid point says nothing of the steps after it)."""
+        before the grid point says nothing of the steps after it). Fixed steps: after a stop dt; after a
+        step shortened onto a grid point 2 h_proposed (the same reason), else 2h, up to dt."""
         self._watch_crawl(run, h, latched)
         self.resize = None
         if self.h_resume is not None:  # shortened only to land on the pause, then back on the grid
@@ -303,6 +316,11 @@ class StepControl:
             run.h, self.resize = self._sized(h, error, 0.2, 2.0)
         elif stopped:
             run.h = self.dt  # after an impact on a stop the integrator restarted: the nominal step
+        elif lands and self.proposed is not None and h < self.proposed:
+            # a step shortened onto a grid point: the steps grow on from the size proposed before the shortening
+            # (a sliver before a grid point says nothing of the steps after it; growing from the sliver made
+            # the sequence of steps, and the results with it, jump with Newton's last iterates)
+            run.h = min(self.dt, 2 * self.proposed)
         elif h < self.dt:
             run.h = min(self.dt, 2 * h)  # recover the nominal step after a cut or a shortened step
 

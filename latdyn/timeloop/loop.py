@@ -124,6 +124,8 @@ class TimeLoop:
         self.last_recorded: State | None = None
         self.last: LastAccepted | None = None
         self.compiled = False
+        #: the state of the last trial step the integrator took (:meth:`_step`; what it holds is that trial's)
+        self._last_trial: State | None = None
         self.unbounded = False  # the energy balance broke (_judge_balance)
         self.bar = None
 
@@ -438,14 +440,18 @@ class TimeLoop:
     def _python_step(self) -> Attempt:
         """One step from Python, of the size the step control says, landing on the grid if it reaches it."""
         h, lands, t_new = self.control.next_step(self.progress)
+        if self.control.halved and self.sensitivities is not None:   # half the way to the grid point: its δh
+            self.progress.sensitivities = self.sensitivities.halved(self.progress.sensitivities)
         new, stats = self._step(h, t_new=t_new)
         return Attempt(new, stats, h, lands)
 
     def _step(self, h: float, t_new: float | None = None):
-        """The integrator's step of size ``h`` from the run's state, timed."""
+        """The integrator's step of size ``h`` from the run's state, timed (the last trial the integrator took:
+        ``_last_trial``)."""
         started = time.perf_counter()
         new, stats = self.integrator.step(self.progress.state, h, t_new=t_new)
         self.progress.solver_s += time.perf_counter() - started
+        self._last_trial = new
         return new, stats
 
     def _land_on_event(self, attempt: Attempt) -> Attempt:
@@ -453,9 +459,31 @@ class TimeLoop:
         shortened to land on it (secant on the angle or the cable's gap, at most 4 passes, never shorter
         than dt_min, nor than CABLE_LANDING · dt for a cable's change; the last shorter step that
         converged)."""
-        progress = self.progress
+        self._last_trial = attempt.new
         if self.sensitivities is not None:  # their derivative is that of a step landing exactly on the event
-            return Attempt(*self.sensitivities.land(self._step, progress.state, attempt))
+            landed = Attempt(*self.sensitivities.land(self._step, self.progress.state, attempt))
+        else:
+            landed = self._landing(attempt)
+        return self._taken_again_after_a_failed_retry(landed)
+
+    def _taken_again_after_a_failed_retry(self, landed: Attempt) -> Attempt:
+        """The landing's step taken again where a retry after it failed Newton: the integrator holds what its
+        last trial left (the continuous controllers' states it accepts, its last evaluation, whose power and
+        joint torques start the next step, the accelerations), which a failed trial must not hand on to the
+        step accepted (tests/test_step_control.py::test_a_landing_whose_retry_fails_accepts_the_step_it_keeps)."""
+        if self._last_trial is landed.new:
+            return landed
+        new, stats = self._step(landed.h, t_new=landed.new.t)
+        self.progress.factorizations += factorizations(stats)
+        self.progress.newton_iterations += stats.iterations
+        if not stats.converged:  # the same step from the same state: converged once, it converges again
+            raise SolverError("Newton failed on a step it had converged", newton_diagnosis(
+                self.model, stats.residual, new.t, landed.h, self.assembler, self.progress.state))
+        return Attempt(new, stats, landed.h, landed.lands)
+
+    def _landing(self, attempt: Attempt) -> Attempt:
+        """:meth:`_land_on_event` without sensitivities: the secant passes."""
+        progress = self.progress
         new, stats, h, lands = attempt
         old = progress.state
         # a cable's change alone (no hinge event in the step): the secant on the bracket [short, past]
