@@ -264,12 +264,8 @@ def adjoint_refusal(scene) -> SceneError | None:
         why = f"the adjoint differentiates transient runs only, not a {scene.solve.analysis} analysis"
     elif scene.solve.adaptive:
         why = "the adjoint differentiates fixed-step runs, not the step sizes of adaptive steps (adaptive: true)"
-    elif has_events(scene):
-        joints = [f"beams.{beam}.{which}.hinge" for beam, which, hinge in scene.hinges
-                  if hinge.lock_at is not None or hinge.limits is not None]
-        where = joints[0] if joints else ("cables" if scene.cables else "a guide's lock_at or limits")
-        why = (f"the adjoint differentiates runs without events, and {where} (lock_at, limits, a cable's slack "
-               "and taut changes) makes events")
+    elif _adjoint_event_refusal(scene) is not None:
+        why = _adjoint_event_refusal(scene)
     elif any(hinge.friction is not None for _, _, hinge in scene.hinges):
         beam, which = next((beam, which) for beam, which, hinge in scene.hinges if hinge.friction is not None)
         why = (f"the adjoint does not differentiate friction yet (beams.{beam}.{which}.hinge.friction: a joint that "
@@ -340,6 +336,32 @@ def _transient_refusal(scene) -> str | None:
     if why is not None:
         return why
     return None   # friction: sticking refused, when it comes, where not followed
+
+
+def _adjoint_event_refusal(scene) -> str | None:
+    """Why the adjoint does not take ``scene``'s events, or None: it takes a hinge's latch (``lock_at``) and rigid
+    stops (``limits`` with ``restitution``) and cables' slack and taut changes (latdyn/analyses/adjoint_sensitivities.py,
+    "Events"), not a compliant stop's onset, nor events beside laws in t, rigid links or energy and momentum probes
+    (guides and friction: their own refusals)."""
+    if not has_events(scene):
+        return None
+    compliant = next((f"beams.{beam}.{which}.hinge.contact" for beam, which, hinge in scene.hinges
+                      if hinge.limits is not None and hinge.contact is not None), None)
+    if compliant is not None:
+        return f"the adjoint does not differentiate a compliant stop's onset yet ({compliant})"
+    reel = next((f"cables.{name}.rest_length" for name, cable in scene.cables.items()
+                 if not getattr(cable.rest_length, "is_constant", True)), None) if scene.cables else None
+    if depends_on_time(scene) or reel is not None:
+        return ("the adjoint does not differentiate events beside laws in t yet (a load, a hinge law, a prescribed "
+                f"motion{' or ' + reel if reel else ''} that depends on t moves with the event's time)")
+    rigid = next((name for name, beam in scene.beams.items() if beam.rigid), None)
+    if rigid is not None:
+        return f"the adjoint does not differentiate events beside rigid links yet (beams.{rigid}.rigid)"
+    probe = next((p for p in scene.output.probes if p.kind in ("energy", "momentum")), None)
+    if probe is not None:
+        return (f"the adjoint is not seeded by energy and momentum probes beside events yet (probe {probe.name!r}); "
+                "the forward method differentiates them")
+    return None
 
 
 def has_events(scene) -> bool:
