@@ -352,8 +352,9 @@ def _adjoint_event_refusal(scene) -> str | None:
     reel = next((f"cables.{name}.rest_length" for name, cable in scene.cables.items()
                  if not getattr(cable.rest_length, "is_constant", True)), None) if scene.cables else None
     if depends_on_time(scene) or reel is not None:
-        return ("the adjoint does not differentiate events beside laws in t yet (a load, a hinge law, a prescribed "
-                f"motion{' or ' + reel if reel else ''} that depends on t moves with the event's time)")
+        timed = reel or _timed_key(scene)
+        return (f"the adjoint does not differentiate events beside laws in t yet ({timed} depends on t, so it moves "
+                "with the event's time)")
     rigid = next((name for name, beam in scene.beams.items() if beam.rigid), None)
     if rigid is not None:
         return f"the adjoint does not differentiate events beside rigid links yet (beams.{rigid}.rigid)"
@@ -362,6 +363,33 @@ def _adjoint_event_refusal(scene) -> str | None:
         return (f"the adjoint is not seeded by energy and momentum probes beside events yet (probe {probe.name!r}); "
                 "the forward method differentiates them")
     return None
+
+
+def _timed_key(scene) -> str:
+    """The first key of ``scene`` that :func:`depends_on_time` finds depending on t (a load, a hinge's or guide's
+    law or prescribed motion, a body's motion)."""
+    def timed(law):
+        depends = getattr(law, "depends_on", None)
+        if law is None or isinstance(law, (int, float)):
+            return False
+        if depends is not None:
+            return "t" in (depends() if callable(depends) else depends)
+        return not getattr(law, "is_constant", True)
+
+    for i, load in enumerate(scene.loads):
+        if any(timed(c) for c in (load.force or []) + (load.moment or [])):
+            return f"loads[{i}]"
+    for beam, which, hinge in scene.hinges:
+        for key in ("angle", "stiffness", "damping", "torque"):
+            law = getattr(hinge, key, None)
+            if (key == "angle" and law is not None) or (key != "angle" and timed(law)):
+                return f"beams.{beam}.{which}.hinge.{key}"
+    for name, body in scene.bodies.items():
+        if body.prescribed:
+            return f"bodies.{name}.motion"
+        if body.guide is not None:
+            return f"bodies.{name}.guide"
+    return "a law"
 
 
 def has_events(scene) -> bool:
