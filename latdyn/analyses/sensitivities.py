@@ -353,8 +353,10 @@ def _adjoint_event_refusal(scene) -> str | None:
                  if not getattr(cable.rest_length, "is_constant", True)), None) if scene.cables else None
     if depends_on_time(scene) or reel is not None:
         timed = reel or _timed_key(scene)
-        return (f"the adjoint does not differentiate events beside laws in t yet ({timed} depends on t, so it moves "
-                "with the event's time)")
+        event = next((f"beams.{beam}.{which}.hinge" for beam, which, hinge in scene.hinges
+                      if hinge.lock_at is not None or hinge.limits is not None), "cables")
+        return (f"the adjoint does not differentiate events ({event}: lock_at, limits, a cable's slack and taut "
+                f"changes) beside laws in t yet ({timed} depends on t, so it moves with the event's time)")
     rigid = next((name for name, beam in scene.beams.items() if beam.rigid), None)
     if rigid is not None:
         return f"the adjoint does not differentiate events beside rigid links yet (beams.{rigid}.rigid)"
