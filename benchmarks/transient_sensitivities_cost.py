@@ -83,6 +83,30 @@ def lattice(names: list[str], bays: int = 25) -> dict:
                                                            "component": "y"}}}}
 
 
+def latching_boom(names: list[str], segments: int = 50) -> dict:
+    """``--scene boom_latch``: a deploying boom — the planar arm of tests/test_sensitivities_events.py swung open by
+    its root hinge's spring and latching at 0.8 rad (t = 0.46 s), 60 steps of 0.01 s — made of ``segments`` tubes of
+    one element, each its own section: the parameters ``F<2i>`` its EI (EIy and EIz) and ``F<2i+1>`` its ρ (ρA, and
+    the rotary inertias with it), 100 at 50 segments; no load (the adjoint through events takes no laws in t). The
+    latch-impact response: the tip's position and the root's angle."""
+    joints = [f"j{i}" for i in range(1, segments)] + ["tip"]
+    bodies = {"base": {"at": [0, 0, 0], "fixed": True},
+              **{name: {"at": [(i + 1) / segments, 0, 0], "mass": 0.01, "inertia": [1e-6, 1e-6, 1e-6]}
+                 for i, name in enumerate(joints[:-1])},
+              "tip": {"at": [1.0, 0, 0], "mass": 0.3, "inertia": [0.01, 0.01, 0.01]}}
+    sections = {f"s{i}": {"EA": 1.0e4, "EIy": f"F{2 * i}", "EIz": f"F{2 * i}", "GJ": 10.0, "rhoA": f"F{2 * i + 1}",
+                          "rhoIy": f"0.001*F{2 * i + 1}", "rhoIz": f"0.001*F{2 * i + 1}"} for i in range(segments)}
+    beams = {f"b{i}": {"from": "base" if i == 0 else joints[i - 1], "to": joints[i], "section": f"s{i}", "elements": 1}
+             for i in range(segments)}
+    beams["b0"]["start"] = {"hinge": {"axis": [0, 0, 1], "stiffness": 2.0, "damping": 0.05, "rest_angle": 2.0,
+                                      "lock_at": 0.8}}
+    solve = {"analysis": "transient", "dt": 0.01, "t_end": 0.6, **({"sensitivities": names} if names else {})}
+    return {"parameters": {f"F{i}": (20.0 if i % 2 == 0 else 0.5) for i in range(2 * segments)},
+            "sections": sections, "bodies": bodies, "beams": beams, "solve": solve,
+            "output": {"every": 0.05, "probes": {"tip_y": {"point": "tip", "quantity": "position", "component": "y"},
+                                                 "root": {"hinge": "b0.start", "quantity": "angle"}}}}
+
+
 def adjoint(data: dict) -> dict:
     """The scene with ``solve.sensitivity_method: adjoint``."""
     return {**data, "solve": {**data["solve"], "sensitivity_method": "adjoint"}}
@@ -248,15 +272,18 @@ def reverse_parts(make, k: int, repeats: int) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--scene", choices=("cantilever", "lattice", "lattice1000"), default="cantilever",
+    parser.add_argument("--scene", choices=("cantilever", "lattice", "lattice1000", "boom_latch"),
+                        default="cantilever",
                         help="the cantilever with 100 load parameters, the lattice with 100 section parameters, "
-                             "or the lattice of 1000 members with 1000")
+                             "the lattice of 1000 members with 1000, or a deploying boom of 50 sections that "
+                             "latches, with 100")
     parser.add_argument("--cases", default=None, help="comma-separated case names to run (default: all)")
     parser.add_argument("--parts", action="store_true", help="time the pieces of the fixed part F of a step instead")
     parser.add_argument("--reverse-parts", type=int, default=None, metavar="K",
                         help="time the pieces of a step of the adjoint's reverse pass with K parameters instead")
     args = parser.parse_args()
-    make = {"cantilever": scene, "lattice": lattice, "lattice1000": lambda names: lattice(names, bays=250)}[args.scene]
+    make = {"cantilever": scene, "lattice": lattice, "lattice1000": lambda names: lattice(names, bays=250),
+            "boom_latch": latching_boom}[args.scene]
     if args.parts:
         parts(make, args.repeats)
         return
