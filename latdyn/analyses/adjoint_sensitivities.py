@@ -49,13 +49,23 @@ the iterates, not at the converged state), so storing them would move the same e
 pass and keep 3 × nnz numbers a step (76 kB for the 30-element cantilever, 539 kB for a 1000-member
 lattice, against 8.8 kB and 120 kB of stored state).
 
+Events (docs/parameters.md, "The discrete adjoint", "Events"): at a step that ends on a hinge's latch or rigid
+stop or on a cable element's change, the forward method composes the step with linear maps — its size's
+derivative δh, a linear functional of the step's parameter columns added through the step size's column; the
+jump of δv through the impulse; the renumbering after a latch; the restarted accelerations — and the reverse pass
+applies their transposes in reverse order, each named after its forward piece (:meth:`_restart_transposed`,
+:meth:`_renumbering_transposed`, :meth:`_impulse_transposed` with :meth:`_weight_derivative_transposed`,
+:meth:`_step_size_transposed` with :meth:`_step_size_column`); t̄ and ḡ, the adjoints of δt and of the carried δh,
+run back beside the bars, and each event time is an output seeded on t̄ (``event_sensitivities``).
+
 What the forward pass stores, in memory (``carried["trajectory"]``, checkpointed with the run): each
 accepted step's end state (a copy: 24 numbers a node and 3 a hinge) and size and the algorithmic
-accelerations before and after it (2n numbers). What is refused (:func:`adjoint_refusal`, exit 2 naming
-``solve.sensitivity_method``): everything the forward method refuses, and anything whose derivative
-leaves the smooth recurrence above: events (hinge or guide ``lock_at`` and ``limits``, cables), guides,
-controllers with states and sampled ones (continuous controllers without states enter E and the matrices
-as in the forward method). Rigid links are taken: the matrices are the reduced step's, and a probe on a node
+accelerations before and after it (2n numbers); where the scene has events, the numbering and cables' sides each
+step was taken on, the event it ends on, its size's rule (:meth:`_size_rule`) and after an event the state after
+the jump and restart. What is refused (:func:`adjoint_refusal`, exit 2 naming ``solve.sensitivity_method``):
+everything the forward method refuses, and what leaves the recurrence above and its events' pieces: a compliant
+stop's onset, events beside laws in t, rigid links or energy probes, friction, guides, controllers with states
+and sampled ones (continuous controllers without states enter E and the matrices as in the forward method). Rigid links are taken: the matrices are the reduced step's, and a probe on a node
 that follows the links has its output gradient on the coordinates it moves with
 (:func:`latdyn.analyses.link_sensitivities.columns_moving`).
 """

@@ -256,7 +256,8 @@ def _holds_section_kernels(variant: str) -> bool:
 
 def adjoint_refusal(scene) -> SceneError | None:
     """The SceneError naming ``solve.sensitivity_method`` that refuses the adjoint for ``scene``, or None
-    (latdyn/analyses/adjoint_sensitivities.py: runs without events, guides and controllers; the forward
+    (latdyn/analyses/adjoint_sensitivities.py: through latches, rigid stops and cables, without guides and
+    controllers with states; the forward
     method's refusals come first, :func:`refusal`)."""
     key = "solve.sensitivity_method"
     why = None
