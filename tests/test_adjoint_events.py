@@ -48,6 +48,19 @@ output:
 """
 
 
+#: LATCH_3D with the latching hinge's torque (its law's while free, the reaction's once latched) and rate, and the
+#: root element's bending moment: outputs the adjoint seeds on δv and δv̇ and through their explicit ∂/∂p too
+LATCH_3D_PROBES = LATCH_3D.replace(
+    "    angle: {hinge: arm.end, quantity: angle}\n",
+    "    angle: {hinge: arm.end, quantity: angle}\n    torque: {hinge: arm.end, quantity: torque}\n"
+    "    rate: {hinge: arm.end, quantity: rate}\n    moment: {element: \"arm.element[0]\", quantity: moment_y}\n")
+#: DROP with the cable's tension and the mass's velocity
+DROP_PROBES = DROP.replace(
+    "    z: {point: bob, quantity: position, component: z}\n",
+    "    z: {point: bob, quantity: position, component: z}\n    tension: {cable: rope, quantity: tension}\n"
+    "    velocity: {point: bob, quantity: velocity, component: z}\n")
+
+
 def _adjoint(text: str) -> str:
     """``text`` with ``solve.sensitivity_method: adjoint`` (its solve spelt ``{analysis: transient, ...}``)."""
     switched = text.replace("analysis: transient,", "analysis: transient, sensitivity_method: adjoint,")
@@ -139,18 +152,22 @@ def test_a_planar_stop_adjoint_agrees_with_richardson_central_differences(stop_p
 def test_a_3d_latch_adjoint_equals_the_forward_method():
     """The wheel of tests/test_sensitivities_events.py latching at 1.058 s, its arm along (2, 1, 2)/3 and its
     hinge axis (1, −2, 0)/√5, the centre of mass off the hinge; the latched hinge's coordinate leaves the
-    numbering (the reverse pass renumbers back). Six parameters (hinge spring and damper, inertia, mass, EI, ρ):
-    measured 5.4e-13 of each output's largest derivative."""
-    forward, adjoint = _run(LATCH_3D), _run(_adjoint(LATCH_3D))
+    numbering (the reverse pass renumbers back). Six parameters (hinge spring and damper, inertia, mass, EI, ρ); the
+    hinge's angle, rate and torque (the reaction once latched), the wheel's position, a node's displacement and the
+    root element's bending moment: measured 9.2e-13 of each output's largest derivative."""
+    assert LATCH_3D_PROBES != LATCH_3D
+    forward, adjoint = _run(LATCH_3D_PROBES), _run(_adjoint(LATCH_3D_PROBES))
     assert [e["kind"] for e in adjoint.summary["events"]] == ["latch"]
     assert _disagreement(forward.summary, adjoint.summary) <= 1e-10
 
 
 def test_a_cable_going_taut_then_slack_adjoint_equals_the_forward_method():
     """A mass dropped on a slack cable: taut at 0.319 s, slack at 0.394 s; by the rest length and EA (no jump
-    there: the event times through the gap's forms, transposed): measured 1.5e-15; the taut time's derivative by
+    there: the event times through the gap's forms, transposed); the mass's position and velocity and the cable's
+    tension: measured 1.5e-15; the taut time's derivative by
     L has its closed form dt_e/dL = 1/(g t_e) (free fall from rest through L − 0.5)."""
-    forward, adjoint = _run(DROP), _run(_adjoint(DROP))
+    assert DROP_PROBES != DROP
+    forward, adjoint = _run(DROP_PROBES), _run(_adjoint(DROP_PROBES))
     assert [e["kind"] for e in adjoint.summary["event_sensitivities"]] == ["taut", "slack"]
     assert _disagreement(forward.summary, adjoint.summary) <= 1e-10
     taut = adjoint.summary["event_sensitivities"][0]
