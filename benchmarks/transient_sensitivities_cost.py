@@ -107,6 +107,55 @@ def latching_boom(names: list[str], segments: int = 50) -> dict:
                                                  "root": {"hinge": "b0.start", "quantity": "angle"}}}}
 
 
+def lattice_latch(names: list[str], bays: int = 9, *, stiffness: float = 200.0, t_end: float = 0.8,
+                  dt: float = 0.005, hub: tuple = (5.0, 0.05), post_rotary: bool = False,
+                  rho_inf: float | None = None) -> dict:
+    """``--scene lattice_latch``: a deploying lattice that latches — the 3D truss of benchmarks/lattice.py (aluminium
+    tubes, shear-deformable with rotary inertia, rigid massless joints, one element a member), ``bays`` bays (9: 108
+    members, 36 joint bodies), its root station welded to a hub (5 kg, inertia 0.05 kg m², the section's centre) that
+    turns on a hinge about z at the end of a short stiff post; the hinge's spring (``stiffness``, rest angle 2 rad)
+    swings the truss open from rest until it latches at 1 rad (t = 0.693 s at 9 bays), then the
+    truss rings on the latched root; no load, no gravity. The parameters: ``F<i>`` the EA of member i (its own
+    section), 108 at 9 bays. The latch-impact response: the hinge's torque (the spring's while free, the latch's
+    reaction once latched), its largest and smallest value and its end. ``hub``: the hub's mass and inertia (those of
+    a root fitting; ``(0, 0)`` a massless hub), ``post_rotary``: the post with rotary inertia (ρI 1e-3): with both, the
+    consistent start gives the light, stiff directions at the root accelerations that the first step cannot carry
+    (docs/initial_state.md, "A step load on light, stiff directions")."""
+    from benchmarks import lattice as truss
+
+    b = truss.WIDTH
+    members = truss.members(bays)
+    sections, parameters = {}, {}
+    for i, (name, _, _, kind) in enumerate(members):
+        tube = truss.SECTIONS[kind]
+        parameters[f"F{i}"] = tube["EA"]
+        sections[name] = {"EA": f"F{i}", "EIy": tube["EI"], "EIz": tube["EI"], "GJ": tube["GJ"], "GAy": tube["GA"],
+                          "GAz": tube["GA"], "rhoA": tube["rhoA"], "rhoIy": tube["rhoI"], "rhoIz": tube["rhoI"]}
+    sections["post"] = {"EA": 1.0e9, "EIy": 1.0e7, "EIz": 1.0e7, "GJ": 1.0e7, "rhoA": 1.0,
+                        **({"rhoIy": 1.0e-3, "rhoIz": 1.0e-3} if post_rotary else {})}
+    bodies = {"base": {"at": [0.0, b / 2, b / 2 - 0.2], "fixed": True},
+              "hub": {"at": [0.0, b / 2, b / 2], "mass": hub[0], "inertia": [hub[1]] * 3},
+              **{joint: {"at": list(at)} for joint, at in truss.joints(bays).items() if not truss.is_fixed(joint)}}
+
+    def end(joint: str):
+        """A joint body, or a point of the hub for the root station's corners."""
+        if not truss.is_fixed(joint):
+            return joint
+        x, y, z = truss.joints(bays)[joint]
+        return {"body": "hub", "offset": [x, y - b / 2, z - b / 2]}
+
+    beams = {"post": {"from": "base", "to": "hub", "section": "post", "elements": 1,
+                      "end": {"hinge": {"axis": [0, 0, 1], "stiffness": stiffness, "rest_angle": 2.0, "lock_at": 1.0}}},
+             **{name: {"from": end(start), "to": end(stop), "section": name, "elements": 1}
+                for name, start, stop, _ in members}}
+    solve = {"analysis": "transient", "dt": dt, "t_end": t_end, **({"sensitivities": names} if names else {}),
+             **({"rho_inf": rho_inf} if rho_inf is not None else {})}
+    return {"title": f"a {bays}-bay truss deployed by its root hinge's spring, latching at 1 rad",
+            "parameters": parameters, "sections": sections, "bodies": bodies, "beams": beams, "solve": solve,
+            "output": {"every": dt, "paraview_every": 0,
+                       "probes": {"torque": {"hinge": "post.end", "quantity": "torque"}}}}
+
+
 def adjoint(data: dict) -> dict:
     """The scene with ``solve.sensitivity_method: adjoint``."""
     return {**data, "solve": {**data["solve"], "sensitivity_method": "adjoint"}}
@@ -272,18 +321,19 @@ def reverse_parts(make, k: int, repeats: int) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--scene", choices=("cantilever", "lattice", "lattice1000", "boom_latch"),
+    parser.add_argument("--scene", choices=("cantilever", "lattice", "lattice1000", "boom_latch", "lattice_latch"),
                         default="cantilever",
                         help="the cantilever with 100 load parameters, the lattice with 100 section parameters, "
                              "the lattice of 1000 members with 1000, or a deploying boom of 50 sections that "
-                             "latches, with 100")
+                             "latches, with 100, or a 3D truss of 9 bays (108 members) deployed on a root hinge "
+                             "that latches, with 100 of its members' EA")
     parser.add_argument("--cases", default=None, help="comma-separated case names to run (default: all)")
     parser.add_argument("--parts", action="store_true", help="time the pieces of the fixed part F of a step instead")
     parser.add_argument("--reverse-parts", type=int, default=None, metavar="K",
                         help="time the pieces of a step of the adjoint's reverse pass with K parameters instead")
     args = parser.parse_args()
     make = {"cantilever": scene, "lattice": lattice, "lattice1000": lambda names: lattice(names, bays=250),
-            "boom_latch": latching_boom}[args.scene]
+            "boom_latch": latching_boom, "lattice_latch": lattice_latch}[args.scene]
     if args.parts:
         parts(make, args.repeats)
         return
