@@ -108,7 +108,7 @@ def latching_boom(names: list[str], segments: int = 50) -> dict:
 
 
 def lattice_latch(names: list[str], bays: int = 9, *, stiffness: float = 200.0, t_end: float = 0.8,
-                  dt: float = 0.005, hub: tuple = (5.0, 0.05), post_rotary: bool = False,
+                  dt: float = 0.005, hub: tuple = (5.0, 0.05), post_rotary: float | None = 0.1,
                   rho_inf: float | None = None) -> dict:
     """``--scene lattice_latch``: a deploying lattice that latches — the 3D truss of benchmarks/lattice.py (aluminium
     tubes, shear-deformable with rotary inertia, rigid massless joints, one element a member), ``bays`` bays (9: 108
@@ -132,7 +132,7 @@ def lattice_latch(names: list[str], bays: int = 9, *, stiffness: float = 200.0, 
         sections[name] = {"EA": f"F{i}", "EIy": tube["EI"], "EIz": tube["EI"], "GJ": tube["GJ"], "GAy": tube["GA"],
                           "GAz": tube["GA"], "rhoA": tube["rhoA"], "rhoIy": tube["rhoI"], "rhoIz": tube["rhoI"]}
     sections["post"] = {"EA": 1.0e9, "EIy": 1.0e7, "EIz": 1.0e7, "GJ": 1.0e7, "rhoA": 1.0,
-                        **({"rhoIy": 1.0e-3, "rhoIz": 1.0e-3} if post_rotary else {})}
+                        **({"rhoIy": post_rotary, "rhoIz": post_rotary} if post_rotary else {})}
     bodies = {"base": {"at": [0.0, b / 2, b / 2 - 0.2], "fixed": True},
               "hub": {"at": [0.0, b / 2, b / 2], "mass": hub[0], "inertia": [hub[1]] * 3},
               **{joint: {"at": list(at)} for joint, at in truss.joints(bays).items() if not truss.is_fixed(joint)}}
