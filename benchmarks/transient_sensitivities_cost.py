@@ -118,8 +118,9 @@ def lattice_latch(names: list[str], bays: int = 9, *, stiffness: float = 200.0, 
     truss rings on the latched root; no load, no gravity. The parameters: ``F<i>`` the EA of member i (its own
     section), 108 at 9 bays. The latch-impact response: the hinge's torque (the spring's while free, the latch's
     reaction once latched), its largest and smallest value and its end. ``hub``: the hub's mass and inertia (those of
-    a root fitting; ``(0, 0)`` a massless hub), ``post_rotary``: the post with rotary inertia (ρI 1e-3): with both, the
-    consistent start gives the light, stiff directions at the root accelerations that the first step cannot carry
+    a root fitting; ``(0, 0)`` a massless hub), ``post_rotary``: the post's rotary inertia per length (``None``: none,
+    its twist then has no inertia, which sensitivities through a latch refuse): a massless hub on a post of ρI 1e-3
+    gives the light, stiff directions at the root consistent start accelerations that the first step cannot carry
     (docs/initial_state.md, "A step load on light, stiff directions")."""
     from benchmarks import lattice as truss
 
