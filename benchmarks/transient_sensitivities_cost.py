@@ -1,7 +1,7 @@
 """What exact transient sensitivities cost: 0, 1, 10 and 100 (1000) parameters, forward and adjoint.
 
-    python benchmarks/transient_sensitivities_cost.py [--repeats 3] [--scene cantilever|lattice|lattice1000]
-        [--parts | --reverse-parts K]
+    python benchmarks/transient_sensitivities_cost.py [--repeats 3]
+        [--scene cantilever|lattice|lattice1000|boom_latch|lattice_latch] [--parts | --reverse-parts K | --richardson NAME]
 
 A 3D cantilever of 30 elements (EIy != EIz, rotary inertia, tilted out of every coordinate plane)
 carries fifty point loads at its nodes, the i-th with two components of amplitudes ``F<2i>`` and
@@ -22,7 +22,10 @@ median wall time of ``latdyn.run``, and of the CPU time of the process (steadier
 native evaluation's OpenMP threads count in it above the parallel threshold — the lattice of 1000 members —,
 and on a loaded machine their waits inflate it: ``OMP_NUM_THREADS=1`` measures without them), each with the
 ratio of the minima to the run without; the 1-minute load average with them. ``--parts`` times the forward step's
-pieces one by one (:func:`parts`), ``--reverse-parts K`` a reverse step's pieces (docs/parameters.md, "The discrete adjoint", has the figures).
+pieces one by one (:func:`parts`), ``--reverse-parts K`` a reverse step's pieces (docs/parameters.md, "The discrete adjoint", has the figures),
+``--richardson NAME`` checks the adjoint by NAME against Richardson-extrapolated differences of whole runs (:func:`richardson`).
+``--scene boom_latch`` and ``--scene lattice_latch``: deployments that latch (:func:`latching_boom`, :func:`lattice_latch`;
+docs/parameters.md, "The discrete adjoint", "Events").
 
 Measured (docs/parameters.md, "Transient sensitivities", cost; CPU minima at load 4.6–5.9 on the 2-core
 machine): 1, 10, 100 parameters 3.7×, 4.0×, 6.6× the run without on the cantilever (main: 4.2×, 4.4×,
@@ -319,6 +322,46 @@ def reverse_parts(make, k: int, repeats: int) -> None:
         print(f"  {name:66s} {measured * 1e3:7.3f} ms")
 
 
+def richardson(make, name: str) -> None:
+    """``--richardson NAME``: the adjoint's derivatives by ``NAME`` (every probe's end, max and min, and each event's
+    time) against central differences of whole runs at p ± h and p ± h/2 (h = 1e-4 p) extrapolated, (4 D(h/2) − D(h))/3;
+    the reference runs ask for the adjoint by ``NAME`` too, so that their steps land on the events as the
+    differentiated run's. Printed: each output's error relative to the probe's largest extrapolated derivative over
+    the rows (and to its own value), the events' relative to their own."""
+    import numpy as np
+
+    data = make([name])
+    p0 = float(data["parameters"][name])
+
+    def run_at(value):
+        changed = adjoint(make([name]))
+        changed["parameters"] = {**changed["parameters"], name: value}
+        return latdyn.run(latdyn.load_scene(changed))
+
+    exact = run_at(p0)
+    central, times = [], []
+    for step in (1e-4 * p0, 0.5e-4 * p0):
+        up, down = run_at(p0 + step), run_at(p0 - step)
+        if [e["kind"] for e in up.summary["events"]] != [e["kind"] for e in down.summary["events"]]:
+            raise SystemExit(f"the events differ between {name} ± {step:g}")
+        central.append({probe: (up.probes[probe] - down.probes[probe]) / (2 * step) for probe in up.probes})
+        times.append([(a["t"] - b["t"]) / (2 * step) for a, b in zip(up.summary["events"], down.summary["events"])])
+    print(f"Richardson check of the adjoint by {name} = {p0:g} (h = 1e-4 and 5e-5 relative); "
+          f"load average (1 min): {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+    for probe, by in exact.summary["probe_sensitivities"].items():
+        expected = (4 * central[1][probe] - central[0][probe]) / 3
+        values = exact.probes[probe]
+        for which, row in (("end", len(values) - 1), ("max", int(np.argmax(values))), ("min", int(np.argmin(values)))):
+            error = abs(by[which][name] - expected[row])
+            print(f"  {probe} {which:3s} (t = {exact.t[row]:.4f}): adjoint {by[which][name]: .10e}, differences "
+                  f"{expected[row]: .10e}: {error / np.abs(expected).max():.1e} of the probe's largest, "
+                  f"{error / abs(expected[row]):.1e} of its own")
+    for event, coarse, fine in zip(exact.summary["event_sensitivities"], *times):
+        expected = (4 * fine - coarse) / 3
+        print(f"  {event['joint']} {event['kind']} at t = {event['t']:.6f}: dt/d{name} adjoint {event['dt'][name]: .6e}, "
+              f"differences {expected: .6e}: {abs(event['dt'][name] - expected) / abs(expected):.1e} of its own")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=3)
@@ -332,6 +375,9 @@ def main() -> None:
     parser.add_argument("--parts", action="store_true", help="time the pieces of the fixed part F of a step instead")
     parser.add_argument("--reverse-parts", type=int, default=None, metavar="K",
                         help="time the pieces of a step of the adjoint's reverse pass with K parameters instead")
+    parser.add_argument("--richardson", default=None, metavar="NAME",
+                        help="check the adjoint's derivatives by NAME against Richardson-extrapolated central "
+                             "differences of whole runs instead")
     args = parser.parse_args()
     make = {"cantilever": scene, "lattice": lattice, "lattice1000": lambda names: lattice(names, bays=250),
             "boom_latch": latching_boom, "lattice_latch": lattice_latch}[args.scene]
@@ -340,6 +386,9 @@ def main() -> None:
         return
     if args.reverse_parts is not None:
         reverse_parts(make, args.reverse_parts, args.repeats)
+        return
+    if args.richardson is not None:
+        richardson(make, args.richardson)
         return
     counts = (1, 10, 100, 1000) if args.scene == "lattice1000" else (1, 10, 100)
     cases = {"0 (loop in C)": (0, False, False), "0 (per step)": (0, True, False)}
