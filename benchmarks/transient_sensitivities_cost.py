@@ -1,7 +1,8 @@
 """What exact transient sensitivities cost: 0, 1, 10 and 100 (1000) parameters, forward and adjoint.
 
     python benchmarks/transient_sensitivities_cost.py [--repeats 3]
-        [--scene cantilever|lattice|lattice1000|boom_latch|lattice_latch] [--parts | --reverse-parts K | --richardson NAME]
+        [--scene cantilever|lattice|lattice1000|boom_latch|lattice_latch]
+        [--parts | --reverse-parts K | --richardson NAME]
 
 A 3D cantilever of 30 elements (EIy != EIz, rotary inertia, tilted out of every coordinate plane)
 carries fifty point loads at its nodes, the i-th with two components of amplitudes ``F<2i>`` and
@@ -22,10 +23,10 @@ median wall time of ``latdyn.run``, and of the CPU time of the process (steadier
 native evaluation's OpenMP threads count in it above the parallel threshold — the lattice of 1000 members —,
 and on a loaded machine their waits inflate it: ``OMP_NUM_THREADS=1`` measures without them), each with the
 ratio of the minima to the run without; the 1-minute load average with them. ``--parts`` times the forward step's
-pieces one by one (:func:`parts`), ``--reverse-parts K`` a reverse step's pieces (docs/parameters.md, "The discrete adjoint", has the figures),
-``--richardson NAME`` checks the adjoint by NAME against Richardson-extrapolated differences of whole runs (:func:`richardson`).
-``--scene boom_latch`` and ``--scene lattice_latch``: deployments that latch (:func:`latching_boom`, :func:`lattice_latch`;
-docs/parameters.md, "The discrete adjoint", "Events").
+pieces one by one (:func:`parts`), ``--reverse-parts K`` a reverse step's pieces (docs/parameters.md, "The discrete
+adjoint", has the figures), ``--richardson NAME`` checks the adjoint by NAME against Richardson-extrapolated
+differences of whole runs (:func:`richardson`). ``--scene boom_latch`` and ``--scene lattice_latch``: deployments
+that latch (:func:`latching_boom`, :func:`lattice_latch`; docs/parameters.md, "The discrete adjoint", "Events").
 
 Measured (docs/parameters.md, "Transient sensitivities", cost; CPU minima at load 4.6–5.9 on the 2-core
 machine): 1, 10, 100 parameters 3.7×, 4.0×, 6.6× the run without on the cantilever (main: 4.2×, 4.4×,
@@ -324,9 +325,9 @@ def reverse_parts(make, k: int, repeats: int) -> None:
 
 def richardson(make, name: str) -> None:
     """``--richardson NAME``: the adjoint's derivatives by ``NAME`` (every probe's end, max and min, and each event's
-    time) against central differences of whole runs at p ± h and p ± h/2 (h = 1e-4 p) extrapolated, (4 D(h/2) − D(h))/3;
-    the reference runs ask for the adjoint by ``NAME`` too, so that their steps land on the events as the
-    differentiated run's. Printed: each output's error relative to the probe's largest extrapolated derivative over
+    time) against central differences of whole runs at p ± h and p ± h/2 (h = 1e-4 p) extrapolated,
+    (4 D(h/2) − D(h))/3; the reference runs ask for the adjoint by ``NAME`` too, so that their steps land on the
+    events as the differentiated run's. Printed: each output's error relative to the probe's largest extrapolated derivative over
     the rows (and to its own value), the events' relative to their own."""
     import numpy as np
 
@@ -358,8 +359,8 @@ def richardson(make, name: str) -> None:
                   f"{error / abs(expected[row]):.1e} of its own")
     for event, coarse, fine in zip(exact.summary["event_sensitivities"], *times):
         expected = (4 * fine - coarse) / 3
-        print(f"  {event['joint']} {event['kind']} at t = {event['t']:.6f}: dt/d{name} adjoint {event['dt'][name]: .6e}, "
-              f"differences {expected: .6e}: {abs(event['dt'][name] - expected) / abs(expected):.1e} of its own")
+        print(f"  {event['joint']} {event['kind']} at t = {event['t']:.6f}: "
+              f"dt/d{name} adjoint {event['dt'][name]: .6e}, differences {expected: .6e}: {abs(event['dt'][name] - expected) / abs(expected):.1e} of its own")
 
 
 def main() -> None:
