@@ -327,8 +327,8 @@ def richardson(make, name: str) -> None:
     """``--richardson NAME``: the adjoint's derivatives by ``NAME`` (every probe's end, max and min, and each event's
     time) against central differences of whole runs at p ± h and p ± h/2 (h = 1e-4 p) extrapolated,
     (4 D(h/2) − D(h))/3; the reference runs ask for the adjoint by ``NAME`` too, so that their steps land on the
-    events as the differentiated run's. Printed: each output's error relative to the probe's largest extrapolated derivative over
-    the rows (and to its own value), the events' relative to their own."""
+    events as the differentiated run's. Printed: each output's error relative to the probe's largest extrapolated
+    derivative over the rows (and to its own value), the events' relative to their own."""
     import numpy as np
 
     data = make([name])
@@ -360,7 +360,8 @@ def richardson(make, name: str) -> None:
     for event, coarse, fine in zip(exact.summary["event_sensitivities"], *times):
         expected = (4 * fine - coarse) / 3
         print(f"  {event['joint']} {event['kind']} at t = {event['t']:.6f}: "
-              f"dt/d{name} adjoint {event['dt'][name]: .6e}, differences {expected: .6e}: {abs(event['dt'][name] - expected) / abs(expected):.1e} of its own")
+              f"dt/d{name} adjoint {event['dt'][name]: .6e}, differences {expected: .6e}: "
+              f"{abs(event['dt'][name] - expected) / abs(expected):.1e} of its own")
 
 
 def main() -> None:
