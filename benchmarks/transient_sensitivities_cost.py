@@ -329,8 +329,9 @@ def richardson(make, name: str) -> None:
     (4 D(h/2) − D(h))/3; the reference runs ask for the adjoint by ``NAME`` too, so that their steps land on the
     events as the differentiated run's. Every run with ``solve.tol: 1e-12``: the differences of runs converged to the
     default 1e-8 carry its noise divided by h (on the deploying lattice of 2 bays 4e-5 of the probe's largest, 4e-7 at
-    1e-12, where plain central differences at h = 4e-4 p agree to 7e-8: the rest is noise too). Printed: each output's error relative to the probe's largest extrapolated derivative over the rows (and to
-    its own value), the events' relative to their own."""
+    1e-12, where plain central differences at h = 4e-4 p agree to 7e-8: the rest is noise too). Printed: each
+    output's error relative to the probe's largest extrapolated derivative over the rows (and to its own value), the
+    events' relative to their own."""
     import numpy as np
 
     data = make([name])
