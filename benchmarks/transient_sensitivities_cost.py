@@ -1,7 +1,8 @@
 """What exact transient sensitivities cost: 0, 1, 10 and 100 (1000) parameters, forward and adjoint.
 
-    python benchmarks/transient_sensitivities_cost.py [--repeats 3] [--scene cantilever|lattice|lattice1000]
-        [--parts | --reverse-parts K]
+    python benchmarks/transient_sensitivities_cost.py [--repeats 3]
+        [--scene cantilever|lattice|lattice1000|boom_latch|lattice_latch]
+        [--parts | --reverse-parts K | --richardson NAME]
 
 A 3D cantilever of 30 elements (EIy != EIz, rotary inertia, tilted out of every coordinate plane)
 carries fifty point loads at its nodes, the i-th with two components of amplitudes ``F<2i>`` and
@@ -22,7 +23,10 @@ median wall time of ``latdyn.run``, and of the CPU time of the process (steadier
 native evaluation's OpenMP threads count in it above the parallel threshold — the lattice of 1000 members —,
 and on a loaded machine their waits inflate it: ``OMP_NUM_THREADS=1`` measures without them), each with the
 ratio of the minima to the run without; the 1-minute load average with them. ``--parts`` times the forward step's
-pieces one by one (:func:`parts`), ``--reverse-parts K`` a reverse step's pieces (docs/parameters.md, "The discrete adjoint", has the figures).
+pieces one by one (:func:`parts`), ``--reverse-parts K`` a reverse step's pieces (docs/parameters.md, "The discrete
+adjoint", has the figures), ``--richardson NAME`` checks the adjoint by NAME against Richardson-extrapolated
+differences of whole runs (:func:`richardson`). ``--scene boom_latch`` and ``--scene lattice_latch``: deployments
+that latch (:func:`latching_boom`, :func:`lattice_latch`; docs/parameters.md, "The discrete adjoint", "Events").
 
 Measured (docs/parameters.md, "Transient sensitivities", cost; CPU minima of 5 passes at load 5.2–8.0 on the
 2-core machine, main c7bcb6f in the same rounds): 1, 10, 100 parameters 4.3×, 4.5×, 6.5× the run without on
@@ -84,6 +88,80 @@ def lattice(names: list[str], bays: int = 25) -> dict:
             "loads": [{"at": f"b{bays}", "force": [0, "-400*t", 0]}], "solve": solve,
             "output": {"every": 0.01, "probes": {"tip_y": {"point": f"b{bays}", "quantity": "displacement",
                                                            "component": "y"}}}}
+
+
+def latching_boom(names: list[str], segments: int = 50) -> dict:
+    """``--scene boom_latch``: a deploying boom — the planar arm of tests/test_sensitivities_events.py swung open by
+    its root hinge's spring and latching at 0.8 rad (t = 0.46 s), 60 steps of 0.01 s — made of ``segments`` tubes of
+    one element, each its own section: the parameters ``F<2i>`` its EI (EIy and EIz) and ``F<2i+1>`` its ρ (ρA, and
+    the rotary inertias with it), 100 at 50 segments; no load (the adjoint through events takes no laws in t). The
+    latch-impact response: the tip's position and the root's angle."""
+    joints = [f"j{i}" for i in range(1, segments)] + ["tip"]
+    bodies = {"base": {"at": [0, 0, 0], "fixed": True},
+              **{name: {"at": [(i + 1) / segments, 0, 0], "mass": 0.01, "inertia": [1e-6, 1e-6, 1e-6]}
+                 for i, name in enumerate(joints[:-1])},
+              "tip": {"at": [1.0, 0, 0], "mass": 0.3, "inertia": [0.01, 0.01, 0.01]}}
+    sections = {f"s{i}": {"EA": 1.0e4, "EIy": f"F{2 * i}", "EIz": f"F{2 * i}", "GJ": 10.0, "rhoA": f"F{2 * i + 1}",
+                          "rhoIy": f"0.001*F{2 * i + 1}", "rhoIz": f"0.001*F{2 * i + 1}"} for i in range(segments)}
+    beams = {f"b{i}": {"from": "base" if i == 0 else joints[i - 1], "to": joints[i], "section": f"s{i}", "elements": 1}
+             for i in range(segments)}
+    beams["b0"]["start"] = {"hinge": {"axis": [0, 0, 1], "stiffness": 2.0, "damping": 0.05, "rest_angle": 2.0,
+                                      "lock_at": 0.8}}
+    solve = {"analysis": "transient", "dt": 0.01, "t_end": 0.6, **({"sensitivities": names} if names else {})}
+    return {"parameters": {f"F{i}": (20.0 if i % 2 == 0 else 0.5) for i in range(2 * segments)},
+            "sections": sections, "bodies": bodies, "beams": beams, "solve": solve,
+            "output": {"every": 0.05, "probes": {"tip_y": {"point": "tip", "quantity": "position", "component": "y"},
+                                                 "root": {"hinge": "b0.start", "quantity": "angle"}}}}
+
+
+def lattice_latch(names: list[str], bays: int = 9, *, stiffness: float = 200.0, t_end: float = 0.8,
+                  dt: float = 0.005, hub: tuple = (5.0, 0.05), post_rotary: float | None = 0.1,
+                  rho_inf: float | None = None) -> dict:
+    """``--scene lattice_latch``: a deploying lattice that latches — the 3D truss of benchmarks/lattice.py (aluminium
+    tubes, shear-deformable with rotary inertia, rigid massless joints, one element a member), ``bays`` bays (9: 108
+    members, 36 joint bodies), its root station welded to a hub (5 kg, inertia 0.05 kg m², the section's centre) that
+    turns on a hinge about z at the end of a short stiff post; the hinge's spring (``stiffness``, rest angle 2 rad)
+    swings the truss open from rest until it latches at 1 rad (t = 0.693 s at 9 bays), then the
+    truss rings on the latched root; no load, no gravity. The parameters: ``F<i>`` the EA of member i (its own
+    section), 108 at 9 bays. The latch-impact response: the hinge's torque (the spring's while free, the latch's
+    reaction once latched), its largest and smallest value and its end. ``hub``: the hub's mass and inertia (those of
+    a root fitting; ``(0, 0)`` a massless hub), ``post_rotary``: the post's rotary inertia per length (``None``: none,
+    its twist then has no inertia, which sensitivities through a latch refuse): a massless hub on a post of ρI 1e-3
+    gives the light, stiff directions at the root consistent start accelerations that the first step cannot carry
+    (docs/initial_state.md, "A step load on light, stiff directions")."""
+    from benchmarks import lattice as truss
+
+    b = truss.WIDTH
+    members = truss.members(bays)
+    sections, parameters = {}, {}
+    for i, (name, _, _, kind) in enumerate(members):
+        tube = truss.SECTIONS[kind]
+        parameters[f"F{i}"] = tube["EA"]
+        sections[name] = {"EA": f"F{i}", "EIy": tube["EI"], "EIz": tube["EI"], "GJ": tube["GJ"], "GAy": tube["GA"],
+                          "GAz": tube["GA"], "rhoA": tube["rhoA"], "rhoIy": tube["rhoI"], "rhoIz": tube["rhoI"]}
+    sections["post"] = {"EA": 1.0e9, "EIy": 1.0e7, "EIz": 1.0e7, "GJ": 1.0e7, "rhoA": 1.0,
+                        **({"rhoIy": post_rotary, "rhoIz": post_rotary} if post_rotary else {})}
+    bodies = {"base": {"at": [0.0, b / 2, b / 2 - 0.2], "fixed": True},
+              "hub": {"at": [0.0, b / 2, b / 2], "mass": hub[0], "inertia": [hub[1]] * 3},
+              **{joint: {"at": list(at)} for joint, at in truss.joints(bays).items() if not truss.is_fixed(joint)}}
+
+    def end(joint: str):
+        """A joint body, or a point of the hub for the root station's corners."""
+        if not truss.is_fixed(joint):
+            return joint
+        x, y, z = truss.joints(bays)[joint]
+        return {"body": "hub", "offset": [x, y - b / 2, z - b / 2]}
+
+    beams = {"post": {"from": "base", "to": "hub", "section": "post", "elements": 1,
+                      "end": {"hinge": {"axis": [0, 0, 1], "stiffness": stiffness, "rest_angle": 2.0, "lock_at": 1.0}}},
+             **{name: {"from": end(start), "to": end(stop), "section": name, "elements": 1}
+                for name, start, stop, _ in members}}
+    solve = {"analysis": "transient", "dt": dt, "t_end": t_end, **({"sensitivities": names} if names else {}),
+             **({"rho_inf": rho_inf} if rho_inf is not None else {})}
+    return {"title": f"a {bays}-bay truss deployed by its root hinge's spring, latching at 1 rad",
+            "parameters": parameters, "sections": sections, "bodies": bodies, "beams": beams, "solve": solve,
+            "output": {"every": dt, "paraview_every": 0,
+                       "probes": {"torque": {"hinge": "post.end", "quantity": "torque"}}}}
 
 
 def adjoint(data: dict) -> dict:
@@ -266,23 +344,78 @@ def reverse_parts(make, k: int, repeats: int) -> None:
         print(f"  {name:66s} {measured * 1e3:7.3f} ms")
 
 
+def richardson(make, name: str) -> None:
+    """``--richardson NAME``: the adjoint's derivatives by ``NAME`` (every probe's end, max and min, and each event's
+    time) against central differences of whole runs at p ± h and p ± h/2 (h = 1e-4 p) extrapolated,
+    (4 D(h/2) − D(h))/3; the reference runs ask for the adjoint by ``NAME`` too, so that their steps land on the
+    events as the differentiated run's. Every run with ``solve.tol: 1e-12``: the differences of runs converged to the
+    default 1e-8 carry its noise divided by h (on the deploying lattice of 2 bays 4e-5 of the probe's largest, 4e-7 at
+    1e-12, where plain central differences at h = 4e-4 p agree to 7e-8: the rest is noise too). Printed: each
+    output's error relative to the probe's largest extrapolated derivative over the rows (and to its own value), the
+    events' relative to their own."""
+    import numpy as np
+
+    data = make([name])
+    p0 = float(data["parameters"][name])
+
+    def run_at(value):
+        changed = adjoint(make([name]))
+        changed["parameters"] = {**changed["parameters"], name: value}
+        changed["solve"] = {**changed["solve"], "tol": 1e-12}
+        return latdyn.run(latdyn.load_scene(changed))
+
+    exact = run_at(p0)
+    central, times = [], []
+    for step in (1e-4 * p0, 0.5e-4 * p0):
+        up, down = run_at(p0 + step), run_at(p0 - step)
+        if [e["kind"] for e in up.summary["events"]] != [e["kind"] for e in down.summary["events"]]:
+            raise SystemExit(f"the events differ between {name} ± {step:g}")
+        central.append({probe: (up.probes[probe] - down.probes[probe]) / (2 * step) for probe in up.probes})
+        times.append([(a["t"] - b["t"]) / (2 * step) for a, b in zip(up.summary["events"], down.summary["events"])])
+    print(f"Richardson check of the adjoint by {name} = {p0:g} (h = 1e-4 and 5e-5 relative); "
+          f"load average (1 min): {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+    for probe, by in exact.summary["probe_sensitivities"].items():
+        expected = (4 * central[1][probe] - central[0][probe]) / 3
+        values = exact.probes[probe]
+        for which, row in (("end", len(values) - 1), ("max", int(np.argmax(values))), ("min", int(np.argmin(values)))):
+            error = abs(by[which][name] - expected[row])
+            print(f"  {probe} {which:3s} (t = {exact.t[row]:.4f}): adjoint {by[which][name]: .10e}, differences "
+                  f"{expected[row]: .10e}: {error / np.abs(expected).max():.1e} of the probe's largest, "
+                  f"{error / abs(expected[row]):.1e} of its own")
+    for event, coarse, fine in zip(exact.summary["event_sensitivities"], *times):
+        expected = (4 * fine - coarse) / 3
+        print(f"  {event['joint']} {event['kind']} at t = {event['t']:.6f}: "
+              f"dt/d{name} adjoint {event['dt'][name]: .6e}, differences {expected: .6e}: "
+              f"{abs(event['dt'][name] - expected) / abs(expected):.1e} of its own")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--scene", choices=("cantilever", "lattice", "lattice1000"), default="cantilever",
+    parser.add_argument("--scene", choices=("cantilever", "lattice", "lattice1000", "boom_latch", "lattice_latch"),
+                        default="cantilever",
                         help="the cantilever with 100 load parameters, the lattice with 100 section parameters, "
-                             "or the lattice of 1000 members with 1000")
+                             "the lattice of 1000 members with 1000, or a deploying boom of 50 sections that "
+                             "latches, with 100, or a 3D truss of 9 bays (108 members) deployed on a root hinge "
+                             "that latches, with 100 of its members' EA")
     parser.add_argument("--cases", default=None, help="comma-separated case names to run (default: all)")
     parser.add_argument("--parts", action="store_true", help="time the pieces of the fixed part F of a step instead")
     parser.add_argument("--reverse-parts", type=int, default=None, metavar="K",
                         help="time the pieces of a step of the adjoint's reverse pass with K parameters instead")
+    parser.add_argument("--richardson", default=None, metavar="NAME",
+                        help="check the adjoint's derivatives by NAME against Richardson-extrapolated central "
+                             "differences of whole runs instead")
     args = parser.parse_args()
-    make = {"cantilever": scene, "lattice": lattice, "lattice1000": lambda names: lattice(names, bays=250)}[args.scene]
+    make = {"cantilever": scene, "lattice": lattice, "lattice1000": lambda names: lattice(names, bays=250),
+            "boom_latch": latching_boom, "lattice_latch": lattice_latch}[args.scene]
     if args.parts:
         parts(make, args.repeats)
         return
     if args.reverse_parts is not None:
         reverse_parts(make, args.reverse_parts, args.repeats)
+        return
+    if args.richardson is not None:
+        richardson(make, args.richardson)
         return
     counts = (1, 10, 100, 1000) if args.scene == "lattice1000" else (1, 10, 100)
     cases = {"0 (loop in C)": (0, False, False), "0 (per step)": (0, True, False)}

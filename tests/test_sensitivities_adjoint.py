@@ -184,7 +184,9 @@ def test_controllers_with_states_are_refused():
 
 
 def test_a_scene_with_events_is_refused_by_the_cli(tmp_path):
-    """A latch (lock_at): exit 2 naming solve.sensitivity_method and the hinge, no traceback."""
+    """A latch (lock_at) beside a law in t (the hinge's torque, whose time moves with the event's: the adjoint
+    through events takes no laws in t yet, tests/test_adjoint_events.py): exit 2 naming solve.sensitivity_method
+    and the hinge, no traceback."""
     text = _adjoint(PLANAR.replace("torque: \"tau*sin(20*t)\"}", "torque: \"tau*sin(20*t)\", lock_at: 1.0}"))
     assert "lock_at" in text
     run, _ = latdyn_run(tmp_path, text)

@@ -49,13 +49,23 @@ the iterates, not at the converged state), so storing them would move the same e
 pass and keep 3 × nnz numbers a step (76 kB for the 30-element cantilever, 539 kB for a 1000-member
 lattice, against 8.8 kB and 120 kB of stored state).
 
+Events (docs/parameters.md, "The discrete adjoint", "Events"): at a step that ends on a hinge's latch or rigid
+stop or on a cable element's change, the forward method composes the step with linear maps — its size's
+derivative δh, a linear functional of the step's parameter columns added through the step size's column; the
+jump of δv through the impulse; the renumbering after a latch; the restarted accelerations — and the reverse pass
+applies their transposes in reverse order, each named after its forward piece (:meth:`_restart_transposed`,
+:meth:`_renumbering_transposed`, :meth:`_impulse_transposed` with :meth:`_weight_derivative_transposed`,
+:meth:`_step_size_transposed` with :meth:`_step_size_column`); t̄ and ḡ, the adjoints of δt and of the carried δh,
+run back beside the bars, and each event time is an output seeded on t̄ (``event_sensitivities``).
+
 What the forward pass stores, in memory (``carried["trajectory"]``, checkpointed with the run): each
 accepted step's end state (a copy: 24 numbers a node and 3 a hinge) and size and the algorithmic
-accelerations before and after it (2n numbers). What is refused (:func:`adjoint_refusal`, exit 2 naming
-``solve.sensitivity_method``): everything the forward method refuses, and anything whose derivative
-leaves the smooth recurrence above: events (hinge or guide ``lock_at`` and ``limits``, cables), guides,
-controllers with states and sampled ones (continuous controllers without states enter E and the matrices
-as in the forward method). Rigid links are taken: the matrices are the reduced step's, and a probe on a node
+accelerations before and after it (2n numbers); where the scene has events, the numbering and cables' sides each
+step was taken on, the event it ends on, its size's rule (:meth:`_size_rule`) and after an event the state after
+the jump and restart. What is refused (:func:`adjoint_refusal`, exit 2 naming ``solve.sensitivity_method``):
+everything the forward method refuses, and what leaves the recurrence above and its events' pieces: a compliant
+stop's onset, events beside laws in t, rigid links or energy probes, friction, guides, controllers with states
+and sampled ones (continuous controllers without states enter E and the matrices as in the forward method). Rigid links are taken: the matrices are the reduced step's, and a probe on a node
 that follows the links has its output gradient on the coordinates it moves with
 (:func:`latdyn.analyses.link_sensitivities.columns_moving`).
 """
@@ -73,13 +83,14 @@ from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_forc
 from latdyn.analyses.link_sensitivities import columns_moving
 from latdyn.analyses.probe_derivatives import is_probe_here, probe_forms
 from latdyn.analyses.sensitivities import _BODY_KEY, _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE
-from latdyn.analyses.transient_sensitivities import TransientSensitivities, _NodeRotations
-from latdyn.assembly.assembler import free_velocity
+from latdyn.analyses.transient_sensitivities import WEIGHT_STEP, TransientSensitivities, _NodeRotations
+from latdyn.assembly.assembler import free_acceleration, free_velocity, pack, unpack_free
 from latdyn.assembly.factorization import factorization_for, solve_linear
 from latdyn.errors import SolverError
 from latdyn.numerics.inertia import split_inertia
 from latdyn.numerics.linalg import issparse
 from latdyn.step.integrators import consistent_acceleration
+from latdyn.timeloop.impulse import hinge_directions
 
 __all__ = ["AdjointSensitivities"]
 
@@ -92,23 +103,94 @@ class AdjointSensitivities(TransientSensitivities):
     # ------------------------------------------------------------------ the forward pass: storing
     def start(self, state) -> dict:
         """The carried trajectory at t = 0: the started state (its accelerations consistent) and the
-        refusals of the forward method's start (directions without inertia off rest)."""
+        refusals of the forward method's start (directions without inertia off rest; events where the
+        impulse's weight is not M + dt²K alone)."""
         model = self.model
-        carried = {"trajectory": [], "rows": [], "start": state.copy(), "events": []}
+        carried = {"trajectory": [], "rows": [], "start": state.copy(), "events": [], "h_prev": None,
+                   "numbering_start": self._numbering(), "timed": False, "dh_moves": False}
         if model.n_dofs and self.names:
             ev = self.assembler.evaluate(state, matrices=True)
             split = split_inertia(model, ev.combined(1.0, 0.0, 0.0))
+            self._refuse_events(ev, split)
             if split.n_massless:
                 self._refuse_start(state, ev, split)
         return carried
 
     def step(self, carried: dict, old, new, h: float, a_old: np.ndarray, a_new: np.ndarray,
              lands: bool = True) -> dict:
-        """The accepted step ``old`` → ``new`` stored (its end state, size and algorithmic accelerations);
+        """The accepted step ``old`` → ``new`` stored (its end state before the events, size and algorithmic
+        accelerations; where the scene has events, the coordinates' numbering and the cables' sides it was
+        taken on, the event it ends on and the rule its size's derivative follows, :meth:`_size_rule`);
         appended in place: the trajectory grows with the run and a copy per step would cost its length."""
-        carried["trajectory"].append({"state": new.copy(), "h": float(h), "a_old": np.array(a_old, float),
-                                      "a_new": np.array(a_new, float)})
+        entry = {"state": new.copy(), "h": float(h), "a_old": np.array(a_old, float),
+                 "a_new": np.array(a_new, float)}
+        if self._with_events():
+            event = self._event(old, new) if self.model.n_dofs else None
+            cable = self._cable_event(old, new, event)
+            entry.update({"numbering": self._numbering(), "event": event, "cable": cable,
+                          "rule": self._size_rule(carried, h, lands, event, cable)})
+        carried["trajectory"].append(entry)
+        carried["h_prev"] = float(h)
         return carried
+
+    def after_events(self, carried: dict, new) -> dict:
+        """After the events of the step just stored: the numbering and cables' sides the rows and the next
+        step are taken on, and after a latch or a stop the state after its jump and restart (where the reverse
+        pass transposes the restart, :meth:`_restart_transposed`)."""
+        if self._with_events() and carried["trajectory"]:
+            entry = carried["trajectory"][-1]
+            entry["numbering_end"] = self._numbering()
+            if entry.get("event") is not None:
+                entry["after"] = new.copy()
+        return carried
+
+    # ------------------------------------------------------------------ events: what the forward pass keeps
+    def _with_events(self) -> bool:
+        """Whether the model has latches, rigid stops or cables (the adjoint's refusal leaves no other events)."""
+        if "_events_here" not in self.__dict__:
+            self._events_here = self.model.cables is not None or any(
+                h.lock_at is not None or h.limits is not None for h in self.model.hinges)
+        return self._events_here
+
+    def _numbering(self) -> tuple:
+        """(the locked joints, the cables' sides or None): what the coordinates' numbering and the evaluation's
+        cable law depend on, changed by latches and cables' changes."""
+        cables = self.model.cables
+        return self.model.locked.copy(), (None if cables is None else np.array(cables.sides, float))
+
+    def _numbered(self, numbering: tuple) -> None:
+        """The model put back on ``numbering`` (:meth:`_numbering`): the locked joints and the coordinates
+        renumbered as a latch renumbers them (latdyn/timeloop/events.py ``latch_hinges``), the cables' sides
+        set in place (the evaluation reads them there)."""
+        model = self.model
+        locked, sides = numbering
+        if not np.array_equal(model.locked, locked):
+            model.locked[:] = locked
+            model.number_coordinates()
+            self.assembler.reindex()
+        if sides is not None:
+            model.cables.sides[:] = sides
+
+    def _size_rule(self, carried: dict, h: float, lands: bool, event, cable):
+        """The rule of the step's δh as the forward method's :meth:`_step_size_derivative` (and
+        :meth:`CableSensitivities.step_size_derivative`) applies it, or None where δh is 0 exactly
+        (before any event δt_n and the last δh are 0): ("event",) the hinge's angle held on its event,
+        ("cable",) the element's gap held at 0, ("lands",) δh = −δt_n, ("scaled", h/h_prev) δh = h/h_prev ·
+        δh_prev. Updates ``carried``'s flags of whether δt_n and the carried δh may be non-zero."""
+        timed, dh_moves = carried["timed"], carried["dh_moves"]
+        if event is not None or cable is not None:
+            rule = ("event",) if cable is None else ("cable",)
+            carried["timed"], carried["dh_moves"] = True, cable is None
+            return rule
+        if lands:
+            carried["timed"], carried["dh_moves"] = False, timed
+            return ("lands",) if timed else None
+        h_prev, dt = carried["h_prev"], self.scene.solve.dt
+        if h_prev is None or abs(h - dt) <= 1e-12 * dt:
+            carried["dh_moves"] = False
+            return None
+        carried["timed"] = timed or dh_moves
+        return ("scaled", h / h_prev) if dh_moves else None
 
     def record(self, carried: dict, state) -> dict:
         """The row at ``state``: the index of the stored state it is (0: the start)."""
@@ -128,7 +210,7 @@ class AdjointSensitivities(TransientSensitivities):
         held = self._held_section_blocks
         return super()._section_derivative_blocks(state) if held is None else held[0]
 
-    def residual_transposed_product(self, state, w: np.ndarray) -> np.ndarray:
+    def residual_transposed_product(self, state, w: np.ndarray, inertia: bool = True) -> np.ndarray:
         """(k, m): (∂r/∂p)ᵀ w at ``state`` for the m columns of ``w`` (n, m) on the free coordinates, ∂r/∂p
         of the equations of motion (:meth:`residual_derivatives`) without forming it: the uses of section
         values and of load components each as one batched product of their element or load forces
@@ -137,14 +219,16 @@ class AdjointSensitivities(TransientSensitivities):
         per-parameter Python); the other parameters' (hinges, bodies, contact, controllers) by
         :meth:`residual_derivatives` on all coordinates, transposed onto w there (the free coordinates are
         the first n). With rigid links (the reduction onto minimum coordinates, latdyn/assembly/linked.py)
-        ∂r/∂p is the reduced one, formed by :meth:`residual_derivatives` and transposed onto w."""
+        ∂r/∂p is the reduced one, formed by :meth:`residual_derivatives` and transposed onto w. ``inertia``:
+        with the inertia forces (the step's residual), or the static residual's ∂r/∂p (an impulse weight's
+        derivative, :meth:`_weight_derivative_transposed`)."""
         model, k = self.model, len(self.names)
         if model.links is not None:
-            return self.residual_derivatives(state, 1.0, inertia=True).T @ w
+            return self.residual_derivatives(state, 1.0, inertia=inertia).T @ w
         weights = np.zeros((model.n_total + 1, w.shape[1]))
         weights[:model.n_dofs] = w
         product = np.zeros((k, w.shape[1]))
-        for forces, dofs in ((self._section_element_forces(state, 1.0, inertia=True), model.element_dofs),
+        for forces, dofs in ((self._section_element_forces(state, 1.0, inertia=inertia), model.element_dofs),
                              (self._load_pair_forces(state, 1.0), model.node_dofs)):
             if forces is not None:
                 at, columns, by_use = forces
@@ -152,7 +236,7 @@ class AdjointSensitivities(TransientSensitivities):
         if self._other_than_batched():
             self._batched_apart = True
             try:
-                product += self.residual_derivatives(state, 1.0, inertia=True, on_all=True).T @ weights
+                product += self.residual_derivatives(state, 1.0, inertia=inertia, on_all=True).T @ weights
             finally:
                 self._batched_apart = False
         return product
@@ -230,27 +314,60 @@ class AdjointSensitivities(TransientSensitivities):
                                                     self._rates_by_parameter(units, still, state))
         return c_q, c_v
 
-    def reverse(self, carried: dict, outputs: list) -> np.ndarray:
-        """(k, m): the derivatives of the m ``outputs`` (:meth:`outputs`) by the k parameters, the
-        transposed recurrence run backwards over the stored trajectory (module docstring)."""
+    def reverse(self, carried: dict, outputs: list) -> tuple:
+        """((k, m) the derivatives of the m ``outputs`` (:meth:`outputs`) by the k parameters, (k, e) those of
+        the e event times (:meth:`event_records`)): the transposed recurrence run backwards over the stored
+        trajectory (module docstring), the event times as outputs seeded on δt at their steps' ends."""
         n, k = self.model.n_dofs, len(self.names)
-        if n == 0 or k == 0 or not outputs:
-            return np.zeros((k, len(outputs)))
+        events = self.event_records(carried)
+        if k == 0 or (not outputs and not events) or (n == 0 and not self._with_events()):
+            return np.zeros((k, len(outputs))), np.zeros((k, len(events)))
         trajectory, rows = carried["trajectory"], carried["rows"]
-        states = [carried["start"]] + [entry["state"] for entry in trajectory]
+        states = [carried["start"]] + [entry.get("after", entry["state"]) for entry in trajectory]
+        numberings = [carried.get("numbering_start")] + [entry.get("numbering_end") for entry in trajectory]
+        final = self._numbering() if self._with_events() else None
         seeds: dict[int, list] = {}   # stored state index -> [(column, (c_q, c_v, c_v̇, explicit))]
         taken: list[list[int]] = []   # each output's columns: one, or a norm at 0's three components
         columns = 0
-        for probe, _, row in outputs:
-            index = rows[row]   # at the start δq_0 = 0: a row there moves only through δv_0, δv̇_0 and explicitly
-            forms = [self.output_forms(probe, states[index])]
-            if _norm_at_zero(probe, forms[0]):   # |·| at 0 (:meth:`_at_a_zero_norm`)
-                forms = [self.output_forms(replace(probe, component=axis), states[index]) for axis in "xyz"]
-            taken.append(list(range(columns, columns + len(forms))))
-            columns += len(forms)
-            for column, form in zip(taken[-1], forms):
-                seeds.setdefault(index, []).append((column, form))
-        return self._at_a_zero_norm(self._reverse_columns(carried, states, seeds, columns), taken)
+        try:
+            for probe, _, row in outputs:
+                index = rows[row]   # at the start δq_0 = 0: a row there moves only through δv_0, δv̇_0 and explicitly
+                if final is not None:   # the row's forms on the numbering it was recorded on
+                    self._numbered(numberings[index])
+                forms = [self.output_forms(probe, states[index])]
+                if _norm_at_zero(probe, forms[0]):   # |·| at 0 (:meth:`_at_a_zero_norm`)
+                    forms = [self.output_forms(replace(probe, component=axis), states[index]) for axis in "xyz"]
+                taken.append(list(range(columns, columns + len(forms))))
+                columns += len(forms)
+                for column, form in zip(taken[-1], forms):
+                    seeds.setdefault(index, []).append((column, form))
+            timings = {}   # stored state index -> [column]: an event time's, seeded on δt there
+            for index, _ in events:
+                timings.setdefault(index, []).append(columns)
+                columns += 1
+            if final is not None:   # the reverse pass starts on the run's last numbering
+                self._numbered(final)
+            gradient = self._reverse_columns(carried, states, seeds, columns, timings)
+        finally:
+            if final is not None:
+                self._numbered(final)
+        return self._at_a_zero_norm(gradient[:, :columns - len(events)], taken), gradient[:, columns - len(events):]
+
+    def event_records(self, carried: dict) -> list:
+        """[(stored state index, {joint, kind, t})] of the run's events as the forward method records them in
+        ``event_sensitivities`` (its ``dt`` filled by the reverse pass): a latch or stop of a hinge, a whole
+        cable's change between slack and taut (an element of a cable that stays taut or slack: none)."""
+        out = []
+        for i, entry in enumerate(carried["trajectory"]):
+            event, cable = entry.get("event"), entry.get("cable")
+            if event is not None:
+                out.append((i + 1, {"joint": self.model.hinges[event[0]].name, "kind": event[1],
+                                    "t": float(entry["state"].t)}))
+            elif cable is not None and cable[1] is not None:
+                cables = self.model.cables
+                out.append((i + 1, {"joint": cables.names[cables.cable[cable[0]]], "kind": cable[1],
+                                    "t": float(entry["state"].t)}))
+        return out
 
     @staticmethod
     def _at_a_zero_norm(gradient: np.ndarray, taken: list) -> np.ndarray:
@@ -266,31 +383,61 @@ class AdjointSensitivities(TransientSensitivities):
                 out[:, output] = np.where(np.any(gradient[:, columns] != 0.0, axis=1), np.nan, 0.0)
         return out
 
-    def _reverse_columns(self, carried: dict, states: list, seeds: dict, m: int) -> np.ndarray:
+    def _reverse_columns(self, carried: dict, states: list, seeds: dict, m: int, timings: dict) -> np.ndarray:
         """(k, m): the transposed recurrence (module docstring) with the m columns that ``seeds`` seeds
-        ({stored state index: [(column, (c_q, c_v, c_v̇, explicit))]}) at their states."""
+        ({stored state index: [(column, (c_q, c_v, c_v̇, explicit))]}) at their states and ``timings``
+        ({index: [column]}) on δt there. At a step that ends on a latch or a stop the forward method's pieces
+        come transposed in reverse order: the restart (:meth:`_restart_transposed`), the renumbering
+        (:meth:`_renumbering_transposed`), the jump (:meth:`_impulse_transposed`), then the step with its size's
+        derivative (:meth:`_step_size_transposed`); t̄ and ḡ carry the adjoints of δt_n and of the last δh."""
         model, p = self.model, self.params
-        n, k = model.n_dofs, len(self.names)
+        k = len(self.names)
         trajectory = carried["trajectory"]
         gradient = np.zeros((k, m))
         am, af, gamma, beta = p.alpha_m, p.alpha_f, p.gamma, p.beta
+        n = model.n_dofs
         q_bar, v_bar, vdot_bar, a_bar = (np.zeros((n, m)) for _ in range(4))
+        t_bar, g_bar = np.zeros(m), np.zeros(m)   # the adjoints of δt_{n+1} and of the carried δh
         for i in range(len(trajectory) - 1, -1, -1):
             for column, (c_q, c_v, c_vdot, explicit) in seeds.get(i + 1, []):
                 q_bar[:, column] += c_q
                 v_bar[:, column] += c_v
                 vdot_bar[:, column] += c_vdot
                 gradient[:, column] += explicit
+            for column in timings.get(i + 1, []):
+                t_bar[column] += 1.0
             entry = trajectory[i]
+            if entry.get("after") is not None:   # the event's restart, renumbering and jump, transposed
+                q_bar, v_bar, by_restart = self._restart_transposed(entry, q_bar, v_bar, vdot_bar + a_bar)
+                gradient += by_restart
+                q_bar, v_bar = self._renumbering_transposed(entry, q_bar, v_bar)
+                v_bar, q_by_jump, by_jump = self._impulse_transposed(entry, v_bar)
+                q_bar = q_bar + q_by_jump
+                gradient += by_jump
+                vdot_bar, a_bar = np.zeros_like(v_bar), np.zeros_like(v_bar)   # the restart set δv̇, δa afresh
+            elif "numbering" in entry:
+                self._numbered(entry["numbering"])
             h, new = entry["h"], entry["state"]
+            old = states[i]
             beta_p, gamma_p = (1 - am) / (h * h * beta * (1 - af)), gamma / (h * beta)
-            increment = h * (free_velocity(model, states[i]) + h * (0.5 - beta) * entry["a_old"]
+            increment = h * (free_velocity(model, old) + h * (0.5 - beta) * entry["a_old"]
                              + h * beta * entry["a_new"])
             turn, tangent = self._rotation_operators(increment)
             turn_t, tangent_t = _transposed_rotations(self, turn), _transposed_rotations(self, tangent)
-            C_t, K_t, solve_transposed = self._transposed_step_system(new, tangent, beta_p, gamma_p)
+            C_t, K_t, solve_transposed, solve = self._transposed_step_system(new, tangent, beta_p, gamma_p)
+            rule = entry.get("rule")
+            if rule is not None:   # the step's size moves with p: its column, and δh's functional transposed
+                column = self._step_size_column(entry, old, C_t.T, K_t.T, solve, tangent, beta_p, gamma_p)
+                h_bar = sum(np.einsum("i,im->m", column[key], bar) for key, bar in
+                            (("dq", q_bar), ("dv", v_bar), ("dvdot", vdot_bar), ("da", a_bar)))
+                h_bar = h_bar + t_bar + (0.0 if rule[0] == "cable" else g_bar)
+                q_bar, v_bar, t_bar, g_bar, by_size = self._step_size_transposed(entry, rule, column, h_bar,
+                                                                                 q_bar, v_bar, t_bar)
+                gradient += by_size
+            else:
+                g_bar = np.zeros(m)
             z_bar = tangent_t(q_bar) + gamma_p * v_bar + beta_p * vdot_bar + (1 - af) / (1 - am) * beta_p * a_bar
-            w = np.asarray(solve_transposed(z_bar)).reshape(n, m)
+            w = np.asarray(solve_transposed(z_bar)).reshape(model.n_dofs, m)
             gradient -= self.residual_transposed_product(new, w)
             dq0_bar = q_bar - K_t @ w
             dv0_bar = v_bar - C_t @ w
@@ -300,14 +447,174 @@ class AdjointSensitivities(TransientSensitivities):
             v_bar = dv0_bar + h * du0_bar
             a_bar = h * (1 - gamma) * dv0_bar + h * h * (0.5 - beta) * du0_bar - am / (1 - am) * da0_bar
             vdot_bar = af / (1 - am) * da0_bar
+        if carried.get("numbering_start") is not None and self._with_events():
+            self._numbered(carried["numbering_start"])
         for column, (_, c_v, c_vdot, explicit) in seeds.get(0, []):
             v_bar[:, column] += c_v
             vdot_bar[:, column] += c_vdot   # δv̇_0 = δa_0: the start's consistent accelerations' derivative
             gradient[:, column] += explicit
+        if model.n_dofs == 0:
+            return gradient
         return gradient + self._through_the_start(carried["start"], v_bar, vdot_bar + a_bar)
 
+    # ------------------------------------------------------------------ events transposed
+    def _step_size_column(self, entry: dict, old, C, K, solve, tangent, beta_p: float, gamma_p: float) -> dict:
+        """{dq, dv, dvdot, da} (n,): the forward method's column of a unit change of the step's size h
+        (:meth:`TransientSensitivities._columns`, its column k: ∂(hΔq)/∂h, ∂v_{n+1}/∂h and the solve with the
+        step's exact matrix; no explicit time dependence: laws in t beside events are refused)."""
+        p, model, h = self.params, self.model, entry["h"]
+        am, af, gamma, beta = p.alpha_m, p.alpha_f, p.gamma, p.beta
+        a_old, a_new = entry["a_old"], entry["a_new"]
+        du0 = free_velocity(model, old) + 2 * h * (0.5 - beta) * a_old + 2 * h * beta * a_new   # ∂(hΔq)/∂h
+        dq0 = tangent(du0[:, None])[:, 0]
+        dv0 = (1 - gamma) * a_old + gamma * a_new                                                # ∂v_{n+1}/∂h
+        z = np.asarray(solve(-(K @ dq0 + C @ dv0))).reshape(-1)
+        dvdot = beta_p * z
+        return {"dq": dq0 + tangent(z[:, None])[:, 0], "dv": dv0 + gamma_p * z, "dvdot": dvdot,
+                "da": (1 - af) / (1 - am) * dvdot}
+
+    def _step_size_transposed(self, entry: dict, rule: tuple, column: dict, h_bar: np.ndarray,
+                              q_bar: np.ndarray, v_bar: np.ndarray, t_bar: np.ndarray) -> tuple:
+        """The transpose of the step size's derivative δh (the forward method's :meth:`_step_size_derivative`,
+        :meth:`CableSensitivities.step_size_derivative`) for the adjoint ``h_bar`` (m,) of δh: (q̄, v̄ of the
+        step's parameter columns, t̄ of δt_n, ḡ of the last step's δh, (k, m) into the gradient).
+        ("event",): δh = −δq_p[θ]/δq_h[θ] → q̄[θ] −= h̄/δq_h[θ]; ("cable",): δh = −(g_qᵀδq_p + g_vᵀδv_p + g_p
+        + g_t δt_n)/(g_qᵀδq_h + g_vᵀδv_h + g_t) → q̄ −= g_q h̄ᵀ/d, v̄ −= g_v h̄ᵀ/d, −g_p h̄ᵀ/d, t̄ −= g_t h̄/d;
+        ("lands",): δh = −δt_n → t̄ −= h̄; ("scaled", r): δh = r δh_prev → ḡ = r h̄. δt_{n+1} = δt_n + δh: t̄
+        passes on unchanged besides."""
+        k = len(self.names)
+        by_size = np.zeros((k, len(h_bar)))
+        g_bar = np.zeros_like(h_bar)
+        if rule[0] == "event":
+            dof = self.model.hinge_dofs[entry["event"][0]]
+            q_bar = q_bar.copy()
+            q_bar[dof] -= h_bar / column["dq"][dof]
+        elif rule[0] == "cable":
+            g_q, g_v, g_p, g_t = self.cables.gap_forms(entry["state"], entry["cable"][0], k)
+            d = float(g_q @ column["dq"] + g_v @ column["dv"]) + g_t
+            q_bar, v_bar = q_bar - np.outer(g_q, h_bar) / d, v_bar - np.outer(g_v, h_bar) / d
+            by_size -= np.outer(g_p, h_bar) / d
+            t_bar = t_bar - g_t * h_bar / d
+        elif rule[0] == "lands":
+            t_bar = t_bar - h_bar
+        else:
+            g_bar = rule[1] * h_bar
+        return q_bar, v_bar, t_bar, g_bar, by_size
+
+    def _impulse_transposed(self, entry: dict, v_bar_plus: np.ndarray) -> tuple:
+        """The transpose of the forward method's :meth:`_impulse` at the stored state before the jump: with
+        W = M + dt²K, X = W⁻¹N, G = X(NᵀX)⁻¹, Δv = G(−(1 + e)Nᵀv⁻) and (forward) w = δv⁻ − W⁻¹(D δq + P),
+        δv⁺ = (I − GNᵀ)w − e GNᵀδv⁻ (D δq + P = δ(W)Δv, :meth:`_weight_derivative`), for the adjoint v̄⁺ (n, m):
+
+            w̄ = (I − NGᵀ)v̄⁺,   v̄⁻ = w̄ − e NGᵀv̄⁺,   ū = W⁻ᵀw̄,   q̄ −= Dᵀū,   dy/dp −= Pᵀū
+
+        (:meth:`_weight_derivative_transposed`). Returns (v̄⁻, the part of q̄, (k, m) into the gradient)."""
+        model, dt = self.model, self.scene.solve.dt
+        new, (hinge, _, restitution) = entry["state"], entry["event"]
+        scale = dt * dt
+        N = hinge_directions(model, [hinge])
+        W = self.assembler.evaluate(new, matrices=True).combined(1.0, 0.0, scale)
+        X = np.asarray(solve_linear(W, N)).reshape(N.shape)
+        G = X @ np.linalg.inv(N.T @ X)
+        change = G @ (-(1.0 + restitution) * (N.T @ free_velocity(model, new)))
+        pushed = G.T @ v_bar_plus
+        w_bar = v_bar_plus - N @ pushed
+        v_bar_minus = w_bar - restitution * (N @ pushed)
+        u_bar = np.asarray(solve_linear(_transposed(W), w_bar)).reshape(w_bar.shape)
+        q_part, p_part = self._weight_derivative_transposed(new, change, u_bar, scale)
+        return v_bar_minus, -q_part, -p_part
+
+    def _restart_transposed(self, entry: dict, q_bar: np.ndarray, v_bar: np.ndarray, s_bar: np.ndarray) -> tuple:
+        """The transpose of the forward method's :meth:`_restart` at the stored state after the event (on its
+        numbering): forward δv̇ = δa = −B⁻¹(E + K δq + C δv [+ D₂δq + P₂]), B = M after a latch, after a stop
+        W = M + dt²K at the accelerations before it, with D₂δq + P₂ = dt² δ(K)v̇ (:meth:`_weight_derivative`,
+        ``mass=False``); for the adjoint s̄ = v̇̄ + ā: ū = −B⁻ᵀs̄, q̄ += Kᵀū [+ D₂ᵀū], v̄ += Cᵀū, dy/dp += Eᵀū
+        [+ P₂ᵀū]. Returns (q̄, v̄, (k, m) into the gradient)."""
+        model = self.model
+        self._numbered(entry["numbering_end"])
+        after, kind = entry["after"], entry["event"][1]
+        n = model.n_dofs
+        M, C, K = self._matrices(after)
+        if kind == "latch":
+            matrix = M
+        else:
+            scale = self.scene.solve.dt ** 2
+            before = after.copy()
+            unpack_free(model, free_acceleration(model, entry["state"]), before.a, before.alpha, before.theta_ddot)
+            matrix = self.assembler.evaluate(before, matrices=True).combined(1.0, 0.0, scale)
+        u_bar = -np.asarray(solve_linear(_transposed(matrix), s_bar)).reshape(n, s_bar.shape[1])
+        q_bar = q_bar + np.asarray(K.T @ u_bar)
+        v_bar = v_bar + np.asarray(C.T @ u_bar)
+        by_restart = self.residual_transposed_product(after, u_bar)
+        if kind != "latch":
+            q_part, p_part = self._weight_derivative_transposed(before, free_acceleration(model, after), u_bar,
+                                                                scale, mass=False)
+            q_bar, by_restart = q_bar + q_part, by_restart + p_part
+        return q_bar, v_bar, by_restart
+
+    def _renumbering_transposed(self, entry: dict, q_bar: np.ndarray, v_bar: np.ndarray) -> tuple:
+        """The transpose of the forward method's renumbering at an event (δq, δv of the numbering before it put
+        on the nodes and hinges, :meth:`_on_nodes`, and packed on the numbering after it, :meth:`_restart`): the
+        bars on the numbering after it put on the nodes and packed on the numbering before it (a latched
+        joint's angle, no coordinate after the latch, gets 0). Leaves the model on the numbering before it."""
+        self._numbered(entry["numbering_end"])
+        on_nodes = self._on_nodes(np.hstack([q_bar, v_bar]))
+        self._numbered(entry["numbering"])
+        model, m = self.model, q_bar.shape[1]
+        n = model.n_dofs
+        packed = np.column_stack([pack(model, *column)[:n] for column in on_nodes]) if on_nodes else np.zeros((n, 0))
+        return packed[:, :m], packed[:, m:]
+
+    def _weight_derivative_transposed(self, state, w: np.ndarray, u_bar: np.ndarray, scale: float,
+                                      mass: bool = True) -> tuple:
+        """The transpose of the forward method's :meth:`_weight_derivative` (δ(W w) = D δq + P, W = M + scale·K,
+        or scale·K without ``mass``) applied to ``u_bar`` (n, m): (Dᵀū (n, m), Pᵀū (k, m)). D = ∂(W w)/∂q by the
+        same central differences, each coordinate's column along its unit vector (the forward method takes them
+        along each δq column, step :data:`WEIGHT_STEP` times the length scale ℓ; a unit vector moves one node against
+        its elements, so its step is :data:`WEIGHT_STEP` √(ℓ L_min), L_min the shortest element's length where
+        shorter than ℓ: on the latching boom of 50 elements of 0.02 m (benchmarks/transient_sensitivities_cost.py
+        --scene boom_latch) the adjoint was 8.6e-7 off the forward method with ℓ's step (truncation), 1.7e-7 with
+        L_min's (round-off), 1.3e-8 with a step near √(ℓ L_min)); Pᵀū as P is made,
+        the transposed products (:meth:`residual_transposed_product`) in place of ∂r/∂p: scale·(∂r/∂p at
+        q ± ηw, static)ᵀū differenced, and with ``mass`` (∂r/∂p at the accelerations w less at rest)ᵀū."""
+        model, assembler = self.model, self.assembler
+        n, m = model.n_dofs, u_bar.shape[1]
+        length = self.length or 1.0
+
+        def product(moved):
+            return np.asarray(assembler.evaluate(moved, matrices=True).combined(1.0 if mass else 0.0, 0.0, scale) @ w)
+
+        sections = model.element_sections
+        shortest = float(np.min(sections[:, 0])) if len(sections) else length
+        # a unit vector moves one node against its elements: the step between the length scale's (round-off) and
+        # the shortest element's (truncation), their geometric mean
+        eta = WEIGHT_STEP * float(np.sqrt(length * min(length, shortest)))
+        D = np.zeros((n, n))
+        for j in range(n):
+            unit = np.zeros(n)
+            unit[j] = eta
+            D[:, j] = (product(assembler.advance(state, unit)) - product(assembler.advance(state, -unit))) / (2 * eta)
+        q_part = D.T @ u_bar
+        p_part = np.zeros((len(self.names), m))
+        size = float(np.max(np.abs(w), initial=0.0))
+        if size == 0.0:
+            return q_part, p_part
+        eta = WEIGHT_STEP * length / size
+        p_part += scale * (self.residual_transposed_product(assembler.advance(state, eta * w), u_bar, inertia=False)
+                           - self.residual_transposed_product(assembler.advance(state, -eta * w), u_bar,
+                                                              inertia=False)) / (2 * eta)
+        if mass:
+            at_rest = state.copy()
+            for name in ("v", "w", "theta_dot", "a", "alpha", "theta_ddot"):
+                getattr(at_rest, name)[...] = 0.0
+            accelerated = at_rest.copy()
+            unpack_free(model, w, accelerated.a, accelerated.alpha, accelerated.theta_ddot)
+            p_part += (self.residual_transposed_product(accelerated, u_bar)
+                       - self.residual_transposed_product(at_rest, u_bar))
+        return q_part, p_part
+
     def _transposed_step_system(self, new, tangent, beta_p: float, gamma_p: float):
-        """(Cᵀ, Kᵀ, solve_transposed) at the stored state ``new``: the forward method's step matrix
+        """(Cᵀ, Kᵀ, solve_transposed, solve) at the stored state ``new``: the forward method's step matrix
         S = β′M + γ′C + K J on its held pattern and storage (:meth:`TransientSensitivities._step_system`),
         factorised as the forward method factorises it, and solved with Sᵀ from those factors
         (:meth:`latdyn.assembly.factorization.Factorization.solve_transposed`); Cᵀ and Kᵀ views of the held
@@ -322,11 +629,11 @@ class AdjointSensitivities(TransientSensitivities):
             except np.linalg.LinAlgError:
                 raise SolverError(f"the adjoint sensitivities at t = {new.t:.6g} need the step's exact iteration "
                                   "matrix, which is singular there") from None
-            return C.T, K.T, solver.solve
+            return C.T, K.T, solver.solve, solver.solve_transposed
         try:
             step_matrix = self._step_matrix(tangent.slots)
             factors = step_matrix.factor(self.assembler.exact_matrix_values(new), tangent.blocks, beta_p, gamma_p)
-            return (*self._held_transposes(step_matrix), factors.solve_transposed)
+            return (*self._held_transposes(step_matrix), factors.solve_transposed, factors.solve)
         except np.linalg.LinAlgError:
             raise SolverError(f"the adjoint sensitivities at t = {new.t:.6g} need the step's exact iteration "
                               "matrix, which is singular there") from None
@@ -366,20 +673,23 @@ class AdjointSensitivities(TransientSensitivities):
     # ------------------------------------------------------------------ the end
     def finish(self, carried: dict, writer) -> None:
         """The reverse pass; summary.json ``probe_sensitivities`` (end, max, min, as the forward method
-        writes them) and ``event_sensitivities`` (none: events are refused); ``sensitivities.csv`` and
+        writes them) and ``event_sensitivities`` (each latch's, stop's and cable change's time derivative, as the
+        forward method writes them: :meth:`event_records`); ``sensitivities.csv`` and
         ``Result.sensitivities`` with the end row alone (``t,<probe>/<NAME>,…``)."""
         from latdyn.results.files import atomic_write_bytes, csv_line
 
         recorded = writer.result()
         series = {p.name: recorded.probes[p.name] for p in self.probes}
         outputs = self.outputs(carried, series)
-        gradient = self.reverse(carried, outputs)
+        gradient, timed = self.reverse(carried, outputs)
         summary: dict = {}
         for column, (probe, which, _) in enumerate(outputs):
             summary.setdefault(probe.name, {})[which] = {name: float(gradient[c, column])
                                                          for c, name in enumerate(self.names)}
         writer.summary["probe_sensitivities"] = summary
-        writer.summary["event_sensitivities"] = []
+        writer.summary["event_sensitivities"] = [
+            {**record, "dt": {name: float(timed[c, e]) for c, name in enumerate(self.names)}}
+            for e, (_, record) in enumerate(self.event_records(carried))]
         end = {(probe, name): np.array([values["end"][name]])
                for probe, values in summary.items() for name in self.names}
         writer.sensitivities = end

@@ -187,7 +187,20 @@ class CableSensitivities:
         """δh (k,) of a step that ends on element ``e``'s change: its gap stays zero (class docstring);
         ``dq``, ``dv`` the step's columns, the k parameters' and the step size's (column k); ``started``
         δt_n (k,) of the step's start: a reel's rest length L0(t) moves the gap by ∂g/∂L0 L0′(t) δt_{n+1}
-        (:meth:`gap_rate`)."""
+        (:meth:`gap_rate`). With the gap's forms (:meth:`gap_forms`), δg = g_qᵀδq + g_vᵀδv + g_p + g_t δt_{n+1} = 0:
+        δh = −(g_qᵀδq_p + g_vᵀδv_p + g_p + g_t δt_n) / (g_qᵀδq_h + g_vᵀδv_h + g_t) — a linear functional of the
+        step's parameter columns, which the discrete adjoint applies transposed
+        (:meth:`latdyn.analyses.adjoint_sensitivities.AdjointSensitivities._step_size_transposed`)."""
+        g_q, g_v, g_p, g_t = self.gap_forms(new, e, k)
+        along = g_q @ dq + g_v @ dv
+        if g_t and started is not None:
+            g_p = g_p + g_t * started
+        return -(along[:k] + g_p) / (along[k] + g_t)
+
+    def gap_forms(self, new, e: int, k: int) -> tuple:
+        """(g_q, g_v (n,), g_p (k,), g_t): element ``e``'s gap at ``new`` moves by g_qᵀδq + g_vᵀδv + g_p + g_t δt
+        (its gradients by the free coordinates and rates, by the k parameters, and by t at fixed coordinates:
+        :meth:`gap_rate`)."""
         model, cables = self.model, self.cables
         damped = self._damped(new, e)              # the gap is the tension N (with its damper), else N_el
         c = cables.damping[e] if damped else 0.0
@@ -212,11 +225,7 @@ class CableSensitivities:
                 g_p[column] += self.law(new, e, EA=0.0, c=derivative)[3][4] if damped else 0.0
             elif value == "rest_length":   # (rhoA moves no force of the element)
                 g_p[column] += self._rest_length_derivative(new, e, 3)[3] * cables.share[e] * derivative
-        along = g_q @ dq + g_v @ dv
-        g_t = self.gap_rate(new, e)
-        if g_t and started is not None:
-            g_p = g_p + g_t * started
-        return -(along[:k] + g_p) / (along[k] + g_t)
+        return g_q, g_v, g_p, self.gap_rate(new, e)
 
     def _on_free_coordinates(self, state, g_q: np.ndarray, g_v: np.ndarray) -> tuple:
         """The gap's gradients by all coordinates' configuration and rates (n_total + 1,) on the free ones: their

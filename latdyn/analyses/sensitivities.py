@@ -212,7 +212,8 @@ def refusal(scene) -> SceneError | None:
 
 def adjoint_refusal(scene) -> SceneError | None:
     """The SceneError naming ``solve.sensitivity_method`` that refuses the adjoint for ``scene``, or None
-    (latdyn/analyses/adjoint_sensitivities.py: runs without events, guides and controllers; the forward
+    (latdyn/analyses/adjoint_sensitivities.py: through latches, rigid stops and cables, without guides and
+    controllers with states; the forward
     method's refusals come first, :func:`refusal`)."""
     key = "solve.sensitivity_method"
     why = None
@@ -220,12 +221,8 @@ def adjoint_refusal(scene) -> SceneError | None:
         why = f"the adjoint differentiates transient runs only, not a {scene.solve.analysis} analysis"
     elif scene.solve.adaptive:
         why = "the adjoint differentiates fixed-step runs, not the step sizes of adaptive steps (adaptive: true)"
-    elif has_events(scene):
-        joints = [f"beams.{beam}.{which}.hinge" for beam, which, hinge in scene.hinges
-                  if hinge.lock_at is not None or hinge.limits is not None]
-        where = joints[0] if joints else ("cables" if scene.cables else "a guide's lock_at or limits")
-        why = (f"the adjoint differentiates runs without events, and {where} (lock_at, limits, a cable's slack "
-               "and taut changes) makes events")
+    elif _adjoint_event_refusal(scene) is not None:
+        why = _adjoint_event_refusal(scene)
     elif any(hinge.friction is not None for _, _, hinge in scene.hinges):
         beam, which = next((beam, which) for beam, which, hinge in scene.hinges if hinge.friction is not None)
         why = (f"the adjoint does not differentiate friction yet (beams.{beam}.{which}.hinge.friction: a joint that "
@@ -296,6 +293,62 @@ def _transient_refusal(scene) -> str | None:
     if why is not None:
         return why
     return None   # friction: sticking refused, when it comes, where not followed
+
+
+def _adjoint_event_refusal(scene) -> str | None:
+    """Why the adjoint does not take ``scene``'s events, or None: it takes a hinge's latch (``lock_at``) and rigid
+    stops (``limits`` with ``restitution``) and cables' slack and taut changes (latdyn/analyses/adjoint_sensitivities.py,
+    "Events"), not a compliant stop's onset, nor events beside laws in t, rigid links or energy and momentum probes
+    (guides and friction: their own refusals)."""
+    if not has_events(scene):
+        return None
+    compliant = next((f"beams.{beam}.{which}.hinge.contact" for beam, which, hinge in scene.hinges
+                      if hinge.limits is not None and hinge.contact is not None), None)
+    if compliant is not None:
+        return f"the adjoint does not differentiate a compliant stop's onset yet ({compliant})"
+    reel = next((f"cables.{name}.rest_length" for name, cable in scene.cables.items()
+                 if not getattr(cable.rest_length, "is_constant", True)), None) if scene.cables else None
+    if depends_on_time(scene) or reel is not None:
+        timed = reel or _timed_key(scene)
+        event = next((f"beams.{beam}.{which}.hinge" for beam, which, hinge in scene.hinges
+                      if hinge.lock_at is not None or hinge.limits is not None), "cables")
+        return (f"the adjoint does not differentiate events ({event}: lock_at, limits, a cable's slack and taut "
+                f"changes) beside laws in t yet ({timed} depends on t, so it moves with the event's time)")
+    rigid = next((name for name, beam in scene.beams.items() if beam.rigid), None)
+    if rigid is not None:
+        return f"the adjoint does not differentiate events beside rigid links yet (beams.{rigid}.rigid)"
+    probe = next((p for p in scene.output.probes if p.kind in ("energy", "momentum")), None)
+    if probe is not None:
+        return (f"the adjoint is not seeded by energy and momentum probes beside events yet (probe {probe.name!r}); "
+                "the forward method differentiates them")
+    return None
+
+
+def _timed_key(scene) -> str:
+    """The first key of ``scene`` that :func:`depends_on_time` finds depending on t (a load, a hinge's or guide's
+    law or prescribed motion, a body's motion)."""
+    def timed(law):
+        depends = getattr(law, "depends_on", None)
+        if law is None or isinstance(law, (int, float)):
+            return False
+        if depends is not None:
+            return "t" in (depends() if callable(depends) else depends)
+        return not getattr(law, "is_constant", True)
+
+    for i, load in enumerate(scene.loads):
+        if any(timed(c) for c in (load.force or []) + (load.moment or [])):
+            return f"loads[{i}]"
+    for beam, which, hinge in scene.hinges:
+        for key in ("angle", "stiffness", "damping", "torque"):
+            law = getattr(hinge, key, None)
+            if (key == "angle" and law is not None) or (key != "angle" and timed(law)):
+                return f"beams.{beam}.{which}.hinge.{key}"
+    for name, body in scene.bodies.items():
+        if body.prescribed:
+            return f"bodies.{name}.motion"
+        if body.guide is not None:
+            return f"bodies.{name}.guide"
+    return "a law"
 
 
 def has_events(scene) -> bool:

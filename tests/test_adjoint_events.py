@@ -1,0 +1,213 @@
+"""The discrete adjoint through events (latdyn/analyses/adjoint_sensitivities.py, "Events";
+docs/parameters.md, "The discrete adjoint"): a hinge's rigid stop with restitution 0.5 (planar), a latch
+(genuinely 3D: arm and hinge axis in no coordinate plane, the coordinates renumbered), a cable going taut then
+slack, and the refusals that stay.
+
+References: the forward method (latdyn/analyses/transient_sensitivities.py) on the same scene — both are the
+exact derivative of the same discrete run, events included, so each probe's end, max and min derivatives and
+each event time's agree to round-off and the forward method's central differences of the impulse weight
+(asserted ≤ 1e-10 of each output's largest derivative); and Richardson-extrapolated central differences of
+whole runs (the perturbation 1e-4 and 5e-5 relative, small enough that the event stays in its step of the grid;
+the reference runs ask for the adjoint too, so that their steps land on the event as the differentiated run's)."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import yaml
+
+import latdyn
+from latdyn.errors import SceneError
+from tests.cli_runs import latdyn_run
+from tests.resumed_runs import interrupted_and_whole
+from tests.test_sensitivities_cables import DROP
+from tests.test_sensitivities_events import LATCH_3D
+
+#: a wheel on a hinge at the end of a stiff arm, its spring driving it into a rigid stop that throws it back
+#: (restitution 0.5, at 0.526 s; it comes back onto the stop at 1.086 s, after the run's end)
+STOP_PLANAR = """
+title: a planar wheel on a hinge at the end of a stiff arm, its spring driving it into a rigid stop
+parameters: {k: 4.0, c: 0.05, J: 1.0, m: 1.0, EI: 1.0e5, rho: 1.0}
+sections: {s: {EA: 1.0e6, EIy: "EI", EIz: "EI", GJ: "0.8*EI", rhoA: "rho", rhoIy: "0.01*rho", rhoIz: "0.01*rho"}}
+bodies:
+  base: {at: [0, 0, 0], fixed: true}
+  wheel: {at: [1.0, 0, 0], mass: "m", inertia: ["0.8*J", "0.9*J", "J"]}
+beams:
+  arm: {from: base, to: wheel, section: s, elements: 2,
+        end: {hinge: {axis: [0, 0, 1], stiffness: "k", damping: "c", rest_angle: 1.0, limits: [-10, 0.5],
+                      restitution: 0.5}}}
+solve: {analysis: transient, t_end: 0.9, dt: 0.01, sensitivities: [k, c, J, m, EI, rho]}
+output:
+  every: 0.01
+  probes:
+    angle: {hinge: arm.end, quantity: angle}
+    rate: {hinge: arm.end, quantity: rate}
+    tip_y: {point: wheel, quantity: position, component: y}
+    mid_y: {point: "arm.node[1]", quantity: displacement, component: y}
+"""
+
+
+#: LATCH_3D with the latching hinge's torque (its law's while free, the reaction's once latched) and rate, and the
+#: root element's bending moment: outputs the adjoint seeds on δv and δv̇ and through their explicit ∂/∂p too
+LATCH_3D_PROBES = LATCH_3D.replace(
+    "    angle: {hinge: arm.end, quantity: angle}\n",
+    "    angle: {hinge: arm.end, quantity: angle}\n    torque: {hinge: arm.end, quantity: torque}\n"
+    "    rate: {hinge: arm.end, quantity: rate}\n    moment: {element: \"arm.element[0]\", quantity: moment_y}\n")
+#: DROP with the cable's tension and the mass's velocity
+DROP_PROBES = DROP.replace(
+    "    z: {point: bob, quantity: position, component: z}\n",
+    "    z: {point: bob, quantity: position, component: z}\n    tension: {cable: rope, quantity: tension}\n"
+    "    velocity: {point: bob, quantity: velocity, component: z}\n")
+
+
+def _adjoint(text: str) -> str:
+    """``text`` with ``solve.sensitivity_method: adjoint`` (its solve spelt ``{analysis: transient, ...}``)."""
+    switched = text.replace("analysis: transient,", "analysis: transient, sensitivity_method: adjoint,")
+    assert switched != text and yaml.safe_load(switched)["solve"]["sensitivity_method"] == "adjoint"
+    return switched
+
+
+def _run(text: str, only: str | None = None, **parameters):
+    data = yaml.safe_load(text)
+    data["parameters"].update(parameters)
+    if only is not None:
+        data["solve"]["sensitivities"] = [only]
+    return latdyn.run(latdyn.load_scene(data))
+
+
+def _disagreement(forward: dict, adjoint: dict) -> float:
+    """The largest difference of two summaries' ``probe_sensitivities`` and ``event_sensitivities``, relative to
+    each output's largest derivative (by the parameters); the events' joints, kinds and times must be the same."""
+    worst = 0.0
+    outputs = [(probe, which, by_name, adjoint["probe_sensitivities"][probe][which])
+               for probe, by in forward["probe_sensitivities"].items() for which, by_name in by.items()]
+    assert len(forward["event_sensitivities"]) == len(adjoint["event_sensitivities"]) > 0
+    for f, a in zip(forward["event_sensitivities"], adjoint["event_sensitivities"]):
+        assert (f["joint"], f["kind"], f["t"]) == (a["joint"], a["kind"], a["t"])
+        outputs.append((f["joint"], f["kind"], f["dt"], a["dt"]))
+    for _, _, f, a in outputs:
+        assert f.keys() == a.keys()
+        f_values, a_values = np.array(list(f.values())), np.array([a[name] for name in f])
+        scale = np.abs(f_values).max()
+        if scale:
+            worst = max(worst, float(np.abs(a_values - f_values).max() / scale))
+    return worst
+
+
+@pytest.fixture(scope="module")
+def stop_planar():
+    """(forward, adjoint) results of STOP_PLANAR through the API."""
+    return _run(STOP_PLANAR), _run(_adjoint(STOP_PLANAR))
+
+
+def test_a_planar_stop_with_restitution_adjoint_equals_the_forward_method(stop_planar):
+    """Through the stop at 0.526 s (e = 0.5), six parameters of four kinds (hinge spring and damper, the
+    wheel's mass and inertia, the arm's EI and ρ): measured 3.0e-12 of each output's largest derivative."""
+    forward, adjoint = stop_planar
+    assert [e["kind"] for e in adjoint.summary["events"]] == ["stop"]
+    assert _disagreement(forward.summary, adjoint.summary) <= 1e-10
+
+
+def test_the_cli_writes_the_adjoints_event_sensitivities_as_the_api(tmp_path, stop_planar):
+    """``python -m latdyn run``: summary.json ``event_sensitivities`` and ``probe_sensitivities`` as the API's
+    adjoint gives them (to the digits JSON keeps), sensitivities.csv its end row."""
+    completed, out = latdyn_run(tmp_path, _adjoint(STOP_PLANAR), quiet=True)
+    assert completed.returncode == 0, completed.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    _, adjoint = stop_planar
+    assert summary["event_sensitivities"] == adjoint.summary["event_sensitivities"]
+    assert summary["probe_sensitivities"] == adjoint.summary["probe_sensitivities"]
+    header, row = (out / "sensitivities.csv").read_text().splitlines()
+    assert header.split(",")[:2] == ["t", "angle/k"]
+    assert float(row.split(",")[1]) == pytest.approx(adjoint.summary["probe_sensitivities"]["angle"]["end"]["k"],
+                                                     rel=1e-12)
+
+
+@pytest.mark.parametrize("name", ["k", "J"])
+def test_a_planar_stop_adjoint_agrees_with_richardson_central_differences(stop_planar, name):
+    """Each probe's end, max and min derivative and the stop time's against central differences of whole runs
+    at p ± h, p ± h/2 (h = 1e-4 p) extrapolated, relative to the probe's largest over the rows: measured
+    k 1.4e-9, J 7.8e-10 (the event time, relative: k 5.6e-11, J 3.4e-11)."""
+    _, adjoint = stop_planar
+    p0 = yaml.safe_load(STOP_PLANAR)["parameters"][name]
+    central, times = [], []
+    for step in (1e-4 * p0, 0.5e-4 * p0):
+        up, down = (_run(_adjoint(STOP_PLANAR), name, **{name: p0 + sign * step}) for sign in (1, -1))
+        assert [e["kind"] for e in up.summary["events"]] == [e["kind"] for e in down.summary["events"]] == ["stop"]
+        central.append({probe: (up.probes[probe] - down.probes[probe]) / (2 * step) for probe in up.probes})
+        times.append((up.summary["events"][0]["t"] - down.summary["events"][0]["t"]) / (2 * step))
+    worst = 0.0
+    for probe, by in adjoint.summary["probe_sensitivities"].items():
+        expected = (4 * central[1][probe] - central[0][probe]) / 3
+        values = adjoint.probes[probe]
+        for which, row in (("end", len(values) - 1), ("max", int(np.argmax(values))), ("min", int(np.argmin(values)))):
+            error = abs(by[which][name] - expected[row]) / np.abs(expected).max()
+            assert error <= 1e-6, (probe, which, error)
+            worst = max(worst, error)
+    expected_time = (4 * times[1] - times[0]) / 3
+    assert adjoint.summary["event_sensitivities"][0]["dt"][name] == pytest.approx(expected_time, rel=1e-6)
+
+
+def test_a_3d_latch_adjoint_equals_the_forward_method():
+    """The wheel of tests/test_sensitivities_events.py latching at 1.058 s, its arm along (2, 1, 2)/3 and its
+    hinge axis (1, −2, 0)/√5, the centre of mass off the hinge; the latched hinge's coordinate leaves the
+    numbering (the reverse pass renumbers back). Six parameters (hinge spring and damper, inertia, mass, EI, ρ); the
+    hinge's angle, rate and torque (the reaction once latched), the wheel's position, a node's displacement and the
+    root element's bending moment: measured 9.2e-13 of each output's largest derivative."""
+    assert LATCH_3D_PROBES != LATCH_3D
+    forward, adjoint = _run(LATCH_3D_PROBES), _run(_adjoint(LATCH_3D_PROBES))
+    assert [e["kind"] for e in adjoint.summary["events"]] == ["latch"]
+    assert _disagreement(forward.summary, adjoint.summary) <= 1e-10
+
+
+def test_a_cable_going_taut_then_slack_adjoint_equals_the_forward_method():
+    """A mass dropped on a slack cable: taut at 0.319 s, slack at 0.394 s; by the rest length and EA (no jump
+    there: the event times through the gap's forms, transposed); the mass's position and velocity and the cable's
+    tension: measured 1.5e-15; the taut time's derivative by
+    L has its closed form dt_e/dL = 1/(g t_e) (free fall from rest through L − 0.5)."""
+    assert DROP_PROBES != DROP
+    forward, adjoint = _run(DROP_PROBES), _run(_adjoint(DROP_PROBES))
+    assert [e["kind"] for e in adjoint.summary["event_sensitivities"]] == ["taut", "slack"]
+    assert _disagreement(forward.summary, adjoint.summary) <= 1e-10
+    taut = adjoint.summary["event_sensitivities"][0]
+    assert taut["dt"]["L"] == pytest.approx(1.0 / (9.81 * taut["t"]), rel=1e-9)
+
+
+def test_a_run_interrupted_after_the_stop_resumes_to_the_same_adjoint(tmp_path, monkeypatch):
+    """The stored trajectory with its events' numberings and states rides in the checkpoint: interrupted after
+    the stop and resumed, the same summary.json sensitivities and sensitivities.csv byte for byte."""
+    scene = yaml.safe_load(_adjoint(STOP_PLANAR))
+    scene["solve"].update({"sensitivities": ["k", "J"], "t_end": 0.6})
+    out, whole = interrupted_and_whole(scene, tmp_path, monkeypatch, 0.55)
+    assert (out / "sensitivities.csv").read_bytes() == (whole / "sensitivities.csv").read_bytes()
+    resumed, uninterrupted = (json.loads((path / "summary.json").read_text()) for path in (out, whole))
+    assert resumed["probe_sensitivities"] == uninterrupted["probe_sensitivities"]
+    assert resumed["event_sensitivities"] == uninterrupted["event_sensitivities"]
+
+
+def _compliant(text: str) -> str:
+    """``text`` with the rigid stop made compliant (``contact`` in place of ``restitution``)."""
+    changed = text.replace("restitution: 0.5}", "contact: {stiffness: 1.0e4, exponent: 1.5, damping: 0.1}}")
+    assert changed != text
+    return changed
+
+
+@pytest.mark.parametrize("change, key", [
+    (_compliant, "beams.arm.end.hinge.contact"),
+    (lambda text: text.replace('stiffness: "k",', 'stiffness: "k*(1 + 0.1*t)",'), "beams.arm.end.hinge.stiffness"),
+], ids=["compliant-stop", "law-in-t"])
+def test_what_the_adjoint_does_not_take_beside_events_is_refused_naming_the_key(change, key):
+    """A compliant stop's onset, and laws in t beside events, stay refused: SceneError naming
+    ``solve.sensitivity_method`` and the scene key (exit 2 from the CLI: below)."""
+    with pytest.raises(SceneError, match="solve.sensitivity_method") as refused:
+        _run(change(_adjoint(STOP_PLANAR)))
+    assert key in str(refused.value)
+
+
+def test_the_cli_refuses_a_compliant_stop_with_the_adjoint_exit_2(tmp_path):
+    """``python -m latdyn run`` exits 2 naming the file, ``solve.sensitivity_method`` and the compliant stop."""
+    completed, _ = latdyn_run(tmp_path, _compliant(_adjoint(STOP_PLANAR)), quiet=True)
+    assert completed.returncode == 2, completed.stderr
+    assert "solve.sensitivity_method" in completed.stderr and "beams.arm.end.hinge.contact" in completed.stderr
+    assert "scene.yaml" in completed.stderr and "Traceback" not in completed.stderr
