@@ -319,6 +319,98 @@ def test_the_command_leaves_complete_files_and_a_call_in_process_keeps_the_colle
     assert gc.get_freeze_count() == frozen
 
 
+#: A ``sitecustomize`` that leaves an object whose finalizer writes TEARDOWN_MARK as the interpreter tears
+#: down its modules (not at ``os._exit``), and an atexit function that writes ATEXIT_MARK (run either way).
+TEARDOWN_PROBE = """\
+import atexit, os, sys
+
+class _Teardown:
+    def __del__(self, open=open, mark=os.environ["TEARDOWN_MARK"]):  # bound now: builtins go at teardown
+        open(mark, "w").close()
+
+sys._latdyn_teardown_probe = _Teardown()
+atexit.register(lambda: open(os.environ["ATEXIT_MARK"], "w").close())
+"""
+
+
+def _run_probed(tmp_path, arguments, *, code=None):
+    """``python -m latdyn ARGUMENTS`` (or ``python -c CODE``) with :data:`TEARDOWN_PROBE` loaded: (the
+    completed process, whether the teardown ran, whether the atexit function ran)."""
+    probe = tmp_path / "probe"
+    probe.mkdir(exist_ok=True)
+    (probe / "sitecustomize.py").write_text(TEARDOWN_PROBE)
+    marks = {"TEARDOWN_MARK": tmp_path / "teardown.mark", "ATEXIT_MARK": tmp_path / "atexit.mark"}
+    for mark in marks.values():
+        mark.unlink(missing_ok=True)
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(probe), str(ROOT), os.environ.get("PYTHONPATH", "")]),
+               **{k: str(v) for k, v in marks.items()})
+    command = [sys.executable, "-m", "latdyn", *arguments] if code is None else [sys.executable, "-c", code]
+    done = subprocess.run(command, env=env, capture_output=True, text=True, cwd=tmp_path, timeout=120)
+    return done, marks["TEARDOWN_MARK"].exists(), marks["ATEXIT_MARK"].exists()
+
+
+def test_the_run_command_ends_without_the_teardown_its_files_complete_its_messages_and_statuses_kept(tmp_path):
+    """``python -m latdyn run`` ends its process after the atexit functions and the flush of its output,
+    without the interpreter's teardown (cli._end_without_teardown): the results are complete (summary.json
+    solved, every row in probes.csv, state.h5 and the ParaView files readable), the line on stdout reaches
+    the pipe, and a bad scene still exits 2 with its message; ``latdyn check`` ends as before."""
+    import h5py
+
+    from cli_runs import probe_columns, summary_of
+
+    (tmp_path / "scene.yaml").write_text(BEAM)
+    done, teardown, atexit_ran = _run_probed(tmp_path, ["run", "scene.yaml", "-o", "out"])
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.startswith("latdyn: solved -> ") and done.stdout.endswith("wall time\n")
+    assert atexit_ran and not teardown
+    out = tmp_path / "out"
+    summary = summary_of(out)
+    assert summary["status"] == "solved" and summary["rows"] == 6
+    assert len(probe_columns(out)["w"]) == 6
+    with h5py.File(out / "state.h5") as f:
+        assert f["t"].shape == (6,)
+    for name in summary["paraview_files"]:
+        with h5py.File(out / name) as f:
+            assert len(f["VTKHDF"]["Steps"]["Values"]) == summary["paraview_frames"]
+    (tmp_path / "bad.yaml").write_text(BEAM.replace("rhoA: 2.0", "rhoA: heavy"))
+    done, teardown, atexit_ran = _run_probed(tmp_path, ["run", "bad.yaml", "-o", "bad"])
+    assert done.returncode == 2 and "bad.yaml" in done.stderr and "rhoA" in done.stderr
+    assert atexit_ran and not teardown and not (tmp_path / "bad").exists()
+    done, teardown, atexit_ran = _run_probed(tmp_path, ["check", "scene.yaml"])
+    assert done.returncode == 0 and atexit_ran and teardown
+
+
+def test_a_program_that_goes_on_after_the_command_is_not_ended_by_it(tmp_path):
+    """``main()`` called from a user's own program (``python -c``), or under a profiler, returns: what the
+    program does after it runs, and the interpreter ends as always (teardown included)."""
+    (tmp_path / "scene.yaml").write_text(BEAM)
+    code = ("import sys; from latdyn.cli import main; sys.argv = ['latdyn', 'run', 'scene.yaml', '-o', 'out', '-q']; "
+            "status = main(); print('after', status)")
+    done, teardown, atexit_ran = _run_probed(tmp_path, [], code=code)
+    assert done.returncode == 0 and done.stdout.endswith("after 0\n") and teardown and atexit_ran
+    done, teardown, _ = _run_probed(tmp_path, ["run", "scene.yaml", "-o", "out2", "-q"], code=(
+        "import cProfile, runpy, sys; sys.argv = ['latdyn', 'run', 'scene.yaml', '-o', 'out2', '-q']; "
+        "cProfile.run(\"runpy.run_module('latdyn', run_name='__main__')\", 'profile.out')"))
+    assert done.returncode == 0 and teardown and (tmp_path / "profile.out").exists()
+
+
+def test_a_file_left_open_for_writing_keeps_the_teardown(tmp_path):
+    """Where the process holds a file open for writing besides stdin, stdout and stderr, the command does
+    not end without the teardown (cli._open_for_writing: nothing buffered in it may be lost); a file open
+    for reading does not count. In a fresh process (pytest's capture holds files open for writing)."""
+    code = textwrap.dedent(f"""
+        from latdyn import cli
+        print(cli._open_for_writing())
+        with open({str(tmp_path / "held.txt")!r}, "w"):
+            print(cli._open_for_writing())
+        with open({str(tmp_path / "held.txt")!r}):
+            print(cli._open_for_writing())
+    """)
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    done = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=60)
+    assert done.stdout.split() == ["False", "True", "False"], done.stderr
+
+
 def test_a_short_run_writes_its_state_history_once_and_an_asked_checkpoint_at_once(tmp_path):
     """``checkpoint_min_seconds`` (a run's writer: 1 s): rows due by count are not rewritten before it;
     the close writes every row; a checkpoint asked for (a resume checkpoint's) is written at once."""
