@@ -543,6 +543,72 @@ def test_a_mid_size_model_with_a_coordinate_nothing_holds_is_refused_by_the_nump
     assert "bodies.loose" in str(info.value) or "beams.tail.end.hinge" in str(info.value)
 
 
+def _spd_band(n: int, rng) -> np.ndarray:
+    """A symmetric positive definite matrix with unit diagonal, banded in a shuffled numbering."""
+    band = np.zeros((n, n))
+    for k in range(1, 9):
+        band += np.diag(rng.uniform(-0.3, 0.3, n - k), k)
+    A = band + band.T
+    A = A @ A.T + 1e-3 * np.eye(n)  # wider band, positive definite
+    d = 1.0 / np.sqrt(np.diag(A))
+    order = rng.permutation(n)
+    return (d[:, None] * A * d[None, :])[np.ix_(order, order)]
+
+
+def test_the_banded_cholesky_decides_positive_definiteness_where_the_eigenvalues_do():
+    """Factorization.positive_definite(A, s): A − s·I positive definite, by LAPACK's banded Cholesky in the
+    pattern's reverse Cuthill–McKee order: True for s just below λ_min (by 1e-9 of it), False just above,
+    on shuffled band matrices (unsymmetric storage: its symmetric part counts); None where the band is
+    wider than BAND_LIMIT."""
+    from latdyn.assembly.factorization import Factorization
+    from latdyn.numerics.linalg import BAND_LIMIT
+
+    rng = np.random.default_rng(3)
+    for n in (130, 200, 400):
+        A = _spd_band(n, rng)
+        skew = np.triu(rng.uniform(-1e-3, 1e-3, (n, n)) * (A != 0), 1)
+        stored = A + skew - skew.T  # the same symmetric part
+        lowest = np.linalg.eigvalsh(A)[0]
+        rows, cols = np.nonzero(stored)
+        matrix = CSR.from_coo(stored[rows, cols], rows, cols, (n, n))
+        assert Factorization.positive_definite(matrix, lowest * (1 - 1e-9)) is True
+        assert Factorization.positive_definite(matrix, lowest * (1 + 1e-9)) is False
+        singular = A - lowest * np.eye(n)  # a null direction, as an unheld coordinate gives
+        rows, cols = np.nonzero(singular)
+        matrix = CSR.from_coo(singular[rows, cols], rows, cols, (n, n))
+        assert Factorization.positive_definite(matrix, 2e-10) is False
+    n = 3 * BAND_LIMIT
+    dense = np.eye(n) + 1e-3 * (np.eye(n, k=n - 1) + np.eye(n, k=1 - n))  # a ring: its band is wide
+    dense[0, n // 2] = dense[n // 2, 0] = 1e-3
+    dense[n // 4, 3 * n // 4] = dense[3 * n // 4, n // 4] = 1e-3
+    rows, cols = np.nonzero(np.ones((n, n)))
+    assert Factorization.positive_definite(CSR.from_coo(np.ravel(dense), rows, cols, (n, n)), 0.0) is None
+
+
+def test_a_held_mid_size_model_is_decided_by_the_cholesky_and_an_unheld_one_named_as_before(monkeypatch):
+    """The held check of a mid-size model (numerics.csr): a held 3D frame is proven held by one banded
+    Cholesky of A − 2·HELD_TOLERANCE·I (no inverse iteration runs); the frame with a tail free to spin about
+    its own axis is not, and the inverse iteration names it as before."""
+    import latdyn.model.model as model_module
+    from test_linalg import lattice
+
+    from latdyn.assembly.prepare import prepare
+
+    def no_iteration(*args, **kwargs):
+        raise AssertionError("the inverse iteration ran for a held model")
+
+    with monkeypatch.context() as patched:
+        patched.setattr(model_module, "psd_null_direction", no_iteration)
+        prepare(lattice(4, 4))
+    raw = lattice(4, 4)
+    raw["bodies"]["loose"] = {"at": [10.0, 0.0, 0.0]}
+    raw["beams"]["tail"] = {"from": "j0_0_1", "to": "loose", "section": "s", "elements": 2,
+                            "end": {"hinge": {"axis": [1, 0, 0]}}}
+    with pytest.raises(SceneError, match="nothing holds") as info:
+        prepare(raw)
+    assert "bodies.loose" in str(info.value) or "beams.tail.end.hinge" in str(info.value)
+
+
 def test_the_order_of_a_pattern_ordered_again_is_the_same_and_a_copy():
     """A run orders the same pattern twice (the held check, the step's matrix): the second call gives the
     first's order without searching again, as a copy the caller may change; another pattern its own."""

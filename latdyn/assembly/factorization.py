@@ -31,6 +31,10 @@ from latdyn.numerics.csr import CSR
 from latdyn.numerics.linalg import (BAND_LIMIT, DENSE_LIMIT, SMALL_BAND_FRACTION, issparse, openblas_thread_functions,
                                     rcm_band, small_rcm_band)
 
+#: SciPy's cython_lapack ``dpbtrf(uplo, n, kd, ab, ldab, info)`` (every argument by pointer).
+_DPBTRF = ctypes.CFUNCTYPE(None, ctypes.c_char_p, ctypes.POINTER(ctypes.c_int), ctypes.POINTER(ctypes.c_int),
+                           ctypes.c_void_p, ctypes.POINTER(ctypes.c_int), ctypes.POINTER(ctypes.c_int))
+
 #: The storages, in the order of csrc/factorization.c's ``kind``.
 KINDS = ("dense", "band", "sparse")
 
@@ -171,6 +175,45 @@ class Factorization:
             self._library.latdyn_solve_transposed(ctypes.byref(self.structure), self.values.ctypes.data,
                                                   self.pivots.ctypes.data, columns.shape[1], x.ctypes.data)
         return x[:, self.new].T.reshape(b.shape)
+
+    @staticmethod
+    def positive_definite(matrix: CSR, shift: float) -> bool | None:
+        """Whether the symmetric part of ``matrix`` (n × n, a :class:`latdyn.numerics.csr.CSR`) less
+        ``shift`` · I is positive definite: LAPACK's banded Cholesky (``dpbtrf``, one thread) in the
+        pattern's reverse Cuthill–McKee order (:func:`latdyn.numerics.linalg.rcm_band`, the order the LU of
+        the same pattern finds, found once a pattern): True where it completes, False where a pivot is not
+        positive; None where the band is wider than ``BAND_LIMIT`` (not decided here). Completing proves
+        λ_min > ``shift`` − e, e the factorization's backward error (≤ (kd + 1)² ε for a unit diagonal, kd
+        the band: ≈ 1e-12 at the widest band) — the held check's proof that no direction is unheld
+        (:meth:`latdyn.model.model.Model.check_held`)."""
+        n = matrix.shape[0]
+        if n == 0:
+            return True
+        rows, cols = matrix.rows, np.asarray(matrix.indices, np.int64)
+        _, new, kl, ku = (small_rcm_band if n <= DENSE_LIMIT else rcm_band)(rows, cols, n)
+        kd = max(kl, ku)
+        if kd > BAND_LIMIT:
+            return None
+        i, j = new[rows], new[cols]
+        low, high = np.minimum(i, j), np.maximum(i, j)
+        # LAPACK's lower band storage, column-major: AB(1 + i − j, j) at band[j, i − j]; each off-diagonal
+        # entry gives half of itself to the symmetric part, the diagonal all of itself
+        weights = np.where(i == j, 1.0, 0.5) * matrix.data
+        band = np.bincount(low * (kd + 1) + (high - low), weights=weights, minlength=n * (kd + 1))
+        band[::kd + 1] -= shift
+        size, width, leading, info = ctypes.c_int(n), ctypes.c_int(kd), ctypes.c_int(kd + 1), ctypes.c_int(0)
+        dpbtrf = _DPBTRF(lapack_address("dpbtrf"))
+        get, put = openblas_thread_functions()
+        threads = ctypes.CFUNCTYPE(ctypes.c_int)(get)() if get and put else None
+        if threads is not None and threads != 1:
+            ctypes.CFUNCTYPE(None, ctypes.c_int)(put)(1)
+        try:
+            dpbtrf(b"L", ctypes.byref(size), ctypes.byref(width), band.ctypes.data, ctypes.byref(leading),
+                   ctypes.byref(info))
+        finally:
+            if threads is not None and threads != 1:
+                ctypes.CFUNCTYPE(None, ctypes.c_int)(put)(threads)
+        return info.value == 0
 
     def _positions(self) -> np.ndarray:
         """The positions of the pattern's entries (made on first use)."""
