@@ -323,7 +323,8 @@ def main(argv=None) -> int:
     """Run the command line; returns the exit status. Called as the process's own command
     (``argv`` None: ``python -m latdyn``, the ``latdyn`` script), the garbage collector leaves
     alone what the process imported before it and, as the process ends next, what the command made
-    (:func:`_freeze_collector`)."""
+    (:func:`_freeze_collector`); and ``latdyn run``, where it is the whole program, ends the process
+    itself with its exit status, without the interpreter's teardown (:func:`_end_without_teardown`)."""
     if argv is None:
         _freeze_collector()
     try:
