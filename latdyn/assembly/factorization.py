@@ -25,15 +25,18 @@ from collections import OrderedDict
 
 import numpy as np
 
-from latdyn.assembly.library import FactorizationStructure, lapack_address, native_library
+from latdyn.assembly.library import (FactorizationStructure, LapackRoutines, lapack_address, native_library,
+                                    numpy_lapack)
 from latdyn.assembly.sparse_lu import PivotError, SupernodalAnalysis, blas_kernels
 from latdyn.numerics.csr import CSR
 from latdyn.numerics.linalg import (BAND_LIMIT, DENSE_LIMIT, SMALL_BAND_FRACTION, issparse, openblas_thread_functions,
                                     rcm_band, small_rcm_band)
 
-#: SciPy's cython_lapack ``dpbtrf(uplo, n, kd, ab, ldab, info)`` (every argument by pointer).
-_DPBTRF = ctypes.CFUNCTYPE(None, ctypes.c_char_p, ctypes.POINTER(ctypes.c_int), ctypes.POINTER(ctypes.c_int),
-                           ctypes.c_void_p, ctypes.POINTER(ctypes.c_int), ctypes.POINTER(ctypes.c_int))
+#: The storages whose LU takes NumPy's OpenBLAS where it is loaded (:func:`~latdyn.assembly.library.numpy_lapack`):
+#: the band LU, whose factors are those of SciPy's to the bit on the models measured; not the dense LU,
+#: whose factors from NumPy's OpenBLAS (another version) differ from SciPy's in the last place from
+#: n = 60 on (benchmarks/lapack_builds.py), so a dense model's files would change.
+NUMPY_LAPACK_KINDS = ("band",)
 
 #: The storages, in the order of csrc/factorization.c's ``kind``.
 KINDS = ("dense", "band", "sparse")
@@ -76,17 +79,32 @@ class Factorization:
         self._pattern_positions = None
         self._band = self._pivoted = None  # the band LU that stands in where a sparse pivot fails
         self._permutation = self.new if n else np.zeros(1, np.int64)
-        # SciPy's LAPACK loaded first: the OpenBLAS pinned to one thread must be the one behind it
-        # (asked before, the only OpenBLAS loaded was NumPy's, and getrs ran threaded beside it)
-        lapack = {name: lapack_address(name) for name in ("dgetrf", "dgetrs", "dgbtrf", "dgbtrs")}
-        blas_threads = openblas_thread_functions()
+        self.integer_bytes, self.wide_pivots, getrf, getrs, gbtrf, gbtrs, blas_threads = self._lapack(kind, n)
         self.structure = FactorizationStructure(
             n=n, kind=KINDS.index(kind), kl=self.kl, ku=self.ku, ldab=self.ldab, size=self.size,
-            permutation=self._permutation.ctypes.data,
-            getrf=lapack["dgetrf"], getrs=lapack["dgetrs"], gbtrf=lapack["dgbtrf"], gbtrs=lapack["dgbtrs"],
+            permutation=self._permutation.ctypes.data, getrf=getrf, getrs=getrs, gbtrf=gbtrf, gbtrs=gbtrs,
             sparse_lu=ctypes.pointer(self.analysis.structure(*blas_kernels())) if kind == "sparse" else None,
-            get_blas_threads=blas_threads[0] if blas_threads[1] else None, set_blas_threads=blas_threads[1])
+            get_blas_threads=blas_threads[0] if blas_threads[1] else None, set_blas_threads=blas_threads[1],
+            integer_bytes=self.integer_bytes, wide_pivots=self.wide_pivots.ctypes.data)
         self._library = native_library()
+
+    @staticmethod
+    def _lapack(kind: str, n: int):
+        """The LAPACK behind this storage: the band LU's from NumPy's own OpenBLAS where it is loaded
+        (:func:`~latdyn.assembly.library.numpy_lapack`, its integer width read from the library: no
+        SciPy to load; :data:`NUMPY_LAPACK_KINDS`), else, and for the dense LU, SciPy's cython_lapack (32-bit integers);
+        the thread functions of the same library. Returns (integer_bytes, wide_pivots: n int64 for an
+        ILP64 library, getrf, getrs, gbtrf, gbtrs, (get, set) thread functions)."""
+        routines = numpy_lapack() if kind in NUMPY_LAPACK_KINDS else None
+        if routines is None:
+            # SciPy's LAPACK loaded first: the OpenBLAS pinned to one thread must be the one behind it
+            # (asked before, the only OpenBLAS loaded was NumPy's, and getrs ran threaded beside it)
+            lapack = {name: lapack_address(name) for name in ("dgetrf", "dgetrs", "dgbtrf", "dgbtrs")}
+            routines = LapackRoutines(lapack, 4, openblas_thread_functions())
+        get = routines.addresses.get
+        wide_pivots = np.zeros(max(n, 1) if routines.integer_bytes == 8 else 1, np.int64)
+        return (routines.integer_bytes, wide_pivots, get("dgetrf"), get("dgetrs"), get("dgbtrf"), get("dgbtrs"),
+                routines.blas_threads)
 
     def position(self, rows, cols) -> np.ndarray:
         """Offsets in ``values`` of the matrix entries (rows, cols) (broadcast); −1 where a row or
@@ -201,9 +219,13 @@ class Factorization:
         weights = np.where(i == j, 1.0, 0.5) * matrix.data
         band = np.bincount(low * (kd + 1) + (high - low), weights=weights, minlength=n * (kd + 1))
         band[::kd + 1] -= shift
-        size, width, leading, info = ctypes.c_int(n), ctypes.c_int(kd), ctypes.c_int(kd + 1), ctypes.c_int(0)
-        dpbtrf = _DPBTRF(lapack_address("dpbtrf"))
-        get, put = openblas_thread_functions()
+        routines = numpy_lapack() or LapackRoutines({"dpbtrf": lapack_address("dpbtrf")}, 4, openblas_thread_functions())
+        integer = ctypes.c_int64 if routines.integer_bytes == 8 else ctypes.c_int
+        size, width, leading, info = integer(n), integer(kd), integer(kd + 1), integer(0)
+        pointer = ctypes.POINTER(integer)
+        dpbtrf = ctypes.CFUNCTYPE(None, ctypes.c_char_p, pointer, pointer, ctypes.c_void_p, pointer, pointer)(
+            routines.addresses["dpbtrf"])
+        get, put = routines.blas_threads
         threads = ctypes.CFUNCTYPE(ctypes.c_int)(get)() if get and put else None
         if threads is not None and threads != 1:
             ctypes.CFUNCTYPE(None, ctypes.c_int)(put)(1)
