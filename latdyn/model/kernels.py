@@ -163,8 +163,8 @@ class LibraryFiles(dict):
     """Kernel name -> its shared library (``ctypes.CDLL``), each opened (``dlopen``) when it is first
     looked up: a run opens the libraries of the kernels its model calls, not all of a variant's
     (34 ``dlopen`` s ≈ 6 ms of CPU at a run's start; docs/performance.md, "Seventh pass"). ``in``,
-    ``len`` and iteration count the libraries not yet opened; the files were found in the cache
-    when the set was made."""
+    ``len`` and iteration count the libraries not yet opened, ``items`` and ``values`` open them all;
+    the files were found in the cache when the set was made."""
 
     def __init__(self, paths: dict):
         super().__init__()
@@ -186,11 +186,18 @@ class LibraryFiles(dict):
     def __len__(self) -> int:
         return dict.__len__(self) + len(self._paths)
 
+    def items(self):
+        """Every kernel's library, opening those not yet open."""
+        return [(name, self[name]) for name in list(self)]
+
+    def values(self):
+        return [library for _, library in self.items()]
+
     def joined(self, other: "LibraryFiles") -> "LibraryFiles":
         """This set and ``other``'s, neither opening anything."""
         both = LibraryFiles({**self._paths, **other._paths})
-        dict.update(both, dict(self.items()))
-        dict.update(both, dict(other.items()))
+        dict.update(both, dict.items(self))
+        dict.update(both, dict.items(other))
         return both
 
 
