@@ -219,11 +219,14 @@ class Factorization:
         weights = np.where(i == j, 1.0, 0.5) * matrix.data
         band = np.bincount(low * (kd + 1) + (high - low), weights=weights, minlength=n * (kd + 1))
         band[::kd + 1] -= shift
-        routines = numpy_lapack() or LapackRoutines({"dpbtrf": lapack_address("dpbtrf")}, 4, openblas_thread_functions())
+        numpy_routines = numpy_lapack()
+        routines = numpy_routines or LapackRoutines({"dpbtrf": lapack_address("dpbtrf")}, 4, openblas_thread_functions())
         integer = ctypes.c_int64 if routines.integer_bytes == 8 else ctypes.c_int
         size, width, leading, info = integer(n), integer(kd), integer(kd + 1), integer(0)
         pointer = ctypes.POINTER(integer)
-        dpbtrf = ctypes.CFUNCTYPE(None, ctypes.c_char_p, pointer, pointer, ctypes.c_void_p, pointer, pointer)(
+        # NumPy's is the Fortran symbol: uplo's hidden length (gfortran's size_t) passed after the others
+        hidden = (ctypes.c_size_t,) if numpy_routines else ()
+        dpbtrf = ctypes.CFUNCTYPE(None, ctypes.c_char_p, pointer, pointer, ctypes.c_void_p, pointer, pointer, *hidden)(
             routines.addresses["dpbtrf"])
         get, put = routines.blas_threads
         threads = ctypes.CFUNCTYPE(ctypes.c_int)(get)() if get and put else None
@@ -231,7 +234,7 @@ class Factorization:
             ctypes.CFUNCTYPE(None, ctypes.c_int)(put)(1)
         try:
             dpbtrf(b"L", ctypes.byref(size), ctypes.byref(width), band.ctypes.data, ctypes.byref(leading),
-                   ctypes.byref(info))
+                   ctypes.byref(info), *(1,) * len(hidden))
         finally:
             if threads is not None and threads != 1:
                 ctypes.CFUNCTYPE(None, ctypes.c_int)(put)(threads)

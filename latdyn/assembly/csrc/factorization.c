@@ -9,28 +9,30 @@
  *   band   (kind 1): LAPACK's (2 kl + ku + 1) x n band storage after a reverse Cuthill-McKee
  *                    order, gbtrf / gbtrs with row pivots (pivots: n ints);
  *   sparse (kind 2): the factor storage of the supernodal LU of sparse_lu.c (no pivots).
- * The LAPACK routines are those latdyn/assembly/library.py's lapack_routines hands: SciPy's
- * (cython_lapack function pointers, 32-bit integers) or, for the band LU where NumPy's own
- * OpenBLAS is loaded, NumPy's (64-bit integers where that library is ILP64): `integer_bytes`
+ * The LAPACK routines are those latdyn/assembly/factorization.py chooses: SciPy's
+ * (library.lapack_address: cython_lapack function pointers, 32-bit integers) or, for the band LU
+ * where NumPy's own OpenBLAS is loaded (library.numpy_lapack), NumPy's (64-bit integers where that library is ILP64): `integer_bytes`
  * says which width the routines take, and with 8 the pivots pass through `wide_pivots` (n
  * int64), the caller's pivots staying n ints either way. The BLAS kernels of the sparse LU are
  * SciPy's. Around every call, the OpenBLAS behind the routines is held to one thread and the
  * caller's setting restored (latdyn/numerics/linalg.py: on a shared machine a second thread
  * costs far more than it gains).
  */
+#include <stddef.h> /* size_t: a Fortran character argument's hidden length */
 #include "sparse_lu.c"
 
 typedef void (*lapack_getrf)(int *, int *, double *, int *, int *, int *);
 typedef void (*lapack_getrs)(char *, int *, int *, double *, int *, int *, double *, int *, int *);
 typedef void (*lapack_gbtrf)(int *, int *, int *, int *, double *, int *, int *, int *);
 typedef void (*lapack_gbtrs)(char *, int *, int *, int *, int *, double *, int *, int *, double *, int *, int *);
-/* the same routines of an ILP64 LAPACK (every integer 64 bits) */
+/* the same routines of an ILP64 LAPACK (every integer 64 bits), called by their Fortran symbols: a
+ * character argument's hidden length (gfortran's size_t after the others) is passed */
 typedef void (*lapack64_getrf)(int64_t *, int64_t *, double *, int64_t *, int64_t *, int64_t *);
 typedef void (*lapack64_getrs)(char *, int64_t *, int64_t *, double *, int64_t *, int64_t *, double *, int64_t *,
-                               int64_t *);
+                               int64_t *, size_t);
 typedef void (*lapack64_gbtrf)(int64_t *, int64_t *, int64_t *, int64_t *, double *, int64_t *, int64_t *, int64_t *);
 typedef void (*lapack64_gbtrs)(char *, int64_t *, int64_t *, int64_t *, int64_t *, double *, int64_t *, int64_t *,
-                               double *, int64_t *, int64_t *);
+                               double *, int64_t *, int64_t *, size_t);
 
 enum { FACTOR_DENSE = 0, FACTOR_BAND = 1, FACTOR_SPARSE = 2 };
 
@@ -109,9 +111,10 @@ static int64_t solve_with_factors(const Factorization *f, const double *factor, 
         for (int64_t i = 0; i < n64; ++i) f->wide_pivots[i] = pivots[i];
         if (f->kind == FACTOR_BAND)
             ((lapack64_gbtrs)f->gbtrs)(&trans, &n64, &kl, &ku, &nrhs64, (double *)factor, &ldab, f->wide_pivots, x, &n64,
-                                       &info64);
+                                       &info64, (size_t)1);
         else
-            ((lapack64_getrs)f->getrs)(&trans, &n64, &nrhs64, (double *)factor, &n64, f->wide_pivots, x, &n64, &info64);
+            ((lapack64_getrs)f->getrs)(&trans, &n64, &nrhs64, (double *)factor, &n64, f->wide_pivots, x, &n64, &info64,
+                                       (size_t)1);
         info = (int)info64;
     } else if (f->kind == FACTOR_BAND) {
         int kl = (int)f->kl, ku = (int)f->ku, ldab = (int)f->ldab;
