@@ -7,7 +7,8 @@ own code (``latdyn.cli.main``) with timers put around the functions that make up
 phase's time is exclusive: what a phase nested in it took is counted there, not in both. Every
 ``os.fsync`` is timed as its own phase wherever it is called. Outside the child:
 ``start`` is the interpreter's start up to the first line of the child's script (Python, ``site``),
-``exit`` from the child's last line to the end of the process (atexit, h5py, interpreter teardown).
+``exit`` from the child's last line to the end of the process (atexit, h5py, interpreter teardown; where the
+command ends its process without the teardown, ``latdyn.cli._end_without_teardown``, the child ends as it does).
 The rows are medians over the rounds; ``other`` is what the named phases leave of the child's time.
 Kernels must be in the cache (run the scene once first): a compile would show as ``kernel load``.
 """
@@ -133,6 +134,10 @@ def _child(scene: str, out: str) -> int:
     print(json.dumps({"code": code, "first_wall": first_wall, "first_cpu": first_cpu, "end_wall": time.time(),
                       "end_cpu": time.process_time(),
                       "phases": {k: v[:3] for k, v in exclusive.items()}}), flush=True)
+    # as the command ends its process (a tree without it, or a run that holds a file open: by returning)
+    end = getattr(cli, "_end_without_teardown", None)
+    if end is not None and getattr(cli, "_RAN", [False])[0]:
+        end(code)
     return code
 
 

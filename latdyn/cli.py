@@ -323,14 +323,98 @@ def main(argv=None) -> int:
     """Run the command line; returns the exit status. Called as the process's own command
     (``argv`` None: ``python -m latdyn``, the ``latdyn`` script), the garbage collector leaves
     alone what the process imported before it and, as the process ends next, what the command made
-    (:func:`_freeze_collector`)."""
+    (:func:`_freeze_collector`); and ``latdyn run``, where it is the whole program, ends the process
+    itself with its exit status, without the interpreter's teardown (:func:`_end_without_teardown`)."""
     if argv is None:
         _freeze_collector()
     try:
-        return _main(argv, command=argv is None)
+        status = _main(argv, command=argv is None)
     finally:
         if argv is None:
             _freeze_collector()
+    if argv is None and _RAN[0] and _the_whole_process(sys._getframe(1)):
+        _end_without_teardown(status)
+    return status
+
+
+#: Whether this process's command was ``run`` (set by :func:`_main`, read by :func:`main`).
+_RAN = [False]
+
+
+def _the_whole_process(caller) -> bool:
+    """Whether the command is all this process does after it: ``main`` called by the ``latdyn`` script or by
+    ``latdyn/__main__.py`` run as ``python -m latdyn`` (``caller`` the frame that called it: the top level of
+    one of those two files, run as the program, only runpy's frames outside it; not a script or ``python -c``
+    of the user's that may go on after ``main()``), no profiler or tracer (``python -m cProfile -m latdyn``
+    writes its report after the command; coverage, a debugger) and no thread but this one that the
+    interpreter would wait for."""
+    import threading
+    from pathlib import Path
+
+    code = caller.f_code
+    ours = Path(code.co_filename).name == "latdyn" or code.co_filename == str(Path(__file__).with_name("__main__.py"))
+    if sys.getprofile() is not None or sys.gettrace() is not None or code.co_name != "<module>" or not ours \
+            or caller.f_globals.get("__name__") != "__main__":
+        return False
+    outer = caller.f_back
+    while outer is not None:
+        if outer.f_globals.get("__name__") != "runpy" or outer.f_code.co_name not in ("_run_code",
+                                                                                        "_run_module_as_main"):
+            return False
+        outer = outer.f_back
+    return all(t.daemon or t is threading.current_thread() for t in threading.enumerate())
+
+
+def _end_without_teardown(status: int) -> None:
+    """End ``latdyn run``'s process with ``status`` without the interpreter's teardown (freeing every module
+    and object, ≈ 15 ms of the 16-bay lattice's process; docs/performance.md, "Seventh pass"): the atexit
+    functions run as at any exit, then Python's and the C library's buffered output is flushed and the
+    process ends (``os._exit``). Only where nothing is lost: no file but stdin, stdout and stderr is open
+    for writing (every file of the run was closed and synced by its writer, ResultWriter.close), else, or
+    where a flush fails, the process ends as before, by returning."""
+    import atexit
+    import ctypes
+    import os
+
+    if _open_for_writing():
+        return
+    atexit._run_exitfuncs()
+    try:
+        sys.stdout.flush()
+        sys.stderr.flush()
+        ctypes.CDLL(None).fflush(None)  # the C library's streams (NULL: all of them)
+    except Exception:  # noqa: BLE001 - e.g. a closed pipe: the interpreter's own exit reports it, as before
+        return
+    os._exit(status)
+
+
+def _open_for_writing() -> bool:
+    """Whether this process holds a file other than stdin, stdout and stderr open for writing (Linux's
+    /proc/self/fd; True where that cannot be read: then nothing is assumed)."""
+    import os
+    import stat
+
+    try:
+        descriptors = [int(fd) for fd in os.listdir("/proc/self/fd")]
+    except OSError:
+        return True
+    for fd in descriptors:
+        if fd <= 2:
+            continue
+        try:
+            mode, flags = os.fstat(fd).st_mode, _fd_flags(fd)
+        except OSError:  # the listing's own descriptor, closed by now
+            continue
+        if stat.S_ISREG(mode) and flags & os.O_ACCMODE != os.O_RDONLY:
+            return True
+    return False
+
+
+def _fd_flags(fd: int) -> int:
+    """The open flags of a descriptor (fcntl's F_GETFL)."""
+    import fcntl
+
+    return fcntl.fcntl(fd, fcntl.F_GETFL)
 
 
 def _freeze_collector() -> None:
@@ -382,6 +466,7 @@ def _main(argv=None, command: bool = False) -> int:
         return int(exc.code or 0)
     if command and args.command == "run":
         one_blas_thread()
+        _RAN[0] = True
     debug = getattr(args, "debug", False)
     try:
         with warnings.catch_warnings():

@@ -25,11 +25,18 @@ from collections import OrderedDict
 
 import numpy as np
 
-from latdyn.assembly.library import FactorizationStructure, lapack_address, native_library
+from latdyn.assembly.library import (FactorizationStructure, LapackRoutines, lapack_address, native_library,
+                                    numpy_lapack)
 from latdyn.assembly.sparse_lu import PivotError, SupernodalAnalysis, blas_kernels
 from latdyn.numerics.csr import CSR
 from latdyn.numerics.linalg import (BAND_LIMIT, DENSE_LIMIT, SMALL_BAND_FRACTION, issparse, openblas_thread_functions,
                                     rcm_band, small_rcm_band)
+
+#: The storages whose LU takes NumPy's OpenBLAS where it is loaded (:func:`~latdyn.assembly.library.numpy_lapack`):
+#: the band LU, whose factors are those of SciPy's to the bit on the models measured; not the dense LU,
+#: whose factors from NumPy's OpenBLAS (another version) differ from SciPy's in the last place from
+#: n = 60 on (benchmarks/lapack_builds.py), so a dense model's files would change.
+NUMPY_LAPACK_KINDS = ("band",)
 
 #: The storages, in the order of csrc/factorization.c's ``kind``.
 KINDS = ("dense", "band", "sparse")
@@ -72,17 +79,32 @@ class Factorization:
         self._pattern_positions = None
         self._band = self._pivoted = None  # the band LU that stands in where a sparse pivot fails
         self._permutation = self.new if n else np.zeros(1, np.int64)
-        # SciPy's LAPACK loaded first: the OpenBLAS pinned to one thread must be the one behind it
-        # (asked before, the only OpenBLAS loaded was NumPy's, and getrs ran threaded beside it)
-        lapack = {name: lapack_address(name) for name in ("dgetrf", "dgetrs", "dgbtrf", "dgbtrs")}
-        blas_threads = openblas_thread_functions()
+        self.integer_bytes, self.wide_pivots, getrf, getrs, gbtrf, gbtrs, blas_threads = self._lapack(kind, n)
         self.structure = FactorizationStructure(
             n=n, kind=KINDS.index(kind), kl=self.kl, ku=self.ku, ldab=self.ldab, size=self.size,
-            permutation=self._permutation.ctypes.data,
-            getrf=lapack["dgetrf"], getrs=lapack["dgetrs"], gbtrf=lapack["dgbtrf"], gbtrs=lapack["dgbtrs"],
+            permutation=self._permutation.ctypes.data, getrf=getrf, getrs=getrs, gbtrf=gbtrf, gbtrs=gbtrs,
             sparse_lu=ctypes.pointer(self.analysis.structure(*blas_kernels())) if kind == "sparse" else None,
-            get_blas_threads=blas_threads[0] if blas_threads[1] else None, set_blas_threads=blas_threads[1])
+            get_blas_threads=blas_threads[0] if blas_threads[1] else None, set_blas_threads=blas_threads[1],
+            integer_bytes=self.integer_bytes, wide_pivots=self.wide_pivots.ctypes.data)
         self._library = native_library()
+
+    @staticmethod
+    def _lapack(kind: str, n: int):
+        """The LAPACK behind this storage: the band LU's from NumPy's own OpenBLAS where it is loaded
+        (:func:`~latdyn.assembly.library.numpy_lapack`, its integer width read from the library: no
+        SciPy to load; :data:`NUMPY_LAPACK_KINDS`), else, and for the dense LU, SciPy's cython_lapack (32-bit integers);
+        the thread functions of the same library. Returns (integer_bytes, wide_pivots: n int64 for an
+        ILP64 library, getrf, getrs, gbtrf, gbtrs, (get, set) thread functions)."""
+        routines = numpy_lapack() if kind in NUMPY_LAPACK_KINDS else None
+        if routines is None:
+            # SciPy's LAPACK loaded first: the OpenBLAS pinned to one thread must be the one behind it
+            # (asked before, the only OpenBLAS loaded was NumPy's, and getrs ran threaded beside it)
+            lapack = {name: lapack_address(name) for name in ("dgetrf", "dgetrs", "dgbtrf", "dgbtrs")}
+            routines = LapackRoutines(lapack, 4, openblas_thread_functions())
+        get = routines.addresses.get
+        wide_pivots = np.zeros(max(n, 1) if routines.integer_bytes == 8 else 1, np.int64)
+        return (routines.integer_bytes, wide_pivots, get("dgetrf"), get("dgetrs"), get("dgbtrf"), get("dgbtrs"),
+                routines.blas_threads)
 
     def position(self, rows, cols) -> np.ndarray:
         """Offsets in ``values`` of the matrix entries (rows, cols) (broadcast); −1 where a row or
@@ -171,6 +193,52 @@ class Factorization:
             self._library.latdyn_solve_transposed(ctypes.byref(self.structure), self.values.ctypes.data,
                                                   self.pivots.ctypes.data, columns.shape[1], x.ctypes.data)
         return x[:, self.new].T.reshape(b.shape)
+
+    @staticmethod
+    def positive_definite(matrix: CSR, shift: float) -> bool | None:
+        """Whether the symmetric part of ``matrix`` (n × n, a :class:`latdyn.numerics.csr.CSR`) less
+        ``shift`` · I is positive definite: LAPACK's banded Cholesky (``dpbtrf``, one thread) in the
+        pattern's reverse Cuthill–McKee order (:func:`latdyn.numerics.linalg.rcm_band`, the order the LU of
+        the same pattern finds, found once a pattern): True where it completes, False where a pivot is not
+        positive; None where the band is wider than ``BAND_LIMIT`` (not decided here). Completing proves
+        λ_min > ``shift`` − e, e the factorization's backward error (≤ (kd + 1)² ε for a unit diagonal, kd
+        the band: ≈ 1e-12 at the widest band) — the held check's proof that no direction is unheld
+        (:meth:`latdyn.model.model.Model.check_held`)."""
+        n = matrix.shape[0]
+        if n == 0:
+            return True
+        rows, cols = matrix.rows, np.asarray(matrix.indices, np.int64)
+        _, new, kl, ku = (small_rcm_band if n <= DENSE_LIMIT else rcm_band)(rows, cols, n)
+        kd = max(kl, ku)
+        if kd > BAND_LIMIT:
+            return None
+        i, j = new[rows], new[cols]
+        low, high = np.minimum(i, j), np.maximum(i, j)
+        # LAPACK's lower band storage, column-major: AB(1 + i − j, j) at band[j, i − j]; each off-diagonal
+        # entry gives half of itself to the symmetric part, the diagonal all of itself
+        weights = np.where(i == j, 1.0, 0.5) * matrix.data
+        band = np.bincount(low * (kd + 1) + (high - low), weights=weights, minlength=n * (kd + 1))
+        band[::kd + 1] -= shift
+        numpy_routines = numpy_lapack()
+        routines = numpy_routines or LapackRoutines({"dpbtrf": lapack_address("dpbtrf")}, 4, openblas_thread_functions())
+        integer = ctypes.c_int64 if routines.integer_bytes == 8 else ctypes.c_int
+        size, width, leading, info = integer(n), integer(kd), integer(kd + 1), integer(0)
+        pointer = ctypes.POINTER(integer)
+        # NumPy's is the Fortran symbol: uplo's hidden length (gfortran's size_t) passed after the others
+        hidden = (ctypes.c_size_t,) if numpy_routines else ()
+        dpbtrf = ctypes.CFUNCTYPE(None, ctypes.c_char_p, pointer, pointer, ctypes.c_void_p, pointer, pointer, *hidden)(
+            routines.addresses["dpbtrf"])
+        get, put = routines.blas_threads
+        threads = ctypes.CFUNCTYPE(ctypes.c_int)(get)() if get and put else None
+        if threads is not None and threads != 1:
+            ctypes.CFUNCTYPE(None, ctypes.c_int)(put)(1)
+        try:
+            dpbtrf(b"L", ctypes.byref(size), ctypes.byref(width), band.ctypes.data, ctypes.byref(leading),
+                   ctypes.byref(info), *(1,) * len(hidden))
+        finally:
+            if threads is not None and threads != 1:
+                ctypes.CFUNCTYPE(None, ctypes.c_int)(put)(threads)
+        return info.value == 0
 
     def _positions(self) -> np.ndarray:
         """The positions of the pattern's entries (made on first use)."""

@@ -16,6 +16,7 @@ from __future__ import annotations
 import ctypes
 import importlib.resources
 import os
+from typing import NamedTuple
 
 I64 = ctypes.c_int64
 
@@ -44,7 +45,8 @@ class FactorizationStructure(ctypes.Structure):
 
     _fields_ = [("n", I64), ("kind", I64), ("kl", I64), ("ku", I64), ("ldab", I64), ("size", I64),
                 ("permutation", P), ("getrf", P), ("getrs", P), ("gbtrf", P), ("gbtrs", P),
-                ("sparse_lu", ctypes.POINTER(SparseLUStructure)), ("get_blas_threads", P), ("set_blas_threads", P)]
+                ("sparse_lu", ctypes.POINTER(SparseLUStructure)), ("get_blas_threads", P), ("set_blas_threads", P),
+                ("integer_bytes", I64), ("wide_pivots", P)]
 
 
 class SensitivityStepStructure(ctypes.Structure):
@@ -386,5 +388,76 @@ def scipy_extension(name: str):
 def lapack_address(name: str) -> int:
     """The address of a LAPACK routine from SciPy's cython_lapack capsules."""
     return cython_address(scipy_extension("linalg.cython_lapack"), name)
+
+
+class LapackRoutines(NamedTuple):
+    """LAPACK routines of one library: ``addresses`` by name (``"dgbtrf"``), the integer width they
+    take (``integer_bytes``: 4, or 8 for an ILP64 build) and the addresses of that library's
+    ``openblas_get_num_threads`` / ``openblas_set_num_threads`` (None, None: not pinned)."""
+
+    addresses: dict
+    integer_bytes: int
+    blas_threads: tuple
+
+
+_numpy_lapack: "LapackRoutines | None | bool" = False  # found once per process (False: not yet looked)
+
+#: The routines :func:`numpy_lapack` hands (the LUs' and the held check's Cholesky).
+NUMPY_LAPACK_ROUTINES = ("dgetrf", "dgetrs", "dgbtrf", "dgbtrs", "dpbtrf")
+
+
+def numpy_lapack() -> "LapackRoutines | None":
+    """``dgetrf``, ``dgetrs``, ``dgbtrf``, ``dgbtrs`` and ``dpbtrf`` of the OpenBLAS that NumPy's wheel carries and has already
+    loaded (``numpy.libs/libscipy_openblas64_…``), with the integer width read from the library itself
+    (``openblas_get_config``'s ``USE64BITINT``; NumPy 2's wheels are ILP64, symbols ``scipy_dgbtrf_64_``;
+    without the configuration, the symbol's ``64`` says it): the band LU and the held check need no
+    SciPy then, whose top package and cython_lapack with its own OpenBLAS cost ≈ 15 ms of CPU at a
+    run's start (docs/performance.md, "Seventh pass"). None where no such library is found loaded
+    (Linux's ``/proc/self/maps``: elsewhere, NumPy built on another BLAS, or routines missing): then
+    SciPy's :func:`lapack_address` serves. The factorizations take from it the kinds
+    :data:`latdyn.assembly.factorization.NUMPY_LAPACK_KINDS` names (the band LU)."""
+    global _numpy_lapack
+    if _numpy_lapack is False:
+        _numpy_lapack = _find_numpy_lapack()
+    return _numpy_lapack
+
+
+def _find_numpy_lapack() -> "LapackRoutines | None":
+    try:
+        with open("/proc/self/maps", "rb") as maps:
+            paths = {line.split(maxsplit=5)[-1].strip().decode() for line in maps if b"openblas" in line}
+    except (OSError, UnicodeDecodeError):
+        return None
+    from pathlib import PurePath
+
+    own = sorted(p for p in paths if p.startswith("/") and "openblas" in os.path.basename(p).lower()
+                 and any(part == "numpy" or part.startswith("numpy.") for part in PurePath(p).parent.parts))
+    if len(own) != 1:
+        return None
+    try:
+        library = ctypes.CDLL(own[0], mode=getattr(os, "RTLD_NOLOAD", 0) | ctypes.RTLD_LOCAL)  # already loaded
+    except OSError:
+        return None
+    for prefix in ("scipy_", ""):
+        for tail in ("_64_", "64_", "_"):
+            found = {name: getattr(library, f"{prefix}{name}{tail}", None) for name in NUMPY_LAPACK_ROUTINES}
+            if all(found.values()):
+                break
+        else:
+            continue
+        break
+    else:
+        return None
+    suffix = "64_" if "64" in tail else ""
+    threads = [getattr(library, f"{prefix}openblas_{what}_num_threads{suffix}", None) for what in ("get", "set")]
+    config = getattr(library, f"{prefix}openblas_get_config{suffix}", None)
+    if config is not None:
+        config.restype = ctypes.c_char_p
+        integer_bytes = 8 if b"USE64BITINT" in (config() or b"") else 4
+    else:
+        integer_bytes = 8 if "64" in tail else 4
+    address = lambda function: ctypes.cast(function, ctypes.c_void_p).value  # noqa: E731
+    return LapackRoutines({name: address(f) for name, f in found.items()}, integer_bytes,
+                          (address(threads[0]), address(threads[1])) if all(threads) else (None, None))
 
 

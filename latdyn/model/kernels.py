@@ -143,9 +143,13 @@ def load_kernels(backend: str = "auto", variant: str = "default") -> KernelSet:
                 unit, built = _compiled_unit(stem)
                 info.update(unit)
                 ops = {name: int(meta.get("op_count", 0)) for name, meta in unit.items()}
-                libraries.update(built)
+                libraries = built if not libraries else libraries.joined(built)
+                parts = {part for used in COMPOSED.values() for part in used}
                 functions.update({name: _checked(name, meta, _c_function(built[name], name, meta))
-                                  for name, meta in unit.items() if name in built})
+                                  for name, meta in unit.items() if name in built and name in parts})
+                # the others' libraries opened when a kernel is first asked for (a model needs 15-28 of 34)
+                deferred.update({name: _opened(built, name, meta) for name, meta in unit.items()
+                                 if name in built and name not in parts})
                 deferred.update({name: _on_demand(stem, name, meta, ops) for name, meta in unit.items()
                                  if name in ON_DEMAND})
         for name, parts in COMPOSED.items():  # not generated: no entry in ``info``
@@ -153,6 +157,56 @@ def load_kernels(backend: str = "auto", variant: str = "default") -> KernelSet:
             functions[name] = _checked(name, meta, _composed(meta, parts, info, functions))
         _LOADED[key] = KernelSet(backend, variant, info, functions, libraries or None, deferred)
     return _LOADED[key]
+
+
+class LibraryFiles(dict):
+    """Kernel name -> its shared library (``ctypes.CDLL``), each opened (``dlopen``) when it is first
+    looked up: a run opens the libraries of the kernels its model calls, not all of a variant's
+    (34 ``dlopen`` s ≈ 6 ms of CPU at a run's start; docs/performance.md, "Seventh pass"). ``in``,
+    ``len`` and iteration count the libraries not yet opened, ``items`` and ``values`` open them all;
+    the files were found in the cache when the set was made."""
+
+    def __init__(self, paths: dict):
+        super().__init__()
+        self._paths = dict(paths)
+
+    def __missing__(self, name: str) -> ctypes.CDLL:
+        from latdyn import native
+
+        library = self[name] = native.load(self._paths.pop(name))
+        return library
+
+    def __contains__(self, name) -> bool:
+        return dict.__contains__(self, name) or name in self._paths
+
+    def __iter__(self):
+        yield from dict.keys(self)
+        yield from list(self._paths)
+
+    def __len__(self) -> int:
+        return dict.__len__(self) + len(self._paths)
+
+    def items(self):
+        """Every kernel's library, opening those not yet open."""
+        return [(name, self[name]) for name in list(self)]
+
+    def values(self):
+        return [library for _, library in self.items()]
+
+    def joined(self, other: "LibraryFiles") -> "LibraryFiles":
+        """This set and ``other``'s, neither opening anything."""
+        both = LibraryFiles({**self._paths, **other._paths})
+        dict.update(both, dict.items(self))
+        dict.update(both, dict.items(other))
+        return both
+
+
+def _opened(libraries: LibraryFiles, name: str, meta: dict) -> Callable[[], tuple[ctypes.CDLL, Callable]]:
+    """Kernel ``name`` of a compiled unit, its library opened when it is first asked for."""
+    def open_library():
+        library = libraries[name]
+        return library, _checked(name, meta, _c_function(library, name, meta))
+    return open_library
 
 
 def _on_demand(stem: str, name: str, meta: dict, ops: dict[str, int]) -> Callable[[], tuple[ctypes.CDLL, Callable]]:
@@ -317,9 +371,9 @@ def _kernel_sources(stem: str, names) -> dict[str, bytes]:
     return units
 
 
-def _compiled_unit(stem: str) -> tuple[dict, dict[str, ctypes.CDLL]]:
-    """The metadata (``KERNELS``) of the generated unit ``stem`` and its kernels' libraries, compiled
-    into the cache if need be (:func:`_compile`; not the ON_DEMAND ones, compiled on first use).
+def _compiled_unit(stem: str) -> tuple[dict, "LibraryFiles"]:
+    """The metadata (``KERNELS``) of the generated unit ``stem`` and its kernels' libraries (each
+    opened on first use, :class:`LibraryFiles`), compiled into the cache if need be (:func:`_compile`; not the ON_DEMAND ones, compiled on first use).
 
     A fresh process with everything cached reads both from the unit's index in the kernel cache
     (:func:`_index`), without importing the generated NumPy module (a 0.1–2.4 MB source) nor
@@ -334,7 +388,7 @@ def _compiled_unit(stem: str) -> tuple[dict, dict[str, ctypes.CDLL]]:
             entry = marshal.loads(index.read_bytes())
             paths = {name: native.cache_dir() / file for name, file in entry["targets"].items()}
             if all(path.is_file() for path in paths.values()):
-                return entry["info"], {name: native.load(path) for name, path in paths.items()}
+                return entry["info"], LibraryFiles(paths)
         except (OSError, ValueError, EOFError, TypeError, KeyError, AttributeError):
             pass  # made again below
     unit = importlib.import_module(f"{PACKAGE}.{stem}").KERNELS  # the generated kernels
@@ -342,7 +396,7 @@ def _compiled_unit(stem: str) -> tuple[dict, dict[str, ctypes.CDLL]]:
                        {name: int(meta.get("op_count", 0)) for name, meta in unit.items()})
     if index is not None:
         native._store_bytes(index, marshal.dumps({"info": unit, "targets": {n: t.name for n, t in targets.items()}}))
-    return unit, {name: native.load(target) for name, target in targets.items()}
+    return unit, LibraryFiles(targets)
 
 
 def _index(stem: str):

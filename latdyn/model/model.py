@@ -468,6 +468,8 @@ class Model:
                                  + ", ".join(names[i] for i in empty[:3]))
             scale = 1.0 / np.sqrt(d)
             scaled = CSR(A.shape, A.indptr, A.indices, A.data * scale[A.rows] * scale[A.indices])
+            if _held_by_cholesky(scaled, factorization):
+                return
             self._refuse_a_null_direction(scaled, names, file, factorization)
             return
         if issparse(mass) or issparse(stiffness):  # one kind for both (dense + sparse is np.matrix)
@@ -511,6 +513,20 @@ class Model:
                 group = "cables" if nd.beam in self.scene.cables else "beams"
                 return f"bodies.{nd.body}" if nd.body else f"{group}.{nd.beam}"
         return "bodies"
+
+
+def _held_by_cholesky(scaled, factorization) -> bool:
+    """Whether a banded Cholesky factorization proves every direction held (Model.check_held, before the
+    inverse iteration): A − 2τ·I positive definite (τ = ``HELD_TOLERANCE``, A the Jacobi-scaled sum, unit
+    diagonal) proves λ_min(A) > 2τ − e > τ (e ≲ 1e-12, the factorization's backward error:
+    ``Factorization.positive_definite``), and the inverse iteration's Rayleigh quotient is never below
+    λ_min, so it would not have refused either: the same decision, ≈ 0.3 ms instead of an LU and about
+    ten inverse iterations (≈ 7 ms of the 16-bay lattice's start; docs/performance.md, "Seventh pass").
+    False where the factorization breaks down (a direction with λ ≤ 2τ may be there: the inverse
+    iteration decides and names it, as before) or where ``factorization`` offers no such test or the band
+    is too wide for it (the sparse LU's models)."""
+    test = getattr(factorization, "positive_definite", None)
+    return test is not None and test(scaled, 2.0 * HELD_TOLERANCE) is True
 
 
 def _short(names, count: int = 4) -> str:
@@ -816,13 +832,29 @@ HELD_TOLERANCE = 1e-10
 def _normalised_csr(matrix: CSR) -> CSR:
     """:func:`_normalised` of a :class:`latdyn.numerics.csr.CSR`."""
     rows = matrix.rows
-    A = CSR.from_coo(np.concatenate([0.5 * matrix.data, 0.5 * matrix.data]), np.concatenate([rows, matrix.indices]),
-                     np.concatenate([matrix.indices, rows]), matrix.shape)
+    transposed = _transposed_entries(matrix)
+    if transposed is not None:  # a symmetric pattern (the assembler's): the same sums, without sorting
+        A = CSR(matrix.shape, matrix.indptr, matrix.indices, 0.5 * matrix.data + 0.5 * matrix.data[transposed])
+    else:
+        A = CSR.from_coo(np.concatenate([0.5 * matrix.data, 0.5 * matrix.data]), np.concatenate([rows, matrix.indices]),
+                         np.concatenate([matrix.indices, rows]), matrix.shape)
     top = float(np.abs(A.diagonal()).max(initial=0.0))
     return CSR(A.shape, A.indptr, A.indices, A.data / top) if top > 0 else A
 
 
+def _transposed_entries(matrix: CSR) -> np.ndarray | None:
+    """For a square CSR matrix whose pattern is symmetric, the place of each entry's transposed entry
+    (entry k is (i, j), entry ``places[k]`` is (j, i)); None for an unsymmetric pattern."""
+    n = matrix.shape[0]
+    rows, cols = matrix.rows, np.asarray(matrix.indices, np.int64)
+    keys, wanted = rows * n + cols, cols * n + rows  # keys ascending: the CSR is canonical
+    places = np.minimum(np.searchsorted(keys, wanted), max(len(keys) - 1, 0))
+    return places if len(keys) and np.array_equal(keys[places], wanted) else None
+
+
 def _csr_sum(a: CSR, b: CSR) -> CSR:
+    if np.array_equal(a.indptr, b.indptr) and np.array_equal(a.indices, b.indices):  # one pattern: the same sums
+        return CSR(a.shape, a.indptr, a.indices, a.data + b.data)
     return CSR.from_coo(np.concatenate([a.data, b.data]), np.concatenate([a.rows, b.rows]),
                         np.concatenate([a.indices, b.indices]), a.shape)
 

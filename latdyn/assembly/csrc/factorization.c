@@ -9,17 +9,30 @@
  *   band   (kind 1): LAPACK's (2 kl + ku + 1) x n band storage after a reverse Cuthill-McKee
  *                    order, gbtrf / gbtrs with row pivots (pivots: n ints);
  *   sparse (kind 2): the factor storage of the supernodal LU of sparse_lu.c (no pivots).
- * The LAPACK routines are SciPy's (cython_lapack function pointers), as are the BLAS kernels of
- * the sparse LU. Around every call, OpenBLAS is held to one thread and the caller's setting
- * restored (latdyn/numerics/linalg.py: on a shared machine a second thread costs far more than
- * it gains).
+ * The LAPACK routines are those latdyn/assembly/factorization.py chooses: SciPy's
+ * (library.lapack_address: cython_lapack function pointers, 32-bit integers) or, for the band LU
+ * where NumPy's own OpenBLAS is loaded (library.numpy_lapack), NumPy's (64-bit integers where that library is ILP64): `integer_bytes`
+ * says which width the routines take, and with 8 the pivots pass through `wide_pivots` (n
+ * int64), the caller's pivots staying n ints either way. The BLAS kernels of the sparse LU are
+ * SciPy's. Around every call, the OpenBLAS behind the routines is held to one thread and the
+ * caller's setting restored (latdyn/numerics/linalg.py: on a shared machine a second thread
+ * costs far more than it gains).
  */
+#include <stddef.h> /* size_t: a Fortran character argument's hidden length */
 #include "sparse_lu.c"
 
 typedef void (*lapack_getrf)(int *, int *, double *, int *, int *, int *);
 typedef void (*lapack_getrs)(char *, int *, int *, double *, int *, int *, double *, int *, int *);
 typedef void (*lapack_gbtrf)(int *, int *, int *, int *, double *, int *, int *, int *);
 typedef void (*lapack_gbtrs)(char *, int *, int *, int *, int *, double *, int *, int *, double *, int *, int *);
+/* the same routines of an ILP64 LAPACK (every integer 64 bits), called by their Fortran symbols: a
+ * character argument's hidden length (gfortran's size_t after the others) is passed */
+typedef void (*lapack64_getrf)(int64_t *, int64_t *, double *, int64_t *, int64_t *, int64_t *);
+typedef void (*lapack64_getrs)(char *, int64_t *, int64_t *, double *, int64_t *, int64_t *, double *, int64_t *,
+                               int64_t *, size_t);
+typedef void (*lapack64_gbtrf)(int64_t *, int64_t *, int64_t *, int64_t *, double *, int64_t *, int64_t *, int64_t *);
+typedef void (*lapack64_gbtrs)(char *, int64_t *, int64_t *, int64_t *, int64_t *, double *, int64_t *, int64_t *,
+                               double *, int64_t *, int64_t *, size_t);
 
 enum { FACTOR_DENSE = 0, FACTOR_BAND = 1, FACTOR_SPARSE = 2 };
 
@@ -35,6 +48,8 @@ typedef struct {
     /* OpenBLAS's thread count of the library behind LAPACK and BLAS (NULL: not pinned) */
     int (*get_blas_threads)(void);
     void (*set_blas_threads)(int);
+    int64_t integer_bytes; /* the LAPACK routines' integer width: 4, or 8 (ILP64) */
+    int64_t *wide_pivots;  /* n int64: the pivots of an ILP64 LAPACK (integer_bytes 8 only) */
 } Factorization;
 
 static int hold_one_thread(const Factorization *f)
@@ -57,6 +72,14 @@ int64_t latdyn_factor(const Factorization *f, double *factor, int *pivots)
     int threads = hold_one_thread(f);
     if (f->kind == FACTOR_SPARSE) {
         info = (int)latdyn_sparse_lu_factor(f->sparse_lu, factor);
+    } else if (f->integer_bytes == 8) {
+        int64_t n64 = f->n, kl = f->kl, ku = f->ku, ldab = f->ldab, info64 = 0;
+        if (f->kind == FACTOR_BAND)
+            ((lapack64_gbtrf)f->gbtrf)(&n64, &n64, &kl, &ku, factor, &ldab, f->wide_pivots, &info64);
+        else
+            ((lapack64_getrf)f->getrf)(&n64, &n64, factor, &n64, f->wide_pivots, &info64);
+        for (int64_t i = 0; i < n64; ++i) pivots[i] = (int)f->wide_pivots[i];
+        info = (int)info64; /* a pivot's index or an argument's: below n */
     } else if (f->kind == FACTOR_BAND) {
         int kl = (int)f->kl, ku = (int)f->ku, ldab = (int)f->ldab;
         f->gbtrf(&n, &n, &kl, &ku, factor, &ldab, pivots, &info);
@@ -83,6 +106,16 @@ static int64_t solve_with_factors(const Factorization *f, const double *factor, 
             else
                 latdyn_sparse_lu_solve(f->sparse_lu, factor, x + k * f->n);
         }
+    } else if (f->integer_bytes == 8) {
+        int64_t n64 = f->n, nrhs64 = n_rhs, kl = f->kl, ku = f->ku, ldab = f->ldab, info64 = 0;
+        for (int64_t i = 0; i < n64; ++i) f->wide_pivots[i] = pivots[i];
+        if (f->kind == FACTOR_BAND)
+            ((lapack64_gbtrs)f->gbtrs)(&trans, &n64, &kl, &ku, &nrhs64, (double *)factor, &ldab, f->wide_pivots, x, &n64,
+                                       &info64, (size_t)1);
+        else
+            ((lapack64_getrs)f->getrs)(&trans, &n64, &nrhs64, (double *)factor, &n64, f->wide_pivots, x, &n64, &info64,
+                                       (size_t)1);
+        info = (int)info64;
     } else if (f->kind == FACTOR_BAND) {
         int kl = (int)f->kl, ku = (int)f->ku, ldab = (int)f->ldab;
         f->gbtrs(&trans, &n, &kl, &ku, &nrhs, (double *)factor, &ldab, (int *)pivots, x, &n, &info);

@@ -1,0 +1,65 @@
+"""A variant's kernel libraries opened when first used (issue 31): a run opens those its model calls,
+not all of the variant's, and a kernel asked for later opens then and computes as before."""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+CHAIN = """\
+title: 3D chain with a joint body under gravity
+sections:
+  s: {EA: 1.0e6, EIy: 2.0e3, EIz: 1.0e3, GJ: 8.0e2, rhoA: 2.0, rhoIy: 1.0e-3, rhoIz: 1.0e-3}
+bodies:
+  wall: {at: [0, 0, 0], fixed: true}
+  tip: {at: [1.0, 0.3, 0.2], mass: 0.5, inertia: [[0.01, 0, 0], [0, 0.01, 0], [0, 0, 0.01]]}
+beams:
+  arm: {from: wall, to: tip, section: s, elements: 4}
+gravity: [0, 0, -9.81]
+solve: {analysis: transient, t_end: 0.01, dt: 0.002}
+output:
+  probes:
+    z: {point: tip, quantity: displacement, component: z}
+"""
+
+
+def test_a_run_opens_only_the_kernel_libraries_its_model_calls(tmp_path):
+    """In a fresh process: after load_kernels only the parts of the composed beam_dynamics are open,
+    every library still counted and found (``in``, ``len``); after a run of a chain with a joint body
+    the open ones are fewer than the variant's; a kernel not yet open (beam_deformation) opens when
+    asked for."""
+    scene = tmp_path / "chain.yaml"
+    scene.write_text(CHAIN)
+    code = textwrap.dedent(f"""
+        import json
+        import latdyn
+        from latdyn.model import kernels as module
+        from latdyn.model.kernels import COMPOSED, ON_DEMAND, load_kernels
+        kernels = load_kernels("c", "default")
+        libraries = kernels.libraries
+        after_load = sorted(dict.keys(libraries))
+        compiled = [name for name in kernels.info if name not in ON_DEMAND]
+        counted, found = len(libraries), all(name in libraries for name in compiled)
+        result = latdyn.run(latdyn.load_scene({str(scene)!r}))
+        opened = {{variant: (dict.__len__(k.libraries), len(k.libraries)) for (backend, variant), k in module._LOADED.items()}}
+        closed_before = "beam_deformation" not in dict.keys(libraries)
+        deformation = kernels.beam_deformation  # opened here
+        print(json.dumps({{"after_load": after_load, "parts": sorted(p for ps in COMPOSED.values() for p in ps),
+                          "counted": counted, "compiled": len(compiled), "found": found, "opened": opened,
+                          "status": result.summary["status"], "closed_before": closed_before,
+                          "open_now": "beam_deformation" in dict.keys(libraries) and callable(deformation)}}))
+        """)
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=600)
+    assert done.returncode == 0, done.stderr[-2000:]
+    found = json.loads(done.stdout.strip().splitlines()[-1])
+    assert found["after_load"] == found["parts"]
+    assert found["found"] and found["counted"] == found["compiled"] >= 30
+    assert found["status"] == "solved"
+    assert all(0 < opened < count for opened, count in found["opened"].values()), found["opened"]
+    assert found["closed_before"] and found["open_now"]
