@@ -36,7 +36,9 @@ shipped examples).
 ``newton: modified`` keeps the factorized iteration matrix from step to step while Newton
 contracts (|Δx_k| ≤ ``contraction`` · |Δx_{k−1}|) and rebuilds it when it stops doing so
 or the step size changes; only the residual is evaluated between rebuilds. It converges to the
-same tolerance on the same invariant increment.
+same tolerance on the same invariant increment, |Δx_k| ≤ ``tol``; full Newton on a model without
+events, when the error left estimated from the contraction is ≤ ``tol``
+(:func:`latdyn.step.integrators.newton_converged`).
 
 Threads: the element part of each evaluation (geometry and generated kernels) runs on OpenMP
 threads, one contiguous range of elements each, from ``PARALLEL_ELEMENTS`` elements on
@@ -169,6 +171,9 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         self.threads = threads
         self.modified = newton == "modified"
         self.contraction = contraction
+        #: full Newton converges on the error left estimated from its contraction (integrators.newton_converged);
+        #: modified Newton on |Δx_k| ≤ tol (docs/performance.md, "Fewer iterations where they buy nothing")
+        self.estimate_error = not self.modified
         self.factorizations = 0
         #: bumped whenever the held factorization (Work matrix and pivots, factored_h) may change:
         #: before each call into C that steps, on a rebuild of the buffers, on a restore
@@ -197,7 +202,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         self._control = ControlData(max_iterations=self.max_iterations, modified=int(self.modified),
                                     inertia_tangent=int(self.inertia_tangent),
                                     contraction=self.contraction, factored_h=0.0, tol=self.tol,
-                                    length=self.length_scale)
+                                    length=self.length_scale, estimate_error=int(self.estimate_error))
         for name in ("alpha_m", "alpha_f", "gamma", "beta"):
             setattr(self._control, name, getattr(self.p, name))
         size = max(n, 1)
