@@ -16,7 +16,7 @@ import numpy as np
 
 from latdyn.assembly.assembler import State, free_acceleration, free_velocity, unpack_free
 from latdyn.assembly.factorization import solve_linear
-from latdyn.step.integrators import GeneralizedAlpha, StepStats, increment_size, newton_converged
+from latdyn.step.integrators import GeneralizedAlpha, StepStats, increment_size
 from latdyn.timeloop import transient
 
 
@@ -51,8 +51,6 @@ class ReferenceGeneralizedAlpha(GeneralizedAlpha):
 
         trial = state
         previous = np.inf
-        # full Newton's error estimate where the model has no events (csrc/newton_step.c)
-        estimate_error = not self.assembler.native(False).model.has_events
         for iteration in range(1, self.max_iterations + 1):
             trial = configured()
             ev = self.assembler.evaluate(trial, matrices=True, inertia_tangent=self.inertia_tangent and n > 0)
@@ -76,9 +74,8 @@ class ReferenceGeneralizedAlpha(GeneralizedAlpha):
             size = increment_size(model, dx, self.length_scale)
             if iteration > 1:
                 stats.contraction = max(stats.contraction, size / previous)
-            converged = newton_converged(size, previous, self.tol, estimate_error)
             previous = size
-            if converged:
+            if size <= self.tol:
                 stats.converged = True
                 trial = configured()
                 break

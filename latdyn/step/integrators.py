@@ -51,8 +51,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import math
-
 import numpy as np
 
 from latdyn.assembly.assembler import (
@@ -121,23 +119,6 @@ def increment_size(model, dx: np.ndarray, length: float) -> float:
     hinge = np.abs(dx[model.hinge_dofs[model.free_hinges]])
     return float(max(np.max(translation, initial=0.0), np.max(rotation, initial=0.0),
                      np.max(hinge, initial=0.0)))
-
-
-def newton_converged(size: float, previous: float, tol: float, estimate_error: bool) -> bool:
-    """Whether a time step's Newton iteration has converged after an increment of size ``size``
-    (:func:`increment_size` of Δx_k; ``previous`` that of Δx_{k−1}, ``inf`` at the first iteration).
-
-    With ``estimate_error`` (full Newton on a model without events), the error left after the last
-    correction estimated from the contraction seen, ρ/(1 − ρ) |Δx_k| with ρ = |Δx_k| / |Δx_{k−1}| (the
-    tail of a linear contraction), must be ≤ ``tol``; where ρ is not known yet (the first iteration) or
-    ρ ≥ 1, and without ``estimate_error``, |Δx_k| ≤ ``tol`` (docs/performance.md, "Fewer iterations where
-    they buy nothing"). ``csrc/newton_step.c`` ``newton_converged`` is its twin.
-    """
-    with np.errstate(divide="ignore", invalid="ignore"):
-        rho = float(np.divide(size, previous))
-    if not estimate_error or math.isinf(previous) or not rho < 1.0:
-        return size <= tol
-    return size * rho / (1.0 - rho) <= tol
 
 
 def consistent_acceleration(model, ev) -> np.ndarray:

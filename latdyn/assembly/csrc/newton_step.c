@@ -156,8 +156,8 @@ static int64_t newton_iterations(const Model *m, Work *w, StepControl *s, const 
 /* Whether Newton has converged after an increment of size |Δx_k| (the one before: |Δx_{k−1}|, INFINITY at
  * the first): with estimate_error, the error left after the last correction estimated from the
  * contraction seen, ρ/(1 − ρ) |Δx_k| with ρ = |Δx_k| / |Δx_{k−1}| (the tail of a linear contraction),
- * ≤ tol; where ρ is not known yet (the first iteration) or ρ ≥ 1, and without estimate_error, |Δx_k| ≤ tol.
- * latdyn/step/integrators.py newton_converged is its twin. */
+ * ≤ tol; where ρ is not known yet (the first iteration) or ρ ≥ 1, and without estimate_error (the default:
+ * docs/performance.md, "Fewer iterations where they buy nothing"), |Δx_k| ≤ tol. */
 static int newton_converged(double size, double previous, double tol, int64_t estimate_error)
 {
     double rho = size / previous;
