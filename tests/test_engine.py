@@ -251,3 +251,28 @@ def test_the_ctypes_mirrors_have_the_compilers_layout():
     wrong = [f"{struct}.{field}: C {int(value)}, ctypes {offset}"
              for (struct, field, offset), value in zip(expected, out) if value != offset]
     assert not wrong, "\n".join(wrong)
+
+
+def test_full_newtons_contraction_estimate_is_off_by_default_and_within_the_tolerance_when_on(monkeypatch, tmp_path):
+    """Full Newton stops on |Δx_k| ≤ tol (the default); with ``estimate_error`` on (csrc/newton_step.c
+    newton_converged: ρ/(1 − ρ)|Δx_k| ≤ tol, ρ = |Δx_k|/|Δx_{k−1}|, measured and not adopted:
+    docs/performance.md, "Fewer iterations where they buy nothing") it takes fewer iterations on the 3D
+    chain with a rigid link, and stays within the tolerance's reach of full Newton at tol 1e-12."""
+    from latdyn.step import compiled
+
+    raw = hinged_chain(t_end=0.1)
+    raw["beams"]["l2"]["rigid"] = True
+    shipped, shipped_summary = _run(raw, tmp_path, "shipped", engine="compiled", newton="full")
+    tight, _ = _run(raw, tmp_path, "tight", engine="compiled", newton="full", tol=1e-12)
+    made = compiled.CompiledGeneralizedAlpha.__init__
+
+    def with_the_estimate(self, *args, **kwargs):
+        made(self, *args, **kwargs)
+        self.estimate_error = True
+
+    monkeypatch.setattr(compiled.CompiledGeneralizedAlpha, "__init__", with_the_estimate)
+    estimated, estimated_summary = _run(raw, tmp_path, "estimated", engine="compiled", newton="full")
+    assert shipped_summary["newton_iterations"] == 60 and estimated_summary["newton_iterations"] == 40  # 3 → 2 a step
+    assert _relative_difference(tight, shipped) < 1e-7  # measured 6.8e-9
+    # measured 6.8e-6: the hinge rate h3, whose Newton error grows by γ/(βh) times the position's
+    assert 1e-7 < _relative_difference(tight, estimated) < 2e-5

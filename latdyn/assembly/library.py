@@ -154,7 +154,8 @@ class ControlData(ctypes.Structure):
         ("max_iterations", I64), ("modified", I64), ("inertia_tangent", I64),
         ("contraction", ctypes.c_double),
         ("factored_h", ctypes.c_double), ("iterations", I64), ("converged", I64), ("factorizations", I64),
-        ("power", ctypes.c_double), ("contraction_seen", ctypes.c_double), ("t_new", ctypes.c_double)]
+        ("power", ctypes.c_double), ("contraction_seen", ctypes.c_double), ("t_new", ctypes.c_double),
+        ("estimate_error", I64)]
 
 
 class EvaluationData(ctypes.Structure):

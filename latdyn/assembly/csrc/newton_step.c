@@ -117,6 +117,9 @@ typedef struct {
     double contraction_seen;   /* largest |Δx_k| / |Δx_{k−1}| of the step (StepStats.contraction) */
     /* in: the step's end time (the laws' time when the model has them compiled) */
     double t_new;
+    /* in: converge on the error left estimated from the contraction (newton_converged), not |Δx_k| alone,
+     * where the model has no events (Model.has_events) */
+    int64_t estimate_error;
 } StepControl;
 
 /* One step from `base` (velocities v_n, accelerations v̇_n, algorithmic acceleration a_n on the
@@ -151,6 +154,18 @@ typedef struct {
 static int64_t newton_iterations(const Model *m, Work *w, StepControl *s, const Configuration *base,
                                  Configuration *trial, StepVectors *x);
 
+/* Whether Newton has converged after an increment of size |Δx_k| (the one before: |Δx_{k−1}|, INFINITY at
+ * the first): with estimate_error, the error left after the last correction estimated from the
+ * contraction seen, ρ/(1 − ρ) |Δx_k| with ρ = |Δx_k| / |Δx_{k−1}| (the tail of a linear contraction),
+ * ≤ tol; where ρ is not known yet (the first iteration) or ρ ≥ 1, and without estimate_error (the default:
+ * docs/performance.md, "Fewer iterations where they buy nothing"), |Δx_k| ≤ tol. */
+static int newton_converged(double size, double previous, double tol, int64_t estimate_error)
+{
+    double rho = size / previous;
+    if (!estimate_error || isinf(previous) || !(rho < 1.0)) return size <= tol;
+    return size * rho / (1.0 - rho) <= tol;
+}
+
 /* The step (newton_iterations), with the states of continuous controllers condensed by the trapezoidal
  * rule of the step's h (evaluate.c controller_states_at): h/2 set for its evaluations only. */
 int64_t latdyn_newton_step(const Model *m, Work *w, StepControl *s, const Configuration *base,
@@ -171,6 +186,9 @@ static int64_t newton_iterations(const Model *m, Work *w, StepControl *s, const 
     const double *v_n = x->v_n, *vdot_n = x->vdot_n, *a_n = x->a_n;
     double *v = x->v, *vdot = x->vdot, *dq = x->dq, *dx = x->dx;
     double previous = INFINITY;
+    /* full Newton's error estimate, not where events can happen: latches, stops, friction and cables are
+     * placed from the last iterates (docs/performance.md, "Fewer iterations where they buy nothing") */
+    const int64_t estimate_error = s->estimate_error && !m->has_events;
     const double *laws = w->laws;
     m->time_laws(s->t_new, w->laws); /* the laws at the step's end time */
     free_rates(m, base, x->v_n, x->vdot_n);
@@ -215,7 +233,7 @@ static int64_t newton_iterations(const Model *m, Work *w, StepControl *s, const 
         s->iterations = iteration;
         double size = increment_size(m, dx, s->length);
         if (iteration > 1 && size / previous > s->contraction_seen) s->contraction_seen = size / previous;
-        if (size <= s->tol) {
+        if (newton_converged(size, previous, s->tol, estimate_error)) {
             s->converged = 1;
             for (int64_t i = 0; i < n; ++i) {
                 dx[i] = h * dq[i];
