@@ -106,7 +106,7 @@ class AdjointSensitivities(TransientSensitivities):
         refusals of the forward method's start (directions without inertia off rest; events where the
         impulse's weight is not M + dt²K alone)."""
         model = self.model
-        carried = {"trajectory": [], "rows": [], "start": state.copy(), "events": [], "h_prev": None,
+        carried = {"trajectory": [], "rows": [], "start": state.copy(), "events": [],
                    "numbering_start": self._numbering(), "timed": False, "dh_moves": False}
         if model.n_dofs and self.names:
             ev = self.assembler.evaluate(state, matrices=True)
@@ -130,7 +130,6 @@ class AdjointSensitivities(TransientSensitivities):
             entry.update({"numbering": self._numbering(), "event": event, "cable": cable,
                           "rule": self._size_rule(carried, h, lands, event, cable)})
         carried["trajectory"].append(entry)
-        carried["h_prev"] = float(h)
         return carried
 
     def after_events(self, carried: dict, new) -> dict:
@@ -175,22 +174,49 @@ class AdjointSensitivities(TransientSensitivities):
         """The rule of the step's δh as the forward method's :meth:`_step_size_derivative` (and
         :meth:`CableSensitivities.step_size_derivative`) applies it, or None where δh is 0 exactly
         (before any event δt_n and the last δh are 0): ("event",) the hinge's angle held on its event,
-        ("cable",) the element's gap held at 0, ("lands",) δh = −δt_n, ("scaled", h/h_prev) δh = h/h_prev ·
-        δh_prev. Updates ``carried``'s flags of whether δt_n and the carried δh may be non-zero."""
+        ("cable",) the element's gap held at 0, ("lands",) δh = −δt_n, ("sized", a, b) δh = a δh_prev + b δt_n,
+        the trial's size as the step control chose it (:meth:`resized`). Updates ``carried``'s flags of whether
+        δt_n and the carried δh may be non-zero, and whether the step's δh is its trial's (``trial_sized``)."""
         timed, dh_moves = carried["timed"], carried["dh_moves"]
+        carried["trial_sized"] = not lands and event is None and cable is None
         if event is not None or cable is not None:
             rule = ("event",) if cable is None else ("cable",)
-            carried["timed"], carried["dh_moves"] = True, cable is None
+            carried["timed"], carried["dh_moves"] = True, True
             return rule
         if lands:
             carried["timed"], carried["dh_moves"] = False, timed
             return ("lands",) if timed else None
-        h_prev, dt = carried["h_prev"], self.scene.solve.dt
-        if h_prev is None or abs(h - dt) <= 1e-12 * dt:
-            carried["dh_moves"] = False
-            return None
-        carried["timed"] = timed or dh_moves
-        return ("scaled", h / h_prev) if dh_moves else None
+        a, b = carried.get("next_size", (0.0, 0.0))
+        moves = (a != 0.0 and dh_moves) or (b != 0.0 and timed)
+        carried["timed"], carried["dh_moves"] = timed or moves, moves
+        return ("sized", a, b) if moves else None
+
+    def resized(self, carried: dict, control, lands: bool | None = None, integrator=None) -> dict:
+        """The forward method's :meth:`TransientSensitivities.resized` as coefficients: the next trial's δh =
+        a δh_prev + b δt_n (``carried["next_size"]``, δh_prev the last accepted step's), from ``control.resize``
+        (∂h'/∂h, ∂h'/∂h_proposed; fixed steps). After a trial Newton did not converge (``lands``: it landed on the
+        grid, its δh −δt_n), δh' = ∂h'/∂h δh_trial + ∂h'/∂h_proposed δh_proposed; after an accepted step whose δh
+        was its trial's, δh' = (∂h'/∂h + ∂h'/∂h_proposed) δh (the proposed size was the step's own)."""
+        if not self._with_events():   # δt_n and every δh are 0 exactly
+            return carried
+        resize = control.resize
+        if resize is None:
+            raise SolverError("the adjoint sensitivities meet a step size that does not follow from the step before "
+                              "it (a pause of latdyn.Simulation between grid points); expected latdyn run")
+        a, b = carried.get("next_size", (0.0, 0.0))
+        if lands is not None:
+            trial = (0.0, -1.0) if lands else (a, b)
+            carried["next_size"] = (resize.by_step * trial[0] + resize.by_proposed * a,
+                                    resize.by_step * trial[1] + resize.by_proposed * b)
+        elif carried.get("trial_sized", True):
+            carried["next_size"] = (resize.by_step + resize.by_proposed, 0.0)
+        elif resize.by_proposed != 0.0 and (a, b) != (0.0, 0.0):
+            raise SolverError("the adjoint sensitivities meet a step sized from a trial proposed before an event or a "
+                              "landing on the grid, which the reverse pass does not follow; expected the nominal step "
+                              "after them (docs/parameters.md, \"The discrete adjoint\")")
+        else:
+            carried["next_size"] = (resize.by_step, 0.0)
+        return carried
 
     def record(self, carried: dict, state) -> dict:
         """The row at ``state``: the index of the stored state it is (0: the start)."""
@@ -430,7 +456,7 @@ class AdjointSensitivities(TransientSensitivities):
                 column = self._step_size_column(entry, old, C_t.T, K_t.T, solve, tangent, beta_p, gamma_p)
                 h_bar = sum(np.einsum("i,im->m", column[key], bar) for key, bar in
                             (("dq", q_bar), ("dv", v_bar), ("dvdot", vdot_bar), ("da", a_bar)))
-                h_bar = h_bar + t_bar + (0.0 if rule[0] == "cable" else g_bar)
+                h_bar = h_bar + t_bar + g_bar
                 q_bar, v_bar, t_bar, g_bar, by_size = self._step_size_transposed(entry, rule, column, h_bar,
                                                                                  q_bar, v_bar, t_bar)
                 gradient += by_size
@@ -480,8 +506,8 @@ class AdjointSensitivities(TransientSensitivities):
         step's parameter columns, t̄ of δt_n, ḡ of the last step's δh, (k, m) into the gradient).
         ("event",): δh = −δq_p[θ]/δq_h[θ] → q̄[θ] −= h̄/δq_h[θ]; ("cable",): δh = −(g_qᵀδq_p + g_vᵀδv_p + g_p
         + g_t δt_n)/(g_qᵀδq_h + g_vᵀδv_h + g_t) → q̄ −= g_q h̄ᵀ/d, v̄ −= g_v h̄ᵀ/d, −g_p h̄ᵀ/d, t̄ −= g_t h̄/d;
-        ("lands",): δh = −δt_n → t̄ −= h̄; ("scaled", r): δh = r δh_prev → ḡ = r h̄. δt_{n+1} = δt_n + δh: t̄
-        passes on unchanged besides."""
+        ("lands",): δh = −δt_n → t̄ −= h̄; ("sized", a, b): δh = a δh_prev + b δt_n → ḡ = a h̄, t̄ += b h̄.
+        δt_{n+1} = δt_n + δh: t̄ passes on unchanged besides."""
         k = len(self.names)
         by_size = np.zeros((k, len(h_bar)))
         g_bar = np.zeros_like(h_bar)
@@ -499,6 +525,7 @@ class AdjointSensitivities(TransientSensitivities):
             t_bar = t_bar - h_bar
         else:
             g_bar = rule[1] * h_bar
+            t_bar = t_bar + rule[2] * h_bar
         return q_bar, v_bar, t_bar, g_bar, by_size
 
     def _impulse_transposed(self, entry: dict, v_bar_plus: np.ndarray) -> tuple:

@@ -315,14 +315,18 @@ class StepControl:
             error = 0.0 if latched else self.accepted_error
             run.h, self.resize = self._sized(h, error, 0.2, 2.0)
         elif stopped:
-            run.h = self.dt  # after an impact on a stop the integrator restarted: the nominal step
+            run.h, self.resize = self.dt, Resize(0.0, 0.0, 0.0)  # after an impact on a stop: the nominal step
         elif lands and self.proposed is not None and h < self.proposed:
             # a step shortened onto a grid point: the steps grow on from the size proposed before the shortening
             # (a sliver before a grid point says nothing of the steps after it; growing from the sliver made
             # the sequence of steps, and the results with it, jump with Newton's last iterates)
             run.h = min(self.dt, 2 * self.proposed)
+            self.resize = Resize(0.0, 0.0, 0.0, 2.0 if 2 * self.proposed < self.dt else 0.0)
         elif h < self.dt:
             run.h = min(self.dt, 2 * h)  # recover the nominal step after a cut or a shortened step
+            self.resize = Resize(2.0 if 2 * h < self.dt else 0.0, 0.0, 0.0)
+        else:
+            self.resize = Resize(0.0, 0.0, 0.0, 1.0)   # run.h as it was
 
     def _watch_crawl(self, run: TransientProgress, h: float, event: bool) -> None:
         """Count the accepted step of size ``h`` (``event``: it ended on a latch or a stop) into the
