@@ -123,12 +123,14 @@ class AdjointSensitivities(TransientSensitivities):
         taken on, the event it ends on and the rule its size's derivative follows, :meth:`_size_rule`);
         appended in place: the trajectory grows with the run and a copy per step would cost its length."""
         entry = {"state": new.copy(), "h": float(h), "a_old": np.array(a_old, float),
-                 "a_new": np.array(a_new, float)}
+                 "a_new": np.array(a_new, float), "pending": True}   # accepted once its events are (after_events)
         if self._with_events():
             event = self._event(old, new) if self.model.n_dofs else None
             cable = self._cable_event(old, new, event)
             entry.update({"numbering": self._numbering(), "event": event, "cable": cable,
                           "rule": self._size_rule(carried, h, lands, event, cable)})
+        if carried["trajectory"] and carried["trajectory"][-1].get("pending"):   # not accepted: a run resumed
+            carried["trajectory"].pop()                                             # from before it
         carried["trajectory"].append(entry)
         return carried
 
@@ -136,6 +138,8 @@ class AdjointSensitivities(TransientSensitivities):
         """After the events of the step just stored: the numbering and cables' sides the rows and the next
         step are taken on, and after a latch or a stop the state after its jump and restart (where the reverse
         pass transposes the restart, :meth:`_restart_transposed`)."""
+        if carried["trajectory"]:
+            carried["trajectory"][-1].pop("pending", None)
         if self._with_events() and carried["trajectory"]:
             entry = carried["trajectory"][-1]
             entry["numbering_end"] = self._numbering()
@@ -219,8 +223,9 @@ class AdjointSensitivities(TransientSensitivities):
         return carried
 
     def record(self, carried: dict, state) -> dict:
-        """The row at ``state``: the index of the stored state it is (0: the start)."""
-        carried["rows"].append(len(carried["trajectory"]))
+        """The row at ``state``: the index of the stored state it is (0: the start; a run that failed in the
+        events of its last step records the state before that step, which :meth:`finish` leaves out)."""
+        carried["rows"].append(len(_accepted(carried["trajectory"])))
         return carried
 
     # ------------------------------------------------------------------ the reverse pass
@@ -351,7 +356,7 @@ class AdjointSensitivities(TransientSensitivities):
         trajectory, rows = carried["trajectory"], carried["rows"]
         states = [carried["start"]] + [entry.get("after", entry["state"]) for entry in trajectory]
         numberings = [carried.get("numbering_start")] + [entry.get("numbering_end") for entry in trajectory]
-        final = self._numbering() if self._with_events() else None
+        final = self._numbering() if self._with_events() else None   # the model's, put back at the end
         seeds: dict[int, list] = {}   # stored state index -> [(column, (c_q, c_v, c_v̇, explicit))]
         taken: list[list[int]] = []   # each output's columns: one, or a norm at 0's three components
         columns = 0
@@ -371,8 +376,8 @@ class AdjointSensitivities(TransientSensitivities):
             for index, _ in events:
                 timings.setdefault(index, []).append(columns)
                 columns += 1
-            if final is not None:   # the reverse pass starts on the run's last numbering
-                self._numbered(final)
+            if final is not None:   # the reverse pass starts on the numbering the last accepted step ended on
+                self._numbered(numberings[-1] if numberings[-1] is not None else final)
             gradient = self._reverse_columns(carried, states, seeds, columns, timings)
         finally:
             if final is not None:
@@ -706,6 +711,9 @@ class AdjointSensitivities(TransientSensitivities):
         from latdyn.results.files import atomic_write_bytes, csv_line
 
         recorded = writer.result()
+        # a run that failed in the events of its last step (a SolverError after the step was stored): the
+        # accepted steps before it, as the forward method's carried sensitivities are
+        carried = {**carried, "trajectory": _accepted(carried["trajectory"])}
         series = {p.name: recorded.probes[p.name] for p in self.probes}
         outputs = self.outputs(carried, series)
         gradient, timed = self.reverse(carried, outputs)
@@ -726,6 +734,12 @@ class AdjointSensitivities(TransientSensitivities):
                              for p in self.probes for name in self.names]
             text = csv_line(["t", *self.columns]) + csv_line(row)
             atomic_write_bytes(Path(writer.out_dir) / SENSITIVITIES_FILE, text.encode("utf-8"))
+
+
+def _accepted(trajectory: list) -> list:
+    """``trajectory`` without a last entry still pending (stored by :meth:`AdjointSensitivities.step`, its events
+    not taken: the run failed in them)."""
+    return trajectory[:-1] if trajectory and trajectory[-1].get("pending") else trajectory
 
 
 def _norm_at_zero(probe, forms: tuple) -> bool:
