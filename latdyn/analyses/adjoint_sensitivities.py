@@ -491,7 +491,7 @@ class AdjointSensitivities(TransientSensitivities):
     # ------------------------------------------------------------------ events transposed
     def _step_size_column(self, entry: dict, old, C, K, solve, tangent, beta_p: float, gamma_p: float) -> dict:
         """{dq, dv, dvdot, da} (n,): the forward method's column of a unit change of the step's size h
-        (:meth:`TransientSensitivities._columns`, its column k: ∂(hΔq)/∂h, ∂v_{n+1}/∂h and the solve with the
+        (:meth:`TransientSensitivities.step_columns`, its column k: ∂(hΔq)/∂h, ∂v_{n+1}/∂h and the solve with the
         step's exact matrix; no explicit time dependence: laws in t beside events are refused)."""
         p, model, h = self.params, self.model, entry["h"]
         am, af, gamma, beta = p.alpha_m, p.alpha_f, p.gamma, p.beta
