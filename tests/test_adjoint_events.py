@@ -143,10 +143,10 @@ def test_a_planar_stop_adjoint_agrees_with_richardson_central_differences(stop_p
         values = adjoint.probes[probe]
         for which, row in (("end", len(values) - 1), ("max", int(np.argmax(values))), ("min", int(np.argmin(values)))):
             error = abs(by[which][name] - expected[row]) / np.abs(expected).max()
-            assert error <= 1e-6, (probe, which, error)
+            assert error <= 1e-8, (probe, which, error)
             worst = max(worst, error)
     expected_time = (4 * times[1] - times[0]) / 3
-    assert adjoint.summary["event_sensitivities"][0]["dt"][name] == pytest.approx(expected_time, rel=1e-6)
+    assert adjoint.summary["event_sensitivities"][0]["dt"][name] == pytest.approx(expected_time, rel=1e-9)
 
 
 def test_a_3d_latch_adjoint_equals_the_forward_method():
