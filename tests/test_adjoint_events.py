@@ -235,3 +235,23 @@ def test_a_run_failing_in_its_events_ends_with_the_solver_message_and_the_forwar
             a = adjoint["probe_sensitivities"][probe][which]
             scale = max(abs(value) for value in f.values())
             assert max(abs(a[name] - f[name]) for name in f) <= 1e-10 * max(scale, 1e-300), (probe, which)
+
+
+#: STOP_PLANAR with the hinge's torque from a stateless PD-like controller of the hinge's angle (no t in it)
+STOP_PLANAR_CONTROLLED = STOP_PLANAR.replace("parameters: {k: 4.0,", "parameters: {Kp: 0.5, k: 4.0,").replace(
+    "solve:", "controllers:\n  pd: {output: \"Kp*(0.3 - angle)\"}\nsolve:").replace(
+    "damping: \"c\",", "damping: \"c\", torque: \"pd\",").replace("sensitivities: [k,", "sensitivities: [Kp, k,")
+
+
+def test_a_stateless_controller_beside_a_stop_is_taken_by_the_adjoint_as_the_forward_method():
+    """A hinge torque from a controller whose output names no t is no law in t: the adjoint takes it beside the
+    stop (it was refused as "a law in t") and equals the forward method (measured 5.2e-12); a controller whose
+    output names t is still refused, naming the torque."""
+    assert STOP_PLANAR_CONTROLLED.count("Kp") == 3
+    forward, adjoint = _run(STOP_PLANAR_CONTROLLED), _run(_adjoint(STOP_PLANAR_CONTROLLED))
+    assert [e["kind"] for e in adjoint.summary["events"]] == ["stop"]
+    assert adjoint.summary["probe_sensitivities"]["tip_y"]["end"]["Kp"] != 0.0
+    assert _disagreement(forward.summary, adjoint.summary) <= 1e-10
+    in_time = STOP_PLANAR_CONTROLLED.replace("\"Kp*(0.3 - angle)\"", "\"Kp*(0.3 - angle) + 0.01*t\"")
+    with pytest.raises(SceneError, match=r"beams\.arm\.end\.hinge\.torque depends on t"):
+        _run(_adjoint(in_time))
