@@ -83,7 +83,7 @@ from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_forc
 from latdyn.analyses.link_sensitivities import columns_moving
 from latdyn.analyses.probe_derivatives import is_probe_here, probe_forms
 from latdyn.analyses.sensitivities import _BODY_KEY, _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE
-from latdyn.analyses.transient_sensitivities import WEIGHT_STEP, TransientSensitivities, _NodeRotations
+from latdyn.analyses.transient_sensitivities import WEIGHT_STEP, TransientSensitivities, _NodeRotations, _StepColumns
 from latdyn.assembly.assembler import free_acceleration, free_velocity, pack, unpack_free
 from latdyn.assembly.factorization import factorization_for, solve_linear
 from latdyn.errors import SolverError
@@ -458,7 +458,7 @@ class AdjointSensitivities(TransientSensitivities):
             C_t, K_t, solve_transposed, solve = self._transposed_step_system(new, tangent, beta_p, gamma_p)
             rule = entry.get("rule")
             if rule is not None:   # the step's size moves with p: its column, and δh's functional transposed
-                column = self._step_size_column(entry, old, C_t.T, K_t.T, solve, tangent, beta_p, gamma_p)
+                column = self._step_size_column(entry, old, C_t.T, K_t.T, solve, (turn, tangent), beta_p, gamma_p)
                 h_bar = sum(np.einsum("i,im->m", column[key], bar) for key, bar in
                             (("dq", q_bar), ("dv", v_bar), ("dvdot", vdot_bar), ("da", a_bar)))
                 h_bar = h_bar + t_bar + g_bar
@@ -489,20 +489,19 @@ class AdjointSensitivities(TransientSensitivities):
         return gradient + self._through_the_start(carried["start"], v_bar, vdot_bar + a_bar)
 
     # ------------------------------------------------------------------ events transposed
-    def _step_size_column(self, entry: dict, old, C, K, solve, tangent, beta_p: float, gamma_p: float) -> dict:
-        """{dq, dv, dvdot, da} (n,): the forward method's column of a unit change of the step's size h
-        (:meth:`TransientSensitivities.step_columns`, its column k: ∂(hΔq)/∂h, ∂v_{n+1}/∂h and the solve with the
-        step's exact matrix; no explicit time dependence: laws in t beside events are refused)."""
-        p, model, h = self.params, self.model, entry["h"]
-        am, af, gamma, beta = p.alpha_m, p.alpha_f, p.gamma, p.beta
-        a_old, a_new = entry["a_old"], entry["a_new"]
-        du0 = free_velocity(model, old) + 2 * h * (0.5 - beta) * a_old + 2 * h * beta * a_new   # ∂(hΔq)/∂h
-        dq0 = tangent(du0[:, None])[:, 0]
-        dv0 = (1 - gamma) * a_old + gamma * a_new                                                # ∂v_{n+1}/∂h
-        z = np.asarray(solve(-(K @ dq0 + C @ dv0))).reshape(-1)
-        dvdot = beta_p * z
-        return {"dq": dq0 + tangent(z[:, None])[:, 0], "dv": dv0 + gamma_p * z, "dvdot": dvdot,
-                "da": (1 - af) / (1 - am) * dvdot}
+    def _step_size_column(self, entry: dict, old, C, K, solve, rotations: tuple, beta_p: float,
+                          gamma_p: float) -> dict:
+        """{dq, dv, dvdot, da} (n,): the forward method's column of a unit change of the step size h
+        (:meth:`TransientSensitivities.step_columns`, its column k), computed as it computes it: the native
+        predict and update (:class:`_StepColumns` with no parameter column: ∂(hΔq)/∂h, ∂v_{n+1}/∂h) around the
+        solve with the step's exact matrix (``solve``; ``C``, ``K`` its damping and stiffness; ``rotations``: the
+        step's (R, J)); no explicit time dependence: laws in t beside events are refused."""
+        p, model, n = self.params, self.model, self.model.n_dofs
+        step = _StepColumns(self, n, 0, (entry["h"], p.alpha_m, p.alpha_f, p.gamma, p.beta), *rotations)
+        none = np.zeros((n, 0))
+        _, dq0, dv0 = step.predict(free_velocity(model, old), entry["a_old"], entry["a_new"], none, none, none, none)
+        z = np.asarray(solve(-(K @ dq0 + C @ dv0))).reshape(n, 1)
+        return {key: column[:, 0] for key, column in step.update(z, beta_p, gamma_p).items()}
 
     def _step_size_transposed(self, entry: dict, rule: tuple, column: dict, h_bar: np.ndarray,
                               q_bar: np.ndarray, v_bar: np.ndarray, t_bar: np.ndarray) -> tuple:
