@@ -620,12 +620,12 @@ class AdjointSensitivities(TransientSensitivities):
         # a unit vector moves one node against its elements: the step between the length scale's (round-off) and
         # the shortest element's (truncation), their geometric mean
         eta = WEIGHT_STEP * float(np.sqrt(length * min(length, shortest)))
-        D = np.zeros((n, n))
+        q_part = np.zeros((n, m))   # (Dᵀū)_j = D's column j · ū, each column dotted as it is made (no n × n D)
         for j in range(n):
             unit = np.zeros(n)
             unit[j] = eta
-            D[:, j] = (product(assembler.advance(state, unit)) - product(assembler.advance(state, -unit))) / (2 * eta)
-        q_part = D.T @ u_bar
+            column = (product(assembler.advance(state, unit)) - product(assembler.advance(state, -unit))) / (2 * eta)
+            q_part[j] = column @ u_bar
         p_part = np.zeros((len(self.names), m))
         size = float(np.max(np.abs(w), initial=0.0))
         if size == 0.0:
