@@ -38,8 +38,9 @@ CRAWL_FRACTION = 1e-3
 
 
 class Resize(NamedTuple):
-    """How the step size the control chose last depends on the step it came from (adaptive steps:
-    the derivative of the controller's formula, which the transient sensitivities follow, δh_new =
+    """How the step size the control chose last depends on the step it came from (adaptive steps, and fixed
+    steps' cuts and their doubling back: the derivative of the controller's formula, which the transient
+    sensitivities follow, δh_new =
     ``by_step`` δh + ``by_error`` δerror; latdyn/analyses/adaptive_sensitivities.py): ``by_step`` =
     ∂h_new/∂h, ``by_error`` = ∂h_new/∂error (error: the relative error estimate it read). A clipped
     size (dt, dt_min, a factor at its bound) has the clipping's derivative. ``by_proposed``: ∂h_new/∂h_proposed,
