@@ -92,6 +92,9 @@ def test_the_step_matrix_on_its_held_pattern_is_scipys_sum(text):
     expected = solve_linear(reference, rhs)
     assert np.max(np.abs(solved - expected)) <= 1e-10 * np.max(np.abs(expected))
     assert np.max(np.abs(reference @ solved - rhs)) <= 1e-10 * scale * np.max(np.abs(solved))
+    # values() sums alone (latdyn_sensitivity_step with k < 0): the factors held stay those of factor()
+    step.values(values, tangent.blocks, 2.0 * beta_p, gamma_p)
+    assert np.array_equal(factorization.solve(rhs), solved)
     # C and K kept for the right-hand sides: exact_matrices' own
     assert np.max(np.abs((step.stiffness - K).toarray())) <= 1e-13 * np.max(np.abs(K.toarray()))
     assert np.max(np.abs((step.damping - C).toarray())) == 0.0

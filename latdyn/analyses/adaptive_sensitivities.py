@@ -133,18 +133,19 @@ def accepted_trial(new, x: np.ndarray, total: dict, before: dict, dh: np.ndarray
 def resized(owner, carried: dict, control, lands: bool | None, integrator=None) -> dict:
     """``carried`` with ``dh_next`` after an accepted step (``lands`` None: its δh is ``carried["dh_step"]``, its
     error estimate differentiated from ``carried["accepted_trial"]``) or a trial Newton did not converge
-    (``lands``: whether it was shortened onto the grid), on adaptive runs."""
+    (``lands``: whether it was shortened onto the grid), on adaptive runs and on fixed steps (their sizes after
+    a cut: ``control.resize`` without ∂h'/∂e, :meth:`latdyn.timeloop.control.StepControl.after_accepted`)."""
     k = len(owner.names)
     trial = carried.get("accepted_trial")
     if trial is not None:
         carried = {**carried, "accepted_trial": None}
-    if not control.adaptive or owner.model.n_dofs == 0 or k == 0:
+    if owner.model.n_dofs == 0 or k == 0:
         return carried
     resize = control.resize
     if resize is None:
-        raise SolverError("the sensitivities of an adaptive run meet a step size that does not follow from the step "
-                          "before it as latdyn/analyses/adaptive_sensitivities.py differentiates it (a pause of "
-                          "latdyn.Simulation between grid points); expected latdyn run or a fixed step")
+        raise SolverError("the sensitivities meet a step size that does not follow from the step before it as "
+                          "latdyn/analyses/adaptive_sensitivities.py differentiates it (a pause of "
+                          "latdyn.Simulation between grid points); expected latdyn run")
     dh = np.asarray(carried.get("dh_step", np.zeros(k)) if lands is None
                     else _trial_size_derivative(owner, carried, lands))
     d_error = np.zeros(k)

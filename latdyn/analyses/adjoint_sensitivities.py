@@ -83,7 +83,7 @@ from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_forc
 from latdyn.analyses.link_sensitivities import columns_moving
 from latdyn.analyses.probe_derivatives import is_probe_here, probe_forms
 from latdyn.analyses.sensitivities import _BODY_KEY, _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE
-from latdyn.analyses.transient_sensitivities import WEIGHT_STEP, TransientSensitivities, _NodeRotations
+from latdyn.analyses.transient_sensitivities import WEIGHT_STEP, TransientSensitivities, _NodeRotations, _StepColumns
 from latdyn.assembly.assembler import free_acceleration, free_velocity, pack, unpack_free
 from latdyn.assembly.factorization import factorization_for, solve_linear
 from latdyn.errors import SolverError
@@ -106,7 +106,7 @@ class AdjointSensitivities(TransientSensitivities):
         refusals of the forward method's start (directions without inertia off rest; events where the
         impulse's weight is not M + dt²K alone)."""
         model = self.model
-        carried = {"trajectory": [], "rows": [], "start": state.copy(), "events": [], "h_prev": None,
+        carried = {"trajectory": [], "rows": [], "start": state.copy(), "events": [],
                    "numbering_start": self._numbering(), "timed": False, "dh_moves": False}
         if model.n_dofs and self.names:
             ev = self.assembler.evaluate(state, matrices=True)
@@ -123,20 +123,23 @@ class AdjointSensitivities(TransientSensitivities):
         taken on, the event it ends on and the rule its size's derivative follows, :meth:`_size_rule`);
         appended in place: the trajectory grows with the run and a copy per step would cost its length."""
         entry = {"state": new.copy(), "h": float(h), "a_old": np.array(a_old, float),
-                 "a_new": np.array(a_new, float)}
+                 "a_new": np.array(a_new, float), "pending": True}   # accepted once its events are (after_events)
         if self._with_events():
             event = self._event(old, new) if self.model.n_dofs else None
             cable = self._cable_event(old, new, event)
             entry.update({"numbering": self._numbering(), "event": event, "cable": cable,
                           "rule": self._size_rule(carried, h, lands, event, cable)})
+        if carried["trajectory"] and carried["trajectory"][-1].get("pending"):   # not accepted: a run resumed
+            carried["trajectory"].pop()                                             # from before it
         carried["trajectory"].append(entry)
-        carried["h_prev"] = float(h)
         return carried
 
     def after_events(self, carried: dict, new) -> dict:
         """After the events of the step just stored: the numbering and cables' sides the rows and the next
         step are taken on, and after a latch or a stop the state after its jump and restart (where the reverse
         pass transposes the restart, :meth:`_restart_transposed`)."""
+        if carried["trajectory"]:
+            carried["trajectory"][-1].pop("pending", None)
         if self._with_events() and carried["trajectory"]:
             entry = carried["trajectory"][-1]
             entry["numbering_end"] = self._numbering()
@@ -175,26 +178,54 @@ class AdjointSensitivities(TransientSensitivities):
         """The rule of the step's δh as the forward method's :meth:`_step_size_derivative` (and
         :meth:`CableSensitivities.step_size_derivative`) applies it, or None where δh is 0 exactly
         (before any event δt_n and the last δh are 0): ("event",) the hinge's angle held on its event,
-        ("cable",) the element's gap held at 0, ("lands",) δh = −δt_n, ("scaled", h/h_prev) δh = h/h_prev ·
-        δh_prev. Updates ``carried``'s flags of whether δt_n and the carried δh may be non-zero."""
+        ("cable",) the element's gap held at 0, ("lands",) δh = −δt_n, ("sized", a, b) δh = a δh_prev + b δt_n,
+        the trial's size as the step control chose it (:meth:`resized`). Updates ``carried``'s flags of whether
+        δt_n and the carried δh may be non-zero, and whether the step's δh is its trial's (``trial_sized``)."""
         timed, dh_moves = carried["timed"], carried["dh_moves"]
+        carried["trial_sized"] = not lands and event is None and cable is None
         if event is not None or cable is not None:
             rule = ("event",) if cable is None else ("cable",)
-            carried["timed"], carried["dh_moves"] = True, cable is None
+            carried["timed"], carried["dh_moves"] = True, True
             return rule
         if lands:
             carried["timed"], carried["dh_moves"] = False, timed
             return ("lands",) if timed else None
-        h_prev, dt = carried["h_prev"], self.scene.solve.dt
-        if h_prev is None or abs(h - dt) <= 1e-12 * dt:
-            carried["dh_moves"] = False
-            return None
-        carried["timed"] = timed or dh_moves
-        return ("scaled", h / h_prev) if dh_moves else None
+        a, b = carried.get("next_size", (0.0, 0.0))
+        moves = (a != 0.0 and dh_moves) or (b != 0.0 and timed)
+        carried["timed"], carried["dh_moves"] = timed or moves, moves
+        return ("sized", a, b) if moves else None
+
+    def resized(self, carried: dict, control, lands: bool | None = None, integrator=None) -> dict:
+        """The forward method's :meth:`TransientSensitivities.resized` as coefficients: the next trial's δh =
+        a δh_prev + b δt_n (``carried["next_size"]``, δh_prev the last accepted step's), from ``control.resize``
+        (∂h'/∂h, ∂h'/∂h_proposed; fixed steps). After a trial Newton did not converge (``lands``: it landed on the
+        grid, its δh −δt_n), δh' = ∂h'/∂h δh_trial + ∂h'/∂h_proposed δh_proposed; after an accepted step whose δh
+        was its trial's, δh' = (∂h'/∂h + ∂h'/∂h_proposed) δh (the proposed size was the step's own)."""
+        if not self._with_events():   # δt_n and every δh are 0 exactly
+            return carried
+        resize = control.resize
+        if resize is None:
+            raise SolverError("the adjoint sensitivities meet a step size that does not follow from the step before "
+                              "it (a pause of latdyn.Simulation between grid points); expected latdyn run")
+        a, b = carried.get("next_size", (0.0, 0.0))
+        if lands is not None:
+            trial = (0.0, -1.0) if lands else (a, b)
+            carried["next_size"] = (resize.by_step * trial[0] + resize.by_proposed * a,
+                                    resize.by_step * trial[1] + resize.by_proposed * b)
+        elif carried.get("trial_sized", True):
+            carried["next_size"] = (resize.by_step + resize.by_proposed, 0.0)
+        elif resize.by_proposed != 0.0 and (a, b) != (0.0, 0.0):
+            raise SolverError("the adjoint sensitivities meet a step sized from a trial proposed before an event or a "
+                              "landing on the grid, which the reverse pass does not follow; expected the nominal step "
+                              "after them (docs/parameters.md, \"The discrete adjoint\")")
+        else:
+            carried["next_size"] = (resize.by_step, 0.0)
+        return carried
 
     def record(self, carried: dict, state) -> dict:
-        """The row at ``state``: the index of the stored state it is (0: the start)."""
-        carried["rows"].append(len(carried["trajectory"]))
+        """The row at ``state``: the index of the stored state it is (0: the start; a run that failed in the
+        events of its last step records the state before that step, which :meth:`finish` leaves out)."""
+        carried["rows"].append(len(_accepted(carried["trajectory"])))
         return carried
 
     # ------------------------------------------------------------------ the reverse pass
@@ -325,7 +356,7 @@ class AdjointSensitivities(TransientSensitivities):
         trajectory, rows = carried["trajectory"], carried["rows"]
         states = [carried["start"]] + [entry.get("after", entry["state"]) for entry in trajectory]
         numberings = [carried.get("numbering_start")] + [entry.get("numbering_end") for entry in trajectory]
-        final = self._numbering() if self._with_events() else None
+        final = self._numbering() if self._with_events() else None   # the model's, put back at the end
         seeds: dict[int, list] = {}   # stored state index -> [(column, (c_q, c_v, c_v̇, explicit))]
         taken: list[list[int]] = []   # each output's columns: one, or a norm at 0's three components
         columns = 0
@@ -345,8 +376,8 @@ class AdjointSensitivities(TransientSensitivities):
             for index, _ in events:
                 timings.setdefault(index, []).append(columns)
                 columns += 1
-            if final is not None:   # the reverse pass starts on the run's last numbering
-                self._numbered(final)
+            if final is not None:   # the reverse pass starts on the numbering the last accepted step ended on
+                self._numbered(numberings[-1] if numberings[-1] is not None else final)
             gradient = self._reverse_columns(carried, states, seeds, columns, timings)
         finally:
             if final is not None:
@@ -427,10 +458,10 @@ class AdjointSensitivities(TransientSensitivities):
             C_t, K_t, solve_transposed, solve = self._transposed_step_system(new, tangent, beta_p, gamma_p)
             rule = entry.get("rule")
             if rule is not None:   # the step's size moves with p: its column, and δh's functional transposed
-                column = self._step_size_column(entry, old, C_t.T, K_t.T, solve, tangent, beta_p, gamma_p)
+                column = self._step_size_column(entry, old, C_t.T, K_t.T, solve, (turn, tangent), beta_p, gamma_p)
                 h_bar = sum(np.einsum("i,im->m", column[key], bar) for key, bar in
                             (("dq", q_bar), ("dv", v_bar), ("dvdot", vdot_bar), ("da", a_bar)))
-                h_bar = h_bar + t_bar + (0.0 if rule[0] == "cable" else g_bar)
+                h_bar = h_bar + t_bar + g_bar
                 q_bar, v_bar, t_bar, g_bar, by_size = self._step_size_transposed(entry, rule, column, h_bar,
                                                                                  q_bar, v_bar, t_bar)
                 gradient += by_size
@@ -458,20 +489,19 @@ class AdjointSensitivities(TransientSensitivities):
         return gradient + self._through_the_start(carried["start"], v_bar, vdot_bar + a_bar)
 
     # ------------------------------------------------------------------ events transposed
-    def _step_size_column(self, entry: dict, old, C, K, solve, tangent, beta_p: float, gamma_p: float) -> dict:
-        """{dq, dv, dvdot, da} (n,): the forward method's column of a unit change of the step's size h
-        (:meth:`TransientSensitivities._columns`, its column k: ∂(hΔq)/∂h, ∂v_{n+1}/∂h and the solve with the
-        step's exact matrix; no explicit time dependence: laws in t beside events are refused)."""
-        p, model, h = self.params, self.model, entry["h"]
-        am, af, gamma, beta = p.alpha_m, p.alpha_f, p.gamma, p.beta
-        a_old, a_new = entry["a_old"], entry["a_new"]
-        du0 = free_velocity(model, old) + 2 * h * (0.5 - beta) * a_old + 2 * h * beta * a_new   # ∂(hΔq)/∂h
-        dq0 = tangent(du0[:, None])[:, 0]
-        dv0 = (1 - gamma) * a_old + gamma * a_new                                                # ∂v_{n+1}/∂h
-        z = np.asarray(solve(-(K @ dq0 + C @ dv0))).reshape(-1)
-        dvdot = beta_p * z
-        return {"dq": dq0 + tangent(z[:, None])[:, 0], "dv": dv0 + gamma_p * z, "dvdot": dvdot,
-                "da": (1 - af) / (1 - am) * dvdot}
+    def _step_size_column(self, entry: dict, old, C, K, solve, rotations: tuple, beta_p: float,
+                          gamma_p: float) -> dict:
+        """{dq, dv, dvdot, da} (n,): the forward method's column of a unit change of the step size h
+        (:meth:`TransientSensitivities.step_columns`, its column k), computed as it computes it: the native
+        predict and update (:class:`_StepColumns` with no parameter column: ∂(hΔq)/∂h, ∂v_{n+1}/∂h) around the
+        solve with the step's exact matrix (``solve``; ``C``, ``K`` its damping and stiffness; ``rotations``: the
+        step's (R, J)); no explicit time dependence: laws in t beside events are refused."""
+        p, model, n = self.params, self.model, self.model.n_dofs
+        step = _StepColumns(self, n, 0, (entry["h"], p.alpha_m, p.alpha_f, p.gamma, p.beta), *rotations)
+        none = np.zeros((n, 0))
+        _, dq0, dv0 = step.predict(free_velocity(model, old), entry["a_old"], entry["a_new"], none, none, none, none)
+        z = np.asarray(solve(-(K @ dq0 + C @ dv0))).reshape(n, 1)
+        return {key: column[:, 0] for key, column in step.update(z, beta_p, gamma_p).items()}
 
     def _step_size_transposed(self, entry: dict, rule: tuple, column: dict, h_bar: np.ndarray,
                               q_bar: np.ndarray, v_bar: np.ndarray, t_bar: np.ndarray) -> tuple:
@@ -480,8 +510,8 @@ class AdjointSensitivities(TransientSensitivities):
         step's parameter columns, t̄ of δt_n, ḡ of the last step's δh, (k, m) into the gradient).
         ("event",): δh = −δq_p[θ]/δq_h[θ] → q̄[θ] −= h̄/δq_h[θ]; ("cable",): δh = −(g_qᵀδq_p + g_vᵀδv_p + g_p
         + g_t δt_n)/(g_qᵀδq_h + g_vᵀδv_h + g_t) → q̄ −= g_q h̄ᵀ/d, v̄ −= g_v h̄ᵀ/d, −g_p h̄ᵀ/d, t̄ −= g_t h̄/d;
-        ("lands",): δh = −δt_n → t̄ −= h̄; ("scaled", r): δh = r δh_prev → ḡ = r h̄. δt_{n+1} = δt_n + δh: t̄
-        passes on unchanged besides."""
+        ("lands",): δh = −δt_n → t̄ −= h̄; ("sized", a, b): δh = a δh_prev + b δt_n → ḡ = a h̄, t̄ += b h̄.
+        δt_{n+1} = δt_n + δh: t̄ passes on unchanged besides."""
         k = len(self.names)
         by_size = np.zeros((k, len(h_bar)))
         g_bar = np.zeros_like(h_bar)
@@ -499,6 +529,7 @@ class AdjointSensitivities(TransientSensitivities):
             t_bar = t_bar - h_bar
         else:
             g_bar = rule[1] * h_bar
+            t_bar = t_bar + rule[2] * h_bar
         return q_bar, v_bar, t_bar, g_bar, by_size
 
     def _impulse_transposed(self, entry: dict, v_bar_plus: np.ndarray) -> tuple:
@@ -589,12 +620,12 @@ class AdjointSensitivities(TransientSensitivities):
         # a unit vector moves one node against its elements: the step between the length scale's (round-off) and
         # the shortest element's (truncation), their geometric mean
         eta = WEIGHT_STEP * float(np.sqrt(length * min(length, shortest)))
-        D = np.zeros((n, n))
+        q_part = np.zeros((n, m))   # (Dᵀū)_j = D's column j · ū, each column dotted as it is made (no n × n D)
         for j in range(n):
             unit = np.zeros(n)
             unit[j] = eta
-            D[:, j] = (product(assembler.advance(state, unit)) - product(assembler.advance(state, -unit))) / (2 * eta)
-        q_part = D.T @ u_bar
+            column = (product(assembler.advance(state, unit)) - product(assembler.advance(state, -unit))) / (2 * eta)
+            q_part[j] = column @ u_bar
         p_part = np.zeros((len(self.names), m))
         size = float(np.max(np.abs(w), initial=0.0))
         if size == 0.0:
@@ -679,6 +710,9 @@ class AdjointSensitivities(TransientSensitivities):
         from latdyn.results.files import atomic_write_bytes, csv_line
 
         recorded = writer.result()
+        # a run that failed in the events of its last step (a SolverError after the step was stored): the
+        # accepted steps before it, as the forward method's carried sensitivities are
+        carried = {**carried, "trajectory": _accepted(carried["trajectory"])}
         series = {p.name: recorded.probes[p.name] for p in self.probes}
         outputs = self.outputs(carried, series)
         gradient, timed = self.reverse(carried, outputs)
@@ -699,6 +733,12 @@ class AdjointSensitivities(TransientSensitivities):
                              for p in self.probes for name in self.names]
             text = csv_line(["t", *self.columns]) + csv_line(row)
             atomic_write_bytes(Path(writer.out_dir) / SENSITIVITIES_FILE, text.encode("utf-8"))
+
+
+def _accepted(trajectory: list) -> list:
+    """``trajectory`` without a last entry still pending (stored by :meth:`AdjointSensitivities.step`, its events
+    not taken: the run failed in them)."""
+    return trajectory[:-1] if trajectory and trajectory[-1].get("pending") else trajectory
 
 
 def _norm_at_zero(probe, forms: tuple) -> bool:

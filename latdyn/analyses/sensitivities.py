@@ -256,16 +256,38 @@ def adjoint_refusal(scene) -> SceneError | None:
                                        "(docs/parameters.md, \"The discrete adjoint\")")
 
 
-def depends_on_time(scene) -> bool:
-    """Whether a load component, hinge or guide law or prescribed motion (a body's, a hinge's, a slide's) of
-    ``scene`` depends on t."""
+def _law_in_time(scene):
+    """Whether a law of ``scene`` depends on t (a function of the law): a law in θ, θ̇ and t that names t; a
+    TimeFunction that is a table of t or an expression naming t, or that names a continuous controller's output
+    whose expression names t (:attr:`latdyn.scene.controllers.Controller.output_names_t`), or reads a controller
+    that does (a stateless controller in the probes, ``pd: {output: "Kp*(0.3 - angle)"}``, does not)."""
+    controllers = getattr(scene, "controllers", None) or {}
+    timed_controllers: set = set()
+    for c in controllers.values():   # in file order: a controller reads only earlier ones
+        if c.output_names_t or c.states_name_t or any(name in timed_controllers for name in c.reads):
+            timed_controllers.add(c.name)
+
     def timed(law):
         if law is None or isinstance(law, (int, float)):
             return False
         depends = getattr(law, "depends_on", None)
         if depends is not None:
             return "t" in (depends() if callable(depends) else depends)
-        return not getattr(law, "is_constant", True)
+        if getattr(law, "is_constant", True):
+            return False
+        expressions = getattr(law, "expressions", None)
+        if expressions is None:   # a table of t
+            return True
+        t, (value, _, _) = expressions
+        return t in value.free_symbols or any(name in timed_controllers for name in law.input_names)
+
+    return timed
+
+
+def depends_on_time(scene) -> bool:
+    """Whether a load component, hinge or guide law or prescribed motion (a body's, a hinge's, a slide's) of
+    ``scene`` depends on t (:func:`_law_in_time`)."""
+    timed = _law_in_time(scene)
 
     for load in scene.loads:
         if any(timed(c) for c in (load.force or []) + (load.moment or [])):
@@ -327,13 +349,7 @@ def _adjoint_event_refusal(scene) -> str | None:
 def _timed_key(scene) -> str:
     """The first key of ``scene`` that :func:`depends_on_time` finds depending on t (a load, a hinge's or guide's
     law or prescribed motion, a body's motion)."""
-    def timed(law):
-        depends = getattr(law, "depends_on", None)
-        if law is None or isinstance(law, (int, float)):
-            return False
-        if depends is not None:
-            return "t" in (depends() if callable(depends) else depends)
-        return not getattr(law, "is_constant", True)
+    timed = _law_in_time(scene)
 
     for i, load in enumerate(scene.loads):
         if any(timed(c) for c in (load.force or []) + (load.moment or [])):

@@ -427,9 +427,11 @@ class TransientSensitivities(ParameterDerivatives):
         return adaptive_sensitivities.halved(self, carried)
 
     def resized(self, carried: dict, control, lands: bool | None = None, integrator=None) -> dict:
-        """``carried`` with the derivative of the next step's size after an accepted step (``lands`` None; its
-        error estimate's derivative from ``integrator``'s joint groups) or a trial Newton did not converge
-        (``lands``: whether it landed on the grid) (latdyn/analyses/adaptive_sensitivities.py)."""
+        """``carried`` with the derivative of the next step's size (``carried["dh_next"]``) after an accepted step
+        (``lands`` None; adaptive steps: its error estimate's derivative from ``integrator``'s joint groups) or a
+        trial Newton did not converge (``lands``: whether it landed on the grid), as ``control.resize`` says
+        the size follows from the step before, on fixed and adaptive steps alike
+        (latdyn/analyses/adaptive_sensitivities.py)."""
         return adaptive_sensitivities.resized(self, carried, control, lands, integrator)
 
     def _step_system(self, new, tangent, beta_p: float, gamma_p: float):
@@ -581,19 +583,16 @@ class TransientSensitivities(ParameterDerivatives):
     def _step_size_derivative(self, carried: dict, h: float, lands: bool, event, dq: np.ndarray) -> np.ndarray:
         """δh (k,) of the accepted step: the event's time makes the hinge's angle its lock_at or stop
         exactly, δθ_p + δθ_h δh = 0 (δθ_h = ∂θ_{n+1}/∂h); a step landing on the time grid ends at a fixed
-        time, δh = −δt_n; the nominal step is fixed; any other (the steps doubling back to dt after a
-        shortened one, a cut one) is the previous accepted step times h/h_prev (latdyn/timeloop/control.py)."""
+        time, δh = −δt_n; any other is the size the step control chose for the trial, differentiated
+        (``carried["dh_next"]``, :meth:`resized`: the nominal step's 0, a step doubling back 2 δh_prev, a trial
+        cut after Newton failed half its trial's δh, −δt_n/2 where that trial landed on the grid)."""
         k = len(self.names)
         if event is not None:
             dof = self.model.hinge_dofs[event[0]]
             return -dq[dof, :k] / dq[dof, k]
         if lands:
             return -carried["dt"]
-        if self.scene.solve.adaptive:   # the size the step control chose, differentiated (adaptive_sensitivities)
-            return carried.get("dh_next", np.zeros(k))
-        if carried["h"] is None or abs(h - self.scene.solve.dt) <= 1e-12 * self.scene.solve.dt:
-            return np.zeros(k)
-        return (h / carried["h"]) * carried["dh"]
+        return carried.get("dh_next", np.zeros(k))
 
     # ------------------------------------------------------------------ the jump at an event
     def _jump(self, carried: dict, new, hinge: int, kind: str, restitution: float) -> dict:

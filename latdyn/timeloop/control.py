@@ -38,8 +38,9 @@ CRAWL_FRACTION = 1e-3
 
 
 class Resize(NamedTuple):
-    """How the step size the control chose last depends on the step it came from (adaptive steps:
-    the derivative of the controller's formula, which the transient sensitivities follow, δh_new =
+    """How the step size the control chose last depends on the step it came from (adaptive steps, and fixed
+    steps' cuts and their doubling back: the derivative of the controller's formula, which the transient
+    sensitivities follow, δh_new =
     ``by_step`` δh + ``by_error`` δerror; latdyn/analyses/adaptive_sensitivities.py): ``by_step`` =
     ∂h_new/∂h, ``by_error`` = ∂h_new/∂error (error: the relative error estimate it read). A clipped
     size (dt, dt_min, a factor at its bound) has the clipping's derivative. ``by_proposed``: ∂h_new/∂h_proposed,
@@ -315,14 +316,18 @@ class StepControl:
             error = 0.0 if latched else self.accepted_error
             run.h, self.resize = self._sized(h, error, 0.2, 2.0)
         elif stopped:
-            run.h = self.dt  # after an impact on a stop the integrator restarted: the nominal step
+            run.h, self.resize = self.dt, Resize(0.0, 0.0, 0.0)  # after an impact on a stop: the nominal step
         elif lands and self.proposed is not None and h < self.proposed:
             # a step shortened onto a grid point: the steps grow on from the size proposed before the shortening
             # (a sliver before a grid point says nothing of the steps after it; growing from the sliver made
             # the sequence of steps, and the results with it, jump with Newton's last iterates)
             run.h = min(self.dt, 2 * self.proposed)
+            self.resize = Resize(0.0, 0.0, 0.0, 2.0 if 2 * self.proposed < self.dt else 0.0)
         elif h < self.dt:
             run.h = min(self.dt, 2 * h)  # recover the nominal step after a cut or a shortened step
+            self.resize = Resize(2.0 if 2 * h < self.dt else 0.0, 0.0, 0.0)
+        else:
+            self.resize = Resize(0.0, 0.0, 0.0, 1.0)   # run.h as it was
 
     def _watch_crawl(self, run: TransientProgress, h: float, event: bool) -> None:
         """Count the accepted step of size ``h`` (``event``: it ended on a latch or a stop) into the

@@ -269,7 +269,7 @@ static int hinge_event(const Model *m, const Configuration *old, const Configura
             if (before == 0.0 || fabs(after) <= lock_tolerance(lock) || before * after < 0.0) return 1;
         }
         /* friction that can hold the joint (static level > 0): a rate that reversed, fell into the stick
-         * band, or started at 0 (events.py _may_stick decides; this hands back a superset) */
+         * band, or started at 0 (events.py may_stick decides; this hands back a superset) */
         const double *contact = m->hinge_contact + 11 * j;
         const double before = old->theta_dot[j], after = new_->theta_dot[j];
         if (contact[6] > 0.0 && (before * after < 0.0 || before == 0.0 ||

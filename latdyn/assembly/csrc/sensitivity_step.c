@@ -64,10 +64,11 @@ static void pattern_product(const SensitivityStep *s, const double *A, int64_t k
         }
 }
 
-/* Sums S into S (size doubles, kept for a caller that factorises it otherwise), loads it into the factor
- * storage and factorises it (latdyn_factor); with k > 0 then z (n × k, row-major) = S⁻¹ rhs for
- * rhs = −(explicit + K dq0 + C dv0) (each n × k, row-major), work holding 3 n k doubles. Returns
- * latdyn_factor's info (nonzero: singular, or the sparse LU's pivot failed; nothing solved). */
+/* Sums S into S (size doubles, kept for a caller that factorises it otherwise); with k < 0 that is all
+ * (returns 0). Else loads it into the factor storage and factorises it (latdyn_factor); with k > 0 then
+ * z (n × k, row-major) = S⁻¹ rhs for rhs = −(explicit + K dq0 + C dv0) (each n × k, row-major), work holding
+ * 3 n k doubles. Returns latdyn_factor's info (nonzero: singular, or the sparse LU's pivot failed; nothing
+ * solved). */
 int64_t latdyn_sensitivity_step(const SensitivityStep *s, const double *mck, const double *blocks, double beta_p,
                                 double gamma_p, double *S, double *factor, int *pivots, int64_t k,
                                 const double *explicit_, const double *dq0, const double *dv0, double *work,
@@ -75,6 +76,7 @@ int64_t latdyn_sensitivity_step(const SensitivityStep *s, const double *mck, con
 {
     const Factorization *f = s->factorization;
     sensitivity_matrix_values(s, mck, blocks, beta_p, gamma_p, S);
+    if (k < 0) return 0;   /* the sum alone (ExactStepMatrix.values) */
     memset(factor, 0, sizeof(double) * f->size);
     for (int64_t p = 0; p < s->size; ++p) factor[s->storage[p]] += S[p];
     int64_t info = latdyn_factor(f, factor, pivots);
