@@ -1,0 +1,89 @@
+"""What the sensitivity fuzzer found (benchmarks/fuzz_sensitivities.py; docs/verification.md, "Sensitivity
+fuzzing"), each reduced to the smallest scene that shows it, against Richardson-extrapolated central
+differences of whole runs or with the refusal it now gets.
+
+A damped cable going taut: the landing on its change of side was a plain secant through the last two trials,
+which left the zero where the gap is not monotone in the step's size (−20 at the step's start, +5.1 at 0.89 h,
++2.5 at h): its next trial fell past the step, the landing stopped 5e-5 off the change and the run said, in a
+warning, that its sensitivities were "not exact to better than that" — the event times' derivatives were O(1)
+wrong (0.4 to 2 relative), the probes' up to 1.6. Now regula falsi keeps the zero bracketed. A cable whose
+ends start at its rest length (the default) and move apart changes side at the start of the first step, where
+no step can land: refused when it happens (exit 1, naming the cable), no longer reported as solved.
+"""
+from __future__ import annotations
+
+import numpy as np
+import yaml
+
+import latdyn
+from tests.cli_runs import latdyn_run, summary_of
+
+#: a flexible arm with a tip body, tied back to the ground by a damped cable a little longer than the
+#: distance of its ends (slack at t = 0); the tip thrown outwards and sideways: the cable goes taut and
+#: slack twice in 0.05 s. Planar (the plane z = 0).
+DAMPED_CABLE = """
+parameters: {c: 8.0}
+sections:
+  s: {EA: 1.0e6, EIy: 600, EIz: 600, GJ: 1000, rhoA: 1.6, rhoIy: 0.0002, rhoIz: 0.0002}
+bodies:
+  g: {at: [0, 0, 0], fixed: true}
+  b: {at: [1.5, 0, 0], mass: 1.3, inertia: [0.05, 0.05, 0.05]}
+beams:
+  arm: {from: g, to: b, section: s, elements: 2}
+cables:
+  c0: {from: b, to: g, EA: 1.0e5, damping: c%s}
+initial_velocity: {linear: [0.3, 1.0, 0]}
+solve: {analysis: transient, method: generalized-alpha, t_end: 0.05, dt: 0.01, tol: 1.0e-12, sensitivities: [c]}
+output:
+  probes:
+    tension: {cable: c0, quantity: tension}
+    x: {point: b, quantity: position, component: x}
+"""
+SLACK_AT_START = DAMPED_CABLE % ", rest_length: 1.5003"
+AT_REST_LENGTH = DAMPED_CABLE % ""
+
+
+def _run(text: str, c: float | None = None):
+    data = yaml.safe_load(text)
+    if c is not None:
+        data["parameters"]["c"] = c
+    return latdyn.run(latdyn.load_scene(data))
+
+
+def test_a_damped_cable_going_taut_is_landed_on_and_its_sensitivities_agree_with_richardson_differences():
+    """Measured: the probes' rows 2.7e-8 (x) and 1.4e-8 (tension) of their largest sensitivity, the slack
+    event's time 8.8e-9; the taut event's time does not depend on the damper (computed 0 exactly, the
+    differences 7e-14). Before the mend: 0.94 (x), 1.96 and 1.7 (the events' times)."""
+    result = _run(SLACK_AT_START)
+    assert not [w for w in result.summary.get("warnings", []) if "landed" in w]
+    kinds = [e["kind"] for e in result.summary["events"]]
+    assert kinds[:2] == ["taut", "slack"], kinds
+    p0, h = 8.0, 8e-3
+    central, times = [], []
+    for step in (h, h / 2):
+        up, down = _run(SLACK_AT_START, p0 + step), _run(SLACK_AT_START, p0 - step)
+        assert [e["kind"] for e in up.summary["events"]] == [e["kind"] for e in down.summary["events"]] == kinds
+        assert len(up.t) == len(down.t) == len(result.t)
+        central.append({k: (up.probes[k] - down.probes[k]) / (2 * step) for k in up.probes})
+        times.append(np.array([(a["t"] - b["t"]) / (2 * step)
+                               for a, b in zip(up.summary["events"], down.summary["events"])]))
+    for probe in ("x", "tension"):
+        expected = (4 * central[1][probe] - central[0][probe]) / 3
+        error = np.abs(result.sensitivities[(probe, "c")] - expected).max() / np.abs(expected).max()
+        assert error <= 1e-6, (probe, error)
+    expected_dt = (4 * times[1] - times[0]) / 3
+    computed_dt = np.array([e["dt"]["c"] for e in result.summary["event_sensitivities"]])
+    assert np.abs(computed_dt - expected_dt).max() <= 1e-6 * np.abs(expected_dt).max(), (computed_dt, expected_dt)
+
+
+def test_a_cable_at_its_rest_length_going_taut_at_once_is_refused_not_reported_as_solved(tmp_path):
+    """Its change sits at the first step's start, where no step lands: before the mend exit 0 with the taut
+    event's time derivative −1.1e-4 (exactly 0: the damper acts only once taut) and the tip's 1.6 off."""
+    completed, out = latdyn_run(tmp_path, AT_REST_LENGTH, quiet=True)
+    assert completed.returncode == 1, completed.stderr
+    assert "the solver failed: the sensitivities at t = 0 meet cables.c0 changing side" in completed.stderr
+    assert "Traceback" not in completed.stderr
+    assert summary_of(out)["status"] != "solved"
+    # without sensitivities the same scene runs (the run itself is not at fault)
+    completed, out = latdyn_run(tmp_path, AT_REST_LENGTH.replace(", sensitivities: [c]", ""), quiet=True)
+    assert completed.returncode == 0, completed.stderr
