@@ -48,6 +48,7 @@ import argparse
 import collections
 import csv
 import json
+import re
 import sys
 import tempfile
 import time
@@ -106,10 +107,17 @@ def differentiable_solve(rng, scene: dict) -> None:
         for section in scene["sections"].values():
             section.setdefault("rhoIy", _r(rng, 1e-4, 1e-2, 5))
             section["rhoIz"] = section["rhoIy"]
+    for cable in scene.get("cables", {}).values():
+        if isinstance(cable["to"], list) and not cable.get("rhoA"):
+            cable["rhoA"] = _r(rng, 0.01, 0.5, 3)   # a free end without mass is refused (nothing holds it)
     output = scene["output"]
     output.pop("paraview_every", None)
+    read = " ".join(str(c.get("output", "")) + " " + " ".join(map(str, c.get("states", {}).values()))
+                    for c in scene.get("controllers", {}).values())
     for name, probe in list(output["probes"].items()):
-        if solve["analysis"] == "static" and ("controller" in probe or probe.get("quantity") in ("velocity", "rate")):
+        transient_only = ("controller" in probe or "guide" in probe
+                          or probe.get("quantity") in ("velocity", "rate", "torque"))
+        if solve["analysis"] == "static" and transient_only and not re.search(rf"\b{name}\b", read):
             output["probes"].pop(name)      # differentiated in transient runs only
     if not output["probes"]:
         output["probes"]["tip"] = {"point": _first_point(scene), "quantity": "displacement", "component": "norm"}

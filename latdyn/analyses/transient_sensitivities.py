@@ -304,7 +304,7 @@ class TransientSensitivities(ParameterDerivatives):
     # ------------------------------------------------------------------ landing on an event
     def land(self, step, old, attempt):
         """The step from ``old`` landed on the first latch or stop it crosses or reaches to
-        |θ − θ_event| ≤ :data:`LANDING` (secant on the step size from 0 and the step tried), or else on the
+        |θ − θ_event| ≤ :data:`LANDING` (regula falsi on the step size from 0 and the step tried), or else on the
         first cable element's change of side to a gap |g| ≤ :data:`LANDING` · EA
         (:meth:`CableSensitivities.landing`), where the
         derivative of the event time assumes it exactly; ``step(h)`` takes a step of size h from
@@ -350,7 +350,8 @@ class TransientSensitivities(ParameterDerivatives):
 
     def _refuse_change_at_step_start(self, old, gap_start: float):
         """A landing that cannot land because the change sits at the step's start (its gap zero there: a
-        cable whose ends are at its rest length at t = 0, the default rest_length, and move apart): the
+        cable whose ends are at its rest length at t = 0, the default rest_length, and move apart; an
+        element that turns back at the instant it changed side): the
         step holds the element on its old side to its end, and the event time's derivative, computed as if
         the step ended on the change, was O(1) wrong (benchmarks/fuzz_sensitivities.py seed 1 case 30:
         tests/test_sensitivities_fuzz_finds.py). Refused when it happens (SolverError)."""
@@ -362,10 +363,10 @@ class TransientSensitivities(ParameterDerivatives):
                             if abs(gaps[e]) <= LANDING * float(cables.EA[e])})
         what = ", ".join(names) or "a joint's event"
         raise SolverError(f"the sensitivities at t = {float(old.t):.6g} meet {what} changing side at the start of "
-                          f"a step (its gap {gap_start:.3g} there: a cable at its rest length at t = 0, the default "
-                          "rest_length, going taut at once), which no step lands on: its event time's derivative "
-                          "is not computed (give rest_length a little off the ends' distance; docs/parameters.md, "
-                          "\"Cables\")")
+                          f"a step, which no step lands on (its gap {gap_start:.3g} there: a cable at its rest length "
+                          "at t = 0, the default rest_length, that goes taut at once, or an element turning back at "
+                          "the instant it changed side): its event time's derivative is not computed "
+                          "(docs/parameters.md, \"Cables\")")
 
     # ------------------------------------------------------------------ a step
     def step(self, carried: dict, old, new, h: float, a_old: np.ndarray, a_new: np.ndarray,
