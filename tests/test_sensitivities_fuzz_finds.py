@@ -87,3 +87,35 @@ def test_a_cable_at_its_rest_length_going_taut_at_once_is_refused_not_reported_a
     # without sensitivities the same scene runs (the run itself is not at fault)
     completed, out = latdyn_run(tmp_path, AT_REST_LENGTH.replace(", sensitivities: [c]", ""), quiet=True)
     assert completed.returncode == 0, completed.stderr
+
+
+#: a free body and a tip body joined by a rigid link and by a damped cable along it at its rest length: the
+#: link keeps the cable's length, whose gap only grazes zero at round-off (fuzzer seed 3 case 17, reduced)
+CABLE_BESIDE_A_RIGID_LINK = """
+parameters: {c: 19.0}
+sections:
+  s: {EA: 4.0e6, EIy: 1600, EIz: 990, GJ: 777, rhoA: 1.7, rhoIy: 0.0037, rhoIz: 0.0037}
+bodies:
+  g: {at: [0, 0, 0], mass: 4.3, inertia: [0.32, 0.32, 0.32]}
+  b: {at: [0, -1.69, 0], mass: 0.47}
+beams:
+  link: {from: g, to: b, section: s, rigid: true}
+cables:
+  c0: {from: g, to: b, EA: 25858.0, damping: c}
+initial_velocity: {linear: [0.3, 0.52, 0], angular: [0, 0, 1.57]}
+solve: {analysis: transient, method: hht-alpha, t_end: 0.2, dt: 0.01, tol: 1.0e-12, sensitivities: [c]}
+output:
+  probes:
+    x: {point: b, quantity: position, component: x}
+"""
+
+
+def test_a_cable_grazing_its_change_is_ended_not_reported_as_solved(tmp_path):
+    """Before the mend: exit 0, 8 taut and slack events at round-off (the gap's rate 7e-13 N/s), their times'
+    derivatives by c up to 2.9e-5 and the tip's 1.6e-8 — all exactly 0 (the damper never acts: the link keeps
+    the cable's length). Now the grazing change ends the run (exit 1) naming the cable."""
+    completed, out = latdyn_run(tmp_path, CABLE_BESIDE_A_RIGID_LINK, quiet=True)
+    assert completed.returncode == 1, completed.stderr
+    assert "meet cables.c0 changing side while its gap barely moves" in completed.stderr
+    assert "Traceback" not in completed.stderr
+    assert summary_of(out)["status"] != "solved"
