@@ -20,8 +20,8 @@ skipped, and the case says so: the computed solution is not differentiable there
 parameter: every row of ``sensitivities.csv`` (by its index: an event's row moves with p, and its sensitivity
 is the row's), ``summary.json``
 ``probe_sensitivities`` (end, max, min: the differences of the probe's last, largest and smallest value) and
-``event_sensitivities`` (the differences of the event times); the error is the largest difference divided by
-the largest magnitude of the probe's sensitivity (computed or referenced; below 1e-9 of the probe's own
+``event_sensitivities`` (the differences of the event times, all of a parameter's events as one probe); the
+error is the largest difference divided by the largest magnitude of the probe's sensitivity (computed or referenced; below 1e-9 of the probe's own
 scale times 1/|p| it counts as zero).
 
 Outcomes of a case:
@@ -308,7 +308,8 @@ def compare(base: dict, perturbed: list[dict], name: str, h: float, p: float) ->
         spread = np.abs((columns[0] - columns[1]) / 2 - (columns[2] - columns[3])) / h
         records.append({"probe": probe, "where": f"rows (worst at {base['first']} = {where:.6g})",
                         "error": float(rows.max() / scale) if len(rows) else 0.0, "scale": scale,
-                        "spread": float(spread[same].max() / scale) if len(rows) else 0.0})
+                        "spread": float(spread[same].max() / scale) if len(rows) else 0.0,
+                        "zero": not (np.any(column) or np.any(reference))})
         summary = base["summary"].get("probe_sensitivities", {}).get(probe)
         if summary:
             ends = {"end": [run["probes"][probe][-1] for run in perturbed],
@@ -323,14 +324,18 @@ def compare(base: dict, perturbed: list[dict], name: str, h: float, p: float) ->
                                 if key == "end" else records[-2 if key == "max" else -3]["spread"],
                                 "error": abs(computed - ref) / max(scale, abs(ref), abs(computed), floor),
                                 "computed": computed, "reference": ref})
+    # the event times as one more probe: each error relative to the largest event-time derivative
+    events = []
     for i, event in enumerate(base["summary"].get("event_sensitivities", []) or []):
         computed = event.get("dt", {}).get(name)
         if computed is None:
             continue
         ref = float(_richardson([run["summary"]["events"][i]["t"] for run in perturbed])) / h
-        floor = 1e-8 * float(base["x"][-1] if base["first"] == "t" else 1.0) / max(abs(p), 1e-12)
-        records.append({"probe": f"event {i} ({event.get('joint')} {event.get('kind')})", "where": "dt",
-                        "error": abs(computed - ref) / max(abs(ref), abs(computed), floor),
+        events.append((f"event {i} ({event.get('joint')} {event.get('kind')})", computed, ref))
+    floor = 1e-8 * float(base["x"][-1] if base["first"] == "t" else 1.0) / max(abs(p), 1e-12)
+    scale = max([floor] + [max(abs(c), abs(r)) for _, c, r in events])
+    for label, computed, ref in events:
+        records.append({"probe": label, "where": "dt", "error": abs(computed - ref) / scale,
                         "computed": computed, "reference": ref})
     return records
 
@@ -403,7 +408,10 @@ def run_case(seed: int, index: int, workdir: Path, *, timeout: float = TIMEOUT_S
                                                   f"{worst['error']:.3g} off ({len(bad)} of {len(record['checks'])})")
     elif record["checks"]:
         worst = max(c["error"] for c in record["checks"])
-        record.update(outcome="agrees", detail=f"{len(record['checks'])} checks, worst {worst:.2g}")
+        zeros = sum(1 for c in record["checks"] if c.get("zero"))
+        rows = sum(1 for c in record["checks"] if "zero" in c)
+        record.update(outcome="agrees", detail=f"{len(record['checks'])} checks, worst {worst:.2g}"
+                                               + (f" ({zeros} of {rows} probe columns 0 in both)" if zeros else ""))
     else:
         record.update(outcome="skipped", detail="; ".join(record["skipped"])[:300] or "no probe to compare")
     if record["skipped"] and record["outcome"] != "skipped":
