@@ -21,7 +21,8 @@ parameter: every row of ``sensitivities.csv`` (by its index: an event's row move
 is the row's), ``summary.json``
 ``probe_sensitivities`` (end, max, min: the differences of the probe's last, largest and smallest value) and
 ``event_sensitivities`` (the differences of the event times, all of a parameter's events as one probe); the
-error is the largest difference divided by the largest magnitude of the probe's sensitivity (computed or referenced; below 1e-9 of the probe's own
+error is the largest difference divided by the largest magnitude of the probe's sensitivity (computed or
+referenced; below 1e-9 of the probe's own
 scale times 1/|p| it counts as zero).
 
 Outcomes of a case:
