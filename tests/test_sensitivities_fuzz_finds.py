@@ -143,3 +143,56 @@ def test_a_cable_grazing_its_change_is_ended_not_reported_as_solved(tmp_path):
     assert "meet cables.c0 changing side while its gap barely moves" in completed.stderr
     assert "Traceback" not in completed.stderr
     assert summary_of(out)["status"] != "solved"
+
+
+#: a 3D rigid link on a hinge whose angle is prescribed (1.52 t²), its end hinge latching at 0.102 rad under a
+#: torque law scaled by k, a flexible beam on from the latching body (fuzzer seed 4 case 6, reduced)
+LATCH_BEHIND_A_RIGID_LINK = """
+parameters: {k: 1.0}
+sections:
+  s: {EA: 1.3e6, EIy: 568, EIz: 568, GJ: 1270, rhoA: 2.5, rhoIy: 0.0034, rhoIz: 0.0034}
+bodies:
+  g: {at: [0, 0, 0], fixed: true}
+  b0: {at: [1.0, 1.0, 0.0], mass: 1.1, inertia: [0.2, 0.2, 0.2]}
+beams:
+  m0:
+    from: g
+    to: b0
+    section: s
+    rigid: true
+    start: {hinge: {axis: [-0.845, 0.503, -0.18], angle: 1.52*t**2}}
+    end: {hinge: {axis: [-0.734, -0.415, -0.538], torque: "k*(-2.05*exp(-t) - 1.3*theta_dot)", lock_at: 0.102}}
+  m1: {from: b0, to: [1.0, 2.46, 0.0], section: s, elements: 2}
+solve: {analysis: transient, method: hht-alpha, t_end: 0.2, dt: 0.01, tol: 1.0e-12, sensitivities: [k]}
+output:
+  probes:
+    rel: {point: "m1.node[1]", quantity: displacement, component: z, frame: b0}
+"""
+
+
+@pytest.mark.xfail(strict=True, reason="open (reported, not mended): at the latch's row, behind a rigid link, the "
+                   "derivative of a point in the latching body's frame is 3 times the probe's largest off (the same "
+                   "probe in the global frame, or the link flexible, agrees)")
+def test_a_point_in_the_frame_of_a_body_latching_behind_a_rigid_link_at_the_latch_row():
+    """The row at the latch (t = 0.198) against Richardson differences (h = 1e-3 k): computed −0.0238, the
+    differences 0.00041 (3.0 times the probe's largest sensitivity, 0.0080). In the fuzzer's check of the same
+    scene to t = 0.3 the probe's end, max and min agree within 1e-5, the hinge angle's rows to 1.5e-10 and the
+    latch time's derivative to 1.4e-10; with the link flexible, or the probe in the global frame, every row
+    agrees (1.1e-10, 7.8e-10)."""
+    result = _run_k(LATCH_BEHIND_A_RIGID_LINK)
+    (latch,) = result.summary["events"]
+    row = int(np.flatnonzero(result.t == latch["t"])[0])
+    h, central = 1e-3, []
+    for step in (h, h / 2):
+        up, down = _run_k(LATCH_BEHIND_A_RIGID_LINK, 1 + step), _run_k(LATCH_BEHIND_A_RIGID_LINK, 1 - step)
+        central.append((up.probes["rel"] - down.probes["rel"]) / (2 * step))
+    expected = (4 * central[1] - central[0]) / 3
+    computed = result.sensitivities[("rel", "k")]
+    assert abs(computed[row] - expected[row]) <= 1e-6 * np.abs(expected).max()
+
+
+def _run_k(text: str, k: float | None = None):
+    data = yaml.safe_load(text)
+    if k is not None:
+        data["parameters"]["k"] = k
+    return latdyn.run(latdyn.load_scene(data))
