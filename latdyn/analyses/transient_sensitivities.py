@@ -309,7 +309,7 @@ class TransientSensitivities(ParameterDerivatives):
     # ------------------------------------------------------------------ landing on an event
     def land(self, step, old, attempt):
         """The step from ``old`` landed on the first latch or stop it crosses or reaches to
-        |θ − θ_event| ≤ :data:`LANDING` (secant on the step size from 0 and the step tried), or else on the
+        |θ − θ_event| ≤ :data:`LANDING` (regula falsi on the step size from 0 and the step tried), or else on the
         first cable element's change of side to a gap |g| ≤ :data:`LANDING` · EA
         (:meth:`CableSensitivities.landing`), where the
         derivative of the event time assumes it exactly; ``step(h)`` takes a step of size h from
@@ -326,6 +326,12 @@ class TransientSensitivities(ParameterDerivatives):
             return attempt
         a, ga = 0.0, gap(old)
         b, gb = h, gap(new)
+        # the zero bracketed (the gap changes sign over the step): regula falsi, Illinois-modified, keeps it
+        # bracketed. The plain secant through the last two trials left it where the gap is not monotone in
+        # the step's size (a damped cable going taut: -20 at 0, +5.1 at 0.89 h, +2.5 at h; its next trial
+        # fell past h and the landing stopped 5e-5 off, the event times' derivatives O(1) wrong: found by
+        # benchmarks/fuzz_sensitivities.py, tests/test_sensitivities_fuzz_finds.py)
+        bracketed = ga * gb < 0.0
         best = attempt
         for _ in range(LANDING_PASSES):
             if abs(gb) <= tight or gb == ga:
@@ -337,8 +343,35 @@ class TransientSensitivities(ParameterDerivatives):
             if not retry_stats.converged:
                 break
             best = (retry, retry_stats, c, False)
-            a, ga, b, gb = b, gb, c, gap(retry)
+            gc = gap(retry)
+            if not bracketed or gc * gb < 0.0:
+                a, ga = b, gb
+            else:
+                ga = 0.5 * ga
+            b, gb = c, gc
+        if abs(ga_start := gap(old)) <= tight and abs(gap(best[0])) > tight:
+            self._refuse_change_at_step_start(old, ga_start)
         return best
+
+    def _refuse_change_at_step_start(self, old, gap_start: float):
+        """A landing that cannot land because the change sits at the step's start (its gap zero there: a
+        cable whose ends are at its rest length at t = 0, the default rest_length, and move apart; an
+        element that turns back at the instant it changed side): the
+        step holds the element on its old side to its end, and the event time's derivative, computed as if
+        the step ended on the change, was O(1) wrong (benchmarks/fuzz_sensitivities.py seed 1 case 30:
+        tests/test_sensitivities_fuzz_finds.py). Refused when it happens (SolverError)."""
+        names = []
+        if self.model.cables is not None:
+            gaps, _ = cable_gaps(self.assembler, old)
+            cables = self.model.cables
+            names = sorted({f"cables.{cables.names[cables.cable[e]]}" for e in range(len(gaps))
+                            if abs(gaps[e]) <= LANDING * float(cables.EA[e])})
+        what = ", ".join(names) or "a joint's event"
+        raise SolverError(f"the sensitivities at t = {float(old.t):.6g} meet {what} changing side at the start of "
+                          f"a step, which no step lands on (its gap {gap_start:.3g} there: a cable at its rest length "
+                          "at t = 0, the default rest_length, that goes taut at once, or an element turning back at "
+                          "the instant it changed side): its event time's derivative is not computed "
+                          "(docs/parameters.md, \"Cables\")")
 
     # ------------------------------------------------------------------ a step
     def step(self, carried: dict, old, new, h: float, a_old: np.ndarray, a_new: np.ndarray,

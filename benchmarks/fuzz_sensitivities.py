@@ -1,0 +1,486 @@
+"""Sensitivity fuzzing: random scenes with ``parameters`` and ``solve.sensitivities``, their derivatives
+checked against central differences of whole runs (issue 34).
+
+A wrong derivative reported as solved is the worst defect a sensitivity can have. Each case takes a random
+scene of ``benchmarks/fuzz_runs.py``'s generator (with the keys of 2026-11-26: guides, cables, contact,
+friction, inputs, controllers), turns it into an analysis that differentiates — transient with an implicit
+method (generalized-α, HHT-α, Newmark; fixed or adaptive steps) or static by load control or arc length —
+with the Newton tolerance ``solve.tol: 1e-12``, and names a random handful of its numbers as parameters
+(:func:`parameterise`: section values, body mass, inertia, centre of mass and position, hinge and guide
+laws, rest angles, compliant stops and friction, cable values, load components, initial velocities,
+controller outputs; a number becomes the parameter, a law ``f`` becomes ``NAME*(f)`` with NAME = 1), all of
+them listed in ``solve.sensitivities``.
+
+The scene runs through ``python -m latdyn run`` in its own process with a timeout; then, for each parameter
+p, four more runs at p ± h and p ± h/2 (h = 1e-3 |p|, the same scene otherwise: sensitivities asked too, so
+the perturbed runs land on events the way the differentiated run does). The reference is the Richardson
+extrapolation (4 D(h/2) − D(h))/3 of the central differences D. A parameter whose perturbed runs do not take
+the same steps (rows, accepted and rejected step counts, events and cable events: kind, joint and order) is
+skipped, and the case says so: the computed solution is not differentiable there. Compared, per probe and
+parameter: every row of ``sensitivities.csv`` (by its index: an event's row moves with p, and its sensitivity
+is the row's), ``summary.json``
+``probe_sensitivities`` (end, max, min: the differences of the probe's last, largest and smallest value) and
+``event_sensitivities`` (the differences of the event times, all of a parameter's events as one probe); the
+error is the largest difference divided by the largest magnitude of the probe's sensitivity (computed or
+referenced; below 1e-9 of the probe's own
+scale times 1/|p| it counts as zero).
+
+Outcomes of a case:
+
+==============  ===========================================================================================
+``agrees``      every compared derivative within ``--tol`` (1e-5) of its reference
+``unresolved``  a row farther than ``--tol`` but within 3× the spread of the two central differences
+                (D(h) and D(h/2) disagree: the perturbed runs' own noise, or a nonsmooth law)
+``DISAGREES``   some derivative farther than that (the detail names the worst: probe, parameter, where)
+``skipped``     solved, but every parameter's perturbation changed the steps or the events
+``refused``     exit 2 naming the file and a key (what is not differentiated says so)
+``failed``      exit 1 with the solver's message (or ``unbounded``)
+``traceback``   a Python traceback or ``internal error`` on stderr
+``hang``        no exit within the timeout (a second try at 4× before it counts)
+``defect``      anything else ``fuzz_runs.judge`` finds wrong (a refusal without a key, an unreadable folder)
+==============  ===========================================================================================
+
+``python benchmarks/fuzz_sensitivities.py --runs 30 --seed 1 --keep DIR --json F`` runs a campaign;
+``--show N --seed S`` prints case N's scene. Run it from a scratch folder (``cd /tmp``), niced.
+"""
+from __future__ import annotations
+
+import argparse
+import collections
+import csv
+import json
+import re
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from benchmarks.fuzz_runs import RETRY, _r, _run, _scene_text, judge, random_scene  # noqa: E402
+
+OUTCOMES = ("agrees", "unresolved", "DISAGREES", "skipped", "refused", "failed", "traceback", "hang", "defect")
+#: a derivative agrees when within this of its reference, relative to the probe's largest sensitivity
+TOL = 1e-5
+#: the relative perturbation h/|p| (and h/2)
+STEP = 1e-3
+#: a row error within this many times the spread of the two central differences is the references' noise
+#: (``unresolved``), not the derivative's
+NOISE = 3.0
+TIMEOUT_S = 60.0
+
+SECTION_KEYS = ("EA", "EIy", "EIz", "GJ", "rhoA", "rhoIy", "rhoIz", "GAy", "GAz")
+LAW_KEYS = ("stiffness", "damping", "torque", "force", "rest_angle", "rest")
+
+
+# =========================================================================== the scene
+def differentiable_solve(rng, scene: dict) -> None:
+    """Make ``scene``'s analysis one that differentiates: transient with an implicit method (fixed or
+    adaptive steps) or static by load control or arc length, with ``tol: 1e-12``; drop what only modes
+    and buckling read."""
+    old = scene["solve"]
+    solve: dict = {}
+    for key in ("formulation", "planar"):
+        if key in old:
+            solve[key] = old[key]
+    if rng.random() < 0.7:
+        method = str(rng.choice(["generalized-alpha", "hht-alpha", "newmark"]))
+        t_end = float(rng.choice([0.1, 0.2, 0.3]))
+        solve.update({"analysis": "transient", "method": method, "t_end": t_end,
+                      "dt": t_end / int(rng.choice([10, 20, 30]))})
+        if method != "newmark" and rng.random() < 0.4:
+            solve["rho_inf"] = float(rng.choice([0.0, 0.5, 0.9]))
+        if rng.random() < 0.3 and not _prescribed(scene):   # refused with a prescribed motion
+            solve["adaptive"] = True
+            solve["error_tol"] = float(rng.choice([1e-2, 1e-3]))
+        if rng.random() < 0.2:
+            solve["newton"] = str(rng.choice(["full", "modified", "exact"]))
+    else:
+        solve.update({"analysis": "static", "method": str(rng.choice(["load-control", "arc-length"])),
+                      "steps": int(rng.integers(3, 9))})
+    solve["tol"] = 1e-12
+    scene["solve"] = solve
+    if solve["analysis"] == "transient" and rng.random() < 0.7:
+        # rotary inertia on every section: sensitivities of a run that does not start at rest refuse a
+        # model with directions without inertia (docs/parameters.md), which most of these would be
+        for section in scene["sections"].values():
+            section.setdefault("rhoIy", _r(rng, 1e-4, 1e-2, 5))
+            section["rhoIz"] = section["rhoIy"]
+    for cable in scene.get("cables", {}).values():
+        if isinstance(cable["to"], list) and not cable.get("rhoA"):
+            cable["rhoA"] = _r(rng, 0.01, 0.5, 3)   # a free end without mass is refused (nothing holds it)
+    output = scene["output"]
+    output.pop("paraview_every", None)
+    read = " ".join(str(c.get("output", "")) + " " + " ".join(map(str, c.get("states", {}).values()))
+                    for c in scene.get("controllers", {}).values())
+    for name, probe in list(output["probes"].items()):
+        transient_only = ("controller" in probe or "guide" in probe
+                          or probe.get("quantity") in ("velocity", "rate", "torque"))
+        if solve["analysis"] == "static" and transient_only and not re.search(rf"\b{name}\b", read):
+            output["probes"].pop(name)      # differentiated in transient runs only
+    if not output["probes"]:
+        output["probes"]["tip"] = {"point": _first_point(scene), "quantity": "displacement", "component": "norm"}
+    if scene.get("cables") or any("guide" in b for b in scene["bodies"].values()):
+        # energy and momentum sensitivities beside cables and guides are refused (docs/parameters.md):
+        # a probe of a point instead, so that the case differentiates something
+        for name, probe in output["probes"].items():
+            if "energy" in probe or "momentum" in probe:
+                output["probes"][name] = {"point": _first_point(scene), "quantity": "position",
+                                          "component": str(rng.choice(["x", "y", "z"]))}
+    if "every" in output and solve["analysis"] == "transient":
+        output["every"] = solve["dt"] * int(rng.choice([1, 2]))
+    elif "every" in output:
+        output.pop("every")
+
+
+def _first_point(scene: dict) -> str:
+    """The end of the first beam: a point every scene has."""
+    return f"{next(iter(scene['beams']))}.end"
+
+
+def _slots(scene: dict) -> list[tuple[str, dict | list, str | int]]:
+    """Every number or law of ``scene`` a parameter may stand for: (kind, container, key)."""
+    slots: list = []
+
+    def numbers(kind, container, keys):
+        for key in keys:
+            value = container.get(key) if isinstance(container, dict) else None
+            if isinstance(value, (int, float)) and not isinstance(value, bool) and value != 0:
+                slots.append((kind, container, key))
+            elif isinstance(value, str):
+                slots.append((kind, container, key))
+
+    def vector(kind, values):
+        if isinstance(values, list):
+            for i, v in enumerate(values):
+                if (isinstance(v, (int, float)) and not isinstance(v, bool) and v != 0) or isinstance(v, str):
+                    slots.append((kind, values, i))
+
+    def joint(kind, law):
+        numbers(kind, law, LAW_KEYS)
+        if isinstance(law.get("contact"), dict):
+            numbers(kind + ".contact", law["contact"], ("stiffness", "exponent", "damping"))
+        if isinstance(law.get("friction"), dict):
+            numbers(kind + ".friction", law["friction"], ("coulomb", "static", "stribeck_rate", "viscous"))
+
+    for section in scene.get("sections", {}).values():
+        numbers("section", section, SECTION_KEYS)
+    for body in scene.get("bodies", {}).values():
+        if body.get("fixed") or "motion" in body:
+            continue
+        numbers("body.mass", body, ("mass",))
+        vector("body.inertia", body.get("inertia"))
+        vector("body.com", body.get("com"))
+        if "guide" in body:
+            joint("guide", body["guide"])
+    for beam in scene.get("beams", {}).values():
+        for end in ("start", "end"):
+            hinge = beam.get(end, {}).get("hinge")
+            if hinge is not None and "angle" not in hinge:
+                joint("hinge", hinge)
+    for cable in scene.get("cables", {}).values():
+        numbers("cable", cable, ("EA", "damping", "rest_length", "rhoA"))
+    for load in scene.get("loads", []):
+        vector("load", load.get("force"))
+        vector("load", load.get("moment"))
+    velocity = scene.get("initial_velocity")
+    if isinstance(velocity, dict) and scene["solve"]["analysis"] == "transient":
+        vector("initial_velocity", velocity.get("linear"))
+        vector("initial_velocity", velocity.get("angular"))
+    for controller in scene.get("controllers", {}).values():
+        numbers("controller", controller, ("output",))
+    return slots
+
+
+def _unname(node, values: dict):
+    """Put back the numbers the generator named (its own ``parameters``), in place."""
+    items = node.items() if isinstance(node, dict) else enumerate(node) if isinstance(node, list) else ()
+    for key, value in list(items):
+        if isinstance(value, str) and value in values:
+            node[key] = values[value]
+        else:
+            _unname(value, values)
+
+
+def _prescribed(scene: dict) -> bool:
+    """Whether a body's motion, a hinge's angle or a guide's position is prescribed."""
+    bodies = scene.get("bodies", {}).values()
+    hinges = [spec.get(end, {}).get("hinge") or {} for spec in scene.get("beams", {}).values()
+              for end in ("start", "end")]
+    return (any("motion" in b or "position" in b.get("guide", {}) for b in bodies)
+            or any("angle" in h for h in hinges))
+
+
+def parameterise(rng, scene: dict) -> list[str]:
+    """Name 1–3 numbers or laws of ``scene`` as parameters (kinds drawn evenly, then a slot of the kind)
+    and ask for their sensitivities; the names, in order."""
+    _unname(scene, scene.pop("parameters", {}))
+    scene["solve"].pop("sensitivities", None)
+    by_kind = collections.defaultdict(list)
+    for slot in _slots(scene):
+        by_kind[slot[0]].append(slot)
+    kinds = sorted(by_kind)
+    chosen = []
+    for kind in rng.permutation(kinds)[:int(rng.integers(1, 4))]:
+        options = by_kind[str(kind)]
+        chosen.append(options[int(rng.integers(len(options)))])
+    parameters, names = {}, []
+    for i, (kind, container, key) in enumerate(chosen):
+        name = f"p{i}_{kind.replace('.', '_')}"
+        value = container[key]
+        if isinstance(value, str):       # a law: scaled by the parameter, 1 at the run
+            parameters[name] = 1.0
+            container[key] = f"{name}*({value})"
+        else:
+            parameters[name] = float(value)
+            container[key] = name
+        names.append(name)
+    if parameters:
+        scene["parameters"] = parameters
+        scene["solve"]["sensitivities"] = names
+    return names
+
+
+def sensitivity_scene(seed: int, index: int) -> dict:
+    """Case ``index`` of ``seed``: a scene of ``fuzz_runs.random_scene`` made differentiable and given
+    parameters (None-free: a scene with nothing to name gets a section value)."""
+    rng = np.random.default_rng([seed, index, 34])
+    scene = random_scene(rng, joints=True)
+    differentiable_solve(rng, scene)
+    parameterise(rng, scene)
+    return scene
+
+
+# =========================================================================== the comparison
+def _read(out: Path) -> dict:
+    """What a finished run's folder holds: times, probes, sensitivities, summary."""
+    def table(path):
+        with open(path, newline="", encoding="utf-8") as f:
+            rows = list(csv.reader(f))
+        header, values = rows[0], np.array([[float(x) for x in row] for row in rows[1:]], float)
+        return {h: values[:, j] if len(values) else np.zeros(0) for j, h in enumerate(header)}
+
+    probes = table(out / "probes.csv")
+    first = "t" if "t" in probes else "load_factor"
+    sens = table(out / "sensitivities.csv") if (out / "sensitivities.csv").exists() else {}
+    summary = json.loads((out / "summary.json").read_text(encoding="utf-8"))
+    return {"x": probes.pop(first), "first": first, "probes": probes, "sens": sens, "summary": summary}
+
+
+def _signature(run: dict) -> tuple:
+    """What must not change between the perturbed runs: rows, steps, events."""
+    s = run["summary"]
+    events = tuple((e.get("joint"), e.get("kind")) for e in s.get("events", []) or [])
+    cables = tuple((e.get("cable"), e.get("state")) for e in s.get("cable_events", []) or [])
+    return (len(run["x"]), s.get("steps"), s.get("rejected_steps"), events, cables,
+            s.get("newton_cuts"))
+
+
+def _richardson(values: list) -> np.ndarray:
+    """(4 D(h/2) − D(h))/3 from the values at p + h, p − h, p + h/2, p − h/2 (h folded in by the caller)."""
+    up, down, up2, down2 = (np.asarray(v, float) for v in values)
+    return (4.0 * (up2 - down2) - 0.5 * (up - down)) / 3.0
+
+
+def compare(base: dict, perturbed: list[dict], name: str, h: float, p: float) -> list[dict]:
+    """The comparisons of one parameter: a record per (probe, where) with the computed value(s), the
+    reference, the error relative to the probe's largest sensitivity."""
+    records = []
+    x = base["x"]
+    # every row, by its index: a row's time may move with p (an event's, one after it until a step lands on
+    # the grid, an arc length's load factor), and its sensitivity is the row's (docs/parameters.md)
+    same = np.ones(len(x), bool)
+    for probe, values in base["probes"].items():
+        column = base["sens"].get(f"{probe}/{name}")
+        if column is None:
+            continue
+        reference = _richardson([run["probes"][probe] for run in perturbed]) / h
+        scale_value = float(np.max(np.abs(values))) if len(values) else 0.0
+        floor = 1e-9 * max(scale_value, 1e-12) / max(abs(p), 1e-12)
+        scale = max(float(np.max(np.abs(column))), float(np.max(np.abs(reference[same]))) if same.any() else 0.0,
+                    floor)
+        rows = np.abs(column - reference)[same]
+        worst = int(np.argmax(rows)) if len(rows) else 0
+        where = float(x[same][worst]) if len(rows) else float("nan")
+        # the two central differences' disagreement: truncation (h²) and the runs' own noise (1/h)
+        columns = [run["probes"][probe] for run in perturbed]
+        spread = np.abs((columns[0] - columns[1]) / 2 - (columns[2] - columns[3])) / h
+        records.append({"probe": probe, "where": f"rows (worst at {base['first']} = {where:.6g})",
+                        "error": float(rows.max() / scale) if len(rows) else 0.0, "scale": scale,
+                        "spread": float(spread[same].max() / scale) if len(rows) else 0.0,
+                        "zero": not (np.any(column) or np.any(reference))})
+        summary = base["summary"].get("probe_sensitivities", {}).get(probe)
+        if summary:
+            ends = {"end": [run["probes"][probe][-1] for run in perturbed],
+                    "max": [np.max(run["probes"][probe]) for run in perturbed],
+                    "min": [np.min(run["probes"][probe]) for run in perturbed]}
+            for key, values4 in ends.items():
+                computed = summary.get(key, {}).get(name)
+                if computed is None:
+                    continue
+                ref = float(_richardson(values4)) / h
+                records.append({"probe": probe, "where": f"summary {key}", "spread": records[-1]["spread"]
+                                if key == "end" else records[-2 if key == "max" else -3]["spread"],
+                                "error": abs(computed - ref) / max(scale, abs(ref), abs(computed), floor),
+                                "computed": computed, "reference": ref})
+    # the event times as one more probe: each error relative to the largest event-time derivative
+    events = []
+    for i, event in enumerate(base["summary"].get("event_sensitivities", []) or []):
+        computed = event.get("dt", {}).get(name)
+        if computed is None:
+            continue
+        ref = float(_richardson([run["summary"]["events"][i]["t"] for run in perturbed])) / h
+        events.append((f"event {i} ({event.get('joint')} {event.get('kind')})", computed, ref))
+    floor = 1e-8 * float(base["x"][-1] if base["first"] == "t" else 1.0) / max(abs(p), 1e-12)
+    scale = max([floor] + [max(abs(c), abs(r)) for _, c, r in events])
+    for label, computed, ref in events:
+        records.append({"probe": label, "where": "dt", "error": abs(computed - ref) / scale,
+                        "computed": computed, "reference": ref})
+    return records
+
+
+def run_case(seed: int, index: int, workdir: Path, *, timeout: float = TIMEOUT_S, tol: float = TOL,
+             step: float = STEP, scene: dict | None = None) -> dict:
+    """Generate, run and check case ``index`` of ``seed`` (or check ``scene``, its ``parameters`` and
+    ``solve.sensitivities`` as given); a record of its outcome."""
+    scene = sensitivity_scene(seed, index) if scene is None else scene
+    case_dir = workdir / f"case{index:04d}"
+    case_dir.mkdir(parents=True, exist_ok=True)
+    started = time.perf_counter()
+
+    def launch(spec: dict, tag: str):
+        path = case_dir / f"{tag}.yaml"
+        path.write_text(_scene_text(spec), encoding="utf-8")
+        out = case_dir / f"out_{tag}"
+        command = ["run", str(path), "-o", str(out), "-q"]
+        status, _, stderr, _ = _run(command, timeout=timeout, cwd=case_dir)
+        if status is None:
+            status, _, stderr, _ = _run(command, timeout=RETRY * timeout, cwd=case_dir)
+        return status, stderr, path, out
+
+    names = scene["solve"].get("sensitivities", [])
+    record = {"index": index, "analysis": scene["solve"]["analysis"], "parameters": names, "scene": scene,
+              "checks": [], "skipped": []}
+    status, stderr, path, out = launch(scene, "base")
+    outcome, detail = judge(status, stderr, path, out, scene)
+    record["stderr"] = stderr[-3000:]
+    if outcome != "solved":
+        mapping = {"solved": "agrees", "unbounded": "failed", "refused": "refused", "failed": "failed",
+                   "traceback": "traceback", "hang": "hang"}
+        record.update(outcome=mapping.get(outcome, "defect"), detail=f"{outcome}: {detail}")
+        record["wall_s"] = round(time.perf_counter() - started, 1)
+        return record
+    base = _read(out)
+    for name in names:
+        p = scene["parameters"][name]
+        h = step * max(abs(p), 1e-3)
+        perturbed = []
+        for tag, dp in (("up", h), ("down", -h), ("up2", h / 2), ("down2", -h / 2)):
+            spec = json.loads(json.dumps(scene))
+            spec["parameters"][name] = p + dp
+            status, stderr, path, pout = launch(spec, f"{name}_{tag}")
+            if status != 0:
+                perturbed = f"the run at {name} {'+' if dp > 0 else '-'} {abs(dp):.3g} exited {status}: " \
+                            f"{stderr.strip().splitlines()[-1] if stderr.strip() else ''}"
+                break
+            perturbed.append(_read(pout))
+        if isinstance(perturbed, str):
+            record["skipped"].append(f"{name}: {perturbed}")
+            continue
+        signatures = {_signature(run) for run in [base, *perturbed]}
+        if len(signatures) > 1:
+            record["skipped"].append(f"{name}: the perturbation changes the steps or events "
+                                     f"({sorted(map(str, signatures))[:2]})")
+            continue
+        for check in compare(base, perturbed, name, h, p):
+            record["checks"].append({"parameter": name, **check})
+    bad = [c for c in record["checks"] if not c["error"] <= tol]
+    noisy = [c for c in bad if c["error"] <= NOISE * c.get("spread", 0.0)]
+    if bad and len(noisy) == len(bad):
+        worst = max(bad, key=lambda c: c["error"])
+        record.update(outcome="unresolved", detail=f"{worst['probe']}/{worst['parameter']} {worst['where']}: "
+                                                   f"{worst['error']:.3g} off, the differences themselves "
+                                                   f"{worst['spread']:.3g} apart")
+    elif bad:
+        worst = max(bad, key=lambda c: c["error"] if np.isfinite(c["error"]) else np.inf)
+        record.update(outcome="DISAGREES", detail=f"{worst['probe']}/{worst['parameter']} {worst['where']}: "
+                                                  f"{worst['error']:.3g} off ({len(bad)} of {len(record['checks'])})")
+    elif record["checks"]:
+        worst = max(c["error"] for c in record["checks"])
+        zeros = sum(1 for c in record["checks"] if c.get("zero"))
+        rows = sum(1 for c in record["checks"] if "zero" in c)
+        record.update(outcome="agrees", detail=f"{len(record['checks'])} checks, worst {worst:.2g}"
+                                               + (f" ({zeros} of {rows} probe columns 0 in both)" if zeros else ""))
+    else:
+        record.update(outcome="skipped", detail="; ".join(record["skipped"])[:300] or "no probe to compare")
+    if record["skipped"] and record["outcome"] != "skipped":
+        record["detail"] += f"; skipped {len(record['skipped'])}: " + "; ".join(record["skipped"])[:200]
+    record["wall_s"] = round(time.perf_counter() - started, 1)
+    return record
+
+
+# =========================================================================== the campaign
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--runs", type=int, default=30, help="cases to run (default 30)")
+    parser.add_argument("--seed", type=int, default=1, help="seed of the generator (default 1)")
+    parser.add_argument("--start", type=int, default=0, help="first case index (default 0)")
+    parser.add_argument("--timeout", type=float, default=TIMEOUT_S, help=f"seconds per run (default {TIMEOUT_S:g})")
+    parser.add_argument("--tol", type=float, default=TOL, help=f"agreement bound (default {TOL:g})")
+    parser.add_argument("--step", type=float, default=STEP, help=f"relative perturbation h/|p| (default {STEP:g})")
+    parser.add_argument("--keep", type=Path, default=None,
+                        help="save the scene, stderr and the checks of every case not 'agrees' here")
+    parser.add_argument("--json", type=Path, default=None, help="write the counts and every record here")
+    parser.add_argument("--scene", type=Path, default=None,
+                        help="check this scene file instead (a reduced case): print each comparison")
+    parser.add_argument("--show", type=int, default=None, metavar="N", help="print the scene of case N and exit")
+    args = parser.parse_args(argv)
+    if args.show is not None:
+        print(_scene_text(sensitivity_scene(args.seed, args.show)), end="")
+        return 0
+    if args.scene is not None:
+        import yaml
+
+        with tempfile.TemporaryDirectory(prefix="latdyn_sensfuzz_") as base:
+            record = run_case(0, 0, Path(base), timeout=args.timeout, tol=args.tol, step=args.step,
+                              scene=yaml.safe_load(args.scene.read_text(encoding="utf-8")))
+        for c in record["checks"]:
+            print(f"{c['parameter']:>12s} {c['probe']:>24s} {c['where']:32s} error {c['error']:.3g}"
+                  + (f" (computed {c['computed']:.9g}, reference {c['reference']:.9g})" if "computed" in c else "")
+                  + (f" spread {c['spread']:.2g}" if "spread" in c else ""))
+        print(record["outcome"], record["detail"])
+        return 0 if record["outcome"] in ("agrees", "skipped", "refused", "failed") else 1
+    records = []
+    with tempfile.TemporaryDirectory(prefix="latdyn_sensfuzz_") as base:
+        for index in range(args.start, args.start + args.runs):
+            record = run_case(args.seed, index, Path(base), timeout=args.timeout, tol=args.tol, step=args.step)
+            records.append(record)
+            mark = "  <--" if record["outcome"] in ("DISAGREES", "traceback", "hang", "defect") else ""
+            print(f"case {index:4d} {record['analysis']:9s} {record['outcome']:9s} {record['wall_s']:6.1f} s "
+                  f"{','.join(record['parameters'])[:60]:60s} {record['detail'][:160]}{mark}", flush=True)
+            if args.keep is not None and record["outcome"] != "agrees":
+                args.keep.mkdir(parents=True, exist_ok=True)
+                stem = args.keep / f"seed{args.seed}_case{index:04d}_{record['outcome']}"
+                stem.with_suffix(".yaml").write_text(
+                    f"# {record['outcome']}: {record['detail']}\n# python benchmarks/fuzz_sensitivities.py --show "
+                    f"{index} --seed {args.seed}\n" + _scene_text(record["scene"]), encoding="utf-8")
+                stem.with_suffix(".txt").write_text(record["stderr"] + "\n" + json.dumps(record["checks"], indent=1),
+                                                    encoding="utf-8")
+    by = collections.Counter(r["outcome"] for r in records)
+    summary = {"seed": args.seed, "start": args.start, "runs": len(records), "tol": args.tol,
+               "outcomes": dict(by), "checks": sum(len(r["checks"]) for r in records),
+               "skipped_parameters": sum(len(r["skipped"]) for r in records),
+               "wall_s": round(sum(r["wall_s"] for r in records), 1)}
+    print(json.dumps(summary, indent=1))
+    if args.json:
+        args.json.write_text(json.dumps({**summary, "records": [
+            {k: r.get(k) for k in ("index", "analysis", "parameters", "outcome", "detail", "skipped", "wall_s")}
+            | {"worst": max((c["error"] for c in r["checks"]), default=None)} for r in records]}, indent=1))
+    return 0 if not any(r["outcome"] in ("DISAGREES", "traceback", "hang", "defect") for r in records) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
