@@ -1019,6 +1019,37 @@ class TransientSensitivities(ParameterDerivatives):
             dtheta[j] += state.theta_dot[j] * moved
             if rates is not None:
                 rates[2][j] += state.theta_ddot[j] * moved
+        if self.model.links is not None and (nodes or hinges):
+            self._dependent_in_time(state, moved, dx, dpi, rates)
+
+    def _dependent_in_time(self, state, moved: np.ndarray, dx, dpi, rates) -> None:
+        """The nodes that follow rigid links from a prescribed body or hinge angle, at a row whose time moves
+        with p (:meth:`_prescribed_in_time`): P δq moves them with the free coordinates only, and the
+        prescribed motion carries them on by its own rates at fixed free coordinates, δx += v° δt,
+        δπ += ω° δt, with (v°, ω°) their rates completed with the free rates 0; their rates by
+        ∂v_dep/∂t at fixed free coordinates and rates, (a°, α°) − ∂(J v)/∂q v: their accelerations completed
+        with the free accelerations 0 (J_p θ̈_p + the rates' quadratic terms) less the part of those terms
+        that moves with the free coordinates (the generated ``*_rates_D_q``, latdyn/assembly/linked.py)."""
+        model, assembler = self.model, self.assembler
+        dependent = model.links.dependent
+        still = state.copy()
+        unpack_free(model, np.zeros(model.n_dofs), still.v, still.w, still.theta_dot)
+        assembler.complete_links(still)
+        for node in dependent:
+            dx[node] += np.outer(still.v[node], moved)
+            dpi[node] += np.outer(still.w[node], moved)
+        if rates is None:
+            return
+        from latdyn.assembly.linked import evaluate_linked
+
+        unaccelerated = state.copy()
+        unpack_free(model, np.zeros(model.n_dofs), unaccelerated.a, unaccelerated.alpha, unaccelerated.theta_ddot)
+        assembler.complete_links(unaccelerated)
+        ev = evaluate_linked(model.links, assembler, state, True, 1.0, True, inertia_tangent=True, rates_term=True)
+        by_velocity = np.asarray(ev.rates_tangent[0] @ free_velocity(model, state)).reshape(-1, 6)
+        for i, node in enumerate(dependent):
+            rates[0][node] += np.outer(unaccelerated.a[node] - by_velocity[i, 0:3], moved)
+            rates[1][node] += np.outer(unaccelerated.alpha[node] - by_velocity[i, 3:6], moved)
 
     def table(self, carried: dict) -> dict:
         """``{(probe, name): array over the rows}`` (``Result.sensitivities``)."""
