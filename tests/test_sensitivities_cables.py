@@ -17,6 +17,7 @@ import yaml
 
 from latdyn.errors import SceneError
 from tests.test_sensitivities_events import _run
+from tests.cli_runs import latdyn_run, summary_of
 from tests.resumed_runs import interrupted_and_whole
 
 DROP = """
@@ -104,6 +105,33 @@ def test_the_taut_time_of_a_dropped_mass_has_its_closed_form_derivatives(drop):
     assert taut["dt"]["L"] == pytest.approx(1 / (9.81 * t_e), rel=1e-12)
     assert abs(taut["dt"]["EA"]) <= 1e-12
     assert drop.summary["events"] == [{k: v for k, v in e.items() if k != "dt"} for e in drop.summary["event_sensitivities"]]
+
+
+#: DROP in a weak gravity onto a rope 1 µm slack: taut at t_e = √(2e-3) = 0.0447 s, the gap's rate there EA/L · g t_e
+#: = 0.179 N/s, which moves it 1.8e-3 N over a step dt = 0.01 — 9e5 times the landing's tolerance 1e-12 EA
+SLOW_DROP = DROP.replace("L: 1.0,", "L: 0.500001,").replace("[0, 0, -9.81]", "[0, 0, -0.001]").replace(
+    "t_end: 0.6,", "t_end: 0.1, tol: 1.0e-12,").replace("every: 0.05", "every: 0.01")
+
+
+def test_a_slowly_sagging_mass_s_taut_time_is_determined_and_has_its_closed_form_derivative(tmp_path):
+    """The grazing-change refusal measured the gap's move over a step against 1e3 × the loop's tolerance 1e-9 EA
+    (2e-3 N here) and ended this run though its taut time is well determined (reviewer B: with the bound lowered
+    dt_e/dL = 22360.68096 against 1/(g t_e) = 22360.67977). The bound is now the landing's own tolerance
+    1e-12 EA: the run is solved, by the CLI and the API alike, and dt_e/dL = 1/(g t_e) (measured: t_e and
+    dt_e/dL 5e-8 relative — the landing's |g| ≤ 1e-12 EA leaves the time 1.1e-8 s free)."""
+    run, out = latdyn_run(tmp_path, SLOW_DROP)
+    assert run.returncode == 0, run.stderr
+    summary = summary_of(out)
+    result = _run(SLOW_DROP)
+    assert summary["status"] == result.summary["status"] == "solved"
+    assert summary["event_sensitivities"] == result.summary["event_sensitivities"]
+    taut = summary["event_sensitivities"][0]
+    assert (taut["joint"], taut["kind"]) == ("rope", "taut")
+    g, fall = 1e-3, 0.500001 - 0.5
+    t_e = math.sqrt(2 * fall / g)
+    assert taut["t"] == pytest.approx(t_e, rel=2e-7)
+    assert taut["dt"]["L"] == pytest.approx(1 / (g * t_e), rel=2e-7)
+    assert abs(taut["dt"]["EA"]) <= 1e-6 * taut["dt"]["L"]
 
 
 @pytest.mark.parametrize("name", ["L", "EA"])

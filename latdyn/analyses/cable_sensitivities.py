@@ -9,17 +9,13 @@ import numpy as np
 
 from latdyn.analyses.parameter_keys import CABLE_KEY as _CABLE_KEY
 from latdyn.errors import SolverError
-from latdyn.timeloop.events import cable_crossings, cable_events, cable_gaps, cable_tolerance
+from latdyn.timeloop.events import cable_crossings, cable_events, cable_gaps
 
 __all__ = ["CableSensitivities", "LANDING"]
 
 #: |θ − θ_event| (rad, times max(1, |θ_event|)) to which a step lands on a latch or a stop when
 #: sensitivities are asked (the loop's own landing stops at lock_tolerance, 1e-7)
 LANDING = 1e-12
-#: a cable's change whose gap moves less than this many times the change's tolerance over a step dt is a
-#: grazing one, its time undetermined (CableSensitivities._refuse_grazing): ended. A gap moving at
-#: 1e-3 m/s over a 1 m cable and dt = 0.01 moves 1e-5 EA, 1e4 times above this bound (1e-6 EA)
-GRAZING = 1e3
 
 
 class CableSensitivities:
@@ -233,20 +229,21 @@ class CableSensitivities:
         return g_q, g_v, g_p, self.gap_rate(new, e)
 
     def _refuse_grazing(self, new, e: int, rate: float) -> None:
-        """A change at which the gap barely moves: over a whole step dt it moves less than :data:`GRAZING`
-        times the loop's own tolerance of the change (latdyn.timeloop.events.cable_tolerance), so the event's
-        time is not determined and its derivative −(∂g/∂p)/ġ is round-off over round-off. Found by
-        benchmarks/fuzz_sensitivities.py (seed 3 case 17): a cable beside a rigid link between the same two
-        bodies keeps its rest length, went taut and slack 18 times at round-off and reported the event
-        times' derivatives as −5e-5 … 3e-4 and the tip's as 1.3e-8, all exactly 0
+        """A change at which the gap barely moves: over a whole step dt it moves no more than the tolerance
+        to which the step lands on it (:data:`LANDING` · EA), so every instant of the step is on the change,
+        the event's time is not determined and its derivative −(∂g/∂p)/ġ is round-off over round-off (a gap
+        moving at EA/L · 1e-3 m/s, 1 m cable, dt = 0.01, moves 1e-5 EA over the step, 1e7 times this bound).
+        Found by benchmarks/fuzz_sensitivities.py (seed 3 case 17): a cable beside a rigid link between the
+        same two bodies keeps its rest length, went taut and slack 18 times at round-off and reported the
+        event times' derivatives as −5e-5 … 3e-4 and the tip's 1.3e-8, all exactly 0
         (tests/test_sensitivities_fuzz_finds.py). Ended (SolverError)."""
         dt = float(self.owner.scene.solve.dt)
-        tolerance = float(cable_tolerance(self.cables.EA[e:e + 1])[0])
-        if abs(rate) * dt <= GRAZING * tolerance:
+        tolerance = LANDING * float(self.cables.EA[e])
+        if abs(rate) * dt <= tolerance:
             name = self.cables.names[self.cables.cable[e]]
             raise SolverError(f"the sensitivities at t = {new.t:.6g} meet cables.{name} changing side while its gap "
                               f"barely moves (its rate {rate:.3g} moves it {abs(rate) * dt:.3g} in a step dt, within "
-                              f"{GRAZING:g} times the change's tolerance {tolerance:.3g}: a grazing change, whose time "
+                              f"the landing's tolerance {tolerance:.3g}: a grazing change, whose time "
                               "and its derivative are not determined; docs/parameters.md, \"Cables\")")
 
     def _on_free_coordinates(self, state, g_q: np.ndarray, g_v: np.ndarray) -> tuple:
