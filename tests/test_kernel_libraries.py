@@ -63,3 +63,31 @@ def test_a_run_opens_only_the_kernel_libraries_its_model_calls(tmp_path):
     assert found["status"] == "solved"
     assert all(0 < opened < count for opened, count in found["opened"].values()), found["opened"]
     assert found["closed_before"] and found["open_now"]
+
+
+def test_a_kernel_opened_through_its_set_is_counted_once_and_seen_by_keys_get_and_dict():
+    """Reviewer B: a kernel opened through ``KernelSet`` (``_build`` stores its library) stayed among the
+    files not yet opened, so ``len`` grew 34 → 35 and iteration named it twice, while ``keys``, ``get`` and
+    ``dict()`` saw only the opened ones. In a fresh process: the count and the names stay the variant's,
+    once each, before and after; ``keys``, ``get`` and ``dict()`` see every kernel."""
+    code = textwrap.dedent("""
+        import json
+        from latdyn.model.kernels import ON_DEMAND, load_kernels
+        kernels = load_kernels("c", "default")
+        libraries = kernels.libraries
+        before = sorted(libraries)
+        name = next(n for n in kernels._deferred if n not in ON_DEMAND)
+        kernels.library(name)
+        unopened = next(n for n in libraries if n not in dict.keys(libraries))
+        print(json.dumps({"before": before, "after": list(libraries), "len": [len(before), len(libraries)],
+                          "keys": sorted(libraries.keys()), "get": libraries.get(unopened) is not None,
+                          "missing": libraries.get("no such kernel", 7), "dict": sorted(dict(libraries)),
+                          "opened_once": list(libraries).count(name)}))
+        """)
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=600)
+    assert done.returncode == 0, done.stderr[-2000:]
+    found = json.loads(done.stdout.strip().splitlines()[-1])
+    assert found["len"][0] == found["len"][1] == len(found["after"]) >= 30
+    assert sorted(found["after"]) == found["before"] == found["keys"] == found["dict"]
+    assert found["opened_once"] == 1 and found["get"] and found["missing"] == 7

@@ -163,8 +163,9 @@ class LibraryFiles(dict):
     """Kernel name -> its shared library (``ctypes.CDLL``), each opened (``dlopen``) when it is first
     looked up: a run opens the libraries of the kernels its model calls, not all of a variant's
     (34 ``dlopen`` s ≈ 6 ms of CPU at a run's start; docs/performance.md, "Seventh pass"). ``in``,
-    ``len`` and iteration count the libraries not yet opened, ``items`` and ``values`` open them all;
-    the files were found in the cache when the set was made."""
+    ``len``, iteration and ``keys`` count every kernel once, opened or not (a library stored for a name,
+    as :meth:`KernelSet._build` does, takes the place of its file); ``get``, ``items`` and ``values``
+    (and ``dict(...)``) open those they return; the files were found in the cache when the set was made."""
 
     def __init__(self, paths: dict):
         super().__init__()
@@ -176,6 +177,10 @@ class LibraryFiles(dict):
         library = self[name] = native.load(self._paths.pop(name))
         return library
 
+    def __setitem__(self, name: str, library: ctypes.CDLL) -> None:
+        self._paths.pop(name, None)
+        dict.__setitem__(self, name, library)
+
     def __contains__(self, name) -> bool:
         return dict.__contains__(self, name) or name in self._paths
 
@@ -185,6 +190,12 @@ class LibraryFiles(dict):
 
     def __len__(self) -> int:
         return dict.__len__(self) + len(self._paths)
+
+    def keys(self):
+        return list(self)
+
+    def get(self, name, default=None):
+        return self[name] if name in self else default
 
     def items(self):
         """Every kernel's library, opening those not yet open."""
