@@ -44,10 +44,36 @@ def test_the_integer_width_is_the_loaded_librarys_own():
     if configuration is None or not sys.platform.startswith("linux"):
         pytest.skip("NumPy here is not built on its wheel's OpenBLAS, or no /proc/self/maps")
     routines = numpy_lapack()
-    assert routines is not None
-    assert routines.integer_bytes == (8 if "USE64BITINT" in configuration else 4)
+    if "USE64BITINT" not in configuration:   # a 32-bit one is left to SciPy's (test below)
+        assert routines is None
+        return
+    assert routines is not None and routines.integer_bytes == 8
     assert set(routines.addresses) == {"dgetrf", "dgetrs", "dgbtrf", "dgbtrs", "dpbtrf"}
     assert all(routines.addresses.values()) and all(routines.blas_threads)
+
+
+def test_a_32_bit_openblas_of_numpys_is_left_to_scipys_lapack(monkeypatch):
+    """Reviewer B: csrc/factorization.c's 32-bit path calls getrs / gbtrs without the hidden length of their
+    character argument, as SciPy's cython_lapack takes them, while NumPy's are Fortran symbols that take
+    one (the 64-bit path and dpbtrf pass it). A 32-bit OpenBLAS of NumPy's is therefore not taken: the band
+    LU falls to SciPy's and solves A x = b to round-off. (The routines found are relabelled 32-bit here, as a
+    NumPy built without USE64BITINT reads; none of them is called.)"""
+    pytest.importorskip("scipy.linalg.cython_lapack")
+    from latdyn.assembly import library as library_module
+    from latdyn.assembly.library import LapackRoutines, lapack_address
+
+    found = library_module._find_numpy_lapack() or LapackRoutines({"dgbtrf": 1}, 8, (None, None))
+    monkeypatch.setattr(library_module, "_find_numpy_lapack", lambda: found._replace(integer_bytes=4))
+    monkeypatch.setattr(library_module, "_numpy_lapack", False)
+    assert numpy_lapack() is None
+    n = 40
+    A = _band_matrix(n, 2, 3, seed=7)
+    rows, cols = np.nonzero(A)
+    f = Factorization(rows, cols, n, kind="band")
+    assert f.integer_bytes == 4 and f.structure.gbtrf == lapack_address("dgbtrf")
+    f.factor(A[rows, cols])
+    b = np.random.default_rng(2).standard_normal(n)
+    assert np.max(np.abs(f.solve(b) - np.linalg.solve(A, b))) <= 1e-12 * np.max(np.abs(np.linalg.solve(A, b)))
 
 
 def _band_matrix(n: int, kl: int, ku: int, seed: int) -> np.ndarray:

@@ -416,11 +416,19 @@ def numpy_lapack() -> "LapackRoutines | None":
     run's start (docs/performance.md, "Seventh pass"). None where no such library is found loaded
     (Linux's ``/proc/self/maps``: elsewhere, NumPy built on another BLAS, or routines missing): then
     SciPy's :func:`lapack_address` serves. The factorizations take from it the kinds
-    :data:`latdyn.assembly.factorization.NUMPY_LAPACK_KINDS` names (the band LU)."""
+    :data:`latdyn.assembly.factorization.NUMPY_LAPACK_KINDS` names (the band LU). Only an ILP64 library's
+    (``integer_bytes`` 8): csrc/factorization.c calls those routines by their Fortran symbols with a
+    character argument's hidden length, and takes a 32-bit LAPACK as SciPy's cython_lapack hands it
+    (without one), so a 32-bit OpenBLAS of NumPy's is left to SciPy's."""
     global _numpy_lapack
     if _numpy_lapack is False:
-        _numpy_lapack = _find_numpy_lapack()
+        _numpy_lapack = _ilp64_only(_find_numpy_lapack())
     return _numpy_lapack
+
+
+def _ilp64_only(routines: "LapackRoutines | None") -> "LapackRoutines | None":
+    """``routines`` where they take 64-bit integers, else None (:func:`numpy_lapack`)."""
+    return routines if routines is not None and routines.integer_bytes == 8 else None
 
 
 def _find_numpy_lapack() -> "LapackRoutines | None":

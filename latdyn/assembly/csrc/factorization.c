@@ -11,8 +11,9 @@
  *   sparse (kind 2): the factor storage of the supernodal LU of sparse_lu.c (no pivots).
  * The LAPACK routines are those latdyn/assembly/factorization.py chooses: SciPy's
  * (library.lapack_address: cython_lapack function pointers, 32-bit integers) or, for the band LU
- * where NumPy's own OpenBLAS is loaded (library.numpy_lapack), NumPy's (64-bit integers where that library is ILP64): `integer_bytes`
- * says which width the routines take, and with 8 the pivots pass through `wide_pivots` (n
+ * where NumPy's own ILP64 OpenBLAS is loaded (library.numpy_lapack), NumPy's, by their Fortran symbols with a
+ * character argument's hidden length (a 32-bit OpenBLAS of NumPy's is not taken: the 32-bit path passes no
+ * hidden length, as SciPy's cython_lapack takes none): `integer_bytes` says which width the routines take, and with 8 the pivots pass through `wide_pivots` (n
  * int64), the caller's pivots staying n ints either way. The BLAS kernels of the sparse LU are
  * SciPy's. Around every call, the OpenBLAS behind the routines is held to one thread and the
  * caller's setting restored (latdyn/numerics/linalg.py: on a shared machine a second thread
