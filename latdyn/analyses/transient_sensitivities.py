@@ -139,7 +139,8 @@ __all__ = ["TransientSensitivities"]
 
 #: |v̇_0| and |Q_cᵀ r| below which a start counts as at rest in equilibrium (SI units; module docstring)
 AT_REST = 1e-9
-#: secant passes at most for that landing
+#: passes at most of that landing's search on the step size (regula falsi, Illinois-modified, while the step
+#: brackets the event; a secant where it does not)
 LANDING_PASSES = 30
 #: a landing farther than this (relative, as LANDING) from the event is flagged in summary.json warnings:
 #: the event-time derivative assumes the step ends on it
@@ -1071,8 +1072,8 @@ class TransientSensitivities(ParameterDerivatives):
             table, {p.name: np.asarray(recorded.probes[p.name])[:len(carried["rows"])] for p in self.probes})
         writer.summary["event_sensitivities"] = list(carried.get("events", []))
         for joint, t, miss in carried.get("missed", []):
-            warning = (f"the step landed {miss:.2g} (relative) off the event of {joint} at t = {t:.9g} (secant "
-                       "on the step size not converged): its sensitivities are not exact to better than that")
+            warning = (f"the step landed {miss:.2g} (relative) off the event of {joint} at t = {t:.9g} (regula "
+                       "falsi on the step size not converged): its sensitivities are not exact to better than that")
             print(f"latdyn: warning: {warning}", file=sys.stderr)
             writer.summary.setdefault("warnings", []).append(warning)
         if writer.out_dir is not None:

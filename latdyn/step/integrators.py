@@ -178,9 +178,10 @@ def inverse_mass_times(M, vector: np.ndarray) -> np.ndarray:
 
 
 def _start_without_scipy(model) -> bool:
-    """Whether the start's sparse products go without SciPy (latdyn.numerics.csr, the same numbers):
-    a model above the dense LU's size, without rigid links, whose step's band LU orders its pattern
-    without SciPy too (numerics.linalg.RCM_IN_PYTHON); importing scipy.sparse costs ≈0.1 s of CPU."""
+    """Whether the start solves for its accelerations on the mass matrix's own CSR without SciPy
+    (:func:`inverse_mass_times` where every direction has inertia; latdyn.numerics.csr): a model above
+    the dense LU's size, without rigid links, whose step's band LU orders its pattern without SciPy too
+    (numerics.linalg.RCM_IN_PYTHON); importing scipy.sparse costs ≈0.1 s of CPU."""
     return model.links is None and DENSE_LIMIT < model.n_dofs <= RCM_IN_PYTHON
 
 
