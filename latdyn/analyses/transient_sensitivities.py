@@ -385,8 +385,11 @@ class TransientSensitivities(ParameterDerivatives):
         n, k = model.n_dofs, len(self.names)
         self._stuck_before, self._candidates = model.stuck.copy(), {}
         self.held = self._held(carried)
-        if n == 0 or k == 0:
+        if k == 0:
             return {**carried, "h": h}
+        if n == 0:   # nothing free (all latched): no event can end the step; the step's time still moves with p
+            dh = -carried["dt"] if lands else np.zeros(k)   # landing on the grid, or the nominal step after a restart
+            return {**carried, "dt": carried["dt"] + dh, "dh": dh, "dh_step": dh, "h": h}
         columns, states = self.step_columns(carried, old, new, h, a_old, a_new)
         event = self._event(old, new)
         cable = self._cable_event(old, new, event)
