@@ -397,9 +397,14 @@ def test_a_flexible_pendulum_with_friction_comes_to_rest_by_sticking():
     with Coulomb friction 1.5 and breakaway 2.0 (3D), sticking on and off with its vibration: it comes
     to rest for good (rate 0 from t ≈ 1.86) where gravity's torque about the axis, m g (r_c × ĝ)·a
     of the rigid beam, is within the breakaway level (measured 1.06), at the angle of a run with half
-    the step (2.8118; 2.8128 here) and of the regularised law alone (2.8127, in 11047 steps and 403 s
-    where the events take 306); the dissipated energy is the energy lost (balance 3.2e-4)."""
-    result = latdyn.run(yaml.safe_load(FLEXIBLE_PENDULUM))
+    the step (2.8118; 2.8121 here) and of the regularised law alone (2.8127, in 11047 steps and 403 s
+    where the events take 241); the dissipated energy is the energy lost to the step's order: 1.15e-3
+    (balance 1.09e-3) at dt, 4.3e-4 (4.0e-4) at dt/2. Since fixed steps grow on after a grid landing from
+    the size proposed before it (latdyn/timeloop/control.py), the run takes 241 steps where it took 306
+    doubling from the slivers after its first cuts (4.6e-4 then: the slivers' smaller steps, not the
+    balance, met the former 1e-3 bound)."""
+    scene = yaml.safe_load(FLEXIBLE_PENDULUM)
+    result = latdyn.run(scene)
     angle, rate = result.probes["angle"], result.probes["rate"]
     assert np.all(rate[result.t > 1.9] == 0.0) and np.any(rate[result.t < 1.8] != 0.0)
     a = np.array([0.0, 0.8, -0.6])
@@ -409,5 +414,8 @@ def test_a_flexible_pendulum_with_friction_comes_to_rest_by_sticking():
     assert 0.5 < abs(gravity_torque) <= 2.0
     assert angle[-1] == pytest.approx(2.8118, abs=3e-3)
     lost = result.probes["total"][0] - result.probes["total"][-1]
-    assert result.probes["dissipated"][-1] == pytest.approx(lost, rel=1e-3)
-    assert result.summary["energy_balance_error"] < 1e-3
+    assert result.probes["dissipated"][-1] == pytest.approx(lost, rel=2e-3)
+    assert result.summary["energy_balance_error"] < 2e-3
+    scene["solve"]["dt"] /= 2   # the balance is the step's: it falls with dt
+    halved = latdyn.run(scene)
+    assert halved.summary["energy_balance_error"] < 0.5 * result.summary["energy_balance_error"]
