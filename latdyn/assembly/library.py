@@ -432,15 +432,15 @@ def _ilp64_only(routines: "LapackRoutines | None") -> "LapackRoutines | None":
 
 
 def _find_numpy_lapack() -> "LapackRoutines | None":
-    try:
-        with open("/proc/self/maps", "rb") as maps:
-            paths = {line.split(maxsplit=5)[-1].strip().decode() for line in maps if b"openblas" in line}
-    except (OSError, UnicodeDecodeError):
-        return None
     from pathlib import PurePath
 
-    own = sorted(p for p in paths if p.startswith("/") and "openblas" in os.path.basename(p).lower()
-                 and any(part == "numpy" or part.startswith("numpy.") for part in PurePath(p).parent.parts))
+    from latdyn.numerics.linalg import loaded_openblas_paths
+
+    paths = loaded_openblas_paths()
+    if paths is None:
+        return None
+    own = sorted(p for p in paths
+                 if any(part == "numpy" or part.startswith("numpy.") for part in PurePath(p).parent.parts))
     if len(own) != 1:
         return None
     try:

@@ -230,6 +230,21 @@ _OPENBLAS_AFFIXES = tuple((prefix, suffix) for prefix in ("", "scipy_") for suff
 _thread_functions: tuple[int | None, int | None] | None = None  # found once per process
 
 
+def loaded_openblas_paths() -> list[str] | None:
+    """Linux: the files of the OpenBLAS libraries this process has loaded, as ``/proc/self/maps`` shows
+    them (absolute paths whose file name holds "openblas"); None where that file cannot be read. SciPy's
+    (:func:`openblas_thread_functions`) and NumPy's (:func:`latdyn.assembly.library.numpy_lapack`) are
+    told apart by their folders."""
+    import os
+
+    try:
+        with open("/proc/self/maps", "rb") as maps:
+            paths = {line.split(maxsplit=5)[-1].strip().decode() for line in maps if b"openblas" in line}
+    except (OSError, UnicodeDecodeError):
+        return None
+    return sorted(p for p in paths if p.startswith("/") and "openblas" in os.path.basename(p).lower())
+
+
 def _scipy_openblas_from_maps() -> tuple[int | None, int | None] | None:
     """Linux: the thread functions of the OpenBLAS that ``/proc/self/maps`` shows loaded from SciPy's
     folder; None where that file is not there or shows no such library (then threadpoolctl looks,
@@ -238,13 +253,10 @@ def _scipy_openblas_from_maps() -> tuple[int | None, int | None] | None:
     import ctypes
     import os
 
-    try:
-        with open("/proc/self/maps", "rb") as maps:
-            paths = {line.split(maxsplit=5)[-1].strip().decode() for line in maps if b"openblas" in line}
-    except (OSError, UnicodeDecodeError):
+    paths = loaded_openblas_paths()
+    if paths is None:
         return None
-    own = sorted(p for p in paths if p.startswith("/") and "openblas" in os.path.basename(p).lower()
-                 and _in_scipy_folder(p))
+    own = sorted(p for p in paths if _in_scipy_folder(p))
     if len(own) != 1:
         return None
     try:
