@@ -636,11 +636,7 @@ class AdjointSensitivities(TransientSensitivities):
                            - self.residual_transposed_product(assembler.advance(state, -eta * w), u_bar,
                                                               inertia=False)) / (2 * eta)
         if mass:
-            at_rest = state.copy()
-            for name in ("v", "w", "theta_dot", "a", "alpha", "theta_ddot"):
-                getattr(at_rest, name)[...] = 0.0
-            accelerated = at_rest.copy()
-            unpack_free(model, w, accelerated.a, accelerated.alpha, accelerated.theta_ddot)
+            at_rest, accelerated = self._at_rest_and_accelerated(state, w)
             p_part += (self.residual_transposed_product(accelerated, u_bar)
                        - self.residual_transposed_product(at_rest, u_bar))
         return q_part, p_part

@@ -684,6 +684,19 @@ class TransientSensitivities(ParameterDerivatives):
             out.append((dx, dpi, dtheta))
         return out
 
+    def _at_rest_and_accelerated(self, state, w: np.ndarray) -> tuple:
+        """``state`` at rest (rates and accelerations 0) and the same with the accelerations ``w`` on the free
+        coordinates, the dependent nodes completed: ∂M/∂p w is ∂r/∂p at the second less at the first (the
+        inertia forces are linear in the accelerations; :meth:`_weight_derivative` and its transpose)."""
+        at_rest = state.copy()
+        for name in ("v", "w", "theta_dot", "a", "alpha", "theta_ddot"):
+            getattr(at_rest, name)[...] = 0.0
+        accelerated = at_rest.copy()
+        unpack_free(self.model, w, accelerated.a, accelerated.alpha, accelerated.theta_ddot)
+        self.assembler.complete_links(at_rest)
+        self.assembler.complete_links(accelerated)
+        return at_rest, accelerated
+
     def _weight_derivative(self, state, w: np.ndarray, dq: np.ndarray, scale: float,
                            mass: bool = True, rates=None) -> np.ndarray:
         """δ(W w) (n, k) for W = M + scale·K (``mass``) or scale·K at ``state`` (K the evaluation's, without
@@ -735,13 +748,7 @@ class TransientSensitivities(ParameterDerivatives):
         if linked:
             out += scale * self._geometric_derivative(state, w, eta)
         if mass:
-            at_rest = state.copy()
-            for name in ("v", "w", "theta_dot", "a", "alpha", "theta_ddot"):
-                getattr(at_rest, name)[...] = 0.0
-            accelerated = at_rest.copy()
-            unpack_free(model, w, accelerated.a, accelerated.alpha, accelerated.theta_ddot)
-            assembler.complete_links(at_rest)
-            assembler.complete_links(accelerated)
+            at_rest, accelerated = self._at_rest_and_accelerated(state, w)
             out += (self.residual_derivatives(accelerated, 1.0, inertia=True)
                     - self.residual_derivatives(at_rest, 1.0, inertia=True))
         return out
