@@ -434,18 +434,11 @@ def _ilp64_only(routines: "LapackRoutines | None") -> "LapackRoutines | None":
 def _find_numpy_lapack() -> "LapackRoutines | None":
     from pathlib import PurePath
 
-    from latdyn.numerics.linalg import loaded_openblas_paths
+    from latdyn.numerics.linalg import loaded_openblas
 
-    paths = loaded_openblas_paths()
-    if paths is None:
-        return None
-    own = sorted(p for p in paths
-                 if any(part == "numpy" or part.startswith("numpy.") for part in PurePath(p).parent.parts))
-    if len(own) != 1:
-        return None
-    try:
-        library = ctypes.CDLL(own[0], mode=getattr(os, "RTLD_NOLOAD", 0) | ctypes.RTLD_LOCAL)  # already loaded
-    except OSError:
+    library = loaded_openblas(lambda p: any(part == "numpy" or part.startswith("numpy.")
+                                            for part in PurePath(p).parent.parts))
+    if library is None:
         return None
     for prefix in ("scipy_", ""):
         for tail in ("_64_", "64_", "_"):

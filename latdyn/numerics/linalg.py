@@ -230,11 +230,12 @@ _OPENBLAS_AFFIXES = tuple((prefix, suffix) for prefix in ("", "scipy_") for suff
 _thread_functions: tuple[int | None, int | None] | None = None  # found once per process
 
 
-def loaded_openblas_paths() -> list[str] | None:
-    """Linux: the files of the OpenBLAS libraries this process has loaded, as ``/proc/self/maps`` shows
-    them (absolute paths whose file name holds "openblas"); None where that file cannot be read. SciPy's
-    (:func:`openblas_thread_functions`) and NumPy's (:func:`latdyn.assembly.library.numpy_lapack`) are
-    told apart by their folders."""
+def loaded_openblas(belongs):
+    """Linux: the one OpenBLAS library this process has loaded whose file ``belongs(path)`` (by its folder:
+    SciPy's for :func:`openblas_thread_functions`, NumPy's for :func:`latdyn.assembly.library.numpy_lapack`),
+    opened without loading it again, as ``/proc/self/maps`` shows it; None where that file cannot be read, or
+    none or several such libraries are loaded."""
+    import ctypes
     import os
 
     try:
@@ -242,7 +243,13 @@ def loaded_openblas_paths() -> list[str] | None:
             paths = {line.split(maxsplit=5)[-1].strip().decode() for line in maps if b"openblas" in line}
     except (OSError, UnicodeDecodeError):
         return None
-    return sorted(p for p in paths if p.startswith("/") and "openblas" in os.path.basename(p).lower())
+    own = sorted(p for p in paths if p.startswith("/") and "openblas" in os.path.basename(p).lower() and belongs(p))
+    if len(own) != 1:
+        return None
+    try:
+        return ctypes.CDLL(own[0], mode=getattr(os, "RTLD_NOLOAD", 0) | ctypes.RTLD_LOCAL)  # already loaded
+    except OSError:
+        return None
 
 
 def _scipy_openblas_from_maps() -> tuple[int | None, int | None] | None:
@@ -251,17 +258,9 @@ def _scipy_openblas_from_maps() -> tuple[int | None, int | None] | None:
     which inspects every loaded library: 8–10 ms of a 5-step run's process, docs/performance.md,
     "First run")."""
     import ctypes
-    import os
 
-    paths = loaded_openblas_paths()
-    if paths is None:
-        return None
-    own = sorted(p for p in paths if _in_scipy_folder(p))
-    if len(own) != 1:
-        return None
-    try:
-        library = ctypes.CDLL(own[0], mode=getattr(os, "RTLD_NOLOAD", 0) | ctypes.RTLD_LOCAL)  # already loaded
-    except OSError:
+    library = loaded_openblas(_in_scipy_folder)
+    if library is None:
         return None
     for prefix, suffix in _OPENBLAS_AFFIXES:
         get = getattr(library, f"{prefix}openblas_get_num_threads{suffix}", None)
