@@ -51,3 +51,55 @@ def test_a_right_derivative_agrees_and_a_wrong_one_is_flagged_in_rows_summary_an
     wrong = _checks(1e-4)       # a derivative 1e-4 off: each check must see it (tolerance 1e-5)
     flagged = {c["where"].split(" (")[0] for c in wrong if c["error"] > fuzz.TOL}
     assert flagged == {"rows", "summary end", "summary max", "dt"}, wrong
+
+
+def test_the_adjoints_end_row_alone_is_compared_at_the_last_row_and_a_wrong_one_flagged():
+    # the adjoint's sensitivities.csv holds the last recorded row alone (docs/parameters.md)
+    p, h = 1.3, 1e-3 * 1.3
+    perturbed = [_run(p + h), _run(p - h), _run(p + h / 2), _run(p - h / 2)]
+    for wrong, agrees in ((0.0, True), (1e-4, False)):
+        base = _base(p, wrong)
+        base["sens"] = {"y/p": base["sens"]["y/p"][-1:]}
+        rows = [c for c in fuzz.compare(base, perturbed, "p", h, p) if c["where"].startswith("rows")]
+        assert len(rows) == 1 and "t = 1" in rows[0]["where"]
+        assert (rows[0]["error"] < 1e-9) == agrees and (rows[0]["error"] > fuzz.TOL) != agrees, rows
+
+
+def test_a_max_whose_row_moves_with_the_parameter_is_not_compared():
+    # two rows tie at p = 1 (seed 6 case 6: a probe of round-off, 9.668e-16 at row 2 and 9.666e-16 at row 30):
+    # the max is |p - 1| + 1 there, not differentiable, and its differences are no reference
+    def run(p):
+        return {"x": T, "first": "t", "probes": {"y": np.where(T == 0.2, p, np.where(T == 1.0, 2.0 - p, 0.0))},
+                "summary": {}}
+    p, h = 1.0, 1e-3
+    base = run(p)
+    base["sens"] = {"y/p": np.where(T == 0.2, 1.0, np.where(T == 1.0, -1.0, 0.0))}
+    base["summary"]["probe_sensitivities"] = {"y": {"end": {"p": -1.0}, "max": {"p": 1.0}, "min": {"p": 0.0}}}
+    checks = fuzz.compare(base, [run(p + h), run(p - h), run(p + h / 2), run(p - h / 2)], "p", h, p)
+    moved = [c for c in checks if c.get("moved")]
+    assert [c["where"] for c in moved] == ["summary max"] and "not compared" in moved[0]["detail"]
+    assert max(c["error"] for c in checks if not c.get("moved")) < 1e-9
+
+
+def test_the_adjoint_is_checked_against_the_forward_methods_summary(tmp_path):
+    # _against_forward reads both summaries; a derivative off by 1e-4 of the probe's largest is flagged
+    def summary(dy, dt):
+        return {"probe_sensitivities": {"y": {"end": {"p": dy}, "max": {"p": 2.0}}},
+                "event_sensitivities": [{"joint": "c0", "kind": "taut", "t": 0.1, "dt": {"p": dt}}]}
+
+    import json
+    adjoint_out = tmp_path / "adjoint"
+    adjoint_out.mkdir()
+
+    def launch(spec, tag):
+        out = tmp_path / tag
+        out.mkdir(exist_ok=True)
+        (out / "summary.json").write_text(json.dumps(summary(1.0, 0.5)))
+        assert "sensitivity_method" not in spec["solve"]
+        return 0, "", None, out
+
+    scene = {"solve": {"sensitivity_method": "adjoint"}}
+    for dy, dt, worst in ((1.0, 0.5, 0.0), (1.0 + 2e-4, 0.5, 1e-4), (1.0, 0.5 - 1e-4, 2e-4)):
+        (adjoint_out / "summary.json").write_text(json.dumps(summary(dy, dt)))
+        checks = fuzz._against_forward(scene, adjoint_out, launch)
+        assert len(checks) == 3 and abs(max(c["error"] for c in checks) - worst) < 1e-12, checks
