@@ -206,3 +206,50 @@ def _run_k(text: str, k: float | None = None):
     if k is not None:
         data["parameters"]["k"] = k
     return latdyn.run(latdyn.load_scene(data))
+
+
+#: a hinge whose torque law scales a controller's output by a parameter, on a static path (fuzzer seed 6 case
+#: 11, reduced): static sensitivities take no parameter of a controller, and a law that names one they cannot
+#: differentiate (its derivative names the controller, which a static law cannot read)
+CONTROLLER_LAW_STATIC = """
+parameters: {k: 1.0}
+sections:
+  s0: {EA: 4.0e6, EIy: 300.0, EIz: 1500.0, GJ: 600.0, rhoA: 0.8}
+bodies:
+  g: {at: [0, 0, 0], fixed: true}
+beams:
+  m0:
+    from: g
+    section: s0
+    to: [1.0, 0, 0]
+    elements: 2
+    start:
+      hinge: {axis: [0, 0, 1], stiffness: 50.0, torque: "k*(ctl)"}
+loads:
+- {at: m0.end, force: [0, 1.0, 0]}
+solve: {analysis: static, method: load-control, steps: 2, sensitivities: [k]}
+output:
+  probes:
+    a: {hinge: m0.start, quantity: angle}
+controllers:
+  ctl: {output: "2.0 - a"}
+"""
+
+
+@pytest.mark.parametrize("method", ["load-control", "arc-length"])
+def test_a_parameter_in_a_static_law_that_names_a_controller_is_refused_naming_the_key(tmp_path, method):
+    """Before the mend: exit 2 with `<scene>: parameters: name 'ctl' in 'p__0*(ctl)' is not allowed` — neither
+    the file nor the key the user wrote, and the derivative's internal placeholder. Now refused before the run
+    as the transient method refuses it, naming the file, solve.sensitivities and the law's key."""
+    text = CONTROLLER_LAW_STATIC.replace("load-control", method)
+    completed, _ = latdyn_run(tmp_path, text, quiet=True)
+    assert completed.returncode == 2, completed.stderr
+    message = completed.stderr.strip().splitlines()[-1]
+    assert "scene.yaml: solve.sensitivities: parameter 'k' is used at beams.m0.start.hinge.torque" in message, message
+    assert "p__" not in message and "Traceback" not in completed.stderr
+    with pytest.raises(latdyn.SceneError, match=r"solve\.sensitivities: .*beams\.m0\.start\.hinge\.torque"):
+        latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
+    # the same law without the parameter in it runs (the refusal is the parameter's, not the controller's)
+    completed, _ = latdyn_run(tmp_path, text.replace('"k*(ctl)"', '"ctl"').replace("stiffness: 50.0",
+                                                                                    "stiffness: k*50.0"), quiet=True)
+    assert completed.returncode == 0, completed.stderr

@@ -128,7 +128,10 @@ def refusal(scene) -> SceneError | None:
         return SceneError(scene.file, key, f"{what}; expected sensitivities only where they are exact "
                                            "(docs/parameters.md, \"Sensitivities\")")
 
-    why = _transient_refusal(scene) if solve.analysis == "transient" else None
+    why = (_transient_refusal(scene) if solve.analysis == "transient"
+           else ControllerTerms.parameter_in_a_reading_law(scene, "parameters in the laws that read controllers "
+                                                                  "are differentiated in transient runs only")
+           if solve.analysis == "static" else None)
     if why is not None:
         return refuse(why)
     if solve.analysis not in ("static", "transient") or (
@@ -1250,14 +1253,25 @@ class ControllerTerms:
                 return (f"sensitivities of runs with controllers whose states' rates name t ({c.name}) and events (a "
                         "latch, a stop, a compliant stop's onset, a cable's change: the event time moves the states' "
                         "rates in t) are not computed yet; states whose rates do not name t are")
+        return ControllerTerms.parameter_in_a_reading_law(scene, "expected the parameter inside the controller's "
+                                                                 "output instead")
+
+    @staticmethod
+    def parameter_in_a_reading_law(scene, expected: str) -> str | None:
+        """Why a parameter of ``solve.sensitivities`` used in a law that names a controller (a hinge torque,
+        guide force or load component scaled by it, ``"k*(ctl)"``) keeps the sensitivities from being
+        computed, ending in ``expected``; or None. Its derivative names the controller, which the
+        derivative laws cannot read: transient runs take the parameter inside the controller's output
+        instead, static paths neither (seed 6 case 11 of the sensitivity fuzzer)."""
+        if not getattr(scene, "controllers", None):
+            return None
         readers = ControllerTerms._laws_naming(scene, set(scene.controllers))
         for name in scene.solve.sensitivities:
             for used in scene.parameters.depending_on(name):
                 if used in readers:
                     written = scene.parameters.uses[used][0]
                     return (f"parameter {name!r} is used at {used}, a law that names a controller ({written!r}: "
-                            "a hinge torque, guide force or load component): expected the parameter inside the "
-                            "controller's output instead")
+                            f"a hinge torque, guide force or load component): {expected}")
         return None
 
     def signal_values(self, state) -> dict:
