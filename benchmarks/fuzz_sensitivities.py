@@ -43,6 +43,11 @@ Outcomes of a case:
 ``defect``      anything else ``fuzz_runs.judge`` finds wrong (a refusal without a key, an unreadable folder)
 ==============  ===========================================================================================
 
+``--adjoint-share F`` sets ``solve.sensitivity_method: adjoint`` on that fraction of the transient cases
+with parameters: its end row, ``probe_sensitivities`` and ``event_sensitivities`` are compared with the
+differences the same way, and its summary with the forward method's on the same scene
+(:func:`_against_forward`); a case the adjoint refuses goes on by the forward method (the record's ``method``).
+
 ``python benchmarks/fuzz_sensitivities.py --runs 30 --seed 1 --keep DIR --json F`` runs a campaign;
 ``--show N --seed S`` prints case N's scene. Run it from a scratch folder (``cd /tmp``), niced.
 """
