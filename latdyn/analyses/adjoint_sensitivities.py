@@ -522,7 +522,7 @@ class AdjointSensitivities(TransientSensitivities):
         elif rule[0] == "cable":
             g_q, g_v, g_p, g_t = self.cables.gap_forms(entry["state"], entry["cable"][0], k)
             d = float(g_q @ column["dq"] + g_v @ column["dv"]) + g_t
-            self.cables._refuse_grazing(entry["state"], entry["cable"][0], d)
+            self.cables.refuse_grazing(entry["state"], entry["cable"][0], d)
             q_bar, v_bar = q_bar - np.outer(g_q, h_bar) / d, v_bar - np.outer(g_v, h_bar) / d
             by_size -= np.outer(g_p, h_bar) / d
             t_bar = t_bar - g_t * h_bar / d

@@ -195,7 +195,7 @@ class CableSensitivities:
         along = g_q @ dq + g_v @ dv
         if g_t and started is not None:
             g_p = g_p + g_t * started
-        self._refuse_grazing(new, e, along[k] + g_t)
+        self.refuse_grazing(new, e, along[k] + g_t)
         return -(along[:k] + g_p) / (along[k] + g_t)
 
     def gap_forms(self, new, e: int, k: int) -> tuple:
@@ -228,7 +228,7 @@ class CableSensitivities:
                 g_p[column] += self._rest_length_derivative(new, e, 3)[3] * cables.share[e] * derivative
         return g_q, g_v, g_p, self.gap_rate(new, e)
 
-    def _refuse_grazing(self, new, e: int, rate: float) -> None:
+    def refuse_grazing(self, new, e: int, rate: float) -> None:
         """A change at which the gap barely moves: over a whole step dt it moves no more than the tolerance
         to which the step lands on it (:data:`LANDING` · EA), so every instant of the step is on the change,
         the event's time is not determined and its derivative −(∂g/∂p)/ġ is round-off over round-off (a gap

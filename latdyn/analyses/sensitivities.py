@@ -289,20 +289,8 @@ def _law_in_time(scene):
 
 def depends_on_time(scene) -> bool:
     """Whether a load component, hinge or guide law or prescribed motion (a body's, a hinge's, a slide's) of
-    ``scene`` depends on t (:func:`_law_in_time`)."""
-    timed = _law_in_time(scene)
-
-    for load in scene.loads:
-        if any(timed(c) for c in (load.force or []) + (load.moment or [])):
-            return True
-    for _, _, hinge in scene.hinges:
-        if hinge.angle is not None or any(timed(getattr(hinge, key, None)) for key in ("stiffness", "damping", "torque")):
-            return True
-    guides = [body.guide for body in scene.bodies.values() if body.guide is not None]
-    if any(guide.position is not None or any(timed(getattr(guide, key, None)) for key in ("stiffness", "damping", "force"))
-           for guide in guides):
-        return True
-    return any(body.prescribed for body in scene.bodies.values())
+    ``scene`` depends on t (:func:`_timed_key`)."""
+    return _timed_key(scene) is not None
 
 
 def _transient_refusal(scene) -> str | None:
@@ -349,9 +337,9 @@ def _adjoint_event_refusal(scene) -> str | None:
     return None
 
 
-def _timed_key(scene) -> str:
-    """The first key of ``scene`` that :func:`depends_on_time` finds depending on t (a load, a hinge's or guide's
-    law or prescribed motion, a body's motion)."""
+def _timed_key(scene) -> str | None:
+    """The first key of ``scene`` whose law depends on t (:func:`_law_in_time`): a load component, a hinge's or
+    guide's law or prescribed angle or slide, a body's prescribed motion; None where none does."""
     timed = _law_in_time(scene)
 
     for i, load in enumerate(scene.loads):
@@ -363,11 +351,14 @@ def _timed_key(scene) -> str:
             if (key == "angle" and law is not None) or (key != "angle" and timed(law)):
                 return f"beams.{beam}.{which}.hinge.{key}"
     for name, body in scene.bodies.items():
-        if body.prescribed:
-            return f"bodies.{name}.motion"
-        if body.guide is not None:
-            return f"bodies.{name}.guide"
-    return "a law"
+        guide = body.guide
+        if guide is None:
+            continue
+        for key in ("position", "stiffness", "damping", "force"):
+            law = getattr(guide, key, None)
+            if (key == "position" and law is not None) or (key != "position" and timed(law)):
+                return f"bodies.{name}.guide.{key}"
+    return next((f"bodies.{name}.motion" for name, body in scene.bodies.items() if body.prescribed), None)
 
 
 def has_events(scene) -> bool:
