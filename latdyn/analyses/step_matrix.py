@@ -26,7 +26,6 @@ import numpy as np
 
 from latdyn.assembly.factorization import Factorization
 from latdyn.assembly.library import SensitivityStepStructure, native_library
-from latdyn.assembly.sparse_lu import PivotError
 
 __all__ = ["ExactStepMatrix"]
 
@@ -136,12 +135,5 @@ class ExactStepMatrix:
 
     def _factored(self, info: int) -> None:
         """After the native factorization: its info 0, or the band LU with pivoting where the sparse LU's
-        pivot failed (:meth:`Factorization._factor_pivoted`), or ``np.linalg.LinAlgError``."""
-        f = self.factorization
-        f._pivoted = None   # noqa: SLF001 - the factors are those just made in its storage
-        if info == 0:
-            return
-        if f.kind == "sparse":
-            f._factor_pivoted(self._summed.copy(), PivotError(f.analysis.pivot_failure()))   # noqa: SLF001
-            return
-        raise np.linalg.LinAlgError(f"{f.kind} LU: singular matrix (LAPACK info {info})")
+        pivot failed, or ``np.linalg.LinAlgError`` (:meth:`Factorization.factored`)."""
+        self.factorization.factored(info, self._summed.copy() if info else None)

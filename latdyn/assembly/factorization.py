@@ -124,9 +124,16 @@ class Factorization:
         ``np.linalg.LinAlgError`` (:class:`~latdyn.assembly.sparse_lu.PivotError` for the sparse LU)
         for a singular matrix."""
         self.load(matrix)
-        self._pivoted = None
         info = self._library.latdyn_factor(ctypes.byref(self.structure), self.values.ctypes.data,
                                            self.pivots.ctypes.data)
+        return self.factored(info, matrix)
+
+    def factored(self, info: int, matrix) -> "Factorization":
+        """After ``matrix`` was loaded and factorized natively in this storage (:meth:`factor`, or a native
+        call that factorizes it, latdyn/analyses/step_matrix.py) with LAPACK's or the sparse LU's ``info``:
+        0, the factors are those in ``values``; the sparse LU's failed pivot, the band LU with pivoting
+        stands in (:meth:`_factor_pivoted`); else ``np.linalg.LinAlgError``."""
+        self._pivoted = None
         if info != 0:
             if self.kind == "sparse":
                 return self._factor_pivoted(matrix, PivotError(self.analysis.pivot_failure()))
