@@ -419,10 +419,13 @@ class ParameterDerivatives:
         #: the reference configuration's derivative by geometry parameters (None without them)
         self.geometry = ReferenceGeometry(self) if any(map(GEOMETRY_KEY.match, self.derivatives)) else None
         self.controllers = ControllerTerms(self) if self.scene.controllers else None
-        initial = self.assembler.initial_state()
+        #: the initial positions of the points whose displacement's norm a probe reads (the rows' δ|u|), the initial
+        #: state made only for them (a run's start, 1–3 ms, where no probe reads one)
+        norms = [p for p in self.probes if p.kind == "point" and p.quantity == "displacement"
+                 and p.component in (None, "norm")]
+        initial = self.assembler.initial_state() if norms else None
         self.initial_points = {p.name: initial.x[node] + initial.T[node] @ offset
-                               for p in self.probes if p.kind == "point"
-                               for node, offset in [self.model.point(p.point)]}
+                               for p in norms for node, offset in [self.model.point(p.point)]}
 
     # ------------------------------------------------------------------ ∂r/∂p
     def residual_derivatives(self, state, load_factor: float, inertia: bool = False,
@@ -433,12 +436,9 @@ class ParameterDerivatives:
         guides' reduction."""
         model, k = self.model, len(self.names)
         total = np.zeros((model.n_total + 1, k))
-        for key, laws in self.derivatives.items():
-            load, hinge = self._key_kinds(key)
-            if hinge and not load:
-                j = model.hinge_index(hinge["beam"], hinge["end"])
-                for column, law in laws.items():
-                    total[model.hinge_dofs[j], column] += self._hinge_force(state, j, hinge["law"], law, load_factor)
+        for j, which, laws in self._hinge_uses():
+            for column, law in laws.items():
+                total[model.hinge_dofs[j], column] += self._hinge_force(state, j, which, law, load_factor)
         self._section_forces(state, total, load_factor, inertia)
         if self.geometry is not None:
             self.geometry.add(state, total, load_factor, inertia)
@@ -449,6 +449,21 @@ class ParameterDerivatives:
             self.controllers.add(state, total)
         self._add_load_forces(state, total, load_factor)
         return total if on_all else self._on_free_coordinates(state, total)
+
+    def _hinge_uses(self) -> list:
+        """(hinge index, which law, {column: derivative law}) of every use of a parameter by a hinge's (or a guide's)
+        law, in the order of :attr:`derivatives`; found once per derivatives (not per step: a lattice's 10² uses
+        matched every step cost 20 µs)."""
+        held = self.__dict__.get("_hinge_uses_found")
+        if held is None or held[0] is not self.derivatives:
+            uses = []
+            for key, laws in self.derivatives.items():
+                load, hinge = self._key_kinds(key)
+                if hinge and not load:
+                    uses.append((self.model.hinge_index(hinge["beam"], hinge["end"]), hinge["law"], laws))
+            held = (self.derivatives, uses)
+            self._hinge_uses_found = held
+        return held[1]
 
     def _add_load_forces(self, state, total: np.ndarray, load_factor: float) -> None:
         """Add ∂(load)/∂p into ``total`` for the load components that name a parameter
@@ -508,7 +523,7 @@ class ParameterDerivatives:
             return None
         elements, column, rows = blocks
         model = self.model
-        on, use = np.unique(elements, return_inverse=True)   # each element's derivatives once
+        on, use = self._section_elements_once()   # each element's derivatives once
         geometry, rates, accelerations = self.assembler.native().element_inputs(state)
         at, sections = np.ascontiguousarray(geometry[on]), np.ascontiguousarray(model.element_sections[on])
         by_section = np.asarray(self.kernels.beam_internal_force_D_section(at, sections)[1]).reshape(len(on), 14, 9)
@@ -520,6 +535,13 @@ class ParameterDerivatives:
                 at, np.ascontiguousarray(rates[on]), np.ascontiguousarray(accelerations[on]), sections,
                 np.ascontiguousarray(np.repeat(gravity[None], len(on), axis=0)))[1]).reshape(len(on), 14, 9)
         return elements, column, np.einsum("epd,ed->ep", by_section[use], rows[:, 1:])
+
+    def _section_elements_once(self) -> tuple:
+        """(the distinct elements of the section uses, each use's index among them): ``np.unique`` of the layout's
+        elements (:meth:`_section_layout`, made once), taken once."""
+        if "_section_elements_distinct" not in self.__dict__:
+            self._section_elements_distinct = np.unique(self._section_layout()[0], return_inverse=True)
+        return self._section_elements_distinct
 
     def _section_derivative_blocks(self, state):
         """(elements (m,), parameter columns (m,), section rows (m, 10)): for every use of a parameter
@@ -534,9 +556,19 @@ class ParameterDerivatives:
             return None
         elements, columns, rows, slot, laws = layout
         rows = rows.copy()
-        values = np.array([self._of_time(law, state.t) for law in laws])[self._section_use]
-        rows[np.arange(len(rows)), slot] = values * self._section_scale
+        rows[np.arange(len(rows)), slot] = self._section_values(laws, state.t)
         return elements, columns, rows
+
+    def _section_values(self, laws: list, t: float) -> np.ndarray:
+        """Each section use's derivative value at ``t`` on its elements (scaled as :meth:`_section_layout` says);
+        where every law is a constant (reads neither t nor an input), made once, else per call."""
+        held = self.__dict__.get("_section_values_held")
+        if held is not None:
+            return held
+        values = np.array([self._of_time(law, t) for law in laws])[self._section_use] * self._section_scale
+        if all(law.is_constant for law in laws):
+            self._section_values_held = values
+        return values
 
     def _section_layout(self):
         """The layout of :meth:`_section_derivative_blocks`, made once: (elements, columns, rows with L0,
@@ -609,9 +641,8 @@ class ParameterDerivatives:
         model, gravity = self.model, load_factor * np.asarray(self.assembler.gravity, float)
         if not np.any(gravity) and not inertia:
             return
-        for key, laws in self.derivatives.items():
-            body = _BODY_KEY.match(key)
-            if not body or (body["inertia"] and not inertia):
+        for body, laws in self._body_uses():
+            if body["inertia"] and not inertia:
                 continue
             node = model.body_node[body["body"]]
             b = int(np.flatnonzero(model.body_nodes == node)[0])
@@ -644,6 +675,16 @@ class ParameterDerivatives:
                     force = np.asarray(self.kernels.joint_body_D_com(frame, motion, block, gravity[None])[0]
                                        ).reshape(6, 3) @ along
                 total[model.node_dofs[node], column] += force
+
+    def _body_uses(self) -> list:
+        """(the body key's match, {column: derivative law}) of every use of a parameter by a joint body's mass,
+        centre of mass or inertia, in the order of :attr:`derivatives`; matched once per derivatives."""
+        held = self.__dict__.get("_body_uses_found")
+        if held is None or held[0] is not self.derivatives:
+            held = (self.derivatives, [(body, laws) for key, laws in self.derivatives.items()
+                                       for body in [_BODY_KEY.match(key)] if body])
+            self._body_uses_found = held
+        return held[1]
 
     def _contact_forces(self, state, total: np.ndarray) -> None:
         """Add ∂f/∂p of the hinges and guides whose compliant stops' stiffness, exponent or damping or whose

@@ -398,7 +398,7 @@ class TransientSensitivities(ParameterDerivatives):
         else:
             dh = self.cables.step_size_derivative(new, cable[0], columns["dq"], columns["dv"], k,
                                                   started=carried["dt"])
-        total = {key: value[:, :k] + np.outer(value[:, k], dh) for key, value in columns.items()}
+        total = {key: value[:, :k] + value[:, k:] * dh for key, value in columns.items()}   # + the column of h times δh
         before, carried = carried, {**carried, **total, "dt": carried["dt"] + dh, "dh": dh, "dh_step": dh, "h": h,
                                    "pending": None}
         carried = external_work_step(self, before, carried, old, new, h)   # latdyn/analyses/energy_sensitivities.py

@@ -263,9 +263,12 @@ def _checked(name: str, meta: dict, function: Callable) -> Callable:
 
 
 def _c_function(library: ctypes.CDLL, name: str, meta: dict) -> Callable:
+    """The C kernel ``name`` called on C-contiguous float64 arrays (:func:`_checked` makes them so and keeps them
+    alive over the call), their addresses passed as plain pointers: NumPy's ``ndpointer`` checked each array's
+    flags and cast its address again per call (≈ 1 µs an array; a sensitivity step calls kernels from Python with
+    5–8 arrays each)."""
     function = getattr(library, name)
-    pointer = np.ctypeslib.ndpointer(dtype=np.float64, flags="C_CONTIGUOUS")
-    function.argtypes = [ctypes.c_int64] + [pointer] * (len(meta["inputs"]) + len(meta["outputs"]))
+    function.argtypes = [ctypes.c_int64] + [ctypes.c_void_p] * (len(meta["inputs"]) + len(meta["outputs"]))
     function.restype = None
     shapes = [tuple(shape) for _, shape in meta["outputs"]]
 
@@ -273,7 +276,7 @@ def _c_function(library: ctypes.CDLL, name: str, meta: dict) -> Callable:
         n = arrays[0].shape[0]
         outputs = tuple(np.empty((n, *shape)) for shape in shapes)
         if n:
-            function(n, *arrays, *outputs)
+            function(n, *(a.ctypes.data for a in arrays), *(out.ctypes.data for out in outputs))
         return outputs
 
     return call
