@@ -2,7 +2,7 @@
 
     python benchmarks/transient_sensitivities_cost.py [--repeats 3]
         [--scene cantilever|lattice|lattice1000|boom_latch|lattice_latch]
-        [--parts | --reverse-parts K | --richardson NAME]
+        [--parts | --phases K | --reverse-parts K | --richardson NAME]
 
 A 3D cantilever of 30 elements (EIy != EIz, rotary inertia, tilted out of every coordinate plane)
 carries fifty point loads at its nodes, the i-th with two components of amplitudes ``F<2i>`` and
@@ -23,7 +23,8 @@ median wall time of ``latdyn.run``, and of the CPU time of the process (steadier
 native evaluation's OpenMP threads count in it above the parallel threshold — the lattice of 1000 members —,
 and on a loaded machine their waits inflate it: ``OMP_NUM_THREADS=1`` measures without them), each with the
 ratio of the minima to the run without; the 1-minute load average with them. ``--parts`` times the forward step's
-pieces one by one (:func:`parts`), ``--reverse-parts K`` a reverse step's pieces (docs/parameters.md, "The discrete
+pieces one by one (:func:`parts`), ``--phases K`` a forward run's pieces inside the run
+(:func:`phases`; docs/performance.md, "Forward sensitivities: where a step goes"), ``--reverse-parts K`` a reverse step's pieces (docs/parameters.md, "The discrete
 adjoint", has the figures), ``--richardson NAME`` checks the adjoint by NAME against Richardson-extrapolated
 differences of whole runs (:func:`richardson`). ``--scene boom_latch`` and ``--scene lattice_latch``: deployments
 that latch (:func:`latching_boom`, :func:`lattice_latch`; docs/parameters.md, "The discrete adjoint", "Events").
@@ -282,6 +283,111 @@ def parts(make, repeats: int) -> None:
     print(f"  the two step matrices' solutions differ by {np.max(np.abs(solved(101) - scipy_path(101))):.1e}")
 
 
+#: ``--phases``: the pieces of a forward run timed inside the run, (label, owner, method, indent): each wrapped to add
+#: its CPU time to the label's total (inclusive of the pieces below it; "rest" lines are the differences)
+PHASES = (("the run's own step (Newton, every step from Python)", "TimeLoop", "_python_step", 1),
+          ("the accepted step's bookkeeping (events, work, rows due; sensitivities apart)", "TimeLoop", "_accept", 1),
+          ("the sensitivity step (TransientSensitivities.step)", "TransientSensitivities", "step", 2),
+          ("step_columns: the step's derivative before δh", "TransientSensitivities", "step_columns", 3),
+          ("R, J (_rotation_operators)", "TransientSensitivities", "_rotation_operators", 4),
+          ("predicted parts (one native call)", "_StepColumns", "predict", 4),
+          ("M, C, exact K on the pattern (exact_matrix_values)", "Assembler", "exact_matrix_values", 4),
+          ("native evaluation with the inertia tangent", "NativeModel", "evaluate", 5),
+          ("joint bodies' inertia stiffness (kernel)", "Assembler", "joint_body_inertia_stiffness", 5),
+          ("dr/dp (residual_derivatives)", "TransientSensitivities", "residual_derivatives", 4),
+          ("sections' dr/dp (kernels by the section values)", "ParameterDerivatives", "_section_element_forces", 5),
+          ("S summed, factorised, k + 1 columns solved (one native call)", "ExactStepMatrix", "solve_step", 4),
+          ("update (one native call)", "_StepColumns", "update", 4),
+          ("the next step size's derivative (resized)", "TransientSensitivities", "resized", 2),
+          ("after the events (after_events: renumbering, restarts)", "TransientSensitivities", "after_events", 2),
+          ("the rows' sensitivities (record)", "TransientSensitivities", "record", 1),
+          ("set-up: derivative laws, probes (TransientSensitivities.__init__)", "TransientSensitivities", "__init__", 1),
+          ("the start's derivative (start)", "TransientSensitivities", "start", 1),
+          ("sensitivities.csv and summary (finish)", "TransientSensitivities", "finish", 1))
+
+
+def phases(make, k: int, repeats: int) -> None:
+    """``--phases``: one forward run with ``k`` parameters (kernels compiled before, the loop of steps in C off as a
+    sensitivity run has it), its pieces (:data:`PHASES`) timed inside the run by wrapping each method to add the
+    process's CPU time it takes, per run and per accepted step; the minimum over ``repeats`` runs of each piece's
+    per-run total, and of the whole run's. Printed with the run without sensitivities (loop of steps in C) for
+    scale. The wrappers add ≈ 1 µs a call."""
+    import functools
+
+    from latdyn.analyses import sensitivities, step_matrix, transient_sensitivities
+    from latdyn.assembly import assembler, native_model
+    from latdyn.timeloop import loop
+
+    owners = {"TimeLoop": loop.TimeLoop, "TransientSensitivities": transient_sensitivities.TransientSensitivities,
+              "_StepColumns": transient_sensitivities._StepColumns, "Assembler": assembler.Assembler,
+              "NativeModel": native_model.NativeModel, "ParameterDerivatives": sensitivities.ParameterDerivatives,
+              "ExactStepMatrix": step_matrix.ExactStepMatrix}
+    totals, calls, inside = {}, {}, {"sensitivity step": False}
+
+    def wrapped(label, method):
+        @functools.wraps(method)
+        def timed(*args, **kwargs):
+            if label.startswith("native evaluation") and not inside["sensitivity step"]:
+                return method(*args, **kwargs)   # the run's own evaluations are inside its step's figure
+            began = time.process_time()
+            try:
+                return method(*args, **kwargs)
+            finally:
+                totals[label] = totals.get(label, 0.0) + time.process_time() - began
+                calls[label] = calls.get(label, 0) + 1
+        return timed
+
+    def marking(method):
+        @functools.wraps(method)
+        def marked(*args, **kwargs):
+            inside["sensitivity step"] = True
+            try:
+                return method(*args, **kwargs)
+            finally:
+                inside["sensitivity step"] = False
+        return marked
+
+    kept = [(owners[owner], name, getattr(owners[owner], name)) for _, owner, name, _ in PHASES]
+    for (label, owner, name, _), (_, _, method) in zip(PHASES, kept):
+        setattr(owners[owner], name, wrapped(label, method))
+    transient_sensitivities.TransientSensitivities.step = marking(transient_sensitivities.TransientSensitivities.step)
+    try:
+        loaded = latdyn.load_scene(make([f"F{i}" for i in range(k)]))
+        without = latdyn.load_scene(make([]))
+        run(loaded, False), run(without, False)
+        best: dict[str, float] = {}
+        whole, plain, steps = [], [], 0
+        for _ in range(repeats):
+            totals.clear(), calls.clear()
+            whole.append(run(loaded, False)[1])
+            plain.append(run(without, False)[1])
+            steps = calls.get(PHASES[2][0], 1)
+            for label, value in totals.items():
+                best[label] = min(best.get(label, float("inf")), value)
+    finally:
+        for owner, name, method in kept:   # the methods as they were (the marked step's among them)
+            setattr(owner, name, method)
+    print(f"{k} parameters, {steps} accepted steps; CPU minima of {repeats} runs; load average (1 min): "
+          f"{os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+    print(f"  the run without sensitivities (loop of steps in C) {min(plain) * 1e3:7.2f} ms, "
+          f"{min(plain) / steps * 1e3:6.3f} ms a step")
+    print(f"  the forward run                                    {min(whole) * 1e3:7.2f} ms, "
+          f"{min(whole) / steps * 1e3:6.3f} ms a step, {min(whole) / min(plain):4.2f}x")
+    # the bookkeeping's figure without the sensitivity pieces the loop calls inside it
+    inner = [label for label, _, _, indent in PHASES if indent == 2]
+    listed = 0.0
+    for label, _, _, indent in PHASES:
+        value = best.get(label, 0.0) - (sum(best.get(i, 0.0) for i in inner) if label == PHASES[1][0] else 0.0)
+        listed += value if indent == 1 else 0.0
+        print(f"  {'  ' * indent}{label:{78 - 2 * indent}s} {value * 1e3:7.2f} ms a run, "
+              f"{value / steps * 1e3:6.3f} ms a step")
+    rest = min(whole) - listed - sum(best.get(i, 0.0) for i in inner)
+    print(f"    {'the rest: the run set up, the loop, the writers (the run without pays most of it)':74s} "
+          f"{rest * 1e3:7.2f} ms a run, {rest / steps * 1e3:6.3f} ms a step")
+    per_step = run(without, True)[1]
+    print(f"  the run without, every step from Python, once: {per_step * 1e3:.2f} ms")
+
+
 def reverse_parts(make, k: int, repeats: int) -> None:
     """``--reverse-parts K``: the pieces of one step of the adjoint's reverse pass
     (latdyn/analyses/adjoint_sensitivities.py ``AdjointSensitivities.reverse``) at the last stored state of
@@ -400,6 +506,8 @@ def main() -> None:
                              "that latches, with 100 of its members' EA")
     parser.add_argument("--cases", default=None, help="comma-separated case names to run (default: all)")
     parser.add_argument("--parts", action="store_true", help="time the pieces of the fixed part F of a step instead")
+    parser.add_argument("--phases", type=int, default=None, metavar="K",
+                        help="time the pieces of a forward run with K parameters inside the run instead")
     parser.add_argument("--reverse-parts", type=int, default=None, metavar="K",
                         help="time the pieces of a step of the adjoint's reverse pass with K parameters instead")
     parser.add_argument("--richardson", default=None, metavar="NAME",
@@ -410,6 +518,9 @@ def main() -> None:
             "boom_latch": latching_boom, "lattice_latch": lattice_latch}[args.scene]
     if args.parts:
         parts(make, args.repeats)
+        return
+    if args.phases is not None:
+        phases(make, args.phases, args.repeats)
         return
     if args.reverse_parts is not None:
         reverse_parts(make, args.reverse_parts, args.repeats)

@@ -398,9 +398,14 @@ class Assembler:
         nodes = model.body_nodes
         frames = np.ascontiguousarray(state.T[nodes].reshape(-1, 9))
         motion = np.ascontiguousarray(np.concatenate([state.w[nodes], state.a[nodes], state.alpha[nodes]], axis=1))
-        section = np.ascontiguousarray(np.concatenate([model.body_mass[:, None], model.body_com,
-                                                       model.body_inertia.reshape(-1, 9)], axis=1))
-        gravity = np.repeat(load_factor * self.gravity[None], len(nodes), axis=0)
+        key = (model.body_mass, model.body_com, model.body_inertia, float(load_factor), tuple(self.gravity))
+        held = self.__dict__.get("_body_inputs")   # the bodies' (mass, com, inertia) rows and gravity: made once a run
+        if held is None or any(a is not b for a, b in zip(held[0][:3], key[:3])) or held[0][3:] != key[3:]:
+            section = np.ascontiguousarray(np.concatenate([model.body_mass[:, None], model.body_com,
+                                                           model.body_inertia.reshape(-1, 9)], axis=1))
+            held = (key, section, np.repeat(load_factor * self.gravity[None], len(nodes), axis=0))
+            self._body_inputs = held
+        _, section, gravity = held
         blocks = np.asarray(self.kernels.joint_body_inertia_stiffness(frames, motion, section, gravity)[0])
         return blocks.reshape(len(nodes), 6, 6)
 
