@@ -937,16 +937,20 @@ class TransientSensitivities(ParameterDerivatives):
         (:meth:`_NodeRotations.identity`), without the maps."""
         model = self.model
         n = model.n_dofs
-        slots = model.node_dofs[model.free_nodes, 3:6]                   # (f, 3), ≥ n: not a coordinate
-        held = self.__dict__.get("_identity_rotations")                  # (n, slots, the identity or None)
-        if held is None or held[0] != n or not np.array_equal(held[1], slots):
+        # per numbering (Model's numbering makes node_dofs and free_nodes anew): the free nodes' rotation slots
+        # (f, 3; ≥ n: not a coordinate), where the increment is read (n: a zero), the identity or None
+        key = (model.node_dofs, model.free_nodes, n)
+        held = self.__dict__.get("_identity_rotations")
+        if held is None or any(a is not b for a, b in zip(held[0][:2], key[:2])) or held[0][2] != n:
+            slots = model.node_dofs[model.free_nodes, 3:6]
             about_one_axis = bool(np.all(np.sum(slots < n, axis=1) <= 1))
-            held = (n, slots.copy(), _NodeRotations.identity(self, slots, n) if about_one_axis else None)
+            held = (key, slots, np.where(slots < n, slots, n),
+                    _NodeRotations.identity(self, slots, n) if about_one_axis else None)
             self._identity_rotations = held
-        if held[2] is not None:
-            return held[2], held[2]
-        padded = np.append(increment, 0.0)
-        psi = np.ascontiguousarray(padded[np.where(slots < n, slots, n)])
+        _, slots, read, identity = held
+        if identity is not None:
+            return identity, identity
+        psi = np.ascontiguousarray(np.append(increment, 0.0)[read])
         # the generated so3_exp in the kernels' backend (C where compiled: the step's own; 9 µs against
         # 32 µs for its NumPy form, expm_so3, at 31 nodes)
         turn = np.asarray(self.kernels.so3_exp(psi)[0]).reshape(-1, 3, 3)
