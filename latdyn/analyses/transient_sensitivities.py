@@ -1319,16 +1319,16 @@ def _controller_time_rates(owner):
     applied through the actuators as ∂y/∂p is; None where no continuous controller's output names t. Controllers
     with states or sampled ones beside events or adaptive steps are refused before (their states and samples are
     not moved in t)."""
-    import copy
-
-    import sympy as sp
-
     terms = owner.controllers
     if terms is None:
         return None
     timed = [c for c in terms.continuous if c.output_names_t]
     if not timed:
         return None
+    import copy
+
+    import sympy as sp   # here, not above: a run without such a controller does not import SymPy (0.5 s)
+
     rates = copy.copy(terms)
     rates.k, rates.held, rates.sampled, rates.states = 1, {}, None, None
     rates.partials = {c.name: {0: sp.lambdify(c.symbols, _drop_deltas(sp.diff(c.output_expr, c.symbols[0])),

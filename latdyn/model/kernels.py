@@ -23,6 +23,7 @@ import marshal
 import os
 import sys
 import time
+from pathlib import Path
 from typing import Callable
 
 import numpy as np
@@ -221,13 +222,37 @@ def _opened(libraries: LibraryFiles, name: str, meta: dict) -> Callable[[], tupl
 
 
 def _on_demand(stem: str, name: str, meta: dict, ops: dict[str, int]) -> Callable[[], tuple[ctypes.CDLL, Callable]]:
-    """The compilation of one ON_DEMAND kernel, for when it is first asked for."""
+    """The compilation of one ON_DEMAND kernel, for when it is first asked for: its library read from its entry
+    beside the unit's index (:func:`_on_demand_index`) where that names one in the cache, else compiled (or found)
+    from its source and the entry written. Finding it from the source imports the generated module
+    (:func:`_kernel_sources`: the kernels' order), 1.8–2.5 s of a fresh process for ``default`` where Python writes
+    no bytecode — what a transient run with sensitivities or ``newton: exact`` paid each time for the inertia
+    tangent (docs/performance.md, "Forward sensitivities: where a step goes")."""
     def build():
         from latdyn import native
 
-        library = native.load(_compile(stem, [name], ops)[name])
+        entry = _on_demand_index(stem, name)
+        path = None
+        if entry is not None and entry.is_file():
+            try:
+                path = native.cache_dir() / marshal.loads(entry.read_bytes())
+            except (OSError, ValueError, EOFError, TypeError):
+                path = None
+        if path is None or not path.is_file():
+            path = Path(_compile(stem, [name], ops)[name])
+            if entry is not None:
+                native._store_bytes(entry, marshal.dumps(path.name))
+        library = native.load(path)
         return library, _checked(name, meta, _c_function(library, name, meta))
     return build
+
+
+def _on_demand_index(stem: str, name: str):
+    """The path of ON_DEMAND kernel ``name``'s entry beside the index of unit ``stem`` (:func:`_index`: the same
+    digest of the generated files, this module, the compiler and the flags), its library's file name; None where
+    the unit has no index."""
+    index = _index(stem)
+    return None if index is None else index.parent / f"{index.stem}-{name}{index.suffix}"
 
 
 def _checked(name: str, meta: dict, function: Callable) -> Callable:

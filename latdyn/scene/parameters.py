@@ -143,14 +143,32 @@ def _renamed_derivative(text: str, used: tuple, name: str, names: tuple):
 def _derivative_text(text: str, used: tuple, name: str, names: tuple, values: tuple) -> str:
     """:func:`_renamed_derivative` at the values of ``used`` (in order), as expression text; the SymPy
     substitution only where the derivative still names them (10³ sections' "EA: F<i>" differentiate to "1"
-    once, fifty loads' "F<i>*t" to "t")."""
+    once, fifty loads' "F<i>*t" to "t"). Kept in the expressions' cache (latdyn.scene.expressions ``_store``,
+    under the SymPy version and this module's source): a later process reads the text without importing SymPy
+    (0.5 s of a fresh ``latdyn run`` with ``solve.sensitivities``)."""
+    source = repr((text, used, name, names, tuple(map(float.hex, map(float, values))), _this_module()))
+    cached = expressions._load("derivative", source)   # noqa: SLF001 (the package's one expression cache)
+    if cached is not None and isinstance(cached.get("text"), str):
+        return cached["text"]
     import sympy as sp
 
     derivative = _renamed_derivative(text, used, name, names)
     symbols = {sp.Symbol(r, real=True): value for r, value in zip(used, values)}
     if derivative.free_symbols & set(symbols):
         derivative = derivative.subs(symbols)
-    return re.sub(r"\bAbs\(", "abs(", str(derivative))
+    result = re.sub(r"\bAbs\(", "abs(", str(derivative))
+    expressions._store("derivative", source, {"text": result}, {}, ())   # noqa: SLF001
+    return result
+
+
+@functools.lru_cache(maxsize=1)
+def _this_module() -> str:
+    """A digest of this module's source (how its derivative texts are made), for their cache entries."""
+    from pathlib import Path
+
+    from latdyn.native import source_digest
+
+    return source_digest(Path(__file__).read_bytes())
 
 
 def _names_in(text: str) -> list[str]:
