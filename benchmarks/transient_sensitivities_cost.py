@@ -38,7 +38,9 @@ bandwidth) and its columns formed and solved in one native call (csrc/sensitivit
 column on the cantilever), the predicted parts and the update in one each; the piece that sets the floor is
 the native evaluation with the elements' inertia tangent (0.54–0.57 ms on the cantilever, ≈ 1.0× a step of
 the run without), which the run's Newton iteration cannot share (it never evaluates at the converged state),
-with the per-step path (1.1–1.2×): ≈ 2.2× before the rest of the step.
+with the per-step path (1.1–1.2×): ≈ 2.2× before the rest of the step. A later round (docs/performance.md,
+"Forward sensitivities: where a step goes": ``--phases``, CPU minima at load 2.3–2.8, main 2350dca in the same
+minutes): lattice 2.83/3.13/4.30× → 2.65/2.83/3.99×, cantilever 4.13/4.36/5.98× → 3.97/4.24/5.87×.
 """
 from __future__ import annotations
 
