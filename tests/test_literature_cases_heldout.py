@@ -5,12 +5,15 @@ at two refinements beside its assertions; docs/verification.md, "Literature case
 The cases were chosen where a wrong answer is plausible: a beam rolled past a full turn, a bending
 moment with a twisting part (3D), buckling under a distributed weight and of a frame with rigid and
 pinned joints, free–free and tip-mass modes (transcendental roots), a ring closed on itself, a Cardan
-joint driven through a closed loop, a double pendulum of rigid rods, a ball bouncing on a stop. One
-was wrong: the Cardan joint started with its output shaft bent against its bearing (the initial
-velocity was carried round the loop without closing it; mended in latdyn/assembly/initial.py).
+joint driven through a closed loop, a double pendulum of rigid rods, a ball bouncing on a stop, a
+cantilever under a dead axial torque. Two were wrong: the Cardan joint started with its output
+shaft bent against its bearing (the initial velocity was carried round the loop without closing
+it; mended in latdyn/assembly/initial.py), and the dead axial torque was taken as conservative, its
+cantilever reported buckling at M = πEI/L where it flutters at any torque (latdyn/analyses/followers.py).
 """
 from __future__ import annotations
 
+import csv
 import math
 
 import numpy as np
@@ -413,3 +416,73 @@ output:
         assert 3.17 < events[-1] < rest  # measured 3.1804, 3.1858: at rest once a rebound is shorter than a step
         assert r.probes["s"][-1] == 1.25 and r.probes["v"][-1] == 0.0
         assert max(r.probes["s"]) <= 1.25
+
+
+# ----------------------------------------------------------------------------- a moment fixed in space
+def twisted_cantilever(elements: int, torque: float, analysis: str) -> str:
+    """A cantilever (L = 1, EI = ρA = 1, GJ = 1, Euler–Bernoulli) under a dead end torque along its
+    axis, ``frame: global`` (Greenhill's shaft, clamped–free)."""
+    return f"""\
+title: a cantilever under a dead axial end torque
+sections:
+  s: {{EA: 1.0e6, EIy: 1.0, EIz: 1.0, GJ: 1.0, rhoA: 1.0}}
+bodies:
+  base: {{at: [0, 0, 0], fixed: true}}
+beams:
+  shaft: {{from: base, to: [1, 0, 0], section: s, elements: {elements}}}
+loads:
+  - {{at: shaft.end, moment: [{torque}, 0, 0]}}
+solve: {{analysis: {analysis}, steps: 10}}
+"""
+
+
+def torqued_cantilever_roots(torque: float, guesses) -> list[complex]:
+    """Roots λ of the cantilever under a dead axial torque M (u = v + i w, the lateral deflection):
+    EI u'''' − iM u''' + ρA λ² u = 0, u(0) = u'(0) = 0, EI u'' − iM u' = EI u''' − iM u'' = 0 at
+    the free end (the moment M x̂ taken in the deflected frame), by the 4 × 4 determinant of
+    Σ c_j exp(r_j s) over the roots r_j of EI r⁴ − iM r³ + ρA λ² = 0."""
+    import mpmath
+
+    def determinant(lam):
+        roots = mpmath.polyroots([1.0, -1j * torque, 0, 0, lam ** 2], maxsteps=200, extraprec=50)
+        a = mpmath.matrix(4, 4)
+        for j, r in enumerate(roots):
+            a[0, j], a[1, j] = 1, r
+            a[2, j] = (r ** 2 - 1j * torque * r) * mpmath.e ** r
+            a[3, j] = (r ** 3 - 1j * torque * r ** 2) * mpmath.e ** r
+        return mpmath.det(a)
+    return [complex(mpmath.findroot(determinant, mpmath.mpc(g) + mpmath.mpc(1e-3, 1e-3))) for g in guesses]
+
+
+def test_a_dead_axial_torque_makes_a_cantilever_flutter_at_any_torque_not_buckle(tmp_path):
+    """Ziegler (Principles of Structural Stability, 1968): a clamped–free shaft under a dead axial
+    torque has no adjacent equilibrium at any torque (statics: EI u'' = iM u', u(0) = u'(0) = 0, only
+    u ≡ 0), and it is unstable by flutter from M = 0 on: the roots λ of
+    :func:`torqued_cantilever_roots` leave the imaginary axis at once (M = 1: Re λ = ±0.54122 at
+    3.5152 rad/s, ±1.04055 at 22.0). A moment fixed in space does work M·δθ on the node's spin, no
+    potential's variation once rotations leave one axis: non-conservative. It was taken as
+    conservative, and the symmetric part of the tangent, which loses definiteness at M = πEI/L,
+    gave `instability: buckling`, `buckling_factor` 0.31416 for M = 10 — a buckling that the static
+    path itself does not show (a lateral tip force 1e-4 added deflects the tip smoothly through
+    M = π, as the linear rod does)."""
+    completed, out = latdyn_run(tmp_path, twisted_cantilever(4, 10.0, "buckling"))
+    assert completed.returncode == 0, completed.stderr
+    summary = summary_of(out)
+    assert summary["conservative"] is False and summary["follower_loads"] == ["loads[0]"]
+    assert summary["instability"] == "flutter" and summary["buckling_factor"] is None
+    assert summary["divergence_factor"] is None
+    assert summary["flutter_factor"] < 1e-4  # measured 6.5e-7: unstable at any torque (the search's resolution)
+    assert abs(summary["flutter_frequency_hz"] / (1.8751040687 ** 2 / (2 * math.pi)) - 1) < 2e-3  # the first bending pair
+    # about the static state at M = 1 the modes hold the flutter's growth (they did before, too)
+    exact = torqued_cantilever_roots(1.0, [3.516j, 22.03j])
+    (tmp_path / "modes").mkdir()
+    completed, out = latdyn_run(tmp_path / "modes", twisted_cantilever(8, 1.0, "modes, about: static, count: 4"))
+    assert completed.returncode == 0, completed.stderr
+    with open(out / "modes.csv") as table:
+        rows = list(csv.DictReader(table))
+    frequency = np.array([float(r["frequency_hz"]) for r in rows])
+    growth = np.array([-float(r["damping_ratio"]) * 2 * math.pi * float(r["natural_frequency_hz"]) for r in rows])
+    for k, root in enumerate(exact):
+        assert abs(2 * math.pi * frequency[2 * k] / root.imag - 1) < 1e-3  # measured −1.6e-4, −8.7e-5 (8 elements)
+        pair = np.sort(growth[2 * k:2 * k + 2])
+        assert abs(pair[1] / root.real - 1) < 1e-3 and abs(pair[0] / root.real + 1) < 1e-3  # measured −3.9e-5, −1.2e-4
