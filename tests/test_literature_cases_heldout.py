@@ -568,3 +568,79 @@ output:
         errors.append(2 * np.diff(crossings).mean() / period - 1)
     assert 0 < errors[1] < 1e-5  # measured 2.3e-5 (dt = 0.004), 5.6e-6 (0.002)
     assert 3.5 < errors[0] / errors[1] < 4.5
+
+
+# ----------------------------------------------------------------------------- Ziegler's pendulum, a governor
+def ziegler_pendulum(damping: float) -> str:
+    """Two rigid massless bars (l = 1) on hinge springs k = 1 (and dampers c), masses 2 and 1 at the
+    knee and the tip, a unit force at the tip along the upper bar, turning with it (``frame: tip``)."""
+    hinge = f"{{axis: [0, 0, 1], stiffness: 1.0, damping: {damping}}}"
+    return f"""\
+title: Ziegler's double pendulum under a follower force
+sections:
+  bar: {{EA: 1.0, EIy: 1.0, EIz: 1.0, GJ: 1.0, rhoA: 0.0}}
+bodies:
+  base: {{at: [0, 0, 0], fixed: true}}
+  knee: {{at: [0, 1, 0], mass: 2.0}}
+  tip: {{at: [0, 2, 0], mass: 1.0}}
+beams:
+  lower: {{from: base, to: knee, section: bar, rigid: true, start: {{hinge: {hinge}}}}}
+  upper: {{from: knee, to: tip, section: bar, rigid: true, start: {{hinge: {hinge}}}}}
+loads:
+  - {{at: tip, force: [0, -1.0, 0], frame: tip}}
+solve: {{analysis: buckling, steps: 10}}
+"""
+
+
+def test_ziegler_pendulum_flutters_at_its_load_and_lower_with_vanishing_damping():
+    """Ziegler (1952): M q̈ + C q̇ + (K − P B) q = 0 with M = [[3, 1], [1, 1]], K = [[2, −1], [−1, 1]],
+    C = c K, B = [[1, −1], [0, 0]] (the follower's virtual work P l (φ₁ − φ₂) δφ₁). Undamped it
+    flutters where the two frequencies merge, P = 7/2 − √2 = 2.085786; with dampers the first root to
+    cross the imaginary axis does so lower, 41/28 = 1.464286 as c → 0 (the destabilisation paradox):
+    c = 0.01 gives 1.4643357 (the eigenvalues of the damped pencil, scipy)."""
+    undamped = run_api(ziegler_pendulum(0.0)).summary
+    assert undamped["conservative"] is False and undamped["instability"] == "flutter"
+    assert abs(undamped["flutter_factor"] / (3.5 - math.sqrt(2)) - 1) < 1e-7  # measured 2.5e-8
+    M, K, B = np.array([[3.0, 1.0], [1.0, 1.0]]), np.array([[2.0, -1.0], [-1.0, 1.0]]), np.array([[1.0, -1.0], [0.0, 0.0]])
+
+    def growth(P, c):
+        state = np.block([[np.zeros((2, 2)), np.eye(2)], [-np.linalg.solve(M, K - P * B), -np.linalg.solve(M, c * K)]])
+        return np.linalg.eigvals(state).real.max()
+    for c in (0.1, 0.01):
+        exact = brentq(lambda P: growth(P, c), 1.3, 2.0, xtol=1e-13)
+        damped = run_api(ziegler_pendulum(c)).summary
+        assert damped["instability"] == "flutter"
+        assert abs(damped["flutter_factor"] / exact - 1) < 1e-7  # measured 1.6e-13 (c = 0.1), 1.9e-13 (0.01)
+
+
+def governor(tilt: float) -> str:
+    """A uniform rod (m = 1, L = 1) hinged to a shaft spinning at 5 rad/s about the vertical,
+    starting at ``tilt`` from hanging down."""
+    return f"""\
+title: a centrifugal governor's arm on a spinning shaft
+gravity: [0, -9.81, 0]
+sections:
+  rod: {{EA: 1.0, EIy: 1.0, EIz: 1.0, GJ: 1.0, rhoA: 1.0}}
+bodies:
+  shaft: {{at: [0, 0, 0], motion: {{rotation: {{axis: [0, 1, 0], angle: "5*t"}}}}}}
+beams:
+  arm: {{from: shaft, to: [{math.sin(tilt)!r}, {-math.cos(tilt)!r}, 0], section: rod, rigid: true,
+        start: {{hinge: {{axis: [0, 0, 1]}}}}}}
+solve: {{analysis: modes, about: steady, count: 2}}
+"""
+
+
+def test_a_governor_arm_on_a_spinning_shaft_about_its_two_relative_equilibria():
+    """θ̈ = −(3g/2L) sin θ + Ω² sin θ cos θ in the shaft's frame: hanging down (θ = 0) is a relative
+    equilibrium, unstable above Ω² = 3g/2L with growth √(Ω² − 3g/2L) = 3.20702 1/s at Ω = 5; the
+    arm raised to cos θ* = 3g/(2LΩ²) (0.9415 rad) oscillates about it at Ω sin θ* = 4.04210 rad/s.
+    Started hanging, ``about: steady`` finds the first; started at 0.9 rad, the second."""
+    omega = 5.0
+    hanging = run_api(governor(0.0)).summary
+    assert hanging["steady_state"]["stable"] is False
+    assert abs(hanging["steady_state"]["growth_rate"] / math.sqrt(omega ** 2 - 1.5 * 9.81) - 1) < 1e-10  # measured 0 (to the last digit)
+    raised = run_api(governor(0.9))
+    tilt = math.acos(1.5 * 9.81 / omega ** 2)
+    assert raised.summary["steady_state"]["stable"] is True
+    assert abs(raised.summary["steady_state"]["largest_rotation"] - (tilt - 0.9)) < 1e-9
+    assert abs(raised.modes[0] / (omega * math.sin(tilt) / (2 * math.pi)) - 1) < 1e-10  # measured 2e-15
