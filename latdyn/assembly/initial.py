@@ -28,8 +28,9 @@ that close every loop where rates do (a Cardan joint driven at its input shaft s
 motion, the beam closing the loop unstrained); where none do, a part reached twice takes the
 first Δ it is reached with (:func:`_carried_motion`).
 
-A guide (``bodies.NAME.guide``) on a body is a joint from ``on`` to the guided body with the
-joint twist ξ = (g, 0); a free guide takes the slide rate ṡ = g·(v_target − v_on) at the body's
+A guide (``bodies.NAME.guide``) is a joint from ``on`` (without it, from the ground: a part at
+rest, :data:`GROUND`) to the guided body with the joint twist ξ = (g, 0), so that a slider guided
+on the ground closes the loop of a slider-crank; a free guide takes the slide rate ṡ = g·(v_target − v_on) at the body's
 reference point: the component along the axis of its target velocity relative to ``on``.
 
 *Coordinates.*  A free node takes its part's target twist exactly: v = v_O + ω × x, w = ω (the
@@ -49,6 +50,10 @@ import numpy as np
 
 from latdyn.model.model import FIXED, PRESCRIBED
 from latdyn.numerics.so3 import cross
+
+
+#: The ground as the parent of a guide with no ``on`` body: a part that stays at rest (Δ = 0).
+GROUND = ("ground",)
 
 
 def _hinge_of(model) -> dict:
@@ -76,11 +81,12 @@ def _joints(model, state, hinge_of: dict) -> list:
                 out.append((spec.body, beam_part, h, 1.0, xi))
             else:
                 out.append((beam_part, spec.body, h, -1.0, xi))
-    for name, body in model.scene.bodies.items():  # guides on a body: a slide ṡ (g, 0) from ``on``
-        if body.guide is not None and body.guide.on is not None:
+    for name, body in model.scene.bodies.items():  # guides: a slide ṡ (g, 0) from ``on`` (or the ground)
+        if body.guide is not None and (name, "guide") in hinge_of:  # (a rigid loop's closure has no slide)
             h = hinge_of[(name, "guide")]
-            g = state.T[model.body_node[body.guide.on]] @ model.hinges[h].axis
-            out.append((body.guide.on, name, h, 1.0, np.concatenate([g, np.zeros(3)])))
+            on = body.guide.on if body.guide.on is not None else GROUND
+            g = model.hinges[h].axis if on == GROUND else state.T[model.body_node[on]] @ model.hinges[h].axis
+            out.append((on, name, h, 1.0, np.concatenate([g, np.zeros(3)])))
     return out
 
 
@@ -111,8 +117,8 @@ def _carried_motion(model, state, joints: list, given: bool) -> dict:
     children = {}
     for parent, child, h, sign, xi in joints:
         children.setdefault(parent, []).append((child, h, sign, xi))
-    kind = {name: model.nodes[model.body_node[name]].kind for name in scene.bodies}
-    parts = list(scene.bodies) + [("beam", name) for name in scene.beams]
+    kind = {name: model.nodes[model.body_node[name]].kind for name in scene.bodies} | {GROUND: FIXED}
+    parts = [GROUND] + list(scene.bodies) + [("beam", name) for name in scene.beams]
     has_parent = {child for _, child, _, _, _ in joints}
     starts = ([p for p in parts if kind.get(p) == PRESCRIBED] + [p for p in parts if kind.get(p) == FIXED]
               + [p for p in parts if p not in has_parent] + parts)  # the last: loops of free parts
