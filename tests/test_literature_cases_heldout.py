@@ -418,6 +418,51 @@ output:
         assert max(r.probes["s"]) <= 1.25
 
 
+# ----------------------------------------------------------------------------- a cable's catenary
+def hanging_cable(elements: int) -> str:
+    """A cable (EA = 1000, 0.5 kg/m, rest length 9.95) between anchors 10 apart, under gravity."""
+    return f"""\
+title: a cable hanging between two anchors
+gravity: [0, 0, -9.81]
+bodies:
+  a: {{at: [0, 0, 0], fixed: true}}
+  b: {{at: [10, 0, 0], fixed: true}}
+cables:
+  c: {{from: a, to: b, EA: 1000.0, rhoA: 0.5, elements: {elements}, rest_length: 9.95}}
+solve: {{analysis: static, steps: 10}}
+output:
+  probes:
+    sag: {{point: "c.node[{elements // 2}]", quantity: position, component: z}}
+"""
+
+
+def elastic_catenary_sag(span=10.0, rest=9.95, w=0.5 * 9.81, EA=1000.0) -> float:
+    """The midspan height of the elastic catenary (Irvine, Cable Structures, 1981, §1.5) in the
+    unstretched coordinate s: x(s) = Hs/EA + (H/w)(asinh(V/H) − asinh((V − ws)/H)),
+    z(s) = (ws/EA)(s/2 − V/w) + (H/w)(√(1 + ((V − ws)/H)²) − √(1 + (V/H)²)), V = w L₀/2, H from
+    x(L₀) = span: −1.2911212."""
+    V = w * rest / 2
+
+    def x(s, H):
+        return H * s / EA + (H / w) * (math.asinh(V / H) - math.asinh((V - w * s) / H))
+    H = brentq(lambda h: x(rest, h) - span, 1e-3, 1e4, xtol=1e-14)
+    s = rest / 2
+    return (w * s / EA) * (s / 2 - V / w) + (H / w) * (math.sqrt(1 + ((V - w * s) / H) ** 2) - math.sqrt(1 + (V / H) ** 2))
+
+
+def test_a_pretensioned_cable_sags_into_the_elastic_catenary(tmp_path):
+    """A chain of straight cable elements under its weight converges to the elastic catenary at
+    O(h²): 8 and 16 elements, then extrapolated."""
+    completed, out = latdyn_run(tmp_path, hanging_cable(16))
+    assert completed.returncode == 0, completed.stderr
+    exact = elastic_catenary_sag()
+    fine = probe_columns(out)["sag"][-1]
+    coarse = run_api(hanging_cable(8)).probes["sag"][-1]
+    assert abs(fine / exact - 1) < 2e-3  # measured +5.2e-3 (8 elements), +1.3e-3 (16)
+    assert 3.5 < (coarse - exact) / (fine - exact) < 4.5  # second order: measured 4.03
+    assert abs((fine + (fine - coarse) / 3) / exact - 1) < 1e-4  # measured −1.4e-5
+
+
 # ----------------------------------------------------------------------------- a moment fixed in space
 def twisted_cantilever(elements: int, torque: float, analysis: str) -> str:
     """A cantilever (L = 1, EI = ρA = 1, GJ = 1, Euler–Bernoulli) under a dead end torque along its
