@@ -6,10 +6,10 @@ tangent) means nothing for it (issue 30, item 1; :mod:`latdyn.analyses.stability
 moment fixed in space (``frame: global``) on a node that turns in 3D: its work M·δθ over the
 node's spin is no variation of a potential once rotations leave one axis (the "axial" moment of
 Argyris et al. 1979; Ziegler, Principles of Structural Stability, 1968), and its load stiffness
-is not symmetric. A cantilever under a dead axial torque
-has no adjacent equilibrium at any torque (EI u'' = iM u' with u(0) = u'(0) = 0); the symmetric
-part of its tangent loses definiteness at M = πEI/L, which was reported as buckling. In a planar
-model a moment along the plane's normal is conservative (M θ). The static path
+is not symmetric. A cantilever under a dead axial torque has no adjacent equilibrium at any torque
+(EI u'' = iM u' with u(0) = u'(0) = 0, u = v + iw) and flutters from M = 0 on; the symmetric part
+of its tangent loses definiteness at M = πEI/L, which was reported as buckling. In a planar model
+a moment along the plane's normal is conservative (M θ). The static path
 (:mod:`latdyn.analyses.continuation`) and the buckling analysis both ask this.
 """
 from __future__ import annotations

@@ -30,8 +30,9 @@ first Δ it is reached with (:func:`_carried_motion`).
 
 A guide (``bodies.NAME.guide``) is a joint from ``on`` (without it, from the ground: a part at
 rest, :data:`GROUND`) to the guided body with the joint twist ξ = (g, 0), so that a slider guided
-on the ground closes the loop of a slider-crank; a free guide takes the slide rate ṡ = g·(v_target − v_on) at the body's
-reference point: the component along the axis of its target velocity relative to ``on``.
+on the ground closes the loop of a slider-crank; a free guide takes the slide rate
+ṡ = g·(v_target − v_on) at the body's reference point: the component along the axis of its target
+velocity relative to ``on``.
 
 *Coordinates.*  A free node takes its part's target twist exactly: v = v_O + ω × x, w = ω (the
 elastic coordinates of flexible beams included).  A free hinge takes the rate that turns its
@@ -134,7 +135,8 @@ def _carried_motion(model, state, joints: list, given: bool) -> dict:
         prescribed_rate = state.theta_dot[h] if h >= 0 and model.hinges[h].angle is not None else 0.0
         return sign * prescribed_rate * xi, turn
 
-    carried, closures = {}, []  # part -> (Δ at zero free rates, ∂Δ/∂rates); the loops' (Δ_child − Δ_parent − turn)
+    # part -> (Δ at zero free rates, ∂Δ/∂rates); each loop's closure (b, A), A rates = b
+    carried, closures = {}, []
     for start in starts:
         if start in carried:
             continue
