@@ -614,6 +614,35 @@ def test_a_slider_crank_guided_on_the_ground_starts_in_its_own_motion():
     assert np.abs(v - rate).max() < 4e-4  # measured 1.8e-4: the rod's axial ringing
 
 
+def test_geometry_sensitivities_of_a_loop_driven_by_a_prescribed_translation_are_refused(tmp_path):
+    """A slider-crank of stiff flexible links driven at its slider (x = 2 − 0.5 t): the crank starts at
+    ω = 0.5/b, b the crank's length, so the start's velocities move with the geometry, which the
+    sensitivities do not differentiate: they gave d ω(0)/db = 0 against the differences' −0.5. Refused,
+    naming the key, before anything is solved (exit 2)."""
+    text = """\
+parameters: {b: 1.0}
+title: a slider-crank driven at its slider
+sections:
+  rod: {EA: 1.0e7, EIy: 1.0e5, EIz: 1.0e5, GJ: 1.0e5, rhoA: 1.0}
+bodies:
+  A: {at: [0, 0, 0], fixed: true}
+  B: {at: [0, "b", 0]}
+  C: {at: [2, 0, 0], mass: 1.0, motion: {translation: ["-0.5*t", 0, 0]}}
+beams:
+  crank: {from: A, to: B, section: rod, start: {hinge: {axis: [0, 0, 1]}}}
+  rod: {from: B, to: C, section: rod, elements: 2, start: {hinge: {axis: [0, 0, 1]}}, end: {hinge: {axis: [0, 0, 1]}}}
+solve: {t_end: 0.2, dt: 0.001, sensitivities: [b]}
+output:
+  probes:
+    rate: {hinge: crank.start, quantity: rate}
+"""
+    completed, _ = latdyn_run(tmp_path, text)
+    assert completed.returncode == 2
+    assert "solve.sensitivities" in completed.stderr and "driving a closed loop" in completed.stderr
+    started = run_api(text.replace(", sensitivities: [b]", ""))
+    assert abs(started.probes["rate"][0] - 0.5) < 1e-12  # the loop closed at t = 0: ω = 0.5/b
+
+
 def test_a_rod_swinging_from_an_accelerating_support_swings_through_twice_the_tilt():
     """A uniform rod (m = 1, L = 1) hanging from a hinge on a cart whose motion is prescribed,
     x = 2.5 t² (a = 5), released at rest: in the cart's frame gravity is (−a, −g), the rod swings
