@@ -72,7 +72,7 @@ def test_an_end_moment_of_2_pi_ei_over_l_rolls_a_cantilever_into_a_circle(tmp_pa
     assert completed.returncode == 0, completed.stderr
     assert summary_of(out)["status"] == "solved"
     c = probe_columns(out)
-    circle = [rolled_tip((0, 0, 2 * math.pi), k / 8) for k in range(9)]
+    circle = {k: rolled_tip((0, 0, 2 * math.pi), k / 8) for k in range(1, 9)}
     errors = [np.hypot(c["x"][k] - circle[k][0], c["y"][k] - circle[k][1]) for k in range(1, 9)]
     assert max(errors) < 3e-5  # measured 1.9e-5 (8 elements; 1.2e-6 with 16: fourth order)
     assert math.hypot(c["x"][-1], c["y"][-1]) < 1e-12  # measured 9.2e-16: the tip back on the clamp
