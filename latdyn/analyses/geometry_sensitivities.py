@@ -83,6 +83,13 @@ def geometry_refusal(scene, name: str, used: str) -> str | None:
         return (f"{where}: with a prescribed rotation ({turning[0]}) the initial velocities carried through the "
                 "joints move with the points, which is not differentiated yet (prescribed translations are: "
                 "x = at + translation(t))")
+    moving = [f"bodies.{name}.motion.translation" for name, body in scene.bodies.items() if body.translation is not None]
+    free_joints = any(hinge.angle is None for _, _, hinge in scene.hinges) or any(
+        body.guide is not None and body.guide.position is None for body in scene.bodies.values())
+    if moving and free_joints and _closed_loop(scene):
+        return (f"{where}: with a prescribed translation ({moving[0]}) driving a closed loop with free joints, the "
+                "joint rates that close the loop at t = 0 move with the points (latdyn/assembly/initial.py), which "
+                "is not differentiated yet")
     if any(beam.rigid for beam in scene.beams.values()) or any(b.guide is not None for b in scene.bodies.values()):
         return f"{where}: geometry sensitivities with rigid links or guides are not computed yet"
     if scene.cables:
@@ -90,6 +97,35 @@ def geometry_refusal(scene, name: str, used: str) -> str | None:
     if getattr(scene, "controllers", None):
         return f"{where}: geometry sensitivities with controllers are not computed yet"
     return None
+
+
+def _closed_loop(scene) -> bool:
+    """Whether the joints close a loop: beams joining bodies, guides joining theirs to ``on`` (or the
+    ground), every fixed or prescribed body being the ground."""
+    root = {}
+
+    def find(part):
+        while root.setdefault(part, part) != part:
+            part = root[part]
+        return part
+
+    def ground_or(name):
+        body = scene.bodies[name]
+        return "ground" if body.fixed or body.prescribed else name
+    for beam, spec in scene.beams.items():
+        for end in (spec.start, spec.end):
+            if end.body is not None:
+                a, b = find(("beam", beam)), find(ground_or(end.body))
+                if a == b:
+                    return True
+                root[a] = b
+    for name, body in scene.bodies.items():
+        if body.guide is not None:
+            a, b = find(ground_or(name)), find(ground_or(body.guide.on) if body.guide.on else "ground")
+            if a == b:
+                return True
+            root[a] = b
+    return False
 
 
 def model_refusal(scene, name: str, used: str):

@@ -22,12 +22,17 @@ passes its parent's motion on as a clamp would, the rigid motion V₀ being the 
 sides).  So a rotor behind a hinge with ``angle: 20*t`` spins at 20 rad/s relative to its arm,
 a beam clamped to a hub with a prescribed rotation turns with the hub (unless the scene gives
 its initial rigid rotation), and a structure clamped to a fixed body starts in V₀ all the same
-(an impulsively loaded cantilever) — the fixed body adds nothing.  In a closed loop a part
-reached twice takes the first Δ it is reached with.
+(an impulsively loaded cantilever) — the fixed body adds nothing.  A joint that closes a loop
+asks the same relation of its two sides: the free hinges and guides take the rates of least norm
+that close every loop where rates do (a Cardan joint driven at its input shaft starts in its own
+motion, the beam closing the loop unstrained); where none do, a part reached twice takes the
+first Δ it is reached with (:func:`_carried_motion`).
 
-A guide (``bodies.NAME.guide``) on a body is a joint from ``on`` to the guided body with the
-joint twist ξ = (g, 0); a free guide takes the slide rate ṡ = g·(v_target − v_on) at the body's
-reference point: the component along the axis of its target velocity relative to ``on``.
+A guide (``bodies.NAME.guide``) is a joint from ``on`` (without it, from the ground: a part at
+rest, :data:`GROUND`) to the guided body with the joint twist ξ = (g, 0), so that a slider guided
+on the ground closes the loop of a slider-crank; a free guide takes the slide rate
+ṡ = g·(v_target − v_on) at the body's reference point: the component along the axis of its target
+velocity relative to ``on``.
 
 *Coordinates.*  A free node takes its part's target twist exactly: v = v_O + ω × x, w = ω (the
 elastic coordinates of flexible beams included).  A free hinge takes the rate that turns its
@@ -46,6 +51,10 @@ import numpy as np
 
 from latdyn.model.model import FIXED, PRESCRIBED
 from latdyn.numerics.so3 import cross
+
+
+#: The ground as the parent of a guide with no ``on`` body: a part that stays at rest (Δ = 0).
+GROUND = ("ground",)
 
 
 def _hinge_of(model) -> dict:
@@ -73,11 +82,12 @@ def _joints(model, state, hinge_of: dict) -> list:
                 out.append((spec.body, beam_part, h, 1.0, xi))
             else:
                 out.append((beam_part, spec.body, h, -1.0, xi))
-    for name, body in model.scene.bodies.items():  # guides on a body: a slide ṡ (g, 0) from ``on``
-        if body.guide is not None and body.guide.on is not None:
+    for name, body in model.scene.bodies.items():  # guides: a slide ṡ (g, 0) from ``on`` (or the ground)
+        if body.guide is not None and (name, "guide") in hinge_of:  # (a rigid loop's closure has no slide)
             h = hinge_of[(name, "guide")]
-            g = state.T[model.body_node[body.guide.on]] @ model.hinges[h].axis
-            out.append((body.guide.on, name, h, 1.0, np.concatenate([g, np.zeros(3)])))
+            on = body.guide.on if body.guide.on is not None else GROUND
+            g = model.hinges[h].axis if on == GROUND else state.T[model.body_node[on]] @ model.hinges[h].axis
+            out.append((on, name, h, 1.0, np.concatenate([g, np.zeros(3)])))
     return out
 
 
@@ -91,6 +101,68 @@ def _point_velocity(twist: np.ndarray, y: np.ndarray) -> np.ndarray:
     return twist[:3] + cross(twist[3:], y)
 
 
+def _carried_motion(model, state, joints: list, given: bool) -> dict:
+    """Δ of every part: the prescribed motion carried through the joints, breadth first from the
+    prescribed bodies, then from the fixed ones, the parts without parent and any part not reached
+    yet (Δ = 0 there). A joint not followed (its child reached already, or fixed or prescribed)
+    closes a loop: Δ_child = Δ_parent + sign θ̇ ξ must hold there too. Δ is carried as an affine
+    function of the rates of the free hinges and guides on the way, and where the loops can close
+    with them (a mechanism driven through a loop: a Cardan joint, a four-bar), they take the rates
+    of least norm that close every loop — the mechanism's own motion. Without loops, or where the
+    loops close at rest, those rates are 0; where no rates close them (a structure, not a mechanism,
+    strained by its prescribed motion), they stay 0 and a part reached twice keeps the first Δ."""
+    scene = model.scene
+    free = np.zeros(len(model.hinges), dtype=bool)
+    free[model.free_hinges] = True
+    column = {h: k for k, h in enumerate(sorted({h for _, _, h, _, _ in joints if h >= 0 and free[h]}))}
+    children = {}
+    for parent, child, h, sign, xi in joints:
+        children.setdefault(parent, []).append((child, h, sign, xi))
+    kind = {name: model.nodes[model.body_node[name]].kind for name in scene.bodies} | {GROUND: FIXED}
+    parts = [GROUND] + list(scene.bodies) + [("beam", name) for name in scene.beams]
+    has_parent = {child for _, child, _, _, _ in joints}
+    starts = ([p for p in parts if kind.get(p) == PRESCRIBED] + [p for p in parts if kind.get(p) == FIXED]
+              + [p for p in parts if p not in has_parent] + parts)  # the last: loops of free parts
+
+    def own(part) -> np.ndarray:  # Δ of a start: a prescribed body's twist unless a rigid motion is given
+        held = kind.get(part) == PRESCRIBED and not given
+        return _node_twist(state, model.body_node[part]) if held else np.zeros(6)
+
+    def across(h, sign, xi) -> tuple[np.ndarray, np.ndarray]:  # sign θ̇ ξ: (its prescribed part, per free rate)
+        turn = np.zeros((6, len(column)))
+        if h in column:
+            turn[:, column[h]] = sign * xi
+        prescribed_rate = state.theta_dot[h] if h >= 0 and model.hinges[h].angle is not None else 0.0
+        return sign * prescribed_rate * xi, turn
+
+    # part -> (Δ at zero free rates, ∂Δ/∂rates); each loop's closure (b, A), A rates = b
+    carried, closures = {}, []
+    for start in starts:
+        if start in carried:
+            continue
+        carried[start] = (own(start), np.zeros((6, len(column))))
+        queue = deque([start])
+        while queue:
+            parent = queue.popleft()
+            for child, h, sign, xi in children.get(parent, []):
+                turn0, turn = across(h, sign, xi)
+                to = (carried[parent][0] + turn0, carried[parent][1] + turn)
+                if child in carried or kind.get(child) in (FIXED, PRESCRIBED):
+                    reached = carried.get(child) or (own(child), np.zeros((6, len(column))))
+                    closures.append((reached[0] - to[0], to[1] - reached[1]))  # (b, A): A rates = b
+                    continue
+                carried[child] = to
+                queue.append(child)
+    rates = np.zeros(len(column))
+    if closures and column:
+        A = np.vstack([a for _, a in closures])
+        b = np.concatenate([b for b, _ in closures])
+        solved = np.linalg.lstsq(A, b, rcond=None)[0]
+        if np.linalg.norm(A @ solved - b) <= 1e-9 * max(np.linalg.norm(b), 1e-300):  # the loops close with them
+            rates = solved
+    return {part: delta + slope @ rates for part, (delta, slope) in carried.items()}
+
+
 def initial_velocities(model, state, complete_links) -> None:
     """Set the free coordinates' velocities of ``state`` (t = 0, prescribed motion applied) from the
     scene's rigid motion and the prescribed rates, in place (module docstring); the dependent
@@ -102,31 +174,7 @@ def initial_velocities(model, state, complete_links) -> None:
     rigid_motion = np.concatenate([np.asarray(iv.linear, float) - np.cross(omega0, iv.about), omega0])
     hinge_of = _hinge_of(model)
     joints = _joints(model, state, hinge_of)
-    # Δ: the prescribed motion carried into every part, breadth first from the prescribed bodies,
-    # then from the fixed ones, the parts without parent and any part not reached yet (Δ = 0 there)
-    children = {}
-    for parent, child, h, sign, xi in joints:
-        children.setdefault(parent, []).append((child, h, sign, xi))
-    kind = {name: model.nodes[model.body_node[name]].kind for name in scene.bodies}
-    parts = list(scene.bodies) + [("beam", name) for name in scene.beams]
-    has_parent = {child for _, child, _, _, _ in joints}
-    starts = ([p for p in parts if kind.get(p) == PRESCRIBED] + [p for p in parts if kind.get(p) == FIXED]
-              + [p for p in parts if p not in has_parent] + parts)  # the last: loops of free parts
-    carried = {}
-    for start in starts:
-        if start in carried:
-            continue
-        held = kind.get(start) == PRESCRIBED and not iv.given  # a given rigid motion is absolute
-        carried[start] = _node_twist(state, model.body_node[start]) if held else np.zeros(6)
-        queue = deque([start])
-        while queue:
-            parent = queue.popleft()
-            for child, h, sign, xi in children.get(parent, []):
-                if child in carried or kind.get(child) in (FIXED, PRESCRIBED):
-                    continue
-                prescribed_rate = state.theta_dot[h] if h >= 0 and model.hinges[h].angle is not None else 0.0
-                carried[child] = carried[parent] + sign * prescribed_rate * xi
-                queue.append(child)
+    carried = _carried_motion(model, state, joints, iv.given)
 
     def target(part) -> np.ndarray:
         if part in scene.bodies:
