@@ -70,7 +70,6 @@ GEOMETRY_KEY = re.compile(r"^(?:bodies\.(?P<body>[^.]+)\.at|beams\.(?P<beam>.+)\
 def geometry_refusal(scene, name: str, used: str) -> str | None:
     """Why the sensitivity by ``name``, used at the geometry key ``used``, is not computed exactly here, or
     None (module docstring)."""
-    match = GEOMETRY_KEY.match(used)
     solve = scene.solve
     where = f"parameter {name!r} is used at {used}, a number that places the structure"
     if solve.analysis == "static" and solve.method not in ("load-control", "displacement-control"):

@@ -240,7 +240,6 @@ class StateHistory:
         # no appending to an NPZ: the whole history stays in memory and is rewritten
         arrays = {"t": np.asarray(self._pending_t, dtype=float)}
         for k in self.keys:
-            width = self.widths[k]
             arrays[k] = self._rows(k)
         if self.labels or self.attributes:
             labels = dict(self.attributes)
