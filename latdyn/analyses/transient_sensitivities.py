@@ -122,6 +122,7 @@ from latdyn.analyses.sensitivities import (_BODY_KEY, _CABLE_KEY, _GUIDE_KEY, _H
                                            _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE, ParameterDerivatives)
 from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_force_derivatives, joint_of
 from latdyn.analyses.step_matrix import ExactStepMatrix
+from latdyn.analyses.weight_derivative import configuration_tangent_of_weight
 from latdyn.assembly.assembler import free_acceleration, free_velocity, pack, unpack_free
 from latdyn.assembly.factorization import factorization_for, solve_linear
 from latdyn.errors import SceneError, SolverError
@@ -700,45 +701,26 @@ class TransientSensitivities(ParameterDerivatives):
     def _weight_derivative(self, state, w: np.ndarray, dq: np.ndarray, scale: float,
                            mass: bool = True, rates=None) -> np.ndarray:
         """δ(W w) (n, k) for W = M + scale·K (``mass``) or scale·K at ``state`` (K the evaluation's, without
-        the inertia tangent, as the impulse uses it), along each column's (δq, δp): ∂(W w)/∂q δq by a
-        central difference of W w along δq (the derivative of K is a third derivative of the element,
-        not generated: the one difference of the sensitivities, module docstring), ∂M/∂p w exactly (the
-        inertia forces are linear in the accelerations: ∂r/∂p at accelerations w less at none, at rest),
-        scale ∂K/∂p w by a central difference of ∂r/∂p (static) along w.
+        the inertia tangent, as the impulse uses it), along each column's (δq, δp): H δq with H = ∂(W w)/∂q
+        generated (:func:`latdyn.analyses.weight_derivative.configuration_tangent_of_weight`: the elements' and
+        joint bodies' parts from the generated kernels, the hinges', loads', cables', bodies' weight and
+        couplings' blocks differenced along the coordinates they are on), ∂M/∂p w exactly (the inertia forces
+        are linear in the accelerations: ∂r/∂p at accelerations w less at none, at rest), scale ∂K/∂p w by a
+        central difference of ∂r/∂p (static) along w.
 
-        With guides (rigid links' reduction, latdyn/assembly/linked.py) K also holds the geometric term
-        ∂Pᵀ/∂q · r_all, with r_all at the state's rates: the difference then moves the free rates along
-        ``rates`` = (δv, δv̇) too (the dependent ones completed), and ∂K/∂p adds that term of the
-        inertia forces' ∂r_all/∂p (:meth:`_geometric_derivative`)."""
-        model, assembler, k = self.model, self.assembler, len(self.names)
+        With guides or rigid links (their reduction, latdyn/assembly/linked.py) K also holds the geometric term
+        ∂Pᵀ/∂q · r_all, with r_all at the state's rates: ∂(W w)/∂q δq is then a central difference of W w along
+        δq that moves the free rates along ``rates`` = (δv, δv̇) too (the dependent ones completed,
+        :meth:`_linked_weight_derivative`), and ∂K/∂p adds that term of the inertia forces' ∂r_all/∂p
+        (:meth:`_geometric_derivative`)."""
+        model, assembler = self.model, self.assembler
         length = self.length or 1.0
-        out = np.zeros((model.n_dofs, k))
         linked = model.links is not None
-
-        def product(moved):
-            return np.asarray(assembler.evaluate(moved, matrices=True).combined(1.0 if mass else 0.0, 0.0, scale) @ w)
-
-        def moved(eta, c):
-            ahead = assembler.advance(state, eta * dq[:, c])
-            if linked and rates is not None:
-                unpack_free(model, free_velocity(model, state) + eta * rates[0][:, c], ahead.v, ahead.w, ahead.theta_dot)
-                unpack_free(model, free_acceleration(model, state) + eta * rates[1][:, c], ahead.a, ahead.alpha,
-                            ahead.theta_ddot)
-                assembler.complete_links(ahead)
-            return ahead
-
-        # each move in its own units (a configuration, a rate and an acceleration over the nominal step):
-        # the rates' derivatives, large in a rate's units, must not shrink the configuration's step to
-        # where the difference of W w (of the stiffness's size) is round-off (a latch of rigid links)
-        dt = self.scene.solve.dt
-        for c in range(k):
-            moves = [dq[:, c]] + ([rates[0][:, c] * dt, rates[1][:, c] * dt * dt]
-                                  if linked and rates is not None else [])
-            size = float(max(np.max(np.abs(m), initial=0.0) for m in moves))
-            if size == 0.0:
-                continue
-            eta = WEIGHT_STEP * length / size
-            out[:, c] = (product(moved(eta, c)) - product(moved(-eta, c))) / (2 * eta)
+        if linked:
+            out = self._linked_weight_derivative(state, w, dq, scale, mass, rates)
+        else:
+            out = np.asarray(configuration_tangent_of_weight(assembler, state, w, scale, mass,
+                                                             self.coordinate_step()) @ dq)
         size = float(np.max(np.abs(w), initial=0.0))
         if size == 0.0:
             return out
@@ -751,6 +733,51 @@ class TransientSensitivities(ParameterDerivatives):
             at_rest, accelerated = self._at_rest_and_accelerated(state, w)
             out += (self.residual_derivatives(accelerated, 1.0, inertia=True)
                     - self.residual_derivatives(at_rest, 1.0, inertia=True))
+        return out
+
+    def coordinate_step(self) -> float:
+        """The configuration step of the central differences along one coordinate (H_rest's columns,
+        latdyn/analyses/weight_derivative.py): a unit vector moves one node against its elements, so the step
+        lies between the length scale's ℓ (round-off) and the shortest element's L_min (truncation), their
+        geometric mean, :data:`WEIGHT_STEP` √(ℓ min(ℓ, L_min)) (on the latching boom of 50 elements of 0.02 m,
+        benchmarks/transient_sensitivities_cost.py --scene boom_latch, differences along each coordinate were
+        8.6e-7 off the forward method's with ℓ's step, 1.7e-7 with L_min's, 1.3e-8 with this one)."""
+        length = self.length or 1.0
+        sections = self.model.element_sections
+        shortest = float(np.min(sections[:, 0])) if len(sections) else length
+        return WEIGHT_STEP * float(np.sqrt(length * min(length, shortest)))
+
+    def _linked_weight_derivative(self, state, w: np.ndarray, dq: np.ndarray, scale: float, mass: bool,
+                                  rates) -> np.ndarray:
+        """∂(W w)/∂q δq (n, k) of :meth:`_weight_derivative` with guides or rigid links: a central difference of
+        W w (the reduction's) along each column's δq, the free rates moved along ``rates`` = (δv, δv̇) too (the
+        dependent ones completed), each move in its own units (a configuration, a rate and an acceleration over
+        the nominal step): the rates' derivatives, large in a rate's units, must not shrink the configuration's
+        step to where the difference of W w (of the stiffness's size) is round-off (a latch of rigid links)."""
+        model, assembler, k = self.model, self.assembler, len(self.names)
+        length = self.length or 1.0
+        out = np.zeros((model.n_dofs, k))
+
+        def product(moved):
+            return np.asarray(assembler.evaluate(moved, matrices=True).combined(1.0 if mass else 0.0, 0.0, scale) @ w)
+
+        def moved(eta, c):
+            ahead = assembler.advance(state, eta * dq[:, c])
+            if rates is not None:
+                unpack_free(model, free_velocity(model, state) + eta * rates[0][:, c], ahead.v, ahead.w, ahead.theta_dot)
+                unpack_free(model, free_acceleration(model, state) + eta * rates[1][:, c], ahead.a, ahead.alpha,
+                            ahead.theta_ddot)
+                assembler.complete_links(ahead)
+            return ahead
+
+        dt = self.scene.solve.dt
+        for c in range(k):
+            moves = [dq[:, c]] + ([rates[0][:, c] * dt, rates[1][:, c] * dt * dt] if rates is not None else [])
+            size = float(max(np.max(np.abs(m), initial=0.0) for m in moves))
+            if size == 0.0:
+                continue
+            eta = WEIGHT_STEP * length / size
+            out[:, c] = (product(moved(eta, c)) - product(moved(-eta, c))) / (2 * eta)
         return out
 
     def _geometric_derivative(self, state, w: np.ndarray, eta: float) -> np.ndarray:
