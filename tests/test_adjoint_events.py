@@ -5,8 +5,9 @@ slack, and the refusals that stay.
 
 References: the forward method (latdyn/analyses/transient_sensitivities.py) on the same scene — both are the
 exact derivative of the same discrete run, events included, so each probe's end, max and min derivatives and
-each event time's agree to round-off and the forward method's central differences of the impulse weight
-(asserted ≤ 1e-10 of each output's largest derivative); and Richardson-extrapolated central differences of
+each event time's agree to round-off and the central differences left in the impulse weight's derivative (the hinge
+laws' blocks, the parameters other than section values: latdyn/analyses/weight_derivative.py; asserted ≤ 1e-10 of
+each output's largest derivative, measured ≤ 2e-12); and Richardson-extrapolated central differences of
 whole runs (the perturbation 1e-4 and 5e-5 relative, small enough that the event stays in its step of the grid;
 the reference runs ask for the adjoint too, so that their steps land on the event as the differentiated run's)."""
 from __future__ import annotations

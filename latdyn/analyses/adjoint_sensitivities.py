@@ -83,7 +83,7 @@ from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_forc
 from latdyn.analyses.link_sensitivities import columns_moving
 from latdyn.analyses.probe_derivatives import is_probe_here, probe_forms
 from latdyn.analyses.sensitivities import _BODY_KEY, _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE
-from latdyn.analyses.transient_sensitivities import WEIGHT_STEP, TransientSensitivities, _NodeRotations, _StepColumns
+from latdyn.analyses.transient_sensitivities import TransientSensitivities, _NodeRotations, _StepColumns
 from latdyn.analyses.weight_derivative import configuration_tangent_of_weight
 from latdyn.assembly.assembler import free_acceleration, free_velocity, pack, unpack_free
 from latdyn.assembly.factorization import factorization_for, solve_linear
@@ -604,21 +604,20 @@ class AdjointSensitivities(TransientSensitivities):
         or scale·K without ``mass``) applied to ``u_bar`` (n, m): (Dᵀū (n, m), Pᵀū (k, m)). D = ∂(W w)/∂q is the
         forward method's matrix H (:func:`latdyn.analyses.weight_derivative.configuration_tangent_of_weight`: the
         generated elements' and joint bodies' parts, the differences of the hinges', loads', cables', bodies'
-        weight and couplings' blocks only along the coordinates they are on), Dᵀū its transposed product; Pᵀū as P
-        is made, the transposed products (:meth:`residual_transposed_product`) in place of ∂r/∂p: scale·(∂r/∂p at
-        q ± ηw, static)ᵀū differenced, and with ``mass`` (∂r/∂p at the accelerations w less at rest)ᵀū."""
-        assembler = self.assembler
-        length = self.length or 1.0
-        H = configuration_tangent_of_weight(assembler, state, w, scale, mass, self.coordinate_step())
+        weight and couplings' blocks only along the coordinates they are on), Dᵀū its transposed product; Pᵀū:
+        scale·((∂K/∂p) w)ᵀū with the forward method's (∂K/∂p) w (:meth:`_stiffness_derivative`: generated for the
+        parameters of section values only, a difference of ∂r/∂p along w for the others), and with ``mass`` the
+        transposed products (:meth:`residual_transposed_product`, exact) at the accelerations w less at rest."""
+        H = configuration_tangent_of_weight(self.assembler, state, w, scale, mass, self.coordinate_step())
         q_part = np.asarray(H.T @ u_bar)
         p_part = np.zeros((len(self.names), u_bar.shape[1]))
         size = float(np.max(np.abs(w), initial=0.0))
         if size == 0.0:
             return q_part, p_part
-        eta = WEIGHT_STEP * length / size
-        p_part += scale * (self.residual_transposed_product(assembler.advance(state, eta * w), u_bar, inertia=False)
-                           - self.residual_transposed_product(assembler.advance(state, -eta * w), u_bar,
-                                                              inertia=False)) / (2 * eta)
+        # the forward method's (∂K/∂p) w (n, k), transposed: the same numbers, so the difference in it (parameters other
+        # than section values) is the forward method's to the bit rather than a transposed product's round-off over
+        # its step (1.5e-11 of the outputs beside a controller)
+        p_part += scale * (self._stiffness_derivative(state, w).T @ u_bar)
         if mass:
             at_rest, accelerated = self._at_rest_and_accelerated(state, w)
             p_part += (self.residual_transposed_product(accelerated, u_bar)

@@ -52,8 +52,11 @@ exactly (|θ − θ_e| ≤ :data:`LANDING`, :meth:`TransientSensitivities.land`)
 column for a unit change of its size h, and the event time's derivative δh makes the hinge angle's
 total derivative vanish; the jump of δv through the impulse and the restarted accelerations are
 differentiated (:meth:`TransientSensitivities._jump`, :meth:`TransientSensitivities.after_events`); the
-derivative of the impulse weight M + dt²K along δq (a third derivative of the element, not generated)
-is taken by a central difference (:meth:`TransientSensitivities._weight_derivative`).
+derivative of the impulse weight M + dt²K along δq is the matrix H = ∂(W w)/∂q, generated for the elements
+(``beam_stiffness_D_q``, ``beam_inertia_tangent``) and the joint bodies' mass, the hinges', loads', cables', bodies'
+weight and couplings' blocks differenced along the coordinates they are on (latdyn/analyses/weight_derivative.py),
+and along p (∂K/∂p) w generated for parameters of section values only, a difference of ∂r/∂p along w for the others
+(:meth:`TransientSensitivities._weight_derivative`, :meth:`TransientSensitivities._stiffness_derivative`).
 A compliant stop's onset (``contact``) is landed on too, and its time enters through the landing
 step's size as a latch's does (:meth:`TransientSensitivities._contact_onset`); its force being continuous
 there, nothing jumps; its law's stiffness, exponent and damping enter ∂r/∂p through the generated
@@ -146,8 +149,10 @@ LANDING_PASSES = 30
 #: a landing farther than this (relative, as LANDING) from the event is flagged in summary.json warnings:
 #: the event-time derivative assumes the step ends on it
 LANDING_MISSED = 1e-10
-#: the configuration step (times the length scale) of the central differences of the impulse weight
-#: M + dt²K along δq (module docstring, "Events": the one derivative not generated)
+#: the configuration step (times the length scale) of the central differences inside the impulse weight's
+#: derivative that are not generated (module docstring, "Events"; latdyn/analyses/weight_derivative.py): along the
+#: coordinates of its hinges', loads', cables', bodies' weight and couplings' blocks, along δq with rigid links or
+#: guides, and of ∂r/∂p along w for parameters other than section values
 WEIGHT_STEP = 1e-5
 #: the time step (times dt) of the five-point central difference in t of the residual through prescribed
 #: motions (:meth:`ExplicitTime.prescribed`: the coupling to the prescribed coordinates is not assembled)
@@ -705,8 +710,8 @@ class TransientSensitivities(ParameterDerivatives):
         generated (:func:`latdyn.analyses.weight_derivative.configuration_tangent_of_weight`: the elements' and
         joint bodies' parts from the generated kernels, the hinges', loads', cables', bodies' weight and
         couplings' blocks differenced along the coordinates they are on), ∂M/∂p w exactly (the inertia forces
-        are linear in the accelerations: ∂r/∂p at accelerations w less at none, at rest), scale ∂K/∂p w by a
-        central difference of ∂r/∂p (static) along w.
+        are linear in the accelerations: ∂r/∂p at accelerations w less at none, at rest), scale ∂K/∂p w
+        (:meth:`_stiffness_derivative`: generated for parameters of section values only).
 
         With guides or rigid links (their reduction, latdyn/assembly/linked.py) K also holds the geometric term
         ∂Pᵀ/∂q · r_all, with r_all at the state's rates: ∂(W w)/∂q δq is then a central difference of W w along
@@ -725,14 +730,60 @@ class TransientSensitivities(ParameterDerivatives):
         if size == 0.0:
             return out
         eta = WEIGHT_STEP * length / size
-        out += scale * (self.residual_derivatives(assembler.advance(state, eta * w), 1.0)
-                        - self.residual_derivatives(assembler.advance(state, -eta * w), 1.0)) / (2 * eta)
+        out += scale * self._stiffness_derivative(state, w)
         if linked:
             out += scale * self._geometric_derivative(state, w, eta)
         if mass:
             at_rest, accelerated = self._at_rest_and_accelerated(state, w)
             out += (self.residual_derivatives(accelerated, 1.0, inertia=True)
                     - self.residual_derivatives(at_rest, 1.0, inertia=True))
+        return out
+
+    def by_sections_only(self) -> np.ndarray:
+        """(k,) bool: the parameters whose every use is a section value (SCENE.md ``sections.NAME.EA`` … ``GAz``): their
+        (∂K/∂p) w at an event is generated (:meth:`_stiffness_derivative`). None where ∂r/∂p carries more than the
+        parameters' own terms, whose derivative along w the difference of ∂r/∂p takes with them: a state moved in time
+        (∂r/∂t δt_e), joints friction holds (K's columns of the held angles times their δθ), controllers (their
+        states' and held outputs' terms), and rigid links or guides (the reduction's geometric term)."""
+        shifted = self.time_shift is not None and self.explicit_time is not None and np.any(self.time_shift)
+        held = self.held is not None and np.any(self.held)
+        if shifted or held or self.scene.controllers or self.model.links is not None:
+            return np.zeros(len(self.names), bool)
+        found = self.__dict__.get("_sections_only")
+        if found is None:
+            params = self.scene.parameters
+            found = np.array([all(_SECTION_KEY.match(key) for key in params.depending_on(name)) for name in self.names],
+                             bool)
+            self._sections_only = found
+        return found
+
+    def _section_stiffness_along(self, state, w: np.ndarray) -> np.ndarray:
+        """(∂K/∂p) w (n, k) of the elements by the section values that name a parameter, generated
+        (:meth:`latdyn.analyses.sensitivities.ParameterDerivatives.add_section_stiffness_along`)."""
+        model = self.model
+        full = np.zeros(model.n_total + 1)
+        full[:model.n_dofs] = w
+        total = np.zeros((model.n_total + 1, len(self.names)))
+        self.add_section_stiffness_along(state, full, total)
+        return self._on_free_coordinates(state, total)
+
+    def _stiffness_derivative(self, state, w: np.ndarray) -> np.ndarray:
+        """(∂K/∂p) w (n, k) at ``state`` (K the evaluation's, as the impulse weighs with it): for the parameters
+        of section values only (:meth:`by_sections_only`) generated (``beam_stiffness_D_section``); for the
+        others a central difference of the static ∂r/∂p along w (step :data:`WEIGHT_STEP` ℓ/|w|_∞): hinge laws,
+        loads, joint bodies, cables, contact and friction laws, geometry parameters and laws in t, whose K's
+        derivative by their values is not generated, and every parameter where ∂r/∂p carries more than the
+        parameters' own terms (:meth:`by_sections_only`)."""
+        exact = self.by_sections_only()
+        out = np.zeros((self.model.n_dofs, len(self.names)))
+        if np.any(exact):
+            out[:, exact] = self._section_stiffness_along(state, w)[:, exact]
+        if not np.all(exact):
+            assembler = self.assembler
+            eta = WEIGHT_STEP * (self.length or 1.0) / float(np.max(np.abs(w)))
+            moved = (self.residual_derivatives(assembler.advance(state, eta * w), 1.0)
+                     - self.residual_derivatives(assembler.advance(state, -eta * w), 1.0)) / (2 * eta)
+            out[:, ~exact] = moved[:, ~exact]
         return out
 
     def coordinate_step(self) -> float:

@@ -1,12 +1,12 @@
 """The derivative of an event's impulse weight along the configuration, H = ∂(W w)/∂q, generated
-(docs/parameters.md, "Sensitivities through events").
+(docs/parameters.md, "The impulse weight's derivative").
 
 A latch, a rigid stop with restitution and a stick weigh the velocity jump with W = M + s K (s = dt²) at the state
 before the jump, and a stop's restart with s K (latdyn/timeloop/impulse.py, latdyn/timeloop/events.py). The forward
 sensitivities need δ(W w) = H δq + (∂W/∂p) w along each column's (δq, δp), the adjoint Hᵀū
 (latdyn/analyses/transient_sensitivities.py ``_weight_derivative``, latdyn/analyses/adjoint_sensitivities.py
-``_weight_derivative_transposed``). H is assembled once per event as an n × n sparse matrix on the free
-coordinates, so one matrix serves both:
+``_weight_derivative_transposed``). H is assembled once per event as an n × n sparse matrix on the free coordinates,
+so one matrix serves both:
 
     H = Σ_e A_e [s ∂(K_e w_e)/∂q_e + c_m ∂(M_e w_e)/∂q_e] A_eᵀ + c_m Σ_b A_b ∂(M_b w_b)/∂q_b A_bᵀ + H_rest
 
