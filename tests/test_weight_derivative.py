@@ -108,15 +108,15 @@ def _moved_state(prepared, rng):
 
 
 def _check_model(text: str, seed: int) -> float:
-    """The largest error of H δq (with and without the mass) against Richardson-extrapolated central differences of
+    """The largest error of H δq (W = M + 1e-4 K and W = K) against Richardson-extrapolated central differences of
     the evaluation's W w along δq, over random w and δq, relative to the largest |H δq|."""
     prepared = prepare(latdyn.load_scene(yaml.safe_load(text)))
     assembler = prepared.assembler
     rng = np.random.default_rng(seed)
     state = _moved_state(prepared, rng)
-    n, scale = prepared.model.n_dofs, 1e-4
+    n = prepared.model.n_dofs
     worst = 0.0
-    for mass in (True, False):
+    for mass, scale in ((True, 1e-4), (False, 1.0)):   # M + dt²K at dt = 0.01, and K alone
         w, dq = rng.normal(size=n), rng.normal(size=n)
         exact = configuration_tangent_of_weight(assembler, state, w, scale, mass, 1e-5) @ dq
 
@@ -142,14 +142,54 @@ def test_h_of_a_planar_model_with_every_block_is_the_central_difference_of_w_w()
     assert _check_model(ARM_PLANAR, 7) < 1e-8
 
 
-def test_h_of_the_3d_wheel_is_the_central_difference_of_w_w():
+#: the wheel of the event tests, heavy on a soft arm, under a skew gravity: the wheel's weight (its centre of mass
+#: off the hinge) a good part of K
+WHEEL_UNDER_GRAVITY = (LATCH_3D.replace("sections:", "gravity: [1.0, -2.0, -9.81]\nsections:", 1)
+                       .replace("m: 1.0, EI: 1.0e4", "m: 50.0, EI: 10.0").replace("EA: 1.0e6", "EA: 1.0e3"))
+
+
+@pytest.mark.parametrize("text", [LATCH_3D, WHEEL_UNDER_GRAVITY], ids=["without_gravity", "under_gravity"])
+def test_h_of_the_3d_wheel_is_the_central_difference_of_w_w(text):
     """The 3D wheel on its hinge (tests/test_sensitivities_events.py LATCH_3D), out of the coordinate planes: the
-    two elements and the wheel's mass generated, the hinge's linear spring differenced on its angle alone
-    (measured 1.5e-10)."""
+    two elements and the wheel's mass — under gravity, heavy on a soft arm, its weight's stiffness too — generated,
+    the hinge's linear spring differenced on its angle alone (measured 1.5e-10; under gravity 1.4e-10, 5.1e-5
+    without the weight's ``joint_body_gravity_stiffness_D_q``)."""
     _needs("default")
-    prepared = prepare(latdyn.load_scene(yaml.safe_load(LATCH_3D)))
+    prepared = prepare(latdyn.load_scene(yaml.safe_load(text)))
+    assert prepared.assembler.has_gravity == (text is WHEEL_UNDER_GRAVITY)
     assert list(rest_support(prepared.assembler)) == [prepared.model.hinge_dofs[0]]
-    assert _check_model(LATCH_3D, 8) < 1e-8
+    assert _check_model(text, 8) < 1e-8
+
+
+def test_the_generated_weight_stiffness_of_a_joint_body_is_the_central_difference_of_g_w():
+    """``joint_body_gravity_stiffness_D_q``: G(T) w_π (G the body's gravity stiffness, ``joint_body``'s
+    ``body_gravity_stiffness``) and its derivative by the node's π against central differences on SO(3) at random
+    frames, centres of mass and gravity (measured 2.4e-10)."""
+    from latdyn.model.kernels import load_kernels as load
+
+    kernels = load("auto", "default")
+    rng = np.random.default_rng(36)
+    worst = 0.0
+    for _ in range(3):
+        frame = es.expm_so3(rng.normal(size=3) * 2.0)
+        body = np.concatenate([[1.3], rng.normal(size=3) * 0.2, np.diag(rng.uniform(0.5, 1.0, 3)).ravel()])[None]
+        gravity, w = rng.normal(size=(1, 3)) * 9.81, rng.normal(size=(1, 6))
+
+        def along(T):
+            blocks = np.asarray(kernels.joint_body(T.reshape(1, 9), np.zeros((1, 9)), body, gravity)[3])[0]
+            return blocks.reshape(6, 6) @ w[0]
+
+        product, tangent = (np.asarray(x)[0] for x in kernels.joint_body_gravity_stiffness_D_q(
+            frame.reshape(1, 9), w, body, gravity))
+        np.testing.assert_allclose(product, along(frame), rtol=0, atol=1e-12 * np.abs(product).max())
+        tangent = tangent.reshape(6, 6)
+        assert not np.any(tangent[:, :3])   # a translation moves no weight's stiffness
+        for k in range(3):
+            turn = np.zeros(3)
+            turn[k] = H
+            numeric = (along(es.expm_so3(turn) @ frame) - along(es.expm_so3(-turn) @ frame)) / (2 * H)
+            worst = max(worst, float(np.abs(tangent[:, 3 + k] - numeric).max() / np.abs(tangent).max()))
+    assert worst < 1e-7, worst
 
 
 def _check_section_columns(text: str, seed: int) -> tuple:

@@ -8,7 +8,8 @@ sensitivities need δ(W w) = H δq + (∂W/∂p) w along each column's (δq, δp
 ``_weight_derivative_transposed``). H is assembled once per event as an n × n sparse matrix on the free coordinates,
 so one matrix serves both:
 
-    H = Σ_e A_e [s ∂(K_e w_e)/∂q_e + c_m ∂(M_e w_e)/∂q_e] A_eᵀ + c_m Σ_b A_b ∂(M_b w_b)/∂q_b A_bᵀ + H_rest
+    H = Σ_e A_e [s ∂(K_e w_e)/∂q_e + c_m ∂(M_e w_e)/∂q_e] A_eᵀ + Σ_b A_b [s ∂(K_b w_b)/∂q_b + c_m ∂(M_b w_b)/∂q_b] A_bᵀ
+        + H_rest
 
 (c_m = 1 with the mass, 0 without; w_e, w_b: w on the element's and the body's coordinates, 0 on those that are
 no free coordinate). Generated and exact:
@@ -18,14 +19,15 @@ no free coordinate). Generated and exact:
   variation under the configuration update, as ``beam_inertia_tangent``'s);
 * the elements' mass, ∂(M_e a)/∂q_e at a = w_e: ``beam_inertia_tangent`` at rest (rates 0, no gravity), whose
   ∂(M a + g − Q)/∂q is then ∂(M a)/∂q;
-* the joint bodies' mass, ∂(M_b a)/∂[d; π] at a = w_b: ``joint_body_inertia_stiffness`` at rest, no gravity.
+* the joint bodies' mass, ∂(M_b a)/∂[d; π] at a = w_b: ``joint_body_inertia_stiffness`` at rest, no gravity;
+* the joint bodies' K, their weight's stiffness G_b = ∂(−[W; r_c × W])/∂π (codegen/joints.py), along w_b:
+  ``joint_body_gravity_stiffness_D_q``.
 
 Not generated, H_rest: the hinges' diagonal of K (their stiffness, damping-free laws and compliant stops: the
 laws compiled from the scene, codegen/laws.py, give a value and first derivatives, no second), the point loads'
-and cables' stiffness blocks, the joint bodies' weight stiffness ∂(−[W; r_c × W])/∂π, and the continuous
-controllers' couplings. Their product (W without the elements and without the bodies' mass) w is differenced
-centrally along each coordinate those blocks are on (:func:`rest_support`: the free hinges' angles, the loaded,
-cable and — under gravity — body nodes' coordinates, the couplings' rows and columns), two evaluations per
+and cables' stiffness blocks, and the continuous controllers' couplings. Their product (W without the elements and
+the joint bodies) w is differenced centrally along each coordinate those blocks are on (:func:`rest_support`: the
+free hinges' angles, the loaded and cable nodes' coordinates, the couplings' rows and columns), two evaluations per
 coordinate, step :data:`latdyn.analyses.transient_sensitivities.WEIGHT_STEP` √(ℓ L_min) (ℓ the length scale,
 L_min the shortest element where shorter). A model with none of them has H exact with no evaluation.
 Rigid links and guides are not taken here: their reduction's geometric term keeps the difference of W w along
@@ -47,7 +49,7 @@ def _sparse(rows: np.ndarray, cols: np.ndarray, values: np.ndarray, n: int):
 
 
 def _generated(assembler, state, w: np.ndarray, scale: float, mass: bool):
-    """(rows, cols, values) of the generated part of H (module docstring): the elements' and the bodies'."""
+    """(rows, cols, values) of the generated part of H (module docstring): the elements' and the joint bodies'."""
     model, kernels = assembler.model, assembler.kernels
     full = np.zeros(model.n_total + 1)
     full[:model.n_dofs] = w
@@ -69,19 +71,25 @@ def _generated(assembler, state, w: np.ndarray, scale: float, mass: bool):
         cols.append(np.broadcast_to(d[:, None, :], blocks.shape).ravel())
         values.append(blocks.ravel())
     nodes = model.body_nodes
-    if mass and len(nodes):
-        d = model.node_dofs[nodes]                                                   # (b, 6): [d; π]
-        moving = full[np.where(d < model.n_dofs, d, model.n_total)]
-        if np.any(moving):
+    d = model.node_dofs[nodes]                                                       # (b, 6): [d; π]
+    moving = full[np.where(d < model.n_dofs, d, model.n_total)]
+    if len(nodes) and np.any(moving) and (mass or assembler.has_gravity):
+        moving = np.ascontiguousarray(moving)
+        section = np.ascontiguousarray(np.concatenate([model.body_mass[:, None], model.body_com,
+                                                       model.body_inertia.reshape(-1, 9)], axis=1))
+        frames = np.ascontiguousarray(state.T[nodes].reshape(-1, 9))
+        blocks = np.zeros((len(nodes), 6, 6))
+        if mass:   # ∂(M_b w_b)/∂q_b: the inertia stiffness at rest with accelerations w_b, no gravity
             motion = np.ascontiguousarray(np.concatenate([np.zeros((len(nodes), 3)), moving], axis=1))
-            section = np.ascontiguousarray(np.concatenate([model.body_mass[:, None], model.body_com,
-                                                           model.body_inertia.reshape(-1, 9)], axis=1))
-            frames = np.ascontiguousarray(state.T[nodes].reshape(-1, 9))
-            blocks = np.asarray(kernels.joint_body_inertia_stiffness(frames, motion, section,
-                                                                     np.zeros((len(nodes), 3)))[0]).reshape(-1, 6, 6)
-            rows.append(np.broadcast_to(d[:, :, None], blocks.shape).ravel())
-            cols.append(np.broadcast_to(d[:, None, :], blocks.shape).ravel())
-            values.append(blocks.ravel())
+            blocks += np.asarray(kernels.joint_body_inertia_stiffness(frames, motion, section,
+                                                                      np.zeros((len(nodes), 3)))[0]).reshape(-1, 6, 6)
+        if assembler.has_gravity:   # s ∂(G_b w_b)/∂q_b: the weight's stiffness along w_b
+            gravity = np.ascontiguousarray(np.repeat(assembler.gravity[None], len(nodes), axis=0))
+            blocks += scale * np.asarray(kernels.joint_body_gravity_stiffness_D_q(
+                frames, moving, section, gravity)[1]).reshape(-1, 6, 6)
+        rows.append(np.broadcast_to(d[:, :, None], blocks.shape).ravel())
+        cols.append(np.broadcast_to(d[:, None, :], blocks.shape).ravel())
+        values.append(blocks.ravel())
     if not rows:
         return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
     return np.concatenate(rows), np.concatenate(cols), np.concatenate(values)
@@ -89,16 +97,14 @@ def _generated(assembler, state, w: np.ndarray, scale: float, mass: bool):
 
 def rest_support(assembler) -> np.ndarray:
     """The free coordinates the blocks of H_rest are on (module docstring), sorted: the free hinges' angles, the
-    point loads' nodes and frame bodies, the cable elements' nodes, under gravity the joint bodies' nodes, and the
-    continuous controllers' couplings' rows and columns. Empty where the model has none of them."""
+    point loads' nodes and frame bodies, the cable elements' nodes, and the continuous controllers' couplings' rows
+    and columns. Empty where the model has none of them."""
     model = assembler.model
     n = model.n_dofs
     found = [model.hinge_dofs[model.free_hinges].ravel()]
     if len(assembler.loads):
         found += [model.node_dofs[assembler._load_nodes].ravel(), assembler._load_columns().ravel()]
     found.append(assembler.cable_dofs().ravel())
-    if assembler.has_gravity and len(model.body_nodes):
-        found.append(model.node_dofs[model.body_nodes].ravel())
     control = assembler.control
     found += [np.asarray(control.coupling_rows).ravel(), np.asarray(control.coupling_cols).ravel()]
     every = np.concatenate([np.asarray(f, np.int64) for f in found])
@@ -106,11 +112,11 @@ def rest_support(assembler) -> np.ndarray:
 
 
 def _rest_product(assembler, state, w: np.ndarray, scale: float, mass: bool) -> np.ndarray:
-    """(W_rest w) at ``state``: the evaluation's W = c_m M + s K without the elements' blocks and the bodies'
-    mass (the generated part), times w."""
+    """(W_rest w) at ``state``: the evaluation's W = c_m M + s K without the elements' and the joint bodies' blocks
+    (the generated part), times w."""
     ev = assembler.evaluate(state, matrices=True)
     stiffness = ev.flat_blocks("stiffness")
-    parts = [0.0 * stiffness[0], scale * stiffness[1]] + [scale * b for b in stiffness[2:]]
+    parts = [0.0 * stiffness[0], 0.0 * stiffness[1]] + [scale * b for b in stiffness[2:]]
     if mass:
         inertia = ev.flat_blocks("mass")
         parts = parts[:2] + [p + m for p, m in zip(parts[2:], inertia[2:])]
