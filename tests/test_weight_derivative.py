@@ -227,3 +227,22 @@ def test_the_stiffness_derivative_by_section_values_is_generated_and_the_differe
     _needs("default")
     names, error = _check_section_columns(LATCH_3D, 10)
     assert names == ["EI", "rho"] and error < 1e-8
+
+
+def test_a_variant_generated_before_the_kernel_is_refused_naming_the_command(monkeypatch):
+    """A variant regenerated before ``beam_stiffness_D_q`` (its info without it) ends the run at the event with a
+    SceneError naming ``solve.sensitivities`` and the command that makes the kernel, not an AttributeError."""
+    from latdyn.errors import SceneError
+    from latdyn.model import kernels as kernel_module
+    from tests.test_sensitivities_events import LATCH_PLANAR
+
+    loaded = kernel_module.load_kernels
+
+    def without(*args, **kwargs):
+        kernels = loaded(*args, **kwargs)
+        monkeypatch.setattr(kernels, "info", {k: v for k, v in kernels.info.items() if k != "beam_stiffness_D_q"})
+        return kernels
+
+    monkeypatch.setattr("latdyn.assembly.prepare.load_kernels", without)
+    with pytest.raises(SceneError, match=r"solve\.sensitivities.*python -m codegen --variant default_xy"):
+        latdyn.run(latdyn.load_scene(yaml.safe_load(LATCH_PLANAR)))

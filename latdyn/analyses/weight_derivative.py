@@ -48,8 +48,24 @@ def _sparse(rows: np.ndarray, cols: np.ndarray, values: np.ndarray, n: int):
     return sps.csr_matrix((values[keep], (rows[keep], cols[keep])), shape=(n, n))
 
 
+def _refuse_without_kernel(assembler) -> None:
+    """SceneError (exit 2) naming ``solve.sensitivities`` where the generated variant predates ``beam_stiffness_D_q``
+    (the committed tree regenerates every variant at once; a variant regenerated alone says which command)."""
+    kernels = assembler.kernels
+    if "beam_stiffness_D_q" in (getattr(kernels, "info", None) or {}):
+        return
+    from latdyn.errors import SceneError
+
+    variant = getattr(kernels, "variant", "?")
+    raise SceneError(assembler.model.scene.file, "solve.sensitivities",
+                     "the sensitivities through an event need the kernel beam_stiffness_D_q, which the generated "
+                     f"variant {variant!r} does not hold yet; expected it regenerated (python -m codegen --variant "
+                     f"{variant})")
+
+
 def _generated(assembler, state, w: np.ndarray, scale: float, mass: bool):
     """(rows, cols, values) of the generated part of H (module docstring): the elements' and the joint bodies'."""
+    _refuse_without_kernel(assembler)
     model, kernels = assembler.model, assembler.kernels
     full = np.zeros(model.n_total + 1)
     full[:model.n_dofs] = w
