@@ -797,6 +797,20 @@ def build_kernels(variant: str = "default") -> list[KernelSpec]:
         tangent=section_tangent("stiffness_along", "stiffness_along_D_section",
                                 "∂((∂F_i/∂q) v)/∂(EA EIy EIz GJ rhoA rhoIy rhoIz cGAy cGAz), row-major (14, 9)"))
 
+    # the same product K v and its derivative by the element's coordinates, ∂((∂F_i/∂q) v)/∂q under the configuration
+    # update at fixed v: the forward-mode program of the lowered product seeded with the geometry block's first
+    # variation (configuration_tangent), the term an event's impulse weight M + dt²K needs along δq
+    # (latdyn/analyses/weight_derivative.py: H = ∂(K w)/∂q, assembled once and used as H δq and Hᵀū)
+    b = Builder(kin.auxiliary + shear_definitions)
+    _, _, stiffness = elastic(b, with_tangent=True)
+    along = [sp.Add(*[stiffness[a][c] * direction[c] for c in range(N)]) for a in range(N)]
+    add("beam_stiffness_D_q", "Tangent stiffness along a direction, (∂F_i/∂q) v (v in the velocity block), and its "
+        "exact derivative by the element's coordinates at fixed v (forward mode of the lowered product, "
+        "codegen/forward.py)", "Eqs. 29-43", [cv.GEOMETRY, cv.VELOCITY, cv.SECTION],
+        [Output("stiffness_along", (N,), along)], b,
+        tangent=configuration_tangent("stiffness_along", "stiffness_along_D_q", plane,
+                                      "∂((∂F_i/∂q) v)/∂q at fixed v, row-major: [r, d] = ∂(K v)_r/∂q_d"))
+
     # the element's energies [U, T, V] (strain, kinetic, gravity potential) and their derivatives by the section
     # values: an energy probe's explicit ∂/∂p (latdyn/analyses/energy_sensitivities.py)
     b = Builder(kin.auxiliary + shear_definitions)

@@ -109,6 +109,7 @@ BODY_MOTION = Argument("motion", 9, "omega[3] a[3] alpha[3]: spatial angular vel
 BODY_SECTION = Argument("body", 13, "m c[3] I[9]: mass, centre of mass from the reference point and inertia "
                         "about the centre of mass (row-major), in body axes")
 GRAVITY = Argument("gravity", 3, "uniform gravity acceleration, global, times the load factor")
+BODY_DIRECTION = Argument("direction", 6, "w[6]: a direction [d; π] on the body's node (the impulse weight's w)")
 
 LOAD_NODE = Argument("node_frame", 9, "T: frame of the node the load acts at, row-major")
 LOAD_OFFSET = Argument("offset", 3, "r: the point of the load from the node's reference point, in node axes")
@@ -185,7 +186,26 @@ def _joint_body_kernels() -> list[KernelSpec]:
                      "∂([f; τ] − [W; r_c × W])/∂c: by the centre of mass c in the body's frame (a polynomial of "
                      "degree two in c: the parameter sensitivities' explicit part)")]
     inputs = [BODY_FRAME, BODY_MOTION, BODY_SECTION, GRAVITY]
-    return [KernelSpec(name="joint_body", doc="Newton-Euler equations of a joint body about its reference point, "
+    # the gravity stiffness along a direction w, G(T) w, and its derivative by the node's π at fixed w (the event's
+    # impulse weight M + dt²K along δq, latdyn/analyses/weight_derivative.py): G(T) exact as the derivative at δ = 0
+    # of the first-order turn, so G(T') w with T' = (I + skew δ₂) T is exact to first order in δ₂
+    direction = _vector(BODY_DIRECTION.symbols())
+    second = sp.Matrix(sp.symbols("epsilon_0:3"))
+
+    def stiffness_along(frame):
+        _, turned_weight = joint_body_terms(_turned(frame, delta), motion, body, gravity)
+        return _jacobian(turned_weight, delta, zero) * direction[3:6, :]
+
+    along = stiffness_along(T)
+    by_turn = _jacobian(stiffness_along(_turned(T, second)), second, {e: 0 for e in second})
+    weight = [Output("body_gravity_stiffness_along", (6,), _rows(along), "∂(−[W; r_c × W])/∂π · w_π"),
+              Output("body_gravity_stiffness_along_D_q", (6, 6), _rows(sp.Matrix.hstack(sp.zeros(6, 3), by_turn)),
+                     "∂(∂(−[W; r_c × W])/∂π · w_π)/∂[d; π] at fixed w")]
+    return [KernelSpec(name="joint_body_gravity_stiffness_D_q", doc="A joint body's gravity stiffness along a "
+                       "direction and its exact derivative by the node's configuration (an event's impulse weight "
+                       "with sensitivities)", inputs=[BODY_FRAME, BODY_DIRECTION, BODY_SECTION, GRAVITY],
+                       outputs=weight, variant="joints", equations="Eqs. 2, 59 (joint bodies as rigid bodies)"),
+            KernelSpec(name="joint_body", doc="Newton-Euler equations of a joint body about its reference point, "
                        "their mass, gyroscopic and gravity-stiffness blocks", inputs=inputs, outputs=outputs,
                        variant="joints", equations="Eqs. 2, 59 (joint bodies as rigid bodies)"),
             KernelSpec(name="joint_body_inertia_stiffness", doc="The inertia tangent of a joint body (not part of "

@@ -83,7 +83,8 @@ from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_forc
 from latdyn.analyses.link_sensitivities import columns_moving
 from latdyn.analyses.probe_derivatives import is_probe_here, probe_forms
 from latdyn.analyses.sensitivities import _BODY_KEY, _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE
-from latdyn.analyses.transient_sensitivities import WEIGHT_STEP, TransientSensitivities, _NodeRotations, _StepColumns
+from latdyn.analyses.transient_sensitivities import TransientSensitivities, _NodeRotations, _StepColumns
+from latdyn.analyses.weight_derivative import configuration_tangent_of_weight
 from latdyn.assembly.assembler import free_acceleration, free_velocity, pack, unpack_free
 from latdyn.assembly.factorization import factorization_for, solve_linear
 from latdyn.errors import SolverError
@@ -600,41 +601,23 @@ class AdjointSensitivities(TransientSensitivities):
     def _weight_derivative_transposed(self, state, w: np.ndarray, u_bar: np.ndarray, scale: float,
                                       mass: bool = True) -> tuple:
         """The transpose of the forward method's :meth:`_weight_derivative` (δ(W w) = D δq + P, W = M + scale·K,
-        or scale·K without ``mass``) applied to ``u_bar`` (n, m): (Dᵀū (n, m), Pᵀū (k, m)). D = ∂(W w)/∂q by the
-        same central differences, each coordinate's column along its unit vector (the forward method takes them
-        along each δq column, step :data:`WEIGHT_STEP` times the length scale ℓ; a unit vector moves one node against
-        its elements, so its step is :data:`WEIGHT_STEP` √(ℓ L_min), L_min the shortest element's length where
-        shorter than ℓ: on the latching boom of 50 elements of 0.02 m (benchmarks/transient_sensitivities_cost.py
-        --scene boom_latch) the adjoint was 8.6e-7 off the forward method with ℓ's step (truncation), 1.7e-7 with
-        L_min's (round-off), 1.3e-8 with a step near √(ℓ L_min)); Pᵀū as P is made,
-        the transposed products (:meth:`residual_transposed_product`) in place of ∂r/∂p: scale·(∂r/∂p at
-        q ± ηw, static)ᵀū differenced, and with ``mass`` (∂r/∂p at the accelerations w less at rest)ᵀū."""
-        model, assembler = self.model, self.assembler
-        n, m = model.n_dofs, u_bar.shape[1]
-        length = self.length or 1.0
-
-        def product(moved):
-            return np.asarray(assembler.evaluate(moved, matrices=True).combined(1.0 if mass else 0.0, 0.0, scale) @ w)
-
-        sections = model.element_sections
-        shortest = float(np.min(sections[:, 0])) if len(sections) else length
-        # a unit vector moves one node against its elements: the step between the length scale's (round-off) and
-        # the shortest element's (truncation), their geometric mean
-        eta = WEIGHT_STEP * float(np.sqrt(length * min(length, shortest)))
-        q_part = np.zeros((n, m))   # (Dᵀū)_j = D's column j · ū, each column dotted as it is made (no n × n D)
-        for j in range(n):
-            unit = np.zeros(n)
-            unit[j] = eta
-            column = (product(assembler.advance(state, unit)) - product(assembler.advance(state, -unit))) / (2 * eta)
-            q_part[j] = column @ u_bar
-        p_part = np.zeros((len(self.names), m))
+        or scale·K without ``mass``) applied to ``u_bar`` (n, m): (Dᵀū (n, m), Pᵀū (k, m)). D = ∂(W w)/∂q is the
+        forward method's matrix H (:func:`latdyn.analyses.weight_derivative.configuration_tangent_of_weight`: the
+        generated elements' and joint bodies' parts, the differences of the hinges', loads', cables', bodies'
+        weight and couplings' blocks only along the coordinates they are on), Dᵀū its transposed product; Pᵀū:
+        scale·((∂K/∂p) w)ᵀū with the forward method's (∂K/∂p) w (:meth:`_stiffness_derivative`: generated for the
+        parameters of section values only, a difference of ∂r/∂p along w for the others), and with ``mass`` the
+        transposed products (:meth:`residual_transposed_product`, exact) at the accelerations w less at rest."""
+        H = configuration_tangent_of_weight(self.assembler, state, w, scale, mass, self.coordinate_step())
+        q_part = np.asarray(H.T @ u_bar)
+        p_part = np.zeros((len(self.names), u_bar.shape[1]))
         size = float(np.max(np.abs(w), initial=0.0))
         if size == 0.0:
             return q_part, p_part
-        eta = WEIGHT_STEP * length / size
-        p_part += scale * (self.residual_transposed_product(assembler.advance(state, eta * w), u_bar, inertia=False)
-                           - self.residual_transposed_product(assembler.advance(state, -eta * w), u_bar,
-                                                              inertia=False)) / (2 * eta)
+        # the forward method's (∂K/∂p) w (n, k), transposed: the same numbers, so the difference in it (parameters other
+        # than section values) is the forward method's to the bit rather than a transposed product's round-off over
+        # its step (1.5e-11 of the outputs beside a controller)
+        p_part += scale * (self._stiffness_derivative(state, w).T @ u_bar)
         if mass:
             at_rest, accelerated = self._at_rest_and_accelerated(state, w)
             p_part += (self.residual_transposed_product(accelerated, u_bar)

@@ -545,6 +545,26 @@ class ParameterDerivatives:
             self._section_elements_distinct = np.unique(self._section_layout()[0], return_inverse=True)
         return self._section_elements_distinct
 
+    def add_section_stiffness_along(self, state, full: np.ndarray, total: np.ndarray) -> None:
+        """Add the elements' (∂K/∂p) v into ``total`` (n_total + 1, k) for the section values that name a parameter,
+        v = ``full`` on all coordinates (n_total + 1): the generated ``beam_stiffness_D_section`` ((∂F_i/∂q) v by the
+        section values, exact for every section, shear-flexible ones too) of each element once, contracted with each
+        use's ∂s/∂p (:meth:`_section_derivative_blocks`); nothing without such a parameter. The arc length's first
+        step (:meth:`ArcLengthSensitivities.stiffness_derivative_along`) and an event's impulse weight
+        (latdyn/analyses/transient_sensitivities.py ``_weight_derivative``)."""
+        blocks = self._section_derivative_blocks(state)
+        if blocks is None:
+            return
+        model = self.model
+        elements, column, rows = blocks
+        on, use = self._section_elements_once()
+        geometry, _, _ = self.assembler.native().element_inputs(state)
+        by_section = np.asarray(self.kernels.beam_stiffness_D_section(
+            np.ascontiguousarray(geometry[on]), np.ascontiguousarray(full[model.element_dofs[on]]),
+            np.ascontiguousarray(model.element_sections[on]))[1]).reshape(len(on), 14, 9)
+        np.add.at(total, (model.element_dofs[elements], column[:, None]),
+                  np.einsum("epd,ed->ep", by_section[use], rows[:, 1:]))
+
     def _section_derivative_blocks(self, state):
         """(elements (m,), parameter columns (m,), section rows (m, 10)): for every use of a parameter
         by a section value, that section's elements with the section block replaced by the value's
@@ -1065,16 +1085,7 @@ class ArcLengthSensitivities(StaticSensitivities):
         full = np.concatenate([direction, np.zeros(model.n_total + 1 - model.n_dofs)])
         if model.links is not None:   # the dependent nodes move with it: P v (latdyn/assembly/linked.py)
             full[:model.n_assembled] = np.asarray(self.assembler.evaluate(state, matrices=True).projection @ direction)
-        blocks = self._section_derivative_blocks(state)
-        if blocks is not None:   # the generated (∂K/∂s) v of each element once, contracted with each use's ∂s/∂p
-            elements, column, rows = blocks
-            on, use = np.unique(elements, return_inverse=True)
-            geometry, _, _ = self.assembler.native().element_inputs(state)
-            by_section = np.asarray(self.kernels.beam_stiffness_D_section(
-                np.ascontiguousarray(geometry[on]), np.ascontiguousarray(full[model.element_dofs[on]]),
-                np.ascontiguousarray(model.element_sections[on]))[1]).reshape(len(on), 14, 9)
-            np.add.at(total, (model.element_dofs[elements], column[:, None]),
-                      np.einsum("epd,ed->ep", by_section[use], rows[:, 1:]))
+        self.add_section_stiffness_along(state, full, total)
         for key in self.derivatives:
             contact = _CONTACT_KEY.match(key)
             if contact and self._in_contact(state, model.hinge_index(contact["beam"], contact["end"])):

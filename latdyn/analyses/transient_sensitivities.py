@@ -52,8 +52,11 @@ exactly (|θ − θ_e| ≤ :data:`LANDING`, :meth:`TransientSensitivities.land`)
 column for a unit change of its size h, and the event time's derivative δh makes the hinge angle's
 total derivative vanish; the jump of δv through the impulse and the restarted accelerations are
 differentiated (:meth:`TransientSensitivities._jump`, :meth:`TransientSensitivities.after_events`); the
-derivative of the impulse weight M + dt²K along δq (a third derivative of the element, not generated)
-is taken by a central difference (:meth:`TransientSensitivities._weight_derivative`).
+derivative of the impulse weight M + dt²K along δq is the matrix H = ∂(W w)/∂q, generated for the elements
+(``beam_stiffness_D_q``, ``beam_inertia_tangent``) and the joint bodies' mass, the hinges', loads', cables', bodies'
+weight and couplings' blocks differenced along the coordinates they are on (latdyn/analyses/weight_derivative.py),
+and along p (∂K/∂p) w generated for parameters of section values only, a difference of ∂r/∂p along w for the others
+(:meth:`TransientSensitivities._weight_derivative`, :meth:`TransientSensitivities._stiffness_derivative`).
 A compliant stop's onset (``contact``) is landed on too, and its time enters through the landing
 step's size as a latch's does (:meth:`TransientSensitivities._contact_onset`); its force being continuous
 there, nothing jumps; its law's stiffness, exponent and damping enter ∂r/∂p through the generated
@@ -122,6 +125,7 @@ from latdyn.analyses.sensitivities import (_BODY_KEY, _CABLE_KEY, _GUIDE_KEY, _H
                                            _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE, ParameterDerivatives)
 from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_force_derivatives, joint_of
 from latdyn.analyses.step_matrix import ExactStepMatrix
+from latdyn.analyses.weight_derivative import configuration_tangent_of_weight
 from latdyn.assembly.assembler import free_acceleration, free_velocity, pack, unpack_free
 from latdyn.assembly.factorization import factorization_for, solve_linear
 from latdyn.errors import SceneError, SolverError
@@ -145,8 +149,10 @@ LANDING_PASSES = 30
 #: a landing farther than this (relative, as LANDING) from the event is flagged in summary.json warnings:
 #: the event-time derivative assumes the step ends on it
 LANDING_MISSED = 1e-10
-#: the configuration step (times the length scale) of the central differences of the impulse weight
-#: M + dt²K along δq (module docstring, "Events": the one derivative not generated)
+#: the configuration step (times the length scale) of the central differences inside the impulse weight's
+#: derivative that are not generated (module docstring, "Events"; latdyn/analyses/weight_derivative.py): along the
+#: coordinates of its hinges', loads', cables', bodies' weight and couplings' blocks, along δq with rigid links or
+#: guides, and of ∂r/∂p along w for parameters other than section values
 WEIGHT_STEP = 1e-5
 #: the time step (times dt) of the five-point central difference in t of the residual through prescribed
 #: motions (:meth:`ExplicitTime.prescribed`: the coupling to the prescribed coordinates is not assembled)
@@ -700,57 +706,129 @@ class TransientSensitivities(ParameterDerivatives):
     def _weight_derivative(self, state, w: np.ndarray, dq: np.ndarray, scale: float,
                            mass: bool = True, rates=None) -> np.ndarray:
         """δ(W w) (n, k) for W = M + scale·K (``mass``) or scale·K at ``state`` (K the evaluation's, without
-        the inertia tangent, as the impulse uses it), along each column's (δq, δp): ∂(W w)/∂q δq by a
-        central difference of W w along δq (the derivative of K is a third derivative of the element,
-        not generated: the one difference of the sensitivities, module docstring), ∂M/∂p w exactly (the
-        inertia forces are linear in the accelerations: ∂r/∂p at accelerations w less at none, at rest),
-        scale ∂K/∂p w by a central difference of ∂r/∂p (static) along w.
+        the inertia tangent, as the impulse uses it), along each column's (δq, δp): H δq with H = ∂(W w)/∂q
+        generated (:func:`latdyn.analyses.weight_derivative.configuration_tangent_of_weight`: the elements' and
+        joint bodies' parts from the generated kernels, the hinges', loads', cables', bodies' weight and
+        couplings' blocks differenced along the coordinates they are on), ∂M/∂p w exactly (the inertia forces
+        are linear in the accelerations: ∂r/∂p at accelerations w less at none, at rest), scale ∂K/∂p w
+        (:meth:`_stiffness_derivative`: generated for parameters of section values only).
 
-        With guides (rigid links' reduction, latdyn/assembly/linked.py) K also holds the geometric term
-        ∂Pᵀ/∂q · r_all, with r_all at the state's rates: the difference then moves the free rates along
-        ``rates`` = (δv, δv̇) too (the dependent ones completed), and ∂K/∂p adds that term of the
-        inertia forces' ∂r_all/∂p (:meth:`_geometric_derivative`)."""
-        model, assembler, k = self.model, self.assembler, len(self.names)
+        With guides or rigid links (their reduction, latdyn/assembly/linked.py) K also holds the geometric term
+        ∂Pᵀ/∂q · r_all, with r_all at the state's rates: ∂(W w)/∂q δq is then a central difference of W w along
+        δq that moves the free rates along ``rates`` = (δv, δv̇) too (the dependent ones completed,
+        :meth:`_linked_weight_derivative`), and ∂K/∂p adds that term of the inertia forces' ∂r_all/∂p
+        (:meth:`_geometric_derivative`)."""
+        model, assembler = self.model, self.assembler
         length = self.length or 1.0
-        out = np.zeros((model.n_dofs, k))
         linked = model.links is not None
-
-        def product(moved):
-            return np.asarray(assembler.evaluate(moved, matrices=True).combined(1.0 if mass else 0.0, 0.0, scale) @ w)
-
-        def moved(eta, c):
-            ahead = assembler.advance(state, eta * dq[:, c])
-            if linked and rates is not None:
-                unpack_free(model, free_velocity(model, state) + eta * rates[0][:, c], ahead.v, ahead.w, ahead.theta_dot)
-                unpack_free(model, free_acceleration(model, state) + eta * rates[1][:, c], ahead.a, ahead.alpha,
-                            ahead.theta_ddot)
-                assembler.complete_links(ahead)
-            return ahead
-
-        # each move in its own units (a configuration, a rate and an acceleration over the nominal step):
-        # the rates' derivatives, large in a rate's units, must not shrink the configuration's step to
-        # where the difference of W w (of the stiffness's size) is round-off (a latch of rigid links)
-        dt = self.scene.solve.dt
-        for c in range(k):
-            moves = [dq[:, c]] + ([rates[0][:, c] * dt, rates[1][:, c] * dt * dt]
-                                  if linked and rates is not None else [])
-            size = float(max(np.max(np.abs(m), initial=0.0) for m in moves))
-            if size == 0.0:
-                continue
-            eta = WEIGHT_STEP * length / size
-            out[:, c] = (product(moved(eta, c)) - product(moved(-eta, c))) / (2 * eta)
+        if linked:
+            out = self._linked_weight_derivative(state, w, dq, scale, mass, rates)
+        else:
+            out = np.asarray(configuration_tangent_of_weight(assembler, state, w, scale, mass,
+                                                             self.coordinate_step()) @ dq)
         size = float(np.max(np.abs(w), initial=0.0))
         if size == 0.0:
             return out
         eta = WEIGHT_STEP * length / size
-        out += scale * (self.residual_derivatives(assembler.advance(state, eta * w), 1.0)
-                        - self.residual_derivatives(assembler.advance(state, -eta * w), 1.0)) / (2 * eta)
+        out += scale * self._stiffness_derivative(state, w)
         if linked:
             out += scale * self._geometric_derivative(state, w, eta)
         if mass:
             at_rest, accelerated = self._at_rest_and_accelerated(state, w)
             out += (self.residual_derivatives(accelerated, 1.0, inertia=True)
                     - self.residual_derivatives(at_rest, 1.0, inertia=True))
+        return out
+
+    def by_sections_only(self) -> np.ndarray:
+        """(k,) bool: the parameters whose every use is a section value (SCENE.md ``sections.NAME.EA`` … ``GAz``): their
+        (∂K/∂p) w at an event is generated (:meth:`_stiffness_derivative`). None where ∂r/∂p carries more than the
+        parameters' own terms, whose derivative along w the difference of ∂r/∂p takes with them: a state moved in time
+        (∂r/∂t δt_e), joints friction holds (K's columns of the held angles times their δθ), controllers (their
+        states' and held outputs' terms), and rigid links or guides (the reduction's geometric term)."""
+        shifted = self.time_shift is not None and self.explicit_time is not None and np.any(self.time_shift)
+        held = self.held is not None and np.any(self.held)
+        if shifted or held or self.scene.controllers or self.model.links is not None:
+            return np.zeros(len(self.names), bool)
+        found = self.__dict__.get("_sections_only")
+        if found is None:
+            params = self.scene.parameters
+            found = np.array([all(_SECTION_KEY.match(key) for key in params.depending_on(name)) for name in self.names],
+                             bool)
+            self._sections_only = found
+        return found
+
+    def _section_stiffness_along(self, state, w: np.ndarray) -> np.ndarray:
+        """(∂K/∂p) w (n, k) of the elements by the section values that name a parameter, generated
+        (:meth:`latdyn.analyses.sensitivities.ParameterDerivatives.add_section_stiffness_along`)."""
+        model = self.model
+        full = np.zeros(model.n_total + 1)
+        full[:model.n_dofs] = w
+        total = np.zeros((model.n_total + 1, len(self.names)))
+        self.add_section_stiffness_along(state, full, total)
+        return self._on_free_coordinates(state, total)
+
+    def _stiffness_derivative(self, state, w: np.ndarray) -> np.ndarray:
+        """(∂K/∂p) w (n, k) at ``state`` (K the evaluation's, as the impulse weighs with it): for the parameters
+        of section values only (:meth:`by_sections_only`) generated (``beam_stiffness_D_section``); for the
+        others a central difference of the static ∂r/∂p along w (step :data:`WEIGHT_STEP` ℓ/|w|_∞): hinge laws,
+        loads, joint bodies, cables, contact and friction laws, geometry parameters and laws in t, whose K's
+        derivative by their values is not generated, and every parameter where ∂r/∂p carries more than the
+        parameters' own terms (:meth:`by_sections_only`)."""
+        exact = self.by_sections_only()
+        out = np.zeros((self.model.n_dofs, len(self.names)))
+        if np.any(exact):
+            out[:, exact] = self._section_stiffness_along(state, w)[:, exact]
+        if not np.all(exact):
+            assembler = self.assembler
+            eta = WEIGHT_STEP * (self.length or 1.0) / float(np.max(np.abs(w)))
+            moved = (self.residual_derivatives(assembler.advance(state, eta * w), 1.0)
+                     - self.residual_derivatives(assembler.advance(state, -eta * w), 1.0)) / (2 * eta)
+            out[:, ~exact] = moved[:, ~exact]
+        return out
+
+    def coordinate_step(self) -> float:
+        """The configuration step of the central differences along one coordinate (H_rest's columns,
+        latdyn/analyses/weight_derivative.py): a unit vector moves one node against its elements, so the step
+        lies between the length scale's ℓ (round-off) and the shortest element's L_min (truncation), their
+        geometric mean, :data:`WEIGHT_STEP` √(ℓ min(ℓ, L_min)) (on the latching boom of 50 elements of 0.02 m,
+        benchmarks/transient_sensitivities_cost.py --scene boom_latch, differences along each coordinate were
+        8.6e-7 off the forward method's with ℓ's step, 1.7e-7 with L_min's, 1.3e-8 with this one)."""
+        length = self.length or 1.0
+        sections = self.model.element_sections
+        shortest = float(np.min(sections[:, 0])) if len(sections) else length
+        return WEIGHT_STEP * float(np.sqrt(length * min(length, shortest)))
+
+    def _linked_weight_derivative(self, state, w: np.ndarray, dq: np.ndarray, scale: float, mass: bool,
+                                  rates) -> np.ndarray:
+        """∂(W w)/∂q δq (n, k) of :meth:`_weight_derivative` with guides or rigid links: a central difference of
+        W w (the reduction's) along each column's δq, the free rates moved along ``rates`` = (δv, δv̇) too (the
+        dependent ones completed), each move in its own units (a configuration, a rate and an acceleration over
+        the nominal step): the rates' derivatives, large in a rate's units, must not shrink the configuration's
+        step to where the difference of W w (of the stiffness's size) is round-off (a latch of rigid links)."""
+        model, assembler, k = self.model, self.assembler, len(self.names)
+        length = self.length or 1.0
+        out = np.zeros((model.n_dofs, k))
+
+        def product(moved):
+            return np.asarray(assembler.evaluate(moved, matrices=True).combined(1.0 if mass else 0.0, 0.0, scale) @ w)
+
+        def moved(eta, c):
+            ahead = assembler.advance(state, eta * dq[:, c])
+            if rates is not None:
+                unpack_free(model, free_velocity(model, state) + eta * rates[0][:, c], ahead.v, ahead.w, ahead.theta_dot)
+                unpack_free(model, free_acceleration(model, state) + eta * rates[1][:, c], ahead.a, ahead.alpha,
+                            ahead.theta_ddot)
+                assembler.complete_links(ahead)
+            return ahead
+
+        dt = self.scene.solve.dt
+        for c in range(k):
+            moves = [dq[:, c]] + ([rates[0][:, c] * dt, rates[1][:, c] * dt * dt] if rates is not None else [])
+            size = float(max(np.max(np.abs(m), initial=0.0) for m in moves))
+            if size == 0.0:
+                continue
+            eta = WEIGHT_STEP * length / size
+            out[:, c] = (product(moved(eta, c)) - product(moved(-eta, c))) / (2 * eta)
         return out
 
     def _geometric_derivative(self, state, w: np.ndarray, eta: float) -> np.ndarray:

@@ -70,6 +70,12 @@ class Evaluation(SeparateMatrices):
             parts = [0.0 * np.asarray(b) for b in self._flat("stiffness")]
         return parts
 
+    def flat_blocks(self, kind: str) -> list:
+        """The blocks of ``kind`` ("mass", "damping", "stiffness") masked to the free coordinates, in the order
+        :meth:`latdyn.assembly.assembler.Assembler.assemble` scatters them: [elements, bodies, hinges, loads and
+        cable elements, controller couplings] (latdyn/analyses/weight_derivative.py assembles a part of them)."""
+        return [np.asarray(b) for b in self._flat(kind)]
+
     def _flat(self, kind):
         element, body, hinge, loads, couplings = self.blocks[kind]
         a = self.assembler

@@ -372,11 +372,12 @@ def optimisation(ops: int) -> str:
 #: only for a controller that reads a section force (latdyn/assembly/control.py SECTION_FORCE) or a section-force
 #: probe's sensitivity; the forces' (and the section forces') derivatives along the reference data only with
 #: geometry parameters (docs/parameters.md, "Geometry parameters"), and by the section values only with a parameter
-#: in a section value (docs/parameters.md, "Section values").
+#: in a section value (docs/parameters.md, "Section values"); the stiffness's derivative along a direction by the
+#: coordinates only at an event's impulse with sensitivities (latdyn/analyses/weight_derivative.py).
 ON_DEMAND = ("beam_inertia_tangent", "beam_section_forces_D_q", "beam_internal_force_D_reference",
              "beam_inertia_force_D_reference", "beam_section_forces_D_reference", "beam_internal_force_D_section",
              "beam_inertia_force_D_section", "beam_section_forces_D_section", "beam_energies_D_section",
-             "beam_stiffness_D_section")
+             "beam_stiffness_D_section", "beam_stiffness_D_q")
 
 #: Kernels composed from their parts in the C backend (see above), name -> parts.
 COMPOSED = {

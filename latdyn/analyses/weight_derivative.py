@@ -1,0 +1,162 @@
+"""The derivative of an event's impulse weight along the configuration, H = ∂(W w)/∂q, generated
+(docs/parameters.md, "The impulse weight's derivative").
+
+A latch, a rigid stop with restitution and a stick weigh the velocity jump with W = M + s K (s = dt²) at the state
+before the jump, and a stop's restart with s K (latdyn/timeloop/impulse.py, latdyn/timeloop/events.py). The forward
+sensitivities need δ(W w) = H δq + (∂W/∂p) w along each column's (δq, δp), the adjoint Hᵀū
+(latdyn/analyses/transient_sensitivities.py ``_weight_derivative``, latdyn/analyses/adjoint_sensitivities.py
+``_weight_derivative_transposed``). H is assembled once per event as an n × n sparse matrix on the free coordinates,
+so one matrix serves both:
+
+    H = Σ_e A_e [s ∂(K_e w_e)/∂q_e + c_m ∂(M_e w_e)/∂q_e] A_eᵀ + Σ_b A_b [s ∂(K_b w_b)/∂q_b + c_m ∂(M_b w_b)/∂q_b] A_bᵀ
+        + H_rest
+
+(c_m = 1 with the mass, 0 without; w_e, w_b: w on the element's and the body's coordinates, 0 on those that are
+no free coordinate). Generated and exact:
+
+* the elements' stiffness along w, ∂(K_e v)/∂q_e at v = w_e: ``beam_stiffness_D_q`` (codegen/derivation.py:
+  the forward-mode program of the lowered product (∂F_i/∂q) v, seeded with the geometry block's first
+  variation under the configuration update, as ``beam_inertia_tangent``'s);
+* the elements' mass, ∂(M_e a)/∂q_e at a = w_e: ``beam_inertia_tangent`` at rest (rates 0, no gravity), whose
+  ∂(M a + g − Q)/∂q is then ∂(M a)/∂q;
+* the joint bodies' mass, ∂(M_b a)/∂[d; π] at a = w_b: ``joint_body_inertia_stiffness`` at rest, no gravity;
+* the joint bodies' K, their weight's stiffness G_b = ∂(−[W; r_c × W])/∂π (codegen/joints.py), along w_b:
+  ``joint_body_gravity_stiffness_D_q``.
+
+Not generated, H_rest: the hinges' diagonal of K (their stiffness, damping-free laws and compliant stops: the
+laws compiled from the scene, codegen/laws.py, give a value and first derivatives, no second), the point loads'
+and cables' stiffness blocks, and the continuous controllers' couplings. Their product (W without the elements and
+the joint bodies) w is differenced centrally along each coordinate those blocks are on (:func:`rest_support`: the
+free hinges' angles, the loaded and cable nodes' coordinates, the couplings' rows and columns), two evaluations per
+coordinate, step :data:`latdyn.analyses.transient_sensitivities.WEIGHT_STEP` √(ℓ L_min) (ℓ the length scale,
+L_min the shortest element where shorter). A model with none of them has H exact with no evaluation.
+Rigid links and guides are not taken here: their reduction's geometric term keeps the difference of W w along
+δq (``TransientSensitivities._weight_derivative``).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["configuration_tangent_of_weight", "rest_support"]
+
+
+def _sparse(rows: np.ndarray, cols: np.ndarray, values: np.ndarray, n: int):
+    """The n × n matrix of the entries (rows, cols, values) on the free coordinates (others dropped), summed."""
+    import scipy.sparse as sps  # the events' derivatives only
+
+    keep = (rows < n) & (cols < n)
+    return sps.csr_matrix((values[keep], (rows[keep], cols[keep])), shape=(n, n))
+
+
+def _refuse_without_kernel(assembler) -> None:
+    """SceneError (exit 2) naming ``solve.sensitivities`` where the generated variant predates ``beam_stiffness_D_q``
+    (the committed tree regenerates every variant at once; a variant regenerated alone says which command)."""
+    kernels = assembler.kernels
+    if "beam_stiffness_D_q" in (getattr(kernels, "info", None) or {}):
+        return
+    from latdyn.errors import SceneError
+
+    variant = getattr(kernels, "variant", "?")
+    raise SceneError(assembler.model.scene.file, "solve.sensitivities",
+                     "the sensitivities through an event need the kernel beam_stiffness_D_q, which the generated "
+                     f"variant {variant!r} does not hold yet; expected it regenerated (python -m codegen --variant "
+                     f"{variant})")
+
+
+def _generated(assembler, state, w: np.ndarray, scale: float, mass: bool):
+    """(rows, cols, values) of the generated part of H (module docstring): the elements' and the joint bodies'."""
+    _refuse_without_kernel(assembler)
+    model, kernels = assembler.model, assembler.kernels
+    full = np.zeros(model.n_total + 1)
+    full[:model.n_dofs] = w
+    rows, cols, values = [], [], []
+    dofs = model.element_dofs
+    along = full[dofs]
+    on = np.flatnonzero(np.any(along != 0.0, axis=1))   # an element without w has no term: K_e w_e, M_e w_e = 0
+    if len(on):
+        geometry = np.ascontiguousarray(assembler.native().element_inputs(state)[0][on])
+        direction = np.ascontiguousarray(along[on])
+        sections = np.ascontiguousarray(model.element_sections[on])
+        blocks = scale * np.asarray(kernels.beam_stiffness_D_q(geometry, direction, sections)[1]).reshape(-1, 14, 14)
+        if mass:
+            rest = np.zeros_like(direction)
+            blocks = blocks + np.asarray(kernels.beam_inertia_tangent(
+                geometry, rest, direction, sections, np.zeros((len(on), 3)))[1]).reshape(-1, 14, 14)
+        d = dofs[on]
+        rows.append(np.broadcast_to(d[:, :, None], blocks.shape).ravel())
+        cols.append(np.broadcast_to(d[:, None, :], blocks.shape).ravel())
+        values.append(blocks.ravel())
+    nodes = model.body_nodes
+    d = model.node_dofs[nodes]                                                       # (b, 6): [d; π]
+    moving = full[np.where(d < model.n_dofs, d, model.n_total)]
+    if len(nodes) and np.any(moving) and (mass or assembler.has_gravity):
+        moving = np.ascontiguousarray(moving)
+        section = np.ascontiguousarray(np.concatenate([model.body_mass[:, None], model.body_com,
+                                                       model.body_inertia.reshape(-1, 9)], axis=1))
+        frames = np.ascontiguousarray(state.T[nodes].reshape(-1, 9))
+        blocks = np.zeros((len(nodes), 6, 6))
+        if mass:   # ∂(M_b w_b)/∂q_b: the inertia stiffness at rest with accelerations w_b, no gravity
+            motion = np.ascontiguousarray(np.concatenate([np.zeros((len(nodes), 3)), moving], axis=1))
+            blocks += np.asarray(kernels.joint_body_inertia_stiffness(frames, motion, section,
+                                                                      np.zeros((len(nodes), 3)))[0]).reshape(-1, 6, 6)
+        if assembler.has_gravity:   # s ∂(G_b w_b)/∂q_b: the weight's stiffness along w_b
+            gravity = np.ascontiguousarray(np.repeat(assembler.gravity[None], len(nodes), axis=0))
+            blocks += scale * np.asarray(kernels.joint_body_gravity_stiffness_D_q(
+                frames, moving, section, gravity)[1]).reshape(-1, 6, 6)
+        rows.append(np.broadcast_to(d[:, :, None], blocks.shape).ravel())
+        cols.append(np.broadcast_to(d[:, None, :], blocks.shape).ravel())
+        values.append(blocks.ravel())
+    if not rows:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
+    return np.concatenate(rows), np.concatenate(cols), np.concatenate(values)
+
+
+def rest_support(assembler) -> np.ndarray:
+    """The free coordinates the blocks of H_rest are on (module docstring), sorted: the free hinges' angles, the
+    point loads' nodes and frame bodies, the cable elements' nodes, and the continuous controllers' couplings' rows
+    and columns. Empty where the model has none of them."""
+    model = assembler.model
+    n = model.n_dofs
+    found = [model.hinge_dofs[model.free_hinges].ravel()]
+    if len(assembler.loads):
+        found += [model.node_dofs[assembler._load_nodes].ravel(), assembler._load_columns().ravel()]
+    found.append(assembler.cable_dofs().ravel())
+    control = assembler.control
+    found += [np.asarray(control.coupling_rows).ravel(), np.asarray(control.coupling_cols).ravel()]
+    every = np.concatenate([np.asarray(f, np.int64) for f in found])
+    return np.unique(every[(every >= 0) & (every < n)])
+
+
+def _rest_product(assembler, state, w: np.ndarray, scale: float, mass: bool) -> np.ndarray:
+    """(W_rest w) at ``state``: the evaluation's W = c_m M + s K without the elements' and the joint bodies' blocks
+    (the generated part), times w."""
+    ev = assembler.evaluate(state, matrices=True)
+    stiffness = ev.flat_blocks("stiffness")
+    parts = [0.0 * stiffness[0], 0.0 * stiffness[1]] + [scale * b for b in stiffness[2:]]
+    if mass:
+        inertia = ev.flat_blocks("mass")
+        parts = parts[:2] + [p + m for p, m in zip(parts[2:], inertia[2:])]
+    return np.asarray(assembler.assemble(parts) @ w)
+
+
+def configuration_tangent_of_weight(assembler, state, w: np.ndarray, scale: float, mass: bool, step: float):
+    """H = ∂(W w)/∂q (n × n, SciPy CSR) at ``state`` for W = M + ``scale``·K (``mass``) or ``scale``·K (module
+    docstring): the generated part, plus H_rest's columns on :func:`rest_support` by central differences of
+    W_rest w along each of those coordinates with the configuration step ``step``."""
+    model = assembler.model
+    n = model.n_dofs
+    rows, cols, values = _generated(assembler, state, w, scale, mass)
+    support = rest_support(assembler)
+    if len(support):
+        columns = []
+        for j in support:
+            unit = np.zeros(n)
+            unit[j] = step
+            ahead = _rest_product(assembler, assembler.advance(state, unit), w, scale, mass)
+            behind = _rest_product(assembler, assembler.advance(state, -unit), w, scale, mass)
+            columns.append((ahead - behind) / (2 * step))
+        block = np.column_stack(columns)
+        rows = np.concatenate([rows, np.repeat(np.arange(n), len(support))])
+        cols = np.concatenate([cols, np.tile(support, n)])
+        values = np.concatenate([values, block.ravel()])
+    return _sparse(rows, cols, values, n)
