@@ -542,7 +542,8 @@ class NativeModel:
         """The force each joint (hinge or guide, in model order) applies on its coordinate at ``state``
         (``latdyn_joint_forces``, csrc/rows.c: the rules of
         :meth:`latdyn.results.probes.ProbeSet.joint_forces`), evaluated on a copy of ``state`` at the
-        static path's ``load_factor`` (1 in a transient); the evaluation's outputs are left in Work."""
+        static path's ``load_factor`` (1 in a transient); the evaluation's outputs are left in Work. Where
+        every joint is free and no controller runs, only the joints' laws are evaluated (their forces)."""
         out = np.zeros(self.model.n_hinges)
         if len(out):
             held = state.copy()
