@@ -341,6 +341,8 @@ class NativeModel:
             cable_tension=_kernel_address(kernels, "cable_tension") if CABLE_TENSION in wired.sensor_kind else None,
             section_forces_D_q=_kernel_address(kernels, "beam_section_forces_D_q") if SECTION_FORCE in wired.sensor_kind
             else None,
+            inertia_matrices=(_kernel_address(kernels, "beam_inertia_matrices")
+                              if "beam_inertia_matrices" in (getattr(kernels, "libraries", None) or {}) else None),
         )
         if len(wired.state_slot):  # the runtime's arrays, read and written in place (latdyn.assembly.control)
             states, rates = wired.states.values, wired.state_rates

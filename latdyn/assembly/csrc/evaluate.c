@@ -39,6 +39,8 @@ typedef void (*kernel_2_1)(int64_t, const double *, const double *, double *);
 typedef void (*kernel_2_2)(int64_t, const double *, const double *, double *, double *);
 typedef void (*kernel_3_1)(int64_t, const double *, const double *, const double *, double *);
 typedef void (*kernel_3_2)(int64_t, const double *, const double *, const double *, double *, double *);
+typedef void (*kernel_3_3)(int64_t, const double *, const double *, const double *, double *, double *,
+                           double *);
 typedef void (*kernel_5_2)(int64_t, const double *, const double *, const double *, const double *, const double *,
                            double *, double *);
 typedef void (*kernel_gravity)(int64_t, const double *, const double *, const double *, double *, double *,
@@ -231,6 +233,10 @@ typedef struct {
      * 3 n + c, sensor_offset r, the body's node sensor_frame_node[i]): 24 columns, the point node's and the
      * body's coordinates (K), then their rates (C) (sensor_value); kind 14: a free joint's force, sensor_index
      * the joint, its law's value and ∂/∂θ (K), ∂/∂θ̇ (C) (2 columns) */
+    /* M^e, g^e and ∂g^e/∂q̇ in one call (the generated beam_inertia_matrices: mass_matrix and
+     * quadratic_velocity_D_qdot sharing the element's kinematics), for an evaluation with matrices; NULL
+     * in a variant generated before it: the two kernels then */
+    kernel_3_3 inertia_matrices;
 } Model;
 
 /* Scratch buffers, allocated once by the caller. */
@@ -580,7 +586,10 @@ static void element_range(const Model *m, const Configuration *c, Work *w, int64
         m->internal_force_D_q(n, geometry, section, force, tangent);
     else
         m->internal_force(n, geometry, section, force);
-    if (inertia) {
+    if (inertia && matrices && m->inertia_matrices) {
+        m->inertia_matrices(n, geometry, rates, section, w->mass + 196 * begin, w->quadratic + 14 * begin,
+                            w->quadratic_D + 196 * begin);
+    } else if (inertia) {
         if (matrices)
             m->quadratic_velocity_D_qdot(n, geometry, rates, section, w->quadratic + 14 * begin,
                                          w->quadratic_D + 196 * begin);
