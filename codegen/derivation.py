@@ -663,6 +663,19 @@ def build_kernels(variant: str = "default") -> list[KernelSpec]:
         [Output("quadratic_velocity", (N,), from_derivative),
          Output("quadratic_velocity_D_qdot", (N, N), _flat(derivative))], b)
 
+    # the three inertia blocks a Newton iteration needs, M^e, g^e and ∂g^e/∂q̇, in one kernel: the element's
+    # kinematics (Ψ, B, T_c, J = ∂u/∂q̇) and M̂(Ψ), which the two kernels above each compute, once
+    b = Builder(kin.auxiliary + shear_definitions)
+    p = inertia(b, with_velocity=True)
+    mass = mass_matrix(b, p)
+    derivative = b.matrix("dg_dqdot", quadratic_velocity_D_qdot(b, p))
+    from_derivative = [sp.Add(*[derivative[a][c] * kin.velocity[c] for c in range(N)]) / 2 for a in range(N)]
+    add("beam_inertia_matrices", "Mass matrix M^e, quadratic-velocity vector g^e = ½(∂g^e/∂q̇)q̇ and ∂g^e/∂q̇ "
+        "(exact) in one kernel: beam_mass_matrix and beam_quadratic_velocity_D_qdot sharing the element's "
+        "kinematics and M̂", "Eqs. 44-57, 61-62", with_velocity,
+        [Output("mass_matrix", (N, N), _flat(mass)), Output("quadratic_velocity", (N,), from_derivative),
+         Output("quadratic_velocity_D_qdot", (N, N), _flat(derivative))], b)
+
     b = Builder(kin.auxiliary + shear_definitions)
     p = inertia(b, with_velocity=True)
     kinetic = sp.Add(*[p["u"][i] * p["Mhat"][i][j] * p["u"][j] for i in range(12) for j in range(12)]) / 2

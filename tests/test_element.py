@@ -131,6 +131,31 @@ def test_dynamics_kernel_matches_separate_kernels(kernels):
         np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-12 * np.abs(b).max())
 
 
+def test_inertia_matrices_kernel_is_the_mass_matrix_and_the_quadratic_velocity_with_its_derivative(kernels, regime):
+    """beam_inertia_matrices (M^e, g^e and ∂g^e/∂q̇ in one kernel, the compiled step's evaluation with
+    matrices): each output the separate kernel's to round-off (beam_mass_matrix, beam_quadratic_velocity,
+    beam_quadratic_velocity_D_qdot), and its ∂g/∂q̇ the central difference of its own g in q̇, at random
+    large-rotation configurations with offsets, hinges and shear."""
+    if "beam_inertia_matrices" not in kernels.names:  # the runtime then calls the two kernels (csrc/evaluate.c)
+        pytest.skip(f"variant {kernels.variant!r} generated before beam_inertia_matrices")
+    rng = np.random.default_rng(12)
+    for s in states(12, deformation=regime):
+        qdot = rng.normal(size=14)
+        geometry, section = s.geometry(), s.section[None]
+        M, g, dg = kernels.beam_inertia_matrices(geometry, qdot[None], section)
+        separate = (kernels.beam_mass_matrix(geometry, section)[0][0],
+                    kernels.beam_quadratic_velocity(geometry, qdot[None], section)[0][0],
+                    kernels.beam_quadratic_velocity_D_qdot(geometry, qdot[None], section)[1][0])
+        for value, expected in zip((M[0], g[0], dg[0]), separate):
+            np.testing.assert_allclose(value, expected, rtol=0, atol=1e-12 * np.abs(expected).max())
+
+        def g_of(v):
+            return kernels.beam_inertia_matrices(geometry, v[None], section)[1][0]
+
+        numeric = np.column_stack([(g_of(qdot + H * unit(k)) - g_of(qdot - H * unit(k))) / (2 * H) for k in range(14)])
+        assert_close(dg[0], numeric, "∂g/∂q̇ of beam_inertia_matrices")
+
+
 def test_kinetic_energy_and_power_identity(kernels, regime):
     """½q̇ᵀMq̇ equals the kinetic-energy kernel, and dT/dt = q̇·g along q̈ = 0."""
     rng = np.random.default_rng(5)

@@ -293,3 +293,44 @@ def test_a_march_this_cpu_cannot_run_is_refused(monkeypatch):
     monkeypatch.setattr(native, "isa_macros", lambda using=None, chosen="native": here if chosen == "native" else here - {"__znver2"} | {"__k8"})
     flags = native.vector_flags()
     assert flags[0] == "-march=x86-64-v3" and flags[1].startswith("-DLATDYN_ISA=")
+
+
+#: a generated unit's preamble (the template's lanes and functions) with one kernel of ours: each lane's
+#: latdyn_sqrt of the inputs, a batch of LATDYN_LANES at a time
+_SQRT_DRIVER = """
+void lanes_sqrt(int64_t n, const double *x, double *out)
+{
+    for (int64_t i = 0; i < n; i += LATDYN_LANES) {
+        latdyn_vec v;
+        for (int l = 0; l < LATDYN_LANES; ++l) v[l] = x[i + l];
+        v = latdyn_sqrt(v);
+        for (int l = 0; l < LATDYN_LANES; ++l) out[i + l] = v[l];
+    }
+}
+"""
+
+
+@pytest.mark.parametrize("lanes", [None, 2, 4])
+def test_the_kernels_square_root_gives_libms_bits_in_every_lane(lanes):
+    """The generated units' latdyn_sqrt (codegen/templates/c_source.c.j2: one SIMD instruction where the
+    instruction set has one, else lane by lane through libm), compiled as the kernels are (this machine's
+    instruction set; its own lane count, and 2 and 4 lanes), gives each lane the bits of C's sqrt
+    (NumPy's, the same correctly rounded IEEE square root) on random magnitudes from 1e-300 to 1e300,
+    subnormals, ±0, infinities, NaN and negative numbers (the default NaN): the kernels' results do not
+    depend on whether the square root is one instruction."""
+    import ctypes
+
+    source = (Path(__file__).resolve().parents[1] / "generated" / "beam_default.c").read_text()
+    preamble = source[: source.index("\n/* beam_")].split("*/", 1)[-1]
+    defines = () if lanes is None else (f"-DLATDYN_LANES={lanes}",)
+    flags = ("-O1", *native.C_FLAGS[1:], *native.vector_flags(), *defines)
+    library = native.load(native.build("test_lanes_sqrt", (preamble + _SQRT_DRIVER).encode(), flags))
+    rng = np.random.default_rng(7)
+    special = [0.0, -0.0, np.inf, -np.inf, np.nan, -1.0, -1e-300, 5e-324, 2.2e-308, 1.0, 2.0, 4.0]
+    x = np.concatenate([special, 10.0 ** rng.uniform(-300, 300, 4000), rng.uniform(0.0, 1.0, 4000)])
+    x = np.concatenate([x, np.zeros(-len(x) % 8)])
+    out = np.empty_like(x)
+    library.lanes_sqrt(ctypes.c_int64(len(x)), ctypes.c_void_p(x.ctypes.data), ctypes.c_void_p(out.ctypes.data))
+    with np.errstate(invalid="ignore"):
+        expected = np.sqrt(x)
+    assert np.array_equal(out.view(np.uint64), expected.view(np.uint64))

@@ -471,3 +471,56 @@ def test_controller_probes_are_recorded_in_c(tmp_path, monkeypatch, blocks):
     p = probe_columns(tmp_path / "pdTrue")
     assert np.max(np.abs(p["u"] - (-40.0 * (p["th"] - 1.0) - 8.0 * p["om"]))) < 1e-12 * 40.0
     assert np.max(np.abs(p["th"] - pd_exact(p["t"]))) < 4e-5
+
+
+#: a 3D frame of two legs joined by a beam that ends in a sprung and damped hinge at either end, spinning
+#: about z: every joint free, no controller (the truss of kernel_throughput.py --whole-solver in small)
+SPRUNG_FRAME = """\
+title: a spinning frame with sprung hinges
+sections:
+  s: {EA: 2.0e6, EIy: 80.0, EIz: 120.0, GJ: 60.0, rhoA: 0.5, rhoIy: 1.0e-3, rhoIz: 1.0e-3}
+bodies:
+  a: {at: [0, 0, 0], fixed: true}
+  b: {at: [1, 0, 0], fixed: true}
+  c: {at: [0, 0, 1], mass: 2.0, inertia: [0.01, 0.02, 0.03]}
+  d: {at: [1, 0, 1], mass: 2.0, inertia: [0.01, 0.02, 0.03]}
+beams:
+  left: {from: a, to: c, section: s, elements: 2}
+  right: {from: b, to: d, section: s, elements: 2}
+  top:
+    from: c
+    to: d
+    section: s
+    elements: 2
+    start: {hinge: {axis: [0, 1, 0], stiffness: 50.0, damping: 0.3}}
+    end: {hinge: {axis: [0, 1, 0], stiffness: 20.0}}
+initial_velocity: {angular: [0.0, 0.0, 0.5]}
+solve: {analysis: transient, t_end: 0.05, dt: 0.01}
+"""
+
+
+def test_free_joints_forces_are_their_laws_without_an_evaluation_of_the_elements():
+    """Where every joint is free and no controller runs, latdyn_joint_forces (a row's joint forces, the
+    joint probes, joint_peaks) evaluates the joints' laws alone: the same values, to the bit, as the
+    whole evaluation of the equations of motion sums (−f of each hinge), and k (θ_r − θ) − c θ̇ of each
+    sprung and damped hinge to round-off, while the elements' blocks in Work are left untouched (the
+    element kernels, most of a truss's row, not called)."""
+    from latdyn.assembly.prepare import prepare
+
+    prepared = prepare(latdyn.load_scene(yaml.load(SPRUNG_FRAME, Loader=_yaml_loader())))
+    assembler, model = prepared.assembler, prepared.model
+    state = prepared.state.copy()
+    rng = np.random.default_rng(3)
+    state.theta[:] = 0.05 * rng.standard_normal(len(state.theta))
+    state.theta_dot[:] = 0.4 * rng.standard_normal(len(state.theta_dot))
+    native = assembler.native()
+    assembler.evaluate(state, matrices=True)
+    whole = -native.buffers["joint_forces"].copy()
+    native.buffers["mass"][:] = np.nan
+    forces = native.joint_forces(state)
+    assert np.array_equal(forces, whole) and np.all(np.isnan(native.buffers["mass"]))
+    stiffness = np.array([50.0, 20.0])
+    damping = np.array([0.3, 0.0])
+    law = -stiffness * state.theta - damping * state.theta_dot  # rest angle 0
+    assert len(model.hinges) == 2
+    np.testing.assert_allclose(forces, law, rtol=1e-13, atol=1e-15)

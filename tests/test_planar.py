@@ -421,3 +421,28 @@ def test_planar_model_with_the_inertia_tangent():
             assert _relative(result.probes[name], reference.probes[name]) <= 1e-8, (key, name)
     for name in reference.probes:
         assert _relative(results["auto", "reference"].probes[name], results["auto", "compiled"].probes[name]) <= 1e-10
+
+
+def test_planar_inertia_matrices_kernel_is_the_separate_kernels_and_its_rate_derivative(pair):
+    """beam_inertia_matrices of a planar variant (M, g, ∂g/∂q̇ in one kernel, the compiled step's evaluation
+    with matrices): each output the planar variant's separate kernel's to round-off, and ∂g/∂q̇ along the
+    in-plane rates the central difference of its own g."""
+    normal, _, planar = pair
+    if "beam_inertia_matrices" not in planar.names:  # the runtime then calls the two kernels
+        pytest.skip(f"variant {planar.variant!r} generated before beam_inertia_matrices")
+    rng = np.random.default_rng(30 + normal)
+    keep = in_plane_coordinates(normal)
+    unit = np.eye(14)
+    for _ in range(3):
+        s = planar_state(rng, normal, deformation=0.5)
+        geometry, section = s.geometry(), s.section[None]
+        qdot = planar_velocity(rng, normal)
+        M, g, dg = (x[0] for x in planar.beam_inertia_matrices(geometry, qdot[None], section))
+        separate = (planar.beam_mass_matrix(geometry, section)[0][0],
+                    planar.beam_quadratic_velocity(geometry, qdot[None], section)[0][0],
+                    planar.beam_quadratic_velocity_D_qdot(geometry, qdot[None], section)[1][0])
+        for value, expected in zip((M, g, dg), separate):
+            np.testing.assert_allclose(value, expected, rtol=0, atol=1e-12 * max(np.abs(expected).max(), 1e-300))
+        rates = lambda v: planar.beam_inertia_matrices(geometry, v[None], section)[1][0]  # noqa: E731
+        numeric = np.column_stack([(rates(qdot + H * unit[k]) - rates(qdot - H * unit[k])) / (2 * H) for k in keep])
+        np.testing.assert_allclose(dg[:, keep], numeric, rtol=0, atol=1e-6 * np.abs(dg).max())

@@ -99,7 +99,7 @@ class ModelData(ctypes.Structure):
         ("sensor_column_start", P),
         ("n_sampled", I64), ("sampled_laws", P), ("sampled_sensor_start", P), ("sampled_slot", P),
         ("sampled_state_start", P), ("sampled_state_slot", P), ("sampled_limits", P), ("sampled_rate", P),
-        ("cable_tension", P), ("section_forces_D_q", P),
+        ("cable_tension", P), ("section_forces_D_q", P), ("inertia_matrices", P),
     ]
 
 

@@ -341,6 +341,8 @@ class NativeModel:
             cable_tension=_kernel_address(kernels, "cable_tension") if CABLE_TENSION in wired.sensor_kind else None,
             section_forces_D_q=_kernel_address(kernels, "beam_section_forces_D_q") if SECTION_FORCE in wired.sensor_kind
             else None,
+            inertia_matrices=(_kernel_address(kernels, "beam_inertia_matrices")
+                              if "beam_inertia_matrices" in (getattr(kernels, "libraries", None) or {}) else None),
         )
         if len(wired.state_slot):  # the runtime's arrays, read and written in place (latdyn.assembly.control)
             states, rates = wired.states.values, wired.state_rates
@@ -542,7 +544,8 @@ class NativeModel:
         """The force each joint (hinge or guide, in model order) applies on its coordinate at ``state``
         (``latdyn_joint_forces``, csrc/rows.c: the rules of
         :meth:`latdyn.results.probes.ProbeSet.joint_forces`), evaluated on a copy of ``state`` at the
-        static path's ``load_factor`` (1 in a transient); the evaluation's outputs are left in Work."""
+        static path's ``load_factor`` (1 in a transient); the evaluation's outputs are left in Work. Where
+        every joint is free and no controller runs, only the joints' laws are evaluated (their forces)."""
         out = np.zeros(self.model.n_hinges)
         if len(out):
             held = state.copy()

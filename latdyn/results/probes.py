@@ -116,7 +116,10 @@ class ProbeSet:
           stop: latdyn.timeloop.events.settle_on_stops) applies, besides its law, the reaction that
           holds it, the multiplier of its constraint: r (the residual of that coordinate's equation,
           the law in it). That is the value reported: the drive torque a prescribed angle needs, the
-          load a latch carries, the load a stop holds."""
+          load a latch carries, the load a stop holds.
+
+        Where every joint is free and no continuous controller runs, the evaluation is of the joints'
+        laws alone (the same values: a row of a truss with sprung hinges pays no element kernel for them)."""
         key = (id(state), float(state.t), state.theta.tobytes(), state.theta_dot.tobytes(), self.load_factor)
         if self._joint_forces is not None and self._joint_forces[0] == key:  # the same row's state
             return self._joint_forces[1]

@@ -39,6 +39,8 @@ typedef void (*kernel_2_1)(int64_t, const double *, const double *, double *);
 typedef void (*kernel_2_2)(int64_t, const double *, const double *, double *, double *);
 typedef void (*kernel_3_1)(int64_t, const double *, const double *, const double *, double *);
 typedef void (*kernel_3_2)(int64_t, const double *, const double *, const double *, double *, double *);
+typedef void (*kernel_3_3)(int64_t, const double *, const double *, const double *, double *, double *,
+                           double *);
 typedef void (*kernel_5_2)(int64_t, const double *, const double *, const double *, const double *, const double *,
                            double *, double *);
 typedef void (*kernel_gravity)(int64_t, const double *, const double *, const double *, double *, double *,
@@ -231,6 +233,10 @@ typedef struct {
      * 3 n + c, sensor_offset r, the body's node sensor_frame_node[i]): 24 columns, the point node's and the
      * body's coordinates (K), then their rates (C) (sensor_value); kind 14: a free joint's force, sensor_index
      * the joint, its law's value and ∂/∂θ (K), ∂/∂θ̇ (C) (2 columns) */
+    /* M^e, g^e and ∂g^e/∂q̇ in one call (the generated beam_inertia_matrices: mass_matrix and
+     * quadratic_velocity_D_qdot sharing the element's kinematics), for an evaluation with matrices; NULL
+     * in a variant generated before it: the two kernels then */
+    kernel_3_3 inertia_matrices;
 } Model;
 
 /* Scratch buffers, allocated once by the caller. */
@@ -580,7 +586,10 @@ static void element_range(const Model *m, const Configuration *c, Work *w, int64
         m->internal_force_D_q(n, geometry, section, force, tangent);
     else
         m->internal_force(n, geometry, section, force);
-    if (inertia) {
+    if (inertia && matrices && m->inertia_matrices) {
+        m->inertia_matrices(n, geometry, rates, section, w->mass + 196 * begin, w->quadratic + 14 * begin,
+                            w->quadratic_D + 196 * begin);
+    } else if (inertia) {
         if (matrices)
             m->quadratic_velocity_D_qdot(n, geometry, rates, section, w->quadratic + 14 * begin,
                                          w->quadratic_D + 196 * begin);
@@ -1037,6 +1046,58 @@ static void cables(const Model *m, const Configuration *c, Work *w, const double
     }
 }
 
+/* The joints (hinges and guides): each law's force f at (θ, θ̇, t) with its derivatives, a continuous
+ * controller's output subtracted, into w->joint_forces, w->hinge_d_theta, w->hinge_d_rate and the
+ * work torques; summed into `total` at each joint's coordinate unless `total` is NULL (the joint
+ * forces of free joints alone, latdyn_joint_forces of rows.c). `laws`: the time laws at t. */
+static void hinge_forces(const Model *m, const Configuration *c, Work *w, const double *laws, double t,
+                         double load_factor, double *total)
+{
+    /* the laws' values and derivatives at (θ, θ̇, t), constants or the scene's compiled laws, into the
+     * generated kernel codegen/joints.py hinge_force, a batch a call */
+    for (int64_t first = 0; first < m->n_hinges; first += ITEMS_PER_BATCH) {
+        const int64_t count = batch_size(first, m->n_hinges);
+        double state[4 * ITEMS_PER_BATCH], values[9 * ITEMS_PER_BATCH], control[ITEMS_PER_BATCH];
+        double f[ITEMS_PER_BATCH], spring_torque[ITEMS_PER_BATCH], applied_torque[ITEMS_PER_BATCH];
+        double contact_energy[ITEMS_PER_BATCH];
+        for (int64_t k = 0; k < count; ++k) {
+            const int64_t j = first + k;
+            double *st = state + 4 * k, *v = values + 9 * k;
+            st[0] = c->theta[j];
+            st[1] = c->theta_dot[j];
+            st[2] = m->hinge_rest_angle[j];
+            st[3] = load_factor;
+            for (int p = 0; p < 9; ++p) v[p] = 0.0;
+            if (m->hinge_stiffness_law[j] < 0) {  /* constant spring and damper, a torque of t alone */
+                v[0] = m->hinge_stiffness[j];
+                v[3] = m->hinge_damping[j];
+                if (m->hinge_torque_law[j] >= 0) v[6] = laws[3 * m->hinge_torque_law[j]];
+            } else {
+                m->hinge_laws(m->hinge_stiffness_law[j], st[0], st[1], t, v);
+                m->hinge_laws(m->hinge_damping_law[j], st[0], st[1], t, v + 3);
+                if (m->hinge_torque_hinge_law[j] >= 0)
+                    m->hinge_laws(m->hinge_torque_hinge_law[j], st[0], st[1], t, v + 6);
+            }
+            control[k] = 0.0;  /* a continuous controller's output: feedback, not ramped with the loads (λ) */
+            if (m->n_controllers && m->hinge_controller[j] >= 0) {
+                control[k] = m->controller_outputs[m->controller_slot[m->hinge_controller[j]]];
+                v[6] = v[7] = v[8] = 0.0;
+            }
+        }
+        m->hinge_force(count, state, values, m->hinge_contact + 11 * first, f, w->hinge_d_theta + first,
+                       w->hinge_d_rate + first, spring_torque, applied_torque, w->hinge_damper_torque + first,
+                       contact_energy);
+        for (int64_t k = 0; k < count; ++k) {
+            const int64_t j = first + k;
+            const double force = f[k] - control[k];
+            const double applied = applied_torque[k] + control[k];  /* the controller's output is an applied torque: its work is counted alike */
+            w->hinge_work_torque[j] = m->hinge_conservative[j] ? applied : applied - spring_torque[k];
+            w->joint_forces[j] = force;
+            if (total) total[m->hinge_dofs[j]] += force;
+        }
+    }
+}
+
 static double evaluate(const Model *m, const Configuration *c, Work *w, const double *laws, double t, int matrices,
                        int inertia, double load_factor)
 {
@@ -1080,49 +1141,7 @@ static double evaluate(const Model *m, const Configuration *c, Work *w, const do
         const int64_t *d = m->node_dofs + 6 * m->body_nodes[b];
         for (int p = 0; p < 6; ++p) w->total[d[p]] += w->body_vector[6 * b + p];
     }
-    /* hinges: the laws' values and derivatives at (θ, θ̇, t), constants or
-     * the scene's compiled laws, into the generated kernel codegen/joints.py hinge_force, a batch a call */
-    for (int64_t first = 0; first < m->n_hinges; first += ITEMS_PER_BATCH) {
-        const int64_t count = batch_size(first, m->n_hinges);
-        double state[4 * ITEMS_PER_BATCH], values[9 * ITEMS_PER_BATCH], control[ITEMS_PER_BATCH];
-        double f[ITEMS_PER_BATCH], spring_torque[ITEMS_PER_BATCH], applied_torque[ITEMS_PER_BATCH];
-        double contact_energy[ITEMS_PER_BATCH];
-        for (int64_t k = 0; k < count; ++k) {
-            const int64_t j = first + k;
-            double *st = state + 4 * k, *v = values + 9 * k;
-            st[0] = c->theta[j];
-            st[1] = c->theta_dot[j];
-            st[2] = m->hinge_rest_angle[j];
-            st[3] = load_factor;
-            for (int p = 0; p < 9; ++p) v[p] = 0.0;
-            if (m->hinge_stiffness_law[j] < 0) {  /* constant spring and damper, a torque of t alone */
-                v[0] = m->hinge_stiffness[j];
-                v[3] = m->hinge_damping[j];
-                if (m->hinge_torque_law[j] >= 0) v[6] = laws[3 * m->hinge_torque_law[j]];
-            } else {
-                m->hinge_laws(m->hinge_stiffness_law[j], st[0], st[1], t, v);
-                m->hinge_laws(m->hinge_damping_law[j], st[0], st[1], t, v + 3);
-                if (m->hinge_torque_hinge_law[j] >= 0)
-                    m->hinge_laws(m->hinge_torque_hinge_law[j], st[0], st[1], t, v + 6);
-            }
-            control[k] = 0.0;  /* a continuous controller's output: feedback, not ramped with the loads (λ) */
-            if (m->n_controllers && m->hinge_controller[j] >= 0) {
-                control[k] = m->controller_outputs[m->controller_slot[m->hinge_controller[j]]];
-                v[6] = v[7] = v[8] = 0.0;
-            }
-        }
-        m->hinge_force(count, state, values, m->hinge_contact + 11 * first, f, w->hinge_d_theta + first,
-                       w->hinge_d_rate + first, spring_torque, applied_torque, w->hinge_damper_torque + first,
-                       contact_energy);
-        for (int64_t k = 0; k < count; ++k) {
-            const int64_t j = first + k;
-            const double force = f[k] - control[k];
-            const double applied = applied_torque[k] + control[k];  /* the controller's output is an applied torque: its work is counted alike */
-            w->hinge_work_torque[j] = m->hinge_conservative[j] ? applied : applied - spring_torque[k];
-            w->joint_forces[j] = force;
-            w->total[m->hinge_dofs[j]] += force;
-        }
-    }
+    hinge_forces(m, c, w, laws, t, load_factor, w->total);
     /* point loads: the generated kernel codegen/joints.py, load by load */
     static const double identity[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
     for (int64_t l = 0; l < m->n_loads; ++l) {

@@ -37,6 +37,17 @@ void latdyn_controller_outputs_at(const Model *m, Work *w, const Configuration *
     if (m->n_controller_states) w->controller_half_step[0] = held;
 }
 
+/* Whether every joint (hinge or guide) has its coordinate (none prescribed, latched, stuck or on a rigid
+ * stop) and no continuous controller runs, whose output a joint's force could carry: then a joint's force
+ * is its law's alone (latdyn_joint_forces). */
+static int joints_all_free(const Model *m)
+{
+    if (m->n_controllers) return 0;
+    for (int64_t j = 0; j < m->n_hinges; ++j)
+        if (m->hinge_dofs[j] >= m->n_dofs) return 0;
+    return 1;
+}
+
 /* The generalized force each joint (hinge or guide, in model order) applies on its coordinate at the
  * state `held` and time t, positive when it drives θ or s up (SCENE.md, the joint probes torque/force;
  * latdyn/results/probes.py ProbeSet.joint_forces has the rules). One evaluation of the equations of
@@ -48,12 +59,20 @@ void latdyn_controller_outputs_at(const Model *m, Work *w, const Configuration *
  *   latdyn/timeloop/events.py locks it there) applies the reaction that holds it: r.
  * `held` is the caller's copy of the state: with rigid links its dependent nodes are completed in it.
  * `load_factor`: the static path's λ (the loads, gravity and applied torques it ramps), 1 in a transient.
- * Work is left as that evaluation leaves it. */
+ * Where every joint is free and no continuous controller drives one, the forces are the laws' alone and
+ * only the joints' laws are evaluated (hinge_forces of evaluate.c: the same kernel on the same inputs as
+ * in the evaluation, so the same values; a truss's row no longer pays an evaluation of its elements);
+ * otherwise Work is left as the evaluation leaves it. */
 void latdyn_joint_forces(const Model *m, Work *w, Configuration *held, double t, double load_factor, double *out)
 {
     const int64_t n = m->n_dofs;
     if (m->n_hinges == 0) return;
     m->time_laws(t, w->laws);
+    if (joints_all_free(m)) {
+        hinge_forces(m, held, w, w->laws, t, load_factor, NULL);
+        for (int64_t j = 0; j < m->n_hinges; ++j) out[j] = 0.0 - w->joint_forces[j]; /* 0.0 − f: no −0.0 */
+        return;
+    }
     if (m->links) complete_links(m, held);
     evaluate(m, held, w, w->laws, t, 0, 1, load_factor);
     if (m->links) reduce_links(m, w, held, 0.0, 0.0, 0, 0);
