@@ -92,9 +92,13 @@ def start_transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter,
                     compiled_loop=COMPILED_LOOP, loop_budget_s=LOOP_BUDGET_S, sampler=sampler,
                     sensitivities=sensitivities)
     loop.begin(resume_from)
-    if scene.solve.method == "newmark":
+    undamped = scene.solve.method == "newmark" or (scene.solve.method in ("generalized-alpha", "hht-alpha")
+                                                   and scene.solve.rho_inf >= 1.0)
+    if undamped:   # no numerical damping of the directions without inertia (newmark_warning)
         state = loop.progress.state
-        warning = newmark_warning(prepared.model, prepared.assembler.evaluate(state, matrices=True).mass)
+        warning = newmark_warning(prepared.model, prepared.assembler.evaluate(state, matrices=True).mass,
+                                  scene.solve.method if scene.solve.method == "newmark"
+                                  else f"{scene.solve.method} with rho_inf 1")
         if warning is not None:
             print(f"latdyn: warning: {warning}", file=sys.stderr)
             writer.summary.setdefault("warnings", []).append(warning)
