@@ -10,9 +10,13 @@ the whole-run fuzzer's step check (``benchmarks/fuzz_runs.py --step-check``): a 
 ``18.18*Heaviside(t - 0.01)`` beside a cable that went taut at t = 1e-5 (the grid moved off the jump)
 ended "solved" with its momentum 1.2 % off at dt, dt/2 and dt/4 alike (error_tol 1e-4).
 
-:func:`jump_times` finds the instants in (0, t_end) where an argument of ``Heaviside`` or ``sign``, or
-a condition of a ``Piecewise``, that depends on t alone changes sign and the law's value is not the
-same on both sides (a ``Piecewise`` that joins continuously, as the spin-up's ramp, is no jump). The
+:func:`jump_times` finds the instants in (0, t_end) where a law whose text names ``Heaviside``,
+``sign`` or ``Piecewise`` is not continuous in t: on its compiled values (no SymPy: a run whose laws
+are in the cache does not import it), an interval of a fine sampling whose change stands out against
+its neighbours' is halved down to round-off, and a change that stays there is a jump (a ``Piecewise``
+that joins continuously, as the spin-up's ramp, is none; a hinge or guide law is taken at fixed
+generic θ, θ̇). A continuous controller's output is searched on its parsed expression (the zeros of
+its jumps' arguments in t). The
 time loop puts them on its grid (:class:`latdyn.timeloop.control.StepControl` ``jumps``): the step
 that would cross one ends :data:`JUMP_SIDE` · dt before it, so that it integrates the law as it was
 (the value *at* the jump — ``Heaviside(0) = 1/2``, ``Piecewise``'s first true branch — belongs to
@@ -60,12 +64,17 @@ def jumping_key(scene, t_end: float) -> str | None:
 def _jumps(scene, t_end: float):
     """(key, time) of every jump in t of a law of ``scene``."""
     for key, law in _laws(scene):
-        found = _expression(law)
-        if found is not None:
-            expr, t = found
-            for time in _zeros_of_jumps(expr, t, t_end):
-                if _jumps_at(expr, t, time, 1e-12 * max(t_end, 1.0)):
-                    yield key, time
+        if hasattr(law, "output_text"):     # a controller: its parsed expression (SymPy is there already)
+            found = _controller_expression(law)
+            if found is not None:
+                expr, t = found
+                for time in _zeros_of_jumps(expr, t, t_end):
+                    if _jumps_at(expr, t, time, 1e-12 * max(t_end, 1.0)):
+                        yield key, time
+            continue
+        values = _values_in_time(law)
+        if values is not None:
+            yield from ((key, time) for time in _jumps_of_values(values, t_end))
 
 
 def _laws(scene):
@@ -91,25 +100,60 @@ def _laws(scene):
         yield f"controllers.{name}.output", controller
 
 
-def _expression(law):
-    """(SymPy expression, its t symbol) of a law whose text may jump, else None."""
+def _controller_expression(controller):
+    """(SymPy expression, its t symbol) of a continuous controller's output that may jump, else None."""
+    text, expr = controller.output_text, controller.output_expr
+    if controller.sampled or not isinstance(text, str) or not _JUMPING.search(text) or expr is None \
+            or not controller.symbols:
+        return None
+    return expr, controller.symbols[0]
+
+
+def _values_in_time(law):
+    """The law as a function of t alone (its compiled value; a hinge or guide law's other variables at
+    fixed generic values), for a law whose text may jump; else None. No SymPy: the value functions come
+    from the laws' cache."""
     if law is None or isinstance(law, (int, float)):
         return None
-    if hasattr(law, "output_text"):     # a controller: its output's expression and t (symbols[0])
-        text, expr = law.output_text, law.output_expr
-        if law.sampled or not isinstance(text, str) or not _JUMPING.search(text) or expr is None or not law.symbols:
-            return None
-        return expr, law.symbols[0]
     source = getattr(law, "source", None)
     if not isinstance(source, str) or not _JUMPING.search(source):
         return None
-    expressions = law.expressions
-    if expressions is None:
-        return None
-    symbols, (expr, *_) = expressions
-    if isinstance(symbols, tuple):      # a hinge law: (theta, theta_dot, t, inputs...)
-        return expr, symbols[2]
-    return expr, symbols                # a function of time: t
+    if hasattr(law, "d_theta"):          # a hinge (or guide) law f(θ, θ̇, t)
+        return np.vectorize(lambda t: law.value(0.3, 0.47, float(t)), otypes=[float])
+    return lambda t: np.asarray(law.value(np.asarray(t, float)), float)
+
+
+def _jumps_of_values(f, t_end: float) -> list[float]:
+    """The times in (0, t_end) where ``f`` jumps: an interval of :data:`SAMPLES` (offset by an irrational
+    fraction, so that no jump at a round time falls on a sample) whose change stands out against both
+    neighbours' is halved, keeping the half that changes most, down to round-off; it is a jump where
+    the change left is more than :data:`CONTINUOUS` of the values (a steep smooth law's change vanishes)."""
+    offset = 0.5 * (np.sqrt(5.0) - 1.0)
+    times = np.concatenate([[1e-9 * t_end], t_end * (np.arange(SAMPLES) + offset) / SAMPLES])
+    with np.errstate(all="ignore"):
+        values = f(times)
+    change = np.abs(np.diff(values))
+    if not np.all(np.isfinite(change)):
+        return []
+    before = np.concatenate([[0.0], change[:-1]])
+    after = np.concatenate([change[1:], [0.0]])
+    candidates = np.flatnonzero(change > 4.0 * np.maximum(before, after) + CONTINUOUS * (1.0 + np.abs(values[:-1])))
+    jumps = []
+    for i in candidates:
+        lo, hi = float(times[i]), float(times[i + 1])
+        f_lo, f_hi = float(f(lo)), float(f(hi))
+        while True:
+            mid = 0.5 * (lo + hi)
+            if mid in (lo, hi):
+                break
+            f_mid = float(f(mid))
+            if abs(f_mid - f_lo) >= abs(f_hi - f_mid):
+                hi, f_hi = mid, f_mid
+            else:
+                lo, f_lo = mid, f_mid
+        if abs(f_hi - f_lo) > CONTINUOUS * (1.0 + abs(f_lo) + abs(f_hi)):
+            jumps.append(hi)
+    return jumps
 
 
 def _arguments(expr, t) -> list:
