@@ -39,6 +39,8 @@ import numpy as np
 
 #: words of a law whose text may jump in t; a law without any of them is not parsed (no SymPy)
 _JUMPING = re.compile(r"\b(Heaviside|sign|Piecewise)\b")
+#: a law whose text does not name t does not jump in t
+_NAMES_T = re.compile(r"\bt\b")
 #: samples of an argument over (0, t_end) where its sign changes are bracketed (then bisected)
 SAMPLES = 4096
 #: the step that reaches a jump ends this fraction of dt before it, and the run restarts this fraction
@@ -116,10 +118,10 @@ def _values_in_time(law):
     if law is None or isinstance(law, (int, float)):
         return None
     source = getattr(law, "source", None)
-    if not isinstance(source, str) or not _JUMPING.search(source):
+    if not isinstance(source, str) or not _JUMPING.search(source) or not _NAMES_T.search(source):
         return None
     if hasattr(law, "d_theta"):          # a hinge (or guide) law f(θ, θ̇, t)
-        return np.vectorize(lambda t: law.value(0.3, 0.47, float(t)), otypes=[float])
+        return lambda t: law.values_in_time(0.3, 0.47, t)
     return lambda t: np.asarray(law.value(np.asarray(t, float)), float)
 
 
