@@ -41,13 +41,14 @@ import numpy as np
 _JUMPING = re.compile(r"\b(Heaviside|sign|Piecewise)\b")
 #: a law whose text does not name t does not jump in t
 _NAMES_T = re.compile(r"\bt\b")
-#: samples of an argument over (0, t_end) where its sign changes are bracketed (then bisected)
+#: samples over (0, t_end) that bracket a law's jumps (a controller's: its jumps' arguments' sign
+#: changes), each then halved down to round-off
 SAMPLES = 4096
 #: the step that reaches a jump ends this fraction of dt before it, and the run restarts this fraction
 #: of dt after it (each side's law evaluated on its own side of the jump)
 JUMP_SIDE = 1e-9
-#: a law whose values on the two sides (1e-12 of t_end apart) differ by less than this, relative to
-#: 1 + their size, is continuous there (a kink, not a jump)
+#: a change left across the halved interval (a controller's: across 1e-12 t_end) smaller than this,
+#: relative to 1 + the values' size, is no jump (a kink, a steep smooth stretch)
 CONTINUOUS = 1e-6
 
 
