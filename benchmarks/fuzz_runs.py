@@ -35,7 +35,25 @@ and the defects, each a reason to look:
 ``failure_without_message`` exit 1 without ``the solver failed:`` or ``unbounded:``
 ``resume_mismatch``         an interrupted and resumed run whose exit status or probes differ from
                             the uninterrupted run's
+``step_dependent``          (``--step-check``) a solved transient run whose answer changes with the
+                            step more than it admits and does not converge (below)
 ==========================  =====================================================================
+
+The step check (``--step-check``): a solved transient run is run again at dt/2 (same ``t_end``; an
+adaptive run with ``error_tol``/4 too, the error of a second-order step falling as dt²). Its probes
+are compared on the rows both runs recorded (the coarse run's rows at k·dt or k·``every`` are rows of
+the finer run too; an adaptive run without ``every`` shares its first and last rows), each probe
+relative to its largest magnitude over both runs (probes below :data:`STEP_CHECK_NOISE` in both are
+round-off and not compared). The run admits an error of
+``max(energy_balance_error, error_tol if adaptive, STEP_CHECK_FLOOR)``; a difference within
+:data:`STEP_CHECK_MULTIPLE` times that is ``agrees``. A larger one is run again at dt/4, dt/8, … down
+to dt/:data:`STEP_CHECK_FINEST`: once two successive differences fall with an observed order
+``p = log2(|dt/2^(k-1) − dt/2^k| / |dt/2^k − dt/2^(k+1)|)`` of at least :data:`STEP_CHECK_ORDER`,
+the first run was ``coarse`` (converging: its step was too long for its motion — a stiff member's
+axial ringing, an impact's response — and the step, not the package, sets its error; it stays
+``solved``); if they never do, or a finer run does not solve, the case is ``step_dependent`` — an
+answer the package reported as solved that it cannot stand behind, to look at.
+The record's ``step_check`` holds the verdict and the figures.
 
 ``python benchmarks/fuzz_runs.py --runs 300 --seed 1`` runs a campaign and prints the counts by
 outcome; ``--keep DIR`` saves the scene, stderr and a note of every defect found under DIR;
@@ -66,7 +84,7 @@ REPO = Path(__file__).resolve().parents[1]
 
 OUTCOMES = ("solved", "failed", "unbounded", "refused")
 DEFECTS = ("traceback", "hang", "exit_status", "nan_solved", "unreadable", "refusal_without_key",
-           "failure_without_message", "resume_mismatch")
+           "failure_without_message", "resume_mismatch", "step_dependent")
 #: default wall-clock limit of one ``latdyn run`` (a case is sized to take a few seconds)
 TIMEOUT_S = 60.0
 #: a run past its timeout runs again with this many times the time before it counts as a hang
@@ -75,6 +93,18 @@ RETRY = 4
 #: the campaign's threads at once, crashed the judging process (a segmentation fault in 2 of 3 campaigns
 #: of six cases, two at a time); the runs themselves are separate processes and stay parallel
 READING = threading.Lock()
+#: the step check flags a probe difference (relative to the probe's largest magnitude) past this many
+#: times the error the run admits (its energy balance error, or error_tol when adaptive)
+STEP_CHECK_MULTIPLE = 10.0
+#: the least error a run admits: relative round-off of a Newton tolerance of 1e-8 and the rows' digits
+STEP_CHECK_FLOOR = 1e-6
+#: a probe whose magnitude stays below this in both runs is round-off about zero, not compared
+STEP_CHECK_NOISE = 1e-9
+#: the observed order of convergence (of two successive differences of dt/2^k runs) at and above which a
+#: flagged run is coarse, not wrong
+STEP_CHECK_ORDER = 1.0
+#: the finest step a flagged run is run again at, as a fraction of its dt (dt/2, dt/4, … this)
+STEP_CHECK_FINEST = 16
 
 # =========================================================================== the scene generator
 AXES = ([0, 0, 1], [0, 1, 0], [1, 0, 0])
@@ -705,10 +735,11 @@ def judge(status, stderr: str, scene_path: Path, out: Path, scene: dict) -> tupl
 
 
 def run_case(seed: int, index: int, workdir: Path, *, timeout: float = TIMEOUT_S, resume_every: int = 8,
-             joints: bool = False) -> dict:
+             joints: bool = False, step_check: bool = False) -> dict:
     """Generate case ``index`` of ``seed`` (``joints``: with :func:`_joint_additions`), run it (and, for
-    every ``resume_every``-th transient case, interrupt and resume it) and judge it. Returns a record:
-    index, outcome, detail, wall seconds, scene."""
+    every ``resume_every``-th transient case, interrupt and resume it; ``step_check``: a solved transient
+    run again at dt/2, :func:`_step_check`) and judge it. Returns a record: index, outcome, detail, wall
+    seconds, scene."""
     rng = np.random.default_rng([seed, index])
     scene = random_scene(rng, joints=joints)
     case_dir = workdir / f"case{index:04d}"
@@ -734,7 +765,111 @@ def run_case(seed: int, index: int, workdir: Path, *, timeout: float = TIMEOUT_S
             and index % resume_every == resume_every - 1):
         # the interrupted and resumed runs may take as long as the uninterrupted one did
         record.update(_resume_check(scene_path, scene, out, status, case_dir, RETRY * timeout))
+    if step_check and record["outcome"] == "solved" and scene["solve"]["analysis"] == "transient":
+        check = _step_check(scene, out, case_dir, RETRY * timeout)
+        record["step_check"] = check
+        if check["verdict"] == "step_dependent":
+            record.update(outcome="step_dependent", detail=check["detail"])
     return record
+
+
+def refined_scene(scene: dict, factor: int) -> dict:
+    """``scene`` with its step divided by ``factor`` (and an adaptive run's ``error_tol`` by
+    ``factor``², a second-order step's error falling as dt²), the same end time and rows, no ParaView
+    frames."""
+    import copy
+
+    fine = copy.deepcopy(scene)
+    solve = fine["solve"]
+    solve["dt"] = solve["dt"] / factor
+    if solve.get("adaptive"):
+        solve["error_tol"] = solve.get("error_tol", 1e-4) / factor ** 2
+    fine["output"].pop("paraview_every", None)
+    return fine
+
+
+def admitted_error(scene: dict, summary: dict) -> float:
+    """The relative error a solved transient run admits: its energy balance error, its ``error_tol``
+    when adaptive, and never less than :data:`STEP_CHECK_FLOOR`."""
+    solve = scene["solve"]
+    admitted = [STEP_CHECK_FLOOR, float(summary.get("energy_balance_error") or 0.0)]
+    if solve.get("adaptive"):
+        admitted.append(float(solve.get("error_tol", 1e-4)))
+    return max(admitted)
+
+
+def _rows_at(result, times, span: float) -> tuple[np.ndarray, np.ndarray]:
+    """For each of ``times``: whether ``result`` recorded a row there (within 1e-9 ``span``) and its index."""
+    j = np.clip(np.searchsorted(result.t, times), 0, len(result.t) - 1)
+    left = np.clip(j - 1, 0, len(result.t) - 1)
+    j = np.where(np.abs(result.t[left] - times) < np.abs(result.t[j] - times), left, j)
+    return np.abs(result.t[j] - times) <= 1e-9 * span, j
+
+
+def step_difference(coarse, fine, times=None) -> tuple[float, str]:
+    """The largest difference of the probes of results ``coarse`` and ``fine`` on the rows both
+    recorded (of ``times`` where given: the first run's, so that successive refinements are compared on
+    the same rows), each probe relative to its largest magnitude over both (probes below
+    :data:`STEP_CHECK_NOISE` in both skipped): (difference, the probe and time where it is)."""
+    times = coarse.t if times is None else np.asarray(times, float)
+    span = max(1.0, abs(float(times[-1])) if len(times) else 1.0)
+    in_coarse, i = _rows_at(coarse, times, span)
+    in_fine, j = _rows_at(fine, times, span)
+    shared = in_coarse & in_fine
+    i, j, at = i[shared], j[shared], times[shared]
+    worst, where = 0.0, "no probe compared"
+    for name, values in coarse.probes.items():
+        a, b = values[i], fine.probes[name][j]
+        scale = max(float(np.max(np.abs(values), initial=0.0)), float(np.max(np.abs(fine.probes[name]), initial=0.0)))
+        if scale < STEP_CHECK_NOISE or not len(a):
+            continue
+        k = int(np.argmax(np.abs(a - b)))
+        difference = float(abs(a[k] - b[k])) / scale
+        if difference >= worst:
+            worst, where = difference, f"{name} at t = {at[k]:.6g} ({a[k]:.6g} against {b[k]:.6g})"
+    return worst, where
+
+
+def _step_check(scene: dict, out: Path, case_dir: Path, timeout: float) -> dict:
+    """The solved transient run in ``out`` against the same scene at dt/2 and, where they differ by
+    more than the run admits, at dt/4, dt/8 … dt/:data:`STEP_CHECK_FINEST` until two successive
+    differences fall with the observed order :data:`STEP_CHECK_ORDER`: the verdict ``agrees``,
+    ``coarse`` (the differences fall, the first run's step was too long for its motion) or
+    ``step_dependent`` (they never fall, or a finer run does not solve)."""
+    from latdyn.results.result import Result
+
+    with READING:
+        coarse = Result.load(out)
+    allowed = STEP_CHECK_MULTIPLE * admitted_error(scene, coarse.summary)
+    results, differences, orders, check = [coarse], [], [], {"allowed": allowed}
+    factor = 1
+    while factor < STEP_CHECK_FINEST:
+        factor *= 2
+        path = case_dir / f"scene_dt_over_{factor}.yaml"
+        path.write_text(_scene_text(refined_scene(scene, factor)), encoding="utf-8")
+        fine_out = case_dir / f"out_dt_over_{factor}"
+        status, _, stderr, _ = _run(["run", str(path), "-o", str(fine_out), "-q"], timeout=timeout, cwd=case_dir)
+        if status != 0:
+            why = "no exit within the timeout" if status is None else (stderr.strip().splitlines() or [""])[-1][:200]
+            return {"verdict": "step_dependent", **check,
+                    "detail": f"solved at dt but not at dt/{factor} (exit {status}): {why}"}
+        with READING:
+            results.append(Result.load(fine_out))
+        difference, where = step_difference(results[-2], results[-1], coarse.t)
+        differences.append(difference)
+        if factor == 2:
+            check.update(difference=difference, at=where)
+            if difference <= allowed:
+                return {"verdict": "agrees", **check}
+            continue
+        orders.append(float(np.log2(differences[-2] / difference)) if difference > 0 else float("inf"))
+        check.update(differences=differences, orders=orders, order=orders[-1], finest=factor)
+        if orders[-1] >= STEP_CHECK_ORDER:
+            return {"verdict": "coarse", **check}
+    return {"verdict": "step_dependent", **check,
+            "detail": f"dt and dt/2 differ by {differences[0]:.3g} (the run admits {allowed / STEP_CHECK_MULTIPLE:.3g}); "
+                      f"the differences down to dt/{factor} {', '.join(f'{d:.3g}' for d in differences[1:])} do not "
+                      f"fall (orders {', '.join(f'{o:.2f}' for o in orders)}): {check['at']}"}
 
 
 def _resume_check(scene_path, scene, uninterrupted, status, case_dir, timeout) -> dict:
@@ -766,14 +901,17 @@ def _resume_check(scene_path, scene, uninterrupted, status, case_dir, timeout) -
 
 # =========================================================================== the campaign
 def campaign(runs: int, seed: int, *, jobs: int = 1, timeout: float = TIMEOUT_S, keep: Path | None = None,
-             workdir: Path | None = None, progress=None, start: int = 0, joints: bool = False) -> list[dict]:
+             workdir: Path | None = None, progress=None, start: int = 0, joints: bool = False,
+             step_check: bool = False) -> list[dict]:
     """Run cases ``start`` … ``start + runs - 1`` of ``seed``, ``jobs`` at a time (``joints``: scenes with
-    the keys of 2026-11-26 too); the records in order."""
+    the keys of 2026-11-26 too; ``step_check``: :func:`_step_check` on solved transient runs); the
+    records in order."""
     own = workdir is None
     base = Path(tempfile.mkdtemp(prefix="latdyn_fuzz_")) if own else Path(workdir)
     records = []
     with ThreadPoolExecutor(max_workers=jobs) as pool:
-        futures = [pool.submit(run_case, seed, i, base, timeout=timeout, joints=joints) for i in range(start, start + runs)]
+        futures = [pool.submit(run_case, seed, i, base, timeout=timeout, joints=joints,
+                               step_check=step_check) for i in range(start, start + runs)]
         for future in futures:
             record = future.result()
             records.append(record)
@@ -803,7 +941,8 @@ def counts(records: list[dict]) -> dict:
     per_analysis = collections.defaultdict(collections.Counter)
     for r in records:
         per_analysis[r["analysis"]][r["outcome"]] += 1
-    return {"runs": len(records), "outcomes": dict(by),
+    verdicts = collections.Counter(r["step_check"]["verdict"] for r in records if "step_check" in r)
+    return {"runs": len(records), "outcomes": dict(by), **({"step_check": dict(verdicts)} if verdicts else {}),
             "by_analysis": {k: dict(v) for k, v in sorted(per_analysis.items())},
             "resumed": sum(r.get("resume") == "equal" for r in records),
             "wall_s": {"total": round(sum(r["wall_s"] for r in records), 1),
@@ -824,6 +963,8 @@ def main(argv=None) -> int:
     parser.add_argument("--json", type=Path, default=None, help="write the counts and every record's outcome here")
     parser.add_argument("--joints", action="store_true",
                         help="scenes with cables, guides, contact, friction, inputs, controllers and sensitivities too")
+    parser.add_argument("--step-check", action="store_true",
+                        help="run each solved transient case again at dt/2 (and dt/4) and judge the difference")
     parser.add_argument("--show", type=int, default=None, metavar="N", help="print the scene of case N and exit")
     args = parser.parse_args(argv)
     if args.show is not None:
@@ -832,16 +973,22 @@ def main(argv=None) -> int:
 
     def progress(record):
         mark = "" if record["outcome"] in OUTCOMES else "  <-- DEFECT"
+        check = record.get("step_check")
+        if check and check["verdict"] != "step_dependent":
+            mark += f"  [dt/2: {check['verdict']} {check['difference']:.2g}" + (
+                f", order {check['order']:.2f} at dt/{check['finest']}]" if "order" in check else "]")
         print(f"case {record['index']:4d} {record['analysis']:9s} {record['outcome']:24s} {record['wall_s']:6.1f} s "
               f"{record['detail'][:110]}{mark}", flush=True)
 
     records = campaign(args.runs, args.seed, jobs=args.jobs, timeout=args.timeout, keep=args.keep,
-                       progress=progress, start=args.start, workdir=args.workdir, joints=args.joints)
+                       progress=progress, start=args.start, workdir=args.workdir, joints=args.joints,
+                       step_check=args.step_check)
     summary = counts(records)
     print(json.dumps(summary, indent=1))
     if args.json:
         args.json.write_text(json.dumps({"seed": args.seed, "start": args.start, **summary, "records": [
-            {k: r[k] for k in ("index", "analysis", "outcome", "detail", "wall_s")} for r in records]}, indent=1))
+            {k: r[k] for k in ("index", "analysis", "outcome", "detail", "wall_s", "step_check") if k in r}
+            for r in records]}, indent=1))
     return 0 if not any(r["outcome"] in DEFECTS for r in records) else 1
 
 

@@ -265,12 +265,13 @@ def test_a_resumed_writer_continues_the_frame_schedule(tmp_path):
     assert {k: v for k, v in sa.items() if k != "wall_time_s"} == {k: v for k, v in sb.items() if k != "wall_time_s"}
 
 
-def failing_scene():
-    """The elbow torque jumps at t = 0.1 beyond what Newton can follow in 4 iterations (full
+def failing_scene(jump_at: float = 0.1):
+    """The elbow torque jumps at t = ``jump_at`` beyond what Newton can follow in 4 iterations (full
     Newton: it converges in 4 before the jump; modified Newton, converging linearly, needs more
-    from the first step)."""
+    from the first step). The steps land on the jump and the run restarts after it
+    (latdyn.timeloop.jumps): the last step accepted ends there, the first one after it fails."""
     scene = arm3d(t_end=0.3, max_iterations=4, dt_min=0.004, newton="full")
-    scene["beams"]["b"]["start"]["hinge"]["torque"] = "Piecewise((-1.5, t < 0.1), (-2000, True))"
+    scene["beams"]["b"]["start"]["hinge"]["torque"] = f"Piecewise((-1.5, t < {jump_at}), (-2000, True))"
     return scene
 
 
@@ -280,17 +281,17 @@ def write_scene(path: Path, scene: dict) -> Path:
 
 
 def test_a_failed_run_leaves_a_checkpoint_of_its_last_accepted_step(tmp_path, capsys):
-    scene_file = write_scene(tmp_path / "fails.yaml", failing_scene())
+    scene_file = write_scene(tmp_path / "fails.yaml", failing_scene(jump_at=0.1025))
     out = tmp_path / "out"
     assert cli.main(["run", str(scene_file), "-o", str(out), "-q"]) == 1
     err = capsys.readouterr().err
     assert "the solver failed" in err and "--resume" in err
     saved = checkpoint.load(out, checkpoint.identity(latdyn.load_scene(str(scene_file))))
-    assert saved.t == pytest.approx(0.095)  # the last accepted step before t = 0.1
+    assert saved.t == pytest.approx(0.1025, abs=1e-9)  # the last accepted step: onto the jump, off the rows
     # the checkpoint holds the rows of the output grid; the failed run adds its last accepted state
     # as a row (issue 22), which a resumed run cuts back to the checkpoint's rows first
-    assert saved.writer["rows"] == 10
-    assert len(Result.load(out).t) == 11 and Result.load(out).t[-1] == pytest.approx(0.095)
+    assert saved.writer["rows"] == 11
+    assert len(Result.load(out).t) == 12 and Result.load(out).t[-1] == pytest.approx(0.1025, abs=1e-9)
     assert json.loads((out / "summary.json").read_text())["status"] == "failed"
     # resumed unchanged, it fails at the same place, leaving the same files
     before = (out / "probes.csv").read_bytes()
@@ -410,8 +411,8 @@ def test_checkpoints_follow_the_interval(tmp_path, monkeypatch):
 
 
 def test_a_failed_run_whose_last_step_is_a_row_resumes_without_a_second_row(tmp_path, capsys):
-    """The same failing run with a row every step (dt = 0.005): its last accepted state (t = 0.095) is a row
-    of the grid already, in the checkpoint's rows. Resumed, it fails at the same place; the row at 0.095
+    """The same failing run with a row every step (dt = 0.005): its last accepted state (the jump at
+    t = 0.1, on the grid) is a row of the grid already, in the checkpoint's rows. Resumed, it fails at the same place; the row at 0.095
     is not recorded a second time (it was, when the checkpoint's rows reached that state: the loop
     asked only whether it had recorded the row itself — found by benchmarks/fuzz_runs.py --joints)."""
     scene = failing_scene()
@@ -420,7 +421,7 @@ def test_a_failed_run_whose_last_step_is_a_row_resumes_without_a_second_row(tmp_
     out = tmp_path / "out"
     assert cli.main(["run", str(scene_file), "-o", str(out), "-q"]) == 1
     first = Result.load(out).t
-    assert first[-1] == pytest.approx(0.095) and np.all(np.diff(first) > 0)
+    assert first[-1] == pytest.approx(0.1, abs=1e-9) and np.all(np.diff(first) > 0)
     before = (out / "probes.csv").read_bytes()
     assert cli.main(["run", str(scene_file), "-o", str(out), "-q", "--resume"]) == 1
     capsys.readouterr()

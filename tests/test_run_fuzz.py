@@ -324,3 +324,34 @@ def test_the_joint_additions_cover_the_keys_of_2026_11_26():
         assert word in with_joints, word
     without = [fuzz_runs.random_scene(np.random.default_rng([SEED, i])) for i in range(50)]
     assert not any(key in scene for scene in without for key in ("cables", "controllers", "parameters", "inputs"))
+
+
+# =========================================================================== the step check's judge
+def _result(t, **probes):
+    from latdyn.results.result import Result
+
+    return Result(np.asarray(t, float), {k: np.asarray(v, float) for k, v in probes.items()})
+
+
+def test_the_step_check_compares_the_rows_both_runs_recorded_relative_to_each_probe():
+    """dt/2's extra rows are not compared; each probe relative to its largest magnitude; a probe of
+    round-off about zero (below STEP_CHECK_NOISE in both) not at all."""
+    coarse = _result([0, 0.1, 0.2], a=[0, 1, 2], z=[0, 1e-12, -1e-12])
+    fine = _result([0, 0.05, 0.1, 0.15, 0.2], a=[0, 9, 1.02, 9, 2], z=[0, 5e-10, 0, 0, 3e-11])
+    difference, where = fuzz_runs.step_difference(coarse, fine)
+    assert difference == pytest.approx(0.02 / 9)   # the 9s are dt/2's own rows: the scale, not compared
+    assert where.startswith("a at t = 0.1")
+    # an adaptive run without `every` shares only its first and last rows
+    assert fuzz_runs.step_difference(_result([0, 0.07, 0.2], a=[0, 5, 2]), _result([0, 0.06, 0.2], a=[0, 1, 2.5]))[0] \
+        == pytest.approx(0.5 / 5)
+
+
+def test_the_step_check_admits_the_runs_own_error():
+    scene = {"solve": {"analysis": "transient", "t_end": 0.1, "dt": 0.01}}
+    assert fuzz_runs.admitted_error(scene, {"energy_balance_error": 3e-3}) == 3e-3
+    assert fuzz_runs.admitted_error(scene, {"energy_balance_error": None}) == fuzz_runs.STEP_CHECK_FLOOR
+    adaptive = {"solve": {**scene["solve"], "adaptive": True}}
+    assert fuzz_runs.admitted_error(adaptive, {"energy_balance_error": 1e-7}) == 1e-4   # the default error_tol
+    fine = fuzz_runs.refined_scene({**adaptive, "output": {"probes": {}, "paraview_every": 0.05}}, 4)
+    assert fine["solve"]["dt"] == 0.0025 and fine["solve"]["error_tol"] == 1e-4 / 16
+    assert "paraview_every" not in fine["output"]

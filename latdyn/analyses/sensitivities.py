@@ -104,6 +104,7 @@ from latdyn.assembly.native_model import NO_CONTACT, joint_contact_rows
 from latdyn.errors import SceneError, SolverError
 from latdyn.results.result import SENSITIVITIES_FILE
 from latdyn.scene.expressions import parse_hinge_law, reading_inputs
+from latdyn.timeloop.jumps import jumping_key
 
 __all__ = ["refusal", "StaticSensitivities", "SENSITIVITIES_FILE"]
 
@@ -307,6 +308,10 @@ def _transient_refusal(scene) -> str | None:
     why = ControllerTerms.refusal(scene)
     if why is not None:
         return why
+    jumping = jumping_key(scene, float(solve.t_end))
+    if jumping is not None:   # the restart at the jump (latdyn.timeloop.jumps) is not differentiated
+        return (f"{jumping} jumps in t, where the run restarts from the new law's accelerations; the sensitivities "
+                "do not differentiate that restart yet (a continuous law in t, or a Piecewise that joins, is taken)")
     return None   # friction: sticking refused, when it comes, where not followed
 
 

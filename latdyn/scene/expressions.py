@@ -945,6 +945,19 @@ class HingeLaw(_BySource):
         """f(θ, θ̇, t)."""
         return self._eval(0, theta, rate, t)
 
+    def values_in_time(self, theta: float, rate: float, t) -> np.ndarray:
+        """f(θ, θ̇, t) at fixed θ, θ̇ over an array of times, in one call (latdyn.timeloop.jumps)."""
+        t = np.asarray(t, dtype=float)
+        if self._compiled is None:
+            self._compile()
+        if self._constant is not None:
+            return np.full(t.shape, self._constant)
+        if self._fns is None:  # a table in t
+            return np.asarray(self._time.value(t), dtype=float)
+        with np.errstate(all="ignore"):
+            out = self._fns[0](float(theta), float(rate), t, *self._input_values())
+        return np.array(np.broadcast_to(np.asarray(out, dtype=float), t.shape))
+
     def d_theta(self, theta: float, rate: float, t: float) -> float:
         """∂f/∂θ at (θ, θ̇, t)."""
         return self._eval(1, theta, rate, t)

@@ -202,8 +202,12 @@ def solve_held(matrix, rhs: np.ndarray) -> np.ndarray:
                           "`latdyn check` names the coordinate") from exc
 
 
-def newmark_warning(model, mass) -> str | None:
-    """What a Newmark run of a 3D model with directions without inertia must say (None otherwise).
+def newmark_warning(model, mass, method: str = "newmark") -> str | None:
+    """What a Newmark run of a 3D model with directions without inertia must say (None otherwise);
+    so must generalized-α and HHT-α with ρ∞ = 1 (``method`` names which), whose double root on
+    those directions is −ρ∞ = −1 as well (HHT-α with ρ∞ = 1 is Newmark's trapezoidal rule): found by
+    the whole-run fuzzer's step check (seed 106 case 20: a hinge rate of a 3D arm alternating
+    +11.9, −8.4, +12.9 … rad/s from step to step under generalized-α with ``rho_inf: 1``, no warning).
 
     The trapezoidal rule (γ = ½, β = ¼) determines the rate and acceleration of a direction
     without inertia only through their own recursion: with its configuration fixed by statics,
@@ -223,11 +227,12 @@ def newmark_warning(model, mass) -> str | None:
     split = split_inertia(model, mass)
     if not split.n_massless:
         return None
-    return (f"method newmark on a 3D model with {split.n_massless} direction(s) without inertia (the twist "
-            "of beams without rhoIy/rhoIz, joints without mass or inertia): the trapezoidal rule leaves "
-            "their rates undamped, ringing from round-off, and through velocity-dependent forces that can "
-            "grow into motion no step size converges (docs/verification.md, 'D4 in 3D: out-of-plane "
-            "motion'); method generalized-alpha, or rotary inertia on the beams, avoids it")
+    return (f"method {method} on a 3D model with {split.n_massless} direction(s) without inertia (the twist "
+            "of beams without rhoIy/rhoIz, joints without mass or inertia): without numerical damping "
+            "(a double root -1 on them) their rates are left undamped, ringing from round-off, and through "
+            "velocity-dependent forces that can grow into motion no step size converges (docs/verification.md, "
+            "'D4 in 3D: out-of-plane motion'); method generalized-alpha with rho_inf < 1, or rotary inertia "
+            "on the beams, avoids it")
 
 
 class GeneralizedAlpha:

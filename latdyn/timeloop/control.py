@@ -27,6 +27,7 @@ from typing import NamedTuple
 import numpy as np
 
 from latdyn.errors import SolverError
+from latdyn.timeloop.jumps import JUMP_SIDE
 from latdyn.timeloop.progress import TransientProgress, report_cut
 
 #: A run whose last CRAWL_STEPS accepted steps average less than min(CRAWL_FACTOR · dt_min,
@@ -55,11 +56,17 @@ class Resize(NamedTuple):
 class StepControl:
     """The time grid, the rows recorded on it and the step size of one transient run."""
 
-    def __init__(self, solve, every: float | None, length: float, instants: np.ndarray | None = None):
+    def __init__(self, solve, every: float | None, length: float, instants: np.ndarray | None = None,
+                 jumps: np.ndarray | None = None):
         """``solve``: the scene's solve section; ``every``: ``output.every`` (None: a row every step);
         ``length``: the model's length scale (m), which makes ``error_tol`` relative; ``instants``:
-        times the steps must land on besides k·dt (sampled controllers' instants), put on the grid."""
+        times the steps must land on besides k·dt (sampled controllers' instants), put on the grid;
+        ``jumps``: the times where a law jumps in t (latdyn.timeloop.jumps), put on the grid too, the
+        step that reaches one ending :data:`~latdyn.timeloop.jumps.JUMP_SIDE` · dt before it."""
         self.t_end, self.dt = float(solve.t_end), float(solve.dt)
+        jumps = np.zeros(0) if jumps is None else np.asarray(jumps, float)
+        if len(jumps):
+            instants = np.union1d(np.zeros(0) if instants is None else instants, jumps)
         self.n_grid = max(1, int(np.ceil(self.t_end / self.dt - 1e-9)))
         #: the grid's times where instants are added to it (None: k·dt)
         self.grid = None
@@ -79,6 +86,11 @@ class StepControl:
             self.instants_on_nominal_grid = not extra
             found = np.searchsorted(self.grid, np.asarray(instants, float) - self.tolerance)
             self.instant_indices = np.unique(found[found <= self.n_grid]).astype(np.int64)
+        #: the grid indices of the laws' jumps (the steps land JUMP_SIDE · dt before each; the loop restarts
+        #: JUMP_SIDE · dt after it: :meth:`jump_reached`), and that side in seconds
+        self.jump_indices = np.unique(np.searchsorted(self.grid, jumps - self.tolerance)).astype(np.int64) \
+            if len(jumps) else np.zeros(0, np.int64)
+        self.jump_side = JUMP_SIDE * self.dt
         self.dt_min = solve.dt_min if solve.dt_min is not None else self.dt * 1e-6
         self.adaptive, self.error_tol, self.length = solve.adaptive, solve.error_tol, length
         self.every = every
@@ -132,6 +144,9 @@ class StepControl:
                 return h, False, None
             self.h_resume = h
             return self.pause - run.state.t, False, self.pause
+        jump = run.grid_index + 1 in self.jump_indices
+        if jump:   # the step that reaches a law's jump ends just before it, on the law as it was
+            target -= self.jump_side
         left = target - run.state.t
         lands = h >= left * (1 - 1e-9)
         if lands:
@@ -142,6 +157,16 @@ class StepControl:
             h, self.halved = 0.5 * left, True
         self.proposed = run.h if lands and h < run.h else None
         return h, lands, target if lands else None
+
+    def jump_reached(self, run: TransientProgress) -> float | None:
+        """The time just after the law's jump the run's last accepted step landed before (the loop
+        restarts there: latdyn.timeloop.jumps), else None."""
+        if run.grid_index not in self.jump_indices:
+            return None
+        jump = self.grid_time(run.grid_index)
+        if abs(run.state.t - (jump - self.jump_side)) > 0.5 * self.jump_side:
+            return None
+        return jump + self.jump_side
 
     # ------------------------------------------------------------------------- a pause (stepping from Python)
     def pause_at(self, t: float | None) -> None:

@@ -141,9 +141,11 @@ class TimeLoop:
                 lambda snapshot=self.last_recorded: paraview.frame(self.assembler, self.writer.mesh, snapshot))
         # sampled controllers: the loop of steps in C samples on each instant itself, or (a probe read
         # without a C sensor) stops there and the sample is taken from here (_after_accepted); instants
-        # off the grid k·dt: one step at a time
+        # off the grid k·dt: one step at a time; a law that jumps in t (latdyn.timeloop.jumps): the steps
+        # that land before each jump and the restart after it from Python
         self.compiled = (self.compiled_loop and hasattr(self.integrator, "advance") and not self.control.adaptive
                          and (self.sampler is None or self.control.instants_on_nominal_grid)
+                         and not len(self.control.jump_indices)
                          and self.sensitivities is None)
         self.control.samples_in_loop = self.compiled and self.sampler is not None and self.sampler.in_loop
         self.writer.summary["time_loop"] = "compiled" if self.compiled else "python"
@@ -653,6 +655,12 @@ class TimeLoop:
             self._restart_after_sample(state)
             if self.sensitivities is not None:  # the sample and its restart differentiated
                 progress.sensitivities = self.sensitivities.after_sample(progress.sensitivities, state, due)
+        after_jump = self.control.jump_reached(progress)
+        if after_jump is not None:  # a law jumped: the run goes on after it from the new law's accelerations
+            progress.state = state = state.copy()
+            state.t = after_jump
+            self.restart()
+            state = progress.state
         if progress.steps % 256 == 0:  # exp updates keep T on SO(3) to round-off; remove the drift of long runs
             state.T[model.free_nodes] = orthonormalize(state.T[model.free_nodes])
         if not recorded and self.control.row_due(progress, state.t):

@@ -14,6 +14,7 @@ from latdyn.results.writer import ResultWriter
 from latdyn.step.integrators import AlphaParameters, CentralDifference, newmark_warning
 from latdyn.timeloop import checkpoint as checkpoints
 from latdyn.timeloop.control import StepControl
+from latdyn.timeloop.jumps import jump_times
 from latdyn.timeloop.loop import TimeLoop
 from latdyn.timeloop.progress import TransientProgress
 from latdyn.timeloop.sampling import SampledControllers
@@ -84,15 +85,20 @@ def start_transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter,
     tol = scene.solve.tol if scene.solve.tol is not None else DEFAULT_TOL
     integrator = integrator_for(prepared, tol, length, writer.summary)
     sampler = SampledControllers(scene, probes)
+    t_end = float(scene.solve.t_end)
     control = StepControl(scene.solve, scene.output.every, length,
-                          instants=sampler.instants(float(scene.solve.t_end)) if sampler else None)
+                          instants=sampler.instants(t_end) if sampler else None, jumps=jump_times(scene, t_end))
     loop = TimeLoop(prepared, integrator, probes, writer, control, tol=tol, checkpointer=checkpointer,
                     compiled_loop=COMPILED_LOOP, loop_budget_s=LOOP_BUDGET_S, sampler=sampler,
                     sensitivities=sensitivities)
     loop.begin(resume_from)
-    if scene.solve.method == "newmark":
+    undamped = scene.solve.method == "newmark" or (scene.solve.method in ("generalized-alpha", "hht-alpha")
+                                                   and scene.solve.rho_inf >= 1.0)
+    if undamped:   # no numerical damping of the directions without inertia (newmark_warning)
         state = loop.progress.state
-        warning = newmark_warning(prepared.model, prepared.assembler.evaluate(state, matrices=True).mass)
+        warning = newmark_warning(prepared.model, prepared.assembler.evaluate(state, matrices=True).mass,
+                                  scene.solve.method if scene.solve.method == "newmark"
+                                  else f"{scene.solve.method} with rho_inf 1")
         if warning is not None:
             print(f"latdyn: warning: {warning}", file=sys.stderr)
             writer.summary.setdefault("warnings", []).append(warning)

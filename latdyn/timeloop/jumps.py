@@ -1,0 +1,215 @@
+"""Where a law of the scene jumps in time: the steps land there.
+
+A law in t may jump: ``Heaviside(t - 0.01)``, ``sign(t - 0.2)``, ``Piecewise((0, t < 0.5), (3, True))``
+in a load component, a hinge's or guide's law, a cable's rest length, a prescribed motion or a
+continuous controller's output. A step that crosses such a jump integrates a law that is not smooth
+inside it: its error is O(h · jump) in the rates, and it does not fall with the step in a way the
+run can see — where the jump falls inside the step changes with every event before it and with
+every adaptive step, and the error estimate (built on smooth motion) does not reject it. Found by
+the whole-run fuzzer's step check (``benchmarks/fuzz_runs.py --step-check``): a hub driven by
+``18.18*Heaviside(t - 0.01)`` beside a cable that went taut at t = 1e-5 (the grid moved off the jump)
+ended "solved" with its momentum 1.2 % off at dt, dt/2 and dt/4 alike (error_tol 1e-4).
+
+:func:`jump_times` finds the instants in (0, t_end) where a law whose text names ``Heaviside``,
+``sign`` or ``Piecewise`` is not continuous in t: on its compiled values (no SymPy: a run whose laws
+are in the cache does not import it), an interval of a fine sampling whose change stands out against
+its neighbours' is halved down to round-off, and a change that stays there is a jump (a ``Piecewise``
+that joins continuously, as the spin-up's ramp, is none; a hinge or guide law is taken at fixed
+generic θ, θ̇). A continuous controller's output is searched on its parsed expression (the zeros of
+its jumps' arguments in t). The
+time loop puts them on its grid (:class:`latdyn.timeloop.control.StepControl` ``jumps``): the step
+that would cross one ends :data:`JUMP_SIDE` · dt before it, so that it integrates the law as it was
+(the value *at* the jump — ``Heaviside(0) = 1/2``, ``Piecewise``'s first true branch — belongs to
+neither side); there the integrator restarts from the accelerations of the law as it is after the
+jump, evaluated :data:`JUMP_SIDE` · dt after it (``TimeLoop.restart``, as after an input changed
+from outside, docs/stepping.md), and the run goes on from that time. The 2 · JUMP_SIDE · dt skipped
+moves nothing (the state is held across it). Each step then integrates a smooth law: the run
+converges at its method's order again (a rigid arm under ``2*Heaviside(t - 0.013)``, exact
+θ = τ(t − t₀)²/2J: tests/test_law_jumps.py).
+
+Jumps in ``theta``, ``s`` or their rates are the state's (stops and latches are events of their own)
+and are not searched for here; a table of t is continuous (its kinks are not jumps); a sampled
+controller's output jumps at its samples, which restart the run already (latdyn.timeloop.sampling).
+"""
+from __future__ import annotations
+
+import re
+
+import numpy as np
+
+#: words of a law whose text may jump in t; a law without any of them is not parsed (no SymPy)
+_JUMPING = re.compile(r"\b(Heaviside|sign|Piecewise)\b")
+#: a law whose text does not name t does not jump in t
+_NAMES_T = re.compile(r"\bt\b")
+#: samples over (0, t_end) that bracket a law's jumps (a controller's: its jumps' arguments' sign
+#: changes), each then halved down to round-off
+SAMPLES = 4096
+#: the step that reaches a jump ends this fraction of dt before it, and the run restarts this fraction
+#: of dt after it (each side's law evaluated on its own side of the jump)
+JUMP_SIDE = 1e-9
+#: a change left across the halved interval (a controller's: across 1e-12 t_end) smaller than this,
+#: relative to 1 + the values' size, is no jump (a kink, a steep smooth stretch)
+CONTINUOUS = 1e-6
+
+
+def jump_times(scene, t_end: float) -> np.ndarray:
+    """The sorted instants in (0, ``t_end``) where a law of ``scene`` jumps in t (module docstring);
+    empty where none does."""
+    times = [t for _, t in _jumps(scene, t_end)]
+    return np.unique(np.array([t for t in times if 0.0 < t < t_end * (1 - 1e-12)], dtype=float))
+
+
+def jumping_key(scene, t_end: float) -> str | None:
+    """The key of the first law of ``scene`` that jumps in (0, ``t_end``), else None (for refusals)."""
+    return next((key for key, t in _jumps(scene, t_end) if 0.0 < t < t_end * (1 - 1e-12)), None)
+
+
+def _jumps(scene, t_end: float):
+    """(key, time) of every jump in t of a law of ``scene``."""
+    for key, law in _laws(scene):
+        if hasattr(law, "output_text"):     # a controller: its parsed expression (SymPy is there already)
+            found = _controller_expression(law)
+            if found is not None:
+                expr, t = found
+                for time in _zeros_of_jumps(expr, t, t_end):
+                    if _jumps_at(expr, t, time, 1e-12 * max(t_end, 1.0)):
+                        yield key, time
+            continue
+        values = _values_in_time(law)
+        if values is not None:
+            yield from ((key, time) for time in _jumps_of_values(values, t_end))
+
+
+def _laws(scene):
+    """(key, law) of every law of ``scene`` that may name t: load components, hinge and guide laws,
+    prescribed angles, slides and motions, cables' rest lengths, continuous controllers' outputs."""
+    for i, load in enumerate(scene.loads):
+        for kind in ("force", "moment"):
+            for j, component in enumerate(getattr(load, kind) or []):
+                yield f"loads[{i}].{kind}[{j}]", component
+    for beam, which, hinge in scene.hinges:
+        for key in ("stiffness", "damping", "torque", "angle"):
+            yield f"beams.{beam}.{which}.hinge.{key}", getattr(hinge, key)
+    for name, body in scene.bodies.items():
+        for j, component in enumerate(body.translation or []):
+            yield f"bodies.{name}.motion.translation[{j}]", component
+        yield f"bodies.{name}.motion.rotation.angle", body.rotation_angle
+        if body.guide is not None:
+            for key in ("stiffness", "damping", "force", "position"):
+                yield f"bodies.{name}.guide.{key}", getattr(body.guide, key)
+    for name, cable in (getattr(scene, "cables", None) or {}).items():
+        yield f"cables.{name}.rest_length", cable.rest_length
+    for name, controller in (getattr(scene, "controllers", None) or {}).items():
+        yield f"controllers.{name}.output", controller
+
+
+def _controller_expression(controller):
+    """(SymPy expression, its t symbol) of a continuous controller's output that may jump, else None."""
+    text, expr = controller.output_text, controller.output_expr
+    if controller.sampled or not isinstance(text, str) or not _JUMPING.search(text) or expr is None \
+            or not controller.symbols:
+        return None
+    return expr, controller.symbols[0]
+
+
+def _values_in_time(law):
+    """The law as a function of t alone (its compiled value; a hinge or guide law's other variables at
+    fixed generic values), for a law whose text may jump; else None. No SymPy: the value functions come
+    from the laws' cache."""
+    if law is None or isinstance(law, (int, float)):
+        return None
+    source = getattr(law, "source", None)
+    if not isinstance(source, str) or not _JUMPING.search(source) or not _NAMES_T.search(source):
+        return None
+    if hasattr(law, "d_theta"):          # a hinge (or guide) law f(θ, θ̇, t)
+        return lambda t: law.values_in_time(0.3, 0.47, t)
+    return lambda t: np.asarray(law.value(np.asarray(t, float)), float)
+
+
+def _jumps_of_values(f, t_end: float) -> list[float]:
+    """The times in (0, t_end) where ``f`` jumps: an interval of :data:`SAMPLES` (offset by an irrational
+    fraction, so that no jump at a round time falls on a sample) whose change stands out against both
+    neighbours' is halved, keeping the half that changes most, down to round-off; it is a jump where
+    the change left is more than :data:`CONTINUOUS` of the values (a steep smooth law's change vanishes)."""
+    offset = 0.5 * (np.sqrt(5.0) - 1.0)
+    times = np.concatenate([[1e-9 * t_end], t_end * (np.arange(SAMPLES) + offset) / SAMPLES])
+    with np.errstate(all="ignore"):
+        values = f(times)
+    change = np.abs(np.diff(values))
+    if not np.all(np.isfinite(change)):
+        return []
+    before = np.concatenate([[0.0], change[:-1]])
+    after = np.concatenate([change[1:], [0.0]])
+    candidates = np.flatnonzero(change > 4.0 * np.maximum(before, after) + CONTINUOUS * (1.0 + np.abs(values[:-1])))
+    jumps = []
+    for i in candidates:
+        lo, hi = float(times[i]), float(times[i + 1])
+        f_lo, f_hi = float(f(lo)), float(f(hi))
+        while True:
+            mid = 0.5 * (lo + hi)
+            if mid in (lo, hi):
+                break
+            f_mid = float(f(mid))
+            if abs(f_mid - f_lo) >= abs(f_hi - f_mid):
+                hi, f_hi = mid, f_mid
+            else:
+                lo, f_lo = mid, f_mid
+        if abs(f_hi - f_lo) > CONTINUOUS * (1.0 + abs(f_lo) + abs(f_hi)):
+            jumps.append(hi)
+    return jumps
+
+
+def _arguments(expr, t) -> list:
+    """The arguments of ``expr``'s jumps that depend on ``t`` alone: of Heaviside and sign, and
+    lhs − rhs of every relation in a Piecewise's conditions."""
+    import sympy as sp
+
+    found = [atom.args[0] for atom in expr.atoms(sp.Heaviside, sp.sign)]
+    for piecewise in expr.atoms(sp.Piecewise):
+        for _, condition in piecewise.args:
+            relations = [condition] if isinstance(condition, sp.core.relational.Relational) \
+                else list(getattr(condition, "atoms", lambda *_: [])(sp.core.relational.Relational))
+            found += [r.lhs - r.rhs for r in relations]
+    return [a for a in found if a.free_symbols == {t}]
+
+
+def _zeros_of_jumps(expr, t, t_end: float) -> list[float]:
+    """The times in (0, t_end) where an argument of a jump of ``expr`` (:func:`_arguments`)
+    changes sign or is zero: bracketed on :data:`SAMPLES` points and bisected to round-off."""
+    import sympy as sp
+
+    zeros: list[float] = []
+    grid = np.linspace(0.0, t_end, SAMPLES + 1)
+    for argument in _arguments(expr, t):
+        g = sp.lambdify(t, argument, modules="numpy")
+        with np.errstate(all="ignore"):
+            values = np.broadcast_to(np.asarray(g(grid), dtype=float), grid.shape)
+        signs = np.sign(values)
+        zeros += [float(grid[i]) for i in np.flatnonzero(signs == 0.0)]
+        for i in np.flatnonzero(signs[:-1] * signs[1:] < 0):
+            lo, hi, below = float(grid[i]), float(grid[i + 1]), signs[i]
+            for _ in range(200):
+                mid = 0.5 * (lo + hi)
+                if mid in (lo, hi):
+                    break
+                if np.sign(float(g(mid))) == below:
+                    lo = mid
+                else:
+                    hi = mid
+            zeros.append(hi if abs(float(g(hi))) <= abs(float(g(lo))) else lo)
+    return zeros
+
+
+def _jumps_at(expr, t, time: float, side: float) -> bool:
+    """Whether ``expr`` (in t and maybe other variables, set to fixed generic values) takes values
+    ``side`` before and after ``time`` that differ by more than :data:`CONTINUOUS` of their size."""
+    import sympy as sp
+
+    others = sorted(expr.free_symbols - {t}, key=lambda s: s.name)
+    generic = {s: 0.3 + 0.17 * k for k, s in enumerate(others)}
+    f = sp.lambdify([t, *others], expr, modules="numpy")
+    with np.errstate(all="ignore"):
+        before, after = (float(f(time + sign * side, *generic.values())) for sign in (-1.0, 1.0))
+    if not (np.isfinite(before) and np.isfinite(after)):
+        return False
+    return abs(after - before) > CONTINUOUS * (1.0 + abs(before) + abs(after))
