@@ -186,7 +186,8 @@ def static_instability(found: list[Mode]) -> str | None:
     top_hz = max(m.natural_frequency_hz for m in found)
     lowest, fastest = growing[0], max(growing, key=growth_rate)
     kind = "flutter" if lowest.frequency_hz > 0.0 else "divergence"
-    warning = (f"modes about static: the static state is unstable: {len(growing)} of its roots grow{'s' if len(growing) == 1 else ''}; the lowest "
+    grow = "grows" if len(growing) == 1 else "grow"
+    warning = (f"modes about static: the static state is unstable: {len(growing)} of its roots {grow}; the lowest "
                f"grows at {_described(lowest, growing, top_hz)}: {GROWTH_MEANS[kind]}")
     if fastest is not lowest:
         warning += f"; the fastest grows at {_described(fastest, growing, top_hz)}"

@@ -7,8 +7,9 @@ structure is a mechanism: a hinge with no stiffness, a body on no support, a fre
 structure, a slack cable's nodes (it carries nothing: :func:`slack_cables`, named as such).
 Along such a direction n (K₀ n = 0, left null vector u) the loads either push, uᵀq_ref ≠ 0 —
 then there is no equilibrium near the state at all, for any λ > 0: the loads turn the mechanism
-until something holds it, which is motion (a transient run), not a limit point — or they do not, and the tangent is singular though the loads might hold the mechanism once they
-act (a tensile load on a hinged arm).  Either way the message names the coordinates, not a limit
+until something holds it, which is motion (a transient run), not a limit point — or they do not,
+and the tangent is singular though the loads might hold the mechanism once they act (a tensile
+load on a hinged arm).  Either way the message names the coordinates, not a limit
 point.  Stops (hinge ``limits``) are events of the time loop; a static analysis does not see them.
 
 The null space is that of the scaled tangent S K₀ S, S = diag(1/√W) (W the weights of the path's
