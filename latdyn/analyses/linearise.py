@@ -200,6 +200,11 @@ def modes_table(found: list[Mode], directions: list[str]) -> dict:
             "natural_frequency_hz": [m.natural_frequency_hz for m in found]}
 
 
+#: A limit point where Newton finds no equilibrium beyond is a fold only where the stability measure
+#: falls towards it (as √(λ_c − λ): by 1/√2 as the bracket halves): it must fall below this fraction
+#: of the previous value at the last step; where it does not, the tangent is regular there and the
+#: step that missed the path left a path that only softens, not a fold (the search goes on).
+FOLD_FALL = 0.9
 #: Load factor of the pre-buckling state that gives the change of the tangent K_1 = (K(λ₁) − K₀)/λ₁.
 PREBUCKLING_FACTOR = 1e-4
 #: The stability search stops when the bracket of the load factor is this narrow (relative).
@@ -256,7 +261,7 @@ def buckling_analysis(prepared, count: int = 6) -> dict:
         raise SolverError("buckling: the unloaded structure is not held (its tangent is not positive definite"
                           + (f"; nothing holds {', '.join(free)}: no stiffness, no support" if free else "")
                           + "): a free structure or a mechanism has no buckling load") from None
-    follower = follower_loads(model)
+    follower = follower_loads(model, reference)
     loaded, _, _, converged = continuation.newton_fixed(path, reference, PREBUCKLING_FACTOR)
     if not converged:
         raise SolverError(f"buckling: no static equilibrium at load factor {PREBUCKLING_FACTOR:g}")
@@ -283,7 +288,7 @@ def buckling_analysis(prepared, count: int = 6) -> dict:
                0.5 * float(linearised[0]) if len(linearised) else 1.0)
     below = (lam, f, state)
     above = None
-    kind, evaluations = None, 0
+    kind, evaluations, falling = None, 0, True
     for _ in range(200):
         if above is None:
             target = below[0] + step
@@ -305,7 +310,7 @@ def buckling_analysis(prepared, count: int = 6) -> dict:
         evaluations += 1
         if value > 0.0:
             l0, f0 = below[0], below[1]
-            below = (target, value, trial)
+            below, falling = (target, value, trial), value < FOLD_FALL * f0
             if above is None:  # secant prediction of the zero, at most doubling the step
                 slope = (value - f0) / (target - l0)
                 guess = target - value / slope if slope < 0 else np.inf
@@ -317,6 +322,9 @@ def buckling_analysis(prepared, count: int = 6) -> dict:
             kind = "bifurcation or limit point (tangent singular)"
         width = (above[0] if above is not None else (above_limit if kind else np.inf)) - below[0]
         if width <= STABILITY_TOL * max(below[0], 1e-12):
+            if above is None and kind is not None and not falling:  # the tangent stays regular up to it:
+                kind, step = None, 0.1 * below[0]  # no fold; the step that missed it left a path that softens
+                continue
             break
         if above is None and below[0] > 1e6 * max(1.0, float(linearised[0]) if len(linearised) else 1.0):
             break
