@@ -238,7 +238,8 @@ bodies:
   base: {{at: [0, 0, 0], fixed: true}}
   tip: {{at: {numbers(ARM)}, mass: 1.0}}
 beams:
-  arm: {{from: base, to: tip, section: link, rigid: true, start: {{hinge: {{axis: {numbers(SKEW_AXIS)}, stiffness: 2.0}}}}}}
+  arm: {{from: base, to: tip, section: link, rigid: true,
+        start: {{hinge: {{axis: {numbers(SKEW_AXIS)}, stiffness: 2.0}}}}}}
 loads:
   - {{at: tip, force: {numbers(-ARM)}}}
   - {{at: tip, moment: {numbers(moment)}}}
@@ -256,7 +257,7 @@ def test_a_global_moment_on_an_arm_turning_about_one_skew_hinge_is_conservative(
     the follower analysis and was reported as divergence. M about g × ARM (no work): the
     bifurcation V'' = k − λPL = 0 at λ = k/PL = 2 (measured 2 − 1.2e-7, the search's tolerance),
     `instability: buckling`. With a part M·g = 0.2 about the hinge: the equilibrium
-    kθ = λ(PL sin θ + M·g) (static, against brentq: measured 1e-15), stable on its whole path
+    kθ = λ(PL sin θ + M·g) (static, against brentq: measured 1.4e-16), stable on its whole path
     (V'' = k − λPL cos θ > 0 there, as θ cos θ < sin θ + M·g/P): no instability."""
     import math
 
@@ -300,8 +301,8 @@ solve: {{analysis: static, steps: 2}}
 @pytest.mark.parametrize("moment, conservative", [([0, 0, 0.3], True), ([0.3, 0, 0], False), ([0, 0.3, 0], False),
                                                   ([0.3, 0, 0.3], False)])
 def test_a_global_moment_on_a_gimbal_is_judged_by_its_load_stiffness(moment, conservative):
-    """The tip turns by θ̇₁ g₁ + θ̇₂ g₂(θ₁), g₁ = z fixed in space, g₂(θ₁) = R(z, θ₁) x: the moment's
-    load stiffness on (θ₁, θ₂), ∂(M·g₂)/∂θ₁ = M·(g₁ × g₂), is not symmetric for M along
+    """The tip turns by θ̇₁ g₁ + θ̇₂ g₂(θ₁), g₁ = z fixed in space, g₂(θ₁) = R(z, θ₁) x: the
+    moment's load stiffness on (θ₁, θ₂), ∂(M·g₂)/∂θ₁ = M·(g₁ × g₂), is not symmetric for M along
     g₁ × g₂ = y (checked on the package's own tangent: K(λ = 1) − K(0) has the off-diagonal pair
     (0, ±0.3)); about x it is symmetric at the start but not once the outer hinge turns
     (M·(g₁ × g₂(θ₁)) = 0.3 sin θ₁), so the work is no potential's; only M along the fixed outer

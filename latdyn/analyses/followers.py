@@ -8,8 +8,9 @@ direction: its work M·δθ over the node's spin is no variation of a potential 
 one axis (the "axial" moment of Argyris et al. 1979; Ziegler, Principles of Structural Stability,
 1968), and its load stiffness on the free coordinates, M·(g_i × g_j), is not symmetric — unless
 M is orthogonal to every g_i × g_j, as on a node that turns about one hinge axis fixed in space
-(:func:`_moment_fixed_in_space_does_work_of_no_potential`). A cantilever under a dead axial torque has no adjacent equilibrium at any torque
-(EI u'' = iM u' with u(0) = u'(0) = 0, u = v + iw) and flutters from M = 0 on; the symmetric part
+(:func:`_moment_fixed_in_space_does_work_of_no_potential`). A cantilever under a dead axial
+torque has no adjacent equilibrium at any torque (EI u'' = iM u' with u(0) = u'(0) = 0,
+u = v + iw) and flutters from M = 0 on; the symmetric part
 of its tangent loses definiteness at M = πEI/L, which was reported as buckling. In a planar model
 a moment along the plane's normal is conservative (M θ). The static path
 (:mod:`latdyn.analyses.continuation`) and the buckling analysis both ask this.
