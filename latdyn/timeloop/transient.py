@@ -90,10 +90,9 @@ def start_transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter,
                     compiled_loop=COMPILED_LOOP, loop_budget_s=LOOP_BUDGET_S, sampler=sampler,
                     sensitivities=sensitivities)
     loop.begin(resume_from)
-    if resume_from is None:
-        for warning in prepared.assembler.initial_warnings:  # loops the initial velocity does not close
-            print(f"latdyn: warning: {warning}", file=sys.stderr)
-            writer.summary.setdefault("warnings", []).append(warning)
+    for warning in prepared.assembler.initial_warnings:  # loops the initial velocity does not close (a resumed
+        print(f"latdyn: warning: {warning}", file=sys.stderr)  # run's summary says so as the whole run's does)
+        writer.summary.setdefault("warnings", []).append(warning)
     if scene.solve.method == "newmark":
         state = loop.progress.state
         warning = newmark_warning(prepared.model, prepared.assembler.evaluate(state, matrices=True).mass)
