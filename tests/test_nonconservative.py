@@ -258,7 +258,8 @@ def test_a_global_moment_on_an_arm_turning_about_one_skew_hinge_is_conservative(
     bifurcation V'' = k − λPL = 0 at λ = k/PL = 2 (measured 2 − 1.2e-7, the search's tolerance),
     `instability: buckling`. With a part M·g = 0.2 about the hinge: the equilibrium
     kθ = λ(PL sin θ + M·g) (static, against brentq: measured 1.4e-16), stable on its whole path
-    (V'' = k − λPL cos θ > 0 there, as θ cos θ < sin θ + M·g/P): no instability."""
+    (V'' = k − λPL cos θ > 0 there, as θ cos θ < sin θ + M·g/P): no instability; its modes about
+    the static state swing at √V''."""
     import math
 
     from scipy.optimize import brentq
@@ -275,6 +276,9 @@ def test_a_global_moment_on_an_arm_turning_about_one_skew_hinge_is_conservative(
     theta = brentq(lambda t: 2.0 * t - (math.sin(t) + 0.2), 0.0, 1.0, xtol=1e-15)
     assert static.probes["angle"][-1] == pytest.approx(theta, abs=1e-9)
     assert run_api(skew_hinged_arm(about))["instability"] == "none"
+    # about that state the arm (tip mass 1 at L = 1) swings at ω² = V''(θ) = k − λPL cos θ: measured 2.2e-16
+    modes = latdyn.run(latdyn.load_scene(yaml.safe_load(skew_hinged_arm(about, "modes, about: static, count: 1"))))
+    assert 2 * math.pi * modes.modes[0] == pytest.approx(math.sqrt(2.0 - math.cos(theta)), rel=1e-10)
 
 
 def gimbal(moment) -> str:
