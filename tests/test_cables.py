@@ -11,6 +11,7 @@ import math
 
 import numpy as np
 import pytest
+import yaml
 
 import latdyn
 from cli_runs import latdyn_run, probe_columns, summary_of
@@ -325,6 +326,36 @@ def test_elastic_catenary_static(tmp_path, span_vector):
     irvine_sag = L0 / (2 * EA) * (Vc - w * L0 / 4) + Hc / w * (np.sqrt(1 + (Vc / Hc) ** 2) - 1)
     assert -probes["sag"][-1] == pytest.approx(irvine_sag, rel=1.5e-3)  # measured 8.2e-4
     assert probes["N"][-1] == pytest.approx(math.hypot(Hc, Vc), rel=1e-2)  # measured 4.9e-3
+
+
+SLACK_HANGING_CABLE = """\
+title: a slack cable between two anchors
+gravity: [0, 0, -9.81]
+bodies:
+  a: {at: [0, 0, 0], fixed: true}
+  b: {at: [6, 0, 8], fixed: true}
+cables:
+  c: {from: a, to: b, EA: 1000.0, rhoA: 0.5, elements: 8, rest_length: REST}
+solve: {analysis: static, steps: 10}
+"""
+
+
+def test_a_slack_cable_in_a_static_analysis_is_refused_as_slack_not_as_a_mechanism(tmp_path):
+    """A cable hung slack (rest length 12 between anchors 10 apart, on a skew span) has a hanging
+    equilibrium, but its straight start carries no tension, so the static Newton has no stiffness
+    in its inner nodes. The refusal (exit 1, as before) said "the structure is a mechanism there,
+    whose motion a transient run follows"; it now names the cable as slack and the remedies (a
+    pretension, a transient run). A cable with no pretension (rest length = the distance) is
+    slack too (N = 0 at ℓ = L₀); a pretensioned one solves."""
+    for rest in ("12.0", "10.0"):
+        completed, _ = latdyn_run(tmp_path, SLACK_HANGING_CABLE.replace("REST", rest), quiet=True)
+        assert completed.returncode == 1, completed.stderr
+        assert "cable c is slack at load factor 0" in completed.stderr
+        assert "pretension" in completed.stderr and "mechanism" not in completed.stderr
+    with pytest.raises(latdyn.errors.SolverError, match="cable c is slack at load factor 0.*a rest_length shorter"):
+        latdyn.run(latdyn.load_scene(yaml.safe_load(SLACK_HANGING_CABLE.replace("REST", "12.0"))))
+    taut = latdyn.run(latdyn.load_scene(yaml.safe_load(SLACK_HANGING_CABLE.replace("REST", "9.99"))))
+    assert taut.summary["status"] == "solved"
 
 
 def test_reel_work_is_external_work(tmp_path):

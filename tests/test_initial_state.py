@@ -320,3 +320,57 @@ def test_a_run_through_a_latch_converges_at_order_two():
     Richardson's ratio of the successive differences is 4."""
     angles = np.array([run_yaml(LATCH.format(dt=dt)).probes["angle"][-1] for dt in COARSE_STEPS])
     assert richardson_ratio(angles) == pytest.approx(4.0, rel=0.1)  # 4.32 measured (3.74 with the jump weighted by the landing step h rather than dt)
+
+
+# ----------------------------------------------------------------------------- loops closed one by one
+TWO_LOOPS = """\
+title: a four-bar driven at its crank and, beside it, a crank driving a braced triangle
+sections:
+  link: {EA: 1.0, EIy: 1.0, EIz: 1.0, GJ: 1.0, rhoA: 1.0}
+  stiff: {EA: 1.0e7, EIy: 1.0e5, EIz: 1.0e5, GJ: 1.0e5, rhoA: 1.0}
+bodies:
+  A: {at: [0, 0, 0], fixed: true}
+  B: {at: [0, 1, 0]}
+  C: {at: [2, 1.5, 0]}
+  D: {at: [2, 0, 0], fixed: true}
+  E: {at: [5, 0, 0], fixed: true}
+  F: {at: [5, 1, 0]}
+  G: {at: [7, 1.5, 0], fixed: true}
+beams:
+  crank: {from: A, to: B, section: link, rigid: true, start: {hinge: {axis: [0, 0, 1], angle: "t"}}}
+  coupler: {from: B, to: C, section: stiff, elements: 2, start: {hinge: {axis: [0, 0, 1]}}, end: {hinge: {axis: [0, 0, 1]}}}
+  rocker: {from: D, to: C, section: link, rigid: true, start: {hinge: {axis: [0, 0, 1]}}}
+  drive: {from: E, to: F, section: link, rigid: true, start: {hinge: {axis: [0, 0, 1], angle: "t"}}}
+  brace: {from: F, to: G, section: stiff, elements: 2, start: {hinge: {axis: [0, 0, 1]}}, end: {hinge: {axis: [0, 0, 1]}}}
+solve: {t_end: 0.002, dt: 0.001}
+output:
+  probes:
+    rate: {hinge: rocker.start, quantity: rate}
+"""
+
+
+def test_each_loop_closes_on_its_own_and_one_that_cannot_is_named(tmp_path):
+    """Two independent loops: the four-bar of tests/test_literature_cases_heldout.py (crank AB = 1
+    at 1 rad/s, coupler BC, rocker DC = 1.5: the rocker's rate 2/3 rad/s closes it) and a crank EF
+    at 1 rad/s hinged to a brace FG whose far end G is fixed: B's velocity ⊥ EF is not ⊥ FG, so no
+    rates of the brace's hinges close that loop (a structure strained by its drive). The loops were
+    closed all or nothing: the braced triangle left the four-bar's rocker at rest (rate 0), and said
+    nothing. Now the four-bar closes on its own (2/3 to round-off) and the other loop is named in a
+    warning, its joints listed, the four-bar's not."""
+    completed, out = latdyn_run(tmp_path, TWO_LOOPS, timeout=120)
+    assert completed.returncode == 0, completed.stderr
+    assert probe_columns(out)["rate"][0] == pytest.approx(2.0 / 3.0, abs=1e-12)
+    result = run_yaml(TWO_LOOPS)
+    assert result.probes["rate"][0] == pytest.approx(2.0 / 3.0, abs=1e-12)
+    [warning] = [w for w in result.summary["warnings"] if w.startswith("the initial velocity does not close")]
+    assert warning in completed.stderr
+    assert warning.startswith("the initial velocity does not close the loop through hinge drive.start, drive.end "
+                              "(clamped), hinge brace.start, hinge brace.end:")
+    assert "coupler" not in warning and "rocker" not in warning and "crank" not in warning
+    four_bar_alone = yaml.safe_load(TWO_LOOPS)
+    for name in ("drive", "brace"):
+        del four_bar_alone["beams"][name]
+    for name in ("E", "F", "G"):
+        del four_bar_alone["bodies"][name]
+    alone = latdyn.run(four_bar_alone)
+    assert alone.probes["rate"][0] == pytest.approx(2.0 / 3.0, abs=1e-12) and "warnings" not in alone.summary

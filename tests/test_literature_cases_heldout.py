@@ -527,6 +527,13 @@ def test_a_dead_axial_torque_makes_a_cantilever_flutter_at_any_torque_not_buckle
         assert abs(2 * math.pi * frequency[2 * k] / root.imag - 1) < 1e-3  # measured −1.6e-4, −8.7e-5 (8 elements)
         pair = np.sort(growth[2 * k:2 * k + 2])
         assert abs(pair[1] / root.real - 1) < 1e-3 and abs(pair[0] / root.real + 1) < 1e-3  # measured −3.9e-5, −1.2e-4
+    # the warning leads with the lowest growing root, as flutter: it quoted the mesh's highest pair
+    # (19.97 1/s at 8 elements, 39.94 at 16) as "past a bifurcation"
+    [warning] = modes.summary["warnings"]
+    assert warning.startswith("modes about static: the static state is unstable: 16 of its roots grow; the lowest "
+                              f"grows at {exact[0].real:.4g} 1/s by flutter (a complex pair")
+    assert "bifurcation" not in warning and "by divergence" not in warning
+    assert "the fastest grows at 19.97 1/s by flutter" in warning and "the highest of the growing roots" in warning
 
 
 # ----------------------------------------------------------------------------- more mechanisms

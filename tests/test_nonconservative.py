@@ -180,8 +180,9 @@ def test_a_load_in_the_axes_of_a_fixed_body_is_not_a_follower_load():
 
     text = ziegler(frame="base")
     prepared = prepare(latdyn.load_scene(yaml.safe_load(text)))
-    assert follower_loads(prepared.model) == []
-    assert follower_loads(prepare(latdyn.load_scene(yaml.safe_load(ziegler()))).model) == [0]
+    assert follower_loads(prepared.model, prepared.state) == []
+    tip = prepare(latdyn.load_scene(yaml.safe_load(ziegler())))
+    assert follower_loads(tip.model, tip.state) == [0]
 
 
 @pytest.mark.parametrize("solve, expected", [
@@ -216,3 +217,109 @@ def test_a_stability_measure_that_falls_without_crossing_zero_ends_the_search_sa
     assert summary["instability"] == "none" and summary["divergence_factor"] is None
     assert summary["divergence_searched_to"] == pytest.approx(0.375)
     assert any("stopped after 200 steps along the path" in w for w in summary["warnings"])
+
+
+# ----------------------------------------------------------------------------- a moment in global axes on hinges
+SKEW_AXIS, ARM = np.array([1.0, 2.0, 2.0]) / 3.0, np.array([2.0, 1.0, -2.0]) / 3.0  # ARM ⊥ SKEW_AXIS
+
+
+def numbers(v) -> str:
+    return "[" + ", ".join(f"{float(x):.17g}" for x in v) + "]"
+
+
+def skew_hinged_arm(moment, analysis: str = "buckling") -> str:
+    """A rigid arm (L = 1) on one hinge about the skew axis g = (1, 2, 2)/3 with a spring k = 2,
+    compressed by a dead tip force P = 1 along it, and a moment in global axes at its tip."""
+    return f"""\
+title: a rigid arm on a skew hinge under a dead compression and a moment in global axes
+sections:
+  link: {{EA: 1.0, EIy: 1.0, EIz: 1.0, GJ: 1.0, rhoA: 0.0}}
+bodies:
+  base: {{at: [0, 0, 0], fixed: true}}
+  tip: {{at: {numbers(ARM)}, mass: 1.0}}
+beams:
+  arm: {{from: base, to: tip, section: link, rigid: true,
+        start: {{hinge: {{axis: {numbers(SKEW_AXIS)}, stiffness: 2.0}}}}}}
+loads:
+  - {{at: tip, force: {numbers(-ARM)}}}
+  - {{at: tip, moment: {numbers(moment)}}}
+solve: {{analysis: {analysis}, steps: 10}}
+output:
+  probes:
+    angle: {{hinge: arm.start, quantity: angle}}
+"""
+
+
+def test_a_global_moment_on_an_arm_turning_about_one_skew_hinge_is_conservative(tmp_path):
+    """On a node that turns about one axis g fixed in space, a moment M in global axes does the work
+    (M·g) θ: a potential, V(θ) = ½kθ² + λPL cos θ − λ(M·g)θ, whatever M's direction. It was taken
+    as non-conservative (every global moment on a turning 3D node), so the arm's buckling went to
+    the follower analysis and was reported as divergence. M about g × ARM (no work): the
+    bifurcation V'' = k − λPL = 0 at λ = k/PL = 2 (measured 2 − 1.2e-7, the search's tolerance),
+    `instability: buckling`. With a part M·g = 0.2 about the hinge: the equilibrium
+    kθ = λ(PL sin θ + M·g) (static, against brentq: measured 1.4e-16), stable on its whole path
+    (V'' = k − λPL cos θ > 0 there, as θ cos θ < sin θ + M·g/P): no instability; its modes about
+    the static state swing at √V''."""
+    import math
+
+    from scipy.optimize import brentq
+
+    across = 0.3 * np.cross(SKEW_AXIS, ARM) + 0.4 * ARM
+    completed, summary = run_cli(tmp_path, skew_hinged_arm(across))
+    assert completed.returncode == 0, completed.stderr
+    assert summary["conservative"] is True and summary["instability"] == "buckling"
+    assert summary["buckling_factor"] == pytest.approx(2.0, rel=1e-6)
+    assert "divergence_factor" not in summary and summary.get("follower_loads") is None
+    about = across + 0.2 * SKEW_AXIS
+    static = latdyn.run(latdyn.load_scene(yaml.safe_load(skew_hinged_arm(about, "static"))))
+    assert static.summary["conservative"] is True
+    theta = brentq(lambda t: 2.0 * t - (math.sin(t) + 0.2), 0.0, 1.0, xtol=1e-15)
+    assert static.probes["angle"][-1] == pytest.approx(theta, abs=1e-9)
+    assert run_api(skew_hinged_arm(about))["instability"] == "none"
+    # about that state the arm (tip mass 1 at L = 1) swings at ω² = V''(θ) = k − λPL cos θ: measured 2.2e-16
+    modes = latdyn.run(latdyn.load_scene(yaml.safe_load(skew_hinged_arm(about, "modes, about: static, count: 1"))))
+    assert 2 * math.pi * modes.modes[0] == pytest.approx(math.sqrt(2.0 - math.cos(theta)), rel=1e-10)
+
+
+def gimbal(moment) -> str:
+    """A rigid arm (along y) on a gimbal: an outer hinge about z fixed in space (a massless yoke from
+    the fixed base to the body J) and an inner hinge about x on J, springs k = 1; a moment in global
+    axes at the tip."""
+    return f"""\
+title: a rigid arm on a gimbal under a moment in global axes
+sections:
+  link: {{EA: 1.0, EIy: 1.0, EIz: 1.0, GJ: 1.0, rhoA: 0.0}}
+bodies:
+  base: {{at: [0, 0, 0], fixed: true}}
+  J: {{at: [0, 0, 0.5], mass: 1.0}}
+  tip: {{at: [0, 1, 0.5], mass: 1.0}}
+beams:
+  yoke: {{from: base, to: J, section: link, rigid: true, start: {{hinge: {{axis: [0, 0, 1], stiffness: 1.0}}}}}}
+  arm: {{from: J, to: tip, section: link, rigid: true, start: {{hinge: {{axis: [1, 0, 0], stiffness: 1.0}}}}}}
+loads:
+  - {{at: tip, moment: {numbers(moment)}}}
+solve: {{analysis: static, steps: 2}}
+"""
+
+
+@pytest.mark.parametrize("moment, conservative", [([0, 0, 0.3], True), ([0.3, 0, 0], False), ([0, 0.3, 0], False),
+                                                  ([0.3, 0, 0.3], False)])
+def test_a_global_moment_on_a_gimbal_is_judged_by_its_load_stiffness(moment, conservative):
+    """The tip turns by θ̇₁ g₁ + θ̇₂ g₂(θ₁), g₁ = z fixed in space, g₂(θ₁) = R(z, θ₁) x: the
+    moment's load stiffness on (θ₁, θ₂), ∂(M·g₂)/∂θ₁ = M·(g₁ × g₂), is not symmetric for M along
+    g₁ × g₂ = y (checked on the package's own tangent: K(λ = 1) − K(0) has the off-diagonal pair
+    (0, ±0.3)); about x it is symmetric at the start but not once the outer hinge turns
+    (M·(g₁ × g₂(θ₁)) = 0.3 sin θ₁), so the work is no potential's; only M along the fixed outer
+    axis z does the work M·g₁ θ₁ of a potential."""
+    from latdyn.analyses.followers import follower_loads
+    from latdyn.analyses.linearise import at_rest, tangent_q
+    from latdyn.assembly.prepare import prepare
+
+    prepared = prepare(latdyn.load_scene(yaml.safe_load(gimbal(moment))))
+    assert (follower_loads(prepared.model, prepared.state) == []) is conservative
+    assert latdyn.run(prepared.scene).summary["conservative"] is conservative
+    if moment == [0, 0.3, 0]:
+        state = at_rest(prepared.state)
+        load = tangent_q(prepared.assembler, state, 1.0, inertia=False) - tangent_q(prepared.assembler, state, 0.0,
+                                                                                     inertia=False)
+        assert abs(abs(load[0, 1] - load[1, 0]) - 0.3) < 1e-12

@@ -156,7 +156,7 @@ class Path:
         self.weight = np.ones(model.n_dofs)
         translations = model.node_dofs[model.free_nodes, 0:3].ravel()
         self.weight[translations[translations < model.n_dofs]] = 1.0 / self.length_scale ** 2
-        self.conservative = not follower_loads(model)
+        self.conservative = not follower_loads(model, self.prepared.state)
         self.newton = StaticNewton(self.assembler, self.tol, self.max_iter, self.length_scale)
 
     # ------------------------------------------------------------------ equations

@@ -116,8 +116,8 @@ def modal_analysis(prepared, count: int, about="initial"):
         report["steady_state"], report["warnings"] = steady_summary(search, found)
         found = found[:count]
     elif about == "static":  # an equilibrium the path reached on an unstable branch: say so
-        growth = unstable_growth(found)
-        report["warnings"] = [STATIC_UNSTABLE.format(growth=growth)] if growth is not None else []
+        warning = static_instability(found)
+        report["warnings"] = [warning] if warning is not None else []
         found = found[:count]
     elif isinstance(about, float):  # a frozen state: say so where it turns in the frame of the modes
         from latdyn.analyses.moving import turning_warning
@@ -127,19 +127,71 @@ def modal_analysis(prepared, count: int, about="initial"):
     return found, dominant_directions(other.model, lin, found), lin, report
 
 
-STATIC_UNSTABLE = ("modes about static: the static state is unstable, a root of its modes has real part "
-                   "{growth:.4g} 1/s (a divergent mode, damping ratio < 0): the static path (solve.method) was followed "
-                   "past a bifurcation (a perfect column stays straight past its Euler load) or onto an "
-                   "unstable branch, and the structure does not stay in this state")
+#: A growing root at or above this share of the model's highest natural frequency lies where the
+#: mesh does not resolve the structure's modes: it moves with the elements (a discretisation root).
+MESH_ROOT_SHARE = 0.5
+
+#: What a growing root means, by its kind (a real root: divergence; a complex pair: flutter).
+GROWTH_MEANS = {
+    "divergence": ("the static path (solve.method) was followed past a bifurcation (a perfect column stays "
+                   "straight past its Euler load) or onto an unstable branch, and the structure does not stay "
+                   "in this state"),
+    "flutter": ("the state is an equilibrium, but it oscillates away from it with growing amplitude, which no "
+                "static path shows (a load that is not conservative, a follower force or a moment fixed in "
+                "space, can feed it)"),
+}
 
 
-def unstable_growth(found: list[Mode]) -> float | None:
-    """The largest growth rate −ζ·|λ| (1/s) of the roots of ``found`` (all the modes about a state)
-    that grow by more than round-off (1e-6 of the largest natural angular frequency); None where none does."""
+def growing_roots(found: list[Mode]) -> list[Mode]:
+    """The roots of ``found`` (all the modes about a state) that grow by more than round-off (growth
+    −ζ·|λ| above 1e-6 of the largest natural angular frequency), lowest natural frequency first."""
     top = max((2 * np.pi * m.natural_frequency_hz for m in found), default=0.0)
-    growth = [-m.damping_ratio * 2 * np.pi * m.natural_frequency_hz for m in found if m.damping_ratio < 0.0]
-    growth = [g for g in growth if g > 1e-6 * top]
-    return max(growth) if growth else None
+    return [m for m in found if m.damping_ratio < 0.0 and growth_rate(m) > 1e-6 * top]
+
+
+def growth_rate(mode: Mode) -> float:
+    """The growth rate −ζ·|λ| (1/s) of a root: its real part."""
+    return -mode.damping_ratio * 2 * np.pi * mode.natural_frequency_hz
+
+
+def _described(mode: Mode, growing: list[Mode], top_hz: float) -> str:
+    """A growing root as a warning names it: its rate, its kind and, high in the spectrum, the
+    mesh's part in it."""
+    if mode.frequency_hz > 0.0:
+        said = f"{growth_rate(mode):.4g} 1/s by flutter (a complex pair, oscillating at {mode.frequency_hz:.4g} Hz)"
+    else:
+        said = f"{growth_rate(mode):.4g} 1/s by divergence (a real root)"
+    if mode is growing[0]:
+        return said
+    said += f", at {mode.natural_frequency_hz:.4g} Hz natural"
+    if mode.natural_frequency_hz >= MESH_ROOT_SHARE * top_hz:
+        return said + (f", in the upper half of the model's spectrum (highest {top_hz:.4g} Hz), which the mesh "
+                       "does not resolve: a discretisation root, which moves with the elements")
+    if mode is growing[-1]:
+        return said + (", the highest of the growing roots: a mesh resolves its highest roots least, so its "
+                       "rate may move with the elements (a finer mesh tells)")
+    return said
+
+
+def static_instability(found: list[Mode]) -> str | None:
+    """The warning of modes about a static state that is unstable (None where no root grows): the
+    lowest growing root, its rate and kind (divergence: a real root; flutter: a complex pair) and
+    what that kind means (:data:`GROWTH_MEANS`); and, where another grows faster, that one too,
+    named a discretisation root where it lies in the upper half of the model's spectrum
+    (:data:`MESH_ROOT_SHARE`), and where it is the highest of the growing roots, said to be the
+    root a mesh resolves least (its rate may move with the elements)."""
+    growing = growing_roots(found)
+    if not growing:
+        return None
+    top_hz = max(m.natural_frequency_hz for m in found)
+    lowest, fastest = growing[0], max(growing, key=growth_rate)
+    kind = "flutter" if lowest.frequency_hz > 0.0 else "divergence"
+    grow = "grows" if len(growing) == 1 else "grow"
+    warning = (f"modes about static: the static state is unstable: {len(growing)} of its roots {grow}; the lowest "
+               f"grows at {_described(lowest, growing, top_hz)}: {GROWTH_MEANS[kind]}")
+    if fastest is not lowest:
+        warning += f"; the fastest grows at {_described(fastest, growing, top_hz)}"
+    return warning
 
 
 def modes_table(found: list[Mode], directions: list[str]) -> dict:
@@ -148,6 +200,11 @@ def modes_table(found: list[Mode], directions: list[str]) -> dict:
             "natural_frequency_hz": [m.natural_frequency_hz for m in found]}
 
 
+#: A limit point where Newton finds no equilibrium beyond is a fold only where the stability measure
+#: falls towards it (as √(λ_c − λ): by 1/√2 as the bracket halves): it must fall below this fraction
+#: of the previous value at the last step; where it does not, the tangent is regular there and the
+#: step that missed the path left a path that only softens, not a fold (the search goes on).
+FOLD_FALL = 0.9
 #: Load factor of the pre-buckling state that gives the change of the tangent K_1 = (K(λ₁) − K₀)/λ₁.
 PREBUCKLING_FACTOR = 1e-4
 #: The stability search stops when the bracket of the load factor is this narrow (relative).
@@ -204,7 +261,7 @@ def buckling_analysis(prepared, count: int = 6) -> dict:
         raise SolverError("buckling: the unloaded structure is not held (its tangent is not positive definite"
                           + (f"; nothing holds {', '.join(free)}: no stiffness, no support" if free else "")
                           + "): a free structure or a mechanism has no buckling load") from None
-    follower = follower_loads(model)
+    follower = follower_loads(model, reference)
     loaded, _, _, converged = continuation.newton_fixed(path, reference, PREBUCKLING_FACTOR)
     if not converged:
         raise SolverError(f"buckling: no static equilibrium at load factor {PREBUCKLING_FACTOR:g}")
@@ -231,7 +288,7 @@ def buckling_analysis(prepared, count: int = 6) -> dict:
                0.5 * float(linearised[0]) if len(linearised) else 1.0)
     below = (lam, f, state)
     above = None
-    kind, evaluations = None, 0
+    kind, evaluations, falling = None, 0, True
     for _ in range(200):
         if above is None:
             target = below[0] + step
@@ -253,7 +310,7 @@ def buckling_analysis(prepared, count: int = 6) -> dict:
         evaluations += 1
         if value > 0.0:
             l0, f0 = below[0], below[1]
-            below = (target, value, trial)
+            below, falling = (target, value, trial), value < FOLD_FALL * f0
             if above is None:  # secant prediction of the zero, at most doubling the step
                 slope = (value - f0) / (target - l0)
                 guess = target - value / slope if slope < 0 else np.inf
@@ -265,6 +322,9 @@ def buckling_analysis(prepared, count: int = 6) -> dict:
             kind = "bifurcation or limit point (tangent singular)"
         width = (above[0] if above is not None else (above_limit if kind else np.inf)) - below[0]
         if width <= STABILITY_TOL * max(below[0], 1e-12):
+            if above is None and kind is not None and not falling:  # the tangent stays regular up to it:
+                kind, step = None, 0.1 * below[0]  # no fold; the step that missed it left a path that softens
+                continue
             break
         if above is None and below[0] > 1e6 * max(1.0, float(linearised[0]) if len(linearised) else 1.0):
             break

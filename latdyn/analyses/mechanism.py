@@ -4,11 +4,12 @@ A static equilibrium of r(q, λ) = f_int(q) − λ q_ref(q) = 0 (:mod:`latdyn.an
 needs the tangent K = ∂r/∂q to hold every direction.  The structure's own tangent
 K₀ = ∂f_int/∂q (λ = 0: beams, hinge springs, everything but the loads) has a null space where the
 structure is a mechanism: a hinge with no stiffness, a body on no support, a free-floating
-structure.  Along such a direction n (K₀ n = 0, left null vector u) the loads either push,
-uᵀq_ref ≠ 0 — then there is no equilibrium near the state at all, for any λ > 0: the loads turn
-the mechanism until something holds it, which is motion (a transient run), not a limit point —
-or they do not, and the tangent is singular though the loads might hold the mechanism once they
-act (a tensile load on a hinged arm).  Either way the message names the coordinates, not a limit
+structure, a slack cable's nodes (it carries nothing: :func:`slack_cables`, named as such).
+Along such a direction n (K₀ n = 0, left null vector u) the loads either push, uᵀq_ref ≠ 0 —
+then there is no equilibrium near the state at all, for any λ > 0: the loads turn the mechanism
+until something holds it, which is motion (a transient run), not a limit point — or they do not,
+and the tangent is singular though the loads might hold the mechanism once they act (a tensile
+load on a hinged arm).  Either way the message names the coordinates, not a limit
 point.  Stops (hinge ``limits``) are events of the time loop; a static analysis does not see them.
 
 The null space is that of the scaled tangent S K₀ S, S = diag(1/√W) (W the weights of the path's
@@ -77,6 +78,9 @@ def mechanism_message(path, state, load_factor: float) -> str | None:
     names = coordinate_names(model, right)
     if not names:
         return None
+    slack = slack_cables(path, state, right)
+    if slack:
+        return slack_cable_message(slack, names, load_factor)
     _, _, q_ref = path.evaluate(state, load_factor)
     scaled_load = q_ref / np.sqrt(path.weight)
     size = float(np.linalg.norm(scaled_load))
@@ -94,3 +98,31 @@ def mechanism_message(path, state, load_factor: float) -> str | None:
             "tangent is singular there, though the loads do not move "
             f"{'it' if len(names) == 1 else 'them'}; give {'it' if len(names) == 1 else 'them'} a "
             "stiffness or a support")
+
+
+def slack_cables(path, state, directions: np.ndarray) -> list[str]:
+    """The cables slack at ``state`` (an element with N = 0: ℓ ≤ L₀) that touch a node the free
+    ``directions`` move: a slack cable has no stiffness, so its own nodes are free in the tangent
+    although the cable has an equilibrium (it hangs); empty without cables."""
+    model, cables = path.model, path.model.cables
+    if cables is None or directions.shape[1] == 0:
+        return []
+    share = np.sqrt(np.sum(directions ** 2, axis=1))
+    moved = np.flatnonzero(share >= NAMED_SHARE * share.max())
+    moved_nodes = np.flatnonzero(np.isin(model.node_dofs, moved).any(axis=1))
+    tension = path.assembler.native().cable_state(state)[:, 4]
+    slack_elements = (tension <= 0.0) & np.isin(cables.nodes, moved_nodes).any(axis=1)
+    return [cables.names[i] for i in sorted(set(cables.cable[slack_elements].tolist()))]
+
+
+def slack_cable_message(slack: list[str], names: list[str], load_factor: float) -> str:
+    """The refusal of a static path held up by slack cables (:func:`slack_cables`)."""
+    which = ", ".join(slack)
+    free = " and ".join(names) if len(names) <= 3 else ", ".join(names[:3]) + f" and {len(names) - 3} more"
+    return (f"static analysis: cable{'s' if len(slack) > 1 else ''} {which} {'are' if len(slack) > 1 else 'is'} "
+            f"slack at load factor {load_factor:.6g} (not longer than {'their' if len(slack) > 1 else 'its'} "
+            f"rest length), so {'they carry' if len(slack) > 1 else 'it carries'} no tension and the static "
+            f"Newton has no stiffness in {free}: a hanging cable has an equilibrium, but not one reached "
+            "from a straight slack start. Give it a pretension (a rest_length shorter than the distance of "
+            "its ends, so that it is taut from the start), or find its hanging shape by a transient run "
+            "(with damping, it settles)")

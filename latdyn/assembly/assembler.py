@@ -117,6 +117,9 @@ class Assembler:
         #: sensitivities (latdyn/analyses/transient_sensitivities.py) evaluate the tangent between the run's
         #: steps, and a model rebuilt then would drop the factorization modified Newton holds
         self.inertia_tangent_buffers = False
+        #: the warnings of the loops that the initial velocity does not close (:meth:`initial_state`;
+        #: a transient run gives them)
+        self.initial_warnings: list[str] = []
         self.reindex()
 
     def native(self, inertia_tangent: bool = False) -> NativeModel:
@@ -148,7 +151,7 @@ class Assembler:
                       np.tile(np.eye(3), (n, 1, 1)), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)),
                       np.zeros((n, 3)), np.zeros(h), np.zeros(h), np.zeros(h))
         self.apply_prescribed(state, 0.0)
-        initial_velocities(model, state, self.complete_links)
+        self.initial_warnings = initial_velocities(model, state, self.complete_links)
         self.complete_links(state)
         return state
 

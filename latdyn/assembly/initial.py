@@ -24,9 +24,10 @@ a beam clamped to a hub with a prescribed rotation turns with the hub (unless th
 its initial rigid rotation), and a structure clamped to a fixed body starts in V₀ all the same
 (an impulsively loaded cantilever) — the fixed body adds nothing.  A joint that closes a loop
 asks the same relation of its two sides: the free hinges and guides take the rates of least norm
-that close every loop where rates do (a Cardan joint driven at its input shaft starts in its own
-motion, the beam closing the loop unstrained); where none do, a part reached twice takes the
-first Δ it is reached with (:func:`_carried_motion`).
+that close each loop where rates do, each independent loop on its own (a Cardan joint driven at
+its input shaft starts in its own motion, the beam closing the loop unstrained); where none close
+a loop, a part of it reached twice takes the first Δ it is reached with, and a transient run warns,
+naming the loop's joints (:func:`_carried_motion`, :func:`unclosed_loop_warning`).
 
 A guide (``bodies.NAME.guide``) is a joint from ``on`` (without it, from the ground: a part at
 rest, :data:`GROUND`) to the guided body with the joint twist ξ = (g, 0), so that a slider guided
@@ -63,8 +64,9 @@ def _hinge_of(model) -> dict:
 
 
 def _joints(model, state, hinge_of: dict) -> list:
-    """(parent part, child part, hinge index or −1, sign of θ̇ ξ on the child, ξ) of every beam end
-    joined to a body; parts are body names and ``("beam", name)``."""
+    """(parent part, child part, hinge index or −1, sign of θ̇ ξ on the child, ξ, the joint's name as
+    a warning gives it) of every beam end joined to a body; parts are body names and
+    ``("beam", name)``."""
     out = []
     for name, beam in model.scene.beams.items():
         for end, spec in (("start", beam.start), ("end", beam.end)):
@@ -78,16 +80,18 @@ def _joints(model, state, hinge_of: dict) -> list:
                 o = state.x[node] + state.T[node] @ np.asarray(spec.offset, float)
                 xi = np.concatenate([cross(o, g), g])
             beam_part = ("beam", name)
+            label = f"{model.hinges[h].kind} {model.hinges[h].name}" if h >= 0 else f"{name}.{end} (clamped)"
             if end == "start":
-                out.append((spec.body, beam_part, h, 1.0, xi))
+                out.append((spec.body, beam_part, h, 1.0, xi, label))
             else:
-                out.append((beam_part, spec.body, h, -1.0, xi))
+                out.append((beam_part, spec.body, h, -1.0, xi, label))
     for name, body in model.scene.bodies.items():  # guides: a slide ṡ (g, 0) from ``on`` (or the ground)
         if body.guide is not None and (name, "guide") in hinge_of:  # (a rigid loop's closure has no slide)
             h = hinge_of[(name, "guide")]
             on = body.guide.on if body.guide.on is not None else GROUND
             g = model.hinges[h].axis if on == GROUND else state.T[model.body_node[on]] @ model.hinges[h].axis
-            out.append((on, name, h, 1.0, np.concatenate([g, np.zeros(3)])))
+            out.append((on, name, h, 1.0, np.concatenate([g, np.zeros(3)]),
+                        f"{model.hinges[h].kind} {model.hinges[h].name}"))
     return out
 
 
@@ -101,26 +105,29 @@ def _point_velocity(twist: np.ndarray, y: np.ndarray) -> np.ndarray:
     return twist[:3] + cross(twist[3:], y)
 
 
-def _carried_motion(model, state, joints: list, given: bool) -> dict:
-    """Δ of every part: the prescribed motion carried through the joints, breadth first from the
-    prescribed bodies, then from the fixed ones, the parts without parent and any part not reached
-    yet (Δ = 0 there). A joint not followed (its child reached already, or fixed or prescribed)
-    closes a loop: Δ_child = Δ_parent + sign θ̇ ξ must hold there too. Δ is carried as an affine
-    function of the rates of the free hinges and guides on the way, and where the loops can close
-    with them (a mechanism driven through a loop: a Cardan joint, a four-bar), they take the rates
-    of least norm that close every loop — the mechanism's own motion. Without loops, or where the
-    loops close at rest, those rates are 0; where no rates close them (a structure, not a mechanism,
-    strained by its prescribed motion), they stay 0 and a part reached twice keeps the first Δ."""
+def _carried_motion(model, state, joints: list, given: bool) -> tuple[dict, list[list[str]]]:
+    """(Δ of every part, the loops that do not close: the names of their joints). The prescribed
+    motion carried through the joints, breadth first from the prescribed bodies, then from the
+    fixed ones, the parts without parent and any part not reached yet (Δ = 0 there). A joint not
+    followed (its child reached already, or fixed or prescribed) closes a loop: Δ_child = Δ_parent
+    + sign θ̇ ξ must hold there too. Δ is carried as an affine function of the rates of the free
+    hinges and guides on the way, and each loop (:func:`_independent_loops`: the closures that share
+    free rates, with those rates) closes on its own where its rates can close it (a mechanism driven
+    through a loop: a Cardan joint, a four-bar): they take the rates of least norm that close it —
+    the mechanism's own motion. Without loops, or where a loop closes at rest, those rates are 0;
+    where no rates close a loop (a structure, not a mechanism, strained by its prescribed motion),
+    its rates stay 0, a part reached twice keeps the first Δ, and the loop is returned, so that the
+    run says so."""
     scene = model.scene
     free = np.zeros(len(model.hinges), dtype=bool)
     free[model.free_hinges] = True
-    column = {h: k for k, h in enumerate(sorted({h for _, _, h, _, _ in joints if h >= 0 and free[h]}))}
+    column = {h: k for k, h in enumerate(sorted({j[2] for j in joints if j[2] >= 0 and free[j[2]]}))}
     children = {}
-    for parent, child, h, sign, xi in joints:
-        children.setdefault(parent, []).append((child, h, sign, xi))
+    for parent, child, h, sign, xi, label in joints:
+        children.setdefault(parent, []).append((child, h, sign, xi, label))
     kind = {name: model.nodes[model.body_node[name]].kind for name in scene.bodies} | {GROUND: FIXED}
     parts = [GROUND] + list(scene.bodies) + [("beam", name) for name in scene.beams]
-    has_parent = {child for _, child, _, _, _ in joints}
+    has_parent = {j[1] for j in joints}
     starts = ([p for p in parts if kind.get(p) == PRESCRIBED] + [p for p in parts if kind.get(p) == FIXED]
               + [p for p in parts if p not in has_parent] + parts)  # the last: loops of free parts
 
@@ -135,46 +142,87 @@ def _carried_motion(model, state, joints: list, given: bool) -> dict:
         prescribed_rate = state.theta_dot[h] if h >= 0 and model.hinges[h].angle is not None else 0.0
         return sign * prescribed_rate * xi, turn
 
-    # part -> (Δ at zero free rates, ∂Δ/∂rates); each loop's closure (b, A), A rates = b
+    # part -> (Δ at zero free rates, ∂Δ/∂rates, the joints on its way); each loop's closure
+    # (b, A, joints): A rates = b
     carried, closures = {}, []
     for start in starts:
         if start in carried:
             continue
-        carried[start] = (own(start), np.zeros((6, len(column))))
+        carried[start] = (own(start), np.zeros((6, len(column))), ())
         queue = deque([start])
         while queue:
             parent = queue.popleft()
-            for child, h, sign, xi in children.get(parent, []):
+            for child, h, sign, xi, label in children.get(parent, []):
                 turn0, turn = across(h, sign, xi)
-                to = (carried[parent][0] + turn0, carried[parent][1] + turn)
+                to = (carried[parent][0] + turn0, carried[parent][1] + turn, carried[parent][2] + (label,))
                 if child in carried or kind.get(child) in (FIXED, PRESCRIBED):
-                    reached = carried.get(child) or (own(child), np.zeros((6, len(column))))
-                    closures.append((reached[0] - to[0], to[1] - reached[1]))  # (b, A): A rates = b
+                    reached = carried.get(child) or (own(child), np.zeros((6, len(column))), ())
+                    ways = (tuple(j for j in to[2] if j not in reached[2])  # the way up to the start shared
+                            + tuple(j for j in reached[2] if j not in to[2]))
+                    closures.append((reached[0] - to[0], to[1] - reached[1], ways))
                     continue
                 carried[child] = to
                 queue.append(child)
-    rates = np.zeros(len(column))
-    if closures and column:
-        A = np.vstack([a for _, a in closures])
-        b = np.concatenate([b for b, _ in closures])
-        solved = np.linalg.lstsq(A, b, rcond=None)[0]
-        if np.linalg.norm(A @ solved - b) <= 1e-9 * max(np.linalg.norm(b), 1e-300):  # the loops close with them
-            rates = solved
-    return {part: delta + slope @ rates for part, (delta, slope) in carried.items()}
+    rates, unclosed = np.zeros(len(column)), []
+    for loop in _independent_loops(closures):
+        A = np.vstack([closures[i][1] for i in loop])
+        b = np.concatenate([closures[i][0] for i in loop])
+        moved = np.flatnonzero(np.abs(A).max(axis=0) > 0)
+        solved = np.linalg.lstsq(A[:, moved], b, rcond=None)[0] if len(moved) else np.zeros(0)
+        scale = max(float(np.abs(b).max()), max((float(np.abs(d).max()) for d, _, _ in carried.values()), default=0.0))
+        if np.linalg.norm(A[:, moved] @ solved - b) <= 1e-9 * max(scale, 1e-300):  # the loop closes
+            rates[moved] = solved
+        else:
+            unclosed.append(list(dict.fromkeys(label for i in loop for label in closures[i][2])))
+    motion = {part: delta + slope @ rates for part, (delta, slope, _) in carried.items()}
+    return motion, unclosed
 
 
-def initial_velocities(model, state, complete_links) -> None:
+def _independent_loops(closures: list) -> list[list[int]]:
+    """The closures grouped into independent loops: closures that share a free rate (a non-zero
+    column of their A) are one loop, whose rates close it or not together; a closure with no free
+    rate is a loop of its own (it closes at rest or not at all)."""
+    group = list(range(len(closures)))
+
+    def root(i: int) -> int:
+        while group[i] != i:
+            group[i] = group[group[i]]
+            i = group[i]
+        return i
+    owner = {}
+    for i, (_, A, _) in enumerate(closures):
+        for k in np.flatnonzero(np.abs(A).max(axis=0) > 0):
+            if k in owner:
+                group[root(i)] = root(owner[k])
+            else:
+                owner[k] = i
+    loops = {}
+    for i in range(len(closures)):
+        loops.setdefault(root(i), []).append(i)
+    return list(loops.values())
+
+
+def unclosed_loop_warning(joints: list[str]) -> str:
+    """The warning of a loop whose free joints cannot carry the prescribed motion round it."""
+    return (f"the initial velocity does not close the loop through {', '.join(joints)}: no rates of its "
+            "free joints carry the motion round it (a structure strained by its prescribed motion, not a "
+            "mechanism), so its parts start in the motion they are first reached with, which the loop's "
+            "other side does not share: the loop is strained from the first step")
+
+
+def initial_velocities(model, state, complete_links) -> list[str]:
     """Set the free coordinates' velocities of ``state`` (t = 0, prescribed motion applied) from the
     scene's rigid motion and the prescribed rates, in place (module docstring); the dependent
     nodes of rigid links are completed from them by ``complete_links(state)``
-    (:meth:`latdyn.assembly.assembler.Assembler.complete_links`)."""
+    (:meth:`latdyn.assembly.assembler.Assembler.complete_links`). Returns the warnings of the loops
+    that do not close (:func:`unclosed_loop_warning`)."""
     scene = model.scene
     iv = scene.initial_velocity
     omega0 = np.asarray(iv.angular, float)
     rigid_motion = np.concatenate([np.asarray(iv.linear, float) - np.cross(omega0, iv.about), omega0])
     hinge_of = _hinge_of(model)
     joints = _joints(model, state, hinge_of)
-    carried = _carried_motion(model, state, joints, iv.given)
+    carried, unclosed = _carried_motion(model, state, joints, iv.given)
 
     def target(part) -> np.ndarray:
         if part in scene.bodies:
@@ -232,3 +280,4 @@ def initial_velocities(model, state, complete_links) -> None:
                 node = model.hinges[h].node
                 g = state.T[node] @ model.hinges[h].axis
                 state.theta_dot[h] = float(g @ (target(("beam", name))[3:] - state.w[node]))
+    return [unclosed_loop_warning(joints) for joints in unclosed]

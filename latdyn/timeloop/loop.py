@@ -716,7 +716,9 @@ class TimeLoop:
 
     def _summarize(self) -> None:
         """The run's counters and energy balance into the summary; a balance error past
-        :data:`DRIFT_WARNING` is a warning on stderr and in summary.json ``warnings``."""
+        :data:`DRIFT_WARNING` is a warning on stderr and in summary.json ``warnings``. The warning
+        says what the drift is and no more: the run cannot tell the step's error from a start or a
+        model that does not keep energy, so it names the rerun that can."""
         progress, summary = self.progress, self.writer.summary
         summary.update(progress.summary(self.tol, self.prepared.scene.solve.method))
         if self.sensitivities is not None and progress.sensitivities is not None and not self.writer.closed:
@@ -727,8 +729,9 @@ class TimeLoop:
         error = progress.relative_balance_error
         if error > DRIFT_WARNING and progress.balance_error_t is not None and not self.unbounded:
             warning = (f"the energy balance drifts: energy_balance_error {error:.3g} (> {DRIFT_WARNING:g}), "
-                       f"largest at t = {progress.balance_error_t:.6g}; the integrator's error is that large "
-                       f"(a smaller step reduces it)")
+                       f"largest at t = {progress.balance_error_t:.6g}: energy created or lost beyond the work "
+                       f"received; a smaller step reduces the part that is the step's error, not a part from the "
+                       f"start or the model (a rerun at dt/2 tells them apart)")
             print(f"latdyn: warning: {warning}", file=sys.stderr)
             summary.setdefault("warnings", []).append(warning)
 

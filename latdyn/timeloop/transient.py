@@ -92,6 +92,9 @@ def start_transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter,
                     compiled_loop=COMPILED_LOOP, loop_budget_s=LOOP_BUDGET_S, sampler=sampler,
                     sensitivities=sensitivities)
     loop.begin(resume_from)
+    for warning in prepared.assembler.initial_warnings:  # loops the initial velocity does not close (a resumed
+        print(f"latdyn: warning: {warning}", file=sys.stderr)  # run's summary says so as the whole run's does)
+        writer.summary.setdefault("warnings", []).append(warning)
     undamped = scene.solve.method == "newmark" or (scene.solve.method in ("generalized-alpha", "hht-alpha")
                                                    and scene.solve.rho_inf >= 1.0)
     if undamped:   # no numerical damping of the directions without inertia (newmark_warning)
