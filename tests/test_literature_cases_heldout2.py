@@ -85,6 +85,17 @@ def test_a_free_symmetric_top_precesses_about_its_angular_momentum(tmp_path):
     assert coarse < 3.5e-4  # measured 2.76e-4 (dt = 0.005)
     assert fine < 9e-5  # measured 6.91e-5 (dt = 0.0025)
     assert 3.5 < coarse / fine < 4.5  # second order: measured 4.00
+
+
+def test_the_modes_of_a_pd_controlled_link_are_its_closed_loop_roots():
+    """``analysis: modes`` includes a continuous controller (the closed loop, SCENE.md): one mode,
+    ω_d/2π = 0.138425 Hz, ζ = 0.131607, ω_n/2π = 0.139640 Hz (:func:`pd_step`); measured to 1e-15."""
+    result = run_api(pd_link(0.005).replace("solve: {t_end: 4.0, dt: 0.005}", "solve: {analysis: modes, count: 2}"))
+    inertia = 3 * math.sqrt(3)
+    wn, zeta = math.sqrt(4.0 / inertia), 1.2 / (2 * math.sqrt(4.0 * inertia))
+    assert len(result.modes) == 1
+    assert abs(result.modes[0] / (wn * math.sqrt(1 - zeta * zeta) / (2 * math.pi)) - 1) < 1e-10
+    assert abs(result.summary["damping_ratios"][0] / zeta - 1) < 1e-10
     # L about the origin is the body's L (its centre of mass at rest), and the energy ½ ω·Iω = 4.325
     assert np.abs(fine_run.probes["hx"] - 1.5).max() < 8e-5  # measured 4.9e-5 (the integrator's, O(dt²))
     assert np.abs(fine_run.probes["hz"] - 1.6).max() < 4e-5  # measured 2.2e-5
@@ -275,3 +286,147 @@ def test_a_pd_controlled_link_follows_the_second_order_step_response(tmp_path):
     assert coarse < 3e-6  # measured 2.17e-6 (dt = 0.005)
     assert fine < 7e-7  # measured 5.43e-7 (dt = 0.0025)
     assert 3.5 < coarse / fine < 4.5  # second order: measured 4.00
+
+
+def test_the_modes_of_a_pd_controlled_link_are_its_closed_loop_roots():
+    """``analysis: modes`` includes a continuous controller (the closed loop, SCENE.md): one mode,
+    ω_d/2π = 0.138425 Hz, ζ = 0.131607, ω_n/2π = 0.139640 Hz (:func:`pd_step`); measured to 1e-15."""
+    result = run_api(pd_link(0.005).replace("solve: {t_end: 4.0, dt: 0.005}", "solve: {analysis: modes, count: 2}"))
+    inertia = 3 * math.sqrt(3)
+    wn, zeta = math.sqrt(4.0 / inertia), 1.2 / (2 * math.sqrt(4.0 * inertia))
+    assert len(result.modes) == 1
+    assert abs(result.modes[0] / (wn * math.sqrt(1 - zeta * zeta) / (2 * math.pi)) - 1) < 1e-10
+    assert abs(result.summary["damping_ratios"][0] / zeta - 1) < 1e-10
+
+
+# ----------------------------------------------------------------------------- a block on a rough incline
+def block_on_an_incline(dt: float, static: float) -> str:
+    """A 2 kg block on a guide down a 30° slope under g = 9.81 (gravity's pull along it m g sin 30° =
+    9.81 N), Coulomb friction F_c = 5 N with the breakaway level ``static``, released at rest."""
+    return f"""\
+title: a block on a rough incline
+gravity: [0, -9.81, 0]
+bodies:
+  block:
+    at: [0, 0, 0]
+    mass: 2.0
+    guide: {{axis: [0.8660254037844387, -0.5, 0], friction: {{coulomb: 5.0, static: {static}}}}}
+solve: {{t_end: 1.0, dt: {dt}}}
+output:
+  every: 0.05
+  probes:
+    s: {{guide: block, quantity: position}}
+    v: {{guide: block, quantity: rate}}
+    f: {{guide: block, quantity: force}}
+"""
+
+
+def test_a_block_slips_down_a_rough_incline_at_g_sin_alpha_less_friction(tmp_path):
+    """Breakaway level 6 N below the pull 9.81 N: the block slips from the start, s = ½ a t² with
+    a = (m g sin α − F_c)/m = 2.405 m/s² (friction −F_c while it slides). First order in dt, the
+    error fixed in the first step: the regularised law (0 at rate 0, docs/contact.md) is engaged
+    only in part over the step that starts from rest, the block gaining F_c dt/(2m) of rate (0.0125
+    m/s at dt = 0.01, 0.00625 at 0.005, measured to 1e-12) — the error converges away; the force
+    probe reads −F_c from the first step on."""
+    a = (2.0 * 9.81 * 0.5 - 5.0) / 2.0
+    completed, out = latdyn_run(tmp_path, block_on_an_incline(0.01, 6.0), quiet=True)
+    assert completed.returncode == 0, completed.stderr
+    c = probe_columns(out)
+    fine = run_api(block_on_an_incline(0.005, 6.0))
+    errors = [np.abs(c["s"] - 0.5 * a * c["t"] ** 2).max(), np.abs(fine.probes["s"] - 0.5 * a * fine.t ** 2).max()]
+    assert errors[0] < 1.3e-2 and errors[1] < 6.5e-3  # measured 1.24e-2, 6.23e-3 (of s(1) = 1.2025)
+    assert 1.9 < errors[0] / errors[1] < 2.1  # first order
+    assert abs(c["v"][-1] - a - 5.0 * 0.01 / 4.0) < 1e-9 and abs(fine.probes["v"][-1] - a - 5.0 * 0.005 / 4.0) < 1e-9
+    np.testing.assert_allclose(c["f"][1:], -5.0, atol=1e-9)
+
+
+def test_a_block_held_by_static_friction_on_an_incline_stays_put(tmp_path):
+    """Breakaway level 10 N above the pull 9.81 N: it sticks, the guide holding it with −9.81 N."""
+    result = run_api(block_on_an_incline(0.01, 10.0))
+    assert result.summary["status"] == "solved"
+    assert np.abs(result.probes["v"]).max() == 0.0
+    np.testing.assert_allclose(result.probes["f"][1:], -9.81, atol=1e-9)
+    assert np.abs(result.probes["s"]).max() < 2e-4  # measured 1.8e-4: it slid over the first step
+
+
+# ----------------------------------------------------------------------------- a reel paying out
+def reel(dt: float, elements: int = 1) -> str:
+    """A 2 kg weight hanging from a reel on a cable (EA = 1e4) whose rest length grows as 1 + 0.3 t,
+    started in the motion it keeps: hung at the static stretch, moving down at the pay-out rate
+    stretched alike."""
+    return f"""\
+title: a weight let down from a reel at a constant rate
+gravity: [0, 0, -9.81]
+bodies:
+  reel: {{at: [0, 0, 0], fixed: true}}
+  weight: {{at: [0, 0, -1.001962], mass: 2.0, inertia: [0.01, 0.01, 0.01]}}
+cables:
+  line: {{from: reel, to: weight, EA: 10000.0, rest_length: "1 + 0.3*t", elements: {elements}}}
+initial_velocity: {{linear: [0, 0, -0.3005886]}}
+solve: {{t_end: 2.0, dt: {dt}}}
+output:
+  every: 0.05
+  probes:
+    z: {{point: weight, quantity: position, component: z}}
+    n: {{cable: line, quantity: tension}}
+    length: {{cable: line, quantity: length}}
+"""
+
+
+def test_a_weight_let_down_from_a_reel_moves_at_the_stretched_pay_out_rate(tmp_path):
+    """Tension m g = 19.62 N stretches the rest length L₀ + c t by m g/EA: the weight's exact motion is
+    z = −(1 + 0.3 t)(1 + m g/EA) at constant velocity, the tension m g throughout (no acceleration,
+    a uniform rate: any integrator keeps it exactly). Measured 1.3e-15 (CLI, dt = 0.005) and through
+    the API at dt = 0.02."""
+    stretch = 1 + 2.0 * 9.81 / 1.0e4
+    completed, out = latdyn_run(tmp_path, reel(0.005), quiet=True)
+    assert completed.returncode == 0, completed.stderr
+    assert summary_of(out)["cable_events"] == []
+    c = probe_columns(out)
+    assert np.abs(c["z"] + (1 + 0.3 * c["t"]) * stretch).max() < 1e-12
+    assert np.abs(c["length"] - (1 + 0.3 * c["t"]) * stretch).max() < 1e-12
+    assert np.abs(c["n"] - 19.62).max() < 1e-8
+    coarse = run_api(reel(0.02))
+    assert np.abs(coarse.probes["z"] + (1 + 0.3 * coarse.t) * stretch).max() < 1e-12
+
+
+# ----------------------------------------------------------------------------- lateral–torsional buckling
+def deep_cantilever(elements: int) -> str:
+    """A cantilever (L = 1) of a deep section — EIy = 1e5 against the tip load in its stiff plane,
+    EIz = GJ = 1 sideways and in twist — under a dead load of 1 down at its tip's centroid."""
+    return f"""\
+title: lateral-torsional buckling of a deep cantilever
+sections:
+  s: {{EA: 1.0e7, EIy: 1.0e5, EIz: 1.0, GJ: 1.0, rhoA: 1.0}}
+bodies:
+  wall: {{at: [0, 0, 0], fixed: true}}
+beams:
+  blade: {{from: wall, to: [1, 0, 0], section: s, elements: {elements}}}
+loads:
+  - {{at: blade.end, force: [0, 0, -1.0]}}
+solve: {{analysis: buckling, steps: 4}}
+"""
+
+
+def prandtl_load() -> float:
+    """The tip load at which a deep cantilever (its stiff plane rigid) tips over sideways and twists
+    (Prandtl 1899, Michell 1899; Timoshenko & Gere §6.3): φ'' + P²(L−x)²/(EI_z GJ) φ = 0, φ(0) = 0,
+    φ'(L) = 0 gives φ ∝ √u J₋₁/₄(P u²/(2√(EI_z GJ))), u = L − x, and P_cr = 2 j √(EI_z GJ)/L², j the
+    first zero of J₋₁/₄: 4.012599."""
+    return 2 * brentq(lambda x: jv(-0.25, x), 1.0, 3.0, xtol=1e-15)
+
+
+def test_a_deep_cantilever_tips_over_sideways_at_prandtls_load(tmp_path):
+    """3D buckling where bending meets twist: 4.050841 (8 elements, +9.5e-3), 4.022189 (16, +2.4e-3):
+    second order, and Richardson's extrapolation 4.012638 is Prandtl's 4.012599 to 1e-5 (what is left
+    is the stiff plane's finite EIy: (1 − EI_z/EI_y)^(−1/2) − 1 = 5e-6, and O(h⁴))."""
+    completed, out = latdyn_run(tmp_path, deep_cantilever(16), quiet=True)
+    assert completed.returncode == 0, completed.stderr
+    summary = summary_of(out)
+    assert summary["instability"] == "buckling"
+    fine = summary["buckling_factor"]
+    coarse = run_api(deep_cantilever(8)).summary["buckling_factor"]
+    exact = prandtl_load()
+    assert 0 < fine / exact - 1 < 3e-3  # measured +2.4e-3
+    assert 3.8 < (coarse - exact) / (fine - exact) < 4.2  # measured 3.99
+    assert abs((fine + (fine - coarse) / 3) / exact - 1) < 2e-5  # measured 9.7e-6
