@@ -430,3 +430,130 @@ def test_a_deep_cantilever_tips_over_sideways_at_prandtls_load(tmp_path):
     assert 0 < fine / exact - 1 < 3e-3  # measured +2.4e-3
     assert 3.8 < (coarse - exact) / (fine - exact) < 4.2  # measured 3.99
     assert abs((fine + (fine - coarse) / 3) / exact - 1) < 2e-5  # measured 9.7e-6
+
+
+# ----------------------------------------------------------------------------- a column braced by wires
+def braced_column(elements: int) -> str:
+    """A pinned column (EI = 1 in its plane, L = 1; its top on a guide along its axis), braced at
+    mid-height by two wires pulling opposite ways across it: EA = 27, rest length 0.9 over 1 (each
+    pretensioned to 3), so the pair is a lateral spring c = 2 EA/L₀ = 60 at the mid node."""
+    return f"""\
+title: a pinned column braced at mid-height by two taut wires
+sections:
+  s: {{EA: 1.0e7, EIy: 100.0, EIz: 1.0, GJ: 100.0, rhoA: 1.0}}
+bodies:
+  base: {{at: [0, 0, 0], fixed: true}}
+  mid: {{at: [0.5, 0, 0]}}
+  top: {{at: [1, 0, 0], guide: {{axis: [1, 0, 0]}}}}
+  left: {{at: [0.5, 1, 0], fixed: true}}
+  right: {{at: [0.5, -1, 0], fixed: true}}
+beams:
+  lower: {{from: base, to: mid, section: s, elements: {elements}, start: {{hinge: {{axis: [0, 0, 1]}}}}}}
+  upper: {{from: mid, to: top, section: s, elements: {elements}, end: {{hinge: {{axis: [0, 0, 1]}}}}}}
+cables:
+  wire_l: {{from: mid, to: left, EA: 27.0, rest_length: 0.9}}
+  wire_r: {{from: mid, to: right, EA: 27.0, rest_length: 0.9}}
+loads:
+  - {{at: top, force: [-1.0, 0, 0]}}
+solve: {{analysis: buckling, steps: 4}}
+"""
+
+
+def braced_column_load(c: float = 60.0, a: float = 0.5) -> float:
+    """A pinned column of length 2a with a lateral spring c at mid-height (Timoshenko & Gere §2.6):
+    below c = 16π²EI/(2a)³ it buckles in the symmetric mode, the half column y = A sin kx + R x/P
+    (pin reaction R = cδ/2, slope 0 at the middle), whose deflection δ = y(a) closes when
+    2P k / c = u − tan u, u = k a ∈ (π/2, π), P = EI k²: 21.752035 here (EI = 1; unbraced π² = 9.87,
+    the antisymmetric mode π²EI/a² = 39.478 untouched by the spring)."""
+    return (brentq(lambda u: 2 * (u / a) ** 3 / c - (u - math.tan(u)), math.pi / 2 + 1e-9, math.pi) / a) ** 2
+
+
+def test_a_column_braced_by_taut_wires_buckles_at_the_spring_supported_load(tmp_path):
+    """The wires' axial stiffness is the brace (their pretension there from the start, SCENE.md);
+    4 elements a half: 21.753655 (+7.4e-5), 8: 21.752137 (+4.7e-6, fourth order); the linearised
+    factors 21.752046 and the antisymmetric 39.480017 (+4.0e-5 of 4π²)."""
+    completed, out = latdyn_run(tmp_path, braced_column(8), quiet=True)
+    assert completed.returncode == 0, completed.stderr
+    summary = summary_of(out)
+    assert summary["instability"] == "buckling"
+    exact = braced_column_load()
+    fine = summary["buckling_factor"]
+    assert abs(fine / exact - 1) < 1e-5  # measured +4.7e-6
+    assert abs(summary["linearised_buckling_factors"][0] / exact - 1) < 2e-6  # measured +5.0e-7
+    assert abs(summary["linearised_buckling_factors"][1] / (4 * math.pi ** 2) - 1) < 1e-4  # measured +4.0e-5
+    coarse = run_api(braced_column(4)).summary["buckling_factor"]
+    assert 5e-5 < coarse / exact - 1 < 1e-4  # measured +7.4e-5: converging from above
+
+
+# ----------------------------------------------------------------------------- pendulums on a cable
+def cable_pendulum(dt: float, start, rest_length: str = "", spin: float = 0.0, t_end: float = 2.2) -> str:
+    """A 1 kg bob on a stiff cable (EA = 1e7) from a pivot, under g = 9.81 along −y."""
+    rest = f", rest_length: {rest_length}" if rest_length else ""
+    return f"""\
+title: a pendulum on a cable
+gravity: [0, -9.81, 0]
+bodies:
+  pivot: {{at: [0, 0, 0], fixed: true}}
+  bob: {{at: [{start[0]!r}, {start[1]!r}, 0], mass: 1.0, inertia: [0.001, 0.001, 0.001]}}
+cables:
+  line: {{from: pivot, to: bob, EA: 1.0e7{rest}}}
+initial_velocity: {{angular: [0, {spin!r}, 0]}}
+solve: {{t_end: {t_end}, dt: {dt}}}
+output:
+  every: {dt}
+  probes:
+    x: {{point: bob, quantity: position, component: x}}
+    y: {{point: bob, quantity: position, component: y}}
+    z: {{point: bob, quantity: position, component: z}}
+    n: {{cable: line, quantity: tension}}
+"""
+
+
+def zero_crossings(t: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """The times x changes sign, interpolated linearly between rows."""
+    i = np.flatnonzero(np.sign(x[:-1]) != np.sign(x[1:]))
+    return t[i] - x[i] * (t[i + 1] - t[i]) / (x[i + 1] - x[i])
+
+
+def test_a_pendulum_on_a_taut_cable_swings_at_the_elliptic_period(tmp_path):
+    """Released 60° from the vertical (the rest length the initial distance 1: the cable tightens by
+    m g/EA = 1e-6 at once, one ``taut`` event): the rigid pendulum's period 4√(L/g) K(sin²30°) =
+    2.153 s; it crosses the vertical at T/4 and 3T/4 (errors 1.8e-5, 5.3e-5 at dt = 0.004 through
+    the CLI; 4.9e-6, 1.5e-5 at 0.002 through the API; the stretch's shift +1e-6). The tension at the
+    turns is m g cos 60° = 4.905 (the cable never slack), at the bottom m g (3 − 2 cos 60°) = 19.62."""
+    from scipy.special import ellipk
+    period = 4 * ellipk(0.25) / math.sqrt(9.81)
+    start = (math.sin(math.pi / 3), -0.5)
+    completed, out = latdyn_run(tmp_path, cable_pendulum(0.004, start), quiet=True)
+    assert completed.returncode == 0, completed.stderr
+    assert [e["state"] for e in summary_of(out)["cable_events"]] == ["taut"]
+    c = probe_columns(out)
+    coarse = np.abs(zero_crossings(c["t"], c["x"]) - period * np.array([0.25, 0.75])).max()
+    fine_run = run_api(cable_pendulum(0.002, start))
+    fine = np.abs(zero_crossings(fine_run.t, fine_run.probes["x"]) - period * np.array([0.25, 0.75])).max()
+    assert coarse < 7e-5 and fine < 2e-5  # measured 5.3e-5, 1.5e-5
+    assert 3.0 < coarse / fine < 4.5  # measured 3.6
+    assert abs(fine_run.probes["n"].max() - 19.62) < 2e-3  # measured 2.8e-5
+    assert abs(fine_run.probes["n"][fine_run.t > 0.1].min() - 4.905) < 2e-2
+
+
+def test_a_conical_pendulum_on_a_cable_keeps_its_circle(tmp_path):
+    """3D: the bob 50° out from the vertical, spun about the vertical at Ω² = g/(L cos θ) (L = 1 the
+    stretched length: the rest length L/(1 + T/EA) with T = m g/cos θ = 15.2617) keeps its circle:
+    x = L sin θ cos Ωt, z = −L sin θ sin Ωt, y = −L cos θ, the tension T. Errors in x, z: 1.3e-4 at
+    dt = 0.004, 3.2e-5 at 0.002 (second order); y to 7.7e-7, the tension to 2.2e-4 and 3.1e-5 (the
+    stiff cable's axial ringing, 3162 rad/s, from the start, damped by the integrator)."""
+    theta, g = math.radians(50), 9.81
+    tension = g / math.cos(theta)
+    spin = math.sqrt(g / math.cos(theta))
+    errors = []
+    for dt in (0.004, 0.002):
+        r = run_api(cable_pendulum(dt, (math.sin(theta), -math.cos(theta)), repr(1 / (1 + tension / 1e7)),
+                                   spin=spin, t_end=2.0))
+        assert r.summary["cable_events"] == []
+        errors.append(max(np.abs(r.probes["x"] - math.sin(theta) * np.cos(spin * r.t)).max(),
+                          np.abs(r.probes["z"] + math.sin(theta) * np.sin(spin * r.t)).max()))
+        assert np.abs(r.probes["y"] + math.cos(theta)).max() < 1e-6
+        assert np.abs(r.probes["n"] - tension).max() < (3e-4 if dt > 0.003 else 4e-5)  # measured 2.2e-4, 3.1e-5
+    assert errors[0] < 1.6e-4 and errors[1] < 4e-5  # measured 1.30e-4, 3.25e-5
+    assert 3.5 < errors[0] / errors[1] < 4.5
