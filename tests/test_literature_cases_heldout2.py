@@ -341,12 +341,16 @@ def test_a_block_slips_down_a_rough_incline_at_g_sin_alpha_less_friction(tmp_pat
 
 
 def test_a_block_held_by_static_friction_on_an_incline_stays_put(tmp_path):
-    """Breakaway level 10 N above the pull 9.81 N: it sticks, the guide holding it with −9.81 N."""
-    result = run_api(block_on_an_incline(0.01, 10.0))
-    assert result.summary["status"] == "solved"
-    assert np.abs(result.probes["v"]).max() == 0.0
-    np.testing.assert_allclose(result.probes["f"][1:], -9.81, atol=1e-9)
-    assert np.abs(result.probes["s"]).max() < 2e-4  # measured 1.8e-4: it slid over the first step
+    """Breakaway level 10 N above the pull 9.81 N: it sticks from t = 0, the guide holding it with
+    −9.81 N, and never moves (CLI and API). Wrong before: tried for sticking only at the end of the
+    first step, it slid over that step under the regularised law (0 at rate 0) and stuck 1.8e-4 m
+    down the slope at dt = 0.01, its force probe 0 at t = 0 (mended: events.stick_at_start)."""
+    completed, out = latdyn_run(tmp_path, block_on_an_incline(0.01, 10.0), quiet=True)
+    assert completed.returncode == 0, completed.stderr
+    assert summary_of(out)["status"] == "solved"
+    for c in (probe_columns(out), run_api(block_on_an_incline(0.005, 10.0)).probes):
+        assert np.abs(c["s"]).max() == 0.0 and np.abs(c["v"]).max() == 0.0
+        np.testing.assert_allclose(c["f"], -9.81, atol=1e-9)
 
 
 # ----------------------------------------------------------------------------- a reel paying out
