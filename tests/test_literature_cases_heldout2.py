@@ -210,7 +210,8 @@ def stop_times_and_peak(e: float = 0.5, g: float = 9.81) -> tuple[float, float, 
 
 
 def test_a_pendulum_rebounds_from_a_hinge_stop_at_e_times_its_rate(tmp_path):
-    """t₁ = 0.375083, ω₁ = 4.97639, the rebound at 2.48820, the peak −0.682975, t₂ = 0.858102. CLI at dt = 0.002, API at dt = 0.001."""
+    """t₁ = 0.375083, ω₁ = 4.97639, the rebound at 2.48820, the peak −0.682975, t₂ = 0.858102. CLI at
+    dt = 0.002, API at dt = 0.001."""
     t1, w1, t2, peak = stop_times_and_peak()
     errors = []
     for dt, runner in ((0.002, "cli"), (0.001, "api")):

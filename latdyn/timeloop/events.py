@@ -337,7 +337,8 @@ def stick_at_start(prepared: Prepared, integrator, state: State) -> None:
     the regularised law (0 at rate 0) and then stuck where it had got to: a block held on an incline
     moved ½ a dt² (1.8e-4 m at dt = 0.01; tests/test_literature_cases_heldout2.py)."""
     if any(state.theta_dot[k] == 0.0 for k in sticking_hinges(prepared.model)):
-        stick_and_slip(prepared, integrator, state, state)
+        if stick_and_slip(prepared, integrator, state, state) is not None and prepared.model.n_dofs:
+            integrator.start(state)  # no jump at t = 0: the consistent accelerations of the model as it starts
 
 
 def holding_reaction(prepared: Prepared, state: State, k: int) -> float:
