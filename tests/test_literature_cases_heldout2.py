@@ -8,8 +8,12 @@ Euler's equations), a latch closing between two spinning rigid links (plastic im
 momentum about the pivot kept, the exact energy loss), a rigid pendulum rebounding from a hinge stop
 with restitution e, a PD-controlled rigid link about a skew axis (the closed-form second-order step
 response, and its closed-loop modes), a block on a rough incline (Coulomb slip acceleration; and
-sticking where the static level holds it), a weight let down from a reel at a constant rate, and
-the lateral–torsional buckling of a deep cantilever (Prandtl 1899, Michell 1899).
+sticking where the static level holds it), a weight let down from a reel at a constant rate,
+the lateral–torsional buckling of a deep cantilever (Prandtl 1899, Michell 1899), a pinned column
+braced at mid-height by two pretensioned wires, pendulums on a stiff cable (planar at the elliptic
+period, conical in 3D), and a taut string's modes. One was wrong: the block held on the incline by
+its breakaway level slid over the first step before it was tried for sticking, and was reported
+solved 1.8e-4 m down the slope (mended: latdyn.timeloop.events.stick_at_start).
 """
 from __future__ import annotations
 
