@@ -288,7 +288,7 @@ def test_the_cli_writes_the_same_sensitivities(tmp_path, planar):
 
 
 #: a panel (I = 1, its centre of mass off the hinge) on a stiff arm, a torque τ = A t on its hinge with friction: it
-#: sticks at the end of the first step (a run starting at rest), is released at t = 0.31 (the first step's end at
+#: sticks at t = 0 (a run starting at rest: events.stick_at_start), is released at t = 0.31 (the first step's end at
 #: which the holding reaction exceeds F_s = 0.305) and slips on against F_c (docs/contact.md); planar, 4 coordinates
 STUCK = """
 title: a panel stuck by friction until its torque breaks it away
@@ -309,7 +309,7 @@ output:
 """
 
 #: a panel on a skew hinge (1, −2, 0) at the tip of a flexible arm out of the coordinate planes, under gravity, a
-#: torque τ = A t on the hinge: stuck after the first (cut) steps, released by gravity at t = 0.03, slipping back
+#: torque τ = A t on the hinge: stuck from t = 0, released by gravity at t = 0.03, slipping back
 #: and forth, stuck again at t = 0.22, released at t = 0.23 by the torque; Newton's tolerance 1e-12 (module
 #: docstring of the test below)
 STUCK_3D = """
@@ -347,9 +347,9 @@ def stuck_3d():
 
 @pytest.mark.parametrize("name", ["Fc", "A", "m"])
 def test_sticking_and_release_agree_with_richardson_differences(stuck, name):
-    """Planar: stuck from the first step's end to t = 0.31, then slipping (the derivative of the stick's impulse, the
-    held angle's δθ through K's column of it while stuck, the release's restart). Measured: Fc 1.9e-9, A 1.2e-9,
-    m 2.3e-10 (EI 4.1e-10 when tried)."""
+    """Planar: stuck from t = 0 to t = 0.31, then slipping (the derivative of the stick's impulse, the
+    held angle's δθ through K's column of it while stuck, the release's restart). Measured: Fc 4.0e-10, A 8.1e-11,
+    m 6.8e-10 (stuck from t = 0; from the first step's end before: Fc 1.9e-9, A 1.2e-9, m 2.3e-10)."""
     rate = stuck.probes["rate"]
     assert np.all(rate[1:31] == 0.0) and np.all(rate[32:] > 0.0)
     errors = _errors(stuck, STUCK, name)
@@ -359,12 +359,13 @@ def test_sticking_and_release_agree_with_richardson_differences(stuck, name):
 @pytest.mark.parametrize("name", ["Fc", "EI"])
 def test_sticking_on_and_off_in_3d_agrees_with_richardson_differences(stuck_3d, name):
     """3D, flexible: two sticks and releases, the stuck joint's torque (its reaction, with its own law's and the held
-    angle's terms) among the probes. Measured: Fc 9.6e-8, EI 6.0e-8 (A 3.9e-8, m 7.2e-8 when tried; with a spring
-    k = 0.5 on the hinge: k 7.6e-8, A 3.7e-8). At Newton's default tolerance (1e-8) Fc's
+    angle's terms) among the probes. Measured: Fc 8.2e-8, EI 4.6e-8, stuck from t = 0 (9.6e-8, 6.0e-8 stuck
+    from the first step's end; then A 3.9e-8, m 7.2e-8 when tried; with a spring k = 0.5 on the hinge: k 7.6e-8,
+    A 3.7e-8). At Newton's default tolerance (1e-8) Fc's
     were 4.3e-6 off (the slipping steps' iterates, not the derivative: 9e-8 at 1e-13; A, EI, m ≤ 3e-8 either way)."""
     t, rate = stuck_3d.t, stuck_3d.probes["rate"]
     held = np.round(t[(rate == 0.0) & (t > 0)], 6)
-    assert list(held) == [0.000156, 0.01, 0.02, 0.03, 0.22, 0.23], held   # the rows while it is stuck
+    assert list(held) == [0.01, 0.02, 0.03, 0.22, 0.23], held   # the rows while it is stuck (from t = 0)
     errors = _errors(stuck_3d, STUCK_3D, name)
     assert max(errors.values()) <= 1e-6, errors
 
@@ -380,7 +381,8 @@ def test_the_cli_writes_a_stuck_runs_sensitivities(tmp_path, stuck):
         values = np.array([float(r[rows[0].index(column)]) for r in rows[1:]])
         probe, name = column.split("/")
         assert np.allclose(values, stuck.sensitivities[(probe, name)], rtol=1e-12, atol=0), column
-    assert np.any(stuck.sensitivities[("angle", "A")][1:31])   # the held angle moves with the drive
+    held = stuck.sensitivities[("angle", "A")]   # stuck from t = 0 (events.stick_at_start): held at 0 exactly
+    assert not np.any(held[:31]) and np.all(held[32:] != 0.0)   # then slipping as the drive breaks it away
 
 
 def test_a_stuck_run_resumes_to_the_same_sensitivities(tmp_path, monkeypatch):
@@ -399,7 +401,8 @@ def test_sticking_beside_energy_probes_is_refused_naming_its_friction(tmp_path):
                          "    rate: {hinge: arm.end, quantity: rate}\n    kinetic: {energy: kinetic}\n")
     with pytest.raises(SceneError) as refused:
         _run(text)
-    assert refused.value.key == "beams.arm.end.hinge.friction" and "at t = 0.01" in refused.value.expected
+    # stuck from the start (events.stick_at_start): refused at t = 0
+    assert refused.value.key == "beams.arm.end.hinge.friction" and "at t = 0 " in refused.value.expected
     run, out = latdyn_run(tmp_path, text)
     assert run.returncode == 2, run.stderr
     assert "beams.arm.end.hinge.friction" in run.stderr and "Traceback" not in run.stderr

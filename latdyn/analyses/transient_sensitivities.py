@@ -226,6 +226,8 @@ class TransientSensitivities(ParameterDerivatives):
         self._refuse_events(ev, split)
         #: whether an impulse's weight is M + dt²K alone (a stick's jump: :meth:`_stick_or_release`)
         self._impulse_weighted = not (split.n_massless or massless_element_stiffness(ev) is not None)
+        if model.stuck.any():   # stuck by friction from t = 0, its held angle the start's (stick_at_start)
+            self._refuse_what_a_held_angle_moves(state)
         if split.n_massless:
             self._refuse_start(state, ev, split)
         dv = self._initial_velocities()
@@ -938,16 +940,7 @@ class TransientSensitivities(ParameterDerivatives):
         if len(changed) > 1 or carried.get("pending") is not None or changed[0] not in self._candidates:
             self._refuse_sticking(new, "several joints stick or slip, or a latch, a stop or a cable's change comes, "
                                        "at one instant")
-        if model.links is not None:
-            self._refuse_sticking(new, "a joint sticks in a model with guides or rigid links (their reduction "
-                                       "with the held angle is not differentiated yet)")
-        if not getattr(self, "_impulse_weighted", True):
-            self._refuse_sticking(new, "a joint sticks in a model with directions or elements without inertia "
-                                       "(the impulse response's rigid and static parts are not differentiated)")
-        if any(is_energy_or_momentum(probe) for probe in self.probes) or self._controller_states() is not None \
-                or self._sampled_controllers() is not None:
-            self._refuse_sticking(new, "a joint sticks beside energy or momentum probes or controllers with "
-                                       "states or sampled ones (their terms of the held angle are not carried)")
+        self._refuse_what_a_held_angle_moves(new)
         j = changed[0]
         candidate = self._candidates[j]
         held = self._held(carried).copy()
@@ -957,6 +950,21 @@ class TransientSensitivities(ParameterDerivatives):
         pending = {"kind": "stop", "dq": candidate["dq"], "dv": candidate["dv"],
                    "vdot": pack(model, *candidate["vdot"])[:n], "dvdot": np.zeros((n, k))}
         return {**carried, "held": held, "pending": pending}
+
+    def _refuse_what_a_held_angle_moves(self, new) -> None:
+        """The models and probes whose terms of a stuck joint's held angle are not carried: refused
+        (:meth:`_refuse_sticking`) where a joint sticks, slips, or is stuck from t = 0
+        (latdyn.timeloop.events.stick_at_start)."""
+        if self.model.links is not None:
+            self._refuse_sticking(new, "a joint sticks in a model with guides or rigid links (their reduction "
+                                       "with the held angle is not differentiated yet)")
+        if not getattr(self, "_impulse_weighted", True):
+            self._refuse_sticking(new, "a joint sticks in a model with directions or elements without inertia "
+                                       "(the impulse response's rigid and static parts are not differentiated)")
+        if any(is_energy_or_momentum(probe) for probe in self.probes) or self._controller_states() is not None \
+                or self._sampled_controllers() is not None:
+            self._refuse_sticking(new, "a joint sticks beside energy or momentum probes or controllers with "
+                                       "states or sampled ones (their terms of the held angle are not carried)")
 
     def _refuse_sticking(self, new, why: str) -> None:
         """SceneError (exit 2) naming the friction of the first joint that sticks or is stuck at ``new``: ``why``

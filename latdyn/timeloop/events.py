@@ -301,7 +301,8 @@ def latch_hinges(prepared: Prepared, integrator, old: State, new: State, h: floa
 # ----------------------------------------------------------------------------- stick and slip
 # A joint with friction (static level F_s > 0) sticks by an event, not by its regularised law alone:
 # at the end of a step in which its rate reversed or fell into the stick band (|θ̇| ≤ stick_rate and
-# slowing), or the first step of a run that starts it at rest, it is locked on trial, as a latch is
+# slowing), or at t = 0 and after the first step of a run that starts it at rest (stick_at_start), it is
+# locked on trial, as a latch is
 # (the momentum-conserving jump to θ̇ = 0, the coordinates renumbered), the accelerations restarted as
 # after an impact (:func:`restart_accelerations`); it stays locked (``model.stuck``) while the
 # reaction that holds it, |R| ≤ F_s, the breakaway level, and the trial is undone otherwise (state
@@ -327,6 +328,17 @@ def may_stick(model: Model, k: int, old: State, new: State) -> bool:
     before, after = old.theta_dot[k], new.theta_dot[k]
     settling = abs(after) <= model.hinges[k].friction.stick_rate and abs(after) < abs(before)
     return before * after < 0.0 or settling or (before == 0.0 and old.t == 0.0)
+
+
+def stick_at_start(prepared: Prepared, integrator, state: State) -> None:
+    """Stick, at t = 0, the joints with friction that start the run at rest and whose holding reaction is
+    within their breakaway level (the trial of :func:`stick_and_slip` on the initial state itself). Tried
+    only at the end of the first step, a joint held by static friction first slid over that step under
+    the regularised law (0 at rate 0) and then stuck where it had got to: a block held on an incline
+    moved ½ a dt² (1.8e-4 m at dt = 0.01; tests/test_literature_cases_heldout2.py)."""
+    if any(state.theta_dot[k] == 0.0 for k in sticking_hinges(prepared.model)):
+        if stick_and_slip(prepared, integrator, state, state) is not None and prepared.model.n_dofs:
+            integrator.start(state)  # no jump at t = 0: the consistent accelerations of the model as it starts
 
 
 def holding_reaction(prepared: Prepared, state: State, k: int) -> float:

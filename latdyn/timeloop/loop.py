@@ -40,7 +40,7 @@ from latdyn.step.integrators import newton_diagnosis
 from latdyn.timeloop import checkpoint as checkpoints
 from latdyn.timeloop.control import Resize, StepControl
 from latdyn.timeloop.events import (CABLE_LANDING, TAUT_JUMP_STEP, cable_events, cable_sides, crossing_fraction, hinge_events,
-                                   restart_accelerations)
+                                   restart_accelerations, stick_at_start)
 from latdyn.timeloop.progress import (DRIFT_WARNING, UNBOUNDED, UNBOUNDED_ROWS, TransientProgress, cable_work,
                                       energy_round_off, factorizations, hinge_work, load_power)
 from latdyn.timeloop.sampling import controller_memory, restore_controller_memory
@@ -162,6 +162,7 @@ class TimeLoop:
         if self.sampler is not None:
             self.sampler.start(state, 1e-9 * self.control.dt)
         self.integrator.start(state)
+        stick_at_start(self.prepared, self.integrator, state)
         evaluation = self.assembler.evaluate(state, matrices=False)
         energy0 = self.energies_of(state)
         self.progress = TransientProgress(
