@@ -160,8 +160,9 @@ class StepControl:
 
     def jump_reached(self, run: TransientProgress) -> float | None:
         """The time just after the law's jump the run's last accepted step landed before (the loop
-        restarts there: latdyn.timeloop.jumps), else None."""
-        if run.grid_index not in self.jump_indices:
+        restarts there: latdyn.timeloop.jumps), else None; None at t_end (a jump there ends the run
+        :data:`~latdyn.timeloop.jumps.JUMP_SIDE` · dt before it, on the law as it was)."""
+        if run.grid_index not in self.jump_indices or run.grid_index >= self.n_grid:
             return None
         jump = self.grid_time(run.grid_index)
         if abs(run.state.t - (jump - self.jump_side)) > 0.5 * self.jump_side:

@@ -53,31 +53,93 @@ CONTINUOUS = 1e-6
 
 
 def jump_times(scene, t_end: float) -> np.ndarray:
-    """The sorted instants in (0, ``t_end``) where a law of ``scene`` jumps in t (module docstring);
-    empty where none does."""
-    times = [t for _, t in _jumps(scene, t_end)]
-    return np.unique(np.array([t for t in times if 0.0 < t < t_end * (1 - 1e-12)], dtype=float))
+    """The sorted instants in (0, ``t_end``] where a law of ``scene`` jumps in t (module docstring);
+    empty where none does. A jump within 1e-12 · t_end of t_end is at t_end (the last step lands
+    :data:`JUMP_SIDE` · dt before it); jumps within 1e-12 · t_end of each other are one."""
+    times = sorted(_in_run(t, t_end) for _, t in _jumps(scene, t_end) if _in_run(t, t_end) is not None)
+    merged: list[float] = []
+    for t in times:
+        if not merged or t - merged[-1] > 1e-12 * t_end:
+            merged.append(t)
+        elif t == t_end:
+            merged[-1] = t_end
+    return np.array(merged, dtype=float)
 
 
 def jumping_key(scene, t_end: float) -> str | None:
-    """The key of the first law of ``scene`` that jumps in (0, ``t_end``), else None (for refusals)."""
-    return next((key for key, t in _jumps(scene, t_end) if 0.0 < t < t_end * (1 - 1e-12)), None)
+    """The key of the first law of ``scene`` that jumps in (0, ``t_end``], else None (for refusals)."""
+    return next((key for key, t in _jumps(scene, t_end) if _in_run(t, t_end) is not None), None)
+
+
+def starts_on_a_jump(scene, side: float) -> bool:
+    """Whether a law of ``scene`` jumps at t = 0 (its value there is not its value ``side`` after:
+    ``2*Heaviside(t)`` is 1 at 0, ``Piecewise((0, t <= 0), (2, True))`` 0): the run then starts from
+    the accelerations of the law as it is just after 0 (``TimeLoop._start``)."""
+    for _, law in _laws(scene):
+        if hasattr(law, "output_text"):
+            found = _controller_expression(law)
+            if found is not None and _differs(_generic_function(*found), 0.0, side):
+                return True
+            continue
+        values = _values_in_time(law)
+        if values is not None and _differs(values, 0.0, side):
+            return True
+    return False
+
+
+def _in_run(t: float, t_end: float) -> float | None:
+    """``t`` as a jump of a run to ``t_end``: t_end for one within 1e-12 · t_end of it, None outside (0, t_end]."""
+    if t_end * (1 - 1e-12) <= t <= t_end:
+        return t_end
+    return t if 0.0 < t < t_end else None
+
+
+def _differs(f, a: float, b: float) -> bool:
+    """Whether ``f`` at ``a`` and at ``b`` differ by more than :data:`CONTINUOUS` of their size."""
+    with np.errstate(all="ignore"):
+        fa, fb = (float(np.asarray(f(np.array([x], float)), float).ravel()[0]) for x in (a, b))
+    if not (np.isfinite(fa) and np.isfinite(fb)):
+        return False
+    return abs(fb - fa) > CONTINUOUS * (1.0 + abs(fa) + abs(fb))
 
 
 def _jumps(scene, t_end: float):
-    """(key, time) of every jump in t of a law of ``scene``."""
+    """(key, time) of every jump in t of a law of ``scene``: for a compiled law, the jumps its values
+    show (:func:`_jumps_of_values`) and the zeros of its jumps' arguments in its text
+    (:func:`_zeros_of_jumps`) where its values change across them; a controller's, on its parsed
+    expression."""
+    side = 1e-12 * max(t_end, 1.0)
     for key, law in _laws(scene):
         if hasattr(law, "output_text"):     # a controller: its parsed expression (SymPy is there already)
             found = _controller_expression(law)
             if found is not None:
                 expr, t = found
                 for time in _zeros_of_jumps(expr, t, t_end):
-                    if _jumps_at(expr, t, time, 1e-12 * max(t_end, 1.0)):
+                    if _jumps_at(expr, t, time, side):
                         yield key, time
             continue
         values = _values_in_time(law)
-        if values is not None:
-            yield from ((key, time) for time in _jumps_of_values(values, t_end))
+        if values is None:
+            continue
+        yield from ((key, time) for time in _jumps_of_values(values, t_end))
+        found = _law_expression(law)
+        if found is not None:
+            for time in _zeros_of_jumps(*found, t_end):
+                if _differs(values, time - side, time + side):
+                    yield key, time
+
+
+def _law_expression(law):
+    """(SymPy expression, its t symbol) of a compiled law (SymPy parses its text: only for a law whose
+    text names a jump in t), else None."""
+    try:
+        if hasattr(law, "d_theta"):
+            found = law.expressions
+            return None if found is None else (found[1][0], found[0][2])
+        found = law.expressions
+        return None if found is None else (found[1][0], found[0])
+    except Exception:   # a text SymPy cannot give back: the values' search alone
+        return None
 
 
 def _laws(scene):
@@ -127,36 +189,36 @@ def _values_in_time(law):
 
 
 def _jumps_of_values(f, t_end: float) -> list[float]:
-    """The times in (0, t_end) where ``f`` jumps: an interval of :data:`SAMPLES` (offset by an irrational
-    fraction, so that no jump at a round time falls on a sample) whose change stands out against both
-    neighbours' is halved, keeping the half that changes most, down to round-off; it is a jump where
-    the change left is more than :data:`CONTINUOUS` of the values (a steep smooth law's change vanishes)."""
+    """The times in (0, t_end] where ``f`` jumps: every interval of :data:`SAMPLES` (offset by an
+    irrational fraction, so that no jump at a round time falls on a sample; t_end the last) whose
+    change is more than :data:`CONTINUOUS` of the values is halved, all at once, keeping the half that
+    changes most, down to round-off; it is a jump where the change left is more than
+    :data:`CONTINUOUS` of the values (a steep smooth law's change vanishes). Two jumps inside one
+    interval, or a jump on an oscillation that changes more in the other half, may be missed here:
+    the zeros of the jumps' arguments in the law's text (:func:`_zeros_of_jumps`) find those."""
     offset = 0.5 * (np.sqrt(5.0) - 1.0)
-    times = np.concatenate([[1e-9 * t_end], t_end * (np.arange(SAMPLES) + offset) / SAMPLES])
+    times = np.concatenate([[1e-9 * t_end], t_end * (np.arange(SAMPLES) + offset) / SAMPLES, [t_end]])
     with np.errstate(all="ignore"):
-        values = f(times)
+        values = np.asarray(f(times), float)
     change = np.abs(np.diff(values))
     if not np.all(np.isfinite(change)):
         return []
-    before = np.concatenate([[0.0], change[:-1]])
-    after = np.concatenate([change[1:], [0.0]])
-    candidates = np.flatnonzero(change > 4.0 * np.maximum(before, after) + CONTINUOUS * (1.0 + np.abs(values[:-1])))
-    jumps = []
-    for i in candidates:
-        lo, hi = float(times[i]), float(times[i + 1])
-        f_lo, f_hi = float(f(lo)), float(f(hi))
-        while True:
+    candidates = np.flatnonzero(change > CONTINUOUS * (1.0 + np.abs(values[:-1]) + np.abs(values[1:])))
+    lo, hi = times[candidates], times[candidates + 1]
+    f_lo, f_hi = values[candidates], values[candidates + 1]
+    with np.errstate(all="ignore"):
+        for _ in range(200):
             mid = 0.5 * (lo + hi)
-            if mid in (lo, hi):
+            moving = (mid > lo) & (mid < hi)
+            if not moving.any():
                 break
-            f_mid = float(f(mid))
-            if abs(f_mid - f_lo) >= abs(f_hi - f_mid):
-                hi, f_hi = mid, f_mid
-            else:
-                lo, f_lo = mid, f_mid
-        if abs(f_hi - f_lo) > CONTINUOUS * (1.0 + abs(f_lo) + abs(f_hi)):
-            jumps.append(hi)
-    return jumps
+            f_mid = np.asarray(f(mid), float)
+            left = moving & (np.abs(f_mid - f_lo) >= np.abs(f_hi - f_mid))
+            right = moving & ~left
+            hi, f_hi = np.where(left, mid, hi), np.where(left, f_mid, f_hi)
+            lo, f_lo = np.where(right, mid, lo), np.where(right, f_mid, f_lo)
+    jumped = np.abs(f_hi - f_lo) > CONTINUOUS * (1.0 + np.abs(f_lo) + np.abs(f_hi))
+    return [float(t) for t in hi[jumped]]
 
 
 def _arguments(expr, t) -> list:
@@ -198,6 +260,16 @@ def _zeros_of_jumps(expr, t, t_end: float) -> list[float]:
                     hi = mid
             zeros.append(hi if abs(float(g(hi))) <= abs(float(g(lo))) else lo)
     return zeros
+
+
+def _generic_function(expr, t):
+    """``expr`` as a function of an array of t, its other variables at fixed generic values."""
+    import sympy as sp
+
+    others = sorted(expr.free_symbols - {t}, key=lambda s: s.name)
+    f = sp.lambdify([t, *others], expr, modules="numpy")
+    generic = [0.3 + 0.17 * k for k in range(len(others))]
+    return lambda times: np.broadcast_to(np.asarray(f(times, *generic), float), np.shape(times))
 
 
 def _jumps_at(expr, t, time: float, side: float) -> bool:

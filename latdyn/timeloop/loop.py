@@ -39,6 +39,7 @@ from latdyn.results.writer import ResultWriter
 from latdyn.step.integrators import newton_diagnosis
 from latdyn.timeloop import checkpoint as checkpoints
 from latdyn.timeloop.control import Resize, StepControl
+from latdyn.timeloop.jumps import starts_on_a_jump
 from latdyn.timeloop.events import (CABLE_LANDING, TAUT_JUMP_STEP, cable_events, cable_sides, crossing_fraction, hinge_events,
                                    restart_accelerations, stick_at_start)
 from latdyn.timeloop.progress import (DRIFT_WARNING, UNBOUNDED, UNBOUNDED_ROWS, TransientProgress, cable_work,
@@ -161,9 +162,16 @@ class TimeLoop:
         self.model.scene.controller_states.reset()  # continuous states from `initial` (sampled: start, below)
         if self.sampler is not None:
             self.sampler.start(state, 1e-9 * self.control.dt)
+        # a law that jumps at t = 0 (2*Heaviside(t) is 1 there): the start from the law as it is just
+        # after 0, at JUMP_SIDE · dt (the state held across it), the row at t = 0
+        right_of_jump = starts_on_a_jump(self.model.scene, self.control.jump_side)
+        if right_of_jump:
+            state.t = self.control.jump_side
         self.integrator.start(state)
         stick_at_start(self.prepared, self.integrator, state)
         evaluation = self.assembler.evaluate(state, matrices=False)
+        if right_of_jump:
+            state.t = 0.0
         energy0 = self.energies_of(state)
         self.progress = TransientProgress(
             state=state, algorithmic_acceleration=self.integrator.a, locked=self.model.locked.copy(),
@@ -650,18 +658,23 @@ class TimeLoop:
         writer closes)."""
         progress, model = self.progress, self.model
         tolerance = 1e-9 * self.control.dt
-        due = [] if sampled or self.sampler is None else [c.name for c in self.sampler.due(state.t, tolerance)]
-        if due and self.sampler.sample(state, state.t, tolerance):
-            progress.controller_memory = self.sampler.memory()
-            self._restart_after_sample(state)
-            if self.sensitivities is not None:  # the sample and its restart differentiated
-                progress.sensitivities = self.sensitivities.after_sample(progress.sensitivities, state, due)
         after_jump = self.control.jump_reached(progress)
-        if after_jump is not None:  # a law jumped: the run goes on after it from the new law's accelerations
+        if after_jump is not None:  # a law jumped: the run goes on after it (JUMP_SIDE · dt), where a
+            # sample due at the jump's instant is taken too (within twice the side), then one restart
             progress.state = state = state.copy()
             state.t = after_jump
+            tolerance = 2.5 * self.control.jump_side
+        due = [] if sampled or self.sampler is None else [c.name for c in self.sampler.due(state.t, tolerance)]
+        sampled_now = bool(due) and self.sampler.sample(state, state.t, tolerance)
+        if sampled_now:
+            progress.controller_memory = self.sampler.memory()
+        if after_jump is not None:  # from the accelerations of the new laws (and the new held outputs)
             self.restart()
             state = progress.state
+        elif sampled_now:
+            self._restart_after_sample(state)
+        if sampled_now and self.sensitivities is not None:  # the sample and its restart differentiated
+            progress.sensitivities = self.sensitivities.after_sample(progress.sensitivities, state, due)
         if progress.steps % 256 == 0:  # exp updates keep T on SO(3) to round-off; remove the drift of long runs
             state.T[model.free_nodes] = orthonormalize(state.T[model.free_nodes])
         if not recorded and self.control.row_due(progress, state.t):
