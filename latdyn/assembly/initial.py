@@ -122,9 +122,10 @@ def _carried_motion(model, state, joints: list, given: bool) -> tuple[dict, list
     free = np.zeros(len(model.hinges), dtype=bool)
     free[model.free_hinges] = True
     column = {h: k for k, h in enumerate(sorted({j[2] for j in joints if j[2] >= 0 and free[j[2]]}))}
-    children = {}
-    for parent, child, h, sign, xi, label in joints:
-        children.setdefault(parent, []).append((child, h, sign, xi, label))
+    children = {}  # each joint walked both ways: parent → child (+sign), child → parent (−sign)
+    for e, (parent, child, h, sign, xi, label) in enumerate(joints):
+        children.setdefault(parent, []).append((e, child, h, sign, xi, label))
+        children.setdefault(child, []).append((e, parent, h, -sign, xi, label))
     kind = {name: model.nodes[model.body_node[name]].kind for name in scene.bodies} | {GROUND: FIXED}
     parts = [GROUND] + list(scene.bodies) + [("beam", name) for name in scene.beams]
     has_parent = {j[1] for j in joints}
@@ -144,7 +145,7 @@ def _carried_motion(model, state, joints: list, given: bool) -> tuple[dict, list
 
     # part -> (Δ at zero free rates, ∂Δ/∂rates, the joints on its way); each loop's closure
     # (b, A, joints): A rates = b
-    carried, closures = {}, []
+    carried, closures, walked = {}, [], set()
     for start in starts:
         if start in carried:
             continue
@@ -152,7 +153,10 @@ def _carried_motion(model, state, joints: list, given: bool) -> tuple[dict, list
         queue = deque([start])
         while queue:
             parent = queue.popleft()
-            for child, h, sign, xi, label in children.get(parent, []):
+            for e, child, h, sign, xi, label in children.get(parent, []):
+                if e in walked:  # each joint once, whichever way it was reached first
+                    continue
+                walked.add(e)
                 turn0, turn = across(h, sign, xi)
                 to = (carried[parent][0] + turn0, carried[parent][1] + turn, carried[parent][2] + (label,))
                 if child in carried or kind.get(child) in (FIXED, PRESCRIBED):
