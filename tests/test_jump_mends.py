@@ -124,3 +124,30 @@ def test_a_law_that_jumps_at_t_end_moves_nothing(torque, method):
     assert np.max(np.abs(result.probes["angle"])) == 0.0
     assert np.max(np.abs(result.probes["rate"])) == 0.0
     assert result.t[-1] == pytest.approx(0.1, abs=1e-10)
+
+
+def test_a_jump_of_a_law_scaled_by_an_input_set_later_is_landed_on():
+    """inputs {F: 0}, torque 2*F*Heaviside(t - 0.013), F set to 1 at t = 0.005 from Python: the steps land
+    on the jump (searched with generic input values) and the arm moves exactly (before the mend the jump
+    was searched at F = 0 only, not found, and the run stepped across it: 2.4e-4 rad off)."""
+    text = _planar("2*F*Heaviside(t - 0.013)") + "inputs: {F: 0}\n"
+    sim = latdyn.Simulation(latdyn.load_scene(yaml.safe_load(text)))
+    sim.advance_to(0.005)
+    sim.set_input("F", 1.0)
+    sim.advance_to(0.1)
+    angle, rate = _piecewise_constant([sim.t], [(0.013, 2.0)], J_PLANAR)
+    probes = sim.probes()
+    sim.close()
+    assert abs(probes["angle"] - angle[0]) < 1e-9
+    assert abs(probes["rate"] - rate[0]) < 1e-9
+
+
+def test_a_jump_timed_by_an_input_is_refused_in_a_simulation():
+    """Heaviside(t - T0), T0 an input: set_input could move the jump off the steps found at the start, so
+    a Simulation refuses it naming the law; latdyn.run (inputs as given) lands on it exactly."""
+    text = _planar("2*Heaviside(t - T0)") + "inputs: {T0: 0.013}\n"
+    with pytest.raises(latdyn.SceneError, match=r"beams\.arm\.start\.hinge\.torque.*an input"):
+        latdyn.Simulation(latdyn.load_scene(yaml.safe_load(text)))
+    result = latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
+    angle, _ = _piecewise_constant(result.t, [(0.013, 2.0)], J_PLANAR)
+    assert np.max(np.abs(result.probes["angle"] - angle)) < 1e-9

@@ -26,10 +26,24 @@ from latdyn.errors import SceneError, UnboundedError
 from latdyn.results.result import Result
 from latdyn.scene.loader import Scene, load_scene
 from latdyn.solve import _compile_seconds, close_run, open_run, write_linear_model_first
+from latdyn.timeloop.jumps import input_timed_jump_key
 from latdyn.timeloop.transient import start_transient
 
 #: A time within this fraction of ``solve.dt`` of ``sim.t``, a grid point or ``solve.t_end`` is that time.
 TIME_TOLERANCE = 1e-9
+
+
+def _refuse_jumps_timed_by_inputs(scene) -> None:
+    """A law whose jump in t falls at a time an input gives (``Heaviside(t - T0)``, T0 an input) is
+    refused (SceneError naming it): the steps land on the laws' jumps found once at the start
+    (latdyn.timeloop.jumps), and set_input would move this one off them."""
+    key = input_timed_jump_key(scene)
+    if key is not None:
+        raise SceneError(scene.file, key,
+                         "a law whose jump in t falls at a time an input gives (an input inside the argument of "
+                         "Heaviside or sign, or a Piecewise condition in t): a run stepped from Python may change "
+                         "the input, and the steps land only on the jumps found at the start; expected the jump's "
+                         "time as a number or a parameter (latdyn.run takes the inputs' values as given)")
 
 
 def _own_scene(source) -> Scene:
@@ -74,6 +88,7 @@ class Simulation:
         self._inputs = self._prepared.scene.inputs
         self._jumped = False  # an input changed since the last advance: the laws jumped at sim.t
         try:
+            _refuse_jumps_timed_by_inputs(self._prepared.scene)
             write_linear_model_first(self._prepared, self._writer, out_dir)
             self._loop = start_transient(self._prepared, self._probes, self._writer)
         except BaseException as failure:

@@ -125,7 +125,10 @@ def _jumps(scene, t_end: float):
         found = _law_expression(law)
         if found is not None:
             for time in _zeros_of_jumps(*found, t_end):
-                if _differs(values, time - side, time + side):
+                # a law naming inputs: its jump where the inputs' generic values show it too (an input
+                # that is 0 at the start, 2*F*Heaviside(t - 0.013), may be set later)
+                if _differs(values, time - side, time + side) or \
+                        (getattr(law, "input_names", None) and _jumps_at(*found, time, side)):
                     yield key, time
 
 
@@ -221,9 +224,29 @@ def _jumps_of_values(f, t_end: float) -> list[float]:
     return [float(t) for t in hi[jumped]]
 
 
-def _arguments(expr, t) -> list:
-    """The arguments of ``expr``'s jumps that depend on ``t`` alone: of Heaviside and sign, and
-    lhs − rhs of every relation in a Piecewise's conditions."""
+def input_timed_jump_key(scene) -> str | None:
+    """The key of the first law of ``scene`` whose jump's instant depends on an input (the argument of
+    its Heaviside or sign, or a Piecewise condition, names t and an input: ``Heaviside(t - T0)``), else
+    None: the jump grid is found once, so a run whose inputs change (``latdyn.Simulation``, the FMU)
+    refuses such a law (:class:`latdyn.stepping.simulation.Simulation`)."""
+    for key, law in _laws(scene):
+        inputs = set(getattr(law, "input_names", None) or ())
+        if not inputs or _values_in_time(law) is None:
+            continue
+        found = _law_expression(law)
+        if found is None:
+            continue
+        expr, t = found
+        for argument in _arguments(expr, t, t_alone=False):
+            names = {s.name for s in argument.free_symbols}
+            if t in argument.free_symbols and names & inputs:
+                return key
+    return None
+
+
+def _arguments(expr, t, t_alone: bool = True) -> list:
+    """The arguments of ``expr``'s jumps (that depend on ``t`` alone, unless not ``t_alone``): of
+    Heaviside and sign, and lhs − rhs of every relation in a Piecewise's conditions."""
     import sympy as sp
 
     found = [atom.args[0] for atom in expr.atoms(sp.Heaviside, sp.sign)]
@@ -232,7 +255,7 @@ def _arguments(expr, t) -> list:
             relations = [condition] if isinstance(condition, sp.core.relational.Relational) \
                 else list(getattr(condition, "atoms", lambda *_: [])(sp.core.relational.Relational))
             found += [r.lhs - r.rhs for r in relations]
-    return [a for a in found if a.free_symbols == {t}]
+    return [a for a in found if a.free_symbols == {t}] if t_alone else found
 
 
 def _zeros_of_jumps(expr, t, t_end: float) -> list[float]:
