@@ -412,8 +412,8 @@ def test_checkpoints_follow_the_interval(tmp_path, monkeypatch):
 
 def test_a_failed_run_whose_last_step_is_a_row_resumes_without_a_second_row(tmp_path, capsys):
     """The same failing run with a row every step (dt = 0.005): its last accepted state (the jump at
-    t = 0.1, on the grid) is a row of the grid already, in the checkpoint's rows. Resumed, it fails at the same place; the row at 0.095
-    is not recorded a second time (it was, when the checkpoint's rows reached that state: the loop
+    t = 0.1, on the grid) is a row of the grid already, in the checkpoint's rows. Resumed, it fails at the same place; the row at 0.1
+    (1e-9·dt after the jump, where the run restarted) is not recorded a second time (it was, when the checkpoint's rows reached that state: the loop
     asked only whether it had recorded the row itself — found by benchmarks/fuzz_runs.py --joints)."""
     scene = failing_scene()
     scene["output"].update(every=0.005, paraview_every=0)

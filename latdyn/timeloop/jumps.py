@@ -10,12 +10,15 @@ the whole-run fuzzer's step check (``benchmarks/fuzz_runs.py --step-check``): a 
 ``18.18*Heaviside(t - 0.01)`` beside a cable that went taut at t = 1e-5 (the grid moved off the jump)
 ended "solved" with its momentum 1.2 % off at dt, dt/2 and dt/4 alike (error_tol 1e-4).
 
-:func:`jump_times` finds the instants in (0, t_end) where a law whose text names ``Heaviside``,
-``sign`` or ``Piecewise`` is not continuous in t: on its compiled values (no SymPy: a run whose laws
-are in the cache does not import it), an interval of a fine sampling whose change stands out against
-its neighbours' is halved down to round-off, and a change that stays there is a jump (a ``Piecewise``
-that joins continuously, as the spin-up's ramp, is none; a hinge or guide law is taken at fixed
-generic θ, θ̇). A continuous controller's output is searched on its parsed expression (the zeros of
+:func:`jump_times` finds the instants in (0, t_end] where a law whose text names ``Heaviside``,
+``sign`` or ``Piecewise`` is not continuous in t, two ways, and takes every jump either finds: on its
+compiled values, every interval of a fine sampling whose change is more than :data:`CONTINUOUS` of the
+values is halved down to round-off, and a change that stays there is a jump (a ``Piecewise`` that joins
+continuously, as the spin-up's ramp, is none); and at the zeros in t of its jumps' arguments in its
+text (SymPy parses the text of such a law only), where its values before and after differ — jumps
+close together, a pulse inside one interval of the sampling, a jump on a larger oscillation. A hinge
+or guide law is taken at fixed generic θ, θ̇; a law that names inputs at generic values of them too
+(:func:`input_timed_jump_key`: a jump whose time an input gives is refused where inputs change). A continuous controller's output is searched on its parsed expression (the zeros of
 its jumps' arguments in t). The
 time loop puts them on its grid (:class:`latdyn.timeloop.control.StepControl` ``jumps``): the step
 that would cross one ends :data:`JUMP_SIDE` · dt before it, so that it integrates the law as it was
@@ -23,7 +26,10 @@ that would cross one ends :data:`JUMP_SIDE` · dt before it, so that it integrat
 neither side); there the integrator restarts from the accelerations of the law as it is after the
 jump, evaluated :data:`JUMP_SIDE` · dt after it (``TimeLoop.restart``, as after an input changed
 from outside, docs/stepping.md), and the run goes on from that time. The 2 · JUMP_SIDE · dt skipped
-moves nothing (the state is held across it). Each step then integrates a smooth law: the run
+moves nothing (the state is held across it); a sampled controller's sample due at the jump's instant
+is taken there, after it (``TimeLoop._after_accepted``), before the one restart. A jump at t = 0 is
+started from the law just after it (:func:`starts_on_a_jump`); one at t_end (within 1e-12 · t_end)
+ends the run :data:`JUMP_SIDE` · dt before it. Each step then integrates a smooth law: the run
 converges at its method's order again (a rigid arm under ``2*Heaviside(t - 0.013)``, exact
 θ = τ(t − t₀)²/2J: tests/test_law_jumps.py).
 
@@ -122,27 +128,72 @@ def _jumps(scene, t_end: float):
         if values is None:
             continue
         yield from ((key, time) for time in _jumps_of_values(values, t_end))
-        found = _law_expression(law)
-        if found is not None:
-            for time in _zeros_of_jumps(*found, t_end):
-                # a law naming inputs: its jump where the inputs' generic values show it too (an input
-                # that is 0 at the start, 2*F*Heaviside(t - 0.013), may be set later)
-                if _differs(values, time - side, time + side) or \
-                        (getattr(law, "input_names", None) and _jumps_at(*found, time, side)):
-                    yield key, time
+        arguments = _jump_arguments(law)
+        if arguments is None:
+            continue
+        generic = _generic_values_in_time(law, arguments)
+        for time in _zeros_in_time(arguments["arguments"], t_end):
+            # a law naming inputs: its jump where the inputs' generic values show it too (an input
+            # that is 0 at the start, 2*F*Heaviside(t - 0.013), may be set later)
+            if _differs(values, time - side, time + side) or \
+                    (generic is not None and _differs(generic, time - side, time + side)):
+                yield key, time
 
 
 def _law_expression(law):
-    """(SymPy expression, its t symbol) of a compiled law (SymPy parses its text: only for a law whose
-    text names a jump in t), else None."""
+    """(SymPy expression, its t symbol, its input symbols) of a compiled law (SymPy parses its text:
+    only for a law whose text names a jump in t), else None."""
     try:
-        if hasattr(law, "d_theta"):
-            found = law.expressions
-            return None if found is None else (found[1][0], found[0][2])
         found = law.expressions
-        return None if found is None else (found[1][0], found[0])
+        if found is None:
+            return None
+        symbols, expressions = found
+        t = symbols[2] if hasattr(law, "d_theta") else symbols
+        names = set(getattr(law, "input_names", None) or ())
+        inputs = [s for s in expressions[0].free_symbols if s.name in names]
+        return expressions[0], t, inputs
     except Exception:   # a text SymPy cannot give back: the values' search alone
         return None
+
+
+def _jump_arguments(law) -> dict | None:
+    """``{"arguments": functions of t (the arguments of the law's jumps that name t alone,
+    :func:`_arguments`), "generic": the law as a function of t at generic θ, θ̇ and inputs (for a law
+    naming inputs, else None), "timed_by": the inputs an argument names beside t}``, kept in the laws'
+    cache by the law's text (latdyn.scene.expressions: a run whose laws are cached imports no SymPy);
+    None where the text cannot be read back."""
+    from latdyn.scene import expressions as cache
+
+    source = f"jump arguments 1:{type(law).__name__}:{law.source}"
+    entry = cache._load("jumps", source)
+    if entry is not None:
+        return {"arguments": tuple(entry.get("arguments") or ()), "generic": (entry.get("generic") or (None,))[0],
+                "timed_by": list(entry.get("timed_by") or ())}
+    found = _law_expression(law)
+    if found is None:
+        return None
+    import sympy as sp
+
+    expr, t, inputs = found
+    functions = tuple(sp.lambdify(t, a, modules="numpy") for a in _arguments(expr, t))
+    timed_by = sorted({s.name for a in _arguments(expr, t, t_alone=False)
+                       if t in a.free_symbols for s in a.free_symbols if s in inputs})
+    generic = None
+    if inputs:
+        others = {s: 0.3 + 0.17 * k for k, s in enumerate(sorted(expr.free_symbols - {t}, key=lambda s: s.name))}
+        generic = sp.lambdify(t, expr.subs(others), modules="numpy")
+    cache._store("jumps", source, {"timed_by": timed_by},
+                 {"arguments": functions, "generic": None if generic is None else (generic,)},
+                 [(0.1,), (0.37,), (1.3,)])
+    return {"arguments": functions, "generic": generic, "timed_by": timed_by}
+
+
+def _generic_values_in_time(law, arguments: dict):
+    """The law at generic θ, θ̇ and inputs as a function of an array of t (a law naming inputs), else None."""
+    generic = arguments["generic"]
+    if generic is None:
+        return None
+    return lambda times: np.broadcast_to(np.asarray(generic(times), float), np.shape(times))
 
 
 def _laws(scene):
@@ -230,17 +281,11 @@ def input_timed_jump_key(scene) -> str | None:
     None: the jump grid is found once, so a run whose inputs change (``latdyn.Simulation``, the FMU)
     refuses such a law (:class:`latdyn.stepping.simulation.Simulation`)."""
     for key, law in _laws(scene):
-        inputs = set(getattr(law, "input_names", None) or ())
-        if not inputs or _values_in_time(law) is None:
+        if not getattr(law, "input_names", None) or _values_in_time(law) is None:
             continue
-        found = _law_expression(law)
-        if found is None:
-            continue
-        expr, t = found
-        for argument in _arguments(expr, t, t_alone=False):
-            names = {s.name for s in argument.free_symbols}
-            if t in argument.free_symbols and names & inputs:
-                return key
+        arguments = _jump_arguments(law)
+        if arguments is not None and arguments["timed_by"]:
+            return key
     return None
 
 
@@ -259,29 +304,35 @@ def _arguments(expr, t, t_alone: bool = True) -> list:
 
 
 def _zeros_of_jumps(expr, t, t_end: float) -> list[float]:
-    """The times in (0, t_end) where an argument of a jump of ``expr`` (:func:`_arguments`)
-    changes sign or is zero: bracketed on :data:`SAMPLES` points and bisected to round-off."""
+    """The times in [0, t_end] where an argument of a jump of ``expr`` (:func:`_arguments`)
+    changes sign or is zero (:func:`_zeros_in_time`)."""
     import sympy as sp
 
+    return _zeros_in_time([sp.lambdify(t, a, modules="numpy") for a in _arguments(expr, t)], t_end)
+
+
+def _zeros_in_time(arguments, t_end: float) -> list[float]:
+    """The times in [0, t_end] where one of ``arguments`` (functions of t) changes sign or is zero:
+    bracketed on :data:`SAMPLES` points and bisected to round-off."""
     zeros: list[float] = []
     grid = np.linspace(0.0, t_end, SAMPLES + 1)
-    for argument in _arguments(expr, t):
-        g = sp.lambdify(t, argument, modules="numpy")
+    for g in arguments:
         with np.errstate(all="ignore"):
             values = np.broadcast_to(np.asarray(g(grid), dtype=float), grid.shape)
         signs = np.sign(values)
         zeros += [float(grid[i]) for i in np.flatnonzero(signs == 0.0)]
         for i in np.flatnonzero(signs[:-1] * signs[1:] < 0):
             lo, hi, below = float(grid[i]), float(grid[i + 1]), signs[i]
-            for _ in range(200):
-                mid = 0.5 * (lo + hi)
-                if mid in (lo, hi):
-                    break
-                if np.sign(float(g(mid))) == below:
-                    lo = mid
-                else:
-                    hi = mid
-            zeros.append(hi if abs(float(g(hi))) <= abs(float(g(lo))) else lo)
+            with np.errstate(all="ignore"):
+                for _ in range(200):
+                    mid = 0.5 * (lo + hi)
+                    if mid in (lo, hi):
+                        break
+                    if np.sign(float(g(mid))) == below:
+                        lo = mid
+                    else:
+                        hi = mid
+                zeros.append(hi if abs(float(g(hi))) <= abs(float(g(lo))) else lo)
     return zeros
 
 
