@@ -190,10 +190,12 @@ class TransientSensitivities(ParameterDerivatives):
         self.assembler.inertia_tangent_buffers = True
 
     def residual_derivatives(self, state, load_factor: float, inertia: bool = False,
-                             on_all: bool = False) -> np.ndarray:
-        """∂r/∂p of :class:`latdyn.analyses.sensitivities.ParameterDerivatives`, with the cables'
-        (:meth:`CableSensitivities.residual_derivatives`)."""
-        total = super().residual_derivatives(state, load_factor, inertia, on_all=True)
+                             on_all: bool = False, sections: bool = True,
+                             element_gravity: bool = True) -> np.ndarray:
+        """∂r/∂p of :class:`latdyn.analyses.sensitivities.ParameterDerivatives` (``sections``,
+        ``element_gravity`` as there), with the cables' (:meth:`CableSensitivities.residual_derivatives`)."""
+        total = super().residual_derivatives(state, load_factor, inertia, on_all=True, sections=sections,
+                                             element_gravity=element_gravity)
         if self.cables is not None and self.cables.uses:
             self.cables.residual_derivatives(state, total, inertia)
         held = self._held_forces(state, inertia)
@@ -770,22 +772,32 @@ class TransientSensitivities(ParameterDerivatives):
         return self._on_free_coordinates(state, total)
 
     def _stiffness_derivative(self, state, w: np.ndarray) -> np.ndarray:
-        """(∂K/∂p) w (n, k) at ``state`` (K the evaluation's, as the impulse weighs with it): for the parameters
-        of section values only (:meth:`by_sections_only`) generated (``beam_stiffness_D_section``); for the
-        others a central difference of the static ∂r/∂p along w (step :data:`WEIGHT_STEP` ℓ/|w|_∞): hinge laws,
-        loads, joint bodies, cables, contact and friction laws, geometry parameters and laws in t, whose K's
-        derivative by their values is not generated, and every parameter where ∂r/∂p carries more than the
-        parameters' own terms (:meth:`by_sections_only`)."""
-        exact = self.by_sections_only()
-        out = np.zeros((self.model.n_dofs, len(self.names)))
-        if np.any(exact):
-            out[:, exact] = self._section_stiffness_along(state, w)[:, exact]
+        """(∂K/∂p) w (n, k) at ``state``, K the evaluation's as the impulse weighs with it: the elements' internal
+        force tangent, the joint bodies' weight, hinges, loads, cables, contact (the elements' gravity tangent is
+        not in it: csrc/evaluate.c holds it in the inertia tangent). Without rigid links or guides: the section
+        values' part generated for every parameter (``beam_stiffness_D_section``, :meth:`_section_stiffness_along`),
+        and where ∂r/∂p holds more (:meth:`by_sections_only` False) a central difference along w (step
+        :data:`WEIGHT_STEP` ℓ/|w|_∞) of the static ∂r/∂p without the section values' element forces and without
+        the elements' gravity load (``sections``, ``element_gravity`` of :meth:`residual_derivatives`): hinge laws,
+        loads, joint bodies, cables, contact and friction laws, geometry parameters' internal forces, laws in t,
+        held angles, controllers. With rigid links or guides the difference of the static ∂r/∂p without the
+        elements' gravity load along w (the reduction's projection moves with it; :meth:`_geometric_derivative`
+        adds the rest of its geometric term)."""
+        model = self.model
+        out = np.zeros((model.n_dofs, len(self.names)))
+        linked = model.links is not None
+        exact = np.zeros(len(self.names), bool) if linked else self.by_sections_only()
+        if not linked:
+            out += self._section_stiffness_along(state, w)
         if not np.all(exact):
             assembler = self.assembler
             eta = WEIGHT_STEP * (self.length or 1.0) / float(np.max(np.abs(w)))
-            moved = (self.residual_derivatives(assembler.advance(state, eta * w), 1.0)
-                     - self.residual_derivatives(assembler.advance(state, -eta * w), 1.0)) / (2 * eta)
-            out[:, ~exact] = moved[:, ~exact]
+
+            def static(moved):
+                return self.residual_derivatives(moved, 1.0, sections=linked, element_gravity=False)
+
+            moved = (static(assembler.advance(state, eta * w)) - static(assembler.advance(state, -eta * w))) / (2 * eta)
+            out[:, ~exact] += moved[:, ~exact]
         return out
 
     def coordinate_step(self) -> float:
@@ -836,12 +848,12 @@ class TransientSensitivities(ParameterDerivatives):
     def _geometric_derivative(self, state, w: np.ndarray, eta: float) -> np.ndarray:
         """∂Pᵀ/∂q[w] · (∂r_all/∂p with the inertia forces less without) (n, k): the part of ∂K/∂p w of a
         reduction's geometric term ∂Pᵀ/∂q · r_all (latdyn/assembly/linked.py; r_all with the inertia
-        forces) that the static ∂r/∂p differenced along w leaves out; ∂Pᵀ/∂q[w] by a central difference
-        of the projection P along w."""
+        forces) that the static ∂r/∂p (without the elements' gravity load) differenced along w leaves out;
+        ∂Pᵀ/∂q[w] by a central difference of the projection P along w."""
         model, assembler = self.model, self.assembler
         n_asm = model.n_assembled
         inertial = (self.residual_derivatives(state, 1.0, inertia=True, on_all=True)
-                    - self.residual_derivatives(state, 1.0, on_all=True))[:n_asm]
+                    - self.residual_derivatives(state, 1.0, on_all=True, element_gravity=False))[:n_asm]
         if not np.any(inertial):
             return np.zeros((model.n_dofs, len(self.names)))
         ahead = assembler.evaluate(assembler.advance(state, eta * w), matrices=True).projection
