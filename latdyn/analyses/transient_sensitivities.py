@@ -53,10 +53,13 @@ column for a unit change of its size h, and the event time's derivative δh make
 total derivative vanish; the jump of δv through the impulse and the restarted accelerations are
 differentiated (:meth:`TransientSensitivities._jump`, :meth:`TransientSensitivities.after_events`); the
 derivative of the impulse weight M + dt²K along δq is the matrix H = ∂(W w)/∂q, generated for the elements
-(``beam_stiffness_D_q``, ``beam_inertia_tangent``) and the joint bodies' mass, the hinges', loads', cables', bodies'
-weight and couplings' blocks differenced along the coordinates they are on (latdyn/analyses/weight_derivative.py),
-and along p (∂K/∂p) w generated for parameters of section values only, a difference of ∂r/∂p along w for the others
-(:meth:`TransientSensitivities._weight_derivative`, :meth:`TransientSensitivities._stiffness_derivative`).
+(``beam_stiffness_D_q``, ``beam_inertia_tangent``) and the joint bodies' mass and weight
+(``joint_body_inertia_stiffness``, ``joint_body_gravity_stiffness_D_q``), the hinges', loads', cables' and
+couplings' blocks differenced along the coordinates they are on (latdyn/analyses/weight_derivative.py), and along
+p (∂K/∂p) w: the section values' part generated for every parameter, the rest a difference along w of the static
+∂r/∂p without the section values' element forces and the elements' gravity load, which the evaluation's K (the
+impulse's) leaves out (:meth:`TransientSensitivities._weight_derivative`,
+:meth:`TransientSensitivities._stiffness_derivative`).
 A compliant stop's onset (``contact``) is landed on too, and its time enters through the landing
 step's size as a latch's does (:meth:`TransientSensitivities._contact_onset`); its force being continuous
 there, nothing jumps; its law's stiffness, exponent and damping enter ∂r/∂p through the generated
@@ -151,8 +154,8 @@ LANDING_PASSES = 30
 LANDING_MISSED = 1e-10
 #: the configuration step (times the length scale) of the central differences inside the impulse weight's
 #: derivative that are not generated (module docstring, "Events"; latdyn/analyses/weight_derivative.py): along the
-#: coordinates of its hinges', loads', cables', bodies' weight and couplings' blocks, along δq with rigid links or
-#: guides, and of ∂r/∂p along w for parameters other than section values
+#: coordinates of its hinges', loads', cables' and couplings' blocks, along δq with rigid links or guides, and of
+#: ∂r/∂p along w (without the section values' forces and the elements' gravity load) for the parameters it holds
 WEIGHT_STEP = 1e-5
 #: the time step (times dt) of the five-point central difference in t of the residual through prescribed
 #: motions (:meth:`ExplicitTime.prescribed`: the coupling to the prescribed coordinates is not assembled)
@@ -712,10 +715,10 @@ class TransientSensitivities(ParameterDerivatives):
         """δ(W w) (n, k) for W = M + scale·K (``mass``) or scale·K at ``state`` (K the evaluation's, without
         the inertia tangent, as the impulse uses it), along each column's (δq, δp): H δq with H = ∂(W w)/∂q
         generated (:func:`latdyn.analyses.weight_derivative.configuration_tangent_of_weight`: the elements' and
-        joint bodies' parts from the generated kernels, the hinges', loads', cables', bodies' weight and
+        joint bodies' parts, their weight's too, from the generated kernels, the hinges', loads', cables' and
         couplings' blocks differenced along the coordinates they are on), ∂M/∂p w exactly (the inertia forces
         are linear in the accelerations: ∂r/∂p at accelerations w less at none, at rest), scale ∂K/∂p w
-        (:meth:`_stiffness_derivative`: generated for parameters of section values only).
+        (:meth:`_stiffness_derivative`: the section values' part generated, the rest differenced along w).
 
         With guides or rigid links (their reduction, latdyn/assembly/linked.py) K also holds the geometric term
         ∂Pᵀ/∂q · r_all, with r_all at the state's rates: ∂(W w)/∂q δq is then a central difference of W w along
