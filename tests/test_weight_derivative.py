@@ -271,12 +271,9 @@ def test_the_stiffness_derivative_is_the_parameter_derivative_of_the_evaluations
     assert names == ["EI"] and error < 1e-8, error
 
 
-def test_a_variant_generated_before_the_kernel_is_refused_naming_the_command(monkeypatch):
-    """A variant regenerated before ``beam_stiffness_D_q`` (its info without it) ends the run at the event with a
-    SceneError naming ``solve.sensitivities`` and the command that makes the kernel, not an AttributeError."""
-    from latdyn.errors import SceneError
+def _without_the_kernel(monkeypatch) -> None:
+    """Every variant loaded from now on as if generated before ``beam_stiffness_D_q`` (its info without it)."""
     from latdyn.model import kernels as kernel_module
-    from tests.test_sensitivities_events import LATCH_PLANAR
 
     loaded = kernel_module.load_kernels
 
@@ -286,5 +283,71 @@ def test_a_variant_generated_before_the_kernel_is_refused_naming_the_command(mon
         return kernels
 
     monkeypatch.setattr("latdyn.assembly.prepare.load_kernels", without)
+
+
+@pytest.mark.parametrize("method", ["forward", "adjoint"])
+def test_a_variant_generated_before_the_kernel_is_refused_at_the_start_naming_the_command(monkeypatch, method):
+    """A variant regenerated before ``beam_stiffness_D_q`` is refused at the sensitivities' start, before the first
+    step (forward and adjoint: the adjoint's forward pass no longer runs whole before its reverse pass meets the
+    event), with a SceneError naming ``solve.sensitivities`` and the command that makes the kernel."""
+    from latdyn.analyses.adjoint_sensitivities import AdjointSensitivities
+    from latdyn.analyses.transient_sensitivities import TransientSensitivities
+    from latdyn.errors import SceneError
+    from tests.test_sensitivities_events import LATCH_PLANAR
+
+    _without_the_kernel(monkeypatch)
+    prepared = prepare(latdyn.load_scene(yaml.safe_load(LATCH_PLANAR)))
+    owner = (TransientSensitivities if method == "forward" else AdjointSensitivities)(prepared)
     with pytest.raises(SceneError, match=r"solve\.sensitivities.*python -m codegen --variant default_xy"):
-        latdyn.run(latdyn.load_scene(yaml.safe_load(LATCH_PLANAR)))
+        owner.start(prepared.state)
+    text = LATCH_PLANAR.replace("analysis: transient,", f"analysis: transient, sensitivity_method: {method},")
+    with pytest.raises(SceneError, match=r"solve\.sensitivities.*python -m codegen --variant default_xy"):
+        latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
+
+
+def test_a_model_without_beam_elements_does_not_need_the_kernel(monkeypatch):
+    """A mass on a cable (tests/test_sensitivities_cables.py DROP: no beam element) with the kernel missing: its H
+    (the body's generated blocks, the cable's differenced) is made, not refused, and is the one with the kernel."""
+    from tests.test_sensitivities_cables import DROP
+
+    def tangent():
+        prepared = prepare(latdyn.load_scene(yaml.safe_load(DROP)))
+        assert not len(prepared.model.element_dofs)
+        rng = np.random.default_rng(3)
+        state = _moved_state(prepared, rng)
+        w = rng.normal(size=prepared.model.n_dofs)
+        return configuration_tangent_of_weight(prepared.assembler, state, w, 1e-4, True, 1e-5).toarray()
+
+    expected = tangent()
+    _without_the_kernel(monkeypatch)
+    assert np.any(expected) and np.array_equal(tangent(), expected)
+
+
+def test_the_explicit_time_copy_makes_its_own_caches_of_the_laws_in_t():
+    """:class:`ExplicitTime` copies the sensitivities' owner with other derivatives (the laws in t): made after the
+    owner's caches of its parameters' uses were filled (its load and section layouts), its ∂r/∂t is the one made
+    before them, not the owner's layouts read with the laws in t (before: the load in t's column was lost)."""
+    from latdyn.analyses.transient_sensitivities import ExplicitTime, TransientSensitivities
+    from tests.test_sensitivities_events import LATCH_PLANAR
+
+    text = LATCH_PLANAR.replace("solve:", 'loads:\n  - {at: tip, force: [0, "0.3*sin(5*t)", "0*EI"]}\nsolve:', 1)
+    prepared = prepare(latdyn.load_scene(yaml.safe_load(text)))
+    owner = TransientSensitivities(prepared)
+    state = _moved_state(prepared, np.random.default_rng(4))
+    state.t = 0.2
+    before = owner.explicit_time(state, inertia=True)
+    owner.residual_derivatives(state, 1.0, inertia=True)   # the owner's caches of its uses, filled
+    owner.by_sections_only()
+    after = ExplicitTime.of(owner)(state, inertia=True)
+    assert np.any(before) and np.array_equal(after, before)
+
+
+def test_the_tangent_of_a_linked_model_is_refused_stating_its_assumption():
+    """``configuration_tangent_of_weight`` on the gimbal of rigid links (tests/test_sensitivities_rigid_links.py):
+    a ValueError saying it assumes no rigid links or guides, not an AttributeError."""
+    from tests.test_sensitivities_rigid_links import GIMBAL
+
+    prepared = prepare(latdyn.load_scene(yaml.safe_load(GIMBAL)))
+    w = np.ones(prepared.model.n_dofs)
+    with pytest.raises(ValueError, match="without rigid links or guides"):
+        configuration_tangent_of_weight(prepared.assembler, prepared.state, w, 1e-4, True, 1e-5)

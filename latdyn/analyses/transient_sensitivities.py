@@ -128,7 +128,8 @@ from latdyn.analyses.sensitivities import (_BODY_KEY, _CABLE_KEY, _GUIDE_KEY, _H
                                            _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE, ParameterDerivatives)
 from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_force_derivatives, joint_of
 from latdyn.analyses.step_matrix import ExactStepMatrix
-from latdyn.analyses.weight_derivative import configuration_tangent_of_weight
+from latdyn.analyses.weight_derivative import (configuration_tangent_of_weight, needs_the_kernel,
+                                               refuse_without_kernel)
 from latdyn.assembly.assembler import free_acceleration, free_velocity, pack, unpack_free
 from latdyn.assembly.factorization import factorization_for, solve_linear
 from latdyn.errors import SceneError, SolverError
@@ -157,6 +158,11 @@ LANDING_MISSED = 1e-10
 #: coordinates of its hinges', loads', cables' and couplings' blocks, along δq with rigid links or guides, and of
 #: ∂r/∂p along w (without the section values' forces and the elements' gravity load) for the parameters it holds
 WEIGHT_STEP = 1e-5
+#: the caches a ParameterDerivatives makes of its :attr:`derivatives` on first use (latdyn/analyses/sensitivities.py,
+#: latdyn/analyses/link_sensitivities.py): dropped from a copy given other derivatives (:class:`ExplicitTime`)
+DERIVATIVE_CACHES = ("_kinds", "_sections_only", "_section_layout_made", "_section_scale", "_section_use",
+                     "_section_elements_distinct", "_section_values_held", "_load_layout_made", "_load_laws_distinct",
+                     "_hinge_uses_found", "_body_uses_found", "_joint_laws", "_link_section_uses")
 #: the time step (times dt) of the five-point central difference in t of the residual through prescribed
 #: motions (:meth:`ExplicitTime.prescribed`: the coupling to the prescribed coordinates is not assembled)
 PRESCRIBED_TIME_STEP = 1e-2
@@ -305,8 +311,12 @@ class TransientSensitivities(ParameterDerivatives):
     def _refuse_events(self, ev, split) -> None:
         """Events (a latch, a rigid stop) are differentiated where the impulse's weight is M + dt²K
         alone (no directions or elements without inertia: latdyn/timeloop/impulse.py); else refused
-        (laws in time with events: :class:`ExplicitTime`)."""
+        (laws in time with events: :class:`ExplicitTime`). A kernel variant generated before
+        ``beam_stiffness_D_q`` is refused here, at the start, where the events' H would need it
+        (:func:`latdyn.analyses.weight_derivative.needs_the_kernel`)."""
         model, scene = self.model, self.scene
+        if needs_the_kernel(scene, model):
+            refuse_without_kernel(self.assembler)
         events = [h.name for h in model.hinges if h.lock_at is not None or (h.limits is not None and h.contact is None)]
         if not events:
             return
@@ -1338,7 +1348,9 @@ class ExplicitTime:
         self.laws = copy.copy(owner)
         self.laws.names, self.laws.derivatives = ["t"], laws
         self.laws.controllers = _controller_time_rates(owner)
-        self.laws.__dict__.pop("_kinds", None)
+        for cache in DERIVATIVE_CACHES:   # the owner's, made of its derivatives: made afresh of the laws in t
+            self.laws.__dict__.pop(cache, None)
+        self.laws._values_at = (float("nan"), {})
         self.laws.geometry = None   # the one column is t: no start moved by geometry parameters (k columns)
 
     @classmethod
@@ -1385,8 +1397,9 @@ class ExplicitTime:
 
     def __call__(self, state, inertia: bool = True, on_all: bool = False) -> np.ndarray:
         """∂r/∂t (n,) on the free coordinates at ``state``: of the equations of motion, or without
-        ``inertia`` of the static residual (the impulse weight's K is the static one's derivative:
-        :meth:`TransientSensitivities._weight_derivative` differences the static ∂r/∂p); ``on_all``: on all
+        ``inertia`` of the static residual (:meth:`TransientSensitivities._stiffness_derivative` differences the
+        static ∂r/∂p along w; the laws in t are loads', hinges' and guides', none the elements' gravity load, which
+        it leaves out; the prescribed motions' part is of the whole static residual); ``on_all``: on all
         coordinates (n_total + 1,), before the rigid links' and guides' reduction (their geometric term at an
         event, :meth:`TransientSensitivities._geometric_derivative`, reads it)."""
         out = self.of_laws(state, inertia, on_all=on_all)
