@@ -132,9 +132,9 @@ def _check_model(text: str, seed: int) -> float:
 
 
 def test_h_of_a_planar_model_with_every_block_is_the_central_difference_of_w_w():
-    """The planar arm: elements and the body's mass generated, the hinge's nonlinear law, the body's weight and
-    the follower load's blocks differenced along their coordinates (measured 1.4e-12; 2.0e-5 without those
-    differences: the hinge's nonlinear law, the body's weight and the follower load are in W w)."""
+    """The planar arm: elements and the body's mass and weight generated, the hinge's nonlinear law and the follower
+    load's blocks differenced along their coordinates (measured 1.3e-12; 2.0e-5 without those differences: the
+    hinge's nonlinear law and the follower load are in W w)."""
     prepared = prepare(latdyn.load_scene(yaml.safe_load(ARM_PLANAR)))
     support = rest_support(prepared.assembler)
     model = prepared.model
@@ -192,49 +192,88 @@ def test_the_generated_weight_stiffness_of_a_joint_body_is_the_central_differenc
     assert worst < 1e-7, worst
 
 
-def _check_section_columns(text: str, seed: int) -> tuple:
-    """(which parameters' (∂K/∂p) w is generated, the largest error of those columns against Richardson-extrapolated
-    central differences of the static ∂r/∂p along w, relative to the largest entry)."""
+def _check_stiffness_derivative(text: str, seed: int) -> tuple:
+    """(which parameters' (∂K/∂p) w is generated alone, the largest error of ``_stiffness_derivative`` over every
+    parameter against Richardson-extrapolated central differences in the parameter of the evaluation's K w at a
+    fixed state, K the impulse's: ``assembler.evaluate(state, matrices=True)``'s, each column relative to its
+    largest entry, the largest of all where the column is 0)."""
     from latdyn.analyses.transient_sensitivities import TransientSensitivities
 
-    prepared = prepare(latdyn.load_scene(yaml.safe_load(text)))
+    data = yaml.safe_load(text)
+    prepared = prepare(latdyn.load_scene(data))
     owner = TransientSensitivities(prepared)
     rng = np.random.default_rng(seed)
     state = _moved_state(prepared, rng)
     w = rng.normal(size=prepared.model.n_dofs)
+    computed = owner._stiffness_derivative(state, w)
+
+    def product(name, value):
+        moved = yaml.safe_load(text)
+        moved["parameters"][name] = value
+        evaluation = prepare(latdyn.load_scene(moved)).assembler.evaluate(state, matrices=True)
+        return np.asarray(evaluation.combined(0.0, 0.0, 1.0) @ w)
+
+    numeric = np.zeros_like(computed)
+    for c, name in enumerate(owner.names):
+        p0 = float(data["parameters"][name])
+        central = [(product(name, p0 + h) - product(name, p0 - h)) / (2 * h) for h in (1e-3 * p0, 5e-4 * p0)]
+        numeric[:, c] = (4 * central[1] - central[0]) / 3
     exact = owner.by_sections_only()
-    generated = owner._stiffness_derivative(state, w)[:, exact]
-    advance = prepared.assembler.advance
-
-    def along(h):
-        return ((owner.residual_derivatives(advance(state, h * w), 1.0)
-                 - owner.residual_derivatives(advance(state, -h * w), 1.0)) / (2 * h))[:, exact]
-
-    numeric = (4 * along(5e-5) - along(1e-4)) / 3
-    return [name for name, e in zip(owner.names, exact) if e], float(np.abs(generated - numeric).max()
-                                                                      / np.abs(numeric).max())
+    scales = np.abs(numeric).max(axis=0)
+    scales[scales == 0.0] = np.abs(numeric).max()   # a column K does not depend on (a damping): against the largest
+    return ([name for name, e in zip(owner.names, exact) if e],
+            float(np.max(np.abs(computed - numeric).max(axis=0) / scales)))
 
 
-def test_the_stiffness_derivative_by_section_values_is_generated_and_the_difference_of_the_residuals():
-    """(∂K/∂p) w of parameters used by section values only from the generated ``beam_stiffness_D_section``, against
-    Richardson-extrapolated central differences of ∂r/∂p along w, planar (the latching arm of
-    tests/test_sensitivities_events.py: EI, ρ; k and m, a hinge's and a body's, keep the difference; measured 4.6e-12)
-    and 3D (the wheel: EI, ρ; measured 5.3e-12)."""
-    from tests.test_sensitivities_events import LATCH_PLANAR
+#: the latching arm (tests/test_sensitivities_events.py) under gravity, off its plane's axes, ρ also the load
+#: ``0*rho``'s: ρ then takes the difference of ∂r/∂p (not by section values alone), whose static residual holds the
+#: elements' gravity load −λ ∂Q/∂p, which the evaluation's K (the impulse's) leaves out
+LATCH_PLANAR_GRAVITY = """
+title: planar hinged arm under gravity, swung open by its spring, latching
+parameters: {k: 2.0, c: 0.05, EI: 20.0, rho: 0.5, m: 0.3}
+gravity: [3.0, -9.81, 0]
+sections:
+  s: {EA: 1.0e4, EIy: "EI", EIz: "EI", GJ: 10.0, rhoA: "rho", rhoIy: "0.001*rho", rhoIz: "0.001*rho"}
+bodies:
+  base: {at: [0, 0, 0], fixed: true}
+  tip: {at: [1.0, 0, 0], mass: "m", inertia: [0.01, 0.01, 0.01]}
+beams:
+  arm:
+    from: base
+    to: tip
+    section: s
+    elements: 3
+    start: {hinge: {axis: [0, 0, 1], stiffness: "k", damping: "c", rest_angle: 2.0, lock_at: 0.8}}
+solve: {analysis: transient, dt: 0.01, t_end: 0.6, sensitivities: [k, c, EI, rho, m]}
+output:
+  probes:
+    tip_y: {point: tip, quantity: position, component: y}
+"""
 
-    names, error = _check_section_columns(LATCH_PLANAR, 9)
-    assert names == ["EI", "rho"] and error < 1e-8
+
+def test_the_stiffness_derivative_is_the_parameter_derivative_of_the_evaluations_k_w_under_gravity():
+    """(∂K/∂p) w of every parameter (section values generated, the rest differenced along w without the elements'
+    gravity load) against central differences in the parameter of the impulse's K w at a fixed state, under
+    gravity, with ρ also on the difference path (a load ``0*rho``: the static ∂r/∂p's −λ ∂Q/∂p differenced along
+    w was 6.1e-4 of the ρ column off, planar, 1.1e-3 in 3D): planar (the latching arm; EI, ρ generated, k, c, m
+    differenced; measured 1.8e-11, with the load 1.8e-11) and 3D (the heavy wheel under a skew gravity; measured
+    1.6e-10, with the load 1.6e-10)."""
+    with_load = "loads:\n  - {at: tip, force: [0, \"0*rho\", 0]}\noutput:"
+    names, error = _check_stiffness_derivative(LATCH_PLANAR_GRAVITY, 9)
+    assert names == ["EI", "rho"] and error < 1e-8, error
+    names, error = _check_stiffness_derivative(LATCH_PLANAR_GRAVITY.replace("output:", with_load, 1), 9)
+    assert names == ["EI"] and error < 1e-8, error
     _needs("default")
-    names, error = _check_section_columns(LATCH_3D, 10)
-    assert names == ["EI", "rho"] and error < 1e-8
+    names, error = _check_stiffness_derivative(WHEEL_UNDER_GRAVITY, 10)
+    assert names == ["EI", "rho"] and error < 1e-8, error
+    names, error = _check_stiffness_derivative(WHEEL_UNDER_GRAVITY.replace("output:", with_load.replace("tip", "wheel"),
+                                                                           1), 10)
+    assert names == ["EI"] and error < 1e-8, error
 
 
-def test_a_variant_generated_before_the_kernel_is_refused_naming_the_command(monkeypatch):
-    """A variant regenerated before ``beam_stiffness_D_q`` (its info without it) ends the run at the event with a
-    SceneError naming ``solve.sensitivities`` and the command that makes the kernel, not an AttributeError."""
-    from latdyn.errors import SceneError
+def _without_the_kernel(monkeypatch) -> None:
+    """Every variant loaded from now on as if generated before ``beam_stiffness_D_q`` (its info without it)."""
     from latdyn.model import kernels as kernel_module
-    from tests.test_sensitivities_events import LATCH_PLANAR
 
     loaded = kernel_module.load_kernels
 
@@ -244,5 +283,71 @@ def test_a_variant_generated_before_the_kernel_is_refused_naming_the_command(mon
         return kernels
 
     monkeypatch.setattr("latdyn.assembly.prepare.load_kernels", without)
+
+
+@pytest.mark.parametrize("method", ["forward", "adjoint"])
+def test_a_variant_generated_before_the_kernel_is_refused_at_the_start_naming_the_command(monkeypatch, method):
+    """A variant regenerated before ``beam_stiffness_D_q`` is refused at the sensitivities' start, before the first
+    step (forward and adjoint: the adjoint's forward pass no longer runs whole before its reverse pass meets the
+    event), with a SceneError naming ``solve.sensitivities`` and the command that makes the kernel."""
+    from latdyn.analyses.adjoint_sensitivities import AdjointSensitivities
+    from latdyn.analyses.transient_sensitivities import TransientSensitivities
+    from latdyn.errors import SceneError
+    from tests.test_sensitivities_events import LATCH_PLANAR
+
+    _without_the_kernel(monkeypatch)
+    prepared = prepare(latdyn.load_scene(yaml.safe_load(LATCH_PLANAR)))
+    owner = (TransientSensitivities if method == "forward" else AdjointSensitivities)(prepared)
     with pytest.raises(SceneError, match=r"solve\.sensitivities.*python -m codegen --variant default_xy"):
-        latdyn.run(latdyn.load_scene(yaml.safe_load(LATCH_PLANAR)))
+        owner.start(prepared.state)
+    text = LATCH_PLANAR.replace("analysis: transient,", f"analysis: transient, sensitivity_method: {method},")
+    with pytest.raises(SceneError, match=r"solve\.sensitivities.*python -m codegen --variant default_xy"):
+        latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
+
+
+def test_a_model_without_beam_elements_does_not_need_the_kernel(monkeypatch):
+    """A mass on a cable (tests/test_sensitivities_cables.py DROP: no beam element) with the kernel missing: its H
+    (the body's generated blocks, the cable's differenced) is made, not refused, and is the one with the kernel."""
+    from tests.test_sensitivities_cables import DROP
+
+    def tangent():
+        prepared = prepare(latdyn.load_scene(yaml.safe_load(DROP)))
+        assert not len(prepared.model.element_dofs)
+        rng = np.random.default_rng(3)
+        state = _moved_state(prepared, rng)
+        w = rng.normal(size=prepared.model.n_dofs)
+        return configuration_tangent_of_weight(prepared.assembler, state, w, 1e-4, True, 1e-5).toarray()
+
+    expected = tangent()
+    _without_the_kernel(monkeypatch)
+    assert np.any(expected) and np.array_equal(tangent(), expected)
+
+
+def test_the_explicit_time_copy_makes_its_own_caches_of_the_laws_in_t():
+    """:class:`ExplicitTime` copies the sensitivities' owner with other derivatives (the laws in t): made after the
+    owner's caches of its parameters' uses were filled (its load and section layouts), its ∂r/∂t is the one made
+    before them, not the owner's layouts read with the laws in t (before: the load in t's column was lost)."""
+    from latdyn.analyses.transient_sensitivities import ExplicitTime, TransientSensitivities
+    from tests.test_sensitivities_events import LATCH_PLANAR
+
+    text = LATCH_PLANAR.replace("solve:", 'loads:\n  - {at: tip, force: [0, "0.3*sin(5*t)", "0*EI"]}\nsolve:', 1)
+    prepared = prepare(latdyn.load_scene(yaml.safe_load(text)))
+    owner = TransientSensitivities(prepared)
+    state = _moved_state(prepared, np.random.default_rng(4))
+    state.t = 0.2
+    before = owner.explicit_time(state, inertia=True)
+    owner.residual_derivatives(state, 1.0, inertia=True)   # the owner's caches of its uses, filled
+    owner.by_sections_only()
+    after = ExplicitTime.of(owner)(state, inertia=True)
+    assert np.any(before) and np.array_equal(after, before)
+
+
+def test_the_tangent_of_a_linked_model_is_refused_stating_its_assumption():
+    """``configuration_tangent_of_weight`` on the gimbal of rigid links (tests/test_sensitivities_rigid_links.py):
+    a ValueError saying it assumes no rigid links or guides, not an AttributeError."""
+    from tests.test_sensitivities_rigid_links import GIMBAL
+
+    prepared = prepare(latdyn.load_scene(yaml.safe_load(GIMBAL)))
+    w = np.ones(prepared.model.n_dofs)
+    with pytest.raises(ValueError, match="without rigid links or guides"):
+        configuration_tangent_of_weight(prepared.assembler, prepared.state, w, 1e-4, True, 1e-5)

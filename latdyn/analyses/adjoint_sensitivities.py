@@ -603,20 +603,21 @@ class AdjointSensitivities(TransientSensitivities):
         """The transpose of the forward method's :meth:`_weight_derivative` (δ(W w) = D δq + P, W = M + scale·K,
         or scale·K without ``mass``) applied to ``u_bar`` (n, m): (Dᵀū (n, m), Pᵀū (k, m)). D = ∂(W w)/∂q is the
         forward method's matrix H (:func:`latdyn.analyses.weight_derivative.configuration_tangent_of_weight`: the
-        generated elements' and joint bodies' parts, the differences of the hinges', loads', cables', bodies'
-        weight and couplings' blocks only along the coordinates they are on), Dᵀū its transposed product; Pᵀū:
-        scale·((∂K/∂p) w)ᵀū with the forward method's (∂K/∂p) w (:meth:`_stiffness_derivative`: generated for the
-        parameters of section values only, a difference of ∂r/∂p along w for the others), and with ``mass`` the
-        transposed products (:meth:`residual_transposed_product`, exact) at the accelerations w less at rest."""
+        generated elements' and joint bodies' parts, their weight's too, the differences of the hinges', loads',
+        cables' and couplings' blocks only along the coordinates they are on), Dᵀū its transposed product; Pᵀū:
+        scale·((∂K/∂p) w)ᵀū with the forward method's (∂K/∂p) w (:meth:`_stiffness_derivative`: the section values'
+        part generated, the rest a difference along w of ∂r/∂p without it and the elements' gravity load), and
+        with ``mass`` the transposed products (:meth:`residual_transposed_product`, exact) at the accelerations w
+        less at rest."""
         H = configuration_tangent_of_weight(self.assembler, state, w, scale, mass, self.coordinate_step())
         q_part = np.asarray(H.T @ u_bar)
         p_part = np.zeros((len(self.names), u_bar.shape[1]))
         size = float(np.max(np.abs(w), initial=0.0))
         if size == 0.0:
             return q_part, p_part
-        # the forward method's (∂K/∂p) w (n, k), transposed: the same numbers, so the difference in it (parameters other
-        # than section values) is the forward method's to the bit rather than a transposed product's round-off over
-        # its step (1.5e-11 of the outputs beside a controller)
+        # the forward method's (∂K/∂p) w (n, k), transposed: the same numbers, so the difference in it (the
+        # parameters not of section values alone) is the forward method's to the bit rather than a transposed
+        # product's round-off over its step (1.5e-11 of the outputs beside a controller)
         p_part += scale * (self._stiffness_derivative(state, w).T @ u_bar)
         if mass:
             at_rest, accelerated = self._at_rest_and_accelerated(state, w)

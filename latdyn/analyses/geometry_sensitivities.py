@@ -378,9 +378,14 @@ class ReferenceGeometry:
         offset_moved, reference_moved = self.point_moves(SimpleNamespace(point=control.point), state)
         return np.asarray(control.direction, float) @ (offset_moved - reference_moved)
 
-    def add(self, state, total: np.ndarray, load_factor: float, inertia: bool) -> None:
+    def add(self, state, total: np.ndarray, load_factor: float, inertia: bool,
+            weight_factor: float | None = None) -> None:
         """Add ∂r/∂p of the geometry parameters at ``state`` into ``total`` (all coordinates, k columns): the
-        generated derivatives of F and, with inertia or gravity, of M a + g − Q along each element's variation."""
+        generated derivatives of F and, with inertia or gravity, of M a + g − Q along each element's variation;
+        the elements' gravity at ``weight_factor`` (the load factor unless given: 0 leaves the static −λQ out,
+        ParameterDerivatives.residual_derivatives ``element_gravity``), the loads' arms at ``load_factor``."""
+        if weight_factor is None:
+            weight_factor = load_factor
         elements = self.elements
         if not len(elements):
             return
@@ -394,7 +399,7 @@ class ReferenceGeometry:
         sections = model.element_sections[elements]
         forces = np.asarray(self.kernels.beam_internal_force_D_reference(repeat(at), repeat(sections), rows)[1])
         forces = forces.reshape(k, m, 14)
-        gravity = load_factor * np.asarray(self.owner.assembler.gravity, float)
+        gravity = weight_factor * np.asarray(self.owner.assembler.gravity, float)
         massive = np.any(sections[:, 5:8] != 0.0, axis=1)
         if (inertia or np.any(gravity)) and np.any(massive):
             on = np.flatnonzero(massive)

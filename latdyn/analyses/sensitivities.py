@@ -436,19 +436,26 @@ class ParameterDerivatives:
 
     # ------------------------------------------------------------------ ∂r/∂p
     def residual_derivatives(self, state, load_factor: float, inertia: bool = False,
-                             on_all: bool = False) -> np.ndarray:
+                             on_all: bool = False, sections: bool = True,
+                             element_gravity: bool = True) -> np.ndarray:
         """∂r/∂p on the free coordinates, one column per parameter (n_dofs, k): of the static residual,
         or with ``inertia`` of the equations of motion r(q, v, v̇, t) at ``state`` (its velocities and
         accelerations); ``on_all``: on all coordinates (n_total + 1, k), before the rigid links' and
-        guides' reduction."""
+        guides' reduction. ``sections`` False leaves the section values' element forces out
+        (:meth:`_section_forces`); ``element_gravity`` False (static only) the elements' gravity load −λ ∂Q/∂p
+        of the section values and the geometry parameters: the parts whose derivative along the configuration
+        is not in the evaluation's K (the elements' gravity tangent sits in the inertia tangent, csrc/evaluate.c;
+        an event's (∂K/∂p) w, latdyn/analyses/transient_sensitivities.py ``_stiffness_derivative``)."""
         model, k = self.model, len(self.names)
         total = np.zeros((model.n_total + 1, k))
         for j, which, laws in self._hinge_uses():
             for column, law in laws.items():
                 total[model.hinge_dofs[j], column] += self._hinge_force(state, j, which, law, load_factor)
-        self._section_forces(state, total, load_factor, inertia)
+        weight_factor = load_factor if (element_gravity or inertia) else 0.0
+        if sections:
+            self._section_forces(state, total, weight_factor, inertia)
         if self.geometry is not None:
-            self.geometry.add(state, total, load_factor, inertia)
+            self.geometry.add(state, total, load_factor, inertia, weight_factor)
         self._body_forces(state, total, load_factor, inertia)
         add_link_section_forces(self, state, total, load_factor, inertia)
         self._contact_forces(state, total)

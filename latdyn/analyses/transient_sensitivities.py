@@ -53,10 +53,13 @@ column for a unit change of its size h, and the event time's derivative δh make
 total derivative vanish; the jump of δv through the impulse and the restarted accelerations are
 differentiated (:meth:`TransientSensitivities._jump`, :meth:`TransientSensitivities.after_events`); the
 derivative of the impulse weight M + dt²K along δq is the matrix H = ∂(W w)/∂q, generated for the elements
-(``beam_stiffness_D_q``, ``beam_inertia_tangent``) and the joint bodies' mass, the hinges', loads', cables', bodies'
-weight and couplings' blocks differenced along the coordinates they are on (latdyn/analyses/weight_derivative.py),
-and along p (∂K/∂p) w generated for parameters of section values only, a difference of ∂r/∂p along w for the others
-(:meth:`TransientSensitivities._weight_derivative`, :meth:`TransientSensitivities._stiffness_derivative`).
+(``beam_stiffness_D_q``, ``beam_inertia_tangent``) and the joint bodies' mass and weight
+(``joint_body_inertia_stiffness``, ``joint_body_gravity_stiffness_D_q``), the hinges', loads', cables' and
+couplings' blocks differenced along the coordinates they are on (latdyn/analyses/weight_derivative.py), and along
+p (∂K/∂p) w: the section values' part generated for every parameter, the rest a difference along w of the static
+∂r/∂p without the section values' element forces and the elements' gravity load, which the evaluation's K (the
+impulse's) leaves out (:meth:`TransientSensitivities._weight_derivative`,
+:meth:`TransientSensitivities._stiffness_derivative`).
 A compliant stop's onset (``contact``) is landed on too, and its time enters through the landing
 step's size as a latch's does (:meth:`TransientSensitivities._contact_onset`); its force being continuous
 there, nothing jumps; its law's stiffness, exponent and damping enter ∂r/∂p through the generated
@@ -125,7 +128,8 @@ from latdyn.analyses.sensitivities import (_BODY_KEY, _CABLE_KEY, _GUIDE_KEY, _H
                                            _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE, ParameterDerivatives)
 from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_force_derivatives, joint_of
 from latdyn.analyses.step_matrix import ExactStepMatrix
-from latdyn.analyses.weight_derivative import configuration_tangent_of_weight
+from latdyn.analyses.weight_derivative import (configuration_tangent_of_weight, needs_the_kernel,
+                                               refuse_without_kernel)
 from latdyn.assembly.assembler import free_acceleration, free_velocity, pack, unpack_free
 from latdyn.assembly.factorization import factorization_for, solve_linear
 from latdyn.errors import SceneError, SolverError
@@ -151,9 +155,14 @@ LANDING_PASSES = 30
 LANDING_MISSED = 1e-10
 #: the configuration step (times the length scale) of the central differences inside the impulse weight's
 #: derivative that are not generated (module docstring, "Events"; latdyn/analyses/weight_derivative.py): along the
-#: coordinates of its hinges', loads', cables', bodies' weight and couplings' blocks, along δq with rigid links or
-#: guides, and of ∂r/∂p along w for parameters other than section values
+#: coordinates of its hinges', loads', cables' and couplings' blocks, along δq with rigid links or guides, and of
+#: ∂r/∂p along w (without the section values' forces and the elements' gravity load) for the parameters it holds
 WEIGHT_STEP = 1e-5
+#: the caches a ParameterDerivatives makes of its :attr:`derivatives` on first use (latdyn/analyses/sensitivities.py,
+#: latdyn/analyses/link_sensitivities.py): dropped from a copy given other derivatives (:class:`ExplicitTime`)
+DERIVATIVE_CACHES = ("_kinds", "_sections_only", "_section_layout_made", "_section_scale", "_section_use",
+                     "_section_elements_distinct", "_section_values_held", "_load_layout_made", "_load_laws_distinct",
+                     "_hinge_uses_found", "_body_uses_found", "_joint_laws", "_link_section_uses")
 #: the time step (times dt) of the five-point central difference in t of the residual through prescribed
 #: motions (:meth:`ExplicitTime.prescribed`: the coupling to the prescribed coordinates is not assembled)
 PRESCRIBED_TIME_STEP = 1e-2
@@ -190,10 +199,12 @@ class TransientSensitivities(ParameterDerivatives):
         self.assembler.inertia_tangent_buffers = True
 
     def residual_derivatives(self, state, load_factor: float, inertia: bool = False,
-                             on_all: bool = False) -> np.ndarray:
-        """∂r/∂p of :class:`latdyn.analyses.sensitivities.ParameterDerivatives`, with the cables'
-        (:meth:`CableSensitivities.residual_derivatives`)."""
-        total = super().residual_derivatives(state, load_factor, inertia, on_all=True)
+                             on_all: bool = False, sections: bool = True,
+                             element_gravity: bool = True) -> np.ndarray:
+        """∂r/∂p of :class:`latdyn.analyses.sensitivities.ParameterDerivatives` (``sections``,
+        ``element_gravity`` as there), with the cables' (:meth:`CableSensitivities.residual_derivatives`)."""
+        total = super().residual_derivatives(state, load_factor, inertia, on_all=True, sections=sections,
+                                             element_gravity=element_gravity)
         if self.cables is not None and self.cables.uses:
             self.cables.residual_derivatives(state, total, inertia)
         held = self._held_forces(state, inertia)
@@ -300,8 +311,12 @@ class TransientSensitivities(ParameterDerivatives):
     def _refuse_events(self, ev, split) -> None:
         """Events (a latch, a rigid stop) are differentiated where the impulse's weight is M + dt²K
         alone (no directions or elements without inertia: latdyn/timeloop/impulse.py); else refused
-        (laws in time with events: :class:`ExplicitTime`)."""
+        (laws in time with events: :class:`ExplicitTime`). A kernel variant generated before
+        ``beam_stiffness_D_q`` is refused here, at the start, where the events' H would need it
+        (:func:`latdyn.analyses.weight_derivative.needs_the_kernel`)."""
         model, scene = self.model, self.scene
+        if needs_the_kernel(scene, model):
+            refuse_without_kernel(self.assembler)
         events = [h.name for h in model.hinges if h.lock_at is not None or (h.limits is not None and h.contact is None)]
         if not events:
             return
@@ -710,10 +725,10 @@ class TransientSensitivities(ParameterDerivatives):
         """δ(W w) (n, k) for W = M + scale·K (``mass``) or scale·K at ``state`` (K the evaluation's, without
         the inertia tangent, as the impulse uses it), along each column's (δq, δp): H δq with H = ∂(W w)/∂q
         generated (:func:`latdyn.analyses.weight_derivative.configuration_tangent_of_weight`: the elements' and
-        joint bodies' parts from the generated kernels, the hinges', loads', cables', bodies' weight and
+        joint bodies' parts, their weight's too, from the generated kernels, the hinges', loads', cables' and
         couplings' blocks differenced along the coordinates they are on), ∂M/∂p w exactly (the inertia forces
         are linear in the accelerations: ∂r/∂p at accelerations w less at none, at rest), scale ∂K/∂p w
-        (:meth:`_stiffness_derivative`: generated for parameters of section values only).
+        (:meth:`_stiffness_derivative`: the section values' part generated, the rest differenced along w).
 
         With guides or rigid links (their reduction, latdyn/assembly/linked.py) K also holds the geometric term
         ∂Pᵀ/∂q · r_all, with r_all at the state's rates: ∂(W w)/∂q δq is then a central difference of W w along
@@ -770,22 +785,32 @@ class TransientSensitivities(ParameterDerivatives):
         return self._on_free_coordinates(state, total)
 
     def _stiffness_derivative(self, state, w: np.ndarray) -> np.ndarray:
-        """(∂K/∂p) w (n, k) at ``state`` (K the evaluation's, as the impulse weighs with it): for the parameters
-        of section values only (:meth:`by_sections_only`) generated (``beam_stiffness_D_section``); for the
-        others a central difference of the static ∂r/∂p along w (step :data:`WEIGHT_STEP` ℓ/|w|_∞): hinge laws,
-        loads, joint bodies, cables, contact and friction laws, geometry parameters and laws in t, whose K's
-        derivative by their values is not generated, and every parameter where ∂r/∂p carries more than the
-        parameters' own terms (:meth:`by_sections_only`)."""
-        exact = self.by_sections_only()
-        out = np.zeros((self.model.n_dofs, len(self.names)))
-        if np.any(exact):
-            out[:, exact] = self._section_stiffness_along(state, w)[:, exact]
+        """(∂K/∂p) w (n, k) at ``state``, K the evaluation's as the impulse weighs with it: the elements' internal
+        force tangent, the joint bodies' weight, hinges, loads, cables, contact (the elements' gravity tangent is
+        not in it: csrc/evaluate.c holds it in the inertia tangent). Without rigid links or guides: the section
+        values' part generated for every parameter (``beam_stiffness_D_section``, :meth:`_section_stiffness_along`),
+        and where ∂r/∂p holds more (:meth:`by_sections_only` False) a central difference along w (step
+        :data:`WEIGHT_STEP` ℓ/|w|_∞) of the static ∂r/∂p without the section values' element forces and without
+        the elements' gravity load (``sections``, ``element_gravity`` of :meth:`residual_derivatives`): hinge laws,
+        loads, joint bodies, cables, contact and friction laws, geometry parameters' internal forces, laws in t,
+        held angles, controllers. With rigid links or guides the difference of the static ∂r/∂p without the
+        elements' gravity load along w (the reduction's projection moves with it; :meth:`_geometric_derivative`
+        adds the rest of its geometric term)."""
+        model = self.model
+        out = np.zeros((model.n_dofs, len(self.names)))
+        linked = model.links is not None
+        exact = np.zeros(len(self.names), bool) if linked else self.by_sections_only()
+        if not linked:
+            out += self._section_stiffness_along(state, w)
         if not np.all(exact):
             assembler = self.assembler
             eta = WEIGHT_STEP * (self.length or 1.0) / float(np.max(np.abs(w)))
-            moved = (self.residual_derivatives(assembler.advance(state, eta * w), 1.0)
-                     - self.residual_derivatives(assembler.advance(state, -eta * w), 1.0)) / (2 * eta)
-            out[:, ~exact] = moved[:, ~exact]
+
+            def static(moved):
+                return self.residual_derivatives(moved, 1.0, sections=linked, element_gravity=False)
+
+            moved = (static(assembler.advance(state, eta * w)) - static(assembler.advance(state, -eta * w))) / (2 * eta)
+            out[:, ~exact] += moved[:, ~exact]
         return out
 
     def coordinate_step(self) -> float:
@@ -836,12 +861,12 @@ class TransientSensitivities(ParameterDerivatives):
     def _geometric_derivative(self, state, w: np.ndarray, eta: float) -> np.ndarray:
         """∂Pᵀ/∂q[w] · (∂r_all/∂p with the inertia forces less without) (n, k): the part of ∂K/∂p w of a
         reduction's geometric term ∂Pᵀ/∂q · r_all (latdyn/assembly/linked.py; r_all with the inertia
-        forces) that the static ∂r/∂p differenced along w leaves out; ∂Pᵀ/∂q[w] by a central difference
-        of the projection P along w."""
+        forces) that the static ∂r/∂p (without the elements' gravity load) differenced along w leaves out;
+        ∂Pᵀ/∂q[w] by a central difference of the projection P along w."""
         model, assembler = self.model, self.assembler
         n_asm = model.n_assembled
         inertial = (self.residual_derivatives(state, 1.0, inertia=True, on_all=True)
-                    - self.residual_derivatives(state, 1.0, on_all=True))[:n_asm]
+                    - self.residual_derivatives(state, 1.0, on_all=True, element_gravity=False))[:n_asm]
         if not np.any(inertial):
             return np.zeros((model.n_dofs, len(self.names)))
         ahead = assembler.evaluate(assembler.advance(state, eta * w), matrices=True).projection
@@ -1323,7 +1348,9 @@ class ExplicitTime:
         self.laws = copy.copy(owner)
         self.laws.names, self.laws.derivatives = ["t"], laws
         self.laws.controllers = _controller_time_rates(owner)
-        self.laws.__dict__.pop("_kinds", None)
+        for cache in DERIVATIVE_CACHES:   # the owner's, made of its derivatives: made afresh of the laws in t
+            self.laws.__dict__.pop(cache, None)
+        self.laws._values_at = (float("nan"), {})
         self.laws.geometry = None   # the one column is t: no start moved by geometry parameters (k columns)
 
     @classmethod
@@ -1370,8 +1397,9 @@ class ExplicitTime:
 
     def __call__(self, state, inertia: bool = True, on_all: bool = False) -> np.ndarray:
         """∂r/∂t (n,) on the free coordinates at ``state``: of the equations of motion, or without
-        ``inertia`` of the static residual (the impulse weight's K is the static one's derivative:
-        :meth:`TransientSensitivities._weight_derivative` differences the static ∂r/∂p); ``on_all``: on all
+        ``inertia`` of the static residual (:meth:`TransientSensitivities._stiffness_derivative` differences the
+        static ∂r/∂p along w; the laws in t are loads', hinges' and guides', none the elements' gravity load, which
+        it leaves out; the prescribed motions' part is of the whole static residual); ``on_all``: on all
         coordinates (n_total + 1,), before the rigid links' and guides' reduction (their geometric term at an
         event, :meth:`TransientSensitivities._geometric_derivative`, reads it)."""
         out = self.of_laws(state, inertia, on_all=on_all)

@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["configuration_tangent_of_weight", "rest_support"]
+__all__ = ["configuration_tangent_of_weight", "needs_the_kernel", "refuse_without_kernel", "rest_support"]
 
 
 def _sparse(rows: np.ndarray, cols: np.ndarray, values: np.ndarray, n: int):
@@ -48,9 +48,22 @@ def _sparse(rows: np.ndarray, cols: np.ndarray, values: np.ndarray, n: int):
     return sps.csr_matrix((values[keep], (rows[keep], cols[keep])), shape=(n, n))
 
 
-def _refuse_without_kernel(assembler) -> None:
+def needs_the_kernel(scene, model) -> bool:
+    """Whether the sensitivities of ``scene`` may take H through ``beam_stiffness_D_q``: the model has beam elements,
+    no rigid links or guides (their weight's derivative stays a difference, ``TransientSensitivities``), and the scene
+    has events (latdyn.analyses.sensitivities.has_events) or a joint with friction (its stick's jump)."""
+    from latdyn.analyses.sensitivities import has_events
+
+    if model.links is not None or not len(model.element_dofs):
+        return False
+    return has_events(scene) or any(h.friction is not None for h in model.hinges)
+
+
+def refuse_without_kernel(assembler) -> None:
     """SceneError (exit 2) naming ``solve.sensitivities`` where the generated variant predates ``beam_stiffness_D_q``
-    (the committed tree regenerates every variant at once; a variant regenerated alone says which command)."""
+    (the committed tree regenerates every variant at once; a variant regenerated alone says which command): at the
+    sensitivities' start where :func:`needs_the_kernel` (``TransientSensitivities.start``, the adjoint's too, before
+    the first step), and at each event's H with elements along w."""
     kernels = assembler.kernels
     if "beam_stiffness_D_q" in (getattr(kernels, "info", None) or {}):
         return
@@ -65,7 +78,6 @@ def _refuse_without_kernel(assembler) -> None:
 
 def _generated(assembler, state, w: np.ndarray, scale: float, mass: bool):
     """(rows, cols, values) of the generated part of H (module docstring): the elements' and the joint bodies'."""
-    _refuse_without_kernel(assembler)
     model, kernels = assembler.model, assembler.kernels
     full = np.zeros(model.n_total + 1)
     full[:model.n_dofs] = w
@@ -74,6 +86,7 @@ def _generated(assembler, state, w: np.ndarray, scale: float, mass: bool):
     along = full[dofs]
     on = np.flatnonzero(np.any(along != 0.0, axis=1))   # an element without w has no term: K_e w_e, M_e w_e = 0
     if len(on):
+        refuse_without_kernel(assembler)
         geometry = np.ascontiguousarray(assembler.native().element_inputs(state)[0][on])
         direction = np.ascontiguousarray(along[on])
         sections = np.ascontiguousarray(model.element_sections[on])
@@ -142,8 +155,14 @@ def _rest_product(assembler, state, w: np.ndarray, scale: float, mass: bool) -> 
 def configuration_tangent_of_weight(assembler, state, w: np.ndarray, scale: float, mass: bool, step: float):
     """H = ∂(W w)/∂q (n × n, SciPy CSR) at ``state`` for W = M + ``scale``·K (``mass``) or ``scale``·K (module
     docstring): the generated part, plus H_rest's columns on :func:`rest_support` by central differences of
-    W_rest w along each of those coordinates with the configuration step ``step``."""
+    W_rest w along each of those coordinates with the configuration step ``step``. ValueError on a model with rigid
+    links or guides: H assumes the free coordinates are the assembled ones (their reduction's geometric term keeps
+    the difference of W w, ``TransientSensitivities._linked_weight_derivative``)."""
     model = assembler.model
+    if model.links is not None:
+        raise ValueError("configuration_tangent_of_weight assumes a model without rigid links or guides (its free "
+                         "coordinates the assembled ones); with them W w is differenced along δq "
+                         "(TransientSensitivities._linked_weight_derivative)")
     n = model.n_dofs
     rows, cols, values = _generated(assembler, state, w, scale, mass)
     support = rest_support(assembler)
