@@ -142,8 +142,11 @@ def test_a_failed_transient_run_writes_its_last_converged_state(tmp_path, capsys
     assert cli.main(["run", str(scene), "-o", str(out), "-q"]) == 1
     assert "Newton failed" in capsys.readouterr().err
     result = Result.load(out)
-    # rows every 0.1 up to 0.5, then the last accepted step (t = 0.51), not on the output grid
-    np.testing.assert_allclose(result.t, [0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.51], atol=1e-12)
+    # rows every 0.1 up to 0.5, then the last converged state, not on the output grid: the steps land on
+    # the load's jump at 0.52 and the run restarts just after it (latdyn/timeloop/jumps.py), where Newton
+    # then fails to follow the jumped load
+    np.testing.assert_allclose(result.t[:-1], [0.0, 0.1, 0.2, 0.3, 0.4, 0.5], atol=1e-12)
+    assert 0.52 < result.t[-1] <= 0.52 + 1e-9
     assert _summary(out)["status"] == "failed"
 
 
