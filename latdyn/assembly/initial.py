@@ -168,12 +168,13 @@ def _carried_motion(model, state, joints: list, given: bool) -> tuple[dict, list
                 carried[child] = to
                 queue.append(child)
     rates, unclosed = np.zeros(len(column)), []
+    carried_scale = max((float(np.abs(d).max()) for d, _, _ in carried.values()), default=0.0)  # once, not per loop
     for loop in _independent_loops(closures):
         A = np.vstack([closures[i][1] for i in loop])
         b = np.concatenate([closures[i][0] for i in loop])
         moved = np.flatnonzero(np.abs(A).max(axis=0) > 0)
         solved = np.linalg.lstsq(A[:, moved], b, rcond=None)[0] if len(moved) else np.zeros(0)
-        scale = max(float(np.abs(b).max()), max((float(np.abs(d).max()) for d, _, _ in carried.values()), default=0.0))
+        scale = max(float(np.abs(b).max()), carried_scale)
         if np.linalg.norm(A[:, moved] @ solved - b) <= 1e-9 * max(scale, 1e-300):  # the loop closes
             rates[moved] = solved
         else:

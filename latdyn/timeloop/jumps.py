@@ -115,6 +115,7 @@ def _jumps(scene, t_end: float):
     (:func:`_zeros_of_jumps`) where its values change across them; a controller's, on its parsed
     expression."""
     side = 1e-12 * max(t_end, 1.0)
+    searched: dict = {}
     for key, law in _laws(scene):
         if hasattr(law, "output_text"):     # a controller: its parsed expression (SymPy is there already)
             found = _controller_expression(law)
@@ -127,7 +128,10 @@ def _jumps(scene, t_end: float):
         values = _values_in_time(law)
         if values is None:
             continue
-        yield from ((key, time) for time in _jumps_of_values(values, t_end))
+        same = (law.source, hasattr(law, "d_theta"))   # laws of one text jump alike: searched once a scene
+        if same not in searched:
+            searched[same] = _jumps_of_values(values, t_end)
+        yield from ((key, time) for time in searched[same])
         arguments = _jump_arguments(law)
         if arguments is None:
             continue
