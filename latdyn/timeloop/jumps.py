@@ -130,18 +130,26 @@ def _jumps(scene, t_end: float):
             continue
         same = (law.source, hasattr(law, "d_theta"))   # laws of one text jump alike: searched once a scene
         if same not in searched:
-            searched[same] = _jumps_of_values(values, t_end)
+            searched[same] = _law_jumps(law, values, t_end, side)
         yield from ((key, time) for time in searched[same])
-        arguments = _jump_arguments(law)
-        if arguments is None:
-            continue
-        generic = _generic_values_in_time(law, arguments)
-        for time in _zeros_in_time(arguments["arguments"], t_end):
-            # a law naming inputs: its jump where the inputs' generic values show it too (an input
-            # that is 0 at the start, 2*F*Heaviside(t - 0.013), may be set later)
-            if _differs(values, time - side, time + side) or \
-                    (generic is not None and _differs(generic, time - side, time + side)):
-                yield key, time
+
+
+def _law_jumps(law, values, t_end: float, side: float) -> list[float]:
+    """The times a compiled law (``values``: it as a function of t) jumps: those its values show
+    (:func:`_jumps_of_values`) and the zeros of its jumps' arguments in its text where its values, or a
+    law naming inputs its values at generic inputs, change across them."""
+    times = _jumps_of_values(values, t_end)
+    arguments = _jump_arguments(law)
+    if arguments is None:
+        return times
+    generic = _generic_values_in_time(law, arguments)
+    for time in _zeros_in_time(arguments["arguments"], t_end):
+        # a law naming inputs: its jump where the inputs' generic values show it too (an input
+        # that is 0 at the start, 2*F*Heaviside(t - 0.013), may be set later)
+        if _differs(values, time - side, time + side) or \
+                (generic is not None and _differs(generic, time - side, time + side)):
+            times.append(time)
+    return times
 
 
 def _law_expression(law):
