@@ -64,7 +64,7 @@ class SteadySearch:
 
     iterations: int
     found_by: str  # "descent" or "spin-rate ramp"
-    largest_displacement: float  # the largest translation of a free node from t = 0, length units
+    largest_displacement: float  # the largest translation of a free node or guide slide from t = 0, length units
     largest_rotation: float  # the largest rotation of a node's frame or a hinge angle from t = 0, rad
     fallback_reason: str | None = None
 
@@ -145,17 +145,20 @@ def _definite_shift(K: np.ndarray, M: np.ndarray) -> float | None:
 
 
 def _distance(model, start, state) -> tuple[float, float]:
-    """(largest translation of a free node, largest rotation of a free node's frame or of a free
-    hinge angle) from ``start`` to ``state``."""
+    """(largest translation of a free node or slide of a free guide, largest rotation of a free
+    node's frame or of a free hinge angle) from ``start`` to ``state``: a guide's coordinate is a
+    length, a hinge's an angle."""
     free = model.free_nodes
     moved = np.linalg.norm(state.x[free] - start.x[free], axis=1)
     turned = []
     for i in free:
         R = state.T[i] @ start.T[i].T
         turned.append(np.arccos(np.clip(0.5 * (np.trace(R) - 1.0), -1.0, 1.0)))
-    hinges = np.abs(state.theta[model.free_hinges] - start.theta[model.free_hinges])
-    return (float(np.max(moved, initial=0.0)),
-            float(max(np.max(turned, initial=0.0), np.max(hinges, initial=0.0))))
+    joints = np.asarray(model.free_hinges, dtype=int)
+    is_guide = np.array([model.hinges[k].kind == "guide" for k in joints], dtype=bool)
+    change = np.abs(state.theta[joints] - start.theta[joints])
+    return (float(max(np.max(moved, initial=0.0), np.max(change[is_guide], initial=0.0))),
+            float(max(np.max(turned, initial=0.0), np.max(change[~is_guide], initial=0.0))))
 
 
 def steady_state(prepared, tol: float = 1e-10, max_iter: int = 200, stage_iter: int = 40):
