@@ -3,18 +3,19 @@ against exact or closed-form references (each case's reference in its docstring,
 at two refinements beside its assertions; docs/verification.md, "Literature cases, held out: a
 fourth set").
 
-Categories the earlier sets did not reach: guides on a spinning body (a bead on a rotating rod:
-r = r₀ cosh Ωt; the bead rebounding from a stop on the rod; a damped spring–mass about its relative
-equilibrium), two sliders meeting at a stop between them (momentum through the stop, restitution),
-cable suspensions about their static state (the elastic pendulum, the trifilar pendulum), a closed
-ring (squeezed across a diameter, Roark; under hydrostatic follower pressure, q_cr = 3EI/R³, and
-its modes past q_cr), a heavy symmetric top asleep in a Cardan suspension (its two precession
-roots; below Maievskii's speed, its growing pair), the large-deflection cantilever under a dead tip
-load (Bisshopp & Drucker 1945), a flexible arm under PD control at its hinge (the closed-loop roots
-of the Euler–Bernoulli beam), and the reaction torque of a prescribed hinge angle. None was a wrong
-answer reported as solved. One diagnostic was wrong: `summary.json` `steady_state` counted a guide's
-slide (metres) as a rotation (`largest_rotation`) and left it out of `largest_displacement`
-(mended: latdyn.analyses.steady._distance).
+Categories the earlier sets did not reach: guides on a spinning body (a bead on a rotating rod: r =
+r₀ cosh Ωt; the bead rebounding from a stop on the rod; a damped spring–mass about its relative
+equilibrium; a bead on a rod that turns freely, by Lagrange's equations), two sliders meeting at a
+stop between them (momentum through the stop, restitution), cable suspensions about their static
+state (the elastic pendulum, the trifilar pendulum), a closed ring (squeezed across a diameter,
+Roark; under hydrostatic follower pressure, q_cr = 3EI/R³, and its modes past q_cr), a heavy
+symmetric top asleep in a Cardan suspension (its two precession roots; below Maievskii's speed, its
+growing pair), the large-deflection cantilever under a dead tip load (Bisshopp & Drucker 1945), a
+flexible arm under PD control at its hinge (the closed-loop roots of the Euler–Bernoulli beam), and
+the reaction torque of a prescribed hinge angle. None was a wrong answer reported as solved. One
+diagnostic was wrong: `summary.json` `steady_state` counted a guide's slide (metres) as a rotation
+(`largest_rotation`) and left it out of `largest_displacement` (mended:
+latdyn.analyses.steady._distance).
 """
 from __future__ import annotations
 
@@ -133,6 +134,51 @@ solve: {analysis: modes, about: steady, count: 1}
     assert steady["stable"] is True
     assert abs(steady["largest_displacement"] - 0.5) < 1e-9  # was 0.0 (the slide counted as a turn)
     assert steady["largest_rotation"] < 1e-12  # was 0.5 "rad"
+
+
+def test_a_bead_slides_out_along_a_freely_turning_rod_as_lagrange_says():
+    """A rigid rod (3 kg, 1 m: I = 1 about its hinge) turning freely about z at 2 rad/s, a bead
+    (0.5 kg, its inertia 0.01 turning with the rod) guided along it from r = 0.3, carried by it:
+    (I + I_b + m r²) θ̇ = H and r̈ = r θ̇², integrated to 1e-12 (scipy); H = 2.11 kept. No gravity.
+    dt = 0.01 and 0.005."""
+    text = """\
+title: a bead on a freely turning rod
+sections:
+  rod: {EA: 1.0, EIy: 1.0, EIz: 1.0, GJ: 1.0, rhoA: 3.0}
+bodies:
+  ground: {at: [0, 0, 0], fixed: true}
+  tip: {at: [1, 0, 0]}
+  bead:
+    at: [0.3, 0, 0]
+    mass: 0.5
+    inertia: [0.01, 0.01, 0.01]
+    guide: {'on': tip, axis: [1, 0, 0]}
+beams:
+  rod: {from: ground, to: tip, section: rod, rigid: true, start: {hinge: {axis: [0, 0, 1]}}}
+initial_velocity: {angular: [0, 0, 2.0]}
+solve: {t_end: 1.5, dt: DT}
+output:
+  every: 0.05
+  probes:
+    s: {guide: bead, quantity: position}
+    th: {hinge: rod.start, quantity: angle}
+    hz: {momentum: angular, component: z}
+"""
+    inertia, m = 1.0 + 0.01, 0.5
+
+    def lagrange(t, z):
+        theta, r, rate, r_dot = z
+        return [rate, r_dot, -2 * m * r * r_dot * rate / (inertia + m * r * r), r * rate * rate]
+    errors, drifts = [], []
+    for dt in (0.01, 0.005):
+        result = run_api(text.replace("DT", str(dt)))
+        t = np.asarray(result.t)
+        theta, r = solve_ivp(lagrange, (0, t[-1]), [0.0, 0.3, 2.0, 0.0], t_eval=t, rtol=1e-12, atol=1e-12).y[:2]
+        errors.append(max(np.abs(np.asarray(result.probes["s"]) + 0.3 - r).max(),
+                          np.abs(np.asarray(result.probes["th"]) - theta).max()))
+        drifts.append(np.abs(np.asarray(result.probes["hz"]) - (inertia + m * 0.09) * 2.0).max())
+    assert errors[1] < 8e-6 and drifts[1] < 2.5e-5  # measured 2.5e-5, 6.2e-6 rad; H 5.0e-5, 1.2e-5
+    assert 3.6 < errors[0] / errors[1] < 4.4 and 3.6 < drifts[0] / drifts[1] < 4.4  # measured 4.00, 4.00
 
 
 # ----------------------------------------------------------------------------- two sliders and a stop
