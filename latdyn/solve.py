@@ -283,13 +283,27 @@ def _warn_moving(scene: Scene, writer) -> None:
         _warn(writer, warning)
 
 
-def stops_passed(model, state, sensitivities: bool = False) -> list[str]:
+def stops_passed(model, state, sensitivities: bool = False, load_factor: float | None = None) -> list[str]:
     """What a static state that lies past a joint's rigid stop (``limits`` of a hinge or a guide without
-    ``contact``) says: rigid stops are events of the time loop, which a static analysis does not apply
-    (docs/static_paths.md), so such a state is not the equilibrium the structure reaches; one warning
-    for each joint. A compliant stop's force is part of the static residual: past it is its equilibrium.
-    With ``sensitivities`` the warning says that the path's sensitivities are those of this path too
-    (docs/parameters.md, "Sensitivities")."""
+    ``contact``) or its ``lock_at`` says: rigid stops and latches are events of the time loop, which a
+    static analysis does not apply (docs/static_paths.md), so such a state is not the equilibrium the
+    structure reaches; one warning for each joint. A compliant stop's force is part of the static
+    residual: past it is its equilibrium. With ``sensitivities`` the warning says that the path's
+    sensitivities are those of this path too (docs/parameters.md, "Sensitivities"). With
+    ``load_factor`` the state is one of a buckling analysis' path, at that factor: its buckling factor
+    is then that of the structure without the stop or latch."""
+    if load_factor is None:
+        where = "the static state puts"
+        stop_means = ("a static analysis does not apply stops (they are events of the time loop), so this is "
+                      "not the equilibrium the stop allows")
+        latch_means = ("a static analysis does not latch (latches are events of the time loop), so this is not "
+                       "the equilibrium the latch allows")
+    else:
+        where = f"buckling: the static path at load factor {load_factor:.6g} puts"
+        stop_means = ("a buckling analysis does not apply stops (they are events of the time loop), so its "
+                      "buckling factor is that of the structure without the stop, not of the structure held by it")
+        latch_means = ("a buckling analysis does not latch (latches are events of the time loop), so its buckling "
+                       "factor is that of the structure without the latch, not of the structure latched")
     found = []
     for k, joint in enumerate(model.hinges):
         value = float(state.theta[k])
@@ -299,13 +313,9 @@ def stops_passed(model, state, sensitivities: bool = False) -> list[str]:
             lo, hi = joint.limits
             margin = 1e-9 * max(1.0, abs(lo), abs(hi))
             if value < lo - margin or value > hi + margin:
-                found.append(f"the static state puts {what}, past its limits [{lo:g}, {hi:g}]: a static "
-                             "analysis does not apply stops (they are events of the time loop), so this is "
-                             "not the equilibrium the stop allows")
+                found.append(f"{where} {what}, past its limits [{lo:g}, {hi:g}]: {stop_means}")
         if joint.lock_at is not None and joint.lock_at != 0.0 and (value - joint.lock_at) * joint.lock_at > 0.0:
-            found.append(f"the static state puts {what}, past its lock_at {joint.lock_at:g}: a static analysis "
-                         "does not latch (latches are events of the time loop), so this is not the equilibrium "
-                         "the latch allows")
+            found.append(f"{where} {what}, past its lock_at {joint.lock_at:g}: {latch_means}")
     if sensitivities:
         found = [f"{warning}; its sensitivities (solve.sensitivities) are those of this path, without the stop or "
                  "latch, as its rows are" for warning in found]

@@ -8,12 +8,15 @@ r₀ cosh Ωt; the bead rebounding from a stop on the rod; a damped spring–mas
 equilibrium; a bead on a rod that turns freely, by Lagrange's equations), two sliders meeting at a
 stop between them (momentum through the stop, restitution), cable suspensions about their static
 state (the elastic pendulum, the trifilar pendulum), a closed ring (squeezed across a diameter,
-Roark; under hydrostatic follower pressure, q_cr = 3EI/R³, and its modes past q_cr), a heavy
-symmetric top asleep in a Cardan suspension (its two precession roots; below Maievskii's speed, its
-growing pair), the large-deflection cantilever under a dead tip load (Bisshopp & Drucker 1945), a
-flexible arm under PD control at its hinge (the closed-loop roots of the Euler–Bernoulli beam), and
-the reaction torque of a prescribed hinge angle. None was a wrong answer reported as solved. One
-diagnostic was wrong: `summary.json` `steady_state` counted a guide's slide (metres) as a rotation
+Roark; under hydrostatic follower pressure, q_cr = 3EI/R³, and its modes past q_cr), a von Mises
+truss's limit load, a heavy symmetric top asleep in a Cardan suspension (its two precession roots;
+below Maievskii's speed, its growing pair), the large-deflection cantilever under a dead tip load
+(Bisshopp & Drucker 1945), a flexible arm under PD control at its hinge (the closed-loop roots of
+the Euler–Bernoulli beam), and the reaction torque of a prescribed hinge angle. One was a wrong
+answer reported as solved: a buckling analysis whose path passes a rigid stop (the truss's apex, the
+ring's guided body) reported the factor of the structure without it and said nothing (mended: the
+first stable state past a stop or latch is said, latdyn.solve.stops_passed). One diagnostic was
+wrong: `summary.json` `steady_state` counted a guide's slide (metres) as a rotation
 (`largest_rotation`) and left it out of `largest_displacement` (mended:
 latdyn.analyses.steady._distance).
 """
@@ -25,7 +28,7 @@ import mpmath
 import numpy as np
 import yaml
 from scipy.integrate import solve_ivp
-from scipy.optimize import brentq
+from scipy.optimize import brentq, minimize_scalar
 
 import latdyn
 from cli_runs import latdyn_run, probe_columns, summary_of
@@ -380,6 +383,63 @@ def test_the_modes_of_a_ring_past_its_hydrostatic_load_say_it_is_unstable():
     above = run_api(ring(16, pressure(16, 3.5), "{analysis: modes, about: static, count: 4, steps: 4}")).summary
     assert -1.0 in above["damping_ratios"]
     assert any("the static state is unstable" in w and "by divergence" in w for w in above["warnings"])
+
+
+def test_a_ring_held_past_a_stop_on_the_way_to_its_buckling_load_says_so():
+    """The hydrostatic ring (16 segments, a follower load: the divergence search) whose body on the x
+    axis meets a stop 1e-6 inwards: the uniform shortening q R²/EA reaches it at q = 1.01 < 3.06.
+    The factor is the ring's without the stop, and the run says so (it did not)."""
+    text = ring(16, pressure(16, 1.0), "{analysis: buckling}").replace(
+        "guide: {axis: [1, 0, 0]}", "guide: {axis: [1, 0, 0], limits: [-1.0e-6, 1.0]}")
+    summary = run_api(text).summary
+    assert abs(summary["buckling_factor"] / 3.060006 - 1) < 1e-6
+    warnings = summary.get("warnings", [])
+    assert len(warnings) == 1 and warnings[0].startswith("buckling: the static path at load factor 1.01")
+    assert "guide p0 at s = -1.0" in warnings[0] and "not of the structure held by it" in warnings[0]
+
+
+# ----------------------------------------------------------------------------- a von Mises truss
+def von_mises_truss(guide: str) -> str:
+    """Two bars (EA = 100, pinned at both ends) from (±1, 0) to an apex at (0, 0.1), the apex guided
+    vertically, pressed down by λ·1."""
+    return f"""\
+title: a von Mises truss
+sections:
+  bar: {{EA: 100.0, EIy: 1.0, EIz: 1.0, GJ: 1.0, rhoA: 1.0}}
+bodies:
+  left: {{at: [-1, 0, 0], fixed: true}}
+  right: {{at: [1, 0, 0], fixed: true}}
+  apex:
+    at: [0, 0.1, 0]
+    guide: {{axis: [0, 1, 0]{guide}}}
+beams:
+  l: {{from: left, to: apex, section: bar, start: {{hinge: {{axis: [0, 0, 1]}}}}, end: {{hinge: {{axis: [0, 0, 1]}}}}}}
+  r: {{from: right, to: apex, section: bar, start: {{hinge: {{axis: [0, 0, 1]}}}}, end: {{hinge: {{axis: [0, 0, 1]}}}}}}
+loads:
+  - {{at: apex, force: [0, -1.0, 0]}}
+solve: {{analysis: buckling}}
+"""
+
+
+def test_a_von_mises_truss_snaps_at_its_limit_load_and_a_stop_before_it_is_said():
+    """The apex at height y: P = 2 EA (L₀ − L)/L₀ · y/L, L = √(1 + y²) (bars of engineering strain,
+    as the beam's axial measure), whose maximum, 0.0381087 at y = 0.05764 (the apex 0.04236 down),
+    is the limit load (Mises 1923; Bažant & Cedolin §2.1). With a stop 0.03 down, reached before it,
+    the same factor is that of the truss without the stop, and the run says so (it said nothing)."""
+    L0 = math.sqrt(1.01)
+
+    def load(y):
+        return 2 * 100.0 * (L0 - math.sqrt(1 + y * y)) / L0 * y / math.sqrt(1 + y * y)
+    y = minimize_scalar(lambda y: -load(y), bounds=(0.0, 0.1), method="bounded", options={"xatol": 1e-12}).x
+    free = run_api(von_mises_truss("")).summary
+    assert abs(free["buckling_factor"] / load(y) - 1) < 1e-6  # measured 7e-8
+    assert free["buckling_kind"].startswith("limit point") and not free.get("warnings")
+    stopped = run_api(von_mises_truss(", limits: [-0.03, 1.0]")).summary
+    assert stopped["buckling_factor"] == free["buckling_factor"]
+    assert len(stopped["warnings"]) == 1
+    warning = stopped["warnings"][0]
+    assert warning.startswith("buckling: the static path at load factor ") and "guide apex at s = -0.03" in warning
+    assert "past its limits [-0.03, 1]" in warning and "without the stop" in warning
 
 
 # ----------------------------------------------------------------------------- a sleeping top

@@ -246,6 +246,8 @@ def buckling_analysis(prepared, count: int = 6) -> dict:
     """
     import scipy.linalg as sla
 
+    from latdyn.solve import stops_passed  # a path past a rigid stop or latch is not the structure's
+
     model, assembler = prepared.model, prepared.assembler
     if model.n_dofs == 0:
         return {"buckling_factor": None}
@@ -289,6 +291,7 @@ def buckling_analysis(prepared, count: int = 6) -> dict:
     below = (lam, f, state)
     above = None
     kind, evaluations, falling = None, 0, True
+    passed = []  # the first stable state of the path past a rigid stop or latch: what it says
     for _ in range(200):
         if above is None:
             target = below[0] + step
@@ -311,6 +314,7 @@ def buckling_analysis(prepared, count: int = 6) -> dict:
         if value > 0.0:
             l0, f0 = below[0], below[1]
             below, falling = (target, value, trial), value < FOLD_FALL * f0
+            passed = passed or stops_passed(model, trial, load_factor=target)
             if above is None:  # secant prediction of the zero, at most doubling the step
                 slope = (value - f0) / (target - l0)
                 guess = target - value / slope if slope < 0 else np.inf
@@ -342,7 +346,8 @@ def buckling_analysis(prepared, count: int = 6) -> dict:
                if prepared.scene.solve.flutter else {}),
             "linearised_buckling_factors": [float(x) for x in linearised[:count]],
             "stability_evaluations": evaluations,
-            "buckling_s": time.perf_counter() - started}
+            "buckling_s": time.perf_counter() - started,
+            **({"warnings": passed} if passed else {})}  # said by the caller (solve: stderr and summary.json)
 
 
 def _state_from(model, template, arrays: dict):
