@@ -219,6 +219,10 @@ def _analyse(prepared, probes: ProbeSet, writer: ResultWriter, out_dir, analysis
             static_path(prepared, probes, writer, length_scale(prepared.model))
             for warning in stops_passed(prepared.model, prepared.state, bool(scene.solve.sensitivities)):
                 _warn(writer, warning)
+            from latdyn.analyses.linearise import states_not_at_rest
+
+            for warning in states_not_at_rest(prepared.assembler, prepared.state, "the static state"):
+                _warn(writer, warning)
     finally:
         writer.summary["solver_s"] = time.perf_counter() - started
 
@@ -238,6 +242,9 @@ def _modes(prepared, writer: ResultWriter, out_dir) -> None:
         _warn(writer, warning)
     if scene.solve.about == "static" and lin is not None:
         for warning in stops_passed(prepared.model, lin.state):
+            _warn(writer, warning)
+    if scene.solve.about in ("static", "steady") and lin is not None:
+        for warning in linearise.states_not_at_rest(lin.assembler, lin.state, f"modes about {scene.solve.about}"):
             _warn(writer, warning)
     frequencies = [m.frequency_hz for m in found]
     writer.write_modes(frequencies, linearise.modes_table(found, directions))

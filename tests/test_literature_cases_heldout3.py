@@ -12,10 +12,12 @@ Roark; under hydrostatic follower pressure, q_cr = 3EI/R³, and its modes past q
 truss's limit load, a heavy symmetric top asleep in a Cardan suspension (its two precession roots;
 below Maievskii's speed, its growing pair), the large-deflection cantilever under a dead tip load
 (Bisshopp & Drucker 1945), a flexible arm under PD control at its hinge (the closed-loop roots of
-the Euler–Bernoulli beam), and the reaction torque of a prescribed hinge angle. One was a wrong
-answer reported as solved: a buckling analysis whose path passes a rigid stop (the truss's apex, the
-ring's guided body) reported the factor of the structure without it and said nothing (mended: the
-first stable state past a stop or latch is said, latdyn.solve.stops_passed). One diagnostic was
+the Euler–Bernoulli beam), the reaction torque of a prescribed hinge angle, and a PI-held rod. Two
+were wrong answers reported as solved: a buckling analysis whose path passes a rigid stop (the
+truss's apex, the ring's guided body) reported the factor of the structure without it and said
+nothing (mended: the first stable state past a stop or latch is said, latdyn.solve.stops_passed);
+and a static analysis of a PI-held rod reported the P law's droop, which the integral state leaves,
+as the static state (mended: said, latdyn.analyses.linearise.states_not_at_rest). One diagnostic was
 wrong: `summary.json` `steady_state` counted a guide's slide (metres) as a rotation
 (`largest_rotation`) and left it out of `largest_displacement` (mended:
 latdyn.analyses.steady._distance).
@@ -616,6 +618,65 @@ def test_the_modes_of_a_flexible_arm_under_pd_control_are_the_closed_loop_roots(
         assert abs(roots[1].imag / 1.8751040687119611 ** 2 - 1) < 1e-3 and zeta[1] == 0.0
     assert errors[1] < 1e-4  # measured 9.5e-4 (4), 6.4e-5 (8)
     assert errors[0] / errors[1] > 12  # measured 14.8
+
+
+def pi_held_rod(solve: str, initial: str = "") -> str:
+    """A rigid rod (1 kg, 1 m: I = 1/3 about its hinge) held horizontal against gravity by a PI law
+    on its hinge, τ = −50θ − 5θ̇ − 20z with ż = θ (the integral of the error)."""
+    return f"""\
+title: a PI controller holds a rod against gravity
+gravity: [0, -9.81, 0]
+sections:
+  rod: {{EA: 1.0, EIy: 1.0, EIz: 1.0, GJ: 1.0, rhoA: 1.0}}
+bodies:
+  ground: {{at: [0, 0, 0], fixed: true}}
+controllers:
+  ctl:
+    output: "-50*th - 5*om - 20*z"
+    states: {{z: "th"}}{initial}
+beams:
+  rod: {{from: ground, to: [1, 0, 0], section: rod, rigid: true, start: {{hinge: {{axis: [0, 0, 1], torque: ctl}}}}}}
+solve: {solve}
+output:
+  probes:
+    th: {{hinge: rod.start, quantity: angle}}
+    om: {{hinge: rod.start, quantity: rate}}
+    integral: {{controller: ctl, state: z}}
+"""
+
+
+def test_a_pi_controller_holding_a_rod_rests_where_its_integral_removed_the_error(tmp_path):
+    """Integral action leaves no steady error: the loop rests at θ = 0 with 20 z = −m g L/2, z* = −0.24525,
+    and about it the roots of s³/3 + 5s² + 50s + 20 = 0 (−7.29155 ± 9.52647i, −0.41690). A static
+    analysis holds the state at its value (docs/control.md): from z = 0 it finds the P law's droop,
+    50θ + 4.905 cos θ = 0, θ = −0.0976 — no equilibrium of the loop (ż = θ ≠ 0), reported solved
+    without a word before; now it says so (CLI), and so do modes about that state. Started at z*, the
+    static state is the loop's rest and the modes its exact roots, unflagged; a transient from z = 0
+    settles there (z(20) within 6e-5, the slow root's e^(−0.417·20))."""
+    completed, out = latdyn_run(tmp_path, pi_held_rod("{analysis: static, steps: 4}"))
+    assert completed.returncode == 0, completed.stderr
+    p = probe_columns(out)
+    droop = brentq(lambda th: 50 * th + 4.905 * math.cos(th), -0.2, 0.0)
+    assert abs(p["th"][-1] - droop) < 1e-9 and p["integral"][-1] == 0.0
+    warnings = summary_of(out).get("warnings", [])
+    assert len(warnings) == 1 and warnings[0].startswith("the static state: the state ctl.z of controller ctl is "
+                                                         "not at rest there (dz/dt = -0.0976")
+    assert "latdyn: warning: the static state: the state ctl.z" in completed.stderr
+    modes = run_api(pi_held_rod("{analysis: modes, about: static, count: 3}")).summary
+    assert any(w.startswith("modes about static: the state ctl.z") for w in modes.get("warnings", []))
+
+    rest = "\n    initial: {z: -0.24525}"
+    static = run_api(pi_held_rod("{analysis: static, steps: 4}", rest))
+    assert abs(static.probes["th"][-1]) < 1e-12 and not static.summary.get("warnings")
+    about_rest = run_api(pi_held_rod("{analysis: modes, about: static, count: 3}", rest)).summary
+    assert not about_rest.get("warnings")
+    roots = np.roots([1 / 3, 5.0, 50.0, 20.0])
+    pair = roots[np.argmax(np.abs(roots.imag))]
+    assert about_rest["modes_hz"][0] == 0.0 and about_rest["damping_ratios"][0] == 1.0  # the real root
+    assert abs(about_rest["modes_hz"][1] / (abs(pair.imag) / (2 * math.pi)) - 1) < 1e-9  # measured 1e-15
+    assert abs(about_rest["damping_ratios"][1] / (-pair.real / abs(pair)) - 1) < 1e-9
+    settled = run_api(pi_held_rod("{t_end: 20.0, dt: 0.01}"))
+    assert abs(settled.probes["integral"][-1] + 0.24525) < 1e-4  # measured 6.2e-5
 
 
 def test_a_prescribed_hinge_angle_reports_the_torque_that_drives_it(tmp_path):
