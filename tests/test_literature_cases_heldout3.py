@@ -277,6 +277,30 @@ solve: {analysis: modes, about: static, count: 3}
     assert np.abs(np.asarray(run_api(text).modes) / exact - 1).max() < 1e-9  # measured 1e-15
 
 
+def test_a_mass_whirled_on_an_elastic_cable_about_its_relative_equilibrium():
+    """A cable (EA = 100, 2 kg/m, rest length 1: its free end carries m = 1) from a hub spinning at
+    Ω = 3 about z: it stretches to ℓ = L₀ EA/(EA − mΩ²L₀) = 1.0989; in the hub's frame, with
+    k_r = EA/L₀ − mΩ² radially and no stiffness across (T/ℓ = mΩ²), Coriolis couples the two:
+    ω² = k_r/m + 4Ω² and 0; out of the plane ω = Ω (T/(mℓ) = Ω²)."""
+    text = """\
+title: a mass whirled on an elastic cable
+bodies:
+  hub:
+    at: [0, 0, 0]
+    motion: {rotation: {axis: [0, 0, 1], angle: "3.0*t"}}
+cables:
+  c: {from: hub, to: [1, 0, 0], EA: 100.0, rhoA: 2.0}
+solve: {analysis: modes, about: steady, count: 3}
+"""
+    result = run_api(text)
+    m, EA, spin = 1.0, 100.0, 3.0
+    assert abs(result.modes[0]) < 1e-6  # measured 1.1e-8
+    exact = [hz(spin ** 2), hz(EA - m * spin ** 2 + 4 * spin ** 2 * m)]
+    assert np.abs(np.asarray(result.modes[1:]) / exact - 1).max() < 1e-9  # measured 1e-15
+    steady = result.summary["steady_state"]
+    assert steady["stable"] and abs(steady["largest_displacement"] - (EA / (EA - m * spin ** 2) - 1)) < 1e-9
+
+
 def test_a_trifilar_pendulum_turns_at_the_closed_form_rate(tmp_path):
     """A plate (m = 3, I_z = 0.07, its centre of mass in the plane of the attachments) hung by three
     cables (EA = 2000, rest length 0.99, pretensioned) from anchors 1 above points on a circle of
