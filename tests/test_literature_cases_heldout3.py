@@ -688,6 +688,9 @@ def test_a_pi_controller_holding_a_rod_rests_where_its_integral_removed_the_erro
     assert "latdyn: warning: the static state: the state ctl.z" in completed.stderr
     modes = run_api(pi_held_rod("{analysis: modes, about: static, count: 3}")).summary
     assert any(w.startswith("modes about static: the state ctl.z") for w in modes.get("warnings", []))
+    buckling = run_api(pi_held_rod("{analysis: buckling}")).summary  # its path holds z too: said
+    assert buckling["instability"] == "none" and len(buckling["warnings"]) == 1
+    assert buckling["warnings"][0].startswith("buckling: the static path at load factor 0.1: the state ctl.z")
 
     rest = "\n    initial: {z: -0.24525}"
     static = run_api(pi_held_rod("{analysis: static, steps: 4}", rest))

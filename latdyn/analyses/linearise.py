@@ -291,7 +291,7 @@ def buckling_analysis(prepared, count: int = 6) -> dict:
     below = (lam, f, state)
     above = None
     kind, evaluations, falling = None, 0, True
-    passed = []  # the first stable state of the path past a rigid stop or latch: what it says
+    passed = []  # the first stable state of the path past a rigid stop or latch, or off a controller's rest
     for _ in range(200):
         if above is None:
             target = below[0] + step
@@ -314,7 +314,8 @@ def buckling_analysis(prepared, count: int = 6) -> dict:
         if value > 0.0:
             l0, f0 = below[0], below[1]
             below, falling = (target, value, trial), value < FOLD_FALL * f0
-            passed = passed or stops_passed(model, trial, load_factor=target)
+            passed = passed or stops_passed(model, trial, load_factor=target) or states_not_at_rest(
+                assembler, trial, f"buckling: the static path at load factor {target:.6g}")
             if above is None:  # secant prediction of the zero, at most doubling the step
                 slope = (value - f0) / (target - l0)
                 guess = target - value / slope if slope < 0 else np.inf

@@ -173,13 +173,21 @@ def search(prepared, path, reference, K0s, first_step: float, flutter: bool, tol
     """Divergence and (``flutter``) flutter along the static path from ``reference`` at λ = 0
     (module docstring): the summary's keys (SCENE.md, docs/linearisation.md)."""
 
+    from latdyn.analyses.linearise import states_not_at_rest
     from latdyn.solve import stops_passed  # a path past a rigid stop or latch is not the structure's
 
     assembler = prepared.assembler
     cholesky = np.linalg.cholesky(K0s)
     evaluations = 0
     warnings = []
-    passed = []  # the first stable state of the path past a rigid stop or latch: what it says
+    passed = []  # the first stable state of the path past a rigid stop or latch, or off a controller's rest
+
+    def not_the_structures(point) -> list[str]:
+        """What a stable state of the path past a rigid stop or latch, or off a controller's rest, says."""
+        return (stops_passed(prepared.model, point.state, load_factor=point.load_factor)
+                or states_not_at_rest(assembler, point.state,
+                                      f"buckling: the static path at load factor {point.load_factor:.6g}"))
+
     asked = flutter  # searched, or said not to be (the structure has no mass)
     if flutter and not np.any(assembler.evaluate(reference, matrices=True, load_factor=0.0).combined(
             1.0, 0.0, 0.0, dense=True)):
@@ -227,7 +235,7 @@ def search(prepared, path, reference, K0s, first_step: float, flutter: bool, tol
             above = point
             break
         previous, below = below, point
-        passed = passed or stops_passed(prepared.model, point.state, load_factor=point.load_factor)
+        passed = passed or not_the_structures(point)
         step = min(2.0 * step, max(first_step, 0.5 * below.load_factor))
         falling = np.isfinite(previous.divergence) and below.divergence < previous.divergence
         if falling:  # towards a fold or a divergence: not far past the secant's zero of d (a step
@@ -274,7 +282,7 @@ def search(prepared, path, reference, K0s, first_step: float, flutter: bool, tol
                 moved = -1
             else:
                 below = point
-                passed = passed or stops_passed(prepared.model, point.state, load_factor=point.load_factor)
+                passed = passed or not_the_structures(point)
                 scale = [1.0, scale[1] * (0.5 if moved > 0 else 1.0)]
                 moved = 1
     warnings += passed
