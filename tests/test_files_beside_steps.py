@@ -144,3 +144,24 @@ def test_a_paraview_file_is_created_at_its_first_write_not_at_its_first_frame(tm
     writer.close()
     with h5py.File(tmp_path / "once" / "beams.vtkhdf", "r") as f:
         assert int(f["VTKHDF/Steps"].attrs["NSteps"]) == 1 and f["VTKHDF/Steps/Values"][()].tolist() == [0.0]
+
+
+def test_without_h5py_the_run_is_refused_at_its_first_frame_as_before(tmp_path):
+    """h5py is a requirement; where it cannot be imported the run stops at its first frame (before any step),
+    its state history in state.npz, as when the ParaView writer imported h5py with its first frame, not after
+    every step at the first write of frames."""
+    scene = tmp_path / "corner.yaml"
+    scene.write_text(SCENE)
+    code = textwrap.dedent("""
+        import sys
+        sys.modules["h5py"] = None  # not installed
+        from latdyn.cli import main
+        sys.exit(main(["run", *sys.argv[1:]]))
+        """)
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    done = subprocess.run([sys.executable, "-c", code, str(scene), "-o", str(tmp_path / "out"), "-q"],
+                          capture_output=True, text=True, env=env, timeout=300)
+    assert done.returncode == 1 and "import of h5py halted" in done.stderr
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert (summary["status"], summary["steps"], summary["rows"], summary["state_file"]) == ("failed", 0, 1, "state.npz")
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["probes.csv", "state.npz", "summary.json"]

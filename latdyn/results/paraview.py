@@ -76,6 +76,8 @@ from pathlib import Path
 
 import numpy as np
 
+from latdyn.results import files as result_files
+
 __all__ = ["ParaviewWriter", "normalise_mesh", "parts", "frame", "frames", "default_every", "part_file",
            "PARAVIEW_DIR", "VTKHDF_VERSION", "DEFAULT_FRAMES"]
 
@@ -343,6 +345,8 @@ class _PartFile:
     """The transient VTKHDF file of one part, open for appending (module docstring)."""
 
     def __init__(self, path: Path, part: dict, keep: int | None = None):
+        if result_files.h5py is None:  # not installed: refused at the first frame, as when it was imported here
+            import h5py  # noqa: F401
         self.path = path
         self.n_points, self.n_cells = part["n_points"], part["n_cells"]
         self.static = dict(part["cell_data"])
