@@ -165,3 +165,20 @@ def test_without_h5py_the_run_is_refused_at_its_first_frame_as_before(tmp_path):
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
     assert (summary["status"], summary["steps"], summary["rows"], summary["state_file"]) == ("failed", 0, 1, "state.npz")
     assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["probes.csv", "state.npz", "summary.json"]
+
+
+def test_a_results_folder_whose_paraview_is_a_file_is_refused_at_the_first_frame_as_before(tmp_path):
+    """The ParaView folder is made with the first frame (before any step), as when the file was created there:
+    a file named ``paraview`` in the results folder stops the run at once, its state history written."""
+    scene = tmp_path / "corner.yaml"
+    scene.write_text(SCENE)
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "paraview").write_text("not a folder")
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    done = subprocess.run([sys.executable, "-m", "latdyn", "run", str(scene), "-o", str(out), "-q"],
+                          capture_output=True, text=True, env=env, timeout=300)
+    assert done.returncode == 1 and "FileExistsError" in done.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert (summary["status"], summary["steps"], summary["rows"]) == ("failed", 0, 1)
+    assert "FileExistsError" in summary["error"] and (out / "state.h5").is_file()

@@ -509,6 +509,7 @@ class _PartFile:
         have a leading frame axis (a block of rows' frames, :class:`FrameBlock`); the same file as
         appending them one at a time (blocks of at most :data:`FRAME_BLOCK` frames go to the file)."""
         if self.file is None and self._first is None:  # the file is created with its first write
+            self.path.parent.mkdir(parents=True, exist_ok=True)  # its folder now: refused at the first frame, as before
             self._first = {kind: {k: v[0] for k, v in block[kind].items()} for kind in ("point_data", "cell_data")}
             self._point_data, self._cell_data = sorted(block["point_data"]), sorted(
                 name for name in block["cell_data"] if name not in self.static)
