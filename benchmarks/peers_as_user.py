@@ -25,6 +25,12 @@ are the rest of what they import besides Exudyn and NumPy.
   imported before). ``--peer-python`` runs it with another interpreter (a venv of the peers'
   own, PEERS.md: ``python -m venv /tmp/peers && /tmp/peers/bin/pip install exudyn openseespy
   numpy pyyaml``); by default the one running this script, if it has Exudyn.
+- ``--latdyn-python`` runs latdyn's processes with another interpreter likewise: a venv of latdyn's own
+  dependencies (``python -m venv /tmp/latdyn-user && /tmp/latdyn-user/bin/pip install numpy h5py pyyaml
+  scipy``; this checkout on its ``PYTHONPATH``), whose start is a user's installation's as the peer's venv
+  is Exudyn's: a development interpreter's ``site`` may process ``.pth`` files a user's has not (an editable
+  install's import hook, a sandbox's), 20-60 ms of a process here (docs/performance.md, "Ninth pass");
+  by default the one running this script.
 
 Problems and settings (matched accuracy as ``peers.py`` measures it, each code's own mesh):
 
@@ -143,7 +149,7 @@ def latdyn_process(problem: str, folder: Path) -> dict:
     scene.write_text(yaml.safe_dump(latdyn_scene(problem, cfg), sort_keys=False))
     out = folder / f"{problem}_results"
     before, t0 = resource.getrusage(resource.RUSAGE_CHILDREN), time.perf_counter()
-    done = subprocess.run([sys.executable, "-m", "latdyn", "run", str(scene), "-o", str(out), "-q"],
+    done = subprocess.run([LATDYN_PYTHON[0], "-m", "latdyn", "run", str(scene), "-o", str(out), "-q"],
                           capture_output=True, text=True, cwd=folder, env=child_environment())
     wall, cpu = time.perf_counter() - t0, _cpu_since(before)
     if done.returncode != 0:
@@ -158,7 +164,7 @@ def latdyn_process(problem: str, folder: Path) -> dict:
            "factorizations": summary.get("factorizations"), "coordinates": summary.get("coordinates"),
            "compiled_anything": "compiling" in done.stderr}
     row["error"] = error(problem, table["t"], table)
-    inner = subprocess.run([sys.executable, str(Path(__file__).resolve()), "--latdyn-inprocess", str(scene),
+    inner = subprocess.run([LATDYN_PYTHON[0], str(Path(__file__).resolve()), "--latdyn-inprocess", str(scene),
                             str(folder / "inprocess")], capture_output=True, text=True, cwd=folder,
                            env=child_environment())
     if inner.returncode == 0:
@@ -166,6 +172,10 @@ def latdyn_process(problem: str, folder: Path) -> dict:
     else:
         row["inprocess_note"] = inner.stderr.strip().splitlines()[-1:]
     return row
+
+
+#: The interpreter of latdyn's processes (``--latdyn-python``; this one by default).
+LATDYN_PYTHON = [sys.executable]
 
 
 def _cpu_since(before) -> float:
@@ -287,6 +297,8 @@ def main(argv=None) -> int:
     parser.add_argument("--out", type=Path, default=OUT)
     parser.add_argument("--problems", default=",".join(SETTINGS), help="comma-separated subset of %(default)s")
     parser.add_argument("--peer-python", metavar="PYTHON", help="the interpreter with Exudyn (a venv of its own)")
+    parser.add_argument("--latdyn-python", metavar="PYTHON",
+                        help="the interpreter of latdyn's processes (a venv of its own dependencies; default: this one)")
     parser.add_argument("--exudyn-one", nargs=3, metavar=("PROBLEM", "CODE", "FOLDER"), help=argparse.SUPPRESS)
     parser.add_argument("--latdyn-inprocess", nargs=2, metavar=("SCENE", "OUT"), help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
@@ -296,6 +308,8 @@ def main(argv=None) -> int:
         return latdyn_inprocess(*args.latdyn_inprocess)
     from benchmarks import peers
 
+    if args.latdyn_python:
+        LATDYN_PYTHON[0] = args.latdyn_python
     problems = [p.strip() for p in args.problems.split(",") if p.strip()]
     python = peer_python(args.peer_python)
     if python is None:
@@ -319,7 +333,7 @@ def main(argv=None) -> int:
             load.append(os.getloadavg()[0])
     rows = [summarize(problem, runs) for problem in problems]
     doc = {"schema": "latdyn-peers-as-user/2", "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
-           "repeats": args.repeats, "peer_python": python, "exudyn": exudyn_version,
+           "repeats": args.repeats, "peer_python": python, "latdyn_python": LATDYN_PYTHON[0], "exudyn": exudyn_version,
            "machine": dict(peers.machine(), load_average_1min=load), "goals": GOALS, "rows": rows}
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(doc, indent=1, default=float) + "\n")
@@ -383,7 +397,8 @@ def markdown(doc: dict) -> str:
             lines.append(f"| {r['problem']} | {code} | {ENGINES[code]} | {proc} | {cpu} | {inner} | "
                          f"{x.get('error', float('nan')):.2g} | {extra[0]} | {extra[1]} | {extra[2]} |")
     lines.append("")
-    lines.append(f"fresh processes, medians of {doc['repeats']}; peers with {doc.get('peer_python')} "
+    lines.append(f"fresh processes, medians of {doc['repeats']}; latdyn with {doc.get('latdyn_python')}, "
+                 f"peers with {doc.get('peer_python')} "
                  f"(Exudyn {doc.get('exudyn')}); 1-min load average "
                  f"{', '.join(f'{x:.1f}' for x in doc['machine']['load_average_1min'])}")
     return "\n".join(lines)
