@@ -700,7 +700,7 @@ def test_frames_written_as_a_block_are_the_files_of_frames_written_one_at_a_time
 
 
 def test_a_new_paraview_file_is_readable_under_its_name_while_the_run_goes_on(tmp_path):
-    """The first write of frames creates the file under a temporary name, complete on disk before it takes its own
+    """The first frame creates the file under a temporary name, complete on disk before it takes its own
     name, and kept open for appending without a lock: another reader opens it at once."""
     import h5py
 

@@ -44,16 +44,15 @@ read natively by ParaView >= 5.12 and VTK's ``vtkHDFReader``), written with h5py
     k · n_cells, or 0 for the arrays stored once. Offset datasets with equal contents are one
     dataset under several names (HDF5 hard links), so a frame resizes few datasets.
 
-Frames are written in blocks: they gather in memory from the first, and the first write creates the
-file (under a temporary name, flushed, then renamed and kept open for appending; so a run needs h5py
-only once its steps have begun, docs/performance.md "Ninth pass") and appends them; later ones are
-appended and flushed (``h5py.File.flush``) every :data:`FRAME_BLOCK` frames or
+Frames are written in blocks: the first creates the file (under a temporary name, flushed, then
+renamed and kept open for appending), later ones gather in memory and
+are appended and flushed (``h5py.File.flush``) every :data:`FRAME_BLOCK` frames or
 :data:`FRAME_BLOCK_SECONDS`, at every checkpoint and at close (one write a dataset per block:
 ~0.2 ms a frame less than one at a time; a block's append costs ~1.5 ms a file, so the default
 ~200 frames of a short run go in one; the frames of a block of rows recorded where the step runs
 come as one :class:`FrameBlock` and are gathered as one piece), so a Ctrl-C or a solver failure (which close the
 file) leave every recorded frame, and a kill between two blocks a complete, readable file of
-the frames up to the last block (at most the last second's frames lost; before the first block, no file); a kill during a flush may not (HDF5 rewrites its metadata in
+the frames up to the last block (at most the last second's frames lost); a kill during a flush may not (HDF5 rewrites its metadata in
 place; the state history, copied and replaced atomically, is the safe record). The files are
 opened without HDF5's file lock, so ParaView can open them while a run goes on.
 
@@ -75,8 +74,6 @@ import time
 from pathlib import Path
 
 import numpy as np
-
-from latdyn.results import files as result_files
 
 __all__ = ["ParaviewWriter", "normalise_mesh", "parts", "frame", "frames", "default_every", "part_file",
            "PARAVIEW_DIR", "VTKHDF_VERSION", "DEFAULT_FRAMES"]
@@ -345,25 +342,19 @@ class _PartFile:
     """The transient VTKHDF file of one part, open for appending (module docstring)."""
 
     def __init__(self, path: Path, part: dict, keep: int | None = None):
-        if result_files.h5py is None:  # not installed: refused at the first frame, as when it was imported here
-            import h5py  # noqa: F401
+        import h5py
+
         self.path = path
         self.n_points, self.n_cells = part["n_points"], part["n_cells"]
         self.static = dict(part["cell_data"])
         self._pending: list = []  # blocks of frames appended, not yet in the file (append_block)
         self._pending_frames = 0  # the frames they hold
         self._written_at = time.perf_counter()
-        self._first = None  # the first frame's arrays, until the file is created
         if keep is None:
-            # created at the first write of frames (write_pending: a block of frames, a checkpoint, the
-            # close), from the first frame's arrays' names and shapes; not at the first frame, so that a run
-            # needs h5py only after its first steps (latdyn.results.files.import_h5py_beside)
-            self.file = None
+            self.file = None  # created at the first frame, when the arrays' names and shapes are known
             self.steps = 0
             self._part = part
         else:  # resuming: the first `keep` frames stay
-            import h5py
-
             try:
                 self.file = h5py.File(path, "r+", locking=False)
                 root = self.file["VTKHDF"]
@@ -508,11 +499,8 @@ class _PartFile:
         """Append the frames at ``times`` at once: ``block`` as a frame of :meth:`append` whose arrays
         have a leading frame axis (a block of rows' frames, :class:`FrameBlock`); the same file as
         appending them one at a time (blocks of at most :data:`FRAME_BLOCK` frames go to the file)."""
-        if self.file is None and self._first is None:  # the file is created with its first write
-            self.path.parent.mkdir(parents=True, exist_ok=True)  # its folder now: refused at the first frame, as before
-            self._first = {kind: {k: v[0] for k, v in block[kind].items()} for kind in ("point_data", "cell_data")}
-            self._point_data, self._cell_data = sorted(block["point_data"]), sorted(
-                name for name in block["cell_data"] if name not in self.static)
+        if self.file is None:
+            self._create({kind: {k: v[0] for k, v in block[kind].items()} for kind in ("point_data", "cell_data")})
             self._pending, self._pending_frames, self._written_at = [], 0, time.perf_counter()
         elif set(block["point_data"]) != set(self._point_data) or set(block["cell_data"]) != set(self._cell_data):
             raise ValueError(f"{self.path.name}: a frame with arrays {sorted(block['point_data'])} + "
@@ -532,10 +520,8 @@ class _PartFile:
         import h5py
 
         self._written_at = time.perf_counter()
-        if not self._pending:
+        if self.file is None or not self._pending:
             return
-        if self.file is None:
-            self._create(self._first)
         k, m = self.steps, self._pending_frames
         for dataset, rows, width, dtype, value in self._growing:
             dataset.set_extent(((k + m) * rows, *width))
@@ -561,10 +547,10 @@ class _PartFile:
         return self.steps + self._pending_frames
 
     def close(self) -> None:
-        try:
-            self.write_pending()
-        finally:
-            if self.file is not None:
+        if self.file is not None:
+            try:
+                self.write_pending()
+            finally:
                 self.file.close()
                 self.file = None
 

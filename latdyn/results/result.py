@@ -13,7 +13,6 @@ from pathlib import Path
 import numpy as np
 
 from latdyn.errors import ResultsError
-from latdyn.results.files import h5py  # imported on use; None (not installed): only state.npz can be read
 from latdyn.results.modes_csv import MODES_FILE
 from latdyn.results.probes_csv import PROBES_FILE
 from latdyn.results.state_history import LABELS_KEY, STATE_H5_FILE, STATE_NPZ_FILE
@@ -21,6 +20,11 @@ from latdyn.results.summary import SUMMARY_FILE
 
 #: written by latdyn/analyses/sensitivities.py (a later layer): ``load_factor|t,<probe>/<NAME>,…``
 SENSITIVITIES_FILE = "sensitivities.csv"
+
+try:  # optional: without it only state.npz can be read
+    import h5py
+except ImportError:  # pragma: no cover - exercised by monkeypatching in the tests
+    h5py = None
 
 __all__ = ["Result", "load_state_history", "load_state_labels"]
 

@@ -47,7 +47,11 @@ import numpy as np
 
 from latdyn.errors import ResultsError
 from latdyn.results.files import atomic_write_bytes, fsync_path, json_safe
-from latdyn.results.files import h5py  # imported on use; None (not installed): the NPZ fallback
+
+try:  # optional: the NPZ fallback is used without it
+    import h5py
+except ImportError:  # pragma: no cover - exercised by monkeypatching in the tests
+    h5py = None
 
 STATE_H5_FILE = "state.h5"
 

@@ -39,7 +39,6 @@ from pathlib import Path
 import numpy as np
 
 from latdyn.errors import ResultsError, UnboundedError
-from latdyn.results.files import import_h5py_beside
 from latdyn.results.modes_csv import MODES_FILE, write_modes_csv
 from latdyn.results.paraview import PARAVIEW_DIR, ParaviewWriter
 from latdyn.results.probes_csv import PROBES_FILE, ProbesCsv
@@ -286,14 +285,6 @@ class ResultWriter:
             self.checkpoint(durable=False)
         if frames is not None and self.out_dir is not None:
             self._paraview.record_rows(times, frames)
-
-    def ready_files_beside(self) -> None:
-        """Before the caller goes into C for a while (the time loop's steps): h5py, which writes
-        ``state.h5`` and the ParaView files (both first written after the steps: at a checkpoint, a
-        block of frames or the close), imported meanwhile on another core
-        (:func:`latdyn.results.files.import_h5py_beside`); nothing where no file is written."""
-        if self.out_dir is not None:
-            import_h5py_beside()
 
     def _checkpoint_due(self) -> bool:
         """Whether the state history is rewritten now: ``checkpoint_rows`` rows or ``checkpoint_seconds``

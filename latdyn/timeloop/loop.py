@@ -344,7 +344,6 @@ class TimeLoop:
             stop, rows = self._rows_on_the_way()
         # the section forces for the probes and the ParaView frames
         momentum, sections = self.probes.needs[0], len(self.model.element_nodes) > 0
-        self.writer.ready_files_beside()  # h5py imported on another core while the steps run in C
         started = time.perf_counter()
         done = self.integrator.advance(
             progress.state, grid_index=progress.grid_index, stop_index=stop, dt=control.dt,
