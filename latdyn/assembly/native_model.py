@@ -501,6 +501,25 @@ class NativeModel:
         b = self.buffers
         return b["geometry"].copy(), b["rates"].copy(), b["accelerations"].copy()
 
+    def section_parameter_forces(self, state, kernels: tuple, with_inertia: bool, gravity: np.ndarray | None,
+                                 uses: tuple, total: np.ndarray) -> None:
+        """Add into ``total`` ((n_total + 1, k), C-contiguous float64) the section values' ∂(element force)/∂p at
+        ``state`` in one call (``latdyn_section_parameter_forces``, csrc/parameter_forces.c): ``kernels`` the
+        addresses of ``beam_internal_force_D_section`` and ``beam_inertia_force_D_section`` (None: without the
+        inertia force), ``with_inertia`` its rates and accelerations the state's (else at rest), ``gravity``
+        λ g (3,) or None; ``uses`` = (distinct elements, each use's index among them, elements, parameter
+        columns, section rows (m, 10)) as int64 / float64 contiguous arrays."""
+        on, use, elements, columns, rows = uses
+        scratch = self.__dict__.get("_section_scratch")
+        size = len(on) * (36 + 14 + 14 + 10 + 3 + 2 * (14 + 126))
+        if scratch is None or len(scratch) < size:
+            scratch = self._section_scratch = np.empty(max(size, 1))
+        self.library.latdyn_section_parameter_forces(
+            self.model_ref, self.work_ref, ctypes.byref(self.configuration(state)), kernels[0], kernels[1],
+            int(with_inertia), None if gravity is None else gravity.ctypes.data, len(on), on.ctypes.data, len(use),
+            use.ctypes.data, elements.ctypes.data, columns.ctypes.data, rows.ctypes.data, total.shape[1],
+            total.ctypes.data, scratch.ctypes.data)
+
     def accept_controller_states(self, state, h: float) -> None:
         """The continuous controllers' states accepted at the end of a step of size ``h`` that ended at
         ``state`` (``latdyn_controller_states_accept``; h = 0: S kept, its rate dS/dt taken at ``state``)."""
