@@ -320,24 +320,48 @@ class Assembler:
         if self._positions3 is None:   # where the blocks' kept entries lie (reindex's masks, flat) and M's zeros
             flat = [np.flatnonzero(mask) for mask in (self._elem_mask, self._body_mask, self._load_mask,
                                                       self._cable_mask, self._coupling_mask)]
-            hinges, loads, cables, couplings = len(m.free_hinges), len(flat[2]), len(flat[3]), len(flat[4])
-            self._exact_layout = (*flat, np.zeros(hinges), np.zeros(loads + cables), np.zeros(couplings),
-                                  np.zeros(loads))
-            self._positions3 = np.concatenate([self._position + i * self._nnz for i in range(3)])
-        elements, bodies, loads, cables, couplings, no_hinges, no_loads, no_couplings, no_forces = self._exact_layout
-        free = m.free_hinges
-        body_stiffness = b["body_stiffness"].take(bodies)
-        if len(m.body_nodes):
-            body_stiffness = body_stiffness + self.joint_body_inertia_stiffness(state).take(bodies)
-        # the blocks in the order of reindex's pattern, M, C, K in turn, as evaluation_in and _flat give them
-        data = np.concatenate([
-            b["mass"].take(elements), b["body_mass"].take(bodies), no_hinges, no_loads, no_couplings,
-            b["quadratic_D"].take(elements), b["body_damping"].take(bodies), b["hinge_d_rate"][free],
-            no_forces, b["cable_damping"].take(cables), b["coupling_damping"].take(couplings),
-            b["tangent"].take(elements) + b["inertia_tangent"].take(elements), body_stiffness,
-            b["hinge_d_theta"][free], b["load_blocks"].take(loads), b["cable_stiffness"].take(cables),
-            b["coupling_stiffness"].take(couplings)])
-        return np.bincount(self._positions3, weights=data, minlength=3 * self._nnz).reshape(3, self._nnz)
+            self._exact_layout = (*flat, np.ascontiguousarray(m.free_hinges, np.int64))
+            self._positions3 = np.ascontiguousarray(np.concatenate([self._position + i * self._nnz for i in range(3)]),
+                                                    np.int64)
+            self._exact_segments = None
+        segments = self._exact_segments
+        if segments is None or segments[0] is not native:
+            segments = self._exact_segments = (native, *self._segments_of(native))
+        _, arguments, stiffness = segments
+        if len(m.body_nodes):   # K's body blocks with the bodies' inertia stiffness (the second part of their segment)
+            stiffness[...] = self.joint_body_inertia_stiffness(state)
+        out = np.empty((3, self._nnz))
+        native.library.latdyn_exact_matrix_values(*arguments, out.size, out.ctypes.data)
+        return out
+
+    def _segments_of(self, native: NativeModel) -> tuple:
+        """The segments of :meth:`exact_matrix_values`' one native scatter (``latdyn_exact_matrix_values``,
+        csrc/sensitivity_step.c) for ``native``'s buffers: the blocks in the order of reindex's pattern, M, C, K in
+        turn, as evaluation_in and _flat give them — each (its buffer or none: zeros, a buffer added to it or
+        none, its entries' flat indices) — as arrays of counts and addresses, and the array of the joint bodies'
+        inertia stiffness the call adds to K's body blocks (copied in per call); returned as the call's first
+        arguments (the count of segments, then addresses) and that array."""
+        b, m = native.buffers, self.model
+        elements, bodies, loads, cables, couplings, free = self._exact_layout
+        stiffness = np.zeros_like(b["body_stiffness"])
+        none, hinges = None, len(free)
+        layout = [   # (first, second, indices or a count of zeros)
+            (b["mass"], none, elements), (b["body_mass"], none, bodies), (none, none, hinges),
+            (none, none, len(loads) + len(cables)), (none, none, len(couplings)),
+            (b["quadratic_D"], none, elements), (b["body_damping"], none, bodies), (b["hinge_d_rate"], none, free),
+            (none, none, len(loads)), (b["cable_damping"], none, cables), (b["coupling_damping"], none, couplings),
+            (b["tangent"], b["inertia_tangent"], elements),
+            (b["body_stiffness"], stiffness if len(m.body_nodes) else none, bodies),
+            (b["hinge_d_theta"], none, free), (b["load_blocks"], none, loads), (b["cable_stiffness"], none, cables),
+            (b["coupling_stiffness"], none, couplings)]
+        indices = [np.ascontiguousarray(at, np.int64) if first is not None else np.zeros(1, np.int64)
+                   for first, _, at in layout]
+        counts = np.array([len(at) if first is not None else at for (first, _, at) in layout], np.int64)
+        table = (counts, np.array([_address(first) for first, _, _ in layout], np.uint64),
+                 np.array([_address(second) for _, second, _ in layout], np.uint64),
+                 np.array([i.ctypes.data for i in indices], np.uint64))
+        self._exact_held = (indices, table)   # alive as long as the addresses passed
+        return (len(counts), *(t.ctypes.data for t in table), self._positions3.ctypes.data), stiffness
 
     def exact_rows(self, state: State, coordinates, load_factor: float = 1.0, inertia: bool = True):
         """(M, C, K), each (len(coordinates), n_assembled) dense: the rows of :meth:`exact_matrices`' matrices
@@ -472,3 +496,8 @@ class Assembler:
         self.complete_links(state)
         out = self.native().momentum(state)
         return out[:3], out[3:]
+
+
+def _address(array: np.ndarray | None) -> int:
+    """The address of ``array``'s data, 0 (NULL) for None or an empty array."""
+    return 0 if array is None or array.size == 0 else array.ctypes.data

@@ -15,6 +15,31 @@
  * in K's entry order), so the sensitivities are those of that Python step to the bit.
  */
 
+/* M, C and K of one evaluation as the values of the assembler's pattern (out: 3 × nnz, M, C, K in turn;
+ * latdyn.assembly.assembler.Assembler.exact_matrix_values lays the segments out): segment s takes counts[s] entries,
+ * first[s][indices[s][i]] (+ second[s][indices[s][i]] where second[s] is given; 0 where first[s] is NULL), each added
+ * at its place positions[p], p running over all segments in turn — the order np.bincount adds its weights in, so
+ * the values are the bincount's to the bit. */
+void latdyn_exact_matrix_values(int64_t n_segments, const int64_t *counts, const double *const *first,
+                                const double *const *second, const int64_t *const *indices, const int64_t *positions,
+                                int64_t size, double *out)
+{
+    memset(out, 0, sizeof(double) * size);
+    int64_t p = 0;
+    for (int64_t s = 0; s < n_segments; ++s) {
+        const double *a = first[s], *b = second[s];
+        const int64_t *at = indices[s];
+        for (int64_t i = 0; i < counts[s]; ++i, ++p) {
+            double value = 0.0;
+            if (a != NULL) {
+                value = a[at[i]];
+                if (b != NULL) value += b[at[i]];
+            }
+            out[positions[p]] += value;
+        }
+    }
+}
+
 /* The held pattern of S for one numbering (latdyn.analyses.step_matrix.ExactStepMatrix builds it). */
 typedef struct {
     int64_t n;                  /* free coordinates */
