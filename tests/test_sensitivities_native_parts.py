@@ -118,3 +118,34 @@ def test_the_exact_matrices_on_the_pattern_are_the_bincount_of_the_blocks(monkey
     reference = np.bincount(assembler._positions3, weights=data, minlength=3 * assembler._nnz).reshape(3, -1)
     assert np.any(b["load_blocks"]) and np.any(b["body_damping"]) and np.any(b["hinge_d_rate"])
     assert values.tobytes() == reference.tobytes()
+
+
+def test_the_joint_bodies_inertia_stiffness_gathered_in_c_is_the_kernel_called_from_python(monkeypatch):
+    result_state = {}
+    step = TransientSensitivities.step
+
+    def kept(self, carried, old, new, *args, **kwargs):
+        result_state.update(owner=self, state=new)
+        return step(self, carried, old, new, *args, **kwargs)
+
+    monkeypatch.setattr(TransientSensitivities, "step", kept)
+    latdyn.run(latdyn.load_scene(yaml.safe_load(ARM)))
+    assembler, state = result_state["owner"].assembler, result_state["state"]
+    native = assembler.joint_body_inertia_stiffness(state)
+    monkeypatch.setattr(type(assembler), "_body_stiffness_kernel", lambda self: None)
+    from_python = assembler.joint_body_inertia_stiffness(state)
+    assert np.any(from_python) and native.tobytes() == from_python.tobytes()
+
+
+def test_a_states_c_view_is_made_again_only_where_its_arrays_changed():
+    from latdyn.assembly.prepare import prepare
+
+    prepared = prepare(yaml.safe_load(ARM))
+    native, state = prepared.assembler.native(), prepared.state.copy()
+    view = native.configuration(state)
+    assert native.configuration(state) is view   # the same arrays: the same view, nothing taken anew
+    state.x = state.x.copy()                     # an array replaced: a view of the new one
+    moved = native.configuration(state)
+    assert moved is not view and moved.x == state.x.ctypes.data
+    state.T = np.asfortranarray(state.T)         # not C-contiguous: a copy, viewed anew at each call
+    assert native.configuration(state) is not native.configuration(state)

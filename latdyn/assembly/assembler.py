@@ -11,6 +11,7 @@ kernels are called once per evaluation for the whole batch.
 """
 from __future__ import annotations
 
+import ctypes
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -423,8 +424,6 @@ class Assembler:
         configuration, under gravity times ``load_factor``), which the time step's matrix leaves out."""
         model = self.model
         nodes = model.body_nodes
-        frames = np.ascontiguousarray(state.T[nodes].reshape(-1, 9))
-        motion = np.ascontiguousarray(np.concatenate([state.w[nodes], state.a[nodes], state.alpha[nodes]], axis=1))
         key = (model.body_mass, model.body_com, model.body_inertia, float(load_factor), tuple(self.gravity))
         held = self.__dict__.get("_body_inputs")   # the bodies' (mass, com, inertia) rows and gravity: made once a run
         if held is None or any(a is not b for a, b in zip(held[0][:3], key[:3])) or held[0][3:] != key[3:]:
@@ -433,8 +432,32 @@ class Assembler:
             held = (key, section, np.repeat(load_factor * self.gravity[None], len(nodes), axis=0))
             self._body_inputs = held
         _, section, gravity = held
+        native = self.current_native()
+        kernel = self._body_stiffness_kernel() if native is not None else None
+        if kernel is not None:   # one native call: the same kernel on the same inputs, gathered in C
+            blocks = np.empty((len(nodes), 6, 6))
+            scratch = self.__dict__.get("_body_scratch")
+            if scratch is None or len(scratch) < 18 * len(nodes):
+                scratch = self._body_scratch = np.empty(max(18 * len(nodes), 1))
+            native.library.latdyn_joint_body_inertia_stiffness(
+                native.model_ref, ctypes.byref(native.configuration(state)), kernel, section.ctypes.data,
+                gravity.ctypes.data, scratch.ctypes.data, blocks.ctypes.data)
+            return blocks
+        frames = np.ascontiguousarray(state.T[nodes].reshape(-1, 9))
+        motion = np.ascontiguousarray(np.concatenate([state.w[nodes], state.a[nodes], state.alpha[nodes]], axis=1))
         blocks = np.asarray(self.kernels.joint_body_inertia_stiffness(frames, motion, section, gravity)[0])
         return blocks.reshape(len(nodes), 6, 6)
+
+    def _body_stiffness_kernel(self) -> int | None:
+        """The address of the C kernel ``joint_body_inertia_stiffness`` (found once), None where the kernels have no
+        C libraries (the NumPy backend): :meth:`joint_body_inertia_stiffness` then calls it from Python."""
+        if "_body_stiffness_address" not in self.__dict__:
+            try:
+                library = self.kernels.library("joint_body_inertia_stiffness")
+                self._body_stiffness_address = ctypes.cast(library.joint_body_inertia_stiffness, ctypes.c_void_p).value
+            except (AttributeError, KeyError):
+                self._body_stiffness_address = None
+        return self._body_stiffness_address
 
     def evaluate_assembled(self, state: State, matrices: bool, load_factor: float, inertia: bool,
                            inertia_tangent: bool = False) -> Evaluation:

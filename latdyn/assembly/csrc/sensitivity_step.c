@@ -40,6 +40,30 @@ void latdyn_exact_matrix_values(int64_t n_segments, const int64_t *counts, const
     }
 }
 
+/* The joint bodies' inertia stiffness at c (out: n_bodies × 6 × 6), which the time step's matrix leaves out and the
+ * exact K adds to the bodies' blocks: the generated joint_body_inertia_stiffness (codegen/joints.py) called once
+ * for every body, on each body node's frame and (ω, a, α), with the bodies' rows ``body`` (n_bodies × 13: m, c, I)
+ * and λg rows ``gravity`` (n_bodies × 3) as latdyn.assembly.assembler.Assembler.joint_body_inertia_stiffness
+ * holds them; scratch: 18 n_bodies doubles. */
+typedef void (*kernel_body_stiffness)(int64_t, const double *, const double *, const double *, const double *,
+                                      double *);
+
+void latdyn_joint_body_inertia_stiffness(const Model *m, const Configuration *c, kernel_body_stiffness kernel,
+                                         const double *body, const double *gravity, double *scratch, double *out)
+{
+    const int64_t n = m->n_bodies;
+    if (n == 0) return;
+    double *frames = scratch, *motion = scratch + 9 * n;
+    for (int64_t k = 0; k < n; ++k) {
+        const int64_t i = m->body_nodes[k];
+        memcpy(frames + 9 * k, c->T + 9 * i, 9 * sizeof(double));
+        memcpy(motion + 9 * k, c->w + 3 * i, 3 * sizeof(double));
+        memcpy(motion + 9 * k + 3, c->a + 3 * i, 3 * sizeof(double));
+        memcpy(motion + 9 * k + 6, c->alpha + 3 * i, 3 * sizeof(double));
+    }
+    kernel(n, frames, motion, body, gravity, out);
+}
+
 /* The held pattern of S for one numbering (latdyn.analyses.step_matrix.ExactStepMatrix builds it). */
 typedef struct {
     int64_t n;                  /* free coordinates */
