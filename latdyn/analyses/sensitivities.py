@@ -557,17 +557,19 @@ class ParameterDerivatives:
     def _native_section_forces(self, state, total: np.ndarray, load_factor: float, inertia: bool) -> bool:
         """:meth:`_section_forces` in one native call (``NativeModel.section_parameter_forces``,
         csrc/parameter_forces.c: the element inputs, the same generated kernels by the section values, the
-        contraction with each use's ∂s/∂p and the scatter); False where it cannot serve (no section use, kernels
-        without C libraries, ``total`` not C-contiguous float64), and the caller takes the Python path. Its
+        contraction with each use's ∂s/∂p and the scatter); False where it cannot serve (kernels without C libraries,
+        ``total`` not C-contiguous float64, section rows not the kernels' ten columns), and the caller takes the
+        Python path; True with nothing added where no parameter is a section value's. Its
         contractions sum their nine products in the section values' order, where NumPy's einsum sums them in
-        SIMD lanes: the two agree to round-off."""
+        SIMD lanes: the two agree to round-off (to the bit on every scene measured, docs/performance.md)."""
         blocks = self._section_derivative_blocks(state)
         if blocks is None:
             return True
         kernels = self._section_kernel_addresses()
-        if kernels is None or total.dtype != np.float64 or not total.flags.c_contiguous:
-            return False
         elements, column, rows = blocks
+        if (kernels is None or total.dtype != np.float64 or not total.flags.c_contiguous
+                or rows.shape[1] != 10):   # the kernels' section rows: L0 and the nine values (csrc/parameter_forces.c)
+            return False
         on, use = self._section_elements_once()
         gravity = load_factor * np.asarray(self.assembler.gravity, float)
         with_kernel = inertia or bool(np.any(gravity))
