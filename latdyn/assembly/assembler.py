@@ -311,7 +311,8 @@ class Assembler:
         """(3, nnz): :meth:`exact_matrices`' M, C and K of the equations of motion (load factor 1) as the
         values of this assembler's pattern (``pattern()``: CSR indptr and indices, structural zeros
         kept), the joint bodies' inertia stiffness added to K's body blocks before the scatter: one
-        native evaluation, one scatter, no SciPy (the transient sensitivities' step,
+        native evaluation, one native scatter (``latdyn_exact_matrix_values``, in np.bincount's order of the
+        blocks concatenated: :meth:`_segments_of`), no SciPy (the transient sensitivities' step,
         :class:`latdyn.analyses.step_matrix.ExactStepMatrix`). Without rigid links and guides only."""
         if self.model.links is not None:
             raise ValueError("exact_matrix_values: a model with rigid links or guides (use exact_matrices)")
