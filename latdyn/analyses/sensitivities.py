@@ -83,6 +83,7 @@ beams with mass are differentiated exactly there too. docs/parameters.md.
 """
 from __future__ import annotations
 
+import ctypes
 from dataclasses import dataclass, fields, is_dataclass
 from pathlib import Path
 
@@ -517,7 +518,10 @@ class ParameterDerivatives:
     def _section_forces(self, state, total: np.ndarray, load_factor: float, inertia: bool = False) -> None:
         """Add ∂(element internal force − λ gravity load)/∂p into ``total`` for the section values that
         name a parameter (with ``inertia``: ∂(internal force + M a + g − gravity load)/∂p, as evaluate.c sums
-        them): :meth:`_section_element_forces` scattered onto the elements' coordinates."""
+        them): :meth:`_section_element_forces` scattered onto the elements' coordinates, in one native call
+        where the kernels are the C backend's (:meth:`_native_section_forces`), else from Python."""
+        if self._native_section_forces(state, total, load_factor, inertia):
+            return
         forces = self._section_element_forces(state, load_factor, inertia)
         if forces is not None:
             elements, column, by_element = forces
@@ -549,6 +553,44 @@ class ParameterDerivatives:
                 at, np.ascontiguousarray(rates[on]), np.ascontiguousarray(accelerations[on]), sections,
                 np.ascontiguousarray(np.repeat(gravity[None], len(on), axis=0)))[1]).reshape(len(on), 14, 9)
         return elements, column, np.einsum("epd,ed->ep", by_section[use], rows[:, 1:])
+
+    def _native_section_forces(self, state, total: np.ndarray, load_factor: float, inertia: bool) -> bool:
+        """:meth:`_section_forces` in one native call (``NativeModel.section_parameter_forces``,
+        csrc/parameter_forces.c: the element inputs, the same generated kernels by the section values, the
+        contraction with each use's ∂s/∂p and the scatter); False where it cannot serve (kernels without C libraries,
+        ``total`` not C-contiguous float64, section rows not the kernels' ten columns), and the caller takes the
+        Python path; True with nothing added where no parameter is a section value's. Its
+        contractions sum their nine products in the section values' order, where NumPy's einsum sums them in
+        SIMD lanes: the two agree to round-off (to the bit on every scene measured, docs/performance.md)."""
+        blocks = self._section_derivative_blocks(state)
+        if blocks is None:
+            return True
+        kernels = self._section_kernel_addresses()
+        elements, column, rows = blocks
+        if (kernels is None or total.dtype != np.float64 or not total.flags.c_contiguous
+                or rows.shape[1] != 10):   # the kernels' section rows: L0 and the nine values (csrc/parameter_forces.c)
+            return False
+        on, use = self._section_elements_once()
+        gravity = load_factor * np.asarray(self.assembler.gravity, float)
+        with_kernel = inertia or bool(np.any(gravity))
+        uses = tuple(np.ascontiguousarray(a, np.int64) for a in (on, use, elements, column))
+        self.assembler.native().section_parameter_forces(
+            state, (kernels[0], kernels[1] if with_kernel else None), inertia,
+            np.ascontiguousarray(gravity) if with_kernel else None, (*uses, np.ascontiguousarray(rows, np.float64)),
+            total)
+        return True
+
+    def _section_kernel_addresses(self):
+        """The addresses of the C kernels ``beam_internal_force_D_section`` and ``beam_inertia_force_D_section``,
+        found once; None where the kernels have no C libraries (the NumPy backend)."""
+        if "_section_kernels_found" not in self.__dict__:
+            try:
+                found = tuple(ctypes.cast(getattr(self.kernels.library(name), name), ctypes.c_void_p).value
+                              for name in ("beam_internal_force_D_section", "beam_inertia_force_D_section"))
+            except (AttributeError, KeyError):
+                found = None
+            self._section_kernels_found = found
+        return self._section_kernels_found
 
     def _section_elements_once(self) -> tuple:
         """(the distinct elements of the section uses, each use's index among them): ``np.unique`` of the layout's

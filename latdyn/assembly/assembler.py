@@ -11,6 +11,7 @@ kernels are called once per evaluation for the whole batch.
 """
 from __future__ import annotations
 
+import ctypes
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -310,7 +311,8 @@ class Assembler:
         """(3, nnz): :meth:`exact_matrices`' M, C and K of the equations of motion (load factor 1) as the
         values of this assembler's pattern (``pattern()``: CSR indptr and indices, structural zeros
         kept), the joint bodies' inertia stiffness added to K's body blocks before the scatter: one
-        native evaluation, one scatter, no SciPy (the transient sensitivities' step,
+        native evaluation, one native scatter (``latdyn_exact_matrix_values``, in np.bincount's order of the
+        blocks concatenated: :meth:`_segments_of`), no SciPy (the transient sensitivities' step,
         :class:`latdyn.analyses.step_matrix.ExactStepMatrix`). Without rigid links and guides only."""
         if self.model.links is not None:
             raise ValueError("exact_matrix_values: a model with rigid links or guides (use exact_matrices)")
@@ -320,24 +322,48 @@ class Assembler:
         if self._positions3 is None:   # where the blocks' kept entries lie (reindex's masks, flat) and M's zeros
             flat = [np.flatnonzero(mask) for mask in (self._elem_mask, self._body_mask, self._load_mask,
                                                       self._cable_mask, self._coupling_mask)]
-            hinges, loads, cables, couplings = len(m.free_hinges), len(flat[2]), len(flat[3]), len(flat[4])
-            self._exact_layout = (*flat, np.zeros(hinges), np.zeros(loads + cables), np.zeros(couplings),
-                                  np.zeros(loads))
-            self._positions3 = np.concatenate([self._position + i * self._nnz for i in range(3)])
-        elements, bodies, loads, cables, couplings, no_hinges, no_loads, no_couplings, no_forces = self._exact_layout
-        free = m.free_hinges
-        body_stiffness = b["body_stiffness"].take(bodies)
-        if len(m.body_nodes):
-            body_stiffness = body_stiffness + self.joint_body_inertia_stiffness(state).take(bodies)
-        # the blocks in the order of reindex's pattern, M, C, K in turn, as evaluation_in and _flat give them
-        data = np.concatenate([
-            b["mass"].take(elements), b["body_mass"].take(bodies), no_hinges, no_loads, no_couplings,
-            b["quadratic_D"].take(elements), b["body_damping"].take(bodies), b["hinge_d_rate"][free],
-            no_forces, b["cable_damping"].take(cables), b["coupling_damping"].take(couplings),
-            b["tangent"].take(elements) + b["inertia_tangent"].take(elements), body_stiffness,
-            b["hinge_d_theta"][free], b["load_blocks"].take(loads), b["cable_stiffness"].take(cables),
-            b["coupling_stiffness"].take(couplings)])
-        return np.bincount(self._positions3, weights=data, minlength=3 * self._nnz).reshape(3, self._nnz)
+            self._exact_layout = (*flat, np.ascontiguousarray(m.free_hinges, np.int64))
+            self._positions3 = np.ascontiguousarray(np.concatenate([self._position + i * self._nnz for i in range(3)]),
+                                                    np.int64)
+            self._exact_segments = None
+        segments = self._exact_segments
+        if segments is None or segments[0] is not native:
+            segments = self._exact_segments = (native, *self._segments_of(native))
+        _, arguments, stiffness = segments
+        if len(m.body_nodes):   # K's body blocks with the bodies' inertia stiffness (the second part of their segment)
+            stiffness[...] = self.joint_body_inertia_stiffness(state)
+        out = np.empty((3, self._nnz))
+        native.library.latdyn_exact_matrix_values(*arguments, out.size, out.ctypes.data)
+        return out
+
+    def _segments_of(self, native: NativeModel) -> tuple:
+        """The segments of :meth:`exact_matrix_values`' one native scatter (``latdyn_exact_matrix_values``,
+        csrc/sensitivity_step.c) for ``native``'s buffers: the blocks in the order of reindex's pattern, M, C, K in
+        turn, as evaluation_in and _flat give them — each (its buffer or none: zeros, a buffer added to it or
+        none, its entries' flat indices) — as arrays of counts and addresses, and the array of the joint bodies'
+        inertia stiffness the call adds to K's body blocks (copied in per call); returned as the call's first
+        arguments (the count of segments, then addresses) and that array."""
+        b, m = native.buffers, self.model
+        elements, bodies, loads, cables, couplings, free = self._exact_layout
+        stiffness = np.zeros_like(b["body_stiffness"])
+        none, hinges = None, len(free)
+        layout = [   # (first, second, indices or a count of zeros)
+            (b["mass"], none, elements), (b["body_mass"], none, bodies), (none, none, hinges),
+            (none, none, len(loads) + len(cables)), (none, none, len(couplings)),
+            (b["quadratic_D"], none, elements), (b["body_damping"], none, bodies), (b["hinge_d_rate"], none, free),
+            (none, none, len(loads)), (b["cable_damping"], none, cables), (b["coupling_damping"], none, couplings),
+            (b["tangent"], b["inertia_tangent"], elements),
+            (b["body_stiffness"], stiffness if len(m.body_nodes) else none, bodies),
+            (b["hinge_d_theta"], none, free), (b["load_blocks"], none, loads), (b["cable_stiffness"], none, cables),
+            (b["coupling_stiffness"], none, couplings)]
+        indices = [np.ascontiguousarray(at, np.int64) if first is not None else np.zeros(1, np.int64)
+                   for first, _, at in layout]
+        counts = np.array([len(at) if first is not None else at for (first, _, at) in layout], np.int64)
+        table = (counts, np.array([_address(first) for first, _, _ in layout], np.uint64),
+                 np.array([_address(second) for _, second, _ in layout], np.uint64),
+                 np.array([i.ctypes.data for i in indices], np.uint64))
+        self._exact_held = (indices, table)   # alive as long as the addresses passed
+        return (len(counts), *(t.ctypes.data for t in table), self._positions3.ctypes.data), stiffness
 
     def exact_rows(self, state: State, coordinates, load_factor: float = 1.0, inertia: bool = True):
         """(M, C, K), each (len(coordinates), n_assembled) dense: the rows of :meth:`exact_matrices`' matrices
@@ -399,8 +425,6 @@ class Assembler:
         configuration, under gravity times ``load_factor``), which the time step's matrix leaves out."""
         model = self.model
         nodes = model.body_nodes
-        frames = np.ascontiguousarray(state.T[nodes].reshape(-1, 9))
-        motion = np.ascontiguousarray(np.concatenate([state.w[nodes], state.a[nodes], state.alpha[nodes]], axis=1))
         key = (model.body_mass, model.body_com, model.body_inertia, float(load_factor), tuple(self.gravity))
         held = self.__dict__.get("_body_inputs")   # the bodies' (mass, com, inertia) rows and gravity: made once a run
         if held is None or any(a is not b for a, b in zip(held[0][:3], key[:3])) or held[0][3:] != key[3:]:
@@ -409,8 +433,32 @@ class Assembler:
             held = (key, section, np.repeat(load_factor * self.gravity[None], len(nodes), axis=0))
             self._body_inputs = held
         _, section, gravity = held
+        native = self.current_native()
+        kernel = self._body_stiffness_kernel() if native is not None else None
+        if kernel is not None:   # one native call: the same kernel on the same inputs, gathered in C
+            blocks = np.empty((len(nodes), 6, 6))
+            scratch = self.__dict__.get("_body_scratch")
+            if scratch is None or len(scratch) < 18 * len(nodes):
+                scratch = self._body_scratch = np.empty(max(18 * len(nodes), 1))
+            native.library.latdyn_joint_body_inertia_stiffness(
+                native.model_ref, ctypes.byref(native.configuration(state)), kernel, section.ctypes.data,
+                gravity.ctypes.data, scratch.ctypes.data, blocks.ctypes.data)
+            return blocks
+        frames = np.ascontiguousarray(state.T[nodes].reshape(-1, 9))
+        motion = np.ascontiguousarray(np.concatenate([state.w[nodes], state.a[nodes], state.alpha[nodes]], axis=1))
         blocks = np.asarray(self.kernels.joint_body_inertia_stiffness(frames, motion, section, gravity)[0])
         return blocks.reshape(len(nodes), 6, 6)
+
+    def _body_stiffness_kernel(self) -> int | None:
+        """The address of the C kernel ``joint_body_inertia_stiffness`` (found once), None where the kernels have no
+        C libraries (the NumPy backend): :meth:`joint_body_inertia_stiffness` then calls it from Python."""
+        if "_body_stiffness_address" not in self.__dict__:
+            try:
+                library = self.kernels.library("joint_body_inertia_stiffness")
+                self._body_stiffness_address = ctypes.cast(library.joint_body_inertia_stiffness, ctypes.c_void_p).value
+            except (AttributeError, KeyError):
+                self._body_stiffness_address = None
+        return self._body_stiffness_address
 
     def evaluate_assembled(self, state: State, matrices: bool, load_factor: float, inertia: bool,
                            inertia_tangent: bool = False) -> Evaluation:
@@ -472,3 +520,8 @@ class Assembler:
         self.complete_links(state)
         out = self.native().momentum(state)
         return out[:3], out[3:]
+
+
+def _address(array: np.ndarray | None) -> int:
+    """The address of ``array``'s data, 0 (NULL) for None or an empty array."""
+    return 0 if array is None or array.size == 0 else array.ctypes.data

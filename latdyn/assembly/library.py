@@ -4,7 +4,9 @@ sparse LU of ``csrc/sparse_lu.c``), built once into the kernel cache by :mod:`la
 ctypes mirrors of its C structs (``Model``, ``Links``, ``Work``, ``Configuration``, ``EvaluationControl``,
 ``Vectors``, ``StepControl``, ``Advance``, ``Rows``, ``Factorization``, ``SparseLU``, ``SensitivityStep``) and the
 signatures of its exported functions (``latdyn_factor``, ``latdyn_solve``, ``latdyn_solve_transposed``,
-``latdyn_sensitivity_step``, ``latdyn_sensitivity_predict`` and ``latdyn_sensitivity_update`` among them;
+``latdyn_sensitivity_step``, ``latdyn_sensitivity_predict``, ``latdyn_sensitivity_update``,
+``latdyn_exact_matrix_values``, ``latdyn_joint_body_inertia_stiffness`` and ``latdyn_section_parameter_forces``
+among them;
 ``latdyn_law_spring_integral``, the quadrature of a law spring's potential, takes a hinge law's function of
 type :data:`HINGE_LAW_VALUES`).
 
@@ -295,6 +297,13 @@ def native_library() -> ctypes.CDLL:
                                                     ctypes.c_double, P, P, P, I64, P, P, P, P, P]
         library.latdyn_sensitivity_predict.restype = None
         library.latdyn_sensitivity_predict.argtypes = [I64, I64, P, I64, P, P, P, P, P, P, P, P, P, P, P]
+        library.latdyn_joint_body_inertia_stiffness.restype = None
+        library.latdyn_joint_body_inertia_stiffness.argtypes = [model, configuration, P, P, P, P, P]
+        library.latdyn_exact_matrix_values.restype = None
+        library.latdyn_exact_matrix_values.argtypes = [I64, P, P, P, P, P, I64, P]
+        library.latdyn_section_parameter_forces.restype = None
+        library.latdyn_section_parameter_forces.argtypes = [model, work, configuration, P, P, I64, P, I64, P, I64, P,
+                                                            P, P, P, I64, P, P]
         library.latdyn_sensitivity_update.restype = None
         library.latdyn_sensitivity_update.argtypes = [I64, I64, P, ctypes.c_double, ctypes.c_double, I64, P, P, P, P,
                                                       P]

@@ -23,6 +23,7 @@
 #include "links.c"    /* rigid links: dependent nodes completed, evaluations reduced */
 #include "rows.c"     /* rows where the step runs: the recorded rows' buffers, the momenta */
 #include "sensitivity_step.c" /* the transient sensitivities' step matrix and solves in one call */
+#include "parameter_forces.c" /* ∂r/∂p of the section values that name a parameter, in one call */
 
 /* S = β′M + γ′C + K scattered into the matrix storage (Evaluation.combined). */
 static void assemble(const Model *m, Work *w, double beta_p, double gamma_p, int with_inertia_tangent)

@@ -15,6 +15,55 @@
  * in K's entry order), so the sensitivities are those of that Python step to the bit.
  */
 
+/* M, C and K of one evaluation as the values of the assembler's pattern (out: 3 × nnz, M, C, K in turn;
+ * latdyn.assembly.assembler.Assembler.exact_matrix_values lays the segments out): segment s takes counts[s] entries,
+ * first[s][indices[s][i]] (+ second[s][indices[s][i]] where second[s] is given; 0 where first[s] is NULL), each added
+ * at its place positions[p], p running over all segments in turn — the order np.bincount adds its weights in, so
+ * the values are the bincount's to the bit. */
+void latdyn_exact_matrix_values(int64_t n_segments, const int64_t *counts, const double *const *first,
+                                const double *const *second, const int64_t *const *indices, const int64_t *positions,
+                                int64_t size, double *out)
+{
+    memset(out, 0, sizeof(double) * size);
+    int64_t p = 0;
+    for (int64_t s = 0; s < n_segments; ++s) {
+        const double *a = first[s], *b = second[s];
+        const int64_t *at = indices[s];
+        for (int64_t i = 0; i < counts[s]; ++i, ++p) {
+            double value = 0.0;
+            if (a != NULL) {
+                value = a[at[i]];
+                if (b != NULL) value += b[at[i]];
+            }
+            out[positions[p]] += value;
+        }
+    }
+}
+
+/* The joint bodies' inertia stiffness at c (out: n_bodies × 6 × 6), which the time step's matrix leaves out and the
+ * exact K adds to the bodies' blocks: the generated joint_body_inertia_stiffness (codegen/joints.py) called once
+ * for every body, on each body node's frame and (ω, a, α), with the bodies' rows ``body`` (n_bodies × 13: m, c, I)
+ * and λg rows ``gravity`` (n_bodies × 3) as latdyn.assembly.assembler.Assembler.joint_body_inertia_stiffness
+ * holds them; scratch: 18 n_bodies doubles. */
+typedef void (*kernel_body_stiffness)(int64_t, const double *, const double *, const double *, const double *,
+                                      double *);
+
+void latdyn_joint_body_inertia_stiffness(const Model *m, const Configuration *c, kernel_body_stiffness kernel,
+                                         const double *body, const double *gravity, double *scratch, double *out)
+{
+    const int64_t n = m->n_bodies;
+    if (n == 0) return;
+    double *frames = scratch, *motion = scratch + 9 * n;
+    for (int64_t k = 0; k < n; ++k) {
+        const int64_t i = m->body_nodes[k];
+        memcpy(frames + 9 * k, c->T + 9 * i, 9 * sizeof(double));
+        memcpy(motion + 9 * k, c->w + 3 * i, 3 * sizeof(double));
+        memcpy(motion + 9 * k + 3, c->a + 3 * i, 3 * sizeof(double));
+        memcpy(motion + 9 * k + 6, c->alpha + 3 * i, 3 * sizeof(double));
+    }
+    kernel(n, frames, motion, body, gravity, out);
+}
+
 /* The held pattern of S for one numbering (latdyn.analyses.step_matrix.ExactStepMatrix builds it). */
 typedef struct {
     int64_t n;                  /* free coordinates */
