@@ -354,7 +354,8 @@ class TimeLoop:
             joints=bool(self.model.hinges), cables=self.probes.needs_cables,
             controller_states=self.probes.needs_controller_states,
             controller_outputs=self.probes.needs_controller_outputs,
-            sample_tolerance=1e-9 * control.dt if control.samples_in_loop else 0.0)
+            sample_tolerance=1e-9 * control.dt if control.samples_in_loop else 0.0,
+            rate_turns=progress.kept_rate_turns(len(progress.state.theta)) if self.model.hinges else None)
         progress.solver_s += time.perf_counter() - started
         ended_on_a_row = False
         if done.rows is not None and len(done.rows):
@@ -369,6 +370,7 @@ class TimeLoop:
             progress.hinge_work_torque, progress.hinge_damper_torque = done.hinge_work_torque, done.hinge_damper_torque
             progress.cable_work = done.cable_work
             progress.dissipated = self.probes.dissipated = done.dissipated
+            progress.rate_turns = done.rate_turns
             before, progress.state = progress.state, done.state   # a refusal in _track_cables ends at done's rows
             self._track_cables(before, done.state)
             progress.algorithmic_acceleration = self.integrator.a
@@ -549,6 +551,8 @@ class TimeLoop:
             carried = self.sensitivities.step(progress.sensitivities, progress.state, new, h,
                                               progress.algorithmic_acceleration, integrator.a, attempt.lands)
         events = hinge_events(self.prepared, integrator, progress.state, new, h)
+        if not events.any and model.hinges:
+            progress.note_rate_turns(model.free_hinges, progress.state, new, h)
         if self.sensitivities is not None and model.resting.any():  # locked on its stop until released
             raise SolverError(f"the sensitivities at t = {new.t:.6g} meet a hinge resting on its stop, whose "
                               "derivative is not that of one event (docs/parameters.md, \"Sensitivities through "
@@ -760,6 +764,10 @@ class TimeLoop:
                        f"start or the model (a rerun at dt/2 tells them apart)")
             print(f"latdyn: warning: {warning}", file=sys.stderr)
             summary.setdefault("warnings", []).append(warning)
+        if not self.unbounded:
+            for warning in progress.unresolved_hinges([h.name for h in self.model.hinges]):
+                print(f"latdyn: warning: {warning}", file=sys.stderr)
+                summary.setdefault("warnings", []).append(warning)
 
     # ------------------------------------------------------------------------- checkpoints
     def _accepted(self, kept_factorization: bool = True) -> LastAccepted:
