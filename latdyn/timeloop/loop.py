@@ -357,6 +357,8 @@ class TimeLoop:
             sample_tolerance=1e-9 * control.dt if control.samples_in_loop else 0.0,
             rate_turns=progress.kept_rate_turns(len(progress.state.theta)) if self.model.hinges else None)
         progress.solver_s += time.perf_counter() - started
+        if done.rate_turns is not None:  # before the rows: an unbounded balance at one of them names them
+            progress.rate_turns = done.rate_turns
         ended_on_a_row = False
         if done.rows is not None and len(done.rows):
             self._record_rows(done.rows)
@@ -370,7 +372,6 @@ class TimeLoop:
             progress.hinge_work_torque, progress.hinge_damper_torque = done.hinge_work_torque, done.hinge_damper_torque
             progress.cable_work = done.cable_work
             progress.dissipated = self.probes.dissipated = done.dissipated
-            progress.rate_turns = done.rate_turns
             before, progress.state = progress.state, done.state   # a refusal in _track_cables ends at done's rows
             self._track_cables(before, done.state)
             progress.algorithmic_acceleration = self.integrator.a
@@ -731,7 +732,8 @@ class TimeLoop:
         """The energy balance at the row at ``t`` (docs/energy.md): an energy gain (``gain``: the
         energy created and held, relative to the energy received, :meth:`TransientProgress.balance`)
         past :data:`UNBOUNDED`, growing, at :data:`UNBOUNDED_ROWS` rows in a row, or not finite,
-        ends the run as unbounded, the row at ``t`` recorded first."""
+        ends the run as unbounded, the row at ``t`` recorded first; a hinge that a step up to ``t`` did
+        not resolve (:meth:`TransientProgress.unresolved_hinges`) is named in the message."""
         if self.progress.unbounded:
             self.unbounded = True
             progress = self.progress
@@ -741,8 +743,10 @@ class TimeLoop:
             else:
                 what = (f"the integrator created {gain:.3g} times the energy the structure received "
                         f"({received:.4g}; a run ends past {UNBOUNDED:g} times at {UNBOUNDED_ROWS} rows in a row)")
+            unresolved = progress.unresolved_hinges([h.name for h in self.model.hinges], until=t)
+            before = f"; before it, {unresolved[0]}" if unresolved else ""
             raise UnboundedError(f"unbounded: the energy balance broke at t = {t:.6g}: {what}; a smaller step or "
-                                 f"numerical dissipation (rho_inf < 1) may keep it bounded", t)
+                                 f"numerical dissipation (rho_inf < 1) may keep it bounded{before}", t)
 
     def _summarize(self) -> None:
         """The run's counters and energy balance into the summary; a balance error past

@@ -180,17 +180,18 @@ class TransientProgress:
             self.rate_turns = np.zeros((n_hinges, 3))
         return self.rate_turns
 
-    def unresolved_hinges(self, names) -> list[str]:
-        """Warnings for the hinges whose largest :attr:`rate_turns` passed :data:`UNRESOLVED_TURN`: the step
-        did not resolve their motion (docs/energy.md, "Steps that do not resolve a hinge")."""
+    def unresolved_hinges(self, names, until: float = math.inf) -> list[str]:
+        """Warnings for the hinges whose largest :attr:`rate_turns` passed :data:`UNRESOLVED_TURN` (at a step
+        ending no later than ``until``): the step did not resolve their motion (docs/energy.md, "Steps that
+        do not resolve a hinge")."""
         warnings = []
         for name, (turn, t, h) in zip(names, self.rate_turns if self.rate_turns is not None else []):
-            if turn > UNRESOLVED_TURN:
+            if turn > UNRESOLVED_TURN and t <= until:
                 warnings.append(
                     f"hinge {name} is not resolved by the step: its rate changed by {turn / h:.4g} rad/s over the "
                     f"step of {h:.3g} s ending at t = {t:.6g}, which turns it by {turn:.3g} rad (> {UNRESOLVED_TURN:g}) "
-                    f"over the step; its motion there (a flip of the coordinates near a singular position, "
-                    f"such as gimbal lock, or a fast swing) is not resolved and the results after it may be far off: "
+                    f"over the step; its motion there (a fast swing, or a flip of the coordinates near a singular position "
+                    f"such as gimbal lock) is not resolved and the results after it may be far off: "
                     f"rerun with a smaller dt (or error_tol, adaptive)")
         return warnings
 
