@@ -69,7 +69,7 @@ def test_a_step_that_resolves_it_is_not_flagged():
     assert unresolved(result.summary.get("warnings")) == []
 
 
-def hinged_arm(dt: float) -> str:
+def hinged_arm(dt: float, output: str = "") -> str:
     """A uniform flexible arm (L = 1, EI = ρA = 1, EA = 10⁶, 4 elements) on a hinge about z at the
     ground with a rotary spring k = 1, driven by a constant torque 2 from rest. The torque, applied at
     once, swings the arm's root through 0.13 rad within 0.005 s (its local bending, much faster than
@@ -85,6 +85,7 @@ beams:
          start: {{hinge: {{axis: [0, 0, 1], stiffness: 1.0, torque: "2"}}}}}}
 solve: {{t_end: 2.0, dt: {dt}}}
 output:
+  {output}
   probes:
     th: {{hinge: arm.start, quantity: angle}}
 """
@@ -102,6 +103,14 @@ def test_an_unbounded_run_names_the_hinge_its_step_did_not_resolve(tmp_path):
     assert "unbounded: the energy balance broke at t = 0.0175" in message, message
     assert "before it, hinge arm.start is not resolved by the step" in message, message
     assert "ending at t = 0.015" in message and "rerun with a smaller dt" in message
+    # rows every 0.05: the balance is not judged before Newton's cuts crawl at t = 0.0267, which ends the
+    # run; that message names the same first step
+    (tmp_path / "every").mkdir()
+    completed, _ = latdyn_run(tmp_path / "every", hinged_arm(0.005, "every: 0.05"))
+    assert completed.returncode == 1
+    assert "the time step stays near the minimum step" in completed.stderr, completed.stderr
+    assert "before it, hinge arm.start is not resolved by the step" in completed.stderr, completed.stderr
+    assert "ending at t = 0.015, which turns it by 10.4 rad" in completed.stderr
     result = latdyn.run(latdyn.load_scene(yaml.safe_load(hinged_arm(0.0025))))
     assert result.summary.get("warnings") in (None, [])
     assert abs(result.probes["th"][-1] / 3.4394 - 1) < 5e-3  # measured 1.7e-3

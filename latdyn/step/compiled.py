@@ -312,7 +312,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
                 rows: list[int] | None = None, momentum: bool = False, sections: bool = False,
                 joints: bool = False, cables: bool = False, controller_states: bool = False,
                 controller_outputs: bool = False, sample_tolerance: float = 0.0,
-                rate_turns: np.ndarray | None = None) -> "Advanced":
+                rate_turns: np.ndarray | None = None, unresolved_turn: float = math.inf) -> "Advanced":
         """Steps on the time grid in one call into C (``latdyn_advance``), from ``state`` on grid
         point ``grid_index`` through ``stop_index``, each as :meth:`step` takes it with
         h = t_{k+1} − t_k and accepted as the time loop accepts it (algorithmic acceleration
@@ -340,9 +340,10 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         (:meth:`restarts_natively`); a model that does not restart natively ends the call after the
         sample (status 4) for the time loop to restart it (latdyn.timeloop.sampling).
 
-        ``rate_turns`` (n_hinges, 3): each hinge's largest h |θ̇_{n+1} − θ̇_n| so far with its step's end
-        time and size (latdyn.timeloop.progress.TransientProgress.rate_turns), carried on over the steps
-        taken here into a copy, :attr:`Advanced.rate_turns` (None: not kept).
+        ``rate_turns`` (n_hinges, 6): each hinge's largest h |θ̇_{n+1} − θ̇_n| so far with its step's end
+        time and size, and the first past ``unresolved_turn`` with its (latdyn.timeloop.progress.TransientProgress
+        .rate_turns), carried on over the steps taken here into a copy, :attr:`Advanced.rate_turns` (None:
+        not kept).
         """
         self._setup()
         model = self.assembler.model
@@ -368,6 +369,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         run.native_restart = int(sample_tolerance > 0.0 and self.restarts_natively(state))
         turns = None if rate_turns is None else np.array(rate_turns, dtype=float)  # in/out, a copy
         run.rate_turns = turns.ctypes.data if turns is not None else None
+        run.unresolved_turn = unresolved_turn
         self._factor_version += 1
         self._native.laws.bind_inputs()  # this scene's input values (SceneLaws.bind_inputs)
         self._library.latdyn_advance(self._model_ref, self._work_ref, self._control_ref, ctypes.byref(base),
