@@ -472,10 +472,11 @@ def test_a_von_mises_truss_snaps_at_its_limit_load_and_a_stop_before_it_is_said(
 TOP = dict(m=1.0, l=0.3, g=9.81, transverse=0.05, axial=0.1)
 
 
-def sleeping_top(solve: str, spin: float, nudge: float) -> str:
+def sleeping_top(solve: str, spin: float, nudge: float, tip_y: float = 0.0) -> str:
     """A top (m = 1, its centre of mass 0.3 above the pivot, I = 0.05, 0.05, 0.1 about it) on its
     spin hinge in a Cardan suspension of massless rigid rings (hinges about x and y through the
-    pivot), upright under gravity, spinning at ``spin`` and tipped at ``nudge`` rad/s about x."""
+    pivot), upright under gravity, spinning at ``spin`` and tipped at ``nudge`` rad/s about x (and
+    ``tip_y`` about y: tests/test_unresolved_hinge_warning.py)."""
     return f"""\
 title: a sleeping top in a Cardan suspension
 gravity: [0, 0, -9.81]
@@ -492,13 +493,14 @@ beams:
         start: {{hinge: {{axis: [0, 1, 0]}}}}}}
   stem: {{from: {{body: inner, offset: [0, -0.1, 0]}}, to: top, section: ring, rigid: true,
           start: {{hinge: {{axis: [0, 0, 1]}}}}}}
-initial_velocity: {{angular: [{nudge}, 0, {spin}], about: [0, 0, 0]}}
+initial_velocity: {{angular: [{nudge}, {tip_y}, {spin}], about: [0, 0, 0]}}
 solve: {solve}
 output:
   every: 0.02
   probes:
     x: {{point: top, quantity: position, component: x}}
     y: {{point: top, quantity: position, component: y}}
+    z: {{point: top, quantity: position, component: z}}
 """
 
 

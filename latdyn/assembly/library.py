@@ -183,7 +183,8 @@ class AdvanceData(ctypes.Structure):
                 ("pending", I64), ("t_last", ctypes.c_double), ("h_pending", ctypes.c_double),
                 ("dissipated", ctypes.c_double), ("hinge_work_torque", P), ("hinge_damper_torque", P),
                 ("rows", P), ("cable_work", P),
-                ("sample_tolerance", ctypes.c_double), ("native_restart", I64), ("samples", I64)]
+                ("sample_tolerance", ctypes.c_double), ("native_restart", I64), ("samples", I64),
+                ("rate_turns", P), ("unresolved_turn", ctypes.c_double)]
 
 
 class RowsData(ctypes.Structure):

@@ -311,7 +311,8 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
                 cable_work: np.ndarray | None = None, dissipated: float = 0.0, budget_s: float = 0.25,
                 rows: list[int] | None = None, momentum: bool = False, sections: bool = False,
                 joints: bool = False, cables: bool = False, controller_states: bool = False,
-                controller_outputs: bool = False, sample_tolerance: float = 0.0) -> "Advanced":
+                controller_outputs: bool = False, sample_tolerance: float = 0.0,
+                rate_turns: np.ndarray | None = None, unresolved_turn: float = math.inf) -> "Advanced":
         """Steps on the time grid in one call into C (``latdyn_advance``), from ``state`` on grid
         point ``grid_index`` through ``stop_index``, each as :meth:`step` takes it with
         h = t_{k+1} − t_k and accepted as the time loop accepts it (algorithmic acceleration
@@ -338,6 +339,11 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         lands within it of one of their instants (csrc/sampling.c), and the accelerations restart there
         (:meth:`restarts_natively`); a model that does not restart natively ends the call after the
         sample (status 4) for the time loop to restart it (latdyn.timeloop.sampling).
+
+        ``rate_turns`` (n_hinges, 6): each hinge's largest h |θ̇_{n+1} − θ̇_n| so far with its step's end
+        time and size, and the first past ``unresolved_turn`` with its (latdyn.timeloop.progress.TransientProgress
+        .rate_turns), carried on over the steps taken here into a copy, :attr:`Advanced.rate_turns` (None:
+        not kept).
         """
         self._setup()
         model = self.assembler.model
@@ -361,6 +367,9 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         run.cable_work = cable_accounts.ctypes.data
         run.sample_tolerance = sample_tolerance
         run.native_restart = int(sample_tolerance > 0.0 and self.restarts_natively(state))
+        turns = None if rate_turns is None else np.array(rate_turns, dtype=float)  # in/out, a copy
+        run.rate_turns = turns.ctypes.data if turns is not None else None
+        run.unresolved_turn = unresolved_turn
         self._factor_version += 1
         self._native.laws.bind_inputs()  # this scene's input values (SceneLaws.bind_inputs)
         self._library.latdyn_advance(self._model_ref, self._work_ref, self._control_ref, ctypes.byref(base),
@@ -400,7 +409,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
                         factorization_kept=kept, hinge_work_torque=work_torque,
                         hinge_damper_torque=damper_torque, cable_work=cable_accounts,
                         dissipated=run.dissipated, rows=buffers.block() if buffers is not None else None,
-                        samples=run.samples)
+                        samples=run.samples, rate_turns=turns)
 
     def restarts_natively(self, state: State) -> bool:
         """Whether the loop of steps restarts the accelerations after a sample itself (csrc/sampling.c
@@ -521,6 +530,7 @@ class Advanced:
     #: the rows recorded on the way (``advance``'s ``rows``), None without
     rows: "RowBlock | None" = None
     samples: int = 0  # the sampled controllers' samples taken on the way (``sample_tolerance``)
+    rate_turns: np.ndarray | None = None  # ``advance``'s ``rate_turns`` carried over the steps taken
 
 
 #: The columns of a row's scalars (csrc/rows.c ROW_SCALARS): its time, the loop call's steps, Newton

@@ -42,7 +42,7 @@ from latdyn.timeloop.control import Resize, StepControl
 from latdyn.timeloop.jumps import starts_on_a_jump
 from latdyn.timeloop.events import (CABLE_LANDING, TAUT_JUMP_STEP, cable_events, cable_sides, crossing_fraction, hinge_events,
                                    restart_accelerations, stick_at_start)
-from latdyn.timeloop.progress import (DRIFT_WARNING, UNBOUNDED, UNBOUNDED_ROWS, TransientProgress, cable_work,
+from latdyn.timeloop.progress import (DRIFT_WARNING, UNBOUNDED, UNBOUNDED_ROWS, UNRESOLVED_TURN, TransientProgress, cable_work,
                                       energy_round_off, factorizations, hinge_work, load_power)
 from latdyn.timeloop.sampling import controller_memory, restore_controller_memory
 
@@ -300,8 +300,20 @@ class TimeLoop:
                 self._next_step()
         except (KeyboardInterrupt, Exception) as failure:
             self._stopped_by(failure)
+            self._name_unresolved(failure)
             raise
         self.prepared.state = self.progress.state
+
+    def _name_unresolved(self, failure: BaseException) -> None:
+        """A solver's failure (Newton, a crawling step) after a step that did not resolve a hinge
+        (:meth:`TransientProgress.unresolved_hinges`) names that hinge on a line of its message, as an
+        unbounded run's does (:meth:`_judge_balance`): the failure often follows from it."""
+        if not isinstance(failure, SolverError) or isinstance(failure, UnboundedError) or not self.model.hinges:
+            return
+        unresolved = self.progress.unresolved_hinges([h.name for h in self.model.hinges],
+                                                     until=self.progress.state.t, first=True)
+        if unresolved and failure.args:
+            failure.args = (f"{failure.args[0]}\nbefore it, {unresolved[0]}",) + tuple(failure.args[1:])
 
     def _next_step(self) -> None:
         """Steps in C up to the next row, or one step from Python; the step that comes back is
@@ -354,8 +366,12 @@ class TimeLoop:
             joints=bool(self.model.hinges), cables=self.probes.needs_cables,
             controller_states=self.probes.needs_controller_states,
             controller_outputs=self.probes.needs_controller_outputs,
-            sample_tolerance=1e-9 * control.dt if control.samples_in_loop else 0.0)
+            sample_tolerance=1e-9 * control.dt if control.samples_in_loop else 0.0,
+            rate_turns=progress.kept_rate_turns(len(progress.state.theta)) if self.model.hinges else None,
+            unresolved_turn=UNRESOLVED_TURN)
         progress.solver_s += time.perf_counter() - started
+        if done.rate_turns is not None:  # before the rows: an unbounded balance at one of them names them
+            progress.rate_turns = done.rate_turns
         ended_on_a_row = False
         if done.rows is not None and len(done.rows):
             self._record_rows(done.rows)
@@ -549,6 +565,8 @@ class TimeLoop:
             carried = self.sensitivities.step(progress.sensitivities, progress.state, new, h,
                                               progress.algorithmic_acceleration, integrator.a, attempt.lands)
         events = hinge_events(self.prepared, integrator, progress.state, new, h)
+        if not events.any and model.hinges:
+            progress.note_rate_turns(model.free_hinges, progress.state, new, h)
         if self.sensitivities is not None and model.resting.any():  # locked on its stop until released
             raise SolverError(f"the sensitivities at t = {new.t:.6g} meet a hinge resting on its stop, whose "
                               "derivative is not that of one event (docs/parameters.md, \"Sensitivities through "
@@ -727,7 +745,8 @@ class TimeLoop:
         """The energy balance at the row at ``t`` (docs/energy.md): an energy gain (``gain``: the
         energy created and held, relative to the energy received, :meth:`TransientProgress.balance`)
         past :data:`UNBOUNDED`, growing, at :data:`UNBOUNDED_ROWS` rows in a row, or not finite,
-        ends the run as unbounded, the row at ``t`` recorded first."""
+        ends the run as unbounded, the row at ``t`` recorded first; a hinge that a step up to ``t`` did
+        not resolve (:meth:`TransientProgress.unresolved_hinges`) is named in the message."""
         if self.progress.unbounded:
             self.unbounded = True
             progress = self.progress
@@ -737,8 +756,10 @@ class TimeLoop:
             else:
                 what = (f"the integrator created {gain:.3g} times the energy the structure received "
                         f"({received:.4g}; a run ends past {UNBOUNDED:g} times at {UNBOUNDED_ROWS} rows in a row)")
+            unresolved = progress.unresolved_hinges([h.name for h in self.model.hinges], until=t, first=True)
+            before = f"; before it, {unresolved[0]}" if unresolved else ""
             raise UnboundedError(f"unbounded: the energy balance broke at t = {t:.6g}: {what}; a smaller step or "
-                                 f"numerical dissipation (rho_inf < 1) may keep it bounded", t)
+                                 f"numerical dissipation (rho_inf < 1) may keep it bounded{before}", t)
 
     def _summarize(self) -> None:
         """The run's counters and energy balance into the summary; a balance error past
@@ -760,6 +781,10 @@ class TimeLoop:
                        f"start or the model (a rerun at dt/2 tells them apart)")
             print(f"latdyn: warning: {warning}", file=sys.stderr)
             summary.setdefault("warnings", []).append(warning)
+        if not self.unbounded:
+            for warning in progress.unresolved_hinges([h.name for h in self.model.hinges]):
+                print(f"latdyn: warning: {warning}", file=sys.stderr)
+                summary.setdefault("warnings", []).append(warning)
 
     # ------------------------------------------------------------------------- checkpoints
     def _accepted(self, kept_factorization: bool = True) -> LastAccepted:

@@ -98,6 +98,11 @@ class TransientProgress:
     #: solve.sensitivities of a transient run (latdyn/analyses/transient_sensitivities.py): δq, δv, δv̇, δa
     #: on the free coordinates (n, k) and the recorded rows; replaced, never changed in place
     sensitivities: dict | None = None
+    #: per hinge (n_hinges, 6): the largest angle by which an accepted step's change of the hinge's rate
+    #: turned it over the step, h |θ̇_{n+1} − θ̇_n|, with that step's end time and size, then the first past
+    #: :data:`UNRESOLVED_TURN` with its (:meth:`note_rate_turns`; csrc/newton_step.c rate_turns for the
+    #: steps taken in C); None until the first step
+    rate_turns: np.ndarray | None = None
 
     def count(self, stats) -> None:
         """Count a step's Newton iterations and factorizations (``stats``: a StepStats)."""
@@ -158,6 +163,43 @@ class TransientProgress:
             if peak is None or abs(value) > abs(peak["peak"]) * (1.0 + PEAK_ROUND_OFF):
                 self.joint_peaks[name] = {"peak": float(value), "t": float(t)}
 
+    def note_rate_turns(self, free_hinges, old: State, new: State, h: float) -> None:
+        """Keep each free hinge's largest h |θ̇_{n+1} − θ̇_n| (:attr:`rate_turns`) with the step ``old`` → ``new``
+        of size ``h``, accepted from Python without an event (a stop's or latch's jump of the rate is on
+        purpose, and not the step's). The steps taken in C keep it in C (csrc/newton_step.c rate_turns)."""
+        turns = self.kept_rate_turns(len(new.theta)).copy()
+        for j in free_hinges:
+            turn = h * abs(float(new.theta_dot[j]) - float(old.theta_dot[j]))
+            if turn > turns[j, 0]:
+                turns[j, :3] = (turn, float(new.t), h)
+            if turn > UNRESOLVED_TURN and turns[j, 3] == 0.0:
+                turns[j, 3:] = (turn, float(new.t), h)
+        self.rate_turns = turns
+
+    def kept_rate_turns(self, n_hinges: int) -> np.ndarray:
+        """:attr:`rate_turns`, made (zeros) at the first step (replaced, never changed in place: a copy of
+        the progress kept as a checkpoint holds its own)."""
+        if self.rate_turns is None or self.rate_turns.shape != (n_hinges, 6):
+            self.rate_turns = np.zeros((n_hinges, 6))
+        return self.rate_turns
+
+    def unresolved_hinges(self, names, until: float = math.inf, first: bool = False) -> list[str]:
+        """Warnings for the hinges whose largest :attr:`rate_turns` passed :data:`UNRESOLVED_TURN` (``first``:
+        told by the first step past it, which a failure that follows is named by, the earliest hinge first;
+        at a step ending no later than ``until``): the step did not resolve their motion (docs/energy.md, "Steps that do not resolve
+        a hinge")."""
+        warnings = []
+        kept = self.rate_turns if self.rate_turns is not None else np.zeros((0, 6))
+        for name, (turn, t, h) in zip(names, kept[:, 3:] if first else kept[:, :3]):
+            if turn > UNRESOLVED_TURN and t <= until:
+                warnings.append((t if first else 0.0,
+                    f"hinge {name} is not resolved by the step: its rate changed by {turn / h:.4g} rad/s over the "
+                    f"step of {h:.3g} s ending at t = {t:.6g}, which turns it by {turn:.3g} rad (> {UNRESOLVED_TURN:g}) "
+                    f"over the step; its motion there (a fast swing, or a flip of the coordinates near a singular position "
+                    f"such as gimbal lock) is not resolved and the results after it may be far off: "
+                    f"rerun with a smaller dt (or error_tol, adaptive)"))
+        return [warning for _, warning in sorted(warnings, key=lambda kept: kept[0])]  # first: earliest first
+
     def summary(self, tol: float, method: str) -> dict:
         """The counters and the energy balance, as summary.json reports them."""
         return dict(
@@ -172,6 +214,10 @@ class TransientProgress:
 #: Relative margin by which a row's joint force must exceed the kept peak to replace it in
 #: ``joint_peaks`` (round-off of a constant reaction, several times the 2.2e-16 of a double).
 PEAK_ROUND_OFF = 1e-12
+#: The angle (rad) past which a step's change of a hinge's rate, h |θ̇_{n+1} − θ̇_n|, says the step did not
+#: resolve the hinge's motion: a warning on stderr and in summary.json ``warnings`` (docs/energy.md says
+#: how it was chosen).
+UNRESOLVED_TURN = 0.25
 #: ``energy_balance_error`` (relative) past which a run is flagged: a warning on stderr and in
 #: summary.json ``warnings`` (docs/energy.md says how it was chosen).
 DRIFT_WARNING = 1e-2

@@ -360,7 +360,38 @@ typedef struct {
      * sample (status 4) for the caller to restart; out: the samples taken */
     double sample_tolerance;
     int64_t native_restart, samples;
+    /* in/out (n_hinges, 6; NULL: not kept): per hinge the largest h |θ̇_{n+1} − θ̇_n| of an accepted step,
+     * with that step's end time and size h, then the first past unresolved_turn, its time and size
+     * (rate_turns) */
+    double *rate_turns;
+    double unresolved_turn;
 } Advance;
+
+/* The angle by which a free hinge's rate change over the accepted step old → new turns it over the step,
+ * h |θ̇_{n+1} − θ̇_n| (≈ h² |θ̈|, the size of the step's quadratic term: a step that does not resolve the
+ * hinge's motion turns it by a sizeable fraction of a radian so; latdyn/timeloop/progress.py
+ * TransientProgress.note_rate_turns, the same for steps accepted from Python): per hinge into
+ * adv->rate_turns the largest as [turn, t, h], and the first past adv->unresolved_turn as [turn, t, h]
+ * after it. Prescribed hinges have no coordinate and are not counted. */
+static void rate_turns(const Model *m, const Configuration *old, const Configuration *new_, double t, double h,
+                       Advance *adv)
+{
+    for (int64_t k = 0; k < m->n_free_hinges; ++k) {
+        const int64_t j = m->free_hinges[k];
+        const double turn = h * fabs(new_->theta_dot[j] - old->theta_dot[j]);
+        double *kept = adv->rate_turns + 6 * j;
+        if (turn > kept[0]) {
+            kept[0] = turn;
+            kept[1] = t;
+            kept[2] = h;
+        }
+        if (turn > adv->unresolved_turn && kept[3] == 0.0) {
+            kept[3] = turn;
+            kept[4] = t;
+            kept[5] = h;
+        }
+    }
+}
 
 /* The work of the hinges' torques over the accepted step old → new (latdyn/timeloop/progress.py
  * hinge_work): ∑ ½(τ_n + τ_{n+1}) Δθ, the trapezoidal rule in θ, the work the discrete step received,
@@ -448,6 +479,7 @@ int64_t latdyn_advance(const Model *m, Work *w, StepControl *s, const Configurat
         adv->external_work += 0.5 * s->h * (adv->power + power);
         adv->power = power;
         hinge_work(m, w, base, trial, adv);
+        if (adv->rate_turns) rate_turns(m, base, trial, target, s->h, adv);
         latdyn_controller_states_accept(m, w, trial, target, s->h);  /* continuous controllers' states */
         cable_work(m, w, adv);
         adv->steps += 1;
