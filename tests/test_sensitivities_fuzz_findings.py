@@ -77,3 +77,52 @@ def test_a_hinge_axis_on_a_fixed_body_moves_the_spun_start_s_hinge_rate(tmp_path
         header = f.readline().strip().split(",")
         first = [float(x) for x in f.readline().split(",")]
     assert abs(first[header.index("rate/ax")] - da @ omega) < 1e-12
+
+
+#: a hinge driven by a saturated PI controller whose limits, initial state and sample rate are parameters
+CONTROLLER_NUMBERS = """
+parameters: {I0: 0.02, lim: 0.6, hz: 200}
+sections:
+  s: {EA: 2.0e6, EIy: 900, EIz: 600, GJ: 500, rhoA: 1.2, rhoIy: 0.0004, rhoIz: 0.0003}
+bodies:
+  g: {at: [0, 0, 0], fixed: true}
+  b: {at: [0.8, 0.1, 0.3], mass: 0.7, inertia: [0.01, 0.02, 0.015]}
+beams:
+  arm: {from: g, to: b, section: s, elements: 1, start: {hinge: {axis: [0.2, 0.3, 1], damping: 0.5, torque: ctl}}}
+controllers:
+  ctl: {output: "-30*(h - 0.15) - 4*I", states: {I: "h - 0.15"}, initial: {I: I0}, limits: ["-lim", lim], rate: hz}
+solve: {analysis: transient, method: generalized-alpha, t_end: 0.03, dt: 0.01, tol: 1.0e-12%s}
+output:
+  probes:
+    h: {hinge: arm.start, quantity: angle}
+    u: {controller: ctl}
+"""
+
+
+def test_a_controller_s_limits_initial_state_and_rate_may_be_parameters_and_their_sensitivities_are_refused(tmp_path):
+    """SCENE.md: any number of a scene may be an expression of the parameters. A controller's ``limits``,
+    ``initial`` and ``rate`` were read as plain numbers only (exit 2: ``controllers.ctl.limits[0]: expected a
+    number, got '-lim'``), so the fuzzer's parameters there were refused as a type error. Now they load to the
+    numbers they name (the run equal to the scene written with numbers, bit for bit), and a sensitivity by one
+    of them — not differentiated — is refused naming the key, never computed as 0."""
+    named = _run(CONTROLLER_NUMBERS % "")
+    numbers = yaml.safe_load(CONTROLLER_NUMBERS % "")
+    del numbers["parameters"]
+    numbers["controllers"]["ctl"].update(initial={"I": 0.02}, limits=[-0.6, 0.6], rate=200)
+    plain = latdyn.run(latdyn.load_scene(numbers))
+    assert np.abs(named.probes["u"]).max() == 0.6      # saturated: the limits act
+    for probe in ("h", "u"):
+        np.testing.assert_array_equal(named.probes[probe], plain.probes[probe])
+    for name, key in (("I0", "controllers.ctl.initial.I"), ("lim", "controllers.ctl.limits[0]"),
+                      ("hz", "controllers.ctl.rate")):
+        (tmp_path / name).mkdir()
+        completed, _ = latdyn_run(tmp_path / name, CONTROLLER_NUMBERS % f", sensitivities: [{name}]", quiet=True)
+        assert completed.returncode == 2, completed.stderr
+        assert f"solve.sensitivities: parameter '{name}' is used at {key}" in completed.stderr
+        assert "Traceback" not in completed.stderr
+    # an expression in t is no constant: refused naming the key
+    (tmp_path / "t").mkdir()
+    completed, _ = latdyn_run(tmp_path / "t", (CONTROLLER_NUMBERS % "").replace('["-lim", lim]', '["-lim*t", lim]'),
+                              quiet=True)
+    assert completed.returncode == 2
+    assert "controllers.ctl.limits[0]: expected a constant (a number or an expression without t)" in completed.stderr
