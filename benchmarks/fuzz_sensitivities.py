@@ -410,10 +410,17 @@ def compare(base: dict, perturbed: list[dict], name: str, h: float, p: float) ->
             same[-1] = True
             column = np.full(len(x), column[-1])
         scale_value = float(np.max(np.abs(values))) if len(values) else 0.0
-        floor = 1e-9 * max(scale_value, 1e-12) / max(abs(p), 1e-12)
+        # |p| or, for a parameter of value 0 (a coordinate), the size its perturbation was made for (h / STEP)
+        floor = 1e-9 * max(scale_value, 1e-12) / max(abs(p), h / STEP, 1e-12)
+        largest = max(float(np.max(np.abs(column[same]))) if same.any() else 0.0,
+                      float(np.max(np.abs(reference[same]))) if same.any() else 0.0)
         scale = max(float(np.max(np.abs(column))), float(np.max(np.abs(reference[same]))) if same.any() else 0.0,
                     floor)
         rows = np.abs(column - reference)[same]
+        if largest < floor:
+            # computed and reference both below the floor: zero, the differences round-off (the adjoint's end
+            # row of a latched angle: computed 0, the differences 1e-11 of a 0.15 rad angle)
+            rows = np.zeros_like(rows)
         worst = int(np.argmax(rows)) if len(rows) else 0
         where = float(x[same][worst]) if len(rows) else float("nan")
         # the two central differences' disagreement: truncation (h²) and the runs' own noise (1/h)
@@ -422,7 +429,7 @@ def compare(base: dict, perturbed: list[dict], name: str, h: float, p: float) ->
         records.append({"probe": probe, "where": f"rows (worst at {base['first']} = {where:.6g})",
                         "error": float(rows.max() / scale) if len(rows) else 0.0, "scale": scale,
                         "spread": float(spread[same].max() / scale) if len(rows) else 0.0,
-                        "zero": not (np.any(column) or np.any(reference))})
+                        "zero": not (np.any(column) or np.any(reference)) or largest < floor})
         rows_spread = records[-1]["spread"]
         summary = base["summary"].get("probe_sensitivities", {}).get(probe)
         if summary:
@@ -443,8 +450,10 @@ def compare(base: dict, perturbed: list[dict], name: str, h: float, p: float) ->
                                               f"{sorted(moved)}): not compared"})
                     continue
                 ref = float(_richardson(values4)) / h
+                below = max(abs(computed), abs(ref)) < floor     # both zero to the floor: agree
                 records.append({"probe": probe, "where": f"summary {key}", "spread": rows_spread,
-                                "error": abs(computed - ref) / max(scale, abs(ref), abs(computed), floor),
+                                "error": 0.0 if below else abs(computed - ref) / max(scale, abs(ref), abs(computed),
+                                                                                     floor),
                                 "computed": computed, "reference": ref})
     # the event times as one more probe: each error relative to the largest event-time derivative
     events = []
@@ -454,7 +463,7 @@ def compare(base: dict, perturbed: list[dict], name: str, h: float, p: float) ->
             continue
         ref = float(_richardson([run["summary"]["events"][i]["t"] for run in perturbed])) / h
         events.append((f"event {i} ({event.get('joint')} {event.get('kind')})", computed, ref))
-    floor = 1e-8 * float(base["x"][-1] if base["first"] == "t" else 1.0) / max(abs(p), 1e-12)
+    floor = 1e-8 * float(base["x"][-1] if base["first"] == "t" else 1.0) / max(abs(p), h / STEP, 1e-12)
     scale = max([floor] + [max(abs(c), abs(r)) for _, c, r in events])
     for label, computed, ref in events:
         records.append({"probe": label, "where": "dt", "error": abs(computed - ref) / scale,
