@@ -15,6 +15,10 @@ law in t) was left out — a held joint's reaction lacked ∂r_d/∂t δt_e, a f
 every parameter). Now both are in (``TransientSensitivities._joint_forces``). Likewise a cable's tension beside a
 reel (``rest_length`` in t) lacked ∂N/∂L0 · L0′(t) δt_e at such a row (``probe_derivatives._tension_in_time``).
 
+A parameter of the centre of mass of a body without mass or inertia ended the run with an internal error (an
+IndexError: such a body has no joint-body row); its derivative is 0 exactly, now computed so, and a parameter of
+the mass or inertia of such a body (a value 0) is refused naming ``solve.sensitivities``.
+
 A controller's ``limits``, ``initial`` and ``rate`` took plain numbers only; now constant expressions of the
 parameters as every number of a scene, their sensitivities refused naming the key.
 """
@@ -209,3 +213,39 @@ def test_a_reeled_cable_s_tension_at_an_event_s_row_moves_with_the_reel():
         computed = result.sensitivities[(probe, "k")]
         error = np.abs(computed - expected[probe]).max() / np.abs(expected[probe]).max()
         assert error <= 1e-7, (probe, error)
+
+
+#: a 3D arm whose end body has no mass or inertia, only a centre of mass named by a parameter (fuzzer seed 15
+#: case 3, reduced)
+MASSLESS_COM = """
+parameters: {c: -0.001, m: 0.0}
+sections:
+  s: {EA: 2.0e6, EIy: 900, EIz: 600, GJ: 500, rhoA: 1.2, rhoIy: 0.0004, rhoIz: 0.0003}
+bodies:
+  g: {at: [0, 0, 0], fixed: true}
+  b: {at: [0.8, 0.1, 0.3], mass: m, com: [c, 0, 0]}
+beams:
+  arm: {from: g, to: b, section: s, elements: 2, start: {hinge: {axis: [0.2, 0.3, 1], stiffness: 20, torque: 1.0}}}
+gravity: [0, 0, -9.81]
+solve: {analysis: transient, method: newmark, t_end: 0.03, dt: 0.01, tol: 1.0e-12, sensitivities: [%s]}
+output:
+  probes:
+    tip: {point: b, quantity: position, component: z}
+"""
+
+
+def test_a_centre_of_mass_of_a_body_without_mass_moves_nothing_and_its_mass_at_zero_is_refused(tmp_path):
+    """Before: both ended with ``internal error: IndexError`` (exit 1, a traceback's report). Now the centre of
+    mass's derivative is 0 in every row (the differences of whole runs are 0 too: the body has no inertia), and a
+    mass of 0 named as a parameter is refused (exit 2)."""
+    (tmp_path / "com").mkdir()
+    completed, out = latdyn_run(tmp_path / "com", MASSLESS_COM % "c", quiet=True)
+    assert completed.returncode == 0, completed.stderr
+    result = _run(MASSLESS_COM % "c")
+    assert not np.any(result.sensitivities[("tip", "c")])
+    np.testing.assert_array_equal(_run(MASSLESS_COM % "c", c=0.05).probes["tip"], result.probes["tip"])
+    (tmp_path / "mass").mkdir()
+    completed, _ = latdyn_run(tmp_path / "mass", MASSLESS_COM % "m", quiet=True)
+    assert completed.returncode == 2, completed.stderr
+    assert "solve.sensitivities: bodies.b has neither mass nor inertia" in completed.stderr
+    assert "internal error" not in completed.stderr

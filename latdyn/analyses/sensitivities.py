@@ -679,7 +679,15 @@ class ParameterDerivatives:
             if body["inertia"] and not inertia:
                 continue
             node = model.body_node[body["body"]]
-            b = int(np.flatnonzero(model.body_nodes == node)[0])
+            found = np.flatnonzero(model.body_nodes == node)
+            if not len(found):
+                if body["com"] is not None:   # a body without mass or inertia: its centre of mass moves no force
+                    continue
+                raise SceneError(self.scene.file, "solve.sensitivities",
+                                 f"bodies.{body['body']} has neither mass nor inertia at the parameters' values, so "
+                                 "a parameter of its mass or inertia adds the body's first inertia, which is not "
+                                 "differentiated; expected a body with mass or inertia (docs/parameters.md)")
+            b = int(found[0])
             frame = np.ascontiguousarray(state.T[node].reshape(1, 9))
             motion = np.zeros((1, 9))
             if inertia:
