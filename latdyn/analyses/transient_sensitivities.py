@@ -743,6 +743,8 @@ class TransientSensitivities(ParameterDerivatives):
         else:
             out = np.asarray(configuration_tangent_of_weight(assembler, state, w, scale, mass,
                                                              self.coordinate_step()) @ dq)
+            if rates is not None:   # K of a law in the rates (a cable's damper, c(θ̇)) moves with δv too
+                out += scale * self._stiffness_by_rates(state, w, rates[0])
         size = float(np.max(np.abs(w), initial=0.0))
         if size == 0.0:
             return out
@@ -754,6 +756,29 @@ class TransientSensitivities(ParameterDerivatives):
             at_rest, accelerated = self._at_rest_and_accelerated(state, w)
             out += (self.residual_derivatives(accelerated, 1.0, inertia=True)
                     - self.residual_derivatives(at_rest, 1.0, inertia=True))
+        return out
+
+    def _stiffness_by_rates(self, state, w: np.ndarray, dv: np.ndarray) -> np.ndarray:
+        """∂(K w)/∂v δv (n, k) at ``state`` (a model without rigid links or guides): the evaluation's K depends on
+        the free rates where a law does (a damped cable's geometric terms c ℓ̇, a hinge damping law in θ), and the
+        impulse's weight M + dt² K moves with them; a central difference of K w along each column's δv, as
+        :func:`configuration_tangent_of_weight` differences the hinges' and cables' blocks along q (the step
+        relative: the rates' own size, or 1)."""
+        model, assembler = self.model, self.assembler
+        v0 = free_velocity(model, state)
+        out = np.zeros_like(dv)
+
+        def product(v):
+            moved = state.copy()
+            unpack_free(model, v, moved.v, moved.w, moved.theta_dot)
+            return assembler.evaluate(moved, matrices=True).combined(0.0, 0.0, 1.0) @ w
+
+        for c in range(dv.shape[1]):
+            size = float(np.max(np.abs(dv[:, c]), initial=0.0))
+            if size == 0.0:
+                continue
+            eta = WEIGHT_STEP * max(float(np.max(np.abs(v0), initial=0.0)), 1.0) / size
+            out[:, c] = (product(v0 + eta * dv[:, c]) - product(v0 - eta * dv[:, c])) / (2 * eta)
         return out
 
     def by_sections_only(self) -> np.ndarray:
