@@ -341,6 +341,14 @@ def _adjoint_event_refusal(scene) -> str | None:
     if probe is not None:
         return (f"the adjoint is not seeded by energy and momentum probes beside events yet (probe {probe.name!r}); "
                 "the forward method differentiates them")
+    impulse = next((f"beams.{beam}.{which}.hinge" for beam, which, hinge in scene.hinges
+                    if hinge.lock_at is not None or (hinge.limits is not None and hinge.contact is None)), None)
+    damped = next((f"cables.{name}.damping" for name, cable in (scene.cables or {}).items() if cable.damping), None)
+    if impulse is not None and damped is not None:
+        # the impulse's weight M + dt² K moves with the rates through the damper's c ℓ̇ terms of K: the forward
+        # method takes that (TransientSensitivities._stiffness_by_rates), the adjoint's transposed weight does not
+        return (f"the adjoint does not differentiate a latch or rigid stop ({impulse}: lock_at, limits) beside a damped "
+                f"cable yet ({damped}: the impulse's weight moves with the rates through the damper)")
     return None
 
 
