@@ -207,6 +207,83 @@ def _slots(scene: dict) -> list[tuple[str, dict | list, str | int]]:
     return slots
 
 
+#: numbers inside expressions (a law's, a load's, a motion's, a controller's output): a literal not part of a name
+LITERAL = re.compile(r"(?<![\w.])(\d+\.?\d*(?:[eE][-+]?\d+)?)(?![\w.(\[])")
+#: the keys whose strings are expressions of t, a joint's state or a controller (every one a constant may sit in)
+EXPRESSION_KEYS = LAW_KEYS + ("angle", "position", "translation", "rest_length", "output", "force", "moment")
+#: the perturbation's floor |p| for a kind whose value may be 0 (a coordinate, a gravity component): h = STEP * max(|p|, floor)
+FLOORS = {"point": 0.1, "gravity": 1.0, "velocity_about": 0.1}
+
+
+def _extended_slots(scene: dict) -> list[tuple[str, dict | list, str | int]]:
+    """The slots of ``--extended`` campaigns besides :func:`_slots`': point coordinates (a body's position, a
+    beam's or a cable's free end, an offset; zeros too: a planar scene's point moved out of its plane),
+    gravity components (zeros too), a constant inside an expression (a law, a load, a prescribed motion, a
+    reel, a controller's output), a stop's limits, a latch's angle, a restitution, a controller's limits and
+    initial state, the point ``initial_velocity`` is ``about``."""
+    slots: list = []
+
+    def coordinates(kind, values):
+        if isinstance(values, list) and len(values) == 3:
+            for i, v in enumerate(values):
+                if isinstance(v, (int, float)) and not isinstance(v, bool):
+                    slots.append((kind, values, i))
+
+    def constants(node):
+        items = node.items() if isinstance(node, dict) else enumerate(node) if isinstance(node, list) else ()
+        for key, value in items:
+            if isinstance(value, str) and (key in EXPRESSION_KEYS or isinstance(key, int)):
+                for k, match in enumerate(LITERAL.finditer(value)):
+                    if float(match.group(1)) != 0:
+                        slots.append(("constant", node, (key, k)))
+            elif isinstance(value, (dict, list)) and key not in ("table",):
+                constants(value)
+
+    def stops(kind, law):
+        for key in ("limits",):
+            if isinstance(law.get(key), list):
+                slots.extend((kind, law[key], i) for i, v in enumerate(law[key]) if isinstance(v, (int, float)) and v)
+        for key in ("lock_at", "restitution"):
+            if isinstance(law.get(key), (int, float)) and not isinstance(law.get(key), bool) and law[key] != 0:
+                slots.append((kind, law, key))
+
+    for name, body in scene.get("bodies", {}).items():
+        if not body.get("fixed") and "motion" not in body:
+            coordinates("point", body.get("at"))
+        if "guide" in body:
+            stops("guide.stop", body["guide"])
+        constants(body)
+    for beam in scene.get("beams", {}).values():
+        coordinates("point", beam.get("to"))
+        if isinstance(beam.get("to"), dict):
+            coordinates("point", beam["to"].get("offset"))
+        for end in ("start", "end"):
+            hinge = beam.get(end, {}).get("hinge")
+            if hinge is not None and "angle" not in hinge:
+                stops("hinge.stop", hinge)
+        constants(beam)
+    for cable in scene.get("cables", {}).values():
+        for end in ("from", "to"):
+            coordinates("point", cable.get(end))
+            if isinstance(cable.get(end), dict):
+                coordinates("point", cable[end].get("offset"))
+        constants(cable)
+    coordinates("gravity", scene.get("gravity"))
+    for load in scene.get("loads", []):
+        constants(load)
+    for controller in scene.get("controllers", {}).values():
+        constants(controller)
+        if isinstance(controller.get("limits"), list):
+            slots.extend(("controller", controller["limits"], i) for i in range(len(controller["limits"])))
+        for state in (controller.get("initial") or {}):
+            if controller["initial"][state]:
+                slots.append(("controller", controller["initial"], state))
+    velocity = scene.get("initial_velocity")
+    if isinstance(velocity, dict) and scene["solve"]["analysis"] == "transient":
+        coordinates("velocity_about", velocity.get("about"))
+    return slots
+
+
 def _unname(node, values: dict):
     """Put back the numbers the generator named (its own ``parameters``), in place."""
     items = node.items() if isinstance(node, dict) else enumerate(node) if isinstance(node, list) else ()
@@ -226,13 +303,14 @@ def _prescribed(scene: dict) -> bool:
             or any("angle" in h for h in hinges))
 
 
-def parameterise(rng, scene: dict) -> list[str]:
+def parameterise(rng, scene: dict, extended: bool = False) -> list[str]:
     """Name 1–3 numbers or laws of ``scene`` as parameters (kinds drawn evenly, then a slot of the kind)
-    and ask for their sensitivities; the names, in order."""
+    and ask for their sensitivities; the names, in order. ``extended``: the slots of :func:`_extended_slots`
+    too (a constant inside an expression becomes the parameter, its value the constant's)."""
     _unname(scene, scene.pop("parameters", {}))
     scene["solve"].pop("sensitivities", None)
     by_kind = collections.defaultdict(list)
-    for slot in _slots(scene):
+    for slot in _slots(scene) + (_extended_slots(scene) if extended else []):
         by_kind[slot[0]].append(slot)
     kinds = sorted(by_kind)
     chosen = []
@@ -242,6 +320,13 @@ def parameterise(rng, scene: dict) -> list[str]:
     parameters, names = {}, []
     for i, (kind, container, key) in enumerate(chosen):
         name = f"p{i}_{kind.replace('.', '_')}"
+        if kind == "constant":          # the k-th literal of the expression at container[key]
+            key, k = key
+            match = list(LITERAL.finditer(container[key]))[k]
+            parameters[name] = float(match.group(1))
+            container[key] = container[key][:match.start()] + name + container[key][match.end():]
+            names.append(name)
+            continue
         value = container[key]
         if isinstance(value, str):       # a law: scaled by the parameter, 1 at the run
             parameters[name] = 1.0
@@ -256,7 +341,7 @@ def parameterise(rng, scene: dict) -> list[str]:
     return names
 
 
-def sensitivity_scene(seed: int, index: int, adjoint_share: float = 0.0) -> dict:
+def sensitivity_scene(seed: int, index: int, adjoint_share: float = 0.0, extended: bool = False) -> dict:
     """Case ``index`` of ``seed``: a scene of ``fuzz_runs.random_scene`` made differentiable and given
     parameters (None-free: a scene with nothing to name gets a section value); a transient one with
     parameters takes ``solve.sensitivity_method: adjoint`` with probability ``adjoint_share`` (drawn from a
@@ -264,7 +349,7 @@ def sensitivity_scene(seed: int, index: int, adjoint_share: float = 0.0) -> dict
     rng = np.random.default_rng([seed, index, 34])
     scene = random_scene(rng, joints=True)
     differentiable_solve(rng, scene)
-    parameterise(rng, scene)
+    parameterise(rng, scene, extended)
     solve = scene["solve"]
     if (solve["analysis"] == "transient" and solve.get("sensitivities")
             and np.random.default_rng([seed, index, 35]).random() < adjoint_share):
@@ -325,10 +410,17 @@ def compare(base: dict, perturbed: list[dict], name: str, h: float, p: float) ->
             same[-1] = True
             column = np.full(len(x), column[-1])
         scale_value = float(np.max(np.abs(values))) if len(values) else 0.0
-        floor = 1e-9 * max(scale_value, 1e-12) / max(abs(p), 1e-12)
+        # |p| or, for a parameter of value 0 (a coordinate), the size its perturbation was made for (h / STEP)
+        floor = 1e-9 * max(scale_value, 1e-12) / max(abs(p), h / STEP, 1e-12)
+        largest = max(float(np.max(np.abs(column[same]))) if same.any() else 0.0,
+                      float(np.max(np.abs(reference[same]))) if same.any() else 0.0)
         scale = max(float(np.max(np.abs(column))), float(np.max(np.abs(reference[same]))) if same.any() else 0.0,
                     floor)
         rows = np.abs(column - reference)[same]
+        if largest < floor:
+            # computed and reference both below the floor: zero, the differences round-off (the adjoint's end
+            # row of a latched angle: computed 0, the differences 1e-11 of a 0.15 rad angle)
+            rows = np.zeros_like(rows)
         worst = int(np.argmax(rows)) if len(rows) else 0
         where = float(x[same][worst]) if len(rows) else float("nan")
         # the two central differences' disagreement: truncation (h²) and the runs' own noise (1/h)
@@ -337,7 +429,7 @@ def compare(base: dict, perturbed: list[dict], name: str, h: float, p: float) ->
         records.append({"probe": probe, "where": f"rows (worst at {base['first']} = {where:.6g})",
                         "error": float(rows.max() / scale) if len(rows) else 0.0, "scale": scale,
                         "spread": float(spread[same].max() / scale) if len(rows) else 0.0,
-                        "zero": not (np.any(column) or np.any(reference))})
+                        "zero": not (np.any(column) or np.any(reference)) or largest < floor})
         rows_spread = records[-1]["spread"]
         summary = base["summary"].get("probe_sensitivities", {}).get(probe)
         if summary:
@@ -358,8 +450,10 @@ def compare(base: dict, perturbed: list[dict], name: str, h: float, p: float) ->
                                               f"{sorted(moved)}): not compared"})
                     continue
                 ref = float(_richardson(values4)) / h
+                below = max(abs(computed), abs(ref)) < floor     # both zero to the floor: agree
                 records.append({"probe": probe, "where": f"summary {key}", "spread": rows_spread,
-                                "error": abs(computed - ref) / max(scale, abs(ref), abs(computed), floor),
+                                "error": 0.0 if below else abs(computed - ref) / max(scale, abs(ref), abs(computed),
+                                                                                     floor),
                                 "computed": computed, "reference": ref})
     # the event times as one more probe: each error relative to the largest event-time derivative
     events = []
@@ -369,7 +463,7 @@ def compare(base: dict, perturbed: list[dict], name: str, h: float, p: float) ->
             continue
         ref = float(_richardson([run["summary"]["events"][i]["t"] for run in perturbed])) / h
         events.append((f"event {i} ({event.get('joint')} {event.get('kind')})", computed, ref))
-    floor = 1e-8 * float(base["x"][-1] if base["first"] == "t" else 1.0) / max(abs(p), 1e-12)
+    floor = 1e-8 * float(base["x"][-1] if base["first"] == "t" else 1.0) / max(abs(p), h / STEP, 1e-12)
     scale = max([floor] + [max(abs(c), abs(r)) for _, c, r in events])
     for label, computed, ref in events:
         records.append({"probe": label, "where": "dt", "error": abs(computed - ref) / scale,
@@ -417,11 +511,21 @@ def _against_forward(scene: dict, out: Path, launch) -> list[dict]:
     return records
 
 
+def _floor(name: str) -> float:
+    """The floor of |p| in the perturbation h = STEP max(|p|, floor): a coordinate or a gravity component may
+    be 0 (FLOORS by the kind in the parameter's name), anything else 1e-3."""
+    kind = name.split("_", 1)[1] if "_" in name else ""
+    return FLOORS.get(kind, 1e-3)
+
+
 def run_case(seed: int, index: int, workdir: Path, *, timeout: float = TIMEOUT_S, tol: float = TOL,
-             step: float = STEP, scene: dict | None = None, adjoint_share: float = 0.0) -> dict:
+             step: float = STEP, scene: dict | None = None, adjoint_share: float = 0.0,
+             extended: bool = False, prune: bool = False) -> dict:
     """Generate, run and check case ``index`` of ``seed`` (or check ``scene``, its ``parameters`` and
-    ``solve.sensitivities`` as given); a record of its outcome."""
-    scene = sensitivity_scene(seed, index, adjoint_share) if scene is None else scene
+    ``solve.sensitivities`` as given); a record of its outcome. ``prune``: a refusal that names one of several
+    parameters (``parameter 'NAME' is used at …``) drops it from ``solve.sensitivities`` and runs the case
+    again (the record's ``pruned`` lists the refusals)."""
+    scene = sensitivity_scene(seed, index, adjoint_share, extended) if scene is None else scene
     case_dir = workdir / f"case{index:04d}"
     case_dir.mkdir(parents=True, exist_ok=True)
     started = time.perf_counter()
@@ -438,19 +542,30 @@ def run_case(seed: int, index: int, workdir: Path, *, timeout: float = TIMEOUT_S
 
     names = scene["solve"].get("sensitivities", [])
     record = {"index": index, "analysis": scene["solve"]["analysis"], "parameters": names, "scene": scene,
-              "checks": [], "skipped": []}
-    status, stderr, path, out = launch(scene, "base")
+              "checks": [], "skipped": [], "pruned": []}
     if scene["solve"].get("sensitivity_method") == "adjoint":
         record["method"] = "adjoint"
-        if status == 2 and "sensitivity_method" in stderr:
+    while True:
+        status, stderr, path, out = launch(scene, "base")
+        refused = re.search(r"parameter '(\w+)' is used at", stderr) if status == 2 and prune else None
+        if refused and refused.group(1) in names and len(names) > 1:
+            # one parameter refused (named in the message): the case goes on with the others, and says so
+            record["pruned"].append(stderr.strip().splitlines()[-1][-240:])
+            names = [n for n in names if n != refused.group(1)]
+            scene = json.loads(json.dumps(scene))
+            scene["solve"]["sensitivities"] = names
+            record.update(scene=scene, parameters=names)
+            continue
+        if record.get("method") == "adjoint" and status == 2 and "sensitivity_method" in stderr:
             # what the adjoint does not take it refuses naming the key: the case goes on by the forward method
             record["method"] = "forward (adjoint refused: " + stderr.strip().splitlines()[-1][-160:] + ")"
             scene = json.loads(json.dumps(scene))
             scene["solve"].pop("sensitivity_method")
             record["scene"] = scene
-            status, stderr, path, out = launch(scene, "base")
-        elif status == 0:
-            record["checks"] += _against_forward(scene, out, launch)
+            continue
+        break
+    if record.get("method") == "adjoint" and status == 0:
+        record["checks"] += _against_forward(scene, out, launch)
     outcome, detail = judge(status, stderr, path, out, scene)
     record["stderr"] = stderr[-3000:]
     if outcome != "solved":
@@ -462,7 +577,7 @@ def run_case(seed: int, index: int, workdir: Path, *, timeout: float = TIMEOUT_S
     base = _read(out)
     for name in names:
         p = scene["parameters"][name]
-        h = step * max(abs(p), 1e-3)
+        h = step * max(abs(p), _floor(name))
         perturbed = []
         for tag, dp in (("up", h), ("down", -h), ("up2", h / 2), ("down2", -h / 2)):
             spec = json.loads(json.dumps(scene))
@@ -524,6 +639,13 @@ def main(argv=None) -> int:
     parser.add_argument("--adjoint-share", type=float, default=0.0, metavar="F",
                         help="set solve.sensitivity_method: adjoint on this fraction of the transient cases "
                              "(default 0); a case the adjoint refuses goes on by the forward method")
+    parser.add_argument("--extended", action="store_true",
+                        help="name the numbers of _extended_slots too: point coordinates, gravity, constants inside "
+                             "expressions, stops' limits, latches, restitutions, controller limits and initial "
+                             "states (a seed's scenes differ from its campaign without it)")
+    parser.add_argument("--prune", action="store_true",
+                        help="a refusal naming one of a case's parameters drops that one and runs the case again "
+                             "(named in the record's 'pruned')")
     parser.add_argument("--keep", type=Path, default=None,
                         help="save the scene, stderr and the checks of every case not 'agrees' here")
     parser.add_argument("--json", type=Path, default=None, help="write the counts and every record here")
@@ -532,7 +654,7 @@ def main(argv=None) -> int:
     parser.add_argument("--show", type=int, default=None, metavar="N", help="print the scene of case N and exit")
     args = parser.parse_args(argv)
     if args.show is not None:
-        print(_scene_text(sensitivity_scene(args.seed, args.show, args.adjoint_share)), end="")
+        print(_scene_text(sensitivity_scene(args.seed, args.show, args.adjoint_share, args.extended)), end="")
         return 0
     if args.scene is not None:
         import yaml
@@ -550,7 +672,7 @@ def main(argv=None) -> int:
     with tempfile.TemporaryDirectory(prefix="latdyn_sensfuzz_") as base:
         for index in range(args.start, args.start + args.runs):
             record = run_case(args.seed, index, Path(base), timeout=args.timeout, tol=args.tol, step=args.step,
-                              adjoint_share=args.adjoint_share)
+                              adjoint_share=args.adjoint_share, extended=args.extended, prune=args.prune)
             records.append(record)
             mark = "  <--" if record["outcome"] in ("DISAGREES", "traceback", "hang", "defect") else ""
             method = " adjoint" if record.get("method") == "adjoint" else ""
@@ -566,7 +688,8 @@ def main(argv=None) -> int:
                                                     encoding="utf-8")
     by = collections.Counter(r["outcome"] for r in records)
     summary = {"seed": args.seed, "start": args.start, "runs": len(records), "tol": args.tol,
-               "adjoint_share": args.adjoint_share,
+               "adjoint_share": args.adjoint_share, "extended": args.extended, "prune": args.prune,
+               "pruned_parameters": sum(len(r["pruned"]) for r in records),
                "adjoint_cases": sum(1 for r in records if r.get("method") == "adjoint"),
                "outcomes": dict(by), "checks": sum(len(r["checks"]) for r in records),
                "skipped_parameters": sum(len(r["skipped"]) for r in records),
@@ -575,7 +698,7 @@ def main(argv=None) -> int:
     if args.json:
         args.json.write_text(json.dumps({**summary, "records": [
             {k: r.get(k) for k in ("index", "analysis", "method", "parameters", "outcome", "detail", "skipped",
-                                   "wall_s")}
+                                   "pruned", "wall_s")}
             | {"worst": max((c["error"] for c in r["checks"]), default=None)} for r in records]}, indent=1))
     return 0 if not any(r["outcome"] in ("DISAGREES", "traceback", "hang", "defect") for r in records) else 1
 

@@ -124,3 +124,41 @@ def test_a_probe_of_round_off_is_not_compared_and_a_small_real_one_still_is():
     base["sens"] = {"y/p": 1e-6 * T * (1 + 1e-4)}
     rows = fuzz.compare(base, small, "p", h, p)[0]
     assert "not_compared" not in rows and rows["error"] > fuzz.TOL, rows
+
+
+def test_an_adjoint_end_row_of_zero_against_round_off_differences_agrees_and_a_real_one_is_still_checked():
+    # hand scene G of 2026-11-27: a hinge latched at 0.15 rad by the end, the adjoint's end row 0 (exact) against
+    # differences of round-off 9e-12 (h = 5e-4): reported 0.031 off, though both are below the floor of zero
+    p, h = 0.5, 5e-4
+    noise = np.random.default_rng(27).standard_normal((5, len(T))) * 1e-15
+
+    def run(i, slope=0.0, dp=0.0):
+        return {"x": T, "first": "t", "probes": {"y": 0.15 + noise[i] + slope * (p + dp) * T}, "summary": {}}
+
+    base = run(4)
+    base["sens"] = {"y/p": np.zeros(1)}       # the adjoint's sensitivities.csv: the last row alone
+    base["summary"]["probe_sensitivities"] = {"y": {"end": {"p": 0.0}}}
+    checks = fuzz.compare(base, [run(i) for i in range(4)], "p", h, p)
+    assert max(c["error"] for c in checks) == 0.0 and checks[0]["zero"], checks
+    # a derivative of 1e-6 (above the floor 3e-10) computed 1e-4 off is flagged
+    slope = 1e-6
+    perturbed = [run(i, slope, dp) for i, dp in enumerate((h, -h, h / 2, -h / 2))]
+    base = run(4, slope)
+    base["sens"] = {"y/p": np.array([slope * (1 + 1e-4)])}
+    base["summary"]["probe_sensitivities"] = {"y": {"end": {"p": slope * (1 + 1e-4)}}}
+    checks = fuzz.compare(base, perturbed, "p", h, p)
+    assert all(c["error"] > fuzz.TOL for c in checks), checks
+
+
+def test_a_parameter_of_value_zero_is_judged_by_its_perturbation_s_size_not_by_zero():
+    # a coordinate 0 (--extended): h = 1e-3 * 0.1; the floor 1e-9 v / |p| was infinite at p = 0, so that any
+    # derivative counted as zero; now the floor takes h / STEP for |p|
+    p, h = 0.0, 1e-4
+
+    def run(dp):
+        return {"x": T, "first": "t", "probes": {"y": 1.0 + np.sin(T) * (p + dp)}, "summary": {}}
+
+    base = run(0.0)
+    base["sens"] = {"y/p": np.sin(T) * (1 + 1e-4)}
+    checks = fuzz.compare(base, [run(h), run(-h), run(h / 2), run(-h / 2)], "p", h, p)
+    assert checks[0]["error"] > fuzz.TOL and not checks[0]["zero"], checks

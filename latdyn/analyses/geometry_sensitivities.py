@@ -9,7 +9,9 @@ grid-point offsets r_g and the hinge axes a. The model's state holds absolute po
 (State.x, State.T; every node starts with T = I), so the solution depends on p
 
 (a) through the start: δq_0 = (δX of the free nodes, δπ = 0, δθ = 0), and with the given rigid spin ω the
-    velocities v_O + ω × x by δv_0 = ω × δX (:meth:`ReferenceGeometry.initial_velocity_tangent`), and
+    velocities v_O + ω × x by δv_0 = ω × δX and the rate θ̇ = a·ω of a free hinge on a fixed or prescribed body
+    (latdyn/assembly/initial.py: its beam turns with ω, its body does not) by δθ̇ = δa·ω where its axis moves
+    (:meth:`ReferenceGeometry.initial_velocity_tangent`), and
 (b) through the residual at a fixed state: ∂r/∂p = Σ_e (∂F^e/∂(reference data)) · δ(reference data)_e,
     the element's internal force, and with inertia or gravity M a + g − Q, differentiated along one
     variation of its reference data by the generated ``beam_internal_force_D_reference`` and
@@ -221,6 +223,8 @@ class ReferenceGeometry:
         self.node_moves = np.zeros((n_nodes, 3, k))
         self.variations = np.zeros((n_elements, WIDTH, k))
         self.end_offsets: dict[tuple[str, int], np.ndarray] = {}
+        #: δa (3, k) of the hinges whose axis moves, by their index in model.hinges
+        self.axis_moves: dict[int, np.ndarray] = {}
         for column, by_key in uses.items():
             self._column(column, by_key)
         #: (load, node, the moved offset (3, k)) of the loads at a beam end whose offset moves
@@ -320,6 +324,8 @@ class ReferenceGeometry:
         elements = model.beam_elements[beam]
         element, which = (elements[0], 0) if end == "start" else (elements[-1], 1)
         self.variations[element, 19 + 3 * which:22 + 3 * which, column] += da
+        h = next(i for i, hinge in enumerate(model.hinges) if hinge.kind == "hinge" and (hinge.beam, hinge.end) == (beam, end))
+        self.axis_moves.setdefault(h, np.zeros((3, self.k)))[:, column] += da
 
     # ------------------------------------------------------------------ what the analyses use
     def initial_tangent(self) -> np.ndarray:
@@ -335,8 +341,9 @@ class ReferenceGeometry:
     def initial_velocity_tangent(self) -> np.ndarray:
         """δv_0 on the free coordinates (n_dofs, k): a free node's velocity v_O + ω × x at t = 0
         (latdyn/assembly/initial.py; without prescribed rotations, :func:`geometry_refusal`, the twist of every
-        part is the given rigid motion's or a prescribed translation's) moves by ω × δX; its ω and the hinges'
-        rates g·(ω − ω) = 0 do not."""
+        part is the given rigid motion's or a prescribed translation's) moves by ω × δX; its ω does not. A free
+        hinge's rate θ̇ = a·(ω_beam − ω_body) is 0 between two parts that both turn with ω, and a·ω on a fixed or
+        prescribed (translating) body, which does not turn: there it moves by δa·ω where the hinge's axis moves."""
         model = self.model
         omega = np.asarray(self.scene.initial_velocity.angular, float)
         full = np.zeros((model.n_total + 1, self.k))
@@ -345,6 +352,10 @@ class ReferenceGeometry:
         keep = free[:, None] & (slots < model.n_dofs)
         spun = np.cross(omega[None, :, None], self.node_moves, axisa=1, axisb=1, axisc=1)   # (n_nodes, 3, k)
         full[slots[keep]] = spun[keep]
+        for h, da in self.axis_moves.items():
+            hinge = model.hinges[h]
+            if hinge.angle is None and model.nodes[hinge.node].kind in (FIXED, PRESCRIBED):
+                full[model.hinge_dofs[h]] += omega @ da
         return full[:model.n_dofs]
 
     def held_moves(self, node: int) -> np.ndarray:

@@ -242,7 +242,7 @@ def _cable(owner, probe, state, dx, dpi, rates, explicit: bool) -> np.ndarray:
         if rates is not None:
             moved = moved + by_v @ _end_columns(cables, e, rates[0], rates[1])
         if explicit:
-            moved = moved + _tension_by_parameters(owner, terms, state, e)
+            moved = moved + _tension_by_parameters(owner, terms, state, e) + _tension_in_time(owner, terms, state, e)
         return moved
     moved = np.zeros(dx.shape[2])
     for e in np.flatnonzero(cables.cable == k_cable):
@@ -273,6 +273,19 @@ def _tension_gradients(owner, terms, state, e: int, unit: bool = False):
         section = np.array([share * rest.value(state.t), share * rest.rate(state.t), cables.EA[e], cables.damping[e]])
     out = owner.kernels.cable_tension(*(np.ascontiguousarray(a[None]) for a in (geometry, velocity, section)))
     return np.asarray(out[1]).reshape(12), np.asarray(out[2]).reshape(12)
+
+
+def _tension_in_time(owner, terms, state, e: int) -> np.ndarray:
+    """∂N/∂t δt (k,) of taut element ``e`` at a row whose time moves with p (δt ≠ 0: an event's row, the rows
+    after it until a step lands on the grid): a reel's rest length L0(t) moves N by ∂N/∂L0 · share · L0′(t) (the
+    law reads no L̇0, :meth:`CableSensitivities.reel_forces`); an end on a prescribed body moves through δx
+    already (``TransientSensitivities._prescribed_in_time``). Zero elsewhere (static paths carry no δt)."""
+    moved = np.asarray((getattr(owner, "carried_accounts", None) or {}).get("dt", 0.0), float)
+    rest = terms.cables.rest_length[terms.cables.cable[e]]
+    if rest.is_constant or not np.any(moved):
+        return np.zeros(len(owner.names))
+    rate = terms._rest_length_derivative(state, e, 3)[4] * terms.cables.share[e] * rest.rate(state.t)  # noqa: SLF001
+    return rate * moved
 
 
 def _tension_by_parameters(owner, terms, state, e: int) -> np.ndarray:

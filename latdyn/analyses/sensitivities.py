@@ -342,6 +342,14 @@ def _adjoint_event_refusal(scene) -> str | None:
     if probe is not None:
         return (f"the adjoint is not seeded by energy and momentum probes beside events yet (probe {probe.name!r}); "
                 "the forward method differentiates them")
+    impulse = next((f"beams.{beam}.{which}.hinge" for beam, which, hinge in scene.hinges
+                    if hinge.lock_at is not None or (hinge.limits is not None and hinge.contact is None)), None)
+    damped = next((f"cables.{name}.damping" for name, cable in (scene.cables or {}).items() if cable.damping), None)
+    if impulse is not None and damped is not None:
+        # the impulse's weight M + dt² K moves with the rates through the damper's c ℓ̇ terms of K: the forward
+        # method takes that (TransientSensitivities._stiffness_by_rates), the adjoint's transposed weight does not
+        return (f"the adjoint does not differentiate a latch or rigid stop ({impulse}: lock_at, limits) beside a damped "
+                f"cable yet ({damped}: the impulse's weight moves with the rates through the damper)")
     return None
 
 
@@ -721,7 +729,15 @@ class ParameterDerivatives:
             if body["inertia"] and not inertia:
                 continue
             node = model.body_node[body["body"]]
-            b = int(np.flatnonzero(model.body_nodes == node)[0])
+            found = np.flatnonzero(model.body_nodes == node)
+            if not len(found):
+                if body["com"] is not None:   # a body without mass or inertia: its centre of mass moves no force
+                    continue
+                raise SceneError(self.scene.file, "solve.sensitivities",
+                                 f"bodies.{body['body']} has neither mass nor inertia at the parameters' values, so "
+                                 "a parameter of its mass or inertia adds the body's first inertia, which is not "
+                                 "differentiated; expected a body with mass or inertia (docs/parameters.md)")
+            b = int(found[0])
             frame = np.ascontiguousarray(state.T[node].reshape(1, 9))
             motion = np.zeros((1, 9))
             if inertia:

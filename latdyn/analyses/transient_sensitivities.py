@@ -126,7 +126,7 @@ from latdyn.analyses.energy_sensitivities import external_work_after_event, exte
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
 from latdyn.analyses.sensitivities import (_BODY_KEY, _CABLE_KEY, _GUIDE_KEY, _HINGE_KEY, _INITIAL_VELOCITY_KEY,
                                            _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE, ParameterDerivatives)
-from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_force_derivatives, joint_of
+from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_force_derivatives, joint_force_forms, joint_of
 from latdyn.analyses.step_matrix import ExactStepMatrix
 from latdyn.analyses.weight_derivative import (configuration_tangent_of_weight, needs_the_kernel,
                                                refuse_without_kernel)
@@ -743,6 +743,8 @@ class TransientSensitivities(ParameterDerivatives):
         else:
             out = np.asarray(configuration_tangent_of_weight(assembler, state, w, scale, mass,
                                                              self.coordinate_step()) @ dq)
+            if rates is not None:   # K of a law in the rates (a cable's damper, c(θ̇)) moves with δv too
+                out += scale * self._stiffness_by_rates(state, w, rates[0])
         size = float(np.max(np.abs(w), initial=0.0))
         if size == 0.0:
             return out
@@ -754,6 +756,29 @@ class TransientSensitivities(ParameterDerivatives):
             at_rest, accelerated = self._at_rest_and_accelerated(state, w)
             out += (self.residual_derivatives(accelerated, 1.0, inertia=True)
                     - self.residual_derivatives(at_rest, 1.0, inertia=True))
+        return out
+
+    def _stiffness_by_rates(self, state, w: np.ndarray, dv: np.ndarray) -> np.ndarray:
+        """∂(K w)/∂v δv (n, k) at ``state`` (a model without rigid links or guides): the evaluation's K depends on
+        the free rates where a law does (a damped cable's geometric terms c ℓ̇, a hinge damping law in θ), and the
+        impulse's weight M + dt² K moves with them; a central difference of K w along each column's δv, as
+        :func:`configuration_tangent_of_weight` differences the hinges' and cables' blocks along q (the step
+        relative: the rates' own size, or 1)."""
+        model, assembler = self.model, self.assembler
+        v0 = free_velocity(model, state)
+        out = np.zeros_like(dv)
+
+        def product(v):
+            moved = state.copy()
+            unpack_free(model, v, moved.v, moved.w, moved.theta_dot)
+            return assembler.evaluate(moved, matrices=True).combined(0.0, 0.0, 1.0) @ w
+
+        for c in range(dv.shape[1]):
+            size = float(np.max(np.abs(dv[:, c]), initial=0.0))
+            if size == 0.0:
+                continue
+            eta = WEIGHT_STEP * max(float(np.max(np.abs(v0), initial=0.0)), 1.0) / size
+            out[:, c] = (product(v0 + eta * dv[:, c]) - product(v0 - eta * dv[:, c])) / (2 * eta)
         return out
 
     def by_sections_only(self) -> np.ndarray:
@@ -1115,7 +1140,7 @@ class TransientSensitivities(ParameterDerivatives):
                  else None)
         self._prescribed_in_time(state, np.asarray(carried["dt"]), dx, dpi, dtheta, rates)
         self.carried_accounts = carried   # the work's and dissipation's (latdyn/analyses/energy_sensitivities.py)
-        forces = joint_force_derivatives(self, state, carried["dq"], carried["dv"], carried["dvdot"])
+        forces = self._joint_forces(state, carried)
         row = [float(state.t)]
         for probe in self.probes:
             if is_joint_force(probe):   # a hinge's torque, a guide's force: its law or its reaction
@@ -1123,6 +1148,29 @@ class TransientSensitivities(ParameterDerivatives):
                 continue
             row.extend(self._probe_derivatives(probe, state, dx, dpi, dtheta, rates))
         return {**carried, "rows": carried["rows"] + [row]}
+
+    def _joint_forces(self, state, carried: dict) -> dict:
+        """The joint-force probes' derivatives at ``state`` (:func:`joint_force_derivatives`). At a row whose time
+        moves with p (δt ≠ 0: an event's row, the rows after it until a step lands on the grid, adaptive steps)
+        a force's explicit time dependence moves it too: a held joint's reaction by ∂r_d/∂t δt (its residual
+        row: laws and loads in t, reels, prescribed motions; ∂r/∂p with ``time_shift``, as at an event) and a
+        free joint's law −f(θ, θ̇, t) by −∂f/∂t δt (the laws' time derivatives through the same kernels,
+        :class:`ExplicitTime`)."""
+        moved = np.asarray(carried["dt"], float)
+        shifted = self.explicit_time is not None and bool(np.any(moved))
+        if shifted:
+            self.time_shift = moved
+        try:
+            forces = joint_force_derivatives(self, state, carried["dq"], carried["dv"], carried["dvdot"])
+        finally:
+            if shifted:
+                self.time_shift = None
+        free = [j for j in forces if self.model.hinge_dofs[j] < self.model.n_dofs]
+        if shifted and free:
+            rates = joint_force_forms(self.explicit_time.laws, state, free)
+            for j in free:
+                forces[j] = forces[j] + rates[j][3][0] * moved
+        return forces
 
     def _prescribed_in_time(self, state, moved: np.ndarray, dx, dpi, dtheta, rates) -> None:
         """A row whose time moves with p (δt ≠ 0: after an event until a step lands on the grid, adaptive steps)

@@ -133,8 +133,17 @@ def controller_names(value, file: str, reserved: tuple, taken: dict[str, str]) -
 
 
 def _number(value, file, key, *, positive=False) -> float:
+    """A number of ``rate``, ``limits`` or ``initial``: as every number of a scene, a constant expression (of
+    ``parameters``, recorded as their use at ``key``) or a plain number."""
     import math
 
+    from latdyn.scene.expressions import parse_time_function
+
+    if isinstance(value, str):
+        function = parse_time_function(value, file, key)
+        if not function.is_constant:
+            _fail(file, key, "expected a constant (a number or an expression without t)", value)
+        value = function.value(0.0)
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         _fail(file, key, "expected a number", value)
     try:
