@@ -548,8 +548,12 @@ def c_function(kernel: LoweredKernel) -> str:
     ``latdyn_vec``, a GCC/Clang vector of LATDYN_LANES doubles that holds one quantity of LATDYN_LANES
     elements (structure of arrays within a batch), so every operation of the body is one SIMD
     instruction across elements.  Inputs are gathered into lanes and outputs scattered back, so the
-    argument convention (``docs/kernels.md``: row-major blocks per element) is that of a scalar loop;
-    a last, partial batch repeats its last element in the unused lanes and does not store them."""
+    argument convention (``docs/kernels.md``: row-major blocks per element) is that of a scalar loop.
+    The body is a function of one whole batch (``latdyn_batch_NAME``), which reads and writes its rows at
+    fixed offsets from one restrict pointer an argument (``latdyn_load``, ``latdyn_store``: straight-line
+    code, the offsets constants); the kernel calls it on the caller's rows for each whole batch, and for a
+    last, partial batch on copies: its inputs with its last element repeated in the unused lanes
+    (``latdyn_rows``), its outputs' used rows copied back (``latdyn_unbatch``)."""
     printer = CPrinter()
     spec = kernel.spec
     columns = _used_inputs(kernel)
@@ -557,29 +561,52 @@ def c_function(kernel: LoweredKernel) -> str:
     def vector(text: str) -> str:
         return _VECTOR_CALL.sub(lambda m: f"latdyn_{m.group(1)}(", text)
 
-    lines = [c_prototype(spec), "{"]
-    for argument in spec.inputs:
-        if not columns[argument.name]:
-            lines.append(f"    (void){argument.name};")
-    lines.append("    for (int64_t i = 0; i < n; i += LATDYN_LANES) {")
-    lines.append("        int64_t e[LATDYN_LANES];")
-    lines.append("        const int lanes = latdyn_batch(e, i, n);")
-    for argument in spec.inputs:
+    read = [argument for argument in spec.inputs if columns[argument.name]]
+    batch = f"latdyn_batch_{spec.name}"
+    # one whole batch: its rows at fixed offsets from restrict pointers (straight-line loads and stores)
+    params = [f"const double *restrict {argument.name}" for argument in read]
+    params += [f"double *restrict {out.name}" for out in spec.outputs]
+    lines = [f"static void {batch}({', '.join(params)})", "{"]
+    for argument in read:
         for k in columns[argument.name]:
-            lines.append(f"        const latdyn_vec {argument.name}_{k} = "
-                         f"latdyn_load({argument.name}, {argument.width}, {k}, e);")
+            lines.append(f"    const latdyn_vec {argument.name}_{k} = latdyn_load({argument.name}, {argument.width}, {k});")
     for symbol, value in kernel.temporaries:
         text = vector(printer.doprint(value))
         if not value.free_symbols:
             text = f"latdyn_splat({text})"
-        lines.append(f"        const latdyn_vec {symbol.name} = {text};")
+        lines.append(f"    const latdyn_vec {symbol.name} = {text};")
     for out, exprs in zip(spec.outputs, kernel.outputs):
         for k, expr in enumerate(exprs):
             text = f"latdyn_splat({_c_constant(expr)})" if not expr.free_symbols else vector(printer.doprint(expr))
-            lines.append(f"        latdyn_store({out.name}, {out.size}, {k}, {text}, i, lanes);")
+            lines.append(f"    latdyn_store({out.name}, {out.size}, {k}, {text});")
+    lines.append("}")
+    # the kernel: the whole batches on the caller's rows, a last, partial one on copies
+    lines += [c_prototype(spec), "{"]
+    for argument in spec.inputs:
+        if not columns[argument.name]:
+            lines.append(f"    (void){argument.name};")
+    whole = [f"{argument.name} + {argument.width} * i" for argument in read]
+    whole += [f"{out.name} + {out.size} * i" for out in spec.outputs]
+    lines.append("    int64_t i = 0;")
+    lines.append("    for (; n - i >= LATDYN_LANES; i += LATDYN_LANES)")
+    lines.append(f"        {batch}({', '.join(whole)});")
+    lines.append("    if (i < n) {  /* the last elements: its last one repeated in the unused lanes */")
+    lines.append("        const int lanes = (int)(n - i);")
+    copies = []
+    for argument in read:
+        lines.append(f"        double {argument.name}_rows[{argument.width} * LATDYN_LANES];")
+        copies.append(f"latdyn_rows({argument.name} + {argument.width} * i, {argument.width}, lanes, "
+                      f"{argument.name}_rows)")
+    for out in spec.outputs:
+        lines.append(f"        double {out.name}_rows[{out.size} * LATDYN_LANES];")
+        copies.append(f"{out.name}_rows")
+    lines.append(f"        {batch}({', '.join(copies)});")
+    for out in spec.outputs:
+        lines.append(f"        latdyn_unbatch({out.name} + {out.size} * i, {out.name}_rows, {out.size} * lanes);")
     lines.append("    }")
     lines.append("}")
     return "\n".join(lines) + "\n"
+
 
 
 def _c_constant(expr: sp.Expr) -> str:

@@ -344,8 +344,9 @@ def _composed(meta: dict, parts, kernels: dict, functions: dict) -> Callable:
 # GCC's register allocator is superlinear in the size of one function: a combined kernel
 # of everything a Newton iteration needs (40 000 operations, 5 800 temporaries after CSE)
 # took 64 s at -O2 and as long at -O1 (LRA hard-register assignment is 60 % of it), while
-# its four parts together take 30 s and the longest of them 15 s. So every kernel is its
-# own translation unit and shared object, compiled in parallel on first use, and
+# its four parts together take 30 s and the longest of them 15 s. So every large kernel is its
+# own translation unit and shared object, compiled in parallel on first use (the small ones a
+# few units together, BUNDLE_OPS), and
 # ``beam_dynamics`` is the composition of its parts (COMPOSED), on both backends: the code
 # generator no longer emits it (14 µs per element against 11 µs for the combined function
 # in C, measured on the 2-core development machine).
@@ -392,6 +393,13 @@ def _kernel_sources(stem: str, names) -> dict[str, bytes]:
     ``codegen/templates/c_source.c.j2`` writes the includes, then every kernel after a comment
     line ``/* NAME: ...``; the unit is the includes plus that kernel, up to the next kernel of the
     file (whether or not it is asked for: an ON_DEMAND kernel is not compiled with the others)."""
+    includes, texts = _kernel_texts(stem, names)
+    return {name: (includes + texts[name]).encode() for name in names}
+
+
+def _kernel_texts(stem: str, names) -> tuple[str, dict[str, str]]:
+    """The includes and helpers of the generated C source ``stem``.c, and the text of each kernel of ``names``
+    (its comment line up to the next kernel of the file), :func:`_kernel_sources`' parts."""
     try:
         source = (importlib.resources.files(PACKAGE) / f"{stem}.c").read_text()
     except (FileNotFoundError, OSError) as error:
@@ -403,12 +411,36 @@ def _kernel_sources(stem: str, names) -> dict[str, bytes]:
         raise RuntimeError(f"{stem}.c has no kernel {', '.join(missing)}")
     starts = sorted(at for at in marks.values() if at >= 0)
     includes = source[: starts[0]].split("*/", 1)[-1]  # after the stamp comment
-    units = {}
+    texts = {}
     for name in names:
         at = marks[name]
         later = [s for s in starts if s > at]
-        units[name] = (includes + source[at: later[0] if later else len(source)]).encode()
-    return units
+        texts[name] = source[at: later[0] if later else len(source)]
+    return includes, texts
+
+
+#: Kernels of at most this many operations after CSE are compiled together, a few units a variant
+#: (:func:`_bundles`), not one unit each: the compiler's start and the includes and helpers of a unit
+#: cost about 0.1 s of CPU whatever its kernel, as much as a small kernel itself, and a variant has
+#: 25 such kernels in ``joints`` alone (docs/performance.md, "Ninth pass"). The large ones stay a unit
+#: each (GCC's register allocator is superlinear in a function's size, not in a unit's).
+BUNDLE_OPS = 1_500
+
+
+def _bundles(names, ops: dict[str, int], workers: int) -> list[list[str]]:
+    """``names`` as the units they are compiled in: each kernel of more than BUNDLE_OPS operations alone,
+    the smaller ones in at most ``workers`` units of about equal operation counts (the largest first into
+    the lightest unit), each unit's kernels in the order of ``names``."""
+    large = [[name] for name in names if ops.get(name, 0) > BUNDLE_OPS]
+    small = [name for name in names if ops.get(name, 0) <= BUNDLE_OPS]
+    groups: list[list[str]] = [[] for _ in range(min(max(1, workers), len(small)))]
+    weight = [0] * len(groups)
+    for name in sorted(small, key=lambda n: -ops.get(n, 0)):
+        lightest = weight.index(min(weight))
+        groups[lightest].append(name)
+        weight[lightest] += ops.get(name, 0)
+    order = {name: k for k, name in enumerate(names)}
+    return large + [sorted(group, key=order.get) for group in groups]
 
 
 def _compiled_unit(stem: str) -> tuple[dict, "LibraryFiles"]:
@@ -458,39 +490,49 @@ def _index(stem: str):
             identities += [os.path.realpath(os.fspath(path)), status.st_size, status.st_mtime_ns, status.st_ino]
     except (RuntimeError, OSError, TypeError):
         return None
-    digest = native.source_digest(stem, sys.version, using.identity(), *simd, *C_FLAGS, OPT_LIMIT_OPS, *identities)
+    digest = native.source_digest(stem, sys.version, using.identity(), *simd, *C_FLAGS, OPT_LIMIT_OPS, BUNDLE_OPS,
+                                 *identities)
     return native.cache_dir() / f"index-{stem}-{digest}.marshal"
 
 
 def _compile(stem: str, names, ops: dict[str, int] | None = None) -> dict[str, os.PathLike]:
-    """Compile each kernel of ``names`` into the cache (:mod:`latdyn.native`: once per source,
-    flags and compiler), in parallel; name -> its library's path."""
+    """Compile the kernels of ``names`` into the cache (:mod:`latdyn.native`: once per source,
+    flags and compiler), in parallel, the small ones together (:func:`_bundles`); name -> its
+    library's path (the same path for the kernels of one unit)."""
     from latdyn import native
 
-    units = _kernel_sources(stem, names)
+    ops = ops or {}
+    workers = max(1, os.cpu_count() or 1)
+    includes, texts = _kernel_texts(stem, names)
     using = native.compiler()  # NoCompiler (a RuntimeError) says why not
     simd = native.vector_flags(using)
-    flags = {name: (optimisation((ops or {}).get(name, 0)), *C_FLAGS[1:], *simd) for name in units}
-    targets = {name: native.target(f"{name}-{stem}", units[name], flags[name], using) for name in units}
-    todo = [name for name, target in targets.items() if not target.exists()]
+    units, flags, members = {}, {}, {}
+    for group in _bundles(list(names), ops, workers):
+        unit = f"{group[0]}-{stem}" if len(group) == 1 else f"{group[0]}-and-{len(group) - 1}-{stem}"
+        units[unit] = (includes + "".join(texts[name] for name in group)).encode()
+        flags[unit] = (optimisation(max(ops.get(name, 0) for name in group)), *C_FLAGS[1:], *simd)
+        members[unit] = group
+    paths = {unit: native.target(unit, units[unit], flags[unit], using) for unit in units}
+    todo = [unit for unit, path in paths.items() if not path.exists()]
     if todo:
         from concurrent.futures import ThreadPoolExecutor
 
         started = time.perf_counter()
         target_set = f" for -march={native.march()}" if simd else ""
-        print(f"latdyn: compiling {len(todo)} C kernels of {stem}.c with {using.name}{target_set} into "
-              f"{native.cache_dir()} (first use only; seconds)", file=sys.stderr, flush=True)
+        count = sum(len(members[unit]) for unit in todo)
+        print(f"latdyn: compiling {count} C kernels of {stem}.c in {len(todo)} units with {using.name}{target_set} "
+              f"into {native.cache_dir()} (first use only; seconds)", file=sys.stderr, flush=True)
         before = native.COMPILE_SECONDS["total"]
 
-        def build(name):
-            native.build(f"{name}-{stem}", units[name], flags[name], using=using)
+        def build(unit):
+            native.build(unit, units[unit], flags[unit], using=using)
 
         # the longest units first, so that the last one to finish started early
-        order = sorted(todo, key=lambda name: -len(units[name]))
-        with ThreadPoolExecutor(max_workers=max(1, os.cpu_count() or 1)) as pool:
+        order = sorted(todo, key=lambda unit: -len(units[unit]))
+        with ThreadPoolExecutor(max_workers=workers) as pool:
             list(pool.map(build, order))
         elapsed = time.perf_counter() - started
         # the units' own seconds overlap (parallel builds): the wall time counts once
         native.COMPILE_SECONDS["total"] = before + elapsed
         print(f"latdyn: compiled in {elapsed:.1f} s", file=sys.stderr, flush=True)
-    return targets
+    return {name: paths[unit] for unit, group in members.items() for name in group}
