@@ -215,12 +215,11 @@ def _analyse(prepared, probes: ProbeSet, writer: ResultWriter, out_dir, analysis
                 _warn(writer, warning)
         else:
             from latdyn.analyses.continuation import static_path
+            from latdyn.analyses.not_equilibria import states_not_at_rest, stops_passed
 
             static_path(prepared, probes, writer, length_scale(prepared.model))
             for warning in stops_passed(prepared.model, prepared.state, bool(scene.solve.sensitivities)):
                 _warn(writer, warning)
-            from latdyn.analyses.linearise import states_not_at_rest
-
             for warning in states_not_at_rest(prepared.assembler, prepared.state, "the static state"):
                 _warn(writer, warning)
     finally:
@@ -231,6 +230,7 @@ def _modes(prepared, writer: ResultWriter, out_dir) -> None:
     """The modal analysis about ``solve.about``: modes.csv, the summary's frequencies and damping
     ratios, the mode shapes (animated) and the linear model where the scene asks for them."""
     from latdyn.analyses import linearise  # on use: a transient run needs no analysis (docs/performance.md)
+    from latdyn.analyses.not_equilibria import states_not_at_rest, stops_passed
 
     scene = prepared.scene
     if scene.solve.about == "initial":
@@ -244,7 +244,7 @@ def _modes(prepared, writer: ResultWriter, out_dir) -> None:
         for warning in stops_passed(prepared.model, lin.state):
             _warn(writer, warning)
     if scene.solve.about in ("static", "steady") and lin is not None:
-        for warning in linearise.states_not_at_rest(lin.assembler, lin.state, f"modes about {scene.solve.about}"):
+        for warning in states_not_at_rest(lin.assembler, lin.state, f"modes about {scene.solve.about}"):
             _warn(writer, warning)
     frequencies = [m.frequency_hz for m in found]
     writer.write_modes(frequencies, linearise.modes_table(found, directions))
@@ -288,45 +288,6 @@ def _warn_moving(scene: Scene, writer) -> None:
     warning = modes_warning(scene)
     if warning is not None:
         _warn(writer, warning)
-
-
-def stops_passed(model, state, sensitivities: bool = False, load_factor: float | None = None) -> list[str]:
-    """What a static state that lies past a joint's rigid stop (``limits`` of a hinge or a guide without
-    ``contact``) or its ``lock_at`` says: rigid stops and latches are events of the time loop, which a
-    static analysis does not apply (docs/static_paths.md), so such a state is not the equilibrium the
-    structure reaches; one warning for each joint. A compliant stop's force is part of the static
-    residual: past it is its equilibrium. With ``sensitivities`` the warning says that the path's
-    sensitivities are those of this path too (docs/parameters.md, "Sensitivities"). With
-    ``load_factor`` the state is one of a buckling analysis' path, at that factor: its buckling factor
-    is then that of the structure without the stop or latch."""
-    if load_factor is None:
-        where = "the static state puts"
-        stop_means = ("a static analysis does not apply stops (they are events of the time loop), so this is "
-                      "not the equilibrium the stop allows")
-        latch_means = ("a static analysis does not latch (latches are events of the time loop), so this is not "
-                       "the equilibrium the latch allows")
-    else:
-        where = f"buckling: the static path at load factor {load_factor:.6g} puts"
-        stop_means = ("a buckling analysis does not apply stops (they are events of the time loop), so its "
-                      "buckling factor is that of the structure without the stop, not of the structure held by it")
-        latch_means = ("a buckling analysis does not latch (latches are events of the time loop), so its buckling "
-                       "factor is that of the structure without the latch, not of the structure latched")
-    found = []
-    for k, joint in enumerate(model.hinges):
-        value = float(state.theta[k])
-        what = f"guide {joint.name} at s = {value:.6g}" if joint.kind == "guide" else \
-            f"hinge {joint.name} at {value:.6g} rad"
-        if joint.limits is not None and getattr(joint, "contact", None) is None:
-            lo, hi = joint.limits
-            margin = 1e-9 * max(1.0, abs(lo), abs(hi))
-            if value < lo - margin or value > hi + margin:
-                found.append(f"{where} {what}, past its limits [{lo:g}, {hi:g}]: {stop_means}")
-        if joint.lock_at is not None and joint.lock_at != 0.0 and (value - joint.lock_at) * joint.lock_at > 0.0:
-            found.append(f"{where} {what}, past its lock_at {joint.lock_at:g}: {latch_means}")
-    if sensitivities:
-        found = [f"{warning}; its sensitivities (solve.sensitivities) are those of this path, without the stop or "
-                 "latch, as its rows are" for warning in found]
-    return found
 
 
 def _warn(writer, warning: str) -> None:

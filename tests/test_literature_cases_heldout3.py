@@ -15,9 +15,9 @@ below Maievskii's speed, its growing pair), the large-deflection cantilever unde
 the Euler–Bernoulli beam), the reaction torque of a prescribed hinge angle, and a PI-held rod. Two
 were wrong answers reported as solved: a buckling analysis whose path passes a rigid stop (the
 truss's apex, the ring's guided body) reported the factor of the structure without it and said
-nothing (mended: the first stable state past a stop or latch is said, latdyn.solve.stops_passed);
+nothing (mended: the first stable state past a stop or latch is said, latdyn.analyses.not_equilibria.stops_passed);
 and a static analysis of a PI-held rod reported the P law's droop, which the integral state leaves,
-as the static state (mended: said, latdyn.analyses.linearise.states_not_at_rest). One diagnostic was
+as the static state (mended: said, latdyn.analyses.not_equilibria.states_not_at_rest). One diagnostic was
 wrong: `summary.json` `steady_state` counted a guide's slide (metres) as a rotation
 (`largest_rotation`) and left it out of `largest_displacement` (mended:
 latdyn.analyses.steady._distance).

@@ -23,6 +23,7 @@ from latdyn.analyses.linearisation import (
     Frame, Linearisation, Mode, _steps, at_rest, dominant_directions, frame_kinematics, frame_of, linearise,
     modes, reduce, tangent_q,
 )
+from latdyn.analyses.not_equilibria import controller_values
 from latdyn.assembly.assembler import pack, unpack_free
 from latdyn.assembly.control import actuator_gain
 from latdyn.assembly.prepare import length_scale
@@ -246,7 +247,7 @@ def buckling_analysis(prepared, count: int = 6) -> dict:
     """
     import scipy.linalg as sla
 
-    from latdyn.solve import stops_passed  # a path past a rigid stop or latch is not the structure's
+    from latdyn.analyses.not_equilibria import states_not_at_rest, stops_passed  # the path's own caveats
 
     model, assembler = prepared.model, prepared.assembler
     if model.n_dofs == 0:
@@ -592,7 +593,7 @@ def controller_states(lin: Linearisation, input_names=()) -> ControllerStates | 
     if not continuous:
         return None
     probes = ProbeSet(lin.assembler, lin.assembler.initial_state())
-    values = _controller_values(lin.assembler, state, probes)
+    values = controller_values(lin.assembler, state, probes)
     sensors = [n for n in probes.names if any(n in c.reads for c in continuous)]
     p = sum(len(c.states) for c in continuous)
     force = np.zeros((model.n_dofs, p))
@@ -621,51 +622,6 @@ def controller_states(lin: Linearisation, input_names=()) -> ControllerStates | 
             names.append(f"{c.name}.{s}")
         first += len(c.states)
     return ControllerStates(names, sensors, force, by_sensor, by_state, by_input, gains)
-
-
-def _controller_values(assembler, state, probes) -> dict:
-    """The values a controller's expressions read at ``state``: inputs, controllers' outputs, probes."""
-    scene = assembler.model.scene
-    return {**scene.inputs.current(), **scene.controller_outputs.current(),
-            **dict(zip(probes.names, probes.values(state.copy())))}
-
-
-#: a state's rate below this share of what its sensors' and states' round-off moves it by is zero
-STATE_RATE_NOISE = 1e-7
-
-
-def states_not_at_rest(assembler, state, where: str) -> list[str]:
-    """What a static or steady state says where a continuous controller's state is not at rest in it:
-    such analyses hold the states at their values (docs/control.md), so where dS/dt = f(s, S) ≠ 0
-    there (integral action with its error not zero, a filter not settled on its input) the state is
-    no equilibrium of the closed loop, and a transient run leaves it. One warning per state whose rate
-    exceeds what round-off of its sensors and states gives (``STATE_RATE_NOISE`` of each read value,
-    at least of 1, times |∂f/∂value|)."""
-    import sympy as sp
-
-    from latdyn.results.probes import ProbeSet
-
-    scene = assembler.model.scene
-    continuous = [c for c in scene.controllers.values() if not c.sampled and c.states]
-    if not continuous:
-        return []
-    values = _controller_values(assembler, state, ProbeSet(assembler, assembler.initial_state()))
-    found = []
-    for c in continuous:
-        at = {x: float(state.t) if x.name == "t" else
-              (scene.controller_states[f"{c.name}.{x.name}"] if x.name in c.states else values[x.name])
-              for x in c.symbols}
-        for s, f in zip(c.states, c.state_exprs):
-            rate = float(sp.sympify(f).evalf(subs=at))
-            noise = sum(abs(float(sp.diff(f, x).evalf(subs=at))) * max(abs(v), 1.0)
-                        for x, v in at.items() if x.name != "t") * STATE_RATE_NOISE
-            if abs(rate) > noise:
-                found.append(f"{where}: the state {c.name}.{s} of controller {c.name} is not at rest there "
-                             f"(d{s}/dt = {rate:.6g}; {s} = {scene.controller_states[f'{c.name}.{s}']:.6g} held): a "
-                             "static or steady analysis holds a controller's states at their values "
-                             "(docs/control.md), so this is no equilibrium of the closed loop and a transient run "
-                             "leaves it (integral action there has not removed its error)")
-    return found
 
 
 def closed_loop_matrix(lin: Linearisation, red, states: ControllerStates) -> tuple[np.ndarray, dict]:

@@ -76,7 +76,7 @@ through the reduction: latdyn/analyses/link_sensitivities.py). A static path doe
 and latches (``limits`` without ``contact``, ``lock_at``: events of the time loop, docs/static_paths.md): its rows
 are the path without them, and so are their sensitivities — exact, and the structure's own while every joint
 stays inside its limits and short of its ``lock_at``; a path that ends past one is flagged by the run's warning
-(latdyn/solve.py ``stops_passed``), its sensitivities with it (transient runs differentiate latches and stops:
+(latdyn/analyses/not_equilibria.py ``stops_passed``), its sensitivities with it (transient runs differentiate latches and stops:
 latdyn/analyses/transient_sensitivities.py). Under gravity the static
 Newton matrix K − λ ∂Q/∂q holds the beams' gravity tangent (the generated ``beam_gravity_D_q``), so
 beams with mass are differentiated exactly there too. docs/parameters.md.

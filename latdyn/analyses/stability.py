@@ -173,8 +173,7 @@ def search(prepared, path, reference, K0s, first_step: float, flutter: bool, tol
     """Divergence and (``flutter``) flutter along the static path from ``reference`` at λ = 0
     (module docstring): the summary's keys (SCENE.md, docs/linearisation.md)."""
 
-    from latdyn.analyses.linearise import states_not_at_rest
-    from latdyn.solve import stops_passed  # a path past a rigid stop or latch is not the structure's
+    from latdyn.analyses.not_equilibria import states_not_at_rest, stops_passed  # the path's own caveats
 
     assembler = prepared.assembler
     cholesky = np.linalg.cholesky(K0s)
