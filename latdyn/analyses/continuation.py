@@ -56,8 +56,9 @@ costs a few dot products.
 Along every path the number of negative eigenvalues of the symmetric part of K (evaluated at the
 converged state) is counted at each converged point (models up to :data:`PIVOT_COUNT_LIMIT`
 coordinates).  λ changing direction
-is a *limit point* (its load factor estimated by the vertex of the parabola λ(s) through the
-three points about the turn); the count changing while λ keeps its direction is a *bifurcation
+is a *limit point*, located between the points about the turn (latdyn/analyses/limit_points.py;
+where it cannot be, the vertex of the parabola λ(s) through the three points, flagged coarse);
+the count changing while λ keeps its direction is a *bifurcation
 point*.  Both go to ``summary.json`` (``limit_points``, ``bifurcation_points``).
 
 Under follower loads (:func:`latdyn.analyses.followers.follower_loads`) K is unsymmetric and its
