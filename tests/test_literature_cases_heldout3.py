@@ -468,6 +468,53 @@ def test_a_von_mises_truss_snaps_at_its_limit_load_and_a_stop_before_it_is_said(
     assert "past its limits [-0.03, 1]" in warning and "without the stop" in warning
 
 
+def von_mises_limit_load() -> float:
+    """The truss's limit load, the maximum of P(y) (test above): 0.0381087."""
+    L0 = math.sqrt(1.01)
+
+    def load(y):
+        return 2 * 100.0 * (L0 - math.sqrt(1 + y * y)) / L0 * y / math.sqrt(1 + y * y)
+    return load(minimize_scalar(lambda y: -load(y), bounds=(0.0, 0.1), method="bounded",
+                                options={"xatol": 1e-12}).x)
+
+
+def test_a_coarse_arc_length_path_locates_the_von_mises_trusss_limit_load(tmp_path):
+    """By arc length with steps: 10 the path's first point is already past the turn, and the vertex of
+    the parabola through the three points about it was reported, 0.037005 (2.9 % low, as solved);
+    40 and 160 gave +1.6e-3 and +2.7e-5. Each turn is now located between its neighbours (the
+    regula falsi of latdyn.analyses.limit_points): the maximum and the minimum after it (−0.0381087,
+    the mirror state) to 1e-9 at every steps, CLI for 10, the API for 40 and 160."""
+    exact = von_mises_limit_load()
+    scene = von_mises_truss("").replace("{analysis: buckling}", "{analysis: static, method: arc-length, steps: %d}")
+    completed, out = latdyn_run(tmp_path, scene % 10)
+    assert completed.returncode == 0, completed.stderr
+    summaries = [summary_of(out)] + [run_api(scene % steps).summary for steps in (40, 160)]
+    for summary in summaries:
+        maximum, minimum = summary["limit_points"]
+        assert (maximum["kind"], minimum["kind"]) == ("maximum", "minimum")
+        assert maximum["located"] and minimum["located"] and not summary.get("warnings")
+        assert abs(maximum["load_factor"] / exact - 1) < 1e-9  # measured 1e-13 (10, 40, 160)
+        assert abs(minimum["load_factor"] / -exact - 1) < 1e-9  # measured 1e-13
+    assert abs(summaries[0]["limit_points"][0]["recorded_load_factor"] / exact - 1) > 0.02  # the row: 0.037004
+
+
+def test_a_coarse_displacement_controlled_path_locates_the_von_mises_trusss_limit_load():
+    """The apex free in the plane (no guide; one bar welded to it holds its rotation), pushed down by
+    displacement control to 0.2 in 3 and 10 steps (the rows' extreme load factors 0.02938 and
+    0.03801): the limit load and its mirror located to 1e-9 (API). The parabola through the rows about
+    the turn gave 0.030609 (−20 %) and 0.038219 (+2.9e-3)."""
+    exact = von_mises_limit_load()
+    scene = von_mises_truss("").replace("    guide: {axis: [0, 1, 0]}\n", "").replace(
+        "start: {hinge: {axis: [0, 0, 1]}}, end: {hinge: {axis: [0, 0, 1]}}}\nloads", "start: {hinge: {axis: [0, 0, 1]}}}\nloads")
+    for steps in (3, 10):
+        summary = run_api(scene.replace("{analysis: buckling}", "{analysis: static, method: displacement-control, "
+                                        f"steps: {steps}, control: {{point: apex, direction: [0, -1, 0], to: 0.2}}}}")).summary
+        maximum, minimum = summary["limit_points"]
+        assert maximum["located"] and minimum["located"] and not summary.get("warnings")
+        assert abs(maximum["load_factor"] / exact - 1) < 1e-9  # measured 5e-14 (3, 10)
+        assert abs(minimum["load_factor"] / -exact - 1) < 1e-9  # measured 5e-14
+
+
 # ----------------------------------------------------------------------------- a sleeping top
 TOP = dict(m=1.0, l=0.3, g=9.81, transverse=0.05, axial=0.1)
 
@@ -540,6 +587,23 @@ def test_the_modes_of_a_sleeping_top_are_its_roots_and_grow_below_maievskiis_spe
     assert np.allclose(slow.modes[1:], abs(root.real) / (2 * math.pi), rtol=1e-9)
     assert np.allclose(sorted(slow.summary["damping_ratios"][1:]), [-abs(root.imag) / abs(root),
                                                                      abs(root.imag) / abs(root)], rtol=1e-9)
+
+
+def test_modes_about_a_transient_state_of_the_top_say_that_a_root_grows_and_that_it_is_no_equilibrium(tmp_path):
+    """Below Maievskii's speed (ω = 10) the modes about {t: 0.1} hold the growing pair, rate
+    √(4Amgl − C²ω²)/2A = 2.875 1/s at Cω/(4πA) = 0.5684 Hz, reported as a negative damping ratio and
+    nothing else, where about: static and about: steady warn. Now a warning names the root, its rate
+    and kind, and says the state of a transient run is not an equilibrium (CLI); at ω = 20 none (API)."""
+    solve = "{analysis: modes, about: {t: 0.1}, count: 3, dt: 0.002, t_end: 0.1}"
+    completed, out = latdyn_run(tmp_path, sleeping_top(solve, 10.0, 0.0))
+    assert completed.returncode == 0, completed.stderr
+    (warning,) = summary_of(out)["warnings"]
+    rate, hz = abs(top_roots(10.0)[0].imag), abs(top_roots(10.0)[0].real) / (2 * math.pi)
+    assert warning.startswith("modes about {t: 0.1}: the linearised system about the state at t = 0.1 has a root "
+                              "with a positive real part: 1 of its roots grows; the lowest grows at "
+                              f"{rate:.4g} 1/s by flutter (a complex pair, oscillating at {hz:.4g} Hz)")
+    assert "is not an equilibrium" in warning and f"latdyn: warning: {warning}" in completed.stderr
+    assert not run_api(sleeping_top(solve, 20.0, 0.0)).summary.get("warnings")
 
 
 # ----------------------------------------------------------------------------- large deflection, control

@@ -56,8 +56,9 @@ costs a few dot products.
 Along every path the number of negative eigenvalues of the symmetric part of K (evaluated at the
 converged state) is counted at each converged point (models up to :data:`PIVOT_COUNT_LIMIT`
 coordinates).  λ changing direction
-is a *limit point* (its load factor estimated by the vertex of the parabola λ(s) through the
-three points about the turn); the count changing while λ keeps its direction is a *bifurcation
+is a *limit point*, located between the points about the turn (latdyn/analyses/limit_points.py;
+where it cannot be, the vertex of the parabola λ(s) through the three points, flagged coarse);
+the count changing while λ keeps its direction is a *bifurcation
 point*.  Both go to ``summary.json`` (``limit_points``, ``bifurcation_points``).
 
 Under follower loads (:func:`latdyn.analyses.followers.follower_loads`) K is unsymmetric and its
@@ -115,6 +116,9 @@ class PathPoint:
     arc: float
     negative: int | None
     negative_real_part: int | None = None
+    #: where λ turns at this point: the limit point's load factor located between its neighbours
+    #: (latdyn.analyses.limit_points), None where it could not be located (then estimated, coarse)
+    limit: float | None = None
 
 
 @dataclass
@@ -146,6 +150,8 @@ class Path:
     exact_increments: bool = False
     #: the last step :meth:`left_the_path` judged a jump: (start, its load, the end's load, ‖Δq‖)
     _departure: tuple | None = None
+    #: the states of the last three path points, to locate a limit point between them (:meth:`accept`)
+    _recent: list = field(default_factory=list)
 
     def __post_init__(self):
         scene = self.prepared.scene
@@ -304,10 +310,45 @@ class Path:
         self.recorded_at, self.recorded = load_factor, state
 
     def accept(self, state, load_factor: float, arc: float) -> None:
-        """A converged point of the path, its eigenvalues counted on K at the converged state."""
+        """A converged point of the path, its eigenvalues counted on K at the converged state; where λ
+        turned at the point before, the limit point located between that point's neighbours
+        (:meth:`locate_turn`)."""
         self.steps += 1
         self.points.append(self.point(self.steps, load_factor, arc, lambda: self.tangent(state, load_factor)))
+        self.remember(state)
+        self.locate_turn()
         self.summarize()
+
+    def remember(self, state) -> None:
+        """Keep the state of the newest path point (the last three are kept)."""
+        self._recent = (self._recent + [state.copy()])[-3:]
+
+    def locate_turn(self) -> None:
+        """Where λ turns at the path point before the newest (above or below both its neighbours'), the
+        limit point between the neighbours, on the hyperplanes through that point normal (in W) to the
+        chord of its two steps (latdyn.analyses.limit_points); its load factor goes to the point's
+        ``limit``.  One that cannot be located keeps the parabola's estimate, flagged coarse in
+        ``limit_points`` and by a warning (docs/static_paths.md, "Limit points")."""
+        if len(self.points) < 3 or len(self._recent) < 3:
+            return
+        before, turn, after = self.points[-3:]
+        if not is_turn(before.load_factor, turn.load_factor, after.load_factor):
+            return
+        from latdyn.analyses.limit_points import locate_limit
+
+        first, middle, last = self._recent
+        into, out = self.difference(first, middle), self.difference(middle, last)
+        chord = self.weight * (into + out)
+        located = locate_limit(self, middle, turn.load_factor, chord, (-float(chord @ into), float(chord @ out)))
+        if located is not None:
+            turn.limit = float(located[1])
+            return
+        message = (f"the limit point near load factor {turn.load_factor:.6g} (path step {turn.step}) could not be "
+                   "located between the path points about it: limit_points gives the vertex of the parabola "
+                   "through them (located: false), a coarse estimate; more steps (solve.steps) bring the points "
+                   "closer to it")
+        self.writer.summary.setdefault("warnings", []).append(message)
+        print(f"latdyn: warning: {message}", file=sys.stderr)
 
     def summarize(self) -> None:
         limits, bifurcations = critical_points(self.points)
@@ -342,18 +383,13 @@ def critical_points(points: list[PathPoint]) -> tuple[list[dict], list[dict]]:
     d = np.diff(lam)
     limits, turns = [], set()
     for j in range(1, len(d)):
-        if d[j - 1] * d[j] < 0 and abs(d[j - 1]) > 1e-14 and abs(d[j]) > 1e-14:
+        if is_turn(*lam[j - 1:j + 2]):
             turns.add(j)
-            s, y = arc[j - 1:j + 2], lam[j - 1:j + 2]
-            estimate = float(y[1])
-            if np.ptp(s) > 0 and len(set(s.tolist())) == 3:
-                a, b, c = np.polyfit(s - s[1], y, 2)
-                if a != 0.0:
-                    vertex = -b / (2 * a)
-                    if s[0] - s[1] <= vertex <= s[2] - s[1]:
-                        estimate = float(c - b * b / (4 * a))
-            limits.append({"load_factor": estimate, "recorded_load_factor": float(lam[j]), "step": points[j].step,
-                           "kind": "maximum" if d[j - 1] > 0 else "minimum"})
+            located = points[j].limit is not None
+            estimate = points[j].limit if located else parabola_vertex(arc[j - 1:j + 2], lam[j - 1:j + 2])
+            limits.append({"load_factor": float(estimate), "recorded_load_factor": float(lam[j]),
+                           "step": points[j].step, "kind": "maximum" if d[j - 1] > 0 else "minimum",
+                           "located": located})
     bifurcations = []
     for j in range(1, len(points)):
         before, after = points[j - 1].negative, points[j].negative
@@ -371,6 +407,26 @@ def critical_points(points: list[PathPoint]) -> tuple[list[dict], list[dict]]:
             entry["kind"] = "divergence"
         bifurcations.append(entry)
     return limits, bifurcations
+
+
+def is_turn(before: float, at: float, after: float) -> bool:
+    """Whether λ turns at a path point: above or below both its neighbours' (by more than round-off)."""
+    d0, d1 = at - before, after - at
+    return d0 * d1 < 0 and abs(d0) > 1e-14 and abs(d1) > 1e-14
+
+
+def parabola_vertex(s, y) -> float:
+    """The coarse estimate of a limit point that could not be located: the vertex of the parabola λ(s)
+    through the three path points about the turn (arc length s), where it lies between them, else the
+    middle point's λ."""
+    estimate = float(y[1])
+    if np.ptp(s) > 0 and len(set(np.asarray(s).tolist())) == 3:
+        a, b, c = np.polyfit(s - s[1], y, 2)
+        if a != 0.0:
+            vertex = -b / (2 * a)
+            if s[0] - s[1] <= vertex <= s[2] - s[1]:
+                estimate = float(c - b * b / (4 * a))
+    return estimate
 
 
 # ====================================================================== load control
@@ -666,6 +722,7 @@ def static_path(prepared, probes, writer, length_scale: float) -> None:
     state.theta_dot[:] = 0.0
     path.record(state, 0.0)
     path.points.append(path.point(0, 0.0, 0.0, lambda: path.tangent(state, 0.0)))
+    path.remember(state)
     path.summarize()
     # a static path asked for by another analysis (modes about: static, buckling) is load control
     method = prepared.scene.solve.method if prepared.scene.solve.method in METHODS else "load-control"

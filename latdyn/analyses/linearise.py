@@ -112,7 +112,7 @@ def modal_analysis(prepared, count: int, about="initial"):
     lin = linearise(other.assembler, state, frame, load_factor)
     states = controller_states(lin)  # continuous controllers' states: the closed loop's first-order modes
     first_order = None if states is None else (lambda red: closed_loop_matrix(lin, red, states)[0])
-    found = modes(lin, None if about in ("steady", "static") else count, first_order)
+    found = modes(lin, None if about in ("steady", "static") or isinstance(about, float) else count, first_order)
     if about == "steady":  # judged by all its roots, not only the listed ones
         report["steady_state"], report["warnings"] = steady_summary(search, found)
         found = found[:count]
@@ -120,11 +120,13 @@ def modal_analysis(prepared, count: int, about="initial"):
         warning = static_instability(found)
         report["warnings"] = [warning] if warning is not None else []
         found = found[:count]
-    elif isinstance(about, float):  # a frozen state: say so where it turns in the frame of the modes
-        from latdyn.analyses.moving import turning_warning
+    elif isinstance(about, float):  # a frozen state: say so where it turns in the frame of the modes,
+        from latdyn.analyses.moving import turning_warning  # and where a root grows (all of them judged)
 
+        growing = transient_growth(found, about)
+        found = found[:count]
         warning = turning_warning(other.model, state, frame, found, about)
-        report["warnings"] = [warning] if warning else []
+        report["warnings"] = [w for w in (growing, warning) if w]
     return found, dominant_directions(other.model, lin, found), lin, report
 
 
@@ -193,6 +195,28 @@ def static_instability(found: list[Mode]) -> str | None:
     if fastest is not lowest:
         warning += f"; the fastest grows at {_described(fastest, growing, top_hz)}"
     return warning
+
+
+def transient_growth(found: list[Mode], t: float) -> str | None:
+    """The warning of modes about ``{t: T}`` (all the roots ``found``) where a root grows (None where
+    none does): the lowest growing root, its rate and kind, and the fastest where another; with the
+    caveat that a state of a transient run is no equilibrium, so the growing root may be the motion
+    itself linearised about where it is at T, not an instability of a state (docs/linearisation.md)."""
+    growing = growing_roots(found)
+    if not growing:
+        return None
+    top_hz = max(m.natural_frequency_hz for m in found)
+    lowest, fastest = growing[0], max(growing, key=growth_rate)
+    grow = "grows" if len(growing) == 1 else "grow"
+    warning = (f"modes about {{t: {t:g}}}: the linearised system about the state at t = {t:g} has a root with a "
+               f"positive real part: {len(growing)} of its roots {grow}; the lowest grows at "
+               f"{_described(lowest, growing, top_hz)}")
+    if fastest is not lowest:
+        warning += f"; the fastest grows at {_described(fastest, growing, top_hz)}"
+    return warning + (". The state of a transient run is not an equilibrium (unless the motion is steady there): "
+                      "a growing root says that motions near this one part from it at that rate about t = "
+                      f"{t:g}, and may be the motion itself, linearised where it is, rather than an unstable "
+                      "state; about: static and about: steady judge an equilibrium")
 
 
 def modes_table(found: list[Mode], directions: list[str]) -> dict:

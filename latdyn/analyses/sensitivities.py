@@ -1223,44 +1223,13 @@ class ArcLengthSensitivities(StaticSensitivities):
 
     def _locate_limit(self, path, m: int):
         """(state, λ, cᵀW) of the limit point about row m, or None (:meth:`limit_points`)."""
+        from latdyn.analyses.limit_points import locate_limit
+
         start, lam0, into = self.states[m]
         chord = self.weight * (into.increment + self.states[m + 1][2].increment)
         ends = (-float(chord @ into.increment), float(chord @ self.states[m + 1][2].increment))
-
-        def on_path(sigma):   # Newton from row m onto the hyperplane cᵀW Δ = σ: (state, λ, dλ/dσ)
-            state, lam, moved = start, lam0, np.zeros(self.model.n_dofs)
-            for _ in range(path.max_iter):
-                residual, stiffness, load = path.evaluate(state, lam)
-                rhs = np.concatenate([-residual, [sigma - float(chord @ moved)]])[:, None]
-                step = bordered_solve(stiffness, -load, chord, rhs, lam)[:, 0]
-                state, lam, moved = path.step_to(state, step[:-1]), lam + step[-1], moved + step[:-1]
-                if path.increment_size(step[:-1]) <= path.tol and abs(step[-1]) <= path.tol * max(1.0, abs(lam)):
-                    residual, stiffness, load = path.evaluate(state, lam)
-                    unit = np.zeros((len(residual) + 1, 1))
-                    unit[-1] = 1.0
-                    slope = float(bordered_solve(stiffness, -load, chord, unit, lam)[-1, 0])
-                    return state, lam, slope
-            return None
-
-        # regula falsi (Illinois) on dλ/dσ between the neighbours, where its sign differs
-        (a, fa), (b, fb) = ((sigma, (on_path(sigma) or (None, None, None))[2]) for sigma in ends)
-        if fa is None or fb is None or fa * fb > 0.0:
-            return None
-        scale = max(abs(fa), abs(fb))
-        for _ in range(60):
-            c = (a * fb - b * fa) / (fb - fa)
-            got = on_path(c)
-            if got is None:
-                return None
-            fc = got[2]
-            if abs(fc) <= 1e-11 * scale:
-                return got[0], got[1], chord
-            if fc * fb < 0.0:
-                a, fa = b, fb
-            else:
-                fa /= 2
-            b, fb = c, fc
-        return None
+        located = locate_limit(path, start, lam0, chord, ends)
+        return None if located is None else (*located, chord)
 
 
 def bordered_solve(stiffness, column: np.ndarray, row: np.ndarray, rhs: np.ndarray, load_factor: float) -> np.ndarray:
