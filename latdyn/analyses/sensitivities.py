@@ -104,7 +104,7 @@ from latdyn.assembly.factorization import solve_linear
 from latdyn.assembly.native_model import NO_CONTACT, joint_contact_rows
 from latdyn.errors import SceneError, SolverError
 from latdyn.results.result import SENSITIVITIES_FILE
-from latdyn.scene.expressions import parse_hinge_law, reading_inputs
+from latdyn.scene.expressions import HingeLaw, parse_hinge_law, reading_inputs
 from latdyn.timeloop.jumps import jumping_key
 
 __all__ = ["refusal", "StaticSensitivities", "SENSITIVITIES_FILE"]
@@ -350,7 +350,32 @@ def _adjoint_event_refusal(scene) -> str | None:
         # method takes that (TransientSensitivities._stiffness_by_rates), the adjoint's transposed weight does not
         return (f"the adjoint does not differentiate a latch or rigid stop ({impulse}: lock_at, limits) beside a damped "
                 f"cable yet ({damped}: the impulse's weight moves with the rates through the damper)")
+    by_rate = next((f"beams.{beam}.{which}.hinge.{key}" for beam, which, hinge in scene.hinges
+                    for key in ("stiffness", "damping", "torque") if _stiffness_by_rate(hinge, key)), None)
+    if impulse is not None and by_rate is not None:
+        # the same term for a hinge law whose ∂τ/∂θ holds θ̇ (a damping law in θ, a stiffness law in θ̇): the
+        # forward method takes it (_stiffness_by_rates), the adjoint's transposed weight does not
+        return (f"the adjoint does not differentiate a latch or rigid stop ({impulse}: lock_at, limits) beside a hinge "
+                f"law whose stiffness moves with the rate yet ({by_rate}: ∂τ/∂θ depends on theta_dot, so the "
+                "impulse's weight moves with the rates)")
     return None
+
+
+def _stiffness_by_rate(hinge, key: str) -> bool:
+    """Whether the hinge's law ``key`` (``stiffness`` k, ``damping`` c, ``torque`` f of τ = −k (θ − θ_rest) − c θ̇
+    + f) makes ∂τ/∂θ, the hinge's entry of K, depend on θ̇: k in theta_dot, c in theta, f with ∂f/∂θ in
+    theta_dot."""
+    law = getattr(hinge, key, None)
+    if not isinstance(law, HingeLaw):   # a number, or a function of time alone
+        return False
+    if key == "stiffness":
+        return "theta_dot" in law.depends_on
+    if key == "damping":
+        return "theta" in law.depends_on
+    if "theta_dot" not in law.depends_on or law.expressions is None:
+        return False
+    variables, (_, by_angle, _) = law.expressions
+    return variables[1] in by_angle.free_symbols
 
 
 def _timed_key(scene) -> str | None:
