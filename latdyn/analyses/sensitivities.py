@@ -342,23 +342,15 @@ def _adjoint_event_refusal(scene) -> str | None:
     if probe is not None:
         return (f"the adjoint is not seeded by energy and momentum probes beside events yet (probe {probe.name!r}); "
                 "the forward method differentiates them")
-    impulse = next((f"beams.{beam}.{which}.hinge" for beam, which, hinge in scene.hinges
-                    if hinge.lock_at is not None or (hinge.limits is not None and hinge.contact is None)), None)
-    damped = next((f"cables.{name}.damping" for name, cable in (scene.cables or {}).items() if cable.damping), None)
-    if impulse is not None and damped is not None:
-        # the impulse's weight M + dt² K moves with the rates through the damper's c ℓ̇ terms of K: the forward
-        # method takes that (TransientSensitivities._stiffness_by_rates), the adjoint's transposed weight does not
-        return (f"the adjoint does not differentiate a latch or rigid stop ({impulse}: lock_at, limits) beside a damped "
-                f"cable yet ({damped}: the impulse's weight moves with the rates through the damper)")
-    by_rate = next((f"beams.{beam}.{which}.hinge.{key}" for beam, which, hinge in scene.hinges
-                    for key in ("stiffness", "damping", "torque") if _stiffness_by_rate(hinge, key)), None)
-    if impulse is not None and by_rate is not None:
-        # the same term for a hinge law whose ∂τ/∂θ holds θ̇ (a damping law in θ, a stiffness law in θ̇): the
-        # forward method takes it (_stiffness_by_rates), the adjoint's transposed weight does not
-        return (f"the adjoint does not differentiate a latch or rigid stop ({impulse}: lock_at, limits) beside a hinge "
-                f"law whose stiffness moves with the rate yet ({by_rate}: ∂τ/∂θ depends on theta_dot, so the "
-                "impulse's weight moves with the rates)")
     return None
+
+
+def rates_move_stiffness(scene) -> str | None:
+    """The first key of ``scene`` that makes K, and so an impulse's weight M + dt² K, move with the rates: a cable's
+    ``damping`` (its c ℓ̇ terms), a hinge law whose ∂τ/∂θ depends on θ̇ (:func:`_stiffness_by_rate`); None."""
+    damped = next((f"cables.{name}.damping" for name, cable in (scene.cables or {}).items() if cable.damping), None)
+    return damped or next((f"beams.{beam}.{which}.hinge.{key}" for beam, which, hinge in scene.hinges
+                           for key in ("stiffness", "damping", "torque") if _stiffness_by_rate(hinge, key)), None)
 
 
 def _stiffness_by_rate(hinge, key: str) -> bool:
