@@ -29,10 +29,12 @@ parameters as every number of a scene, their sensitivities refused naming the ke
 from __future__ import annotations
 
 import numpy as np
+import pytest
 import yaml
 
 import latdyn
 from tests.cli_runs import latdyn_run
+from tests.test_sensitivities_events import LATCH_PLANAR
 
 #: a flexible arm hinged to the ground about an axis tilted by ``ax``, a tip body with rotary inertia, the whole
 #: started spinning about z: the hinge starts at θ̇ = a·ω, a(ax) = (ax, 0.3, 1)/|…|
@@ -265,12 +267,181 @@ def test_a_latch_beside_a_damped_taut_cable_moves_the_impulse_s_weight_with_the_
     _assert_agree(result, DAMPED_CABLE_AT_A_LATCH, ("n", "torque"))
 
 
-def test_the_adjoint_refuses_a_latch_beside_a_damped_cable(tmp_path):
-    """The adjoint's transposed weight derivative lacks the rates' term that the forward method now takes: on the
-    same scene (t_end 0.2) its summary differed from the forward method's by up to 1.9e-5 of the probe's largest
-    (the tension's end), a forward/adjoint disagreement reported as solved. Now refused naming the key."""
-    text = DAMPED_CABLE_AT_A_LATCH.replace("tol: 1.0e-12,", "tol: 1.0e-12, sensitivity_method: adjoint,")
-    completed, _ = latdyn_run(tmp_path, text, quiet=True)
-    assert completed.returncode == 2, completed.stderr
-    assert ("solve.sensitivity_method: the adjoint does not differentiate a latch or rigid stop "
-            "(beams.arm.start.hinge: lock_at, limits) beside a damped cable yet (cables.c0.damping") in completed.stderr
+def _assert_adjoint_agrees(text: str, names: tuple, bound: float = 1e-8, kinds: tuple = ("latch",)) -> None:
+    """The adjoint's summary (``probe_sensitivities``' end rows, ``event_sensitivities``) within ``bound`` of the
+    forward method's, relative to the probe's largest end sensitivity."""
+    forward = _run(text)
+    adjoint = latdyn.run(latdyn.load_scene(yaml.safe_load(text.replace(
+        "tol: 1.0e-12,", "tol: 1.0e-12, sensitivity_method: adjoint,"))))
+    assert adjoint.summary["events"] == forward.summary["events"]
+    assert [e["kind"] for e in forward.summary["events"]] == list(kinds)
+    for probe, by_name in forward.summary["probe_sensitivities"].items():
+        expected = np.array([by_name["end"][name] for name in names])
+        computed = np.array([adjoint.summary["probe_sensitivities"][probe]["end"][name] for name in names])
+        assert np.abs(computed - expected).max() <= bound * max(np.abs(expected).max(), 1e-12), (probe, computed,
+                                                                                                 expected)
+    for mine, theirs in zip(adjoint.summary["event_sensitivities"], forward.summary["event_sensitivities"]):
+        for name in names:
+            assert abs(mine["dt"][name] - theirs["dt"][name]) <= 1e-8 * abs(theirs["dt"][name]) + 1e-15
+
+
+def test_the_adjoint_takes_a_latch_beside_a_damped_cable():
+    """The adjoint's transposed weight derivative lacked the rates' term that the forward method takes: on the same
+    scene (t_end 0.2) its summary differed from the forward method's by up to 1.9e-5 of the probe's largest (the
+    tension's end), reported as solved; refused since fdbaeb4. Now the transposed term
+    (AdjointSensitivities._stiffness_by_rates_transposed): 1.35e-11 from the forward method, 1.4e-8 from Richardson
+    differences (benchmarks/fuzz_sensitivities.py --scene, the scene with sensitivity_method: adjoint)."""
+    _assert_adjoint_agrees(DAMPED_CABLE_AT_A_LATCH, ("k",))
+
+
+#: fuzzer seed 16 case 16 (benchmarks/fuzz_sensitivity_scenes/n_seed16_case16_refused.yaml): its trial step from
+#: t = 0.06 of 0.03 s converges to θ = −6.17 at m0.end, past its stop at −0.597, and no shorter step reaches the
+#: stop (θ ≈ −0.03 at 0.0028, 0.0053 and 0.0095 s; Newton fails at 0.0154 s)
+TRIAL_PAST_A_STOP = """
+title: fuzz
+sections:
+  s0: {EA: 2065049.0, EIy: 1124.0, EIz: 1124.0, GJ: 394.0, rhoA: 1.665, rhoIy: 0.00932, rhoIz: 0.00932}
+  s1: {EA: 1712514.0, EIy: 1668.0, EIz: 1668.0, GJ: 1543.8, rhoA: 0.34, rhoIy: 0.00098, rhoIz: 0.00098}
+bodies:
+  g:
+    at: [0, 0, 0]
+    mass: 1.81
+    inertia: [0.581, 0.581, 0.581]
+  b0:
+    at: [1.04, 0.0, 0.0]
+  b1:
+    at: [1.04, 0.0, 1.11]
+    mass: 2.066
+  gd:
+    at: [-0.95, -0.48, 0.26]
+    mass: 2.731
+    guide:
+      axis: [1.0, 0.0, 0.0]
+      'on': b0
+      force: 3.97*t - 12.23*s_dot
+    inertia: [0.0343, 0.0343, 0.0343]
+beams:
+  m0:
+    from: g
+    section: s0
+    to:
+      body: b0
+      offset: [0, 0, 0]
+    elements: 3
+    start:
+      hinge:
+        axis: [0.8, 0.574, -0.173]
+        angle:
+          table:
+          - [0, 0]
+          - [0.1, 0.05]
+          - [1, 0.3]
+    end:
+      hinge:
+        axis: [0.502, -0.828, 0.252]
+        torque: p0_hinge*(-18.49*exp(-t) - 0.55*theta_dot)
+        limits: [-0.597, 0.719]
+  m1:
+    from: b0
+    section: s1
+    to: b1
+    elements: 2
+    start:
+      hinge:
+        axis: [0.0, 1.0, -0.0]
+        limits: [-0.517, 0.427]
+        contact: {stiffness: 58566.0, damping: 20.62}
+gravity: [0, 0, -9.81]
+loads:
+- at: m1.node[1]
+  moment: [0, -18.39*sin(3*t), 0]
+- at: g
+  force: [-5.29*sin(3*t), 0, 0]
+solve:
+  analysis: transient
+  method: newmark
+  t_end: 0.3
+  dt: 0.03
+  tol: 1.0e-12
+  sensitivities: [p0_hinge]
+output:
+  probes:
+    p0: {point: m0.end, quantity: position, component: z}
+    p1: {point: m0.end, quantity: position, component: y}
+    h_m1_start: {hinge: m1.start, quantity: angle}
+    g_slide: {guide: gd, quantity: rate}
+parameters: {p0_hinge: 1.0}
+"""
+
+
+def test_a_landing_that_keeps_a_step_short_of_the_event_is_refused(tmp_path, monkeypatch):
+    """The step kept at 0.00949 s is the landing search's, a function of p that the derivative did not take
+    (δh = 0): rows from t = 0.0695 on were up to 1.77e-2 of the probe's largest sensitivity off Richardson
+    differences, the same at h = 1e-3 and 1e-4 |p| (the perturbed runs' row times move by 7.2e-4 δp there, no
+    event). Now refused when it happens, naming the joint and the cause. The same scene at dt 0.015 or 0.01 (no
+    such landing) agrees to 3.3e-10 and 3.5e-10."""
+    import latdyn.analyses.transient_sensitivities as transient_sensitivities
+
+    completed, _ = latdyn_run(tmp_path, TRIAL_PAST_A_STOP, quiet=True)
+    assert completed.returncode == 1, completed.stderr
+    assert ("the sensitivities at t = 0.06 meet a step shortened toward the stop -0.597 of m0.end that no shorter "
+            "step reached") in completed.stderr
+    assert "not differentiated" in completed.stderr
+    # through the API, and on the planar latch of tests/test_sensitivities_events.py with one pass of the search
+    # (its step kept 0.00121 rad short of the latch)
+    with pytest.raises(latdyn.SolverError, match="shortened toward the lock_at 0.8 of arm.start"):
+        monkeypatch.setattr(transient_sensitivities, "LANDING_PASSES", 1)
+        latdyn.run(latdyn.load_scene(yaml.safe_load(LATCH_PLANAR)))
+
+
+#: two hinged arms, the first latching: its law's ∂τ/∂θ = −k − 80 c θ θ̇ moves with the rate, and so does the
+#: impulse's weight M + dt² K at the latch
+LATCH_BESIDE_A_RATE_STIFFNESS = """
+parameters: {k: 20.0, c: 0.5}
+sections:
+  s: {EA: 2.0e6, EIy: 900, EIz: 600, GJ: 500, rhoA: 1.2, rhoIy: 0.0004, rhoIz: 0.0003}
+bodies:
+  g: {at: [0, 0, 0], fixed: true}
+  b: {at: [0.8, 0.1, 0.3], mass: 0.7, inertia: [0.01, 0.02, 0.015]}
+  d: {at: [1.3, 0.5, 0.2], mass: 0.4, inertia: [0.01, 0.01, 0.01]}
+beams:
+  arm: {from: g, to: b, section: s, elements: 1, start: {hinge: {axis: [0.2, 0.3, 1],
+        torque: -k*theta - c*(1 + 40*theta**2)*theta_dot + 4.0, lock_at: 0.01}}}
+  fore: {from: b, to: d, section: s, elements: 1, start: {hinge: {axis: [0, 0.4, 1],
+        torque: -8*theta - c*(1 + 30*theta**2)*theta_dot - 2.0}}}
+solve: {analysis: transient, method: generalized-alpha, t_end: 0.2, dt: 0.01, tol: 1.0e-12, sensitivities: [k, c]}
+output:
+  probes:
+    torque: {hinge: arm.start, quantity: torque}
+    a2: {hinge: fore.start, quantity: angle}
+    y: {point: d, quantity: position, component: y}
+"""
+
+
+def test_a_latch_beside_a_hinge_law_whose_stiffness_moves_with_the_rate():
+    """The forward method takes ∂(K w)/∂v δv (1417580) for a hinge law as for a damped cable. Measured (h = 1e-3):
+    every row within 1.2e-8 of its probe's largest sensitivity (k and c; the latch time 5e-10); with that term left
+    out 2.1e-4 (y by k). A damping law in θ and a stiffness law in θ̇ beside the latch agree likewise (2.3e-8,
+    8.9e-9; benchmarks/fuzz_sensitivity_scenes/o_latch_beside_a_rate_stiffness.yaml)."""
+    result = _run(LATCH_BESIDE_A_RATE_STIFFNESS)
+    assert [e["kind"] for e in result.summary["events"]] == ["latch"]
+    _assert_agree(result, LATCH_BESIDE_A_RATE_STIFFNESS, ("torque", "a2", "y"), "k", 0.02)
+
+
+def test_the_adjoint_takes_a_latch_beside_a_hinge_law_whose_stiffness_moves_with_the_rate():
+    """The adjoint's transposed weight lacked that term: on LATCH_BESIDE_A_RATE_STIFFNESS its end rows were up to
+    3.2e-4 (y by k) off the Richardson differences and the forward method's, reported as solved. With
+    AdjointSensitivities._stiffness_by_rates_transposed: the torque law 2e-8 off the differences (60 checks with the
+    forward method's), a damping law in theta 2.6e-8 (its summary 3.4e-13 from the forward method's), a stiffness law
+    in theta_dot 6.8e-9 (2.0e-13)."""
+    law = "torque: -k*theta - c*(1 + 40*theta**2)*theta_dot + 4.0"
+    for written in (law, "stiffness: k, damping: c*(1 + 40*theta**2), torque: 4.0",
+                    "stiffness: k*(1 + 0.1*theta_dot**2), damping: c, torque: 4.0"):
+        _assert_adjoint_agrees(LATCH_BESIDE_A_RATE_STIFFNESS.replace(law, written), ("k", "c"))
+    # no latch; the fore arm's hinge hits a rigid stop twice (restitution 0.95, t = 0.075 and 0.084): the impulse's
+    # and the restart's terms. Measured: 2.1e-8 off the differences, 8.7e-13 from the forward method; with the
+    # restart's transposed term left out 9.5e-5, with both 9.5e-5
+    stops = (LATCH_BESIDE_A_RATE_STIFFNESS.replace(", lock_at: 0.01}}}", "}}}")
+             .replace("theta_dot - 2.0}}}", "theta_dot - 0.5, limits: [-0.03, 0.5], restitution: 0.95}}}")
+             .replace("t_end: 0.2", "t_end: 0.15"))
+    _assert_adjoint_agrees(stops, ("k", "c"), kinds=["stop", "stop"])

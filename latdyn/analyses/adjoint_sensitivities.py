@@ -82,7 +82,7 @@ from latdyn.analyses.energy_sensitivities import probe_forms as energy_probe_for
 from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_force_forms, joint_of
 from latdyn.analyses.link_sensitivities import columns_moving
 from latdyn.analyses.probe_derivatives import is_probe_here, probe_forms
-from latdyn.analyses.sensitivities import _BODY_KEY, _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE
+from latdyn.analyses.sensitivities import _BODY_KEY, _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE, rates_move_stiffness
 from latdyn.analyses.transient_sensitivities import TransientSensitivities, _NodeRotations, _StepColumns
 from latdyn.analyses.weight_derivative import configuration_tangent_of_weight
 from latdyn.assembly.assembler import free_acceleration, free_velocity, pack, unpack_free
@@ -555,6 +555,7 @@ class AdjointSensitivities(TransientSensitivities):
         v_bar_minus = w_bar - restitution * (N @ pushed)
         u_bar = np.asarray(solve_linear(_transposed(W), w_bar)).reshape(w_bar.shape)
         q_part, p_part = self._weight_derivative_transposed(new, change, u_bar, scale)
+        v_bar_minus = v_bar_minus - self._stiffness_by_rates_transposed(new, change, u_bar, scale)
         return v_bar_minus, -q_part, -p_part
 
     def _restart_transposed(self, entry: dict, q_bar: np.ndarray, v_bar: np.ndarray, s_bar: np.ndarray) -> tuple:
@@ -583,7 +584,22 @@ class AdjointSensitivities(TransientSensitivities):
             q_part, p_part = self._weight_derivative_transposed(before, free_acceleration(model, after), u_bar,
                                                                 scale, mass=False)
             q_bar, by_restart = q_bar + q_part, by_restart + p_part
+            v_bar = v_bar + self._stiffness_by_rates_transposed(before, free_acceleration(model, after), u_bar, scale)
         return q_bar, v_bar, by_restart
+
+    def _stiffness_by_rates_transposed(self, state, w: np.ndarray, u_bar: np.ndarray, scale: float) -> np.ndarray:
+        """The transpose of the forward method's rates' term of the weight derivative, scale ∂(K w)/∂v δv
+        (:meth:`TransientSensitivities._stiffness_by_rates`), applied to ``u_bar`` (n, m): scale (∂(K w)/∂v)ᵀ ū,
+        ∂(K w)/∂v by the forward method's central differences along each free rate. Where K moves with the rates
+        (a damped cable's c ℓ̇ terms, a hinge law whose ∂τ/∂θ holds θ̇: :func:`rates_move_stiffness`), else 0."""
+        moving = self.__dict__.get("_rates_move_stiffness")
+        if moving is None:
+            moving = self._rates_move_stiffness = rates_move_stiffness(self.scene) is not None
+        if not moving:
+            return np.zeros_like(u_bar)
+        n = self.model.n_dofs
+        by_rates = self._stiffness_by_rates(state, w, np.eye(n))
+        return scale * np.asarray(by_rates.T @ u_bar)
 
     def _renumbering_transposed(self, entry: dict, q_bar: np.ndarray, v_bar: np.ndarray) -> tuple:
         """The transpose of the forward method's renumbering at an event (δq, δv of the numbering before it put

@@ -104,7 +104,7 @@ from latdyn.assembly.factorization import solve_linear
 from latdyn.assembly.native_model import NO_CONTACT, joint_contact_rows
 from latdyn.errors import SceneError, SolverError
 from latdyn.results.result import SENSITIVITIES_FILE
-from latdyn.scene.expressions import parse_hinge_law, reading_inputs
+from latdyn.scene.expressions import HingeLaw, parse_hinge_law, reading_inputs
 from latdyn.timeloop.jumps import jumping_key
 
 __all__ = ["refusal", "StaticSensitivities", "SENSITIVITIES_FILE"]
@@ -342,15 +342,32 @@ def _adjoint_event_refusal(scene) -> str | None:
     if probe is not None:
         return (f"the adjoint is not seeded by energy and momentum probes beside events yet (probe {probe.name!r}); "
                 "the forward method differentiates them")
-    impulse = next((f"beams.{beam}.{which}.hinge" for beam, which, hinge in scene.hinges
-                    if hinge.lock_at is not None or (hinge.limits is not None and hinge.contact is None)), None)
-    damped = next((f"cables.{name}.damping" for name, cable in (scene.cables or {}).items() if cable.damping), None)
-    if impulse is not None and damped is not None:
-        # the impulse's weight M + dt² K moves with the rates through the damper's c ℓ̇ terms of K: the forward
-        # method takes that (TransientSensitivities._stiffness_by_rates), the adjoint's transposed weight does not
-        return (f"the adjoint does not differentiate a latch or rigid stop ({impulse}: lock_at, limits) beside a damped "
-                f"cable yet ({damped}: the impulse's weight moves with the rates through the damper)")
     return None
+
+
+def rates_move_stiffness(scene) -> str | None:
+    """The first key of ``scene`` that makes K, and so an impulse's weight M + dt² K, move with the rates: a cable's
+    ``damping`` (its c ℓ̇ terms), a hinge law whose ∂τ/∂θ depends on θ̇ (:func:`_stiffness_by_rate`); None."""
+    damped = next((f"cables.{name}.damping" for name, cable in (scene.cables or {}).items() if cable.damping), None)
+    return damped or next((f"beams.{beam}.{which}.hinge.{key}" for beam, which, hinge in scene.hinges
+                           for key in ("stiffness", "damping", "torque") if _stiffness_by_rate(hinge, key)), None)
+
+
+def _stiffness_by_rate(hinge, key: str) -> bool:
+    """Whether the hinge's law ``key`` (``stiffness`` k, ``damping`` c, ``torque`` f of τ = −k (θ − θ_rest) − c θ̇
+    + f) makes ∂τ/∂θ, the hinge's entry of K, depend on θ̇: k in theta_dot, c in theta, f with ∂f/∂θ in
+    theta_dot."""
+    law = getattr(hinge, key, None)
+    if not isinstance(law, HingeLaw):   # a number, or a function of time alone
+        return False
+    if key == "stiffness":
+        return "theta_dot" in law.depends_on
+    if key == "damping":
+        return "theta" in law.depends_on
+    if "theta_dot" not in law.depends_on or law.expressions is None:
+        return False
+    variables, (_, by_angle, _) = law.expressions
+    return variables[1] in by_angle.free_symbols
 
 
 def _timed_key(scene) -> str | None:

@@ -375,7 +375,37 @@ class TransientSensitivities(ParameterDerivatives):
             b, gb = c, gc
         if abs(ga_start := gap(old)) <= tight and abs(gap(best[0])) > tight:
             self._refuse_change_at_step_start(old, ga_start)
+        if best is not attempt and not self._ends_on_a_change(old, best[0]):
+            self._refuse_landing_short(old, attempt, best, event, gap)
         return best
+
+    def _ends_on_a_change(self, old, new) -> bool:
+        """Whether the step old → new ends on an event its derivative takes (a latch, a stop, a compliant
+        stop's onset, a cable element's change of side)."""
+        if self._event(old, new) is not None or self._contact_onset(old, new) is not None:
+            return True
+        return self.cables is not None and self.cables.event(old, new) is not None
+
+    def _refuse_landing_short(self, old, attempt, best, event, gap):
+        """A landing whose search kept a shorter step that reaches no event (Newton failed on its next retry,
+        or the passes ran out short of it): that step's size is the search's, a function of p through the
+        trials' ends, which its derivative does not take (it takes an event's time, a grid point or the
+        step control's size). The trial's crossing may be Newton's, not the motion's (fuzzer seed 16 case 16:
+        a trial of 0.03 s ended at θ = −6.17 past a stop at −0.597, the shorter steps near −0.03, their
+        sizes' δh left out put rows 1.8e-2 off Richardson differences stable in h = 1e-3..1e-4). Refused
+        (SolverError) when it happens, naming the joint or cable."""
+        if event is not None:
+            k, at = event
+            what = f"the {'lock_at' if at == self.model.hinges[k].lock_at else 'stop'} {at:g} of {self.model.hinges[k].name}"
+        else:
+            what = "a cable element's change of side"
+        raise SolverError(
+            f"the sensitivities at t = {float(old.t):.6g} meet a step shortened toward {what} that no shorter step "
+            f"reached: the trial of {attempt.h:.3g} s crossed it (its gap {gap(attempt.new):.3g} at the end), the "
+            f"step kept is {best[2]:.3g} s (its gap {gap(best[0]):.3g}), the landing's search stopped short (Newton "
+            "failed on its next retry, or its passes ran out), and that step's size, a function of p through the "
+            "search, is not differentiated (docs/parameters.md, \"Sensitivities through events\"); a smaller "
+            "solve.dt may keep the trial from crossing")
 
     def _refuse_change_at_step_start(self, old, gap_start: float):
         """A landing that cannot land because the change sits at the step's start (its gap zero there: a
