@@ -23,6 +23,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from latdyn.assembly.factorization import solve_linear
+from latdyn.errors import SolverError
+
 #: The regula falsi stops where |dλ/dσ| is below this fraction of its larger value at the neighbours.
 SLOPE_TOLERANCE = 1e-11
 #: Or below this fraction, where λ moved by at most LOAD_TOLERANCE (relative) from the iterate before.
@@ -37,8 +40,6 @@ def locate_limit(path, start, load_factor: float, chord: np.ndarray, ends: tuple
     through the path point (``start``, ``load_factor``), ``chord`` = cᵀW; None where dλ/dσ has the
     same sign at both ends or a Newton solve on a hyperplane fails (``path``:
     latdyn.analyses.continuation.Path, its evaluate, step_to, increment_size, tol and max_iter)."""
-    from latdyn.analyses.sensitivities import bordered_solve
-
     def on_path(sigma):   # Newton from the start onto the hyperplane cᵀW Δ = σ: (state, λ, dλ/dσ)
         state, lam, moved = start, load_factor, np.zeros(len(chord))
         for _ in range(path.max_iter):
@@ -75,3 +76,23 @@ def locate_limit(path, start, load_factor: float, chord: np.ndarray, ends: tuple
             fa /= 2
         b, fb = c, fc
     return None
+
+
+def bordered_solve(stiffness, column: np.ndarray, row: np.ndarray, rhs: np.ndarray, load_factor: float) -> np.ndarray:
+    """Solve [[K, column], [rowᵀ, 0]] x = rhs ((n + 1, k) → (n + 1, k)), the bordered system of a path
+    that stays regular where K is singular (a limit point), through the package's LU."""
+    import scipy.sparse as sp
+
+    from latdyn.numerics.linalg import use_dense
+
+    if isinstance(stiffness, np.ndarray) or use_dense(len(column) + 1):
+        dense = stiffness if isinstance(stiffness, np.ndarray) else stiffness.toarray()
+        matrix = np.block([[dense, column[:, None]], [row[None, :], np.zeros((1, 1))]])
+    else:
+        matrix = sp.bmat([[stiffness, sp.csr_matrix(column[:, None])], [sp.csr_matrix(row[None, :]), None]],
+                         format="csr")
+    try:
+        return np.asarray(solve_linear(matrix, rhs)).reshape(len(column) + 1, -1)
+    except np.linalg.LinAlgError:
+        raise SolverError(f"the sensitivities at load factor {load_factor:.6g} need the path's bordered "
+                          "matrix, which is singular there (a bifurcation point)") from None

@@ -100,6 +100,7 @@ from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY, ReferenceGeomet
 from latdyn.analyses.link_sensitivities import add_link_section_forces, dependent_rates
 from latdyn.analyses.probe_derivatives import is_probe_here, probe_derivatives
 from latdyn.analyses.probe_derivatives import refusal as probe_refusal
+from latdyn.analyses.limit_points import bordered_solve
 from latdyn.assembly.factorization import solve_linear
 from latdyn.assembly.native_model import NO_CONTACT, joint_contact_rows
 from latdyn.errors import SceneError, SolverError
@@ -1247,26 +1248,6 @@ class ArcLengthSensitivities(StaticSensitivities):
         ends = (-float(chord @ into.increment), float(chord @ self.states[m + 1][2].increment))
         located = locate_limit(path, start, lam0, chord, ends)
         return None if located is None else (*located, chord)
-
-
-def bordered_solve(stiffness, column: np.ndarray, row: np.ndarray, rhs: np.ndarray, load_factor: float) -> np.ndarray:
-    """Solve [[K, column], [rowᵀ, 0]] x = rhs ((n + 1, k) → (n + 1, k)), the bordered system of a path
-    that stays regular where K is singular (a limit point), through the package's LU."""
-    import scipy.sparse as sp
-
-    from latdyn.numerics.linalg import use_dense
-
-    if isinstance(stiffness, np.ndarray) or use_dense(len(column) + 1):
-        dense = stiffness if isinstance(stiffness, np.ndarray) else stiffness.toarray()
-        matrix = np.block([[dense, column[:, None]], [row[None, :], np.zeros((1, 1))]])
-    else:
-        matrix = sp.bmat([[stiffness, sp.csr_matrix(column[:, None])], [sp.csr_matrix(row[None, :]), None]],
-                         format="csr")
-    try:
-        return np.asarray(solve_linear(matrix, rhs)).reshape(len(column) + 1, -1)
-    except np.linalg.LinAlgError:
-        raise SolverError(f"the sensitivities at load factor {load_factor:.6g} need the path's bordered "
-                          "matrix, which is singular there (a bifurcation point)") from None
 
 
 def _force_sensor_refusal(scene) -> str | None:
