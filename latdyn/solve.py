@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import signal
-import sys
 import threading
 import time
 
@@ -292,8 +291,7 @@ def _warn_moving(scene: Scene, writer) -> None:
 
 def _warn(writer, warning: str) -> None:
     """A warning of the analysis: on stderr and in summary.json ``warnings``."""
-    print(f"latdyn: warning: {warning}", file=sys.stderr)
-    writer.summary.setdefault("warnings", []).append(warning)
+    writer.warn(warning)
 
 
 class _sigterm_interrupts:

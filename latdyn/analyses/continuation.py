@@ -81,7 +81,6 @@ Y. T. Feng, D. Perić & D. R. J. Owen, Comput. Methods Appl. Mech. Eng. 130 (199
 from __future__ import annotations
 
 import math
-import sys
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -347,8 +346,7 @@ class Path:
                    "located between the path points about it: limit_points gives the vertex of the parabola "
                    "through them (located: false), a coarse estimate; more steps (solve.steps) bring the points "
                    "closer to it")
-        self.writer.summary.setdefault("warnings", []).append(message)
-        print(f"latdyn: warning: {message}", file=sys.stderr)
+        self.writer.warn(message)
 
     def summarize(self) -> None:
         limits, bifurcations = critical_points(self.points)
@@ -523,9 +521,8 @@ def arc_length(path: Path, state) -> object:
         ds = min(ds0, ds * min(2.0, math.sqrt(TARGET_ITERATIONS / max(n, 1))))
     message = (f"arc-length continuation stopped after max_steps = {max_steps} path steps at load factor "
                f"{lam:.6g}, before the load factor reached 1")
-    path.writer.summary.setdefault("warnings", []).append(message)
+    path.writer.warn(message)
     path.writer.summary["end"] = "max_steps"
-    print(f"latdyn: warning: {message}", file=sys.stderr)
     return state
 
 

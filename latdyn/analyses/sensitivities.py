@@ -83,7 +83,6 @@ beams with mass are differentiated exactly there too. docs/parameters.md.
 """
 from __future__ import annotations
 
-import ctypes
 from dataclasses import dataclass, fields, is_dataclass
 from pathlib import Path
 
@@ -610,12 +609,9 @@ class ParameterDerivatives:
         """The addresses of the C kernels ``beam_internal_force_D_section`` and ``beam_inertia_force_D_section``,
         found once; None where the kernels have no C libraries (the NumPy backend)."""
         if "_section_kernels_found" not in self.__dict__:
-            try:
-                found = tuple(ctypes.cast(getattr(self.kernels.library(name), name), ctypes.c_void_p).value
-                              for name in ("beam_internal_force_D_section", "beam_inertia_force_D_section"))
-            except (AttributeError, KeyError):
-                found = None
-            self._section_kernels_found = found
+            found = tuple(self.kernels.address(name)
+                          for name in ("beam_internal_force_D_section", "beam_inertia_force_D_section"))
+            self._section_kernels_found = None if None in found else found
         return self._section_kernels_found
 
     def _section_elements_once(self) -> tuple:

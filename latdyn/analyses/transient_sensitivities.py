@@ -113,7 +113,6 @@ the run.
 """
 from __future__ import annotations
 
-import sys
 from contextlib import nullcontext
 from pathlib import Path
 from types import SimpleNamespace
@@ -1277,8 +1276,7 @@ class TransientSensitivities(ParameterDerivatives):
         for joint, t, miss in carried.get("missed", []):
             warning = (f"the step landed {miss:.2g} (relative) off the event of {joint} at t = {t:.9g} (regula "
                        "falsi on the step size not converged): its sensitivities are not exact to better than that")
-            print(f"latdyn: warning: {warning}", file=sys.stderr)
-            writer.summary.setdefault("warnings", []).append(warning)
+            writer.warn(warning)
         if writer.out_dir is not None:
             text = csv_line(["t", *self.columns]) + "".join(csv_line(row) for row in carried["rows"])
             atomic_write_bytes(Path(writer.out_dir) / SENSITIVITIES_FILE, text.encode("utf-8"))

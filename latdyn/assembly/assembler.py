@@ -453,11 +453,7 @@ class Assembler:
         """The address of the C kernel ``joint_body_inertia_stiffness`` (found once), None where the kernels have no
         C libraries (the NumPy backend): :meth:`joint_body_inertia_stiffness` then calls it from Python."""
         if "_body_stiffness_address" not in self.__dict__:
-            try:
-                library = self.kernels.library("joint_body_inertia_stiffness")
-                self._body_stiffness_address = ctypes.cast(library.joint_body_inertia_stiffness, ctypes.c_void_p).value
-            except (AttributeError, KeyError):
-                self._body_stiffness_address = None
+            self._body_stiffness_address = self.kernels.address("joint_body_inertia_stiffness")
         return self._body_stiffness_address
 
     def evaluate_assembled(self, state: State, matrices: bool, load_factor: float, inertia: bool,

@@ -68,6 +68,14 @@ class KernelSet:
             self._build(name)
         return self.libraries[name]
 
+    def address(self, name: str) -> int | None:
+        """The address of C kernel ``name``'s function in its library (for a call from C), None where it has none
+        (the NumPy backend, or no such kernel)."""
+        try:
+            return ctypes.cast(getattr(self.library(name), name), ctypes.c_void_p).value
+        except (AttributeError, KeyError):
+            return None
+
     def _build(self, name: str) -> None:
         library, function = self._deferred.pop(name)()
         self.libraries[name] = library

@@ -33,6 +33,7 @@ importable from this module too.
 """
 from __future__ import annotations
 
+import sys
 import time
 from pathlib import Path
 
@@ -242,6 +243,11 @@ class ResultWriter:
         write_summary(folder, {"status": "running"}, durable=False)
 
     # -- recording
+    def warn(self, warning: str) -> None:
+        """A warning of the run: on stderr and in summary.json ``warnings``."""
+        print(f"latdyn: warning: {warning}", file=sys.stderr)
+        self.summary.setdefault("warnings", []).append(warning)
+
     def record(self, t, values, state: dict | None = None, node_positions=None, node_data: dict | None = None,
                frame=None) -> None:
         """Append one row.

@@ -779,12 +779,10 @@ class TimeLoop:
                        f"largest at t = {progress.balance_error_t:.6g}: energy created or lost beyond the work "
                        f"received; a smaller step reduces the part that is the step's error, not a part from the "
                        f"start or the model (a rerun at dt/2 tells them apart)")
-            print(f"latdyn: warning: {warning}", file=sys.stderr)
-            summary.setdefault("warnings", []).append(warning)
+            self.writer.warn(warning)
         if not self.unbounded:
             for warning in progress.unresolved_hinges([h.name for h in self.model.hinges]):
-                print(f"latdyn: warning: {warning}", file=sys.stderr)
-                summary.setdefault("warnings", []).append(warning)
+                self.writer.warn(warning)
 
     # ------------------------------------------------------------------------- checkpoints
     def _accepted(self, kept_factorization: bool = True) -> LastAccepted:

@@ -4,7 +4,6 @@ for, and the time loop that drives it (:mod:`latdyn.timeloop.loop`; its step siz
 step to step: :mod:`~latdyn.timeloop.progress`, its checkpoints: :mod:`~latdyn.timeloop.checkpoint`)."""
 from __future__ import annotations
 
-import sys
 
 from latdyn.assembly.control import refuse_states_without_step
 from latdyn.assembly.prepare import Prepared, length_scale
@@ -93,8 +92,7 @@ def start_transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter,
                     sensitivities=sensitivities)
     loop.begin(resume_from)
     for warning in prepared.assembler.initial_warnings:  # loops the initial velocity does not close (a resumed
-        print(f"latdyn: warning: {warning}", file=sys.stderr)  # run's summary says so as the whole run's does)
-        writer.summary.setdefault("warnings", []).append(warning)
+        writer.warn(warning)  # run's summary says so as the whole run's does)
     undamped = scene.solve.method == "newmark" or (scene.solve.method in ("generalized-alpha", "hht-alpha")
                                                    and scene.solve.rho_inf >= 1.0)
     if undamped:   # no numerical damping of the directions without inertia (newmark_warning)
@@ -103,6 +101,5 @@ def start_transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter,
                                   scene.solve.method if scene.solve.method == "newmark"
                                   else f"{scene.solve.method} with rho_inf 1")
         if warning is not None:
-            print(f"latdyn: warning: {warning}", file=sys.stderr)
-            writer.summary.setdefault("warnings", []).append(warning)
+            writer.warn(warning)
     return loop
