@@ -197,3 +197,21 @@ def test_the_cli_writes_the_arc_length_paths_sensitivities(tmp_path, planar):
     assert written["limit_point_sensitivities"] == summary["limit_point_sensitivities"]
     peak = int(np.argmax(result.t))
     assert written["load_factor_sensitivities"]["max"]["EI"] == result.sensitivities[("load_factor", "EI")][peak]
+
+
+def test_each_limit_point_is_located_once(monkeypatch):
+    """The path locates each turn of λ (Path.locate_turn) and the sensitivities take its located state;
+    before, the sensitivities located both of the snap-through's limit points again (4 searches)."""
+    import latdyn.analyses.limit_points as limit_points
+
+    searched = []
+    locate = limit_points.locate_limit
+
+    def counted(*args, **kwargs):
+        searched.append(args[2])
+        return locate(*args, **kwargs)
+
+    monkeypatch.setattr(limit_points, "locate_limit", counted)
+    _, summary = _run(PLANAR, ["EI"])
+    assert len(summary["limit_point_sensitivities"]) == 2
+    assert len(searched) == 2, searched

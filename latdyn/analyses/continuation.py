@@ -151,6 +151,9 @@ class Path:
     _departure: tuple | None = None
     #: the states of the last three path points, to locate a limit point between them (:meth:`accept`)
     _recent: list = field(default_factory=list)
+    #: each limit point :meth:`locate_turn` tried, by the turning point's load factor: (state, λ, cᵀW) where
+    #: located, else None; the sensitivities' limit points take it (StaticSensitivities.limit_points)
+    located_limits: dict = field(default_factory=dict)
 
     def __post_init__(self):
         scene = self.prepared.scene
@@ -339,6 +342,7 @@ class Path:
         into, out = self.difference(first, middle), self.difference(middle, last)
         chord = self.weight * (into + out)
         located = locate_limit(self, middle, turn.load_factor, chord, (-float(chord @ into), float(chord @ out)))
+        self.located_limits[turn.load_factor] = None if located is None else (*located, chord)
         if located is not None:
             turn.limit = float(located[1])
             return

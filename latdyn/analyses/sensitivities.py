@@ -1236,8 +1236,13 @@ class ArcLengthSensitivities(StaticSensitivities):
         return out
 
     def _locate_limit(self, path, m: int):
-        """(state, λ, cᵀW) of the limit point about row m, or None (:meth:`limit_points`)."""
+        """(state, λ, cᵀW) of the limit point about row m, or None (:meth:`limit_points`): the path's own
+        where it located the turn at that row (Path.locate_turn: an arc-length path's rows are its points),
+        else located here between the rows about it."""
         from latdyn.analyses.limit_points import locate_limit
+
+        if self.states[m][1] in path.located_limits:
+            return path.located_limits[self.states[m][1]]
 
         start, lam0, into = self.states[m]
         chord = self.weight * (into.increment + self.states[m + 1][2].increment)
