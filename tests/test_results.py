@@ -114,7 +114,7 @@ def test_exception_inside_with_leaves_complete_files(tmp_path, exception, status
 
 
 def test_npz_fallback_without_h5py(tmp_path, monkeypatch):
-    monkeypatch.setattr(state_history.hdf5, "available", lambda: False)
+    monkeypatch.setattr(state_history, "h5py", None)
     with ResultWriter(tmp_path, ["x"], checkpoint_rows=2) as writer:
         for i in range(5):
             writer.record(float(i), [i * 2.0], state={"q": np.array([i, -i], dtype=float)})
@@ -233,7 +233,7 @@ def test_progress_bar_disabled_and_enabled(capsys):
 @pytest.mark.parametrize("backend", ["h5", "npz"])
 def test_state_labels_are_stored(tmp_path, monkeypatch, backend):
     if backend == "npz":
-        monkeypatch.setattr(state_history.hdf5, "available", lambda: False)
+        monkeypatch.setattr(state_history, "h5py", None)
     labels = results.state_labels(["hub", "arm.node[1]"], ["arm.start"])
     assert labels["x"][3:6] == ["arm.node[1]:x", "arm.node[1]:y", "arm.node[1]:z"]
     assert labels["T"][9 + 5] == "arm.node[1]:T[1,2]"

@@ -26,8 +26,7 @@ A part without cells (a scene without beams has no ``beams``) is skipped: it has
 
 How it is written (:class:`ParaviewWriter`): ``OUT/paraview/<part>.vtkhdf``, one HDF5 file
 per part in VTK's VTKHDF format (``Version`` [2, 0], ``Type`` ``UnstructuredGrid``, transient;
-read natively by ParaView >= 5.12 and VTK's ``vtkHDFReader``), written through the HDF5 library
-(:mod:`latdyn.results.hdf5`, as h5py writes them):
+read natively by ParaView >= 5.12 and VTK's ``vtkHDFReader``), written with h5py:
 
 ``/VTKHDF`` (attributes ``Version``, ``Type``)
     ``NumberOfPoints``, ``NumberOfCells``, ``NumberOfConnectivityIds`` (1,): the one piece,
@@ -47,7 +46,7 @@ read natively by ParaView >= 5.12 and VTK's ``vtkHDFReader``), written through t
 
 Frames are written in blocks: the first creates the file (under a temporary name, flushed, then
 renamed and kept open for appending), later ones gather in memory and
-are appended and flushed (``H5Fflush``) every :data:`FRAME_BLOCK` frames or
+are appended and flushed (``h5py.File.flush``) every :data:`FRAME_BLOCK` frames or
 :data:`FRAME_BLOCK_SECONDS`, at every checkpoint and at close (one write a dataset per block:
 ~0.2 ms a frame less than one at a time; a block's append costs ~1.5 ms a file, so the default
 ~200 frames of a short run go in one; the frames of a block of rows recorded where the step runs
@@ -75,8 +74,6 @@ import time
 from pathlib import Path
 
 import numpy as np
-
-from latdyn.results import hdf5
 
 __all__ = ["ParaviewWriter", "normalise_mesh", "parts", "frame", "frames", "default_every", "part_file",
            "PARAVIEW_DIR", "VTKHDF_VERSION", "DEFAULT_FRAMES"]
@@ -342,11 +339,11 @@ def _vertices(frame_: dict) -> dict:
 
 # ----------------------------------------------------------------------------- one file
 class _PartFile:
-    """The transient VTKHDF file of one part, open for appending (module docstring), written through
-    the HDF5 library (:mod:`latdyn.results.hdf5`)."""
+    """The transient VTKHDF file of one part, open for appending (module docstring)."""
 
     def __init__(self, path: Path, part: dict, keep: int | None = None):
-        self.lib = hdf5.library()  # HDF5Missing (an OSError naming what is missing) before any frame
+        import h5py
+
         self.path = path
         self.n_points, self.n_cells = part["n_points"], part["n_cells"]
         self.static = dict(part["cell_data"])
@@ -358,10 +355,11 @@ class _PartFile:
             self.steps = 0
             self._part = part
         else:  # resuming: the first `keep` frames stay
-            self.file = None
             try:
-                self.file = self.lib.open_file(path, writable=True, locking=False)
-                on_disk = self._datasets()
+                self.file = h5py.File(path, "r+", locking=False)
+                root = self.file["VTKHDF"]
+                on_disk = int(root["Steps"].attrs["NSteps"])
+                self._datasets(root)
             except (OSError, KeyError, ValueError) as exc:
                 self.close()
                 raise _resume_error(path, f"unreadable ({exc})") from exc
@@ -374,37 +372,23 @@ class _PartFile:
         """Keep the first ``keep`` frames."""
         self.steps = keep
         self._resize(keep)
-        self.lib.write_int(self._n_steps, keep)
-        self.lib.flush(self.file)
+        self._n_steps.write(np.array(keep, dtype=np.int64))
+        self.file.flush()
 
-    def _datasets(self, made: dict | None = None) -> int:
-        """What grows with the frames: ``(dataset id, rows per frame, width, dtype, value of a frame or
-        None)``, None for the offsets that are their fill value (0, or 1 parts) at every step; and the
-        ``NSteps`` attribute, open for writing. ``made``: the datasets just created, by path under
-        ``VTKHDF`` (id, width, dtype); None: looked up in the open file. Returns ``NSteps``."""
-        lib = self.lib
-        if made is None:  # an existing file: its groups' names (in name order) and datasets
-            root = lib.open_group(self.file, "VTKHDF")
-            names = {}
-            for group in ("PointData", "CellData"):
-                gid = lib.open_group(root, group)
-                names[group] = lib.names(gid)
-                lib.close_group(gid)
-            self._point_data = names["PointData"]
-            self._cell_data = [name for name in names["CellData"] if name not in self.static]
+    def _datasets(self, root, made: dict | None = None) -> None:
+        """What grows with the frames: ``(dataset id, rows per frame, value of a frame or None)``,
+        None for the offsets that are their fill value (0, or 1 parts) at every step. Appending
+        goes through h5py's low-level interface (a few µs a dataset instead of ~100 µs).
+        ``made``: the datasets just created, by path under ``root`` (not looked up again, ~70 µs each)."""
+        import h5py
 
-            def found(path, dtype):
-                did = lib.open_dataset(root, path)
-                return did, lib.shape(did)[1:], dtype
-
-            made = {path: found(path, "f8") for path in ["Points", *(f"PointData/{n}" for n in self._point_data),
-                                                         *(f"CellData/{n}" for n in self._cell_data), "Steps/Values"]}
-            made.update({path: found(path, "i8") for path in [
-                "Steps/PointOffsets", "Steps/PartOffsets", "Steps/NumberOfParts", "Steps/CellOffsets",
-                *([f"Steps/CellDataOffsets/{self._cell_data[0]}"] if self._cell_data else [])]})
+        steps = root["Steps"]
+        if made is None:
+            made = root  # a group looks datasets up by path
+            self._point_data = list(root["PointData"])
+            self._cell_data = [name for name in root["CellData"] if name not in self.static]
         else:  # in the group's order (by name), as listing it gives
-            root = made["VTKHDF"]
-            self._point_data = sorted(made["PointData"])
+            self._point_data = sorted(name for name in made["PointData"])
             self._cell_data = sorted(name for name in made["CellData"] if name not in self.static)
         p, c = self.n_points, self.n_cells
         # a value of frames k, k + 1, … of a block (arrays with a leading frame axis; t the frames' times)
@@ -417,100 +401,92 @@ class _PartFile:
             growing.append((made[f"Steps/CellDataOffsets/{self._cell_data[0]}"], 1,
                             lambda d, t, k: np.arange(k, k + len(t), dtype=np.int64) * c))
         growing += [(made[f"Steps/{name}"], 1, None) for name in ("PartOffsets", "NumberOfParts", "CellOffsets")]
-        self._growing = [(did, rows, width, np.dtype(dtype), value) for (did, width, dtype), rows, value in growing]
-        steps = lib.open_group(root, "Steps")
-        self._n_steps = lib.open_attribute(steps, "NSteps")
-        return lib.read_int(self._n_steps)
+        ids = [(d if isinstance(d, h5py.h5d.DatasetID) else d.id, rows, value)  # h5py's datasets or their ids
+               for d, rows, value in growing]
+        self._growing = [(d, rows, d.shape[1:], d.dtype, value) for d, rows, value in ids]
+        self._n_steps = h5py.h5a.open(steps.id, b"NSteps")
 
     def _create(self, first: dict) -> None:
-        lib, part = self.lib, self._part
+        import h5py
+
+        part = self._part
         self.path.parent.mkdir(parents=True, exist_ok=True)
         tmp = self.path.with_name(self.path.name + ".tmp")
         # the default (earliest) file format: a file left open by a killed process stays readable;
         # no lock: readable while the run goes on
-        f = lib.create_file(tmp, locking=False)
-        try:
-            self._create_in(f, first)
-            lib.flush(f)  # complete on disk before it takes the file's name
-        except BaseException:
-            self.file = None
-            lib.close_file(f)
-            raise
-        try:
-            tmp.replace(self.path)  # kept open: nothing looked up again
-        except OSError:  # a platform that renames no open file: closed, renamed, opened again
-            self.file = None
-            lib.close_file(f)
-            tmp.replace(self.path)
-            self.file = lib.open_file(self.path, writable=True, locking=False)
-            self._datasets()
-        del self._part
-
-    def _create_in(self, f: int, first: dict) -> None:
-        """The groups, the mesh and the empty growing datasets of the file ``f`` (module docstring),
-        each created as h5py's high-level calls named in the comments create it."""
-        lib, part = self.lib, self._part
+        f = h5py.File(tmp, "w", locking=False)
         made = {"PointData": [], "CellData": []}  # what _datasets reads, by path under VTKHDF
-        root = made["VTKHDF"] = lib.create_group(f, "VTKHDF")  # f.create_group("VTKHDF")
-        lib.set_attribute(root, "Version", np.array(VTKHDF_VERSION, dtype=np.int64))  # root.attrs["Version"] = …
-        lib.set_attribute(root, "Type", np.bytes_("UnstructuredGrid"))  # fixed-length ASCII, as VTK writes it
+        root = f.create_group("VTKHDF")
+        root.attrs["Version"] = np.array(VTKHDF_VERSION, dtype=np.int64)
+        root.attrs.create("Type", np.bytes_("UnstructuredGrid"))  # fixed-length ASCII, as VTK writes it
         connectivity = np.concatenate([c.reshape(-1) for _, c in part["cells"]]) if part["cells"] \
             else np.zeros(0, np.int64)
         sizes = np.concatenate([np.full(len(c), c.shape[1]) for _, c in part["cells"]]) if part["cells"] \
             else np.zeros(0, np.int64)
         types = np.concatenate([np.full(len(c), CELL_TYPES[t]) for t, c in part["cells"]]) if part["cells"] \
             else np.zeros(0)
-        static = [("NumberOfPoints", np.array([self.n_points], np.int64)),  # root[name] = array
-                  ("NumberOfCells", np.array([self.n_cells], np.int64)),
-                  ("NumberOfConnectivityIds", np.array([len(connectivity)], np.int64)),
-                  ("Types", types.astype(np.uint8)), ("Connectivity", connectivity.astype(np.int64)),
-                  ("Offsets", np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64))]
-        for name, value in static:
-            lib.close_dataset(lib.create_dataset(root, name, value))
+        root["NumberOfPoints"] = np.array([self.n_points], np.int64)
+        root["NumberOfCells"] = np.array([self.n_cells], np.int64)
+        root["NumberOfConnectivityIds"] = np.array([len(connectivity)], np.int64)
+        root["Types"] = types.astype(np.uint8)
+        root["Connectivity"] = connectivity.astype(np.int64)
+        root["Offsets"] = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
         frames_per_chunk = max(1, 4096 // max(1, self.n_points))
 
         def growing(group, name, rows, sample):
-            width = np.asarray(sample, dtype=float).shape[1:]
-            return _growing_dataset(lib, group, name, width, "f8", (max(1, rows) * frames_per_chunk, *width))
+            sample = np.asarray(sample, dtype=float)
+            width = sample.shape[1:]
+            return _growing_dataset(group, name, width, "f8", (max(1, rows) * frames_per_chunk, *width))
 
         made["Points"] = growing(root, "Points", self.n_points, np.zeros((1, 3)))
-        point_data = lib.create_group(root, "PointData")
+        point_data = root.create_group("PointData")
         for name, value in first["point_data"].items():
             made[f"PointData/{name}"] = growing(point_data, name, self.n_points, value)
             made["PointData"].append(name)
-        cell_data = lib.create_group(root, "CellData")
+        cell_data = root.create_group("CellData")
         for name, value in self.static.items():
-            lib.close_dataset(lib.create_dataset(cell_data, name, value))  # cell_data[name] = value
+            cell_data[name] = value
             made["CellData"].append(name)
         for name, value in first["cell_data"].items():
             made[f"CellData/{name}"] = growing(cell_data, name, self.n_cells, value)
             made["CellData"].append(name)
-        steps = lib.create_group(root, "Steps")
-        lib.set_attribute(steps, "NSteps", np.int64(0))
-        made["Steps/Values"] = _growing_dataset(lib, steps, "Values", (), "f8", (1024,))
+        steps = root.create_group("Steps")
+        steps.attrs["NSteps"] = np.int64(0)
+        made["Steps/Values"] = _growing_dataset(steps, "Values", (), "f8", (1024,))
         for name, fill in (("PartOffsets", 0), ("NumberOfParts", 1), ("PointOffsets", 0)):
-            made[f"Steps/{name}"] = _growing_dataset(lib, steps, name, (), "i8", (1024,), fillvalue=fill)
-        made["Steps/CellOffsets"] = _growing_dataset(lib, steps, "CellOffsets", (1,), "i8", (1024, 1))
-        lib.link(steps, "ConnectivityIdOffsets", made["Steps/CellOffsets"][0])  # both 0: hard links to one dataset
-        offsets = lib.create_group(steps, "PointDataOffsets")
+            made[f"Steps/{name}"] = _growing_dataset(steps, name, (), "i8", (1024,), fillvalue=fill)
+        made["Steps/CellOffsets"] = _growing_dataset(steps, "CellOffsets", (1,), "i8", (1024, 1))
+        _link(steps, "ConnectivityIdOffsets", made["Steps/CellOffsets"])  # both 0: hard links to one dataset
+        offsets = steps.create_group("PointDataOffsets")
         for name in sorted(made["PointData"]):
-            lib.link(offsets, name, made["Steps/PointOffsets"][0])
-        offsets = lib.create_group(steps, "CellDataOffsets")
+            _link(offsets, name, made["Steps/PointOffsets"])
+        offsets = steps.create_group("CellDataOffsets")
         changing = None
         for name in sorted(made["CellData"]):
             if name in self.static:
-                lib.link(offsets, name, made["Steps/PartOffsets"][0])  # stored once: offset 0 at every step
+                _link(offsets, name, made["Steps/PartOffsets"])  # stored once: offset 0 at every step
             elif changing is None:
-                changing = _growing_dataset(lib, offsets, name, (), "i8", (1024,))
+                changing = _growing_dataset(offsets, name, (), "i8", (1024,))
                 made[f"Steps/CellDataOffsets/{name}"] = changing
             else:
-                lib.link(offsets, name, changing[0])
-        self.file = f
-        self._datasets(made)
+                _link(offsets, name, changing)
+        f.flush()  # complete on disk before it takes the file's name
+        try:
+            tmp.replace(self.path)  # kept open: nothing looked up again
+        except OSError:  # a platform that renames no open file: closed, renamed, opened again
+            f.close()
+            tmp.replace(self.path)
+            self.file = h5py.File(self.path, "r+", locking=False)
+            self._datasets(self.file["VTKHDF"])
+        else:
+            self.file = f
+            self._datasets(root, made)
+        del self._part
 
     def _resize(self, steps: int) -> None:
         for dataset, rows, width, _, _ in self._growing:
-            self.lib.set_extent(dataset, (steps * rows, *width))
+            dataset.set_extent((steps * rows, *width))
+
     def append(self, t: float, data: dict) -> None:
         """Append one frame (``{"points", "point_data", "cell_data"}``, checked by the caller): the
         first creates the file; later ones gather and go to the file in blocks (:data:`FRAME_BLOCK`
@@ -541,13 +517,14 @@ class _PartFile:
 
     def write_pending(self) -> None:
         """The frames gathered since the last write, appended in one write a dataset, then flushed."""
+        import h5py
+
         self._written_at = time.perf_counter()
         if self.file is None or not self._pending:
             return
-        lib = self.lib
         k, m = self.steps, self._pending_frames
         for dataset, rows, width, dtype, value in self._growing:
-            lib.set_extent(dataset, ((k + m) * rows, *width))
+            dataset.set_extent(((k + m) * rows, *width))
             if value is None:  # the fill value
                 continue
             pieces, first = [], k
@@ -555,12 +532,14 @@ class _PartFile:
                 pieces.append(np.ascontiguousarray(value(data, times, first), dtype=dtype).reshape(len(times) * rows, *width))
                 first += len(times)
             array = pieces[0] if len(pieces) == 1 else np.concatenate(pieces)
-            lib.write_rows(dataset, k * rows, array)
-        lib.write_int(self._n_steps, k + m)  # last: a step is complete when counted
+            space = dataset.get_space()
+            space.select_hyperslab((k * rows, *(0 for _ in width)), array.shape)
+            dataset.write(h5py.h5s.create_simple(array.shape), space, array)
+        self._n_steps.write(np.array(k + m, dtype=np.int64))  # last: a step is complete when counted
         self.steps = k + m
         self._pending.clear()
         self._pending_frames = 0
-        lib.flush(self.file)
+        self.file.flush()
 
     @property
     def frames(self) -> int:
@@ -572,15 +551,40 @@ class _PartFile:
             try:
                 self.write_pending()
             finally:
-                file, self.file = self.file, None
-                self.lib.close_file(file)  # and every object open in it
+                self.file.close()
+                self.file = None
 
 
-def _growing_dataset(lib, group: int, name: str, width: tuple, dtype: str, chunks: tuple, fillvalue=None):
+def _growing_dataset(group, name: str, width: tuple, dtype: str, chunks: tuple, fillvalue=None):
     """``group.create_dataset(name, shape=(0, *width), maxshape=(None, *width), dtype=dtype,
-    chunks=chunks, fillvalue=fillvalue)`` as h5py creates it (type, space, chunks, fill value, no
-    times tracked; tests/test_hdf5_files.py compares them). Returns ``(its id, width, dtype)``."""
-    return lib.create_growing(group, name, width, dtype, chunks, fillvalue), tuple(width), dtype
+    chunks=chunks, fillvalue=fillvalue).id`` through h5py's low-level interface: the same dataset
+    (type, space, chunks, fill value, no times tracked; tests/test_light_run.py compares their
+    creation properties) without h5py's checks and guesses of options this file does not use, nor
+    its high-level Dataset object (~0.1 ms a dataset together; a file has ~20). Returns its id."""
+    from h5py import h5d, h5p, h5s, h5t
+
+    dcpl = h5p.create(h5p.DATASET_CREATE)
+    dcpl.set_chunk(tuple(chunks))
+    if fillvalue is not None:
+        dcpl.set_fill_value(np.array(fillvalue))
+    dcpl.set_obj_track_times(False)
+    space = h5s.create_simple((0, *width), (h5s.UNLIMITED, *width))
+    return h5d.create(group.id, name.encode(), h5t.py_create(np.dtype(dtype), logical=1), space, dcpl=dcpl)
+
+
+def _link(group, name: str, dataset_id) -> None:
+    """``group[name] = dataset``: a hard link to a dataset given by its low-level id (as h5py links
+    one: intermediate groups created, the name's character set ASCII for an ASCII name)."""
+    from h5py import h5o, h5p, h5t
+
+    lcpl = h5p.create(h5p.LINK_CREATE)
+    lcpl.set_create_intermediate_group(True)
+    try:
+        encoded, charset = name.encode("ascii"), h5t.CSET_ASCII
+    except UnicodeEncodeError:
+        encoded, charset = name.encode("utf-8"), h5t.CSET_UTF8
+    lcpl.set_char_encoding(charset)
+    h5o.link(dataset_id, group.id, encoded, lcpl=lcpl)
 
 
 def _resume_error(path: Path, why: str):

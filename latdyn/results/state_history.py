@@ -46,8 +46,12 @@ from pathlib import Path
 import numpy as np
 
 from latdyn.errors import ResultsError
-from latdyn.results import hdf5
 from latdyn.results.files import atomic_write_bytes, fsync_path, json_safe
+
+try:  # optional: the NPZ fallback is used without it
+    import h5py
+except ImportError:  # pragma: no cover - exercised by monkeypatching in the tests
+    h5py = None
 
 STATE_H5_FILE = "state.h5"
 
@@ -70,6 +74,15 @@ STATE_DESCRIPTIONS = {
     "theta": "hinge angles; one column per hinge, order = attribute hinges",
     "theta_dot": "hinge rates; one column per hinge, order = attribute hinges",
 }
+
+
+def _set_attribute(attrs, name: str, value) -> None:
+    """``attrs[name] = value``; a list of str as h5py stores it (variable-length UTF-8 strings), its
+    type named rather than found by h5py's walk over every item (~0.1 ms for a state's 600 labels)."""
+    if isinstance(value, (list, tuple)) and value and all(type(item) is str for item in value):
+        attrs.create(name, value, dtype=h5py.string_dtype())
+    else:
+        attrs[name] = value
 
 
 def state_labels(nodes, hinges) -> dict:
@@ -97,7 +110,7 @@ class StateHistory:
         self.widths: dict[str, int] = {}
         self._pending_t: list[float] = []
         self._pending: dict[str, list[np.ndarray]] = {}  # per key, blocks of rows (n_i, width) in order
-        self.use_h5 = hdf5.available()  # the library of h5py (latdyn.results.hdf5), else state.npz
+        self.use_h5 = h5py is not None
         self.rows_on_disk = 0
         self._unsynced = False  # the file on disk was last written without a sync
 
@@ -190,38 +203,31 @@ class StateHistory:
             mode = "a"
         else:
             mode = "w"
-        # HDF5 1.8 object format (h5py's libver=("v108", "latest")): attributes (the labels) may exceed 64 KiB
-        lib = hdf5.library()
-        f = lib.create_file(tmp, libver_low=hdf5.LIBVER_V18) if mode == "w" \
-            else lib.open_file(tmp, writable=True, libver_low=hdf5.LIBVER_V18)
-        try:
+        # HDF5 1.8 object format: attributes (the labels) may exceed 64 KiB
+        with h5py.File(tmp, mode, libver=("v108", "latest")) as f:
             if mode == "w":
-                lib.set_attribute(f, "first_column", self.first_column)
-                lib.set_attribute(f, "meta", json.dumps(json_safe(self.meta)))
-                for name, strings in self.attributes.items():  # a list of str: variable-length UTF-8 strings
-                    lib.set_attribute(f, name, strings)
-                datasets = {"t": lib.create_growing(f, "t", (), "f8", (1024,))}
+                f.attrs["first_column"] = self.first_column
+                f.attrs["meta"] = json.dumps(json_safe(self.meta))
+                for name, strings in self.attributes.items():
+                    _set_attribute(f.attrs, name, strings)
+                f.create_dataset("t", shape=(0,), maxshape=(None,), dtype="f8", chunks=(1024,))
                 for k in self.keys:
                     width = self.widths[k]
                     # a chunk of up to 1024 rows and 2 MiB, but no more rows than the first write
                     # brings (at least 64): a short run's file is its rows, not chunks mostly empty
                     rows_per_chunk = max(1, min(1024, (1 << 18) // max(1, width), max(FIRST_CHUNK_ROWS, n_new)))
-                    datasets[k] = lib.create_growing(f, k, (width,), "f8", (rows_per_chunk, max(1, width)))
+                    dataset = f.create_dataset(k, shape=(0, width), maxshape=(None, width), dtype="f8",
+                                               chunks=(rows_per_chunk, max(1, width)))
                     if k in self.labels:
-                        lib.set_attribute(datasets[k], "columns", self.labels[k])
+                        _set_attribute(dataset.attrs, "columns", self.labels[k])
                         if k in STATE_DESCRIPTIONS:
-                            lib.set_attribute(datasets[k], "description", STATE_DESCRIPTIONS[k])
-                n_old = 0
-            else:
-                datasets = {k: lib.open_dataset(f, k) for k in ["t", *self.keys]}
-                n_old = lib.shape(datasets["t"])[0]
-            lib.set_extent(datasets["t"], (n_old + n_new,))
-            lib.write_rows(datasets["t"], n_old, np.asarray(self._pending_t, dtype=float))
+                            dataset.attrs["description"] = STATE_DESCRIPTIONS[k]
+            n_old = f["t"].shape[0]
+            f["t"].resize((n_old + n_new,))
+            f["t"][n_old:] = np.asarray(self._pending_t)
             for k in self.keys:
-                lib.set_extent(datasets[k], (n_old + n_new, self.widths[k]))
-                lib.write_rows(datasets[k], n_old, self._rows(k))
-        finally:
-            lib.close_file(f)  # and its datasets
+                f[k].resize((n_old + n_new, self.widths[k]))
+                f[k][n_old:] = self._rows(k)
         if durable:
             fsync_path(tmp)
         os.replace(tmp, path)
@@ -250,22 +256,10 @@ class StateHistory:
         if not path.is_file():
             raise ResultsError(f"{path}: cannot resume: the state history is missing")
         if self.use_h5:
-            lib = hdf5.library()
-            try:
-                f = lib.open_file(path, writable=False)
-            except OSError as exc:
-                raise ResultsError(f"{path}: cannot resume: unreadable ({exc})") from exc
-            try:
-                keys = [k for k in lib.names(f) if k != "t"]
-                widths = {}
-                for k in keys:
-                    did = lib.open_dataset(f, k)
-                    widths[k] = int(lib.shape(did)[1])
-                    lib.close_dataset(did)
-                did = lib.open_dataset(f, "t")
-                on_disk = int(lib.shape(did)[0])
-            finally:
-                lib.close_file(f)
+            with h5py.File(path, "r") as f:
+                keys = [k for k in f.keys() if k != "t"]
+                widths = {k: int(f[k].shape[1]) for k in keys}
+                on_disk = int(f["t"].shape[0])
         else:
             with np.load(path) as f:
                 keys = [k for k in f.files if k not in ("t", LABELS_KEY)]
@@ -282,13 +276,10 @@ class StateHistory:
             if on_disk > rows:
                 tmp = path.with_name(path.name + ".tmp")
                 shutil.copyfile(path, tmp)
-                lib = hdf5.library()
-                f = lib.open_file(tmp, writable=True)  # h5py.File(tmp, "a"): the default format bounds
-                try:
-                    for k, shape in [("t", (rows,)), *((k, (rows, widths[k])) for k in keys)]:
-                        lib.set_extent(lib.open_dataset(f, k), shape)
-                finally:
-                    lib.close_file(f)
+                with h5py.File(tmp, "a") as f:
+                    f["t"].resize((rows,))
+                    for k in keys:
+                        f[k].resize((rows, widths[k]))
                 fsync_path(tmp)
                 os.replace(tmp, path)
             self.rows_on_disk = rows
