@@ -9,41 +9,37 @@ the scene's keys): beside a latch, a continuous controller whose coupling in K h
 an angle and a rate, or a follower load in a body's axes driven by a rate — left its end rows 3.2e-4 and 2.3e-4 off
 the Richardson differences of whole runs (the same at h = 1e-2, 1e-3, 1e-4 |p|), reported as solved. A damped
 compliant stop in contact at a latch (its Hunt–Crossley ∂F/∂δ = n δⁿ⁻¹ (k + c δ̇)) the adjoint refuses (its onset),
-and the forward method takes: without the term its rows 3.2e-6 off (benchmarks/fuzz_sensitivity_scenes/q_*.yaml,
-r_*.yaml, s_*.yaml).
+and the forward method takes: without the term its rows 3.2e-6 off (benchmarks/fuzz_sensitivity_scenes/
+q_latch_beside_a_damped_compliant_stop.yaml, r_adjoint_latch_beside_a_controller_of_angle_and_rate.yaml,
+s_adjoint_latch_beside_a_follower_load_of_a_rate.yaml).
 """
 from __future__ import annotations
 
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
 import latdyn
 from latdyn.analyses import transient_sensitivities
+from latdyn.analyses.weight_derivative import stiffness_moving_with_rates
+from latdyn.assembly.assembler import unpack_free
+from latdyn.assembly.prepare import prepare
 from tests.cli_runs import latdyn_run, summary_of
 from tests.test_sensitivities_events import LATCH_PLANAR
-from tests.test_sensitivities_fuzz_findings import _assert_adjoint_agrees, _assert_agree, _run
+from tests.test_sensitivities_fuzz_findings import (LATCH_BESIDE_A_RATE_STIFFNESS, _assert_adjoint_agrees,
+                                                    _assert_agree, _run)
 
-#: two hinged arms in 3D, the first latching at 0.01 rad (t = 0.047 s); the second's torque a controller's output
-#: whose ∂y/∂(angle) = −8 − 60 c a2 r2 holds the rate: its coupling in K moves with the rates
-CONTROLLER_OF_ANGLE_AND_RATE = """
-parameters: {k: 20.0, c: 0.5}
-sections:
-  s: {EA: 2.0e6, EIy: 900, EIz: 600, GJ: 500, rhoA: 1.2, rhoIy: 0.0004, rhoIz: 0.0003}
-bodies:
-  g: {at: [0, 0, 0], fixed: true}
-  b: {at: [0.8, 0.1, 0.3], mass: 0.7, inertia: [0.01, 0.02, 0.015]}
-  d: {at: [1.3, 0.5, 0.2], mass: 0.4, inertia: [0.01, 0.01, 0.01]}
-beams:
-  arm: {from: g, to: b, section: s, elements: 1, start: {hinge: {axis: [0.2, 0.3, 1],
-        stiffness: k, damping: 0.5, torque: 4.0, lock_at: 0.01}}}
-  fore: {from: b, to: d, section: s, elements: 1, start: {hinge: {axis: [0, 0.4, 1], torque: ctl}}}
-controllers:
-  ctl: {output: "-8*a2 - c*(1 + 30*a2**2)*r2 - 2.0"}
-solve: {analysis: transient, method: generalized-alpha, t_end: 0.2, dt: 0.01, tol: 1.0e-12, sensitivities: [k, c]}
-output:
-  probes:
-    torque: {hinge: arm.start, quantity: torque}
-    a2: {hinge: fore.start, quantity: angle}
-    r2: {hinge: fore.start, quantity: rate}
-    y: {point: d, quantity: position, component: y}
-"""
+#: the two hinged arms in 3D of LATCH_BESIDE_A_RATE_STIFFNESS, the first latching at 0.01 rad (t = 0.047 s) on a
+#: spring and damper; the second's torque a controller's output whose ∂y/∂(angle) = −8 − 60 c a2 r2 holds the rate:
+#: its coupling in K moves with the rates
+CONTROLLER_OF_ANGLE_AND_RATE = (LATCH_BESIDE_A_RATE_STIFFNESS
+                                .replace("torque: -k*theta - c*(1 + 40*theta**2)*theta_dot + 4.0, lock_at: 0.01",
+                                         "stiffness: k, damping: 0.5, torque: 4.0, lock_at: 0.01")
+                                .replace("torque: -8*theta - c*(1 + 30*theta**2)*theta_dot - 2.0}}}",
+                                         'torque: ctl}}}\ncontrollers:\n  ctl: {output: "-8*a2 - c*(1 + 30*a2**2)*r2 - 2.0"}')
+                                .replace("    y: {point: d,", "    r2: {hinge: fore.start, quantity: rate}\n    y: {point: d,"))
 
 #: the same arms, the second free on a spring and damper, pushed at d by a force in d's axes that a controller of
 #: its rate drives (linear): the load's block of K, ∂(T f)/∂π, is proportional to the output, so moves with the rate
@@ -108,9 +104,9 @@ def test_the_predicate_names_the_terms_of_k_that_move_with_the_rates_and_skips_t
 def test_the_forward_method_takes_the_rates_term_of_a_controller_and_of_a_damped_stop_at_a_latch():
     """Against Richardson differences of whole runs (h = 1e-2 |p|), every row within 1e-7 of the probe's largest
     sensitivity. Measured: the controller by c 1.5e-10, the damped stop by k 6.2e-10 (1.7e-9 at h = 1e-3 |k|, 1.6e-8 at
-    1e-4); with the rates' term gated by the former list of keys (which names neither) 8.4e-6 and 3.2e-6, the same at
-    every h. The forward method differenced the term at every event before, so these passed then too: they hold the
-    gate open where it must be."""
+    1e-4); with the rates' term gated by the former list of keys (which names neither) 8.4e-6 (h = 1e-2 |c|) and 3.2e-6
+    (the same at h = 1e-2, 1e-3, 1e-4 |k|). The forward method differenced the term at every event before, so these
+    passed then too: they hold the gate open where it must be."""
     _assert_agree(_run(CONTROLLER_OF_ANGLE_AND_RATE), CONTROLLER_OF_ANGLE_AND_RATE, ("torque", "a2", "y"), "c", 0.005)
     _assert_agree(_run(DAMPED_STOP_IN_CONTACT_AT_A_LATCH), DAMPED_STOP_IN_CONTACT_AT_A_LATCH,
                   ("torque", "a2", "tq2", "y"), "k", 0.2)
@@ -132,3 +128,43 @@ def test_the_adjoint_refuses_a_damped_compliant_stop_at_a_latch(tmp_path):
     assert "solve.sensitivity_method" in done.stderr and "beams.fore.start.hinge.contact" in done.stderr
     assert "Traceback" not in done.stderr and summary_of(out) is None
     assert latdyn.load_scene(tmp_path / "scene.yaml").solve.sensitivity_method == "adjoint"
+
+
+#: the two arms without the controller: the second hinge's law written in place of ``LAW``
+ARMS = CONTROLLER_OF_ANGLE_AND_RATE.replace('controllers:\n  ctl: {output: "-8*a2 - c*(1 + 30*a2**2)*r2 - 2.0"}\n', "")
+LAW = "torque: ctl}"
+DAMPED_CABLE = (Path(__file__).resolve().parents[1] / "benchmarks" / "fuzz_sensitivity_scenes"
+                / "m_damped_cable_through_a_latch.yaml").read_text()
+
+
+@pytest.mark.parametrize("text, terms", [
+    (ARMS.replace(LAW, "stiffness: 8, friction: {coulomb: 0.3, static: 0.5, stribeck_rate: 0.1, viscous: 0.2}}"), ()),
+    (ARMS.replace(LAW, "stiffness: 8}") + "gravity: [0, 0, -9.81]\n", ()),
+    (ARMS.replace(LAW, "stiffness: 8, limits: [-0.5, 0.5], contact: {stiffness: 2000.0, exponent: 1.5, damping: 5.0}}"),
+     ()),
+    (ARMS.replace(LAW, "stiffness: 8, limits: [-0.005, 0.5], contact: {stiffness: 2000.0, exponent: 1.5}}"), ()),
+    (ARMS.replace(LAW, "stiffness: 8, limits: [-0.005, 0.5], contact: {stiffness: 2000.0, exponent: 1.5, "
+                       "damping: 5.0}}"), ("joints",)),
+    (ARMS.replace(LAW, "torque: -8*theta - c*(1 + 30*theta**2)*theta_dot}"), ("joints",)),
+    (CONTROLLER_OF_ANGLE_AND_RATE.replace("-8*a2 - c*(1 + 30*a2**2)*r2 - 2.0", "-8*a2 - c*r2"), ()),
+    (CONTROLLER_OF_ANGLE_AND_RATE, ("controllers' couplings",)),
+    (FOLLOWER_LOAD_OF_A_RATE, ("loads and cables",)),
+    (DAMPED_CABLE, ("loads and cables",)),
+    (DAMPED_CABLE.replace("damping: 3.0", "damping: 0.0"), ()),
+    (LATCH_PLANAR, ()),
+], ids=["friction", "joint bodies spinning under gravity", "damped stop out of contact", "undamped stop in contact",
+        "damped stop in contact", "hinge law", "controller linear", "controller of angle and rate",
+        "follower load of a rate", "damped cable", "undamped cable", "planar arm"])
+def test_the_terms_of_k_that_move_with_the_rates_at_random_rates(text, terms):
+    """The predicate at a turned configuration with random rates (every hinge at −0.05 rad: a stop at −0.005 in
+    contact): the joints' entry where a law's ∂τ/∂θ holds θ̇ or a damped stop is in contact, the couplings of a
+    controller nonlinear in an angle and a rate, the block of a follower load a controller of a rate drives, a damped
+    cable's; nothing for friction (∂f/∂θ = 0), the joint bodies' gyroscopic terms (the inertia tangent, which the
+    impulse's K leaves out), a stop out of contact or undamped, a linear controller, an undamped cable."""
+    rng = np.random.default_rng(3)
+    prepared = prepare(latdyn.load_scene(yaml.safe_load(text)))
+    model = prepared.model
+    state = prepared.assembler.advance(prepared.state, 0.02 * rng.standard_normal(model.n_dofs))
+    unpack_free(model, rng.standard_normal(model.n_dofs), state.v, state.w, state.theta_dot)
+    state.theta[:] = -0.05
+    assert stiffness_moving_with_rates(prepared.assembler, state) == terms

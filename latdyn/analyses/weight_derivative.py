@@ -38,10 +38,11 @@ evaluations a parameter; its transpose in the adjoint, two a free rate). Which t
 asked of the model's own evaluation, not of a list of the laws that can make them (:func:`stiffness_moving_with_rates`:
 K's blocks at the state's rates and at rates moved, compared bit for bit): a damped cable's c ℓ̇ terms, a hinge law
 whose ∂τ/∂θ holds θ̇, a compliant stop's Hunt–Crossley damping n δⁿ⁻¹ c δ̇ in contact, a continuous controller's
-couplings whose ∂y/∂s holds a rate (an output nonlinear in an angle and a rate, a sensor of a velocity at an
-offset) and the blocks of a load in a body's frame whose component a controller of a rate drives; not the joint
-bodies' gyroscopic terms nor the elements' (the inertia tangent, which the weight's K leaves out), nor friction
-(∂f/∂θ = 0: its level and engagement are functions of the rate alone).
+couplings whose ∂y/∂s holds a rate (an output nonlinear in an angle and a rate) and the block of a load in a body's
+frame whose component a controller of a rate drives (found so at random rates:
+tests/test_sensitivities_rate_stiffness.py); not the joint bodies' gyroscopic terms nor the elements' (the inertia
+tangent, which the weight's K leaves out), nor friction (∂f/∂θ = 0: its level and engagement are functions of the
+rate alone), nor a stop out of contact, an undamped one, an undamped cable or a controller linear in its sensors.
 """
 from __future__ import annotations
 
