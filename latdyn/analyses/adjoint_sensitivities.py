@@ -82,7 +82,7 @@ from latdyn.analyses.energy_sensitivities import probe_forms as energy_probe_for
 from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_force_forms, joint_of
 from latdyn.analyses.link_sensitivities import columns_moving
 from latdyn.analyses.probe_derivatives import is_probe_here, probe_forms
-from latdyn.analyses.sensitivities import _BODY_KEY, _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE, rates_move_stiffness
+from latdyn.analyses.sensitivities import _BODY_KEY, _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE
 from latdyn.analyses.transient_sensitivities import TransientSensitivities, _NodeRotations, _StepColumns
 from latdyn.analyses.weight_derivative import configuration_tangent_of_weight
 from latdyn.assembly.assembler import free_acceleration, free_velocity, pack, unpack_free
@@ -591,11 +591,10 @@ class AdjointSensitivities(TransientSensitivities):
         """The transpose of the forward method's rates' term of the weight derivative, scale ∂(K w)/∂v δv
         (:meth:`TransientSensitivities._stiffness_by_rates`), applied to ``u_bar`` (n, m): scale (∂(K w)/∂v)ᵀ ū,
         ∂(K w)/∂v by the forward method's central differences along each free rate. Where K moves with the rates
-        (a damped cable's c ℓ̇ terms, a hinge law whose ∂τ/∂θ holds θ̇: :func:`rates_move_stiffness`), else 0."""
-        moving = self.__dict__.get("_rates_move_stiffness")
-        if moving is None:
-            moving = self._rates_move_stiffness = rates_move_stiffness(self.scene) is not None
-        if not moving:
+        at ``state`` (:meth:`TransientSensitivities.stiffness_moves_with_rates`, the forward method's one predicate:
+        a damped cable's c ℓ̇ terms, a hinge law whose ∂τ/∂θ holds θ̇, a controller's couplings that hold a rate …),
+        else 0."""
+        if not self.stiffness_moves_with_rates(state):
             return np.zeros_like(u_bar)
         n = self.model.n_dofs
         by_rates = self._stiffness_by_rates(state, w, np.eye(n))

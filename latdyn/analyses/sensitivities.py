@@ -345,31 +345,6 @@ def _adjoint_event_refusal(scene) -> str | None:
     return None
 
 
-def rates_move_stiffness(scene) -> str | None:
-    """The first key of ``scene`` that makes K, and so an impulse's weight M + dt² K, move with the rates: a cable's
-    ``damping`` (its c ℓ̇ terms), a hinge law whose ∂τ/∂θ depends on θ̇ (:func:`_stiffness_by_rate`); None."""
-    damped = next((f"cables.{name}.damping" for name, cable in (scene.cables or {}).items() if cable.damping), None)
-    return damped or next((f"beams.{beam}.{which}.hinge.{key}" for beam, which, hinge in scene.hinges
-                           for key in ("stiffness", "damping", "torque") if _stiffness_by_rate(hinge, key)), None)
-
-
-def _stiffness_by_rate(hinge, key: str) -> bool:
-    """Whether the hinge's law ``key`` (``stiffness`` k, ``damping`` c, ``torque`` f of τ = −k (θ − θ_rest) − c θ̇
-    + f) makes ∂τ/∂θ, the hinge's entry of K, depend on θ̇: k in theta_dot, c in theta, f with ∂f/∂θ in
-    theta_dot."""
-    law = getattr(hinge, key, None)
-    if not isinstance(law, HingeLaw):   # a number, or a function of time alone
-        return False
-    if key == "stiffness":
-        return "theta_dot" in law.depends_on
-    if key == "damping":
-        return "theta" in law.depends_on
-    if "theta_dot" not in law.depends_on or law.expressions is None:
-        return False
-    variables, (_, by_angle, _) = law.expressions
-    return variables[1] in by_angle.free_symbols
-
-
 def _timed_key(scene) -> str | None:
     """The first key of ``scene`` whose law depends on t (:func:`_law_in_time`): a load component, a hinge's or
     guide's law or prescribed angle or slide, a body's prescribed motion; None where none does."""

@@ -128,7 +128,7 @@ from latdyn.analyses.sensitivities import (_BODY_KEY, _CABLE_KEY, _GUIDE_KEY, _H
 from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_force_derivatives, joint_force_forms, joint_of
 from latdyn.analyses.step_matrix import ExactStepMatrix
 from latdyn.analyses.weight_derivative import (configuration_tangent_of_weight, needs_the_kernel,
-                                               refuse_without_kernel)
+                                               refuse_without_kernel, stiffness_moving_with_rates)
 from latdyn.assembly.assembler import free_acceleration, free_velocity, pack, unpack_free
 from latdyn.assembly.factorization import factorization_for, solve_linear
 from latdyn.errors import SceneError, SolverError
@@ -772,7 +772,7 @@ class TransientSensitivities(ParameterDerivatives):
         else:
             out = np.asarray(configuration_tangent_of_weight(assembler, state, w, scale, mass,
                                                              self.coordinate_step()) @ dq)
-            if rates is not None:   # K of a law in the rates (a cable's damper, c(θ̇)) moves with δv too
+            if rates is not None and self.stiffness_moves_with_rates(state):   # W moves with δv too
                 out += scale * self._stiffness_by_rates(state, w, rates[0])
         size = float(np.max(np.abs(w), initial=0.0))
         if size == 0.0:
@@ -787,12 +787,19 @@ class TransientSensitivities(ParameterDerivatives):
                     - self.residual_derivatives(at_rest, 1.0, inertia=True))
         return out
 
+    def stiffness_moves_with_rates(self, state) -> bool:
+        """Whether the evaluation's K at ``state`` moves with the free rates (a model without rigid links or guides):
+        :func:`latdyn.analyses.weight_derivative.stiffness_moving_with_rates`, two evaluations, which the event's
+        weight derivative asks before the 2k of :meth:`_stiffness_by_rates` (the adjoint's transpose, 2n)."""
+        return bool(stiffness_moving_with_rates(self.assembler, state))
+
     def _stiffness_by_rates(self, state, w: np.ndarray, dv: np.ndarray) -> np.ndarray:
-        """∂(K w)/∂v δv (n, k) at ``state`` (a model without rigid links or guides): the evaluation's K depends on
-        the free rates where a law does (a damped cable's geometric terms c ℓ̇, a hinge damping law in θ), and the
-        impulse's weight M + dt² K moves with them; a central difference of K w along each column's δv, as
-        :func:`configuration_tangent_of_weight` differences the hinges' and cables' blocks along q (the step
-        relative: the rates' own size, or 1)."""
+        """∂(K w)/∂v δv (n, k) at ``state`` (a model without rigid links or guides), where
+        :meth:`stiffness_moves_with_rates`: the evaluation's K depends on the free rates where a term does (a damped
+        cable's geometric terms c ℓ̇, a hinge law whose ∂τ/∂θ holds θ̇, a compliant stop's damping in contact, a
+        controller's couplings), and the impulse's weight M + dt² K moves with them; a central difference of K w
+        along each column's δv, as :func:`configuration_tangent_of_weight` differences the hinges' and cables' blocks
+        along q (the step relative: the rates' own size, or 1)."""
         model, assembler = self.model, self.assembler
         v0 = free_velocity(model, state)
         out = np.zeros_like(dv)

@@ -32,12 +32,31 @@ coordinate, step :data:`latdyn.analyses.transient_sensitivities.WEIGHT_STEP` √
 L_min the shortest element where shorter). A model with none of them has H exact with no evaluation.
 Rigid links and guides are not taken here: their reduction's geometric term keeps the difference of W w along
 δq (``TransientSensitivities._weight_derivative``).
+
+Along the rates: W moves with them where K does, ∂(K w)/∂v δv (``TransientSensitivities._stiffness_by_rates``, two
+evaluations a parameter; its transpose in the adjoint, two a free rate). Which terms of K move with the rates is
+asked of the model's own evaluation, not of a list of the laws that can make them (:func:`stiffness_moving_with_rates`:
+K's blocks at the state's rates and at rates moved, compared bit for bit): a damped cable's c ℓ̇ terms, a hinge law
+whose ∂τ/∂θ holds θ̇, a compliant stop's Hunt–Crossley damping n δⁿ⁻¹ c δ̇ in contact, a continuous controller's
+couplings whose ∂y/∂s holds a rate (an output nonlinear in an angle and a rate) and the block of a load in a body's
+frame whose component a controller of a rate drives (found so at random rates:
+tests/test_sensitivities_rate_stiffness.py); not the joint bodies' gyroscopic terms nor the elements' (the inertia
+tangent, which the weight's K leaves out), nor friction (∂f/∂θ = 0: its level and engagement are functions of the
+rate alone), nor a stop out of contact, an undamped one, an undamped cable or a controller linear in its sensors.
 """
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["configuration_tangent_of_weight", "needs_the_kernel", "refuse_without_kernel", "rest_support"]
+__all__ = ["configuration_tangent_of_weight", "needs_the_kernel", "refuse_without_kernel", "rest_support",
+           "stiffness_moving_with_rates"]
+
+#: the names of the evaluation's blocks of K, in their order (latdyn.assembly.assembler.Assembler.evaluation_in)
+STIFFNESS_BLOCKS = ("elements", "joint bodies", "joints", "loads and cables", "controllers' couplings")
+#: the move of the free rates that :func:`stiffness_moving_with_rates` compares K at, relative to the rates' size
+#: (their largest, or 1): small enough to stay on one side of a law's kinks, large enough that a rate's term of
+#: 1e-12 of its entry moves the entry's last bits
+RATES_MOVE = 1e-3
 
 
 def _sparse(rows: np.ndarray, cols: np.ndarray, values: np.ndarray, n: int):
@@ -179,3 +198,29 @@ def configuration_tangent_of_weight(assembler, state, w: np.ndarray, scale: floa
         cols = np.concatenate([cols, np.tile(support, n)])
         values = np.concatenate([values, block.ravel()])
     return _sparse(rows, cols, values, n)
+
+
+def _rates_direction(n: int) -> np.ndarray:
+    """(n,) a fixed direction along every free rate, none zero and no two alike (alternating signs, sizes
+    0.5 … 1.5 from the golden ratio's fractions): no cancellation among the rates a term of K reads."""
+    i = np.arange(n)
+    return np.where(i % 2, -1.0, 1.0) * (0.5 + np.modf((i + 1) * 0.6180339887498949)[0])
+
+
+def stiffness_moving_with_rates(assembler, state) -> tuple:
+    """The names of K's blocks (:data:`STIFFNESS_BLOCKS`) whose values at ``state`` move with the free rates,
+    empty where none does (module docstring, "Along the rates"): the evaluation's K (as the impulse weighs with it)
+    at the state's rates and at the rates moved by :data:`RATES_MOVE` times their size along
+    :func:`_rates_direction`, compared bit for bit — a term that does not read a rate, or reads it times 0 (a
+    stop out of contact, a cable without damping, a controller linear in its sensors), computes the same bits.
+    Two evaluations; a model without rigid links or guides (their reduction moves the rates with δq)."""
+    from latdyn.assembly.assembler import free_velocity, unpack_free
+
+    model = assembler.model
+    v = free_velocity(model, state)
+    moved = state.copy()
+    size = max(float(np.max(np.abs(v), initial=0.0)), 1.0)
+    unpack_free(model, v + RATES_MOVE * size * _rates_direction(len(v)), moved.v, moved.w, moved.theta_dot)
+    here = assembler.evaluate(state, matrices=True).flat_blocks("stiffness")
+    there = assembler.evaluate(moved, matrices=True).flat_blocks("stiffness")
+    return tuple(name for name, a, b in zip(STIFFNESS_BLOCKS, here, there) if not np.array_equal(a, b))
