@@ -41,9 +41,9 @@ from latdyn.timeloop import checkpoint as checkpoints
 from latdyn.timeloop.control import Resize, StepControl
 from latdyn.timeloop.jumps import starts_on_a_jump
 from latdyn.timeloop.events import (CABLE_LANDING, TAUT_JUMP_STEP, cable_events, cable_sides, crossing_fraction, hinge_events,
-                                   restart_accelerations, stick_at_start)
+                                   lock_events, restart_accelerations, stick_at_start, stop_crossings)
 from latdyn.timeloop.progress import (DRIFT_WARNING, UNBOUNDED, UNBOUNDED_ROWS, UNRESOLVED_TURN, TransientProgress, cable_work,
-                                      energy_round_off, factorizations, hinge_work, load_power)
+                                      energy_round_off, factorizations, far_root, hinge_work, load_power)
 from latdyn.timeloop.sampling import controller_memory, restore_controller_memory
 
 
@@ -341,6 +341,12 @@ class TimeLoop:
             if self.sensitivities is not None:
                 progress.sensitivities = self.sensitivities.resized(progress.sensitivities, control, attempt.lands)
             return
+        far = far_root(self.model, progress.state, attempt.new, attempt.h)
+        if far is not None:  # a root a whole turn away: cut, never landed on as a crossing
+            control.after_far_root(progress, attempt.h, self.model.hinges[far[0]].name, far[1])
+            if self.sensitivities is not None:
+                progress.sensitivities = self.sensitivities.resized(progress.sensitivities, control, attempt.lands)
+            return
         self._accept(self._land_on_event(attempt))
 
     def _compiled_steps(self) -> Attempt | None:
@@ -551,7 +557,34 @@ class TimeLoop:
             else:
                 short = retry
             new, stats, h, lands = retry, retry_stats, shorter, False
+        if new is not attempt.new:
+            self._note_short_landing(old, attempt, new)
         return Attempt(new, stats, h, lands)
+
+    def _note_short_landing(self, old: State, trial: Attempt, kept: State) -> None:
+        """The first landing whose step kept ends short of the stop or lock_at its trial crossed, having closed
+        less than half the gap from the step's start, is said at the end of the run (a warning): the secant takes
+        the angle as linear in t over the step, and a shorter step that does not get even half-way says the
+        crossing was the trial's alone, not a motion the shorter steps follow (a step that does not resolve the
+        hinge). A landing that ends a little short (a curved path: 1e-4 to 1e-2 of the gap on the event tests) is
+        taken on by the next step, which lands again, and is not said."""
+        if self.progress.short_landing is not None:
+            return
+        model = self.model
+        targets = [(k, model.hinges[k].limits[0 if side < 0 else 1], "stop")
+                   for k, side, _ in stop_crossings(model, old, trial.new)]
+        targets += [(k, model.hinges[k].lock_at, "lock_at") for k, _ in lock_events(model, old, trial.new)[1]]
+        for k, target, kind in targets:
+            before, after = float(old.theta[k] - target), float(kept.theta[k] - target)
+            if before * after > 0.0 and abs(after) > 0.5 * abs(before):
+                self.progress.short_landing = (
+                    f"the step from t = {old.t:.6g} of {trial.h:.3g} s crossed the {kind} {target:.6g} of "
+                    f"{model.hinges[k].name} (its angle {float(trial.new.theta[k]):.4g} at the trial's end), and no "
+                    f"shorter step reached it: the step kept, {kept.t - old.t:.3g} s, ends {abs(after):.3g} short of "
+                    f"it, having closed less than half the gap ({abs(before):.3g}); the crossing was the trial's "
+                    f"alone (a step that does not resolve the hinge), and the run went on from the step kept: "
+                    f"rerun with a smaller dt")
+                return
 
     def _accept(self, attempt: Attempt) -> None:
         """Accept the converged step: its events, the work of loads over it, the row if one is due,
@@ -783,6 +816,8 @@ class TimeLoop:
         if not self.unbounded:
             for warning in progress.unresolved_hinges([h.name for h in self.model.hinges]):
                 self.writer.warn(warning)
+        if progress.short_landing is not None:
+            self.writer.warn(progress.short_landing)
 
     # ------------------------------------------------------------------------- checkpoints
     def _accepted(self, kept_factorization: bool = True) -> LastAccepted:
