@@ -224,7 +224,7 @@ def far_root(model, old: State, new: State, h: float) -> tuple[int, float] | Non
     gives it (θ̇_{n+1} from θ_{n+1} − θ_n) are not: Newton can converge to a root about a whole turn away, where the
     structure stands nearly where the rate would have put it and the hinge has turned once more within the step, at
     rates of order 2π/h (tests/test_far_roots.py: −6.17 rad where θ_n + h θ̇_n = 0.08, 413 rad/s after a rate of
-    3.6; undamped Newmark's algorithmic accelerations of ±1.4e4 rad/s² on a light hinge led it there). A root more
+    3.6, after algorithmic accelerations of undamped Newmark that alternated in sign, up to 1.4e4 rad/s²). A root more
     than π from θ_n + h θ̇_n is nearer to a whole turn of that configuration than to it. A step that resolves the
     hinge's motion departs from it by its quadratic term, ½ h |θ̇_{n+1} − θ̇_n| under Newmark, which the unresolved-step
     warning flags from ½ :data:`UNRESOLVED_TURN`, far below π: such a root is no motion, and the time loop cuts the
