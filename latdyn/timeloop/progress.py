@@ -229,13 +229,12 @@ def far_root(model, old: State, new: State, h: float) -> tuple[int, float] | Non
     hinge's motion departs from it by its quadratic term, ½ h |θ̇_{n+1} − θ̇_n| under Newmark, which the unresolved-step
     warning flags from ½ :data:`UNRESOLVED_TURN`, far below π: such a root is no motion, and the time loop cuts the
     step (:meth:`latdyn.timeloop.control.StepControl.after_far_root`) instead of landing on a stop it crossed."""
+    free = model.free_hinges
+    distance = np.abs(new.theta[free] - old.theta[free] - h * old.theta_dot[free])
     worst = None
-    for k in model.free_hinges:
-        if model.hinges[k].kind != "hinge":   # a guide's slide is a length, not periodic
-            continue
-        distance = abs(float(new.theta[k] - old.theta[k] - h * old.theta_dot[k]))
-        if distance > math.pi and (worst is None or distance > worst[1]):
-            worst = (int(k), distance)
+    for k, d in zip(free[distance > math.pi], distance[distance > math.pi]):   # none, on a step that resolves them
+        if model.hinges[k].kind == "hinge" and (worst is None or d > worst[1]):   # a guide's slide is not periodic
+            worst = (int(k), float(d))
     return worst
 
 
