@@ -69,6 +69,47 @@ def test_a_step_that_resolves_it_is_not_flagged():
     assert unresolved(result.summary.get("warnings")) == []
 
 
+def adaptive_top(error_tol: float) -> str:
+    """The falling top with adaptive steps from dt = 0.002 (error_tol as given)."""
+    return sleeping_top(f"{{t_end: 1.5, dt: 0.002, adaptive: true, error_tol: {error_tol}}}", OMEGA0[2], OMEGA0[0],
+                        tip_y=OMEGA0[1])
+
+
+def test_an_adaptive_run_follows_the_flip_as_its_error_tol_tightens(tmp_path):
+    """The error estimate weighs a change of acceleration by the inertia it moves; at the flip the outer ring and
+    the spin hinge turn against each other (θ̈ = ∓2.7e5 rad/s²), which moves almost nothing with inertia at that
+    moment and sets the plane the top falls on in. It now also counts each rigid link's hinge as a rotation,
+    ℓ h² |β − 1/6| |Δθ̈| (latdyn.numerics.inertia.largest_link_turn). Measured against the pendulum (t ≤ 1.5):
+    error_tol 1e-3, 1e-4, 1e-5, 1e-6: 0.074, 0.025, 0.0071, 0.0018 (806, 904, 1131, 1661 steps); before 0.13,
+    0.077, 0.033, 0.0090 (755, 788, 862, 1064), no better at 1e-5 than the fixed dt = 0.002. No warning either way."""
+    completed, out = latdyn_run(tmp_path, adaptive_top(1e-5))
+    assert completed.returncode == 0, completed.stderr
+    p = probe_columns(out)
+    assert position_error(p["t"], p["x"], p["y"], p["z"]) < 0.01  # measured 0.0071 (0.0328 before)
+    assert summary_of(out).get("warnings") in (None, [])
+    result = latdyn.run(latdyn.load_scene(yaml.safe_load(adaptive_top(1e-6))))
+    p = {k: np.asarray(v) for k, v in result.probes.items()}
+    assert position_error(np.asarray(result.t), p["x"], p["y"], p["z"]) < 0.0025  # measured 0.00175 (0.0090 before)
+
+
+def test_the_sensitivities_of_an_adaptive_run_through_the_flip_take_the_link_hinges_term():
+    """The step sizes' derivative follows the estimate's new term where it sized the steps (δe/e = 2 δh/h + δx_i/x_i,
+    latdyn.analyses.adaptive_sensitivities.error_derivative): the top's mass as a parameter, error_tol 1e-3 into
+    the flip (t ≤ 0.46, 261 steps, 7 rejected): every row of x, y, z by m within 1e-6 of its largest against
+    Richardson differences (h = 1e-5 |m|), measured 1.6e-9; differentiated as the inertia-weighted norm there,
+    2.2e-4 (at error_tol 1e-4 up to t = 0.5, benchmarks/fuzz_sensitivities.py --scene: 2e-8 against 1.09)."""
+    from test_sensitivities_fuzz_findings import _richardson
+
+    text = "parameters: {m: 1.0}\n" + sleeping_top(
+        "{t_end: 0.46, dt: 0.002, adaptive: true, error_tol: 1.0e-3, tol: 1.0e-12, sensitivities: [m]}",
+        OMEGA0[2], OMEGA0[0], tip_y=OMEGA0[1]).replace("mass: 1.0, inertia", "mass: m, inertia")
+    result = latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
+    expected = _richardson(text, "m", 1e-5)
+    for probe in ("x", "y", "z"):
+        computed = np.asarray(result.sensitivities[(probe, "m")])
+        assert np.abs(computed - expected[probe]).max() <= 1e-6 * np.abs(expected[probe]).max(), probe
+
+
 def hinged_arm(dt: float, output: str = "") -> str:
     """A uniform flexible arm (L = 1, EI = ρA = 1, EA = 10⁶, 4 elements) on a hinge about z at the
     ground with a rotary spring k = 1, driven by a constant torque 2 from rest. The torque, applied at

@@ -7,10 +7,11 @@ step control (:class:`latdyn.timeloop.control.StepControl`) chooses each size fr
 - a trial the error estimate rejects is tried again with h' = max(h · max(0.2, 0.9 e^(−1/3)), dt_min),
   e = ê / (error_tol · length) the relative estimate of the rejected trial,
 
-      ê = h² |β − 1/6| N,   N = max_g scale · sqrt(x_gᵀ M_gg x_g / m_g),   x = a_{n+1} − a_n,
+      ê = h² |β − 1/6| N,   N = max(max_g scale · sqrt(x_gᵀ M_gg x_g / m_g), ℓ max_i |x_i|),   x = a_{n+1} − a_n,
 
   (:meth:`latdyn.step.integrators.GeneralizedAlpha.error_estimate`, :func:`latdyn.numerics.inertia.joint_norms`:
-  M at the trial's end, m_g a mean of translational diagonal entries of M);
+  M at the trial's end, m_g a mean of translational diagonal entries of M; i over the hinges of rigid links,
+  :func:`latdyn.numerics.inertia.largest_link_turn`, whose δN / N is δx_i / x_i where it is the larger);
 - after an accepted step h' = min(dt, max(dt_min, h · min(2, 0.9 e^(−1/3)))), e the accepted step's own
   relative estimate, taken before the integrator accepts it (:meth:`StepControl.estimate_accepted`); after a
   latch or a stop e is taken as 0 (h' = 2h); after a step shortened onto a grid point h' is the size proposed
@@ -51,7 +52,7 @@ from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
 from latdyn.analyses.parameter_keys import prescribed_motion
 from latdyn.assembly.assembler import unpack_free
 from latdyn.errors import SolverError
-from latdyn.numerics.inertia import joint_blocks, largest_joint_norm
+from latdyn.numerics.inertia import joint_blocks, largest_joint_norm, largest_link_turn
 
 __all__ = ["refusal", "rejected", "accepted_trial", "resized", "error_derivative"]
 
@@ -166,6 +167,9 @@ def error_derivative(owner, trial, x: np.ndarray, dq: np.ndarray, dx: np.ndarray
     model = owner.model
     mass = owner.assembler.evaluate(trial, matrices=True).combined(1.0, 0.0, 0.0)
     largest = largest_joint_norm(model, joint_blocks(model, mass, integrator.groups()), x, integrator.length_scale)
+    turn, i = largest_link_turn(integrator.link_hinges(), x, integrator.length_scale)
+    if turn > largest.norm:   # a rigid link's hinge counted as a rotation, N = ℓ |x_i|: δN / N = δx_i / x_i
+        return error * (2.0 * dh / h + dx[i] / x[i])
     if largest.energy <= 0.0 or largest.reference <= 0.0:
         return np.zeros(len(owner.names))
     n = model.n_dofs

@@ -269,6 +269,33 @@ def joint_norms(joint: JointBlocks, vector: np.ndarray, length: float) -> np.nda
     return np.where(reference > 0, scale * np.sqrt(energy / np.where(reference > 0, reference, 1.0)), 0.0)
 
 
+def link_hinge_coordinates(model) -> np.ndarray:
+    """The free coordinates of the hinges on the revolute edges of rigid links (latdyn.model.links), sorted.
+
+    Their angles set where the links are, with or without mass, and their accelerations are those of rigid
+    bodies (no elastic direction of little inertia for the algorithmic accelerations to ring in), so the
+    adaptive step's error estimate counts each one's own change of acceleration as a rotation
+    (:func:`largest_link_turn`), beside :func:`joint_norms`, which weighs a direction by the inertia it moves:
+    at a gimbal lock the massless rings' flip moves almost nothing with inertia at that moment, yet sets the
+    plane the motion goes on in (docs/energy.md, "Steps that do not resolve a hinge")."""
+    links = getattr(model, "links", None)
+    if links is None:
+        return np.zeros(0, dtype=np.int64)
+    dofs = {int(model.hinge_dofs[e.hinge]) for e in links.edges if e.hinge >= 0 and not e.prismatic}
+    return np.array(sorted(d for d in dofs if d < model.n_dofs), dtype=np.int64)
+
+
+def largest_link_turn(coordinates: np.ndarray, vector: np.ndarray, length: float) -> tuple[float, int]:
+    """``length`` · max |x_i| over the link hinges' ``coordinates`` (:func:`link_hinge_coordinates`): a rotation
+    in radians counted by the scene's length, the unit :func:`joint_norms` gives a joint without translational
+    mass; with the coordinate where it is largest (−1: none)."""
+    if len(coordinates) == 0:
+        return 0.0, -1
+    values = np.abs(vector[coordinates])
+    i = int(np.argmax(values))
+    return float(length) * float(values[i]), int(coordinates[i])
+
+
 def reference_masses(joint: JointBlocks, length: float) -> tuple[np.ndarray, np.ndarray]:
     """Per joint, the reference m_g that :func:`joint_norms` divides its energy by and the scale its norm is
     multiplied by (the rule of :func:`joint_norms`' docstring, written once): the joint's translational mass, or

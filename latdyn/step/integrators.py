@@ -66,6 +66,8 @@ from latdyn.numerics.inertia import (
     joint_blocks,
     joint_groups,
     joint_norms,
+    largest_link_turn,
+    link_hinge_coordinates,
     split_inertia,
 )
 from latdyn.assembly.factorization import solve_linear, solve_linear_csr
@@ -274,22 +276,34 @@ class GeneralizedAlpha:
         a length, over every direction with inertia (rotations of joints without translational
         mass, such as the hinge of a rigid link on a fixed body, included), blind to
         directions without inertia (whose algorithmic accelerations carry no dynamics) and
-        invariant under rigid motions of the scene.
+        invariant under rigid motions of the scene; or, where it is larger, the largest change of a
+        rigid link's hinge acceleration counted as a rotation, ℓ |Δθ̈|
+        (:func:`latdyn.numerics.inertia.largest_link_turn`): the inertia-weighted norm does not see a
+        hinge whose direction has almost no inertia at the moment, the outer ring of a gimbal-locked top,
+        whose angle then sets where the motion goes on (docs/energy.md, "Steps that do not resolve a hinge").
         """
         ev = getattr(self, "last_evaluation", None)
         if ev is None or self.assembler.model.n_dofs == 0:
             return 0.0
+        x = self.a_candidate - self.a
         blocks = joint_blocks(self.assembler.model, ev.combined(1.0, 0.0, 0.0), self.groups())
-        size = joint_norms(blocks, self.a_candidate - self.a, self.length_scale)
-        return h * h * abs(self.p.beta - 1 / 6) * float(np.max(size, initial=0.0))
+        size = float(np.max(joint_norms(blocks, x, self.length_scale), initial=0.0))
+        turn, _ = largest_link_turn(self.link_hinges(), x, self.length_scale)
+        return h * h * abs(self.p.beta - 1 / 6) * max(size, turn)
 
     def groups(self) -> np.ndarray:
-        """Joint groups of the current numbering (rebuilt after a latch)."""
+        """Joint groups of the current numbering (rebuilt after a latch, with :meth:`link_hinges`)."""
         model = self.assembler.model
         key = (model.n_dofs, tuple(model.free_hinges))
         if getattr(self, "_groups_key", None) != key:
             self._groups, self._groups_key = joint_groups(model), key
+            self._link_hinges = link_hinge_coordinates(model)
         return self._groups
+
+    def link_hinges(self) -> np.ndarray:
+        """The free coordinates of rigid links' hinges in the current numbering (rebuilt after a latch)."""
+        self.groups()
+        return self._link_hinges
 
 
 def _mass_and_stiffness(ev):

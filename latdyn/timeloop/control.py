@@ -28,7 +28,7 @@ import numpy as np
 
 from latdyn.errors import SolverError
 from latdyn.timeloop.jumps import JUMP_SIDE
-from latdyn.timeloop.progress import TransientProgress, report_cut
+from latdyn.timeloop.progress import CUTS_REPORTED, TransientProgress, report_cut
 
 #: A run whose last CRAWL_STEPS accepted steps average less than min(CRAWL_FACTOR · dt_min,
 #: CRAWL_FRACTION · dt) is crawling (1e-4 dt with the default dt_min; never above dt/1000, where a
@@ -311,6 +311,28 @@ class StepControl:
         run.h = h / 2
         self.resize = Resize(0.5, 0.0, 0.0)
         return True
+
+    def after_far_root(self, run: TransientProgress, h: float, hinge: str, distance: float) -> None:
+        """Newton converged in the step of size ``h`` from ``run.state`` to a root that puts ``hinge`` ``distance``
+        (> π) from its predictor (:func:`latdyn.timeloop.progress.far_root`: a whole turn away, no motion): the
+        step is cut in half, as after a failure of Newton, and never treated as a crossing to land on. Half the step
+        below ``dt_min`` ends the run (SolverError)."""
+        run.rejected_steps += 1
+        t = run.state.t
+        if h / 2 < self.dt_min:
+            raise SolverError(
+                "the step converges to a root far from its predictor at the minimum step",
+                f"from t = {t:.9g} the step {h:.3g} (dt_min = {self.dt_min:.3g}) puts hinge {hinge} {distance:.3g} rad "
+                "from its predictor (more than π: a root a whole turn away, no motion the step resolved); the run "
+                "ends here rather than accept it (a smaller dt, or a hinge law that does not drive the hinge through "
+                "a turn within a step).")
+        run.far_roots += 1
+        if run.far_roots <= CUTS_REPORTED:
+            print(f"latdyn: the step from t = {t:.9g} of {h:.3g} converged to a root that puts hinge {hinge} "
+                  f"{distance:.3g} rad from its predictor (more than π: a whole turn away, no motion); step cut to "
+                  f"{h / 2:.3g}", file=sys.stderr)
+        run.h = h / 2
+        self.resize = Resize(0.5, 0.0, 0.0)
 
     def after_accepted(self, run: TransientProgress, integrator, h: float, latched: bool, stopped: bool,
                        lands: bool = False) -> None:

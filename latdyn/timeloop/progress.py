@@ -77,6 +77,7 @@ class TransientProgress:
     newton_iterations: int = 0
     rejected_steps: int = 0  # all rejected attempts: Newton failures and error-control rejections
     newton_cuts: int = 0  # steps halved because Newton did not converge
+    far_roots: int = 0  # steps halved because Newton converged to a root a whole turn away (far_root)
     factorizations: int = 0  # iteration matrices factorized (modified Newton keeps one over steps)
     solver_s: float = 0.0  # wall time inside the integrator's steps
     cut_times: list = field(default_factory=list)  # the first times at which a step was cut
@@ -103,6 +104,9 @@ class TransientProgress:
     #: :data:`UNRESOLVED_TURN` with its (:meth:`note_rate_turns`; csrc/newton_step.c rate_turns for the
     #: steps taken in C); None until the first step
     rate_turns: np.ndarray | None = None
+    #: the first landing whose step kept ended short of the event its trial crossed, as its warning says it
+    #: (latdyn.timeloop.loop.TimeLoop._landing: closed less than half the gap); None: none
+    short_landing: str | None = None
 
     def count(self, stats) -> None:
         """Count a step's Newton iterations and factorizations (``stats``: a StepStats)."""
@@ -204,11 +208,34 @@ class TransientProgress:
         """The counters and the energy balance, as summary.json reports them."""
         return dict(
             steps=self.steps, newton_iterations=self.newton_iterations, rejected_steps=self.rejected_steps,
-            newton_cuts=self.newton_cuts, cut_times=self.cut_times,
+            newton_cuts=self.newton_cuts, cut_times=self.cut_times, far_roots=self.far_roots,
             energy_balance_error=self.relative_balance_error, dissipated_energy=self.dissipated,
             newton_iterations_per_step=self.newton_iterations / max(self.steps, 1),
             newton_tolerance=tol, method=method, solver_s=self.solver_s, factorizations=self.factorizations,
             inertia_tangent_from=self.inertia_tangent_from, joint_peaks=self.joint_peaks, events=self.events)
+
+
+def far_root(model, old: State, new: State, h: float) -> tuple[int, float] | None:
+    """The free hinge (revolute) whose angle at the end of the converged step ``old`` → ``new`` of size ``h`` lies
+    farthest from where its rate at the step's start takes it, θ_n + h θ̇_n, and that distance, where it is more
+    than π; else None.
+
+    The step's equations hold a hinge's angle through rotations R(a, θ), periodic in 2π, while the rates the step
+    gives it (θ̇_{n+1} from θ_{n+1} − θ_n) are not: Newton can converge to a root about a whole turn away, where the
+    structure stands nearly where the rate would have put it and the hinge has turned once more within the step, at
+    rates of order 2π/h (tests/test_far_roots.py: −6.17 rad where θ_n + h θ̇_n = 0.08, 413 rad/s after a rate of
+    3.6, after algorithmic accelerations of undamped Newmark that alternated in sign, up to 1.4e4 rad/s²). A root more
+    than π from θ_n + h θ̇_n is nearer to a whole turn of that configuration than to it. A step that resolves the
+    hinge's motion departs from it by its quadratic term, ½ h |θ̇_{n+1} − θ̇_n| under Newmark, which the unresolved-step
+    warning flags from ½ :data:`UNRESOLVED_TURN`, far below π: such a root is no motion, and the time loop cuts the
+    step (:meth:`latdyn.timeloop.control.StepControl.after_far_root`) instead of landing on a stop it crossed."""
+    free = model.free_hinges
+    distance = np.abs(new.theta[free] - old.theta[free] - h * old.theta_dot[free])
+    worst = None
+    for k, d in zip(free[distance > math.pi], distance[distance > math.pi]):   # none, on a step that resolves them
+        if model.hinges[k].kind == "hinge" and (worst is None or d > worst[1]):   # a guide's slide is not periodic
+            worst = (int(k), float(d))
+    return worst
 
 
 #: Relative margin by which a row's joint force must exceed the kept peak to replace it in
