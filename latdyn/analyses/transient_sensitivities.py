@@ -197,6 +197,16 @@ class TransientSensitivities(ParameterDerivatives):
         self.params, self.length = integrator.p, integrator.length_scale
         self.assembler.inertia_tangent_buffers = True
 
+    def in_loop(self):
+        """The run's smooth steps' derivative inside the loop of steps in C
+        (:class:`latdyn.analyses.sensitivities_in_loop.SensitivityLoop`), or None where every step is taken from
+        Python (:func:`latdyn.analyses.sensitivities_in_loop.refusal`): decided once per run."""
+        from latdyn.analyses import sensitivities_in_loop
+
+        if not sensitivities_in_loop.SENSITIVITIES_IN_LOOP or sensitivities_in_loop.refusal(self) is not None:
+            return None
+        return sensitivities_in_loop.SensitivityLoop(self)
+
     def residual_derivatives(self, state, load_factor: float, inertia: bool = False,
                              on_all: bool = False, sections: bool = True,
                              element_gravity: bool = True) -> np.ndarray:
