@@ -159,7 +159,7 @@ class SensitivityLoop:
         d.n_uses = 0
         if layout is None:
             return
-        elements, column, rows = owner._section_derivative_blocks(None if not layout else _AtTime(0.0))  # noqa: SLF001
+        elements, column, rows = owner._section_derivative_blocks(_AtTime(0.0))  # noqa: SLF001 - constant laws (refusal)
         on, use = owner._section_elements_once()   # noqa: SLF001
         internal, inertia = owner._section_kernel_addresses()   # noqa: SLF001
         gravity = 1.0 * np.asarray(owner.assembler.gravity, float)
@@ -196,10 +196,8 @@ class SensitivityLoop:
         np.copyto(self._dt, carried["dt"])
         d.steps, d.info = 0, 0
         if d.n_pairs:   # the derivative laws' values at each grid point the loop may reach (_load_pair_forces)
-            pairs, _, place, laws = owner._load_layout()   # noqa: SLF001
-            if "_load_laws_distinct" not in owner.__dict__:
-                owner._load_pair_forces(_AtTime(0.0), 1.0)   # noqa: SLF001 - lays the distinct laws out
-            distinct, use = owner._load_laws_distinct   # noqa: SLF001
+            pairs, _, place, _ = owner._load_layout()   # noqa: SLF001
+            distinct, use = owner.load_laws_distinct()
             table = np.zeros((stop_index - grid_index, len(pairs), 6))
             for row, grid in enumerate(range(grid_index + 1, stop_index + 1)):
                 t = control.t_end if grid >= control.n_grid else grid * control.dt
