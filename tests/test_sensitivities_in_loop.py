@@ -17,64 +17,22 @@ import yaml
 
 import latdyn
 from tests.cli_runs import ROOT, latdyn_run, summary_of
+from tests.test_sensitivities_events import LATCH_PLANAR
+from tests.test_sensitivities_native_parts import ARM
 
-#: a planar arm swung open by its root hinge's spring and latching at 0.8 rad (t ≈ 0.46 s), a tip load: section
-#: values and a load's amplitude as parameters (native kinds), the latch's step and the one after it from Python
-LATCH = """
-title: planar arm latching, its sections and a tip load by parameters
-parameters: {EI: 20.0, rho: 0.5, F: 0.4}
-sections:
-  s: {EA: 1.0e4, EIy: "EI", EIz: "EI", GJ: 10.0, rhoA: "rho", rhoIy: "0.001*rho", rhoIz: "0.001*rho"}
-bodies:
-  base: {at: [0, 0, 0], fixed: true}
-  tip: {at: [1.0, 0, 0], mass: 0.3, inertia: [0.01, 0.01, 0.01]}
-beams:
-  arm:
-    from: base
-    to: tip
-    section: s
-    elements: 3
-    start: {hinge: {axis: [0, 0, 1], stiffness: "k", damping: 0.05, rest_angle: 2.0, lock_at: 0.8}}
-loads:
-  - {at: tip, force: ["0.2*F", "-F", 0]}
-solve: {analysis: transient, dt: 0.01, t_end: 0.6, sensitivities: [EI, rho, F]}
-output:
-  every: 0.05
-  probes:
-    tip_y: {point: tip, quantity: position, component: y}
-    hinge: {hinge: arm.start, quantity: angle}
-"""
+#: the planar arm of tests/test_sensitivities_events.py swung open by its root hinge's spring and latching at 0.8 rad
+#: (t ≈ 0.46 s), with a tip load: section values and a load's amplitude as parameters (native kinds); the latch's
+#: step and the one after it from Python
+LATCH = (LATCH_PLANAR.replace("parameters: {k: 2.0, c: 0.05, EI: 20.0, rho: 0.5, m: 0.3}",
+                              "parameters: {EI: 20.0, rho: 0.5, F: 0.4}")
+         .replace('damping: "c"', "damping: 0.05").replace('mass: "m"', "mass: 0.3")
+         .replace("solve: {", 'loads:\n  - {at: tip, force: ["0.2*F", "-F", 0]}\nsolve: {')
+         .replace("sensitivities: [k, c, EI, rho, m]", "sensitivities: [EI, rho, F]"))
 
-#: a 3D arm spinning about z with a hinged second beam, a joint body, gravity and loads in a body's frame and in t
-ARM_3D = """
-title: 3D arm with a hinged second beam and a joint body under gravity, spinning
-gravity: [0, 0, -9.81]
-parameters: {E: 1.0, rho: 0.5, F: 2.0}
-sections:
-  s: {EA: "1.0e4*E", EIy: "20*E", EIz: "30*E", GJ: "15*E", rhoA: "rho", rhoIy: "0.01*rho", rhoIz: "0.02*rho"}
-bodies:
-  base: {at: [0, 0, 0], fixed: true}
-  knee: {at: [1, 0, 0], mass: 0.8, com: [0.05, 0, -0.05], inertia: [0.01, 0.01, 0.02]}
-beams:
-  a: {from: base, to: knee, section: s, elements: 3, y_axis: [0, 1, 0]}
-  b:
-    from: knee
-    to: [1.6, 0.5, 0.4]
-    section: s
-    elements: 3
-    y_axis: [0, 0, 1]
-    start: {hinge: {axis: [0, 0.6, 0.8], stiffness: 30.0, damping: 0.2}}
-loads:
-  - {at: b.end, force: ["0.3*F", "-F", "0.5*F"]}
-  - {at: knee, force: [0, 0, "-2*F*t"], frame: knee}
-initial_velocity: {angular: [0, 0, 3.0]}
-solve: {analysis: transient, dt: 0.005, t_end: 0.06, sensitivities: [E, rho, F]}
-output:
-  every: 0.01
-  probes:
-    tip_z: {point: b.end, quantity: position, component: z}
-    hinge: {hinge: b.start, quantity: angle}
-"""
+#: the 3D arm of tests/test_sensitivities_native_parts.py (a hinged second beam, a joint body, gravity, loads in a
+#: body's frame and in t), spinning faster and longer: its nodes turn by more than 0.01 rad a step (dexp's series ends)
+ARM_3D = ARM.replace("angular: [0, 0, 2.0]", "angular: [0, 0, 3.0]").replace("t_end: 0.04", "t_end: 0.06")
+assert ARM_3D != ARM and "F: 0.4" in LATCH and "0.05" in LATCH
 
 
 def _latch(k: str = "2.0") -> str:

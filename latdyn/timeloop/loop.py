@@ -112,7 +112,8 @@ class TimeLoop:
         #: the sampled controllers (latdyn.timeloop.sampling), None without
         self.sampler = sampler if sampler else None
         #: solve.sensitivities (latdyn.analyses.transient_sensitivities.TransientSensitivities, handed in
-        #: by latdyn.solve): differentiated once per accepted step, on the per-step path
+        #: by latdyn.solve): differentiated once per accepted step, on the per-step path or, its smooth steps, in the
+        #: loop of steps in C (:attr:`sensitivities_in_loop`)
         self.sensitivities = sensitivities
         if sensitivities is not None:
             sensitivities.bind(integrator)
