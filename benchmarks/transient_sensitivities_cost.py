@@ -250,7 +250,7 @@ def parts(make, repeats: int) -> None:
 
     TransientSensitivities.step = kept
     try:
-        run(latdyn.load_scene(make(["F0"])), False)
+        run(latdyn.load_scene(make(["F0"])), False, True)   # the per-step path, whose step it takes apart
     finally:
         TransientSensitivities.step = step
     owner, call, keywords = taken["owner"], taken["call"], taken["keywords"]
@@ -397,12 +397,12 @@ def phases(make, k: int, repeats: int) -> None:
     try:
         loaded = latdyn.load_scene(make([f"F{i}" for i in range(k)]))
         without = latdyn.load_scene(make([]))
-        run(loaded, False), run(without, False)
+        run(loaded, False, True), run(without, False)   # the per-step path's pieces (latdyn.analyses.sensitivities_in_loop off)
         best: dict[str, float] = {}
         whole, plain, steps = [], [], 0
         for _ in range(repeats):
             totals.clear(), calls.clear()
-            whole.append(run(loaded, False)[1])
+            whole.append(run(loaded, False, True)[1])
             plain.append(run(without, False)[1])
             steps = calls.get(PHASES[2][0], 1)
             for label, value in totals.items():
