@@ -81,8 +81,11 @@ class SensitivityLoop:
         self.steps = 0
 
     def _pointer(self, array: np.ndarray) -> int:
+        """The address of ``array`` (of a held zero where it is empty), kept alive with the layout."""
+        if not array.size:
+            array = np.zeros(1)
         self._keep.append(array)
-        return array.ctypes.data if array.size else np.zeros(1).ctypes.data
+        return array.ctypes.data
 
     def _layout(self) -> bool:
         """The per-numbering part of the struct (the free nodes' slots, S's pattern and storage, the exact
@@ -131,6 +134,7 @@ class SensitivityLoop:
         # M, C and the exact K (Assembler.exact_matrix_values), the bodies' inertia stiffness
         arguments, stiffness = assembler.exact_segments(native)
         d.n_segments, d.counts, d.first, d.second, d.indices, d.positions = arguments
+        self._keep.append((assembler._exact_held, assembler._positions3, stiffness))   # noqa: SLF001 - what they point into
         self._mck = np.zeros((3, assembler.pattern()[1].size))
         d.mck_size, d.mck = self._mck.size, self._pointer(self._mck)
         bodies = len(model.body_nodes)
@@ -147,12 +151,12 @@ class SensitivityLoop:
         d.S = step_matrix._summed.ctypes.data   # noqa: SLF001
         d.factor, d.pivots = step_matrix.factorization.values.ctypes.data, step_matrix.factorization.pivots.ctypes.data
         d.solve_work = self._pointer(np.zeros(3 * n * cols))
-        self._sections(native)
+        self._sections()
         self._loads()
         self._for = (key, True)
         return True
 
-    def _sections(self, native) -> None:
+    def _sections(self) -> None:
         """The section uses of ParameterDerivatives._native_section_forces (their rows constant: refusal)."""
         owner, d = self.owner, self.data
         layout = owner._section_layout()   # noqa: SLF001
@@ -174,7 +178,7 @@ class SensitivityLoop:
     def _loads(self) -> None:
         """The (load, parameter) pairs of ParameterDerivatives._load_pair_forces."""
         owner, d = self.owner, self.data
-        pairs, columns, place, laws = owner._load_layout()   # noqa: SLF001
+        pairs, columns, _, _ = owner._load_layout()   # noqa: SLF001
         d.n_pairs = len(pairs)
         if not len(pairs):
             return
@@ -200,7 +204,7 @@ class SensitivityLoop:
             distinct, use = owner.load_laws_distinct()
             table = np.zeros((stop_index - grid_index, len(pairs), 6))
             for row, grid in enumerate(range(grid_index + 1, stop_index + 1)):
-                t = control.t_end if grid >= control.n_grid else grid * control.dt
+                t = control.grid_time(grid)   # the step's end time, as the loop of steps computes it
                 table[row][place] = 1.0 * np.array([owner._of_time(law, t) for law in distinct])[use]  # noqa: SLF001
             self._table = table
             d.pair_values, d.values_from = table.ctypes.data, grid_index + 1
