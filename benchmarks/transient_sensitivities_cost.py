@@ -172,16 +172,56 @@ def adjoint(data: dict) -> dict:
     return {**data, "solve": {**data["solve"], "sensitivity_method": "adjoint"}}
 
 
-def run(loaded, per_step: bool) -> tuple[float, float]:
+def run(loaded, per_step: bool, sensitivities_from_python: bool = False) -> tuple[float, float]:
     """(wall time, CPU time of this process) of ``latdyn.run``: on a shared machine the CPU time moves
-    less with the other work than the wall time does."""
+    less with the other work than the wall time does. ``sensitivities_from_python``: the loop of steps in C on, the
+    sensitivities' steps from Python all the same (latdyn.analyses.sensitivities_in_loop off: the path before the
+    smooth step ran in the loop)."""
+    from latdyn.analyses import sensitivities_in_loop
+
     transient.COMPILED_LOOP = not per_step
+    sensitivities_in_loop.SENSITIVITIES_IN_LOOP = not sensitivities_from_python
     try:
         start, cpu = time.perf_counter(), time.process_time()
         latdyn.run(loaded)
         return time.perf_counter() - start, time.process_time() - cpu
     finally:
         transient.COMPILED_LOOP = True
+        sensitivities_in_loop.SENSITIVITIES_IN_LOOP = True
+
+
+def in_loop_check(make, counts, folder: str) -> None:
+    """``--in-loop-check DIR``: each forward run with k = ``counts`` parameters written twice under DIR, its smooth
+    steps' sensitivities in the loop of steps and every step from Python (latdyn/analyses/sensitivities_in_loop.py);
+    printed: the sha-256 of sensitivities.csv, probes.csv and summary.json's probe_sensitivities and
+    event_sensitivities of each, whether they agree, and the steps differentiated in the loop."""
+    import hashlib
+    import json
+    from pathlib import Path
+
+    from latdyn.analyses import sensitivities_in_loop
+
+    def digest(data: bytes) -> str:
+        return hashlib.sha256(data).hexdigest()[:16]
+
+    for k in counts:
+        seen = {}
+        for in_loop in (True, False):
+            out = Path(folder) / f"{k}-{'loop' if in_loop else 'python'}"
+            sensitivities_in_loop.SENSITIVITIES_IN_LOOP = in_loop
+            try:
+                latdyn.run(latdyn.load_scene(make([f"F{i}" for i in range(k)])), out)
+            finally:
+                sensitivities_in_loop.SENSITIVITIES_IN_LOOP = True
+            summary = json.loads((out / "summary.json").read_text())
+            seen[in_loop] = ([digest((out / name).read_bytes()) for name in ("sensitivities.csv", "probes.csv")]
+                             + [digest(json.dumps(summary.get(key), sort_keys=True).encode())
+                                for key in ("probe_sensitivities", "event_sensitivities")],
+                             summary["sensitivity_steps_in_loop"], summary["steps"])
+        same = seen[True][0] == seen[False][0]
+        print(f"{k:4d} parameters: sensitivities.csv, probes.csv, probe_sensitivities, event_sensitivities "
+              f"{' '.join(seen[True][0])} (in the loop: {seen[True][1]} of {seen[True][2]} steps) / "
+              f"{' '.join(seen[False][0])} (from Python: {seen[False][1]}): {'equal' if same else 'DIFFERENT'}")
 
 
 def parts(make, repeats: int) -> None:
@@ -210,7 +250,7 @@ def parts(make, repeats: int) -> None:
 
     TransientSensitivities.step = kept
     try:
-        run(latdyn.load_scene(make(["F0"])), False)
+        run(latdyn.load_scene(make(["F0"])), False, True)   # the per-step path, whose step it takes apart
     finally:
         TransientSensitivities.step = step
     owner, call, keywords = taken["owner"], taken["call"], taken["keywords"]
@@ -357,12 +397,12 @@ def phases(make, k: int, repeats: int) -> None:
     try:
         loaded = latdyn.load_scene(make([f"F{i}" for i in range(k)]))
         without = latdyn.load_scene(make([]))
-        run(loaded, False), run(without, False)
+        run(loaded, False, True), run(without, False)   # the per-step path's pieces (latdyn.analyses.sensitivities_in_loop off)
         best: dict[str, float] = {}
         whole, plain, steps = [], [], 0
         for _ in range(repeats):
             totals.clear(), calls.clear()
-            whole.append(run(loaded, False)[1])
+            whole.append(run(loaded, False, True)[1])
             plain.append(run(without, False)[1])
             steps = calls.get(PHASES[2][0], 1)
             for label, value in totals.items():
@@ -513,6 +553,9 @@ def main() -> None:
                         help="time the pieces of a forward run with K parameters inside the run instead")
     parser.add_argument("--reverse-parts", type=int, default=None, metavar="K",
                         help="time the pieces of a step of the adjoint's reverse pass with K parameters instead")
+    parser.add_argument("--in-loop-check", default=None, metavar="DIR",
+                        help="write each forward run with its smooth steps' sensitivities in the loop of steps and "
+                             "from Python under DIR and compare them by sha-256 instead")
     parser.add_argument("--richardson", default=None, metavar="NAME",
                         help="check the adjoint's derivatives by NAME against Richardson-extrapolated central "
                              "differences of whole runs instead")
@@ -532,27 +575,31 @@ def main() -> None:
         richardson(make, args.richardson)
         return
     counts = (1, 10, 100, 1000) if args.scene == "lattice1000" else (1, 10, 100)
+    if args.in_loop_check is not None:
+        in_loop_check(make, counts if args.scene != "boom_latch" else (10, 100), args.in_loop_check)
+        return
     cases = {"0 (loop in C)": (0, False, False), "0 (per step)": (0, True, False)}
     cases.update({f"{k} forward": (k, False, False) for k in counts})
+    cases.update({f"{k} forward (Python steps)": (k, False, False) for k in counts})
     cases.update({f"{k} adjoint": (k, False, True) for k in counts})
     if args.cases:
         cases = {name: case for name, case in cases.items() if name in args.cases.split(",")}
     loaded = {name: latdyn.load_scene((adjoint if by_adjoint else dict)(make([f"F{i}" for i in range(k)])))
               for name, (k, _, by_adjoint) in cases.items()}
     for name, (_, per_step, _) in cases.items():
-        run(loaded[name], per_step)   # compile the kernels and laws once
+        run(loaded[name], per_step, "Python steps" in name)   # compile the kernels and laws once
     times: dict[str, list[float]] = {name: [] for name in cases}
     cpu: dict[str, list[float]] = {name: [] for name in cases}
     for _ in range(args.repeats):
         for name, (_, per_step, _) in cases.items():
-            wall, used = run(loaded[name], per_step)
+            wall, used = run(loaded[name], per_step, "Python steps" in name)
             times[name].append(wall)
             cpu[name].append(used)
     print(f"load average (1 min): {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
     base = min(times.get("0 (loop in C)", [float("nan")]))
     base_cpu = min(cpu.get("0 (loop in C)", [float("nan")]))
     for name, measured in times.items():
-        print(f"{name:16s} parameters: wall min {min(measured) * 1e3:8.1f} ms, "
+        print(f"{name:26s} parameters: wall min {min(measured) * 1e3:8.1f} ms, "
               f"median {statistics.median(measured) * 1e3:8.1f} ms, {min(measured) / base:5.2f}x; "
               f"CPU min {min(cpu[name]) * 1e3:8.1f} ms, median {statistics.median(cpu[name]) * 1e3:8.1f} ms, "
               f"{min(cpu[name]) / base_cpu:5.2f}x the run without (minima)")

@@ -9,6 +9,7 @@ API and the CLI; M, C and K the np.bincount of the evaluation's blocks to the bi
 from __future__ import annotations
 
 import numpy as np
+import pytest
 import yaml
 
 import latdyn
@@ -46,6 +47,13 @@ output:
     tip_z: {point: b.end, quantity: position, component: z}
     hinge: {hinge: b.start, quantity: angle}
 """
+
+
+@pytest.fixture(autouse=True)
+def _every_step_from_python(monkeypatch):
+    """These parts serve the per-step Python path (an event's step, a landing, a parameter kind the loop of steps
+    does not take: latdyn/analyses/sensitivities_in_loop.py), which the arm's runs here are held to."""
+    monkeypatch.setattr("latdyn.analyses.sensitivities_in_loop.SENSITIVITIES_IN_LOOP", False)
 
 
 def _run(monkeypatch, native: bool):

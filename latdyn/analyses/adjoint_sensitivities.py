@@ -101,6 +101,11 @@ class AdjointSensitivities(TransientSensitivities):
     :meth:`start` and :meth:`step` store the trajectory, :meth:`record` the rows' step indices, and
     :meth:`finish` runs the reverse pass and writes ``probe_sensitivities`` and the end row."""
 
+    def in_loop(self):
+        """None: the adjoint's forward pass stores every accepted step from Python (:meth:`step`), never in the loop
+        of steps in C (latdyn/analyses/sensitivities_in_loop.py carries the forward method's columns)."""
+        return None
+
     # ------------------------------------------------------------------ the forward pass: storing
     def start(self, state) -> dict:
         """The carried trajectory at t = 0: the started state (its accelerations consistent) and the

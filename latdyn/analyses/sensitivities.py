@@ -495,15 +495,20 @@ class ParameterDerivatives:
         pairs, columns, place, laws = self._load_layout()
         if not len(pairs):
             return None
-        if "_load_laws_distinct" not in self.__dict__:   # the uses' laws as distinct objects and an index
-            distinct = list({id(law): law for law in laws}.values())
-            order = {id(law): position for position, law in enumerate(distinct)}
-            self._load_laws_distinct = (distinct, np.array([order[id(law)] for law in laws], np.int64))
-        distinct, use = self._load_laws_distinct
+        distinct, use = self.load_laws_distinct()
         values = np.zeros((len(pairs), 6))
         values[place] = load_factor * np.array([self._of_time(law, state.t) for law in distinct])[use]
         nodes, forces = self._load_forces(state, pairs, values)
         return nodes, columns, forces
+
+    def load_laws_distinct(self) -> tuple:
+        """(the load uses' laws as distinct objects, each use's index among them) (:meth:`_load_layout`), made once."""
+        if "_load_laws_distinct" not in self.__dict__:
+            laws = self._load_layout()[3]
+            distinct = list({id(law): law for law in laws}.values())
+            order = {id(law): position for position, law in enumerate(distinct)}
+            self._load_laws_distinct = (distinct, np.array([order[id(law)] for law in laws], np.int64))
+        return self._load_laws_distinct
 
     def _on_free_coordinates(self, state, total: np.ndarray) -> np.ndarray:
         """``total`` (all coordinates) on the free ones: its first n_dofs rows, or with rigid links and guides

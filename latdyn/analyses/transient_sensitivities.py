@@ -107,7 +107,9 @@ formed and solved; with rigid links and guides, the reduction's matrices (:meth:
 The predicted parts δa⁰, δq⁰, δv⁰ and the update after the solve are one native call each, with R and J per
 free node (:class:`_StepColumns`: ``latdyn_sensitivity_predict``, ``latdyn_sensitivity_update``), on both paths.
 ∂r/∂p stays the generated kernels called from Python. The run takes one step at a time from Python (the
-time loop's per-step path; the loop of steps in C is later); it carries (δq, δv, δv̇, δa) on the free
+time loop's per-step path), except the smooth steps of runs whose every term is native, which the loop of steps in C
+differentiates with the same calls in the same order (latdyn/analyses/sensitivities_in_loop.py,
+csrc/sensitivity_loop.c: :meth:`in_loop`); it carries (δq, δv, δv̇, δa) on the free
 coordinates, (n, k), in :attr:`latdyn.timeloop.progress.TransientProgress.sensitivities`, checkpointed with
 the run.
 """
@@ -196,6 +198,16 @@ class TransientSensitivities(ParameterDerivatives):
         without sensitivities, to the bit."""
         self.params, self.length = integrator.p, integrator.length_scale
         self.assembler.inertia_tangent_buffers = True
+
+    def in_loop(self):
+        """The run's smooth steps' derivative inside the loop of steps in C
+        (:class:`latdyn.analyses.sensitivities_in_loop.SensitivityLoop`), or None where every step is taken from
+        Python (:func:`latdyn.analyses.sensitivities_in_loop.refusal`): decided once per run."""
+        from latdyn.analyses import sensitivities_in_loop
+
+        if not sensitivities_in_loop.SENSITIVITIES_IN_LOOP or sensitivities_in_loop.refusal(self) is not None:
+            return None
+        return sensitivities_in_loop.SensitivityLoop(self)
 
     def residual_derivatives(self, state, load_factor: float, inertia: bool = False,
                              on_all: bool = False, sections: bool = True,

@@ -318,23 +318,30 @@ class Assembler:
             raise ValueError("exact_matrix_values: a model with rigid links or guides (use exact_matrices)")
         native = self.native(True)
         native.evaluate(state, True, 1.0, True, True)
-        b, m = native.buffers, self.model
+        m = self.model
+        arguments, stiffness = self.exact_segments(native)
+        if len(m.body_nodes):   # K's body blocks with the bodies' inertia stiffness (the second part of their segment)
+            stiffness[...] = self.joint_body_inertia_stiffness(state)
+        out = np.empty((3, self._nnz))
+        native.library.latdyn_exact_matrix_values(*arguments, out.size, out.ctypes.data)
+        return out
+
+    def exact_segments(self, native: NativeModel) -> tuple:
+        """(the first arguments of ``latdyn_exact_matrix_values`` for ``native``'s buffers, the array of the joint
+        bodies' inertia stiffness it adds to K's body blocks): :meth:`_segments_of`, laid out once per numbering and
+        native model (:meth:`exact_matrix_values`; the sensitivities' step in the loop of steps,
+        latdyn/analyses/sensitivities_in_loop.py)."""
         if self._positions3 is None:   # where the blocks' kept entries lie (reindex's masks, flat) and M's zeros
             flat = [np.flatnonzero(mask) for mask in (self._elem_mask, self._body_mask, self._load_mask,
                                                       self._cable_mask, self._coupling_mask)]
-            self._exact_layout = (*flat, np.ascontiguousarray(m.free_hinges, np.int64))
+            self._exact_layout = (*flat, np.ascontiguousarray(self.model.free_hinges, np.int64))
             self._positions3 = np.ascontiguousarray(np.concatenate([self._position + i * self._nnz for i in range(3)]),
                                                     np.int64)
             self._exact_segments = None
         segments = self._exact_segments
         if segments is None or segments[0] is not native:
             segments = self._exact_segments = (native, *self._segments_of(native))
-        _, arguments, stiffness = segments
-        if len(m.body_nodes):   # K's body blocks with the bodies' inertia stiffness (the second part of their segment)
-            stiffness[...] = self.joint_body_inertia_stiffness(state)
-        out = np.empty((3, self._nnz))
-        native.library.latdyn_exact_matrix_values(*arguments, out.size, out.ctypes.data)
-        return out
+        return segments[1], segments[2]
 
     def _segments_of(self, native: NativeModel) -> tuple:
         """The segments of :meth:`exact_matrix_values`' one native scatter (``latdyn_exact_matrix_values``,
@@ -425,14 +432,7 @@ class Assembler:
         configuration, under gravity times ``load_factor``), which the time step's matrix leaves out."""
         model = self.model
         nodes = model.body_nodes
-        key = (model.body_mass, model.body_com, model.body_inertia, float(load_factor), tuple(self.gravity))
-        held = self.__dict__.get("_body_inputs")   # the bodies' (mass, com, inertia) rows and gravity: made once a run
-        if held is None or any(a is not b for a, b in zip(held[0][:3], key[:3])) or held[0][3:] != key[3:]:
-            section = np.ascontiguousarray(np.concatenate([model.body_mass[:, None], model.body_com,
-                                                           model.body_inertia.reshape(-1, 9)], axis=1))
-            held = (key, section, np.repeat(load_factor * self.gravity[None], len(nodes), axis=0))
-            self._body_inputs = held
-        _, section, gravity = held
+        section, gravity = self.body_stiffness_inputs(load_factor)
         native = self.current_native()
         kernel = self._body_stiffness_kernel() if native is not None else None
         if kernel is not None:   # one native call: the same kernel on the same inputs, gathered in C
@@ -448,6 +448,19 @@ class Assembler:
         motion = np.ascontiguousarray(np.concatenate([state.w[nodes], state.a[nodes], state.alpha[nodes]], axis=1))
         blocks = np.asarray(self.kernels.joint_body_inertia_stiffness(frames, motion, section, gravity)[0])
         return blocks.reshape(len(nodes), 6, 6)
+
+    def body_stiffness_inputs(self, load_factor: float = 1.0) -> tuple:
+        """The joint bodies' (mass, com, inertia) rows (bodies, 13) and λ g rows (bodies, 3) that
+        :meth:`joint_body_inertia_stiffness` hands its kernel, made once a run."""
+        model = self.model
+        key = (model.body_mass, model.body_com, model.body_inertia, float(load_factor), tuple(self.gravity))
+        held = self.__dict__.get("_body_inputs")   # the bodies' (mass, com, inertia) rows and gravity: made once a run
+        if held is None or any(a is not b for a, b in zip(held[0][:3], key[:3])) or held[0][3:] != key[3:]:
+            section = np.ascontiguousarray(np.concatenate([model.body_mass[:, None], model.body_com,
+                                                           model.body_inertia.reshape(-1, 9)], axis=1))
+            held = (key, section, np.repeat(load_factor * self.gravity[None], len(model.body_nodes), axis=0))
+            self._body_inputs = held
+        return held[1], held[2]
 
     def _body_stiffness_kernel(self) -> int | None:
         """The address of the C kernel ``joint_body_inertia_stiffness`` (found once), None where the kernels have no

@@ -184,7 +184,24 @@ class AdvanceData(ctypes.Structure):
                 ("dissipated", ctypes.c_double), ("hinge_work_torque", P), ("hinge_damper_torque", P),
                 ("rows", P), ("cable_work", P),
                 ("sample_tolerance", ctypes.c_double), ("native_restart", I64), ("samples", I64),
-                ("rate_turns", P), ("unresolved_turn", ctypes.c_double)]
+                ("rate_turns", P), ("unresolved_turn", ctypes.c_double), ("sensitivities", P)]
+
+
+class SensitivityLoopData(ctypes.Structure):
+    """``SensitivityLoop`` of csrc/sensitivity_loop.c: the transient sensitivities carried through the loop of
+    steps (latdyn.analyses.sensitivities_in_loop lays it out)."""
+
+    _fields_ = [("k", I64), ("dq", P), ("dv", P), ("dvdot", P), ("da", P), ("dt", P), ("dh", P), ("f", I64),
+                ("slots", P), ("psi", P), ("turn", P), ("tangent", P), ("blocks", P), ("increment", P),
+                ("predicted", P), ("explicit", P), ("total", P), ("z", P), ("updated", P),
+                ("n_segments", I64), ("counts", P), ("first", P), ("second", P), ("indices", P), ("positions", P),
+                ("mck_size", I64), ("mck", P), ("body_kernel", P), ("body_rows", P), ("body_gravity", P),
+                ("body_scratch", P), ("body_stiffness", P), ("step", P), ("S", P), ("factor", P), ("pivots", P),
+                ("solve_work", P), ("internal_D_section", P), ("inertia_D_section", P), ("gravity", P),
+                ("n_on", I64), ("on", P), ("n_uses", I64), ("use", P), ("elements", P), ("columns", P), ("rows", P),
+                ("section_scratch", P), ("n_pairs", I64), ("pair_node", P), ("pair_frame", P), ("pair_column", P),
+                ("pair_offset", P), ("pair_values", P), ("values_from", I64), ("pair_scratch", P),
+                ("steps", I64), ("info", I64), ("h", ctypes.c_double)]
 
 
 class RowsData(ctypes.Structure):

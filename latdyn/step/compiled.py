@@ -312,7 +312,8 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
                 rows: list[int] | None = None, momentum: bool = False, sections: bool = False,
                 joints: bool = False, cables: bool = False, controller_states: bool = False,
                 controller_outputs: bool = False, sample_tolerance: float = 0.0,
-                rate_turns: np.ndarray | None = None, unresolved_turn: float = math.inf) -> "Advanced":
+                rate_turns: np.ndarray | None = None, unresolved_turn: float = math.inf,
+                sensitivities=None) -> "Advanced":
         """Steps on the time grid in one call into C (``latdyn_advance``), from ``state`` on grid
         point ``grid_index`` through ``stop_index``, each as :meth:`step` takes it with
         h = t_{k+1} − t_k and accepted as the time loop accepts it (algorithmic acceleration
@@ -344,6 +345,11 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         time and size, and the first past ``unresolved_turn`` with its (latdyn.timeloop.progress.TransientProgress
         .rate_turns), carried on over the steps taken here into a copy, :attr:`Advanced.rate_turns` (None:
         not kept).
+
+        ``sensitivities``: the transient sensitivities carried through each accepted step (a
+        ``SensitivityLoopData`` of latdyn.assembly.library, laid out and read back by
+        latdyn.analyses.sensitivities_in_loop; None: none); status 5: their step matrix was singular at the last
+        accepted step, whose sensitivities are not carried on.
         """
         self._setup()
         model = self.assembler.model
@@ -370,6 +376,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         turns = None if rate_turns is None else np.array(rate_turns, dtype=float)  # in/out, a copy
         run.rate_turns = turns.ctypes.data if turns is not None else None
         run.unresolved_turn = unresolved_turn
+        run.sensitivities = None if sensitivities is None else ctypes.addressof(sensitivities)
         self._factor_version += 1
         self._native.laws.bind_inputs()  # this scene's input values (SceneLaws.bind_inputs)
         self._library.latdyn_advance(self._model_ref, self._work_ref, self._control_ref, ctypes.byref(base),

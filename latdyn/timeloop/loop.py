@@ -112,7 +112,8 @@ class TimeLoop:
         #: the sampled controllers (latdyn.timeloop.sampling), None without
         self.sampler = sampler if sampler else None
         #: solve.sensitivities (latdyn.analyses.transient_sensitivities.TransientSensitivities, handed in
-        #: by latdyn.solve): differentiated once per accepted step, on the per-step path
+        #: by latdyn.solve): differentiated once per accepted step, on the per-step path or, its smooth steps, in the
+        #: loop of steps in C (:attr:`sensitivities_in_loop`)
         self.sensitivities = sensitivities
         if sensitivities is not None:
             sensitivities.bind(integrator)
@@ -125,6 +126,9 @@ class TimeLoop:
         self.last_recorded: State | None = None
         self.last: LastAccepted | None = None
         self.compiled = False
+        #: the sensitivities' smooth steps in the loop of steps (latdyn.analyses.sensitivities_in_loop.SensitivityLoop),
+        #: None: every step from Python (:meth:`begin` decides)
+        self.sensitivities_in_loop = None
         #: the state of the last trial step the integrator took (:meth:`_step`; what it holds is that trial's)
         self._last_trial: State | None = None
         self.unbounded = False  # the energy balance broke (_judge_balance)
@@ -144,14 +148,19 @@ class TimeLoop:
         # without a C sensor) stops there and the sample is taken from here (_after_accepted); instants
         # off the grid k·dt: one step at a time; a law that jumps in t (latdyn.timeloop.jumps): the steps
         # that land before each jump and the restart after it from Python
-        self.compiled = (self.compiled_loop and hasattr(self.integrator, "advance") and not self.control.adaptive
-                         and (self.sampler is None or self.control.instants_on_nominal_grid)
-                         and not len(self.control.jump_indices)
-                         and self.sensitivities is None)
+        eligible = (self.compiled_loop and hasattr(self.integrator, "advance") and not self.control.adaptive
+                    and (self.sampler is None or self.control.instants_on_nominal_grid)
+                    and not len(self.control.jump_indices))
+        # solve.sensitivities: the smooth steps' derivative in the loop of steps where every term of it is native
+        # (latdyn/analyses/sensitivities_in_loop.py), decided here once for the run; else every step from Python
+        self.sensitivities_in_loop = self.sensitivities.in_loop() if self.sensitivities is not None and eligible \
+            else None
+        self.compiled = eligible and (self.sensitivities is None or self.sensitivities_in_loop is not None)
         self.control.samples_in_loop = self.compiled and self.sampler is not None and self.sampler.in_loop
         self.writer.summary["time_loop"] = "compiled" if self.compiled else "python"
-        # rows where the step runs
-        self.native_rows = self.compiled and NATIVE_ROWS and hasattr(self.integrator, "row_capacity")
+        # rows where the step runs (with sensitivities each row from Python, its sensitivities recorded with it)
+        self.native_rows = (self.compiled and NATIVE_ROWS and hasattr(self.integrator, "row_capacity")
+                            and self.sensitivities is None)
         if resume_from is None:
             self._record(self.progress.state, energy0)
         self.last = self._accepted()
@@ -360,6 +369,11 @@ class TimeLoop:
         stop, rows = (control.next_row(progress) if budget > 0 else progress.grid_index + 1), []
         if self.native_rows and budget > 0:
             stop, rows = self._rows_on_the_way()
+        carried = None
+        if self.sensitivities is not None:   # carried through the steps in C, or (this numbering) a step from Python
+            carried = self.sensitivities_in_loop.prepared(progress.sensitivities, progress.grid_index, stop, control)
+            if carried is None:
+                return self._python_step()
         # the section forces for the probes and the ParaView frames
         momentum, sections = self.probes.needs[0], len(self.model.element_nodes) > 0
         started = time.perf_counter()
@@ -374,8 +388,12 @@ class TimeLoop:
             controller_outputs=self.probes.needs_controller_outputs,
             sample_tolerance=1e-9 * control.dt if control.samples_in_loop else 0.0,
             rate_turns=progress.kept_rate_turns(len(progress.state.theta)) if self.model.hinges else None,
-            unresolved_turn=UNRESOLVED_TURN)
+            unresolved_turn=UNRESOLVED_TURN, sensitivities=carried)
         progress.solver_s += time.perf_counter() - started
+        if done.status == 5:   # the run ends at the loop's start, whose sensitivities are carried (the Python step's error)
+            t = control.grid_time(self._loop_began[1] + done.steps)
+            raise SolverError(f"the sensitivities at t = {t:.6g} need the step's exact iteration matrix, which is "
+                              "singular there")
         if done.rate_turns is not None:  # before the rows: an unbounded balance at one of them names them
             progress.rate_turns = done.rate_turns
         ended_on_a_row = False
@@ -391,6 +409,8 @@ class TimeLoop:
             progress.hinge_work_torque, progress.hinge_damper_torque = done.hinge_work_torque, done.hinge_damper_torque
             progress.cable_work = done.cable_work
             progress.dissipated = self.probes.dissipated = done.dissipated
+            if carried is not None:   # the sensitivities at the last accepted state, before its row
+                progress.sensitivities = self.sensitivities_in_loop.carried_after(progress.sensitivities)
             before, progress.state = progress.state, done.state   # a refusal in _track_cables ends at done's rows
             self._track_cables(before, done.state)
             progress.algorithmic_acceleration = self.integrator.a
@@ -809,6 +829,8 @@ class TimeLoop:
         summary.update(progress.summary(self.tol, self.prepared.scene.solve.method))
         if self.sensitivities is not None and progress.sensitivities is not None and not self.writer.closed:
             self.sensitivities.finish(progress.sensitivities, self.writer)
+            # the smooth steps differentiated in the loop of steps in C (0: every step from Python)
+            summary["sensitivity_steps_in_loop"] = getattr(self.sensitivities_in_loop, "steps", 0)
         if self.model.cables is not None:
             summary["cable_events"] = [{"cable": e["joint"], "t": e["t"], "state": e["kind"]} for e in progress.events
                                        if e["kind"] in ("slack", "taut")]

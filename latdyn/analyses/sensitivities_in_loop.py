@@ -1,0 +1,230 @@
+"""The transient sensitivities' smooth step inside the loop of steps in C (issue 34, item 2).
+
+A run with ``solve.sensitivities`` took every step from Python (latdyn/timeloop/loop.py ``_python_step``, then
+:meth:`latdyn.analyses.transient_sensitivities.TransientSensitivities.step`). Where every term of that step's
+derivative is native, the loop of steps (csrc/newton_step.c ``latdyn_advance``) carries δq, δv, δv̇, δa and δt
+through each step it accepts (csrc/sensitivity_loop.c): the same calls on the same inputs, in the Python step's
+order, and returns to Python where it returns without sensitivities (a row, an event, a Newton failure, the
+budget). Every event, jump, stick or release, landing, Newton cut and the steps after them take the Python path
+as before; so do the runs :func:`refusal` names, for the whole run (decided once, at the start).
+
+Native: ∂r/∂p of section values whose derivative laws are constants (the generated ``*_D_section`` kernels,
+csrc/parameter_forces.c) and of load components (the generated ``point_load``, linear in the values, with the
+derivative laws' values at each grid point tabulated here before each call: a law in t is evaluated by the same
+law object at the same t the Python step reads), and parameters of ``initial_velocity`` (they move the start
+only). Not native (the Python path): hinge, guide, joint-body, contact, friction, cable, controller and geometry
+parameters, section values whose derivative is a law in t or an input, rigid links and guides, cables,
+controllers, explicit time dependence beside events (∂r/∂t δt), energy and momentum probes (their work
+accounts are carried per step in Python), the NumPy kernels, and a numbering whose step matrix takes the
+sparse LU (whose failed pivot falls back to SciPy: :meth:`latdyn.analyses.step_matrix.ExactStepMatrix.solve_step`).
+
+Results: the planar models' rotations are the identity and every sum is the Python step's: the sensitivities
+are the Python path's to the bit. In 3D, J = dexp(hΔq) is computed in C (csrc/sensitivity_loop.c ``dexp_rows``)
+where the Python step takes NumPy's ``dexp_so3``, whose ``cos``, ``sin`` and ``x ** 3`` round differently: the two
+agree to round-off (docs/performance.md, "The sensitivity step in the loop of steps").
+"""
+from __future__ import annotations
+
+import ctypes
+
+import numpy as np
+
+from latdyn.analyses.energy_sensitivities import is_energy_or_momentum
+from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
+from latdyn.analyses.sensitivities import _INITIAL_VELOCITY_KEY, _LOAD_KEY, _SECTION_KEY
+
+__all__ = ["SENSITIVITIES_IN_LOOP", "refusal", "SensitivityLoop"]
+
+#: Whether a run whose sensitivities' terms are all native takes its smooth steps in the loop of steps (False:
+#: every step from Python, the reference it must equal: tests/test_sensitivities_in_loop.py). Private.
+SENSITIVITIES_IN_LOOP = True
+
+
+def refusal(owner) -> str | None:
+    """Why the sensitivities of ``owner`` (a TransientSensitivities) take every step from Python, or None where
+    their smooth steps may run in the loop of steps (module docstring). Once a run."""
+    scene, model = owner.scene, owner.model
+    if not owner.names:
+        return "no parameters"
+    if getattr(owner.kernels, "backend", None) != "c":
+        return "kernels without C libraries"
+    if model.links is not None or model.cables is not None or scene.controllers:
+        return "rigid links, guides, cables or controllers"
+    if owner.explicit_time is not None or owner.geometry is not None:
+        return "explicit time dependence beside events, or geometry parameters"
+    if any(is_energy_or_momentum(probe) for probe in owner.probes):
+        return "energy or momentum probes"
+    for key, laws in owner.derivatives.items():
+        if _INITIAL_VELOCITY_KEY.match(key) or _LOAD_KEY.match(key):
+            continue
+        if _SECTION_KEY.match(key) and not GEOMETRY_KEY.match(key) and all(law.is_constant for law in laws.values()):
+            continue
+        return f"{key}: not a native parameter kind"
+    if owner._section_layout() is not None and owner._section_kernel_addresses() is None:  # noqa: SLF001
+        return "section kernels without C libraries"
+    return None
+
+
+class SensitivityLoop:
+    """The ``SensitivityLoop`` struct of csrc/sensitivity_loop.c for ``owner``'s sensitivities: laid out per
+    numbering (:meth:`prepared`), filled from the carried sensitivities before a call of the loop of steps and
+    read back after it (:meth:`carried_after`)."""
+
+    def __init__(self, owner):
+        from latdyn.assembly.library import SensitivityLoopData
+
+        self.owner = owner
+        self.data = SensitivityLoopData()
+        self._for = None
+        self._keep: list = []
+        #: steps differentiated in the loop of steps over the run (summary.json ``sensitivity_steps_in_loop``)
+        self.steps = 0
+
+    def _pointer(self, array: np.ndarray) -> int:
+        """The address of ``array`` (of a held zero where it is empty), kept alive with the layout."""
+        if not array.size:
+            array = np.zeros(1)
+        self._keep.append(array)
+        return array.ctypes.data
+
+    def _layout(self) -> bool:
+        """The per-numbering part of the struct (the free nodes' slots, S's pattern and storage, the exact
+        matrices' segments, the section and load uses); False where this numbering takes the Python path (no
+        free coordinates, or S on the sparse LU)."""
+        owner = self.owner
+        model, assembler = owner.model, owner.assembler
+        n, k = model.n_dofs, len(owner.names)
+        native = assembler.native(True)
+        key = (native, n)
+        if self._for is not None and self._for[0] == key:
+            return self._for[1]
+        self._keep = []
+        d, ints = self.data, lambda a: np.ascontiguousarray(a, np.int64)
+        ok = n > 0
+        if ok:
+            slots = model.node_dofs[model.free_nodes, 3:6]
+            step_matrix = owner._step_matrix(slots)   # noqa: SLF001 - the Python step's own, per numbering
+            ok = step_matrix.factorization.kind != "sparse"
+        if not ok:
+            self._for = (key, False)
+            return False
+        cols = k + 1
+        about_one_axis = bool(np.all(np.sum(slots < n, axis=1) <= 1))
+        f = len(slots)
+        d.k, d.f = k, 0 if about_one_axis else f
+        self._slots = ints(slots)
+        d.slots = self._pointer(self._slots)
+        self._psi, self._turn, self._tangent = np.zeros((f, 3)), np.zeros((f, 9)), np.zeros((f, 9))
+        d.psi, d.turn, d.tangent = (self._pointer(a) for a in (self._psi, self._turn, self._tangent))
+        if about_one_axis:   # R = J = I (TransientSensitivities._rotation_operators); S's blocks the identity's
+            self._identity = np.ascontiguousarray(np.tile(np.eye(3), (f, 1, 1)))
+            d.blocks = self._pointer(self._identity)
+        else:
+            d.blocks = d.tangent
+        self._buffers = {name: np.zeros(size) for name, size in (
+            ("increment", n + 1), ("predicted", 5 * n * cols), ("explicit", n * cols),
+            ("total", (model.n_total + 1) * k), ("z", n * cols), ("updated", 4 * n * cols))}
+        for name, array in self._buffers.items():
+            setattr(d, name, self._pointer(array))
+        self._carried = {name: np.zeros((n, k)) for name in ("dq", "dv", "dvdot", "da")}
+        for name, array in self._carried.items():
+            setattr(d, name, self._pointer(array))
+        self._dt, self._dh = np.zeros(k), np.zeros(k)
+        d.dt, d.dh = self._pointer(self._dt), self._pointer(self._dh)
+        # M, C and the exact K (Assembler.exact_matrix_values), the bodies' inertia stiffness
+        arguments, stiffness = assembler.exact_segments(native)
+        d.n_segments, d.counts, d.first, d.second, d.indices, d.positions = arguments
+        self._keep.append((assembler._exact_held, assembler._positions3, stiffness))   # noqa: SLF001 - what they point into
+        self._mck = np.zeros((3, assembler.pattern()[1].size))
+        d.mck_size, d.mck = self._mck.size, self._pointer(self._mck)
+        bodies = len(model.body_nodes)
+        kernel = assembler._body_stiffness_kernel() if bodies else None   # noqa: SLF001
+        d.body_kernel = kernel
+        if kernel is not None:
+            rows, gravity = assembler.body_stiffness_inputs(1.0)
+            d.body_rows, d.body_gravity = self._pointer(rows), self._pointer(gravity)
+            d.body_scratch = self._pointer(np.zeros(18 * bodies))
+            d.body_stiffness = self._pointer(stiffness)
+        # S
+        d.step = ctypes.addressof(step_matrix._structure)   # noqa: SLF001
+        self._step_matrix = step_matrix
+        d.S = step_matrix._summed.ctypes.data   # noqa: SLF001
+        d.factor, d.pivots = step_matrix.factorization.values.ctypes.data, step_matrix.factorization.pivots.ctypes.data
+        d.solve_work = self._pointer(np.zeros(3 * n * cols))
+        self._sections()
+        self._loads()
+        self._for = (key, True)
+        return True
+
+    def _sections(self) -> None:
+        """The section uses of ParameterDerivatives._native_section_forces (their rows constant: refusal)."""
+        owner, d = self.owner, self.data
+        layout = owner._section_layout()   # noqa: SLF001
+        d.n_uses = 0
+        if layout is None:
+            return
+        elements, column, rows = owner._section_derivative_blocks(_AtTime(0.0))  # noqa: SLF001 - constant laws (refusal)
+        on, use = owner._section_elements_once()   # noqa: SLF001
+        internal, inertia = owner._section_kernel_addresses()   # noqa: SLF001
+        gravity = 1.0 * np.asarray(owner.assembler.gravity, float)
+        d.internal_D_section, d.inertia_D_section = internal, inertia
+        d.gravity = self._pointer(np.ascontiguousarray(gravity))
+        arrays = [np.ascontiguousarray(a, np.int64) for a in (on, use, elements, column)]
+        d.n_on, d.on = len(on), self._pointer(arrays[0])
+        d.n_uses, d.use, d.elements, d.columns = len(use), *(self._pointer(a) for a in arrays[1:])
+        d.rows = self._pointer(np.ascontiguousarray(rows, np.float64))
+        d.section_scratch = self._pointer(np.zeros(max(len(on) * (36 + 14 + 14 + 10 + 3 + 2 * (14 + 126)), 1)))
+
+    def _loads(self) -> None:
+        """The (load, parameter) pairs of ParameterDerivatives._load_pair_forces."""
+        owner, d = self.owner, self.data
+        pairs, columns, _, _ = owner._load_layout()   # noqa: SLF001
+        d.n_pairs = len(pairs)
+        if not len(pairs):
+            return
+        node, offset, frame = owner._load_points()   # noqa: SLF001
+        d.pair_node = self._pointer(np.ascontiguousarray(node[pairs], np.int64))
+        d.pair_frame = self._pointer(np.ascontiguousarray(frame[pairs], np.int64))
+        d.pair_column = self._pointer(np.ascontiguousarray(columns, np.int64))
+        d.pair_offset = self._pointer(np.ascontiguousarray(offset[pairs], np.float64))
+        d.pair_scratch = self._pointer(np.zeros(76 * len(pairs)))
+
+    def prepared(self, carried: dict, grid_index: int, stop_index: int, control):
+        """The struct filled for a loop of steps from grid point ``grid_index`` through ``stop_index`` with the
+        carried sensitivities ``carried``; None where this numbering takes the Python path."""
+        if not self._layout():
+            return None
+        d, owner = self.data, self.owner
+        for name, array in self._carried.items():
+            np.copyto(array, carried[name])
+        np.copyto(self._dt, carried["dt"])
+        d.steps, d.info = 0, 0
+        if d.n_pairs:   # the derivative laws' values at each grid point the loop may reach (_load_pair_forces)
+            pairs, _, place, _ = owner._load_layout()   # noqa: SLF001
+            distinct, use = owner.load_laws_distinct()
+            table = np.zeros((stop_index - grid_index, len(pairs), 6))
+            for row, grid in enumerate(range(grid_index + 1, stop_index + 1)):
+                t = control.grid_time(grid)   # the step's end time, as the loop of steps computes it
+                table[row][place] = 1.0 * np.array([owner._of_time(law, t) for law in distinct])[use]  # noqa: SLF001
+            self._table = table
+            d.pair_values, d.values_from = table.ctypes.data, grid_index + 1
+        return d
+
+    def carried_after(self, carried: dict) -> dict:
+        """``carried`` after the loop's steps, as the Python path leaves it after a
+        smooth step landing on the grid (TransientSensitivities.step, then the control's resize after a step
+        onto the grid: the nominal step, dh_next 0)."""
+        d = self.data
+        self.steps += d.steps
+        if d.steps == 0:
+            return carried
+        dh = self._dh.copy()
+        return {**carried, **{name: array.copy() for name, array in self._carried.items()}, "dt": self._dt.copy(),
+                "dh": dh, "dh_step": dh, "h": d.h, "pending": None, "dh_next": np.zeros(len(dh))}
+
+
+class _AtTime:
+    """A stand-in state at time t for the layouts read at no state (the laws' values)."""
+
+    def __init__(self, t: float):
+        self.t = t

@@ -1,0 +1,199 @@
+/*
+ * The transient sensitivities' smooth step inside the loop of steps (latdyn_advance, newton_step.c): after each
+ * accepted step that lands on the grid with no event, the derivative of that step for k parameters, as
+ * latdyn/analyses/transient_sensitivities.py TransientSensitivities.step takes it from Python
+ * (step_columns, then the step size's column times δh = −δt_n): the exponential's R and J per free node,
+ * the predicted parts (latdyn_sensitivity_predict), the evaluation with the inertia tangent at the converged
+ * state (latdyn_evaluate), the joint bodies' inertia stiffness and the scatter of M, C and the exact K onto the
+ * assembler's pattern (latdyn_joint_body_inertia_stiffness, latdyn_exact_matrix_values), ∂r/∂p of the section
+ * values (latdyn_section_parameter_forces) and of the load components (the generated point_load, with the
+ * derivative laws' values the caller tabulated per grid point), S's factorization and the k + 1 solves
+ * (latdyn_sensitivity_step), the update (latdyn_sensitivity_update). The calls, their inputs and the order of
+ * their sums are the Python step's; latdyn/analyses/sensitivities_in_loop.py lays the struct out and says
+ * which runs take it.
+ *
+ * Runtime code, written by hand: it holds no physics. The one piece computed here rather than called is
+ * J = dexp(ψ) per free node (latdyn.numerics.so3.dexp_so3, NumPy there): the same formula, its sums in the
+ * order NumPy writes them; NumPy's cos, sin and 3 × 3 products may round differently (docs/performance.md,
+ * "The sensitivity step in the loop of steps").
+ */
+
+/* What the loop of steps needs for the sensitivities' step (latdyn.analyses.sensitivities_in_loop). */
+typedef struct {
+    int64_t k;                          /* parameters */
+    double *dq, *dv, *dvdot, *da;       /* in/out: the carried δq, δv, δv̇, δa (n × k, row-major) */
+    double *dt, *dh;                    /* in/out: δt (k); out: the last step's δh (k) */
+    int64_t f;                          /* free nodes with rotation coordinates; 0: R = J = I (a planar model) */
+    const int64_t *slots;               /* f × 3: their rotation coordinates (≥ n: not one) */
+    double *psi, *turn, *tangent;       /* f × 3, f × 9, f × 9: hΔq on them, R, J */
+    const double *blocks;               /* S's J blocks: tangent where f > 0, else the identity's (held) */
+    double *increment;                  /* n + 1: hΔq, and a zero */
+    double *predicted;                  /* 5 n (k + 1) */
+    double *explicit_;                  /* n (k + 1) */
+    double *total;                      /* (n_total + 1) × k */
+    double *z;                          /* n (k + 1) */
+    double *updated;                    /* 4 n (k + 1) */
+    /* M, C and the exact K on the pattern (Assembler.exact_matrix_values) */
+    int64_t n_segments;
+    const int64_t *counts;
+    const double *const *first;
+    const double *const *second;
+    const int64_t *const *indices;
+    const int64_t *positions;
+    int64_t mck_size;
+    double *mck;
+    kernel_body_stiffness body_kernel;  /* NULL: no joint bodies */
+    const double *body_rows, *body_gravity;
+    double *body_scratch, *body_stiffness;
+    /* S (ExactStepMatrix) */
+    const SensitivityStep *step;
+    double *S, *factor;
+    int *pivots;
+    double *solve_work;                 /* 3 n (k + 1) */
+    /* ∂r/∂p of the section values (ParameterDerivatives._native_section_forces); n_uses 0: none */
+    kernel_2_2 internal_D_section;
+    kernel_5_2 inertia_D_section;
+    const double *gravity;
+    int64_t n_on;
+    const int64_t *on;
+    int64_t n_uses;
+    const int64_t *use, *elements, *columns;
+    const double *rows;
+    double *section_scratch;
+    /* ∂r/∂p of the load components (ParameterDerivatives._load_pair_forces); n_pairs 0: none */
+    int64_t n_pairs;
+    const int64_t *pair_node, *pair_frame, *pair_column; /* frame: the node of its body, −1 global */
+    const double *pair_offset;          /* n_pairs × 3 */
+    const double *pair_values;          /* (grid points) × n_pairs × 6: λ ∂(the load's values)/∂p at each */
+    int64_t values_from;                /* the grid index of pair_values' first grid point */
+    double *pair_scratch;               /* 76 n_pairs */
+    /* out */
+    int64_t steps;                      /* steps differentiated here */
+    int64_t info;                       /* the factorization's info where S was singular (the loop stopped) */
+    double h;                           /* the last step's size */
+} SensitivityLoop;
+
+/* J = dexp(ψ) of latdyn.numerics.so3.dexp_so3 for each of f rotation vectors (f × 3) into out (f × 9). */
+static void dexp_rows(int64_t f, const double *psi, double *out)
+{
+    for (int64_t node = 0; node < f; ++node) {
+        const double *w = psi + 3 * node;
+        double *J = out + 9 * node;
+        const double theta = sqrt((w[0] * w[0] + w[1] * w[1]) + w[2] * w[2]);
+        const double t2 = theta * theta;
+        double first, second;
+        if (theta < 1e-2) {
+            first = 0.5 - t2 / 24 + t2 * t2 / 720;
+            second = 1.0 / 6 - t2 / 120 + t2 * t2 / 5040;
+        } else {
+            first = (1 - cos(theta)) / (theta * theta);
+            second = (theta - sin(theta)) / pow(theta, 3.0);
+        }
+        const double W[9] = {0.0, -w[2], w[1], w[2], 0.0, -w[0], -w[1], w[0], 0.0};
+        for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j) {
+                double WW = 0.0;
+                for (int l = 0; l < 3; ++l) WW += W[3 * i + l] * W[3 * l + j];
+                J[3 * i + j] = ((i == j ? 1.0 : 0.0) + first * W[3 * i + j]) + second * WW;
+            }
+    }
+}
+
+/* ∂r/∂p of the load components at c into total ((n_total + 1) × k): per (load, parameter) pair the generated
+ * point_load with the pair's values at grid point `grid`, added at its node's coordinates in np.add.at's order. */
+static void load_parameter_forces(const Model *m, const Configuration *c, const SensitivityLoop *s, int64_t grid)
+{
+    const int64_t P = s->n_pairs, k = s->k;
+    if (P == 0) return;
+    double *T = s->pair_scratch, *values = T + 9 * P, *frames = values + 6 * P, *velocity = frames + 9 * P;
+    double *offsets = velocity + 6 * P, *force = offsets + 3 * P, *power = force + 6 * P;
+    double *by_node = power + P, *by_frame = by_node + 18 * P;
+    static const double identity[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+    const double *table = s->pair_values + 6 * P * (grid - s->values_from);
+    for (int64_t p = 0; p < P; ++p) {
+        const int64_t i = s->pair_node[p], frame = s->pair_frame[p];
+        memcpy(T + 9 * p, c->T + 9 * i, 9 * sizeof(double));
+        memcpy(values + 6 * p, table + 6 * p, 6 * sizeof(double));
+        memcpy(frames + 9 * p, frame >= 0 ? c->T + 9 * frame : identity, 9 * sizeof(double));
+        memcpy(velocity + 6 * p, c->v + 3 * i, 3 * sizeof(double));
+        memcpy(velocity + 6 * p + 3, c->w + 3 * i, 3 * sizeof(double));
+        memcpy(offsets + 3 * p, s->pair_offset + 3 * p, 3 * sizeof(double));
+    }
+    m->point_load(P, T, offsets, values, frames, velocity, force, power, by_node, by_frame);
+    for (int64_t p = 0; p < P; ++p) {
+        const int64_t *d = m->node_dofs + 6 * s->pair_node[p];
+        for (int j = 0; j < 6; ++j) s->total[d[j] * k + s->pair_column[p]] += force[6 * p + j];
+    }
+}
+
+/* The sensitivities' step over the accepted step base → c of size h ending on grid point `grid` at time t
+ * (scheme: α_m, α_f, γ, β; v_n, a_n, a_{n+1}: the free velocities at its start and the algorithmic accelerations before and after
+ * it): s's carried columns replaced by those at c. Returns 0, or the factorization's info where S is
+ * singular (nothing carried on). */
+static int64_t sensitivity_loop_step(const Model *m, Work *w, SensitivityLoop *s, const double *scheme,
+                                     const Configuration *c, double t, double h, int64_t grid, const double *v_n,
+                                     const double *a_old, const double *a_new)
+{
+    const int64_t n = m->n_dofs, k = s->k, cols = k + 1;
+    const double am = scheme[0], af = scheme[1], gamma = scheme[2], beta = scheme[3];
+    const double beta_p = (1 - am) / (h * h * beta * (1 - af)), gamma_p = gamma / (h * beta);
+    const double step[5] = {h, am, af, gamma, beta};
+    /* the step's own increment hΔq, its rotations' exp and tangent operator (_rotation_operators) */
+    if (s->f > 0) {
+        const double half = h * (0.5 - beta), hb = h * beta;
+        for (int64_t i = 0; i < n; ++i) s->increment[i] = h * ((v_n[i] + half * a_old[i]) + hb * a_new[i]);
+        s->increment[n] = 0.0;
+        for (int64_t node = 0; node < s->f; ++node)
+            for (int j = 0; j < 3; ++j) {
+                const int64_t slot = s->slots[3 * node + j];
+                s->psi[3 * node + j] = s->increment[slot < n ? slot : n];
+            }
+        m->so3_exp(s->f, s->psi, s->turn);
+        dexp_rows(s->f, s->psi, s->tangent);
+    }
+    latdyn_sensitivity_predict(n, k, step, s->f, s->slots, s->turn, s->tangent, v_n, a_old, a_new, s->dq, s->dv,
+                               s->dvdot, s->da, s->predicted);
+    /* M, C and the exact K at c (Assembler.exact_matrix_values) */
+    EvaluationControl e = {t, 1.0, 1, 1, 1, 0.0};
+    latdyn_evaluate(m, w, c, &e);
+    if (s->body_kernel != NULL)
+        latdyn_joint_body_inertia_stiffness(m, c, s->body_kernel, s->body_rows, s->body_gravity, s->body_scratch,
+                                            s->body_stiffness);
+    latdyn_exact_matrix_values(s->n_segments, s->counts, s->first, s->second, s->indices, s->positions, s->mck_size,
+                               s->mck);
+    /* ∂r/∂p with the inertia forces (ParameterDerivatives.residual_derivatives: the sections', then the loads') */
+    memset(s->total, 0, sizeof(double) * (size_t)((m->n_total + 1) * k));
+    if (s->n_uses)
+        latdyn_section_parameter_forces(m, w, c, s->internal_D_section, s->inertia_D_section, 1, s->gravity, s->n_on,
+                                        s->on, s->n_uses, s->use, s->elements, s->columns, s->rows, k, s->total,
+                                        s->section_scratch);
+    load_parameter_forces(m, c, s, grid);
+    for (int64_t i = 0; i < n; ++i) {   /* on the free coordinates, with the step size's column 0 */
+        for (int64_t col = 0; col < k; ++col) s->explicit_[i * cols + col] = s->total[i * k + col];
+        s->explicit_[i * cols + k] = 0.0;
+    }
+    const int64_t size = n * cols;
+    const double *da0 = s->predicted, *dq0 = s->predicted + size, *dv0 = s->predicted + 2 * size;
+    (void)da0;
+    int64_t info = latdyn_sensitivity_step(s->step, s->mck, s->blocks, beta_p, gamma_p, s->S, s->factor, s->pivots,
+                                           cols, s->explicit_, dq0, dv0, s->solve_work, s->z);
+    if (info != 0) {
+        s->info = info;
+        return info;
+    }
+    latdyn_sensitivity_update(n, k, step, beta_p, gamma_p, s->f, s->slots, s->tangent, s->z, s->predicted,
+                              s->updated);
+    /* the step lands on the grid: δh = −δt_n, and each column plus the step size's times δh */
+    double *carried[4] = {s->dq, s->dv, s->dvdot, s->da};
+    for (int64_t col = 0; col < k; ++col) s->dh[col] = -s->dt[col];
+    for (int part = 0; part < 4; ++part) {
+        const double *x = s->updated + part * size;
+        double *to = carried[part];
+        for (int64_t i = 0; i < n; ++i)
+            for (int64_t col = 0; col < k; ++col) to[i * k + col] = x[i * cols + col] + x[i * cols + k] * s->dh[col];
+    }
+    for (int64_t col = 0; col < k; ++col) s->dt[col] = s->dt[col] + s->dh[col];
+    s->steps += 1;
+    s->h = h;
+    return 0;
+}

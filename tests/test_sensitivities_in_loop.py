@@ -1,0 +1,128 @@
+"""The transient sensitivities' smooth steps in the loop of steps in C (latdyn/analyses/sensitivities_in_loop.py,
+csrc/sensitivity_loop.c; issue 34 item 2): taken where every term of the step's derivative is native (section values
+and load components; summary.json ``sensitivity_steps_in_loop`` counts them), equal to the per-step Python path
+(the private switch ``SENSITIVITIES_IN_LOOP`` off) through the API and the CLI, with a latch between them taken from
+Python; a hinge's parameter keeps the whole run on the Python path; a run interrupted inside the loop resumes to
+the same files."""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import yaml
+
+import latdyn
+from tests.cli_runs import ROOT, latdyn_run, summary_of
+from tests.test_sensitivities_events import LATCH_PLANAR
+from tests.test_sensitivities_native_parts import ARM
+
+#: the planar arm of tests/test_sensitivities_events.py swung open by its root hinge's spring and latching at 0.8 rad
+#: (t ≈ 0.46 s), with a tip load: section values and a load's amplitude as parameters (native kinds); the latch's
+#: step and the one after it from Python
+LATCH = (LATCH_PLANAR.replace("parameters: {k: 2.0, c: 0.05, EI: 20.0, rho: 0.5, m: 0.3}",
+                              "parameters: {EI: 20.0, rho: 0.5, F: 0.4}")
+         .replace('damping: "c"', "damping: 0.05").replace('mass: "m"', "mass: 0.3")
+         .replace("solve: {", 'loads:\n  - {at: tip, force: ["0.2*F", "-F", 0]}\nsolve: {')
+         .replace("sensitivities: [k, c, EI, rho, m]", "sensitivities: [EI, rho, F]"))
+
+#: the 3D arm of tests/test_sensitivities_native_parts.py (a hinged second beam, a joint body, gravity, loads in a
+#: body's frame and in t), spinning faster and longer: its fastest node turns 0.018–0.028 rad in each step (past dexp's series, measured)
+ARM_3D = ARM.replace("angular: [0, 0, 2.0]", "angular: [0, 0, 3.0]").replace("t_end: 0.04", "t_end: 0.06")
+assert ARM_3D != ARM and "F: 0.4" in LATCH and "0.05" in LATCH
+
+
+def _latch(k: str = "2.0") -> str:
+    return LATCH.replace('stiffness: "k"', f"stiffness: {k}")
+
+
+def _run(text: str, monkeypatch, in_loop: bool):
+    """The scene's run through the API, its smooth steps' sensitivities in the loop of steps or from Python."""
+    with monkeypatch.context() as patch:
+        patch.setattr("latdyn.analyses.sensitivities_in_loop.SENSITIVITIES_IN_LOOP", in_loop)
+        return latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
+
+
+@pytest.mark.parametrize("text", [ARM_3D, _latch()], ids=["3D arm", "planar latch"])
+def test_the_smooth_steps_in_the_loop_are_the_python_paths(text, monkeypatch):
+    """The loop of steps carries the sensitivities through every smooth step (all of the arm's; the latch's steps
+    but the event's and the landing after it) and they are the per-step Python path's to the bit: rows, extremes
+    and the event's time derivative."""
+    native, python = _run(text, monkeypatch, True), _run(text, monkeypatch, False)
+    steps = native.summary["steps"]
+    assert native.summary["time_loop"] == "compiled" and python.summary["time_loop"] == "python"
+    assert python.summary["sensitivity_steps_in_loop"] == 0
+    in_loop = native.summary["sensitivity_steps_in_loop"]
+    if native.summary["event_sensitivities"]:
+        assert 0 < in_loop < steps and native.summary["event_sensitivities"][0]["kind"] == "latch"
+    else:
+        assert in_loop == steps > 0
+    assert native.sensitivities.keys() == python.sensitivities.keys()
+    for key, values in python.sensitivities.items():
+        assert np.abs(values).max() > 0.0, key
+        np.testing.assert_array_equal(native.sensitivities[key], values, err_msg=str(key))
+    assert native.summary["probe_sensitivities"] == python.summary["probe_sensitivities"]
+    assert native.summary["event_sensitivities"] == python.summary["event_sensitivities"]
+
+
+def test_the_cli_writes_the_python_paths_files(tmp_path):
+    """``latdyn run`` on the latching arm takes the loop; the same command with the switch off (in a process of its
+    own) writes the same sensitivities.csv and probes.csv, byte for byte."""
+    completed, out = latdyn_run(tmp_path, _latch())
+    assert completed.returncode == 0, completed.stderr
+    summary = summary_of(out)
+    assert summary["time_loop"] == "compiled" and summary["sensitivity_steps_in_loop"] > 40
+    reference = tmp_path / "python"
+    code = ("import sys; import latdyn.analyses.sensitivities_in_loop as loop; loop.SENSITIVITIES_IN_LOOP = False; "
+            "from latdyn.cli import main; sys.exit(main(sys.argv[1:]))")
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    run = subprocess.run([sys.executable, "-c", code, "run", str(tmp_path / "scene.yaml"), "-o", str(reference)],
+                         env=env, capture_output=True, text=True, cwd=tmp_path, timeout=120, check=False)
+    assert run.returncode == 0, run.stderr
+    assert summary_of(reference)["sensitivity_steps_in_loop"] == 0
+    for name in ("sensitivities.csv", "probes.csv"):
+        assert (out / name).read_bytes() == (reference / name).read_bytes(), name
+    assert summary["probe_sensitivities"] == summary_of(reference)["probe_sensitivities"]
+
+
+def test_a_hinge_parameter_keeps_the_run_on_the_python_path(monkeypatch):
+    """A hinge law's parameter (its ∂r/∂p from the hinge kernel called from Python) is no native kind: every step of
+    the run from Python, decided at its start."""
+    text = _latch('"k"').replace("parameters: {EI: 20.0,", "parameters: {k: 2.0, EI: 20.0,").replace(
+        "sensitivities: [EI, rho, F]", "sensitivities: [EI, k]")
+    result = _run(text, monkeypatch, True)
+    assert result.summary["time_loop"] == "python" and result.summary["sensitivity_steps_in_loop"] == 0
+    assert np.abs(result.sensitivities[("tip_y", "k")]).max() > 0.0
+
+
+def test_a_run_interrupted_inside_the_loop_resumes_to_the_same_files(tmp_path, monkeypatch):
+    """Interrupted (Ctrl-C) as a loop of steps starts at t ≥ 0.2, before the latch, and resumed from its checkpoint:
+    sensitivities.csv and summary.json's sensitivities are the uninterrupted run's, byte for byte."""
+    from latdyn.step.compiled import CompiledGeneralizedAlpha
+
+    scene = yaml.safe_load(_latch())
+    whole, out = tmp_path / "whole", tmp_path / "out"
+    latdyn.run(scene, whole)
+    original = CompiledGeneralizedAlpha.advance
+    calls = []
+
+    def advance(self, state, **kwargs):
+        calls.append(kwargs.get("sensitivities") is not None)
+        if state.t >= 0.2:
+            raise KeyboardInterrupt
+        return original(self, state, **kwargs)
+
+    with monkeypatch.context() as patch:
+        patch.setattr(CompiledGeneralizedAlpha, "advance", advance)
+        with pytest.raises(KeyboardInterrupt):
+            latdyn.run(scene, out)
+    assert calls and all(calls)   # the loop carried the sensitivities up to the interruption
+    latdyn.run(scene, out, resume=True)
+    assert (out / "sensitivities.csv").read_bytes() == (whole / "sensitivities.csv").read_bytes()
+    resumed, uninterrupted = (json.loads((folder / "summary.json").read_text()) for folder in (out, whole))
+    for key in ("probe_sensitivities", "event_sensitivities"):
+        assert resumed[key] == uninterrupted[key], key
+    assert resumed["sensitivity_steps_in_loop"] > 0
