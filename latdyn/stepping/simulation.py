@@ -141,6 +141,8 @@ class Simulation:
         if not math.isfinite(number) or isinstance(value, bool):
             raise ValueError(f"set_input: input {name!r} takes a finite number, not {value!r}")
         if number != self._inputs[name]:
+            if not self._jumped:  # the stored energy under the laws before the first change at sim.t
+                self._stored_before = self._loop.stored_energy(self._loop.progress.state)
             self._inputs.set(name, number)
             self._jumped = True
 
@@ -164,7 +166,7 @@ class Simulation:
             raise ValueError(f"advance_to({t!r}): past solve.t_end = {t_end!r}, where the scene's run ends")
         if self._jumped:  # the laws jumped at sim.t: the integrator goes on from there under them
             self._jumped = False
-            self._loop.restart()
+            self._loop.restart(self._stored_before)   # the jump's work (a spring's rest, a winch) counted
         if target <= now + slack:
             return
         try:
