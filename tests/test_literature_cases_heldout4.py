@@ -537,3 +537,215 @@ def test_an_end_moment_of_5_pi_ei_over_l_rolls_a_cantilever_two_and_a_half_turns
     spatial = columns(run_api(rolled_past_two_turns(16, "off")))
     assert np.abs(spatial["z"]).max() < 1e-12
     assert np.abs(spatial["x"] - tips[0][0]).max() < 1e-9 and np.abs(spatial["y"] - tips[0][1]).max() < 1e-9
+
+
+# ----------------------------------------------------------------------------- modes of a prestressed cable net
+NET_EA, NET_T, NET_M = 1000.0, 50.0, 0.5
+
+
+def cable_net() -> str:
+    """Four joint bodies (0.5 kg, inertia 1e-3) at (1..2, 1..2, 0), each row and column of them strung
+    on pretensioned cables (EA = 1000, tension T = 50: rest length 1/(1 + T/EA) a bay) to anchors at 0
+    and 3: twelve cables, a 2 × 2 net."""
+    rest = 1.0 / (1.0 + NET_T / NET_EA)
+    bodies, cables = [], []
+    for j in (1, 2):
+        bodies += [f"  w{j}: {{at: [0, {j}, 0], fixed: true}}", f"  e{j}: {{at: [3, {j}, 0], fixed: true}}",
+                   f"  s{j}: {{at: [{j}, 0, 0], fixed: true}}", f"  n{j}: {{at: [{j}, 3, 0], fixed: true}}"]
+    for i in (1, 2):
+        for j in (1, 2):
+            bodies.append(f"  k{i}{j}: {{at: [{i}, {j}, 0], mass: {NET_M}, inertia: [0.001, 0.001, 0.001]}}")
+    for j in (1, 2):
+        cables += [(f"w{j}", f"k1{j}"), (f"k1{j}", f"k2{j}"), (f"k2{j}", f"e{j}")]
+        cables += [(f"s{j}", f"k{j}1"), (f"k{j}1", f"k{j}2"), (f"k{j}2", f"n{j}")]
+    strings = "\n".join(f"  c{k}: {{from: {a}, to: {b}, EA: {NET_EA}, rest_length: {rest!r}}}"
+                        for k, (a, b) in enumerate(cables))
+    return "title: a prestressed cable net\nbodies:\n" + "\n".join(bodies) + "\ncables:\n" + strings + \
+        "\nsolve: {analysis: modes, count: 24}\n"
+
+
+def test_the_modes_of_a_prestressed_cable_net_are_its_discrete_laplacians(tmp_path):
+    """A taut cable resists motion across it by T/ℓ and along it by EA/L₀. Out of the plane the net is a
+    membrane of point masses: ω² = (T/(m a))(μᵢ + μⱼ), μ = 1, 3 the eigenvalues of a string of two beads
+    between fixed ends (2 − 2 cos(kπ/3)); in the plane along x, ω² = (EA/L₀ μᵢ + T/a μⱼ)/m, the same
+    turned for y. Twelve frequencies exact for the lumped net, twelve zero (the bodies' free rotations).
+    Through the CLI."""
+    completed, out = latdyn_run(tmp_path, cable_net())
+    assert completed.returncode == 0, completed.stderr
+    with open(out / "modes.csv") as f:
+        frequencies = np.array([float(line.split(",")[1]) for line in f.readlines()[1:]])
+    axial, across = NET_EA * (1 + NET_T / NET_EA), NET_T
+    exact = sorted([hz(across * (a + b) / NET_M) for a in (1, 3) for b in (1, 3)]
+                   + 2 * [hz((axial * a + across * b) / NET_M) for a in (1, 3) for b in (1, 3)])
+    assert np.abs(frequencies[:12]).max() < 1e-6  # measured 5.3e-8 Hz
+    assert np.abs(frequencies[12:] / exact - 1).max() < 1e-12  # measured 1.1e-15
+
+
+# ----------------------------------------------------------------------------- Michell's lateral–torsional buckling
+def fork(name: str, x: float, support: str) -> tuple[str, str]:
+    """A fork at (x, 0, 0): the point held (``support``: fixed, or guided along x), the end free to turn
+    about y and then about z (a Cardan joint of two massless rigid links whose hinge axes pass through
+    the point) and held against twist about x."""
+    bodies = (f"  {name}0: {{at: [{x}, 0, 0], {support}}}\n  {name}a: {{at: [{x}, 0, 0.1]}}\n"
+              f"  {name}b: {{at: [{x}, 0.1, 0]}}\n")
+    links = (f"  {name}1: {{from: {name}0, to: {name}a, section: link, rigid: true, start: {{hinge: {{axis: OUTER}}}}}}\n"
+             f"  {name}2: {{from: {{body: {name}a, offset: [0, 0, -0.1]}}, to: {name}b, section: link, rigid: true,"
+             f" start: {{hinge: {{axis: INNER}}}}}}\n")
+    return bodies, links
+
+
+def michell_beam(elements: int, outer: str = "[0, 1, 0]", inner: str = "[0, 0, 1]") -> str:
+    """A beam (L = 1) stiff in its plane of bending (EIy = 1e6) and slender across it (EIz = 1, GJ = 0.8)
+    between two forks, one end slides along the axis, under equal and opposite end moments about y
+    (uniform bending)."""
+    a_bodies, a_links = fork("A", 0.0, "fixed: true")
+    b_bodies, b_links = fork("B", 1.0, "guide: {axis: [1, 0, 0]}")
+    links = (a_links + b_links).replace("OUTER", outer).replace("INNER", inner)
+    return f"""\
+title: Michell's beam under end moments
+sections:
+  s: {{EA: 1.0e6, EIy: 1.0e6, EIz: 1.0, GJ: 0.8, rhoA: 1.0}}
+  link: {{EA: 1.0, EIy: 1.0, EIz: 1.0, GJ: 1.0, rhoA: 0.0}}
+bodies:
+{a_bodies}{b_bodies}beams:
+{links}  beam: {{from: {{body: Ab, offset: [0, -0.1, 0]}}, to: {{body: Bb, offset: [0, -0.1, 0]}}, section: s, elements: {elements}}}
+loads:
+  - {{at: Ab, moment: [0, 1.0, 0]}}
+  - {{at: Bb, moment: [0, -1.0, 0]}}
+solve: {{analysis: buckling}}
+"""
+
+
+def test_a_beam_between_forks_tips_over_under_end_moments_at_michells_moment(tmp_path):
+    """Uniform bending of a beam between forks (free to turn in both planes at its ends, held against
+    twist) buckles laterally at M_cr = (π/L)√(EI_z GJ) (Michell 1899; Timoshenko & Gere §6.2; no warping
+    stiffness; the in-plane stiffness 1e6 times the lateral leaves the pre-buckling curvature's
+    correction at 1e-6). The end moments about y are conservative where the forks turn about y first
+    (`conservative: true`, buckling); with the forks' axes in the other order a moment about y does work
+    M cos(α) dβ on the end and is no potential's: the package says so (`conservative: false`) and finds
+    the same load as divergence. 8 and 16 elements (CLI, API): second order."""
+    exact = math.pi * math.sqrt(1.0 * 0.8)
+    completed, out = latdyn_run(tmp_path, michell_beam(8))
+    assert completed.returncode == 0, completed.stderr
+    summaries = [summary_of(out), run_api(michell_beam(16)).summary]
+    errors = []
+    for summary in summaries:
+        assert summary["instability"] == "buckling" and summary["conservative"] is True and not summary.get("warnings")
+        errors.append(summary["buckling_factor"] / exact - 1)
+    assert 0 < errors[1] < 3.5e-3  # measured +1.14e-2, +2.82e-3
+    assert 3.8 < errors[0] / errors[1] < 4.2  # measured 4.04
+    swapped = run_api(michell_beam(16, outer="[0, 0, 1]", inner="[0, 1, 0]")).summary
+    assert swapped["conservative"] is False and swapped["instability"] == "divergence"
+    assert abs(swapped["buckling_factor"] / summaries[1]["buckling_factor"] - 1) < 1e-5  # measured 8e-7
+
+
+# ----------------------------------------------------------------------------- a linear model's receptance
+def receptance_cantilever(elements: int) -> str:
+    """A cantilever (L = 1, EI = ρA = 1) whose linear model takes a force across its tip in and gives the
+    tip's deflection out."""
+    return f"""\
+title: the receptance of a cantilever's tip
+sections:
+  s: {{EA: 1.0e6, EIy: 1.0, EIz: 1.0, GJ: 1.0, rhoA: 1.0}}
+bodies:
+  wall: {{at: [0, 0, 0], fixed: true}}
+beams:
+  arm: {{from: wall, to: [1, 0, 0], section: s, elements: {elements}}}
+solve:
+  analysis: modes
+  count: 2
+  linear_model: {{inputs: [arm.end.force.y], outputs: [v]}}
+output:
+  probes:
+    v: {{point: arm.end, quantity: displacement, component: y}}
+"""
+
+
+def test_a_cantilevers_linear_model_has_the_euler_bernoulli_tip_receptance(tmp_path):
+    """C (iωI − A)⁻¹ B + D of `linear_model.npz` against the continuum's tip receptance
+    (sin βL cosh βL − cos βL sinh βL)/(EI β³ (1 + cos βL cosh βL)), β⁴ = ρA ω²/EI (Bishop & Johnson 1960):
+    L³/3EI at rest, and at ω = 2, 10, 30 rad/s (between the first two natural frequencies 3.516 and
+    22.03, and above the second). 4 and 8 elements through the CLI: fourth order."""
+    def exact(w):
+        b = math.sqrt(w)
+        return (math.sin(b) * math.cosh(b) - math.cos(b) * math.sinh(b)) / (b ** 3 * (1 + math.cos(b) * math.cosh(b)))
+    errors = []
+    for n in (4, 8):
+        (tmp_path / str(n)).mkdir()
+        completed, out = latdyn_run(tmp_path / str(n), receptance_cantilever(n))
+        assert completed.returncode == 0, completed.stderr
+        model = np.load(out / "linear_model.npz")
+        A, B, C, D = model["A"], model["B"], model["C"], model["D"]
+        assert list(model["inputs"]) == ["arm.end.force.y"] and list(model["outputs"]) == ["v"]
+        gain = (-C @ np.linalg.solve(A, B) + D)[0, 0]
+        assert abs(gain * 3 - 1) < 1e-9  # measured 1.3e-12, 1.1e-11 (the static deflection: exact for cubics)
+        responses = [(C @ np.linalg.solve(1j * w * np.eye(len(A)) - A, B) + D)[0, 0] for w in (2.0, 10.0, 30.0)]
+        assert max(abs(r.imag) for r in responses) < 1e-12
+        errors.append(max(abs(r.real / exact(w) - 1) for r, w in zip(responses, (2.0, 10.0, 30.0))))
+    assert errors[1] < 1e-3  # measured 9.4e-3, 6.3e-4 (the largest at 30 rad/s)
+    assert errors[0] / errors[1] > 14  # measured 14.9
+
+
+# ----------------------------------------------------------------------------- invariants of a free-floating assembly
+def free_assembly(dt: float) -> str:
+    """No gravity, nothing fixed: a hub (3 kg) with a rigid link on a skew spring hinge (rest angle 0.4:
+    preloaded) to an elbow, a slider on a skew guide on the elbow (spring, rest 0.15: preloaded; elastic
+    stops ±0.2, e = 1), a flexible arm (3 elements, rotary inertia) on a skew hinge to a far body, and a
+    pretensioned cable from the slider to the far body that goes slack and taut; set in a rigid motion
+    about an axis out of every plane."""
+    return f"""\
+title: a free-floating assembly of hinges, a guide, a cable and a beam
+sections:
+  s: {{EA: 1.0e4, EIy: 40.0, EIz: 25.0, GJ: 20.0, rhoA: 1.5, rhoIy: 0.01, rhoIz: 0.01}}
+  r: {{EA: 1.0, EIy: 1.0, EIz: 1.0, GJ: 1.0, rhoA: 2.0}}
+bodies:
+  hub: {{at: [0, 0, 0], mass: 3.0, inertia: [0.3, 0.4, 0.5]}}
+  elbow: {{at: [0.8, 0.3, 0.1], mass: 0.7, inertia: [0.02, 0.03, 0.02]}}
+  slider:
+    at: [0.8, 0.3, 0.6]
+    mass: 0.9
+    inertia: [0.02, 0.02, 0.03]
+    guide: {{'on': elbow, axis: [0.2, -0.3, 0.93], stiffness: 30.0, rest: 0.15, limits: [-0.2, 0.2], restitution: 1.0}}
+  far: {{at: [-0.4, 1.1, -0.3], mass: 1.2, inertia: [0.05, 0.04, 0.06]}}
+beams:
+  link: {{from: hub, to: elbow, section: r, rigid: true, start: {{hinge: {{axis: [0.3, 0.5, 0.81], stiffness: 4.0, rest_angle: 0.4}}}}}}
+  arm: {{from: hub, to: far, section: s, elements: 3, start: {{hinge: {{axis: [1, 0, 0.2]}}}}}}
+cables:
+  tie: {{from: slider, to: far, EA: 300.0, rest_length: 1.55}}
+initial_velocity: {{linear: [0.3, -0.2, 0.1], angular: [0.4, 0.9, -0.6], about: [0.1, 0.2, 0.0]}}
+solve: {{t_end: 2.0, dt: {dt}}}
+output:
+  every: 0.02
+  probes:
+    e: {{energy: total}}
+    lost: {{energy: dissipated}}
+    px: {{momentum: linear, component: x}}
+    py: {{momentum: linear, component: y}}
+    pz: {{momentum: linear, component: z}}
+    hx: {{momentum: angular, component: x}}
+    hy: {{momentum: angular, component: y}}
+    hz: {{momentum: angular, component: z}}
+"""
+
+
+def test_a_free_floating_assembly_with_a_cable_and_a_guide_on_stops_keeps_its_invariants(tmp_path):
+    """Only internal forces act: linear and angular momentum stay at their initial values and the energy
+    E + D at E(0) = 5.855 J (D what the events declare lost). Five slack and taut changes of the cable and
+    four impacts on the guide's stops, the same at both steps. CLI at dt = 0.002, API at 0.001: the
+    invariants' drift falls with the step (second order in momentum)."""
+    completed, out = latdyn_run(tmp_path, free_assembly(0.002))
+    assert completed.returncode == 0, completed.stderr
+    result = run_api(free_assembly(0.001))
+    drifts, kinds = [], []
+    for p, summary in ((probe_columns(out), summary_of(out)), (columns(result), result.summary)):
+        kinds.append([(e["joint"], e["kind"]) for e in summary["events"]])
+        drifts.append((max(np.abs(p[c] - p[c][0]).max() for c in ("px", "py", "pz")),
+                       max(np.abs(p[c] - p[c][0]).max() for c in ("hx", "hy", "hz")),
+                       np.abs(p["e"] + p["lost"] - p["e"][0]).max(), p["lost"][-1]))
+    assert kinds[0] == kinds[1] and kinds[0].count(("slider", "stop")) == 4 and len(kinds[0]) == 9
+    assert drifts[1][0] < 3e-5 and drifts[1][1] < 8e-5  # measured 5.4e-5, 1.5e-5; 1.9e-4, 4.1e-5 (|H| 4.72)
+    assert drifts[0][0] / drifts[1][0] > 3 and drifts[0][1] / drifts[1][1] > 4  # measured 3.6, 4.6
+    assert drifts[1][2] < 6e-4  # measured 1.0e-3, 4.2e-4 J of 5.855 (9.4e-5 at dt = 0.0005)
+    # the impacts at e = 1 are weighted by M + dt²K (docs/energy.md): they declare 3.2e-3, 2.6e-3 J lost
+    # (7.8e-4 at dt = 0.0005), vanishing with the step as an elastic impact's loss must
+    assert drifts[1][3] < 5e-4 * 5.855
