@@ -805,3 +805,64 @@ def test_a_sampled_pd_loop_follows_its_zero_order_hold_recurrence_stable_or_not(
     assert abs(min(roots.real) + 2.2947271) < 1e-6 and np.all(np.roots([1 / 3, 4.0, 8.0]) < 0)
     assert np.abs(q["th"] - exact[:, 0]).max() < 1e-12 * np.abs(exact[:, 0]).max()  # measured 2.7e-15 of 14.2 rad
     assert not summary_of(out).get("warnings")
+
+
+# ----------------------------------------------------------------------------- a prescribed position that jumps
+def arm_at_a_prescribed_angle(angle: str, beam: str) -> str:
+    """A rod (1 m) on a hinge about z whose angle is prescribed by ``angle``; no gravity."""
+    return f"""\
+title: an arm at a prescribed angle
+inputs: {{u: 1.0}}
+sections:
+  rod: {{EA: 1.0e4, EIy: 10.0, EIz: 10.0, GJ: 10.0, rhoA: 1.0}}
+bodies:
+  ground: {{at: [0, 0, 0], fixed: true}}
+beams:
+  rod: {{from: ground, to: [1, 0, 0], section: rod, {beam}, start: {{hinge: {{axis: [0, 0, 1], angle: "{angle}"}}}}}}
+solve: {{t_end: 1.0, dt: 0.01}}
+output:
+  every: 0.1
+  probes:
+    th: {{hinge: rod.start, quantity: angle}}
+    e: {{energy: total}}
+"""
+
+
+def test_a_prescribed_angle_that_jumps_is_refused_not_run_as_a_teleport(tmp_path):
+    """`angle: Piecewise((0, t < 0.5), (0.5, True))` moves the arm 0.5 rad in no time. It was run: a rigid
+    link was `solved` turned at once, with no word; a flexible arm (2 elements) was `solved` with 8.3 J it
+    had received from nowhere ('the energy balance drifts: 1.05'). Now refused before the run, naming the
+    law's key and the instant (CLI, exit 2; API, SceneError). From Python, `Simulation.set_input` of an
+    input that a prescribed angle names (`u*t`) at t = 0.5 would do the same (it ended `unbounded` at
+    t = 0.52): refused, the input left as it was; one that leaves the angle where it is
+    (`0.5 + u*(t - 0.5)`: a kink, the rate jumps) is run."""
+    completed, out = latdyn_run(tmp_path, arm_at_a_prescribed_angle("Piecewise((0, t < 0.5), (0.5, True))",
+                                                                    "elements: 2"))
+    assert completed.returncode == 2, completed.stderr
+    assert "beams.rod.start.hinge.angle: the prescribed position jumps at t = 0.5" in completed.stderr
+    assert "Traceback" not in completed.stderr
+    try:
+        run_api(arm_at_a_prescribed_angle("Piecewise((0, t < 0.5), (0.5, True))", "rigid: true"))
+    except latdyn.SceneError as refusal:
+        assert "beams.rod.start.hinge.angle" in str(refusal)
+    else:
+        raise AssertionError("a prescribed angle that jumps by 0.5 rad was run")
+
+    stepped = latdyn.Simulation(latdyn.load_scene(yaml.safe_load(arm_at_a_prescribed_angle("u*t", "elements: 2"))))
+    stepped.advance_to(0.5)
+    try:
+        stepped.set_input("u", 2.0)
+    except ValueError as refusal:
+        assert "would move the prescribed position beams.rod.start.hinge.angle from 0.5 to 1" in str(refusal)
+    else:
+        raise AssertionError("an input that moves a prescribed angle by 0.5 rad at once was taken")
+    assert stepped.inputs() == {"u": 1.0}
+    stepped.advance_to(1.0)
+    assert stepped.close().summary["status"] == "solved"
+    kinked = latdyn.Simulation(latdyn.load_scene(yaml.safe_load(
+        arm_at_a_prescribed_angle("0.5 + u*(t - 0.5)", "elements: 2"))))
+    kinked.advance_to(0.5)
+    kinked.set_input("u", 2.0)
+    kinked.advance_to(1.0)
+    q = columns(kinked.close())
+    assert abs(q["th"][-1] - 1.5) < 1e-12  # 0.5 + 2·0.5
