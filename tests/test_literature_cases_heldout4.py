@@ -13,14 +13,16 @@ buckling between Cardan forks (genuinely 3D), a cantilever's tip receptance from
 sampled PD law's discrete roots, and the invariants of a free-floating 3D assembly with a cable, a guide
 on a stop, hinges and a beam.
 
-Two wrong answers were found and mended. The work of a jump of the laws at a fixed configuration was
-not counted: a winch whose rest length a sampled controller sets ended ``unbounded`` (exit 1) after
+Three wrong answers were found and mended. The work of a jump of the laws at a fixed configuration
+was not counted: a winch whose rest length a sampled controller sets ended ``unbounded`` (exit 1) after
 0.1 s, a servo spring stiffened at samples, a rest length that jumps in t and a spring whose stiffness
 an input set from Python changes were reported with a drifting balance or ended ``unbounded``; the
 change of the stored energy at the jump is now external work (``TimeLoop._add_jump_work``,
-csrc/sampling.c ``stored_energy``). And a continuous controller named in a cable's rest length was run
-as a value held over each step (a step late, its work not counted: ``unbounded`` at t = 0.02); it is
-now refused at ``cables.NAME.rest_length`` as a hinge's stiffness naming one is.
+csrc/sampling.c ``stored_energy``). A continuous controller named in a cable's rest length was run as
+a value held over each step (a step late, its work not counted); it is now refused at
+``cables.NAME.rest_length`` as a hinge's stiffness naming one is. And a prescribed angle that jumps in
+t was run as a teleport (`solved`); it is refused now, and so is an input set from Python that would
+move a prescribed position (``latdyn.timeloop.jumps.prescribed_position_jump``).
 """
 from __future__ import annotations
 
@@ -311,23 +313,26 @@ def test_a_continuous_controller_in_a_rest_length_is_refused(tmp_path):
 
 
 # ----------------------------------------------------------------------------- sliding joints on driven and free rods
-def bead_on_a_driven_rod(dt: float, guide: str = "") -> str:
-    """A rigid rod (3 kg, 1 m) driven about z at θ = 2t by a prescribed hinge angle, a bead (0.5 kg,
-    its inertia 0.01) guided along it from r = 0.2 and carried by it; no gravity."""
+def rod_with_a_bead(title: str, r0: float, guide: str, hinge: str, rest: str) -> str:
+    """A rigid rod (3 kg, 1 m: I = 1 about its hinge at the origin) along x on a hinge about z (``hinge``:
+    its further keys), a bead (0.5 kg, its inertia 0.01) guided along it from r = ``r0`` (``guide``: the
+    guide's further keys), carried by it; no gravity. ``rest``: the scene's keys after the beams."""
     return f"""\
-title: a bead on a rod driven at a constant rate
+title: {title}
 sections:
   rod: {{EA: 1.0, EIy: 1.0, EIz: 1.0, GJ: 1.0, rhoA: 3.0}}
 bodies:
   ground: {{at: [0, 0, 0], fixed: true}}
   tip: {{at: [1, 0, 0]}}
-  bead:
-    at: [0.2, 0, 0]
-    mass: 0.5
-    inertia: [0.01, 0.01, 0.01]
-    guide: {{'on': tip, axis: [1, 0, 0]{guide}}}
+  bead: {{at: [{r0}, 0, 0], mass: 0.5, inertia: [0.01, 0.01, 0.01], guide: {{'on': tip, axis: [1, 0, 0]{guide}}}}}
 beams:
-  rod: {{from: ground, to: tip, section: rod, rigid: true, start: {{hinge: {{axis: [0, 0, 1], angle: "2*t"}}}}}}
+  rod: {{from: ground, to: tip, section: rod, rigid: true, start: {{hinge: {{axis: [0, 0, 1]{hinge}}}}}}}
+{rest}"""
+
+
+def bead_on_a_driven_rod(dt: float, guide: str = "") -> str:
+    """The rod driven about z at θ = 2t by a prescribed hinge angle, the bead from r = 0.2."""
+    return rod_with_a_bead("a bead on a rod driven at a constant rate", 0.2, guide, ', angle: "2*t"', f"""\
 solve: {{t_end: 1.0, dt: {dt}}}
 output:
   every: 0.05
@@ -335,7 +340,7 @@ output:
     s: {{guide: bead, quantity: position}}
     f: {{guide: bead, quantity: force}}
     tau: {{hinge: rod.start, quantity: torque}}
-"""
+""")
 
 
 def test_the_drive_of_a_rod_with_a_bead_sliding_out_carries_the_coriolis_torque():
@@ -370,22 +375,8 @@ LATCH_I, LATCH_M, LATCH_AT = 1.0 + 0.01, 0.5, 0.4
 
 
 def latching_bead(dt: float) -> str:
-    """A rigid rod (3 kg, 1 m: I = 1 about its hinge) turning freely about z at 2 rad/s, a bead (0.5 kg,
-    its inertia 0.01) guided along it from r = 0.3, latching 0.4 further out (r = 0.7)."""
-    return f"""\
-title: a bead latches on a freely turning rod
-sections:
-  rod: {{EA: 1.0, EIy: 1.0, EIz: 1.0, GJ: 1.0, rhoA: 3.0}}
-bodies:
-  ground: {{at: [0, 0, 0], fixed: true}}
-  tip: {{at: [1, 0, 0]}}
-  bead:
-    at: [0.3, 0, 0]
-    mass: {LATCH_M}
-    inertia: [0.01, 0.01, 0.01]
-    guide: {{'on': tip, axis: [1, 0, 0], lock_at: {LATCH_AT}}}
-beams:
-  rod: {{from: ground, to: tip, section: rod, rigid: true, start: {{hinge: {{axis: [0, 0, 1]}}}}}}
+    """The rod turning freely about z at 2 rad/s, the bead from r = 0.3, latching 0.4 further out (r = 0.7)."""
+    return rod_with_a_bead("a bead latches on a freely turning rod", 0.3, f", lock_at: {LATCH_AT}", "", f"""\
 initial_velocity: {{angular: [0, 0, 2.0]}}
 solve: {{t_end: 1.5, dt: {dt}}}
 output:
@@ -396,7 +387,7 @@ output:
     hz: {{momentum: angular, component: z}}
     ke: {{energy: kinetic}}
     lost: {{energy: dissipated}}
-"""
+""")
 
 
 def test_a_bead_latching_on_a_freely_turning_rod_keeps_the_angular_momentum(tmp_path):
