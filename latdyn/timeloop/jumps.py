@@ -96,6 +96,25 @@ def prescribed_position_jump(scene, t_end: float) -> tuple[str, float] | None:
     return None
 
 
+def prescribed_rate_kink(scene, t_end: float) -> tuple[str, float] | None:
+    """(key, time) of the first instant in (0, ``t_end``) where the *rate* of a law that prescribes a
+    position jumps (a kink: ``Piecewise((0, t < 0.5), (2*(t - 0.5), True))``, a table's inner node), else
+    None. Such a drive applies an impulse to the free parts it carries, which the run does not apply:
+    a step across the kink takes the prescribed coordinate's new rate while the free joints it carries
+    keep their relative rates, so those parts are carried along rigidly (a crank kinked to 2 rad/s
+    carrying a free rod: the rod turned with it, 5.33 J of kinetic energy, where the impulse gives the
+    rod −3 rad/s and 1.17 J in all) and the energy balance does not close there. The transient says so
+    (a warning naming the law and the instant)."""
+    for key, law in prescribed_positions(scene):
+        rate = getattr(law, "rate", None)
+        if rate is None or getattr(law, "is_constant", False):
+            continue
+        for time in _jumps_of_values(lambda t, rate=rate: np.asarray(rate(np.asarray(t, float)), float), t_end):
+            if 0.0 < time < t_end * (1 - 1e-12):
+                return key, float(time)
+    return None
+
+
 def prescribed_positions(scene):
     """(key, law) of every law of ``scene`` that prescribes a position (:func:`prescribed_position_jump`)."""
     return [(key, law) for key, law in _laws(scene)
