@@ -405,12 +405,16 @@ def wiring(model, assembler) -> Wiring:
     def not_driven(law, key):
         names = [n for n in getattr(law, "input_names", ()) if n in index]
         if names:
-            _refuse(scene, key, f"a continuous controller ({names[0]!r}) drives a hinge torque or a load component; "
-                                "expected it nowhere else (a sampled controller may be named anywhere)")
+            _refuse(scene, key, f"a continuous controller ({names[0]!r}) drives a hinge torque, a guide force or a "
+                                "load component; expected it nowhere else (a sampled controller may be named anywhere)")
 
     for name, body in scene.bodies.items():
         for law in [*(body.translation or ()), body.rotation_angle]:
             not_driven(law, f"bodies.{name}.motion")
+    for name, cable in (getattr(scene, "cables", None) or {}).items():
+        # a rest length is a law of time that the evaluation reads as a held value: a continuous output
+        # there was the value at the step's start, constant over the step and without its work
+        not_driven(cable.rest_length, f"cables.{name}.rest_length")
     actuators, gains = [], []  # (kind, index, component, controller), ∂τ/∂y (0: the name alone)
     for j, h in enumerate(model.hinges):
         path = f"bodies.{h.beam}.guide" if h.kind == "guide" else f"beams.{h.beam}.{h.end}.hinge"

@@ -26,7 +26,7 @@ from latdyn.errors import SceneError, UnboundedError
 from latdyn.results.result import Result
 from latdyn.scene.loader import Scene, load_scene
 from latdyn.solve import _compile_seconds, close_run, open_run, write_linear_model_first
-from latdyn.timeloop.jumps import input_timed_jump_key
+from latdyn.timeloop.jumps import input_timed_jump_key, prescribed_positions
 from latdyn.timeloop.transient import start_transient
 
 #: A time within this fraction of ``solve.dt`` of ``sim.t``, a grid point or ``solve.t_end`` is that time.
@@ -141,8 +141,34 @@ class Simulation:
         if not math.isfinite(number) or isinstance(value, bool):
             raise ValueError(f"set_input: input {name!r} takes a finite number, not {value!r}")
         if number != self._inputs[name]:
+            self._refuse_a_moved_position(name, number)
+            if not self._jumped:  # the stored energy under the laws before the first change at sim.t
+                self._stored_before = self._loop.stored_energy(self._loop.progress.state)
             self._inputs.set(name, number)
             self._jumped = True
+
+    def _refuse_a_moved_position(self, name: str, value: float) -> None:
+        """A ValueError (the input left as it was) where setting input ``name`` to ``value`` at sim.t would
+        move a prescribed position (a hinge's angle, a guide's slide, a body's motion that names it, as
+        ``"u*t"`` does): a joint or body would jump a finite distance in no time (latdyn.run refuses such
+        a law of t: latdyn.timeloop.jumps.prescribed_position_jump)."""
+        t, old = self.t, self._inputs[name]
+        laws = [(key, law) for key, law in prescribed_positions(self._loop.model.scene)
+                if name in getattr(law, "input_names", ())]
+        if not laws:
+            return
+        before = [float(law.value(t)) for _, law in laws]
+        self._inputs.set(name, value)
+        try:
+            after = [float(law.value(t)) for _, law in laws]
+        finally:
+            self._inputs.set(name, old)
+        for (key, _), a, b in zip(laws, before, after):
+            if abs(b - a) > 1e-12 * (1.0 + abs(a) + abs(b)):
+                raise ValueError(f"set_input: input {name!r} = {value!r} would move the prescribed position {key} "
+                                 f"from {a:.9g} to {b:.9g} at t = {t:.9g} in no time (an infinite rate); expected a "
+                                 "value that leaves it where it is (a prescribed rate that names the input, as "
+                                 "'u*(t - t0)', moves on from there)")
 
     def advance_to(self, t: float) -> None:
         """Step the run from :attr:`t` to ``t`` (sim.t ≤ t ≤ ``solve.t_end``, within 1e-9 dt): steps
@@ -164,7 +190,7 @@ class Simulation:
             raise ValueError(f"advance_to({t!r}): past solve.t_end = {t_end!r}, where the scene's run ends")
         if self._jumped:  # the laws jumped at sim.t: the integrator goes on from there under them
             self._jumped = False
-            self._loop.restart()
+            self._loop.restart(self._stored_before)   # the jump's work (a spring's rest, a winch) counted
         if target <= now + slack:
             return
         try:

@@ -77,6 +77,50 @@ def jumping_key(scene, t_end: float) -> str | None:
     return next((key for key, t in _jumps(scene, t_end) if _in_run(t, t_end) is not None), None)
 
 
+#: the keys of the laws that prescribe a position (a hinge's angle, a guide's slide, a body's motion)
+_PRESCRIBED_POSITION = re.compile(r"(\.hinge\.angle|\.guide\.position|\.motion\.translation\[\d\]|"
+                                  r"\.motion\.rotation\.angle)$")
+
+
+def prescribed_position_jump(scene, t_end: float) -> tuple[str, float] | None:
+    """(key, time) of the first jump in t, in (0, ``t_end``], of a law that prescribes a position (a hinge's
+    ``angle``, a guide's ``position``, a body's ``motion``), else None. Such a jump is no motion: it
+    would move the joint (and what it carries) by a finite amount in no time, at an infinite rate, and
+    the run restarted from the new position as if it had always been there (a rigid link turned 0.5 rad
+    in no time, `solved`; a flexible arm so moved ended with 8.3 J it had received from nowhere). A jump
+    of the *rate* (a kink, ``Piecewise((0, t < 0.5), (t - 0.5, True))``) is not a jump of the law's value
+    and is not searched for here."""
+    for key, t in _jumps(scene, t_end):
+        if _PRESCRIBED_POSITION.search(key) and _in_run(t, t_end) is not None:
+            return key, float(t)
+    return None
+
+
+def prescribed_rate_kink(scene, t_end: float) -> tuple[str, float] | None:
+    """(key, time) of the first instant in (0, ``t_end``) where the *rate* of a law that prescribes a
+    position jumps (a kink: ``Piecewise((0, t < 0.5), (2*(t - 0.5), True))``, a table's inner node), else
+    None. Such a drive applies an impulse to the free parts it carries, which the run does not apply:
+    a step across the kink takes the prescribed coordinate's new rate while the free joints it carries
+    keep their relative rates, so those parts are carried along rigidly (a crank kinked to 2 rad/s
+    carrying a free rod: the rod turned with it, 5.33 J of kinetic energy, where the impulse gives the
+    rod −3 rad/s and 1.17 J in all) and the energy balance does not close there. The transient says so
+    (a warning naming the law and the instant)."""
+    for key, law in prescribed_positions(scene):
+        rate = getattr(law, "rate", None)
+        if rate is None or getattr(law, "is_constant", False):
+            continue
+        for time in _jumps_of_values(lambda t, rate=rate: np.asarray(rate(np.asarray(t, float)), float), t_end):
+            if 0.0 < time < t_end * (1 - 1e-12):
+                return key, float(time)
+    return None
+
+
+def prescribed_positions(scene):
+    """(key, law) of every law of ``scene`` that prescribes a position (:func:`prescribed_position_jump`)."""
+    return [(key, law) for key, law in _laws(scene)
+            if law is not None and not isinstance(law, (int, float)) and _PRESCRIBED_POSITION.search(key)]
+
+
 def starts_on_a_jump(scene, side: float) -> bool:
     """Whether a law of ``scene`` jumps at t = 0 (its value there is not its value ``side`` after:
     ``2*Heaviside(t)`` is 1 at 0, ``Piecewise((0, t <= 0), (2, True))`` 0): the run then starts from

@@ -260,7 +260,28 @@ class TimeLoop:
         a resumed one goes on from (which the writer took back)."""
         return self.writer.last_time == state.t
 
-    def restart(self) -> None:
+    def stored_energy(self, state: State) -> float:
+        """The strain and gravity potential energy at ``state`` under the laws as they are now (cables'
+        rest lengths and hinge springs at their current values): what a jump of the laws at a fixed
+        configuration changes (:meth:`_add_jump_work`)."""
+        energies = self.energies_of(state)
+        return energies["strain"] + energies["potential"]
+
+    def _add_jump_work(self, stored_before: float | None, state: State) -> None:
+        """The work of a jump of the laws at the fixed configuration ``state`` (a sample of a sampled
+        controller, a law of t that jumps, an input set from outside): the change of the stored energy
+        it made, from ``stored_before`` (:meth:`stored_energy` under the laws before it) to the laws'
+        after it, is external work (docs/energy.md, "Jumps of the laws"). A winch's rest length or a
+        servo's spring that a sample moves changes the strain energy at the sample with no motion: the
+        structure received that energy from whatever drives the law, and the balance counts it so."""
+        if stored_before is None:
+            return
+        work = self.stored_energy(state) - stored_before
+        if work:
+            progress = self.progress
+            progress.external_work = self.probes.external_work = progress.external_work + work
+
+    def restart(self, stored_before: float | None = None) -> None:
         """The laws jumped at the state the loop stands at (an input set from outside at a pause):
         the integrator goes on from the accelerations of the equations of motion under the new
         laws, with the directions that are stiff at the scale of dt taken quasi-statically, as after
@@ -296,6 +317,7 @@ class TimeLoop:
         progress.algorithmic_acceleration = getattr(self.integrator, "a", None)
         progress.power = load_power(self.model, state, evaluation)
         self._torques_from(evaluation)
+        self._add_jump_work(stored_before, state)
 
     def _rigid_only(self) -> bool:
         """Whether the structure has no elastic element and no cable (rigid links, bodies, hinges and
@@ -748,20 +770,25 @@ class TimeLoop:
         progress, model = self.progress, self.model
         tolerance = 1e-9 * self.control.dt
         after_jump = self.control.jump_reached(progress)
+        stored = None
         if after_jump is not None:  # a law jumped: the run goes on after it (JUMP_SIDE · dt), where a
             # sample due at the jump's instant is taken too (within twice the side), then one restart
+            stored = self.stored_energy(state)
             progress.state = state = state.copy()
             state.t = after_jump
             tolerance = 2.5 * self.control.jump_side
         due = [] if sampled or self.sampler is None else [c.name for c in self.sampler.due(state.t, tolerance)]
+        if due and stored is None:
+            stored = self.stored_energy(state)
         sampled_now = bool(due) and self.sampler.sample(state, state.t, tolerance)
         if sampled_now:
             progress.controller_memory = self.sampler.memory()
         if after_jump is not None:  # from the accelerations of the new laws (and the new held outputs)
-            self.restart()
+            self.restart(stored)
             state = progress.state
         elif sampled_now:
             self._restart_after_sample(state)
+            self._add_jump_work(stored, state)
         if sampled_now and self.sensitivities is not None:  # the sample and its restart differentiated
             progress.sensitivities = self.sensitivities.after_sample(progress.sensitivities, state, due)
         if progress.steps % 256 == 0:  # exp updates keep T on SO(3) to round-off; remove the drift of long runs

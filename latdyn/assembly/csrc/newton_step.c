@@ -503,9 +503,13 @@ int64_t latdyn_advance(const Model *m, Work *w, StepControl *s, const Configurat
         }
         adv->iterations += s->iterations;
         adv->factorizations += s->factorizations;
-        /* a sample instant: the sample, then the restart here (or, status 4, by the caller before the row) */
-        if (adv->sample_tolerance > 0.0 && m->n_sampled
-            && latdyn_sample_controllers(m, w, trial, target, adv->sample_tolerance)) {
+        /* a sample instant: the sample and its work (the change of the stored energy the new held outputs
+         * make at the fixed configuration: sampling.c stored_energy), then the restart here (or, status 4,
+         * by the caller before the row) */
+        if (adv->sample_tolerance > 0.0 && m->n_sampled && any_sample_due(m, target, adv->sample_tolerance)) {
+            const double stored = stored_energy(m, w, trial, target);
+            latdyn_sample_controllers(m, w, trial, target, adv->sample_tolerance);
+            adv->external_work += stored_energy(m, w, trial, target) - stored;
             adv->samples += 1;
             if (!adv->native_restart || restart_after_sample(m, w, trial, target, x->a_n, adv)) {
                 adv->status = 4;

@@ -18,6 +18,26 @@ static int sample_due(double t, double rate, double tolerance, double *instant)
     return fabs(*instant - t) <= tolerance;
 }
 
+/* Whether t is a sample instant of any sampled controller (within `tolerance`). */
+static int any_sample_due(const Model *m, double t, double tolerance)
+{
+    double instant;
+    for (int64_t k = 0; k < m->n_sampled; ++k)
+        if (sample_due(t, m->sampled_rate[k], tolerance, &instant)) return 1;
+    return 0;
+}
+
+/* The strain and gravity potential energy at c under the laws as they are now (latdyn_energies): a
+ * sample that moves a law a stored energy depends on (a cable's rest length, a hinge spring's stiffness)
+ * changes it at the fixed configuration, and that change is the work the sample did on the structure
+ * (latdyn/timeloop/loop.py TimeLoop._add_jump_work, docs/energy.md "Jumps of the laws"). */
+static double stored_energy(const Model *m, Work *w, const Configuration *c, double t)
+{
+    double energies[3];
+    latdyn_energies(m, w, c, t, energies);
+    return energies[1] + energies[2];
+}
+
 /* The sample at the accepted state c, time t: every sampled controller whose instant t is (within
  * `tolerance`), in file order,
  *     y_k = clip(output(t_k, s, S_k)),   S_{k+1} = S_k + EXPR(t_k, s, S_k) / rate,
