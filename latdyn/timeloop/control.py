@@ -16,7 +16,8 @@ Every run ends: no step is shorter than ``dt_min`` (default dt·10⁻⁶; the lo
 cannot converge, or that the error estimate rejects, at ``dt_min`` ends the run with a SolverError
 (exit 1), and so does a run that crawls — :data:`CRAWL_STEPS` accepted steps in a row averaging
 less than the crawling step, min(:data:`CRAWL_FACTOR` · dt_min, :data:`CRAWL_FRACTION` · dt) (events
-that re-trigger at the same instant, a motion the error estimate cannot follow). Without an
+that re-trigger at the same instant, a motion the error estimate cannot follow; the message names which of
+events, Newton's cuts or the error estimate kept the steps short, and its remedy). Without an
 accepted step the tried steps only shrink (cut, rejected, shortened onto the grid), so the floor
 also bounds the attempts in a row."""
 from __future__ import annotations
