@@ -32,8 +32,8 @@ def slider_crank(solve: str) -> str:
 def test_the_slider_crank_example_with_adaptive_steps_ends_near_a_fine_fixed_step_run(tmp_path):
     """The rod's mid-span deflection of adaptive runs (dt = 0.01 the largest step) against a fixed-step
     run at dt = 0.002/64: within error_tol · length (0.525 m) at error_tol 1e-4 (CLI) and 1e-5 (API),
-    in a few hundred steps. Measured: 3.0e-6 m in 254 steps (4 rejected) and 3.1e-6 m in 567 steps
-    (82 rejected); the fixed dt = 0.002 run is 2.8e-6 m off, the slide 4e-8 m in each."""
+    in a few hundred steps. Measured: 3.0e-6 m in 254 steps (4 rejected) and 3.2e-6 m in 567 steps
+    (82 rejected), the slide 6.0e-8 and 8.3e-8 m off (docs/stepping.md, "Adaptive steps that collapse")."""
     reference = latdyn.run(latdyn.load_scene(_scene(tmp_path / "fine", slider_crank(
         "solve: {analysis: transient, t_end: 1.5, dt: 3.125e-5}"))))
     fine = {k: np.asarray(v) for k, v in reference.probes.items()}
