@@ -16,7 +16,8 @@ Every run ends: no step is shorter than ``dt_min`` (default dt·10⁻⁶; the lo
 cannot converge, or that the error estimate rejects, at ``dt_min`` ends the run with a SolverError
 (exit 1), and so does a run that crawls — :data:`CRAWL_STEPS` accepted steps in a row averaging
 less than the crawling step, min(:data:`CRAWL_FACTOR` · dt_min, :data:`CRAWL_FRACTION` · dt) (events
-that re-trigger at the same instant, a motion the error estimate cannot follow). Without an
+that re-trigger at the same instant, a motion the error estimate cannot follow; the message names which of
+events, Newton's cuts or the error estimate kept the steps short, and its remedy). Without an
 accepted step the tried steps only shrink (cut, rejected, shortened onto the grid), so the floor
 also bounds the attempts in a row."""
 from __future__ import annotations
@@ -95,8 +96,12 @@ class StepControl:
         self.adaptive, self.error_tol, self.length = solve.adaptive, solve.error_tol, length
         self.every = every
         self.crawling_step = min(CRAWL_FACTOR * self.dt_min, CRAWL_FRACTION * self.dt)
-        # the crawl window: its accepted steps so far and the time it started at
+        # the crawl window: its accepted steps so far and the time it started at; what shrank its steps is
+        # counted from the totals at its start (:meth:`_shrunk_by`)
         self.window_steps, self.window_events, self.window_t = 0, 0, None
+        self.window_start: tuple[int, int, int] = (0, 0, 0)
+        #: adaptive steps: the trials the error estimate rejected in the whole run (:meth:`rejects`)
+        self.estimate_rejections = 0
         # where the loop pauses (pause_at): its time and the last grid point not after it; the step
         # that was shortened to land on it, restored once the run is back on the grid
         self.pause, self.pause_index = None, None
@@ -253,6 +258,7 @@ class StepControl:
         if error <= 1.0:
             return False
         run.rejected_steps += 1
+        self.estimate_rejections += 1
         if self.at_minimum(h):
             raise SolverError(
                 "the error estimate rejects the step at the minimum step",
@@ -379,9 +385,11 @@ class StepControl:
 
     def _watch_crawl(self, run: TransientProgress, h: float, event: bool) -> None:
         """Count the accepted step of size ``h`` (``event``: it ended on a latch or a stop) into the
-        crawl window; a full window that advanced less than CRAWL_STEPS crawling steps ends the run."""
+        crawl window; a full window that advanced less than CRAWL_STEPS crawling steps ends the run,
+        its message naming what kept the steps short (:meth:`_shrunk_by`) and the remedy for that."""
         if self.window_t is None:
             self.window_t, self.window_steps, self.window_events = run.state.t - h, 0, 0
+            self.window_start = self._totals(run)
         self.window_steps += 1
         self.window_events += bool(event)
         if self.window_steps < CRAWL_STEPS:
@@ -390,11 +398,31 @@ class StepControl:
         if advanced < CRAWL_STEPS * self.crawling_step:
             raise SolverError(
                 "the time step stays near the minimum step",
-                f"{CRAWL_STEPS} steps from t = {self.window_t:.9g} advanced {advanced:.3g}, on average "
-                f"{advanced / CRAWL_STEPS:.3g} a step, less than {self.crawling_step:.3g} (dt_min = "
-                f"{self.dt_min:.3g}); {self.window_events} of them ended on a latch or a stop"
-                + (" (events that re-trigger at the same instant: a stop chattering)" if self.window_events
-                   else " (a motion the error estimate or Newton cannot follow at a larger step)")
-                + "; the run ends here rather than crawl (a motion meant to need such steps: a smaller "
-                  "solve.dt_min).")
+                f"{CRAWL_STEPS} steps from t = {self.window_t:.9g} to t = {run.state.t:.9g} advanced {advanced:.3g}, "
+                f"on average {advanced / CRAWL_STEPS:.3g} a step, less than {self.crawling_step:.3g} (dt = {self.dt:.3g}, "
+                f"dt_min = {self.dt_min:.3g}); " + self._shrunk_by(run)
+                + "; the run ends here rather than crawl.")
         self.window_t, self.window_steps, self.window_events = run.state.t, 0, 0
+        self.window_start = self._totals(run)
+
+    def _totals(self, run: TransientProgress) -> tuple[int, int, int]:
+        """The run's trials so far rejected by the error estimate, cut after Newton failed, and cut for a far root."""
+        return self.estimate_rejections, getattr(run, "newton_cuts", 0), getattr(run, "far_roots", 0)
+
+    def _shrunk_by(self, run: TransientProgress) -> str:
+        """What kept the crawl window's steps short, and its remedy: events that re-trigger at the same instant,
+        Newton's cuts (or cuts for far roots), or, with adaptive steps, the error estimate that sizes them."""
+        rejected, cuts, far = (now - then for now, then in zip(self._totals(run), self.window_start))
+        counts = (f"{self.window_events} of them ended on a latch or a stop; in them the error estimate rejected "
+                  f"{rejected} trials, Newton's failures cut {cuts} and far roots {far}")
+        if self.window_events:
+            return (counts + " (events that re-trigger at the same instant: a stop chattering; a motion meant "
+                    "to need such steps: a smaller solve.dt_min)")
+        if cuts + far > rejected or not self.adaptive:
+            return (counts + " (Newton does not converge at a larger step: a motion it cannot follow there; "
+                    "a motion meant to need such steps: a smaller solve.dt_min)")
+        tol = self.error_tol * self.length
+        return (counts + f" (the error estimate sizes the adaptive steps: error_tol = {self.error_tol:.3g} asks for a "
+                f"local error of at most {tol:.3g} m a step (error_tol · length {self.length:.3g} m), which only steps "
+                "this short meet; a larger solve.error_tol (the steps grow as its cube root); a motion meant to need "
+                "such steps: a smaller solve.dt_min)")
