@@ -414,3 +414,20 @@ def test_scene_reference_catches_a_key_it_was_not_told_about(monkeypatch):
     monkeypatch.setattr(loader, "_SOLVE_KEYS", loader._SOLVE_KEYS + ("no_such_setting",))
     module, text, undescribed = _scene_reference()
     assert "| `no_such_setting` |" in text and "solve.no_such_setting" in undescribed
+
+
+def test_every_shipped_scene_is_standard_yaml():
+    """The shipped scenes and studies read with any YAML tool (PyYAML's safe loader), not only latdyn's loader,
+    which also takes a bracket inside a flow mapping (``{point: rod.node[2]}``): a user's script that reads an
+    example to change it (the adaptive slider–crank of docs/verification.md was reported hanging by such a
+    script that had failed to parse it) must not meet a dialect."""
+    import yaml
+
+    scenes = sorted((ROOT / "examples").rglob("*.yaml")) + sorted((ROOT / "latdyn" / "examples").glob("*.yaml"))
+    unreadable = []
+    for path in scenes:
+        try:
+            yaml.safe_load(path.read_text())
+        except yaml.YAMLError as error:
+            unreadable.append(f"{path.relative_to(ROOT)}: {str(error).splitlines()[0]}")
+    assert not unreadable, unreadable
