@@ -608,24 +608,32 @@ ROTATION_VECTOR = Argument("rotation_vector", 3, "w: a rotation vector (axis tim
 SO3_SWITCH = sp.Rational(1, 100)
 
 
-def so3_exp_scales(x):
-    """a = sin θ/θ and b = (1 − cos θ)/θ² = 2 sin²(θ/2)/θ² as functions of x = θ², branch-free and
-    finite at 0: F(x̂) + P(x̌) − P(x_s) with x̂ = max(x, x_s), x̌ = min(x, x_s), F the closed form and P
-    the Taylor polynomial. Above x_s that is F(x) (the two P terms are one and the same number);
-    below, P(x) plus the truncation constant F(x_s) − P(x_s) < 3e-18. Unlike the element's log map,
-    whose argument stays below 2, a rotation vector grows without bound (a prescribed spin), so the
-    polynomial is never evaluated beyond x_s, and x̌ is formed so that it *is* x_s there: with
+def so3_scales(x, forms):
+    """Scalar functions of x = θ², branch-free and finite at 0, one per (closed form F(θ, θ²), series
+    coefficient c_k) of ``forms``: F(x̂) + P(x̌) − P(x_s) with x̂ = max(x, x_s), x̌ = min(x, x_s), P the Taylor
+    polynomial Σ_{k<5} c_k (−x)^k. Above x_s that is F(x) (the two P terms are one and the same number);
+    below, P(x) plus the truncation constant F(x_s) − P(x_s) (< 3e-18 for the maps here). Unlike the
+    element's log map, whose argument stays below 2, a rotation vector grows without bound (a prescribed
+    spin), so the polynomial is never evaluated beyond x_s, and x̌ is formed so that it *is* x_s there: with
     d = x − x_s as a value of its own (an intermediate, which no simplification distributes),
-    x̌ = x_s − (|d| − d)/2 and x̂ = x_s + (d + |d|)/2. Returns (a, b, intermediates)."""
+    x̌ = x_s − (|d| − d)/2 and x̂ = x_s + (d + |d|)/2. Returns (the scalars, intermediates)."""
     t = sp.Dummy("t", nonnegative=True)
     d, excess, shortfall = sp.symbols("so3_d so3_excess so3_shortfall")
     intermediates = [(d, x - SO3_SWITCH), (excess, (d + sp.Abs(d)) / 2), (shortfall, (sp.Abs(d) - d) / 2)]
     above, below = SO3_SWITCH + excess, SO3_SWITCH - shortfall
     root = sp.sqrt(above)
-    closed = (sp.sin(root) / root, 2 * sp.sin(root / 2) ** 2 / above)
-    series = (sum((-t) ** k / sp.factorial(2 * k + 1) for k in range(5)),
-              sum((-t) ** k / sp.factorial(2 * k + 2) for k in range(5)))
-    a, b = (F + sp.horner(P, wrt=t).subs(t, below) - P.subs(t, SO3_SWITCH) for F, P in zip(closed, series))
+    scales = []
+    for closed, coefficient in forms:
+        P = sum((-t) ** k * coefficient(k) for k in range(5))
+        scales.append(closed(root, above) + sp.horner(P, wrt=t).subs(t, below) - P.subs(t, SO3_SWITCH))
+    return scales, intermediates
+
+
+def so3_exp_scales(x):
+    """a = sin θ/θ and b = (1 − cos θ)/θ² = 2 sin²(θ/2)/θ² as functions of x = θ² (:func:`so3_scales`).
+    Returns (a, b, intermediates)."""
+    (a, b), intermediates = so3_scales(x, [(lambda r, r2: sp.sin(r) / r, lambda k: 1 / sp.factorial(2 * k + 1)),
+                                           (lambda r, r2: 2 * sp.sin(r / 2) ** 2 / r2, lambda k: 1 / sp.factorial(2 * k + 2))])
     return a, b, intermediates
 
 
@@ -643,6 +651,29 @@ def _so3_exp_kernel() -> KernelSpec:
                       "rotations", inputs=[ROTATION_VECTOR],
                       outputs=[Output("rotation", (3, 3), list(R), "exp(skew w), row-major")], variant="joints",
                       equations="the configuration update on SO(3) (Eq. 59's virtual rotations)",
+                      intermediates=intermediates)
+
+
+def so3_dexp(w):
+    """The tangent operator of the exponential map in the spatial (left) form, exp(skew(w + δw)) =
+    exp(skew(J δw)) exp(skew w) to first order: J = I + b W + c W², W = skew w, b = (1 − cos θ)/θ²,
+    c = (θ − sin θ)/θ³ (:func:`so3_scales`: the series below the switch, where θ − sin θ cancels);
+    (matrix, intermediates)."""
+    W = skew(w)
+    (b, c), intermediates = so3_scales(
+        w.dot(w), [(lambda r, r2: 2 * sp.sin(r / 2) ** 2 / r2, lambda k: 1 / sp.factorial(2 * k + 2)),
+                   (lambda r, r2: (r - sp.sin(r)) / (r2 * r), lambda k: 1 / sp.factorial(2 * k + 3))])
+    return sp.eye(3) + b * W + c * W * W, intermediates
+
+
+def _so3_dexp_kernel() -> KernelSpec:
+    J, intermediates = so3_dexp(_vector(ROTATION_VECTOR.symbols()))
+    return KernelSpec(name="so3_dexp", doc="The tangent operator of SO(3)'s exponential (spatial form), branch-free "
+                      "and exact to round-off at small angles: how a step's rotation increment carries the "
+                      "sensitivities of the rotations (latdyn/analyses/transient_sensitivities.py)",
+                      inputs=[ROTATION_VECTOR],
+                      outputs=[Output("tangent", (3, 3), list(J), "dexp(w), row-major")], variant="joints",
+                      equations="the variation of the configuration update on SO(3) (Eq. 59's virtual rotations)",
                       intermediates=intermediates)
 
 
@@ -926,7 +957,7 @@ def _closure_wrench_kernel(rod: bool) -> KernelSpec:
 def build_kernels() -> list[KernelSpec]:
     """The kernels of the ``joints`` unit."""
     return [*_joint_body_kernels(), _point_load_kernel(), _hinged_end_kernel(), _hinge_force_kernel(),
-            _contact_law_derivative_kernel(), _friction_law_derivative_kernel(), _so3_exp_kernel(), _link_edge_kernel(),
+            _contact_law_derivative_kernel(), _friction_law_derivative_kernel(), _so3_exp_kernel(), _so3_dexp_kernel(), _link_edge_kernel(),
             _hinge_wrench_kernel(), _root_wrench_kernel(),
             _link_edge_kernel(prismatic=True), _slide_wrench_kernel(), _cable_force_kernel(), _cable_tension_kernel(),
             _closure_edge_kernel(rod=False), _closure_edge_kernel(rod=True), _closure_wrench_kernel(rod=False),

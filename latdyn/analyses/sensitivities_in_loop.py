@@ -19,9 +19,9 @@ accounts are carried per step in Python), the NumPy kernels, and a numbering who
 sparse LU (whose failed pivot falls back to SciPy: :meth:`latdyn.analyses.step_matrix.ExactStepMatrix.solve_step`).
 
 Results: the planar models' rotations are the identity and every sum is the Python step's: the sensitivities
-are the Python path's to the bit. In 3D, J = dexp(hΔq) is computed in C (csrc/sensitivity_loop.c ``dexp_rows``)
-where the Python step takes NumPy's ``dexp_so3``, whose ``cos``, ``sin`` and ``x ** 3`` round differently: the two
-agree to round-off (docs/performance.md, "The sensitivity step in the loop of steps").
+are the Python path's to the bit. In 3D, R = exp(skew hΔq) and J = dexp(hΔq) are the generated ``so3_exp`` and
+``so3_dexp`` on both paths (the C kernels, called from C in the loop and through the kernel set in the Python step),
+so those are the same bits too.
 """
 from __future__ import annotations
 

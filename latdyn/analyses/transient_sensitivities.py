@@ -12,7 +12,7 @@ Its derivative by a parameter p, with δq in the coordinates of the configuratio
 T ← exp(skew δπ) T, θ += δθ: rotations in the spatial tangent space): from
 T_{n+1} = exp(h Δq) T_n,
 
-    δπ_{n+1} = R δπ_n + J h δΔq,    R = exp(skew hΔq),  J = dexp(hΔq)  (:func:`latdyn.numerics.so3.dexp_so3`)
+    δπ_{n+1} = R δπ_n + J h δΔq,    R = exp(skew hΔq),  J = dexp(hΔq)  (the generated ``so3_dexp``)
 
 (translations and hinge angles: δd_{n+1} = δd_n + h δΔq). With y = δv̇_{n+1} = β′z, the predicted
 parts (those of y = 0) δa⁰, δΔq⁰, δv⁰, δq⁰, and δq_{n+1} = δq⁰ + J z, δv_{n+1} = δv⁰ + γ′z, the
@@ -137,7 +137,6 @@ from latdyn.errors import SceneError, SolverError
 from latdyn.model.model import lock_tolerance
 from latdyn.numerics.inertia import split_inertia
 from latdyn.numerics.linalg import issparse
-from latdyn.numerics.so3 import dexp_so3
 from latdyn.scene.expressions import TimeFunction, _drop_deltas
 from latdyn.step.integrators import consistent_acceleration
 from latdyn.timeloop.events import cable_gaps, first_crossing, lock_events, may_stick, sticking_hinges, stop_hits
@@ -1135,10 +1134,11 @@ class TransientSensitivities(ParameterDerivatives):
         if identity is not None:
             return identity, identity
         psi = np.ascontiguousarray(np.append(increment, 0.0)[read])
-        # the generated so3_exp in the kernels' backend (C where compiled: the step's own; 9 µs against
-        # 32 µs for its NumPy form, expm_so3, at 31 nodes)
+        # the generated so3_exp and so3_dexp in the kernels' backend (C where compiled: the step's own and the
+        # loop of steps' (csrc/sensitivity_loop.c); 9 µs against 32 µs for its NumPy form, expm_so3, at 31 nodes)
         turn = np.asarray(self.kernels.so3_exp(psi)[0]).reshape(-1, 3, 3)
-        return _NodeRotations(self, turn, slots, n), _NodeRotations(self, dexp_so3(psi), slots, n)
+        tangent = np.asarray(self.kernels.so3_dexp(psi)[0]).reshape(-1, 3, 3)
+        return _NodeRotations(self, turn, slots, n), _NodeRotations(self, tangent, slots, n)
 
     def _step_matrix(self, slots: np.ndarray) -> "ExactStepMatrix":
         """The step's exact iteration matrix β′M + γ′C + K J on the assembler's pattern

@@ -78,7 +78,7 @@ class ModelData(ctypes.Structure):
         ("internal_force", P), ("internal_force_D_q", P), ("mass_matrix", P), ("quadratic_velocity", P),
         ("quadratic_velocity_D_qdot", P), ("gravity_load", P), ("strain_energy", P), ("kinetic_energy", P),
         ("inertia_force_D_q", P),
-        ("joint_body", P), ("point_load", P), ("body_section", P), ("hinged_end", P), ("element_ends", P), ("hinge_force", P), ("so3_exp", P),
+        ("joint_body", P), ("point_load", P), ("body_section", P), ("hinged_end", P), ("element_ends", P), ("hinge_force", P), ("so3_exp", P), ("so3_dexp", P),
         ("parallel_elements", I64), ("threads", I64),
         ("time_laws", P), ("hinge_laws", P),
         ("hinge_stiffness_law", P), ("hinge_damping_law", P), ("hinge_torque_hinge_law", P), ("hinge_conservative", P),

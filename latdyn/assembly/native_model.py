@@ -272,7 +272,7 @@ class NativeModel:
         kernel.update({name: _kernel_address(kernels, name) for name in (
             "beam_internal_force", "beam_internal_force_D_q", "beam_mass_matrix", "beam_quadratic_velocity",
             "beam_quadratic_velocity_D_qdot", "beam_gravity", "beam_strain_energy", "beam_kinetic_energy",
-            "joint_body", "point_load", "hinged_end", "hinge_force", "so3_exp", "cable_force")})
+            "joint_body", "point_load", "hinged_end", "hinge_force", "so3_exp", "so3_dexp", "cable_force")})
         # compiled on first use (latdyn.model.kernels.ON_DEMAND): only for a model that evaluates the inertia tangent
         kernel["beam_inertia_tangent"] = _kernel_address(kernels, "beam_inertia_tangent") if inertia_tangent else None
         CE = len(cables) if cables is not None else 0
@@ -305,7 +305,7 @@ class NativeModel:
             inertia_force_D_q=kernel["beam_inertia_tangent"],
             joint_body=kernel["joint_body"], point_load=kernel["point_load"], body_section=arr(body_section),
             hinged_end=kernel["hinged_end"], element_ends=arr(element_ends), hinge_force=kernel["hinge_force"],
-            so3_exp=kernel["so3_exp"],
+            so3_exp=kernel["so3_exp"], so3_dexp=kernel["so3_dexp"],
             parallel_elements=parallel_threshold(), threads=0,
             time_laws=time_laws, hinge_laws=hinge_laws,
             hinge_stiffness_law=ints(stiffness_law), hinge_damping_law=ints(damping_law),

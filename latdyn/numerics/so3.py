@@ -44,19 +44,20 @@ _SO3_EXP = None
 
 def dexp_so3(w: np.ndarray) -> np.ndarray:
     """Batched tangent operator of the exponential map in the spatial (left) form, (..., 3) -> (..., 3, 3):
-    exp(skew(w + δw)) = exp(skew(J δw)) exp(skew w) to first order, with
-    J = I + (1 − cos θ)/θ² W + (θ − sin θ)/θ³ W², W = skew w, θ = |w| (Taylor series below θ = 1e-2,
-    exact to round-off there). The step's sensitivities carry rotations through it
-    (latdyn/analyses/transient_sensitivities.py)."""
+    exp(skew(w + δw)) = exp(skew(J δw)) exp(skew w) to first order, J = I + (1 − cos θ)/θ² W + (θ − sin θ)/θ³ W²,
+    W = skew w, θ = |w|: the generated kernel ``so3_dexp`` (codegen/joints.py; its NumPy form here, its C form in
+    the compiled sensitivity step), branch-free and exact to round-off at small angles."""
+    global _SO3_DEXP
+    if _SO3_DEXP is None:
+        from latdyn_generated.joints import so3_dexp
+
+        _SO3_DEXP = so3_dexp
     w = np.asarray(w, float)
-    theta = np.linalg.norm(w, axis=-1)[..., None, None]
-    small = theta < 1e-2
-    t2 = theta * theta
-    safe = np.where(small, 1.0, theta)
-    first = np.where(small, 0.5 - t2 / 24 + t2 * t2 / 720, (1 - np.cos(safe)) / safe ** 2)
-    second = np.where(small, 1 / 6 - t2 / 120 + t2 * t2 / 5040, (safe - np.sin(safe)) / safe ** 3)
-    W = skew(w)
-    return np.eye(3) + first * W + second * (W @ W)
+    (tangent,) = _SO3_DEXP(np.ascontiguousarray(w.reshape(-1, 3)))
+    return np.asarray(tangent).reshape(w.shape[:-1] + (3, 3))
+
+
+_SO3_DEXP = None
 
 
 def orthonormalize(T: np.ndarray) -> np.ndarray:

@@ -12,10 +12,8 @@
  * their sums are the Python step's; latdyn/analyses/sensitivities_in_loop.py lays the struct out and says
  * which runs take it.
  *
- * Runtime code, written by hand: it holds no physics. The one piece computed here rather than called is
- * J = dexp(ψ) per free node (latdyn.numerics.so3.dexp_so3, NumPy there): the same formula, its sums in the
- * order NumPy writes them; NumPy's cos, sin and 3 × 3 products may round differently (docs/performance.md,
- * "The sensitivity step in the loop of steps").
+ * Runtime code, written by hand: it holds no physics. R = exp(skew ψ) and J = dexp(ψ) per free node are the
+ * generated so3_exp and so3_dexp (codegen/joints.py), which the Python step calls too.
  */
 
 /* What the loop of steps needs for the sensitivities' step (latdyn.analyses.sensitivities_in_loop). */
@@ -73,32 +71,6 @@ typedef struct {
     double h;                           /* the last step's size */
 } SensitivityLoop;
 
-/* J = dexp(ψ) of latdyn.numerics.so3.dexp_so3 for each of f rotation vectors (f × 3) into out (f × 9). */
-static void dexp_rows(int64_t f, const double *psi, double *out)
-{
-    for (int64_t node = 0; node < f; ++node) {
-        const double *w = psi + 3 * node;
-        double *J = out + 9 * node;
-        const double theta = sqrt((w[0] * w[0] + w[1] * w[1]) + w[2] * w[2]);
-        const double t2 = theta * theta;
-        double first, second;
-        if (theta < 1e-2) {
-            first = 0.5 - t2 / 24 + t2 * t2 / 720;
-            second = 1.0 / 6 - t2 / 120 + t2 * t2 / 5040;
-        } else {
-            first = (1 - cos(theta)) / (theta * theta);
-            second = (theta - sin(theta)) / pow(theta, 3.0);
-        }
-        const double W[9] = {0.0, -w[2], w[1], w[2], 0.0, -w[0], -w[1], w[0], 0.0};
-        for (int i = 0; i < 3; ++i)
-            for (int j = 0; j < 3; ++j) {
-                double WW = 0.0;
-                for (int l = 0; l < 3; ++l) WW += W[3 * i + l] * W[3 * l + j];
-                J[3 * i + j] = ((i == j ? 1.0 : 0.0) + first * W[3 * i + j]) + second * WW;
-            }
-    }
-}
-
 /* ∂r/∂p of the load components at c into total ((n_total + 1) × k): per (load, parameter) pair the generated
  * point_load with the pair's values at grid point `grid`, added at its node's coordinates in np.add.at's order. */
 static void load_parameter_forces(const Model *m, const Configuration *c, const SensitivityLoop *s, int64_t grid)
@@ -149,7 +121,7 @@ static int64_t sensitivity_loop_step(const Model *m, Work *w, SensitivityLoop *s
                 s->psi[3 * node + j] = s->increment[slot < n ? slot : n];
             }
         m->so3_exp(s->f, s->psi, s->turn);
-        dexp_rows(s->f, s->psi, s->tangent);
+        m->so3_dexp(s->f, s->psi, s->tangent);
     }
     latdyn_sensitivity_predict(n, k, step, s->f, s->slots, s->turn, s->tangent, v_n, a_old, a_new, s->dq, s->dv,
                                s->dvdot, s->da, s->predicted);
