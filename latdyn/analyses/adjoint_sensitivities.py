@@ -102,9 +102,14 @@ class AdjointSensitivities(TransientSensitivities):
     :meth:`finish` runs the reverse pass and writes ``probe_sensitivities`` and the end row."""
 
     def in_loop(self):
-        """None: the adjoint's forward pass stores every accepted step from Python (:meth:`step`), never in the loop
-        of steps in C (latdyn/analyses/sensitivities_in_loop.py carries the forward method's columns)."""
-        return None
+        """The forward pass's smooth steps stored by the loop of steps in C
+        (:class:`latdyn.analyses.adjoint_in_loop.AdjointLoop`), or None where every step is stored from Python
+        (:meth:`step`; :func:`latdyn.analyses.adjoint_in_loop.refusal`): decided once per run."""
+        from latdyn.analyses import adjoint_in_loop
+
+        if not adjoint_in_loop.ADJOINT_IN_LOOP or adjoint_in_loop.refusal(self) is not None:
+            return None
+        return adjoint_in_loop.AdjointLoop(self)
 
     # ------------------------------------------------------------------ the forward pass: storing
     def start(self, state) -> dict:

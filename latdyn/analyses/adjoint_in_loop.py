@@ -1,0 +1,109 @@
+"""The discrete adjoint's forward pass inside the loop of steps in C (issue 34, item 6).
+
+The adjoint (:mod:`latdyn.analyses.adjoint_sensitivities`) differentiates nothing on its forward pass: it stores,
+per accepted step, the end state, the step's size and the algorithmic accelerations before and after it
+(:meth:`AdjointSensitivities.step`), which its reverse pass reads. Taken from Python, that forward pass cost every
+step its round trip (latdyn/timeloop/loop.py ``_python_step``). Here the loop of steps (csrc/newton_step.c
+``latdyn_advance``) stores each step it accepts into blocks (csrc/adjoint_trajectory.c), and :meth:`AdjointLoop.carried_after`
+turns them into the entries the Python path appends — the same states (the loop's Newton step is the Python
+path's compiled step), sizes and accelerations, and where the scene has events the numbering the step was taken on and
+the rule of its size's derivative (:meth:`AdjointSensitivities._size_rule` for a step landing on the grid).
+Every event, landing, Newton cut and the step after them takes the Python path as before. The runs whose every step
+is taken from Python are those the forward method's loop refuses whatever their parameters' kinds
+(:func:`latdyn.analyses.sensitivities_in_loop.model_refusal`: rigid links, guides, cables, controllers, explicit
+time dependence beside events, geometry parameters, energy or momentum probes, NumPy kernels): decided once, at the
+start. The reverse pass is unchanged, so the derivatives are those of the Python path to the bit
+(tests/test_adjoint_in_loop.py).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from latdyn.assembly.assembler import State
+from latdyn.assembly.native_model import STATE_FIELDS, state_shapes
+
+__all__ = ["ADJOINT_IN_LOOP", "AdjointLoop", "refusal"]
+
+#: Whether the adjoint's forward pass takes its smooth steps in the loop of steps where the run allows it (False:
+#: every step from Python, the reference it must equal: tests/test_adjoint_in_loop.py). Private.
+ADJOINT_IN_LOOP = True
+
+
+def refusal(owner) -> str | None:
+    """Why the forward pass of ``owner`` (an AdjointSensitivities) takes every step from Python, or None
+    (module docstring). Once a run."""
+    from latdyn.analyses.sensitivities_in_loop import model_refusal
+
+    return model_refusal(owner)
+
+
+class AdjointLoop:
+    """The ``Trajectory`` blocks of csrc/adjoint_trajectory.c for ``owner``'s forward pass: sized before a call of the
+    loop of steps (:meth:`prepared`), turned into the trajectory's entries after it (:meth:`carried_after`)."""
+
+    def __init__(self, owner):
+        from latdyn.assembly.library import TrajectoryData
+
+        self.owner = owner
+        self.data = TrajectoryData()
+        self._blocks = None
+        #: steps stored in the loop of steps over the run (summary.json ``sensitivity_steps_in_loop``)
+        self.steps = 0
+
+    def prepared(self, carried: dict, grid_index: int, stop_index: int, control):
+        """The blocks sized for a loop of steps from grid point ``grid_index`` through ``stop_index``; None where this
+        step takes the Python path: no free coordinates, a last entry still pending (a run resumed from before its
+        events), or with events a next step's size that moves with the parameters (the Python path's
+        :meth:`AdjointSensitivities.resized` follows it, or refuses it)."""
+        owner = self.owner
+        model = owner.model
+        if model.n_dofs == 0:
+            return None
+        trajectory = carried["trajectory"]
+        if trajectory and trajectory[-1].get("pending"):
+            return None
+        if owner._with_events() and tuple(carried.get("next_size", (0.0, 0.0))) != (0.0, 0.0):   # noqa: SLF001
+            return None
+        capacity, n = max(stop_index - grid_index, 0), model.n_dofs
+        shapes = state_shapes(model)
+        sizes = [int(np.prod(shapes[name])) for name in STATE_FIELDS]
+        offsets = np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.int64)
+        state_size = int(sum(sizes))
+        blocks = {"offsets": offsets, "states": np.zeros((max(capacity, 1), state_size)),
+                  "times": np.zeros(max(capacity, 1)), "sizes": np.zeros(max(capacity, 1)),
+                  "a_old": np.zeros((max(capacity, 1), n)), "a_new": np.zeros((max(capacity, 1), n))}
+        self._blocks = (blocks, shapes, sizes)
+        d = self.data
+        d.capacity, d.state_size, d.stored = capacity, state_size, 0
+        for name, array in blocks.items():
+            setattr(d, name, array.ctypes.data)
+        return d
+
+    def carried_after(self, carried: dict) -> dict:
+        """``carried`` with the loop's accepted steps appended to its trajectory, each entry as
+        :meth:`AdjointSensitivities.step` and :meth:`AdjointSensitivities.after_events` leave it for a step that lands on
+        the grid with no event, and with events the next size's coefficients as :meth:`AdjointSensitivities.resized`
+        leaves them after such a step (the control restarts at the nominal step: 0, 0)."""
+        owner, d = self.owner, self.data
+        stored = int(d.stored)
+        self.steps += stored
+        if stored == 0:
+            return carried
+        blocks, shapes, sizes = self._blocks
+        self._blocks = None   # the entries hold views of these blocks: the next loop gets its own
+        bounds = np.concatenate([[0], np.cumsum(sizes)])
+        events = owner._with_events()   # noqa: SLF001
+        trajectory = carried["trajectory"]
+        for i in range(stored):
+            row = blocks["states"][i]
+            state = State(float(blocks["times"][i]), *(row[bounds[f]:bounds[f + 1]].reshape(shapes[name])
+                                                        for f, name in enumerate(STATE_FIELDS)))
+            h = float(blocks["sizes"][i])
+            entry = {"state": state, "h": h, "a_old": blocks["a_old"][i], "a_new": blocks["a_new"][i]}
+            if events:
+                entry.update({"numbering": owner._numbering(), "event": None, "cable": None,   # noqa: SLF001
+                              "rule": owner._size_rule(carried, h, True, None, None)})   # noqa: SLF001
+                entry["numbering_end"] = owner._numbering()   # noqa: SLF001
+                carried["next_size"] = (0.0, 0.0)
+            trajectory.append(entry)
+        return carried
