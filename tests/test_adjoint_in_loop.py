@@ -1,9 +1,11 @@
-"""The discrete adjoint's forward pass in the loop of steps in C (latdyn/analyses/adjoint_in_loop.py,
-csrc/adjoint_trajectory.c; issue 34 item 6): the loop stores each accepted step for the reverse pass (summary.json
-``sensitivity_steps_in_loop`` counts them), whatever the parameters' kinds, and the derivatives are the per-step
-Python path's (the private switch ``ADJOINT_IN_LOOP`` off) to the bit through the API and the CLI, with the events'
-steps taken from Python between the loop's; a model the forward method's loop refuses (a cable) keeps the whole run
-on the Python path; a run interrupted inside the loop resumes to the same files."""
+"""The discrete adjoint's forward pass in the loop of steps in C and its reverse pass's smooth steps in one native
+call each (latdyn/analyses/adjoint_in_loop.py, csrc/adjoint_trajectory.c, csrc/adjoint_reverse.c; issue 34 item 6):
+the loop stores each accepted step for the reverse pass (summary.json ``sensitivity_steps_in_loop`` counts them)
+and the reverse pass takes the smooth steps natively, whatever the parameters' kinds, and the derivatives are the
+per-step Python and NumPy path's (the private switches ``ADJOINT_IN_LOOP`` and ``REVERSE_NATIVE`` off) to the bit
+through the API and the CLI, with the events' steps taken from Python between the loop's; a model the forward
+method's loop refuses (a cable) keeps the whole run on the Python path; a run interrupted inside the loop resumes to
+the same files."""
 from __future__ import annotations
 
 import json
@@ -26,27 +28,43 @@ assert ARM_3D_ADJOINT != ARM_3D
 
 
 def _run(text: str, monkeypatch, in_loop: bool):
-    """The scene's run through the API, its forward pass's smooth steps stored by the loop of steps or from Python."""
+    """The scene's run through the API, its forward pass's smooth steps stored by the loop of steps and its reverse
+    pass's taken natively, or both from Python and NumPy; ``result.native_reverse``: the reverse steps taken natively."""
+    from latdyn.analyses.adjoint_in_loop import ReverseSteps
+
+    taken = []
+    original = ReverseSteps.step
+
+    def step(self, *args):
+        w = original(self, *args)
+        taken.append(w is not None)
+        return w
+
     with monkeypatch.context() as patch:
         patch.setattr("latdyn.analyses.adjoint_in_loop.ADJOINT_IN_LOOP", in_loop)
-        return latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
+        patch.setattr("latdyn.analyses.adjoint_in_loop.REVERSE_NATIVE", in_loop)
+        patch.setattr(ReverseSteps, "step", step)
+        result = latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
+    result.native_reverse = sum(taken)
+    return result
 
 
 @pytest.mark.parametrize("text", [_adjoint(STOP_PLANAR), _adjoint(LATCH_3D_PROBES), ARM_3D_ADJOINT],
                          ids=["planar stop, hinge and body parameters", "3D latch", "3D arm"])
-def test_the_forward_pass_in_the_loop_gives_the_python_paths_derivatives(text, monkeypatch):
+def test_the_native_passes_give_the_python_paths_derivatives(text, monkeypatch):
     """The loop of steps stores every smooth step (all of the arm's; the stop's and the latch's runs but for the
-    event's step and the landing after it, from Python) and the adjoint's derivatives are the per-step Python path's
-    to the bit: each probe's end, max and min, and each event's time."""
+    event's step and the landing after it, from Python), the reverse pass takes every step natively but the events'
+    and those whose size moves with the parameters, and the adjoint's derivatives are the Python and NumPy path's to
+    the bit: each probe's end, max and min, and each event's time."""
     native, python = _run(text, monkeypatch, True), _run(text, monkeypatch, False)
     steps = native.summary["steps"]
     assert native.summary["time_loop"] == "compiled" and python.summary["time_loop"] == "python"
-    assert python.summary["sensitivity_steps_in_loop"] == 0
+    assert python.summary["sensitivity_steps_in_loop"] == 0 and python.native_reverse == 0
     in_loop = native.summary["sensitivity_steps_in_loop"]
     if native.summary["event_sensitivities"]:
-        assert 0 < in_loop < steps
+        assert 0 < in_loop < steps and in_loop <= native.native_reverse < steps
     else:
-        assert in_loop == steps > 0
+        assert in_loop == native.native_reverse == steps > 0
     assert native.summary["probe_sensitivities"] == python.summary["probe_sensitivities"]
     assert native.summary["event_sensitivities"] == python.summary["event_sensitivities"]
     assert any(value != 0.0 for by in native.summary["probe_sensitivities"].values() for which in by.values()
@@ -56,7 +74,7 @@ def test_the_forward_pass_in_the_loop_gives_the_python_paths_derivatives(text, m
 
 
 def test_the_cli_writes_the_python_paths_files(tmp_path):
-    """``latdyn run`` on the planar stop takes the loop; the same command with the switch off (in a process of its
+    """``latdyn run`` on the planar stop takes the loop; the same command with the switches off (in a process of its
     own) writes the same sensitivities.csv and probes.csv, byte for byte, and the same derivatives in summary.json."""
     completed, out = latdyn_run(tmp_path, _adjoint(STOP_PLANAR))
     assert completed.returncode == 0, completed.stderr
@@ -64,6 +82,7 @@ def test_the_cli_writes_the_python_paths_files(tmp_path):
     assert summary["time_loop"] == "compiled" and summary["sensitivity_steps_in_loop"] > 40
     reference = tmp_path / "python"
     code = ("import sys; import latdyn.analyses.adjoint_in_loop as loop; loop.ADJOINT_IN_LOOP = False; "
+            "loop.REVERSE_NATIVE = False; "
             "from latdyn.cli import main; sys.exit(main(sys.argv[1:]))")
     env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
     run = subprocess.run([sys.executable, "-c", code, "run", str(tmp_path / "scene.yaml"), "-o", str(reference)],
@@ -78,9 +97,10 @@ def test_the_cli_writes_the_python_paths_files(tmp_path):
 
 def test_a_cable_keeps_the_run_on_the_python_path(monkeypatch):
     """A cable (its slack and taut sides' changes) is what the forward method's loop refuses whatever the parameters:
-    every step of the adjoint's forward pass from Python, decided at the start."""
+    every step of the adjoint's forward pass from Python and of its reverse pass from NumPy, decided at the start."""
     result = _run(_adjoint(DROP_PROBES), monkeypatch, True)
     assert result.summary["time_loop"] == "python" and result.summary["sensitivity_steps_in_loop"] == 0
+    assert result.native_reverse == 0
     assert result.summary["event_sensitivities"]
 
 

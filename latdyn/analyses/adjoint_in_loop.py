@@ -107,3 +107,83 @@ class AdjointLoop:
                 carried["next_size"] = (0.0, 0.0)
             trajectory.append(entry)
         return carried
+
+
+#: Whether the reverse pass takes its smooth steps in one native call each where the run allows it (False: from
+#: NumPy and SciPy, the reference it must equal: tests/test_adjoint_in_loop.py). Private.
+REVERSE_NATIVE = True
+
+
+class ReverseSteps:
+    """The reverse pass's smooth steps in one native call each (csrc/adjoint_reverse.c ``latdyn_adjoint_reverse_step``:
+    M, C, the exact K, S factorised, w = S⁻ᵀz̄ and the bars carried back), for ``owner``'s runs that
+    :func:`refusal` lets through; the contraction with ∂r/∂p stays the caller's
+    (:meth:`AdjointSensitivities.residual_transposed_product`). Laid out per numbering as the forward method's loop
+    lays out its struct (:class:`latdyn.analyses.sensitivities_in_loop.SensitivityLoop`, without its parameters'
+    parts); a numbering whose step matrix takes the sparse LU stays on the NumPy path."""
+
+    def __init__(self, owner):
+        from latdyn.analyses.sensitivities_in_loop import SensitivityLoop
+
+        class _Layout(SensitivityLoop):   # the step's matrices and S; no parameter forces (the caller contracts)
+            def _sections(self) -> None:
+                self.data.n_uses = 0
+
+            def _loads(self) -> None:
+                self.data.n_pairs = 0
+
+        self.owner = owner
+        self.layout = _Layout(owner)
+        self._scheme = None
+        self._work = np.zeros(0)
+        #: reverse steps taken natively over the run
+        self.steps = 0
+
+    def step(self, new, h: float, rotations: tuple, bars: list):
+        """w (n, m) of the reverse step at the stored end state ``new`` of a step of size ``h`` (``rotations``: its
+        (J, Jᵀ, Rᵀ) operators), ``bars`` [q̄, v̄, v̇̄, ā] replaced by their values before the step; None where this
+        numbering takes the NumPy path (nothing changed). A singular S raises SolverError as that path does."""
+        import ctypes
+
+        from latdyn.errors import SolverError
+
+        layout, owner = self.layout, self.owner
+        if not layout._layout():   # noqa: SLF001 - per numbering
+            return None
+        tangent, tangent_t, turn_t = rotations
+        n, m = owner.model.n_dofs, bars[0].shape[1]
+        for index, bar in enumerate(bars):
+            bars[index] = np.ascontiguousarray(bar, dtype=float)
+        if self._scheme is None:
+            p = owner.params
+            self._scheme = np.array([p.alpha_m, p.alpha_f, p.gamma, p.beta])
+        if self._work.size < 5 * n * m:
+            self._work = np.zeros(5 * n * m)
+        w = np.empty((n, m))
+        d = layout.data
+        if getattr(tangent, "is_identity", False):
+            f, blocks, blocks_t, turned_t = 0, d.blocks, d.blocks, d.blocks
+        else:
+            f = len(tangent.blocks)
+            held = [np.ascontiguousarray(b, dtype=float) for b in (tangent.blocks, tangent_t.blocks, turn_t.blocks)]
+            self._held = held
+            blocks, blocks_t, turned_t = (b.ctypes.data for b in held)
+        native = owner.assembler.native(True)
+        native.laws.bind_inputs()
+        info = native.library.latdyn_adjoint_reverse_step(
+            native.model_ref, native.work_ref, ctypes.addressof(d), ctypes.byref(native.configuration(new)),
+            float(new.t), float(h), self._scheme.ctypes.data, m, f, blocks, blocks_t, turned_t,
+            *(bar.ctypes.data for bar in bars), w.ctypes.data, self._work.ctypes.data)
+        if info != 0:
+            raise SolverError(f"the adjoint sensitivities at t = {new.t:.6g} need the step's exact iteration "
+                              "matrix, which is singular there")
+        self.steps += 1
+        return w
+
+
+def reverse_steps(owner):
+    """:class:`ReverseSteps` for ``owner`` (an AdjointSensitivities), or None where its reverse pass takes every step
+    from NumPy and SciPy (:func:`refusal`, or the private switch off). Once a run."""
+    if not REVERSE_NATIVE or refusal(owner) is not None:
+        return None
+    return ReverseSteps(owner)

@@ -440,6 +440,9 @@ class AdjointSensitivities(TransientSensitivities):
         n = model.n_dofs
         q_bar, v_bar, vdot_bar, a_bar = (np.zeros((n, m)) for _ in range(4))
         t_bar, g_bar = np.zeros(m), np.zeros(m)   # the adjoints of δt_{n+1} and of the carried δh
+        from latdyn.analyses.adjoint_in_loop import reverse_steps
+
+        native = reverse_steps(self) if n else None   # the smooth steps in one native call each
         for i in range(len(trajectory) - 1, -1, -1):
             for column, (c_q, c_v, c_vdot, explicit) in seeds.get(i + 1, []):
                 q_bar[:, column] += c_q
@@ -466,8 +469,16 @@ class AdjointSensitivities(TransientSensitivities):
                              + h * beta * entry["a_new"])
             turn, tangent = self._rotation_operators(increment)
             turn_t, tangent_t = _transposed_rotations(self, turn), _transposed_rotations(self, tangent)
-            C_t, K_t, solve_transposed, solve = self._transposed_step_system(new, tangent, beta_p, gamma_p)
             rule = entry.get("rule")
+            if rule is None and native is not None:   # csrc/adjoint_reverse.c: the step below in one call, w
+                bars = [q_bar, v_bar, vdot_bar, a_bar]  # returned for ∂r/∂p's contraction
+                w = native.step(new, h, (tangent, tangent_t, turn_t), bars)
+                if w is not None:
+                    g_bar = np.zeros(m)
+                    gradient -= self.residual_transposed_product(new, w)
+                    q_bar, v_bar, vdot_bar, a_bar = bars
+                    continue
+            C_t, K_t, solve_transposed, solve = self._transposed_step_system(new, tangent, beta_p, gamma_p)
             if rule is not None:   # the step's size moves with p: its column, and δh's functional transposed
                 column = self._step_size_column(entry, old, C_t.T, K_t.T, solve, (turn, tangent), beta_p, gamma_p)
                 h_bar = sum(np.einsum("i,im->m", column[key], bar) for key, bar in

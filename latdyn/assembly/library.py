@@ -331,6 +331,9 @@ def native_library() -> ctypes.CDLL:
         library.latdyn_section_parameter_forces.restype = None
         library.latdyn_section_parameter_forces.argtypes = [model, work, configuration, P, P, I64, P, I64, P, I64, P,
                                                             P, P, P, I64, P, P]
+        library.latdyn_adjoint_reverse_step.restype = I64
+        library.latdyn_adjoint_reverse_step.argtypes = [model, work, P, configuration, ctypes.c_double, ctypes.c_double,
+                                                        P, I64, I64, P, P, P, P, P, P, P, P, P]
         library.latdyn_sensitivity_update.restype = None
         library.latdyn_sensitivity_update.argtypes = [I64, I64, P, ctypes.c_double, ctypes.c_double, I64, P, P, P, P,
                                                       P]

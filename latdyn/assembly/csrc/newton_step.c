@@ -26,6 +26,7 @@
 #include "parameter_forces.c" /* ∂r/∂p of the section values that name a parameter, in one call */
 #include "sensitivity_loop.c" /* the transient sensitivities' smooth step in the loop of steps */
 #include "adjoint_trajectory.c" /* the discrete adjoint's forward pass: the accepted steps stored */
+#include "adjoint_reverse.c" /* the discrete adjoint's reverse pass: a smooth step in one call */
 
 /* S = β′M + γ′C + K scattered into the matrix storage (Evaluation.combined). */
 static void assemble(const Model *m, Work *w, double beta_p, double gamma_p, int with_inertia_tangent)
