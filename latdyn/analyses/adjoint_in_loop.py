@@ -1,4 +1,5 @@
-"""The discrete adjoint's forward pass inside the loop of steps in C (issue 34, item 6).
+"""The discrete adjoint's forward pass inside the loop of steps in C, and its reverse pass's smooth steps in one native
+call each (issue 34, item 6).
 
 The adjoint (:mod:`latdyn.analyses.adjoint_sensitivities`) differentiates nothing on its forward pass: it stores,
 per accepted step, the end state, the step's size and the algorithmic accelerations before and after it
@@ -12,8 +13,17 @@ Every event, landing, Newton cut and the step after them takes the Python path a
 is taken from Python are those the forward method's loop refuses whatever their parameters' kinds
 (:func:`latdyn.analyses.sensitivities_in_loop.model_refusal`: rigid links, guides, cables, controllers, explicit
 time dependence beside events, geometry parameters, energy or momentum probes, NumPy kernels): decided once, at the
-start. The reverse pass is unchanged, so the derivatives are those of the Python path to the bit
-(tests/test_adjoint_in_loop.py).
+start.
+
+The reverse pass (:meth:`AdjointSensitivities._reverse_columns`) takes each smooth step — no event at its end, a size
+that does not move with the parameters — in one call of csrc/adjoint_reverse.c (:class:`ReverseSteps`): M, C and the
+exact K at the stored state, S factorised on its held pattern and storage, w = S⁻ᵀz̄ and the bars carried back, the
+sums in NumPy's and SciPy's order; the contraction (∂r/∂p)ᵀw stays :meth:`AdjointSensitivities.residual_transposed_product`
+(every parameter kind), and the events' pieces, the steps whose size moves and the numberings whose S takes the
+sparse LU stay on the NumPy path. For the same runs (:func:`refusal`).
+
+The derivatives are those of the Python and NumPy paths to the bit (``ADJOINT_IN_LOOP`` and ``REVERSE_NATIVE`` off:
+tests/test_adjoint_in_loop.py; docs/performance.md, "The adjoint's passes in C").
 """
 from __future__ import annotations
 
@@ -22,7 +32,7 @@ import numpy as np
 from latdyn.assembly.assembler import State
 from latdyn.assembly.native_model import STATE_FIELDS, state_shapes
 
-__all__ = ["ADJOINT_IN_LOOP", "AdjointLoop", "refusal"]
+__all__ = ["ADJOINT_IN_LOOP", "REVERSE_NATIVE", "AdjointLoop", "ReverseSteps", "refusal", "reverse_steps"]
 
 #: Whether the adjoint's forward pass takes its smooth steps in the loop of steps where the run allows it (False:
 #: every step from Python, the reference it must equal: tests/test_adjoint_in_loop.py). Private.

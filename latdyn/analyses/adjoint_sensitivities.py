@@ -34,7 +34,9 @@ the exact M, C, K are evaluated again at the stored state
 (:meth:`latdyn.assembly.assembler.Assembler.exact_matrix_values`) and A = β′M + γ′C + K J is assembled and factorised as the forward method's step does, on its held pattern
 and storage (:class:`latdyn.analyses.step_matrix.ExactStepMatrix`), w solved with Aᵀ from those factors
 (:meth:`latdyn.assembly.factorization.Factorization.solve_transposed`: no transposed matrix formed or
-factorised), Kᵀw and Cᵀw by views of the held C and K. Eᵀw is one batched product
+factorised), Kᵀw and Cᵀw by views of the held C and K; where the run allows it, each smooth step's evaluation,
+factorization, transposed solve and bars in one native call with the same sums
+(latdyn/analyses/adjoint_in_loop.py, csrc/adjoint_reverse.c). Eᵀw is one batched product
 (:meth:`AdjointSensitivities.residual_transposed_product`): each use of a section value or load component
 by a parameter contributes its element's or load's forces (the forward method's kernels, one call for all)
 dotted with w at their coordinates, without forming E (n × k); the other kinds through E's columns. So the
@@ -58,7 +60,8 @@ applies their transposes in reverse order, each named after its forward piece (:
 :meth:`_step_size_transposed` with :meth:`_step_size_column`); t̄ and ḡ, the adjoints of δt and of the carried δh,
 run back beside the bars, and each event time is an output seeded on t̄ (``event_sensitivities``).
 
-What the forward pass stores, in memory (``carried["trajectory"]``, checkpointed with the run): each
+What the forward pass stores, in memory (``carried["trajectory"]``, checkpointed with the run; the smooth steps
+stored by the loop of steps in C where the run allows it, latdyn/analyses/adjoint_in_loop.py): each
 accepted step's end state (a copy: 24 numbers a node and 3 a hinge) and size and the algorithmic
 accelerations before and after it (2n numbers); where the scene has events, the numbering and cables' sides each
 step was taken on, the event it ends on, its size's rule (:meth:`_size_rule`) and after an event the state after
