@@ -8,7 +8,6 @@ method's loop refuses (a cable) keeps the whole run on the Python path; a run in
 the same files."""
 from __future__ import annotations
 
-import json
 import os
 import subprocess
 import sys
@@ -19,6 +18,7 @@ import yaml
 
 import latdyn
 from tests.cli_runs import ROOT, latdyn_run, summary_of
+from tests.resumed_runs import resumed_inside_the_loop_is_whole
 from tests.test_adjoint_events import DROP_PROBES, LATCH_3D_PROBES, STOP_PLANAR, _adjoint
 from tests.test_sensitivities_in_loop import ARM_3D
 
@@ -107,28 +107,4 @@ def test_a_cable_keeps_the_run_on_the_python_path(monkeypatch):
 def test_a_run_interrupted_inside_the_loop_resumes_to_the_same_files(tmp_path, monkeypatch):
     """Interrupted (Ctrl-C) as a loop of steps starts at t ≥ 0.2, before the stop, and resumed from its checkpoint:
     sensitivities.csv and summary.json's derivatives are the uninterrupted run's, byte for byte."""
-    from latdyn.step.compiled import CompiledGeneralizedAlpha
-
-    scene = yaml.safe_load(_adjoint(STOP_PLANAR))
-    whole, out = tmp_path / "whole", tmp_path / "out"
-    latdyn.run(scene, whole)
-    original = CompiledGeneralizedAlpha.advance
-    calls = []
-
-    def advance(self, state, **kwargs):
-        calls.append(kwargs.get("sensitivities") is not None)
-        if state.t >= 0.2:
-            raise KeyboardInterrupt
-        return original(self, state, **kwargs)
-
-    with monkeypatch.context() as patch:
-        patch.setattr(CompiledGeneralizedAlpha, "advance", advance)
-        with pytest.raises(KeyboardInterrupt):
-            latdyn.run(scene, out)
-    assert calls and all(calls)   # the loop stored the steps up to the interruption
-    latdyn.run(scene, out, resume=True)
-    assert (out / "sensitivities.csv").read_bytes() == (whole / "sensitivities.csv").read_bytes()
-    resumed, uninterrupted = (json.loads((folder / "summary.json").read_text()) for folder in (out, whole))
-    for key in ("probe_sensitivities", "event_sensitivities"):
-        assert resumed[key] == uninterrupted[key], key
-    assert resumed["sensitivity_steps_in_loop"] > 0
+    resumed_inside_the_loop_is_whole(yaml.safe_load(_adjoint(STOP_PLANAR)), tmp_path, monkeypatch, 0.2)

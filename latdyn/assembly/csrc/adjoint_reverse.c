@@ -45,13 +45,7 @@ int64_t latdyn_adjoint_reverse_step(const Model *m, Work *w, SensitivityLoop *s,
     const double am = scheme[0], af = scheme[1], gamma = scheme[2], beta = scheme[3];
     const double beta_p = (1 - am) / (h * h * beta * (1 - af)), gamma_p = gamma / (h * beta);
     const SensitivityStep *step = s->step;
-    EvaluationControl e = {t, 1.0, 1, 1, 1, 0.0};
-    latdyn_evaluate(m, w, c, &e);
-    if (s->body_kernel != NULL)
-        latdyn_joint_body_inertia_stiffness(m, c, s->body_kernel, s->body_rows, s->body_gravity, s->body_scratch,
-                                            s->body_stiffness);
-    latdyn_exact_matrix_values(s->n_segments, s->counts, s->first, s->second, s->indices, s->positions, s->mck_size,
-                               s->mck);
+    exact_matrices(m, w, s, c, t);   /* sensitivity_loop.c */
     int64_t info = latdyn_sensitivity_step(step, s->mck, tangent, beta_p, gamma_p, s->S, s->factor, s->pivots, 0,
                                            NULL, NULL, NULL, NULL, NULL);
     if (info != 0) return info;
