@@ -8,16 +8,12 @@ method's loop refuses (a cable) keeps the whole run on the Python path; a run in
 the same files."""
 from __future__ import annotations
 
-import os
-import subprocess
-import sys
-
 import numpy as np
 import pytest
 import yaml
 
 import latdyn
-from tests.cli_runs import ROOT, latdyn_run, summary_of
+from tests.cli_runs import latdyn_run, latdyn_run_switched, summary_of
 from tests.resumed_runs import resumed_inside_the_loop_is_whole
 from tests.test_adjoint_events import DROP_PROBES, LATCH_3D_PROBES, STOP_PLANAR, _adjoint
 from tests.test_sensitivities_in_loop import ARM_3D
@@ -81,12 +77,7 @@ def test_the_cli_writes_the_python_paths_files(tmp_path):
     summary = summary_of(out)
     assert summary["time_loop"] == "compiled" and summary["sensitivity_steps_in_loop"] > 40
     reference = tmp_path / "python"
-    code = ("import sys; import latdyn.analyses.adjoint_in_loop as loop; loop.ADJOINT_IN_LOOP = False; "
-            "loop.REVERSE_NATIVE = False; "
-            "from latdyn.cli import main; sys.exit(main(sys.argv[1:]))")
-    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    run = subprocess.run([sys.executable, "-c", code, "run", str(tmp_path / "scene.yaml"), "-o", str(reference)],
-                         env=env, capture_output=True, text=True, cwd=tmp_path, timeout=120, check=False)
+    run = latdyn_run_switched(tmp_path, tmp_path / "scene.yaml", reference, "import latdyn.analyses.adjoint_in_loop as loop; loop.ADJOINT_IN_LOOP = False; loop.REVERSE_NATIVE = False")
     assert run.returncode == 0, run.stderr
     assert summary_of(reference)["sensitivity_steps_in_loop"] == 0
     for name in ("sensitivities.csv", "probes.csv"):
