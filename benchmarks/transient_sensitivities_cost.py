@@ -175,12 +175,13 @@ def adjoint(data: dict) -> dict:
 def run(loaded, per_step: bool, sensitivities_from_python: bool = False) -> tuple[float, float]:
     """(wall time, CPU time of this process) of ``latdyn.run``: on a shared machine the CPU time moves
     less with the other work than the wall time does. ``sensitivities_from_python``: the loop of steps in C on, the
-    sensitivities' steps from Python all the same (latdyn.analyses.sensitivities_in_loop off: the path before the
-    smooth step ran in the loop)."""
-    from latdyn.analyses import sensitivities_in_loop
+    sensitivities' steps from Python all the same (latdyn.analyses.sensitivities_in_loop and, for the adjoint's forward
+    pass, latdyn.analyses.adjoint_in_loop off: the paths before the smooth steps ran in the loop)."""
+    from latdyn.analyses import adjoint_in_loop, sensitivities_in_loop
 
     transient.COMPILED_LOOP = not per_step
     sensitivities_in_loop.SENSITIVITIES_IN_LOOP = not sensitivities_from_python
+    adjoint_in_loop.ADJOINT_IN_LOOP = not sensitivities_from_python
     try:
         start, cpu = time.perf_counter(), time.process_time()
         latdyn.run(loaded)
@@ -188,38 +189,41 @@ def run(loaded, per_step: bool, sensitivities_from_python: bool = False) -> tupl
     finally:
         transient.COMPILED_LOOP = True
         sensitivities_in_loop.SENSITIVITIES_IN_LOOP = True
+        adjoint_in_loop.ADJOINT_IN_LOOP = True
 
 
 def in_loop_check(make, counts, folder: str) -> None:
     """``--in-loop-check DIR``: each forward run with k = ``counts`` parameters written twice under DIR, its smooth
-    steps' sensitivities in the loop of steps and every step from Python (latdyn/analyses/sensitivities_in_loop.py);
-    printed: the sha-256 of sensitivities.csv, probes.csv and summary.json's probe_sensitivities and
-    event_sensitivities of each, whether they agree, and the steps differentiated in the loop."""
+    steps' sensitivities in the loop of steps and every step from Python (latdyn/analyses/sensitivities_in_loop.py),
+    and each adjoint run twice, its forward pass's smooth steps stored by the loop of steps and every step from Python
+    (latdyn/analyses/adjoint_in_loop.py); printed: the sha-256 of sensitivities.csv, probes.csv and summary.json's
+    probe_sensitivities and event_sensitivities of each, whether they agree, and the steps taken in the loop."""
     import hashlib
     import json
     from pathlib import Path
 
-    from latdyn.analyses import sensitivities_in_loop
+    from latdyn.analyses import adjoint_in_loop, sensitivities_in_loop
 
     def digest(data: bytes) -> str:
         return hashlib.sha256(data).hexdigest()[:16]
 
-    for k in counts:
+    for k, method in [(k, method) for method in ("forward", "adjoint") for k in counts]:
         seen = {}
         for in_loop in (True, False):
-            out = Path(folder) / f"{k}-{'loop' if in_loop else 'python'}"
-            sensitivities_in_loop.SENSITIVITIES_IN_LOOP = in_loop
+            out = Path(folder) / f"{k}-{method}-{'loop' if in_loop else 'python'}"
+            sensitivities_in_loop.SENSITIVITIES_IN_LOOP = adjoint_in_loop.ADJOINT_IN_LOOP = in_loop
+            data = make([f"F{i}" for i in range(k)])
             try:
-                latdyn.run(latdyn.load_scene(make([f"F{i}" for i in range(k)])), out)
+                latdyn.run(latdyn.load_scene(adjoint(data) if method == "adjoint" else data), out)
             finally:
-                sensitivities_in_loop.SENSITIVITIES_IN_LOOP = True
+                sensitivities_in_loop.SENSITIVITIES_IN_LOOP = adjoint_in_loop.ADJOINT_IN_LOOP = True
             summary = json.loads((out / "summary.json").read_text())
             seen[in_loop] = ([digest((out / name).read_bytes()) for name in ("sensitivities.csv", "probes.csv")]
                              + [digest(json.dumps(summary.get(key), sort_keys=True).encode())
                                 for key in ("probe_sensitivities", "event_sensitivities")],
                              summary["sensitivity_steps_in_loop"], summary["steps"])
         same = seen[True][0] == seen[False][0]
-        print(f"{k:4d} parameters: sensitivities.csv, probes.csv, probe_sensitivities, event_sensitivities "
+        print(f"{method:7s} {k:4d} parameters: sensitivities.csv, probes.csv, probe_sensitivities, event_sensitivities "
               f"{' '.join(seen[True][0])} (in the loop: {seen[True][1]} of {seen[True][2]} steps) / "
               f"{' '.join(seen[False][0])} (from Python: {seen[False][1]}): {'equal' if same else 'DIFFERENT'}")
 
@@ -582,6 +586,7 @@ def main() -> None:
     cases.update({f"{k} forward": (k, False, False) for k in counts})
     cases.update({f"{k} forward (Python steps)": (k, False, False) for k in counts})
     cases.update({f"{k} adjoint": (k, False, True) for k in counts})
+    cases.update({f"{k} adjoint (Python steps)": (k, False, True) for k in counts})
     if args.cases:
         cases = {name: case for name, case in cases.items() if name in args.cases.split(",")}
     loaded = {name: latdyn.load_scene((adjoint if by_adjoint else dict)(make([f"F{i}" for i in range(k)])))

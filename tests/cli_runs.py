@@ -29,6 +29,16 @@ def latdyn_run(tmp_path: Path, text: str, *, name: str = "scene.yaml", quiet: bo
     return completed, out
 
 
+def latdyn_run_switched(tmp_path: Path, scene: Path, out: Path, switches: str,
+                        timeout: float = 120.0) -> subprocess.CompletedProcess:
+    """``latdyn run scene -o out`` in a fresh process that first runs ``switches`` (Python statements setting a
+    module's private switch, e.g. ``import latdyn.analyses.adjoint_in_loop as m; m.ADJOINT_IN_LOOP = False``)."""
+    code = f"import sys; {switches}; from latdyn.cli import main; sys.exit(main(sys.argv[1:]))"
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    return subprocess.run([sys.executable, "-c", code, "run", str(scene), "-o", str(out)], env=env,
+                          capture_output=True, text=True, cwd=tmp_path, timeout=timeout, check=False)
+
+
 def summary_of(out: Path) -> dict | None:
     """summary.json of a results folder, None when there is none."""
     path = out / "summary.json"

@@ -11,22 +11,58 @@ import latdyn
 
 def interrupted_and_whole(scene: dict, tmp_path: Path, monkeypatch, t_stop: float) -> tuple[Path, Path]:
     """(resumed, whole): ``scene`` run into ``tmp_path/whole``, and into ``tmp_path/out`` interrupted by a
-    KeyboardInterrupt at the first step from t ≥ ``t_stop``, then resumed there (``latdyn.run(..., resume=True)``)."""
+    KeyboardInterrupt at the first step (or loop of steps in C) from t ≥ ``t_stop``, then resumed there (``latdyn.run(..., resume=True)``)."""
     from latdyn.step.compiled import CompiledGeneralizedAlpha
 
     whole = tmp_path / "whole"
     latdyn.run(scene, whole)
-    original = CompiledGeneralizedAlpha.step
+    originals = {name: getattr(CompiledGeneralizedAlpha, name) for name in ("step", "advance")}
 
-    def step(self, state, *args, **kwargs):
-        if state.t >= t_stop:
-            raise KeyboardInterrupt
-        return original(self, state, *args, **kwargs)
+    def stopping(name):   # a step from Python, or a loop of steps in C (latdyn/timeloop/loop.py)
+        def call(self, state, *args, **kwargs):
+            if state.t >= t_stop:
+                raise KeyboardInterrupt
+            return originals[name](self, state, *args, **kwargs)
+        return call
 
     out = tmp_path / "out"
     with monkeypatch.context() as m:
-        m.setattr(CompiledGeneralizedAlpha, "step", step)
+        for name in originals:
+            m.setattr(CompiledGeneralizedAlpha, name, stopping(name))
         with pytest.raises(KeyboardInterrupt):
             latdyn.run(scene, out)
     latdyn.run(scene, out, resume=True)
     return out, whole
+
+
+def resumed_inside_the_loop_is_whole(scene: dict, tmp_path: Path, monkeypatch, t_stop: float) -> None:
+    """``scene`` interrupted (Ctrl-C) as a loop of steps in C starts at t ≥ ``t_stop``, every loop up to it having
+    carried the sensitivities (the forward method's columns or the adjoint's stored steps), and resumed from its
+    checkpoint: sensitivities.csv and summary.json's ``probe_sensitivities`` and ``event_sensitivities`` are the
+    uninterrupted run's, byte for byte, and the resumed run took steps in the loop."""
+    import json
+
+    from latdyn.step.compiled import CompiledGeneralizedAlpha
+
+    whole, out = tmp_path / "whole", tmp_path / "out"
+    latdyn.run(scene, whole)
+    original = CompiledGeneralizedAlpha.advance
+    calls = []
+
+    def advance(self, state, **kwargs):
+        calls.append(kwargs.get("sensitivities") is not None)
+        if state.t >= t_stop:
+            raise KeyboardInterrupt
+        return original(self, state, **kwargs)
+
+    with monkeypatch.context() as patch:
+        patch.setattr(CompiledGeneralizedAlpha, "advance", advance)
+        with pytest.raises(KeyboardInterrupt):
+            latdyn.run(scene, out)
+    assert calls and all(calls)   # the loop carried the sensitivities up to the interruption
+    latdyn.run(scene, out, resume=True)
+    assert (out / "sensitivities.csv").read_bytes() == (whole / "sensitivities.csv").read_bytes()
+    resumed, uninterrupted = (json.loads((folder / "summary.json").read_text()) for folder in (out, whole))
+    for key in ("probe_sensitivities", "event_sensitivities"):
+        assert resumed[key] == uninterrupted[key], key
+    assert resumed["sensitivity_steps_in_loop"] > 0

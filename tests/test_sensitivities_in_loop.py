@@ -6,17 +6,13 @@ Python; a hinge's parameter keeps the whole run on the Python path; a run interr
 the same files."""
 from __future__ import annotations
 
-import json
-import os
-import subprocess
-import sys
-
 import numpy as np
 import pytest
 import yaml
 
 import latdyn
-from tests.cli_runs import ROOT, latdyn_run, summary_of
+from tests.cli_runs import latdyn_run, latdyn_run_switched, summary_of
+from tests.resumed_runs import resumed_inside_the_loop_is_whole
 from tests.test_sensitivities_events import LATCH_PLANAR
 from tests.test_sensitivities_native_parts import ARM
 
@@ -76,11 +72,7 @@ def test_the_cli_writes_the_python_paths_files(tmp_path):
     summary = summary_of(out)
     assert summary["time_loop"] == "compiled" and summary["sensitivity_steps_in_loop"] > 40
     reference = tmp_path / "python"
-    code = ("import sys; import latdyn.analyses.sensitivities_in_loop as loop; loop.SENSITIVITIES_IN_LOOP = False; "
-            "from latdyn.cli import main; sys.exit(main(sys.argv[1:]))")
-    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    run = subprocess.run([sys.executable, "-c", code, "run", str(tmp_path / "scene.yaml"), "-o", str(reference)],
-                         env=env, capture_output=True, text=True, cwd=tmp_path, timeout=120, check=False)
+    run = latdyn_run_switched(tmp_path, tmp_path / "scene.yaml", reference, "import latdyn.analyses.sensitivities_in_loop as loop; loop.SENSITIVITIES_IN_LOOP = False")
     assert run.returncode == 0, run.stderr
     assert summary_of(reference)["sensitivity_steps_in_loop"] == 0
     for name in ("sensitivities.csv", "probes.csv"):
@@ -101,28 +93,4 @@ def test_a_hinge_parameter_keeps_the_run_on_the_python_path(monkeypatch):
 def test_a_run_interrupted_inside_the_loop_resumes_to_the_same_files(tmp_path, monkeypatch):
     """Interrupted (Ctrl-C) as a loop of steps starts at t ≥ 0.2, before the latch, and resumed from its checkpoint:
     sensitivities.csv and summary.json's sensitivities are the uninterrupted run's, byte for byte."""
-    from latdyn.step.compiled import CompiledGeneralizedAlpha
-
-    scene = yaml.safe_load(_latch())
-    whole, out = tmp_path / "whole", tmp_path / "out"
-    latdyn.run(scene, whole)
-    original = CompiledGeneralizedAlpha.advance
-    calls = []
-
-    def advance(self, state, **kwargs):
-        calls.append(kwargs.get("sensitivities") is not None)
-        if state.t >= 0.2:
-            raise KeyboardInterrupt
-        return original(self, state, **kwargs)
-
-    with monkeypatch.context() as patch:
-        patch.setattr(CompiledGeneralizedAlpha, "advance", advance)
-        with pytest.raises(KeyboardInterrupt):
-            latdyn.run(scene, out)
-    assert calls and all(calls)   # the loop carried the sensitivities up to the interruption
-    latdyn.run(scene, out, resume=True)
-    assert (out / "sensitivities.csv").read_bytes() == (whole / "sensitivities.csv").read_bytes()
-    resumed, uninterrupted = (json.loads((folder / "summary.json").read_text()) for folder in (out, whole))
-    for key in ("probe_sensitivities", "event_sensitivities"):
-        assert resumed[key] == uninterrupted[key], key
-    assert resumed["sensitivity_steps_in_loop"] > 0
+    resumed_inside_the_loop_is_whole(yaml.safe_load(_latch()), tmp_path, monkeypatch, 0.2)

@@ -34,7 +34,9 @@ the exact M, C, K are evaluated again at the stored state
 (:meth:`latdyn.assembly.assembler.Assembler.exact_matrix_values`) and A = β′M + γ′C + K J is assembled and factorised as the forward method's step does, on its held pattern
 and storage (:class:`latdyn.analyses.step_matrix.ExactStepMatrix`), w solved with Aᵀ from those factors
 (:meth:`latdyn.assembly.factorization.Factorization.solve_transposed`: no transposed matrix formed or
-factorised), Kᵀw and Cᵀw by views of the held C and K. Eᵀw is one batched product
+factorised), Kᵀw and Cᵀw by views of the held C and K; where the run allows it, each smooth step's evaluation,
+factorization, transposed solve and bars in one native call with the same sums
+(latdyn/analyses/adjoint_in_loop.py, csrc/adjoint_reverse.c). Eᵀw is one batched product
 (:meth:`AdjointSensitivities.residual_transposed_product`): each use of a section value or load component
 by a parameter contributes its element's or load's forces (the forward method's kernels, one call for all)
 dotted with w at their coordinates, without forming E (n × k); the other kinds through E's columns. So the
@@ -58,7 +60,8 @@ applies their transposes in reverse order, each named after its forward piece (:
 :meth:`_step_size_transposed` with :meth:`_step_size_column`); t̄ and ḡ, the adjoints of δt and of the carried δh,
 run back beside the bars, and each event time is an output seeded on t̄ (``event_sensitivities``).
 
-What the forward pass stores, in memory (``carried["trajectory"]``, checkpointed with the run): each
+What the forward pass stores, in memory (``carried["trajectory"]``, checkpointed with the run; the smooth steps
+stored by the loop of steps in C where the run allows it, latdyn/analyses/adjoint_in_loop.py): each
 accepted step's end state (a copy: 24 numbers a node and 3 a hinge) and size and the algorithmic
 accelerations before and after it (2n numbers); where the scene has events, the numbering and cables' sides each
 step was taken on, the event it ends on, its size's rule (:meth:`_size_rule`) and after an event the state after
@@ -102,9 +105,14 @@ class AdjointSensitivities(TransientSensitivities):
     :meth:`finish` runs the reverse pass and writes ``probe_sensitivities`` and the end row."""
 
     def in_loop(self):
-        """None: the adjoint's forward pass stores every accepted step from Python (:meth:`step`), never in the loop
-        of steps in C (latdyn/analyses/sensitivities_in_loop.py carries the forward method's columns)."""
-        return None
+        """The forward pass's smooth steps stored by the loop of steps in C
+        (:class:`latdyn.analyses.adjoint_in_loop.AdjointLoop`), or None where every step is stored from Python
+        (:meth:`step`; :func:`latdyn.analyses.adjoint_in_loop.refusal`): decided once per run."""
+        from latdyn.analyses import adjoint_in_loop
+
+        if not adjoint_in_loop.ADJOINT_IN_LOOP or adjoint_in_loop.refusal(self) is not None:
+            return None
+        return adjoint_in_loop.AdjointLoop(self)
 
     # ------------------------------------------------------------------ the forward pass: storing
     def start(self, state) -> dict:
@@ -435,6 +443,9 @@ class AdjointSensitivities(TransientSensitivities):
         n = model.n_dofs
         q_bar, v_bar, vdot_bar, a_bar = (np.zeros((n, m)) for _ in range(4))
         t_bar, g_bar = np.zeros(m), np.zeros(m)   # the adjoints of δt_{n+1} and of the carried δh
+        from latdyn.analyses.adjoint_in_loop import reverse_steps
+
+        native = reverse_steps(self) if n else None   # the smooth steps in one native call each
         for i in range(len(trajectory) - 1, -1, -1):
             for column, (c_q, c_v, c_vdot, explicit) in seeds.get(i + 1, []):
                 q_bar[:, column] += c_q
@@ -461,8 +472,16 @@ class AdjointSensitivities(TransientSensitivities):
                              + h * beta * entry["a_new"])
             turn, tangent = self._rotation_operators(increment)
             turn_t, tangent_t = _transposed_rotations(self, turn), _transposed_rotations(self, tangent)
-            C_t, K_t, solve_transposed, solve = self._transposed_step_system(new, tangent, beta_p, gamma_p)
             rule = entry.get("rule")
+            if rule is None and native is not None:   # csrc/adjoint_reverse.c: the step below in one call, w
+                bars = [q_bar, v_bar, vdot_bar, a_bar]  # returned for ∂r/∂p's contraction
+                w = native.step(new, h, (tangent, tangent_t, turn_t), bars)
+                if w is not None:
+                    g_bar = np.zeros(m)
+                    gradient -= self.residual_transposed_product(new, w)
+                    q_bar, v_bar, vdot_bar, a_bar = bars
+                    continue
+            C_t, K_t, solve_transposed, solve = self._transposed_step_system(new, tangent, beta_p, gamma_p)
             if rule is not None:   # the step's size moves with p: its column, and δh's functional transposed
                 column = self._step_size_column(entry, old, C_t.T, K_t.T, solve, (turn, tangent), beta_p, gamma_p)
                 h_bar = sum(np.einsum("i,im->m", column[key], bar) for key, bar in

@@ -33,7 +33,7 @@ from latdyn.analyses.energy_sensitivities import is_energy_or_momentum
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
 from latdyn.analyses.sensitivities import _INITIAL_VELOCITY_KEY, _LOAD_KEY, _SECTION_KEY
 
-__all__ = ["SENSITIVITIES_IN_LOOP", "refusal", "SensitivityLoop"]
+__all__ = ["SENSITIVITIES_IN_LOOP", "refusal", "model_refusal", "SensitivityLoop"]
 
 #: Whether a run whose sensitivities' terms are all native takes its smooth steps in the loop of steps (False:
 #: every step from Python, the reference it must equal: tests/test_sensitivities_in_loop.py). Private.
@@ -43,6 +43,25 @@ SENSITIVITIES_IN_LOOP = True
 def refusal(owner) -> str | None:
     """Why the sensitivities of ``owner`` (a TransientSensitivities) take every step from Python, or None where
     their smooth steps may run in the loop of steps (module docstring). Once a run."""
+    why = model_refusal(owner)
+    if why is not None:
+        return why
+    for key, laws in owner.derivatives.items():
+        if _INITIAL_VELOCITY_KEY.match(key) or _LOAD_KEY.match(key):
+            continue
+        if _SECTION_KEY.match(key) and not GEOMETRY_KEY.match(key) and all(law.is_constant for law in laws.values()):
+            continue
+        return f"{key}: not a native parameter kind"
+    if owner._section_layout() is not None and owner._section_kernel_addresses() is None:  # noqa: SLF001
+        return "section kernels without C libraries"
+    return None
+
+
+def model_refusal(owner) -> str | None:
+    """Why the run of ``owner`` (a TransientSensitivities) takes every step from Python whatever its parameters'
+    kinds (no parameters, NumPy kernels, rigid links, guides, cables, controllers, explicit time dependence beside
+    events, geometry parameters, energy or momentum probes), or None: :func:`refusal`'s part that the discrete
+    adjoint's forward pass, which differentiates nothing as it goes, shares (latdyn/analyses/adjoint_in_loop.py)."""
     scene, model = owner.scene, owner.model
     if not owner.names:
         return "no parameters"
@@ -54,14 +73,6 @@ def refusal(owner) -> str | None:
         return "explicit time dependence beside events, or geometry parameters"
     if any(is_energy_or_momentum(probe) for probe in owner.probes):
         return "energy or momentum probes"
-    for key, laws in owner.derivatives.items():
-        if _INITIAL_VELOCITY_KEY.match(key) or _LOAD_KEY.match(key):
-            continue
-        if _SECTION_KEY.match(key) and not GEOMETRY_KEY.match(key) and all(law.is_constant for law in laws.values()):
-            continue
-        return f"{key}: not a native parameter kind"
-    if owner._section_layout() is not None and owner._section_kernel_addresses() is None:  # noqa: SLF001
-        return "section kernels without C libraries"
     return None
 
 

@@ -184,7 +184,8 @@ class AdvanceData(ctypes.Structure):
                 ("dissipated", ctypes.c_double), ("hinge_work_torque", P), ("hinge_damper_torque", P),
                 ("rows", P), ("cable_work", P),
                 ("sample_tolerance", ctypes.c_double), ("native_restart", I64), ("samples", I64),
-                ("rate_turns", P), ("unresolved_turn", ctypes.c_double), ("sensitivities", P)]
+                ("rate_turns", P), ("unresolved_turn", ctypes.c_double), ("sensitivities", P),
+                ("trajectory", P)]
 
 
 class SensitivityLoopData(ctypes.Structure):
@@ -202,6 +203,14 @@ class SensitivityLoopData(ctypes.Structure):
                 ("section_scratch", P), ("n_pairs", I64), ("pair_node", P), ("pair_frame", P), ("pair_column", P),
                 ("pair_offset", P), ("pair_values", P), ("values_from", I64), ("pair_scratch", P),
                 ("steps", I64), ("info", I64), ("h", ctypes.c_double)]
+
+
+class TrajectoryData(ctypes.Structure):
+    """``Trajectory`` of csrc/adjoint_trajectory.c: the accepted steps one loop of steps stores for the discrete
+    adjoint's reverse pass (latdyn.analyses.adjoint_in_loop lays it out)."""
+
+    _fields_ = [("capacity", I64), ("state_size", I64), ("offsets", P), ("states", P), ("times", P), ("sizes", P),
+                ("a_old", P), ("a_new", P), ("stored", I64)]
 
 
 class RowsData(ctypes.Structure):
@@ -322,6 +331,9 @@ def native_library() -> ctypes.CDLL:
         library.latdyn_section_parameter_forces.restype = None
         library.latdyn_section_parameter_forces.argtypes = [model, work, configuration, P, P, I64, P, I64, P, I64, P,
                                                             P, P, P, I64, P, P]
+        library.latdyn_adjoint_reverse_step.restype = I64
+        library.latdyn_adjoint_reverse_step.argtypes = [model, work, P, configuration, ctypes.c_double, ctypes.c_double,
+                                                        P, I64, I64, P, P, P, P, P, P, P, P, P]
         library.latdyn_sensitivity_update.restype = None
         library.latdyn_sensitivity_update.argtypes = [I64, I64, P, ctypes.c_double, ctypes.c_double, I64, P, P, P, P,
                                                       P]

@@ -70,6 +70,7 @@ from latdyn.assembly.library import (
     ConfigurationData,
     ControlData,
     RowsData,
+    TrajectoryData,
     VectorsData,
     native_library,
     parallel_threshold,
@@ -349,7 +350,8 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         ``sensitivities``: the transient sensitivities carried through each accepted step (a
         ``SensitivityLoopData`` of latdyn.assembly.library, laid out and read back by
         latdyn.analyses.sensitivities_in_loop; None: none); status 5: their step matrix was singular at the last
-        accepted step, whose sensitivities are not carried on.
+        accepted step, whose sensitivities are not carried on. A ``TrajectoryData`` instead: the discrete adjoint's
+        forward pass, each accepted step stored (latdyn.analyses.adjoint_in_loop).
         """
         self._setup()
         model = self.assembler.model
@@ -376,7 +378,9 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         turns = None if rate_turns is None else np.array(rate_turns, dtype=float)  # in/out, a copy
         run.rate_turns = turns.ctypes.data if turns is not None else None
         run.unresolved_turn = unresolved_turn
-        run.sensitivities = None if sensitivities is None else ctypes.addressof(sensitivities)
+        stores = isinstance(sensitivities, TrajectoryData)   # the adjoint's forward pass (csrc/adjoint_trajectory.c)
+        run.trajectory = ctypes.addressof(sensitivities) if stores else None
+        run.sensitivities = None if sensitivities is None or stores else ctypes.addressof(sensitivities)
         self._factor_version += 1
         self._native.laws.bind_inputs()  # this scene's input values (SceneLaws.bind_inputs)
         self._library.latdyn_advance(self._model_ref, self._work_ref, self._control_ref, ctypes.byref(base),

@@ -25,6 +25,8 @@
 #include "sensitivity_step.c" /* the transient sensitivities' step matrix and solves in one call */
 #include "parameter_forces.c" /* ∂r/∂p of the section values that name a parameter, in one call */
 #include "sensitivity_loop.c" /* the transient sensitivities' smooth step in the loop of steps */
+#include "adjoint_trajectory.c" /* the discrete adjoint's forward pass: the accepted steps stored */
+#include "adjoint_reverse.c" /* the discrete adjoint's reverse pass: a smooth step in one call */
 
 /* S = β′M + γ′C + K scattered into the matrix storage (Evaluation.combined). */
 static void assemble(const Model *m, Work *w, double beta_p, double gamma_p, int with_inertia_tangent)
@@ -369,6 +371,8 @@ typedef struct {
     /* in/out: the transient sensitivities carried through each accepted step (sensitivity_loop.c; NULL: none);
      * status 5: S was singular at the last accepted step (its sensitivities not carried on) */
     SensitivityLoop *sensitivities;
+    /* in/out: the discrete adjoint's forward pass, each accepted step stored (adjoint_trajectory.c; NULL: none) */
+    Trajectory *trajectory;
 } Advance;
 
 /* The angle by which a free hinge's rate change over the accepted step old → new turns it over the step,
@@ -479,7 +483,7 @@ int64_t latdyn_advance(const Model *m, Work *w, StepControl *s, const Configurat
         }
         /* accepted: GeneralizedAlpha.accept, and the work of loads and prescribed motion (a_n kept for the
          * sensitivities' step, which reads a_n and a_{n+1}) */
-        if (adv->sensitivities) memcpy(x->dx, x->a_n, sizeof(double) * (size_t)n);
+        if (adv->sensitivities || adv->trajectory) memcpy(x->dx, x->a_n, sizeof(double) * (size_t)n);
         memcpy(x->a_n, x->a_new, sizeof(double) * (size_t)n);
         double power = s->power + drive_power(m, trial, w->total);
         adv->external_work += 0.5 * s->h * (adv->power + power);
@@ -489,6 +493,7 @@ int64_t latdyn_advance(const Model *m, Work *w, StepControl *s, const Configurat
         latdyn_controller_states_accept(m, w, trial, target, s->h);  /* continuous controllers' states */
         cable_work(m, w, adv);
         adv->steps += 1;
+        if (adv->trajectory) store_accepted_step(m, adv->trajectory, trial, target, s->h, x->dx, x->a_n);
         /* the sensitivities' step after the accepted step's accounts (its evaluation at the converged state
          * replaces the last Newton evaluation's in Work, as the Python step's does) */
         if (adv->sensitivities && sensitivity_loop_step(m, w, adv->sensitivities, &s->alpha_m, trial, target, s->h,

@@ -98,6 +98,19 @@ static void load_parameter_forces(const Model *m, const Configuration *c, const 
     }
 }
 
+/* M, C and the exact K at c and time t into s->mck (Assembler.exact_matrix_values): the evaluation with the inertia
+ * tangent, the joint bodies' inertia stiffness, the scatter onto the pattern. */
+static void exact_matrices(const Model *m, Work *w, SensitivityLoop *s, const Configuration *c, double t)
+{
+    EvaluationControl e = {t, 1.0, 1, 1, 1, 0.0};
+    latdyn_evaluate(m, w, c, &e);
+    if (s->body_kernel != NULL)
+        latdyn_joint_body_inertia_stiffness(m, c, s->body_kernel, s->body_rows, s->body_gravity, s->body_scratch,
+                                            s->body_stiffness);
+    latdyn_exact_matrix_values(s->n_segments, s->counts, s->first, s->second, s->indices, s->positions, s->mck_size,
+                               s->mck);
+}
+
 /* The sensitivities' step over the accepted step base → c of size h ending on grid point `grid` at time t
  * (scheme: α_m, α_f, γ, β; v_n, a_n, a_{n+1}: the free velocities at its start and the algorithmic accelerations before and after
  * it): s's carried columns replaced by those at c. Returns 0, or the factorization's info where S is
@@ -125,14 +138,7 @@ static int64_t sensitivity_loop_step(const Model *m, Work *w, SensitivityLoop *s
     }
     latdyn_sensitivity_predict(n, k, step, s->f, s->slots, s->turn, s->tangent, v_n, a_old, a_new, s->dq, s->dv,
                                s->dvdot, s->da, s->predicted);
-    /* M, C and the exact K at c (Assembler.exact_matrix_values) */
-    EvaluationControl e = {t, 1.0, 1, 1, 1, 0.0};
-    latdyn_evaluate(m, w, c, &e);
-    if (s->body_kernel != NULL)
-        latdyn_joint_body_inertia_stiffness(m, c, s->body_kernel, s->body_rows, s->body_gravity, s->body_scratch,
-                                            s->body_stiffness);
-    latdyn_exact_matrix_values(s->n_segments, s->counts, s->first, s->second, s->indices, s->positions, s->mck_size,
-                               s->mck);
+    exact_matrices(m, w, s, c, t);
     /* ∂r/∂p with the inertia forces (ParameterDerivatives.residual_derivatives: the sections', then the loads') */
     memset(s->total, 0, sizeof(double) * (size_t)((m->n_total + 1) * k));
     if (s->n_uses)
