@@ -184,7 +184,8 @@ class AdvanceData(ctypes.Structure):
                 ("dissipated", ctypes.c_double), ("hinge_work_torque", P), ("hinge_damper_torque", P),
                 ("rows", P), ("cable_work", P),
                 ("sample_tolerance", ctypes.c_double), ("native_restart", I64), ("samples", I64),
-                ("rate_turns", P), ("unresolved_turn", ctypes.c_double), ("sensitivities", P)]
+                ("rate_turns", P), ("unresolved_turn", ctypes.c_double), ("sensitivities", P),
+                ("drive_force", P)]
 
 
 class SensitivityLoopData(ctypes.Structure):

@@ -39,11 +39,12 @@ from latdyn.results.writer import ResultWriter
 from latdyn.step.integrators import newton_diagnosis
 from latdyn.timeloop import checkpoint as checkpoints
 from latdyn.timeloop.control import Resize, StepControl
+from latdyn.timeloop.impulse import prescribed_velocity_jump
 from latdyn.timeloop.jumps import starts_on_a_jump
 from latdyn.timeloop.events import (CABLE_LANDING, TAUT_JUMP_STEP, cable_events, cable_sides, crossing_fraction, hinge_events,
                                    lock_events, restart_accelerations, stick_at_start, stop_crossings)
 from latdyn.timeloop.progress import (DRIFT_WARNING, UNBOUNDED, UNBOUNDED_ROWS, UNRESOLVED_TURN, TransientProgress, cable_work,
-                                      energy_round_off, factorizations, far_root, hinge_work, load_power)
+                                      energy_round_off, factorizations, far_root, hinge_work, drive_forces, drive_work)
 from latdyn.timeloop.sampling import controller_memory, restore_controller_memory
 
 
@@ -185,7 +186,8 @@ class TimeLoop:
         self.progress = TransientProgress(
             state=state, algorithmic_acceleration=self.integrator.a, locked=self.model.locked.copy(),
             stuck=self.model.stuck.copy(), resting=self.model.resting.copy(),
-            h=self.control.dt, power=load_power(self.model, state, evaluation),
+            h=self.control.dt, power=evaluation.external_power,
+            drive_force=drive_forces(self.model, evaluation.reaction),
             cable_work=evaluation.cable_work.copy(),
             hinge_work_torque=evaluation.hinge_work_torque.copy(),
             hinge_damper_torque=evaluation.hinge_damper_torque.copy(),
@@ -306,6 +308,15 @@ class TimeLoop:
         same PD stepped from Python to 2e-13)."""
         progress = self.progress
         state = progress.state.copy()  # accepted states are replaced, never changed in place
+        # the prescribed motions as their laws are at the restart's time: an acceleration that jumps there (a
+        # ramp's end, latdyn.timeloop.jumps.prescribed_acceleration_jumps) takes its new value, whose reaction
+        # starts the next step's work; a rate that jumps (a kink, or an input set from outside that a rate
+        # names) gives the free rates the jump of its impulse, whose work is the drive's
+        held = state.copy()
+        self.assembler.apply_prescribed(state, state.t)
+        kicked = prescribed_velocity_jump(self.assembler, held, state, self.control.dt)
+        if kicked:
+            progress.external_work = self.probes.external_work = progress.external_work + kicked
         if progress.steps == 0 or self._rigid_only():  # before the first step: the start, as if the scene
             # had said so; a structure of rigid links and bodies only: the exact M⁻¹f (no directions of
             # little inertia to take quasi-statically, and Newton's K would put its ω² terms in)
@@ -315,7 +326,6 @@ class TimeLoop:
         evaluation = self.assembler.evaluate(state, matrices=False)
         progress.state = self.prepared.state = state
         progress.algorithmic_acceleration = getattr(self.integrator, "a", None)
-        progress.power = load_power(self.model, state, evaluation)
         self._torques_from(evaluation)
         self._add_jump_work(stored_before, state)
 
@@ -403,7 +413,8 @@ class TimeLoop:
             progress.state, grid_index=progress.grid_index, stop_index=stop, dt=control.dt,
             t_end=control.t_end, n_grid=control.n_grid, power=progress.power,
             external_work=progress.external_work, hinge_work_torque=progress.hinge_work_torque,
-            hinge_damper_torque=progress.hinge_damper_torque, cable_work=progress.cable_work,
+            hinge_damper_torque=progress.hinge_damper_torque, drive_force=progress.drive_force,
+            cable_work=progress.cable_work,
             dissipated=progress.dissipated, budget_s=budget, rows=rows, momentum=momentum, sections=sections,
             joints=bool(self.model.hinges), cables=self.probes.needs_cables,
             controller_states=self.probes.needs_controller_states,
@@ -429,6 +440,7 @@ class TimeLoop:
             progress.power = done.power
             progress.external_work = self.probes.external_work = done.external_work
             progress.hinge_work_torque, progress.hinge_damper_torque = done.hinge_work_torque, done.hinge_damper_torque
+            progress.drive_force = done.drive_force
             progress.cable_work = done.cable_work
             progress.dissipated = self.probes.dissipated = done.dissipated
             if carried is not None:   # the sensitivities at the last accepted state, before its row
@@ -664,7 +676,7 @@ class TimeLoop:
         if evaluation is None or len(evaluation.reaction) != model.n_total - model.n_dofs or events.resting:
             # resting on a stop: the step ends where the projection put it back (events.HingeEvents)
             evaluation = self.assembler.evaluate(new, matrices=False)
-        new_power = load_power(model, new, evaluation)
+        new_power = evaluation.external_power
         external_work = self.probes.external_work + 0.5 * h * (progress.power + new_power)
         progress.power = new_power
         # the work of the hinges' torques (progress.hinge_work): external work and the joints'
@@ -677,6 +689,10 @@ class TimeLoop:
         # them): measured on docs/cables.md's damped truss, forces re-evaluated on the new side gave
         # a balance error 2.4 times larger
         ended = evaluation if events.resting else getattr(integrator, "last_evaluation", None) or evaluation
+        # the prescribed motions' work over the step's Δq (progress.drive_work), their reactions at its end
+        # from the same evaluation as the power's
+        external_work += drive_work(model, progress.state, new, progress.drive_force,
+                                    drive_forces(model, evaluation.reaction))
         external_work, dissipated = hinge_work(
             progress.state.theta, new.theta if events.resting else theta_end,
             (progress.hinge_work_torque, progress.hinge_damper_torque),
@@ -686,7 +702,7 @@ class TimeLoop:
         after = evaluation
         if events.any and evaluation is ended and not events.resting:  # the velocities jumped
             after = self.assembler.evaluate(new, matrices=False)
-            progress.power = load_power(model, new, after)
+            progress.power = after.external_power
         self._torques_from(after)
         progress.dissipated = self.probes.dissipated = dissipated + events.loss
         if self.sensitivities is not None:   # after the events: their renumbering and restarted accelerations
@@ -717,6 +733,8 @@ class TimeLoop:
         ``evaluation``, which the next step's work and dissipation start from (progress.hinge_work,
         progress.cable_work)."""
         progress = self.progress
+        progress.power = evaluation.external_power
+        progress.drive_force = drive_forces(self.model, evaluation.reaction)
         progress.cable_work = evaluation.cable_work.copy()
         progress.hinge_work_torque = evaluation.hinge_work_torque.copy()
         progress.hinge_damper_torque = evaluation.hinge_damper_torque.copy()
@@ -807,7 +825,6 @@ class TimeLoop:
         self.integrator.start(state)
         progress.algorithmic_acceleration = self.integrator.a
         evaluation = self.assembler.evaluate(state, matrices=False)
-        progress.power = load_power(self.model, state, evaluation)
         self._torques_from(evaluation)
 
     # ------------------------------------------------------------------------- rows, summary
