@@ -308,7 +308,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
 
     def advance(self, state: State, *, grid_index: int, stop_index: int, dt: float, t_end: float, n_grid: int,
                 power: float, external_work: float, hinge_work_torque: np.ndarray, hinge_damper_torque: np.ndarray,
-                drive_force: np.ndarray, cable_work: np.ndarray | None = None, dissipated: float = 0.0, budget_s: float = 0.25,
+                drive_force: np.ndarray | None = None, cable_work: np.ndarray | None = None, dissipated: float = 0.0, budget_s: float = 0.25,
                 rows: list[int] | None = None, momentum: bool = False, sections: bool = False,
                 joints: bool = False, cables: bool = False, controller_states: bool = False,
                 controller_outputs: bool = False, sample_tolerance: float = 0.0,
@@ -366,6 +366,8 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         cable_accounts = np.array(np.zeros((0, 4)) if cable_work is None else cable_work, dtype=float)  # in/out
         run.dissipated = dissipated
         run.hinge_work_torque, run.hinge_damper_torque = work_torque.ctypes.data, damper_torque.ctypes.data
+        if drive_force is None:   # none at ``state`` (the reactions by prescribed coordinate: 6 a prescribed body, 1 a hinge)
+            drive_force = np.zeros(6 * int(self._native.model.n_prescribed) + len(model.hinges))
         drive = np.array(drive_force, dtype=float)  # in/out
         run.drive_force = drive.ctypes.data
         buffers = None

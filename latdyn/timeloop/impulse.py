@@ -48,7 +48,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from latdyn.assembly.assembler import State, free_velocity, pack, unpack_free
+from latdyn.assembly.assembler import State, free_acceleration, free_velocity, pack, unpack_free
 from latdyn.assembly.evaluation import Evaluation
 from latdyn.assembly.factorization import solve_linear
 from latdyn.numerics.inertia import split_inertia
@@ -191,6 +191,35 @@ def prescribed_velocity_jump(assembler, before: State, state: State, step: float
     reaction = np.asarray(assembler.evaluate(prescribed, matrices=False).reaction) - np.asarray(zero.reaction)
     mean = 0.5 * (pack(model, before.v, before.w, before.theta_dot) + pack(model, state.v, state.w, state.theta_dot))
     return float(mean[rows] @ reaction[rows - model.n_dofs])
+
+
+def prescribed_acceleration_jump(assembler, before: State, state: State, step: float) -> np.ndarray | None:
+    """The change of the free accelerations of ``state`` that a jump of the prescribed accelerations alone
+    implies (a ramp's end: from ``before``'s to ``state``'s at the same configuration and velocities), added
+    in place; returns it (free coordinates), or None where no prescribed acceleration changed. The free
+    equations hold on both sides, so M_ff Δv̇_f = −M_fc Δv̇_c, the change of the free residual with the
+    prescribed accelerations, solved by :func:`impulse_response` as a jump of the rates is
+    (:func:`prescribed_velocity_jump`: the same linear algebra). A restart that solved the accelerations
+    again from scratch (``restart_accelerations``: (M + dt²K) v̇ = −r₀) set a flexible slider-crank's
+    drive reaction ringing from step to step after its crank's acceleration jumped (−0.47, −1.00, −0.16,
+    −0.64 N m), and the trapezoid of that ringing lost 4.4e-3 J of its work (examples/slider_crank.yaml)."""
+    model = assembler.model
+    rows = model.prescribed_coordinates()
+    after = pack(model, state.a, state.alpha, state.theta_ddot)[rows]
+    held = pack(model, before.a, before.alpha, before.theta_ddot)[rows]
+    if len(rows) == 0 or not np.any(after != held):
+        return None
+    previous = state.copy()
+    free = _free_mask(model)
+    for name, mask in zip(("a", "alpha", "theta_ddot"), free):
+        np.copyto(getattr(previous, name), getattr(before, name))
+        getattr(previous, name)[mask] = getattr(state, name)[mask]
+    change = np.asarray(assembler.evaluate(state, matrices=False).residual) \
+        - np.asarray(assembler.evaluate(previous, matrices=False).residual)
+    shift = impulse_response(model, assembler.evaluate(state, matrices=True), -change[:, None], step)[:, 0]
+    unpack_free(model, free_acceleration(model, state) + shift, state.a, state.alpha, state.theta_ddot)
+    assembler.complete_links(state)
+    return shift
 
 
 def _free_mask(model) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

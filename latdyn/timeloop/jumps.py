@@ -118,6 +118,16 @@ def prescribed_rate_kinks(scene, t_end: float) -> list[tuple[str, float]]:
     return found
 
 
+def acceleration_only_jumps(scene, t_end: float) -> np.ndarray:
+    """The instants of :func:`prescribed_acceleration_jumps` where nothing else jumps (no law's value,
+    no prescribed rate: :func:`jump_times`' other sources, within 1e-12 · t_end): there the restart
+    changes the free accelerations by the response to the change of the prescribed ones alone
+    (latdyn.timeloop.impulse.prescribed_acceleration_jump) instead of solving them again."""
+    others = [t for _, t in list(_jumps(scene, t_end)) + prescribed_rate_kinks(scene, t_end)]
+    return np.array(sorted({float(t) for _, t in prescribed_acceleration_jumps(scene, t_end)
+                            if all(abs(t - u) > 1e-12 * t_end for u in others)}), dtype=float)
+
+
 def prescribed_motion_jump_key(scene, t_end: float) -> tuple[str, float] | None:
     """(key, time) of the first kink (:func:`prescribed_rate_kinks`) or jump of the acceleration
     (:func:`prescribed_acceleration_jumps`) of a prescribed motion, where the run lands and restarts (for

@@ -25,6 +25,7 @@ import sys
 import time
 from typing import NamedTuple
 
+import numpy as np
 
 from latdyn.assembly.assembler import State
 from latdyn.assembly.native_model import STATE_FIELDS
@@ -39,8 +40,8 @@ from latdyn.results.writer import ResultWriter
 from latdyn.step.integrators import newton_diagnosis
 from latdyn.timeloop import checkpoint as checkpoints
 from latdyn.timeloop.control import Resize, StepControl
-from latdyn.timeloop.impulse import prescribed_velocity_jump
-from latdyn.timeloop.jumps import starts_on_a_jump
+from latdyn.timeloop.impulse import prescribed_acceleration_jump, prescribed_velocity_jump
+from latdyn.timeloop.jumps import acceleration_only_jumps, starts_on_a_jump
 from latdyn.timeloop.events import (CABLE_LANDING, TAUT_JUMP_STEP, cable_events, cable_sides, crossing_fraction, hinge_events,
                                    lock_events, restart_accelerations, stick_at_start, stop_crossings)
 from latdyn.timeloop.progress import (DRIFT_WARNING, UNBOUNDED, UNBOUNDED_ROWS, UNRESOLVED_TURN, TransientProgress, cable_work,
@@ -133,6 +134,7 @@ class TimeLoop:
         #: the state of the last trial step the integrator took (:meth:`_step`; what it holds is that trial's)
         self._last_trial: State | None = None
         self.unbounded = False  # the energy balance broke (_judge_balance)
+        self._drive_jumps = None  # the instants a prescribed acceleration alone jumps (_drive_alone_jumped)
         self.bar = None
 
     # ------------------------------------------------------------------------- start, resume
@@ -216,6 +218,9 @@ class TimeLoop:
         self.integrator.inertia_tangent = self.progress.inertia_tangent_from is not None
         self.probes.external_work = checkpoint.external_work
         self.probes.dissipated = self.progress.dissipated
+        if self.progress.drive_force is None:   # a checkpoint written before the drives' reactions were kept
+            self.progress.drive_force = drive_forces(self.model, self.assembler.evaluate(
+                self.progress.state, matrices=False).reaction)
         if hasattr(self.integrator, "restore_factorization"):  # modified Newton's held matrix, as it was
             try:
                 self.integrator.restore_factorization(checkpoint.factorization)
@@ -317,7 +322,13 @@ class TimeLoop:
         kicked = prescribed_velocity_jump(self.assembler, held, state, self.control.dt)
         if kicked:
             progress.external_work = self.probes.external_work = progress.external_work + kicked
-        if progress.steps == 0 or self._rigid_only():  # before the first step: the start, as if the scene
+        shift = None
+        if self._drive_alone_jumped(state.t):   # a prescribed acceleration alone: the free ones follow it
+            shift = prescribed_acceleration_jump(self.assembler, held, state, self.control.dt)
+        if shift is not None:
+            if getattr(self.integrator, "a", None) is not None:
+                self.integrator.a = self.integrator.a + shift
+        elif progress.steps == 0 or self._rigid_only():  # before the first step: the start, as if the scene
             # had said so; a structure of rigid links and bodies only: the exact M⁻¹f (no directions of
             # little inertia to take quasi-statically, and Newton's K would put its ω² terms in)
             self.integrator.start(state)
@@ -328,6 +339,14 @@ class TimeLoop:
         progress.algorithmic_acceleration = getattr(self.integrator, "a", None)
         self._torques_from(evaluation)
         self._add_jump_work(stored_before, state)
+
+    def _drive_alone_jumped(self, t: float) -> bool:
+        """Whether the restart at ``t`` follows a jump of a prescribed acceleration alone
+        (latdyn.timeloop.jumps.acceleration_only_jumps, found once a run)."""
+        if self._drive_jumps is None:
+            self._drive_jumps = acceleration_only_jumps(self.model.scene, self.control.t_end)
+        near = 1e-12 * self.control.t_end + 2.0 * self.control.jump_side
+        return bool(np.any(np.abs(self._drive_jumps - t) <= near))
 
     def _rigid_only(self) -> bool:
         """Whether the structure has no elastic element and no cable (rigid links, bodies, hinges and
