@@ -156,3 +156,26 @@ def test_a_spin_up_counts_the_same_work_through_a_body_or_a_hinge_in_c_and_in_py
     stepped = run_api(spun_beam("body", 0.01))
     assert stepped.summary["time_loop"] == "python"
     assert np.array_equal(np.asarray(stepped.probes["W"]), works["body", 0.01])
+
+
+def test_a_cable_hung_at_its_rest_length_reports_no_change_at_the_start(tmp_path):
+    """A cable (EA = 400, 2 kg/m) from a fixed point to a free end at its rest length (the default), under
+    gravity: it is on its boundary at t = 0 and taut from the first step. It reported a `taut` event at
+    t = 4e-6 (dt/1000, the landing's floor); SCENE.md lists the changes after t = 0, and this is its state at
+    the start: no event now, the motion unchanged (the probes equal bit for bit, measured)."""
+    completed, out = latdyn_run(tmp_path, """\
+title: a cable hung at its rest length
+gravity: [0, 0, -9.81]
+bodies:
+  top: {at: [0, 0, 0], fixed: true}
+cables:
+  c: {from: top, to: [0.5, 0, -0.8], EA: 400.0, rhoA: 2.0}
+solve: {t_end: 0.1, dt: 0.004}
+output:
+  every: 0.02
+  probes:
+    N: {cable: c, quantity: tension}
+""")
+    assert completed.returncode == 0, completed.stderr
+    assert summary_of(out)["cable_events"] == []
+    assert probe_columns(out)["N"][-1] > 0.0   # taut: pulling

@@ -42,7 +42,7 @@ from latdyn.timeloop import checkpoint as checkpoints
 from latdyn.timeloop.control import Resize, StepControl
 from latdyn.timeloop.impulse import prescribed_acceleration_jump, prescribed_velocity_jump
 from latdyn.timeloop.jumps import acceleration_only_jumps, starts_on_a_jump
-from latdyn.timeloop.events import (CABLE_LANDING, TAUT_JUMP_STEP, cable_events, cable_sides, crossing_fraction, hinge_events,
+from latdyn.timeloop.events import (CABLE_LANDING, TAUT_JUMP_STEP, cable_events, cable_gaps, cable_sides, crossing_fraction, hinge_events,
                                    lock_events, restart_accelerations, stick_at_start, stop_crossings)
 from latdyn.timeloop.progress import (DRIFT_WARNING, UNBOUNDED, UNBOUNDED_ROWS, UNRESOLVED_TURN, TransientProgress, cable_work,
                                       energy_round_off, factorizations, far_root, hinge_work, drive_forces, drive_work)
@@ -780,11 +780,25 @@ class TimeLoop:
         self.model.cables.sides[:] = progress.cable_sides
         damping = self.model.cables.damping
         jumped = any(a < 0 < b and damping[e] > 0 for e, (a, b) in enumerate(zip(held, progress.cable_sides)))
+        if changes and old.t == 0.0:
+            changes = self._changes_after_the_start(old, changes)
         if changes:
             progress.events = progress.events + [{"joint": name, "kind": kind, "t": float(new.t)}
                                                  for name, kind in changes]
             self._refuse_unheld_cable_ends(new, progress.cable_sides)
         return jumped
+
+    def _changes_after_the_start(self, start: State, changes: list) -> list:
+        """``changes`` of the steps from t = 0 less those of cables whose every element is on its boundary at
+        t = 0 (its gap within the tolerance: a cable that starts at its rest length, the default): such a cable
+        has no side to change from, and the side its first step takes it to is its state at the start, not a
+        change after t = 0 (SCENE.md ``cable_events``). A cable hung at its rest length under gravity reported
+        'taut' at t = dt/1000 (the landing's floor, CABLE_LANDING · dt)."""
+        gaps, tol = cable_gaps(self.assembler, start)
+        cables = self.model.cables
+        on_boundary = {name for k, name in enumerate(cables.names)
+                       if np.all(np.abs(gaps[cables.cable == k]) <= tol[cables.cable == k])}
+        return [(name, kind) for name, kind in changes if name not in on_boundary]
 
     def _refuse_unheld_cable_ends(self, state: State, sides) -> None:
         """End the run (SolverError naming the cable) where a massless cable whose free end only its
