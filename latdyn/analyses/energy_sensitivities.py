@@ -34,9 +34,9 @@ latdyn_momentum, csrc/rows.c), never from differences:
   (:func:`_dissipated_step`);
 - external work W of a transient run, integrated by the loop as Σ ½ h (P_n + P_{n+1}) of the point
   loads' power P = −Q·u (Q the ``point_load`` kernel's generalized force, u the node's rates) and
-  Σ ½ (τ_n + τ_{n+1}) Δθ of the hinges' applied torques (less k s of a spring that is a law in θ̇ or t), the
-  prescribed motion's drive power Σ_d r_d q̇_d among P (:func:`_drive_power`): its sensitivity is carried through the steps
-  with the same quadrature (:func:`external_work_step`), δP = −(∂Q/∂π δπ + ∂Q/∂p)·u − Q·δu, δτ =
+  Σ ½ (τ_n + τ_{n+1}) Δθ of the hinges' applied torques (less k s of a spring that is a law in θ̇ or t), and
+  Σ ½ (r_n + r_{n+1}) Δq_d of the reactions that impose the prescribed motions (:func:`_drive_reactions`): its
+  sensitivity is carried through the steps with the same quadrature (:func:`external_work_step`), δP = −(∂Q/∂π δπ + ∂Q/∂p)·u − Q·δu, δτ =
   ∂τ/∂θ δθ + ∂τ/∂θ̇ δθ̇ + ∂τ/∂p, and through an event as the loop takes it (:func:`external_work_after_event`);
   so it is exact for the computed solution up to the Newton tolerance (the loop takes each step's power from its
   last Newton evaluation, within that tolerance of the converged state). Static paths record no external work
@@ -512,7 +512,7 @@ def external_work_step(owner, before: dict, after: dict, old, new, h: float) -> 
     """``after`` (the carried sensitivities at the end of the accepted step ``old`` → ``new`` of size ``h``)
     with the external work's sensitivity carried on by the loop's own quadrature (module docstring):
     δW_{n+1} = δW_n + ½ h (δP_n + δP_{n+1}) + ½ δh (P_n + P_{n+1}) + Σ_j ½ (δτ_n + δτ_{n+1}) Δθ
-    + ½ (τ_n + τ_{n+1}) (δθ_{n+1} − δθ_n), ``before`` the carried sensitivities at ``old``. Nothing without
+    + ½ (τ_n + τ_{n+1}) (δθ_{n+1} − δθ_n) + Σ_d ½ (δr_n + δr_{n+1}) Δq_d, ``before`` the carried sensitivities at ``old``. Nothing without
     an external-work probe."""
     after = _dissipated_step(owner, before, after, old, new)
     if not any(p.kind == "energy" and p.quantity == "external_work" for p in owner.probes):
@@ -526,7 +526,12 @@ def external_work_step(owner, before: dict, after: dict, old, new, h: float) -> 
     turned = np.asarray(new.theta, float) - np.asarray(old.theta, float)
     work = (work + 0.5 * h * (dpower_old + dpower_new) + 0.5 * np.asarray(after["dh"]) * (power_old + power_new)
             + 0.5 * turned @ (dtorque_old + dtorque_new) + 0.5 * (torque_old + torque_new) @ (dtheta_new - dtheta_old))
-    return {**after, "external_work_sensitivity": work, "external_work_terms": terms}
+    held = before.get("external_work_drive")
+    rows_old, _, dreaction_old = held if held is not None else _drive_reactions(owner, old, before)
+    drive = _drive_reactions(owner, new, after)
+    if len(drive[0]):
+        work = work + 0.5 * _drive_increments(owner.model, old, new, drive[0]) @ (dreaction_old + drive[2])
+    return {**after, "external_work_sensitivity": work, "external_work_terms": terms, "external_work_drive": drive}
 
 
 def _dissipated_step(owner, before: dict, after: dict, old, new) -> dict:
@@ -587,30 +592,37 @@ def external_work_after_event(owner, before: dict, after: dict, new, kind: str) 
     if kind == "latch":
         held = before["external_work_terms"]
         work = work + 0.5 * before["h"] * (terms[1] - held[1]) + 0.5 * np.asarray(before["dh"]) * (terms[0] - held[0])
-    return {**after, "external_work_sensitivity": work, "external_work_terms": terms}
+    return {**after, "external_work_sensitivity": work, "external_work_terms": terms,
+            "external_work_drive": _drive_reactions(owner, new, after)}
 
 
-def _drive_power(owner, state, carried: dict) -> tuple:
-    """(P_d, δP_d (k,)): the power of the reactions that impose the prescribed motion, Σ_d r_d q̇_d over the
-    constrained coordinates d that move (a prescribed body's, a prescribed hinge angle's; csrc/newton_step.c
-    drive_power), and its derivative Σ_d q̇_d δr_d with δr_d = K_d δq + C_d δv + M_d δv̇ + ∂r_d/∂p, the exact rows on
-    d (:meth:`latdyn.assembly.assembler.Assembler.exact_rows`, as the held joints' forces take them:
-    latdyn/analyses/joint_force_sensitivities.py); q̇_d is the prescribed law's, no parameter's."""
+def _drive_reactions(owner, state, carried: dict) -> tuple:
+    """(rows, r_d, δr_d (d, k)): the reactions that impose the prescribed motions on the prescribed coordinates d
+    (a prescribed body's six, a prescribed hinge's or guide's one; rows in the numbering at ``state``), and their
+    derivatives δr_d = K_d δq + C_d δv + M_d δv̇ + ∂r_d/∂p, the exact rows on d
+    (:meth:`latdyn.assembly.assembler.Assembler.exact_rows`, as the held joints' forces take them:
+    latdyn/analyses/joint_force_sensitivities.py). The drive's work over a step is ½(r_n + r_{n+1}) Δq_d
+    (latdyn/timeloop/progress.py drive_work), Δq_d the prescribed law's, no parameter's: its derivative
+    ½(δr_n + δr_{n+1}) Δq_d (:func:`external_work_step`)."""
     model, assembler = owner.model, owner.assembler
     n, k = model.n_dofs, len(owner.names)
-    # the constrained coordinates follow the assembled ones (with rigid links the nodes that follow the links,
-    # n_dofs … n_assembled, move too, but no reaction drives them: refusal() keeps prescribed motion from links)
-    first = model.n_assembled
-    rates = pack(model, state.v, state.w, state.theta_dot)[first:model.n_total]
-    moving = np.flatnonzero(rates)
-    if len(moving) == 0:
-        return 0.0, np.zeros(k)
-    rows, weights = moving + first, rates[moving]
+    rows = model.prescribed_coordinates()
+    if len(rows) == 0:
+        return rows, np.zeros(0), np.zeros((0, k))
     M, C, K = assembler.exact_rows(state, rows)
     explicit = owner.residual_derivatives(state, 1.0, inertia=True, on_all=True)[rows]
-    reaction = assembler.evaluate(state, matrices=False).reaction[moving]
-    moved = weights @ (K[:, :n] @ carried["dq"] + C[:, :n] @ carried["dv"] + M[:, :n] @ carried["dvdot"] + explicit)
-    return float(weights @ reaction), moved
+    reaction = assembler.evaluate(state, matrices=False).reaction[rows - n]
+    moved = K[:, :n] @ carried["dq"] + C[:, :n] @ carried["dv"] + M[:, :n] @ carried["dvdot"] + explicit
+    return rows, reaction, moved
+
+
+def _drive_increments(model, old, new, rows: np.ndarray) -> np.ndarray:
+    """Δq on ``rows`` over the step ``old`` → ``new``: Δx, the rotation vector of T_{n+1} T_nᵀ, Δθ
+    (latdyn/timeloop/progress.py drive_work)."""
+    from latdyn.numerics.so3 import rotation_increment
+
+    return pack(model, new.x - old.x, rotation_increment(old.T, new.T),
+                np.asarray(new.theta, float) - np.asarray(old.theta, float))[rows]
 
 
 def _power(owner, state, carried: dict):
@@ -649,8 +661,6 @@ def _power(owner, state, carried: dict):
             moved[place] = np.array([owner._of_time(law, state.t) for law in laws])
             nodes, forces = owner._load_forces(state, pairs, moved)
             np.add.at(dpower, columns, -np.einsum("li,li->l", forces, u[pairs]))
-    drive, ddrive = _drive_power(owner, state, carried)
-    power, dpower = power + drive, dpower + ddrive
     H = len(model.hinges)
     torque, dtorque = np.zeros(H), np.zeros((H, k))
     for j, hinge in enumerate(model.hinges):

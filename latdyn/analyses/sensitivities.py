@@ -105,7 +105,7 @@ from latdyn.assembly.native_model import NO_CONTACT, joint_contact_rows
 from latdyn.errors import SceneError, SolverError
 from latdyn.results.result import SENSITIVITIES_FILE
 from latdyn.scene.expressions import HingeLaw, parse_hinge_law, reading_inputs
-from latdyn.timeloop.jumps import jumping_key
+from latdyn.timeloop.jumps import jumping_key, prescribed_motion_jump_key
 
 __all__ = ["refusal", "StaticSensitivities", "SENSITIVITIES_FILE"]
 
@@ -313,6 +313,11 @@ def _transient_refusal(scene) -> str | None:
     if jumping is not None:   # the restart at the jump (latdyn.timeloop.jumps) is not differentiated
         return (f"{jumping} jumps in t, where the run restarts from the new law's accelerations; the sensitivities "
                 "do not differentiate that restart yet (a continuous law in t, or a Piecewise that joins, is taken)")
+    drive = prescribed_motion_jump_key(scene, float(solve.t_end))
+    if drive is not None:   # landed on and restarted (with a kink's impulse), not differentiated
+        return (f"{drive[0]}: the prescribed rate or acceleration jumps at t = {drive[1]:.9g}, where the run lands, "
+                "applies the jump (a kink's impulse on the free rates) and restarts; the sensitivities do not "
+                "differentiate that restart (a law whose rate and acceleration are continuous is taken)")
     return None   # friction: sticking refused, when it comes, where not followed
 
 

@@ -185,7 +185,8 @@ class AdvanceData(ctypes.Structure):
                 ("rows", P), ("cable_work", P),
                 ("sample_tolerance", ctypes.c_double), ("native_restart", I64), ("samples", I64),
                 ("rate_turns", P), ("unresolved_turn", ctypes.c_double), ("sensitivities", P),
-                ("trajectory", P)]
+                ("trajectory", P),
+                ("drive_force", P)]
 
 
 class SensitivityLoopData(ctypes.Structure):

@@ -268,6 +268,15 @@ class Model:
         formulation = self.scene.solve.formulation
         return formulation if self.plane is None else planar_variant(formulation, self.plane)
 
+    def prescribed_coordinates(self) -> np.ndarray:
+        """The coordinates (in the numbering now) that the prescribed motions move: each prescribed body's
+        six, each prescribed hinge angle's or slide's one; the constrained ones among them (a planar model's
+        out-of-plane slots are none)."""
+        nodes = [i for i, node in enumerate(self.nodes) if node.kind == PRESCRIBED]
+        hinges = [j for j, hinge in enumerate(self.hinges) if hinge.angle is not None]
+        rows = np.concatenate([self.node_dofs[nodes].ravel(), self.hinge_dofs[hinges]]).astype(np.int64)
+        return rows[(rows >= self.n_dofs) & (rows < self.n_total)]
+
     def node_slots(self) -> np.ndarray:
         """(6,) bool: which of a free node's [dx dy dz rx ry rz] are coordinates (all in 3D;
         d_i, d_j, r_n in a planar model)."""

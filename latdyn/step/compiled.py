@@ -309,7 +309,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
 
     def advance(self, state: State, *, grid_index: int, stop_index: int, dt: float, t_end: float, n_grid: int,
                 power: float, external_work: float, hinge_work_torque: np.ndarray, hinge_damper_torque: np.ndarray,
-                cable_work: np.ndarray | None = None, dissipated: float = 0.0, budget_s: float = 0.25,
+                drive_force: np.ndarray | None = None, cable_work: np.ndarray | None = None, dissipated: float = 0.0, budget_s: float = 0.25,
                 rows: list[int] | None = None, momentum: bool = False, sections: bool = False,
                 joints: bool = False, cables: bool = False, controller_states: bool = False,
                 controller_outputs: bool = False, sample_tolerance: float = 0.0,
@@ -318,8 +318,9 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         """Steps on the time grid in one call into C (``latdyn_advance``), from ``state`` on grid
         point ``grid_index`` through ``stop_index``, each as :meth:`step` takes it with
         h = t_{k+1} − t_k and accepted as the time loop accepts it (algorithmic acceleration
-        carried, the point loads' and prescribed motion's external work by the trapezoidal rule in time
-        from ``power``, the hinges' work and their dampers' dissipated energy over each step's Δθ from
+        carried, the point loads' external work by the trapezoidal rule in time from ``power``, the
+        prescribed motions' over each step's Δq from their reactions ``drive_force`` at ``state``, as
+        latdyn.timeloop.progress.drive_work, the hinges' work and their dampers' dissipated energy over each step's Δθ from
         the torques ``hinge_work_torque`` and ``hinge_damper_torque`` at ``state``, as
         latdyn.timeloop.progress.hinge_work, and the cables' reels' work and dampers' dissipation over
         each step's ΔL0 and Δℓ from ``cable_work`` at ``state``, as latdyn.timeloop.progress.cable_work).
@@ -367,6 +368,10 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         cable_accounts = np.array(np.zeros((0, 4)) if cable_work is None else cable_work, dtype=float)  # in/out
         run.dissipated = dissipated
         run.hinge_work_torque, run.hinge_damper_torque = work_torque.ctypes.data, damper_torque.ctypes.data
+        if drive_force is None:   # none at ``state`` (the reactions by prescribed coordinate: 6 a prescribed body, 1 a hinge)
+            drive_force = np.zeros(6 * int(self._native.model.n_prescribed) + len(model.hinges))
+        drive = np.array(drive_force, dtype=float)  # in/out
+        run.drive_force = drive.ctypes.data
         buffers = None
         if rows:
             buffers = self._row_buffers()
@@ -418,7 +423,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         return Advanced(state=last, steps=run.steps, iterations=run.iterations, factorizations=run.factorizations,
                         power=run.power, external_work=run.external_work, status=run.status, pending=pending,
                         factorization_kept=kept, hinge_work_torque=work_torque,
-                        hinge_damper_torque=damper_torque, cable_work=cable_accounts,
+                        hinge_damper_torque=damper_torque, drive_force=drive, cable_work=cable_accounts,
                         dissipated=run.dissipated, rows=buffers.block() if buffers is not None else None,
                         samples=run.samples, rate_turns=turns)
 
@@ -536,6 +541,8 @@ class Advanced:
     #: per hinge at that state: the torque that does external work and the damper's torque
     hinge_work_torque: np.ndarray | None = None
     hinge_damper_torque: np.ndarray | None = None
+    #: the reactions of the prescribed motions at that state (latdyn.timeloop.progress.drive_forces)
+    drive_force: np.ndarray | None = None
     cable_work: np.ndarray | None = None  # per cable element at that state: [ℓ, L0, ∂U/∂L0, f]
     dissipated: float = 0.0  # the energy the dampers dissipated since the start of the run
     #: the rows recorded on the way (``advance``'s ``rows``), None without

@@ -1,4 +1,5 @@
-"""The response of the free coordinates to impulses on hinges: impacts on stops and latches.
+"""The response of the free coordinates to impulses on hinges: impacts on stops and latches, and the
+impulse of a prescribed velocity that jumps (:func:`prescribed_velocity_jump`).
 
 An impact lasts no time: the configuration, and so every finite force (elastic, applied,
 gravity), is continuous through it, and only inertia forces take the impulse. The velocities
@@ -47,6 +48,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from latdyn.assembly.assembler import State, free_acceleration, free_velocity, pack, unpack_free
 from latdyn.assembly.evaluation import Evaluation
 from latdyn.assembly.factorization import solve_linear
 from latdyn.numerics.inertia import split_inertia
@@ -146,3 +148,84 @@ def jump(X: np.ndarray, N: np.ndarray, v: np.ndarray, target: np.ndarray) -> np.
     """v⁺ = v⁻ + X (NᵀX)⁻¹ (target − Nᵀv⁻): the velocities after the impulses that bring the hinge
     rates Nᵀv to ``target``."""
     return v + X @ np.linalg.solve(N.T @ X, target - N.T @ v)
+
+
+def prescribed_velocity_jump(assembler, before: State, state: State, step: float) -> float:
+    """The free velocities of ``state`` after the impulse that a jump of the prescribed velocities implies
+    (a kink of a prescribed angle, slide or motion: its rate jumps from ``before``'s to ``state``'s at the
+    same configuration), in place; returns the work that impulse did, the drive's.
+
+    A prescribed velocity is a velocity constraint: the drive applies whatever impulse J on its coordinates c
+    makes their rates jump by Δv_c, and none acts on the free coordinates f, so their momentum is kept,
+    M_ff Δv_f + M_fc Δv_c = 0 (restitution has no say: the rate after is the law's). M_fc Δv_c is the change
+    of the free residual when the prescribed accelerations are Δv_c (the residual is affine in the
+    accelerations, with rigid links' dependent nodes completed from them); Δv_f is the impulse law's response
+    to −M_fc Δv_c (:func:`impulse_response`: directions without inertia in their statics, stiff ones weighted
+    by M + h²K as at a latch). The impulse on c, J = M_cf Δv_f + M_cc Δv_c, is the change of the reactions
+    with accelerations (Δv_f, Δv_c), and its work ½(v_c⁻ + v_c⁺)·J, the kinetic energy it gives (exactly so
+    where M weights the jump). The crank kinked to 2 rad/s carrying a free rigid rod: the hinge's rate −5
+    rad/s, 1.1667 J, Goldstein's impulse on a free rod (tests/test_prescribed_motion_work.py)."""
+    model = assembler.model
+    rows = model.prescribed_coordinates()
+    jump_c = (pack(model, state.v - before.v, state.w - before.w, state.theta_dot - before.theta_dot)[rows])
+    scale = np.max(np.abs(pack(model, state.v, state.w, state.theta_dot)[rows]), initial=0.0)
+    # a jump of 1e-9 of the rates is none (the rates' own change over the 2e-9·dt a landed jump skips is smaller)
+    if len(rows) == 0 or not np.any(np.abs(jump_c) > 1e-9 * max(scale, 1.0)):
+        return 0.0
+    at_rest = state.copy()
+    for name in ("a", "alpha", "theta_ddot"):
+        getattr(at_rest, name)[...] = 0.0
+    prescribed = at_rest.copy()
+    for name, rate in (("a", "v"), ("alpha", "w"), ("theta_ddot", "theta_dot")):
+        np.copyto(getattr(prescribed, name), getattr(state, rate) - getattr(before, rate))
+    free = _free_mask(model)
+    for name, mask in zip(("a", "alpha", "theta_ddot"), free):
+        getattr(prescribed, name)[mask] = 0.0
+    zero = assembler.evaluate(at_rest, matrices=False)
+    coupled = assembler.evaluate(prescribed, matrices=False)
+    impulse = -(np.asarray(coupled.residual) - np.asarray(zero.residual))
+    X = impulse_response(model, assembler.evaluate(state, matrices=True), impulse[:, None], step)
+    jump_f = X[:, 0]
+    unpack_free(model, free_velocity(model, state) + jump_f, state.v, state.w, state.theta_dot)
+    assembler.complete_links(state)
+    unpack_free(model, jump_f, prescribed.a, prescribed.alpha, prescribed.theta_ddot)
+    reaction = np.asarray(assembler.evaluate(prescribed, matrices=False).reaction) - np.asarray(zero.reaction)
+    mean = 0.5 * (pack(model, before.v, before.w, before.theta_dot) + pack(model, state.v, state.w, state.theta_dot))
+    return float(mean[rows] @ reaction[rows - model.n_dofs])
+
+
+def prescribed_acceleration_jump(assembler, before: State, state: State, step: float) -> np.ndarray | None:
+    """The change of the free accelerations of ``state`` that a jump of the prescribed accelerations alone
+    implies (a ramp's end: from ``before``'s to ``state``'s at the same configuration and velocities), added
+    in place; returns it (free coordinates), or None where no prescribed acceleration changed. The free
+    equations hold on both sides, so M_ff Δv̇_f = −M_fc Δv̇_c, the change of the free residual with the
+    prescribed accelerations, solved by :func:`impulse_response` as a jump of the rates is
+    (:func:`prescribed_velocity_jump`: the same linear algebra). A restart that solved the accelerations
+    again from scratch (``restart_accelerations``: (M + dt²K) v̇ = −r₀) set a flexible slider-crank's
+    drive reaction ringing from step to step after its crank's acceleration jumped (−0.47, −1.00, −0.16,
+    −0.64 N m), and the trapezoid of that ringing lost 4.4e-3 J of its work (examples/slider_crank.yaml)."""
+    model = assembler.model
+    rows = model.prescribed_coordinates()
+    after = pack(model, state.a, state.alpha, state.theta_ddot)[rows]
+    held = pack(model, before.a, before.alpha, before.theta_ddot)[rows]
+    if len(rows) == 0 or not np.any(after != held):
+        return None
+    previous = state.copy()
+    free = _free_mask(model)
+    for name, mask in zip(("a", "alpha", "theta_ddot"), free):
+        np.copyto(getattr(previous, name), getattr(before, name))
+        getattr(previous, name)[mask] = getattr(state, name)[mask]
+    change = np.asarray(assembler.evaluate(state, matrices=False).residual) \
+        - np.asarray(assembler.evaluate(previous, matrices=False).residual)
+    shift = impulse_response(model, assembler.evaluate(state, matrices=True), -change[:, None], step)[:, 0]
+    unpack_free(model, free_acceleration(model, state) + shift, state.a, state.alpha, state.theta_ddot)
+    assembler.complete_links(state)
+    return shift
+
+
+def _free_mask(model) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Which node translations, node rotations and hinge rates are free coordinates (n_nodes × 3 twice,
+    n_hinges): those a prescribed velocity's jump leaves to the impulse law."""
+    node = model.node_dofs < model.n_dofs
+    hinge = model.hinge_dofs < model.n_dofs
+    return node[:, :3], node[:, 3:], hinge

@@ -62,7 +62,9 @@ def jump_times(scene, t_end: float) -> np.ndarray:
     """The sorted instants in (0, ``t_end``] where a law of ``scene`` jumps in t (module docstring);
     empty where none does. A jump within 1e-12 · t_end of t_end is at t_end (the last step lands
     :data:`JUMP_SIDE` · dt before it); jumps within 1e-12 · t_end of each other are one."""
-    times = sorted(_in_run(t, t_end) for _, t in _jumps(scene, t_end) if _in_run(t, t_end) is not None)
+    found = list(_jumps(scene, t_end)) + prescribed_acceleration_jumps(scene, t_end) \
+        + prescribed_rate_kinks(scene, t_end)
+    times = sorted(_in_run(t, t_end) for _, t in found if _in_run(t, t_end) is not None)
     merged: list[float] = []
     for t in times:
         if not merged or t - merged[-1] > 1e-12 * t_end:
@@ -96,23 +98,65 @@ def prescribed_position_jump(scene, t_end: float) -> tuple[str, float] | None:
     return None
 
 
-def prescribed_rate_kink(scene, t_end: float) -> tuple[str, float] | None:
-    """(key, time) of the first instant in (0, ``t_end``) where the *rate* of a law that prescribes a
-    position jumps (a kink: ``Piecewise((0, t < 0.5), (2*(t - 0.5), True))``, a table's inner node), else
-    None. Such a drive applies an impulse to the free parts it carries, which the run does not apply:
-    a step across the kink takes the prescribed coordinate's new rate while the free joints it carries
-    keep their relative rates, so those parts are carried along rigidly (a crank kinked to 2 rad/s
-    carrying a free rod: the rod turned with it, 5.33 J of kinetic energy, where the impulse gives the
-    rod −3 rad/s and 1.17 J in all) and the energy balance does not close there. The transient says so
-    (a warning naming the law and the instant)."""
+def prescribed_rate_kinks(scene, t_end: float) -> list[tuple[str, float]]:
+    """(key, time) of the instants in (0, ``t_end``) where the *rate* of a law that prescribes a position
+    jumps (a kink: ``Piecewise((0, t < 0.5), (2*(t - 0.5), True))``, a table's inner node). Such a drive
+    applies an impulse to the free parts it carries: the steps land on the kink (:func:`jump_times`) and
+    the restart after it gives the free rates the jump that impulse makes
+    (latdyn.timeloop.impulse.prescribed_velocity_jump). Before, a step across the kink took the prescribed
+    coordinate's new rate while the free joints it carries kept their relative rates, so those parts were
+    carried along rigidly (a crank kinked to 2 rad/s carrying a free rod: the rod turned with it, 5.33 J
+    of kinetic energy, where the impulse gives the hinge −5 rad/s and 1.17 J in all)."""
+    found = []
     for key, law in prescribed_positions(scene):
         rate = getattr(law, "rate", None)
         if rate is None or getattr(law, "is_constant", False):
             continue
-        for time in _jumps_of_values(lambda t, rate=rate: np.asarray(rate(np.asarray(t, float)), float), t_end):
-            if 0.0 < time < t_end * (1 - 1e-12):
-                return key, float(time)
-    return None
+        found.extend((key, float(time)) for time in
+                     _jumps_of_values(lambda t, rate=rate: np.asarray(rate(np.asarray(t, float)), float), t_end)
+                     if 0.0 < time < t_end * (1 - 1e-12))
+    return found
+
+
+def acceleration_only_jumps(scene, t_end: float) -> np.ndarray:
+    """The instants of :func:`prescribed_acceleration_jumps` where nothing else jumps (no law's value,
+    no prescribed rate: :func:`jump_times`' other sources, within 1e-12 · t_end): there the restart
+    changes the free accelerations by the response to the change of the prescribed ones alone
+    (latdyn.timeloop.impulse.prescribed_acceleration_jump) instead of solving them again."""
+    others = [t for _, t in list(_jumps(scene, t_end)) + prescribed_rate_kinks(scene, t_end)]
+    return np.array(sorted({float(t) for _, t in prescribed_acceleration_jumps(scene, t_end)
+                            if all(abs(t - u) > 1e-12 * t_end for u in others)}), dtype=float)
+
+
+def prescribed_motion_jump_key(scene, t_end: float) -> tuple[str, float] | None:
+    """(key, time) of the first kink (:func:`prescribed_rate_kinks`) or jump of the acceleration
+    (:func:`prescribed_acceleration_jumps`) of a prescribed motion, where the run lands and restarts (for
+    the refusals of what does not differentiate that restart), else None."""
+    found = sorted(prescribed_rate_kinks(scene, t_end) + prescribed_acceleration_jumps(scene, t_end),
+                   key=lambda pair: pair[1])
+    return found[0] if found else None
+
+
+def prescribed_acceleration_jumps(scene, t_end: float) -> list[tuple[str, float]]:
+    """(key, time) of the instants in (0, ``t_end``] where the *acceleration* of a law that prescribes a
+    position jumps while its value and rate do not (the ends of a ramp of constant acceleration,
+    ``Piecewise((0, t < 0.5), (100*(t - 0.5)**2, t < 0.51), (0.01 + 2*(t - 0.51), True))``), for a law whose
+    text may jump (:func:`_values_in_time`). The prescribed acceleration is a load on the parts the drive
+    carries: a step that ends on such an instant took the law's acceleration after it (``Piecewise``'s
+    branch there) for its whole end, and one that crosses it integrates a law that is not smooth inside
+    it; the steps land on these instants and restart after them as at a jump of a load (:func:`jump_times`).
+    Landed on, the drive's work ½(r_n + r_{n+1}) Δq (latdyn.timeloop.progress.drive_work) closes the
+    energy balance to the step's order; not landed on, the crank's 10 ms ramp at dt = 0.001 counted
+    0.11 J too little of 1.18 J (the reaction of the ramp's acceleration missing from the step ending
+    at its end, which moved the crank 2 mrad) and the 1 ms ramp ended falsely ``unbounded``."""
+    found = []
+    for key, law in prescribed_positions(scene):
+        accel = getattr(law, "accel", None)
+        if accel is None or _values_in_time(law) is None:
+            continue
+        found.extend((key, time) for time in _jumps_of_values(
+            lambda t, accel=accel: np.asarray(accel(np.asarray(t, float)), float), t_end))
+    return found
 
 
 def prescribed_positions(scene):

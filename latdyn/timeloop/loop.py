@@ -25,6 +25,7 @@ import sys
 import time
 from typing import NamedTuple
 
+import numpy as np
 
 from latdyn.assembly.assembler import State
 from latdyn.assembly.native_model import STATE_FIELDS
@@ -39,11 +40,12 @@ from latdyn.results.writer import ResultWriter
 from latdyn.step.integrators import newton_diagnosis
 from latdyn.timeloop import checkpoint as checkpoints
 from latdyn.timeloop.control import Resize, StepControl
-from latdyn.timeloop.jumps import starts_on_a_jump
-from latdyn.timeloop.events import (CABLE_LANDING, TAUT_JUMP_STEP, cable_events, cable_sides, crossing_fraction, hinge_events,
+from latdyn.timeloop.impulse import prescribed_acceleration_jump, prescribed_velocity_jump
+from latdyn.timeloop.jumps import acceleration_only_jumps, starts_on_a_jump
+from latdyn.timeloop.events import (CABLE_LANDING, TAUT_JUMP_STEP, cable_events, cable_gaps, cable_sides, crossing_fraction, hinge_events,
                                    lock_events, restart_accelerations, stick_at_start, stop_crossings)
 from latdyn.timeloop.progress import (DRIFT_WARNING, UNBOUNDED, UNBOUNDED_ROWS, UNRESOLVED_TURN, TransientProgress, cable_work,
-                                      energy_round_off, factorizations, far_root, hinge_work, load_power)
+                                      energy_round_off, factorizations, far_root, hinge_work, drive_forces, drive_work)
 from latdyn.timeloop.sampling import controller_memory, restore_controller_memory
 
 
@@ -132,6 +134,7 @@ class TimeLoop:
         #: the state of the last trial step the integrator took (:meth:`_step`; what it holds is that trial's)
         self._last_trial: State | None = None
         self.unbounded = False  # the energy balance broke (_judge_balance)
+        self._drive_jumps = None  # the instants a prescribed acceleration alone jumps (_drive_alone_jumped)
         self.bar = None
 
     # ------------------------------------------------------------------------- start, resume
@@ -185,7 +188,8 @@ class TimeLoop:
         self.progress = TransientProgress(
             state=state, algorithmic_acceleration=self.integrator.a, locked=self.model.locked.copy(),
             stuck=self.model.stuck.copy(), resting=self.model.resting.copy(),
-            h=self.control.dt, power=load_power(self.model, state, evaluation),
+            h=self.control.dt, power=evaluation.external_power,
+            drive_force=drive_forces(self.model, evaluation.reaction),
             cable_work=evaluation.cable_work.copy(),
             hinge_work_torque=evaluation.hinge_work_torque.copy(),
             hinge_damper_torque=evaluation.hinge_damper_torque.copy(),
@@ -214,6 +218,9 @@ class TimeLoop:
         self.integrator.inertia_tangent = self.progress.inertia_tangent_from is not None
         self.probes.external_work = checkpoint.external_work
         self.probes.dissipated = self.progress.dissipated
+        if self.progress.drive_force is None:   # a checkpoint written before the drives' reactions were kept
+            self.progress.drive_force = drive_forces(self.model, self.assembler.evaluate(
+                self.progress.state, matrices=False).reaction)
         if hasattr(self.integrator, "restore_factorization"):  # modified Newton's held matrix, as it was
             try:
                 self.integrator.restore_factorization(checkpoint.factorization)
@@ -306,7 +313,22 @@ class TimeLoop:
         same PD stepped from Python to 2e-13)."""
         progress = self.progress
         state = progress.state.copy()  # accepted states are replaced, never changed in place
-        if progress.steps == 0 or self._rigid_only():  # before the first step: the start, as if the scene
+        # the prescribed motions as their laws are at the restart's time: an acceleration that jumps there (a
+        # ramp's end, latdyn.timeloop.jumps.prescribed_acceleration_jumps) takes its new value, whose reaction
+        # starts the next step's work; a rate that jumps (a kink, or an input set from outside that a rate
+        # names) gives the free rates the jump of its impulse, whose work is the drive's
+        held = state.copy()
+        self.assembler.apply_prescribed(state, state.t)
+        kicked = prescribed_velocity_jump(self.assembler, held, state, self.control.dt)
+        if kicked:
+            progress.external_work = self.probes.external_work = progress.external_work + kicked
+        shift = None
+        if self._drive_alone_jumped(state.t):   # a prescribed acceleration alone: the free ones follow it
+            shift = prescribed_acceleration_jump(self.assembler, held, state, self.control.dt)
+        if shift is not None:
+            if getattr(self.integrator, "a", None) is not None:
+                self.integrator.a = self.integrator.a + shift
+        elif progress.steps == 0 or self._rigid_only():  # before the first step: the start, as if the scene
             # had said so; a structure of rigid links and bodies only: the exact M⁻¹f (no directions of
             # little inertia to take quasi-statically, and Newton's K would put its ω² terms in)
             self.integrator.start(state)
@@ -315,9 +337,16 @@ class TimeLoop:
         evaluation = self.assembler.evaluate(state, matrices=False)
         progress.state = self.prepared.state = state
         progress.algorithmic_acceleration = getattr(self.integrator, "a", None)
-        progress.power = load_power(self.model, state, evaluation)
         self._torques_from(evaluation)
         self._add_jump_work(stored_before, state)
+
+    def _drive_alone_jumped(self, t: float) -> bool:
+        """Whether the restart at ``t`` follows a jump of a prescribed acceleration alone
+        (latdyn.timeloop.jumps.acceleration_only_jumps, found once a run)."""
+        if self._drive_jumps is None:
+            self._drive_jumps = acceleration_only_jumps(self.model.scene, self.control.t_end)
+        near = 1e-12 * self.control.t_end + 2.0 * self.control.jump_side
+        return bool(np.any(np.abs(self._drive_jumps - t) <= near))
 
     def _rigid_only(self) -> bool:
         """Whether the structure has no elastic element and no cable (rigid links, bodies, hinges and
@@ -403,7 +432,8 @@ class TimeLoop:
             progress.state, grid_index=progress.grid_index, stop_index=stop, dt=control.dt,
             t_end=control.t_end, n_grid=control.n_grid, power=progress.power,
             external_work=progress.external_work, hinge_work_torque=progress.hinge_work_torque,
-            hinge_damper_torque=progress.hinge_damper_torque, cable_work=progress.cable_work,
+            hinge_damper_torque=progress.hinge_damper_torque, drive_force=progress.drive_force,
+            cable_work=progress.cable_work,
             dissipated=progress.dissipated, budget_s=budget, rows=rows, momentum=momentum, sections=sections,
             joints=bool(self.model.hinges), cables=self.probes.needs_cables,
             controller_states=self.probes.needs_controller_states,
@@ -429,6 +459,7 @@ class TimeLoop:
             progress.power = done.power
             progress.external_work = self.probes.external_work = done.external_work
             progress.hinge_work_torque, progress.hinge_damper_torque = done.hinge_work_torque, done.hinge_damper_torque
+            progress.drive_force = done.drive_force
             progress.cable_work = done.cable_work
             progress.dissipated = self.probes.dissipated = done.dissipated
             if carried is not None:   # the sensitivities at the last accepted state, before its row
@@ -664,7 +695,7 @@ class TimeLoop:
         if evaluation is None or len(evaluation.reaction) != model.n_total - model.n_dofs or events.resting:
             # resting on a stop: the step ends where the projection put it back (events.HingeEvents)
             evaluation = self.assembler.evaluate(new, matrices=False)
-        new_power = load_power(model, new, evaluation)
+        new_power = evaluation.external_power
         external_work = self.probes.external_work + 0.5 * h * (progress.power + new_power)
         progress.power = new_power
         # the work of the hinges' torques (progress.hinge_work): external work and the joints'
@@ -677,6 +708,10 @@ class TimeLoop:
         # them): measured on docs/cables.md's damped truss, forces re-evaluated on the new side gave
         # a balance error 2.4 times larger
         ended = evaluation if events.resting else getattr(integrator, "last_evaluation", None) or evaluation
+        # the prescribed motions' work over the step's Δq (progress.drive_work), their reactions at its end
+        # from the same evaluation as the power's
+        external_work += drive_work(model, progress.state, new, progress.drive_force,
+                                    drive_forces(model, evaluation.reaction))
         external_work, dissipated = hinge_work(
             progress.state.theta, new.theta if events.resting else theta_end,
             (progress.hinge_work_torque, progress.hinge_damper_torque),
@@ -686,7 +721,7 @@ class TimeLoop:
         after = evaluation
         if events.any and evaluation is ended and not events.resting:  # the velocities jumped
             after = self.assembler.evaluate(new, matrices=False)
-            progress.power = load_power(model, new, after)
+            progress.power = after.external_power
         self._torques_from(after)
         progress.dissipated = self.probes.dissipated = dissipated + events.loss
         if self.sensitivities is not None:   # after the events: their renumbering and restarted accelerations
@@ -717,6 +752,8 @@ class TimeLoop:
         ``evaluation``, which the next step's work and dissipation start from (progress.hinge_work,
         progress.cable_work)."""
         progress = self.progress
+        progress.power = evaluation.external_power
+        progress.drive_force = drive_forces(self.model, evaluation.reaction)
         progress.cable_work = evaluation.cable_work.copy()
         progress.hinge_work_torque = evaluation.hinge_work_torque.copy()
         progress.hinge_damper_torque = evaluation.hinge_damper_torque.copy()
@@ -743,11 +780,25 @@ class TimeLoop:
         self.model.cables.sides[:] = progress.cable_sides
         damping = self.model.cables.damping
         jumped = any(a < 0 < b and damping[e] > 0 for e, (a, b) in enumerate(zip(held, progress.cable_sides)))
+        if changes and old.t == 0.0:
+            changes = self._changes_after_the_start(old, changes)
         if changes:
             progress.events = progress.events + [{"joint": name, "kind": kind, "t": float(new.t)}
                                                  for name, kind in changes]
             self._refuse_unheld_cable_ends(new, progress.cable_sides)
         return jumped
+
+    def _changes_after_the_start(self, start: State, changes: list) -> list:
+        """``changes`` of the steps from t = 0 less those of cables whose every element is on its boundary at
+        t = 0 (its gap within the tolerance: a cable that starts at its rest length, the default): such a cable
+        has no side to change from, and the side its first step takes it to is its state at the start, not a
+        change after t = 0 (SCENE.md ``cable_events``). A cable hung at its rest length under gravity reported
+        'taut' at t = dt/1000 (the landing's floor, CABLE_LANDING · dt)."""
+        gaps, tol = cable_gaps(self.assembler, start)
+        cables = self.model.cables
+        on_boundary = {name for k, name in enumerate(cables.names)
+                       if np.all(np.abs(gaps[cables.cable == k]) <= tol[cables.cable == k])}
+        return [(name, kind) for name, kind in changes if name not in on_boundary]
 
     def _refuse_unheld_cable_ends(self, state: State, sides) -> None:
         """End the run (SolverError naming the cable) where a massless cable whose free end only its
@@ -807,7 +858,6 @@ class TimeLoop:
         self.integrator.start(state)
         progress.algorithmic_acceleration = self.integrator.a
         evaluation = self.assembler.evaluate(state, matrices=False)
-        progress.power = load_power(self.model, state, evaluation)
         self._torques_from(evaluation)
 
     # ------------------------------------------------------------------------- rows, summary

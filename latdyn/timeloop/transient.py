@@ -13,7 +13,7 @@ from latdyn.results.writer import ResultWriter
 from latdyn.step.integrators import AlphaParameters, CentralDifference, newmark_warning
 from latdyn.timeloop import checkpoint as checkpoints
 from latdyn.timeloop.control import StepControl
-from latdyn.timeloop.jumps import jump_times, prescribed_position_jump, prescribed_rate_kink
+from latdyn.timeloop.jumps import jump_times, prescribed_position_jump
 from latdyn.timeloop.loop import TimeLoop
 from latdyn.timeloop.progress import TransientProgress
 from latdyn.timeloop.sampling import SampledControllers
@@ -97,12 +97,6 @@ def start_transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter,
                     compiled_loop=COMPILED_LOOP, loop_budget_s=LOOP_BUDGET_S, sampler=sampler,
                     sensitivities=sensitivities)
     loop.begin(resume_from)
-    kink = prescribed_rate_kink(scene, t_end)
-    if kink is not None and resume_from is None:
-        writer.warn(f"{kink[0]}: the prescribed rate jumps at t = {kink[1]:.9g} (a kink): the impulse it implies on "
-                    "the parts it drives is not applied — the free joints it carries keep their relative rates "
-                    "across it, so those parts are carried along as if rigid there and the energy balance does "
-                    "not close; give the law a continuous rate (a smooth ramp the steps resolve)")
     for warning in prepared.assembler.initial_warnings:  # loops the initial velocity does not close (a resumed
         writer.warn(warning)  # run's summary says so as the whole run's does)
     undamped = scene.solve.method == "newmark" or (scene.solve.method in ("generalized-alpha", "hht-alpha")

@@ -212,7 +212,8 @@ static int64_t newton_iterations(const Model *m, Work *w, StepControl *s, const 
         configure_trial(m, base, trial, dx, v, vdot, laws);
         int matrices = !s->modified || rebuild;
         s->power = evaluate(m, trial, w, laws, s->t_new, matrices, 1, 1.0);
-        if (n == 0) {
+        if (n == 0) {  /* nothing free: the reactions of the constrained coordinates, reduced (drive_work) */
+            if (m->links) reduce_links(m, w, trial, 0.0, 0.0, 0, 0);
             s->converged = 1;
             return 0;
         }
@@ -306,24 +307,39 @@ static int cable_event(const Model *m, const Work *w)
     return 0;
 }
 
-/* Power of the constraint forces that impose prescribed motion (latdyn/timeloop/progress.py drive_power): the
- * reaction of the last evaluation (w->total on the constrained coordinates n_dofs … n_total−1)
- * times the velocities of those coordinates. */
-static double drive_power(const Model *m, const Configuration *c, const double *total)
+/* The spatial rotation vector φ of Tb Taᵀ (latdyn/numerics/so3.py rotation_increment, the same formula):
+ * sin|φ| n the vee of its skew part, cos|φ| = (tr − 1)/2, |φ| the atan2 of the two. */
+static void rotation_increment(const double *Ta, const double *Tb, double *phi)
 {
-    const int64_t n = m->n_dofs, n_total = m->n_total;
-    double power = 0.0;
-    for (int64_t i = 0; i < m->n_nodes; ++i) {
-        const int64_t *d = m->node_dofs + 6 * i;
-        for (int j = 0; j < 6; ++j)
-            if (d[j] >= n && d[j] < n_total)
-                power += total[d[j]] * (j < 3 ? c->v[3 * i + j] : c->w[3 * i + j - 3]);
+    double R[9];
+    for (int i = 0; i < 3; ++i)
+        for (int k = 0; k < 3; ++k)
+            R[3 * i + k] = Tb[3 * i] * Ta[3 * k] + Tb[3 * i + 1] * Ta[3 * k + 1] + Tb[3 * i + 2] * Ta[3 * k + 2];
+    phi[0] = 0.5 * (R[7] - R[5]);
+    phi[1] = 0.5 * (R[2] - R[6]);
+    phi[2] = 0.5 * (R[3] - R[1]);
+    const double sine = sqrt(phi[0] * phi[0] + phi[1] * phi[1] + phi[2] * phi[2]);
+    const double scale = sine > 1e-300 ? atan2(sine, 0.5 * (R[0] + R[4] + R[8] - 1.0)) / sine : 1.0;
+    for (int j = 0; j < 3; ++j) phi[j] *= scale;
+}
+
+/* The entry of `total` on coordinate d where d is constrained (n_dofs ≤ d < n_total), else 0. */
+static double constrained_entry(const Model *m, const double *total, int64_t d)
+{
+    return d >= m->n_dofs && d < m->n_total ? total[d] : 0.0;
+}
+
+/* The reactions of the prescribed motions by prescribed coordinate (latdyn/timeloop/progress.py
+ * drive_forces): from `total` (an evaluation's, the constrained coordinates n_dofs … n_total−1) the 6 of
+ * each prescribed body's node, then one per hinge (0 unless its angle or slide is prescribed), into force. */
+static void drive_forces(const Model *m, const double *total, double *force)
+{
+    for (int64_t k = 0; k < m->n_prescribed; ++k) {
+        const int64_t *d = m->node_dofs + 6 * m->prescribed_nodes[k];
+        for (int j = 0; j < 6; ++j) force[6 * k + j] = constrained_entry(m, total, d[j]);
     }
-    for (int64_t j = 0; j < m->n_hinges; ++j) {
-        int64_t d = m->hinge_dofs[j];
-        if (d >= n && d < n_total) power += total[d] * c->theta_dot[j];
-    }
-    return power;
+    for (int64_t j = 0; j < m->n_hinges; ++j)
+        force[6 * m->n_prescribed + j] = m->hinge_angle_law[j] >= 0 ? constrained_entry(m, total, m->hinge_dofs[j]) : 0.0;
 }
 
 /* A loop of steps on the time grid (timeloop.loop's TimeLoop, for the steps it would accept as
@@ -334,9 +350,9 @@ typedef struct {
     double dt, t_end;
     int64_t n_grid, grid_index, stop_index;
     double t, budget_s;
-    /* in/out: the power of point loads and prescribed motion at the last accepted state,
-     * and the work done since the start of the run (theirs by the trapezoidal rule in time, the
-     * hinges' by hinge_work) */
+    /* in/out: the power of the point loads at the last accepted state, and the work done since the
+     * start of the run (theirs by the trapezoidal rule in time, the hinges' by hinge_work, the
+     * prescribed motions' by drive_work) */
     double power, external_work;
     /* out: steps accepted, their Newton iterations and factorizations; why the loop returned
      * (0 at stop_index, 1 a step did not converge, 2 a step holds an event, 3 the budget, 4 a sample
@@ -373,6 +389,9 @@ typedef struct {
     SensitivityLoop *sensitivities;
     /* in/out: the discrete adjoint's forward pass, each accepted step stored (adjoint_trajectory.c; NULL: none) */
     Trajectory *trajectory;
+    /* in/out (6 n_prescribed + n_hinges): the reactions of the prescribed motions at the last accepted
+     * state, by prescribed coordinate (drive_forces) */
+    double *drive_force;
 } Advance;
 
 /* The angle by which a free hinge's rate change over the accepted step old → new turns it over the step,
@@ -398,6 +417,34 @@ static void rate_turns(const Model *m, const Configuration *old, const Configura
             kept[4] = t;
             kept[5] = h;
         }
+    }
+}
+
+/* The work of the prescribed motions over the accepted step old → new (latdyn/timeloop/progress.py
+ * drive_work): ½(r_n + r_{n+1}) Δq over each prescribed coordinate (Δx of a prescribed body's point, the
+ * rotation vector of T_{n+1} T_nᵀ, Δθ of a prescribed hinge or guide), the trapezoidal rule in q as
+ * hinge_work's in θ, into the external work; the reactions at the new state (the last evaluation's) are
+ * carried to the next step in adv->drive_force. */
+static void drive_work(const Model *m, const Work *w, const Configuration *old, const Configuration *new_,
+                       Advance *adv)
+{
+    const int64_t P = m->n_prescribed;
+    double *carried = adv->drive_force;
+    for (int64_t k = 0; k < P; ++k) {
+        const int64_t i = m->prescribed_nodes[k], *d = m->node_dofs + 6 * i;
+        double increment[6];
+        for (int j = 0; j < 3; ++j) increment[j] = new_->x[3 * i + j] - old->x[3 * i + j];
+        rotation_increment(old->T + 9 * i, new_->T + 9 * i, increment + 3);
+        for (int j = 0; j < 6; ++j) {
+            const double force = constrained_entry(m, w->total, d[j]);
+            adv->external_work += 0.5 * (carried[6 * k + j] + force) * increment[j];
+            carried[6 * k + j] = force;
+        }
+    }
+    for (int64_t j = 0; j < m->n_hinges; ++j) {
+        const double force = m->hinge_angle_law[j] >= 0 ? constrained_entry(m, w->total, m->hinge_dofs[j]) : 0.0;
+        adv->external_work += 0.5 * (carried[6 * P + j] + force) * (new_->theta[j] - old->theta[j]);
+        carried[6 * P + j] = force;
     }
 }
 
@@ -446,8 +493,8 @@ static double seconds_now(void)
 /* Steps from `start` (at adv->t, on grid point grid_index) through grid point stop_index,
  * each landing on the grid (h = t_{k+1} − t_k) as timeloop.loop takes them at the nominal
  * step: latdyn_newton_step with the compiled laws, then acceptance (the algorithmic
- * acceleration carried, the external work of point loads and prescribed motion by the trapezoidal
- * rule in time, the hinges' work and dissipation by hinge_work, the cables' by cable_work). It
+ * acceleration carried, the external work of point loads by the trapezoidal rule in time, the
+ * prescribed motions' by drive_work, the hinges' work and dissipation by hinge_work, the cables' by cable_work). It
  * returns at the first
  * step that does not converge or that holds a hinge event, without accepting it, so that the
  * caller's loop handles that step as it always has; it never fails by itself. States alternate
@@ -481,13 +528,13 @@ int64_t latdyn_advance(const Model *m, Work *w, StepControl *s, const Configurat
             adv->h_pending = s->h;
             break;
         }
-        /* accepted: GeneralizedAlpha.accept, and the work of loads and prescribed motion (a_n kept for the
+        /* accepted: GeneralizedAlpha.accept, and the work of loads and prescribed motions (a_n kept for the
          * sensitivities' step, which reads a_n and a_{n+1}) */
         if (adv->sensitivities || adv->trajectory) memcpy(x->dx, x->a_n, sizeof(double) * (size_t)n);
         memcpy(x->a_n, x->a_new, sizeof(double) * (size_t)n);
-        double power = s->power + drive_power(m, trial, w->total);
-        adv->external_work += 0.5 * s->h * (adv->power + power);
-        adv->power = power;
+        adv->external_work += 0.5 * s->h * (adv->power + s->power);
+        adv->power = s->power;
+        drive_work(m, w, base, trial, adv);
         hinge_work(m, w, base, trial, adv);
         if (adv->rate_turns) rate_turns(m, base, trial, target, s->h, adv);
         latdyn_controller_states_accept(m, w, trial, target, s->h);  /* continuous controllers' states */

@@ -87,7 +87,7 @@ int64_t latdyn_sample_controllers(const Model *m, Work *w, const Configuration *
  * reduced residual Pᵀ r is affine in the minimum v̇ with slope Pᵀ M P (links.c assemble_linked_mass),
  * the dependent nodes completed again with the new v̇. Then the continuous controllers'
  * state rates at c (latdyn_controller_states_accept with h = 0, as the start takes them) and, from an
- * evaluation at the restarted state, the power of the point loads and prescribed motion, the hinges'
+ * evaluation at the restarted state, the power of the point loads, the prescribed motions' reactions, the hinges'
  * work and damper torques and the cables' accounts that start the next step (the time loop's
  * _torques_from). Returns 0, or the factorization's failure (the caller then restarts from Python). */
 static int64_t restart_after_sample(const Model *m, Work *w, Configuration *c, double t, double *a_n, Advance *adv)
@@ -135,7 +135,8 @@ static int64_t restart_after_sample(const Model *m, Work *w, Configuration *c, d
     m->time_laws(t, w->laws);
     const double power = evaluate(m, c, w, w->laws, t, 0, 1, 1.0);
     if (m->links) reduce_links(m, w, c, 0.0, 0.0, 0, 0);  /* the constrained coordinates' reactions */
-    adv->power = power + drive_power(m, c, w->total);
+    adv->power = power;
+    drive_forces(m, w->total, adv->drive_force);
     for (int64_t j = 0; j < m->n_hinges; ++j) {
         adv->hinge_work_torque[j] = w->hinge_work_torque[j];
         adv->hinge_damper_torque[j] = w->hinge_damper_torque[j];
