@@ -942,13 +942,55 @@ def _resume_check(scene_path, scene, uninterrupted, status, case_dir, timeout) -
         if not np.allclose(values, b.probes[name], rtol=0, atol=1e-6 * scale, equal_nan=True):
             worst = float(np.nanmax(np.abs(values - b.probes[name])))
             return {"outcome": "resume_mismatch", "detail": f"probe {name} differs by {worst:.3g} (scale {scale:.3g})"}
-    return {"resume": "equal"}
+    return _resumed_files_equal(uninterrupted, out) or {"resume": "equal"}
+
+
+def _resumed_files_equal(uninterrupted: Path, resumed: Path) -> dict | None:
+    """None where the resumed run's state history (every array, to 1e-6 of its magnitude) and the
+    summary's events and peaks (SCENE.md: "the result files then equal those of an uninterrupted run")
+    equal the uninterrupted run's; else the ``resume_mismatch`` record."""
+    from latdyn.errors import ResultsError
+    from latdyn.results.result import load_state_history
+
+    try:
+        with READING:
+            a, b = load_state_history(uninterrupted), load_state_history(resumed)
+    except (ResultsError, OSError) as exc:
+        return {"outcome": "resume_mismatch", "detail": f"state history: {exc}"}
+    if sorted(a) != sorted(b):
+        return {"outcome": "resume_mismatch", "detail": f"state history keys {sorted(a)} against {sorted(b)}"}
+    for key in a:
+        x, y = np.asarray(a[key], float), np.asarray(b[key], float)
+        if x.shape != y.shape:
+            return {"outcome": "resume_mismatch", "detail": f"state history {key}: shape {x.shape} against {y.shape}"}
+        scale = max(1e-12, float(np.nanmax(np.abs(x), initial=0.0)))
+        if not np.allclose(x, y, rtol=0, atol=1e-6 * scale, equal_nan=True):
+            worst = float(np.nanmax(np.abs(x - y)))
+            return {"outcome": "resume_mismatch", "detail": f"state history {key} differs by {worst:.3g} (scale {scale:.3g})"}
+    sa = json.loads((uninterrupted / "summary.json").read_text(encoding="utf-8"))
+    sb = json.loads((resumed / "summary.json").read_text(encoding="utf-8"))
+    for key in ("status", "events", "cable_events", "joint_peaks", "rows", "state_rows"):
+        if not _close(sa.get(key), sb.get(key)):
+            return {"outcome": "resume_mismatch", "detail": f"summary.json {key}: {str(sa.get(key))[:150]} against "
+                                                           f"{str(sb.get(key))[:150]}"}
+    return None
+
+
+def _close(a, b, rtol: float = 1e-6) -> bool:
+    """Equal JSON values, numbers to ``rtol`` of the larger."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        return a.keys() == b.keys() and all(_close(a[k], b[k], rtol) for k in a)
+    if isinstance(a, list) and isinstance(b, list):
+        return len(a) == len(b) and all(_close(x, y, rtol) for x, y in zip(a, b))
+    if isinstance(a, (int, float)) and isinstance(b, (int, float)) and not isinstance(a, bool):
+        return abs(a - b) <= rtol * max(abs(a), abs(b), 1e-12)
+    return a == b
 
 
 # =========================================================================== the campaign
 def campaign(runs: int, seed: int, *, jobs: int = 1, timeout: float = TIMEOUT_S, keep: Path | None = None,
              workdir: Path | None = None, progress=None, start: int = 0, joints: bool = False,
-             step_check: bool = False, extended: bool = False) -> list[dict]:
+             step_check: bool = False, extended: bool = False, resume_every: int = 8) -> list[dict]:
     """Run cases ``start`` … ``start + runs - 1`` of ``seed``, ``jobs`` at a time (``joints``: scenes with
     the keys of 2026-11-26 too; ``step_check``: :func:`_step_check` on solved transient runs); the
     records in order."""
@@ -957,7 +999,7 @@ def campaign(runs: int, seed: int, *, jobs: int = 1, timeout: float = TIMEOUT_S,
     records = []
     with ThreadPoolExecutor(max_workers=jobs) as pool:
         futures = [pool.submit(run_case, seed, i, base, timeout=timeout, joints=joints,
-                               step_check=step_check, extended=extended) for i in range(start, start + runs)]
+                               step_check=step_check, extended=extended, resume_every=resume_every) for i in range(start, start + runs)]
         for future in futures:
             record = future.result()
             records.append(record)
@@ -1011,6 +1053,8 @@ def main(argv=None) -> int:
                         help="scenes with cables, guides, contact, friction, inputs, controllers and sensitivities too")
     parser.add_argument("--extended", action="store_true",
                         help="scenes with offsets, steady spins, oblique gravity, adaptive steps for every method too")
+    parser.add_argument("--resume-every", type=int, default=8, metavar="K",
+                        help="interrupt and resume every K-th transient case (default 8; 1: every one)")
     parser.add_argument("--step-check", action="store_true",
                         help="run each solved transient case again at dt/2 (and dt/4) and judge the difference")
     parser.add_argument("--show", type=int, default=None, metavar="N", help="print the scene of case N and exit")
@@ -1031,7 +1075,8 @@ def main(argv=None) -> int:
 
     records = campaign(args.runs, args.seed, jobs=args.jobs, timeout=args.timeout, keep=args.keep,
                        progress=progress, start=args.start, workdir=args.workdir, joints=args.joints,
-                       step_check=args.step_check, extended=args.extended)
+                       step_check=args.step_check, extended=args.extended,
+                       resume_every=args.resume_every)
     summary = counts(records)
     print(json.dumps(summary, indent=1))
     if args.json:

@@ -486,6 +486,20 @@ def arc_length(path: Path, state) -> object:
     if model.n_dofs == 0:
         return load_control(path, state)
     start = path.iterate(state, 0.0)
+    if (path.sensitivities is None and start.dq_r is not None
+            and path.increment_size(start.dq_r) > 10 * path.tol):
+        # A start that is no equilibrium (a preloaded hinge spring, a pretensioned cable: rest angles
+        # and lengths are not ramped): the path begins at the equilibrium at λ = 0. From the start
+        # itself the cylinder ‖Δq‖_W = Δs of the first steps may not reach the path (its Δs₀ is that
+        # of the loads alone, the preload's move may be longer), and every step failed down to
+        # Δs₀/1024 where load control solved. The row at λ = 0 stays the initial configuration, as
+        # with load control (the path begins where its first step lands).
+        settled, _, _, converged = newton_fixed(path, state, 0.0)
+        if converged:
+            state = settled
+            start = path.iterate(state, 0.0)
+            path.points[-1] = path.point(0, 0.0, 0.0, lambda: path.tangent(settled, 0.0))
+            path._recent = [settled.copy()]
     if start.dq_lambda is None or path.norm(start.dq_lambda) == 0.0:
         free = mechanism_message(path, state, 0.0)
         if free is not None:

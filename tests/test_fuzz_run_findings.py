@@ -1,0 +1,87 @@
+"""What the random whole runs of 2026-11-27 (``benchmarks/fuzz_runs.py``, ``benchmarks/fuzz_invariants.py``;
+docs/verification.md, "Random whole runs judged by invariants") found, each through the front door and
+failing before its mend."""
+from __future__ import annotations
+
+import csv
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+CASES = ROOT / "tests" / "fuzz_cases"
+
+#: a preloaded hinge spring (rest_angle 0.5) on a 3D arm under a small load: the preload turns the arm
+#: by 0.5 rad, the load's first arc length (Δλ = 1/steps) is far shorter
+PRELOADED_ARM = """
+title: a preloaded hinge spring under a small load, by arc length
+sections:
+  s: {EA: 1.0e6, EIy: 200, EIz: 150, GJ: 100, rhoA: 1}
+bodies:
+  base: {at: [0, 0, 0], fixed: true}
+  tip: {at: [0.8, 0.3, 0.4], mass: 1}
+beams:
+  arm:
+    from: base
+    to: tip
+    section: s
+    elements: 2
+    start: {hinge: {axis: [0.0, 0.6, 0.8], stiffness: 40, rest_angle: 0.5}}
+loads:
+  - {at: tip, force: [0, 0, -0.2]}
+solve: {analysis: static, steps: 4, method: METHOD}
+output:
+  probes:
+    angle: {hinge: arm.start, quantity: angle}
+    tip_z: {point: tip, quantity: position, component: z}
+"""
+
+
+def _cli(scene: Path, out: Path) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "latdyn", "run", str(scene), "-o", str(out), "-q"],
+                          capture_output=True, text=True, cwd=scene.parent, timeout=300)
+
+
+def _rows(out: Path) -> dict[str, np.ndarray]:
+    with open(out / "probes.csv", newline="", encoding="utf-8") as f:
+        table = list(csv.reader(f))
+    return {name: np.array([float(row[i]) for row in table[1:]]) for i, name in enumerate(table[0])}
+
+
+def test_arc_length_begins_at_the_equilibrium_of_a_preloaded_start(tmp_path):
+    """Arc length from a start that is no equilibrium (a preloaded hinge spring) failed at load factor 0
+    ('Newton failed with arc lengths down to …') where load control solved; it now begins at the
+    equilibrium at λ = 0 and ends where load control ends, through the CLI and the API."""
+    import latdyn
+
+    rows = {}
+    for method in ("arc-length", "load-control"):
+        scene = tmp_path / f"{method}.yaml"
+        scene.write_text(PRELOADED_ARM.replace("METHOD", method), encoding="utf-8")
+        done = _cli(scene, tmp_path / method)
+        assert done.returncode == 0, done.stderr
+        rows[method] = _rows(tmp_path / method)
+    arc, load = rows["arc-length"], rows["load-control"]
+    assert arc["load_factor"][-1] == 1.0 and len(arc["load_factor"]) >= 4
+    for probe in ("angle", "tip_z"):
+        assert abs(arc[probe][-1] - load[probe][-1]) < 1e-10, probe
+    # every row past the first is on the path: near the preload's equilibrium (0.5 rad), not the start
+    assert np.all(np.abs(arc["angle"][1:] - 0.5) < 0.01), arc["angle"]
+    result = latdyn.run(latdyn.load_scene(str(tmp_path / "arc-length.yaml")))
+    assert np.array_equal(result.probes["angle"], arc["angle"])
+
+
+def test_the_reduced_fuzz_case_of_a_preloaded_loop_solves_by_arc_length(tmp_path):
+    scene = CASES / "arc_length_from_a_preloaded_loop.yaml"
+    done = _cli(scene, tmp_path / "arc")
+    assert done.returncode == 0, done.stderr
+    lc = tmp_path / "load_control.yaml"
+    lc.write_text(scene.read_text(encoding="utf-8").replace("method: arc-length", "method: load-control"),
+                  encoding="utf-8")
+    assert _cli(lc, tmp_path / "lc").returncode == 0
+    arc, load = _rows(tmp_path / "arc"), _rows(tmp_path / "lc")
+    assert arc["load_factor"][-1] == 1.0
+    for probe in ("m2_angle", "m3_angle", "b2_x"):
+        assert abs(arc[probe][-1] - load[probe][-1]) < 1e-9 * max(1.0, abs(load[probe][-1])), probe
