@@ -98,6 +98,10 @@ from latdyn.step.integrators import newton_diagnosis
 MAX_CUTS = 10
 #: Newton iterations a path step aims at (arc length adapts towards it).
 TARGET_ITERATIONS = 6
+#: the W-norm of δq_λ = K⁻¹q_ref (the move of the full load: translations over the scene's size, rotations
+#: in radians) at and below which the loads move nothing: arc length cannot start (its first arc length
+#: Δs₀ = ‖δq_λ‖_W/steps); round-off of zero loads is ~1e-18
+LOADS_MOVE_NOTHING = 1e-12
 #: Largest model whose tangent's negative eigenvalues are counted at every path point (dense).
 PIVOT_COUNT_LIMIT = 1000
 #: The same under follower loads, where the count needs the eigenvalues of the unsymmetric K (dense).
@@ -500,10 +504,18 @@ def arc_length(path: Path, state) -> object:
             start = path.iterate(state, 0.0)
             path.points[-1] = path.point(0, 0.0, 0.0, lambda: path.tangent(settled, 0.0))
             path._recent = [settled.copy()]
-    if start.dq_lambda is None or path.norm(start.dq_lambda) == 0.0:
+    if start.dq_lambda is None or path.norm(start.dq_lambda) <= LOADS_MOVE_NOTHING:
         free = mechanism_message(path, state, 0.0)
         if free is not None:
             raise SolverError(free)
+        if start.dq_lambda is not None:
+            # the round-off of loads that are zero: the first arc length was as small, and every step
+            # failed down to 1/1024 of it ("… arc lengths down to 1.08e-21"), where load control
+            # solved (nothing moves)
+            raise SolverError(f"arc-length continuation cannot start: the loads move nothing (the full load moves "
+                              f"the structure by {path.norm(start.dq_lambda):.3g} of its size, at most "
+                              f"{LOADS_MOVE_NOTHING:g}; a static analysis takes the loads, gravity and torques at "
+                              "t = 0, where a load in t may be zero): solve.method: load-control solves it")
         raise SolverError("arc-length continuation cannot start: the tangent at load factor 0 is singular "
                           "or the loads move nothing",
                           newton_diagnosis(model, start.residual, 0.0, 0.0, variable="load factor"))
