@@ -105,3 +105,30 @@ def test_arc_length_under_loads_that_are_zero_at_t0_says_the_loads_move_nothing(
         assert "the loads move nothing" in str(exc)
     else:
         raise AssertionError("solved")
+
+
+def test_displacement_control_from_a_preloaded_start_follows_the_path(tmp_path):
+    """Displacement control of the preloaded 3D arm's tip (down by 0.05 in 4 rows, measured from the
+    initial configuration) failed at its first row: 'the controlled displacement turns back at 0 (a
+    snap-back …)', every first step judged off the path because it also took the preload's move. It
+    now solves, each row an equilibrium: the first row's load factor, applied by load control, gives
+    its state; and the start (no equilibrium) is no limit point."""
+    import json
+
+    scene = tmp_path / "dc.yaml"
+    scene.write_text(PRELOADED_ARM.replace(
+        "method: METHOD", "method: displacement-control, control: {point: tip, direction: z, to: -0.05}"),
+        encoding="utf-8")
+    done = _cli(scene, tmp_path / "dc")
+    assert done.returncode == 0, done.stderr
+    rows = _rows(tmp_path / "dc")
+    assert np.allclose(rows["tip_z"], [0.4, 0.3875, 0.375, 0.3625, 0.35], rtol=0, atol=1e-12)
+    summary = json.loads((tmp_path / "dc" / "summary.json").read_text())
+    assert summary["limit_points"] == [] and not summary.get("warnings")
+    lam = float(rows["load_factor"][1])
+    check = tmp_path / "check.yaml"
+    check.write_text(PRELOADED_ARM.replace("METHOD", "load-control").replace("steps: 4", "steps: 20").replace(
+        "force: [0, 0, -0.2]", f"force: [0, 0, {-0.2 * lam!r}]"), encoding="utf-8")
+    assert _cli(check, tmp_path / "check").returncode == 0
+    held = _rows(tmp_path / "check")
+    assert abs(held["angle"][-1] - rows["angle"][1]) < 1e-10 and abs(held["tip_z"][-1] - 0.3875) < 1e-10

@@ -620,6 +620,13 @@ def displacement_control(path: Path, state) -> object:
                          f"expected a direction in which {control.point.text!r} can move, got {control.text} (out "
                          "of the plane of a planar model? planar: off solves it in 3D)")
     path.constraint_gradient = gradient
+    start = path.iterate(state, 0.0)
+    if start.dq_r is not None and path.increment_size(start.dq_r) > 10 * path.tol:
+        # a start that is no equilibrium (a preloaded spring) is no point of the path: the path begins
+        # where the first step lands (its load factor may be far from 0), and λ's change from the start
+        # to it is no turn (a limit point was reported at the first step)
+        path.points.clear()
+        path._recent = []
     lam, reached, k, h = 0.0, 0.0, 0, 1.0 / steps
     left_path = False  # a step towards the next row converged off the path
     rates = []  # the displacement rate at the start of every accepted step
@@ -699,9 +706,15 @@ def displacement_step(path: Path, state, lam: float, goal: float, displacement, 
     start, :func:`displacement_rate`); None where Newton fails;
     LEFT_THE_PATH where it converged far from the tangent's prediction Δq = δλ K⁻¹q_ref (or there
     was none: dc/dλ = 0), onto another branch of the path or across a snap-back of c."""
-    tangent = path.iterate(state, lam).dq_lambda
+    start = path.iterate(state, lam)
+    tangent = start.dq_lambda
     if tangent is None:
         return None
+    # not judged from a start that is no equilibrium (a preloaded hinge spring, a pretensioned cable:
+    # the step also takes the preload's move, which the tangent does not predict), as load control's
+    # Path.left_the_path: every first step was judged off the path, and the run failed "the controlled
+    # displacement turns back at 0 (a snap-back …)" where there was none
+    judged = start.dq_r is not None and path.increment_size(start.dq_r) <= 10 * path.tol
     g = gradient(state)
     slope = float(g @ tangent)  # dc/dλ along the tangent
     rate = displacement_rate(path, slope, tangent)
@@ -729,7 +742,7 @@ def displacement_step(path: Path, state, lam: float, goal: float, displacement, 
         if path.increment_size(increment) <= path.tol:
             # the converged step far from the tangent's: it left the path (module docstring)
             mismatch = path.norm(step - predicted) / max(path.norm(step), path.norm(predicted), 1e-300)
-            return (trial, trial_lam, rate) if mismatch <= BRANCH_MISMATCH else LEFT_THE_PATH
+            return (trial, trial_lam, rate) if mismatch <= BRANCH_MISMATCH or not judged else LEFT_THE_PATH
     return None
 
 
