@@ -132,3 +132,16 @@ def test_displacement_control_from_a_preloaded_start_follows_the_path(tmp_path):
     assert _cli(check, tmp_path / "check").returncode == 0
     held = _rows(tmp_path / "check")
     assert abs(held["angle"][-1] - rows["angle"][1]) < 1e-10 and abs(held["tip_z"][-1] - 0.3875) < 1e-10
+
+
+def test_arc_length_with_sensitivities_from_a_preloaded_start_says_why_it_fails(tmp_path):
+    """With solve.sensitivities arc length still starts from the initial configuration (its derivative
+    is taken from there), and on the preloaded arm it fails there: the message says why and what
+    solves it, where it said only 'Newton failed with arc lengths down to …'."""
+    scene = tmp_path / "sens.yaml"
+    scene.write_text("parameters: {k: 40}\n" + PRELOADED_ARM.replace("stiffness: 40", "stiffness: k").replace(
+        "method: METHOD", "method: arc-length, sensitivities: [k]"), encoding="utf-8")
+    done = _cli(scene, tmp_path / "out")
+    assert done.returncode == 1, done.stderr
+    assert "from the initial configuration, which is no equilibrium" in done.stderr, done.stderr
+    assert "load control, displacement control and arc length without sensitivities solve" in done.stderr

@@ -490,8 +490,8 @@ def arc_length(path: Path, state) -> object:
     if model.n_dofs == 0:
         return load_control(path, state)
     start = path.iterate(state, 0.0)
-    if (path.sensitivities is None and start.dq_r is not None
-            and path.increment_size(start.dq_r) > 10 * path.tol):
+    preloaded = start.dq_r is not None and path.increment_size(start.dq_r) > 10 * path.tol
+    if path.sensitivities is None and preloaded:
         # A start that is no equilibrium (a preloaded hinge spring, a pretensioned cable: rest angles
         # and lengths are not ramped): the path begins at the equilibrium at λ = 0. From the start
         # itself the cylinder ‖Δq‖_W = Δs of the first steps may not reach the path (its Δs₀ is that
@@ -540,7 +540,13 @@ def arc_length(path: Path, state) -> object:
             if ds < ds0 / 2 ** MAX_CUTS:
                 path.fail(state, lam, f"arc-length continuation could not go on from load factor {lam:.6g}: "
                                       f"Newton failed with arc lengths down to {ds0 / 2 ** MAX_CUTS:.3g} "
-                                      f"(1/{2 ** MAX_CUTS} of the first step)", None, lam, ds)
+                                      f"(1/{2 ** MAX_CUTS} of the first step)" + (
+                                          " from the initial configuration, which is no equilibrium (a preloaded "
+                                          "hinge spring or a pretensioned cable): with solve.sensitivities arc "
+                                          "length starts there, where the loads' first arc length may not reach "
+                                          "the path; load control, displacement control and arc length without "
+                                          "sensitivities solve such a start" if preloaded and lam == 0.0
+                                          and path.sensitivities is not None else ""), None, lam, ds)
             continue
         new, new_lam, step_dq, n = result
         arc += path.norm(step_dq)
