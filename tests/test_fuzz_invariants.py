@@ -109,3 +109,25 @@ def test_the_momentum_drift_and_the_energy_balance_are_measured():
     assert fi.is_free_and_unloaded(scene)
     assert not fi.is_free_and_unloaded({**scene, "gravity": [0, -9.81, 0]})
     assert not fi.is_free_and_unloaded({"bodies": {"g": {"at": [0, 0, 0], "fixed": True}}})
+
+
+def test_a_resumed_run_must_give_the_same_files(tmp_path):
+    """fuzz_runs._resumed_files_equal: the state history and the summary's events compared, and a
+    difference in either is a ``resume_mismatch``."""
+    import json
+
+    def folder(name, q, events):
+        out = tmp_path / name
+        out.mkdir()
+        np.savez(out / "state.npz", t=np.array([0.0, 0.1]), q=np.asarray(q, float))
+        (out / "summary.json").write_text(json.dumps({"status": "solved", "events": events, "rows": 2}))
+        return out
+
+    event = [{"joint": "arm.start", "kind": "latch", "t": 0.05}]
+    a = folder("a", [[0.0, 1.0], [0.5, 1.5]], event)
+    assert fuzz_runs._resumed_files_equal(a, folder("same", [[0.0, 1.0], [0.5, 1.5 + 1e-12]], event)) is None
+    moved = fuzz_runs._resumed_files_equal(a, folder("moved", [[0.0, 1.0], [0.5, 1.51]], event))
+    assert moved["outcome"] == "resume_mismatch" and "state history q" in moved["detail"]
+    later = fuzz_runs._resumed_files_equal(a, folder("later", [[0.0, 1.0], [0.5, 1.5]],
+                                                     [{**event[0], "t": 0.06}]))
+    assert later["outcome"] == "resume_mismatch" and "events" in later["detail"]
