@@ -33,8 +33,9 @@ and the defects, each a reason to look:
                             last time is not ``t_end``, or that left its checkpoint behind
 ``refusal_without_key``     exit 2 whose message does not name the file and a key path
 ``failure_without_message`` exit 1 without ``the solver failed:`` or ``unbounded:``
-``resume_mismatch``         an interrupted and resumed run whose exit status or probes differ from
-                            the uninterrupted run's
+``resume_mismatch``         an interrupted and resumed run whose exit status, probes, state history or
+                            summary.json events, cable events, joint peaks and rows differ from the
+                            uninterrupted run's (``--resume-every K``: every K-th transient case; 8)
 ``step_dependent``          (``--step-check``) a solved transient run whose answer changes with the
                             step more than it admits and does not converge (below)
 ==========================  =====================================================================
@@ -54,6 +55,10 @@ axial ringing, an impact's response — and the step, not the package, sets its 
 ``solved``); if they never do, or a finer run does not solve, the case is ``step_dependent`` — an
 answer the package reported as solved that it cannot stand behind, to look at.
 The record's ``step_check`` holds the verdict and the figures.
+
+``--extended`` adds what the scenes above rarely or never make (:func:`_extensions`: beam ends at
+offsets, steady spins, oblique gravity and spin, adaptive steps for every implicit method, a prescribed
+angle at a body's end); ``benchmarks/fuzz_invariants.py`` judges the same scenes by invariants.
 
 ``python benchmarks/fuzz_runs.py --runs 300 --seed 1`` runs a campaign and prints the counts by
 outcome; ``--keep DIR`` saves the scene, stderr and a note of every defect found under DIR;
