@@ -33,8 +33,9 @@ and the defects, each a reason to look:
                             last time is not ``t_end``, or that left its checkpoint behind
 ``refusal_without_key``     exit 2 whose message does not name the file and a key path
 ``failure_without_message`` exit 1 without ``the solver failed:`` or ``unbounded:``
-``resume_mismatch``         an interrupted and resumed run whose exit status or probes differ from
-                            the uninterrupted run's
+``resume_mismatch``         an interrupted and resumed run whose exit status, probes, state history or
+                            summary.json events, cable events, joint peaks and rows differ from the
+                            uninterrupted run's (``--resume-every K``: every K-th transient case; 8)
 ``step_dependent``          (``--step-check``) a solved transient run whose answer changes with the
                             step more than it admits and does not converge (below)
 ==========================  =====================================================================
@@ -54,6 +55,10 @@ axial ringing, an impact's response — and the step, not the package, sets its 
 ``solved``); if they never do, or a finer run does not solve, the case is ``step_dependent`` — an
 answer the package reported as solved that it cannot stand behind, to look at.
 The record's ``step_check`` holds the verdict and the figures.
+
+``--extended`` adds what the scenes above rarely or never make (:func:`_extensions`: beam ends at
+offsets, steady spins, oblique gravity and spin, adaptive steps for every implicit method, a prescribed
+angle at a body's end); ``benchmarks/fuzz_invariants.py`` judges the same scenes by invariants.
 
 ``python benchmarks/fuzz_runs.py --runs 300 --seed 1`` runs a campaign and prints the counts by
 outcome; ``--keep DIR`` saves the scene, stderr and a note of every defect found under DIR;
@@ -178,7 +183,7 @@ def _hinge(rng, *, prescribed_ok: bool) -> dict:
     return hinge
 
 
-def random_scene(rng: np.random.Generator, joints: bool = False) -> dict:
+def random_scene(rng: np.random.Generator, joints: bool = False, extended: bool = False) -> dict:
     """A random scene of the contract, small enough to run in a few seconds; ``joints``: with the keys
     added with the issues of 2026-11-26 as well (:func:`_joint_additions`: cables, guides, contact and
     friction, inputs, controllers, named parameters and sensitivities), drawn after the rest so that
@@ -274,7 +279,53 @@ def random_scene(rng: np.random.Generator, joints: bool = False) -> dict:
     scene["output"] = _output(rng, scene, points)
     if joints:
         _joint_additions(rng, scene, points)
+    if extended:
+        _extensions(rng, scene)
     return scene
+
+
+def _extensions(rng, scene: dict) -> None:
+    """What the scenes above rarely or never make (``extended``; drawn last, so that the scene without
+    them is the one ``extended=False`` draws): beam ends at an offset from their joint body (both ends),
+    a spin at constant rate for ``about: steady`` (which the ground's laws otherwise seldom give),
+    gravity and the initial rotation off the coordinate axes, adaptive steps for every implicit method
+    and the ``newton`` variants, a prescribed hinge angle at a body's end."""
+    bodies, solve = scene["bodies"], scene["solve"]
+    for beam in scene["beams"].values():
+        for end in ("from", "to"):
+            target = beam[end]
+            name = target["body"] if isinstance(target, dict) else target
+            if isinstance(name, str) and rng.random() < 0.35:
+                offset = [_r(rng, -0.15, 0.15, 3) for _ in range(3)]
+                beam[end] = {"body": name, "offset": offset}
+        # an end that became its start's point is a beam of zero length: back to the body's point
+        ends = [beam[e] for e in ("from", "to")]
+        points = [np.add(bodies[e["body"] if isinstance(e, dict) else e]["at"] if not isinstance(e, list) else e,
+                         e.get("offset", [0, 0, 0]) if isinstance(e, dict) else [0, 0, 0]) for e in ends]
+        if np.linalg.norm(points[1] - points[0]) < 0.05:
+            beam["to"] = beam["to"]["body"] if isinstance(beam["to"], dict) else beam["to"]
+    if solve.get("about") == "steady" and rng.random() < 0.8:
+        ground = bodies["g"]
+        for key in ("fixed", "mass", "inertia"):
+            ground.pop(key, None)
+        ground["motion"] = {"rotation": {"axis": _unit(rng), "angle": f"{_r(rng, 0.5, 8, 2)}*t"}}
+    if scene.get("gravity") and rng.random() < 0.4:
+        scene["gravity"] = [_r(rng, -6, 6, 2), _r(rng, -9.81, 0, 2), _r(rng, -6, 6, 2)]
+    if "initial_velocity" in scene and rng.random() < 0.5:
+        scene["initial_velocity"]["angular"] = [_r(rng, -3, 3, 2) for _ in range(3)]
+    if solve["analysis"] == "transient" and solve.get("method") != "explicit" and rng.random() < 0.3:
+        solve["adaptive"] = True
+        solve["error_tol"] = _choice(rng, [1e-3, 1e-4, 1e-5])
+        if rng.random() < 0.3:
+            solve["newton"] = _choice(rng, ["full", "modified", "exact"])
+    hinged = [spec["end"]["hinge"] for spec in scene["beams"].values()
+              if isinstance(spec.get("end"), dict) and "hinge" in spec["end"]]
+    if hinged and rng.random() < 0.2 and not scene.get("controllers"):
+        hinge = _choice(rng, hinged)
+        for key in ("stiffness", "damping", "torque", "rest_angle", "limits", "restitution", "lock_at",
+                    "contact", "friction"):
+            hinge.pop(key, None)
+        hinge["angle"] = f"{_r(rng, 0.1, 0.5, 2)}*sin({_r(rng, 1, 8, 1)}*t)"
 
 
 def _contact_friction(rng, joint: dict) -> None:
@@ -735,13 +786,13 @@ def judge(status, stderr: str, scene_path: Path, out: Path, scene: dict) -> tupl
 
 
 def run_case(seed: int, index: int, workdir: Path, *, timeout: float = TIMEOUT_S, resume_every: int = 8,
-             joints: bool = False, step_check: bool = False) -> dict:
+             joints: bool = False, step_check: bool = False, extended: bool = False) -> dict:
     """Generate case ``index`` of ``seed`` (``joints``: with :func:`_joint_additions`), run it (and, for
     every ``resume_every``-th transient case, interrupt and resume it; ``step_check``: a solved transient
     run again at dt/2, :func:`_step_check`) and judge it. Returns a record: index, outcome, detail, wall
     seconds, scene."""
     rng = np.random.default_rng([seed, index])
-    scene = random_scene(rng, joints=joints)
+    scene = random_scene(rng, joints=joints, extended=extended)
     case_dir = workdir / f"case{index:04d}"
     case_dir.mkdir(parents=True, exist_ok=True)
     scene_path = case_dir / "scene.yaml"
@@ -896,13 +947,55 @@ def _resume_check(scene_path, scene, uninterrupted, status, case_dir, timeout) -
         if not np.allclose(values, b.probes[name], rtol=0, atol=1e-6 * scale, equal_nan=True):
             worst = float(np.nanmax(np.abs(values - b.probes[name])))
             return {"outcome": "resume_mismatch", "detail": f"probe {name} differs by {worst:.3g} (scale {scale:.3g})"}
-    return {"resume": "equal"}
+    return _resumed_files_equal(uninterrupted, out) or {"resume": "equal"}
+
+
+def _resumed_files_equal(uninterrupted: Path, resumed: Path) -> dict | None:
+    """None where the resumed run's state history (every array, to 1e-6 of its magnitude) and the
+    summary's events and peaks (SCENE.md: "the result files then equal those of an uninterrupted run")
+    equal the uninterrupted run's; else the ``resume_mismatch`` record."""
+    from latdyn.errors import ResultsError
+    from latdyn.results.result import load_state_history
+
+    try:
+        with READING:
+            a, b = load_state_history(uninterrupted), load_state_history(resumed)
+    except (ResultsError, OSError) as exc:
+        return {"outcome": "resume_mismatch", "detail": f"state history: {exc}"}
+    if sorted(a) != sorted(b):
+        return {"outcome": "resume_mismatch", "detail": f"state history keys {sorted(a)} against {sorted(b)}"}
+    for key in a:
+        x, y = np.asarray(a[key], float), np.asarray(b[key], float)
+        if x.shape != y.shape:
+            return {"outcome": "resume_mismatch", "detail": f"state history {key}: shape {x.shape} against {y.shape}"}
+        scale = max(1e-12, float(np.nanmax(np.abs(x), initial=0.0)))
+        if not np.allclose(x, y, rtol=0, atol=1e-6 * scale, equal_nan=True):
+            worst = float(np.nanmax(np.abs(x - y)))
+            return {"outcome": "resume_mismatch", "detail": f"state history {key} differs by {worst:.3g} (scale {scale:.3g})"}
+    sa = json.loads((uninterrupted / "summary.json").read_text(encoding="utf-8"))
+    sb = json.loads((resumed / "summary.json").read_text(encoding="utf-8"))
+    for key in ("status", "events", "cable_events", "joint_peaks", "rows", "state_rows"):
+        if not _close(sa.get(key), sb.get(key)):
+            return {"outcome": "resume_mismatch", "detail": f"summary.json {key}: {str(sa.get(key))[:150]} against "
+                                                           f"{str(sb.get(key))[:150]}"}
+    return None
+
+
+def _close(a, b, rtol: float = 1e-6) -> bool:
+    """Equal JSON values, numbers to ``rtol`` of the larger."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        return a.keys() == b.keys() and all(_close(a[k], b[k], rtol) for k in a)
+    if isinstance(a, list) and isinstance(b, list):
+        return len(a) == len(b) and all(_close(x, y, rtol) for x, y in zip(a, b))
+    if isinstance(a, (int, float)) and isinstance(b, (int, float)) and not isinstance(a, bool):
+        return abs(a - b) <= rtol * max(abs(a), abs(b), 1e-12)
+    return a == b
 
 
 # =========================================================================== the campaign
 def campaign(runs: int, seed: int, *, jobs: int = 1, timeout: float = TIMEOUT_S, keep: Path | None = None,
              workdir: Path | None = None, progress=None, start: int = 0, joints: bool = False,
-             step_check: bool = False) -> list[dict]:
+             step_check: bool = False, extended: bool = False, resume_every: int = 8) -> list[dict]:
     """Run cases ``start`` … ``start + runs - 1`` of ``seed``, ``jobs`` at a time (``joints``: scenes with
     the keys of 2026-11-26 too; ``step_check``: :func:`_step_check` on solved transient runs); the
     records in order."""
@@ -911,7 +1004,7 @@ def campaign(runs: int, seed: int, *, jobs: int = 1, timeout: float = TIMEOUT_S,
     records = []
     with ThreadPoolExecutor(max_workers=jobs) as pool:
         futures = [pool.submit(run_case, seed, i, base, timeout=timeout, joints=joints,
-                               step_check=step_check) for i in range(start, start + runs)]
+                               step_check=step_check, extended=extended, resume_every=resume_every) for i in range(start, start + runs)]
         for future in futures:
             record = future.result()
             records.append(record)
@@ -963,12 +1056,17 @@ def main(argv=None) -> int:
     parser.add_argument("--json", type=Path, default=None, help="write the counts and every record's outcome here")
     parser.add_argument("--joints", action="store_true",
                         help="scenes with cables, guides, contact, friction, inputs, controllers and sensitivities too")
+    parser.add_argument("--extended", action="store_true",
+                        help="scenes with offsets, steady spins, oblique gravity, adaptive steps for every method too")
+    parser.add_argument("--resume-every", type=int, default=8, metavar="K",
+                        help="interrupt and resume every K-th transient case (default 8; 1: every one)")
     parser.add_argument("--step-check", action="store_true",
                         help="run each solved transient case again at dt/2 (and dt/4) and judge the difference")
     parser.add_argument("--show", type=int, default=None, metavar="N", help="print the scene of case N and exit")
     args = parser.parse_args(argv)
     if args.show is not None:
-        print(_scene_text(random_scene(np.random.default_rng([args.seed, args.show]), joints=args.joints)), end="")
+        print(_scene_text(random_scene(np.random.default_rng([args.seed, args.show]), joints=args.joints,
+                                             extended=args.extended)), end="")
         return 0
 
     def progress(record):
@@ -982,7 +1080,8 @@ def main(argv=None) -> int:
 
     records = campaign(args.runs, args.seed, jobs=args.jobs, timeout=args.timeout, keep=args.keep,
                        progress=progress, start=args.start, workdir=args.workdir, joints=args.joints,
-                       step_check=args.step_check)
+                       step_check=args.step_check, extended=args.extended,
+                       resume_every=args.resume_every)
     summary = counts(records)
     print(json.dumps(summary, indent=1))
     if args.json:

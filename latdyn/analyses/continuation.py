@@ -98,6 +98,10 @@ from latdyn.step.integrators import newton_diagnosis
 MAX_CUTS = 10
 #: Newton iterations a path step aims at (arc length adapts towards it).
 TARGET_ITERATIONS = 6
+#: the W-norm of δq_λ = K⁻¹q_ref (the move of the full load: translations over the scene's size, rotations
+#: in radians) at and below which the loads move nothing: arc length cannot start (its first arc length
+#: Δs₀ = ‖δq_λ‖_W/steps); round-off of zero loads is ~1e-18
+LOADS_MOVE_NOTHING = 1e-12
 #: Largest model whose tangent's negative eigenvalues are counted at every path point (dense).
 PIVOT_COUNT_LIMIT = 1000
 #: The same under follower loads, where the count needs the eigenvalues of the unsymmetric K (dense).
@@ -486,10 +490,32 @@ def arc_length(path: Path, state) -> object:
     if model.n_dofs == 0:
         return load_control(path, state)
     start = path.iterate(state, 0.0)
-    if start.dq_lambda is None or path.norm(start.dq_lambda) == 0.0:
+    preloaded = start.dq_r is not None and path.increment_size(start.dq_r) > 10 * path.tol
+    if path.sensitivities is None and preloaded:
+        # A start that is no equilibrium (a preloaded hinge spring, a pretensioned cable: rest angles
+        # and lengths are not ramped): the path begins at the equilibrium at λ = 0. From the start
+        # itself the cylinder ‖Δq‖_W = Δs of the first steps may not reach the path (its Δs₀ is that
+        # of the loads alone, the preload's move may be longer), and every step failed down to
+        # Δs₀/1024 where load control solved. The row at λ = 0 stays the initial configuration, as
+        # with load control (the path begins where its first step lands).
+        settled, _, _, converged = newton_fixed(path, state, 0.0)
+        if converged:
+            state = settled
+            start = path.iterate(state, 0.0)
+            path.points[-1] = path.point(0, 0.0, 0.0, lambda: path.tangent(settled, 0.0))
+            path._recent = [settled.copy()]
+    if start.dq_lambda is None or path.norm(start.dq_lambda) <= LOADS_MOVE_NOTHING:
         free = mechanism_message(path, state, 0.0)
         if free is not None:
             raise SolverError(free)
+        if start.dq_lambda is not None:
+            # the round-off of loads that are zero: the first arc length was as small, and every step
+            # failed down to 1/1024 of it ("… arc lengths down to 1.08e-21"), where load control
+            # solved (nothing moves)
+            raise SolverError(f"arc-length continuation cannot start: the loads move nothing (the full load moves "
+                              f"the structure by {path.norm(start.dq_lambda):.3g} of its size, at most "
+                              f"{LOADS_MOVE_NOTHING:g}; a static analysis takes the loads, gravity and torques at "
+                              "t = 0, where a load in t may be zero): solve.method: load-control solves it")
         raise SolverError("arc-length continuation cannot start: the tangent at load factor 0 is singular "
                           "or the loads move nothing",
                           newton_diagnosis(model, start.residual, 0.0, 0.0, variable="load factor"))
@@ -514,7 +540,13 @@ def arc_length(path: Path, state) -> object:
             if ds < ds0 / 2 ** MAX_CUTS:
                 path.fail(state, lam, f"arc-length continuation could not go on from load factor {lam:.6g}: "
                                       f"Newton failed with arc lengths down to {ds0 / 2 ** MAX_CUTS:.3g} "
-                                      f"(1/{2 ** MAX_CUTS} of the first step)", None, lam, ds)
+                                      f"(1/{2 ** MAX_CUTS} of the first step)" + (
+                                          " from the initial configuration, which is no equilibrium (a preloaded "
+                                          "hinge spring or a pretensioned cable): with solve.sensitivities arc "
+                                          "length starts there, where the loads' first arc length may not reach "
+                                          "the path; load control, displacement control and arc length without "
+                                          "sensitivities solve such a start" if preloaded and lam == 0.0
+                                          and path.sensitivities is not None else ""), None, lam, ds)
             continue
         new, new_lam, step_dq, n = result
         arc += path.norm(step_dq)
@@ -594,6 +626,13 @@ def displacement_control(path: Path, state) -> object:
                          f"expected a direction in which {control.point.text!r} can move, got {control.text} (out "
                          "of the plane of a planar model? planar: off solves it in 3D)")
     path.constraint_gradient = gradient
+    start = path.iterate(state, 0.0)
+    if start.dq_r is not None and path.increment_size(start.dq_r) > 10 * path.tol:
+        # a start that is no equilibrium (a preloaded spring) is no point of the path: the path begins
+        # where the first step lands (its load factor may be far from 0), and λ's change from the start
+        # to it is no turn (a limit point was reported at the first step)
+        path.points.clear()
+        path._recent = []
     lam, reached, k, h = 0.0, 0.0, 0, 1.0 / steps
     left_path = False  # a step towards the next row converged off the path
     rates = []  # the displacement rate at the start of every accepted step
@@ -673,9 +712,15 @@ def displacement_step(path: Path, state, lam: float, goal: float, displacement, 
     start, :func:`displacement_rate`); None where Newton fails;
     LEFT_THE_PATH where it converged far from the tangent's prediction Δq = δλ K⁻¹q_ref (or there
     was none: dc/dλ = 0), onto another branch of the path or across a snap-back of c."""
-    tangent = path.iterate(state, lam).dq_lambda
+    start = path.iterate(state, lam)
+    tangent = start.dq_lambda
     if tangent is None:
         return None
+    # not judged from a start that is no equilibrium (a preloaded hinge spring, a pretensioned cable:
+    # the step also takes the preload's move, which the tangent does not predict), as load control's
+    # Path.left_the_path: every first step was judged off the path, and the run failed "the controlled
+    # displacement turns back at 0 (a snap-back …)" where there was none
+    judged = start.dq_r is not None and path.increment_size(start.dq_r) <= 10 * path.tol
     g = gradient(state)
     slope = float(g @ tangent)  # dc/dλ along the tangent
     rate = displacement_rate(path, slope, tangent)
@@ -703,7 +748,7 @@ def displacement_step(path: Path, state, lam: float, goal: float, displacement, 
         if path.increment_size(increment) <= path.tol:
             # the converged step far from the tangent's: it left the path (module docstring)
             mismatch = path.norm(step - predicted) / max(path.norm(step), path.norm(predicted), 1e-300)
-            return (trial, trial_lam, rate) if mismatch <= BRANCH_MISMATCH else LEFT_THE_PATH
+            return (trial, trial_lam, rate) if mismatch <= BRANCH_MISMATCH or not judged else LEFT_THE_PATH
     return None
 
 
