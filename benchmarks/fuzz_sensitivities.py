@@ -405,7 +405,8 @@ def _event(rng, hinge: dict) -> None:
         hinge["lock_at"] = round(sign * reach, 4)
     else:
         hinge["limits"] = sorted([round(sign * reach, 4), round(-sign * 0.6, 4)])
-        hinge["restitution"] = float(rng.choice([0, 0.5, 0.9]))
+        # restitution 0 mostly ends at rest on the stop, which the sensitivities refuse (one case in six)
+        hinge["restitution"] = float(rng.choice([0, 0.5, 0.9, 0.5, 0.9, 0.7]))
 
 
 def aimed_scene(seed: int, index: int, aim: str, adjoint_share: float = 0.0) -> dict:
@@ -506,7 +507,13 @@ def aimed_scene(seed: int, index: int, aim: str, adjoint_share: float = 0.0) -> 
     elif rows < 0.7:
         output["every"] = solve["dt"] * int(rng.integers(2, 6))
     scene["output"] = output
-    kinds = ("section", "load") if aim == "loop" else None
+    # a start spun about the ground hinge's axis (initial_velocity: a native kind), from a generator of its own
+    # (added after seeds 17–19 ran, at d9b97e4, without it and with restitution 0 one stop in three)
+    extra = np.random.default_rng([seed, index, 37])
+    if aim != "links" and extra.random() < 0.3:
+        axis = beams["arm0"]["start"]["hinge"]["axis"]
+        scene["initial_velocity"] = {"angular": [round(_r(extra, 0.5, 3, 2) * float(a), 4) for a in axis]}
+    kinds = ("section", "load", "initial_velocity") if aim == "loop" else None
     parameterise(rng, scene, extended=aim == "rates", kinds=kinds)
     if aim == "loop" and rng.random() < 1 / 3:
         scene["solve"]["resume_check"] = True    # taken off before the run (run_case)
