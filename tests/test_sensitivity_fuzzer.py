@@ -162,3 +162,33 @@ def test_a_parameter_of_value_zero_is_judged_by_its_perturbation_s_size_not_by_z
     base["sens"] = {"y/p": np.sin(T) * (1 + 1e-4)}
     checks = fuzz.compare(base, [run(h), run(-h), run(h / 2), run(-h / 2)], "p", h, p)
     assert checks[0]["error"] > fuzz.TOL and not checks[0]["zero"], checks
+
+
+def test_the_aimed_families_draw_valid_scenes_of_what_they_aim_at():
+    """``--aim``: every scene loads (SCENE.md); the loop family names only the kinds the loop of steps differentiates
+    (section values, load components, initial velocities) and asks for the resume check on some cases; the links
+    family runs adaptive steps on rigid links; the rates family puts a latch or stop beside a stiffness that moves
+    with the rates (a compliant stop with damping, a controller, a damping law in the angle)."""
+    import latdyn
+
+    native = ("section", "load", "initial_velocity")
+    resumed = 0
+    for aim in fuzz.AIMS:
+        for index in range(12):
+            scene = fuzz.aimed_scene(21, index, aim)
+            resumed += bool(scene["solve"].pop("resume_check", False))
+            latdyn.load_scene(scene)
+            names = scene["solve"]["sensitivities"]
+            assert names and set(names) == set(scene["parameters"]), (aim, index)
+            hinges = [b["start"]["hinge"] for b in scene["beams"].values() if "start" in b]
+            if aim == "loop":
+                assert all(name.split("_", 1)[1] in native for name in names), (index, names)
+                assert not any(b.get("rigid") for b in scene["beams"].values()) and "controllers" not in scene
+            elif aim == "links":
+                assert scene["solve"]["adaptive"] and all(scene["beams"][f"arm{i}"].get("rigid")
+                                                          for i in range(len(hinges)))
+            else:
+                second = hinges[1]
+                assert "lock_at" in hinges[0] or "limits" in hinges[0]
+                assert ("contact" in second or "controllers" in scene or "theta" in str(second.get("damping"))), index
+    assert resumed > 0
