@@ -521,7 +521,11 @@ def aimed_scene(seed: int, index: int, aim: str, adjoint_share: float = 0.0) -> 
     elif extra.random() < 0.3:
         axis = beams["arm0"]["start"]["hinge"]["axis"]
         scene["initial_velocity"] = {"angular": [round(_r(extra, 0.5, 3, 2) * float(a), 4) for a in axis]}
-    kinds = ("section", "load", "initial_velocity") if aim == "loop" else None
+    # rates: the constants inside the controllers' outputs and laws besides the plain kinds, not the geometry's
+    # (refused beside controllers) nor the stops' (refused)
+    kinds = {"loop": ("section", "load", "initial_velocity"), "links": None,
+             "rates": ("section", "body.mass", "body.inertia", "hinge", "hinge.contact", "load", "initial_velocity",
+                       "controller", "constant")}[aim]
     parameterise(rng, scene, extended=aim == "rates", kinds=kinds)
     if aim == "loop" and rng.random() < 1 / 3:
         scene["solve"]["resume_check"] = True    # taken off before the run (run_case)
@@ -898,26 +902,39 @@ def main(argv=None) -> int:
                 stem = args.keep / f"seed{args.seed}_case{index:04d}_{record['outcome']}"
                 stem.with_suffix(".yaml").write_text(
                     f"# {record['outcome']}: {record['detail']}\n# python benchmarks/fuzz_sensitivities.py --show "
-                    f"{index} --seed {args.seed}\n" + _scene_text(record["scene"]), encoding="utf-8")
+                    f"{index} --seed {args.seed}" + (f" --aim {args.aim}" if args.aim else "") + "\n"
+                    + _scene_text(record["scene"]), encoding="utf-8")
                 stem.with_suffix(".txt").write_text(record["stderr"] + "\n" + json.dumps(record["checks"], indent=1),
                                                     encoding="utf-8")
-    by = collections.Counter(r["outcome"] for r in records)
-    summary = {"seed": args.seed, "start": args.start, "runs": len(records), "tol": args.tol, "aim": args.aim,
-               "in_loop_cases": sum(1 for r in records if (r.get("steps_in_loop") or 0) > 0),
-               "resumed_equal": sum(1 for r in records if r.get("resume") == "equal"),
-               "adjoint_share": args.adjoint_share, "extended": args.extended, "prune": args.prune,
-               "pruned_parameters": sum(len(r["pruned"]) for r in records),
-               "adjoint_cases": sum(1 for r in records if r.get("method") == "adjoint"),
-               "outcomes": dict(by), "checks": sum(len(r["checks"]) for r in records),
-               "skipped_parameters": sum(len(r["skipped"]) for r in records),
-               "wall_s": round(sum(r["wall_s"] for r in records), 1)}
+            if args.json:   # after every case: a campaign stopped midway keeps the cases it ran
+                _write_json(args, records)
+    summary = _write_json(args, records) if args.json else _campaign_summary(args, records)
     print(json.dumps(summary, indent=1))
-    if args.json:
-        args.json.write_text(json.dumps({**summary, "records": [
-            {k: r.get(k) for k in ("index", "analysis", "method", "parameters", "outcome", "detail", "skipped",
-                                   "pruned", "wall_s", "time_loop", "steps", "steps_in_loop", "resume")}
-            | {"worst": max((c["error"] for c in r["checks"]), default=None)} for r in records]}, indent=1))
     return 0 if not any(r["outcome"] in ("DISAGREES", "traceback", "hang", "defect") for r in records) else 1
+
+
+def _campaign_summary(args, records: list[dict]) -> dict:
+    """The counts of a campaign's ``records``."""
+    by = collections.Counter(r["outcome"] for r in records)
+    return {"seed": args.seed, "start": args.start, "runs": len(records), "tol": args.tol, "aim": args.aim,
+            "in_loop_cases": sum(1 for r in records if (r.get("steps_in_loop") or 0) > 0),
+            "resumed_equal": sum(1 for r in records if r.get("resume") == "equal"),
+            "adjoint_share": args.adjoint_share, "extended": args.extended, "prune": args.prune,
+            "pruned_parameters": sum(len(r["pruned"]) for r in records),
+            "adjoint_cases": sum(1 for r in records if r.get("method") == "adjoint"),
+            "outcomes": dict(by), "checks": sum(len(r["checks"]) for r in records),
+            "skipped_parameters": sum(len(r["skipped"]) for r in records),
+            "wall_s": round(sum(r["wall_s"] for r in records), 1)}
+
+
+def _write_json(args, records: list[dict]) -> dict:
+    """Write the campaign's counts and every record to ``args.json``; the counts."""
+    summary = _campaign_summary(args, records)
+    args.json.write_text(json.dumps({**summary, "records": [
+        {k: r.get(k) for k in ("index", "analysis", "method", "parameters", "outcome", "detail", "skipped",
+                               "pruned", "wall_s", "time_loop", "steps", "steps_in_loop", "resume")}
+        | {"worst": max((c["error"] for c in r["checks"]), default=None)} for r in records]}, indent=1))
+    return summary
 
 
 if __name__ == "__main__":
