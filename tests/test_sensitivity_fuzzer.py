@@ -192,3 +192,21 @@ def test_the_aimed_families_draw_valid_scenes_of_what_they_aim_at():
                 assert "lock_at" in hinges[0] or "limits" in hinges[0]
                 assert ("contact" in second or "controllers" in scene or "theta" in str(second.get("damping"))), index
     assert resumed > 0
+
+
+def test_a_disagreement_below_what_whole_runs_resolve_is_unresolvable_and_a_real_one_is_not():
+    """A derivative 1e-4 off where p moves the probe by its own size is flagged as before; one 10 % off where p moves
+    it by 1e-8 of its size (seed 21 case 9: a free arm's GJ moving a hinge rate by 1e-14 over h) moves the
+    perturbed runs by less than RESOLUTION of the probe: the differences cannot judge it (``unresolvable``)."""
+    wrong = _checks(1e-4)
+    assert not any(c.get("unresolvable") for c in wrong if c["error"] > fuzz.TOL), wrong
+    p, h, eps = 1.3, 1.3e-3, 1e-8
+
+    def run(q):
+        return {"x": T, "first": "t", "probes": {"y": np.sin(T) + eps * np.exp(q * T)}, "summary": {}}
+
+    base = run(p)
+    base["sens"] = {"y/p": 1.1 * eps * T * np.exp(p * T)}
+    checks = fuzz.compare(base, [run(p + h), run(p - h), run(p + h / 2), run(p - h / 2)], "p", h, p)
+    rows = [c for c in checks if c["where"].startswith("rows")]
+    assert rows and rows[0]["error"] > 0.05 and rows[0]["unresolvable"], rows
