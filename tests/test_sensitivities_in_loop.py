@@ -92,5 +92,6 @@ def test_a_hinge_parameter_keeps_the_run_on_the_python_path(monkeypatch):
 
 def test_a_run_interrupted_inside_the_loop_resumes_to_the_same_files(tmp_path, monkeypatch):
     """Interrupted (Ctrl-C) as a loop of steps starts at t ≥ 0.2, before the latch, and resumed from its checkpoint:
-    sensitivities.csv and summary.json's sensitivities are the uninterrupted run's, byte for byte."""
+    sensitivities.csv and summary.json's sensitivities and its count of steps in the loop are the uninterrupted
+    run's, byte for byte."""
     resumed_inside_the_loop_is_whole(yaml.safe_load(_latch()), tmp_path, monkeypatch, 0.2)

@@ -162,3 +162,51 @@ def test_a_parameter_of_value_zero_is_judged_by_its_perturbation_s_size_not_by_z
     base["sens"] = {"y/p": np.sin(T) * (1 + 1e-4)}
     checks = fuzz.compare(base, [run(h), run(-h), run(h / 2), run(-h / 2)], "p", h, p)
     assert checks[0]["error"] > fuzz.TOL and not checks[0]["zero"], checks
+
+
+def test_the_aimed_families_draw_valid_scenes_of_what_they_aim_at():
+    """``--aim``: every scene loads (SCENE.md); the loop family names only the kinds the loop of steps differentiates
+    (section values, load components, initial velocities) and asks for the resume check on some cases; the links
+    family runs adaptive steps on rigid links; the rates family puts a latch or stop beside a stiffness that moves
+    with the rates (a compliant stop with damping, a controller, a damping law in the angle)."""
+    import latdyn
+
+    native = ("section", "load", "initial_velocity")
+    resumed = 0
+    for aim in fuzz.AIMS:
+        for index in range(12):
+            scene = fuzz.aimed_scene(21, index, aim)
+            resumed += bool(scene["solve"].pop("resume_check", False))
+            latdyn.load_scene(scene)
+            names = scene["solve"]["sensitivities"]
+            assert names and set(names) == set(scene["parameters"]), (aim, index)
+            hinges = [b["start"]["hinge"] for b in scene["beams"].values() if "start" in b]
+            if aim == "loop":
+                assert all(name.split("_", 1)[1] in native for name in names), (index, names)
+                assert not any(b.get("rigid") for b in scene["beams"].values()) and "controllers" not in scene
+            elif aim == "links":
+                assert scene["solve"]["adaptive"] and all(scene["beams"][f"arm{i}"].get("rigid")
+                                                          for i in range(len(hinges)))
+            else:
+                second = hinges[1]
+                assert "lock_at" in hinges[0] or "limits" in hinges[0]
+                assert ("contact" in second or "controllers" in scene or "theta" in str(second.get("damping"))), index
+    assert resumed > 0
+
+
+def test_a_disagreement_below_what_whole_runs_resolve_is_unresolvable_and_a_real_one_is_not():
+    """A derivative 1e-4 off where p moves the probe by its own size is flagged as before; one 10 % off where p moves
+    it by 1e-8 of its size (seed 21 case 9: a free arm's GJ moving a hinge rate by 1e-14 over h) moves the
+    perturbed runs by less than RESOLUTION of the probe: the differences cannot judge it (``unresolvable``)."""
+    wrong = _checks(1e-4)
+    assert not any(c.get("unresolvable") for c in wrong if c["error"] > fuzz.TOL), wrong
+    p, h, eps = 1.3, 1.3e-3, 1e-8
+
+    def run(q):
+        return {"x": T, "first": "t", "probes": {"y": np.sin(T) + eps * np.exp(q * T)}, "summary": {}}
+
+    base = run(p)
+    base["sens"] = {"y/p": 1.1 * eps * T * np.exp(p * T)}
+    checks = fuzz.compare(base, [run(p + h), run(p - h), run(p + h / 2), run(p - h / 2)], "p", h, p)
+    rows = [c for c in checks if c["where"].startswith("rows")]
+    assert rows and rows[0]["error"] > 0.05 and rows[0]["unresolvable"], rows

@@ -133,25 +133,47 @@ output:
 
 
 def test_an_unbounded_run_names_the_hinge_its_step_did_not_resolve(tmp_path):
-    """dt = 0.005 does not resolve the root's swing: the step ending at t = 0.015 converges to a
-    rotation of −5.3 rad (the hinge's rate changes by 2087 rad/s, h |Δθ̇| = 10.4 rad), and the
-    balance breaks at t = 0.0175 (the integrator's, not the arm's: at dt = 0.0025 the run is solved,
-    θ(2) = 3.4452 against 3.4394 at dt = 0.00025). The refusal (exit 1) names the hinge and the
-    step; at dt = 0.0025 nothing is said."""
-    completed, _ = latdyn_run(tmp_path, hinged_arm(0.005))
+    """dt = 0.008 does not resolve the root's swing: the first step turns the hinge's rate by 38.1 rad/s,
+    h |Δθ̇| = 0.305 rad, and the balance breaks at t = 0.078 (the integrator's, not the arm's: at dt = 0.0025
+    the run is solved, θ(2) = 3.4452 against 3.4394 at dt = 0.00025). The refusal (exit 1) names the hinge
+    and the step; at dt = 0.0025 nothing is said. (Until 2026-11-27 this was dt = 0.005, whose step ending at
+    t = 0.015 converged to −5.3 rad in the compiled loop and was accepted there: a root a whole turn away,
+    which the loop now hands back and the time loop cuts, as from Python: the next test.)"""
+    completed, _ = latdyn_run(tmp_path, hinged_arm(0.008))
     assert completed.returncode == 1
     message = completed.stderr
-    assert "unbounded: the energy balance broke at t = 0.0175" in message, message
+    assert "unbounded: the energy balance broke at t = 0.078" in message, message
     assert "before it, hinge arm.start is not resolved by the step" in message, message
-    assert "ending at t = 0.015" in message and "rerun with a smaller dt" in message
-    # rows every 0.05: the balance is not judged before Newton's cuts crawl at t = 0.0267, which ends the
-    # run; that message names the same first step
+    assert "ending at t = 0.008" in message and "rerun with a smaller dt" in message
+    # rows every 0.05: the balance is not judged before Newton's cuts fail below the minimum step at
+    # t = 0.0892, which ends the run; that message names the same first step
     (tmp_path / "every").mkdir()
-    completed, _ = latdyn_run(tmp_path / "every", hinged_arm(0.005, "every: 0.05"))
+    completed, _ = latdyn_run(tmp_path / "every", hinged_arm(0.008, "every: 0.05"))
     assert completed.returncode == 1
-    assert "the time step stays near the minimum step" in completed.stderr, completed.stderr
+    assert "Newton failed below the minimum step" in completed.stderr, completed.stderr
     assert "before it, hinge arm.start is not resolved by the step" in completed.stderr, completed.stderr
-    assert "ending at t = 0.015, which turns it by 10.4 rad" in completed.stderr
+    assert "ending at t = 0.008, which turns it by 0.305 rad" in completed.stderr
     result = latdyn.run(latdyn.load_scene(yaml.safe_load(hinged_arm(0.0025))))
     assert result.summary.get("warnings") in (None, [])
     assert abs(result.probes["th"][-1] / 3.4394 - 1) < 5e-3  # measured 1.7e-3
+
+
+def test_a_root_a_whole_turn_away_in_the_compiled_loop_is_cut_as_from_python(tmp_path):
+    """dt = 0.005: the step ending at t = 0.015 converges to θ = −5.3 rad, more than π from θ_n + h θ̇_n. The
+    loop of steps in C accepted it (the far-root check ran on steps from Python alone) and the run broke at
+    t = 0.0175 (exit 1), while the same scene with a hinge parameter's sensitivities, every step from Python, cut it
+    and was solved: the scene's answer hung on whether sensitivities were asked (fuzz_sensitivities seed 20 case
+    18). The loop now hands such a step back, and the run is the Python path's, byte for byte."""
+    completed, out = latdyn_run(tmp_path, hinged_arm(0.005))
+    assert completed.returncode == 0, completed.stderr
+    assert "a whole turn away" in completed.stderr
+    summary = summary_of(out)
+    assert summary["time_loop"] == "compiled" and summary["far_roots"] == 1
+    python = tmp_path / "python"
+    python.mkdir()
+    text = hinged_arm(0.005).replace("stiffness: 1.0,", "stiffness: k,").replace(
+        "solve: {t_end: 2.0,", "parameters: {k: 1.0}\nsolve: {sensitivities: [k], t_end: 2.0,")
+    completed, python_out = latdyn_run(python, text)
+    assert completed.returncode == 0, completed.stderr
+    assert summary_of(python_out)["time_loop"] == "python"
+    assert (out / "probes.csv").read_bytes() == (python_out / "probes.csv").read_bytes()

@@ -88,8 +88,6 @@ class SensitivityLoop:
         self.data = SensitivityLoopData()
         self._for = None
         self._keep: list = []
-        #: steps differentiated in the loop of steps over the run (summary.json ``sensitivity_steps_in_loop``)
-        self.steps = 0
 
     def _pointer(self, array: np.ndarray) -> int:
         """The address of ``array`` (of a held zero where it is empty), kept alive with the layout."""
@@ -226,7 +224,6 @@ class SensitivityLoop:
         smooth step landing on the grid (TransientSensitivities.step, then the control's resize after a step
         onto the grid: the nominal step, dh_next 0)."""
         d = self.data
-        self.steps += d.steps
         if d.steps == 0:
             return carried
         dh = self._dh.copy()

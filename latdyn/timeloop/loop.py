@@ -464,6 +464,7 @@ class TimeLoop:
             progress.dissipated = self.probes.dissipated = done.dissipated
             if carried is not None:   # the sensitivities at the last accepted state, before its row
                 progress.sensitivities = self.sensitivities_in_loop.carried_after(progress.sensitivities)
+                progress.sensitivity_steps_in_loop += self.sensitivities_in_loop.data.steps
             before, progress.state = progress.state, done.state   # a refusal in _track_cables ends at done's rows
             self._track_cables(before, done.state)
             progress.algorithmic_acceleration = self.integrator.a
@@ -907,7 +908,7 @@ class TimeLoop:
         if self.sensitivities is not None and progress.sensitivities is not None and not self.writer.closed:
             self.sensitivities.finish(progress.sensitivities, self.writer)
             # the smooth steps differentiated in the loop of steps in C (0: every step from Python)
-            summary["sensitivity_steps_in_loop"] = getattr(self.sensitivities_in_loop, "steps", 0)
+            summary["sensitivity_steps_in_loop"] = progress.sensitivity_steps_in_loop
         if self.model.cables is not None:
             summary["cable_events"] = [{"cable": e["joint"], "t": e["t"], "state": e["kind"]} for e in progress.events
                                        if e["kind"] in ("slack", "taut")]

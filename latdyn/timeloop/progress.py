@@ -81,6 +81,9 @@ class TransientProgress:
     rejected_steps: int = 0  # all rejected attempts: Newton failures and error-control rejections
     newton_cuts: int = 0  # steps halved because Newton did not converge
     far_roots: int = 0  # steps halved because Newton converged to a root a whole turn away (far_root)
+    #: the sensitivities' smooth steps differentiated in the loop of steps in C (summary.json
+    #: ``sensitivity_steps_in_loop``; here, not in the loop's own counter, so that a resumed run counts the run's)
+    sensitivity_steps_in_loop: int = 0
     factorizations: int = 0  # iteration matrices factorized (modified Newton keeps one over steps)
     solver_s: float = 0.0  # wall time inside the integrator's steps
     cut_times: list = field(default_factory=list)  # the first times at which a step was cut

@@ -293,6 +293,19 @@ static int hinge_event(const Model *m, const Configuration *old, const Configura
     return 0;
 }
 
+/* Whether the converged step old → new of size h puts a free joint more than π from where its rate at the step's
+ * start takes it, θ_n + h θ̇_n (latdyn/timeloop/progress.py far_root: a root about a whole turn away, no motion,
+ * which the time loop cuts). Guides' slides are joints here too: a superset, handed back, and the caller's far_root
+ * (revolute hinges only) decides, as hinge_event's friction check hands back a superset. */
+static int far_root(const Model *m, const Configuration *old, const Configuration *new_, double h)
+{
+    for (int64_t k = 0; k < m->n_free_hinges; ++k) {
+        const int64_t j = m->free_hinges[k];
+        if (fabs(new_->theta[j] - old->theta[j] - h * old->theta_dot[j]) > 3.14159265358979323846) return 1;   /* math.pi */
+    }
+    return 0;
+}
+
 /* latdyn/timeloop/events.py cable_tolerance: of a gap (a force), for an element of axial stiffness EA */
 static double cable_tolerance(double EA) { return 1e-9 * EA; }
 
@@ -520,8 +533,8 @@ int64_t latdyn_advance(const Model *m, Work *w, StepControl *s, const Configurat
         int64_t failed = latdyn_newton_step(m, w, s, base, trial, x);
         if (failed || !s->converged) {
             adv->status = 1;
-        } else if (m->has_events && (hinge_event(m, base, trial) || cable_event(m, w))) {
-            adv->status = 2;
+        } else if ((m->has_events && (hinge_event(m, base, trial) || cable_event(m, w))) || far_root(m, base, trial, s->h)) {
+            adv->status = 2;   /* an event, or a root a whole turn away (far_root): the caller takes the step */
         }
         if (adv->status) {
             adv->pending = next;
