@@ -152,12 +152,11 @@ class TimeLoop:
         # off the grid k·dt: one step at a time; a law that jumps in t (latdyn.timeloop.jumps) at a point
         # k·dt: the loop of steps in C up to the grid point before it (StepControl.loop_end), the step that
         # lands before the jump, the restart after it and the step from there to the next grid point from
-        # Python (_next_step), then the loop in C again; a jump off k·dt, or one with sensitivities: every
-        # step from Python
+        # Python (_next_step), then the loop in C again; a jump off k·dt: every step from Python (sensitivities
+        # beside a jump are refused before the run, latdyn.analyses.sensitivities)
         jumps = len(self.control.jump_indices) > 0
         eligible = (self.compiled_loop and hasattr(self.integrator, "advance") and not self.control.adaptive
-                    and ((self.sampler is None and not jumps) or self.control.instants_on_nominal_grid)
-                    and not (jumps and self.sensitivities is not None))
+                    and ((self.sampler is None and not jumps) or self.control.instants_on_nominal_grid))
         # solve.sensitivities: the smooth steps' derivative in the loop of steps where every term of it is native
         # (latdyn/analyses/sensitivities_in_loop.py), decided here once for the run; else every step from Python
         self.sensitivities_in_loop = self.sensitivities.in_loop() if self.sensitivities is not None and eligible \
