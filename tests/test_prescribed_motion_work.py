@@ -14,7 +14,7 @@ import yaml
 
 import latdyn
 import latdyn.timeloop.transient as transient_module
-from cli_runs import latdyn_run, probe_columns, summary_of
+from cli_runs import latdyn_run, latdyn_run_switched, probe_columns, summary_of
 
 #: the crank brought from rest to 2 rad/s at t = 0.5: over 10 ms, over 1 ms (constant accelerations), at once
 RAMP_10_MS = "Piecewise((0, t < 0.5), (100*(t - 0.5)**2, t < 0.51), (0.01 + 2*(t - 0.51), True))"
@@ -111,12 +111,48 @@ def test_sensitivities_across_a_kink_are_refused_naming_the_law():
         raise AssertionError("sensitivities across a kink were computed")
 
 
-def spun_beam(motion: str, dt: float) -> str:
-    """A flexible beam (4 elements) spun up by Kane's law θ = (Ω/T)(t²/2 + (T/2π)²(cos(2πt/T) − 1)), Ω = 4,
-    T = 1, then at Ω: through a prescribed hub body's rotation or a prescribed hinge angle (``motion``);
-    its rate and acceleration are continuous (no landing)."""
-    law = "Piecewise((4*(t**2/2 + (1/(2*pi))**2*(cos(2*pi*t) - 1)), t < 1), (4*(t - 0.5), True))"
-    drive = {"body": f'hub: {{at: [0, 0, 0], motion: {{rotation: {{axis: [0, 0, 1], angle: "{law}"}}}}}}',
+def test_the_loop_of_steps_in_c_goes_through_a_prescribed_laws_jumps(tmp_path, monkeypatch):
+    """The loop of steps in C stops on the grid point before each jump of a prescribed law at a point k·dt
+    (the 10 ms ramp's two acceleration jumps, a kink); the step landing before the jump, the restart and the
+    step to the next grid point are Python's, then the loop in C again. summary.json says ``time_loop:
+    compiled`` and probes.csv equals the run with every step from Python byte for byte (CLI); a prescribed
+    hub body ramped in 3D (API) equals it to 1e-13 (measured 1.8e-15 and 3.1e-15 with a smooth law, the loop
+    in C against the steps from Python, before this change too). Before, a run whose laws jump took every
+    step from Python (``time_loop: python``)."""
+    switched_off = "import latdyn.timeloop.transient as m; m.COMPILED_LOOP = False"
+    for i, law in enumerate((RAMP_10_MS, KINK)):
+        folder = tmp_path / f"law{i}"
+        folder.mkdir()
+        completed, out = latdyn_run(folder, crank(law, 0.002, 0.6, 0.01))
+        assert completed.returncode == 0, completed.stderr
+        stepped = latdyn_run_switched(folder, folder / "scene.yaml", folder / "stepped", switched_off)
+        assert stepped.returncode == 0, stepped.stderr
+        looped, reference = summary_of(out), summary_of(folder / "stepped")
+        assert looped["time_loop"] == "compiled" and reference["time_loop"] == "python"
+        for key in ("steps", "newton_iterations", "factorizations", "energy_balance_error"):
+            assert looped[key] == reference[key], key
+        assert (out / "probes.csv").read_bytes() == (folder / "stepped" / "probes.csv").read_bytes()
+    text = spun_beam("body", 0.01, law="Piecewise((2*t**2, t < 1), (4*t - 2, True))", axis="[0, 0.6, 0.8]",
+                     slide="Piecewise((0.5*t**2, t < 0.6), (0.6*t - 0.18, True))")   # jumps at 0.6 and 1
+    looped = run_api(text)
+    monkeypatch.setattr(transient_module, "COMPILED_LOOP", False)
+    stepped = run_api(text)
+    assert looped.summary["time_loop"] == "compiled" and stepped.summary["time_loop"] == "python"
+    assert looped.summary["steps"] == stepped.summary["steps"] == 150
+    for name in ("tip", "W"):
+        assert np.abs(np.asarray(looped.probes[name]) - np.asarray(stepped.probes[name])).max() < 1e-13, name
+
+
+#: Kane's spin-up θ = (Ω/T)(t²/2 + (T/2π)²(cos(2πt/T) − 1)), Ω = 4, T = 1, then at Ω: its rate and acceleration
+#: are continuous (no landing)
+KANE = "Piecewise((4*(t**2/2 + (1/(2*pi))**2*(cos(2*pi*t) - 1)), t < 1), (4*(t - 0.5), True))"
+
+
+def spun_beam(motion: str, dt: float, law: str = KANE, axis: str = "[0, 0, 1]", slide: str | None = None) -> str:
+    """A flexible beam (4 elements) spun up by ``law`` about ``axis``: through a prescribed hub body's rotation
+    (``slide``: with the translation along x too) or a prescribed hinge angle about z (``motion``)."""
+    translation = f', translation: ["{slide}", 0, 0]' if slide is not None else ""
+    drive = {"body": f'hub: {{at: [0, 0, 0], motion: {{rotation: {{axis: {axis}, angle: "{law}"}}{translation}}}}}',
              "hinge": "hub: {at: [0, 0, 0], fixed: true}"}[motion]
     hinge = f', start: {{hinge: {{axis: [0, 0, 1], angle: "{law}"}}}}' if motion == "hinge" else ""
     return f"""\

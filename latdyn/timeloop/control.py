@@ -236,7 +236,15 @@ class StepControl:
         following = self.instant_indices[self.instant_indices > run.grid_index]
         if len(following) and not self.samples_in_loop:
             k = min(k, int(following[0]))
+        jumps = self.jump_indices[self.jump_indices > run.grid_index + 1]
+        if len(jumps):   # the grid point before a law's jump: the step that lands before it is Python's (next_step)
+            k = min(k, int(jumps[0]) - 1)
         return k
+
+    def before_jump(self, run: TransientProgress) -> bool:
+        """Whether the next step reaches a law's jump (it ends :attr:`jump_side` before it: :meth:`next_step`;
+        the time loop takes it from Python, and the restart after it: :meth:`jump_reached`)."""
+        return run.grid_index + 1 in self.jump_indices
 
     # ------------------------------------------------------------------------- the step size
     def relative_error(self, integrator, h: float) -> float:

@@ -149,11 +149,14 @@ class TimeLoop:
                 lambda snapshot=self.last_recorded: paraview.frame(self.assembler, self.writer.mesh, snapshot))
         # sampled controllers: the loop of steps in C samples on each instant itself, or (a probe read
         # without a C sensor) stops there and the sample is taken from here (_after_accepted); instants
-        # off the grid k·dt: one step at a time; a law that jumps in t (latdyn.timeloop.jumps): the steps
-        # that land before each jump and the restart after it from Python
+        # off the grid k·dt: one step at a time; a law that jumps in t (latdyn.timeloop.jumps) at a point
+        # k·dt: the loop of steps in C up to the grid point before it (StepControl.loop_end), the step that
+        # lands before the jump, the restart after it and the step from there to the next grid point from
+        # Python (_next_step), then the loop in C again; a jump off k·dt: every step from Python (sensitivities
+        # beside a jump are refused before the run, latdyn.analyses.sensitivities)
+        jumps = len(self.control.jump_indices) > 0
         eligible = (self.compiled_loop and hasattr(self.integrator, "advance") and not self.control.adaptive
-                    and (self.sampler is None or self.control.instants_on_nominal_grid)
-                    and not len(self.control.jump_indices))
+                    and ((self.sampler is None and not jumps) or self.control.instants_on_nominal_grid))
         # solve.sensitivities: the smooth steps' derivative in the loop of steps where every term of it is native
         # (latdyn/analyses/sensitivities_in_loop.py), decided here once for the run; else every step from Python
         self.sensitivities_in_loop = self.sensitivities.in_loop() if self.sensitivities is not None and eligible \
@@ -383,7 +386,7 @@ class TimeLoop:
         # a hinge stuck by friction or resting on its stop is checked for release after every step: those
         # steps from Python
         compiled = self.compiled and control.on_grid(progress) and not control.before_pause(progress) \
-            and not self.model.stuck.any() and not self.model.resting.any()
+            and not control.before_jump(progress) and not self.model.stuck.any() and not self.model.resting.any()
         attempt = self._compiled_steps() if compiled else self._python_step()
         if attempt is None:
             return
