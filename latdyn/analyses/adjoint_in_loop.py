@@ -57,8 +57,10 @@ class AdjointLoop:
         self.owner = owner
         self.data = TrajectoryData()
         self._blocks = None
-        #: steps stored in the loop of steps over the run (summary.json ``sensitivity_steps_in_loop``)
+        #: steps stored in the loop of steps over the run
         self.steps = 0
+        #: steps stored by the last call of the loop of steps (:meth:`steps_in_call`)
+        self._stored = 0
 
     def prepared(self, carried: dict, grid_index: int, stop_index: int, control):
         """The blocks sized for a loop of steps from grid point ``grid_index`` through ``stop_index``; None where this
@@ -89,13 +91,18 @@ class AdjointLoop:
             setattr(d, name, array.ctypes.data)
         return d
 
+    def steps_in_call(self) -> int:
+        """The steps the last call of the loop of steps stored (the run's count, summary.json
+        ``sensitivity_steps_in_loop``, is carried by the checkpoint: TransientProgress)."""
+        return self._stored
+
     def carried_after(self, carried: dict) -> dict:
         """``carried`` with the loop's accepted steps appended to its trajectory, each entry as
         :meth:`AdjointSensitivities.step` and :meth:`AdjointSensitivities.after_events` leave it for a step that lands on
         the grid with no event, and with events the next size's coefficients as :meth:`AdjointSensitivities.resized`
         leaves them after such a step (the control restarts at the nominal step: 0, 0)."""
         owner, d = self.owner, self.data
-        stored = int(d.stored)
+        stored = self._stored = int(d.stored)
         self.steps += stored
         if stored == 0:
             return carried

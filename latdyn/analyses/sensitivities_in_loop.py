@@ -219,6 +219,11 @@ class SensitivityLoop:
             d.pair_values, d.values_from = table.ctypes.data, grid_index + 1
         return d
 
+    def steps_in_call(self) -> int:
+        """The steps the last call of the loop of steps differentiated (the run's count, summary.json
+        ``sensitivity_steps_in_loop``, is carried by the checkpoint: TransientProgress)."""
+        return int(self.data.steps)
+
     def carried_after(self, carried: dict) -> dict:
         """``carried`` after the loop's steps, as the Python path leaves it after a
         smooth step landing on the grid (TransientSensitivities.step, then the control's resize after a step

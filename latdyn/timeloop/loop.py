@@ -467,7 +467,7 @@ class TimeLoop:
             progress.dissipated = self.probes.dissipated = done.dissipated
             if carried is not None:   # the sensitivities at the last accepted state, before its row
                 progress.sensitivities = self.sensitivities_in_loop.carried_after(progress.sensitivities)
-                progress.sensitivity_steps_in_loop += self.sensitivities_in_loop.data.steps
+                progress.sensitivity_steps_in_loop += self.sensitivities_in_loop.steps_in_call()
             before, progress.state = progress.state, done.state   # a refusal in _track_cables ends at done's rows
             self._track_cables(before, done.state)
             progress.algorithmic_acceleration = self.integrator.a
