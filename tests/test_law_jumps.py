@@ -153,3 +153,27 @@ def test_sensitivities_beside_a_jump_in_t_are_refused_naming_the_law(tmp_path):
     process, out = latdyn_run(tmp_path, text)
     assert process.returncode == 2, process.stderr
     assert "solve.sensitivities" in process.stderr and "beams.arm.start.hinge.torque jumps in t" in process.stderr
+
+
+def test_a_runs_start_searches_the_laws_for_jumps_once(monkeypatch):
+    """The start of a transient run asks twice whether a law jumps (the refusal of a prescribed position that
+    jumps, and the instants the steps land on): the laws' values are searched once
+    (latdyn.timeloop.jumps.law_jumps; before, twice: 7 of the spin-up's 24 ms at its start). The spin-up's
+    Piecewise angle, cut to 1 s: one search of its text, and the run as before."""
+    from pathlib import Path
+
+    import latdyn.timeloop.jumps as jumps
+
+    searched = []
+    law_jumps = jumps._law_jumps
+
+    def counted(law, *args, **kwargs):
+        searched.append(law.source)
+        return law_jumps(law, *args, **kwargs)
+
+    monkeypatch.setattr(jumps, "_law_jumps", counted)
+    data = yaml.safe_load((Path(__file__).resolve().parents[1] / "examples" / "spinup.yaml").read_text())
+    data["solve"]["t_end"] = 1.0
+    result = latdyn.run(latdyn.load_scene(data))
+    assert result.summary["status"] == "solved"
+    assert len(searched) == 1, searched

@@ -58,12 +58,19 @@ JUMP_SIDE = 1e-9
 CONTINUOUS = 1e-6
 
 
-def jump_times(scene, t_end: float) -> np.ndarray:
+def law_jumps(scene, t_end: float) -> list[tuple[str, float]]:
+    """(key, time) of every jump in t of a law of ``scene``'s value (:func:`_jumps`), searched once for a run's
+    start, which asks it twice (:func:`prescribed_position_jump`, :func:`jump_times`)."""
+    return list(_jumps(scene, t_end))
+
+
+def jump_times(scene, t_end: float, found: list | None = None) -> np.ndarray:
     """The sorted instants in (0, ``t_end``] where a law of ``scene`` jumps in t (module docstring);
-    empty where none does. A jump within 1e-12 · t_end of t_end is at t_end (the last step lands
-    :data:`JUMP_SIDE` · dt before it); jumps within 1e-12 · t_end of each other are one."""
-    found = list(_jumps(scene, t_end)) + prescribed_acceleration_jumps(scene, t_end) \
-        + prescribed_rate_kinks(scene, t_end)
+    empty where none does (``found``: :func:`law_jumps` of the scene, where searched already). A jump within
+    1e-12 · t_end of t_end is at t_end (the last step lands :data:`JUMP_SIDE` · dt before it); jumps within
+    1e-12 · t_end of each other are one."""
+    found = (law_jumps(scene, t_end) if found is None else list(found)) \
+        + prescribed_acceleration_jumps(scene, t_end) + prescribed_rate_kinks(scene, t_end)
     times = sorted(_in_run(t, t_end) for _, t in found if _in_run(t, t_end) is not None)
     merged: list[float] = []
     for t in times:
@@ -84,15 +91,15 @@ _PRESCRIBED_POSITION = re.compile(r"(\.hinge\.angle|\.guide\.position|\.motion\.
                                   r"\.motion\.rotation\.angle)$")
 
 
-def prescribed_position_jump(scene, t_end: float) -> tuple[str, float] | None:
+def prescribed_position_jump(scene, t_end: float, found: list | None = None) -> tuple[str, float] | None:
     """(key, time) of the first jump in t, in (0, ``t_end``], of a law that prescribes a position (a hinge's
     ``angle``, a guide's ``position``, a body's ``motion``), else None. Such a jump is no motion: it
     would move the joint (and what it carries) by a finite amount in no time, at an infinite rate, and
     the run restarted from the new position as if it had always been there (a rigid link turned 0.5 rad
     in no time, `solved`; a flexible arm so moved ended with 8.3 J it had received from nowhere). A jump
     of the *rate* (a kink, ``Piecewise((0, t < 0.5), (t - 0.5, True))``) is not a jump of the law's value
-    and is not searched for here."""
-    for key, t in _jumps(scene, t_end):
+    and is not searched for here (``found``: :func:`law_jumps` of the scene, where searched already)."""
+    for key, t in (_jumps(scene, t_end) if found is None else found):
         if _PRESCRIBED_POSITION.search(key) and _in_run(t, t_end) is not None:
             return key, float(t)
     return None
