@@ -10,6 +10,7 @@ crank's elbow brought to 2 m/s at once gives the rod's hinge −5 rad/s and 7/6 
 from __future__ import annotations
 
 import numpy as np
+import pytest
 import yaml
 
 import latdyn
@@ -215,3 +216,15 @@ output:
     assert completed.returncode == 0, completed.stderr
     assert summary_of(out)["cable_events"] == []
     assert probe_columns(out)["N"][-1] > 0.0   # taut: pulling
+
+
+def test_a_kink_at_t_end_is_landed_on_as_a_jump_at_t_end_is():
+    """The crank's kink at t_end = 0.5 (dt 0.01): the last step ends 1e-9·dt before it, on the law as it was, and
+    the run ends there (docs/stepping.md: a jump at t_end), the rod at rest with the crank. Before, the kink at
+    t_end was not searched for (kinks only inside (0, t_end)): the last step took the crank's new rate and
+    carried the rod along (5.333 J), `solved` with 'the energy balance drifts: energy_balance_error 1'."""
+    result = run_api(crank(KINK, 0.01, 0.5, 0.01))
+    assert result.summary["status"] == "solved" and not result.summary.get("warnings")
+    assert result.t[-1] == pytest.approx(0.5 - 1e-9 * 0.01, abs=1e-15)
+    assert result.probes["rate"][-1] == 0.0 and result.probes["ke"][-1] == 0.0
+    assert result.summary["energy_balance_error"] < 1e-12

@@ -106,7 +106,7 @@ def prescribed_position_jump(scene, t_end: float, found: list | None = None) -> 
 
 
 def prescribed_rate_kinks(scene, t_end: float) -> list[tuple[str, float]]:
-    """(key, time) of the instants in (0, ``t_end``) where the *rate* of a law that prescribes a position
+    """(key, time) of the instants in (0, ``t_end``] where the *rate* of a law that prescribes a position
     jumps (a kink: ``Piecewise((0, t < 0.5), (2*(t - 0.5), True))``, a table's inner node). Such a drive
     applies an impulse to the free parts it carries: the steps land on the kink (:func:`jump_times`) and
     the restart after it gives the free rates the jump that impulse makes
@@ -121,7 +121,7 @@ def prescribed_rate_kinks(scene, t_end: float) -> list[tuple[str, float]]:
             continue
         found.extend((key, float(time)) for time in
                      _jumps_of_values(lambda t, rate=rate: np.asarray(rate(np.asarray(t, float)), float), t_end)
-                     if 0.0 < time < t_end * (1 - 1e-12))
+                     if 0.0 < time <= t_end * (1 + 1e-12))
     return found
 
 
