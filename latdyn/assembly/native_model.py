@@ -32,7 +32,6 @@ from latdyn.assembly.library import (
     parallel_threshold,
 )
 from latdyn.assembly.native_links import native_links
-from latdyn.model.model import PRESCRIBED
 
 #: The arrays of a state, in the order of the C ``Configuration``.
 STATE_FIELDS = ("x", "T", "v", "w", "a", "alpha", "theta", "theta_dot", "theta_ddot")
@@ -223,7 +222,7 @@ class NativeModel:
         arr, ints = self._array, lambda values: self._array(values, np.int64)
 
         laws = SceneLaws(getattr(m.scene, "inputs", None), getattr(m.scene, "controller_outputs", None))
-        prescribed = [i for i, node in enumerate(m.nodes) if node.kind == PRESCRIBED]
+        prescribed = m.prescribed_nodes()
         translation, angle, axis = [], [], []
         for i in prescribed:
             body = m.scene.bodies[m.nodes[i].body]

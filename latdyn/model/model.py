@@ -268,11 +268,16 @@ class Model:
         formulation = self.scene.solve.formulation
         return formulation if self.plane is None else planar_variant(formulation, self.plane)
 
+    def prescribed_nodes(self) -> list[int]:
+        """The indices of the nodes of prescribed bodies, in the model's order of nodes (a body's kind does not
+        change over a run)."""
+        return [i for i, node in enumerate(self.nodes) if node.kind == PRESCRIBED]
+
     def prescribed_coordinates(self) -> np.ndarray:
         """The coordinates (in the numbering now) that the prescribed motions move: each prescribed body's
         six, each prescribed hinge angle's or slide's one; the constrained ones among them (a planar model's
         out-of-plane slots are none)."""
-        nodes = [i for i, node in enumerate(self.nodes) if node.kind == PRESCRIBED]
+        nodes = self.prescribed_nodes()
         hinges = [j for j, hinge in enumerate(self.hinges) if hinge.angle is not None]
         rows = np.concatenate([self.node_dofs[nodes].ravel(), self.hinge_dofs[hinges]]).astype(np.int64)
         return rows[(rows >= self.n_dofs) & (rows < self.n_total)]

@@ -714,8 +714,8 @@ class TimeLoop:
         ended = evaluation if events.resting else getattr(integrator, "last_evaluation", None) or evaluation
         # the prescribed motions' work over the step's Δq (progress.drive_work), their reactions at its end
         # from the same evaluation as the power's
-        external_work += drive_work(model, progress.state, new, progress.drive_force,
-                                    drive_forces(model, evaluation.reaction))
+        ended_drive = drive_forces(model, evaluation.reaction)
+        external_work += drive_work(model, progress.state, new, progress.drive_force, ended_drive)
         external_work, dissipated = hinge_work(
             progress.state.theta, new.theta if events.resting else theta_end,
             (progress.hinge_work_torque, progress.hinge_damper_torque),
@@ -726,7 +726,7 @@ class TimeLoop:
         if events.any and evaluation is ended and not events.resting:  # the velocities jumped
             after = self.assembler.evaluate(new, matrices=False)
             progress.power = after.external_power
-        self._torques_from(after)
+        self._torques_from(after, ended_drive if after is evaluation else None)
         progress.dissipated = self.probes.dissipated = dissipated + events.loss
         if self.sensitivities is not None:   # after the events: their renumbering and restarted accelerations
             progress.sensitivities = self.sensitivities.after_events(carried, new)
@@ -751,13 +751,14 @@ class TimeLoop:
                                                                 integrator=integrator)
         self._keep_accepted()
 
-    def _torques_from(self, evaluation) -> None:
-        """The hinges' work and dissipative torques and the cables' work forces at the state of
-        ``evaluation``, which the next step's work and dissipation start from (progress.hinge_work,
-        progress.cable_work)."""
+    def _torques_from(self, evaluation, drive_force: np.ndarray | None = None) -> None:
+        """The hinges' work and dissipative torques, the cables' work forces and the drives' reactions at the
+        state of ``evaluation`` (``drive_force``: :func:`drive_forces` of it, where the step's work took them
+        already), which the next step's work and dissipation start from (progress.hinge_work,
+        progress.cable_work, progress.drive_work)."""
         progress = self.progress
         progress.power = evaluation.external_power
-        progress.drive_force = drive_forces(self.model, evaluation.reaction)
+        progress.drive_force = drive_forces(self.model, evaluation.reaction) if drive_force is None else drive_force
         progress.cable_work = evaluation.cable_work.copy()
         progress.hinge_work_torque = evaluation.hinge_work_torque.copy()
         progress.hinge_damper_torque = evaluation.hinge_damper_torque.copy()

@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from latdyn.assembly.assembler import State, pack
-from latdyn.model.model import PRESCRIBED, Model
+from latdyn.model.model import Model
 from latdyn.numerics.so3 import rotation_increment
 
 
@@ -277,7 +277,7 @@ def drive_forces(model: Model, reaction: np.ndarray) -> np.ndarray:
     a step's start and end pair up (:func:`drive_work`); csrc/newton_step.c drive_forces is the same."""
     full = np.zeros(model.n_total + 1)
     full[model.n_dofs:model.n_total] = reaction
-    prescribed = [i for i, node in enumerate(model.nodes) if node.kind == PRESCRIBED]
+    prescribed = model.prescribed_nodes()
     hinges = full[model.hinge_dofs] * np.array([h.angle is not None for h in model.hinges], dtype=bool)
     return np.concatenate([full[model.node_dofs[prescribed]].ravel(), hinges])
 
@@ -291,7 +291,7 @@ def drive_work(model: Model, old: State, new: State, forces_old: np.ndarray, for
     time trapezoid ½h(r_n·q̇_n + r_{n+1}·q̇_{n+1}) of the power is not (a crank brought to 2 rad/s in one
     step, carrying a free rod, counted 0.014 J of the 1.17 J the rod received, and the run ended
     ``unbounded``). csrc/newton_step.c drive_work is the same sum."""
-    prescribed = [i for i, node in enumerate(model.nodes) if node.kind == PRESCRIBED]
+    prescribed = model.prescribed_nodes()
     increments = np.concatenate([new.x[prescribed] - old.x[prescribed],
                                  rotation_increment(old.T[prescribed], new.T[prescribed])], axis=1).ravel()
     angles = np.asarray(new.theta, float) - np.asarray(old.theta, float)
