@@ -32,6 +32,7 @@ import numpy as np
 from latdyn.analyses.energy_sensitivities import is_energy_or_momentum
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
 from latdyn.analyses.sensitivities import _INITIAL_VELOCITY_KEY, _LOAD_KEY, _SECTION_KEY
+from latdyn.analyses.step_matrix import turns_about_one_axis
 
 __all__ = ["SENSITIVITIES_IN_LOOP", "refusal", "model_refusal", "SensitivityLoop"]
 
@@ -118,7 +119,7 @@ class SensitivityLoop:
             self._for = (key, False)
             return False
         cols = k + 1
-        about_one_axis = bool(np.all(np.sum(slots < n, axis=1) <= 1))
+        about_one_axis = turns_about_one_axis(slots, n)
         f = len(slots)
         d.k, d.f = k, 0 if about_one_axis else f
         self._slots = ints(slots)

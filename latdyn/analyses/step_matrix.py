@@ -27,7 +27,7 @@ import numpy as np
 from latdyn.assembly.factorization import Factorization
 from latdyn.assembly.library import SensitivityStepStructure, native_library
 
-__all__ = ["ExactStepMatrix"]
+__all__ = ["ExactStepMatrix", "turns_about_one_axis"]
 
 
 class ExactStepMatrix:
@@ -137,3 +137,10 @@ class ExactStepMatrix:
         """After the native factorization: its info 0, or the band LU with pivoting where the sparse LU's
         pivot failed, or ``np.linalg.LinAlgError`` (:meth:`Factorization.factored`)."""
         self.factorization.factored(info, self._summed.copy() if info else None)
+
+
+def turns_about_one_axis(slots: np.ndarray, n: int) -> bool:
+    """Whether every free node has at most one rotation coordinate among its rotation ``slots`` (f × 3; ≥ n: not
+    a coordinate): a planar model, whose step maps R and J are the identity on the coordinates
+    (:meth:`latdyn.analyses.transient_sensitivities.TransientSensitivities._rotation_operators`; the loop of steps likewise, sensitivities_in_loop)."""
+    return bool(np.all(np.sum(slots < n, axis=1) <= 1))

@@ -128,7 +128,7 @@ from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
 from latdyn.analyses.sensitivities import (_BODY_KEY, _CABLE_KEY, _GUIDE_KEY, _HINGE_KEY, _INITIAL_VELOCITY_KEY,
                                            _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE, ParameterDerivatives)
 from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_force_derivatives, joint_force_forms, joint_of
-from latdyn.analyses.step_matrix import ExactStepMatrix
+from latdyn.analyses.step_matrix import ExactStepMatrix, turns_about_one_axis
 from latdyn.analyses.weight_derivative import (configuration_tangent_of_weight, needs_the_kernel,
                                                refuse_without_kernel, stiffness_moving_with_rates)
 from latdyn.assembly.assembler import free_acceleration, free_velocity, pack, unpack_free
@@ -1126,7 +1126,7 @@ class TransientSensitivities(ParameterDerivatives):
         held = self.__dict__.get("_identity_rotations")
         if held is None or any(a is not b for a, b in zip(held[0][:2], key[:2])) or held[0][2] != n:
             slots = model.node_dofs[model.free_nodes, 3:6]
-            about_one_axis = bool(np.all(np.sum(slots < n, axis=1) <= 1))
+            about_one_axis = turns_about_one_axis(slots, n)
             held = (key, slots, np.where(slots < n, slots, n),
                     _NodeRotations.identity(self, slots, n) if about_one_axis else None)
             self._identity_rotations = held
