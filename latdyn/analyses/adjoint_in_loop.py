@@ -57,8 +57,6 @@ class AdjointLoop:
         self.owner = owner
         self.data = TrajectoryData()
         self._blocks = None
-        #: steps stored in the loop of steps over the run
-        self.steps = 0
         #: steps stored by the last call of the loop of steps (:meth:`steps_in_call`)
         self._stored = 0
 
@@ -103,7 +101,6 @@ class AdjointLoop:
         leaves them after such a step (the control restarts at the nominal step: 0, 0)."""
         owner, d = self.owner, self.data
         stored = self._stored = int(d.stored)
-        self.steps += stored
         if stored == 0:
             return carried
         blocks, shapes, sizes = self._blocks
