@@ -746,26 +746,36 @@ class ParameterDerivatives:
                 return np.asarray(self.kernels.joint_body(frame, motion, block, gravity[None])[0]).reshape(6)
 
             for column, law in laws.items():
-                value = law.value(0.0, 0.0, state.t)
-                block = np.zeros((1, 13))
-                if body["mass"]:
-                    block[0, 0], block[0, 1:4] = value, model.body_com[b]
-                    force = force_of(block)
-                elif body["inertia"]:   # inertia[i] (the diagonal) or inertia[i][j] (symmetrised)
-                    i, j = body["row"], body["col"] if body["col"] is not None else body["row"]
-                    step = np.zeros((3, 3))
-                    step[int(i), int(j)] += 0.5 * value
-                    step[int(j), int(i)] += 0.5 * value
-                    block[0, 1:4], block[0, 4:13] = model.body_com[b], step.reshape(9)
+                block, along = self.body_block(body, b, law.value(0.0, 0.0, state.t))
+                if along is None:
                     force = force_of(block)
                 else:                   # ∂f/∂c along ∂c/∂p
-                    block[0, 0], block[0, 1:4] = model.body_mass[b], model.body_com[b]
-                    block[0, 4:13] = model.body_inertia[b].reshape(9)
-                    along = np.zeros(3)
-                    along[int(body["com"])] = value
                     force = np.asarray(self.kernels.joint_body_D_com(frame, motion, block, gravity[None])[0]
                                        ).reshape(6, 3) @ along
                 total[model.node_dofs[node], column] += force
+
+    def body_block(self, body, b: int, value: float) -> tuple:
+        """(the joint_body kernel's block (1, 13), None) of a use ``body`` (a body key's match) of joint body ``b``
+        whose mass or inertia moves by ``value`` — the kernel is linear in (m, I) at a fixed centre of mass c:
+        (∂m/∂p, c, ∂I/∂p) —, or (the body's own block, ∂c/∂p (3,)) of a use by its centre of mass, whose force is
+        joint_body_D_com's ∂f/∂c along it (:meth:`_body_forces`; the loop of steps in C tabulates the same,
+        latdyn/analyses/sensitivities_in_loop.py)."""
+        model, block = self.model, np.zeros((1, 13))
+        if body["mass"]:
+            block[0, 0], block[0, 1:4] = value, model.body_com[b]
+            return block, None
+        if body["inertia"]:   # inertia[i] (the diagonal) or inertia[i][j] (symmetrised)
+            i, j = body["row"], body["col"] if body["col"] is not None else body["row"]
+            step = np.zeros((3, 3))
+            step[int(i), int(j)] += 0.5 * value
+            step[int(j), int(i)] += 0.5 * value
+            block[0, 1:4], block[0, 4:13] = model.body_com[b], step.reshape(9)
+            return block, None
+        block[0, 0], block[0, 1:4] = model.body_mass[b], model.body_com[b]
+        block[0, 4:13] = model.body_inertia[b].reshape(9)
+        along = np.zeros(3)
+        along[int(body["com"])] = value
+        return block, along
 
     def _body_uses(self) -> list:
         """(the body key's match, {column: derivative law}) of every use of a parameter by a joint body's mass,

@@ -31,7 +31,9 @@ import numpy as np
 
 from latdyn.analyses.energy_sensitivities import is_energy_or_momentum
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
+from latdyn.analyses.parameter_keys import BODY_KEY, HINGE_KEY
 from latdyn.analyses.sensitivities import _INITIAL_VELOCITY_KEY, _LOAD_KEY, _SECTION_KEY
+from latdyn.assembly.native_model import NO_CONTACT
 from latdyn.analyses.step_matrix import turns_about_one_axis
 
 __all__ = ["SENSITIVITIES_IN_LOOP", "refusal", "model_refusal", "SensitivityLoop"]
@@ -52,9 +54,51 @@ def refusal(owner) -> str | None:
             continue
         if _SECTION_KEY.match(key) and not GEOMETRY_KEY.match(key) and all(law.is_constant for law in laws.values()):
             continue
-        return f"{key}: not a native parameter kind"
+        why = _hinge_refusal(owner, key, laws) if HINGE_KEY.match(key) else (
+            _body_refusal(owner, key, laws) if BODY_KEY.match(key) else f"{key}: not a native parameter kind")
+        if why is not None:
+            return why
     if owner._section_layout() is not None and owner._section_kernel_addresses() is None:  # noqa: SLF001
         return "section kernels without C libraries"
+    return None
+
+
+def _in_time_alone(law) -> bool:
+    """Whether a law's value is one of t alone (a number, a table, an expression in t): tabulated at the grid points
+    by the law object itself, as the Python step reads it (at the hinge's θ, θ̇, which it does not name)."""
+    return not {"theta", "theta_dot"} & set(law.depends_on) and not law.input_names
+
+
+def _hinge_refusal(owner, key: str, laws: dict) -> str | None:
+    """Why a hinge law's parameter (``key``, its derivative laws ``laws``) keeps the run on the Python path, or None:
+    its ∂r/∂p is the generated hinge_force's at the derivative law's value (ParameterDerivatives._hinge_force), which
+    the loop tabulates per grid point where the value is one of t alone — the derivative's, and for the rest angle
+    the stiffness's."""
+    hinge = HINGE_KEY.match(key)
+    if owner.kernels.address("hinge_force") is None:
+        return "hinge kernels without C libraries"
+    if not all(map(_in_time_alone, laws.values())):
+        return f"{key}: its derivative is a law in theta, theta_dot or an input"
+    if hinge["law"] == "rest_angle":
+        stiffness = owner.model.hinges[owner.model.hinge_index(hinge["beam"], hinge["end"])].stiffness
+        if not _in_time_alone(stiffness):
+            return f"{key}: the hinge's stiffness is a law in theta, theta_dot or an input"
+    return None
+
+
+def _body_refusal(owner, key: str, laws: dict) -> str | None:
+    """Why a joint body's parameter (``key``, its derivative laws ``laws``) keeps the run on the Python path, or None:
+    its ∂r/∂p is the generated joint_body's (or joint_body_D_com's) with the derivative law's value at t
+    (ParameterDerivatives._body_forces), which the loop tabulates per grid point."""
+    body = BODY_KEY.match(key)
+    if any(law.input_names for law in laws.values()):
+        return f"{key}: its derivative names an input"
+    name = "joint_body_D_com" if body["com"] is not None else "joint_body"
+    if owner.kernels.address(name) is None:
+        return "joint body kernels without C libraries"
+    model = owner.model
+    if body["com"] is None and not np.any(model.body_nodes == model.body_node[body["body"]]):
+        return f"{key}: a body without mass or inertia (the Python step refuses it)"
     return None
 
 
@@ -163,8 +207,56 @@ class SensitivityLoop:
         d.solve_work = self._pointer(np.zeros(3 * n * cols))
         self._sections()
         self._loads()
+        self._hinges()
+        self._bodies()
         self._for = (key, True)
         return True
+
+    def _hinges(self) -> None:
+        """The (use, column) pairs of ParameterDerivatives._hinge_uses, in its order: hinge, column, the derivative's
+        place among hinge_force's law values (−1: the rest angle), the kernel's (θ, θ̇, θ_r, λ)."""
+        owner, d, model = self.owner, self.data, self.owner.model
+        uses = [(j, which, column) for j, which, laws in owner._hinge_uses() for column in laws]  # noqa: SLF001
+        d.n_hinge_uses = len(uses)
+        if not uses:
+            return
+        d.hinge_kernel = owner.kernels.address("hinge_force")
+        slot = {"stiffness": 0, "damping": 3, "torque": 6, "rest_angle": -1}
+        ints = lambda values: self._pointer(np.array(values, np.int64))   # noqa: E731
+        d.hinge_joint, d.hinge_column = ints([j for j, _, _ in uses]), ints([column for _, _, column in uses])
+        d.hinge_slot = ints([slot[which] for _, which, _ in uses])
+        d.hinge_at = self._pointer(np.array([[0.0, 0.0, 1.0, 1.0] if which == "rest_angle" else
+                                             [0.0, 0.0, model.hinges[j].rest_angle, 1.0] for j, which, _ in uses]))
+        d.no_contact = self._pointer(np.ascontiguousarray(NO_CONTACT, np.float64))
+
+    def _bodies(self) -> None:
+        """The (use, column) pairs of ParameterDerivatives._body_forces, in its order (a centre of mass of a body
+        without mass or inertia moves no force: left out there and here)."""
+        owner, d, model = self.owner, self.data, self.owner.model
+        uses = self._body_uses()
+        d.n_body_uses = len(uses)
+        if not uses:
+            return
+        d.body_force_kernel = owner.kernels.address("joint_body")
+        d.body_com_kernel = (owner.kernels.address("joint_body_D_com")
+                             if any(body["com"] is not None for body, *_ in uses) else None)
+        ints = lambda values: self._pointer(np.array(values, np.int64))   # noqa: E731
+        d.body_use_node = ints([model.body_node[body["body"]] for body, *_ in uses])
+        d.body_use_column = ints([column for _, _, column, _ in uses])
+        d.body_use_axis = ints([-1 if body["com"] is None else int(body["com"]) for body, *_ in uses])
+        d.body_use_gravity = self._pointer(np.ascontiguousarray(1.0 * np.asarray(owner.assembler.gravity, float)))
+        d.body_use_scratch = self._pointer(np.zeros(150))
+
+    def _body_uses(self) -> list:
+        """(body key's match, index among the joint bodies, column, derivative law) of every body use the Python
+        step adds (ParameterDerivatives._body_forces), in its order."""
+        model, uses = self.owner.model, []
+        for body, laws in self.owner._body_uses():   # noqa: SLF001
+            found = np.flatnonzero(model.body_nodes == model.body_node[body["body"]])
+            if not len(found):   # a centre of mass of a body without mass or inertia (others: refusal)
+                continue
+            uses += [(body, int(found[0]), column, law) for column, law in laws.items()]
+        return uses
 
     def _sections(self) -> None:
         """The section uses of ParameterDerivatives._native_section_forces (their rows constant: refusal)."""
@@ -218,6 +310,24 @@ class SensitivityLoop:
                 table[row][place] = 1.0 * np.array([owner._of_time(law, t) for law in distinct])[use]  # noqa: SLF001
             self._table = table
             d.pair_values, d.values_from = table.ctypes.data, grid_index + 1
+        times = [control.grid_time(grid) for grid in range(grid_index + 1, stop_index + 1)]
+        if d.n_hinge_uses:   # the derivative laws' values (for the rest angle the stiffness's) at each grid point
+            hinges = owner.model.hinges
+            uses = [(law, hinges[j].stiffness if which == "rest_angle" else None)
+                    for j, which, laws in owner._hinge_uses() for law in laws.values()]   # noqa: SLF001
+            self._hinge_table = np.array([[(law.value(0.0, 0.0, t), stiffness.value(0.0, 0.0, t) if stiffness else 0.0)
+                                           for law, stiffness in uses] for t in times]).reshape(len(times), -1, 2)
+            d.hinge_values, d.values_from = self._hinge_table.ctypes.data, grid_index + 1
+        if d.n_body_uses:   # the kernel's block and ∂c/∂p of each use at each grid point (ParameterDerivatives.body_block)
+            table = np.zeros((len(times), d.n_body_uses, 16))
+            for row, t in enumerate(times):
+                for u, (body, b, _, law) in enumerate(self._body_uses()):
+                    block, along = owner.body_block(body, b, law.value(0.0, 0.0, t))
+                    table[row, u, :13] = block[0]
+                    if along is not None:
+                        table[row, u, 13:] = along
+            self._body_table = table
+            d.body_values, d.values_from = table.ctypes.data, grid_index + 1
         return d
 
     def steps_in_call(self) -> int:

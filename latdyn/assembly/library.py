@@ -203,6 +203,10 @@ class SensitivityLoopData(ctypes.Structure):
                 ("n_on", I64), ("on", P), ("n_uses", I64), ("use", P), ("elements", P), ("columns", P), ("rows", P),
                 ("section_scratch", P), ("n_pairs", I64), ("pair_node", P), ("pair_frame", P), ("pair_column", P),
                 ("pair_offset", P), ("pair_values", P), ("values_from", I64), ("pair_scratch", P),
+                ("n_hinge_uses", I64), ("hinge_kernel", P), ("hinge_joint", P), ("hinge_column", P), ("hinge_slot", P),
+                ("hinge_at", P), ("hinge_values", P), ("no_contact", P), ("n_body_uses", I64),
+                ("body_force_kernel", P), ("body_com_kernel", P), ("body_use_node", P), ("body_use_column", P),
+                ("body_use_axis", P), ("body_use_gravity", P), ("body_values", P), ("body_use_scratch", P),
                 ("steps", I64), ("info", I64), ("h", ctypes.c_double)]
 
 

@@ -65,6 +65,26 @@ typedef struct {
     const double *pair_values;          /* (grid points) × n_pairs × 6: λ ∂(the load's values)/∂p at each */
     int64_t values_from;                /* the grid index of pair_values' first grid point */
     double *pair_scratch;               /* 76 n_pairs */
+    /* ∂r/∂p of the hinge laws (ParameterDerivatives._hinge_force); n_hinge_uses 0: none */
+    int64_t n_hinge_uses;
+    kernel_hinge_force hinge_kernel;    /* the generated hinge_force (the address the Python path calls) */
+    const int64_t *hinge_joint, *hinge_column; /* each (use, column): its hinge and parameter column */
+    const int64_t *hinge_slot;          /* the derivative's place among the kernel's 9 law values; −1: the rest angle */
+    const double *hinge_at;             /* n_hinge_uses × 4: the kernel's (θ, θ̇, θ_r, λ), θ and θ̇ set here (not
+                                         * for the rest angle, whose force is the kernel's at (0, 0, 1, λ)) */
+    const double *hinge_values;         /* (grid points) × n_hinge_uses × 2: the derivative law's value, and for the
+                                         * rest angle the stiffness law's, at each grid point (from values_from) */
+    const double *no_contact;           /* 11: the kernel's contact row without stop or friction (NO_CONTACT) */
+    /* ∂r/∂p of the joint bodies' mass, inertia and centre of mass (ParameterDerivatives._body_forces) */
+    int64_t n_body_uses;
+    kernel_joint_body body_force_kernel;      /* the generated joint_body */
+    kernel_body_stiffness body_com_kernel;    /* the generated joint_body_D_com (NULL where no use moves c) */
+    const int64_t *body_use_node, *body_use_column;
+    const int64_t *body_use_axis;       /* −1: the kernel with the use's block; else ∂f/∂c along ∂c/∂p */
+    const double *body_use_gravity;     /* 3: λ g */
+    const double *body_values;          /* (grid points) × n_body_uses × 16: the kernel's block (13) and ∂c/∂p (3),
+                                         * at each grid point (from values_from) */
+    double *body_use_scratch;           /* 150: a node's frame and motion, the kernels' outputs */
     /* out */
     int64_t steps;                      /* steps differentiated here */
     int64_t info;                       /* the factorization's info where S was singular (the loop stopped) */
@@ -95,6 +115,58 @@ static void load_parameter_forces(const Model *m, const Configuration *c, const 
     for (int64_t p = 0; p < P; ++p) {
         const int64_t *d = m->node_dofs + 6 * s->pair_node[p];
         for (int j = 0; j < 6; ++j) s->total[d[j] * k + s->pair_column[p]] += force[6 * p + j];
+    }
+}
+
+/* ∂r/∂p of the hinge laws at c into total ((n_total + 1) × k): per (use, column) the generated hinge_force with
+ * the derivative law's value in its law's place at the hinge's (θ, θ̇) (linear in the laws), or for the rest angle
+ * the derivative times its force at (0, 0, 1, λ) with the stiffness alone (f = k (θ − θ_r) + …: affine in θ_r),
+ * added at the hinge's coordinate in the Python path's order (ParameterDerivatives._hinge_force). */
+static void hinge_parameter_forces(const Model *m, const Configuration *c, const SensitivityLoop *s, int64_t grid)
+{
+    const int64_t U = s->n_hinge_uses, k = s->k;
+    const double *table = s->hinge_values + 2 * U * (grid - s->values_from);
+    for (int64_t u = 0; u < U; ++u) {
+        const int64_t j = s->hinge_joint[u], slot = s->hinge_slot[u];
+        double at[4], laws[9] = {0}, f, by_angle, by_rate, spring, applied, damper, energy;
+        memcpy(at, s->hinge_at + 4 * u, 4 * sizeof(double));
+        if (slot >= 0) {
+            at[0] = c->theta[j];
+            at[1] = c->theta_dot[j];
+            laws[slot] = table[2 * u];
+        } else {
+            laws[0] = table[2 * u + 1];
+        }
+        s->hinge_kernel(1, at, laws, s->no_contact, &f, &by_angle, &by_rate, &spring, &applied, &damper, &energy);
+        s->total[m->hinge_dofs[j] * k + s->hinge_column[u]] += slot >= 0 ? f : table[2 * u] * f;
+    }
+}
+
+/* ∂r/∂p of the joint bodies at c into total: per (use, column) the generated joint_body with the use's block (linear in
+ * m and I at a fixed c) or joint_body_D_com along c's axis, at the node's frame and (ω, a, α), added at the node's
+ * coordinates in the Python path's order (ParameterDerivatives._body_forces). */
+static void body_parameter_forces(const Model *m, const Configuration *c, const SensitivityLoop *s, int64_t grid)
+{
+    const int64_t B = s->n_body_uses, k = s->k;
+    const double *table = s->body_values + 16 * B * (grid - s->values_from);
+    double *frame = s->body_use_scratch, *motion = frame + 9, *force = motion + 9, *blocks = force + 6;
+    double *by_com = blocks + 3 * 36;
+    for (int64_t u = 0; u < B; ++u) {
+        const int64_t i = s->body_use_node[u];
+        const double *block = table + 16 * u, *along = block + 13;
+        memcpy(frame, c->T + 9 * i, 9 * sizeof(double));
+        memcpy(motion, c->w + 3 * i, 3 * sizeof(double));
+        memcpy(motion + 3, c->a + 3 * i, 3 * sizeof(double));
+        memcpy(motion + 6, c->alpha + 3 * i, 3 * sizeof(double));
+        if (s->body_use_axis[u] < 0) {
+            s->body_force_kernel(1, frame, motion, block, s->body_use_gravity, force, blocks, blocks + 36, blocks + 72);
+        } else {
+            s->body_com_kernel(1, frame, motion, block, s->body_use_gravity, by_com);
+            for (int r = 0; r < 6; ++r)   /* (6 × 3) @ along: one term nonzero, so any order of the sum is NumPy's */
+                force[r] = by_com[3 * r] * along[0] + by_com[3 * r + 1] * along[1] + by_com[3 * r + 2] * along[2];
+        }
+        const int64_t *d = m->node_dofs + 6 * i;
+        for (int r = 0; r < 6; ++r) s->total[d[r] * k + s->body_use_column[u]] += force[r];
     }
 }
 
@@ -139,12 +211,15 @@ static int64_t sensitivity_loop_step(const Model *m, Work *w, SensitivityLoop *s
     latdyn_sensitivity_predict(n, k, step, s->f, s->slots, s->turn, s->tangent, v_n, a_old, a_new, s->dq, s->dv,
                                s->dvdot, s->da, s->predicted);
     exact_matrices(m, w, s, c, t);
-    /* ∂r/∂p with the inertia forces (ParameterDerivatives.residual_derivatives: the sections', then the loads') */
+    /* ∂r/∂p with the inertia forces (ParameterDerivatives.residual_derivatives: the hinges', the sections', the
+     * joint bodies', then the loads') */
     memset(s->total, 0, sizeof(double) * (size_t)((m->n_total + 1) * k));
+    if (s->n_hinge_uses) hinge_parameter_forces(m, c, s, grid);
     if (s->n_uses)
         latdyn_section_parameter_forces(m, w, c, s->internal_D_section, s->inertia_D_section, 1, s->gravity, s->n_on,
                                         s->on, s->n_uses, s->use, s->elements, s->columns, s->rows, k, s->total,
                                         s->section_scratch);
+    if (s->n_body_uses) body_parameter_forces(m, c, s, grid);
     load_parameter_forces(m, c, s, grid);
     for (int64_t i = 0; i < n; ++i) {   /* on the free coordinates, with the step size's column 0 */
         for (int64_t col = 0; col < k; ++col) s->explicit_[i * cols + col] = s->total[i * k + col];
