@@ -2,16 +2,19 @@
 csrc/sensitivity_loop.c; issue 34 item 2): taken where every term of the step's derivative is native (section values
 and load components; summary.json ``sensitivity_steps_in_loop`` counts them), equal to the per-step Python path
 (the private switch ``SENSITIVITIES_IN_LOOP`` off) through the API and the CLI, with a latch between them taken from
-Python; a hinge's parameter keeps the whole run on the Python path; a run interrupted inside the loop resumes to
-the same files."""
+Python; hinge laws' and joint bodies' parameters taken too (the deploying boom's design run through the CLI), a hinge
+law in the angle keeps the whole run on the Python path; a run interrupted inside the loop resumes to the same
+files."""
 from __future__ import annotations
+
+import importlib.util
 
 import numpy as np
 import pytest
 import yaml
 
 import latdyn
-from tests.cli_runs import latdyn_run, latdyn_run_switched, summary_of
+from tests.cli_runs import ROOT, latdyn_run, latdyn_run_switched, summary_of
 from tests.resumed_runs import resumed_inside_the_loop_is_whole
 from tests.test_sensitivities_events import LATCH_PLANAR
 from tests.test_sensitivities_native_parts import ARM
@@ -30,6 +33,55 @@ LATCH = (LATCH_PLANAR.replace("parameters: {k: 2.0, c: 0.05, EI: 20.0, rho: 0.5,
 ARM_3D = ARM.replace("angular: [0, 0, 2.0]", "angular: [0, 0, 3.0]").replace("t_end: 0.04", "t_end: 0.06")
 assert ARM_3D != ARM and "F: 0.4" in LATCH and "0.05" in LATCH
 
+#: the 3D arm with its hinge's spring, damper, rest angle and a torque in t and its joint body's mass, inertia and
+#: centre of mass as parameters (the hinge laws' and joint bodies' kinds): the hinge's stiffness a law in t, so that
+#: the derivative laws' values are tabulated per grid point
+ARM_3D_JOINTS = (ARM_3D.replace("parameters: {E: 1.0, rho: 0.5, F: 2.0}",
+                                "parameters: {E: 1.0, rho: 0.5, F: 2.0, k: 30.0, c: 0.2, r: 0.1, A: 0.5, M: 0.8, "
+                                "J: 0.01, cx: 0.05}")
+                 .replace("stiffness: 30.0, damping: 0.2}",
+                          'stiffness: "k*(1 + 2*t)", damping: "c", rest_angle: "r", torque: "A*sin(20*t) + 0.1*A**2"}')
+                 .replace("mass: 0.8, com: [0.05, 0, -0.05], inertia: [0.01, 0.01, 0.02]",
+                          'mass: "M", com: ["cx", 0, -0.05], inertia: ["J", 0.01, 0.02]')
+                 .replace("sensitivities: [E, rho, F]", "sensitivities: [E, k, c, r, A, M, J, cx]"))
+assert all(part in ARM_3D_JOINTS for part in ("cx: 0.05}", 'torque: "A*', 'mass: "M"', "[E, k, c, r, A, M, J, cx]"))
+
+
+#: the design run of examples/deploying_boom_sensitivities.py (its hinge's spring k and damper c, latching at π), as a
+#: user types it (test_the_design_examples_scene_is_the_examples)
+BOOM_DESIGN = """
+title: deploying two-panel boom, planar, its hinge spring and damper named
+parameters: {k: 2.0, c: 0.1}
+sections:
+  panel: {EA: 1.0e+6, EIy: 50.0, EIz: 50.0, GJ: 40.0, rhoA: 1.0, rhoIy: 0.001, rhoIz: 0.001}
+bodies:
+  root: {at: [0, 0, 0], fixed: true}
+  knee: {at: [1, 0, 0], mass: 0.2}
+  tip: {at: [0, 0.05, 0], mass: 0.5}
+beams:
+  inner: {from: root, to: knee, section: panel, elements: 3}
+  outer:
+    from: {body: knee, offset: [0, 0.05, 0]}
+    to: tip
+    section: panel
+    elements: 3
+    start: {hinge: {axis: [0, 0, 1], stiffness: "k", damping: "c", rest_angle: 3.6, lock_at: "pi"}}
+solve: {analysis: transient, t_end: 2.5, dt: 0.005, rho_inf: 0.5, sensitivities: [k, c]}
+output:
+  every: 0.01
+  probes:
+    knee_y: {point: knee, quantity: displacement, component: y}
+    hinge: {hinge: outer.start, quantity: angle}
+"""
+
+
+def test_the_design_examples_scene_is_the_examples():
+    """BOOM_DESIGN is the scene examples/deploying_boom_sensitivities.py optimises."""
+    spec = importlib.util.spec_from_file_location("boom_design", ROOT / "examples" / "deploying_boom_sensitivities.py")
+    example = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(example)
+    assert yaml.safe_load(BOOM_DESIGN) == example.SCENE
+
 
 def _latch(k: str = "2.0") -> str:
     return LATCH.replace('stiffness: "k"', f"stiffness: {k}")
@@ -42,11 +94,13 @@ def _run(text: str, monkeypatch, in_loop: bool):
         return latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
 
 
-@pytest.mark.parametrize("text", [ARM_3D, _latch()], ids=["3D arm", "planar latch"])
+@pytest.mark.parametrize("text", [ARM_3D, _latch(), ARM_3D_JOINTS, LATCH_PLANAR],
+                         ids=["3D arm", "planar latch", "3D arm, hinge and body", "planar latch, hinge and body"])
 def test_the_smooth_steps_in_the_loop_are_the_python_paths(text, monkeypatch):
     """The loop of steps carries the sensitivities through every smooth step (all of the arm's; the latch's steps
     but the event's and the landing after it) and they are the per-step Python path's to the bit: rows, extremes
-    and the event's time derivative."""
+    and the event's time derivative; with section and load parameters, and with a hinge's laws' and a joint body's
+    (the planar latch's spring, damper and tip mass)."""
     native, python = _run(text, monkeypatch, True), _run(text, monkeypatch, False)
     steps = native.summary["steps"]
     assert native.summary["time_loop"] == "compiled" and python.summary["time_loop"] == "python"
@@ -64,10 +118,12 @@ def test_the_smooth_steps_in_the_loop_are_the_python_paths(text, monkeypatch):
     assert native.summary["event_sensitivities"] == python.summary["event_sensitivities"]
 
 
-def test_the_cli_writes_the_python_paths_files(tmp_path):
-    """``latdyn run`` on the latching arm takes the loop; the same command with the switch off (in a process of its
-    own) writes the same sensitivities.csv and probes.csv, byte for byte."""
-    completed, out = latdyn_run(tmp_path, _latch())
+@pytest.mark.parametrize("text", [_latch(), BOOM_DESIGN], ids=["planar latch", "deploying boom's design run"])
+def test_the_cli_writes_the_python_paths_files(text, tmp_path):
+    """``latdyn run`` on the latching arm (section and load parameters) and on the deploying boom's design run (its
+    hinge's spring and damper) takes the loop; the same command with the switch off (in a process of its own) writes
+    the same sensitivities.csv and probes.csv, byte for byte, and summary.json's sensitivities."""
+    completed, out = latdyn_run(tmp_path, text)
     assert completed.returncode == 0, completed.stderr
     summary = summary_of(out)
     assert summary["time_loop"] == "compiled" and summary["sensitivity_steps_in_loop"] > 40
@@ -78,14 +134,16 @@ def test_the_cli_writes_the_python_paths_files(tmp_path):
     for name in ("sensitivities.csv", "probes.csv"):
         assert (out / name).read_bytes() == (reference / name).read_bytes(), name
     assert summary["probe_sensitivities"] == summary_of(reference)["probe_sensitivities"]
+    assert summary["event_sensitivities"] == summary_of(reference)["event_sensitivities"]
 
 
-def test_a_hinge_parameter_keeps_the_run_on_the_python_path(monkeypatch):
-    """A hinge law's parameter (its ∂r/∂p from the hinge kernel called from Python) is no native kind: every step of
-    the run from Python, decided at its start."""
+def test_a_hinge_law_in_the_angle_keeps_the_run_on_the_python_path(monkeypatch):
+    """A hinge parameter whose derivative law names theta (the loop tabulates values of t alone): every step of the
+    run from Python, decided at its start; the same parameter in a constant law takes the loop."""
     text = _latch('"k"').replace("parameters: {EI: 20.0,", "parameters: {k: 2.0, EI: 20.0,").replace(
         "sensitivities: [EI, rho, F]", "sensitivities: [EI, k]")
-    result = _run(text, monkeypatch, True)
+    assert _run(text, monkeypatch, True).summary["sensitivity_steps_in_loop"] > 40
+    result = _run(text.replace('stiffness: "k"', 'stiffness: "k*(1 + 0.1*theta**2)"'), monkeypatch, True)
     assert result.summary["time_loop"] == "python" and result.summary["sensitivity_steps_in_loop"] == 0
     assert np.abs(result.sensitivities[("tip_y", "k")]).max() > 0.0
 
