@@ -41,9 +41,11 @@ def _run(monkeypatch, which: str, method: str = "forward", k: float = 4.0):
         return new, stats
 
     monkeypatch.setattr(TimeLoop, "_step", failing)
-    # every step through TimeLoop._step, where the failure is made: the adjoint's forward pass held off the loop of
-    # steps in C (latdyn/analyses/adjoint_in_loop.py), which would take the chosen trial without it
+    # every step through TimeLoop._step, where the failure is made: the adjoint's forward pass and the forward
+    # method's smooth steps (a hinge's k: latdyn/analyses/sensitivities_in_loop.py) held off the loop of steps in C
+    # (latdyn/analyses/adjoint_in_loop.py), which would take the chosen trial without it
     monkeypatch.setattr("latdyn.analyses.adjoint_in_loop.ADJOINT_IN_LOOP", False)
+    monkeypatch.setattr("latdyn.analyses.sensitivities_in_loop.SENSITIVITIES_IN_LOOP", False)
     data = yaml.safe_load(LATCHING)
     data["parameters"]["k"] = k
     data["solve"].update(t_end=0.6, sensitivities=["k"], sensitivity_method=method)
