@@ -166,7 +166,7 @@ def as_a_user(text: str, rounds: int, trees: list[str]) -> None:
                 before = resource.getrusage(resource.RUSAGE_CHILDREN)
                 start = time.perf_counter()
                 done = subprocess.run([sys.executable, "-m", "latdyn", "run", str(scene), "-o", str(folder / "out"),
-                                       "-q"], env=env, capture_output=True, text=True, check=False)
+                                       "-q"], env=env, cwd=folder, capture_output=True, text=True, check=False)
                 elapsed = time.perf_counter() - start
                 after = resource.getrusage(resource.RUSAGE_CHILDREN)
                 if done.returncode != 0:
