@@ -7,8 +7,8 @@
 ``--scene boom``: the design run of examples/deploying_boom_sensitivities.py (the planar two-panel boom deploying on
 its hinge's spring k and damper c and latching at π; 2.5 s, dt = 0.005, a row every 0.01 s), ``solve.sensitivities:
 [k, c]``. ``--scene arm``: a smooth 3D arm (tests/test_sensitivities_native_parts.py's: a hinged second beam, a joint
-body off its node, gravity, spinning; 0.3 s, dt = 0.005, a row every 0.01 s) with its hinge's stiffness, damping and
-rest angle and its joint body's mass and inertia as parameters ``[k, c, r, M, J]``.
+body off its node, gravity, loads in a body's frame and in t, spinning; 0.3 s, dt = 0.005, a row every 0.01 s) with
+its hinge's stiffness, damping and rest angle and its joint body's mass and inertia as parameters ``[k, c, r, M, J]``.
 
 In process (default): the run without sensitivities, the forward run (its smooth steps' sensitivities in the loop of
 steps where the build takes them: latdyn/analyses/sensitivities_in_loop.py) and the forward run with every step from
@@ -57,36 +57,21 @@ def _boom() -> str:
     return yaml.safe_dump(example.SCENE, sort_keys=False)
 
 
-ARM = """
-title: 3D arm with a hinged second beam and a joint body under gravity, spinning; its hinge's and body's values named
-gravity: [0, 0, -9.81]
-parameters: {k: 30.0, c: 0.2, r: 0.1, M: 0.8, J: 0.01}
-sections:
-  s: {EA: 1.0e+4, EIy: 20.0, EIz: 30.0, GJ: 15.0, rhoA: 0.5, rhoIy: 0.005, rhoIz: 0.01}
-bodies:
-  base: {at: [0, 0, 0], fixed: true}
-  knee: {at: [1, 0, 0], mass: "M", com: [0.05, 0, -0.05], inertia: ["J", 0.01, 0.02]}
-beams:
-  a: {from: base, to: knee, section: s, elements: 3, y_axis: [0, 1, 0]}
-  b:
-    from: knee
-    to: [1.6, 0.5, 0.4]
-    section: s
-    elements: 3
-    y_axis: [0, 0, 1]
-    start: {hinge: {axis: [0, 0.6, 0.8], stiffness: "k", damping: "c", rest_angle: "r"}}
-loads:
-  - {at: b.end, force: [0.6, -2.0, 1.0]}
-initial_velocity: {angular: [0, 0, 2.0]}
-solve: {analysis: transient, dt: 0.005, t_end: 0.3, sensitivities: [k, c, r, M, J]}
-output:
-  every: 0.01
-  probes:
-    tip_z: {point: b.end, quantity: position, component: z}
-    hinge: {hinge: b.start, quantity: angle}
-"""
+def _arm() -> str:
+    """tests/test_sensitivities_native_parts.py's 3D arm over 0.3 s, its hinge's stiffness, damping and rest angle and
+    its joint body's mass and inertia named (section values and loads as numbers)."""
+    sys.path.append(str(ROOT))   # after PYTHONPATH: the build compared is the one it names
+    from tests.test_sensitivities_native_parts import ARM
 
-SCENES = {"boom": _boom, "arm": lambda: ARM}
+    return (ARM.replace("parameters: {E: 1.0, rho: 0.5, F: 2.0}", "parameters: {E: 1.0, rho: 0.5, F: 2.0, k: 30.0, "
+                        "c: 0.2, r: 0.1, M: 0.8, J: 0.01}")
+            .replace("stiffness: 30.0, damping: 0.2}", 'stiffness: "k", damping: "c", rest_angle: "r"}')
+            .replace("mass: 0.8, com: [0.05, 0, -0.05], inertia: [0.01, 0.01, 0.02]",
+                     'mass: "M", com: [0.05, 0, -0.05], inertia: ["J", 0.01, 0.02]')
+            .replace("t_end: 0.04", "t_end: 0.3").replace("sensitivities: [E, rho, F]", "sensitivities: [k, c, r, M, J]"))
+
+
+SCENES = {"boom": _boom, "arm": _arm}
 
 
 def _without(data: dict) -> dict:

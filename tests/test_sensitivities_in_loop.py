@@ -17,6 +17,7 @@ import latdyn
 from tests.cli_runs import ROOT, latdyn_run, latdyn_run_switched, summary_of
 from tests.resumed_runs import resumed_inside_the_loop_is_whole
 from tests.test_sensitivities_events import LATCH_PLANAR
+from tests.test_sensitivities_joint_forces import BOOM
 from tests.test_sensitivities_native_parts import ARM
 
 #: the planar arm of tests/test_sensitivities_events.py swung open by its root hinge's spring and latching at 0.8 rad
@@ -48,31 +49,11 @@ assert all(part in ARM_3D_JOINTS for part in ("cx: 0.05}", 'torque: "A*', 'mass:
 
 
 #: the design run of examples/deploying_boom_sensitivities.py (its hinge's spring k and damper c, latching at π), as a
-#: user types it (test_the_design_examples_scene_is_the_examples)
-BOOM_DESIGN = """
-title: deploying two-panel boom, planar, its hinge spring and damper named
-parameters: {k: 2.0, c: 0.1}
-sections:
-  panel: {EA: 1.0e+6, EIy: 50.0, EIz: 50.0, GJ: 40.0, rhoA: 1.0, rhoIy: 0.001, rhoIz: 0.001}
-bodies:
-  root: {at: [0, 0, 0], fixed: true}
-  knee: {at: [1, 0, 0], mass: 0.2}
-  tip: {at: [0, 0.05, 0], mass: 0.5}
-beams:
-  inner: {from: root, to: knee, section: panel, elements: 3}
-  outer:
-    from: {body: knee, offset: [0, 0.05, 0]}
-    to: tip
-    section: panel
-    elements: 3
-    start: {hinge: {axis: [0, 0, 1], stiffness: "k", damping: "c", rest_angle: 3.6, lock_at: "pi"}}
-solve: {analysis: transient, t_end: 2.5, dt: 0.005, rho_inf: 0.5, sensitivities: [k, c]}
-output:
-  every: 0.01
-  probes:
-    knee_y: {point: knee, quantity: displacement, component: y}
-    hinge: {hinge: outer.start, quantity: angle}
-"""
+#: user types it: tests/test_sensitivities_joint_forces.py's boom over the example's 2.5 s, its probes the example's
+#: (test_the_design_examples_scene_is_the_examples)
+BOOM_DESIGN = (BOOM.replace(", the latch load probed", "").replace("t_end: 1.4", "t_end: 2.5")
+               .replace("    latch: {hinge: outer.start, quantity: torque}\n", "")
+               + "    hinge: {hinge: outer.start, quantity: angle}\n")
 
 
 def test_the_design_examples_scene_is_the_examples():

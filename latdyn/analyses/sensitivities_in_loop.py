@@ -9,11 +9,16 @@ budget). Every event, jump, stick or release, landing, Newton cut and the steps 
 as before; so do the runs :func:`refusal` names, for the whole run (decided once, at the start).
 
 Native: ∂r/∂p of section values whose derivative laws are constants (the generated ``*_D_section`` kernels,
-csrc/parameter_forces.c) and of load components (the generated ``point_load``, linear in the values, with the
+csrc/parameter_forces.c), of load components (the generated ``point_load``, linear in the values, with the
 derivative laws' values at each grid point tabulated here before each call: a law in t is evaluated by the same
-law object at the same t the Python step reads), and parameters of ``initial_velocity`` (they move the start
-only). Not native (the Python path): hinge, guide, joint-body, contact, friction, cable, controller and geometry
-parameters, section values whose derivative is a law in t or an input, rigid links and guides, cables,
+law object at the same t the Python step reads), of a hinge's stiffness, damping, rest angle and torque whose
+derivative laws (and for the rest angle the hinge's stiffness) are values of t alone (the generated
+``hinge_force``, linear in the laws, at the hinge's θ, θ̇ in C, the laws' values tabulated alike: ``_hinge_refusal``)
+and of a joint body's mass, inertia and centre of mass (the generated ``joint_body`` with the use's block, or
+``joint_body_D_com`` along ∂c/∂p, the blocks made by ``ParameterDerivatives.body_block`` and tabulated alike), and
+parameters of ``initial_velocity`` (they move the start only). Not native (the Python path): hinge laws whose
+derivative names θ, θ̇ or an input, guide, contact, friction, cable, controller and geometry parameters, section
+values whose derivative is a law in t or an input, rigid links and guides, cables,
 controllers, explicit time dependence beside events (∂r/∂t δt), energy and momentum probes (their work
 accounts are carried per step in Python), the NumPy kernels, and a numbering whose step matrix takes the
 sparse LU (whose failed pivot falls back to SciPy: :meth:`latdyn.analyses.step_matrix.ExactStepMatrix.solve_step`).

@@ -5,9 +5,10 @@
  * (step_columns, then the step size's column times δh = −δt_n): the exponential's R and J per free node,
  * the predicted parts (latdyn_sensitivity_predict), the evaluation with the inertia tangent at the converged
  * state (latdyn_evaluate), the joint bodies' inertia stiffness and the scatter of M, C and the exact K onto the
- * assembler's pattern (latdyn_joint_body_inertia_stiffness, latdyn_exact_matrix_values), ∂r/∂p of the section
- * values (latdyn_section_parameter_forces) and of the load components (the generated point_load, with the
- * derivative laws' values the caller tabulated per grid point), S's factorization and the k + 1 solves
+ * assembler's pattern (latdyn_joint_body_inertia_stiffness, latdyn_exact_matrix_values), ∂r/∂p of the hinge laws
+ * (the generated hinge_force), the section values (latdyn_section_parameter_forces), the joint bodies (the generated
+ * joint_body, joint_body_D_com) and the load components (the generated point_load), with the derivative laws'
+ * values the caller tabulated per grid point, S's factorization and the k + 1 solves
  * (latdyn_sensitivity_step), the update (latdyn_sensitivity_update). The calls, their inputs and the order of
  * their sums are the Python step's; latdyn/analyses/sensitivities_in_loop.py lays the struct out and says
  * which runs take it.
