@@ -129,8 +129,9 @@ def test_a_hinge_law_in_the_angle_keeps_the_run_on_the_python_path(monkeypatch):
     assert np.abs(result.sensitivities[("tip_y", "k")]).max() > 0.0
 
 
-def test_a_run_interrupted_inside_the_loop_resumes_to_the_same_files(tmp_path, monkeypatch):
+@pytest.mark.parametrize("text", [_latch(), LATCH_PLANAR], ids=["sections and load", "hinge and body"])
+def test_a_run_interrupted_inside_the_loop_resumes_to_the_same_files(text, tmp_path, monkeypatch):
     """Interrupted (Ctrl-C) as a loop of steps starts at t ≥ 0.2, before the latch, and resumed from its checkpoint:
     sensitivities.csv and summary.json's sensitivities and its count of steps in the loop are the uninterrupted
-    run's, byte for byte."""
-    resumed_inside_the_loop_is_whole(yaml.safe_load(_latch()), tmp_path, monkeypatch, 0.2)
+    run's, byte for byte (section and load parameters; the hinge's k, c and the tip's mass among them)."""
+    resumed_inside_the_loop_is_whole(yaml.safe_load(text), tmp_path, monkeypatch, 0.2)
