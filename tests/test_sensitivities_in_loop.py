@@ -16,7 +16,9 @@ import yaml
 import latdyn
 from tests.cli_runs import ROOT, latdyn_run, latdyn_run_switched, summary_of
 from tests.resumed_runs import resumed_inside_the_loop_is_whole
+from tests.test_sensitivities_contact import WHEEL
 from tests.test_sensitivities_events import LATCH_PLANAR
+from tests.test_sensitivities_friction import SKEW
 from tests.test_sensitivities_joint_forces import BOOM
 from tests.test_sensitivities_native_parts import ARM
 
@@ -75,13 +77,15 @@ def _run(text: str, monkeypatch, in_loop: bool):
         return latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
 
 
-@pytest.mark.parametrize("text", [ARM_3D, _latch(), ARM_3D_JOINTS, LATCH_PLANAR],
-                         ids=["3D arm", "planar latch", "3D arm, hinge and body", "planar latch, hinge and body"])
+@pytest.mark.parametrize("text", [ARM_3D, _latch(), ARM_3D_JOINTS, LATCH_PLANAR, WHEEL, SKEW],
+                         ids=["3D arm", "planar latch", "3D arm, hinge and body", "planar latch, hinge and body",
+                              "3D compliant stop", "3D friction"])
 def test_the_smooth_steps_in_the_loop_are_the_python_paths(text, monkeypatch):
     """The loop of steps carries the sensitivities through every smooth step (all of the arm's; the latch's steps
     but the event's and the landing after it) and they are the per-step Python path's to the bit: rows, extremes
     and the event's time derivative; with section and load parameters, and with a hinge's laws' and a joint body's
-    (the planar latch's spring, damper and tip mass)."""
+    (the planar latch's spring, damper and tip mass), a compliant stop's stiffness, exponent and damping (the wheel
+    in and out of its stop: the onset's steps from Python) and a friction law's values (the skew hinge slipping)."""
     native, python = _run(text, monkeypatch, True), _run(text, monkeypatch, False)
     steps = native.summary["steps"]
     assert native.summary["time_loop"] == "compiled" and python.summary["time_loop"] == "python"
@@ -89,6 +93,8 @@ def test_the_smooth_steps_in_the_loop_are_the_python_paths(text, monkeypatch):
     in_loop = native.summary["sensitivity_steps_in_loop"]
     if native.summary["event_sensitivities"]:
         assert 0 < in_loop < steps and native.summary["event_sensitivities"][0]["kind"] == "latch"
+    elif "contact:" in text or "friction:" in text:   # the stop's onset and exit, the slipping's turns from Python
+        assert 0.8 * steps < in_loop < steps
     else:
         assert in_loop == steps > 0
     assert native.sensitivities.keys() == python.sensitivities.keys()

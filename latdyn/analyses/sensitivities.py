@@ -794,24 +794,35 @@ class ParameterDerivatives:
         or ``friction_force_D_law`` (∂f_friction/∂(F_c, F_s, 1/v_s, c_v, v₀) of the slipping law; a stuck
         joint's coordinate is no free one) times the law's derivative by the parameter."""
         model = self.model
-        held = self.__dict__.get("_joint_laws")   # the uses that name a joint's law, parsed once per derivatives
+        for law, laws in self.joint_law_uses():
+            beam, end, kind, slot = law
+            j = model.hinge_index(beam, end)
+            row = self.contact_row(j)
+            at = np.array([[float(state.theta[j]), float(state.theta_dot[j]), model.hinges[j].rest_angle, 1.0]])
+            kernel = self.kernels.contact_force_D_law if kind == "contact" else self.kernels.friction_force_D_law
+            slope = float(np.asarray(kernel(at, row)[0]).reshape(-1)[slot])
+            if kind == "friction" and slot == FRICTION_SLOT["stribeck_rate"]:   # −(1/v_s)² ∂f/∂(1/v_s)
+                slope *= -row[0, 7] ** 2
+            for column, derivative in laws.items():
+                total[model.hinge_dofs[j], column] += derivative.value(0.0, 0.0, state.t) * slope
+
+    def joint_law_uses(self) -> list:
+        """((beam, end, "contact" or "friction", slot), {column: derivative law}) of every use of a parameter by a
+        joint's compliant stop or friction (:func:`joint_law`), in the order of :attr:`derivatives`; parsed once per
+        derivatives (:meth:`_contact_forces`; the loop of steps in C lays them out alike)."""
+        held = self.__dict__.get("_joint_laws")
         if held is None or held[0] is not self.derivatives:
             held = (self.derivatives, [(joint_law(key), laws) for key, laws in self.derivatives.items()
                                        if joint_law(key) is not None])
             self._joint_laws = held
-        for law, laws in held[1]:
-            beam, end, kind, slot = law
-            j = model.hinge_index(beam, end)
-            rows = self.__dict__.setdefault("_contact_rows", {})
-            if j not in rows:
-                rows[j] = np.ascontiguousarray(joint_contact_rows([model.hinges[j]]))
-            at = np.array([[float(state.theta[j]), float(state.theta_dot[j]), model.hinges[j].rest_angle, 1.0]])
-            kernel = self.kernels.contact_force_D_law if kind == "contact" else self.kernels.friction_force_D_law
-            slope = float(np.asarray(kernel(at, rows[j])[0]).reshape(-1)[slot])
-            if kind == "friction" and slot == FRICTION_SLOT["stribeck_rate"]:   # −(1/v_s)² ∂f/∂(1/v_s)
-                slope *= -rows[j][0, 7] ** 2
-            for column, derivative in laws.items():
-                total[model.hinge_dofs[j], column] += derivative.value(0.0, 0.0, state.t) * slope
+        return held[1]
+
+    def contact_row(self, j: int) -> np.ndarray:
+        """Joint ``j``'s contact row (1, 11) as the kernels read it (:func:`joint_contact_rows`), made once."""
+        rows = self.__dict__.setdefault("_contact_rows", {})
+        if j not in rows:
+            rows[j] = np.ascontiguousarray(joint_contact_rows([self.model.hinges[j]]))
+        return rows[j]
 
     def _key_kinds(self, key: str):
         """(the load key's match, the hinge key's match) of a parameter's use, matched once."""

@@ -15,9 +15,11 @@ law object at the same t the Python step reads), of a hinge's stiffness, damping
 derivative laws (and for the rest angle the hinge's stiffness) are values of t alone (the generated
 ``hinge_force``, linear in the laws, at the hinge's θ, θ̇ in C, the laws' values tabulated alike: ``_hinge_refusal``)
 and of a joint body's mass, inertia and centre of mass (the generated ``joint_body`` with the use's block, or
-``joint_body_D_com`` along ∂c/∂p, the blocks made by ``ParameterDerivatives.body_block`` and tabulated alike), and
+``joint_body_D_com`` along ∂c/∂p, the blocks made by ``ParameterDerivatives.body_block`` and tabulated alike), of
+a hinge's compliant stops' and friction's law values (the generated ``contact_force_D_law``,
+``friction_force_D_law`` at the hinge's θ, θ̇ in C, times the derivative laws' values tabulated alike), and
 parameters of ``initial_velocity`` (they move the start only). Not native (the Python path): hinge laws whose
-derivative names θ, θ̇ or an input, guide, contact, friction, cable, controller and geometry parameters, section
+derivative names θ, θ̇ or an input, guide, cable, controller and geometry parameters, section
 values whose derivative is a law in t or an input, rigid links and guides, cables,
 controllers, explicit time dependence beside events (∂r/∂t δt), energy and momentum probes (their work
 accounts are carried per step in Python), the NumPy kernels, and a numbering whose step matrix takes the
@@ -36,7 +38,7 @@ import numpy as np
 
 from latdyn.analyses.energy_sensitivities import is_energy_or_momentum
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
-from latdyn.analyses.parameter_keys import BODY_KEY, HINGE_KEY
+from latdyn.analyses.parameter_keys import BODY_KEY, CONTACT_KEY, FRICTION_KEY, FRICTION_SLOT, HINGE_KEY
 from latdyn.analyses.sensitivities import _INITIAL_VELOCITY_KEY, _LOAD_KEY, _SECTION_KEY
 from latdyn.assembly.native_model import NO_CONTACT
 from latdyn.analyses.step_matrix import turns_about_one_axis
@@ -59,8 +61,10 @@ def refusal(owner) -> str | None:
             continue
         if _SECTION_KEY.match(key) and not GEOMETRY_KEY.match(key) and all(law.is_constant for law in laws.values()):
             continue
-        why = _hinge_refusal(owner, key, laws) if HINGE_KEY.match(key) else (
-            _body_refusal(owner, key, laws) if BODY_KEY.match(key) else f"{key}: not a native parameter kind")
+        why = (_hinge_refusal(owner, key, laws) if HINGE_KEY.match(key) else
+               _body_refusal(owner, key, laws) if BODY_KEY.match(key) else
+               _joint_law_refusal(owner, key, laws) if CONTACT_KEY.match(key) or FRICTION_KEY.match(key) else
+               f"{key}: not a native parameter kind")
         if why is not None:
             return why
     if owner._section_layout() is not None and owner._section_kernel_addresses() is None:  # noqa: SLF001
@@ -88,6 +92,18 @@ def _hinge_refusal(owner, key: str, laws: dict) -> str | None:
         stiffness = owner.model.hinges[owner.model.hinge_index(hinge["beam"], hinge["end"])].stiffness
         if not _in_time_alone(stiffness):
             return f"{key}: the hinge's stiffness is a law in theta, theta_dot or an input"
+    return None
+
+
+def _joint_law_refusal(owner, key: str, laws: dict) -> str | None:
+    """Why a hinge's compliant stop's or friction's parameter keeps the run on the Python path, or None: its ∂r/∂p is
+    the generated contact_force_D_law's or friction_force_D_law's slope times the derivative law's value at t
+    (ParameterDerivatives._contact_forces), which the loop tabulates per grid point."""
+    if any(law.input_names for law in laws.values()):
+        return f"{key}: its derivative names an input"
+    name = "contact_force_D_law" if CONTACT_KEY.match(key) else "friction_force_D_law"
+    if owner.kernels.address(name) is None:
+        return "joint law kernels without C libraries"
     return None
 
 
@@ -214,6 +230,7 @@ class SensitivityLoop:
         self._loads()
         self._hinges()
         self._bodies()
+        self._joint_laws()
         self._for = (key, True)
         return True
 
@@ -251,6 +268,30 @@ class SensitivityLoop:
         d.body_use_axis = ints([-1 if body["com"] is None else int(body["com"]) for body, *_ in uses])
         d.body_use_gravity = self._pointer(np.ascontiguousarray(1.0 * np.asarray(owner.assembler.gravity, float)))
         d.body_use_scratch = self._pointer(np.zeros(150))
+
+    def _joint_laws(self) -> None:
+        """The (use, column) pairs of ParameterDerivatives._contact_forces, in its order: hinge, column, kernel, slot,
+        the kernel's (θ, θ̇, θ_r, 1), the joint's contact row and the slope's factor (the Stribeck rate's −(1/v_s)²,
+        by the Python path's expression; else 1, which multiplies exactly)."""
+        owner, d, model = self.owner, self.data, self.owner.model
+        uses = []
+        for (beam, end, kind, slot), laws in owner.joint_law_uses():
+            j = model.hinge_index(beam, end)
+            row = owner.contact_row(j)
+            factor = -row[0, 7] ** 2 if kind == "friction" and slot == FRICTION_SLOT["stribeck_rate"] else 1.0
+            uses += [(j, column, kind, slot, row, factor) for column in laws]
+        d.n_law_uses = len(uses)
+        if not uses:
+            return
+        kinds = {kind for _, _, kind, *_ in uses}
+        d.contact_kernel = owner.kernels.address("contact_force_D_law") if "contact" in kinds else None
+        d.friction_kernel = owner.kernels.address("friction_force_D_law") if "friction" in kinds else None
+        ints = lambda values: self._pointer(np.array(values, np.int64))   # noqa: E731
+        d.law_joint, d.law_column = ints([use[0] for use in uses]), ints([use[1] for use in uses])
+        d.law_kind, d.law_slot = ints([int(use[2] == "friction") for use in uses]), ints([use[3] for use in uses])
+        d.law_at = self._pointer(np.array([[0.0, 0.0, model.hinges[use[0]].rest_angle, 1.0] for use in uses]))
+        d.law_rows = self._pointer(np.ascontiguousarray(np.concatenate([use[4] for use in uses]), np.float64))
+        d.law_factor = self._pointer(np.array([float(use[5]) for use in uses]))
 
     def _body_uses(self) -> list:
         """(body key's match, index among the joint bodies, column, derivative law) of every body use the Python
@@ -333,6 +374,10 @@ class SensitivityLoop:
                         table[row, u, 13:] = along
             self._body_table = table
             d.body_values, d.values_from = table.ctypes.data, grid_index + 1
+        if d.n_law_uses:   # the compliant stops' and friction's derivative laws at each grid point (_contact_forces)
+            laws = [law for _, by_column in owner.joint_law_uses() for law in by_column.values()]
+            self._law_table = np.array([[law.value(0.0, 0.0, t) for law in laws] for t in times]).reshape(len(times), -1)
+            d.law_values, d.values_from = self._law_table.ctypes.data, grid_index + 1
         return d
 
     def steps_in_call(self) -> int:

@@ -207,6 +207,9 @@ class SensitivityLoopData(ctypes.Structure):
                 ("hinge_at", P), ("hinge_values", P), ("no_contact", P), ("n_body_uses", I64),
                 ("body_force_kernel", P), ("body_com_kernel", P), ("body_use_node", P), ("body_use_column", P),
                 ("body_use_axis", P), ("body_use_gravity", P), ("body_values", P), ("body_use_scratch", P),
+                ("n_law_uses", I64), ("contact_kernel", P), ("friction_kernel", P), ("law_joint", P),
+                ("law_column", P), ("law_kind", P), ("law_slot", P), ("law_at", P), ("law_rows", P), ("law_factor", P),
+                ("law_values", P),
                 ("steps", I64), ("info", I64), ("h", ctypes.c_double)]
 
 

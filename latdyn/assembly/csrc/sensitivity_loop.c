@@ -7,7 +7,8 @@
  * state (latdyn_evaluate), the joint bodies' inertia stiffness and the scatter of M, C and the exact K onto the
  * assembler's pattern (latdyn_joint_body_inertia_stiffness, latdyn_exact_matrix_values), ∂r/∂p of the hinge laws
  * (the generated hinge_force), the section values (latdyn_section_parameter_forces), the joint bodies (the generated
- * joint_body, joint_body_D_com) and the load components (the generated point_load), with the derivative laws'
+ * joint_body, joint_body_D_com), the compliant stops and friction (the generated contact_force_D_law,
+ * friction_force_D_law) and the load components (the generated point_load), with the derivative laws'
  * values the caller tabulated per grid point, S's factorization and the k + 1 solves
  * (latdyn_sensitivity_step), the update (latdyn_sensitivity_update). The calls, their inputs and the order of
  * their sums are the Python step's; latdyn/analyses/sensitivities_in_loop.py lays the struct out and says
@@ -16,6 +17,9 @@
  * Runtime code, written by hand: it holds no physics. R = exp(skew ψ) and J = dexp(ψ) per free node are the
  * generated so3_exp and so3_dexp (codegen/joints.py), which the Python step calls too.
  */
+
+/* A joint law's derivatives kernel (contact_force_D_law, friction_force_D_law): (n, hinge, contact, out). */
+typedef void (*kernel_joint_law)(int64_t, const double *, const double *, double *);
 
 /* What the loop of steps needs for the sensitivities' step (latdyn.analyses.sensitivities_in_loop). */
 typedef struct {
@@ -86,6 +90,16 @@ typedef struct {
     const double *body_values;          /* (grid points) × n_body_uses × 16: the kernel's block (13) and ∂c/∂p (3),
                                          * at each grid point (from values_from) */
     double *body_use_scratch;           /* 150: a node's frame and motion, the kernels' outputs */
+    /* ∂r/∂p of the hinges' compliant stops' and friction's laws (ParameterDerivatives._contact_forces) */
+    int64_t n_law_uses;
+    kernel_joint_law contact_kernel;    /* the generated contact_force_D_law (3 values), NULL where no use */
+    kernel_joint_law friction_kernel;   /* the generated friction_force_D_law (5 values), NULL where no use */
+    const int64_t *law_joint, *law_column;
+    const int64_t *law_kind, *law_slot; /* kind 0: the stop's, 1: the friction's; slot: the law's value among them */
+    const double *law_at;               /* n_law_uses × 4: the kernel's (θ, θ̇, θ_r, 1), θ and θ̇ set here */
+    const double *law_rows;             /* n_law_uses × 11: the joint's contact row (joint_contact_rows) */
+    const double *law_factor;           /* n_law_uses: the slope's factor (−(1/v_s)² for the Stribeck rate), else 1 */
+    const double *law_values;           /* (grid points) × n_law_uses: the derivative law's value at each grid point */
     /* out */
     int64_t steps;                      /* steps differentiated here */
     int64_t info;                       /* the factorization's info where S was singular (the loop stopped) */
@@ -171,6 +185,26 @@ static void body_parameter_forces(const Model *m, const Configuration *c, const 
     }
 }
 
+/* ∂r/∂p of the hinges' compliant stops' and friction's laws at c into total: per (use, column) the generated
+ * contact_force_D_law or friction_force_D_law at the hinge's (θ, θ̇), its slot times the factor (the Stribeck rate's
+ * −(1/v_s)²) times the derivative law's value, added at the hinge's coordinate in the Python path's order
+ * (ParameterDerivatives._contact_forces). */
+static void joint_law_parameter_forces(const Model *m, const Configuration *c, const SensitivityLoop *s, int64_t grid)
+{
+    const int64_t U = s->n_law_uses, k = s->k;
+    const double *table = s->law_values + U * (grid - s->values_from);
+    for (int64_t u = 0; u < U; ++u) {
+        const int64_t j = s->law_joint[u];
+        double at[4], out[5];
+        memcpy(at, s->law_at + 4 * u, 4 * sizeof(double));
+        at[0] = c->theta[j];
+        at[1] = c->theta_dot[j];
+        (s->law_kind[u] ? s->friction_kernel : s->contact_kernel)(1, at, s->law_rows + 11 * u, out);
+        const double slope = out[s->law_slot[u]] * s->law_factor[u];
+        s->total[m->hinge_dofs[j] * k + s->law_column[u]] += table[u] * slope;
+    }
+}
+
 /* M, C and the exact K at c and time t into s->mck (Assembler.exact_matrix_values): the evaluation with the inertia
  * tangent, the joint bodies' inertia stiffness, the scatter onto the pattern. */
 static void exact_matrices(const Model *m, Work *w, SensitivityLoop *s, const Configuration *c, double t)
@@ -213,7 +247,7 @@ static int64_t sensitivity_loop_step(const Model *m, Work *w, SensitivityLoop *s
                                s->dvdot, s->da, s->predicted);
     exact_matrices(m, w, s, c, t);
     /* ∂r/∂p with the inertia forces (ParameterDerivatives.residual_derivatives: the hinges', the sections', the
-     * joint bodies', then the loads') */
+     * joint bodies', the compliant stops' and friction's, then the loads') */
     memset(s->total, 0, sizeof(double) * (size_t)((m->n_total + 1) * k));
     if (s->n_hinge_uses) hinge_parameter_forces(m, c, s, grid);
     if (s->n_uses)
@@ -221,6 +255,7 @@ static int64_t sensitivity_loop_step(const Model *m, Work *w, SensitivityLoop *s
                                         s->on, s->n_uses, s->use, s->elements, s->columns, s->rows, k, s->total,
                                         s->section_scratch);
     if (s->n_body_uses) body_parameter_forces(m, c, s, grid);
+    if (s->n_law_uses) joint_law_parameter_forces(m, c, s, grid);
     load_parameter_forces(m, c, s, grid);
     for (int64_t i = 0; i < n; ++i) {   /* on the free coordinates, with the step size's column 0 */
         for (int64_t col = 0; col < k; ++col) s->explicit_[i * cols + col] = s->total[i * k + col];
