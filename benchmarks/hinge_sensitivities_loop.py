@@ -1,6 +1,6 @@
 """Hinge laws' and joint bodies' parameters in the loop of steps in C: what a gradient run costs, and its equality.
 
-    python benchmarks/hinge_sensitivities_loop.py [--scene boom|arm] [--repeats 5]
+    python benchmarks/hinge_sensitivities_loop.py [--scene boom|arm|stop|friction] [--repeats 5]
     python benchmarks/hinge_sensitivities_loop.py --scene boom --check DIR
     python benchmarks/hinge_sensitivities_loop.py --scene boom --user 5 [--trees ROOT_A,ROOT_B]
 
@@ -71,7 +71,20 @@ def _arm() -> str:
             .replace("t_end: 0.04", "t_end: 0.3").replace("sensitivities: [E, rho, F]", "sensitivities: [k, c, r, M, J]"))
 
 
-SCENES = {"boom": _boom, "arm": _arm}
+def _from_tests(module: str, name: str):
+    """A scene of the tests (``--scene stop``: tests/test_sensitivities_contact.py's WHEEL, the 3D wheel driven into its
+    compliant stop, by the stop's kc, nc, cc and the spring's k; ``--scene friction``: tests/test_sensitivities_friction.py's
+    SKEW, a panel slipping on a skew hinge with friction, by Fc, Fs, vs, cv, v0, EI, F)."""
+    def text() -> str:
+        sys.path.append(str(ROOT))   # after PYTHONPATH: the build compared is the one it names
+        import importlib
+
+        return getattr(importlib.import_module(f"tests.{module}"), name)
+    return text
+
+
+SCENES = {"boom": _boom, "arm": _arm, "stop": _from_tests("test_sensitivities_contact", "WHEEL"),
+          "friction": _from_tests("test_sensitivities_friction", "SKEW")}
 
 
 def _without(data: dict) -> dict:
