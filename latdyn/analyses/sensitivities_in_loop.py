@@ -361,8 +361,9 @@ class SensitivityLoop:
             hinges = owner.model.hinges
             uses = [(law, hinges[j].stiffness if which == "rest_angle" else None)
                     for j, which, laws in owner._hinge_uses() for law in laws.values()]   # noqa: SLF001
-            self._hinge_table = np.array([[(law.value(0.0, 0.0, t), stiffness.value(0.0, 0.0, t) if stiffness else 0.0)
-                                           for law, stiffness in uses] for t in times]).reshape(len(times), -1, 2)
+            values = [[(law.value(0.0, 0.0, t), stiffness.value(0.0, 0.0, t) if stiffness else 0.0)
+                       for law, stiffness in uses] for t in times]
+            self._hinge_table = np.array(values, float).reshape(len(times), len(uses), 2)
             d.hinge_values, d.values_from = self._hinge_table.ctypes.data, grid_index + 1
         if d.n_body_uses:   # the kernel's block and ∂c/∂p of each use at each grid point (ParameterDerivatives.body_block)
             table = np.zeros((len(times), d.n_body_uses, 16))
@@ -376,7 +377,8 @@ class SensitivityLoop:
             d.body_values, d.values_from = table.ctypes.data, grid_index + 1
         if d.n_law_uses:   # the compliant stops' and friction's derivative laws at each grid point (_contact_forces)
             laws = [law for _, by_column in owner.joint_law_uses() for law in by_column.values()]
-            self._law_table = np.array([[law.value(0.0, 0.0, t) for law in laws] for t in times]).reshape(len(times), -1)
+            self._law_table = np.array([[law.value(0.0, 0.0, t) for law in laws] for t in times], float).reshape(
+                len(times), len(laws))
             d.law_values, d.values_from = self._law_table.ctypes.data, grid_index + 1
         return d
 
