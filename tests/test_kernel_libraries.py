@@ -91,3 +91,30 @@ def test_a_kernel_opened_through_its_set_is_counted_once_and_seen_by_keys_get_an
     assert found["len"][0] == found["len"][1] == len(found["after"]) >= 30
     assert sorted(found["after"]) == found["before"] == found["keys"] == found["dict"]
     assert found["opened_once"] == 1 and found["get"] and found["missing"] == 7
+
+
+def test_a_run_finds_the_generated_sources_without_importlib_resources(tmp_path):
+    """``native.package_folder`` is ``importlib.resources.files``' folder for latdyn's packages, and a run
+    in a fresh process (kernels and step library from the cache) imports neither ``importlib.resources``
+    nor its readers (≈ 2 ms of the lattice's process: docs/performance.md, "Eleventh pass")."""
+    scene = tmp_path / "chain.yaml"
+    scene.write_text(CHAIN)
+    code = textwrap.dedent(f"""
+        import json, sys
+        for name in [m for m in sys.modules if m.startswith("importlib.re") or m == "zipfile"]:
+            del sys.modules[name]  # a site's .pth may have imported them (certifi's): forgotten, seen if imported again
+        import latdyn
+        latdyn.run(latdyn.load_scene({str(scene)!r}))  # fills the cache if need be
+        print(json.dumps({{"imported": sorted(m for m in sys.modules if m.startswith("importlib.re") or m == "zipfile")}}))
+        """)
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    for _ in range(2):  # the second process finds everything in the cache
+        done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=600)
+        assert done.returncode == 0, done.stderr[-2000:]
+    assert json.loads(done.stdout.strip().splitlines()[-1]) == {"imported": []}
+    from importlib.resources import files
+
+    from latdyn.native import package_folder
+
+    for package in ("latdyn_generated", "latdyn.assembly", "latdyn"):
+        assert package_folder(package) == files(package)

@@ -16,7 +16,6 @@ Every struct the C side reads is declared here and nowhere else on the Python si
 from __future__ import annotations
 
 import ctypes
-import importlib.resources
 import os
 from typing import NamedTuple
 
@@ -361,7 +360,9 @@ def native_library() -> ctypes.CDLL:
 def library_source(name: str) -> bytes:
     """csrc/<name> with its local ``#include "x.c"`` lines replaced by those files, recursively (one
     source file to compile, and the cache digest covers all of it)."""
-    folder = importlib.resources.files("latdyn.assembly") / "csrc"
+    from latdyn.native import package_folder
+
+    folder = package_folder("latdyn.assembly") / "csrc"
     lines = []
     for number, line in enumerate((folder / name).read_bytes().splitlines(keepends=True), start=1):
         words = line.split()
