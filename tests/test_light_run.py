@@ -929,19 +929,24 @@ def test_the_bar_made_after_its_delay_is_dated_from_the_runs_start(monkeypatch, 
     bar.close()
 
 
-def test_the_dataclasses_a_run_imports_have_docstrings_of_their_own():
+def test_the_dataclasses_a_run_imports_have_docstrings_of_their_own(tmp_path):
     """A dataclass without a docstring gets one made from ``inspect.signature`` when its module is imported
     (7 of the lattice run's classes: ≈ 0.5 ms of its process; docs/performance.md, "Eleventh pass"); each
-    class the run's modules define says what it is instead."""
-    import dataclasses
-    import inspect
-
-    import latdyn.cli  # noqa: F401
-    import latdyn.solve  # noqa: F401
-    from latdyn.timeloop import transient  # noqa: F401
-
-    made = [f"{c.__module__}.{c.__qualname__}" for m in list(sys.modules.values())
-            if getattr(m, "__name__", "").startswith("latdyn") for c in vars(m).values()
-            if isinstance(c, type) and dataclasses.is_dataclass(c) and c.__module__ == m.__name__
-            and c.__doc__ == c.__name__ + str(inspect.signature(c)).replace(" -> None", "")]
-    assert made == []
+    class that the modules of a run (``latdyn run`` of a beam, in a fresh process) define says what it is."""
+    scene = tmp_path / "beam.yaml"
+    scene.write_text(BEAM)
+    code = textwrap.dedent("""
+        import dataclasses, inspect, json, os, sys
+        from latdyn.cli import main
+        assert main(["run", os.environ["SCENE"], "-o", sys.argv[1], "-q"]) == 0
+        made = [f"{c.__module__}.{c.__qualname__}" for m in list(sys.modules.values())
+                if getattr(m, "__name__", "").startswith("latdyn") for c in vars(m).values()
+                if isinstance(c, type) and dataclasses.is_dataclass(c) and c.__module__ == m.__name__
+                and c.__doc__ == c.__name__ + str(inspect.signature(c)).replace(" -> None", "")]
+        print(json.dumps(made))
+        """)
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""), SCENE=str(scene))
+    done = subprocess.run([sys.executable, "-c", code, str(tmp_path / "out")], capture_output=True, text=True,
+                          env=env, timeout=300)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert json.loads(done.stdout.strip().splitlines()[-1]) == []
