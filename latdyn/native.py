@@ -41,11 +41,9 @@ import hashlib
 import importlib.util
 import os
 import re
-import shlex
 import shutil
 import subprocess
 import sys
-import tempfile
 import time
 from pathlib import Path
 
@@ -118,6 +116,8 @@ def cache_dir() -> Path:
 def _candidates() -> list[list[str]]:
     chosen = os.environ.get("CC")
     if chosen:
+        import shlex  # on use: only $CC is split (tempfile and shlex with random: ≈ 1 ms of every run's imports)
+
         return [shlex.split(chosen)]
     found = [["cc"]]
     if importlib.util.find_spec("ziglang") is not None:
@@ -302,6 +302,8 @@ def _store(path: Path, text: str) -> None:
 
 def _store_bytes(path: Path, data: bytes) -> None:
     """:func:`_store` of bytes."""
+    import tempfile  # on use: a run that finds everything in the cache writes nothing there
+
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         with tempfile.NamedTemporaryFile("wb", dir=path.parent, prefix=path.name, suffix=".tmp",
@@ -361,6 +363,8 @@ def load(path: Path) -> ctypes.CDLL:
 
 
 def _compile(using: Compiler, source: bytes, path: Path, name: str, flags) -> None:
+    import tempfile
+
     with tempfile.TemporaryDirectory(dir=path.parent, prefix=".build-") as scratch:
         c_file = Path(scratch) / f"{name}.c"
         c_file.write_bytes(source)
