@@ -41,11 +41,9 @@ import hashlib
 import importlib.util
 import os
 import re
-import shlex
 import shutil
 import subprocess
 import sys
-import tempfile
 import time
 from pathlib import Path
 
@@ -97,6 +95,19 @@ class Compiler:
 _COMPILER: dict[tuple, Compiler | NoCompiler] = {}
 
 
+def package_folder(package: str):
+    """The folder of the installed package ``package`` (``latdyn_generated``, ``latdyn.assembly``): what
+    ``importlib.resources.files`` gives for a package in a folder, from its import spec, without importing
+    ``importlib.resources`` and its readers (≈ 2 ms of a fresh process; docs/performance.md, "Eleventh
+    pass"). A package that is not a plain file on disk (a zip) gets ``importlib.resources.files``' answer."""
+    spec = importlib.util.find_spec(package)
+    if spec is not None and spec.origin and spec.has_location and os.path.isfile(spec.origin):
+        return Path(spec.origin).parent
+    from importlib.resources import files
+
+    return files(package)
+
+
 def cache_dir() -> Path:
     """The kernel cache: ``$LATDYN_CACHE_DIR``, default ``~/.cache/latdyn/kernels``."""
     return Path(os.environ.get("LATDYN_CACHE_DIR") or Path.home() / ".cache" / "latdyn" / "kernels")
@@ -105,6 +116,8 @@ def cache_dir() -> Path:
 def _candidates() -> list[list[str]]:
     chosen = os.environ.get("CC")
     if chosen:
+        import shlex  # on use: only $CC is split (shlex, and tempfile with random: 1.3–1.5 ms of a run's imports)
+
         return [shlex.split(chosen)]
     found = [["cc"]]
     if importlib.util.find_spec("ziglang") is not None:
@@ -289,6 +302,8 @@ def _store(path: Path, text: str) -> None:
 
 def _store_bytes(path: Path, data: bytes) -> None:
     """:func:`_store` of bytes."""
+    import tempfile  # on use: a run that finds everything in the cache writes nothing there
+
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         with tempfile.NamedTemporaryFile("wb", dir=path.parent, prefix=path.name, suffix=".tmp",
@@ -348,6 +363,8 @@ def load(path: Path) -> ctypes.CDLL:
 
 
 def _compile(using: Compiler, source: bytes, path: Path, name: str, flags) -> None:
+    import tempfile
+
     with tempfile.TemporaryDirectory(dir=path.parent, prefix=".build-") as scratch:
         c_file = Path(scratch) / f"{name}.c"
         c_file.write_bytes(source)

@@ -91,3 +91,66 @@ def test_a_kernel_opened_through_its_set_is_counted_once_and_seen_by_keys_get_an
     assert found["len"][0] == found["len"][1] == len(found["after"]) >= 30
     assert sorted(found["after"]) == found["before"] == found["keys"] == found["dict"]
     assert found["opened_once"] == 1 and found["get"] and found["missing"] == 7
+
+
+def test_a_run_finds_the_generated_sources_without_importlib_resources(tmp_path):
+    """``native.package_folder`` is ``importlib.resources.files``' folder for latdyn's packages, and a run
+    in a fresh process (kernels and step library from the cache) imports neither ``importlib.resources``
+    nor its readers (≈ 2 ms of the lattice's process), nor ``tempfile`` and ``shlex``, which only a compile,
+    a store into the cache or ``$CC`` need (≈ 1.4 ms; docs/performance.md, "Eleventh pass")."""
+    scene = tmp_path / "chain.yaml"
+    scene.write_text(CHAIN)
+    code = textwrap.dedent(f"""
+        import json, sys
+        WATCHED = ("zipfile", "tempfile", "shlex")
+        for name in [m for m in sys.modules if m.startswith("importlib.re") or m in WATCHED]:
+            del sys.modules[name]  # a site's .pth may have imported them (certifi's): forgotten, seen if imported again
+        import latdyn
+        latdyn.run(latdyn.load_scene({str(scene)!r}))  # fills the cache if need be
+        print(json.dumps({{"imported": sorted(m for m in sys.modules if m.startswith("importlib.re") or m in WATCHED)}}))
+        """)
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    for _ in range(2):  # the second process finds everything in the cache
+        done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=600)
+        assert done.returncode == 0, done.stderr[-2000:]
+    assert json.loads(done.stdout.strip().splitlines()[-1]) == {"imported": []}
+    from importlib.resources import files
+
+    from latdyn.native import package_folder
+
+    for package in ("latdyn_generated", "latdyn.assembly", "latdyn"):
+        assert package_folder(package) == files(package)
+
+
+def test_the_step_library_is_found_by_its_index_without_reading_its_sources(monkeypatch, tmp_path):
+    """``native_library`` in a process after the first finds the compiled step through its index in the
+    cache (``index-newton_step-*.txt``, under the csrc files' identities) without reading and digesting its
+    0.23 MB of source (≈ 2 ms of a fresh run); the same library as from the source. A csrc file whose
+    identity changes (edited) changes the index's digest, so the library is found from the source again."""
+    import shutil
+
+    from latdyn import native
+    from latdyn.assembly import library
+
+    read = []
+    original = library.library_source
+
+    def counted(name):
+        read.append(name)
+        return original(name)
+
+    monkeypatch.setattr(library, "library_source", counted)
+    monkeypatch.setattr(library, "_LIBRARY", None)
+    first = library.native_library()._name  # fills the index if this cache has none
+    monkeypatch.setattr(library, "_LIBRARY", None)  # a later process
+    read.clear()
+    assert library.native_library()._name == first and read == []
+    using = native.compiler()
+    serial = (*native.C_FLAGS, *library.LIBRARY_FLAGS, *native.vector_flags(using))
+    assert library._indexed_library(library._library_index(using, serial)) == Path(first)
+    copy = tmp_path / "assembly"
+    shutil.copytree(native.package_folder("latdyn.assembly") / "csrc", copy / "csrc")
+    monkeypatch.setattr(native, "package_folder", lambda package: copy)
+    before = library._library_index(using, serial)
+    (copy / "csrc" / "newton_step.c").write_bytes((copy / "csrc" / "newton_step.c").read_bytes() + b"\n")
+    assert library._library_index(using, serial) != before

@@ -291,6 +291,42 @@ def test_latdyn_run_starts_one_blas_thread_unless_the_user_chose_and_the_files_a
         assert (tmp_path / name / "probes.csv").read_bytes() == (tmp_path / "api" / "probes.csv").read_bytes()
 
 
+def test_latdyn_run_collects_less_often_as_its_process_command_and_the_files_are_the_same(tmp_path):
+    """``latdyn run`` as its process's command raises the collector's first threshold (700 ->
+    cli.RUN_COLLECTOR_THRESHOLD: its start's passes found nothing to free); ``main([...])`` called in a
+    process leaves the collector's thresholds alone; the probes and state are the API's to the byte."""
+    import gc
+
+    from latdyn import cli
+
+    scene = tmp_path / "beam.yaml"
+    scene.write_text(BEAM)
+    code = textwrap.dedent("""
+        import gc, json, os, sys
+        from latdyn.cli import main
+        out, called = sys.argv[1], sys.argv[2] == "argv"
+        before = gc.get_threshold()
+        sys.argv = ["latdyn", "run", os.environ["SCENE"], "-o", out, "-q"]
+        code = main(sys.argv[1:]) if called else main()
+        print(json.dumps({"code": code, "before": before, "after": gc.get_threshold()}))
+        """)
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""), SCENE=str(scene))
+    found = {}
+    for name in ("command", "argv"):
+        done = subprocess.run([sys.executable, "-c", code, str(tmp_path / name), name], capture_output=True,
+                              text=True, env=env, timeout=300)
+        assert done.returncode == 0, done.stderr[-2000:]
+        found[name] = json.loads(done.stdout.strip().splitlines()[-1])
+    default = list(gc.get_threshold())
+    assert found["command"]["code"] == 0 and found["command"]["before"] == default
+    assert found["command"]["after"] == [cli.RUN_COLLECTOR_THRESHOLD] + default[1:]
+    assert found["argv"] == {"code": 0, "before": default, "after": default}
+    latdyn.run(latdyn.load_scene(str(scene)), out_dir=str(tmp_path / "api"))
+    for name in ("command", "argv"):
+        for file in ("probes.csv",):
+            assert (tmp_path / name / file).read_bytes() == (tmp_path / "api" / file).read_bytes()
+
+
 # ----------------------------------------------------------------------------- the end of the process
 def test_the_command_leaves_complete_files_and_a_call_in_process_keeps_the_collector(tmp_path):
     """``python -m latdyn run`` freezes the garbage collector at its start and end (cli._freeze_collector):
@@ -891,3 +927,26 @@ def test_the_bar_made_after_its_delay_is_dated_from_the_runs_start(monkeypatch, 
     assert made is not None and made.start_t == 1000.0 and made.n == 1.5
     assert made.postfix is not None and "dt=0.002" in made.postfix
     bar.close()
+
+
+def test_the_dataclasses_a_run_imports_have_docstrings_of_their_own(tmp_path):
+    """A dataclass without a docstring gets one made from ``inspect.signature`` when its module is imported
+    (7 of the lattice run's classes: ≈ 0.5 ms of its process; docs/performance.md, "Eleventh pass"); each
+    class that the modules of a run (``latdyn run`` of a beam, in a fresh process) define says what it is."""
+    scene = tmp_path / "beam.yaml"
+    scene.write_text(BEAM)
+    code = textwrap.dedent("""
+        import dataclasses, inspect, json, os, sys
+        from latdyn.cli import main
+        assert main(["run", os.environ["SCENE"], "-o", sys.argv[1], "-q"]) == 0
+        made = [f"{c.__module__}.{c.__qualname__}" for m in list(sys.modules.values())
+                if getattr(m, "__name__", "").startswith("latdyn") for c in vars(m).values()
+                if isinstance(c, type) and dataclasses.is_dataclass(c) and c.__module__ == m.__name__
+                and c.__doc__ == c.__name__ + str(inspect.signature(c)).replace(" -> None", "")]
+        print(json.dumps(made))
+        """)
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""), SCENE=str(scene))
+    done = subprocess.run([sys.executable, "-c", code, str(tmp_path / "out")], capture_output=True, text=True,
+                          env=env, timeout=300)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert json.loads(done.stdout.strip().splitlines()[-1]) == []

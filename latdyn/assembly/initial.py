@@ -143,13 +143,13 @@ def _carried_motion(model, state, joints: list, given: bool) -> tuple[dict, list
         prescribed_rate = state.theta_dot[h] if h >= 0 and model.hinges[h].angle is not None else 0.0
         return sign * prescribed_rate * xi, turn
 
-    # part -> (Δ at zero free rates, ∂Δ/∂rates, the joints on its way); each loop's closure
-    # (b, A, joints): A rates = b
+    # part -> (Δ at zero free rates, ∂Δ/∂rates, the joints on its way as a chain (the way to the parent,
+    # the last joint), None at a start); each loop's closure (b, A, the two ways that meet): A rates = b
     carried, closures, walked = {}, [], set()
     for start in starts:
         if start in carried:
             continue
-        carried[start] = (own(start), np.zeros((6, len(column))), ())
+        carried[start] = (own(start), np.zeros((6, len(column))), None)
         queue = deque([start])
         while queue:
             parent = queue.popleft()
@@ -158,12 +158,10 @@ def _carried_motion(model, state, joints: list, given: bool) -> tuple[dict, list
                     continue
                 walked.add(e)
                 turn0, turn = across(h, sign, xi)
-                to = (carried[parent][0] + turn0, carried[parent][1] + turn, carried[parent][2] + (label,))
+                to = (carried[parent][0] + turn0, carried[parent][1] + turn, (carried[parent][2], label))
                 if child in carried or kind.get(child) in (FIXED, PRESCRIBED):
-                    reached = carried.get(child) or (own(child), np.zeros((6, len(column))), ())
-                    ways = (tuple(j for j in to[2] if j not in reached[2])  # the way up to the start shared
-                            + tuple(j for j in reached[2] if j not in to[2]))
-                    closures.append((reached[0] - to[0], to[1] - reached[1], ways))
+                    reached = carried.get(child) or (own(child), np.zeros((6, len(column))), None)
+                    closures.append((reached[0] - to[0], to[1] - reached[1], (to[2], reached[2])))
                     continue
                 carried[child] = to
                 queue.append(child)
@@ -178,9 +176,28 @@ def _carried_motion(model, state, joints: list, given: bool) -> tuple[dict, list
         if np.linalg.norm(A[:, moved] @ solved - b) <= 1e-9 * max(scale, 1e-300):  # the loop closes
             rates[moved] = solved
         else:
-            unclosed.append(list(dict.fromkeys(label for i in loop for label in closures[i][2])))
+            unclosed.append(list(dict.fromkeys(label for i in loop for label in _ways(*closures[i][2]))))
     motion = {part: delta + slope @ rates for part, (delta, slope, _) in carried.items()}
     return motion, unclosed
+
+
+def _joints_on(way) -> tuple:
+    """The joints of a way carried by :func:`_carried_motion` (a chain (the way before, the last joint),
+    None where it starts), from its start."""
+    joints = []
+    while way is not None:
+        way, label = way
+        joints.append(label)
+    return tuple(reversed(joints))
+
+
+def _ways(to, reached) -> tuple:
+    """The joints of the loop that two ways close (those they do not share: the way up to the start
+    shared is not the loop's), each way's own from its start. Only a loop that does not close is named:
+    the ways are made into joints then, not for every closure (the 16-bay lattice closes 128 loops at rest,
+    along two ways of 35 joints on average: 0.5 ms of its run's start; docs/performance.md, "Eleventh pass")."""
+    to, reached = _joints_on(to), _joints_on(reached)
+    return tuple(j for j in to if j not in reached) + tuple(j for j in reached if j not in to)
 
 
 def _independent_loops(closures: list) -> list[list[int]]:

@@ -16,7 +16,6 @@ Every struct the C side reads is declared here and nowhere else on the Python si
 from __future__ import annotations
 
 import ctypes
-import importlib.resources
 import os
 from typing import NamedTuple
 
@@ -268,22 +267,26 @@ def native_library() -> ctypes.CDLL:
     if _LIBRARY is None:
         from latdyn import native
 
-        source = library_source("newton_step.c")
         using = native.compiler()
-        path = None
         serial = (*native.C_FLAGS, *LIBRARY_FLAGS, *native.vector_flags(using))
-        for flags in ((*serial, *OPENMP_FLAGS), serial):
-            failed = native.target("newton_step", source, flags, using).with_suffix(".failed")
-            if flags != serial and failed.exists():
-                continue
-            try:
-                path = native.build("newton_step", source, flags, using=using)
-            except RuntimeError:
-                if flags == serial:
-                    raise
-                failed.touch()  # this compiler has no OpenMP: remembered in the cache
-                continue
-            break
+        index = _library_index(using, serial)
+        path = _indexed_library(index)
+        if path is None:
+            source = library_source("newton_step.c")
+            for flags in ((*serial, *OPENMP_FLAGS), serial):
+                failed = native.target("newton_step", source, flags, using).with_suffix(".failed")
+                if flags != serial and failed.exists():
+                    continue
+                try:
+                    path = native.build("newton_step", source, flags, using=using)
+                except RuntimeError:
+                    if flags == serial:
+                        raise
+                    failed.touch()  # this compiler has no OpenMP: remembered in the cache
+                    continue
+                break
+            if index is not None:
+                native._store(index, path.name)
         library = native.load(path)
         library.latdyn_threads.restype = I64
         library.latdyn_threads.argtypes = []
@@ -365,10 +368,51 @@ def native_library() -> ctypes.CDLL:
     return _LIBRARY
 
 
+def _library_index(using, serial: tuple):
+    """The path of the compiled step's index in the kernel cache (a text file naming the library
+    :func:`native_library` chose, with OpenMP or without), under a digest of what determines that library
+    without reading its sources: the identity (path, size, modification time, inode) of every file of
+    csrc/ (:func:`library_source` includes only those), of this module and of :mod:`latdyn.native`, the
+    compiler's identity, the flags and the Python version. Reading and digesting the 0.23 MB of source
+    took 2.3 ms of every fresh run (docs/performance.md, "Eleventh pass"); an edited file changes its
+    identity, so the index is not found and the library is found (or compiled) from the source as before.
+    None where the files cannot be listed."""
+    import sys
+
+    from latdyn import native
+
+    try:
+        folder = native.package_folder("latdyn.assembly") / "csrc"
+        paths = sorted(os.path.join(folder, name) for name in os.listdir(folder))
+        identities = []
+        for path in (*paths, __file__, native.__file__):
+            status = os.stat(path)
+            identities += [os.path.realpath(path), status.st_size, status.st_mtime_ns, status.st_ino]
+    except (OSError, TypeError):
+        return None
+    digest = native.source_digest("newton_step", sys.version, using.identity(), *serial, *OPENMP_FLAGS, *identities)
+    return native.cache_dir() / f"index-newton_step-{digest}.txt"
+
+
+def _indexed_library(index):
+    """The library an index of :func:`_library_index` names, where both are in the cache; else None."""
+    from latdyn import native
+
+    if index is None:
+        return None
+    try:
+        path = native.cache_dir() / index.read_text().strip()
+    except (OSError, ValueError):
+        return None
+    return path if path.name.startswith("newton_step-") and path.is_file() else None
+
+
 def library_source(name: str) -> bytes:
     """csrc/<name> with its local ``#include "x.c"`` lines replaced by those files, recursively (one
     source file to compile, and the cache digest covers all of it)."""
-    folder = importlib.resources.files("latdyn.assembly") / "csrc"
+    from latdyn.native import package_folder
+
+    folder = package_folder("latdyn.assembly") / "csrc"
     lines = []
     for number, line in enumerate((folder / name).read_bytes().splitlines(keepends=True), start=1):
         words = line.split()

@@ -16,6 +16,8 @@ from latdyn.scene.loader import Scene, load_scene
 
 @dataclass
 class Prepared:
+    """What :func:`prepare` makes of a scene: the scene, its model, the assembler and the initial state."""
+
     scene: Scene
     model: Model
     assembler: Assembler

@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import ctypes
 import importlib
-import importlib.resources
 import marshal
 import os
 import sys
@@ -408,8 +407,10 @@ def _kernel_sources(stem: str, names) -> dict[str, bytes]:
 def _kernel_texts(stem: str, names) -> tuple[str, dict[str, str]]:
     """The includes and helpers of the generated C source ``stem``.c, and the text of each kernel of ``names``
     (its comment line up to the next kernel of the file), :func:`_kernel_sources`' parts."""
+    from latdyn.native import package_folder
+
     try:
-        source = (importlib.resources.files(PACKAGE) / f"{stem}.c").read_text()
+        source = (package_folder(PACKAGE) / f"{stem}.c").read_text()
     except (FileNotFoundError, OSError) as error:
         raise RuntimeError(f"no C source {stem}.c: {error}") from None
     every = list(dict.fromkeys([*importlib.import_module(f"{PACKAGE}.{stem}").KERNELS, *names]))
@@ -491,7 +492,7 @@ def _index(stem: str):
     try:
         using = native.compiler()
         simd = native.vector_flags(using)
-        folder = importlib.resources.files(PACKAGE)
+        folder = native.package_folder(PACKAGE)
         identities = []
         for path in (folder / f"{stem}.c", folder / f"{stem}.py", __file__, native.__file__):
             status = os.stat(os.fspath(path))

@@ -42,6 +42,8 @@ FREE, PRESCRIBED, FIXED, DEPENDENT = 0, 1, 2, 3
 
 @dataclass
 class Node:
+    """A node of the model: a body's or a beam's point, with its kind (FREE, PRESCRIBED, FIXED, DEPENDENT)."""
+
     name: str  # "hub", "arm.node[3]"
     position: np.ndarray  # reference point at t = 0
     kind: int  # FREE | PRESCRIBED | FIXED | DEPENDENT (follows a rigid link, latdyn.model.links)

@@ -434,6 +434,8 @@ class Probe:
 
 @dataclass
 class Solve:
+    """The scene's ``solve`` section as read (SCENE.md, "solve"): the analysis and its settings."""
+
     analysis: str = "transient"
     t_end: float | None = None
     dt: float | None = None
@@ -482,6 +484,8 @@ class Control:
 
 @dataclass
 class Output:
+    """The scene's ``output`` section as read (SCENE.md, "output"): rows, ParaView frames, probes."""
+
     every: float | None = None
     #: time between ParaView frames; None: the package's choice (latdyn.results.paraview.default_every); 0: none
     paraview_every: float | None = None
@@ -505,6 +509,8 @@ class InitialVelocity:
 
 @dataclass
 class Scene:
+    """A scene as :func:`load_scene` reads and validates it: every section, the file it came from and its hash."""
+
     title: str
     file: str
     source_hash: str        # sha256 of the canonical JSON of `raw`

@@ -77,6 +77,8 @@ from latdyn.numerics.linalg import DENSE_LIMIT, RCM_IN_PYTHON, issparse
 
 @dataclass(frozen=True)
 class AlphaParameters:
+    """The parameters α_m, α_f, γ, β of a generalized-α step (:meth:`for_method`)."""
+
     alpha_m: float
     alpha_f: float
     gamma: float
@@ -100,6 +102,8 @@ class AlphaParameters:
 
 @dataclass
 class StepStats:
+    """What one step's Newton iteration did: iterations, convergence, residual, factorizations, contraction."""
+
     iterations: int = 0
     converged: bool = False
     residual: np.ndarray | None = None
