@@ -669,3 +669,27 @@ def test_lees_frame_in_3d_snaps_back_at_the_elasticas_limit_loads(tmp_path):
     assert abs(errors[1][0]) < 6e-4 and abs(errors[1][1]) < 7e-4
     assert abs(errors[1][0]) < abs(errors[0][0]) / 10 and abs(errors[1][1]) < abs(errors[0][1]) / 10
     assert np.max(np.abs(probe_columns(out)["w"])) < 1e-9 and np.max(np.abs(fine.probes["w"])) < 1e-9
+
+
+def test_becks_column_past_flutter_grows_at_the_root_of_its_characteristic_equation(tmp_path):
+    """Beck's column at P L²/EI = 25 > 20.05, ``analysis: modes, about: static``: the characteristic
+    determinant (w = W e^{λt}, W'''' + P W'' + λ² W = 0, the same ends) has λ = 4.917018 ± 10.617997i
+    (solved here at 30 digits): a root that grows at 4.917 1/s while it oscillates at 1.689907 Hz.
+    The run says the state is unstable by flutter (``warnings``). Measured (this machine): growth
+    −3.9e-4, −6.2e-5; frequency +3.0e-4, +4.7e-5 (8 elements CLI, 16 API)."""
+    text8, text16 = (beck_column(n).replace("force: [-30.0, 0, 0]", "force: [-25.0, 0, 0]")
+                     .replace("analysis: buckling", "analysis: modes, about: static, count: 2") for n in (8, 16))
+    completed, out = latdyn_run(tmp_path, text8)
+    assert completed.returncode == 0, completed.stderr
+    assert any("flutter" in w for w in summary_of(out)["warnings"])
+    rows = np.loadtxt(out / "modes.csv", delimiter=",", skiprows=1)
+    fine = latdyn.run(latdyn.load_scene(yaml.safe_load(text16)), tmp_path / "fine")
+    assert any("flutter" in w for w in fine.summary["warnings"])
+    fine_rows = np.loadtxt(tmp_path / "fine" / "modes.csv", delimiter=",", skiprows=1)
+    errors = []
+    for table in (rows, fine_rows):
+        f, zeta, fn = table[0, 1], table[0, 2], table[0, 3]
+        growth = abs(zeta) * 2 * math.pi * fn
+        errors.append((growth / 4.91701787758918 - 1, f / 1.68990677575590 - 1))
+    assert abs(errors[0][0]) < 5e-4 and abs(errors[0][1]) < 4e-4
+    assert abs(errors[1][0]) < 8e-5 and abs(errors[1][1]) < 6e-5
