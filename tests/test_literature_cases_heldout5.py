@@ -91,7 +91,9 @@ def test_a_column_past_its_euler_load_follows_the_branch_its_imperfection_chose(
     branch bent against Q (an unstable equilibrium; y = −0.00065 at λ = 1) and reported it
     ``solved``; the step went against the tangent's prediction, which the test of a jump had taken
     for "stiffer than the tangent said" (a cable going taut). Measured (this machine): tip error
-    3.6e-6 (8 elements, CLI), 2.3e-7 (16, API): O(h⁴); before the mend y = −6.5e-4 at both."""
+    3.6e-6 (8 elements, CLI), 2.3e-7 (16, API): O(h⁴); before the mend y = −6.5e-4 at both. The
+    sensitivities of the tip to P and EI (16 elements) against the shooting's differences: dy/dP =
+    0.0692932 and dy/dEI = −0.2564842 to 1.1e-7 and 4.2e-7 (8 elements: 1.8e-6, 6.8e-6)."""
     x_ref, y_ref, _ = elastica_tip(ELASTICA_P, ELASTICA_Q)
     completed, out = latdyn_run(tmp_path, post_buckled_column(8))
     assert completed.returncode == 0, completed.stderr
@@ -100,8 +102,19 @@ def test_a_column_past_its_euler_load_follows_the_branch_its_imperfection_chose(
     assert summary["bifurcation_points"] == [] and not summary.get("warnings")
     assert math.hypot(cli["x"][-1] - x_ref, cli["y"][-1] - y_ref) < 1e-5
     assert np.all(np.diff(cli["y"]) > 0)  # the side of Q all the way
-    api = run_api(post_buckled_column(16))
+    with_parameters = (post_buckled_column(16).replace("sections:", f"parameters: {{P: {ELASTICA_P}, EI: 1.0}}\nsections:")
+                       .replace("EIy: 1.0, EIz: 1.0", "EIy: EI, EIz: EI").replace(f"[{-ELASTICA_P}, ", '["-P", ')
+                       .replace("steps: 20}", "steps: 20, sensitivities: [P, EI]}"))
+    api = run_api(with_parameters)
     assert math.hypot(api.probes["x"][-1] - x_ref, api.probes["y"][-1] - y_ref) < 1e-6
+    # the derivatives at λ = 1 against the shooting's central differences (h = 1e-5; EI scales P, Q and EA)
+    h = 1e-5
+    d_P = (np.array(elastica_tip(ELASTICA_P + h, ELASTICA_Q)) - elastica_tip(ELASTICA_P - h, ELASTICA_Q)) / (2 * h)
+    d_EI = (np.array(elastica_tip(ELASTICA_P / (1 + h), ELASTICA_Q / (1 + h), 1e6 / (1 + h)))
+            - elastica_tip(ELASTICA_P / (1 - h), ELASTICA_Q / (1 - h), 1e6 / (1 - h))) / (2 * h)
+    for name, ref in (("P", d_P), ("EI", d_EI)):
+        for k, probe in enumerate("xy"):
+            assert abs(api.sensitivities[(probe, name)][-1] - ref[k]) < 1e-6 * max(1.0, abs(ref[k]))
 
 
 # ----------------------------------------------------------------------------- a follower load's flutter
