@@ -232,10 +232,11 @@ class Path:
         ``start``, converged onto another branch: its Δq differs from the tangent's prediction
         (end_load − start_load) K⁻¹q_ref by more than :data:`BRANCH_MISMATCH` of the larger and is the
         larger (a step past a limit point that lands on the far side of a snap-through, as a toggle's)
-        or goes against the prediction (W-inner product < 0: an imperfect column past its Euler load
-        onto the near-straight branch bent the other way), and does not shrink with the step (judged
-        from the same start at a longer step before, it would have shrunk at least halfway towards
-        in proportion on a path that only softens: a kink, as where a cable goes slack).  Not judged
+        or goes against the prediction (W-inner product < 0, however short: an imperfect column past
+        its Euler load onto the near-straight branch bent the other way), and does not shrink with the
+        step (judged from the same start at a longer step before, a step along the prediction would
+        have shrunk at least halfway towards in proportion on a path that only softens: a kink, as
+        where a cable goes slack).  Not judged
         from a start that is no equilibrium (the initial configuration of a preloaded hinge spring or
         a pretensioned cable: the path begins where the first step lands)."""
         iteration = self.iterate(start, start_load)
@@ -254,11 +255,11 @@ class Path:
             return False  # stiffer than the tangent said (a cable going taut): no jump
         # moved further than the tangent said, or against it (an imperfect column past its Euler
         # load stepped back onto the near-straight branch bent the other way): a jump, unless the move
-        # shrinks with the step as on a continuous path that softens (a kink: a cable going slack),
-        # where the same start was judged before at a longer step
+        # goes along the prediction and shrinks with the step as on a continuous path that softens (a
+        # kink: a cable going slack), where the same start was judged before at a longer step
         last = self._departure
         self._departure = (start, start_load, end_load, size)
-        if last is not None and last[0] is start and last[1] == start_load:
+        if last is not None and last[0] is start and last[1] == start_load and along > 0.0:
             ratio = abs(end_load - start_load) / max(abs(last[2] - start_load), 1e-300)
             if ratio < 1.0 and size < 0.5 * (1.0 + ratio) * last[3]:
                 return False  # shrank at least halfway towards in proportion: a kink, not a jump
