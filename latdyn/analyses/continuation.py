@@ -231,10 +231,12 @@ class Path:
         """Whether a Newton solution ``end`` at load factor ``end_load``, started from the path point
         ``start``, converged onto another branch: its Δq differs from the tangent's prediction
         (end_load − start_load) K⁻¹q_ref by more than :data:`BRANCH_MISMATCH` of the larger and is the
-        larger (a step past a limit point that lands on the far side of a snap-through, as a toggle's),
-        and does not shrink with the step (judged from the same start at a longer step before, it
-        would have shrunk at least halfway towards in proportion on a path that only softens: a
-        kink, as where a cable goes slack).  Not judged
+        larger (a step past a limit point that lands on the far side of a snap-through, as a toggle's)
+        or goes against the prediction (W-inner product < 0, however short: an imperfect column past
+        its Euler load onto the near-straight branch bent the other way), and does not shrink with the
+        step (judged from the same start at a longer step before, a step along the prediction would
+        have shrunk at least halfway towards in proportion on a path that only softens: a kink, as
+        where a cable goes slack).  Not judged
         from a start that is no equilibrium (the initial configuration of a preloaded hinge spring or
         a pretensioned cable: the path begins where the first step lands)."""
         iteration = self.iterate(start, start_load)
@@ -246,14 +248,18 @@ class Path:
         off, size = self.norm(step - predicted), self.norm(step)
         if off <= SAME_BRANCH_DISTANCE:  # round-off of a state that hardly moves (no load on it)
             return False
-        if off / max(size, self.norm(predicted), 1e-300) <= BRANCH_MISMATCH or size <= self.norm(predicted):
-            return False  # on the path, or stiffer than the tangent said (a cable going taut): no jump
-        # moved further than the tangent said: a jump, unless the move shrinks with the step as on a
-        # continuous path that softens (a kink: a cable going slack), where the same start was judged
-        # before at a longer step
+        if off / max(size, self.norm(predicted), 1e-300) <= BRANCH_MISMATCH:
+            return False  # on the path
+        along = float(step @ (self.weight * predicted))  # W-inner product of the step and the prediction
+        if size <= self.norm(predicted) and along > 0.0:
+            return False  # stiffer than the tangent said (a cable going taut): no jump
+        # moved further than the tangent said, or against it (an imperfect column past its Euler
+        # load stepped back onto the near-straight branch bent the other way): a jump, unless the move
+        # goes along the prediction and shrinks with the step as on a continuous path that softens (a
+        # kink: a cable going slack), where the same start was judged before at a longer step
         last = self._departure
         self._departure = (start, start_load, end_load, size)
-        if last is not None and last[0] is start and last[1] == start_load:
+        if last is not None and last[0] is start and last[1] == start_load and along > 0.0:
             ratio = abs(end_load - start_load) / max(abs(last[2] - start_load), 1e-300)
             if ratio < 1.0 and size < 0.5 * (1.0 + ratio) * last[3]:
                 return False  # shrank at least halfway towards in proportion: a kink, not a jump
