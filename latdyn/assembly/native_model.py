@@ -406,6 +406,10 @@ class NativeModel:
         #: what the compiled step's iteration matrix storage keeps alive (latdyn.step.compiled)
         self.matrix_storage = None
         self._empty = np.zeros(1)
+        #: the last few (arrays, C view) of :meth:`_views`, of states whose arrays were their own
+        self._viewed: list = []
+        #: per hinge, 1 where it is revolute (a guide's slide is not periodic: :meth:`far_root`)
+        self.revolute = np.array([hinge.kind == "hinge" for hinge in m.hinges], dtype=np.int64)
 
     def _array(self, values, dtype=np.float64) -> int:
         """The address of a contiguous copy of ``values``, kept alive with this object."""
@@ -586,12 +590,22 @@ class NativeModel:
 
     def _views(self, *states) -> tuple[list, list[ConfigurationData]]:
         """The C views of several states at once (:meth:`configuration` keeps one alive at a time): (the arrays,
-        to be held while the views are used; the views)."""
+        to be held while the views are used; the views). A state whose arrays are the very arrays of one of the
+        last few views, their own (contiguous float64), gets that view again (the step's two states are viewed by
+        far_root, rate_turns and drive_work in turn: 9 addresses taken anew cost ≈ 10–20 µs)."""
         held, views = [], []
         for state in states:
-            arrays = [np.ascontiguousarray(getattr(state, name), dtype=np.float64) for name in STATE_FIELDS]
+            own = [getattr(state, name) for name in STATE_FIELDS]
+            for arrays, view in self._viewed:
+                if all(a is b for a, b in zip(own, arrays)):
+                    break
+            else:
+                arrays = [np.ascontiguousarray(a, dtype=np.float64) for a in own]
+                view = ConfigurationData(*(a.ctypes.data if a.size else self._empty.ctypes.data for a in arrays))
+                if all(a is b for a, b in zip(arrays, own)):
+                    self._viewed = [(arrays, view)] + self._viewed[:3]
             held.append(arrays)
-            views.append(ConfigurationData(*(a.ctypes.data if a.size else self._empty.ctypes.data for a in arrays)))
+            views.append(view)
         return held, views
 
     def drive_forces(self, reaction: np.ndarray) -> np.ndarray:
@@ -621,17 +635,16 @@ class NativeModel:
         return float(self.library.latdyn_drive_work(self.model_ref, ctypes.byref(before), ctypes.byref(after),
                                                     forces[0].ctypes.data, forces[1].ctypes.data, float(work)))
 
-    def far_root(self, old, new, h: float, revolute: np.ndarray) -> tuple[int, float] | None:
-        """The free joint among ``revolute`` (per hinge, nonzero where it counts) whose angle at the end of the
-        step ``old`` → ``new`` of size ``h`` lies farthest, more than π, from θ_n + h θ̇_n, and that distance;
-        None if none (``latdyn_far_root``, csrc/newton_step.c far_root, the loop of steps' own)."""
+    def far_root(self, old, new, h: float) -> tuple[int, float] | None:
+        """The free revolute hinge whose angle at the end of the step ``old`` → ``new`` of size ``h`` lies farthest,
+        more than π, from θ_n + h θ̇_n, and that distance; None if none (``latdyn_far_root``, csrc/newton_step.c
+        far_root, the loop of steps' own)."""
         if self.model.n_free_hinges == 0:
             return None
-        revolute = np.ascontiguousarray(revolute, dtype=np.int64)
         distance = np.zeros(1)
         held, (before, after) = self._views(old, new)
         worst = int(self.library.latdyn_far_root(self.model_ref, ctypes.byref(before), ctypes.byref(after), float(h),
-                                                 revolute.ctypes.data, distance.ctypes.data))
+                                                 self.revolute.ctypes.data, distance.ctypes.data))
         return None if worst < 0 else (worst, float(distance[0]))
 
     def rate_turns(self, old, new, h: float, unresolved_turn: float, kept: np.ndarray) -> None:

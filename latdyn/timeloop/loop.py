@@ -404,7 +404,7 @@ class TimeLoop:
             if self.sensitivities is not None:
                 progress.sensitivities = self.sensitivities.resized(progress.sensitivities, control, attempt.lands)
             return
-        far = far_root(self.model, self.assembler.native(), progress.state, attempt.new, attempt.h)
+        far = far_root(self.assembler.native(), progress.state, attempt.new, attempt.h)
         if far is not None:  # a root a whole turn away: cut, never landed on as a crossing
             control.after_far_root(progress, attempt.h, self.model.hinges[far[0]].name, far[1])
             if self.sensitivities is not None:

@@ -215,7 +215,7 @@ class TransientProgress:
             inertia_tangent_from=self.inertia_tangent_from, joint_peaks=self.joint_peaks, events=self.events)
 
 
-def far_root(model, native, old: State, new: State, h: float) -> tuple[int, float] | None:
+def far_root(native, old: State, new: State, h: float) -> tuple[int, float] | None:
     """The free hinge (revolute) whose angle at the end of the converged step ``old`` → ``new`` of size ``h`` lies
     farthest from where its rate at the step's start takes it, θ_n + h θ̇_n, and that distance, where it is more
     than π; else None.
@@ -231,7 +231,7 @@ def far_root(model, native, old: State, new: State, h: float) -> tuple[int, floa
     step (:meth:`latdyn.timeloop.control.StepControl.after_far_root`) instead of landing on a stop it crossed.
     The test is csrc/newton_step.c far_root, the loop of steps' own, through ``native`` (the current numbering's
     :class:`latdyn.assembly.native_model.NativeModel`), over the revolute hinges (a guide's slide is not periodic)."""
-    return native.far_root(old, new, h, np.array([hinge.kind == "hinge" for hinge in model.hinges], dtype=np.int64))
+    return native.far_root(old, new, h)
 
 
 #: Relative margin by which a row's joint force must exceed the kept peak to replace it in
