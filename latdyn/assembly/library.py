@@ -355,6 +355,10 @@ def native_library() -> ctypes.CDLL:
         library.latdyn_rate_turns.restype = None
         library.latdyn_rate_turns.argtypes = [model, configuration, configuration, ctypes.c_double, ctypes.c_double,
                                               ctypes.c_double, P]
+        library.latdyn_hinge_work.restype = None
+        library.latdyn_hinge_work.argtypes = [I64, P, P, P, P, P, P, P, P]
+        library.latdyn_cable_work.restype = None
+        library.latdyn_cable_work.argtypes = [I64, P, P, P, P]
         library.latdyn_advance.restype = I64
         library.latdyn_advance.argtypes = [ctypes.POINTER(ModelData), ctypes.POINTER(WorkData), ctypes.POINTER(ControlData),
                                            ctypes.POINTER(ConfigurationData), ctypes.POINTER(ConfigurationData),

@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from latdyn.assembly.assembler import State, pack
+from latdyn.assembly.library import native_library
 
 
 #: strains of this many ulps: the round-off of a beam's configuration (:func:`energy_round_off`)
@@ -291,13 +292,9 @@ def hinge_work(theta_old: np.ndarray, theta_new: np.ndarray, torques_old: tuple,
     work ∫ τ dθ the discrete step received whatever the integrator's Δθ is (with generalized-α,
     Δθ ≠ h (θ̇_n + θ̇_{n+1})/2, and the trapezoid of the power τ θ̇ in time is not that work); for
     Newmark's average acceleration and a linear hinge it closes the balance to round-off.
-    csrc/newton_step.c hinge_work is the same sum, hinge by hinge, in the compiled loop."""
-    (work_old, damper_old), (work_new, damper_new) = torques_old, torques_new
-    for j in range(len(theta_new)):
-        increment = float(theta_new[j]) - float(theta_old[j])
-        external_work += 0.5 * (float(work_old[j]) + float(work_new[j])) * increment
-        dissipated += 0.5 * (float(damper_old[j]) + float(damper_new[j])) * increment
-    return external_work, dissipated
+    csrc/newton_step.c hinge_work, the loop of steps' own, through the native library."""
+    return _sums(native_library().latdyn_hinge_work, len(theta_new),
+                 (theta_old, theta_new, *torques_old, *torques_new), external_work, dissipated)
 
 
 def cable_work(old: np.ndarray, new: np.ndarray, external_work: float, dissipated: float) -> tuple[float, float]:
@@ -308,12 +305,20 @@ def cable_work(old: np.ndarray, new: np.ndarray, external_work: float, dissipate
     of each damper's dissipative force f (c ℓ̇ taut, −N_el while the damper cancels the elastic
     tension, 0 slack). The trapezoidal rule in L0 and ℓ, as :func:`hinge_work`'s in θ: the work the
     discrete step received, which the time trapezoid of the powers r L̇0 and f ℓ̇ is not
-    (docs/cables.md measures the two). csrc/newton_step.c cable_work is the same sum."""
-    if len(new) == 0:
+    (docs/cables.md measures the two). csrc/newton_step.c cable_work, the loop of steps' own, through the native
+    library."""
+    return _sums(native_library().latdyn_cable_work, len(new), (old, new), external_work, dissipated)
+
+
+def _sums(function, count: int, arrays: tuple, external_work: float, dissipated: float) -> tuple[float, float]:
+    """(external work, dissipated) after ``function`` (latdyn_hinge_work, latdyn_cable_work) of ``count`` items
+    over ``arrays`` added its sums to them."""
+    if count == 0:
         return external_work, dissipated
-    external_work += float(np.sum(0.5 * (old[:, 2] + new[:, 2]) * (new[:, 1] - old[:, 1])))
-    dissipated += float(np.sum(0.5 * (old[:, 3] + new[:, 3]) * (new[:, 0] - old[:, 0])))
-    return external_work, dissipated
+    arrays = [np.ascontiguousarray(a, dtype=np.float64) for a in arrays]
+    sums = np.array([external_work, dissipated], dtype=np.float64)
+    function(count, *(a.ctypes.data for a in arrays), sums.ctypes.data, sums[1:].ctypes.data)
+    return float(sums[0]), float(sums[1])
 
 
 #: Cut steps reported on stderr one by one up to this many, then only counted.

@@ -493,37 +493,77 @@ static void accept_drive_work(const Model *m, const Work *w, const Configuration
     memcpy(adv->drive_force, force_new, sizeof(double) * (size_t)size);
 }
 
-/* The work of the hinges' torques over the accepted step old → new (latdyn/timeloop/progress.py
- * hinge_work): ∑ ½(τ_n + τ_{n+1}) Δθ, the trapezoidal rule in θ, the work the discrete step received,
- * into the external work, and ∑ ½(f_n + f_{n+1}) Δθ of the dissipative torques f (the dampers' c θ̇,
- * a compliant stop's damping, friction: Work.hinge_damper_torque), their dissipation, into the dissipated
- * energy; the torques at the new state (the last evaluation's) are carried to the next step. */
-static void hinge_work(const Model *m, const Work *w, const Configuration *old, const Configuration *new_,
-                       Advance *adv)
+/* The work of the hinges' torques over a step from the angles theta_old to theta_new (docs/energy.md): ∑ ½(τ_n +
+ * τ_{n+1}) Δθ of each torque that does external work (work_old, work_new: Work.hinge_work_torque at the step's two
+ * ends) into *external_work, and ∑ ½(f_n + f_{n+1}) Δθ of the dissipative torques f (the dampers' c θ̇, a compliant
+ * stop's damping, friction: Work.hinge_damper_torque; damper_old, damper_new), their dissipation, into
+ * *dissipated, hinge by hinge. The trapezoidal rule in θ, not in time: the work ∫ τ dθ the discrete step received
+ * whatever the integrator's Δθ is (with generalized-α, Δθ ≠ h (θ̇_n + θ̇_{n+1})/2, and the trapezoid of the power
+ * τ θ̇ in time is not that work); for Newmark's average acceleration and a linear hinge it closes the balance to
+ * round-off. */
+static void hinge_work(int64_t n_hinges, const double *theta_old, const double *theta_new, const double *work_old,
+                       const double *damper_old, const double *work_new, const double *damper_new,
+                       double *external_work, double *dissipated)
 {
-    for (int64_t j = 0; j < m->n_hinges; ++j) {
-        const double increment = new_->theta[j] - old->theta[j];
-        adv->external_work += 0.5 * (adv->hinge_work_torque[j] + w->hinge_work_torque[j]) * increment;
-        adv->dissipated += 0.5 * (adv->hinge_damper_torque[j] + w->hinge_damper_torque[j]) * increment;
-        adv->hinge_work_torque[j] = w->hinge_work_torque[j];
-        adv->hinge_damper_torque[j] = w->hinge_damper_torque[j];
+    for (int64_t j = 0; j < n_hinges; ++j) {
+        const double increment = theta_new[j] - theta_old[j];
+        *external_work += 0.5 * (work_old[j] + work_new[j]) * increment;
+        *dissipated += 0.5 * (damper_old[j] + damper_new[j]) * increment;
     }
 }
 
-/* The work of the cable elements over the accepted step (latdyn/timeloop/progress.py cable_work): of
- * the rest length's generalized force ∂U/∂L0 over ΔL0, ½(r_n + r_{n+1}) ΔL0 (a reel's: external
- * work), and of each damper's dissipative force over Δℓ, ½(f_n + f_{n+1}) Δℓ (dissipated), the
- * trapezoidal rule in L0 and ℓ as hinge_work's in θ; the new state's values are carried to the next
- * step. */
-static void cable_work(const Model *m, const Work *w, Advance *adv)
+/* hinge_work for the steps accepted from Python (latdyn/timeloop/progress.py hinge_work). */
+void latdyn_hinge_work(int64_t n_hinges, const double *theta_old, const double *theta_new, const double *work_old,
+                       const double *damper_old, const double *work_new, const double *damper_new,
+                       double *external_work, double *dissipated)
 {
-    for (int64_t e = 0; e < m->n_cables; ++e) {
-        double *old = adv->cable_work + 4 * e;
-        const double *new_ = w->cable_work + 4 * e;
-        adv->external_work += 0.5 * (old[2] + new_[2]) * (new_[1] - old[1]);
-        adv->dissipated += 0.5 * (old[3] + new_[3]) * (new_[0] - old[0]);
-        memcpy(old, new_, 4 * sizeof(double));
+    hinge_work(n_hinges, theta_old, theta_new, work_old, damper_old, work_new, damper_new, external_work, dissipated);
+}
+
+/* The work of the cable elements over a step from [ℓ, L0, ∂U/∂L0, f] of each element at its start (old) to its end
+ * (new_), (n_cables, 4) each (Work.cable_work): of the rest length's generalized force r = ∂U/∂L0 over ΔL0,
+ * ½(r_n + r_{n+1}) ΔL0 (a reel's work, external: U the strain energy) into *external_work, and of each damper's
+ * dissipative force f (c ℓ̇ taut, −N_el while the damper cancels the elastic tension, 0 slack) over Δℓ,
+ * ½(f_n + f_{n+1}) Δℓ, into *dissipated, element by element. The trapezoidal rule in L0 and ℓ as hinge_work's in
+ * θ: the work the discrete step received, which the time trapezoid of the powers r L̇0 and f ℓ̇ is not
+ * (docs/cables.md measures the two). */
+static void cable_work(int64_t n_cables, const double *old, const double *new_, double *external_work,
+                       double *dissipated)
+{
+    for (int64_t e = 0; e < n_cables; ++e) {
+        const double *a = old + 4 * e, *b = new_ + 4 * e;
+        *external_work += 0.5 * (a[2] + b[2]) * (b[1] - a[1]);
+        *dissipated += 0.5 * (a[3] + b[3]) * (b[0] - a[0]);
     }
+}
+
+/* cable_work for the steps accepted from Python (latdyn/timeloop/progress.py cable_work). */
+void latdyn_cable_work(int64_t n_cables, const double *old, const double *new_, double *external_work,
+                       double *dissipated)
+{
+    cable_work(n_cables, old, new_, external_work, dissipated);
+}
+
+/* The hinges' and the cables' work and dissipation over the accepted step old → new into the loop's sums, from the
+ * torques and the cables' values carried in adv and those of the new state (the last evaluation's in Work), which
+ * are carried to the next step. */
+static void accept_joint_work(const Model *m, const Work *w, const Configuration *old, const Configuration *new_,
+                              Advance *adv)
+{
+    hinge_work(m->n_hinges, old->theta, new_->theta, adv->hinge_work_torque, adv->hinge_damper_torque,
+               w->hinge_work_torque, w->hinge_damper_torque, &adv->external_work, &adv->dissipated);
+    if (m->n_hinges) {
+        memcpy(adv->hinge_work_torque, w->hinge_work_torque, sizeof(double) * (size_t)m->n_hinges);
+        memcpy(adv->hinge_damper_torque, w->hinge_damper_torque, sizeof(double) * (size_t)m->n_hinges);
+    }
+}
+
+/* The cables' work and dissipation over the accepted step (cable_work) into the loop's sums, their values at the new
+ * state carried to the next step. */
+static void accept_cable_work(const Model *m, const Work *w, Advance *adv)
+{
+    cable_work(m->n_cables, adv->cable_work, w->cable_work, &adv->external_work, &adv->dissipated);
+    if (m->n_cables) memcpy(adv->cable_work, w->cable_work, sizeof(double) * 4 * (size_t)m->n_cables);
 }
 
 static double seconds_now(void)
@@ -580,10 +620,10 @@ int64_t latdyn_advance(const Model *m, Work *w, StepControl *s, const Configurat
         adv->external_work += 0.5 * s->h * (adv->power + s->power);
         adv->power = s->power;
         accept_drive_work(m, w, base, trial, adv);
-        hinge_work(m, w, base, trial, adv);
+        accept_joint_work(m, w, base, trial, adv);
         if (adv->rate_turns) rate_turns(m, base, trial, target, s->h, adv->unresolved_turn, adv->rate_turns);
         latdyn_controller_states_accept(m, w, trial, target, s->h);  /* continuous controllers' states */
-        cable_work(m, w, adv);
+        accept_cable_work(m, w, adv);
         adv->steps += 1;
         if (adv->trajectory) store_accepted_step(m, adv->trajectory, trial, target, s->h, x->dx, x->a_n);
         /* the sensitivities' step after the accepted step's accounts (its evaluation at the converged state
