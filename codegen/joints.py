@@ -97,11 +97,12 @@ from __future__ import annotations
 
 import sympy as sp
 
+from . import formulation as fm
 from .ir import Argument, KernelSpec, Output
 
 DESCRIPTION = ("joint bodies (Newton-Euler about the reference point), point loads (global and follower), "
                "hinged beam ends, hinge laws, rigid link, prismatic and closure edges, cable elements and the SO(3) "
-               "exponential")
+               "exponential and logarithm")
 
 BODY_FRAME = Argument("frame", 9, "T: the body's frame (columns = body axes in global axes), row-major")
 BODY_MOTION = Argument("motion", 9, "omega[3] a[3] alpha[3]: spatial angular velocity, acceleration of the "
@@ -677,6 +678,36 @@ def _so3_dexp_kernel() -> KernelSpec:
                       intermediates=intermediates)
 
 
+ROTATION_BEFORE = Argument("before", 9, "T_n: a rotation at a step's start (columns = body axes in global axes), "
+                           "row-major")
+ROTATION_AFTER = Argument("after", 9, "T_{n+1}: the rotation at the step's end, row-major")
+
+
+def so3_log_increment(before, after):
+    """The spatial rotation vector φ = log(T_{n+1} T_nᵀ) of the turn that takes ``before`` to ``after`` (|φ| < π),
+    through the element's log map (formulation.log_rotation: φ = f(x) vee(R − Rᵀ)/2, x = 1 − cos|φ| = (3 − tr R)/2,
+    f = |φ|/sin|φ| the branch-free formulation.log_scale, its Taylor polynomial below x = 0.1, so exact to
+    round-off near the identity; at |φ| = π the axis is undefined and vee(R − Rᵀ) = 0); (vector, intermediates)."""
+    turn = after * before.T   # R = T_{n+1} T_nᵀ
+    R = sp.Matrix(3, 3, sp.symbols("so3_R_0:9"))
+    x, f = sp.symbols("so3_log_x so3_log_f")
+    intermediates = [(R[k], turn[k]) for k in range(9)]
+    intermediates += [(x, fm.to_sympy(fm.log_arguments(R)[0])), (f, fm.log_scale(x))]
+    phi = [fm.to_sympy(component) for component in fm.log_rotation(R, lambda _: f)]
+    return sp.Matrix(phi), intermediates
+
+
+def _so3_log_increment_kernel() -> KernelSpec:
+    phi, intermediates = so3_log_increment(_matrix(ROTATION_BEFORE.symbols()), _matrix(ROTATION_AFTER.symbols()))
+    return KernelSpec(name="so3_log_increment", doc="The logarithm of SO(3) of a step's turn, log(T_{n+1} T_n^T), "
+                      "branch-free and exact to round-off near the identity (the element's log map): the rotation "
+                      "increment a prescribed body's reactions do work over (latdyn/timeloop/progress.py drive_work)",
+                      inputs=[ROTATION_BEFORE, ROTATION_AFTER],
+                      outputs=[Output("increment", (3,), list(phi), "phi = log(after before^T), spatial")],
+                      variant="joints", equations="the rotation vector of a step's turn (the log map of the "
+                      "element's deformation measure)", intermediates=intermediates)
+
+
 LINK_PARENT = Argument("parent", 24, "x[3] T[9] v[3] w[3] a[3] alpha[3]: the parent node's position, frame "
                        "(row-major), velocity, spatial angular velocity, acceleration and angular acceleration")
 LINK_EDGE = Argument("edge", 13, "a[3] o[3] b[3] s theta theta_dot theta_ddot: hinge axis (unit), hinge point and "
@@ -957,7 +988,8 @@ def _closure_wrench_kernel(rod: bool) -> KernelSpec:
 def build_kernels() -> list[KernelSpec]:
     """The kernels of the ``joints`` unit."""
     return [*_joint_body_kernels(), _point_load_kernel(), _hinged_end_kernel(), _hinge_force_kernel(),
-            _contact_law_derivative_kernel(), _friction_law_derivative_kernel(), _so3_exp_kernel(), _so3_dexp_kernel(), _link_edge_kernel(),
+            _contact_law_derivative_kernel(), _friction_law_derivative_kernel(), _so3_exp_kernel(), _so3_dexp_kernel(),
+            _so3_log_increment_kernel(), _link_edge_kernel(),
             _hinge_wrench_kernel(), _root_wrench_kernel(),
             _link_edge_kernel(prismatic=True), _slide_wrench_kernel(), _cable_force_kernel(), _cable_tension_kernel(),
             _closure_edge_kernel(rod=False), _closure_edge_kernel(rod=True), _closure_wrench_kernel(rod=False),

@@ -1,6 +1,6 @@
 """The work of hinge torques and the dissipation of hinge dampers (docs/energy.md): integrated as
-½(τ_n + τ_{n+1}) Δθ over each step (latdyn.timeloop.progress.hinge_work, csrc/newton_step.c
-hinge_work), the work the discrete step received, not the trapezoid of the power τ θ̇ in time; and
+½(τ_n + τ_{n+1}) Δθ over each step (csrc/newton_step.c hinge_work, which latdyn.timeloop.progress.hinge_work
+calls for the steps from Python), the work the discrete step received, not the trapezoid of the power τ θ̇ in time; and
 the unbounded test, which an error of the work's estimate at small energies no longer trips.
 
 Scenes are YAML text as a user writes it, run through the CLI (``python -m latdyn run``) or

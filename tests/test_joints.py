@@ -312,3 +312,27 @@ def test_so3_dexp_is_the_derivative_of_the_exponential(backend):
             if theta > 0.1:
                 b, c = (1 - np.cos(theta)) / theta ** 2, (theta - np.sin(theta)) / theta ** 3
                 assert np.abs(J[j] - (np.eye(3) + b * W + c * W @ W)).max() < 1e-13 * max(1.0, theta)
+
+
+@pytest.mark.parametrize("backend", ["numpy", "c"])
+def test_so3_log_increment_is_the_logarithm_of_the_turn(backend):
+    """The generated log(T_{n+1} T_nᵀ) (one source for the Python and the C drive work: the element's branch-free
+    log map, formulation.log_scale): for a turn w of a random rotation T_n, T_{n+1} = exp(skew w) T_n, it gives w back
+    to round-off from 1e-12 rad (absolute: the round-off of T_{n+1} T_nᵀ's skew part), across the log map's switch
+    from its Taylor polynomial to the closed form (1 − cos θ = 0.1, θ = 0.451), and towards π to 4e-15/(π − θ)²
+    (the log map's conditioning in x = 1 − cos θ there: 1.3e-9 measured at π − 1e-3); past π it takes the branch of
+    angle < π, w − 2π w/|w| (a turn of 3.3 rad read as 2.98 rad about the opposite axis); exp(log(R)) = R."""
+    ks = load_kernels(backend, "default")
+    switch = np.arccos(0.9)
+    for angle in (0.0, 1e-12, 1e-6, 1e-3, 0.2, switch * (1 - 1e-7), switch, switch * (1 + 1e-7), 1.0, 2.0, 3.0,
+                  np.pi - 1e-3, 3.3, 5.0):
+        w = RNG.normal(size=(8, 3))
+        w *= angle / np.linalg.norm(w, axis=1)[:, None]
+        before = np.array([rotation() for _ in range(len(w))])
+        after = expm_so3(w) @ before
+        (phi,) = ks.so3_log_increment(before.reshape(-1, 9), after.reshape(-1, 9))
+        phi = np.asarray(phi).reshape(-1, 3)
+        expected = w if angle < np.pi else w - 2 * np.pi * w / angle
+        tolerance = 2e-15 * max(1.0, angle) + 4e-15 / (np.pi - min(angle, 2 * np.pi - angle)) ** 2
+        assert np.abs(phi - expected).max() < tolerance, angle
+        assert np.abs(expm_so3(phi) - after @ np.transpose(before, (0, 2, 1))).max() < tolerance, angle

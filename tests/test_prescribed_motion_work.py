@@ -2,9 +2,9 @@
 through the command line and the API (docs/energy.md, "The work of a prescribed motion"; docs/verification.md,
 "a fifth set").
 
-A prescribed motion's work is ½(r_n + r_{n+1}) Δq over each prescribed coordinate (latdyn.timeloop.progress
-drive_work, csrc/newton_step.c drive_work), the steps land where a prescribed acceleration jumps (a ramp's
-ends) and on a kink, where the free rates take the impulse the jump of the prescribed rate implies
+A prescribed motion's work is ½(r_n + r_{n+1}) Δq over each prescribed coordinate (csrc/newton_step.c drive_work,
+which latdyn.timeloop.progress drive_work calls for the steps from Python), the steps land where a prescribed
+acceleration jumps (a ramp's ends) and on a kink, where the free rates take the impulse the jump of the prescribed rate implies
 (latdyn.timeloop.impulse.prescribed_velocity_jump). References: Goldstein's impulse on a free rod (the
 crank's elbow brought to 2 m/s at once gives the rod's hinge −5 rad/s and 7/6 J), and the energy balance."""
 from __future__ import annotations
@@ -117,9 +117,10 @@ def test_the_loop_of_steps_in_c_goes_through_a_prescribed_laws_jumps(tmp_path, m
     (the 10 ms ramp's two acceleration jumps, a kink); the step landing before the jump, the restart and the
     step to the next grid point are Python's, then the loop in C again. summary.json says ``time_loop:
     compiled`` and probes.csv equals the run with every step from Python byte for byte (CLI); a prescribed
-    hub body ramped in 3D (API) equals it to 1e-13 (measured 1.8e-15 and 3.1e-15 with a smooth law, the loop
-    in C against the steps from Python, before this change too). Before, a run whose laws jump took every
-    step from Python (``time_loop: python``)."""
+    hub body ramped in 3D (API) equals it bit for bit, the drive's work too: the steps from Python take it from
+    the loop of steps' own drive_forces and drive_work in C and the generated so3_log_increment (before, a Python
+    sum and rotation vector of their own gave a work that differed from the loop's by up to 1.8e-15). Before
+    that, a run whose laws jump took every step from Python (``time_loop: python``)."""
     switched_off = "import latdyn.timeloop.transient as m; m.COMPILED_LOOP = False"
     for i, law in enumerate((RAMP_10_MS, KINK)):
         folder = tmp_path / f"law{i}"
@@ -141,7 +142,7 @@ def test_the_loop_of_steps_in_c_goes_through_a_prescribed_laws_jumps(tmp_path, m
     assert looped.summary["time_loop"] == "compiled" and stepped.summary["time_loop"] == "python"
     assert looped.summary["steps"] == stepped.summary["steps"] == 150
     for name in ("tip", "W"):
-        assert np.abs(np.asarray(looped.probes[name]) - np.asarray(stepped.probes[name])).max() < 1e-13, name
+        assert np.array_equal(np.asarray(looped.probes[name]), np.asarray(stepped.probes[name])), name
 
 
 #: Kane's spin-up θ = (Ω/T)(t²/2 + (T/2π)²(cos(2πt/T) − 1)), Ω = 4, T = 1, then at Ω: its rate and acceleration
@@ -177,8 +178,8 @@ def test_a_spin_up_counts_the_same_work_through_a_body_or_a_hinge_in_c_and_in_py
     """The spin-up of a flexible beam, its hub a prescribed body (the work over the rotation vector of
     T_{n+1} T_nᵀ) or its root a prescribed hinge (over Δθ): the same work (1e-12), the balance closed at second
     order (measured 6.0e-4, 1.5e-4 at dt = 0.01, 0.005 to t = 2), and the loop of steps in C equal to the steps
-    from Python bit for bit (the one formula in two languages). These held before too (a smooth drive: the
-    time trapezoid of the power is second order there as well); this keeps the two languages together."""
+    from Python bit for bit (both count the work with csrc/newton_step.c drive_work). These held before too (a
+    smooth drive: the time trapezoid of the power is second order there as well)."""
     works = {}
     for motion in ("body", "hinge"):
         errors = []

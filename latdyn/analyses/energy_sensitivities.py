@@ -530,7 +530,7 @@ def external_work_step(owner, before: dict, after: dict, old, new, h: float) -> 
     rows_old, _, dreaction_old = held if held is not None else _drive_reactions(owner, old, before)
     drive = _drive_reactions(owner, new, after)
     if len(drive[0]):
-        work = work + 0.5 * _drive_increments(owner.model, old, new, drive[0]) @ (dreaction_old + drive[2])
+        work = work + 0.5 * _drive_increments(owner.model, owner.assembler.kernels, old, new, drive[0]) @ (dreaction_old + drive[2])
     return {**after, "external_work_sensitivity": work, "external_work_terms": terms, "external_work_drive": drive}
 
 
@@ -616,12 +616,12 @@ def _drive_reactions(owner, state, carried: dict) -> tuple:
     return rows, reaction, moved
 
 
-def _drive_increments(model, old, new, rows: np.ndarray) -> np.ndarray:
-    """Δq on ``rows`` over the step ``old`` → ``new``: Δx, the rotation vector of T_{n+1} T_nᵀ, Δθ
-    (latdyn/timeloop/progress.py drive_work)."""
+def _drive_increments(model, kernels, old, new, rows: np.ndarray) -> np.ndarray:
+    """Δq on ``rows`` over the step ``old`` → ``new``: Δx, the rotation vector of T_{n+1} T_nᵀ (the generated
+    so3_log_increment of ``kernels``), Δθ (latdyn/timeloop/progress.py drive_work)."""
     from latdyn.numerics.so3 import rotation_increment
 
-    return pack(model, new.x - old.x, rotation_increment(old.T, new.T),
+    return pack(model, new.x - old.x, rotation_increment(old.T, new.T, kernels),
                 np.asarray(new.theta, float) - np.asarray(old.theta, float))[rows]
 
 

@@ -78,6 +78,7 @@ class ModelData(ctypes.Structure):
         ("quadratic_velocity_D_qdot", P), ("gravity_load", P), ("strain_energy", P), ("kinetic_energy", P),
         ("inertia_force_D_q", P),
         ("joint_body", P), ("point_load", P), ("body_section", P), ("hinged_end", P), ("element_ends", P), ("hinge_force", P), ("so3_exp", P), ("so3_dexp", P),
+        ("so3_log_increment", P),
         ("parallel_elements", I64), ("threads", I64),
         ("time_laws", P), ("hinge_laws", P),
         ("hinge_stiffness_law", P), ("hinge_damping_law", P), ("hinge_torque_hinge_law", P), ("hinge_conservative", P),
@@ -354,6 +355,20 @@ def native_library() -> ctypes.CDLL:
         library.latdyn_controller_states_accept.restype = None
         library.latdyn_controller_states_accept.argtypes = [model, work, configuration, ctypes.c_double,
                                                             ctypes.c_double]
+        # the accounts of a step accepted from Python, the loop of steps' own (csrc/newton_step.c)
+        library.latdyn_drive_forces.restype = None
+        library.latdyn_drive_forces.argtypes = [model, P, P]
+        library.latdyn_drive_work.restype = ctypes.c_double
+        library.latdyn_drive_work.argtypes = [model, configuration, configuration, P, P, ctypes.c_double]
+        library.latdyn_far_root.restype = I64
+        library.latdyn_far_root.argtypes = [model, configuration, configuration, ctypes.c_double, P, P]
+        library.latdyn_rate_turns.restype = None
+        library.latdyn_rate_turns.argtypes = [model, configuration, configuration, ctypes.c_double, ctypes.c_double,
+                                              ctypes.c_double, P]
+        library.latdyn_hinge_work.restype = None
+        library.latdyn_hinge_work.argtypes = [I64, P, P, P, P, P, P, P, P]
+        library.latdyn_cable_work.restype = None
+        library.latdyn_cable_work.argtypes = [I64, P, P, P, P]
         library.latdyn_advance.restype = I64
         library.latdyn_advance.argtypes = [ctypes.POINTER(ModelData), ctypes.POINTER(WorkData), ctypes.POINTER(ControlData),
                                            ctypes.POINTER(ConfigurationData), ctypes.POINTER(ConfigurationData),

@@ -271,7 +271,8 @@ class NativeModel:
         kernel.update({name: _kernel_address(kernels, name) for name in (
             "beam_internal_force", "beam_internal_force_D_q", "beam_mass_matrix", "beam_quadratic_velocity",
             "beam_quadratic_velocity_D_qdot", "beam_gravity", "beam_strain_energy", "beam_kinetic_energy",
-            "joint_body", "point_load", "hinged_end", "hinge_force", "so3_exp", "so3_dexp", "cable_force")})
+            "joint_body", "point_load", "hinged_end", "hinge_force", "so3_exp", "so3_dexp", "so3_log_increment",
+            "cable_force")})
         # compiled on first use (latdyn.model.kernels.ON_DEMAND): only for a model that evaluates the inertia tangent
         kernel["beam_inertia_tangent"] = _kernel_address(kernels, "beam_inertia_tangent") if inertia_tangent else None
         CE = len(cables) if cables is not None else 0
@@ -304,7 +305,7 @@ class NativeModel:
             inertia_force_D_q=kernel["beam_inertia_tangent"],
             joint_body=kernel["joint_body"], point_load=kernel["point_load"], body_section=arr(body_section),
             hinged_end=kernel["hinged_end"], element_ends=arr(element_ends), hinge_force=kernel["hinge_force"],
-            so3_exp=kernel["so3_exp"], so3_dexp=kernel["so3_dexp"],
+            so3_exp=kernel["so3_exp"], so3_dexp=kernel["so3_dexp"], so3_log_increment=kernel["so3_log_increment"],
             parallel_elements=parallel_threshold(), threads=0,
             time_laws=time_laws, hinge_laws=hinge_laws,
             hinge_stiffness_law=ints(stiffness_law), hinge_damping_law=ints(damping_law),
@@ -405,6 +406,10 @@ class NativeModel:
         #: what the compiled step's iteration matrix storage keeps alive (latdyn.step.compiled)
         self.matrix_storage = None
         self._empty = np.zeros(1)
+        #: the last few (arrays, C view) of :meth:`_views`, of states whose arrays were their own
+        self._viewed: list = []
+        #: per hinge, 1 where it is revolute (a guide's slide is not periodic: :meth:`far_root`)
+        self.revolute = np.array([hinge.kind == "hinge" for hinge in m.hinges], dtype=np.int64)
 
     def _array(self, values, dtype=np.float64) -> int:
         """The address of a contiguous copy of ``values``, kept alive with this object."""
@@ -582,6 +587,77 @@ class NativeModel:
             self.library.latdyn_joint_forces(self.model_ref, self.work_ref, ctypes.byref(self.configuration(held)),
                                              float(state.t), float(load_factor), out.ctypes.data)
         return out
+
+    def _views(self, *states) -> tuple[list, list[ConfigurationData]]:
+        """The C views of several states at once (:meth:`configuration` keeps one alive at a time): (the arrays,
+        to be held while the views are used; the views). A state whose arrays are the very arrays of one of the
+        last few views, their own (contiguous float64), gets that view again (the step's two states are viewed by
+        far_root, rate_turns and drive_work in turn: 9 addresses taken anew cost ≈ 10–20 µs)."""
+        held, views = [], []
+        for state in states:
+            own = [getattr(state, name) for name in STATE_FIELDS]
+            for arrays, view in self._viewed:
+                if all(a is b for a, b in zip(own, arrays)):
+                    break
+            else:
+                arrays = [np.ascontiguousarray(a, dtype=np.float64) for a in own]
+                view = ConfigurationData(*(a.ctypes.data if a.size else self._empty.ctypes.data for a in arrays))
+                if all(a is b for a, b in zip(arrays, own)):
+                    self._viewed = [(arrays, view)] + self._viewed[:3]
+            held.append(arrays)
+            views.append(view)
+        return held, views
+
+    def drive_forces(self, reaction: np.ndarray) -> np.ndarray:
+        """The reactions of the prescribed motions by prescribed coordinate from an evaluation's ``reaction`` (on
+        the constrained coordinates), 6 per prescribed body's node, then one per hinge or guide
+        (``latdyn_drive_forces``, csrc/newton_step.c drive_forces, the loop of steps' own)."""
+        reaction = np.ascontiguousarray(reaction, dtype=np.float64)
+        if len(reaction) != self.model.n_total - self.model.n_dofs:
+            raise ValueError(f"{len(reaction)} reactions; the model has {self.model.n_total - self.model.n_dofs} "
+                             "constrained coordinates")
+        out = np.zeros(6 * self.model.n_prescribed + self.model.n_hinges)
+        if out.size:
+            self.library.latdyn_drive_forces(self.model_ref, reaction.ctypes.data if reaction.size
+                                             else self._empty.ctypes.data, out.ctypes.data)
+        return out
+
+    def drive_work(self, old, new, forces_old: np.ndarray, forces_new: np.ndarray, work: float) -> float:
+        """``work`` with the prescribed motions' work over the step ``old`` → ``new`` added, from their reactions
+        at its two ends (:meth:`drive_forces`; ``latdyn_drive_work``, csrc/newton_step.c drive_work)."""
+        size = 6 * self.model.n_prescribed + self.model.n_hinges
+        if size == 0:
+            return float(work)
+        forces = [np.ascontiguousarray(f, dtype=np.float64) for f in (forces_old, forces_new)]
+        if any(f.shape != (size,) for f in forces):
+            raise ValueError(f"reactions of shapes {[f.shape for f in forces]}; the drives have {size}")
+        held, (before, after) = self._views(old, new)
+        return float(self.library.latdyn_drive_work(self.model_ref, ctypes.byref(before), ctypes.byref(after),
+                                                    forces[0].ctypes.data, forces[1].ctypes.data, float(work)))
+
+    def far_root(self, old, new, h: float) -> tuple[int, float] | None:
+        """The free revolute hinge whose angle at the end of the step ``old`` → ``new`` of size ``h`` lies farthest,
+        more than π, from θ_n + h θ̇_n, and that distance; None if none (``latdyn_far_root``, csrc/newton_step.c
+        far_root, the loop of steps' own)."""
+        if self.model.n_free_hinges == 0:
+            return None
+        distance = np.zeros(1)
+        held, (before, after) = self._views(old, new)
+        worst = int(self.library.latdyn_far_root(self.model_ref, ctypes.byref(before), ctypes.byref(after), float(h),
+                                                 self.revolute.ctypes.data, distance.ctypes.data))
+        return None if worst < 0 else (worst, float(distance[0]))
+
+    def rate_turns(self, old, new, h: float, unresolved_turn: float, kept: np.ndarray) -> None:
+        """Each free hinge's largest h |θ̇_{n+1} − θ̇_n| over the step ``old`` → ``new`` of size ``h`` (ending at
+        new.t), and the first past ``unresolved_turn``, into ``kept`` (n_hinges, 6), in place
+        (``latdyn_rate_turns``, csrc/newton_step.c rate_turns, the loop of steps' own)."""
+        if kept.shape != (self.model.n_hinges, 6) or kept.dtype != np.float64 or not kept.flags.c_contiguous:
+            raise ValueError(f"kept turns of shape {kept.shape}; the model has {self.model.n_hinges} hinges")
+        if self.model.n_free_hinges == 0:
+            return
+        held, (before, after) = self._views(old, new)
+        self.library.latdyn_rate_turns(self.model_ref, ctypes.byref(before), ctypes.byref(after), float(new.t),
+                                       float(h), float(unresolved_turn), kept.ctypes.data)
 
     def energies(self, state) -> tuple[float, float, float]:
         """Kinetic energy, strain energy (hinge springs included, those with a stiffness law by

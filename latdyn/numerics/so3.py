@@ -1,5 +1,6 @@
 """The maps of SO(3) the runtime uses: the cross product and the skew matrix of a vector, the
-exponential map (Rodrigues) and its tangent operator, the rotation vector between two rotations, the projection of a nearly orthogonal matrix back
+exponential map (Rodrigues) and its tangent operator, the rotation vector between two rotations (the generated
+logarithm), the projection of a nearly orthogonal matrix back
 onto SO(3), and the composition of two rotation vectors."""
 from __future__ import annotations
 
@@ -42,17 +43,16 @@ def expm_so3(w: np.ndarray) -> np.ndarray:
 _SO3_EXP = None
 
 
-def rotation_increment(before: np.ndarray, after: np.ndarray) -> np.ndarray:
-    """The spatial rotation vector φ of ``after`` ``before``ᵀ, (..., 3, 3) twice -> (..., 3): the turn
+def rotation_increment(before: np.ndarray, after: np.ndarray, kernels) -> np.ndarray:
+    """The spatial rotation vector φ = log(``after`` ``before``ᵀ), (..., 3, 3) twice -> (..., 3): the turn
     exp(skew φ) that takes the rotation ``before`` to ``after`` (|φ| < π), the increment the spatial
-    angular velocity integrates to. sin|φ| n is the vee of the skew part, cos|φ| = (tr − 1)/2;
-    |φ| = atan2 of the two. csrc/newton_step.c rotation_increment is the same formula."""
-    R = np.einsum("...ij,...kj->...ik", np.asarray(after, float), np.asarray(before, float))
-    vee = 0.5 * np.stack([R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0], R[..., 1, 0] - R[..., 0, 1]], -1)
-    sine = np.linalg.norm(vee, axis=-1)
-    angle = np.arctan2(sine, 0.5 * (np.trace(R, axis1=-2, axis2=-1) - 1.0))
-    scale = np.where(sine > 1e-300, angle / np.where(sine > 1e-300, sine, 1.0), 1.0)
-    return vee * scale[..., None]
+    angular velocity integrates to: the generated kernel ``so3_log_increment`` (codegen/joints.py, the element's
+    branch-free log map) of ``kernels`` (a :class:`latdyn.model.kernels.KernelSet`: C where compiled, the kernel
+    the loop of steps in C calls, so the two give the same bits)."""
+    before, after = np.asarray(before, float), np.asarray(after, float)
+    (increment,) = kernels.so3_log_increment(np.ascontiguousarray(before.reshape(-1, 9)),
+                                             np.ascontiguousarray(after.reshape(-1, 9)))
+    return np.asarray(increment).reshape(before.shape[:-2] + (3,))
 
 
 def dexp_so3(w: np.ndarray) -> np.ndarray:

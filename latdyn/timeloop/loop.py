@@ -192,7 +192,7 @@ class TimeLoop:
             state=state, algorithmic_acceleration=self.integrator.a, locked=self.model.locked.copy(),
             stuck=self.model.stuck.copy(), resting=self.model.resting.copy(),
             h=self.control.dt, power=evaluation.external_power,
-            drive_force=drive_forces(self.model, evaluation.reaction),
+            drive_force=drive_forces(self.assembler.native(), evaluation.reaction),
             cable_work=evaluation.cable_work.copy(),
             hinge_work_torque=evaluation.hinge_work_torque.copy(),
             hinge_damper_torque=evaluation.hinge_damper_torque.copy(),
@@ -222,7 +222,7 @@ class TimeLoop:
         self.probes.external_work = checkpoint.external_work
         self.probes.dissipated = self.progress.dissipated
         if self.progress.drive_force is None:   # a checkpoint written before the drives' reactions were kept
-            self.progress.drive_force = drive_forces(self.model, self.assembler.evaluate(
+            self.progress.drive_force = drive_forces(self.assembler.native(), self.assembler.evaluate(
                 self.progress.state, matrices=False).reaction)
         if hasattr(self.integrator, "restore_factorization"):  # modified Newton's held matrix, as it was
             try:
@@ -404,7 +404,7 @@ class TimeLoop:
             if self.sensitivities is not None:
                 progress.sensitivities = self.sensitivities.resized(progress.sensitivities, control, attempt.lands)
             return
-        far = far_root(self.model, progress.state, attempt.new, attempt.h)
+        far = far_root(self.assembler.native(), progress.state, attempt.new, attempt.h)
         if far is not None:  # a root a whole turn away: cut, never landed on as a crossing
             control.after_far_root(progress, attempt.h, self.model.hinges[far[0]].name, far[1])
             if self.sensitivities is not None:
@@ -682,7 +682,7 @@ class TimeLoop:
                                               progress.algorithmic_acceleration, integrator.a, attempt.lands)
         events = hinge_events(self.prepared, integrator, progress.state, new, h)
         if not events.any and model.hinges:
-            progress.note_rate_turns(model.free_hinges, progress.state, new, h)
+            progress.note_rate_turns(self.assembler.native(), progress.state, new, h)
         if self.sensitivities is not None and model.resting.any():  # locked on its stop until released
             raise SolverError(f"the sensitivities at t = {new.t:.6g} meet a hinge resting on its stop, whose "
                               "derivative is not that of one event (docs/parameters.md, \"Sensitivities through "
@@ -714,8 +714,9 @@ class TimeLoop:
         ended = evaluation if events.resting else getattr(integrator, "last_evaluation", None) or evaluation
         # the prescribed motions' work over the step's Δq (progress.drive_work), their reactions at its end
         # from the same evaluation as the power's
-        ended_drive = drive_forces(model, evaluation.reaction)
-        external_work += drive_work(model, progress.state, new, progress.drive_force, ended_drive)
+        native = self.assembler.native()
+        ended_drive = drive_forces(native, evaluation.reaction)
+        external_work = drive_work(native, progress.state, new, progress.drive_force, ended_drive, external_work)
         external_work, dissipated = hinge_work(
             progress.state.theta, new.theta if events.resting else theta_end,
             (progress.hinge_work_torque, progress.hinge_damper_torque),
@@ -758,7 +759,8 @@ class TimeLoop:
         progress.cable_work, progress.drive_work)."""
         progress = self.progress
         progress.power = evaluation.external_power
-        progress.drive_force = drive_forces(self.model, evaluation.reaction) if drive_force is None else drive_force
+        progress.drive_force = (drive_forces(self.assembler.native(), evaluation.reaction) if drive_force is None
+                                else drive_force)
         progress.cable_work = evaluation.cable_work.copy()
         progress.hinge_work_torque = evaluation.hinge_work_torque.copy()
         progress.hinge_damper_torque = evaluation.hinge_damper_torque.copy()

@@ -9,8 +9,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from latdyn.assembly.assembler import State, pack
-from latdyn.model.model import Model
-from latdyn.numerics.so3 import rotation_increment
+from latdyn.assembly.library import native_library
 
 
 #: strains of this many ulps: the round-off of a beam's configuration (:func:`energy_round_off`)
@@ -173,17 +172,13 @@ class TransientProgress:
             if peak is None or abs(value) > abs(peak["peak"]) * (1.0 + PEAK_ROUND_OFF):
                 self.joint_peaks[name] = {"peak": float(value), "t": float(t)}
 
-    def note_rate_turns(self, free_hinges, old: State, new: State, h: float) -> None:
+    def note_rate_turns(self, native, old: State, new: State, h: float) -> None:
         """Keep each free hinge's largest h |θ̇_{n+1} − θ̇_n| (:attr:`rate_turns`) with the step ``old`` → ``new``
         of size ``h``, accepted from Python without an event (a stop's or latch's jump of the rate is on
-        purpose, and not the step's). The steps taken in C keep it in C (csrc/newton_step.c rate_turns)."""
+        purpose, and not the step's): csrc/newton_step.c rate_turns, the loop of steps' own, through ``native``
+        (:class:`latdyn.assembly.native_model.NativeModel`, the current numbering's)."""
         turns = self.kept_rate_turns(len(new.theta)).copy()
-        for j in free_hinges:
-            turn = h * abs(float(new.theta_dot[j]) - float(old.theta_dot[j]))
-            if turn > turns[j, 0]:
-                turns[j, :3] = (turn, float(new.t), h)
-            if turn > UNRESOLVED_TURN and turns[j, 3] == 0.0:
-                turns[j, 3:] = (turn, float(new.t), h)
+        native.rate_turns(old, new, h, UNRESOLVED_TURN, turns)
         self.rate_turns = turns
 
     def kept_rate_turns(self, n_hinges: int) -> np.ndarray:
@@ -221,7 +216,7 @@ class TransientProgress:
             inertia_tangent_from=self.inertia_tangent_from, joint_peaks=self.joint_peaks, events=self.events)
 
 
-def far_root(model, old: State, new: State, h: float) -> tuple[int, float] | None:
+def far_root(native, old: State, new: State, h: float) -> tuple[int, float] | None:
     """The free hinge (revolute) whose angle at the end of the converged step ``old`` → ``new`` of size ``h`` lies
     farthest from where its rate at the step's start takes it, θ_n + h θ̇_n, and that distance, where it is more
     than π; else None.
@@ -234,14 +229,10 @@ def far_root(model, old: State, new: State, h: float) -> tuple[int, float] | Non
     than π from θ_n + h θ̇_n is nearer to a whole turn of that configuration than to it. A step that resolves the
     hinge's motion departs from it by its quadratic term, ½ h |θ̇_{n+1} − θ̇_n| under Newmark, which the unresolved-step
     warning flags from ½ :data:`UNRESOLVED_TURN`, far below π: such a root is no motion, and the time loop cuts the
-    step (:meth:`latdyn.timeloop.control.StepControl.after_far_root`) instead of landing on a stop it crossed."""
-    free = model.free_hinges
-    distance = np.abs(new.theta[free] - old.theta[free] - h * old.theta_dot[free])
-    worst = None
-    for k, d in zip(free[distance > math.pi], distance[distance > math.pi]):   # none, on a step that resolves them
-        if model.hinges[k].kind == "hinge" and (worst is None or d > worst[1]):   # a guide's slide is not periodic
-            worst = (int(k), float(d))
-    return worst
+    step (:meth:`latdyn.timeloop.control.StepControl.after_far_root`) instead of landing on a stop it crossed.
+    The test is csrc/newton_step.c far_root, the loop of steps' own, through ``native`` (the current numbering's
+    :class:`latdyn.assembly.native_model.NativeModel`), over the revolute hinges (a guide's slide is not periodic)."""
+    return native.far_root(old, new, h)
 
 
 #: Relative margin by which a row's joint force must exceed the kept peak to replace it in
@@ -269,33 +260,27 @@ def factorizations(stats) -> int:
     return stats.iterations if stats.factorizations is None else stats.factorizations
 
 
-def drive_forces(model: Model, reaction: np.ndarray) -> np.ndarray:
+def drive_forces(native, reaction: np.ndarray) -> np.ndarray:
     """The reactions of the prescribed motions by prescribed coordinate (``reaction``: an evaluation's,
     on the constrained coordinates n_dofs … n_total−1): the 6 of each prescribed body's node, in the
     model's order of nodes, then one per hinge or guide (0 where its angle or slide is not prescribed).
     A layout the numbering's changes at events (a latch, a stick) leave alone, so that the reactions at
-    a step's start and end pair up (:func:`drive_work`); csrc/newton_step.c drive_forces is the same."""
-    full = np.zeros(model.n_total + 1)
-    full[model.n_dofs:model.n_total] = reaction
-    prescribed = model.prescribed_nodes()
-    hinges = full[model.hinge_dofs] * np.array([h.angle is not None for h in model.hinges], dtype=bool)
-    return np.concatenate([full[model.node_dofs[prescribed]].ravel(), hinges])
+    a step's start and end pair up (:func:`drive_work`). csrc/newton_step.c drive_forces, the loop of steps'
+    own, through ``native`` (the current numbering's :class:`latdyn.assembly.native_model.NativeModel`)."""
+    return native.drive_forces(reaction)
 
 
-def drive_work(model: Model, old: State, new: State, forces_old: np.ndarray, forces_new: np.ndarray) -> float:
-    """The work of the prescribed motions over the step from ``old`` to ``new`` (docs/energy.md, "The work of
-    a prescribed motion"): ½(r_n + r_{n+1}) Δq over each prescribed coordinate, with the reactions r of
-    :func:`drive_forces` at the step's two ends and Δq the coordinate's change, Δx of a prescribed body's
-    point, the spatial rotation vector of T_{n+1} T_nᵀ, and Δθ (Δs) of a prescribed hinge (guide). The
-    trapezoidal rule in q as :func:`hinge_work`'s in θ: the work the discrete step received, where the
-    time trapezoid ½h(r_n·q̇_n + r_{n+1}·q̇_{n+1}) of the power is not (a crank brought to 2 rad/s in one
-    step, carrying a free rod, counted 0.014 J of the 1.17 J the rod received, and the run ended
-    ``unbounded``). csrc/newton_step.c drive_work is the same sum."""
-    prescribed = model.prescribed_nodes()
-    increments = np.concatenate([new.x[prescribed] - old.x[prescribed],
-                                 rotation_increment(old.T[prescribed], new.T[prescribed])], axis=1).ravel()
-    angles = np.asarray(new.theta, float) - np.asarray(old.theta, float)
-    return float(0.5 * (forces_old + forces_new) @ np.concatenate([increments, angles]))
+def drive_work(native, old: State, new: State, forces_old: np.ndarray, forces_new: np.ndarray,
+               external_work: float) -> float:
+    """``external_work`` with the work of the prescribed motions over the step from ``old`` to ``new`` added
+    (docs/energy.md, "The work of a prescribed motion"): ½(r_n + r_{n+1}) Δq over each prescribed coordinate, with
+    the reactions r of :func:`drive_forces` at the step's two ends and Δq the coordinate's change, Δx of a
+    prescribed body's point, the spatial rotation vector of T_{n+1} T_nᵀ (the generated ``so3_log_increment``),
+    and Δθ (Δs) of a prescribed hinge (guide). The trapezoidal rule in q as :func:`hinge_work`'s in θ: the work
+    the discrete step received, where the time trapezoid ½h(r_n·q̇_n + r_{n+1}·q̇_{n+1}) of the power is not (a
+    crank brought to 2 rad/s in one step, carrying a free rod, counted 0.014 J of the 1.17 J the rod received, and
+    the run ended ``unbounded``). csrc/newton_step.c drive_work, the loop of steps' own, through ``native``."""
+    return native.drive_work(old, new, forces_old, forces_new, external_work)
 
 
 def hinge_work(theta_old: np.ndarray, theta_new: np.ndarray, torques_old: tuple, torques_new: tuple,
@@ -307,13 +292,9 @@ def hinge_work(theta_old: np.ndarray, theta_new: np.ndarray, torques_old: tuple,
     work ∫ τ dθ the discrete step received whatever the integrator's Δθ is (with generalized-α,
     Δθ ≠ h (θ̇_n + θ̇_{n+1})/2, and the trapezoid of the power τ θ̇ in time is not that work); for
     Newmark's average acceleration and a linear hinge it closes the balance to round-off.
-    csrc/newton_step.c hinge_work is the same sum, hinge by hinge, in the compiled loop."""
-    (work_old, damper_old), (work_new, damper_new) = torques_old, torques_new
-    for j in range(len(theta_new)):
-        increment = float(theta_new[j]) - float(theta_old[j])
-        external_work += 0.5 * (float(work_old[j]) + float(work_new[j])) * increment
-        dissipated += 0.5 * (float(damper_old[j]) + float(damper_new[j])) * increment
-    return external_work, dissipated
+    csrc/newton_step.c hinge_work, the loop of steps' own, through the native library."""
+    return _sums(native_library().latdyn_hinge_work, len(theta_new),
+                 (theta_old, theta_new, *torques_old, *torques_new), external_work, dissipated)
 
 
 def cable_work(old: np.ndarray, new: np.ndarray, external_work: float, dissipated: float) -> tuple[float, float]:
@@ -324,12 +305,20 @@ def cable_work(old: np.ndarray, new: np.ndarray, external_work: float, dissipate
     of each damper's dissipative force f (c ℓ̇ taut, −N_el while the damper cancels the elastic
     tension, 0 slack). The trapezoidal rule in L0 and ℓ, as :func:`hinge_work`'s in θ: the work the
     discrete step received, which the time trapezoid of the powers r L̇0 and f ℓ̇ is not
-    (docs/cables.md measures the two). csrc/newton_step.c cable_work is the same sum."""
-    if len(new) == 0:
+    (docs/cables.md measures the two). csrc/newton_step.c cable_work, the loop of steps' own, through the native
+    library."""
+    return _sums(native_library().latdyn_cable_work, len(new), (old, new), external_work, dissipated)
+
+
+def _sums(function, count: int, arrays: tuple, external_work: float, dissipated: float) -> tuple[float, float]:
+    """(external work, dissipated) after ``function`` (latdyn_hinge_work, latdyn_cable_work) of ``count`` items
+    over ``arrays`` added its sums to them."""
+    if count == 0:
         return external_work, dissipated
-    external_work += float(np.sum(0.5 * (old[:, 2] + new[:, 2]) * (new[:, 1] - old[:, 1])))
-    dissipated += float(np.sum(0.5 * (old[:, 3] + new[:, 3]) * (new[:, 0] - old[:, 0])))
-    return external_work, dissipated
+    arrays = [np.ascontiguousarray(a, dtype=np.float64) for a in arrays]
+    sums = np.array([external_work, dissipated], dtype=np.float64)
+    function(count, *(a.ctypes.data for a in arrays), sums.ctypes.data, sums[1:].ctypes.data)
+    return float(sums[0]), float(sums[1])
 
 
 #: Cut steps reported on stderr one by one up to this many, then only counted.

@@ -55,6 +55,7 @@ typedef void (*kernel_hinge_force)(int64_t, const double *, const double *, cons
                                    double *, double *, double *, double *, double *);
 typedef void (*kernel_so3_exp)(int64_t, const double *, double *);
 typedef void (*kernel_so3_dexp)(int64_t, const double *, double *);
+typedef void (*kernel_so3_log_increment)(int64_t, const double *, const double *, double *);
 
 /* A configuration: all nodes and hinges. */
 typedef struct {
@@ -114,6 +115,7 @@ typedef struct {
     kernel_hinge_force hinge_force;
     kernel_so3_exp so3_exp; /* exp(skew w), the generated kernel (codegen/joints.py) */
     kernel_so3_dexp so3_dexp; /* dexp(w), its tangent operator, the generated kernel (codegen/joints.py) */
+    kernel_so3_log_increment so3_log_increment; /* log(T_{n+1} T_nᵀ), the generated kernel (codegen/joints.py) */
     /* threads (see the header): element count from which the element part runs in parallel
      * (0: never), and the number of threads (0: OpenMP's default) */
     int64_t parallel_elements, threads;

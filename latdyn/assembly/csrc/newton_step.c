@@ -293,17 +293,34 @@ static int hinge_event(const Model *m, const Configuration *old, const Configura
     return 0;
 }
 
-/* Whether the converged step old → new of size h puts a free joint more than π from where its rate at the step's
- * start takes it, θ_n + h θ̇_n (latdyn/timeloop/progress.py far_root: a root about a whole turn away, no motion,
- * which the time loop cuts). Guides' slides are joints here too: a superset, handed back, and the caller's far_root
- * (revolute hinges only) decides, as hinge_event's friction check hands back a superset. */
-static int far_root(const Model *m, const Configuration *old, const Configuration *new_, double h)
+/* The free hinge whose angle at the end of the converged step old → new of size h lies farthest from where its
+ * rate at the step's start takes it, θ_n + h θ̇_n, where that distance is more than π (a root about a whole turn
+ * away, no motion, which the time loop cuts: latdyn/timeloop/progress.py far_root says why); −1 if none. Only the
+ * joints with revolute[j] ≠ 0 count (a guide's slide is not periodic); revolute NULL: every free joint, a
+ * superset, which the loop of steps hands back for the caller's far_root to decide, as hinge_event's friction
+ * check hands back a superset. The distance into *distance (NULL: not wanted); the first of equal ones. */
+static int64_t far_root(const Model *m, const Configuration *old, const Configuration *new_, double h,
+                        const int64_t *revolute, double *distance)
 {
+    int64_t worst = -1;
+    double farthest = 0.0;
     for (int64_t k = 0; k < m->n_free_hinges; ++k) {
         const int64_t j = m->free_hinges[k];
-        if (fabs(new_->theta[j] - old->theta[j] - h * old->theta_dot[j]) > 3.14159265358979323846) return 1;   /* math.pi */
+        const double d = fabs(new_->theta[j] - old->theta[j] - h * old->theta_dot[j]);
+        if (d > 3.14159265358979323846 && (!revolute || revolute[j]) && (worst < 0 || d > farthest)) {  /* math.pi */
+            worst = j;
+            farthest = d;
+        }
     }
-    return 0;
+    if (distance) *distance = farthest;
+    return worst;
+}
+
+/* far_root for the steps accepted from Python (latdyn/timeloop/progress.py far_root). */
+int64_t latdyn_far_root(const Model *m, const Configuration *old, const Configuration *new_, double h,
+                        const int64_t *revolute, double *distance)
+{
+    return far_root(m, old, new_, h, revolute, distance);
 }
 
 /* latdyn/timeloop/events.py cable_tolerance: of a gap (a force), for an element of axial stiffness EA */
@@ -320,39 +337,62 @@ static int cable_event(const Model *m, const Work *w)
     return 0;
 }
 
-/* The spatial rotation vector φ of Tb Taᵀ (latdyn/numerics/so3.py rotation_increment, the same formula):
- * sin|φ| n the vee of its skew part, cos|φ| = (tr − 1)/2, |φ| the atan2 of the two. */
-static void rotation_increment(const double *Ta, const double *Tb, double *phi)
+/* The entry of `reaction` (an evaluation's on the constrained coordinates, reaction[d − n_dofs] that of coordinate d)
+ * on coordinate d where d is constrained (n_dofs ≤ d < n_total), else 0. */
+static double constrained_entry(const Model *m, const double *reaction, int64_t d)
 {
-    double R[9];
-    for (int i = 0; i < 3; ++i)
-        for (int k = 0; k < 3; ++k)
-            R[3 * i + k] = Tb[3 * i] * Ta[3 * k] + Tb[3 * i + 1] * Ta[3 * k + 1] + Tb[3 * i + 2] * Ta[3 * k + 2];
-    phi[0] = 0.5 * (R[7] - R[5]);
-    phi[1] = 0.5 * (R[2] - R[6]);
-    phi[2] = 0.5 * (R[3] - R[1]);
-    const double sine = sqrt(phi[0] * phi[0] + phi[1] * phi[1] + phi[2] * phi[2]);
-    const double scale = sine > 1e-300 ? atan2(sine, 0.5 * (R[0] + R[4] + R[8] - 1.0)) / sine : 1.0;
-    for (int j = 0; j < 3; ++j) phi[j] *= scale;
+    return d >= m->n_dofs && d < m->n_total ? reaction[d - m->n_dofs] : 0.0;
 }
 
-/* The entry of `total` on coordinate d where d is constrained (n_dofs ≤ d < n_total), else 0. */
-static double constrained_entry(const Model *m, const double *total, int64_t d)
-{
-    return d >= m->n_dofs && d < m->n_total ? total[d] : 0.0;
-}
-
-/* The reactions of the prescribed motions by prescribed coordinate (latdyn/timeloop/progress.py
- * drive_forces): from `total` (an evaluation's, the constrained coordinates n_dofs … n_total−1) the 6 of
- * each prescribed body's node, then one per hinge (0 unless its angle or slide is prescribed), into force. */
-static void drive_forces(const Model *m, const double *total, double *force)
+/* The reactions of the prescribed motions by prescribed coordinate (docs/energy.md, "The work of a prescribed
+ * motion"): from `reaction` (an evaluation's, on the constrained coordinates n_dofs … n_total−1: Work's total +
+ * n_dofs) the 6 of each prescribed body's node, in the model's order of nodes, then one per hinge or guide (0 unless
+ * its angle or slide is prescribed), into force (6 n_prescribed + n_hinges). A layout the numbering's changes at
+ * events (a latch, a stick) leave alone, so that the reactions at a step's start and end pair up (drive_work). */
+static void drive_forces(const Model *m, const double *reaction, double *force)
 {
     for (int64_t k = 0; k < m->n_prescribed; ++k) {
         const int64_t *d = m->node_dofs + 6 * m->prescribed_nodes[k];
-        for (int j = 0; j < 6; ++j) force[6 * k + j] = constrained_entry(m, total, d[j]);
+        for (int j = 0; j < 6; ++j) force[6 * k + j] = constrained_entry(m, reaction, d[j]);
     }
     for (int64_t j = 0; j < m->n_hinges; ++j)
-        force[6 * m->n_prescribed + j] = m->hinge_angle_law[j] >= 0 ? constrained_entry(m, total, m->hinge_dofs[j]) : 0.0;
+        force[6 * m->n_prescribed + j] = m->hinge_angle_law[j] >= 0 ? constrained_entry(m, reaction, m->hinge_dofs[j]) : 0.0;
+}
+
+/* drive_forces for Python (latdyn/timeloop/progress.py drive_forces). */
+void latdyn_drive_forces(const Model *m, const double *reaction, double *force)
+{
+    drive_forces(m, reaction, force);
+}
+
+/* `work` with the work of the prescribed motions over the step old → new added (docs/energy.md, "The work of a
+ * prescribed motion"): ½(r_n + r_{n+1}) Δq over each prescribed coordinate in drive_forces' order, r_n, r_{n+1}
+ * its reactions at the step's two ends (force_old, force_new) and Δq the coordinate's change, Δx of a prescribed
+ * body's point, the spatial rotation vector of T_{n+1} T_nᵀ (the generated so3_log_increment) and Δθ (Δs) of a
+ * prescribed hinge (guide). The trapezoidal rule in q as hinge_work's in θ: the work the discrete step received,
+ * where the time trapezoid ½h(r_n·q̇_n + r_{n+1}·q̇_{n+1}) of the power is not (a crank brought to 2 rad/s in one
+ * step, carrying a free rod, counted 0.014 J of the 1.17 J the rod received, and the run ended `unbounded`). */
+static double drive_work(const Model *m, const Configuration *old, const Configuration *new_, const double *force_old,
+                         const double *force_new, double work)
+{
+    const int64_t P = m->n_prescribed;
+    for (int64_t k = 0; k < P; ++k) {
+        const int64_t i = m->prescribed_nodes[k];
+        double increment[6];
+        for (int j = 0; j < 3; ++j) increment[j] = new_->x[3 * i + j] - old->x[3 * i + j];
+        m->so3_log_increment(1, old->T + 9 * i, new_->T + 9 * i, increment + 3);
+        for (int j = 0; j < 6; ++j) work += 0.5 * (force_old[6 * k + j] + force_new[6 * k + j]) * increment[j];
+    }
+    for (int64_t j = 0; j < m->n_hinges; ++j)
+        work += 0.5 * (force_old[6 * P + j] + force_new[6 * P + j]) * (new_->theta[j] - old->theta[j]);
+    return work;
+}
+
+/* drive_work for Python (latdyn/timeloop/progress.py drive_work). */
+double latdyn_drive_work(const Model *m, const Configuration *old, const Configuration *new_, const double *force_old,
+                         const double *force_new, double work)
+{
+    return drive_work(m, old, new_, force_old, force_new, work);
 }
 
 /* A loop of steps on the time grid (timeloop.loop's TimeLoop, for the steps it would accept as
@@ -409,23 +449,22 @@ typedef struct {
 
 /* The angle by which a free hinge's rate change over the accepted step old → new turns it over the step,
  * h |θ̇_{n+1} − θ̇_n| (≈ h² |θ̈|, the size of the step's quadratic term: a step that does not resolve the
- * hinge's motion turns it by a sizeable fraction of a radian so; latdyn/timeloop/progress.py
- * TransientProgress.note_rate_turns, the same for steps accepted from Python): per hinge into
- * adv->rate_turns the largest as [turn, t, h], and the first past adv->unresolved_turn as [turn, t, h]
- * after it. Prescribed hinges have no coordinate and are not counted. */
+ * hinge's motion turns it by a sizeable fraction of a radian so; docs/energy.md, "Steps that do not resolve a
+ * hinge"), kept per hinge in kept (n_hinges, 6): the largest as [turn, t, h], and the first past unresolved_turn
+ * as [turn, t, h] after it; t the step's end. Prescribed hinges have no coordinate and are not counted. */
 static void rate_turns(const Model *m, const Configuration *old, const Configuration *new_, double t, double h,
-                       Advance *adv)
+                       double unresolved_turn, double *kept_turns)
 {
     for (int64_t k = 0; k < m->n_free_hinges; ++k) {
         const int64_t j = m->free_hinges[k];
         const double turn = h * fabs(new_->theta_dot[j] - old->theta_dot[j]);
-        double *kept = adv->rate_turns + 6 * j;
+        double *kept = kept_turns + 6 * j;
         if (turn > kept[0]) {
             kept[0] = turn;
             kept[1] = t;
             kept[2] = h;
         }
-        if (turn > adv->unresolved_turn && kept[3] == 0.0) {
+        if (turn > unresolved_turn && kept[3] == 0.0) {
             kept[3] = turn;
             kept[4] = t;
             kept[5] = h;
@@ -433,65 +472,98 @@ static void rate_turns(const Model *m, const Configuration *old, const Configura
     }
 }
 
-/* The work of the prescribed motions over the accepted step old → new (latdyn/timeloop/progress.py
- * drive_work): ½(r_n + r_{n+1}) Δq over each prescribed coordinate (Δx of a prescribed body's point, the
- * rotation vector of T_{n+1} T_nᵀ, Δθ of a prescribed hinge or guide), the trapezoidal rule in q as
- * hinge_work's in θ, into the external work; the reactions at the new state (the last evaluation's) are
- * carried to the next step in adv->drive_force. */
-static void drive_work(const Model *m, const Work *w, const Configuration *old, const Configuration *new_,
-                       Advance *adv)
+/* rate_turns for the steps accepted from Python (latdyn/timeloop/progress.py TransientProgress.note_rate_turns). */
+void latdyn_rate_turns(const Model *m, const Configuration *old, const Configuration *new_, double t, double h,
+                       double unresolved_turn, double *kept)
 {
-    const int64_t P = m->n_prescribed;
-    double *carried = adv->drive_force;
-    for (int64_t k = 0; k < P; ++k) {
-        const int64_t i = m->prescribed_nodes[k], *d = m->node_dofs + 6 * i;
-        double increment[6];
-        for (int j = 0; j < 3; ++j) increment[j] = new_->x[3 * i + j] - old->x[3 * i + j];
-        rotation_increment(old->T + 9 * i, new_->T + 9 * i, increment + 3);
-        for (int j = 0; j < 6; ++j) {
-            const double force = constrained_entry(m, w->total, d[j]);
-            adv->external_work += 0.5 * (carried[6 * k + j] + force) * increment[j];
-            carried[6 * k + j] = force;
-        }
-    }
-    for (int64_t j = 0; j < m->n_hinges; ++j) {
-        const double force = m->hinge_angle_law[j] >= 0 ? constrained_entry(m, w->total, m->hinge_dofs[j]) : 0.0;
-        adv->external_work += 0.5 * (carried[6 * P + j] + force) * (new_->theta[j] - old->theta[j]);
-        carried[6 * P + j] = force;
+    rate_turns(m, old, new_, t, h, unresolved_turn, kept);
+}
+
+/* The work of the prescribed motions over the accepted step old → new (drive_work) into the external work, from the
+ * reactions carried in adv->drive_force and those of the new state (the last evaluation's in Work), which are
+ * carried to the next step. */
+static void accept_drive_work(const Model *m, const Work *w, const Configuration *old, const Configuration *new_,
+                              Advance *adv)
+{
+    const int64_t size = 6 * m->n_prescribed + m->n_hinges;
+    if (size == 0) return;
+    double force_new[size];
+    drive_forces(m, w->total + m->n_dofs, force_new);
+    adv->external_work = drive_work(m, old, new_, adv->drive_force, force_new, adv->external_work);
+    memcpy(adv->drive_force, force_new, sizeof(double) * (size_t)size);
+}
+
+/* The work of the hinges' torques over a step from the angles theta_old to theta_new (docs/energy.md): ∑ ½(τ_n +
+ * τ_{n+1}) Δθ of each torque that does external work (work_old, work_new: Work.hinge_work_torque at the step's two
+ * ends) into *external_work, and ∑ ½(f_n + f_{n+1}) Δθ of the dissipative torques f (the dampers' c θ̇, a compliant
+ * stop's damping, friction: Work.hinge_damper_torque; damper_old, damper_new), their dissipation, into
+ * *dissipated, hinge by hinge. The trapezoidal rule in θ, not in time: the work ∫ τ dθ the discrete step received
+ * whatever the integrator's Δθ is (with generalized-α, Δθ ≠ h (θ̇_n + θ̇_{n+1})/2, and the trapezoid of the power
+ * τ θ̇ in time is not that work); for Newmark's average acceleration and a linear hinge it closes the balance to
+ * round-off. */
+static void hinge_work(int64_t n_hinges, const double *theta_old, const double *theta_new, const double *work_old,
+                       const double *damper_old, const double *work_new, const double *damper_new,
+                       double *external_work, double *dissipated)
+{
+    for (int64_t j = 0; j < n_hinges; ++j) {
+        const double increment = theta_new[j] - theta_old[j];
+        *external_work += 0.5 * (work_old[j] + work_new[j]) * increment;
+        *dissipated += 0.5 * (damper_old[j] + damper_new[j]) * increment;
     }
 }
 
-/* The work of the hinges' torques over the accepted step old → new (latdyn/timeloop/progress.py
- * hinge_work): ∑ ½(τ_n + τ_{n+1}) Δθ, the trapezoidal rule in θ, the work the discrete step received,
- * into the external work, and ∑ ½(f_n + f_{n+1}) Δθ of the dissipative torques f (the dampers' c θ̇,
- * a compliant stop's damping, friction: Work.hinge_damper_torque), their dissipation, into the dissipated
- * energy; the torques at the new state (the last evaluation's) are carried to the next step. */
-static void hinge_work(const Model *m, const Work *w, const Configuration *old, const Configuration *new_,
-                       Advance *adv)
+/* hinge_work for the steps accepted from Python (latdyn/timeloop/progress.py hinge_work). */
+void latdyn_hinge_work(int64_t n_hinges, const double *theta_old, const double *theta_new, const double *work_old,
+                       const double *damper_old, const double *work_new, const double *damper_new,
+                       double *external_work, double *dissipated)
 {
-    for (int64_t j = 0; j < m->n_hinges; ++j) {
-        const double increment = new_->theta[j] - old->theta[j];
-        adv->external_work += 0.5 * (adv->hinge_work_torque[j] + w->hinge_work_torque[j]) * increment;
-        adv->dissipated += 0.5 * (adv->hinge_damper_torque[j] + w->hinge_damper_torque[j]) * increment;
-        adv->hinge_work_torque[j] = w->hinge_work_torque[j];
-        adv->hinge_damper_torque[j] = w->hinge_damper_torque[j];
+    hinge_work(n_hinges, theta_old, theta_new, work_old, damper_old, work_new, damper_new, external_work, dissipated);
+}
+
+/* The work of the cable elements over a step from [ℓ, L0, ∂U/∂L0, f] of each element at its start (old) to its end
+ * (new_), (n_cables, 4) each (Work.cable_work): of the rest length's generalized force r = ∂U/∂L0 over ΔL0,
+ * ½(r_n + r_{n+1}) ΔL0 (a reel's work, external: U the strain energy) into *external_work, and of each damper's
+ * dissipative force f (c ℓ̇ taut, −N_el while the damper cancels the elastic tension, 0 slack) over Δℓ,
+ * ½(f_n + f_{n+1}) Δℓ, into *dissipated, element by element. The trapezoidal rule in L0 and ℓ as hinge_work's in
+ * θ: the work the discrete step received, which the time trapezoid of the powers r L̇0 and f ℓ̇ is not
+ * (docs/cables.md measures the two). */
+static void cable_work(int64_t n_cables, const double *old, const double *new_, double *external_work,
+                       double *dissipated)
+{
+    for (int64_t e = 0; e < n_cables; ++e) {
+        const double *a = old + 4 * e, *b = new_ + 4 * e;
+        *external_work += 0.5 * (a[2] + b[2]) * (b[1] - a[1]);
+        *dissipated += 0.5 * (a[3] + b[3]) * (b[0] - a[0]);
     }
 }
 
-/* The work of the cable elements over the accepted step (latdyn/timeloop/progress.py cable_work): of
- * the rest length's generalized force ∂U/∂L0 over ΔL0, ½(r_n + r_{n+1}) ΔL0 (a reel's: external
- * work), and of each damper's dissipative force over Δℓ, ½(f_n + f_{n+1}) Δℓ (dissipated), the
- * trapezoidal rule in L0 and ℓ as hinge_work's in θ; the new state's values are carried to the next
- * step. */
-static void cable_work(const Model *m, const Work *w, Advance *adv)
+/* cable_work for the steps accepted from Python (latdyn/timeloop/progress.py cable_work). */
+void latdyn_cable_work(int64_t n_cables, const double *old, const double *new_, double *external_work,
+                       double *dissipated)
 {
-    for (int64_t e = 0; e < m->n_cables; ++e) {
-        double *old = adv->cable_work + 4 * e;
-        const double *new_ = w->cable_work + 4 * e;
-        adv->external_work += 0.5 * (old[2] + new_[2]) * (new_[1] - old[1]);
-        adv->dissipated += 0.5 * (old[3] + new_[3]) * (new_[0] - old[0]);
-        memcpy(old, new_, 4 * sizeof(double));
+    cable_work(n_cables, old, new_, external_work, dissipated);
+}
+
+/* The hinges' and the cables' work and dissipation over the accepted step old → new into the loop's sums, from the
+ * torques and the cables' values carried in adv and those of the new state (the last evaluation's in Work), which
+ * are carried to the next step. */
+static void accept_joint_work(const Model *m, const Work *w, const Configuration *old, const Configuration *new_,
+                              Advance *adv)
+{
+    hinge_work(m->n_hinges, old->theta, new_->theta, adv->hinge_work_torque, adv->hinge_damper_torque,
+               w->hinge_work_torque, w->hinge_damper_torque, &adv->external_work, &adv->dissipated);
+    if (m->n_hinges) {
+        memcpy(adv->hinge_work_torque, w->hinge_work_torque, sizeof(double) * (size_t)m->n_hinges);
+        memcpy(adv->hinge_damper_torque, w->hinge_damper_torque, sizeof(double) * (size_t)m->n_hinges);
     }
+}
+
+/* The cables' work and dissipation over the accepted step (cable_work) into the loop's sums, their values at the new
+ * state carried to the next step. */
+static void accept_cable_work(const Model *m, const Work *w, Advance *adv)
+{
+    cable_work(m->n_cables, adv->cable_work, w->cable_work, &adv->external_work, &adv->dissipated);
+    if (m->n_cables) memcpy(adv->cable_work, w->cable_work, sizeof(double) * 4 * (size_t)m->n_cables);
 }
 
 static double seconds_now(void)
@@ -533,7 +605,7 @@ int64_t latdyn_advance(const Model *m, Work *w, StepControl *s, const Configurat
         int64_t failed = latdyn_newton_step(m, w, s, base, trial, x);
         if (failed || !s->converged) {
             adv->status = 1;
-        } else if ((m->has_events && (hinge_event(m, base, trial) || cable_event(m, w))) || far_root(m, base, trial, s->h)) {
+        } else if ((m->has_events && (hinge_event(m, base, trial) || cable_event(m, w))) || far_root(m, base, trial, s->h, NULL, NULL) >= 0) {
             adv->status = 2;   /* an event, or a root a whole turn away (far_root): the caller takes the step */
         }
         if (adv->status) {
@@ -547,11 +619,11 @@ int64_t latdyn_advance(const Model *m, Work *w, StepControl *s, const Configurat
         memcpy(x->a_n, x->a_new, sizeof(double) * (size_t)n);
         adv->external_work += 0.5 * s->h * (adv->power + s->power);
         adv->power = s->power;
-        drive_work(m, w, base, trial, adv);
-        hinge_work(m, w, base, trial, adv);
-        if (adv->rate_turns) rate_turns(m, base, trial, target, s->h, adv);
+        accept_drive_work(m, w, base, trial, adv);
+        accept_joint_work(m, w, base, trial, adv);
+        if (adv->rate_turns) rate_turns(m, base, trial, target, s->h, adv->unresolved_turn, adv->rate_turns);
         latdyn_controller_states_accept(m, w, trial, target, s->h);  /* continuous controllers' states */
-        cable_work(m, w, adv);
+        accept_cable_work(m, w, adv);
         adv->steps += 1;
         if (adv->trajectory) store_accepted_step(m, adv->trajectory, trial, target, s->h, x->dx, x->a_n);
         /* the sensitivities' step after the accepted step's accounts (its evaluation at the converged state

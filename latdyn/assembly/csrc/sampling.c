@@ -136,7 +136,7 @@ static int64_t restart_after_sample(const Model *m, Work *w, Configuration *c, d
     const double power = evaluate(m, c, w, w->laws, t, 0, 1, 1.0);
     if (m->links) reduce_links(m, w, c, 0.0, 0.0, 0, 0);  /* the constrained coordinates' reactions */
     adv->power = power;
-    drive_forces(m, w->total, adv->drive_force);
+    drive_forces(m, w->total + m->n_dofs, adv->drive_force);
     for (int64_t j = 0; j < m->n_hinges; ++j) {
         adv->hinge_work_torque[j] = w->hinge_work_torque[j];
         adv->hinge_damper_torque[j] = w->hinge_damper_torque[j];
