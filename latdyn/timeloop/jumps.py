@@ -287,7 +287,10 @@ def _searched(search: str, law, t_end: float, find) -> list[float]:
               f"{json.dumps(law.source)}")
     entry = cache._load("jumps", source)
     if entry is not None and isinstance(entry.get("times"), list):
-        return [float(t) for t in entry["times"]]
+        try:
+            return [float(t) for t in entry["times"]]
+        except (TypeError, ValueError):   # an entry not written here: searched again, and written over
+            pass
     times = [float(t) for t in find()]
     cache._store("jumps", source, {"times": times}, {}, [])
     return times
