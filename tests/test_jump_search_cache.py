@@ -3,7 +3,7 @@
 A law's jumps over (0, t_end] (its values', its prescribed rate's kinks, its prescribed acceleration's jumps:
 latdyn.timeloop.jumps) are a function of its text (parameters substituted), of the search and of t_end: a
 process whose laws were searched before reads the instants back from the laws' cache (the spin-up's start
-swept and halved ≈ 50 × 4 098 samples three times, 12 of its ≈ 210 ms process). These tests type the
+swept and halved ≈ 50 × 4 098 samples three times, 13–14 ms of CPU). These tests type the
 scenes as YAML: a warm process searches nothing and runs to the same numbers; a changed law, parameter,
 t_end or search is searched afresh (exact instants: the laws' own); a restart at a jump does not search
 the laws again (before, the first restart searched all three ways once more)."""

@@ -37,11 +37,12 @@ What a search of one law finds (its values' jumps, its rate's kinks, its acceler
 function of the law's text (its parameters substituted), of which kind of law it is and of t_end alone:
 it is kept in the laws' cache beside the compiled law (latdyn.scene.expressions, :func:`_searched`), so
 that a process whose laws were searched before reads the instants back instead of sweeping and halving
-again (≈ 50 evaluations of 4 098 samples a search: 12 of the spin-up's ≈ 210 ms process). A law that
-names inputs is searched every time (its values follow the inputs' current values, as its compiled
-law is never cached). A run's start searches once (:func:`searched_jumps`): the refusal of a prescribed
-position that jumps, the instants the steps land on and the restarts' prescribed accelerations
-(:func:`acceleration_only_jumps`) are all taken from that one search.
+again (≈ 50 evaluations of 4 098 samples a search: 13–14 ms of CPU at the spin-up's start,
+docs/performance.md "Eleventh pass"). A law that names inputs is searched every time (its values follow
+the inputs' current values, as its compiled law is never cached). A run's start searches once
+(:func:`searched_jumps`): the refusal of a prescribed position that jumps, the instants the steps land
+on and the restarts' prescribed accelerations (:func:`acceleration_only_jumps`) are all taken from that
+one search.
 
 Jumps in ``theta``, ``s`` or their rates are the state's (stops and latches are events of their own)
 and are not searched for here; a table of t is continuous (its kinks are not jumps); a sampled
