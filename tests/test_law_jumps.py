@@ -159,21 +159,22 @@ def test_a_runs_start_searches_the_laws_for_jumps_once(monkeypatch):
     """The start of a transient run asks twice whether a law jumps (the refusal of a prescribed position that
     jumps, and the instants the steps land on): the laws' values are searched once
     (latdyn.timeloop.jumps.law_jumps; before, twice: 7 of the spin-up's 24 ms at its start). The spin-up's
-    Piecewise angle, cut to 1 s: one search of its text, and the run as before."""
+    Piecewise angle, cut to 1 s: each search of its text (its values, its rate, its acceleration: read from the
+    laws' cache or made, latdyn.timeloop.jumps._searched) once, and the run as before."""
     from pathlib import Path
 
     import latdyn.timeloop.jumps as jumps
 
     searched = []
-    law_jumps = jumps._law_jumps
+    lookup = jumps._searched
 
-    def counted(law, *args, **kwargs):
-        searched.append(law.source)
-        return law_jumps(law, *args, **kwargs)
+    def counted(search, law, *args, **kwargs):
+        searched.append(search)
+        return lookup(search, law, *args, **kwargs)
 
-    monkeypatch.setattr(jumps, "_law_jumps", counted)
+    monkeypatch.setattr(jumps, "_searched", counted)
     data = yaml.safe_load((Path(__file__).resolve().parents[1] / "examples" / "spinup.yaml").read_text())
     data["solve"]["t_end"] = 1.0
     result = latdyn.run(latdyn.load_scene(data))
     assert result.summary["status"] == "solved"
-    assert len(searched) == 1, searched
+    assert sorted(searched) == ["accelerations", "rates", "values"], searched

@@ -33,13 +33,26 @@ ends the run :data:`JUMP_SIDE` · dt before it. Each step then integrates a smoo
 converges at its method's order again (a rigid arm under ``2*Heaviside(t - 0.013)``, exact
 θ = τ(t − t₀)²/2J: tests/test_law_jumps.py).
 
+What a search of one law finds (its values' jumps, its rate's kinks, its acceleration's jumps) is a
+function of the law's text (its parameters substituted), of which kind of law it is and of t_end alone:
+it is kept in the laws' cache beside the compiled law (latdyn.scene.expressions, :func:`_searched`), so
+that a process whose laws were searched before reads the instants back instead of sweeping and halving
+again (≈ 50 evaluations of 4 098 samples a search: 13–14 ms of CPU at the spin-up's start,
+docs/performance.md "Eleventh pass"). A law that names inputs is searched every time (its values follow
+the inputs' current values, as its compiled law is never cached). A run's start searches once
+(:func:`searched_jumps`): the refusal of a prescribed position that jumps, the instants the steps land
+on and the restarts' prescribed accelerations (:func:`acceleration_only_jumps`) are all taken from that
+one search.
+
 Jumps in ``theta``, ``s`` or their rates are the state's (stops and latches are events of their own)
 and are not searched for here; a table of t is continuous (its kinks are not jumps); a sampled
 controller's output jumps at its samples, which restart the run already (latdyn.timeloop.sampling).
 """
 from __future__ import annotations
 
+import json
 import re
+from typing import NamedTuple
 
 import numpy as np
 
@@ -58,20 +71,37 @@ JUMP_SIDE = 1e-9
 CONTINUOUS = 1e-6
 
 
+class LawJumps(NamedTuple):
+    """What a run's start finds searching the laws of its scene once, each a list of (key, time):
+    ``values``, the jumps of a law's value (:func:`law_jumps`); ``rates``, the kinks of a prescribed
+    position (:func:`prescribed_rate_kinks`); ``accelerations``, the jumps of a prescribed position's
+    acceleration (:func:`prescribed_acceleration_jumps`)."""
+
+    values: list
+    rates: list
+    accelerations: list
+
+
+def searched_jumps(scene, t_end: float) -> LawJumps:
+    """Every search of ``scene``'s laws over (0, ``t_end``], once for a run's start, which asks it three times
+    (:func:`prescribed_position_jump`, :func:`jump_times`, :func:`acceleration_only_jumps`)."""
+    return LawJumps(law_jumps(scene, t_end), prescribed_rate_kinks(scene, t_end),
+                    prescribed_acceleration_jumps(scene, t_end))
+
+
 def law_jumps(scene, t_end: float) -> list[tuple[str, float]]:
-    """(key, time) of every jump in t of a law of ``scene``'s value (:func:`_jumps`), searched once for a run's
-    start, which asks it twice (:func:`prescribed_position_jump`, :func:`jump_times`)."""
+    """(key, time) of every jump in t of a law of ``scene``'s value (:func:`_jumps`)."""
     return list(_jumps(scene, t_end))
 
 
-def jump_times(scene, t_end: float, found: list | None = None) -> np.ndarray:
+def jump_times(scene, t_end: float, found: LawJumps | None = None) -> np.ndarray:
     """The sorted instants in (0, ``t_end``] where a law of ``scene`` jumps in t (module docstring);
-    empty where none does (``found``: :func:`law_jumps` of the scene, where searched already). A jump within
-    1e-12 · t_end of t_end is at t_end (the last step lands :data:`JUMP_SIDE` · dt before it); jumps within
-    1e-12 · t_end of each other are one."""
-    found = (law_jumps(scene, t_end) if found is None else list(found)) \
-        + prescribed_acceleration_jumps(scene, t_end) + prescribed_rate_kinks(scene, t_end)
-    times = sorted(_in_run(t, t_end) for _, t in found if _in_run(t, t_end) is not None)
+    empty where none does (``found``: :func:`searched_jumps` of the scene, where searched already). A jump
+    within 1e-12 · t_end of t_end is at t_end (the last step lands :data:`JUMP_SIDE` · dt before it); jumps
+    within 1e-12 · t_end of each other are one."""
+    found = searched_jumps(scene, t_end) if found is None else found
+    times = sorted(_in_run(t, t_end) for _, t in found.values + found.accelerations + found.rates
+                   if _in_run(t, t_end) is not None)
     merged: list[float] = []
     for t in times:
         if not merged or t - merged[-1] > 1e-12 * t_end:
@@ -91,15 +121,15 @@ _PRESCRIBED_POSITION = re.compile(r"(\.hinge\.angle|\.guide\.position|\.motion\.
                                   r"\.motion\.rotation\.angle)$")
 
 
-def prescribed_position_jump(scene, t_end: float, found: list | None = None) -> tuple[str, float] | None:
+def prescribed_position_jump(scene, t_end: float, found: LawJumps | None = None) -> tuple[str, float] | None:
     """(key, time) of the first jump in t, in (0, ``t_end``], of a law that prescribes a position (a hinge's
     ``angle``, a guide's ``position``, a body's ``motion``), else None. Such a jump is no motion: it
     would move the joint (and what it carries) by a finite amount in no time, at an infinite rate, and
     the run restarted from the new position as if it had always been there (a rigid link turned 0.5 rad
     in no time, `solved`; a flexible arm so moved ended with 8.3 J it had received from nowhere). A jump
     of the *rate* (a kink, ``Piecewise((0, t < 0.5), (t - 0.5, True))``) is not a jump of the law's value
-    and is not searched for here (``found``: :func:`law_jumps` of the scene, where searched already)."""
-    for key, t in (_jumps(scene, t_end) if found is None else found):
+    and is not searched for here (``found``: :func:`searched_jumps` of the scene, where searched already)."""
+    for key, t in (_jumps(scene, t_end) if found is None else found.values):
         if _PRESCRIBED_POSITION.search(key) and _in_run(t, t_end) is not None:
             return key, float(t)
     return None
@@ -119,19 +149,22 @@ def prescribed_rate_kinks(scene, t_end: float) -> list[tuple[str, float]]:
         rate = getattr(law, "rate", None)
         if rate is None or getattr(law, "is_constant", False):
             continue
-        found.extend((key, float(time)) for time in
-                     _jumps_of_values(lambda t, rate=rate: np.asarray(rate(np.asarray(t, float)), float), t_end)
+        found.extend((key, float(time)) for time in _searched(
+            "rates", law, t_end, lambda rate=rate: _jumps_of_values(
+                lambda t: np.asarray(rate(np.asarray(t, float)), float), t_end))
                      if 0.0 < time <= t_end * (1 + 1e-12))
     return found
 
 
-def acceleration_only_jumps(scene, t_end: float) -> np.ndarray:
+def acceleration_only_jumps(scene, t_end: float, found: LawJumps | None = None) -> np.ndarray:
     """The instants of :func:`prescribed_acceleration_jumps` where nothing else jumps (no law's value,
     no prescribed rate: :func:`jump_times`' other sources, within 1e-12 · t_end): there the restart
     changes the free accelerations by the response to the change of the prescribed ones alone
-    (latdyn.timeloop.impulse.prescribed_acceleration_jump) instead of solving them again."""
-    others = [t for _, t in list(_jumps(scene, t_end)) + prescribed_rate_kinks(scene, t_end)]
-    return np.array(sorted({float(t) for _, t in prescribed_acceleration_jumps(scene, t_end)
+    (latdyn.timeloop.impulse.prescribed_acceleration_jump) instead of solving them again (``found``:
+    :func:`searched_jumps` of the scene, where searched already)."""
+    found = searched_jumps(scene, t_end) if found is None else found
+    others = [t for _, t in found.values + found.rates]
+    return np.array(sorted({float(t) for _, t in found.accelerations
                             if all(abs(t - u) > 1e-12 * t_end for u in others)}), dtype=float)
 
 
@@ -161,8 +194,9 @@ def prescribed_acceleration_jumps(scene, t_end: float) -> list[tuple[str, float]
         accel = getattr(law, "accel", None)
         if accel is None or _values_in_time(law) is None:
             continue
-        found.extend((key, time) for time in _jumps_of_values(
-            lambda t, accel=accel: np.asarray(accel(np.asarray(t, float)), float), t_end))
+        found.extend((key, time) for time in _searched(
+            "accelerations", law, t_end, lambda accel=accel: _jumps_of_values(
+                lambda t: np.asarray(accel(np.asarray(t, float)), float), t_end)))
     return found
 
 
@@ -225,8 +259,42 @@ def _jumps(scene, t_end: float):
             continue
         same = (law.source, hasattr(law, "d_theta"))   # laws of one text jump alike: searched once a scene
         if same not in searched:
-            searched[same] = _law_jumps(law, values, t_end, side)
+            searched[same] = _searched("values", law, t_end,
+                                       lambda law=law, values=values: _law_jumps(law, values, t_end, side))
         yield from ((key, time) for time in searched[same])
+
+
+#: what a search depends on beside the law and t_end: this module's source (the search itself), NumPy's
+#: version (the law's values), :data:`SAMPLES` and :data:`CONTINUOUS` (read at the search: a test may set them)
+_SEARCH: list[str] = []
+
+
+def _searched(search: str, law, t_end: float, find) -> list[float]:
+    """The times ``find()`` gives, the ``search`` (``"values"``, ``"rates"`` or ``"accelerations"``) of ``law``
+    over (0, ``t_end``]: read from the laws' cache where an earlier process searched the same (the law's text,
+    its kind of law, the search, t_end and the search's own code: :data:`_SEARCH`), else found and kept there.
+    A law that names inputs is searched every time (its values follow the inputs' current values)."""
+    if getattr(law, "input_names", None):
+        return find()
+    from latdyn.scene import expressions as cache
+
+    if not _SEARCH:
+        from pathlib import Path
+
+        from latdyn.native import source_digest
+
+        _SEARCH.append(source_digest(Path(__file__).read_bytes(), np.__version__))
+    source = (f"jump times 1:{_SEARCH[0]}:{SAMPLES!r}:{CONTINUOUS!r}:{search}:{type(law).__name__}:{float(t_end)!r}:"
+              f"{json.dumps(law.source)}")
+    entry = cache._load("jumps", source)
+    if entry is not None and isinstance(entry.get("times"), list):
+        try:
+            return [float(t) for t in entry["times"]]
+        except (TypeError, ValueError):   # an entry not written here: searched again, and written over
+            pass
+    times = [float(t) for t in find()]
+    cache._store("jumps", source, {"times": times}, {}, [])
+    return times
 
 
 def _law_jumps(law, values, t_end: float, side: float) -> list[float]:

@@ -102,11 +102,14 @@ class TimeLoop:
     (:class:`TransientProgress`), its rows (writer, probes) and its checkpoints.
 
     ``compiled_loop``: whether steps between rows run in C where the integrator can;
-    ``loop_budget_s``: wall time after which that loop comes back to Python before the next row."""
+    ``loop_budget_s``: wall time after which that loop comes back to Python before the next row;
+    ``drive_jumps``: the instants a prescribed acceleration alone jumps
+    (latdyn.timeloop.jumps.acceleration_only_jumps of the start's search), None: searched at the first restart."""
 
     def __init__(self, prepared: Prepared, integrator, probes: ProbeSet, writer: ResultWriter,
                  control: StepControl, *, tol: float, checkpointer: checkpoints.Checkpointer | None = None,
-                 compiled_loop: bool = True, loop_budget_s: float = 0.25, sampler=None, sensitivities=None):
+                 compiled_loop: bool = True, loop_budget_s: float = 0.25, sampler=None, sensitivities=None,
+                 drive_jumps: np.ndarray | None = None):
         self.prepared, self.model, self.assembler = prepared, prepared.model, prepared.assembler
         self.integrator, self.probes, self.writer, self.control = integrator, probes, writer, control
         self.tol, self.checkpointer = tol, checkpointer
@@ -134,7 +137,7 @@ class TimeLoop:
         #: the state of the last trial step the integrator took (:meth:`_step`; what it holds is that trial's)
         self._last_trial: State | None = None
         self.unbounded = False  # the energy balance broke (_judge_balance)
-        self._drive_jumps = None  # the instants a prescribed acceleration alone jumps (_drive_alone_jumped)
+        self._drive_jumps = drive_jumps  # the instants a prescribed acceleration alone jumps (_drive_alone_jumped)
         self.bar = None
 
     # ------------------------------------------------------------------------- start, resume
@@ -345,7 +348,7 @@ class TimeLoop:
 
     def _drive_alone_jumped(self, t: float) -> bool:
         """Whether the restart at ``t`` follows a jump of a prescribed acceleration alone
-        (latdyn.timeloop.jumps.acceleration_only_jumps, found once a run)."""
+        (latdyn.timeloop.jumps.acceleration_only_jumps, from the run's start's search of the laws)."""
         if self._drive_jumps is None:
             self._drive_jumps = acceleration_only_jumps(self.model.scene, self.control.t_end)
         near = 1e-12 * self.control.t_end + 2.0 * self.control.jump_side

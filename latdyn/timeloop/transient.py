@@ -13,7 +13,7 @@ from latdyn.results.writer import ResultWriter
 from latdyn.step.integrators import AlphaParameters, CentralDifference, newmark_warning
 from latdyn.timeloop import checkpoint as checkpoints
 from latdyn.timeloop.control import StepControl
-from latdyn.timeloop.jumps import jump_times, law_jumps, prescribed_position_jump
+from latdyn.timeloop.jumps import acceleration_only_jumps, jump_times, prescribed_position_jump, searched_jumps
 from latdyn.timeloop.loop import TimeLoop
 from latdyn.timeloop.progress import TransientProgress
 from latdyn.timeloop.sampling import SampledControllers
@@ -85,18 +85,18 @@ def start_transient(prepared: Prepared, probes: ProbeSet, writer: ResultWriter,
     integrator = integrator_for(prepared, tol, length, writer.summary)
     sampler = SampledControllers(scene, probes)
     t_end = float(scene.solve.t_end)
-    laws_jump = law_jumps(scene, t_end)   # searched once: the refusal below and the steps' landings
-    jumped = prescribed_position_jump(scene, t_end, laws_jump)
+    found = searched_jumps(scene, t_end)   # searched once: the refusal below, the steps' landings, the restarts
+    jumped = prescribed_position_jump(scene, t_end, found)
     if jumped is not None:
         raise SceneError(scene.file, jumped[0],
                          f"the prescribed position jumps at t = {jumped[1]:.9g}: a joint or body would move a finite "
                          "distance in no time (an infinite rate); expected a law continuous in t (a steep ramp "
                          "where a fast move is meant; a jump of the rate, a kink, is allowed)")
     control = StepControl(scene.solve, scene.output.every, length,
-                          instants=sampler.instants(t_end) if sampler else None, jumps=jump_times(scene, t_end, laws_jump))
+                          instants=sampler.instants(t_end) if sampler else None, jumps=jump_times(scene, t_end, found))
     loop = TimeLoop(prepared, integrator, probes, writer, control, tol=tol, checkpointer=checkpointer,
                     compiled_loop=COMPILED_LOOP, loop_budget_s=LOOP_BUDGET_S, sampler=sampler,
-                    sensitivities=sensitivities)
+                    sensitivities=sensitivities, drive_jumps=acceleration_only_jumps(scene, t_end, found))
     loop.begin(resume_from)
     for warning in prepared.assembler.initial_warnings:  # loops the initial velocity does not close (a resumed
         writer.warn(warning)  # run's summary says so as the whole run's does)
