@@ -545,7 +545,7 @@ def test_the_consistent_start_without_scipy_is_the_splits_to_round_off(monkeypat
     from latdyn.assembly.prepare import prepare
 
     prepared = prepare(lattice(4, 4))
-    assert integrators._start_without_scipy(prepared.model)
+    assert integrators.start_without_scipy(prepared.model)
     rng = np.random.default_rng(5)
     state = prepared.state.copy()
     state.x[:] += 1e-3 * rng.standard_normal(state.x.shape)
@@ -553,7 +553,7 @@ def test_the_consistent_start_without_scipy_is_the_splits_to_round_off(monkeypat
     state.w[:] += 0.1 * rng.standard_normal(state.w.shape)
     evaluation = prepared.assembler.evaluate(state, matrices=True)
     ours = integrators.consistent_acceleration(prepared.model, evaluation)
-    monkeypatch.setattr(integrators, "_start_without_scipy", lambda model: False)  # restored after the test
+    monkeypatch.setattr(integrators, "start_without_scipy", lambda model: False)  # restored after the test
     theirs = integrators.consistent_acceleration(prepared.model, evaluation)
     largest = np.max(np.abs(theirs))
     assert largest > 1.0 and np.max(np.abs(ours - theirs)) <= 1e-12 * largest

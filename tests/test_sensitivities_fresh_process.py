@@ -108,3 +108,59 @@ def test_an_on_demand_kernel_from_its_index_entry_is_the_one_compiled(monkeypatc
     monkeypatch.setattr(kernels, "_LOADED", {})
     again = kernels.load_kernels("c", "default_xy")
     assert again.library("beam_inertia_tangent")._name == made.library("beam_inertia_tangent")._name
+
+
+#: A 3D cantilever of 25 elements (150 coordinates: above the dense LU's 120, its step on the band LU), bent about
+#: both axes by a load whose amplitude is a parameter, its bending stiffness another: the assembler's sparse
+#: pattern in the start's M and C and in the step's matrix S.
+CANTILEVER = """\
+parameters: {P: 3.0, EI: 60.0}
+sections:
+  s: {EA: 1.0e6, EIy: EI, EIz: 80, GJ: 40, rhoA: 1.0, rhoIy: 0.01, rhoIz: 0.02}
+bodies:
+  base: {at: [0, 0, 0], fixed: true}
+beams:
+  arm: {from: base, to: [3.0, 1.0, 0.5], section: s, elements: 25}
+loads:
+  - {at: arm.end, force: ["0.1*P", "-P", "0.3*P"]}
+solve: {analysis: transient, dt: 0.002, t_end: 0.02, sensitivities: [P, EI]}
+output:
+  every: 0.01
+  probes:
+    tip_z: {point: arm.end, quantity: position, component: z}
+    tip_y: {point: arm.end, quantity: displacement, component: y}
+"""
+
+
+def test_a_fresh_sensitivity_run_of_a_small_model_does_not_import_scipy_sparse(tmp_path, monkeypatch):
+    """docs/performance.md, "A sensitivity run's start (issue 34)": a model the dense or band LU serves takes the
+    start's M and C as latdyn.numerics.csr's CSR and keeps the step matrix's C and K as values, so a fresh
+    ``latdyn run`` with ``solve.sensitivities`` does not import scipy.sparse (≈ 0.1 s of CPU); its files are those of
+    the start through SciPy's CSR (the API, the CSR start switched off), to the bit."""
+    import latdyn
+    from latdyn.analyses import transient_sensitivities
+
+    hook = tmp_path / "hook"
+    hook.mkdir()
+    (hook / "sitecustomize.py").write_text(_MODULES_HOOK)
+    environment = {**os.environ, "PYTHONPATH": os.pathsep.join([str(hook), str(SOURCE)])}
+    monkeypatch.setattr(transient_sensitivities, "start_without_scipy", lambda model: False)
+    for name, text in (("arm", SCENE), ("cantilever", CANTILEVER)):   # 12 and 150 coordinates
+        scene = tmp_path / f"{name}.yaml"
+        scene.write_text(text)
+        listing = tmp_path / f"{name}.json"
+        for out in ("warm", "fresh"):   # the first may compile the scene's laws; the second is a user's next run
+            done = subprocess.run([sys.executable, "-m", "latdyn", "run", str(scene), "-o", str(tmp_path / out / name),
+                                   "-q"], capture_output=True, text=True, timeout=900, cwd=tmp_path,
+                                  env={**environment, "LATDYN_TEST_MODULES": str(listing)})
+            assert done.returncode == 0, done.stderr
+        modules = set(json.loads(listing.read_text()))
+        assert "latdyn.analyses.transient_sensitivities" in modules   # the hook saw the run
+        sparse = sorted(m for m in modules if m == "scipy.sparse" or m.startswith("scipy.sparse."))
+        assert sparse == [], f"{name}: {sparse[:3]} imported"
+        latdyn.run(latdyn.load_scene(str(scene)), str(tmp_path / "scipy" / name))
+        for written in ("sensitivities.csv", "probes.csv"):
+            fresh, through_scipy = ((tmp_path / out / name / written).read_bytes() for out in ("fresh", "scipy"))
+            assert fresh == through_scipy, f"{name}: {written}"
+        rows = np.genfromtxt(tmp_path / "fresh" / name / "sensitivities.csv", delimiter=",", names=True)
+        assert np.all(np.isfinite(rows["tip_yP"])) and np.any(rows["tip_yP"] != 0.0)

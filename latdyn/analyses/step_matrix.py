@@ -69,8 +69,6 @@ class ExactStepMatrix:
         self._term_block = term_block.ravel()[keep][order]
         self._term_place = term_place[order]
         self.factorization = Factorization(self.rows, self.cols, n, kind=kind)
-        import scipy.sparse as sps   # on use, as in latdyn.assembly.assembler
-
         indptr = np.asarray(indptr, np.int64)
         #: the native call's pattern (csrc/sensitivity_step.c ``SensitivityStep``), its arrays held here
         self._held = [np.ascontiguousarray(a, np.int64) for a in (
@@ -81,8 +79,36 @@ class ExactStepMatrix:
             n, nnz, self.size, len(self._plain), len(self._term_place), *(a.ctypes.data for a in self._held),
             ctypes.pointer(self.factorization.structure))
         self._library = native_library()
-        #: C and K of the last :meth:`factor` (SciPy CSR on K's pattern: their values replaced each step)
-        self.damping, self.stiffness = (sps.csr_matrix((np.zeros(nnz), cols, indptr), shape=(n, n)) for _ in range(2))
+        #: the values of C and K of the last :meth:`factor` or :meth:`solve_step` on K's pattern (replaced in
+        #: place each step); as SciPy matrices (:attr:`damping`, :attr:`stiffness`) only where asked for:
+        #: importing scipy.sparse costs a fresh run ≈ 0.1 s of CPU (docs/performance.md, "A sensitivity run's
+        #: start (issue 34)"), and the forward step in C and its Python path need them not
+        self._held_values = np.zeros((2, nnz))
+        self._indptr, self._indices = indptr, cols
+        self._held_matrices = None
+
+    @property
+    def damping(self):
+        """C of the last :meth:`factor` (SciPy CSR on K's pattern sharing the held values: the adjoint's Cᵀ)."""
+        return self._matrices()[0]
+
+    @property
+    def stiffness(self):
+        """K of the last :meth:`factor` (SciPy CSR on K's pattern sharing the held values: the adjoint's Kᵀ)."""
+        return self._matrices()[1]
+
+    def _matrices(self) -> tuple:
+        """C and K as SciPy CSR matrices whose data are the held values (made on first use)."""
+        if self._held_matrices is None:
+            import scipy.sparse as sps   # on use: the adjoint's transposes, the sparse LU's failed pivot
+
+            n = self.n
+            made = tuple(sps.csr_matrix((values, self._indices, self._indptr), shape=(n, n), copy=False)
+                         for values in self._held_values)
+            if not all(np.shares_memory(m.data, v) for m, v in zip(made, self._held_values)):
+                raise AssertionError("ExactStepMatrix: SciPy copied the held values")
+            self._held_matrices = made
+        return self._held_matrices
 
     def values(self, values: np.ndarray, blocks: np.ndarray, beta_p: float, gamma_p: float) -> np.ndarray:
         """S's values on its pattern (``rows``, ``cols``) from ``values`` (3, nnz: M, C, K on K's pattern)
@@ -94,7 +120,7 @@ class ExactStepMatrix:
         """Factorize S (:meth:`values`) in one native call and keep C and K for the right-hand sides
         (``damping``, ``stiffness``); returns the factorization (``solve`` and ``solve_transposed`` its
         columns: the adjoint's reverse step). Raises ``np.linalg.LinAlgError`` for a singular S."""
-        self.damping.data[:], self.stiffness.data[:] = values[1], values[2]
+        self._held_values[:] = values[1:3]
         self._factored(self._native(values, blocks, beta_p, gamma_p, 0))
         return self.factorization
 
@@ -106,7 +132,7 @@ class ExactStepMatrix:
         :class:`~latdyn.assembly.factorization.Factorization` falls back to solves the same right-hand sides
         (formed by SciPy: the one path the native call does not cover). Raises ``np.linalg.LinAlgError``
         for a singular S."""
-        self.damping.data[:], self.stiffness.data[:] = values[1], values[2]
+        self._held_values[:] = values[1:3]
         k = explicit.shape[1]
         z = np.empty((self.n, k))
         info = self._native(values, blocks, beta_p, gamma_p, k, (explicit, dq0, dv0), z)

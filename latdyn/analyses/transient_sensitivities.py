@@ -132,13 +132,14 @@ from latdyn.analyses.step_matrix import ExactStepMatrix, turns_about_one_axis
 from latdyn.analyses.weight_derivative import (configuration_tangent_of_weight, needs_the_kernel,
                                                refuse_without_kernel, stiffness_moving_with_rates)
 from latdyn.assembly.assembler import free_acceleration, free_velocity, pack, unpack_free
-from latdyn.assembly.factorization import factorization_for, solve_linear
+from latdyn.assembly.factorization import factorization_for, solve_linear, solve_linear_csr
 from latdyn.errors import SceneError, SolverError
 from latdyn.model.model import lock_tolerance
+from latdyn.numerics.csr import CSR
 from latdyn.numerics.inertia import split_inertia
 from latdyn.numerics.linalg import issparse
 from latdyn.scene.expressions import TimeFunction, _drop_deltas
-from latdyn.step.integrators import consistent_acceleration
+from latdyn.step.integrators import consistent_acceleration, start_without_scipy
 from latdyn.timeloop.events import cable_gaps, first_crossing, lock_events, may_stick, sticking_hinges, stop_hits
 from latdyn.timeloop.impulse import hinge_directions, massless_element_stiffness
 
@@ -243,7 +244,7 @@ class TransientSensitivities(ParameterDerivatives):
         if n == 0 or k == 0:
             return carried
         ev = self.assembler.evaluate(state, matrices=True)
-        split = split_inertia(model, ev.combined(1.0, 0.0, 0.0))
+        mass, split = self._start_mass(ev)
         self._refuse_events(ev, split)
         #: whether an impulse's weight is M + dt²K alone (a stick's jump: :meth:`_stick_or_release`)
         self._impulse_weighted = not (split.n_massless or massless_element_stiffness(ev) is not None)
@@ -258,22 +259,39 @@ class TransientSensitivities(ParameterDerivatives):
         sampled = self._sampled_controllers()
         if sampled is not None:  # the sample at t = 0 (before the start): its held δy for ∂r/∂p
             carried = {**carried, **sampled.start(state, k)}
-        rhs = self.residual_derivatives(state, 1.0, inertia=True) + ev.combined(0.0, 1.0, 0.0) @ dv
+        damping = ev.combined_csr(0.0, 1.0, 0.0) if isinstance(mass, CSR) else ev.combined(0.0, 1.0, 0.0)
+        rhs = self.residual_derivatives(state, 1.0, inertia=True) + _times(damping, dv)
         dq = zero
         if self.geometry is not None:   # geometry parameters move the start: δq_0 = δX, through the exact K,
             dq = self.geometry.initial_tangent()   # and the rigid spin's velocities δv_0 = ω × δX, through C
             moved = self.geometry.initial_velocity_tangent()
             dv = dv + moved
-            rhs = rhs + self._matrices(state)[2] @ dq + ev.combined(0.0, 1.0, 0.0) @ moved
+            rhs = rhs + self._matrices(state)[2] @ dq + _times(damping, moved)
         if states is not None:
             self.controllers.held = {}
         if split.n_massless == 0:   # Δ = −M⁻¹r: one factorization for every column
-            dvdot = -np.asarray(solve_linear(ev.combined(1.0, 0.0, 0.0), rhs)).reshape(n, k)
+            solved = solve_linear_csr(mass, rhs) if isinstance(mass, CSR) else solve_linear(mass, rhs)
+            dvdot = -np.asarray(solved).reshape(n, k)
         else:
             dvdot = np.column_stack([consistent_acceleration(model, SimpleNamespace(residual=rhs[:, c],
                                                                                     combined=ev.combined))
                                      for c in range(k)])
         return {**carried, "dq": dq, "dv": dv, "dvdot": dvdot, "da": dvdot.copy()}
+
+    def _start_mass(self, ev) -> tuple:
+        """(M, its split into directions with and without inertia) at the start, M as the run's own start takes
+        it (:func:`latdyn.step.integrators.consistent_acceleration`): where that start needs no SciPy (a model
+        above the dense LU's size, without rigid links, every direction with inertia) a
+        :class:`latdyn.numerics.csr.CSR` — the same entries, products and factors as SciPy's CSR, so the same
+        start to the bit (latdyn.numerics.csr, :func:`latdyn.assembly.factorization.solve_linear_csr`) without
+        importing scipy.sparse —, else :meth:`Evaluation.combined`'s (dense up to DENSE_LIMIT coordinates)."""
+        if start_without_scipy(self.model):
+            mass = ev.combined_csr(1.0, 0.0, 0.0)
+            split = split_inertia(self.model, mass)
+            if split.n_massless == 0:
+                return mass, split
+        mass = ev.combined(1.0, 0.0, 0.0)
+        return mass, split_inertia(self.model, mass)
 
     def _initial_velocities(self) -> np.ndarray:
         """δv_0 (n, k): the initial state's free velocities with the rigid motion's components moved by
@@ -1543,6 +1561,18 @@ def _controller_time_rates(owner):
     rates.partials = {c.name: {0: sp.lambdify(c.symbols, _drop_deltas(sp.diff(c.output_expr, c.symbols[0])),
                                               modules=["math", "numpy"])} for c in timed}
     return rates
+
+
+def _times(matrix, columns: np.ndarray) -> np.ndarray:
+    """``matrix @ columns`` (n, k) for a NumPy array, a SciPy sparse matrix or a :class:`latdyn.numerics.csr.CSR`
+    (column by column: SciPy's ``csr_matvecs`` adds each row's products in the stored order from 0, as
+    :meth:`~latdyn.numerics.csr.CSR.matvec` does, so the same values to the bit)."""
+    if not isinstance(matrix, CSR):
+        return matrix @ columns
+    out = np.empty((matrix.shape[0], columns.shape[1]))
+    for c in range(columns.shape[1]):
+        out[:, c] = matrix.matvec(columns[:, c])
+    return out
 
 
 def _depends(law) -> tuple:

@@ -146,7 +146,7 @@ def consistent_acceleration(model, ev) -> np.ndarray:
     equilibrium prescribes to first order, Q_cᵀ K Q_c y_c = −Q_cᵀ K Q_m y_m.  No artificial
     inertia is added anywhere.
     """
-    if _start_without_scipy(model):
+    if start_without_scipy(model):
         M = ev.combined_csr(1.0, 0.0, 0.0)
         if not split_inertia(model, M).n_massless:
             return inverse_mass_times(M, -ev.residual)
@@ -183,11 +183,12 @@ def inverse_mass_times(M, vector: np.ndarray) -> np.ndarray:
     return scale * solve_linear_csr(scaled, scale * vector)
 
 
-def _start_without_scipy(model) -> bool:
+def start_without_scipy(model) -> bool:
     """Whether the start solves for its accelerations on the mass matrix's own CSR without SciPy
     (:func:`inverse_mass_times` where every direction has inertia; latdyn.numerics.csr): a model above
     the dense LU's size, without rigid links, whose step's band LU orders its pattern without SciPy too
-    (numerics.linalg.RCM_IN_PYTHON); importing scipy.sparse costs ≈0.1 s of CPU."""
+    (numerics.linalg.RCM_IN_PYTHON); importing scipy.sparse costs ≈0.1 s of CPU. The transient sensitivities'
+    start takes its M the same way (:meth:`latdyn.analyses.transient_sensitivities.TransientSensitivities.start`)."""
     return model.links is None and DENSE_LIMIT < model.n_dofs <= RCM_IN_PYTHON
 
 
