@@ -103,11 +103,11 @@ class ExactStepMatrix:
             import scipy.sparse as sps   # on use: the adjoint's transposes, the sparse LU's failed pivot
 
             n = self.n
-            made = tuple(sps.csr_matrix((values, self._indices, self._indptr), shape=(n, n), copy=False)
-                         for values in self._held_values)
-            if not all(np.shares_memory(m.data, v) for m, v in zip(made, self._held_values)):
-                raise AssertionError("ExactStepMatrix: SciPy copied the held values")
-            self._held_matrices = made
+            self._held_matrices = tuple(sps.csr_matrix((values, self._indices, self._indptr), shape=(n, n), copy=False)
+                                        for values in self._held_values)
+        for matrix, values in zip(self._held_matrices, self._held_values):
+            if not np.shares_memory(matrix.data, values):   # a SciPy that copied them: the last step's values
+                matrix.data[:] = values
         return self._held_matrices
 
     def values(self, values: np.ndarray, blocks: np.ndarray, beta_p: float, gamma_p: float) -> np.ndarray:
