@@ -115,8 +115,9 @@ def test_an_on_demand_kernel_from_its_index_entry_is_the_one_compiled(monkeypatc
 def test_a_fresh_sensitivity_run_of_a_small_model_does_not_import_scipy_sparse(tmp_path, monkeypatch):
     """docs/performance.md, "A sensitivity run's start (issue 34)": a model the dense or band LU serves takes the
     start's M and C as latdyn.numerics.csr's CSR and keeps the step matrix's C and K as values, so a fresh
-    ``latdyn run`` with ``solve.sensitivities`` does not import scipy.sparse (≈ 0.1 s of CPU); its files are those of
-    the start through SciPy's CSR (the API, the CSR start switched off), to the bit."""
+    ``latdyn run`` with ``solve.sensitivities`` does not import scipy.sparse (≈ 0.1 s of CPU), nor by the adjoint
+    (its start and the reverse pass's transposed start); its files are those of the start through SciPy's CSR (the
+    API, the CSR start switched off), to the bit."""
     import latdyn
     from latdyn.analyses import transient_sensitivities
 
@@ -125,7 +126,10 @@ def test_a_fresh_sensitivity_run_of_a_small_model_does_not_import_scipy_sparse(t
     (hook / "sitecustomize.py").write_text(_MODULES_HOOK)
     environment = {**os.environ, "PYTHONPATH": os.pathsep.join([str(hook), str(SOURCE)])}
     monkeypatch.setattr(transient_sensitivities, "start_without_scipy", lambda model: False)
-    for name, text in (("arm", SCENE), ("cantilever", LONG_3D)):   # 12 and 132 coordinates (past the dense LU's 120)
+    adjoint = LONG_3D.replace("sensitivities: [EI, rho]}", "sensitivities: [EI, rho], sensitivity_method: adjoint}")
+    assert adjoint != LONG_3D
+    # 12 and 132 coordinates (past the dense LU's 120), the latter by the forward method and by the adjoint
+    for name, text in (("arm", SCENE), ("cantilever", LONG_3D), ("adjoint", adjoint)):
         scene = tmp_path / f"{name}.yaml"
         scene.write_text(text)
         listing = tmp_path / f"{name}.json"
@@ -142,5 +146,5 @@ def test_a_fresh_sensitivity_run_of_a_small_model_does_not_import_scipy_sparse(t
         for written in ("sensitivities.csv", "probes.csv"):
             fresh, through_scipy = ((tmp_path / out / name / written).read_bytes() for out in ("fresh", "scipy"))
             assert fresh == through_scipy, f"{name}: {written}"
-        rows = np.genfromtxt(tmp_path / "fresh" / name / "sensitivities.csv", delimiter=",", skip_header=1)
+        rows = np.atleast_2d(np.genfromtxt(tmp_path / "fresh" / name / "sensitivities.csv", delimiter=",", skip_header=1))
         assert np.all(np.isfinite(rows[:, 1:])) and np.any(rows[:, 1] != 0.0)

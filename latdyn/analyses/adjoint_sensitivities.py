@@ -89,9 +89,9 @@ from latdyn.analyses.sensitivities import _BODY_KEY, _LOAD_KEY, _SECTION_KEY, SE
 from latdyn.analyses.transient_sensitivities import TransientSensitivities, _NodeRotations, _StepColumns
 from latdyn.analyses.weight_derivative import configuration_tangent_of_weight
 from latdyn.assembly.assembler import free_acceleration, free_velocity, pack, unpack_free
-from latdyn.assembly.factorization import factorization_for, solve_linear
+from latdyn.assembly.factorization import factorization_for, solve_linear, solve_linear_csr
 from latdyn.errors import SolverError
-from latdyn.numerics.inertia import split_inertia
+from latdyn.numerics.csr import CSR, transposed
 from latdyn.numerics.linalg import issparse
 from latdyn.step.integrators import consistent_acceleration
 from latdyn.timeloop.impulse import hinge_directions
@@ -124,7 +124,7 @@ class AdjointSensitivities(TransientSensitivities):
                    "numbering_start": self._numbering(), "timed": False, "dh_moves": False}
         if model.n_dofs and self.names:
             ev = self.assembler.evaluate(state, matrices=True)
-            split = split_inertia(model, ev.combined(1.0, 0.0, 0.0))
+            _, split = self._start_mass(ev)
             self._refuse_events(ev, split)
             if split.n_massless:
                 self._refuse_start(state, ev, split)
@@ -708,14 +708,20 @@ class AdjointSensitivities(TransientSensitivities):
         """(k, m) what t = 0 adds (module docstring): E_0ᵀ r̄ + D_vᵀ(v̄_0 + C_0ᵀ r̄), r̄ = Δᵀ s̄."""
         model = self.model
         ev = self.assembler.evaluate(state, matrices=True)
-        M = ev.combined(1.0, 0.0, 0.0)
-        split = split_inertia(model, M)
+        M, split = self._start_mass(ev)   # the forward method's M: a CSR without SciPy where the run's start takes one
+        if isinstance(M, CSR):   # Mᵀ and Cᵀ r̄ as SciPy's M.T.tocsr() and C.T @ r̄ compute them (latdyn.numerics.csr)
+            r_bar = -np.asarray(solve_linear_csr(transposed(M), s_bar)).reshape(s_bar.shape)
+            C = ev.combined_csr(0.0, 1.0, 0.0)
+            C_t_r_bar = np.empty_like(r_bar)
+            for c in range(r_bar.shape[1]):
+                C_t_r_bar[:, c] = C.rmatvec(r_bar[:, c])
+            return self.residual_transposed_product(state, r_bar) + self._initial_velocities().T @ (v_bar + C_t_r_bar)
         if split.n_massless == 0:
             r_bar = -np.asarray(solve_linear(_transposed(M), s_bar)).reshape(s_bar.shape)
         else:
-            transposed = SimpleNamespace(combined=lambda a, b, c: _transposed(ev.combined(a, b, c)))
+            flipped = SimpleNamespace(combined=lambda a, b, c: _transposed(ev.combined(a, b, c)))
             r_bar = np.column_stack([consistent_acceleration(model, SimpleNamespace(residual=s_bar[:, c],
-                                                                                    combined=transposed.combined))
+                                                                                    combined=flipped.combined))
                                      for c in range(s_bar.shape[1])])
         C = ev.combined(0.0, 1.0, 0.0)
         dv = self._initial_velocities()
