@@ -15,6 +15,7 @@ per scene and tree: the median wall time and the median CPU time of the child (u
 each's ratio to the run without of the same family and tree; the 1-minute load before and after.
 
 ``--modules``: per scene and tree, whether the fresh process imported scipy.sparse, and how many modules it imported.
+``--adjoint``: the runs with parameters by the discrete adjoint (``solve.sensitivity_method: adjoint``).
 """
 from __future__ import annotations
 
@@ -37,8 +38,9 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 import hinge_sensitivities_loop  # noqa: E402 - the benchmarks' scenes, beside this file
 import transient_sensitivities_cost  # noqa: E402
 
-def scenes() -> list[tuple[str, str, dict]]:
-    """(name, family, scene) of every scene (module docstring); a family's run without is its ratios' denominator."""
+def scenes(adjoint: bool = False) -> list[tuple[str, str, dict]]:
+    """(name, family, scene) of every scene (module docstring); a family's run without is its ratios' denominator;
+    ``adjoint``: the runs with parameters by the discrete adjoint."""
     made = []
     for family, build in (("lattice", transient_sensitivities_cost.lattice),
                           ("cantilever", transient_sensitivities_cost.scene)):
@@ -46,6 +48,10 @@ def scenes() -> list[tuple[str, str, dict]]:
             made.append((f"{family}{k}", family, build([f"F{i}" for i in range(k)])))
     boom = yaml.safe_load(hinge_sensitivities_loop._boom())
     made += [("boom0", "boom", hinge_sensitivities_loop._without(boom)), ("boom_kc", "boom", boom)]
+    if adjoint:
+        for _, _, scene in made:
+            if "sensitivities" in scene["solve"]:
+                scene["solve"]["sensitivity_method"] = "adjoint"
     return made
 
 
@@ -122,8 +128,9 @@ def main() -> None:
     parser.add_argument("--fifo", action="store_true", help="each process under chrt -f 10")
     parser.add_argument("--scenes", default=None, help="comma-separated scene names (default: all)")
     parser.add_argument("--modules", action="store_true")
+    parser.add_argument("--adjoint", action="store_true", help="the runs with parameters by the discrete adjoint")
     args = parser.parse_args()
-    chosen = [s for s in scenes() if args.scenes is None or s[0] in args.scenes.split(",")]
+    chosen = [s for s in scenes(args.adjoint) if args.scenes is None or s[0] in args.scenes.split(",")]
     folder = Path(tempfile.mkdtemp(prefix="sensitivity-start-"))
     for name, _, scene in chosen:
         (folder / f"{name}.yaml").write_text(yaml.safe_dump(scene))
