@@ -21,29 +21,21 @@ import yaml
 import latdyn
 from cli_runs import latdyn_run, probe_columns, summary_of
 from latdyn.errors import SolverError
+from test_literature_cases_heldout5 import ELASTICA_P, ELASTICA_Q, post_buckled_column
 
-P = 3.7011  # P L²/EI = 1.5 π²/4: 1.5 times Euler's load of the cantilever
+P = ELASTICA_P  # P L²/EI = 1.5 π²/4: 1.5 times Euler's load of the cantilever
 EULER = math.pi ** 2 / 4 / P  # the load factor of Euler's load, 0.666667
 
 
-def column(elements: int, push: float, solve: str) -> str:
-    """A cantilever column (EI = L = 1, EA = 1e6) under a dead end load P along −x and a lateral push
-    along +y."""
-    return f"""\
-title: a cantilever column pushed sideways, past its Euler load
-sections:
-  s: {{EA: 1.0e6, EIy: 1.0, EIz: 1.0, GJ: 1.0, rhoA: 1.0}}
-bodies:
-  base: {{at: [0, 0, 0], fixed: true}}
-beams:
-  col: {{from: base, to: [1, 0, 0], section: s, elements: {elements}}}
-loads:
-  - {{at: col.end, force: [{-P}, {push}, 0]}}
-solve: {solve}
-output:
-  probes:
-    y: {{point: col.end, quantity: position, component: y}}
-"""
+def column(elements: int, push: str, solve: str) -> str:
+    """The sixth set's cantilever column (EI = L = 1, EA = 1e6) under a dead end load P along −x, with
+    a lateral push along +y and ``solve``."""
+    text = post_buckled_column(elements)
+    for old, new in ((f"[{-P}, {ELASTICA_Q}, 0]", f"[{-P}, {push}, 0]"),
+                     ("solve: {analysis: static, steps: 20}", f"solve: {solve}")):
+        assert old in text
+        text = text.replace(old, new)
+    return text
 
 
 def run_api(text: str):
@@ -59,10 +51,10 @@ def test_the_far_instability_of_an_imperfect_column_is_flagged_as_the_meshs(tmp_
     buckling`` with no word; now ``buckling_mesh_dependent: true`` names the element and a warning says
     that the instability is the mesh's. The perfect column's Euler load (0.666670 at 8 elements,
     +4.5e-6) is not flagged. Before the mend the key did not exist (the test fails on it)."""
-    completed, out = latdyn_run(tmp_path, column(8, 0.001, "{analysis: buckling}"))
+    completed, out = latdyn_run(tmp_path, column(8, "0.001", "{analysis: buckling}"))
     assert completed.returncode == 0, completed.stderr
     coarse = summary_of(out)
-    fine = run_api(column(16, 0.001, "{analysis: buckling}")).summary
+    fine = run_api(column(16, "0.001", "{analysis: buckling}")).summary
     for summary, factor in ((coarse, 4594.02), (fine, 18393.7)):
         assert summary["buckling_factor"] == pytest.approx(factor, rel=1e-4)  # the mesh's: 1/h²
         assert summary["buckling_mesh_dependent"] is True
@@ -70,7 +62,7 @@ def test_the_far_instability_of_an_imperfect_column_is_flagged_as_the_meshs(tmp_
         assert 2.6 < summary["buckling_element_turn"] < 2.7  # rad, within the element
         assert any("col.element[0]" in w and "changes with the mesh" in w for w in summary["warnings"])
     assert "not a buckling load of the structure" in completed.stderr
-    euler = run_api(column(8, 0.0, "{analysis: buckling}")).summary
+    euler = run_api(column(8, "0.0", "{analysis: buckling}")).summary
     assert euler["buckling_factor"] == pytest.approx(EULER, rel=1e-5)
     assert euler["buckling_mesh_dependent"] is False and not euler.get("warnings")
 
@@ -83,16 +75,16 @@ def test_load_control_through_a_sharp_turn_says_so_and_not_snap_through(tmp_path
     past 0.666602. The message now says the path turns sharply and that shorter steps may follow it,
     and 100 steps do (the tip at y = 0.78857, the elastica's side). Before the mend the words were a
     snap-through's (the test fails on them)."""
-    completed, out = latdyn_run(tmp_path, column(8, 1e-5, "{analysis: static, steps: 10}"))
+    completed, out = latdyn_run(tmp_path, column(8, "1.0e-5", "{analysis: static, steps: 10}"))
     assert completed.returncode == 1
     assert "the path turns sharply between load factors 0.666406 and 0.666602" in completed.stderr
     assert "snap-through" not in completed.stderr
     assert summary_of(out)["status"] == "failed"
     assert probe_columns(out)["load_factor"][-1] == pytest.approx(0.666406, abs=1e-6)
     with pytest.raises(SolverError, match="turns sharply") as failure:
-        run_api(column(8, 1e-5, "{analysis: static, steps: 10}"))
+        run_api(column(8, "1.0e-5", "{analysis: static, steps: 10}"))
     assert "snap-through" not in str(failure.value)
-    finer = run_api(column(8, 1e-5, "{analysis: static, steps: 100}"))
+    finer = run_api(column(8, "1.0e-5", "{analysis: static, steps: 100}"))
     assert finer.summary["status"] == "solved" and finer.probes["y"][-1] == pytest.approx(0.78857, abs=1e-4)
 
 
@@ -103,7 +95,7 @@ def test_arc_length_stopped_by_max_steps_says_the_path_is_not_completed(tmp_path
     at λ = 0.645. It said ``solved`` (exit 0) with a warning; now the path not completed is a failure:
     exit 1, ``status: failed``, ``end: max_steps``, the message naming the bound. Before the mend it
     exited 0 (the test fails on that)."""
-    completed, out = latdyn_run(tmp_path, column(8, 0.001, "{analysis: static, method: arc-length, steps: 20}"))
+    completed, out = latdyn_run(tmp_path, column(8, "0.001", "{analysis: static, method: arc-length, steps: 20}"))
     assert completed.returncode == 1
     assert "the path is not completed" in completed.stderr
     summary = summary_of(out)
@@ -111,4 +103,4 @@ def test_arc_length_stopped_by_max_steps_says_the_path_is_not_completed(tmp_path
     assert summary["load_factor_reached"] == pytest.approx(0.645234, abs=1e-5)
     assert len(probe_columns(out)["load_factor"]) == 401  # the rows up to there stay
     with pytest.raises(SolverError, match="max_steps = 400 path steps at load factor 0.645234"):
-        run_api(column(8, 0.001, "{analysis: static, method: arc-length, steps: 20}"))
+        run_api(column(8, "0.001", "{analysis: static, method: arc-length, steps: 20}"))
