@@ -457,6 +457,17 @@ def load_control(path: Path, state) -> object:
             path.rejected += 1
             h = min(h, target - lam) / 2
             if h < 1.0 / (steps * 2 ** MAX_CUTS):
+                if jumped and turns_on(path, state, lam, target) is True:
+                    # no snap-through: λ goes on past the target along the path, which turns too sharply for
+                    # the load steps (a column's with a small imperfection near its Euler load)
+                    path.fail(state, lam, f"static analysis could not reach load factor {grid:.6g} (row {k + 1} of "
+                                          f"{steps}): the path turns sharply between load factors {lam:.6g} and "
+                                          f"{target:.6g}, where the load factor goes on rising (a near-bifurcation, "
+                                          "as of a column with a small imperfection near its Euler load), and "
+                                          "Newton's solutions from the last point left it at every cut of the step "
+                                          f"down to {target - lam:.3g}; the last converged load factor, {lam:.6g}, "
+                                          "is the last row (shorter load steps, more solve.steps, may follow it)",
+                              residual, target, target - lam, diagnosis="")  # Newton converged: no residuals
                 how = "Newton converged only onto another branch of the path (a snap-through)" if left else (
                     "Newton failed" + (" (at longer steps it converged only onto another branch of the path: "
                                        "a snap-through)" if jumped else ""))
@@ -471,9 +482,46 @@ def load_control(path: Path, state) -> object:
         h = min(2 * h, 1.0 / steps)
         if target == grid:
             k += 1
-            jumped = False
+            jumped = snapped = False
             path.record(state, lam)
     return state
+
+
+#: Arc-length steps :func:`turns_on` takes from the last point of a load-control path to see whether λ
+#: passes a maximum before the load factor the steps could not reach.
+TURN_PROBE_STEPS = 40
+
+
+def turns_on(path: Path, state, lam: float, target: float) -> bool | None:
+    """Where load control's steps from (``state``, ``lam``) to ``target`` converged only onto another
+    branch: whether the path itself, followed by arc length from there, reaches ``target`` with λ rising
+    all the way (True: a sharp turn, no snap-through), λ passes a maximum first (False: a limit point, a
+    snap-through), or neither is seen in :data:`TURN_PROBE_STEPS` steps (None).  The steps' arc length
+    starts at the tangent's move to ``target`` and adapts as arc length's; nothing is recorded."""
+    tangent = path.iterate(state, lam).dq_lambda
+    if tangent is None or path.norm(tangent) == 0.0:
+        return None
+    ds0 = (target - lam) * path.norm(tangent)
+    ds, previous, iterations = ds0, tangent / path.norm(tangent), path.iterations
+    try:
+        for _ in range(TURN_PROBE_STEPS):
+            result = arc_length_step(path, state, lam, ds, previous)
+            if result is None:
+                ds /= 2
+                if ds < ds0 / 2 ** MAX_CUTS:
+                    return None
+                continue
+            new, new_lam, step_dq, n = result
+            if new_lam < lam:
+                return False  # λ passed a maximum
+            if new_lam >= target:
+                return True
+            state, lam = new, new_lam
+            previous = step_dq / max(path.norm(step_dq), 1e-300)
+            ds *= min(2.0, math.sqrt(TARGET_ITERATIONS / max(n, 1)))
+        return None
+    finally:
+        path.iterations = iterations  # a look ahead, not steps of the path
 
 
 def newton_fixed(path: Path, state, load_factor: float):
@@ -561,11 +609,16 @@ def arc_length(path: Path, state) -> object:
         path.accept(state, lam, arc)
         path.record(state, lam, ArcStep(step_dq, ds, ds0))
         ds = min(ds0, ds * min(2.0, math.sqrt(TARGET_ITERATIONS / max(n, 1))))
-    message = (f"arc-length continuation stopped after max_steps = {max_steps} path steps at load factor "
-               f"{lam:.6g}, before the load factor reached 1")
-    path.writer.warn(message)
+    # the path is not completed: a failure, as load control's row not reached (it was `solved` with a
+    # warning: an imperfect column past its Euler load stopped at λ = 0.645 of 1, its steps bounded by
+    # the first's Δs₀ while the path past the turn is thousands of them long)
     path.writer.summary["end"] = "max_steps"
-    return state
+    path.fail(state, lam, f"arc-length continuation stopped after max_steps = {max_steps} path steps at load factor "
+                          f"{lam:.6g}, before the load factor reached 1: the path is not completed (each step's arc "
+                          f"length is at most the first step's, {ds0:.3g}, the full load's linear move over "
+                          f"solve.steps; the path from the start is {arc:.3g} long); the last step is the last row "
+                          "(a larger solve.max_steps goes on; load control may follow a path that does not turn "
+                          "back)", None, lam, ds, diagnosis="")
 
 
 def arc_length_step(path: Path, state, lam: float, ds: float, previous):

@@ -234,6 +234,13 @@ FOLD_FALL = 0.9
 PREBUCKLING_FACTOR = 1e-4
 #: The stability search stops when the bracket of the load factor is this narrow (relative).
 STABILITY_TOL = 1e-7
+#: An element whose end sections turn by more than this (rad) relative to each other, beyond their
+#: unloaded turn, does not resolve the bending of the state there: an instability found at such a state
+#: is the mesh's (``buckling_mesh_dependent``).  Measured: 0.2 rad at most at the instabilities of the
+#: buckling tests (Euler, Greenhill, lateral buckling, arches, a toggle, a portal frame); 2.67 rad at
+#: the far instability of an imperfect column at 4, 8 and 16 elements, where λ grows as 1/h²
+#: (docs/static_paths.md, "Buckling").
+ELEMENT_TURN_RESOLVED = 0.5 * np.pi
 
 
 def _stability(assembler, state, load_factor: float, K0_factor) -> float:
@@ -244,6 +251,43 @@ def _stability(assembler, state, load_factor: float, K0_factor) -> float:
     K = tangent_q(assembler, state, load_factor, inertia=False)
     K = 0.5 * (K + K.T)
     return float(sla.eigh(K, b=K0_factor, eigvals_only=True, subset_by_index=[0, 0])[0])
+
+
+def _element_turns(assembler, state, reference) -> np.ndarray:
+    """The angle (rad) by which each element's end sections (the nodal frames T_e^i of Eq. 17, a
+    hinged end's turned by its hinge) turn relative to each other at ``state``, beyond their turn in
+    ``reference``: the bending and twist one element carries."""
+    def relative(s):
+        geometry = assembler.element_geometry(s)
+        first, second = geometry[:, 12:21].reshape(-1, 3, 3), geometry[:, 21:30].reshape(-1, 3, 3)
+        return np.einsum("nji,njk->nik", first, second)  # T_e¹ᵀ T_e²
+
+    turn = np.einsum("nji,njk->nik", relative(reference), relative(state))
+    cosine = 0.5 * (np.trace(turn, axis1=1, axis2=2) - 1.0)
+    return np.arccos(np.clip(cosine, -1.0, 1.0))
+
+
+def _unresolved(prepared, state, reference, load_factor: float) -> dict:
+    """The flag of an instability the mesh does not resolve (``buckling_mesh_dependent``), with the
+    element turned most within itself where it turns by more than :data:`ELEMENT_TURN_RESOLVED`, and
+    its warning."""
+    model = prepared.model
+    if len(model.element_nodes) == 0:
+        return {"buckling_mesh_dependent": False}
+    turns = _element_turns(prepared.assembler, state, reference)
+    worst = int(np.argmax(turns))
+    if turns[worst] <= ELEMENT_TURN_RESOLVED:
+        return {"buckling_mesh_dependent": False}
+    beam = model.element_beam[worst]
+    element = f"{beam}.element[{int(np.flatnonzero(model.beam_elements[beam] == worst)[0])}]"
+    return {"buckling_mesh_dependent": True, "buckling_unresolved_element": element,
+            "buckling_element_turn": float(turns[worst]),
+            "warnings": [f"buckling: at load factor {load_factor:.6g} the static path turns element {element} by "
+                         f"{np.degrees(turns[worst]):.0f}° within itself (more than "
+                         f"{np.degrees(ELEMENT_TURN_RESOLVED):.0f}°): the mesh does not resolve that state, so the "
+                         "instability found there is the discretisation's and changes with the mesh (an imperfect "
+                         "column's grows as 1/h²), not a buckling load of the structure; more elements in beam "
+                         f"{beam} tell whether the structure has one (buckling_mesh_dependent)"]}
 
 
 def buckling_analysis(prepared, count: int = 6) -> dict:
@@ -365,9 +409,13 @@ def buckling_analysis(prepared, count: int = 6) -> dict:
         factor = below[0]
     else:
         factor = None
+    # an instability at a state one element does not resolve (an element folded within itself) is the
+    # mesh's: flagged (docs/static_paths.md, "Buckling")
+    resolution = {} if factor is None else _unresolved(prepared, below[2], reference, float(factor))
+    passed = passed + resolution.pop("warnings", [])
     return {"buckling_factor": None if factor is None else float(factor),
             "buckling_kind": kind, "conservative": True,
-            "instability": "none" if factor is None else "buckling",
+            "instability": "none" if factor is None else "buckling", **resolution,
             **({"flutter_factor": None, "flutter_searched_to": None}  # conservative: no flutter to search
                if prepared.scene.solve.flutter else {}),
             "linearised_buckling_factors": [float(x) for x in linearised[:count]],
