@@ -32,6 +32,8 @@ from latdyn.assembly.library import (
     parallel_threshold,
 )
 from latdyn.assembly.native_links import native_links
+from latdyn.model.cables import cable_tolerance
+from latdyn.model.model import lock_tolerance
 
 #: The arrays of a state, in the order of the C ``Configuration``.
 STATE_FIELDS = ("x", "T", "v", "w", "a", "alpha", "theta", "theta_dot", "theta_ddot")
@@ -259,6 +261,8 @@ class NativeModel:
         lock_at = [np.nan if h.lock_at is None else float(h.lock_at) for h in m.hinges]
         lower = [np.nan if h.limits is None else float(h.limits[0]) for h in m.hinges]
         upper = [np.nan if h.limits is None else float(h.limits[1]) for h in m.hinges]
+        #: the tolerance of each hinge's lock_at, lower and upper stop, 0 where none (lock_tolerance, once)
+        event_tolerance = [[0.0 if np.isnan(at) else lock_tolerance(at) for at in ats] for ats in zip(lock_at, lower, upper)]
         # the hinged_end kernel's input of each element end (e, 2, 16): hinge axis, grid point,
         # element axes at t = 0 (node axes), and the hinge angle, filled in by the C code
         element_ends = np.concatenate([m.element_axes, m.element_offsets, m.element_frames0.reshape(-1, 2, 9),
@@ -312,6 +316,7 @@ class NativeModel:
             hinge_torque_hinge_law=ints(torque_hinge_law),
             hinge_conservative=ints([int(h.conservative_spring) for h in m.hinges]),
             hinge_lock_at=arr(lock_at), hinge_lower_stop=arr(lower), hinge_upper_stop=arr(upper),
+            hinge_event_tolerance=arr(np.array(event_tolerance, float).reshape(-1, 3)),
             has_events=int(CE > 0 or any(m.hinges[k].lock_at is not None or m.hinges[k].limits is not None
                                          or m.hinges[k].friction is not None for k in m.free_hinges)),
             section_width=m.element_sections.shape[1],
@@ -357,6 +362,7 @@ class NativeModel:
             self.model.cable_nodes, self.model.cable_offsets = ints(cables.nodes), arr(cables.offsets)
             self.model.cable_section = arr(np.column_stack([cables.share, cables.EA, cables.damping]))
             self.model.cable_rest_law = ints(np.asarray(rest_law, np.int64)[cables.cable])
+            self.model.cable_tolerance = arr(cable_tolerance(cables.EA))
             self._keep.append(cables.sides)  # the model's own array: the time loop sets it in place
             self.model.cable_side = cables.sides.ctypes.data
         work = {

@@ -11,6 +11,7 @@ import numpy as np
 from latdyn.assembly.assembler import State, free_acceleration, free_velocity, unpack_free
 from latdyn.assembly.factorization import solve_linear
 from latdyn.assembly.prepare import Prepared
+from latdyn.model.cables import cable_tolerance
 from latdyn.model.model import Model, lock_tolerance
 from latdyn.timeloop.impulse import hinge_directions, impulse_response, jump
 
@@ -72,12 +73,6 @@ CABLE_LANDING = 1e-3
 #: tests/test_cables.py's light drop with c = 2 N·s/m at dt = 1e-4, the next changes came 3.7e-5 s late
 #: with a full step after the jump, 4.8e-6 s with this one).
 TAUT_JUMP_STEP = 1e-2
-
-
-def cable_tolerance(EA: np.ndarray) -> np.ndarray:
-    """The gap (a force) within which a cable element of axial stiffness ``EA`` is on its change
-    (csrc/newton_step.c cable_tolerance): a stretch of 1e-9 of its rest length."""
-    return 1e-9 * EA
 
 
 def cable_gaps(assembler, state: State) -> tuple[np.ndarray, np.ndarray]:

@@ -257,9 +257,6 @@ static int64_t newton_iterations(const Model *m, Work *w, StepControl *s, const 
 
 /* ------------------------------------------------------------------------- the loop of steps */
 
-/* latdyn/model/model.py lock_tolerance */
-static double lock_tolerance(double at) { return 1e-7 * fmax(1.0, fabs(at)); }
-
 /* Whether the step old → new holds an event that latdyn/timeloop/events.py handles (and the loop must not
  * accept by itself): a free hinge that reaches or crosses its lock_at (lock_events),
  * crosses a stop from inside (stop_crossings; the onset of a compliant stop's contact too), or ends on or
@@ -268,10 +265,11 @@ static int hinge_event(const Model *m, const Configuration *old, const Configura
 {
     for (int64_t k = 0; k < m->n_free_hinges; ++k) {
         int64_t j = m->free_hinges[k];
-        double lock = m->hinge_lock_at[j];
+        /* the tolerances of its lock_at, lower and upper stop (Model hinge_event_tolerance) */
+        const double lock = m->hinge_lock_at[j], *tolerance = m->hinge_event_tolerance + 3 * j;
         if (!isnan(lock)) {
             double before = old->theta[j] - lock, after = new_->theta[j] - lock;
-            if (before == 0.0 || fabs(after) <= lock_tolerance(lock) || before * after < 0.0) return 1;
+            if (before == 0.0 || fabs(after) <= tolerance[0] || before * after < 0.0) return 1;
         }
         /* friction that can hold the joint (static level > 0): a rate that reversed, fell into the stick
          * band, or started at 0 (events.py may_stick decides; this hands back a superset) */
@@ -284,9 +282,10 @@ static int hinge_event(const Model *m, const Configuration *old, const Configura
             double stop = side < 0 ? m->hinge_lower_stop[j] : m->hinge_upper_stop[j];
             if (isnan(stop)) continue;
             double before = side * (old->theta[j] - stop), after = side * (new_->theta[j] - stop);
-            if (before < -lock_tolerance(stop) && after > lock_tolerance(stop)) return 1;
+            const double tol = tolerance[side < 0 ? 1 : 2];
+            if (before < -tol && after > tol) return 1;
             /* a compliant stop (contact stiffness > 0) is a force, not an impact: only its onset lands */
-            if (after >= -lock_tolerance(stop) && side * new_->theta_dot[j] >= 0.0 && !(m->hinge_contact[11 * j + 2] > 0.0))
+            if (after >= -tol && side * new_->theta_dot[j] >= 0.0 && !(m->hinge_contact[11 * j + 2] > 0.0))
                 return 1;
         }
     }
@@ -323,15 +322,12 @@ int64_t latdyn_far_root(const Model *m, const Configuration *old, const Configur
     return far_root(m, old, new_, h, revolute, distance);
 }
 
-/* latdyn/timeloop/events.py cable_tolerance: of a gap (a force), for an element of axial stiffness EA */
-static double cable_tolerance(double EA) { return 1e-9 * EA; }
-
 /* Whether the step's last evaluation has a cable element's gap min(N_el, N) beyond its tolerance on the
  * other side of zero from the side the step held (latdyn/timeloop/events.py cable_crossings). */
 static int cable_event(const Model *m, const Work *w)
 {
     for (int64_t e = 0; e < m->n_cables; ++e) {
-        double side = m->cable_side[e], after = w->cable_gap[e], tol = cable_tolerance(m->cable_section[3 * e + 1]);
+        double side = m->cable_side[e], after = w->cable_gap[e], tol = m->cable_tolerance[e];
         if ((side > 0.0 && after < -tol) || (side < 0.0 && after > tol)) return 1;
     }
     return 0;
