@@ -370,6 +370,8 @@ def native_library() -> ctypes.CDLL:
         library.latdyn_hinge_work.argtypes = [I64, P, P, P, P, P, P, P, P]
         library.latdyn_cable_work.restype = None
         library.latdyn_cable_work.argtypes = [I64, P, P, P, P]
+        library.latdyn_cable_crossed.restype = I64
+        library.latdyn_cable_crossed.argtypes = [model, P, P]
         library.latdyn_advance.restype = I64
         library.latdyn_advance.argtypes = [ctypes.POINTER(ModelData), ctypes.POINTER(WorkData), ctypes.POINTER(ControlData),
                                            ctypes.POINTER(ConfigurationData), ctypes.POINTER(ConfigurationData),

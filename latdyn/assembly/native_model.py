@@ -509,6 +509,18 @@ class NativeModel:
                                      ctypes.byref(control))
         return self.buffers["total"].copy(), float(control.power)
 
+    def cable_crossed(self, gaps: np.ndarray) -> np.ndarray:
+        """Per cable element (bool), whether its gap ``gaps`` lies beyond its tolerance on the other side of zero
+        from the side the model's ``cables.sides`` holds it on (``latdyn_cable_crossed``, csrc/newton_step.c
+        cable_crossed, the loop of steps' own)."""
+        gaps = np.ascontiguousarray(gaps, dtype=np.float64)
+        if gaps.shape != (self.model.n_cables,):
+            raise ValueError(f"{gaps.shape} cable gaps; the model has {self.model.n_cables} cable elements")
+        crossed = np.zeros(self.model.n_cables, np.int64)
+        if self.model.n_cables:
+            self.library.latdyn_cable_crossed(self.model_ref, gaps.ctypes.data, crossed.ctypes.data)
+        return crossed.astype(bool)
+
     def cable_state(self, state) -> np.ndarray:
         """(ce, 5) [ℓ, ℓ̇, ℓ − L0, N_el, N] of every cable element at ``state`` (N = 0 while slack):
         ``latdyn_cables``, which leaves the last evaluation's rows in Work as they are."""

@@ -50,7 +50,8 @@ def crossing_fraction(model: Model, old: State, new: State, assembler=None, cabl
 # step, taut (+1) or slack (−1), in the model's ``cables.sides`` that the evaluation reads
 # (latdyn/model/cables.py): Newton sees one smooth law in a step. A step that ends with an element's gap
 # beyond cable_tolerance on the other side of zero is shortened to land on the zero (secant on the gap,
-# as for hinge stops; the compiled loop hands such a step back: csrc/newton_step.c cable_event); the
+# as for hinge stops; the compiled loop hands such a step back: csrc/newton_step.c cable_event, whose test
+# cable_crossed cable_crossings calls); the
 # accepted step that reached the zero from its side, or crossed it, turns the element over
 # (:func:`cable_events`). The velocities do not jump at the change, so there is no impulse
 # (docs/cables.md measures this against a C¹ transition).
@@ -92,10 +93,10 @@ def cable_crossings(assembler, old: State, new: State) -> list[tuple[int, float,
     """(cable element, fraction of the step, back) for each element whose gap ends the step beyond its
     tolerance on the other side of zero from the side the step held it on (linear interpolation of the
     gap from ``old``); back: its gap was within the tolerance at ``old`` (it had just changed side, and
-    changes back)."""
-    sides = assembler.model.cables.sides
+    changes back). Which crossed: csrc/newton_step.c cable_crossed, the loop of steps' own test
+    (``NativeModel.cable_crossed``)."""
     after, tol = cable_gaps(assembler, new)
-    crossed = ((sides > 0) & (after < -tol)) | ((sides < 0) & (after > tol))
+    crossed = assembler.native().cable_crossed(after)
     if not crossed.any():
         return []
     before, _ = cable_gaps(assembler, old)

@@ -322,15 +322,30 @@ int64_t latdyn_far_root(const Model *m, const Configuration *old, const Configur
     return far_root(m, old, new_, h, revolute, distance);
 }
 
-/* Whether the step's last evaluation has a cable element's gap min(N_el, N) beyond its tolerance on the
- * other side of zero from the side the step held (latdyn/timeloop/events.py cable_crossings). */
+/* Whether cable element e, at the gap `gap` (min(N_el, N)), lies beyond its tolerance (Model cable_tolerance) on the
+ * other side of zero from the side the step held it on (Model cable_side): the step crossed the element's change
+ * between slack and taut and is shortened to land on it (latdyn/timeloop/events.py cable_crossings). */
+static int cable_crossed(const Model *m, int64_t e, double gap)
+{
+    const double side = m->cable_side[e], tolerance = m->cable_tolerance[e];
+    return (side > 0.0 && gap < -tolerance) || (side < 0.0 && gap > tolerance);
+}
+
+/* Whether the step's last evaluation has a cable element that crossed its change (cable_crossed). */
 static int cable_event(const Model *m, const Work *w)
 {
-    for (int64_t e = 0; e < m->n_cables; ++e) {
-        double side = m->cable_side[e], after = w->cable_gap[e], tol = m->cable_tolerance[e];
-        if ((side > 0.0 && after < -tol) || (side < 0.0 && after > tol)) return 1;
-    }
+    for (int64_t e = 0; e < m->n_cables; ++e)
+        if (cable_crossed(m, e, w->cable_gap[e])) return 1;
     return 0;
+}
+
+/* cable_crossed of every cable element at the gaps `gap` (ce) into crossed (ce, 1 or 0), for the steps accepted
+ * from Python (latdyn/timeloop/events.py cable_crossings); the number crossed. */
+int64_t latdyn_cable_crossed(const Model *m, const double *gap, int64_t *crossed)
+{
+    int64_t count = 0;
+    for (int64_t e = 0; e < m->n_cables; ++e) count += crossed[e] = cable_crossed(m, e, gap[e]);
+    return count;
 }
 
 /* The entry of `reaction` (an evaluation's on the constrained coordinates, reaction[d − n_dofs] that of coordinate d)
