@@ -179,6 +179,44 @@ def test_the_loop_reads_the_event_tolerances_python_defines(tmp_path):
     assert cables.tolist() == cable_tolerance(model.cables.EA).tolist() == [1e-9 * 2000.0]
 
 
+def test_the_hinge_events_from_python_are_the_loop_of_steps_test_at_the_tolerances(tmp_path):
+    """Which hinges reach or cross their lock_at, cross a stop or meet it is the loop of steps' own test
+    (csrc/newton_step.c hinge_crossings, through NativeModel.hinge_crossings; latdyn/timeloop/events.py
+    lock_events, stop_crossings and stop_hits read its flags), at the tolerance 1e-7 max(1, |at|): steps that end
+    just inside and just past each, with exact references."""
+    from latdyn.assembly.prepare import prepare
+    from latdyn.timeloop import events
+
+    scene = tmp_path / "arm.yaml"
+    scene.write_text(EVENTS_3D)
+    prepared = prepare(latdyn.load_scene(scene), "c")
+    assembler, model = prepared.assembler, prepared.model
+    a, b = model.hinge_index("a", "start"), model.hinge_index("b", "start")  # stops [-0.25, 0.3]; lock_at -0.45
+    tol = 1e-7
+    cases = [  # (θ_a, θ̇_a, θ_b) at the step's start, at its end; the flags of a, of b
+        ((0.0, 1.0, -0.4), (0.3 + 2 * tol, 1.0, -0.45 + 0.9 * tol), events.UPPER_CROSSED | events.UPPER_HIT,
+         events.LOCK_REACHED),
+        ((0.0, 1.0, -0.4), (0.3 - 0.9 * tol, 1.0, -0.45 - 2 * tol), events.UPPER_HIT, events.LOCK_CROSSED),
+        ((0.0, 1.0, -0.4), (0.3 - 0.9 * tol, -1.0, -0.45 + 2 * tol), 0, 0),
+        ((0.0, -1.0, -0.45), (-0.25 - 2 * tol, -1.0, -0.3), events.LOWER_CROSSED | events.LOWER_HIT, events.LOCK_REACHED),
+        ((-0.25 + 0.9 * tol, -1.0, -0.4), (-0.25 - 2 * tol, -1.0, -0.4), events.LOWER_HIT, 0),
+    ]
+    for (a0, rate0, b0), (a1, rate1, b1), flags_a, flags_b in cases:
+        old, new = prepared.state.copy(), prepared.state.copy()
+        old.theta[[a, b]], old.theta_dot[a] = (a0, b0), rate0
+        new.theta[[a, b]], new.theta_dot[a] = (a1, b1), rate1
+        flags = events.hinge_flags(assembler, old, new)
+        assert (flags[a], flags[b]) == (flags_a, flags_b), (a1, b1)
+        reached, crossing = events.lock_events(assembler, old, new)
+        assert reached == ([b] if flags_b == events.LOCK_REACHED else [])
+        assert [k for k, _ in crossing] == ([b] if flags_b == events.LOCK_CROSSED else [])
+        assert [(k, side) for k, side, _ in events.stop_crossings(assembler, old, new)] == (
+            [(a, 1)] if flags_a & events.UPPER_CROSSED else [(a, -1)] if flags_a & events.LOWER_CROSSED else [])
+        hits, stops, _, rests = events.stop_hits(assembler, new, old)
+        assert hits == ([a] if flags_a & (events.LOWER_HIT | events.UPPER_HIT) else [])
+        assert rests == [abs(a0 - stop) <= tol for stop in stops]
+
+
 def test_the_step_after_an_impact_starts_from_the_configuration_on_the_stop(tmp_path):
     """The impact moves the configuration onto the stop (timeloop/events.py hinge_stops) in the
     arrays of the state, which the compiled step views in place: it steps on from there, as the

@@ -414,6 +414,8 @@ class NativeModel:
         self._empty = np.zeros(1)
         #: the last few (arrays, C view) of :meth:`_views`, of states whose arrays were their own
         self._viewed: list = []
+        #: whether a hinge has a lock_at or stops (else :meth:`hinge_crossings` has none to find)
+        self.hinge_events = any(h.lock_at is not None or h.limits is not None for h in m.hinges)
         #: per hinge, 1 where it is revolute (a guide's slide is not periodic: :meth:`far_root`)
         self.revolute = np.array([hinge.kind == "hinge" for hinge in m.hinges], dtype=np.int64)
 
@@ -508,6 +510,17 @@ class NativeModel:
         self.library.latdyn_evaluate(self.model_ref, self.work_ref, ctypes.byref(self.configuration(state)),
                                      ctypes.byref(control))
         return self.buffers["total"].copy(), float(control.power)
+
+    def hinge_crossings(self, old, new) -> np.ndarray:
+        """Per hinge, the events of the step ``old`` → ``new`` as flags (latdyn.timeloop.events: lock_at reached
+        or crossed, a stop crossed from inside, a stop met moving into it; 0 for hinges not free)
+        (``latdyn_hinge_crossings``, csrc/newton_step.c hinge_crossings, the loop of steps' own test)."""
+        flags = np.zeros(self.model.n_hinges, np.int64)
+        if self.model.n_free_hinges and self.hinge_events:
+            held, (before, after) = self._views(old, new)
+            self.library.latdyn_hinge_crossings(self.model_ref, ctypes.byref(before), ctypes.byref(after),
+                                                flags.ctypes.data)
+        return flags
 
     def cable_crossed(self, gaps: np.ndarray) -> np.ndarray:
         """Per cable element (bool), whether its gap ``gaps`` lies beyond its tolerance on the other side of zero
