@@ -373,7 +373,7 @@ def native_library() -> ctypes.CDLL:
         library.latdyn_cable_crossed.restype = I64
         library.latdyn_cable_crossed.argtypes = [model, P, P]
         library.latdyn_hinge_crossings.restype = None
-        library.latdyn_hinge_crossings.argtypes = [model, configuration, configuration, P]
+        library.latdyn_hinge_crossings.argtypes = [model, P, P, P, P]
         library.latdyn_advance.restype = I64
         library.latdyn_advance.argtypes = [ctypes.POINTER(ModelData), ctypes.POINTER(WorkData), ctypes.POINTER(ControlData),
                                            ctypes.POINTER(ConfigurationData), ctypes.POINTER(ConfigurationData),

@@ -517,9 +517,10 @@ class NativeModel:
         (``latdyn_hinge_crossings``, csrc/newton_step.c hinge_crossings, the loop of steps' own test)."""
         flags = np.zeros(self.model.n_hinges, np.int64)
         if self.model.n_free_hinges and self.hinge_events:
-            held, (before, after) = self._views(old, new)
-            self.library.latdyn_hinge_crossings(self.model_ref, ctypes.byref(before), ctypes.byref(after),
-                                                flags.ctypes.data)
+            arrays = [np.ascontiguousarray(a, dtype=np.float64) for a in (old.theta, new.theta, new.theta_dot)]
+            if any(a.shape != flags.shape for a in arrays):
+                raise ValueError(f"hinge angles of shapes {[a.shape for a in arrays]}; the model has {len(flags)} hinges")
+            self.library.latdyn_hinge_crossings(self.model_ref, *(a.ctypes.data for a in arrays), flags.ctypes.data)
         return flags
 
     def cable_crossed(self, gaps: np.ndarray) -> np.ndarray:

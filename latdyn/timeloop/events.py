@@ -29,13 +29,17 @@ def hinge_flags(assembler, old: State, new: State) -> np.ndarray:
     return assembler.native().hinge_crossings(old, new)
 
 
-def lock_events(assembler, old: State, new: State) -> tuple[list[int], list[tuple[int, float]]]:
+def lock_events(assembler, old: State, new: State, flags: np.ndarray | None = None) -> tuple[list[int], list[tuple[int, float]]]:
     """Free hinges with a lock_at, over the step old → new: those that reach it (started on
     it, or ended within tolerance), and those that cross it with the fraction of the step
-    at the crossing (linear interpolation of the angle)."""
-    model, flags = assembler.model, hinge_flags(assembler, old, new)
+    at the crossing (linear interpolation of the angle); ``flags``: :func:`hinge_flags` of the step, if taken."""
+    model = assembler.model
+    latches = [k for k in model.free_hinges if model.hinges[k].lock_at is not None]
+    if not latches:
+        return [], []
+    flags = hinge_flags(assembler, old, new) if flags is None else flags
     reached, crossing = [], []
-    for k in model.free_hinges:
+    for k in latches:
         if flags[k] & LOCK_REACHED:
             reached.append(k)
         elif flags[k] & LOCK_CROSSED:
@@ -49,8 +53,12 @@ def crossing_fraction(assembler, old: State, new: State, cables: bool = False, c
     """The fraction of the step at which the first hinge crosses its lock_at or a stop, or (with ``cables``) a
     cable element goes slack or taut (an element that changes back, having changed at the step's start, never
     below ``cable_floor``: see :data:`CABLE_LANDING`), or None."""
-    _, crossing = lock_events(assembler, old, new)
-    fractions = [f for _, f in crossing] + [f for _, _, f in stop_crossings(assembler, old, new)]
+    model = assembler.model
+    fractions = []
+    if any(model.hinges[k].lock_at is not None or model.hinges[k].limits is not None for k in model.free_hinges):
+        flags = hinge_flags(assembler, old, new)
+        fractions += [f for _, f in lock_events(assembler, old, new, flags)[1]]
+        fractions += [f for _, _, f in stop_crossings(assembler, old, new, flags)]
     if cables and assembler.model.cables is not None:
         fractions += [max(f, cable_floor) if back else f for _, f, back in cable_crossings(assembler, old, new)]
     return min(fractions) if fractions else None
@@ -164,15 +172,18 @@ def cable_events(assembler, sides: list, old: State, new: State) -> tuple[list, 
 # A stop with ``contact`` is compliant instead: its Hunt–Crossley force is part of the hinge's force
 # (the generated hinge_force, codegen/joints.py joint_contact) and no impulse applies; the step still
 # lands on its onset (stop_crossings: δ = 0 within lock_tolerance), where the force law has its kink.
-def stop_crossings(assembler, old: State, new: State) -> list[tuple[int, int, float]]:
+def stop_crossings(assembler, old: State, new: State, flags: np.ndarray | None = None) -> list[tuple[int, int, float]]:
     """(hinge, side, fraction of the step) for free hinges that crossed a stop from inside during the
-    step (side −1 lower, +1 upper), the angle interpolated linearly."""
-    model, flags = assembler.model, hinge_flags(assembler, old, new)
+    step (side −1 lower, +1 upper), the angle interpolated linearly; ``flags``: :func:`hinge_flags` of the step,
+    if taken."""
+    model = assembler.model
+    stopped = [k for k in model.free_hinges if model.hinges[k].limits is not None]
+    if not stopped:
+        return []
+    flags = hinge_flags(assembler, old, new) if flags is None else flags
     out = []
-    for k in model.free_hinges:
+    for k in stopped:
         limits = model.hinges[k].limits
-        if limits is None:
-            continue
         for side, stop in ((-1, limits[0]), (1, limits[1])):
             if flags[k] & CROSSED[side]:
                 before, after = side * (old.theta[k] - stop), side * (new.theta[k] - stop)  # > 0: beyond
@@ -183,12 +194,15 @@ def stop_crossings(assembler, old: State, new: State) -> list[tuple[int, int, fl
 def stop_hits(assembler, new: State, old: State | None = None) -> tuple[list, list, list, list]:
     """The free hinges on or beyond a rigid stop at ``new`` and moving into it: (hinges, their stops, the
     restitution each takes, whether each rests there: started the step from ``old`` on it, restitution 0)."""
-    model, flags = assembler.model, hinge_flags(assembler, new if old is None else old, new)
+    model = assembler.model
+    rigid = [k for k in model.free_hinges  # a compliant stop is a force, no impact
+             if model.hinges[k].limits is not None and model.hinges[k].contact is None]
     hits, stops, restitution, rests = [], [], [], []
-    for k in model.free_hinges:
+    if not rigid:
+        return hits, stops, restitution, rests
+    flags = hinge_flags(assembler, new if old is None else old, new)
+    for k in rigid:
         limits = model.hinges[k].limits
-        if limits is None or model.hinges[k].contact is not None:  # a compliant stop is a force, no impact
-            continue
         for side, stop in ((-1, limits[0]), (1, limits[1])):
             if flags[k] & HIT[side]:
                 resting = old is not None and side * (old.theta[k] - stop) >= -lock_tolerance(stop)
@@ -215,7 +229,7 @@ def first_crossing(assembler, old: State, new: State) -> tuple[int, float] | Non
 
 
 def hinge_stops(prepared: Prepared, integrator, new: State, old: State | None = None,
-                log: list | None = None) -> tuple[float, bool] | None:
+                log: list | None = None, hits: tuple | None = None) -> tuple[float, bool] | None:
     """Impacts on hinge stops at the end of an accepted step from ``old`` (see above): the energy
     they removed (:func:`hinge_events`) and whether every joint that met its stop rests there (started
     the step on it), or None when no hinge hit a stop.
@@ -226,7 +240,7 @@ def hinge_stops(prepared: Prepared, integrator, new: State, old: State | None = 
     which is where the sequence ends; the step keeps no bounce of e·(the rate gained in one step)
     that would show a rate at rest and re-trigger the stop at every step."""
     model, assembler = prepared.model, prepared.assembler
-    hits, stops, restitution, rests = stop_hits(assembler, new, old)
+    hits, stops, restitution, rests = stop_hits(assembler, new, old) if hits is None else hits
     if log is not None:  # the impacts; a hinge resting on its stop is no new event
         log.extend((model.hinges[k].name, "stop") for k, resting in zip(hits, rests) if not resting)
     if not hits:
@@ -417,11 +431,12 @@ def stick_and_slip(prepared: Prepared, integrator, old: State, new: State) -> fl
 # away freely. While locked its coordinate is no unknown: its probe torque/force and ``joint_peaks`` are
 # the reaction R of the locked model (exact: static, the load's moment). The steps of a run with a
 # resting joint are taken from Python, to check it for release (latdyn/timeloop/loop.py).
-def stops_left_at_rest(assembler, new: State, old: State) -> list[tuple[int, int]]:
+def stops_left_at_rest(assembler, new: State, old: State, hits: tuple | None = None) -> list[tuple[int, int]]:
     """(hinge, side) of the free hinges whose impact at the end of the step old → new leaves them on their
-    rigid stop without rate (:func:`stop_hits` with restitution 0): to be tried for resting there."""
+    rigid stop without rate (:func:`stop_hits` with restitution 0, or ``hits``, its result): to be tried for
+    resting there."""
     model = assembler.model
-    hits, stops, restitution, _ = stop_hits(assembler, new, old)
+    hits, stops, restitution, _ = stop_hits(assembler, new, old) if hits is None else hits
     return [(int(k), -1 if stop == model.hinges[k].limits[0] else 1)
             for k, stop, e in zip(hits, stops, restitution) if e == 0.0]
 
@@ -511,8 +526,9 @@ def hinge_events(prepared: Prepared, integrator, old: State, new: State, h: floa
     log = []
     latched = latch_hinges(prepared, integrator, old, new, h, log)
     released = release_from_stops(prepared, integrator, new)
-    at_rest = stops_left_at_rest(prepared.assembler, new, old)
-    stopped = hinge_stops(prepared, integrator, new, old, log)
+    hits = stop_hits(prepared.assembler, new, old)  # the same for both: nothing moves between them
+    at_rest = stops_left_at_rest(prepared.assembler, new, old, hits)
+    stopped = hinge_stops(prepared, integrator, new, old, log, hits)
     settled = settle_on_stops(prepared, integrator, at_rest, new) if stopped is not None else None
     stuck = stick_and_slip(prepared, integrator, old, new)
     resting = stopped is not None and stopped[1] and latched is None and stuck is None

@@ -266,12 +266,13 @@ static int64_t newton_iterations(const Model *m, Work *w, StepControl *s, const 
  * into it. The tolerances are the model's (hinge_event_tolerance: latdyn/model/model.py lock_tolerance). */
 enum { LOCK_REACHED = 1, LOCK_CROSSED = 2, LOWER_CROSSED = 4, UPPER_CROSSED = 8, LOWER_HIT = 16, UPPER_HIT = 32 };
 
-static int64_t hinge_crossings(const Model *m, int64_t j, const Configuration *old, const Configuration *new_)
+static int64_t hinge_crossings(const Model *m, int64_t j, const double *theta_old, const double *theta_new,
+                               const double *rate_new)
 {
     int64_t flags = 0;
     const double lock = m->hinge_lock_at[j], *tolerance = m->hinge_event_tolerance + 3 * j;
     if (!isnan(lock)) {
-        const double before = old->theta[j] - lock, after = new_->theta[j] - lock;
+        const double before = theta_old[j] - lock, after = theta_new[j] - lock;
         if (before == 0.0 || fabs(after) <= tolerance[0])
             flags |= LOCK_REACHED;
         else if (before * after < 0.0)
@@ -280,21 +281,23 @@ static int64_t hinge_crossings(const Model *m, int64_t j, const Configuration *o
     for (int side = -1; side <= 1; side += 2) {
         const double stop = side < 0 ? m->hinge_lower_stop[j] : m->hinge_upper_stop[j], tol = tolerance[side < 0 ? 1 : 2];
         if (isnan(stop)) continue;
-        const double before = side * (old->theta[j] - stop), after = side * (new_->theta[j] - stop); /* > 0: beyond */
+        const double before = side * (theta_old[j] - stop), after = side * (theta_new[j] - stop); /* > 0: beyond */
         if (before < -tol && after > tol) flags |= side < 0 ? LOWER_CROSSED : UPPER_CROSSED;
-        if (after >= -tol && side * new_->theta_dot[j] >= 0.0) flags |= side < 0 ? LOWER_HIT : UPPER_HIT;
+        if (after >= -tol && side * rate_new[j] >= 0.0) flags |= side < 0 ? LOWER_HIT : UPPER_HIT;
     }
     return flags;
 }
 
-/* hinge_crossings of every free hinge into flags (n_hinges; 0 for the others), for the steps accepted from Python
- * (latdyn/timeloop/events.py hinge_flags). */
-void latdyn_hinge_crossings(const Model *m, const Configuration *old, const Configuration *new_, int64_t *flags)
+/* hinge_crossings of every free hinge into flags (n_hinges; 0 for the others) from the angles at the step's start
+ * and end and the rates at its end (n_hinges each), for the steps accepted from Python (latdyn/timeloop/events.py
+ * hinge_flags). */
+void latdyn_hinge_crossings(const Model *m, const double *theta_old, const double *theta_new, const double *rate_new,
+                            int64_t *flags)
 {
     for (int64_t j = 0; j < m->n_hinges; ++j) flags[j] = 0;
     for (int64_t k = 0; k < m->n_free_hinges; ++k) {
         const int64_t j = m->free_hinges[k];
-        flags[j] = hinge_crossings(m, j, old, new_);
+        flags[j] = hinge_crossings(m, j, theta_old, theta_new, rate_new);
     }
 }
 
@@ -306,7 +309,7 @@ static int hinge_event(const Model *m, const Configuration *old, const Configura
 {
     for (int64_t k = 0; k < m->n_free_hinges; ++k) {
         const int64_t j = m->free_hinges[k];
-        const int64_t flags = hinge_crossings(m, j, old, new_);
+        const int64_t flags = hinge_crossings(m, j, old->theta, new_->theta, new_->theta_dot);
         if (flags & (LOCK_REACHED | LOCK_CROSSED | LOWER_CROSSED | UPPER_CROSSED)) return 1;
         const double *contact = m->hinge_contact + 11 * j;
         if ((flags & (LOWER_HIT | UPPER_HIT)) && !(contact[2] > 0.0)) return 1;
