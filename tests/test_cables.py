@@ -724,3 +724,29 @@ def test_the_cables_work_from_python_equals_the_loop_of_steps_in_c_bit_for_bit(m
     for name in ("tip_x", "tip_z", "pull", "W", "D"):
         assert np.array_equal(np.asarray(looped.probes[name]), np.asarray(stepped.probes[name])), name
     assert looped.summary["energy_balance_error"] == stepped.summary["energy_balance_error"]
+
+
+def test_a_cable_element_crosses_its_change_by_the_loop_of_steps_test_at_its_tolerance(tmp_path):
+    """Which cable elements a step crossed is the loop of steps' own test (csrc/newton_step.c cable_crossed, through
+    NativeModel.cable_crossed: latdyn/timeloop/events.py cable_crossings calls it): an element held taut crossed
+    where its gap ends below −tolerance, one held slack where it ends above +tolerance, one on neither side (0,
+    every other analysis) never; a gap on the tolerance is not past it. The tolerance is cable_tolerance of its EA,
+    1e-9 EA."""
+    from latdyn.assembly.prepare import prepare
+    from latdyn.model.cables import cable_tolerance
+
+    scene = tmp_path / "drop.yaml"
+    scene.write_text(drop_scene([0, 0, -1], 0.0, 0.3))
+    assembler = prepare(latdyn.load_scene(scene), "c").assembler
+    native, cables = assembler.native(), assembler.model.cables
+    tol = float(cable_tolerance(cables.EA)[0])
+    assert tol == 1e-9 * EA
+    gaps = [-2 * tol, -tol, -0.5 * tol, 0.0, 0.5 * tol, tol, 2 * tol]
+    expected = {1.0: [True, False, False, False, False, False, False],
+                -1.0: [False, False, False, False, False, False, True],
+                0.0: [False] * 7}
+    for side, crossed in expected.items():
+        cables.sides[:] = side
+        assert [bool(native.cable_crossed(np.array([gap]))[0]) for gap in gaps] == crossed, side
+    with pytest.raises(ValueError, match="cable elements"):
+        native.cable_crossed(np.zeros(2))

@@ -22,6 +22,7 @@ import latdyn.timeloop.transient as transient_module
 from latdyn.scene.expressions import HingeLaw, TimeFunction
 from latdyn.model.kernels import load_kernels
 
+from cli_runs import latdyn_run_switched, summary_of
 from test_engine import _relative_difference, _run, loaded_arm
 from test_hinges import stop_scene
 from test_inertia import _compare, hinged_chain, rigid_motion
@@ -84,6 +85,136 @@ def test_loop_hands_impacts_on_a_stop_back(tmp_path, monkeypatch):
     looped, stepped = _both(raw, tmp_path, monkeypatch)
     _assert_same_run(looped, stepped)
     assert np.min(looped[0].probes["rate"]) < 0 < np.max(looped[0].probes["rate"])  # bounced
+
+
+EVENTS_3D = """\
+title: a 3D arm into its stops, a latch and a cable that goes slack and taut
+gravity: [0.5, -1.0, -9.81]
+sections:
+  arm: {EA: 1.0e6, EIy: 200.0, EIz: 300.0, GJ: 150.0, rhoA: 0.5, rhoIy: 1.0e-4, rhoIz: 1.0e-4}
+bodies:
+  base: {at: [0, 0, 0], fixed: true}
+  post: {at: [0, 0, 0.8], fixed: true}
+  hub: {at: [0.6, 0.1, 0.0], mass: 0.5, inertia: [0.002, 0.003, 0.004]}
+  tip: {at: [1.1, 0.4, -0.1], mass: 0.3, inertia: [0.001, 0.001, 0.001]}
+beams:
+  a:
+    from: base
+    to: hub
+    section: arm
+    elements: 2
+    start: {hinge: {axis: [0, 0.2, 1], limits: [-0.25, 0.3], restitution: 0.6, torque: "2*sin(5*t)"}}
+  b:
+    from: hub
+    to: tip
+    section: arm
+    elements: 2
+    start: {hinge: {axis: [0.3, 1, 0.2], lock_at: -0.45, torque: "0.6", damping: 0.01}}
+cables:
+  rope: {from: post, to: tip, EA: 2000.0, rest_length: 1.45, elements: 1}
+initial_velocity: {angular: [0.5, -0.3, 1.5], about: [0, 0, 0]}
+solve: {analysis: transient, t_end: 0.5, dt: 0.002}
+output:
+  every: 0.01
+  probes:
+    a: {hinge: a.start, quantity: angle}
+    b: {hinge: b.start, quantity: angle}
+    N: {cable: rope, quantity: tension}
+    tipz: {point: tip, quantity: position, component: z}
+    W: {energy: external_work}
+    D: {energy: dissipated}
+"""
+
+
+def test_an_event_heavy_3d_scene_gives_the_same_bits_from_python_and_in_the_loop(tmp_path):
+    """A 3D arm that goes into its stops (twice in 0.1 s), latches, and pulls a cable that goes slack, taut and
+    slack again, through the CLI with the loop of steps in C and with every step from Python: probes.csv the
+    same bytes, state.h5 the same datasets bit for bit, the same events at the same instants. The loop tests
+    the events with csrc/newton_step.c hinge_event and cable_event, the steps from Python with
+    latdyn/timeloop/events.py, from the one definition of each tolerance (the native model's
+    hinge_event_tolerance and cable_tolerance)."""
+    h5py = pytest.importorskip("h5py")
+    scene = tmp_path / "arm.yaml"
+    scene.write_text(EVENTS_3D)
+    outs = {}
+    for loop in (True, False):
+        outs[loop] = tmp_path / f"loop_{loop}"
+        completed = latdyn_run_switched(tmp_path, scene, outs[loop], "import latdyn.timeloop.transient as m; "
+                                        f"m.COMPILED_LOOP = {loop}")
+        assert completed.returncode == 0, completed.stderr
+    looped, stepped = (summary_of(outs[loop]) for loop in (True, False))
+    assert looped["time_loop"] == "compiled" and stepped["time_loop"] == "python"
+    kinds = {(e["joint"], e["kind"]) for e in looped["events"]}
+    assert {("rope", "slack"), ("rope", "taut"), ("a.start", "stop"), ("b.start", "latch")} <= kinds
+    for key in ("events", "cable_events", "steps", "newton_iterations", "energy_balance_error"):
+        assert looped[key] == stepped[key], key
+    assert (outs[True] / "probes.csv").read_bytes() == (outs[False] / "probes.csv").read_bytes()
+    with h5py.File(outs[True] / "state.h5") as a, h5py.File(outs[False] / "state.h5") as b:
+        names = []
+        a.visititems(lambda name, item: names.append(name) if isinstance(item, h5py.Dataset) else None)
+        assert names
+        for name in names:
+            assert a[name][()].tobytes() == b[name][()].tobytes(), name
+
+
+def test_the_loop_reads_the_event_tolerances_python_defines(tmp_path):
+    """The loop of steps in C tests the hinges' and the cables' events with the tolerances latdyn/model defines
+    (lock_tolerance of each lock_at and stop, cable_tolerance of each cable element), handed to it through the
+    native model: there is no second definition in C."""
+    from latdyn.assembly.prepare import prepare
+    from latdyn.model.cables import cable_tolerance
+    from latdyn.model.model import lock_tolerance
+
+    scene = tmp_path / "arm.yaml"
+    scene.write_text(EVENTS_3D)
+    assembler = prepare(latdyn.load_scene(scene), "c").assembler
+    native, model = assembler.native(), assembler.model
+    held = np.ctypeslib.as_array(ctypes.cast(native.model.hinge_event_tolerance, ctypes.POINTER(ctypes.c_double)),
+                                 (len(model.hinges), 3))
+    expected = [[0.0 if at is None else lock_tolerance(at) for at in
+                 (h.lock_at,) + (tuple(h.limits) if h.limits is not None else (None, None))] for h in model.hinges]
+    assert held.tolist() == expected and np.count_nonzero(held) == 3
+    cables = np.ctypeslib.as_array(ctypes.cast(native.model.cable_tolerance, ctypes.POINTER(ctypes.c_double)),
+                                   (len(model.cables.EA),))
+    assert cables.tolist() == cable_tolerance(model.cables.EA).tolist() == [1e-9 * 2000.0]
+
+
+def test_the_hinge_events_from_python_are_the_loop_of_steps_test_at_the_tolerances(tmp_path):
+    """Which hinges reach or cross their lock_at, cross a stop or meet it is the loop of steps' own test
+    (csrc/newton_step.c hinge_crossings, through NativeModel.hinge_crossings; latdyn/timeloop/events.py
+    lock_events, stop_crossings and stop_hits read its flags), at the tolerance 1e-7 max(1, |at|): steps that end
+    just inside and just past each, with exact references."""
+    from latdyn.assembly.prepare import prepare
+    from latdyn.timeloop import events
+
+    scene = tmp_path / "arm.yaml"
+    scene.write_text(EVENTS_3D)
+    prepared = prepare(latdyn.load_scene(scene), "c")
+    assembler, model = prepared.assembler, prepared.model
+    a, b = model.hinge_index("a", "start"), model.hinge_index("b", "start")  # stops [-0.25, 0.3]; lock_at -0.45
+    tol = 1e-7
+    cases = [  # (θ_a, θ̇_a, θ_b) at the step's start, at its end; the flags of a, of b
+        ((0.0, 1.0, -0.4), (0.3 + 2 * tol, 1.0, -0.45 + 0.9 * tol), events.UPPER_CROSSED | events.UPPER_HIT,
+         events.LOCK_REACHED),
+        ((0.0, 1.0, -0.4), (0.3 - 0.9 * tol, 1.0, -0.45 - 2 * tol), events.UPPER_HIT, events.LOCK_CROSSED),
+        ((0.0, 1.0, -0.4), (0.3 - 0.9 * tol, -1.0, -0.45 + 2 * tol), 0, 0),
+        ((0.0, -1.0, -0.45), (-0.25 - 2 * tol, -1.0, -0.3), events.LOWER_CROSSED | events.LOWER_HIT, events.LOCK_REACHED),
+        ((-0.25 + 0.9 * tol, -1.0, -0.4), (-0.25 - 2 * tol, -1.0, -0.4), events.LOWER_HIT, 0),
+    ]
+    for (a0, rate0, b0), (a1, rate1, b1), flags_a, flags_b in cases:
+        old, new = prepared.state.copy(), prepared.state.copy()
+        old.theta[[a, b]], old.theta_dot[a] = (a0, b0), rate0
+        new.theta[[a, b]], new.theta_dot[a] = (a1, b1), rate1
+        flags = events.hinge_flags(assembler, old, new)
+        assert (flags[a], flags[b]) == (flags_a, flags_b), (a1, b1)
+        reached, crossing = events.lock_events(assembler, old, new)
+        assert reached == ([b] if flags_b == events.LOCK_REACHED else [])
+        assert [k for k, _ in crossing] == ([b] if flags_b == events.LOCK_CROSSED else [])
+        assert [(k, side) for k, side, _ in events.stop_crossings(assembler, old, new)] == (
+            [(a, 1)] if flags_a & events.UPPER_CROSSED else [(a, -1)] if flags_a & events.LOWER_CROSSED else [])
+        hits, stops, _, rests = events.stop_hits(assembler, new, old)
+        assert hits == ([a] if flags_a & (events.LOWER_HIT | events.UPPER_HIT) else [])
+        assert rests == [abs(a0 - stop) <= tol for stop in stops]
 
 
 def test_the_step_after_an_impact_starts_from_the_configuration_on_the_stop(tmp_path):

@@ -367,7 +367,7 @@ class TransientSensitivities(ParameterDerivatives):
         derivative of the event time assumes it exactly; ``step(h)`` takes a step of size h from
         ``old``. Returns (state, stats, h, lands) of the last converged step."""
         new, stats, h, lands = attempt
-        event = first_crossing(self.model, old, new)
+        event = first_crossing(self.assembler, old, new)
         cable = None if event is not None or self.cables is None else self.cables.landing(old, new)
         if event is not None:
             k, at = event
@@ -643,9 +643,9 @@ class TransientSensitivities(ParameterDerivatives):
         the step old → new (:func:`latdyn.timeloop.events.hinge_events`), or None; several at once, or
         a joint resting on its stop, are refused (SolverError): their derivative is not that of one event."""
         model = self.model
-        reached, crossing = lock_events(model, old, new)
+        reached, crossing = lock_events(self.assembler, old, new)
         latched = reached + [j for j, _ in crossing]
-        hits, _, restitution, rests = stop_hits(model, new, old)
+        hits, _, restitution, rests = stop_hits(self.assembler, new, old)
         if not latched and not hits:
             return None
         if any(rests) or len(latched) + len(hits) > 1:

@@ -102,6 +102,7 @@ class ModelData(ctypes.Structure):
         ("n_sampled", I64), ("sampled_laws", P), ("sampled_sensor_start", P), ("sampled_slot", P),
         ("sampled_state_start", P), ("sampled_state_slot", P), ("sampled_limits", P), ("sampled_rate", P),
         ("cable_tension", P), ("section_forces_D_q", P), ("inertia_matrices", P),
+        ("hinge_event_tolerance", P), ("cable_tolerance", P),
     ]
 
 
@@ -369,6 +370,10 @@ def native_library() -> ctypes.CDLL:
         library.latdyn_hinge_work.argtypes = [I64, P, P, P, P, P, P, P, P]
         library.latdyn_cable_work.restype = None
         library.latdyn_cable_work.argtypes = [I64, P, P, P, P]
+        library.latdyn_cable_crossed.restype = I64
+        library.latdyn_cable_crossed.argtypes = [model, P, P]
+        library.latdyn_hinge_crossings.restype = None
+        library.latdyn_hinge_crossings.argtypes = [model, P, P, P, P]
         library.latdyn_advance.restype = I64
         library.latdyn_advance.argtypes = [ctypes.POINTER(ModelData), ctypes.POINTER(WorkData), ctypes.POINTER(ControlData),
                                            ctypes.POINTER(ConfigurationData), ctypes.POINTER(ConfigurationData),

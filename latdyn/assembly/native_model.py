@@ -32,6 +32,8 @@ from latdyn.assembly.library import (
     parallel_threshold,
 )
 from latdyn.assembly.native_links import native_links
+from latdyn.model.cables import cable_tolerance
+from latdyn.model.model import lock_tolerance
 
 #: The arrays of a state, in the order of the C ``Configuration``.
 STATE_FIELDS = ("x", "T", "v", "w", "a", "alpha", "theta", "theta_dot", "theta_ddot")
@@ -259,6 +261,8 @@ class NativeModel:
         lock_at = [np.nan if h.lock_at is None else float(h.lock_at) for h in m.hinges]
         lower = [np.nan if h.limits is None else float(h.limits[0]) for h in m.hinges]
         upper = [np.nan if h.limits is None else float(h.limits[1]) for h in m.hinges]
+        #: the tolerance of each hinge's lock_at, lower and upper stop, 0 where none (lock_tolerance, once)
+        event_tolerance = [[0.0 if np.isnan(at) else lock_tolerance(at) for at in ats] for ats in zip(lock_at, lower, upper)]
         # the hinged_end kernel's input of each element end (e, 2, 16): hinge axis, grid point,
         # element axes at t = 0 (node axes), and the hinge angle, filled in by the C code
         element_ends = np.concatenate([m.element_axes, m.element_offsets, m.element_frames0.reshape(-1, 2, 9),
@@ -312,6 +316,7 @@ class NativeModel:
             hinge_torque_hinge_law=ints(torque_hinge_law),
             hinge_conservative=ints([int(h.conservative_spring) for h in m.hinges]),
             hinge_lock_at=arr(lock_at), hinge_lower_stop=arr(lower), hinge_upper_stop=arr(upper),
+            hinge_event_tolerance=arr(np.array(event_tolerance, float).reshape(-1, 3)),
             has_events=int(CE > 0 or any(m.hinges[k].lock_at is not None or m.hinges[k].limits is not None
                                          or m.hinges[k].friction is not None for k in m.free_hinges)),
             section_width=m.element_sections.shape[1],
@@ -357,6 +362,7 @@ class NativeModel:
             self.model.cable_nodes, self.model.cable_offsets = ints(cables.nodes), arr(cables.offsets)
             self.model.cable_section = arr(np.column_stack([cables.share, cables.EA, cables.damping]))
             self.model.cable_rest_law = ints(np.asarray(rest_law, np.int64)[cables.cable])
+            self.model.cable_tolerance = arr(cable_tolerance(cables.EA))
             self._keep.append(cables.sides)  # the model's own array: the time loop sets it in place
             self.model.cable_side = cables.sides.ctypes.data
         work = {
@@ -408,6 +414,8 @@ class NativeModel:
         self._empty = np.zeros(1)
         #: the last few (arrays, C view) of :meth:`_views`, of states whose arrays were their own
         self._viewed: list = []
+        #: whether a hinge has a lock_at or stops (else :meth:`hinge_crossings` has none to find)
+        self.hinge_events = any(h.lock_at is not None or h.limits is not None for h in m.hinges)
         #: per hinge, 1 where it is revolute (a guide's slide is not periodic: :meth:`far_root`)
         self.revolute = np.array([hinge.kind == "hinge" for hinge in m.hinges], dtype=np.int64)
 
@@ -502,6 +510,30 @@ class NativeModel:
         self.library.latdyn_evaluate(self.model_ref, self.work_ref, ctypes.byref(self.configuration(state)),
                                      ctypes.byref(control))
         return self.buffers["total"].copy(), float(control.power)
+
+    def hinge_crossings(self, old, new) -> np.ndarray:
+        """Per hinge, the events of the step ``old`` → ``new`` as flags (latdyn.timeloop.events: lock_at reached
+        or crossed, a stop crossed from inside, a stop met moving into it; 0 for hinges not free)
+        (``latdyn_hinge_crossings``, csrc/newton_step.c hinge_crossings, the loop of steps' own test)."""
+        flags = np.zeros(self.model.n_hinges, np.int64)
+        if self.model.n_free_hinges and self.hinge_events:
+            arrays = [np.ascontiguousarray(a, dtype=np.float64) for a in (old.theta, new.theta, new.theta_dot)]
+            if any(a.shape != flags.shape for a in arrays):
+                raise ValueError(f"hinge angles of shapes {[a.shape for a in arrays]}; the model has {len(flags)} hinges")
+            self.library.latdyn_hinge_crossings(self.model_ref, *(a.ctypes.data for a in arrays), flags.ctypes.data)
+        return flags
+
+    def cable_crossed(self, gaps: np.ndarray) -> np.ndarray:
+        """Per cable element (bool), whether its gap ``gaps`` lies beyond its tolerance on the other side of zero
+        from the side the model's ``cables.sides`` holds it on (``latdyn_cable_crossed``, csrc/newton_step.c
+        cable_crossed, the loop of steps' own)."""
+        gaps = np.ascontiguousarray(gaps, dtype=np.float64)
+        if gaps.shape != (self.model.n_cables,):
+            raise ValueError(f"{gaps.shape} cable gaps; the model has {self.model.n_cables} cable elements")
+        crossed = np.zeros(self.model.n_cables, np.int64)
+        if self.model.n_cables:
+            self.library.latdyn_cable_crossed(self.model_ref, gaps.ctypes.data, crossed.ctypes.data)
+        return crossed.astype(bool)
 
     def cable_state(self, state) -> np.ndarray:
         """(ce, 5) [ℓ, ℓ̇, ℓ − L0, N_el, N] of every cable element at ``state`` (N = 0 while slack):

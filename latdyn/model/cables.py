@@ -31,13 +31,21 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["CableElements", "add_cables", "slack_and_unheld", "unbalanced_free_ends", "BALANCE"]
+__all__ = ["CableElements", "add_cables", "cable_tolerance", "slack_and_unheld", "unbalanced_free_ends", "BALANCE"]
 
 #: A massless cable's free end is in equilibrium at t = 0 when the force left on it is at most this
 #: fraction of the cable's pull there (:func:`unbalanced_free_ends`): the snap of the rest releases
 #: (1e-6)² of the pretension's strain energy along the cable, about (1e-6)²/ε sideways (ε the pretension's
 #: strain: sideways only T/ℓ holds the end)
 BALANCE = 1e-6
+
+
+
+def cable_tolerance(EA: np.ndarray) -> np.ndarray:
+    """The gap (a force) within which a cable element of axial stiffness ``EA`` is on its change between
+    slack and taut (latdyn.timeloop.events; the loop of steps in C reads it per element from the native
+    model, ``cable_tolerance``, made here: csrc/newton_step.c cable_event): a stretch of 1e-9 of its rest length."""
+    return 1e-9 * EA
 
 
 @dataclass

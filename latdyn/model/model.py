@@ -53,7 +53,8 @@ class Node:
 
 def lock_tolerance(at: float) -> float:
     """How near a joint's coordinate must be to a latch or stop position ``at`` to be on it (the events of
-    latdyn/timeloop/events.py, csrc/newton_step.c has its twin, which the joint probes of csrc/rows.c use)."""
+    latdyn/timeloop/events.py; the loop of steps in C reads it per hinge from the native model,
+    ``hinge_event_tolerance``, made here: csrc/newton_step.c hinge_event)."""
     return 1e-7 * max(1.0, abs(at))
 
 

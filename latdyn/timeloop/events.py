@@ -11,34 +11,55 @@ import numpy as np
 from latdyn.assembly.assembler import State, free_acceleration, free_velocity, unpack_free
 from latdyn.assembly.factorization import solve_linear
 from latdyn.assembly.prepare import Prepared
+from latdyn.model.cables import cable_tolerance
 from latdyn.model.model import Model, lock_tolerance
 from latdyn.timeloop.impulse import hinge_directions, impulse_response, jump
 
 
-def lock_events(model: Model, old: State, new: State) -> tuple[list[int], list[tuple[int, float]]]:
+#: The flags of a hinge's events over a step (csrc/newton_step.c hinge_crossings, the loop of steps' own test,
+#: through :func:`hinge_flags`): it started on its lock_at or ends within the tolerance of it; else crossed it; it
+#: crossed its lower or upper stop from inside; it ends on or beyond its lower or upper stop moving into it.
+LOCK_REACHED, LOCK_CROSSED, LOWER_CROSSED, UPPER_CROSSED, LOWER_HIT, UPPER_HIT = 1, 2, 4, 8, 16, 32
+CROSSED, HIT = {-1: LOWER_CROSSED, 1: UPPER_CROSSED}, {-1: LOWER_HIT, 1: UPPER_HIT}
+
+
+def hinge_flags(assembler, old: State, new: State) -> np.ndarray:
+    """Per hinge, its events over the step old → new (the flags above; 0 for hinges not free), by the loop of
+    steps' own test (``NativeModel.hinge_crossings``), with the tolerances of :func:`lock_tolerance`."""
+    return assembler.native().hinge_crossings(old, new)
+
+
+def lock_events(assembler, old: State, new: State, flags: np.ndarray | None = None) -> tuple[list[int], list[tuple[int, float]]]:
     """Free hinges with a lock_at, over the step old → new: those that reach it (started on
     it, or ended within tolerance), and those that cross it with the fraction of the step
-    at the crossing (linear interpolation of the angle)."""
+    at the crossing (linear interpolation of the angle); ``flags``: :func:`hinge_flags` of the step, if taken."""
+    model = assembler.model
+    latches = [k for k in model.free_hinges if model.hinges[k].lock_at is not None]
+    if not latches:
+        return [], []
+    flags = hinge_flags(assembler, old, new) if flags is None else flags
     reached, crossing = [], []
-    for k in model.free_hinges:
-        lock = model.hinges[k].lock_at
-        if lock is None:
-            continue
-        before, after = old.theta[k] - lock, new.theta[k] - lock
-        if before == 0.0 or abs(after) <= lock_tolerance(lock):
+    for k in latches:
+        if flags[k] & LOCK_REACHED:
             reached.append(k)
-        elif before * after < 0.0:
+        elif flags[k] & LOCK_CROSSED:
+            lock = model.hinges[k].lock_at
+            before, after = old.theta[k] - lock, new.theta[k] - lock
             crossing.append((k, before / (before - after)))
     return reached, crossing
 
 
-def crossing_fraction(model: Model, old: State, new: State, assembler=None, cable_floor: float = 0.0) -> float | None:
-    """The fraction of the step at which the first hinge crosses its lock_at or a stop, or a cable
-    element goes slack or taut (with ``assembler``; an element that changes back, having changed at
-    the step's start, never below ``cable_floor``: see :data:`CABLE_LANDING`), or None."""
-    _, crossing = lock_events(model, old, new)
-    fractions = [f for _, f in crossing] + [f for _, _, f in stop_crossings(model, old, new)]
-    if assembler is not None and model.cables is not None:
+def crossing_fraction(assembler, old: State, new: State, cables: bool = False, cable_floor: float = 0.0) -> float | None:
+    """The fraction of the step at which the first hinge crosses its lock_at or a stop, or (with ``cables``) a
+    cable element goes slack or taut (an element that changes back, having changed at the step's start, never
+    below ``cable_floor``: see :data:`CABLE_LANDING`), or None."""
+    model = assembler.model
+    fractions = []
+    if any(model.hinges[k].lock_at is not None or model.hinges[k].limits is not None for k in model.free_hinges):
+        flags = hinge_flags(assembler, old, new)
+        fractions += [f for _, f in lock_events(assembler, old, new, flags)[1]]
+        fractions += [f for _, _, f in stop_crossings(assembler, old, new, flags)]
+    if cables and assembler.model.cables is not None:
         fractions += [max(f, cable_floor) if back else f for _, f, back in cable_crossings(assembler, old, new)]
     return min(fractions) if fractions else None
 
@@ -49,7 +70,8 @@ def crossing_fraction(model: Model, old: State, new: State, assembler=None, cabl
 # step, taut (+1) or slack (−1), in the model's ``cables.sides`` that the evaluation reads
 # (latdyn/model/cables.py): Newton sees one smooth law in a step. A step that ends with an element's gap
 # beyond cable_tolerance on the other side of zero is shortened to land on the zero (secant on the gap,
-# as for hinge stops; the compiled loop hands such a step back: csrc/newton_step.c cable_event); the
+# as for hinge stops; the compiled loop hands such a step back: csrc/newton_step.c cable_event, whose test
+# cable_crossed cable_crossings calls); the
 # accepted step that reached the zero from its side, or crossed it, turns the element over
 # (:func:`cable_events`). The velocities do not jump at the change, so there is no impulse
 # (docs/cables.md measures this against a C¹ transition).
@@ -74,12 +96,6 @@ CABLE_LANDING = 1e-3
 TAUT_JUMP_STEP = 1e-2
 
 
-def cable_tolerance(EA: np.ndarray) -> np.ndarray:
-    """The gap (a force) within which a cable element of axial stiffness ``EA`` is on its change
-    (csrc/newton_step.c cable_tolerance): a stretch of 1e-9 of its rest length."""
-    return 1e-9 * EA
-
-
 def cable_gaps(assembler, state: State) -> tuple[np.ndarray, np.ndarray]:
     """(gap min(N_el, N), its tolerance) of every cable element at ``state``."""
     native = assembler.native()
@@ -97,10 +113,10 @@ def cable_crossings(assembler, old: State, new: State) -> list[tuple[int, float,
     """(cable element, fraction of the step, back) for each element whose gap ends the step beyond its
     tolerance on the other side of zero from the side the step held it on (linear interpolation of the
     gap from ``old``); back: its gap was within the tolerance at ``old`` (it had just changed side, and
-    changes back)."""
-    sides = assembler.model.cables.sides
+    changes back). Which crossed: csrc/newton_step.c cable_crossed, the loop of steps' own test
+    (``NativeModel.cable_crossed``)."""
     after, tol = cable_gaps(assembler, new)
-    crossed = ((sides > 0) & (after < -tol)) | ((sides < 0) & (after > tol))
+    crossed = assembler.native().cable_crossed(after)
     if not crossed.any():
         return []
     before, _ = cable_gaps(assembler, old)
@@ -156,31 +172,39 @@ def cable_events(assembler, sides: list, old: State, new: State) -> tuple[list, 
 # A stop with ``contact`` is compliant instead: its Hunt–Crossley force is part of the hinge's force
 # (the generated hinge_force, codegen/joints.py joint_contact) and no impulse applies; the step still
 # lands on its onset (stop_crossings: δ = 0 within lock_tolerance), where the force law has its kink.
-def stop_crossings(model: Model, old: State, new: State) -> list[tuple[int, int, float]]:
+def stop_crossings(assembler, old: State, new: State, flags: np.ndarray | None = None) -> list[tuple[int, int, float]]:
     """(hinge, side, fraction of the step) for free hinges that crossed a stop from inside during the
-    step (side −1 lower, +1 upper), the angle interpolated linearly."""
+    step (side −1 lower, +1 upper), the angle interpolated linearly; ``flags``: :func:`hinge_flags` of the step,
+    if taken."""
+    model = assembler.model
+    stopped = [k for k in model.free_hinges if model.hinges[k].limits is not None]
+    if not stopped:
+        return []
+    flags = hinge_flags(assembler, old, new) if flags is None else flags
     out = []
-    for k in model.free_hinges:
+    for k in stopped:
         limits = model.hinges[k].limits
-        if limits is None:
-            continue
         for side, stop in ((-1, limits[0]), (1, limits[1])):
-            before, after = side * (old.theta[k] - stop), side * (new.theta[k] - stop)  # > 0: beyond
-            if before < -lock_tolerance(stop) and after > lock_tolerance(stop):
+            if flags[k] & CROSSED[side]:
+                before, after = side * (old.theta[k] - stop), side * (new.theta[k] - stop)  # > 0: beyond
                 out.append((int(k), side, before / (before - after)))
     return out
 
 
-def stop_hits(model: Model, new: State, old: State | None = None) -> tuple[list, list, list, list]:
+def stop_hits(assembler, new: State, old: State | None = None) -> tuple[list, list, list, list]:
     """The free hinges on or beyond a rigid stop at ``new`` and moving into it: (hinges, their stops, the
     restitution each takes, whether each rests there: started the step from ``old`` on it, restitution 0)."""
+    model = assembler.model
+    rigid = [k for k in model.free_hinges  # a compliant stop is a force, no impact
+             if model.hinges[k].limits is not None and model.hinges[k].contact is None]
     hits, stops, restitution, rests = [], [], [], []
-    for k in model.free_hinges:
+    if not rigid:
+        return hits, stops, restitution, rests
+    flags = hinge_flags(assembler, new if old is None else old, new)
+    for k in rigid:
         limits = model.hinges[k].limits
-        if limits is None or model.hinges[k].contact is not None:  # a compliant stop is a force, no impact
-            continue
         for side, stop in ((-1, limits[0]), (1, limits[1])):
-            if side * (new.theta[k] - stop) >= -lock_tolerance(stop) and side * new.theta_dot[k] >= 0.0:
+            if flags[k] & HIT[side]:
                 resting = old is not None and side * (old.theta[k] - stop) >= -lock_tolerance(stop)
                 hits.append(int(k))
                 stops.append(stop)
@@ -189,12 +213,13 @@ def stop_hits(model: Model, new: State, old: State | None = None) -> tuple[list,
     return hits, stops, restitution, rests
 
 
-def first_crossing(model: Model, old: State, new: State) -> tuple[int, float] | None:
+def first_crossing(assembler, old: State, new: State) -> tuple[int, float] | None:
     """(hinge, the lock_at or stop it crosses or reached) of the first hinge event over the step old → new
     (the earliest crossing; else a hinge that reached its lock_at), or None: what a landing aims at."""
-    reached, crossing = lock_events(model, old, new)
+    model = assembler.model
+    reached, crossing = lock_events(assembler, old, new)
     found = [(f, k, model.hinges[k].lock_at) for k, f in crossing]
-    found += [(f, k, model.hinges[k].limits[0 if side < 0 else 1]) for k, side, f in stop_crossings(model, old, new)]
+    found += [(f, k, model.hinges[k].limits[0 if side < 0 else 1]) for k, side, f in stop_crossings(assembler, old, new)]
     if found:
         _, k, at = min(found)
         return int(k), float(at)
@@ -204,7 +229,7 @@ def first_crossing(model: Model, old: State, new: State) -> tuple[int, float] | 
 
 
 def hinge_stops(prepared: Prepared, integrator, new: State, old: State | None = None,
-                log: list | None = None) -> tuple[float, bool] | None:
+                log: list | None = None, hits: tuple | None = None) -> tuple[float, bool] | None:
     """Impacts on hinge stops at the end of an accepted step from ``old`` (see above): the energy
     they removed (:func:`hinge_events`) and whether every joint that met its stop rests there (started
     the step on it), or None when no hinge hit a stop.
@@ -215,7 +240,7 @@ def hinge_stops(prepared: Prepared, integrator, new: State, old: State | None = 
     which is where the sequence ends; the step keeps no bounce of e·(the rate gained in one step)
     that would show a rate at rest and re-trigger the stop at every step."""
     model, assembler = prepared.model, prepared.assembler
-    hits, stops, restitution, rests = stop_hits(model, new, old)
+    hits, stops, restitution, rests = stop_hits(assembler, new, old) if hits is None else hits
     if log is not None:  # the impacts; a hinge resting on its stop is no new event
         log.extend((model.hinges[k].name, "stop") for k, resting in zip(hits, rests) if not resting)
     if not hits:
@@ -275,7 +300,7 @@ def latch_hinges(prepared: Prepared, integrator, old: State, new: State, h: floa
     Returns the energy the latch removed (:func:`hinge_events`), or None when no hinge latched.
     """
     model, assembler = prepared.model, prepared.assembler
-    reached, crossing = lock_events(model, old, new)
+    reached, crossing = lock_events(assembler, old, new)
     latched = reached + [k for k, _ in crossing]
     if not latched:
         return None
@@ -406,10 +431,12 @@ def stick_and_slip(prepared: Prepared, integrator, old: State, new: State) -> fl
 # away freely. While locked its coordinate is no unknown: its probe torque/force and ``joint_peaks`` are
 # the reaction R of the locked model (exact: static, the load's moment). The steps of a run with a
 # resting joint are taken from Python, to check it for release (latdyn/timeloop/loop.py).
-def stops_left_at_rest(model: Model, new: State, old: State) -> list[tuple[int, int]]:
+def stops_left_at_rest(assembler, new: State, old: State, hits: tuple | None = None) -> list[tuple[int, int]]:
     """(hinge, side) of the free hinges whose impact at the end of the step old → new leaves them on their
-    rigid stop without rate (:func:`stop_hits` with restitution 0): to be tried for resting there."""
-    hits, stops, restitution, _ = stop_hits(model, new, old)
+    rigid stop without rate (:func:`stop_hits` with restitution 0, or ``hits``, its result): to be tried for
+    resting there."""
+    model = assembler.model
+    hits, stops, restitution, _ = stop_hits(assembler, new, old) if hits is None else hits
     return [(int(k), -1 if stop == model.hinges[k].limits[0] else 1)
             for k, stop, e in zip(hits, stops, restitution) if e == 0.0]
 
@@ -499,8 +526,9 @@ def hinge_events(prepared: Prepared, integrator, old: State, new: State, h: floa
     log = []
     latched = latch_hinges(prepared, integrator, old, new, h, log)
     released = release_from_stops(prepared, integrator, new)
-    at_rest = stops_left_at_rest(prepared.model, new, old)
-    stopped = hinge_stops(prepared, integrator, new, old, log)
+    hits = stop_hits(prepared.assembler, new, old)  # the same for both: nothing moves between them
+    at_rest = stops_left_at_rest(prepared.assembler, new, old, hits)
+    stopped = hinge_stops(prepared, integrator, new, old, log, hits)
     settled = settle_on_stops(prepared, integrator, at_rest, new) if stopped is not None else None
     stuck = stick_and_slip(prepared, integrator, old, new)
     resting = stopped is not None and stopped[1] and latched is None and stuck is None

@@ -615,11 +615,11 @@ class TimeLoop:
         # of the trial ends (regula falsi), so that the landing does not end short of the change, which
         # left the next step a sliver of 1e-7 s to land on (docs/cables.md: after such slivers Newton
         # failed on the example truss with damped cables); a hinge's: the secant from the step's start
-        bracket = self.model.cables is not None and crossing_fraction(self.model, old, new) is None
+        bracket = self.model.cables is not None and crossing_fraction(self.assembler, old, new) is None
         short, past = old, new
         for _ in range(4):
             floor = CABLE_LANDING * self.control.dt / (past.t - short.t) if short is old else 0.0
-            fraction = crossing_fraction(self.model, short, past, self.assembler, cable_floor=floor)
+            fraction = crossing_fraction(self.assembler, short, past, cables=True, cable_floor=floor)
             if fraction is None:
                 break
             shorter = max(short.t - old.t + (past.t - short.t) * fraction, self.control.dt_min)
@@ -630,7 +630,7 @@ class TimeLoop:
             if not retry_stats.converged:
                 break
             progress.newton_iterations += retry_stats.iterations
-            if not bracket or crossing_fraction(self.model, old, retry, self.assembler) is not None:
+            if not bracket or crossing_fraction(self.assembler, old, retry, cables=True) is not None:
                 past = retry  # the change is in the retried step (or a hinge's: from the start again)
                 if not bracket:
                     short = old
@@ -655,8 +655,8 @@ class TimeLoop:
             return
         model = self.model
         targets = [(k, model.hinges[k].limits[0 if side < 0 else 1], "stop")
-                   for k, side, _ in stop_crossings(model, old, trial.new)]
-        targets += [(k, model.hinges[k].lock_at, "lock_at") for k, _ in lock_events(model, old, trial.new)[1]]
+                   for k, side, _ in stop_crossings(self.assembler, old, trial.new)]
+        targets += [(k, model.hinges[k].lock_at, "lock_at") for k, _ in lock_events(self.assembler, old, trial.new)[1]]
         for k, target, kind in targets:
             turn = trial.h * abs(float(trial.new.theta_dot[k] - old.theta_dot[k]))
             before, after = float(old.theta[k] - target), float(kept.theta[k] - target)

@@ -241,6 +241,11 @@ typedef struct {
      * quadratic_velocity_D_qdot sharing the element's kinematics), for an evaluation with matrices; NULL
      * in a variant generated before it: the two kernels then */
     kernel_3_3 inertia_matrices;
+    /* the events' tolerances, computed once in Python and read by the loop of steps' tests (newton_step.c
+     * hinge_event, cable_event): (n_hinges, 3) the tolerance of each hinge's lock_at, lower and upper stop
+     * (latdyn/model/model.py lock_tolerance; 0 where none), (ce) that of each cable element's gap
+     * (latdyn/model/cables.py cable_tolerance) */
+    const double *hinge_event_tolerance, *cable_tolerance;
 } Model;
 
 /* Scratch buffers, allocated once by the caller. */

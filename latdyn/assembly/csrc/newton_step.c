@@ -257,38 +257,68 @@ static int64_t newton_iterations(const Model *m, Work *w, StepControl *s, const 
 
 /* ------------------------------------------------------------------------- the loop of steps */
 
-/* latdyn/model/model.py lock_tolerance */
-static double lock_tolerance(double at) { return 1e-7 * fmax(1.0, fabs(at)); }
+/* The hinge events of free hinge j over the step old → new, as the sum of the flags below, which
+ * latdyn/timeloop/events.py reads (hinge_flags: lock_events, stop_crossings, stop_hits) and the loop of steps
+ * tests (hinge_event):
+ * LOCK_REACHED: it started on its lock_at or ends within the tolerance of it; LOCK_CROSSED: else it crossed it;
+ * LOWER_CROSSED, UPPER_CROSSED: it crossed a stop from inside, beyond the tolerance on both sides (the onset of a
+ * compliant stop's contact too); LOWER_HIT, UPPER_HIT: it ends on or beyond a stop (within the tolerance) moving
+ * into it. The tolerances are the model's (hinge_event_tolerance: latdyn/model/model.py lock_tolerance). */
+enum { LOCK_REACHED = 1, LOCK_CROSSED = 2, LOWER_CROSSED = 4, UPPER_CROSSED = 8, LOWER_HIT = 16, UPPER_HIT = 32 };
+
+static int64_t hinge_crossings(const Model *m, int64_t j, const double *theta_old, const double *theta_new,
+                               const double *rate_new)
+{
+    int64_t flags = 0;
+    const double lock = m->hinge_lock_at[j], *tolerance = m->hinge_event_tolerance + 3 * j;
+    if (!isnan(lock)) {
+        const double before = theta_old[j] - lock, after = theta_new[j] - lock;
+        if (before == 0.0 || fabs(after) <= tolerance[0])
+            flags |= LOCK_REACHED;
+        else if (before * after < 0.0)
+            flags |= LOCK_CROSSED;
+    }
+    for (int side = -1; side <= 1; side += 2) {
+        const double stop = side < 0 ? m->hinge_lower_stop[j] : m->hinge_upper_stop[j], tol = tolerance[side < 0 ? 1 : 2];
+        if (isnan(stop)) continue;
+        const double before = side * (theta_old[j] - stop), after = side * (theta_new[j] - stop); /* > 0: beyond */
+        if (before < -tol && after > tol) flags |= side < 0 ? LOWER_CROSSED : UPPER_CROSSED;
+        if (after >= -tol && side * rate_new[j] >= 0.0) flags |= side < 0 ? LOWER_HIT : UPPER_HIT;
+    }
+    return flags;
+}
+
+/* hinge_crossings of every free hinge into flags (n_hinges; 0 for the others) from the angles at the step's start
+ * and end and the rates at its end (n_hinges each), for the steps accepted from Python (latdyn/timeloop/events.py
+ * hinge_flags). */
+void latdyn_hinge_crossings(const Model *m, const double *theta_old, const double *theta_new, const double *rate_new,
+                            int64_t *flags)
+{
+    for (int64_t j = 0; j < m->n_hinges; ++j) flags[j] = 0;
+    for (int64_t k = 0; k < m->n_free_hinges; ++k) {
+        const int64_t j = m->free_hinges[k];
+        flags[j] = hinge_crossings(m, j, theta_old, theta_new, rate_new);
+    }
+}
 
 /* Whether the step old → new holds an event that latdyn/timeloop/events.py handles (and the loop must not
- * accept by itself): a free hinge that reaches or crosses its lock_at (lock_events),
- * crosses a stop from inside (stop_crossings; the onset of a compliant stop's contact too), or ends on or
- * beyond a rigid stop moving into it (hinge_stops). */
+ * accept by itself): a free hinge that reaches or crosses its lock_at (lock_events), crosses a stop from inside
+ * (stop_crossings), or ends on or beyond a rigid stop moving into it (stop_hits; a compliant stop, contact
+ * stiffness > 0, is a force, not an impact: only its onset lands), by hinge_crossings; or may stick. */
 static int hinge_event(const Model *m, const Configuration *old, const Configuration *new_)
 {
     for (int64_t k = 0; k < m->n_free_hinges; ++k) {
-        int64_t j = m->free_hinges[k];
-        double lock = m->hinge_lock_at[j];
-        if (!isnan(lock)) {
-            double before = old->theta[j] - lock, after = new_->theta[j] - lock;
-            if (before == 0.0 || fabs(after) <= lock_tolerance(lock) || before * after < 0.0) return 1;
-        }
+        const int64_t j = m->free_hinges[k];
+        const int64_t flags = hinge_crossings(m, j, old->theta, new_->theta, new_->theta_dot);
+        if (flags & (LOCK_REACHED | LOCK_CROSSED | LOWER_CROSSED | UPPER_CROSSED)) return 1;
+        const double *contact = m->hinge_contact + 11 * j;
+        if ((flags & (LOWER_HIT | UPPER_HIT)) && !(contact[2] > 0.0)) return 1;
         /* friction that can hold the joint (static level > 0): a rate that reversed, fell into the stick
          * band, or started at 0 (events.py may_stick decides; this hands back a superset) */
-        const double *contact = m->hinge_contact + 11 * j;
         const double before = old->theta_dot[j], after = new_->theta_dot[j];
         if (contact[6] > 0.0 && (before * after < 0.0 || before == 0.0 ||
                                  (fabs(after) <= contact[10] && fabs(after) < fabs(before))))
             return 1;
-        for (int side = -1; side <= 1; side += 2) {
-            double stop = side < 0 ? m->hinge_lower_stop[j] : m->hinge_upper_stop[j];
-            if (isnan(stop)) continue;
-            double before = side * (old->theta[j] - stop), after = side * (new_->theta[j] - stop);
-            if (before < -lock_tolerance(stop) && after > lock_tolerance(stop)) return 1;
-            /* a compliant stop (contact stiffness > 0) is a force, not an impact: only its onset lands */
-            if (after >= -lock_tolerance(stop) && side * new_->theta_dot[j] >= 0.0 && !(m->hinge_contact[11 * j + 2] > 0.0))
-                return 1;
-        }
     }
     return 0;
 }
@@ -323,18 +353,30 @@ int64_t latdyn_far_root(const Model *m, const Configuration *old, const Configur
     return far_root(m, old, new_, h, revolute, distance);
 }
 
-/* latdyn/timeloop/events.py cable_tolerance: of a gap (a force), for an element of axial stiffness EA */
-static double cable_tolerance(double EA) { return 1e-9 * EA; }
+/* Whether cable element e, at the gap `gap` (min(N_el, N)), lies beyond its tolerance (Model cable_tolerance) on the
+ * other side of zero from the side the step held it on (Model cable_side): the step crossed the element's change
+ * between slack and taut and is shortened to land on it (latdyn/timeloop/events.py cable_crossings). */
+static int cable_crossed(const Model *m, int64_t e, double gap)
+{
+    const double side = m->cable_side[e], tolerance = m->cable_tolerance[e];
+    return (side > 0.0 && gap < -tolerance) || (side < 0.0 && gap > tolerance);
+}
 
-/* Whether the step's last evaluation has a cable element's gap min(N_el, N) beyond its tolerance on the
- * other side of zero from the side the step held (latdyn/timeloop/events.py cable_crossings). */
+/* Whether the step's last evaluation has a cable element that crossed its change (cable_crossed). */
 static int cable_event(const Model *m, const Work *w)
 {
-    for (int64_t e = 0; e < m->n_cables; ++e) {
-        double side = m->cable_side[e], after = w->cable_gap[e], tol = cable_tolerance(m->cable_section[3 * e + 1]);
-        if ((side > 0.0 && after < -tol) || (side < 0.0 && after > tol)) return 1;
-    }
+    for (int64_t e = 0; e < m->n_cables; ++e)
+        if (cable_crossed(m, e, w->cable_gap[e])) return 1;
     return 0;
+}
+
+/* cable_crossed of every cable element at the gaps `gap` (ce) into crossed (ce, 1 or 0), for the steps accepted
+ * from Python (latdyn/timeloop/events.py cable_crossings); the number crossed. */
+int64_t latdyn_cable_crossed(const Model *m, const double *gap, int64_t *crossed)
+{
+    int64_t count = 0;
+    for (int64_t e = 0; e < m->n_cables; ++e) count += crossed[e] = cable_crossed(m, e, gap[e]);
+    return count;
 }
 
 /* The entry of `reaction` (an evaluation's on the constrained coordinates, reaction[d − n_dofs] that of coordinate d)

@@ -14,8 +14,6 @@
  * one, the continuous controllers' states as accepted at the row.
  */
 
-static double lock_tolerance(double at); /* newton_step.c: latdyn/model/model.py lock_tolerance */
-
 /* The continuous controllers' outputs at the accepted state c, time t: their laws (clipped) at its
  * sensors and their states as accepted (controller_outputs of evaluate.c outside a step), into the
  * scene's array of controller outputs m->controller_outputs, which the next evaluation writes again.
