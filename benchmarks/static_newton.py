@@ -98,7 +98,7 @@ def one_iteration(folder: Path) -> None:
             ev = a.evaluate(state, matrices=True, load_factor=lam, inertia=False)
             shifted = a.evaluate(state, matrices=False, load_factor=lam + 1.0, inertia=False)
             x = solve_linear(ev.stiffness, np.column_stack([-ev.residual, ev.residual - shifted.residual]))
-            return x[:, 0], x[:, 1], increment_size(path.model, x[:, 0], path.length_scale)
+            return x[:, 0], x[:, 1], increment_size(a, x[:, 0], path.length_scale)
 
         def native():
             step = path.iterate(state, lam)

@@ -71,7 +71,7 @@ class ReferenceGeneralizedAlpha(GeneralizedAlpha):
             v += gamma_p * dx
             vdot += beta_p * dx
             stats.iterations = iteration
-            size = increment_size(model, dx, self.length_scale)
+            size = increment_size(self.assembler, dx, self.length_scale)
             if iteration > 1:
                 stats.contraction = max(stats.contraction, size / previous)
             previous = size

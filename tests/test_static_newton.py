@@ -88,9 +88,29 @@ def test_the_native_static_iteration_equals_the_evaluation_and_factorization_fro
         assert relative(native.reference, q_ref) <= 1e-12
         assert relative(native.dq_r, dq_r) <= 1e-9
         assert relative(native.dq_lambda, dq_l) <= 1e-9
-        assert native.size == increment_size(prepared.model, native.dq_r, path.length_scale)
+        assert native.size == increment_size(prepared.assembler, native.dq_r, path.length_scale)
         assert relative(path.tangent(state, lam), K) <= 1e-12  # the eigenvalue counts' K, from the dense storage
-        assert path.increment_size(dq_r) == increment_size(prepared.model, dq_r, path.length_scale)
+        assert path.increment_size(dq_r) == increment_size(prepared.assembler, dq_r, path.length_scale)
+
+
+def test_the_increment_size_is_the_time_steps_own_measure(tmp_path):
+    """Statics, continuation and steady motion judge Newton by the time step's measure, written once
+    (csrc/newton_step.c increment_size through NativeModel.increment_size): per free node |Δd|/ℓ and |Δπ|, per
+    free hinge |Δθ|, the largest; exact references (3-4-12-13 triangles)."""
+    scene = tmp_path / "arm.yaml"
+    scene.write_text(ARM)
+    prepared = prepare(latdyn.load_scene(str(scene)))
+    model, length = prepared.model, 2.0
+    node = model.node_dofs[model.free_nodes[-1]]
+    hinge = model.hinge_dofs[model.free_hinges[-1]]
+    for translation, rotation, turn, largest in ((2.0, 0.5, 0.25, 13.0), (0.1, 0.5, 0.25, 6.5),
+                                                 (0.1, 0.05, 7.0, 7.0)):
+        dx = np.zeros(model.n_dofs)
+        dx[node[0:3]] = np.multiply((3.0, 4.0, 12.0), translation)
+        dx[node[3:6]] = np.multiply((3.0, 4.0, 12.0), rotation)
+        dx[hinge] = -turn
+        assert increment_size(prepared.assembler, dx, length) == largest
+        assert prepared.assembler.native().increment_size(dx, length) == largest
 
 
 #: EI = 2, L = 1, M = π EI / L at λ = 1: half a circle of radius ρ = EI/M = 1/π; the axis n = (0, 0.6, 0.8).

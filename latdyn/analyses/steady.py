@@ -186,7 +186,7 @@ def steady_state(prepared, tol: float = 1e-10, max_iter: int = 200, stage_iter: 
             dx = solve_linear(lin.stiffness + shift * lin.mass, -residual)
             if not np.all(np.isfinite(dx)):
                 return None, iteration, "a singular tangent"
-            size = increment_size(model, dx, length)
+            size = increment_size(assembler, dx, length)
             if size > MAX_STEP:
                 dx *= MAX_STEP / size
             state = assembler.advance(state, dx)

@@ -359,6 +359,8 @@ def native_library() -> ctypes.CDLL:
         # the accounts of a step accepted from Python, the loop of steps' own (csrc/newton_step.c)
         library.latdyn_drive_forces.restype = None
         library.latdyn_drive_forces.argtypes = [model, P, P]
+        library.latdyn_increment_size.restype = ctypes.c_double
+        library.latdyn_increment_size.argtypes = [model, P, ctypes.c_double]
         library.latdyn_drive_work.restype = ctypes.c_double
         library.latdyn_drive_work.argtypes = [model, configuration, configuration, P, P, ctypes.c_double]
         library.latdyn_far_root.restype = I64

@@ -654,6 +654,15 @@ class NativeModel:
                                              else self._empty.ctypes.data, out.ctypes.data)
         return out
 
+    def increment_size(self, dx: np.ndarray, length: float) -> float:
+        """The size of the Newton increment ``dx`` (its first n_dofs entries: the free coordinates) in a scene of
+        size ``length`` (``latdyn_increment_size``, csrc/newton_step.c increment_size, the loop of steps' own)."""
+        n = self.model.n_dofs
+        if len(dx) < n:
+            raise ValueError(f"an increment of {len(dx)} entries; the model has {n} free coordinates")
+        dx = np.ascontiguousarray(dx[:n], dtype=np.float64)
+        return float(self.library.latdyn_increment_size(self.model_ref, dx.ctypes.data, float(length)))
+
     def drive_work(self, old, new, forces_old: np.ndarray, forces_new: np.ndarray, work: float) -> float:
         """``work`` with the prescribed motions' work over the step ``old`` → ``new`` added, from their reactions
         at its two ends (:meth:`drive_forces`; ``latdyn_drive_work``, csrc/newton_step.c drive_work)."""

@@ -834,4 +834,4 @@ class StaticNewton:
 
     def increment_size(self, dx: np.ndarray) -> float:
         """The time step's convergence measure of an increment (:func:`latdyn.step.integrators.increment_size`)."""
-        return increment_size(self.assembler.model, np.asarray(dx, dtype=float), float(self.control.length))
+        return increment_size(self.assembler, np.asarray(dx, dtype=float), float(self.control.length))

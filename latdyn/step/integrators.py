@@ -58,7 +58,6 @@ from latdyn.assembly.assembler import (
     State,
     free_acceleration,
     free_velocity,
-    padded,
     unpack_free,
 )
 from latdyn.errors import SolverError
@@ -111,20 +110,16 @@ class StepStats:
     contraction: float = 0.0  # largest |Δx_k| / |Δx_{k−1}| of the step's Newton increments
 
 
-def increment_size(model, dx: np.ndarray, length: float) -> float:
+def increment_size(assembler, dx: np.ndarray, length: float) -> float:
     """The size of a Newton increment, dimensionless and invariant under rigid motions.
 
     Per free node, |Δd| / ℓ (ℓ the size of the scene) and |Δπ| (radians, the norm
     of the spatial rotation increment), per free hinge |Δθ|; the largest of them.
-    Norms of 3-vectors do not depend on the frame, component maxima would.
+    Norms of 3-vectors do not depend on the frame, component maxima would. Written once, in
+    C (csrc/newton_step.c increment_size, the time step's own test), for statics, continuation
+    and steady motion too (``NativeModel.increment_size``).
     """
-    nodes = model.node_dofs[model.free_nodes]
-    dx = padded(model, dx)  # node slots that are not coordinates (planar models) read 0
-    translation = np.linalg.norm(dx[nodes[:, 0:3]], axis=1) / length
-    rotation = np.linalg.norm(dx[nodes[:, 3:6]], axis=1)
-    hinge = np.abs(dx[model.hinge_dofs[model.free_hinges]])
-    return float(max(np.max(translation, initial=0.0), np.max(rotation, initial=0.0),
-                     np.max(hinge, initial=0.0)))
+    return assembler.native().increment_size(dx, length)
 
 
 def consistent_acceleration(model, ev) -> np.ndarray:
@@ -446,7 +441,7 @@ class CentralDifference:
                 unpack_free(model, predicted(), trial.v, trial.w, trial.theta_dot)
                 stats.iterations += 1
                 ev = self.assembler.evaluate(trial, matrices=True)
-                if increment_size(model, dx, self.length_scale) <= self.tol or not np.all(np.isfinite(dx)):
+                if increment_size(self.assembler, dx, self.length_scale) <= self.tol or not np.all(np.isfinite(dx)):
                     break
             else:
                 stats.converged = False

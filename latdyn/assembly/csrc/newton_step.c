@@ -76,7 +76,9 @@ static int solve(const Model *m, Work *w, const double *residual, double *dx)
     return info;
 }
 
-/* integrators.increment_size: per free node |Δd|/ℓ and |Δπ|, per free hinge |Δθ|; the largest. */
+/* The size of a Newton increment dx (n_dofs), dimensionless and invariant under rigid motions: per free node
+ * |Δd|/ℓ (ℓ the size of the scene) and |Δπ|, per free hinge |Δθ|; the largest. The one definition: the time step,
+ * statics, continuation and steady motion (latdyn/step/integrators.py increment_size, by latdyn_increment_size). */
 static double increment_size(const Model *m, const double *dx, double length)
 {
     double size = 0.0;
@@ -428,6 +430,12 @@ static double drive_work(const Model *m, const Configuration *old, const Configu
     for (int64_t j = 0; j < m->n_hinges; ++j)
         work += 0.5 * (force_old[6 * P + j] + force_new[6 * P + j]) * (new_->theta[j] - old->theta[j]);
     return work;
+}
+
+/* increment_size for Python (latdyn/step/integrators.py increment_size). */
+double latdyn_increment_size(const Model *m, const double *dx, double length)
+{
+    return increment_size(m, dx, length);
 }
 
 /* drive_work for Python (latdyn/timeloop/progress.py drive_work). */
