@@ -313,9 +313,31 @@ def test_a_study_varies_a_friction_value(tmp_path):
         assert abs(values[0]) == pytest.approx(0.45 - 2 * F, abs=5e-4)
 
 
+def test_a_compliant_stop_is_no_impact_by_one_rule_for_the_loop_and_for_python():
+    """Which stops are rigid (impacts: LOWER_HIT/UPPER_HIT, events.stop_hits) is decided once, in the loop of steps'
+    own test (csrc/newton_step.c hinge_crossings: no hit where the stop has contact stiffness > 0); Python's
+    stop_hits reads those flags and has no test of its own. A step that ends 1e-3 past the upper stop moving
+    into it: crossed for both, a hit only for the rigid stop."""
+    from latdyn.assembly.prepare import prepare
+    from latdyn.timeloop import events
+
+    for hinge, flags_expected in (("limits: [-1, 0.1], contact: {stiffness: 1000.0, exponent: 1.5}",
+                                   events.UPPER_CROSSED),
+                                  ("limits: [-1, 0.1], restitution: 0.5", events.UPPER_CROSSED | events.UPPER_HIT)):
+        prepared = prepare(latdyn.load_scene(yaml.safe_load(panel(hinge))), "c")
+        assembler, k = prepared.assembler, prepared.model.hinge_index("arm", "start")
+        old, new = prepared.state.copy(), prepared.state.copy()
+        old.theta[k], old.theta_dot[k], new.theta[k], new.theta_dot[k] = 0.05, 1.0, 0.101, 1.0
+        assert events.hinge_flags(assembler, old, new)[k] == flags_expected
+        hits, stops, restitution, rests = events.stop_hits(assembler, new, old)
+        assert (hits, stops, restitution, rests) == (([k], [0.1], [0.5], [False]) if flags_expected & events.UPPER_HIT
+                                                     else ([], [], [], []))
+
+
 BAD = [
     ("contact: {stiffness: 100}", "contact", "limits"),
     ("limits: [-1, 1], contact: {stiffness: -5}", "contact.stiffness", "positive"),
+    ("limits: [-1, 1], contact: {stiffness: 0}", "contact.stiffness", "positive"),  # a compliant stop is stiff
     ("limits: [-1, 1], contact: {stiffness: 5, exponent: 0.5}", "contact.exponent", ">= 1"),
     ("limits: [-1, 1], contact: {stiffness: 5, damping: -1}", "contact.damping", ">= 0"),
     ("limits: [-1, 1], contact: {exponent: 1.5}", "contact.stiffness", "missing"),

@@ -18,7 +18,8 @@ from latdyn.timeloop.impulse import hinge_directions, impulse_response, jump
 
 #: The flags of a hinge's events over a step (csrc/newton_step.c hinge_crossings, the loop of steps' own test,
 #: through :func:`hinge_flags`): it started on its lock_at or ends within the tolerance of it; else crossed it; it
-#: crossed its lower or upper stop from inside; it ends on or beyond its lower or upper stop moving into it.
+#: crossed its lower or upper stop from inside; it ends on or beyond its lower or upper stop moving into it, a rigid
+#: stop (a compliant one, with ``contact``, is a force, no impact: it never has these two).
 LOCK_REACHED, LOCK_CROSSED, LOWER_CROSSED, UPPER_CROSSED, LOWER_HIT, UPPER_HIT = 1, 2, 4, 8, 16, 32
 CROSSED, HIT = {-1: LOWER_CROSSED, 1: UPPER_CROSSED}, {-1: LOWER_HIT, 1: UPPER_HIT}
 
@@ -195,13 +196,12 @@ def stop_hits(assembler, new: State, old: State | None = None) -> tuple[list, li
     """The free hinges on or beyond a rigid stop at ``new`` and moving into it: (hinges, their stops, the
     restitution each takes, whether each rests there: started the step from ``old`` on it, restitution 0)."""
     model = assembler.model
-    rigid = [k for k in model.free_hinges  # a compliant stop is a force, no impact
-             if model.hinges[k].limits is not None and model.hinges[k].contact is None]
+    stopped = [k for k in model.free_hinges if model.hinges[k].limits is not None]  # rigid or not: the flags say
     hits, stops, restitution, rests = [], [], [], []
-    if not rigid:
+    if not stopped:
         return hits, stops, restitution, rests
     flags = hinge_flags(assembler, new if old is None else old, new)
-    for k in rigid:
+    for k in stopped:
         limits = model.hinges[k].limits
         for side, stop in ((-1, limits[0]), (1, limits[1])):
             if flags[k] & HIT[side]:

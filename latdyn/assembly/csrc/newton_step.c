@@ -264,8 +264,10 @@ static int64_t newton_iterations(const Model *m, Work *w, StepControl *s, const 
  * tests (hinge_event):
  * LOCK_REACHED: it started on its lock_at or ends within the tolerance of it; LOCK_CROSSED: else it crossed it;
  * LOWER_CROSSED, UPPER_CROSSED: it crossed a stop from inside, beyond the tolerance on both sides (the onset of a
- * compliant stop's contact too); LOWER_HIT, UPPER_HIT: it ends on or beyond a stop (within the tolerance) moving
- * into it. The tolerances are the model's (hinge_event_tolerance: latdyn/model/model.py lock_tolerance). */
+ * compliant stop's contact too); LOWER_HIT, UPPER_HIT: it ends on or beyond a rigid stop (within the tolerance)
+ * moving into it, an impact (a compliant stop, contact stiffness > 0 in hinge_contact, is a force: it has no hit,
+ * here, for the loop and for events.py stop_hits alike). The tolerances are the model's (hinge_event_tolerance:
+ * latdyn/model/model.py lock_tolerance). */
 enum { LOCK_REACHED = 1, LOCK_CROSSED = 2, LOWER_CROSSED = 4, UPPER_CROSSED = 8, LOWER_HIT = 16, UPPER_HIT = 32 };
 
 static int64_t hinge_crossings(const Model *m, int64_t j, const double *theta_old, const double *theta_new,
@@ -273,6 +275,7 @@ static int64_t hinge_crossings(const Model *m, int64_t j, const double *theta_ol
 {
     int64_t flags = 0;
     const double lock = m->hinge_lock_at[j], *tolerance = m->hinge_event_tolerance + 3 * j;
+    const int rigid = !(m->hinge_contact[11 * j + 2] > 0.0); /* stops without contact stiffness */
     if (!isnan(lock)) {
         const double before = theta_old[j] - lock, after = theta_new[j] - lock;
         if (before == 0.0 || fabs(after) <= tolerance[0])
@@ -285,7 +288,7 @@ static int64_t hinge_crossings(const Model *m, int64_t j, const double *theta_ol
         if (isnan(stop)) continue;
         const double before = side * (theta_old[j] - stop), after = side * (theta_new[j] - stop); /* > 0: beyond */
         if (before < -tol && after > tol) flags |= side < 0 ? LOWER_CROSSED : UPPER_CROSSED;
-        if (after >= -tol && side * rate_new[j] >= 0.0) flags |= side < 0 ? LOWER_HIT : UPPER_HIT;
+        if (rigid && after >= -tol && side * rate_new[j] >= 0.0) flags |= side < 0 ? LOWER_HIT : UPPER_HIT;
     }
     return flags;
 }
@@ -305,16 +308,16 @@ void latdyn_hinge_crossings(const Model *m, const double *theta_old, const doubl
 
 /* Whether the step old → new holds an event that latdyn/timeloop/events.py handles (and the loop must not
  * accept by itself): a free hinge that reaches or crosses its lock_at (lock_events), crosses a stop from inside
- * (stop_crossings), or ends on or beyond a rigid stop moving into it (stop_hits; a compliant stop, contact
- * stiffness > 0, is a force, not an impact: only its onset lands), by hinge_crossings; or may stick. */
+ * (stop_crossings), or ends on or beyond a rigid stop moving into it (stop_hits; a compliant stop is a force, not
+ * an impact: only its onset lands), by hinge_crossings; or may stick. */
 static int hinge_event(const Model *m, const Configuration *old, const Configuration *new_)
 {
     for (int64_t k = 0; k < m->n_free_hinges; ++k) {
         const int64_t j = m->free_hinges[k];
         const int64_t flags = hinge_crossings(m, j, old->theta, new_->theta, new_->theta_dot);
         if (flags & (LOCK_REACHED | LOCK_CROSSED | LOWER_CROSSED | UPPER_CROSSED)) return 1;
+        if (flags & (LOWER_HIT | UPPER_HIT)) return 1;
         const double *contact = m->hinge_contact + 11 * j;
-        if ((flags & (LOWER_HIT | UPPER_HIT)) && !(contact[2] > 0.0)) return 1;
         /* friction that can hold the joint (static level > 0): a rate that reversed, fell into the stick
          * band, or started at 0 (events.py may_stick decides; this hands back a superset) */
         const double before = old->theta_dot[j], after = new_->theta_dot[j];
