@@ -334,6 +334,44 @@ def test_a_compliant_stop_is_no_impact_by_one_rule_for_the_loop_and_for_python()
                                                      else ([], [], [], []))
 
 
+def test_which_joints_may_stick_is_the_loop_of_steps_own_test():
+    """Which joints with friction are tried for sticking at a step's end is decided once (csrc/newton_step.c
+    may_stick: the loop of steps hands back exactly these steps; events.may_stick reads it through
+    NativeModel.may_stick): a rate that reversed, or fell into the stick band (0.01 here), or a joint that started
+    the run at rest; not one just released (rate 0 at a later step's start, growing), nor friction that cannot
+    hold (static level 0). Exact references; (t at the step's start, rate before, rate after, tried)."""
+    from latdyn.assembly.prepare import prepare
+    from latdyn.timeloop import events
+
+    cases = [(0.5, 1.0, -0.5, True), (0.5, 0.02, 0.005, True), (0.5, -0.02, -0.01, True), (0.5, 0.005, 0.008, False),
+             (0.5, 0.5, 0.3, False), (0.0, 0.0, 0.1, True), (0.1, 0.0, 0.1, False), (0.1, 0.0, 0.0, False)]
+    for friction, holds in (("{coulomb: 0.2, static: 0.3, stick_rate: 0.01}", True), ("{coulomb: 0.0}", False)):
+        prepared = prepare(latdyn.load_scene(yaml.safe_load(panel(f"friction: {friction}"))), "c")
+        assembler, k = prepared.assembler, prepared.model.hinge_index("arm", "start")
+        for t, before, after, tried in cases:
+            old, new = prepared.state.copy(), prepared.state.copy()
+            old.t, new.t, old.theta_dot[k], new.theta_dot[k] = t, t + 0.01, before, after
+            assert assembler.native().may_stick(old, new).tolist() == [tried and holds], (friction, t, before, after)
+            assert events.may_stick(assembler, k, old, new) is (tried and holds)
+
+
+def test_the_loop_of_steps_goes_on_through_a_release(monkeypatch):
+    """The step after a stuck joint breaks away (rate 0 at its start, growing) is no stick (may_stick above): the
+    loop of steps in C goes on through it where it handed it back to Python before (2 entries into the loop on
+    the breakaway of test_a_stuck_joint_breaks_away_at_the_static_level; now 1, the whole run)."""
+    import latdyn.step.compiled as compiled
+
+    entries, advance = [], compiled.CompiledGeneralizedAlpha.advance
+    monkeypatch.setattr(compiled.CompiledGeneralizedAlpha, "advance",
+                        lambda self, *a, **k: entries.append(1) or advance(self, *a, **k))
+    text = panel("torque: t, friction: {coulomb: 0.2, static: 0.3}", omega=0.0, inertia="[1.0, 1.0, 1.0]", t_end=1.0,
+                 dt=0.005)
+    result = latdyn.run(yaml.safe_load(text))
+    assert result.summary["time_loop"] == "compiled" and result.summary["steps"] == 200
+    assert np.any(result.probes["rate"] == 0.0) and result.probes["rate"][-1] > 0.0  # stuck, then released
+    assert len(entries) == 1
+
+
 BAD = [
     ("contact: {stiffness: 100}", "contact", "limits"),
     ("limits: [-1, 1], contact: {stiffness: -5}", "contact.stiffness", "positive"),

@@ -1024,7 +1024,7 @@ class TransientSensitivities(ParameterDerivatives):
         before the restart (its weight is evaluated at them, as the run's)."""
         model = self.model
         for j in sticking_hinges(model) + [int(j) for j in np.flatnonzero(model.stuck)]:
-            if j in self._candidates or (not model.stuck[j] and not may_stick(model, j, old, new)):
+            if j in self._candidates or (not model.stuck[j] and not may_stick(self.assembler, j, old, new)):
                 continue
             dq = self._on_nodes(carried["dq"])
             vdot = self._on_nodes(free_acceleration(model, new)[:, None])[0]

@@ -374,6 +374,8 @@ def native_library() -> ctypes.CDLL:
         library.latdyn_cable_work.argtypes = [I64, P, P, P, P]
         library.latdyn_cable_crossed.restype = I64
         library.latdyn_cable_crossed.argtypes = [model, P, P]
+        library.latdyn_may_stick.restype = None
+        library.latdyn_may_stick.argtypes = [model, P, P, ctypes.c_double, P]
         library.latdyn_hinge_crossings.restype = None
         library.latdyn_hinge_crossings.argtypes = [model, P, P, P, P]
         library.latdyn_advance.restype = I64

@@ -523,6 +523,19 @@ class NativeModel:
             self.library.latdyn_hinge_crossings(self.model_ref, *(a.ctypes.data for a in arrays), flags.ctypes.data)
         return flags
 
+    def may_stick(self, old, new) -> np.ndarray:
+        """Per hinge (bool), whether it is tried for sticking at the end of the step ``old`` → ``new`` (friction that
+        can hold it, and a rate that reversed, fell into the stick band, or started the run at 0; False for hinges
+        not free) (``latdyn_may_stick``, csrc/newton_step.c may_stick, the loop of steps' own)."""
+        flags = np.zeros(self.model.n_hinges, np.int64)
+        if self.model.n_free_hinges:
+            rates = [np.ascontiguousarray(a, dtype=np.float64) for a in (old.theta_dot, new.theta_dot)]
+            if any(a.shape != flags.shape for a in rates):
+                raise ValueError(f"hinge rates of shapes {[a.shape for a in rates]}; the model has {len(flags)} hinges")
+            self.library.latdyn_may_stick(self.model_ref, rates[0].ctypes.data, rates[1].ctypes.data, float(old.t),
+                                          flags.ctypes.data)
+        return flags.astype(bool)
+
     def cable_crossed(self, gaps: np.ndarray) -> np.ndarray:
         """Per cable element (bool), whether its gap ``gaps`` lies beyond its tolerance on the other side of zero
         from the side the model's ``cables.sides`` holds it on (``latdyn_cable_crossed``, csrc/newton_step.c

@@ -346,13 +346,12 @@ def sticking_hinges(model: Model) -> list[int]:
             if model.hinges[k].friction is not None and model.hinges[k].friction.static > 0.0]
 
 
-def may_stick(model: Model, k: int, old: State, new: State) -> bool:
+def may_stick(assembler, k: int, old: State, new: State) -> bool:
     """Whether hinge k is tried for sticking at the end of the step: its rate reversed, or fell into
-    the stick band, or it started the run at rest (newton_step.c hinge_event hands back these steps).
-    Not a joint just released (rate 0 at the step's start, growing): it slips until it reverses."""
-    before, after = old.theta_dot[k], new.theta_dot[k]
-    settling = abs(after) <= model.hinges[k].friction.stick_rate and abs(after) < abs(before)
-    return before * after < 0.0 or settling or (before == 0.0 and old.t == 0.0)
+    the stick band, or it started the run at rest. Not a joint just released (rate 0 at the step's start,
+    growing): it slips until it reverses. The loop of steps' own test (csrc/newton_step.c may_stick, through
+    ``NativeModel.may_stick``): the steps it hands back are these."""
+    return bool(assembler.native().may_stick(old, new)[k])
 
 
 def stick_at_start(prepared: Prepared, integrator, state: State) -> None:
@@ -395,7 +394,7 @@ def stick_and_slip(prepared: Prepared, integrator, old: State, new: State) -> fl
             _renumber(prepared, integrator, new)
             changed = True
     for k in sticking_hinges(model):
-        if not may_stick(model, k, old, new):
+        if not may_stick(assembler, k, old, new):
             continue
         saved = {name: getattr(new, name).copy() for name in ("v", "w", "theta_dot", "a", "alpha", "theta_ddot")}
         saved_a = None if getattr(integrator, "a", None) is None else integrator.a.copy()

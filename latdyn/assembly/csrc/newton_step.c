@@ -306,24 +306,41 @@ void latdyn_hinge_crossings(const Model *m, const double *theta_old, const doubl
     }
 }
 
+/* Whether free hinge j is tried for sticking at the end of a step from time t_old on which its rate went from
+ * `before` to `after`: friction that can hold it (static level > 0, hinge_contact), and a rate that reversed, or
+ * fell into the stick band, or a joint that started the run at rest; not a joint just released (rate 0 at the
+ * step's start, growing): it slips until it reverses. The one test: the loop of steps' (hinge_event) and
+ * latdyn/timeloop/events.py may_stick's (latdyn_may_stick). */
+static int may_stick(const Model *m, int64_t j, double before, double after, double t_old)
+{
+    const double *contact = m->hinge_contact + 11 * j;  /* F_s at 6, the stick band v₀ at 10 */
+    const int settling = fabs(after) <= contact[10] && fabs(after) < fabs(before);
+    return contact[6] > 0.0 && (before * after < 0.0 || settling || (before == 0.0 && t_old == 0.0));
+}
+
+/* may_stick of every hinge into flags (n_hinges, 1 or 0; 0 for hinges not free) from the rates at the step's start
+ * and end, the step from t_old, for the steps accepted from Python (latdyn/timeloop/events.py may_stick). */
+void latdyn_may_stick(const Model *m, const double *rate_old, const double *rate_new, double t_old, int64_t *flags)
+{
+    for (int64_t j = 0; j < m->n_hinges; ++j) flags[j] = 0;
+    for (int64_t k = 0; k < m->n_free_hinges; ++k) {
+        const int64_t j = m->free_hinges[k];
+        flags[j] = may_stick(m, j, rate_old[j], rate_new[j], t_old);
+    }
+}
+
 /* Whether the step old → new holds an event that latdyn/timeloop/events.py handles (and the loop must not
  * accept by itself): a free hinge that reaches or crosses its lock_at (lock_events), crosses a stop from inside
  * (stop_crossings), or ends on or beyond a rigid stop moving into it (stop_hits; a compliant stop is a force, not
  * an impact: only its onset lands), by hinge_crossings; or may stick. */
-static int hinge_event(const Model *m, const Configuration *old, const Configuration *new_)
+static int hinge_event(const Model *m, const Configuration *old, const Configuration *new_, double t_old)
 {
     for (int64_t k = 0; k < m->n_free_hinges; ++k) {
         const int64_t j = m->free_hinges[k];
         const int64_t flags = hinge_crossings(m, j, old->theta, new_->theta, new_->theta_dot);
         if (flags & (LOCK_REACHED | LOCK_CROSSED | LOWER_CROSSED | UPPER_CROSSED)) return 1;
         if (flags & (LOWER_HIT | UPPER_HIT)) return 1;
-        const double *contact = m->hinge_contact + 11 * j;
-        /* friction that can hold the joint (static level > 0): a rate that reversed, fell into the stick
-         * band, or started at 0 (events.py may_stick decides; this hands back a superset) */
-        const double before = old->theta_dot[j], after = new_->theta_dot[j];
-        if (contact[6] > 0.0 && (before * after < 0.0 || before == 0.0 ||
-                                 (fabs(after) <= contact[10] && fabs(after) < fabs(before))))
-            return 1;
+        if (may_stick(m, j, old->theta_dot[j], new_->theta_dot[j], t_old)) return 1;
     }
     return 0;
 }
@@ -658,7 +675,7 @@ int64_t latdyn_advance(const Model *m, Work *w, StepControl *s, const Configurat
         int64_t failed = latdyn_newton_step(m, w, s, base, trial, x);
         if (failed || !s->converged) {
             adv->status = 1;
-        } else if ((m->has_events && (hinge_event(m, base, trial) || cable_event(m, w))) || far_root(m, base, trial, s->h, NULL, NULL) >= 0) {
+        } else if ((m->has_events && (hinge_event(m, base, trial, t) || cable_event(m, w))) || far_root(m, base, trial, s->h, NULL, NULL) >= 0) {
             adv->status = 2;   /* an event, or a root a whole turn away (far_root): the caller takes the step */
         }
         if (adv->status) {
