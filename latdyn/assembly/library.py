@@ -308,6 +308,8 @@ def native_library() -> ctypes.CDLL:
         library.latdyn_controller_outputs_at.restype = None
         library.latdyn_controller_outputs_at.argtypes = [model, work, configuration, ctypes.c_double]
         library.latdyn_joint_forces.argtypes = [model, work, configuration, ctypes.c_double, ctypes.c_double, P]
+        library.latdyn_sample_restart.restype = I64
+        library.latdyn_sample_restart.argtypes = [model, work, configuration, ctypes.c_double, P]
         library.latdyn_sample_controllers.restype = I64
         library.latdyn_sample_controllers.argtypes = [model, work, configuration, ctypes.c_double, ctypes.c_double]
         library.latdyn_evaluate.restype = None

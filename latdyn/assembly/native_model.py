@@ -587,6 +587,20 @@ class NativeModel:
             self.library.latdyn_controller_states_accept(self.model_ref, self.work_ref,
                                                          ctypes.byref(self.configuration(state)), float(state.t), h)
 
+    def sample_restart(self, state) -> np.ndarray | None:
+        """The accelerations after a sample at ``state``, in place, where every direction has inertia:
+        v̇ ← v̇ − M⁻¹ r (``latdyn_sample_restart``, csrc/sampling.c sample_restart, the loop of steps'
+        own restart); the algorithmic acceleration a_n (n_dofs), or None where M did not factorize. Needs the
+        step's storage (latdyn.step.compiled: the restart matrix of a model with sampled controllers)."""
+        a_n = np.zeros(self.model.n_dofs)
+        view = self.configuration(state)
+        if any(a is not getattr(state, name) for a, name in zip(self._copies, STATE_FIELDS)):
+            raise ValueError("a state whose arrays are not contiguous float64: the restart writes into them")
+        self.laws.bind_inputs()
+        failed = self.library.latdyn_sample_restart(self.model_ref, self.work_ref, ctypes.byref(view),
+                                                           float(state.t), a_n.ctypes.data)
+        return None if failed else a_n
+
     def sample(self, state, t: float, tolerance: float, provided: dict | None = None) -> int:
         """The sampled controllers' sample at the accepted ``state`` (``latdyn_sample_controllers``,
         csrc/sampling.c): those whose instant ``t`` is, within ``tolerance``; ``provided``: the

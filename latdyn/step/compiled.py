@@ -448,6 +448,19 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
             self._restart_for, self._restarts_natively = self._native, natively
         return self._restarts_natively
 
+    def restart_after_sample(self, state: State) -> bool:
+        """The restart after a sample from Python where the loop of steps takes it itself (:meth:`restarts_natively`):
+        the same C (csrc/sampling.c sample_restart), into ``state`` and as the algorithmic acceleration.
+        False where it does not apply or M did not factorize (the caller then restarts with the split)."""
+        self._setup()
+        if not self._native.model.n_sampled or not self.restarts_natively(state):
+            return False
+        a_n = self._native.sample_restart(state)
+        if a_n is None:
+            return False
+        self.a = a_n
+        return True
+
     def row_capacity(self) -> int:
         """The most rows one :meth:`advance` records (its buffers, :class:`RowBuffers`)."""
         self._setup()

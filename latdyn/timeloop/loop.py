@@ -861,11 +861,13 @@ class TimeLoop:
 
     def _restart_after_sample(self, state: State) -> None:
         """The held outputs jumped (an event of the laws): the accelerations go on from those consistent
-        with the new outputs, as after a latch (the integrator's start; the loop of steps in C takes the
-        same restart itself where it can: latdyn.timeloop.sampling), and the power of the loads after
-        the jump starts the next step."""
+        with the new outputs, as after a latch (the integrator's start; where the loop of steps in C takes the
+        restart itself, its C: CompiledGeneralizedAlpha.restart_after_sample, latdyn.timeloop.sampling), and the
+        power of the loads after the jump starts the next step."""
         progress = self.progress
-        self.integrator.start(state)
+        restart = getattr(self.integrator, "restart_after_sample", None)  # the loop of steps' own, where it has one
+        if restart is None or not restart(state):
+            self.integrator.start(state)
         progress.algorithmic_acceleration = self.integrator.a
         evaluation = self.assembler.evaluate(state, matrices=False)
         self._torques_from(evaluation)

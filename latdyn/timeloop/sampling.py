@@ -20,7 +20,8 @@ evaluation of the continuous controllers (csrc/evaluate.c ``sensor_value``), the
 instant without returning to Python, and the restart after it too where every direction has an
 inertia that does not depend on the state (v̇ ← v̇ − M⁻¹r, with rigid links and guides on the minimum
 coordinates with Pᵀ M P: :func:`latdyn.step.integrators.consistent_acceleration` with an all-massive
-split, :meth:`latdyn.step.compiled.CompiledGeneralizedAlpha.restarts_natively`); otherwise (directions
+split, :meth:`latdyn.step.compiled.CompiledGeneralizedAlpha.restarts_natively`; the steps from Python restart
+there with the same C, :meth:`~latdyn.step.compiled.CompiledGeneralizedAlpha.restart_after_sample`); otherwise (directions
 without inertia: 3D beams without rotary inertia) it returns after the sample and the time loop
 restarts from Python with the inertia split. A probe no C sensor evaluates (energy, momentum, a joint's reaction) is
 handed in from Python (:meth:`latdyn.assembly.native_model.NativeModel.sample`): the loop of steps then stops

@@ -74,7 +74,8 @@ int64_t latdyn_sample_controllers(const Model *m, Work *w, const Configuration *
     return sampled;
 }
 
-/* The restart after a sample at the accepted state c, time t, for a model whose every direction has
+/* sample_restart: the accelerations of the restart after a sample at the accepted state c, time t (restart_after_sample
+ * below, and the steps from Python), for a model whose every direction has
  * inertia (the caller knows: latdyn/step/compiled.py restarts_natively): the held outputs jumped, and the
  * accelerations go on from those consistent with the equations of motion under the new ones, as
  * GeneralizedAlpha.start makes them (latdyn/step/integrators.py consistent_acceleration, whose split is
@@ -85,12 +86,12 @@ int64_t latdyn_sample_controllers(const Model *m, Work *w, const Configuration *
  * factorization.c; into c and as the algorithmic acceleration a_n. With rigid links and guides the same on
  * the minimum coordinates: the dependent nodes' accelerations P v̇ + c(q, v) (complete_links), so the
  * reduced residual Pᵀ r is affine in the minimum v̇ with slope Pᵀ M P (links.c assemble_linked_mass),
- * the dependent nodes completed again with the new v̇. Then the continuous controllers'
+ * the dependent nodes completed again with the new v̇. restart_after_sample then takes the continuous controllers'
  * state rates at c (latdyn_controller_states_accept with h = 0, as the start takes them) and, from an
  * evaluation at the restarted state, the power of the point loads, the prescribed motions' reactions, the hinges'
  * work and damper torques and the cables' accounts that start the next step (the time loop's
- * _torques_from). Returns 0, or the factorization's failure (the caller then restarts from Python). */
-static int64_t restart_after_sample(const Model *m, Work *w, Configuration *c, double t, double *a_n, Advance *adv)
+ * _torques_from). Each returns 0, or the factorization's failure (the caller then restarts from Python). */
+static int64_t sample_restart(const Model *m, Work *w, Configuration *c, double t, double *a_n)
 {
     const int64_t n = m->n_dofs;
     const Factorization *f = m->factorization;
@@ -131,6 +132,20 @@ static int64_t restart_after_sample(const Model *m, Work *w, Configuration *c, d
         c->theta_ddot[j] = a_n[m->hinge_dofs[j]];
     }
     if (m->links) complete_links(m, c);  /* the dependent nodes' accelerations from the new v̇ */
+    return 0;
+}
+
+/* sample_restart for the steps from Python (latdyn/timeloop/loop.py _restart_after_sample, where the
+ * integrator restarts_natively): the one restart after a sample, in the loop of steps and out of it. */
+int64_t latdyn_sample_restart(const Model *m, Work *w, Configuration *c, double t, double *a_n)
+{
+    return sample_restart(m, w, c, t, a_n);
+}
+
+static int64_t restart_after_sample(const Model *m, Work *w, Configuration *c, double t, double *a_n, Advance *adv)
+{
+    const int64_t failed = sample_restart(m, w, c, t, a_n);
+    if (failed) return failed;
     latdyn_controller_states_accept(m, w, c, t, 0.0);
     m->time_laws(t, w->laws);
     const double power = evaluate(m, c, w, w->laws, t, 0, 1, 1.0);
