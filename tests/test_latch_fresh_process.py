@@ -13,35 +13,9 @@ import sys
 from pathlib import Path
 
 from tests.test_sensitivities_fresh_process import _MODULES_HOOK, SOURCE
+from tests.test_sensitivities_joint_forces import BOOM
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
-
-#: examples/deploying_boom_sensitivities.py's design run: the boom's hinge spring and damper named, their
-#: sensitivities through the latch
-DESIGN = """\
-parameters: {k: 2.0, c: 0.1}
-sections:
-  panel: {EA: 1.0e6, EIy: 50.0, EIz: 50.0, GJ: 40.0, rhoA: 1.0, rhoIy: 0.001, rhoIz: 0.001}
-bodies:
-  root: {at: [0, 0, 0], fixed: true}
-  knee: {at: [1, 0, 0], mass: 0.2}
-  tip: {at: [0, 0.05, 0], mass: 0.5}
-beams:
-  inner: {from: root, to: knee, section: panel, elements: 3}
-  outer:
-    from: {body: knee, offset: [0, 0.05, 0]}
-    to: tip
-    section: panel
-    elements: 3
-    start: {hinge: {axis: [0, 0, 1], stiffness: k, damping: c, rest_angle: 3.6, lock_at: pi}}
-solve: {analysis: transient, t_end: 2.5, dt: 0.005, rho_inf: 0.5, sensitivities: [k, c]}
-output:
-  every: 0.01
-  probes:
-    knee_y: {point: knee, quantity: displacement, component: y}
-    hinge: {hinge: outer.start, quantity: angle}
-"""
-
 
 def _run_through_scipy(latdyn, scene: Path, out: Path) -> None:
     """The API's run with the impulse and the weight derivative through SciPy's matrices, as before."""
@@ -58,7 +32,7 @@ def _run_through_scipy(latdyn, scene: Path, out: Path) -> None:
 
 def test_a_fresh_run_that_latches_does_not_import_scipy_sparse(tmp_path):
     """The boom (19 coordinates, a latch into which every direction has inertia), its design run with
-    sensitivities, and the cable-deployed truss (91-99 coordinates, latches next to directions without inertia:
+    sensitivities (examples/deploying_boom_sensitivities.py's to 0.3 s after the latch: test_sensitivities_joint_forces.BOOM), and the cable-deployed truss (91-99 coordinates, latches next to directions without inertia:
     the condensed impulse), each a fresh ``latdyn run``: no scipy.sparse imported and a latch taken; probes.csv,
     state.h5 (sensitivities.csv), the summary's events (and sensitivities) equal by bytes to the API's run with
     the impulse and the weight derivative through SciPy's matrices. The truss's fresh run and the API's differ
@@ -70,7 +44,7 @@ def test_a_fresh_run_that_latches_does_not_import_scipy_sparse(tmp_path):
     hook.mkdir()
     (hook / "sitecustomize.py").write_text(_MODULES_HOOK)
     environment = {**os.environ, "PYTHONPATH": os.pathsep.join([str(hook), str(SOURCE)])}
-    scenes = {"boom": (EXAMPLES / "deploying_boom.yaml").read_text(), "design": DESIGN,
+    scenes = {"boom": (EXAMPLES / "deploying_boom.yaml").read_text(), "design": BOOM,
               "truss": (EXAMPLES / "cable_deploying_truss.yaml").read_text()}
     for name, text in scenes.items():
         scene = tmp_path / f"{name}.yaml"

@@ -1,5 +1,6 @@
 """Compressed sparse rows in NumPy, for what a run does with sparse matrices before its first step
-(the held check, the consistent accelerations at t = 0) on a model whose step needs no SciPy sparse
+(the held check, the consistent accelerations at t = 0) and at a latch or an impact (the impulse,
+latdyn.timeloop.impulse) on a model whose step needs no SciPy sparse
 matrix (a band LU up to :data:`latdyn.numerics.linalg.RCM_IN_PYTHON` coordinates): importing
 ``scipy.sparse`` alone costs ≈0.1 s of CPU, more than the 16-bay lattice's whole step
 (docs/performance.md, "Where a run's time goes").
