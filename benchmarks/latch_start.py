@@ -3,8 +3,6 @@ sparse package (issue 31/34)").
 
     python benchmarks/latch_start.py [--rounds 5] [--trees ROOT_A,ROOT_B] [--fifo] [--scenes NAME,...] [--modules]
 
-(benchmarks/sensitivity_start.py's options; its ``--adjoint`` does nothing here)
-
 The scenes: examples/deploying_boom.yaml (``boom``), the boom's design run of examples/deploying_boom_sensitivities.py
 without and with its sensitivities to the hinge's k and c (``boom0``, ``boom_kc``: benchmarks/sensitivity_start.py's),
 examples/deploying_truss.yaml and examples/cable_deploying_truss.yaml, each ``python -m latdyn run SCENE -o OUT -q``
@@ -15,6 +13,7 @@ medians of wall and the child's CPU, ``--fifo`` under ``chrt -f 10``).
 """
 from __future__ import annotations
 
+import argparse
 import sys
 from pathlib import Path
 
@@ -32,7 +31,7 @@ def scenes() -> list[tuple[str, str, dict]]:
     """(name, family, scene) of every scene (module docstring); ``design`` runs its script, its scene the run's
     with sensitivities (``boom_kc``)."""
     made = [("boom", "example", yaml.safe_load((ROOT / "examples" / "deploying_boom.yaml").read_text()))]
-    made += [s for s in _sensitivity_scenes() if s[1] == "boom"]
+    made += [s for s in sensitivity_start.scenes() if s[1] == "boom"]
     for name in ("deploying_truss", "cable_deploying_truss"):
         made.append((name, name, yaml.safe_load((ROOT / "examples" / f"{name}.yaml").read_text())))
     return made + [("design", "design", made[2][2])]
@@ -46,14 +45,18 @@ def _command(scene: Path, out: Path, fifo: bool) -> list[str]:
     return _latdyn_command(scene, out, fifo)
 
 
-_latdyn_command, _sensitivity_scenes = sensitivity_start._command, sensitivity_start.scenes
+_latdyn_command = sensitivity_start._command
 
 
 def main() -> None:
-    """benchmarks/sensitivity_start.py's command line (its options) on these scenes."""
-    sensitivity_start.scenes = lambda adjoint=False: scenes()
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--rounds", type=int, default=5)
+    parser.add_argument("--trees", default=str(ROOT))
+    parser.add_argument("--fifo", action="store_true", help="each process under chrt -f 10")
+    parser.add_argument("--scenes", default=None, help="comma-separated scene names (default: all)")
+    parser.add_argument("--modules", action="store_true")
     sensitivity_start._command = _command
-    sensitivity_start.main()
+    sensitivity_start.measure(scenes(), parser.parse_args(), prefix="latch-start-")
 
 
 if __name__ == "__main__":
