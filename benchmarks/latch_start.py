@@ -5,11 +5,12 @@ sparse package (issue 31/34)").
 
 The scenes: examples/deploying_boom.yaml (``boom``), the boom's design run of examples/deploying_boom_sensitivities.py
 without and with its sensitivities to the hinge's k and c (``boom0``, ``boom_kc``: benchmarks/sensitivity_start.py's),
-examples/deploying_truss.yaml and examples/cable_deploying_truss.yaml, each ``python -m latdyn run SCENE -o OUT -q``
-in a fresh process; and ``design``, the whole design example ``python examples/deploying_boom_sensitivities.py`` (its
-SLSQP iterations and the check by central differences, in one process). Measured as benchmarks/sensitivity_start.py
-measures (its ``as_a_user`` and ``modules``: the trees alternating process by process, a warm-up round left out,
-medians of wall and the child's CPU, ``--fifo`` under ``chrt -f 10``).
+examples/deploying_truss.yaml, examples/cable_deploying_truss.yaml and examples/slider_crank.yaml, each
+``python -m latdyn run SCENE -o OUT -q`` in a fresh process; and ``design``, the whole design example
+``python examples/deploying_boom_sensitivities.py`` (its SLSQP iterations and the check by central differences, in
+one process). Measured as benchmarks/sensitivity_start.py measures (its ``as_a_user`` and ``modules``: the trees
+alternating process by process, a warm-up round left out, medians of wall and the child's CPU, ``--fifo`` under
+``chrt -f 10``).
 """
 from __future__ import annotations
 
@@ -32,7 +33,7 @@ def scenes() -> list[tuple[str, str, dict]]:
     with sensitivities (``boom_kc``)."""
     made = [("boom", "example", yaml.safe_load((ROOT / "examples" / "deploying_boom.yaml").read_text()))]
     made += [s for s in sensitivity_start.scenes() if s[1] == "boom"]
-    for name in ("deploying_truss", "cable_deploying_truss"):
+    for name in ("deploying_truss", "cable_deploying_truss", "slider_crank"):
         made.append((name, name, yaml.safe_load((ROOT / "examples" / f"{name}.yaml").read_text())))
     return made + [("design", "design", made[2][2])]
 

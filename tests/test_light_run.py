@@ -547,7 +547,8 @@ def test_the_impulses_csr_operations_are_scipys_to_the_last_bit():
         m, m_ref = _random_csr(rng, n, n, 0.2)
         values = rng.standard_normal(len(m.data)) * 10.0 ** rng.integers(-4, 8, len(m.data))
         values[::5] = -m.data[::5] / h2   # sums that cancel
-        k, k_ref = CSR(m.shape, m.indptr, m.indices, values), sps.csr_matrix((values, m.indices, m.indptr), shape=m.shape)
+        k = CSR(m.shape, m.indptr, m.indices, values)
+        k_ref = sps.csr_matrix((values, m.indices, m.indptr), shape=m.shape)
         assert _same_bits(csr.nonzero(CSR(m.shape, m.indptr, m.indices, m.data + h2 * k.data)).data,
                           (m_ref + h2 * k_ref).tocsr().data)
         quasi_static, quasi_static_ref = csr.nonzero(CSR(m.shape, m.indptr, m.indices, m.data + h2 * k.data)), \

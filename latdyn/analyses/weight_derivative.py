@@ -191,11 +191,12 @@ def _rest_product(assembler, state, w: np.ndarray, scale: float, mass: bool) -> 
 
 
 def configuration_tangent_of_weight(assembler, state, w: np.ndarray, scale: float, mass: bool, step: float):
-    """H = ∂(W w)/∂q (n × n, sparse: :func:`_sparse`; :func:`times`, :func:`transposed_times`) at ``state`` for W = M + ``scale``·K (``mass``) or ``scale``·K (module
-    docstring): the generated part, plus H_rest's columns on :func:`rest_support` by central differences of
-    W_rest w along each of those coordinates with the configuration step ``step``. ValueError on a model with rigid
-    links or guides: H assumes the free coordinates are the assembled ones (their reduction's geometric term keeps
-    the difference of W w, ``TransientSensitivities._linked_weight_derivative``)."""
+    """H = ∂(W w)/∂q (n × n, sparse: :func:`_sparse`; applied by :func:`times`, :func:`transposed_times`) at ``state`` for
+    W = M + ``scale``·K (``mass``) or ``scale``·K (module docstring): the generated part, plus H_rest's columns on
+    :func:`rest_support` by central differences of W_rest w along each of those coordinates with the configuration step
+    ``step``. ValueError on a model with rigid links or guides: H assumes the free coordinates are the assembled ones
+    (their reduction's geometric term keeps the difference of W w,
+    ``TransientSensitivities._linked_weight_derivative``)."""
     model = assembler.model
     if model.links is not None:
         raise ValueError("configuration_tangent_of_weight assumes a model without rigid links or guides (its free "

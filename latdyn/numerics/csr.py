@@ -172,6 +172,16 @@ def blocks(top_left: CSR, top_right: CSR, bottom_left: CSR, bottom_right: CSR) -
                         np.concatenate([p.indices + c for p, _, c in parts]), shape)
 
 
+def of_dense(*arrays: np.ndarray) -> list[CSR]:
+    """Dense matrices of one shape as CSR on the union of their nonzeros (rows ascending, then columns; zeros kept
+    where another has an entry): SciPy's ``csr_matrix(A)`` of each, but on one pattern, so that their sums are
+    those of SciPy's sums of them where :func:`nonzero` drops the sums' zeros."""
+    shape = arrays[0].shape
+    rows, cols = np.nonzero(np.any([a != 0 for a in arrays], axis=0))
+    indptr = np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=shape[0]))]).astype(np.int64)
+    return [CSR(tuple(shape), indptr, cols.astype(np.int64), np.asarray(a, float)[rows, cols]) for a in arrays]
+
+
 def times(a: CSR, x: np.ndarray) -> np.ndarray:
     """A X for a vector or the columns of a matrix X (:meth:`CSR.matvec` column by column: SciPy's
     ``csr_matvecs`` adds each row's products in the same order)."""
@@ -194,5 +204,5 @@ def transposed_times(a: CSR, x: np.ndarray) -> np.ndarray:
     return np.stack([a.rmatvec(x[:, j]) for j in range(x.shape[1])], axis=1).reshape(a.shape[1], x.shape[1])
 
 
-__all__ = ["CSR", "DIRECT_KEYS", "blocks", "columns", "nonzero", "product", "times", "transposed",
+__all__ = ["CSR", "DIRECT_KEYS", "blocks", "columns", "nonzero", "of_dense", "product", "times", "transposed",
            "transposed_product", "transposed_times", "unique_keys"]

@@ -54,7 +54,7 @@ from latdyn.assembly.factorization import solve_linear, solve_linear_csr
 from latdyn.numerics import csr
 from latdyn.numerics.csr import CSR
 from latdyn.numerics.inertia import split_inertia
-from latdyn.numerics.linalg import RCM_IN_PYTHON
+from latdyn.numerics.linalg import DENSE_LIMIT, RCM_IN_PYTHON
 from latdyn.step.integrators import solve_held
 
 
@@ -83,10 +83,14 @@ def massless_element_stiffness(ev):
     blocks["stiffness"] = (np.asarray(element) * massless[:, None, None], np.zeros_like(body),
                            np.zeros_like(hinge), np.zeros_like(np.asarray(loads)), np.zeros_like(couplings))
     massless = Evaluation(residual=None, reaction=None, blocks=blocks, assembler=ev.assembler)
-    if without_scipy(ev.assembler.model):
-        return massless.combined_csr(0.0, 0.0, 1.0)
-    K = massless.combined(0.0, 0.0, 1.0, dense=False)
     projection = getattr(ev, "projection", None)  # rigid links: onto the minimum coordinates
+    if without_scipy(ev.assembler.model):
+        K = massless.combined_csr(0.0, 0.0, 1.0)
+        if projection is None:
+            return K
+        # Pᵀ K P as SciPy forms it for a dense P: (Kᵀ P)ᵀ column by column (its csc_matvecs), then P
+        return (csr.transposed_times(K, projection).T @ projection).reshape(projection.shape[1], -1)
+    K = massless.combined(0.0, 0.0, 1.0, dense=False)
     if projection is None:
         return K
     import scipy.sparse as sps  # on use (an impact with rigid links): a run without events never loads it
@@ -100,12 +104,16 @@ def impulse_response(model, ev, N: np.ndarray, step: float) -> np.ndarray:
     (module docstring). The elements without inertia are made rigid by adding s K_massless to K,
     s h² = RIGID m / k (m, k the largest diagonals of M and K_massless), and the response is
     extrapolated to s → ∞ from s and 2s (X(s) = X(∞) + O(1/s): 2 X(2s) − X(s) leaves O(1/s²))."""
-    if without_scipy(model):  # the assembler's CSR (latdyn.numerics.csr): the same entries as SciPy's
-        M, K = ev.combined_csr(1.0, 0.0, 0.0), ev.combined_csr(0.0, 0.0, 1.0)
-    else:
-        M, K = ev.mass, ev.stiffness
-    split = split_inertia(model, M)  # M is the same for every stiffness tried below
     Kml = massless_element_stiffness(ev)
+    if not without_scipy(model):
+        M, K = ev.mass, ev.stiffness
+    elif model.links is None:  # the assembler's CSR (latdyn.numerics.csr): the same entries as SciPy's
+        M, K = ev.combined_csr(1.0, 0.0, 0.0), ev.combined_csr(0.0, 0.0, 1.0)
+    else:  # rigid links, small: the dense reduced matrices (SciPy's CSR of them) on one pattern
+        dense = [ev.combined(1.0, 0.0, 0.0, dense=True), ev.combined(0.0, 0.0, 1.0, dense=True)]
+        M, K, *rest = csr.of_dense(*dense, *([] if Kml is None else [Kml]))
+        Kml = rest[0] if rest else None
+    split = split_inertia(model, M)  # M is the same for every stiffness tried below
     if Kml is not None:
         m = float(np.max(np.abs(M.diagonal()), initial=0.0))
         k = float(np.max(np.abs(Kml.diagonal()), initial=0.0))
@@ -123,12 +131,15 @@ def impulse_response(model, ev, N: np.ndarray, step: float) -> np.ndarray:
 
 
 def without_scipy(model) -> bool:
-    """Whether an impulse is solved on the assembler's own CSR (:func:`_response_csr`) rather than SciPy's
-    matrices: a model without rigid links whose LU (dense, or band ordered in Python up to
-    :data:`latdyn.numerics.linalg.RCM_IN_PYTHON` coordinates) needs no SciPy sparse matrix. Importing
-    scipy.sparse at a model's first latch or impact cost ≈ 0.07 s of CPU (docs/performance.md, "The latch
+    """Whether an impulse is solved on latdyn's own CSR (:func:`_response_csr`) rather than SciPy's matrices: a
+    model without rigid links whose LU (dense, or band ordered in Python up to
+    :data:`latdyn.numerics.linalg.RCM_IN_PYTHON` coordinates) needs no SciPy sparse matrix (the assembler's CSR),
+    or one with rigid links or guides small enough for their dense reduction (latdyn.assembly.linked). Importing
+    scipy.sparse at a model's first latch or impact cost ≈ 0.08 s of CPU (docs/performance.md, "The latch
     without SciPy's sparse package (issue 31/34)")."""
-    return model.links is None and model.n_dofs <= RCM_IN_PYTHON
+    if model.links is None:
+        return model.n_dofs <= RCM_IN_PYTHON
+    return model.n_assembled <= DENSE_LIMIT
 
 
 def _same_pattern(a: CSR, values: np.ndarray) -> CSR:
