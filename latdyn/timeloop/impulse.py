@@ -84,12 +84,8 @@ def massless_element_stiffness(ev):
                            np.zeros_like(hinge), np.zeros_like(np.asarray(loads)), np.zeros_like(couplings))
     massless = Evaluation(residual=None, reaction=None, blocks=blocks, assembler=ev.assembler)
     projection = getattr(ev, "projection", None)  # rigid links: onto the minimum coordinates
-    if without_scipy(ev.assembler.model):
-        K = massless.combined_csr(0.0, 0.0, 1.0)
-        if projection is None:
-            return K
-        # Pᵀ K P as SciPy forms it for a dense P: (Kᵀ P)ᵀ column by column (its csc_matvecs), then P
-        return (csr.transposed_times(K, projection).T @ projection).reshape(projection.shape[1], -1)
+    if projection is None and without_scipy(ev.assembler.model):
+        return massless.combined_csr(0.0, 0.0, 1.0)
     K = massless.combined(0.0, 0.0, 1.0, dense=False)
     if projection is None:
         return K
@@ -105,14 +101,12 @@ def impulse_response(model, ev, N: np.ndarray, step: float) -> np.ndarray:
     s h² = RIGID m / k (m, k the largest diagonals of M and K_massless), and the response is
     extrapolated to s → ∞ from s and 2s (X(s) = X(∞) + O(1/s): 2 X(2s) − X(s) leaves O(1/s²))."""
     Kml = massless_element_stiffness(ev)
-    if not without_scipy(model):
-        M, K = ev.mass, ev.stiffness
+    if not without_scipy(model) or (model.links is not None and Kml is not None):
+        M, K = ev.mass, ev.stiffness   # (elements without inertia beside rigid links: SciPy's, as before)
     elif model.links is None:  # the assembler's CSR (latdyn.numerics.csr): the same entries as SciPy's
         M, K = ev.combined_csr(1.0, 0.0, 0.0), ev.combined_csr(0.0, 0.0, 1.0)
-    else:  # rigid links, small: the dense reduced matrices (SciPy's CSR of them) on one pattern
-        dense = [ev.combined(1.0, 0.0, 0.0, dense=True), ev.combined(0.0, 0.0, 1.0, dense=True)]
-        M, K, *rest = csr.of_dense(*dense, *([] if Kml is None else [Kml]))
-        Kml = rest[0] if rest else None
+    else:  # rigid links, small: the dense reduced matrices (SciPy's CSR of each) on one pattern
+        M, K = csr.of_dense(ev.combined(1.0, 0.0, 0.0, dense=True), ev.combined(0.0, 0.0, 1.0, dense=True))
     split = split_inertia(model, M)  # M is the same for every stiffness tried below
     if Kml is not None:
         m = float(np.max(np.abs(M.diagonal()), initial=0.0))
