@@ -130,8 +130,14 @@ def main() -> None:
     parser.add_argument("--modules", action="store_true")
     parser.add_argument("--adjoint", action="store_true", help="the runs with parameters by the discrete adjoint")
     args = parser.parse_args()
-    chosen = [s for s in scenes(args.adjoint) if args.scenes is None or s[0] in args.scenes.split(",")]
-    folder = Path(tempfile.mkdtemp(prefix="sensitivity-start-"))
+    measure(scenes(args.adjoint), args)
+
+
+def measure(made: list, args, prefix: str = "sensitivity-start-") -> None:
+    """The scenes ``made`` (name, family, scene) that ``args.scenes`` names (all without it), written to a new
+    folder and measured as ``args`` asks: :func:`modules` or :func:`as_a_user` (benchmarks/latch_start.py too)."""
+    chosen = [s for s in made if args.scenes is None or s[0] in args.scenes.split(",")]
+    folder = Path(tempfile.mkdtemp(prefix=prefix))
     for name, _, scene in chosen:
         (folder / f"{name}.yaml").write_text(yaml.safe_dump(scene))
     trees = args.trees.split(",")

@@ -16,6 +16,7 @@ import pytest
 
 import latdyn
 from latdyn.errors import SceneError
+from latdyn.numerics import csr
 from latdyn.numerics.csr import CSR, transposed, transposed_product
 from latdyn.numerics.linalg import reverse_cuthill_mckee
 from latdyn.scene import loader
@@ -532,6 +533,48 @@ def test_csr_products_are_scipys_to_the_last_bit(direct_keys, monkeypatch):
         t = a_ref.T.tocsr()
         t.sort_indices()
         assert _same_bits(transposed(a).data, t.data) and _same_bits(transposed(a).indices, t.indices.astype(np.int64))
+
+
+def test_the_impulses_csr_operations_are_scipys_to_the_last_bit():
+    """What the latch's impulse does without SciPy (latdyn.timeloop.impulse._response_csr) against what it does with
+    SciPy's matrices: M + h²K on one pattern with its zeros dropped, a basis's columns, Q_cᵀ K Q_c and Q_mᵀ K Q_c,
+    the block matrix, Q X and Q_cᵀ X for X of several columns: the same entries, the same bits."""
+    sps = pytest.importorskip("scipy.sparse")
+    rng = np.random.default_rng(31)
+    h2 = 0.002 ** 2
+    for trial in range(40):
+        n = int(rng.integers(2, 60))
+        m, m_ref = _random_csr(rng, n, n, 0.2)
+        values = rng.standard_normal(len(m.data)) * 10.0 ** rng.integers(-4, 8, len(m.data))
+        values[::5] = -m.data[::5] / h2   # sums that cancel
+        k = CSR(m.shape, m.indptr, m.indices, values)
+        k_ref = sps.csr_matrix((values, m.indices, m.indptr), shape=m.shape)
+        assert _same_bits(csr.nonzero(CSR(m.shape, m.indptr, m.indices, m.data + h2 * k.data)).data,
+                          (m_ref + h2 * k_ref).tocsr().data)
+        quasi_static, quasi_static_ref = csr.nonzero(CSR(m.shape, m.indptr, m.indices, m.data + h2 * k.data)), \
+            (m_ref + h2 * k_ref).tocsr()
+        assert _same_bits(quasi_static.indices, quasi_static_ref.indices.astype(np.int64))
+        basis, basis_ref = _random_csr(rng, n, n, 0.1)
+        split = int(rng.integers(1, n))
+        qm, qc = csr.columns(basis, 0, split), csr.columns(basis, split, n)
+        qm_ref, qc_ref = basis_ref[:, :split], basis_ref[:, split:]
+        kc = csr.transposed_product(qc, k)
+        made = (csr.product(kc, qc), csr.product(kc, qm), csr.product(csr.transposed_product(qm, quasi_static), qm))
+        expected = ((qc_ref.T @ k_ref @ qc_ref).tocsr(), (qc_ref.T @ k_ref @ qm_ref).tocsr(),
+                    (qm_ref.T @ quasi_static_ref @ qm_ref).tocsr())
+        for ours, theirs in zip(made, expected):
+            theirs.sort_indices()
+            assert _same_bits(ours.indptr, theirs.indptr.astype(np.int64))
+            assert _same_bits(ours.indices, theirs.indices.astype(np.int64)) and _same_bits(ours.data, theirs.data)
+        coupling = csr.product(csr.transposed_product(qm, k), qc)
+        ours = csr.blocks(made[2], CSR(coupling.shape, coupling.indptr, coupling.indices, coupling.data * h2),
+                          made[1], made[0])
+        theirs = sps.bmat([[qm_ref.T @ quasi_static_ref @ qm_ref, h2 * (qm_ref.T @ k_ref @ qc_ref)],
+                           [expected[1], expected[0]]], format="csr")
+        assert _same_bits(ours.indices, theirs.indices.astype(np.int64)) and _same_bits(ours.data, theirs.data)
+        x = rng.standard_normal((n, 3))
+        assert _same_bits(csr.times(basis, x), basis_ref @ x)
+        assert _same_bits(csr.transposed_times(qc, x), qc_ref.T @ x)
 
 
 def test_the_consistent_start_without_scipy_is_the_splits_to_round_off(monkeypatch):

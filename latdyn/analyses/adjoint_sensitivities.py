@@ -87,7 +87,7 @@ from latdyn.analyses.link_sensitivities import columns_moving
 from latdyn.analyses.probe_derivatives import is_probe_here, probe_forms
 from latdyn.analyses.sensitivities import _BODY_KEY, _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE
 from latdyn.analyses.transient_sensitivities import TransientSensitivities, _NodeRotations, _StepColumns
-from latdyn.analyses.weight_derivative import configuration_tangent_of_weight
+from latdyn.analyses.weight_derivative import configuration_tangent_of_weight, transposed_times
 from latdyn.assembly.assembler import free_acceleration, free_velocity, pack, unpack_free
 from latdyn.assembly.factorization import factorization_for, solve_linear, solve_linear_csr
 from latdyn.errors import SolverError
@@ -649,7 +649,7 @@ class AdjointSensitivities(TransientSensitivities):
         with ``mass`` the transposed products (:meth:`residual_transposed_product`, exact) at the accelerations w
         less at rest."""
         H = configuration_tangent_of_weight(self.assembler, state, w, scale, mass, self.coordinate_step())
-        q_part = np.asarray(H.T @ u_bar)
+        q_part = transposed_times(H, u_bar)
         p_part = np.zeros((len(self.names), u_bar.shape[1]))
         size = float(np.max(np.abs(w), initial=0.0))
         if size == 0.0:

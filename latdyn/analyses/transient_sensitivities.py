@@ -130,11 +130,12 @@ from latdyn.analyses.sensitivities import (_BODY_KEY, _CABLE_KEY, _GUIDE_KEY, _H
 from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_force_derivatives, joint_force_forms, joint_of
 from latdyn.analyses.step_matrix import ExactStepMatrix, turns_about_one_axis
 from latdyn.analyses.weight_derivative import (configuration_tangent_of_weight, needs_the_kernel,
-                                               refuse_without_kernel, stiffness_moving_with_rates)
+                                               refuse_without_kernel, stiffness_moving_with_rates, times)
 from latdyn.assembly.assembler import free_acceleration, free_velocity, pack, unpack_free
 from latdyn.assembly.factorization import factorization_for, solve_linear, solve_linear_csr
 from latdyn.errors import SceneError, SolverError
 from latdyn.model.model import lock_tolerance
+from latdyn.numerics import csr
 from latdyn.numerics.csr import CSR
 from latdyn.numerics.inertia import split_inertia
 from latdyn.numerics.linalg import issparse
@@ -799,8 +800,7 @@ class TransientSensitivities(ParameterDerivatives):
         if linked:
             out = self._linked_weight_derivative(state, w, dq, scale, mass, rates)
         else:
-            out = np.asarray(configuration_tangent_of_weight(assembler, state, w, scale, mass,
-                                                             self.coordinate_step()) @ dq)
+            out = times(configuration_tangent_of_weight(assembler, state, w, scale, mass, self.coordinate_step()), dq)
             if rates is not None and self.stiffness_moves_with_rates(state):   # W moves with δv too
                 out += scale * self._stiffness_by_rates(state, w, rates[0])
         size = float(np.max(np.abs(w), initial=0.0))
@@ -1569,10 +1569,7 @@ def _times(matrix, columns: np.ndarray) -> np.ndarray:
     :meth:`~latdyn.numerics.csr.CSR.matvec` does, so the same values to the bit)."""
     if not isinstance(matrix, CSR):
         return matrix @ columns
-    out = np.empty((matrix.shape[0], columns.shape[1]))
-    for c in range(columns.shape[1]):
-        out[:, c] = matrix.matvec(columns[:, c])
-    return out
+    return csr.times(matrix, columns)
 
 
 def _depends(law) -> tuple:

@@ -48,8 +48,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from latdyn.numerics import csr
+from latdyn.numerics.csr import CSR
+from latdyn.numerics.linalg import RCM_IN_PYTHON
+
 __all__ = ["configuration_tangent_of_weight", "needs_the_kernel", "refuse_without_kernel", "rest_support",
-           "stiffness_moving_with_rates"]
+           "stiffness_moving_with_rates", "times", "transposed_times"]
 
 #: the names of the evaluation's blocks of K, in their order (latdyn.assembly.assembler.Assembler.evaluation_in)
 STIFFNESS_BLOCKS = ("elements", "joint bodies", "joints", "loads and cables", "controllers' couplings")
@@ -60,11 +64,26 @@ RATES_MOVE = 1e-3
 
 
 def _sparse(rows: np.ndarray, cols: np.ndarray, values: np.ndarray, n: int):
-    """The n × n matrix of the entries (rows, cols, values) on the free coordinates (others dropped), summed."""
+    """The n × n matrix of the entries (rows, cols, values) on the free coordinates (others dropped), summed:
+    a :class:`latdyn.numerics.csr.CSR` up to :data:`latdyn.numerics.linalg.RCM_IN_PYTHON` coordinates (as the
+    latch's impulse, :func:`latdyn.timeloop.impulse.without_scipy`: importing scipy.sparse for it cost the boom's
+    sensitivity run ≈ 0.07 s), else SciPy's CSR."""
+    keep = (rows < n) & (cols < n)
+    if n <= RCM_IN_PYTHON:
+        return CSR.from_coo(values[keep], rows[keep], cols[keep], (n, n))
     import scipy.sparse as sps  # the events' derivatives only
 
-    keep = (rows < n) & (cols < n)
     return sps.csr_matrix((values[keep], (rows[keep], cols[keep])), shape=(n, n))
+
+
+def times(H, x: np.ndarray) -> np.ndarray:
+    """H x for :func:`configuration_tangent_of_weight`'s H (either storage; the same sums)."""
+    return csr.times(H, x) if isinstance(H, CSR) else np.asarray(H @ x)
+
+
+def transposed_times(H, x: np.ndarray) -> np.ndarray:
+    """Hᵀ x for :func:`configuration_tangent_of_weight`'s H (either storage; the same sums)."""
+    return csr.transposed_times(H, x) if isinstance(H, CSR) else np.asarray(H.T @ x)
 
 
 def needs_the_kernel(scene, model) -> bool:
@@ -172,11 +191,12 @@ def _rest_product(assembler, state, w: np.ndarray, scale: float, mass: bool) -> 
 
 
 def configuration_tangent_of_weight(assembler, state, w: np.ndarray, scale: float, mass: bool, step: float):
-    """H = ∂(W w)/∂q (n × n, SciPy CSR) at ``state`` for W = M + ``scale``·K (``mass``) or ``scale``·K (module
-    docstring): the generated part, plus H_rest's columns on :func:`rest_support` by central differences of
-    W_rest w along each of those coordinates with the configuration step ``step``. ValueError on a model with rigid
-    links or guides: H assumes the free coordinates are the assembled ones (their reduction's geometric term keeps
-    the difference of W w, ``TransientSensitivities._linked_weight_derivative``)."""
+    """H = ∂(W w)/∂q (n × n, sparse: :func:`_sparse`; applied by :func:`times`, :func:`transposed_times`) at ``state`` for
+    W = M + ``scale``·K (``mass``) or ``scale``·K (module docstring): the generated part, plus H_rest's columns on
+    :func:`rest_support` by central differences of W_rest w along each of those coordinates with the configuration step
+    ``step``. ValueError on a model with rigid links or guides: H assumes the free coordinates are the assembled ones
+    (their reduction's geometric term keeps the difference of W w,
+    ``TransientSensitivities._linked_weight_derivative``)."""
     model = assembler.model
     if model.links is not None:
         raise ValueError("configuration_tangent_of_weight assumes a model without rigid links or guides (its free "

@@ -1,5 +1,6 @@
 """Compressed sparse rows in NumPy, for what a run does with sparse matrices before its first step
-(the held check, the consistent accelerations at t = 0) on a model whose step needs no SciPy sparse
+(the held check, the consistent accelerations at t = 0) and at a latch or an impact (the impulse,
+latdyn.timeloop.impulse) on a model whose step needs no SciPy sparse
 matrix (a band LU up to :data:`latdyn.numerics.linalg.RCM_IN_PYTHON` coordinates): importing
 ``scipy.sparse`` alone costs ≈0.1 s of CPU, more than the 16-bay lattice's whole step
 (docs/performance.md, "Where a run's time goes").
@@ -137,4 +138,71 @@ def transposed(a: CSR) -> CSR:
     return CSR.from_coo(a.data, a.indices, a.rows, (a.shape[1], a.shape[0]))
 
 
-__all__ = ["CSR", "DIRECT_KEYS", "transposed", "transposed_product", "unique_keys"]
+def product(a: CSR, b: CSR) -> CSR:
+    """A B, as SciPy computes ``A @ B`` where each entry's products are taken in ascending order of the
+    inner index (a CSC A times B, which SciPy converts to CSC: the latch's ``Q_cᵀ K Q_c``): the sum from 0,
+    exact zeros dropped (:func:`transposed_product` of Aᵀ)."""
+    return transposed_product(transposed(a), b)
+
+
+def nonzero(a: CSR) -> CSR:
+    """A without its stored zeros: what SciPy keeps of a sum ``A + B`` of matrices of one pattern (its
+    ``csr_plus_csr`` stores only the nonzero sums)."""
+    kept = a.data != 0
+    rows = a.rows[kept]
+    indptr = np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=a.shape[0]))]).astype(np.int64)
+    return CSR(a.shape, indptr, a.indices[kept], a.data[kept])
+
+
+def columns(a: CSR, start: int, stop: int) -> CSR:
+    """The columns start ≤ j < stop of A (SciPy's ``A[:, start:stop]``: the stored entries, zeros kept)."""
+    kept = (a.indices >= start) & (a.indices < stop)
+    rows = a.rows[kept]
+    indptr = np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=a.shape[0]))]).astype(np.int64)
+    return CSR((a.shape[0], stop - start), indptr, a.indices[kept] - start, a.data[kept])
+
+
+def blocks(top_left: CSR, top_right: CSR, bottom_left: CSR, bottom_right: CSR) -> CSR:
+    """[[A, B], [C, D]] (SciPy's ``bmat(..., format="csr")``: the blocks' stored entries)."""
+    m, n = top_left.shape
+    parts = ((top_left, 0, 0), (top_right, 0, n), (bottom_left, m, 0), (bottom_right, m, n))
+    shape = (m + bottom_left.shape[0], n + top_right.shape[1])
+    return CSR.from_coo(np.concatenate([p.data for p, _, _ in parts]),
+                        np.concatenate([p.rows + r for p, r, _ in parts]),
+                        np.concatenate([p.indices + c for p, _, c in parts]), shape)
+
+
+def of_dense(*arrays: np.ndarray) -> list[CSR]:
+    """Dense matrices of one shape as CSR on the union of their nonzeros (rows ascending, then columns; zeros kept
+    where another has an entry): SciPy's ``csr_matrix(A)`` of each, but on one pattern, so that their sums are
+    those of SciPy's sums of them where :func:`nonzero` drops the sums' zeros."""
+    shape = arrays[0].shape
+    rows, cols = np.nonzero(np.any([a != 0 for a in arrays], axis=0))
+    indptr = np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=shape[0]))]).astype(np.int64)
+    return [CSR(tuple(shape), indptr, cols.astype(np.int64), np.asarray(a, float)[rows, cols]) for a in arrays]
+
+
+def times(a: CSR, x: np.ndarray) -> np.ndarray:
+    """A X for a vector or the columns of a matrix X (:meth:`CSR.matvec` column by column: SciPy's
+    ``csr_matvecs`` adds each row's products in the same order)."""
+    x = np.asarray(x, float)
+    if x.ndim == 1:
+        return a.matvec(x)
+    if x.shape[1] == 0:
+        return np.zeros((a.shape[0], 0))
+    return np.stack([a.matvec(x[:, j]) for j in range(x.shape[1])], axis=1).reshape(a.shape[0], x.shape[1])
+
+
+def transposed_times(a: CSR, x: np.ndarray) -> np.ndarray:
+    """Aᵀ X for a vector or the columns of a matrix X (:meth:`CSR.rmatvec` column by column: SciPy's
+    ``A.T @ X``, ``csc_matvecs``, adds in the same order)."""
+    x = np.asarray(x, float)
+    if x.ndim == 1:
+        return a.rmatvec(x)
+    if x.shape[1] == 0:
+        return np.zeros((a.shape[1], 0))
+    return np.stack([a.rmatvec(x[:, j]) for j in range(x.shape[1])], axis=1).reshape(a.shape[1], x.shape[1])
+
+
+__all__ = ["CSR", "DIRECT_KEYS", "blocks", "columns", "nonzero", "of_dense", "product", "times", "transposed",
+           "transposed_product", "transposed_times", "unique_keys"]

@@ -195,9 +195,10 @@ def _csr(A):
 def solve_held(matrix, rhs: np.ndarray) -> np.ndarray:
     """matrix⁻¹ rhs for a matrix whose rows of the directions without inertia are their statics
     (K_cc, or a block system with it): singular when no stiffness holds such a direction, and
-    then refused with the message that says so."""
+    then refused with the message that says so. ``matrix`` may be a :class:`latdyn.numerics.csr.CSR`
+    (:func:`latdyn.assembly.factorization.solve_linear_csr`: the impulse without SciPy)."""
     try:
-        return solve_linear(matrix, rhs)
+        return solve_linear_csr(matrix, rhs) if isinstance(matrix, CSR) else solve_linear(matrix, rhs)
     except np.linalg.LinAlgError as exc:
         raise SolverError("a coordinate without inertia is held by no stiffness",
                           "directions of the model carry neither inertia nor stiffness; "

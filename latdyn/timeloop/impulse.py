@@ -50,8 +50,11 @@ import numpy as np
 
 from latdyn.assembly.assembler import State, free_acceleration, free_velocity, pack, unpack_free
 from latdyn.assembly.evaluation import Evaluation
-from latdyn.assembly.factorization import solve_linear
+from latdyn.assembly.factorization import solve_linear, solve_linear_csr
+from latdyn.numerics import csr
+from latdyn.numerics.csr import CSR
 from latdyn.numerics.inertia import split_inertia
+from latdyn.numerics.linalg import DENSE_LIMIT, RCM_IN_PYTHON
 from latdyn.step.integrators import solve_held
 
 
@@ -79,9 +82,11 @@ def massless_element_stiffness(ev):
     blocks = dict(ev.blocks)
     blocks["stiffness"] = (np.asarray(element) * massless[:, None, None], np.zeros_like(body),
                            np.zeros_like(hinge), np.zeros_like(np.asarray(loads)), np.zeros_like(couplings))
-    K = Evaluation(residual=None, reaction=None, blocks=blocks, assembler=ev.assembler).combined(
-        0.0, 0.0, 1.0, dense=False)
+    massless = Evaluation(residual=None, reaction=None, blocks=blocks, assembler=ev.assembler)
     projection = getattr(ev, "projection", None)  # rigid links: onto the minimum coordinates
+    if projection is None and without_scipy(ev.assembler.model):
+        return massless.combined_csr(0.0, 0.0, 1.0)
+    K = massless.combined(0.0, 0.0, 1.0, dense=False)
     if projection is None:
         return K
     import scipy.sparse as sps  # on use (an impact with rigid links): a run without events never loads it
@@ -95,18 +100,44 @@ def impulse_response(model, ev, N: np.ndarray, step: float) -> np.ndarray:
     (module docstring). The elements without inertia are made rigid by adding s K_massless to K,
     s h² = RIGID m / k (m, k the largest diagonals of M and K_massless), and the response is
     extrapolated to s → ∞ from s and 2s (X(s) = X(∞) + O(1/s): 2 X(2s) − X(s) leaves O(1/s²))."""
-    M = ev.mass
-    K = ev.stiffness
-    split = split_inertia(model, M)  # M is the same for every stiffness tried below
     Kml = massless_element_stiffness(ev)
+    if not without_scipy(model) or (model.links is not None and Kml is not None):
+        M, K = ev.mass, ev.stiffness   # (elements without inertia beside rigid links: SciPy's, as before)
+    elif model.links is None:  # the assembler's CSR (latdyn.numerics.csr): the same entries as SciPy's
+        M, K = ev.combined_csr(1.0, 0.0, 0.0), ev.combined_csr(0.0, 0.0, 1.0)
+    else:  # rigid links, small: the dense reduced matrices (SciPy's CSR of each) on one pattern
+        M, K = csr.of_dense(ev.combined(1.0, 0.0, 0.0, dense=True), ev.combined(0.0, 0.0, 1.0, dense=True))
+    split = split_inertia(model, M)  # M is the same for every stiffness tried below
     if Kml is not None:
         m = float(np.max(np.abs(M.diagonal()), initial=0.0))
         k = float(np.max(np.abs(Kml.diagonal()), initial=0.0))
         if m > 0.0 and k > 0.0:
             s = RIGID * m / (step * step * k)
-            stiff, stiffer = (_response(split, M, (K + f * s * Kml).tocsr(), N, step) for f in (1.0, 2.0))
+            if isinstance(K, CSR):  # K + f s K_massless on the assembler's pattern (SciPy drops its zeros)
+                stiff, stiffer = (_response_csr(split, M, _same_pattern(K, K.data + f * s * Kml.data), N, step)
+                                  for f in (1.0, 2.0))
+            else:
+                stiff, stiffer = (_response(split, M, (K + f * s * Kml).tocsr(), N, step) for f in (1.0, 2.0))
             return 2.0 * stiffer - stiff
+    if isinstance(K, CSR):
+        return _response_csr(split, M, K, N, step)
     return _response(split, M, K, N, step)
+
+
+def without_scipy(model) -> bool:
+    """Whether an impulse is solved on latdyn's own CSR (:func:`_response_csr`) rather than SciPy's matrices: a
+    model without rigid links whose LU (dense, or band ordered in Python up to
+    :data:`latdyn.numerics.linalg.RCM_IN_PYTHON` coordinates) needs no SciPy sparse matrix (the assembler's CSR),
+    or one with rigid links or guides small enough for their dense reduction (latdyn.assembly.linked). Importing
+    scipy.sparse at a model's first latch or impact cost ≈ 0.08 s of CPU (docs/performance.md, "The latch
+    without SciPy's sparse package (issue 31/34)")."""
+    if model.links is None:
+        return model.n_dofs <= RCM_IN_PYTHON
+    return model.n_assembled <= DENSE_LIMIT
+
+
+def _same_pattern(a: CSR, values: np.ndarray) -> CSR:
+    return CSR(a.shape, a.indptr, a.indices, values)
 
 
 def _response(split, M, K, N: np.ndarray, step: float) -> np.ndarray:
@@ -141,6 +172,36 @@ def _response(split, M, K, N: np.ndarray, step: float) -> np.ndarray:
     scale = max(float(np.max(np.abs(np.diag(NtX)), initial=0.0)), 1e-300)
     if not np.all(np.isfinite(NtX)) or np.linalg.matrix_rank(NtX, tol=1e-10 * scale) < N.shape[1]:
         return solve_linear(quasi_static, N).reshape(N.shape)
+    return X
+
+
+def _response_csr(split, M: CSR, K: CSR, N: np.ndarray, step: float) -> np.ndarray:
+    """:func:`_response` on :class:`latdyn.numerics.csr.CSR` matrices of the assembler's pattern, without
+    SciPy: the same sums in the same order, and the same zeros dropped, as SciPy's products and sums
+    (latdyn.numerics.csr), so X is the same to the bit; solved by
+    :func:`latdyn.assembly.factorization.solve_linear_csr` (the same storage, order and factors)."""
+    quasi_static = csr.nonzero(_same_pattern(M, M.data + (step * step) * K.data))
+    if split.n_massless == 0 or split.n_massive == 0:
+        return solve_linear_csr(quasi_static, N).reshape(N.shape)
+    n_massive = split.n_massive
+    Qm = csr.columns(split.basis, 0, n_massive)
+    Qc = csr.columns(split.basis, n_massive, split.basis.shape[1])
+    Kc = csr.transposed_product(Qc, K)  # Q_cᵀ K
+    Kcc = csr.product(Kc, Qc)
+    Kcm = csr.product(Kc, Qm)
+    # Ñ = Q_mᵀN − K_cmᵀ K_cc⁻ᵀ Q_cᵀN: the impulse on the massless directions, passed on statically
+    passed = solve_held(csr.transposed(Kcc), csr.transposed_times(Qc, N))
+    condensed = (csr.transposed_times(Qm, N).reshape(n_massive, -1)
+                 - csr.transposed_times(Kcm, passed).reshape(n_massive, -1))
+    coupling = csr.product(csr.transposed_product(Qm, K), Qc)
+    B = csr.blocks(csr.product(csr.transposed_product(Qm, quasi_static), Qm),
+                   _same_pattern(coupling, coupling.data * (step * step)), Kcm, Kcc)
+    rhs = np.vstack([condensed, np.zeros((split.n_massless, condensed.shape[1]))])
+    X = csr.times(split.basis, solve_linear_csr(B, rhs)).reshape(N.shape)
+    NtX = N.T @ X
+    scale = max(float(np.max(np.abs(np.diag(NtX)), initial=0.0)), 1e-300)
+    if not np.all(np.isfinite(NtX)) or np.linalg.matrix_rank(NtX, tol=1e-10 * scale) < N.shape[1]:
+        return solve_linear_csr(quasi_static, N).reshape(N.shape)
     return X
 
 

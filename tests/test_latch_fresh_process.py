@@ -1,0 +1,77 @@
+"""A fresh ``latdyn run`` of a model the dense or band LU serves does not import scipy.sparse at a latch
+(docs/performance.md, "The latch without SciPy's sparse package (issue 31/34)"): the impulse
+(latdyn.timeloop.impulse._response_csr) and, with ``solve.sensitivities``, the latch's weight derivative
+(latdyn.analyses.weight_derivative._sparse) take latdyn.numerics.csr's CSR, and the files are those of the
+impulse through SciPy's matrices, to the bit.
+"""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+from tests.test_sensitivities_fresh_process import _MODULES_HOOK, SOURCE
+from tests.test_sensitivities_joint_forces import BOOM
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+
+def _run_through_scipy(latdyn, scene: Path, out: Path) -> None:
+    """The API's run with the impulse and the weight derivative through SciPy's matrices, as before."""
+    from latdyn.analyses import weight_derivative
+    from latdyn.timeloop import impulse
+
+    without_scipy, largest = impulse.without_scipy, weight_derivative.RCM_IN_PYTHON
+    impulse.without_scipy, weight_derivative.RCM_IN_PYTHON = (lambda model: False), 0
+    try:
+        latdyn.run(latdyn.load_scene(str(scene)), str(out))
+    finally:
+        impulse.without_scipy, weight_derivative.RCM_IN_PYTHON = without_scipy, largest
+
+
+def test_a_fresh_run_that_latches_does_not_import_scipy_sparse(tmp_path):
+    """The boom (19 coordinates, a latch into which every direction has inertia), its design run with
+    sensitivities (examples/deploying_boom_sensitivities.py's to 0.3 s after the latch:
+    test_sensitivities_joint_forces.BOOM), the cable-deployed truss (91-99 coordinates, latches next to directions
+    without inertia: the condensed impulse) and the slider-crank (a guide and a rigid crank: the impulse of its
+    crank's acceleration that jumps, on the dense reduced matrices), each a fresh ``latdyn run``: no scipy.sparse
+    imported and (but the slider-crank) a latch taken; probes.csv, state.h5 (sensitivities.csv), the summary's
+    events (and sensitivities) equal by bytes to the API's run with the impulse and the weight derivative through
+    SciPy's matrices. The truss's fresh run and the API's differ in its cables' last bits on 6cf2a79 already (its
+    cable events' times), so its CSR impulse is compared API with API."""
+    import latdyn
+
+    hook = tmp_path / "hook"
+    hook.mkdir()
+    (hook / "sitecustomize.py").write_text(_MODULES_HOOK)
+    environment = {**os.environ, "PYTHONPATH": os.pathsep.join([str(hook), str(SOURCE)])}
+    scenes = {"boom": (EXAMPLES / "deploying_boom.yaml").read_text(), "design": BOOM,
+              "truss": (EXAMPLES / "cable_deploying_truss.yaml").read_text(),
+              "slider": (EXAMPLES / "slider_crank.yaml").read_text()}
+    for name, text in scenes.items():
+        scene = tmp_path / f"{name}.yaml"
+        scene.write_text(text)
+        listing = tmp_path / f"{name}.json"
+        done = subprocess.run([sys.executable, "-m", "latdyn", "run", str(scene), "-o", str(tmp_path / "fresh" / name),
+                               "-q"], capture_output=True, text=True, timeout=900, cwd=tmp_path,
+                              env={**environment, "LATDYN_TEST_MODULES": str(listing)})
+        assert done.returncode == 0, done.stderr
+        modules = set(json.loads(listing.read_text()))
+        assert "latdyn.timeloop.impulse" in modules   # the hook saw the run
+        sparse = sorted(m for m in modules if m == "scipy.sparse" or m.startswith("scipy.sparse."))
+        assert sparse == [], f"{name}: {sparse[:3]} imported"
+        if name == "truss":
+            latdyn.run(latdyn.load_scene(str(scene)), str(tmp_path / "fresh" / name))
+        _run_through_scipy(latdyn, scene, tmp_path / "scipy" / name)
+        assert "scipy.sparse" in sys.modules   # the API's run took SciPy's matrices
+        summary, scipy_summary = (json.loads((tmp_path / out / name / "summary.json").read_text())
+                                  for out in ("fresh", "scipy"))
+        if name != "slider":   # its impulse: the crank's acceleration that jumps (a guide, rigid links)
+            assert any(event["kind"] == "latch" for event in summary["events"]), f"{name}: no latch"
+        for key in ("events", "probe_sensitivities", "event_sensitivities"):
+            assert summary.get(key) == scipy_summary.get(key), f"{name}: {key}"
+        written = ["probes.csv", "state.h5"] + (["sensitivities.csv"] if name == "design" else [])
+        for file in written:
+            fresh, through_scipy = ((tmp_path / out / name / file).read_bytes() for out in ("fresh", "scipy"))
+            assert fresh == through_scipy, f"{name}: {file}"
