@@ -55,6 +55,8 @@ C_FLAGS = ("-O2", "-std=c99", "-fPIC", "-shared", "-ffp-contract=off")
 
 #: The environment variable that chooses the instruction set of the element kernels (:func:`march`).
 MARCH_VARIABLE = "LATDYN_MARCH"
+#: the environment variable that names the kernel cache (:func:`cache_dir`)
+CACHE_VARIABLE = "LATDYN_CACHE_DIR"
 SUFFIX = ".dll" if sys.platform == "win32" else ".so"
 
 #: Seconds spent compiling in this process (reported apart from solver time).
@@ -66,6 +68,11 @@ NO_COMPILER_ADVICE = (
     "a run needs a C compiler for its kernels: pip install \"latdyn[compiler]\" (Zig's C compiler, "
     "used automatically) or install cc"
 )
+
+
+class CacheNotWritable(RuntimeError):
+    """A library that is not in the kernel cache cannot be compiled there (a read-only cache): the message
+    names the library, the folder and :data:`CACHE_VARIABLE`."""
 
 
 class NoCompiler(RuntimeError):
@@ -110,7 +117,7 @@ def package_folder(package: str):
 
 def cache_dir() -> Path:
     """The kernel cache: ``$LATDYN_CACHE_DIR``, default ``~/.cache/latdyn/kernels``."""
-    return Path(os.environ.get("LATDYN_CACHE_DIR") or Path.home() / ".cache" / "latdyn" / "kernels")
+    return Path(os.environ.get(CACHE_VARIABLE) or Path.home() / ".cache" / "latdyn" / "kernels")
 
 
 def _candidates() -> list[list[str]]:
@@ -331,7 +338,7 @@ def build(name: str, source: bytes, flags=C_FLAGS, *, using: Compiler | None = N
     ``name`` names the file (``<name>-<digest>.so``); the digest is of ``key`` instead of the
     source when given (what the source is made from, so that it is found without making it:
     a scene's laws by their text); ``announce``, when given, is printed on stderr before a
-    compile. RuntimeError (:class:`NoCompiler` among them) says why not."""
+    compile. RuntimeError (:class:`NoCompiler`, :class:`CacheNotWritable` among them) says why not."""
     using = using or compiler()
     path = target(name, source if key is None else key, flags, using)
     if path.exists():
@@ -342,15 +349,20 @@ def build(name: str, source: bytes, flags=C_FLAGS, *, using: Compiler | None = N
         raise RuntimeError(f"cannot create the kernel cache {path.parent}: {error}") from None
     from filelock import FileLock
 
-    with FileLock(str(path) + ".lock", timeout=900):
-        if not path.exists():
-            if announce:
-                print(announce, file=sys.stderr, flush=True)
-            started = time.perf_counter()
-            try:
-                _compile(using, source, path, name, flags)
-            finally:
-                COMPILE_SECONDS["total"] += time.perf_counter() - started
+    try:
+        with FileLock(str(path) + ".lock", timeout=900):
+            if not path.exists():
+                if announce:
+                    print(announce, file=sys.stderr, flush=True)
+                started = time.perf_counter()
+                try:
+                    _compile(using, source, path, name, flags)
+                finally:
+                    COMPILE_SECONDS["total"] += time.perf_counter() - started
+    except OSError as error:  # a read-only cache that lacks this library: no lock file, no scratch folder
+        raise CacheNotWritable(f"cannot write {path.name} into the kernel cache {path.parent} "
+                               f"({error.strerror or error}); set {CACHE_VARIABLE} to a folder this process "
+                               "can write") from None
     return path
 
 

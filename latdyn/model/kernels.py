@@ -28,7 +28,7 @@ from typing import Callable
 import numpy as np
 
 from latdyn.errors import MissingExtra
-from latdyn.native import C_FLAGS, NO_COMPILER_ADVICE  # the one compile-and-cache path
+from latdyn.native import C_FLAGS, NO_COMPILER_ADVICE, CacheNotWritable  # the one compile-and-cache path
 
 BACKENDS = ("auto", "c", "numpy")
 PACKAGE = "latdyn_generated"
@@ -136,7 +136,8 @@ def load_kernels(backend: str = "auto", variant: str = "default") -> KernelSet:
         try:
             return load_kernels("c", variant)
         except RuntimeError as error:
-            raise MissingExtra(f"C kernels unavailable ({error}); {NO_COMPILER_ADVICE}") from None
+            advice = "" if isinstance(error, CacheNotWritable) else f"; {NO_COMPILER_ADVICE}"
+            raise MissingExtra(f"C kernels unavailable ({error}){advice}") from None
     key = (backend, variant)
     if key not in _LOADED:
         info, functions, libraries, deferred = {}, {}, {}, {}
