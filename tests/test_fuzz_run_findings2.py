@@ -97,3 +97,54 @@ def test_an_empty_read_only_cache_is_named_in_the_message(tmp_path):
     assert f"into the kernel cache {cache}" in done.stderr
     assert "set LATDYN_CACHE_DIR to a folder this process can write" in done.stderr
     assert "install cc" not in done.stderr
+
+
+#: seed 502's case 57 of ``benchmarks/fuzz_runs.py --extended``, cut down: a 3D two-beam arm whose load and
+#: hinge torque are zero at t = 0, where a static analysis takes them
+ZERO_LOADS_BUCKLING = """\
+sections:
+  s0: {EA: 2192811.0, EIy: 817.6, EIz: 817.6, GJ: 654.1, rhoA: 0.649}
+  s1: {EA: 1089508.0, EIy: 1956.4, EIz: 1956.4, GJ: 1028.0, rhoA: 1.631}
+bodies:
+  g: {at: [0, 0, 0], fixed: true}
+  b0: {at: [0.0, -1.77, 0.0], mass: 1.093, inertia: [0.0916, 0.0385, 0.0829]}
+  b1: {at: [1.93, -1.77, 0.0], mass: 2.485, inertia: [0.0476, 0.0543, 0.0429]}
+beams:
+  m0:
+    from: g
+    section: s0
+    to: {body: b0, offset: [-0.043, -0.046, 0.112]}
+    elements: 3
+    end:
+      hinge: {axis: [0.0, 0.0, 1.0], stiffness: 198.13*(1 + 0.5*sin(t)), torque: TORQUE}
+  m1: {from: b0, section: s1, to: {body: b1, offset: [0.076, -0.014, -0.027]}, elements: 2}
+loads:
+- at: m1.start
+  force: [0, 0, FORCE]
+solve: {analysis: buckling, steps: 10}
+output:
+  probes:
+    p0: {hinge: m0.end, quantity: rate}
+"""
+
+
+def test_buckling_under_loads_that_are_zero_at_t0_says_the_loads_move_nothing(tmp_path):
+    """The loads of a static analysis are taken at t = 0; a force 14.05*sin(3*t) and a torque
+    8.22*Heaviside(t - 0.01) are zero there. The buckling search reported a limit point at λ = 1.89e13
+    ("solved", from K₁ of round-off: linearised factors 5.6e7 and up). It now refuses, saying the loads
+    move nothing; the same scene with the loads' amplitudes as constants still finds its instability."""
+    from latdyn.errors import SolverError
+
+    zero = tmp_path / "zero.yaml"
+    zero.write_text(ZERO_LOADS_BUCKLING.replace("TORQUE", "8.22*Heaviside(t - 0.01)")
+                    .replace("FORCE", "14.05*sin(3*t)"), encoding="utf-8")
+    done = _cli(zero, tmp_path / "out", Path(os.environ.get("LATDYN_CACHE_DIR") or tmp_path / "cache"))
+    assert done.returncode == 1, done.stderr
+    assert "buckling: the loads move nothing" in done.stderr and "Traceback" not in done.stderr, done.stderr
+    with pytest.raises(SolverError, match="the loads move nothing"):
+        latdyn.run(latdyn.load_scene(str(zero)))
+    loaded = tmp_path / "loaded.yaml"
+    loaded.write_text(ZERO_LOADS_BUCKLING.replace("TORQUE", "8.22").replace("FORCE", "14.05"), encoding="utf-8")
+    result = latdyn.run(latdyn.load_scene(str(loaded)))
+    assert result.summary["instability"] == "buckling"
+    assert 1.0 < result.summary["buckling_factor"] < 1e4

@@ -232,6 +232,10 @@ def modes_table(found: list[Mode], directions: list[str]) -> dict:
 FOLD_FALL = 0.9
 #: Load factor of the pre-buckling state that gives the change of the tangent K_1 = (K(λ₁) − K₀)/λ₁.
 PREBUCKLING_FACTOR = 1e-4
+#: Lowest linearised buckling factor above which loads that also move nothing (‖K⁻¹q_ref‖_W ≤
+#: ``continuation.LOADS_MOVE_NOTHING``) stress nothing either: their K₁ is the round-off of K(λ₁) − K₀ over λ₁
+#: (a scene's loads zero at t = 0 gave 5.6e7 and up).
+LOADS_STRESS_NOTHING = 1e6
 #: The stability search stops when the bracket of the load factor is this narrow (relative).
 STABILITY_TOL = 1e-7
 #: An element whose end sections turn by more than this (rad) relative to each other, beyond their
@@ -353,6 +357,19 @@ def buckling_analysis(prepared, count: int = 6) -> dict:
             out.update(flutter_factor=None, flutter_searched_to=None)  # not searched
         return out  # its warnings are said by the caller (solve: stderr and summary.json)
 
+    moved = path.iterate(reference, 0.0).dq_lambda
+    if moved is not None and path.norm(moved) <= continuation.LOADS_MOVE_NOTHING and \
+            (len(linearised) == 0 or linearised[0] > LOADS_STRESS_NOTHING):
+        # conservative loads zero at t = 0 (a load in t): they neither move the structure nor stress it (K₁ is round-off:
+        # linearised factors 5.6e7 and up), and the path's search went on to a "limit point" at λ ~ 1e13
+        # where Newton meets round-off. A dead load on a straight chain of rigid links moves nothing and
+        # stresses it (Ziegler's column: factors of order 1): searched as before
+        raise SolverError(f"buckling: the loads move nothing (the full load moves the structure by "
+                          f"{path.norm(moved):.3g} of its size, at most {continuation.LOADS_MOVE_NOTHING:g}, and its "
+                          f"lowest linearised buckling factor is "
+                          f"{(f'{linearised[0]:.3g}' if len(linearised) else 'none')}; a static analysis takes the "
+                          "loads, gravity and torques at t = 0, where a load in t may be zero): no load factor of "
+                          "them buckles the structure")
     # along the path: f(λ) = min eig(K_T(λ), K₀) from f(0) = 1 to its zero
     lam, f, state = 0.0, 1.0, reference
     step = min(1.0 / prepared.scene.solve.steps,
