@@ -105,6 +105,16 @@ class CSR:
         x = np.asarray(x, float)
         return np.bincount(self.indices, weights=self.data * x[self.rows], minlength=self.shape[1])
 
+    def toarray(self) -> np.ndarray:
+        """The matrix as a dense array (SciPy's ``toarray``: a stored zero is 0)."""
+        dense = np.zeros(self.shape)
+        dense[self.rows, self.indices] = self.data
+        return dense
+
+    def __matmul__(self, x):
+        """A x for a vector or the columns of a matrix (:func:`times`), as ``A @ x`` of a SciPy matrix reads."""
+        return times(self, x)
+
 
 def transposed_product(a: CSR, b: CSR) -> CSR:
     """Aᵀ B for CSR A (n × p) and B (n × q), as SciPy's ``A.T @ B`` computes it (module docstring):
