@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from latdyn.assembly.assembler import State, pack
+from latdyn.assembly.assembler import State
 from latdyn.assembly.library import native_library
 
 
