@@ -14,7 +14,6 @@ alternating process by process, a warm-up round left out, medians of wall and th
 """
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
@@ -38,26 +37,17 @@ def scenes() -> list[tuple[str, str, dict]]:
     return made + [("design", "design", made[2][2])]
 
 
-def _command(scene: Path, out: Path, fifo: bool) -> list[str]:
+def command(scene: Path, out: Path, fifo: bool) -> list[str]:
     """sensitivity_start's command, or the design example's where the scene is its script."""
     if scene.name == "design.yaml":
-        command = [sys.executable, str(EXAMPLE)]
-        return ["chrt", "-f", "10", *command] if fifo else command
-    return _latdyn_command(scene, out, fifo)
-
-
-_latdyn_command = sensitivity_start._command
+        line = [sys.executable, str(EXAMPLE)]
+        return ["chrt", "-f", "10", *line] if fifo else line
+    return sensitivity_start.command(scene, out, fifo)
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--rounds", type=int, default=5)
-    parser.add_argument("--trees", default=str(ROOT))
-    parser.add_argument("--fifo", action="store_true", help="each process under chrt -f 10")
-    parser.add_argument("--scenes", default=None, help="comma-separated scene names (default: all)")
-    parser.add_argument("--modules", action="store_true")
-    sensitivity_start._command = _command
-    sensitivity_start.measure(scenes(), parser.parse_args(), prefix="latch-start-")
+    args = sensitivity_start.arguments(__doc__.splitlines()[0], adjoint=False).parse_args()
+    sensitivity_start.measure(scenes(), args, prefix="latch-start-", command=command)
 
 
 if __name__ == "__main__":

@@ -61,7 +61,8 @@ atexit.register(lambda: json.dump(sorted(sys.modules), open(os.environ["SENSITIV
 """
 
 
-def _command(scene: Path, out: Path, fifo: bool) -> list[str]:
+def command(scene: Path, out: Path, fifo: bool) -> list[str]:
+    """``latdyn run SCENE -o OUT -q`` in this interpreter (under ``chrt -f 10`` where ``fifo``)."""
     command = [sys.executable, "-m", "latdyn", "run", str(scene), "-o", str(out), "-q"]
     return ["chrt", "-f", "10", *command] if fifo else command
 
@@ -71,7 +72,7 @@ def _environment(tree: str, extra: str = "") -> dict:
     return {**os.environ, "PYTHONPATH": path, "OMP_NUM_THREADS": "1"}
 
 
-def as_a_user(folder: Path, chosen: list, trees: list[str], rounds: int, fifo: bool) -> None:
+def as_a_user(folder: Path, chosen: list, trees: list[str], rounds: int, fifo: bool, command=command) -> None:
     wall, cpu = {}, {}
     loads = [os.getloadavg()[0]]
     for r in range(rounds + 1):
@@ -79,7 +80,7 @@ def as_a_user(folder: Path, chosen: list, trees: list[str], rounds: int, fifo: b
             for tree in (trees if r % 2 == 0 else trees[::-1]):
                 before = resource.getrusage(resource.RUSAGE_CHILDREN)
                 start = time.perf_counter()
-                done = subprocess.run(_command(folder / f"{name}.yaml", folder / "out", fifo), env=_environment(tree),
+                done = subprocess.run(command(folder / f"{name}.yaml", folder / "out", fifo), env=_environment(tree),
                                       cwd=folder, capture_output=True, text=True, check=False)
                 elapsed = time.perf_counter() - start
                 after = resource.getrusage(resource.RUSAGE_CHILDREN)
@@ -103,7 +104,7 @@ def as_a_user(folder: Path, chosen: list, trees: list[str], rounds: int, fifo: b
             print(f"  {name:14s} {tree}: wall {w:.3f} s  CPU {c:.3f} s{ratio}")
 
 
-def modules(folder: Path, chosen: list, trees: list[str]) -> None:
+def modules(folder: Path, chosen: list, trees: list[str], command=command) -> None:
     hook = folder / "hook"
     hook.mkdir(exist_ok=True)
     (hook / "sitecustomize.py").write_text(_MODULES_HOOK)
@@ -111,7 +112,7 @@ def modules(folder: Path, chosen: list, trees: list[str]) -> None:
     for name, _, _ in chosen:
         for tree in trees:
             for _ in range(2):   # the first may compile the scene's laws
-                done = subprocess.run(_command(folder / f"{name}.yaml", folder / "out", False), cwd=folder,
+                done = subprocess.run(command(folder / f"{name}.yaml", folder / "out", False), cwd=folder,
                                       env={**_environment(tree, str(hook)), "SENSITIVITY_START_MODULES": str(listing)},
                                       capture_output=True, text=True, check=False)
                 if done.returncode != 0:
@@ -121,30 +122,37 @@ def modules(folder: Path, chosen: list, trees: list[str]) -> None:
             print(f"  {name:14s} {tree}: {len(imported)} modules, scipy.sparse {'imported' if sparse else 'not imported'}")
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def arguments(description: str = __doc__.splitlines()[0], adjoint: bool = True) -> argparse.ArgumentParser:
+    """The options of this measurement (benchmarks/latch_start.py's too, without ``--adjoint``)."""
+    parser = argparse.ArgumentParser(description=description)
     parser.add_argument("--rounds", type=int, default=5)
     parser.add_argument("--trees", default=str(ROOT))
     parser.add_argument("--fifo", action="store_true", help="each process under chrt -f 10")
     parser.add_argument("--scenes", default=None, help="comma-separated scene names (default: all)")
     parser.add_argument("--modules", action="store_true")
-    parser.add_argument("--adjoint", action="store_true", help="the runs with parameters by the discrete adjoint")
-    args = parser.parse_args()
+    if adjoint:
+        parser.add_argument("--adjoint", action="store_true", help="the runs with parameters by the discrete adjoint")
+    return parser
+
+
+def main() -> None:
+    args = arguments().parse_args()
     measure(scenes(args.adjoint), args)
 
 
-def measure(made: list, args, prefix: str = "sensitivity-start-") -> None:
+def measure(made: list, args, prefix: str = "sensitivity-start-", command=command) -> None:
     """The scenes ``made`` (name, family, scene) that ``args.scenes`` names (all without it), written to a new
-    folder and measured as ``args`` asks: :func:`modules` or :func:`as_a_user` (benchmarks/latch_start.py too)."""
+    folder and measured as ``args`` asks: :func:`modules` or :func:`as_a_user`, each process's command line made by
+    ``command(scene, out, fifo)`` (benchmarks/latch_start.py gives its own)."""
     chosen = [s for s in made if args.scenes is None or s[0] in args.scenes.split(",")]
     folder = Path(tempfile.mkdtemp(prefix=prefix))
     for name, _, scene in chosen:
         (folder / f"{name}.yaml").write_text(yaml.safe_dump(scene))
     trees = args.trees.split(",")
     if args.modules:
-        modules(folder, chosen, trees)
+        modules(folder, chosen, trees, command)
     else:
-        as_a_user(folder, chosen, trees, args.rounds, args.fifo)
+        as_a_user(folder, chosen, trees, args.rounds, args.fifo, command)
 
 
 if __name__ == "__main__":
