@@ -192,26 +192,26 @@ def of_dense(*arrays: np.ndarray) -> list[CSR]:
     return [CSR(tuple(shape), indptr, cols.astype(np.int64), np.asarray(a, float)[rows, cols]) for a in arrays]
 
 
+def _column_by_column(product, rows: int, x: np.ndarray) -> np.ndarray:
+    """``product`` (a vector's product, ``rows`` long) of a vector or of each column of a matrix ``x``."""
+    x = np.asarray(x, float)
+    if x.ndim == 1:
+        return product(x)
+    if x.shape[1] == 0:
+        return np.zeros((rows, 0))
+    return np.stack([product(x[:, j]) for j in range(x.shape[1])], axis=1).reshape(rows, x.shape[1])
+
+
 def times(a: CSR, x: np.ndarray) -> np.ndarray:
     """A X for a vector or the columns of a matrix X (:meth:`CSR.matvec` column by column: SciPy's
     ``csr_matvecs`` adds each row's products in the same order)."""
-    x = np.asarray(x, float)
-    if x.ndim == 1:
-        return a.matvec(x)
-    if x.shape[1] == 0:
-        return np.zeros((a.shape[0], 0))
-    return np.stack([a.matvec(x[:, j]) for j in range(x.shape[1])], axis=1).reshape(a.shape[0], x.shape[1])
+    return _column_by_column(a.matvec, a.shape[0], x)
 
 
 def transposed_times(a: CSR, x: np.ndarray) -> np.ndarray:
     """Aᵀ X for a vector or the columns of a matrix X (:meth:`CSR.rmatvec` column by column: SciPy's
     ``A.T @ X``, ``csc_matvecs``, adds in the same order)."""
-    x = np.asarray(x, float)
-    if x.ndim == 1:
-        return a.rmatvec(x)
-    if x.shape[1] == 0:
-        return np.zeros((a.shape[1], 0))
-    return np.stack([a.rmatvec(x[:, j]) for j in range(x.shape[1])], axis=1).reshape(a.shape[1], x.shape[1])
+    return _column_by_column(a.rmatvec, a.shape[1], x)
 
 
 __all__ = ["CSR", "DIRECT_KEYS", "blocks", "columns", "nonzero", "of_dense", "product", "times", "transposed",
