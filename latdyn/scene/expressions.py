@@ -76,7 +76,7 @@ import numpy as np
 from latdyn.errors import SceneError, show_value
 
 __all__ = ["TimeFunction", "parse_time_function", "parse_symbolic", "ACTIVE_PARAMETERS", "HingeLaw", "parse_hinge_law", "HINGE_VARIABLES", "ALLOWED_NAMES", "ALLOWED_OPERATORS",
-           "MAX_TEXT", "MAX_DEPTH", "MAX_NODES"]
+           "MAX_TEXT", "MAX_DEPTH", "MAX_NODES", "cached_entry", "keep_entry"]
 
 #: Names a scene expression may use (SCENE.md), then the documented extension.
 ALLOWED_NAMES = (
@@ -534,8 +534,9 @@ def _same_numbers(a, b, points) -> bool:
     return True
 
 
-def _store(kind: str, source: str, entry: dict, functions: dict, points) -> None:
-    """Keep ``entry`` (plain data) and ``functions`` (name -> tuple of lambdified functions or
+def keep_entry(kind: str, source: str, entry: dict, functions: dict, points) -> None:
+    """The package's one cache of what was derived from a text (laws compiled here, parameter derivatives in
+    latdyn/scene/parameters.py, jump searches in latdyn/timeloop/jumps.py), keyed by ``kind`` and ``source``: keep ``entry`` (plain data) and ``functions`` (name -> tuple of lambdified functions or
     None) for ``source``: only if every function rebuilds to the same numbers at ``points``."""
     import json
     import os
@@ -560,7 +561,7 @@ def _store(kind: str, source: str, entry: dict, functions: dict, points) -> None
         pass
 
 
-def _load(kind: str, source: str) -> dict | None:
+def cached_entry(kind: str, source: str) -> dict | None:
     """The cached entry of ``source`` with its functions rebuilt, or None."""
     import json
 
@@ -720,13 +721,13 @@ class TimeFunction(_BySource):
         elif self._input_names:  # names the scene's inputs: parsed each time, never from the cache
             self._symbolic()
         else:
-            cached = _load("time", src)
+            cached = cached_entry("time", src)
             if cached is not None:  # parsed, checked and lambdified by an earlier process
                 self._kind, self._fns, self._scalar = cached["kind"], cached["numpy"], cached["scalar"]
                 self._expr_cache = self._derivative_cache = None  # SymPy again on demand (_symbolic)
             else:
                 self._symbolic()
-                _store("time", src, {"kind": self._kind}, {"numpy": self._fns, "scalar": self._scalar},
+                keep_entry("time", src, {"kind": self._kind}, {"numpy": self._fns, "scalar": self._scalar},
                        [(t,) for t in _PROBES])
         self._compiled = True
 
@@ -895,14 +896,14 @@ class HingeLaw(_BySource):
             self._fns = None
         else:
             self._time = None
-            cached = None if self._input_names else _load("hinge", src)  # a law naming inputs: never cached
+            cached = None if self._input_names else cached_entry("hinge", src)  # a law naming inputs: never cached
             if cached is not None:  # parsed, checked and lambdified by an earlier process
                 self._depends, self._constant = tuple(cached["depends"]), cached["constant"]
                 self._fns, self._law_cache = cached["numpy"], None  # SymPy again on demand
             else:
                 self._symbolic()
                 if not self._input_names:
-                    _store("hinge", src, {"depends": list(self._depends), "constant": self._constant},
+                    keep_entry("hinge", src, {"depends": list(self._depends), "constant": self._constant},
                            {"numpy": self._fns}, _HINGE_PROBES)
         self._compiled = True
 

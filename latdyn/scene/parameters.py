@@ -147,7 +147,7 @@ def _derivative_text(text: str, used: tuple, name: str, names: tuple, values: tu
     under the SymPy version and this module's source): a later process reads the text without importing SymPy
     (0.5 s of a fresh ``latdyn run`` with ``solve.sensitivities``)."""
     source = repr((text, used, name, names, tuple(map(float.hex, map(float, values))), _this_module()))
-    cached = expressions._load("derivative", source)   # noqa: SLF001 (the package's one expression cache)
+    cached = expressions.cached_entry("derivative", source)   # the package's one expression cache
     if cached is not None and isinstance(cached.get("text"), str):
         return cached["text"]
     import sympy as sp
@@ -157,7 +157,7 @@ def _derivative_text(text: str, used: tuple, name: str, names: tuple, values: tu
     if derivative.free_symbols & set(symbols):
         derivative = derivative.subs(symbols)
     result = re.sub(r"\bAbs\(", "abs(", str(derivative))
-    expressions._store("derivative", source, {"text": result}, {}, ())   # noqa: SLF001
+    expressions.keep_entry("derivative", source, {"text": result}, {}, ())
     return result
 
 

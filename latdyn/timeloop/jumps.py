@@ -286,14 +286,14 @@ def _searched(search: str, law, t_end: float, find) -> list[float]:
         _SEARCH.append(source_digest(Path(__file__).read_bytes(), np.__version__))
     source = (f"jump times 1:{_SEARCH[0]}:{SAMPLES!r}:{CONTINUOUS!r}:{search}:{type(law).__name__}:{float(t_end)!r}:"
               f"{json.dumps(law.source)}")
-    entry = cache._load("jumps", source)
+    entry = cache.cached_entry("jumps", source)
     if entry is not None and isinstance(entry.get("times"), list):
         try:
             return [float(t) for t in entry["times"]]
         except (TypeError, ValueError):   # an entry not written here: searched again, and written over
             pass
     times = [float(t) for t in find()]
-    cache._store("jumps", source, {"times": times}, {}, [])
+    cache.keep_entry("jumps", source, {"times": times}, {}, [])
     return times
 
 
@@ -340,7 +340,7 @@ def _jump_arguments(law) -> dict | None:
     from latdyn.scene import expressions as cache
 
     source = f"jump arguments 1:{type(law).__name__}:{law.source}"
-    entry = cache._load("jumps", source)
+    entry = cache.cached_entry("jumps", source)
     if entry is not None:
         return {"arguments": tuple(entry.get("arguments") or ()), "generic": (entry.get("generic") or (None,))[0],
                 "timed_by": list(entry.get("timed_by") or ())}
@@ -357,7 +357,7 @@ def _jump_arguments(law) -> dict | None:
     if inputs:
         others = {s: 0.3 + 0.17 * k for k, s in enumerate(sorted(expr.free_symbols - {t}, key=lambda s: s.name))}
         generic = sp.lambdify(t, expr.subs(others), modules="numpy")
-    cache._store("jumps", source, {"timed_by": timed_by},
+    cache.keep_entry("jumps", source, {"timed_by": timed_by},
                  {"arguments": functions, "generic": None if generic is None else (generic,)},
                  [(0.1,), (0.37,), (1.3,)])
     return {"arguments": functions, "generic": generic, "timed_by": timed_by}
