@@ -357,9 +357,9 @@ def buckling_analysis(prepared, count: int = 6) -> dict:
             out.update(flutter_factor=None, flutter_searched_to=None)  # not searched
         return out  # its warnings are said by the caller (solve: stderr and summary.json)
 
-    moved = path.iterate(reference, 0.0).dq_lambda
-    if moved is not None and path.norm(moved) <= continuation.LOADS_MOVE_NOTHING and \
-            (len(linearised) == 0 or linearised[0] > LOADS_STRESS_NOTHING):
+    stresses_nothing = len(linearised) == 0 or linearised[0] > LOADS_STRESS_NOTHING
+    moved = path.iterate(reference, 0.0).dq_lambda if stresses_nothing else None   # a factorization: only then
+    if moved is not None and path.norm(moved) <= continuation.LOADS_MOVE_NOTHING:
         # conservative loads zero at t = 0 (a load in t): they neither move the structure nor stress it (K₁ is round-off:
         # linearised factors 5.6e7 and up), and the path's search went on to a "limit point" at λ ~ 1e13
         # where Newton meets round-off. A dead load on a straight chain of rigid links moves nothing and
