@@ -341,7 +341,7 @@ def build(name: str, source: bytes, flags=C_FLAGS, *, using: Compiler | None = N
     compile. RuntimeError (:class:`NoCompiler`, :class:`CacheNotWritable` among them) says why not."""
     using = using or compiler()
     path = target(name, source if key is None else key, flags, using)
-    if path.exists():
+    if intact(path):
         return path
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -351,7 +351,7 @@ def build(name: str, source: bytes, flags=C_FLAGS, *, using: Compiler | None = N
 
     try:
         with FileLock(str(path) + ".lock", timeout=900):
-            if not path.exists():
+            if not intact(path):   # absent, or cut short: built (again)
                 if announce:
                     print(announce, file=sys.stderr, flush=True)
                 started = time.perf_counter()
@@ -366,8 +366,38 @@ def build(name: str, source: bytes, flags=C_FLAGS, *, using: Compiler | None = N
     return path
 
 
+def intact(path: Path) -> bool:
+    """Whether the library file ``path`` exists and is as long as its ELF header says: its section header table,
+    which the linker writes last, lies within the file. A library cut short in the cache (a disk that filled, a
+    copy interrupted) otherwise kills the process that maps it with a bus error instead of being built again.
+    One read of 64 bytes; a file that is not ELF (another platform's format) is taken as it is."""
+    import struct
+
+    try:
+        with open(path, "rb") as file:
+            header = file.read(64)
+            size = os.fstat(file.fileno()).st_size
+    except OSError:
+        return False
+    if header[:4] != b"\x7fELF":
+        return len(header) > 0
+    if len(header) < 64 or header[4] not in (1, 2) or header[5] not in (1, 2):
+        return False
+    order = "<" if header[5] == 1 else ">"
+    if header[4] == 2:   # ELF64: e_shoff at 0x28, e_shentsize and e_shnum at 0x3A
+        (table,), (entry, count) = struct.unpack_from(order + "Q", header, 0x28), struct.unpack_from(order + "HH", header, 0x3A)
+    else:                # ELF32: e_shoff at 0x20, e_shentsize and e_shnum at 0x2E
+        (table,), (entry, count) = struct.unpack_from(order + "I", header, 0x20), struct.unpack_from(order + "HH", header, 0x2E)
+    return table + entry * count <= size
+
+
 def load(path: Path) -> ctypes.CDLL:
-    """``ctypes.CDLL`` of a built library; RuntimeError naming it when it does not load."""
+    """``ctypes.CDLL`` of a built library; RuntimeError naming it when it does not load or is cut short
+    (:func:`intact`: mapping it would end the process with a bus error)."""
+    if not intact(path):
+        raise RuntimeError(f"cannot load {path.name}: the file in the kernel cache {Path(path).parent} is damaged "
+                           f"(shorter than its header says); delete it (or set {CACHE_VARIABLE} to an empty folder) "
+                           "and run again")
     try:
         return ctypes.CDLL(str(path))
     except OSError as error:

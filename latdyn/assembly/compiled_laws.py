@@ -183,7 +183,7 @@ def compile_laws(time_functions: list, hinge_laws: list[HingeLaw], signals=((), 
         using = native.compiler()
         text = source_digest(key, generator_version()).encode()
         target = native.target("laws", text, native.C_FLAGS, using)
-        if not target.exists():  # print the unit only now
+        if not native.intact(target):  # print the unit only now (absent, or cut short)
             announce = (f"latdyn: compiling the scene's laws ({len(time_functions)} of time, {len(hinge_laws)} "
                         f"hinge laws) with {using.name} into {target.parent}")
             target = native.build("laws", _print(time_functions, hinge_laws, signals, controllers, sampled),

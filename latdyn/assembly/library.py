@@ -430,7 +430,7 @@ def _indexed_library(index):
         path = native.cache_dir() / index.read_text().strip()
     except (OSError, ValueError):
         return None
-    return path if path.name.startswith("newton_step-") and path.is_file() else None
+    return path if path.name.startswith("newton_step-") and native.intact(path) else None
 
 
 def library_source(name: str) -> bytes:

@@ -246,7 +246,7 @@ def _on_demand(stem: str, name: str, meta: dict, ops: dict[str, int]) -> Callabl
                 path = native.cache_dir() / marshal.loads(entry.read_bytes())
             except (OSError, ValueError, EOFError, TypeError):
                 path = None
-        if path is None or not path.is_file():
+        if path is None or not native.intact(path):
             path = Path(_compile(stem, [name], ops)[name])
             if entry is not None:
                 native._store_bytes(entry, marshal.dumps(path.name))
@@ -469,7 +469,7 @@ def _compiled_unit(stem: str) -> tuple[dict, "LibraryFiles"]:
         try:
             entry = marshal.loads(index.read_bytes())
             paths = {name: native.cache_dir() / file for name, file in entry["targets"].items()}
-            if all(path.is_file() for path in paths.values()):
+            if all(map(native.intact, set(paths.values()))):   # each there, none cut short
                 return entry["info"], LibraryFiles(paths)
         except (OSError, ValueError, EOFError, TypeError, KeyError, AttributeError):
             pass  # made again below
@@ -523,7 +523,7 @@ def _compile(stem: str, names, ops: dict[str, int] | None = None) -> dict[str, o
         flags[unit] = (optimisation(max(ops.get(name, 0) for name in group)), *C_FLAGS[1:], *simd)
         members[unit] = group
     paths = {unit: native.target(unit, units[unit], flags[unit], using) for unit in units}
-    todo = [unit for unit, path in paths.items() if not path.exists()]
+    todo = [unit for unit, path in paths.items() if not native.intact(path)]
     if todo:
         from concurrent.futures import ThreadPoolExecutor
 
