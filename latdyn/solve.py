@@ -9,6 +9,7 @@ import numpy as np
 
 from latdyn.assembly.prepare import length_scale, prepare
 from latdyn.errors import ResultsError, SceneError
+from latdyn.numerics.linalg import blas_on_one_thread
 from latdyn.results import paraview as paraview
 from latdyn.results.probe_labels import probe_labels
 from latdyn.results.probes import ProbeSet
@@ -59,6 +60,13 @@ def run(scene, out_dir=None, backend: str = "auto", progress: bool = False, *, r
     compiled0 = _compile_seconds()
     if checkpoint_every is not None and not checkpoint_every >= 0:
         raise ValueError(f"checkpoint_every must be a number of seconds >= 0, not {checkpoint_every!r}")
+    with blas_on_one_thread():   # the same bits as ``latdyn run``, whatever the machine's cores
+        return _run(scene, out_dir, backend, progress, resume, checkpoint_every, wall0, compiled0)
+
+
+def _run(scene, out_dir, backend: str, progress: bool, resume: bool, checkpoint_every, wall0: float,
+         compiled0: float):
+    """:func:`run`'s body."""
     scene = load_scene(scene)
     if scene.solve.sensitivities:   # refused before anything is compiled or written
         from latdyn.analyses.sensitivities import refusal

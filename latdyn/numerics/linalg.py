@@ -252,6 +252,65 @@ def loaded_openblas(belongs):
         return None
 
 
+def _in_numpy_folder(path) -> bool:
+    """Whether a library lies in NumPy's own folders (``numpy.libs/``, ``numpy/.dylibs/``)."""
+    from pathlib import PurePath
+
+    return any(part == "numpy" or part.startswith("numpy.") for part in PurePath(str(path)).parent.parts)
+
+
+def _loaded_thread_functions(belongs):
+    """``(get, set)`` of the thread count of the one OpenBLAS loaded from the folder ``belongs`` accepts
+    (:func:`loaded_openblas`), as ctypes functions; None where there is none."""
+    import ctypes
+
+    library = loaded_openblas(belongs)
+    if library is None:
+        return None
+    for prefix, suffix in _OPENBLAS_AFFIXES:
+        get = getattr(library, f"{prefix}openblas_get_num_threads{suffix}", None)
+        put = getattr(library, f"{prefix}openblas_set_num_threads{suffix}", None)
+        if get is not None and put is not None:
+            get.restype, get.argtypes = ctypes.c_int, []
+            put.restype, put.argtypes = None, [ctypes.c_int]
+            return get, put
+    return None
+
+
+#: The thread functions :func:`blas_on_one_thread` found, by library (``numpy``, ``scipy``): kept for the process.
+_PINNABLE: dict = {}
+
+
+@contextmanager
+def blas_on_one_thread():
+    """NumPy's and SciPy's OpenBLAS (SciPy's where its LAPACK is imported) on one thread inside the block, their
+    counts restored after it: :func:`latdyn.run` as ``latdyn run`` runs (latdyn.cli.one_blas_thread), so that a
+    scene gives the same bits through the API as through the command, whatever the machine's cores. A product
+    that OpenBLAS splits across threads adds in another order: examples/cable_deploying_truss.yaml's probes.csv
+    differed in its last bits from its third row on where NumPy's OpenBLAS ran two threads (NumPy's products in
+    the run's Python), and equals the command's on one. Nothing to do where ``OPENBLAS_NUM_THREADS`` is 1 (the
+    command sets it before NumPy loads); Linux's ``/proc/self/maps`` finds each library once a process (≈ 2.5
+    ms), elsewhere nothing is pinned."""
+    import os
+
+    pinned = []
+    if os.environ.get("OPENBLAS_NUM_THREADS") != "1":
+        for name, belongs in (("numpy", _in_numpy_folder), ("scipy", _in_scipy_folder)):
+            if name == "scipy" and "scipy.linalg.cython_lapack" not in sys.modules:
+                continue   # SciPy's OpenBLAS is not loaded (nor looked for)
+            if name not in _PINNABLE:
+                _PINNABLE[name] = _loaded_thread_functions(belongs)
+            functions = _PINNABLE[name]
+            if functions is not None and functions[0]() != 1:
+                pinned.append((functions[1], functions[0]()))
+                functions[1](1)
+    try:
+        yield
+    finally:
+        for put, count in pinned:
+            put(count)
+
+
 def _scipy_openblas_from_maps() -> tuple[int | None, int | None] | None:
     """Linux: the thread functions of the OpenBLAS that ``/proc/self/maps`` shows loaded from SciPy's
     folder; None where that file is not there or shows no such library (then threadpoolctl looks,
@@ -508,4 +567,4 @@ def psd_null_direction(A, factorization, tol: float = 1e-10, shift: float = 1e-9
 
 __all__ = ["DENSE_LIMIT", "SMALL_BAND_FRACTION", "BAND_LIMIT", "SINGLE_THREAD_EIGH", "issparse", "use_dense", "rcm_band",
            "small_rcm_band", "reverse_cuthill_mckee", "RCM_IN_PYTHON", "single_thread_blas",
-           "openblas_thread_functions", "psd_null_direction"]
+           "openblas_thread_functions", "psd_null_direction", "blas_on_one_thread"]
