@@ -337,12 +337,16 @@ class SensitivityLoop:
         d.pair_offset = self._pointer(np.ascontiguousarray(offset[pairs], np.float64))
         d.pair_scratch = self._pointer(np.zeros(76 * len(pairs)))
 
-    def prepared(self, carried: dict, grid_index: int, stop_index: int, control):
+    def prepared(self, carried: dict, grid_index: int, stop_index: int, control, rows: int = 0):
         """The struct filled for a loop of steps from grid point ``grid_index`` through ``stop_index`` with the
-        carried sensitivities ``carried``; None where this numbering takes the Python path."""
+        carried sensitivities ``carried`` and ``rows`` rows to record on the way (:meth:`record_rows`); None where
+        this numbering takes the Python path."""
         if not self._layout():
             return None
         d, owner = self.data, self.owner
+        n, k = owner.model.n_dofs, len(owner.names)
+        self._row_carried = np.zeros((rows, 3 * n * k + k)) if rows else None
+        d.row_carried = self._row_carried.ctypes.data if rows else None
         for name, array in self._carried.items():
             np.copyto(array, carried[name])
         np.copyto(self._dt, carried["dt"])
@@ -381,6 +385,22 @@ class SensitivityLoop:
                 len(times), len(laws))
             d.law_values, d.values_from = self._law_table.ctypes.data, grid_index + 1
         return d
+
+    def record_rows(self, carried: dict, block, rows: int) -> dict:
+        """``carried`` with the sensitivities of the first ``rows`` rows the last call of the loop of steps recorded
+        on its way (``block``: a step.compiled.RowBlock), each as :meth:`TransientSensitivities.record` records a
+        row from Python: at the row's state, from the δq, δv, δv̇ and δt the loop carried to it
+        (csrc/sensitivity_loop.c ``sensitivity_loop_row``); the carried columns themselves left as they were (the
+        loop's last are :meth:`carried_after`'s)."""
+        owner = self.owner
+        n, k = owner.model.n_dofs, len(owner.names)
+        nk = n * k
+        for r in range(rows):
+            held = self._row_carried[r]
+            at_row = {**carried, "dq": held[:nk].reshape(n, k), "dv": held[nk:2 * nk].reshape(n, k),
+                      "dvdot": held[2 * nk:3 * nk].reshape(n, k), "dt": held[3 * nk:]}
+            carried = {**carried, "rows": owner.record(at_row, block.state(r))["rows"]}
+        return carried
 
     def steps_in_call(self) -> int:
         """The steps the last call of the loop of steps differentiated (the run's count, summary.json
