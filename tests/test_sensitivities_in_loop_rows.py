@@ -15,9 +15,17 @@ import yaml
 import latdyn
 from tests.cli_runs import latdyn_run_switched, summary_of
 from tests.test_sensitivities_contact import WHEEL
+from tests.test_sensitivities_joint_forces import BOOM
 from tests.test_sensitivities_in_loop import ARM_3D_JOINTS, BOOM_DESIGN, _latch
 
 _SWITCH = "latdyn.timeloop.loop.SENSITIVITY_ROWS_IN_LOOP"
+
+#: the 3D arm with hinge and body parameters, its second beam hung off the knee body by an offset, probed there in
+#: x and y (δx + δπ × T r with T r ≠ 0, turning in 3D)
+ARM_OFFSET = (ARM_3D_JOINTS.replace("    from: knee\n", "    from: {body: knee, offset: [0.05, 0.02, 0.03]}\n")
+              .replace("  probes:\n", "  probes:\n    start_x: {point: b.start, quantity: displacement, component: x}\n"
+                                      "    start_y: {point: b.start, quantity: position, component: y}\n"))
+assert ARM_OFFSET.count("b.start") == 3 and "offset: [0.05" in ARM_OFFSET
 
 #: Run before a CLI's main: counts the rows recorded in the loop and writes the count to the file formatted in.
 _COUNTING = """
@@ -53,11 +61,13 @@ def _run(text: str, monkeypatch, rows_in_loop: bool) -> tuple:
         return latdyn.run(latdyn.load_scene(yaml.safe_load(text))), sum(counted)
 
 
-@pytest.mark.parametrize("text", [ARM_3D_JOINTS, _latch(), WHEEL], ids=["3D arm, hinge and body", "planar latch",
-                                                                      "3D compliant stop"])
+@pytest.mark.parametrize("text", [ARM_OFFSET, _latch(), WHEEL, BOOM],
+                         ids=["3D arm, offset", "planar latch", "3D compliant stop", "boom, latch torque"])
 def test_the_rows_recorded_in_the_loop_are_the_rows_one_by_one(text, monkeypatch):
     """Most rows recorded in the loop (the last of each loop call, and those at events, from Python), and the
-    sensitivities, their extremes and the events' time derivatives those of the rows one by one, to the bit."""
+    sensitivities, their extremes and the events' time derivatives those of the rows one by one, to the bit: points'
+    components and hinge angles all rows of a block at once (latdyn/analyses/sensitivity_rows.py), the boom's latch
+    torque row by row at the rows' states."""
     (native, in_loop), (python, one_by_one) = _run(text, monkeypatch, True), _run(text, monkeypatch, False)
     rows = len(native.t)
     assert one_by_one == 0 and 0.5 * rows < in_loop < rows

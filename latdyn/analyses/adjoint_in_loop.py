@@ -9,7 +9,9 @@ step its round trip (latdyn/timeloop/loop.py ``_python_step``). Here the loop of
 turns them into the entries the Python path appends — the same states (the loop's Newton step is the Python
 path's compiled step), sizes and accelerations, and where the scene has events the numbering the step was taken on and
 the rule of its size's derivative (:meth:`AdjointSensitivities._size_rule` for a step landing on the grid).
-Every event, landing, Newton cut and the step after them takes the Python path as before. The runs whose every step
+Its rows are recorded on the loop's way (csrc/rows.c), each the index of the stored state it is
+(:meth:`AdjointLoop.record_rows`). Every event, landing, Newton cut and the step after them takes the Python path as
+before. The runs whose every step
 is taken from Python are those the forward method's loop refuses whatever their parameters' kinds
 (:func:`latdyn.analyses.sensitivities_in_loop.model_refusal`: rigid links, guides, cables, controllers, explicit
 time dependence beside events, geometry parameters, energy or momentum probes, NumPy kernels): decided once, at the

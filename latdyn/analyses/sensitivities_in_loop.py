@@ -4,8 +4,12 @@ A run with ``solve.sensitivities`` took every step from Python (latdyn/timeloop/
 :meth:`latdyn.analyses.transient_sensitivities.TransientSensitivities.step`). Where every term of that step's
 derivative is native, the loop of steps (csrc/newton_step.c ``latdyn_advance``) carries δq, δv, δv̇, δa and δt
 through each step it accepts (csrc/sensitivity_loop.c): the same calls on the same inputs, in the Python step's
-order, and returns to Python where it returns without sensitivities (a row, an event, a Newton failure, the
-budget). Every event, jump, stick or release, landing, Newton cut and the steps after them take the Python path
+order, and returns to Python where it returns without sensitivities (an event, a Newton failure, the budget, the
+rows' buffers full). Its rows are recorded on its way as the run without sensitivities records them (csrc/rows.c),
+with the carried δq, δv, δv̇ and δt at each row (``sensitivity_loop_row``), from which :meth:`SensitivityLoop.record_rows`
+takes the rows' sensitivities: a block's points' components and hinge angles at once
+(latdyn/analyses/sensitivity_rows.py), other probes by :meth:`TransientSensitivities.record` at each row's state.
+Every event, jump, stick or release, landing, Newton cut and the steps after them take the Python path
 as before; so do the runs :func:`refusal` names, for the whole run (decided once, at the start).
 
 Native: ∂r/∂p of section values whose derivative laws are constants (the generated ``*_D_section`` kernels,
@@ -38,6 +42,7 @@ import numpy as np
 
 from latdyn.analyses.energy_sensitivities import is_energy_or_momentum
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
+from latdyn.analyses.sensitivity_rows import block_rows
 from latdyn.analyses.parameter_keys import BODY_KEY, CONTACT_KEY, FRICTION_KEY, FRICTION_SLOT, HINGE_KEY
 from latdyn.analyses.sensitivities import _INITIAL_VELOCITY_KEY, _LOAD_KEY, _SECTION_KEY
 from latdyn.assembly.native_model import NO_CONTACT
@@ -395,6 +400,12 @@ class SensitivityLoop:
         owner = self.owner
         n, k = owner.model.n_dofs, len(owner.names)
         nk = n * k
+        held = self._row_carried[:rows]
+        at_once = block_rows(owner, carried, block.states.t[:rows], block.states.T[:rows],
+                             held[:, :nk].reshape(rows, n, k), held[:, 3 * nk:])
+        if at_once is not None:   # every row in one pass (latdyn/analyses/sensitivity_rows.py)
+            owner.held = owner._held(carried)   # noqa: SLF001 - as TransientSensitivities.record leaves it
+            return {**carried, "rows": carried["rows"] + at_once}
         for r in range(rows):
             held = self._row_carried[r]
             at_row = {**carried, "dq": held[:nk].reshape(n, k), "dv": held[nk:2 * nk].reshape(n, k),
