@@ -5,7 +5,7 @@ operations instead of :meth:`latdyn.analyses.transient_sensitivities.TransientSe
 
 The probes taken here are those whose derivative is a fixed gather of δq and the row's state: a point's position or
 displacement component in the global frame, δ(x + T r) = δx + δπ × T r (:meth:`ParameterDerivatives._probe_derivatives`:
-the same products and differences as ``np.cross``, in its order, and the same sum), and a hinge's or guide's angle or
+``np.cross`` along the rows' axis: the same products, differences and sum), and a hinge's or guide's angle or
 position, δθ plus the δθ of the joints friction holds. Any other probe (norms, rates and velocities, joint forces,
 section forces, cables, a body's frame), guides' dependent nodes, geometry parameters and a row whose time moves with
 p beside a prescribed motion: None, and the rows are recorded one by one as from Python. The rows are the row-by-row
@@ -60,7 +60,6 @@ def block_rows(owner, carried: dict, times: np.ndarray, turns: np.ndarray, dq: n
             dx, dpi = full[:, model.node_dofs[node, 0:3]], full[:, model.node_dofs[node, 3:6]]   # (r, 3, k)
         else:
             dx = dpi = np.zeros((rows, 3, k))
-        c = "xyz".index(probe.component)
-        a, b = (c + 1) % 3, (c + 2) % 3
-        out[:, columns] = dx[:, c] + (dpi[:, a] * arm[:, b, None] - dpi[:, b] * arm[:, a, None])   # (δπ × T r)_c
+        moved = dx + np.cross(dpi, arm[:, :, None], axisa=1, axisb=1, axisc=1)   # δ(x + T r), (r, 3, k)
+        out[:, columns] = moved[:, "xyz".index(probe.component)]
     return out.tolist()
