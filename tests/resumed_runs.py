@@ -29,6 +29,9 @@ def interrupted_and_whole(scene: dict, tmp_path: Path, monkeypatch, t_stop: floa
     with monkeypatch.context() as m:
         for name in originals:
             m.setattr(CompiledGeneralizedAlpha, name, stopping(name))
+        # each loop of steps back in Python after a step, as a Ctrl-C finds it (its rows, sensitivity rows among
+        # them, recorded in C up to the budget): else one loop may take the run from before t_stop to its end
+        m.setattr("latdyn.timeloop.transient.LOOP_BUDGET_S", 1e-12)
         with pytest.raises(KeyboardInterrupt):
             latdyn.run(scene, out)
     latdyn.run(scene, out, resume=True)
@@ -57,6 +60,7 @@ def resumed_inside_the_loop_is_whole(scene: dict, tmp_path: Path, monkeypatch, t
 
     with monkeypatch.context() as patch:
         patch.setattr(CompiledGeneralizedAlpha, "advance", advance)
+        patch.setattr("latdyn.timeloop.transient.LOOP_BUDGET_S", 1e-12)   # as interrupted_and_whole
         with pytest.raises(KeyboardInterrupt):
             latdyn.run(scene, out)
     assert calls and all(calls)   # the loop carried the sensitivities up to the interruption

@@ -7,12 +7,10 @@ impulse through SciPy's matrices, to the bit.
 from __future__ import annotations
 
 import json
-import os
-import subprocess
 import sys
 from pathlib import Path
 
-from tests.test_sensitivities_fresh_process import _MODULES_HOOK, SOURCE
+from tests.imported_modules import listing_environment, run_listed, sparse_modules
 from tests.test_sensitivities_joint_forces import BOOM
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
@@ -42,24 +40,16 @@ def test_a_fresh_run_that_latches_does_not_import_scipy_sparse(tmp_path):
     cable events' times), so its CSR impulse is compared API with API."""
     import latdyn
 
-    hook = tmp_path / "hook"
-    hook.mkdir()
-    (hook / "sitecustomize.py").write_text(_MODULES_HOOK)
-    environment = {**os.environ, "PYTHONPATH": os.pathsep.join([str(hook), str(SOURCE)])}
+    environment = listing_environment(tmp_path)
     scenes = {"boom": (EXAMPLES / "deploying_boom.yaml").read_text(), "design": BOOM,
               "truss": (EXAMPLES / "cable_deploying_truss.yaml").read_text(),
               "slider": (EXAMPLES / "slider_crank.yaml").read_text()}
     for name, text in scenes.items():
         scene = tmp_path / f"{name}.yaml"
         scene.write_text(text)
-        listing = tmp_path / f"{name}.json"
-        done = subprocess.run([sys.executable, "-m", "latdyn", "run", str(scene), "-o", str(tmp_path / "fresh" / name),
-                               "-q"], capture_output=True, text=True, timeout=900, cwd=tmp_path,
-                              env={**environment, "LATDYN_TEST_MODULES": str(listing)})
-        assert done.returncode == 0, done.stderr
-        modules = set(json.loads(listing.read_text()))
+        modules = run_listed(environment, scene, tmp_path / "fresh" / name, tmp_path / f"{name}.json")
         assert "latdyn.timeloop.impulse" in modules   # the hook saw the run
-        sparse = sorted(m for m in modules if m == "scipy.sparse" or m.startswith("scipy.sparse."))
+        sparse = sparse_modules(modules)
         assert sparse == [], f"{name}: {sparse[:3]} imported"
         if name == "truss":
             latdyn.run(latdyn.load_scene(str(scene)), str(tmp_path / "fresh" / name))

@@ -6,19 +6,13 @@ its sensitivities are those of the process that made the caches, to the bit.
 """
 from __future__ import annotations
 
-import importlib.util
 import json
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 
+from tests.imported_modules import listing_environment, run_listed, sparse_modules
 from tests.test_sensitivities_transient import LONG_3D
-
-#: Where the latdyn under test is: this checkout, or site-packages of a wheel's venv (.ci/run).
-SOURCE = Path(importlib.util.find_spec("latdyn").origin).resolve().parents[1]
 
 #: A planar arm on a hinge, a load growing in t whose amplitude is a parameter, a section value that is one.
 SCENE = """\
@@ -39,33 +33,13 @@ output:
     tip_y: {point: arm.end, quantity: position, component: y}
 """
 
-#: Writes the modules a process imported, as JSON, to $LATDYN_TEST_MODULES when it exits.
-_MODULES_HOOK = """\
-import atexit, json, os, sys
-
-def _dump():
-    with open(os.environ["LATDYN_TEST_MODULES"], "w") as out:
-        json.dump(sorted(sys.modules), out)
-
-atexit.register(_dump)
-"""
-
-
 def test_a_sensitivity_run_from_the_caches_imports_neither_sympy_nor_the_generated_module(tmp_path):
     scene = tmp_path / "scene.yaml"
     scene.write_text(SCENE)
-    hook = tmp_path / "hook"
-    hook.mkdir()
-    (hook / "sitecustomize.py").write_text(_MODULES_HOOK)
-    environment = {**os.environ, "PYTHONPATH": os.pathsep.join([str(hook), str(SOURCE)])}
+    environment = listing_environment(tmp_path)
     imported = {}
     for out in ("first", "second"):   # the first puts the kernels and texts in the cache, the second reads them
-        listing = tmp_path / f"{out}.json"
-        done = subprocess.run([sys.executable, "-m", "latdyn", "run", str(scene), "-o", str(tmp_path / out), "-q"],
-                              capture_output=True, text=True, env={**environment, "LATDYN_TEST_MODULES": str(listing)},
-                              timeout=900, cwd=tmp_path)
-        assert done.returncode == 0, done.stderr
-        imported[out] = set(json.loads(listing.read_text()))
+        imported[out] = run_listed(environment, scene, tmp_path / out, tmp_path / f"{out}.json")
     modules = imported["second"]
     assert {"latdyn.analyses.transient_sensitivities", "latdyn.solve"} <= modules   # the hook saw the run
     assert not {m for m in modules if m == "sympy" or m.startswith("sympy.")}, "SymPy imported"
@@ -121,10 +95,7 @@ def test_a_fresh_sensitivity_run_of_a_small_model_does_not_import_scipy_sparse(t
     import latdyn
     from latdyn.analyses import transient_sensitivities
 
-    hook = tmp_path / "hook"
-    hook.mkdir()
-    (hook / "sitecustomize.py").write_text(_MODULES_HOOK)
-    environment = {**os.environ, "PYTHONPATH": os.pathsep.join([str(hook), str(SOURCE)])}
+    environment = listing_environment(tmp_path)
     monkeypatch.setattr(transient_sensitivities, "start_without_scipy", lambda model: False)
     adjoint = LONG_3D.replace("sensitivities: [EI, rho]}", "sensitivities: [EI, rho], sensitivity_method: adjoint}")
     assert adjoint != LONG_3D
@@ -134,13 +105,9 @@ def test_a_fresh_sensitivity_run_of_a_small_model_does_not_import_scipy_sparse(t
         scene.write_text(text)
         listing = tmp_path / f"{name}.json"
         for out in ("warm", "fresh"):   # the first may compile the scene's laws; the second is a user's next run
-            done = subprocess.run([sys.executable, "-m", "latdyn", "run", str(scene), "-o", str(tmp_path / out / name),
-                                   "-q"], capture_output=True, text=True, timeout=900, cwd=tmp_path,
-                                  env={**environment, "LATDYN_TEST_MODULES": str(listing)})
-            assert done.returncode == 0, done.stderr
-        modules = set(json.loads(listing.read_text()))
+            modules = run_listed(environment, scene, tmp_path / out / name, listing)
         assert "latdyn.analyses.transient_sensitivities" in modules   # the hook saw the run
-        sparse = sorted(m for m in modules if m == "scipy.sparse" or m.startswith("scipy.sparse."))
+        sparse = sparse_modules(modules)
         assert sparse == [], f"{name}: {sparse[:3]} imported"
         latdyn.run(latdyn.load_scene(str(scene)), str(tmp_path / "scipy" / name))
         for written in ("sensitivities.csv", "probes.csv"):

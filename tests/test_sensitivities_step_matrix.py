@@ -96,8 +96,8 @@ def test_the_step_matrix_on_its_held_pattern_is_scipys_sum(text):
     step.values(values, tangent.blocks, 2.0 * beta_p, gamma_p)
     assert np.array_equal(factorization.solve(rhs), solved)
     # C and K kept for the right-hand sides: exact_matrices' own
-    assert np.max(np.abs((step.stiffness - K).toarray())) <= 1e-13 * np.max(np.abs(K.toarray()))
-    assert np.max(np.abs((step.damping - C).toarray())) == 0.0
+    assert np.max(np.abs(step.stiffness.toarray() - K.toarray())) <= 1e-13 * np.max(np.abs(K.toarray()))
+    assert np.max(np.abs(step.damping.toarray() - C.toarray())) == 0.0
 
 
 @pytest.mark.parametrize("kind", [None, "dense", "sparse", "pivoted"])

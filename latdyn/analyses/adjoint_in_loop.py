@@ -9,7 +9,9 @@ step its round trip (latdyn/timeloop/loop.py ``_python_step``). Here the loop of
 turns them into the entries the Python path appends — the same states (the loop's Newton step is the Python
 path's compiled step), sizes and accelerations, and where the scene has events the numbering the step was taken on and
 the rule of its size's derivative (:meth:`AdjointSensitivities._size_rule` for a step landing on the grid).
-Every event, landing, Newton cut and the step after them takes the Python path as before. The runs whose every step
+Its rows are recorded on the loop's way (csrc/rows.c), each the index of the stored state it is
+(:meth:`AdjointLoop.record_rows`). Every event, landing, Newton cut and the step after them takes the Python path as
+before. The runs whose every step
 is taken from Python are those the forward method's loop refuses whatever their parameters' kinds
 (:func:`latdyn.analyses.sensitivities_in_loop.model_refusal`: rigid links, guides, cables, controllers, explicit
 time dependence beside events, geometry parameters, energy or momentum probes, NumPy kernels): decided once, at the
@@ -60,7 +62,7 @@ class AdjointLoop:
         #: steps stored by the last call of the loop of steps (:meth:`steps_in_call`)
         self._stored = 0
 
-    def prepared(self, carried: dict, grid_index: int, stop_index: int, control):
+    def prepared(self, carried: dict, grid_index: int, stop_index: int, control, rows: int = 0):
         """The blocks sized for a loop of steps from grid point ``grid_index`` through ``stop_index``; None where this
         step takes the Python path: no free coordinates, a last entry still pending (a run resumed from before its
         events), or with events a next step's size that moves with the parameters (the Python path's
@@ -88,6 +90,17 @@ class AdjointLoop:
         for name, array in blocks.items():
             setattr(d, name, array.ctypes.data)
         return d
+
+    def record_rows(self, carried: dict, block, rows: int) -> dict:
+        """``carried`` with the first ``rows`` rows the last call of the loop of steps recorded on its way
+        (``block``: a step.compiled.RowBlock), each as :meth:`AdjointSensitivities.record` records a row: the index
+        of the stored state it is, the loop's steps up to it after the trajectory before the loop (whose entries
+        :meth:`carried_after` appends next)."""
+        from latdyn.analyses.adjoint_sensitivities import _accepted
+
+        before = len(_accepted(carried["trajectory"]))
+        carried["rows"].extend(before + int(steps) for steps in block.column("steps")[:rows])
+        return carried
 
     def steps_in_call(self) -> int:
         """The steps the last call of the loop of steps stored (the run's count, summary.json

@@ -91,7 +91,7 @@ from latdyn.analyses.weight_derivative import configuration_tangent_of_weight, t
 from latdyn.assembly.assembler import free_acceleration, free_velocity, pack, unpack_free
 from latdyn.assembly.factorization import factorization_for, solve_linear, solve_linear_csr
 from latdyn.errors import SolverError
-from latdyn.numerics.csr import CSR, transposed
+from latdyn.numerics.csr import CSR, Transpose, transposed
 from latdyn.numerics.linalg import issparse
 from latdyn.step.integrators import consistent_acceleration
 from latdyn.timeloop.impulse import hinge_directions
@@ -689,20 +689,13 @@ class AdjointSensitivities(TransientSensitivities):
             raise SolverError(f"the adjoint sensitivities at t = {new.t:.6g} need the step's exact iteration "
                               "matrix, which is singular there") from None
 
-    def _held_transposes(self, step_matrix) -> tuple:
-        """(Cᵀ, Kᵀ) of ``step_matrix``'s held C and K: CSC views sharing their values, which each
-        :meth:`~latdyn.analyses.step_matrix.ExactStepMatrix.factor` replaces in place (made once per step
-        matrix; a copy each time where SciPy's transpose does not share them)."""
-        held = self.__dict__.get("_transposes")
-        if held is None or held[0] is not step_matrix:
-            views = tuple(matrix.transpose(copy=False) for matrix in (step_matrix.damping, step_matrix.stiffness))
-            shared = all(np.shares_memory(view.data, matrix.data)
-                         for view, matrix in zip(views, (step_matrix.damping, step_matrix.stiffness)))
-            held = (step_matrix, views if shared else None)
-            self._transposes = held
-        if held[1] is None:
-            return step_matrix.damping.T, step_matrix.stiffness.T
-        return held[1]
+    @staticmethod
+    def _held_transposes(step_matrix) -> tuple:
+        """(Cᵀ, Kᵀ) of ``step_matrix``'s held C and K: views of latdyn.numerics.csr's CSR sharing their values,
+        which each :meth:`~latdyn.analyses.step_matrix.ExactStepMatrix.factor` replaces in place; their products
+        are SciPy's CSC products to the bit (:class:`latdyn.numerics.csr.Transpose`), without importing
+        scipy.sparse."""
+        return Transpose(step_matrix.damping), Transpose(step_matrix.stiffness)
 
     def _through_the_start(self, state, v_bar: np.ndarray, s_bar: np.ndarray) -> np.ndarray:
         """(k, m) what t = 0 adds (module docstring): E_0ᵀ r̄ + D_vᵀ(v̄_0 + C_0ᵀ r̄), r̄ = Δᵀ s̄."""

@@ -4,8 +4,12 @@ A run with ``solve.sensitivities`` took every step from Python (latdyn/timeloop/
 :meth:`latdyn.analyses.transient_sensitivities.TransientSensitivities.step`). Where every term of that step's
 derivative is native, the loop of steps (csrc/newton_step.c ``latdyn_advance``) carries δq, δv, δv̇, δa and δt
 through each step it accepts (csrc/sensitivity_loop.c): the same calls on the same inputs, in the Python step's
-order, and returns to Python where it returns without sensitivities (a row, an event, a Newton failure, the
-budget). Every event, jump, stick or release, landing, Newton cut and the steps after them take the Python path
+order, and returns to Python where it returns without sensitivities (an event, a Newton failure, the budget, the
+rows' buffers full). Its rows are recorded on its way as the run without sensitivities records them (csrc/rows.c),
+with the carried δq, δv, δv̇ and δt at each row (``sensitivity_loop_row``), from which :meth:`SensitivityLoop.record_rows`
+takes the rows' sensitivities: a block's points' components and hinge angles at once
+(latdyn/analyses/sensitivity_rows.py), other probes by :meth:`TransientSensitivities.record` at each row's state.
+Every event, jump, stick or release, landing, Newton cut and the steps after them take the Python path
 as before; so do the runs :func:`refusal` names, for the whole run (decided once, at the start).
 
 Native: ∂r/∂p of section values whose derivative laws are constants (the generated ``*_D_section`` kernels,
@@ -38,6 +42,7 @@ import numpy as np
 
 from latdyn.analyses.energy_sensitivities import is_energy_or_momentum
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
+from latdyn.analyses.sensitivity_rows import block_rows
 from latdyn.analyses.parameter_keys import BODY_KEY, CONTACT_KEY, FRICTION_KEY, FRICTION_SLOT, HINGE_KEY
 from latdyn.analyses.sensitivities import _INITIAL_VELOCITY_KEY, _LOAD_KEY, _SECTION_KEY
 from latdyn.assembly.native_model import NO_CONTACT
@@ -337,12 +342,16 @@ class SensitivityLoop:
         d.pair_offset = self._pointer(np.ascontiguousarray(offset[pairs], np.float64))
         d.pair_scratch = self._pointer(np.zeros(76 * len(pairs)))
 
-    def prepared(self, carried: dict, grid_index: int, stop_index: int, control):
+    def prepared(self, carried: dict, grid_index: int, stop_index: int, control, rows: int = 0):
         """The struct filled for a loop of steps from grid point ``grid_index`` through ``stop_index`` with the
-        carried sensitivities ``carried``; None where this numbering takes the Python path."""
+        carried sensitivities ``carried`` and ``rows`` rows to record on the way (:meth:`record_rows`); None where
+        this numbering takes the Python path."""
         if not self._layout():
             return None
         d, owner = self.data, self.owner
+        n, k = owner.model.n_dofs, len(owner.names)
+        self._row_carried = np.zeros((rows, 3 * n * k + k)) if rows else None
+        d.row_carried = self._row_carried.ctypes.data if rows else None
         for name, array in self._carried.items():
             np.copyto(array, carried[name])
         np.copyto(self._dt, carried["dt"])
@@ -381,6 +390,28 @@ class SensitivityLoop:
                 len(times), len(laws))
             d.law_values, d.values_from = self._law_table.ctypes.data, grid_index + 1
         return d
+
+    def record_rows(self, carried: dict, block, rows: int) -> dict:
+        """``carried`` with the sensitivities of the first ``rows`` rows the last call of the loop of steps recorded
+        on its way (``block``: a step.compiled.RowBlock), each as :meth:`TransientSensitivities.record` records a
+        row from Python: at the row's state, from the δq, δv, δv̇ and δt the loop carried to it
+        (csrc/sensitivity_loop.c ``sensitivity_loop_row``); the carried columns themselves left as they were (the
+        loop's last are :meth:`carried_after`'s)."""
+        owner = self.owner
+        n, k = owner.model.n_dofs, len(owner.names)
+        nk = n * k
+        held = self._row_carried[:rows]
+        at_once = block_rows(owner, carried, block.states.t[:rows], block.states.T[:rows],
+                             held[:, :nk].reshape(rows, n, k), held[:, 3 * nk:])
+        if at_once is not None:   # every row in one pass (latdyn/analyses/sensitivity_rows.py)
+            owner.held = owner._held(carried)   # noqa: SLF001 - as TransientSensitivities.record leaves it
+            return {**carried, "rows": carried["rows"] + at_once}
+        for r in range(rows):
+            held = self._row_carried[r]
+            at_row = {**carried, "dq": held[:nk].reshape(n, k), "dv": held[nk:2 * nk].reshape(n, k),
+                      "dvdot": held[2 * nk:3 * nk].reshape(n, k), "dt": held[3 * nk:]}
+            carried = {**carried, "rows": owner.record(at_row, block.state(r))["rows"]}
+        return carried
 
     def steps_in_call(self) -> int:
         """The steps the last call of the loop of steps differentiated (the run's count, summary.json

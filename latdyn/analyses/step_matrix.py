@@ -26,6 +26,7 @@ import numpy as np
 
 from latdyn.assembly.factorization import Factorization
 from latdyn.assembly.library import SensitivityStepStructure, native_library
+from latdyn.numerics.csr import CSR
 
 __all__ = ["ExactStepMatrix", "turns_about_one_axis"]
 
@@ -80,35 +81,23 @@ class ExactStepMatrix:
             ctypes.pointer(self.factorization.structure))
         self._library = native_library()
         #: the values of C and K of the last :meth:`factor` or :meth:`solve_step` on K's pattern (replaced in
-        #: place each step); as SciPy matrices (:attr:`damping`, :attr:`stiffness`) only where asked for:
-        #: importing scipy.sparse costs a fresh run ≈ 0.1 s of CPU (docs/performance.md, "A sensitivity run's
-        #: start (issue 34)"), and the forward step in C and its Python path need them not
+        #: place each step), and C and K as latdyn.numerics.csr's CSR sharing them (:attr:`damping`,
+        #: :attr:`stiffness`: the adjoint's Cᵀ and Kᵀ, the sparse LU's failed pivot), whose products are SciPy's
+        #: to the bit: importing scipy.sparse costs a fresh run ≈ 0.1 s of CPU (docs/performance.md, "A
+        #: sensitivity run's start (issue 34)", "Sensitivity rows in the loop and the adjoint without SciPy's
+        #: sparse package (issue 34)")
         self._held_values = np.zeros((2, nnz))
-        self._indptr, self._indices = indptr, cols
-        self._held_matrices = None
+        self._held_matrices = tuple(CSR((n, n), indptr, cols, values) for values in self._held_values)
 
     @property
-    def damping(self):
-        """C of the last :meth:`factor` (SciPy CSR on K's pattern sharing the held values: the adjoint's Cᵀ)."""
-        return self._matrices()[0]
+    def damping(self) -> CSR:
+        """C of the last :meth:`factor` (CSR on K's pattern sharing the held values: the adjoint's Cᵀ)."""
+        return self._held_matrices[0]
 
     @property
-    def stiffness(self):
-        """K of the last :meth:`factor` (SciPy CSR on K's pattern sharing the held values: the adjoint's Kᵀ)."""
-        return self._matrices()[1]
-
-    def _matrices(self) -> tuple:
-        """C and K as SciPy CSR matrices whose data are the held values (made on first use)."""
-        if self._held_matrices is None:
-            import scipy.sparse as sps   # on use: the adjoint's transposes, the sparse LU's failed pivot
-
-            n = self.n
-            self._held_matrices = tuple(sps.csr_matrix((values, self._indices, self._indptr), shape=(n, n), copy=False)
-                                        for values in self._held_values)
-        for matrix, values in zip(self._held_matrices, self._held_values):
-            if not np.shares_memory(matrix.data, values):   # a SciPy that copied them: the last step's values
-                matrix.data[:] = values
-        return self._held_matrices
+    def stiffness(self) -> CSR:
+        """K of the last :meth:`factor` (CSR on K's pattern sharing the held values: the adjoint's Kᵀ)."""
+        return self._held_matrices[1]
 
     def values(self, values: np.ndarray, blocks: np.ndarray, beta_p: float, gamma_p: float) -> np.ndarray:
         """S's values on its pattern (``rows``, ``cols``) from ``values`` (3, nnz: M, C, K on K's pattern)
@@ -130,7 +119,7 @@ class ExactStepMatrix:
         formed and solved in one native call (the forward step's fixed part; C and K kept as :meth:`factor`
         keeps them). Where the sparse LU's pivot fails, the band LU with pivoting that
         :class:`~latdyn.assembly.factorization.Factorization` falls back to solves the same right-hand sides
-        (formed by SciPy: the one path the native call does not cover). Raises ``np.linalg.LinAlgError``
+        (formed by latdyn.numerics.csr's products: the one path the native call does not cover). Raises ``np.linalg.LinAlgError``
         for a singular S."""
         self._held_values[:] = values[1:3]
         k = explicit.shape[1]

@@ -211,7 +211,9 @@ class SensitivityLoopData(ctypes.Structure):
                 ("n_law_uses", I64), ("contact_kernel", P), ("friction_kernel", P), ("law_joint", P),
                 ("law_column", P), ("law_kind", P), ("law_slot", P), ("law_at", P), ("law_rows", P), ("law_factor", P),
                 ("law_values", P),
-                ("steps", I64), ("info", I64), ("h", ctypes.c_double)]
+                ("steps", I64), ("info", I64), ("h", ctypes.c_double),
+                # the carried sensitivities at each row recorded on the way (SensitivityLoop.record_rows)
+                ("row_carried", P)]
 
 
 class TrajectoryData(ctypes.Structure):

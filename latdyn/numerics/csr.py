@@ -116,6 +116,25 @@ class CSR:
         return times(self, x)
 
 
+@dataclass
+class Transpose:
+    """Aᵀ of a CSR A without a copy (SciPy's ``A.transpose(copy=False)``, a CSC on A's arrays): ``Aᵀ @ X`` is
+    :func:`transposed_times` (SciPy's ``csc_matvecs``, the same additions) and ``.T`` is A again."""
+
+    of: CSR
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.of.shape[1], self.of.shape[0]
+
+    @property
+    def T(self) -> CSR:   # noqa: N802 - SciPy's and NumPy's name
+        return self.of
+
+    def __matmul__(self, x):
+        return transposed_times(self.of, x)
+
+
 def transposed_product(a: CSR, b: CSR) -> CSR:
     """Aᵀ B for CSR A (n × p) and B (n × q), as SciPy's ``A.T @ B`` computes it (module docstring):
     entry (i, k) is the sum over the rows j of A's column i, ascending, of A[j, i] B[j, k] — the
@@ -214,5 +233,5 @@ def transposed_times(a: CSR, x: np.ndarray) -> np.ndarray:
     return _column_by_column(a.rmatvec, a.shape[1], x)
 
 
-__all__ = ["CSR", "DIRECT_KEYS", "blocks", "columns", "nonzero", "of_dense", "product", "times", "transposed",
+__all__ = ["CSR", "DIRECT_KEYS", "Transpose", "blocks", "columns", "nonzero", "of_dense", "product", "times", "transposed",
            "transposed_product", "transposed_times", "unique_keys"]

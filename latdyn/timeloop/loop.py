@@ -49,6 +49,10 @@ from latdyn.timeloop.progress import (DRIFT_WARNING, UNBOUNDED, UNBOUNDED_ROWS, 
 from latdyn.timeloop.sampling import controller_memory, restore_controller_memory
 
 
+#: Whether a run with sensitivities in the loop of steps records its rows there too (False: the loop returns to
+#: Python at each row, the reference it must equal: tests/test_sensitivities_in_loop_rows.py). Private.
+SENSITIVITY_ROWS_IN_LOOP = True
+
 #: Whether the loop of steps in C records the rows on its way (csrc/rows.c) instead of returning to
 #: Python for each (False: a row at a time, the reference it must equal: tests/test_native_rows.py).
 NATIVE_ROWS = True
@@ -167,9 +171,10 @@ class TimeLoop:
         self.compiled = eligible and (self.sensitivities is None or self.sensitivities_in_loop is not None)
         self.control.samples_in_loop = self.compiled and self.sampler is not None and self.sampler.in_loop
         self.writer.summary["time_loop"] = "compiled" if self.compiled else "python"
-        # rows where the step runs (with sensitivities each row from Python, its sensitivities recorded with it)
+        # rows where the step runs (with sensitivities in the loop, the carried columns at each row recorded there
+        # too and the rows' sensitivities taken from them: SensitivityLoop.record_rows, AdjointLoop.record_rows)
         self.native_rows = (self.compiled and NATIVE_ROWS and hasattr(self.integrator, "row_capacity")
-                            and self.sensitivities is None)
+                            and (self.sensitivities is None or SENSITIVITY_ROWS_IN_LOOP))
         if resume_from is None:
             self._record(self.progress.state, energy0)
         self.last = self._accepted()
@@ -428,7 +433,8 @@ class TimeLoop:
             stop, rows = self._rows_on_the_way()
         carried = None
         if self.sensitivities is not None:   # carried through the steps in C, or (this numbering) a step from Python
-            carried = self.sensitivities_in_loop.prepared(progress.sensitivities, progress.grid_index, stop, control)
+            carried = self.sensitivities_in_loop.prepared(progress.sensitivities, progress.grid_index, stop, control,
+                                                          len(rows))
             if carried is None:
                 return self._python_step()
         # the section forces for the probes and the ParaView frames
@@ -534,6 +540,8 @@ class TimeLoop:
             if progress.unbounded:
                 end = r + 1
                 break
+        if self.sensitivities is not None:   # the rows' sensitivities, from the columns carried to each
+            progress.sensitivities = self.sensitivities_in_loop.record_rows(progress.sensitivities, block, end)
         values = probes.rows(block.states, block.energies, block.column("external_work"),
                              block.column("dissipated"), block.momenta if probes.needs[0] else None,
                              block.section_forces if probes.needs[1] else None, block.joint_forces,

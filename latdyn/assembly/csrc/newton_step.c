@@ -731,6 +731,7 @@ int64_t latdyn_advance(const Model *m, Work *w, StepControl *s, const Configurat
             const double counters[5] = {(double)adv->steps, (double)adv->iterations, (double)adv->factorizations,
                                         adv->external_work, adv->dissipated};
             record_row(m, w, rows, trial, target, counters);
+            if (adv->sensitivities) sensitivity_loop_row(m, adv->sensitivities, rows->recorded - 1);
         }
         adv->last = next;
         base = trial;

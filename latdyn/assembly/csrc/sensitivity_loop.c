@@ -104,7 +104,23 @@ typedef struct {
     int64_t steps;                      /* steps differentiated here */
     int64_t info;                       /* the factorization's info where S was singular (the loop stopped) */
     double h;                           /* the last step's size */
+    /* the rows recorded on the way (rows.c): the carried δq, δv, δv̇ (n × k each) and δt (k) at each row, which
+     * TransientSensitivities.record reads (latdyn.analyses.sensitivities_in_loop SensitivityLoop.record_rows);
+     * NULL: none */
+    double *row_carried;                /* (rows' capacity) × (3 n k + k) */
 } SensitivityLoop;
+
+/* Row r of the rows recorded on the way: the carried δq, δv, δv̇ and δt as the step before it left them. */
+static void sensitivity_loop_row(const Model *m, const SensitivityLoop *s, int64_t r)
+{
+    if (!s->row_carried) return;
+    const size_t nk = (size_t)m->n_dofs * (size_t)s->k;
+    double *out = s->row_carried + (3 * nk + (size_t)s->k) * (size_t)r;
+    memcpy(out, s->dq, sizeof(double) * nk);
+    memcpy(out + nk, s->dv, sizeof(double) * nk);
+    memcpy(out + 2 * nk, s->dvdot, sizeof(double) * nk);
+    memcpy(out + 3 * nk, s->dt, sizeof(double) * (size_t)s->k);
+}
 
 /* ∂r/∂p of the load components at c into total ((n_total + 1) × k): per (load, parameter) pair the generated
  * point_load with the pair's values at grid point `grid`, added at its node's coordinates in np.add.at's order. */
