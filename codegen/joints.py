@@ -274,6 +274,42 @@ def _hinged_end_kernel() -> KernelSpec:
                       equations="Eqs. 2, 9, 17")
 
 
+END_FRAME = Argument("end_frame", 9, "T_e: the element's nodal frame at the end, from its geometry block, row-major")
+END_FRAME0 = Argument("frame0", 9, "E0: the element axes at t = 0 in node axes, row-major")
+END_HINGE = Argument("axis_angle", 4, "a[3] theta: the end's hinge axis (unit, node axes; zero for a clamped "
+                     "end) and its angle")
+REFERENCE_HELD = Argument("held", 9, "phi[3] dr[3] da[3]: a variation of the end's reference data in node axes (the "
+                          "frame's turn, the grid point's move, the hinge axis's move; "
+                          "latdyn/analyses/geometry_sensitivities.py)")
+
+
+def reference_variation_at_state(T_e, E0, T, hinge, held):
+    """(ψ, δo, δh) of a beam end's reference variation at a state, from its parts in node axes (φ, δr_g, δa):
+    the frame turned, spatial at the end, ψ = T_e E0ᵀ φ (= T_j R(a, θ) φ), plus T_j J(θa) θ δa where the hinge
+    axis moves (T_e = T_j exp(θ skew a) E0, J the left Jacobian of exp, :func:`so3_dexp`); the grid point's move
+    δo = T_j δr_g; the hinge axis's δh = T_j δa (codegen/derivation.py ``reference_first_variation``);
+    (vector of 9, intermediates)."""
+    a, theta = _vector(hinge[0:3]), hinge[3]
+    phi, dr, da = _vector(held[0:3]), _vector(held[3:6]), _vector(held[6:9])
+    J, intermediates = so3_dexp(theta * a)
+    psi = (T_e * E0.T) * phi + T * (theta * (J * da))
+    return list(psi) + list(T * dr) + list(T * da), intermediates
+
+
+def _reference_variation_kernel() -> KernelSpec:
+    variation, intermediates = reference_variation_at_state(
+        _matrix(END_FRAME.symbols()), _matrix(END_FRAME0.symbols()), _matrix(END_NODE.symbols()),
+        END_HINGE.symbols(), REFERENCE_HELD.symbols())
+    outputs = [Output("variation", (9,), variation, "psi[3] do[3] dh[3]: the reference block's parts of the end "
+                      "(codegen/conventions.py REFERENCE), spatial")]
+    return KernelSpec(name="reference_variation_at_state", doc="A beam end's variation of its reference data at a "
+                      "state from its parts in node axes: the geometry parameters' input of the "
+                      "*_D_reference kernels (latdyn/analyses/geometry_sensitivities.py)",
+                      inputs=[END_FRAME, END_FRAME0, END_NODE, END_HINGE, REFERENCE_HELD], outputs=outputs,
+                      variant="joints", equations="Eqs. 2, 9, 17 varied (the reference configuration's derivative)",
+                      intermediates=intermediates)
+
+
 HINGE_STATE = Argument("hinge", 4, "theta theta_dot rest_angle load_factor: the hinge angle, its rate, the "
                        "spring's rest angle, and the factor that scales the applied torque")
 HINGE_LAWS = Argument("laws", 9, "k dk/dtheta dk/dtheta_dot c dc/dtheta dc/dtheta_dot tau dtau/dtheta "
@@ -987,7 +1023,8 @@ def _closure_wrench_kernel(rod: bool) -> KernelSpec:
 
 def build_kernels() -> list[KernelSpec]:
     """The kernels of the ``joints`` unit."""
-    return [*_joint_body_kernels(), _point_load_kernel(), _hinged_end_kernel(), _hinge_force_kernel(),
+    return [*_joint_body_kernels(), _point_load_kernel(), _hinged_end_kernel(), _reference_variation_kernel(),
+            _hinge_force_kernel(),
             _contact_law_derivative_kernel(), _friction_law_derivative_kernel(), _so3_exp_kernel(), _so3_dexp_kernel(),
             _so3_log_increment_kernel(), _link_edge_kernel(),
             _hinge_wrench_kernel(), _root_wrench_kernel(),

@@ -22,7 +22,7 @@ grid-point offsets r_g and the hinge axes a. The model's state holds absolute po
         δo_i  = T_j δr_g (the offset's global form moved),
         ψ_i   = T_j R(a, θ) φ = T_e E0ᵀ φ,  δE0 = skew(φ) E0 (the frame turned, spatial at the end),
                 plus T_j J(θa) θ δa where the hinge axis moves (R(a, θ) = exp(θ skew a), J the left
-                Jacobian of exp, :func:`latdyn.numerics.so3.dexp_so3`),
+                Jacobian of exp; the generated ``reference_variation_at_state``),
         δh_i  = T_j δa,  δa = (I − a aᵀ) δv/|v| of the axis v as given,
         δL0   = x̂ · (δB − δA) / n   (A, B the beam's grid points, n its elements).
 
@@ -51,7 +51,6 @@ import re
 import numpy as np
 
 from latdyn.model.model import FIXED, FREE, PRESCRIBED
-from latdyn.numerics.so3 import dexp_so3
 
 __all__ = ["GEOMETRY_KEY", "geometry_refusal", "model_refusal", "ReferenceGeometry"]
 
@@ -428,26 +427,37 @@ class ReferenceGeometry:
     def at_state(self, state, elements: np.ndarray, at: np.ndarray) -> np.ndarray:
         """The reference variations of ``elements`` (m, WIDTH, k) at ``state``, whose element geometry blocks are
         ``at`` (m, G): the held parts with the state's frames applied (module docstring: ψ, δo and δh turned
-        into global axes, a moved hinge axis's turn of the nodal frame)."""
-        model, m = self.model, len(elements)
+        into global axes, a moved hinge axis's turn of the nodal frame) by the generated
+        ``reference_variation_at_state``, end by end, one row per (column, element) — the rows the loop of steps
+        forms in C (csrc/geometry_forces.c), so the two are the same bits."""
+        model, m, k = self.model, len(elements), self.k
         variation = self.variations[elements].copy()                        # (m, WIDTH, k)
-        frames = (at[:, 12:21].reshape(m, 3, 3), at[:, 21:30].reshape(m, 3, 3))
         for end in (0, 1):
-            turn = frames[end] @ np.swapaxes(model.element_frames0[elements, end], 1, 2)   # T_j R(a, θ)
-            psi = slice(12 + 3 * end, 15 + 3 * end)
-            variation[:, psi] = turn @ variation[:, psi]
-            body = state.T[model.element_nodes[elements, end]]
-            off = slice(6 + 3 * end, 9 + 3 * end)
-            variation[:, off] = body @ variation[:, off]
-            axis = slice(19 + 3 * end, 22 + 3 * end)
-            moved = np.flatnonzero(np.any(variation[:, axis] != 0.0, axis=(1, 2)))
-            if len(moved):   # h = T_j a moves by T_j δa; T_e = T_j exp(θ skew a) E0 turns by T_j J(θa) θ δa
-                hinge = model.element_hinges[elements[moved], end]
-                theta = state.theta[hinge]
-                jacobian = dexp_so3(theta[:, None] * model.element_axes[elements[moved], end])
-                variation[moved, psi] += body[moved] @ (theta[:, None, None] * (jacobian @ variation[moved, axis]))
-                variation[moved, axis] = body[moved] @ variation[moved, axis]
+            inputs = self.end_inputs(state, elements, at, end)
+            held = np.concatenate([variation[:, 12 + 3 * end:15 + 3 * end], variation[:, 6 + 3 * end:9 + 3 * end],
+                                   variation[:, 19 + 3 * end:22 + 3 * end]], axis=1)        # (m, 9, k)
+            rows = np.ascontiguousarray(held.transpose(2, 0, 1).reshape(k * m, 9))
+            tiled = [np.ascontiguousarray(np.tile(a, (k, 1))) for a in inputs]
+            moved = np.asarray(self.kernels.reference_variation_at_state(*tiled, rows)[0]).reshape(k, m, 9)
+            moved = moved.transpose(1, 2, 0)                                     # (m, 9, k)
+            variation[:, 12 + 3 * end:15 + 3 * end] = moved[:, 0:3]
+            variation[:, 6 + 3 * end:9 + 3 * end] = moved[:, 3:6]
+            variation[:, 19 + 3 * end:22 + 3 * end] = moved[:, 6:9]
         return variation
+
+    def end_inputs(self, state, elements: np.ndarray, at: np.ndarray, end: int) -> tuple:
+        """The state's inputs of ``reference_variation_at_state`` at end ``end`` of ``elements``: the nodal frame
+        T_e (from the geometry blocks ``at``), E0, the node's frame T_j, the hinge's axis and angle (0 without a
+        hinge: its axis is zero there), (m, 9), (m, 9), (m, 9), (m, 4)."""
+        model, m = self.model, len(elements)
+        hinge = model.element_hinges[elements, end]
+        theta = np.zeros(m)
+        hinged = hinge >= 0
+        theta[hinged] = state.theta[hinge[hinged]]
+        return (np.ascontiguousarray(at[:, 12 + 9 * end:21 + 9 * end]),
+                np.ascontiguousarray(model.element_frames0[elements, end].reshape(m, 9)),
+                np.ascontiguousarray(state.T[model.element_nodes[elements, end]].reshape(m, 9)),
+                np.ascontiguousarray(np.concatenate([model.element_axes[elements, end], theta[:, None]], axis=1)))
 
     def _load_arms(self, state, total: np.ndarray, load_factor: float) -> None:
         """Add ∂r/∂p of the loads at a moved offset: the generated ``point_load`` is linear in its offset r

@@ -57,8 +57,8 @@ def refusal(owner) -> str | None:
     if why is not None:
         return why
     for key, laws in owner.derivatives.items():
-        if _INITIAL_VELOCITY_KEY.match(key) or _LOAD_KEY.match(key):
-            continue
+        if _INITIAL_VELOCITY_KEY.match(key) or _LOAD_KEY.match(key) or GEOMETRY_KEY.match(key):
+            continue   # (the geometry parameters: as a whole, _geometry_refusal)
         if _SECTION_KEY.match(key) and not GEOMETRY_KEY.match(key) and all(law.is_constant for law in laws.values()):
             continue
         why = (_hinge_refusal(owner, key, laws) if HINGE_KEY.match(key) else
@@ -69,6 +69,23 @@ def refusal(owner) -> str | None:
             return why
     if owner._section_layout() is not None and owner._section_kernel_addresses() is None:  # noqa: SLF001
         return "section kernels without C libraries"
+    return _geometry_refusal(owner) if owner.geometry is not None else None
+
+
+#: the generated kernels the geometry parameters' ∂r/∂p calls in the loop (csrc/geometry_forces.c)
+GEOMETRY_KERNELS = ("reference_variation_at_state", "beam_internal_force_D_reference",
+                    "beam_inertia_force_D_reference")
+
+
+def _geometry_refusal(owner) -> str | None:
+    """Why the geometry parameters keep the run on the Python path, or None: their ∂r/∂p
+    (ReferenceGeometry.add) is the generated kernels' of :data:`GEOMETRY_KERNELS` along the held variations, which
+    csrc/geometry_forces.c forms at the state as the Python path does; a load at a moved offset (its arm's
+    point_load difference, ReferenceGeometry._load_arms) is not taken in C."""
+    if owner.geometry.moved_loads:
+        return "a load at a beam end whose offset a geometry parameter moves"
+    if any(owner.kernels.address(name) is None for name in GEOMETRY_KERNELS):
+        return "geometry kernels without C libraries"
     return None
 
 
@@ -126,7 +143,7 @@ def _body_refusal(owner, key: str, laws: dict) -> str | None:
 def model_refusal(owner) -> str | None:
     """Why the run of ``owner`` (a TransientSensitivities) takes every step from Python whatever its parameters'
     kinds (no parameters, NumPy kernels, rigid links, guides, cables, controllers, explicit time dependence beside
-    events, geometry parameters, energy or momentum probes), or None: :func:`refusal`'s part that the discrete
+    events, energy or momentum probes), or None: :func:`refusal`'s part that the discrete
     adjoint's forward pass, which differentiates nothing as it goes, shares (latdyn/analyses/adjoint_in_loop.py)."""
     scene, model = owner.scene, owner.model
     if not owner.names:
@@ -135,8 +152,8 @@ def model_refusal(owner) -> str | None:
         return "kernels without C libraries"
     if model.links is not None or model.cables is not None or scene.controllers:
         return "rigid links, guides, cables or controllers"
-    if owner.explicit_time is not None or owner.geometry is not None:
-        return "explicit time dependence beside events, or geometry parameters"
+    if owner.explicit_time is not None:
+        return "explicit time dependence beside events"
     if any(is_energy_or_momentum(probe) for probe in owner.probes):
         return "energy or momentum probes"
     return None
@@ -231,6 +248,7 @@ class SensitivityLoop:
         self._hinges()
         self._bodies()
         self._joint_laws()
+        self._geometry()
         self._for = (key, True)
         return True
 
@@ -292,6 +310,30 @@ class SensitivityLoop:
         d.law_at = self._pointer(np.array([[0.0, 0.0, model.hinges[use[0]].rest_angle, 1.0] for use in uses]))
         d.law_rows = self._pointer(np.ascontiguousarray(np.concatenate([use[4] for use in uses]), np.float64))
         d.law_factor = self._pointer(np.array([float(use[5]) for use in uses]))
+
+    def _geometry(self) -> None:
+        """The geometry parameters' part (csrc/geometry_forces.c): the elements they move, the held variations
+        (ReferenceGeometry.variations), the elements with mass among them, λ g and the generated kernels."""
+        from latdyn.assembly.library import GeometryForcesData
+
+        owner, d = self.owner, self.data
+        geometry = owner.geometry
+        d.geometry = None
+        if geometry is None or not len(geometry.elements):
+            return
+        g = self._geometry_data = GeometryForcesData()
+        elements = np.ascontiguousarray(geometry.elements, np.int64)
+        sections = owner.model.element_sections[elements]
+        on = np.ascontiguousarray(np.flatnonzero(np.any(sections[:, 5:8] != 0.0, axis=1)), np.int64)
+        k, m = d.k, len(elements)
+        g.m, g.elements = m, self._pointer(elements)
+        g.held = self._pointer(np.ascontiguousarray(geometry.variations[elements]))
+        g.n_on, g.on = len(on), self._pointer(on)
+        g.variation_kernel, g.internal_kernel, g.inertia_kernel = (owner.kernels.address(name)
+                                                                   for name in GEOMETRY_KERNELS)
+        g.gravity = self._pointer(np.ascontiguousarray(1.0 * np.asarray(owner.assembler.gravity, float)))
+        g.scratch = self._pointer(np.zeros(148 * k * m + 130 * k * len(on)))
+        d.geometry = ctypes.addressof(g)
 
     def _body_uses(self) -> list:
         """(body key's match, index among the joint bodies, column, derivative law) of every body use the Python

@@ -211,7 +211,17 @@ class SensitivityLoopData(ctypes.Structure):
                 ("n_law_uses", I64), ("contact_kernel", P), ("friction_kernel", P), ("law_joint", P),
                 ("law_column", P), ("law_kind", P), ("law_slot", P), ("law_at", P), ("law_rows", P), ("law_factor", P),
                 ("law_values", P),
-                ("steps", I64), ("info", I64), ("h", ctypes.c_double)]
+                ("steps", I64), ("info", I64), ("h", ctypes.c_double),
+                # ∂r/∂p of the geometry parameters (csrc/geometry_forces.c); NULL: none
+                ("geometry", P)]
+
+
+class GeometryForcesData(ctypes.Structure):
+    """``GeometryForces`` of csrc/geometry_forces.c: the geometry parameters' ∂r/∂p in the loop of steps
+    (latdyn.analyses.sensitivities_in_loop lays it out)."""
+
+    _fields_ = [("m", I64), ("elements", P), ("held", P), ("n_on", I64), ("on", P), ("variation_kernel", P),
+                ("internal_kernel", P), ("inertia_kernel", P), ("gravity", P), ("scratch", P)]
 
 
 class TrajectoryData(ctypes.Structure):
