@@ -17,9 +17,13 @@ derivative laws (and for the rest angle the hinge's stiffness) are values of t a
 and of a joint body's mass, inertia and centre of mass (the generated ``joint_body`` with the use's block, or
 ``joint_body_D_com`` along ∂c/∂p, the blocks made by ``ParameterDerivatives.body_block`` and tabulated alike), of
 a hinge's compliant stops' and friction's law values (the generated ``contact_force_D_law``,
-``friction_force_D_law`` at the hinge's θ, θ̇ in C, times the derivative laws' values tabulated alike), and
+``friction_force_D_law`` at the hinge's θ, θ̇ in C, times the derivative laws' values tabulated alike), of
+geometry parameters (the held variations of ReferenceGeometry taken to the state by the generated
+``reference_variation_at_state``, then the generated ``beam_internal_force_D_reference`` and
+``beam_inertia_force_D_reference``, csrc/geometry_forces.c, with the Python path's rows: ``_geometry_refusal``), and
 parameters of ``initial_velocity`` (they move the start only). Not native (the Python path): hinge laws whose
-derivative names θ, θ̇ or an input, guide, cable, controller and geometry parameters, section
+derivative names θ, θ̇ or an input, guide, cable and controller parameters, a geometry parameter that moves the
+offset of a beam end a load acts at (its arm's derivative), section
 values whose derivative is a law in t or an input, rigid links and guides, cables,
 controllers, explicit time dependence beside events (∂r/∂t δt), energy and momentum probes (their work
 accounts are carried per step in Python), the NumPy kernels, and a numbering whose step matrix takes the
