@@ -12,7 +12,8 @@ import yaml
 
 import latdyn
 from tests.cli_runs import latdyn_run, latdyn_run_switched, summary_of
-from tests.test_sensitivities_geometry import KNEE_3D, KNEE_SPINNING, PLANAR_SWING, _hinge_axis_scene, _loaded_at_the_offset
+from tests.test_sensitivities_geometry import (CONTACT_BY_PLACE, KNEE_3D, KNEE_SPINNING, LATCH_BY_LENGTH, PLANAR_SWING,
+                                                STOP_BY_PLACE, _hinge_axis_scene, _loaded_at_the_offset)
 
 #: a 3D lattice: a pyramid of four legs from fixed feet to a joint (a body with mass) and a ring of four beams between
 #: the feet' neighbours' mid-height joints; the top joint's three coordinates the parameters, a load in t at the top
@@ -92,6 +93,21 @@ def test_geometry_parameters_take_the_loop_and_are_the_python_paths(text, monkey
         np.testing.assert_array_equal(native.sensitivities[key], values, err_msg=str(key))
     assert max(np.abs(values).max() for values in python.sensitivities.values()) > 0.0
     assert native.summary["probe_sensitivities"] == python.summary["probe_sensitivities"]
+
+
+@pytest.mark.parametrize("text", [LATCH_BY_LENGTH, STOP_BY_PLACE, CONTACT_BY_PLACE],
+                         ids=["planar latch by the tip's place", "3D stop with restitution by the wheel's place",
+                              "3D compliant stop by the wheel's place"])
+def test_geometry_parameters_between_events_are_the_python_paths(text, monkeypatch):
+    """Through a latch, a rigid stop's bounce and a compliant stop's onset and release (their steps from Python), the
+    smooth steps in the loop; the sensitivities and the events' time derivatives the Python path's to the bit."""
+    native, python = _run(text, monkeypatch, True), _run(text, monkeypatch, False)
+    steps, in_loop = native.summary["steps"], native.summary["sensitivity_steps_in_loop"]
+    assert 0.8 * steps < in_loop < steps and python.summary["sensitivity_steps_in_loop"] == 0
+    for key, values in python.sensitivities.items():
+        np.testing.assert_array_equal(native.sensitivities[key], values, err_msg=str(key))
+    assert native.summary["probe_sensitivities"] == python.summary["probe_sensitivities"]
+    assert native.summary["event_sensitivities"] == python.summary["event_sensitivities"]
 
 
 def test_the_cli_writes_the_python_paths_files(tmp_path):
