@@ -250,6 +250,24 @@ def _point_load_kernel() -> KernelSpec:
                       variant="joints", equations="Eq. 2 (the point), follower loads turning with a body")
 
 
+LOAD_OFFSET_MOVE = Argument("offset_move", 3, "δr: a variation of the load's point from the node's reference point, in "
+                            "node axes (a geometry parameter moving a beam end's offset)")
+
+
+def _point_load_offset_kernel() -> KernelSpec:
+    """∂(load_force)/∂r along δr: the point load is linear in its offset r, so this is its exact change when a
+    geometry parameter moves the point (latdyn/analyses/geometry_sensitivities.py, the loads' arms)."""
+    T, R = _matrix(LOAD_NODE.symbols()), _matrix(LOAD_FRAME.symbols())
+    r, move = _vector(LOAD_OFFSET.symbols()), _vector(LOAD_OFFSET_MOVE.symbols())
+    force, _ = point_load_terms(T, list(r), LOAD_VALUES.symbols(), R, [0] * 6)
+    moved = force.jacobian(r) * move
+    outputs = [Output("load_force_D_offset", (6,), _rows(moved), "∂(−[F; r_g × F + Mo])/∂r along δr: −[0; (T δr) × F]")]
+    return KernelSpec(name="point_load_D_offset", doc="A point load's generalized force moved with its point: its "
+                      "derivative along a variation of the offset (linear in it, so exact)",
+                      inputs=[LOAD_NODE, LOAD_OFFSET_MOVE, LOAD_VALUES, LOAD_FRAME], outputs=outputs,
+                      variant="joints", equations="Eq. 2 (the point) varied")
+
+
 END_NODE = Argument("node_frame", 9, "T_j: frame of the node (joint body) the beam end is joined to, row-major")
 END_DATA = Argument("end", 16, "a[3] r[3] E0[9] theta: the hinge axis (unit; zero for a clamped end), the grid point "
                     "and the element axes at t = 0 (row-major), all in node axes, and the hinge angle")
@@ -1023,8 +1041,8 @@ def _closure_wrench_kernel(rod: bool) -> KernelSpec:
 
 def build_kernels() -> list[KernelSpec]:
     """The kernels of the ``joints`` unit."""
-    return [*_joint_body_kernels(), _point_load_kernel(), _hinged_end_kernel(), _reference_variation_kernel(),
-            _hinge_force_kernel(),
+    return [*_joint_body_kernels(), _point_load_kernel(), _point_load_offset_kernel(), _hinged_end_kernel(),
+            _reference_variation_kernel(), _hinge_force_kernel(),
             _contact_law_derivative_kernel(), _friction_law_derivative_kernel(), _so3_exp_kernel(), _so3_dexp_kernel(),
             _so3_log_increment_kernel(), _link_edge_kernel(),
             _hinge_wrench_kernel(), _root_wrench_kernel(),

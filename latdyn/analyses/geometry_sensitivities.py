@@ -30,8 +30,8 @@ grid-point offsets r_g and the hinge axes a. The model's state holds absolute po
 made unit, y_0 = v/|v|, less its x̂ part, or global z × x̂), so φ = ½ Σ e_k × δe_k with
 δx̂ = (I − x̂x̂ᵀ)(δB − δA)/|B − A|, δy_0 = (I − y_0 y_0ᵀ)δv/|v| and δŷ from that rule; in a planar model the
 frame is [x̂, n × x̂, n] and φ = x̂ × δx̂. A point probe at a beam's end moves with its offset (δ(x + T r)
-gains T δr), a displacement's reference with δX + δr; a load there by point_load(δr) − point_load(0) (the
-kernel is linear in its offset); displacement control's held displacement by the same
+gains T δr), a displacement's reference with δX + δr; a load there by the generated ``point_load_D_offset``
+(the load is linear in its offset); displacement control's held displacement by the same
 (:meth:`ReferenceGeometry.control_moves`). Through latches, rigid stops and compliant stops the event
 machinery of latdyn/analyses/transient_sensitivities.py takes them as any parameter (its impulse weight's
 ∂/∂p from ∂r/∂p).
@@ -460,26 +460,31 @@ class ReferenceGeometry:
                 np.ascontiguousarray(np.concatenate([model.element_axes[elements, end], theta[:, None]], axis=1)))
 
     def _load_arms(self, state, total: np.ndarray, load_factor: float) -> None:
-        """Add ∂r/∂p of the loads at a moved offset: the generated ``point_load`` is linear in its offset r
-        (−[F; T r × F + M]), so its derivative along δr is point_load(δr) − point_load(0), exactly."""
+        """Add ∂r/∂p of the loads at a moved offset: the generated ``point_load_D_offset``, the point load's
+        derivative along δr (exact: it is linear in its offset r, −[F; T r × F + M])."""
         model, k = self.model, self.k
         for index, node, moved in self.moved_loads:
-            load = self.scene.loads[index]
-            values = np.zeros(6)
-            for offset, components in ((0, load.force), (3, load.moment)):
-                for c, law in enumerate(components or ()):
-                    values[offset + c] = load_factor * law.value(state.t)
-            frame = np.eye(3) if load.frame == "global" else state.T[model.body_node[load.frame]]
+            values, frame_node = self.load_arm_values(state.t, index, load_factor), self.load_frame_node(index)
+            frame = np.eye(3) if frame_node < 0 else state.T[frame_node]
             rows = lambda a: np.ascontiguousarray(np.tile(np.reshape(a, (1, -1)), (k, 1)), dtype=float)  # noqa: E731
-            velocity = np.concatenate([state.v[node], state.w[node]])
-            arguments = (rows(state.T[node]), rows(values), rows(frame), rows(velocity))
+            moves = np.asarray(self.kernels.point_load_D_offset(rows(state.T[node]), np.ascontiguousarray(moved.T),
+                                                                rows(values), rows(frame))[0])
+            total[model.node_dofs[node]] += moves.reshape(k, 6).T
 
-            def force(offsets):
-                offsets = np.ascontiguousarray(offsets)
-                return np.asarray(self.kernels.point_load(arguments[0], offsets, *arguments[1:])[0])
+    def load_arm_values(self, t: float, index: int, load_factor: float) -> np.ndarray:
+        """The six values of load ``index`` of the scene at time ``t`` times ``load_factor`` (its force and moment in
+        its frame's axes): the point load kernels' ``values``."""
+        load = self.scene.loads[index]
+        values = np.zeros(6)
+        for offset, components in ((0, load.force), (3, load.moment)):
+            for c, law in enumerate(components or ()):
+                values[offset + c] = load_factor * law.value(t)
+        return values
 
-            difference = force(moved.T) - force(np.zeros((k, 3)))                      # (k, 6)
-            total[model.node_dofs[node]] += difference.reshape(k, 6).T
+    def load_frame_node(self, index: int) -> int:
+        """The node whose frame load ``index`` turns with, −1 for a global load."""
+        load = self.scene.loads[index]
+        return -1 if load.frame == "global" else int(self.model.body_node[load.frame])
 
 
 def _frame_turn(beam, x: np.ndarray, dx: np.ndarray, dv: np.ndarray) -> np.ndarray:

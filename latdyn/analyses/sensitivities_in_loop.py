@@ -20,10 +20,10 @@ a hinge's compliant stops' and friction's law values (the generated ``contact_fo
 ``friction_force_D_law`` at the hinge's θ, θ̇ in C, times the derivative laws' values tabulated alike), of
 geometry parameters (the held variations of ReferenceGeometry taken to the state by the generated
 ``reference_variation_at_state``, then the generated ``beam_internal_force_D_reference`` and
-``beam_inertia_force_D_reference``, csrc/geometry_forces.c, with the Python path's rows: ``_geometry_refusal``), and
+``beam_inertia_force_D_reference``, and for a load at a moved offset ``point_load_D_offset`` with the load's values
+tabulated alike, csrc/geometry_forces.c, with the Python path's rows: ``_geometry_refusal``), and
 parameters of ``initial_velocity`` (they move the start only). Not native (the Python path): hinge laws whose
-derivative names θ, θ̇ or an input, guide, cable and controller parameters, a geometry parameter that moves the
-offset of a beam end a load acts at (its arm's derivative), section
+derivative names θ, θ̇ or an input, guide, cable and controller parameters, section
 values whose derivative is a law in t or an input, rigid links and guides, cables,
 controllers, explicit time dependence beside events (∂r/∂t δt), energy and momentum probes (their work
 accounts are carried per step in Python), the NumPy kernels, and a numbering whose step matrix takes the
@@ -78,16 +78,14 @@ def refusal(owner) -> str | None:
 
 #: the generated kernels the geometry parameters' ∂r/∂p calls in the loop (csrc/geometry_forces.c)
 GEOMETRY_KERNELS = ("reference_variation_at_state", "beam_internal_force_D_reference",
-                    "beam_inertia_force_D_reference")
+                    "beam_inertia_force_D_reference", "point_load_D_offset")
 
 
 def _geometry_refusal(owner) -> str | None:
     """Why the geometry parameters keep the run on the Python path, or None: their ∂r/∂p
     (ReferenceGeometry.add) is the generated kernels' of :data:`GEOMETRY_KERNELS` along the held variations, which
-    csrc/geometry_forces.c forms at the state as the Python path does; a load at a moved offset (its arm's
-    point_load difference, ReferenceGeometry._load_arms) is not taken in C."""
-    if owner.geometry.moved_loads:
-        return "a load at a beam end whose offset a geometry parameter moves"
+    csrc/geometry_forces.c forms at the state as the Python path does (a load at a moved offset: the generated
+    point_load_D_offset with the load's values tabulated per grid point, ReferenceGeometry._load_arms)."""
     if any(owner.kernels.address(name) is None for name in GEOMETRY_KERNELS):
         return "geometry kernels without C libraries"
     return None
@@ -334,9 +332,18 @@ class SensitivityLoop:
         g.held = self._pointer(np.ascontiguousarray(geometry.variations[elements]))
         g.n_on, g.on = len(on), self._pointer(on)
         g.variation_kernel, g.internal_kernel, g.inertia_kernel = (owner.kernels.address(name)
-                                                                   for name in GEOMETRY_KERNELS)
+                                                                   for name in GEOMETRY_KERNELS[:3])
         g.gravity = self._pointer(np.ascontiguousarray(1.0 * np.asarray(owner.assembler.gravity, float)))
         g.scratch = self._pointer(np.zeros(148 * k * m + 130 * k * len(on)))
+        arms = geometry.moved_loads
+        g.n_arms = len(arms)
+        if arms:
+            ints = lambda values: self._pointer(np.array(values, np.int64))   # noqa: E731
+            g.arm_node, g.arm_frame = ints([node for _, node, _ in arms]), ints(
+                [geometry.load_frame_node(index) for index, _, _ in arms])
+            g.arm_moves = self._pointer(np.ascontiguousarray(np.array([moved.T for _, _, moved in arms], float)))
+            g.arm_kernel = owner.kernels.address("point_load_D_offset")
+            g.arm_scratch = self._pointer(np.zeros(30 * k))
         d.geometry = ctypes.addressof(g)
 
     def _body_uses(self) -> list:
@@ -426,6 +433,12 @@ class SensitivityLoop:
             self._law_table = np.array([[law.value(0.0, 0.0, t) for law in laws] for t in times], float).reshape(
                 len(times), len(laws))
             d.law_values, d.values_from = self._law_table.ctypes.data, grid_index + 1
+        if d.geometry and self._geometry_data.n_arms:   # the moved loads' values at each grid point (_load_arms)
+            geometry = owner.geometry
+            self._arm_table = np.array([[geometry.load_arm_values(t, index, 1.0) for index, _, _ in
+                                         geometry.moved_loads] for t in times], float)
+            g = self._geometry_data
+            g.arm_values, g.values_from = self._arm_table.ctypes.data, grid_index + 1
         return d
 
     def steps_in_call(self) -> int:

@@ -221,7 +221,9 @@ class GeometryForcesData(ctypes.Structure):
     (latdyn.analyses.sensitivities_in_loop lays it out)."""
 
     _fields_ = [("m", I64), ("elements", P), ("held", P), ("n_on", I64), ("on", P), ("variation_kernel", P),
-                ("internal_kernel", P), ("inertia_kernel", P), ("gravity", P), ("scratch", P)]
+                ("internal_kernel", P), ("inertia_kernel", P), ("gravity", P), ("scratch", P), ("n_arms", I64),
+                ("arm_node", P), ("arm_frame", P), ("arm_moves", P), ("arm_values", P), ("values_from", I64),
+                ("arm_kernel", P), ("arm_scratch", P)]
 
 
 class TrajectoryData(ctypes.Structure):

@@ -1,12 +1,13 @@
 /*
  * ∂r/∂p of the geometry parameters (numbers that place the structure) at a state, in one call: the loop of steps'
- * twin of latdyn/analyses/geometry_sensitivities.py ReferenceGeometry.add without loads at a moved offset (those
- * runs take the Python path: latdyn/analyses/sensitivities_in_loop.py). Per element a parameter moves and per
+ * twin of latdyn/analyses/geometry_sensitivities.py ReferenceGeometry.add. Per element a parameter moves and per
  * parameter column, the held variation of its reference data (node axes, laid out once a run by
  * ReferenceGeometry) is taken to the state by the generated reference_variation_at_state, end by end; the
  * generated beam_internal_force_D_reference and, on the elements with mass, beam_inertia_force_D_reference
  * differentiate the forces along it; the results are added to the elements' coordinates column by column, in
- * the order np.add.at of the Python path adds.
+ * the order np.add.at of the Python path adds; then per load at a moved offset (a beam end's) the generated
+ * point_load_D_offset along each column's δr, with the load's values the caller tabulated per grid point
+ * (ReferenceGeometry._load_arms).
  *
  * Runtime code, written by hand: it holds no physics (every number is a generated kernel's). The kernels are
  * called with the rows the Python path forms, in its order (one row per (column, element)), so the two paths
@@ -19,6 +20,10 @@ typedef void (*kernel_reference_variation)(int64_t, const double *, const double
 /* beam_inertia_force_D_reference: (n, geometry, velocity, acceleration, section, gravity, reference, force, D) */
 typedef void (*kernel_6_2)(int64_t, const double *, const double *, const double *, const double *, const double *,
                            const double *, double *, double *);
+
+/* point_load_D_offset: (n, node_frame, offset_move, values, load_frame, out) */
+typedef void (*kernel_point_load_D_offset)(int64_t, const double *, const double *, const double *, const double *,
+                                           double *);
 
 /* The reference block's width (latdyn/analyses/geometry_sensitivities.py WIDTH, codegen/conventions.py REFERENCE)
  * and its parts: ψ of end i at 12 + 3i, δo at 6 + 3i, δh at 19 + 3i. */
@@ -36,12 +41,20 @@ typedef struct GeometryForces {
     kernel_6_2 inertia_kernel;              /* the generated beam_inertia_force_D_reference */
     const double *gravity;                  /* 3: λ g */
     double *scratch;                        /* 148 k m + 130 k n_on */
+    /* the loads at a moved offset (ReferenceGeometry.moved_loads); n_arms 0: none */
+    int64_t n_arms;
+    const int64_t *arm_node, *arm_frame;    /* n_arms: the load's node, the node of its frame (−1: global) */
+    const double *arm_moves;                /* n_arms × k × 3: δr of each column */
+    const double *arm_values;               /* (grid points) × n_arms × 6: the load's values at each grid point */
+    int64_t values_from;                    /* the grid index of arm_values' first grid point */
+    kernel_point_load_D_offset arm_kernel;  /* the generated point_load_D_offset */
+    double *arm_scratch;                    /* 30 k */
 } GeometryForces;
 
 /* Adds into total ((n_total + 1) × k, row-major) the geometry parameters' ∂(internal force + M a + g − λ Q)/∂p at c
- * (ReferenceGeometry.add with inertia, its loads' arms left out). */
+ * on grid point `grid` (ReferenceGeometry.add with inertia). */
 static void latdyn_geometry_parameter_forces(const Model *m, Work *w, const Configuration *c, const GeometryForces *g,
-                                             int64_t k, double *total)
+                                             int64_t k, int64_t grid, double *total)
 {
     const int64_t E = g->m, R = k * E, Ron = k * g->n_on;
     if (E == 0) return;
@@ -109,4 +122,19 @@ static void latdyn_geometry_parameter_forces(const Model *m, Work *w, const Conf
             const int64_t *dofs = m->element_dofs + 14 * g->elements[i];
             for (int p = 0; p < 14; ++p) total[dofs[p] * k + col] += by_reference[14 * (col * E + i) + p];
         }
+    static const double identity[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+    double *T = g->arm_scratch, *values = T + 9 * k, *frames = values + 6 * k, *moves = frames + 9 * k;
+    for (int64_t a = 0; a < g->n_arms; ++a) {
+        const int64_t node = g->arm_node[a], frame = g->arm_frame[a];
+        const double *at_grid = g->arm_values + 6 * (g->n_arms * (grid - g->values_from) + a);
+        for (int64_t col = 0; col < k; ++col) {
+            memcpy(T + 9 * col, c->T + 9 * node, 9 * sizeof(double));
+            memcpy(values + 6 * col, at_grid, 6 * sizeof(double));
+            memcpy(frames + 9 * col, frame >= 0 ? c->T + 9 * frame : identity, 9 * sizeof(double));
+        }
+        g->arm_kernel(k, T, g->arm_moves + 3 * k * a, values, frames, moves);
+        const int64_t *d = m->node_dofs + 6 * node;
+        for (int j = 0; j < 6; ++j)
+            for (int64_t col = 0; col < k; ++col) total[d[j] * k + col] += moves[6 * col + j];
+    }
 }

@@ -257,7 +257,7 @@ static int64_t sensitivity_loop_step(const Model *m, Work *w, SensitivityLoop *s
         latdyn_section_parameter_forces(m, w, c, s->internal_D_section, s->inertia_D_section, 1, s->gravity, s->n_on,
                                         s->on, s->n_uses, s->use, s->elements, s->columns, s->rows, k, s->total,
                                         s->section_scratch);
-    if (s->geometry != NULL) latdyn_geometry_parameter_forces(m, w, c, s->geometry, k, s->total);
+    if (s->geometry != NULL) latdyn_geometry_parameter_forces(m, w, c, s->geometry, k, grid, s->total);
     if (s->n_body_uses) body_parameter_forces(m, c, s, grid);
     if (s->n_law_uses) joint_law_parameter_forces(m, c, s, grid);
     load_parameter_forces(m, c, s, grid);
