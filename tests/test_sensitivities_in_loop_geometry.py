@@ -127,3 +127,36 @@ def test_the_cli_writes_the_python_paths_files(tmp_path):
     for name in ("sensitivities.csv", "probes.csv"):
         assert (out / name).read_bytes() == (reference / name).read_bytes(), name
     assert summary["probe_sensitivities"] == summary_of(reference)["probe_sensitivities"]
+
+
+@pytest.mark.parametrize("backend", ["numpy", "c"])
+def test_the_two_generated_kernels_against_their_formulas(backend):
+    """The generated ``reference_variation_at_state`` (ψ = T_e E0ᵀ φ + T_j θ J(θa) δa, δo = T_j δr, δh = T_j δa) and
+    ``point_load_D_offset`` (−[0; (T δr) × R f]) against those formulas in NumPy, with J latdyn.numerics.so3's
+    dexp_so3, on random frames and hinges (angles across the series' switch at θ = 0.1), to 1e-13."""
+    from latdyn.model.kernels import load_kernels
+    from latdyn.numerics.so3 import dexp_so3, expm_so3
+
+    rng = np.random.default_rng(20261128)
+    kernels = load_kernels(backend, "default")
+    n = 12
+    frames = np.array([expm_so3(rng.normal(size=3) * 1.3) for _ in range(4 * n)]).reshape(4, n, 3, 3)
+    axes = rng.normal(size=(n, 3))
+    axes /= np.linalg.norm(axes, axis=1)[:, None]
+    angles = rng.choice([0.0, 1e-4, 0.0999, 0.1001, 0.9, 2.7], size=n) * rng.choice([-1.0, 1.0], size=n)
+    held = rng.normal(size=(n, 9))
+    (out,) = kernels.reference_variation_at_state(frames[0].reshape(n, 9), frames[1].reshape(n, 9),
+                                                  frames[2].reshape(n, 9), np.column_stack([axes, angles]), held)
+    out = np.asarray(out).reshape(n, 9)
+    for i in range(n):
+        T_e, E0, T = frames[0, i], frames[1, i], frames[2, i]
+        psi = T_e @ E0.T @ held[i, :3] + T @ (angles[i] * (dexp_so3(angles[i] * axes[i]) @ held[i, 6:]))
+        np.testing.assert_allclose(out[i], np.concatenate([psi, T @ held[i, 3:6], T @ held[i, 6:]]), rtol=0,
+                                   atol=1e-13 * (1 + np.abs(held[i]).max() * 4))
+    values, moves = rng.normal(size=(n, 6)), rng.normal(size=(n, 3))
+    (moved,) = kernels.point_load_D_offset(frames[0].reshape(n, 9), moves, values, frames[3].reshape(n, 9))
+    moved = np.asarray(moved).reshape(n, 6)
+    for i in range(n):
+        force = frames[3, i] @ values[i, :3]
+        np.testing.assert_allclose(moved[i], -np.concatenate([np.zeros(3), np.cross(frames[0, i] @ moves[i], force)]),
+                                   rtol=0, atol=1e-13 * 10)
