@@ -14,6 +14,7 @@ with the switch on and off; ``--user``: fresh ``latdyn run`` processes, tree by 
 """
 from __future__ import annotations
 
+import argparse
 import sys
 from pathlib import Path
 
@@ -34,14 +35,23 @@ SCENES = {"lattice": lambda: _scene("LATTICE", "0.4"), "cantilever": lambda: _sc
 
 
 def main() -> None:
-    import importlib.util
+    sys.path.append(str(ROOT))
+    from benchmarks.hinge_sensitivities_loop import as_a_user, check, in_process
 
-    # this checkout's, whichever build PYTHONPATH names first (that build's latdyn is the one measured)
-    spec = importlib.util.spec_from_file_location("hinge_sensitivities_loop",
-                                                  ROOT / "benchmarks" / "hinge_sensitivities_loop.py")
-    hinge = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(hinge)
-    hinge.main(SCENES, "lattice", __doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--scene", choices=tuple(SCENES), default="lattice")
+    parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--check", metavar="DIR")
+    parser.add_argument("--user", type=int, metavar="N")
+    parser.add_argument("--trees", default=str(ROOT))
+    args = parser.parse_args()
+    text = SCENES[args.scene]()
+    if args.check:
+        check(text, args.check)
+    elif args.user:
+        as_a_user(text, args.user, args.trees.split(","))
+    else:
+        in_process(text, args.repeats)
 
 
 if __name__ == "__main__":

@@ -181,18 +181,15 @@ def as_a_user(text: str, rounds: int, trees: list[str]) -> None:
             print(f"  {tree}: {name:8s} wall {w:.3f} s ({w / base_wall:.2f}×)  CPU {c:.3f} s ({c / base_cpu:.2f}×)")
 
 
-def main(scenes: dict | None = None, default: str = "boom", description: str | None = None) -> None:
-    """The command line over ``scenes`` (name → function of no arguments giving the YAML text; default
-    :data:`SCENES`), ``default`` the scene without ``--scene``."""
-    scenes = SCENES if scenes is None else scenes
-    parser = argparse.ArgumentParser(description=description or __doc__.splitlines()[0])
-    parser.add_argument("--scene", choices=tuple(scenes), default=default)
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--scene", choices=tuple(SCENES), default="boom")
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--check", metavar="DIR")
     parser.add_argument("--user", type=int, metavar="N")
     parser.add_argument("--trees", default=str(ROOT))
     args = parser.parse_args()
-    text = scenes[args.scene]()
+    text = SCENES[args.scene]()
     if args.check:
         check(text, args.check)
     elif args.user:
