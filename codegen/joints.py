@@ -250,6 +250,24 @@ def _point_load_kernel() -> KernelSpec:
                       variant="joints", equations="Eq. 2 (the point), follower loads turning with a body")
 
 
+LOAD_OFFSET_MOVE = Argument("offset_move", 3, "δr: a variation of the load's point from the node's reference point, in "
+                            "node axes (a geometry parameter moving a beam end's offset)")
+
+
+def _point_load_offset_kernel() -> KernelSpec:
+    """∂(load_force)/∂r along δr: the point load is linear in its offset r, so this is its exact change when a
+    geometry parameter moves the point (latdyn/analyses/geometry_sensitivities.py, the loads' arms)."""
+    T, R = _matrix(LOAD_NODE.symbols()), _matrix(LOAD_FRAME.symbols())
+    r, move = _vector(LOAD_OFFSET.symbols()), _vector(LOAD_OFFSET_MOVE.symbols())
+    force, _ = point_load_terms(T, list(r), LOAD_VALUES.symbols(), R, [0] * 6)
+    moved = force.jacobian(r) * move
+    outputs = [Output("load_force_D_offset", (6,), _rows(moved), "∂(−[F; r_g × F + Mo])/∂r along δr: −[0; (T δr) × F]")]
+    return KernelSpec(name="point_load_D_offset", doc="A point load's generalized force moved with its point: its "
+                      "derivative along a variation of the offset (linear in it, so exact)",
+                      inputs=[LOAD_NODE, LOAD_OFFSET_MOVE, LOAD_VALUES, LOAD_FRAME], outputs=outputs,
+                      variant="joints", equations="Eq. 2 (the point) varied")
+
+
 END_NODE = Argument("node_frame", 9, "T_j: frame of the node (joint body) the beam end is joined to, row-major")
 END_DATA = Argument("end", 16, "a[3] r[3] E0[9] theta: the hinge axis (unit; zero for a clamped end), the grid point "
                     "and the element axes at t = 0 (row-major), all in node axes, and the hinge angle")
@@ -272,6 +290,42 @@ def _hinged_end_kernel() -> KernelSpec:
                       "joint turned by its hinge angle: the element's geometry block, end by end",
                       inputs=[END_NODE, END_DATA], outputs=outputs, variant="joints",
                       equations="Eqs. 2, 9, 17")
+
+
+END_FRAME = Argument("end_frame", 9, "T_e: the element's nodal frame at the end, from its geometry block, row-major")
+END_FRAME0 = Argument("frame0", 9, "E0: the element axes at t = 0 in node axes, row-major")
+END_HINGE = Argument("axis_angle", 4, "a[3] theta: the end's hinge axis (unit, node axes; zero for a clamped "
+                     "end) and its angle")
+REFERENCE_HELD = Argument("held", 9, "phi[3] dr[3] da[3]: a variation of the end's reference data in node axes (the "
+                          "frame's turn, the grid point's move, the hinge axis's move; "
+                          "latdyn/analyses/geometry_sensitivities.py)")
+
+
+def reference_variation_at_state(T_e, E0, T, hinge, held):
+    """(ψ, δo, δh) of a beam end's reference variation at a state, from its parts in node axes (φ, δr_g, δa):
+    the frame turned, spatial at the end, ψ = T_e E0ᵀ φ (= T_j R(a, θ) φ), plus T_j J(θa) θ δa where the hinge
+    axis moves (T_e = T_j exp(θ skew a) E0, J the left Jacobian of exp, :func:`so3_dexp`); the grid point's move
+    δo = T_j δr_g; the hinge axis's δh = T_j δa (codegen/derivation.py ``reference_first_variation``);
+    (vector of 9, intermediates)."""
+    a, theta = _vector(hinge[0:3]), hinge[3]
+    phi, dr, da = _vector(held[0:3]), _vector(held[3:6]), _vector(held[6:9])
+    J, intermediates = so3_dexp(theta * a)
+    psi = (T_e * E0.T) * phi + T * (theta * (J * da))
+    return list(psi) + list(T * dr) + list(T * da), intermediates
+
+
+def _reference_variation_kernel() -> KernelSpec:
+    variation, intermediates = reference_variation_at_state(
+        _matrix(END_FRAME.symbols()), _matrix(END_FRAME0.symbols()), _matrix(END_NODE.symbols()),
+        END_HINGE.symbols(), REFERENCE_HELD.symbols())
+    outputs = [Output("variation", (9,), variation, "psi[3] do[3] dh[3]: the reference block's parts of the end "
+                      "(codegen/conventions.py REFERENCE), spatial")]
+    return KernelSpec(name="reference_variation_at_state", doc="A beam end's variation of its reference data at a "
+                      "state from its parts in node axes: the geometry parameters' input of the "
+                      "*_D_reference kernels (latdyn/analyses/geometry_sensitivities.py)",
+                      inputs=[END_FRAME, END_FRAME0, END_NODE, END_HINGE, REFERENCE_HELD], outputs=outputs,
+                      variant="joints", equations="Eqs. 2, 9, 17 varied (the reference configuration's derivative)",
+                      intermediates=intermediates)
 
 
 HINGE_STATE = Argument("hinge", 4, "theta theta_dot rest_angle load_factor: the hinge angle, its rate, the "
@@ -987,7 +1041,8 @@ def _closure_wrench_kernel(rod: bool) -> KernelSpec:
 
 def build_kernels() -> list[KernelSpec]:
     """The kernels of the ``joints`` unit."""
-    return [*_joint_body_kernels(), _point_load_kernel(), _hinged_end_kernel(), _hinge_force_kernel(),
+    return [*_joint_body_kernels(), _point_load_kernel(), _point_load_offset_kernel(), _hinged_end_kernel(),
+            _reference_variation_kernel(), _hinge_force_kernel(),
             _contact_law_derivative_kernel(), _friction_law_derivative_kernel(), _so3_exp_kernel(), _so3_dexp_kernel(),
             _so3_log_increment_kernel(), _link_edge_kernel(),
             _hinge_wrench_kernel(), _root_wrench_kernel(),

@@ -22,7 +22,7 @@ grid-point offsets r_g and the hinge axes a. The model's state holds absolute po
         δo_i  = T_j δr_g (the offset's global form moved),
         ψ_i   = T_j R(a, θ) φ = T_e E0ᵀ φ,  δE0 = skew(φ) E0 (the frame turned, spatial at the end),
                 plus T_j J(θa) θ δa where the hinge axis moves (R(a, θ) = exp(θ skew a), J the left
-                Jacobian of exp, :func:`latdyn.numerics.so3.dexp_so3`),
+                Jacobian of exp; the generated ``reference_variation_at_state``),
         δh_i  = T_j δa,  δa = (I − a aᵀ) δv/|v| of the axis v as given,
         δL0   = x̂ · (δB − δA) / n   (A, B the beam's grid points, n its elements).
 
@@ -30,8 +30,8 @@ grid-point offsets r_g and the hinge axes a. The model's state holds absolute po
 made unit, y_0 = v/|v|, less its x̂ part, or global z × x̂), so φ = ½ Σ e_k × δe_k with
 δx̂ = (I − x̂x̂ᵀ)(δB − δA)/|B − A|, δy_0 = (I − y_0 y_0ᵀ)δv/|v| and δŷ from that rule; in a planar model the
 frame is [x̂, n × x̂, n] and φ = x̂ × δx̂. A point probe at a beam's end moves with its offset (δ(x + T r)
-gains T δr), a displacement's reference with δX + δr; a load there by point_load(δr) − point_load(0) (the
-kernel is linear in its offset); displacement control's held displacement by the same
+gains T δr), a displacement's reference with δX + δr; a load there by the generated ``point_load_D_offset``
+(the load is linear in its offset); displacement control's held displacement by the same
 (:meth:`ReferenceGeometry.control_moves`). Through latches, rigid stops and compliant stops the event
 machinery of latdyn/analyses/transient_sensitivities.py takes them as any parameter (its impulse weight's
 ∂/∂p from ∂r/∂p).
@@ -51,7 +51,6 @@ import re
 import numpy as np
 
 from latdyn.model.model import FIXED, FREE, PRESCRIBED
-from latdyn.numerics.so3 import dexp_so3
 
 __all__ = ["GEOMETRY_KEY", "geometry_refusal", "model_refusal", "ReferenceGeometry"]
 
@@ -428,48 +427,64 @@ class ReferenceGeometry:
     def at_state(self, state, elements: np.ndarray, at: np.ndarray) -> np.ndarray:
         """The reference variations of ``elements`` (m, WIDTH, k) at ``state``, whose element geometry blocks are
         ``at`` (m, G): the held parts with the state's frames applied (module docstring: ψ, δo and δh turned
-        into global axes, a moved hinge axis's turn of the nodal frame)."""
-        model, m = self.model, len(elements)
+        into global axes, a moved hinge axis's turn of the nodal frame) by the generated
+        ``reference_variation_at_state``, end by end, one row per (column, element) — the rows the loop of steps
+        forms in C (csrc/geometry_forces.c), so the two are the same bits."""
+        model, m, k = self.model, len(elements), self.k
         variation = self.variations[elements].copy()                        # (m, WIDTH, k)
-        frames = (at[:, 12:21].reshape(m, 3, 3), at[:, 21:30].reshape(m, 3, 3))
         for end in (0, 1):
-            turn = frames[end] @ np.swapaxes(model.element_frames0[elements, end], 1, 2)   # T_j R(a, θ)
-            psi = slice(12 + 3 * end, 15 + 3 * end)
-            variation[:, psi] = turn @ variation[:, psi]
-            body = state.T[model.element_nodes[elements, end]]
-            off = slice(6 + 3 * end, 9 + 3 * end)
-            variation[:, off] = body @ variation[:, off]
-            axis = slice(19 + 3 * end, 22 + 3 * end)
-            moved = np.flatnonzero(np.any(variation[:, axis] != 0.0, axis=(1, 2)))
-            if len(moved):   # h = T_j a moves by T_j δa; T_e = T_j exp(θ skew a) E0 turns by T_j J(θa) θ δa
-                hinge = model.element_hinges[elements[moved], end]
-                theta = state.theta[hinge]
-                jacobian = dexp_so3(theta[:, None] * model.element_axes[elements[moved], end])
-                variation[moved, psi] += body[moved] @ (theta[:, None, None] * (jacobian @ variation[moved, axis]))
-                variation[moved, axis] = body[moved] @ variation[moved, axis]
+            inputs = self.end_inputs(state, elements, at, end)
+            held = np.concatenate([variation[:, 12 + 3 * end:15 + 3 * end], variation[:, 6 + 3 * end:9 + 3 * end],
+                                   variation[:, 19 + 3 * end:22 + 3 * end]], axis=1)        # (m, 9, k)
+            rows = np.ascontiguousarray(held.transpose(2, 0, 1).reshape(k * m, 9))
+            tiled = [np.ascontiguousarray(np.tile(a, (k, 1))) for a in inputs]
+            moved = np.asarray(self.kernels.reference_variation_at_state(*tiled, rows)[0]).reshape(k, m, 9)
+            moved = moved.transpose(1, 2, 0)                                     # (m, 9, k)
+            variation[:, 12 + 3 * end:15 + 3 * end] = moved[:, 0:3]
+            variation[:, 6 + 3 * end:9 + 3 * end] = moved[:, 3:6]
+            variation[:, 19 + 3 * end:22 + 3 * end] = moved[:, 6:9]
         return variation
 
+    def end_inputs(self, state, elements: np.ndarray, at: np.ndarray, end: int) -> tuple:
+        """The state's inputs of ``reference_variation_at_state`` at end ``end`` of ``elements``: the nodal frame
+        T_e (from the geometry blocks ``at``), E0, the node's frame T_j, the hinge's axis and angle (0 without a
+        hinge: its axis is zero there), (m, 9), (m, 9), (m, 9), (m, 4)."""
+        model, m = self.model, len(elements)
+        hinge = model.element_hinges[elements, end]
+        theta = np.zeros(m)
+        hinged = hinge >= 0
+        theta[hinged] = state.theta[hinge[hinged]]
+        return (np.ascontiguousarray(at[:, 12 + 9 * end:21 + 9 * end]),
+                np.ascontiguousarray(model.element_frames0[elements, end].reshape(m, 9)),
+                np.ascontiguousarray(state.T[model.element_nodes[elements, end]].reshape(m, 9)),
+                np.ascontiguousarray(np.concatenate([model.element_axes[elements, end], theta[:, None]], axis=1)))
+
     def _load_arms(self, state, total: np.ndarray, load_factor: float) -> None:
-        """Add ∂r/∂p of the loads at a moved offset: the generated ``point_load`` is linear in its offset r
-        (−[F; T r × F + M]), so its derivative along δr is point_load(δr) − point_load(0), exactly."""
+        """Add ∂r/∂p of the loads at a moved offset: the generated ``point_load_D_offset``, the point load's
+        derivative along δr (exact: it is linear in its offset r, −[F; T r × F + M])."""
         model, k = self.model, self.k
         for index, node, moved in self.moved_loads:
-            load = self.scene.loads[index]
-            values = np.zeros(6)
-            for offset, components in ((0, load.force), (3, load.moment)):
-                for c, law in enumerate(components or ()):
-                    values[offset + c] = load_factor * law.value(state.t)
-            frame = np.eye(3) if load.frame == "global" else state.T[model.body_node[load.frame]]
+            values, frame_node = self.load_arm_values(state.t, index, load_factor), self.load_frame_node(index)
+            frame = np.eye(3) if frame_node < 0 else state.T[frame_node]
             rows = lambda a: np.ascontiguousarray(np.tile(np.reshape(a, (1, -1)), (k, 1)), dtype=float)  # noqa: E731
-            velocity = np.concatenate([state.v[node], state.w[node]])
-            arguments = (rows(state.T[node]), rows(values), rows(frame), rows(velocity))
+            moves = np.asarray(self.kernels.point_load_D_offset(rows(state.T[node]), np.ascontiguousarray(moved.T),
+                                                                rows(values), rows(frame))[0])
+            total[model.node_dofs[node]] += moves.reshape(k, 6).T
 
-            def force(offsets):
-                offsets = np.ascontiguousarray(offsets)
-                return np.asarray(self.kernels.point_load(arguments[0], offsets, *arguments[1:])[0])
+    def load_arm_values(self, t: float, index: int, load_factor: float) -> np.ndarray:
+        """The six values of load ``index`` of the scene at time ``t`` times ``load_factor`` (its force and moment in
+        its frame's axes): the point load kernels' ``values``."""
+        load = self.scene.loads[index]
+        values = np.zeros(6)
+        for offset, components in ((0, load.force), (3, load.moment)):
+            for c, law in enumerate(components or ()):
+                values[offset + c] = load_factor * law.value(t)
+        return values
 
-            difference = force(moved.T) - force(np.zeros((k, 3)))                      # (k, 6)
-            total[model.node_dofs[node]] += difference.reshape(k, 6).T
+    def load_frame_node(self, index: int) -> int:
+        """The node whose frame load ``index`` turns with, −1 for a global load."""
+        load = self.scene.loads[index]
+        return -1 if load.frame == "global" else int(self.model.body_node[load.frame])
 
 
 def _frame_turn(beam, x: np.ndarray, dx: np.ndarray, dv: np.ndarray) -> np.ndarray:

@@ -21,9 +21,13 @@ derivative laws (and for the rest angle the hinge's stiffness) are values of t a
 and of a joint body's mass, inertia and centre of mass (the generated ``joint_body`` with the use's block, or
 ``joint_body_D_com`` along ∂c/∂p, the blocks made by ``ParameterDerivatives.body_block`` and tabulated alike), of
 a hinge's compliant stops' and friction's law values (the generated ``contact_force_D_law``,
-``friction_force_D_law`` at the hinge's θ, θ̇ in C, times the derivative laws' values tabulated alike), and
+``friction_force_D_law`` at the hinge's θ, θ̇ in C, times the derivative laws' values tabulated alike), of
+geometry parameters (the held variations of ReferenceGeometry taken to the state by the generated
+``reference_variation_at_state``, then the generated ``beam_internal_force_D_reference`` and
+``beam_inertia_force_D_reference``, and for a load at a moved offset ``point_load_D_offset`` with the load's values
+tabulated alike, csrc/geometry_forces.c, with the Python path's rows: ``_geometry_refusal``), and
 parameters of ``initial_velocity`` (they move the start only). Not native (the Python path): hinge laws whose
-derivative names θ, θ̇ or an input, guide, cable, controller and geometry parameters, section
+derivative names θ, θ̇ or an input, guide, cable and controller parameters, section
 values whose derivative is a law in t or an input, rigid links and guides, cables,
 controllers, explicit time dependence beside events (∂r/∂t δt), energy and momentum probes (their work
 accounts are carried per step in Python), the NumPy kernels, and a numbering whose step matrix takes the
@@ -62,8 +66,8 @@ def refusal(owner) -> str | None:
     if why is not None:
         return why
     for key, laws in owner.derivatives.items():
-        if _INITIAL_VELOCITY_KEY.match(key) or _LOAD_KEY.match(key):
-            continue
+        if _INITIAL_VELOCITY_KEY.match(key) or _LOAD_KEY.match(key) or GEOMETRY_KEY.match(key):
+            continue   # (the geometry parameters: as a whole, _geometry_refusal)
         if _SECTION_KEY.match(key) and not GEOMETRY_KEY.match(key) and all(law.is_constant for law in laws.values()):
             continue
         why = (_hinge_refusal(owner, key, laws) if HINGE_KEY.match(key) else
@@ -74,6 +78,21 @@ def refusal(owner) -> str | None:
             return why
     if owner._section_layout() is not None and owner._section_kernel_addresses() is None:  # noqa: SLF001
         return "section kernels without C libraries"
+    return _geometry_refusal(owner) if owner.geometry is not None else None
+
+
+#: the generated kernels the geometry parameters' ∂r/∂p calls in the loop (csrc/geometry_forces.c)
+GEOMETRY_KERNELS = ("reference_variation_at_state", "beam_internal_force_D_reference",
+                    "beam_inertia_force_D_reference", "point_load_D_offset")
+
+
+def _geometry_refusal(owner) -> str | None:
+    """Why the geometry parameters keep the run on the Python path, or None: their ∂r/∂p
+    (ReferenceGeometry.add) is the generated kernels' of :data:`GEOMETRY_KERNELS` along the held variations, which
+    csrc/geometry_forces.c forms at the state as the Python path does (a load at a moved offset: the generated
+    point_load_D_offset with the load's values tabulated per grid point, ReferenceGeometry._load_arms)."""
+    if any(owner.kernels.address(name) is None for name in GEOMETRY_KERNELS):
+        return "geometry kernels without C libraries"
     return None
 
 
@@ -131,7 +150,7 @@ def _body_refusal(owner, key: str, laws: dict) -> str | None:
 def model_refusal(owner) -> str | None:
     """Why the run of ``owner`` (a TransientSensitivities) takes every step from Python whatever its parameters'
     kinds (no parameters, NumPy kernels, rigid links, guides, cables, controllers, explicit time dependence beside
-    events, geometry parameters, energy or momentum probes), or None: :func:`refusal`'s part that the discrete
+    events, energy or momentum probes), or None: :func:`refusal`'s part that the discrete
     adjoint's forward pass, which differentiates nothing as it goes, shares (latdyn/analyses/adjoint_in_loop.py)."""
     scene, model = owner.scene, owner.model
     if not owner.names:
@@ -140,8 +159,8 @@ def model_refusal(owner) -> str | None:
         return "kernels without C libraries"
     if model.links is not None or model.cables is not None or scene.controllers:
         return "rigid links, guides, cables or controllers"
-    if owner.explicit_time is not None or owner.geometry is not None:
-        return "explicit time dependence beside events, or geometry parameters"
+    if owner.explicit_time is not None:
+        return "explicit time dependence beside events"
     if any(is_energy_or_momentum(probe) for probe in owner.probes):
         return "energy or momentum probes"
     return None
@@ -236,6 +255,7 @@ class SensitivityLoop:
         self._hinges()
         self._bodies()
         self._joint_laws()
+        self._geometry()
         self._for = (key, True)
         return True
 
@@ -297,6 +317,39 @@ class SensitivityLoop:
         d.law_at = self._pointer(np.array([[0.0, 0.0, model.hinges[use[0]].rest_angle, 1.0] for use in uses]))
         d.law_rows = self._pointer(np.ascontiguousarray(np.concatenate([use[4] for use in uses]), np.float64))
         d.law_factor = self._pointer(np.array([float(use[5]) for use in uses]))
+
+    def _geometry(self) -> None:
+        """The geometry parameters' part (csrc/geometry_forces.c): the elements they move, the held variations
+        (ReferenceGeometry.variations), the elements with mass among them, λ g and the generated kernels."""
+        from latdyn.assembly.library import GeometryForcesData
+
+        owner, d = self.owner, self.data
+        geometry = owner.geometry
+        d.geometry = None
+        if geometry is None or not len(geometry.elements):
+            return
+        g = self._geometry_data = GeometryForcesData()
+        elements = np.ascontiguousarray(geometry.elements, np.int64)
+        sections = owner.model.element_sections[elements]
+        on = np.ascontiguousarray(np.flatnonzero(np.any(sections[:, 5:8] != 0.0, axis=1)), np.int64)
+        k, m = d.k, len(elements)
+        g.m, g.elements = m, self._pointer(elements)
+        g.held = self._pointer(np.ascontiguousarray(geometry.variations[elements]))
+        g.n_on, g.on = len(on), self._pointer(on)
+        g.variation_kernel, g.internal_kernel, g.inertia_kernel = (owner.kernels.address(name)
+                                                                   for name in GEOMETRY_KERNELS[:3])
+        g.gravity = self._pointer(np.ascontiguousarray(1.0 * np.asarray(owner.assembler.gravity, float)))
+        g.scratch = self._pointer(np.zeros(148 * k * m + 130 * k * len(on)))
+        arms = geometry.moved_loads
+        g.n_arms = len(arms)
+        if arms:
+            ints = lambda values: self._pointer(np.array(values, np.int64))   # noqa: E731
+            g.arm_node, g.arm_frame = ints([node for _, node, _ in arms]), ints(
+                [geometry.load_frame_node(index) for index, _, _ in arms])
+            g.arm_moves = self._pointer(np.ascontiguousarray(np.array([moved.T for _, _, moved in arms], float)))
+            g.arm_kernel = owner.kernels.address("point_load_D_offset")
+            g.arm_scratch = self._pointer(np.zeros(30 * k))
+        d.geometry = ctypes.addressof(g)
 
     def _body_uses(self) -> list:
         """(body key's match, index among the joint bodies, column, derivative law) of every body use the Python
@@ -389,6 +442,12 @@ class SensitivityLoop:
             self._law_table = np.array([[law.value(0.0, 0.0, t) for law in laws] for t in times], float).reshape(
                 len(times), len(laws))
             d.law_values, d.values_from = self._law_table.ctypes.data, grid_index + 1
+        if d.geometry and self._geometry_data.n_arms:   # the moved loads' values at each grid point (_load_arms)
+            geometry = owner.geometry
+            self._arm_table = np.array([[geometry.load_arm_values(t, index, 1.0) for index, _, _ in
+                                         geometry.moved_loads] for t in times], float)
+            g = self._geometry_data
+            g.arm_values, g.values_from = self._arm_table.ctypes.data, grid_index + 1
         return d
 
     def record_rows(self, carried: dict, block, rows: int) -> dict:

@@ -213,7 +213,19 @@ class SensitivityLoopData(ctypes.Structure):
                 ("law_values", P),
                 ("steps", I64), ("info", I64), ("h", ctypes.c_double),
                 # the carried sensitivities at each row recorded on the way (SensitivityLoop.record_rows)
-                ("row_carried", P)]
+                ("row_carried", P),
+                # ∂r/∂p of the geometry parameters (csrc/geometry_forces.c); NULL: none
+                ("geometry", P)]
+
+
+class GeometryForcesData(ctypes.Structure):
+    """``GeometryForces`` of csrc/geometry_forces.c: the geometry parameters' ∂r/∂p in the loop of steps
+    (latdyn.analyses.sensitivities_in_loop lays it out)."""
+
+    _fields_ = [("m", I64), ("elements", P), ("held", P), ("n_on", I64), ("on", P), ("variation_kernel", P),
+                ("internal_kernel", P), ("inertia_kernel", P), ("gravity", P), ("scratch", P), ("n_arms", I64),
+                ("arm_node", P), ("arm_frame", P), ("arm_moves", P), ("arm_values", P), ("values_from", I64),
+                ("arm_kernel", P), ("arm_scratch", P)]
 
 
 class TrajectoryData(ctypes.Structure):

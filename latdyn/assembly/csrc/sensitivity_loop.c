@@ -6,7 +6,8 @@
  * the predicted parts (latdyn_sensitivity_predict), the evaluation with the inertia tangent at the converged
  * state (latdyn_evaluate), the joint bodies' inertia stiffness and the scatter of M, C and the exact K onto the
  * assembler's pattern (latdyn_joint_body_inertia_stiffness, latdyn_exact_matrix_values), ∂r/∂p of the hinge laws
- * (the generated hinge_force), the section values (latdyn_section_parameter_forces), the joint bodies (the generated
+ * (the generated hinge_force), the section values (latdyn_section_parameter_forces), the geometry parameters
+ * (latdyn_geometry_parameter_forces), the joint bodies (the generated
  * joint_body, joint_body_D_com), the compliant stops and friction (the generated contact_force_D_law,
  * friction_force_D_law) and the load components (the generated point_load), with the derivative laws'
  * values the caller tabulated per grid point, S's factorization and the k + 1 solves
@@ -108,6 +109,8 @@ typedef struct {
      * TransientSensitivities.record reads (latdyn.analyses.sensitivities_in_loop SensitivityLoop.record_rows);
      * NULL: none */
     double *row_carried;                /* (rows' capacity) × (3 n k + k) */
+    /* ∂r/∂p of the geometry parameters (ReferenceGeometry.add, geometry_forces.c); NULL: none */
+    const GeometryForces *geometry;
 } SensitivityLoop;
 
 /* Row r of the rows recorded on the way: the carried δq, δv, δv̇ and δt as the step before it left them. */
@@ -263,13 +266,14 @@ static int64_t sensitivity_loop_step(const Model *m, Work *w, SensitivityLoop *s
                                s->dvdot, s->da, s->predicted);
     exact_matrices(m, w, s, c, t);
     /* ∂r/∂p with the inertia forces (ParameterDerivatives.residual_derivatives: the hinges', the sections', the
-     * joint bodies', the compliant stops' and friction's, then the loads') */
+     * geometry parameters', the joint bodies', the compliant stops' and friction's, then the loads') */
     memset(s->total, 0, sizeof(double) * (size_t)((m->n_total + 1) * k));
     if (s->n_hinge_uses) hinge_parameter_forces(m, c, s, grid);
     if (s->n_uses)
         latdyn_section_parameter_forces(m, w, c, s->internal_D_section, s->inertia_D_section, 1, s->gravity, s->n_on,
                                         s->on, s->n_uses, s->use, s->elements, s->columns, s->rows, k, s->total,
                                         s->section_scratch);
+    if (s->geometry != NULL) latdyn_geometry_parameter_forces(m, w, c, s->geometry, k, grid, s->total);
     if (s->n_body_uses) body_parameter_forces(m, c, s, grid);
     if (s->n_law_uses) joint_law_parameter_forces(m, c, s, grid);
     load_parameter_forces(m, c, s, grid);
