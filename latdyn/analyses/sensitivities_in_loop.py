@@ -38,7 +38,8 @@ import numpy as np
 
 from latdyn.analyses.energy_sensitivities import is_energy_or_momentum
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
-from latdyn.analyses.parameter_keys import BODY_KEY, CONTACT_KEY, FRICTION_KEY, FRICTION_SLOT, HINGE_KEY
+from latdyn.analyses.parameter_keys import (BODY_KEY, CONTACT_KEY, FRICTION_KEY, FRICTION_SLOT, GUIDE_CONTACT_KEY,
+                                            GUIDE_KEY, HINGE_KEY)
 from latdyn.analyses.sensitivities import _INITIAL_VELOCITY_KEY, _LOAD_KEY, _SECTION_KEY
 from latdyn.assembly.native_model import NO_CONTACT
 from latdyn.analyses.step_matrix import turns_about_one_axis
@@ -61,9 +62,10 @@ def refusal(owner) -> str | None:
             continue
         if _SECTION_KEY.match(key) and not GEOMETRY_KEY.match(key) and all(law.is_constant for law in laws.values()):
             continue
-        why = (_hinge_refusal(owner, key, laws) if HINGE_KEY.match(key) else
+        why = (_hinge_refusal(owner, key, laws) if HINGE_KEY.match(key) or GUIDE_KEY.match(key) else
                _body_refusal(owner, key, laws) if BODY_KEY.match(key) else
-               _joint_law_refusal(owner, key, laws) if CONTACT_KEY.match(key) or FRICTION_KEY.match(key) else
+               _joint_law_refusal(owner, key, laws) if (CONTACT_KEY.match(key) or GUIDE_CONTACT_KEY.match(key)
+                                                        or FRICTION_KEY.match(key)) else
                f"{key}: not a native parameter kind")
         if why is not None:
             return why
@@ -83,7 +85,7 @@ def _hinge_refusal(owner, key: str, laws: dict) -> str | None:
     its ∂r/∂p is the generated hinge_force's at the derivative law's value (ParameterDerivatives._hinge_force), which
     the loop tabulates per grid point where the value is one of t alone — the derivative's, and for the rest angle
     the stiffness's."""
-    hinge = HINGE_KEY.match(key)
+    hinge = owner._key_kinds(key)[1]   # noqa: SLF001 - a guide's law read as the hinge law it is, on its slide
     if owner.kernels.address("hinge_force") is None:
         return "hinge kernels without C libraries"
     if not all(map(_in_time_alone, laws.values())):
@@ -133,8 +135,13 @@ def model_refusal(owner) -> str | None:
         return "no parameters"
     if getattr(owner.kernels, "backend", None) != "c":
         return "kernels without C libraries"
-    if model.links is not None or model.cables is not None or scene.controllers:
-        return "rigid links, guides, cables or controllers"
+    if model.cables is not None or scene.controllers:
+        return "cables or controllers"
+    if model.links is not None:
+        from latdyn.analyses.link_sensitivities import link_section_uses
+
+        if link_section_uses(owner):
+            return "a rigid link's section values (its joint body's mass and inertia, from Python)"
     if owner.explicit_time is not None or owner.geometry is not None:
         return "explicit time dependence beside events, or geometry parameters"
     if any(is_energy_or_momentum(probe) for probe in owner.probes):
@@ -176,9 +183,12 @@ class SensitivityLoop:
         self._keep = []
         d, ints = self.data, lambda a: np.ascontiguousarray(a, np.int64)
         ok = n > 0
+        linked = model.links is not None
+        linked_layout = assembler.linked_exact_layout(native) if linked else None
+        ok = ok and (linked_layout is not None or not linked)   # else the reduction from Python (linked.py)
         if ok:
             slots = model.node_dofs[model.free_nodes, 3:6]
-            step_matrix = owner._step_matrix(slots)   # noqa: SLF001 - the Python step's own, per numbering
+            step_matrix = owner._step_matrix(slots, dense=linked)   # noqa: SLF001 - the Python step's own, per numbering
             ok = step_matrix.factorization.kind != "sparse"
         if not ok:
             self._for = (key, False)
@@ -206,11 +216,21 @@ class SensitivityLoop:
             setattr(d, name, self._pointer(array))
         self._dt, self._dh = np.zeros(k), np.zeros(k)
         d.dt, d.dh = self._pointer(self._dt), self._pointer(self._dh)
-        # M, C and the exact K (Assembler.exact_matrix_values), the bodies' inertia stiffness
-        arguments, stiffness = assembler.exact_segments(native)
-        d.n_segments, d.counts, d.first, d.second, d.indices, d.positions = arguments
-        self._keep.append((assembler._exact_held, assembler._positions3, stiffness))   # noqa: SLF001 - what they point into
-        self._mck = np.zeros((3, assembler.pattern()[1].size))
+        # M, C and the exact K (Assembler.exact_matrix_values; with rigid links or guides linked_exact_matrix_values,
+        # dense on the minimum coordinates), the bodies' inertia stiffness
+        d.linked = int(linked)
+        if linked:
+            gather, storage, stiffness = linked_layout
+            d.linked_gather, d.linked_storage = gather.ctypes.data, storage.ctypes.data
+            d.linked_body_D = stiffness.ctypes.data
+            d.n_segments = 0
+            self._keep.append(linked_layout)
+            self._mck = np.zeros((3, n * n))
+        else:
+            arguments, stiffness = assembler.exact_segments(native)
+            d.n_segments, d.counts, d.first, d.second, d.indices, d.positions = arguments
+            self._keep.append((assembler._exact_held, assembler._positions3, stiffness))   # noqa: SLF001 - what they point into
+            self._mck = np.zeros((3, assembler.pattern()[1].size))
         d.mck_size, d.mck = self._mck.size, self._pointer(self._mck)
         bodies = len(model.body_nodes)
         kernel = assembler._body_stiffness_kernel() if bodies else None   # noqa: SLF001

@@ -575,6 +575,16 @@ class TransientSensitivities(ParameterDerivatives):
                 except np.linalg.LinAlgError:
                     raise singular() from None
             return solve
+        values = self.assembler.linked_exact_matrix_values(new)
+        if values is not None:   # the compiled step's reduction (csrc/linked_matrices.c), as the loop of steps
+            step_matrix = self._step_matrix(tangent.slots, dense=True)
+
+            def solve(explicit, dq0, dv0):
+                try:
+                    return step_matrix.solve_step(values, tangent.blocks, beta_p, gamma_p, explicit, dq0, dv0)
+                except np.linalg.LinAlgError:
+                    raise singular() from None
+            return solve
         matrix, C, K = self._reduced_step_matrix(new, tangent, beta_p, gamma_p)
         try:
             solver = factorization_for(matrix).factor(matrix)
@@ -1158,10 +1168,20 @@ class TransientSensitivities(ParameterDerivatives):
         tangent = np.asarray(self.kernels.so3_dexp(psi)[0]).reshape(-1, 3, 3)
         return _NodeRotations(self, turn, slots, n), _NodeRotations(self, tangent, slots, n)
 
-    def _step_matrix(self, slots: np.ndarray) -> "ExactStepMatrix":
+    def _step_matrix(self, slots: np.ndarray, dense: bool = False) -> "ExactStepMatrix":
         """The step's exact iteration matrix β′M + γ′C + K J on the assembler's pattern
-        (:class:`latdyn.analyses.step_matrix.ExactStepMatrix`), built once per numbering."""
+        (:class:`latdyn.analyses.step_matrix.ExactStepMatrix`), built once per numbering; ``dense``: on the full
+        n × n pattern (rigid links and guides: the reduced M, C and K of ``Assembler.linked_exact_matrix_values``)."""
         n = self.model.n_dofs
+        if dense:   # held per numbering (the native model's links are laid out anew with it)
+            key = (self.assembler.native(True), n)
+            held = self.__dict__.get("_held_dense_step_matrix")
+            if held is None or held[0] is not key[0] or held[1] != n or not np.array_equal(held[2], slots):
+                indptr = np.arange(0, n * n + 1, max(n, 1), dtype=np.int64)[:n + 1]
+                indices = np.tile(np.arange(n, dtype=np.int64), n)
+                held = (key[0], n, slots.copy(), ExactStepMatrix(indptr, indices, n, slots, kind="dense"))
+                self._held_dense_step_matrix = held
+            return held[3]
         indptr, indices = self.assembler.pattern()   # new arrays at every renumbering (Assembler.reindex)
         held = self.__dict__.get("_held_step_matrix")
         if held is None or held[0] is not indices or held[1] != n or not np.array_equal(held[2], slots):

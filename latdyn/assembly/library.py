@@ -211,7 +211,9 @@ class SensitivityLoopData(ctypes.Structure):
                 ("n_law_uses", I64), ("contact_kernel", P), ("friction_kernel", P), ("law_joint", P),
                 ("law_column", P), ("law_kind", P), ("law_slot", P), ("law_at", P), ("law_rows", P), ("law_factor", P),
                 ("law_values", P),
-                ("steps", I64), ("info", I64), ("h", ctypes.c_double)]
+                ("steps", I64), ("info", I64), ("h", ctypes.c_double),
+                # rigid links and guides (csrc/linked_matrices.c)
+                ("linked", I64), ("linked_gather", P), ("linked_storage", P), ("linked_body_D", P)]
 
 
 class TrajectoryData(ctypes.Structure):
@@ -341,6 +343,11 @@ def native_library() -> ctypes.CDLL:
         library.latdyn_sensitivity_predict.argtypes = [I64, I64, P, I64, P, P, P, P, P, P, P, P, P, P, P]
         library.latdyn_joint_body_inertia_stiffness.restype = None
         library.latdyn_joint_body_inertia_stiffness.argtypes = [model, configuration, P, P, P, P, P]
+        library.latdyn_linked_exact_matrices.restype = None
+        library.latdyn_linked_exact_matrices.argtypes = [model, work, configuration, ctypes.c_double, P, P, P, P, P, P,
+                                                         P, P]
+        library.latdyn_linked_reduce_columns.restype = None
+        library.latdyn_linked_reduce_columns.argtypes = [model, P, I64, P]
         library.latdyn_exact_matrix_values.restype = None
         library.latdyn_exact_matrix_values.argtypes = [I64, P, P, P, P, P, I64, P]
         library.latdyn_section_parameter_forces.restype = None
