@@ -331,8 +331,8 @@ class Assembler:
         rigid links or guides: its links laid out for the compiled step's iteration matrix, which this holds where the
         step has not yet: ``latdyn.step.compiled.hold_matrix``), made once per native model: (each entry's offset in
         that storage, n² row-major; a storage of its size other than the step's; the joint bodies' inertia
-        stiffness, 36 each); None where that matrix is not a dense one (the reduction then in Python:
-        latdyn/assembly/linked.py)."""
+        stiffness, 36 each); None where that matrix is sparse or the model has more than DENSE_LIMIT coordinates
+        (the reduction then in Python: latdyn/assembly/linked.py)."""
         held = self.__dict__.get("_linked_exact_layout")
         if held is not None and held[0] is native:
             return held[1]
@@ -342,10 +342,12 @@ class Assembler:
             from latdyn.step.compiled import hold_matrix   # on use: the compiled step's storage, shared with it
 
             factorization = hold_matrix(self, native)
-        if factorization is not None and factorization.kind == "dense":
-            n = self.model.n_dofs
+        n = self.model.n_dofs
+        if factorization is not None and factorization.kind in ("dense", "band") and n <= DENSE_LIMIT:
             rows, cols = np.divmod(np.arange(n * n, dtype=np.int64), max(n, 1))
-            gather = np.ascontiguousarray(factorization.position(rows, cols), np.int64)
+            offset = factorization.new[rows] - factorization.new[cols]   # a band's entries: −ku ≤ i − j ≤ kl
+            inside = (offset >= -factorization.ku) & (offset <= factorization.kl)
+            gather = np.ascontiguousarray(np.where(inside, factorization.position(rows, cols), -1), np.int64)
             layout = (gather, np.zeros(max(factorization.values.size, 1)),
                       np.zeros(max(36 * len(self.model.body_nodes), 1)))
         self._linked_exact_layout = (native, layout)
