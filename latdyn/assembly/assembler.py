@@ -346,7 +346,8 @@ class Assembler:
         if factorization is not None and factorization.kind in ("dense", "band") and n <= DENSE_LIMIT:
             rows, cols = np.divmod(np.arange(n * n, dtype=np.int64), max(n, 1))
             offset = factorization.new[rows] - factorization.new[cols]   # a band's entries: −ku ≤ i − j ≤ kl
-            inside = (offset >= -factorization.ku) & (offset <= factorization.kl)
+            inside = ((offset >= -factorization.ku) & (offset <= factorization.kl) if factorization.kind == "band"
+                      else np.ones(n * n, bool))
             gather = np.ascontiguousarray(np.where(inside, factorization.position(rows, cols), -1), np.int64)
             layout = (gather, np.zeros(max(factorization.values.size, 1)),
                       np.zeros(max(36 * len(self.model.body_nodes), 1)))
