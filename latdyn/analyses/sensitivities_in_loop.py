@@ -17,11 +17,18 @@ derivative laws (and for the rest angle the hinge's stiffness) are values of t a
 and of a joint body's mass, inertia and centre of mass (the generated ``joint_body`` with the use's block, or
 ``joint_body_D_com`` along ∂c/∂p, the blocks made by ``ParameterDerivatives.body_block`` and tabulated alike), of
 a hinge's compliant stops' and friction's law values (the generated ``contact_force_D_law``,
-``friction_force_D_law`` at the hinge's θ, θ̇ in C, times the derivative laws' values tabulated alike), and
-parameters of ``initial_velocity`` (they move the start only). Not native (the Python path): hinge laws whose
-derivative names θ, θ̇ or an input, guide, cable, controller and geometry parameters, section
-values whose derivative is a law in t or an input, rigid links and guides, cables,
-controllers, explicit time dependence beside events (∂r/∂t δt), energy and momentum probes (their work
+``friction_force_D_law`` at the hinge's θ, θ̇ in C, times the derivative laws' values tabulated alike), a guide's
+laws and its compliant stops' and friction's values (the hinge laws they are, on the slide), and
+parameters of ``initial_velocity`` (they move the start only); on models with rigid links and guides too (up to
+DENSE_LIMIT free coordinates, a dense or band step matrix): M, C and the exact K on the minimum coordinates,
+dense, and ∂r/∂p reduced by Pᵀ, from the compiled step's own reduction (csrc/linked_matrices.c,
+``latdyn_linked_exact_matrices`` and ``latdyn_linked_reduce_columns`` over csrc/links.c's), which the per-step
+Python path calls too (``Assembler.linked_exact_matrix_values``, ``sensitivities.reduced_columns``), S on the full
+n × n pattern. Not native (the Python path): hinge and guide laws whose
+derivative names θ, θ̇ or an input, cable, controller and geometry parameters, section
+values whose derivative is a law in t or an input, a rigid link's own section values (its joint body's mass and
+inertia: ``add_link_section_forces``), linked models above DENSE_LIMIT free coordinates or whose step matrix is
+sparse, cables, controllers, explicit time dependence beside events (∂r/∂t δt), energy and momentum probes (their work
 accounts are carried per step in Python), the NumPy kernels, and a numbering whose step matrix takes the
 sparse LU (whose failed pivot falls back to SciPy: :meth:`latdyn.analyses.step_matrix.ExactStepMatrix.solve_step`).
 
@@ -127,9 +134,10 @@ def _body_refusal(owner, key: str, laws: dict) -> str | None:
 
 def model_refusal(owner) -> str | None:
     """Why the run of ``owner`` (a TransientSensitivities) takes every step from Python whatever its parameters'
-    kinds (no parameters, NumPy kernels, rigid links, guides, cables, controllers, explicit time dependence beside
-    events, geometry parameters, energy or momentum probes), or None: :func:`refusal`'s part that the discrete
-    adjoint's forward pass, which differentiates nothing as it goes, shares (latdyn/analyses/adjoint_in_loop.py)."""
+    kinds (no parameters, NumPy kernels, cables, controllers, a rigid link's own section values, explicit time
+    dependence beside events, geometry parameters, energy or momentum probes), or None: :func:`refusal`'s part that
+    the discrete adjoint's forward pass, which differentiates nothing as it goes, shares
+    (latdyn/analyses/adjoint_in_loop.py, which refuses rigid links and guides itself)."""
     scene, model = owner.scene, owner.model
     if not owner.names:
         return "no parameters"

@@ -10,7 +10,9 @@
  * joint_body, joint_body_D_com), the compliant stops and friction (the generated contact_force_D_law,
  * friction_force_D_law) and the load components (the generated point_load), with the derivative laws'
  * values the caller tabulated per grid point, S's factorization and the k + 1 solves
- * (latdyn_sensitivity_step), the update (latdyn_sensitivity_update). The calls, their inputs and the order of
+ * (latdyn_sensitivity_step), the update (latdyn_sensitivity_update); with rigid links or guides M, C and the exact
+ * K on the minimum coordinates and ∂r/∂p reduced by Pᵀ (linked_matrices.c, the forward step's reduction).
+ * The calls, their inputs and the order of
  * their sums are the Python step's; latdyn/analyses/sensitivities_in_loop.py lays the struct out and says
  * which runs take it.
  *
