@@ -19,14 +19,13 @@ sha-256 of the files with the switch on and off; ``--user`` fresh ``latdyn run``
 """
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.append(str(ROOT))   # after PYTHONPATH: the build compared is the one it names
 
-from benchmarks.hinge_sensitivities_loop import as_a_user, check, in_process  # noqa: E402
+from benchmarks.hinge_sensitivities_loop import main  # noqa: E402
 
 
 def _crank() -> str:
@@ -56,22 +55,5 @@ def _guided() -> str:
 SCENES = {"crank": _crank, "gimbal": _gimbal, "chain": _chain, "guided": _guided}
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--scene", choices=tuple(SCENES), default="crank")
-    parser.add_argument("--repeats", type=int, default=5)
-    parser.add_argument("--check", metavar="DIR")
-    parser.add_argument("--user", type=int, metavar="N")
-    parser.add_argument("--trees", default=str(ROOT))
-    args = parser.parse_args()
-    text = SCENES[args.scene]()
-    if args.check:
-        check(text, args.check)
-    elif args.user:
-        as_a_user(text, args.user, args.trees.split(","))
-    else:
-        in_process(text, args.repeats)
-
-
 if __name__ == "__main__":
-    main()
+    main(SCENES, "crank", __doc__)
