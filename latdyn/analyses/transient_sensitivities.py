@@ -559,25 +559,22 @@ class TransientSensitivities(ParameterDerivatives):
         evaluated here (inside the controllers' condensation, where the step has one), S factorised in the
         call. Without rigid links and guides M, C and K are the values of the assembler's pattern and S is
         summed, factorised and the columns formed and solved in one native call
-        (:meth:`latdyn.analyses.step_matrix.ExactStepMatrix.solve_step`, :meth:`_step_matrix`); with them,
-        the reduction's matrices (:meth:`_matrices`) summed by SciPy. A singular matrix raises SolverError."""
+        (:meth:`latdyn.analyses.step_matrix.ExactStepMatrix.solve_step`, :meth:`_step_matrix`); with them, the
+        same call with M, C and K of the compiled step's reduction dense on the full pattern
+        (``Assembler.linked_exact_matrix_values``, the loop of steps' own), or where that is None (above
+        DENSE_LIMIT coordinates, a sparse storage) the reduction's matrices (:meth:`_matrices`) summed by SciPy.
+        A singular matrix raises SolverError."""
         def singular():
             return SolverError(f"the sensitivities at t = {new.t:.6g} need the step's exact iteration matrix, "
                                "which is singular there")
 
-        if self.model.links is None:
-            step_matrix = self._step_matrix(tangent.slots)
-            values = self.assembler.exact_matrix_values(new)
-
-            def solve(explicit, dq0, dv0):
-                try:
-                    return step_matrix.solve_step(values, tangent.blocks, beta_p, gamma_p, explicit, dq0, dv0)
-                except np.linalg.LinAlgError:
-                    raise singular() from None
-            return solve
-        values = self.assembler.linked_exact_matrix_values(new)
-        if values is not None:   # the compiled step's reduction (csrc/linked_matrices.c), as the loop of steps
-            step_matrix = self._step_matrix(tangent.slots, dense=True)
+        linked = self.model.links is not None
+        # with rigid links or guides the compiled step's reduction (csrc/linked_matrices.c), as the loop of steps;
+        # None: SciPy's below
+        values = (self.assembler.linked_exact_matrix_values(new) if linked else
+                  self.assembler.exact_matrix_values(new))
+        if values is not None:
+            step_matrix = self._step_matrix(tangent.slots, dense=linked)
 
             def solve(explicit, dq0, dv0):
                 try:
