@@ -4,8 +4,8 @@ sensitivities in the loop of steps, M, C and the exact K on the minimum coordina
 compiled step's own reduction (csrc/links.c), the per-step Python path calling the same C: equal to the bit through
 the API (a 3D gimbal of rigid links, latching; a slider-crank between stops; a guided body on a spring on a
 flexible 3D arm; a deploying chain of rigid bays latching twice, which also agrees with Richardson-extrapolated
-central differences) and the CLI (the shipped slider-crank with parameters); a rigid link's own section values keep
-the run on the Python path."""
+central differences) and the CLI (the shipped slider-crank with parameters); a linked run interrupted inside the
+loop resumes to the same files; a rigid link's own section values keep the run on the Python path."""
 from __future__ import annotations
 
 import numpy as np
@@ -14,6 +14,7 @@ import yaml
 
 import latdyn
 from tests.cli_runs import ROOT, latdyn_run, latdyn_run_switched, summary_of
+from tests.resumed_runs import resumed_inside_the_loop_is_whole
 from tests.test_sensitivities_events import _agree
 from tests.test_sensitivities_guides import GUIDE_3D
 from tests.test_sensitivities_rigid_links import GIMBAL, LATCH, SLIDER_CRANK
@@ -143,3 +144,10 @@ def test_a_rigid_links_section_keeps_the_run_on_the_python_path(monkeypatch):
     assert without.summary["sensitivity_steps_in_loop"] == without.summary["steps"] > 0
     for key, values in without.sensitivities.items():
         np.testing.assert_array_equal(with_section.sensitivities[key], values, err_msg=str(key))
+
+
+def test_a_linked_run_interrupted_inside_the_loop_resumes_to_the_same_files(tmp_path, monkeypatch):
+    """The rigid chain interrupted (Ctrl-C) as a loop of steps starts at t ≥ 0.3 s, after its first latch (a
+    renumbering) and before its second, and resumed from its checkpoint: its sensitivities' files and its count of
+    steps in the loop are the uninterrupted run's, byte for byte."""
+    resumed_inside_the_loop_is_whole(yaml.safe_load(CHAIN), tmp_path, monkeypatch, 0.3)
