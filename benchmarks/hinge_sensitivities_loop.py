@@ -181,15 +181,18 @@ def as_a_user(text: str, rounds: int, trees: list[str]) -> None:
             print(f"  {tree}: {name:8s} wall {w:.3f} s ({w / base_wall:.2f}×)  CPU {c:.3f} s ({c / base_cpu:.2f}×)")
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--scene", choices=tuple(SCENES), default="boom")
+def main(scenes: dict | None = None, default: str = "boom", description: str = __doc__) -> None:
+    """The command line; ``scenes`` (name: a function giving the YAML text), ``default``: another script's
+    (benchmarks/linked_sensitivities_loop.py)."""
+    scenes = SCENES if scenes is None else scenes
+    parser = argparse.ArgumentParser(description=description.splitlines()[0])
+    parser.add_argument("--scene", choices=tuple(scenes), default=default)
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--check", metavar="DIR")
     parser.add_argument("--user", type=int, metavar="N")
     parser.add_argument("--trees", default=str(ROOT))
     args = parser.parse_args()
-    text = SCENES[args.scene]()
+    text = scenes[args.scene]()
     if args.check:
         check(text, args.check)
     elif args.user:

@@ -46,6 +46,8 @@ def refusal(owner) -> str | None:
     (module docstring). Once a run."""
     from latdyn.analyses.sensitivities_in_loop import model_refusal
 
+    if owner.model.links is not None:   # the forward step's loop takes them (sensitivities_in_loop); this pass not yet
+        return "rigid links or guides"
     return model_refusal(owner)
 
 

@@ -11,7 +11,10 @@ sensitivities take the path that the guides' already take, with nothing added to
   K = Bᵀ K_all B + ∂(Bᵀ r_all)/∂z at fixed r_all (the geometric term, from the generated wrench kernels) +
   Bᵀ(C_·dep ∂(J v)/∂z + M_·dep ∂(J a + c)/∂z) (the dependent rates' z-dependence at fixed ż, z̈, from the
   generated ``rigid_link_edge_rates_D_q`` composed along the tree in C):
-  :meth:`latdyn.assembly.assembler.Assembler.exact_matrices`;
+  :meth:`latdyn.assembly.assembler.Assembler.exact_matrices`; the transient step takes M, C and that K dense
+  from the compiled step's own reduction (up to DENSE_LIMIT free coordinates:
+  :meth:`~latdyn.assembly.assembler.Assembler.linked_exact_matrix_values`, csrc/linked_matrices.c), the call its
+  smooth steps make in the loop of steps (latdyn/analyses/sensitivities_in_loop.py);
 - a probe on a dependent node moves by B δz (:meth:`ParameterDerivatives._dependent_motion`), its rates by
   B δż + ∂(J ż)/∂z δz (:func:`dependent_rates`: a point's velocity);
 - the static paths solve with the reduced K (its geometric term included) the same way.

@@ -517,13 +517,12 @@ class ParameterDerivatives:
 
     def _on_free_coordinates(self, state, total: np.ndarray) -> np.ndarray:
         """``total`` (all coordinates) on the free ones: its first n_dofs rows, or with rigid links and guides
-        reduced by the projection Pᵀ (latdyn/assembly/linked.py: the dependent nodes' rows carried onto the
-        coordinates they move with)."""
+        reduced by the projection Pᵀ (the dependent nodes' rows carried onto the coordinates they move with:
+        :func:`reduced_columns`, the compiled step's reduction)."""
         model = self.model
         if model.links is None:
             return total[:model.n_dofs]
-        P = self.assembler.evaluate(state, matrices=True).projection
-        return np.asarray(P.T @ total[:model.n_assembled])
+        return reduced_columns(self.assembler, state, total)
 
     def _section_forces(self, state, total: np.ndarray, load_factor: float, inertia: bool = False) -> None:
         """Add ∂(element internal force − λ gravity load)/∂p into ``total`` for the section values that
@@ -1752,3 +1751,20 @@ class SampledTerms:
             columns = [c for c in range(self.terms.k) if np.any(values[:, c])]
             nodes, forces = owner._load_forces(state, [index] * len(columns), values[:, columns].T)
             total[model.node_dofs[nodes[0]][:, None], np.array(columns)[None, :]] += forces.T
+
+
+def reduced_columns(assembler, state, total: np.ndarray) -> np.ndarray:
+    """Pᵀ ``total`` ((n_total or n_assembled …, k) or a vector on all coordinates) on the minimum coordinates of a
+    model with rigid links or guides at ``state``: ``latdyn_linked_reduce_columns`` (csrc/linked_matrices.c), the
+    residual's reduction of the compiled step (csrc/links.c reduce_links) column by column, with J of ``state``
+    (its dependent nodes completed here) — the call the sensitivities' step in the loop of steps makes."""
+    model = assembler.model
+    native = assembler.native()
+    assembler.complete_links(state)
+    vector = total.ndim == 1
+    columns = np.ascontiguousarray(np.asarray(total, np.float64)[:model.n_assembled].reshape(model.n_assembled, -1))
+    k = columns.shape[1]
+    out = np.empty((model.n_dofs, k))
+    if out.size:
+        native.library.latdyn_linked_reduce_columns(native.model_ref, columns.ctypes.data, k, out.ctypes.data)
+    return out[:, 0] if vector else out

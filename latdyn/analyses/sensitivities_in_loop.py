@@ -21,15 +21,22 @@ derivative laws (and for the rest angle the hinge's stiffness) are values of t a
 and of a joint body's mass, inertia and centre of mass (the generated ``joint_body`` with the use's block, or
 ``joint_body_D_com`` along ∂c/∂p, the blocks made by ``ParameterDerivatives.body_block`` and tabulated alike), of
 a hinge's compliant stops' and friction's law values (the generated ``contact_force_D_law``,
-``friction_force_D_law`` at the hinge's θ, θ̇ in C, times the derivative laws' values tabulated alike), of
+``friction_force_D_law`` at the hinge's θ, θ̇ in C, times the derivative laws' values tabulated alike), a guide's
+laws and its compliant stops' and friction's values (the hinge laws they are, on the slide), of
 geometry parameters (the held variations of ReferenceGeometry taken to the state by the generated
 ``reference_variation_at_state``, then the generated ``beam_internal_force_D_reference`` and
 ``beam_inertia_force_D_reference``, and for a load at a moved offset ``point_load_D_offset`` with the load's values
 tabulated alike, csrc/geometry_forces.c, with the Python path's rows: ``_geometry_refusal``), and
-parameters of ``initial_velocity`` (they move the start only). Not native (the Python path): hinge laws whose
-derivative names θ, θ̇ or an input, guide, cable and controller parameters, section
-values whose derivative is a law in t or an input, rigid links and guides, cables,
-controllers, explicit time dependence beside events (∂r/∂t δt), energy and momentum probes (their work
+parameters of ``initial_velocity`` (they move the start only); on models with rigid links and guides too (up to
+DENSE_LIMIT free coordinates, a dense or band step matrix): M, C and the exact K on the minimum coordinates,
+dense, and ∂r/∂p reduced by Pᵀ, from the compiled step's own reduction (csrc/linked_matrices.c,
+``latdyn_linked_exact_matrices`` and ``latdyn_linked_reduce_columns`` over csrc/links.c's), which the per-step
+Python path calls too (``Assembler.linked_exact_matrix_values``, ``sensitivities.reduced_columns``), S on the full
+n × n pattern. Not native (the Python path): hinge and guide laws whose
+derivative names θ, θ̇ or an input, cable and controller parameters, section
+values whose derivative is a law in t or an input, a rigid link's own section values (its joint body's mass and
+inertia: ``add_link_section_forces``), linked models above DENSE_LIMIT free coordinates or whose step matrix is
+sparse, cables, controllers, explicit time dependence beside events (∂r/∂t δt), energy and momentum probes (their work
 accounts are carried per step in Python), the NumPy kernels, and a numbering whose step matrix takes the
 sparse LU (whose failed pivot falls back to SciPy: :meth:`latdyn.analyses.step_matrix.ExactStepMatrix.solve_step`).
 
@@ -47,7 +54,8 @@ import numpy as np
 from latdyn.analyses.energy_sensitivities import is_energy_or_momentum
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
 from latdyn.analyses.sensitivity_rows import block_rows
-from latdyn.analyses.parameter_keys import BODY_KEY, CONTACT_KEY, FRICTION_KEY, FRICTION_SLOT, HINGE_KEY
+from latdyn.analyses.parameter_keys import (BODY_KEY, CONTACT_KEY, FRICTION_KEY, FRICTION_SLOT, GUIDE_CONTACT_KEY,
+                                            GUIDE_KEY, HINGE_KEY)
 from latdyn.analyses.sensitivities import _INITIAL_VELOCITY_KEY, _LOAD_KEY, _SECTION_KEY
 from latdyn.assembly.native_model import NO_CONTACT
 from latdyn.analyses.step_matrix import turns_about_one_axis
@@ -70,9 +78,10 @@ def refusal(owner) -> str | None:
             continue   # (the geometry parameters: as a whole, _geometry_refusal)
         if _SECTION_KEY.match(key) and not GEOMETRY_KEY.match(key) and all(law.is_constant for law in laws.values()):
             continue
-        why = (_hinge_refusal(owner, key, laws) if HINGE_KEY.match(key) else
+        why = (_hinge_refusal(owner, key, laws) if HINGE_KEY.match(key) or GUIDE_KEY.match(key) else
                _body_refusal(owner, key, laws) if BODY_KEY.match(key) else
-               _joint_law_refusal(owner, key, laws) if CONTACT_KEY.match(key) or FRICTION_KEY.match(key) else
+               _joint_law_refusal(owner, key, laws) if (CONTACT_KEY.match(key) or GUIDE_CONTACT_KEY.match(key)
+                                                        or FRICTION_KEY.match(key)) else
                f"{key}: not a native parameter kind")
         if why is not None:
             return why
@@ -107,7 +116,7 @@ def _hinge_refusal(owner, key: str, laws: dict) -> str | None:
     its ∂r/∂p is the generated hinge_force's at the derivative law's value (ParameterDerivatives._hinge_force), which
     the loop tabulates per grid point where the value is one of t alone — the derivative's, and for the rest angle
     the stiffness's."""
-    hinge = HINGE_KEY.match(key)
+    hinge = owner._key_kinds(key)[1]   # noqa: SLF001 - a guide's law read as the hinge law it is, on its slide
     if owner.kernels.address("hinge_force") is None:
         return "hinge kernels without C libraries"
     if not all(map(_in_time_alone, laws.values())):
@@ -149,16 +158,22 @@ def _body_refusal(owner, key: str, laws: dict) -> str | None:
 
 def model_refusal(owner) -> str | None:
     """Why the run of ``owner`` (a TransientSensitivities) takes every step from Python whatever its parameters'
-    kinds (no parameters, NumPy kernels, rigid links, guides, cables, controllers, explicit time dependence beside
-    events, energy or momentum probes), or None: :func:`refusal`'s part that the discrete
-    adjoint's forward pass, which differentiates nothing as it goes, shares (latdyn/analyses/adjoint_in_loop.py)."""
+    kinds (no parameters, NumPy kernels, cables, controllers, a rigid link's own section values, explicit time
+    dependence beside events, energy or momentum probes), or None: :func:`refusal`'s part that
+    the discrete adjoint's forward pass, which differentiates nothing as it goes, shares
+    (latdyn/analyses/adjoint_in_loop.py, which refuses rigid links and guides itself)."""
     scene, model = owner.scene, owner.model
     if not owner.names:
         return "no parameters"
     if getattr(owner.kernels, "backend", None) != "c":
         return "kernels without C libraries"
-    if model.links is not None or model.cables is not None or scene.controllers:
-        return "rigid links, guides, cables or controllers"
+    if model.cables is not None or scene.controllers:
+        return "cables or controllers"
+    if model.links is not None:
+        from latdyn.analyses.link_sensitivities import link_section_uses
+
+        if link_section_uses(owner):
+            return "a rigid link's section values (its joint body's mass and inertia, from Python)"
     if owner.explicit_time is not None:
         return "explicit time dependence beside events"
     if any(is_energy_or_momentum(probe) for probe in owner.probes):
@@ -200,9 +215,12 @@ class SensitivityLoop:
         self._keep = []
         d, ints = self.data, lambda a: np.ascontiguousarray(a, np.int64)
         ok = n > 0
+        linked = model.links is not None
+        linked_layout = assembler.linked_exact_layout(native) if linked else None
+        ok = ok and (linked_layout is not None or not linked)   # else the reduction from Python (linked.py)
         if ok:
             slots = model.node_dofs[model.free_nodes, 3:6]
-            step_matrix = owner._step_matrix(slots)   # noqa: SLF001 - the Python step's own, per numbering
+            step_matrix = owner._step_matrix(slots, dense=linked)   # noqa: SLF001 - the Python step's own, per numbering
             ok = step_matrix.factorization.kind != "sparse"
         if not ok:
             self._for = (key, False)
@@ -230,11 +248,21 @@ class SensitivityLoop:
             setattr(d, name, self._pointer(array))
         self._dt, self._dh = np.zeros(k), np.zeros(k)
         d.dt, d.dh = self._pointer(self._dt), self._pointer(self._dh)
-        # M, C and the exact K (Assembler.exact_matrix_values), the bodies' inertia stiffness
-        arguments, stiffness = assembler.exact_segments(native)
-        d.n_segments, d.counts, d.first, d.second, d.indices, d.positions = arguments
-        self._keep.append((assembler._exact_held, assembler._positions3, stiffness))   # noqa: SLF001 - what they point into
-        self._mck = np.zeros((3, assembler.pattern()[1].size))
+        # M, C and the exact K (Assembler.exact_matrix_values; with rigid links or guides linked_exact_matrix_values,
+        # dense on the minimum coordinates), the bodies' inertia stiffness
+        d.linked = int(linked)
+        if linked:
+            gather, storage, stiffness = linked_layout
+            d.linked_gather, d.linked_storage = gather.ctypes.data, storage.ctypes.data
+            d.linked_body_D = stiffness.ctypes.data
+            d.n_segments = 0
+            self._keep.append(linked_layout)
+            self._mck = np.zeros((3, n * n))
+        else:
+            arguments, stiffness = assembler.exact_segments(native)
+            d.n_segments, d.counts, d.first, d.second, d.indices, d.positions = arguments
+            self._keep.append((assembler._exact_held, assembler._positions3, stiffness))   # noqa: SLF001 - what they point into
+            self._mck = np.zeros((3, assembler.pattern()[1].size))
         d.mck_size, d.mck = self._mck.size, self._pointer(self._mck)
         bodies = len(model.body_nodes)
         kernel = assembler._body_stiffness_kernel() if bodies else None   # noqa: SLF001

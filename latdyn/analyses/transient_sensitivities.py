@@ -559,15 +559,22 @@ class TransientSensitivities(ParameterDerivatives):
         evaluated here (inside the controllers' condensation, where the step has one), S factorised in the
         call. Without rigid links and guides M, C and K are the values of the assembler's pattern and S is
         summed, factorised and the columns formed and solved in one native call
-        (:meth:`latdyn.analyses.step_matrix.ExactStepMatrix.solve_step`, :meth:`_step_matrix`); with them,
-        the reduction's matrices (:meth:`_matrices`) summed by SciPy. A singular matrix raises SolverError."""
+        (:meth:`latdyn.analyses.step_matrix.ExactStepMatrix.solve_step`, :meth:`_step_matrix`); with them, the
+        same call with M, C and K of the compiled step's reduction dense on the full pattern
+        (``Assembler.linked_exact_matrix_values``, the loop of steps' own), or where that is None (above
+        DENSE_LIMIT coordinates, a sparse storage) the reduction's matrices (:meth:`_matrices`) summed by SciPy.
+        A singular matrix raises SolverError."""
         def singular():
             return SolverError(f"the sensitivities at t = {new.t:.6g} need the step's exact iteration matrix, "
                                "which is singular there")
 
-        if self.model.links is None:
-            step_matrix = self._step_matrix(tangent.slots)
-            values = self.assembler.exact_matrix_values(new)
+        linked = self.model.links is not None
+        # with rigid links or guides the compiled step's reduction (csrc/linked_matrices.c), as the loop of steps;
+        # None: SciPy's below
+        values = (self.assembler.linked_exact_matrix_values(new) if linked else
+                  self.assembler.exact_matrix_values(new))
+        if values is not None:
+            step_matrix = self._step_matrix(tangent.slots, dense=linked)
 
             def solve(explicit, dq0, dv0):
                 try:
@@ -1158,10 +1165,20 @@ class TransientSensitivities(ParameterDerivatives):
         tangent = np.asarray(self.kernels.so3_dexp(psi)[0]).reshape(-1, 3, 3)
         return _NodeRotations(self, turn, slots, n), _NodeRotations(self, tangent, slots, n)
 
-    def _step_matrix(self, slots: np.ndarray) -> "ExactStepMatrix":
+    def _step_matrix(self, slots: np.ndarray, dense: bool = False) -> "ExactStepMatrix":
         """The step's exact iteration matrix β′M + γ′C + K J on the assembler's pattern
-        (:class:`latdyn.analyses.step_matrix.ExactStepMatrix`), built once per numbering."""
+        (:class:`latdyn.analyses.step_matrix.ExactStepMatrix`), built once per numbering; ``dense``: on the full
+        n × n pattern (rigid links and guides: the reduced M, C and K of ``Assembler.linked_exact_matrix_values``)."""
         n = self.model.n_dofs
+        if dense:   # held per numbering (the native model's links are laid out anew with it)
+            key = (self.assembler.native(True), n)
+            held = self.__dict__.get("_held_dense_step_matrix")
+            if held is None or held[0] is not key[0] or held[1] != n or not np.array_equal(held[2], slots):
+                indptr = np.arange(0, n * n + 1, max(n, 1), dtype=np.int64)[:n + 1]
+                indices = np.tile(np.arange(n, dtype=np.int64), n)
+                held = (key[0], n, slots.copy(), ExactStepMatrix(indptr, indices, n, slots, kind="dense"))
+                self._held_dense_step_matrix = held
+            return held[3]
         indptr, indices = self.assembler.pattern()   # new arrays at every renumbering (Assembler.reindex)
         held = self.__dict__.get("_held_step_matrix")
         if held is None or held[0] is not indices or held[1] != n or not np.array_equal(held[2], slots):

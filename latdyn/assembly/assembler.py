@@ -326,6 +326,57 @@ class Assembler:
         native.library.latdyn_exact_matrix_values(*arguments, out.size, out.ctypes.data)
         return out
 
+    def linked_exact_layout(self, native: NativeModel):
+        """The arrays ``latdyn_linked_exact_matrices`` (csrc/linked_matrices.c) reads for ``native`` (a model with
+        rigid links or guides: its links laid out for the compiled step's iteration matrix, which this holds where the
+        step has not yet: ``latdyn.step.compiled.hold_matrix``), made once per native model: (each entry's offset in
+        that storage, n² row-major; a storage of its size other than the step's; the joint bodies' inertia
+        stiffness, 36 each); None where that matrix is sparse or the model has more than DENSE_LIMIT coordinates
+        (the reduction then in Python: latdyn/assembly/linked.py)."""
+        held = self.__dict__.get("_linked_exact_layout")
+        if held is not None and held[0] is native:
+            return held[1]
+        layout = None
+        factorization = None
+        if self.model.links is not None and self.model.n_dofs:
+            from latdyn.step.compiled import hold_matrix   # on use: the compiled step's storage, shared with it
+
+            factorization = hold_matrix(self, native)
+        n = self.model.n_dofs
+        if factorization is not None and factorization.kind in ("dense", "band") and n <= DENSE_LIMIT:
+            rows, cols = np.divmod(np.arange(n * n, dtype=np.int64), max(n, 1))
+            offset = factorization.new[rows] - factorization.new[cols]   # a band's entries: −ku ≤ i − j ≤ kl
+            inside = ((offset >= -factorization.ku) & (offset <= factorization.kl) if factorization.kind == "band"
+                      else np.ones(n * n, bool))
+            gather = np.ascontiguousarray(np.where(inside, factorization.position(rows, cols), -1), np.int64)
+            layout = (gather, np.zeros(max(factorization.values.size, 1)),
+                      np.zeros(max(36 * len(self.model.body_nodes), 1)))
+        self._linked_exact_layout = (native, layout)
+        return layout
+
+    def linked_exact_matrix_values(self, state: State):
+        """(3, n²): M, C and the exact K on the minimum coordinates of a model with rigid links or guides at ``state``
+        (:meth:`exact_matrices`' with the inertia, load factor 1), row-major, from the reduction the compiled step
+        uses (``latdyn_linked_exact_matrices``, csrc/linked_matrices.c: the same call the transient sensitivities'
+        step makes in the loop of steps); None where :meth:`linked_exact_layout` is None."""
+        native = self.native(True)
+        layout = self.linked_exact_layout(native)
+        if layout is None:
+            return None
+        gather, storage, body_D = layout
+        self.complete_links(state)
+        n = self.model.n_dofs
+        out = np.empty((3, n * n))
+        kernel = self._body_stiffness_kernel() if len(self.model.body_nodes) else None
+        rows, gravity = self.body_stiffness_inputs(1.0) if kernel is not None else (body_D, body_D)
+        scratch = np.empty(max(18 * len(self.model.body_nodes), 1))
+        native.laws.bind_inputs()
+        native.library.latdyn_linked_exact_matrices(
+            native.model_ref, native.work_ref, ctypes.byref(native.configuration(state)), float(state.t), kernel,
+            rows.ctypes.data, gravity.ctypes.data, scratch.ctypes.data, body_D.ctypes.data, gather.ctypes.data,
+            storage.ctypes.data, out.ctypes.data)
+        return out
+
     def exact_segments(self, native: NativeModel) -> tuple:
         """(the first arguments of ``latdyn_exact_matrix_values`` for ``native``'s buffers, the array of the joint
         bodies' inertia stiffness it adds to K's body blocks): :meth:`_segments_of`, laid out once per numbering and

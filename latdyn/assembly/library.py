@@ -215,7 +215,9 @@ class SensitivityLoopData(ctypes.Structure):
                 # the carried sensitivities at each row recorded on the way (SensitivityLoop.record_rows)
                 ("row_carried", P),
                 # ∂r/∂p of the geometry parameters (csrc/geometry_forces.c); NULL: none
-                ("geometry", P)]
+                ("geometry", P),
+                # rigid links and guides (csrc/linked_matrices.c)
+                ("linked", I64), ("linked_gather", P), ("linked_storage", P), ("linked_body_D", P)]
 
 
 class GeometryForcesData(ctypes.Structure):
@@ -355,6 +357,11 @@ def native_library() -> ctypes.CDLL:
         library.latdyn_sensitivity_predict.argtypes = [I64, I64, P, I64, P, P, P, P, P, P, P, P, P, P, P]
         library.latdyn_joint_body_inertia_stiffness.restype = None
         library.latdyn_joint_body_inertia_stiffness.argtypes = [model, configuration, P, P, P, P, P]
+        library.latdyn_linked_exact_matrices.restype = None
+        library.latdyn_linked_exact_matrices.argtypes = [model, work, configuration, ctypes.c_double, P, P, P, P, P, P,
+                                                         P, P]
+        library.latdyn_linked_reduce_columns.restype = None
+        library.latdyn_linked_reduce_columns.argtypes = [model, P, I64, P]
         library.latdyn_exact_matrix_values.restype = None
         library.latdyn_exact_matrix_values.argtypes = [I64, P, P, P, P, P, I64, P]
         library.latdyn_section_parameter_forces.restype = None

@@ -281,66 +281,87 @@ static void combined_block(const double *M, const double *C, const double *K, co
  * matrix storage (assemble's counterpart for a model with rigid links): the blocks without a
  * dependent coordinate as assemble scatters them, the others through their expansions, then the
  * geometric stiffness from the dependent nodes' residual rows (L->wrench). */
+static void assemble_linked_into(const Model *m, Work *w, const Configuration *c, double beta_p, double gamma_p,
+                                 int stiffness, int with_inertia_tangent, int rates, const double *body_D,
+                                 double *matrix);
+
 static void assemble_linked(const Model *m, Work *w, const Configuration *c, double beta_p, double gamma_p,
                             int with_inertia_tangent, int rates)
 {
+    assemble_linked_into(m, w, c, beta_p, gamma_p, 1, with_inertia_tangent, rates, NULL, w->matrix);
+}
+
+/* assemble_linked's β′M + γ′C + K into `matrix` (the iteration matrix's storage), K's terms (the blocks' K, the
+ * hinges' ∂/∂θ, the loads', the geometric term, the dependent rates' term) only with `stiffness` (else zero: M or
+ * C alone, as latdyn/assembly/linked.py's combined(1, 0, 0) and (0, 1, 0)); body_D (NULL: none) 36 per joint body
+ * added to its K block, as the elements' inertia tangent D is (the joint bodies' inertia stiffness: the exact K). */
+static void assemble_linked_into(const Model *m, Work *w, const Configuration *c, double beta_p, double gamma_p,
+                                 int stiffness, int with_inertia_tangent, int rates, const double *body_D,
+                                 double *matrix)
+{
     const Links *L = m->links;
     const int64_t W = L->width;
+    static const double zeros[196];
     double S[196];
-    memset(w->matrix, 0, sizeof(double) * m->factorization->size);
+    rates = rates && stiffness;
+    memset(matrix, 0, sizeof(double) * m->factorization->size);
     if (rates) dependent_rates_tangent(m, c);
     for (int64_t e = 0; e < m->n_elements; ++e) {
-        const double *K = w->tangent + 196 * e, *M = w->mass + 196 * e, *C = w->quadratic_D + 196 * e;
-        const double *D = with_inertia_tangent ? w->inertia_tangent + 196 * e : NULL;
+        const double *K = stiffness ? w->tangent + 196 * e : zeros, *M = w->mass + 196 * e;
+        const double *C = w->quadratic_D + 196 * e;
+        const double *D = with_inertia_tangent && stiffness ? w->inertia_tangent + 196 * e : NULL;
         if (L->element_block[e] >= 0) {
             combined_block(M, C, K, D, 196, beta_p, gamma_p, S);
-            reduce_block(L, w->matrix, L->element_block[e], S, M, C, gamma_p, rates);
+            reduce_block(L, matrix, L->element_block[e], S, M, C, gamma_p, rates);
             continue;
         }
-        scatter_block(w->matrix, m->element_position + 196 * e, M, C, K, D, 196, beta_p, gamma_p);
+        scatter_block(matrix, m->element_position + 196 * e, M, C, K, D, 196, beta_p, gamma_p);
     }
     for (int64_t b = 0; b < m->n_bodies; ++b) {
-        const double *M = w->body_mass + 36 * b, *C = w->body_damping + 36 * b, *K = w->body_stiffness + 36 * b;
+        const double *M = w->body_mass + 36 * b, *C = w->body_damping + 36 * b;
+        const double *K = stiffness ? w->body_stiffness + 36 * b : zeros;
+        const double *D = body_D && stiffness ? body_D + 36 * b : NULL;
         if (L->body_block[b] >= 0) {
-            combined_block(M, C, K, NULL, 36, beta_p, gamma_p, S);
-            reduce_block(L, w->matrix, L->body_block[b], S, M, C, gamma_p, rates);
+            combined_block(M, C, K, D, 36, beta_p, gamma_p, S);
+            reduce_block(L, matrix, L->body_block[b], S, M, C, gamma_p, rates);
             continue;
         }
-        scatter_block(w->matrix, m->body_position + 36 * b, M, C, K, NULL, 36, beta_p, gamma_p);
+        scatter_block(matrix, m->body_position + 36 * b, M, C, K, D, 36, beta_p, gamma_p);
     }
     for (int64_t j = 0; j < m->n_hinges; ++j)
         if (m->hinge_position[j] >= 0)
-            w->matrix[m->hinge_position[j]] += gamma_p * w->hinge_d_rate[j] + w->hinge_d_theta[j];
-    for (int64_t l = 0; l < m->n_loads; ++l) {
+            matrix[m->hinge_position[j]] += gamma_p * w->hinge_d_rate[j] + (stiffness ? w->hinge_d_theta[j] : 0.0);
+    for (int64_t l = 0; l < (stiffness ? m->n_loads : 0); ++l) {
         const double *K = w->load_blocks + 36 * l;
         if (L->load_block[l] >= 0) {
-            reduce_block(L, w->matrix, L->load_block[l], K, NULL, NULL, gamma_p, rates);
+            reduce_block(L, matrix, L->load_block[l], K, NULL, NULL, gamma_p, rates);
             continue;
         }
-        scatter_block(w->matrix, m->load_position + 36 * l, NULL, NULL, K, NULL, 36, beta_p, gamma_p);
+        scatter_block(matrix, m->load_position + 36 * l, NULL, NULL, K, NULL, 36, beta_p, gamma_p);
     }
     /* continuous controllers: the actuators' rows by the sensors' coordinates (evaluate.c), an entry
      * at a dependent coordinate through its expansions */
     for (int64_t e = 0; e < m->n_couplings; ++e) {
-        const double value = gamma_p * w->coupling_damping[e] + w->coupling_stiffness[e];
+        const double value = gamma_p * w->coupling_damping[e] + (stiffness ? w->coupling_stiffness[e] : 0.0);
         if (L->coupling_block[e] >= 0)
-            reduce_block(L, w->matrix, L->coupling_block[e], &value, NULL, w->coupling_damping + e, gamma_p, rates);
+            reduce_block(L, matrix, L->coupling_block[e], &value, NULL, w->coupling_damping + e, gamma_p, rates);
         else if (m->coupling_position[e] >= 0)
-            w->matrix[m->coupling_position[e]] += value;
+            matrix[m->coupling_position[e]] += value;
     }
     /* cable elements: γ′C + K of the generated cable_force (no mass), 12 × 12 on both ends' [d, π] */
     for (int64_t e = 0; e < m->n_cables; ++e) {
-        const double *K = w->cable_stiffness + 144 * e, *C = w->cable_damping + 144 * e;
+        const double *K = stiffness ? w->cable_stiffness + 144 * e : zeros, *C = w->cable_damping + 144 * e;
         if (L->cable_block[e] >= 0) {
             combined_block(NULL, C, K, NULL, 144, beta_p, gamma_p, S);
-            reduce_block(L, w->matrix, L->cable_block[e], S, NULL, C, gamma_p, rates);
+            reduce_block(L, matrix, L->cable_block[e], S, NULL, C, gamma_p, rates);
             continue;
         }
-        scatter_block(w->matrix, m->cable_position + 144 * e, NULL, C, K, NULL, 144, beta_p, gamma_p);
+        scatter_block(matrix, m->cable_position + 144 * e, NULL, C, K, NULL, 144, beta_p, gamma_p);
     }
     /* ∂(Pᵀ)/∂q · r_all: each dependent node's wrench (f, m) at x_c, on its root (root_wrench, by δx_r
      * and δx_c) and on every hinge or slide of its path (hinge_wrench or slide_wrench, by the edge
      * parent's δx, δπ and δx_c) */
+    if (!stiffness) return;
     double row[W > 0 ? W : 1];
     /* closure edges (leaves): their wrench r moves the pin as g = transferᵀ r, whose derivative by the pin's
      * position D (slider_closure_wrench, rod_closure_wrench) gives J_pᵀ D J_p on the pin's columns; g joins
@@ -362,7 +383,7 @@ static void assemble_linked(const Model *m, Work *w, const Configuration *c, dou
                 double value = 0.0;
                 for (int a = 0; a < 3; ++a)
                     for (int b = 0; b < 3; ++b) value += Jp[W * a + i] * D[3 * a + b] * Jp[W * b + j];
-                w->matrix[position[W * i + j]] += value;
+                matrix[position[W * i + j]] += value;
             }
         if (L->slot_edge[sp] >= 0)
             for (int a = 0; a < 3; ++a) L->wrench[6 * sp + a] += g[a];
@@ -387,7 +408,7 @@ static void assemble_linked(const Model *m, Work *w, const Configuration *c, dou
                 row[j] = g;
             }
             for (int64_t j = 0; j < count; ++j)
-                if (position[W * i + j] >= 0) w->matrix[position[W * i + j]] += row[j];
+                if (position[W * i + j] >= 0) matrix[position[W * i + j]] += row[j];
         }
         for (int64_t t = s; L->slot_edge[t] >= 0; t = L->edge_parent_slot[L->slot_edge[t]]) {
             const int64_t k = L->slot_edge[t];
@@ -407,7 +428,7 @@ static void assemble_linked(const Model *m, Work *w, const Configuration *c, dou
                 if (j < L->slot_count[sp])
                     for (int q = 0; q < 6; ++q) g += Dh[q] * Jp[W * q + j];
                 for (int q = 0; q < 3; ++q) g += Dh[6 + q] * Jc[W * q + j];
-                if (position[W * column + j] >= 0) w->matrix[position[W * column + j]] += g;
+                if (position[W * column + j] >= 0) matrix[position[W * column + j]] += g;
             }
         }
     }

@@ -25,6 +25,7 @@
 #include "sensitivity_step.c" /* the transient sensitivities' step matrix and solves in one call */
 #include "parameter_forces.c" /* ∂r/∂p of the section values that name a parameter, in one call */
 #include "geometry_forces.c" /* ∂r/∂p of the geometry parameters, in one call */
+#include "linked_matrices.c" /* rigid links: M, C, K and ∂r/∂p on the minimum coordinates for the sensitivities */
 #include "sensitivity_loop.c" /* the transient sensitivities' smooth step in the loop of steps */
 #include "adjoint_trajectory.c" /* the discrete adjoint's forward pass: the accepted steps stored */
 #include "adjoint_reverse.c" /* the discrete adjoint's reverse pass: a smooth step in one call */

@@ -11,7 +11,9 @@
  * joint_body, joint_body_D_com), the compliant stops and friction (the generated contact_force_D_law,
  * friction_force_D_law) and the load components (the generated point_load), with the derivative laws'
  * values the caller tabulated per grid point, S's factorization and the k + 1 solves
- * (latdyn_sensitivity_step), the update (latdyn_sensitivity_update). The calls, their inputs and the order of
+ * (latdyn_sensitivity_step), the update (latdyn_sensitivity_update); with rigid links or guides M, C and the exact
+ * K on the minimum coordinates and ∂r/∂p reduced by Pᵀ (linked_matrices.c, the forward step's reduction).
+ * The calls, their inputs and the order of
  * their sums are the Python step's; latdyn/analyses/sensitivities_in_loop.py lays the struct out and says
  * which runs take it.
  *
@@ -111,6 +113,12 @@ typedef struct {
     double *row_carried;                /* (rows' capacity) × (3 n k + k) */
     /* ∂r/∂p of the geometry parameters (ReferenceGeometry.add, geometry_forces.c); NULL: none */
     const GeometryForces *geometry;
+    /* rigid links and guides (linked_matrices.c); linked 0: none. M, C and the exact K on the minimum coordinates
+     * (dense, n × n each: mck with S's pattern the full one) and ∂r/∂p reduced by Pᵀ */
+    int64_t linked;
+    const int64_t *linked_gather;       /* n²: each entry's offset in the iteration matrix's storage (−1: none) */
+    double *linked_storage;             /* the iteration matrix's storage size: a buffer of the step's own */
+    double *linked_body_D;              /* 36 per joint body: their inertia stiffness */
 } SensitivityLoop;
 
 /* Row r of the rows recorded on the way: the carried δq, δv, δv̇ and δt as the step before it left them. */
@@ -264,7 +272,11 @@ static int64_t sensitivity_loop_step(const Model *m, Work *w, SensitivityLoop *s
     }
     latdyn_sensitivity_predict(n, k, step, s->f, s->slots, s->turn, s->tangent, v_n, a_old, a_new, s->dq, s->dv,
                                s->dvdot, s->da, s->predicted);
-    exact_matrices(m, w, s, c, t);
+    if (s->linked)
+        latdyn_linked_exact_matrices(m, w, c, t, s->body_kernel, s->body_rows, s->body_gravity, s->body_scratch,
+                                     s->linked_body_D, s->linked_gather, s->linked_storage, s->mck);
+    else
+        exact_matrices(m, w, s, c, t);
     /* ∂r/∂p with the inertia forces (ParameterDerivatives.residual_derivatives: the hinges', the sections', the
      * geometry parameters', the joint bodies', the compliant stops' and friction's, then the loads') */
     memset(s->total, 0, sizeof(double) * (size_t)((m->n_total + 1) * k));
@@ -277,6 +289,7 @@ static int64_t sensitivity_loop_step(const Model *m, Work *w, SensitivityLoop *s
     if (s->n_body_uses) body_parameter_forces(m, c, s, grid);
     if (s->n_law_uses) joint_law_parameter_forces(m, c, s, grid);
     load_parameter_forces(m, c, s, grid);
+    if (s->linked) latdyn_linked_reduce_columns(m, s->total, k, s->total);   /* Pᵀ, in place: rows < n */
     for (int64_t i = 0; i < n; ++i) {   /* on the free coordinates, with the step size's column 0 */
         for (int64_t col = 0; col < k; ++col) s->explicit_[i * cols + col] = s->total[i * k + col];
         s->explicit_[i * cols + k] = 0.0;
