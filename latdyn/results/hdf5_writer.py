@@ -188,12 +188,18 @@ class _Attribute:
             array = np.asarray(array, dtype=array.dtype.newbyteorder("<"))  # 0-d stays 0-d
             self.kind, self.shape, self.data = array.dtype, array.shape, array.tobytes()
 
-    def message(self, heap_address: int | None = None, indices=None) -> tuple[int, bytes]:
+    def message(self, heap_address: int = 0, indices=(), encoded=()) -> tuple[int, bytes]:
         """The Attribute message (version 1; version 3 for a non-ASCII name); a variable-length
-        value's strings are objects ``indices`` of the global heap collection at ``heap_address``."""
-        data = self.data if self.strings is None else b"".join(
-            struct.pack("<IQI", len(s), heap_address, i) if len(s) else bytes(16)
-            for s, i in zip((s.encode("utf-8") for s in self.strings), indices))
+        value's strings (``encoded``, UTF-8) are objects ``indices`` of the global heap collection at
+        ``heap_address``."""
+        if self.strings is None:
+            data = self.data
+        else:  # (size, collection, index) a string; an empty string all zeros
+            references = np.zeros(len(self.strings), _REFERENCE)
+            references["size"] = [len(s) for s in encoded]
+            references["collection"] = np.where(references["size"] > 0, heap_address, 0)
+            references["index"] = indices
+            data = references.tobytes()
         datatype, dataspace = _datatype(self.kind), _dataspace(self.shape)
         try:
             name = self.name.encode("ascii") + b"\0"
@@ -205,20 +211,24 @@ class _Attribute:
         return ATTRIBUTE, head + _pad8(name) + _pad8(datatype) + _pad8(dataspace) + data
 
 
+_HEAP_OBJECT = struct.Struct("<HHIQ")  # a global heap object's header: index, references, reserved, size
+_PADS = [bytes(k) for k in range(8)]
+_REFERENCE = np.dtype([("size", "<u4"), ("collection", "<u8"), ("index", "<u4")])  # a variable-length value
+
+
 def _global_heap(strings: list[bytes]) -> tuple[bytes, list[int]]:
     """A global heap collection holding ``strings`` (the empty ones are not stored): its bytes (to
     be written at its address) and each string's object index (0 for an empty one)."""
-    objects, indices = [], []
+    parts, indices, k = [b""], [], 0
     for s in strings:
-        if not s:
-            indices.append(0)
-            continue
-        indices.append(len(objects) + 1)
-        objects.append(struct.pack("<HHIQ", len(objects) + 1, 1, 0, len(s)) + _pad8(s))
-    body = b"".join(objects)
+        if s:
+            k += 1
+            parts += (_HEAP_OBJECT.pack(k, 1, 0, len(s)), s, _PADS[-len(s) % 8])
+        indices.append(k if s else 0)
+    body = b"".join(parts)
     size = max(GLOBAL_HEAP_MIN, 16 + len(body) + 16)
     free = size - 16 - len(body)  # the free-space object (index 0): its size counts its own header
-    return struct.pack("<4sB3xQ", b"GCOL", 1, size) + body + struct.pack("<HHIQ", 0, 0, 0, free) + \
+    return struct.pack("<4sB3xQ", b"GCOL", 1, size) + body + _HEAP_OBJECT.pack(0, 0, 0, free) + \
         bytes(free - 16), indices
 
 
@@ -250,7 +260,7 @@ class _Object:
             heap_address = self.file._append(heap) if heap is not None else 0
             messages, start = [], 0
             for attribute, strings in zip(big, encoded):
-                messages.append(attribute.message(heap_address, indices[start:start + len(strings)]))
+                messages.append(attribute.message(heap_address, indices[start:start + len(strings)], strings))
                 start += len(strings)
             version = self.file.header_version
             chunk = b"".join(_message(kind, data, version) for kind, data in messages)
@@ -437,6 +447,7 @@ class File:
         self.root.links = 1
         self._areas = [(0, 0), (0, 0)]  # the two metadata areas: (address, capacity)
         self._current = 1  # the area the superblock points at (the other is written next)
+        self._flushed = False
         self._leaves: dict = {}  # full B-tree leaves already written: their entries -> address
 
     # -- space
@@ -492,27 +503,28 @@ class File:
     def flush(self, durable: bool = False) -> None:
         """Everything written so far, a complete file: the object headers into the metadata area the
         superblock does not point at, then the superblock (module docstring). ``durable``: synced to
-        the disk before and after the superblock."""
+        the disk before (but at the first flush) and after the superblock."""
         area = 1 - self._current
         address, capacity = self._areas[area]
         blob = self._metadata(address)
-        if len(blob) > capacity:  # a new area at the end of the file, room to grow
-            address = self._eof
-            self._eof += 2 * len(blob) + 512
-            capacity = self._eof - address
+        if len(blob) > capacity:  # a new area at the end of the file, room to grow (the other too, if unused)
+            for which in (area, 1 - area) if self._areas[1 - area][1] == 0 else (area,):
+                address, capacity = self._eof, 2 * len(blob) + 512
+                self._eof += capacity
+                os.pwrite(self._fd, bytes(capacity), address)  # the area's end is in the file
+                self._areas[which] = (address, capacity)
+            address, capacity = self._areas[area]
             blob = self._metadata(address)
-            os.pwrite(self._fd, bytes(capacity - len(blob)), address + len(blob))  # the area's end is in the file
-            self._areas[area] = (address, capacity)
         os.pwrite(self._fd, blob, address)
         root = address + self._root_offset
-        if durable:
+        if durable and self._flushed:  # (a first flush has no earlier file to keep)
             os.fsync(self._fd)
         superblock = SIGNATURE + bytes([0, 0, 0, 0, 0, 8, 8, 0]) + struct.pack("<HHI", 4, 16, 0) + \
             struct.pack("<QQQQ", 0, UNDEFINED, self._eof, UNDEFINED) + struct.pack("<QQII16x", 0, root, 0, 0)
         os.pwrite(self._fd, superblock, 0)
         if durable:
             os.fsync(self._fd)
-        self._current = area
+        self._current, self._flushed = area, True
 
     def _metadata(self, base: int) -> bytes:
         """The object headers of every object reachable from the root (children before parents), as

@@ -162,9 +162,9 @@ class StateHistory:
         self._pending_t.extend(float(t) for t in times[1:])
 
     def write(self, durable: bool = True) -> bool:
-        """Every row so far into the file (atomically; ``durable``: synced to the disk before it
-        replaces the old one); False when there was nothing to write. A durable call with nothing new
-        to write still syncs the file a periodic (not durable) rewrite left on the disk."""
+        """Every row so far into the file (a complete file after it; ``durable``: synced to the disk);
+        False when there was nothing to write. A durable call with nothing new to write still syncs
+        the file a periodic (not durable) write left on the disk."""
         if self.folder is None or self.keys is None:
             return False
         if self.unwritten() == 0:
@@ -194,23 +194,23 @@ class StateHistory:
         """The pending rows appended to ``state.h5`` (created at the first write: under a temporary
         name, then renamed; kept open) and the file flushed (module docstring, "Crash safety")."""
         n_new = len(self._pending_t)
-        if self._file is None:
-            self._create_h5(chunk_rows=None, durable=durable)
+        new = self._file is None
+        if new:
+            self._create_h5(chunk_rows=None)
         self._append_h5(np.asarray(self._pending_t, dtype=float), {k: self._rows(k) for k in self.keys})
         self._file.flush(durable)
+        if new:  # complete on disk before it takes its name
+            self._file.rename(self.path)
         self.rows_on_disk += n_new
         self._pending_t.clear()
         for k in self.keys:
             self._pending[k].clear()
 
-    def _create_h5(self, chunk_rows: dict | None, durable: bool, attributes: dict | None = None,
-                   labels: dict | None = None) -> None:
-        """A new ``state.h5`` with the history's attributes and empty datasets, flushed under a temporary
-        name and renamed (``chunk_rows``: the rows of each key's chunk, ``attributes`` and ``labels``
-        a resumed file's; None: chosen from the first write, as below, and the history's own)."""
-        path = self.path
-        tmp = path.with_name(path.name + ".tmp")
-        f = hdf5_writer.File(tmp, header_version=2)  # as h5py's libver v108 writes them
+    def _create_h5(self, chunk_rows: dict | None, attributes: dict | None = None, labels: dict | None = None) -> None:
+        """A new ``state.h5`` with the history's attributes and empty datasets, under a temporary name
+        (the caller renames it once flushed; ``chunk_rows``: the rows of each key's chunk, ``attributes``
+        and ``labels`` a resumed file's; None: chosen from the first write, as below, and the history's own)."""
+        f = hdf5_writer.File(self.path.with_name(self.path.name + ".tmp"), header_version=2)  # as h5py's libver v108 writes them
         root = f.root
         if attributes is None:
             attributes = {"first_column": self.first_column, "meta": json.dumps(json_safe(self.meta)),
@@ -233,9 +233,6 @@ class StateHistory:
                     dataset.set_attribute("description", STATE_DESCRIPTIONS[k])
             self._datasets[k] = dataset
         self._file = f
-        if chunk_rows is None:  # a new history: its file, empty, takes its name
-            f.flush(durable)
-            f.rename(path)
 
     def _append_h5(self, t: np.ndarray, rows: dict) -> None:
         self._datasets["t"].append(t)
@@ -306,7 +303,7 @@ class StateHistory:
             attributes = {name: _attribute_value(old.attrs, name) for name in old.attrs}
             chunk_rows = {k: old[k].chunks[0] for k in self.keys}
             labels = {k: _attribute_value(old[k].attrs, "columns") for k in self.keys if "columns" in old[k].attrs}
-            self._create_h5(chunk_rows, False, attributes, labels)
+            self._create_h5(chunk_rows, attributes, labels)
             block = max(1, min(chunk_rows.values(), default=1)) * 16
             for start in range(0, rows, block):
                 stop = min(rows, start + block)
