@@ -420,3 +420,28 @@ def test_a_run_killed_after_a_checkpoint_leaves_readable_files(tmp_path):
             n_points = int(f["VTKHDF/NumberOfPoints"][0])
             assert steps >= 1 and f["VTKHDF/Steps/Values"].shape == (steps,)
             assert f["VTKHDF/Points"].shape == (steps * n_points, 3)
+
+
+def test_a_state_whose_labels_do_not_fit_an_object_header_is_written_by_h5py(tmp_path):
+    """More than 4092 labels in one list (a model of more than 454 nodes: 9 columns of T a node) do not
+    fit an object header message of latdyn's writer: h5py writes that state.h5 (its dense attribute
+    storage), as before, resumable; a model of 454 nodes is latdyn's."""
+    from latdyn.results.state_history import StateHistory, state_labels
+
+    for nodes, ours in ((454, True), (455, False)):
+        names = [f"n{k}" for k in range(nodes)]
+        labels = state_labels(names, [])
+        history = StateHistory(tmp_path / str(nodes), "t", {"m": 1}, labels, {"nodes": names, "hinges": []})
+        (tmp_path / str(nodes)).mkdir()
+        for r in range(3):
+            history.add(0.1 * r, {"x": np.full(3 * nodes, r), "T": np.full(9 * nodes, r), "v": np.zeros(3 * nodes),
+                                  "w": np.zeros(3 * nodes)})
+        assert history.write() and history._ours() is ours
+        history.close()
+        with h5py.File(tmp_path / str(nodes) / "state.h5", "r") as f:
+            assert list(f["T"].attrs["columns"]) == labels["T"] and f["T"][()][:, 0].tolist() == [0, 1, 2]
+        again = StateHistory(tmp_path / str(nodes), "t", {"m": 1}, labels, {"nodes": names, "hinges": []})
+        again.reopen(2)
+        again.close()
+        with h5py.File(tmp_path / str(nodes) / "state.h5", "r") as f:
+            assert f["x"].shape == (2, 3 * nodes) and list(f.attrs["nodes"]) == names

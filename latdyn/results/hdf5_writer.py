@@ -25,7 +25,7 @@ the versions HDF5 1.8 and later read, so ParaView's VTK (HDF5 1.14) and h5py (2.
   strings' bytes in a global heap collection of their own (at least 4096 bytes, as HDF5 reads one).
   Large attribute messages live in a continuation chunk of the object header written once (the
   labels of a state history are not written again at every flush); a message is at most 65535
-  bytes (:class:`TooLarge`; 4095 variable-length strings).
+  bytes (:class:`TooLarge`; 4092 variable-length strings in one attribute).
 
 *How a file grows, and why a crash leaves it readable* (:meth:`File.flush`): a chunked dataset's
 chunks are allocated at the end of the file when the first of their rows arrives and written in
@@ -48,7 +48,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["File", "Group", "Dataset", "TooLarge", "VLEN_STR"]
+__all__ = ["File", "Group", "Dataset", "TooLarge", "VLEN_STR", "fits"]
 
 UNDEFINED = 0xFFFFFFFFFFFFFFFF  # an undefined address; an unlimited dimension
 SIGNATURE = b"\x89HDF\r\n\x1a\n"
@@ -230,6 +230,14 @@ def _global_heap(strings: list[bytes]) -> tuple[bytes, list[int]]:
     free = size - 16 - len(body)  # the free-space object (index 0): its size counts its own header
     return struct.pack("<4sB3xQ", b"GCOL", 1, size) + body + _HEAP_OBJECT.pack(0, 0, 0, free) + \
         bytes(free - 16), indices
+
+
+def fits(name: str, value) -> bool:
+    """Whether an attribute ``name`` = ``value`` fits one object header message (65535 bytes: a list
+    of at most 4092 strings): what :class:`TooLarge` refuses at a flush."""
+    attribute = _Attribute(name, value)
+    encoded = [s.encode("utf-8") for s in attribute.strings] if attribute.strings is not None else []
+    return len(_pad8(attribute.message(0, [0] * len(encoded), encoded)[1])) <= MESSAGE_MAX
 
 
 # ----------------------------------------------------------------------------- objects

@@ -1,8 +1,9 @@
 """The state history of a run: every recorded state (node reference points, rotations,
 velocities, hinge angles and rates; one dataset per key, one row per record) in ``state.h5``
 (HDF5, appended to; written by latdyn's own writer, :mod:`latdyn.results.hdf5_writer`, as h5py
-would write it with HDF5 1.8's object format) or, without h5py (which reads it back), ``state.npz``
-(the whole history rewritten). The writer (:class:`latdyn.results.writer.ResultWriter`) decides when
+would write it with HDF5 1.8's object format; for a model of more than 454 nodes, whose labels do
+not fit that writer's attribute messages, by h5py itself, copied, appended to and renamed over the
+old file) or, without h5py (which reads it back), ``state.npz`` (the whole history rewritten). The writer (:class:`latdyn.results.writer.ResultWriter`) decides when
 the rows go to disk (its checkpoints); each write leaves a complete file, and a resumed run cuts it
 back to the rows its bookmark recorded. :mod:`latdyn.results.result` reads it back.
 
@@ -43,6 +44,7 @@ import importlib.util
 import io
 import json
 import os
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -79,6 +81,17 @@ STATE_DESCRIPTIONS = {
 }
 
 
+def _set_attribute(attrs, name: str, value) -> None:
+    """``attrs[name] = value`` through h5py; a list of str as h5py stores it (variable-length UTF-8
+    strings), its type named rather than found by h5py's walk over every item."""
+    import h5py
+
+    if isinstance(value, (list, tuple)) and value and all(type(item) is str for item in value):
+        attrs.create(name, value, dtype=h5py.string_dtype())
+    else:
+        attrs[name] = value
+
+
 def state_labels(nodes, hinges) -> dict:
     """Column labels of the state history of a run, for ``ResultWriter(labels=...)``.
 
@@ -108,6 +121,7 @@ class StateHistory:
         self.rows_on_disk = 0
         self._file = None  # state.h5 open for appending (hdf5_writer.File), its datasets by key
         self._datasets: dict = {}
+        self._fits: bool | None = None  # whether latdyn's writer holds the labels (_ours)
         self._unsynced = False  # the file on disk was last written without a sync
 
     @property
@@ -172,8 +186,10 @@ class StateHistory:
                 fsync_path(self.path)
                 self._unsynced = False
             return False
-        if self.use_h5:
+        if self.use_h5 and self._ours():
             self._write_h5(durable)
+        elif self.use_h5:
+            self._write_h5_through_h5py(durable)
         else:
             self._write_npz(durable)
         self._unsynced = not durable
@@ -245,6 +261,59 @@ class StateHistory:
             self._file.close(durable=False)
             self._file = None
 
+    def _ours(self) -> bool:
+        """Whether latdyn's writer writes the file: every attribute fits an object header message
+        (:func:`latdyn.results.hdf5_writer.fits`: lists of at most 4092 labels, a model of at most 454
+        nodes); else h5py writes it, in HDF5's dense attribute storage (module docstring)."""
+        if self._fits is None:
+            labels = {f"columns of {k}": self.labels[k] for k in self.keys or () if k in self.labels}
+            self._fits = all(hdf5_writer.fits(name, value) for name, value in {**self.attributes, **labels}.items())
+        return self._fits
+
+    def _write_h5_through_h5py(self, durable: bool) -> None:
+        """The rows appended through h5py to a copy of the file, renamed over it (a model whose labels
+        do not fit latdyn's writer: :meth:`_ours`)."""
+        import h5py
+
+        path = self.path
+        tmp = path.with_name(path.name + ".tmp")
+        n_new = len(self._pending_t)
+        if path.is_file():
+            shutil.copyfile(path, tmp)
+            mode = "a"
+        else:
+            mode = "w"
+        # HDF5 1.8 object format: attributes (the labels) may exceed 64 KiB
+        with h5py.File(tmp, mode, libver=("v108", "latest")) as f:
+            if mode == "w":
+                f.attrs["first_column"] = self.first_column
+                f.attrs["meta"] = json.dumps(json_safe(self.meta))
+                for name, value in self.attributes.items():
+                    _set_attribute(f.attrs, name, value)
+                f.create_dataset("t", shape=(0,), maxshape=(None,), dtype="f8", chunks=(1024,))
+                for k in self.keys:
+                    width = self.widths[k]
+                    rows_per_chunk = max(1, min(1024, (1 << 18) // max(1, width), max(FIRST_CHUNK_ROWS, n_new)))
+                    dataset = f.create_dataset(k, shape=(0, width), maxshape=(None, width), dtype="f8",
+                                               chunks=(rows_per_chunk, max(1, width)))
+                    if k in self.labels:
+                        _set_attribute(dataset.attrs, "columns", self.labels[k])
+                        if k in STATE_DESCRIPTIONS:
+                            dataset.attrs["description"] = STATE_DESCRIPTIONS[k]
+            n_old = f["t"].shape[0]
+            f["t"].resize((n_old + n_new,))
+            f["t"][n_old:] = np.asarray(self._pending_t)
+            for k in self.keys:
+                f[k].resize((n_old + n_new, self.widths[k]))
+                f[k][n_old:] = self._rows(k)
+        if durable:
+            fsync_path(tmp)
+        os.replace(tmp, path)
+        self.rows_on_disk += n_new
+        self._pending_t.clear()
+        for k in self.keys:
+            self._pending[k].clear()
+
     def _write_npz(self, durable: bool) -> None:
         # no appending to an NPZ: the whole history stays in memory and is rewritten
         arrays = {"t": np.asarray(self._pending_t, dtype=float)}
@@ -282,9 +351,23 @@ class StateHistory:
         order = [k for k in ("x", "T", "v", "w", "theta", "theta_dot") if k in keys]  # State.as_dict order
         self.keys = order + [k for k in keys if k not in order]
         self.widths = widths
-        if self.use_h5:
+        if self.use_h5 and self._ours():
             self._pending = {k: [] for k in self.keys}
             self._rewrite_h5(rows)
+            self.rows_on_disk = rows
+        elif self.use_h5:  # h5py's file: cut back on a copy, renamed over it
+            import h5py
+
+            self._pending = {k: [] for k in self.keys}
+            if on_disk > rows:
+                tmp = path.with_name(path.name + ".tmp")
+                shutil.copyfile(path, tmp)
+                with h5py.File(tmp, "a") as f:
+                    f["t"].resize((rows,))
+                    for k in keys:
+                        f[k].resize((rows, widths[k]))
+                fsync_path(tmp)
+                os.replace(tmp, path)
             self.rows_on_disk = rows
         else:  # the whole history in memory, as the writer keeps it
             self._pending_t = [float(x) for x in history["t"][:rows]]
