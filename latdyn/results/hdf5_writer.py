@@ -56,6 +56,8 @@ SUPERBLOCK_SIZE = 96
 CHUNK_BTREE_K = 32  # the chunk B-tree's K (superblock version 0 cannot name another): 2K entries a node
 GLOBAL_HEAP_MIN = 4096  # HDF5 reads a global heap collection's first 4096 bytes
 MESSAGE_MAX = 0xFFFF
+_PWRITE = hasattr(os, "pwrite")
+_BINARY = getattr(os, "O_BINARY", 0)  # Windows: no newline translation
 
 #: object header message types (format specification, IV.A.2)
 DATASPACE, LINK_INFO, DATATYPE, FILL_VALUE, LINK, LAYOUT, GROUP_INFO, ATTRIBUTE, CONTINUATION, ATTRIBUTE_INFO, \
@@ -448,9 +450,9 @@ class File:
             raise ValueError(f"object header version {header_version}: 1 or 2")
         self.path = Path(path)
         self.header_version = header_version
-        self._fd = os.open(self.path, os.O_RDWR | os.O_CREAT | os.O_TRUNC, 0o666)
+        self._fd = os.open(self.path, os.O_RDWR | os.O_CREAT | os.O_TRUNC | _BINARY, 0o666)
         self._eof = SUPERBLOCK_SIZE
-        os.pwrite(self._fd, bytes(SUPERBLOCK_SIZE), 0)  # no signature until the first flush
+        self._write(0, bytes(SUPERBLOCK_SIZE))  # no signature until the first flush
         self.root = Group(self)
         self.root.links = 1
         self._areas = [(0, 0), (0, 0)]  # the two metadata areas: (address, capacity)
@@ -462,12 +464,19 @@ class File:
     def _append(self, data: bytes) -> int:
         """``data`` written at the end of the file (8-byte aligned); its address."""
         address = self._eof
-        os.pwrite(self._fd, _pad8(bytes(data)), address)  # the file ends where the superblock says
+        self._write(address, _pad8(bytes(data)))  # the file ends where the superblock says
         self._eof = address + len(data) + (-len(data) % 8)
         return address
 
     def _write(self, address: int, data) -> None:
-        os.pwrite(self._fd, data, address)
+        """``data`` written at ``address`` (``os.pwrite``; a seek and a write where there is none)."""
+        if _PWRITE:
+            os.pwrite(self._fd, data, address)
+            return
+        os.lseek(self._fd, address, os.SEEK_SET)
+        view = memoryview(data)
+        while len(view):
+            view = view[os.write(self._fd, view):]
 
     def _btree(self, chunks: list[int], chunk_rows: int, rank: int, chunk_bytes: int) -> int:
         """A version 1 B-tree (type 1: chunks) over ``chunks`` (addresses, one a chunk of ``chunk_rows``
@@ -519,17 +528,17 @@ class File:
             for which in (area, 1 - area) if self._areas[1 - area][1] == 0 else (area,):
                 address, capacity = self._eof, 2 * len(blob) + 512
                 self._eof += capacity
-                os.pwrite(self._fd, bytes(capacity), address)  # the area's end is in the file
+                self._write(address, bytes(capacity))  # the area's end is in the file
                 self._areas[which] = (address, capacity)
             address, capacity = self._areas[area]
             blob = self._metadata(address)
-        os.pwrite(self._fd, blob, address)
+        self._write(address, blob)
         root = address + self._root_offset
         if durable and self._flushed:  # (a first flush has no earlier file to keep)
             os.fsync(self._fd)
         superblock = SIGNATURE + bytes([0, 0, 0, 0, 0, 8, 8, 0]) + struct.pack("<HHI", 4, 16, 0) + \
             struct.pack("<QQQQ", 0, UNDEFINED, self._eof, UNDEFINED) + struct.pack("<QQII16x", 0, root, 0, 0)
-        os.pwrite(self._fd, superblock, 0)
+        self._write(0, superblock)
         if durable:
             os.fsync(self._fd)
         self._current, self._flushed = area, True
@@ -560,7 +569,7 @@ class File:
             os.close(self._fd)
             self._fd = None
             self.path.replace(path)
-            self._fd = os.open(path, os.O_RDWR)
+            self._fd = os.open(path, os.O_RDWR | _BINARY)
         self.path = path
 
     def close(self, durable: bool = False) -> None:
