@@ -20,30 +20,11 @@ h5py = pytest.importorskip("h5py")
 from h5py import h5a, h5d, h5g, h5o, h5s, h5t  # noqa: E402
 
 from latdyn.results import hdf5_writer  # noqa: E402
+from tests.test_light_run import BLOCK_FRAMES_SCENE  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 
-SCENE = """\
-    title: a 3D arm of two flexible beams, a joint body, a hinge and a tip load
-    gravity: [0, -2.0, -9.81]
-    sections:
-      s: {EA: 1.0e6, EIy: 300, EIz: 500, GJ: 400, rhoA: 1.0, rhoIy: 1.0e-3, rhoIz: 1.0e-3}
-    bodies:
-      base: {at: [0, 0, 0], fixed: true}
-      elbow: {at: [1, 0, 0], mass: 0.5, inertia: [1.0e-3, 2.0e-3, 3.0e-3]}
-      tip: {at: [1.5, 0.5, 0.2], mass: 0.2}
-    beams:
-      a: {from: base, to: {body: elbow, offset: [-0.1, 0, 0]}, section: s, elements: 3,
-          start: {hinge: {axis: [0, 0, 1], torque: "1.0"}}}
-      b: {from: elbow, to: tip, section: s, elements: 3, y_axis: [0, 0, 1]}
-    loads:
-      - {at: tip, force: [0, 0, "-2*sin(20*t)"]}
-    solve: {analysis: transient, t_end: 0.06, dt: 0.002}
-    output:
-      paraview_every: 0.004
-      probes:
-        tip_z: {point: tip, quantity: position, component: z}
-    """
+SCENE = BLOCK_FRAMES_SCENE  # a 3D arm of two flexible beams, a joint body, a hinge and a tip load
 
 
 # ----------------------------------------------------------------------------- what a file holds
