@@ -827,20 +827,26 @@ def test_where_an_open_file_cannot_be_renamed_the_new_paraview_file_is_closed_re
 
 
 def test_a_list_of_labels_is_stored_as_h5py_stores_it(tmp_path):
-    """state.h5's labels (lists of str) are written with their type named: the same attribute (type,
-    character set, shape, values) as h5py's own guess; an empty list and numbers as h5py writes them."""
+    """state.h5's attributes, written by latdyn's own HDF5 writer: the same attribute (type, character
+    set, shape, values) as h5py's own guess for a list of str, an empty list, numbers and a str; a
+    list mixing str and numbers is refused."""
     import h5py
 
-    from latdyn.results.state_history import _set_attribute
+    from latdyn.results import hdf5_writer
 
-    values = {"labels": ["x:0", "ü:1", ""], "empty": [], "numbers": [1.0, 2.0], "text": "a", "mixed": ["a", 1]}
-    with h5py.File(tmp_path / "a.h5", "w") as ours, h5py.File(tmp_path / "b.h5", "w") as theirs:
+    values = {"labels": ["x:0", "ü:1", ""], "empty": [], "numbers": [1.0, 2.0], "text": "a"}
+    ours = hdf5_writer.File(tmp_path / "a.h5", header_version=2)
+    for name, value in values.items():
+        ours.root.set_attribute(name, value)
+    with pytest.raises(ValueError, match="attribute 'mixed'"):
+        ours.root.set_attribute("mixed", ["a", 1])
+    ours.close()
+    with h5py.File(tmp_path / "b.h5", "w", libver=("v108", "latest")) as theirs:
         for name, value in values.items():
-            if name != "mixed":
-                _set_attribute(ours.attrs, name, value)
-                theirs.attrs[name] = value
+            theirs.attrs[name] = value
     with h5py.File(tmp_path / "a.h5", "r") as ours, h5py.File(tmp_path / "b.h5", "r") as theirs:
-        for name in set(values) - {"mixed"}:
+        assert sorted(ours.attrs) == sorted(values)
+        for name in values:
             a, b = ours.attrs.get_id(name), theirs.attrs.get_id(name)
             assert a.get_type().equal(b.get_type()) and a.shape == b.shape, name
             assert np.array_equal(np.asarray(ours.attrs[name]), np.asarray(theirs.attrs[name])), name
@@ -850,29 +856,31 @@ def test_a_list_of_labels_is_stored_as_h5py_stores_it(tmp_path):
                          [((3,), "f8", (4000, 3), None), ((), "f8", (1024,), None), ((), "i8", (1024,), 1),
                           ((), "i8", (1024,), 0), ((1,), "i8", (1024, 1), None), ((6,), "f8", (12, 6), None)])
 def test_a_paraview_files_growing_dataset_is_the_one_h5py_creates(tmp_path, width, dtype, chunks, fillvalue):
-    """The ParaView files' growing datasets, created through h5py's low-level interface, have the
-    creation properties (chunks, fill value and its time, allocation, no times tracked, no filters),
-    type and space of h5py's ``create_dataset`` with the same options."""
+    """The ParaView files' growing datasets, written by latdyn's own HDF5 writer, have the creation
+    properties (chunks, fill value and its time, allocation, no times tracked, no filters), type and
+    space of h5py's ``create_dataset`` with the same options, the fill value where nothing was written,
+    and a hard link to one is the same dataset."""
     import h5py
 
-    from latdyn.results.paraview import _growing_dataset, _link
+    from latdyn.results import hdf5_writer
 
-    with h5py.File(tmp_path / "f.h5", "w") as f:
-        ours = h5py.Dataset(_growing_dataset(f, "ours", width, dtype, chunks, fillvalue=fillvalue))
-        theirs = f.create_dataset("theirs", shape=(0, *width), maxshape=(None, *width), dtype=dtype, chunks=chunks,
-                                  **({} if fillvalue is None else {"fillvalue": fillvalue}))
-        a, b = ours.id.get_create_plist(), theirs.id.get_create_plist()
-        assert a.equal(b)
+    f = hdf5_writer.File(tmp_path / "a.h5")
+    ours = f.root.create_growing("d", width, dtype, chunks, fillvalue=fillvalue)
+    ours.grow(5)
+    f.root.link("offsets/also", ours)
+    f.close()
+    with h5py.File(tmp_path / "b.h5", "w") as g:
+        theirs = g.create_dataset("d", shape=(0, *width), maxshape=(None, *width), dtype=dtype, chunks=chunks,
+                                  track_times=False, **({} if fillvalue is None else {"fillvalue": fillvalue}))
+        theirs.resize((5, *width))
+    with h5py.File(tmp_path / "a.h5", "r") as f, h5py.File(tmp_path / "b.h5", "r") as g:
+        ours, theirs = f["d"], g["d"]
+        assert ours.id.get_create_plist().equal(theirs.id.get_create_plist())
         assert (ours.dtype, ours.shape, ours.maxshape, ours.chunks, ours.fillvalue) == \
                (theirs.dtype, theirs.shape, theirs.maxshape, theirs.chunks, theirs.fillvalue)
         assert ours.id.get_type().equal(theirs.id.get_type())
-        ours.resize((5, *width))
-        theirs.resize((5, *width))
         assert np.array_equal(ours[()], theirs[()])  # the fill value where nothing was written
-        _link(f.require_group("offsets"), "also ours", ours.id)  # a hard link, as h5py's f[name] = dataset
-        f["offsets/also theirs"] = theirs
-        assert f["offsets/also ours"] == ours and f["offsets/also theirs"] == theirs
-        assert f["offsets"].get("also ours", getlink=True).__class__ is h5py.HardLink
+        assert f["offsets/also"] == ours and f["offsets"].get("also", getlink=True).__class__ is h5py.HardLink
 
 
 BLOCK_FRAMES_SCENE = """\

@@ -26,7 +26,8 @@ A part without cells (a scene without beams has no ``beams``) is skipped: it has
 
 How it is written (:class:`ParaviewWriter`): ``OUT/paraview/<part>.vtkhdf``, one HDF5 file
 per part in VTK's VTKHDF format (``Version`` [2, 0], ``Type`` ``UnstructuredGrid``, transient;
-read natively by ParaView >= 5.12 and VTK's ``vtkHDFReader``), written with h5py:
+read natively by ParaView >= 5.12 and VTK's ``vtkHDFReader``), written by latdyn's own HDF5 writer
+(:mod:`latdyn.results.hdf5_writer`, as h5py would write it with HDF5's earliest object format):
 
 ``/VTKHDF`` (attributes ``Version``, ``Type``)
     ``NumberOfPoints``, ``NumberOfCells``, ``NumberOfConnectivityIds`` (1,): the one piece,
@@ -46,15 +47,16 @@ read natively by ParaView >= 5.12 and VTK's ``vtkHDFReader``), written with h5py
 
 Frames are written in blocks: the first creates the file (under a temporary name, flushed, then
 renamed and kept open for appending), later ones gather in memory and
-are appended and flushed (``h5py.File.flush``) every :data:`FRAME_BLOCK` frames or
+are appended and flushed (:meth:`latdyn.results.hdf5_writer.File.flush`) every :data:`FRAME_BLOCK` frames or
 :data:`FRAME_BLOCK_SECONDS`, at every checkpoint and at close (one write a dataset per block:
-~0.2 ms a frame less than one at a time; a block's append costs ~1.5 ms a file, so the default
+~0.2 ms a frame less than one at a time; the default
 ~200 frames of a short run go in one; the frames of a block of rows recorded where the step runs
 come as one :class:`FrameBlock` and are gathered as one piece), so a Ctrl-C or a solver failure (which close the
-file) leave every recorded frame, and a kill between two blocks a complete, readable file of
-the frames up to the last block (at most the last second's frames lost); a kill during a flush may not (HDF5 rewrites its metadata in
-place; the state history, copied and replaced atomically, is the safe record). The files are
-opened without HDF5's file lock, so ParaView can open them while a run goes on.
+file) leave every recorded frame, and a kill at any moment a complete, readable file of
+the frames up to the last flushed block (at most the last second's frames lost): a flush writes the
+file's metadata where the current one is not and rewrites the superblock last. Nothing locks the
+files, so ParaView can open them while a run goes on. *Resuming* writes a part's file anew with the
+bookmark's frames (read through h5py) and renames it over the old one.
 
 *Which frames:* with ``every`` (seconds; ``output.paraview_every``) a record carries a frame
 when its time reaches the next multiple of ``every`` (the first row at or after k · every);
@@ -74,6 +76,8 @@ import time
 from pathlib import Path
 
 import numpy as np
+
+from latdyn.results import hdf5_writer
 
 __all__ = ["ParaviewWriter", "normalise_mesh", "parts", "frame", "frames", "default_every", "part_file",
            "PARAVIEW_DIR", "VTKHDF_VERSION", "DEFAULT_FRAMES"]
@@ -339,153 +343,56 @@ def _vertices(frame_: dict) -> dict:
 
 # ----------------------------------------------------------------------------- one file
 class _PartFile:
-    """The transient VTKHDF file of one part, open for appending (module docstring)."""
+    """The transient VTKHDF file of one part, open for appending (module docstring), written by
+    :mod:`latdyn.results.hdf5_writer`."""
 
     def __init__(self, path: Path, part: dict, keep: int | None = None):
-        import h5py
-
         self.path = path
         self.n_points, self.n_cells = part["n_points"], part["n_cells"]
         self.static = dict(part["cell_data"])
         self._pending: list = []  # blocks of frames appended, not yet in the file (append_block)
         self._pending_frames = 0  # the frames they hold
         self._written_at = time.perf_counter()
-        if keep is None:
-            self.file = None  # created at the first frame, when the arrays' names and shapes are known
-            self.steps = 0
-            self._part = part
-        else:  # resuming: the first `keep` frames stay
-            try:
-                self.file = h5py.File(path, "r+", locking=False)
-                root = self.file["VTKHDF"]
-                on_disk = int(root["Steps"].attrs["NSteps"])
-                self._datasets(root)
-            except (OSError, KeyError, ValueError) as exc:
-                self.close()
-                raise _resume_error(path, f"unreadable ({exc})") from exc
-            if on_disk < keep:
-                self.close()
-                raise _resume_error(path, f"it has {on_disk} frames, the checkpoint recorded {keep}")
-            self._cut(keep)
+        self.file = None  # created at the first frame, when the arrays' names and shapes are known
+        self.steps = 0
+        self._part = part
+        if keep is not None:  # resuming: the first `keep` frames stay
+            self._rewrite(keep)
 
-    def _cut(self, keep: int) -> None:
-        """Keep the first ``keep`` frames."""
-        self.steps = keep
-        self._resize(keep)
-        self._n_steps.write(np.array(keep, dtype=np.int64))
-        self.file.flush()
-
-    def _datasets(self, root, made: dict | None = None) -> None:
-        """What grows with the frames: ``(dataset id, rows per frame, value of a frame or None)``,
-        None for the offsets that are their fill value (0, or 1 parts) at every step. Appending
-        goes through h5py's low-level interface (a few µs a dataset instead of ~100 µs).
-        ``made``: the datasets just created, by path under ``root`` (not looked up again, ~70 µs each)."""
+    def _rewrite(self, keep: int) -> None:
+        """Resume: the file written anew with its first ``keep`` frames (read through h5py), renamed
+        over the old one; kept open."""
         import h5py
 
-        steps = root["Steps"]
-        if made is None:
-            made = root  # a group looks datasets up by path
-            self._point_data = list(root["PointData"])
-            self._cell_data = [name for name in root["CellData"] if name not in self.static]
-        else:  # in the group's order (by name), as listing it gives
-            self._point_data = sorted(name for name in made["PointData"])
-            self._cell_data = sorted(name for name in made["CellData"] if name not in self.static)
-        p, c = self.n_points, self.n_cells
-        # a value of frames k, k + 1, … of a block (arrays with a leading frame axis; t the frames' times)
-        growing = [(made["Points"], p, lambda d, t, k: d["points"])]
-        growing += [(made[f"PointData/{n}"], p, lambda d, t, k, n=n: d["point_data"][n]) for n in self._point_data]
-        growing += [(made[f"CellData/{n}"], c, lambda d, t, k, n=n: d["cell_data"][n]) for n in self._cell_data]
-        growing += [(made["Steps/Values"], 1, lambda d, t, k: t),
-                    (made["Steps/PointOffsets"], 1, lambda d, t, k: np.arange(k, k + len(t), dtype=np.int64) * p)]
-        if self._cell_data:  # the offsets of every changing cell array (hard links to one dataset)
-            growing.append((made[f"Steps/CellDataOffsets/{self._cell_data[0]}"], 1,
-                            lambda d, t, k: np.arange(k, k + len(t), dtype=np.int64) * c))
-        growing += [(made[f"Steps/{name}"], 1, None) for name in ("PartOffsets", "NumberOfParts", "CellOffsets")]
-        ids = [(d if isinstance(d, h5py.h5d.DatasetID) else d.id, rows, value)  # h5py's datasets or their ids
-               for d, rows, value in growing]
-        self._growing = [(d, rows, d.shape[1:], d.dtype, value) for d, rows, value in ids]
-        self._n_steps = h5py.h5a.open(steps.id, b"NSteps")
-
-    def _create(self, first: dict) -> None:
-        import h5py
-
-        part = self._part
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = self.path.with_name(self.path.name + ".tmp")
-        # the default (earliest) file format: a file left open by a killed process stays readable;
-        # no lock: readable while the run goes on
-        f = h5py.File(tmp, "w", locking=False)
-        made = {"PointData": [], "CellData": []}  # what _datasets reads, by path under VTKHDF
-        root = f.create_group("VTKHDF")
-        root.attrs["Version"] = np.array(VTKHDF_VERSION, dtype=np.int64)
-        root.attrs.create("Type", np.bytes_("UnstructuredGrid"))  # fixed-length ASCII, as VTK writes it
-        connectivity = np.concatenate([c.reshape(-1) for _, c in part["cells"]]) if part["cells"] \
-            else np.zeros(0, np.int64)
-        sizes = np.concatenate([np.full(len(c), c.shape[1]) for _, c in part["cells"]]) if part["cells"] \
-            else np.zeros(0, np.int64)
-        types = np.concatenate([np.full(len(c), CELL_TYPES[t]) for t, c in part["cells"]]) if part["cells"] \
-            else np.zeros(0)
-        root["NumberOfPoints"] = np.array([self.n_points], np.int64)
-        root["NumberOfCells"] = np.array([self.n_cells], np.int64)
-        root["NumberOfConnectivityIds"] = np.array([len(connectivity)], np.int64)
-        root["Types"] = types.astype(np.uint8)
-        root["Connectivity"] = connectivity.astype(np.int64)
-        root["Offsets"] = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
-        frames_per_chunk = max(1, 4096 // max(1, self.n_points))
-
-        def growing(group, name, rows, sample):
-            sample = np.asarray(sample, dtype=float)
-            width = sample.shape[1:]
-            return _growing_dataset(group, name, width, "f8", (max(1, rows) * frames_per_chunk, *width))
-
-        made["Points"] = growing(root, "Points", self.n_points, np.zeros((1, 3)))
-        point_data = root.create_group("PointData")
-        for name, value in first["point_data"].items():
-            made[f"PointData/{name}"] = growing(point_data, name, self.n_points, value)
-            made["PointData"].append(name)
-        cell_data = root.create_group("CellData")
-        for name, value in self.static.items():
-            cell_data[name] = value
-            made["CellData"].append(name)
-        for name, value in first["cell_data"].items():
-            made[f"CellData/{name}"] = growing(cell_data, name, self.n_cells, value)
-            made["CellData"].append(name)
-        steps = root.create_group("Steps")
-        steps.attrs["NSteps"] = np.int64(0)
-        made["Steps/Values"] = _growing_dataset(steps, "Values", (), "f8", (1024,))
-        for name, fill in (("PartOffsets", 0), ("NumberOfParts", 1), ("PointOffsets", 0)):
-            made[f"Steps/{name}"] = _growing_dataset(steps, name, (), "i8", (1024,), fillvalue=fill)
-        made["Steps/CellOffsets"] = _growing_dataset(steps, "CellOffsets", (1,), "i8", (1024, 1))
-        _link(steps, "ConnectivityIdOffsets", made["Steps/CellOffsets"])  # both 0: hard links to one dataset
-        offsets = steps.create_group("PointDataOffsets")
-        for name in sorted(made["PointData"]):
-            _link(offsets, name, made["Steps/PointOffsets"])
-        offsets = steps.create_group("CellDataOffsets")
-        changing = None
-        for name in sorted(made["CellData"]):
-            if name in self.static:
-                _link(offsets, name, made["Steps/PartOffsets"])  # stored once: offset 0 at every step
-            elif changing is None:
-                changing = _growing_dataset(offsets, name, (), "i8", (1024,))
-                made[f"Steps/CellDataOffsets/{name}"] = changing
-            else:
-                _link(offsets, name, changing)
-        f.flush()  # complete on disk before it takes the file's name
         try:
-            tmp.replace(self.path)  # kept open: nothing looked up again
-        except OSError:  # a platform that renames no open file: closed, renamed, opened again
-            f.close()
-            tmp.replace(self.path)
-            self.file = h5py.File(self.path, "r+", locking=False)
-            self._datasets(self.file["VTKHDF"])
+            old = h5py.File(self.path, "r", locking=False)
+        except OSError as exc:
+            raise _resume_error(self.path, f"unreadable ({exc})") from exc
+        with old:
+            try:
+                root = old["VTKHDF"]
+                on_disk = int(root["Steps"].attrs["NSteps"])
+                first = {"point_data": {name: root["PointData"][name][:1] for name in root["PointData"]},
+                         "cell_data": {name: root["CellData"][name][:1] for name in root["CellData"]
+                                       if name not in self.static}}
+            except (KeyError, ValueError) as exc:
+                raise _resume_error(self.path, f"unreadable ({exc})") from exc
+            if on_disk < keep:
+                raise _resume_error(self.path, f"it has {on_disk} frames, the checkpoint recorded {keep}")
+            self._create(first, rename=False)
+            p, c = self.n_points, self.n_cells
+            frames = {"points": root["Points"][: keep * p].reshape(keep, p, 3),
+                      "point_data": {n: root["PointData"][n][: keep * p].reshape(keep, p, *root["PointData"][n].shape[1:])
+                                     for n in self._point_data},
+                      "cell_data": {n: root["CellData"][n][: keep * c].reshape(keep, c, *root["CellData"][n].shape[1:])
+                                    for n in self._cell_data}}
+            times = list(root["Steps"]["Values"][:keep])
+        if keep:
+            self._pending, self._pending_frames = [(times, frames)], keep
+            self.write_pending(durable=True)
         else:
-            self.file = f
-            self._datasets(root, made)
-        del self._part
-
-    def _resize(self, steps: int) -> None:
-        for dataset, rows, width, _, _ in self._growing:
-            dataset.set_extent((steps * rows, *width))
+            self.file.flush(durable=True)
+        self.file.rename(self.path)
 
     def append(self, t: float, data: dict) -> None:
         """Append one frame (``{"points", "point_data", "cell_data"}``, checked by the caller): the
@@ -515,31 +422,26 @@ class _PartFile:
             if self._pending_frames >= FRAME_BLOCK or time.perf_counter() - self._written_at >= FRAME_BLOCK_SECONDS:
                 self.write_pending()
 
-    def write_pending(self) -> None:
+    def write_pending(self, durable: bool = False) -> None:
         """The frames gathered since the last write, appended in one write a dataset, then flushed."""
-        import h5py
-
         self._written_at = time.perf_counter()
         if self.file is None or not self._pending:
             return
         k, m = self.steps, self._pending_frames
-        for dataset, rows, width, dtype, value in self._growing:
-            dataset.set_extent(((k + m) * rows, *width))
-            if value is None:  # the fill value
+        for dataset, rows, value in self._growing:
+            if value is None:  # the fill value: the chunks allocated hold it
+                dataset.grow(m * rows)
                 continue
             pieces, first = [], k
             for times, data in self._pending:
-                pieces.append(np.ascontiguousarray(value(data, times, first), dtype=dtype).reshape(len(times) * rows, *width))
+                pieces.append(np.asarray(value(data, times, first), dtype=dataset.dtype).reshape(len(times) * rows, *dataset.width))
                 first += len(times)
-            array = pieces[0] if len(pieces) == 1 else np.concatenate(pieces)
-            space = dataset.get_space()
-            space.select_hyperslab((k * rows, *(0 for _ in width)), array.shape)
-            dataset.write(h5py.h5s.create_simple(array.shape), space, array)
-        self._n_steps.write(np.array(k + m, dtype=np.int64))  # last: a step is complete when counted
+            dataset.append(pieces[0] if len(pieces) == 1 else np.concatenate(pieces))
+        self._steps.set_attribute("NSteps", np.int64(k + m))
         self.steps = k + m
         self._pending.clear()
         self._pending_frames = 0
-        self.file.flush()
+        self.file.flush(durable)
 
     @property
     def frames(self) -> int:
@@ -554,37 +456,76 @@ class _PartFile:
                 self.file.close()
                 self.file = None
 
+    def _create(self, first: dict, rename: bool = True) -> None:
+        """The file's objects (``first``: a frame's point and cell data, their names and widths), under a
+        temporary name, flushed, then renamed (``rename``) and kept open."""
+        part = self._part
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        f = hdf5_writer.File(self.path.with_name(self.path.name + ".tmp"))
+        root = f.root.create_group("VTKHDF")
+        root.set_attribute("Version", np.array(VTKHDF_VERSION, dtype=np.int64))
+        root.set_attribute("Type", np.bytes_("UnstructuredGrid"))  # fixed-length ASCII, as VTK writes it
+        connectivity = np.concatenate([c.reshape(-1) for _, c in part["cells"]]) if part["cells"] \
+            else np.zeros(0, np.int64)
+        sizes = np.concatenate([np.full(len(c), c.shape[1]) for _, c in part["cells"]]) if part["cells"] \
+            else np.zeros(0, np.int64)
+        types = np.concatenate([np.full(len(c), CELL_TYPES[t]) for t, c in part["cells"]]) if part["cells"] \
+            else np.zeros(0)
+        root.create_dataset("NumberOfPoints", np.array([self.n_points], np.int64))
+        root.create_dataset("NumberOfCells", np.array([self.n_cells], np.int64))
+        root.create_dataset("NumberOfConnectivityIds", np.array([len(connectivity)], np.int64))
+        root.create_dataset("Types", types.astype(np.uint8))
+        root.create_dataset("Connectivity", connectivity.astype(np.int64))
+        root.create_dataset("Offsets", np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64))
+        frames_per_chunk = max(1, 4096 // max(1, self.n_points))
+        p, c = self.n_points, self.n_cells
 
-def _growing_dataset(group, name: str, width: tuple, dtype: str, chunks: tuple, fillvalue=None):
-    """``group.create_dataset(name, shape=(0, *width), maxshape=(None, *width), dtype=dtype,
-    chunks=chunks, fillvalue=fillvalue).id`` through h5py's low-level interface: the same dataset
-    (type, space, chunks, fill value, no times tracked; tests/test_light_run.py compares their
-    creation properties) without h5py's checks and guesses of options this file does not use, nor
-    its high-level Dataset object (~0.1 ms a dataset together; a file has ~20). Returns its id."""
-    from h5py import h5d, h5p, h5s, h5t
+        def growing(group, name, rows, sample):
+            width = np.asarray(sample, dtype=float).shape[1:]
+            return group.create_growing(name, width, "f8", (max(1, rows) * frames_per_chunk, *width))
 
-    dcpl = h5p.create(h5p.DATASET_CREATE)
-    dcpl.set_chunk(tuple(chunks))
-    if fillvalue is not None:
-        dcpl.set_fill_value(np.array(fillvalue))
-    dcpl.set_obj_track_times(False)
-    space = h5s.create_simple((0, *width), (h5s.UNLIMITED, *width))
-    return h5d.create(group.id, name.encode(), h5t.py_create(np.dtype(dtype), logical=1), space, dcpl=dcpl)
-
-
-def _link(group, name: str, dataset_id) -> None:
-    """``group[name] = dataset``: a hard link to a dataset given by its low-level id (as h5py links
-    one: intermediate groups created, the name's character set ASCII for an ASCII name)."""
-    from h5py import h5o, h5p, h5t
-
-    lcpl = h5p.create(h5p.LINK_CREATE)
-    lcpl.set_create_intermediate_group(True)
-    try:
-        encoded, charset = name.encode("ascii"), h5t.CSET_ASCII
-    except UnicodeEncodeError:
-        encoded, charset = name.encode("utf-8"), h5t.CSET_UTF8
-    lcpl.set_char_encoding(charset)
-    h5o.link(dataset_id, group.id, encoded, lcpl=lcpl)
+        # what grows with the frames: (dataset, rows a frame, the value of frames k, k + 1, ... of a block
+        # (arrays with a leading frame axis; t the frames' times) or None for the fill value)
+        self._growing = [(growing(root, "Points", p, np.zeros((1, 3))), p, lambda d, t, k: d["points"])]
+        point_data = root.create_group("PointData")
+        self._point_data = sorted(first["point_data"])
+        for name in self._point_data:
+            self._growing.append((growing(point_data, name, p, first["point_data"][name]), p,
+                                  lambda d, t, k, n=name: d["point_data"][n]))
+        cell_data = root.create_group("CellData")
+        for name, value in self.static.items():
+            cell_data.create_dataset(name, np.asarray(value))
+        self._cell_data = sorted(first["cell_data"])
+        for name in self._cell_data:
+            self._growing.append((growing(cell_data, name, c, first["cell_data"][name]), c,
+                                  lambda d, t, k, n=name: d["cell_data"][n]))
+        steps = self._steps = root.create_group("Steps")
+        steps.set_attribute("NSteps", np.int64(0))
+        self._growing.append((steps.create_growing("Values", (), "f8", (1024,)), 1, lambda d, t, k: t))
+        made = {name: steps.create_growing(name, (), "i8", (1024,), fillvalue=fill)
+                for name, fill in (("PartOffsets", 0), ("NumberOfParts", 1), ("PointOffsets", 0))}
+        self._growing.append((made["PointOffsets"], 1, lambda d, t, k: np.arange(k, k + len(t), dtype=np.int64) * p))
+        cell_offsets = steps.create_growing("CellOffsets", (1,), "i8", (1024, 1))
+        steps.link("ConnectivityIdOffsets", cell_offsets)  # both 0: hard links to one dataset
+        self._growing += [(made["PartOffsets"], 1, None), (made["NumberOfParts"], 1, None), (cell_offsets, 1, None)]
+        offsets = steps.create_group("PointDataOffsets")
+        for name in self._point_data:
+            offsets.link(name, made["PointOffsets"])
+        offsets = steps.create_group("CellDataOffsets")
+        changing = None
+        for name in sorted([*self.static, *self._cell_data]):
+            if name in self.static:
+                offsets.link(name, made["PartOffsets"])  # stored once: offset 0 at every step
+            elif changing is None:
+                changing = offsets.create_growing(name, (), "i8", (1024,))
+                self._growing.append((changing, 1, lambda d, t, k: np.arange(k, k + len(t), dtype=np.int64) * c))
+            else:
+                offsets.link(name, changing)
+        self.file = f
+        if rename:
+            f.flush()  # complete on disk before it takes the file's name
+            f.rename(self.path)
+        del self._part
 
 
 def _resume_error(path: Path, why: str):

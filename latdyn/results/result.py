@@ -21,10 +21,16 @@ from latdyn.results.summary import SUMMARY_FILE
 #: written by latdyn/analyses/sensitivities.py (a later layer): ``load_factor|t,<probe>/<NAME>,…``
 SENSITIVITIES_FILE = "sensitivities.csv"
 
-try:  # optional: without it only state.npz can be read
-    import h5py
-except ImportError:  # pragma: no cover - exercised by monkeypatching in the tests
-    h5py = None
+
+
+def _h5py():
+    """h5py, imported when a state.h5 is read (a run writes its HDF5 files without it:
+    :mod:`latdyn.results.hdf5_writer`); None where it is not installed (only state.npz can be read)."""
+    try:
+        import h5py
+    except ImportError:  # pragma: no cover - exercised by monkeypatching in the tests
+        return None
+    return h5py
 
 __all__ = ["Result", "load_state_history", "load_state_labels"]
 
@@ -173,7 +179,7 @@ def _read_modes(path: Path) -> np.ndarray:
 def _state_paths(folder: Path) -> tuple[Path, Path]:
     """The HDF5 and NPZ state-history paths of a results folder; refuses an HDF5 file without h5py."""
     h5_path, npz_path = folder / STATE_H5_FILE, folder / STATE_NPZ_FILE
-    if h5_path.is_file() and h5py is None:
+    if h5_path.is_file() and _h5py() is None:
         raise ResultsError(f"{h5_path}: h5py is needed to read this file")
     return h5_path, npz_path
 
@@ -187,7 +193,7 @@ def load_state_history(out_dir) -> dict:
     folder = Path(out_dir)
     h5_path, npz_path = _state_paths(folder)
     if h5_path.is_file():
-        with h5py.File(h5_path, "r") as f:
+        with _h5py().File(h5_path, "r") as f:
             return {name: f[name][()] for name in f.keys()}
     if npz_path.is_file():
         with np.load(npz_path) as f:
@@ -202,7 +208,7 @@ def load_state_labels(out_dir) -> dict:
     folder = Path(out_dir)
     h5_path, npz_path = _state_paths(folder)
     if h5_path.is_file():
-        with h5py.File(h5_path, "r") as f:
+        with _h5py().File(h5_path, "r") as f:
             out = {str(k): [str(x) for x in np.atleast_1d(v)] for k, v in f.attrs.items()
                    if k not in ("first_column", "meta")}
             out["columns"] = {name: [str(x) for x in f[name].attrs["columns"]]

@@ -1,9 +1,11 @@
 """The state history of a run: every recorded state (node reference points, rotations,
 velocities, hinge angles and rates; one dataset per key, one row per record) in ``state.h5``
-(HDF5, appended to) or, without h5py, ``state.npz`` (the whole history rewritten). The writer
-(:class:`latdyn.results.writer.ResultWriter`) decides when the rows go to disk (its checkpoints);
-each write replaces the file atomically, and a resumed run cuts it back to the rows its bookmark
-recorded. :mod:`latdyn.results.result` reads it back.
+(HDF5, appended to; written by latdyn's own writer, :mod:`latdyn.results.hdf5_writer`, as h5py
+would write it with HDF5 1.8's object format; for a model of more than 454 nodes, whose labels do
+not fit that writer's attribute messages, by h5py itself, copied, appended to and renamed over the
+old file) or, without h5py (which reads it back), ``state.npz`` (the whole history rewritten). The writer (:class:`latdyn.results.writer.ResultWriter`) decides when
+the rows go to disk (its checkpoints); each write leaves a complete file, and a resumed run cuts it
+back to the rows its bookmark recorded. :mod:`latdyn.results.result` reads it back.
 
 ``state.h5`` holds dataset ``t`` ``(n_rows,)`` and one dataset per state key ``(n_rows, width)``,
 with attributes ``first_column`` and ``meta`` (JSON).
@@ -17,26 +19,28 @@ global), ``v`` (its velocity) and ``w`` (spatial angular velocity), labelled ``"
 … ``":z"``, and columns ``9i … 9i+8`` of ``T`` (rotation node axes → global, row-major,
 ``":T[0,0]"`` … ``":T[2,2]"``); hinge ``k`` (``hinges[k]``) owns column ``k`` of ``theta`` and
 ``theta_dot`` (labelled ``"arm.start"``). Datasets of empty arrays (no hinges) are absent.
-*Crash safety, the choice made:* the file on disk is always a complete, closed HDF5 file. New
-rows are held in memory and appended at a checkpoint by copying the current file to
-``state.h5.tmp``, appending to the copy (datasets are resizable and chunked), closing it and
-``os.replace``-ing it over ``state.h5``. A killed process (SIGKILL, a crash of Python) therefore
-loses at most the rows since the last checkpoint and never leaves a half-written file (an HDF5 file
-kept open and flushed can be left unreadable by a kill during a metadata update): what a process
-wrote is the kernel's once written, whatever becomes of the process. Syncing to the disk
-(``fsync``) guards against the operating system's crash or a power loss instead, and is paid where
-a result is complete: the file of the writer's close and of a resume checkpoint
-(:mod:`latdyn.timeloop.checkpoint`) is synced before it replaces the old one, the writer's periodic
-checkpoints are not (a power loss during a run may then leave an older state.h5, or on some file
-systems an empty one, where a killed process leaves the last checkpoint's; 1-3 ms a checkpoint on
-this machine's disk, more on a network one). The writer checkpoints every
-``checkpoint_rows`` rows or ``checkpoint_seconds`` seconds, whichever comes first, but never more
-often than keeps checkpoint time below about 10 % of the run's wall time, and at its close. The
-NPZ fallback keeps the whole history in memory and rewrites ``state.npz`` the same way (temp +
+*Crash safety, the choice made:* the file on disk is always a complete HDF5 file. It is created at
+the first checkpoint under ``state.h5.tmp``, complete, then renamed, and kept open; new rows are held
+in memory and appended at a checkpoint: their chunks are written in place (the datasets are chunked
+and extensible), then the file's metadata is written where the file's current metadata is not, and
+the superblock, rewritten last, points at it (:mod:`latdyn.results.hdf5_writer`). A killed process
+(SIGKILL, a crash of Python) therefore loses at most the rows since the last checkpoint and never
+leaves a half-written file: what a process wrote is the kernel's once written, whatever becomes of
+the process. Syncing to the disk (``fsync``) guards against the operating system's crash or a power
+loss instead, and is paid where a result is complete: at the writer's close and at a resume
+checkpoint (:mod:`latdyn.timeloop.checkpoint`) the file is synced before and after its superblock is
+rewritten; the writer's periodic checkpoints are not synced (a power loss during a run may then
+leave the file of an earlier checkpoint, or on some file systems a damaged one, where a killed
+process leaves the last checkpoint's). The writer checkpoints every ``checkpoint_rows`` rows or
+``checkpoint_seconds`` seconds, whichever comes first, but never more often than keeps checkpoint
+time below about 10 % of the run's wall time, and at its close. A resumed run writes the file anew
+with the rows its bookmark recorded (read through h5py), synced, and renames it over the old one.
+The NPZ fallback keeps the whole history in memory and rewrites ``state.npz`` atomically (temp +
 ``os.replace``); its labels are one JSON string under the key ``_labels``.
 """
 from __future__ import annotations
 
+import importlib.util
 import io
 import json
 import os
@@ -48,10 +52,11 @@ import numpy as np
 from latdyn.errors import ResultsError
 from latdyn.results.files import atomic_write_bytes, fsync_path, json_safe
 
-try:  # optional: the NPZ fallback is used without it
-    import h5py
-except ImportError:  # pragma: no cover - exercised by monkeypatching in the tests
-    h5py = None
+from latdyn.results import hdf5_writer
+
+#: whether h5py is installed (found, not imported: latdyn writes its HDF5 files itself,
+#: :mod:`latdyn.results.hdf5_writer`; h5py reads them back). Without it, the NPZ fallback.
+h5py = True if importlib.util.find_spec("h5py") is not None else None
 
 STATE_H5_FILE = "state.h5"
 
@@ -77,8 +82,10 @@ STATE_DESCRIPTIONS = {
 
 
 def _set_attribute(attrs, name: str, value) -> None:
-    """``attrs[name] = value``; a list of str as h5py stores it (variable-length UTF-8 strings), its
-    type named rather than found by h5py's walk over every item (~0.1 ms for a state's 600 labels)."""
+    """``attrs[name] = value`` through h5py; a list of str as h5py stores it (variable-length UTF-8
+    strings), its type named rather than found by h5py's walk over every item."""
+    import h5py
+
     if isinstance(value, (list, tuple)) and value and all(type(item) is str for item in value):
         attrs.create(name, value, dtype=h5py.string_dtype())
     else:
@@ -112,6 +119,9 @@ class StateHistory:
         self._pending: dict[str, list[np.ndarray]] = {}  # per key, blocks of rows (n_i, width) in order
         self.use_h5 = h5py is not None
         self.rows_on_disk = 0
+        self._file = None  # state.h5 open for appending (hdf5_writer.File), its datasets by key
+        self._datasets: dict = {}
+        self._fits: bool | None = None  # whether latdyn's writer holds the labels (_ours)
         self._unsynced = False  # the file on disk was last written without a sync
 
     @property
@@ -166,9 +176,9 @@ class StateHistory:
         self._pending_t.extend(float(t) for t in times[1:])
 
     def write(self, durable: bool = True) -> bool:
-        """Every row so far into the file (atomically; ``durable``: synced to the disk before it
-        replaces the old one); False when there was nothing to write. A durable call with nothing new
-        to write still syncs the file a periodic (not durable) rewrite left on the disk."""
+        """Every row so far into the file (a complete file after it; ``durable``: synced to the disk);
+        False when there was nothing to write. A durable call with nothing new to write still syncs
+        the file a periodic (not durable) write left on the disk."""
         if self.folder is None or self.keys is None:
             return False
         if self.unwritten() == 0:
@@ -176,8 +186,10 @@ class StateHistory:
                 fsync_path(self.path)
                 self._unsynced = False
             return False
-        if self.use_h5:
+        if self.use_h5 and self._ours():
             self._write_h5(durable)
+        elif self.use_h5:
+            self._write_h5_through_h5py(durable)
         else:
             self._write_npz(durable)
         self._unsynced = not durable
@@ -195,6 +207,74 @@ class StateHistory:
         return np.concatenate(blocks) if blocks else np.zeros((0, self.widths[k]))
 
     def _write_h5(self, durable: bool) -> None:
+        """The pending rows appended to ``state.h5`` (created at the first write: under a temporary
+        name, then renamed; kept open) and the file flushed (module docstring, "Crash safety")."""
+        n_new = len(self._pending_t)
+        new = self._file is None
+        if new:
+            self._create_h5(chunk_rows=None)
+        self._append_h5(np.asarray(self._pending_t, dtype=float), {k: self._rows(k) for k in self.keys})
+        self._file.flush(durable)
+        if new:  # complete on disk before it takes its name
+            self._file.rename(self.path)
+        self.rows_on_disk += n_new
+        self._pending_t.clear()
+        for k in self.keys:
+            self._pending[k].clear()
+
+    def _create_h5(self, chunk_rows: dict | None, attributes: dict | None = None, labels: dict | None = None) -> None:
+        """A new ``state.h5`` with the history's attributes and empty datasets, under a temporary name
+        (the caller renames it once flushed; ``chunk_rows``: the rows of each key's chunk, ``attributes``
+        and ``labels`` a resumed file's; None: chosen from the first write, as below, and the history's own)."""
+        f = hdf5_writer.File(self.path.with_name(self.path.name + ".tmp"), header_version=2)  # as h5py's libver v108 writes them
+        root = f.root
+        if attributes is None:
+            attributes = {"first_column": self.first_column, "meta": json.dumps(json_safe(self.meta)),
+                          **self.attributes}
+        labels = self.labels if labels is None else labels
+        for name, value in attributes.items():
+            root.set_attribute(name, value)
+        self._datasets = {"t": root.create_growing("t", (), "f8", (1024,))}
+        n_new = len(self._pending_t)
+        for k in self.keys:
+            width = self.widths[k]
+            # a chunk of up to 1024 rows and 2 MiB, but no more rows than the first write
+            # brings (at least 64): a short run's file is its rows, not chunks mostly empty
+            rows_per_chunk = chunk_rows[k] if chunk_rows is not None else \
+                max(1, min(1024, (1 << 18) // max(1, width), max(FIRST_CHUNK_ROWS, n_new)))
+            dataset = root.create_growing(k, (width,), "f8", (rows_per_chunk, max(1, width)))
+            if k in labels:
+                dataset.set_attribute("columns", labels[k])
+                if k in STATE_DESCRIPTIONS:
+                    dataset.set_attribute("description", STATE_DESCRIPTIONS[k])
+            self._datasets[k] = dataset
+        self._file = f
+
+    def _append_h5(self, t: np.ndarray, rows: dict) -> None:
+        self._datasets["t"].append(t)
+        for k in self.keys:
+            self._datasets[k].append(rows[k])
+
+    def close(self) -> None:
+        """The file closed (after the last :meth:`write`)."""
+        if self._file is not None:
+            self._file.close(durable=False)
+            self._file = None
+
+    def _ours(self) -> bool:
+        """Whether latdyn's writer writes the file: every attribute fits an object header message
+        (:func:`latdyn.results.hdf5_writer.fits`: lists of at most 4092 labels, a model of at most 454
+        nodes); else h5py writes it, in HDF5's dense attribute storage (module docstring)."""
+        if self._fits is None:
+            labels = {f"columns of {k}": self.labels[k] for k in self.keys or () if k in self.labels}
+            self._fits = all(hdf5_writer.fits(name, value) for name, value in {**self.attributes, **labels}.items())
+        return self._fits
+
+    def _write_h5_through_h5py(self, durable: bool) -> None:
+        """The rows appended through h5py to a copy of the file, renamed over it (a model whose labels
+        do not fit latdyn's writer: :meth:`_ours`)."""
+        import h5py
+
         path = self.path
         tmp = path.with_name(path.name + ".tmp")
         n_new = len(self._pending_t)
@@ -208,13 +288,11 @@ class StateHistory:
             if mode == "w":
                 f.attrs["first_column"] = self.first_column
                 f.attrs["meta"] = json.dumps(json_safe(self.meta))
-                for name, strings in self.attributes.items():
-                    _set_attribute(f.attrs, name, strings)
+                for name, value in self.attributes.items():
+                    _set_attribute(f.attrs, name, value)
                 f.create_dataset("t", shape=(0,), maxshape=(None,), dtype="f8", chunks=(1024,))
                 for k in self.keys:
                     width = self.widths[k]
-                    # a chunk of up to 1024 rows and 2 MiB, but no more rows than the first write
-                    # brings (at least 64): a short run's file is its rows, not chunks mostly empty
                     rows_per_chunk = max(1, min(1024, (1 << 18) // max(1, width), max(FIRST_CHUNK_ROWS, n_new)))
                     dataset = f.create_dataset(k, shape=(0, width), maxshape=(None, width), dtype="f8",
                                                chunks=(rows_per_chunk, max(1, width)))
@@ -256,6 +334,8 @@ class StateHistory:
         if not path.is_file():
             raise ResultsError(f"{path}: cannot resume: the state history is missing")
         if self.use_h5:
+            import h5py
+
             with h5py.File(path, "r") as f:
                 keys = [k for k in f.keys() if k != "t"]
                 widths = {k: int(f[k].shape[1]) for k in keys}
@@ -271,7 +351,13 @@ class StateHistory:
         order = [k for k in ("x", "T", "v", "w", "theta", "theta_dot") if k in keys]  # State.as_dict order
         self.keys = order + [k for k in keys if k not in order]
         self.widths = widths
-        if self.use_h5:
+        if self.use_h5 and self._ours():
+            self._pending = {k: [] for k in self.keys}
+            self._rewrite_h5(rows)
+            self.rows_on_disk = rows
+        elif self.use_h5:  # h5py's file: cut back on a copy, renamed over it
+            import h5py
+
             self._pending = {k: [] for k in self.keys}
             if on_disk > rows:
                 tmp = path.with_name(path.name + ".tmp")
@@ -289,3 +375,32 @@ class StateHistory:
             self.rows_on_disk = on_disk
             if on_disk > rows:
                 self._write_npz(durable=True)
+
+    def _rewrite_h5(self, rows: int) -> None:
+        """Resume: ``state.h5`` written anew with its first ``rows`` rows (read through h5py, in
+        blocks), the same attributes and chunks, synced and renamed over the old one; kept open."""
+        import h5py
+
+        path = self.path
+        with h5py.File(path, "r") as old:
+            attributes = {name: _attribute_value(old.attrs, name) for name in old.attrs}
+            chunk_rows = {k: old[k].chunks[0] for k in self.keys}
+            labels = {k: _attribute_value(old[k].attrs, "columns") for k in self.keys if "columns" in old[k].attrs}
+            self._create_h5(chunk_rows, attributes, labels)
+            block = max(1, min(chunk_rows.values(), default=1)) * 16
+            for start in range(0, rows, block):
+                stop = min(rows, start + block)
+                self._append_h5(np.asarray(old["t"][start:stop]), {k: np.asarray(old[k][start:stop]) for k in self.keys})
+        self._file.flush(durable=True)
+        self._file.rename(path)
+
+
+def _attribute_value(attrs, name: str):
+    """An attribute as h5py reads it, in the form :meth:`hdf5_writer.Group.set_attribute` writes it back
+    the same (str and lists of str, numbers and arrays of them, ``np.bytes_``)."""
+    value = attrs[name]
+    if isinstance(value, np.ndarray) and value.dtype.kind == "O":
+        return [v.decode("utf-8") if isinstance(v, bytes) else str(v) for v in value.tolist()]
+    if isinstance(value, bytes):
+        return np.bytes_(value)
+    return value

@@ -3,9 +3,10 @@ writes, into ``out_dir``, each output through the module that holds its format:
 
 ``probes.csv``
     One row per :meth:`ResultWriter.record` (:mod:`latdyn.results.probes_csv`).
-``state.h5`` (or ``state.npz`` when h5py is missing)
-    The full state history, rewritten atomically at the writer's checkpoints
-    (:mod:`latdyn.results.state_history`).
+``state.h5`` (or ``state.npz`` when h5py, which reads it back, is missing)
+    The full state history, appended to at the writer's checkpoints, a complete file after each
+    (:mod:`latdyn.results.state_history`; written by :mod:`latdyn.results.hdf5_writer`, as are the
+    ParaView files).
 ``paraview/beams.vtkhdf``, ``paraview/bodies.vtkhdf``
     One transient VTKHDF file per part of ``mesh``, frames at ``paraview_every``
     (:mod:`latdyn.results.paraview`).
@@ -303,11 +304,11 @@ class ResultWriter:
         return due and since >= max(self.checkpoint_min_seconds, 9.0 * self._last_checkpoint_cost)
 
     def checkpoint(self, durable: bool = True) -> None:
-        """Rewrite the state history on disk now (atomically), with every row so far; the probe
-        rows not yet in probes.csv and the ParaView frames not yet in their files go there first.
-        ``durable``: the new file synced to the disk before it replaces the old one (at the close and
-        for a resume checkpoint; the writer's periodic checkpoints need only the atomic replacement:
-        :mod:`latdyn.results.state_history`, "Crash safety")."""
+        """Write the state history on disk now, with every row so far (a complete file after it); the
+        probe rows not yet in probes.csv and the ParaView frames not yet in their files go there first.
+        ``durable``: the file synced to the disk (at the close and for a resume checkpoint; the writer's
+        periodic checkpoints need only a complete file: :mod:`latdyn.results.state_history`, "Crash
+        safety")."""
         self._probes.flush()
         if self._paraview is not None:
             self._paraview.write_pending()
@@ -349,6 +350,7 @@ class ResultWriter:
         try:
             self.checkpoint()
         finally:
+            self._state.close()
             try:
                 if self._paraview is not None:
                     self._paraview.close()  # the last record's frame when the schedule skipped it
