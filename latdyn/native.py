@@ -42,7 +42,6 @@ import importlib.util
 import os
 import re
 import shutil
-import subprocess
 import sys
 import time
 from pathlib import Path
@@ -148,6 +147,8 @@ def compiler() -> Compiler:
                     break
                 except OSError:
                     pass
+            import subprocess  # on use: a run that finds its compiler's version stored imports none (≈ 2 ms)
+
             try:
                 result = subprocess.run([*command, "--version"], capture_output=True, timeout=120, check=False)
             except (OSError, subprocess.SubprocessError) as error:
@@ -259,6 +260,8 @@ def isa_macros(using: Compiler | None = None, chosen: str = "native") -> frozens
             except (OSError, UnicodeDecodeError):
                 macros = None
         if macros is None:
+            import subprocess
+
             try:
                 result = subprocess.run([*using.command, f"-march={chosen}", "-dM", "-E", "-x", "c", os.devnull],
                                         capture_output=True, timeout=120, check=False)
@@ -375,6 +378,7 @@ def load(path: Path) -> ctypes.CDLL:
 
 
 def _compile(using: Compiler, source: bytes, path: Path, name: str, flags) -> None:
+    import subprocess
     import tempfile
 
     with tempfile.TemporaryDirectory(dir=path.parent, prefix=".build-") as scratch:

@@ -9,6 +9,9 @@ import sys
 import textwrap
 from pathlib import Path
 
+import numpy as np
+import pytest
+
 ROOT = Path(__file__).resolve().parents[1]
 
 CHAIN = """\
@@ -120,6 +123,30 @@ def test_a_run_finds_the_generated_sources_without_importlib_resources(tmp_path)
 
     for package in ("latdyn_generated", "latdyn.assembly", "latdyn"):
         assert package_folder(package) == files(package)
+
+
+def test_a_process_that_finds_its_compiler_stored_imports_no_subprocess(tmp_path):
+    """The compiler, its ``-march`` flags and the kernels' cache are found in a process after the first
+    without starting a process, and without importing ``subprocess`` (≈ 2 ms of a fresh run's imports;
+    docs/performance.md, "Twelfth pass"): only a compile or a compiler asked anew imports it."""
+    code = textwrap.dedent("""
+        import json, sys
+        sys.modules.pop("subprocess", None)  # a site's .pth may have imported it: forgotten, seen if imported again
+        from latdyn import native
+        native.vector_flags(native.compiler())  # the first process asks the compiler and stores its answers
+        print(json.dumps({"subprocess": "subprocess" in sys.modules}))
+        """)
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""),
+               LATDYN_CACHE_DIR=str(tmp_path / "cache"))
+    env.pop("CC", None)
+    seen = []
+    for _ in range(2):
+        done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=600)
+        assert done.returncode == 0, done.stderr[-2000:]
+        seen.append(json.loads(done.stdout.strip().splitlines()[-1])["subprocess"])
+    if not list((tmp_path / "cache").glob("compiler-*.txt")):
+        pytest.skip("no compiler version stored (no cc on PATH)")
+    assert seen == [True, False]
 
 
 def test_the_step_library_is_found_by_its_index_without_reading_its_sources(monkeypatch, tmp_path):
