@@ -37,7 +37,6 @@ Runtime code: it imports neither SymPy nor the code generator.
 from __future__ import annotations
 
 import ctypes
-import hashlib
 import importlib.util
 import os
 import re
@@ -45,6 +44,8 @@ import shutil
 import sys
 import time
 from pathlib import Path
+
+from latdyn.digest import sha256
 
 #: Flags of every unit (the kernels choose their own -O level, kernels.optimisation).
 #: ``-ffp-contract=off``: a compiler may not fuse a * b + c into one FMA (Clang, zig cc, does by
@@ -241,7 +242,7 @@ def vector_flags(using: Compiler | None = None) -> tuple[str, ...]:
                                f"({', '.join(name.strip('_') for name in lacking[:6])}"
                                f"{', ...' if len(lacking) > 6 else ''}): its kernels would stop on "
                                f"an illegal instruction; unset it (native) or name a smaller set")
-    return (f"-march={chosen}", "-DLATDYN_ISA=" + hashlib.sha256("\n".join(sorted(defined)).encode()).hexdigest()[:12])
+    return (f"-march={chosen}", "-DLATDYN_ISA=" + sha256("\n".join(sorted(defined)).encode()).hexdigest()[:12])
 
 
 def isa_macros(using: Compiler | None = None, chosen: str = "native") -> frozenset[str]:
@@ -300,7 +301,7 @@ def _stored_macros(using: Compiler, chosen: str) -> Path | None:
     cpu = _cpu_identity()
     if cpu is None:
         return None
-    digest = hashlib.sha256(b"\0".join([using.identity(), chosen.encode(), cpu])).hexdigest()[:16]
+    digest = sha256(b"\0".join([using.identity(), chosen.encode(), cpu])).hexdigest()[:16]
     return cache_dir() / f"isa-{digest}.txt"
 
 
@@ -399,7 +400,7 @@ def _compile(using: Compiler, source: bytes, path: Path, name: str, flags) -> No
 
 def source_digest(*parts) -> str:
     """sha256 (first 20 hex) of text or bytes parts, each closed by a NUL."""
-    digest = hashlib.sha256()
+    digest = sha256()
     for part in parts:
         digest.update((part if isinstance(part, bytes) else str(part).encode()) + b"\0")
     return digest.hexdigest()[:20]

@@ -149,6 +149,47 @@ def test_a_process_that_finds_its_compiler_stored_imports_no_subprocess(tmp_path
     assert seen == [True, False]
 
 
+def test_the_cache_keys_are_hashlibs_sha256_and_a_run_loads_no_openssl(tmp_path):
+    """:func:`latdyn.digest.sha256` is ``hashlib.sha256`` digest for digest (the kernel cache's keys and the
+    scene's ``source_hash`` unchanged), and a run in a fresh process (kernels from the cache) imports neither
+    ``hashlib`` nor OpenSSL's ``_hashlib`` where Python has its own SHA-256 (≈ 3 ms of a fresh run;
+    docs/performance.md, "Twelfth pass")."""
+    import hashlib
+
+    from latdyn.digest import sha256
+    from latdyn.native import source_digest
+
+    rng = np.random.default_rng(3)
+    for size in (0, 1, 55, 56, 64, 1000, 300_000):
+        data = rng.integers(0, 256, size, dtype=np.uint8).tobytes()
+        assert sha256(data).hexdigest() == hashlib.sha256(data).hexdigest()
+        ours, theirs = sha256(), hashlib.sha256()
+        for chunk in (data[: size // 3], data[size // 3:], b"\0"):
+            ours.update(chunk)
+            theirs.update(chunk)
+        assert ours.hexdigest() == theirs.hexdigest() and ours.digest() == theirs.digest()
+    assert source_digest("a", b"b", 3) == hashlib.sha256(b"a\0b\x003\0").hexdigest()[:20]
+    scene = tmp_path / "chain.yaml"
+    scene.write_text(CHAIN)
+    code = textwrap.dedent(f"""
+        import importlib.util, json, sys
+        for name in [m for m in sys.modules if m in ("hashlib", "_hashlib")]:
+            del sys.modules[name]  # a site's .pth may have imported them: forgotten, seen if imported again
+        import latdyn
+        result = latdyn.run(latdyn.load_scene({str(scene)!r}))  # fills the cache if need be
+        own = any(importlib.util.find_spec(m) is not None for m in ("_sha256", "_sha2"))
+        print(json.dumps({{"own": own, "imported": sorted(m for m in sys.modules if m in ("hashlib", "_hashlib"))}}))
+        """)
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    for _ in range(2):  # the second process finds everything in the cache
+        done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=600)
+        assert done.returncode == 0, done.stderr[-2000:]
+    seen = json.loads(done.stdout.strip().splitlines()[-1])
+    if not seen["own"]:
+        pytest.skip("this Python has no SHA-256 of its own: hashlib's serves")
+    assert seen["imported"] == []
+
+
 def test_the_step_library_is_found_by_its_index_without_reading_its_sources(monkeypatch, tmp_path):
     """``native_library`` in a process after the first finds the compiled step through its index in the
     cache (``index-newton_step-*.txt``, under the csrc files' identities) without reading and digesting its

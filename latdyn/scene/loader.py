@@ -63,7 +63,6 @@ Limits, so that a scene is refused rather than hang or exhaust memory:
 from __future__ import annotations
 
 import copy
-import hashlib
 import json
 import keyword
 import math
@@ -75,6 +74,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from latdyn.digest import sha256
 from latdyn.errors import SceneError, show_value
 from latdyn.records import record
 from latdyn.scene.controllers import Controller, controller_names, read_controllers
@@ -1635,7 +1635,7 @@ class _Reader:
 # =========================================================================== entry points
 def _canonical_hash(raw: Any) -> str:
     text = json.dumps(raw, sort_keys=True, separators=(",", ":"), ensure_ascii=False, default=str)
-    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+    return sha256(text.encode("utf-8")).hexdigest()
 
 
 def _plain_data(value: Any, memo: dict | None = None) -> Any:
