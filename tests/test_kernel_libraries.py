@@ -190,6 +190,43 @@ def test_the_cache_keys_are_hashlibs_sha256_and_a_run_loads_no_openssl(tmp_path)
     assert seen["imported"] == []
 
 
+def test_the_laws_generator_version_is_found_by_its_index_without_reading_codegen(monkeypatch, tmp_path):
+    """``compiled_laws.generator_version`` in a process after the first comes from its index in the cache
+    (``index-laws-generator-*.txt``, under the files' identities) without reading the 0.38 MB of codegen/ and
+    expressions.py (≈ 1.3 ms of a fresh run; docs/performance.md, "Twelfth pass"): the same version as the
+    files' digest. A file whose identity changes (edited) changes the index's name."""
+    from pathlib import Path as _Path
+
+    from latdyn import native
+    from latdyn.assembly import compiled_laws
+    from latdyn.scene.expressions import sympy_version
+
+    monkeypatch.setenv("LATDYN_CACHE_DIR", str(tmp_path / "cache"))
+    folder = ROOT / "codegen"
+    files = sorted(folder.glob("*.py")) + sorted((folder / "templates").glob("*.j2"))
+    files.append(ROOT / "latdyn" / "scene" / "expressions.py")
+    expected = native.source_digest(*[path.read_bytes() for path in files], sympy_version())
+    read = []
+    real_read = _Path.read_bytes
+
+    def reading(path):
+        read.append(path)
+        return real_read(path)
+
+    monkeypatch.setattr(_Path, "read_bytes", reading)
+    for reads in (True, False):  # the first process digests the files, the next finds the index
+        monkeypatch.setattr(compiled_laws, "_VERSION", [])
+        read.clear()
+        assert compiled_laws.generator_version() == expected
+        assert bool(read) is reads
+    assert len(list((tmp_path / "cache").glob("index-laws-generator-*.txt"))) == 1
+    edited = tmp_path / "edited.py"
+    edited.write_text("a = 1\n")
+    before = compiled_laws._version_index([edited], None)
+    edited.write_text("a = 22\n")
+    assert compiled_laws._version_index([edited], None) != before
+
+
 def test_the_step_library_is_found_by_its_index_without_reading_its_sources(monkeypatch, tmp_path):
     """``native_library`` in a process after the first finds the compiled step through its index in the
     cache (``index-newton_step-*.txt``, under the csrc files' identities) without reading and digesting its
