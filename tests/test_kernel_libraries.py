@@ -190,6 +190,18 @@ def test_the_cache_keys_are_hashlibs_sha256_and_a_run_loads_no_openssl(tmp_path)
     assert seen["imported"] == []
 
 
+def _calls(monkeypatch, owner, name: str) -> list:
+    """The first arguments of every call of ``owner.name`` from now on (the function still runs)."""
+    calls, real = [], getattr(owner, name)
+
+    def recorded(first, *args, **kwargs):
+        calls.append(first)
+        return real(first, *args, **kwargs)
+
+    monkeypatch.setattr(owner, name, recorded)
+    return calls
+
+
 def test_the_laws_generator_version_is_found_by_its_index_without_reading_codegen(monkeypatch, tmp_path):
     """``compiled_laws.generator_version`` in a process after the first comes from its index in the cache
     (``index-laws-generator-*.txt``, under the files' identities) without reading the 0.38 MB of codegen/ and
@@ -206,14 +218,7 @@ def test_the_laws_generator_version_is_found_by_its_index_without_reading_codege
     files = sorted(folder.glob("*.py")) + sorted((folder / "templates").glob("*.j2"))
     files.append(ROOT / "latdyn" / "scene" / "expressions.py")
     expected = native.source_digest(*[path.read_bytes() for path in files], sympy_version())
-    read = []
-    real_read = _Path.read_bytes
-
-    def reading(path):
-        read.append(path)
-        return real_read(path)
-
-    monkeypatch.setattr(_Path, "read_bytes", reading)
+    read = _calls(monkeypatch, _Path, "read_bytes")
     for reads in (True, False):  # the first process digests the files, the next finds the index
         monkeypatch.setattr(compiled_laws, "_VERSION", [])
         read.clear()
@@ -237,14 +242,7 @@ def test_the_step_library_is_found_by_its_index_without_reading_its_sources(monk
     from latdyn import native
     from latdyn.assembly import library
 
-    read = []
-    original = library.library_source
-
-    def counted(name):
-        read.append(name)
-        return original(name)
-
-    monkeypatch.setattr(library, "library_source", counted)
+    read = _calls(monkeypatch, library, "library_source")
     monkeypatch.setattr(library, "_LIBRARY", None)
     first = library.native_library()._name  # fills the index if this cache has none
     monkeypatch.setattr(library, "_LIBRARY", None)  # a later process
