@@ -242,7 +242,10 @@ def vector_flags(using: Compiler | None = None) -> tuple[str, ...]:
                                f"({', '.join(name.strip('_') for name in lacking[:6])}"
                                f"{', ...' if len(lacking) > 6 else ''}): its kernels would stop on "
                                f"an illegal instruction; unset it (native) or name a smaller set")
-    return (f"-march={chosen}", "-DLATDYN_ISA=" + sha256("\n".join(sorted(defined)).encode()).hexdigest()[:12])
+    key = (chosen, defined)  # the macros' digest once a process (a run asks for the flags three times)
+    if key not in _FLAGS:
+        _FLAGS[key] = (f"-march={chosen}", "-DLATDYN_ISA=" + sha256("\n".join(sorted(defined)).encode()).hexdigest()[:12])
+    return _FLAGS[key]
 
 
 def isa_macros(using: Compiler | None = None, chosen: str = "native") -> frozenset[str]:
@@ -326,6 +329,7 @@ def _store_bytes(path: Path, data: bytes) -> None:
 
 
 _VECTOR_FLAGS: dict[tuple[bytes, str], frozenset[str]] = {}
+_FLAGS: dict[tuple[str, frozenset[str]], tuple[str, str]] = {}  # vector_flags' result by -march= and its macros
 
 
 def target(name: str, source: bytes, flags=C_FLAGS, using: Compiler | None = None) -> Path:
