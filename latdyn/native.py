@@ -37,15 +37,15 @@ Runtime code: it imports neither SymPy nor the code generator.
 from __future__ import annotations
 
 import ctypes
-import hashlib
 import importlib.util
 import os
 import re
 import shutil
-import subprocess
 import sys
 import time
 from pathlib import Path
+
+from latdyn.digest import sha256
 
 #: Flags of every unit (the kernels choose their own -O level, kernels.optimisation).
 #: ``-ffp-contract=off``: a compiler may not fuse a * b + c into one FMA (Clang, zig cc, does by
@@ -148,6 +148,8 @@ def compiler() -> Compiler:
                     break
                 except OSError:
                     pass
+            import subprocess  # on use: a run that finds its compiler's version stored imports none (≈ 2 ms)
+
             try:
                 result = subprocess.run([*command, "--version"], capture_output=True, timeout=120, check=False)
             except (OSError, subprocess.SubprocessError) as error:
@@ -240,7 +242,10 @@ def vector_flags(using: Compiler | None = None) -> tuple[str, ...]:
                                f"({', '.join(name.strip('_') for name in lacking[:6])}"
                                f"{', ...' if len(lacking) > 6 else ''}): its kernels would stop on "
                                f"an illegal instruction; unset it (native) or name a smaller set")
-    return (f"-march={chosen}", "-DLATDYN_ISA=" + hashlib.sha256("\n".join(sorted(defined)).encode()).hexdigest()[:12])
+    key = (chosen, defined)  # the macros' digest once a process (a run asks for the flags three times)
+    if key not in _FLAGS:
+        _FLAGS[key] = (f"-march={chosen}", "-DLATDYN_ISA=" + sha256("\n".join(sorted(defined)).encode()).hexdigest()[:12])
+    return _FLAGS[key]
 
 
 def isa_macros(using: Compiler | None = None, chosen: str = "native") -> frozenset[str]:
@@ -259,6 +264,8 @@ def isa_macros(using: Compiler | None = None, chosen: str = "native") -> frozens
             except (OSError, UnicodeDecodeError):
                 macros = None
         if macros is None:
+            import subprocess
+
             try:
                 result = subprocess.run([*using.command, f"-march={chosen}", "-dM", "-E", "-x", "c", os.devnull],
                                         capture_output=True, timeout=120, check=False)
@@ -297,7 +304,7 @@ def _stored_macros(using: Compiler, chosen: str) -> Path | None:
     cpu = _cpu_identity()
     if cpu is None:
         return None
-    digest = hashlib.sha256(b"\0".join([using.identity(), chosen.encode(), cpu])).hexdigest()[:16]
+    digest = sha256(b"\0".join([using.identity(), chosen.encode(), cpu])).hexdigest()[:16]
     return cache_dir() / f"isa-{digest}.txt"
 
 
@@ -322,6 +329,7 @@ def _store_bytes(path: Path, data: bytes) -> None:
 
 
 _VECTOR_FLAGS: dict[tuple[bytes, str], frozenset[str]] = {}
+_FLAGS: dict[tuple[str, frozenset[str]], tuple[str, str]] = {}  # vector_flags' result by -march= and its macros
 
 
 def target(name: str, source: bytes, flags=C_FLAGS, using: Compiler | None = None) -> Path:
@@ -405,6 +413,7 @@ def load(path: Path) -> ctypes.CDLL:
 
 
 def _compile(using: Compiler, source: bytes, path: Path, name: str, flags) -> None:
+    import subprocess
     import tempfile
 
     with tempfile.TemporaryDirectory(dir=path.parent, prefix=".build-") as scratch:
@@ -425,7 +434,7 @@ def _compile(using: Compiler, source: bytes, path: Path, name: str, flags) -> No
 
 def source_digest(*parts) -> str:
     """sha256 (first 20 hex) of text or bytes parts, each closed by a NUL."""
-    digest = hashlib.sha256()
+    digest = sha256()
     for part in parts:
         digest.update((part if isinstance(part, bytes) else str(part).encode()) + b"\0")
     return digest.hexdigest()[:20]

@@ -123,6 +123,40 @@ def test_a_stiff_flexible_pendulum_swings_as_the_rigid_link():
     assert np.abs(flexible - rigid).max() < 5e-4
 
 
+def test_a_scene_that_moves_nothing_starts_at_rest_without_walking_its_joints(monkeypatch):
+    """Without ``initial_velocity``, prescribed bodies and prescribed angles every part's carried motion is
+    0 and every loop closes at rest: the start does not walk the joints (≈ 4 ms of the 16-bay lattice's
+    start; docs/performance.md, "Twelfth pass"), and its state is the walk's, bit for bit (the signs of
+    the zeros too), for the two loops of rigid links and flexible beams below with their drives free."""
+    from latdyn.assembly import initial
+    from latdyn.assembly.prepare import prepare
+
+    at_rest = yaml.safe_load(TWO_LOOPS)
+    for name in ("crank", "drive"):
+        del at_rest["beams"][name]["start"]["hinge"]["angle"]
+    driven = latdyn.load_scene(yaml.safe_load(TWO_LOOPS))
+    assert not initial._moves_nothing(prepare(driven).model)
+    assert not initial._moves_nothing(prepare(latdyn.load_scene(yaml.safe_load(CHAIN))).model)
+    scene = latdyn.load_scene(at_rest)
+    walked = prepare(scene)
+    assert initial._moves_nothing(walked.model)
+    with monkeypatch.context() as patch:
+        patch.setattr(initial, "_moves_nothing", lambda model: False)
+        walked = prepare(scene)
+
+    def refuse(*args):
+        raise AssertionError("the joints walked for a scene that moves nothing")
+
+    monkeypatch.setattr(initial, "_carried_motion", refuse)
+    fast = prepare(scene)
+    for name, value in vars(walked.state).items():
+        if isinstance(value, np.ndarray):
+            assert value.tobytes() == getattr(fast.state, name).tobytes(), name
+    assert fast.assembler.initial_warnings == walked.assembler.initial_warnings == []
+    result = latdyn.run(at_rest)
+    assert result.probes["rate"][0] == 0.0 and "warnings" not in result.summary
+
+
 CHAIN = """
 sections: {rod: {EA: 1.0e7, EIy: 1.0e4, EIz: 1.0e4, GJ: 1.0e4, rhoA: 2.0}}
 initial_velocity: {angular: [0, 0, 2.0]}

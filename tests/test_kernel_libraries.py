@@ -9,6 +9,9 @@ import sys
 import textwrap
 from pathlib import Path
 
+import numpy as np
+import pytest
+
 ROOT = Path(__file__).resolve().parents[1]
 
 CHAIN = """\
@@ -122,6 +125,113 @@ def test_a_run_finds_the_generated_sources_without_importlib_resources(tmp_path)
         assert package_folder(package) == files(package)
 
 
+def test_a_process_that_finds_its_compiler_stored_imports_no_subprocess(tmp_path):
+    """The compiler, its ``-march`` flags and the kernels' cache are found in a process after the first
+    without starting a process, and without importing ``subprocess`` (≈ 2 ms of a fresh run's imports;
+    docs/performance.md, "Twelfth pass"): only a compile or a compiler asked anew imports it."""
+    code = textwrap.dedent("""
+        import json, sys
+        sys.modules.pop("subprocess", None)  # a site's .pth may have imported it: forgotten, seen if imported again
+        from latdyn import native
+        native.vector_flags(native.compiler())  # the first process asks the compiler and stores its answers
+        print(json.dumps({"subprocess": "subprocess" in sys.modules}))
+        """)
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""),
+               LATDYN_CACHE_DIR=str(tmp_path / "cache"))
+    env.pop("CC", None)
+    seen = []
+    for _ in range(2):
+        done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=600)
+        assert done.returncode == 0, done.stderr[-2000:]
+        seen.append(json.loads(done.stdout.strip().splitlines()[-1])["subprocess"])
+    if not list((tmp_path / "cache").glob("compiler-*.txt")):
+        pytest.skip("no compiler version stored (no cc on PATH)")
+    assert seen == [True, False]
+
+
+def test_the_cache_keys_are_hashlibs_sha256_and_a_run_loads_no_openssl(tmp_path):
+    """:func:`latdyn.digest.sha256` is ``hashlib.sha256`` digest for digest (the kernel cache's keys and the
+    scene's ``source_hash`` unchanged), and a run in a fresh process (kernels from the cache) imports neither
+    ``hashlib`` nor OpenSSL's ``_hashlib`` where Python has its own SHA-256 (≈ 3 ms of a fresh run;
+    docs/performance.md, "Twelfth pass")."""
+    import hashlib
+
+    from latdyn.digest import sha256
+    from latdyn.native import source_digest
+
+    rng = np.random.default_rng(3)
+    for size in (0, 1, 55, 56, 64, 1000, 300_000):
+        data = rng.integers(0, 256, size, dtype=np.uint8).tobytes()
+        assert sha256(data).hexdigest() == hashlib.sha256(data).hexdigest()
+        ours, theirs = sha256(), hashlib.sha256()
+        for chunk in (data[: size // 3], data[size // 3:], b"\0"):
+            ours.update(chunk)
+            theirs.update(chunk)
+        assert ours.hexdigest() == theirs.hexdigest() and ours.digest() == theirs.digest()
+    assert source_digest("a", b"b", 3) == hashlib.sha256(b"a\0b\x003\0").hexdigest()[:20]
+    scene = tmp_path / "chain.yaml"
+    scene.write_text(CHAIN)
+    code = textwrap.dedent(f"""
+        import importlib.util, json, sys
+        for name in [m for m in sys.modules if m in ("hashlib", "_hashlib")]:
+            del sys.modules[name]  # a site's .pth may have imported them: forgotten, seen if imported again
+        import latdyn
+        result = latdyn.run(latdyn.load_scene({str(scene)!r}))  # fills the cache if need be
+        own = any(importlib.util.find_spec(m) is not None for m in ("_sha256", "_sha2"))
+        print(json.dumps({{"own": own, "imported": sorted(m for m in sys.modules if m in ("hashlib", "_hashlib"))}}))
+        """)
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    for _ in range(2):  # the second process finds everything in the cache
+        done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=600)
+        assert done.returncode == 0, done.stderr[-2000:]
+    seen = json.loads(done.stdout.strip().splitlines()[-1])
+    if not seen["own"]:
+        pytest.skip("this Python has no SHA-256 of its own: hashlib's serves")
+    assert seen["imported"] == []
+
+
+def _calls(monkeypatch, owner, name: str) -> list:
+    """The first arguments of every call of ``owner.name`` from now on (the function still runs)."""
+    calls, real = [], getattr(owner, name)
+
+    def recorded(first, *args, **kwargs):
+        calls.append(first)
+        return real(first, *args, **kwargs)
+
+    monkeypatch.setattr(owner, name, recorded)
+    return calls
+
+
+def test_the_laws_generator_version_is_found_by_its_index_without_reading_codegen(monkeypatch, tmp_path):
+    """``compiled_laws.generator_version`` in a process after the first comes from its index in the cache
+    (``index-laws-generator-*.txt``, under the files' identities) without reading the 0.38 MB of codegen/ and
+    expressions.py (≈ 1.3 ms of a fresh run; docs/performance.md, "Twelfth pass"): the same version as the
+    files' digest. A file whose identity changes (edited) changes the index's name."""
+    from pathlib import Path as _Path
+
+    from latdyn import native
+    from latdyn.assembly import compiled_laws
+    from latdyn.scene.expressions import sympy_version
+
+    monkeypatch.setenv("LATDYN_CACHE_DIR", str(tmp_path / "cache"))
+    folder = ROOT / "codegen"
+    files = sorted(folder.glob("*.py")) + sorted((folder / "templates").glob("*.j2"))
+    files.append(ROOT / "latdyn" / "scene" / "expressions.py")
+    expected = native.source_digest(*[path.read_bytes() for path in files], sympy_version())
+    read = _calls(monkeypatch, _Path, "read_bytes")
+    for reads in (True, False):  # the first process digests the files, the next finds the index
+        monkeypatch.setattr(compiled_laws, "_VERSION", [])
+        read.clear()
+        assert compiled_laws.generator_version() == expected
+        assert bool(read) is reads
+    assert len(list((tmp_path / "cache").glob("index-laws-generator-*.txt"))) == 1
+    edited = tmp_path / "edited.py"
+    edited.write_text("a = 1\n")
+    before = compiled_laws._version_index([edited], None)
+    edited.write_text("a = 22\n")
+    assert compiled_laws._version_index([edited], None) != before
+
+
 def test_the_step_library_is_found_by_its_index_without_reading_its_sources(monkeypatch, tmp_path):
     """``native_library`` in a process after the first finds the compiled step through its index in the
     cache (``index-newton_step-*.txt``, under the csrc files' identities) without reading and digesting its
@@ -132,14 +242,7 @@ def test_the_step_library_is_found_by_its_index_without_reading_its_sources(monk
     from latdyn import native
     from latdyn.assembly import library
 
-    read = []
-    original = library.library_source
-
-    def counted(name):
-        read.append(name)
-        return original(name)
-
-    monkeypatch.setattr(library, "library_source", counted)
+    read = _calls(monkeypatch, library, "library_source")
     monkeypatch.setattr(library, "_LIBRARY", None)
     first = library.native_library()._name  # fills the index if this cache has none
     monkeypatch.setattr(library, "_LIBRARY", None)  # a later process

@@ -198,3 +198,24 @@ def test_a_band_model_runs_without_scipy_its_results_those_of_scipys_lapack(tmp_
     assert found["status"] == "solved"
     assert (found["loaded"] == []) is without_scipy
     assert found["difference"] <= 1e-12
+
+
+def test_numpys_openblas_is_found_in_its_wheel_without_reading_the_maps(monkeypatch):
+    """NumPy's wheel's OpenBLAS is the one file of ``numpy.libs``, opened without loading it again
+    (``library._wheel_openblas``): the same routines as ``/proc/self/maps`` shows loaded from NumPy's folder,
+    found without reading the maps (≈ 1 ms of a fresh run; docs/performance.md, "Twelfth pass")."""
+    from latdyn.assembly import library as library_module
+    from latdyn.numerics import linalg
+
+    if library_module._wheel_openblas() is None:
+        pytest.skip("NumPy carries no OpenBLAS of its own here (not a wheel's numpy.libs)")
+    with monkeypatch.context() as patch:
+        patch.setattr(library_module, "_wheel_openblas", lambda: None)
+        from_maps = library_module._find_numpy_lapack()
+
+    def no_maps(belongs):
+        raise AssertionError("/proc/self/maps read")
+
+    monkeypatch.setattr(linalg, "loaded_openblas", no_maps)
+    assert from_maps is not None and library_module._find_numpy_lapack() == from_maps
+

@@ -13,7 +13,7 @@ PACKAGE = Path(latdyn.__file__).parent
 #: Layer of each top-level module or subpackage of latdyn; an import may only go down, or sideways
 #: within one subpackage. Subpackages of one layer do not import each other.
 LAYERS = {
-    "version": 0, "errors": 0,
+    "version": 0, "errors": 0, "records": 0, "digest": 0,  # records: dataclasses made without exec; digest: SHA-256
     "native": 1, "numerics": 1,  # native refuses a LATDYN_MARCH it cannot build for (a SceneError)
     "scene": 2,
     "model": 3,

@@ -238,14 +238,14 @@ def test_instruction_set_macros_are_asked_once_per_compiler_and_cpu(monkeypatch,
     monkeypatch.setenv("LATDYN_CACHE_DIR", str(tmp_path / "cache"))
     monkeypatch.setattr(native, "_VECTOR_FLAGS", {})
     asked = []
-    real_run = native.subprocess.run
+    real_run = subprocess.run
 
     def counting_run(command, *args, **kwargs):
         if "-dM" in command:
             asked.append(command)
         return real_run(command, *args, **kwargs)
 
-    monkeypatch.setattr(native.subprocess, "run", counting_run)
+    monkeypatch.setattr(subprocess, "run", counting_run)  # native imports subprocess where it runs one
     first = native.isa_macros()
     assert first and len(asked) == 1 and len(list((tmp_path / "cache").glob("isa-*.txt"))) == 1
     monkeypatch.setattr(native, "_VECTOR_FLAGS", {})  # a fresh process
@@ -373,14 +373,14 @@ def test_the_compiler_is_asked_its_version_once_per_binary(monkeypatch, tmp_path
     monkeypatch.setenv("LATDYN_CACHE_DIR", str(tmp_path / "cache"))
     monkeypatch.setattr(native, "_COMPILER", {})
     asked = []
-    real_run = native.subprocess.run
+    real_run = subprocess.run
 
     def counting_run(command, *args, **kwargs):
         if "--version" in command:
             asked.append(command)
         return real_run(command, *args, **kwargs)
 
-    monkeypatch.setattr(native.subprocess, "run", counting_run)
+    monkeypatch.setattr(subprocess, "run", counting_run)  # native imports subprocess where it runs one
     first = native.compiler()
     assert len(asked) == 1 and len(list((tmp_path / "cache").glob("compiler-*.txt"))) == 1
     monkeypatch.setattr(native, "_COMPILER", {})  # a fresh process

@@ -1001,3 +1001,31 @@ def test_the_dataclasses_a_run_imports_have_docstrings_of_their_own(tmp_path):
                           env=env, timeout=300)
     assert done.returncode == 0, done.stderr[-2000:]
     assert json.loads(done.stdout.strip().splitlines()[-1]) == []
+
+
+def test_the_records_a_run_imports_compile_no_repr_eq_or_hash(tmp_path):
+    """``dataclass`` compiles each ``__repr__``, ``__eq__`` (and a frozen class's ``__hash__``) from text when its
+    module is imported (≈ 5 ms of the lattice's process for its 40 classes; docs/performance.md, "Twelfth pass");
+    the classes that a run's modules define (``latdyn run`` of a beam, in a fresh process) are
+    :func:`latdyn.records.record` s, whose methods are the same for every class."""
+    scene = tmp_path / "beam.yaml"
+    scene.write_text(BEAM)
+    code = textwrap.dedent("""
+        import dataclasses, json, os, sys
+        from latdyn.cli import main
+        assert main(["run", os.environ["SCENE"], "-o", sys.argv[1], "-q"]) == 0
+        classes = [c for m in list(sys.modules.values()) if getattr(m, "__name__", "").startswith("latdyn")
+                   for c in vars(m).values()
+                   if isinstance(c, type) and dataclasses.is_dataclass(c) and c.__module__ == m.__name__]
+        compiled = [f"{c.__module__}.{c.__qualname__}.{name}" for c in classes
+                    for name in ("__repr__", "__eq__", "__hash__")
+                    if getattr(getattr(c, name, None), "__code__", None) is not None
+                    and getattr(c, name).__code__.co_filename == "<string>"]
+        print(json.dumps([len(classes), compiled]))
+        """)
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""), SCENE=str(scene))
+    done = subprocess.run([sys.executable, "-c", code, str(tmp_path / "out")], capture_output=True, text=True,
+                          env=env, timeout=300)
+    assert done.returncode == 0, done.stderr[-2000:]
+    classes, compiled = json.loads(done.stdout.strip().splitlines()[-1])
+    assert classes >= 30 and compiled == []

@@ -12,7 +12,7 @@ kernels are called once per evaluation for the whole batch.
 from __future__ import annotations
 
 import ctypes
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 
@@ -24,11 +24,12 @@ from latdyn.assembly.native_model import NativeModel
 from latdyn.model.model import Model
 from latdyn.numerics.csr import CSR
 from latdyn.numerics.linalg import DENSE_LIMIT
+from latdyn.records import record
 
 # ----------------------------------------------------------------------------- state
 
 
-@dataclass
+@record
 class State:
     """Explicit, picklable state of every node and hinge (free and constrained)."""
 

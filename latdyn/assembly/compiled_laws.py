@@ -118,20 +118,63 @@ _VERSION: list[str] = []
 
 def generator_version() -> str:
     """A hash of what turns a law's text into C: ``codegen/*.py``, ``codegen/templates/*.j2``,
-    ``latdyn/scene/expressions.py`` and the SymPy version (read without importing codegen or SymPy)."""
+    ``latdyn/scene/expressions.py`` and the SymPy version (read without importing codegen or SymPy).
+    Found through an index in the kernel cache (:func:`_version_index`) where a process before this one
+    digested the same files, else from the files (and the index written)."""
     if not _VERSION:
         import importlib.util
         from pathlib import Path
 
+        from latdyn import native
         from latdyn.scene.expressions import sympy_version
 
         spec = importlib.util.find_spec("codegen")
         folder = Path(next(iter(spec.submodule_search_locations))) if spec else None
         files = sorted(folder.glob("*.py")) + sorted((folder / "templates").glob("*.j2")) if folder else []
-        parts = [path.read_bytes() for path in files] + [(Path(__file__).parents[1] / "scene" / "expressions.py").read_bytes()]
-        parts.append(sympy_version())
-        _VERSION.append(source_digest(*parts))
+        files.append(Path(__file__).parents[1] / "scene" / "expressions.py")
+        sympy = importlib.util.find_spec("sympy")  # its release.py, which sympy_version reads
+        release = (Path(next(iter(sympy.submodule_search_locations))) / "release.py"
+                   if sympy is not None and sympy.submodule_search_locations else None)
+        index = _version_index(files, release)
+        version = _indexed_version(index)
+        if version is None:
+            version = source_digest(*[path.read_bytes() for path in files], sympy_version())
+            if index is not None:
+                native._store(index, version)
+        _VERSION.append(version)
     return _VERSION[0]
+
+
+def _version_index(files: list, release):
+    """Where the kernel cache keeps the :func:`generator_version` of these files: under a digest of their
+    identities (path, size, modification time, inode) and of SymPy's ``release.py`` (``release``; None
+    without SymPy), as the compiled step's library is found (:func:`latdyn.assembly.library._library_index`).
+    Reading and digesting the 0.38 MB took ≈ 1.3 ms of every fresh run (docs/performance.md, "Twelfth
+    pass"); an edited file, or another SymPy, changes the digest, so the version is digested from the files
+    again. None where a file cannot be read."""
+    import os
+
+    from latdyn import native
+
+    identities = []
+    try:
+        for path in (*files, *(() if release is None else (release,))):
+            status = os.stat(path)
+            identities += [str(path), status.st_size, status.st_mtime_ns, status.st_ino]
+    except OSError:
+        return None
+    return native.cache_dir() / f"index-laws-generator-{source_digest('laws-generator', *identities)}.txt"
+
+
+def _indexed_version(index) -> str | None:
+    """The generator version an index of :func:`_version_index` holds, where it is in the cache."""
+    if index is None:
+        return None
+    try:
+        version = index.read_text().strip()
+    except (OSError, ValueError):
+        return None
+    return version if len(version) == 20 and all(c in "0123456789abcdef" for c in version) else None
 
 
 def _text_key(time_functions, hinge_laws, signals=((), ()), controllers=(), sampled=()) -> str:

@@ -35,11 +35,12 @@ without a C sensor handed in from Python; a held output enters no matrix.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import field
 
 import numpy as np
 
 from latdyn.errors import SceneError
+from latdyn.records import record
 
 #: sensor kinds (csrc/evaluate.c): hinge (or guide) angle, its rate, node position component, node velocity
 #: component, the output of an earlier continuous controller (index: its position among them; no coordinate),
@@ -73,7 +74,7 @@ _NO_OFFSET = np.zeros(3)
 _AXIS = {"x": 0, "y": 1, "z": 2}
 
 
-@dataclass
+@record
 class Wiring:
     """The continuous controllers of a model for one numbering (arrays as csrc/evaluate.c reads them)."""
 

@@ -5,9 +5,11 @@ of the mass, damping and stiffness matrices, assembled on demand, separately or 
 (``combined(cm, cc, ck)`` = cm·M + cc·C + ck·K)."""
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import field
 
 import numpy as np
+
+from latdyn.records import record
 
 
 class SeparateMatrices:
@@ -26,7 +28,7 @@ class SeparateMatrices:
         return self.combined(0.0, 0.0, 1.0, dense=False)
 
 
-@dataclass
+@record
 class Evaluation(SeparateMatrices):
     """Residual, reactions, and (on request) the blocks of M, C = ∂r/∂v and K = ∂r/∂q.
 

@@ -232,6 +232,27 @@ def unclosed_loop_warning(joints: list[str]) -> str:
             "other side does not share: the loop is strained from the first step")
 
 
+def _moves_nothing(model) -> bool:
+    """Whether the scene sets nothing in motion at t = 0: no ``initial_velocity``, no prescribed body and
+    no prescribed hinge angle or guide position. Then every part's Δ is 0 (:func:`_carried_motion`
+    starts each with 0 and adds only prescribed rates), every loop closes at rest (its b is 0), and each
+    target is the rigid motion, +0.0 in every component (``rigid_motion + 0`` adds a zero of either sign
+    to +0.0): the velocities are those the carried motion gives, bit for bit, without walking the
+    joints (≈ 4 ms of the 16-bay lattice's start: 128 closures; docs/performance.md, "Twelfth pass")."""
+    return (not model.scene.initial_velocity.given and all(node.kind != PRESCRIBED for node in model.nodes)
+            and all(hinge.angle is None for hinge in model.hinges))
+
+
+class _NothingCarried(dict):
+    """Δ = 0 for every part (:func:`_moves_nothing`)."""
+
+    def __missing__(self, part) -> np.ndarray:
+        return np.zeros(6)
+
+
+_NOTHING_CARRIED = _NothingCarried()
+
+
 def initial_velocities(model, state, complete_links) -> list[str]:
     """Set the free coordinates' velocities of ``state`` (t = 0, prescribed motion applied) from the
     scene's rigid motion and the prescribed rates, in place (module docstring); the dependent
@@ -243,8 +264,10 @@ def initial_velocities(model, state, complete_links) -> list[str]:
     omega0 = np.asarray(iv.angular, float)
     rigid_motion = np.concatenate([np.asarray(iv.linear, float) - np.cross(omega0, iv.about), omega0])
     hinge_of = _hinge_of(model)
-    joints = _joints(model, state, hinge_of)
-    carried, unclosed = _carried_motion(model, state, joints, iv.given)
+    if _moves_nothing(model):  # every Δ is 0 and every loop closes at rest: nothing to carry
+        carried, unclosed = _NOTHING_CARRIED, []
+    else:
+        carried, unclosed = _carried_motion(model, state, _joints(model, state, hinge_of), iv.given)
 
     def target(part) -> np.ndarray:
         if part in scene.bodies:

@@ -569,13 +569,37 @@ def _ilp64_only(routines: "LapackRoutines | None") -> "LapackRoutines | None":
     return routines if routines is not None and routines.integer_bytes == 8 else None
 
 
+def _wheel_openblas():
+    """The OpenBLAS that NumPy's wheel carries (the one ``*openblas*`` file of ``numpy.libs`` beside the numpy
+    package), opened without loading it again (``RTLD_NOLOAD``: only where this process has loaded it), else
+    None (then ``/proc/self/maps`` is read, :func:`latdyn.numerics.linalg.loaded_openblas`). The same library
+    the maps show loaded from NumPy's folder, found without reading them (≈ 1 ms of a fresh run;
+    docs/performance.md, "Twelfth pass")."""
+    import sys
+
+    numpy = sys.modules.get("numpy")
+    try:
+        folder = os.path.join(os.path.dirname(os.path.dirname(numpy.__file__)), "numpy.libs")
+        found = [name for name in os.listdir(folder) if "openblas" in name.lower()]
+    except (AttributeError, TypeError, OSError):
+        return None
+    if len(found) != 1 or not hasattr(os, "RTLD_NOLOAD"):
+        return None
+    try:
+        return ctypes.CDLL(os.path.join(folder, found[0]), mode=os.RTLD_NOLOAD | ctypes.RTLD_LOCAL)
+    except OSError:  # not loaded (NumPy on another BLAS)
+        return None
+
+
 def _find_numpy_lapack() -> "LapackRoutines | None":
     from pathlib import PurePath
 
     from latdyn.numerics.linalg import loaded_openblas
 
-    library = loaded_openblas(lambda p: any(part == "numpy" or part.startswith("numpy.")
-                                            for part in PurePath(p).parent.parts))
+    library = _wheel_openblas()
+    if library is None:
+        library = loaded_openblas(lambda p: any(part == "numpy" or part.startswith("numpy.")
+                                                for part in PurePath(p).parent.parts))
     if library is None:
         return None
     for prefix in ("scipy_", ""):

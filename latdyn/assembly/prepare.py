@@ -2,8 +2,6 @@
 and coordinates that nothing holds refused (SCENE.md)."""
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
 from latdyn.assembly.assembler import Assembler, State
@@ -11,10 +9,11 @@ from latdyn.assembly.factorization import Factorization
 from latdyn.model.kernels import load_kernels
 from latdyn.model.model import Model
 from latdyn.numerics.linalg import DENSE_LIMIT, RCM_IN_PYTHON
+from latdyn.records import record
 from latdyn.scene.loader import Scene, load_scene
 
 
-@dataclass
+@record
 class Prepared:
     """What :func:`prepare` makes of a scene: the scene, its model, the assembler and the initial state."""
 

@@ -27,9 +27,9 @@ and free end nodes have translations only (their rotations are no coordinates,
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
+
+from latdyn.records import record
 
 __all__ = ["CableElements", "add_cables", "cable_tolerance", "slack_and_unheld", "unbalanced_free_ends", "BALANCE"]
 
@@ -48,7 +48,7 @@ def cable_tolerance(EA: np.ndarray) -> np.ndarray:
     return 1e-9 * EA
 
 
-@dataclass
+@record
 class CableElements:
     """The cable elements of a model, as arrays (``ce`` elements in all)."""
 

@@ -66,12 +66,14 @@ independent coordinates (:meth:`latdyn.assembly.assembler.Assembler.complete_lin
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import field
 
 import numpy as np
 
+from latdyn.records import record
 
-@dataclass
+
+@record
 class Edge:
     """The dependency of node ``child`` on node ``parent`` (module docstring, "edge")."""
     parent: int
@@ -94,7 +96,7 @@ class Edge:
         return 1 if self.prismatic else {"": 0, "slider": 2, "rod": 3}[self.closure]
 
 
-@dataclass
+@record
 class RigidLinks:
     """The dependent nodes of a model, in tree order, and the maps of the module docstring."""
 

@@ -19,7 +19,7 @@ time-step path scatters with them and never loops over elements in Python.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import field
 
 import numpy as np
 
@@ -30,6 +30,7 @@ from latdyn.model.planar import find_plane, restrict_to_plane
 from latdyn.numerics.csr import CSR
 from latdyn.numerics.linalg import issparse, psd_null_direction
 from latdyn.numerics.so3 import cross
+from latdyn.records import record
 from latdyn.scene.expressions import HingeLaw, TimeFunction
 from latdyn.scene.loader import JointFriction, Scene, StopContact
 
@@ -40,7 +41,7 @@ SECTION_WIDTH = 10
 FREE, PRESCRIBED, FIXED, DEPENDENT = 0, 1, 2, 3
 
 
-@dataclass
+@record
 class Node:
     """A node of the model: a body's or a beam's point, with its kind (FREE, PRESCRIBED, FIXED, DEPENDENT)."""
 
@@ -58,7 +59,7 @@ def lock_tolerance(at: float) -> float:
     return 1e-7 * max(1.0, abs(at))
 
 
-@dataclass
+@record
 class HingeCoordinate:
     """A hinge of the model. Its generalized force on the angle coordinate is
     f = k(θ, θ̇, t)(θ − θ_r) + c(θ, θ̇, t) θ̇ − τ(θ, θ̇, t) (laws: :class:`~latdyn.scene.expressions.HingeLaw`)."""
@@ -98,7 +99,7 @@ class HingeCoordinate:
         return not (self.stiffness.is_constant and self.damping.is_constant)
 
 
-@dataclass
+@record
 class Model:
     """Everything the solvers need, as arrays."""
 

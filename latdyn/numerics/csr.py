@@ -16,9 +16,9 @@ with SciPy bit for bit.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
+
+from latdyn.records import record
 
 
 #: Products of at most this many entries (p × q) add their terms into a dense array of sums (8 bytes an
@@ -39,7 +39,7 @@ def unique_keys(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return ordered[first], inverse
 
 
-@dataclass
+@record
 class CSR:
     """An n_rows × n_cols matrix in canonical compressed sparse rows (columns ascending in each row,
     no duplicates; explicit zeros kept where given)."""

@@ -54,12 +54,11 @@ direction it flags could not be integrated explicitly at that step anyway.)
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
 from latdyn.numerics.csr import CSR
 from latdyn.numerics.linalg import issparse
+from latdyn.records import record
 
 #: Relative eigenvalue of a scaled joint block below which a direction has no inertia.
 MASSLESS_TOL = 1e-9
@@ -137,7 +136,7 @@ def diagonal_blocks(matrix, groups: np.ndarray) -> np.ndarray:
     return np.where(mask, values, 0.0)
 
 
-@dataclass
+@record
 class JointBlocks:
     """The diagonal blocks M_gg of the mass matrix, joint by joint, with their unit scales."""
 
@@ -168,7 +167,7 @@ def joint_blocks(model, mass, groups: np.ndarray | None = None) -> JointBlocks:
     return JointBlocks(groups, blocks, np.where(scale > 0, scale, 1.0), translation_mass)
 
 
-@dataclass
+@record
 class InertiaSplit:
     """The free coordinates split into directions with and without inertia.
 
@@ -309,7 +308,7 @@ def reference_masses(joint: JointBlocks, length: float) -> tuple[np.ndarray, np.
     return inertia, np.full(len(mass), float(length))
 
 
-@dataclass
+@record
 class LargestNorm:
     """The largest of :func:`joint_norms` as a function of M, for its derivative (the adaptive step's
     error estimate differentiated, latdyn/analyses/adaptive_sensitivities.py): the norm is

@@ -411,13 +411,13 @@ def reverse_cuthill_mckee(rows: np.ndarray, cols: np.ndarray, n: int) -> np.ndar
 
 def _reverse_cuthill_mckee(rows: np.ndarray, cols: np.ndarray, n: int) -> np.ndarray:
     """:func:`reverse_cuthill_mckee`, searched."""
-    from latdyn.numerics.csr import unique_keys  # np.unique would import numpy.ma
-
-    keys = unique_keys(np.concatenate([rows * n + cols, cols * n + rows]))[0]
+    keys = np.sort(np.concatenate([rows * n + cols, cols * n + rows]))  # np.unique would import numpy.ma
+    keys = keys[np.concatenate([[True], keys[1:] != keys[:-1]])] if len(keys) else keys  # each entry once
     row, col = keys // max(n, 1), keys % max(n, 1)
     indptr = np.concatenate([[0], np.cumsum(np.bincount(row, minlength=n))])
     degree = (np.diff(indptr) + np.bincount(row[row == col], minlength=n)).astype(np.int32)
-    neighbours = [part.tolist() for part in np.split(col, indptr[1:-1])] if n else []
+    columns, bounds = col.tolist(), indptr.tolist()  # each row's columns as a list: slices, not np.split
+    neighbours = [columns[bounds[i]:bounds[i + 1]] for i in range(n)]
     degrees = degree.tolist()
     visited = [False] * n
     order: list[int] = []

@@ -16,10 +16,11 @@ loop evaluates them (:mod:`latdyn.timeloop.sampling`).
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass, field
+from dataclasses import field
 from typing import Any
 
 from latdyn.errors import SceneError, show_value
+from latdyn.records import record
 from latdyn.scene.expressions import parse_named_expression
 
 __all__ = ["Controller", "CONTROLLER_KEYS", "controller_names", "read_controllers"]
@@ -31,7 +32,7 @@ _SAMPLED_ONLY = ("energy", "momentum")
 _IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z_0-9]*")
 
 
-@dataclass
+@record
 class Controller:
     """One controller as the scene gives it, with its expressions read.
 

@@ -63,19 +63,20 @@ Limits, so that a scene is refused rather than hang or exhaust memory:
 from __future__ import annotations
 
 import copy
-import hashlib
 import json
 import keyword
 import math
 import os
 import re
-from dataclasses import dataclass, field
+from dataclasses import field
 from pathlib import Path
 from typing import Any, NamedTuple
 
 import numpy as np
 
+from latdyn.digest import sha256
 from latdyn.errors import SceneError, show_value
+from latdyn.records import record
 from latdyn.scene.controllers import Controller, controller_names, read_controllers
 from latdyn.scene.inputs import ControllerOutputs, Inputs, Signals
 from latdyn.scene.expressions import (
@@ -191,7 +192,7 @@ _GUIDE_TRAVEL = _Travel("guide", "position", "slide", "the slide", "the slide s"
 
 
 # =========================================================================== dataclasses
-@dataclass
+@record
 class Section:
     """Beam cross-section: stiffnesses (EA, EIy, EIz, GJ), inertia per length, shear stiffnesses.
 
@@ -216,7 +217,7 @@ class Section:
         return tuple(0.0 if ga is None else 1.0 / ga for ga in (self.GAy, self.GAz))
 
 
-@dataclass
+@record
 class Hinge:
     """A revolute joint between a beam end and its body (SCENE.md HINGE, "Hinge additions").
 
@@ -242,7 +243,7 @@ class Hinge:
     axis_given: np.ndarray | None = None
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class StopContact:
     """A compliant stop (SCENE.md "Contact and friction at joints"): past a limit by δ > 0 the joint
     takes the Hunt–Crossley force k δⁿ + c δⁿ δ̇, never pulling (clipped at 0); restitution does not
@@ -252,7 +253,7 @@ class StopContact:
     damping: float = 0.0
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class JointFriction:
     """Friction in a joint: Coulomb ``coulomb``, static level ``static`` with its Stribeck decay
     exp(−(rate/stribeck_rate)²) (stribeck_rate 0: ``static`` is the breakaway level of a stuck
@@ -266,7 +267,7 @@ class JointFriction:
     stick_rate: float = 1e-3
 
 
-@dataclass
+@record
 class Guide:
     """A prismatic (sliding) joint of a body (SCENE.md ``bodies.NAME.guide``): the body slides along
     ``axis``, fixed in body ``on`` (None: the ground), and keeps ``on``'s orientation.
@@ -310,7 +311,7 @@ def in_guide_words(error: SceneError) -> SceneError:
     return SceneError(error.file, error.key, said)
 
 
-@dataclass
+@record
 class BeamEnd:
     """One end of a beam: the grid point and how it is joined."""
     body: str | None        # None for a free end (a new massless node)
@@ -320,7 +321,7 @@ class BeamEnd:
     hinge: Hinge | None = None
 
 
-@dataclass
+@record
 class Beam:
     """A flexible beam meshed into ``elements`` equal elements."""
     name: str
@@ -344,7 +345,7 @@ class Beam:
         return d / np.linalg.norm(d)
 
 
-@dataclass
+@record
 class Cable:
     """A tension-only member (``cables.NAME``, latdyn/model/cables.py): ``elements`` equal elements
     between two ends (``body`` None: a free end node at ``point``), axial stiffness EA, mass per
@@ -365,7 +366,7 @@ class Cable:
         return float(np.linalg.norm(self.end.point - self.start.point))
 
 
-@dataclass
+@record
 class Body:
     """A rigid joint body; frame parallel to the global axes at t = 0."""
     name: str
@@ -385,7 +386,7 @@ class Body:
         return self.translation is not None or self.rotation_angle is not None
 
 
-@dataclass
+@record
 class PointRef:
     """``BODY`` | ``BEAM.start`` (node 0) | ``BEAM.end`` (node = elements) | ``BEAM.node[i]``."""
     text: str
@@ -394,7 +395,7 @@ class PointRef:
     node: int | None = None
 
 
-@dataclass
+@record
 class Load:
     """Force and/or moment applied at a point; components in ``frame`` ("global" or a body)."""
     at: PointRef
@@ -403,7 +404,7 @@ class Load:
     frame: str = "global"
 
 
-@dataclass
+@record
 class Probe:
     """One recorded column of probes.csv.
 
@@ -432,7 +433,7 @@ class Probe:
     state: str | None = None
 
 
-@dataclass
+@record
 class Solve:
     """The scene's ``solve`` section as read (SCENE.md, "solve"): the analysis and its settings."""
 
@@ -471,7 +472,7 @@ class Solve:
     sensitivity_method: str = "forward"
 
 
-@dataclass
+@record
 class Control:
     """Displacement control (static): the displacement of ``point`` along the unit vector
     ``direction`` goes from 0 to ``to`` in ``steps`` equal increments; the load factor follows."""
@@ -482,7 +483,7 @@ class Control:
     text: str = ""
 
 
-@dataclass
+@record
 class Output:
     """The scene's ``output`` section as read (SCENE.md, "output"): rows, ParaView frames, probes."""
 
@@ -492,7 +493,7 @@ class Output:
     probes: list[Probe] = field(default_factory=list)
 
 
-@dataclass
+@record
 class InitialVelocity:
     """Rigid motion of the whole structure at t = 0: velocity ``linear`` at ``about``; ``given``:
     the scene says it (without, the parts that prescribed bodies hold start with them:
@@ -507,7 +508,7 @@ class InitialVelocity:
         return self.linear + np.cross(self.angular, np.asarray(point, float) - self.about)
 
 
-@dataclass
+@record
 class Scene:
     """A scene as :func:`load_scene` reads and validates it: every section, the file it came from and its hash."""
 
@@ -1634,7 +1635,7 @@ class _Reader:
 # =========================================================================== entry points
 def _canonical_hash(raw: Any) -> str:
     text = json.dumps(raw, sort_keys=True, separators=(",", ":"), ensure_ascii=False, default=str)
-    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+    return sha256(text.encode("utf-8")).hexdigest()
 
 
 def _plain_data(value: Any, memo: dict | None = None) -> Any:

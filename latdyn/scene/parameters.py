@@ -31,9 +31,10 @@ import functools
 import keyword
 import math
 import re
-from dataclasses import dataclass, field
+from dataclasses import field
 
 from latdyn.errors import SceneError, show_value
+from latdyn.records import record
 from latdyn.scene import expressions
 from latdyn.scene.expressions import ALLOWED_NAMES, HINGE_VARIABLES
 
@@ -47,7 +48,7 @@ RESERVED = tuple(dict.fromkeys(
 _IDENTIFIER = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 
 
-@dataclass
+@record
 class Parameters:
     """The scene's parameters: ``values`` (name -> float, file order) and ``uses`` (key path ->
     (the text as written, the parameter names it uses)), filled while the scene is read."""

@@ -58,7 +58,6 @@ from __future__ import annotations
 
 import ctypes
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -76,6 +75,7 @@ from latdyn.assembly.library import (
     parallel_threshold,
 )
 from latdyn.assembly.native_model import STATE_FIELDS, state_shapes
+from latdyn.records import record
 from latdyn.step.integrators import GeneralizedAlpha, StepStats, increment_size
 
 
@@ -531,7 +531,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
             self.last_evaluation = saved
 
 
-@dataclass
+@record
 class Advanced:
     """What :meth:`CompiledGeneralizedAlpha.advance` did: the last accepted state, the steps
     accepted with their Newton iterations and factorizations, the power at that state and the
@@ -576,7 +576,7 @@ ROW_BUFFER_BYTES = 8 << 20
 MAX_ROWS = 256
 
 
-@dataclass
+@record
 class RowBlock:
     """Rows recorded in one loop call, in order: ``scalars`` (k, :data:`ROW_SCALARS`), ``states``
     (the state arrays of every row with a leading row axis: ``states.x`` (k, n, 3), ``states.T``
@@ -718,7 +718,7 @@ class _LastEvaluation:
 
 
 # ----------------------------------------------------------------------------- the static mode
-@dataclass
+@record
 class StaticIteration:
     """One static iteration at a state (:meth:`StaticNewton.iteration`): r(q, λ), q_ref(q) (None
     unless asked for), δq_r = −K⁻¹r, δq_λ = K⁻¹q_ref; None in their place where K is singular or a

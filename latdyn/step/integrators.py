@@ -49,8 +49,6 @@ under rigid motions of the scene (norms of 3-vectors, ℓ the scene's size).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
 from latdyn.assembly.assembler import (
@@ -72,9 +70,10 @@ from latdyn.numerics.inertia import (
 from latdyn.assembly.factorization import solve_linear, solve_linear_csr
 from latdyn.numerics.csr import CSR
 from latdyn.numerics.linalg import DENSE_LIMIT, RCM_IN_PYTHON, issparse
+from latdyn.records import record
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class AlphaParameters:
     """The parameters α_m, α_f, γ, β of a generalized-α step (:meth:`for_method`)."""
 
@@ -99,7 +98,7 @@ class AlphaParameters:
         return cls(am, af, gamma, 0.25 * (gamma + 0.5) ** 2)
 
 
-@dataclass
+@record
 class StepStats:
     """What one step's Newton iteration did: iterations, convergence, residual, factorizations, contraction."""
 

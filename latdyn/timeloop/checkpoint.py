@@ -50,10 +50,11 @@ import io
 import json
 import os
 import time
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+
+from latdyn.records import record
 
 __all__ = ["CHECKPOINT_FILE", "FORMAT_VERSION", "DEFAULT_INTERVAL", "Checkpoint", "CheckpointError",
            "Checkpointer", "check", "discard", "identity", "load"]
@@ -70,7 +71,7 @@ class CheckpointError(ValueError):
     """No usable checkpoint to resume from: exit status 2, message on stderr."""
 
 
-@dataclass
+@record
 class Checkpoint:
     """What a checkpoint holds (see the module docstring)."""
 

@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import math
 import sys
-from dataclasses import dataclass, field
+from dataclasses import field
 
 import numpy as np
 
 from latdyn.assembly.assembler import State
 from latdyn.assembly.library import native_library
+from latdyn.records import record
 
 
 #: strains of this many ulps: the round-off of a beam's configuration (:func:`energy_round_off`)
@@ -25,7 +26,7 @@ def energy_round_off(model) -> float:
     return float(0.5 * np.sum(np.abs(sections[:, 0] * sections[:, 1])) * strain * strain)
 
 
-@dataclass
+@record
 class TransientProgress:
     """Everything the time loop carries from one step to the next, besides the model.
 
