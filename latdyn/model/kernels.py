@@ -95,8 +95,17 @@ def known_variants() -> dict[str, str]:
 
 
 def generated_info(variant: str) -> dict:
-    """The metadata of ``variant``'s beam kernels as generated (name -> inputs, outputs, …), read from the
-    generated package without compiling anything: what a refusal before a run needs to know."""
+    """The metadata of ``variant``'s beam kernels as generated (name -> inputs, outputs, …), without compiling
+    anything: what a refusal before a run needs to know. From the unit's index in the kernel cache where it is
+    there (:func:`_index`, the metadata :func:`_compiled_unit` keeps), else from the generated package, whose
+    NumPy module is 0.1–11 MB of source (2 s of a fresh geometry-sensitivity run of the default variant where
+    Python writes no bytecode)."""
+    index = _index(f"beam_{variant}")
+    if index is not None:
+        try:
+            return dict(marshal.loads(index.read_bytes())["info"])
+        except (OSError, ValueError, EOFError, TypeError, KeyError):
+            pass   # no index yet, or one not written here: the generated module
     return dict(importlib.import_module(f"{PACKAGE}.beam_{variant}").KERNELS)
 
 

@@ -116,7 +116,7 @@ class CSR:
         return times(self, x)
 
 
-@dataclass
+@record
 class Transpose:
     """Aᵀ of a CSR A without a copy (SciPy's ``A.transpose(copy=False)``, a CSC on A's arrays): ``Aᵀ @ X`` is
     :func:`transposed_times` (SciPy's ``csc_matvecs``, the same additions) and ``.T`` is A again."""
