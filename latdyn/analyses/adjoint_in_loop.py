@@ -34,7 +34,7 @@ import numpy as np
 from latdyn.assembly.assembler import State
 from latdyn.assembly.native_model import STATE_FIELDS, state_shapes
 
-__all__ = ["ADJOINT_IN_LOOP", "REVERSE_NATIVE", "AdjointLoop", "ReverseSteps", "refusal", "reverse_steps"]
+__all__ = ["ADJOINT_IN_LOOP", "REVERSE_NATIVE", "AdjointLoop", "ReverseSteps", "accepted", "refusal", "reverse_steps"]
 
 #: Whether the adjoint's forward pass takes its smooth steps in the loop of steps where the run allows it (False:
 #: every step from Python, the reference it must equal: tests/test_adjoint_in_loop.py). Private.
@@ -49,6 +49,12 @@ def refusal(owner) -> str | None:
     if owner.model.links is not None:   # the forward step's loop takes them (sensitivities_in_loop); this pass not yet
         return "rigid links or guides"
     return model_refusal(owner)
+
+
+def accepted(trajectory: list) -> list:
+    """``trajectory`` without a last entry still pending (stored by :meth:`AdjointSensitivities.step`, its events
+    not taken: the run failed in them)."""
+    return trajectory[:-1] if trajectory and trajectory[-1].get("pending") else trajectory
 
 
 class AdjointLoop:
@@ -98,9 +104,7 @@ class AdjointLoop:
         (``block``: a step.compiled.RowBlock), each as :meth:`AdjointSensitivities.record` records a row: the index
         of the stored state it is, the loop's steps up to it after the trajectory before the loop (whose entries
         :meth:`carried_after` appends next)."""
-        from latdyn.analyses.adjoint_sensitivities import _accepted
-
-        before = len(_accepted(carried["trajectory"]))
+        before = len(accepted(carried["trajectory"]))
         carried["rows"].extend(before + int(steps) for steps in block.column("steps")[:rows])
         return carried
 

@@ -80,6 +80,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from latdyn.analyses.adjoint_in_loop import accepted
 from latdyn.analyses.energy_sensitivities import is_energy_or_momentum
 from latdyn.analyses.energy_sensitivities import probe_forms as energy_probe_forms
 from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_force_forms, joint_of
@@ -239,7 +240,7 @@ class AdjointSensitivities(TransientSensitivities):
     def record(self, carried: dict, state) -> dict:
         """The row at ``state``: the index of the stored state it is (0: the start; a run that failed in the
         events of its last step records the state before that step, which :meth:`finish` leaves out)."""
-        carried["rows"].append(len(_accepted(carried["trajectory"])))
+        carried["rows"].append(len(accepted(carried["trajectory"])))
         return carried
 
     # ------------------------------------------------------------------ the reverse pass
@@ -731,7 +732,7 @@ class AdjointSensitivities(TransientSensitivities):
         recorded = writer.result()
         # a run that failed in the events of its last step (a SolverError after the step was stored): the
         # accepted steps before it, as the forward method's carried sensitivities are
-        carried = {**carried, "trajectory": _accepted(carried["trajectory"])}
+        carried = {**carried, "trajectory": accepted(carried["trajectory"])}
         series = {p.name: recorded.probes[p.name] for p in self.probes}
         outputs = self.outputs(carried, series)
         gradient, timed = self.reverse(carried, outputs)
@@ -752,12 +753,6 @@ class AdjointSensitivities(TransientSensitivities):
                              for p in self.probes for name in self.names]
             text = csv_line(["t", *self.columns]) + csv_line(row)
             atomic_write_bytes(Path(writer.out_dir) / SENSITIVITIES_FILE, text.encode("utf-8"))
-
-
-def _accepted(trajectory: list) -> list:
-    """``trajectory`` without a last entry still pending (stored by :meth:`AdjointSensitivities.step`, its events
-    not taken: the run failed in them)."""
-    return trajectory[:-1] if trajectory and trajectory[-1].get("pending") else trajectory
 
 
 def _norm_at_zero(probe, forms: tuple) -> bool:

@@ -330,7 +330,7 @@ class Assembler:
     def linked_exact_layout(self, native: NativeModel):
         """The arrays ``latdyn_linked_exact_matrices`` (csrc/linked_matrices.c) reads for ``native`` (a model with
         rigid links or guides: its links laid out for the compiled step's iteration matrix, which this holds where the
-        step has not yet: ``latdyn.step.compiled.hold_matrix``), made once per native model: (each entry's offset in
+        step has not yet: ``latdyn.assembly.held_matrix.hold_matrix``), made once per native model: (each entry's offset in
         that storage, n² row-major; a storage of its size other than the step's; the joint bodies' inertia
         stiffness, 36 each); None where that matrix is sparse or the model has more than DENSE_LIMIT coordinates
         (the reduction then in Python: latdyn/assembly/linked.py)."""
@@ -340,7 +340,7 @@ class Assembler:
         layout = None
         factorization = None
         if self.model.links is not None and self.model.n_dofs:
-            from latdyn.step.compiled import hold_matrix   # on use: the compiled step's storage, shared with it
+            from latdyn.assembly.held_matrix import hold_matrix   # on use: the compiled step's storage, shared with it
 
             factorization = hold_matrix(self, native)
         n = self.model.n_dofs
