@@ -432,6 +432,9 @@ class ParameterDerivatives:
         #: the reference configuration's derivative by geometry parameters (None without them)
         self.geometry = ReferenceGeometry(self) if any(map(GEOMETRY_KEY.match, self.derivatives)) else None
         self.controllers = ControllerTerms(self) if self.scene.controllers else None
+        #: the derivative laws of θ, θ̇ or an input compiled, whose C both paths of a transient run call
+        #: (latdyn/analyses/derivative_laws.py; set by TransientSensitivities), None: their NumPy values
+        self.derivative_laws = None
         #: the initial positions of the points whose displacement's norm a probe reads (the rows' δ|u|), the initial
         #: state made only for them (a run's start, 1–3 ms, where no probe reads one)
         norms = [p for p in self.probes if p.kind == "point" and p.quantity == "displacement"
@@ -885,9 +888,11 @@ class ParameterDerivatives:
         hinge = self.model.hinges[j]
         theta, rate, t = float(state.theta[j]), float(state.theta_dot[j]), state.t
         laws = np.zeros((1, 9))
-        derivative = law.value(theta, rate, t)
+        compiled = self.derivative_laws   # the laws of the state compiled (latdyn/analyses/derivative_laws.py)
+        value = (lambda f: f.value(theta, rate, t)) if compiled is None else (lambda f: compiled.value(f, theta, rate, t))
+        derivative = value(law)
         if which == "rest_angle":   # f = k (θ − θ_r) + …: affine in θ_r
-            laws[0, 0] = hinge.stiffness.value(theta, rate, t)
+            laws[0, 0] = value(hinge.stiffness)
             unit_rest = np.array([[0.0, 0.0, 1.0, load_factor]])
             return derivative * float(np.asarray(self.kernels.hinge_force(unit_rest, laws, contact)[0]).reshape(-1)[0])
         laws[0, {"stiffness": 0, "damping": 3, "torque": 6}[which]] = derivative

@@ -33,6 +33,7 @@ so those are the same bits too.
 from __future__ import annotations
 
 import ctypes
+from functools import partial
 
 import numpy as np
 
@@ -86,13 +87,19 @@ def _hinge_refusal(owner, key: str, laws: dict) -> str | None:
     hinge = HINGE_KEY.match(key)
     if owner.kernels.address("hinge_force") is None:
         return "hinge kernels without C libraries"
-    if not all(map(_in_time_alone, laws.values())):
-        return f"{key}: its derivative is a law in theta, theta_dot or an input"
+    if not all(map(partial(_tabulated_or_compiled, owner), laws.values())):
+        return f"{key}: its derivative is a law in theta, theta_dot or an input that did not compile"
     if hinge["law"] == "rest_angle":
         stiffness = owner.model.hinges[owner.model.hinge_index(hinge["beam"], hinge["end"])].stiffness
-        if not _in_time_alone(stiffness):
-            return f"{key}: the hinge's stiffness is a law in theta, theta_dot or an input"
+        if not _tabulated_or_compiled(owner, stiffness):
+            return f"{key}: the hinge's stiffness is a law in theta, theta_dot or an input that did not compile"
     return None
+
+
+def _tabulated_or_compiled(owner, law) -> bool:
+    """Whether the loop has a hinge law's value: tabulated per grid point (a law of t alone), or the compiled law
+    at the hinge's θ, θ̇ in C that the Python path calls too (latdyn/analyses/derivative_laws.py)."""
+    return _in_time_alone(law) or (owner.derivative_laws is not None and owner.derivative_laws.index(law) >= 0)
 
 
 def _joint_law_refusal(owner, key: str, laws: dict) -> str | None:
@@ -240,9 +247,17 @@ class SensitivityLoop:
         owner, d, model = self.owner, self.data, self.owner.model
         uses = [(j, which, column) for j, which, laws in owner._hinge_uses() for column in laws]  # noqa: SLF001
         d.n_hinge_uses = len(uses)
+        d.derivative_laws = None
         if not uses:
             return
         d.hinge_kernel = owner.kernels.address("hinge_force")
+        compiled = owner.derivative_laws   # the laws of the state, compiled: their numbers (−1: tabulated)
+        if compiled is not None:
+            hinges = model.hinges
+            number = [(compiled.index(law), compiled.index(hinges[j].stiffness) if which == "rest_angle" else -1)
+                      for j, which, laws in owner._hinge_uses() for law in laws.values()]   # noqa: SLF001
+            d.derivative_laws = compiled.address
+            d.hinge_law_index = self._pointer(np.array(number, np.int64).reshape(-1))
         slot = {"stiffness": 0, "damping": 3, "torque": 6, "rest_angle": -1}
         ints = lambda values: self._pointer(np.array(values, np.int64))   # noqa: E731
         d.hinge_joint, d.hinge_column = ints([j for j, _, _ in uses]), ints([column for _, _, column in uses])
@@ -359,10 +374,15 @@ class SensitivityLoop:
         times = [control.grid_time(grid) for grid in range(grid_index + 1, stop_index + 1)]
         if d.n_hinge_uses:   # the derivative laws' values (for the rest angle the stiffness's) at each grid point
             hinges = owner.model.hinges
-            uses = [(law, hinges[j].stiffness if which == "rest_angle" else None)
+            tabulated = lambda law: law is not None and _in_time_alone(law)   # noqa: E731 - else compiled, in C
+            uses = [(law if tabulated(law) else None,
+                     hinges[j].stiffness if which == "rest_angle" and tabulated(hinges[j].stiffness) else None)
                     for j, which, laws in owner._hinge_uses() for law in laws.values()]   # noqa: SLF001
-            values = [[(law.value(0.0, 0.0, t), stiffness.value(0.0, 0.0, t) if stiffness else 0.0)
+            values = [[(law.value(0.0, 0.0, t) if law is not None else 0.0,
+                        stiffness.value(0.0, 0.0, t) if stiffness is not None else 0.0)
                        for law, stiffness in uses] for t in times]
+            if owner.derivative_laws is not None:   # the inputs they read, bound for this call
+                owner.derivative_laws.bind()
             self._hinge_table = np.array(values, float).reshape(len(times), len(uses), 2)
             d.hinge_values, d.values_from = self._hinge_table.ctypes.data, grid_index + 1
         if d.n_body_uses:   # the kernel's block and ∂c/∂p of each use at each grid point (ParameterDerivatives.body_block)

@@ -211,7 +211,9 @@ class SensitivityLoopData(ctypes.Structure):
                 ("n_law_uses", I64), ("contact_kernel", P), ("friction_kernel", P), ("law_joint", P),
                 ("law_column", P), ("law_kind", P), ("law_slot", P), ("law_at", P), ("law_rows", P), ("law_factor", P),
                 ("law_values", P),
-                ("steps", I64), ("info", I64), ("h", ctypes.c_double)]
+                ("steps", I64), ("info", I64), ("h", ctypes.c_double),
+                # hinge laws' derivatives of θ, θ̇ or an input, compiled (latdyn/analyses/derivative_laws.py)
+                ("derivative_laws", P), ("hinge_law_index", P)]
 
 
 class TrajectoryData(ctypes.Structure):

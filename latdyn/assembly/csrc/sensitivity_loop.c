@@ -104,6 +104,11 @@ typedef struct {
     int64_t steps;                      /* steps differentiated here */
     int64_t info;                       /* the factorization's info where S was singular (the loop stopped) */
     double h;                           /* the last step's size */
+    /* hinge laws' derivatives of θ, θ̇ or an input (latdyn/analyses/derivative_laws.py): the compiled laws, which
+     * the Python path calls too, evaluated at the hinge's (θ, θ̇, t) in place of the tabulated values */
+    void (*derivative_laws)(int64_t, double, double, double, double *); /* latdyn_hinge_laws of them; NULL: none */
+    const int64_t *hinge_law_index;     /* n_hinge_uses × 2: the derivative law's and (rest angle) the stiffness
+                                         * law's number among them; −1: hinge_values' tabulated value */
 } SensitivityLoop;
 
 /* ∂r/∂p of the load components at c into total ((n_total + 1) × k): per (load, parameter) pair the generated
@@ -137,23 +142,29 @@ static void load_parameter_forces(const Model *m, const Configuration *c, const 
  * the derivative law's value in its law's place at the hinge's (θ, θ̇) (linear in the laws), or for the rest angle
  * the derivative times its force at (0, 0, 1, λ) with the stiffness alone (f = k (θ − θ_r) + …: affine in θ_r),
  * added at the hinge's coordinate in the Python path's order (ParameterDerivatives._hinge_force). */
-static void hinge_parameter_forces(const Model *m, const Configuration *c, const SensitivityLoop *s, int64_t grid)
+static void hinge_parameter_forces(const Model *m, const Configuration *c, const SensitivityLoop *s, int64_t grid,
+                                   double t)
 {
     const int64_t U = s->n_hinge_uses, k = s->k;
     const double *table = s->hinge_values + 2 * U * (grid - s->values_from);
     for (int64_t u = 0; u < U; ++u) {
         const int64_t j = s->hinge_joint[u], slot = s->hinge_slot[u];
-        double at[4], laws[9] = {0}, f, by_angle, by_rate, spring, applied, damper, energy;
+        double at[4], laws[9] = {0}, f, by_angle, by_rate, spring, applied, damper, energy, value[2], out[3];
+        for (int i = 0; i < 2; ++i) {   /* the derivative's and the stiffness's: compiled at (θ, θ̇, t), or tabulated */
+            const int64_t law = s->derivative_laws != NULL ? s->hinge_law_index[2 * u + i] : -1;
+            if (law >= 0) s->derivative_laws(law, c->theta[j], c->theta_dot[j], t, out);
+            value[i] = law >= 0 ? out[0] : table[2 * u + i];
+        }
         memcpy(at, s->hinge_at + 4 * u, 4 * sizeof(double));
         if (slot >= 0) {
             at[0] = c->theta[j];
             at[1] = c->theta_dot[j];
-            laws[slot] = table[2 * u];
+            laws[slot] = value[0];
         } else {
-            laws[0] = table[2 * u + 1];
+            laws[0] = value[1];
         }
         s->hinge_kernel(1, at, laws, s->no_contact, &f, &by_angle, &by_rate, &spring, &applied, &damper, &energy);
-        s->total[m->hinge_dofs[j] * k + s->hinge_column[u]] += slot >= 0 ? f : table[2 * u] * f;
+        s->total[m->hinge_dofs[j] * k + s->hinge_column[u]] += slot >= 0 ? f : value[0] * f;
     }
 }
 
@@ -249,7 +260,7 @@ static int64_t sensitivity_loop_step(const Model *m, Work *w, SensitivityLoop *s
     /* ∂r/∂p with the inertia forces (ParameterDerivatives.residual_derivatives: the hinges', the sections', the
      * joint bodies', the compliant stops' and friction's, then the loads') */
     memset(s->total, 0, sizeof(double) * (size_t)((m->n_total + 1) * k));
-    if (s->n_hinge_uses) hinge_parameter_forces(m, c, s, grid);
+    if (s->n_hinge_uses) hinge_parameter_forces(m, c, s, grid, t);
     if (s->n_uses)
         latdyn_section_parameter_forces(m, w, c, s->internal_D_section, s->inertia_D_section, 1, s->gravity, s->n_on,
                                         s->on, s->n_uses, s->use, s->elements, s->columns, s->rows, k, s->total,

@@ -1,0 +1,99 @@
+"""The parameters' derivative laws of the state, compiled: a hinge law's derivative by a parameter that names θ, θ̇
+or an input (the torque k (θ₀ − θ) − c θ̇ by k: θ₀ − θ), and the stiffness law of a hinge whose rest angle is a
+parameter where that law names them, compiled as the forward step compiles the scene's hinge laws
+(:func:`latdyn.assembly.compiled_laws.compile_laws`: the C unit of :mod:`codegen.laws`, from SymPy's expression, in
+the kernel cache). Their value f(θ, θ̇, t) is then one C function, ``latdyn_hinge_laws(k, θ, θ̇, t, out)``, that the
+per-step Python path (:meth:`latdyn.analyses.sensitivities.ParameterDerivatives._hinge_force`, through ctypes) and
+the loop of steps in C (csrc/sensitivity_loop.c, at the hinge's θ, θ̇ in C) both call: the same bits on both paths
+(issue 34; latdyn/analyses/sensitivities_in_loop.py). Laws of t alone keep their Python value (the loop tabulates
+them per grid point). A law that does not print in C, or no compiler: :func:`DerivativeLaws.of` is None and the
+Python path evaluates the law with NumPy, as before; such a run takes every step from Python.
+
+A law naming an input reads it from the array the scene's inputs hold (:attr:`latdyn.scene.inputs.Signals.values`),
+bound before each use (:meth:`DerivativeLaws.bind`: a library is shared by every run with the same laws in a
+process), so that a value set between runs is the one read.
+"""
+from __future__ import annotations
+
+import ctypes
+
+import numpy as np
+
+__all__ = ["DerivativeLaws", "of_the_state"]
+
+_LAW = ctypes.CFUNCTYPE(None, ctypes.c_int64, ctypes.c_double, ctypes.c_double, ctypes.c_double,
+                        ctypes.POINTER(ctypes.c_double))
+
+
+def of_the_state(law) -> bool:
+    """Whether a law's value depends on the state or the inputs (θ, θ̇ or an input), not on t alone."""
+    return bool({"theta", "theta_dot"} & set(law.depends_on)) or bool(law.input_names)
+
+
+class DerivativeLaws:
+    """The compiled derivative laws of the state of one run's parameters (module docstring), numbered in the order
+    of :attr:`laws`."""
+
+    def __init__(self, scene, laws: list, compiled):
+        self.scene, self.laws, self.compiled = scene, laws, compiled
+        self._index = {id(law): i for i, law in enumerate(laws)}
+        self.address = compiled.hinge_laws
+        self._function = _LAW(self.address)
+        self._out = (ctypes.c_double * 3)()
+        inputs = scene.inputs
+        outputs = getattr(scene, "controller_outputs", None)
+        self._inputs = inputs.values if inputs is not None and len(inputs) else np.zeros(1)
+        self._outputs = outputs.values if outputs is not None and len(outputs) else np.zeros(1)
+        self._signals = bool(inputs is not None and len(inputs)) or bool(outputs is not None and len(outputs))
+
+    @classmethod
+    def of(cls, owner) -> "DerivativeLaws | None":
+        """The compiled derivative laws of the state of ``owner`` (a ParameterDerivatives) with C kernels: its hinge
+        uses' derivative laws of the state and, for a rest angle, the hinge's stiffness law of the state; None where
+        there is none, no C kernels, or they do not compile (the Python path's NumPy values, module docstring)."""
+        from latdyn.assembly.compiled_laws import LawsUnavailable, compile_laws
+
+        if getattr(owner.kernels, "backend", None) != "c":
+            return None
+        laws, seen = [], set()
+
+        def add(law):
+            if of_the_state(law) and id(law) not in seen:
+                seen.add(id(law))
+                laws.append(law)
+
+        hinges = owner.model.hinges
+        for j, which, by_column in owner._hinge_uses():   # noqa: SLF001
+            for law in by_column.values():
+                add(law)
+            if which == "rest_angle":
+                add(hinges[j].stiffness)
+        if not laws:
+            return None
+        scene = owner.scene
+        outputs = getattr(scene, "controller_outputs", None)
+        signals = (tuple(scene.inputs.names) if scene.inputs is not None else (),
+                   tuple(outputs.names) if outputs is not None else ())
+        try:
+            compiled = compile_laws([], laws, signals)
+        except LawsUnavailable:
+            return None
+        return cls(scene, laws, compiled)
+
+    def index(self, law) -> int:
+        """The law's number among :attr:`laws`, −1 where it is not one (a law of t alone)."""
+        return self._index.get(id(law), -1)
+
+    def bind(self) -> None:
+        """Point the library at the scene's inputs and controllers' outputs (module docstring)."""
+        if self._signals:
+            self.compiled.bind_inputs(self._inputs, self._outputs)
+
+    def value(self, law, theta: float, rate: float, t: float) -> float:
+        """f(θ, θ̇, t) of ``law``: the compiled law's where it is one of :attr:`laws`, else the law's own value."""
+        i = self._index.get(id(law), -1)
+        if i < 0:
+            return law.value(theta, rate, t)
+        self.bind()
+        self._function(i, float(theta), float(rate), float(t), self._out)
+        return float(self._out[0])

@@ -1,0 +1,109 @@
+"""Hinge laws of the state in the sensitivities' loop of steps (issue 34 item 2; latdyn/analyses/derivative_laws.py,
+csrc/sensitivity_loop.c): a parameter whose derivative law names θ, θ̇ or an input (the deploying boom's torque
+k (θ₀ − θ) − c θ̇ by k and c; a 3D arm's stiffness in θ, damping in θ̇, torque in θ, t and an input, its rest angle
+beside a stiffness in θ) takes the loop, its law's value the compiled law's at the hinge's θ, θ̇ in C, and the
+results are the per-step Python path's (the private switch ``SENSITIVITIES_IN_LOOP`` off) to the bit, through the
+API and the CLI; the inputs those laws read are each run's own."""
+from __future__ import annotations
+
+import numpy as np
+import yaml
+
+import latdyn
+from tests.cli_runs import latdyn_run, latdyn_run_switched, summary_of
+from tests.test_sensitivities_in_loop import ARM_3D
+from tests.test_sensitivities_joint_forces import BOOM
+
+#: the deploying boom of tests/test_sensitivities_joint_forces.py opened by a torque law of its angle and rate,
+#: k (θ₀ − θ) − c θ̇, latching at π: its parameters k, c (derivatives θ₀ − θ and −θ̇) and θ₀ (the constant k)
+BOOM_TORQUE = (BOOM.replace("parameters: {k: 2.0, c: 0.1}", "parameters: {k: 2.0, c: 0.1, theta0: 3.6}")
+               .replace('stiffness: "k", damping: "c", rest_angle: 3.6,', 'torque: "k*(theta0 - theta) - c*theta_dot",')
+               .replace("sensitivities: [k, c]", "sensitivities: [k, c, theta0]"))
+
+#: the 3D arm of tests/test_sensitivities_in_loop.py with laws of its hinge's state and an input u: a stiffness in θ
+#: (its rest angle r a parameter beside it), a damping in θ̇, a torque in θ, t and u
+ARM_3D_STATE = (ARM_3D.replace("parameters: {E: 1.0, rho: 0.5, F: 2.0}",
+                               "parameters: {E: 1.0, rho: 0.5, F: 2.0, k: 30.0, c: 0.2, r: 0.1, A: 0.5}\n"
+                               "inputs: {u: 0.3}")
+                .replace("stiffness: 30.0, damping: 0.2}",
+                         'stiffness: "k*(1 + 0.5*theta**2)", damping: "c*(1 + exp(-theta_dot**2))", rest_angle: "r", '
+                         'torque: "A*u*sin(3*theta + 20*t) + 0.1*A**2*u"}')
+                .replace("sensitivities: [E, rho, F]", "sensitivities: [E, k, c, r, A]"))
+assert "theta0: 3.6" in BOOM_TORQUE and "torque: \"k*(theta0" in BOOM_TORQUE
+assert "inputs: {u: 0.3}" in ARM_3D_STATE and "exp(-theta_dot" in ARM_3D_STATE and "[E, k, c, r, A]" in ARM_3D_STATE
+
+
+def _run(text: str, monkeypatch, in_loop: bool):
+    """The scene's run through the API, its smooth steps' sensitivities in the loop of steps or from Python."""
+    with monkeypatch.context() as patch:
+        patch.setattr("latdyn.analyses.sensitivities_in_loop.SENSITIVITIES_IN_LOOP", in_loop)
+        return latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
+
+
+def _same(native, python) -> None:
+    """The two runs' sensitivities and the summary's, to the bit; every column nonzero."""
+    assert python.summary["time_loop"] == "python" and python.summary["sensitivity_steps_in_loop"] == 0
+    assert native.sensitivities.keys() == python.sensitivities.keys()
+    for key, values in python.sensitivities.items():
+        assert np.abs(values).max() > 0.0, key
+        np.testing.assert_array_equal(native.sensitivities[key], values, err_msg=str(key))
+    assert native.summary["probe_sensitivities"] == python.summary["probe_sensitivities"]
+    assert native.summary["event_sensitivities"] == python.summary["event_sensitivities"]
+
+
+def test_the_booms_torque_of_its_angle_and_rate_takes_the_loop(monkeypatch):
+    """The boom's k, c and θ₀ through a torque k (θ₀ − θ) − c θ̇: every smooth step in the loop of steps (all but the
+    latch's and the landing after it), the Python path's sensitivities and event time derivative to the bit."""
+    native, python = _run(BOOM_TORQUE, monkeypatch, True), _run(BOOM_TORQUE, monkeypatch, False)
+    steps = native.summary["steps"]
+    assert native.summary["time_loop"] == "compiled" and steps - 3 <= native.summary["sensitivity_steps_in_loop"] < steps
+    assert native.summary["event_sensitivities"][0]["kind"] == "latch"
+    _same(native, python)
+
+
+def test_a_3d_hinges_laws_of_its_state_and_an_input_take_the_loop(monkeypatch):
+    """The 3D arm's hinge stiffness in θ (and its rest angle), damping in θ̇ and torque in θ, t and an input: every
+    step in the loop, the Python path's to the bit; again with the input at another value in the same process (the
+    compiled laws' library is shared: each run reads its own input), whose sensitivities differ."""
+    native, python = _run(ARM_3D_STATE, monkeypatch, True), _run(ARM_3D_STATE, monkeypatch, False)
+    assert native.summary["time_loop"] == "compiled"
+    assert native.summary["sensitivity_steps_in_loop"] == native.summary["steps"] > 0
+    _same(native, python)
+    other = ARM_3D_STATE.replace("inputs: {u: 0.3}", "inputs: {u: 0.7}")
+    moved, moved_python = _run(other, monkeypatch, True), _run(other, monkeypatch, False)
+    assert moved.summary["sensitivity_steps_in_loop"] == moved.summary["steps"]
+    _same(moved, moved_python)
+    assert not np.array_equal(moved.sensitivities[("tip_z", "A")], native.sensitivities[("tip_z", "A")])
+
+
+def test_the_cli_writes_the_python_paths_files_for_the_booms_torque(tmp_path):
+    """``latdyn run`` on the boom with its torque of θ and θ̇ takes the loop; the same command with the switch off
+    (a process of its own) writes the same sensitivities.csv and probes.csv, byte for byte, and summary.json's
+    sensitivities."""
+    completed, out = latdyn_run(tmp_path, BOOM_TORQUE)
+    assert completed.returncode == 0, completed.stderr
+    summary = summary_of(out)
+    assert summary["time_loop"] == "compiled" and summary["sensitivity_steps_in_loop"] > 270
+    reference = tmp_path / "python"
+    run = latdyn_run_switched(tmp_path, tmp_path / "scene.yaml", reference,
+                              "import latdyn.analyses.sensitivities_in_loop as loop; loop.SENSITIVITIES_IN_LOOP = False")
+    assert run.returncode == 0, run.stderr
+    assert summary_of(reference)["sensitivity_steps_in_loop"] == 0
+    for name in ("sensitivities.csv", "probes.csv"):
+        assert (out / name).read_bytes() == (reference / name).read_bytes(), name
+    assert summary["probe_sensitivities"] == summary_of(reference)["probe_sensitivities"]
+    assert summary["event_sensitivities"] == summary_of(reference)["event_sensitivities"]
+
+
+def test_derivative_laws_that_do_not_compile_keep_the_run_on_the_python_path(monkeypatch):
+    """Where the derivative laws of the state do not compile (no compiler, a construct the C printer cannot write)
+    the whole run takes the Python path, its laws' NumPy values."""
+    from latdyn.assembly import compiled_laws
+
+    def unavailable(*args, **kwargs):
+        raise compiled_laws.LawsUnavailable("no compiler for the laws (test)")
+
+    monkeypatch.setattr(compiled_laws, "compile_laws", unavailable)
+    result = _run(BOOM_TORQUE, monkeypatch, True)
+    assert result.summary["sensitivity_steps_in_loop"] == 0 and result.summary["time_loop"] == "python"
+    assert np.abs(result.sensitivities[("knee_y", "k")]).max() > 0.0
