@@ -3,10 +3,12 @@ csrc/sensitivity_loop.c): a parameter whose derivative law names θ, θ̇ or an 
 k (θ₀ − θ) − c θ̇ by k and c; a 3D arm's stiffness in θ, damping in θ̇, torque in θ, t and an input, its rest angle
 beside a stiffness in θ) takes the loop, its law's value the compiled law's at the hinge's θ, θ̇ in C, and the
 results are the per-step Python path's (the private switch ``SENSITIVITIES_IN_LOOP`` off) to the bit, through the
-API and the CLI; the inputs those laws read are each run's own."""
+API and the CLI; the inputs those laws read are each run's own. Explicit time dependence beside an event (a torque
+and a load of t beside the boom's latch) takes the loop too."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 import yaml
 
 import latdyn
@@ -29,6 +31,13 @@ ARM_3D_STATE = (ARM_3D.replace("parameters: {E: 1.0, rho: 0.5, F: 2.0}",
                          'stiffness: "k*(1 + 0.5*theta**2)", damping: "c*(1 + exp(-theta_dot**2))", rest_angle: "r", '
                          'torque: "A*u*sin(3*theta + 20*t) + 0.1*A**2*u"}')
                 .replace("sensitivities: [E, rho, F]", "sensitivities: [E, k, c, r, A]"))
+#: the deploying boom's design parameters k, c latching at π with a torque of t and a tip load F of t: explicit time
+#: dependence beside an event (∂r/∂t δt, latdyn/analyses/transient_sensitivities.py ExplicitTime)
+BOOM_IN_TIME = (BOOM.replace("parameters: {k: 2.0, c: 0.1}", "parameters: {k: 2.0, c: 0.1, F: 0.2}")
+                .replace('rest_angle: 3.6,', 'rest_angle: 3.6, torque: "0.3*sin(4*t)",')
+                .replace("solve: {", 'loads:\n  - {at: tip, force: ["F*cos(3*t)", "0.5*F*t", 0]}\nsolve: {')
+                .replace("sensitivities: [k, c]", "sensitivities: [k, c, F]"))
+assert "sin(4*t)" in BOOM_IN_TIME and "F*cos(3*t)" in BOOM_IN_TIME
 assert "theta0: 3.6" in BOOM_TORQUE and "torque: \"k*(theta0" in BOOM_TORQUE
 assert "inputs: {u: 0.3}" in ARM_3D_STATE and "exp(-theta_dot" in ARM_3D_STATE and "[E, k, c, r, A]" in ARM_3D_STATE
 
@@ -51,10 +60,12 @@ def _same(native, python) -> None:
     assert native.summary["event_sensitivities"] == python.summary["event_sensitivities"]
 
 
-def test_the_booms_torque_of_its_angle_and_rate_takes_the_loop(monkeypatch):
-    """The boom's k, c and θ₀ through a torque k (θ₀ − θ) − c θ̇: every smooth step in the loop of steps (all but the
-    latch's and the landing after it), the Python path's sensitivities and event time derivative to the bit."""
-    native, python = _run(BOOM_TORQUE, monkeypatch, True), _run(BOOM_TORQUE, monkeypatch, False)
+@pytest.mark.parametrize("text", [BOOM_TORQUE, BOOM_IN_TIME], ids=["torque of the state", "laws of t, a latch"])
+def test_the_booms_laws_of_its_state_and_of_time_beside_the_latch_take_the_loop(text, monkeypatch):
+    """The boom's k, c and θ₀ through a torque k (θ₀ − θ) − c θ̇, and its k, c, F beside a torque and a load of t
+    (explicit time dependence beside the latch): every smooth step in the loop of steps (all but the latch's and the
+    landing after it), the Python path's sensitivities and event time derivative to the bit."""
+    native, python = _run(text, monkeypatch, True), _run(text, monkeypatch, False)
     steps = native.summary["steps"]
     assert native.summary["time_loop"] == "compiled" and steps - 3 <= native.summary["sensitivity_steps_in_loop"] < steps
     assert native.summary["event_sensitivities"][0]["kind"] == "latch"

@@ -54,7 +54,7 @@ SENSITIVITIES_IN_LOOP = True
 def refusal(owner) -> str | None:
     """Why the sensitivities of ``owner`` (a TransientSensitivities) take every step from Python, or None where
     their smooth steps may run in the loop of steps (module docstring). Once a run."""
-    why = model_refusal(owner)
+    why = model_refusal(owner, time_in_loop=True)
     if why is not None:
         return why
     for key, laws in owner.derivatives.items():
@@ -130,11 +130,13 @@ def _body_refusal(owner, key: str, laws: dict) -> str | None:
     return None
 
 
-def model_refusal(owner) -> str | None:
+def model_refusal(owner, time_in_loop: bool = False) -> str | None:
     """Why the run of ``owner`` (a TransientSensitivities) takes every step from Python whatever its parameters'
     kinds (no parameters, NumPy kernels, rigid links, guides, cables, controllers, explicit time dependence beside
     events, geometry parameters, energy or momentum probes), or None: :func:`refusal`'s part that the discrete
-    adjoint's forward pass, which differentiates nothing as it goes, shares (latdyn/analyses/adjoint_in_loop.py)."""
+    adjoint's forward pass, which differentiates nothing as it goes, shares (latdyn/analyses/adjoint_in_loop.py).
+    ``time_in_loop`` (:func:`refusal`): explicit time dependence beside events only where :func:`_time_refusal`
+    says (the adjoint's forward pass keeps refusing it all)."""
     scene, model = owner.scene, owner.model
     if not owner.names:
         return "no parameters"
@@ -142,10 +144,35 @@ def model_refusal(owner) -> str | None:
         return "kernels without C libraries"
     if model.links is not None or model.cables is not None or scene.controllers:
         return "rigid links, guides, cables or controllers"
-    if owner.explicit_time is not None or owner.geometry is not None:
-        return "explicit time dependence beside events, or geometry parameters"
+    if owner.geometry is not None:
+        return "geometry parameters"
+    if owner.explicit_time is not None:
+        why = _time_refusal(owner) if time_in_loop else "explicit time dependence beside events"
+        if why is not None:
+            return why
     if any(is_energy_or_momentum(probe) for probe in owner.probes):
         return "energy or momentum probes"
+    return None
+
+
+def _time_refusal(owner) -> str | None:
+    """Why the explicit time dependence beside events of ``owner`` (its ExplicitTime: ∂r/∂t δt, latdyn/analyses/
+    transient_sensitivities.py ``_add_time_columns``) keeps the run on the Python path, or None: the loop takes
+    ∂r/∂t of load components and hinge laws of t alone, their exact rates (the same ``_TimeRate`` objects) tabulated
+    per grid point through the same generated point_load and hinge_force (:class:`_TimeRates`); prescribed motions
+    (a difference in t of the residual in Python), reels and laws of the state and t (a SymPy rate in NumPy) not."""
+    rates = owner.explicit_time
+    if rates.prescribed or rates.reels:
+        return "explicit time dependence beside events through prescribed motions or a reel"
+    model = owner.model
+    for key in rates.laws.derivatives:
+        hinge = HINGE_KEY.match(key)
+        if hinge is not None:
+            law = getattr(model.hinges[model.hinge_index(hinge["beam"], hinge["end"])], hinge["law"])
+            if not _in_time_alone(law):
+                return f"explicit time dependence beside events: {key} is a law of the state and t"
+        elif not _LOAD_KEY.match(key):
+            return f"explicit time dependence beside events: {key}"
     return None
 
 
@@ -161,6 +188,8 @@ class SensitivityLoop:
         self.data = SensitivityLoopData()
         self._for = None
         self._keep: list = []
+        #: ∂r/∂t's struct (explicit time dependence beside events: :class:`_TimeRates`), None without
+        self._rates = None
 
     def _pointer(self, array: np.ndarray) -> int:
         """The address of ``array`` (of a held zero where it is empty), kept alive with the layout."""
@@ -238,6 +267,11 @@ class SensitivityLoop:
         self._hinges()
         self._bodies()
         self._joint_laws()
+        d.time_rates = None
+        if owner.explicit_time is not None:   # ∂r/∂t at the step's end, one column (refusal: _time_refusal)
+            self._rates = _TimeRates(owner.explicit_time.laws)
+            self._rates._layout()   # noqa: SLF001
+            d.time_rates = ctypes.addressof(self._rates.data)
         self._for = (key, True)
         return True
 
@@ -362,6 +396,15 @@ class SensitivityLoop:
             np.copyto(array, carried[name])
         np.copyto(self._dt, carried["dt"])
         d.steps, d.info = 0, 0
+        self._tabulate(grid_index, stop_index, control)
+        if self._rates is not None:   # ∂r/∂t's laws' rates alike (_TimeRates)
+            self._rates._tabulate(grid_index, stop_index, control)   # noqa: SLF001
+        return d
+
+    def _tabulate(self, grid_index: int, stop_index: int, control) -> None:
+        """The derivative laws' values of t at each grid point from ``grid_index`` + 1 through ``stop_index`` into
+        the struct (the loads', hinges', joint bodies', stops' and friction's; laws of the state: in C)."""
+        d, owner = self.data, self.owner
         if d.n_pairs:   # the derivative laws' values at each grid point the loop may reach (_load_pair_forces)
             pairs, _, place, _ = owner._load_layout()   # noqa: SLF001
             distinct, use = owner.load_laws_distinct()
@@ -374,7 +417,8 @@ class SensitivityLoop:
         times = [control.grid_time(grid) for grid in range(grid_index + 1, stop_index + 1)]
         if d.n_hinge_uses:   # the derivative laws' values (for the rest angle the stiffness's) at each grid point
             hinges = owner.model.hinges
-            tabulated = lambda law: law is not None and _in_time_alone(law)   # noqa: E731 - else compiled, in C
+            compiled = owner.derivative_laws   # the laws of the state compiled: in C; the others tabulated here
+            tabulated = lambda law: law is not None and (compiled is None or compiled.index(law) < 0)   # noqa: E731
             uses = [(law if tabulated(law) else None,
                      hinges[j].stiffness if which == "rest_angle" and tabulated(hinges[j].stiffness) else None)
                     for j, which, laws in owner._hinge_uses() for law in laws.values()]   # noqa: SLF001
@@ -400,7 +444,6 @@ class SensitivityLoop:
             self._law_table = np.array([[law.value(0.0, 0.0, t) for law in laws] for t in times], float).reshape(
                 len(times), len(laws))
             d.law_values, d.values_from = self._law_table.ctypes.data, grid_index + 1
-        return d
 
     def steps_in_call(self) -> int:
         """The steps the last call of the loop of steps differentiated (the run's count, summary.json
@@ -417,6 +460,25 @@ class SensitivityLoop:
         dh = self._dh.copy()
         return {**carried, **{name: array.copy() for name, array in self._carried.items()}, "dt": self._dt.copy(),
                 "dh": dh, "dh_step": dh, "h": d.h, "pending": None, "dh_next": np.zeros(len(dh))}
+
+
+class _TimeRates(SensitivityLoop):
+    """∂r/∂t at fixed coordinates (ExplicitTime.of_laws of latdyn/analyses/transient_sensitivities.py: the laws' rates
+    in t through the parameters' machinery with one column, t) as a struct of its own, which the loop's step reads
+    beside its parameters' (``time_rates``): the hinge laws' and the load components' uses of ``laws`` (the
+    ExplicitTime's one-column copy of the owner), their rates tabulated per grid point, its ``total`` the column."""
+
+    def _layout(self) -> bool:
+        if self._for is not None:
+            return True
+        owner, d = self.owner, self.data
+        d.k, d.n_uses, d.n_body_uses, d.n_law_uses = 1, 0, 0, 0
+        self._total = np.zeros(owner.model.n_total + 1)
+        d.total = self._pointer(self._total)
+        self._loads()
+        self._hinges()
+        self._for = (None, True)
+        return True
 
 
 class _AtTime:

@@ -213,7 +213,9 @@ class SensitivityLoopData(ctypes.Structure):
                 ("law_values", P),
                 ("steps", I64), ("info", I64), ("h", ctypes.c_double),
                 # hinge laws' derivatives of θ, θ̇ or an input, compiled (latdyn/analyses/derivative_laws.py)
-                ("derivative_laws", P), ("hinge_law_index", P)]
+                ("derivative_laws", P), ("hinge_law_index", P),
+                # explicit time dependence beside events: ∂r/∂t's struct of one column (sensitivities_in_loop._TimeRates)
+                ("time_rates", P)]
 
 
 class TrajectoryData(ctypes.Structure):

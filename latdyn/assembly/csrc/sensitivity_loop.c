@@ -22,7 +22,7 @@
 typedef void (*kernel_joint_law)(int64_t, const double *, const double *, double *);
 
 /* What the loop of steps needs for the sensitivities' step (latdyn.analyses.sensitivities_in_loop). */
-typedef struct {
+typedef struct SensitivityLoopTag {
     int64_t k;                          /* parameters */
     double *dq, *dv, *dvdot, *da;       /* in/out: the carried δq, δv, δv̇, δa (n × k, row-major) */
     double *dt, *dh;                    /* in/out: δt (k); out: the last step's δh (k) */
@@ -109,6 +109,9 @@ typedef struct {
     void (*derivative_laws)(int64_t, double, double, double, double *); /* latdyn_hinge_laws of them; NULL: none */
     const int64_t *hinge_law_index;     /* n_hinge_uses × 2: the derivative law's and (rest angle) the stiffness
                                          * law's number among them; −1: hinge_values' tabulated value */
+    /* explicit time dependence beside events (ExplicitTime, latdyn/analyses/transient_sensitivities.py): ∂r/∂t's
+     * struct, one column of the hinge laws' and loads' uses with their rates in t; NULL: nothing moves in t */
+    struct SensitivityLoopTag *time_rates;
 } SensitivityLoop;
 
 /* ∂r/∂p of the load components at c into total ((n_total + 1) × k): per (load, parameter) pair the generated
@@ -216,6 +219,23 @@ static void joint_law_parameter_forces(const Model *m, const Configuration *c, c
     }
 }
 
+/* The explicit time dependence at the step's end (TransientSensitivities._add_time_columns): ∂r/∂t at c (the hinge
+ * laws' then the loads' rates in t through the same calls as their parameters', ExplicitTime.of_laws) times the
+ * carried δt_n added to the parameters' columns of explicit_, and ∂r/∂t itself to the step size's. */
+static void explicit_time_columns(const Model *m, const Configuration *c, SensitivityLoop *s, int64_t grid, double t)
+{
+    SensitivityLoop *r = s->time_rates;
+    const int64_t n = m->n_dofs, k = s->k, cols = k + 1;
+    memset(r->total, 0, sizeof(double) * (size_t)(m->n_total + 1));
+    if (r->n_hinge_uses) hinge_parameter_forces(m, c, r, grid, t);
+    load_parameter_forces(m, c, r, grid);
+    for (int64_t i = 0; i < n; ++i) {
+        const double rate = r->total[i];
+        for (int64_t col = 0; col < k; ++col) s->explicit_[i * cols + col] += rate * s->dt[col];
+        s->explicit_[i * cols + k] += rate;
+    }
+}
+
 /* M, C and the exact K at c and time t into s->mck (Assembler.exact_matrix_values): the evaluation with the inertia
  * tangent, the joint bodies' inertia stiffness, the scatter onto the pattern. */
 static void exact_matrices(const Model *m, Work *w, SensitivityLoop *s, const Configuration *c, double t)
@@ -272,6 +292,7 @@ static int64_t sensitivity_loop_step(const Model *m, Work *w, SensitivityLoop *s
         for (int64_t col = 0; col < k; ++col) s->explicit_[i * cols + col] = s->total[i * k + col];
         s->explicit_[i * cols + k] = 0.0;
     }
+    if (s->time_rates != NULL) explicit_time_columns(m, c, s, grid, t);
     const int64_t size = n * cols;
     const double *da0 = s->predicted, *dq0 = s->predicted + size, *dv0 = s->predicted + 2 * size;
     (void)da0;
