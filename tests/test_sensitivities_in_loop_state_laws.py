@@ -13,6 +13,7 @@ import yaml
 
 import latdyn
 from tests.cli_runs import latdyn_run, latdyn_run_switched, summary_of
+from tests.test_sensitivities_events import LATCH_3D
 from tests.test_sensitivities_in_loop import ARM_3D
 from tests.test_sensitivities_joint_forces import BOOM
 
@@ -37,7 +38,11 @@ BOOM_IN_TIME = (BOOM.replace("parameters: {k: 2.0, c: 0.1}", "parameters: {k: 2.
                 .replace('rest_angle: 3.6,', 'rest_angle: 3.6, torque: "0.3*sin(4*t)",')
                 .replace("solve: {", 'loads:\n  - {at: tip, force: ["F*cos(3*t)", "0.5*F*t", 0]}\nsolve: {')
                 .replace("sensitivities: [k, c]", "sensitivities: [k, c, F]"))
+#: tests/test_sensitivities_events.py's 3D wheel on a skew hinge latching at 0.5 rad with a torque and a load of t
+LATCH_3D_IN_TIME = (LATCH_3D.replace("rest_angle: 1.0, lock_at", 'rest_angle: 1.0, torque: "0.05*sin(5*t)", lock_at')
+                    .replace("solve: {", 'loads:\n  - {at: wheel, force: ["0.2*t", 0, "-0.1*cos(2*t)"]}\nsolve: {'))
 assert "sin(4*t)" in BOOM_IN_TIME and "F*cos(3*t)" in BOOM_IN_TIME
+assert "sin(5*t)" in LATCH_3D_IN_TIME and '"0.2*t"' in LATCH_3D_IN_TIME
 assert "theta0: 3.6" in BOOM_TORQUE and "torque: \"k*(theta0" in BOOM_TORQUE
 assert "inputs: {u: 0.3}" in ARM_3D_STATE and "exp(-theta_dot" in ARM_3D_STATE and "[E, k, c, r, A]" in ARM_3D_STATE
 
@@ -60,10 +65,11 @@ def _same(native, python) -> None:
     assert native.summary["event_sensitivities"] == python.summary["event_sensitivities"]
 
 
-@pytest.mark.parametrize("text", [BOOM_TORQUE, BOOM_IN_TIME], ids=["torque of the state", "laws of t, a latch"])
+@pytest.mark.parametrize("text", [BOOM_TORQUE, BOOM_IN_TIME, LATCH_3D_IN_TIME],
+                         ids=["torque of the state", "laws of t, a latch", "laws of t, a latch in 3D"])
 def test_the_booms_laws_of_its_state_and_of_time_beside_the_latch_take_the_loop(text, monkeypatch):
     """The boom's k, c and θ₀ through a torque k (θ₀ − θ) − c θ̇, and its k, c, F beside a torque and a load of t
-    (explicit time dependence beside the latch): every smooth step in the loop of steps (all but the latch's and the
+    (explicit time dependence beside the latch), and the 3D wheel's beside its latch likewise: every smooth step in the loop of steps (all but the latch's and the
     landing after it), the Python path's sensitivities and event time derivative to the bit."""
     native, python = _run(text, monkeypatch, True), _run(text, monkeypatch, False)
     steps = native.summary["steps"]

@@ -12,16 +12,23 @@ Native: ∂r/∂p of section values whose derivative laws are constants (the gen
 csrc/parameter_forces.c), of load components (the generated ``point_load``, linear in the values, with the
 derivative laws' values at each grid point tabulated here before each call: a law in t is evaluated by the same
 law object at the same t the Python step reads), of a hinge's stiffness, damping, rest angle and torque whose
-derivative laws (and for the rest angle the hinge's stiffness) are values of t alone (the generated
-``hinge_force``, linear in the laws, at the hinge's θ, θ̇ in C, the laws' values tabulated alike: ``_hinge_refusal``)
+derivative laws (and for the rest angle the hinge's stiffness) are values of t alone or laws of θ, θ̇, t and inputs
+that compile (the generated ``hinge_force``, linear in the laws, at the hinge's θ, θ̇ in C, the laws of t tabulated
+alike, the laws of the state compiled as the step's own laws and evaluated in C at the hinge's θ, θ̇, t, the same C
+the Python step calls: latdyn/analyses/derivative_laws.py; ``_hinge_refusal``)
 and of a joint body's mass, inertia and centre of mass (the generated ``joint_body`` with the use's block, or
 ``joint_body_D_com`` along ∂c/∂p, the blocks made by ``ParameterDerivatives.body_block`` and tabulated alike), of
 a hinge's compliant stops' and friction's law values (the generated ``contact_force_D_law``,
 ``friction_force_D_law`` at the hinge's θ, θ̇ in C, times the derivative laws' values tabulated alike), and
-parameters of ``initial_velocity`` (they move the start only). Not native (the Python path): hinge laws whose
-derivative names θ, θ̇ or an input, guide, cable, controller and geometry parameters, section
-values whose derivative is a law in t or an input, rigid links and guides, cables,
-controllers, explicit time dependence beside events (∂r/∂t δt), energy and momentum probes (their work
+parameters of ``initial_velocity`` (they move the start only), and explicit time dependence beside events
+through load components and hinge laws of t alone (∂r/∂t at the step's end through the same point_load and
+hinge_force calls, their exact rates tabulated per grid point: :class:`_TimeRates`, ``_time_refusal``; ∂r/∂t δt_n in
+the parameters' columns, ∂r/∂t in the step size's, as ``TransientSensitivities._add_time_columns``; δt_n is 0 at
+every step the loop takes in the runs measured, the landing on the grid before it having cancelled it). Not native
+(the Python path): hinge laws whose derivative names θ, θ̇ or an input and does not compile, guide, cable,
+controller and geometry parameters, section values whose derivative is a law in t or an input, rigid links and
+guides, cables, controllers, explicit time dependence beside events through prescribed motions, reels or laws of
+the state and t, energy and momentum probes (their work
 accounts are carried per step in Python), the NumPy kernels, and a numbering whose step matrix takes the
 sparse LU (whose failed pivot falls back to SciPy: :meth:`latdyn.analyses.step_matrix.ExactStepMatrix.solve_step`).
 
