@@ -13,6 +13,7 @@ import yaml
 
 import latdyn
 from tests.cli_runs import latdyn_run, latdyn_run_switched, summary_of
+from tests.resumed_runs import resumed_inside_the_loop_is_whole
 from tests.test_sensitivities_events import LATCH_3D
 from tests.test_sensitivities_in_loop import ARM_3D
 from tests.test_sensitivities_joint_forces import BOOM
@@ -124,3 +125,9 @@ def test_derivative_laws_that_do_not_compile_keep_the_run_on_the_python_path(mon
     result = _run(BOOM_TORQUE, monkeypatch, True)
     assert result.summary["sensitivity_steps_in_loop"] == 0 and result.summary["time_loop"] == "python"
     assert np.abs(result.sensitivities[("knee_y", "k")]).max() > 0.0
+
+
+def test_a_run_interrupted_inside_the_loop_resumes_to_the_same_files(tmp_path, monkeypatch):
+    """The boom with its torque of the state, interrupted (Ctrl-C) as a loop of steps starts at t ≥ 0.2 and resumed
+    from its checkpoint: the uninterrupted run's files, byte for byte (the derivative laws compiled again)."""
+    resumed_inside_the_loop_is_whole(yaml.safe_load(BOOM_TORQUE), tmp_path, monkeypatch, 0.2)
