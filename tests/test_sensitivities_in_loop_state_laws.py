@@ -48,6 +48,21 @@ assert "theta0: 3.6" in BOOM_TORQUE and "torque: \"k*(theta0" in BOOM_TORQUE
 assert "inputs: {u: 0.3}" in ARM_3D_STATE and "exp(-theta_dot" in ARM_3D_STATE and "[E, k, c, r, A]" in ARM_3D_STATE
 
 
+#: the 3D arm's hinged second beam slewed by a PD controller on its hinge's angle and rate towards a set point: the
+#: gains Kp, Kd, the set point ref and a section value E as parameters; NONLINEAR: its output a sine of the error and
+#: a rate's cube (its partials' C differs from NumPy's lambdas in the last bits)
+ARM_PD = (ARM_3D.replace("parameters: {E: 1.0, rho: 0.5, F: 2.0}",
+                         "parameters: {E: 1.0, rho: 0.5, F: 2.0, Kp: 20.0, Kd: 1.5, ref: 0.4}")
+          .replace("stiffness: 30.0, damping: 0.2}", 'stiffness: 2.0, damping: 0.2, torque: "pd"}')
+          .replace("solve: {", 'controllers:\n  pd: {output: "Kp*(ref - angle) - Kd*omega"}\nsolve: {')
+          .replace("    hinge: {hinge: b.start, quantity: angle}\n",
+                   "    angle: {hinge: b.start, quantity: angle}\n    omega: {hinge: b.start, quantity: rate}\n")
+          .replace("sensitivities: [E, rho, F]", "sensitivities: [E, Kp, Kd, ref]"))
+ARM_PD_NONLINEAR = ARM_PD.replace('"Kp*(ref - angle) - Kd*omega"', '"Kp*sin(ref - angle) - Kd*omega*(1 + 0.1*omega**2)"')
+assert "omega: {hinge" in ARM_PD and 'torque: "pd"' in ARM_PD and "[E, Kp, Kd, ref]" in ARM_PD
+assert "sin(ref - angle)" in ARM_PD_NONLINEAR
+
+
 def _run(text: str, monkeypatch, in_loop: bool):
     """The scene's run through the API, its smooth steps' sensitivities in the loop of steps or from Python."""
     with monkeypatch.context() as patch:
@@ -131,3 +146,43 @@ def test_a_run_interrupted_inside_the_loop_resumes_to_the_same_files(tmp_path, m
     """The boom with its torque of the state, interrupted (Ctrl-C) as a loop of steps starts at t ≥ 0.2 and resumed
     from its checkpoint: the uninterrupted run's files, byte for byte (the derivative laws compiled again)."""
     resumed_inside_the_loop_is_whole(yaml.safe_load(BOOM_TORQUE), tmp_path, monkeypatch, 0.2)
+
+
+@pytest.mark.parametrize("text", [ARM_PD, ARM_PD_NONLINEAR], ids=["PD", "nonlinear PD"])
+def test_a_pd_controlled_3d_arm_takes_the_loop(text, monkeypatch):
+    """The 3D arm slewed by a PD controller (its gains, its set point and a section value as parameters): every step in
+    the loop of steps (the controller's ∂f/∂p compiled, at the hinge's angle and rate in C), the Python path's
+    sensitivities to the bit."""
+    native, python = _run(text, monkeypatch, True), _run(text, monkeypatch, False)
+    assert native.summary["time_loop"] == "compiled"
+    assert native.summary["sensitivity_steps_in_loop"] == native.summary["steps"] > 0
+    _same(native, python)
+
+
+def test_the_cli_writes_the_python_paths_files_for_the_pd_controlled_arm(tmp_path):
+    """``latdyn run`` on the PD-controlled 3D arm over 0.3 s takes the loop; with the switch off (a process of its own)
+    the same sensitivities.csv and probes.csv, byte for byte, and summary.json's sensitivities."""
+    completed, out = latdyn_run(tmp_path, ARM_PD.replace("t_end: 0.06", "t_end: 0.3"))
+    assert completed.returncode == 0, completed.stderr
+    summary = summary_of(out)
+    assert summary["time_loop"] == "compiled" and summary["sensitivity_steps_in_loop"] == summary["steps"] == 60
+    reference = tmp_path / "python"
+    run = latdyn_run_switched(tmp_path, tmp_path / "scene.yaml", reference,
+                              "import latdyn.analyses.sensitivities_in_loop as loop; loop.SENSITIVITIES_IN_LOOP = False")
+    assert run.returncode == 0, run.stderr
+    for name in ("sensitivities.csv", "probes.csv"):
+        assert (out / name).read_bytes() == (reference / name).read_bytes(), name
+    assert summary["probe_sensitivities"] == summary_of(reference)["probe_sensitivities"]
+
+
+def test_controllers_the_loop_does_not_take_keep_the_python_path(monkeypatch):
+    """tests/test_sensitivities_controllers.py's wheel (chained controllers, a clipped one, one driving a load) takes
+    every step from Python, and so does the PD arm with a limit on its output."""
+    from tests.test_sensitivities_controllers import WHEEL
+
+    text = WHEEL.replace("t_end: 0.5", "t_end: 0.1")
+    assert _run(text, monkeypatch, True).summary["sensitivity_steps_in_loop"] == 0
+    limited = ARM_PD.replace('"Kp*(ref - angle) - Kd*omega"}', '"Kp*(ref - angle) - Kd*omega", limits: [-50, 50]}')
+    assert "limits: [-50, 50]" in limited
+    result = _run(limited, monkeypatch, True)
+    assert result.summary["sensitivity_steps_in_loop"] == 0 and result.summary["time_loop"] == "python"

@@ -19,7 +19,7 @@ import ctypes
 
 import numpy as np
 
-__all__ = ["DerivativeLaws", "of_the_state"]
+__all__ = ["ControllerPartials", "DerivativeLaws", "of_the_state"]
 
 _LAW = ctypes.CFUNCTYPE(None, ctypes.c_int64, ctypes.c_double, ctypes.c_double, ctypes.c_double,
                         ctypes.POINTER(ctypes.c_double))
@@ -40,11 +40,7 @@ class DerivativeLaws:
         self.address = compiled.hinge_laws
         self._function = _LAW(self.address)
         self._out = (ctypes.c_double * 3)()
-        inputs = scene.inputs
-        outputs = getattr(scene, "controller_outputs", None)
-        self._inputs = inputs.values if inputs is not None and len(inputs) else np.zeros(1)
-        self._outputs = outputs.values if outputs is not None and len(outputs) else np.zeros(1)
-        self._signals = bool(inputs is not None and len(inputs)) or bool(outputs is not None and len(outputs))
+        self._signals = _Signals(scene)
 
     @classmethod
     def of(cls, owner) -> "DerivativeLaws | None":
@@ -86,8 +82,7 @@ class DerivativeLaws:
 
     def bind(self) -> None:
         """Point the library at the scene's inputs and controllers' outputs (module docstring)."""
-        if self._signals:
-            self.compiled.bind_inputs(self._inputs, self._outputs)
+        self._signals.bind(self.compiled)
 
     def value(self, law, theta: float, rate: float, t: float) -> float:
         """f(θ, θ̇, t) of ``law``: the compiled law's where it is one of :attr:`laws`, else the law's own value."""
@@ -96,4 +91,94 @@ class DerivativeLaws:
             return law.value(theta, rate, t)
         self.bind()
         self._function(i, float(theta), float(rate), float(t), self._out)
+        return float(self._out[0])
+
+
+class _Signals:
+    """The arrays of a scene's inputs and controllers' outputs that its compiled laws read (module docstring)."""
+
+    def __init__(self, scene):
+        inputs, outputs = scene.inputs, getattr(scene, "controller_outputs", None)
+        self.inputs = inputs.values if inputs is not None and len(inputs) else np.zeros(1)
+        self.outputs = outputs.values if outputs is not None and len(outputs) else np.zeros(1)
+        self.any = bool(inputs is not None and len(inputs)) or bool(outputs is not None and len(outputs))
+
+    def bind(self, compiled) -> None:
+        if self.any:
+            compiled.bind_inputs(self.inputs, self.outputs)
+
+
+_CONTROLLER_LAW = ctypes.CFUNCTYPE(None, ctypes.c_int64, ctypes.c_double, ctypes.POINTER(ctypes.c_double),
+                                   ctypes.POINTER(ctypes.c_double))
+
+
+class ControllerPartials:
+    """The continuous controllers' outputs' derivatives by the parameters, ∂f/∂p (t, s, S) of
+    :class:`latdyn.analyses.sensitivities.ControllerTerms`, compiled as the step's controller laws are (each one a
+    controller law of the same arguments: ``latdyn_controller_laws(k, t, s, out)``, its ``out[0]``): the one C function
+    the per-step Python path (:meth:`ControllerTerms.add`, through ctypes) and the loop of steps in C call. Numbered in
+    the order of ``ControllerTerms.partials`` (controller, then column)."""
+
+    def __init__(self, uses: list, compiled, width: int, scene):
+        self.uses = uses   # (controller name, column, the partial's lambda) in their law's order
+        self._index = {id(partial): i for i, (_, _, partial) in enumerate(uses)}
+        self.address = compiled.controller_laws
+        self.compiled = compiled
+        self._function = _CONTROLLER_LAW(self.address)
+        self._arguments = (ctypes.c_double * max(width, 1))()
+        self._out = (ctypes.c_double * (1 + max(width, 1)))()
+        self._signals = _Signals(scene)
+
+    @classmethod
+    def of(cls, terms, expressions: dict) -> "ControllerPartials | None":
+        """The compiled partials of ``terms`` (a ControllerTerms; ``expressions``: controller name -> {column: the
+        partial's SymPy expression}); None without C kernels, without partials, or where they do not compile."""
+        from types import SimpleNamespace
+
+        from latdyn.assembly.compiled_laws import LawsUnavailable, compile_laws
+
+        owner = terms.owner
+        if getattr(owner.kernels, "backend", None) != "c" or not terms.partials:
+            return None
+        by_name = {c.name: c for c in terms.continuous}
+        uses, laws = [], []
+        for name, by_column in terms.partials.items():
+            c = by_name.get(name)
+            if c is None:   # a sampled controller's (SampledTerms): its lambdas
+                continue
+            for column, partial in by_column.items():
+                uses.append((name, column, partial))
+                law = SimpleNamespace(name=f"{name}.d{column}", symbols=c.symbols, output_expr=expressions[name][column],
+                                      states=tuple(c.states), state_exprs=(), output_text=f"d/dp[{column}]")
+                laws.append((law, tuple(c.reads)))
+        if not uses:
+            return None
+        scene = owner.scene
+        outputs = getattr(scene, "controller_outputs", None)
+        signals = (tuple(scene.inputs.names) if scene.inputs is not None else (),
+                   tuple(outputs.names) if outputs is not None else ())
+        try:
+            compiled = compile_laws([], [], signals, laws)
+        except LawsUnavailable:
+            return None
+        width = max([1] + [len(c.reads) + len(c.states) for c in terms.continuous])
+        return cls(uses, compiled, width, scene)
+
+    def bind(self) -> None:
+        """Point the library at the scene's inputs and controllers' outputs (module docstring)."""
+        self._signals.bind(self.compiled)
+
+    def index(self, partial) -> int:
+        """The partial's number (a lambda of ``ControllerTerms.partials``), −1 where it is not one."""
+        return self._index.get(id(partial), -1)
+
+    def value(self, partial, arguments: list) -> float:
+        """∂f/∂p at ``arguments`` (t, the sensors, the states): the compiled law's, or the lambda's where it is not one."""
+        i = self._index.get(id(partial), -1)
+        if i < 0:
+            return float(partial(*arguments))
+        for j, a in enumerate(arguments[1:]):
+            self._arguments[j] = float(a)
+        self.bind()
+        self._function(i, float(arguments[0]), self._arguments, self._out)
         return float(self._out[0])

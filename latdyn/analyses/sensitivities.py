@@ -1309,6 +1309,11 @@ class ControllerTerms:
         self.partials: dict[str, dict[int, object]] = {}
         #: controllers with states: name -> {column: {state: ∂(dS/dt)/∂p as a function of (t, reads, states)}}
         self.rate_partials: dict[str, dict[int, dict[str, object]]] = {}
+        #: the partials' SymPy expressions (controller name -> {column: ∂f/∂p}), and the partials compiled, whose C
+        #: both paths of a transient run call (latdyn/analyses/derivative_laws.py ControllerPartials; set by
+        #: TransientSensitivities), None: their lambdas
+        self.partial_expressions: dict[str, dict[int, object]] = {}
+        self.compiled = None
         for column, name in enumerate(owner.names):
             for key in scene.parameters.depending_on(name):
                 match = _CONTROLLER_KEY.match(key)
@@ -1321,6 +1326,7 @@ class ControllerTerms:
                 law = sp.lambdify(c.symbols, expr, modules=["math", "numpy"])
                 if match["state"] is None:
                     self.partials.setdefault(c.name, {})[column] = law
+                    self.partial_expressions.setdefault(c.name, {})[column] = expr
                 else:              # ∂(dS/dt)/∂p of one state
                     self.rate_partials.setdefault(c.name, {}).setdefault(column, {})[match["state"]] = law
         #: controller name -> {an earlier controller it reads: the index of ∂f/∂y_j in its
@@ -1419,7 +1425,8 @@ class ControllerTerms:
             slope = np.zeros(self.k)
             if c.limits is None or c.limits[0] < raw < c.limits[1]:
                 for column, partial in self.partials.get(c.name, {}).items():
-                    slope[column] += float(partial(*arguments))
+                    slope[column] += (float(partial(*arguments)) if self.compiled is None else
+                                      self.compiled.value(partial, arguments))
                 if self.chained[c.name] or c.name in self.held:
                     gradient = c.output_gradient(*arguments)
                     for read, i in self.chained[c.name].items():

@@ -149,8 +149,12 @@ def model_refusal(owner, time_in_loop: bool = False) -> str | None:
         return "no parameters"
     if getattr(owner.kernels, "backend", None) != "c":
         return "kernels without C libraries"
-    if model.links is not None or model.cables is not None or scene.controllers:
-        return "rigid links, guides, cables or controllers"
+    if model.links is not None or model.cables is not None:
+        return "rigid links, guides or cables"
+    if scene.controllers:
+        why = _controller_refusal(owner) if time_in_loop else "controllers"
+        if why is not None:
+            return why
     if owner.geometry is not None:
         return "geometry parameters"
     if owner.explicit_time is not None:
@@ -159,6 +163,32 @@ def model_refusal(owner, time_in_loop: bool = False) -> str | None:
             return why
     if any(is_energy_or_momentum(probe) for probe in owner.probes):
         return "energy or momentum probes"
+    return None
+
+
+def _controller_refusal(owner) -> str | None:
+    """Why the controllers of ``owner`` keep the run on the Python path, or None: the loop takes continuous controllers
+    without states and sampled ones, whose parameters' partials compiled (derivative_laws.ControllerPartials) and whose
+    controllers with a partial have no limits, read no earlier controller and only hinge angles and rates, and drive
+    hinge torques (:func:`controller_parameter_forces` of csrc/sensitivity_loop.c; ControllerTerms.add)."""
+    from latdyn.assembly.control import ANGLE, RATE
+
+    terms = owner.controllers
+    if terms.states is not None or terms.sampled is not None:
+        return "controllers with states, or sampled controllers"
+    if terms.partials and terms.compiled is None:
+        return "controllers' parameters whose derivatives did not compile"
+    wiring = owner.assembler.control
+    for k, c in enumerate(wiring.controllers):
+        if c.name not in terms.partials:
+            continue
+        sensors = range(int(wiring.sensor_start[k]), int(wiring.sensor_start[k + 1]))
+        if c.limits is not None or terms.chained[c.name] or tuple(c.reads) != wiring.sensor_names(k) \
+                or any(int(wiring.sensor_kind[i]) not in (ANGLE, RATE) for i in sensors):
+            return (f"controller {c.name}: a parameter inside an output with limits, or reading other than hinge "
+                    "angles and rates")
+        if any(int(kind) != 0 for kind, of in zip(wiring.actuator_kind, wiring.actuator_controller) if int(of) == k):
+            return f"controller {c.name}: a parameter inside an output that drives a load"
     return None
 
 
@@ -274,6 +304,7 @@ class SensitivityLoop:
         self._hinges()
         self._bodies()
         self._joint_laws()
+        self._controllers()
         d.time_rates = None
         if owner.explicit_time is not None:   # ∂r/∂t at the step's end, one column (refusal: _time_refusal)
             self._rates = _TimeRates(owner.explicit_time.laws)
@@ -349,6 +380,36 @@ class SensitivityLoop:
         d.law_rows = self._pointer(np.ascontiguousarray(np.concatenate([use[4] for use in uses]), np.float64))
         d.law_factor = self._pointer(np.array([float(use[5]) for use in uses]))
 
+    def _controllers(self) -> None:
+        """The continuous controllers' parameter uses (ControllerTerms.add), in its order: each use's controller (its
+        place in the wiring) and column, its law's number its place (ControllerPartials); the sensors of each
+        controller; the hinge actuators in the wiring's order."""
+        owner, d = self.owner, self.data
+        terms = owner.controllers
+        d.n_partials = 0
+        if terms is None or terms.compiled is None:
+            return
+        wiring = owner.assembler.control
+        place = {c.name: k for k, c in enumerate(wiring.controllers)}
+        uses = terms.compiled.uses
+        ints = lambda values: self._pointer(np.array(values, np.int64))   # noqa: E731
+        d.n_partials = len(uses)
+        d.controller_partials = terms.compiled.address
+        d.partial_controller = ints([place[name] for name, _, _ in uses])
+        d.partial_column = ints([column for _, column, _ in uses])
+        d.n_partial_controllers = wiring.n
+        d.read_start = ints(wiring.sensor_start[:wiring.n + 1])
+        d.read_kind = ints([0 if int(kind) == 0 else 1 for kind in wiring.sensor_kind[:wiring.n_sensors]])
+        d.read_index = ints(wiring.sensor_index[:wiring.n_sensors])
+        hinges = [(int(index), int(of), float(gain) if gain else 1.0) for kind, index, of, gain in zip(
+            wiring.actuator_kind, wiring.actuator_index, wiring.actuator_controller, wiring.actuator_gain) if kind == 0]
+        d.n_hinge_actuators = len(hinges)
+        d.actuator_hinge, d.actuator_of = ints([h for h, _, _ in hinges]), ints([of for _, of, _ in hinges])
+        d.actuator_factor = self._pointer(np.array([factor for _, _, factor in hinges], float))
+        d.controller_slopes = self._pointer(np.zeros(wiring.n * len(owner.names)))
+        width = max([1] + [int(wiring.sensor_start[k + 1] - wiring.sensor_start[k]) for k in range(wiring.n)])
+        d.controller_scratch = self._pointer(np.zeros(2 * width + 1))
+
     def _body_uses(self) -> list:
         """(body key's match, index among the joint bodies, column, derivative law) of every body use the Python
         step adds (ParameterDerivatives._body_forces), in its order."""
@@ -404,6 +465,8 @@ class SensitivityLoop:
         np.copyto(self._dt, carried["dt"])
         d.steps, d.info = 0, 0
         self._tabulate(grid_index, stop_index, control)
+        if d.n_partials:   # the inputs and controllers' outputs the controllers' partials read, bound for this call
+            owner.controllers.compiled.bind()
         if self._rates is not None:   # ∂r/∂t's laws' rates alike (_TimeRates)
             self._rates._tabulate(grid_index, stop_index, control)   # noqa: SLF001
         return d

@@ -112,6 +112,20 @@ typedef struct SensitivityLoopTag {
     /* explicit time dependence beside events (ExplicitTime, latdyn/analyses/transient_sensitivities.py): ∂r/∂t's
      * struct, one column of the hinge laws' and loads' uses with their rates in t; NULL: nothing moves in t */
     struct SensitivityLoopTag *time_rates;
+    /* continuous controllers' parameters (ControllerTerms.add, latdyn/analyses/sensitivities.py): each use (controller,
+     * column) its compiled ∂f/∂p (derivative_laws.py ControllerPartials: law number u), at t and its controller's
+     * sensors (hinge angles and rates); each hinge actuator's row less its factor times its controller's slope */
+    int64_t n_partials;                 /* 0: none */
+    void (*controller_partials)(int64_t, double, const double *, double *);
+    const int64_t *partial_controller, *partial_column;
+    int64_t n_partial_controllers;      /* the wiring's continuous controllers */
+    const int64_t *read_start;          /* n_partial_controllers + 1: each one's sensors in read_kind, read_index */
+    const int64_t *read_kind, *read_index; /* 0: the hinge's θ, 1: its θ̇ */
+    int64_t n_hinge_actuators;
+    const int64_t *actuator_hinge, *actuator_of; /* in the wiring's order: the hinge, its controller */
+    const double *actuator_factor;      /* ∂τ/∂y (1 for the controller's name alone) */
+    double *controller_slopes;          /* n_partial_controllers × k */
+    double *controller_scratch;         /* the law's arguments and outputs */
 } SensitivityLoop;
 
 /* ∂r/∂p of the load components at c into total ((n_total + 1) × k): per (load, parameter) pair the generated
@@ -219,6 +233,30 @@ static void joint_law_parameter_forces(const Model *m, const Configuration *c, c
     }
 }
 
+/* ∂r/∂p through the continuous controllers at c (time t) into total (ControllerTerms.add: no states, limits, chains or
+ * load actuators here): each controller's slope dy/dp = ∂f/∂p by the compiled partials at its sensors, then each hinge
+ * actuator's row less its factor times its controller's slope, in the wiring's order. */
+static void controller_parameter_forces(const Model *m, const Configuration *c, const SensitivityLoop *s, double t)
+{
+    const int64_t k = s->k;
+    double *slopes = s->controller_slopes, *args = s->controller_scratch;
+    memset(slopes, 0, sizeof(double) * (size_t)(s->n_partial_controllers * k));
+    for (int64_t u = 0; u < s->n_partials; ++u) {
+        const int64_t ctl = s->partial_controller[u];
+        int64_t count = 0;
+        for (int64_t i = s->read_start[ctl]; i < s->read_start[ctl + 1]; ++i)
+            args[count++] = s->read_kind[i] == 0 ? c->theta[s->read_index[i]] : c->theta_dot[s->read_index[i]];
+        double *out = args + count;
+        s->controller_partials(u, t, args, out);
+        slopes[ctl * k + s->partial_column[u]] += out[0];
+    }
+    for (int64_t a = 0; a < s->n_hinge_actuators; ++a) {
+        const double *slope = slopes + s->actuator_of[a] * k, factor = s->actuator_factor[a];
+        double *row = s->total + m->hinge_dofs[s->actuator_hinge[a]] * k;
+        for (int64_t col = 0; col < k; ++col) row[col] -= factor * slope[col];
+    }
+}
+
 /* The explicit time dependence at the step's end (TransientSensitivities._add_time_columns): ∂r/∂t at c (the hinge
  * laws' then the loads' rates in t through the same calls as their parameters', ExplicitTime.of_laws) times the
  * carried δt_n added to the parameters' columns of explicit_, and ∂r/∂t itself to the step size's. */
@@ -287,6 +325,7 @@ static int64_t sensitivity_loop_step(const Model *m, Work *w, SensitivityLoop *s
                                         s->section_scratch);
     if (s->n_body_uses) body_parameter_forces(m, c, s, grid);
     if (s->n_law_uses) joint_law_parameter_forces(m, c, s, grid);
+    if (s->n_partials) controller_parameter_forces(m, c, s, t);
     load_parameter_forces(m, c, s, grid);
     for (int64_t i = 0; i < n; ++i) {   /* on the free coordinates, with the step size's column 0 */
         for (int64_t col = 0; col < k; ++col) s->explicit_[i * cols + col] = s->total[i * k + col];
