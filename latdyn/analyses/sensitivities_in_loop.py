@@ -24,11 +24,15 @@ parameters of ``initial_velocity`` (they move the start only), and explicit time
 through load components and hinge laws of t alone (∂r/∂t at the step's end through the same point_load and
 hinge_force calls, their exact rates tabulated per grid point: :class:`_TimeRates`, ``_time_refusal``; ∂r/∂t δt_n in
 the parameters' columns, ∂r/∂t in the step size's, as ``TransientSensitivities._add_time_columns``; δt_n is 0 at
-every step the loop takes in the runs measured, the landing on the grid before it having cancelled it). Not native
-(the Python path): hinge laws whose derivative names θ, θ̇ or an input and does not compile, guide, cable,
-controller and geometry parameters, section values whose derivative is a law in t or an input, rigid links and
-guides, cables, controllers, explicit time dependence beside events through prescribed motions, reels or laws of
-the state and t, energy and momentum probes (their work
+every step the loop takes in the runs measured, the landing on the grid before it having cancelled it), and the
+parameters inside continuous controllers' outputs (their partials ∂f/∂p compiled as the step's controller laws, the
+same C the Python step calls: derivative_laws.ControllerPartials) for controllers without states or limits that
+read hinge angles and rates alone and drive hinge torques (``_controller_refusal``; the controllers' couplings are in
+the exact K and C on both paths). Not native (the Python path): hinge laws whose derivative names θ, θ̇ or an input
+and does not compile, guide, cable and geometry parameters, section values whose derivative is a law in t or an
+input, rigid links and guides, cables, controllers with states, sampled ones, limits, chains, other sensors or load
+actuators, explicit time dependence beside events through prescribed motions, reels or laws of the state and t,
+energy and momentum probes (their work
 accounts are carried per step in Python), the NumPy kernels, and a numbering whose step matrix takes the
 sparse LU (whose failed pivot falls back to SciPy: :meth:`latdyn.analyses.step_matrix.ExactStepMatrix.solve_step`).
 
@@ -61,7 +65,7 @@ SENSITIVITIES_IN_LOOP = True
 def refusal(owner) -> str | None:
     """Why the sensitivities of ``owner`` (a TransientSensitivities) take every step from Python, or None where
     their smooth steps may run in the loop of steps (module docstring). Once a run."""
-    why = model_refusal(owner, time_in_loop=True)
+    why = model_refusal(owner, differentiated=True)
     if why is not None:
         return why
     for key, laws in owner.derivatives.items():
@@ -137,13 +141,14 @@ def _body_refusal(owner, key: str, laws: dict) -> str | None:
     return None
 
 
-def model_refusal(owner, time_in_loop: bool = False) -> str | None:
+def model_refusal(owner, differentiated: bool = False) -> str | None:
     """Why the run of ``owner`` (a TransientSensitivities) takes every step from Python whatever its parameters'
     kinds (no parameters, NumPy kernels, rigid links, guides, cables, controllers, explicit time dependence beside
     events, geometry parameters, energy or momentum probes), or None: :func:`refusal`'s part that the discrete
     adjoint's forward pass, which differentiates nothing as it goes, shares (latdyn/analyses/adjoint_in_loop.py).
-    ``time_in_loop`` (:func:`refusal`): explicit time dependence beside events only where :func:`_time_refusal`
-    says (the adjoint's forward pass keeps refusing it all)."""
+    ``differentiated`` (:func:`refusal`: the loop differentiates the steps): controllers and explicit time
+    dependence beside events only where :func:`_controller_refusal` and :func:`_time_refusal` say (the adjoint's
+    forward pass keeps refusing them all)."""
     scene, model = owner.scene, owner.model
     if not owner.names:
         return "no parameters"
@@ -152,13 +157,13 @@ def model_refusal(owner, time_in_loop: bool = False) -> str | None:
     if model.links is not None or model.cables is not None:
         return "rigid links, guides or cables"
     if scene.controllers:
-        why = _controller_refusal(owner) if time_in_loop else "controllers"
+        why = _controller_refusal(owner) if differentiated else "controllers"
         if why is not None:
             return why
     if owner.geometry is not None:
         return "geometry parameters"
     if owner.explicit_time is not None:
-        why = _time_refusal(owner) if time_in_loop else "explicit time dependence beside events"
+        why = _time_refusal(owner) if differentiated else "explicit time dependence beside events"
         if why is not None:
             return why
     if any(is_energy_or_momentum(probe) for probe in owner.probes):
