@@ -60,7 +60,9 @@ ARM_PD = (ARM_3D.replace("parameters: {E: 1.0, rho: 0.5, F: 2.0}",
           .replace("sensitivities: [E, rho, F]", "sensitivities: [E, Kp, Kd, ref]"))
 ARM_PD_NONLINEAR = ARM_PD.replace('"Kp*(ref - angle) - Kd*omega"', '"Kp*sin(ref - angle) - Kd*omega*(1 + 0.1*omega**2)"')
 assert "omega: {hinge" in ARM_PD and 'torque: "pd"' in ARM_PD and "[E, Kp, Kd, ref]" in ARM_PD
-assert "sin(ref - angle)" in ARM_PD_NONLINEAR
+#: the PD output clipped to ±3 (saturated from the start, released on the way: no derivative while clipped)
+ARM_PD_CLIPPED = ARM_PD.replace('"Kp*(ref - angle) - Kd*omega"}', '"Kp*(ref - angle) - Kd*omega", limits: [-3, 3]}')
+assert "sin(ref - angle)" in ARM_PD_NONLINEAR and "limits: [-3, 3]" in ARM_PD_CLIPPED
 
 
 def _run(text: str, monkeypatch, in_loop: bool):
@@ -148,7 +150,7 @@ def test_a_run_interrupted_inside_the_loop_resumes_to_the_same_files(tmp_path, m
     resumed_inside_the_loop_is_whole(yaml.safe_load(BOOM_TORQUE), tmp_path, monkeypatch, 0.2)
 
 
-@pytest.mark.parametrize("text", [ARM_PD, ARM_PD_NONLINEAR], ids=["PD", "nonlinear PD"])
+@pytest.mark.parametrize("text", [ARM_PD, ARM_PD_NONLINEAR, ARM_PD_CLIPPED], ids=["PD", "nonlinear PD", "clipped PD"])
 def test_a_pd_controlled_3d_arm_takes_the_loop(text, monkeypatch):
     """The 3D arm slewed by a PD controller (its gains, its set point and a section value as parameters): every step in
     the loop of steps (the controller's ∂f/∂p compiled, at the hinge's angle and rate in C), the Python path's
@@ -176,13 +178,13 @@ def test_the_cli_writes_the_python_paths_files_for_the_pd_controlled_arm(tmp_pat
 
 
 def test_controllers_the_loop_does_not_take_keep_the_python_path(monkeypatch):
-    """tests/test_sensitivities_controllers.py's wheel (chained controllers, a clipped one, one driving a load) takes
-    every step from Python, and so does the PD arm with a limit on its output."""
+    """tests/test_sensitivities_controllers.py's wheel (chained controllers, one driving a load) takes every step from
+    Python, and so does the PD arm reading a point's position besides its hinge."""
     from tests.test_sensitivities_controllers import WHEEL
 
     text = WHEEL.replace("t_end: 0.5", "t_end: 0.1")
     assert _run(text, monkeypatch, True).summary["sensitivity_steps_in_loop"] == 0
-    limited = ARM_PD.replace('"Kp*(ref - angle) - Kd*omega"}', '"Kp*(ref - angle) - Kd*omega", limits: [-50, 50]}')
-    assert "limits: [-50, 50]" in limited
-    result = _run(limited, monkeypatch, True)
+    reading = ARM_PD.replace('"Kp*(ref - angle) - Kd*omega"}', '"Kp*(ref - angle) - Kd*omega - 0.5*tip_z"}')
+    assert "0.5*tip_z" in reading
+    result = _run(reading, monkeypatch, True)
     assert result.summary["sensitivity_steps_in_loop"] == 0 and result.summary["time_loop"] == "python"

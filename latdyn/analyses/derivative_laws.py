@@ -117,10 +117,14 @@ class ControllerPartials:
     :class:`latdyn.analyses.sensitivities.ControllerTerms`, compiled as the step's controller laws are (each one a
     controller law of the same arguments: ``latdyn_controller_laws(k, t, s, out)``, its ``out[0]``): the one C function
     the per-step Python path (:meth:`ControllerTerms.add`, through ctypes) and the loop of steps in C call. Numbered in
-    the order of ``ControllerTerms.partials`` (controller, then column)."""
+    the order of ``ControllerTerms.partials`` (controller, then column); after them, of each such controller with limits,
+    its output f itself (:attr:`outputs`), whose value decides whether it is clipped (ControllerTerms.add) on both
+    paths."""
 
-    def __init__(self, uses: list, compiled, width: int, scene):
+    def __init__(self, uses: list, compiled, width: int, scene, outputs: dict):
         self.uses = uses   # (controller name, column, the partial's lambda) in their law's order
+        #: controller name -> the number of its output's law (controllers with limits and partials)
+        self.outputs = outputs
         self._index = {id(partial): i for i, (_, _, partial) in enumerate(uses)}
         self.address = compiled.controller_laws
         self.compiled = compiled
@@ -153,16 +157,24 @@ class ControllerPartials:
                 laws.append((law, tuple(c.reads)))
         if not uses:
             return None
+        outputs = {}
+        for name in dict.fromkeys(name for name, _, _ in uses):   # the outputs of those with limits, after the partials
+            c = by_name[name]
+            if c.limits is not None:
+                outputs[name] = len(laws)
+                laws.append((SimpleNamespace(name=f"{name}.y", symbols=c.symbols, output_expr=c.output_expr,
+                                             states=tuple(c.states), state_exprs=(), output_text=c.output_text),
+                             tuple(c.reads)))
         scene = owner.scene
-        outputs = getattr(scene, "controller_outputs", None)
+        held = getattr(scene, "controller_outputs", None)
         signals = (tuple(scene.inputs.names) if scene.inputs is not None else (),
-                   tuple(outputs.names) if outputs is not None else ())
+                   tuple(held.names) if held is not None else ())
         try:
             compiled = compile_laws([], [], signals, laws)
         except LawsUnavailable:
             return None
         width = max([1] + [len(c.reads) + len(c.states) for c in terms.continuous])
-        return cls(uses, compiled, width, scene)
+        return cls(uses, compiled, width, scene, outputs)
 
     def bind(self) -> None:
         """Point the library at the scene's inputs and controllers' outputs (module docstring)."""
@@ -172,13 +184,22 @@ class ControllerPartials:
         """The partial's number (a lambda of ``ControllerTerms.partials``), −1 where it is not one."""
         return self._index.get(id(partial), -1)
 
-    def value(self, partial, arguments: list) -> float:
-        """∂f/∂p at ``arguments`` (t, the sensors, the states): the compiled law's, or the lambda's where it is not one."""
-        i = self._index.get(id(partial), -1)
-        if i < 0:
-            return float(partial(*arguments))
+    def output(self, c, arguments: list) -> float:
+        """f(t, s, S) of controller ``c`` before its limits: the compiled law's where it is one of :attr:`outputs`,
+        else its lambda's (as ControllerTerms.add reads it)."""
+        i = self.outputs.get(c.name, -1)
+        return self._call(i, arguments) if i >= 0 else float(c.functions()[0](*arguments))
+
+    def _call(self, i: int, arguments: list) -> float:
         for j, a in enumerate(arguments[1:]):
             self._arguments[j] = float(a)
         self.bind()
         self._function(i, float(arguments[0]), self._arguments, self._out)
         return float(self._out[0])
+
+    def value(self, partial, arguments: list) -> float:
+        """∂f/∂p at ``arguments`` (t, the sensors, the states): the compiled law's, or the lambda's where it is not one."""
+        i = self._index.get(id(partial), -1)
+        if i < 0:
+            return float(partial(*arguments))
+        return self._call(i, arguments)

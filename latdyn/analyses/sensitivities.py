@@ -1420,7 +1420,7 @@ class ControllerTerms:
         for c in self.continuous:
             arguments = [state.t, *[values[r] if r in values else outputs[r] for r in c.reads],
                          *self.state_values(c)]
-            raw = float(c.functions()[0](*arguments))
+            raw = float(c.functions()[0](*arguments)) if self.compiled is None else self.compiled.output(c, arguments)
             outputs[c.name] = c.clip(raw)
             slope = np.zeros(self.k)
             if c.limits is None or c.limits[0] < raw < c.limits[1]:

@@ -26,11 +26,11 @@ hinge_force calls, their exact rates tabulated per grid point: :class:`_TimeRate
 the parameters' columns, ∂r/∂t in the step size's, as ``TransientSensitivities._add_time_columns``; δt_n is 0 at
 every step the loop takes in the runs measured, the landing on the grid before it having cancelled it), and the
 parameters inside continuous controllers' outputs (their partials ∂f/∂p compiled as the step's controller laws, the
-same C the Python step calls: derivative_laws.ControllerPartials) for controllers without states or limits that
-read hinge angles and rates alone and drive hinge torques (``_controller_refusal``; the controllers' couplings are in
+same C the Python step calls: derivative_laws.ControllerPartials; with limits their outputs too, which decide the
+clip) for controllers without states that read hinge angles and rates alone and drive hinge torques (``_controller_refusal``; the controllers' couplings are in
 the exact K and C on both paths). Not native (the Python path): hinge laws whose derivative names θ, θ̇ or an input
 and does not compile, guide, cable and geometry parameters, section values whose derivative is a law in t or an
-input, rigid links and guides, cables, controllers with states, sampled ones, limits, chains, other sensors or load
+input, rigid links and guides, cables, controllers with states, sampled ones, chains, other sensors or load
 actuators, explicit time dependence beside events through prescribed motions, reels or laws of the state and t,
 energy and momentum probes (their work
 accounts are carried per step in Python), the NumPy kernels, and a numbering whose step matrix takes the
@@ -174,8 +174,8 @@ def model_refusal(owner, differentiated: bool = False) -> str | None:
 def _controller_refusal(owner) -> str | None:
     """Why the controllers of ``owner`` keep the run on the Python path, or None: the loop takes continuous controllers
     without states and sampled ones, whose parameters' partials compiled (derivative_laws.ControllerPartials) and whose
-    controllers with a partial have no limits, read no earlier controller and only hinge angles and rates, and drive
-    hinge torques (:func:`controller_parameter_forces` of csrc/sensitivity_loop.c; ControllerTerms.add)."""
+    controllers with a partial (their limits decided by their compiled output) read no earlier controller and only
+    hinge angles and rates, and drive hinge torques (:func:`controller_parameter_forces` of csrc/sensitivity_loop.c; ControllerTerms.add)."""
     from latdyn.assembly.control import ANGLE, RATE
 
     terms = owner.controllers
@@ -188,10 +188,9 @@ def _controller_refusal(owner) -> str | None:
         if c.name not in terms.partials:
             continue
         sensors = range(int(wiring.sensor_start[k]), int(wiring.sensor_start[k + 1]))
-        if c.limits is not None or terms.chained[c.name] or tuple(c.reads) != wiring.sensor_names(k) \
+        if terms.chained[c.name] or tuple(c.reads) != wiring.sensor_names(k) \
                 or any(int(wiring.sensor_kind[i]) not in (ANGLE, RATE) for i in sensors):
-            return (f"controller {c.name}: a parameter inside an output with limits, or reading other than hinge "
-                    "angles and rates")
+            return f"controller {c.name}: a parameter inside an output that reads other than hinge angles and rates"
         if any(int(kind) != 0 for kind, of in zip(wiring.actuator_kind, wiring.actuator_controller) if int(of) == k):
             return f"controller {c.name}: a parameter inside an output that drives a load"
     return None
@@ -414,6 +413,9 @@ class SensitivityLoop:
         d.controller_slopes = self._pointer(np.zeros(wiring.n * len(owner.names)))
         width = max([1] + [int(wiring.sensor_start[k + 1] - wiring.sensor_start[k]) for k in range(wiring.n)])
         d.controller_scratch = self._pointer(np.zeros(2 * width + 1))
+        d.output_law = ints([terms.compiled.outputs.get(c.name, -1) for c in wiring.controllers])
+        d.output_limits = self._pointer(np.array([c.limits if c.limits is not None else (0.0, 0.0)
+                                                  for c in wiring.controllers], float).reshape(-1))
 
     def _body_uses(self) -> list:
         """(body key's match, index among the joint bodies, column, derivative law) of every body use the Python

@@ -220,7 +220,7 @@ class SensitivityLoopData(ctypes.Structure):
                 ("n_partials", I64), ("controller_partials", P), ("partial_controller", P), ("partial_column", P),
                 ("n_partial_controllers", I64), ("read_start", P), ("read_kind", P), ("read_index", P),
                 ("n_hinge_actuators", I64), ("actuator_hinge", P), ("actuator_of", P), ("actuator_factor", P),
-                ("controller_slopes", P), ("controller_scratch", P)]
+                ("controller_slopes", P), ("controller_scratch", P), ("output_law", P), ("output_limits", P)]
 
 
 class TrajectoryData(ctypes.Structure):

@@ -126,6 +126,8 @@ typedef struct SensitivityLoopTag {
     const double *actuator_factor;      /* ∂τ/∂y (1 for the controller's name alone) */
     double *controller_slopes;          /* n_partial_controllers × k */
     double *controller_scratch;         /* the law's arguments and outputs */
+    const int64_t *output_law;          /* n_partial_controllers: its output's law number (limits); −1: no limits */
+    const double *output_limits;        /* n_partial_controllers × 2 */
 } SensitivityLoop;
 
 /* ∂r/∂p of the load components at c into total ((n_total + 1) × k): per (load, parameter) pair the generated
@@ -242,11 +244,15 @@ static void controller_parameter_forces(const Model *m, const Configuration *c, 
     double *slopes = s->controller_slopes, *args = s->controller_scratch;
     memset(slopes, 0, sizeof(double) * (size_t)(s->n_partial_controllers * k));
     for (int64_t u = 0; u < s->n_partials; ++u) {
-        const int64_t ctl = s->partial_controller[u];
+        const int64_t ctl = s->partial_controller[u], output = s->output_law[ctl];
         int64_t count = 0;
         for (int64_t i = s->read_start[ctl]; i < s->read_start[ctl + 1]; ++i)
             args[count++] = s->read_kind[i] == 0 ? c->theta[s->read_index[i]] : c->theta_dot[s->read_index[i]];
         double *out = args + count;
+        if (output >= 0) {   /* no derivative while the output is clipped: lo < f < hi, f by its compiled law */
+            s->controller_partials(output, t, args, out);
+            if (!(s->output_limits[2 * ctl] < out[0] && out[0] < s->output_limits[2 * ctl + 1])) continue;
+        }
         s->controller_partials(u, t, args, out);
         slopes[ctl * k + s->partial_column[u]] += out[0];
     }
