@@ -3,7 +3,7 @@ csrc/sensitivity_loop.c; issue 34 item 2): taken where every term of the step's 
 and load components; summary.json ``sensitivity_steps_in_loop`` counts them), equal to the per-step Python path
 (the private switch ``SENSITIVITIES_IN_LOOP`` off) through the API and the CLI, with a latch between them taken from
 Python; hinge laws' and joint bodies' parameters taken too (the deploying boom's design run through the CLI), a hinge
-law in the angle keeps the whole run on the Python path; a run interrupted inside the loop resumes to the same
+law in the angle whose derivative does not compile keeps the whole run on the Python path; a run interrupted inside the loop resumes to the same
 files."""
 from __future__ import annotations
 
@@ -124,13 +124,24 @@ def test_the_cli_writes_the_python_paths_files(text, tmp_path):
     assert summary["event_sensitivities"] == summary_of(reference)["event_sensitivities"]
 
 
-def test_a_hinge_law_in_the_angle_keeps_the_run_on_the_python_path(monkeypatch):
-    """A hinge parameter whose derivative law names theta (the loop tabulates values of t alone): every step of the
-    run from Python, decided at its start; the same parameter in a constant law takes the loop."""
+def test_a_hinge_law_in_the_angle_keeps_the_run_on_the_python_path_where_it_does_not_compile(monkeypatch):
+    """A hinge parameter whose derivative law names theta takes the loop with the law compiled
+    (latdyn/analyses/derivative_laws.py; tests/test_sensitivities_in_loop_state_laws.py); where the law does not
+    compile, every step of the run from Python, decided at its start; the same parameter in a constant law takes the
+    loop."""
+    from latdyn.assembly import compiled_laws
+
     text = _latch('"k"').replace("parameters: {EI: 20.0,", "parameters: {k: 2.0, EI: 20.0,").replace(
         "sensitivities: [EI, rho, F]", "sensitivities: [EI, k]")
     assert _run(text, monkeypatch, True).summary["sensitivity_steps_in_loop"] > 40
-    result = _run(text.replace('stiffness: "k"', 'stiffness: "k*(1 + 0.1*theta**2)"'), monkeypatch, True)
+    in_angle = text.replace('stiffness: "k"', 'stiffness: "k*(1 + 0.1*theta**2)"')
+    assert _run(in_angle, monkeypatch, True).summary["sensitivity_steps_in_loop"] > 40
+
+    def unavailable(*args, **kwargs):
+        raise compiled_laws.LawsUnavailable("no compiler for the laws (test)")
+
+    monkeypatch.setattr(compiled_laws, "compile_laws", unavailable)
+    result = _run(in_angle, monkeypatch, True)
     assert result.summary["time_loop"] == "python" and result.summary["sensitivity_steps_in_loop"] == 0
     assert np.abs(result.sensitivities[("tip_y", "k")]).max() > 0.0
 

@@ -19,7 +19,7 @@ import yaml
 import latdyn
 from latdyn.errors import SceneError
 from latdyn.results.result import Result
-from tests.cli_runs import latdyn_run
+from tests.cli_runs import latdyn_run, latdyn_run_switched
 from tests.resumed_runs import interrupted_and_whole
 
 SWING_3D = """
@@ -157,12 +157,18 @@ def test_3d_transient_sensitivities_without_rotary_inertia_from_rest_agree(name)
 
 @pytest.mark.parametrize("method, newton", [("generalized-alpha", "full"), ("hht-alpha", "full"),
                                             ("newmark", "modified")])
-def test_planar_transient_sensitivities_agree_for_each_implicit_method(method, newton):
+def test_planar_transient_sensitivities_agree_for_each_implicit_method(method, newton, monkeypatch):
     """Load force and moment, hinge damping and torque, the section's mass (measured ≤ 2e-8); modified
-    Newton holds older factorizations, which the sensitivities do not use."""
+    Newton holds older factorizations, which the sensitivities do not use. The per-step Python path (the switch
+    off), and the loop of steps (its hinge law in θ compiled: latdyn/analyses/derivative_laws.py) to its bits."""
     text = PLANAR.replace("analysis: transient,", f"analysis: transient, method: {method}, newton: {newton},")
+    in_loop = _run(text)
+    monkeypatch.setattr("latdyn.analyses.sensitivities_in_loop.SENSITIVITIES_IN_LOOP", False)
     result = _run(text)
     assert result.summary["time_loop"] == "python"
+    assert in_loop.summary["time_loop"] == "compiled" and in_loop.summary["sensitivity_steps_in_loop"] > 0
+    for key, values in result.sensitivities.items():
+        np.testing.assert_array_equal(in_loop.sensitivities[key], values, err_msg=str(key))
     for name in ("P", "Mz", "c", "tau", "rho") if method == "generalized-alpha" else ("rho", "m"):
         _agree(result, text, name, 1e-6)
 
@@ -276,7 +282,10 @@ def test_a_modified_newton_run_with_sensitivities_has_the_states_of_the_run_with
     data["solve"].update(newton="modified", t_end=0.1)
     data["output"]["every"] = 0.005
     (tmp_path / "with").mkdir()
-    completed, with_out = latdyn_run(tmp_path / "with", yaml.safe_dump(data), quiet=True)
+    (tmp_path / "with" / "scene.yaml").write_text(yaml.safe_dump(data))
+    with_out = tmp_path / "with" / "out"   # the per-step Python path (its hinge law in θ takes the loop else)
+    completed = latdyn_run_switched(tmp_path / "with", tmp_path / "with" / "scene.yaml", with_out,
+                                    "import latdyn.analyses.sensitivities_in_loop as m; m.SENSITIVITIES_IN_LOOP = False")
     assert completed.returncode == 0, completed.stderr
     del data["solve"]["sensitivities"]
     (tmp_path / "without").mkdir()

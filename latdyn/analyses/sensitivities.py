@@ -432,6 +432,9 @@ class ParameterDerivatives:
         #: the reference configuration's derivative by geometry parameters (None without them)
         self.geometry = ReferenceGeometry(self) if any(map(GEOMETRY_KEY.match, self.derivatives)) else None
         self.controllers = ControllerTerms(self) if self.scene.controllers else None
+        #: the derivative laws of θ, θ̇ or an input compiled, whose C both paths of a transient run call
+        #: (latdyn/analyses/derivative_laws.py; set by TransientSensitivities), None: their NumPy values
+        self.derivative_laws = None
         #: the initial positions of the points whose displacement's norm a probe reads (the rows' δ|u|), the initial
         #: state made only for them (a run's start, 1–3 ms, where no probe reads one)
         norms = [p for p in self.probes if p.kind == "point" and p.quantity == "displacement"
@@ -884,9 +887,11 @@ class ParameterDerivatives:
         hinge = self.model.hinges[j]
         theta, rate, t = float(state.theta[j]), float(state.theta_dot[j]), state.t
         laws = np.zeros((1, 9))
-        derivative = law.value(theta, rate, t)
+        compiled = self.derivative_laws   # the laws of the state compiled (latdyn/analyses/derivative_laws.py)
+        value = (lambda f: f.value(theta, rate, t)) if compiled is None else (lambda f: compiled.value(f, theta, rate, t))
+        derivative = value(law)
         if which == "rest_angle":   # f = k (θ − θ_r) + …: affine in θ_r
-            laws[0, 0] = hinge.stiffness.value(theta, rate, t)
+            laws[0, 0] = value(hinge.stiffness)
             unit_rest = np.array([[0.0, 0.0, 1.0, load_factor]])
             return derivative * float(np.asarray(self.kernels.hinge_force(unit_rest, laws, contact)[0]).reshape(-1)[0])
         laws[0, {"stiffness": 0, "damping": 3, "torque": 6}[which]] = derivative
@@ -1303,6 +1308,11 @@ class ControllerTerms:
         self.partials: dict[str, dict[int, object]] = {}
         #: controllers with states: name -> {column: {state: ∂(dS/dt)/∂p as a function of (t, reads, states)}}
         self.rate_partials: dict[str, dict[int, dict[str, object]]] = {}
+        #: the partials' SymPy expressions (controller name -> {column: ∂f/∂p}), and the partials compiled, whose C
+        #: both paths of a transient run call (latdyn/analyses/derivative_laws.py ControllerPartials; set by
+        #: TransientSensitivities), None: their lambdas
+        self.partial_expressions: dict[str, dict[int, object]] = {}
+        self.compiled = None
         for column, name in enumerate(owner.names):
             for key in scene.parameters.depending_on(name):
                 match = _CONTROLLER_KEY.match(key)
@@ -1315,6 +1325,7 @@ class ControllerTerms:
                 law = sp.lambdify(c.symbols, expr, modules=["math", "numpy"])
                 if match["state"] is None:
                     self.partials.setdefault(c.name, {})[column] = law
+                    self.partial_expressions.setdefault(c.name, {})[column] = expr
                 else:              # ∂(dS/dt)/∂p of one state
                     self.rate_partials.setdefault(c.name, {}).setdefault(column, {})[match["state"]] = law
         #: controller name -> {an earlier controller it reads: the index of ∂f/∂y_j in its
@@ -1408,12 +1419,13 @@ class ControllerTerms:
         for c in self.continuous:
             arguments = [state.t, *[values[r] if r in values else outputs[r] for r in c.reads],
                          *self.state_values(c)]
-            raw = float(c.functions()[0](*arguments))
+            raw = float(c.functions()[0](*arguments)) if self.compiled is None else self.compiled.output(c, arguments)
             outputs[c.name] = c.clip(raw)
             slope = np.zeros(self.k)
             if c.limits is None or c.limits[0] < raw < c.limits[1]:
                 for column, partial in self.partials.get(c.name, {}).items():
-                    slope[column] += float(partial(*arguments))
+                    slope[column] += (float(partial(*arguments)) if self.compiled is None else
+                                      self.compiled.value(partial, arguments))
                 if self.chained[c.name] or c.name in self.held:
                     gradient = c.output_gradient(*arguments)
                     for read, i in self.chained[c.name].items():

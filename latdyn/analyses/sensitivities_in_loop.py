@@ -16,8 +16,10 @@ Native: ∂r/∂p of section values whose derivative laws are constants (the gen
 csrc/parameter_forces.c), of load components (the generated ``point_load``, linear in the values, with the
 derivative laws' values at each grid point tabulated here before each call: a law in t is evaluated by the same
 law object at the same t the Python step reads), of a hinge's stiffness, damping, rest angle and torque whose
-derivative laws (and for the rest angle the hinge's stiffness) are values of t alone (the generated
-``hinge_force``, linear in the laws, at the hinge's θ, θ̇ in C, the laws' values tabulated alike: ``_hinge_refusal``)
+derivative laws (and for the rest angle the hinge's stiffness) are values of t alone or laws of θ, θ̇, t and inputs
+that compile (the generated ``hinge_force``, linear in the laws, at the hinge's θ, θ̇ in C, the laws of t tabulated
+alike, the laws of the state compiled as the step's own laws and evaluated in C at the hinge's θ, θ̇, t, the same C
+the Python step calls: latdyn/analyses/derivative_laws.py; ``_hinge_refusal``)
 and of a joint body's mass, inertia and centre of mass (the generated ``joint_body`` with the use's block, or
 ``joint_body_D_com`` along ∂c/∂p, the blocks made by ``ParameterDerivatives.body_block`` and tabulated alike), of
 a hinge's compliant stops' and friction's law values (the generated ``contact_force_D_law``,
@@ -27,16 +29,26 @@ geometry parameters (the held variations of ReferenceGeometry taken to the state
 ``reference_variation_at_state``, then the generated ``beam_internal_force_D_reference`` and
 ``beam_inertia_force_D_reference``, and for a load at a moved offset ``point_load_D_offset`` with the load's values
 tabulated alike, csrc/geometry_forces.c, with the Python path's rows: ``_geometry_refusal``), and
-parameters of ``initial_velocity`` (they move the start only); on models with rigid links and guides too (up to
-DENSE_LIMIT free coordinates, a dense or band step matrix): M, C and the exact K on the minimum coordinates,
+parameters of ``initial_velocity`` (they move the start only), and explicit time dependence beside events
+through load components and hinge laws of t alone (∂r/∂t at the step's end through the same point_load and
+hinge_force calls, their exact rates tabulated per grid point: :class:`_TimeRates`, ``_time_refusal``; ∂r/∂t δt_n in
+the parameters' columns, ∂r/∂t in the step size's, as ``TransientSensitivities._add_time_columns``; δt_n is 0 at
+every step the loop takes in the runs measured, the landing on the grid before it having cancelled it), and the
+parameters inside continuous controllers' outputs (their partials ∂f/∂p compiled as the step's controller laws, the
+same C the Python step calls: derivative_laws.ControllerPartials; with limits their outputs too, which decide the
+clip) for controllers without states that read hinge angles and rates alone and drive hinge torques
+(``_controller_refusal``; the controllers' couplings are in the exact K and C on both paths); on models with rigid
+links and guides too (up to DENSE_LIMIT free coordinates, a dense or band step matrix, without controllers or
+explicit time dependence beside events): M, C and the exact K on the minimum coordinates,
 dense, and ∂r/∂p reduced by Pᵀ, from the compiled step's own reduction (csrc/linked_matrices.c,
 ``latdyn_linked_exact_matrices`` and ``latdyn_linked_reduce_columns`` over csrc/links.c's), which the per-step
 Python path calls too (``Assembler.linked_exact_matrix_values``, ``sensitivities.reduced_columns``), S on the full
-n × n pattern. Not native (the Python path): hinge and guide laws whose
-derivative names θ, θ̇ or an input, cable and controller parameters, section
-values whose derivative is a law in t or an input, a rigid link's own section values (its joint body's mass and
-inertia: ``add_link_section_forces``), linked models above DENSE_LIMIT free coordinates or whose step matrix is
-sparse, cables, controllers, explicit time dependence beside events (∂r/∂t δt), energy and momentum probes (their work
+n × n pattern. Not native (the Python path): hinge and guide laws whose derivative names θ, θ̇ or an input and
+does not compile, cable parameters, section values whose derivative is a law in t or an input, a rigid link's own
+section values (its joint body's mass and inertia: ``add_link_section_forces``), linked models above DENSE_LIMIT
+free coordinates or whose step matrix is sparse, or beside controllers or explicit time dependence beside events,
+cables, controllers with states, sampled ones, chains, other sensors or load actuators, explicit time dependence
+beside events through prescribed motions, reels or laws of the state and t, energy and momentum probes (their work
 accounts are carried per step in Python), the NumPy kernels, and a numbering whose step matrix takes the
 sparse LU (whose failed pivot falls back to SciPy: :meth:`latdyn.analyses.step_matrix.ExactStepMatrix.solve_step`).
 
@@ -48,6 +60,7 @@ so those are the same bits too.
 from __future__ import annotations
 
 import ctypes
+from functools import partial
 
 import numpy as np
 
@@ -70,7 +83,7 @@ SENSITIVITIES_IN_LOOP = True
 def refusal(owner) -> str | None:
     """Why the sensitivities of ``owner`` (a TransientSensitivities) take every step from Python, or None where
     their smooth steps may run in the loop of steps (module docstring). Once a run."""
-    why = model_refusal(owner)
+    why = model_refusal(owner, differentiated=True)
     if why is not None:
         return why
     for key, laws in owner.derivatives.items():
@@ -119,13 +132,19 @@ def _hinge_refusal(owner, key: str, laws: dict) -> str | None:
     hinge = owner._key_kinds(key)[1]   # noqa: SLF001 - a guide's law read as the hinge law it is, on its slide
     if owner.kernels.address("hinge_force") is None:
         return "hinge kernels without C libraries"
-    if not all(map(_in_time_alone, laws.values())):
-        return f"{key}: its derivative is a law in theta, theta_dot or an input"
+    if not all(map(partial(_tabulated_or_compiled, owner), laws.values())):
+        return f"{key}: its derivative is a law in theta, theta_dot or an input that did not compile"
     if hinge["law"] == "rest_angle":
         stiffness = owner.model.hinges[owner.model.hinge_index(hinge["beam"], hinge["end"])].stiffness
-        if not _in_time_alone(stiffness):
-            return f"{key}: the hinge's stiffness is a law in theta, theta_dot or an input"
+        if not _tabulated_or_compiled(owner, stiffness):
+            return f"{key}: the hinge's stiffness is a law in theta, theta_dot or an input that did not compile"
     return None
+
+
+def _tabulated_or_compiled(owner, law) -> bool:
+    """Whether the loop has a hinge law's value: tabulated per grid point (a law of t alone), or the compiled law
+    at the hinge's θ, θ̇ in C that the Python path calls too (latdyn/analyses/derivative_laws.py)."""
+    return _in_time_alone(law) or (owner.derivative_laws is not None and owner.derivative_laws.index(law) >= 0)
 
 
 def _joint_law_refusal(owner, key: str, laws: dict) -> str | None:
@@ -156,28 +175,85 @@ def _body_refusal(owner, key: str, laws: dict) -> str | None:
     return None
 
 
-def model_refusal(owner) -> str | None:
+def model_refusal(owner, differentiated: bool = False) -> str | None:
     """Why the run of ``owner`` (a TransientSensitivities) takes every step from Python whatever its parameters'
     kinds (no parameters, NumPy kernels, cables, controllers, a rigid link's own section values, explicit time
-    dependence beside events, energy or momentum probes), or None: :func:`refusal`'s part that
-    the discrete adjoint's forward pass, which differentiates nothing as it goes, shares
-    (latdyn/analyses/adjoint_in_loop.py, which refuses rigid links and guides itself)."""
+    dependence beside events, energy or momentum probes), or None: :func:`refusal`'s part that the discrete
+    adjoint's forward pass, which differentiates nothing as it goes, shares (latdyn/analyses/adjoint_in_loop.py,
+    which refuses rigid links and guides itself). ``differentiated`` (:func:`refusal`: the loop differentiates the
+    steps): controllers and explicit time dependence beside events only where :func:`_controller_refusal` and
+    :func:`_time_refusal` say (the adjoint's forward pass keeps refusing them all), and not on a model with rigid
+    links or guides (their reduction after the controllers' and the time's columns is not the loop's yet)."""
     scene, model = owner.scene, owner.model
     if not owner.names:
         return "no parameters"
     if getattr(owner.kernels, "backend", None) != "c":
         return "kernels without C libraries"
-    if model.cables is not None or scene.controllers:
-        return "cables or controllers"
+    if model.cables is not None:
+        return "cables"
     if model.links is not None:
+        if scene.controllers or owner.explicit_time is not None:
+            return "rigid links or guides beside controllers or explicit time dependence beside events"
         from latdyn.analyses.link_sensitivities import link_section_uses
 
         if link_section_uses(owner):
             return "a rigid link's section values (its joint body's mass and inertia, from Python)"
+    if scene.controllers:
+        why = _controller_refusal(owner) if differentiated else "controllers"
+        if why is not None:
+            return why
     if owner.explicit_time is not None:
-        return "explicit time dependence beside events"
+        why = _time_refusal(owner) if differentiated else "explicit time dependence beside events"
+        if why is not None:
+            return why
     if any(is_energy_or_momentum(probe) for probe in owner.probes):
         return "energy or momentum probes"
+    return None
+
+
+def _controller_refusal(owner) -> str | None:
+    """Why the controllers of ``owner`` keep the run on the Python path, or None: the loop takes continuous controllers
+    without states and sampled ones, whose parameters' partials compiled (derivative_laws.ControllerPartials) and whose
+    controllers with a partial (their limits decided by their compiled output) read no earlier controller and only
+    hinge angles and rates, and drive hinge torques (:func:`controller_parameter_forces` of csrc/sensitivity_loop.c; ControllerTerms.add)."""
+    from latdyn.assembly.control import ANGLE, RATE
+
+    terms = owner.controllers
+    if terms.states is not None or terms.sampled is not None:
+        return "controllers with states, or sampled controllers"
+    if terms.partials and terms.compiled is None:
+        return "controllers' parameters whose derivatives did not compile"
+    wiring = owner.assembler.control
+    for k, c in enumerate(wiring.controllers):
+        if c.name not in terms.partials:
+            continue
+        sensors = range(int(wiring.sensor_start[k]), int(wiring.sensor_start[k + 1]))
+        if terms.chained[c.name] or tuple(c.reads) != wiring.sensor_names(k) \
+                or any(int(wiring.sensor_kind[i]) not in (ANGLE, RATE) for i in sensors):
+            return f"controller {c.name}: a parameter inside an output that reads other than hinge angles and rates"
+        if any(int(kind) != 0 for kind, of in zip(wiring.actuator_kind, wiring.actuator_controller) if int(of) == k):
+            return f"controller {c.name}: a parameter inside an output that drives a load"
+    return None
+
+
+def _time_refusal(owner) -> str | None:
+    """Why the explicit time dependence beside events of ``owner`` (its ExplicitTime: ∂r/∂t δt, latdyn/analyses/
+    transient_sensitivities.py ``_add_time_columns``) keeps the run on the Python path, or None: the loop takes
+    ∂r/∂t of load components and hinge laws of t alone, their exact rates (the same ``_TimeRate`` objects) tabulated
+    per grid point through the same generated point_load and hinge_force (:class:`_TimeRates`); prescribed motions
+    (a difference in t of the residual in Python), reels and laws of the state and t (a SymPy rate in NumPy) not."""
+    rates = owner.explicit_time
+    if rates.prescribed or rates.reels:
+        return "explicit time dependence beside events through prescribed motions or a reel"
+    model = owner.model
+    for key in rates.laws.derivatives:
+        hinge = HINGE_KEY.match(key)
+        if hinge is not None:
+            law = getattr(model.hinges[model.hinge_index(hinge["beam"], hinge["end"])], hinge["law"])
+            if not _in_time_alone(law):
+                return f"explicit time dependence beside events: {key} is a law of the state and t"
+        elif not _LOAD_KEY.match(key):
+            return f"explicit time dependence beside events: {key}"
     return None
 
 
@@ -193,6 +269,8 @@ class SensitivityLoop:
         self.data = SensitivityLoopData()
         self._for = None
         self._keep: list = []
+        #: ∂r/∂t's struct (explicit time dependence beside events: :class:`_TimeRates`), None without
+        self._rates = None
 
     def _pointer(self, array: np.ndarray) -> int:
         """The address of ``array`` (of a held zero where it is empty), kept alive with the layout."""
@@ -284,6 +362,12 @@ class SensitivityLoop:
         self._bodies()
         self._joint_laws()
         self._geometry()
+        self._controllers()
+        d.time_rates = None
+        if owner.explicit_time is not None:   # ∂r/∂t at the step's end, one column (refusal: _time_refusal)
+            self._rates = _TimeRates(owner.explicit_time.laws)
+            self._rates._layout()   # noqa: SLF001
+            d.time_rates = ctypes.addressof(self._rates.data)
         self._for = (key, True)
         return True
 
@@ -293,9 +377,17 @@ class SensitivityLoop:
         owner, d, model = self.owner, self.data, self.owner.model
         uses = [(j, which, column) for j, which, laws in owner._hinge_uses() for column in laws]  # noqa: SLF001
         d.n_hinge_uses = len(uses)
+        d.derivative_laws = None
         if not uses:
             return
         d.hinge_kernel = owner.kernels.address("hinge_force")
+        compiled = owner.derivative_laws   # the laws of the state, compiled: their numbers (−1: tabulated)
+        if compiled is not None:
+            hinges = model.hinges
+            number = [(compiled.index(law), compiled.index(hinges[j].stiffness) if which == "rest_angle" else -1)
+                      for j, which, laws in owner._hinge_uses() for law in laws.values()]   # noqa: SLF001
+            d.derivative_laws = compiled.address
+            d.hinge_law_index = self._pointer(np.array(number, np.int64).reshape(-1))
         slot = {"stiffness": 0, "damping": 3, "torque": 6, "rest_angle": -1}
         ints = lambda values: self._pointer(np.array(values, np.int64))   # noqa: E731
         d.hinge_joint, d.hinge_column = ints([j for j, _, _ in uses]), ints([column for _, _, column in uses])
@@ -379,6 +471,39 @@ class SensitivityLoop:
             g.arm_scratch = self._pointer(np.zeros(30 * k))
         d.geometry = ctypes.addressof(g)
 
+    def _controllers(self) -> None:
+        """The continuous controllers' parameter uses (ControllerTerms.add), in its order: each use's controller (its
+        place in the wiring) and column, its law's number its place (ControllerPartials); the sensors of each
+        controller; the hinge actuators in the wiring's order."""
+        owner, d = self.owner, self.data
+        terms = owner.controllers
+        d.n_partials = 0
+        if terms is None or terms.compiled is None:
+            return
+        wiring = owner.assembler.control
+        place = {c.name: k for k, c in enumerate(wiring.controllers)}
+        uses = terms.compiled.uses
+        ints = lambda values: self._pointer(np.array(values, np.int64))   # noqa: E731
+        d.n_partials = len(uses)
+        d.controller_partials = terms.compiled.address
+        d.partial_controller = ints([place[name] for name, _, _ in uses])
+        d.partial_column = ints([column for _, column, _ in uses])
+        d.n_partial_controllers = wiring.n
+        d.read_start = ints(wiring.sensor_start[:wiring.n + 1])
+        d.read_kind = ints([0 if int(kind) == 0 else 1 for kind in wiring.sensor_kind[:wiring.n_sensors]])
+        d.read_index = ints(wiring.sensor_index[:wiring.n_sensors])
+        hinges = [(int(index), int(of), float(gain) if gain else 1.0) for kind, index, of, gain in zip(
+            wiring.actuator_kind, wiring.actuator_index, wiring.actuator_controller, wiring.actuator_gain) if kind == 0]
+        d.n_hinge_actuators = len(hinges)
+        d.actuator_hinge, d.actuator_of = ints([h for h, _, _ in hinges]), ints([of for _, of, _ in hinges])
+        d.actuator_factor = self._pointer(np.array([factor for _, _, factor in hinges], float))
+        d.controller_slopes = self._pointer(np.zeros(wiring.n * len(owner.names)))
+        width = max([1] + [int(wiring.sensor_start[k + 1] - wiring.sensor_start[k]) for k in range(wiring.n)])
+        d.controller_scratch = self._pointer(np.zeros(2 * width + 1))
+        d.output_law = ints([terms.compiled.outputs.get(c.name, -1) for c in wiring.controllers])
+        d.output_limits = self._pointer(np.array([c.limits if c.limits is not None else (0.0, 0.0)
+                                                  for c in wiring.controllers], float).reshape(-1))
+
     def _body_uses(self) -> list:
         """(body key's match, index among the joint bodies, column, derivative law) of every body use the Python
         step adds (ParameterDerivatives._body_forces), in its order."""
@@ -437,6 +562,17 @@ class SensitivityLoop:
             np.copyto(array, carried[name])
         np.copyto(self._dt, carried["dt"])
         d.steps, d.info = 0, 0
+        self._tabulate(grid_index, stop_index, control)
+        if d.n_partials:   # the inputs and controllers' outputs the controllers' partials read, bound for this call
+            owner.controllers.compiled.bind()
+        if self._rates is not None:   # ∂r/∂t's laws' rates alike (_TimeRates)
+            self._rates._tabulate(grid_index, stop_index, control)   # noqa: SLF001
+        return d
+
+    def _tabulate(self, grid_index: int, stop_index: int, control) -> None:
+        """The derivative laws' values of t at each grid point from ``grid_index`` + 1 through ``stop_index`` into
+        the struct (the loads', hinges', joint bodies', stops' and friction's; laws of the state: in C)."""
+        d, owner = self.data, self.owner
         if d.n_pairs:   # the derivative laws' values at each grid point the loop may reach (_load_pair_forces)
             pairs, _, place, _ = owner._load_layout()   # noqa: SLF001
             distinct, use = owner.load_laws_distinct()
@@ -449,10 +585,16 @@ class SensitivityLoop:
         times = [control.grid_time(grid) for grid in range(grid_index + 1, stop_index + 1)]
         if d.n_hinge_uses:   # the derivative laws' values (for the rest angle the stiffness's) at each grid point
             hinges = owner.model.hinges
-            uses = [(law, hinges[j].stiffness if which == "rest_angle" else None)
+            compiled = owner.derivative_laws   # the laws of the state compiled: in C; the others tabulated here
+            tabulated = lambda law: law is not None and (compiled is None or compiled.index(law) < 0)   # noqa: E731
+            uses = [(law if tabulated(law) else None,
+                     hinges[j].stiffness if which == "rest_angle" and tabulated(hinges[j].stiffness) else None)
                     for j, which, laws in owner._hinge_uses() for law in laws.values()]   # noqa: SLF001
-            values = [[(law.value(0.0, 0.0, t), stiffness.value(0.0, 0.0, t) if stiffness else 0.0)
+            values = [[(law.value(0.0, 0.0, t) if law is not None else 0.0,
+                        stiffness.value(0.0, 0.0, t) if stiffness is not None else 0.0)
                        for law, stiffness in uses] for t in times]
+            if owner.derivative_laws is not None:   # the inputs they read, bound for this call
+                owner.derivative_laws.bind()
             self._hinge_table = np.array(values, float).reshape(len(times), len(uses), 2)
             d.hinge_values, d.values_from = self._hinge_table.ctypes.data, grid_index + 1
         if d.n_body_uses:   # the kernel's block and ∂c/∂p of each use at each grid point (ParameterDerivatives.body_block)
@@ -476,7 +618,6 @@ class SensitivityLoop:
                                          geometry.moved_loads] for t in times], float)
             g = self._geometry_data
             g.arm_values, g.values_from = self._arm_table.ctypes.data, grid_index + 1
-        return d
 
     def record_rows(self, carried: dict, block, rows: int) -> dict:
         """``carried`` with the sensitivities of the first ``rows`` rows the last call of the loop of steps recorded
@@ -515,6 +656,25 @@ class SensitivityLoop:
         dh = self._dh.copy()
         return {**carried, **{name: array.copy() for name, array in self._carried.items()}, "dt": self._dt.copy(),
                 "dh": dh, "dh_step": dh, "h": d.h, "pending": None, "dh_next": np.zeros(len(dh))}
+
+
+class _TimeRates(SensitivityLoop):
+    """∂r/∂t at fixed coordinates (ExplicitTime.of_laws of latdyn/analyses/transient_sensitivities.py: the laws' rates
+    in t through the parameters' machinery with one column, t) as a struct of its own, which the loop's step reads
+    beside its parameters' (``time_rates``): the hinge laws' and the load components' uses of ``laws`` (the
+    ExplicitTime's one-column copy of the owner), their rates tabulated per grid point, its ``total`` the column."""
+
+    def _layout(self) -> bool:
+        if self._for is not None:
+            return True
+        owner, d = self.owner, self.data
+        d.k, d.n_uses, d.n_body_uses, d.n_law_uses = 1, 0, 0, 0
+        self._total = np.zeros(owner.model.n_total + 1)
+        d.total = self._pointer(self._total)
+        self._loads()
+        self._hinges()
+        self._for = (None, True)
+        return True
 
 
 class _AtTime:

@@ -123,6 +123,7 @@ import numpy as np
 
 from latdyn.analyses import adaptive_sensitivities
 from latdyn.analyses.cable_sensitivities import LANDING, CableSensitivities
+from latdyn.analyses.derivative_laws import ControllerPartials, DerivativeLaws
 from latdyn.analyses.energy_sensitivities import external_work_after_event, external_work_step, is_energy_or_momentum
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
 from latdyn.analyses.sensitivities import (_BODY_KEY, _CABLE_KEY, _GUIDE_KEY, _HINGE_KEY, _INITIAL_VELOCITY_KEY,
@@ -177,6 +178,9 @@ class TransientSensitivities(ParameterDerivatives):
 
     def __init__(self, prepared):
         super().__init__(prepared)
+        self.derivative_laws = DerivativeLaws.of(self)
+        if self.controllers is not None:   # the controllers' ∂f/∂p compiled alike
+            self.controllers.compiled = ControllerPartials.of(self.controllers, self.controllers.partial_expressions)
         self.params = self.length = None
         #: the cables' parameters and events (:class:`CableSensitivities`), None without cables
         self.cables = CableSensitivities(self) if self.model.cables is not None else None

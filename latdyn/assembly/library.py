@@ -217,7 +217,16 @@ class SensitivityLoopData(ctypes.Structure):
                 # ∂r/∂p of the geometry parameters (csrc/geometry_forces.c); NULL: none
                 ("geometry", P),
                 # rigid links and guides (csrc/linked_matrices.c)
-                ("linked", I64), ("linked_gather", P), ("linked_storage", P), ("linked_body_D", P)]
+                ("linked", I64), ("linked_gather", P), ("linked_storage", P), ("linked_body_D", P),
+                # hinge laws' derivatives of θ, θ̇ or an input, compiled (latdyn/analyses/derivative_laws.py)
+                ("derivative_laws", P), ("hinge_law_index", P),
+                # explicit time dependence beside events: ∂r/∂t's struct of one column (sensitivities_in_loop._TimeRates)
+                ("time_rates", P),
+                # continuous controllers' parameters (ControllerTerms.add; derivative_laws.ControllerPartials)
+                ("n_partials", I64), ("controller_partials", P), ("partial_controller", P), ("partial_column", P),
+                ("n_partial_controllers", I64), ("read_start", P), ("read_kind", P), ("read_index", P),
+                ("n_hinge_actuators", I64), ("actuator_hinge", P), ("actuator_of", P), ("actuator_factor", P),
+                ("controller_slopes", P), ("controller_scratch", P), ("output_law", P), ("output_limits", P)]
 
 
 class GeometryForcesData(ctypes.Structure):

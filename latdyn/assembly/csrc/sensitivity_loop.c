@@ -25,7 +25,7 @@
 typedef void (*kernel_joint_law)(int64_t, const double *, const double *, double *);
 
 /* What the loop of steps needs for the sensitivities' step (latdyn.analyses.sensitivities_in_loop). */
-typedef struct {
+typedef struct SensitivityLoopTag {
     int64_t k;                          /* parameters */
     double *dq, *dv, *dvdot, *da;       /* in/out: the carried δq, δv, δv̇, δa (n × k, row-major) */
     double *dt, *dh;                    /* in/out: δt (k); out: the last step's δh (k) */
@@ -119,6 +119,30 @@ typedef struct {
     const int64_t *linked_gather;       /* n²: each entry's offset in the iteration matrix's storage (−1: none) */
     double *linked_storage;             /* the iteration matrix's storage size: a buffer of the step's own */
     double *linked_body_D;              /* 36 per joint body: their inertia stiffness */
+    /* hinge laws' derivatives of θ, θ̇ or an input (latdyn/analyses/derivative_laws.py): the compiled laws, which
+     * the Python path calls too, evaluated at the hinge's (θ, θ̇, t) in place of the tabulated values */
+    void (*derivative_laws)(int64_t, double, double, double, double *); /* latdyn_hinge_laws of them; NULL: none */
+    const int64_t *hinge_law_index;     /* n_hinge_uses × 2: the derivative law's and (rest angle) the stiffness
+                                         * law's number among them; −1: hinge_values' tabulated value */
+    /* explicit time dependence beside events (ExplicitTime, latdyn/analyses/transient_sensitivities.py): ∂r/∂t's
+     * struct, one column of the hinge laws' and loads' uses with their rates in t; NULL: nothing moves in t */
+    struct SensitivityLoopTag *time_rates;
+    /* continuous controllers' parameters (ControllerTerms.add, latdyn/analyses/sensitivities.py): each use (controller,
+     * column) its compiled ∂f/∂p (derivative_laws.py ControllerPartials: law number u), at t and its controller's
+     * sensors (hinge angles and rates); each hinge actuator's row less its factor times its controller's slope */
+    int64_t n_partials;                 /* 0: none */
+    void (*controller_partials)(int64_t, double, const double *, double *);
+    const int64_t *partial_controller, *partial_column;
+    int64_t n_partial_controllers;      /* the wiring's continuous controllers */
+    const int64_t *read_start;          /* n_partial_controllers + 1: each one's sensors in read_kind, read_index */
+    const int64_t *read_kind, *read_index; /* 0: the hinge's θ, 1: its θ̇ */
+    int64_t n_hinge_actuators;
+    const int64_t *actuator_hinge, *actuator_of; /* in the wiring's order: the hinge, its controller */
+    const double *actuator_factor;      /* ∂τ/∂y (1 for the controller's name alone) */
+    double *controller_slopes;          /* n_partial_controllers × k */
+    double *controller_scratch;         /* the law's arguments and outputs */
+    const int64_t *output_law;          /* n_partial_controllers: its output's law number (limits); −1: no limits */
+    const double *output_limits;        /* n_partial_controllers × 2 */
 } SensitivityLoop;
 
 /* Row r of the rows recorded on the way: the carried δq, δv, δv̇ and δt as the step before it left them. */
@@ -164,23 +188,29 @@ static void load_parameter_forces(const Model *m, const Configuration *c, const 
  * the derivative law's value in its law's place at the hinge's (θ, θ̇) (linear in the laws), or for the rest angle
  * the derivative times its force at (0, 0, 1, λ) with the stiffness alone (f = k (θ − θ_r) + …: affine in θ_r),
  * added at the hinge's coordinate in the Python path's order (ParameterDerivatives._hinge_force). */
-static void hinge_parameter_forces(const Model *m, const Configuration *c, const SensitivityLoop *s, int64_t grid)
+static void hinge_parameter_forces(const Model *m, const Configuration *c, const SensitivityLoop *s, int64_t grid,
+                                   double t)
 {
     const int64_t U = s->n_hinge_uses, k = s->k;
     const double *table = s->hinge_values + 2 * U * (grid - s->values_from);
     for (int64_t u = 0; u < U; ++u) {
         const int64_t j = s->hinge_joint[u], slot = s->hinge_slot[u];
-        double at[4], laws[9] = {0}, f, by_angle, by_rate, spring, applied, damper, energy;
+        double at[4], laws[9] = {0}, f, by_angle, by_rate, spring, applied, damper, energy, value[2], out[3];
+        for (int i = 0; i < 2; ++i) {   /* the derivative's and the stiffness's: compiled at (θ, θ̇, t), or tabulated */
+            const int64_t law = s->derivative_laws != NULL ? s->hinge_law_index[2 * u + i] : -1;
+            if (law >= 0) s->derivative_laws(law, c->theta[j], c->theta_dot[j], t, out);
+            value[i] = law >= 0 ? out[0] : table[2 * u + i];
+        }
         memcpy(at, s->hinge_at + 4 * u, 4 * sizeof(double));
         if (slot >= 0) {
             at[0] = c->theta[j];
             at[1] = c->theta_dot[j];
-            laws[slot] = table[2 * u];
+            laws[slot] = value[0];
         } else {
-            laws[0] = table[2 * u + 1];
+            laws[0] = value[1];
         }
         s->hinge_kernel(1, at, laws, s->no_contact, &f, &by_angle, &by_rate, &spring, &applied, &damper, &energy);
-        s->total[m->hinge_dofs[j] * k + s->hinge_column[u]] += slot >= 0 ? f : table[2 * u] * f;
+        s->total[m->hinge_dofs[j] * k + s->hinge_column[u]] += slot >= 0 ? f : value[0] * f;
     }
 }
 
@@ -232,6 +262,51 @@ static void joint_law_parameter_forces(const Model *m, const Configuration *c, c
     }
 }
 
+/* ∂r/∂p through the continuous controllers at c (time t) into total (ControllerTerms.add: no states, limits, chains or
+ * load actuators here): each controller's slope dy/dp = ∂f/∂p by the compiled partials at its sensors, then each hinge
+ * actuator's row less its factor times its controller's slope, in the wiring's order. */
+static void controller_parameter_forces(const Model *m, const Configuration *c, const SensitivityLoop *s, double t)
+{
+    const int64_t k = s->k;
+    double *slopes = s->controller_slopes, *args = s->controller_scratch;
+    memset(slopes, 0, sizeof(double) * (size_t)(s->n_partial_controllers * k));
+    for (int64_t u = 0; u < s->n_partials; ++u) {
+        const int64_t ctl = s->partial_controller[u], output = s->output_law[ctl];
+        int64_t count = 0;
+        for (int64_t i = s->read_start[ctl]; i < s->read_start[ctl + 1]; ++i)
+            args[count++] = s->read_kind[i] == 0 ? c->theta[s->read_index[i]] : c->theta_dot[s->read_index[i]];
+        double *out = args + count;
+        if (output >= 0) {   /* no derivative while the output is clipped: lo < f < hi, f by its compiled law */
+            s->controller_partials(output, t, args, out);
+            if (!(s->output_limits[2 * ctl] < out[0] && out[0] < s->output_limits[2 * ctl + 1])) continue;
+        }
+        s->controller_partials(u, t, args, out);
+        slopes[ctl * k + s->partial_column[u]] += out[0];
+    }
+    for (int64_t a = 0; a < s->n_hinge_actuators; ++a) {
+        const double *slope = slopes + s->actuator_of[a] * k, factor = s->actuator_factor[a];
+        double *row = s->total + m->hinge_dofs[s->actuator_hinge[a]] * k;
+        for (int64_t col = 0; col < k; ++col) row[col] -= factor * slope[col];
+    }
+}
+
+/* The explicit time dependence at the step's end (TransientSensitivities._add_time_columns): ∂r/∂t at c (the hinge
+ * laws' then the loads' rates in t through the same calls as their parameters', ExplicitTime.of_laws) times the
+ * carried δt_n added to the parameters' columns of explicit_, and ∂r/∂t itself to the step size's. */
+static void explicit_time_columns(const Model *m, const Configuration *c, SensitivityLoop *s, int64_t grid, double t)
+{
+    SensitivityLoop *r = s->time_rates;
+    const int64_t n = m->n_dofs, k = s->k, cols = k + 1;
+    memset(r->total, 0, sizeof(double) * (size_t)(m->n_total + 1));
+    if (r->n_hinge_uses) hinge_parameter_forces(m, c, r, grid, t);
+    load_parameter_forces(m, c, r, grid);
+    for (int64_t i = 0; i < n; ++i) {
+        const double rate = r->total[i];
+        for (int64_t col = 0; col < k; ++col) s->explicit_[i * cols + col] += rate * s->dt[col];
+        s->explicit_[i * cols + k] += rate;
+    }
+}
+
 /* M, C and the exact K at c and time t into s->mck (Assembler.exact_matrix_values): the evaluation with the inertia
  * tangent, the joint bodies' inertia stiffness, the scatter onto the pattern. */
 static void exact_matrices(const Model *m, Work *w, SensitivityLoop *s, const Configuration *c, double t)
@@ -280,7 +355,7 @@ static int64_t sensitivity_loop_step(const Model *m, Work *w, SensitivityLoop *s
     /* ∂r/∂p with the inertia forces (ParameterDerivatives.residual_derivatives: the hinges', the sections', the
      * geometry parameters', the joint bodies', the compliant stops' and friction's, then the loads') */
     memset(s->total, 0, sizeof(double) * (size_t)((m->n_total + 1) * k));
-    if (s->n_hinge_uses) hinge_parameter_forces(m, c, s, grid);
+    if (s->n_hinge_uses) hinge_parameter_forces(m, c, s, grid, t);
     if (s->n_uses)
         latdyn_section_parameter_forces(m, w, c, s->internal_D_section, s->inertia_D_section, 1, s->gravity, s->n_on,
                                         s->on, s->n_uses, s->use, s->elements, s->columns, s->rows, k, s->total,
@@ -288,12 +363,14 @@ static int64_t sensitivity_loop_step(const Model *m, Work *w, SensitivityLoop *s
     if (s->geometry != NULL) latdyn_geometry_parameter_forces(m, w, c, s->geometry, k, grid, s->total);
     if (s->n_body_uses) body_parameter_forces(m, c, s, grid);
     if (s->n_law_uses) joint_law_parameter_forces(m, c, s, grid);
+    if (s->n_partials) controller_parameter_forces(m, c, s, t);
     load_parameter_forces(m, c, s, grid);
     if (s->linked) latdyn_linked_reduce_columns(m, s->total, k, s->total);   /* Pᵀ, in place: rows < n */
     for (int64_t i = 0; i < n; ++i) {   /* on the free coordinates, with the step size's column 0 */
         for (int64_t col = 0; col < k; ++col) s->explicit_[i * cols + col] = s->total[i * k + col];
         s->explicit_[i * cols + k] = 0.0;
     }
+    if (s->time_rates != NULL) explicit_time_columns(m, c, s, grid, t);
     const int64_t size = n * cols;
     const double *da0 = s->predicted, *dq0 = s->predicted + size, *dv0 = s->predicted + 2 * size;
     (void)da0;
