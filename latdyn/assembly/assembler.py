@@ -332,7 +332,7 @@ class Assembler:
         step has not yet: ``latdyn.step.compiled.hold_matrix``), made once per native model: (each entry's offset in
         that storage, n² row-major; a storage of its size other than the step's; the joint bodies' inertia
         stiffness, 36 each); None where that matrix is sparse or the model has more than DENSE_LIMIT coordinates
-        (the reduction then in Python: latdyn/assembly/linked.py)."""
+        (:meth:`exact_matrices` then: the same reduction as sparse values, latdyn/assembly/linked.py)."""
         held = self.__dict__.get("_linked_exact_layout")
         if held is not None and held[0] is native:
             return held[1]
