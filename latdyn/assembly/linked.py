@@ -24,7 +24,7 @@ import ctypes
 
 import numpy as np
 
-from latdyn.assembly.evaluation import SeparateMatrices
+from latdyn.assembly.evaluation import Evaluation, SeparateMatrices
 from latdyn.numerics.linalg import DENSE_LIMIT
 
 
@@ -50,6 +50,12 @@ class LinkedEvaluation(SeparateMatrices):
         #: M, C, K and K without the geometric term on the minimum coordinates (latdyn_linked_matrices), each the
         #: values of :attr:`pattern` (rows, cols, CSR indptr)
         self.parts = self.pattern = None
+
+    def _assembled(self, cm, cc, ck, dense):
+        """cm M + cc C + ck K on the assembled coordinates (free and dependent), before the reduction: the blocks'
+        own scatter (tests/test_sensitivities_joint_forces.py holds ``Assembler.exact_rows`` to it)."""
+        raw = Evaluation(residual=None, reaction=None, blocks=self.blocks, assembler=self.assembler)
+        return raw.combined(cm, cc, ck, dense=dense)
 
     def combined(self, cm: float, cc: float, ck: float, dense: bool | None = None, geometric_term: bool = True):
         """cm M + cc C + ck K on the minimum coordinates; ``geometric_term`` False: K without
