@@ -97,7 +97,7 @@ def evaluate_linked(links, assembler, state, matrices: bool, load_factor: float,
     it is built, and the storage of its iteration matrix held, before the links are completed."""
     native = assembler.native(inertia_tangent)
     if matrices:  # the storage the reduction writes in: held before the links are completed (holding lays them out anew)
-        _pattern(assembler, native)
+        linked_pattern(assembler, native)
     assembler.complete_links(state)
     full = assembler.evaluate_assembled(state, matrices, load_factor, inertia, inertia_tangent)
     body_stiffness = None
@@ -113,7 +113,7 @@ def evaluate_linked(links, assembler, state, matrices: bool, load_factor: float,
                          inertia_tangent=inertia_tangent, body_stiffness=body_stiffness)
 
 
-def _pattern(assembler, native):
+def linked_pattern(assembler, native):
     """The iteration matrix's pattern (rows, cols, CSR indptr), each entry's offset in its storage and a storage of
     that size other than the step's (``latdyn.step.compiled.hold_matrix``, which this holds where the step has not
     yet), made once per native model."""
@@ -147,7 +147,7 @@ def reduce_linked(links, assembler, state, full, matrices: bool, inertia: bool,
     n, n_asm, n_total = model.n_dofs, model.n_assembled, model.n_total
     native_model = assembler.native()
     if matrices and getattr(native_model, "linked_pattern", None) is None:
-        _pattern(assembler, native_model)   # lays the links out anew: J and ∂c/∂v of this state again
+        linked_pattern(assembler, native_model)   # lays the links out anew: J and ∂c/∂v of this state again
         native_model.complete_links(state)
     native = native_model.links
     columns = links.columns(model)
@@ -171,7 +171,7 @@ def reduce_linked(links, assembler, state, full, matrices: bool, inertia: bool,
     if matrices:
         small = n_asm <= DENSE_LIMIT
         free_cols = columns < n
-        out.pattern, offsets, storage = _pattern(assembler, native_model)
+        out.pattern, offsets, storage = linked_pattern(assembler, native_model)
         body = (np.ascontiguousarray(body_stiffness, float) if body_stiffness is not None and len(body_stiffness)
                 else None)
         material = bool(np.any(full.residual[dep_rows]))   # else K without the geometric term is K
