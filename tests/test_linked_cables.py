@@ -122,7 +122,7 @@ def test_compiled_iteration_matrix_of_cables_on_guided_and_linked_bodies(seed):
     assembler.native(True)
     assembler.complete_links(state)
     full = assembler.evaluate_assembled(state, True, 1.0, True, True)
-    exact = reduce_linked(model.links, assembler, state, full, True, True, rates_term=True)
+    exact = reduce_linked(model.links, assembler, state, full, True, True, rates_term=True, inertia_tangent=True)
     for beta_p, gamma_p in ((0.0, 0.0), (400.0, 20.0)):
         expected = np.asarray(exact.combined(beta_p, gamma_p, 1.0, dense=True))
         matrix, _ = compiled_iteration_matrix(assembler, state, beta_p, gamma_p, exact=True)

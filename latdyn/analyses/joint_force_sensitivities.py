@@ -197,7 +197,7 @@ def _dense(product) -> np.ndarray:
 def _edge_wrench_derivative(owner, state, j: int, r_dep: np.ndarray) -> np.ndarray:
     """Σ_c ∂(J_c,dᵀ r_c)/∂q at fixed r_c (n,) for the joint ``j`` of an edge of the links' tree: the generated
     ``slide_wrench`` (``hinge_wrench`` for a revolute edge) at each dependent node c below it, its derivative by
-    the edge parent's δx, δπ and c's δx chained with their J (as :func:`latdyn.assembly.linked.geometric_stiffness`
+    the edge parent's δx, δπ and c's δx chained with their J (as csrc/links.c's geometric term (assemble_linked_into)
     takes it for the free coordinates' rows)."""
     model, links, kernels = owner.model, owner.model.links, owner.kernels
     native, n = owner.assembler.native().links, model.n_dofs

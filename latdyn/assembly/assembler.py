@@ -331,27 +331,24 @@ class Assembler:
         """The arrays ``latdyn_linked_exact_matrices`` (csrc/linked_matrices.c) reads for ``native`` (a model with
         rigid links or guides: its links laid out for the compiled step's iteration matrix, which this holds where the
         step has not yet: ``latdyn.assembly.held_matrix.hold_matrix``), made once per native model: (each entry's offset in
-        that storage, n² row-major; a storage of its size other than the step's; the joint bodies' inertia
+        that storage, n² row-major, −1 off the pattern; a storage of its size other than the step's, the one
+        :func:`latdyn.assembly.linked.linked_pattern` gathers from; the joint bodies' inertia
         stiffness, 36 each); None where that matrix is sparse or the model has more than DENSE_LIMIT coordinates
-        (the reduction then in Python: latdyn/assembly/linked.py)."""
+        (:meth:`exact_matrices` then: the same reduction as sparse values, latdyn/assembly/linked.py)."""
         held = self.__dict__.get("_linked_exact_layout")
         if held is not None and held[0] is native:
             return held[1]
         layout = None
-        factorization = None
-        if self.model.links is not None and self.model.n_dofs:
+        n = self.model.n_dofs
+        if self.model.links is not None and 0 < n <= DENSE_LIMIT:
+            from latdyn.assembly.linked import linked_pattern
             from latdyn.assembly.held_matrix import hold_matrix   # on use: the compiled step's storage, shared with it
 
-            factorization = hold_matrix(self, native)
-        n = self.model.n_dofs
-        if factorization is not None and factorization.kind in ("dense", "band") and n <= DENSE_LIMIT:
-            rows, cols = np.divmod(np.arange(n * n, dtype=np.int64), max(n, 1))
-            offset = factorization.new[rows] - factorization.new[cols]   # a band's entries: −ku ≤ i − j ≤ kl
-            inside = ((offset >= -factorization.ku) & (offset <= factorization.kl) if factorization.kind == "band"
-                      else np.ones(n * n, bool))
-            gather = np.ascontiguousarray(np.where(inside, factorization.position(rows, cols), -1), np.int64)
-            layout = (gather, np.zeros(max(factorization.values.size, 1)),
-                      np.zeros(max(36 * len(self.model.body_nodes), 1)))
+            if hold_matrix(self, native).kind in ("dense", "band"):
+                (rows, cols, _), offsets, storage = linked_pattern(self, native)   # the entries the reduction writes
+                gather = np.full(n * n, -1, np.int64)
+                gather[rows * n + cols] = offsets
+                layout = (gather, storage, np.zeros(max(36 * len(self.model.body_nodes), 1)))
         self._linked_exact_layout = (native, layout)
         return layout
 

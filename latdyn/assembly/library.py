@@ -371,6 +371,10 @@ def native_library() -> ctypes.CDLL:
                                                          P, P]
         library.latdyn_linked_reduce_columns.restype = None
         library.latdyn_linked_reduce_columns.argtypes = [model, P, I64, P]
+        library.latdyn_linked_matrices.restype = None
+        library.latdyn_linked_matrices.argtypes = [model, work, configuration, I64, I64, I64, I64, P, P, I64, P, P]
+        library.latdyn_linked_reduce_total.restype = None
+        library.latdyn_linked_reduce_total.argtypes = [model, P]
         library.latdyn_exact_matrix_values.restype = None
         library.latdyn_exact_matrix_values.argtypes = [I64, P, P, P, P, P, I64, P]
         library.latdyn_section_parameter_forces.restype = None

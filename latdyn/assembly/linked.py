@@ -9,8 +9,18 @@ Pᵀ (C_·dep ∂(J v)/∂q + M_·dep ∂(J a + c)/∂q): the dependent nodes' r
 fixed independent rates (csrc/links.c composes the generated edge factors ``*_rates_D_q`` along the
 tree, ``dependent_rates_tangent``). The time step's Newton matrix, like the events' impulse weights
 (M + dt²K), leaves these inertial terms out unless the run asks for the inertia tangent.
+
+The reduction is written once, in C: the forward step's (csrc/links.c ``assemble_linked_into``,
+``reduce_total``), which this module calls for every analysis driven from Python (statics and continuation,
+modes and linearisation, buckling, impulses at latches, events' weights: ``latdyn_linked_matrices`` and
+``latdyn_linked_reduce_total``, csrc/linked_matrices.c). M, C and K come as the values of the iteration
+matrix's pattern (:func:`latdyn.assembly.held_matrix.matrix_pattern`), gathered from a storage of its layout
+(dense, band or sparse) other than the step's own. What stays here reads the C buffers: P, J and ∂c/∂v
+(maps of vectors for the sensitivities) and the dependent rates' ∂/∂q.
 """
 from __future__ import annotations
+
+import ctypes
 
 import numpy as np
 
@@ -25,7 +35,7 @@ def _is_dense(dense, n):
 class LinkedEvaluation(SeparateMatrices):
     """An :class:`latdyn.assembly.assembler.Evaluation` on the minimum coordinates of a model with rigid
     links: the blocks are assembled on the independent and dependent coordinates and reduced
-    by the projection P (module docstring)."""
+    by the projection P (module docstring) in C; ``blocks`` are those before the reduction."""
 
     def __init__(self, residual, reaction, external_power, blocks, assembler, hinge_work_torque=None,
                  hinge_damper_torque=None, cable_work=None):
@@ -34,12 +44,16 @@ class LinkedEvaluation(SeparateMatrices):
         self.hinge_damper_torque = np.zeros(0) if hinge_damper_torque is None else hinge_damper_torque
         self.cable_work = np.zeros((0, 4)) if cable_work is None else cable_work
         self.blocks, self.assembler = blocks, assembler
-        self.projection = self.geometric = self.velocity_derivative = self.dependent_rows = None
+        self.projection = self.velocity_derivative = self.dependent_rows = None
         #: ∂(v, w)/∂q and ∂(a, alpha)/∂q of the dependent rows at fixed independent rates (6 n_dep × n), or None
         self.rates_tangent = None
-        self._mass_all = self._damping_all = None
+        #: M, C, K and K without the geometric term on the minimum coordinates (latdyn_linked_matrices), each the
+        #: values of :attr:`pattern` (rows, cols, CSR indptr)
+        self.parts = self.pattern = None
 
     def _assembled(self, cm, cc, ck, dense):
+        """cm M + cc C + ck K on the assembled coordinates (free and dependent), before the reduction: the blocks'
+        own scatter (tests/test_sensitivities_joint_forces.py holds ``Assembler.exact_rows`` to it)."""
         raw = Evaluation(residual=None, reaction=None, blocks=self.blocks, assembler=self.assembler)
         return raw.combined(cm, cc, ck, dense=dense)
 
@@ -48,30 +62,28 @@ class LinkedEvaluation(SeparateMatrices):
         ∂(Pᵀ)/∂q · r_all, the part of the forces at the dependent nodes (a load term: the material
         stiffness that :meth:`latdyn.model.model.Model.check_held` asks for, which a pretensioned
         cable's pull through a link would make indefinite)."""
-        P, geometric, velocity_derivative = self.projection, self.geometric, self.velocity_derivative
-        n_asm, n = P.shape
-        small = n_asm <= DENSE_LIMIT  # small models: dense products (sparse overhead dominates), arrays
-        out = P.T @ self._assembled(cm, cc, ck, small) @ P
-        if cc != 0.0 and len(self.dependent_rows):
-            if self._mass_all is None:
-                self._mass_all = self._assembled(1.0, 0.0, 0.0, small)
-            coupling = self._mass_all[:, self.dependent_rows] @ velocity_derivative  # M_·dep ∂c/∂v
-            out = out + cc * (P.T @ coupling)
-        if ck != 0.0 and geometric_term:
-            out = out + ck * geometric
-        if ck != 0.0 and self.rates_tangent is not None:  # the dependent rates move with q at fixed rates
-            if self._mass_all is None:
-                self._mass_all = self._assembled(1.0, 0.0, 0.0, small)
-            if self._damping_all is None:
-                self._damping_all = self._assembled(0.0, 1.0, 0.0, small)
-            by_velocity, by_acceleration = self.rates_tangent
-            rows = self.dependent_rows
-            out = out + ck * (P.T @ (self._damping_all[:, rows] @ by_velocity + self._mass_all[:, rows] @ by_acceleration))
+        M, C, K, material = self.parts
+        values = np.zeros_like(M)
+        for coefficient, part in ((cm, M), (cc, C), (ck, K if geometric_term else material)):
+            if coefficient != 0.0:
+                values += coefficient * part
+        return self._matrix(values, dense)
+
+    @property
+    def geometric(self):
+        """∂(Pᵀ)/∂q · r_all on the free coordinates: K less K without it (dense below DENSE_LIMIT, else CSR)."""
+        return self._matrix(self.parts[2] - self.parts[3], None)
+
+    def _matrix(self, values, dense):
+        rows, cols, indptr = self.pattern
+        n = len(indptr) - 1
         if _is_dense(dense, n):
-            return out if small else out.toarray()
+            out = np.zeros((n, n))
+            out[rows, cols] = values
+            return out
         import scipy.sparse as sps  # on use: a sparse matrix asked for
 
-        return sps.csr_matrix(out)
+        return sps.csr_matrix((values, cols, indptr), shape=(n, n))
 
 
 def evaluate_linked(links, assembler, state, matrices: bool, load_factor: float, inertia: bool,
@@ -82,32 +94,62 @@ def evaluate_linked(links, assembler, state, matrices: bool, load_factor: float,
     inertia its velocity part, the velocity-dependent forces at the dependent nodes, a cable's damper).
     The native model that evaluates (with the inertia tangent's buffers where
     asked: building it replaces the one before) is the one whose links :func:`reduce_linked` reads, so
-    it is built before the links are completed."""
-    assembler.native(inertia_tangent)
+    it is built, and the storage of its iteration matrix held, before the links are completed."""
+    native = assembler.native(inertia_tangent)
+    if matrices:  # the storage the reduction writes in: held before the links are completed (holding lays them out anew)
+        linked_pattern(assembler, native)
     assembler.complete_links(state)
     full = assembler.evaluate_assembled(state, matrices, load_factor, inertia, inertia_tangent)
+    body_stiffness = None
     if matrices and inertia and inertia_tangent and len(assembler.model.body_nodes):
         # the joint bodies' inertia stiffness with the elements' inertia tangent: K on the assembled
         # coordinates exact before the reduction
+        body_stiffness = assembler.joint_body_inertia_stiffness(state, load_factor)
         stiffness = list(full.blocks["stiffness"])
-        stiffness[1] = stiffness[1] + assembler.joint_body_inertia_stiffness(state, load_factor)
+        stiffness[1] = stiffness[1] + body_stiffness
         full.blocks = {**full.blocks, "stiffness": tuple(stiffness)}
     rates_term = inertia_tangent if rates_term is None else rates_term
-    return reduce_linked(links, assembler, state, full, matrices, inertia, rates_term=rates_term)
+    return reduce_linked(links, assembler, state, full, matrices, inertia, rates_term=rates_term,
+                         inertia_tangent=inertia_tangent, body_stiffness=body_stiffness)
+
+
+def linked_pattern(assembler, native):
+    """The iteration matrix's pattern (rows, cols, CSR indptr), each entry's offset in its storage and a storage of
+    that size other than the step's (``latdyn.assembly.held_matrix.hold_matrix``, which this holds where the step has not
+    yet), made once per native model."""
+    held = getattr(native, "linked_pattern", None)
+    if held is not None:
+        return held
+    from latdyn.assembly.held_matrix import hold_matrix, matrix_pattern   # on use: the compiled step's storage
+
+    factorization = hold_matrix(assembler, native)
+    rows, cols = matrix_pattern(assembler)
+    n = assembler.model.n_dofs
+    indptr = np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=n))]).astype(np.int64)
+    offsets = np.ascontiguousarray(factorization.position(rows, cols), np.int64)
+    native.linked_pattern = held = ((rows, cols, indptr), offsets, np.zeros(max(factorization.values.size, 1)))
+    return held
 
 
 def reduce_linked(links, assembler, state, full, matrices: bool, inertia: bool,
-                  rates_term: bool = False) -> LinkedEvaluation:
-    """``full``, the evaluation on the independent and dependent coordinates at ``state`` (its
-    dependent nodes completed by the caller, J and ∂c/∂v of this state in the native links' buffers), reduced onto the minimum coordinates (module docstring). J and ∂c/∂v
-    are those of the compiled step (the generated edge kernels composed along the tree in C,
-    :meth:`latdyn.assembly.native_model.NativeModel.complete_links`), the geometric stiffness the
-    generated wrench kernels' (:func:`geometric_stiffness`); with ``rates_term`` K also holds the
-    dependent rates' q-dependence, Pᵀ(C_·dep ∂(J v)/∂q + M_·dep ∂(J a + c)/∂q) (module docstring; without
-    inertia M is zero), which, like the inertia tangent, the time step's Newton matrix holds only with it."""
+                  rates_term: bool = False, inertia_tangent: bool = False,
+                  body_stiffness: np.ndarray | None = None) -> LinkedEvaluation:
+    """``full``, the evaluation on the independent and dependent coordinates at ``state`` that the native model's
+    Work holds (``Assembler.evaluate_assembled`` just before, with ``inertia_tangent`` as given here; its
+    dependent nodes completed by the caller, J and ∂c/∂v of this state in the native links' buffers), reduced
+    onto the minimum coordinates (module docstring) by the forward step's reduction in C: the residual and
+    reactions (``latdyn_linked_reduce_total``), M, C and K (``latdyn_linked_matrices``; with ``rates_term`` K also
+    holds the dependent rates' q-dependence, Pᵀ(C_·dep ∂(J v)/∂q + M_·dep ∂(J a + c)/∂q), which, like the inertia
+    tangent, the time step's Newton matrix holds only with it; ``body_stiffness`` (bodies, 6, 6) the joint
+    bodies' inertia stiffness added to their K). J and ∂c/∂v are those of the compiled step (the generated edge
+    kernels composed along the tree in C, :meth:`latdyn.assembly.native_model.NativeModel.complete_links`)."""
     model = assembler.model
     n, n_asm, n_total = model.n_dofs, model.n_assembled, model.n_total
-    native = assembler.native().links
+    native_model = assembler.native()
+    if matrices and getattr(native_model, "linked_pattern", None) is None:
+        linked_pattern(assembler, native_model)   # lays the links out anew: J and ∂c/∂v of this state again
+        native_model.complete_links(state)
+    native = native_model.links
     columns = links.columns(model)
     where = {int(c): k for k, c in enumerate(columns)}
     n_dep = len(links.dependent)
@@ -119,22 +161,29 @@ def reduce_linked(links, assembler, state, full, matrices: bool, inertia: bool,
         convective[6 * k:6 * k + 6, at] = native.convective[s, :, :len(at)]
     dep_rows = model.node_dofs[links.dependent].ravel()  # n ≤ index < n_asm, in order
     assert np.all((dep_rows >= n) & (dep_rows < n_asm))
-    r_dep = full.residual[dep_rows]  # tree order, like the rows of J
-    free_cols = columns < n
-    residual = full.residual[:n].copy()
-    residual[columns[free_cols]] += J[:, free_cols].T @ r_dep
-    reaction = np.zeros(n_total - n)
-    reaction[n_asm - n:] = full.reaction
-    constrained = columns >= n_asm
-    reaction[columns[constrained] - n] += J[:, constrained].T @ r_dep
-    out = LinkedEvaluation(residual=residual, reaction=reaction, external_power=full.external_power,
-                           blocks=full.blocks, assembler=assembler,
+    total = np.zeros(n_total + 1)
+    total[:n_asm], total[n_asm:n_total] = full.residual, full.reaction
+    native_model.library.latdyn_linked_reduce_total(native_model.model_ref, total.ctypes.data)
+    out = LinkedEvaluation(residual=total[:n].copy(), reaction=total[n:n_total].copy(),
+                           external_power=full.external_power, blocks=full.blocks, assembler=assembler,
                            hinge_work_torque=full.hinge_work_torque, hinge_damper_torque=full.hinge_damper_torque,
                            cable_work=full.cable_work)
     if matrices:
         small = n_asm <= DENSE_LIMIT
+        free_cols = columns < n
+        out.pattern, offsets, storage = linked_pattern(assembler, native_model)
+        body = (np.ascontiguousarray(body_stiffness, float) if body_stiffness is not None and len(body_stiffness)
+                else None)
+        material = bool(np.any(full.residual[dep_rows]))   # else K without the geometric term is K
+        parts = np.empty((3 + material, len(offsets)))
+        native_model.library.latdyn_linked_matrices(
+            native_model.model_ref, native_model.work_ref, ctypes.byref(native_model.configuration(state)),
+            int(inertia), int(inertia_tangent and inertia), int(rates_term), int(material),
+            None if body is None else body.ctypes.data, offsets.ctypes.data, len(offsets), storage.ctypes.data,
+            parts.ctypes.data)
+        out.parts = (*parts[:3], parts[3] if material else parts[2])
         Jf = J[:, free_cols]
-        if small:  # dense products (and no SciPy import) for small models
+        if small:  # dense arrays (and no SciPy import) for small models
             P = np.zeros((n_asm, n))
             P[np.arange(n), np.arange(n)] = 1.0
             P[np.ix_(dep_rows, columns[free_cols])] = Jf
@@ -152,7 +201,6 @@ def reduce_linked(links, assembler, state, full, matrices: bool, inertia: bool,
                 (Cf.ravel(), (np.repeat(np.arange(6 * n_dep), Jf.shape[1]), np.tile(columns[free_cols], 6 * n_dep))),
                 shape=(6 * n_dep, n))
         out.projection = P
-        out.geometric = geometric_stiffness(links, assembler, state, native, r_dep, small)
         if rates_term:
             out.rates_tangent = _rates_tangent(assembler, state, native, links, columns, free_cols, small)
         out.velocity_derivative = velocity_derivative
@@ -185,99 +233,3 @@ def _rates_tangent(assembler, state, native, links, columns, free_cols, dense: b
             full = sps.csr_matrix(full)
         out.append(full)
     return tuple(out)
-
-
-def geometric_stiffness(links, assembler, state, native, r_dep, dense: bool):
-    """∂(Pᵀ)/∂q · r_all on the free coordinates (n, n), r_all held fixed: for each dependent node c
-    with residual wrench (f, m) at x_c, the derivative of its generalized force on its root
-    (``root_wrench``: (f, m + (x_c − x_r) × f), by δx_r and δx_c) and on every hinge of its path
-    (``hinge_wrench``: s g·((x_c − o_g) × f + m); on a guide's slide ``slide_wrench``: s g·f; by the edge
-    parent's δx, δπ and δx_c), the generated
-    kernels of codegen/joints.py, chained with J of the parent and of c (as csrc/links.c does); a closure
-    edge's child first passes its wrench to its pin (:func:`_closure_wrenches`)."""
-    model, kernels = assembler.model, assembler.kernels
-    n = model.n_dofs
-    rows, cols, values = [], [], []
-    closure_block = _closure_wrenches(links, state, native, kernels, r_dep)
-    r_dep = closure_block.pop("residual")
-    pairs = []  # (dependent index, edge index) of every hinge and slide on every path
-    for k, c in enumerate(links.dependent):
-        if np.any(r_dep[6 * k:6 * k + 6]):
-            pairs += [(k, e) for e in links.path(int(c)) if links.edges[e].hinge >= 0]
-    nodes = [k for k, c in enumerate(links.dependent) if np.any(r_dep[6 * k:6 * k + 6])]
-
-    def add(slot, row_columns, block):  # block (rows, count of the slot's columns)
-        columns = native.columns[slot, :block.shape[1]]
-        for row, values_row in zip(row_columns, block):
-            keep = (columns < n) & (row < n)
-            rows.append(np.full(int(keep.sum()), row))
-            cols.append(columns[keep])
-            values.append(values_row[keep])
-
-    for slot, block in closure_block.items():
-        add(slot, native.columns[slot, :block.shape[1]], block)
-    if nodes:
-        dependent = links.dependent[nodes]
-        roots = [links.root[int(c)] for c in dependent]
-        wrench = np.concatenate([state.x[roots], state.x[dependent], r_dep.reshape(-1, 6)[nodes]], axis=1)
-        _, derivative = kernels.root_wrench(np.ascontiguousarray(wrench))
-        for c, D in zip(dependent, derivative):
-            s = native.slot_of_node[int(c)]
-            Jc = native.jacobian[s, :, :native.count[s]]
-            block = D[:, 3:] @ Jc[:3]
-            block[:, :3] += D[:, :3]  # δx_r: the root's translations, its slot's first columns
-            add(s, native.columns[s, :6], block)
-    if pairs:
-        edges = [links.edges[e] for _, e in pairs]
-        parent = np.concatenate([state.x[[e.parent for e in edges]], state.T[[e.parent for e in edges]].reshape(-1, 9)],
-                                axis=1)
-        data = np.array([np.concatenate([e.axis, e.point, [e.sign]]) for e in edges])
-        wrench = np.array([np.concatenate([state.x[links.dependent[k]], r_dep[6 * k:6 * k + 6]]) for k, _ in pairs])
-        derivative = np.empty((len(pairs), 9))
-        for prismatic, kernel in ((False, kernels.hinge_wrench), (True, kernels.slide_wrench)):
-            kind = np.array([e.prismatic == prismatic for e in edges])
-            if kind.any():
-                derivative[kind] = kernel(parent[kind], data[kind], wrench[kind])[1]
-        for (k, e), edge, D in zip(pairs, edges, derivative):
-            s, p = native.slot_of_node[int(links.dependent[k])], native.slot_of_node[int(edge.parent)]
-            Jc, Jp = native.jacobian[s, :, :native.count[s]], native.jacobian[p, :, :native.count[p]]
-            row = D[6:] @ Jc[:3]
-            row[:Jp.shape[1]] += D[:6] @ Jp
-            add(s, [int(model.hinge_dofs[edge.hinge])], row[None])
-    rows = np.concatenate(rows) if rows else np.zeros(0, np.int64)
-    cols = np.concatenate(cols) if cols else np.zeros(0, np.int64)
-    values = np.concatenate(values) if values else np.zeros(0)
-    if dense:
-        out = np.zeros((n, n))
-        np.add.at(out, (rows, cols), values)
-        return out
-    import scipy.sparse as sps  # on use: large models with rigid links
-
-    return sps.csr_matrix((values, (rows, cols)), shape=(n, n))
-
-
-def _closure_wrenches(links, state, native, kernels, r_dep) -> dict:
-    """The closure edges' part of ∂(Pᵀ)/∂q · r_all (as csrc/links.c's): each closure child's wrench r moves its
-    pin as g = transferᵀ r (``slider_closure_wrench``, ``rod_closure_wrench``), with J_pᵀ D J_p on the pin's
-    columns, D = ∂g/∂p; g joins a dependent pin's wrench. Returns {pin slot: block} and, under "residual",
-    r_dep with the closure children's wrenches passed on (zero) and the pins' grown."""
-    r_dep = np.array(r_dep, float)
-    out = {}
-    index_of = {int(c): k for k, c in enumerate(links.dependent)}
-    for k, c in enumerate(links.dependent):
-        edge = links.edges[links.edge_of[int(c)]]
-        r = r_dep[6 * k:6 * k + 6]
-        if not edge.closure or not np.any(r):
-            continue
-        kernel = kernels.rod_closure_wrench if edge.closure == "rod" else kernels.slider_closure_wrench
-        g, D = kernel(np.ascontiguousarray(state.x[[edge.parent]]), np.ascontiguousarray(edge.closure_data[None]),
-                      np.ascontiguousarray(r[None]))
-        slot = native.slot_of_node[int(edge.parent)]
-        Jp = native.jacobian[slot, :3, :native.count[slot]]
-        out[slot] = out.get(slot, 0.0) + Jp.T @ D.reshape(3, 3) @ Jp
-        if int(edge.parent) in index_of:
-            j = index_of[int(edge.parent)]
-            r_dep[6 * j:6 * j + 3] += g.reshape(3)
-        r_dep[6 * k:6 * k + 6] = 0.0
-    out["residual"] = r_dep
-    return out

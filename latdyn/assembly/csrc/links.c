@@ -17,7 +17,8 @@
  * coordinates at fixed independent rates, through the edge kernels' rates_D_q factors composed along the
  * tree, dependent_rates_tangent)
  *
- * (latdyn/assembly/linked.py holds the same reduction for the analyses driven from Python).
+ * (the analyses driven from Python call the same reduction: latdyn_linked_matrices and latdyn_linked_reduce_total,
+ * csrc/linked_matrices.c, from latdyn/assembly/linked.py).
  *
  * Slots: every dependent node and every root of the link trees has a slot, with its columns: the
  * coordinates its configuration moves with (a root's six; a dependent node's parent's columns, then
@@ -282,21 +283,23 @@ static void combined_block(const double *M, const double *C, const double *K, co
  * dependent coordinate as assemble scatters them, the others through their expansions, then the
  * geometric stiffness from the dependent nodes' residual rows (L->wrench). */
 static void assemble_linked_into(const Model *m, Work *w, const Configuration *c, double beta_p, double gamma_p,
-                                 int stiffness, int with_inertia_tangent, int rates, const double *body_D,
+                                 int stiffness, int inertia, int with_inertia_tangent, int rates, const double *body_D,
                                  double *matrix);
 
 static void assemble_linked(const Model *m, Work *w, const Configuration *c, double beta_p, double gamma_p,
                             int with_inertia_tangent, int rates)
 {
-    assemble_linked_into(m, w, c, beta_p, gamma_p, 1, with_inertia_tangent, rates, NULL, w->matrix);
+    assemble_linked_into(m, w, c, beta_p, gamma_p, 1, 1, with_inertia_tangent, rates, NULL, w->matrix);
 }
 
 /* assemble_linked's β′M + γ′C + K into `matrix` (the iteration matrix's storage), K's terms (the blocks' K, the
  * hinges' ∂/∂θ, the loads', the geometric term, the dependent rates' term) only with `stiffness` (else zero: M or
- * C alone, as latdyn/assembly/linked.py's combined(1, 0, 0) and (0, 1, 0)); body_D (NULL: none) 36 per joint body
- * added to its K block, as the elements' inertia tangent D is (the joint bodies' inertia stiffness: the exact K). */
+ * C alone, latdyn_linked_matrices); without `inertia` (a static evaluation, whose elements' and joint bodies' M and
+ * C in w are not its own) those blocks' M and C left out, the hinges', cables' and controllers' damping kept;
+ * body_D (NULL: none) 36 per joint body added to its K block, as the elements' inertia tangent D is (the joint
+ * bodies' inertia stiffness: the exact K). */
 static void assemble_linked_into(const Model *m, Work *w, const Configuration *c, double beta_p, double gamma_p,
-                                 int stiffness, int with_inertia_tangent, int rates, const double *body_D,
+                                 int stiffness, int inertia, int with_inertia_tangent, int rates, const double *body_D,
                                  double *matrix)
 {
     const Links *L = m->links;
@@ -307,8 +310,8 @@ static void assemble_linked_into(const Model *m, Work *w, const Configuration *c
     memset(matrix, 0, sizeof(double) * m->factorization->size);
     if (rates) dependent_rates_tangent(m, c);
     for (int64_t e = 0; e < m->n_elements; ++e) {
-        const double *K = stiffness ? w->tangent + 196 * e : zeros, *M = w->mass + 196 * e;
-        const double *C = w->quadratic_D + 196 * e;
+        const double *K = stiffness ? w->tangent + 196 * e : zeros, *M = inertia ? w->mass + 196 * e : NULL;
+        const double *C = inertia ? w->quadratic_D + 196 * e : NULL;
         const double *D = with_inertia_tangent && stiffness ? w->inertia_tangent + 196 * e : NULL;
         if (L->element_block[e] >= 0) {
             combined_block(M, C, K, D, 196, beta_p, gamma_p, S);
@@ -318,7 +321,7 @@ static void assemble_linked_into(const Model *m, Work *w, const Configuration *c
         scatter_block(matrix, m->element_position + 196 * e, M, C, K, D, 196, beta_p, gamma_p);
     }
     for (int64_t b = 0; b < m->n_bodies; ++b) {
-        const double *M = w->body_mass + 36 * b, *C = w->body_damping + 36 * b;
+        const double *M = inertia ? w->body_mass + 36 * b : NULL, *C = inertia ? w->body_damping + 36 * b : NULL;
         const double *K = stiffness ? w->body_stiffness + 36 * b : zeros;
         const double *D = body_D && stiffness ? body_D + 36 * b : NULL;
         if (L->body_block[b] >= 0) {
@@ -461,23 +464,19 @@ static void assemble_linked_mass(const Model *m, const Work *w, double *matrix)
     }
 }
 
-/* The evaluation in w->total reduced onto the minimum coordinates, in place: r_min = Pᵀ r_all on the
- * free coordinates, Jᵀ r_dep added to the reactions of the constrained ones, the dependent rows
- * cleared (kept in L->wrench for the geometric stiffness); with matrices (1: of a static evaluation,
- * 2: of one with inertia), the reduced iteration matrix (assemble_linked; with the inertia tangent and
- * inertia, the dependent rates' term too, as latdyn/assembly/linked.py's with inertia_tangent). The
- * configuration's dependent nodes are those complete_links made. */
-static void reduce_links(const Model *m, Work *w, const Configuration *c, double beta_p, double gamma_p,
-                         int matrices, int with_inertia_tangent)
+/* The vector of all coordinates `total` (n_total + 1: residual, then reactions) reduced onto the minimum
+ * coordinates, in place: r_min = Pᵀ r_all on the free coordinates, Jᵀ r_dep added to the reactions of the
+ * constrained ones, the dependent rows cleared (kept in L->wrench for the geometric stiffness). */
+static void reduce_total(const Model *m, double *total)
 {
     const Links *L = m->links;
     const int64_t W = L->width;
     for (int64_t s = 0; s < L->n_slots; ++s) {
         if (L->slot_edge[s] < 0) continue;
         const int64_t *d = m->node_dofs + 6 * L->slot_node[s];
-        for (int k = 0; k < 6; ++k) L->wrench[6 * s + k] = w->total[d[k]];
+        for (int k = 0; k < 6; ++k) L->wrench[6 * s + k] = total[d[k]];
     }
-    for (int64_t i = m->n_dofs; i < L->n_assembled; ++i) w->total[i] = 0.0;
+    for (int64_t i = m->n_dofs; i < L->n_assembled; ++i) total[i] = 0.0;
     for (int64_t s = 0; s < L->n_slots; ++s) {
         if (L->slot_edge[s] < 0) continue;
         const double *J = L->jacobian + 6 * W * s, *r = L->wrench + 6 * s;
@@ -485,8 +484,18 @@ static void reduce_links(const Model *m, Work *w, const Configuration *c, double
         for (int64_t j = 0; j < L->slot_count[s]; ++j) {
             double f = 0.0;
             for (int k = 0; k < 6; ++k) f += J[W * k + j] * r[k];
-            w->total[columns[j]] += f;
+            total[columns[j]] += f;
         }
     }
+}
+
+/* The evaluation in w->total reduced onto the minimum coordinates, in place (reduce_total); with matrices (1: of a static evaluation,
+ * 2: of one with inertia), the reduced iteration matrix (assemble_linked; with the inertia tangent and
+ * inertia, the dependent rates' term too, as latdyn/assembly/linked.py's with inertia_tangent). The
+ * configuration's dependent nodes are those complete_links made. */
+static void reduce_links(const Model *m, Work *w, const Configuration *c, double beta_p, double gamma_p,
+                         int matrices, int with_inertia_tangent)
+{
+    reduce_total(m, w->total);
     if (matrices) assemble_linked(m, w, c, beta_p, gamma_p, with_inertia_tangent, matrices == 2 && with_inertia_tangent);
 }
