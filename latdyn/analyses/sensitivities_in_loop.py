@@ -54,8 +54,8 @@ import numpy as np
 from latdyn.analyses.energy_sensitivities import is_energy_or_momentum
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
 from latdyn.analyses.sensitivity_rows import block_rows
-from latdyn.analyses.parameter_keys import (BODY_KEY, CONTACT_KEY, FRICTION_KEY, FRICTION_SLOT, GUIDE_CONTACT_KEY,
-                                            GUIDE_KEY, HINGE_KEY)
+from latdyn.analyses.parameter_keys import (BODY_KEY, CABLE_KEY, CONTACT_KEY, FRICTION_KEY, FRICTION_SLOT,
+                                            GUIDE_CONTACT_KEY, GUIDE_KEY, HINGE_KEY)
 from latdyn.analyses.sensitivities import _INITIAL_VELOCITY_KEY, _LOAD_KEY, _SECTION_KEY
 from latdyn.assembly.native_model import NO_CONTACT
 from latdyn.analyses.step_matrix import turns_about_one_axis
@@ -76,6 +76,10 @@ def refusal(owner) -> str | None:
     for key, laws in owner.derivatives.items():
         if _INITIAL_VELOCITY_KEY.match(key) or _LOAD_KEY.match(key) or GEOMETRY_KEY.match(key):
             continue   # (the geometry parameters: as a whole, _geometry_refusal)
+        if CABLE_KEY.match(key):
+            if not all(map(_in_time_alone, laws.values())):
+                return f"{key}: its derivative is a law in theta, theta_dot or an input"
+            continue   # (the cables' kernels: model_refusal)
         if _SECTION_KEY.match(key) and not GEOMETRY_KEY.match(key) and all(law.is_constant for law in laws.values()):
             continue
         why = (_hinge_refusal(owner, key, laws) if HINGE_KEY.match(key) or GUIDE_KEY.match(key) else
@@ -88,6 +92,21 @@ def refusal(owner) -> str | None:
     if owner._section_layout() is not None and owner._section_kernel_addresses() is None:  # noqa: SLF001
         return "section kernels without C libraries"
     return _geometry_refusal(owner) if owner.geometry is not None else None
+
+
+#: the generated kernels the cables' parameters' ∂r/∂p calls in the loop (csrc/cable_forces.c)
+CABLE_KERNELS = ("cable_force", "cable_force_D_rest_length", "joint_body")
+
+
+def _cable_refusal(owner) -> str | None:
+    """Why a model with cables keeps the run on the Python path, or None: their parameters' ∂r/∂p
+    (CableSensitivities.residual_derivatives) is the generated kernels' of :data:`CABLE_KERNELS`, which
+    csrc/cable_forces.c calls on the evaluation's inputs; each slack/taut change, and every step that ends within
+    twice an element's tolerance of one, is handed back to Python (csrc/cable_forces.c ``cable_near_change``). A reel
+    (a rest length in t) is explicit time dependence beside the cables' events (:func:`model_refusal`)."""
+    if any(owner.kernels.address(name) is None for name in CABLE_KERNELS):
+        return "cable kernels without C libraries"
+    return None
 
 
 #: the generated kernels the geometry parameters' ∂r/∂p calls in the loop (csrc/geometry_forces.c)
@@ -167,8 +186,12 @@ def model_refusal(owner) -> str | None:
         return "no parameters"
     if getattr(owner.kernels, "backend", None) != "c":
         return "kernels without C libraries"
-    if model.cables is not None or scene.controllers:
-        return "cables or controllers"
+    if scene.controllers:
+        return "controllers"
+    if model.cables is not None:
+        why = _cable_refusal(owner)
+        if why is not None:
+            return why
     if model.links is not None:
         from latdyn.analyses.link_sensitivities import link_section_uses
 
@@ -284,6 +307,7 @@ class SensitivityLoop:
         self._bodies()
         self._joint_laws()
         self._geometry()
+        self._cables()
         self._for = (key, True)
         return True
 
@@ -379,6 +403,42 @@ class SensitivityLoop:
             g.arm_scratch = self._pointer(np.zeros(30 * k))
         d.geometry = ctypes.addressof(g)
 
+    def _cables(self) -> None:
+        """The cables' parameters' part (csrc/cable_forces.c): the uses of CableSensitivities in its order (cable,
+        column, which value), each element's cable, the kernels, and per use that moves a cable's lumped masses
+        their rows and the joint_body kernel's blocks (CableSensitivities.mass_blocks)."""
+        from latdyn.assembly.library import CableForcesData
+
+        owner, d = self.owner, self.data
+        d.cables = None
+        terms = owner.cables
+        if terms is None or not terms.uses:
+            return
+        c = self._cable_data = CableForcesData()
+        ints = lambda values: self._pointer(np.array(values, np.int64))   # noqa: E731
+        which = {"EA": 0, "damping": 1, "rest_length": 2, "rhoA": 3}
+        c.n_uses = len(terms.uses)
+        c.cable, c.column = ints([u[0] for u in terms.uses]), ints([u[2] for u in terms.uses])
+        c.value = ints([which[u[1]] for u in terms.uses])
+        c.element_cable = ints(terms.cables.cable)
+        c.force_kernel, c.rest_kernel = (owner.kernels.address(name) for name in CABLE_KERNELS[:2])
+        row, rows, start, blocks, gravity = [], [], [], [], []
+        for k, value, _, law in terms.uses:
+            moved = value in ("rhoA", "rest_length") and k in terms.mass_rows
+            at, block, g = terms.mass_blocks(k, value, law) if moved else (np.zeros(1, np.int64), None, None)
+            row.append(int(at[0]))
+            rows.append(len(at) if moved else 0)
+            start.append(sum(len(b) for b in blocks))
+            if moved:
+                blocks.append(block)
+                gravity.append(g)
+        c.mass_row, c.mass_rows, c.mass_from = ints(row), ints(rows), ints(start)
+        c.mass_blocks = self._pointer(np.ascontiguousarray(np.concatenate(blocks) if blocks else np.zeros((1, 13))))
+        c.mass_gravity = self._pointer(np.ascontiguousarray(np.concatenate(gravity) if gravity else np.zeros((1, 3))))
+        c.body_kernel = owner.kernels.address("joint_body") if blocks else None
+        c.scratch = self._pointer(np.zeros(337 + 132 * max(rows)))
+        d.cables = ctypes.addressof(c)
+
     def _body_uses(self) -> list:
         """(body key's match, index among the joint bodies, column, derivative law) of every body use the Python
         step adds (ParameterDerivatives._body_forces), in its order."""
@@ -470,6 +530,11 @@ class SensitivityLoop:
             self._law_table = np.array([[law.value(0.0, 0.0, t) for law in laws] for t in times], float).reshape(
                 len(times), len(laws))
             d.law_values, d.values_from = self._law_table.ctypes.data, grid_index + 1
+        if d.cables:   # the cables' derivative laws at each grid point (CableSensitivities.residual_derivatives)
+            laws = [law for _, _, _, law in owner.cables.uses]
+            self._cable_table = np.array([[law.value(0.0, 0.0, t) for law in laws] for t in times], float).reshape(
+                len(times), len(laws))
+            self._cable_data.values, self._cable_data.values_from = self._cable_table.ctypes.data, grid_index + 1
         if d.geometry and self._geometry_data.n_arms:   # the moved loads' values at each grid point (_load_arms)
             geometry = owner.geometry
             self._arm_table = np.array([[geometry.load_arm_values(t, index, 1.0) for index, _, _ in
