@@ -13,9 +13,9 @@ Its rows are recorded on the loop's way (csrc/rows.c), each the index of the sto
 (:meth:`AdjointLoop.record_rows`). Every event, landing, Newton cut and the step after them takes the Python path as
 before. The runs whose every step
 is taken from Python are those the forward method's loop refuses whatever their parameters' kinds
-(:func:`latdyn.analyses.sensitivities_in_loop.model_refusal`: rigid links, guides, cables, controllers, explicit
-time dependence beside events, geometry parameters, energy or momentum probes, NumPy kernels): decided once, at the
-start.
+(:func:`latdyn.analyses.sensitivities_in_loop.model_refusal`: controllers, explicit time dependence beside events,
+geometry parameters, energy or momentum probes, NumPy kernels) and those with rigid links, guides or cables, which
+:func:`refusal` refuses itself: decided once, at the start.
 
 The reverse pass (:meth:`AdjointSensitivities._reverse_columns`) takes each smooth step — no event at its end, a size
 that does not move with the parameters — in one call of csrc/adjoint_reverse.c (:class:`ReverseSteps`): M, C and the
@@ -48,6 +48,8 @@ def refusal(owner) -> str | None:
 
     if owner.model.links is not None:   # the forward step's loop takes them (sensitivities_in_loop); this pass not yet
         return "rigid links or guides"
+    if owner.model.cables is not None:   # likewise (csrc/cable_forces.c); this pass's reverse steps not yet
+        return "cables"
     return model_refusal(owner)
 
 
