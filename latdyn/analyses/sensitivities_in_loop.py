@@ -26,18 +26,24 @@ laws and its compliant stops' and friction's values (the hinge laws they are, on
 geometry parameters (the held variations of ReferenceGeometry taken to the state by the generated
 ``reference_variation_at_state``, then the generated ``beam_internal_force_D_reference`` and
 ``beam_inertia_force_D_reference``, and for a load at a moved offset ``point_load_D_offset`` with the load's values
-tabulated alike, csrc/geometry_forces.c, with the Python path's rows: ``_geometry_refusal``), and
+tabulated alike, csrc/geometry_forces.c, with the Python path's rows: ``_geometry_refusal``), of a cable's EA,
+damping, rest length and ρA whose derivative laws are values of t alone (the generated ``cable_force`` with the
+derivative in EA's or c's place, ``cable_force_D_rest_length``, and ``joint_body`` for its lumped masses, at each
+element held taut, csrc/cable_forces.c, the laws tabulated alike: ``_cable_refusal``; a step that crosses a cable's
+change or ends near one is handed back: csrc/cable_forces.c ``cable_near_change``), and
 parameters of ``initial_velocity`` (they move the start only); on models with rigid links and guides too (up to
 DENSE_LIMIT free coordinates, a dense or band step matrix): M, C and the exact K on the minimum coordinates,
 dense, and ∂r/∂p reduced by Pᵀ, from the compiled step's own reduction (csrc/linked_matrices.c,
 ``latdyn_linked_exact_matrices`` and ``latdyn_linked_reduce_columns`` over csrc/links.c's), which the per-step
 Python path calls too (``Assembler.linked_exact_matrix_values``, ``sensitivities.reduced_columns``), S on the full
 n × n pattern. Not native (the Python path): hinge and guide laws whose
-derivative names θ, θ̇ or an input, cable and controller parameters, section
-values whose derivative is a law in t or an input, a rigid link's own section values (its joint body's mass and
-inertia: ``add_link_section_forces``), linked models above DENSE_LIMIT free coordinates or whose step matrix is
-sparse, cables, controllers, explicit time dependence beside events (∂r/∂t δt), energy and momentum probes (their work
-accounts are carried per step in Python), the NumPy kernels, and a numbering whose step matrix takes the
+derivative names θ, θ̇ or an input, cable parameters whose derivative names θ, θ̇ or an input, controller
+parameters, section values whose derivative is a law in t or an input, a rigid link's own section values (its joint
+body's mass and inertia: ``add_link_section_forces``), linked models above DENSE_LIMIT free coordinates or whose step
+matrix is sparse, controllers, explicit time dependence beside events (∂r/∂t δt; a cable's reel, a rest length in t,
+is one, since cables are events), external work and dissipated energy probes (their sums' sensitivities are
+carried per step in Python; the other energies and the momenta, functions of the row's state, are recorded from the
+carried δq, δv at each row as other probes are), the NumPy kernels, and a numbering whose step matrix takes the
 sparse LU (whose failed pivot falls back to SciPy: :meth:`latdyn.analyses.step_matrix.ExactStepMatrix.solve_step`).
 
 Results: the planar models' rotations are the identity and every sum is the Python step's: the sensitivities
@@ -51,7 +57,7 @@ import ctypes
 
 import numpy as np
 
-from latdyn.analyses.energy_sensitivities import is_energy_or_momentum
+from latdyn.analyses.energy_sensitivities import is_carried_account
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
 from latdyn.analyses.sensitivity_rows import block_rows
 from latdyn.analyses.parameter_keys import (BODY_KEY, CABLE_KEY, CONTACT_KEY, FRICTION_KEY, FRICTION_SLOT,
@@ -177,8 +183,8 @@ def _body_refusal(owner, key: str, laws: dict) -> str | None:
 
 def model_refusal(owner) -> str | None:
     """Why the run of ``owner`` (a TransientSensitivities) takes every step from Python whatever its parameters'
-    kinds (no parameters, NumPy kernels, cables, controllers, a rigid link's own section values, explicit time
-    dependence beside events, energy or momentum probes), or None: :func:`refusal`'s part that
+    kinds (no parameters, NumPy kernels, cables without their C kernels, controllers, a rigid link's own section values, explicit time
+    dependence beside events, external work or dissipated energy probes), or None: :func:`refusal`'s part that
     the discrete adjoint's forward pass, which differentiates nothing as it goes, shares
     (latdyn/analyses/adjoint_in_loop.py, which refuses rigid links and guides itself)."""
     scene, model = owner.scene, owner.model
@@ -199,8 +205,8 @@ def model_refusal(owner) -> str | None:
             return "a rigid link's section values (its joint body's mass and inertia, from Python)"
     if owner.explicit_time is not None:
         return "explicit time dependence beside events"
-    if any(is_energy_or_momentum(probe) for probe in owner.probes):
-        return "energy or momentum probes"
+    if any(is_carried_account(probe) for probe in owner.probes):
+        return "external work or dissipated energy probes (their sums carried per step in Python)"
     return None
 
 
