@@ -15,6 +15,7 @@ import yaml
 import latdyn
 from tests.test_sensitivities_energies import FROM_REST_3D, PLANAR_SPIN, SPIN_3D
 from tests.test_sensitivities_events import LATCH_PLANAR
+from tests.test_sensitivities_in_loop_cables import _run
 
 
 def _state_energies(text: str) -> str:
@@ -29,13 +30,6 @@ LATCH_ENERGIES = LATCH_PLANAR + """    kinetic: {energy: kinetic}
     hz: {momentum: angular, component: z}
     px: {momentum: linear, component: x}
 """
-
-
-def _run(text: str, monkeypatch, in_loop: bool):
-    """The scene's run through the API, its smooth steps' sensitivities in the loop of steps or from Python."""
-    with monkeypatch.context() as patch:
-        patch.setattr("latdyn.analyses.sensitivities_in_loop.SENSITIVITIES_IN_LOOP", in_loop)
-        return latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
 
 
 def _same(native, python) -> None:

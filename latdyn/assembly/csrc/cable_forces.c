@@ -6,8 +6,8 @@
  * cable_force_D_rest_length times the element's share and the derivative law's value, each element held taut (its
  * side +1, or side 0 and a positive gap, as the evaluation at the state decides: evaluate.c cables) added at its
  * ends' coordinates; for ρA and the rest length of a cable with mass first its lumped point masses' inertia and
- * gravity forces, the generated joint_body with the masses' ∂m (linear in m). The kernels' inputs are made as
- * evaluate.c cables makes them, which the Python path reproduces (CableSensitivities.inputs).
+ * gravity forces, the generated joint_body with the masses' ∂m (linear in m). The kernels' inputs are evaluate.c's
+ * cable_inputs, which the Python path reproduces (CableSensitivities.inputs).
  *
  * Runtime code, written by hand: it holds no physics.
  */
@@ -34,25 +34,6 @@ typedef struct CableForces {
     kernel_joint_body body_kernel;      /* the generated joint_body (NULL: no mass use) */
     double *scratch;                    /* 12 + 12 + 4 + 12 + 144 + 144 + 5 + 4, and 162 per row of the largest */
 } CableForces;
-
-/* Element e's inputs of the generated cable kernels at c (evaluate.c cables): the end points' reference points and
- * offsets T_i r_i, the ends' velocities, [share L0, share L0′, EA, c] with the rest length's law at w->laws. */
-static void cable_inputs(const Model *m, const Work *w, const Configuration *c, int64_t e, double *geometry,
-                         double *velocity, double *section)
-{
-    const double *data = m->cable_section + 3 * e, *rest = w->laws + 3 * m->cable_rest_law[e];
-    for (int end = 0; end < 2; ++end) {
-        const int64_t i = m->cable_nodes[2 * e + end];
-        matvec3(c->T + 9 * i, m->cable_offsets + 6 * e + 3 * end, geometry + 6 + 3 * end);
-        memcpy(geometry + 3 * end, c->x + 3 * i, 3 * sizeof(double));
-        memcpy(velocity + 6 * end, c->v + 3 * i, 3 * sizeof(double));
-        memcpy(velocity + 6 * end + 3, c->w + 3 * i, 3 * sizeof(double));
-    }
-    section[0] = data[0] * rest[0];
-    section[1] = data[0] * rest[1];
-    section[2] = data[1];
-    section[3] = data[2];
-}
 
 /* The lumped masses' part of use u into total's column (CableSensitivities._mass_forces). */
 static void cable_mass_forces(const Model *m, const Configuration *c, const CableForces *cf, int64_t u, int64_t k,
@@ -93,7 +74,7 @@ static void cable_parameter_forces(const Model *m, const Work *w, const Configur
             const double side = m->cable_side[e];
             if (cf->element_cable[e] != cf->cable[u] || !(side > 0.0 || (side == 0.0 && w->cable_gap[e] > 0.0)))
                 continue;
-            cable_inputs(m, w, c, e, geometry, velocity, section);
+            cable_inputs(m, c, w->laws, e, geometry, velocity, section);
             if (value == 2) {
                 cf->rest_kernel(1, geometry, velocity, section, force, state);
                 const double share = m->cable_section[3 * e];
