@@ -626,6 +626,26 @@ def _cable_force_kernel() -> KernelSpec:
                       outputs=outputs, variant="joints", equations="Eq. 2 (the end points); cables, issue 32")
 
 
+def _cable_rest_length_kernel() -> KernelSpec:
+    """∂/∂L0 of the taut law of :func:`cable_terms` at fixed ends, rates, EA and c: what a rest length parameter
+    or a reel (L0 in t) moves (latdyn/analyses/cable_sensitivities.py; in the loop of steps,
+    csrc/cable_forces.c). N = EA (ℓ/L0 − 1) + c ℓ̇, so ∂N/∂L0 = −EA ℓ/L0² and the force moves along e."""
+    geometry, velocity, section = CABLE_GEOMETRY.symbols(), CABLE_VELOCITY.symbols(), CABLE_SECTION.symbols()
+    force, length, rate, elastic, tension = cable_terms(geometry, velocity, section)
+    L0 = section[0]
+    state = sp.Matrix([length, rate, length - L0, elastic, tension])
+    outputs = [
+        Output("cable_force_D_rest_length", (12,), _rows(sp.diff(force, L0)),
+               "∂cable_force/∂L0 at fixed ends and rates"),
+        Output("cable_state_D_rest_length", (5,), list(sp.diff(state, L0)),
+               "∂[ℓ, ℓ̇, ℓ − L0, N_el, N]/∂L0 at fixed ends and rates"),
+    ]
+    return KernelSpec(name="cable_force_D_rest_length", doc="The derivatives of a taut cable element's force and "
+                      "state by its rest length share L0 (a rest length parameter, a reel)",
+                      inputs=[CABLE_GEOMETRY, CABLE_VELOCITY, CABLE_SECTION], outputs=outputs, variant="joints",
+                      equations="Eq. 2 (the end points); cables, issue 32; their sensitivities, issue 34")
+
+
 def _cable_tension_kernel() -> KernelSpec:
     """The tension of a taut cable element as a controller's sensor reads it (SCENE.md ``controllers``: a
     ``{cable: NAME, quantity: tension}`` probe; csrc/evaluate.c ``sensor_value``): N_el and N of
@@ -1046,7 +1066,8 @@ def build_kernels() -> list[KernelSpec]:
             _contact_law_derivative_kernel(), _friction_law_derivative_kernel(), _so3_exp_kernel(), _so3_dexp_kernel(),
             _so3_log_increment_kernel(), _link_edge_kernel(),
             _hinge_wrench_kernel(), _root_wrench_kernel(),
-            _link_edge_kernel(prismatic=True), _slide_wrench_kernel(), _cable_force_kernel(), _cable_tension_kernel(),
+            _link_edge_kernel(prismatic=True), _slide_wrench_kernel(), _cable_force_kernel(), _cable_rest_length_kernel(),
+            _cable_tension_kernel(),
             _closure_edge_kernel(rod=False), _closure_edge_kernel(rod=True), _closure_wrench_kernel(rod=False),
             _closure_wrench_kernel(rod=True),
             *(_rates_D_q_kernel(kind) for kind in ("rigid_link_edge", "prismatic_link_edge", "slider_closure_edge",

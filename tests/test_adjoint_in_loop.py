@@ -87,8 +87,9 @@ def test_the_cli_writes_the_python_paths_files(tmp_path):
 
 
 def test_a_cable_keeps_the_run_on_the_python_path(monkeypatch):
-    """A cable (its slack and taut sides' changes) is what the forward method's loop refuses whatever the parameters:
-    every step of the adjoint's forward pass from Python and of its reverse pass from NumPy, decided at the start."""
+    """A cable (its slack and taut sides' changes) is what the adjoint's loop refuses whatever the parameters (the
+    forward method's loop takes cables: tests/test_sensitivities_in_loop_cables.py): every step of the adjoint's
+    forward pass from Python and of its reverse pass from NumPy, decided at the start."""
     result = _run(_adjoint(DROP_PROBES), monkeypatch, True)
     assert result.summary["time_loop"] == "python" and result.summary["sensitivity_steps_in_loop"] == 0
     assert result.native_reverse == 0

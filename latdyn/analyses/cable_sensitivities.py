@@ -18,14 +18,19 @@ __all__ = ["CableSensitivities", "LANDING"]
 LANDING = 1e-12
 
 
+def _turned(T: np.ndarray, offset: np.ndarray) -> np.ndarray:
+    """T r, summed as csrc/evaluate.c ``matvec3`` sums it (its three products left to right), so that the kernels'
+    inputs here are the evaluation's to the bit (the loop of steps in C makes them there: csrc/cable_forces.c)."""
+    return T[:, 0] * offset[0] + T[:, 1] * offset[1] + T[:, 2] * offset[2]
+
+
 class CableSensitivities:
     """The cables' part of the transient sensitivities (docs/parameters.md, "Cables"), from the generated
     taut law ``cable_force`` (codegen/joints.py) alone:
 
     - ∂r/∂p of the elements held taut: the force is linear in (EA, c) at a fixed rest length — the kernel
-      with (∂EA/∂p, ∂c/∂p) —, and affine in ρ = 1/L0 at fixed (EA, c) (N = EA(ℓρ − 1) + c ℓ̇), so
-      ∂F/∂L0 = −ρ² ∂F/∂ρ with ∂F/∂ρ the exact two-point difference of an affine function,
-      (F(ρ + ρ/2) − F(ρ − ρ/2))/ρ (no truncation; round-off only);
+      with (∂EA/∂p, ∂c/∂p) —, and its derivative by the rest length share L0 is the generated
+      ``cable_force_D_rest_length`` (∂F/∂L0 and ∂[ℓ, ℓ̇, ℓ − L0, N_el, N]/∂L0);
     - the slack/taut change is an event: the step lands on the element's gap g = min(N_el, N) = 0
       (:data:`LANDING` · EA, :meth:`TransientSensitivities.land`), and the step's size follows the
       parameters so that g stays zero: ∂g/∂q δq + ∂g/∂v δv + ∂g/∂p + (∂g/∂q q_h + ∂g/∂v v_h) δh = 0,
@@ -63,16 +68,7 @@ class CableSensitivities:
     def law(self, state, e: int, EA: float | None = None, c: float | None = None, L0: float | None = None):
         """The generated ``cable_force`` outputs (force (12,), K (12, 12), C (12, 12), [ℓ, ℓ̇, ℓ − L0, N_el, N])
         of element ``e`` at ``state``, with its EA, c and rest length share L0 replaced where given."""
-        cables = self.cables
-        nodes = cables.nodes[e]
-        geometry = np.concatenate([state.x[nodes[0]], state.x[nodes[1]],
-                                   state.T[nodes[0]] @ cables.offsets[e, 0], state.T[nodes[1]] @ cables.offsets[e, 1]])
-        velocity = np.concatenate([state.v[nodes[0]], state.w[nodes[0]], state.v[nodes[1]], state.w[nodes[1]]])
-        rest = cables.rest_length[cables.cable[e]]
-        share = cables.share[e]
-        section = np.array([share * rest.value(state.t) if L0 is None else L0, share * rest.rate(state.t),
-                            cables.EA[e] if EA is None else EA, cables.damping[e] if c is None else c])
-        out = self.kernels.cable_force(*(np.ascontiguousarray(a[None]) for a in (geometry, velocity, section)))
+        out = self.kernels.cable_force(*(np.ascontiguousarray(a[None]) for a in self.inputs(state, e, EA, c, L0)))
         return (np.asarray(out[0]).reshape(12), np.asarray(out[1]).reshape(12, 12),
                 np.asarray(out[2]).reshape(12, 12), np.asarray(out[3]).reshape(5))
 
@@ -94,13 +90,27 @@ class CableSensitivities:
         dofs = self.model.node_dofs[self.cables.nodes[e]].reshape(12)
         return np.where(dofs < 0, self.model.n_total, dofs)
 
+    def inputs(self, state, e: int, EA: float | None = None, c: float | None = None,
+               L0: float | None = None) -> tuple:
+        """(geometry (12,), velocity (12,), section (4,)): element ``e``'s inputs of the generated cable kernels at
+        ``state`` (codegen/joints.py ``cable_geometry``, ``cable_velocity``, ``cable_section``), with its EA, c and
+        rest length share L0 replaced where given."""
+        cables = self.cables
+        nodes = cables.nodes[e]
+        offsets = [_turned(state.T[nodes[i]], cables.offsets[e, i]) for i in range(2)]
+        geometry = np.concatenate([state.x[nodes[0]], state.x[nodes[1]], *offsets])
+        velocity = np.concatenate([state.v[nodes[0]], state.w[nodes[0]], state.v[nodes[1]], state.w[nodes[1]]])
+        rest = cables.rest_length[cables.cable[e]]
+        share = cables.share[e]
+        section = np.array([share * rest.value(state.t) if L0 is None else L0, share * rest.rate(state.t),
+                            cables.EA[e] if EA is None else EA, cables.damping[e] if c is None else c])
+        return geometry, velocity, section
+
     def _rest_length_derivative(self, state, e: int, which: int):
-        """∂(output ``which``: 0 the force, 3 the state [ℓ, ℓ̇, ℓ − L0, N_el, N])/∂L0 of element ``e`` (class
-        docstring: affine in ρ = 1/L0, differenced exactly)."""
-        rho = 1.0 / (self.cables.share[e] * self.cables.rest_length[self.cables.cable[e]].value(state.t))
-        ahead = self.law(state, e, L0=1.0 / (1.5 * rho))[which]
-        behind = self.law(state, e, L0=1.0 / (0.5 * rho))[which]
-        return -rho * rho * (ahead - behind) / rho
+        """∂(output ``which``: 0 the force, 3 the state [ℓ, ℓ̇, ℓ − L0, N_el, N])/∂L0 of element ``e``: the generated
+        ``cable_force_D_rest_length`` (codegen/joints.py)."""
+        out = self.kernels.cable_force_D_rest_length(*(np.ascontiguousarray(a[None]) for a in self.inputs(state, e)))
+        return np.asarray(out[0]).reshape(12) if which == 0 else np.asarray(out[1]).reshape(5)
 
     # ------------------------------------------------------------------ ∂r/∂p
     def residual_derivatives(self, state, total: np.ndarray, inertia: bool = False) -> None:
@@ -128,20 +138,28 @@ class CableSensitivities:
         """Add ∂(the inertia and gravity forces of cable ``k``'s lumped masses)/∂p into ``total``: each point
         mass is ½ ρA L(0)/elements (latdyn/model/cables.py), so ∂m = ½ (∂ρA L(0) + ρA ∂L(0))/elements, and the
         generated ``joint_body`` (a point mass at its offset, no rotary inertia) is linear in m."""
+        model = self.model
+        rows, block, gravity = self.mass_blocks(k, value, law)
+        nodes = model.body_nodes[rows]
+        frames = np.ascontiguousarray(state.T[nodes].reshape(-1, 9))
+        motion = np.ascontiguousarray(np.concatenate([state.w[nodes], state.a[nodes], state.alpha[nodes]], axis=1))
+        forces = np.asarray(self.kernels.joint_body(frames, motion, block, gravity)[0]).reshape(len(rows), 6)
+        dofs = model.node_dofs[nodes]
+        np.add.at(total[:, column], np.where(dofs < 0, model.n_total, dofs), forces)
+
+    def mass_blocks(self, k: int, value: str, law) -> tuple:
+        """(rows (r,), the generated ``joint_body``'s blocks (r, 13), g per row (r, 3)) of cable ``k``'s lumped masses
+        moved by its ``value`` ("rhoA" or "rest_length") along the derivative law ``law`` (:meth:`_mass_forces`; the
+        loop of steps in C takes the same, latdyn/analyses/sensitivities_in_loop.py)."""
         model, cable = self.model, list(self.owner.scene.cables.values())[k]
         derivative = law.value(0.0, 0.0, 0.0)   # ρA and the rest length at t = 0 (refused in t with events)
         share = 0.5 / cable.elements
         mass = share * (derivative * cable.rest_length.value(0.0) if value == "rhoA" else cable.rhoA * derivative)
         rows = self.mass_rows[k]
-        nodes = model.body_nodes[rows]
-        frames = np.ascontiguousarray(state.T[nodes].reshape(-1, 9))
-        motion = np.ascontiguousarray(np.concatenate([state.w[nodes], state.a[nodes], state.alpha[nodes]], axis=1))
         block = np.zeros((len(rows), 13))
         block[:, 0], block[:, 1:4] = mass, model.body_com[rows]
         gravity = np.repeat(np.asarray(self.owner.assembler.gravity, float)[None], len(rows), axis=0)
-        forces = np.asarray(self.kernels.joint_body(frames, motion, block, gravity)[0]).reshape(len(rows), 6)
-        dofs = model.node_dofs[nodes]
-        np.add.at(total[:, column], np.where(dofs < 0, model.n_total, dofs), forces)
+        return rows, block, gravity
 
     # ------------------------------------------------------------------ the event
     def landing(self, old, new):

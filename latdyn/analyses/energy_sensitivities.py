@@ -85,6 +85,13 @@ def is_energy_or_momentum(probe) -> bool:
     return probe.kind in ("energy", "momentum")
 
 
+def is_carried_account(probe) -> bool:
+    """Whether ``probe`` is the external work or the dissipated energy of a run: a sum over the steps, whose
+    sensitivity each step carries (:func:`external_work_step`); the other energies and momenta are functions of the
+    row's state and the parameters."""
+    return probe.kind == "energy" and probe.quantity in _ACCOUNTS
+
+
 def refusal(scene, probe) -> SceneError | None:
     """The SceneError that refuses the sensitivities of the energy or momentum ``probe`` of ``scene``, or
     None where they are exact here (module docstring: naming ``solve.sensitivity_method`` under the

@@ -28,7 +28,12 @@ laws and its compliant stops' and friction's values (the hinge laws they are, on
 geometry parameters (the held variations of ReferenceGeometry taken to the state by the generated
 ``reference_variation_at_state``, then the generated ``beam_internal_force_D_reference`` and
 ``beam_inertia_force_D_reference``, and for a load at a moved offset ``point_load_D_offset`` with the load's values
-tabulated alike, csrc/geometry_forces.c, with the Python path's rows: ``_geometry_refusal``), and
+tabulated alike, csrc/geometry_forces.c, with the Python path's rows: ``_geometry_refusal``), of a cable's EA,
+damping, rest length and ρA whose derivative laws are values of t alone (the generated ``cable_force`` with the
+derivative in EA's or c's place, ``cable_force_D_rest_length``, and ``joint_body`` for its lumped masses, at each
+element held taut, csrc/cable_forces.c, the laws tabulated alike: ``_cable_refusal``; a step that crosses a cable's
+change or ends near one is handed back: csrc/cable_forces.c ``cable_near_change``; not beside controllers or
+explicit time dependence beside events), and
 parameters of ``initial_velocity`` (they move the start only), and explicit time dependence beside events
 through load components and hinge laws of t alone (∂r/∂t at the step's end through the same point_load and
 hinge_force calls, their exact rates tabulated per grid point: :class:`_TimeRates`, ``_time_refusal``; ∂r/∂t δt_n in
@@ -44,12 +49,15 @@ dense, and ∂r/∂p reduced by Pᵀ, from the compiled step's own reduction (cs
 ``latdyn_linked_exact_matrices`` and ``latdyn_linked_reduce_columns`` over csrc/links.c's), which the per-step
 Python path calls too (``Assembler.linked_exact_matrix_values``, ``sensitivities.reduced_columns``), S on the full
 n × n pattern. Not native (the Python path): hinge and guide laws whose derivative names θ, θ̇ or an input and
-does not compile, cable parameters, section values whose derivative is a law in t or an input, a rigid link's own
+does not compile, cable parameters whose derivative names θ, θ̇ or an input, section values whose derivative is a law in t or an input, a rigid link's own
 section values (its joint body's mass and inertia: ``add_link_section_forces``), linked models above DENSE_LIMIT
 free coordinates or whose step matrix is sparse, or beside controllers or explicit time dependence beside events,
-cables, controllers with states, sampled ones, chains, other sensors or load actuators, explicit time dependence
-beside events through prescribed motions, reels or laws of the state and t, energy and momentum probes (their work
-accounts are carried per step in Python), the NumPy kernels, and a numbering whose step matrix takes the
+cables beside controllers or explicit time dependence beside events, controllers with states, sampled ones,
+chains, other sensors or load actuators, explicit time dependence beside events through prescribed motions, reels
+(a rest length in t) or laws of the state and t, external work and dissipated energy probes (their sums'
+sensitivities are carried per step in Python; the other energies and the momenta, functions of the row's state, are
+recorded from the carried δq, δv at each row as other probes are), the NumPy kernels, and a numbering whose step
+matrix takes the
 sparse LU (whose failed pivot falls back to SciPy: :meth:`latdyn.analyses.step_matrix.ExactStepMatrix.solve_step`).
 
 Results: the planar models' rotations are the identity and every sum is the Python step's: the sensitivities
@@ -64,11 +72,11 @@ from functools import partial
 
 import numpy as np
 
-from latdyn.analyses.energy_sensitivities import is_energy_or_momentum
+from latdyn.analyses.energy_sensitivities import is_carried_account
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
 from latdyn.analyses.sensitivity_rows import block_rows
-from latdyn.analyses.parameter_keys import (BODY_KEY, CONTACT_KEY, FRICTION_KEY, FRICTION_SLOT, GUIDE_CONTACT_KEY,
-                                            GUIDE_KEY, HINGE_KEY)
+from latdyn.analyses.parameter_keys import (BODY_KEY, CABLE_KEY, CONTACT_KEY, FRICTION_KEY, FRICTION_SLOT,
+                                            GUIDE_CONTACT_KEY, GUIDE_KEY, HINGE_KEY)
 from latdyn.analyses.sensitivities import _INITIAL_VELOCITY_KEY, _LOAD_KEY, _SECTION_KEY
 from latdyn.assembly.native_model import NO_CONTACT
 from latdyn.analyses.step_matrix import turns_about_one_axis
@@ -89,6 +97,10 @@ def refusal(owner) -> str | None:
     for key, laws in owner.derivatives.items():
         if _INITIAL_VELOCITY_KEY.match(key) or _LOAD_KEY.match(key) or GEOMETRY_KEY.match(key):
             continue   # (the geometry parameters: as a whole, _geometry_refusal)
+        if CABLE_KEY.match(key):
+            if not all(map(_in_time_alone, laws.values())):
+                return f"{key}: its derivative is a law in theta, theta_dot or an input"
+            continue   # (the cables' kernels: model_refusal)
         if _SECTION_KEY.match(key) and not GEOMETRY_KEY.match(key) and all(law.is_constant for law in laws.values()):
             continue
         why = (_hinge_refusal(owner, key, laws) if HINGE_KEY.match(key) or GUIDE_KEY.match(key) else
@@ -101,6 +113,21 @@ def refusal(owner) -> str | None:
     if owner._section_layout() is not None and owner._section_kernel_addresses() is None:  # noqa: SLF001
         return "section kernels without C libraries"
     return _geometry_refusal(owner) if owner.geometry is not None else None
+
+
+#: the generated kernels the cables' parameters' ∂r/∂p calls in the loop (csrc/cable_forces.c)
+CABLE_KERNELS = ("cable_force", "cable_force_D_rest_length", "joint_body")
+
+
+def _cable_refusal(owner) -> str | None:
+    """Why a model with cables keeps the run on the Python path, or None: their parameters' ∂r/∂p
+    (CableSensitivities.residual_derivatives) is the generated kernels' of :data:`CABLE_KERNELS`, which
+    csrc/cable_forces.c calls on the evaluation's inputs; each slack/taut change, and every step that ends within
+    twice an element's tolerance of one, is handed back to Python (csrc/cable_forces.c ``cable_near_change``). A reel
+    (a rest length in t) is explicit time dependence beside the cables' events (:func:`model_refusal`)."""
+    if any(owner.kernels.address(name) is None for name in CABLE_KERNELS):
+        return "cable kernels without C libraries"
+    return None
 
 
 #: the generated kernels the geometry parameters' ∂r/∂p calls in the loop (csrc/geometry_forces.c)
@@ -177,8 +204,9 @@ def _body_refusal(owner, key: str, laws: dict) -> str | None:
 
 def model_refusal(owner, differentiated: bool = False) -> str | None:
     """Why the run of ``owner`` (a TransientSensitivities) takes every step from Python whatever its parameters'
-    kinds (no parameters, NumPy kernels, cables, controllers, a rigid link's own section values, explicit time
-    dependence beside events, energy or momentum probes), or None: :func:`refusal`'s part that the discrete
+    kinds (no parameters, NumPy kernels, cables without their C kernels or beside controllers or explicit time,
+    controllers, a rigid link's own section values, explicit time
+    dependence beside events, external work or dissipated energy probes), or None: :func:`refusal`'s part that the discrete
     adjoint's forward pass, which differentiates nothing as it goes, shares (latdyn/analyses/adjoint_in_loop.py,
     which refuses rigid links and guides itself). ``differentiated`` (:func:`refusal`: the loop differentiates the
     steps): controllers and explicit time dependence beside events only where :func:`_controller_refusal` and
@@ -190,7 +218,11 @@ def model_refusal(owner, differentiated: bool = False) -> str | None:
     if getattr(owner.kernels, "backend", None) != "c":
         return "kernels without C libraries"
     if model.cables is not None:
-        return "cables"
+        if scene.controllers or owner.explicit_time is not None:
+            return "cables beside controllers or explicit time dependence beside events"
+        why = _cable_refusal(owner)
+        if why is not None:
+            return why
     if model.links is not None:
         if scene.controllers or owner.explicit_time is not None:
             return "rigid links or guides beside controllers or explicit time dependence beside events"
@@ -206,8 +238,8 @@ def model_refusal(owner, differentiated: bool = False) -> str | None:
         why = _time_refusal(owner) if differentiated else "explicit time dependence beside events"
         if why is not None:
             return why
-    if any(is_energy_or_momentum(probe) for probe in owner.probes):
-        return "energy or momentum probes"
+    if any(is_carried_account(probe) for probe in owner.probes):
+        return "external work or dissipated energy probes (their sums carried per step in Python)"
     return None
 
 
@@ -368,6 +400,7 @@ class SensitivityLoop:
             self._rates = _TimeRates(owner.explicit_time.laws)
             self._rates._layout()   # noqa: SLF001
             d.time_rates = ctypes.addressof(self._rates.data)
+        self._cables()
         self._for = (key, True)
         return True
 
@@ -504,6 +537,42 @@ class SensitivityLoop:
         d.output_limits = self._pointer(np.array([c.limits if c.limits is not None else (0.0, 0.0)
                                                   for c in wiring.controllers], float).reshape(-1))
 
+    def _cables(self) -> None:
+        """The cables' parameters' part (csrc/cable_forces.c): the uses of CableSensitivities in its order (cable,
+        column, which value), each element's cable, the kernels, and per use that moves a cable's lumped masses
+        their rows and the joint_body kernel's blocks (CableSensitivities.mass_blocks)."""
+        from latdyn.assembly.library import CableForcesData
+
+        owner, d = self.owner, self.data
+        d.cables = None
+        terms = owner.cables
+        if terms is None or not terms.uses:
+            return
+        c = self._cable_data = CableForcesData()
+        ints = lambda values: self._pointer(np.array(values, np.int64))   # noqa: E731
+        which = {"EA": 0, "damping": 1, "rest_length": 2, "rhoA": 3}
+        c.n_uses = len(terms.uses)
+        c.cable, c.column = ints([u[0] for u in terms.uses]), ints([u[2] for u in terms.uses])
+        c.value = ints([which[u[1]] for u in terms.uses])
+        c.element_cable = ints(terms.cables.cable)
+        c.force_kernel, c.rest_kernel = (owner.kernels.address(name) for name in CABLE_KERNELS[:2])
+        row, rows, start, blocks, gravity = [], [], [], [], []
+        for k, value, _, law in terms.uses:
+            moved = value in ("rhoA", "rest_length") and k in terms.mass_rows
+            at, block, g = terms.mass_blocks(k, value, law) if moved else (np.zeros(1, np.int64), None, None)
+            row.append(int(at[0]))
+            rows.append(len(at) if moved else 0)
+            start.append(sum(len(b) for b in blocks))
+            if moved:
+                blocks.append(block)
+                gravity.append(g)
+        c.mass_row, c.mass_rows, c.mass_from = ints(row), ints(rows), ints(start)
+        c.mass_blocks = self._pointer(np.ascontiguousarray(np.concatenate(blocks) if blocks else np.zeros((1, 13))))
+        c.mass_gravity = self._pointer(np.ascontiguousarray(np.concatenate(gravity) if gravity else np.zeros((1, 3))))
+        c.body_kernel = owner.kernels.address("joint_body") if blocks else None
+        c.scratch = self._pointer(np.zeros(337 + 132 * max(rows)))
+        d.cables = ctypes.addressof(c)
+
     def _body_uses(self) -> list:
         """(body key's match, index among the joint bodies, column, derivative law) of every body use the Python
         step adds (ParameterDerivatives._body_forces), in its order."""
@@ -612,6 +681,11 @@ class SensitivityLoop:
             self._law_table = np.array([[law.value(0.0, 0.0, t) for law in laws] for t in times], float).reshape(
                 len(times), len(laws))
             d.law_values, d.values_from = self._law_table.ctypes.data, grid_index + 1
+        if d.cables:   # the cables' derivative laws at each grid point (CableSensitivities.residual_derivatives)
+            laws = [law for _, _, _, law in owner.cables.uses]
+            self._cable_table = np.array([[law.value(0.0, 0.0, t) for law in laws] for t in times], float).reshape(
+                len(times), len(laws))
+            self._cable_data.values, self._cable_data.values_from = self._cable_table.ctypes.data, grid_index + 1
         if d.geometry and self._geometry_data.n_arms:   # the moved loads' values at each grid point (_load_arms)
             geometry = owner.geometry
             self._arm_table = np.array([[geometry.load_arm_values(t, index, 1.0) for index, _, _ in

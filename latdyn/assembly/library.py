@@ -226,7 +226,9 @@ class SensitivityLoopData(ctypes.Structure):
                 ("n_partials", I64), ("controller_partials", P), ("partial_controller", P), ("partial_column", P),
                 ("n_partial_controllers", I64), ("read_start", P), ("read_kind", P), ("read_index", P),
                 ("n_hinge_actuators", I64), ("actuator_hinge", P), ("actuator_of", P), ("actuator_factor", P),
-                ("controller_slopes", P), ("controller_scratch", P), ("output_law", P), ("output_limits", P)]
+                ("controller_slopes", P), ("controller_scratch", P), ("output_law", P), ("output_limits", P),
+                # ∂r/∂p of the cables' parameters (csrc/cable_forces.c); NULL: none
+                ("cables", P)]
 
 
 class GeometryForcesData(ctypes.Structure):
@@ -237,6 +239,15 @@ class GeometryForcesData(ctypes.Structure):
                 ("internal_kernel", P), ("inertia_kernel", P), ("gravity", P), ("scratch", P), ("n_arms", I64),
                 ("arm_node", P), ("arm_frame", P), ("arm_moves", P), ("arm_values", P), ("values_from", I64),
                 ("arm_kernel", P), ("arm_scratch", P)]
+
+
+class CableForcesData(ctypes.Structure):
+    """``CableForces`` of csrc/cable_forces.c: the cables' parameters' ∂r/∂p in the loop of steps
+    (latdyn.analyses.sensitivities_in_loop lays it out)."""
+
+    _fields_ = [("n_uses", I64), ("cable", P), ("column", P), ("value", P), ("values", P), ("values_from", I64),
+                ("element_cable", P), ("force_kernel", P), ("rest_kernel", P), ("mass_row", P), ("mass_rows", P),
+                ("mass_from", P), ("mass_blocks", P), ("mass_gravity", P), ("body_kernel", P), ("scratch", P)]
 
 
 class TrajectoryData(ctypes.Structure):

@@ -690,6 +690,27 @@ static void controller_states_at(const Model *m, Work *w, int64_t k, double t, i
  * torque), less its origin (see Model: the kinds 0-3, 5-8 and 11-14; 0 for the others, which the caller
  * reads), with its gradient's columns into w->sensor_jacobian for kinds 5-8, 11-14: the probe evaluation of
  * the controllers, continuous (controller_outputs) and sampled (sampling.c). */
+/* Cable element e's inputs of the generated cable kernels at c (codegen/joints.py cable_geometry, cable_velocity,
+ * cable_section): the end nodes' reference points and the offsets T_i r_i, the ends' velocities, and [share L0,
+ * share L0′, EA, c] with the rest length's law (value, rate) at `laws` (for cables(), a cable sensor, and the
+ * sensitivities' cable_forces.c; latdyn/analyses/cable_sensitivities.py CableSensitivities.inputs makes the same). */
+static void cable_inputs(const Model *m, const Configuration *c, const double *laws, int64_t e, double *geometry,
+                         double *velocity, double *section)
+{
+    const double *data = m->cable_section + 3 * e, *rest = laws + 3 * m->cable_rest_law[e];
+    for (int end = 0; end < 2; ++end) {
+        const int64_t i = m->cable_nodes[2 * e + end];
+        matvec3(c->T + 9 * i, m->cable_offsets + 6 * e + 3 * end, geometry + 6 + 3 * end);
+        memcpy(geometry + 3 * end, c->x + 3 * i, 3 * sizeof(double));
+        memcpy(velocity + 6 * end, c->v + 3 * i, 3 * sizeof(double));
+        memcpy(velocity + 6 * end + 3, c->w + 3 * i, 3 * sizeof(double));
+    }
+    section[0] = data[0] * rest[0];
+    section[1] = data[0] * rest[1];
+    section[2] = data[1];
+    section[3] = data[2];
+}
+
 static double sensor_value(const Model *m, const Configuration *c, Work *w, int64_t i, double t)
 {
     int64_t index = m->sensor_index[i];
@@ -777,20 +798,9 @@ static double sensor_value(const Model *m, const Configuration *c, Work *w, int6
         break;
     }
     case 11: {  /* a cable's tension: its first element's N (0 slack, as cables() decides), the generated law */
-        const double *data = m->cable_section + 3 * index, *rest = w->laws + 3 * m->cable_rest_law[index];
         double geometry[12], velocity[12], section[4], tension[2];
         double *jacobian = w->sensor_jacobian + m->sensor_column_start[i];
-        for (int end = 0; end < 2; ++end) {
-            const int64_t node = m->cable_nodes[2 * index + end];
-            matvec3(c->T + 9 * node, m->cable_offsets + 6 * index + 3 * end, geometry + 6 + 3 * end);
-            memcpy(geometry + 3 * end, c->x + 3 * node, 3 * sizeof(double));
-            memcpy(velocity + 6 * end, c->v + 3 * node, 3 * sizeof(double));
-            memcpy(velocity + 6 * end + 3, c->w + 3 * node, 3 * sizeof(double));
-        }
-        section[0] = data[0] * rest[0];
-        section[1] = data[0] * rest[1];
-        section[2] = data[1];
-        section[3] = data[2];
+        cable_inputs(m, c, w->laws, index, geometry, velocity, section);
         m->cable_tension(1, geometry, velocity, section, tension, jacobian, jacobian + 12);
         const double side = m->cable_side[index], gap = fmin(tension[0], tension[1]);
         if (side > 0.0 || (side == 0.0 && gap > 0.0)) {
@@ -1006,18 +1016,7 @@ static void cables(const Model *m, const Configuration *c, Work *w, const double
 {
     for (int64_t e = 0; e < m->n_cables; ++e) {
         double geometry[12], velocity[12], section[4];
-        const double *data = m->cable_section + 3 * e, *rest = laws + 3 * m->cable_rest_law[e];
-        for (int end = 0; end < 2; ++end) {
-            int64_t i = m->cable_nodes[2 * e + end];
-            matvec3(c->T + 9 * i, m->cable_offsets + 6 * e + 3 * end, geometry + 6 + 3 * end);
-            memcpy(geometry + 3 * end, c->x + 3 * i, 3 * sizeof(double));
-            memcpy(velocity + 6 * end, c->v + 3 * i, 3 * sizeof(double));
-            memcpy(velocity + 6 * end + 3, c->w + 3 * i, 3 * sizeof(double));
-        }
-        section[0] = data[0] * rest[0];
-        section[1] = data[0] * rest[1];
-        section[2] = data[1];
-        section[3] = data[2];
+        cable_inputs(m, c, laws, e, geometry, velocity, section);
         double *force = w->cable_vector + 12 * e, *K = w->cable_stiffness + 144 * e, *C = w->cable_damping + 144 * e;
         double *state = w->cable_state + 5 * e, *work = w->cable_work + 4 * e, reel, damper, clipped;
         m->cable_force(1, geometry, velocity, section, force, K, C, state, w->cable_strain + e, &reel, &damper,

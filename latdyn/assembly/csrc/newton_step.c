@@ -26,6 +26,7 @@
 #include "parameter_forces.c" /* ∂r/∂p of the section values that name a parameter, in one call */
 #include "geometry_forces.c" /* ∂r/∂p of the geometry parameters, in one call */
 #include "linked_matrices.c" /* rigid links: M, C, K and ∂r/∂p on the minimum coordinates for the sensitivities */
+#include "cable_forces.c" /* ∂r/∂p of the cables' parameters for the sensitivities */
 #include "sensitivity_loop.c" /* the transient sensitivities' smooth step in the loop of steps */
 #include "adjoint_trajectory.c" /* the discrete adjoint's forward pass: the accepted steps stored */
 #include "adjoint_reverse.c" /* the discrete adjoint's reverse pass: a smooth step in one call */
@@ -677,7 +678,8 @@ int64_t latdyn_advance(const Model *m, Work *w, StepControl *s, const Configurat
         int64_t failed = latdyn_newton_step(m, w, s, base, trial, x);
         if (failed || !s->converged) {
             adv->status = 1;
-        } else if ((m->has_events && (hinge_event(m, base, trial, t) || cable_event(m, w))) || far_root(m, base, trial, s->h, NULL, NULL) >= 0) {
+        } else if ((m->has_events && (hinge_event(m, base, trial, t) || cable_event(m, w)
+                                    || (adv->sensitivities && adv->sensitivities->cables && cable_near_change(m, w)))) || far_root(m, base, trial, s->h, NULL, NULL) >= 0) {
             adv->status = 2;   /* an event, or a root a whole turn away (far_root): the caller takes the step */
         }
         if (adv->status) {

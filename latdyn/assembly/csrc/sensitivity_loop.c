@@ -9,7 +9,8 @@
  * (the generated hinge_force), the section values (latdyn_section_parameter_forces), the geometry parameters
  * (latdyn_geometry_parameter_forces), the joint bodies (the generated
  * joint_body, joint_body_D_com), the compliant stops and friction (the generated contact_force_D_law,
- * friction_force_D_law) and the load components (the generated point_load), with the derivative laws'
+ * friction_force_D_law), the load components (the generated point_load) and the cables' parameters
+ * (cable_forces.c: the generated cable_force, cable_force_D_rest_length, joint_body), with the derivative laws'
  * values the caller tabulated per grid point, S's factorization and the k + 1 solves
  * (latdyn_sensitivity_step), the update (latdyn_sensitivity_update); with rigid links or guides M, C and the exact
  * K on the minimum coordinates and ∂r/∂p reduced by Pᵀ (linked_matrices.c, the forward step's reduction).
@@ -143,6 +144,9 @@ typedef struct SensitivityLoopTag {
     double *controller_scratch;         /* the law's arguments and outputs */
     const int64_t *output_law;          /* n_partial_controllers: its output's law number (limits); −1: no limits */
     const double *output_limits;        /* n_partial_controllers × 2 */
+    /* ∂r/∂p of the cables' parameters (CableSensitivities.residual_derivatives, cable_forces.c); NULL: none. With
+     * it, the loop hands a step that ends near a cable element's change to the caller (cable_near_change) */
+    const CableForces *cables;
 } SensitivityLoop;
 
 /* Row r of the rows recorded on the way: the carried δq, δv, δv̇ and δt as the step before it left them. */
@@ -365,6 +369,7 @@ static int64_t sensitivity_loop_step(const Model *m, Work *w, SensitivityLoop *s
     if (s->n_law_uses) joint_law_parameter_forces(m, c, s, grid);
     if (s->n_partials) controller_parameter_forces(m, c, s, t);
     load_parameter_forces(m, c, s, grid);
+    if (s->cables != NULL) cable_parameter_forces(m, w, c, s->cables, k, grid, s->total);
     if (s->linked) latdyn_linked_reduce_columns(m, s->total, k, s->total);   /* Pᵀ, in place: rows < n */
     for (int64_t i = 0; i < n; ++i) {   /* on the free coordinates, with the step size's column 0 */
         for (int64_t col = 0; col < k; ++col) s->explicit_[i * cols + col] = s->total[i * k + col];
