@@ -192,8 +192,6 @@ def model_refusal(owner, differentiated: bool = False) -> str | None:
     if model.cables is not None:
         return "cables"
     if model.links is not None:
-        if scene.controllers or owner.explicit_time is not None:
-            return "rigid links or guides beside controllers or explicit time dependence beside events"
         from latdyn.analyses.link_sensitivities import link_section_uses
 
         if link_section_uses(owner):
@@ -239,7 +237,7 @@ def _controller_refusal(owner) -> str | None:
 def _time_refusal(owner) -> str | None:
     """Why the explicit time dependence beside events of ``owner`` (its ExplicitTime: ∂r/∂t δt, latdyn/analyses/
     transient_sensitivities.py ``_add_time_columns``) keeps the run on the Python path, or None: the loop takes
-    ∂r/∂t of load components and hinge laws of t alone, their exact rates (the same ``_TimeRate`` objects) tabulated
+    ∂r/∂t of load components and hinge and guide laws of t alone, their exact rates (the same ``_TimeRate`` objects) tabulated
     per grid point through the same generated point_load and hinge_force (:class:`_TimeRates`); prescribed motions
     (a difference in t of the residual in Python), reels and laws of the state and t (a SymPy rate in NumPy) not."""
     rates = owner.explicit_time
@@ -247,7 +245,7 @@ def _time_refusal(owner) -> str | None:
         return "explicit time dependence beside events through prescribed motions or a reel"
     model = owner.model
     for key in rates.laws.derivatives:
-        hinge = HINGE_KEY.match(key)
+        hinge = owner._key_kinds(key)[1]   # noqa: SLF001 - a guide's law read as the hinge law it is, on its slide
         if hinge is not None:
             law = getattr(model.hinges[model.hinge_index(hinge["beam"], hinge["end"])], hinge["law"])
             if not _in_time_alone(law):
