@@ -30,7 +30,7 @@ geometry parameters (the held variations of ReferenceGeometry taken to the state
 ``beam_inertia_force_D_reference``, and for a load at a moved offset ``point_load_D_offset`` with the load's values
 tabulated alike, csrc/geometry_forces.c, with the Python path's rows: ``_geometry_refusal``), and
 parameters of ``initial_velocity`` (they move the start only), and explicit time dependence beside events
-through load components and hinge laws of t alone (∂r/∂t at the step's end through the same point_load and
+through load components and hinge and guide laws of t alone (∂r/∂t at the step's end through the same point_load and
 hinge_force calls, their exact rates tabulated per grid point: :class:`_TimeRates`, ``_time_refusal``; ∂r/∂t δt_n in
 the parameters' columns, ∂r/∂t in the step size's, as ``TransientSensitivities._add_time_columns``; δt_n is 0 at
 every step the loop takes in the runs measured, the landing on the grid before it having cancelled it), and the
@@ -38,15 +38,15 @@ parameters inside continuous controllers' outputs (their partials ∂f/∂p comp
 same C the Python step calls: derivative_laws.ControllerPartials; with limits their outputs too, which decide the
 clip) for controllers without states that read hinge angles and rates alone and drive hinge torques
 (``_controller_refusal``; the controllers' couplings are in the exact K and C on both paths); on models with rigid
-links and guides too (up to DENSE_LIMIT free coordinates, a dense or band step matrix, without controllers or
-explicit time dependence beside events): M, C and the exact K on the minimum coordinates,
-dense, and ∂r/∂p reduced by Pᵀ, from the compiled step's own reduction (csrc/linked_matrices.c,
+links and guides too (up to DENSE_LIMIT free coordinates, a dense or band step matrix, with the controllers and
+the explicit time dependence above): M, C and the exact K on the minimum coordinates,
+dense, and ∂r/∂p (the controllers' columns among them) and ∂r/∂t each reduced by Pᵀ, from the compiled step's own reduction (csrc/linked_matrices.c,
 ``latdyn_linked_exact_matrices`` and ``latdyn_linked_reduce_columns`` over csrc/links.c's), which the per-step
 Python path calls too (``Assembler.linked_exact_matrix_values``, ``sensitivities.reduced_columns``), S on the full
 n × n pattern. Not native (the Python path): hinge and guide laws whose derivative names θ, θ̇ or an input and
 does not compile, cable parameters, section values whose derivative is a law in t or an input, a rigid link's own
 section values (its joint body's mass and inertia: ``add_link_section_forces``), linked models above DENSE_LIMIT
-free coordinates or whose step matrix is sparse, or beside controllers or explicit time dependence beside events,
+free coordinates or whose step matrix is sparse,
 cables, controllers with states, sampled ones, chains, other sensors or load actuators, explicit time dependence
 beside events through prescribed motions, reels or laws of the state and t, energy and momentum probes (their work
 accounts are carried per step in Python), the NumPy kernels, and a numbering whose step matrix takes the
@@ -182,8 +182,9 @@ def model_refusal(owner, differentiated: bool = False) -> str | None:
     adjoint's forward pass, which differentiates nothing as it goes, shares (latdyn/analyses/adjoint_in_loop.py,
     which refuses rigid links and guides itself). ``differentiated`` (:func:`refusal`: the loop differentiates the
     steps): controllers and explicit time dependence beside events only where :func:`_controller_refusal` and
-    :func:`_time_refusal` say (the adjoint's forward pass keeps refusing them all), and not on a model with rigid
-    links or guides (their reduction after the controllers' and the time's columns is not the loop's yet)."""
+    :func:`_time_refusal` say (the adjoint's forward pass keeps refusing them all), on a model with rigid links or
+    guides too (their columns reduced by Pᵀ after the controllers' and ∂r/∂t after the laws' rates, as the Python
+    path's ``_on_free_coordinates``)."""
     scene, model = owner.scene, owner.model
     if not owner.names:
         return "no parameters"
