@@ -192,11 +192,6 @@ def model_refusal(owner, differentiated: bool = False) -> str | None:
         return "kernels without C libraries"
     if model.cables is not None:
         return "cables"
-    if model.links is not None:
-        from latdyn.analyses.link_sensitivities import link_section_uses
-
-        if link_section_uses(owner):
-            return "a rigid link's section values (its joint body's mass and inertia, from Python)"
     if scene.controllers:
         why = _controller_refusal(owner) if differentiated else "controllers"
         if why is not None:
@@ -399,17 +394,17 @@ class SensitivityLoop:
         """The (use, column) pairs of ParameterDerivatives._body_forces, in its order (a centre of mass of a body
         without mass or inertia moves no force: left out there and here)."""
         owner, d, model = self.owner, self.data, self.owner.model
-        uses = self._body_uses()
-        d.n_body_uses = len(uses)
-        if not uses:
+        uses, links = self._body_uses(), self._link_uses()
+        d.n_body_uses = len(uses) + len(links)
+        if not d.n_body_uses:
             return
         d.body_force_kernel = owner.kernels.address("joint_body")
         d.body_com_kernel = (owner.kernels.address("joint_body_D_com")
                              if any(body["com"] is not None for body, *_ in uses) else None)
         ints = lambda values: self._pointer(np.array(values, np.int64))   # noqa: E731
-        d.body_use_node = ints([model.body_node[body["body"]] for body, *_ in uses])
-        d.body_use_column = ints([column for _, _, column, _ in uses])
-        d.body_use_axis = ints([-1 if body["com"] is None else int(body["com"]) for body, *_ in uses])
+        d.body_use_node = ints([model.body_node[body["body"]] for body, *_ in uses] + [node for _, _, node, *_ in links])
+        d.body_use_column = ints([column for _, _, column, _ in uses] + [column for *_, column, _ in links])
+        d.body_use_axis = ints([-1 if body["com"] is None else int(body["com"]) for body, *_ in uses] + [-1] * len(links))
         d.body_use_gravity = self._pointer(np.ascontiguousarray(1.0 * np.asarray(owner.assembler.gravity, float)))
         d.body_use_scratch = self._pointer(np.zeros(150))
 
@@ -514,6 +509,16 @@ class SensitivityLoop:
             uses += [(body, int(found[0]), column, law) for column, law in laws.items()]
         return uses
 
+    def _link_uses(self) -> list:
+        """(rigid link beam, index among the joint bodies, its link node, the section value, column, derivative law)
+        of every use of a rigid link's own section value (link_sensitivities.add_link_section_forces, which the Python
+        step adds right after the joint bodies' forces: here the body uses after theirs, the generated joint_body with
+        the block of ``rigid_link_inertia`` at the derivative law's value)."""
+        from latdyn.analyses.link_sensitivities import link_section_uses
+
+        return [(beam, b, node, value, column, law) for beam, b, node, value, laws in link_section_uses(self.owner)
+                for column, law in laws.items()]
+
     def _sections(self) -> None:
         """The section uses of ParameterDerivatives._native_section_forces (their rows constant: refusal)."""
         owner, d = self.owner, self.data
@@ -597,13 +602,22 @@ class SensitivityLoop:
             self._hinge_table = np.array(values, float).reshape(len(times), len(uses), 2)
             d.hinge_values, d.values_from = self._hinge_table.ctypes.data, grid_index + 1
         if d.n_body_uses:   # the kernel's block and ∂c/∂p of each use at each grid point (ParameterDerivatives.body_block)
+            from latdyn.model.model import rigid_link_inertia
+
             table = np.zeros((len(times), d.n_body_uses, 16))
+            uses, links = self._body_uses(), self._link_uses()
             for row, t in enumerate(times):
-                for u, (body, b, _, law) in enumerate(self._body_uses()):
+                for u, (body, b, _, law) in enumerate(uses):
                     block, along = owner.body_block(body, b, law.value(0.0, 0.0, t))
                     table[row, u, :13] = block[0]
                     if along is not None:
                         table[row, u, 13:] = along
+                for u, (beam, b, _, value, _, law) in enumerate(links, len(uses)):   # add_link_section_forces' block
+                    moved = {"rhoA": 0.0, "rhoIy": 0.0, "rhoIz": 0.0}
+                    moved[value] = law.value(0.0, 0.0, t)
+                    mass, _, turning = rigid_link_inertia(beam, **moved)
+                    table[row, u, 0], table[row, u, 1:4], table[row, u, 4:13] = mass, owner.model.body_com[b], \
+                        turning.reshape(9)
             self._body_table = table
             d.body_values, d.values_from = table.ctypes.data, grid_index + 1
         if d.n_law_uses:   # the compliant stops' and friction's derivative laws at each grid point (_contact_forces)
