@@ -21,7 +21,9 @@ that compile (the generated ``hinge_force``, linear in the laws, at the hinge's 
 alike, the laws of the state compiled as the step's own laws and evaluated in C at the hinge's θ, θ̇, t, the same C
 the Python step calls: latdyn/analyses/derivative_laws.py; ``_hinge_refusal``)
 and of a joint body's mass, inertia and centre of mass (the generated ``joint_body`` with the use's block, or
-``joint_body_D_com`` along ∂c/∂p, the blocks made by ``ParameterDerivatives.body_block`` and tabulated alike), of
+``joint_body_D_com`` along ∂c/∂p, the blocks made by ``ParameterDerivatives.body_block`` and tabulated alike) and of
+a rigid link's own section values (its joint body's mass and inertia, link_sensitivities.add_link_section_forces:
+the same kernel with ``rigid_link_inertia``'s block, after the joint bodies' uses as the Python step adds it), of
 a hinge's compliant stops' and friction's law values (the generated ``contact_force_D_law``,
 ``friction_force_D_law`` at the hinge's θ, θ̇ in C, times the derivative laws' values tabulated alike), a guide's
 laws and its compliant stops' and friction's values (the hinge laws they are, on the slide), of
@@ -44,8 +46,8 @@ dense, and ∂r/∂p (the controllers' columns among them) and ∂r/∂t each re
 ``latdyn_linked_exact_matrices`` and ``latdyn_linked_reduce_columns`` over csrc/links.c's), which the per-step
 Python path calls too (``Assembler.linked_exact_matrix_values``, ``sensitivities.reduced_columns``), S on the full
 n × n pattern. Not native (the Python path): hinge and guide laws whose derivative names θ, θ̇ or an input and
-does not compile, cable parameters, section values whose derivative is a law in t or an input, a rigid link's own
-section values (its joint body's mass and inertia: ``add_link_section_forces``), linked models above DENSE_LIMIT
+does not compile, cable parameters, section values whose derivative is a law in t or an input, linked models above
+DENSE_LIMIT
 free coordinates or whose step matrix is sparse,
 cables, controllers with states, sampled ones, chains, other sensors or load actuators, explicit time dependence
 beside events through prescribed motions, reels or laws of the state and t, energy and momentum probes (their work
@@ -177,8 +179,8 @@ def _body_refusal(owner, key: str, laws: dict) -> str | None:
 
 def model_refusal(owner, differentiated: bool = False) -> str | None:
     """Why the run of ``owner`` (a TransientSensitivities) takes every step from Python whatever its parameters'
-    kinds (no parameters, NumPy kernels, cables, controllers, a rigid link's own section values, explicit time
-    dependence beside events, energy or momentum probes), or None: :func:`refusal`'s part that the discrete
+    kinds (no parameters, NumPy kernels, cables, controllers, explicit time dependence beside events, energy or
+    momentum probes), or None: :func:`refusal`'s part that the discrete
     adjoint's forward pass, which differentiates nothing as it goes, shares (latdyn/analyses/adjoint_in_loop.py,
     which refuses rigid links and guides itself). ``differentiated`` (:func:`refusal`: the loop differentiates the
     steps): controllers and explicit time dependence beside events only where :func:`_controller_refusal` and
