@@ -11,13 +11,14 @@ link_sensitivities.add_link_section_forces) take the loop too, through the gener
 do (the 3D gimbal's rings by rho, under gravity; the slider-crank's crank by its rhoA, rhoIy and rhoIz)."""
 from __future__ import annotations
 
-import numpy as np
 import pytest
 import yaml
 
 import latdyn
 from tests.cli_runs import latdyn_run, latdyn_run_switched, summary_of
 from tests.test_sensitivities_events import _agree
+from tests.test_sensitivities_in_loop_links import \
+    test_the_linked_steps_in_the_loop_are_the_python_paths as _the_linked_steps_are_the_python_paths
 from tests.test_sensitivities_rigid_links import GIMBAL, LATCH, SLIDER_CRANK
 
 #: the slider-crank whose crank a PD controller drives towards ``ref`` (its hinge's angle and rate read), the slider
@@ -73,18 +74,8 @@ def _run(text: str, monkeypatch, in_loop: bool):
 def test_the_linked_steps_with_controllers_and_time_in_the_loop_are_the_python_paths(text, events, monkeypatch):
     """Every smooth step is differentiated in the loop of steps (the events' steps and the landings after them from
     Python) and the sensitivities are the per-step Python path's to the bit: rows, extremes and the events' time
-    derivatives."""
-    native, python = _run(text, monkeypatch, True), _run(text, monkeypatch, False)
-    steps, in_loop = native.summary["steps"], native.summary["sensitivity_steps_in_loop"]
-    assert native.summary["time_loop"] == "compiled" and python.summary["sensitivity_steps_in_loop"] == 0
-    assert len(native.summary["events"]) == events
-    assert (in_loop == steps > 0) if events == 0 else (steps - 2 * events <= in_loop < steps)
-    assert native.sensitivities.keys() == python.sensitivities.keys()
-    for key, values in python.sensitivities.items():
-        np.testing.assert_array_equal(native.sensitivities[key], values, err_msg=str(key))
-    assert any(np.abs(values).max() > 0.0 for values in python.sensitivities.values())
-    assert native.summary["probe_sensitivities"] == python.summary["probe_sensitivities"]
-    assert native.summary["event_sensitivities"] == python.summary["event_sensitivities"]
+    derivatives (test_sensitivities_in_loop_links.py's checks)."""
+    _the_linked_steps_are_the_python_paths(text, events, monkeypatch)
 
 
 @pytest.mark.parametrize("text, name", [(CRANK_PD, "Kp"), (GIMBAL_T, "P"), (GIMBAL_RHO, "rho")],
