@@ -5,7 +5,7 @@ compiled step's own reduction (csrc/links.c), the per-step Python path calling t
 the API (a 3D gimbal of rigid links, latching; a slider-crank between stops; a guided body on a spring on a
 flexible 3D arm; a deploying chain of rigid bays latching twice, which also agrees with Richardson-extrapolated
 central differences) and the CLI (the shipped slider-crank with parameters); a linked run interrupted inside the
-loop resumes to the same files; a rigid link's own section values keep the run on the Python path."""
+loop resumes to the same files (a rigid link's own section values: test_sensitivities_in_loop_linked_control.py)."""
 from __future__ import annotations
 
 import numpy as np
@@ -20,7 +20,7 @@ from tests.test_sensitivities_guides import GUIDE_3D
 from tests.test_sensitivities_rigid_links import GIMBAL, LATCH, SLIDER_CRANK
 
 #: the gimbal by its hinges' springs, damper and rest angle, a joint body's mass, the tip load and the boom's EI
-#: (not the rigid links' own section: test_a_rigid_links_section_keeps_the_run_on_the_python_path)
+#: (the rigid links' own section: tests/test_sensitivities_in_loop_linked_control.py)
 GIMBAL_JOINTS = GIMBAL.replace("sensitivities: [k1, m, P, EI, rho]", "sensitivities: [k1, k2, c2, rest, m, P, EI]")
 GIMBAL_LATCH = LATCH.replace("sensitivities: [k1, m, P, EI, rho]", "sensitivities: [k1, c2, m, P, EI]")
 #: the slider-crank bouncing twice between its guide's stops, by the crank's torque, the slider's mass and the
@@ -132,18 +132,6 @@ def test_the_cli_writes_the_shipped_slider_cranks_python_path_files(tmp_path):
     for name in ("sensitivities.csv", "probes.csv"):
         assert (out / name).read_bytes() == (reference / name).read_bytes(), name
     assert summary["probe_sensitivities"] == summary_of(reference)["probe_sensitivities"]
-
-
-def test_a_rigid_links_section_keeps_the_run_on_the_python_path(monkeypatch):
-    """The rigid links' own section value (rho: their joint body's mass and inertia, added from Python) keeps every
-    step of the gimbal on the Python path; the same gimbal without it takes the loop."""
-    with_section = _run(GIMBAL, monkeypatch, True)
-    without = _run(GIMBAL.replace("sensitivities: [k1, m, P, EI, rho]", "sensitivities: [k1, m, P, EI]"),
-                   monkeypatch, True)
-    assert with_section.summary["sensitivity_steps_in_loop"] == 0
-    assert without.summary["sensitivity_steps_in_loop"] == without.summary["steps"] > 0
-    for key, values in without.sensitivities.items():
-        np.testing.assert_array_equal(with_section.sensitivities[key], values, err_msg=str(key))
 
 
 def test_a_linked_run_interrupted_inside_the_loop_resumes_to_the_same_files(tmp_path, monkeypatch):

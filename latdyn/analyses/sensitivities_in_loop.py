@@ -21,7 +21,9 @@ that compile (the generated ``hinge_force``, linear in the laws, at the hinge's 
 alike, the laws of the state compiled as the step's own laws and evaluated in C at the hinge's θ, θ̇, t, the same C
 the Python step calls: latdyn/analyses/derivative_laws.py; ``_hinge_refusal``)
 and of a joint body's mass, inertia and centre of mass (the generated ``joint_body`` with the use's block, or
-``joint_body_D_com`` along ∂c/∂p, the blocks made by ``ParameterDerivatives.body_block`` and tabulated alike), of
+``joint_body_D_com`` along ∂c/∂p, the blocks made by ``ParameterDerivatives.body_block`` and tabulated alike) and of
+a rigid link's own section values (its joint body's mass and inertia, link_sensitivities.add_link_section_forces:
+the same kernel with ``rigid_link_inertia``'s block, after the joint bodies' uses as the Python step adds it), of
 a hinge's compliant stops' and friction's law values (the generated ``contact_force_D_law``,
 ``friction_force_D_law`` at the hinge's θ, θ̇ in C, times the derivative laws' values tabulated alike), a guide's
 laws and its compliant stops' and friction's values (the hinge laws they are, on the slide), of
@@ -35,7 +37,7 @@ element held taut, csrc/cable_forces.c, the laws tabulated alike: ``_cable_refus
 change or ends near one is handed back: csrc/cable_forces.c ``cable_near_change``; not beside controllers or
 explicit time dependence beside events), and
 parameters of ``initial_velocity`` (they move the start only), and explicit time dependence beside events
-through load components and hinge laws of t alone (∂r/∂t at the step's end through the same point_load and
+through load components and hinge and guide laws of t alone (∂r/∂t at the step's end through the same point_load and
 hinge_force calls, their exact rates tabulated per grid point: :class:`_TimeRates`, ``_time_refusal``; ∂r/∂t δt_n in
 the parameters' columns, ∂r/∂t in the step size's, as ``TransientSensitivities._add_time_columns``; δt_n is 0 at
 every step the loop takes in the runs measured, the landing on the grid before it having cancelled it), and the
@@ -43,21 +45,19 @@ parameters inside continuous controllers' outputs (their partials ∂f/∂p comp
 same C the Python step calls: derivative_laws.ControllerPartials; with limits their outputs too, which decide the
 clip) for controllers without states that read hinge angles and rates alone and drive hinge torques
 (``_controller_refusal``; the controllers' couplings are in the exact K and C on both paths); on models with rigid
-links and guides too (up to DENSE_LIMIT free coordinates, a dense or band step matrix, without controllers or
-explicit time dependence beside events): M, C and the exact K on the minimum coordinates,
-dense, and ∂r/∂p reduced by Pᵀ, from the compiled step's own reduction (csrc/linked_matrices.c,
+links and guides too (up to DENSE_LIMIT free coordinates, a dense or band step matrix, with the controllers and
+the explicit time dependence above): M, C and the exact K on the minimum coordinates,
+dense, and ∂r/∂p (the controllers' columns among them) and ∂r/∂t each reduced by Pᵀ, from the compiled step's own reduction (csrc/linked_matrices.c,
 ``latdyn_linked_exact_matrices`` and ``latdyn_linked_reduce_columns`` over csrc/links.c's), which the per-step
 Python path calls too (``Assembler.linked_exact_matrix_values``, ``sensitivities.reduced_columns``), S on the full
 n × n pattern. Not native (the Python path): hinge and guide laws whose derivative names θ, θ̇ or an input and
-does not compile, cable parameters whose derivative names θ, θ̇ or an input, section values whose derivative is a law in t or an input, a rigid link's own
-section values (its joint body's mass and inertia: ``add_link_section_forces``), linked models above DENSE_LIMIT
-free coordinates or whose step matrix is sparse, or beside controllers or explicit time dependence beside events,
-cables beside controllers or explicit time dependence beside events, controllers with states, sampled ones,
-chains, other sensors or load actuators, explicit time dependence beside events through prescribed motions, reels
-(a rest length in t) or laws of the state and t, external work and dissipated energy probes (their sums'
-sensitivities are carried per step in Python; the other energies and the momenta, functions of the row's state, are
-recorded from the carried δq, δv at each row as other probes are), the NumPy kernels, and a numbering whose step
-matrix takes the
+does not compile, cable parameters whose derivative names θ, θ̇ or an input, section values whose derivative is a
+law in t or an input, linked models above DENSE_LIMIT free coordinates or whose step matrix is sparse, cables beside
+controllers or explicit time dependence beside events, controllers with states, sampled ones, chains, other sensors
+or load actuators, explicit time dependence beside events through prescribed motions, reels (a rest length in t) or
+laws of the state and t, external work and dissipated energy probes (their sums' sensitivities are carried per step
+in Python; the other energies and the momenta, functions of the row's state, are recorded from the carried δq, δv at
+each row as other probes are), the NumPy kernels, and a numbering whose step matrix takes the
 sparse LU (whose failed pivot falls back to SciPy: :meth:`latdyn.analyses.step_matrix.ExactStepMatrix.solve_step`).
 
 Results: the planar models' rotations are the identity and every sum is the Python step's: the sensitivities
@@ -205,13 +205,14 @@ def _body_refusal(owner, key: str, laws: dict) -> str | None:
 def model_refusal(owner, differentiated: bool = False) -> str | None:
     """Why the run of ``owner`` (a TransientSensitivities) takes every step from Python whatever its parameters'
     kinds (no parameters, NumPy kernels, cables without their C kernels or beside controllers or explicit time,
-    controllers, a rigid link's own section values, explicit time
-    dependence beside events, external work or dissipated energy probes), or None: :func:`refusal`'s part that the discrete
+    controllers, explicit time dependence beside events, external work or dissipated energy probes), or None:
+    :func:`refusal`'s part that the discrete
     adjoint's forward pass, which differentiates nothing as it goes, shares (latdyn/analyses/adjoint_in_loop.py,
     which refuses rigid links and guides itself). ``differentiated`` (:func:`refusal`: the loop differentiates the
     steps): controllers and explicit time dependence beside events only where :func:`_controller_refusal` and
-    :func:`_time_refusal` say (the adjoint's forward pass keeps refusing them all), and not on a model with rigid
-    links or guides (their reduction after the controllers' and the time's columns is not the loop's yet)."""
+    :func:`_time_refusal` say (the adjoint's forward pass keeps refusing them all), on a model with rigid links or
+    guides too (their columns reduced by Pᵀ after the controllers' and ∂r/∂t after the laws' rates, as the Python
+    path's ``_on_free_coordinates``)."""
     scene, model = owner.scene, owner.model
     if not owner.names:
         return "no parameters"
@@ -223,13 +224,6 @@ def model_refusal(owner, differentiated: bool = False) -> str | None:
         why = _cable_refusal(owner)
         if why is not None:
             return why
-    if model.links is not None:
-        if scene.controllers or owner.explicit_time is not None:
-            return "rigid links or guides beside controllers or explicit time dependence beside events"
-        from latdyn.analyses.link_sensitivities import link_section_uses
-
-        if link_section_uses(owner):
-            return "a rigid link's section values (its joint body's mass and inertia, from Python)"
     if scene.controllers:
         why = _controller_refusal(owner) if differentiated else "controllers"
         if why is not None:
@@ -271,7 +265,7 @@ def _controller_refusal(owner) -> str | None:
 def _time_refusal(owner) -> str | None:
     """Why the explicit time dependence beside events of ``owner`` (its ExplicitTime: ∂r/∂t δt, latdyn/analyses/
     transient_sensitivities.py ``_add_time_columns``) keeps the run on the Python path, or None: the loop takes
-    ∂r/∂t of load components and hinge laws of t alone, their exact rates (the same ``_TimeRate`` objects) tabulated
+    ∂r/∂t of load components and hinge and guide laws of t alone, their exact rates (the same ``_TimeRate`` objects) tabulated
     per grid point through the same generated point_load and hinge_force (:class:`_TimeRates`); prescribed motions
     (a difference in t of the residual in Python), reels and laws of the state and t (a SymPy rate in NumPy) not."""
     rates = owner.explicit_time
@@ -279,7 +273,7 @@ def _time_refusal(owner) -> str | None:
         return "explicit time dependence beside events through prescribed motions or a reel"
     model = owner.model
     for key in rates.laws.derivatives:
-        hinge = HINGE_KEY.match(key)
+        hinge = owner._key_kinds(key)[1]   # noqa: SLF001 - a guide's law read as the hinge law it is, on its slide
         if hinge is not None:
             law = getattr(model.hinges[model.hinge_index(hinge["beam"], hinge["end"])], hinge["law"])
             if not _in_time_alone(law):
@@ -433,17 +427,17 @@ class SensitivityLoop:
         """The (use, column) pairs of ParameterDerivatives._body_forces, in its order (a centre of mass of a body
         without mass or inertia moves no force: left out there and here)."""
         owner, d, model = self.owner, self.data, self.owner.model
-        uses = self._body_uses()
-        d.n_body_uses = len(uses)
-        if not uses:
+        uses, links = self._body_uses(), self._link_uses()
+        d.n_body_uses = len(uses) + len(links)
+        if not d.n_body_uses:
             return
         d.body_force_kernel = owner.kernels.address("joint_body")
         d.body_com_kernel = (owner.kernels.address("joint_body_D_com")
                              if any(body["com"] is not None for body, *_ in uses) else None)
         ints = lambda values: self._pointer(np.array(values, np.int64))   # noqa: E731
-        d.body_use_node = ints([model.body_node[body["body"]] for body, *_ in uses])
-        d.body_use_column = ints([column for _, _, column, _ in uses])
-        d.body_use_axis = ints([-1 if body["com"] is None else int(body["com"]) for body, *_ in uses])
+        d.body_use_node = ints([model.body_node[body["body"]] for body, *_ in uses] + [node for _, _, node, *_ in links])
+        d.body_use_column = ints([column for _, _, column, _ in uses] + [column for *_, column, _ in links])
+        d.body_use_axis = ints([-1 if body["com"] is None else int(body["com"]) for body, *_ in uses] + [-1] * len(links))
         d.body_use_gravity = self._pointer(np.ascontiguousarray(1.0 * np.asarray(owner.assembler.gravity, float)))
         d.body_use_scratch = self._pointer(np.zeros(150))
 
@@ -584,6 +578,16 @@ class SensitivityLoop:
             uses += [(body, int(found[0]), column, law) for column, law in laws.items()]
         return uses
 
+    def _link_uses(self) -> list:
+        """(rigid link beam, index among the joint bodies, its link node, the section value, column, derivative law)
+        of every use of a rigid link's own section value (link_sensitivities.add_link_section_forces, which the Python
+        step adds right after the joint bodies' forces: here the body uses after theirs, the generated joint_body with
+        the block of ``rigid_link_inertia`` at the derivative law's value)."""
+        from latdyn.analyses.link_sensitivities import link_section_uses
+
+        return [(beam, b, node, value, column, law) for beam, b, node, value, laws in link_section_uses(self.owner)
+                for column, law in laws.items()]
+
     def _sections(self) -> None:
         """The section uses of ParameterDerivatives._native_section_forces (their rows constant: refusal)."""
         owner, d = self.owner, self.data
@@ -667,13 +671,22 @@ class SensitivityLoop:
             self._hinge_table = np.array(values, float).reshape(len(times), len(uses), 2)
             d.hinge_values, d.values_from = self._hinge_table.ctypes.data, grid_index + 1
         if d.n_body_uses:   # the kernel's block and ∂c/∂p of each use at each grid point (ParameterDerivatives.body_block)
+            from latdyn.model.model import rigid_link_inertia
+
             table = np.zeros((len(times), d.n_body_uses, 16))
+            uses, links = self._body_uses(), self._link_uses()
             for row, t in enumerate(times):
-                for u, (body, b, _, law) in enumerate(self._body_uses()):
+                for u, (body, b, _, law) in enumerate(uses):
                     block, along = owner.body_block(body, b, law.value(0.0, 0.0, t))
                     table[row, u, :13] = block[0]
                     if along is not None:
                         table[row, u, 13:] = along
+                for u, (beam, b, _, value, _, law) in enumerate(links, len(uses)):   # add_link_section_forces' block
+                    moved = {"rhoA": 0.0, "rhoIy": 0.0, "rhoIz": 0.0}
+                    moved[value] = law.value(0.0, 0.0, t)
+                    mass, _, turning = rigid_link_inertia(beam, **moved)
+                    table[row, u, 0], table[row, u, 1:4], table[row, u, 4:13] = mass, owner.model.body_com[b], \
+                        turning.reshape(9)
             self._body_table = table
             d.body_values, d.values_from = table.ctypes.data, grid_index + 1
         if d.n_law_uses:   # the compliant stops' and friction's derivative laws at each grid point (_contact_forces)

@@ -295,7 +295,8 @@ static void controller_parameter_forces(const Model *m, const Configuration *c, 
 }
 
 /* The explicit time dependence at the step's end (TransientSensitivities._add_time_columns): ∂r/∂t at c (the hinge
- * laws' then the loads' rates in t through the same calls as their parameters', ExplicitTime.of_laws) times the
+ * laws' then the loads' rates in t through the same calls as their parameters', ExplicitTime.of_laws; with rigid
+ * links or guides reduced by Pᵀ as ExplicitTime's _on_free_coordinates reduces it) times the
  * carried δt_n added to the parameters' columns of explicit_, and ∂r/∂t itself to the step size's. */
 static void explicit_time_columns(const Model *m, const Configuration *c, SensitivityLoop *s, int64_t grid, double t)
 {
@@ -304,6 +305,7 @@ static void explicit_time_columns(const Model *m, const Configuration *c, Sensit
     memset(r->total, 0, sizeof(double) * (size_t)(m->n_total + 1));
     if (r->n_hinge_uses) hinge_parameter_forces(m, c, r, grid, t);
     load_parameter_forces(m, c, r, grid);
+    if (s->linked) latdyn_linked_reduce_columns(m, r->total, 1, r->total);   /* Pᵀ, as the parameters' columns */
     for (int64_t i = 0; i < n; ++i) {
         const double rate = r->total[i];
         for (int64_t col = 0; col < k; ++col) s->explicit_[i * cols + col] += rate * s->dt[col];
