@@ -64,7 +64,7 @@ from functools import partial
 
 import numpy as np
 
-from latdyn.analyses.energy_sensitivities import is_energy_or_momentum
+from latdyn.analyses.energy_sensitivities import STATE_ENERGIES, is_energy_or_momentum
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
 from latdyn.analyses.sensitivity_rows import block_rows
 from latdyn.analyses.parameter_keys import (BODY_KEY, CONTACT_KEY, FRICTION_KEY, FRICTION_SLOT, GUIDE_CONTACT_KEY,
@@ -206,8 +206,27 @@ def model_refusal(owner, differentiated: bool = False) -> str | None:
         why = _time_refusal(owner) if differentiated else "explicit time dependence beside events"
         if why is not None:
             return why
-    if any(is_energy_or_momentum(probe) for probe in owner.probes):
-        return "energy or momentum probes"
+    why = _energy_refusal(owner, differentiated)
+    if why is not None:
+        return why
+    return None
+
+
+def _energy_refusal(owner, differentiated: bool) -> str | None:
+    """Why the energy or momentum probes of ``owner`` keep the run on the Python path, or None. The energies of the
+    state alone (kinetic, strain, potential, total) and the momenta are functions of a row's state: their
+    derivatives need only the δq, δv the loop carries to the row (``row_carried``; TransientSensitivities.record at
+    the row, latdyn/analyses/energy_sensitivities.py), and the step carries nothing for them
+    (energy_sensitivities.external_work_step returns the step's columns as they are): the loop takes them. The work
+    accounts (external work, dissipated energy: sums over the steps, ``external_work_step``) are carried per step in
+    Python, and the adjoint's forward pass (``differentiated`` False) keeps refusing every energy and momentum."""
+    for probe in owner.probes:
+        if not is_energy_or_momentum(probe):
+            continue
+        if not differentiated:
+            return "energy or momentum probes"
+        if probe.kind == "energy" and probe.quantity not in STATE_ENERGIES:
+            return f"the {probe.quantity} energy (a work account carried per step in Python)"
     return None
 
 
