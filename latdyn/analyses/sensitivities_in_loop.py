@@ -43,13 +43,16 @@ explicit time dependence beside events): M, C and the exact K on the minimum coo
 dense, and ∂r/∂p reduced by Pᵀ, from the compiled step's own reduction (csrc/linked_matrices.c,
 ``latdyn_linked_exact_matrices`` and ``latdyn_linked_reduce_columns`` over csrc/links.c's), which the per-step
 Python path calls too (``Assembler.linked_exact_matrix_values``, ``sensitivities.reduced_columns``), S on the full
-n × n pattern. Not native (the Python path): hinge and guide laws whose derivative names θ, θ̇ or an input and
+n × n pattern. Energy and momentum probes of a row's state alone (kinetic, strain, potential, total, linear and
+angular momenta) need no term in the step: their rows' sensitivities are TransientSensitivities.record's at each row
+from the carried δq, δv (``_energy_refusal``). Not native (the Python path): hinge and guide laws whose derivative names θ, θ̇ or an input and
 does not compile, cable parameters, section values whose derivative is a law in t or an input, a rigid link's own
 section values (its joint body's mass and inertia: ``add_link_section_forces``), linked models above DENSE_LIMIT
 free coordinates or whose step matrix is sparse, or beside controllers or explicit time dependence beside events,
 cables, controllers with states, sampled ones, chains, other sensors or load actuators, explicit time dependence
-beside events through prescribed motions, reels or laws of the state and t, energy and momentum probes (their work
-accounts are carried per step in Python), the NumPy kernels, and a numbering whose step matrix takes the
+beside events through prescribed motions, reels or laws of the state and t, the external work and the dissipated
+energy (work accounts carried per step in Python: energy_sensitivities.external_work_step), every energy and momentum
+probe in the discrete adjoint's forward pass, the NumPy kernels, and a numbering whose step matrix takes the
 sparse LU (whose failed pivot falls back to SciPy: :meth:`latdyn.analyses.step_matrix.ExactStepMatrix.solve_step`).
 
 Results: the planar models' rotations are the identity and every sum is the Python step's: the sensitivities
@@ -178,7 +181,7 @@ def _body_refusal(owner, key: str, laws: dict) -> str | None:
 def model_refusal(owner, differentiated: bool = False) -> str | None:
     """Why the run of ``owner`` (a TransientSensitivities) takes every step from Python whatever its parameters'
     kinds (no parameters, NumPy kernels, cables, controllers, a rigid link's own section values, explicit time
-    dependence beside events, energy or momentum probes), or None: :func:`refusal`'s part that the discrete
+    dependence beside events, energy or momentum probes: :func:`_energy_refusal`), or None: :func:`refusal`'s part that the discrete
     adjoint's forward pass, which differentiates nothing as it goes, shares (latdyn/analyses/adjoint_in_loop.py,
     which refuses rigid links and guides itself). ``differentiated`` (:func:`refusal`: the loop differentiates the
     steps): controllers and explicit time dependence beside events only where :func:`_controller_refusal` and
