@@ -16,6 +16,7 @@ import yaml
 
 import latdyn
 from tests.cli_runs import latdyn_run, latdyn_run_switched, summary_of
+from tests.test_sensitivities_events import LATCH_3D, LATCH_PLANAR
 from tests.test_sensitivities_in_loop import ARM_3D
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -68,6 +69,12 @@ output:
 """
 
 
+#: energies of the state and momenta probed on the latching arms of tests/test_sensitivities_events.py (the kinetic
+#: energy and the momenta jump at the latch, which the Python path takes)
+STATE_PROBES = ("    kinetic: {energy: kinetic}\n    strain: {energy: strain}\n    total: {energy: total}\n"
+                "    hz: {momentum: angular, component: z}\n    px: {momentum: linear, component: x}\n")
+
+
 def _run(text: str, monkeypatch, in_loop: bool):
     """The scene's run through the API, its smooth steps' sensitivities in the loop of steps or from Python."""
     with monkeypatch.context() as patch:
@@ -75,14 +82,15 @@ def _run(text: str, monkeypatch, in_loop: bool):
         return latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
 
 
-def _same(native, python) -> None:
-    """The two runs' sensitivities and the summary's, to the bit; the loop took every step."""
+def _same(native, python, beside_the_loop: int = 0) -> None:
+    """The two runs' sensitivities and the summary's, to the bit; the loop took every step but ``beside_the_loop``."""
     assert python.summary["sensitivity_steps_in_loop"] == 0
-    assert native.summary["sensitivity_steps_in_loop"] == native.summary["steps"] > 0
+    assert native.summary["sensitivity_steps_in_loop"] == native.summary["steps"] - beside_the_loop > 0
     assert native.sensitivities.keys() == python.sensitivities.keys()
     for key, values in python.sensitivities.items():
         np.testing.assert_array_equal(native.sensitivities[key], values, err_msg=str(key))
     assert native.summary["probe_sensitivities"] == python.summary["probe_sensitivities"]
+    assert native.summary["event_sensitivities"] == python.summary["event_sensitivities"]
 
 
 @pytest.mark.parametrize("text", [SPINUP, ARM_ENERGIES, FREE_BEAM], ids=["spin-up", "3D hinged arm", "free 3D beam"])
@@ -93,6 +101,15 @@ def test_energies_of_the_state_and_momenta_take_the_loop(text, monkeypatch):
     _same(native, python)
     probe = "kinetic" if "kinetic" in text else "total"
     assert any(np.abs(v).max() > 0.0 for (name, _), v in native.sensitivities.items() if name == probe)
+
+
+@pytest.mark.parametrize("text", [LATCH_PLANAR + STATE_PROBES, LATCH_3D + STATE_PROBES], ids=["planar latch", "3D latch"])
+def test_energies_of_the_state_and_momenta_beside_a_latch(text, monkeypatch):
+    """The planar arm and the 3D wheel latching: every smooth step in the loop but the latch's and the landing after
+    it (from Python), the energies' and momenta's sensitivities and the event's the Python path's to the bit."""
+    native, python = _run(text, monkeypatch, True), _run(text, monkeypatch, False)
+    assert [e["kind"] for e in native.summary["events"]] == ["latch"]
+    _same(native, python, beside_the_loop=2)
 
 
 @pytest.mark.parametrize("quantity", ["dissipated", "external_work"])
