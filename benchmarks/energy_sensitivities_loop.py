@@ -8,13 +8,12 @@
 ``--scene spinup``: tests/test_sensitivities_in_loop_energies.py's SPINUP over 2 s (examples/spinup.yaml's hub
 turned by its prescribed rotation, its total, kinetic and strain energies probed, dt = 0.005, a row every 0.01 s),
 ``[EI]``. ``--scene arm``: its ARM_ENERGIES over 0.3 s, the 3D hinged arm with a spring and a damper, its kinetic,
-strain, potential and total energies and three momenta probed, ``[E, rho, F, k]``. ``--scene free``: its FREE_BEAM
-over 0.5 s, a free 3D beam thrown spinning, its six momenta and its kinetic energy, ``[E, rho, F]``. The modes, the
+strain, potential and total energies and the six momenta probed (STATE_PROBES), ``[E, rho, F, k]``. ``--scene free``:
+its FREE_BEAM over 0.5 s, a free 3D beam thrown spinning, the same probes, ``[E, rho, F]``. The modes, the
 times and the ratios printed: benchmarks/hinge_sensitivities_loop.py's docstring (the same functions).
 """
 from __future__ import annotations
 
-import argparse
 import importlib.util
 import sys
 from pathlib import Path
@@ -31,32 +30,18 @@ def _module(path: Path, name: str):
     return module
 
 
-def _scene(name: str) -> str:
-    scenes = _module(ROOT / "tests" / "test_sensitivities_in_loop_energies.py", "energy_scenes")
-    if name == "spinup":
-        return scenes.SPINUP.replace("t_end: 0.3", "t_end: 2.0")
-    if name == "free":
-        return scenes.FREE_BEAM.replace("t_end: 0.1", "t_end: 0.5")
-    return scenes.ARM_ENERGIES.replace("t_end: 0.06", "t_end: 0.3")
-
-
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--scene", choices=("spinup", "arm", "free"), default="spinup")
-    parser.add_argument("--repeats", type=int, default=5)
-    parser.add_argument("--check", metavar="DIR")
-    parser.add_argument("--user", type=int, metavar="N")
-    parser.add_argument("--trees", default=str(ROOT))
-    args = parser.parse_args()
-    text = _scene(args.scene)
-    modes = _module(ROOT / "benchmarks" / "hinge_sensitivities_loop.py", "hinge_sensitivities_loop")
-    if args.check:
-        modes.check(text, args.check)
-    elif args.user:
-        modes.as_a_user(text, args.user, args.trees.split(","))
-    else:
-        modes.in_process(text, args.repeats)
+def _scene(name: str):
+    """A function giving the scene ``name``'s YAML text (benchmarks/hinge_sensitivities_loop.py ``main``'s scenes)."""
+    def text() -> str:
+        scenes = _module(ROOT / "tests" / "test_sensitivities_in_loop_energies.py", "energy_scenes")
+        if name == "spinup":
+            return scenes.SPINUP.replace("t_end: 0.3", "t_end: 2.0")
+        if name == "free":
+            return scenes.FREE_BEAM.replace("t_end: 0.1", "t_end: 0.5")
+        return scenes.ARM_ENERGIES.replace("t_end: 0.06", "t_end: 0.3")
+    return text
 
 
 if __name__ == "__main__":
-    main()
+    _module(ROOT / "benchmarks" / "hinge_sensitivities_loop.py", "hinge_sensitivities_loop").main(
+        {name: _scene(name) for name in ("spinup", "arm", "free")}, "spinup", __doc__)

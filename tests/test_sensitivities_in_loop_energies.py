@@ -16,10 +16,18 @@ import yaml
 
 import latdyn
 from tests.cli_runs import latdyn_run, latdyn_run_switched, summary_of
+from tests.test_sensitivities_energies import ENERGY_PROBES
 from tests.test_sensitivities_events import LATCH_3D, LATCH_PLANAR
 from tests.test_sensitivities_in_loop import ARM_3D
 
 ROOT = Path(__file__).resolve().parents[1]
+
+#: tests/test_sensitivities_energies.py's energy and momentum probes but the work accounts: the kinetic, strain,
+#: potential and total energies and the six momenta (probed on the latching arms too, where the kinetic energy and the
+#: momenta jump at the latch, which the Python path takes)
+STATE_PROBES = "".join(line + "\n" for line in ENERGY_PROBES.strip("\n").split("\n")
+                       if "external_work" not in line and "dissipated" not in line)
+assert STATE_PROBES.count("{energy:") == 4 and STATE_PROBES.count("{momentum:") == 6
 
 #: the spin-up of examples/spinup.yaml (its hub's prescribed rotation, its `energy: total` probe) with the arm's
 #: bending stiffness as a parameter, over its first 0.3 s
@@ -36,13 +44,11 @@ assert 'EIy: "EI"' in SPINUP and "sensitivities: [EI]" in SPINUP and "kinetic: {
 ARM_ENERGIES = (ARM_3D.replace("parameters: {E: 1.0, rho: 0.5, F: 2.0}", "parameters: {E: 1.0, rho: 0.5, F: 2.0, k: 30.0}")
                 .replace("stiffness: 30.0, damping: 0.2}", 'stiffness: "k", damping: 0.2}')
                 .replace("sensitivities: [E, rho, F]", "sensitivities: [E, rho, F, k]")
-                + "    kinetic: {energy: kinetic}\n    strain: {energy: strain}\n    potential: {energy: potential}\n"
-                  "    total: {energy: total}\n    px: {momentum: linear, component: x}\n"
-                  "    hz: {momentum: angular, component: z}\n    hy: {momentum: angular, component: y}\n")
+                + STATE_PROBES)
 assert 'stiffness: "k"' in ARM_ENERGIES and "[E, rho, F, k]" in ARM_ENERGIES and "hy: {momentum" in ARM_ENERGIES
 
-#: a free 3D beam (no support) thrown spinning about a skew axis, a tip load of its amplitude F in t: its momenta
-#: by the section values and F
+#: a free 3D beam (no support) thrown spinning about a skew axis, a tip load of its amplitude F in t: its energies
+#: and momenta by the section values and F
 FREE_BEAM = """
 title: a free 3D beam thrown spinning, its momenta
 parameters: {E: 1.0, rho: 0.5, F: 1.0}
@@ -59,20 +65,7 @@ solve: {analysis: transient, dt: 0.005, t_end: 0.1, sensitivities: [E, rho, F]}
 output:
   every: 0.01
   probes:
-    px: {momentum: linear, component: x}
-    py: {momentum: linear, component: y}
-    pz: {momentum: linear, component: z}
-    hx: {momentum: angular, component: x}
-    hy: {momentum: angular, component: y}
-    hz: {momentum: angular, component: z}
-    kinetic: {energy: kinetic}
-"""
-
-
-#: energies of the state and momenta probed on the latching arms of tests/test_sensitivities_events.py (the kinetic
-#: energy and the momenta jump at the latch, which the Python path takes)
-STATE_PROBES = ("    kinetic: {energy: kinetic}\n    strain: {energy: strain}\n    total: {energy: total}\n"
-                "    hz: {momentum: angular, component: z}\n    px: {momentum: linear, component: x}\n")
+""" + STATE_PROBES
 
 
 def _run(text: str, monkeypatch, in_loop: bool):
