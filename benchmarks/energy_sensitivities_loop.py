@@ -15,33 +15,19 @@ times and the ratios printed: benchmarks/hinge_sensitivities_loop.py's docstring
 from __future__ import annotations
 
 import importlib.util
-import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
+#: this checkout's benchmarks/hinge_sensitivities_loop.py (its modes; it reads the tests' scenes after PYTHONPATH's build)
+_SPEC = importlib.util.spec_from_file_location("hinge_sensitivities_loop", ROOT / "benchmarks" / "hinge_sensitivities_loop.py")
+hinge_sensitivities_loop = importlib.util.module_from_spec(_SPEC)
+_SPEC.loader.exec_module(hinge_sensitivities_loop)
+_from_tests = hinge_sensitivities_loop._from_tests   # noqa: SLF001
 
-
-def _module(path: Path, name: str):
-    """The module at ``path`` (read from this checkout whatever build PYTHONPATH names first)."""
-    sys.path.append(str(ROOT))   # after PYTHONPATH: the build compared is the one it names
-    spec = importlib.util.spec_from_file_location(name, path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-def _scene(name: str):
-    """A function giving the scene ``name``'s YAML text (benchmarks/hinge_sensitivities_loop.py ``main``'s scenes)."""
-    def text() -> str:
-        scenes = _module(ROOT / "tests" / "test_sensitivities_in_loop_energies.py", "energy_scenes")
-        if name == "spinup":
-            return scenes.SPINUP.replace("t_end: 0.3", "t_end: 2.0")
-        if name == "free":
-            return scenes.FREE_BEAM.replace("t_end: 0.1", "t_end: 0.5")
-        return scenes.ARM_ENERGIES.replace("t_end: 0.06", "t_end: 0.3")
-    return text
-
+#: the scenes of tests/test_sensitivities_in_loop_energies.py, run longer
+SCENES = {"spinup": lambda: _from_tests("test_sensitivities_in_loop_energies", "SPINUP")().replace("t_end: 0.3", "t_end: 2.0"),
+          "arm": lambda: _from_tests("test_sensitivities_in_loop_energies", "ARM_ENERGIES")().replace("t_end: 0.06", "t_end: 0.3"),
+          "free": lambda: _from_tests("test_sensitivities_in_loop_energies", "FREE_BEAM")().replace("t_end: 0.1", "t_end: 0.5")}
 
 if __name__ == "__main__":
-    _module(ROOT / "benchmarks" / "hinge_sensitivities_loop.py", "hinge_sensitivities_loop").main(
-        {name: _scene(name) for name in ("spinup", "arm", "free")}, "spinup", __doc__)
+    hinge_sensitivities_loop.main(SCENES, "spinup", __doc__)
