@@ -126,3 +126,25 @@ def test_the_cli_writes_the_python_paths_files_for_the_spin_up(tmp_path):
     # this file's scenes beside older trees' tests/cli_runs.py
 
     the_loop_off_writes_the_same(tmp_path, out)
+
+
+@pytest.mark.parametrize("text", [ARM_ENERGIES, FREE_BEAM], ids=["3D hinged arm", "free 3D beam"])
+def test_the_adjoints_passes_take_the_loop_with_energies_of_the_state_and_momenta(text, monkeypatch):
+    """Under ``sensitivity_method: adjoint`` (seeded at each row by the probes' forms, energy_sensitivities.probe_forms,
+    at the stored states; it refuses the work accounts itself) the forward pass's every step is stored by the loop of
+    steps and the reverse pass takes every step natively (latdyn/analyses/adjoint_in_loop.py), the derivatives those of
+    the Python and NumPy passes (both private switches off) to the bit."""
+    text = text.replace("sensitivities: [", "sensitivity_method: adjoint, sensitivities: [")
+    runs = []
+    for native in (True, False):
+        with monkeypatch.context() as patch:
+            patch.setattr("latdyn.analyses.adjoint_in_loop.ADJOINT_IN_LOOP", native)
+            patch.setattr("latdyn.analyses.adjoint_in_loop.REVERSE_NATIVE", native)
+            runs.append(latdyn.run(latdyn.load_scene(yaml.safe_load(text))))
+    native, python = runs
+    assert native.summary["sensitivity_steps_in_loop"] == native.summary["steps"] > 0
+    assert python.summary["sensitivity_steps_in_loop"] == 0
+    assert native.summary["probe_sensitivities"] == python.summary["probe_sensitivities"]
+    assert any(value != 0.0 for value in native.summary["probe_sensitivities"]["kinetic"]["end"].values())
+    for key, values in python.sensitivities.items():
+        np.testing.assert_array_equal(native.sensitivities[key], values, err_msg=str(key))

@@ -14,7 +14,8 @@ Its rows are recorded on the loop's way (csrc/rows.c), each the index of the sto
 before. The runs whose every step
 is taken from Python are those the forward method's loop refuses whatever their parameters' kinds
 (:func:`latdyn.analyses.sensitivities_in_loop.model_refusal`: rigid links, guides, cables, controllers, explicit
-time dependence beside events, geometry parameters, energy or momentum probes, NumPy kernels): decided once, at the
+time dependence beside events, geometry parameters, NumPy kernels; the energies of the state and the momenta are
+taken, the work accounts the adjoint refuses anyway): decided once, at the
 start.
 
 The reverse pass (:meth:`AdjointSensitivities._reverse_columns`) takes each smooth step — no event at its end, a size

@@ -51,8 +51,7 @@ section values (its joint body's mass and inertia: ``add_link_section_forces``),
 free coordinates or whose step matrix is sparse, or beside controllers or explicit time dependence beside events,
 cables, controllers with states, sampled ones, chains, other sensors or load actuators, explicit time dependence
 beside events through prescribed motions, reels or laws of the state and t, the external work and the dissipated
-energy (work accounts carried per step in Python: energy_sensitivities.external_work_step), every energy and momentum
-probe in the discrete adjoint's forward pass, the NumPy kernels, and a numbering whose step matrix takes the
+energy (work accounts carried per step in Python: energy_sensitivities.external_work_step), the NumPy kernels, and a numbering whose step matrix takes the
 sparse LU (whose failed pivot falls back to SciPy: :meth:`latdyn.analyses.step_matrix.ExactStepMatrix.solve_step`).
 
 Results: the planar models' rotations are the identity and every sum is the Python step's: the sensitivities
@@ -209,25 +208,24 @@ def model_refusal(owner, differentiated: bool = False) -> str | None:
         why = _time_refusal(owner) if differentiated else "explicit time dependence beside events"
         if why is not None:
             return why
-    why = _energy_refusal(owner, differentiated)
+    why = _energy_refusal(owner)
     if why is not None:
         return why
     return None
 
 
-def _energy_refusal(owner, differentiated: bool) -> str | None:
+def _energy_refusal(owner) -> str | None:
     """Why the energy or momentum probes of ``owner`` keep the run on the Python path, or None. The energies of the
     state alone (kinetic, strain, potential, total) and the momenta are functions of a row's state: their
     derivatives need only the δq, δv the loop carries to the row (``row_carried``; TransientSensitivities.record at
     the row, latdyn/analyses/energy_sensitivities.py), and the step carries nothing for them
-    (energy_sensitivities.external_work_step returns the step's columns as they are): the loop takes them. The work
-    accounts (external work, dissipated energy: sums over the steps, ``external_work_step``) are carried per step in
-    Python, and the adjoint's forward pass (``differentiated`` False) keeps refusing every energy and momentum."""
+    (energy_sensitivities.external_work_step returns the step's columns as they are): the loop takes them; the
+    discrete adjoint seeds its rows with their forms at the stored states (``probe_forms``), so its forward pass
+    stored by the loop takes them too. The work accounts (external work, dissipated energy: sums over the steps,
+    ``external_work_step``; the adjoint refuses them itself) are carried per step in Python."""
     for probe in owner.probes:
         if not is_energy_or_momentum(probe):
             continue
-        if not differentiated:
-            return "energy or momentum probes"
         if probe.kind == "energy" and probe.quantity not in STATE_ENERGIES:
             return f"the {probe.quantity} energy (a work account carried per step in Python)"
     return None
