@@ -39,6 +39,23 @@ def latdyn_run_switched(tmp_path: Path, scene: Path, out: Path, switches: str,
                           capture_output=True, text=True, cwd=tmp_path, timeout=timeout, check=False)
 
 
+def the_loop_off_writes_the_same(tmp_path: Path, out: Path) -> None:
+    """The scene ``tmp_path/scene.yaml`` that ``latdyn_run`` ran into ``out`` run again in a fresh process with the
+    sensitivities' loop of steps off (latdyn.analyses.sensitivities_in_loop's private ``SENSITIVITIES_IN_LOOP``): no
+    step in the loop there, and the same sensitivities.csv and probes.csv byte for byte and summary.json's probe and
+    event sensitivities."""
+    reference = tmp_path / "python"
+    run = latdyn_run_switched(tmp_path, tmp_path / "scene.yaml", reference,
+                              "import latdyn.analyses.sensitivities_in_loop as loop; loop.SENSITIVITIES_IN_LOOP = False")
+    assert run.returncode == 0, run.stderr
+    summary, python = summary_of(out), summary_of(reference)
+    assert python["sensitivity_steps_in_loop"] == 0
+    for name in ("sensitivities.csv", "probes.csv"):
+        assert (out / name).read_bytes() == (reference / name).read_bytes(), name
+    assert summary["probe_sensitivities"] == python["probe_sensitivities"]
+    assert summary["event_sensitivities"] == python["event_sensitivities"]
+
+
 def summary_of(out: Path) -> dict | None:
     """summary.json of a results folder, None when there is none."""
     path = out / "summary.json"

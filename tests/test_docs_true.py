@@ -131,13 +131,14 @@ def _scripts() -> list[Path]:
 
 def _script_defines(script: Path, option: str) -> bool:
     """The script's argparse takes ``option``: its source passes the string to add_argument, or it builds its parser
-    with ``MODULE.arguments(...)`` of a script beside it whose source does (benchmarks/latch_start.py takes
-    benchmarks/sensitivity_start.py's)."""
+    with ``MODULE.arguments(...)`` or runs ``MODULE.main(...)`` of a script beside it whose source does
+    (benchmarks/latch_start.py takes benchmarks/sensitivity_start.py's, benchmarks/energy_sensitivities_loop.py runs
+    benchmarks/hinge_sensitivities_loop.py's)."""
     source = script.read_text(encoding="utf-8")
     if re.search(rf"add_argument\([^)]*[\"']{re.escape(option)}[\"']", source) is not None:
         return True
     return any(_script_defines(script.with_name(f"{module}.py"), option)
-               for module in re.findall(r"\b(\w+)\.arguments\(", source) if script.with_name(f"{module}.py").is_file())
+               for module in re.findall(r"\b(\w+)\.(?:arguments|main)\(", source) if script.with_name(f"{module}.py").is_file())
 
 
 def _is_foreign(option: str, text: str) -> bool:

@@ -14,8 +14,9 @@ Its rows are recorded on the loop's way (csrc/rows.c), each the index of the sto
 before. The runs whose every step
 is taken from Python are those the forward method's loop refuses whatever their parameters' kinds
 (:func:`latdyn.analyses.sensitivities_in_loop.model_refusal`: controllers, explicit time dependence beside events,
-geometry parameters, external work or dissipated energy probes, NumPy kernels) and those with rigid links, guides,
-cables or any energy or momentum probe, which :func:`refusal` refuses itself: decided once, at the start.
+geometry parameters, external work or dissipated energy probes, NumPy kernels; the energies of the state and the
+momenta are taken) and those with rigid links, guides or cables, which :func:`refusal` refuses itself: decided once,
+at the start.
 
 The reverse pass (:meth:`AdjointSensitivities._reverse_columns`) takes each smooth step — no event at its end, a size
 that does not move with the parameters — in one call of csrc/adjoint_reverse.c (:class:`ReverseSteps`): M, C and the
@@ -44,15 +45,12 @@ ADJOINT_IN_LOOP = True
 def refusal(owner) -> str | None:
     """Why the forward pass of ``owner`` (an AdjointSensitivities) takes every step from Python, or None
     (module docstring). Once a run."""
-    from latdyn.analyses.energy_sensitivities import is_energy_or_momentum
     from latdyn.analyses.sensitivities_in_loop import model_refusal
 
     if owner.model.links is not None:   # the forward step's loop takes them (sensitivities_in_loop); this pass not yet
         return "rigid links or guides"
     if owner.model.cables is not None:   # likewise (csrc/cable_forces.c); this pass's reverse steps not yet
         return "cables"
-    if any(is_energy_or_momentum(probe) for probe in owner.probes):   # the forward step's loop takes those of state
-        return "energy or momentum probes"
     return model_refusal(owner)
 
 

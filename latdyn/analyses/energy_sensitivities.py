@@ -65,7 +65,7 @@ from latdyn.assembly.assembler import pack
 from latdyn.assembly.native_model import NO_CONTACT, joint_contact_rows
 from latdyn.errors import SceneError
 
-__all__ = ["is_energy_or_momentum", "refusal", "probe_derivatives", "probe_forms", "external_work_step",
+__all__ = ["STATE_ENERGIES", "is_energy_or_momentum", "refusal", "probe_derivatives", "probe_forms", "external_work_step",
            "external_work_after_event"]
 
 #: a hinge's compliant stops' stiffness (the potential is linear in it) and exponent (refused)
@@ -73,6 +73,9 @@ _STOP_STIFFNESS = re.compile(r"^beams\.(?P<beam>.+)\.(?P<end>start|end)\.hinge\.
 _STOP_EXPONENT = re.compile(r"^beams\.(?P<beam>.+)\.(?P<end>start|end)\.hinge\.contact\.exponent$")
 #: the recorded energies this module differentiates
 _ENERGIES = ("kinetic", "strain", "potential", "external_work", "dissipated", "total")
+#: the energies of a row's state alone (no account carried through the steps: the sensitivity loop takes them,
+#: latdyn/analyses/sensitivities_in_loop.py)
+STATE_ENERGIES = ("kinetic", "strain", "potential", "total")
 #: the energies summed over the steps, and the carried key of their sensitivities
 _ACCOUNTS = {"external_work": "external_work_sensitivity", "dissipated": "dissipated_sensitivity"}
 #: the energies each probe sums (SCENE.md: total = kinetic + strain + potential)
@@ -83,13 +86,6 @@ _PARTS = {"kinetic": ("kinetic",), "strain": ("strain",), "potential": ("potenti
 def is_energy_or_momentum(probe) -> bool:
     """Whether ``probe`` is an energy or a momentum probe (this module's)."""
     return probe.kind in ("energy", "momentum")
-
-
-def is_carried_account(probe) -> bool:
-    """Whether ``probe`` is the external work or the dissipated energy of a run: a sum over the steps, whose
-    sensitivity each step carries (:func:`external_work_step`); the other energies and momenta are functions of the
-    row's state and the parameters."""
-    return probe.kind == "energy" and probe.quantity in _ACCOUNTS
 
 
 def refusal(scene, probe) -> SceneError | None:

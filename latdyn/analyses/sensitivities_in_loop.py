@@ -50,14 +50,16 @@ the explicit time dependence above): M, C and the exact K on the minimum coordin
 dense, and ∂r/∂p (the controllers' columns among them) and ∂r/∂t each reduced by Pᵀ, from the compiled step's own reduction (csrc/linked_matrices.c,
 ``latdyn_linked_exact_matrices`` and ``latdyn_linked_reduce_columns`` over csrc/links.c's), which the per-step
 Python path calls too (``Assembler.linked_exact_matrix_values``, ``sensitivities.reduced_columns``), S on the full
-n × n pattern. Not native (the Python path): hinge and guide laws whose derivative names θ, θ̇ or an input and
-does not compile, cable parameters whose derivative names θ, θ̇ or an input, section values whose derivative is a
-law in t or an input, linked models above DENSE_LIMIT free coordinates or whose step matrix is sparse, cables beside
-controllers or explicit time dependence beside events, controllers with states, sampled ones, chains, other sensors
-or load actuators, explicit time dependence beside events through prescribed motions, reels (a rest length in t) or
-laws of the state and t, external work and dissipated energy probes (their sums' sensitivities are carried per step
-in Python; the other energies and the momenta, functions of the row's state, are recorded from the carried δq, δv at
-each row as other probes are), the NumPy kernels, and a numbering whose step matrix takes the
+n × n pattern. Energy and momentum probes of a row's state alone (kinetic, strain, potential, total, linear and
+angular momenta) need no term in the step: their rows' sensitivities are TransientSensitivities.record's at each row
+from the carried δq, δv (``_energy_refusal``). Not native (the Python path): hinge and guide laws whose derivative
+names θ, θ̇ or an input and does not compile, cable parameters whose derivative names θ, θ̇ or an input, section
+values whose derivative is a law in t or an input, linked models above DENSE_LIMIT free coordinates or whose step
+matrix is sparse, cables beside controllers or explicit time dependence beside events, controllers with states,
+sampled ones, chains, other sensors or load actuators, explicit time dependence beside events through prescribed
+motions, reels (a rest length in t) or laws of the state and t, the external work and the dissipated energy (work
+accounts carried per step in Python: energy_sensitivities.external_work_step), the NumPy kernels, and a numbering
+whose step matrix takes the
 sparse LU (whose failed pivot falls back to SciPy: :meth:`latdyn.analyses.step_matrix.ExactStepMatrix.solve_step`).
 
 Results: the planar models' rotations are the identity and every sum is the Python step's: the sensitivities
@@ -72,7 +74,7 @@ from functools import partial
 
 import numpy as np
 
-from latdyn.analyses.energy_sensitivities import is_carried_account
+from latdyn.analyses.energy_sensitivities import STATE_ENERGIES, is_energy_or_momentum
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
 from latdyn.analyses.sensitivity_rows import block_rows
 from latdyn.analyses.parameter_keys import (BODY_KEY, CABLE_KEY, CONTACT_KEY, FRICTION_KEY, FRICTION_SLOT,
@@ -205,7 +207,7 @@ def _body_refusal(owner, key: str, laws: dict) -> str | None:
 def model_refusal(owner, differentiated: bool = False) -> str | None:
     """Why the run of ``owner`` (a TransientSensitivities) takes every step from Python whatever its parameters'
     kinds (no parameters, NumPy kernels, cables without their C kernels or beside controllers or explicit time,
-    controllers, explicit time dependence beside events, external work or dissipated energy probes), or None:
+    controllers, explicit time dependence beside events, work-account probes: :func:`_energy_refusal`), or None:
     :func:`refusal`'s part that the discrete
     adjoint's forward pass, which differentiates nothing as it goes, shares (latdyn/analyses/adjoint_in_loop.py,
     which refuses rigid links and guides itself). ``differentiated`` (:func:`refusal`: the loop differentiates the
@@ -232,8 +234,26 @@ def model_refusal(owner, differentiated: bool = False) -> str | None:
         why = _time_refusal(owner) if differentiated else "explicit time dependence beside events"
         if why is not None:
             return why
-    if any(is_carried_account(probe) for probe in owner.probes):
-        return "external work or dissipated energy probes (their sums carried per step in Python)"
+    why = _energy_refusal(owner)
+    if why is not None:
+        return why
+    return None
+
+
+def _energy_refusal(owner) -> str | None:
+    """Why the energy or momentum probes of ``owner`` keep the run on the Python path, or None. The energies of the
+    state alone (kinetic, strain, potential, total) and the momenta are functions of a row's state: their
+    derivatives need only the δq, δv the loop carries to the row (``row_carried``; TransientSensitivities.record at
+    the row, latdyn/analyses/energy_sensitivities.py), and the step carries nothing for them
+    (energy_sensitivities.external_work_step returns the step's columns as they are): the loop takes them; the
+    discrete adjoint seeds its rows with their forms at the stored states (``probe_forms``), so its forward pass
+    stored by the loop takes them too. The work accounts (external work, dissipated energy: sums over the steps,
+    ``external_work_step``; the adjoint refuses them itself) are carried per step in Python."""
+    for probe in owner.probes:
+        if not is_energy_or_momentum(probe):
+            continue
+        if probe.kind == "energy" and probe.quantity not in STATE_ENERGIES:
+            return f"the {probe.quantity} energy (a work account carried per step in Python)"
     return None
 
 
