@@ -1,0 +1,82 @@
+"""The outside check of int16's merges (rigid links and guides, geometry parameters and rows in the sensitivities'
+loop of steps; fuzz4, 2026-11-28): the combinations its stress runs tried that no other test holds. A chain of
+rigid bays whose first hinge latches and whose second bounces off a stop with restitution, rows every 7th step,
+takes its smooth steps' sensitivities in the loop, and the four settings of the private switches
+(``SENSITIVITIES_IN_LOOP``, ``SENSITIVITY_ROWS_IN_LOOP``) give the same bits; interrupted inside the loop after
+the latch it resumes to the same files."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import yaml
+
+import latdyn
+from tests.resumed_runs import resumed_inside_the_loop_is_whole
+
+#: two rigid bays swung open by their hinges' springs carrying a flexible boom: the first latches in line
+#: (t = 0.2512 s), the second bounces off its stop at 2π/3 (t = 0.3404 s, restitution 0.5); rows every 7th step
+CHAIN_LATCH_AND_STOP = """
+title: a chain of rigid bays, the first latching, the second bouncing off its stop
+parameters: {k: 1.5, c: 0.02, m: 0.1, EI: 30.0, F: 0.2}
+sections:
+  bay: {EA: 1.0e7, EIy: 1.0e4, EIz: 1.0e4, GJ: 1.0e4, rhoA: 0.5, rhoIy: 1.0e-4, rhoIz: 1.0e-4}
+  boom: {EA: 1.0e6, EIy: "EI", EIz: "EI", GJ: 20.0, rhoA: 0.3, rhoIy: 1.0e-4, rhoIz: 1.0e-4}
+bodies:
+  root: {at: [0, 0, 0], fixed: true}
+  s1: {at: [0.25, 0, 0.433013], mass: "m", inertia: [0.001, 0.001, 0.001]}
+  s2: {at: [0.5, 0, 0], mass: 0.1, inertia: [0.001, 0.001, 0.001]}
+  tip: {at: [1.0, 0, 0], mass: 0.05, inertia: [0.0005, 0.0005, 0.0005]}
+beams:
+  bay1: {from: root, to: s1, section: bay, rigid: true,
+         start: {hinge: {axis: [0, 1, 0], stiffness: "k", damping: "c", rest_angle: pi/3 + 0.3, lock_at: pi/3}}}
+  bay2: {from: s1, to: s2, section: bay, rigid: true,
+         start: {hinge: {axis: [0, -1, 0], stiffness: "k", rest_angle: 2*pi/3 + 0.3, limits: [-1.0, 2*pi/3],
+                         restitution: 0.5}}}
+  boom: {from: s2, to: tip, section: boom, elements: 3}
+loads:
+  - {at: tip, force: [0, 0, "-F"]}
+solve: {analysis: transient, t_end: 0.5, dt: 0.005, sensitivities: [k, c, m, EI, F]}
+output:
+  every: 0.035
+  probes:
+    tip_x: {point: tip, quantity: position, component: x}
+    tip_z: {point: tip, quantity: position, component: z}
+    knee1: {hinge: bay1.start, quantity: angle}
+    knee2: {hinge: bay2.start, quantity: angle}
+    boom_n: {element: "boom.element[0]", quantity: axial_force}
+"""
+
+
+def _run(monkeypatch, in_loop: bool, rows_in_loop: bool):
+    with monkeypatch.context() as patch:
+        patch.setattr("latdyn.analyses.sensitivities_in_loop.SENSITIVITIES_IN_LOOP", in_loop)
+        patch.setattr("latdyn.timeloop.loop.SENSITIVITY_ROWS_IN_LOOP", rows_in_loop, raising=False)
+        return latdyn.run(latdyn.load_scene(yaml.safe_load(CHAIN_LATCH_AND_STOP)))
+
+
+def test_a_linked_chain_latching_and_bouncing_gives_the_same_bits_with_every_switch(monkeypatch):
+    """The latch's and the stop's steps from Python, every other step in the loop; rows every 7th step recorded in
+    the loop or from Python, the loop on or off: the sensitivities, probes and events' time derivatives to the bit."""
+    reference = _run(monkeypatch, True, True)
+    summary = reference.summary
+    assert [event["kind"] for event in summary["events"]] == ["latch", "stop"]
+    assert summary["steps"] - 4 <= summary["sensitivity_steps_in_loop"] < summary["steps"]
+    assert len(reference.probes["knee1"]) == 16   # t = 0, 0.035, …, 0.49, 0.5
+    for in_loop, rows_in_loop in ((True, False), (False, True), (False, False)):
+        other = _run(monkeypatch, in_loop, rows_in_loop)
+        assert other.summary["sensitivity_steps_in_loop"] == (summary["sensitivity_steps_in_loop"] if in_loop else 0)
+        assert other.sensitivities.keys() == reference.sensitivities.keys()
+        for key, values in reference.sensitivities.items():
+            np.testing.assert_array_equal(other.sensitivities[key], values, err_msg=f"{key} {in_loop} {rows_in_loop}")
+        for key, values in reference.probes.items():
+            np.testing.assert_array_equal(other.probes[key], values, err_msg=key)
+        assert other.summary["probe_sensitivities"] == summary["probe_sensitivities"]
+        assert other.summary["event_sensitivities"] == summary["event_sensitivities"]
+
+
+def test_the_chain_interrupted_in_the_loop_between_its_latch_and_its_stop_resumes_to_the_same_files(
+        tmp_path, monkeypatch):
+    """Ctrl-C as a loop of steps starts after the latch and before the stop; resumed, sensitivities.csv and the
+    summary's sensitivities are the uninterrupted run's, byte for byte."""
+    scene = yaml.safe_load(CHAIN_LATCH_AND_STOP)
+    resumed_inside_the_loop_is_whole(scene, tmp_path, monkeypatch, 0.3)
