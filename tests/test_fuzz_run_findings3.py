@@ -3,8 +3,15 @@ loop of steps; fuzz4, 2026-11-28): the combinations its stress runs tried that n
 rigid bays whose first hinge latches and whose second bounces off a stop with restitution, rows every 7th step,
 takes its smooth steps' sensitivities in the loop, and the four settings of the private switches
 (``SENSITIVITIES_IN_LOOP``, ``SENSITIVITY_ROWS_IN_LOOP``) give the same bits; interrupted inside the loop after
-the latch it resumes to the same files."""
+the latch it resumes to the same files. Found and mended: a modal run through the API gave other bits than
+``latdyn run`` where SciPy's OpenBLAS was first loaded inside the run (its eigensolver), on the machine's cores."""
 from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -80,3 +87,60 @@ def test_the_chain_interrupted_in_the_loop_between_its_latch_and_its_stop_resume
     summary's sensitivities are the uninterrupted run's, byte for byte."""
     scene = yaml.safe_load(CHAIN_LATCH_AND_STOP)
     resumed_inside_the_loop_is_whole(scene, tmp_path, monkeypatch, 0.3)
+
+
+#: a free hub with six spokes of eight elements (294 coordinates) out of the plane: its modes by SciPy's eigensolver,
+#: which loads SciPy's OpenBLAS inside the run when nothing imported SciPy before
+FREE_HUB_MODES = """
+title: a free hub with six spokes
+sections:
+  s: {EA: 1.0e5, EIy: 20.0, EIz: 25.0, GJ: 15.0, rhoA: 0.5, rhoIy: 0.001, rhoIz: 0.001}
+bodies:
+  hub: {at: [0, 0, 0], mass: 2.0, inertia: [0.1, 0.12, 0.15]}
+  t0: {at: [1.0, 0.0, 0.0], mass: 0.1}
+  t1: {at: [0.5, 0.866, 0.1], mass: 0.1}
+  t2: {at: [-0.5, 0.866, 0.2], mass: 0.1}
+  t3: {at: [-1.0, 0.0, 0.3], mass: 0.1}
+  t4: {at: [-0.5, -0.866, 0.4], mass: 0.1}
+  t5: {at: [0.5, -0.866, 0.5], mass: 0.1}
+beams:
+  b0: {from: hub, to: t0, section: s, elements: 8}
+  b1: {from: hub, to: t1, section: s, elements: 8}
+  b2: {from: hub, to: t2, section: s, elements: 8}
+  b3: {from: hub, to: t3, section: s, elements: 8}
+  b4: {from: hub, to: t4, section: s, elements: 8}
+  b5: {from: hub, to: t5, section: s, elements: 8}
+solve: {analysis: modes, count: 12}
+"""
+
+#: the API run in a fresh process that has not imported SciPy, NumPy's OpenBLAS (and any OpenBLAS loaded later)
+#: on two threads by the user's variable; the counts of both libraries read back after the run
+API = """\
+import json, sys
+import latdyn
+latdyn.run(latdyn.load_scene(sys.argv[1]), out_dir=sys.argv[2])
+from threadpoolctl import threadpool_info
+print(json.dumps({name: [lib["num_threads"] for lib in threadpool_info() if f"/{name}.libs/" in lib["filepath"]]
+                  for name in ("numpy", "scipy")}))
+"""
+
+
+def test_modes_through_the_api_give_the_commands_bits_where_scipy_loads_inside_the_run(tmp_path):
+    """``latdyn run`` (OpenBLAS on one thread from its start) and ``latdyn.run`` in a process where SciPy's OpenBLAS
+    is first loaded by the run's eigensolver: the same modes.csv, byte for byte; after the run both libraries are
+    on the user's two threads. Before: SciPy's OpenBLAS ran on two threads inside the run, frequencies off in
+    their last bits (2.264289746623491 Hz against 2.2642897465945193)."""
+    scene = tmp_path / "hub.yaml"
+    scene.write_text(FREE_HUB_MODES)
+    root = Path(__file__).resolve().parents[1]
+    environment = {key: value for key, value in os.environ.items()
+                   if key not in ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS", "OMP_NUM_THREADS")}
+    environment["PYTHONPATH"] = os.pathsep.join(p for p in (str(root), os.environ.get("PYTHONPATH", "")) if p)
+    command = subprocess.run([sys.executable, "-m", "latdyn", "run", str(scene), "-o", str(tmp_path / "command"),
+                              "-q"], env=environment, capture_output=True, text=True, timeout=600)
+    assert command.returncode == 0, command.stderr
+    api = subprocess.run([sys.executable, "-c", API, str(scene), str(tmp_path / "api")],
+                         env={**environment, "OPENBLAS_NUM_THREADS": "2"}, capture_output=True, text=True, timeout=600)
+    assert api.returncode == 0, api.stderr
+    assert json.loads(api.stdout.strip().splitlines()[-1]) == {"numpy": [2], "scipy": [2]}
+    assert (tmp_path / "api" / "modes.csv").read_bytes() == (tmp_path / "command" / "modes.csv").read_bytes()
