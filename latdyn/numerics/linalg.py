@@ -311,16 +311,18 @@ def blas_on_one_thread():
                 functions[1](1)
             if name == "numpy" and functions is not None:
                 callers = pinned[-1][1] if pinned else functions[0]()
+    watched = callers is not None   # where NumPy's count is known (Linux), it is given to a SciPy loaded inside
+    if watched:
         os.environ["OPENBLAS_NUM_THREADS"] = "1"   # an OpenBLAS loaded inside the block starts on one thread
     try:
         yield
     finally:
-        if variable != "1":
+        if watched:
             if variable is None:
                 os.environ.pop("OPENBLAS_NUM_THREADS", None)
             else:
                 os.environ["OPENBLAS_NUM_THREADS"] = variable
-            if not scipy_loaded and callers not in (None, 1) and "scipy" in sys.modules:
+            if not scipy_loaded and callers != 1 and "scipy" in sys.modules:
                 functions = _loaded_thread_functions(_in_scipy_folder)   # loaded inside the block, on one thread
                 if functions is not None:
                     _PINNABLE["scipy"] = functions
