@@ -19,39 +19,17 @@ import yaml
 
 import latdyn
 from tests.resumed_runs import resumed_inside_the_loop_is_whole
+from tests.test_sensitivities_in_loop_links import CHAIN
 
-#: two rigid bays swung open by their hinges' springs carrying a flexible boom: the first latches in line
-#: (t = 0.2512 s), the second bounces off its stop at 2π/3 (t = 0.3404 s, restitution 0.5); rows every 7th step
-CHAIN_LATCH_AND_STOP = """
-title: a chain of rigid bays, the first latching, the second bouncing off its stop
-parameters: {k: 1.5, c: 0.02, m: 0.1, EI: 30.0, F: 0.2}
-sections:
-  bay: {EA: 1.0e7, EIy: 1.0e4, EIz: 1.0e4, GJ: 1.0e4, rhoA: 0.5, rhoIy: 1.0e-4, rhoIz: 1.0e-4}
-  boom: {EA: 1.0e6, EIy: "EI", EIz: "EI", GJ: 20.0, rhoA: 0.3, rhoIy: 1.0e-4, rhoIz: 1.0e-4}
-bodies:
-  root: {at: [0, 0, 0], fixed: true}
-  s1: {at: [0.25, 0, 0.433013], mass: "m", inertia: [0.001, 0.001, 0.001]}
-  s2: {at: [0.5, 0, 0], mass: 0.1, inertia: [0.001, 0.001, 0.001]}
-  tip: {at: [1.0, 0, 0], mass: 0.05, inertia: [0.0005, 0.0005, 0.0005]}
-beams:
-  bay1: {from: root, to: s1, section: bay, rigid: true,
-         start: {hinge: {axis: [0, 1, 0], stiffness: "k", damping: "c", rest_angle: pi/3 + 0.3, lock_at: pi/3}}}
-  bay2: {from: s1, to: s2, section: bay, rigid: true,
-         start: {hinge: {axis: [0, -1, 0], stiffness: "k", rest_angle: 2*pi/3 + 0.3, limits: [-1.0, 2*pi/3],
-                         restitution: 0.5}}}
-  boom: {from: s2, to: tip, section: boom, elements: 3}
-loads:
-  - {at: tip, force: [0, 0, "-F"]}
-solve: {analysis: transient, t_end: 0.5, dt: 0.005, sensitivities: [k, c, m, EI, F]}
-output:
-  every: 0.035
-  probes:
-    tip_x: {point: tip, quantity: position, component: x}
-    tip_z: {point: tip, quantity: position, component: z}
-    knee1: {hinge: bay1.start, quantity: angle}
-    knee2: {hinge: bay2.start, quantity: angle}
-    boom_n: {element: "boom.element[0]", quantity: axial_force}
-"""
+#: tests/test_sensitivities_in_loop_links.py's chain of two rigid bays carrying a flexible boom, its first bay
+#: latching in line (t = 0.2512 s), its second bouncing off its stop at 2π/3 (t = 0.3404 s, restitution 0.5) instead
+#: of latching; rows every 7th step, the boom's axial force among the probes
+CHAIN_LATCH_AND_STOP = (CHAIN.replace("rest_angle: 2*pi/3 + 0.3, lock_at: 2*pi/3",
+                                      "rest_angle: 2*pi/3 + 0.3, limits: [-1.0, 2*pi/3], restitution: 0.5")
+                        .replace("  every: 0.05\n", "  every: 0.035\n")
+                        .replace("    knee2: {hinge: bay2.start, quantity: angle}\n",
+                                 "    knee2: {hinge: bay2.start, quantity: angle}\n"
+                                 '    boom_n: {element: "boom.element[0]", quantity: axial_force}\n'))
 
 
 def _run(monkeypatch, in_loop: bool, rows_in_loop: bool):
