@@ -290,13 +290,18 @@ def blas_on_one_thread():
     differed in its last bits from its third row on where NumPy's OpenBLAS ran two threads (NumPy's products in
     the run's Python), and equals the command's on one. Nothing to do where ``OPENBLAS_NUM_THREADS`` is 1 (the
     command sets it before NumPy loads); Linux's ``/proc/self/maps`` finds each library once a process (≈ 2.5
-    ms), elsewhere nothing is pinned."""
+    ms), elsewhere nothing is pinned. SciPy's OpenBLAS first loaded inside the block (a modal analysis's
+    eigensolver, the dense LU's LAPACK) starts on one thread (``OPENBLAS_NUM_THREADS`` is 1 inside the block) and
+    is given the caller's count after it (the count NumPy's had): before, it ran on the machine's cores, and a
+    free hub's modes.csv through the API differed from the command's in its last bits (fuzz4)."""
     import os
 
-    pinned = []
-    if os.environ.get("OPENBLAS_NUM_THREADS") != "1":
+    pinned, variable = [], os.environ.get("OPENBLAS_NUM_THREADS")
+    scipy_loaded = "scipy.linalg.cython_lapack" in sys.modules
+    callers = None   # NumPy's OpenBLAS's count before the block: the caller's
+    if variable != "1":
         for name, belongs in (("numpy", _in_numpy_folder), ("scipy", _in_scipy_folder)):
-            if name == "scipy" and "scipy.linalg.cython_lapack" not in sys.modules:
+            if name == "scipy" and not scipy_loaded:
                 continue   # SciPy's OpenBLAS is not loaded (nor looked for)
             if name not in _PINNABLE:
                 _PINNABLE[name] = _loaded_thread_functions(belongs)
@@ -304,9 +309,24 @@ def blas_on_one_thread():
             if functions is not None and functions[0]() != 1:
                 pinned.append((functions[1], functions[0]()))
                 functions[1](1)
+            if name == "numpy" and functions is not None:
+                callers = pinned[-1][1] if pinned else functions[0]()
+    watched = callers is not None   # where NumPy's count is known (Linux), it is given to a SciPy loaded inside
+    if watched:
+        os.environ["OPENBLAS_NUM_THREADS"] = "1"   # an OpenBLAS loaded inside the block starts on one thread
     try:
         yield
     finally:
+        if watched:
+            if variable is None:
+                os.environ.pop("OPENBLAS_NUM_THREADS", None)
+            else:
+                os.environ["OPENBLAS_NUM_THREADS"] = variable
+            if not scipy_loaded and callers != 1 and "scipy" in sys.modules:
+                functions = _loaded_thread_functions(_in_scipy_folder)   # loaded inside the block, on one thread
+                if functions is not None:
+                    _PINNABLE["scipy"] = functions
+                    functions[1](callers)
         for put, count in pinned:
             put(count)
 
