@@ -11,7 +11,7 @@ import pytest
 import yaml
 
 import latdyn
-from tests.cli_runs import latdyn_run, latdyn_run_switched, summary_of
+from tests.cli_runs import latdyn_run, summary_of, the_loop_off_writes_the_same
 from tests.test_sensitivities_geometry import (CONTACT_BY_PLACE, KNEE_3D, KNEE_SPINNING, LATCH_BY_LENGTH, PLANAR_SWING,
                                                 STOP_BY_PLACE, _hinge_axis_scene, _loaded_at_the_offset)
 
@@ -119,14 +119,7 @@ def test_the_cli_writes_the_python_paths_files(tmp_path):
     assert completed.returncode == 0, completed.stderr
     summary = summary_of(out)
     assert summary["time_loop"] == "compiled" and summary["sensitivity_steps_in_loop"] == summary["steps"] == 15
-    reference = tmp_path / "python"
-    run = latdyn_run_switched(tmp_path, tmp_path / "scene.yaml", reference,
-                              "import latdyn.analyses.sensitivities_in_loop as loop; loop.SENSITIVITIES_IN_LOOP = False")
-    assert run.returncode == 0, run.stderr
-    assert summary_of(reference)["sensitivity_steps_in_loop"] == 0
-    for name in ("sensitivities.csv", "probes.csv"):
-        assert (out / name).read_bytes() == (reference / name).read_bytes(), name
-    assert summary["probe_sensitivities"] == summary_of(reference)["probe_sensitivities"]
+    the_loop_off_writes_the_same(tmp_path, out)
 
 
 @pytest.mark.parametrize("backend", ["numpy", "c"])

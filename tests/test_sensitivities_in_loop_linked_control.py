@@ -15,7 +15,7 @@ import pytest
 import yaml
 
 import latdyn
-from tests.cli_runs import latdyn_run, latdyn_run_switched, summary_of
+from tests.cli_runs import latdyn_run, summary_of, the_loop_off_writes_the_same
 from tests.test_sensitivities_events import _agree
 from tests.test_sensitivities_in_loop_links import \
     test_the_linked_steps_in_the_loop_are_the_python_paths as _the_linked_steps_are_the_python_paths
@@ -97,12 +97,4 @@ def test_the_cli_writes_the_pd_slider_cranks_python_path_files(tmp_path):
     assert completed.returncode == 0, completed.stderr
     summary = summary_of(out)
     assert summary["time_loop"] == "compiled" and summary["steps"] - 2 <= summary["sensitivity_steps_in_loop"]
-    reference = tmp_path / "python"
-    run = latdyn_run_switched(tmp_path, tmp_path / "scene.yaml", reference,
-                              "import latdyn.analyses.sensitivities_in_loop as loop; loop.SENSITIVITIES_IN_LOOP = False")
-    assert run.returncode == 0, run.stderr
-    assert summary_of(reference)["sensitivity_steps_in_loop"] == 0
-    for name in ("sensitivities.csv", "probes.csv"):
-        assert (out / name).read_bytes() == (reference / name).read_bytes(), name
-    for key in ("probe_sensitivities", "event_sensitivities"):
-        assert summary[key] == summary_of(reference)[key], key
+    the_loop_off_writes_the_same(tmp_path, out)

@@ -13,7 +13,7 @@ import pytest
 import yaml
 
 import latdyn
-from tests.cli_runs import ROOT, latdyn_run, latdyn_run_switched, summary_of
+from tests.cli_runs import ROOT, latdyn_run, summary_of, the_loop_off_writes_the_same
 from tests.resumed_runs import resumed_inside_the_loop_is_whole
 from tests.test_sensitivities_events import _agree
 from tests.test_sensitivities_guides import GUIDE_3D
@@ -124,14 +124,7 @@ def test_the_cli_writes_the_shipped_slider_cranks_python_path_files(tmp_path):
     assert completed.returncode == 0, completed.stderr
     summary = summary_of(out)
     assert summary["time_loop"] == "compiled" and summary["sensitivity_steps_in_loop"] == summary["steps"] == 100
-    reference = tmp_path / "python"
-    run = latdyn_run_switched(tmp_path, tmp_path / "scene.yaml", reference,
-                              "import latdyn.analyses.sensitivities_in_loop as loop; loop.SENSITIVITIES_IN_LOOP = False")
-    assert run.returncode == 0, run.stderr
-    assert summary_of(reference)["sensitivity_steps_in_loop"] == 0
-    for name in ("sensitivities.csv", "probes.csv"):
-        assert (out / name).read_bytes() == (reference / name).read_bytes(), name
-    assert summary["probe_sensitivities"] == summary_of(reference)["probe_sensitivities"]
+    the_loop_off_writes_the_same(tmp_path, out)
 
 
 def test_a_linked_run_interrupted_inside_the_loop_resumes_to_the_same_files(tmp_path, monkeypatch):

@@ -332,15 +332,16 @@ def blas_on_one_thread():
 
 
 def _scipy_openblas_from_maps() -> tuple[int | None, int | None] | None:
-    """Linux: the thread functions of the OpenBLAS that ``/proc/self/maps`` shows loaded from SciPy's
-    folder; None where that file is not there or shows no such library (then threadpoolctl looks,
-    which inspects every loaded library: 8–10 ms of a 5-step run's process, docs/performance.md,
-    "First run")."""
+    """Linux: the addresses of the thread functions of the OpenBLAS that ``/proc/self/maps`` shows loaded from SciPy's
+    folder (:func:`_loaded_thread_functions`); None where that file is not there or shows no such library (then
+    threadpoolctl looks, which inspects every loaded library: 8–10 ms of a 5-step run's process,
+    docs/performance.md, "First run")."""
     import ctypes
 
-    library = loaded_openblas(_in_scipy_folder)
-    if library is None:
+    functions = _loaded_thread_functions(_in_scipy_folder)
+    if functions is None:
         return None
+    return tuple(ctypes.cast(function, ctypes.c_void_p).value for function in functions)
     for prefix, suffix in _OPENBLAS_AFFIXES:
         get = getattr(library, f"{prefix}openblas_get_num_threads{suffix}", None)
         put = getattr(library, f"{prefix}openblas_set_num_threads{suffix}", None)
