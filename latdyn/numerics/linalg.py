@@ -342,12 +342,6 @@ def _scipy_openblas_from_maps() -> tuple[int | None, int | None] | None:
     if functions is None:
         return None
     return tuple(ctypes.cast(function, ctypes.c_void_p).value for function in functions)
-    for prefix, suffix in _OPENBLAS_AFFIXES:
-        get = getattr(library, f"{prefix}openblas_get_num_threads{suffix}", None)
-        put = getattr(library, f"{prefix}openblas_set_num_threads{suffix}", None)
-        if get is not None and put is not None:
-            return ctypes.cast(get, ctypes.c_void_p).value, ctypes.cast(put, ctypes.c_void_p).value
-    return None
 
 
 def openblas_thread_functions() -> tuple[int | None, int | None]:
