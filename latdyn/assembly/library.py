@@ -435,7 +435,15 @@ def native_library() -> ctypes.CDLL:
         library.latdyn_static_iteration.argtypes = [model, work, static, configuration, P]
         library.latdyn_static_newton.restype = I64
         library.latdyn_static_newton.argtypes = [model, work, static, configuration, P]
+        library.latdyn_lookup3.restype = ctypes.c_uint32
+        library.latdyn_lookup3.argtypes = [ctypes.c_char_p, I64, ctypes.c_uint32]
         _LIBRARY = library
+    return _LIBRARY
+
+
+def loaded_library() -> ctypes.CDLL | None:
+    """The library :func:`native_library` loaded, or None before it has (nothing is compiled or loaded
+    here: latdyn's HDF5 writer checksums through it where a run has it, in Python otherwise)."""
     return _LIBRARY
 
 

@@ -44,6 +44,7 @@ from __future__ import annotations
 
 import os
 import struct
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -57,6 +58,7 @@ CHUNK_BTREE_K = 32  # the chunk B-tree's K (superblock version 0 cannot name ano
 GLOBAL_HEAP_MIN = 4096  # HDF5 reads a global heap collection's first 4096 bytes
 MESSAGE_MAX = 0xFFFF
 _PWRITE = hasattr(os, "pwrite")
+_PWRITEV = hasattr(os, "pwritev")
 _BINARY = getattr(os, "O_BINARY", 0)  # Windows: no newline translation
 
 #: object header message types (format specification, IV.A.2)
@@ -165,8 +167,20 @@ def _pad_to(data: bytes, k: int) -> bytes:
     return bytes(data) + bytes(-len(data) % k)
 
 
+def checksum(data: bytes) -> int:
+    """:func:`lookup3` of ``data``, in C (``latdyn_lookup3`` of latdyn/assembly/csrc/checksum.c) where the
+    process has loaded the runtime's native library (a run's compiled steps), else in Python: the same
+    value (tests/test_hdf5_writer.py). Nothing is compiled or loaded here."""
+    library = sys.modules.get("latdyn.assembly.library")
+    native = library.loaded_library() if library is not None else None
+    if native is None:
+        return lookup3(data)
+    data = bytes(data)
+    return native.latdyn_lookup3(data, len(data), 0)
+
+
 def _checksummed(data: bytes) -> bytes:
-    return data + struct.pack("<I", lookup3(data))
+    return data + struct.pack("<I", checksum(data))
 
 
 # ----------------------------------------------------------------------------- attributes
@@ -255,6 +269,7 @@ class _Object:
         strings, ``np.bytes_`` as a fixed-length ASCII string, an empty list as float64 (0,), numbers
         and NumPy arrays as their type."""
         self.attrs[str(name)] = _Attribute(str(name), value)
+        self.file._changed = True
         if self._attribute_chunk is not None and name in self._attribute_chunk[0]:
             self._attribute_chunk = None
 
@@ -332,6 +347,7 @@ class Group(_Object):
             raise ValueError(f"link name {name!r}: empty or taken")
         self.children[name] = obj
         obj.links += 1
+        self.file._changed = True
         return obj
 
     def __getitem__(self, path: str) -> _Object:
@@ -397,14 +413,15 @@ class Dataset(_Object):
             index, first = divmod(row, self.chunk_rows)
             stop = min(end, (index + 1) * self.chunk_rows)
             piece = data[(row - self.rows) * self.row_bytes:(stop - self.rows) * self.row_bytes]
-            if index == len(self.chunk_addresses):
-                chunk = bytearray(self._fill_chunk)
-                chunk[first * self.row_bytes:first * self.row_bytes + len(piece)] = piece
-                self.chunk_addresses.append(self.file._append(bytes(chunk)))
+            if index == len(self.chunk_addresses):  # the piece and the fill value around it, no whole copy
+                start, end_ = first * self.row_bytes, first * self.row_bytes + len(piece)
+                self.chunk_addresses.append(self.file._append_parts(
+                    (self._fill_chunk[:start], piece, self._fill_chunk[end_:])))
             else:
                 self.file._write(self.chunk_addresses[index] + first * self.row_bytes, piece)
             row = stop
         self.rows = end
+        self.file._changed = True
 
     def grow(self, n: int) -> None:
         """``n`` rows of the fill value after the last (the chunks they need allocated; a chunk is
@@ -413,6 +430,7 @@ class Dataset(_Object):
         while len(self.chunk_addresses) * self.chunk_rows < end:
             self.chunk_addresses.append(self.file._append(self._fill_chunk))
         self.rows = end
+        self.file._changed = True
 
     def _chunk_index(self) -> int:
         """The address of the chunks' B-tree (written anew when a chunk was added)."""
@@ -458,6 +476,8 @@ class File:
         self._areas = [(0, 0), (0, 0)]  # the two metadata areas: (address, capacity)
         self._current = 1  # the area the superblock points at (the other is written next)
         self._flushed = False
+        self._changed = True  # something written or set since the last flush
+        self._synced = False  # the last flush was synced to the disk
         self._leaves: dict = {}  # full B-tree leaves already written: their entries -> address
 
     # -- space
@@ -468,15 +488,30 @@ class File:
         self._eof = address + len(data) + (-len(data) % 8)
         return address
 
+    def _append_parts(self, parts) -> int:
+        """The bytes of ``parts`` (bytes-like, one after the other) written at the end of the file (8-byte
+        aligned), as :meth:`_append` of them joined; its address."""
+        address, size = self._eof, sum(len(part) for part in parts)
+        parts = [part for part in parts if len(part)] + [_PADS[-size % 8]]
+        if _PWRITEV:
+            os.pwritev(self._fd, parts, address)  # the system writes it all (a regular file) or raises
+        else:
+            self._write(address, b"".join(parts))
+        self._eof = address + size + (-size % 8)
+        self._changed = True
+        return address
+
     def _write(self, address: int, data) -> None:
         """``data`` written at ``address`` (``os.pwrite``; a seek and a write where there is none)."""
         if _PWRITE:
             os.pwrite(self._fd, data, address)
+            self._changed = True
             return
         os.lseek(self._fd, address, os.SEEK_SET)
         view = memoryview(data)
         while len(view):
             view = view[os.write(self._fd, view):]
+        self._changed = True
 
     def _btree(self, chunks: list[int], chunk_rows: int, rank: int, chunk_bytes: int) -> int:
         """A version 1 B-tree (type 1: chunks) over ``chunks`` (addresses, one a chunk of ``chunk_rows``
@@ -520,10 +555,20 @@ class File:
     def flush(self, durable: bool = False) -> None:
         """Everything written so far, a complete file: the object headers into the metadata area the
         superblock does not point at, then the superblock (module docstring). ``durable``: synced to
-        the disk before (but at the first flush) and after the superblock."""
+        the disk before (but at the first flush) and after the superblock. Nothing written or set since the
+        last flush: nothing is written again (a durable flush syncs the file where the last was not)."""
+        if not self._changed:
+            if durable and not self._synced:
+                os.fsync(self._fd)
+                self._synced = True
+            return
         area = 1 - self._current
         address, capacity = self._areas[area]
-        blob = self._metadata(address)
+        if capacity == 0:  # the area is new: at the end of the file once what the headers point at is there
+            self._prepare(self.root, set())
+            address = self._eof
+        base = address
+        blob = self._metadata(base)
         if len(blob) > capacity:  # a new area at the end of the file, room to grow (the other too, if unused)
             for which in (area, 1 - area) if self._areas[1 - area][1] == 0 else (area,):
                 address, capacity = self._eof, 2 * len(blob) + 512
@@ -531,7 +576,8 @@ class File:
                 self._write(address, bytes(capacity))  # the area's end is in the file
                 self._areas[which] = (address, capacity)
             address, capacity = self._areas[area]
-            blob = self._metadata(address)
+            if address != base:  # encoded for another place
+                blob = self._metadata(address)
         self._write(address, blob)
         root = address + self._root_offset
         if durable and self._flushed:  # (a first flush has no earlier file to keep)
@@ -542,6 +588,21 @@ class File:
         if durable:
             os.fsync(self._fd)
         self._current, self._flushed = area, True
+        self._changed, self._synced = False, durable
+
+    def _prepare(self, obj: _Object, seen: set) -> None:
+        """What the object headers point at written at the end of the file (the chunks' B-trees, the
+        attributes' heaps and chunks) in the order :meth:`_metadata` writes it, so that a new metadata
+        area after it is where the headers are encoded for (one encoding, not two)."""
+        if id(obj) in seen:
+            return
+        seen.add(id(obj))
+        if isinstance(obj, Group):
+            for name in sorted(obj.children):  # as Group._encode walks them
+                self._prepare(obj.children[name], seen)
+        elif obj.chunks is not None:
+            obj._chunk_index()
+        obj._attribute_messages()
 
     def _metadata(self, base: int) -> bytes:
         """The object headers of every object reachable from the root (children before parents), as
