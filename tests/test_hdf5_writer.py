@@ -427,3 +427,61 @@ def test_a_state_whose_labels_do_not_fit_an_object_header_is_written_by_h5py(tmp
         again.close()
         with h5py.File(tmp_path / str(nodes) / "state.h5", "r") as f:
             assert f["x"].shape == (2, 3 * nodes) and list(f.attrs["nodes"]) == names
+
+
+# ----------------------------------------------------------------------------- its cost (issue 31)
+def test_lookup3_in_c_is_the_python_reference():
+    """The checksum of state.h5's headers: ``latdyn_lookup3`` of the runtime's library (csrc/checksum.c),
+    which a run uses, gives the Python ``lookup3`` (the reference: Bob Jenkins' own test values) for every
+    length of a last block and for large data; ``checksum`` takes it once the library is loaded."""
+    from latdyn.assembly import library
+
+    words = b"Four score and seven years ago"
+    assert [hdf5_writer.lookup3(b"", 0), hdf5_writer.lookup3(b"", 0xDEADBEEF), hdf5_writer.lookup3(words, 0),
+            hdf5_writer.lookup3(words, 1)] == [0xDEADBEEF, 0xBD5B7DDE, 0x17770551, 0xCD628161]
+    native = library.native_library()
+    data = np.random.default_rng(3).integers(0, 256, 30_000, dtype=np.uint8).tobytes()
+    for n in [*range(0, 40), 9932, 30_000]:
+        for initval in (0, 1, 0xDEADBEEF):
+            assert native.latdyn_lookup3(data[:n], n, initval) == hdf5_writer.lookup3(data[:n], initval), (n, initval)
+    assert library.loaded_library() is native
+    calls = []
+    real = native.latdyn_lookup3
+    try:
+        native.latdyn_lookup3 = lambda *a: calls.append(a) or real(*a)
+        assert hdf5_writer.checksum(data) == hdf5_writer.lookup3(data) and len(calls) == 1
+    finally:
+        native.latdyn_lookup3 = real
+
+
+def test_a_flush_with_nothing_new_writes_nothing_and_a_first_flush_encodes_once(tmp_path, monkeypatch):
+    """A flush after another with nothing appended, grown or set writes nothing (a durable one syncs the
+    file once where the last flush did not); rows appended or grown within a chunk, an attribute or a
+    link set since, and it writes. A file's first flush encodes its headers once."""
+    writes, syncs, encodes = [], [], []
+    real_write, real_metadata = hdf5_writer.File._write, hdf5_writer.File._metadata
+    monkeypatch.setattr(hdf5_writer.File, "_write", lambda self, at, data: writes.append(at) or real_write(self, at, data))
+    monkeypatch.setattr(hdf5_writer.File, "_metadata", lambda self, base: encodes.append(base) or real_metadata(self, base))
+    monkeypatch.setattr(hdf5_writer.os, "fsync", lambda fd: syncs.append(fd))
+    f = hdf5_writer.File(tmp_path / "f.h5", header_version=2)
+    x = f.root.create_growing("x", (2,), "f8", (8, 2))
+    n = f.root.create_growing("n", (), "i8", (8,), fillvalue=1)
+    x.set_attribute("columns", ["a", "b"])
+    x.append(np.ones((3, 2)))
+    f.flush()
+    assert len(encodes) == 1
+    for change in (lambda: None, lambda: x.append(np.ones((1, 2))), lambda: n.grow(1), lambda: n.grow(1),
+                   lambda: x.set_attribute("unit", "m"), lambda: f.root.link("also x", x)):
+        change()
+        before = len(writes)
+        f.flush()
+        assert (len(writes) > before) is (change.__code__.co_names != ()), change.__code__.co_names
+    before = len(writes), len(syncs)
+    f.flush(durable=True)
+    f.flush(durable=True)
+    f.flush()
+    assert (len(writes), len(syncs)) == (before[0], before[1] + 1)
+    f.close(durable=True)
+    assert (len(writes), len(syncs)) == (before[0], before[1] + 1)
+    with h5py.File(tmp_path / "f.h5", "r") as r:
+        assert r["x"].shape == (4, 2) and r["n"][()].tolist() == [1, 1] and r["also x"].attrs["unit"] == "m"

@@ -257,6 +257,11 @@ def fits(name: str, value) -> bool:
 
 
 # ----------------------------------------------------------------------------- objects
+def _big(attribute: _Attribute) -> bool:
+    """Whether an attribute goes to the chunk written once (variable-length strings, or long values)."""
+    return attribute.strings is not None or len(attribute.data) > 64
+
+
 class _Object:
     def __init__(self, file: "File"):
         self.file = file
@@ -268,16 +273,16 @@ class _Object:
         """``attrs[name] = value`` as h5py stores it: str and lists of str as variable-length UTF-8
         strings, ``np.bytes_`` as a fixed-length ASCII string, an empty list as float64 (0,), numbers
         and NumPy arrays as their type."""
-        self.attrs[str(name)] = _Attribute(str(name), value)
+        attribute = self.attrs[str(name)] = _Attribute(str(name), value)
         self.file._changed = True
-        if self._attribute_chunk is not None and name in self._attribute_chunk[0]:
-            self._attribute_chunk = None
+        if self._attribute_chunk is not None and (name in self._attribute_chunk[0] or _big(attribute)):
+            self._attribute_chunk = None  # written anew with it at the next flush
 
     def _attribute_messages(self) -> tuple[list[bytes], tuple | None]:
         """The attribute messages kept in the header, and the continuation (address, length, count)
         of those written once (variable-length values: their heap and message written at the first
         flush that has them)."""
-        big = [a for a in self.attrs.values() if a.strings is not None or len(a.data) > 64]
+        big = [a for a in self.attrs.values() if _big(a)]
         if self._attribute_chunk is None and big:  # one heap for the object's strings
             encoded = [[s.encode("utf-8") for s in a.strings] if a.strings is not None else [] for a in big]
             every = [s for strings in encoded for s in strings]
