@@ -524,3 +524,24 @@ def test_free_joints_forces_are_their_laws_without_an_evaluation_of_the_elements
     law = -stiffness * state.theta - damping * state.theta_dot  # rest angle 0
     assert len(model.hinges) == 2
     np.testing.assert_allclose(forces, law, rtol=1e-13, atol=1e-15)
+
+
+def test_the_last_recorded_state_of_a_block_outlives_the_next_loop_call(tmp_path, monkeypatch):
+    """A block's rows are written from views of the loop's buffers (not copied first); the state of its last
+    row, which a checkpoint keeps (TimeLoop.last_recorded), is a copy: after the later loop calls have
+    written their rows into the same buffers, each is still the state its row recorded."""
+    monkeypatch.setattr(compiled_module, "MAX_ROWS", 3)
+    kept = []
+    original = TimeLoop._record_rows
+
+    def recorded(self, block):
+        original(self, block)
+        last = block.state(len(block) - 1)
+        kept.append((self.last_recorded, {name: np.array(getattr(last, name)) for name in ("x", "T", "v", "w", "a")}))
+
+    monkeypatch.setattr(TimeLoop, "_record_rows", recorded)
+    latdyn.run(latdyn.load_scene(yaml.safe_load(driven_beam(False))), tmp_path / "out")
+    assert len(kept) >= 10
+    for state, at_its_row in kept:
+        for name, values in at_its_row.items():
+            assert np.array_equal(getattr(state, name), values), name

@@ -547,14 +547,13 @@ class RowBlock:
         s = self.states
         return State(float(s.t[r]), *(getattr(s, name)[r] for name in STATE_FIELDS))
 
-    def kept(self, rows: int) -> "RowBlock":
-        """The first ``rows`` rows, copied out of the buffers (valid after the next loop call)."""
+    def first(self, rows: int) -> "RowBlock":
+        """The first ``rows`` rows (views of the same buffers: valid until the next loop call)."""
         def first(array):
-            return None if array is None else array[:rows].copy()
+            return None if array is None else array[:rows]
 
         s = self.states
-        return RowBlock(self.scalars[:rows].copy(),
-                        State(s.t[:rows].copy(), *(getattr(s, name)[:rows].copy() for name in STATE_FIELDS)),
+        return RowBlock(self.scalars[:rows], State(s.t[:rows], *(getattr(s, name)[:rows] for name in STATE_FIELDS)),
                         first(self.section_forces), first(self.joint_forces), first(self.cable_states),
                         first(self.controller_states), first(self.controller_outputs))
 

@@ -546,13 +546,15 @@ class TimeLoop:
                              block.column("dissipated"), block.momenta if probes.needs[0] else None,
                              block.section_forces if probes.needs[1] else None, block.joint_forces,
                              block.cable_states, block.controller_states, block.controller_outputs)
-        kept = block.kept(end)  # the states the frames and the checkpoint read later
+        # the rows up to there, views of the loop's buffers: what is written below reads them now (the state
+        # history and the frames copy what they keep); the last row's state, which a checkpoint keeps, is copied
+        kept = block if end == len(block) else block.first(end)
         s = kept.states
         history = {name: array.reshape(end, -1) for name, array in
                    (("x", s.x), ("T", s.T), ("v", s.v), ("w", s.w), ("theta", s.theta), ("theta_dot", s.theta_dot))
                    if array[0].size}  # State.as_dict of each row
         self.writer.record_rows(times[:end], values[:end], history, _BlockFrames(self, kept))
-        self.last_recorded = kept.state(end - 1)
+        self.last_recorded = kept.state(end - 1).copy()
         self.bookmark = self.writer.bookmark()
         self._judge_balance(times[end - 1], gain)
 

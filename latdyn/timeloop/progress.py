@@ -140,7 +140,7 @@ class TransientProgress:
         self.work_seen = max(self.work_seen, abs(external_work))
         self.potential_seen = max(self.potential_seen, potential_change)
         received = self.received0 + self.work_seen + self.potential_seen
-        if not np.isfinite(created):
+        if not math.isfinite(created):
             self.created = math.nan
             return math.nan
         gain = min(created, gained) / received if received > self.round_off else 0.0
@@ -152,7 +152,7 @@ class TransientProgress:
     def unbounded(self) -> bool:
         """Whether the balance has broken (docs/energy.md): the energy gain of the last row is not
         finite, or it passed :data:`UNBOUNDED`, growing, at :data:`UNBOUNDED_ROWS` rows in a row."""
-        return not np.isfinite(self.created) or self.gain_rows >= UNBOUNDED_ROWS
+        return not math.isfinite(self.created) or self.gain_rows >= UNBOUNDED_ROWS
 
     @property
     def relative_balance_error(self) -> float:
