@@ -420,8 +420,8 @@ class Dataset(_Object):
             piece = data[(row - self.rows) * self.row_bytes:(stop - self.rows) * self.row_bytes]
             if index == len(self.chunk_addresses):  # the piece and the fill value around it, no whole copy
                 start, end_ = first * self.row_bytes, first * self.row_bytes + len(piece)
-                self.chunk_addresses.append(self.file._append_parts(
-                    (self._fill_chunk[:start], piece, self._fill_chunk[end_:])))
+                fill = memoryview(self._fill_chunk)
+                self.chunk_addresses.append(self.file._append_parts((fill[:start], piece, fill[end_:])))
             else:
                 self.file._write(self.chunk_addresses[index] + first * self.row_bytes, piece)
             row = stop
