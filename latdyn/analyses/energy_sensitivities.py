@@ -542,7 +542,8 @@ def _dissipated_step(owner, before: dict, after: dict, old, new) -> dict:
     (latdyn/timeloop/progress.py hinge_work): D_{n+1} = D_n + Σ_j ½ (f_n + f_{n+1}) Δθ of the dampers' torques
     f = c(θ, θ̇, t) θ̇ (``hinge_force``'s damper torque without compliant stops and friction, which are refused), so
     δD_{n+1} = δD_n + Σ_j ½ (δf_n + δf_{n+1}) Δθ + ½ (f_n + f_{n+1}) (δθ_{n+1} − δθ_n) with
-    δf = θ̇ ∂c/∂θ δθ + (c + θ̇ ∂c/∂θ̇) δθ̇ + θ̇ ∂c/∂p. Nothing without a dissipated-energy probe."""
+    δf = θ̇ ∂c/∂θ δθ + (c + θ̇ ∂c/∂θ̇) δθ̇ + θ̇ ∂c/∂p: csrc/work_accounts.c ``latdyn_dissipated_step``, which the loop
+    of steps calls too (latdyn/analyses/sensitivities_in_loop.py). Nothing without a dissipated-energy probe."""
     if not any(p.kind == "energy" and p.quantity == "dissipated" for p in owner.probes):
         return after
     k = len(owner.names)
@@ -550,33 +551,54 @@ def _dissipated_step(owner, before: dict, after: dict, old, new) -> dict:
     torque_old, dtorque_old, dtheta_old = held if held is not None else _damper_torques(owner, old, before)
     terms = _damper_torques(owner, new, after)
     torque_new, dtorque_new, dtheta_new = terms
-    turned = np.asarray(new.theta, float) - np.asarray(old.theta, float)
-    dissipated = (before.get("dissipated_sensitivity", np.zeros(k)) + 0.5 * turned @ (dtorque_old + dtorque_new)
-                  + 0.5 * (torque_old + torque_new) @ (dtheta_new - dtheta_old))
+    dissipated = np.array(before.get("dissipated_sensitivity", np.zeros(k)), float)
+    arrays = [np.ascontiguousarray(a, np.float64) for a in (old.theta, new.theta, torque_old, dtorque_old, dtheta_old,
+                                                             torque_new, dtorque_new, dtheta_new)]
+    _work_accounts().latdyn_dissipated_step(len(owner.model.hinges), k, *(a.ctypes.data for a in arrays),
+                                            dissipated.ctypes.data)
     return {**after, "dissipated_sensitivity": dissipated, "dissipated_terms": terms}
+
+
+def _work_accounts():
+    """The native library whose csrc/work_accounts.c carries the dissipated energy's sensitivity (both paths')."""
+    from latdyn.assembly.library import native_library
+
+    return native_library()
+
+
+def damping_uses(owner) -> list:
+    """(hinge, column, derivative law) of every damping parameter's use, in the order of ``owner.derivatives``."""
+    model, uses = owner.model, []
+    for key, laws in owner.derivatives.items():
+        _, hinge = owner._key_kinds(key)   # noqa: SLF001
+        if hinge and hinge["law"] == "damping":
+            j = model.hinge_index(hinge["beam"], hinge["end"])
+            uses += [(j, column, law) for column, law in laws.items()]
+    return uses
 
 
 def _damper_torques(owner, state, carried: dict) -> tuple:
     """(f (hinges,), δf (hinges, k), δθ (hinges, k)): the dampers' torques c θ̇ at ``state`` and their derivatives
-    along ``carried``'s δq, δv (:func:`_dissipated_step`)."""
+    along ``carried``'s δq, δv (:func:`_dissipated_step`; csrc/work_accounts.c ``latdyn_damper_torques`` with the
+    damping laws' (c, ∂c/∂θ, ∂c/∂θ̇) and the damping parameters' ∂c/∂p at the state)."""
     model, k = owner.model, len(owner.names)
     _, _, dtheta = owner._by_parameter(carried["dq"], state)
     _, _, dtheta_dot = owner._rates_by_parameter(carried["dv"], carried["dq"], state)
     H = len(model.hinges)
-    torque, dtorque = np.zeros(H), np.zeros((H, k))
+    laws = np.zeros((H, 3))
     for j, hinge in enumerate(model.hinges):
         theta, rate, t, law = float(state.theta[j]), float(state.theta_dot[j]), state.t, hinge.damping
-        torque[j] = law.value(theta, rate, t) * rate
-        dtorque[j] = law.d_theta(theta, rate, t) * rate * dtheta[j] \
-            + (law.value(theta, rate, t) + law.d_rate(theta, rate, t) * rate) * dtheta_dot[j]
-    for key, laws in owner.derivatives.items():
-        _, hinge = owner._key_kinds(key)
-        if not hinge or hinge["law"] != "damping":
-            continue
-        j = model.hinge_index(hinge["beam"], hinge["end"])
-        theta, rate = float(state.theta[j]), float(state.theta_dot[j])
-        for column, law in laws.items():
-            dtorque[j, column] += law.value(theta, rate, state.t) * rate
+        laws[j] = law.value(theta, rate, t), law.d_theta(theta, rate, t), law.d_rate(theta, rate, t)
+    uses = damping_uses(owner)
+    hinge_of = np.array([j for j, _, _ in uses] or [0], np.int64)
+    column = np.array([c for _, c, _ in uses] or [0], np.int64)
+    value = np.array([law.value(float(state.theta[j]), float(state.theta_dot[j]), state.t) for j, _, law in uses]
+                     or [0.0], float)
+    torque, dtorque = np.zeros(H), np.zeros((H, k))
+    arrays = [np.ascontiguousarray(a, np.float64) for a in (state.theta_dot, laws, dtheta, dtheta_dot)]
+    _work_accounts().latdyn_damper_torques(H, k, *(a.ctypes.data for a in arrays), len(uses), hinge_of.ctypes.data,
+                                           column.ctypes.data, value.ctypes.data, torque.ctypes.data,
+                                           dtorque.ctypes.data)
     return torque, dtorque, dtheta
 
 

@@ -52,13 +52,18 @@ dense, and ∂r/∂p (the controllers' columns among them) and ∂r/∂t each re
 Python path calls too (``Assembler.linked_exact_matrix_values``, ``sensitivities.reduced_columns``), S on the full
 n × n pattern. Energy and momentum probes of a row's state alone (kinetic, strain, potential, total, linear and
 angular momenta) need no term in the step: their rows' sensitivities are TransientSensitivities.record's at each row
-from the carried δq, δv (``_energy_refusal``). Not native (the Python path): hinge and guide laws whose derivative
+from the carried δq, δv (``_energy_refusal``). The dissipated energy (a sum over the steps of the dampers' work, the
+forward run's quadrature) is carried by csrc/work_accounts.c at each step the loop accepts and at each row it
+records, the C the per-step Python path calls too (energy_sensitivities._dissipated_step), with every hinge's damping
+law and the damping parameters' derivative laws values of t alone tabulated per grid point, on models without rigid
+links or guides (``_account_refusal``; the account and its terms handed back at the loop's end). Not native (the Python path): hinge and guide laws whose derivative
 names θ, θ̇ or an input and does not compile, cable parameters whose derivative names θ, θ̇ or an input, section
 values whose derivative is a law in t or an input, linked models above DENSE_LIMIT free coordinates or whose step
 matrix is sparse, cables beside controllers or explicit time dependence beside events, controllers with states,
 sampled ones, chains, other sensors or load actuators, explicit time dependence beside events through prescribed
-motions, reels (a rest length in t) or laws of the state and t, the external work and the dissipated energy (work
-accounts carried per step in Python: energy_sensitivities.external_work_step), the NumPy kernels, and a numbering
+motions, reels (a rest length in t) or laws of the state and t, the external work (a work account carried per step in
+Python: energy_sensitivities.external_work_step), the dissipated energy of a damping law of θ, θ̇ or an input or with
+rigid links or guides, the NumPy kernels, and a numbering
 whose step matrix takes the
 sparse LU (whose failed pivot falls back to SciPy: :meth:`latdyn.analyses.step_matrix.ExactStepMatrix.solve_step`).
 
@@ -207,7 +212,8 @@ def _body_refusal(owner, key: str, laws: dict) -> str | None:
 def model_refusal(owner, differentiated: bool = False) -> str | None:
     """Why the run of ``owner`` (a TransientSensitivities) takes every step from Python whatever its parameters'
     kinds (no parameters, NumPy kernels, cables without their C kernels or beside controllers or explicit time,
-    controllers, explicit time dependence beside events, work-account probes: :func:`_energy_refusal`), or None:
+    controllers, explicit time dependence beside events, the external work's probes and the dissipated energy's
+    that :func:`_account_refusal` names: :func:`_energy_refusal`), or None:
     :func:`refusal`'s part that the discrete
     adjoint's forward pass, which differentiates nothing as it goes, shares (latdyn/analyses/adjoint_in_loop.py,
     which refuses rigid links and guides itself). ``differentiated`` (:func:`refusal`: the loop differentiates the
@@ -247,13 +253,37 @@ def _energy_refusal(owner) -> str | None:
     the row, latdyn/analyses/energy_sensitivities.py), and the step carries nothing for them
     (energy_sensitivities.external_work_step returns the step's columns as they are): the loop takes them; the
     discrete adjoint seeds its rows with their forms at the stored states (``probe_forms``), so its forward pass
-    stored by the loop takes them too. The work accounts (external work, dissipated energy: sums over the steps,
-    ``external_work_step``; the adjoint refuses them itself) are carried per step in Python."""
+    stored by the loop takes them too. The external work (a sum over the steps, ``external_work_step``; the adjoint
+    refuses it itself) is carried per step in Python; the dissipated energy (a sum over the steps too) by the loop
+    where :func:`_account_refusal` says."""
     for probe in owner.probes:
         if not is_energy_or_momentum(probe):
             continue
-        if probe.kind == "energy" and probe.quantity not in STATE_ENERGIES:
+        if probe.kind == "energy" and probe.quantity == "dissipated":
+            why = _account_refusal(owner)
+            if why is not None:
+                return why
+        elif probe.kind == "energy" and probe.quantity not in STATE_ENERGIES:
             return f"the {probe.quantity} energy (a work account carried per step in Python)"
+    return None
+
+
+def _account_refusal(owner) -> str | None:
+    """Why the dissipated energy's sensitivity (a sum over the steps, energy_sensitivities._dissipated_step) keeps the
+    run on the Python path, or None: the loop carries it by csrc/work_accounts.c, the C the Python path calls, with
+    every hinge's damping law and every damping parameter's derivative law tabulated per grid point (laws of t
+    alone, as the Python step reads them at the hinge's θ, θ̇), on a model without rigid links or guides (δθ, δθ̇
+    the carried δq, δv at the free hinges' coordinates)."""
+    from latdyn.analyses.energy_sensitivities import damping_uses
+
+    model = owner.model
+    if model.links is not None:
+        return "the dissipated energy with rigid links or guides (a work account carried per step in Python)"
+    if not all(_in_time_alone(hinge.damping) for hinge in model.hinges):
+        return "the dissipated energy of a damping law in theta, theta_dot or an input (carried per step in Python)"
+    if not all(_in_time_alone(law) for _, _, law in damping_uses(owner)):
+        return ("the dissipated energy by a damping parameter whose derivative is a law in theta, theta_dot or an "
+                "input (carried per step in Python)")
     return None
 
 
@@ -415,8 +445,38 @@ class SensitivityLoop:
             self._rates._layout()   # noqa: SLF001
             d.time_rates = ctypes.addressof(self._rates.data)
         self._cables()
+        self._accounts()
         self._for = (key, True)
         return True
+
+    def _accounts(self) -> None:
+        """The dissipated energy's part (csrc/work_accounts.c), where a dissipated-energy probe asks for it
+        (:func:`_account_refusal`): each hinge's coordinate among the free ones (δθ = δq there, −1: not free),
+        the damping parameters' uses (energy_sensitivities.damping_uses), the carried account and its terms."""
+        from latdyn.analyses.energy_sensitivities import damping_uses
+        from latdyn.assembly.library import WorkAccountsData
+
+        owner, d = self.owner, self.data
+        d.accounts = None
+        if not any(p.kind == "energy" and p.quantity == "dissipated" for p in owner.probes):
+            return
+        model, k = owner.model, len(owner.names)
+        H = len(model.hinges)
+        a = self._accounts_data = WorkAccountsData()
+        ints = lambda values: self._pointer(np.array(values, np.int64))   # noqa: E731
+        free = set(model.free_hinges.tolist())
+        a.hinges = H
+        a.hinge_row = ints([int(model.hinge_dofs[j]) if j in free and model.hinge_dofs[j] < model.n_dofs else -1
+                            for j in range(H)])
+        uses = damping_uses(owner)
+        a.n_uses = len(uses)
+        a.use_hinge, a.use_column = ints([j for j, _, _ in uses]), ints([column for _, column, _ in uses])
+        self._account = {name: np.zeros(size) for name, size in (
+            ("dissipated", k), ("theta", H), ("torque", H), ("dtorque", H * k), ("dtheta", H * k))}
+        for name, array in self._account.items():
+            setattr(a, name, self._pointer(array))
+        a.scratch = self._pointer(np.zeros(H + 3 * H * k))
+        d.accounts = ctypes.addressof(a)
 
     def _hinges(self) -> None:
         """The (use, column) pairs of ParameterDerivatives._hinge_uses, in its order: hinge, column, the derivative's
@@ -641,16 +701,18 @@ class SensitivityLoop:
         d.pair_offset = self._pointer(np.ascontiguousarray(offset[pairs], np.float64))
         d.pair_scratch = self._pointer(np.zeros(76 * len(pairs)))
 
-    def prepared(self, carried: dict, grid_index: int, stop_index: int, control, rows: int = 0):
-        """The struct filled for a loop of steps from grid point ``grid_index`` through ``stop_index`` with the
-        carried sensitivities ``carried`` and ``rows`` rows to record on the way (:meth:`record_rows`); None where
-        this numbering takes the Python path."""
+    def prepared(self, carried: dict, grid_index: int, stop_index: int, control, rows: int = 0, state=None):
+        """The struct filled for a loop of steps from grid point ``grid_index`` (``state``: the state there) through
+        ``stop_index`` with the carried sensitivities ``carried`` and ``rows`` rows to record on the way
+        (:meth:`record_rows`); None where this numbering takes the Python path."""
         if not self._layout():
             return None
         d, owner = self.data, self.owner
         n, k = owner.model.n_dofs, len(owner.names)
         self._row_carried = np.zeros((rows, 3 * n * k + k)) if rows else None
         d.row_carried = self._row_carried.ctypes.data if rows else None
+        if d.accounts:
+            self._carry_accounts(carried, state, rows)
         for name, array in self._carried.items():
             np.copyto(array, carried[name])
         np.copyto(self._dt, carried["dt"])
@@ -661,6 +723,23 @@ class SensitivityLoop:
         if self._rates is not None:   # ∂r/∂t's laws' rates alike (_TimeRates)
             self._rates._tabulate(grid_index, stop_index, control)   # noqa: SLF001
         return d
+
+    def _carry_accounts(self, carried: dict, state, rows: int) -> None:
+        """The dissipated energy's account and its terms at ``state`` (the loop's start) into the struct, as the
+        Python step reads them (energy_sensitivities._dissipated_step: the held terms, or those at the step's
+        start), and the rows' buffer."""
+        from latdyn.analyses.energy_sensitivities import _damper_torques
+
+        a, k = self._accounts_data, len(self.owner.names)
+        held = carried.get("dissipated_terms")
+        torque, dtorque, dtheta = held if held is not None else _damper_torques(self.owner, state, carried)
+        account = self._account
+        np.copyto(account["dissipated"], carried.get("dissipated_sensitivity", np.zeros(k)))
+        np.copyto(account["theta"], np.asarray(state.theta, float))
+        for name, value in (("torque", torque), ("dtorque", dtorque), ("dtheta", dtheta)):
+            np.copyto(account[name], np.asarray(value, float).reshape(-1))
+        self._row_accounts = np.zeros((rows, k)) if rows else None
+        a.row_accounts = self._row_accounts.ctypes.data if rows else None
 
     def _tabulate(self, grid_index: int, stop_index: int, control) -> None:
         """The derivative laws' values of t at each grid point from ``grid_index`` + 1 through ``stop_index`` into
@@ -719,6 +798,17 @@ class SensitivityLoop:
             self._cable_table = np.array([[law.value(0.0, 0.0, t) for law in laws] for t in times], float).reshape(
                 len(times), len(laws))
             self._cable_data.values, self._cable_data.values_from = self._cable_table.ctypes.data, grid_index + 1
+        if d.accounts:   # the damping laws' (c, ∂c/∂θ, ∂c/∂θ̇) and the damping parameters' ∂c/∂p (_damper_torques)
+            from latdyn.analyses.energy_sensitivities import damping_uses
+
+            a, hinges, uses = self._accounts_data, owner.model.hinges, damping_uses(owner)
+            self._account_laws = np.array([[(h.damping.value(0.0, 0.0, t), h.damping.d_theta(0.0, 0.0, t),
+                                             h.damping.d_rate(0.0, 0.0, t)) for h in hinges] for t in times],
+                                          float).reshape(len(times), len(hinges), 3)
+            self._account_uses = np.array([[law.value(0.0, 0.0, t) for _, _, law in uses] for t in times],
+                                          float).reshape(len(times), len(uses))
+            a.laws, a.use_values = self._account_laws.ctypes.data, self._account_uses.ctypes.data
+            a.values_from = grid_index + 1
         if d.geometry and self._geometry_data.n_arms:   # the moved loads' values at each grid point (_load_arms)
             geometry = owner.geometry
             self._arm_table = np.array([[geometry.load_arm_values(t, index, 1.0) for index, _, _ in
@@ -745,6 +835,8 @@ class SensitivityLoop:
             held = self._row_carried[r]
             at_row = {**carried, "dq": held[:nk].reshape(n, k), "dv": held[nk:2 * nk].reshape(n, k),
                       "dvdot": held[2 * nk:3 * nk].reshape(n, k), "dt": held[3 * nk:]}
+            if self.data.accounts:   # the dissipated energy's account at the row (csrc/work_accounts.c)
+                at_row["dissipated_sensitivity"] = self._row_accounts[r]
             carried = {**carried, "rows": owner.record(at_row, block.state(r))["rows"]}
         return carried
 
@@ -761,8 +853,14 @@ class SensitivityLoop:
         if d.steps == 0:
             return carried
         dh = self._dh.copy()
+        accounts = {}
+        if d.accounts:   # the dissipated energy's account and its terms at the last step's end (_dissipated_step's)
+            account, hinges, k = self._account, len(self.owner.model.hinges), len(dh)
+            accounts = {"dissipated_sensitivity": account["dissipated"].copy(), "dissipated_terms": (
+                account["torque"].copy(), account["dtorque"].reshape(hinges, k).copy(),
+                account["dtheta"].reshape(hinges, k).copy())}
         return {**carried, **{name: array.copy() for name, array in self._carried.items()}, "dt": self._dt.copy(),
-                "dh": dh, "dh_step": dh, "h": d.h, "pending": None, "dh_next": np.zeros(len(dh))}
+                "dh": dh, "dh_step": dh, "h": d.h, "pending": None, "dh_next": np.zeros(len(dh)), **accounts}
 
 
 class _TimeRates(SensitivityLoop):

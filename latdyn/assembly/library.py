@@ -228,7 +228,18 @@ class SensitivityLoopData(ctypes.Structure):
                 ("n_hinge_actuators", I64), ("actuator_hinge", P), ("actuator_of", P), ("actuator_factor", P),
                 ("controller_slopes", P), ("controller_scratch", P), ("output_law", P), ("output_limits", P),
                 # ∂r/∂p of the cables' parameters (csrc/cable_forces.c); NULL: none
-                ("cables", P)]
+                ("cables", P),
+                # the dissipated energy's sensitivity carried through the steps (csrc/work_accounts.c); NULL: none
+                ("accounts", P)]
+
+
+class WorkAccountsData(ctypes.Structure):
+    """``WorkAccounts`` of csrc/work_accounts.c: the dissipated energy's sensitivity carried through the loop of
+    steps (latdyn.analyses.sensitivities_in_loop lays it out)."""
+
+    _fields_ = [("hinges", I64), ("hinge_row", P), ("laws", P), ("n_uses", I64), ("use_hinge", P), ("use_column", P),
+                ("use_values", P), ("values_from", I64), ("dissipated", P), ("theta", P), ("torque", P),
+                ("dtorque", P), ("dtheta", P), ("scratch", P), ("row_accounts", P)]
 
 
 class GeometryForcesData(ctypes.Structure):
@@ -417,6 +428,12 @@ def native_library() -> ctypes.CDLL:
                                               ctypes.c_double, P]
         library.latdyn_hinge_work.restype = None
         library.latdyn_hinge_work.argtypes = [I64, P, P, P, P, P, P, P, P]
+        # the dissipated energy's sensitivity over a step accepted from Python, the loop of steps' own
+        # (csrc/work_accounts.c)
+        library.latdyn_damper_torques.restype = None
+        library.latdyn_damper_torques.argtypes = [I64, I64, P, P, P, P, I64, P, P, P, P, P]
+        library.latdyn_dissipated_step.restype = None
+        library.latdyn_dissipated_step.argtypes = [I64, I64, P, P, P, P, P, P, P, P, P]
         library.latdyn_cable_work.restype = None
         library.latdyn_cable_work.argtypes = [I64, P, P, P, P]
         library.latdyn_cable_crossed.restype = I64
