@@ -1,11 +1,14 @@
-"""The dissipated energy's sensitivity in the sensitivities' loop of steps (issue 34 item 2; latdyn/analyses/
-sensitivities_in_loop.py ``_account_refusal``): a sum over the steps (energy_sensitivities._dissipated_step), carried
-by csrc/work_accounts.c, which the per-step Python path calls too (``latdyn_damper_torques``, ``latdyn_dissipated_step``),
-so the run takes the loop and its results are the Python path's (the private switch ``SENSITIVITIES_IN_LOOP`` off) to
-the bit, through the API and the CLI, the account handed back to Python at each loop's end and at each row recorded
-on the way. The external work, a damping law of the state and the discrete adjoint keep what they did. Scenes: a 3D
-boom (two hinges with springs and dampers, one damping a law in t, a tip load in t, gravity, a joint body, a spin)
-by its section, hinge and load parameters; a planar hinged arm by its damper and section."""
+"""The work accounts' sensitivities in the sensitivities' loop of steps (issue 34 item 2; latdyn/analyses/
+sensitivities_in_loop.py ``_account_refusal``): the dissipated energy and the external work, sums over the steps
+(energy_sensitivities._dissipated_step, external_work_step), carried by csrc/work_accounts.c, which the per-step Python
+path calls too (``latdyn_damper_torques``, ``latdyn_dissipated_step``, ``latdyn_load_power``,
+``latdyn_applied_torques``, ``latdyn_external_work_increment``), so the run takes the loop and its results are the
+Python path's (the private switch ``SENSITIVITIES_IN_LOOP`` off) to the bit, through the API and the CLI, the accounts
+handed back to Python at each loop's end, at each row recorded on the way and at the events (a latch, a stop with
+restitution: external_work_after_event, from Python). A damping law of the state, a prescribed motion and the
+discrete adjoint keep what they did. Scenes: a 3D boom (two hinges with springs and dampers, one damping a law in t,
+a tip load in t, gravity, a joint body, a spin) by its section, hinge and load parameters; a planar hinged arm by its
+damper and section; tests/test_sensitivities_events.py's 3D wheel latching and bouncing off its stop with a load."""
 from __future__ import annotations
 
 import numpy as np
@@ -15,6 +18,7 @@ import yaml
 import latdyn
 from latdyn.errors import SceneError
 from tests.cli_runs import latdyn_run, summary_of, the_loop_off_writes_the_same
+from tests.test_sensitivities_events import LATCH_3D, STOP_3D
 
 #: a genuinely 3D boom: an inner beam on a hinge at the fixed base, an outer beam on a skew hinge at a joint body
 #: whose damping is a law in t; a tip load in t, gravity, a spin at t = 0; the dissipated energy probed
@@ -50,6 +54,7 @@ output:
   every: 0.01
   probes:
     lost: {energy: dissipated}
+    work: {energy: external_work}
     hinge: {hinge: outer.start, quantity: angle}
     tip_z: {point: outer.end, quantity: position, component: z}
 """
@@ -86,6 +91,21 @@ output:
 """
 
 
+
+
+def _loaded(text: str) -> str:
+    """tests/test_sensitivities_events.py's 3D wheel with a load of amplitude F on it (the external work's power) as a
+    parameter beside the others, its external work probed."""
+    return (text.replace("parameters: {k: 1.0,", "parameters: {F: 0.5, k: 1.0,")
+            .replace("solve:", 'loads:\n  - {at: wheel, force: ["0.02*F", 0, "-0.1*F"]}\nsolve:')
+            .replace("sensitivities: [k,", "sensitivities: [F, k,") + "    work: {energy: external_work}\n")
+
+
+#: the 3D wheel latching, and bouncing off its stop with restitution 0.5, with a load: the external work through events
+LATCH_WORK, STOP_WORK = _loaded(LATCH_3D), _loaded(STOP_3D)
+assert "F: 0.5" in LATCH_WORK and "[F, k," in STOP_WORK and 'force: ["0.02*F"' in STOP_WORK
+
+
 def _run(text: str, monkeypatch, in_loop: bool):
     """The scene's run through the API, its smooth steps' sensitivities in the loop of steps or from Python."""
     with monkeypatch.context() as patch:
@@ -103,17 +123,33 @@ def _same(native, python) -> None:
     assert native.summary["event_sensitivities"] == python.summary["event_sensitivities"]
 
 
-@pytest.mark.parametrize("text, parameters", [(BOOM_3D, ("EI", "rho", "k", "c", "F")), (PLANAR_ARM, ("c", "EI", "m"))],
-                         ids=["3D boom", "planar arm"])
-def test_the_dissipated_energy_takes_the_loop(text, parameters, monkeypatch):
-    """The dissipated energy by section, hinge and load parameters: every step in the loop of steps, the account
-    handed back at each loop's end and at its rows, the Python path's sensitivities to the bit; its column by every
-    parameter nonzero."""
+@pytest.mark.parametrize("text, probes", [
+    (BOOM_3D, {"lost": ("EI", "rho", "k", "c", "F"), "work": ("EI", "rho", "k", "c", "F")}),
+    (PLANAR_ARM, {"lost": ("c", "EI", "m")}),
+], ids=["3D boom", "planar arm"])
+def test_the_work_accounts_take_the_loop(text, probes, monkeypatch):
+    """The dissipated energy and the external work by section, hinge and load parameters: every step in the loop of
+    steps, the accounts handed back at each loop's end and at its rows, the Python path's sensitivities to the bit;
+    their columns by every parameter nonzero."""
     native, python = _run(text, monkeypatch, True), _run(text, monkeypatch, False)
     assert native.summary["sensitivity_steps_in_loop"] == native.summary["steps"] > 0
     _same(native, python)
-    for name in parameters:
-        assert np.abs(native.sensitivities[("lost", name)]).max() > 0.0, name
+    for probe, names in probes.items():
+        for name in names:
+            assert np.abs(native.sensitivities[(probe, name)]).max() > 0.0, (probe, name)
+
+
+@pytest.mark.parametrize("text, event, beside", [(LATCH_WORK, "latch", 2), (STOP_WORK, "stop", 2)],
+                         ids=["3D latch", "3D stop with restitution"])
+def test_the_external_work_through_events(text, event, beside, monkeypatch):
+    """The 3D wheel latching, and bouncing off its stop with restitution, with a load: every smooth step in the loop
+    but the event's and the landing after it (from Python, external_work_after_event), the external work's
+    sensitivities and the event's the Python path's to the bit."""
+    native, python = _run(text, monkeypatch, True), _run(text, monkeypatch, False)
+    assert [e["kind"] for e in native.summary["events"]] == [event]
+    assert native.summary["sensitivity_steps_in_loop"] == native.summary["steps"] - beside > 0
+    _same(native, python)
+    assert np.abs(native.sensitivities[("work", "F")]).max() > 0.0
 
 
 def test_the_cli_writes_the_python_paths_files_for_the_3d_boom(tmp_path):
@@ -123,26 +159,27 @@ def test_the_cli_writes_the_python_paths_files_for_the_3d_boom(tmp_path):
     assert completed.returncode == 0, completed.stderr
     summary = summary_of(out)
     assert summary["sensitivity_steps_in_loop"] == summary["steps"] == 20
+    assert {"lost", "work"} <= set(summary["probe_sensitivities"])
     the_loop_off_writes_the_same(tmp_path, out)
 
 
 @pytest.mark.parametrize("change", [
-    lambda text: text + "    work: {energy: external_work}\n",
     lambda text: text.replace('damping: "c*(1 + 5*t)"', 'damping: "c*(1 + theta_dot**2)"'),
-], ids=["beside the external work", "a damping law of the state"])
+    lambda text: text.replace("stiffness: 50.0, damping: 0.3}", 'angle: "0.4*sin(5*t)"}'),
+], ids=["a damping law of the state", "a prescribed motion"])
 def test_what_the_loop_does_not_carry_keeps_the_python_path(change, monkeypatch):
-    """(A guard: it passed before the change too.) The external work (its power's terms, carried per step in Python)
-    and a damping law of θ̇ (not tabulated) keep every step on the Python path; the dissipated energy's columns there
-    are those of the run with the switch off."""
+    """(A guard: it passed before the change too.) A damping law of θ̇ (not tabulated) and a prescribed hinge angle
+    (its drive's reaction, Python's) keep every step on the Python path; the accounts' columns there are those of the
+    run with the switch off."""
     text = change(BOOM_3D)
     native, python = _run(text, monkeypatch, True), _run(text, monkeypatch, False)
     assert native.summary["sensitivity_steps_in_loop"] == 0
     _same(native, python)
 
 
-def test_the_adjoint_still_refuses_the_dissipated_energy():
-    """(A guard: it passed before the change too.) Under ``sensitivity_method: adjoint`` the dissipated energy (a sum
-    over the steps) is refused naming the key, as before."""
+def test_the_adjoint_still_refuses_the_work_accounts():
+    """(A guard: it passed before the change too.) Under ``sensitivity_method: adjoint`` the work accounts (sums over
+    the steps) are refused naming the key, as before."""
     text = BOOM_3D.replace("sensitivities: [", "sensitivity_method: adjoint, sensitivities: [")
     with pytest.raises(SceneError, match="sensitivity_method"):
         latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
