@@ -8,7 +8,9 @@ handed back to Python at each loop's end, at each row recorded on the way and at
 restitution: external_work_after_event, from Python). A damping law of the state, a prescribed motion and the
 discrete adjoint keep what they did. Scenes: a 3D boom (two hinges with springs and dampers, one damping a law in t,
 a tip load in t, gravity, a joint body, a spin) by its section, hinge and load parameters; a planar hinged arm by its
-damper and section; tests/test_sensitivities_events.py's 3D wheel latching and bouncing off its stop with a load."""
+damper and section; tests/test_sensitivities_in_loop.py's 3D arm whose spring is a law in t (not conservative: its
+work external) with a torque in t, a rest angle and a follower load, by the spring's, torque's and rest angle's
+parameters; tests/test_sensitivities_events.py's 3D wheel latching and bouncing off its stop with a load."""
 from __future__ import annotations
 
 import numpy as np
@@ -19,6 +21,7 @@ import latdyn
 from latdyn.errors import SceneError
 from tests.cli_runs import latdyn_run, summary_of, the_loop_off_writes_the_same
 from tests.test_sensitivities_events import LATCH_3D, STOP_3D
+from tests.test_sensitivities_in_loop import ARM_3D_JOINTS
 
 #: a genuinely 3D boom: an inner beam on a hinge at the fixed base, an outer beam on a skew hinge at a joint body
 #: whose damping is a law in t; a tip load in t, gravity, a spin at t = 0; the dissipated energy probed
@@ -126,7 +129,9 @@ def _same(native, python) -> None:
 @pytest.mark.parametrize("text, probes", [
     (BOOM_3D, {"lost": ("EI", "rho", "k", "c", "F"), "work": ("EI", "rho", "k", "c", "F")}),
     (PLANAR_ARM, {"lost": ("c", "EI", "m")}),
-], ids=["3D boom", "planar arm"])
+    (ARM_3D_JOINTS + "    work: {energy: external_work}\n    lost: {energy: dissipated}\n",
+     {"work": ("k", "r", "A", "cx"), "lost": ("c", "k")}),
+], ids=["3D boom", "planar arm", "3D arm, a spring in t"])
 def test_the_work_accounts_take_the_loop(text, probes, monkeypatch):
     """The dissipated energy and the external work by section, hinge and load parameters: every step in the loop of
     steps, the accounts handed back at each loop's end and at its rows, the Python path's sensitivities to the bit;

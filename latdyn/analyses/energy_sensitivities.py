@@ -719,16 +719,17 @@ _TORQUE_USE = {"torque": 0, "stiffness": 1, "rest_angle": 2}
 
 def applied_torque_laws(model, state) -> np.ndarray:
     """(hinges, 8): each hinge's (τ, ∂τ/∂θ, ∂τ/∂θ̇, 1 where its spring is not conservative (its work external) else 0,
-    k, ∂k/∂θ, ∂k/∂θ̇, θ_r) at ``state`` (csrc/work_accounts.c applied_torques)."""
+    k, ∂k/∂θ, ∂k/∂θ̇ (0 for a conservative spring), θ_r) at ``state`` (csrc/work_accounts.c applied_torques)."""
     laws = np.zeros((len(model.hinges), 8))
     for j, hinge in enumerate(model.hinges):
         theta, rate, t = float(state.theta[j]), float(state.theta_dot[j]), state.t
         if hinge.torque is not None:
             law = hinge.torque
             laws[j, 0:3] = law.value(theta, rate, t), law.d_theta(theta, rate, t), law.d_rate(theta, rate, t)
-        law = hinge.stiffness
-        laws[j, 3] = 0.0 if hinge.conservative_spring else 1.0
-        laws[j, 4:7] = law.value(theta, rate, t), law.d_theta(theta, rate, t), law.d_rate(theta, rate, t)
+        if not hinge.conservative_spring:   # (a conservative spring does no external work: its k is not read)
+            law = hinge.stiffness
+            laws[j, 3] = 1.0
+            laws[j, 4:7] = law.value(theta, rate, t), law.d_theta(theta, rate, t), law.d_rate(theta, rate, t)
         laws[j, 7] = hinge.rest_angle
     return laws
 
