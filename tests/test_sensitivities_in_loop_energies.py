@@ -3,8 +3,8 @@
 angular momenta need only the δq, δv the loop carries to each row (csrc/sensitivity_loop.c ``sensitivity_loop_row``,
 then TransientSensitivities.record at the row, latdyn/analyses/energy_sensitivities.py): their runs take the loop, and
 the results are the per-step Python path's (the private switch ``SENSITIVITIES_IN_LOOP`` off) to the bit, through the
-API and the CLI. The work accounts (external work, dissipated energy: sums over the steps carried in Python) keep the
-run on the Python path. Scenes: the spin-up of examples/spinup.yaml (a prescribed rotation) with a section value as
+API and the CLI; the work accounts (external work, dissipated energy: sums over the steps) beside them too
+(tests/test_sensitivities_in_loop_work.py). Scenes: the spin-up of examples/spinup.yaml (a prescribed rotation) with a section value as
 parameter, cut short; a 3D hinged arm with a damper and its hinge spring's k; a free 3D beam's momenta."""
 from __future__ import annotations
 
@@ -106,12 +106,13 @@ def test_energies_of_the_state_and_momenta_beside_a_latch(text, monkeypatch):
 
 
 @pytest.mark.parametrize("quantity", ["dissipated", "external_work"])
-def test_the_work_accounts_keep_the_run_on_the_python_path(quantity, monkeypatch):
-    """The dissipated energy and the external work (sums over the steps carried per step in Python) keep every step
-    on the Python path; the run is the one with the switch off."""
+def test_the_work_accounts_take_the_loop_beside_them(quantity, monkeypatch):
+    """The dissipated energy and the external work (sums over the steps, carried by csrc/work_accounts.c in the loop
+    and from Python alike: tests/test_sensitivities_in_loop_work.py) take the loop beside the energies of the state
+    and the momenta; the run is the one with the switch off to the bit."""
     text = ARM_ENERGIES + f"    account: {{energy: {quantity}}}\n"
-    native = _run(text, monkeypatch, True)
-    assert native.summary["sensitivity_steps_in_loop"] == 0
+    native, python = _run(text, monkeypatch, True), _run(text, monkeypatch, False)
+    _same(native, python)
     assert np.abs(native.sensitivities[("account", "k")]).max() > 0.0
 
 

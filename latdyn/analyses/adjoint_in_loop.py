@@ -73,8 +73,9 @@ class AdjointLoop:
         #: steps stored by the last call of the loop of steps (:meth:`steps_in_call`)
         self._stored = 0
 
-    def prepared(self, carried: dict, grid_index: int, stop_index: int, control, rows: int = 0):
-        """The blocks sized for a loop of steps from grid point ``grid_index`` through ``stop_index``; None where this
+    def prepared(self, carried: dict, grid_index: int, stop_index: int, control, rows: int = 0, state=None):
+        """The blocks sized for a loop of steps from grid point ``grid_index`` (``state``: the state there, which the
+        forward method's SensitivityLoop.prepared reads) through ``stop_index``; None where this
         step takes the Python path: no free coordinates, a last entry still pending (a run resumed from before its
         events), or with events a next step's size that moves with the parameters (the Python path's
         :meth:`AdjointSensitivities.resized` follows it, or refuses it)."""

@@ -39,7 +39,9 @@ latdyn_momentum, csrc/rows.c), never from differences:
   sensitivity is carried through the steps with the same quadrature (:func:`external_work_step`), δP = −(∂Q/∂π δπ + ∂Q/∂p)·u − Q·δu, δτ =
   ∂τ/∂θ δθ + ∂τ/∂θ̇ δθ̇ + ∂τ/∂p, and through an event as the loop takes it (:func:`external_work_after_event`);
   so it is exact for the computed solution up to the Newton tolerance (the loop takes each step's power from its
-  last Newton evaluation, within that tolerance of the converged state). Static paths record no external work
+  last Newton evaluation, within that tolerance of the converged state). Both sums' terms and steps are
+  csrc/work_accounts.c's, called here with the laws' values at the state and by the sensitivities' loop of steps in C
+  with them tabulated (latdyn/analyses/sensitivities_in_loop.py ``_account_refusal``): one formula for both paths. Static paths record no external work
   (0): its derivative is 0.
 
 Each energy and momentum of a row is held as its forms (:class:`_StateForms`): the gradient rows c_q, c_v on
@@ -521,14 +523,17 @@ def external_work_step(owner, before: dict, after: dict, old, new, h: float) -> 
     if not any(p.kind == "energy" and p.quantity == "external_work" for p in owner.probes):
         return after
     k = len(owner.names)
-    work = before.get("external_work_sensitivity", np.zeros(k))
+    work = np.array(before.get("external_work_sensitivity", np.zeros(k)), float)
     held = before.get("external_work_terms")   # the last step's end: this step's start
     power_old, dpower_old, torque_old, dtorque_old, dtheta_old = held if held is not None else _power(owner, old, before)
     terms = _power(owner, new, after)
     power_new, dpower_new, torque_new, dtorque_new, dtheta_new = terms
-    turned = np.asarray(new.theta, float) - np.asarray(old.theta, float)
-    work = (work + 0.5 * h * (dpower_old + dpower_new) + 0.5 * np.asarray(after["dh"]) * (power_old + power_new)
-            + 0.5 * turned @ (dtorque_old + dtorque_new) + 0.5 * (torque_old + torque_new) @ (dtheta_new - dtheta_old))
+    arrays = [np.ascontiguousarray(a, np.float64) for a in (
+        after["dh"], dpower_old, dpower_new, old.theta, new.theta, torque_old, dtorque_old, dtheta_old, torque_new,
+        dtorque_new, dtheta_new)]
+    dh, dpower_old, dpower_new, *rest = (a.ctypes.data for a in arrays)
+    _work_accounts().latdyn_external_work_increment(k, len(owner.model.hinges), float(h), dh, float(power_old),
+                                                    dpower_old, float(power_new), dpower_new, *rest, work.ctypes.data)
     held = before.get("external_work_drive")
     rows_old, _, dreaction_old = held if held is not None else _drive_reactions(owner, old, before)
     drive = _drive_reactions(owner, new, after)
@@ -542,7 +547,8 @@ def _dissipated_step(owner, before: dict, after: dict, old, new) -> dict:
     (latdyn/timeloop/progress.py hinge_work): D_{n+1} = D_n + Σ_j ½ (f_n + f_{n+1}) Δθ of the dampers' torques
     f = c(θ, θ̇, t) θ̇ (``hinge_force``'s damper torque without compliant stops and friction, which are refused), so
     δD_{n+1} = δD_n + Σ_j ½ (δf_n + δf_{n+1}) Δθ + ½ (f_n + f_{n+1}) (δθ_{n+1} − δθ_n) with
-    δf = θ̇ ∂c/∂θ δθ + (c + θ̇ ∂c/∂θ̇) δθ̇ + θ̇ ∂c/∂p. Nothing without a dissipated-energy probe."""
+    δf = θ̇ ∂c/∂θ δθ + (c + θ̇ ∂c/∂θ̇) δθ̇ + θ̇ ∂c/∂p: csrc/work_accounts.c ``latdyn_dissipated_step``, which the loop
+    of steps calls too (latdyn/analyses/sensitivities_in_loop.py). Nothing without a dissipated-energy probe."""
     if not any(p.kind == "energy" and p.quantity == "dissipated" for p in owner.probes):
         return after
     k = len(owner.names)
@@ -550,33 +556,54 @@ def _dissipated_step(owner, before: dict, after: dict, old, new) -> dict:
     torque_old, dtorque_old, dtheta_old = held if held is not None else _damper_torques(owner, old, before)
     terms = _damper_torques(owner, new, after)
     torque_new, dtorque_new, dtheta_new = terms
-    turned = np.asarray(new.theta, float) - np.asarray(old.theta, float)
-    dissipated = (before.get("dissipated_sensitivity", np.zeros(k)) + 0.5 * turned @ (dtorque_old + dtorque_new)
-                  + 0.5 * (torque_old + torque_new) @ (dtheta_new - dtheta_old))
+    dissipated = np.array(before.get("dissipated_sensitivity", np.zeros(k)), float)
+    arrays = [np.ascontiguousarray(a, np.float64) for a in (old.theta, new.theta, torque_old, dtorque_old, dtheta_old,
+                                                             torque_new, dtorque_new, dtheta_new)]
+    _work_accounts().latdyn_dissipated_step(len(owner.model.hinges), k, *(a.ctypes.data for a in arrays),
+                                            dissipated.ctypes.data)
     return {**after, "dissipated_sensitivity": dissipated, "dissipated_terms": terms}
+
+
+def _work_accounts():
+    """The native library whose csrc/work_accounts.c carries the dissipated energy's sensitivity (both paths')."""
+    from latdyn.assembly.library import native_library
+
+    return native_library()
+
+
+def damping_uses(owner) -> list:
+    """(hinge, column, derivative law) of every damping parameter's use, in the order of ``owner.derivatives``."""
+    model, uses = owner.model, []
+    for key, laws in owner.derivatives.items():
+        _, hinge = owner._key_kinds(key)   # noqa: SLF001
+        if hinge and hinge["law"] == "damping":
+            j = model.hinge_index(hinge["beam"], hinge["end"])
+            uses += [(j, column, law) for column, law in laws.items()]
+    return uses
 
 
 def _damper_torques(owner, state, carried: dict) -> tuple:
     """(f (hinges,), δf (hinges, k), δθ (hinges, k)): the dampers' torques c θ̇ at ``state`` and their derivatives
-    along ``carried``'s δq, δv (:func:`_dissipated_step`)."""
+    along ``carried``'s δq, δv (:func:`_dissipated_step`; csrc/work_accounts.c ``latdyn_damper_torques`` with the
+    damping laws' (c, ∂c/∂θ, ∂c/∂θ̇) and the damping parameters' ∂c/∂p at the state)."""
     model, k = owner.model, len(owner.names)
     _, _, dtheta = owner._by_parameter(carried["dq"], state)
     _, _, dtheta_dot = owner._rates_by_parameter(carried["dv"], carried["dq"], state)
     H = len(model.hinges)
-    torque, dtorque = np.zeros(H), np.zeros((H, k))
+    laws = np.zeros((H, 3))
     for j, hinge in enumerate(model.hinges):
         theta, rate, t, law = float(state.theta[j]), float(state.theta_dot[j]), state.t, hinge.damping
-        torque[j] = law.value(theta, rate, t) * rate
-        dtorque[j] = law.d_theta(theta, rate, t) * rate * dtheta[j] \
-            + (law.value(theta, rate, t) + law.d_rate(theta, rate, t) * rate) * dtheta_dot[j]
-    for key, laws in owner.derivatives.items():
-        _, hinge = owner._key_kinds(key)
-        if not hinge or hinge["law"] != "damping":
-            continue
-        j = model.hinge_index(hinge["beam"], hinge["end"])
-        theta, rate = float(state.theta[j]), float(state.theta_dot[j])
-        for column, law in laws.items():
-            dtorque[j, column] += law.value(theta, rate, state.t) * rate
+        laws[j] = law.value(theta, rate, t), law.d_theta(theta, rate, t), law.d_rate(theta, rate, t)
+    uses = damping_uses(owner)
+    hinge_of = np.array([j for j, _, _ in uses] or [0], np.int64)
+    column = np.array([c for _, c, _ in uses] or [0], np.int64)
+    value = np.array([law.value(float(state.theta[j]), float(state.theta_dot[j]), state.t) for j, _, law in uses]
+                     or [0.0], float)
+    torque, dtorque = np.zeros(H), np.zeros((H, k))
+    arrays = [np.ascontiguousarray(a, np.float64) for a in (state.theta_dot, laws, dtheta, dtheta_dot)]
+    _work_accounts().latdyn_damper_torques(H, k, *(a.ctypes.data for a in arrays), len(uses), hinge_of.ctypes.data,
+                                           column.ctypes.data, value.ctypes.data, torque.ctypes.data,
+                                           dtorque.ctypes.data)
     return torque, dtorque, dtheta
 
 
@@ -630,13 +657,17 @@ def _drive_increments(model, kernels, old, new, rows: np.ndarray) -> np.ndarray:
 
 def _power(owner, state, carried: dict):
     """(P, δP (k,), τ (hinges,), δτ (hinges, k), δθ (hinges, k)) at ``state`` along ``carried``'s δq, δv:
-    the point loads' power P = −Q·u and its derivative, the hinges' applied torques and theirs."""
+    the point loads' power P = −Q·u and its derivative, the hinges' applied torques and theirs (csrc/work_accounts.c
+    ``latdyn_load_power`` and ``latdyn_applied_torques`` on the kernels' outputs and the laws' values at the state,
+    which the loop of steps calls too)."""
     model, kernels = owner.model, owner.kernels
     k = len(owner.names)
+    native = _work_accounts()
     dx, dpi, dtheta = owner._by_parameter(carried["dq"], state)
     dv, dw, dtheta_dot = owner._rates_by_parameter(carried["dv"], carried["dq"], state)
     power, dpower = 0.0, np.zeros(k)
     loads = owner.scene.loads
+    rows = lambda a: np.ascontiguousarray(a, np.float64)   # noqa: E731
     if len(loads):
         node, offset, frame = owner._load_points()
         L = len(loads)
@@ -648,50 +679,72 @@ def _power(owner, state, carried: dict):
                            for load in loads], float)
         follower = frame >= 0
         frames = np.where(follower[:, None, None], state.T[np.maximum(frame, 0)], np.eye(3))
-        u = np.concatenate([state.v[node], state.w[node]], axis=1)                          # (L, 6)
-        force, load_power, by_node, by_frame = (np.asarray(a) for a in kernels.point_load(
+        u = rows(np.concatenate([state.v[node], state.w[node]], axis=1))                    # (L, 6)
+        force, load_power, by_node, by_frame = (rows(a) for a in kernels.point_load(
             np.ascontiguousarray(state.T[node].reshape(L, 9)), np.ascontiguousarray(offset), values,
-            np.ascontiguousarray(frames.reshape(L, 9)), np.ascontiguousarray(u)))
-        force, by_node, by_frame = force.reshape(L, 6), by_node.reshape(L, 6, 3), by_frame.reshape(L, 6, 3)
-        power = float(np.sum(load_power))
-        dforce = np.einsum("lij,ljk->lik", by_node, dpi[node])
-        dforce += np.where(follower[:, None, None], np.einsum("lij,ljk->lik", by_frame, dpi[np.maximum(frame, 0)]), 0.0)
-        du = np.concatenate([dv[node], dw[node]], axis=1)                                   # (L, 6, k)
-        dpower -= np.einsum("lik,li->k", dforce, u) + np.einsum("li,lik->k", force, du)
+            np.ascontiguousarray(frames.reshape(L, 9)), u))
+        du = rows(np.concatenate([dv[node], dw[node]], axis=1))                             # (L, 6, k)
+        dpi_node, dpi_frame = rows(dpi[node]), rows(np.where(follower[:, None, None], dpi[np.maximum(frame, 0)], 0.0))
         pairs, columns, place, laws = owner._load_layout()
+        pair_force = np.zeros((1, 6))
         if len(pairs):   # ∂Q/∂p: the kernel with the values' derivatives (linear in them)
             moved = np.zeros((len(pairs), 6))
             moved[place] = np.array([owner._of_time(law, state.t) for law in laws])
-            nodes, forces = owner._load_forces(state, pairs, moved)
-            np.add.at(dpower, columns, -np.einsum("li,li->l", forces, u[pairs]))
+            pair_force = rows(owner._load_forces(state, pairs, moved)[1])
+        ints = lambda a: np.ascontiguousarray(a, np.int64).reshape(-1) if len(a) else np.zeros(1, np.int64)  # noqa: E731
+        frame_of, pair_load, pair_column = ints(frame), ints(pairs), ints(columns)
+        power = native.latdyn_load_power(L, k, force.ctypes.data, load_power.ctypes.data, u.ctypes.data,
+                                         by_node.ctypes.data, by_frame.ctypes.data, frame_of.ctypes.data,
+                                         dpi_node.ctypes.data, dpi_frame.ctypes.data, du.ctypes.data, len(pairs),
+                                         pair_load.ctypes.data, pair_column.ctypes.data, pair_force.ctypes.data,
+                                         dpower.ctypes.data)
     H = len(model.hinges)
     torque, dtorque = np.zeros(H), np.zeros((H, k))
+    laws = applied_torque_laws(model, state)
+    uses = [(j, column, kind, law.value(float(state.theta[j]), float(state.theta_dot[j]), state.t))
+            for j, column, kind, law in applied_torque_uses(owner)]
+    ints = lambda values: np.array(values or [0], np.int64)   # noqa: E731
+    use_hinge, use_column, use_kind = (ints([use[i] for use in uses]) for i in range(3))
+    use_value = np.array([use[3] for use in uses] or [0.0], float)
+    arrays = [rows(a) for a in (state.theta, laws, dtheta, dtheta_dot)]
+    native.latdyn_applied_torques(H, k, *(a.ctypes.data for a in arrays), len(uses), use_hinge.ctypes.data,
+                                  use_column.ctypes.data, use_kind.ctypes.data, use_value.ctypes.data,
+                                  torque.ctypes.data, dtorque.ctypes.data)
+    return power, dpower, torque, dtorque, dtheta
+
+
+#: a parameter's use in a hinge's applied torque (csrc/work_accounts.c applied_torques): its kind's number
+_TORQUE_USE = {"torque": 0, "stiffness": 1, "rest_angle": 2}
+
+
+def applied_torque_laws(model, state) -> np.ndarray:
+    """(hinges, 8): each hinge's (τ, ∂τ/∂θ, ∂τ/∂θ̇, 1 where its spring is not conservative (its work external) else 0,
+    k, ∂k/∂θ, ∂k/∂θ̇ (0 for a conservative spring), θ_r) at ``state`` (csrc/work_accounts.c applied_torques)."""
+    laws = np.zeros((len(model.hinges), 8))
     for j, hinge in enumerate(model.hinges):
         theta, rate, t = float(state.theta[j]), float(state.theta_dot[j]), state.t
         if hinge.torque is not None:
             law = hinge.torque
-            torque[j] = law.value(theta, rate, t)
-            dtorque[j] = law.d_theta(theta, rate, t) * dtheta[j] + law.d_rate(theta, rate, t) * dtheta_dot[j]
-        if not hinge.conservative_spring:   # its spring's work is external: the torque τ − k s (evaluate.c)
-            law, spring = hinge.stiffness, theta - hinge.rest_angle
-            torque[j] -= law.value(theta, rate, t) * spring
-            dtorque[j] -= (law.d_theta(theta, rate, t) * spring + law.value(theta, rate, t)) * dtheta[j] \
-                + law.d_rate(theta, rate, t) * spring * dtheta_dot[j]
+            laws[j, 0:3] = law.value(theta, rate, t), law.d_theta(theta, rate, t), law.d_rate(theta, rate, t)
+        if not hinge.conservative_spring:   # (a conservative spring does no external work: its k is not read)
+            law = hinge.stiffness
+            laws[j, 3] = 1.0
+            laws[j, 4:7] = law.value(theta, rate, t), law.d_theta(theta, rate, t), law.d_rate(theta, rate, t)
+        laws[j, 7] = hinge.rest_angle
+    return laws
+
+
+def applied_torque_uses(owner) -> list:
+    """(hinge, column, kind (:data:`_TORQUE_USE`), derivative law) of every parameter's use in a hinge's applied
+    torque, in the order of ``owner.derivatives`` (a conservative spring's stiffness and rest angle do no external
+    work; a guide's laws are left out, as the external work with guides is refused)."""
+    model, uses = owner.model, []
     for key, laws in owner.derivatives.items():
-        _, hinge = owner._key_kinds(key)
-        if not hinge or hinge["law"] not in ("torque", "stiffness", "rest_angle") or hinge["end"] == "guide":
+        _, hinge = owner._key_kinds(key)   # noqa: SLF001
+        if not hinge or hinge["law"] not in _TORQUE_USE or hinge["end"] == "guide":
             continue
         j = model.hinge_index(hinge["beam"], hinge["end"])
-        joint = model.hinges[j]
-        theta, rate, t = float(state.theta[j]), float(state.theta_dot[j]), state.t
-        if hinge["law"] != "torque" and joint.conservative_spring:
+        if hinge["law"] != "torque" and model.hinges[j].conservative_spring:
             continue
-        for column, law in laws.items():
-            value = law.value(theta, rate, t)
-            if hinge["law"] == "torque":
-                dtorque[j, column] += value
-            elif hinge["law"] == "stiffness":      # −(∂k/∂p) s
-                dtorque[j, column] -= value * (theta - joint.rest_angle)
-            else:                                  # −k ∂s/∂θ_r ∂θ_r/∂p = k ∂θ_r/∂p
-                dtorque[j, column] += joint.stiffness.value(theta, rate, t) * value
-    return power, dpower, torque, dtorque, dtheta
+        uses += [(j, column, _TORQUE_USE[hinge["law"]], law) for column, law in laws.items()]
+    return uses

@@ -52,13 +52,22 @@ dense, and ∂r/∂p (the controllers' columns among them) and ∂r/∂t each re
 Python path calls too (``Assembler.linked_exact_matrix_values``, ``sensitivities.reduced_columns``), S on the full
 n × n pattern. Energy and momentum probes of a row's state alone (kinetic, strain, potential, total, linear and
 angular momenta) need no term in the step: their rows' sensitivities are TransientSensitivities.record's at each row
-from the carried δq, δv (``_energy_refusal``). Not native (the Python path): hinge and guide laws whose derivative
+from the carried δq, δv (``_energy_refusal``). The work accounts, sums over the steps by the forward run's
+quadrature — the dissipated energy (the dampers' work) and the external work (the point loads' power, the generated
+point_load's, with ∂Q/∂p of the load parameters, and the hinges' applied torques and springs that are not
+conservative) — are carried by csrc/work_accounts.c at each step the loop accepts and at each row it records, the C
+the per-step Python path calls too (energy_sensitivities._dissipated_step, external_work_step, _power), with the
+laws' values (damping laws, load values, applied torques and springs, and their parameters' derivative laws: of t
+alone) tabulated per grid point, on models without rigid links, guides or prescribed motions (``_account_refusal``;
+the accounts and their terms handed back at the loop's end, an event's account after it is the Python path's,
+energy_sensitivities.external_work_after_event). Not native (the Python path): hinge and guide laws whose derivative
 names θ, θ̇ or an input and does not compile, cable parameters whose derivative names θ, θ̇ or an input, section
 values whose derivative is a law in t or an input, linked models above DENSE_LIMIT free coordinates or whose step
 matrix is sparse, cables beside controllers or explicit time dependence beside events, controllers with states,
 sampled ones, chains, other sensors or load actuators, explicit time dependence beside events through prescribed
-motions, reels (a rest length in t) or laws of the state and t, the external work and the dissipated energy (work
-accounts carried per step in Python: energy_sensitivities.external_work_step), the NumPy kernels, and a numbering
+motions, reels (a rest length in t) or laws of the state and t, the work accounts (energy_sensitivities.external_work_step)
+with a law of θ, θ̇ or an input in them, with rigid links or guides, or (the external work) with a prescribed motion
+(its drive's reaction), the NumPy kernels, and a numbering
 whose step matrix takes the
 sparse LU (whose failed pivot falls back to SciPy: :meth:`latdyn.analyses.step_matrix.ExactStepMatrix.solve_step`).
 
@@ -207,7 +216,8 @@ def _body_refusal(owner, key: str, laws: dict) -> str | None:
 def model_refusal(owner, differentiated: bool = False) -> str | None:
     """Why the run of ``owner`` (a TransientSensitivities) takes every step from Python whatever its parameters'
     kinds (no parameters, NumPy kernels, cables without their C kernels or beside controllers or explicit time,
-    controllers, explicit time dependence beside events, work-account probes: :func:`_energy_refusal`), or None:
+    controllers, explicit time dependence beside events, the work accounts' probes that :func:`_account_refusal`
+    names: :func:`_energy_refusal`), or None:
     :func:`refusal`'s part that the discrete
     adjoint's forward pass, which differentiates nothing as it goes, shares (latdyn/analyses/adjoint_in_loop.py,
     which refuses rigid links and guides itself). ``differentiated`` (:func:`refusal`: the loop differentiates the
@@ -247,13 +257,49 @@ def _energy_refusal(owner) -> str | None:
     the row, latdyn/analyses/energy_sensitivities.py), and the step carries nothing for them
     (energy_sensitivities.external_work_step returns the step's columns as they are): the loop takes them; the
     discrete adjoint seeds its rows with their forms at the stored states (``probe_forms``), so its forward pass
-    stored by the loop takes them too. The work accounts (external work, dissipated energy: sums over the steps,
-    ``external_work_step``; the adjoint refuses them itself) are carried per step in Python."""
+    stored by the loop takes them too. The work accounts (the external work, the dissipated energy: sums over the
+    steps, ``external_work_step``; the adjoint refuses them itself) are carried by the loop where
+    :func:`_account_refusal` says, else per step in Python."""
     for probe in owner.probes:
         if not is_energy_or_momentum(probe):
             continue
-        if probe.kind == "energy" and probe.quantity not in STATE_ENERGIES:
+        if probe.kind == "energy" and probe.quantity in ("dissipated", "external_work"):
+            why = _account_refusal(owner, probe.quantity)
+            if why is not None:
+                return why
+        elif probe.kind == "energy" and probe.quantity not in STATE_ENERGIES:
             return f"the {probe.quantity} energy (a work account carried per step in Python)"
+    return None
+
+
+def _account_refusal(owner, quantity: str) -> str | None:
+    """Why a work account's sensitivity (``quantity``: the dissipated energy or the external work, sums over the steps:
+    energy_sensitivities._dissipated_step, external_work_step) keeps the run on the Python path, or None: the loop
+    carries them by csrc/work_accounts.c, the C the Python path calls, on a model without rigid links or guides (δθ, δθ̇,
+    δπ, δu the carried δq, δv at the free coordinates) with the laws' values tabulated per grid point: for the
+    dissipated energy every hinge's damping law and the damping parameters' derivative laws, for the external work the
+    loads' values and their derivative laws, every hinge's applied torque, a spring that is not conservative, the
+    torque's, stiffness's and rest angle's parameters' derivative laws (laws of t alone, as the Python step reads them
+    at the hinge's θ, θ̇), and no prescribed motion (its drive's reaction: Python's)."""
+    from latdyn.analyses.energy_sensitivities import applied_torque_uses, damping_uses
+
+    model = owner.model
+    what = "the dissipated energy" if quantity == "dissipated" else "the external work"
+    if model.links is not None:
+        return f"{what} with rigid links or guides (a work account carried per step in Python)"
+    if quantity == "dissipated":
+        laws = [hinge.damping for hinge in model.hinges] + [law for _, _, law in damping_uses(owner)]
+    else:
+        if len(model.prescribed_coordinates()):
+            return f"{what} with a prescribed motion (its drive's reaction, carried per step in Python)"
+        laws = ([hinge.torque for hinge in model.hinges if hinge.torque is not None]
+                + [hinge.stiffness for hinge in model.hinges if not hinge.conservative_spring]
+                + [law for *_, law in applied_torque_uses(owner)])
+        if any(not hasattr(c, "value") and not isinstance(c, (int, float))
+               for load in owner.scene.loads for c in (load.force or []) + (load.moment or [])):
+            return f"{what} with a load value that is not a law of t (carried per step in Python)"
+    if not all(map(_in_time_alone, laws)):
+        return f"{what} with a law in theta, theta_dot or an input (a work account carried per step in Python)"
     return None
 
 
@@ -415,8 +461,64 @@ class SensitivityLoop:
             self._rates._layout()   # noqa: SLF001
             d.time_rates = ctypes.addressof(self._rates.data)
         self._cables()
+        self._accounts()
         self._for = (key, True)
         return True
+
+    def _accounts(self) -> None:
+        """The work accounts' part (csrc/work_accounts.c), where a dissipated-energy or an external-work probe asks for
+        it (:func:`_account_refusal`): each hinge's coordinate among the free ones (δθ = δq there, −1: not free), the
+        damping parameters' uses (energy_sensitivities.damping_uses), the loads' points and their nodes' and frames'
+        free coordinates, the (load, parameter) pairs, the applied torques' uses (applied_torque_uses), the carried
+        accounts and their terms."""
+        from latdyn.analyses.energy_sensitivities import applied_torque_uses, damping_uses
+        from latdyn.assembly.library import WorkAccountsData
+
+        owner, d = self.owner, self.data
+        d.accounts = None
+        quantities = {p.quantity for p in owner.probes if p.kind == "energy"} & {"dissipated", "external_work"}
+        if not quantities:
+            return
+        model, k = owner.model, len(owner.names)
+        H, n = len(model.hinges), model.n_dofs
+        a = self._accounts_data = WorkAccountsData()
+        ints = lambda values: self._pointer(np.array(values, np.int64))   # noqa: E731
+        free = set(model.free_hinges.tolist())
+        a.hinges = H
+        a.hinge_row = ints([int(model.hinge_dofs[j]) if j in free and model.hinge_dofs[j] < n else -1
+                            for j in range(H)])
+        self._account = {"theta": np.zeros(H)}
+        if "dissipated" in quantities:
+            uses = damping_uses(owner)
+            a.n_uses = len(uses)
+            a.use_hinge, a.use_column = ints([j for j, _, _ in uses]), ints([column for _, column, _ in uses])
+            self._account.update({name: np.zeros(size) for name, size in (
+                ("dissipated", k), ("torque", H), ("dtorque", H * k), ("dtheta", H * k))})
+        if "external_work" in quantities:
+            self._account.update({name: np.zeros(size) for name, size in (
+                ("work", k), ("power", 1 + k), ("work_torque", H), ("work_dtorque", H * k), ("work_dtheta", H * k))})
+            node, offset, frame = owner._load_points()   # noqa: SLF001
+            free_nodes = set(model.free_nodes.tolist())
+            rows = lambda i, slots: [int(model.node_dofs[i, s]) if i >= 0 and i in free_nodes else -1   # noqa: E731
+                                     for s in slots]
+            a.loads = len(node)
+            a.load_node, a.load_frame = ints(node), ints(frame)
+            a.load_offset = self._pointer(np.ascontiguousarray(offset, np.float64))
+            a.node_rows = ints([rows(int(i), range(6)) for i in node])
+            a.frame_rows = ints([rows(int(i), range(3, 6)) for i in frame])
+            pairs, columns, _, _ = owner._load_layout()   # noqa: SLF001
+            a.pairs = len(pairs)
+            a.pair_load, a.pair_column = ints(pairs), ints(columns)
+            uses = applied_torque_uses(owner)
+            a.n_torque_uses = len(uses)
+            a.torque_use_hinge, a.torque_use_column, a.torque_use_kind = (ints([use[i] for use in uses])
+                                                                          for i in range(3))
+            L, P = len(node), len(pairs)
+            a.work_scratch = self._pointer(np.zeros(1 + k + H + H * k + L * (73 + 12 * k) + 76 * P))
+        for name, array in self._account.items():
+            setattr(a, name, self._pointer(array))
+        a.scratch = self._pointer(np.zeros(H + 3 * H * k))
+        d.accounts = ctypes.addressof(a)
 
     def _hinges(self) -> None:
         """The (use, column) pairs of ParameterDerivatives._hinge_uses, in its order: hinge, column, the derivative's
@@ -641,16 +743,18 @@ class SensitivityLoop:
         d.pair_offset = self._pointer(np.ascontiguousarray(offset[pairs], np.float64))
         d.pair_scratch = self._pointer(np.zeros(76 * len(pairs)))
 
-    def prepared(self, carried: dict, grid_index: int, stop_index: int, control, rows: int = 0):
-        """The struct filled for a loop of steps from grid point ``grid_index`` through ``stop_index`` with the
-        carried sensitivities ``carried`` and ``rows`` rows to record on the way (:meth:`record_rows`); None where
-        this numbering takes the Python path."""
+    def prepared(self, carried: dict, grid_index: int, stop_index: int, control, rows: int = 0, state=None):
+        """The struct filled for a loop of steps from grid point ``grid_index`` (``state``: the state there) through
+        ``stop_index`` with the carried sensitivities ``carried`` and ``rows`` rows to record on the way
+        (:meth:`record_rows`); None where this numbering takes the Python path."""
         if not self._layout():
             return None
         d, owner = self.data, self.owner
         n, k = owner.model.n_dofs, len(owner.names)
         self._row_carried = np.zeros((rows, 3 * n * k + k)) if rows else None
         d.row_carried = self._row_carried.ctypes.data if rows else None
+        if d.accounts:
+            self._carry_accounts(carried, state, rows)
         for name, array in self._carried.items():
             np.copyto(array, carried[name])
         np.copyto(self._dt, carried["dt"])
@@ -661,6 +765,30 @@ class SensitivityLoop:
         if self._rates is not None:   # ∂r/∂t's laws' rates alike (_TimeRates)
             self._rates._tabulate(grid_index, stop_index, control)   # noqa: SLF001
         return d
+
+    def _carry_accounts(self, carried: dict, state, rows: int) -> None:
+        """The work accounts and their terms at ``state`` (the loop's start) into the struct, as the Python step reads
+        them (energy_sensitivities._dissipated_step and external_work_step: the held terms, or those at the step's
+        start), and the rows' buffer."""
+        from latdyn.analyses.energy_sensitivities import _damper_torques, _power
+
+        a, k, account = self._accounts_data, len(self.owner.names), self._account
+        np.copyto(account["theta"], np.asarray(state.theta, float))
+        if "dissipated" in account:
+            held = carried.get("dissipated_terms")
+            terms = held if held is not None else _damper_torques(self.owner, state, carried)
+            np.copyto(account["dissipated"], carried.get("dissipated_sensitivity", np.zeros(k)))
+            for name, value in zip(("torque", "dtorque", "dtheta"), terms):
+                np.copyto(account[name], np.asarray(value, float).reshape(-1))
+        if "work" in account:
+            held = carried.get("external_work_terms")
+            power, dpower, *terms = held if held is not None else _power(self.owner, state, carried)
+            np.copyto(account["work"], carried.get("external_work_sensitivity", np.zeros(k)))
+            account["power"][0], account["power"][1:] = power, dpower
+            for name, value in zip(("work_torque", "work_dtorque", "work_dtheta"), terms):
+                np.copyto(account[name], np.asarray(value, float).reshape(-1))
+        self._row_accounts = np.zeros((rows, 2 * k)) if rows else None
+        a.row_accounts = self._row_accounts.ctypes.data if rows else None
 
     def _tabulate(self, grid_index: int, stop_index: int, control) -> None:
         """The derivative laws' values of t at each grid point from ``grid_index`` + 1 through ``stop_index`` into
@@ -719,12 +847,54 @@ class SensitivityLoop:
             self._cable_table = np.array([[law.value(0.0, 0.0, t) for law in laws] for t in times], float).reshape(
                 len(times), len(laws))
             self._cable_data.values, self._cable_data.values_from = self._cable_table.ctypes.data, grid_index + 1
+        if d.accounts:
+            self._tabulate_accounts(times, grid_index)
         if d.geometry and self._geometry_data.n_arms:   # the moved loads' values at each grid point (_load_arms)
             geometry = owner.geometry
             self._arm_table = np.array([[geometry.load_arm_values(t, index, 1.0) for index, _, _ in
                                          geometry.moved_loads] for t in times], float)
             g = self._geometry_data
             g.arm_values, g.values_from = self._arm_table.ctypes.data, grid_index + 1
+
+    def _tabulate_accounts(self, times: list, grid_index: int) -> None:
+        """The work accounts' laws at each grid point (``times``, from ``grid_index`` + 1): the damping laws'
+        (c, ∂c/∂θ, ∂c/∂θ̇) and the damping parameters' ∂c/∂p (_damper_torques); the loads' values and the pairs'
+        derivative laws', the hinges' applied torques' laws and their parameters' (_power); laws of t alone
+        (:func:`_account_refusal`), each read as the Python step reads it."""
+        from latdyn.analyses.energy_sensitivities import applied_torque_laws, applied_torque_uses, damping_uses
+
+        owner, a, account = self.owner, self._accounts_data, self._account
+        hinges, count = owner.model.hinges, len(times)
+        a.values_from = grid_index + 1
+        at = [_AtRest(t, len(hinges)) for t in times]
+        if "dissipated" in account:
+            uses = damping_uses(owner)
+            self._account_laws = np.array([[(h.damping.value(0.0, 0.0, t), h.damping.d_theta(0.0, 0.0, t),
+                                             h.damping.d_rate(0.0, 0.0, t)) for h in hinges] for t in times],
+                                          float).reshape(count, len(hinges), 3)
+            self._account_uses = np.array([[law.value(0.0, 0.0, t) for _, _, law in uses] for t in times],
+                                          float).reshape(count, len(uses))
+            a.laws, a.use_values = self._account_laws.ctypes.data, self._account_uses.ctypes.data
+        if "work" in account:
+            def value(law, t):
+                return float(law.value(t)) if hasattr(law, "value") else float(law)
+
+            loads = owner.scene.loads
+            self._load_table = np.array([[[value(c, t) for c in (load.force or [0.0] * 3)]
+                                          + [value(c, t) for c in (load.moment or [0.0] * 3)] for load in loads]
+                                         for t in times], float).reshape(count, len(loads), 6)
+            pairs, _, place, laws = owner._load_layout()   # noqa: SLF001
+            table = np.zeros((count, len(pairs), 6))
+            for row, t in enumerate(times):
+                table[row][place] = np.array([owner._of_time(law, t) for law in laws])   # noqa: SLF001
+            self._pair_table = table
+            self._torque_table = np.array([applied_torque_laws(owner.model, state) for state in at],
+                                          float).reshape(count, len(hinges), 8)
+            uses = applied_torque_uses(owner)
+            self._torque_uses = np.array([[law.value(0.0, 0.0, t) for *_, law in uses] for t in times],
+                                         float).reshape(count, len(uses))
+            a.load_values, a.pair_values = self._load_table.ctypes.data, self._pair_table.ctypes.data
+            a.torque_laws, a.torque_use_values = self._torque_table.ctypes.data, self._torque_uses.ctypes.data
 
     def record_rows(self, carried: dict, block, rows: int) -> dict:
         """``carried`` with the sensitivities of the first ``rows`` rows the last call of the loop of steps recorded
@@ -745,6 +915,11 @@ class SensitivityLoop:
             held = self._row_carried[r]
             at_row = {**carried, "dq": held[:nk].reshape(n, k), "dv": held[nk:2 * nk].reshape(n, k),
                       "dvdot": held[2 * nk:3 * nk].reshape(n, k), "dt": held[3 * nk:]}
+            if self.data.accounts:   # the work accounts at the row (csrc/work_accounts.c)
+                if "dissipated" in self._account:
+                    at_row["dissipated_sensitivity"] = self._row_accounts[r, :k]
+                if "work" in self._account:
+                    at_row["external_work_sensitivity"] = self._row_accounts[r, k:]
             carried = {**carried, "rows": owner.record(at_row, block.state(r))["rows"]}
         return carried
 
@@ -761,8 +936,22 @@ class SensitivityLoop:
         if d.steps == 0:
             return carried
         dh = self._dh.copy()
+        accounts = {}
+        if d.accounts:   # the work accounts and their terms at the last step's end (_dissipated_step's, external_work_step's)
+            from latdyn.analyses.energy_sensitivities import _drive_reactions
+
+            account, hinges, k = self._account, len(self.owner.model.hinges), len(dh)
+            if "dissipated" in account:
+                accounts = {"dissipated_sensitivity": account["dissipated"].copy(), "dissipated_terms": (
+                    account["torque"].copy(), account["dtorque"].reshape(hinges, k).copy(),
+                    account["dtheta"].reshape(hinges, k).copy())}
+            if "work" in account:
+                accounts.update({"external_work_sensitivity": account["work"].copy(), "external_work_terms": (
+                    float(account["power"][0]), account["power"][1:].copy(), account["work_torque"].copy(),
+                    account["work_dtorque"].reshape(hinges, k).copy(), account["work_dtheta"].reshape(hinges, k).copy()),
+                    "external_work_drive": _drive_reactions(self.owner, None, carried)})   # none: _account_refusal
         return {**carried, **{name: array.copy() for name, array in self._carried.items()}, "dt": self._dt.copy(),
-                "dh": dh, "dh_step": dh, "h": d.h, "pending": None, "dh_next": np.zeros(len(dh))}
+                "dh": dh, "dh_step": dh, "h": d.h, "pending": None, "dh_next": np.zeros(len(dh)), **accounts}
 
 
 class _TimeRates(SensitivityLoop):
@@ -782,6 +971,14 @@ class _TimeRates(SensitivityLoop):
         self._hinges()
         self._for = (None, True)
         return True
+
+
+class _AtRest:
+    """A stand-in state at time t with every hinge at θ = θ̇ = 0, for the hinges' laws of t alone tabulated per grid
+    point (energy_sensitivities.applied_torque_laws)."""
+
+    def __init__(self, t: float, hinges: int):
+        self.t, self.theta, self.theta_dot = t, np.zeros(hinges), np.zeros(hinges)
 
 
 class _AtTime:

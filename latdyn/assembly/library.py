@@ -228,7 +228,25 @@ class SensitivityLoopData(ctypes.Structure):
                 ("n_hinge_actuators", I64), ("actuator_hinge", P), ("actuator_of", P), ("actuator_factor", P),
                 ("controller_slopes", P), ("controller_scratch", P), ("output_law", P), ("output_limits", P),
                 # ∂r/∂p of the cables' parameters (csrc/cable_forces.c); NULL: none
-                ("cables", P)]
+                ("cables", P),
+                # the work accounts' sensitivities carried through the steps (csrc/work_accounts.c); NULL: none
+                ("accounts", P)]
+
+
+class WorkAccountsData(ctypes.Structure):
+    """``WorkAccounts`` of csrc/work_accounts.c: the work accounts' sensitivities (the dissipated energy, the external
+    work) carried through the loop of steps (latdyn.analyses.sensitivities_in_loop lays it out)."""
+
+    _fields_ = [("hinges", I64), ("hinge_row", P), ("values_from", I64), ("theta", P), ("row_accounts", P),
+                # the dissipated energy
+                ("laws", P), ("n_uses", I64), ("use_hinge", P), ("use_column", P), ("use_values", P),
+                ("dissipated", P), ("torque", P), ("dtorque", P), ("dtheta", P), ("scratch", P),
+                # the external work
+                ("work", P), ("power", P), ("work_torque", P), ("work_dtorque", P), ("work_dtheta", P),
+                ("loads", I64), ("load_node", P), ("load_frame", P), ("load_offset", P), ("node_rows", P),
+                ("frame_rows", P), ("load_values", P), ("pairs", I64), ("pair_load", P), ("pair_column", P),
+                ("pair_values", P), ("torque_laws", P), ("n_torque_uses", I64), ("torque_use_hinge", P),
+                ("torque_use_column", P), ("torque_use_kind", P), ("torque_use_values", P), ("work_scratch", P)]
 
 
 class GeometryForcesData(ctypes.Structure):
@@ -417,6 +435,19 @@ def native_library() -> ctypes.CDLL:
                                               ctypes.c_double, P]
         library.latdyn_hinge_work.restype = None
         library.latdyn_hinge_work.argtypes = [I64, P, P, P, P, P, P, P, P]
+        # the dissipated energy's sensitivity over a step accepted from Python, the loop of steps' own
+        # (csrc/work_accounts.c)
+        library.latdyn_damper_torques.restype = None
+        library.latdyn_damper_torques.argtypes = [I64, I64, P, P, P, P, I64, P, P, P, P, P]
+        library.latdyn_dissipated_step.restype = None
+        library.latdyn_dissipated_step.argtypes = [I64, I64, P, P, P, P, P, P, P, P, P]
+        library.latdyn_load_power.restype = ctypes.c_double
+        library.latdyn_load_power.argtypes = [I64, I64, P, P, P, P, P, P, P, P, P, I64, P, P, P, P]
+        library.latdyn_applied_torques.restype = None
+        library.latdyn_applied_torques.argtypes = [I64, I64, P, P, P, P, I64, P, P, P, P, P, P]
+        library.latdyn_external_work_increment.restype = None
+        library.latdyn_external_work_increment.argtypes = [I64, I64, ctypes.c_double, P, ctypes.c_double, P,
+                                                           ctypes.c_double, P, P, P, P, P, P, P, P, P, P]
         library.latdyn_cable_work.restype = None
         library.latdyn_cable_work.argtypes = [I64, P, P, P, P]
         library.latdyn_cable_crossed.restype = I64

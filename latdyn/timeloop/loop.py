@@ -434,7 +434,7 @@ class TimeLoop:
         carried = None
         if self.sensitivities is not None:   # carried through the steps in C, or (this numbering) a step from Python
             carried = self.sensitivities_in_loop.prepared(progress.sensitivities, progress.grid_index, stop, control,
-                                                          len(rows))
+                                                          len(rows), progress.state)
             if carried is None:
                 return self._python_step()
         # the section forces for the probes and the ParaView frames

@@ -147,11 +147,14 @@ typedef struct SensitivityLoopTag {
     /* ∂r/∂p of the cables' parameters (CableSensitivities.residual_derivatives, cable_forces.c); NULL: none. With
      * it, the loop hands a step that ends near a cable element's change to the caller (cable_near_change) */
     const CableForces *cables;
+    /* the work accounts' sensitivities carried through the steps (work_accounts.c); NULL: no such probe */
+    WorkAccounts *accounts;
 } SensitivityLoop;
 
 /* Row r of the rows recorded on the way: the carried δq, δv, δv̇ and δt as the step before it left them. */
 static void sensitivity_loop_row(const Model *m, const SensitivityLoop *s, int64_t r)
 {
+    if (s->accounts != NULL) work_accounts_row(s->accounts, s->k, r);
     if (!s->row_carried) return;
     const size_t nk = (size_t)m->n_dofs * (size_t)s->k;
     double *out = s->row_carried + (3 * nk + (size_t)s->k) * (size_t)r;
@@ -399,6 +402,7 @@ static int64_t sensitivity_loop_step(const Model *m, Work *w, SensitivityLoop *s
             for (int64_t col = 0; col < k; ++col) to[i * k + col] = x[i * cols + col] + x[i * cols + k] * s->dh[col];
     }
     for (int64_t col = 0; col < k; ++col) s->dt[col] = s->dt[col] + s->dh[col];
+    if (s->accounts != NULL) work_accounts_step(m, c, s->accounts, k, s->dq, s->dv, s->dh, h, grid);
     s->steps += 1;
     s->h = h;
     return 0;
