@@ -55,12 +55,18 @@ angular momenta) need no term in the step: their rows' sensitivities are Transie
 from the carried δq, δv (``_energy_refusal``). Not native (the Python path): hinge and guide laws whose derivative
 names θ, θ̇ or an input and does not compile, cable parameters whose derivative names θ, θ̇ or an input, section
 values whose derivative is a law in t or an input, linked models above DENSE_LIMIT free coordinates or whose step
-matrix is sparse, cables beside controllers or explicit time dependence beside events, controllers with states,
+matrix is sparse (csrc/linked_matrices.c is dense), cables beside controllers or explicit time dependence beside events, controllers with states,
 sampled ones, chains, other sensors or load actuators, explicit time dependence beside events through prescribed
 motions, reels (a rest length in t) or laws of the state and t, the external work and the dissipated energy (work
-accounts carried per step in Python: energy_sensitivities.external_work_step), the NumPy kernels, and a numbering
-whose step matrix takes the
-sparse LU (whose failed pivot falls back to SciPy: :meth:`latdyn.analyses.step_matrix.ExactStepMatrix.solve_step`).
+accounts carried per step in Python: energy_sensitivities.external_work_step) and the NumPy kernels.
+
+Step matrices of every storage: where a model without rigid links or guides has S on the supernodal sparse LU (above
+DENSE_LIMIT coordinates, its bandwidth after reverse Cuthill–McKee above BAND_LIMIT: a designer's lattice), the loop
+sums, factorises and solves it by the same native call as the Python step (csrc/sensitivity_step.c
+``latdyn_sensitivity_step``: one factorization a step, k + 1 back-substitutions), and at a step whose sparse pivot
+fails the band LU with pivoting stands in as it does in :meth:`latdyn.analyses.step_matrix.ExactStepMatrix.solve_step`
+(Factorization._factor_pivoted's band, made once a numbering at the layout: the same storage, order and right-hand
+sides, ``latdyn_sensitivity_step_pivoted``), so those steps stay in the loop too (:meth:`SensitivityLoop._pivoted`).
 
 Results: the planar models' rotations are the identity and every sum is the Python step's: the sensitivities
 are the Python path's to the bit. In 3D, R = exp(skew hΔq) and J = dexp(hΔq) are the generated ``so3_exp`` and
@@ -327,8 +333,9 @@ class SensitivityLoop:
 
     def _layout(self) -> bool:
         """The per-numbering part of the struct (the free nodes' slots, S's pattern and storage, the exact
-        matrices' segments, the section and load uses); False where this numbering takes the Python path (no
-        free coordinates, or S on the sparse LU)."""
+        matrices' segments, the section and load uses, on the sparse LU the band LU that stands in where its pivot
+        fails); False where this numbering takes the Python path (no free coordinates, or rigid links or guides
+        beyond the dense reduction: Assembler.linked_exact_layout None)."""
         owner = self.owner
         model, assembler = owner.model, owner.assembler
         n, k = model.n_dofs, len(owner.names)
@@ -345,7 +352,6 @@ class SensitivityLoop:
         if ok:
             slots = model.node_dofs[model.free_nodes, 3:6]
             step_matrix = owner._step_matrix(slots, dense=linked)   # noqa: SLF001 - the Python step's own, per numbering
-            ok = step_matrix.factorization.kind != "sparse"
         if not ok:
             self._for = (key, False)
             return False
@@ -402,6 +408,7 @@ class SensitivityLoop:
         d.S = step_matrix._summed.ctypes.data   # noqa: SLF001
         d.factor, d.pivots = step_matrix.factorization.values.ctypes.data, step_matrix.factorization.pivots.ctypes.data
         d.solve_work = self._pointer(np.zeros(3 * n * cols))
+        self._pivoted(step_matrix)
         self._sections()
         self._loads()
         self._hinges()
@@ -417,6 +424,25 @@ class SensitivityLoop:
         self._cables()
         self._for = (key, True)
         return True
+
+    def _pivoted(self, step_matrix) -> None:
+        """S on the sparse LU: the band LU with pivoting that stands in at a step whose sparse pivot fails, the
+        Python step's own (Factorization._factor_pivoted's, made here once a numbering and kept for it), S's entries'
+        offsets in its storage (csrc/sensitivity_step.c ``latdyn_sensitivity_step_pivoted``); else none."""
+        from latdyn.assembly.factorization import Factorization
+
+        d, factorization = self.data, step_matrix.factorization
+        d.pivoted = None
+        if factorization.kind != "sparse":
+            return
+        if factorization._band is None:   # noqa: SLF001 - the stand-in _factor_pivoted makes, made here first
+            factorization._band = Factorization(factorization.rows, factorization.cols, factorization.n, kind="band")  # noqa: SLF001
+        band = factorization._band   # noqa: SLF001
+        self._keep.append(band)
+        d.pivoted = ctypes.addressof(band.structure)
+        d.pivoted_storage = self._pointer(np.ascontiguousarray(band.position(step_matrix.rows, step_matrix.cols),
+                                                               np.int64))
+        d.pivoted_factor, d.pivoted_pivots = band.values.ctypes.data, band.pivots.ctypes.data
 
     def _hinges(self) -> None:
         """The (use, column) pairs of ParameterDerivatives._hinge_uses, in its order: hinge, column, the derivative's

@@ -228,7 +228,10 @@ class SensitivityLoopData(ctypes.Structure):
                 ("n_hinge_actuators", I64), ("actuator_hinge", P), ("actuator_of", P), ("actuator_factor", P),
                 ("controller_slopes", P), ("controller_scratch", P), ("output_law", P), ("output_limits", P),
                 # ∂r/∂p of the cables' parameters (csrc/cable_forces.c); NULL: none
-                ("cables", P)]
+                ("cables", P),
+                # S on the sparse LU: the band LU with pivoting that stands in where its pivot fails
+                # (csrc/sensitivity_step.c latdyn_sensitivity_step_pivoted); NULL: S not sparse
+                ("pivoted", P), ("pivoted_storage", P), ("pivoted_factor", P), ("pivoted_pivots", P)]
 
 
 class GeometryForcesData(ctypes.Structure):

@@ -147,6 +147,12 @@ typedef struct SensitivityLoopTag {
     /* ∂r/∂p of the cables' parameters (CableSensitivities.residual_derivatives, cable_forces.c); NULL: none. With
      * it, the loop hands a step that ends near a cable element's change to the caller (cable_near_change) */
     const CableForces *cables;
+    /* S on the sparse LU (step_matrix.py): the band LU with pivoting that stands in at a step whose sparse pivot fails,
+     * as the Python step's (latdyn_sensitivity_step_pivoted: Factorization._factor_pivoted); NULL: S not sparse */
+    const Factorization *pivoted;
+    const int64_t *pivoted_storage;     /* S's entries' offsets in its storage */
+    double *pivoted_factor;             /* its storage */
+    int *pivoted_pivots;                /* n */
 } SensitivityLoop;
 
 /* Row r of the rows recorded on the way: the carried δq, δv, δv̇ and δt as the step before it left them. */
@@ -383,6 +389,9 @@ static int64_t sensitivity_loop_step(const Model *m, Work *w, SensitivityLoop *s
     (void)da0;
     int64_t info = latdyn_sensitivity_step(s->step, s->mck, s->blocks, beta_p, gamma_p, s->S, s->factor, s->pivots,
                                            cols, s->explicit_, dq0, dv0, s->solve_work, s->z);
+    if (info != 0 && s->pivoted != NULL)   /* the sparse LU's pivot failed: the band LU with pivoting, as in Python */
+        info = latdyn_sensitivity_step_pivoted(s->step, s->pivoted, s->pivoted_storage, s->S, s->mck, s->pivoted_factor,
+                                               s->pivoted_pivots, cols, s->explicit_, dq0, dv0, s->solve_work, s->z);
     if (info != 0) {
         s->info = info;
         return info;

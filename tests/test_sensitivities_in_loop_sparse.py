@@ -1,0 +1,79 @@
+"""Sparse step matrices in the transient sensitivities' loop of steps (issue 34 item 2; latdyn/analyses/
+sensitivities_in_loop.py, csrc/sensitivity_step.c): a numbering whose step matrix S takes the supernodal sparse LU
+(above DENSE_LIMIT coordinates, its bandwidth after reverse Cuthill–McKee above BAND_LIMIT) takes its smooth steps'
+sensitivities in the loop of steps, one sparse factorization of S and k + 1 back-substitutions a step, as the per-step
+Python path does with the same native call: equal to the bit through the API and the CLI on a 3D space frame of 512
+members (846 coordinates), also where every sparse pivot fails and the band LU with pivoting stands in on both paths
+(``latdyn_sensitivity_step_pivoted``: Factorization._factor_pivoted's band, the same storage and order)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import yaml
+
+import latdyn
+from benchmarks.sparse_sensitivities_loop import space_frame
+from latdyn.analyses import step_matrix
+from tests.cli_runs import latdyn_run, summary_of, the_loop_off_writes_the_same
+
+
+def _text() -> str:
+    """The 9 × 9 double-layer space frame (benchmarks/sparse_sensitivities_loop.py), 12 steps, differentiated by
+    three members' EA, the centre load's amplitude P and a bottom joint's mass m, as YAML a user types."""
+    data = space_frame(["F0", "F40", "F300", "P", "m"], 9, t_end=0.012)
+    data["parameters"].update({"P": 1.0, "m": 0.2})
+    data["loads"][0]["force"] = [0, "3000*P*t", "-20000*P*t"]
+    data["bodies"]["b4_4"]["mass"] = "m"
+    return yaml.safe_dump(data, sort_keys=False)
+
+
+def _run(text: str, monkeypatch, in_loop: bool, pivots_fail: bool = False):
+    """The scene through the API, its smooth steps' sensitivities in the loop of steps or from Python; the kinds of
+    the step matrices' factorizations made on the way; ``pivots_fail``: every pivot of S's sparse LU fails (its
+    tolerance above any pivot's ratio to its scale), so that the band LU with pivoting stands in at every step."""
+    made, original = [], step_matrix.ExactStepMatrix.__init__
+
+    def recording(self, *args, **kwargs):
+        original(self, *args, **kwargs)
+        made.append(self.factorization.kind)
+        if pivots_fail and self.factorization.kind == "sparse":
+            self.factorization.structure.sparse_lu.contents.pivot_tolerance = 2.0
+
+    with monkeypatch.context() as patch:
+        patch.setattr("latdyn.analyses.sensitivities_in_loop.SENSITIVITIES_IN_LOOP", in_loop)
+        patch.setattr(step_matrix.ExactStepMatrix, "__init__", recording)
+        return latdyn.run(latdyn.load_scene(yaml.safe_load(text))), made
+
+
+@pytest.mark.parametrize("pivots_fail", [False, True], ids=["sparse LU", "every sparse pivot failing"])
+def test_the_sparse_steps_in_the_loop_are_the_python_paths(pivots_fail, monkeypatch):
+    """Every step of the space frame (S on the sparse LU) is differentiated in the loop of steps and the sensitivities
+    are the per-step Python path's to the bit; with every sparse pivot failing, the band LU with pivoting stands in
+    on both paths (the Python path's Factorization._factor_pivoted at every step), to the bit too."""
+    from latdyn.assembly.factorization import Factorization
+
+    text = _text()
+    native, kinds = _run(text, monkeypatch, True, pivots_fail)
+    pivoted, original = [], Factorization._factor_pivoted
+    monkeypatch.setattr(Factorization, "_factor_pivoted", lambda self, *a: pivoted.append(1) or original(self, *a))
+    python, _ = _run(text, monkeypatch, False, pivots_fail)
+    assert kinds == ["sparse"]   # S on the sparse LU (one numbering)
+    steps = native.summary["steps"]
+    assert native.summary["sensitivity_steps_in_loop"] == steps == 12 and python.summary["sensitivity_steps_in_loop"] == 0
+    assert len(pivoted) == (steps if pivots_fail else 0)
+    assert native.sensitivities.keys() == python.sensitivities.keys()
+    for key, values in python.sensitivities.items():
+        np.testing.assert_array_equal(native.sensitivities[key], values, err_msg=str(key))
+    assert all(np.abs(python.sensitivities[("sag", name)]).max() > 0.0 for name in ("F0", "P", "m"))
+    assert native.summary["probe_sensitivities"] == python.summary["probe_sensitivities"]
+
+
+def test_the_cli_writes_the_sparse_space_frames_python_path_files(tmp_path):
+    """``latdyn run`` on the space frame takes the loop for every step; the same command with the switch off (in a
+    process of its own) writes the same sensitivities.csv and probes.csv, byte for byte, and summary.json's
+    sensitivities."""
+    completed, out = latdyn_run(tmp_path, _text(), quiet=True)
+    assert completed.returncode == 0, completed.stderr
+    summary = summary_of(out)
+    assert summary["sensitivity_steps_in_loop"] == summary["steps"] == 12
+    the_loop_off_writes_the_same(tmp_path, out)
