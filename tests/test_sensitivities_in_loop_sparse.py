@@ -4,7 +4,8 @@ sensitivities_in_loop.py, csrc/sensitivity_step.c): a numbering whose step matri
 sensitivities in the loop of steps, one sparse factorization of S and k + 1 back-substitutions a step, as the per-step
 Python path does with the same native call: equal to the bit through the API and the CLI on a 3D space frame of 512
 members (846 coordinates), also where every sparse pivot fails and the band LU with pivoting stands in on both paths
-(``latdyn_sensitivity_step_pivoted``: Factorization._factor_pivoted's band, the same storage and order)."""
+(``latdyn_sensitivity_step_pivoted``: Factorization._factor_pivoted's band, the same storage and order). The discrete
+adjoint's reverse pass takes those steps in its native call too (csrc/adjoint_reverse.c), equal to the NumPy path's."""
 from __future__ import annotations
 
 import numpy as np
@@ -17,21 +18,24 @@ from latdyn.analyses import step_matrix
 from tests.cli_runs import latdyn_run, summary_of, the_loop_off_writes_the_same
 
 
-def _text() -> str:
+def _text(method: str | None = None) -> str:
     """The 9 × 9 double-layer space frame (benchmarks/sparse_sensitivities_loop.py), 12 steps, differentiated by
     three members' EA, the centre load's amplitude P and a bottom joint's mass m, as YAML a user types."""
-    data = space_frame(["F0", "F40", "F300", "P", "m"], 9, t_end=0.012)
+    data = space_frame(["F0", "F40", "F300", "P", "m"], 9, t_end=0.012, method=method)
     data["parameters"].update({"P": 1.0, "m": 0.2})
     data["loads"][0]["force"] = [0, "3000*P*t", "-20000*P*t"]
     data["bodies"]["b4_4"]["mass"] = "m"
     return yaml.safe_dump(data, sort_keys=False)
 
 
-def _run(text: str, monkeypatch, in_loop: bool, pivots_fail: bool = False):
+def _run(text: str, monkeypatch, in_loop: bool, pivots_fail: bool = False, reverse: list | None = None):
     """The scene through the API, its smooth steps' sensitivities in the loop of steps or from Python; the kinds of
     the step matrices' factorizations made on the way; ``pivots_fail``: every pivot of S's sparse LU fails (its
-    tolerance above any pivot's ratio to its scale), so that the band LU with pivoting stands in at every step."""
-    made, original = [], step_matrix.ExactStepMatrix.__init__
+    tolerance above any pivot's ratio to its scale), so that the band LU with pivoting stands in at every step;
+    ``reverse``: collects whether each reverse step of the adjoint was taken natively (its switches with the loop's)."""
+    from latdyn.analyses.adjoint_in_loop import ReverseSteps
+
+    made, original, native_step = [], step_matrix.ExactStepMatrix.__init__, ReverseSteps.step
 
     def recording(self, *args, **kwargs):
         original(self, *args, **kwargs)
@@ -42,6 +46,11 @@ def _run(text: str, monkeypatch, in_loop: bool, pivots_fail: bool = False):
     with monkeypatch.context() as patch:
         patch.setattr("latdyn.analyses.sensitivities_in_loop.SENSITIVITIES_IN_LOOP", in_loop)
         patch.setattr(step_matrix.ExactStepMatrix, "__init__", recording)
+        patch.setattr("latdyn.analyses.adjoint_in_loop.ADJOINT_IN_LOOP", in_loop)
+        patch.setattr("latdyn.analyses.adjoint_in_loop.REVERSE_NATIVE", in_loop)
+        if reverse is not None:
+            patch.setattr(ReverseSteps, "step", lambda self, *a: reverse.append((w := native_step(self, *a)) is not None)
+                          or w)
         return latdyn.run(latdyn.load_scene(yaml.safe_load(text))), made
 
 
@@ -66,6 +75,20 @@ def test_the_sparse_steps_in_the_loop_are_the_python_paths(pivots_fail, monkeypa
         np.testing.assert_array_equal(native.sensitivities[key], values, err_msg=str(key))
     assert all(np.abs(python.sensitivities[("sag", name)]).max() > 0.0 for name in ("F0", "P", "m"))
     assert native.summary["probe_sensitivities"] == python.summary["probe_sensitivities"]
+
+
+@pytest.mark.parametrize("pivots_fail", [False, True], ids=["sparse LU", "every sparse pivot failing"])
+def test_the_adjoints_sparse_reverse_steps_are_the_numpy_paths(pivots_fail, monkeypatch):
+    """The adjoint on the space frame: its forward pass stored by the loop of steps and every reverse step in one
+    native call (S⁻ᵀ by the sparse LU's factors, or the band LU's where every sparse pivot fails), the probes'
+    derivatives those of the Python and NumPy path to the bit."""
+    text, taken = _text("adjoint"), []
+    native, _ = _run(text, monkeypatch, True, pivots_fail, taken)
+    python, _ = _run(text, monkeypatch, False, pivots_fail)
+    assert native.summary["sensitivity_steps_in_loop"] == native.summary["steps"] == 12 == len(taken) and all(taken)
+    assert python.summary["sensitivity_steps_in_loop"] == 0
+    assert native.summary["probe_sensitivities"] == python.summary["probe_sensitivities"]
+    assert native.summary["probe_sensitivities"]["sag"]["end"]["P"] != 0.0
 
 
 def test_the_cli_writes_the_sparse_space_frames_python_path_files(tmp_path):
